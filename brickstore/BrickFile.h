@@ -1,0 +1,61 @@
+// bricks.bin: appending zstd frames while writing, and reading them back by record with pread.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "brickstore/StoreFormat.h"
+#include "brickstore/Types.h"
+
+namespace voxbrick::store {
+
+/// A file opened for writing whose every failed write (full disk, file too large) throws IoError naming it.
+class OutputFile {
+ public:
+  /// Creates or truncates `path`; throws IoError if it cannot.
+  explicit OutputFile(const std::filesystem::path& path);
+  ~OutputFile();
+  OutputFile(const OutputFile&) = delete;
+  OutputFile& operator=(const OutputFile&) = delete;
+
+  /// Appends bytes; returns the offset they start at.
+  uint64_t append(const void* data, size_t size);
+  uint64_t size() const { return mSize; }
+  /// Flushes to disk (fsync) and closes; throws IoError on failure.
+  void close();
+
+ private:
+  std::filesystem::path mPath;
+  int mFd = -1;
+  uint64_t mSize = 0;
+};
+
+/// Reads and decodes brick frames from a bricks file. Thread-safe (pread on a shared descriptor).
+class BrickFileReader {
+ public:
+  BrickFileReader() = default;
+  /// Opens `path` read-only; throws IoError.
+  explicit BrickFileReader(const std::filesystem::path& path);
+  ~BrickFileReader();
+  BrickFileReader(BrickFileReader&& other) noexcept;
+  BrickFileReader& operator=(BrickFileReader&& other) noexcept;
+
+  /// Decodes the frame of `record` into dst (`bytes` bytes). `key` names the brick in errors.
+  void decode(const BrickRecord& record, const BrickKey& key, void* dst, size_t bytes) const;
+  uint64_t fileSize() const;
+  const std::filesystem::path& path() const { return mPath; }
+
+ private:
+  std::filesystem::path mPath;
+  int mFd = -1;
+};
+
+/// Fills `count` values of type `type` at dst with `value` (converted to the type).
+void fillValue(ValueType type, double value, void* dst, size_t count);
+
+/// CRC-32 (zlib's) of a buffer, continuing from `crc`.
+uint32_t crc32Of(const void* data, size_t size, uint32_t crc = 0);
+
+}  // namespace voxbrick::store

@@ -1,0 +1,139 @@
+// Opening a store: every size, count and checksum is checked before anything is sized from it.
+#include "brickstore/BrickStore.h"
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include "brickstore/BrickFile.h"
+#include "brickstore/Errors.h"
+
+namespace voxbrick::store {
+namespace fs = std::filesystem;
+namespace {
+
+std::string readText(const fs::path& path, size_t limit) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) throw CorruptStoreError(path.string() + ": missing (not a complete store)");
+  auto size = fs::file_size(path, ec);
+  if (ec) throw IoError("cannot stat " + path.string() + ": " + ec.message());
+  if (size > limit) throw CorruptStoreError(path.string() + ": " + std::to_string(size) + " bytes, larger than any store writes");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError(errnoMessage("cannot open " + path.string()));
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+}  // namespace
+
+struct BrickStoreFile {
+  BrickFileReader reader;
+};
+
+BrickStore::~BrickStore() = default;
+
+size_t BrickStore::brickBytes() const {
+  const size_t e = static_cast<size_t>(brickEdge());
+  return e * e * e * valueSize(mMeta.type);
+}
+
+std::shared_ptr<const BrickStore> BrickStore::open(const fs::path& dir) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) throw CorruptStoreError(dir.string() + ": not a store directory");
+  std::shared_ptr<BrickStore> store(new BrickStore());
+  store->mDir = dir;
+
+  const fs::path metaPath = dir / "store.json";
+  store->mMeta = StoreMeta::fromJson(readText(metaPath, 64 << 20), metaPath.string());
+  const StoreMeta& meta = store->mMeta;
+  const std::string indexName = (dir / "index.bin").string();
+
+  // The index: header, then level entries, then records, each validated against the metadata.
+  const std::string index = readText(dir / "index.bin", size_t{1} << 34);
+  if (index.size() < sizeof(IndexHeader)) throw CorruptStoreError(indexName + ": truncated header");
+  IndexHeader h;
+  std::memcpy(&h, index.data(), sizeof h);
+  if (std::memcmp(h.magic, kIndexMagic, sizeof h.magic) != 0) throw CorruptStoreError(indexName + ": bad magic");
+  if (crc32Of(&h, offsetof(IndexHeader, headerCrc32)) != h.headerCrc32)
+    throw CorruptStoreError(indexName + ": header checksum mismatch");
+  if (h.version != kIndexVersion)
+    throw CorruptStoreError(indexName + ": index version " + std::to_string(h.version) + ", this build reads " +
+                            std::to_string(kIndexVersion));
+  if (h.levelCount == 0 || h.levelCount > kMaxLevels || h.levelCount != meta.levels.size())
+    throw CorruptStoreError(indexName + ": level count " + std::to_string(h.levelCount) +
+                            " does not match store.json (" + std::to_string(meta.levels.size()) + ")");
+  if (h.brickSize != uint32_t(meta.brickSize) || h.brickSize < 8 || h.brickSize > kMaxBrickSize ||
+      (h.brickSize & (h.brickSize - 1)) != 0)
+    throw CorruptStoreError(indexName + ": brick size " + std::to_string(h.brickSize) + " is invalid or does not "
+                            "match store.json");
+  if (h.valueType != uint32_t(meta.type)) throw CorruptStoreError(indexName + ": value type does not match store.json");
+  const uint64_t bodySize = index.size() - sizeof h;
+  const uint64_t expected = uint64_t(h.levelCount) * sizeof(LevelEntry) + h.recordCount * sizeof(BrickRecord);
+  if (h.recordCount > (uint64_t{1} << 40) || bodySize != expected)
+    throw CorruptStoreError(indexName + ": " + std::to_string(bodySize) + " body bytes, expected " +
+                            std::to_string(expected) + " (truncated or corrupt)");
+  if (crc32Of(index.data() + sizeof h, bodySize) != h.bodyCrc32)
+    throw CorruptStoreError(indexName + ": checksum mismatch (corrupt index)");
+
+  store->mLevels.resize(h.levelCount);
+  std::memcpy(store->mLevels.data(), index.data() + sizeof h, h.levelCount * sizeof(LevelEntry));
+  uint64_t first = 0;
+  for (uint32_t l = 0; l < h.levelCount; ++l) {
+    const LevelEntry& e = store->mLevels[l];
+    const LevelMeta& m = meta.levels[l];
+    const int B = meta.brickSize;
+    Vec3i dims{e.dims[0], e.dims[1], e.dims[2]};
+    Vec3i bricks{e.bricks[0], e.bricks[1], e.bricks[2]};
+    if (!(dims == m.dims) || !(bricks == m.bricks) || e.firstRecord != first ||
+        !(bricks == Vec3i{divUp(dims.x, B), divUp(dims.y, B), divUp(dims.z, B)}))
+      throw CorruptStoreError(indexName + ": level " + std::to_string(l) + " does not match store.json");
+    first += uint64_t(bricks.volume());
+  }
+  if (first != h.recordCount) throw CorruptStoreError(indexName + ": record count does not match the levels");
+  if (!(meta.levels[0].dims == meta.dims)) throw CorruptStoreError(metaPath.string() + ": level 0 dims differ from dims");
+
+  store->mRecords.resize(h.recordCount);
+  std::memcpy(store->mRecords.data(), index.data() + sizeof h + h.levelCount * sizeof(LevelEntry),
+              h.recordCount * sizeof(BrickRecord));
+
+  store->mFile = std::make_unique<BrickStoreFile>(BrickStoreFile{BrickFileReader(dir / "bricks.bin")});
+  const uint64_t bricksSize = store->mFile->reader.fileSize();
+  if (bricksSize != h.bricksFileSize)
+    throw CorruptStoreError((dir / "bricks.bin").string() + ": " + std::to_string(bricksSize) + " bytes, index expects " +
+                            std::to_string(h.bricksFileSize) + " (truncated or replaced)");
+  for (const BrickRecord& r : store->mRecords)
+    if (r.compressedSize != 0 && (r.offset > bricksSize || r.compressedSize > bricksSize - r.offset))
+      throw CorruptStoreError(indexName + ": a brick record points past the end of bricks.bin");
+
+  // The octree is derived from the level-0 records, so it can never disagree with them.
+  const Vec3i nb = meta.levels[0].bricks;
+  std::vector<MinMaxOctree::Range> ranges(static_cast<size_t>(nb.volume()));
+  for (size_t n = 0; n < ranges.size(); ++n) ranges[n] = {store->mRecords[n].min, store->mRecords[n].max};
+  store->mOctree = MinMaxOctree(nb, ranges);
+  return store;
+}
+
+bool BrickStore::contains(const BrickKey& key) const {
+  if (key.level >= mLevels.size()) return false;
+  const LevelEntry& e = mLevels[key.level];
+  return key.i < e.bricks[0] && key.j < e.bricks[1] && key.k < e.bricks[2];
+}
+
+const BrickRecord& BrickStore::record(const BrickKey& key) const {
+  if (!contains(key)) throw InputError("BrickStore::record: " + toString(key) + " is outside " + mDir.string());
+  const LevelEntry& e = mLevels[key.level];
+  return mRecords[e.firstRecord + key.i + uint64_t(e.bricks[0]) * (key.j + uint64_t(e.bricks[1]) * key.k)];
+}
+
+void BrickStore::readBrick(const BrickKey& key, void* dst) const {
+  const BrickRecord& r = record(key);
+  const size_t e = static_cast<size_t>(brickEdge());
+  if (r.compressedSize == 0)
+    fillValue(mMeta.type, mMeta.background, dst, e * e * e);
+  else
+    mFile->reader.decode(r, key, dst, brickBytes());
+}
+
+}  // namespace voxbrick::store

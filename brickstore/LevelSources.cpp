@@ -1,0 +1,106 @@
+// Reading a written level back in z order, and downsampling it, for the LOD pyramid and the histogram pass.
+#include "brickstore/LevelSources.h"
+
+#include <tbb/parallel_for.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "brickstore/Errors.h"
+
+namespace voxbrick::store {
+
+StoredLevelSource::StoredLevelSource(const BrickFileReader& file, const LevelBuild& level, uint32_t levelIndex,
+                                     int brickSize, ValueType type, double background, Vec3d spacing)
+    : mFile(file), mLevel(level), mLevelIndex(levelIndex), mBrickSize(brickSize) {
+  mInfo.dims = level.dims;
+  mInfo.spacing = spacing;
+  mInfo.type = type;
+  mInfo.background = background;
+  mInfo.description = "level " + std::to_string(levelIndex) + " of the store being written";
+  mSlab.resize(static_cast<size_t>(brickSize * level.dims.x * level.dims.y) * valueSize(type));
+}
+
+void StoredLevelSource::loadSlab(int64_t kz) {
+  const Vec3i n = mLevel.dims, nb = mLevel.bricks;
+  const int64_t B = mBrickSize, E = B + 2;
+  const size_t vs = valueSize(mInfo.type);
+  const size_t brickBytes = static_cast<size_t>(E * E * E) * vs;
+  tbb::parallel_for(int64_t{0}, nb.x * nb.y, [&](int64_t b) {
+    thread_local std::vector<char> brick;
+    brick.resize(brickBytes);
+    const int64_t bi = b % nb.x, bj = b / nb.x;
+    const BrickRecord& rec = mLevel.records[static_cast<size_t>(b + nb.x * nb.y * kz)];
+    BrickKey key{mLevelIndex, static_cast<uint32_t>(bi), static_cast<uint32_t>(bj), static_cast<uint32_t>(kz)};
+    if (rec.compressedSize != 0)
+      mFile.decode(rec, key, brick.data(), brickBytes);
+    else
+      fillValue(mInfo.type, mInfo.background, brick.data(), static_cast<size_t>(E * E * E));
+    const int64_t wx = std::min(B, n.x - bi * B), wy = std::min(B, n.y - bj * B), wz = std::min(B, n.z - kz * B);
+    for (int64_t c = 0; c < wz; ++c)
+      for (int64_t yb = 0; yb < wy; ++yb) {
+        const char* src = brick.data() + static_cast<size_t>((1 + E * ((yb + 1) + E * (c + 1)))) * vs;
+        char* dst = mSlab.data() + static_cast<size_t>(bi * B + n.x * ((bj * B + yb) + n.y * c)) * vs;
+        std::memcpy(dst, src, static_cast<size_t>(wx) * vs);
+      }
+  });
+  mSlabLoaded = kz;
+}
+
+void StoredLevelSource::readSlices(int64_t count, void* dst) {
+  const Vec3i n = mLevel.dims;
+  if (count < 0 || mNextZ + count > n.z)
+    throw StoreError("StoredLevelSource: reading past the last slice of " + mInfo.description);
+  const size_t sliceBytes = static_cast<size_t>(n.x * n.y) * valueSize(mInfo.type);
+  char* out = static_cast<char*>(dst);
+  const int64_t z0 = mNextZ;
+  for (int64_t s = 0; s < count; ++s, ++mNextZ) {
+    int64_t kz = mNextZ / mBrickSize;
+    if (kz != mSlabLoaded) loadSlab(kz);
+    std::memcpy(out + static_cast<size_t>(s) * sliceBytes,
+                mSlab.data() + static_cast<size_t>(mNextZ - kz * mBrickSize) * sliceBytes, sliceBytes);
+  }
+  if (mHook) mHook(z0, count, dst);
+}
+
+DownsampleSource::DownsampleSource(VolumeSource& fine) : mFine(fine) {
+  const VolumeInfo& f = fine.info();
+  mInfo = f;
+  mInfo.dims = {divUp(f.dims.x, 2), divUp(f.dims.y, 2), divUp(f.dims.z, 2)};
+  mInfo.spacing = {f.spacing.x * 2, f.spacing.y * 2, f.spacing.z * 2};
+  mInfo.description = "downsample of " + f.description;
+  mPair.resize(static_cast<size_t>(2 * f.dims.x * f.dims.y) * valueSize(f.type));
+}
+
+void DownsampleSource::readSlices(int64_t count, void* dst) {
+  dispatchType(mInfo.type, [&](auto tag) { readTyped(count, static_cast<decltype(tag)*>(dst)); });
+}
+
+template <typename T>
+void DownsampleSource::readTyped(int64_t count, T* dst) {
+  const Vec3i f = mFine.info().dims, n = mInfo.dims;
+  if (count < 0 || mNextZ + count > n.z) throw StoreError("DownsampleSource: reading past the last slice");
+  const int64_t sliceValues = f.x * f.y;
+  T* pair = reinterpret_cast<T*>(mPair.data());
+  for (int64_t s = 0; s < count; ++s, ++mNextZ) {
+    const bool two = 2 * mNextZ + 1 < f.z;
+    mFine.readSlices(two ? 2 : 1, pair);
+    if (!two) std::memcpy(pair + sliceValues, pair, sizeof(T) * static_cast<size_t>(sliceValues));
+    T* out = dst + s * n.x * n.y;
+    tbb::parallel_for(int64_t{0}, n.y, [&](int64_t y) {
+      const int64_t y0 = 2 * y, y1 = std::min(2 * y + 1, f.y - 1);
+      for (int64_t x = 0; x < n.x; ++x) {
+        const int64_t x0 = 2 * x, x1 = std::min(2 * x + 1, f.x - 1);
+        double sum = 0;
+        for (int64_t zz = 0; zz < 2; ++zz) {
+          const T* plane = pair + zz * sliceValues;
+          sum += double(plane[x0 + f.x * y0]) + double(plane[x1 + f.x * y0]) + double(plane[x0 + f.x * y1]) +
+                 double(plane[x1 + f.x * y1]);
+        }
+        out[x + n.x * y] = average<T>(sum);
+      }
+    });
+  }
+}
+
+}  // namespace voxbrick::store

@@ -1,0 +1,74 @@
+// Sources used to build the LOD pyramid: a written level read back in z order, and its 2x2x2 downsample.
+#pragma once
+
+#include <cmath>
+#include <functional>
+#include <type_traits>
+#include <vector>
+
+#include "brickstore/BrickFile.h"
+#include "brickstore/SlabBricker.h"
+#include "brickstore/VolumeSource.h"
+
+namespace voxbrick::store {
+
+/// A level that was just written, read back slice by slice by decoding one slab of bricks at a time, so memory
+/// stays at one slab however large the level is.
+class StoredLevelSource : public VolumeSource {
+ public:
+  /// `hook`, if set, sees every slice batch delivered (the histogram pass uses it).
+  StoredLevelSource(const BrickFileReader& file, const LevelBuild& level, uint32_t levelIndex, int brickSize,
+                    ValueType type, double background, Vec3d spacing);
+
+  const VolumeInfo& info() const override { return mInfo; }
+  void readSlices(int64_t count, void* dst) override;
+  void setSliceHook(std::function<void(int64_t z0, int64_t count, const void* values)> hook) {
+    mHook = std::move(hook);
+  }
+
+ private:
+  void loadSlab(int64_t kz);
+
+  const BrickFileReader& mFile;
+  const LevelBuild& mLevel;
+  uint32_t mLevelIndex;
+  int mBrickSize;
+  VolumeInfo mInfo;
+  std::vector<char> mSlab;  // B slices of the level
+  int64_t mSlabLoaded = -1;
+  int64_t mNextZ = 0;
+  std::function<void(int64_t, int64_t, const void*)> mHook;
+};
+
+/// Level k+1 from level k: voxel m averages voxels 2m and 2m+1 of the finer level along each axis (the second
+/// clamped to the last voxel when the finer size is odd), 8 values in all. Integer types round half up.
+class DownsampleSource : public VolumeSource {
+ public:
+  explicit DownsampleSource(VolumeSource& fine);
+
+  const VolumeInfo& info() const override { return mInfo; }
+  void readSlices(int64_t count, void* dst) override;
+
+  /// The downsampled value of eight finer values, exactly as the pyramid computes it.
+  template <typename T>
+  static T average(double sum);
+
+ private:
+  template <typename T>
+  void readTyped(int64_t count, T* dst);
+
+  VolumeSource& mFine;
+  VolumeInfo mInfo;
+  std::vector<char> mPair;  // two finer slices
+  int64_t mNextZ = 0;
+};
+
+template <typename T>
+T DownsampleSource::average(double sum) {
+  if constexpr (std::is_floating_point_v<T>)
+    return static_cast<T>(sum / 8.0);
+  else
+    return static_cast<T>(std::floor(sum / 8.0 + 0.5));
+}
+
+}  // namespace voxbrick::store

@@ -1,0 +1,217 @@
+// NIfTI-1 single-file input (.nii, .nii.gz): 348-byte header of either byte order, scl_slope/scl_inter scaling.
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "brickstore/ByteStream.h"
+#include "brickstore/Convert.h"
+#include "brickstore/Errors.h"
+#include "brickstore/Sources.h"
+
+namespace voxbrick::store {
+namespace {
+
+constexpr int32_t kHeaderSize = 348;
+constexpr int32_t kNifti2HeaderSize = 540;
+constexpr int64_t kMinVoxOffset = 352;  // header plus the 4-byte extension flag
+
+// Offsets of the fields used, from the NIfTI-1 header layout (nifti1.h).
+constexpr size_t kDimOffset = 40;
+constexpr size_t kDatatypeOffset = 70;
+constexpr size_t kBitpixOffset = 72;
+constexpr size_t kPixdimOffset = 76;
+constexpr size_t kVoxOffsetOffset = 108;
+constexpr size_t kSclSlopeOffset = 112;
+constexpr size_t kSclInterOffset = 116;
+constexpr size_t kMagicOffset = 344;
+
+// Reads header fields in the file's byte order.
+class HeaderView {
+ public:
+  HeaderView(const std::vector<char>& bytes, bool swap) : mBytes(bytes), mSwap(swap) {}
+
+  int16_t i16(size_t offset) const {
+    uint16_t v;
+    std::memcpy(&v, mBytes.data() + offset, 2);
+    if (mSwap) v = __builtin_bswap16(v);
+    return static_cast<int16_t>(v);
+  }
+  int32_t i32(size_t offset) const {
+    uint32_t v;
+    std::memcpy(&v, mBytes.data() + offset, 4);
+    if (mSwap) v = __builtin_bswap32(v);
+    return static_cast<int32_t>(v);
+  }
+  float f32(size_t offset) const {
+    uint32_t v = static_cast<uint32_t>(i32(offset));
+    float f;
+    std::memcpy(&f, &v, 4);
+    return f;
+  }
+
+ private:
+  const std::vector<char>& mBytes;
+  bool mSwap;
+};
+
+std::string datatypeName(int code) {
+  switch (code) {
+    case 1: return "binary";
+    case 2: return "uint8";
+    case 4: return "int16";
+    case 8: return "int32";
+    case 16: return "float32";
+    case 32: return "complex64";
+    case 64: return "float64";
+    case 128: return "RGB24";
+    case 256: return "int8";
+    case 512: return "uint16";
+    case 768: return "uint32";
+    case 1024: return "int64";
+    case 1280: return "uint64";
+    case 1536: return "float128";
+    case 1792: return "complex128";
+    case 2048: return "complex256";
+    case 2304: return "RGBA32";
+    default: return "unknown";
+  }
+}
+
+std::optional<FileValueType> datatypeValue(int code) {
+  switch (code) {
+    case 2: return FileValueType::U8;
+    case 4: return FileValueType::I16;
+    case 8: return FileValueType::I32;
+    case 16: return FileValueType::F32;
+    case 64: return FileValueType::F64;
+    case 256: return FileValueType::I8;
+    case 512: return FileValueType::U16;
+    case 768: return FileValueType::U32;
+    default: return std::nullopt;
+  }
+}
+
+// pixdim may be signed (qfac lives in pixdim[0], but writers also negate the others) or unset (0).
+double spacingOf(float pixdim) {
+  double v = std::fabs(static_cast<double>(pixdim));
+  return (v > 0.0 && std::isfinite(v)) ? v : 1.0;
+}
+
+}  // namespace
+
+std::unique_ptr<VolumeSource> openNiftiSource(const std::string& path, const SourceOptions& options) {
+  const bool gzip = isGzipFile(path);
+  const std::vector<char> bytes = readFilePrefix(path, kHeaderSize);
+  if (bytes.size() < 4) throw InputError(path + ": not a NIfTI-1 file (shorter than a header)");
+
+  int32_t sizeofHdr;
+  std::memcpy(&sizeofHdr, bytes.data(), 4);
+  bool swap = false;
+  if (sizeofHdr != kHeaderSize) {
+    if (static_cast<int32_t>(__builtin_bswap32(static_cast<uint32_t>(sizeofHdr))) == kHeaderSize) {
+      swap = true;
+    } else if (sizeofHdr == kNifti2HeaderSize ||
+               static_cast<int32_t>(__builtin_bswap32(static_cast<uint32_t>(sizeofHdr))) == kNifti2HeaderSize) {
+      throw InputError(path + ": not a NIfTI-1 file (NIfTI-2 headers are not supported)");
+    } else {
+      throw InputError(path + ": not a NIfTI-1 file (sizeof_hdr is " + std::to_string(sizeofHdr) + ", expected 348)");
+    }
+  }
+  if (bytes.size() < static_cast<size_t>(kHeaderSize)) {
+    throw InputError(path + ": truncated header (" + std::to_string(bytes.size()) + " of 348 bytes)");
+  }
+  const char* magic = bytes.data() + kMagicOffset;
+  if (std::memcmp(magic, "ni1\0", 4) == 0) {
+    throw InputError(path + ": is the header of a NIfTI-1 .hdr/.img pair (magic 'ni1'); only single-file .nii "
+                            "is supported");
+  }
+  if (std::memcmp(magic, "n+1\0", 4) != 0) {
+    throw InputError(path + ": not a NIfTI-1 file (no 'n+1' magic; an ANALYZE 7.5 header?)");
+  }
+
+  const HeaderView h(bytes, swap);
+  const int dimCount = h.i16(kDimOffset);
+  if (dimCount < 1 || dimCount > 7) {
+    throw InputError(path + ": bad dim[0] " + std::to_string(dimCount) + " (expected 1 to 7)");
+  }
+  if (dimCount < 3) {
+    throw InputError(path + ": only 3D scalar volumes are supported (dim[0] is " + std::to_string(dimCount) + ")");
+  }
+  const Vec3i dims{h.i16(kDimOffset + 2), h.i16(kDimOffset + 4), h.i16(kDimOffset + 6)};
+  for (int d = 4; d <= dimCount; ++d) {
+    const int extent = h.i16(kDimOffset + 2 * static_cast<size_t>(d));
+    if (extent != 1) {
+      throw InputError(path + ": only 3D scalar volumes are supported (dim[" + std::to_string(d) + "] is " +
+                       std::to_string(extent) + ")");
+    }
+  }
+
+  const int datatype = h.i16(kDatatypeOffset);
+  const std::optional<FileValueType> fileType = datatypeValue(datatype);
+  if (!fileType) {
+    throw InputError(path + ": unsupported NIfTI datatype " + std::to_string(datatype) + " (" +
+                     datatypeName(datatype) + ")");
+  }
+  const int bitpix = h.i16(kBitpixOffset);
+  if (bitpix != static_cast<int>(8 * fileValueSize(*fileType))) {
+    throw InputError(path + ": datatype " + std::to_string(datatype) + " (" + datatypeName(datatype) +
+                     ") has bitpix " + std::to_string(bitpix) + ", expected " +
+                     std::to_string(8 * fileValueSize(*fileType)));
+  }
+  const int64_t dataBytes = checkedVolumeBytes(dims, fileValueSize(*fileType), path);
+
+  const double voxOffsetValue = h.f32(kVoxOffsetOffset);
+  if (!std::isfinite(voxOffsetValue) || voxOffsetValue < static_cast<double>(kMinVoxOffset) ||
+      voxOffsetValue != std::floor(voxOffsetValue) || voxOffsetValue > 1e15) {
+    throw InputError(path + ": bad vox_offset " + std::to_string(voxOffsetValue) +
+                     " (a single-file .nii needs a whole number >= 352)");
+  }
+  const auto voxOffset = static_cast<int64_t>(voxOffsetValue);
+
+  Vec3d spacing{spacingOf(h.f32(kPixdimOffset + 4)), spacingOf(h.f32(kPixdimOffset + 8)),
+                spacingOf(h.f32(kPixdimOffset + 12))};
+  if (options.spacingGiven) spacing = options.spacing;
+  checkSpacing(spacing, path);
+
+  Conversion conversion;
+  conversion.from = *fileType;
+  conversion.swapBytes = swap;
+  const double slope = h.f32(kSclSlopeOffset);
+  double inter = h.f32(kSclInterOffset);
+  if (!std::isfinite(inter)) inter = 0.0;
+  // NIfTI: a zero (or unusable) slope means "no scaling"; identity scaling keeps the integer type.
+  if (slope != 0.0 && std::isfinite(slope) && (slope != 1.0 || inter != 0.0)) {
+    conversion.scaled = true;
+    conversion.slope = slope;
+    conversion.inter = inter;
+  }
+
+  std::unique_ptr<ByteStream> stream;
+  if (gzip) {
+    stream = std::make_unique<ByteStream>(path, 0, ByteStream::Compression::Gzip);
+    stream->skip(static_cast<uint64_t>(voxOffset));
+  } else {
+    const int64_t size = fileSize(path);
+    if (size < voxOffset || size - voxOffset < dataBytes) {
+      throw InputError(path + ": truncated: expected " + std::to_string(dataBytes) +
+                       " bytes of voxel data from byte " + std::to_string(voxOffset) + ", file has " +
+                       std::to_string(size) + " bytes");
+    }
+    stream = std::make_unique<ByteStream>(path, voxOffset, ByteStream::Compression::None);
+  }
+
+  VolumeInfo info;
+  info.dims = dims;
+  info.spacing = spacing;
+  info.type = conversion.to();
+  info.background = 0.0;
+  const bool bigEndian = swap == needsSwap(true);
+  info.description = "NIfTI-1 " + datatypeName(datatype) + (gzip ? " gzip " : " ") + (bigEndian ? "big-endian " : "") +
+                     dimsText(dims) + (conversion.scaled ? " scaled to f32" : "") + " (" + baseName(path) + ")";
+  return std::make_unique<DenseSource>(std::move(info), std::move(stream), conversion, path);
+}
+
+}  // namespace voxbrick::store

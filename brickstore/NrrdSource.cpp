@@ -1,0 +1,365 @@
+// NRRD input: attached (.nrrd) and detached (.nhdr) headers, raw or gzip encoding, 3D scalar volumes.
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include "brickstore/ByteStream.h"
+#include "brickstore/Convert.h"
+#include "brickstore/Errors.h"
+#include "brickstore/Sources.h"
+
+namespace voxbrick::store {
+namespace {
+
+constexpr size_t kMaxHeaderBytes = size_t(1) << 20;
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+std::string trim(const std::string& s) {
+  size_t b = s.find_first_not_of(" \t\r");
+  if (b == std::string::npos) return "";
+  size_t e = s.find_last_not_of(" \t\r");
+  return s.substr(b, e - b + 1);
+}
+
+std::vector<std::string> tokens(const std::string& s) {
+  std::vector<std::string> out;
+  size_t i = 0;
+  while (true) {
+    i = s.find_first_not_of(" \t", i);
+    if (i == std::string::npos) break;
+    size_t e = s.find_first_of(" \t", i);
+    out.push_back(s.substr(i, e == std::string::npos ? std::string::npos : e - i));
+    if (e == std::string::npos) break;
+    i = e;
+  }
+  return out;
+}
+
+// Type spellings of the NRRD spec (lowercased, single spaces); int64 and block are known but unsupported.
+std::optional<FileValueType> parseNrrdType(const std::string& text) {
+  std::string t;
+  for (const std::string& word : tokens(lower(text))) t += (t.empty() ? "" : " ") + word;
+  static const std::map<std::string, FileValueType> kTypes = {
+      {"signed char", FileValueType::I8},        {"int8", FileValueType::I8},
+      {"int8_t", FileValueType::I8},             {"uchar", FileValueType::U8},
+      {"unsigned char", FileValueType::U8},      {"uint8", FileValueType::U8},
+      {"uint8_t", FileValueType::U8},            {"short", FileValueType::I16},
+      {"short int", FileValueType::I16},         {"signed short", FileValueType::I16},
+      {"signed short int", FileValueType::I16},  {"int16", FileValueType::I16},
+      {"int16_t", FileValueType::I16},           {"ushort", FileValueType::U16},
+      {"unsigned short", FileValueType::U16},    {"unsigned short int", FileValueType::U16},
+      {"uint16", FileValueType::U16},            {"uint16_t", FileValueType::U16},
+      {"int", FileValueType::I32},               {"signed int", FileValueType::I32},
+      {"int32", FileValueType::I32},             {"int32_t", FileValueType::I32},
+      {"uint", FileValueType::U32},              {"unsigned int", FileValueType::U32},
+      {"uint32", FileValueType::U32},            {"uint32_t", FileValueType::U32},
+      {"float", FileValueType::F32},             {"double", FileValueType::F64},
+  };
+  auto it = kTypes.find(t);
+  if (it == kTypes.end()) return std::nullopt;
+  return it->second;
+}
+
+// from_chars over the whole text; a leading '+' is allowed as in strtod.
+template <typename T>
+bool parseWhole(const std::string& text, T& value) {
+  const char* begin = text.data();
+  const char* end = begin + text.size();
+  if (begin != end && *begin == '+') ++begin;
+  auto [stop, ec] = std::from_chars(begin, end, value);
+  return ec == std::errc() && stop == end && begin != end;
+}
+
+// The header's fields by canonical (lowercase) name, and where the data starts in an attached file.
+struct NrrdHeader {
+  std::map<std::string, std::string> fields;
+  int64_t dataOffset = -1;  // byte after the blank line; -1 when the header ends at the end of the file
+};
+
+std::string canonicalField(const std::string& key) {
+  if (key == "datafile") return "data file";
+  if (key == "byteskip") return "byte skip";
+  if (key == "lineskip") return "line skip";
+  return key;
+}
+
+NrrdHeader parseHeader(const std::string& path) {
+  std::vector<char> prefix(kMaxHeaderBytes);
+  {
+    ByteStream stream(path, 0, ByteStream::Compression::None);
+    prefix.resize(stream.readUpTo(prefix.data(), prefix.size()));
+  }
+  const std::string text(prefix.begin(), prefix.end());
+  if (text.size() < 8 || text.compare(0, 7, "NRRD000") != 0 || !std::isdigit(static_cast<unsigned char>(text[7]))) {
+    throw InputError(path + ": not a NRRD file (the first line is not the NRRD000N magic)");
+  }
+  const bool wholeFile = text.size() < kMaxHeaderBytes || fileSize(path) == static_cast<int64_t>(text.size());
+
+  NrrdHeader header;
+  size_t pos = text.find('\n');
+  int lineNumber = 1;
+  if (pos == std::string::npos) throw InputError(path + ": truncated or corrupt header (nothing after the magic)");
+  ++pos;
+  while (pos < text.size()) {
+    size_t end = text.find('\n', pos);
+    if (end == std::string::npos && !wholeFile) break;
+    const std::string line = trim(text.substr(pos, end == std::string::npos ? std::string::npos : end - pos));
+    ++lineNumber;
+    if (line.empty()) {
+      if (end == std::string::npos) break;
+      header.dataOffset = static_cast<int64_t>(end + 1);
+      return header;
+    }
+    pos = end == std::string::npos ? text.size() : end + 1;
+    if (line[0] == '#') continue;
+    size_t colon = line.find(':');
+    if (colon == std::string::npos) {
+      throw InputError(path + ": malformed header line " + std::to_string(lineNumber) + ": '" + line + "'");
+    }
+    if (colon + 1 < line.size() && line[colon + 1] == '=') continue;  // key:=value pairs carry no geometry
+    std::string key = canonicalField(lower(trim(line.substr(0, colon))));
+    std::string value = trim(line.substr(colon + 1));
+    // The file names of "data file: LIST" follow as header lines, so this must be caught before parsing on.
+    if (key == "data file" && value.rfind("LIST", 0) == 0) {
+      throw InputError(path + ": 'data file: " + value + "' names several data files; only a single data file is "
+                              "supported");
+    }
+    if (!header.fields.emplace(key, std::move(value)).second) {
+      throw InputError(path + ": header field '" + key + "' is given twice");
+    }
+  }
+  if (!wholeFile) throw InputError(path + ": truncated or corrupt header (no blank line within the first 1 MiB)");
+  return header;
+}
+
+// Typed access to the fields, with errors that name the file and the field.
+class FieldReader {
+ public:
+  FieldReader(const std::string& path, const NrrdHeader& header) : mPath(path), mHeader(header) {}
+
+  const std::string* find(const std::string& name) const {
+    auto it = mHeader.fields.find(name);
+    return it == mHeader.fields.end() ? nullptr : &it->second;
+  }
+
+  const std::string& required(const std::string& name) const {
+    if (const std::string* value = find(name)) return *value;
+    throw InputError(mPath + ": missing required header field '" + name + "'");
+  }
+
+  [[noreturn]] void bad(const std::string& name, const std::string& value, const std::string& why = "") const {
+    throw InputError(mPath + ": header field '" + name + "' has a bad value '" + value + "'" +
+                     (why.empty() ? "" : " (" + why + ")"));
+  }
+
+  int64_t integer(const std::string& name, const std::string& text) const {
+    int64_t v = 0;
+    if (!parseWhole(text, v)) bad(name, text, "expected an integer");
+    return v;
+  }
+
+  double real(const std::string& name, const std::string& text) const {
+    double v = 0;
+    if (!parseWhole(text, v)) bad(name, text, "expected a number");
+    return v;
+  }
+
+  int64_t optionalInteger(const std::string& name, int64_t fallback) const {
+    const std::string* value = find(name);
+    return value ? integer(name, *value) : fallback;
+  }
+
+  const std::string& path() const { return mPath; }
+
+ private:
+  const std::string& mPath;
+  const NrrdHeader& mHeader;
+};
+
+// The length of each "space directions" vector; NaN for a "none" axis.
+std::vector<double> directionLengths(const FieldReader& fields, const std::string& value) {
+  const std::string name = "space directions";
+  std::vector<double> lengths;
+  size_t i = 0;
+  while ((i = value.find_first_not_of(" \t", i)) != std::string::npos) {
+    if (value.compare(i, 4, "none") == 0) {
+      lengths.push_back(std::nan(""));
+      i += 4;
+      continue;
+    }
+    if (value[i] != '(') fields.bad(name, value, "expected '(x,y,z)' or 'none' per axis");
+    size_t close = value.find(')', i);
+    if (close == std::string::npos) fields.bad(name, value, "missing ')'");
+    std::string inner = value.substr(i + 1, close - i - 1);
+    double sum = 0;
+    size_t start = 0;
+    while (true) {
+      size_t comma = inner.find(',', start);
+      double c = fields.real(name, trim(inner.substr(start, comma == std::string::npos ? comma : comma - start)));
+      if (!std::isfinite(c)) fields.bad(name, value, "components must be finite");
+      sum += c * c;
+      if (comma == std::string::npos) break;
+      start = comma + 1;
+    }
+    lengths.push_back(std::sqrt(sum));
+    i = close + 1;
+  }
+  return lengths;
+}
+
+// Spacing of the three spatial axes (the last three), from "space directions" or else "spacings"; 1 where unknown.
+Vec3d parseSpacing(const FieldReader& fields, int64_t dimension) {
+  std::vector<double> perAxis;
+  std::string name;
+  if (const std::string* dirs = fields.find("space directions")) {
+    name = "space directions";
+    perAxis = directionLengths(fields, *dirs);
+  } else if (const std::string* spacings = fields.find("spacings")) {
+    name = "spacings";
+    for (const std::string& t : tokens(*spacings)) perAxis.push_back(std::fabs(fields.real(name, t)));
+  } else {
+    return Vec3d{1, 1, 1};
+  }
+  if (static_cast<int64_t>(perAxis.size()) != dimension) {
+    throw InputError(fields.path() + ": header field '" + name + "' has " + std::to_string(perAxis.size()) +
+                     " values, expected " + std::to_string(dimension));
+  }
+  double s[3];
+  for (int a = 0; a < 3; ++a) {
+    double v = perAxis[static_cast<size_t>(dimension - 3 + a)];
+    if (std::isnan(v)) v = 1.0;  // "nan" / "none": the axis has no known spacing
+    if (!(v > 0.0) || !std::isfinite(v)) {
+      throw InputError(fields.path() + ": header field '" + name + "' gives spatial axis " + std::to_string(a) +
+                       " a zero or infinite spacing");
+    }
+    s[a] = v;
+  }
+  return Vec3d{s[0], s[1], s[2]};
+}
+
+std::string resolveDataFile(const FieldReader& fields, const std::string& value) {
+  if (value.find('%') != std::string::npos && tokens(value).size() >= 4) {
+    throw InputError(fields.path() + ": 'data file: " + value +
+                     "' names several data files; only a single data file is supported");
+  }
+  std::filesystem::path file(value);
+  if (file.is_relative()) file = std::filesystem::path(fields.path()).parent_path() / file;
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(file, ec)) {
+    throw InputError(fields.path() + ": data file '" + value + "' not found (looked for " + file.string() + ")");
+  }
+  return file.string();
+}
+
+}  // namespace
+
+std::unique_ptr<VolumeSource> openNrrdSource(const std::string& path, const SourceOptions& options) {
+  const NrrdHeader header = parseHeader(path);
+  const FieldReader fields(path, header);
+  // Without a blank line the data can only be elsewhere; otherwise the header was cut short.
+  if (header.dataOffset < 0 && !fields.find("data file")) {
+    throw InputError(path + ": truncated or corrupt header (no blank line after it and no 'data file' field)");
+  }
+
+  const std::string& typeText = fields.required("type");
+  const std::optional<FileValueType> fileType = parseNrrdType(typeText);
+  if (!fileType) throw InputError(path + ": unsupported NRRD type '" + typeText + "'");
+
+  const int64_t dimension = fields.integer("dimension", fields.required("dimension"));
+  const std::string& sizesText = fields.required("sizes");
+  const std::vector<std::string> sizeTokens = tokens(sizesText);
+  if (dimension != 3 && dimension != 4) {
+    throw InputError(path + ": only 3D scalar volumes are supported (dimension " + std::to_string(dimension) + ")");
+  }
+  if (static_cast<int64_t>(sizeTokens.size()) != dimension) {
+    throw InputError(path + ": header field 'sizes' has " + std::to_string(sizeTokens.size()) + " values, expected " +
+                     std::to_string(dimension));
+  }
+  std::vector<int64_t> sizes;
+  for (const std::string& t : sizeTokens) {
+    sizes.push_back(fields.integer("sizes", t));
+    if (sizes.back() <= 0) fields.bad("sizes", sizesText, "sizes must be positive");
+  }
+  if (dimension == 4 && sizes[0] != 1) {
+    throw InputError(path + ": only 3D scalar volumes are supported (dimension 4 with sizes " + sizesText + ")");
+  }
+  const Vec3i dims{sizes[dimension - 3], sizes[dimension - 2], sizes[dimension - 1]};
+  const int64_t dataBytes = checkedVolumeBytes(dims, fileValueSize(*fileType), path);
+
+  const std::string encodingText = lower(fields.required("encoding"));
+  bool gzip = false;
+  if (encodingText == "gzip" || encodingText == "gz") {
+    gzip = true;
+  } else if (encodingText != "raw") {
+    throw InputError(path + ": unsupported NRRD encoding '" + encodingText + "' (supported: raw, gzip)");
+  }
+
+  bool bigEndian = false;
+  if (const std::string* endian = fields.find("endian")) {
+    const std::string e = lower(*endian);
+    if (e != "little" && e != "big") fields.bad("endian", *endian, "expected little or big");
+    bigEndian = e == "big";
+  } else if (fileValueSize(*fileType) > 1) {
+    throw InputError(path + ": missing required header field 'endian' (needed for type '" + typeText + "')");
+  }
+
+  Vec3d spacing = parseSpacing(fields, dimension);
+  if (options.spacingGiven) spacing = options.spacing;
+  checkSpacing(spacing, path);
+
+  const int64_t lineSkip = fields.optionalInteger("line skip", 0);
+  if (lineSkip < 0) fields.bad("line skip", std::to_string(lineSkip), "must be >= 0");
+  const int64_t byteSkip = fields.optionalInteger("byte skip", 0);
+  if (byteSkip < -1) fields.bad("byte skip", std::to_string(byteSkip), "must be >= -1");
+  if (byteSkip == -1 && gzip) fields.bad("byte skip", "-1", "-1 is only allowed with raw encoding");
+
+  std::string dataPath = path;
+  int64_t start = header.dataOffset;
+  if (const std::string* dataFile = fields.find("data file")) {
+    dataPath = resolveDataFile(fields, *dataFile);
+    start = 0;
+  }
+  start = offsetAfterLines(dataPath, start, lineSkip);
+
+  std::unique_ptr<ByteStream> stream;
+  if (gzip) {
+    stream = std::make_unique<ByteStream>(dataPath, start, ByteStream::Compression::Gzip);
+    stream->skip(static_cast<uint64_t>(byteSkip));
+  } else {
+    // Raw data can be checked against the file size before any voxel is read.
+    const int64_t size = fileSize(dataPath);
+    const int64_t offset = byteSkip == -1 ? size - dataBytes : start + byteSkip;
+    if (offset < start || size - offset < dataBytes) {
+      throw InputError(dataPath + ": truncated: expected " + std::to_string(dataBytes) +
+                       " bytes of voxel data from byte " + std::to_string(std::max(offset, start)) + ", file has " +
+                       std::to_string(size) + " bytes");
+    }
+    stream = std::make_unique<ByteStream>(dataPath, offset, ByteStream::Compression::None);
+  }
+
+  Conversion conversion;
+  conversion.from = *fileType;
+  conversion.swapBytes = fileValueSize(*fileType) > 1 && needsSwap(bigEndian);
+
+  VolumeInfo info;
+  info.dims = dims;
+  info.spacing = spacing;
+  info.type = conversion.to();
+  info.background = 0.0;
+  info.description = "NRRD " + std::string(fileValueTypeName(*fileType)) + (gzip ? " gzip " : " raw ") +
+                     dimsText(dims) + " (" + baseName(path) + ")";
+  return std::make_unique<DenseSource>(std::move(info), std::move(stream), conversion, dataPath);
+}
+
+}  // namespace voxbrick::store

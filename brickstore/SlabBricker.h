@@ -1,0 +1,62 @@
+// Cuts one level of a volume, streamed z-slice by z-slice, into bordered bricks and appends their zstd frames.
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include "brickstore/BrickFile.h"
+#include "brickstore/StoreFormat.h"
+#include "brickstore/VolumeSource.h"
+
+namespace voxbrick::store {
+
+/// A brick's sample range (border included).
+struct MinMaxPair {
+  float min = 0, max = 0;
+};
+
+/// The bricks of one level as written: records indexed i + bricks.x * (j + bricks.y * k).
+struct LevelBuild {
+  Vec3i dims;
+  Vec3i bricks;
+  std::vector<BrickRecord> records;
+  int64_t bricksStored = 0;
+  int64_t bytesStored = 0;
+};
+
+/// Reads a source once, in z order, through a window of B + 2 slices (so memory is bounded by the slice size,
+/// not the volume), and writes every non-empty brick of the level as a zstd frame to `out`.
+class SlabBricker {
+ public:
+  /// Called with each batch of real slices right after it is read (z of the first, count, the values); it may
+  /// modify them (the non-finite policy does) before they are bricked.
+  using SliceHook = std::function<void(int64_t z0, int64_t count, void* values)>;
+  /// Called after each slab of bricks with (slabs done, slabs in all).
+  using ProgressHook = std::function<void(int64_t done, int64_t total)>;
+
+  SlabBricker(VolumeSource& source, int brickSize, double background, int zstdLevel, OutputFile& out)
+      : mSource(source), mBrickSize(brickSize), mBackground(background), mZstdLevel(zstdLevel), mOut(out) {}
+
+  void setSliceHook(SliceHook hook) { mSliceHook = std::move(hook); }
+  void setProgressHook(ProgressHook hook) { mProgressHook = std::move(hook); }
+
+  /// Bricks the whole source. Throws what the source or the output throws.
+  LevelBuild run();
+
+  /// Bytes the window holds for a level of `dims`, for memory planning.
+  static int64_t windowBytes(const Vec3i& dims, int brickSize, ValueType type);
+
+ private:
+  template <typename T>
+  LevelBuild runTyped();
+
+  VolumeSource& mSource;
+  int mBrickSize;
+  double mBackground;
+  int mZstdLevel;
+  OutputFile& mOut;
+  SliceHook mSliceHook;
+  ProgressHook mProgressHook;
+};
+
+}  // namespace voxbrick::store

@@ -1,0 +1,140 @@
+// store.json: the metadata of a store, written by prep and checked by every reader.
+#include "brickstore/StoreMeta.h"
+
+#include <nlohmann/json.hpp>
+
+#include "brickstore/Errors.h"
+
+namespace voxbrick::store {
+namespace {
+
+using nlohmann::json;
+
+json toJson(const Vec3i& v) { return json::array({v.x, v.y, v.z}); }
+json toJson(const Vec3d& v) { return json::array({v.x, v.y, v.z}); }
+
+const json& field(const json& j, const char* key, const std::string& what) {
+  auto it = j.find(key);
+  if (it == j.end()) throw CorruptStoreError(what + ": missing key '" + key + "'");
+  return *it;
+}
+
+Vec3i vec3i(const json& j, const char* key, const std::string& what) {
+  const json& v = field(j, key, what);
+  if (!v.is_array() || v.size() != 3 || !v[0].is_number_integer() || !v[1].is_number_integer() ||
+      !v[2].is_number_integer())
+    throw CorruptStoreError(what + ": key '" + key + "' is not three integers");
+  Vec3i r{v[0].get<int64_t>(), v[1].get<int64_t>(), v[2].get<int64_t>()};
+  if (r.x <= 0 || r.y <= 0 || r.z <= 0) throw CorruptStoreError(what + ": key '" + key + "' has a value <= 0");
+  return r;
+}
+
+Vec3d vec3d(const json& j, const char* key, const std::string& what) {
+  const json& v = field(j, key, what);
+  if (!v.is_array() || v.size() != 3 || !v[0].is_number() || !v[1].is_number() || !v[2].is_number())
+    throw CorruptStoreError(what + ": key '" + key + "' is not three numbers");
+  return {v[0].get<double>(), v[1].get<double>(), v[2].get<double>()};
+}
+
+template <typename T>
+T number(const json& j, const char* key, const std::string& what) {
+  const json& v = field(j, key, what);
+  if (!v.is_number()) throw CorruptStoreError(what + ": key '" + key + "' is not a number");
+  return v.get<T>();
+}
+
+}  // namespace
+
+std::string StoreMeta::toJson() const {
+  json levelsJson = json::array();
+  for (const LevelMeta& l : levels) {
+    levelsJson.push_back({{"dims", store::toJson(l.dims)},
+                          {"bricks", store::toJson(l.bricks)},
+                          {"bricks_total", l.bricksTotal()},
+                          {"bricks_stored", l.bricksStored},
+                          {"bytes_stored", l.bytesStored}});
+  }
+  json j = {{"format", "voxbrick-store"},
+            {"version", kFormatVersion},
+            {"dims", store::toJson(dims)},
+            {"spacing", store::toJson(spacing)},
+            {"type", std::string(valueTypeName(type))},
+            {"background", background},
+            {"value_range", json::array({valueMin, valueMax})},
+            {"histogram", {{"range", json::array({histogram.lo, histogram.hi})}, {"counts", histogram.counts}}},
+            {"brick_size", brickSize},
+            {"levels", levelsJson},
+            {"bytes_raw", bytesRaw},
+            {"bytes_stored", bytesStored},
+            {"bytes_vdb", bytesVdb},
+            {"active_voxels", activeVoxels},
+            {"nonfinite_replaced", nonFiniteReplaced},
+            {"vdb_files", vdbFiles},
+            {"source", source}};
+  return j.dump(2) + "\n";
+}
+
+StoreMeta StoreMeta::fromJson(const std::string& text, const std::string& what) {
+  json j;
+  try {
+    j = json::parse(text);
+  } catch (const json::exception& e) {
+    throw CorruptStoreError(what + ": not valid JSON (" + e.what() + ")");
+  }
+  if (!j.is_object()) throw CorruptStoreError(what + ": not a JSON object");
+  if (j.value("format", "") != "voxbrick-store") throw CorruptStoreError(what + ": not a voxbrick store");
+  int version = number<int>(j, "version", what);
+  if (version != kFormatVersion)
+    throw CorruptStoreError(what + ": store format version " + std::to_string(version) + ", this build reads " +
+                            std::to_string(kFormatVersion));
+  StoreMeta m;
+  m.dims = vec3i(j, "dims", what);
+  m.spacing = vec3d(j, "spacing", what);
+  const json& type = field(j, "type", what);
+  if (!type.is_string()) throw CorruptStoreError(what + ": key 'type' is not a string");
+  try {
+    m.type = parseValueType(type.get<std::string>());
+  } catch (const InputError& e) {
+    throw CorruptStoreError(what + ": " + e.what());
+  }
+  m.background = number<double>(j, "background", what);
+  const json& range = field(j, "value_range", what);
+  if (!range.is_array() || range.size() != 2 || !range[0].is_number() || !range[1].is_number())
+    throw CorruptStoreError(what + ": key 'value_range' is not two numbers");
+  m.valueMin = range[0].get<double>();
+  m.valueMax = range[1].get<double>();
+  const json& hist = field(j, "histogram", what);
+  if (!hist.is_object()) throw CorruptStoreError(what + ": key 'histogram' is not an object");
+  const json& hrange = field(hist, "range", what);
+  const json& counts = field(hist, "counts", what);
+  if (!hrange.is_array() || hrange.size() != 2 || !counts.is_array())
+    throw CorruptStoreError(what + ": key 'histogram' is malformed");
+  m.histogram.lo = hrange[0].get<double>();
+  m.histogram.hi = hrange[1].get<double>();
+  for (const json& c : counts) {
+    if (!c.is_number_unsigned()) throw CorruptStoreError(what + ": histogram counts must be unsigned integers");
+    m.histogram.counts.push_back(c.get<uint64_t>());
+  }
+  m.brickSize = number<int>(j, "brick_size", what);
+  const json& levels = field(j, "levels", what);
+  if (!levels.is_array() || levels.empty()) throw CorruptStoreError(what + ": key 'levels' is not a non-empty array");
+  for (const json& l : levels) {
+    LevelMeta lm;
+    lm.dims = vec3i(l, "dims", what);
+    lm.bricks = vec3i(l, "bricks", what);
+    lm.bricksStored = number<int64_t>(l, "bricks_stored", what);
+    lm.bytesStored = number<int64_t>(l, "bytes_stored", what);
+    m.levels.push_back(lm);
+  }
+  m.bytesRaw = number<int64_t>(j, "bytes_raw", what);
+  m.bytesStored = number<int64_t>(j, "bytes_stored", what);
+  m.bytesVdb = j.value("bytes_vdb", int64_t{0});
+  m.activeVoxels = j.value("active_voxels", int64_t{0});
+  m.nonFiniteReplaced = j.value("nonfinite_replaced", int64_t{0});
+  if (j.contains("vdb_files") && j["vdb_files"].is_array())
+    for (const json& f : j["vdb_files"]) m.vdbFiles.push_back(f.get<std::string>());
+  m.source = j.value("source", std::string());
+  return m;
+}
+
+}  // namespace voxbrick::store

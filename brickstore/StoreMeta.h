@@ -1,0 +1,52 @@
+// A store's metadata (store.json): what `voxbrick info` prints and what readers check the index against.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "brickstore/Types.h"
+
+namespace voxbrick::store {
+
+/// One LOD level: level k halves level k-1 along each axis (rounding up).
+struct LevelMeta {
+  Vec3i dims;                ///< voxels
+  Vec3i bricks;              ///< bricks along each axis: ceil(dims / B)
+  int64_t bricksStored = 0;  ///< bricks with at least one sample different from the background
+  int64_t bytesStored = 0;   ///< compressed bytes of the stored bricks
+  int64_t bricksTotal() const { return bricks.volume(); }
+};
+
+/// Counts of level-0 voxel values in `bins` equal bins over value_range.
+struct Histogram {
+  double lo = 0, hi = 0;
+  std::vector<uint64_t> counts;
+};
+
+struct StoreMeta {
+  static constexpr int kFormatVersion = 1;
+
+  Vec3i dims;                 ///< level 0 voxels
+  Vec3d spacing;
+  ValueType type = ValueType::F32;
+  double background = 0;      ///< value of empty (inactive, not stored) space
+  double valueMin = 0, valueMax = 0;  ///< over every level-0 voxel, after the non-finite policy
+  Histogram histogram;
+  int brickSize = 32;
+  std::vector<LevelMeta> levels;
+  int64_t bytesRaw = 0;       ///< level-0 voxels times the type size
+  int64_t bytesStored = 0;    ///< bricks.bin + index.bin over all levels
+  int64_t bytesVdb = 0;       ///< the canonical OpenVDB grid files
+  int64_t activeVoxels = 0;   ///< level-0 voxels different from the background
+  int64_t nonFiniteReplaced = 0;  ///< NaN/Inf voxels set to the background at ingest
+  std::vector<std::string> vdbFiles;  ///< relative to the store directory, in z order
+  std::string source;         ///< the input's description
+
+  /// The JSON object stored as store.json (keys as in `voxbrick info --json`).
+  std::string toJson() const;
+  /// Parses store.json; throws CorruptStoreError naming `what` and the bad key.
+  static StoreMeta fromJson(const std::string& text, const std::string& what);
+};
+
+}  // namespace voxbrick::store

@@ -1,0 +1,54 @@
+// `voxbrick prep`: streams a VolumeSource into a new store (bricks, octree ranges, LOD pyramid, VDB grid, metadata).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+
+#include "brickstore/StoreMeta.h"
+#include "brickstore/VolumeSource.h"
+
+namespace voxbrick::store {
+
+/// What to do with NaN and Inf voxels of float inputs.
+enum class NonFinitePolicy {
+  Background,  ///< replace with the background value (so they are empty space), count and report them
+  Error,       ///< refuse the input, naming the first bad voxel
+};
+
+struct PrepOptions {
+  int brickSize = 32;            ///< B: a power of two in [8, 256]
+  int zstdLevel = 3;             ///< zstd level for brick frames
+  int64_t memoryBudgetMB = 1024; ///< bound on the slab window and per-chunk VDB grid; checked before starting
+  bool haveBackground = false;   ///< if false, the source's background is used
+  double background = 0.0;
+  NonFinitePolicy nonFinite = NonFinitePolicy::Background;
+  bool writeVdb = true;          ///< write the canonical OpenVDB grid
+  int64_t vdbChunkSlices = 0;    ///< z-slices per VDB file; 0: as many as the memory budget allows
+  bool overwrite = false;        ///< replace an existing store (only once the new one is complete)
+  int threads = 0;               ///< worker threads for compression; 0 = hardware concurrency
+};
+
+/// Progress of a running prep, for a progress bar.
+struct PrepProgress {
+  std::string stage;         ///< "level 0", "level 1", ..., "histogram"
+  int64_t done = 0, total = 0;  ///< units of the stage (slices)
+  int64_t bytesIn = 0;       ///< input bytes consumed so far (level 0)
+};
+
+/// What a finished prep reports.
+struct PrepSummary {
+  StoreMeta meta;
+  double seconds = 0;
+  int64_t bytesIn = 0;       ///< input voxel bytes read
+  int64_t peakRssBytes = 0;  ///< the process's peak resident set size when prep finished
+};
+
+/// Writes the store for `source` at `output`. The store is built under a temporary name beside `output` and
+/// renamed into place only when complete; on any error the temporary is removed and an existing store at `output`
+/// is untouched. Throws InputError, IoError or StoreError naming the file and the problem.
+PrepSummary prepStore(VolumeSource& source, const std::filesystem::path& output, const PrepOptions& options,
+                      const std::function<void(const PrepProgress&)>& progress = {});
+
+}  // namespace voxbrick::store

@@ -1,0 +1,49 @@
+// The canonical OpenVDB float grid of level 0, written in z-chunks so that memory stays bounded.
+#pragma once
+
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "brickstore/VolumeSource.h"
+
+namespace voxbrick::store {
+
+/// Receives level-0 slices in z order and writes them as OpenVDB FloatGrids named "density", one file per chunk of
+/// `chunkSlices` slices (vdb/level0-zNNNNN.vdb, NNNNN the chunk's first z). Voxels equal to the background are
+/// inactive. Index (i, j, k) of every chunk is voxel (i, j, k) of the volume; the transform places voxel centres
+/// as the optical model does ((i + 1/2 - n/2) * spacing), so the chunks together form one grid.
+class VdbChunkWriter {
+ public:
+  VdbChunkWriter(const std::filesystem::path& storeDir, const VolumeInfo& info, double background,
+                 int64_t chunkSlices);
+  ~VdbChunkWriter();
+
+  /// Adds `count` slices starting at z0 (the next ones in order) of the volume's type.
+  void addSlices(int64_t z0, int64_t count, const void* values);
+  /// Writes the last partial chunk. Throws IoError if a file cannot be written.
+  void finish();
+
+  /// Files written, relative to the store directory.
+  const std::vector<std::string>& files() const { return mFiles; }
+  int64_t bytes() const { return mBytes; }
+
+  /// Bytes of grid memory a chunk of `slices` slices may need (planning estimate: dense float leaves).
+  static int64_t chunkBytes(const Vec3i& dims, int64_t slices);
+
+ private:
+  struct Impl;
+  void flush();
+
+  std::filesystem::path mDir;
+  VolumeInfo mInfo;
+  double mBackground;
+  int64_t mChunkSlices;
+  int64_t mChunkStart = 0;
+  std::unique_ptr<Impl> mImpl;
+  std::vector<std::string> mFiles;
+  int64_t mBytes = 0;
+};
+
+}  // namespace voxbrick::store

@@ -1,0 +1,55 @@
+// The one interface every ingest format implements: a volume read as a stream of z-slices.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "brickstore/Types.h"
+
+namespace voxbrick::store {
+
+class SyntheticField;
+
+/// What a source knows about its volume before any voxel is read.
+struct VolumeInfo {
+  Vec3i dims;                  ///< voxels along x, y, z; all > 0
+  Vec3d spacing;               ///< physical voxel size; all > 0 and finite
+  ValueType type = ValueType::F32;  ///< type of the slices readSlices() delivers
+  double background = 0.0;     ///< value of empty space (a VDB grid's background; 0 for dense files)
+  std::string description;     ///< one line for logs, e.g. "NRRD uint16 gzip 256x256x128"
+};
+
+/// A volume delivered in order, z-slice by z-slice, so that files larger than memory stream through a bounded
+/// window and compressed files need no seeking.
+class VolumeSource {
+ public:
+  virtual ~VolumeSource() = default;
+
+  /// The volume's dimensions, spacing, type and background.
+  virtual const VolumeInfo& info() const = 0;
+
+  /// Reads the next `count` z-slices into dst: count * dims.x * dims.y values of info().type, x fastest, then y,
+  /// then z, in host byte order. The first call starts at z = 0. Throws InputError (naming the file) when the
+  /// data is truncated or malformed, or when reading past dims.z.
+  virtual void readSlices(int64_t count, void* dst) = 0;
+
+  /// The analytic definition of a synthetic source (so tests can compare with the true function); else null.
+  virtual const SyntheticField* analytic() const { return nullptr; }
+};
+
+/// Options a user gives prep for inputs whose files do not describe themselves (raw) or to override them.
+struct SourceOptions {
+  Vec3i dims;                      ///< raw: required
+  std::string type;                ///< raw: required ("u8", "u16", "i16", "f32")
+  Vec3d spacing;                   ///< raw: default 1,1,1
+  bool spacingGiven = false;       ///< true if spacing overrides the file's own
+  bool bigEndian = false;          ///< raw: byte order of the file
+  int64_t headerBytes = 0;         ///< raw: bytes to skip before the voxels
+  std::string gridName;            ///< vdb: grid to read (default: the first float grid)
+};
+
+/// Opens INPUT by its form: "synthetic:NAME[,k=v...]", *.vdb, *.nrrd / *.nhdr, *.nii / *.nii.gz, else raw.
+/// Throws InputError naming the file and the problem.
+std::unique_ptr<VolumeSource> openSource(const std::string& input, const SourceOptions& options);
+
+}  // namespace voxbrick::store

@@ -1,0 +1,22 @@
+// The subcommands of `voxbrick`: each registers its options on the app and runs when selected.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <string>
+
+namespace voxbrick::cli {
+
+/// Adds `prep` to the app.
+void addPrepCommand(CLI::App& app);
+/// Adds `info` to the app.
+void addInfoCommand(CLI::App& app);
+
+/// Parses "a,b,c" into three numbers; throws CLI::ValidationError naming the option.
+template <typename T>
+void parseTriple(const std::string& text, const std::string& option, T out[3]);
+
+/// Formats a byte count as "12.3 MB".
+std::string formatBytes(double bytes);
+
+}  // namespace voxbrick::cli

@@ -1,0 +1,94 @@
+// `voxbrick info STORE [--json]`: what a store holds, level by level.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include <nlohmann/json.hpp>
+
+#include "brickstore/BrickStore.h"
+#include "cli/Commands.h"
+
+namespace voxbrick::cli {
+namespace {
+
+struct InfoArgs {
+  std::string store;
+  bool json = false;
+};
+
+std::string dimsText(const store::Vec3i& d) {
+  return std::to_string(d.x) + "x" + std::to_string(d.y) + "x" + std::to_string(d.z);
+}
+
+/// The 256-bin histogram as a 32-character line, log-scaled so that a large background peak does not flatten it.
+std::string sparkline(const store::Histogram& h) {
+  static const char* kBars[] = {" ", "▁", "▂", "▃", "▄", "▅", "▆", "▇", "█"};
+  constexpr size_t kColumns = 32;
+  if (h.counts.empty()) return "";
+  std::vector<double> cols(kColumns, 0);
+  for (size_t b = 0; b < h.counts.size(); ++b) cols[b * kColumns / h.counts.size()] += double(h.counts[b]);
+  double top = 0;
+  for (double& c : cols) top = std::max(top, c = std::log1p(c));
+  std::string line;
+  for (double c : cols) line += kBars[top > 0 ? static_cast<int>(std::lround(c / top * 8)) : 0];
+  return line;
+}
+
+void runInfo(const InfoArgs& a) {
+  auto s = store::BrickStore::open(a.store);
+  const store::StoreMeta& m = s->meta();
+  int64_t total = 0, stored = 0;
+  for (const auto& l : m.levels) total += l.bricksTotal(), stored += l.bricksStored;
+  const double emptyFraction = m.levels[0].bricksTotal() > 0
+                                   ? 1.0 - double(m.levels[0].bricksStored) / double(m.levels[0].bricksTotal())
+                                   : 0.0;
+  const double ratio = m.bytesStored > 0 ? double(m.bytesRaw) / double(m.bytesStored) : 0.0;
+
+  if (a.json) {
+    nlohmann::json j = nlohmann::json::parse(m.toJson());
+    j["path"] = a.store;
+    j["empty_fraction"] = emptyFraction;
+    j["compression_ratio"] = ratio;
+    j["octree_depth"] = s->octree().depth();
+    std::printf("%s\n", j.dump(2).c_str());
+    return;
+  }
+  std::printf("store        %s\n", a.store.c_str());
+  std::printf("source       %s\n", m.source.c_str());
+  std::printf("dims         %s voxels, spacing %g x %g x %g, type %s\n", dimsText(m.dims).c_str(), m.spacing.x,
+              m.spacing.y, m.spacing.z, std::string(store::valueTypeName(m.type)).c_str());
+  std::printf("values       [%g, %g], background %g, %lld active voxels (%.1f%%)\n", m.valueMin, m.valueMax,
+              m.background, static_cast<long long>(m.activeVoxels),
+              100.0 * double(m.activeVoxels) / double(m.dims.volume()));
+  if (m.nonFiniteReplaced > 0)
+    std::printf("non-finite   %lld NaN/Inf voxels replaced by the background at ingest\n",
+                static_cast<long long>(m.nonFiniteReplaced));
+  std::printf("histogram    |%s|  (log counts, 256 bins over the value range)\n", sparkline(m.histogram).c_str());
+  std::printf("bricks       %d^3 + 1-voxel border, %zu levels, octree depth %d\n", m.brickSize, m.levels.size(),
+              s->octree().depth());
+  std::printf("  level  %-16s %-12s %10s %10s %8s %12s\n", "dims", "bricks", "total", "stored", "empty", "bytes");
+  for (size_t l = 0; l < m.levels.size(); ++l) {
+    const auto& lv = m.levels[l];
+    std::printf("  %5zu  %-16s %-12s %10lld %10lld %7.1f%% %12s\n", l, dimsText(lv.dims).c_str(),
+                dimsText(lv.bricks).c_str(), static_cast<long long>(lv.bricksTotal()),
+                static_cast<long long>(lv.bricksStored),
+                100.0 * (1.0 - double(lv.bricksStored) / double(lv.bricksTotal())),
+                formatBytes(double(lv.bytesStored)).c_str());
+  }
+  std::printf("empty        %.1f%% of level-0 bricks are empty (not stored)\n", 100 * emptyFraction);
+  std::printf("size         %s raw, %s stored (all levels, %.2fx), %s OpenVDB grid in %zu file(s)\n",
+              formatBytes(double(m.bytesRaw)).c_str(), formatBytes(double(m.bytesStored)).c_str(), ratio,
+              formatBytes(double(m.bytesVdb)).c_str(), m.vdbFiles.size());
+}
+
+}  // namespace
+
+void addInfoCommand(CLI::App& app) {
+  auto args = std::make_shared<InfoArgs>();
+  CLI::App* cmd = app.add_subcommand("info", "Describe a brick store");
+  cmd->add_option("store", args->store, "store directory")->required();
+  cmd->add_flag("--json", args->json, "print one JSON object");
+  cmd->callback([args] { runInfo(*args); });
+}
+
+}  // namespace voxbrick::cli

@@ -1,0 +1,152 @@
+// `voxbrick prep INPUT -o STORE`: ingest any supported volume into a brick store.
+#include <atomic>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+
+#include "brickstore/Errors.h"
+#include "brickstore/StoreWriter.h"
+#include "cli/Commands.h"
+#include "cli/Progress.h"
+
+namespace voxbrick::cli {
+namespace {
+
+std::atomic<bool> gInterrupted{false};
+extern "C" void onInterrupt(int) { gInterrupted = true; }
+
+struct PrepArgs {
+  std::string input, output, dims, type, spacing, endian = "little", grid, nonFinite = "background";
+  int64_t headerBytes = 0;
+  double background = 0;
+  bool quiet = false;
+  store::PrepOptions options;
+};
+
+void runPrep(PrepArgs& a, CLI::App& cmd) {
+  store::SourceOptions so;
+  if (!a.dims.empty()) {
+    int64_t d[3];
+    parseTriple(a.dims, "--dims", d);
+    so.dims = {d[0], d[1], d[2]};
+  }
+  if (!a.spacing.empty()) {
+    double s[3];
+    parseTriple(a.spacing, "--spacing", s);
+    so.spacing = {s[0], s[1], s[2]};
+    so.spacingGiven = true;
+    for (double v : s)
+      if (!(v > 0) || !std::isfinite(v)) throw store::InputError("--spacing values must be positive and finite");
+  }
+  so.type = a.type;
+  so.bigEndian = a.endian == "big";
+  so.headerBytes = a.headerBytes;
+  so.gridName = a.grid;
+  a.options.haveBackground = cmd.count("--background") > 0;
+  a.options.background = a.background;
+  a.options.nonFinite = a.nonFinite == "error" ? store::NonFinitePolicy::Error : store::NonFinitePolicy::Background;
+
+  auto source = store::openSource(a.input, so);
+  const store::VolumeInfo& info = source->info();
+  if (!a.quiet)
+    std::fprintf(stderr, "prep: %s -> %s (brick %d, zstd %d)\n", info.description.c_str(), a.output.c_str(),
+                 a.options.brickSize, a.options.zstdLevel);
+
+  std::signal(SIGINT, onInterrupt);
+  std::signal(SIGTERM, onInterrupt);
+  Progress progress(a.quiet);
+  auto summary = store::prepStore(*source, a.output, a.options, [&](const store::PrepProgress& p) {
+    if (gInterrupted) throw store::StoreError("interrupted; nothing was written");
+    progress.update(p.stage, p.done, p.total, p.stage == "level 0" ? p.bytesIn : 0);
+  });
+  progress.finish();
+
+  const store::StoreMeta& m = summary.meta;
+  int64_t total = 0, stored = 0;
+  for (const auto& l : m.levels) total += l.bricksTotal(), stored += l.bricksStored;
+  if (m.nonFiniteReplaced > 0)
+    std::printf("non-finite voxels: %lld NaN/Inf values replaced by the background %g\n",
+                static_cast<long long>(m.nonFiniteReplaced), m.background);
+  std::printf("prep: wrote %s: %lldx%lldx%lld %s, %zu levels, %lld of %lld bricks stored\n", a.output.c_str(),
+              static_cast<long long>(m.dims.x), static_cast<long long>(m.dims.y), static_cast<long long>(m.dims.z),
+              std::string(store::valueTypeName(m.type)).c_str(), m.levels.size(), static_cast<long long>(stored),
+              static_cast<long long>(total));
+  std::printf("prep: %s in, %s stored (%.2fx), %s vdb, %.2f s, %.1f MB/s in, peak RSS %s\n",
+              formatBytes(double(summary.bytesIn)).c_str(), formatBytes(double(m.bytesStored)).c_str(),
+              m.bytesStored > 0 ? double(m.bytesRaw) / double(m.bytesStored) : 0.0,
+              formatBytes(double(m.bytesVdb)).c_str(), summary.seconds,
+              summary.seconds > 0 ? summary.bytesIn / 1e6 / summary.seconds : 0.0,
+              formatBytes(double(summary.peakRssBytes)).c_str());
+}
+
+}  // namespace
+
+void addPrepCommand(CLI::App& app) {
+  auto args = std::make_shared<PrepArgs>();
+  CLI::App* cmd = app.add_subcommand("prep", "Convert a volume into a brick store");
+  cmd->add_option("input", args->input,
+                  "raw file, .nrrd/.nhdr, .nii/.nii.gz, .vdb, or synthetic:NAME[,key=value...] "
+                  "(marschner-lobb, shells, blobs, sparse, hdr)")
+      ->required();
+  cmd->add_option("-o,--output", args->output, "store directory to create")->required();
+  cmd->add_option("--dims", args->dims, "raw: X,Y,Z voxels");
+  cmd->add_option("--type", args->type, "raw: u8, u16, i16 or f32");
+  cmd->add_option("--spacing", args->spacing, "voxel spacing a,b,c (overrides the file's)");
+  cmd->add_option("--endian", args->endian, "raw: byte order")->check(CLI::IsMember({"little", "big"}));
+  cmd->add_option("--header-bytes", args->headerBytes, "raw: bytes to skip before the voxels")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--grid", args->grid, "vdb: name of the float grid (default: the first)");
+  cmd->add_option("--brick", args->options.brickSize, "brick size B (power of two, 8..256)")->capture_default_str();
+  cmd->add_option("--zstd-level", args->options.zstdLevel, "zstd compression level")->capture_default_str();
+  cmd->add_option("--memory", args->options.memoryBudgetMB, "memory bound in MB for slabs and VDB chunks")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--background", args->background, "value of empty space (default: the source's, 0 for files)");
+  cmd->add_option("--nonfinite", args->nonFinite,
+                  "NaN/Inf voxels: 'background' replaces and counts them, 'error' refuses the input")
+      ->check(CLI::IsMember({"background", "error"}))
+      ->capture_default_str();
+  cmd->add_flag("!--no-vdb", args->options.writeVdb, "do not write the canonical OpenVDB grid");
+  cmd->add_option("--vdb-chunk", args->options.vdbChunkSlices, "z-slices per OpenVDB file (0: as --memory allows)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_flag("--force", args->options.overwrite, "replace an existing store (once the new one is complete)");
+  cmd->add_option("--threads", args->options.threads, "worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
+  cmd->add_flag("-q,--quiet", args->quiet, "no progress output");
+  cmd->callback([args, cmd] { runPrep(*args, *cmd); });
+}
+
+template <typename T>
+void parseTriple(const std::string& text, const std::string& option, T out[3]) {
+  size_t start = 0;
+  for (int i = 0; i < 3; ++i) {
+    size_t end = text.find(',', start);
+    if ((end == std::string::npos) != (i == 2))
+      throw store::InputError(option + " '" + text + "': expected three comma-separated values");
+    std::string part = text.substr(start, end == std::string::npos ? std::string::npos : end - start);
+    try {
+      size_t used = 0;
+      if constexpr (std::is_integral_v<T>)
+        out[i] = static_cast<T>(std::stoll(part, &used));
+      else
+        out[i] = static_cast<T>(std::stod(part, &used));
+      if (used != part.size()) throw std::invalid_argument(part);
+    } catch (const std::exception&) {
+      throw store::InputError(option + " '" + text + "': '" + part + "' is not a number");
+    }
+    start = end + 1;
+  }
+}
+
+template void parseTriple<int64_t>(const std::string&, const std::string&, int64_t[3]);
+template void parseTriple<double>(const std::string&, const std::string&, double[3]);
+
+std::string formatBytes(double bytes) {
+  const char* units[] = {"B", "KB", "MB", "GB", "TB"};
+  int u = 0;
+  while (bytes >= 1000 && u < 4) bytes /= 1000, ++u;
+  char text[32];
+  std::snprintf(text, sizeof text, u == 0 ? "%.0f %s" : "%.1f %s", bytes, units[u]);
+  return text;
+}
+
+}  // namespace voxbrick::cli

@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Installs every build and test dependency of voxbrick from Debian 12 packages. Idempotent; run as root.
+set -euo pipefail
+
+PACKAGES=(
+  build-essential cmake ninja-build pkg-config git
+  libopenvdb-dev libtbb-dev libblosc-dev libzstd-dev zlib1g-dev
+  libboost-dev libboost-system-dev libboost-iostreams-dev
+  libglm-dev
+  libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libosmesa6-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+  nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libtomlplusplus-dev libpng-dev
+  mricron-data
+  python3
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#PACKAGES[@]} packages already installed"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "setup: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -q
+$SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
