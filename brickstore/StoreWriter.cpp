@@ -8,10 +8,12 @@
 
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <type_traits>
 
 #include "brickstore/BrickFile.h"
 #include "brickstore/Errors.h"
@@ -116,18 +118,48 @@ class Level0Stats {
   NonFinitePolicy mPolicy;
 };
 
-void accumulateHistogram(Histogram& h, ValueType type, const void* values, int64_t count) {
-  const double lo = h.lo, span = h.hi - h.lo;
-  const double scale = span > 0 ? kHistogramBins / span : 0;
-  dispatchType(type, [&](auto tag) {
-    using T = decltype(tag);
-    const T* v = static_cast<const T*>(values);
-    for (int64_t n = 0; n < count; ++n) {
-      int bin = static_cast<int>((double(v[n]) - lo) * scale);
-      h.counts[static_cast<size_t>(std::clamp(bin, 0, kHistogramBins - 1))] += 1;
-    }
-  });
-}
+/// Level-0 histogram. Integer types count each distinct value (a table of at most 65536 counters, so the pass is
+/// one increment per voxel) and are binned at the end; floats are binned as they come.
+class HistogramBuilder {
+ public:
+  HistogramBuilder(ValueType type, double lo, double hi) : mType(type) {
+    mHistogram.lo = lo;
+    mHistogram.hi = hi;
+    mHistogram.counts.assign(kHistogramBins, 0);
+    if (type != ValueType::F32) mValueCounts.assign(type == ValueType::U8 ? 256 : 65536, 0);
+  }
+
+  void add(const void* values, int64_t count) {
+    dispatchType(mType, [&](auto tag) {
+      using T = decltype(tag);
+      const T* v = static_cast<const T*>(values);
+      if constexpr (std::is_same_v<T, float>) {
+        for (int64_t n = 0; n < count; ++n) mHistogram.counts[bin(v[n])] += 1;
+      } else {
+        constexpr int kOffset = std::is_signed_v<T> ? 32768 : 0;
+        for (int64_t n = 0; n < count; ++n) mValueCounts[size_t(int(v[n]) + kOffset)] += 1;
+      }
+    });
+  }
+
+  Histogram finish() {
+    const int offset = mType == ValueType::I16 ? 32768 : 0;
+    for (size_t value = 0; value < mValueCounts.size(); ++value)
+      if (mValueCounts[value] != 0) mHistogram.counts[bin(double(int(value) - offset))] += mValueCounts[value];
+    return mHistogram;
+  }
+
+ private:
+  size_t bin(double v) const {
+    const double span = mHistogram.hi - mHistogram.lo;
+    const int b = span > 0 ? static_cast<int>((v - mHistogram.lo) * (kHistogramBins / span)) : 0;
+    return static_cast<size_t>(std::clamp(b, 0, kHistogramBins - 1));
+  }
+
+  ValueType mType;
+  Histogram mHistogram;
+  std::vector<uint64_t> mValueCounts;
+};
 
 void writeIndex(const fs::path& path, const std::vector<LevelBuild>& levels, int B, ValueType type,
                 uint64_t bricksFileSize) {
@@ -272,12 +304,10 @@ PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOp
   }
 
   // Coarser levels, each read back from the one before; the pass over level 0 also fills the histogram.
-  meta.histogram.lo = meta.valueMin;
-  meta.histogram.hi = meta.valueMax;
-  meta.histogram.counts.assign(kHistogramBins, 0);
+  HistogramBuilder histogram(info.type, meta.valueMin, meta.valueMax);
   BrickFileReader reader(tmp / "bricks.bin");
   auto histogramHook = [&](int64_t, int64_t count, const void* values) {
-    accumulateHistogram(meta.histogram, info.type, values, count * info.dims.x * info.dims.y);
+    histogram.add(values, count * info.dims.x * info.dims.y);
   };
   for (size_t l = 1; l < pyramid.size(); ++l) {
     StoredLevelSource finer(reader, levels[l - 1], uint32_t(l - 1), B, info.type, background, info.spacing);
@@ -295,6 +325,7 @@ PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOp
     for (int64_t z = 0; z < info.dims.z; ++z) only.readSlices(1, slice.data());
   }
 
+  meta.histogram = histogram.finish();
   const uint64_t bricksSize = bricks.size();
   bricks.close();
   writeIndex(tmp / "index.bin", levels, B, info.type, bricksSize);
