@@ -2,6 +2,7 @@
 // read of the same raw bytes, on a synthetic 512^3 volume and the real MRI. Writes CSV and a markdown table.
 //
 //   bench_store --work DIR --out bench/results [--size 512] [--repeats 3]
+//   bench_store --make-raw FILE --spec SYNTHETIC_SPEC      (writes a synthetic field as a raw f32 file)
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -159,9 +160,12 @@ std::vector<Row> benchDataset(const std::string& name, const std::string& input,
 int main(int argc, char** argv) {
   fs::path work = "bench/work", out = "bench/results";
   int size = 512, repeats = 3;
+  std::string makeRaw, spec;
   for (int i = 1; i + 1 < argc; i += 2) {
     std::string a = argv[i];
-    if (a == "--work") work = argv[i + 1];
+    if (a == "--make-raw") makeRaw = argv[i + 1];
+    else if (a == "--spec") spec = argv[i + 1];
+    else if (a == "--work") work = argv[i + 1];
     else if (a == "--out") out = argv[i + 1];
     else if (a == "--size") size = std::stoi(argv[i + 1]);
     else if (a == "--repeats") repeats = std::stoi(argv[i + 1]);
@@ -169,6 +173,13 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "bench_store: unknown option %s\n", a.c_str());
       return 2;
     }
+  }
+  if (!makeRaw.empty()) {
+    auto src = openSource("synthetic:" + spec, {});
+    writeRaw(*src, makeRaw);
+    const Vec3i d = src->info().dims;
+    std::printf("%s: %lld,%lld,%lld f32\n", makeRaw.c_str(), (long long)d.x, (long long)d.y, (long long)d.z);
+    return 0;
   }
   fs::create_directories(work);
   fs::create_directories(out);

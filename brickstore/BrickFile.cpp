@@ -55,7 +55,8 @@ void OutputFile::close() {
   if (::close(fd) != 0) throw IoError(errnoMessage("close of " + mPath.string() + " failed"));
 }
 
-BrickFileReader::BrickFileReader(const std::filesystem::path& path) : mPath(path) {
+BrickFileReader::BrickFileReader(const std::filesystem::path& path, ValueType type)
+    : mPath(path), mElementSize(valueSize(type)) {
   mFd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (mFd < 0) throw IoError(errnoMessage("cannot open " + path.string()));
 }
@@ -65,12 +66,13 @@ BrickFileReader::~BrickFileReader() {
 }
 
 BrickFileReader::BrickFileReader(BrickFileReader&& other) noexcept
-    : mPath(std::move(other.mPath)), mFd(std::exchange(other.mFd, -1)) {}
+    : mPath(std::move(other.mPath)), mElementSize(other.mElementSize), mFd(std::exchange(other.mFd, -1)) {}
 
 BrickFileReader& BrickFileReader::operator=(BrickFileReader&& other) noexcept {
   if (this != &other) {
     if (mFd >= 0) ::close(mFd);
     mPath = std::move(other.mPath);
+    mElementSize = other.mElementSize;
     mFd = std::exchange(other.mFd, -1);
   }
   return *this;
@@ -96,7 +98,7 @@ void BrickFileReader::decode(const BrickRecord& record, const BrickKey& key, voi
       throw CorruptStoreError(mPath.string() + ": " + toString(key) + " lies past the end of the file");
     done += static_cast<size_t>(n);
   }
-  decompressFrame(frame.data(), frame.size(), dst, bytes, mPath.string() + ": " + toString(key));
+  decompressFrame(frame.data(), frame.size(), mElementSize, dst, bytes, mPath.string() + ": " + toString(key));
 }
 
 void fillValue(ValueType type, double value, void* dst, size_t count) {

@@ -36,8 +36,8 @@ class OutputFile {
 class BrickFileReader {
  public:
   BrickFileReader() = default;
-  /// Opens `path` read-only; throws IoError.
-  explicit BrickFileReader(const std::filesystem::path& path);
+  /// Opens `path`, whose frames hold values of `type`, read-only; throws IoError.
+  BrickFileReader(const std::filesystem::path& path, ValueType type);
   ~BrickFileReader();
   BrickFileReader(BrickFileReader&& other) noexcept;
   BrickFileReader& operator=(BrickFileReader&& other) noexcept;
@@ -49,6 +49,7 @@ class BrickFileReader {
 
  private:
   std::filesystem::path mPath;
+  size_t mElementSize = 1;
   int mFd = -1;
 };
 

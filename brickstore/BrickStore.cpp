@@ -98,7 +98,7 @@ std::shared_ptr<const BrickStore> BrickStore::open(const fs::path& dir) {
   std::memcpy(store->mRecords.data(), index.data() + sizeof h + h.levelCount * sizeof(LevelEntry),
               h.recordCount * sizeof(BrickRecord));
 
-  store->mFile = std::make_unique<BrickStoreFile>(BrickStoreFile{BrickFileReader(dir / "bricks.bin")});
+  store->mFile = std::make_unique<BrickStoreFile>(BrickStoreFile{BrickFileReader(dir / "bricks.bin", meta.type)});
   const uint64_t bricksSize = store->mFile->reader.fileSize();
   if (bricksSize != h.bricksFileSize)
     throw CorruptStoreError((dir / "bricks.bin").string() + ": " + std::to_string(bricksSize) + " bytes, index expects " +

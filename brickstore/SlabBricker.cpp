@@ -92,7 +92,7 @@ LevelBuild SlabBricker::runTyped() {
         if (empty)
           frame.clear();
         else
-          compressFrame(brick.data(), brick.size() * sizeof(T), mZstdLevel, frame);
+          compressFrame(brick.data(), brick.size() * sizeof(T), sizeof(T), mZstdLevel, frame);
       }
     });
 

@@ -3,7 +3,9 @@
 // A store is a directory:
 //   store.json        metadata (written last; a directory without it is not a store)
 //   index.bin         IndexHeader, then levelCount LevelEntry, then one BrickRecord per brick of every level
-//   bricks.bin        zstd frames, one per stored brick, at BrickRecord::offset
+//   bricks.bin        zstd frames, one per stored brick, at BrickRecord::offset; a frame holds the brick's
+//                     (B+2)^3 samples, x fastest, and for 2- and 4-byte types its bytes are shuffled into planes
+//                     (byte 0 of every sample, then byte 1, ...) before compression
 //   vdb/level0-zNNNNN.vdb   the canonical OpenVDB float grid of level 0, one file per z-chunk
 //
 // index.bin:

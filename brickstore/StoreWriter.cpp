@@ -305,7 +305,7 @@ PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOp
 
   // Coarser levels, each read back from the one before; the pass over level 0 also fills the histogram.
   HistogramBuilder histogram(info.type, meta.valueMin, meta.valueMax);
-  BrickFileReader reader(tmp / "bricks.bin");
+  BrickFileReader reader(tmp / "bricks.bin", info.type);
   auto histogramHook = [&](int64_t, int64_t count, const void* values) {
     histogram.add(values, count * info.dims.x * info.dims.y);
   };

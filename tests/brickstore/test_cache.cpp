@@ -8,6 +8,7 @@
 #include <cstring>
 #include <fstream>
 #include <latch>
+#include <ostream>
 #include <random>
 #include <thread>
 #include <unordered_map>
@@ -21,6 +22,10 @@
 #include "support/TestSupport.h"
 
 namespace voxbrick::store {
+
+// Readable keys in gtest failure messages (found by argument-dependent lookup, so not in the unnamed namespace).
+[[maybe_unused]] static void PrintTo(const BrickKey& key, std::ostream* os) { *os << toString(key); }
+
 namespace {
 
 using namespace std::chrono_literals;

@@ -219,8 +219,8 @@ TEST(SyntheticSource, DescriptionAndSpacingOverride) {
   EXPECT_THROW(openSyntheticSource("nothing", SourceOptions{}), InputError);
 }
 
-TEST(SyntheticSource, LargeSliceIsFast) {
-  // One 512 x 512 slice of the sparse field: the source evaluates only the slices asked for.
+TEST(SyntheticSource, LargeVolumeEvaluatesOnlyTheSlicesAskedFor) {
+  // A 512^3 field costs only the two slices read: nothing is evaluated ahead.
   std::unique_ptr<VolumeSource> source = openSyntheticSource("sparse,n=512", SourceOptions{});
   std::vector<float> slices(size_t{512} * 512 * 2);
   source->readSlices(2, slices.data());

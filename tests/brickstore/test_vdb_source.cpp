@@ -1,10 +1,13 @@
 // Tests of the OpenVDB source against real .vdb files: voxel-exact reads, grid selection, and bad input.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <memory>
+#include <string>
+#include <vector>
+
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
-
-#include <vector>
 
 #include "brickstore/Errors.h"
 #include "brickstore/Sources.h"
