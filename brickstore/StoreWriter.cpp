@@ -233,7 +233,9 @@ PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOp
   }
 
   // Memory plan: the slab window, one slab of compressed frames, and (with the VDB grid) one chunk of it.
-  const int64_t budget = options.memoryBudgetMB * 1024 * 1024;
+  // The process itself (libraries, allocator, thread stacks) takes about this much before any buffer.
+  constexpr int64_t kBaselineBytes = int64_t{64} << 20;
+  const int64_t budget = options.memoryBudgetMB * 1024 * 1024 - kBaselineBytes;
   const int64_t window = SlabBricker::windowBytes(info.dims, B, info.type);
   const int64_t frames = window * (B + 2) * (B + 2) / (int64_t(B) * B) + (int64_t{64} << 10);
   int64_t chunkSlices = info.dims.z;
@@ -248,7 +250,7 @@ PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOp
   if (needed > budget || chunkSlices <= 0)
     throw InputError("--memory " + std::to_string(options.memoryBudgetMB) + " MB is too small for slices of " +
                      std::to_string(info.dims.x) + "x" + std::to_string(info.dims.y) + " voxels with --brick " +
-                     std::to_string(B) + ": needs at least " + std::to_string(divUp(needed, 1 << 20)) + " MB");
+                     std::to_string(B) + ": needs at least " + std::to_string(divUp(needed + kBaselineBytes, 1 << 20)) + " MB");
 
   const fs::path parent = output.has_parent_path() ? output.parent_path() : fs::path(".");
   const fs::path tmp = parent / ("." + output.filename().string() + ".tmp-" + std::to_string(::getpid()));

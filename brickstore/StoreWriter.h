@@ -19,7 +19,7 @@ enum class NonFinitePolicy {
 
 struct PrepOptions {
   int brickSize = 32;            ///< B: a power of two in [8, 256]
-  int zstdLevel = 3;             ///< zstd level for brick frames
+  int zstdLevel = 1;             ///< zstd level for brick frames (1: chosen by bench/results/store.md)
   int64_t memoryBudgetMB = 1024; ///< bound on the slab window and per-chunk VDB grid; checked before starting
   bool haveBackground = false;   ///< if false, the source's background is used
   double background = 0.0;

@@ -11,6 +11,8 @@ namespace voxbrick::cli {
 void addPrepCommand(CLI::App& app);
 /// Adds `info` to the app.
 void addInfoCommand(CLI::App& app);
+/// Adds `render` to the app.
+void addRenderCommand(CLI::App& app);
 
 /// Parses "a,b,c" into three numbers; throws CLI::ValidationError naming the option.
 template <typename T>

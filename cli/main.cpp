@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "voxbrick 0.1.0");
   voxbrick::cli::addPrepCommand(app);
   voxbrick::cli::addInfoCommand(app);
+  voxbrick::cli::addRenderCommand(app);
 
   try {
     app.parse(argc, argv);

@@ -6,7 +6,7 @@ PACKAGES=(
   build-essential cmake ninja-build pkg-config git
   libopenvdb-dev libtbb-dev libblosc-dev libzstd-dev zlib1g-dev
   libboost-dev libboost-system-dev libboost-iostreams-dev
-  libglm-dev
+  libglm-dev libgl-dev
   libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libosmesa6-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libtomlplusplus-dev libpng-dev

@@ -1,0 +1,65 @@
+// The GPU brick atlas: texture allocation and brick upload.
+#include "render/BrickAtlas.h"
+
+#include <algorithm>
+
+#include "render/RenderErrors.h"
+
+namespace voxbrick::render {
+namespace {
+
+int slotCapacity(int edge, size_t budgetBytes, int maxUsefulSlots) {
+  const size_t slotBytes = size_t(edge) * size_t(edge) * size_t(edge) * sizeof(float);
+  const size_t bySlots = budgetBytes / slotBytes;
+  if (bySlots < 1)
+    throw RenderInputError("GPU budget of " + std::to_string(budgetBytes) + " bytes holds no brick (one brick takes " +
+                           std::to_string(slotBytes) + " bytes as float)");
+  return static_cast<int>(std::min<size_t>(bySlots, size_t(std::max(1, maxUsefulSlots))));
+}
+
+}  // namespace
+
+BrickAtlas::BrickAtlas(const GlContext& context, int brickEdge, size_t budgetBytes, int maxUsefulSlots)
+    : mGl(context.gl()), mEdge(brickEdge), mSlots(slotCapacity(brickEdge, budgetBytes, maxUsefulSlots)) {
+  const int perAxis = std::max(1, context.limits().max3DTextureSize / brickEdge);
+  const int want = mSlots.capacity();
+  mGrid.x = std::min(want, perAxis);
+  mGrid.y = std::min((want + mGrid.x - 1) / mGrid.x, perAxis);
+  mGrid.z = std::min((want + mGrid.x * mGrid.y - 1) / (mGrid.x * mGrid.y), perAxis);
+  if (mGrid.x * mGrid.y * mGrid.z < want) mSlots = AtlasSlots(mGrid.x * mGrid.y * mGrid.z);
+  mTexels = mGrid * brickEdge;
+
+  mTexture = Texture(mGl, GL_TEXTURE_3D);
+  mTexture.bind(0);
+  mGl.glTexStorage3D(GL_TEXTURE_3D, 1, GL_R32F, mTexels.x, mTexels.y, mTexels.z);
+  mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  for (GLenum wrap : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
+    mGl.glTexParameteri(GL_TEXTURE_3D, wrap, GL_CLAMP_TO_EDGE);
+  if (GLenum error = mGl.glGetError(); error != GL_NO_ERROR)
+    throw RenderError("BrickAtlas: cannot allocate a " + std::to_string(mTexels.x) + "x" + std::to_string(mTexels.y) +
+                      "x" + std::to_string(mTexels.z) + " R32F texture (GL error " + std::to_string(error) + ")");
+  mStaging.resize(size_t(brickEdge) * size_t(brickEdge) * size_t(brickEdge));
+}
+
+glm::ivec3 BrickAtlas::slotOrigin(AtlasSlot slot) const {
+  const int i = slot.index;
+  return glm::ivec3(i % mGrid.x, (i / mGrid.x) % mGrid.y, i / (mGrid.x * mGrid.y)) * mEdge;
+}
+
+void BrickAtlas::upload(AtlasSlot slot, const store::Brick& brick) {
+  const void* data = brick.data();
+  if (brick.type() != store::ValueType::F32) {
+    store::dispatchType(brick.type(), [&](auto tag) {
+      const auto* in = static_cast<const decltype(tag)*>(brick.data());
+      for (size_t n = 0; n < mStaging.size(); ++n) mStaging[n] = float(in[n]);
+    });
+    data = mStaging.data();
+  }
+  const glm::ivec3 o = slotOrigin(slot);
+  mTexture.bind(0);
+  mGl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  mGl.glTexSubImage3D(GL_TEXTURE_3D, 0, o.x, o.y, o.z, mEdge, mEdge, mEdge, GL_RED, GL_FLOAT, data);
+}
+
+}  // namespace voxbrick::render

@@ -1,0 +1,160 @@
+// Camera math with no GL: orbit placement, the view basis, matrices, clip range and frustum planes.
+#include "render/Camera.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "render/RenderErrors.h"
+
+namespace voxbrick::render {
+namespace {
+
+std::string vecText(const glm::dvec3& v) {
+  return "(" + numberText(v.x) + ", " + numberText(v.y) + ", " + numberText(v.z) + ")";
+}
+
+bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+void checkBox(const Box& box, const char* function) {
+  double r = box.radius();
+  if (!finite(box.min) || !finite(box.max) || !(box.min.x <= box.max.x && box.min.y <= box.max.y &&
+                                                box.min.z <= box.max.z) || !(r > 0) || !std::isfinite(r))
+    throw RenderInputError(std::string(function) + ": box " + vecText(box.min) + " - " + vecText(box.max) +
+                           " is not a finite box of positive size");
+}
+
+}  // namespace
+
+Box volumeBox(const store::Vec3i& dims, const store::Vec3d& spacing) {
+  glm::dvec3 half;
+  for (int a = 0; a < 3; ++a) {
+    if (dims[a] <= 0)
+      throw RenderInputError("volumeBox: dims[" + std::to_string(a) + "] = " + std::to_string(dims[a]) + " <= 0");
+    if (!(spacing[a] > 0) || !std::isfinite(spacing[a]))
+      throw RenderInputError("volumeBox: spacing[" + std::to_string(a) + "] = " + numberText(spacing[a]) +
+                             " is not finite and positive");
+    half[a] = 0.5 * static_cast<double>(dims[a]) * spacing[a];
+  }
+  return Box{-half, half};
+}
+
+Camera Camera::orbit(double azimuthDeg, double elevationDeg, double distanceInRadii, const Box& box) {
+  if (!std::isfinite(azimuthDeg) || !std::isfinite(elevationDeg))
+    throw RenderInputError("Camera::orbit: angles (" + numberText(azimuthDeg) + ", " + numberText(elevationDeg) +
+                           ") are not finite");
+  if (!(distanceInRadii > 0) || !std::isfinite(distanceInRadii))
+    throw RenderInputError("Camera::orbit: distance " + numberText(distanceInRadii) +
+                           " radii is not finite and positive");
+  checkBox(box, "Camera::orbit");
+  double az = glm::radians(azimuthDeg), el = glm::radians(elevationDeg);
+  glm::dvec3 direction{std::cos(el) * std::sin(az), std::sin(el), std::cos(el) * std::cos(az)};
+  Camera camera;
+  camera.center = box.center();
+  camera.eye = camera.center + distanceInRadii * box.radius() * direction;
+  camera.up = {0.0, 1.0, 0.0};
+  return camera;
+}
+
+void Camera::validate() const {
+  if (!finite(eye)) throw RenderInputError("Camera: eye " + vecText(eye) + " is not finite");
+  if (!finite(center)) throw RenderInputError("Camera: center " + vecText(center) + " is not finite");
+  if (!finite(up)) throw RenderInputError("Camera: up " + vecText(up) + " is not finite");
+  if (!(fovYDegrees > 0 && fovYDegrees <= 179))
+    throw RenderInputError("Camera: fov " + numberText(fovYDegrees) + " degrees is outside (0, 179]");
+  // The length can underflow to 0 or overflow to infinity even when eye != center; either leaves no direction.
+  double d = distance();
+  if (!(d > 0) || !std::isfinite(d))
+    throw RenderInputError("Camera: eye " + vecText(eye) + " and center " + vecText(center) +
+                           " do not define a view direction (distance " + numberText(d) + ")");
+}
+
+glm::dvec3 Camera::viewDirection() const {
+  validate();
+  return (center - eye) / distance();
+}
+
+glm::dvec3 Camera::upVector() const {
+  glm::dvec3 d = viewDirection();
+  double upLength = glm::length(up);
+  if (upLength > 0 && std::isfinite(upLength)) {
+    glm::dvec3 u = up / upLength;
+    u -= glm::dot(u, d) * d;
+    double left = glm::length(u);
+    if (left > 1e-9) return u / left;
+  }
+  glm::dvec3 axis = std::abs(d.x) < 0.9 ? glm::dvec3{1.0, 0.0, 0.0} : glm::dvec3{0.0, 1.0, 0.0};
+  return glm::normalize(glm::cross(axis, d));
+}
+
+glm::dmat4 Camera::view() const { return glm::lookAt(eye, center, upVector()); }
+
+glm::dmat4 Camera::projection(double aspect, double near, double far) const {
+  validate();
+  if (!(aspect > 0) || !std::isfinite(aspect))
+    throw RenderInputError("Camera::projection: aspect " + numberText(aspect) + " is not finite and positive");
+  if (!(near > 0 && near < far) || !std::isfinite(far))
+    throw RenderInputError("Camera::projection: near " + numberText(near) + " and far " + numberText(far) +
+                           " do not satisfy 0 < near < far < inf");
+  double halfFov = 0.5 * glm::radians(fovYDegrees);
+  if (!orthographic) return glm::perspective(2 * halfFov, aspect, near, far);
+  double halfHeight = distance() * std::tan(halfFov);
+  double halfWidth = halfHeight * aspect;
+  return glm::ortho(-halfWidth, halfWidth, -halfHeight, halfHeight, near, far);
+}
+
+void Camera::clipRange(const Box& box, double& near, double& far) const {
+  checkBox(box, "Camera::clipRange");
+  glm::dvec3 d = viewDirection();
+  double zMin = std::numeric_limits<double>::infinity(), zMax = -zMin;
+  for (int c = 0; c < 8; ++c) {
+    glm::dvec3 corner{(c & 1) ? box.max.x : box.min.x, (c & 2) ? box.max.y : box.min.y,
+                      (c & 4) ? box.max.z : box.min.z};
+    double z = glm::dot(corner - eye, d);
+    zMin = std::min(zMin, z);
+    zMax = std::max(zMax, z);
+  }
+  // The GL side builds float matrices: the relative margin absorbs their round-off at the depth of the box, the
+  // absolute one the round-off of the corner depths themselves.
+  double pad = 1e-6 * (zMax - zMin) + 1e-5 * std::max(std::abs(zMin), std::abs(zMax));
+  double nearest = 1e-4 * box.radius();
+  near = std::max(zMin - pad, nearest);
+  far = std::max(zMax + pad, 2 * nearest);
+  // A distant camera gives far/near close to 1, where float depth (f+n)/(f-n) cancels catastrophically.
+  near = std::min(near, far * (1 - 1e-3));
+}
+
+Frustum Frustum::fromMatrix(const glm::dmat4& m) {
+  auto row = [&m](int r) { return glm::dvec4{m[0][r], m[1][r], m[2][r], m[3][r]}; };
+  Frustum f;
+  f.planes[0] = row(3) + row(0);
+  f.planes[1] = row(3) - row(0);
+  f.planes[2] = row(3) + row(1);
+  f.planes[3] = row(3) - row(1);
+  f.planes[4] = row(3) + row(2);
+  f.planes[5] = row(3) - row(2);
+  for (glm::dvec4& plane : f.planes) {
+    double length = glm::length(glm::dvec3(plane));
+    if (length > 0) plane /= length;
+  }
+  return f;
+}
+
+bool Frustum::intersects(const Box& box) const {
+  for (const glm::dvec4& plane : planes) {
+    glm::dvec3 normal(plane);
+    // The corner furthest along the normal is inside if any point of the box is.
+    glm::dvec3 corner{normal.x >= 0 ? box.max.x : box.min.x, normal.y >= 0 ? box.max.y : box.min.y,
+                      normal.z >= 0 ? box.max.z : box.min.z};
+    double s = glm::dot(normal, corner) + plane.w;
+    // Round-off in the plane test must never cull a box that touches the frustum.
+    double tolerance = 1e-12 * (std::abs(plane.w) + glm::dot(glm::abs(normal), glm::abs(corner)));
+    if (s < -tolerance) return false;
+  }
+  return true;
+}
+
+}  // namespace voxbrick::render

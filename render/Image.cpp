@@ -1,0 +1,116 @@
+// Image conversion, PNG I/O through libpng, and error metrics.
+#include "render/Image.h"
+
+#include <png.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <memory>
+
+#include "render/RenderErrors.h"
+
+namespace voxbrick::render {
+namespace {
+
+struct FileCloser {
+  void operator()(FILE* f) const { std::fclose(f); }
+};
+
+[[noreturn]] void pngError(png_structp png, png_const_charp message) {
+  auto* what = static_cast<std::string*>(png_get_error_ptr(png));
+  *what = message;
+  png_longjmp(png, 1);
+}
+
+}  // namespace
+
+Image8 toImage8(const ImageF& image) {
+  Image8 out{image.width, image.height, std::vector<uint8_t>(image.rgba.size())};
+  for (size_t i = 0; i < image.rgba.size(); ++i)
+    out.rgba[i] = static_cast<uint8_t>(std::floor(std::clamp(image.rgba[i], 0.0f, 1.0f) * 255.0f + 0.5f));
+  return out;
+}
+
+ImageF toImageF(const Image8& image) {
+  ImageF out{image.width, image.height, std::vector<float>(image.rgba.size())};
+  for (size_t i = 0; i < image.rgba.size(); ++i) out.rgba[i] = float(image.rgba[i]) / 255.0f;
+  return out;
+}
+
+void writePng(const std::filesystem::path& path, const Image8& image) {
+  std::unique_ptr<FILE, FileCloser> file(std::fopen(path.c_str(), "wb"));
+  if (!file) throw RenderError("cannot write " + path.string() + ": " + std::strerror(errno));
+  std::string message;
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &message, pngError, nullptr);
+  png_infop info = png ? png_create_info_struct(png) : nullptr;
+  if (!png || !info) throw RenderError("writePng: libpng could not start");
+  if (setjmp(png_jmpbuf(png))) {
+    png_destroy_write_struct(&png, &info);
+    throw RenderError("cannot write " + path.string() + ": " + message);
+  }
+  png_init_io(png, file.get());
+  png_set_IHDR(png, info, png_uint_32(image.width), png_uint_32(image.height), 8, PNG_COLOR_TYPE_RGBA,
+               PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  png_write_info(png, info);
+  for (int y = 0; y < image.height; ++y)
+    png_write_row(png, image.rgba.data() + size_t(y) * size_t(image.width) * 4);
+  png_write_end(png, nullptr);
+  png_destroy_write_struct(&png, &info);
+  if (std::fflush(file.get()) != 0) throw RenderError("cannot write " + path.string() + ": " + std::strerror(errno));
+}
+
+Image8 readPng(const std::filesystem::path& path) {
+  std::unique_ptr<FILE, FileCloser> file(std::fopen(path.c_str(), "rb"));
+  if (!file) throw RenderError("cannot read " + path.string() + ": " + std::strerror(errno));
+  std::string message;
+  png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &message, pngError, nullptr);
+  png_infop info = png ? png_create_info_struct(png) : nullptr;
+  if (!png || !info) throw RenderError("readPng: libpng could not start");
+  Image8 out;
+  if (setjmp(png_jmpbuf(png))) {
+    png_destroy_read_struct(&png, &info, nullptr);
+    throw RenderError(path.string() + ": not a readable PNG (" + message + ")");
+  }
+  png_init_io(png, file.get());
+  png_read_info(png, info);
+  png_set_expand(png);
+  png_set_strip_16(png);
+  png_set_gray_to_rgb(png);
+  png_set_add_alpha(png, 0xFF, PNG_FILLER_AFTER);
+  png_read_update_info(png, info);
+  out.width = int(png_get_image_width(png, info));
+  out.height = int(png_get_image_height(png, info));
+  if (out.width <= 0 || out.height <= 0 || out.width > 65536 || out.height > 65536)
+    png_error(png, "image size out of range");
+  out.rgba.resize(size_t(out.width) * size_t(out.height) * 4);
+  std::vector<png_bytep> rows(size_t(out.height));
+  for (int y = 0; y < out.height; ++y) rows[size_t(y)] = out.rgba.data() + size_t(y) * size_t(out.width) * 4;
+  png_read_image(png, rows.data());
+  png_destroy_read_struct(&png, &info, nullptr);
+  return out;
+}
+
+ImageError compareImages(const ImageF& a, const ImageF& b) {
+  if (a.width != b.width || a.height != b.height)
+    throw RenderError("compareImages: sizes differ (" + std::to_string(a.width) + "x" + std::to_string(a.height) +
+                      " vs " + std::to_string(b.width) + "x" + std::to_string(b.height) + ")");
+  double sum = 0, maxAbs = 0;
+  const size_t pixels = size_t(a.width) * size_t(a.height);
+  for (size_t p = 0; p < pixels; ++p)
+    for (int c = 0; c < 3; ++c) {
+      const double d = double(a.rgba[4 * p + size_t(c)]) - double(b.rgba[4 * p + size_t(c)]);
+      sum += d * d;
+      maxAbs = std::max(maxAbs, std::abs(d));
+    }
+  ImageError e;
+  e.rmse = pixels ? std::sqrt(sum / double(3 * pixels)) : 0;
+  e.maxAbs = maxAbs;
+  e.psnr = e.rmse > 0 ? 20 * std::log10(1 / e.rmse) : std::numeric_limits<double>::infinity();
+  return e;
+}
+
+}  // namespace voxbrick::render

@@ -1,0 +1,44 @@
+// Rendered images: linear float RGBA as the renderer produces them, 8-bit RGBA for output, PNG files, error metrics.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace voxbrick::render {
+
+/// An RGBA image, row 0 at the top, 4 floats per pixel in [0, 1] (colour already composited over the background).
+struct ImageF {
+  int width = 0, height = 0;
+  std::vector<float> rgba;
+  float* pixel(int x, int y) { return rgba.data() + 4 * (size_t(y) * size_t(width) + size_t(x)); }
+  const float* pixel(int x, int y) const { return rgba.data() + 4 * (size_t(y) * size_t(width) + size_t(x)); }
+};
+
+/// An 8-bit RGBA image, row 0 at the top.
+struct Image8 {
+  int width = 0, height = 0;
+  std::vector<uint8_t> rgba;
+};
+
+/// Rounds to 8 bits per channel (round half up, clamped to [0, 1]).
+Image8 toImage8(const ImageF& image);
+/// Scales 8-bit channels to [0, 1].
+ImageF toImageF(const Image8& image);
+
+/// Writes an 8-bit RGBA PNG; throws RenderError naming the file.
+void writePng(const std::filesystem::path& path, const Image8& image);
+/// Reads a PNG of any bit depth and colour type as 8-bit RGBA; throws RenderError naming the file.
+Image8 readPng(const std::filesystem::path& path);
+
+/// Image differences on RGB in [0, 1] (alpha ignored), as the optical model measures error.
+struct ImageError {
+  double rmse = 0;
+  double psnr = 0;     ///< 20 log10(1 / rmse) dB; infinity for identical images
+  double maxAbs = 0;
+};
+/// Compares two images of the same size; throws RenderError if the sizes differ.
+ImageError compareImages(const ImageF& a, const ImageF& b);
+
+}  // namespace voxbrick::render

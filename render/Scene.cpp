@@ -1,0 +1,167 @@
+// Scene JSON: the schema shared by `voxbrick render --scene` and the server's render requests.
+#include "render/Scene.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <nlohmann/json.hpp>
+
+#include "render/RenderErrors.h"
+
+namespace voxbrick::render {
+namespace {
+
+using nlohmann::json;
+
+double number(const json& j, const std::string& key, const std::string& what) {
+  if (!j.is_number()) throw RenderInputError(what + ": '" + key + "' must be a number");
+  double v = j.get<double>();
+  if (!std::isfinite(v)) throw RenderInputError(what + ": '" + key + "' must be finite");
+  return v;
+}
+
+glm::dvec3 vec3(const json& j, const std::string& key, const std::string& what) {
+  if (!j.is_array() || j.size() != 3) throw RenderInputError(what + ": '" + key + "' must be an array of 3 numbers");
+  return {number(j[0], key, what), number(j[1], key, what), number(j[2], key, what)};
+}
+
+bool boolean(const json& j, const std::string& key, const std::string& what) {
+  if (!j.is_boolean()) throw RenderInputError(what + ": '" + key + "' must be true or false");
+  return j.get<bool>();
+}
+
+json toJson(const glm::dvec3& v) { return json::array({v.x, v.y, v.z}); }
+
+}  // namespace
+
+Camera CameraSpec::resolve(const Box& box) const {
+  Camera c;
+  if (orbit) {
+    c = Camera::orbit(azimuth, elevation, distance, box);
+  } else {
+    c.eye = eye;
+    c.center = center;
+    c.up = up;
+  }
+  c.fovYDegrees = fovY;
+  c.orthographic = orthographic;
+  c.validate();
+  return c;
+}
+
+Scene Scene::fromJson(const std::string& text, const std::string& what) {
+  json j;
+  try {
+    j = json::parse(text);
+  } catch (const json::exception& e) {
+    throw RenderInputError(what + ": not valid JSON (" + e.what() + ")");
+  }
+  if (!j.is_object()) throw RenderInputError(what + ": a scene must be a JSON object");
+  static const char* kKeys[] = {"camera", "size", "transfer_function", "step", "background", "window",
+                                "skip_empty", "cull", "slicer", "shading"};
+  for (auto it = j.begin(); it != j.end(); ++it)
+    if (std::find(std::begin(kKeys), std::end(kKeys), it.key()) == std::end(kKeys))
+      throw RenderInputError(what + ": unknown key '" + it.key() + "'");
+
+  Scene s;
+  if (j.contains("camera")) {
+    const json& c = j["camera"];
+    if (!c.is_object()) throw RenderInputError(what + ": 'camera' must be an object");
+    if (c.contains("orbit")) {
+      const glm::dvec3 o = vec3(c["orbit"], "camera.orbit", what);
+      s.camera.orbit = true;
+      s.camera.azimuth = o.x, s.camera.elevation = o.y, s.camera.distance = o.z;
+    }
+    if (c.contains("eye")) {
+      if (c.contains("orbit")) throw RenderInputError(what + ": 'camera' has both 'orbit' and 'eye'");
+      s.camera.orbit = false;
+      s.camera.eye = vec3(c["eye"], "camera.eye", what);
+      s.camera.center = c.contains("center") ? vec3(c["center"], "camera.center", what) : glm::dvec3(0);
+      s.camera.up = c.contains("up") ? vec3(c["up"], "camera.up", what) : glm::dvec3(0, 1, 0);
+    }
+    if (c.contains("fov")) s.camera.fovY = number(c["fov"], "camera.fov", what);
+    if (c.contains("orthographic")) s.camera.orthographic = boolean(c["orthographic"], "camera.orthographic", what);
+  }
+  if (j.contains("size")) {
+    const json& z = j["size"];
+    if (!z.is_array() || z.size() != 2 || !z[0].is_number_integer() || !z[1].is_number_integer())
+      throw RenderInputError(what + ": 'size' must be [width, height] integers");
+    s.width = z[0].get<int>();
+    s.height = z[1].get<int>();
+  }
+  if (j.contains("transfer_function")) {
+    const json& t = j["transfer_function"];
+    if (t.is_string()) {
+      s.transferFunctionName = t.get<std::string>();
+      s.transferFunction = TransferFunction::load(s.transferFunctionName);
+    } else if (t.is_object()) {
+      s.transferFunctionName = "inline";
+      s.transferFunction = TransferFunction::parse(t.dump(), what + ": transfer_function");
+    } else {
+      throw RenderInputError(what + ": 'transfer_function' must be a preset name, a path or an object");
+    }
+  }
+  if (j.contains("step")) s.step = number(j["step"], "step", what);
+  if (j.contains("background")) s.background = vec3(j["background"], "background", what);
+  if (j.contains("window")) {
+    const json& w = j["window"];
+    if (!w.is_array() || w.size() != 2) throw RenderInputError(what + ": 'window' must be [lo, hi]");
+    s.window = std::array<double, 2>{number(w[0], "window", what), number(w[1], "window", what)};
+  }
+  if (j.contains("skip_empty")) s.skipEmpty = boolean(j["skip_empty"], "skip_empty", what);
+  if (j.contains("cull")) s.cullFrustum = boolean(j["cull"], "cull", what);
+  if (j.contains("slicer")) {
+    const json& sl = j["slicer"];
+    if (sl == "vertex")
+      s.slicer = Slicer::Vertex;
+    else if (sl == "cpu")
+      s.slicer = Slicer::Cpu;
+    else
+      throw RenderInputError(what + ": 'slicer' must be \"vertex\" or \"cpu\"");
+  }
+  if (j.contains("shading")) s.shading = boolean(j["shading"], "shading", what);
+  s.validate();
+  return s;
+}
+
+void Scene::validate() const {
+  if (width < 1 || height < 1 || width > kMaxImageSide || height > kMaxImageSide)
+    throw RenderInputError("image size " + std::to_string(width) + "x" + std::to_string(height) +
+                           " is outside 1.." + std::to_string(kMaxImageSide) + " per side");
+  if (!(step >= 1e-3 && step <= 64))
+    throw RenderInputError("step " + std::to_string(step) + " is outside [0.001, 64] voxels");
+  for (int c = 0; c < 3; ++c)
+    if (!(background[c] >= 0 && background[c] <= 1))
+      throw RenderInputError("background components must be in [0, 1]");
+  if (window && !((*window)[1] > (*window)[0]))
+    throw RenderInputError("window [" + std::to_string((*window)[0]) + ", " + std::to_string((*window)[1]) +
+                           "] must have hi > lo");
+  if (!(camera.fovY > 0 && camera.fovY <= 179)) throw RenderInputError("fov must be in (0, 179] degrees");
+}
+
+std::string Scene::toJson() const {
+  json cam = {{"fov", camera.fovY}, {"orthographic", camera.orthographic}};
+  if (camera.orbit)
+    cam["orbit"] = json::array({camera.azimuth, camera.elevation, camera.distance});
+  else
+    cam["eye"] = render::toJson(camera.eye), cam["center"] = render::toJson(camera.center),
+    cam["up"] = render::toJson(camera.up);
+  json points = json::array();
+  for (const auto& p : transferFunction.points())
+    points.push_back({p.x, p.rgba.r, p.rgba.g, p.rgba.b, p.rgba.a});
+  json tf = {{"points", points}};
+  if (transferFunction.referenceLength()) tf["reference_length"] = *transferFunction.referenceLength();
+  json j = {{"camera", cam},
+            {"size", {width, height}},
+            {"transfer_function", tf},
+            {"step", step},
+            {"background", render::toJson(background)},
+            {"skip_empty", skipEmpty},
+            {"cull", cullFrustum},
+            {"slicer", slicer == Slicer::Vertex ? "vertex" : "cpu"},
+            {"shading", shading}};
+  if (window) j["window"] = json::array({(*window)[0], (*window)[1]});
+  return j.dump(2);
+}
+
+}  // namespace voxbrick::render

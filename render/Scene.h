@@ -1,0 +1,59 @@
+// A render request's scene: camera, transfer function, image size, step, background and options. The same JSON
+// schema is read by `voxbrick render --scene` and (later) by the server.
+#pragma once
+
+#include <array>
+#include <optional>
+#include <string>
+
+#include <glm/glm.hpp>
+
+#include "render/Camera.h"
+#include "render/TransferFunction.h"
+
+namespace voxbrick::render {
+
+/// How polygons of the slice planes are computed.
+enum class Slicer { Vertex, Cpu };
+
+/// The camera as a user gives it: an orbit around the volume, or eye/center/up.
+struct CameraSpec {
+  bool orbit = true;
+  double azimuth = 30, elevation = 20, distance = 2.5;  ///< degrees, degrees, bounding-sphere radii
+  glm::dvec3 eye{0, 0, 1}, center{0, 0, 0}, up{0, 1, 0};
+  double fovY = 30;  ///< degrees
+  bool orthographic = false;
+
+  /// The camera for a volume occupying `box`; throws RenderInputError for invalid values.
+  Camera resolve(const Box& box) const;
+};
+
+/// Everything a frame depends on besides the store.
+struct Scene {
+  static constexpr int kMaxImageSide = 8192;
+
+  CameraSpec camera;
+  int width = 512, height = 512;
+  /// Default: the grayscale ramp (as config/tf/grayscale.json), built in so a scene never needs the config files.
+  TransferFunction transferFunction{{{0.0, {0, 0, 0, 0}}, {1.0, {1, 1, 1, 0.5}}}};
+  std::string transferFunctionName = "grayscale";  ///< preset name or path, or "inline"
+  double step = 0.5;                  ///< slice spacing in voxels of level 0 (of the smallest spacing)
+  glm::dvec3 background{0, 0, 0};     ///< opaque background colour, RGB in [0, 1]
+  std::optional<std::array<double, 2>> window;  ///< value window [lo, hi]; default the store's value range
+  bool skipEmpty = true;
+  bool cullFrustum = true;
+  Slicer slicer = Slicer::Vertex;
+  bool shading = false;
+
+  /// Parses a scene JSON object; absent keys keep their defaults. Throws RenderInputError naming `what` and the
+  /// key. Keys: camera {orbit: [az, el, dist] | eye, center, up; fov; orthographic}, size [w, h],
+  /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b],
+  /// window [lo, hi], skip_empty, cull, slicer ("vertex" | "cpu"), shading.
+  static Scene fromJson(const std::string& text, const std::string& what);
+  /// Throws RenderInputError for values out of range (size, step, background, window).
+  void validate() const;
+  /// The scene as JSON (the transfer function inline), so a frame can be reproduced.
+  std::string toJson() const;
+};
+
+}  // namespace voxbrick::render

@@ -1,0 +1,149 @@
+// The one copy of the slicer's lookup tables and vertex layout, shared by slice.vert.glsl (as uniforms) and the CPU
+// mirror in Slicing.cpp.
+//
+// Box corners are numbered by bits: corner c sits at (c & 1 ? max.x : min.x, c & 2 ? max.y : min.y,
+// c & 4 ? max.z : min.z). For a plane normal n (pointing from the eye into the scene) the front corner, the one with
+// the smallest dot(n, x), has bit i set exactly when n[i] < 0 (sliceFrontIndex), and the back corner is front ^ 7.
+//
+// Rezk-Salama & Kolb (VMV 2005) name the corners V0..V7 relative to the front corner V0: V7 is the back corner, and
+// the three edge paths V0-V1-V4-V7, V0-V2-V5-V7, V0-V3-V6-V7 are disjoint, with the "dotted" edges V1-V5, V2-V6 and
+// V3-V4 between them. kSliceSequence[front * 8 + i] is the box corner playing Vi when `front` is the front corner.
+// Each row is chosen so that (V1 - V0, V2 - V0, V3 - V0) is a left-handed frame, the paper's choice; that makes
+// P0..P5 run counter-clockwise as seen from the eye looking along +n (the polygon's right-hand normal is -n), so
+// slices are front-facing under GL's default glFrontFace(GL_CCW) with an unmirrored view.
+// The table printed by Zellmann & Lang (listing 1) belongs to a corner numbering neither paper gives, so this one is
+// derived from the definition above and checked by the static_asserts below.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include <glm/glm.hpp>
+
+namespace voxbrick::render {
+
+/// kSliceSequence[front * 8 + i]: the box corner that plays the paper's Vi when `front` is the front corner.
+inline constexpr std::array<int, 64> kSliceSequence = {
+    0, 1, 4, 2, 3, 5, 6, 7,  // front 0
+    1, 0, 3, 5, 4, 2, 7, 6,  // front 1
+    2, 3, 0, 6, 7, 1, 4, 5,  // front 2
+    3, 2, 7, 1, 0, 6, 5, 4,  // front 3
+    4, 5, 6, 0, 1, 7, 2, 3,  // front 4
+    5, 4, 1, 7, 6, 0, 3, 2,  // front 5
+    6, 7, 2, 4, 5, 3, 0, 1,  // front 6
+    7, 6, 5, 3, 2, 4, 1, 0,  // front 7
+};
+
+/// kSliceEdgeStart[p * 4 + e], kSliceEdgeEnd[p * 4 + e]: the e-th edge (Va -> Vb, in path numbering) that polygon
+/// vertex Pp tests; the first edge with the plane between its ends wins. P0, P2, P4 walk a path; P1, P3, P5 test
+/// their dotted edge first and then fall back to the path of P0, P2, P4. The paper's v1/v2, except that the unused
+/// fourth entry of a 3-edge path repeats its last edge instead of holding -1, so no lookup can go out of bounds.
+inline constexpr std::array<int, 24> kSliceEdgeStart = {0, 1, 4, 4, 1, 0, 1, 4, 0, 2, 5, 5,
+                                                        2, 0, 2, 5, 0, 3, 6, 6, 3, 0, 3, 6};
+inline constexpr std::array<int, 24> kSliceEdgeEnd = {1, 4, 7, 7, 5, 1, 4, 7, 2, 5, 7, 7,
+                                                      6, 2, 5, 7, 3, 6, 7, 7, 4, 3, 6, 7};
+
+/// Vertices drawn per polygon: the fan (P0,P1,P2) (P0,P2,P3) (P0,P3,P4) (P0,P4,P5) as GL_TRIANGLES; repeated
+/// polygon vertices make degenerate triangles that rasterise nothing.
+inline constexpr int kSliceVerticesPerPolygon = 12;
+
+/// kSliceFan[gl_VertexID % 12]: which polygon vertex P0..P5 a drawn vertex is (slice.vert.glsl has the same list).
+inline constexpr std::array<int, 12> kSliceFan = {0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 5};
+
+/// The front corner for plane normal n: bit i set iff n[i] < 0 (a zero component picks the lower corner; either
+/// choice is valid there, as the edges along that axis are parallel to the plane).
+constexpr int sliceFrontIndex(double nx, double ny, double nz) {
+  return (nx < 0 ? 1 : 0) | (ny < 0 ? 2 : 0) | (nz < 0 ? 4 : 0);
+}
+
+/// A slicer table uniform: its GLSL name in slice.vert.glsl and its values. Upload every entry of kSliceTableUniforms
+/// once per program (Program::set(program.requireUniform(u.name), u.values)).
+struct SliceTableUniform {
+  const char* name;
+  std::span<const int> values;
+};
+
+/// The tables as slice.vert.glsl declares them (int uSequence[64], int uEdgeStart[24], int uEdgeEnd[24]).
+inline constexpr std::array<SliceTableUniform, 3> kSliceTableUniforms = {{
+    {"uSequence", kSliceSequence},
+    {"uEdgeStart", kSliceEdgeStart},
+    {"uEdgeEnd", kSliceEdgeEnd},
+}};
+
+/// The per-frame uniforms of slice.vert.glsl: vec3 plane normal n (unit), float step between the planes of one
+/// instance, mat4 view-projection (world to clip).
+inline constexpr const char* kSliceNormalUniform = "uPlaneNormal";
+inline constexpr const char* kSlicePlaneIncrUniform = "uPlaneIncr";
+inline constexpr const char* kSliceViewProjUniform = "uViewProj";
+
+/// One instance of the slicer draw: a world-space box, the distance d of its first plane (dot(n, x) = d), and four
+/// ints passed through untouched to the fragment stage as flat ivec4 vPayload (the atlas slot, for instance).
+/// Each instance draws its vertices [12 * i, 12 * i + 12) as the polygon of plane d + i * uPlaneIncr, so a draw of 12
+/// vertices per instance slices each box once, and a draw of 12 * N vertices slices it N times (planes past the box
+/// collapse to a point). Attribute locations and offsets below; all four attributes have divisor 1.
+struct SliceInstance {
+  glm::vec3 boxMin;     ///< location 0, 3 x GL_FLOAT
+  glm::vec3 boxMax;     ///< location 1, 3 x GL_FLOAT
+  float planeDistance;  ///< location 2, 1 x GL_FLOAT
+  glm::ivec4 payload;   ///< location 3, 4 x GL_INT through glVertexAttribIPointer
+};
+inline constexpr int kSliceBoxMinLocation = 0;
+inline constexpr int kSliceBoxMaxLocation = 1;
+inline constexpr int kSlicePlaneDistanceLocation = 2;
+inline constexpr int kSlicePayloadLocation = 3;
+static_assert(sizeof(SliceInstance) == 44, "SliceInstance is tightly packed: 3 + 3 + 1 floats, 4 ints");
+static_assert(offsetof(SliceInstance, boxMax) == 12 && offsetof(SliceInstance, planeDistance) == 24 &&
+              offsetof(SliceInstance, payload) == 28, "SliceInstance offsets changed");
+
+namespace detail {
+
+constexpr bool sliceCornersAdjacent(int a, int b) {
+  const int diff = a ^ b;
+  return diff == 1 || diff == 2 || diff == 4;
+}
+
+// det(V1 - V0, V2 - V0, V3 - V0) on the unit cube, for the left-handedness check.
+constexpr int sliceFrameDeterminant(const int* row) {
+  int v[3][3] = {};
+  for (int k = 0; k < 3; ++k) {
+    for (int axis = 0; axis < 3; ++axis) v[k][axis] = ((row[k + 1] >> axis) & 1) - ((row[0] >> axis) & 1);
+  }
+  return v[0][0] * (v[1][1] * v[2][2] - v[1][2] * v[2][1]) - v[0][1] * (v[1][0] * v[2][2] - v[1][2] * v[2][0]) +
+         v[0][2] * (v[1][0] * v[2][1] - v[1][1] * v[2][0]);
+}
+
+constexpr bool sliceTablesValid() {
+  constexpr int pathEdges[12][2] = {{0, 1}, {1, 4}, {4, 7}, {0, 2}, {2, 5}, {5, 7},
+                                    {0, 3}, {3, 6}, {6, 7}, {1, 5}, {2, 6}, {3, 4}};
+  for (int front = 0; front < 8; ++front) {
+    const int* row = kSliceSequence.data() + front * 8;
+    if (row[0] != front || row[7] != (front ^ 7)) return false;
+    int seen = 0;
+    for (int i = 0; i < 8; ++i) seen |= 1 << row[i];
+    if (seen != 0xff) return false;
+    for (const auto& edge : pathEdges) {
+      if (!sliceCornersAdjacent(row[edge[0]], row[edge[1]])) return false;
+    }
+    if (sliceFrameDeterminant(row) != -1) return false;
+  }
+  for (int p = 0; p < 6; ++p) {
+    for (int e = 0; e < 4; ++e) {
+      const int a = kSliceEdgeStart[p * 4 + e];
+      const int b = kSliceEdgeEnd[p * 4 + e];
+      bool isEdge = false;
+      for (const auto& edge : pathEdges) isEdge = isEdge || (edge[0] == a && edge[1] == b);
+      if (!isEdge) return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace detail
+
+static_assert(detail::sliceTablesValid(),
+              "kSliceSequence rows must be cube rotations with V0 = front, V7 = back, a left-handed (V1, V2, V3) "
+              "frame, and the edge tables must name path or dotted edges only");
+
+}  // namespace voxbrick::render

@@ -1,0 +1,121 @@
+// Front-to-back octree traversal over level-0 bricks with empty-space skipping and frustum culling.
+#include "render/Traversal.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "render/RenderErrors.h"
+
+namespace voxbrick::render {
+
+struct OctreeTraversal::Walk {
+  const Frustum& frustum;
+  const RangePredicate& contributes;
+  TraversalOptions options;
+  glm::dvec3 eye;
+  glm::dvec3 direction;
+  bool orthographic;
+  TraversalResult result;
+};
+
+OctreeTraversal::OctreeTraversal(const store::MinMaxOctree& octree, const store::Vec3i& dims, int brickSize,
+                                 const store::Vec3d& spacing)
+    : mOctree(&octree), mDims(dims), mBrickSize(brickSize), mSpacing(spacing) {
+  if (brickSize <= 0)
+    throw RenderInputError("OctreeTraversal: brick size " + std::to_string(brickSize) + " <= 0");
+  mVolume = volumeBox(dims, spacing);  // checks dims and spacing
+  store::Vec3i expected{store::divUp(dims.x, mBrickSize), store::divUp(dims.y, mBrickSize),
+                        store::divUp(dims.z, mBrickSize)};
+  const store::Vec3i& bricks = octree.bricks();
+  if (!(bricks == expected))
+    throw RenderInputError("OctreeTraversal: octree has " + std::to_string(bricks.x) + "x" +
+                           std::to_string(bricks.y) + "x" + std::to_string(bricks.z) + " bricks, but dims " +
+                           std::to_string(dims.x) + "x" + std::to_string(dims.y) + "x" + std::to_string(dims.z) +
+                           " with brick size " + std::to_string(brickSize) + " need " + std::to_string(expected.x) +
+                           "x" + std::to_string(expected.y) + "x" + std::to_string(expected.z));
+}
+
+Box OctreeTraversal::voxelBox(const store::Vec3i& lo, const store::Vec3i& hi) const {
+  // Every box edge comes from this one expression, so neighbouring bricks and nodes share faces bit for bit.
+  Box box;
+  for (int a = 0; a < 3; ++a) {
+    double half = 0.5 * static_cast<double>(mDims[a]);
+    box.min[a] = (static_cast<double>(lo[a]) - half) * mSpacing[a];
+    box.max[a] = (static_cast<double>(hi[a]) - half) * mSpacing[a];
+  }
+  return box;
+}
+
+Box OctreeTraversal::nodeBox(int d, int64_t i, int64_t j, int64_t k) const {
+  store::Vec3i lo, hi;
+  mOctree->brickSpan(d, i, j, k, lo, hi);
+  for (int a = 0; a < 3; ++a) {
+    lo[a] *= mBrickSize;
+    hi[a] = std::min(hi[a] * mBrickSize, mDims[a]);
+  }
+  return voxelBox(lo, hi);
+}
+
+Box OctreeTraversal::brickBox(int64_t i, int64_t j, int64_t k) const {
+  return nodeBox(mOctree->depth(), i, j, k);
+}
+
+TraversalResult OctreeTraversal::run(const Camera& camera, const Frustum& frustum, const RangePredicate& contributes,
+                                     const TraversalOptions& options) const {
+  if (options.skipEmpty && !contributes)
+    throw RenderInputError("OctreeTraversal::run: skipEmpty is set but the range predicate is empty");
+  Walk walk{frustum, contributes, options, camera.eye, camera.viewDirection(), camera.orthographic, {}};
+  visit(walk, 0, 0, 0, 0);
+  return std::move(walk.result);
+}
+
+void OctreeTraversal::visit(Walk& walk, int d, int64_t i, int64_t j, int64_t k) const {
+  TraversalStats& stats = walk.result.stats;
+  ++stats.nodesVisited;
+  store::Vec3i lo, hi;
+  mOctree->brickSpan(d, i, j, k, lo, hi);
+  int64_t bricks = (hi.x - lo.x) * (hi.y - lo.y) * (hi.z - lo.z);
+  if (walk.options.skipEmpty) {
+    store::MinMaxOctree::Range range = mOctree->range(d, i, j, k);
+    if (!walk.contributes(range.min, range.max)) {
+      stats.bricksSkippedEmpty += bricks;
+      return;
+    }
+  }
+  Box box = nodeBox(d, i, j, k);
+  if (walk.options.cullFrustum && !walk.frustum.intersects(box)) {
+    stats.bricksCulled += bricks;
+    return;
+  }
+  if (d == mOctree->depth()) {
+    walk.result.bricks.push_back(
+        {store::BrickKey{0, static_cast<uint32_t>(i), static_cast<uint32_t>(j), static_cast<uint32_t>(k)}, box});
+    ++stats.bricksDrawn;
+    return;
+  }
+  // Per axis, the child on the eye's side of the split plane comes first. Visiting children in the order q = 0..7
+  // of (child bits XOR near bits) puts every child after all children that are nearer on a subset of the axes where
+  // they differ; children nearer on one axis and further on another cannot occlude each other.
+  int64_t index[3] = {i, j, k};
+  int64_t childBricks = int64_t{1} << (mOctree->depth() - d - 1);
+  int highNear = 0;
+  for (int a = 0; a < 3; ++a) {
+    bool highFirst;
+    if (walk.orthographic) {
+      highFirst = walk.direction[a] < 0;
+    } else {
+      double split = (static_cast<double>((2 * index[a] + 1) * childBricks * mBrickSize) - 0.5 * mDims[a]) *
+                     mSpacing[a];
+      highFirst = walk.eye[a] >= split;
+    }
+    if (highFirst) highNear |= 1 << a;
+  }
+  for (int q = 0; q < 8; ++q) {
+    int c = q ^ highNear;
+    int64_t ci = 2 * i + (c & 1), cj = 2 * j + ((c >> 1) & 1), ck = 2 * k + ((c >> 2) & 1);
+    if (mOctree->exists(d + 1, ci, cj, ck)) visit(walk, d + 1, ci, cj, ck);
+  }
+}
+
+}  // namespace voxbrick::render

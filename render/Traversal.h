@@ -1,0 +1,83 @@
+// Octree traversal: which level-0 bricks to draw, front to back, with empty-space skipping and frustum culling.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "brickstore/MinMaxOctree.h"
+#include "brickstore/Types.h"
+#include "render/Camera.h"
+
+namespace voxbrick::render {
+
+/// One brick to draw: its key (level 0) and the world box of the voxels it owns (borders excluded).
+struct BrickDraw {
+  store::BrickKey key;
+  Box box;
+};
+
+/// What a traversal did. Skipped and culled count bricks, including every brick under a skipped or culled node, so
+/// bricksDrawn + bricksSkippedEmpty + bricksCulled is the number of bricks of the grid.
+struct TraversalStats {
+  int64_t nodesVisited = 0;
+  int64_t bricksSkippedEmpty = 0;
+  int64_t bricksCulled = 0;
+  int64_t bricksDrawn = 0;
+};
+
+struct TraversalOptions {
+  bool skipEmpty = true;    ///< skip nodes whose value range the predicate rejects
+  bool cullFrustum = true;  ///< skip nodes whose box lies outside the frustum
+};
+
+/// Raw (not normalised) value range of a node -> whether the transfer function gives it any opacity. It must be
+/// monotonic (a range inside an accepted range may be rejected, never the reverse), as TransferFunction::contributes
+/// is, for skipping a node to be the same as skipping each of its bricks.
+using RangePredicate = std::function<bool(float min, float max)>;
+
+struct TraversalResult {
+  std::vector<BrickDraw> bricks;  ///< front to back
+  TraversalStats stats;
+};
+
+/// Walks a store's min/max octree over level-0 bricks. A brick (i, j, k) owns voxels [i*B, min((i+1)*B, n)) per
+/// axis, whose world box is ((lo - n/2) * s, (hi - n/2) * s); a node's box is the union of its bricks' boxes.
+///
+/// Order: at each node the children are visited front to back, per axis by the side of the node's split plane the
+/// eye is on (perspective) or by the sign of the view direction (orthographic). For an axis-aligned grid this is an
+/// exact visibility order: whenever a ray from the eye passes through brick A and then brick B, A comes first.
+/// A node the predicate rejects is counted as skipped before the frustum is tested.
+class OctreeTraversal {
+ public:
+  /// Keeps a pointer to `octree`, which must outlive this object. Throws RenderInputError unless dims > 0,
+  /// brickSize > 0, spacing finite and positive, and octree.bricks() == ceil(dims / brickSize).
+  OctreeTraversal(const store::MinMaxOctree& octree, const store::Vec3i& dims, int brickSize,
+                  const store::Vec3d& spacing);
+
+  /// The bricks to draw for `camera` (its eye, view direction and projection kind), front to back. `contributes`
+  /// may be empty when options.skipEmpty is false; `frustum` is ignored when options.cullFrustum is false. Throws
+  /// RenderInputError for an invalid camera or a missing predicate.
+  TraversalResult run(const Camera& camera, const Frustum& frustum, const RangePredicate& contributes,
+                      const TraversalOptions& options = {}) const;
+
+  /// World box of brick (i, j, k), which must exist.
+  Box brickBox(int64_t i, int64_t j, int64_t k) const;
+  /// World box of octree node (d, i, j, k), clipped to the volume; the node must exist.
+  Box nodeBox(int d, int64_t i, int64_t j, int64_t k) const;
+  /// The volume's world box (volumeBox(dims, spacing)).
+  const Box& volume() const { return mVolume; }
+
+ private:
+  struct Walk;
+  Box voxelBox(const store::Vec3i& lo, const store::Vec3i& hi) const;
+  void visit(Walk& walk, int d, int64_t i, int64_t j, int64_t k) const;
+
+  const store::MinMaxOctree* mOctree;
+  store::Vec3i mDims;
+  int64_t mBrickSize;
+  store::Vec3d mSpacing;
+  Box mVolume;
+};
+
+}  // namespace voxbrick::render

@@ -1,0 +1,286 @@
+// One frame: traversal -> paging -> slicing -> drawing -> readback, each timed.
+#include "render/VolumeRenderer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include <nlohmann/json.hpp>
+
+#include "render/RenderErrors.h"
+#include "render/SliceTables.h"
+#include "render/Slicing.h"
+#include "render/Traversal.h"
+
+namespace voxbrick::render {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+constexpr int kTransferTableSize = 4096;
+
+/// Vertex input of slice_cpu.vert.glsl.
+struct SliceVertex {
+  float world[3];
+  int32_t payload[4];
+};
+static_assert(sizeof(SliceVertex) == 28);
+
+}  // namespace
+
+struct VolumeRenderer::Batch {
+  std::vector<SliceInstance> instances;
+  std::vector<SliceVertex> vertices;
+  int64_t maxPlanes = 0;
+  double planeIncr = 0;
+  void clear() {
+    instances.clear();
+    vertices.clear();
+    maxPlanes = 0;
+  }
+};
+
+std::string FrameStats::toJson() const {
+  nlohmann::json j = {{"nodes_visited", nodesVisited},   {"bricks_skipped_empty", bricksSkippedEmpty},
+                      {"bricks_culled", bricksCulled},   {"bricks_drawn", bricksDrawn},
+                      {"bricks_paged_in", bricksPagedIn}, {"bricks_evicted", bricksEvicted},
+                      {"batches", batches},               {"slices", slices},
+                      {"ms", {{"traversal", msTraversal}, {"paging", msPaging}, {"slicing", msSlicing},
+                              {"drawing", msDrawing}, {"readback", msReadback}, {"total", msTotal}}}};
+  return j.dump(2);
+}
+
+VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes)
+    : mContext(context),
+      mGl(context.gl()),
+      mCache(std::move(cache)),
+      mAtlas(context, mCache->store()->brickEdge(), gpuBudgetBytes,
+             int(std::min<int64_t>(mCache->store()->level(0).bricksTotal(), 1 << 20))) {
+  mTransfer = Texture(mGl, GL_TEXTURE_1D);
+  mTransfer.bind(1);
+  mGl.glTexStorage1D(GL_TEXTURE_1D, 1, GL_RGBA32F, kTransferTableSize);
+  mGl.glTexParameteri(GL_TEXTURE_1D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  mGl.glTexParameteri(GL_TEXTURE_1D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  mGl.glTexParameteri(GL_TEXTURE_1D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  mInstances = Buffer(mGl);
+  mVertices = Buffer(mGl);
+  mVertexArray = VertexArray(mGl);
+}
+
+VolumeRenderer::~VolumeRenderer() = default;
+
+const Program& VolumeRenderer::program(Slicer slicer, bool shading) {
+  Program& p = mPrograms[slicer == Slicer::Cpu][shading];
+  if (!p) {
+    std::vector<std::string> defines;
+    if (shading) defines.push_back("SHADING");
+    const char* vertex = slicer == Slicer::Cpu ? "slice_cpu.vert.glsl" : "slice.vert.glsl";
+    p = Program(mGl, ProgramSources::fromFiles(std::string("volume/") + vertex,
+                                               {{GL_VERTEX_SHADER, vertex}, {GL_FRAGMENT_SHADER, "volume.frag.glsl"}},
+                                               defines));
+    if (slicer == Slicer::Vertex)
+      for (const SliceTableUniform& table : kSliceTableUniforms) p.set(p.requireUniform(table.name), table.values);
+  }
+  return p;
+}
+
+void VolumeRenderer::drawBatch(Batch& batch, const Scene& scene, FrameStats& stats) {
+  if (batch.instances.empty() && batch.vertices.empty()) return;
+  const auto t = Clock::now();
+  mVertexArray.bind();
+  const Program& p = program(scene.slicer, scene.shading);
+  p.use();
+  if (scene.slicer == Slicer::Vertex) {
+    mInstances.allocate(GL_ARRAY_BUFFER, batch.instances.size() * sizeof(SliceInstance), batch.instances.data(),
+                        GL_STREAM_DRAW);
+    const GLsizei stride = sizeof(SliceInstance);
+    auto offset = [](size_t bytes) { return reinterpret_cast<void*>(bytes); };
+    mGl.glEnableVertexAttribArray(kSliceBoxMinLocation);
+    mGl.glVertexAttribPointer(kSliceBoxMinLocation, 3, GL_FLOAT, GL_FALSE, stride,
+                              offset(offsetof(SliceInstance, boxMin)));
+    mGl.glEnableVertexAttribArray(kSliceBoxMaxLocation);
+    mGl.glVertexAttribPointer(kSliceBoxMaxLocation, 3, GL_FLOAT, GL_FALSE, stride,
+                              offset(offsetof(SliceInstance, boxMax)));
+    mGl.glEnableVertexAttribArray(kSlicePlaneDistanceLocation);
+    mGl.glVertexAttribPointer(kSlicePlaneDistanceLocation, 1, GL_FLOAT, GL_FALSE, stride,
+                              offset(offsetof(SliceInstance, planeDistance)));
+    mGl.glEnableVertexAttribArray(kSlicePayloadLocation);
+    mGl.glVertexAttribIPointer(kSlicePayloadLocation, 4, GL_INT, stride, offset(offsetof(SliceInstance, payload)));
+    for (GLuint a = 0; a < 4; ++a) mGl.glVertexAttribDivisor(a, 1);
+    mGl.glDrawArraysInstanced(GL_TRIANGLES, 0, GLsizei(kSliceVerticesPerPolygon * batch.maxPlanes),
+                              GLsizei(batch.instances.size()));
+  } else {
+    mVertices.allocate(GL_ARRAY_BUFFER, batch.vertices.size() * sizeof(SliceVertex), batch.vertices.data(),
+                       GL_STREAM_DRAW);
+    const GLsizei stride = sizeof(SliceVertex);
+    for (GLuint a = 0; a < 4; ++a) mGl.glVertexAttribDivisor(a, 0);
+    mGl.glDisableVertexAttribArray(1);
+    mGl.glDisableVertexAttribArray(2);
+    mGl.glEnableVertexAttribArray(0);
+    mGl.glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(offsetof(SliceVertex, world)));
+    mGl.glEnableVertexAttribArray(3);
+    mGl.glVertexAttribIPointer(3, 4, GL_INT, stride, reinterpret_cast<void*>(offsetof(SliceVertex, payload)));
+    mGl.glDrawArrays(GL_TRIANGLES, 0, GLsizei(batch.vertices.size()));
+  }
+  stats.batches += 1;
+  stats.msDrawing += msSince(t);
+  batch.clear();
+}
+
+ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut) {
+  const auto frameStart = Clock::now();
+  scene.validate();
+  FrameStats stats;
+  const store::BrickStore& store = *mCache->store();
+  const store::StoreMeta& meta = store.meta();
+  const int B = store.brickSize();
+
+  // Camera, clip range and frustum.
+  auto t = Clock::now();
+  const Box box = volumeBox(meta.dims, meta.spacing);
+  const Camera camera = scene.camera.resolve(box);
+  double nearPlane = 0, farPlane = 0;
+  camera.clipRange(box, nearPlane, farPlane);
+  const glm::dmat4 viewProj =
+      camera.projection(double(scene.width) / double(scene.height), nearPlane, farPlane) * camera.view();
+  const Frustum frustum = Frustum::fromMatrix(viewProj);
+
+  // Value window and the transfer function's O(1) range test.
+  double lo = scene.window ? (*scene.window)[0] : meta.valueMin;
+  double hi = scene.window ? (*scene.window)[1] : meta.valueMax;
+  if (!(hi > lo)) hi = lo + 1;  // a constant volume: everything maps to 0
+  const double inverseWidth = 1.0 / (hi - lo);
+  const TransferFunction& tf = scene.transferFunction;
+  auto contributes = [&](float mn, float mx) { return tf.contributes((mn - lo) * inverseWidth, (mx - lo) * inverseWidth); };
+
+  const OctreeTraversal traversal(store.octree(), meta.dims, B, meta.spacing);
+  const TraversalResult visible = traversal.run(camera, frustum, contributes, {scene.skipEmpty, scene.cullFrustum});
+  stats.nodesVisited = visible.stats.nodesVisited;
+  stats.bricksSkippedEmpty = visible.stats.bricksSkippedEmpty;
+  stats.bricksCulled = visible.stats.bricksCulled;
+  stats.bricksDrawn = visible.stats.bricksDrawn;
+  stats.msTraversal = msSince(t);
+
+  // Decoding runs ahead on the cache's workers, in the order the bricks will be drawn.
+  std::vector<store::BrickKey> keys;
+  keys.reserve(visible.bricks.size());
+  for (const BrickDraw& d : visible.bricks)
+    if (!mAtlas.slots().resident(d.key)) keys.push_back(d.key);
+  mCache->prefetch(keys);
+
+  // Target, state, uniforms.
+  if (mTarget.width() != scene.width || mTarget.height() != scene.height)
+    mTarget = Framebuffer::withColor(mGl, scene.width, scene.height, GL_RGBA32F);
+  mTarget.bind();
+  const float zero[4] = {0, 0, 0, 0};
+  mGl.glClearBufferfv(GL_COLOR, 0, zero);
+  mGl.glDisable(GL_DEPTH_TEST);
+  mGl.glDisable(GL_CULL_FACE);
+  mGl.glEnable(GL_BLEND);
+  mGl.glBlendEquation(GL_FUNC_ADD);
+  // Front to back with premultiplied colour: C += (1 - A) * c, A += (1 - A) * a.
+  mGl.glBlendFuncSeparate(GL_ONE_MINUS_DST_ALPHA, GL_ONE, GL_ONE_MINUS_DST_ALPHA, GL_ONE);
+
+  const std::vector<glm::vec4> table = tf.table(kTransferTableSize);
+  mTransfer.bind(1);
+  mGl.glTexSubImage1D(GL_TEXTURE_1D, 0, 0, kTransferTableSize, GL_RGBA, GL_FLOAT, table.data());
+  mAtlas.texture().bind(0);
+
+  const glm::dvec3 n = camera.viewDirection();
+  const double minSpacing = std::min({meta.spacing.x, meta.spacing.y, meta.spacing.z});
+  const double step = scene.step * minSpacing;
+  const double referenceLength = tf.referenceLength().value_or(minSpacing);
+  const Program& p = program(scene.slicer, scene.shading);
+  p.set(p.uniformLocation("uViewProj"), glm::mat4(viewProj));
+  p.set(p.uniformLocation(kSliceNormalUniform), glm::vec3(n));
+  p.set(p.uniformLocation(kSlicePlaneIncrUniform), float(step));
+  p.set(p.uniformLocation("uAtlas"), 0);
+  p.set(p.uniformLocation("uTransfer"), 1);
+  p.set(p.uniformLocation("uInvAtlasSize"), mAtlas.inverseSize());
+  p.set(p.uniformLocation("uInvSpacing"), glm::vec3(1.0 / meta.spacing.x, 1.0 / meta.spacing.y, 1.0 / meta.spacing.z));
+  p.set(p.uniformLocation("uHalfDims"), glm::vec3(0.5 * double(meta.dims.x), 0.5 * double(meta.dims.y),
+                                                  0.5 * double(meta.dims.z)));
+  p.set(p.uniformLocation("uWindowLo"), float(lo));
+  p.set(p.uniformLocation("uWindowScale"), float(inverseWidth));
+  p.set(p.uniformLocation("uStepOverReference"), float(step / referenceLength));
+  p.set(p.uniformLocation("uEye"), glm::vec3(camera.eye));
+  p.set(p.uniformLocation("uViewDir"), glm::vec3(n));
+  p.set(p.uniformLocation("uOrthographic"), camera.orthographic ? 1 : 0);
+
+  // Page and slice brick by brick, front to back; draw whenever the atlas is full of this batch's bricks.
+  Batch batch;
+  for (const BrickDraw& draw : visible.bricks) {
+    auto ts = Clock::now();
+    const PlaneIndexRange planes = planeIndexRange(draw.box.min, draw.box.max, n, step);
+    stats.msSlicing += msSince(ts);
+    if (planes.count() == 0) continue;
+
+    auto tp = Clock::now();
+    auto acquired = mAtlas.slots().acquire(draw.key);
+    if (!acquired) {
+      stats.msPaging += msSince(tp);
+      drawBatch(batch, scene, stats);
+      mAtlas.slots().unpinAll();
+      tp = Clock::now();
+      acquired = mAtlas.slots().acquire(draw.key);
+    }
+    if (!acquired->resident) {
+      mAtlas.upload(acquired->slot, *mCache->get(draw.key));
+      stats.bricksPagedIn += 1;
+      stats.bricksEvicted += acquired->evicted ? 1 : 0;
+    }
+    stats.msPaging += msSince(tp);
+
+    ts = Clock::now();
+    const glm::ivec3 origin = mAtlas.slotOrigin(acquired->slot);
+    const int32_t payload[4] = {origin.x + 1 - int32_t(draw.key.i) * B, origin.y + 1 - int32_t(draw.key.j) * B,
+                                origin.z + 1 - int32_t(draw.key.k) * B, int32_t(planes.count())};
+    stats.slices += planes.count();
+    if (scene.slicer == Slicer::Vertex) {
+      SliceInstance instance{};
+      instance.boxMin = glm::vec3(draw.box.min);
+      instance.boxMax = glm::vec3(draw.box.max);
+      instance.planeDistance = float(double(planes.begin) * step);
+      instance.payload = glm::ivec4(payload[0], payload[1], payload[2], payload[3]);
+      batch.instances.push_back(instance);
+      batch.maxPlanes = std::max(batch.maxPlanes, planes.count());
+    } else {
+      for (int64_t k = planes.begin; k < planes.end; ++k) {
+        const auto polygon = rezkSalamaPolygon(draw.box.min, draw.box.max, n, double(k) * step);
+        for (int corner : kSliceFan) {
+          SliceVertex v{};
+          for (int a = 0; a < 3; ++a) v.world[a] = float(polygon[size_t(corner)][a]), v.payload[a] = payload[a];
+          v.payload[3] = payload[3];
+          batch.vertices.push_back(v);
+        }
+      }
+    }
+    stats.msSlicing += msSince(ts);
+  }
+  drawBatch(batch, scene, stats);
+  mAtlas.slots().unpinAll();
+
+  // Readback, then the background: out = C + (1 - A) * background, as DESIGN's output rule says.
+  t = Clock::now();
+  mGl.glFinish();
+  stats.msDrawing += msSince(t);
+  t = Clock::now();
+  const std::vector<float> raw = mTarget.readRgba();
+  ImageF image{scene.width, scene.height, std::vector<float>(raw.size())};
+  for (int y = 0; y < scene.height; ++y) {
+    const float* src = raw.data() + size_t(scene.height - 1 - y) * size_t(scene.width) * 4;
+    float* dst = image.pixel(0, y);
+    for (int x = 0; x < scene.width; ++x, src += 4, dst += 4) {
+      const float a = std::clamp(src[3], 0.0f, 1.0f);
+      for (int c = 0; c < 3; ++c) dst[c] = std::clamp(src[c] + (1 - a) * float(scene.background[c]), 0.0f, 1.0f);
+      dst[3] = 1;
+    }
+  }
+  stats.msReadback = msSince(t);
+  stats.msTotal = msSince(frameStart);
+  if (statsOut) *statsOut = stats;
+  return image;
+}
+
+}  // namespace voxbrick::render

@@ -1,0 +1,60 @@
+// Renders one frame of a brick store: octree traversal, paging into the atlas, slicing, classification and
+// front-to-back compositing in float, then the background.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "brickstore/BrickCache.h"
+#include "render/BrickAtlas.h"
+#include "render/GlContext.h"
+#include "render/GlObjects.h"
+#include "render/Image.h"
+#include "render/Scene.h"
+
+namespace voxbrick::render {
+
+/// What one frame did (DESIGN: every frame reports it).
+struct FrameStats {
+  int64_t nodesVisited = 0;
+  int64_t bricksSkippedEmpty = 0;
+  int64_t bricksCulled = 0;
+  int64_t bricksDrawn = 0;
+  int64_t bricksPagedIn = 0;   ///< uploaded into the atlas this frame
+  int64_t bricksEvicted = 0;   ///< replaced in the atlas this frame
+  int64_t batches = 0;         ///< draw batches (more than one when the atlas cannot hold the frame's bricks)
+  int64_t slices = 0;          ///< brick-plane polygons submitted
+  double msTraversal = 0, msPaging = 0, msSlicing = 0, msDrawing = 0, msReadback = 0, msTotal = 0;
+  std::string toJson() const;
+};
+
+/// One renderer per GL context (so per render thread). It keeps its atlas between frames, so bricks stay resident.
+class VolumeRenderer {
+ public:
+  /// `context` must be current on this thread whenever the renderer is used. `gpuBudgetBytes` bounds the atlas.
+  VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes);
+  ~VolumeRenderer();
+
+  /// Renders `scene`; throws RenderInputError for an invalid scene and RenderError for GL failures.
+  ImageF render(const Scene& scene, FrameStats* stats = nullptr);
+
+  const BrickAtlas& atlas() const { return mAtlas; }
+
+ private:
+  struct Batch;
+  void drawBatch(Batch& batch, const Scene& scene, FrameStats& stats);
+  const Program& program(Slicer slicer, bool shading);
+
+  GlContext& mContext;
+  const Gl& mGl;
+  std::shared_ptr<store::BrickCache> mCache;
+  BrickAtlas mAtlas;
+  Texture mTransfer;
+  Buffer mInstances;
+  Buffer mVertices;
+  VertexArray mVertexArray;
+  Framebuffer mTarget;
+  Program mPrograms[2][2];  // [slicer][shading], built on first use
+};
+
+}  // namespace voxbrick::render

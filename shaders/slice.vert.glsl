@@ -1,0 +1,83 @@
+// Slicer vertex program (Rezk-Salama & Kolb, VMV 2005): one box-plane intersection polygon per instance, in view order.
+//
+// Each instance is one axis-aligned world-space box and the distance of its first plane; vertex 12 * i + k of the
+// instance is vertex kFan[k] of the polygon cut by plane i, dot(uPlaneNormal, x) = aPlaneDistance + i * uPlaneIncr.
+// render/SliceTables.h holds the tables (uploaded into uSequence, uEdgeStart, uEdgeEnd), the corner numbering and the
+// instance layout; render/Slicing.cpp mirrors this program on the CPU, line for line.
+//
+// The one change to the paper's loop: the distances of the eight corners are computed once, up front, instead of
+// once per edge. Along every path they then grow monotonically even in floating point, so a plane inside the box
+// always finds exactly one edge per path (per-edge sums can, by rounding, miss a plane through a corner). Because
+// intersections are computed from world-space corners alone, two boxes sharing a face produce bit-identical
+// vertices on it, so slices of neighbouring bricks meet without cracks.
+
+layout(location = 0) in vec3 aBoxMin;
+layout(location = 1) in vec3 aBoxMax;
+layout(location = 2) in float aPlaneDistance;
+layout(location = 3) in ivec4 aPayload;
+
+uniform vec3 uPlaneNormal;  // unit, pointing from the eye into the scene
+uniform float uPlaneIncr;   // distance between the planes of one instance
+uniform mat4 uViewProj;     // world to clip
+uniform int uSequence[64];
+uniform int uEdgeStart[24];
+uniform int uEdgeEnd[24];
+
+out vec3 vWorld;     // the vertex in world coordinates
+out vec3 vBoxCoord;  // the vertex in box coordinates, [0, 1]^3 over the box
+flat out ivec4 vPayload;
+
+const int kFan[12] = int[12](0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 5);
+
+// Box corner by a boolean select, never by arithmetic: min + 1 * (max - min) need not round to max.
+vec3 boxCorner(int corner) {
+  return mix(aBoxMin, aBoxMax, bvec3((corner & 1) != 0, (corner & 2) != 0, (corner & 4) != 0));
+}
+
+void main() {
+  const int polygonVertex = kFan[gl_VertexID % 12];
+  const float planeDistance = aPlaneDistance + float(gl_VertexID / 12) * uPlaneIncr;
+  // The front corner is computed here from the sign of the normal (the paper passes it in as a uniform) so that
+  // it can never disagree with uPlaneNormal; the CPU mirror uses the same rule (sliceFrontIndex).
+  const int front = (uPlaneNormal.x < 0.0 ? 1 : 0) | (uPlaneNormal.y < 0.0 ? 2 : 0) | (uPlaneNormal.z < 0.0 ? 4 : 0);
+
+  precise float cornerDistance[8];
+  for (int corner = 0; corner < 8; ++corner) {
+    cornerDistance[corner] = dot(uPlaneNormal, boxCorner(corner));
+  }
+
+  // A plane that misses the box collapses the whole polygon onto the front corner: zero area, nothing drawn.
+  int startCorner = front;
+  int endCorner = front;
+  precise float lambda = 0.0;
+  if (cornerDistance[front] <= planeDistance && planeDistance <= cornerDistance[front ^ 7]) {
+    for (int e = 0; e < 4; ++e) {
+      const int i = uSequence[front * 8 + uEdgeStart[polygonVertex * 4 + e]];
+      const int j = uSequence[front * 8 + uEdgeEnd[polygonVertex * 4 + e]];
+      const float di = cornerDistance[i];
+      const float dj = cornerDistance[j];
+      // di < dj skips edges parallel to the plane, as the paper's non-zero denominator does.
+      if (di < dj && di <= planeDistance && planeDistance <= dj) {
+        startCorner = i;
+        endCorner = j;
+        lambda = clamp((planeDistance - di) / (dj - di), 0.0, 1.0);
+        break;
+      }
+    }
+  }
+  // a * (1 - t) + b * t rather than a + t * (b - a), so that t = 0 and t = 1 give the corners exactly; and only the
+  // one coordinate that varies along the edge is interpolated, so that the other two are exactly the corner's and
+  // vBoxCoord is exactly 0 or 1 there.
+  const vec3 start = boxCorner(startCorner);
+  const vec3 end = boxCorner(endCorner);
+  const vec3 startCoord = unitCorner(startCorner);
+  const vec3 endCoord = unitCorner(endCorner);
+  const bvec3 along = notEqual(startCoord, endCoord);
+  precise vec3 world = mix(start, start * (1.0 - lambda) + end * lambda, along);
+  precise vec3 boxCoord = mix(startCoord, startCoord * (1.0 - lambda) + endCoord * lambda, along);
+
+  vWorld = world;
+  vBoxCoord = boxCoord;
+  vPayload = aPayload;
+  gl_Position = uViewProj * vec4(world, 1.0);
+}

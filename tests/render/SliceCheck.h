@@ -1,0 +1,222 @@
+// Test helpers for the slicer: random and degenerate box/plane cases, and the comparison of a Rezk-Salama polygon
+// (six vertices with repeats) with the exact one, shared by the CPU-mirror and the GLSL tests.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "render/Slicing.h"
+
+namespace voxbrick::test {
+
+/// One box and one plane dot(n, x) = d.
+struct SliceCase {
+  glm::dvec3 boxMin{0};
+  glm::dvec3 boxMax{1};
+  glm::dvec3 n{0, 0, 1};
+  double d = 0.5;
+};
+
+inline std::string vec3Text(const glm::dvec3& v) {
+  char text[96];
+  std::snprintf(text, sizeof(text), "(%.17g, %.17g, %.17g)", v.x, v.y, v.z);
+  return text;
+}
+
+inline std::string caseText(const SliceCase& c) {
+  char d[32];
+  std::snprintf(d, sizeof(d), "%.17g", c.d);
+  // Appended piece by piece: GCC 12 warns falsely (-Wrestrict, bug 105651) on "literal" + std::string chains.
+  std::string text = "box ";
+  text += vec3Text(c.boxMin);
+  text += " - ";
+  text += vec3Text(c.boxMax);
+  text += ", n ";
+  text += vec3Text(c.n);
+  text += ", d ";
+  text += d;
+  return text;
+}
+
+inline std::string polygonText(std::span<const glm::dvec3> polygon) {
+  std::string text = "[";
+  for (const glm::dvec3& p : polygon) text += " " + vec3Text(p);
+  return text + " ]";
+}
+
+/// The length scale float or double round-off is relative to: the largest coordinate or extent involved.
+inline double caseScale(const SliceCase& c) {
+  const glm::dvec3 a = glm::abs(c.boxMin), b = glm::abs(c.boxMax), e = c.boxMax - c.boxMin;
+  return std::max({a.x, a.y, a.z, b.x, b.y, b.z, e.x, e.y, e.z, std::abs(c.d) / glm::length(c.n)});
+}
+
+/// A random case with a given normal: box size log-uniform over 1e-2..1e2 with aspect up to 1:20, placed within 8
+/// sizes of the origin (as bricks of a volume are), and d from 10% before the front corner to 10% past the back one
+/// (so about one plane in six misses).
+inline SliceCase randomSliceCase(std::mt19937_64& rng, const glm::dvec3& n) {
+  std::uniform_real_distribution<double> unit(0, 1);
+  SliceCase c;
+  c.n = n;
+  const double size = std::pow(10.0, -2 + 4 * unit(rng));
+  glm::dvec3 extent;
+  for (int i = 0; i < 3; ++i) extent[i] = size * (0.05 + 0.95 * unit(rng));
+  for (int i = 0; i < 3; ++i) c.boxMin[i] = size * (16 * unit(rng) - 8);
+  c.boxMax = c.boxMin + extent;
+  double lo = 1e300, hi = -1e300;
+  for (int k = 0; k < 8; ++k) {
+    const glm::dvec3 p{k & 1 ? c.boxMax.x : c.boxMin.x, k & 2 ? c.boxMax.y : c.boxMin.y,
+                       k & 4 ? c.boxMax.z : c.boxMin.z};
+    lo = std::min(lo, glm::dot(c.n, p));
+    hi = std::max(hi, glm::dot(c.n, p));
+  }
+  c.d = lo + (hi - lo) * (1.2 * unit(rng) - 0.1);
+  return c;
+}
+
+/// A uniformly distributed random unit normal.
+inline glm::dvec3 randomNormal(std::mt19937_64& rng) {
+  std::normal_distribution<double> gauss(0, 1);
+  glm::dvec3 n;
+  do {
+    n = {gauss(rng), gauss(rng), gauss(rng)};
+  } while (glm::length(n) < 1e-3);
+  return glm::normalize(n);
+}
+
+/// A random case with a random normal.
+inline SliceCase randomSliceCase(std::mt19937_64& rng) {
+  const glm::dvec3 n = randomNormal(rng);
+  return randomSliceCase(rng, n);
+}
+
+/// Degenerate cases: views along the axes, the face diagonals and the space diagonals (both signs); unit boxes,
+/// boxes of extent 1e-6 and 1e6, and a thin one; planes through every corner, through the middle, a quarter in, and
+/// just outside either end (by 1e-9 of the extent).
+inline std::vector<SliceCase> degenerateSliceCases() {
+  std::vector<glm::dvec3> normals;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (double sign : {1.0, -1.0}) {
+      glm::dvec3 n(0);
+      n[axis] = sign;
+      normals.push_back(n);
+    }
+  }
+  for (int a = 0; a < 3; ++a) {
+    for (double s1 : {1.0, -1.0}) {
+      for (double s2 : {1.0, -1.0}) {
+        glm::dvec3 n(0);
+        n[a] = s1;
+        n[(a + 1) % 3] = s2;
+        normals.push_back(glm::normalize(n));
+      }
+    }
+  }
+  for (int signs = 0; signs < 8; ++signs) {
+    normals.push_back(glm::normalize(glm::dvec3(signs & 1 ? -1 : 1, signs & 2 ? -1 : 1, signs & 4 ? -1 : 1)));
+  }
+  const std::vector<std::pair<glm::dvec3, glm::dvec3>> boxes = {
+      {{0, 0, 0}, {1, 1, 1}},
+      {{-0.5, 2, -3}, {0.5, 3.5, -1}},
+      {{1e-6, -2e-6, 0.5e-6}, {2e-6, -1e-6, 1.5e-6}},
+      {{-1e6, -2e6, -0.5e6}, {1e6, -1e6, 0.5e6}},
+      {{0, 0, 0}, {1, 1, 1e-3}},
+  };
+  std::vector<SliceCase> cases;
+  for (const auto& [lo, hi] : boxes) {
+    for (const glm::dvec3& n : normals) {
+      std::vector<double> distances;
+      double first = 1e300, last = -1e300;
+      for (int k = 0; k < 8; ++k) {
+        const glm::dvec3 p{k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z};
+        distances.push_back(glm::dot(n, p));
+        first = std::min(first, distances.back());
+        last = std::max(last, distances.back());
+      }
+      const double margin = 1e-9 * (last - first);
+      for (double d : {0.5 * (first + last), 0.75 * first + 0.25 * last, first - margin, last + margin}) {
+        distances.push_back(d);
+      }
+      for (double d : distances) cases.push_back({lo, hi, n, d});
+    }
+  }
+  return cases;
+}
+
+/// Outcome of comparing a Rezk-Salama polygon with the exact one.
+struct PolygonCheck {
+  std::string failure;  ///< empty when they agree
+  double error = 0;     ///< Hausdorff distance between the vertex sets, or the stray area when exact is empty
+};
+
+/// `got` (six vertices with repeats, from the mirror or the shader) against `exact` (intersectBoxPlane): after
+/// merging repeats closer than `tol`, the vertex sets are within `tol` of each other both ways, `got` is convex and
+/// counter-clockwise seen along +n (no vertex more than `tol` inside the chord of its neighbours), and the areas
+/// agree within 2 * tol * perimeter. An empty exact polygon needs a zero-area `got` (within the same bound).
+inline PolygonCheck checkPolygon(std::span<const glm::dvec3> got, const std::vector<glm::dvec3>& exact,
+                                 const glm::dvec3& n, double tol) {
+  PolygonCheck check;
+  std::vector<glm::dvec3> merged;
+  for (const glm::dvec3& p : got) {
+    if (merged.empty() || glm::length(p - merged.back()) > tol) merged.push_back(p);
+  }
+  while (merged.size() > 1 && glm::length(merged.back() - merged.front()) <= tol) merged.pop_back();
+
+  auto perimeter = [](std::span<const glm::dvec3> polygon) {
+    double sum = 0;
+    for (size_t i = 0; i < polygon.size(); ++i) sum += glm::length(polygon[(i + 1) % polygon.size()] - polygon[i]);
+    return sum;
+  };
+  const double gotArea = render::polygonArea(merged, n);
+  if (exact.empty()) {
+    check.error = std::abs(gotArea);
+    if (std::abs(gotArea) > 2 * tol * perimeter(merged)) {
+      check.failure = "exact polygon is empty but got area " + std::to_string(gotArea);
+    }
+    return check;
+  }
+
+  auto farthestNearest = [](std::span<const glm::dvec3> from, std::span<const glm::dvec3> to) {
+    double worst = 0;
+    for (const glm::dvec3& p : from) {
+      double nearest = 1e300;
+      for (const glm::dvec3& q : to) nearest = std::min(nearest, glm::length(p - q));
+      worst = std::max(worst, nearest);
+    }
+    return worst;
+  };
+  check.error = std::max(farthestNearest(merged, exact), farthestNearest(exact, merged));
+  if (check.error > tol) {
+    check.failure = "vertex sets differ by " + std::to_string(check.error) + " > tol " + std::to_string(tol);
+    return check;
+  }
+  const glm::dvec3 towardViewer = -glm::normalize(n);
+  for (size_t i = 0; merged.size() >= 3 && i < merged.size(); ++i) {
+    const glm::dvec3& a = merged[i];
+    const glm::dvec3& b = merged[(i + 1) % merged.size()];
+    const glm::dvec3& c = merged[(i + 2) % merged.size()];
+    const double chord = glm::length(c - a);
+    if (chord <= tol) continue;
+    // In a convex polygon running counter-clockwise about towardViewer, b bulges out past the chord from a to c.
+    const double outward = glm::dot(glm::cross(b - a, c - a), towardViewer) / chord;
+    if (outward < -tol) {
+      check.failure = "not convex and counter-clockwise: vertex " + std::to_string((i + 1) % merged.size()) +
+                      " lies " + std::to_string(-outward) + " inside the chord of its neighbours";
+      return check;
+    }
+  }
+  const double exactArea = render::polygonArea(exact, n);
+  const double areaTol = 2 * tol * perimeter(exact) + tol * tol;
+  if (std::abs(gotArea - exactArea) > areaTol) {
+    check.failure = "area " + std::to_string(gotArea) + " != exact " + std::to_string(exactArea);
+  }
+  return check;
+}
+
+}  // namespace voxbrick::test

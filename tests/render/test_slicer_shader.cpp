@@ -1,0 +1,343 @@
+// Tests of slice.vert.glsl through transform feedback (rasterizer discarded): its polygons against the exact ones
+// and the CPU mirror on random and degenerate cases, several planes per instance, shared faces, outputs.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstring>
+#include <random>
+#include <set>
+#include <tuple>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "render/GlContext.h"
+#include "render/GlObjects.h"
+#include "render/Shaders.h"
+#include "render/SliceCheck.h"
+#include "render/SliceTables.h"
+#include "render/Slicing.h"
+
+namespace voxbrick::render {
+namespace {
+
+using test::SliceCase;
+
+/// Float round-off of the shader relative to the case's scale (largest coordinate, extent or |d|). The corner
+/// distances and d carry a few ulps each (6e-8), and a vertex moves by that over |dot(n, edge direction)|, so 1e-5
+/// holds unless a crossed edge is within ~1e-2 of parallel to the plane; the random cases print the worst seen.
+constexpr double kShaderTolerance = 1e-5;
+
+/// One captured vertex: the transform-feedback varyings, interleaved in this order.
+struct CapturedVertex {
+  float world[3];
+  float boxCoord[3];
+  int32_t payload[4];
+  float position[4];
+};
+static_assert(sizeof(CapturedVertex) == 56);
+
+/// The case as the GPU sees it: every input rounded to float.
+SliceCase toFloat(const SliceCase& c) {
+  auto round = [](const glm::dvec3& v) { return glm::dvec3(glm::vec3(v)); };
+  return {round(c.boxMin), round(c.boxMax), round(c.n), double(float(c.d))};
+}
+
+glm::dvec3 world(const CapturedVertex& v) { return {v.world[0], v.world[1], v.world[2]}; }
+
+/// The six polygon vertices P0..P5 from the twelve drawn ones, after checking the fan repeats them bit for bit.
+std::array<glm::dvec3, 6> polygonOf(const CapturedVertex* twelve, std::string& failure) {
+  std::array<glm::dvec3, 6> polygon;
+  for (int k = 0; k < 12; ++k) {
+    const glm::dvec3 p = world(twelve[k]);
+    const size_t index = size_t(kSliceFan[size_t(k)]);
+    bool first = true;
+    for (int j = 0; j < k; ++j) first = first && kSliceFan[size_t(j)] != kSliceFan[size_t(k)];
+    if (first) {
+      polygon[index] = p;
+    } else if (polygon[index] != p) {
+      failure = "drawn vertex " + std::to_string(k) + " differs from its first copy as P" + std::to_string(index);
+    }
+  }
+  return polygon;
+}
+
+/// A GL context with the slicer program, ready to capture.
+class ShaderSlicer {
+ public:
+  explicit ShaderSlicer(Backend backend) : mContext(createContext(backend)) {
+    const Gl& gl = mContext->gl();
+    ProgramSources sources = ProgramSources::fromFiles("slice capture", {{GL_VERTEX_SHADER, "slice.vert.glsl"}});
+    sources.feedbackVaryings = {"vWorld", "vBoxCoord", "vPayload", "gl_Position"};
+    mProgram = Program(gl, sources);
+    for (const SliceTableUniform& table : kSliceTableUniforms) {
+      mProgram.set(mProgram.requireUniform(table.name), table.values);
+    }
+    mNormal = mProgram.requireUniform(kSliceNormalUniform);
+    mIncr = mProgram.uniformLocation(kSlicePlaneIncrUniform);
+    mViewProj = mProgram.requireUniform(kSliceViewProjUniform);
+    mVao = VertexArray(gl);
+    mInstances = Buffer(gl);
+    mFeedback = Buffer(gl);
+  }
+
+  const GlContext& context() const { return *mContext; }
+
+  /// Draws `planes` planes per instance, one draw per run of equal normals, and returns the captured vertices
+  /// (12 * planes per case, in case order).
+  std::vector<CapturedVertex> run(const std::vector<SliceCase>& cases, int planes = 1, float incr = 0,
+                                  const glm::mat4& viewProj = glm::mat4(1)) {
+    const Gl& gl = mContext->gl();
+    std::vector<SliceInstance> instances;
+    for (size_t i = 0; i < cases.size(); ++i) {
+      instances.push_back({glm::vec3(cases[i].boxMin), glm::vec3(cases[i].boxMax), float(cases[i].d),
+                           glm::ivec4(int(i), -int(i), 7, int(i) * 3)});
+    }
+    mVao.bind();
+    mInstances.allocate(GL_ARRAY_BUFFER, instances.size() * sizeof(SliceInstance), instances.data(), GL_STATIC_DRAW);
+    auto floats = [&](int location, int count, size_t offset) {
+      gl.glEnableVertexAttribArray(GLuint(location));
+      gl.glVertexAttribPointer(GLuint(location), count, GL_FLOAT, GL_FALSE, sizeof(SliceInstance),
+                               reinterpret_cast<const void*>(offset));
+      gl.glVertexAttribDivisor(GLuint(location), 1);
+    };
+    floats(kSliceBoxMinLocation, 3, offsetof(SliceInstance, boxMin));
+    floats(kSliceBoxMaxLocation, 3, offsetof(SliceInstance, boxMax));
+    floats(kSlicePlaneDistanceLocation, 1, offsetof(SliceInstance, planeDistance));
+    gl.glEnableVertexAttribArray(kSlicePayloadLocation);
+    gl.glVertexAttribIPointer(kSlicePayloadLocation, 4, GL_INT, sizeof(SliceInstance),
+                              reinterpret_cast<const void*>(offsetof(SliceInstance, payload)));
+    gl.glVertexAttribDivisor(kSlicePayloadLocation, 1);
+
+    const size_t vertices = cases.size() * size_t(kSliceVerticesPerPolygon * planes);
+    mFeedback.allocate(GL_TRANSFORM_FEEDBACK_BUFFER, vertices * sizeof(CapturedVertex), nullptr, GL_STREAM_READ);
+    gl.glBindBufferBase(GL_TRANSFORM_FEEDBACK_BUFFER, 0, mFeedback.id());
+    mProgram.use();
+    mProgram.set(mIncr, incr);
+    mProgram.set(mViewProj, viewProj);
+    gl.glEnable(GL_RASTERIZER_DISCARD);
+    gl.glBeginTransformFeedback(GL_TRIANGLES);
+    for (size_t begin = 0; begin < cases.size();) {
+      size_t end = begin + 1;
+      while (end < cases.size() && cases[end].n == cases[begin].n) ++end;
+      mProgram.set(mNormal, glm::vec3(cases[begin].n));
+      gl.glDrawArraysInstancedBaseInstance(GL_TRIANGLES, 0, kSliceVerticesPerPolygon * planes, GLsizei(end - begin),
+                                           GLuint(begin));
+      begin = end;
+    }
+    gl.glEndTransformFeedback();
+    gl.glDisable(GL_RASTERIZER_DISCARD);
+    std::vector<CapturedVertex> captured(vertices);
+    mFeedback.read(0, vertices * sizeof(CapturedVertex), captured.data());
+    checkGlError(gl, "ShaderSlicer::run");
+    return captured;
+  }
+
+ private:
+  std::unique_ptr<GlContext> mContext;
+  Program mProgram;
+  VertexArray mVao;
+  Buffer mInstances;
+  Buffer mFeedback;
+  GLint mNormal = -1;
+  GLint mIncr = -1;
+  GLint mViewProj = -1;
+};
+
+/// Checks every case's captured polygon against the exact polygon and the CPU mirror of the float inputs; returns
+/// the worst error relative to the case scale.
+double expectMatches(const std::vector<SliceCase>& cases, const std::vector<CapturedVertex>& captured,
+                     const char* what) {
+  double worst = 0;
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const SliceCase c = toFloat(cases[i]);
+    const double scale = test::caseScale(c);
+    const double tol = kShaderTolerance * scale;
+    std::string failure;
+    const auto polygon = polygonOf(&captured[i * 12], failure);
+    const auto exact = intersectBoxPlane(c.boxMin, c.boxMax, c.n, c.d);
+    const auto mirror = rezkSalamaPolygon(c.boxMin, c.boxMax, c.n, c.d);
+    const test::PolygonCheck check = test::checkPolygon(polygon, exact, c.n, tol);
+    worst = std::max(worst, check.error / scale);
+    if (failure.empty()) failure = check.failure;
+    // Same algorithm: each Pk is the mirror's Pk, up to where float and double pick neighbouring edges near a corner.
+    for (size_t k = 0; k < 6 && failure.empty(); ++k) {
+      if (glm::length(polygon[k] - mirror[k]) > tol) failure = std::to_string(k) + ": Pk differs from the mirror's";
+    }
+    if (!failure.empty()) {
+      ADD_FAILURE() << what << " case " << i << ": " << test::caseText(c) << " (as float)\n  shader "
+                    << test::polygonText(polygon) << "\n  mirror " << test::polygonText(mirror) << "\n  exact  "
+                    << test::polygonText(exact) << "\n  " << failure << " (tol " << tol << ")";
+      return worst;
+    }
+  }
+  return worst;
+}
+
+TEST(SlicerShader, TablesComeFromSliceTablesHeader) {
+  const std::string source(shaderSource("slice.vert.glsl"));
+  // The fan is the one table the shader spells out; it must be kSliceFan.
+  std::string fan = "int[12](";
+  for (size_t k = 0; k < kSliceFan.size(); ++k) fan += (k ? ", " : "") + std::to_string(kSliceFan[k]);
+  EXPECT_NE(source.find(fan + ")"), std::string::npos) << "slice.vert.glsl's kFan is not " << fan;
+  // The others are uniforms filled from SliceTables.h, declared with the header's sizes.
+  for (const SliceTableUniform& table : kSliceTableUniforms) {
+    const std::string declaration =
+        "uniform int " + std::string(table.name) + "[" + std::to_string(table.values.size()) + "];";
+    EXPECT_NE(source.find(declaration), std::string::npos) << declaration;
+  }
+  ShaderSlicer slicer(Backend::Auto);  // requireUniform throws if the linker dropped any table
+}
+
+TEST(SlicerShader, MatchesExactPolygonsOnRandomCases) {
+  ShaderSlicer slicer(Backend::Auto);
+  std::mt19937_64 rng(4242);
+  double worst = 0;
+  constexpr int kBatches = 4, kNormalsPerBatch = 250, kCasesPerNormal = 100;  // 10^5 cases in 4 captures
+  for (int batch = 0; batch < kBatches && !HasFailure(); ++batch) {
+    std::vector<SliceCase> cases;
+    for (int g = 0; g < kNormalsPerBatch; ++g) {
+      const glm::dvec3 n = glm::dvec3(glm::vec3(test::randomNormal(rng)));
+      for (int k = 0; k < kCasesPerNormal; ++k) cases.push_back(test::randomSliceCase(rng, n));
+    }
+    worst = std::max(worst, expectMatches(cases, slicer.run(cases), "random"));
+  }
+  std::printf("[ info ] %s: worst shader error over 1e5 random cases: %.3g of the case scale (tolerance %.0e)\n",
+              slicer.context().describe().c_str(), worst, kShaderTolerance);
+}
+
+TEST(SlicerShader, MatchesExactPolygonsOnDegenerateCases) {
+  const std::vector<SliceCase> cases = test::degenerateSliceCases();
+  for (Backend backend : {Backend::Egl, Backend::OsMesa}) {
+    ShaderSlicer slicer(backend);
+    const double worst = expectMatches(cases, slicer.run(cases), backendName(backend));
+    std::printf("[ info ] %s: worst shader error over %zu degenerate cases: %.3g of the case scale\n",
+                slicer.context().describe().c_str(), cases.size(), worst);
+  }
+}
+
+TEST(SlicerShader, SlicesEachBoxManyTimesWithThePlaneIndexInTheVertexStream) {
+  ShaderSlicer slicer(Backend::Auto);
+  std::mt19937_64 rng(5);
+  std::vector<SliceCase> cases;
+  for (int g = 0; g < 20; ++g) {
+    const glm::dvec3 n = glm::dvec3(glm::vec3(test::randomNormal(rng)));
+    for (int k = 0; k < 50; ++k) cases.push_back(test::randomSliceCase(rng, n));
+  }
+  constexpr int kPlanes = 16;
+  const float incr = 0.37f;
+  const std::vector<CapturedVertex> captured = slicer.run(cases, kPlanes, incr);
+  for (size_t i = 0; i < cases.size() && !HasFailure(); ++i) {
+    // Planes run from d by incr; the box size varies, so some planes cut and the rest fall past the box.
+    std::vector<SliceCase> perPlane;
+    std::vector<CapturedVertex> perPlaneCaptured;
+    for (int p = 0; p < kPlanes; ++p) {
+      SliceCase c = toFloat(cases[i]);
+      c.d = double(float(c.d) + float(p) * incr);
+      perPlane.push_back(c);
+      const CapturedVertex* first = &captured[(i * kPlanes + size_t(p)) * 12];
+      perPlaneCaptured.insert(perPlaneCaptured.end(), first, first + 12);
+    }
+    expectMatches(perPlane, perPlaneCaptured, "several planes per instance");
+  }
+}
+
+// Vertices strictly inside an edge of the face x = faceX (y and z: one at a bound, one strictly between).
+std::set<std::tuple<float, float, float>> faceEdgeVertices(const CapturedVertex* twelve, const SliceCase& c,
+                                                           float faceX) {
+  std::set<std::tuple<float, float, float>> out;
+  const glm::vec3 lo(c.boxMin), hi(c.boxMax);
+  for (int k = 0; k < 12; ++k) {
+    const float* p = twelve[k].world;
+    if (p[0] != faceX) continue;
+    const bool yBound = p[1] == lo.y || p[1] == hi.y, zBound = p[2] == lo.z || p[2] == hi.z;
+    if (yBound != zBound) out.insert({p[0], p[1], p[2]});
+  }
+  return out;
+}
+
+TEST(SlicerShader, NeighbouringBoxesShareFaceVerticesBitForBit) {
+  ShaderSlicer slicer(Backend::Auto);
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> unit(0, 1);
+  std::vector<SliceCase> cases;  // pairs: a box, then its +x neighbour, cut by the same plane
+  for (int g = 0; g < 100; ++g) {
+    const glm::dvec3 n = glm::dvec3(glm::vec3(test::randomNormal(rng)));
+    for (int k = 0; k < 50; ++k) {
+      SliceCase a = toFloat(test::randomSliceCase(rng, n));
+      SliceCase b = a;
+      b.boxMin.x = a.boxMax.x;
+      b.boxMax.x = double(float(a.boxMax.x + (a.boxMax.x - a.boxMin.x)));
+      double lo = 1e300, hi = -1e300;
+      for (int corner = 0; corner < 4; ++corner) {
+        const double v = glm::dot(a.n, glm::dvec3(a.boxMax.x, corner & 1 ? a.boxMax.y : a.boxMin.y,
+                                                  corner & 2 ? a.boxMax.z : a.boxMin.z));
+        lo = std::min(lo, v);
+        hi = std::max(hi, v);
+      }
+      a.d = b.d = double(float(lo + (hi - lo) * unit(rng)));
+      cases.push_back(a);
+      cases.push_back(b);
+    }
+  }
+  const std::vector<CapturedVertex> captured = slicer.run(cases);
+  size_t shared = 0;
+  for (size_t i = 0; i < cases.size(); i += 2) {
+    const float faceX = float(cases[i].boxMax.x);
+    const auto fa = faceEdgeVertices(&captured[i * 12], cases[i], faceX);
+    const auto fb = faceEdgeVertices(&captured[(i + 1) * 12], cases[i + 1], faceX);
+    ASSERT_EQ(fa, fb) << test::caseText(cases[i]) << " and its +x neighbour " << test::caseText(cases[i + 1]);
+    shared += fa.size();
+  }
+  EXPECT_GT(shared, cases.size() / 2);
+}
+
+TEST(SlicerShader, OutputsPositionBoxCoordinatesAndPayload) {
+  ShaderSlicer slicer(Backend::Auto);
+  std::mt19937_64 rng(3);
+  // A real camera: the eye looks along n at the box, so slices must come out counter-clockwise on screen.
+  std::vector<SliceCase> cases;
+  std::vector<glm::mat4> cameras;
+  for (int g = 0; g < 40; ++g) {
+    const glm::dvec3 n = glm::dvec3(glm::vec3(test::randomNormal(rng)));
+    SliceCase c = test::randomSliceCase(rng, n);
+    const glm::dvec3 centre = 0.5 * (c.boxMin + c.boxMax);
+    c.d = glm::dot(n, centre);  // through the middle: a proper polygon
+    cases.push_back(c);
+    const double radius = glm::length(c.boxMax - c.boxMin);
+    const glm::dvec3 up = std::abs(n.y) < 0.9 ? glm::dvec3(0, 1, 0) : glm::dvec3(1, 0, 0);
+    cameras.push_back(glm::mat4(glm::perspective(0.8, 1.3, 0.1 * radius, 10 * radius) *
+                                glm::lookAt(centre - 3 * radius * n, centre, up)));
+  }
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const std::vector<SliceCase> one = {cases[i]};
+    const std::vector<CapturedVertex> captured = slicer.run(one, 1, 0, cameras[i]);
+    const SliceCase c = toFloat(cases[i]);
+    const glm::vec3 lo(c.boxMin), hi(c.boxMax);
+    double screenArea = 0;
+    for (int k = 0; k < 12; ++k) {
+      const CapturedVertex& v = captured[size_t(k)];
+      const glm::vec3 w(v.world[0], v.world[1], v.world[2]);
+      const glm::vec4 expected = cameras[i] * glm::vec4(w, 1);
+      for (int a = 0; a < 4; ++a) EXPECT_NEAR(v.position[a], expected[a], 1e-5 * (1 + std::abs(expected[a])));
+      for (int a = 0; a < 3; ++a) {
+        EXPECT_GE(v.boxCoord[a], 0.0f);
+        EXPECT_LE(v.boxCoord[a], 1.0f);
+        EXPECT_NEAR(v.boxCoord[a], (w[a] - lo[a]) / (hi[a] - lo[a]), 1e-4) << test::caseText(c);
+      }
+      EXPECT_EQ(v.payload[0], 0);
+      EXPECT_EQ(v.payload[2], 7);
+      if (k % 3 == 2) {  // a triangle of the fan, in normalised device coordinates
+        auto ndc = [&](int j) {
+          const float* p = captured[size_t(j)].position;
+          return glm::dvec2(p[0] / p[3], p[1] / p[3]);
+        };
+        const glm::dvec2 a = ndc(k - 2), b = ndc(k - 1), e = ndc(k);
+        screenArea += 0.5 * ((b.x - a.x) * (e.y - a.y) - (b.y - a.y) * (e.x - a.x));
+      }
+    }
+    EXPECT_GT(screenArea, 0) << "slice is not front-facing (counter-clockwise) on screen: " << test::caseText(c);
+  }
+}
+
+}  // namespace
+}  // namespace voxbrick::render

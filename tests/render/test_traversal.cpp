@@ -1,0 +1,324 @@
+// Octree traversal: completeness, front-to-back order, empty-space skipping, frustum culling and statistics.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+#include <random>
+#include <tuple>
+#include <vector>
+
+#include "brickstore/MinMaxOctree.h"
+#include "render/Camera.h"
+#include "render/RenderErrors.h"
+#include "render/TransferFunction.h"
+#include "render/Traversal.h"
+
+namespace voxbrick::render {
+namespace {
+
+using store::MinMaxOctree;
+using store::Vec3i;
+
+constexpr int kB = 8;
+// 5 x 4 x 3 bricks of 8 voxels, the last brick along x and z partial; anisotropic spacing.
+const Vec3i kDims{37, 32, 17};
+const store::Vec3d kSpacing{1.0, 0.5, 2.0};
+
+struct Grid {
+  Vec3i bricks{5, 4, 3};
+  std::vector<MinMaxOctree::Range> ranges;
+  MinMaxOctree octree;
+  explicit Grid(unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> unit(0, 1);
+    for (int64_t n = 0; n < bricks.volume(); ++n) {
+      float a = unit(rng), b = unit(rng);
+      ranges.push_back({std::min(a, b), std::max(a, b)});
+    }
+    octree = MinMaxOctree(bricks, ranges);
+  }
+  int64_t index(const store::BrickKey& k) const { return k.i + bricks.x * (k.j + bricks.y * int64_t{k.k}); }
+};
+
+const TraversalOptions kEverything{false, false};
+
+Camera lookingFrom(const glm::dvec3& eye, bool ortho = false, const glm::dvec3& center = {0.1, 0.2, 0.3}) {
+  Camera camera;
+  camera.eye = eye;
+  camera.center = center;
+  camera.orthographic = ortho;
+  return camera;
+}
+
+// +1 if a must be drawn before b, -1 if b before a, 0 if neither can occlude the other. Along each axis on which
+// the boxes are separated, the one on the eye's side (perspective) or first along the view direction (orthographic)
+// must come first; an axis with the eye between the boxes, or axes that disagree, mean no ray meets both.
+int requiredOrder(const Box& a, const Box& b, const Camera& camera) {
+  glm::dvec3 d = camera.viewDirection();
+  int order = 0;
+  for (int ax = 0; ax < 3; ++ax) {
+    int s;
+    if (a.max[ax] <= b.min[ax] || b.max[ax] <= a.min[ax]) {
+      bool aLow = a.max[ax] <= b.min[ax];
+      double lowFace = aLow ? a.max[ax] : b.max[ax], highFace = aLow ? b.min[ax] : a.min[ax];
+      int lowFirst;
+      if (camera.orthographic)
+        lowFirst = d[ax] > 0 ? 1 : (d[ax] < 0 ? -1 : 0);
+      else
+        lowFirst = camera.eye[ax] < lowFace ? 1 : (camera.eye[ax] > highFace ? -1 : 0);
+      if (lowFirst == 0) return 0;
+      s = aLow ? lowFirst : -lowFirst;
+    } else {
+      continue;
+    }
+    if (order == 0)
+      order = s;
+    else if (order != s)
+      return 0;
+  }
+  return order;
+}
+
+// Checks the separating-plane property for every pair of drawn bricks; returns how many pairs were constrained.
+int checkVisibilityOrder(const std::vector<BrickDraw>& bricks, const Camera& camera) {
+  int constrained = 0;
+  for (size_t p = 0; p < bricks.size(); ++p)
+    for (size_t q = p + 1; q < bricks.size(); ++q) {
+      int order = requiredOrder(bricks[p].box, bricks[q].box, camera);
+      if (order != 0) ++constrained;
+      EXPECT_GE(order, 0) << "brick " << store::toString(bricks[q].key) << " must come before "
+                          << store::toString(bricks[p].key);
+    }
+  return constrained;
+}
+
+std::map<std::tuple<uint32_t, uint32_t, uint32_t>, int> countKeys(const std::vector<BrickDraw>& bricks) {
+  std::map<std::tuple<uint32_t, uint32_t, uint32_t>, int> seen;
+  for (const BrickDraw& b : bricks) {
+    EXPECT_EQ(b.key.level, 0u);
+    ++seen[{b.key.i, b.key.j, b.key.k}];
+  }
+  return seen;
+}
+
+void expectStatsAddUp(const TraversalResult& r, const Grid& grid) {
+  EXPECT_EQ(r.stats.bricksDrawn, static_cast<int64_t>(r.bricks.size()));
+  EXPECT_EQ(r.stats.bricksDrawn + r.stats.bricksSkippedEmpty + r.stats.bricksCulled, grid.bricks.volume());
+}
+
+TEST(TraversalBricks, WithNothingSkippedEveryBrickAppearsOnceWithItsBox) {
+  Grid grid(1);
+  OctreeTraversal traversal(grid.octree, kDims, kB, kSpacing);
+  TraversalResult r = traversal.run(lookingFrom({100, 50, -80}), Frustum{}, {}, kEverything);
+  auto seen = countKeys(r.bricks);
+  EXPECT_EQ(static_cast<int64_t>(seen.size()), grid.bricks.volume());
+  for (const auto& [key, count] : seen) EXPECT_EQ(count, 1);
+  expectStatsAddUp(r, grid);
+  EXPECT_EQ(r.stats.bricksDrawn, 60);
+  double volume = 0;
+  for (const BrickDraw& b : r.bricks) {
+    glm::dvec3 e = b.box.extent();
+    volume += e.x * e.y * e.z;
+    EXPECT_EQ(b.box.min, traversal.brickBox(b.key.i, b.key.j, b.key.k).min);
+    EXPECT_EQ(b.box.max, traversal.brickBox(b.key.i, b.key.j, b.key.k).max);
+  }
+  glm::dvec3 whole = traversal.volume().extent();
+  EXPECT_NEAR(volume, whole.x * whole.y * whole.z, 1e-9);
+  // The last brick along x holds voxels [32, 37): world x from (32 - 18.5) * 1 to (37 - 18.5) * 1.
+  Box last = traversal.brickBox(4, 3, 2);
+  EXPECT_EQ(last.min, glm::dvec3(13.5, (24 - 16) * 0.5, (16 - 8.5) * 2.0));
+  EXPECT_EQ(last.max, glm::dvec3(18.5, 8.0, 17.0));
+  EXPECT_EQ(traversal.brickBox(0, 0, 0).min, traversal.volume().min);
+}
+
+TEST(TraversalBricks, NodeBoxesAreTheUnionOfTheirBricks) {
+  Grid grid(2);
+  OctreeTraversal traversal(grid.octree, kDims, kB, kSpacing);
+  for (int d = 0; d <= grid.octree.depth(); ++d) {
+    Vec3i n = grid.octree.nodesAt(d);
+    for (int64_t k = 0; k < n.z; ++k)
+      for (int64_t j = 0; j < n.y; ++j)
+        for (int64_t i = 0; i < n.x; ++i) {
+          Vec3i lo, hi;
+          grid.octree.brickSpan(d, i, j, k, lo, hi);
+          Box u{glm::dvec3(1e300), glm::dvec3(-1e300)};
+          for (int64_t z = lo.z; z < hi.z; ++z)
+            for (int64_t y = lo.y; y < hi.y; ++y)
+              for (int64_t x = lo.x; x < hi.x; ++x) {
+                Box b = traversal.brickBox(x, y, z);
+                u.min = glm::min(u.min, b.min);
+                u.max = glm::max(u.max, b.max);
+              }
+          Box node = traversal.nodeBox(d, i, j, k);
+          EXPECT_EQ(node.min, u.min);
+          EXPECT_EQ(node.max, u.max);
+        }
+  }
+  EXPECT_EQ(traversal.nodeBox(0, 0, 0, 0).max, traversal.volume().max);
+}
+
+TEST(TraversalOrder, PerspectiveIsFrontToBackForRandomEyes) {
+  Grid grid(3);
+  OctreeTraversal traversal(grid.octree, kDims, kB, kSpacing);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> coord(-40, 40);
+  int constrained = 0;
+  for (int trial = 0; trial < 120; ++trial) {
+    glm::dvec3 eye{coord(rng), coord(rng), coord(rng)};
+    // Some eyes exactly on brick faces and split planes, where ties must still be ordered correctly.
+    if (trial % 4 == 1) eye.x = traversal.brickBox(2, 0, 0).min.x;
+    if (trial % 4 == 2) eye.y = traversal.brickBox(0, 2, 0).min.y;
+    if (trial % 4 == 3) eye = traversal.brickBox(1, 1, 1).max;
+    if (trial % 10 == 0) eye *= 0.1;  // inside the volume
+    Camera camera = lookingFrom(eye, false, eye + glm::dvec3(0.3, -0.2, 1));
+    TraversalResult r = traversal.run(camera, Frustum{}, {}, kEverything);
+    ASSERT_EQ(r.bricks.size(), 60u);
+    constrained += checkVisibilityOrder(r.bricks, camera);
+  }
+  EXPECT_GT(constrained, 120 * 200);
+}
+
+TEST(TraversalOrder, OrthographicFollowsTheViewDirection) {
+  Grid grid(4);
+  OctreeTraversal traversal(grid.octree, kDims, kB, kSpacing);
+  std::mt19937 rng(12);
+  std::normal_distribution<double> gauss;
+  std::vector<glm::dvec3> directions = {{1, 0, 0}, {0, -1, 0}, {0, 0, 1}, {1, 1, 0}, {-1, 0, -1}};
+  for (int i = 0; i < 40; ++i) directions.push_back({gauss(rng), gauss(rng), gauss(rng)});
+  int constrained = 0;
+  for (const glm::dvec3& direction : directions) {
+    // The eye sits inside the volume on purpose: for orthographic views only the direction decides the order.
+    Camera camera = lookingFrom({1, 2, 3}, true, glm::dvec3(1, 2, 3) + direction);
+    TraversalResult r = traversal.run(camera, Frustum{}, {}, kEverything);
+    ASSERT_EQ(r.bricks.size(), 60u);
+    constrained += checkVisibilityOrder(r.bricks, camera);
+  }
+  EXPECT_GT(constrained, 40 * 500);
+}
+
+TEST(TraversalSkip, SkipsExactlyTheRejectedBricksAndCountsThem) {
+  Grid grid(5);
+  OctreeTraversal traversal(grid.octree, kDims, kB, kSpacing);
+  for (float threshold : {0.0f, 0.3f, 0.6f, 0.9f, 1.1f}) {
+    auto contributes = [threshold](float, float max) { return max > threshold; };
+    TraversalResult r = traversal.run(lookingFrom({-60, 10, 70}), Frustum{}, contributes, {true, false});
+    auto seen = countKeys(r.bricks);
+    int64_t expected = 0;
+    for (uint32_t k = 0; k < 3; ++k)
+      for (uint32_t j = 0; j < 4; ++j)
+        for (uint32_t i = 0; i < 5; ++i) {
+          bool visible = grid.ranges[static_cast<size_t>(grid.index({0, i, j, k}))].max > threshold;
+          expected += visible;
+          EXPECT_EQ(seen.count({i, j, k}), visible ? 1u : 0u);
+        }
+    EXPECT_EQ(r.stats.bricksDrawn, expected);
+    EXPECT_EQ(r.stats.bricksSkippedEmpty, 60 - expected);
+    EXPECT_EQ(r.stats.bricksCulled, 0);
+    expectStatsAddUp(r, grid);
+  }
+}
+
+TEST(TraversalSkip, AnEmptyRootSkipsTheWholeGridInOneVisit) {
+  Vec3i bricks{64, 64, 64};
+  std::vector<MinMaxOctree::Range> ranges(static_cast<size_t>(bricks.volume()), {0.0f, 0.01f});
+  ranges[12345] = {0.0f, 0.9f};
+  MinMaxOctree octree(bricks, ranges);
+  OctreeTraversal traversal(octree, {64 * 16, 64 * 16, 64 * 16}, 16, {1, 1, 1});
+  TransferFunction tf({{0, {0, 0, 0, 0}}, {0.02, {0, 0, 0, 0}}, {0.02, {1, 1, 1, 0.3}}});
+  auto contributes = [&tf](float min, float max) { return tf.contributes(min, max); };
+  TraversalResult r = traversal.run(lookingFrom({0, 0, 5000}), Frustum{}, contributes, {true, false});
+  ASSERT_EQ(r.bricks.size(), 1u);
+  EXPECT_EQ(r.bricks[0].key, (store::BrickKey{0, 12345 % 64, (12345 / 64) % 64, 12345 / 4096}));
+  EXPECT_EQ(r.stats.bricksSkippedEmpty, bricks.volume() - 1);
+  // One path from the root to the brick, plus the siblings skipped along it.
+  EXPECT_EQ(r.stats.nodesVisited, 1 + 8 * octree.depth());
+  ranges[12345] = {0.0f, 0.01f};
+  MinMaxOctree empty(bricks, ranges);
+  TraversalResult none = OctreeTraversal(empty, {1024, 1024, 1024}, 16, {1, 1, 1})
+                             .run(lookingFrom({0, 0, 5000}), Frustum{}, contributes, {true, false});
+  EXPECT_TRUE(none.bricks.empty());
+  EXPECT_EQ(none.stats.nodesVisited, 1);
+  EXPECT_EQ(none.stats.bricksSkippedEmpty, bricks.volume());
+}
+
+TEST(TraversalCull, RemovesExactlyTheBricksOutsideTheFrustumAndNoVisibleOne) {
+  Grid grid(6);
+  OctreeTraversal traversal(grid.octree, kDims, kB, kSpacing);
+  const Box& volume = traversal.volume();
+  struct View {
+    Camera camera;
+    double aspect;
+  };
+  std::vector<View> views;
+  Camera narrow = Camera::orbit(35, 25, 1.6, volume);
+  narrow.center = traversal.brickBox(4, 3, 2).center();
+  narrow.fovYDegrees = 12;
+  views.push_back({narrow, 1.0});
+  Camera inside = lookingFrom({2, 1, 3}, false, {30, 1, 3});
+  inside.fovYDegrees = 60;
+  views.push_back({inside, 1.5});
+  Camera ortho = narrow;
+  ortho.orthographic = true;
+  ortho.fovYDegrees = 5;
+  views.push_back({ortho, 0.5});
+  for (const View& v : views) {
+    double near = 0, far = 0;
+    v.camera.clipRange(volume, near, far);
+    glm::dmat4 vp = v.camera.projection(v.aspect, near, far) * v.camera.view();
+    Frustum frustum = Frustum::fromMatrix(vp);
+    TraversalResult r = traversal.run(v.camera, frustum, {}, {false, true});
+    auto seen = countKeys(r.bricks);
+    for (uint32_t k = 0; k < 3; ++k)
+      for (uint32_t j = 0; j < 4; ++j)
+        for (uint32_t i = 0; i < 5; ++i) {
+          Box box = traversal.brickBox(i, j, k);
+          bool drawn = seen.count({i, j, k}) == 1;
+          EXPECT_EQ(drawn, frustum.intersects(box));
+          // Brute force: a brick with any sample point inside the clip volume must be drawn.
+          for (int s = 0; s < 125 && !drawn; ++s) {
+            glm::dvec3 t{(s % 5) / 4.0, (s / 5 % 5) / 4.0, (s / 25) / 4.0};
+            glm::dvec4 c = vp * glm::dvec4(box.min + t * box.extent(), 1.0);
+            bool inClip = std::abs(c.x) < c.w && std::abs(c.y) < c.w && std::abs(c.z) < c.w;
+            EXPECT_FALSE(inClip) << "brick " << i << "," << j << "," << k << " was culled but is visible";
+          }
+        }
+    EXPECT_GT(r.stats.bricksCulled, 0);
+    EXPECT_GT(r.stats.bricksDrawn, 0);
+    EXPECT_EQ(r.stats.bricksSkippedEmpty, 0);
+    expectStatsAddUp(r, grid);
+    checkVisibilityOrder(r.bricks, v.camera);
+  }
+}
+
+TEST(TraversalCull, SkippingAndCullingTogetherAddUp) {
+  Grid grid(7);
+  OctreeTraversal traversal(grid.octree, kDims, kB, kSpacing);
+  Camera camera = Camera::orbit(-50, -20, 1.3, traversal.volume());
+  camera.fovYDegrees = 20;
+  double near = 0, far = 0;
+  camera.clipRange(traversal.volume(), near, far);
+  Frustum frustum = Frustum::fromMatrix(camera.projection(1, near, far) * camera.view());
+  auto contributes = [](float min, float max) { return max > 0.4f && min < 0.9f; };
+  TraversalResult r = traversal.run(camera, frustum, contributes);
+  expectStatsAddUp(r, grid);
+  for (const BrickDraw& b : r.bricks) {
+    const MinMaxOctree::Range& range = grid.ranges[static_cast<size_t>(grid.index(b.key))];
+    EXPECT_TRUE(contributes(range.min, range.max));
+    EXPECT_TRUE(frustum.intersects(b.box));
+  }
+  checkVisibilityOrder(r.bricks, camera);
+}
+
+TEST(TraversalInput, MismatchedGridsAndMissingPredicatesThrow) {
+  Grid grid(8);
+  EXPECT_THROW(OctreeTraversal(grid.octree, {41, 32, 17}, kB, kSpacing), RenderInputError);
+  EXPECT_THROW(OctreeTraversal(grid.octree, kDims, 0, kSpacing), RenderInputError);
+  EXPECT_THROW(OctreeTraversal(grid.octree, kDims, kB, {1, 0, 1}), RenderInputError);
+  OctreeTraversal traversal(grid.octree, kDims, kB, kSpacing);
+  EXPECT_THROW(traversal.run(lookingFrom({0, 0, 50}), Frustum{}, {}, {true, false}), RenderInputError);
+  EXPECT_THROW(traversal.run(lookingFrom({0, 0, 0}, false, {0, 0, 0}), Frustum{}, {}, kEverything),
+               RenderInputError);
+}
+
+}  // namespace
+}  // namespace voxbrick::render
