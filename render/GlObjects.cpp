@@ -168,8 +168,8 @@ Program::Program(const Gl& gl, const ProgramSources& sources) : GlName(gl, gl.gl
     const GLuint shader = gl.glCreateShader(stage.type);
     if (shader == 0) throw RenderError("Program " + mName + ": glCreateShader(" + stageName(stage.type) + ") failed");
     shaders.ids.push_back(shader);
-    // "#line 1 1" restarts counting so that the info log's "1:<line>" is the line in the stage's own file and
-    // "0:<line>" a line of the preamble.
+    // "#line 1 1" restarts counting so that the info log's line numbers are those of the stage's own file (source
+    // string 1, where the driver reports it; the preamble is source 0).
     const std::string body = defines + "#line 1 1\n" + stage.body;
     const char* strings[] = {sources.preamble.c_str(), "\n", body.c_str()};
     gl.glShaderSource(shader, 3, strings, nullptr);
@@ -182,7 +182,7 @@ Program::Program(const Gl& gl, const ProgramSources& sources) : GlName(gl, gl.gl
       std::string log(size_t(std::max(length, 1)), '\0');
       gl.glGetShaderInfoLog(shader, GLsizei(log.size()), nullptr, log.data());
       throw RenderError("Program " + mName + ": " + stageName(stage.type) + " shader " + stage.name +
-                        " does not compile (source 0 = preamble, 1 = " + stage.name + "):\n" + log.c_str());
+                        " does not compile (lines of " + stage.name + "; source 0 is the preamble):\n" + log.c_str());
     }
     gl.glAttachShader(id(), shader);
   }

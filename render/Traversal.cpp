@@ -2,8 +2,8 @@
 #include "render/Traversal.h"
 
 #include <algorithm>
-#include <cmath>
 #include <string>
+#include <utility>
 
 #include "render/RenderErrors.h"
 
@@ -94,9 +94,9 @@ void OctreeTraversal::visit(Walk& walk, int d, int64_t i, int64_t j, int64_t k) 
     ++stats.bricksDrawn;
     return;
   }
-  // Per axis, the child on the eye's side of the split plane comes first. Visiting children in the order q = 0..7
-  // of (child bits XOR near bits) puts every child after all children that are nearer on a subset of the axes where
-  // they differ; children nearer on one axis and further on another cannot occlude each other.
+  // q = child bits XOR highNear has bit a clear when the child is on the eye's side of the split plane along a.
+  // Visiting q = 0..7 puts each child after every child that is nearer on all the axes where the two differ; two
+  // children nearer on one axis and further on another cannot occlude each other, so their order is free.
   int64_t index[3] = {i, j, k};
   int64_t childBricks = int64_t{1} << (mOctree->depth() - d - 1);
   int highNear = 0;
@@ -105,8 +105,9 @@ void OctreeTraversal::visit(Walk& walk, int d, int64_t i, int64_t j, int64_t k) 
     if (walk.orthographic) {
       highFirst = walk.direction[a] < 0;
     } else {
-      double split = (static_cast<double>((2 * index[a] + 1) * childBricks * mBrickSize) - 0.5 * mDims[a]) *
-                     mSpacing[a];
+      // The same expression as voxelBox, so an eye on a brick face compares equal to that face.
+      double split = (static_cast<double>((2 * index[a] + 1) * childBricks * mBrickSize) -
+                      0.5 * static_cast<double>(mDims[a])) * mSpacing[a];
       highFirst = walk.eye[a] >= split;
     }
     if (highFirst) highNear |= 1 << a;

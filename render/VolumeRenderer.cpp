@@ -46,6 +46,7 @@ std::string FrameStats::toJson() const {
                       {"bricks_culled", bricksCulled},   {"bricks_drawn", bricksDrawn},
                       {"bricks_paged_in", bricksPagedIn}, {"bricks_evicted", bricksEvicted},
                       {"batches", batches},               {"slices", slices},
+                      {"fragments", fragments},
                       {"ms", {{"traversal", msTraversal}, {"paging", msPaging}, {"slicing", msSlicing},
                               {"drawing", msDrawing}, {"readback", msReadback}, {"total", msTotal}}}};
   return j.dump(2);
@@ -66,15 +67,17 @@ VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickC
   mInstances = Buffer(mGl);
   mVertices = Buffer(mGl);
   mVertexArray = VertexArray(mGl);
+  mFragments = Query(mGl);
 }
 
 VolumeRenderer::~VolumeRenderer() = default;
 
-const Program& VolumeRenderer::program(Slicer slicer, bool shading) {
-  Program& p = mPrograms[slicer == Slicer::Cpu][shading];
+const Program& VolumeRenderer::program(Slicer slicer, bool shading, bool roofline) {
+  Program& p = mPrograms[slicer == Slicer::Cpu][roofline ? 2 : int(shading)];
   if (!p) {
     std::vector<std::string> defines;
-    if (shading) defines.push_back("SHADING");
+    if (roofline) defines.push_back("ROOFLINE");
+    else if (shading) defines.push_back("SHADING");
     const char* vertex = slicer == Slicer::Cpu ? "slice_cpu.vert.glsl" : "slice.vert.glsl";
     p = Program(mGl, ProgramSources::fromFiles(std::string("volume/") + vertex,
                                                {{GL_VERTEX_SHADER, vertex}, {GL_FRAGMENT_SHADER, "volume.frag.glsl"}},
@@ -89,7 +92,7 @@ void VolumeRenderer::drawBatch(Batch& batch, const Scene& scene, FrameStats& sta
   if (batch.instances.empty() && batch.vertices.empty()) return;
   const auto t = Clock::now();
   mVertexArray.bind();
-  const Program& p = program(scene.slicer, scene.shading);
+  const Program& p = program(scene.slicer, scene.shading, mMode == RenderMode::Roofline);
   p.use();
   if (scene.slicer == Slicer::Vertex) {
     mInstances.allocate(GL_ARRAY_BUFFER, batch.instances.size() * sizeof(SliceInstance), batch.instances.data(),
@@ -128,9 +131,10 @@ void VolumeRenderer::drawBatch(Batch& batch, const Scene& scene, FrameStats& sta
   batch.clear();
 }
 
-ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut) {
+ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMode mode) {
   const auto frameStart = Clock::now();
   scene.validate();
+  mMode = mode;
   FrameStats stats;
   const store::BrickStore& store = *mCache->store();
   const store::StoreMeta& meta = store.meta();
@@ -177,7 +181,10 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut) {
   mGl.glClearBufferfv(GL_COLOR, 0, zero);
   mGl.glDisable(GL_DEPTH_TEST);
   mGl.glDisable(GL_CULL_FACE);
-  mGl.glEnable(GL_BLEND);
+  if (mode == RenderMode::Roofline)
+    mGl.glDisable(GL_BLEND);
+  else
+    mGl.glEnable(GL_BLEND);
   mGl.glBlendEquation(GL_FUNC_ADD);
   // Front to back with premultiplied colour: C += (1 - A) * c, A += (1 - A) * a.
   mGl.glBlendFuncSeparate(GL_ONE_MINUS_DST_ALPHA, GL_ONE, GL_ONE_MINUS_DST_ALPHA, GL_ONE);
@@ -191,7 +198,7 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut) {
   const double minSpacing = std::min({meta.spacing.x, meta.spacing.y, meta.spacing.z});
   const double step = scene.step * minSpacing;
   const double referenceLength = tf.referenceLength().value_or(minSpacing);
-  const Program& p = program(scene.slicer, scene.shading);
+  const Program& p = program(scene.slicer, scene.shading, mode == RenderMode::Roofline);
   p.set(p.uniformLocation("uViewProj"), glm::mat4(viewProj));
   p.set(p.uniformLocation(kSliceNormalUniform), glm::vec3(n));
   p.set(p.uniformLocation(kSlicePlaneIncrUniform), float(step));
@@ -209,6 +216,7 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut) {
   p.set(p.uniformLocation("uOrthographic"), camera.orthographic ? 1 : 0);
 
   // Page and slice brick by brick, front to back; draw whenever the atlas is full of this batch's bricks.
+  mGl.glBeginQuery(GL_SAMPLES_PASSED, mFragments.id());
   Batch batch;
   for (const BrickDraw& draw : visible.bricks) {
     auto ts = Clock::now();
@@ -260,11 +268,13 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut) {
   }
   drawBatch(batch, scene, stats);
   mAtlas.slots().unpinAll();
+  mGl.glEndQuery(GL_SAMPLES_PASSED);
 
   // Readback, then the background: out = C + (1 - A) * background, as DESIGN's output rule says.
   t = Clock::now();
   mGl.glFinish();
   stats.msDrawing += msSince(t);
+  stats.fragments = int64_t(mFragments.result());
   t = Clock::now();
   const std::vector<float> raw = mTarget.readRgba();
   ImageF image{scene.width, scene.height, std::vector<float>(raw.size())};

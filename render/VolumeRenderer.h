@@ -24,9 +24,14 @@ struct FrameStats {
   int64_t bricksEvicted = 0;   ///< replaced in the atlas this frame
   int64_t batches = 0;         ///< draw batches (more than one when the atlas cannot hold the frame's bricks)
   int64_t slices = 0;          ///< brick-plane polygons submitted
+  int64_t fragments = 0;       ///< fragments shaded (GL_SAMPLES_PASSED): one volume sample each
   double msTraversal = 0, msPaging = 0, msSlicing = 0, msDrawing = 0, msReadback = 0, msTotal = 0;
   std::string toJson() const;
 };
+
+/// What the fragment stage does: the optical model, or (for benchmarks) exactly one trilinear atlas fetch per
+/// fragment with no classification and no blending, the sampling roofline of the same geometry.
+enum class RenderMode { Normal, Roofline };
 
 /// One renderer per GL context (so per render thread). It keeps its atlas between frames, so bricks stay resident.
 class VolumeRenderer {
@@ -36,14 +41,14 @@ class VolumeRenderer {
   ~VolumeRenderer();
 
   /// Renders `scene`; throws RenderInputError for an invalid scene and RenderError for GL failures.
-  ImageF render(const Scene& scene, FrameStats* stats = nullptr);
+  ImageF render(const Scene& scene, FrameStats* stats = nullptr, RenderMode mode = RenderMode::Normal);
 
   const BrickAtlas& atlas() const { return mAtlas; }
 
  private:
   struct Batch;
   void drawBatch(Batch& batch, const Scene& scene, FrameStats& stats);
-  const Program& program(Slicer slicer, bool shading);
+  const Program& program(Slicer slicer, bool shading, bool roofline);
 
   GlContext& mContext;
   const Gl& mGl;
@@ -54,7 +59,9 @@ class VolumeRenderer {
   Buffer mVertices;
   VertexArray mVertexArray;
   Framebuffer mTarget;
-  Program mPrograms[2][2];  // [slicer][shading], built on first use
+  Query mFragments;
+  Program mPrograms[2][3];  // [slicer][plain, shading, roofline], built on first use
+  RenderMode mMode = RenderMode::Normal;
 };
 
 }  // namespace voxbrick::render

@@ -27,6 +27,10 @@ float sampleAt(vec3 texel) { return texture(uAtlas, texel * uInvAtlasSize).r; }
 void main() {
   const vec3 texel = vWorld * uInvSpacing + uHalfDims + vec3(vPayload.xyz);
   const float value = sampleAt(texel);
+#ifdef ROOFLINE
+  fragColor = vec4(value);
+  return;
+#endif
   const float t = clamp((value - uWindowLo) * uWindowScale, 0.0, 1.0);
   const vec4 classified = texture(uTransfer, t);
 

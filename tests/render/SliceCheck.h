@@ -30,10 +30,10 @@ inline std::string vec3Text(const glm::dvec3& v) {
   return text;
 }
 
+// Strings here are appended piece by piece: GCC 12 warns falsely (-Wrestrict, bug 105651) on "literal" + string.
 inline std::string caseText(const SliceCase& c) {
   char d[32];
   std::snprintf(d, sizeof(d), "%.17g", c.d);
-  // Appended piece by piece: GCC 12 warns falsely (-Wrestrict, bug 105651) on "literal" + std::string chains.
   std::string text = "box ";
   text += vec3Text(c.boxMin);
   text += " - ";
@@ -47,14 +47,31 @@ inline std::string caseText(const SliceCase& c) {
 
 inline std::string polygonText(std::span<const glm::dvec3> polygon) {
   std::string text = "[";
-  for (const glm::dvec3& p : polygon) text += " " + vec3Text(p);
-  return text + " ]";
+  for (const glm::dvec3& p : polygon) {
+    text += ' ';
+    text += vec3Text(p);
+  }
+  text += " ]";
+  return text;
 }
 
 /// The length scale float or double round-off is relative to: the largest coordinate or extent involved.
 inline double caseScale(const SliceCase& c) {
   const glm::dvec3 a = glm::abs(c.boxMin), b = glm::abs(c.boxMax), e = c.boxMax - c.boxMin;
   return std::max({a.x, a.y, a.z, b.x, b.y, b.z, e.x, e.y, e.z, std::abs(c.d) / glm::length(c.n)});
+}
+
+/// How much round-off in the plane distance moves the exact polygon's vertices: a vertex on an edge along axis a
+/// slides |n| / |n[a]| times as far as the plane moves. The largest such factor over the polygon, at least 1.
+inline double edgeConditioning(const std::vector<glm::dvec3>& exact, const SliceCase& c) {
+  double worst = 1;
+  for (const glm::dvec3& p : exact) {
+    for (int axis = 0; axis < 3; ++axis) {
+      const bool atBound = p[axis] == c.boxMin[axis] || p[axis] == c.boxMax[axis];
+      if (!atBound && c.n[axis] != 0) worst = std::max(worst, glm::length(c.n) / std::abs(c.n[axis]));
+    }
+  }
+  return worst;
 }
 
 /// A random case with a given normal: box size log-uniform over 1e-2..1e2 with aspect up to 1:20, placed within 8

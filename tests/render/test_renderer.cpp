@@ -1,0 +1,193 @@
+// The renderer end to end on llvmpipe: seams between bricks, out-of-core paging, empty-space skipping, the two
+// slicers, and an analytic slab whose transmittance is known in closed form.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "brickstore/BrickCache.h"
+#include "brickstore/BrickStore.h"
+#include "brickstore/StoreWriter.h"
+#include "render/GlContext.h"
+#include "render/Image.h"
+#include "render/VolumeRenderer.h"
+#include "support/ArraySource.h"
+#include "support/TestSupport.h"
+
+namespace voxbrick::render {
+namespace {
+
+using test::ScratchDir;
+
+std::shared_ptr<const store::BrickStore> prep(const std::string& spec, const std::filesystem::path& out, int brick) {
+  auto source = store::openSource(spec, {});
+  store::PrepOptions options;
+  options.brickSize = brick;
+  options.writeVdb = false;
+  store::prepStore(*source, out, options);
+  return store::BrickStore::open(out);
+}
+
+/// One context for the whole suite: creating a llvmpipe context costs more than most of these frames.
+GlContext& context() {
+  static std::unique_ptr<GlContext> ctx = createContext(Backend::Auto);
+  ctx->makeCurrent();
+  return *ctx;
+}
+
+ImageF renderStore(std::shared_ptr<const store::BrickStore> s, const Scene& scene, FrameStats* stats = nullptr,
+                   size_t gpuBudget = size_t(256) << 20, size_t hostBudget = size_t(256) << 20) {
+  auto cache = std::make_shared<store::BrickCache>(std::move(s), hostBudget, 1);
+  VolumeRenderer renderer(context(), cache, gpuBudget);
+  return renderer.render(scene, stats);
+}
+
+/// Writes both images and a difference image next to the test's scratch files when they differ too much.
+void expectClose(const ImageF& a, const ImageF& b, double maxAbs, const std::string& what) {
+  const ImageError e = compareImages(a, b);
+  EXPECT_LE(e.maxAbs, maxAbs) << what << ": rmse " << e.rmse << ", psnr " << e.psnr;
+  if (e.maxAbs > maxAbs) {
+    const auto dir = std::filesystem::temp_directory_path();
+    writePng(dir / (what + "-a.png"), toImage8(a));
+    writePng(dir / (what + "-b.png"), toImage8(b));
+    std::cerr << "images written to " << dir / (what + "-{a,b}.png") << "\n";
+  }
+}
+
+Scene baseScene() {
+  Scene scene;
+  scene.width = scene.height = 96;
+  scene.camera.azimuth = 35;
+  scene.camera.elevation = 25;
+  scene.camera.distance = 2.2;
+  scene.transferFunction = TransferFunction::load("hot");
+  scene.step = 0.5;
+  return scene;
+}
+
+double meanBrightness(const ImageF& image) {
+  double sum = 0;
+  for (size_t i = 0; i < image.rgba.size(); i += 4) sum += image.rgba[i] + image.rgba[i + 1] + image.rgba[i + 2];
+  return sum / double(image.rgba.size() / 4 * 3);
+}
+
+TEST(RendererSeams, BrickSizesGiveTheSameImage) {
+  ScratchDir dir;
+  std::vector<std::shared_ptr<const store::BrickStore>> stores;
+  for (int brick : {64, 8, 16, 32}) stores.push_back(prep("synthetic:blobs,n=60", dir / std::to_string(brick), brick));
+  // An oblique view, and views along an axis and a diagonal, where planes run through brick faces and corners.
+  for (glm::dvec2 view : {glm::dvec2(35, 25), glm::dvec2(0, 0), glm::dvec2(90, 0), glm::dvec2(45, 35.2643897)}) {
+    Scene scene = baseScene();
+    scene.camera.azimuth = view.x;
+    scene.camera.elevation = view.y;
+    const ImageF whole = renderStore(stores[0], scene);
+    ASSERT_GT(meanBrightness(whole), 0.02) << "the reference frame is empty; the test would prove nothing";
+    for (size_t i = 1; i < stores.size(); ++i) {
+      FrameStats stats;
+      const ImageF bricked = renderStore(stores[i], scene, &stats);
+      EXPECT_GT(stats.bricksDrawn, 1);
+      expectClose(bricked, whole, 1.0 / 255,
+                  "seams-" + std::to_string(stores[i]->brickSize()) + "-az" + std::to_string(int(view.x)));
+    }
+  }
+}
+
+TEST(RendererOutOfCore, TinyBudgetsGiveTheSameImage) {
+  ScratchDir dir;
+  auto s = prep("synthetic:marschner-lobb,n=48", dir / "s", 8);
+  Scene scene = baseScene();
+  scene.transferFunction = TransferFunction::load("grayscale");
+  FrameStats roomy, tight;
+  const ImageF reference = renderStore(s, scene, &roomy);
+  const size_t brickBytes = s->brickBytes() * sizeof(float) / store::valueSize(s->type());
+  // Three atlas slots and a host cache smaller than the volume's decoded bricks.
+  const ImageF small = renderStore(s, scene, &tight, 3 * brickBytes, s->brickBytes() * 5);
+  EXPECT_EQ(roomy.batches, 1);
+  EXPECT_GT(tight.batches, 10);
+  EXPECT_GT(tight.bricksEvicted, 0);
+  // Not bit-identical: slots sit elsewhere in a differently sized atlas, so texel coordinates round differently.
+  expectClose(small, reference, 1e-4, "out-of-core");
+}
+
+TEST(RendererSkipping, SameImageWithFarFewerBricksOnASparseField) {
+  ScratchDir dir;
+  auto s = prep("synthetic:sparse,n=96", dir / "s", 16);
+  Scene scene = baseScene();
+  scene.transferFunction = TransferFunction::load("sparse");
+  FrameStats skipped, full;
+  const ImageF a = renderStore(s, scene, &skipped);
+  scene.skipEmpty = false;
+  const ImageF b = renderStore(s, scene, &full);
+  ASSERT_GT(meanBrightness(a), 0.001);
+  expectClose(a, b, 1.0 / 255, "skipping");
+  EXPECT_EQ(full.bricksSkippedEmpty, 0);
+  EXPECT_GT(skipped.bricksSkippedEmpty, 0);
+  EXPECT_LT(skipped.bricksDrawn * 3, full.bricksDrawn) << "skipping should draw far fewer bricks";
+  EXPECT_LT(skipped.bricksPagedIn * 3, full.bricksPagedIn);
+}
+
+TEST(RendererSlicers, VertexProgramAndCpuSlicerAgree) {
+  ScratchDir dir;
+  auto s = prep("synthetic:shells,n=40", dir / "s", 16);
+  Scene scene = baseScene();
+  const ImageF gpu = renderStore(s, scene);
+  scene.slicer = Slicer::Cpu;
+  const ImageF cpu = renderStore(s, scene);
+  ASSERT_GT(meanBrightness(gpu), 0.01);
+  expectClose(gpu, cpu, 1.0 / 255, "slicers");
+}
+
+TEST(RendererAnalytic, ConstantSlabHasClosedFormTransmittance) {
+  ScratchDir dir;
+  const store::Vec3i n{16, 16, 64};
+  test::ArraySource<float> source(n, store::ValueType::F32, std::vector<float>(size_t(n.volume()), 1.0f));
+  store::PrepOptions options;
+  options.brickSize = 16;
+  options.writeVdb = false;
+  store::prepStore(source, dir / "slab", options);
+  auto s = store::BrickStore::open(dir / "slab");
+
+  const double alpha = 0.05;  // opacity per reference length (one voxel)
+  Scene scene;
+  scene.width = scene.height = 32;
+  scene.transferFunction = TransferFunction({{0.0, {1, 1, 1, alpha}}, {1.0, {1, 1, 1, alpha}}});
+  scene.camera.orbit = false;
+  scene.camera.eye = {0, 0, 200};
+  scene.camera.center = {0, 0, 0};
+  scene.camera.orthographic = true;
+  scene.camera.fovY = 2;  // a view about 7 voxels high: every pixel looks through the full 64 voxels
+  for (double step : {1.0, 0.5, 0.25}) {
+    scene.step = step;
+    const ImageF image = renderStore(s, scene);
+    // White emission over black: the pixel is the slab's opacity 1 - (1 - alpha)^(L / L_ref), L = 64 voxels.
+    const double expected = 1 - std::pow(1 - alpha, 64.0);
+    for (int y = 0; y < scene.height; y += 7)
+      for (int x = 0; x < scene.width; x += 7)
+        ASSERT_NEAR(image.pixel(x, y)[0], expected, 1e-4) << "step " << step << " pixel " << x << "," << y;
+  }
+}
+
+TEST(RendererCli, WritesPngAndStats) {
+  ScratchDir dir;
+  auto r = test::runVoxbrick("prep synthetic:sparse,n=64 --brick 16 -q -o " + (dir / "s").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  r = test::runVoxbrick("render " + (dir / "s").string() + " -o " + (dir / "f.png").string() + " --size 64x48 --tf sparse" +
+                        " --stats " + (dir / "stats.json").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_NE(r.output.find("llvmpipe"), std::string::npos) << r.output;
+  const Image8 png = readPng(dir / "f.png");
+  EXPECT_EQ(png.width, 64);
+  EXPECT_EQ(png.height, 48);
+  const auto stats = test::readFile(dir / "stats.json");
+  EXPECT_NE(std::string(stats.begin(), stats.end()).find("\"bricks_skipped_empty\""), std::string::npos);
+
+  r = test::runVoxbrick("render " + (dir / "s").string() + " -o " + (dir / "g.png").string() + " --size 0x10");
+  EXPECT_EQ(r.exitCode, 1) << r.output;
+  EXPECT_NE(r.output.find("image size"), std::string::npos) << r.output;
+  r = test::runVoxbrick("render " + (dir / "s").string() + " -o " + (dir / "g.png").string() + " --tf nosuch");
+  EXPECT_EQ(r.exitCode, 1) << r.output;
+  EXPECT_NE(r.output.find("nosuch"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace voxbrick::render
