@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Converts a 4 GiB raw volume (1024^3 float32 Gaussian blobs) with --memory 512 and records the peak resident set
+# Converts a 4 GiB raw volume (1024^3 float32 Gaussian blobs) with --memory 640 and records the peak resident set
 # size that prep reports (getrusage ru_maxrss of the prep process). Writes bench/results/memory_bound.txt.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -10,8 +10,8 @@ raw="$work/blobs-1024.raw"
 ls -l "$raw"
 {
   echo "# voxbrick prep of a $(stat -c %s "$raw")-byte raw file, $(date -u +%Y-%m-%d), $(nproc) cores"
-  echo "# command: voxbrick prep $raw --dims 1024,1024,1024 --type f32 --memory 512 -q -o $work/big.vbs --force"
-  ./build/voxbrick prep "$raw" --dims 1024,1024,1024 --type f32 --memory 512 -q -o "$work/big.vbs" --force
+  echo "# command: voxbrick prep $raw --dims 1024,1024,1024 --type f32 --memory 640 -q -o $work/big.vbs --force"
+  ./build/voxbrick prep "$raw" --dims 1024,1024,1024 --type f32 --memory 640 -q -o "$work/big.vbs" --force
   ./build/voxbrick info "$work/big.vbs" | sed -n '3,4p;8,20p'
 } | tee bench/results/memory_bound.txt
 rm -rf "$work/big.vbs" "$raw"

@@ -72,30 +72,35 @@ inline constexpr std::array<SliceTableUniform, 3> kSliceTableUniforms = {{
     {"uEdgeEnd", kSliceEdgeEnd},
 }};
 
-/// The per-frame uniforms of slice.vert.glsl: vec3 plane normal n (unit), float step between the planes of one
-/// instance, mat4 view-projection (world to clip).
+/// The per-frame uniforms of slice.vert.glsl: vec3 plane normal n (unit, from the eye into the scene), float
+/// distance between consecutive global planes, mat4 view-projection (world to clip).
 inline constexpr const char* kSliceNormalUniform = "uPlaneNormal";
 inline constexpr const char* kSlicePlaneIncrUniform = "uPlaneIncr";
 inline constexpr const char* kSliceViewProjUniform = "uViewProj";
 
-/// One instance of the slicer draw: a world-space box, the distance d of its first plane (dot(n, x) = d), and four
-/// ints passed through untouched to the fragment stage as flat ivec4 vPayload (the atlas slot, for instance).
-/// Each instance draws its vertices [12 * i, 12 * i + 12) as the polygon of plane d + i * uPlaneIncr, so a draw of 12
-/// vertices per instance slices each box once, and a draw of 12 * N vertices slices it N times (planes past the box
-/// collapse to a point). Attribute locations and offsets below; all four attributes have divisor 1.
+/// One instance of the slicer draw: a world-space box, a run of planes, and four ints passed through untouched to
+/// the fragment stage as flat ivec4 vPayload (the atlas slot, for instance). The instance's vertices
+/// [12 * i, 12 * i + 12) are the polygon of plane i: dot(n, x) = planeDistance + (firstPlane + i) * uPlaneIncr. For
+/// DESIGN's globally spaced planes set planeDistance = 0 and firstPlane = the global index k of the first plane
+/// (slicerPlaneRange(...).begin): plane k then has the same float distance in every brick. A draw of 12 vertices per
+/// instance slices each box once, 12 * N vertices N times; planes outside the half-open slab [front, back) of the
+/// box (a plane through its back face included) collapse to a point. All five attributes have divisor 1.
 struct SliceInstance {
   glm::vec3 boxMin;     ///< location 0, 3 x GL_FLOAT
   glm::vec3 boxMax;     ///< location 1, 3 x GL_FLOAT
-  float planeDistance;  ///< location 2, 1 x GL_FLOAT
+  float planeDistance;  ///< location 2, 1 x GL_FLOAT: added to every plane's distance (0 for global planes)
   glm::ivec4 payload;   ///< location 3, 4 x GL_INT through glVertexAttribIPointer
+  int32_t firstPlane;   ///< location 4, 1 x GL_INT through glVertexAttribIPointer: global index of plane 0
 };
 inline constexpr int kSliceBoxMinLocation = 0;
 inline constexpr int kSliceBoxMaxLocation = 1;
 inline constexpr int kSlicePlaneDistanceLocation = 2;
 inline constexpr int kSlicePayloadLocation = 3;
-static_assert(sizeof(SliceInstance) == 44, "SliceInstance is tightly packed: 3 + 3 + 1 floats, 4 ints");
+inline constexpr int kSliceFirstPlaneLocation = 4;
+static_assert(sizeof(SliceInstance) == 48, "SliceInstance is tightly packed: 3 + 3 + 1 floats, 4 + 1 ints");
 static_assert(offsetof(SliceInstance, boxMax) == 12 && offsetof(SliceInstance, planeDistance) == 24 &&
-              offsetof(SliceInstance, payload) == 28, "SliceInstance offsets changed");
+                  offsetof(SliceInstance, payload) == 28 && offsetof(SliceInstance, firstPlane) == 44,
+              "SliceInstance offsets changed");
 
 namespace detail {
 

@@ -106,7 +106,7 @@ std::array<glm::dvec3, 6> rezkSalamaPolygon(const glm::dvec3& boxMin, const glm:
     int startCorner = front;
     int endCorner = front;
     double lambda = 0;
-    if (cornerDistance[front] <= d && d <= cornerDistance[front ^ 7]) {
+    if (cornerDistance[front] <= d && d < cornerDistance[front ^ 7]) {
       for (int e = 0; e < 4; ++e) {
         const int i = kSliceSequence[front * 8 + kSliceEdgeStart[polygonVertex * 4 + e]];
         const int j = kSliceSequence[front * 8 + kSliceEdgeEnd[polygonVertex * 4 + e]];
@@ -162,6 +162,14 @@ PlaneIndexRange planeIndexRange(const glm::dvec3& boxMin, const glm::dvec3& boxM
   PlaneIndexRange range;
   range.begin = firstAtLeast(dMin);
   range.end = std::max(range.begin, firstAtLeast(dMax));
+  return range;
+}
+
+PlaneIndexRange slicerPlaneRange(const glm::dvec3& boxMin, const glm::dvec3& boxMax, const glm::dvec3& n,
+                                 double step) {
+  PlaneIndexRange range = planeIndexRange(boxMin, boxMax, n, step);
+  range.begin -= 1;
+  range.end += 1;
   return range;
 }
 

@@ -22,8 +22,10 @@ std::vector<glm::dvec3> intersectBoxPlane(const glm::dvec3& boxMin, const glm::d
                                           double d);
 
 /// The CPU mirror of slice.vert.glsl: the same tables, the same edge tests in the same order, the same six outputs
-/// P0..P5 with repeats where the polygon has fewer corners. A plane that misses the box gives six copies of the
-/// front corner. Draw it as triangles through kSliceFan. Throws as intersectBoxPlane.
+/// P0..P5 with repeats where the polygon has fewer corners. Boxes are half-open along n, as in planeIndexRange: a
+/// plane with d outside [dot(n, front corner), dot(n, back corner)) gives six copies of the front corner, so a plane
+/// through a face shared by two boxes is drawn once. Draw it as triangles through kSliceFan. Throws as
+/// intersectBoxPlane.
 std::array<glm::dvec3, 6> rezkSalamaPolygon(const glm::dvec3& boxMin, const glm::dvec3& boxMax, const glm::dvec3& n,
                                             double d);
 
@@ -44,6 +46,12 @@ struct PlaneIndexRange {
 /// RenderInputError on a non-finite input, a zero n, step <= 0, boxMin > boxMax, or more than 2^53 planes away from
 /// the origin (where k * step stops being exact).
 PlaneIndexRange planeIndexRange(const glm::dvec3& boxMin, const glm::dvec3& boxMax, const glm::dvec3& n, double step);
+
+/// The planes to give slice.vert.glsl for a box: planeIndexRange widened by one plane on each side. The shader
+/// decides in float whether each plane lies in the box, and near a face float may put a plane on the other side of
+/// it than double did; with the extra plane each side, the box that float says owns it always has it to draw.
+PlaneIndexRange slicerPlaneRange(const glm::dvec3& boxMin, const glm::dvec3& boxMax, const glm::dvec3& n,
+                                 double step);
 
 /// The globally spaced planes that cut a box, nearest first: plane i is at distance (firstIndex + i) * step.
 struct SlicePlanes {

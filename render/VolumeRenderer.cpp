@@ -110,7 +110,9 @@ void VolumeRenderer::drawBatch(Batch& batch, const Scene& scene, FrameStats& sta
                               offset(offsetof(SliceInstance, planeDistance)));
     mGl.glEnableVertexAttribArray(kSlicePayloadLocation);
     mGl.glVertexAttribIPointer(kSlicePayloadLocation, 4, GL_INT, stride, offset(offsetof(SliceInstance, payload)));
-    for (GLuint a = 0; a < 4; ++a) mGl.glVertexAttribDivisor(a, 1);
+    mGl.glEnableVertexAttribArray(kSliceFirstPlaneLocation);
+    mGl.glVertexAttribIPointer(kSliceFirstPlaneLocation, 1, GL_INT, stride, offset(offsetof(SliceInstance, firstPlane)));
+    for (GLuint a = 0; a < 5; ++a) mGl.glVertexAttribDivisor(a, 1);
     mGl.glDrawArraysInstanced(GL_TRIANGLES, 0, GLsizei(kSliceVerticesPerPolygon * batch.maxPlanes),
                               GLsizei(batch.instances.size()));
   } else {
@@ -220,7 +222,10 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
   Batch batch;
   for (const BrickDraw& draw : visible.bricks) {
     auto ts = Clock::now();
-    const PlaneIndexRange planes = planeIndexRange(draw.box.min, draw.box.max, n, step);
+    // The vertex program decides plane membership in float, so it is given one extra plane each side (the
+    // shader's half-open test then draws every plane exactly once); the CPU slicer uses the exact range.
+    const PlaneIndexRange planes = scene.slicer == Slicer::Vertex ? slicerPlaneRange(draw.box.min, draw.box.max, n, step)
+                                                                  : planeIndexRange(draw.box.min, draw.box.max, n, step);
     stats.msSlicing += msSince(ts);
     if (planes.count() == 0) continue;
 
@@ -243,13 +248,14 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
     ts = Clock::now();
     const glm::ivec3 origin = mAtlas.slotOrigin(acquired->slot);
     const int32_t payload[4] = {origin.x + 1 - int32_t(draw.key.i) * B, origin.y + 1 - int32_t(draw.key.j) * B,
-                                origin.z + 1 - int32_t(draw.key.k) * B, int32_t(planes.count())};
+                                origin.z + 1 - int32_t(draw.key.k) * B, 0};
     stats.slices += planes.count();
     if (scene.slicer == Slicer::Vertex) {
       SliceInstance instance{};
       instance.boxMin = glm::vec3(draw.box.min);
       instance.boxMax = glm::vec3(draw.box.max);
-      instance.planeDistance = float(double(planes.begin) * step);
+      instance.planeDistance = 0;
+      instance.firstPlane = int32_t(planes.begin);
       instance.payload = glm::ivec4(payload[0], payload[1], payload[2], payload[3]);
       batch.instances.push_back(instance);
       batch.maxPlanes = std::max(batch.maxPlanes, planes.count());

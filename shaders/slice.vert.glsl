@@ -1,23 +1,27 @@
 // Slicer vertex program (Rezk-Salama & Kolb, VMV 2005): one box-plane intersection polygon per instance, in view order.
 //
-// Each instance is one axis-aligned world-space box and the distance of its first plane; vertex 12 * i + k of the
-// instance is vertex kFan[k] of the polygon cut by plane i, dot(uPlaneNormal, x) = aPlaneDistance + i * uPlaneIncr.
+// Each instance is one axis-aligned world-space box and a run of planes; vertex 12 * i + k of the instance is vertex
+// kFan[k] of the polygon cut by plane i, dot(uPlaneNormal, x) = aPlaneDistance + (aFirstPlane + i) * uPlaneIncr.
+// With aPlaneDistance = 0 and aFirstPlane the global index k of the first plane, every box computes plane k's
+// distance bit for bit alike, so neighbours agree on which of them owns a plane through a shared face.
 // render/SliceTables.h holds the tables (uploaded into uSequence, uEdgeStart, uEdgeEnd), the corner numbering and the
 // instance layout; render/Slicing.cpp mirrors this program on the CPU, line for line.
 //
-// The one change to the paper's loop: the distances of the eight corners are computed once, up front, instead of
-// once per edge. Along every path they then grow monotonically even in floating point, so a plane inside the box
-// always finds exactly one edge per path (per-edge sums can, by rounding, miss a plane through a corner). Because
-// intersections are computed from world-space corners alone, two boxes sharing a face produce bit-identical
-// vertices on it, so slices of neighbouring bricks meet without cracks.
+// Where it departs from the paper's listing, it does so for robustness in float: the distances of the eight corners
+// are computed once, up front, instead of once per edge, so along every path they grow monotonically and a plane
+// inside the box always finds its edge on each path (per-edge sums can, by rounding, miss a plane through a corner);
+// a plane outside the box gives a defined, empty polygon (the paper leaves it undefined); and vertices are computed
+// from world-space corners alone, exact at the corners, so two boxes sharing a face produce bit-identical vertices
+// on it and slices of neighbouring bricks meet without cracks.
 
 layout(location = 0) in vec3 aBoxMin;
 layout(location = 1) in vec3 aBoxMax;
 layout(location = 2) in float aPlaneDistance;
 layout(location = 3) in ivec4 aPayload;
+layout(location = 4) in int aFirstPlane;
 
 uniform vec3 uPlaneNormal;  // unit, pointing from the eye into the scene
-uniform float uPlaneIncr;   // distance between the planes of one instance
+uniform float uPlaneIncr;   // distance between consecutive planes
 uniform mat4 uViewProj;     // world to clip
 uniform int uSequence[64];
 uniform int uEdgeStart[24];
@@ -36,7 +40,7 @@ vec3 boxCorner(int corner) {
 
 void main() {
   const int polygonVertex = kFan[gl_VertexID % 12];
-  const float planeDistance = aPlaneDistance + float(gl_VertexID / 12) * uPlaneIncr;
+  precise float planeDistance = aPlaneDistance + float(aFirstPlane + gl_VertexID / 12) * uPlaneIncr;
   // The front corner is computed here from the sign of the normal (the paper passes it in as a uniform) so that
   // it can never disagree with uPlaneNormal; the CPU mirror uses the same rule (sliceFrontIndex).
   const int front = (uPlaneNormal.x < 0.0 ? 1 : 0) | (uPlaneNormal.y < 0.0 ? 2 : 0) | (uPlaneNormal.z < 0.0 ? 4 : 0);
@@ -46,11 +50,14 @@ void main() {
     cornerDistance[corner] = dot(uPlaneNormal, boxCorner(corner));
   }
 
-  // A plane that misses the box collapses the whole polygon onto the front corner: zero area, nothing drawn.
+  // A plane outside [front, back) collapses the whole polygon onto the front corner: zero area, nothing drawn.
+  // Half-open like planeIndexRange, so that a plane through a face shared by two boxes is drawn by the box behind
+  // the face only. This float test alone decides, so an instance may carry more planes than its box has
+  // (slicerPlaneRange) and neighbours, computing the same distances, never both draw or both drop a plane.
   int startCorner = front;
   int endCorner = front;
   precise float lambda = 0.0;
-  if (cornerDistance[front] <= planeDistance && planeDistance <= cornerDistance[front ^ 7]) {
+  if (cornerDistance[front] <= planeDistance && planeDistance < cornerDistance[front ^ 7]) {
     for (int e = 0; e < 4; ++e) {
       const int i = uSequence[front * 8 + uEdgeStart[polygonVertex * 4 + e]];
       const int j = uSequence[front * 8 + uEdgeEnd[polygonVertex * 4 + e]];
