@@ -11,6 +11,6 @@ mri=/usr/share/mricron/templates/ch2better.nii.gz
 ./build/voxbrick info demo/mri.vbs
 ./build/voxbrick prep synthetic:sparse,n=256 -o demo/sparse.vbs --force
 ./build/voxbrick info demo/sparse.vbs
-./build/voxbrick render demo/mri.vbs -o demo/mri.png --tf mri --eye 330,0,160 --up 0,0,1 --shading --stats demo/mri-stats.json
+./build/voxbrick render demo/mri.vbs -o demo/mri.png --scene config/scenes/mri-lateral.json --stats demo/mri-stats.json
 ./build/voxbrick render demo/sparse.vbs -o demo/sparse.png --tf sparse --orbit 30,20,2.5
 echo "demo: stores in demo/*.vbs, frames in demo/mri.png and demo/sparse.png"
