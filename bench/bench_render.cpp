@@ -2,6 +2,7 @@
 // (one trilinear fetch per fragment, no classification, no blending) of the same geometry. Writes CSV and markdown.
 //
 //   bench_render [--out bench/results] [--work bench/work] [--size 512] [--views 36] [--step 0.5]
+//                [--datasets NAME,NAME]   (a subset of dense-blobs-256, sparse-256, mri-ch2better)
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
@@ -36,6 +37,7 @@ struct Config {
   render::Slicer slicer = render::Slicer::Vertex;
   bool skip = true;
   render::RenderMode mode = render::RenderMode::Normal;
+  render::AtlasFormat format = render::AtlasFormat::Float;
 };
 
 struct Result {
@@ -49,6 +51,7 @@ struct Result {
 int main(int argc, char** argv) {
   fs::path out = "bench/results", work = "bench/work";
   int size = 512, views = 36;
+  std::string only;
   double step = 0.5;
   for (int i = 1; i + 1 < argc; i += 2) {
     std::string a = argv[i];
@@ -57,6 +60,7 @@ int main(int argc, char** argv) {
     else if (a == "--size") size = std::stoi(argv[i + 1]);
     else if (a == "--views") views = std::stoi(argv[i + 1]);
     else if (a == "--step") step = std::stod(argv[i + 1]);
+    else if (a == "--datasets") only = argv[i + 1];
     else {
       std::fprintf(stderr, "bench_render: unknown option %s\n", a.c_str());
       return 2;
@@ -78,10 +82,15 @@ int main(int argc, char** argv) {
       {"vertex slicer, skip, B=16", 16, render::Slicer::Vertex, true, render::RenderMode::Normal},
       {"vertex slicer, skip, B=64", 64, render::Slicer::Vertex, true, render::RenderMode::Normal},
       {"roofline, no skip", 32, render::Slicer::Vertex, false, render::RenderMode::Roofline},
+      {"vertex slicer, skip, native atlas", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
+       render::AtlasFormat::Native},
+      {"vertex slicer, skip, half atlas", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
+       render::AtlasFormat::Half},
   };
 
   std::vector<Result> results;
   for (const Dataset& d : datasets) {
+    if (!only.empty() && only.find(d.name) == std::string::npos) continue;
     std::map<int, std::shared_ptr<const store::BrickStore>> stores;
     for (int brick : {16, 32, 64}) {
       const fs::path path = work / (d.name + "-b" + std::to_string(brick) + ".vbs");
@@ -98,7 +107,7 @@ int main(int argc, char** argv) {
     std::vector<render::ImageF> baseline;
     for (const Config& c : configs) {
       auto cache = std::make_shared<store::BrickCache>(stores[c.brick], size_t(4) << 30, 1);
-      render::VolumeRenderer renderer(*context, cache, size_t(2) << 30);
+      render::VolumeRenderer renderer(*context, cache, size_t(2) << 30, c.format);
       render::Scene scene;
       scene.width = scene.height = size;
       scene.step = step;

@@ -17,7 +17,7 @@ namespace {
 
 struct RenderArgs {
   std::string store, output, statsPath, sceneFile, orbit, eye, center, up, size, tf, background, window;
-  std::string backend = "auto", slicer;
+  std::string backend = "auto", slicer, atlasFormat = "float";
   double fov = 0, step = 0;
   bool ortho = false, noSkip = false, noCull = false, shading = false, quiet = false;
   int64_t gpuBudgetMB = 1024, hostBudgetMB = 1024;
@@ -87,7 +87,8 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
   auto cache = std::make_shared<store::BrickCache>(store, size_t(a.hostBudgetMB) << 20, 2);
   auto context = render::createContext(render::parseBackend(a.backend));
   if (!a.quiet) std::fprintf(stderr, "render: %s\n", context->describe().c_str());
-  render::VolumeRenderer renderer(*context, cache, size_t(a.gpuBudgetMB) << 20);
+  render::VolumeRenderer renderer(*context, cache, size_t(a.gpuBudgetMB) << 20,
+                                  render::parseAtlasFormat(a.atlasFormat));
   render::FrameStats stats;
   const render::ImageF image = renderer.render(scene, &stats);
   render::writePng(a.output, render::toImage8(image));
@@ -134,6 +135,9 @@ void addRenderCommand(CLI::App& app) {
       ->capture_default_str()->check(CLI::PositiveNumber);
   cmd->add_option("--host-budget", args->hostBudgetMB, "MB of host memory for decoded bricks")
       ->capture_default_str()->check(CLI::NonNegativeNumber);
+  cmd->add_option("--atlas-format", args->atlasFormat,
+                  "float (default: full-precision filtering), native (the store's type: less memory) or half")
+      ->check(CLI::IsMember({"float", "native", "half"}));
   cmd->add_flag("-q,--quiet", args->quiet, "do not print the renderer's name");
   cmd->callback([args, cmd] { runRender(*args, *cmd); });
 }

@@ -8,19 +8,52 @@
 namespace voxbrick::render {
 namespace {
 
-int slotCapacity(int edge, size_t budgetBytes, int maxUsefulSlots) {
-  const size_t slotBytes = size_t(edge) * size_t(edge) * size_t(edge) * sizeof(float);
+/// GL internal format, upload type and bytes per texel for a store type in an atlas format.
+struct TexelFormat {
+  GLenum internal, type;
+  size_t bytes;
+  double valueScale;
+};
+
+TexelFormat texelFormat(store::ValueType type, AtlasFormat format) {
+  if (format == AtlasFormat::Float) return {GL_R32F, GL_FLOAT, 4, 1.0};
+  if (format == AtlasFormat::Half) return {GL_R16F, GL_FLOAT, 2, 1.0};
+  switch (type) {
+    case store::ValueType::U8: return {GL_R8, GL_UNSIGNED_BYTE, 1, 1.0 / 255};
+    case store::ValueType::U16: return {GL_R16, GL_UNSIGNED_SHORT, 2, 1.0 / 65535};
+    case store::ValueType::I16: return {GL_R16_SNORM, GL_SHORT, 2, 1.0 / 32767};
+    case store::ValueType::F32: break;
+  }
+  return {GL_R32F, GL_FLOAT, 4, 1.0};
+}
+
+int slotCapacity(int edge, size_t texelBytes, size_t budgetBytes, int maxUsefulSlots) {
+  const size_t slotBytes = size_t(edge) * size_t(edge) * size_t(edge) * texelBytes;
   const size_t bySlots = budgetBytes / slotBytes;
   if (bySlots < 1)
     throw RenderInputError("GPU budget of " + std::to_string(budgetBytes) + " bytes holds no brick (one brick takes " +
-                           std::to_string(slotBytes) + " bytes as float)");
+                           std::to_string(slotBytes) + " bytes)");
   return static_cast<int>(std::min<size_t>(bySlots, size_t(std::max(1, maxUsefulSlots))));
 }
 
 }  // namespace
 
-BrickAtlas::BrickAtlas(const GlContext& context, int brickEdge, size_t budgetBytes, int maxUsefulSlots)
-    : mGl(context.gl()), mEdge(brickEdge), mSlots(slotCapacity(brickEdge, budgetBytes, maxUsefulSlots)) {
+AtlasFormat parseAtlasFormat(const std::string& text) {
+  if (text == "float") return AtlasFormat::Float;
+  if (text == "native") return AtlasFormat::Native;
+  if (text == "half") return AtlasFormat::Half;
+  throw RenderInputError("atlas format '" + text + "' is not float, native or half");
+}
+
+BrickAtlas::BrickAtlas(const GlContext& context, store::ValueType type, int brickEdge, size_t budgetBytes,
+                       int maxUsefulSlots, AtlasFormat format)
+    : mGl(context.gl()),
+      mType(type),
+      mFormat(format),
+      mTexelBytes(texelFormat(type, format).bytes),
+      mValueScale(texelFormat(type, format).valueScale),
+      mEdge(brickEdge),
+      mSlots(slotCapacity(brickEdge, mTexelBytes, budgetBytes, maxUsefulSlots)) {
   const int perAxis = std::max(1, context.limits().max3DTextureSize / brickEdge);
   const int want = mSlots.capacity();
   mGrid.x = std::min(want, perAxis);
@@ -31,14 +64,14 @@ BrickAtlas::BrickAtlas(const GlContext& context, int brickEdge, size_t budgetByt
 
   mTexture = Texture(mGl, GL_TEXTURE_3D);
   mTexture.bind(0);
-  mGl.glTexStorage3D(GL_TEXTURE_3D, 1, GL_R32F, mTexels.x, mTexels.y, mTexels.z);
+  mGl.glTexStorage3D(GL_TEXTURE_3D, 1, texelFormat(type, format).internal, mTexels.x, mTexels.y, mTexels.z);
   mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
   mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
   for (GLenum wrap : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
     mGl.glTexParameteri(GL_TEXTURE_3D, wrap, GL_CLAMP_TO_EDGE);
   if (GLenum error = mGl.glGetError(); error != GL_NO_ERROR)
     throw RenderError("BrickAtlas: cannot allocate a " + std::to_string(mTexels.x) + "x" + std::to_string(mTexels.y) +
-                      "x" + std::to_string(mTexels.z) + " R32F texture (GL error " + std::to_string(error) + ")");
+                      "x" + std::to_string(mTexels.z) + " texture (GL error " + std::to_string(error) + ")");
   mStaging.resize(size_t(brickEdge) * size_t(brickEdge) * size_t(brickEdge));
 }
 
@@ -49,7 +82,8 @@ glm::ivec3 BrickAtlas::slotOrigin(AtlasSlot slot) const {
 
 void BrickAtlas::upload(AtlasSlot slot, const store::Brick& brick) {
   const void* data = brick.data();
-  if (brick.type() != store::ValueType::F32) {
+  const TexelFormat texel = texelFormat(mType, mFormat);
+  if (brick.type() != store::ValueType::F32 && texel.type == GL_FLOAT) {
     store::dispatchType(brick.type(), [&](auto tag) {
       const auto* in = static_cast<const decltype(tag)*>(brick.data());
       for (size_t n = 0; n < mStaging.size(); ++n) mStaging[n] = float(in[n]);
@@ -58,8 +92,8 @@ void BrickAtlas::upload(AtlasSlot slot, const store::Brick& brick) {
   }
   const glm::ivec3 o = slotOrigin(slot);
   mTexture.bind(0);
-  mGl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-  mGl.glTexSubImage3D(GL_TEXTURE_3D, 0, o.x, o.y, o.z, mEdge, mEdge, mEdge, GL_RED, GL_FLOAT, data);
+  mGl.glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  mGl.glTexSubImage3D(GL_TEXTURE_3D, 0, o.x, o.y, o.z, mEdge, mEdge, mEdge, GL_RED, texel.type, data);
 }
 
 }  // namespace voxbrick::render

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -13,8 +14,15 @@
 
 namespace voxbrick::render {
 
-/// Slots are laid out in a grid inside one GL_R32F 3D texture (float, so that trilinear filtering keeps full
-/// precision: llvmpipe filters 8-bit textures in 8-bit fixed point). Bricks are converted to float on upload.
+/// How the atlas stores samples. Float keeps full precision through trilinear filtering on every driver; Native
+/// keeps the store's type (8/16-bit normalised, 32-bit float), a quarter or half the memory for integer stores,
+/// but llvmpipe filters 8-bit textures in 8-bit fixed point; Half is 16-bit float for any store.
+enum class AtlasFormat { Float, Native, Half };
+
+/// "float", "native", "half"; throws RenderInputError for anything else.
+AtlasFormat parseAtlasFormat(const std::string& text);
+
+/// Slots are laid out in a grid inside one 3D texture of the chosen format (default GL_R32F: see AtlasFormat).
 /// The number of slots is the GPU budget divided by the slot size, capped by what the volume can use and by
 /// GL_MAX_3D_TEXTURE_SIZE.
 ///
@@ -26,21 +34,29 @@ class BrickAtlas {
  public:
   /// `budgetBytes` of texture memory; `maxUsefulSlots` caps the slots (e.g. the number of bricks of the volume).
   /// Throws RenderInputError when the budget holds less than one slot.
-  BrickAtlas(const GlContext& context, int brickEdge, size_t budgetBytes, int maxUsefulSlots);
+  BrickAtlas(const GlContext& context, store::ValueType type, int brickEdge, size_t budgetBytes, int maxUsefulSlots,
+             AtlasFormat format = AtlasFormat::Float);
 
   AtlasSlots& slots() { return mSlots; }
-  /// Converts a decoded brick to float and copies it into `slot`.
+  /// Copies a decoded brick into `slot` (converting it to float first for the Float and Half formats).
   void upload(AtlasSlot slot, const store::Brick& brick);
+  /// What a texture fetch returns for a raw value v is v * valueScale() (normalised formats read v / 255 etc.).
+  double valueScale() const { return mValueScale; }
+  AtlasFormat format() const { return mFormat; }
   /// The texel origin of a slot (its first border sample).
   glm::ivec3 slotOrigin(AtlasSlot slot) const;
   /// 1 / texture size in texels, for normalising texel coordinates.
   glm::vec3 inverseSize() const { return 1.0f / glm::vec3(mTexels); }
   const Texture& texture() const { return mTexture; }
   int capacity() const { return mSlots.capacity(); }
-  size_t bytes() const { return size_t(mTexels.x) * size_t(mTexels.y) * size_t(mTexels.z) * sizeof(float); }
+  size_t bytes() const { return size_t(mTexels.x) * size_t(mTexels.y) * size_t(mTexels.z) * mTexelBytes; }
 
  private:
   const Gl& mGl;
+  store::ValueType mType;
+  AtlasFormat mFormat;
+  size_t mTexelBytes;
+  double mValueScale = 1;
   int mEdge;
   glm::ivec3 mGrid{1};    // slots per axis
   glm::ivec3 mTexels{1};  // texture size

@@ -52,12 +52,13 @@ std::string FrameStats::toJson() const {
   return j.dump(2);
 }
 
-VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes)
+VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes,
+                               AtlasFormat format)
     : mContext(context),
       mGl(context.gl()),
       mCache(std::move(cache)),
-      mAtlas(context, mCache->store()->brickEdge(), gpuBudgetBytes,
-             int(std::min<int64_t>(mCache->store()->level(0).bricksTotal(), 1 << 20))) {
+      mAtlas(context, mCache->store()->type(), mCache->store()->brickEdge(), gpuBudgetBytes,
+             int(std::min<int64_t>(mCache->store()->level(0).bricksTotal(), 1 << 20)), format) {
   mTransfer = Texture(mGl, GL_TEXTURE_1D);
   mTransfer.bind(1);
   mGl.glTexStorage1D(GL_TEXTURE_1D, 1, GL_RGBA32F, kTransferTableSize);
@@ -210,8 +211,9 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
   p.set(p.uniformLocation("uInvSpacing"), glm::vec3(1.0 / meta.spacing.x, 1.0 / meta.spacing.y, 1.0 / meta.spacing.z));
   p.set(p.uniformLocation("uHalfDims"), glm::vec3(0.5 * double(meta.dims.x), 0.5 * double(meta.dims.y),
                                                   0.5 * double(meta.dims.z)));
-  p.set(p.uniformLocation("uWindowLo"), float(lo));
-  p.set(p.uniformLocation("uWindowScale"), float(inverseWidth));
+  // The window in the units a texture fetch returns (normalised formats return raw * valueScale).
+  p.set(p.uniformLocation("uWindowLo"), float(lo * mAtlas.valueScale()));
+  p.set(p.uniformLocation("uWindowScale"), float(inverseWidth / mAtlas.valueScale()));
   p.set(p.uniformLocation("uStepOverReference"), float(step / referenceLength));
   p.set(p.uniformLocation("uEye"), glm::vec3(camera.eye));
   p.set(p.uniformLocation("uViewDir"), glm::vec3(n));

@@ -37,7 +37,8 @@ enum class RenderMode { Normal, Roofline };
 class VolumeRenderer {
  public:
   /// `context` must be current on this thread whenever the renderer is used. `gpuBudgetBytes` bounds the atlas.
-  VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes);
+  VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes,
+                 AtlasFormat format = AtlasFormat::Float);
   ~VolumeRenderer();
 
   /// Renders `scene`; throws RenderInputError for an invalid scene and RenderError for GL failures.

@@ -167,6 +167,38 @@ TEST(RendererAnalytic, ConstantSlabHasClosedFormTransmittance) {
   }
 }
 
+TEST(RendererAtlasFormat, NativeAndHalfFormatsStayCloseToFloat) {
+  ScratchDir dir;
+  // A smooth 8-bit volume (so that filtering precision, not noise, decides the difference).
+  const store::Vec3i n{40, 40, 40};
+  std::vector<uint8_t> values(size_t(n.volume()));
+  for (int64_t z = 0; z < n.z; ++z)
+    for (int64_t y = 0; y < n.y; ++y)
+      for (int64_t x = 0; x < n.x; ++x) {
+        const double r = std::sqrt(double((x - 20) * (x - 20) + (y - 20) * (y - 20) + (z - 20) * (z - 20)));
+        values[size_t(x + n.x * (y + n.y * z))] = uint8_t(std::lround(255 * std::exp(-r * r / 200.0)));
+      }
+  test::ArraySource<uint8_t> source(n, store::ValueType::U8, values);
+  store::PrepOptions options;
+  options.brickSize = 16;
+  options.writeVdb = false;
+  store::prepStore(source, dir / "u8", options);
+  auto s = store::BrickStore::open(dir / "u8");
+  const Scene scene = baseScene();
+  auto renderWith = [&](AtlasFormat format) {
+    auto cache = std::make_shared<store::BrickCache>(s, size_t(64) << 20, 1);
+    VolumeRenderer renderer(context(), cache, size_t(64) << 20, format);
+    return renderer.render(scene);
+  };
+  const ImageF full = renderWith(AtlasFormat::Float);
+  ASSERT_GT(meanBrightness(full), 0.01);
+  const ImageError native = compareImages(renderWith(AtlasFormat::Native), full);
+  const ImageError half = compareImages(renderWith(AtlasFormat::Half), full);
+  EXPECT_GT(native.psnr, 35.0) << "native 8-bit atlas: rmse " << native.rmse;
+  EXPECT_GT(half.psnr, 45.0) << "half atlas: rmse " << half.rmse;
+  std::cout << "8-bit native atlas vs float: " << native.psnr << " dB; half: " << half.psnr << " dB\n";
+}
+
 TEST(RendererCli, WritesPngAndStats) {
   ScratchDir dir;
   auto r = test::runVoxbrick("prep synthetic:sparse,n=64 --brick 16 -q -o " + (dir / "s").string());
