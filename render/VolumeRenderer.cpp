@@ -159,7 +159,13 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
   if (!(hi > lo)) hi = lo + 1;  // a constant volume: everything maps to 0
   const double inverseWidth = 1.0 / (hi - lo);
   const TransferFunction& tf = scene.transferFunction;
-  auto contributes = [&](float mn, float mx) { return tf.contributes((mn - lo) * inverseWidth, (mx - lo) * inverseWidth); };
+  // The GPU reads the transfer function from a table of kTransferTableSize texels with linear filtering, so a value
+  // within one texel of an opaque region picks up some of its opacity (most visibly at a step). The range test is
+  // widened by one texel so that skipping never drops what the GPU would draw.
+  const double texel = 1.0 / kTransferTableSize;
+  auto contributes = [&](float mn, float mx) {
+    return tf.contributes((mn - lo) * inverseWidth - texel, (mx - lo) * inverseWidth + texel);
+  };
 
   const OctreeTraversal traversal(store.octree(), meta.dims, B, meta.spacing);
   const TraversalResult visible = traversal.run(camera, frustum, contributes, {scene.skipEmpty, scene.cullFrustum});

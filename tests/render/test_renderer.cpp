@@ -126,6 +126,31 @@ TEST(RendererSkipping, SameImageWithFarFewerBricksOnASparseField) {
   EXPECT_LT(skipped.bricksPagedIn * 3, full.bricksPagedIn);
 }
 
+TEST(RendererSkipping, NeverDropsWhatTheTransferTableWouldDraw) {
+  // Half the volume sits just below the sparse preset's step at 0.02: exactly transparent for the piecewise-linear
+  // function, but the GPU's filtered table gives it some opacity. Skipping must keep those bricks.
+  ScratchDir dir;
+  const store::Vec3i n{32, 32, 32};
+  std::vector<float> values(size_t(n.volume()), 0.0f);
+  for (int64_t z = 0; z < n.z; ++z)
+    for (int64_t y = 0; y < n.y; ++y)
+      for (int64_t x = 0; x < 16; ++x) values[size_t(x + n.x * (y + n.y * z))] = 0.01998f;
+  test::ArraySource<float> source(n, store::ValueType::F32, values);
+  store::PrepOptions options;
+  options.brickSize = 8;
+  options.writeVdb = false;
+  store::prepStore(source, dir / "s", options);
+  auto s = store::BrickStore::open(dir / "s");
+  Scene scene = baseScene();
+  scene.transferFunction = TransferFunction::load("sparse");
+  scene.window = std::array<double, 2>{0.0, 1.0};
+  const ImageF skipped = renderStore(s, scene);
+  scene.skipEmpty = false;
+  const ImageF full = renderStore(s, scene);
+  ASSERT_GT(meanBrightness(full), 0.01) << "the near-step values should be visible";
+  expectClose(skipped, full, 1.0 / 255, "skipping-table");
+}
+
 TEST(RendererSlicers, VertexProgramAndCpuSlicerAgree) {
   ScratchDir dir;
   auto s = prep("synthetic:shells,n=40", dir / "s", 16);
