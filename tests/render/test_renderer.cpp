@@ -28,6 +28,18 @@ std::shared_ptr<const store::BrickStore> prep(const std::string& spec, const std
   return store::BrickStore::open(out);
 }
 
+/// A store of a known array (no VDB grid).
+template <typename T>
+std::shared_ptr<const store::BrickStore> prepArray(const store::Vec3i& n, store::ValueType type, std::vector<T> values,
+                                                   const std::filesystem::path& out, int brick) {
+  test::ArraySource<T> source(n, type, std::move(values));
+  store::PrepOptions options;
+  options.brickSize = brick;
+  options.writeVdb = false;
+  store::prepStore(source, out, options);
+  return store::BrickStore::open(out);
+}
+
 /// One context for the whole suite: creating a llvmpipe context costs more than most of these frames.
 GlContext& context() {
   static std::unique_ptr<GlContext> ctx = createContext(Backend::Auto);
@@ -135,12 +147,7 @@ TEST(RendererSkipping, NeverDropsWhatTheTransferTableWouldDraw) {
   for (int64_t z = 0; z < n.z; ++z)
     for (int64_t y = 0; y < n.y; ++y)
       for (int64_t x = 0; x < 16; ++x) values[size_t(x + n.x * (y + n.y * z))] = 0.01998f;
-  test::ArraySource<float> source(n, store::ValueType::F32, values);
-  store::PrepOptions options;
-  options.brickSize = 8;
-  options.writeVdb = false;
-  store::prepStore(source, dir / "s", options);
-  auto s = store::BrickStore::open(dir / "s");
+  auto s = prepArray(n, store::ValueType::F32, values, dir / "s", 8);
   Scene scene = baseScene();
   scene.transferFunction = TransferFunction::load("sparse");
   scene.window = std::array<double, 2>{0.0, 1.0};
@@ -165,12 +172,7 @@ TEST(RendererSlicers, VertexProgramAndCpuSlicerAgree) {
 TEST(RendererAnalytic, ConstantSlabHasClosedFormTransmittance) {
   ScratchDir dir;
   const store::Vec3i n{16, 16, 64};
-  test::ArraySource<float> source(n, store::ValueType::F32, std::vector<float>(size_t(n.volume()), 1.0f));
-  store::PrepOptions options;
-  options.brickSize = 16;
-  options.writeVdb = false;
-  store::prepStore(source, dir / "slab", options);
-  auto s = store::BrickStore::open(dir / "slab");
+  auto s = prepArray(n, store::ValueType::F32, std::vector<float>(size_t(n.volume()), 1.0f), dir / "slab", 16);
 
   const double alpha = 0.05;  // opacity per reference length (one voxel)
   Scene scene;
@@ -203,12 +205,7 @@ TEST(RendererAtlasFormat, NativeAndHalfFormatsStayCloseToFloat) {
         const double r = std::sqrt(double((x - 20) * (x - 20) + (y - 20) * (y - 20) + (z - 20) * (z - 20)));
         values[size_t(x + n.x * (y + n.y * z))] = uint8_t(std::lround(255 * std::exp(-r * r / 200.0)));
       }
-  test::ArraySource<uint8_t> source(n, store::ValueType::U8, values);
-  store::PrepOptions options;
-  options.brickSize = 16;
-  options.writeVdb = false;
-  store::prepStore(source, dir / "u8", options);
-  auto s = store::BrickStore::open(dir / "u8");
+  auto s = prepArray(n, store::ValueType::U8, values, dir / "u8", 16);
   const Scene scene = baseScene();
   auto renderWith = [&](AtlasFormat format) {
     auto cache = std::make_shared<store::BrickCache>(s, size_t(64) << 20, 1);
