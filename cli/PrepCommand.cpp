@@ -24,6 +24,9 @@ struct PrepArgs {
 };
 
 void runPrep(PrepArgs& a, CLI::App& cmd) {
+  // Installed first, so that an early Ctrl-C also ends in the clean-up path rather than a killed process.
+  std::signal(SIGINT, onInterrupt);
+  std::signal(SIGTERM, onInterrupt);
   store::SourceOptions so;
   if (!a.dims.empty()) {
     int64_t d[3];
@@ -52,8 +55,7 @@ void runPrep(PrepArgs& a, CLI::App& cmd) {
     std::fprintf(stderr, "prep: %s -> %s (brick %d, zstd %d)\n", info.description.c_str(), a.output.c_str(),
                  a.options.brickSize, a.options.zstdLevel);
 
-  std::signal(SIGINT, onInterrupt);
-  std::signal(SIGTERM, onInterrupt);
+  if (gInterrupted) throw store::StoreError("interrupted; nothing was written");
   Progress progress(a.quiet);
   auto summary = store::prepStore(*source, a.output, a.options, [&](const store::PrepProgress& p) {
     if (gInterrupted) throw store::StoreError("interrupted; nothing was written");

@@ -109,6 +109,15 @@ TEST(CliPrep, UnwritableOutputAndFullDiskLeaveNothingBehind) {
   expectOnly(dir.path(), {"v.raw"});
 }
 
+TEST(CliPrep, InterruptLeavesNothingBehind) {
+  ScratchDir dir;
+  // A 512^3 field takes seconds to convert; SIGINT half a second in must stop it cleanly.
+  auto r = runShell("(" + std::string(VOXBRICK_EXE) + " prep synthetic:blobs,n=512 -q -o " + (dir / "s").string() +
+                    " & pid=$!; sleep 0.5; kill -INT $pid; wait $pid)");
+  expectError(r, {"interrupted"});
+  expectOnly(dir.path(), {});
+}
+
 TEST(CliInfo, CorruptStoreFailsCleanly) {
   ScratchDir dir;
   auto r = runVoxbrick("prep synthetic:blobs,n=32 --brick 8 -q -o " + (dir / "s").string());
