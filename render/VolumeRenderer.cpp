@@ -215,6 +215,7 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
   p.set(p.uniformLocation("uTransfer"), 1);
   p.set(p.uniformLocation("uInvAtlasSize"), mAtlas.inverseSize());
   p.set(p.uniformLocation("uInvSpacing"), glm::vec3(1.0 / meta.spacing.x, 1.0 / meta.spacing.y, 1.0 / meta.spacing.z));
+  p.set(p.uniformLocation("uDims"), glm::vec3(double(meta.dims.x), double(meta.dims.y), double(meta.dims.z)));
   p.set(p.uniformLocation("uHalfDims"), glm::vec3(0.5 * double(meta.dims.x), 0.5 * double(meta.dims.y),
                                                   0.5 * double(meta.dims.z)));
   // The window in the units a texture fetch returns (normalised formats return raw * valueScale).
@@ -228,8 +229,18 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
   // Page and slice brick by brick, front to back; draw whenever the atlas is full of this batch's bricks.
   mGl.glBeginQuery(GL_SAMPLES_PASSED, mFragments.id());
   Batch batch;
-  for (const BrickDraw& draw : visible.bricks) {
+  // Where a brick lies on the volume's surface its box is pushed out by a quarter voxel, and the fragment program
+  // discards what lies outside the volume. The volume's outline in each slice is then decided per fragment by one
+  // test that does not depend on the bricking, instead of by the rasterised edges of whichever bricks touch the
+  // surface (whose endpoints, and so whose rounding, change with the brick size).
+  const glm::dvec3 margin(0.25 * meta.spacing.x, 0.25 * meta.spacing.y, 0.25 * meta.spacing.z);
+  for (const BrickDraw& visibleBrick : visible.bricks) {
     auto ts = Clock::now();
+    BrickDraw draw = visibleBrick;
+    for (int a = 0; a < 3; ++a) {
+      if (draw.box.min[a] <= box.min[a]) draw.box.min[a] = box.min[a] - margin[a];
+      if (draw.box.max[a] >= box.max[a]) draw.box.max[a] = box.max[a] + margin[a];
+    }
     // The vertex program decides plane membership in float, so it is given one extra plane each side (the
     // shader's half-open test then draws every plane exactly once); the CPU slicer uses the exact range.
     const PlaneIndexRange planes = scene.slicer == Slicer::Vertex ? slicerPlaneRange(draw.box.min, draw.box.max, n, step)

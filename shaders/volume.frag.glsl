@@ -3,7 +3,10 @@
 // length of this ray's segment between two planes, and emit premultiplied colour for front-to-back blending.
 //
 // vPayload.xyz = slot origin + 1 - brick start (voxels): adding it to the fragment's voxel coordinate gives the
-// atlas texel coordinate; the one-voxel border keeps every fetch inside the slot.
+// atlas texel coordinate; the one-voxel border keeps every fetch inside the slot. Bricks on the volume's surface
+// are drawn a quarter voxel larger; fragments outside the volume are discarded here, so that the volume's outline
+// does not depend on the bricking. Voxel coordinates are clamped to [0, n] before a fetch: within half a voxel
+// of the surface the value is the edge voxel's (clamp-to-edge) either way, and the fetch stays in the slot.
 
 in vec3 vWorld;
 flat in ivec4 vPayload;
@@ -13,6 +16,7 @@ uniform sampler1D uTransfer;
 uniform vec3 uInvAtlasSize;
 uniform vec3 uInvSpacing;        // 1 / voxel spacing
 uniform vec3 uHalfDims;          // n / 2: voxel coordinate of the world origin
+uniform vec3 uDims;              // n
 uniform float uWindowLo;         // the value window [lo, hi] as lo and 1 / (hi - lo)
 uniform float uWindowScale;
 uniform float uStepOverReference;  // plane spacing / reference length
@@ -22,11 +26,20 @@ uniform int uOrthographic;
 
 out vec4 fragColor;
 
-float sampleAt(vec3 texel) { return texture(uAtlas, texel * uInvAtlasSize).r; }
+float sampleAt(vec3 voxel) {
+  return texture(uAtlas, (clamp(voxel, vec3(0.0), uDims) + vec3(vPayload.xyz)) * uInvAtlasSize).r;
+}
 
 void main() {
-  const vec3 texel = vWorld * uInvSpacing + uHalfDims + vec3(vPayload.xyz);
-  const float value = sampleAt(texel);
+  const vec3 voxel = vWorld * uInvSpacing + uHalfDims;
+  // Half-open like the planes of a box: the face towards the eye belongs to the volume, the far face does not.
+  bool inside = true;
+  for (int a = 0; a < 3; ++a) {
+    inside = inside && (uViewDir[a] >= 0.0 ? (voxel[a] >= 0.0 && voxel[a] < uDims[a])
+                                           : (voxel[a] > 0.0 && voxel[a] <= uDims[a]));
+  }
+  if (!inside) discard;
+  const float value = sampleAt(voxel);
 #ifdef ROOFLINE
   fragColor = vec4(value);
   return;
@@ -43,9 +56,9 @@ void main() {
   vec3 color = classified.rgb;
 #ifdef SHADING
   // Central differences half a voxel each way: the samples stay inside the slot (whose border is one voxel).
-  const vec3 gradient = vec3(sampleAt(texel + vec3(0.5, 0, 0)) - sampleAt(texel - vec3(0.5, 0, 0)),
-                             sampleAt(texel + vec3(0, 0.5, 0)) - sampleAt(texel - vec3(0, 0.5, 0)),
-                             sampleAt(texel + vec3(0, 0, 0.5)) - sampleAt(texel - vec3(0, 0, 0.5))) * uInvSpacing;
+  const vec3 gradient = vec3(sampleAt(voxel + vec3(0.5, 0, 0)) - sampleAt(voxel - vec3(0.5, 0, 0)),
+                             sampleAt(voxel + vec3(0, 0.5, 0)) - sampleAt(voxel - vec3(0, 0.5, 0)),
+                             sampleAt(voxel + vec3(0, 0, 0.5)) - sampleAt(voxel - vec3(0, 0, 0.5))) * uInvSpacing;
   const float magnitude = length(gradient);
   if (magnitude > 1e-12) {
     const vec3 normal = -gradient / magnitude;
