@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <span>
 
 #include <nlohmann/json.hpp>
 
@@ -19,6 +20,7 @@ using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 constexpr int kTransferTableSize = 4096;
+constexpr size_t kPrefetchWindow = 256;  // bricks decoded ahead of the one being paged
 
 /// Vertex input of slice_cpu.vert.glsl.
 struct SliceVertex {
@@ -175,12 +177,20 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
   stats.bricksDrawn = visible.stats.bricksDrawn;
   stats.msTraversal = msSince(t);
 
-  // Decoding runs ahead on the cache's workers, in the order the bricks will be drawn.
+  // Decoding runs ahead on the cache's workers, in the order the bricks will be drawn, a window at a time: the
+  // cache's queue drops its oldest requests when full, and those would be the ones needed first.
   std::vector<store::BrickKey> keys;
   keys.reserve(visible.bricks.size());
   for (const BrickDraw& d : visible.bricks)
     if (!mAtlas.slots().resident(d.key)) keys.push_back(d.key);
-  mCache->prefetch(keys);
+  size_t prefetched = 0;
+  auto prefetchUpTo = [&](size_t end) {
+    end = std::min(end, keys.size());
+    if (end > prefetched) mCache->prefetch(std::span<const store::BrickKey>(keys).subspan(prefetched, end - prefetched));
+    prefetched = std::max(prefetched, end);
+  };
+  prefetchUpTo(kPrefetchWindow);
+  size_t paged = 0;
 
   // Target, state, uniforms.
   if (mTarget.width() != scene.width || mTarget.height() != scene.height)
@@ -258,6 +268,7 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
       acquired = mAtlas.slots().acquire(draw.key);
     }
     if (!acquired->resident) {
+      prefetchUpTo(++paged + kPrefetchWindow);
       mAtlas.upload(acquired->slot, *mCache->get(draw.key));
       stats.bricksPagedIn += 1;
       stats.bricksEvicted += acquired->evicted ? 1 : 0;

@@ -25,6 +25,8 @@ struct FrameStats {
   int64_t batches = 0;         ///< draw batches (more than one when the atlas cannot hold the frame's bricks)
   int64_t slices = 0;          ///< brick-plane polygons submitted
   int64_t fragments = 0;       ///< fragments shaded (GL_SAMPLES_PASSED): one volume sample each
+  /// Wall time of each phase on the calling thread. Drawing ends with a glFinish, but with several batches a
+  /// batch's GPU work may instead be waited for by the next batch's uploads and show up as paging.
   double msTraversal = 0, msPaging = 0, msSlicing = 0, msDrawing = 0, msReadback = 0, msTotal = 0;
   std::string toJson() const;
 };
