@@ -117,38 +117,4 @@ void addPrepCommand(CLI::App& app) {
   cmd->callback([args, cmd] { runPrep(*args, *cmd); });
 }
 
-template <typename T>
-void parseTriple(const std::string& text, const std::string& option, T out[3]) {
-  size_t start = 0;
-  for (int i = 0; i < 3; ++i) {
-    size_t end = text.find(',', start);
-    if ((end == std::string::npos) != (i == 2))
-      throw store::InputError(option + " '" + text + "': expected three comma-separated values");
-    std::string part = text.substr(start, end == std::string::npos ? std::string::npos : end - start);
-    try {
-      size_t used = 0;
-      if constexpr (std::is_integral_v<T>)
-        out[i] = static_cast<T>(std::stoll(part, &used));
-      else
-        out[i] = static_cast<T>(std::stod(part, &used));
-      if (used != part.size()) throw std::invalid_argument(part);
-    } catch (const std::exception&) {
-      throw store::InputError(option + " '" + text + "': '" + part + "' is not a number");
-    }
-    start = end + 1;
-  }
-}
-
-template void parseTriple<int64_t>(const std::string&, const std::string&, int64_t[3]);
-template void parseTriple<double>(const std::string&, const std::string&, double[3]);
-
-std::string formatBytes(double bytes) {
-  const char* units[] = {"B", "KB", "MB", "GB", "TB"};
-  int u = 0;
-  while (bytes >= 1000 && u < 4) bytes /= 1000, ++u;
-  char text[32];
-  std::snprintf(text, sizeof text, u == 0 ? "%.0f %s" : "%.1f %s", bytes, units[u]);
-  return text;
-}
-
 }  // namespace voxbrick::cli
