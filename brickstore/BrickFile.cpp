@@ -56,7 +56,7 @@ void OutputFile::close() {
 }
 
 BrickFileReader::BrickFileReader(const std::filesystem::path& path, ValueType type)
-    : mPath(path), mElementSize(valueSize(type)) {
+    : mPath(path), mType(type), mElementSize(valueSize(type)) {
   mFd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (mFd < 0) throw IoError(errnoMessage("cannot open " + path.string()));
 }
@@ -66,12 +66,16 @@ BrickFileReader::~BrickFileReader() {
 }
 
 BrickFileReader::BrickFileReader(BrickFileReader&& other) noexcept
-    : mPath(std::move(other.mPath)), mElementSize(other.mElementSize), mFd(std::exchange(other.mFd, -1)) {}
+    : mPath(std::move(other.mPath)),
+      mType(other.mType),
+      mElementSize(other.mElementSize),
+      mFd(std::exchange(other.mFd, -1)) {}
 
 BrickFileReader& BrickFileReader::operator=(BrickFileReader&& other) noexcept {
   if (this != &other) {
     if (mFd >= 0) ::close(mFd);
     mPath = std::move(other.mPath);
+    mType = other.mType;
     mElementSize = other.mElementSize;
     mFd = std::exchange(other.mFd, -1);
   }
@@ -99,6 +103,14 @@ void BrickFileReader::decode(const BrickRecord& record, const BrickKey& key, voi
     done += static_cast<size_t>(n);
   }
   decompressFrame(frame.data(), frame.size(), mElementSize, dst, bytes, mPath.string() + ": " + toString(key));
+}
+
+void BrickFileReader::read(const BrickRecord& record, const BrickKey& key, void* dst, size_t bytes,
+                           double background) const {
+  if (record.compressedSize != 0)
+    decode(record, key, dst, bytes);
+  else
+    fillValue(mType, background, dst, bytes / mElementSize);
 }
 
 void fillValue(ValueType type, double value, void* dst, size_t count) {

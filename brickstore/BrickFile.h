@@ -44,11 +44,14 @@ class BrickFileReader {
 
   /// Decodes the frame of `record` into dst (`bytes` bytes). `key` names the brick in errors.
   void decode(const BrickRecord& record, const BrickKey& key, void* dst, size_t bytes) const;
+  /// Like decode, but a brick that is not stored (size 0) is filled with `background` without I/O.
+  void read(const BrickRecord& record, const BrickKey& key, void* dst, size_t bytes, double background) const;
   uint64_t fileSize() const;
   const std::filesystem::path& path() const { return mPath; }
 
  private:
   std::filesystem::path mPath;
+  ValueType mType = ValueType::F32;
   size_t mElementSize = 1;
   int mFd = -1;
 };

@@ -128,12 +128,7 @@ const BrickRecord& BrickStore::record(const BrickKey& key) const {
 }
 
 void BrickStore::readBrick(const BrickKey& key, void* dst) const {
-  const BrickRecord& r = record(key);
-  const size_t e = static_cast<size_t>(brickEdge());
-  if (r.compressedSize == 0)
-    fillValue(mMeta.type, mMeta.background, dst, e * e * e);
-  else
-    mFile->reader.decode(r, key, dst, brickBytes());
+  mFile->reader.read(record(key), key, dst, brickBytes(), mMeta.background);
 }
 
 }  // namespace voxbrick::store

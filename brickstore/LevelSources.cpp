@@ -32,10 +32,7 @@ void StoredLevelSource::loadSlab(int64_t kz) {
     const int64_t bi = b % nb.x, bj = b / nb.x;
     const BrickRecord& rec = mLevel.records[static_cast<size_t>(b + nb.x * nb.y * kz)];
     BrickKey key{mLevelIndex, static_cast<uint32_t>(bi), static_cast<uint32_t>(bj), static_cast<uint32_t>(kz)};
-    if (rec.compressedSize != 0)
-      mFile.decode(rec, key, brick.data(), brickBytes);
-    else
-      fillValue(mInfo.type, mInfo.background, brick.data(), static_cast<size_t>(E * E * E));
+    mFile.read(rec, key, brick.data(), brickBytes, mInfo.background);
     const int64_t wx = std::min(B, n.x - bi * B), wy = std::min(B, n.y - bj * B), wz = std::min(B, n.z - kz * B);
     for (int64_t c = 0; c < wz; ++c)
       for (int64_t yb = 0; yb < wy; ++yb) {

@@ -5,24 +5,15 @@
 #include <openvdb/tools/Dense.h>
 
 #include <cstdio>
-#include <mutex>
 
 #include "brickstore/Errors.h"
+#include "brickstore/OpenVdbInit.h"
 
 namespace voxbrick::store {
 
 struct VdbChunkWriter::Impl {
   openvdb::FloatGrid::Ptr grid;
 };
-
-namespace {
-
-void initializeOpenVdb() {
-  static std::once_flag once;
-  std::call_once(once, [] { openvdb::initialize(); });
-}
-
-}  // namespace
 
 int64_t VdbChunkWriter::chunkBytes(const Vec3i& dims, int64_t slices) {
   // A dense float leaf holds 512 values in 2 KiB plus its mask and node overhead (about 4.2 bytes a voxel), and

@@ -3,7 +3,6 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <mutex>
 
 #include <openvdb/io/Stream.h>
 #include <openvdb/openvdb.h>
@@ -12,17 +11,13 @@
 #include <tbb/parallel_for.h>
 
 #include "brickstore/Errors.h"
+#include "brickstore/OpenVdbInit.h"
 #include "brickstore/Sources.h"
 
 namespace voxbrick::store {
 namespace {
 
 using DenseSlab = openvdb::tools::Dense<float, openvdb::tools::LayoutXYZ>;  // x fastest, as readSlices delivers
-
-void initializeOpenVdb() {
-  static std::once_flag once;
-  std::call_once(once, [] { openvdb::initialize(); });
-}
 
 /// The library's message, kept to one short printable line: a corrupt file can put arbitrary bytes into it.
 std::string printable(const char* what) {

@@ -6,16 +6,8 @@
 #include "render/RenderErrors.h"
 
 namespace voxbrick::render {
-namespace {
 
-/// GL internal format, upload type and bytes per texel for a store type in an atlas format.
-struct TexelFormat {
-  GLenum internal, type;
-  size_t bytes;
-  double valueScale;
-};
-
-TexelFormat texelFormat(store::ValueType type, AtlasFormat format) {
+BrickAtlas::TexelFormat BrickAtlas::texelFormat(store::ValueType type, AtlasFormat format) {
   if (format == AtlasFormat::Float) return {GL_R32F, GL_FLOAT, 4, 1.0};
   if (format == AtlasFormat::Half) return {GL_R16F, GL_FLOAT, 2, 1.0};
   switch (type) {
@@ -26,6 +18,8 @@ TexelFormat texelFormat(store::ValueType type, AtlasFormat format) {
   }
   return {GL_R32F, GL_FLOAT, 4, 1.0};
 }
+
+namespace {
 
 int slotCapacity(int edge, size_t texelBytes, size_t budgetBytes, int maxUsefulSlots) {
   const size_t slotBytes = size_t(edge) * size_t(edge) * size_t(edge) * texelBytes;
@@ -48,12 +42,10 @@ AtlasFormat parseAtlasFormat(const std::string& text) {
 BrickAtlas::BrickAtlas(const GlContext& context, store::ValueType type, int brickEdge, size_t budgetBytes,
                        int maxUsefulSlots, AtlasFormat format)
     : mGl(context.gl()),
-      mType(type),
       mFormat(format),
-      mTexelBytes(texelFormat(type, format).bytes),
-      mValueScale(texelFormat(type, format).valueScale),
+      mTexel(texelFormat(type, format)),
       mEdge(brickEdge),
-      mSlots(slotCapacity(brickEdge, mTexelBytes, budgetBytes, maxUsefulSlots)) {
+      mSlots(slotCapacity(brickEdge, mTexel.bytes, budgetBytes, maxUsefulSlots)) {
   const int perAxis = std::max(1, context.limits().max3DTextureSize / brickEdge);
   const int want = mSlots.capacity();
   mGrid.x = std::min(want, perAxis);
@@ -64,7 +56,7 @@ BrickAtlas::BrickAtlas(const GlContext& context, store::ValueType type, int bric
 
   mTexture = Texture(mGl, GL_TEXTURE_3D);
   mTexture.bind(0);
-  mGl.glTexStorage3D(GL_TEXTURE_3D, 1, texelFormat(type, format).internal, mTexels.x, mTexels.y, mTexels.z);
+  mGl.glTexStorage3D(GL_TEXTURE_3D, 1, mTexel.internal, mTexels.x, mTexels.y, mTexels.z);
   mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
   mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
   for (GLenum wrap : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
@@ -82,8 +74,7 @@ glm::ivec3 BrickAtlas::slotOrigin(AtlasSlot slot) const {
 
 void BrickAtlas::upload(AtlasSlot slot, const store::Brick& brick) {
   const void* data = brick.data();
-  const TexelFormat texel = texelFormat(mType, mFormat);
-  if (brick.type() != store::ValueType::F32 && texel.type == GL_FLOAT) {
+  if (brick.type() != store::ValueType::F32 && mTexel.type == GL_FLOAT) {
     store::dispatchType(brick.type(), [&](auto tag) {
       const auto* in = static_cast<const decltype(tag)*>(brick.data());
       for (size_t n = 0; n < mStaging.size(); ++n) mStaging[n] = float(in[n]);
@@ -93,7 +84,7 @@ void BrickAtlas::upload(AtlasSlot slot, const store::Brick& brick) {
   const glm::ivec3 o = slotOrigin(slot);
   mTexture.bind(0);
   mGl.glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  mGl.glTexSubImage3D(GL_TEXTURE_3D, 0, o.x, o.y, o.z, mEdge, mEdge, mEdge, GL_RED, texel.type, data);
+  mGl.glTexSubImage3D(GL_TEXTURE_3D, 0, o.x, o.y, o.z, mEdge, mEdge, mEdge, GL_RED, mTexel.type, data);
 }
 
 }  // namespace voxbrick::render

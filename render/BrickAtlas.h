@@ -41,7 +41,7 @@ class BrickAtlas {
   /// Copies a decoded brick into `slot` (converting it to float first for the Float and Half formats).
   void upload(AtlasSlot slot, const store::Brick& brick);
   /// What a texture fetch returns for a raw value v is v * valueScale() (normalised formats read v / 255 etc.).
-  double valueScale() const { return mValueScale; }
+  double valueScale() const { return mTexel.valueScale; }
   AtlasFormat format() const { return mFormat; }
   /// The texel origin of a slot (its first border sample).
   glm::ivec3 slotOrigin(AtlasSlot slot) const;
@@ -49,14 +49,20 @@ class BrickAtlas {
   glm::vec3 inverseSize() const { return 1.0f / glm::vec3(mTexels); }
   const Texture& texture() const { return mTexture; }
   int capacity() const { return mSlots.capacity(); }
-  size_t bytes() const { return size_t(mTexels.x) * size_t(mTexels.y) * size_t(mTexels.z) * mTexelBytes; }
+  size_t bytes() const { return size_t(mTexels.x) * size_t(mTexels.y) * size_t(mTexels.z) * mTexel.bytes; }
 
  private:
   const Gl& mGl;
-  store::ValueType mType;
+  /// GL internal format, upload type, bytes per texel and value scale of the chosen format.
+  struct TexelFormat {
+    GLenum internal, type;
+    size_t bytes;
+    double valueScale;
+  };
+  static TexelFormat texelFormat(store::ValueType type, AtlasFormat format);
+
   AtlasFormat mFormat;
-  size_t mTexelBytes;
-  double mValueScale = 1;
+  TexelFormat mTexel;
   int mEdge;
   glm::ivec3 mGrid{1};    // slots per axis
   glm::ivec3 mTexels{1};  // texture size

@@ -56,8 +56,7 @@ std::string FrameStats::toJson() const {
 
 VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes,
                                AtlasFormat format)
-    : mContext(context),
-      mGl(context.gl()),
+    : mGl(context.gl()),
       mCache(std::move(cache)),
       mAtlas(context, mCache->store()->type(), mCache->store()->brickEdge(), gpuBudgetBytes,
              int(std::min<int64_t>(mCache->store()->level(0).bricksTotal(), 1 << 20)), format) {

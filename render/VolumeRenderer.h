@@ -53,7 +53,6 @@ class VolumeRenderer {
   void drawBatch(Batch& batch, const Scene& scene, FrameStats& stats);
   const Program& program(Slicer slicer, bool shading, bool roofline);
 
-  GlContext& mContext;
   const Gl& mGl;
   std::shared_ptr<store::BrickCache> mCache;
   BrickAtlas mAtlas;

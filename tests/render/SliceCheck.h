@@ -111,6 +111,18 @@ inline SliceCase randomSliceCase(std::mt19937_64& rng, const glm::dvec3& n) {
 }
 
 /// A uniformly distributed random unit normal.
+/// The range of plane distances dot(n, x) over the face x = c.boxMax.x (which a +x neighbour shares), so that a
+/// plane through that face can be chosen.
+inline void maxXFaceDistanceRange(const SliceCase& c, double& lo, double& hi) {
+  lo = 1e300, hi = -1e300;
+  for (int corner = 0; corner < 4; ++corner) {
+    const double v = glm::dot(c.n, glm::dvec3(c.boxMax.x, corner & 1 ? c.boxMax.y : c.boxMin.y,
+                                              corner & 2 ? c.boxMax.z : c.boxMin.z));
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+  }
+}
+
 inline glm::dvec3 randomNormal(std::mt19937_64& rng) {
   std::normal_distribution<double> gauss(0, 1);
   glm::dvec3 n;

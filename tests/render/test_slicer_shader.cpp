@@ -312,13 +312,8 @@ TEST(SlicerShader, NeighbouringBoxesShareFaceVerticesBitForBit) {
       SliceCase b = a;
       b.boxMin.x = a.boxMax.x;
       b.boxMax.x = roundToFloat(a.boxMax.x + (a.boxMax.x - a.boxMin.x));
-      double lo = 1e300, hi = -1e300;
-      for (int corner = 0; corner < 4; ++corner) {
-        const double v = glm::dot(a.n, glm::dvec3(a.boxMax.x, corner & 1 ? a.boxMax.y : a.boxMin.y,
-                                                  corner & 2 ? a.boxMax.z : a.boxMin.z));
-        lo = std::min(lo, v);
-        hi = std::max(hi, v);
-      }
+      double lo, hi;
+      test::maxXFaceDistanceRange(a, lo, hi);
       a.d = b.d = roundToFloat(lo + (hi - lo) * unit(rng));
       cases.push_back(a);
       cases.push_back(b);

@@ -156,13 +156,8 @@ TEST(Slicing, MirrorGivesNeighboursBitIdenticalSharedVertices) {
     b.boxMin.x = a.boxMax.x;
     b.boxMax.x = a.boxMax.x + (a.boxMax.x - a.boxMin.x);
     // A plane through the shared face x = a.boxMax.x.
-    double lo = 1e300, hi = -1e300;
-    for (int k = 0; k < 4; ++k) {
-      const double v = glm::dot(a.n, glm::dvec3(a.boxMax.x, k & 1 ? a.boxMax.y : a.boxMin.y,
-                                                k & 2 ? a.boxMax.z : a.boxMin.z));
-      lo = std::min(lo, v);
-      hi = std::max(hi, v);
-    }
+    double lo, hi;
+    test::maxXFaceDistanceRange(a, lo, hi);
     a.d = b.d = lo + (hi - lo) * unit(rng);
     const auto pa = rezkSalamaPolygon(a.boxMin, a.boxMax, a.n, a.d);
     const auto pb = rezkSalamaPolygon(b.boxMin, b.boxMax, b.n, b.d);
