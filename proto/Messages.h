@@ -1,0 +1,141 @@
+// The voxbrick wire protocol: message types, their fields, limits and error codes (the spec is PROTOCOL.md).
+// This folder knows nothing of rendering or sockets: it turns messages into bytes and bytes into messages, checking
+// every length and count against the limits before anything is allocated.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <variant>
+#include <vector>
+
+namespace voxbrick::proto {
+
+/// First four bytes of every message: 'V' 'X' 'B' 'K'.
+constexpr uint32_t kMagic = 0x4B425856;  // read as a little-endian uint32
+constexpr uint16_t kVersion = 1;
+/// Every message starts with a fixed header: magic u32, version u16, type u16, request id u32, body length u32.
+/// All integers on the wire are little-endian.
+constexpr size_t kHeaderBytes = 16;
+
+enum class MessageType : uint16_t {
+  Hello = 1,         ///< client -> server: first message of a session
+  Capabilities = 2,  ///< server -> client: answer to Hello
+  ListDatasets = 3,  ///< client -> server
+  DatasetList = 4,   ///< server -> client
+  OpenDataset = 5,   ///< client -> server: selects the session's dataset
+  DatasetInfo = 6,   ///< server -> client: its metadata
+  Render = 7,        ///< client -> server: one frame of the open dataset
+  Frame = 8,         ///< server -> client: the rendered frame
+  Error = 9,         ///< server -> client: a request failed (the session goes on unless the code says otherwise)
+  GetStats = 10,     ///< client -> server
+  Stats = 11,        ///< server -> client
+  Goodbye = 12,      ///< either way: the sender closes the session
+};
+
+/// Error codes carried by an Error message. Values are stable across versions.
+enum class ErrorCode : uint16_t {
+  BadMagic = 1,            ///< header does not start with the magic (the server closes the connection)
+  UnsupportedVersion = 2,  ///< header version not supported (closes)
+  UnknownType = 3,         ///< message type not known (session goes on)
+  TooLarge = 4,            ///< body length above the limit (closes: the stream cannot be resynchronised)
+  Malformed = 5,           ///< body does not decode: short, trailing bytes, bad enum, string or count over limit
+  UnexpectedMessage = 6,   ///< valid message in the wrong state (e.g. Render before Hello or before OpenDataset)
+  UnknownDataset = 7,      ///< OpenDataset names no configured dataset
+  InvalidScene = 8,        ///< the scene JSON is invalid or out of range (message names the key)
+  LimitExceeded = 9,       ///< image size, queued requests or sessions above the configured limit
+  Superseded = 10,         ///< a queued Render was replaced by a newer one of the same session (latest wins)
+  Internal = 11,           ///< the server failed (render or store error); other sessions are unaffected
+  ShuttingDown = 12,       ///< the server is stopping
+  Timeout = 13,            ///< idle or read timeout (the server closes)
+};
+const char* errorCodeName(ErrorCode code);
+
+/// Frame payload encodings.
+enum class Encoding : uint8_t {
+  RawRgba8 = 0,   ///< width*height*4 bytes, rows top to bottom
+  Png = 1,        ///< an RGBA8 PNG file
+  ZstdRgba8 = 2,  ///< one zstd frame that decompresses to RawRgba8
+};
+
+struct Hello {
+  uint16_t minVersion = kVersion, maxVersion = kVersion;
+  std::string client;  ///< free text, e.g. "voxbrick-request 0.1"
+};
+struct Capabilities {
+  uint16_t version = kVersion;  ///< the version the session will speak
+  std::string server;           ///< free text
+  uint32_t maxMessageBytes = 0;
+  uint32_t maxImageSide = 0;
+  uint32_t maxQueuedPerSession = 0;
+  std::vector<Encoding> encodings;
+};
+struct ListDatasets {};
+struct DatasetList {
+  std::vector<std::string> names;
+};
+struct OpenDataset {
+  std::string name;
+};
+struct DatasetInfo {
+  std::string name;
+  std::string metaJson;  ///< the store's metadata as `voxbrick info --json` prints it
+};
+struct RenderRequest {
+  Encoding encoding = Encoding::Png;
+  std::string sceneJson;  ///< the scene schema of `voxbrick render --scene`
+};
+struct Frame {
+  uint32_t width = 0, height = 0;
+  Encoding encoding = Encoding::Png;
+  std::string statsJson;         ///< per-frame statistics (render FrameStats plus queue and encode times)
+  std::vector<uint8_t> payload;  ///< the image in `encoding`
+};
+struct Error {
+  ErrorCode code = ErrorCode::Internal;
+  std::string message;  ///< names the problem
+};
+struct GetStats {};
+struct Stats {
+  std::string json;  ///< server statistics
+};
+struct Goodbye {};
+
+using Message = std::variant<Hello, Capabilities, ListDatasets, DatasetList, OpenDataset, DatasetInfo, RenderRequest,
+                             Frame, Error, GetStats, Stats, Goodbye>;
+MessageType messageType(const Message& message);
+
+struct Header {
+  uint16_t version = kVersion;
+  MessageType type = MessageType::Hello;
+  uint32_t requestId = 0;  ///< chosen by the client; replies carry the id of the request they answer
+  uint32_t bodyBytes = 0;
+};
+
+/// Limits checked while decoding, before any allocation.
+struct Limits {
+  uint32_t maxBodyBytes = 64u << 20;  ///< a header announcing more is TooLarge
+  uint32_t maxStringBytes = 1u << 20;
+  uint32_t maxListCount = 4096;
+};
+
+/// A decoding failure: the code to send back and a message naming the problem.
+class ProtocolError : public std::runtime_error {
+ public:
+  ProtocolError(ErrorCode code, const std::string& message) : std::runtime_error(message), mCode(code) {}
+  ErrorCode code() const { return mCode; }
+
+ private:
+  ErrorCode mCode;
+};
+
+/// The whole message (header and body) as bytes.
+std::vector<uint8_t> encode(const Message& message, uint32_t requestId);
+/// Parses the fixed header. Throws ProtocolError: BadMagic, UnsupportedVersion, TooLarge (bodyBytes above
+/// limits.maxBodyBytes). An unknown type is not an error here (decodeBody reports it), so the body can be skipped.
+Header decodeHeader(std::span<const uint8_t, kHeaderBytes> bytes, const Limits& limits);
+/// Parses a body of `header.type`. Throws ProtocolError: UnknownType, Malformed (naming the field).
+Message decodeBody(const Header& header, std::span<const uint8_t> body, const Limits& limits);
+
+}  // namespace voxbrick::proto
