@@ -21,6 +21,7 @@ struct RenderArgs {
   double fov = 0, step = 0;
   bool ortho = false, noSkip = false, noCull = false, shading = false, quiet = false;
   int64_t gpuBudgetMB = 1024, hostBudgetMB = 1024;
+  int subBlock = -1;
 };
 
 std::string readText(const std::string& path) {
@@ -76,6 +77,7 @@ render::Scene buildScene(const RenderArgs& a, const CLI::App& cmd) {
   if (a.noSkip) s.skipEmpty = false;
   if (a.noCull) s.cullFrustum = false;
   if (a.shading) s.shading = true;
+  if (a.subBlock >= 0) s.subBlock = a.subBlock;
   if (!a.slicer.empty()) s.slicer = a.slicer == "cpu" ? render::Slicer::Cpu : render::Slicer::Vertex;
   s.validate();
   return s;
@@ -130,6 +132,8 @@ void addRenderCommand(CLI::App& app) {
       ->check(CLI::IsMember({"vertex", "cpu"}));
   cmd->add_flag("--no-skip", args->noSkip, "draw bricks the transfer function makes empty");
   cmd->add_flag("--no-cull", args->noCull, "draw bricks outside the view frustum");
+  cmd->add_option("--sub-block", args->subBlock,
+                  "skip empty sub-blocks of N voxels inside bricks (a power of two; 0 draws whole bricks)");
   cmd->add_flag("--shading", args->shading, "gradient (central differences) and Phong headlight shading");
   cmd->add_option("--gpu-budget", args->gpuBudgetMB, "MB of GPU memory for the brick atlas")
       ->capture_default_str()->check(CLI::PositiveNumber);

@@ -128,6 +128,7 @@ namespace voxbrick::render {
   X(PFNGLPROGRAMUNIFORM1IVPROC, glProgramUniform1iv)                         \
   X(PFNGLPROGRAMUNIFORM1FPROC, glProgramUniform1f)                           \
   X(PFNGLPROGRAMUNIFORM1FVPROC, glProgramUniform1fv)                         \
+  X(PFNGLPROGRAMUNIFORM2FPROC, glProgramUniform2f)                           \
   X(PFNGLPROGRAMUNIFORM3FPROC, glProgramUniform3f)                           \
   X(PFNGLPROGRAMUNIFORM4FPROC, glProgramUniform4f)                           \
   X(PFNGLPROGRAMUNIFORMMATRIX4FVPROC, glProgramUniformMatrix4fv)             \

@@ -216,6 +216,9 @@ GLint Program::requireUniform(const char* name) const {
 
 void Program::set(GLint location, int value) const { gl()->glProgramUniform1i(id(), location, value); }
 void Program::set(GLint location, float value) const { gl()->glProgramUniform1f(id(), location, value); }
+void Program::set(GLint location, const glm::vec2& value) const {
+  gl()->glProgramUniform2f(id(), location, value.x, value.y);
+}
 void Program::set(GLint location, const glm::vec3& value) const {
   gl()->glProgramUniform3f(id(), location, value.x, value.y, value.z);
 }

@@ -164,6 +164,7 @@ class Program : public detail::GlName<detail::deleteProgram> {
   /// Setters for one uniform; a location of -1 is ignored, as GL does.
   void set(GLint location, int value) const;
   void set(GLint location, float value) const;
+  void set(GLint location, const glm::vec2& value) const;
   void set(GLint location, const glm::vec3& value) const;
   void set(GLint location, const glm::vec4& value) const;
   void set(GLint location, const glm::mat4& value) const;

@@ -58,7 +58,7 @@ Scene Scene::fromJson(const std::string& text, const std::string& what) {
   }
   if (!j.is_object()) throw RenderInputError(what + ": a scene must be a JSON object");
   static const char* kKeys[] = {"camera", "size", "transfer_function", "step", "background", "window",
-                                "skip_empty", "cull", "slicer", "shading"};
+                                "skip_empty", "cull", "slicer", "shading", "sub_block"};
   for (auto it = j.begin(); it != j.end(); ++it)
     if (std::find(std::begin(kKeys), std::end(kKeys), it.key()) == std::end(kKeys))
       throw RenderInputError(what + ": unknown key '" + it.key() + "'");
@@ -120,6 +120,12 @@ Scene Scene::fromJson(const std::string& text, const std::string& what) {
       throw RenderInputError(what + ": 'slicer' must be \"vertex\" or \"cpu\"");
   }
   if (j.contains("shading")) s.shading = boolean(j["shading"], "shading", what);
+  if (j.contains("sub_block")) {
+    const double v = number(j["sub_block"], "sub_block", what);
+    if (!(v >= 0 && v <= kMaxSubBlock) || v != std::floor(v))
+      throw RenderInputError(what + ": 'sub_block' must be 0 or a power of two up to " + std::to_string(kMaxSubBlock));
+    s.subBlock = int(v);
+  }
   s.validate();
   return s;
 }
@@ -137,6 +143,9 @@ void Scene::validate() const {
     throw RenderInputError("window [" + std::to_string((*window)[0]) + ", " + std::to_string((*window)[1]) +
                            "] must have hi > lo");
   if (!(camera.fovY > 0 && camera.fovY <= 179)) throw RenderInputError("fov must be in (0, 179] degrees");
+  if (subBlock != 0 && (subBlock < 2 || subBlock > kMaxSubBlock || (subBlock & (subBlock - 1)) != 0))
+    throw RenderInputError("sub-block " + std::to_string(subBlock) + " must be 0 (whole bricks) or a power of two in "
+                           "[2, " + std::to_string(kMaxSubBlock) + "]");
 }
 
 std::string Scene::toJson() const {
@@ -159,7 +168,8 @@ std::string Scene::toJson() const {
             {"skip_empty", skipEmpty},
             {"cull", cullFrustum},
             {"slicer", slicer == Slicer::Vertex ? "vertex" : "cpu"},
-            {"shading", shading}};
+            {"shading", shading},
+            {"sub_block", subBlock}};
   if (window) j["window"] = json::array({(*window)[0], (*window)[1]});
   return j.dump(2);
 }

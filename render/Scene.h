@@ -31,6 +31,7 @@ struct CameraSpec {
 /// Everything a frame depends on besides the store.
 struct Scene {
   static constexpr int kMaxImageSide = 8192;
+  static constexpr int kMaxSubBlock = 256;
 
   CameraSpec camera;
   int width = 512, height = 512;
@@ -44,11 +45,15 @@ struct Scene {
   bool cullFrustum = true;
   Slicer slicer = Slicer::Vertex;
   bool shading = false;
+  /// Empty-space skipping inside bricks: bricks are drawn as boxes of sub-blocks of this many voxels per edge whose
+  /// value range the transfer function does not reject. 0 (or anything not below the store's brick size) draws
+  /// whole bricks. A power of two.
+  int subBlock = 0;
 
   /// Parses a scene JSON object; absent keys keep their defaults. Throws RenderInputError naming `what` and the
   /// key. Keys: camera {orbit: [az, el, dist] | eye, center, up; fov; orthographic}, size [w, h],
   /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b],
-  /// window [lo, hi], skip_empty, cull, slicer ("vertex" | "cpu"), shading.
+  /// window [lo, hi], skip_empty, cull, slicer ("vertex" | "cpu"), shading, sub_block.
   static Scene fromJson(const std::string& text, const std::string& what);
   /// Throws RenderInputError for values out of range (size, step, background, window).
   void validate() const;

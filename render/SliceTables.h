@@ -78,28 +78,34 @@ inline constexpr const char* kSliceNormalUniform = "uPlaneNormal";
 inline constexpr const char* kSlicePlaneIncrUniform = "uPlaneIncr";
 inline constexpr const char* kSliceViewProjUniform = "uViewProj";
 
-/// One instance of the slicer draw: a world-space box, a run of planes, and four ints passed through untouched to
-/// the fragment stage as flat ivec4 vPayload (the atlas slot, for instance). The instance's vertices
-/// [12 * i, 12 * i + 12) are the polygon of plane i: dot(n, x) = planeDistance + (firstPlane + i) * uPlaneIncr. For
-/// DESIGN's globally spaced planes set planeDistance = 0 and firstPlane = the global index k of the first plane
-/// (slicerPlaneRange(...).begin): plane k then has the same float distance in every brick. A draw of 12 vertices per
-/// instance slices each box once, 12 * N vertices N times; planes outside the half-open slab [front, back) of the
-/// box (a plane through its back face included) collapse to a point. All five attributes have divisor 1.
+/// One instance of the slicer draw: a world-space box, a run of planes, and ints passed through untouched to the
+/// fragment stage as flat varyings (the atlas slot and the voxels the box owns, for instance). The instance's
+/// vertices [12 * i, 12 * i + 12) are the polygon of plane i: dot(n, x) = planeDistance + (firstPlane + i) *
+/// uPlaneIncr. For DESIGN's globally spaced planes set planeDistance = 0 and firstPlane = the global index k of the
+/// first plane (slicerPlaneRange(...).begin): plane k then has the same float distance in every brick. A draw of 12
+/// vertices per instance slices each box once, 12 * N vertices N times; planes outside the half-open slab
+/// [front, back) of the box (a plane through its back face included) collapse to a point. All seven attributes
+/// have divisor 1.
 struct SliceInstance {
   glm::vec3 boxMin;     ///< location 0, 3 x GL_FLOAT
   glm::vec3 boxMax;     ///< location 1, 3 x GL_FLOAT
   float planeDistance;  ///< location 2, 1 x GL_FLOAT: added to every plane's distance (0 for global planes)
   glm::ivec4 payload;   ///< location 3, 4 x GL_INT through glVertexAttribIPointer
   int32_t firstPlane;   ///< location 4, 1 x GL_INT through glVertexAttribIPointer: global index of plane 0
+  glm::ivec3 ownLo;     ///< location 5, 3 x GL_INT: first voxel the box owns (flat vOwnLo)
+  glm::ivec3 ownHi;     ///< location 6, 3 x GL_INT: one past the last voxel it owns (flat vOwnHi)
 };
 inline constexpr int kSliceBoxMinLocation = 0;
 inline constexpr int kSliceBoxMaxLocation = 1;
 inline constexpr int kSlicePlaneDistanceLocation = 2;
 inline constexpr int kSlicePayloadLocation = 3;
 inline constexpr int kSliceFirstPlaneLocation = 4;
-static_assert(sizeof(SliceInstance) == 48, "SliceInstance is tightly packed: 3 + 3 + 1 floats, 4 + 1 ints");
+inline constexpr int kSliceOwnLoLocation = 5;
+inline constexpr int kSliceOwnHiLocation = 6;
+static_assert(sizeof(SliceInstance) == 72, "SliceInstance is tightly packed: 3 + 3 + 1 floats, 4 + 1 + 3 + 3 ints");
 static_assert(offsetof(SliceInstance, boxMax) == 12 && offsetof(SliceInstance, planeDistance) == 24 &&
-                  offsetof(SliceInstance, payload) == 28 && offsetof(SliceInstance, firstPlane) == 44,
+                  offsetof(SliceInstance, payload) == 28 && offsetof(SliceInstance, firstPlane) == 44 &&
+                  offsetof(SliceInstance, ownLo) == 48 && offsetof(SliceInstance, ownHi) == 60,
               "SliceInstance offsets changed");
 
 namespace detail {

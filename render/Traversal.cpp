@@ -36,13 +36,12 @@ OctreeTraversal::OctreeTraversal(const store::MinMaxOctree& octree, const store:
                            "x" + std::to_string(expected.y) + "x" + std::to_string(expected.z));
 }
 
-Box OctreeTraversal::voxelBox(const store::Vec3i& lo, const store::Vec3i& hi) const {
-  // Every box edge comes from this one expression, so neighbouring bricks and nodes share faces bit for bit.
+Box voxelSpanBox(const store::Vec3i& lo, const store::Vec3i& hi, const store::Vec3i& dims,
+                 const store::Vec3d& spacing) {
   Box box;
   for (int a = 0; a < 3; ++a) {
-    double half = 0.5 * static_cast<double>(mDims[a]);
-    box.min[a] = (static_cast<double>(lo[a]) - half) * mSpacing[a];
-    box.max[a] = (static_cast<double>(hi[a]) - half) * mSpacing[a];
+    box.min[a] = voxelFace(lo[a], dims[a], spacing[a]);
+    box.max[a] = voxelFace(hi[a], dims[a], spacing[a]);
   }
   return box;
 }
@@ -54,7 +53,7 @@ Box OctreeTraversal::nodeBox(int d, int64_t i, int64_t j, int64_t k) const {
     lo[a] *= mBrickSize;
     hi[a] = std::min(hi[a] * mBrickSize, mDims[a]);
   }
-  return voxelBox(lo, hi);
+  return voxelSpanBox(lo, hi, mDims, mSpacing);
 }
 
 Box OctreeTraversal::brickBox(int64_t i, int64_t j, int64_t k) const {
@@ -105,9 +104,8 @@ void OctreeTraversal::visit(Walk& walk, int d, int64_t i, int64_t j, int64_t k) 
     if (walk.orthographic) {
       highFirst = walk.direction[a] < 0;
     } else {
-      // The same expression as voxelBox, so an eye on a brick face compares equal to that face.
-      double split = (static_cast<double>((2 * index[a] + 1) * childBricks * mBrickSize) -
-                      0.5 * static_cast<double>(mDims[a])) * mSpacing[a];
+      // The same expression as the boxes, so an eye on a brick face compares equal to that face.
+      double split = voxelFace((2 * index[a] + 1) * childBricks * mBrickSize, mDims[a], mSpacing[a]);
       highFirst = walk.eye[a] >= split;
     }
     if (highFirst) highNear |= 1 << a;

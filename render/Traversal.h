@@ -11,6 +11,17 @@
 
 namespace voxbrick::render {
 
+/// World coordinate of the face between voxels v - 1 and v along an axis of n voxels of spacing s. Every box face
+/// of the renderer (bricks, octree nodes, sub-blocks, split planes) comes from this one expression, so boxes that
+/// share a face share it bit for bit.
+inline double voxelFace(int64_t v, int64_t n, double s) {
+  return (static_cast<double>(v) - 0.5 * static_cast<double>(n)) * s;
+}
+
+/// The world box of voxels [lo, hi) of a volume of `dims` voxels.
+Box voxelSpanBox(const store::Vec3i& lo, const store::Vec3i& hi, const store::Vec3i& dims,
+                 const store::Vec3d& spacing);
+
 /// One brick to draw: its key (level 0) and the world box of the voxels it owns (borders excluded).
 struct BrickDraw {
   store::BrickKey key;
@@ -70,7 +81,6 @@ class OctreeTraversal {
 
  private:
   struct Walk;
-  Box voxelBox(const store::Vec3i& lo, const store::Vec3i& hi) const;
   void visit(Walk& walk, int d, int64_t i, int64_t j, int64_t k) const;
 
   const store::MinMaxOctree* mOctree;

@@ -11,6 +11,7 @@
 #include "render/RenderErrors.h"
 #include "render/SliceTables.h"
 #include "render/Slicing.h"
+#include "render/SubBlocks.h"
 #include "render/Traversal.h"
 
 namespace voxbrick::render {
@@ -26,8 +27,15 @@ constexpr size_t kPrefetchWindow = 256;  // bricks decoded ahead of the one bein
 struct SliceVertex {
   float world[3];
   int32_t payload[4];
+  int32_t plane;
+  int32_t ownLo[3], ownHi[3];
 };
-static_assert(sizeof(SliceVertex) == 28);
+static_assert(sizeof(SliceVertex) == 56);
+
+/// How far past the voxels it owns a box is drawn, in voxels, so that the fragment stage's ownership test decides
+/// coverage: at the volume's surface, and between neighbouring boxes (far above the rasterised edges' round-off).
+constexpr double kSurfaceMargin = 0.25;
+constexpr double kInteriorMargin = 1.0 / 64;
 
 }  // namespace
 
@@ -48,7 +56,8 @@ std::string FrameStats::toJson() const {
                       {"bricks_culled", bricksCulled},   {"bricks_drawn", bricksDrawn},
                       {"bricks_paged_in", bricksPagedIn}, {"bricks_evicted", bricksEvicted},
                       {"batches", batches},               {"slices", slices},
-                      {"fragments", fragments},
+                      {"fragments", fragments},           {"sub_blocks_skipped", subBlocksSkipped},
+                      {"boxes_drawn", boxesDrawn},
                       {"ms", {{"traversal", msTraversal}, {"paging", msPaging}, {"slicing", msSlicing},
                               {"drawing", msDrawing}, {"readback", msReadback}, {"total", msTotal}}}};
   return j.dump(2);
@@ -70,6 +79,7 @@ VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickC
   mVertices = Buffer(mGl);
   mVertexArray = VertexArray(mGl);
   mFragments = Query(mGl);
+  mSlotRanges.resize(size_t(mAtlas.slots().capacity()));
 }
 
 VolumeRenderer::~VolumeRenderer() = default;
@@ -114,20 +124,31 @@ void VolumeRenderer::drawBatch(Batch& batch, const Scene& scene, FrameStats& sta
     mGl.glVertexAttribIPointer(kSlicePayloadLocation, 4, GL_INT, stride, offset(offsetof(SliceInstance, payload)));
     mGl.glEnableVertexAttribArray(kSliceFirstPlaneLocation);
     mGl.glVertexAttribIPointer(kSliceFirstPlaneLocation, 1, GL_INT, stride, offset(offsetof(SliceInstance, firstPlane)));
-    for (GLuint a = 0; a < 5; ++a) mGl.glVertexAttribDivisor(a, 1);
+    mGl.glEnableVertexAttribArray(kSliceOwnLoLocation);
+    mGl.glVertexAttribIPointer(kSliceOwnLoLocation, 3, GL_INT, stride, offset(offsetof(SliceInstance, ownLo)));
+    mGl.glEnableVertexAttribArray(kSliceOwnHiLocation);
+    mGl.glVertexAttribIPointer(kSliceOwnHiLocation, 3, GL_INT, stride, offset(offsetof(SliceInstance, ownHi)));
+    for (GLuint a = 0; a < 7; ++a) mGl.glVertexAttribDivisor(a, 1);
     mGl.glDrawArraysInstanced(GL_TRIANGLES, 0, GLsizei(kSliceVerticesPerPolygon * batch.maxPlanes),
                               GLsizei(batch.instances.size()));
   } else {
     mVertices.allocate(GL_ARRAY_BUFFER, batch.vertices.size() * sizeof(SliceVertex), batch.vertices.data(),
                        GL_STREAM_DRAW);
     const GLsizei stride = sizeof(SliceVertex);
-    for (GLuint a = 0; a < 4; ++a) mGl.glVertexAttribDivisor(a, 0);
+    auto offset = [](size_t bytes) { return reinterpret_cast<void*>(bytes); };
+    for (GLuint a = 0; a < 7; ++a) mGl.glVertexAttribDivisor(a, 0);
     mGl.glDisableVertexAttribArray(1);
     mGl.glDisableVertexAttribArray(2);
     mGl.glEnableVertexAttribArray(0);
-    mGl.glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(offsetof(SliceVertex, world)));
+    mGl.glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, stride, offset(offsetof(SliceVertex, world)));
     mGl.glEnableVertexAttribArray(3);
-    mGl.glVertexAttribIPointer(3, 4, GL_INT, stride, reinterpret_cast<void*>(offsetof(SliceVertex, payload)));
+    mGl.glVertexAttribIPointer(3, 4, GL_INT, stride, offset(offsetof(SliceVertex, payload)));
+    mGl.glEnableVertexAttribArray(4);
+    mGl.glVertexAttribIPointer(4, 1, GL_INT, stride, offset(offsetof(SliceVertex, plane)));
+    mGl.glEnableVertexAttribArray(5);
+    mGl.glVertexAttribIPointer(5, 3, GL_INT, stride, offset(offsetof(SliceVertex, ownLo)));
+    mGl.glEnableVertexAttribArray(6);
+    mGl.glVertexAttribIPointer(6, 3, GL_INT, stride, offset(offsetof(SliceVertex, ownHi)));
     mGl.glDrawArrays(GL_TRIANGLES, 0, GLsizei(batch.vertices.size()));
   }
   stats.batches += 1;
@@ -234,73 +255,103 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
   p.set(p.uniformLocation("uEye"), glm::vec3(camera.eye));
   p.set(p.uniformLocation("uViewDir"), glm::vec3(n));
   p.set(p.uniformLocation("uOrthographic"), camera.orthographic ? 1 : 0);
+  p.set(p.uniformLocation("uInvViewProj"), glm::mat4(glm::inverse(viewProj)));
+  p.set(p.uniformLocation("uPixelToNdc"), glm::vec2(2.0 / scene.width, 2.0 / scene.height));
 
   // Page and slice brick by brick, front to back; draw whenever the atlas is full of this batch's bricks.
   mGl.glBeginQuery(GL_SAMPLES_PASSED, mFragments.id());
   Batch batch;
-  // Where a brick lies on the volume's surface its box is pushed out by a quarter voxel, and the fragment program
-  // discards what lies outside the volume. The volume's outline in each slice is then decided per fragment by one
-  // test that does not depend on the bricking, instead of by the rasterised edges of whichever bricks touch the
-  // surface (whose endpoints, and so whose rounding, change with the brick size).
-  const glm::dvec3 margin(0.25 * meta.spacing.x, 0.25 * meta.spacing.y, 0.25 * meta.spacing.z);
+  // Every box is drawn a little larger than the voxels it owns and the fragment program keeps only the samples it
+  // owns (volume.frag.glsl), so coverage does not depend on rasterised box edges: at the volume's surface that makes
+  // the outline independent of the bricking, and inside it lets boxes of different sizes (sub-blocks) meet without
+  // cracks or double samples where their edges form T-junctions.
+  auto withMargin = [&](Box b) {
+    for (int a = 0; a < 3; ++a) {
+      b.min[a] -= (b.min[a] <= box.min[a] ? kSurfaceMargin : kInteriorMargin) * meta.spacing[a];
+      b.max[a] += (b.max[a] >= box.max[a] ? kSurfaceMargin : kInteriorMargin) * meta.spacing[a];
+    }
+    return b;
+  };
+  // The vertex program decides plane membership in float, so it is given one extra plane each side (the shader's
+  // half-open test then draws every plane exactly once); the CPU slicer uses the exact range.
+  auto planeRange = [&](const Box& b) {
+    return scene.slicer == Slicer::Vertex ? slicerPlaneRange(b.min, b.max, n, step) : planeIndexRange(b.min, b.max, n, step);
+  };
+  SubBlockWalkStats subStats;
+  const int subBlock = scene.subBlock > 0 && scene.subBlock < B ? scene.subBlock : 0;
+  std::vector<VoxelSpan> spans;
   for (const BrickDraw& visibleBrick : visible.bricks) {
     auto ts = Clock::now();
-    BrickDraw draw = visibleBrick;
-    for (int a = 0; a < 3; ++a) {
-      if (draw.box.min[a] <= box.min[a]) draw.box.min[a] = box.min[a] - margin[a];
-      if (draw.box.max[a] >= box.max[a]) draw.box.max[a] = box.max[a] + margin[a];
-    }
-    // The vertex program decides plane membership in float, so it is given one extra plane each side (the
-    // shader's half-open test then draws every plane exactly once); the CPU slicer uses the exact range.
-    const PlaneIndexRange planes = scene.slicer == Slicer::Vertex ? slicerPlaneRange(draw.box.min, draw.box.max, n, step)
-                                                                  : planeIndexRange(draw.box.min, draw.box.max, n, step);
+    const PlaneIndexRange brickPlanes = planeRange(withMargin(visibleBrick.box));
     stats.msSlicing += msSince(ts);
-    if (planes.count() == 0) continue;
+    if (brickPlanes.count() == 0) continue;
 
     auto tp = Clock::now();
-    auto acquired = mAtlas.slots().acquire(draw.key);
+    const store::BrickKey& key = visibleBrick.key;
+    auto acquired = mAtlas.slots().acquire(key);
     if (!acquired) {
       stats.msPaging += msSince(tp);
       drawBatch(batch, scene, stats);
       mAtlas.slots().unpinAll();
       tp = Clock::now();
-      acquired = mAtlas.slots().acquire(draw.key);
+      acquired = mAtlas.slots().acquire(key);
     }
+    SubBlockRanges& ranges = mSlotRanges[size_t(acquired->slot.index)];
+    const store::Vec3i brickLo{int64_t(key.i) * B, int64_t(key.j) * B, int64_t(key.k) * B};
+    const store::Vec3i brickHi{std::min<int64_t>(brickLo.x + B, meta.dims.x), std::min<int64_t>(brickLo.y + B, meta.dims.y),
+                               std::min<int64_t>(brickLo.z + B, meta.dims.z)};
+    const store::Vec3i owned{brickHi.x - brickLo.x, brickHi.y - brickLo.y, brickHi.z - brickLo.z};
     if (!acquired->resident) {
       prefetchUpTo(++paged + kPrefetchWindow);
-      mAtlas.upload(acquired->slot, *mCache->get(draw.key));
+      const store::BrickHandle brick = mCache->get(key);
+      mAtlas.upload(acquired->slot, *brick);
+      ranges = subBlock ? SubBlockRanges(*brick, B, subBlock, owned) : SubBlockRanges();
       stats.bricksPagedIn += 1;
       stats.bricksEvicted += acquired->evicted ? 1 : 0;
+    } else if (subBlock && ranges.subBlock() != subBlock) {
+      ranges = SubBlockRanges(*mCache->get(key), B, subBlock, owned);
     }
     stats.msPaging += msSince(tp);
 
     ts = Clock::now();
+    spans.clear();
+    if (subBlock)
+      subBlockBoxes(ranges, brickLo, meta.dims, meta.spacing, camera, contributes, spans, subStats);
+    else
+      spans.push_back({brickLo, brickHi});
     const glm::ivec3 origin = mAtlas.slotOrigin(acquired->slot);
-    const int32_t payload[4] = {origin.x + 1 - int32_t(draw.key.i) * B, origin.y + 1 - int32_t(draw.key.j) * B,
-                                origin.z + 1 - int32_t(draw.key.k) * B, 0};
-    stats.slices += planes.count();
-    if (scene.slicer == Slicer::Vertex) {
-      SliceInstance instance{};
-      instance.boxMin = glm::vec3(draw.box.min);
-      instance.boxMax = glm::vec3(draw.box.max);
-      instance.planeDistance = 0;
-      instance.firstPlane = int32_t(planes.begin);
-      instance.payload = glm::ivec4(payload[0], payload[1], payload[2], payload[3]);
-      batch.instances.push_back(instance);
-      batch.maxPlanes = std::max(batch.maxPlanes, planes.count());
-    } else {
-      for (int64_t k = planes.begin; k < planes.end; ++k) {
-        const auto polygon = rezkSalamaPolygon(draw.box.min, draw.box.max, n, double(k) * step);
-        for (int corner : kSliceFan) {
-          SliceVertex v{};
-          for (int a = 0; a < 3; ++a) v.world[a] = float(polygon[size_t(corner)][a]), v.payload[a] = payload[a];
-          v.payload[3] = payload[3];
-          batch.vertices.push_back(v);
+    const glm::ivec4 payload(origin.x + 1 - int32_t(brickLo.x), origin.y + 1 - int32_t(brickLo.y),
+                             origin.z + 1 - int32_t(brickLo.z), 0);
+    for (const VoxelSpan& span : spans) {
+      const Box drawBox = withMargin(voxelSpanBox(span.lo, span.hi, meta.dims, meta.spacing));
+      const PlaneIndexRange planes = subBlock ? planeRange(drawBox) : brickPlanes;
+      if (planes.count() == 0) continue;
+      const glm::ivec3 ownLo(span.lo.x, span.lo.y, span.lo.z), ownHi(span.hi.x, span.hi.y, span.hi.z);
+      stats.slices += planes.count();
+      if (scene.slicer == Slicer::Vertex) {
+        batch.instances.push_back({glm::vec3(drawBox.min), glm::vec3(drawBox.max), 0.0f, payload,
+                                   int32_t(planes.begin), ownLo, ownHi});
+        batch.maxPlanes = std::max(batch.maxPlanes, planes.count());
+      } else {
+        for (int64_t k = planes.begin; k < planes.end; ++k) {
+          const auto polygon = rezkSalamaPolygon(drawBox.min, drawBox.max, n, double(k) * step);
+          for (int corner : kSliceFan) {
+            SliceVertex v{};
+            for (int a = 0; a < 3; ++a) {
+              v.world[a] = float(polygon[size_t(corner)][a]);
+              v.ownLo[a] = ownLo[a], v.ownHi[a] = ownHi[a];
+            }
+            for (int a = 0; a < 4; ++a) v.payload[a] = payload[a];
+            v.plane = int32_t(k);
+            batch.vertices.push_back(v);
+          }
         }
       }
     }
     stats.msSlicing += msSince(ts);
   }
+  stats.subBlocksSkipped = subStats.subBlocksSkipped;
+  stats.boxesDrawn = subBlock ? subStats.boxes : stats.bricksDrawn;
   drawBatch(batch, scene, stats);
   mAtlas.slots().unpinAll();
   mGl.glEndQuery(GL_SAMPLES_PASSED);

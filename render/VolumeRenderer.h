@@ -11,6 +11,7 @@
 #include "render/GlObjects.h"
 #include "render/Image.h"
 #include "render/Scene.h"
+#include "render/SubBlocks.h"
 
 namespace voxbrick::render {
 
@@ -25,6 +26,8 @@ struct FrameStats {
   int64_t batches = 0;         ///< draw batches (more than one when the atlas cannot hold the frame's bricks)
   int64_t slices = 0;          ///< brick-plane polygons submitted
   int64_t fragments = 0;       ///< fragments shaded (GL_SAMPLES_PASSED): one volume sample each
+  int64_t subBlocksSkipped = 0;  ///< sub-blocks of drawn bricks left out as empty (Scene::subBlock)
+  int64_t boxesDrawn = 0;        ///< boxes sliced: bricks, or with sub-blocks the boxes bricks are drawn as
   /// Wall time of each phase on the calling thread. Drawing ends with a glFinish, but with several batches a
   /// batch's GPU work may instead be waited for by the next batch's uploads and show up as paging.
   double msTraversal = 0, msPaging = 0, msSlicing = 0, msDrawing = 0, msReadback = 0, msTotal = 0;
@@ -62,6 +65,7 @@ class VolumeRenderer {
   VertexArray mVertexArray;
   Framebuffer mTarget;
   Query mFragments;
+  std::vector<SubBlockRanges> mSlotRanges;  // per atlas slot: sub-block ranges of the brick it holds
   Program mPrograms[2][3];  // [slicer][plain, shading, roofline], built on first use
   RenderMode mMode = RenderMode::Normal;
 };

@@ -19,6 +19,8 @@ layout(location = 1) in vec3 aBoxMax;
 layout(location = 2) in float aPlaneDistance;
 layout(location = 3) in ivec4 aPayload;
 layout(location = 4) in int aFirstPlane;
+layout(location = 5) in ivec3 aOwnLo;
+layout(location = 6) in ivec3 aOwnHi;
 
 uniform vec3 uPlaneNormal;  // unit, pointing from the eye into the scene
 uniform float uPlaneIncr;   // distance between consecutive planes
@@ -30,6 +32,9 @@ uniform int uEdgeEnd[24];
 out vec3 vWorld;     // the vertex in world coordinates
 out vec3 vBoxCoord;  // the vertex in box coordinates, [0, 1]^3 over the box
 flat out ivec4 vPayload;
+flat out ivec3 vOwnLo;         // the voxels [lo, hi) the box owns: the fragment stage keeps only samples in them
+flat out ivec3 vOwnHi;
+flat out float vPlaneDistance;  // dot(n, x) of this polygon's plane
 
 const int kFan[12] = int[12](0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 5);
 
@@ -86,5 +91,8 @@ void main() {
   vWorld = world;
   vBoxCoord = boxCoord;
   vPayload = aPayload;
+  vOwnLo = aOwnLo;
+  vOwnHi = aOwnHi;
+  vPlaneDistance = planeDistance;
   gl_Position = uViewProj * vec4(world, 1.0);
 }

@@ -102,7 +102,7 @@ class ShaderSlicer {
     std::vector<glm::vec3> normals;
     for (size_t i = 0; i < cases.size(); ++i) {
       instances.push_back({glm::vec3(cases[i].boxMin), glm::vec3(cases[i].boxMax), float(cases[i].d),
-                           glm::ivec4(int(i), -int(i), 7, int(i) * 3), 0});
+                           glm::ivec4(int(i), -int(i), 7, int(i) * 3), 0, glm::ivec3(0), glm::ivec3(0)});
       normals.push_back(glm::vec3(cases[i].n));
     }
     return runInstances(instances, normals, planes, incr, viewProj);
@@ -353,7 +353,8 @@ TEST(SlicerShader, RowsOfBricksDrawEveryGlobalPlaneExactlyOnce) {
         const glm::dvec3 lo = b < 8 ? glm::dvec3(rowMin.x + 8 * b, rowMin.y, rowMin.z) : rowMin;
         const glm::dvec3 hi = b < 8 ? glm::dvec3(lo.x + 8, rowMax.y, rowMax.z) : rowMax;
         const PlaneIndexRange range = slicerPlaneRange(lo, hi, nf, step);
-        instances.push_back({glm::vec3(lo), glm::vec3(hi), 0.0f, glm::ivec4(b), int32_t(range.begin)});
+        instances.push_back(
+            {glm::vec3(lo), glm::vec3(hi), 0.0f, glm::ivec4(b), int32_t(range.begin), glm::ivec3(0), glm::ivec3(0)});
         planes = std::max(planes, int(range.count()));
       }
       const std::vector<glm::vec3> instanceNormals(instances.size(), glm::vec3(nf));

@@ -1,7 +1,10 @@
-// Octree traversal: completeness, front-to-back order, empty-space skipping, frustum culling and statistics.
+// Octree traversal: completeness, front-to-back order, empty-space skipping, frustum culling and statistics; and
+// the same inside a brick for sub-blocks.
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
+#include <cmath>
 #include <map>
 #include <random>
 #include <tuple>
@@ -11,6 +14,7 @@
 #include "render/Camera.h"
 #include "render/RenderErrors.h"
 #include "render/TransferFunction.h"
+#include "render/SubBlocks.h"
 #include "render/Traversal.h"
 
 namespace voxbrick::render {
@@ -307,6 +311,129 @@ TEST(TraversalCull, SkippingAndCullingTogetherAddUp) {
     EXPECT_TRUE(frustum.intersects(b.box));
   }
   checkVisibilityOrder(r.bricks, camera);
+}
+
+// A brick of B = 16 owning 16 x 11 x 7 voxels (a corner brick of a volume 16 + 16 x 16 + 11 x 16 + 7), in a volume
+// whose voxel grid starts at `kBrickLo`, with random samples.
+constexpr int kSubB = 16;
+const Vec3i kBrickLo{16, 16, 16};
+const Vec3i kBrickOwned{16, 11, 7};
+const Vec3i kBrickDims{32, 27, 23};
+
+// A blob at a random place plus noise, so that a threshold leaves some sub-blocks out and keeps others.
+std::vector<float> randomBrick(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> unit(0, 1);
+  const float cx = 16 * unit(rng), cy = 11 * unit(rng), cz = 7 * unit(rng);
+  const int side = kSubB + 2;
+  std::vector<float> samples(size_t(side * side * side));
+  for (int z = 0; z < side; ++z)
+    for (int y = 0; y < side; ++y)
+      for (int x = 0; x < side; ++x) {
+        const float d2 = (x - cx) * (x - cx) + (y - cy) * (y - cy) + (z - cz) * (z - cz);
+        samples[size_t((z * side + y) * side + x)] = std::exp(-d2 / 30.0f) + 0.05f * unit(rng);
+      }
+  return samples;
+}
+
+TEST(SubBlocks, RangesCoverExactlyTheSamplesTrilinearReads) {
+  const std::vector<float> samples = randomBrick(21);
+  const int side = kSubB + 2;
+  for (int subBlock : {2, 4, 8}) {
+    SubBlockRanges ranges(samples.data(), store::ValueType::F32, kSubB, subBlock, kBrickOwned);
+    ASSERT_EQ(ranges.levels(), std::countr_zero(unsigned(kSubB / subBlock)));
+    for (int level = 0; level <= ranges.levels(); ++level) {
+      const int e = ranges.edge(level), n = 1 << level;
+      for (int k = 0; k < n; ++k)
+        for (int j = 0; j < n; ++j)
+          for (int i = 0; i < n; ++i) {
+            const int cell[3] = {i, j, k};
+            bool exists = true;
+            int lo[3], hi[3];  // data indices, inclusive: owned voxels [c * e, min((c + 1) * e, owned)) plus one each side
+            for (int a = 0; a < 3; ++a) {
+              exists = exists && cell[a] * e < kBrickOwned[a];
+              lo[a] = cell[a] * e;
+              hi[a] = int(std::min<int64_t>((cell[a] + 1) * e, kBrickOwned[a])) + 1;
+            }
+            ASSERT_EQ(ranges.exists(level, i, j, k), exists);
+            if (!exists) continue;
+            float mn = 2, mx = -1;
+            for (int z = lo[2]; z <= hi[2]; ++z)
+              for (int y = lo[1]; y <= hi[1]; ++y)
+                for (int x = lo[0]; x <= hi[0]; ++x) {
+                  mn = std::min(mn, samples[size_t((z * side + y) * side + x)]);
+                  mx = std::max(mx, samples[size_t((z * side + y) * side + x)]);
+                }
+            const SubBlockRanges::Range r = ranges.range(level, i, j, k);
+            EXPECT_EQ(r.min, mn) << "sub-block " << subBlock << " level " << level << " node " << i << "," << j << "," << k;
+            EXPECT_EQ(r.max, mx);
+          }
+    }
+  }
+  EXPECT_THROW(SubBlockRanges(samples.data(), store::ValueType::F32, kSubB, 16, kBrickOwned), RenderInputError);
+  EXPECT_THROW(SubBlockRanges(samples.data(), store::ValueType::F32, kSubB, 3, kBrickOwned), RenderInputError);
+}
+
+TEST(SubBlocks, BoxesCoverTheContributingBlocksOnceFrontToBack) {
+  const std::vector<float> samples = randomBrick(22);
+  const store::Vec3d spacing{1.0, 0.5, 2.0};
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> coord(-30, 30);
+  const auto contributes = [](float, float max) { return max > 0.55f; };
+  int constrained = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    const int subBlock = trial % 3 == 0 ? 2 : 4;
+    SubBlockRanges ranges(samples.data(), store::ValueType::F32, kSubB, subBlock, kBrickOwned);
+    glm::dvec3 eye{coord(rng), coord(rng), coord(rng)};
+    if (trial % 5 == 1) eye.x = voxelFace(kBrickLo.x + 8, kBrickDims.x, spacing.x);  // on a split plane
+    const bool ortho = trial % 4 == 3;
+    const Camera camera = lookingFrom(eye, ortho, eye + glm::dvec3(coord(rng), coord(rng), coord(rng) + 0.5));
+    std::vector<VoxelSpan> spans;
+    SubBlockWalkStats stats;
+    subBlockBoxes(ranges, kBrickLo, kBrickDims, spacing, camera, contributes, spans, stats);
+    EXPECT_EQ(stats.boxes, int64_t(spans.size()));
+
+    // Every finest block is drawn exactly once if it contributes and never otherwise.
+    const int perAxis = kSubB / subBlock, L = ranges.levels();
+    std::vector<int> covered(size_t(perAxis * perAxis * perAxis), 0);
+    for (const VoxelSpan& s : spans)
+      for (int64_t z = s.lo.z; z < s.hi.z; ++z)
+        for (int64_t y = s.lo.y; y < s.hi.y; ++y)
+          for (int64_t x = s.lo.x; x < s.hi.x; ++x)
+            if ((x - kBrickLo.x) % subBlock == 0 && (y - kBrickLo.y) % subBlock == 0 && (z - kBrickLo.z) % subBlock == 0)
+              ++covered[size_t(((z - kBrickLo.z) / subBlock * perAxis + (y - kBrickLo.y) / subBlock) * perAxis +
+                               (x - kBrickLo.x) / subBlock)];
+    int64_t rejected = 0;
+    for (int k = 0; k < perAxis; ++k)
+      for (int j = 0; j < perAxis; ++j)
+        for (int i = 0; i < perAxis; ++i) {
+          if (!ranges.exists(L, i, j, k)) continue;
+          const SubBlockRanges::Range r = ranges.range(L, i, j, k);
+          const bool draws = contributes(r.min, r.max);
+          rejected += draws ? 0 : 1;
+          EXPECT_EQ(covered[size_t((k * perAxis + j) * perAxis + i)], draws ? 1 : 0) << i << "," << j << "," << k;
+        }
+    EXPECT_EQ(stats.subBlocksSkipped, rejected);
+    ASSERT_GT(rejected, 0) << "the test data should leave some blocks out";
+
+    std::vector<BrickDraw> boxes;
+    for (const VoxelSpan& s : spans) boxes.push_back({store::BrickKey{}, voxelSpanBox(s.lo, s.hi, kBrickDims, spacing)});
+    constrained += checkVisibilityOrder(boxes, camera);
+  }
+  EXPECT_GT(constrained, 60 * 20);
+}
+
+TEST(SubBlocks, ABrickWhoseBlocksAllContributeIsOneBox) {
+  const std::vector<float> samples = randomBrick(24);
+  SubBlockRanges ranges(samples.data(), store::ValueType::F32, kSubB, 2, kBrickOwned);
+  std::vector<VoxelSpan> spans;
+  SubBlockWalkStats stats;
+  subBlockBoxes(ranges, kBrickLo, kBrickDims, kSpacing, lookingFrom({0, 0, 90}), [](float, float) { return true; },
+                spans, stats);
+  ASSERT_EQ(spans.size(), 1u);
+  EXPECT_EQ(spans[0].lo, kBrickLo);
+  EXPECT_EQ(spans[0].hi, (Vec3i{kBrickLo.x + 16, kBrickLo.y + 11, kBrickLo.z + 7}));
+  EXPECT_EQ(stats.subBlocksSkipped, 0);
 }
 
 TEST(TraversalInput, MismatchedGridsAndMissingPredicatesThrow) {
