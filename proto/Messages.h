@@ -3,6 +3,7 @@
 // every length and count against the limits before anything is allocated.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <stdexcept>
@@ -50,6 +51,7 @@ enum class ErrorCode : uint16_t {
   ShuttingDown = 12,       ///< the server is stopping
   Timeout = 13,            ///< idle or read timeout (the server closes)
 };
+/// The code's name as PROTOCOL.md spells it ("BadMagic", ...), or "unknown" for a value outside the enum.
 const char* errorCodeName(ErrorCode code);
 
 /// Frame payload encodings.
@@ -105,6 +107,14 @@ struct Goodbye {};
 using Message = std::variant<Hello, Capabilities, ListDatasets, DatasetList, OpenDataset, DatasetInfo, RenderRequest,
                              Frame, Error, GetStats, Stats, Goodbye>;
 MessageType messageType(const Message& message);
+/// The type's name as PROTOCOL.md spells it ("Hello", "Render", ...), or "unknown" for a value outside the enum.
+const char* messageTypeName(MessageType type);
+
+/// The fixed header, little-endian:
+///
+///   offset  0       4        6     8           12          16
+///           | magic | version | type | requestId | bodyBytes | body (bodyBytes bytes) ...
+///             u32     u16       u16    u32         u32
 
 struct Header {
   uint16_t version = kVersion;
@@ -130,12 +140,16 @@ class ProtocolError : public std::runtime_error {
   ErrorCode mCode;
 };
 
-/// The whole message (header and body) as bytes.
+/// The whole message (header and body) as bytes, in version kVersion. Strings are expected to be UTF-8 and are not
+/// checked here (the peer's decoder rejects them otherwise). Throws std::length_error for a body above 4 GiB - 1.
 std::vector<uint8_t> encode(const Message& message, uint32_t requestId);
+/// The 16 header bytes: kMagic followed by the fields of `header`.
+std::array<uint8_t, kHeaderBytes> encodeHeader(const Header& header);
 /// Parses the fixed header. Throws ProtocolError: BadMagic, UnsupportedVersion, TooLarge (bodyBytes above
 /// limits.maxBodyBytes). An unknown type is not an error here (decodeBody reports it), so the body can be skipped.
 Header decodeHeader(std::span<const uint8_t, kHeaderBytes> bytes, const Limits& limits);
-/// Parses a body of `header.type`. Throws ProtocolError: UnknownType, Malformed (naming the field).
+/// Parses a body of `header.type`. Throws ProtocolError: UnknownType, Malformed (naming the field). `body` must be
+/// exactly header.bodyBytes long (std::invalid_argument otherwise: a caller's mistake, not the peer's).
 Message decodeBody(const Header& header, std::span<const uint8_t> body, const Limits& limits);
 
 }  // namespace voxbrick::proto
