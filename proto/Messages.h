@@ -64,6 +64,8 @@ enum class Encoding : uint8_t {
 struct Hello {
   uint16_t minVersion = kVersion, maxVersion = kVersion;
   std::string client;  ///< free text, e.g. "voxbrick-request 0.1"
+
+  bool operator==(const Hello&) const = default;
 };
 struct Capabilities {
   uint16_t version = kVersion;  ///< the version the session will speak
@@ -72,37 +74,59 @@ struct Capabilities {
   uint32_t maxImageSide = 0;
   uint32_t maxQueuedPerSession = 0;
   std::vector<Encoding> encodings;
+
+  bool operator==(const Capabilities&) const = default;
 };
-struct ListDatasets {};
+struct ListDatasets {
+  bool operator==(const ListDatasets&) const = default;
+};
 struct DatasetList {
   std::vector<std::string> names;
+
+  bool operator==(const DatasetList&) const = default;
 };
 struct OpenDataset {
   std::string name;
+
+  bool operator==(const OpenDataset&) const = default;
 };
 struct DatasetInfo {
   std::string name;
   std::string metaJson;  ///< the store's metadata as `voxbrick info --json` prints it
+
+  bool operator==(const DatasetInfo&) const = default;
 };
 struct RenderRequest {
   Encoding encoding = Encoding::Png;
   std::string sceneJson;  ///< the scene schema of `voxbrick render --scene`
+
+  bool operator==(const RenderRequest&) const = default;
 };
 struct Frame {
   uint32_t width = 0, height = 0;
   Encoding encoding = Encoding::Png;
   std::string statsJson;         ///< per-frame statistics (render FrameStats plus queue and encode times)
   std::vector<uint8_t> payload;  ///< the image in `encoding`
+
+  bool operator==(const Frame&) const = default;
 };
 struct Error {
   ErrorCode code = ErrorCode::Internal;
   std::string message;  ///< names the problem
+
+  bool operator==(const Error&) const = default;
 };
-struct GetStats {};
+struct GetStats {
+  bool operator==(const GetStats&) const = default;
+};
 struct Stats {
   std::string json;  ///< server statistics
+
+  bool operator==(const Stats&) const = default;
 };
-struct Goodbye {};
+struct Goodbye {
+  bool operator==(const Goodbye&) const = default;
+};
 
 using Message = std::variant<Hello, Capabilities, ListDatasets, DatasetList, OpenDataset, DatasetInfo, RenderRequest,
                              Frame, Error, GetStats, Stats, Goodbye>;
@@ -115,12 +139,13 @@ const char* messageTypeName(MessageType type);
 ///   offset  0       4        6     8           12          16
 ///           | magic | version | type | requestId | bodyBytes | body (bodyBytes bytes) ...
 ///             u32     u16       u16    u32         u32
-
 struct Header {
   uint16_t version = kVersion;
   MessageType type = MessageType::Hello;
   uint32_t requestId = 0;  ///< chosen by the client; replies carry the id of the request they answer
   uint32_t bodyBytes = 0;
+
+  bool operator==(const Header&) const = default;
 };
 
 /// Limits checked while decoding, before any allocation.
