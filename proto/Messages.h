@@ -3,6 +3,7 @@
 // every length and count against the limits before anything is allocated.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <stdexcept>
@@ -50,6 +51,7 @@ enum class ErrorCode : uint16_t {
   ShuttingDown = 12,       ///< the server is stopping
   Timeout = 13,            ///< idle or read timeout (the server closes)
 };
+/// The code's name as PROTOCOL.md spells it ("BadMagic", ...), or "unknown" for a value outside the enum.
 const char* errorCodeName(ErrorCode code);
 
 /// Frame payload encodings.
@@ -62,6 +64,8 @@ enum class Encoding : uint8_t {
 struct Hello {
   uint16_t minVersion = kVersion, maxVersion = kVersion;
   std::string client;  ///< free text, e.g. "voxbrick-request 0.1"
+
+  bool operator==(const Hello&) const = default;
 };
 struct Capabilities {
   uint16_t version = kVersion;  ///< the version the session will speak
@@ -70,47 +74,78 @@ struct Capabilities {
   uint32_t maxImageSide = 0;
   uint32_t maxQueuedPerSession = 0;
   std::vector<Encoding> encodings;
+
+  bool operator==(const Capabilities&) const = default;
 };
-struct ListDatasets {};
+struct ListDatasets {
+  bool operator==(const ListDatasets&) const = default;
+};
 struct DatasetList {
   std::vector<std::string> names;
+
+  bool operator==(const DatasetList&) const = default;
 };
 struct OpenDataset {
   std::string name;
+
+  bool operator==(const OpenDataset&) const = default;
 };
 struct DatasetInfo {
   std::string name;
   std::string metaJson;  ///< the store's metadata as `voxbrick info --json` prints it
+
+  bool operator==(const DatasetInfo&) const = default;
 };
 struct RenderRequest {
   Encoding encoding = Encoding::Png;
   std::string sceneJson;  ///< the scene schema of `voxbrick render --scene`
+
+  bool operator==(const RenderRequest&) const = default;
 };
 struct Frame {
   uint32_t width = 0, height = 0;
   Encoding encoding = Encoding::Png;
   std::string statsJson;         ///< per-frame statistics (render FrameStats plus queue and encode times)
   std::vector<uint8_t> payload;  ///< the image in `encoding`
+
+  bool operator==(const Frame&) const = default;
 };
 struct Error {
   ErrorCode code = ErrorCode::Internal;
   std::string message;  ///< names the problem
+
+  bool operator==(const Error&) const = default;
 };
-struct GetStats {};
+struct GetStats {
+  bool operator==(const GetStats&) const = default;
+};
 struct Stats {
   std::string json;  ///< server statistics
+
+  bool operator==(const Stats&) const = default;
 };
-struct Goodbye {};
+struct Goodbye {
+  bool operator==(const Goodbye&) const = default;
+};
 
 using Message = std::variant<Hello, Capabilities, ListDatasets, DatasetList, OpenDataset, DatasetInfo, RenderRequest,
                              Frame, Error, GetStats, Stats, Goodbye>;
 MessageType messageType(const Message& message);
+/// The type's name as PROTOCOL.md spells it ("Hello", "Render", ...), or "unknown" for a value outside the enum.
+const char* messageTypeName(MessageType type);
 
+/// The fixed header, little-endian:
+///
+///   offset  0       4        6     8           12          16
+///           | magic | version | type | requestId | bodyBytes | body (bodyBytes bytes) ...
+///             u32     u16       u16    u32         u32
 struct Header {
   uint16_t version = kVersion;
   MessageType type = MessageType::Hello;
   uint32_t requestId = 0;  ///< chosen by the client; replies carry the id of the request they answer
   uint32_t bodyBytes = 0;
+
+  bool operator==(const Header&) const = default;
 };
 
 /// Limits checked while decoding, before any allocation.
@@ -130,12 +165,16 @@ class ProtocolError : public std::runtime_error {
   ErrorCode mCode;
 };
 
-/// The whole message (header and body) as bytes.
+/// The whole message (header and body) as bytes, in version kVersion. Strings are expected to be UTF-8 and are not
+/// checked here (the peer's decoder rejects them otherwise). Throws std::length_error for a body above 4 GiB - 1.
 std::vector<uint8_t> encode(const Message& message, uint32_t requestId);
+/// The 16 header bytes: kMagic followed by the fields of `header`.
+std::array<uint8_t, kHeaderBytes> encodeHeader(const Header& header);
 /// Parses the fixed header. Throws ProtocolError: BadMagic, UnsupportedVersion, TooLarge (bodyBytes above
 /// limits.maxBodyBytes). An unknown type is not an error here (decodeBody reports it), so the body can be skipped.
 Header decodeHeader(std::span<const uint8_t, kHeaderBytes> bytes, const Limits& limits);
-/// Parses a body of `header.type`. Throws ProtocolError: UnknownType, Malformed (naming the field).
+/// Parses a body of `header.type`. Throws ProtocolError: UnknownType, Malformed (naming the field). `body` must be
+/// exactly header.bodyBytes long (std::invalid_argument otherwise: a caller's mistake, not the peer's).
 Message decodeBody(const Header& header, std::span<const uint8_t> body, const Limits& limits);
 
 }  // namespace voxbrick::proto

@@ -1,0 +1,10 @@
+// libFuzzer entry point: any input, read as a stream of protocol messages (see FuzzCheck.h).
+#include <cstddef>
+#include <cstdint>
+
+#include "proto/fuzz/FuzzCheck.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  voxbrick::proto::fuzz::checkStream({data, size});
+  return 0;
+}

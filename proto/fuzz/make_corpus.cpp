@@ -1,0 +1,86 @@
+// Writes the fuzzer's seed corpus (committed in proto/fuzz/corpus/): one file per message type, a whole session,
+// and malformed inputs whose names start with "bad-". Usage: proto_make_corpus DIRECTORY
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "proto/Messages.h"
+
+namespace {
+
+using namespace voxbrick::proto;
+using Bytes = std::vector<uint8_t>;
+
+Bytes concat(std::initializer_list<Bytes> parts) {
+  Bytes all;
+  for (const Bytes& p : parts) all.insert(all.end(), p.begin(), p.end());
+  return all;
+}
+
+Bytes header(MessageType type, uint32_t bodyBytes, uint16_t version = kVersion) {
+  const auto bytes = encodeHeader({version, type, 7, bodyBytes});
+  return Bytes(bytes.begin(), bytes.end());
+}
+
+/// A message with any body, valid or not.
+Bytes raw(MessageType type, const Bytes& body, uint16_t version = kVersion) {
+  return concat({header(type, uint32_t(body.size()), version), body});
+}
+
+Bytes withByte(Bytes bytes, size_t offset, uint8_t value) {
+  bytes.at(offset) = value;
+  return bytes;
+}
+
+Bytes u32(uint32_t v) { return {uint8_t(v), uint8_t(v >> 8), uint8_t(v >> 16), uint8_t(v >> 24)}; }
+
+const std::string kScene = R"({"camera": {"orbit": [30, 20, 2.5]}, "size": [64, 48]})";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 2) {
+    std::fprintf(stderr, "usage: %s DIRECTORY\n", argv[0]);
+    return 2;
+  }
+  const std::vector<std::pair<std::string, Bytes>> seeds = {
+      {"hello", encode(Hello{1, 1, "seed"}, 1)},
+      {"capabilities", encode(Capabilities{1, "voxbrick", 1u << 20, 8192, 4, {Encoding::Png, Encoding::RawRgba8}}, 1)},
+      {"list-datasets", encode(ListDatasets{}, 2)},
+      {"dataset-list", encode(DatasetList{{"mri", "", "sparse"}}, 2)},
+      {"open-dataset", encode(OpenDataset{"mri"}, 3)},
+      {"dataset-info", encode(DatasetInfo{"mri", R"({"dims": [256, 256, 128]})"}, 3)},
+      {"render", encode(RenderRequest{Encoding::Png, kScene}, 4)},
+      {"frame", encode(Frame{2, 1, Encoding::RawRgba8, R"({"queue_ms": 0.5})", {1, 2, 3, 4, 5, 6, 7, 8}}, 4)},
+      {"error", encode(Error{ErrorCode::Superseded, "replaced by request 5"}, 4)},
+      {"get-stats", encode(GetStats{}, 6)},
+      {"stats", encode(Stats{R"({"sessions": 1})"}, 6)},
+      {"goodbye", encode(Goodbye{}, 7)},
+      {"session", concat({encode(Hello{1, 1, "seed"}, 1), encode(ListDatasets{}, 2), encode(OpenDataset{"mri"}, 3),
+                          encode(RenderRequest{Encoding::ZstdRgba8, kScene}, 4), encode(GetStats{}, 5),
+                          encode(Goodbye{}, 6)})},
+      {"bad-unknown-type-then-goodbye", concat({raw(MessageType(99), {1, 2, 3}), encode(Goodbye{}, 8)})},
+      {"bad-magic", withByte(encode(Goodbye{}, 1), 3, 'X')},
+      {"bad-version", raw(MessageType::Goodbye, {}, 2)},
+      {"bad-too-large", header(MessageType::Stats, 2u << 20)},
+      {"bad-truncated", raw(MessageType::Render, {1, 10, 0, 0, 0, '{', '}'})},
+      {"bad-trailing-byte", raw(MessageType::Goodbye, {0})},
+      {"bad-encoding", raw(MessageType::Render, concat({{3}, u32(2), {'{', '}'}}))},
+      {"bad-error-code", raw(MessageType::Error, concat({{14, 0}, u32(0)}))},
+      {"bad-string-limit", raw(MessageType::OpenDataset, concat({u32(300), Bytes(300, 'a')}))},
+      {"bad-list-count", raw(MessageType::DatasetList, concat({u32(17), Bytes(17 * 4, 0)}))},
+      {"bad-huge-length", raw(MessageType::Frame, concat({u32(1), u32(1), {1}, u32(0), u32(0xFFFFFFF0u)}))},
+      {"bad-utf8", raw(MessageType::Hello, concat({{1, 0, 1, 0}, u32(2), {0xC0, 0xAF}}))},
+  };
+  for (const auto& [name, bytes] : seeds) {
+    const std::string path = std::string(argv[1]) + "/" + name;
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+    if (!out) {
+      std::fprintf(stderr, "cannot write %s\n", path.c_str());
+      return 1;
+    }
+  }
+  return 0;
+}
