@@ -13,6 +13,12 @@ void addPrepCommand(CLI::App& app);
 void addInfoCommand(CLI::App& app);
 /// Adds `render` to the app.
 void addRenderCommand(CLI::App& app);
+/// Adds `serve` to the app.
+void addServeCommand(CLI::App& app);
+/// Adds `request` to the app.
+void addRequestCommand(CLI::App& app);
+/// Adds `load` to the app.
+void addLoadCommand(CLI::App& app);
 
 /// Parses "a,b,c" into three numbers; throws CLI::ValidationError naming the option.
 template <typename T>

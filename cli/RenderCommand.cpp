@@ -7,6 +7,7 @@
 #include "brickstore/BrickStore.h"
 #include "brickstore/Errors.h"
 #include "cli/Commands.h"
+#include "cli/SceneOptions.h"
 #include "render/GlContext.h"
 #include "render/RenderErrors.h"
 #include "render/Scene.h"
@@ -16,75 +17,15 @@ namespace voxbrick::cli {
 namespace {
 
 struct RenderArgs {
-  std::string store, output, statsPath, sceneFile, orbit, eye, center, up, size, tf, background, window;
-  std::string backend = "auto", slicer, atlasFormat = "float";
-  double fov = 0, step = 0;
-  bool ortho = false, noSkip = false, noCull = false, shading = false, quiet = false;
+  SceneArgs scene;
+  std::string store, output, statsPath;
+  std::string backend = "auto", atlasFormat = "float";
+  bool quiet = false;
   int64_t gpuBudgetMB = 1024, hostBudgetMB = 1024;
-  int subBlock = -1;
 };
 
-std::string readText(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw render::RenderInputError(path + ": cannot read");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-glm::dvec3 triple(const std::string& text, const std::string& option) {
-  double v[3];
-  parseTriple(text, option, v);
-  return {v[0], v[1], v[2]};
-}
-
-/// The scene: --scene first, then every option given on the command line on top of it.
-render::Scene buildScene(const RenderArgs& a, const CLI::App& cmd) {
-  render::Scene s = a.sceneFile.empty() ? render::Scene{} : render::Scene::fromJson(readText(a.sceneFile), a.sceneFile);
-  if (!a.orbit.empty()) {
-    const glm::dvec3 o = triple(a.orbit, "--orbit");
-    s.camera.orbit = true;
-    s.camera.azimuth = o.x, s.camera.elevation = o.y, s.camera.distance = o.z;
-  }
-  if (!a.eye.empty()) {
-    s.camera.orbit = false;
-    s.camera.eye = triple(a.eye, "--eye");
-    s.camera.center = a.center.empty() ? glm::dvec3(0) : triple(a.center, "--center");
-    s.camera.up = a.up.empty() ? glm::dvec3(0, 1, 0) : triple(a.up, "--up");
-  }
-  if (cmd.count("--fov")) s.camera.fovY = a.fov;
-  if (a.ortho) s.camera.orthographic = true;
-  if (!a.size.empty()) {
-    int w = 0, h = 0;
-    char extra = 0;
-    if (std::sscanf(a.size.c_str(), "%dx%d%c", &w, &h, &extra) != 2)
-      throw render::RenderInputError("--size '" + a.size + "': expected WIDTHxHEIGHT");
-    s.width = w, s.height = h;
-  }
-  if (!a.tf.empty()) {
-    s.transferFunction = render::TransferFunction::load(a.tf);
-    s.transferFunctionName = a.tf;
-  }
-  if (cmd.count("--step")) s.step = a.step;
-  if (!a.background.empty()) s.background = triple(a.background, "--background");
-  if (!a.window.empty()) {
-    double lo = 0, hi = 0;
-    char extra = 0;
-    if (std::sscanf(a.window.c_str(), "%lf,%lf%c", &lo, &hi, &extra) != 2)
-      throw render::RenderInputError("--window '" + a.window + "': expected LO,HI");
-    s.window = std::array<double, 2>{lo, hi};
-  }
-  if (a.noSkip) s.skipEmpty = false;
-  if (a.noCull) s.cullFrustum = false;
-  if (a.shading) s.shading = true;
-  if (a.subBlock >= 0) s.subBlock = a.subBlock;
-  if (!a.slicer.empty()) s.slicer = a.slicer == "cpu" ? render::Slicer::Cpu : render::Slicer::Vertex;
-  s.validate();
-  return s;
-}
-
 void runRender(const RenderArgs& a, const CLI::App& cmd) {
-  const render::Scene scene = buildScene(a, cmd);
+  const render::Scene scene = buildScene(a.scene, cmd);
   auto store = store::BrickStore::open(a.store);
   auto cache = std::make_shared<store::BrickCache>(store, size_t(a.hostBudgetMB) << 20, 2);
   auto context = render::createContext(render::parseBackend(a.backend));
@@ -115,26 +56,8 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("store", args->store, "store directory")->required();
   cmd->add_option("-o,--output", args->output, "PNG file to write")->required();
   cmd->add_option("--stats", args->statsPath, "write the frame statistics as JSON");
-  cmd->add_option("--scene", args->sceneFile, "scene JSON (the options below override it)");
-  cmd->add_option("--orbit", args->orbit, "AZ,EL,DIST: degrees, degrees, bounding-sphere radii (default 30,20,2.5)");
-  cmd->add_option("--eye", args->eye, "x,y,z eye position (world units)");
-  cmd->add_option("--center", args->center, "x,y,z look-at point (default 0,0,0)");
-  cmd->add_option("--up", args->up, "x,y,z up vector (default 0,1,0)");
-  cmd->add_option("--fov", args->fov, "vertical field of view in degrees (default 30)");
-  cmd->add_flag("--ortho", args->ortho, "orthographic projection");
-  cmd->add_option("--size", args->size, "WIDTHxHEIGHT (default 512x512)");
-  cmd->add_option("--tf", args->tf, "transfer function: preset name (config/tf) or JSON file (default grayscale)");
-  cmd->add_option("--step", args->step, "slice spacing in voxels (default 0.5)");
-  cmd->add_option("--background", args->background, "r,g,b in [0, 1] (default 0,0,0)");
-  cmd->add_option("--window", args->window, "LO,HI value window (default: the store's value range)");
+  addSceneOptions(cmd, args->scene);
   cmd->add_option("--backend", args->backend, "auto, egl or osmesa")->capture_default_str();
-  cmd->add_option("--slicer", args->slicer, "vertex (GPU vertex program) or cpu")
-      ->check(CLI::IsMember({"vertex", "cpu"}));
-  cmd->add_flag("--no-skip", args->noSkip, "draw bricks the transfer function makes empty");
-  cmd->add_flag("--no-cull", args->noCull, "draw bricks outside the view frustum");
-  cmd->add_option("--sub-block", args->subBlock,
-                  "skip empty sub-blocks of N voxels inside bricks (a power of two; 0 draws whole bricks)");
-  cmd->add_flag("--shading", args->shading, "gradient (central differences) and Phong headlight shading");
   cmd->add_option("--gpu-budget", args->gpuBudgetMB, "MB of GPU memory for the brick atlas")
       ->capture_default_str()->check(CLI::PositiveNumber);
   cmd->add_option("--host-budget", args->hostBudgetMB, "MB of host memory for decoded bricks")

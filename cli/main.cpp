@@ -15,6 +15,9 @@ int main(int argc, char** argv) {
   voxbrick::cli::addPrepCommand(app);
   voxbrick::cli::addInfoCommand(app);
   voxbrick::cli::addRenderCommand(app);
+  voxbrick::cli::addServeCommand(app);
+  voxbrick::cli::addRequestCommand(app);
+  voxbrick::cli::addLoadCommand(app);
 
   try {
     app.parse(argc, argv);

@@ -41,18 +41,23 @@ ImageF toImageF(const Image8& image) {
   return out;
 }
 
-void writePng(const std::filesystem::path& path, const Image8& image) {
-  std::unique_ptr<FILE, FileCloser> file(std::fopen(path.c_str(), "wb"));
-  if (!file) throw RenderError("cannot write " + path.string() + ": " + std::strerror(errno));
+std::vector<uint8_t> encodePng(const Image8& image) {
+  std::vector<uint8_t> out;
   std::string message;
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &message, pngError, nullptr);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
-  if (!png || !info) throw RenderError("writePng: libpng could not start");
+  if (!png || !info) throw RenderError("encodePng: libpng could not start");
   if (setjmp(png_jmpbuf(png))) {
     png_destroy_write_struct(&png, &info);
-    throw RenderError("cannot write " + path.string() + ": " + message);
+    throw RenderError("encodePng: " + message);
   }
-  png_init_io(png, file.get());
+  png_set_write_fn(
+      png, &out,
+      [](png_structp p, png_bytep data, png_size_t length) {
+        auto* bytes = static_cast<std::vector<uint8_t>*>(png_get_io_ptr(p));
+        bytes->insert(bytes->end(), data, data + length);
+      },
+      nullptr);
   png_set_IHDR(png, info, png_uint_32(image.width), png_uint_32(image.height), 8, PNG_COLOR_TYPE_RGBA,
                PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
   png_write_info(png, info);
@@ -60,22 +65,29 @@ void writePng(const std::filesystem::path& path, const Image8& image) {
     png_write_row(png, image.rgba.data() + size_t(y) * size_t(image.width) * 4);
   png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
-  if (std::fflush(file.get()) != 0) throw RenderError("cannot write " + path.string() + ": " + std::strerror(errno));
+  return out;
 }
 
-Image8 readPng(const std::filesystem::path& path) {
-  std::unique_ptr<FILE, FileCloser> file(std::fopen(path.c_str(), "rb"));
-  if (!file) throw RenderError("cannot read " + path.string() + ": " + std::strerror(errno));
+Image8 decodePng(std::span<const uint8_t> bytes, const std::string& what) {
+  struct Reader {
+    std::span<const uint8_t> bytes;
+    size_t offset = 0;
+  } reader{bytes};
   std::string message;
   png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &message, pngError, nullptr);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
-  if (!png || !info) throw RenderError("readPng: libpng could not start");
+  if (!png || !info) throw RenderError("decodePng: libpng could not start");
   Image8 out;
   if (setjmp(png_jmpbuf(png))) {
     png_destroy_read_struct(&png, &info, nullptr);
-    throw RenderError(path.string() + ": not a readable PNG (" + message + ")");
+    throw RenderError(what + ": not a readable PNG (" + message + ")");
   }
-  png_init_io(png, file.get());
+  png_set_read_fn(png, &reader, [](png_structp p, png_bytep data, png_size_t length) {
+    auto* r = static_cast<Reader*>(png_get_io_ptr(p));
+    if (length > r->bytes.size() - r->offset) png_error(p, "truncated");
+    std::memcpy(data, r->bytes.data() + r->offset, length);
+    r->offset += length;
+  });
   png_read_info(png, info);
   png_set_expand(png);
   png_set_strip_16(png);
@@ -92,6 +104,25 @@ Image8 readPng(const std::filesystem::path& path) {
   png_read_image(png, rows.data());
   png_destroy_read_struct(&png, &info, nullptr);
   return out;
+}
+
+void writePng(const std::filesystem::path& path, const Image8& image) {
+  const std::vector<uint8_t> bytes = encodePng(image);
+  std::unique_ptr<FILE, FileCloser> file(std::fopen(path.c_str(), "wb"));
+  if (!file) throw RenderError("cannot write " + path.string() + ": " + std::strerror(errno));
+  if (std::fwrite(bytes.data(), 1, bytes.size(), file.get()) != bytes.size() || std::fflush(file.get()) != 0)
+    throw RenderError("cannot write " + path.string() + ": " + std::strerror(errno));
+}
+
+Image8 readPng(const std::filesystem::path& path) {
+  std::unique_ptr<FILE, FileCloser> file(std::fopen(path.c_str(), "rb"));
+  if (!file) throw RenderError("cannot read " + path.string() + ": " + std::strerror(errno));
+  std::vector<uint8_t> bytes;
+  uint8_t buffer[1 << 16];
+  size_t n;
+  while ((n = std::fread(buffer, 1, sizeof buffer, file.get())) > 0) bytes.insert(bytes.end(), buffer, buffer + n);
+  if (std::ferror(file.get())) throw RenderError("cannot read " + path.string() + ": " + std::strerror(errno));
+  return decodePng(bytes, path.string());
 }
 
 ImageError compareImages(const ImageF& a, const ImageF& b) {

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,10 @@ Image8 toImage8(const ImageF& image);
 /// Scales 8-bit channels to [0, 1].
 ImageF toImageF(const Image8& image);
 
+/// An 8-bit RGBA PNG in memory.
+std::vector<uint8_t> encodePng(const Image8& image);
+/// Decodes a PNG of any bit depth and colour type as 8-bit RGBA; throws RenderError naming `what`.
+Image8 decodePng(std::span<const uint8_t> bytes, const std::string& what);
 /// Writes an 8-bit RGBA PNG; throws RenderError naming the file.
 void writePng(const std::filesystem::path& path, const Image8& image);
 /// Reads a PNG of any bit depth and colour type as 8-bit RGBA; throws RenderError naming the file.

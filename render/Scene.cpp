@@ -49,7 +49,7 @@ Camera CameraSpec::resolve(const Box& box) const {
   return c;
 }
 
-Scene Scene::fromJson(const std::string& text, const std::string& what) {
+Scene Scene::fromJson(const std::string& text, const std::string& what, bool allowPaths) {
   json j;
   try {
     j = json::parse(text);
@@ -86,13 +86,20 @@ Scene Scene::fromJson(const std::string& text, const std::string& what) {
     const json& z = j["size"];
     if (!z.is_array() || z.size() != 2 || !z[0].is_number_integer() || !z[1].is_number_integer())
       throw RenderInputError(what + ": 'size' must be [width, height] integers");
-    s.width = z[0].get<int>();
-    s.height = z[1].get<int>();
+    const int64_t w = z[0].get<int64_t>(), h = z[1].get<int64_t>();
+    if (w < 1 || h < 1 || w > kMaxImageSide || h > kMaxImageSide)
+      throw RenderInputError(what + ": 'size' " + std::to_string(w) + "x" + std::to_string(h) + " is outside 1.." +
+                             std::to_string(kMaxImageSide) + " per side");
+    s.width = int(w);
+    s.height = int(h);
   }
   if (j.contains("transfer_function")) {
     const json& t = j["transfer_function"];
     if (t.is_string()) {
       s.transferFunctionName = t.get<std::string>();
+      if (!allowPaths && !TransferFunction::isPresetName(s.transferFunctionName))
+        throw RenderInputError(what + ": 'transfer_function' must be a preset name (letters, digits, '-', '_') or "
+                               "an inline object; paths are not accepted here");
       s.transferFunction = TransferFunction::load(s.transferFunctionName);
     } else if (t.is_object()) {
       s.transferFunctionName = "inline";

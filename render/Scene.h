@@ -54,7 +54,8 @@ struct Scene {
   /// key. Keys: camera {orbit: [az, el, dist] | eye, center, up; fov; orthographic}, size [w, h],
   /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b],
   /// window [lo, hi], skip_empty, cull, slicer ("vertex" | "cpu"), shading, sub_block.
-  static Scene fromJson(const std::string& text, const std::string& what);
+  /// `allowPaths` false (the server) accepts transfer functions by preset name or inline only, never a file path.
+  static Scene fromJson(const std::string& text, const std::string& what, bool allowPaths = true);
   /// Throws RenderInputError for values out of range (size, step, background, window).
   void validate() const;
   /// The scene as JSON (the transfer function inline), so a frame can be reproduced.

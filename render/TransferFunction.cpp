@@ -39,13 +39,6 @@ void checkPoints(const std::vector<TransferFunction::Point>& points, std::option
                            " is not finite and positive");
 }
 
-bool isPresetName(const std::string& name) {
-  if (name.empty()) return false;
-  return std::all_of(name.begin(), name.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' || c == '_';
-  });
-}
-
 }  // namespace
 
 TransferFunction::TransferFunction(std::vector<Point> points, std::optional<double> referenceLength)
@@ -131,6 +124,13 @@ std::vector<std::string> TransferFunction::presetNames() {
   }
   std::sort(names.begin(), names.end());
   return names;
+}
+
+bool TransferFunction::isPresetName(const std::string& name) {
+  if (name.empty()) return false;
+  return std::all_of(name.begin(), name.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' || c == '_';
+  });
 }
 
 TransferFunction TransferFunction::load(const std::string& nameOrPath) {

@@ -35,6 +35,8 @@ class TransferFunction {
   /// configDirectory()/tf/<name>.json (names of letters, digits, '-', '_'). Throws RenderInputError for a missing
   /// or unreadable file (listing the presets for an unknown name) and for its content.
   static TransferFunction load(const std::string& nameOrPath);
+  /// Whether `name` is a preset name: non-empty, letters, digits, '-' and '_' only.
+  static bool isPresetName(const std::string& name);
   /// Where presets live: $VOXBRICK_CONFIG_DIR if set and non-empty; else "config" beside the directory holding the
   /// running executable (build/voxbrick -> config/), if that is a directory; else "./config".
   static std::filesystem::path configDirectory();

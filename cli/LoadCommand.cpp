@@ -1,0 +1,274 @@
+// `voxbrick load HOST:PORT --clients N --duration S`: concurrent well-behaved clients, optionally mixed with faulty
+// ones, reporting throughput, latency percentiles and errors.
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <mutex>
+#include <random>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "cli/Commands.h"
+#include "client/Client.h"
+
+namespace voxbrick::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using nlohmann::json;
+
+struct LoadArgs {
+  std::string address, dataset, tf = "grayscale", faults, jsonPath, size = "128x128";
+  int clients = 4, faultClients = 0, idleSessions = 0;
+  double duration = 10, step = 1;
+  bool requireClean = false;
+};
+
+struct Tally {
+  std::mutex mutex;
+  std::vector<double> latencies;
+  int64_t frames = 0, errors = 0;
+  std::vector<std::string> errorSamples;
+  std::map<std::string, int64_t> faultsDone, faultsUnexpected;
+
+  void error(const std::string& what) {
+    std::lock_guard lock(mutex);
+    ++errors;
+    if (errorSamples.size() < 10) errorSamples.push_back(what);
+  }
+};
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, size_t(p * double(v.size())))];
+}
+
+std::string sceneJson(const LoadArgs& a, int width, int height, double azimuth) {
+  return json{{"camera", {{"orbit", {azimuth, 20, 2.5}}}},
+              {"size", {width, height}},
+              {"transfer_function", a.tf},
+              {"step", a.step}}
+      .dump();
+}
+
+/// A well-behaved client: one request at a time until the deadline, every latency recorded.
+void goodClient(const LoadArgs& a, const std::string& host, int port, int width, int height, int index,
+                Clock::time_point deadline, Tally& tally) {
+  try {
+    client::Client c(host, port, std::chrono::seconds(60));
+    c.hello("voxbrick-load");
+    c.openDataset(a.dataset);
+    for (int n = 0; Clock::now() < deadline; ++n) {
+      const auto start = Clock::now();
+      c.render(sceneJson(a, width, height, 10.0 * index + 7.0 * n), proto::Encoding::ZstdRgba8);
+      const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+      std::lock_guard lock(tally.mutex);
+      tally.latencies.push_back(ms);
+      ++tally.frames;
+    }
+    c.goodbye();
+  } catch (const std::exception& e) {
+    tally.error(e.what());
+  }
+}
+
+/// Reads replies until the server closes the connection (or `limit` passes); returns the error codes seen.
+std::vector<proto::ErrorCode> drain(client::Client& c, Clock::duration limit) {
+  std::vector<proto::ErrorCode> codes;
+  const auto end = Clock::now() + limit;
+  try {
+    while (Clock::now() < end) {
+      auto [id, m] = c.receive();
+      if (auto* e = std::get_if<proto::Error>(&m)) codes.push_back(e->code);
+    }
+  } catch (const std::exception&) {
+  }
+  return codes;
+}
+
+/// One fault of the given kind; returns whether the server answered as documented.
+bool fault(const std::string& kind, const LoadArgs& a, const std::string& host, int port, std::mt19937& rng) {
+  client::Client c(host, port, std::chrono::seconds(10));
+  auto has = [](const std::vector<proto::ErrorCode>& codes, proto::ErrorCode code) {
+    return std::find(codes.begin(), codes.end(), code) != codes.end();
+  };
+  if (kind == "garbage") {
+    std::vector<uint8_t> bytes(64);
+    for (uint8_t& b : bytes) b = uint8_t(rng());
+    bytes[0] = 'G';  // never the magic
+    c.sendBytes(bytes);
+    return has(drain(c, std::chrono::seconds(5)), proto::ErrorCode::BadMagic);
+  }
+  if (kind == "huge") {
+    proto::Header h;
+    h.type = proto::MessageType::Render;
+    h.bodyBytes = 0xFFFFFFFFu;
+    const auto head = proto::encodeHeader(h);
+    c.sendBytes(std::vector<uint8_t>(head.begin(), head.end()));
+    return has(drain(c, std::chrono::seconds(5)), proto::ErrorCode::TooLarge);
+  }
+  c.hello("voxbrick-load-fault");
+  if (kind == "malformed") {
+    std::vector<uint8_t> bytes = proto::encode(proto::RenderRequest{proto::Encoding::Png, "{}"}, 99);
+    bytes.pop_back();  // one byte short of its declared string
+    bytes[12] = uint8_t(bytes.size() - proto::kHeaderBytes);  // body length matches what is sent
+    c.sendBytes(bytes);
+    auto [id, m] = c.receive();
+    const auto* e = std::get_if<proto::Error>(&m);
+    const bool ok = e && e->code == proto::ErrorCode::Malformed;
+    c.listDatasets();  // the session goes on
+    c.goodbye();
+    return ok;
+  }
+  c.openDataset(a.dataset);
+  c.send(proto::RenderRequest{proto::Encoding::RawRgba8, sceneJson(a, 256, 256, double(rng() % 360))});
+  if (kind == "disconnect") {
+    c.close();  // before the frame arrives
+    return true;
+  }
+  if (kind == "slow") {
+    // Takes the frame a few bytes at a time, then leaves.
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    c.close();
+    return true;
+  }
+  throw std::invalid_argument("unknown fault '" + kind + "' (disconnect, garbage, huge, malformed, slow)");
+}
+
+void faultClient(const LoadArgs& a, const std::string& host, int port, const std::vector<std::string>& kinds, int index,
+                 Clock::time_point deadline, Tally& tally) {
+  std::mt19937 rng(unsigned(1234 + index));
+  for (size_t n = size_t(index); Clock::now() < deadline; ++n) {
+    const std::string& kind = kinds[n % kinds.size()];
+    bool ok = false;
+    try {
+      ok = fault(kind, a, host, port, rng);
+    } catch (const std::invalid_argument&) {
+      throw;
+    } catch (const std::exception&) {
+      ok = false;
+    }
+    std::lock_guard lock(tally.mutex);
+    ++tally.faultsDone[kind];
+    if (!ok) ++tally.faultsUnexpected[kind];
+  }
+}
+
+void runLoad(const LoadArgs& a) {
+  const auto [host, port] = client::parseAddress(a.address);
+  int width = 0, height = 0;
+  char extra = 0;
+  if (std::sscanf(a.size.c_str(), "%dx%d%c", &width, &height, &extra) != 2 || width < 1 || height < 1)
+    throw std::invalid_argument("--size '" + a.size + "': expected WIDTHxHEIGHT");
+  std::vector<std::string> kinds;
+  for (size_t start = 0; start < a.faults.size();) {
+    const size_t comma = std::min(a.faults.find(',', start), a.faults.size());
+    if (comma > start) kinds.push_back(a.faults.substr(start, comma - start));
+    start = comma + 1;
+  }
+  if (a.faultClients > 0 && kinds.empty()) kinds = {"disconnect", "garbage", "huge", "malformed", "slow"};
+  for (const std::string& k : kinds)
+    if (k != "disconnect" && k != "garbage" && k != "huge" && k != "malformed" && k != "slow")
+      throw std::invalid_argument("--faults: unknown fault '" + k + "' (disconnect, garbage, huge, malformed, slow)");
+  if (a.dataset.empty()) throw std::invalid_argument("--dataset is required");
+
+  // Idle sessions: connected and greeted, then silent for the whole run.
+  std::vector<std::unique_ptr<client::Client>> idle;
+  for (int i = 0; i < a.idleSessions; ++i) {
+    idle.push_back(std::make_unique<client::Client>(host, port, std::chrono::seconds(10)));
+    idle.back()->hello("voxbrick-load-idle");
+  }
+
+  Tally tally;
+  const auto start = Clock::now();
+  const auto deadline = start + std::chrono::milliseconds(int64_t(a.duration * 1000));
+  std::vector<std::thread> threads;
+  for (int i = 0; i < a.clients; ++i)
+    threads.emplace_back(goodClient, std::cref(a), host, port, width, height, i, deadline, std::ref(tally));
+  for (int i = 0; i < a.faultClients; ++i)
+    threads.emplace_back(faultClient, std::cref(a), host, port, std::cref(kinds), i, deadline, std::ref(tally));
+  for (std::thread& t : threads) t.join();
+  const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+
+  json server;
+  try {
+    client::Client c(host, port, std::chrono::seconds(30));
+    c.hello("voxbrick-load-stats");
+    server = json::parse(c.stats());
+    c.goodbye();
+  } catch (const std::exception& e) {
+    tally.error(std::string("server statistics after the run: ") + e.what());
+  }
+  idle.clear();
+
+  json faults = json::object();
+  int64_t unexpected = 0;
+  for (const auto& [kind, n] : tally.faultsDone) {
+    const int64_t bad = tally.faultsUnexpected.count(kind) ? tally.faultsUnexpected.at(kind) : 0;
+    faults[kind] = {{"done", n}, {"unexpected", bad}};
+    unexpected += bad;
+  }
+  const json report = {
+      {"clients", a.clients},
+      {"fault_clients", a.faultClients},
+      {"idle_sessions", a.idleSessions},
+      {"duration_s", seconds},
+      {"size", {width, height}},
+      {"frames", tally.frames},
+      {"frames_per_s", double(tally.frames) / seconds},
+      {"errors", tally.errors},
+      {"error_samples", tally.errorSamples},
+      {"latency_ms", {{"p50", percentile(tally.latencies, 0.5)},
+                      {"p95", percentile(tally.latencies, 0.95)},
+                      {"p99", percentile(tally.latencies, 0.99)},
+                      {"max", percentile(tally.latencies, 1.0)}}},
+      {"faults", faults},
+      {"server", server}};
+  std::printf("load: %d clients (+%d faulty, %d idle) for %.1f s: %lld frames, %.1f frames/s, latency p50 %.1f "
+              "p95 %.1f p99 %.1f max %.1f ms, %lld errors, %lld unexpected fault replies",
+              a.clients, a.faultClients, a.idleSessions, seconds, (long long)tally.frames,
+              double(tally.frames) / seconds, percentile(tally.latencies, 0.5), percentile(tally.latencies, 0.95),
+              percentile(tally.latencies, 0.99), percentile(tally.latencies, 1.0), (long long)tally.errors,
+              (long long)unexpected);
+  if (server.contains("memory"))
+    std::printf(", server RSS %.0f MB (peak %.0f MB)", double(server["memory"]["rss_bytes"]) / 1e6,
+                double(server["memory"]["peak_rss_bytes"]) / 1e6);
+  std::printf("\n");
+  for (const std::string& e : tally.errorSamples) std::printf("  error: %s\n", e.c_str());
+  if (!a.jsonPath.empty()) {
+    std::ofstream out(a.jsonPath);
+    out << report.dump(2) << "\n";
+    if (!out) throw std::runtime_error("cannot write " + a.jsonPath);
+  }
+  if (a.requireClean && (tally.errors > 0 || unexpected > 0 || tally.frames == 0))
+    throw std::runtime_error("the run was not clean: " + std::to_string(tally.errors) + " errors, " +
+                             std::to_string(unexpected) + " unexpected fault replies, " +
+                             std::to_string(tally.frames) + " frames");
+}
+
+}  // namespace
+
+void addLoadCommand(CLI::App& app) {
+  auto a = std::make_shared<LoadArgs>();
+  CLI::App* cmd = app.add_subcommand("load", "Load-test a running server with concurrent clients and faults");
+  cmd->add_option("address", a->address, "HOST:PORT of the server")->required();
+  cmd->add_option("--dataset", a->dataset, "dataset the clients render")->required();
+  cmd->add_option("--clients", a->clients, "well-behaved clients")->capture_default_str()->check(CLI::Range(0, 4096));
+  cmd->add_option("--duration", a->duration, "seconds")->capture_default_str()->check(CLI::Range(0.1, 86400.0));
+  cmd->add_option("--size", a->size, "frame size WIDTHxHEIGHT")->capture_default_str();
+  cmd->add_option("--tf", a->tf, "transfer function preset")->capture_default_str();
+  cmd->add_option("--step", a->step, "slice spacing in voxels")->capture_default_str();
+  cmd->add_option("--fault-clients", a->faultClients, "clients that misbehave in turn")->check(CLI::Range(0, 4096));
+  cmd->add_option("--faults", a->faults, "comma list: disconnect, garbage, huge, malformed, slow (default all)");
+  cmd->add_option("--idle-sessions", a->idleSessions, "sessions opened and left silent")->check(CLI::Range(0, 100000));
+  cmd->add_option("--json", a->jsonPath, "write the report as JSON");
+  cmd->add_flag("--require-clean", a->requireClean,
+                "exit non-zero unless every good request succeeded and every fault got its documented reply");
+  cmd->callback([a] { runLoad(*a); });
+}
+
+}  // namespace voxbrick::cli

@@ -1,0 +1,94 @@
+// `voxbrick request HOST:PORT --dataset NAME [scene options] -o frame.png`: one frame from a running server.
+#include <cstdio>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+#include <zstd.h>
+
+#include "cli/Commands.h"
+#include "cli/SceneOptions.h"
+#include "client/Client.h"
+#include "render/Image.h"
+#include "render/RenderErrors.h"
+
+namespace voxbrick::cli {
+namespace {
+
+struct RequestArgs {
+  SceneArgs scene;
+  std::string address, dataset, output, statsPath, encoding = "png";
+  double timeout = 120;
+  bool list = false;
+};
+
+/// The frame as an image, whatever its encoding.
+render::Image8 frameImage(const proto::Frame& frame) {
+  render::Image8 image{int(frame.width), int(frame.height), {}};
+  const size_t bytes = size_t(frame.width) * size_t(frame.height) * 4;
+  switch (frame.encoding) {
+    case proto::Encoding::Png:
+      image = render::decodePng(frame.payload, "frame");
+      break;
+    case proto::Encoding::RawRgba8:
+      image.rgba = frame.payload;
+      break;
+    case proto::Encoding::ZstdRgba8: {
+      image.rgba.resize(bytes);
+      const size_t n = ZSTD_decompress(image.rgba.data(), bytes, frame.payload.data(), frame.payload.size());
+      if (ZSTD_isError(n) || n != bytes) throw std::runtime_error("frame: zstd payload does not decode to the frame size");
+      break;
+    }
+  }
+  if (image.width != int(frame.width) || image.height != int(frame.height) || image.rgba.size() != bytes)
+    throw std::runtime_error("frame: payload does not match its " + std::to_string(frame.width) + "x" +
+                             std::to_string(frame.height) + " size");
+  return image;
+}
+
+void runRequest(const RequestArgs& a, const CLI::App& cmd) {
+  const auto [host, port] = client::parseAddress(a.address);
+  client::Client c(host, port, std::chrono::milliseconds(int64_t(a.timeout * 1000)));
+  c.hello("voxbrick-request 0.1");
+  if (a.list || a.dataset.empty()) {
+    for (const std::string& name : c.listDatasets()) std::printf("%s\n", name.c_str());
+    c.goodbye();
+    return;
+  }
+  if (a.output.empty()) throw render::RenderInputError("-o/--output is required to render");
+  const render::Scene scene = buildScene(a.scene, cmd);
+  c.openDataset(a.dataset);
+  const proto::Encoding encoding = a.encoding == "raw"    ? proto::Encoding::RawRgba8
+                                   : a.encoding == "zstd" ? proto::Encoding::ZstdRgba8
+                                                          : proto::Encoding::Png;
+  const auto start = std::chrono::steady_clock::now();
+  const proto::Frame frame = c.render(scene.toJson(), encoding);
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  c.goodbye();
+  render::writePng(a.output, frameImage(frame));
+  if (!a.statsPath.empty()) {
+    std::ofstream out(a.statsPath);
+    out << nlohmann::json::parse(frame.statsJson).dump(2) << "\n";
+    if (!out) throw render::RenderError("cannot write " + a.statsPath);
+  }
+  std::printf("request: wrote %s (%ux%u, %zu bytes as %s) in %.1f ms\n", a.output.c_str(), frame.width, frame.height,
+              frame.payload.size(), a.encoding.c_str(), ms);
+}
+
+}  // namespace
+
+void addRequestCommand(CLI::App& app) {
+  auto a = std::make_shared<RequestArgs>();
+  CLI::App* cmd = app.add_subcommand("request", "Ask a running server for one frame and save it as PNG");
+  cmd->add_option("address", a->address, "HOST:PORT of the server")->required();
+  cmd->add_option("--dataset", a->dataset, "dataset to render (without it: list the datasets)");
+  cmd->add_flag("--list", a->list, "list the server's datasets");
+  cmd->add_option("-o,--output", a->output, "PNG file to write");
+  cmd->add_option("--stats", a->statsPath, "write the frame's statistics as JSON");
+  cmd->add_option("--encoding", a->encoding, "how the frame travels: png, raw or zstd")
+      ->check(CLI::IsMember({"png", "raw", "zstd"}))->capture_default_str();
+  cmd->add_option("--timeout", a->timeout, "seconds to wait for the server")->capture_default_str();
+  addSceneOptions(cmd, a->scene);
+  cmd->callback([a, cmd] { runRequest(*a, *cmd); });
+}
+
+}  // namespace voxbrick::cli

@@ -1,0 +1,24 @@
+// The scene options shared by `render` and `request`: a scene JSON file and command-line options on top of it.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <string>
+
+#include "render/Scene.h"
+
+namespace voxbrick::cli {
+
+struct SceneArgs {
+  std::string sceneFile, orbit, eye, center, up, size, tf, background, window, slicer;
+  double fov = 0, step = 0;
+  bool ortho = false, noSkip = false, noCull = false, shading = false;
+  int subBlock = -1;
+};
+
+/// Registers the scene options on `cmd`, storing into `args` (which must outlive the app).
+void addSceneOptions(CLI::App* cmd, SceneArgs& args);
+/// The scene: --scene first, then every option given on the command line on top of it. Throws RenderInputError.
+render::Scene buildScene(const SceneArgs& args, const CLI::App& cmd);
+
+}  // namespace voxbrick::cli

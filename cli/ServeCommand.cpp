@@ -1,0 +1,82 @@
+// `voxbrick serve [--config config/server.toml] [overrides]`: the render service.
+#include <cstdio>
+#include <fstream>
+
+#include <spdlog/spdlog.h>
+
+#include "cli/Commands.h"
+#include "server/Server.h"
+#include "server/ServerConfig.h"
+
+namespace voxbrick::cli {
+namespace {
+
+struct ServeArgs {
+  std::string config, host, datasets, backend, logLevel, portFile;
+  int port = -1, renderThreads = 0, ioThreads = 0, maxSessions = 0, maxImageSide = 0;
+  double idleTimeout = 0, readTimeout = 0, writeTimeout = 0;
+  int64_t hostCacheMB = 0, gpuBudgetMB = 0, maxMessageBytes = 0;
+};
+
+void runServe(const ServeArgs& a) {
+  server::ServerConfig c = a.config.empty() ? server::ServerConfig{} : server::ServerConfig::load(a.config);
+  if (!a.host.empty()) c.host = a.host;
+  if (a.port >= 0) c.port = a.port;
+  if (!a.datasets.empty()) c.datasets = a.datasets;
+  if (!a.backend.empty()) c.backend = a.backend;
+  if (!a.logLevel.empty()) c.logLevel = a.logLevel;
+  if (a.renderThreads > 0) c.renderThreads = a.renderThreads;
+  if (a.ioThreads > 0) c.ioThreads = a.ioThreads;
+  if (a.maxSessions > 0) c.maxSessions = a.maxSessions;
+  if (a.maxImageSide > 0) c.maxImageSide = a.maxImageSide;
+  if (a.maxMessageBytes > 0) c.maxMessageBytes = uint32_t(std::min<int64_t>(a.maxMessageBytes, UINT32_MAX));
+  if (a.idleTimeout > 0) c.idleTimeoutS = a.idleTimeout;
+  if (a.readTimeout > 0) c.readTimeoutS = a.readTimeout;
+  if (a.writeTimeout > 0) c.writeTimeoutS = a.writeTimeout;
+  if (a.hostCacheMB > 0) c.hostCacheMB = a.hostCacheMB;
+  if (a.gpuBudgetMB > 0) c.gpuBudgetMB = a.gpuBudgetMB;
+  c.validate();
+  spdlog::set_level(spdlog::level::from_str(c.logLevel));
+  spdlog::set_pattern("[%Y-%m-%d %H:%M:%S.%e] [%l] %v");
+
+  server::Server server(c);
+  spdlog::info("serving datasets from {} on {}:{}", c.datasets.string(), c.host, server.port());
+  std::printf("listening on %s:%d\n", c.host.c_str(), server.port());
+  std::fflush(stdout);
+  if (!a.portFile.empty()) {
+    // Written whole under a temporary name, then renamed: a script polling for it never reads half a number.
+    const std::string tmp = a.portFile + ".tmp";
+    std::ofstream(tmp) << server.port() << "\n";
+    std::rename(tmp.c_str(), a.portFile.c_str());
+  }
+  server.run();
+  spdlog::info("stopped");
+}
+
+}  // namespace
+
+void addServeCommand(CLI::App& app) {
+  auto a = std::make_shared<ServeArgs>();
+  CLI::App* cmd = app.add_subcommand("serve", "Serve frames of a directory of stores over TCP (proto/PROTOCOL.md)");
+  cmd->add_option("--config", a->config, "TOML configuration (e.g. config/server.toml); options below override it")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--host", a->host, "address to listen on (default 127.0.0.1)");
+  cmd->add_option("--port", a->port, "TCP port; 0 picks a free one (default 7420)")->check(CLI::Range(0, 65535));
+  cmd->add_option("--port-file", a->portFile, "write the port actually bound to this file");
+  cmd->add_option("--datasets", a->datasets, "directory whose subdirectories are stores (default demo)");
+  cmd->add_option("--backend", a->backend, "auto, egl or osmesa");
+  cmd->add_option("--log-level", a->logLevel, "trace, debug, info, warn, error or off");
+  cmd->add_option("--render-threads", a->renderThreads, "render threads, each with its own GL context");
+  cmd->add_option("--io-threads", a->ioThreads, "network I/O threads");
+  cmd->add_option("--max-sessions", a->maxSessions, "concurrent sessions");
+  cmd->add_option("--max-image-side", a->maxImageSide, "largest frame side in pixels");
+  cmd->add_option("--max-message-bytes", a->maxMessageBytes, "largest client message body");
+  cmd->add_option("--idle-timeout", a->idleTimeout, "seconds without a message before a session is closed");
+  cmd->add_option("--read-timeout", a->readTimeout, "seconds to complete a message once its header arrived");
+  cmd->add_option("--write-timeout", a->writeTimeout, "seconds a client may take to accept a reply");
+  cmd->add_option("--host-cache", a->hostCacheMB, "MB of decoded bricks per dataset");
+  cmd->add_option("--gpu-budget", a->gpuBudgetMB, "MB of atlas per render thread and dataset");
+  cmd->callback([a] { runServe(*a); });
+}
+
+}  // namespace voxbrick::cli

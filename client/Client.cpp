@@ -1,0 +1,142 @@
+// Blocking client over Boost.Asio; every read and write is bounded by the session's timeout.
+#include "client/Client.h"
+
+#include <sys/socket.h>
+#include <sys/time.h>
+
+#include <utility>  // before Asio: Boost 1.74's awaitable.hpp uses std::exchange without it
+
+#include <boost/asio.hpp>
+
+namespace voxbrick::client {
+
+namespace asio = boost::asio;
+using tcp = asio::ip::tcp;
+
+struct Client::Impl {
+  asio::io_context io;
+  tcp::socket socket{io};
+  proto::Limits limits;
+  std::string where;
+};
+
+Client::Client(const std::string& host, int port, std::chrono::milliseconds timeout) : mImpl(std::make_unique<Impl>()) {
+  mImpl->where = host + ":" + std::to_string(port);
+  // Frames can be large: accept bodies up to the protocol's ceiling.
+  mImpl->limits.maxBodyBytes = 1u << 30;
+  mImpl->limits.maxStringBytes = 64u << 20;
+  try {
+    tcp::resolver resolver(mImpl->io);
+    asio::connect(mImpl->socket, resolver.resolve(host, std::to_string(port)));
+  } catch (const boost::system::system_error& e) {
+    throw ConnectionError("cannot connect to " + mImpl->where + ": " + e.code().message());
+  }
+  timeval tv{};
+  tv.tv_sec = timeout.count() / 1000;
+  tv.tv_usec = (timeout.count() % 1000) * 1000;
+  const int fd = mImpl->socket.native_handle();
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  ::setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+  mImpl->socket.set_option(tcp::no_delay(true));
+}
+
+Client::~Client() = default;
+
+void Client::sendBytes(const std::vector<uint8_t>& bytes) {
+  boost::system::error_code ec;
+  asio::write(mImpl->socket, asio::buffer(bytes), ec);
+  if (ec) throw ConnectionError("sending to " + mImpl->where + ": " + ec.message());
+}
+
+uint32_t Client::send(const proto::Message& message) {
+  const uint32_t id = mNextId++;
+  sendBytes(proto::encode(message, id));
+  return id;
+}
+
+std::pair<uint32_t, proto::Message> Client::receive() {
+  std::array<uint8_t, proto::kHeaderBytes> head{};
+  boost::system::error_code ec;
+  asio::read(mImpl->socket, asio::buffer(head), ec);
+  if (ec)
+    throw ConnectionError("reading from " + mImpl->where + ": " +
+                          (ec == asio::error::eof ? std::string("the server closed the connection") : ec.message()));
+  try {
+    const proto::Header header = proto::decodeHeader(head, mImpl->limits);
+    std::vector<uint8_t> body(header.bodyBytes);
+    asio::read(mImpl->socket, asio::buffer(body), ec);
+    if (ec) throw ConnectionError("reading from " + mImpl->where + ": " + ec.message());
+    return {header.requestId, proto::decodeBody(header, body, mImpl->limits)};
+  } catch (const proto::ProtocolError& e) {
+    throw ConnectionError(mImpl->where + " sent an undecodable message: " + e.what());
+  }
+}
+
+proto::Message Client::call(const proto::Message& message) {
+  const uint32_t id = send(message);
+  for (;;) {
+    auto [replyId, reply] = receive();
+    if (const auto* error = std::get_if<proto::Error>(&reply)) {
+      if (replyId == id || replyId == 0) throw ServerError(error->code, error->message);
+      continue;  // an older request's error (e.g. Superseded)
+    }
+    if (replyId == id) return std::move(reply);
+  }
+}
+
+template <typename T>
+T expect(proto::Message reply, const char* what) {
+  if (auto* m = std::get_if<T>(&reply)) return std::move(*m);
+  throw ConnectionError(std::string("unexpected reply to ") + what + ": " +
+                        proto::messageTypeName(proto::messageType(reply)));
+}
+
+proto::Capabilities Client::hello(const std::string& clientName) {
+  return expect<proto::Capabilities>(call(proto::Hello{proto::kVersion, proto::kVersion, clientName}), "Hello");
+}
+
+std::vector<std::string> Client::listDatasets() {
+  return expect<proto::DatasetList>(call(proto::ListDatasets{}), "ListDatasets").names;
+}
+
+proto::DatasetInfo Client::openDataset(const std::string& name) {
+  return expect<proto::DatasetInfo>(call(proto::OpenDataset{name}), "OpenDataset");
+}
+
+proto::Frame Client::render(const std::string& sceneJson, proto::Encoding encoding) {
+  return expect<proto::Frame>(call(proto::RenderRequest{encoding, sceneJson}), "Render");
+}
+
+std::string Client::stats() { return expect<proto::Stats>(call(proto::GetStats{}), "GetStats").json; }
+
+void Client::goodbye() {
+  try {
+    send(proto::Goodbye{});
+  } catch (const ConnectionError&) {
+  }
+  close();
+}
+
+void Client::close() {
+  boost::system::error_code ignored;
+  mImpl->socket.shutdown(tcp::socket::shutdown_both, ignored);
+  mImpl->socket.close(ignored);
+}
+
+std::pair<std::string, int> parseAddress(const std::string& text) {
+  const size_t colon = text.rfind(':');
+  if (colon == std::string::npos || colon == 0 || colon + 1 == text.size())
+    throw std::invalid_argument("'" + text + "' is not HOST:PORT");
+  int port = 0;
+  try {
+    size_t used = 0;
+    port = std::stoi(text.substr(colon + 1), &used);
+    if (used != text.size() - colon - 1) throw std::invalid_argument("trailing");
+  } catch (const std::exception&) {
+    throw std::invalid_argument("'" + text + "': port is not a number");
+  }
+  if (port < 1 || port > 65535) throw std::invalid_argument("'" + text + "': port out of range");
+  return {text.substr(0, colon), port};
+}
+
+}  // namespace voxbrick::client

@@ -1,0 +1,74 @@
+// A small blocking client of the render service (proto/PROTOCOL.md), for programs that want frames: connect,
+// hello, open a dataset, render. Link voxbrick_client.
+#pragma once
+
+#include <chrono>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "proto/Messages.h"
+
+namespace voxbrick::client {
+
+/// The server answered with an Error message.
+class ServerError : public std::runtime_error {
+ public:
+  ServerError(proto::ErrorCode code, const std::string& message)
+      : std::runtime_error(std::string(proto::errorCodeName(code)) + ": " + message), mCode(code) {}
+  proto::ErrorCode code() const { return mCode; }
+
+ private:
+  proto::ErrorCode mCode;
+};
+
+/// The connection failed, timed out or the server sent bytes that do not decode.
+class ConnectionError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// One session. Not thread-safe: use one Client per thread.
+class Client {
+ public:
+  /// Connects to host:port; `timeout` bounds the connect and every later read or write. Throws ConnectionError.
+  Client(const std::string& host, int port, std::chrono::milliseconds timeout = std::chrono::seconds(60));
+  ~Client();
+  Client(const Client&) = delete;
+  Client& operator=(const Client&) = delete;
+
+  /// Hello -> Capabilities.
+  proto::Capabilities hello(const std::string& clientName = "voxbrick-client 0.1");
+  std::vector<std::string> listDatasets();
+  proto::DatasetInfo openDataset(const std::string& name);
+  /// One frame of the open dataset. Throws ServerError (InvalidScene, LimitExceeded, Superseded, ...).
+  proto::Frame render(const std::string& sceneJson, proto::Encoding encoding = proto::Encoding::Png);
+  /// Server statistics (JSON text).
+  std::string stats();
+  /// Sends Goodbye and closes.
+  void goodbye();
+
+  /// Low level: sends a message with a fresh request id and returns the id.
+  uint32_t send(const proto::Message& message);
+  /// Low level: sends raw bytes as they are (for tests of malformed input).
+  void sendBytes(const std::vector<uint8_t>& bytes);
+  /// Low level: the next message from the server, with the request id it answers.
+  std::pair<uint32_t, proto::Message> receive();
+  /// Closes the socket without a Goodbye.
+  void close();
+
+ private:
+  /// Sends `message` and returns the reply to it; an Error reply throws ServerError.
+  proto::Message call(const proto::Message& message);
+
+  struct Impl;
+  std::unique_ptr<Impl> mImpl;
+  uint32_t mNextId = 1;
+};
+
+/// "host:port" -> (host, port); throws std::invalid_argument naming the text.
+std::pair<std::string, int> parseAddress(const std::string& text);
+
+}  // namespace voxbrick::client

@@ -1,0 +1,39 @@
+// The render service's configuration: a TOML file (config/server.toml) with command-line overrides and safe
+// defaults. Every limit the server enforces lives here.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+namespace voxbrick::server {
+
+struct ServerConfig {
+  // [server]
+  std::string host = "127.0.0.1";
+  int port = 7420;                           ///< 0 picks a free port (printed, and written to --port-file)
+  std::filesystem::path datasets = "demo";   ///< directory whose subdirectories are stores
+  int ioThreads = 2;
+  int renderThreads = 2;                     ///< each with its own GL context
+  std::string backend = "auto";              ///< auto | egl | osmesa
+  std::string logLevel = "info";             ///< trace | debug | info | warn | error | off
+  // [limits]
+  int maxSessions = 64;                      ///< connections beyond this are refused with LimitExceeded
+  uint32_t maxMessageBytes = 1u << 20;       ///< body of a client message
+  int maxImageSide = 4096;                   ///< per side of a requested frame
+  double idleTimeoutS = 300;                 ///< no message (and no frame outstanding) for this long closes
+  double readTimeoutS = 30;                  ///< a message whose header arrived must complete within this
+  double writeTimeoutS = 30;                 ///< a reply must be taken by the client within this
+  uint64_t maxOutputBytes = 256ull << 20;    ///< replies queued for a session that does not read
+  // [memory]
+  int64_t hostCacheMB = 1024;                ///< decoded bricks per dataset, shared by render threads
+  int64_t gpuBudgetMB = 1024;                ///< atlas per render thread and dataset
+
+  /// Reads `path` (TOML) over the defaults. Throws std::runtime_error naming the file, key and problem for a
+  /// syntax error, an unknown key, a wrong type or a value out of range.
+  static ServerConfig load(const std::filesystem::path& path);
+  /// Throws std::runtime_error naming the first value out of range.
+  void validate() const;
+};
+
+}  // namespace voxbrick::server
