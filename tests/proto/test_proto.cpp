@@ -158,13 +158,17 @@ TEST(ProtoHeader, BodyAboveTheLimitIsTooLarge) {
   const Limits defaults;
   EXPECT_EQ(defaults.maxBodyBytes, 64u << 20);
   EXPECT_EQ(decodeHeader(encodeHeader({kVersion, MessageType::Frame, 1, 64u << 20}), defaults).bodyBytes, 64u << 20);
-  ProtocolError e = thrown([&] { decodeHeader(encodeHeader({kVersion, MessageType::Frame, 1, (64u << 20) + 1}), defaults); });
+  ProtocolError e = thrown([&] {
+    decodeHeader(encodeHeader({kVersion, MessageType::Frame, 1, (64u << 20) + 1}), defaults);
+  });
   EXPECT_EQ(e.code(), ErrorCode::TooLarge);
   EXPECT_STREQ(e.what(), "header: body of 67108865 bytes exceeds limit 67108864");
 
   const Limits lowered{.maxBodyBytes = 100};
   EXPECT_NO_THROW(decodeHeader(encodeHeader({kVersion, MessageType::Frame, 1, 100}), lowered));
-  EXPECT_EQ(thrown([&] { decodeHeader(encodeHeader({kVersion, MessageType::Frame, 1, 101}), lowered); }).code(),
+  EXPECT_EQ(thrown([&] {
+              decodeHeader(encodeHeader({kVersion, MessageType::Frame, 1, 101}), lowered);
+            }).code(),
             ErrorCode::TooLarge);
 }
 
@@ -230,10 +234,18 @@ TEST(ProtoMessages, FieldsAreLaidOutAsSpecified) {
 
 TEST(ProtoMessages, TypeValuesAndNames) {
   const std::vector<std::pair<Message, std::string>> cases = {
-      {Hello{}, "Hello"},         {Capabilities{}, "Capabilities"}, {ListDatasets{}, "ListDatasets"},
-      {DatasetList{}, "DatasetList"}, {OpenDataset{}, "OpenDataset"},   {DatasetInfo{}, "DatasetInfo"},
-      {RenderRequest{}, "Render"}, {Frame{}, "Frame"},               {Error{}, "Error"},
-      {GetStats{}, "GetStats"},   {Stats{}, "Stats"},               {Goodbye{}, "Goodbye"},
+      {Hello{}, "Hello"},
+      {Capabilities{}, "Capabilities"},
+      {ListDatasets{}, "ListDatasets"},
+      {DatasetList{}, "DatasetList"},
+      {OpenDataset{}, "OpenDataset"},
+      {DatasetInfo{}, "DatasetInfo"},
+      {RenderRequest{}, "Render"},
+      {Frame{}, "Frame"},
+      {Error{}, "Error"},
+      {GetStats{}, "GetStats"},
+      {Stats{}, "Stats"},
+      {Goodbye{}, "Goodbye"},
   };
   for (size_t i = 0; i < cases.size(); ++i) {
     EXPECT_EQ(uint16_t(messageType(cases[i].first)), i + 1);
@@ -244,9 +256,9 @@ TEST(ProtoMessages, TypeValuesAndNames) {
 }
 
 TEST(ProtoMessages, ErrorCodeNames) {
-  const char* names[] = {"BadMagic",          "UnsupportedVersion", "UnknownType",    "TooLarge",   "Malformed",
-                         "UnexpectedMessage", "UnknownDataset",     "InvalidScene",   "LimitExceeded",
-                         "Superseded",        "Internal",           "ShuttingDown",   "Timeout"};
+  const char* names[] = {"BadMagic",          "UnsupportedVersion", "UnknownType",  "TooLarge",      "Malformed",
+                         "UnexpectedMessage", "UnknownDataset",     "InvalidScene", "LimitExceeded", "Superseded",
+                         "Internal",          "ShuttingDown",       "Timeout"};
   for (uint16_t code = 1; code <= 13; ++code) {
     EXPECT_STREQ(errorCodeName(ErrorCode(code)), names[code - 1]);
     // every code decodes
@@ -294,14 +306,12 @@ TEST(ProtoMalformed, TrailingByteAfterTheLastField) {
 
 TEST(ProtoMalformed, UnknownEnumValues) {
   EXPECT_STREQ(malformed(MessageType::Render, concat({{3}, str("{}")})).what(), "Render.encoding: unknown value 3");
-  EXPECT_STREQ(malformed(MessageType::Render, concat({{255}, str("{}")})).what(),
-               "Render.encoding: unknown value 255");
+  EXPECT_STREQ(malformed(MessageType::Render, concat({{255}, str("{}")})).what(), "Render.encoding: unknown value 255");
   EXPECT_STREQ(malformed(MessageType::Frame, concat({u32(1), u32(1), {7}, str(""), u32(0)})).what(),
                "Frame.encoding: unknown value 7");
-  EXPECT_STREQ(malformed(MessageType::Capabilities,
-                         concat({u16(1), str(""), u32(0), u32(0), u32(0), u32(3), {1, 9, 0}}))
-                   .what(),
-               "Capabilities.encodings[1]: unknown value 9");
+  EXPECT_STREQ(
+      malformed(MessageType::Capabilities, concat({u16(1), str(""), u32(0), u32(0), u32(0), u32(3), {1, 9, 0}})).what(),
+      "Capabilities.encodings[1]: unknown value 9");
   for (uint16_t code : {uint16_t(0), uint16_t(14), uint16_t(0xFFFF)})
     EXPECT_EQ(std::string(malformed(MessageType::Error, concat({u16(code), str("x")})).what()),
               "Error.code: unknown value " + std::to_string(code));
@@ -352,11 +362,11 @@ TEST(ProtoMalformed, CountOverTheLimit) {
   EXPECT_TRUE(decodeWhole(encode(atLimit, 1)) == atLimit);
   EXPECT_STREQ(malformed(MessageType::DatasetList, concat({u32(4097), Bytes(4097 * 4, 0)})).what(),
                "DatasetList.names: count 4097 exceeds limit 4096");
-  EXPECT_STREQ(malformed(MessageType::Capabilities,
-                         concat({u16(1), str(""), u32(0), u32(0), u32(0), u32(3), {0, 1, 2}}),
-                         Limits{.maxListCount = 2})
-                   .what(),
-               "Capabilities.encodings: count 3 exceeds limit 2");
+  EXPECT_STREQ(
+      malformed(MessageType::Capabilities, concat({u16(1), str(""), u32(0), u32(0), u32(0), u32(3), {0, 1, 2}}),
+                Limits{.maxListCount = 2})
+          .what(),
+      "Capabilities.encodings: count 3 exceeds limit 2");
 }
 
 TEST(ProtoMalformed, HugeClaimsInATinyBodyFailBeforeAllocating) {
@@ -387,18 +397,18 @@ TEST(ProtoMalformed, StringsMustBeUtf8) {
     EXPECT_TRUE(decodeRaw(MessageType::OpenDataset, str(valid)) == Message(OpenDataset{valid})) << hex(str(valid));
   }
   const std::vector<std::pair<std::string, int>> invalid = {
-      {"a\x80", 1},               // continuation byte without a lead
-      {"\xC0\xAF", 0},            // overlong two-byte form
-      {"\xC1\xBF", 0},            // overlong two-byte form
-      {"ab\xE0\x80\x80", 2},      // overlong three-byte form
-      {"\xED\xA0\x80", 0},        // a surrogate
-      {"\xF0\x80\x80\x80", 0},    // overlong four-byte form
-      {"\xF4\x90\x80\x80", 0},    // above U+10FFFF
-      {"\xF5\x80\x80\x80", 0},    // never a lead byte
-      {"\xFF", 0},                // never a lead byte
-      {"xyz\xE2\x82", 3},         // sequence cut short by the end of the string
-      {"\xE2\x28\xA1", 0},        // second byte not a continuation
-      {"\xF0\x9F\xA7\x41", 0},    // fourth byte not a continuation
+      {"a\x80", 1},             // continuation byte without a lead
+      {"\xC0\xAF", 0},          // overlong two-byte form
+      {"\xC1\xBF", 0},          // overlong two-byte form
+      {"ab\xE0\x80\x80", 2},    // overlong three-byte form
+      {"\xED\xA0\x80", 0},      // a surrogate
+      {"\xF0\x80\x80\x80", 0},  // overlong four-byte form
+      {"\xF4\x90\x80\x80", 0},  // above U+10FFFF
+      {"\xF5\x80\x80\x80", 0},  // never a lead byte
+      {"\xFF", 0},              // never a lead byte
+      {"xyz\xE2\x82", 3},       // sequence cut short by the end of the string
+      {"\xE2\x28\xA1", 0},      // second byte not a continuation
+      {"\xF0\x9F\xA7\x41", 0},  // fourth byte not a continuation
   };
   for (const auto& [text, offset] : invalid) {
     EXPECT_EQ(std::string(malformed(MessageType::OpenDataset, str(text)).what()),
@@ -417,28 +427,23 @@ Bytes corpusFile(const std::string& name) {
 TEST(ProtoFuzzCorpus, EveryFileReplaysThroughTheFuzzCheck) {
   // What the malformed seeds must provoke, so that each keeps covering its path.
   const std::map<std::string, std::vector<ErrorCode>> expectedErrors = {
-      {"bad-magic", {ErrorCode::BadMagic}},
-      {"bad-version", {ErrorCode::UnsupportedVersion}},
-      {"bad-too-large", {ErrorCode::TooLarge}},
-      {"bad-truncated", {ErrorCode::Malformed}},
-      {"bad-trailing-byte", {ErrorCode::Malformed}},
-      {"bad-encoding", {ErrorCode::Malformed}},
-      {"bad-error-code", {ErrorCode::Malformed}},
-      {"bad-string-limit", {ErrorCode::Malformed}},
-      {"bad-list-count", {ErrorCode::Malformed}},
-      {"bad-huge-length", {ErrorCode::Malformed}},
-      {"bad-utf8", {ErrorCode::Malformed}},
-      {"bad-unknown-type-then-goodbye", {ErrorCode::UnknownType}},
+      {"bad-magic", {ErrorCode::BadMagic}},          {"bad-version", {ErrorCode::UnsupportedVersion}},
+      {"bad-too-large", {ErrorCode::TooLarge}},      {"bad-truncated", {ErrorCode::Malformed}},
+      {"bad-trailing-byte", {ErrorCode::Malformed}}, {"bad-encoding", {ErrorCode::Malformed}},
+      {"bad-error-code", {ErrorCode::Malformed}},    {"bad-string-limit", {ErrorCode::Malformed}},
+      {"bad-list-count", {ErrorCode::Malformed}},    {"bad-huge-length", {ErrorCode::Malformed}},
+      {"bad-utf8", {ErrorCode::Malformed}},          {"bad-unknown-type-then-goodbye", {ErrorCode::UnknownType}},
   };
   std::set<MessageType> decodedTypes;
   size_t files = 0;
-  for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::path(VOXBRICK_SOURCE_DIR) /
-                                                               "proto/fuzz/corpus")) {
+  for (const auto& entry :
+       std::filesystem::directory_iterator(std::filesystem::path(VOXBRICK_SOURCE_DIR) / "proto/fuzz/corpus")) {
     const std::string name = entry.path().filename().string();
     SCOPED_TRACE(name);
     ++files;
-    voxbrick::proto::fuzz::CheckResult result;
-    ASSERT_NO_THROW(result = voxbrick::proto::fuzz::checkStream(corpusFile(name)));
+    fuzz::CheckResult result;
+    ASSERT_NO_THROW(result = fuzz::checkStream(corpusFile(name), fuzz::kFuzzLimits));
+    EXPECT_NO_THROW(fuzz::checkStream(corpusFile(name), fuzz::kNoLimits));
     if (name.starts_with("bad-")) {
       ASSERT_TRUE(expectedErrors.contains(name)) << "add the malformed seed's expected errors here";
       EXPECT_EQ(result.errors, expectedErrors.at(name));
@@ -453,24 +458,25 @@ TEST(ProtoFuzzCorpus, EveryFileReplaysThroughTheFuzzCheck) {
 }
 
 TEST(ProtoFuzzCorpus, StreamCheckFollowsTheSession) {
-  using voxbrick::proto::fuzz::checkStream;
   // A body that does not decode is skipped and the stream goes on.
-  const auto goesOn = checkStream(corpusFile("bad-unknown-type-then-goodbye"));
+  const auto goesOn = fuzz::checkStream(corpusFile("bad-unknown-type-then-goodbye"), fuzz::kFuzzLimits);
   EXPECT_EQ(goesOn.decoded, std::vector<MessageType>{MessageType::Goodbye});
   // A header that does not decode ends the stream.
-  const auto ends = checkStream(concat({encode(Goodbye{}, 1), corpusFile("bad-magic"), encode(Goodbye{}, 2)}));
+  const auto ends = fuzz::checkStream(concat({encode(Goodbye{}, 1), corpusFile("bad-magic"), encode(Goodbye{}, 2)}),
+                                      fuzz::kFuzzLimits);
   EXPECT_EQ(ends.decoded, std::vector<MessageType>{MessageType::Goodbye});
   EXPECT_EQ(ends.errors, std::vector<ErrorCode>{ErrorCode::BadMagic});
   // An incomplete last message is left unread.
   const Bytes render = encode(RenderRequest{Encoding::Png, "{}"}, 2);
-  const auto partial = checkStream(concat({encode(Hello{}, 1), Bytes(render.begin(), render.end() - 1)}));
+  const auto partial =
+      fuzz::checkStream(concat({encode(Hello{}, 1), Bytes(render.begin(), render.end() - 1)}), fuzz::kFuzzLimits);
   EXPECT_EQ(partial.decoded, std::vector<MessageType>{MessageType::Hello});
   EXPECT_TRUE(partial.errors.empty());
   // A whole session decodes in order.
-  const auto session = checkStream(corpusFile("session"));
-  EXPECT_EQ(session.decoded, (std::vector<MessageType>{MessageType::Hello, MessageType::ListDatasets,
-                                                       MessageType::OpenDataset, MessageType::Render,
-                                                       MessageType::GetStats, MessageType::Goodbye}));
+  const auto session = fuzz::checkStream(corpusFile("session"), fuzz::kFuzzLimits);
+  EXPECT_EQ(session.decoded,
+            (std::vector<MessageType>{MessageType::Hello, MessageType::ListDatasets, MessageType::OpenDataset,
+                                      MessageType::Render, MessageType::GetStats, MessageType::Goodbye}));
 }
 
 }  // namespace
