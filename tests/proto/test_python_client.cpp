@@ -47,7 +47,7 @@ nlohmann::json pythonDecode(const Bytes& wire) {
   return nlohmann::json::parse(result.output);
 }
 
-TEST(ProtoPython, CppDecodesThePythonHello) {
+TEST(PythonClient, CppDecodesThePythonHello) {
   ScratchDir dir;
   const auto result = runShell(kClient + " --encode-hello " + (dir / "hello.bin").string());
   ASSERT_EQ(result.exitCode, 0) << result.output;
@@ -61,7 +61,7 @@ TEST(ProtoPython, CppDecodesThePythonHello) {
   EXPECT_EQ(hello.client, "voxbrick_client.py 1");
 }
 
-TEST(ProtoPython, CppDecodesThePythonRender) {
+TEST(PythonClient, CppDecodesThePythonRender) {
   ScratchDir dir;
   const std::string scene = R"({"camera": {"orbit": [10, 20, 3]}, "size": [64, 48], "note": "ünï 体"})";
   for (const auto& [name, encoding] :
@@ -78,7 +78,7 @@ TEST(ProtoPython, CppDecodesThePythonRender) {
   }
 }
 
-TEST(ProtoPython, PythonDecodesACppFrame) {
+TEST(PythonClient, PythonDecodesACppFrame) {
   Bytes payload(100000);
   for (size_t i = 0; i < payload.size(); ++i) payload[i] = uint8_t(i * 7 + 3);
   const std::string stats = R"({"bricks_drawn": 12, "ms": {"total": 3.5}, "queue_ms": 0.25, "encode_ms": 1})";
@@ -93,7 +93,7 @@ TEST(ProtoPython, PythonDecodesACppFrame) {
   EXPECT_EQ(out["payload_crc32"], crc32(0, payload.data(), uInt(payload.size())));
 }
 
-TEST(ProtoPython, PythonDecodesACppErrorAndCapabilities) {
+TEST(PythonClient, PythonDecodesACppErrorAndCapabilities) {
   const nlohmann::json error = pythonDecode(encode(Error{ErrorCode::LimitExceeded, "image 9000×9000 > 8192"}, 7));
   EXPECT_EQ(error["type"], "Error");
   EXPECT_EQ(error["request_id"], 7);
@@ -109,7 +109,7 @@ TEST(ProtoPython, PythonDecodesACppErrorAndCapabilities) {
   EXPECT_EQ(caps["encodings"], nlohmann::json::array({"png", "raw_rgba8"}));
 }
 
-TEST(ProtoPython, PythonRefusesMalformedMessages) {
+TEST(PythonClient, PythonRefusesMalformedMessages) {
   ScratchDir dir;
   Bytes trailing = encode(Goodbye{}, 1);
   trailing[12] = 1;  // body length 1
@@ -218,7 +218,7 @@ std::vector<MessageType> typesOf(const std::vector<std::pair<Header, Message>>& 
   return types;
 }
 
-TEST(ProtoPython, ClientRendersAFrameFromAServer) {
+TEST(PythonClient, ClientRendersAFrameFromAServer) {
   ScratchDir dir;
   voxbrick::test::writeFile(dir / "scene.json",
                             R"({"camera": {"eye": [1, 2, 3], "fov": 40}, "transfer_function": "hot"})");
@@ -244,7 +244,7 @@ TEST(ProtoPython, ClientRendersAFrameFromAServer) {
                 R"({"camera": {"orbit": [10, 20, 3], "fov": 40}, "transfer_function": "hot", "size": [64, 32]})"));
 }
 
-TEST(ProtoPython, ClientListsDatasetsWithoutADataset) {
+TEST(PythonClient, ClientListsDatasetsWithoutADataset) {
   ScriptedServer server;
   const auto result = runShell(kClient + " " + server.address());
   ASSERT_EQ(result.exitCode, 0) << result.output;
@@ -253,7 +253,7 @@ TEST(ProtoPython, ClientListsDatasetsWithoutADataset) {
             (std::vector<MessageType>{MessageType::Hello, MessageType::ListDatasets, MessageType::Goodbye}));
 }
 
-TEST(ProtoPython, ClientReportsAnErrorReply) {
+TEST(PythonClient, ClientReportsAnErrorReply) {
   ScriptedServer server;
   ScratchDir dir;
   const auto result = runShell(kClient + " " + server.address() + " --dataset nope -o " + (dir / "x.png").string());
