@@ -2,7 +2,6 @@
 // so the encoder and the decoder cannot disagree on the order or the width of a field.
 #include "proto/Messages.h"
 
-#include <algorithm>
 #include <concepts>
 #include <cstdio>
 #include <limits>
@@ -77,6 +76,32 @@ size_t invalidUtf8At(const uint8_t* p, size_t size) {
   return size;
 }
 
+/// Counts the bytes a body will take, so that encode() can refuse an oversized body and allocate once.
+class Sizer {
+ public:
+  size_t total() const { return mTotal; }
+
+  template <class T>
+  void number(Field, T) {
+    mTotal += sizeof(T);
+  }
+  void string(Field, const std::string& text) { mTotal += sizeof(uint32_t) + text.size(); }
+  void bytes(Field, const std::vector<uint8_t>& data) { mTotal += sizeof(uint32_t) + data.size(); }
+  template <class T>
+  void list(Field field, const std::vector<T>& items) {
+    mTotal += sizeof(uint32_t);
+    for (const T& item : items) {
+      if constexpr (std::is_enum_v<T>)
+        number(field, item);
+      else
+        string(field, item);
+    }
+  }
+
+ private:
+  size_t mTotal = 0;
+};
+
 class Writer {
  public:
   explicit Writer(std::vector<uint8_t>& out) : mOut(out) {}
@@ -91,8 +116,7 @@ class Writer {
   void number(Field field, E value) {
     number(field, static_cast<std::underlying_type_t<E>>(value));
   }
-  // A length or count above 2^32 - 1 is truncated here, but it makes the body larger than that too, which encode()
-  // refuses before anything is sent.
+  // Every length and count fits its u32: each is at most the body size, which encode() has checked.
   void string(Field field, const std::string& text) {
     number(field, static_cast<uint32_t>(text.size()));
     mOut.insert(mOut.end(), text.begin(), text.end());
@@ -341,15 +365,16 @@ std::array<uint8_t, kHeaderBytes> encodeHeader(const Header& header) {
 }
 
 std::vector<uint8_t> encode(const Message& message, uint32_t requestId) {
-  std::vector<uint8_t> out(kHeaderBytes);
+  Sizer sizer;
+  std::visit([&](const auto& m) { fields(sizer, m); }, message);
+  if (sizer.total() > std::numeric_limits<uint32_t>::max())
+    throw std::length_error(std::string("proto::encode: ") + messageTypeName(messageType(message)) + " body of " +
+                            std::to_string(sizer.total()) + " bytes does not fit the u32 body length");
+  const auto header = encodeHeader({kVersion, messageType(message), requestId, uint32_t(sizer.total())});
+  std::vector<uint8_t> out(header.begin(), header.end());
+  out.reserve(kHeaderBytes + sizer.total());
   Writer writer(out);
   std::visit([&](const auto& m) { fields(writer, m); }, message);
-  const size_t bodyBytes = out.size() - kHeaderBytes;
-  if (bodyBytes > std::numeric_limits<uint32_t>::max())
-    throw std::length_error(std::string("proto::encode: ") + messageTypeName(messageType(message)) + " body of " +
-                            std::to_string(bodyBytes) + " bytes does not fit the u32 body length");
-  const auto header = encodeHeader({kVersion, messageType(message), requestId, uint32_t(bodyBytes)});
-  std::copy(header.begin(), header.end(), out.begin());
   return out;
 }
 

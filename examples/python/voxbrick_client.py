@@ -116,7 +116,7 @@ class Client:
     def __init__(self, host, port, timeout=120):
         self.sock = socket.create_connection((host, port), timeout=timeout)
         self.next_id = 1
-        self.max_body = 64 << 20  # until Capabilities gives the server's limit
+        self.max_body = 64 << 20  # the largest body accepted: the default limit, or the server's if higher
 
     def hello(self):
         caps = self._call('Hello', 'Capabilities', min_version=VERSION, max_version=VERSION, client=CLIENT_NAME)
@@ -153,7 +153,7 @@ class Client:
         while True:
             name, reply_id, size = decode_header(self._read(HEADER.size), self.max_body)
             body = self._read(size)
-            if name is None or (reply_id not in (request_id, 0)):
+            if name is None or reply_id not in (request_id, 0):
                 continue  # a type this client does not know, or an answer to nothing it waits for
             reply = decode_body(name, body)
             if name == 'Error':

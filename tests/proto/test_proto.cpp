@@ -109,7 +109,7 @@ std::vector<Message> sampleMessages() {
   };
 }
 
-TEST(ProtoHeader, LayoutIsPinned) {
+TEST(Header, LayoutIsPinned) {
   EXPECT_EQ(kHeaderBytes, 16u);
   EXPECT_EQ(kVersion, 1u);
   const auto bytes = encodeHeader({kVersion, MessageType::Render, 0x04030201u, 0x0D0C0B0Au});
@@ -117,13 +117,13 @@ TEST(ProtoHeader, LayoutIsPinned) {
   EXPECT_EQ(hex(Bytes(bytes.begin(), bytes.end())), "56 58 42 4B 01 00 07 00 01 02 03 04 0A 0B 0C 0D");
 }
 
-TEST(ProtoHeader, RoundTripsEveryField) {
+TEST(Header, RoundTripsEveryField) {
   const Header header{kVersion, MessageType(0xBEEF), 0xFFFFFFFFu, 12345};
   const auto bytes = encodeHeader(header);
   EXPECT_EQ(decodeHeader(bytes, Limits{}), header);
 }
 
-TEST(ProtoHeader, HelloMatchesTheWorkedExampleInProtocolMd) {
+TEST(Header, HelloMatchesTheWorkedExampleInProtocolMd) {
   const std::string headerHex = "56 58 42 4B 01 00 01 00 01 00 00 00 0F 00 00 00";
   const std::string bodyHex = "01 00 01 00 07 00 00 00 65 78 61 6D 70 6C 65";
   EXPECT_EQ(hex(encode(Hello{1, 1, "example"}, 1)), headerHex + " " + bodyHex);
@@ -135,7 +135,7 @@ TEST(ProtoHeader, HelloMatchesTheWorkedExampleInProtocolMd) {
   EXPECT_NE(spec.str().find(bodyHex), std::string::npos) << "PROTOCOL.md does not show the body bytes";
 }
 
-TEST(ProtoHeader, BadMagicAnyByte) {
+TEST(Header, BadMagicAnyByte) {
   for (size_t i = 0; i < 4; ++i) {
     Bytes wire = encode(Goodbye{}, 1);
     wire[i] ^= 0x20;
@@ -145,7 +145,7 @@ TEST(ProtoHeader, BadMagicAnyByte) {
   }
 }
 
-TEST(ProtoHeader, UnsupportedVersion) {
+TEST(Header, UnsupportedVersion) {
   for (uint16_t version : {uint16_t(0), uint16_t(2), uint16_t(0xFFFF)}) {
     const auto bytes = encodeHeader({version, MessageType::Hello, 1, 0});
     ProtocolError e = thrown([&] { decodeHeader(bytes, Limits{}); });
@@ -154,21 +154,25 @@ TEST(ProtoHeader, UnsupportedVersion) {
   }
 }
 
-TEST(ProtoHeader, BodyAboveTheLimitIsTooLarge) {
+TEST(Header, BodyAboveTheLimitIsTooLarge) {
   const Limits defaults;
   EXPECT_EQ(defaults.maxBodyBytes, 64u << 20);
   EXPECT_EQ(decodeHeader(encodeHeader({kVersion, MessageType::Frame, 1, 64u << 20}), defaults).bodyBytes, 64u << 20);
-  ProtocolError e = thrown([&] { decodeHeader(encodeHeader({kVersion, MessageType::Frame, 1, (64u << 20) + 1}), defaults); });
+  ProtocolError e = thrown([&] {
+    decodeHeader(encodeHeader({kVersion, MessageType::Frame, 1, (64u << 20) + 1}), defaults);
+  });
   EXPECT_EQ(e.code(), ErrorCode::TooLarge);
   EXPECT_STREQ(e.what(), "header: body of 67108865 bytes exceeds limit 67108864");
 
   const Limits lowered{.maxBodyBytes = 100};
   EXPECT_NO_THROW(decodeHeader(encodeHeader({kVersion, MessageType::Frame, 1, 100}), lowered));
-  EXPECT_EQ(thrown([&] { decodeHeader(encodeHeader({kVersion, MessageType::Frame, 1, 101}), lowered); }).code(),
+  EXPECT_EQ(thrown([&] {
+              decodeHeader(encodeHeader({kVersion, MessageType::Frame, 1, 101}), lowered);
+            }).code(),
             ErrorCode::TooLarge);
 }
 
-TEST(ProtoHeader, UnknownTypePassesTheHeaderAndFailsTheBody) {
+TEST(Header, UnknownTypePassesTheHeaderAndFailsTheBody) {
   for (uint16_t type : {uint16_t(0), uint16_t(13), uint16_t(0xFFFF)}) {
     const auto bytes = encodeHeader({kVersion, MessageType(type), 5, 3});
     const Header header = decodeHeader(bytes, Limits{});
@@ -180,12 +184,12 @@ TEST(ProtoHeader, UnknownTypePassesTheHeaderAndFailsTheBody) {
   }
 }
 
-TEST(ProtoHeader, BodySpanMustMatchTheHeader) {
+TEST(Header, BodySpanMustMatchTheHeader) {
   const Bytes body = {1, 0, 1, 0, 0, 0, 0, 0};
   EXPECT_THROW(decodeBody({kVersion, MessageType::Hello, 1, 9}, body, Limits{}), std::invalid_argument);
 }
 
-TEST(ProtoMessages, EveryMessageRoundTrips) {
+TEST(Messages, EveryMessageRoundTrips) {
   std::set<MessageType> types;
   uint32_t requestId = 1000;
   for (const Message& message : sampleMessages()) {
@@ -204,7 +208,7 @@ TEST(ProtoMessages, EveryMessageRoundTrips) {
   EXPECT_EQ(types.size(), std::variant_size_v<Message>);
 }
 
-TEST(ProtoMessages, FieldsAreLaidOutAsSpecified) {
+TEST(Messages, FieldsAreLaidOutAsSpecified) {
   const std::vector<std::pair<Message, Bytes>> cases = {
       {Hello{2, 3, "ab"}, concat({u16(2), u16(3), str("ab")})},
       {Capabilities{1, "s", 10, 20, 30, {Encoding::Png, Encoding::ZstdRgba8}},
@@ -228,12 +232,20 @@ TEST(ProtoMessages, FieldsAreLaidOutAsSpecified) {
   }
 }
 
-TEST(ProtoMessages, TypeValuesAndNames) {
+TEST(Messages, TypeValuesAndNames) {
   const std::vector<std::pair<Message, std::string>> cases = {
-      {Hello{}, "Hello"},         {Capabilities{}, "Capabilities"}, {ListDatasets{}, "ListDatasets"},
-      {DatasetList{}, "DatasetList"}, {OpenDataset{}, "OpenDataset"},   {DatasetInfo{}, "DatasetInfo"},
-      {RenderRequest{}, "Render"}, {Frame{}, "Frame"},               {Error{}, "Error"},
-      {GetStats{}, "GetStats"},   {Stats{}, "Stats"},               {Goodbye{}, "Goodbye"},
+      {Hello{}, "Hello"},
+      {Capabilities{}, "Capabilities"},
+      {ListDatasets{}, "ListDatasets"},
+      {DatasetList{}, "DatasetList"},
+      {OpenDataset{}, "OpenDataset"},
+      {DatasetInfo{}, "DatasetInfo"},
+      {RenderRequest{}, "Render"},
+      {Frame{}, "Frame"},
+      {Error{}, "Error"},
+      {GetStats{}, "GetStats"},
+      {Stats{}, "Stats"},
+      {Goodbye{}, "Goodbye"},
   };
   for (size_t i = 0; i < cases.size(); ++i) {
     EXPECT_EQ(uint16_t(messageType(cases[i].first)), i + 1);
@@ -243,10 +255,10 @@ TEST(ProtoMessages, TypeValuesAndNames) {
   EXPECT_STREQ(messageTypeName(MessageType(13)), "unknown");
 }
 
-TEST(ProtoMessages, ErrorCodeNames) {
-  const char* names[] = {"BadMagic",          "UnsupportedVersion", "UnknownType",    "TooLarge",   "Malformed",
-                         "UnexpectedMessage", "UnknownDataset",     "InvalidScene",   "LimitExceeded",
-                         "Superseded",        "Internal",           "ShuttingDown",   "Timeout"};
+TEST(Messages, ErrorCodeNames) {
+  const char* names[] = {"BadMagic",          "UnsupportedVersion", "UnknownType",  "TooLarge",      "Malformed",
+                         "UnexpectedMessage", "UnknownDataset",     "InvalidScene", "LimitExceeded", "Superseded",
+                         "Internal",          "ShuttingDown",       "Timeout"};
   for (uint16_t code = 1; code <= 13; ++code) {
     EXPECT_STREQ(errorCodeName(ErrorCode(code)), names[code - 1]);
     // every code decodes
@@ -256,7 +268,7 @@ TEST(ProtoMessages, ErrorCodeNames) {
   EXPECT_STREQ(errorCodeName(ErrorCode(14)), "unknown");
 }
 
-TEST(ProtoMalformed, TruncatedAtEveryCutPoint) {
+TEST(Malformed, TruncatedAtEveryCutPoint) {
   const std::vector<Message> messages = {
       Hello{1, 2, "client"},
       Capabilities{1, "srv", 1, 2, 3, {Encoding::Png, Encoding::RawRgba8}},
@@ -280,7 +292,7 @@ TEST(ProtoMalformed, TruncatedAtEveryCutPoint) {
   }
 }
 
-TEST(ProtoMalformed, TrailingByteAfterTheLastField) {
+TEST(Malformed, TrailingByteAfterTheLastField) {
   for (const Message& message : sampleMessages()) {
     const MessageType type = messageType(message);
     SCOPED_TRACE(messageTypeName(type));
@@ -292,22 +304,20 @@ TEST(ProtoMalformed, TrailingByteAfterTheLastField) {
   }
 }
 
-TEST(ProtoMalformed, UnknownEnumValues) {
+TEST(Malformed, UnknownEnumValues) {
   EXPECT_STREQ(malformed(MessageType::Render, concat({{3}, str("{}")})).what(), "Render.encoding: unknown value 3");
-  EXPECT_STREQ(malformed(MessageType::Render, concat({{255}, str("{}")})).what(),
-               "Render.encoding: unknown value 255");
+  EXPECT_STREQ(malformed(MessageType::Render, concat({{255}, str("{}")})).what(), "Render.encoding: unknown value 255");
   EXPECT_STREQ(malformed(MessageType::Frame, concat({u32(1), u32(1), {7}, str(""), u32(0)})).what(),
                "Frame.encoding: unknown value 7");
-  EXPECT_STREQ(malformed(MessageType::Capabilities,
-                         concat({u16(1), str(""), u32(0), u32(0), u32(0), u32(3), {1, 9, 0}}))
-                   .what(),
-               "Capabilities.encodings[1]: unknown value 9");
+  EXPECT_STREQ(
+      malformed(MessageType::Capabilities, concat({u16(1), str(""), u32(0), u32(0), u32(0), u32(3), {1, 9, 0}})).what(),
+      "Capabilities.encodings[1]: unknown value 9");
   for (uint16_t code : {uint16_t(0), uint16_t(14), uint16_t(0xFFFF)})
     EXPECT_EQ(std::string(malformed(MessageType::Error, concat({u16(code), str("x")})).what()),
               "Error.code: unknown value " + std::to_string(code));
 }
 
-TEST(ProtoMalformed, StringOverTheLimit) {
+TEST(Malformed, StringOverTheLimit) {
   EXPECT_EQ(Limits{}.maxStringBytes, 1u << 20);
   EXPECT_STREQ(malformed(MessageType::Render, concat({{1}, u32(5000000), Bytes(12, 'x')})).what(),
                "Render.scene_json: length 5000000 exceeds limit 1048576");
@@ -338,7 +348,7 @@ TEST(ProtoMalformed, StringOverTheLimit) {
   }
 }
 
-TEST(ProtoMalformed, PayloadIsBoundedByTheBodyNotTheStringLimit) {
+TEST(Malformed, PayloadIsBoundedByTheBodyNotTheStringLimit) {
   const Limits limits{.maxStringBytes = 16};
   const Message frame = Frame{2, 2, Encoding::RawRgba8, "", pattern(1000)};
   EXPECT_TRUE(decodeWhole(encode(frame, 1), limits) == frame);
@@ -346,20 +356,20 @@ TEST(ProtoMalformed, PayloadIsBoundedByTheBodyNotTheStringLimit) {
                "Frame.payload: length 11 exceeds the 10 bytes left in the body");
 }
 
-TEST(ProtoMalformed, CountOverTheLimit) {
+TEST(Malformed, CountOverTheLimit) {
   EXPECT_EQ(Limits{}.maxListCount, 4096u);
   const Message atLimit = DatasetList{std::vector<std::string>(4096)};
   EXPECT_TRUE(decodeWhole(encode(atLimit, 1)) == atLimit);
   EXPECT_STREQ(malformed(MessageType::DatasetList, concat({u32(4097), Bytes(4097 * 4, 0)})).what(),
                "DatasetList.names: count 4097 exceeds limit 4096");
-  EXPECT_STREQ(malformed(MessageType::Capabilities,
-                         concat({u16(1), str(""), u32(0), u32(0), u32(0), u32(3), {0, 1, 2}}),
-                         Limits{.maxListCount = 2})
-                   .what(),
-               "Capabilities.encodings: count 3 exceeds limit 2");
+  EXPECT_STREQ(
+      malformed(MessageType::Capabilities, concat({u16(1), str(""), u32(0), u32(0), u32(0), u32(3), {0, 1, 2}}),
+                Limits{.maxListCount = 2})
+          .what(),
+      "Capabilities.encodings: count 3 exceeds limit 2");
 }
 
-TEST(ProtoMalformed, HugeClaimsInATinyBodyFailBeforeAllocating) {
+TEST(Malformed, HugeClaimsInATinyBodyFailBeforeAllocating) {
   // With the limits out of the way only the bytes left stop these; an allocation of the claimed size would throw
   // std::bad_alloc (not a ProtocolError) or take seconds.
   const uint32_t kMax = 0xFFFFFFFFu;
@@ -381,24 +391,24 @@ TEST(ProtoMalformed, HugeClaimsInATinyBodyFailBeforeAllocating) {
   EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(2));
 }
 
-TEST(ProtoMalformed, StringsMustBeUtf8) {
+TEST(Malformed, StringsMustBeUtf8) {
   for (const std::string valid : {"plain", "\x7F", "\xC3\xBC", "\xE4\xBD\x93", "\xEF\xBF\xBD", "\xF0\x9F\xA7\xA0",
                                   "\xF4\x8F\xBF\xBF", "\xED\x9F\xBF"}) {
     EXPECT_TRUE(decodeRaw(MessageType::OpenDataset, str(valid)) == Message(OpenDataset{valid})) << hex(str(valid));
   }
   const std::vector<std::pair<std::string, int>> invalid = {
-      {"a\x80", 1},               // continuation byte without a lead
-      {"\xC0\xAF", 0},            // overlong two-byte form
-      {"\xC1\xBF", 0},            // overlong two-byte form
-      {"ab\xE0\x80\x80", 2},      // overlong three-byte form
-      {"\xED\xA0\x80", 0},        // a surrogate
-      {"\xF0\x80\x80\x80", 0},    // overlong four-byte form
-      {"\xF4\x90\x80\x80", 0},    // above U+10FFFF
-      {"\xF5\x80\x80\x80", 0},    // never a lead byte
-      {"\xFF", 0},                // never a lead byte
-      {"xyz\xE2\x82", 3},         // sequence cut short by the end of the string
-      {"\xE2\x28\xA1", 0},        // second byte not a continuation
-      {"\xF0\x9F\xA7\x41", 0},    // fourth byte not a continuation
+      {"a\x80", 1},             // continuation byte without a lead
+      {"\xC0\xAF", 0},          // overlong two-byte form
+      {"\xC1\xBF", 0},          // overlong two-byte form
+      {"ab\xE0\x80\x80", 2},    // overlong three-byte form
+      {"\xED\xA0\x80", 0},      // a surrogate
+      {"\xF0\x80\x80\x80", 0},  // overlong four-byte form
+      {"\xF4\x90\x80\x80", 0},  // above U+10FFFF
+      {"\xF5\x80\x80\x80", 0},  // never a lead byte
+      {"\xFF", 0},              // never a lead byte
+      {"xyz\xE2\x82", 3},       // sequence cut short by the end of the string
+      {"\xE2\x28\xA1", 0},      // second byte not a continuation
+      {"\xF0\x9F\xA7\x41", 0},  // fourth byte not a continuation
   };
   for (const auto& [text, offset] : invalid) {
     EXPECT_EQ(std::string(malformed(MessageType::OpenDataset, str(text)).what()),
@@ -414,31 +424,26 @@ Bytes corpusFile(const std::string& name) {
   return Bytes(data.begin(), data.end());
 }
 
-TEST(ProtoFuzzCorpus, EveryFileReplaysThroughTheFuzzCheck) {
+TEST(FuzzCorpus, EveryFileReplaysThroughTheFuzzCheck) {
   // What the malformed seeds must provoke, so that each keeps covering its path.
   const std::map<std::string, std::vector<ErrorCode>> expectedErrors = {
-      {"bad-magic", {ErrorCode::BadMagic}},
-      {"bad-version", {ErrorCode::UnsupportedVersion}},
-      {"bad-too-large", {ErrorCode::TooLarge}},
-      {"bad-truncated", {ErrorCode::Malformed}},
-      {"bad-trailing-byte", {ErrorCode::Malformed}},
-      {"bad-encoding", {ErrorCode::Malformed}},
-      {"bad-error-code", {ErrorCode::Malformed}},
-      {"bad-string-limit", {ErrorCode::Malformed}},
-      {"bad-list-count", {ErrorCode::Malformed}},
-      {"bad-huge-length", {ErrorCode::Malformed}},
-      {"bad-utf8", {ErrorCode::Malformed}},
-      {"bad-unknown-type-then-goodbye", {ErrorCode::UnknownType}},
+      {"bad-magic", {ErrorCode::BadMagic}},          {"bad-version", {ErrorCode::UnsupportedVersion}},
+      {"bad-too-large", {ErrorCode::TooLarge}},      {"bad-truncated", {ErrorCode::Malformed}},
+      {"bad-trailing-byte", {ErrorCode::Malformed}}, {"bad-encoding", {ErrorCode::Malformed}},
+      {"bad-error-code", {ErrorCode::Malformed}},    {"bad-string-limit", {ErrorCode::Malformed}},
+      {"bad-list-count", {ErrorCode::Malformed}},    {"bad-huge-length", {ErrorCode::Malformed}},
+      {"bad-utf8", {ErrorCode::Malformed}},          {"bad-unknown-type-then-goodbye", {ErrorCode::UnknownType}},
   };
   std::set<MessageType> decodedTypes;
   size_t files = 0;
-  for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::path(VOXBRICK_SOURCE_DIR) /
-                                                               "proto/fuzz/corpus")) {
+  for (const auto& entry :
+       std::filesystem::directory_iterator(std::filesystem::path(VOXBRICK_SOURCE_DIR) / "proto/fuzz/corpus")) {
     const std::string name = entry.path().filename().string();
     SCOPED_TRACE(name);
     ++files;
-    voxbrick::proto::fuzz::CheckResult result;
-    ASSERT_NO_THROW(result = voxbrick::proto::fuzz::checkStream(corpusFile(name)));
+    fuzz::CheckResult result;
+    ASSERT_NO_THROW(result = fuzz::checkStream(corpusFile(name), fuzz::kFuzzLimits));
+    EXPECT_NO_THROW(fuzz::checkStream(corpusFile(name), fuzz::kNoLimits));
     if (name.starts_with("bad-")) {
       ASSERT_TRUE(expectedErrors.contains(name)) << "add the malformed seed's expected errors here";
       EXPECT_EQ(result.errors, expectedErrors.at(name));
@@ -452,25 +457,26 @@ TEST(ProtoFuzzCorpus, EveryFileReplaysThroughTheFuzzCheck) {
   EXPECT_EQ(decodedTypes.size(), std::variant_size_v<Message>) << "a message type has no valid seed";
 }
 
-TEST(ProtoFuzzCorpus, StreamCheckFollowsTheSession) {
-  using voxbrick::proto::fuzz::checkStream;
+TEST(FuzzCorpus, StreamCheckFollowsTheSession) {
   // A body that does not decode is skipped and the stream goes on.
-  const auto goesOn = checkStream(corpusFile("bad-unknown-type-then-goodbye"));
+  const auto goesOn = fuzz::checkStream(corpusFile("bad-unknown-type-then-goodbye"), fuzz::kFuzzLimits);
   EXPECT_EQ(goesOn.decoded, std::vector<MessageType>{MessageType::Goodbye});
   // A header that does not decode ends the stream.
-  const auto ends = checkStream(concat({encode(Goodbye{}, 1), corpusFile("bad-magic"), encode(Goodbye{}, 2)}));
+  const auto ends = fuzz::checkStream(concat({encode(Goodbye{}, 1), corpusFile("bad-magic"), encode(Goodbye{}, 2)}),
+                                      fuzz::kFuzzLimits);
   EXPECT_EQ(ends.decoded, std::vector<MessageType>{MessageType::Goodbye});
   EXPECT_EQ(ends.errors, std::vector<ErrorCode>{ErrorCode::BadMagic});
   // An incomplete last message is left unread.
   const Bytes render = encode(RenderRequest{Encoding::Png, "{}"}, 2);
-  const auto partial = checkStream(concat({encode(Hello{}, 1), Bytes(render.begin(), render.end() - 1)}));
+  const auto partial =
+      fuzz::checkStream(concat({encode(Hello{}, 1), Bytes(render.begin(), render.end() - 1)}), fuzz::kFuzzLimits);
   EXPECT_EQ(partial.decoded, std::vector<MessageType>{MessageType::Hello});
   EXPECT_TRUE(partial.errors.empty());
   // A whole session decodes in order.
-  const auto session = checkStream(corpusFile("session"));
-  EXPECT_EQ(session.decoded, (std::vector<MessageType>{MessageType::Hello, MessageType::ListDatasets,
-                                                       MessageType::OpenDataset, MessageType::Render,
-                                                       MessageType::GetStats, MessageType::Goodbye}));
+  const auto session = fuzz::checkStream(corpusFile("session"), fuzz::kFuzzLimits);
+  EXPECT_EQ(session.decoded,
+            (std::vector<MessageType>{MessageType::Hello, MessageType::ListDatasets, MessageType::OpenDataset,
+                                      MessageType::Render, MessageType::GetStats, MessageType::Goodbye}));
 }
 
 }  // namespace

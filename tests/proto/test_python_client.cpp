@@ -1,15 +1,14 @@
 // The Python client against the C++ codec: each decodes what the other encodes, and the client runs a whole session
 // against a scripted server on a loopback socket.
 #include <arpa/inet.h>
+#include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
 #include <zlib.h>
 
-#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
-
 #include <thread>
 
 #include "proto/Messages.h"
@@ -48,7 +47,7 @@ nlohmann::json pythonDecode(const Bytes& wire) {
   return nlohmann::json::parse(result.output);
 }
 
-TEST(ProtoPython, CppDecodesThePythonHello) {
+TEST(PythonClient, CppDecodesThePythonHello) {
   ScratchDir dir;
   const auto result = runShell(kClient + " --encode-hello " + (dir / "hello.bin").string());
   ASSERT_EQ(result.exitCode, 0) << result.output;
@@ -62,13 +61,13 @@ TEST(ProtoPython, CppDecodesThePythonHello) {
   EXPECT_EQ(hello.client, "voxbrick_client.py 1");
 }
 
-TEST(ProtoPython, CppDecodesThePythonRender) {
+TEST(PythonClient, CppDecodesThePythonRender) {
   ScratchDir dir;
   const std::string scene = R"({"camera": {"orbit": [10, 20, 3]}, "size": [64, 48], "note": "ünï 体"})";
   for (const auto& [name, encoding] :
        {std::pair{"png", Encoding::Png}, {"raw_rgba8", Encoding::RawRgba8}, {"zstd_rgba8", Encoding::ZstdRgba8}}) {
-    const auto result = runShell(kClient + " --encode-render " + (dir / "render.bin").string() + " --encoding " +
-                                 name + " --scene-json '" + scene + "'");
+    const auto result = runShell(kClient + " --encode-render " + (dir / "render.bin").string() + " --encoding " + name +
+                                 " --scene-json '" + scene + "'");
     ASSERT_EQ(result.exitCode, 0) << result.output;
     const auto [header, message] = decodeFile(dir / "render.bin");
     EXPECT_EQ(header.type, MessageType::Render);
@@ -79,7 +78,7 @@ TEST(ProtoPython, CppDecodesThePythonRender) {
   }
 }
 
-TEST(ProtoPython, PythonDecodesACppFrame) {
+TEST(PythonClient, PythonDecodesACppFrame) {
   Bytes payload(100000);
   for (size_t i = 0; i < payload.size(); ++i) payload[i] = uint8_t(i * 7 + 3);
   const std::string stats = R"({"bricks_drawn": 12, "ms": {"total": 3.5}, "queue_ms": 0.25, "encode_ms": 1})";
@@ -94,7 +93,7 @@ TEST(ProtoPython, PythonDecodesACppFrame) {
   EXPECT_EQ(out["payload_crc32"], crc32(0, payload.data(), uInt(payload.size())));
 }
 
-TEST(ProtoPython, PythonDecodesACppErrorAndCapabilities) {
+TEST(PythonClient, PythonDecodesACppErrorAndCapabilities) {
   const nlohmann::json error = pythonDecode(encode(Error{ErrorCode::LimitExceeded, "image 9000×9000 > 8192"}, 7));
   EXPECT_EQ(error["type"], "Error");
   EXPECT_EQ(error["request_id"], 7);
@@ -110,7 +109,7 @@ TEST(ProtoPython, PythonDecodesACppErrorAndCapabilities) {
   EXPECT_EQ(caps["encodings"], nlohmann::json::array({"png", "raw_rgba8"}));
 }
 
-TEST(ProtoPython, PythonRefusesMalformedMessages) {
+TEST(PythonClient, PythonRefusesMalformedMessages) {
   ScratchDir dir;
   Bytes trailing = encode(Goodbye{}, 1);
   trailing[12] = 1;  // body length 1
@@ -186,8 +185,7 @@ class ScriptedServer {
   }
 
   static Message answer(const Message& request) {
-    if (std::holds_alternative<Hello>(request))
-      return Capabilities{1, "scripted", 64u << 20, 8192, 1, {Encoding::Png}};
+    if (std::holds_alternative<Hello>(request)) return Capabilities{1, "scripted", 64u << 20, 8192, 1, {Encoding::Png}};
     if (std::holds_alternative<ListDatasets>(request)) return DatasetList{{"mri", "sparse"}};
     if (const auto* open = std::get_if<OpenDataset>(&request)) {
       if (open->name == "mri") return DatasetInfo{"mri", R"({"dims": [4, 4, 4]})"};
@@ -220,32 +218,33 @@ std::vector<MessageType> typesOf(const std::vector<std::pair<Header, Message>>& 
   return types;
 }
 
-TEST(ProtoPython, ClientRendersAFrameFromAServer) {
+TEST(PythonClient, ClientRendersAFrameFromAServer) {
   ScratchDir dir;
   voxbrick::test::writeFile(dir / "scene.json",
                             R"({"camera": {"eye": [1, 2, 3], "fov": 40}, "transfer_function": "hot"})");
   ScriptedServer server;
-  const auto result = runShell(kClient + " " + server.address() + " --dataset mri --scene " +
-                               (dir / "scene.json").string() + " --orbit 10,20,3 --size 64x32 -o " +
-                               (dir / "frame.png").string());
+  const auto result =
+      runShell(kClient + " " + server.address() + " --dataset mri --scene " + (dir / "scene.json").string() +
+               " --orbit 10,20,3 --size 64x32 -o " + (dir / "frame.png").string());
   ASSERT_EQ(result.exitCode, 0) << result.output;
   EXPECT_NE(result.output.find("64x32 png, 9 bytes"), std::string::npos) << result.output;
   EXPECT_EQ(readBytes(dir / "frame.png"), ScriptedServer::kPayload);
 
   const auto received = server.received();
   ASSERT_EQ(typesOf(received), (std::vector<MessageType>{MessageType::Hello, MessageType::OpenDataset,
-                                                          MessageType::Render, MessageType::Goodbye}));
+                                                         MessageType::Render, MessageType::Goodbye}));
   for (size_t i = 0; i < received.size(); ++i) EXPECT_EQ(received[i].first.requestId, i + 1);
   EXPECT_EQ(std::get<OpenDataset>(received[1].second).name, "mri");
   const RenderRequest& render = std::get<RenderRequest>(received[2].second);
   EXPECT_EQ(render.encoding, Encoding::Png);
   // --orbit replaces the scene file's eye camera and keeps the rest; --size sets the size.
   const nlohmann::json scene = nlohmann::json::parse(render.sceneJson);
-  EXPECT_EQ(scene, nlohmann::json::parse(
-                       R"({"camera": {"orbit": [10, 20, 3], "fov": 40}, "transfer_function": "hot", "size": [64, 32]})"));
+  EXPECT_EQ(scene,
+            nlohmann::json::parse(
+                R"({"camera": {"orbit": [10, 20, 3], "fov": 40}, "transfer_function": "hot", "size": [64, 32]})"));
 }
 
-TEST(ProtoPython, ClientListsDatasetsWithoutADataset) {
+TEST(PythonClient, ClientListsDatasetsWithoutADataset) {
   ScriptedServer server;
   const auto result = runShell(kClient + " " + server.address());
   ASSERT_EQ(result.exitCode, 0) << result.output;
@@ -254,7 +253,7 @@ TEST(ProtoPython, ClientListsDatasetsWithoutADataset) {
             (std::vector<MessageType>{MessageType::Hello, MessageType::ListDatasets, MessageType::Goodbye}));
 }
 
-TEST(ProtoPython, ClientReportsAnErrorReply) {
+TEST(PythonClient, ClientReportsAnErrorReply) {
   ScriptedServer server;
   ScratchDir dir;
   const auto result = runShell(kClient + " " + server.address() + " --dataset nope -o " + (dir / "x.png").string());
