@@ -1,0 +1,39 @@
+// The real `voxbrick serve` process for tests: started on a free port, stopped with a signal, its log kept.
+#pragma once
+
+#include <sys/types.h>
+
+#include <chrono>
+#include <filesystem>
+#include <string>
+
+namespace voxbrick::test {
+
+class ServerProcess {
+ public:
+  /// Starts `voxbrick serve --port 0 --port-file ... <args>` and waits (up to 60 s) until it listens.
+  /// Throws std::runtime_error with the log if it exits or does not listen in time.
+  ServerProcess(const std::string& args, const std::filesystem::path& scratch);
+  /// Kills the process if it still runs.
+  ~ServerProcess();
+  ServerProcess(const ServerProcess&) = delete;
+  ServerProcess& operator=(const ServerProcess&) = delete;
+
+  int port() const { return mPort; }
+  pid_t pid() const { return mPid; }
+  bool running();
+  /// Sends `signal` and waits up to `timeout` for the exit; returns the exit status, 128 + signal if killed by
+  /// one, or -1 if it did not exit in time (it is then killed).
+  int stop(int signal, std::chrono::milliseconds timeout = std::chrono::seconds(20));
+  /// Resident memory now, from /proc (0 once it exited).
+  uint64_t residentBytes() const;
+  std::string log() const;
+
+ private:
+  pid_t mPid = -1;
+  int mPort = 0;
+  int mStatus = -1;
+  std::filesystem::path mLog;
+};
+
+}  // namespace voxbrick::test

@@ -1,0 +1,347 @@
+// The render service end to end: the real `voxbrick serve` process, real sockets on loopback, real GL (llvmpipe).
+#include <gtest/gtest.h>
+
+#include <signal.h>
+
+#include <cstring>
+#include <fstream>
+#include <memory>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+#include <zstd.h>
+
+#include "ServerProcess.h"
+#include "client/Client.h"
+#include "render/Image.h"
+#include "support/TestSupport.h"
+
+namespace voxbrick {
+namespace {
+
+using client::Client;
+using client::ServerError;
+using proto::ErrorCode;
+using test::ScratchDir;
+using test::ServerProcess;
+using nlohmann::json;
+
+/// One directory of stores for the whole suite: a sparse synthetic field in bricks of 16.
+class ServerTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    sDir = new ScratchDir();
+    std::filesystem::create_directories(*sDir / "datasets");
+    const auto r = test::runVoxbrick("prep synthetic:sparse,n=64 --brick 16 --no-vdb -q -o " +
+                                     (*sDir / "datasets" / "sparse").string());
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+  }
+  static void TearDownTestSuite() {
+    delete sDir;
+    sDir = nullptr;
+  }
+  static std::string datasets() { return (*sDir / "datasets").string(); }
+  static std::filesystem::path scratch() { return sDir->path(); }
+
+  std::unique_ptr<ServerProcess> start(const std::string& extra = "", int renderThreads = 2) {
+    return std::make_unique<ServerProcess>(
+        "--datasets " + datasets() + " --render-threads " + std::to_string(renderThreads) + " " + extra, scratch());
+  }
+
+  static ScratchDir* sDir;
+};
+ScratchDir* ServerTest::sDir = nullptr;
+
+const char* kScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [80, 64], "transfer_function": "sparse",
+                         "step": 0.75})";
+
+std::unique_ptr<Client> session(const ServerProcess& server, const std::string& dataset = "sparse") {
+  auto c = std::make_unique<Client>("127.0.0.1", server.port(), std::chrono::seconds(60));
+  c->hello("test");
+  if (!dataset.empty()) c->openDataset(dataset);
+  return c;
+}
+
+std::vector<uint8_t> pixels(const proto::Frame& frame) {
+  switch (frame.encoding) {
+    case proto::Encoding::Png:
+      return render::decodePng(frame.payload, "frame").rgba;
+    case proto::Encoding::RawRgba8:
+      return frame.payload;
+    case proto::Encoding::ZstdRgba8: {
+      std::vector<uint8_t> out(size_t(frame.width) * frame.height * 4);
+      EXPECT_EQ(ZSTD_decompress(out.data(), out.size(), frame.payload.data(), frame.payload.size()), out.size());
+      return out;
+    }
+  }
+  return {};
+}
+
+/// The error a request gets; fails the test if it gets anything else.
+ErrorCode errorOf(const std::function<void()>& request) {
+  try {
+    request();
+  } catch (const ServerError& e) {
+    return e.code();
+  }
+  ADD_FAILURE() << "the request succeeded";
+  return ErrorCode::Internal;
+}
+
+/// Reads until the server closes; returns the error codes it sent first.
+std::vector<ErrorCode> errorsUntilClosed(Client& c) {
+  std::vector<ErrorCode> codes;
+  try {
+    for (;;) {
+      auto [id, m] = c.receive();
+      if (auto* e = std::get_if<proto::Error>(&m)) codes.push_back(e->code);
+    }
+  } catch (const client::ConnectionError& e) {
+    EXPECT_NE(std::string(e.what()).find("closed"), std::string::npos) << e.what();
+  }
+  return codes;
+}
+
+TEST_F(ServerTest, ServedFramesEqualTheRenderCommandBitForBit) {
+  auto server = start();
+  auto c = session(*server);
+  EXPECT_EQ(c->listDatasets(), std::vector<std::string>{"sparse"});
+  const proto::Frame png = c->render(kScene, proto::Encoding::Png);
+  ASSERT_EQ(png.width, 80u);
+  ASSERT_EQ(png.height, 64u);
+  const json stats = json::parse(png.statsJson);
+  EXPECT_GT(stats["bricks_drawn"].get<int>(), 0);
+  EXPECT_TRUE(stats.contains("queue_ms") && stats.contains("encode_ms"));
+
+  test::writeFile(scratch() / "scene.json", std::string(kScene));
+  const auto r = test::runVoxbrick("render " + datasets() + "/sparse --scene " + (scratch() / "scene.json").string() +
+                                   " -q -o " + (scratch() / "rendered.png").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  const render::Image8 rendered = render::readPng(scratch() / "rendered.png");
+  const std::vector<uint8_t> served = pixels(png);
+  ASSERT_EQ(served.size(), rendered.rgba.size());
+  EXPECT_EQ(served, rendered.rgba) << "the served frame differs from `voxbrick render` with the same scene";
+  size_t lit = 0;
+  for (size_t i = 0; i < served.size(); i += 4) lit += served[i] > 0 ? 1 : 0;
+  EXPECT_GT(lit, 100u) << "an empty frame would prove nothing";
+
+  // The other encodings carry the same pixels.
+  EXPECT_EQ(pixels(c->render(kScene, proto::Encoding::RawRgba8)), served);
+  EXPECT_EQ(pixels(c->render(kScene, proto::Encoding::ZstdRgba8)), served);
+  c->goodbye();
+}
+
+TEST_F(ServerTest, MalformedMessagesGetTheirErrorsAndOtherSessionsGoOn) {
+  auto server = start();
+  auto good = session(*server);
+  const std::vector<uint8_t> reference = pixels(good->render(kScene, proto::Encoding::RawRgba8));
+  auto goodStillServed = [&] { EXPECT_EQ(pixels(good->render(kScene, proto::Encoding::RawRgba8)), reference); };
+
+  // Errors that leave the session open.
+  Client bad("127.0.0.1", server->port());
+  EXPECT_EQ(errorOf([&] { bad.listDatasets(); }), ErrorCode::UnexpectedMessage);  // before Hello
+  bad.hello();
+  EXPECT_EQ(errorOf([&] { bad.render(kScene); }), ErrorCode::UnexpectedMessage);  // before OpenDataset
+  EXPECT_EQ(errorOf([&] { bad.openDataset("../etc"); }), ErrorCode::UnknownDataset);
+  EXPECT_EQ(errorOf([&] { bad.openDataset("nope"); }), ErrorCode::UnknownDataset);
+  bad.openDataset("sparse");
+  EXPECT_EQ(errorOf([&] { bad.render("{not json"); }), ErrorCode::InvalidScene);
+  EXPECT_EQ(errorOf([&] { bad.render(R"({"size": [64, 0]})"); }), ErrorCode::InvalidScene);
+  EXPECT_EQ(errorOf([&] { bad.render(R"({"size": [4294967808, 64]})"); }), ErrorCode::InvalidScene);
+  EXPECT_EQ(errorOf([&] { bad.render(R"({"step": -1})"); }), ErrorCode::InvalidScene);
+  EXPECT_EQ(errorOf([&] { bad.render(R"({"transfer_function": "/etc/passwd"})"); }), ErrorCode::InvalidScene);
+  EXPECT_EQ(errorOf([&] { bad.render(R"({"size": [5000, 64]})"); }), ErrorCode::LimitExceeded);
+  {
+    proto::Header h;
+    h.type = proto::MessageType(999);
+    h.bodyBytes = 3;
+    auto head = proto::encodeHeader(h);
+    std::vector<uint8_t> bytes(head.size() + 3, 1);  // a body of three bytes
+    std::copy(head.begin(), head.end(), bytes.begin());
+    bad.sendBytes(bytes);
+    auto [id, m] = bad.receive();
+    ASSERT_TRUE(std::holds_alternative<proto::Error>(m));
+    EXPECT_EQ(std::get<proto::Error>(m).code, ErrorCode::UnknownType);
+  }
+  {
+    std::vector<uint8_t> bytes = proto::encode(proto::OpenDataset{"sparse"}, 7);
+    bytes.push_back(0);  // a trailing byte inside the declared body
+    bytes[12] += 1;
+    bad.sendBytes(bytes);
+    auto [id, m] = bad.receive();
+    ASSERT_TRUE(std::holds_alternative<proto::Error>(m));
+    EXPECT_EQ(std::get<proto::Error>(m).code, ErrorCode::Malformed);
+    EXPECT_EQ(id, 7u);
+  }
+  EXPECT_EQ(bad.listDatasets().size(), 1u);  // still served
+  goodStillServed();
+
+  // Errors that close the connection: bad magic, unsupported version, a body over the limit.
+  {
+    Client c("127.0.0.1", server->port());
+    c.sendBytes(std::vector<uint8_t>(16, 'x'));
+    EXPECT_EQ(errorsUntilClosed(c), std::vector<ErrorCode>{ErrorCode::BadMagic});
+  }
+  {
+    Client c("127.0.0.1", server->port());
+    proto::Header h;
+    h.version = 7;
+    auto head = proto::encodeHeader(h);
+    c.sendBytes(std::vector<uint8_t>(head.begin(), head.end()));
+    EXPECT_EQ(errorsUntilClosed(c), std::vector<ErrorCode>{ErrorCode::UnsupportedVersion});
+  }
+  {
+    Client c("127.0.0.1", server->port());
+    proto::Header h;
+    h.type = proto::MessageType::Render;
+    h.bodyBytes = 0xFFFFFFFFu;
+    auto head = proto::encodeHeader(h);
+    c.sendBytes(std::vector<uint8_t>(head.begin(), head.end()));
+    EXPECT_EQ(errorsUntilClosed(c), std::vector<ErrorCode>{ErrorCode::TooLarge});
+  }
+  {
+    Client c("127.0.0.1", server->port());
+    c.send(proto::Hello{2, 3, "future"});
+    EXPECT_EQ(errorsUntilClosed(c), std::vector<ErrorCode>{ErrorCode::UnsupportedVersion});
+  }
+  {  // a client that leaves mid-frame
+    auto c = session(*server);
+    c->send(proto::RenderRequest{proto::Encoding::Png, kScene});
+    c->close();
+  }
+  goodStillServed();
+  EXPECT_TRUE(server->running());
+}
+
+TEST_F(ServerTest, LimitsAreEnforced) {
+  auto server = start("--max-sessions 3 --idle-timeout 1 --max-image-side 100 --max-message-bytes 2048");
+  auto a = session(*server);
+  // Image side and message size.
+  EXPECT_EQ(errorOf([&] { a->render(R"({"size": [101, 10]})"); }), ErrorCode::LimitExceeded);
+  {
+    auto c = session(*server);
+    std::string big = R"({"step": 1, "background": [0, 0, 0])";
+    big += std::string(4000, ' ') + "}";
+    c->send(proto::RenderRequest{proto::Encoding::Png, big});
+    EXPECT_EQ(errorsUntilClosed(*c), std::vector<ErrorCode>{ErrorCode::TooLarge});
+  }
+  // Sessions: two more fit, the fourth is refused.
+  auto b = session(*server, "");
+  auto c = session(*server, "");
+  {
+    Client d("127.0.0.1", server->port());
+    EXPECT_EQ(errorsUntilClosed(d), std::vector<ErrorCode>{ErrorCode::LimitExceeded});
+  }
+  // Idle sessions are closed after a second; a session waiting for its frame is not idle.
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  EXPECT_EQ(errorsUntilClosed(*b), std::vector<ErrorCode>{ErrorCode::Timeout});
+  auto fresh = session(*server);  // room again
+  EXPECT_EQ(fresh->render(R"({"size": [100, 100], "transfer_function": "sparse"})").width, 100u);
+  const json stats = json::parse(fresh->stats());
+  EXPECT_GE(stats["sessions"]["refused"].get<int>(), 1);
+  EXPECT_GE(stats["sessions"]["timed_out"].get<int>(), 1);
+}
+
+TEST_F(ServerTest, ANewerRenderReplacesOneStillQueued) {
+  auto server = start("", 1);
+  auto c = session(*server);
+  // Eight cameras sent at once, as a drag would: every request gets exactly one reply, the last one a frame,
+  // and the ones replaced while waiting are answered Superseded.
+  std::vector<uint32_t> ids;
+  for (int i = 0; i < 8; ++i) {
+    json scene = json::parse(kScene);
+    scene["camera"]["orbit"] = {10.0 * i, 20, 2.2};
+    scene["size"] = {160, 160};
+    ids.push_back(c->send(proto::RenderRequest{proto::Encoding::Png, scene.dump()}));
+  }
+  std::map<uint32_t, std::string> replies;
+  while (replies.size() < ids.size()) {
+    auto [id, m] = c->receive();
+    ASSERT_FALSE(replies.count(id)) << "two replies to request " << id;
+    if (auto* e = std::get_if<proto::Error>(&m)) {
+      EXPECT_EQ(e->code, ErrorCode::Superseded) << e->message;
+      replies[id] = "superseded";
+    } else {
+      ASSERT_TRUE(std::holds_alternative<proto::Frame>(m));
+      replies[id] = "frame";
+    }
+  }
+  EXPECT_EQ(replies[ids.back()], "frame");
+  int superseded = 0;
+  for (const auto& [id, what] : replies) superseded += what == "superseded" ? 1 : 0;
+  EXPECT_GE(superseded, 4) << "with one render thread most of a burst should be replaced";
+}
+
+TEST_F(ServerTest, ShutsDownCleanlyOnSignals) {
+  for (int signal : {SIGTERM, SIGINT}) {
+    auto server = start();
+    auto c = session(*server);
+    c->render(kScene);
+    auto idle = session(*server, "");
+    const auto t0 = std::chrono::steady_clock::now();
+    EXPECT_EQ(server->stop(signal), 0) << server->log();
+    EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(10));
+    EXPECT_EQ(errorsUntilClosed(*c), std::vector<ErrorCode>{ErrorCode::ShuttingDown});
+    EXPECT_NE(server->log().find("stopped"), std::string::npos) << server->log();
+  }
+}
+
+TEST_F(ServerTest, BadConfigurationIsRefusedWithTheKeyNamed) {
+  test::writeFile(scratch() / "bad.toml", std::string("[limits]\nmax_sesions = 4\n"));
+  auto r = test::runVoxbrick("serve --config " + (scratch() / "bad.toml").string());
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.output.find("unknown key limits.max_sesions"), std::string::npos) << r.output;
+  test::writeFile(scratch() / "range.toml", std::string("[limits]\nmax_image_side = 100000\n"));
+  r = test::runVoxbrick("serve --config " + (scratch() / "range.toml").string());
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.output.find("limits.max_image_side"), std::string::npos) << r.output;
+  r = test::runVoxbrick("serve --datasets " + (scratch() / "missing").string() + " --port 0");
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.output.find("does not exist"), std::string::npos) << r.output;
+  // The shipped configuration is valid.
+  auto server = std::make_unique<ServerProcess>(
+      std::string("--config ") + VOXBRICK_SOURCE_DIR + "/config/server.toml --datasets " + datasets(), scratch());
+  EXPECT_EQ(session(*server)->listDatasets().size(), 1u);
+}
+
+TEST_F(ServerTest, RequestCommandAndPythonClientGetTheSameFrame) {
+  auto server = start();
+  const std::string address = "127.0.0.1:" + std::to_string(server->port());
+  test::writeFile(scratch() / "scene.json", std::string(kScene));
+  auto r = test::runVoxbrick("request " + address + " --dataset sparse --scene " + (scratch() / "scene.json").string() +
+                             " -o " + (scratch() / "request.png").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  r = test::runShell(std::string("python3 ") + VOXBRICK_SOURCE_DIR + "/examples/python/voxbrick_client.py " + address +
+                     " --dataset sparse --scene " + (scratch() / "scene.json").string() + " -o " +
+                     (scratch() / "python.png").string() + " 2>&1");
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_EQ(render::readPng(scratch() / "request.png").rgba, render::readPng(scratch() / "python.png").rgba);
+  r = test::runVoxbrick("request " + address + " --dataset nope -o " + (scratch() / "x.png").string());
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.output.find("UnknownDataset"), std::string::npos) << r.output;
+}
+
+TEST_F(ServerTest, ShortLoadWithFaultsLeavesGoodClientsUnharmed) {
+  auto server = start();
+  const std::string address = "127.0.0.1:" + std::to_string(server->port());
+  const auto report = scratch() / "load.json";
+  const auto r = test::runVoxbrick("load " + address + " --dataset sparse --clients 16 --duration 10 --size 64x64 " +
+                                   "--tf sparse --fault-clients 4 --idle-sessions 8 --require-clean --json " +
+                                   report.string());
+  ASSERT_EQ(r.exitCode, 0) << r.output << server->log();
+  std::ifstream in(report);
+  const json j = json::parse(in);
+  EXPECT_EQ(j["errors"].get<int>(), 0);
+  EXPECT_GT(j["frames"].get<int>(), 16);
+  for (const char* fault : {"disconnect", "garbage", "huge", "malformed", "slow"}) {
+    EXPECT_GT(j["faults"][fault]["done"].get<int>(), 0) << fault;
+    EXPECT_EQ(j["faults"][fault]["unexpected"].get<int>(), 0) << fault;
+  }
+  // Resident memory stays bounded: a 64^3 store, two render threads and their atlases.
+  EXPECT_LT(j["server"]["memory"]["peak_rss_bytes"].get<double>(), 1.5e9);
+  EXPECT_TRUE(server->running());
+  EXPECT_EQ(server->stop(SIGTERM), 0);
+}
+
+}  // namespace
+}  // namespace voxbrick
