@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <mutex>
 #include <random>
 #include <thread>
@@ -23,14 +24,15 @@ using nlohmann::json;
 struct LoadArgs {
   std::string address, dataset, tf = "grayscale", faults, jsonPath, size = "128x128";
   int clients = 4, faultClients = 0, idleSessions = 0;
-  double duration = 10, step = 1;
+  double duration = 10, step = 1, dragHz = 0;
   bool requireClean = false;
 };
 
 struct Tally {
   std::mutex mutex;
   std::vector<double> latencies;
-  int64_t frames = 0, errors = 0;
+  std::vector<double> renderMs;  ///< the renderer's own frame time (frame statistics), well-behaved clients
+  int64_t frames = 0, errors = 0, superseded = 0;
   std::vector<std::string> errorSamples;
   std::map<std::string, int64_t> faultsDone, faultsUnexpected;
 
@@ -64,12 +66,81 @@ void goodClient(const LoadArgs& a, const std::string& host, int port, int width,
     c.openDataset(a.dataset);
     for (int n = 0; Clock::now() < deadline; ++n) {
       const auto start = Clock::now();
-      c.render(sceneJson(a, width, height, 10.0 * index + 7.0 * n), proto::Encoding::ZstdRgba8);
+      const proto::Frame frame =
+          c.render(sceneJson(a, width, height, 10.0 * index + 7.0 * n), proto::Encoding::ZstdRgba8);
       const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+      const json stats = json::parse(frame.statsJson);
       std::lock_guard lock(tally.mutex);
       tally.latencies.push_back(ms);
+      tally.renderMs.push_back(stats["ms"]["total"].get<double>());
       ++tally.frames;
     }
+    c.goodbye();
+  } catch (const std::exception& e) {
+    tally.error(e.what());
+  }
+}
+
+/// A client dragging the camera: sends a new camera `hz` times a second without waiting, and reads frames as they
+/// come. Each frame's latency is the age of the camera it shows. Superseded requests are counted, not errors.
+void dragClient(const LoadArgs& a, const std::string& host, int port, int width, int height, int index,
+                Clock::time_point deadline, Tally& tally) {
+  try {
+    client::Client c(host, port, std::chrono::seconds(120));
+    c.hello("voxbrick-load-drag");
+    c.openDataset(a.dataset);
+    std::mutex mutex;
+    std::map<uint32_t, Clock::time_point> sent;
+    std::atomic<bool> sending{true};
+    std::thread reader([&] {
+      try {
+        for (;;) {
+          {
+            std::lock_guard lock(mutex);
+            if (!sending && sent.empty()) return;
+          }
+          auto [id, m] = c.receive();
+          Clock::time_point at;
+          {
+            std::lock_guard lock(mutex);
+            at = sent.at(id);
+            sent.erase(id);
+          }
+          std::lock_guard lock(tally.mutex);
+          if (std::holds_alternative<proto::Frame>(m)) {
+            tally.latencies.push_back(std::chrono::duration<double, std::milli>(Clock::now() - at).count());
+            ++tally.frames;
+          } else if (std::holds_alternative<proto::DatasetList>(m)) {
+            // the closing request
+          } else if (auto* e = std::get_if<proto::Error>(&m); e && e->code == proto::ErrorCode::Superseded) {
+            ++tally.superseded;
+          } else {
+            ++tally.errors;
+          }
+        }
+      } catch (const std::exception& e) {
+        tally.error(e.what());
+      }
+    });
+    const auto period = std::chrono::duration<double>(1.0 / a.dragHz);
+    auto next = Clock::now();
+    for (int n = 0; Clock::now() < deadline; ++n) {
+      {
+        std::lock_guard lock(mutex);
+        const uint32_t id = c.send(proto::RenderRequest{proto::Encoding::ZstdRgba8,
+                                                        sceneJson(a, width, height, 10.0 * index + 2.0 * n)});
+        sent[id] = Clock::now();
+      }
+      next += std::chrono::duration_cast<Clock::duration>(period);
+      std::this_thread::sleep_until(next);
+    }
+    {
+      // A last cheap request: its reply wakes the reader even when every frame has already arrived.
+      std::lock_guard lock(mutex);
+      sending = false;
+      sent[c.send(proto::ListDatasets{})] = Clock::now();
+    }
+    reader.join();
     c.goodbye();
   } catch (const std::exception& e) {
     tally.error(e.what());
@@ -188,7 +259,7 @@ void runLoad(const LoadArgs& a) {
   const auto deadline = start + std::chrono::milliseconds(int64_t(a.duration * 1000));
   std::vector<std::thread> threads;
   for (int i = 0; i < a.clients; ++i)
-    threads.emplace_back(goodClient, std::cref(a), host, port, width, height, i, deadline, std::ref(tally));
+    threads.emplace_back(a.dragHz > 0 ? dragClient : goodClient, std::cref(a), host, port, width, height, i, deadline, std::ref(tally));
   for (int i = 0; i < a.faultClients; ++i)
     threads.emplace_back(faultClient, std::cref(a), host, port, std::cref(kinds), i, deadline, std::ref(tally));
   for (std::thread& t : threads) t.join();
@@ -221,18 +292,22 @@ void runLoad(const LoadArgs& a) {
       {"frames", tally.frames},
       {"frames_per_s", double(tally.frames) / seconds},
       {"errors", tally.errors},
+      {"superseded", tally.superseded},
+      {"drag_hz", a.dragHz},
       {"error_samples", tally.errorSamples},
       {"latency_ms", {{"p50", percentile(tally.latencies, 0.5)},
                       {"p95", percentile(tally.latencies, 0.95)},
                       {"p99", percentile(tally.latencies, 0.99)},
                       {"max", percentile(tally.latencies, 1.0)}}},
+      {"render_ms_p50", percentile(tally.renderMs, 0.5)},
       {"faults", faults},
       {"server", server}};
   std::printf("load: %d clients (+%d faulty, %d idle) for %.1f s: %lld frames, %.1f frames/s, latency p50 %.1f "
-              "p95 %.1f p99 %.1f max %.1f ms, %lld errors, %lld unexpected fault replies",
+              "p95 %.1f p99 %.1f max %.1f ms, %lld superseded, %lld errors, %lld unexpected fault replies",
               a.clients, a.faultClients, a.idleSessions, seconds, (long long)tally.frames,
               double(tally.frames) / seconds, percentile(tally.latencies, 0.5), percentile(tally.latencies, 0.95),
-              percentile(tally.latencies, 0.99), percentile(tally.latencies, 1.0), (long long)tally.errors,
+              percentile(tally.latencies, 0.99), percentile(tally.latencies, 1.0), (long long)tally.superseded,
+              (long long)tally.errors,
               (long long)unexpected);
   if (server.contains("memory"))
     std::printf(", server RSS %.0f MB (peak %.0f MB)", double(server["memory"]["rss_bytes"]) / 1e6,
@@ -265,6 +340,9 @@ void addLoadCommand(CLI::App& app) {
   cmd->add_option("--fault-clients", a->faultClients, "clients that misbehave in turn")->check(CLI::Range(0, 4096));
   cmd->add_option("--faults", a->faults, "comma list: disconnect, garbage, huge, malformed, slow (default all)");
   cmd->add_option("--idle-sessions", a->idleSessions, "sessions opened and left silent")->check(CLI::Range(0, 100000));
+  cmd->add_option("--drag", a->dragHz,
+                  "clients send a new camera this many times a second without waiting (a camera drag); latency "
+                  "is then the age of the camera each frame shows")->check(CLI::Range(0.0, 1000.0));
   cmd->add_option("--json", a->jsonPath, "write the report as JSON");
   cmd->add_flag("--require-clean", a->requireClean,
                 "exit non-zero unless every good request succeeded and every fault got its documented reply");

@@ -15,6 +15,7 @@ struct ServeArgs {
   std::string config, host, datasets, backend, logLevel, portFile;
   int port = -1, renderThreads = 0, ioThreads = 0, maxSessions = 0, maxImageSide = 0;
   double idleTimeout = 0, readTimeout = 0, writeTimeout = 0;
+  bool noCoalesce = false;
   int64_t hostCacheMB = 0, gpuBudgetMB = 0, maxMessageBytes = 0;
 };
 
@@ -34,6 +35,7 @@ void runServe(const ServeArgs& a) {
   if (a.readTimeout > 0) c.readTimeoutS = a.readTimeout;
   if (a.writeTimeout > 0) c.writeTimeoutS = a.writeTimeout;
   if (a.hostCacheMB > 0) c.hostCacheMB = a.hostCacheMB;
+  if (a.noCoalesce) c.coalesce = false;
   if (a.gpuBudgetMB > 0) c.gpuBudgetMB = a.gpuBudgetMB;
   c.validate();
   spdlog::set_level(spdlog::level::from_str(c.logLevel));
@@ -76,6 +78,8 @@ void addServeCommand(CLI::App& app) {
   cmd->add_option("--write-timeout", a->writeTimeout, "seconds a client may take to accept a reply");
   cmd->add_option("--host-cache", a->hostCacheMB, "MB of decoded bricks per dataset");
   cmd->add_option("--gpu-budget", a->gpuBudgetMB, "MB of atlas per render thread and dataset");
+  cmd->add_flag("--no-coalesce", a->noCoalesce,
+                "render every request in order instead of only a session's newest (to measure what latest-wins saves)");
   cmd->callback([a] { runServe(*a); });
 }
 

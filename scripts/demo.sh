@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The main job: set up, build, prepare the demo stores (a real MRI and a sparse synthetic field), describe them,
-# and render a frame of each, headless, to demo/*.png.
+# render a frame of each, headless, to demo/*.png, and have the server render one over TCP to demo/served.png.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
@@ -13,4 +13,18 @@ mri=/usr/share/mricron/templates/ch2better.nii.gz
 ./build/voxbrick info demo/sparse.vbs
 ./build/voxbrick render demo/mri.vbs -o demo/mri.png --scene config/scenes/mri-lateral.json --stats demo/mri-stats.json
 ./build/voxbrick render demo/sparse.vbs -o demo/sparse.png --tf sparse --orbit 30,20,2.5
-echo "demo: stores in demo/*.vbs, frames in demo/mri.png and demo/sparse.png"
+
+# A served frame: start the server on the demo stores, ask it for the MRI over TCP, save the PNG, stop the server.
+rm -f demo/server.port
+./build/voxbrick serve --config config/server.toml --port 0 --port-file demo/server.port > demo/server.log 2>&1 &
+server=$!
+trap 'kill $server 2>/dev/null || true' EXIT
+for _ in $(seq 600); do [ -s demo/server.port ] && break; sleep 0.1; done
+[ -s demo/server.port ] || { cat demo/server.log; echo "demo: the server did not start" >&2; exit 1; }
+port=$(cat demo/server.port)
+./build/voxbrick request "127.0.0.1:$port" --list
+./build/voxbrick request "127.0.0.1:$port" --dataset mri.vbs --scene config/scenes/mri-lateral.json -o demo/served.png
+kill -TERM $server
+wait $server
+trap - EXIT
+echo "demo: stores in demo/*.vbs, frames in demo/mri.png and demo/sparse.png, served frame in demo/served.png"

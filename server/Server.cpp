@@ -92,6 +92,9 @@ class LatencyWindow {
   std::deque<Sample> mSamples;
 };
 
+/// Without coalescing (a benchmark setting), how many renders one session may have waiting.
+constexpr size_t kMaxQueuedWithoutCoalescing = 64;
+
 struct Counters {
   std::atomic<uint64_t> sessionsAccepted{0}, sessionsRefused{0}, messages{0}, renderRequests{0}, frames{0},
       renderErrors{0}, superseded{0}, protocolErrors{0}, timeouts{0}, slowClientsDropped{0};
@@ -155,8 +158,9 @@ struct Server::Impl {
   void accept();
   void beginShutdown();
   void removeSession(const std::shared_ptr<Session>& session);
-  /// Queues `job`; returns the request it replaced, if any.
-  std::optional<RenderJob> submit(const std::shared_ptr<Session>& session, RenderJob job);
+  /// Queues `job`, setting `replaced` to the request it replaced (latest wins); false if the session's queue is
+  /// full (only without coalescing).
+  bool submit(const std::shared_ptr<Session>& session, RenderJob job, std::optional<RenderJob>& replaced);
   void renderLoop(std::unique_ptr<render::GlContext> context, int index);
   json statsJson() const;
 };
@@ -185,8 +189,8 @@ struct Session : std::enable_shared_from_this<Session> {
   bool writing = false, closing = false, closed = false, readingBody = false;
   int outstandingRenders = 0;
   std::atomic<bool> alive{true};
-  // Guarded by Server::Impl::queueMutex.
-  std::optional<RenderJob> pending;
+  // Guarded by Server::Impl::queueMutex: requests received and not started (at most one when coalescing).
+  std::deque<RenderJob> pending;
   bool queued = false;
 
   void start() { readHeader(); }
@@ -273,7 +277,7 @@ struct Session : std::enable_shared_from_this<Session> {
       caps.server = "voxbrick 0.1.0";
       caps.maxMessageBytes = server.config.maxMessageBytes;
       caps.maxImageSide = uint32_t(server.config.maxImageSide);
-      caps.maxQueuedPerSession = 1;
+      caps.maxQueuedPerSession = server.config.coalesce ? 1 : uint32_t(kMaxQueuedWithoutCoalescing);
       caps.encodings = {proto::Encoding::RawRgba8, proto::Encoding::Png, proto::Encoding::ZstdRgba8};
       return send(caps, id);
     }
@@ -315,7 +319,13 @@ struct Session : std::enable_shared_from_this<Session> {
                        "image " + std::to_string(job.scene.width) + "x" + std::to_string(job.scene.height) +
                            " exceeds this server's limit of " + std::to_string(server.config.maxImageSide) + " per side");
     ++outstandingRenders;
-    if (auto replaced = server.submit(shared_from_this(), std::move(job))) {
+    std::optional<RenderJob> replaced;
+    if (!server.submit(shared_from_this(), std::move(job), replaced)) {
+      --outstandingRenders;
+      return sendError(id, proto::ErrorCode::LimitExceeded,
+                       "more than " + std::to_string(kMaxQueuedWithoutCoalescing) + " renders queued");
+    }
+    if (replaced) {
       --outstandingRenders;
       server.counters.superseded++;
       sendError(replaced->requestId, proto::ErrorCode::Superseded,
@@ -459,19 +469,22 @@ void Server::Impl::removeSession(const std::shared_ptr<Session>& session) {
   if (shuttingDown && sessions.empty()) asio::post(io, [this] { shutdownDeadline.cancel(); });
 }
 
-std::optional<RenderJob> Server::Impl::submit(const std::shared_ptr<Session>& session, RenderJob job) {
-  std::optional<RenderJob> replaced;
+bool Server::Impl::submit(const std::shared_ptr<Session>& session, RenderJob job, std::optional<RenderJob>& replaced) {
   {
     std::lock_guard lock(queueMutex);
-    if (session->pending) replaced = std::move(session->pending);
-    session->pending = std::move(job);
+    if (config.coalesce && !session->pending.empty()) {
+      replaced = std::move(session->pending.front());
+      session->pending.clear();
+    }
+    if (session->pending.size() >= kMaxQueuedWithoutCoalescing) return false;
+    session->pending.push_back(std::move(job));
     if (!session->queued) {
       ready.push_back(session);
       session->queued = true;
     }
   }
   queueReady.notify_one();
-  return replaced;
+  return true;
 }
 
 void Server::Impl::renderLoop(std::unique_ptr<render::GlContext> context, int index) {
@@ -487,9 +500,11 @@ void Server::Impl::renderLoop(std::unique_ptr<render::GlContext> context, int in
       if (queueStopping) break;
       session = std::move(ready.front());
       ready.pop_front();
-      session->queued = false;
-      job = std::move(*session->pending);
-      session->pending.reset();
+      job = std::move(session->pending.front());
+      session->pending.pop_front();
+      // Sessions take turns: one with more queued goes to the back.
+      session->queued = !session->pending.empty();
+      if (session->queued) ready.push_back(session);
     }
     if (!session->alive) continue;
     const auto start = Clock::now();

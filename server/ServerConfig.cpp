@@ -16,7 +16,10 @@ void read(const toml::table& table, const std::string& section, const char* key,
   const toml::node* node = table.get(key);
   if (!node) return;
   const std::string name = file + ": " + section + "." + key;
-  if constexpr (std::is_same_v<T, std::string>) {
+  if constexpr (std::is_same_v<T, bool>) {
+    if (!node->is_boolean()) fail(name + " must be true or false");
+    out = node->as_boolean()->get();
+  } else if constexpr (std::is_same_v<T, std::string>) {
     if (!node->is_string()) fail(name + " must be a string");
     out = node->as_string()->get();
   } else if constexpr (std::is_same_v<T, std::filesystem::path>) {
@@ -60,7 +63,7 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
     return node->as_table();
   };
   if (const toml::table* s = section("server")) {
-    checkKeys(*s, "server", {"host", "port", "datasets", "io_threads", "render_threads", "backend", "log_level"}, file);
+    checkKeys(*s, "server", {"host", "port", "datasets", "io_threads", "render_threads", "backend", "log_level", "coalesce"}, file);
     read(*s, "server", "host", c.host, file);
     read(*s, "server", "port", c.port, file);
     read(*s, "server", "datasets", c.datasets, file);
@@ -68,6 +71,7 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
     read(*s, "server", "render_threads", c.renderThreads, file);
     read(*s, "server", "backend", c.backend, file);
     read(*s, "server", "log_level", c.logLevel, file);
+    read(*s, "server", "coalesce", c.coalesce, file);
     // A relative dataset directory is relative to the configuration file.
     if (s->get("datasets") && c.datasets.is_relative()) c.datasets = path.parent_path() / c.datasets;
   }

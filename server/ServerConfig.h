@@ -17,6 +17,7 @@ struct ServerConfig {
   int renderThreads = 2;                     ///< each with its own GL context
   std::string backend = "auto";              ///< auto | egl | osmesa
   std::string logLevel = "info";             ///< trace | debug | info | warn | error | off
+  bool coalesce = true;                      ///< latest wins; off only to measure what it saves
   // [limits]
   int maxSessions = 64;                      ///< connections beyond this are refused with LimitExceeded
   uint32_t maxMessageBytes = 1u << 20;       ///< body of a client message
