@@ -3,6 +3,9 @@
 //
 //   bench_render [--out bench/results] [--work bench/work] [--size 512] [--views 36] [--step 0.5]
 //                [--datasets NAME,NAME]   (a subset of dense-blobs-256, sparse-256, mri-ch2better)
+//                [--configs TEXT,TEXT]    (only settings whose name contains one of these; the first listed setting
+//                                          of the run is the baseline for max|diff|)
+//                [--name render]          (output files NAME.csv and NAME.md)
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
@@ -53,7 +56,7 @@ struct Result {
 int main(int argc, char** argv) {
   fs::path out = "bench/results", work = "bench/work";
   int size = 512, views = 36;
-  std::string only;
+  std::string only, onlyConfigs, name = "render";
   double step = 0.5;
   for (int i = 1; i + 1 < argc; i += 2) {
     std::string a = argv[i];
@@ -63,6 +66,8 @@ int main(int argc, char** argv) {
     else if (a == "--views") views = std::stoi(argv[i + 1]);
     else if (a == "--step") step = std::stod(argv[i + 1]);
     else if (a == "--datasets") only = argv[i + 1];
+    else if (a == "--configs") onlyConfigs = argv[i + 1];
+    else if (a == "--name") name = argv[i + 1];
     else {
       std::fprintf(stderr, "bench_render: unknown option %s\n", a.c_str());
       return 2;
@@ -77,7 +82,7 @@ int main(int argc, char** argv) {
   const std::vector<Dataset> datasets = {{"dense-blobs-256", "synthetic:blobs,n=256", "hot"},
                                          {"sparse-256", "synthetic:sparse,n=256", "sparse"},
                                          {"mri-ch2better", "/usr/share/mricron/templates/ch2better.nii.gz", "mri"}};
-  const std::vector<Config> configs = {
+  const std::vector<Config> allConfigs = {
       {"vertex slicer, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal},
       {"cpu slicer, skip", 32, render::Slicer::Cpu, true, render::RenderMode::Normal},
       {"vertex slicer, no skip", 32, render::Slicer::Vertex, false, render::RenderMode::Normal},
@@ -102,6 +107,16 @@ int main(int argc, char** argv) {
        render::AtlasFormat::Float, 8},
   };
 
+  std::vector<Config> configs;
+  for (const Config& c : allConfigs) {
+    bool wanted = onlyConfigs.empty();
+    for (size_t start = 0; !wanted && start < onlyConfigs.size();) {
+      const size_t comma = std::min(onlyConfigs.find(',', start), onlyConfigs.size());
+      wanted = c.name.find(onlyConfigs.substr(start, comma - start)) != std::string::npos;
+      start = comma + 1;
+    }
+    if (wanted) configs.push_back(c);
+  }
   std::vector<Result> results;
   for (const Dataset& d : datasets) {
     if (!only.empty() && only.find(d.name) == std::string::npos) continue;
@@ -175,10 +190,10 @@ int main(int argc, char** argv) {
     }
   }
 
-  std::ofstream csv(out / "render.csv");
+  std::ofstream csv(out / (name + ".csv"));
   csv << "dataset,config,brick,sub_block,slicer,skip,mode,median_ms,min_ms,max_ms,median_fragments,msamples_per_s,"
          "median_bricks_drawn,max_abs_vs_baseline\n";
-  std::ofstream md(out / "render.md");
+  std::ofstream md(out / (name + ".md"));
   md << "Renderer on " << device << ", " << size << "x" << size << ", " << views << " views (azimuth 0..360, "
      << "elevation 20, distance 2.2 R), step " << step << " voxels. Median frame time; samples = fragments "
      << "shaded (GL_SAMPLES_PASSED). max|diff| is against the first row of the dataset, view by view.\n\n"
@@ -200,14 +215,14 @@ int main(int argc, char** argv) {
   md << "\n| dataset | no-skip / skip time | skip / skip + sub-block 8 time | no-skip / skip + sub-block 8 time | "
         "normal / roofline sample rate (no skip) |\n|---|---:|---:|---:|---:|\n";
   for (const Dataset& d : datasets) {
-    auto find = [&](const std::string& name) {
+    auto find = [&](const std::string& setting) {
       for (const Result& r : results)
-        if (r.dataset == d.name && r.config.name == name) return r;
+        if (r.dataset == d.name && r.config.name == setting) return r;
       return Result{};
     };
     const Result skip = find("vertex slicer, skip"), full = find("vertex slicer, no skip"),
                  roof = find("roofline, no skip"), sub = find("vertex slicer, skip, sub-block 8");
-    if (skip.msMedian == 0) continue;  // dataset not in this run
+    if (skip.msMedian == 0 || sub.msMedian == 0 || full.msMedian == 0 || roof.msMedian == 0) continue;
     const double rateFull = full.fragments / full.msMedian, rateRoof = roof.fragments / roof.msMedian;
     char line[256];
     std::snprintf(line, sizeof line, "| %s | %.2fx | %.2fx | %.2fx | %.0f%% |\n", d.name.c_str(),
