@@ -223,9 +223,13 @@ void faultClient(const LoadArgs& a, const std::string& host, int port, const std
     } catch (const std::exception&) {
       ok = false;
     }
-    std::lock_guard lock(tally.mutex);
-    ++tally.faultsDone[kind];
-    if (!ok) ++tally.faultsUnexpected[kind];
+    {
+      std::lock_guard lock(tally.mutex);
+      ++tally.faultsDone[kind];
+      if (!ok) ++tally.faultsUnexpected[kind];
+    }
+    // Faults are mixed in, not a flood: each faulty client misbehaves about twenty times a second at most.
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
 }
 
