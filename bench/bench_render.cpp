@@ -3,8 +3,8 @@
 //
 //   bench_render [--out bench/results] [--work bench/work] [--size 512] [--views 36] [--step 0.5]
 //                [--datasets NAME,NAME]   (a subset of dense-blobs-256, sparse-256, mri-ch2better)
-//                [--configs TEXT,TEXT]    (only settings whose name contains one of these; the first listed setting
-//                                          of the run is the baseline for max|diff|)
+//                [--configs 'NAME|NAME']  (only these settings, by exact name; the first of them in the built-in
+//                                          order is the baseline for max|diff|)
 //                [--name render]          (output files NAME.csv and NAME.md)
 #include <algorithm>
 #include <cstdio>
@@ -111,9 +111,9 @@ int main(int argc, char** argv) {
   for (const Config& c : allConfigs) {
     bool wanted = onlyConfigs.empty();
     for (size_t start = 0; !wanted && start < onlyConfigs.size();) {
-      const size_t comma = std::min(onlyConfigs.find(',', start), onlyConfigs.size());
-      wanted = c.name.find(onlyConfigs.substr(start, comma - start)) != std::string::npos;
-      start = comma + 1;
+      const size_t bar = std::min(onlyConfigs.find('|', start), onlyConfigs.size());
+      wanted = c.name == onlyConfigs.substr(start, bar - start);
+      start = bar + 1;
     }
     if (wanted) configs.push_back(c);
   }
