@@ -196,14 +196,16 @@ bool fault(const std::string& kind, const LoadArgs& a, const std::string& host, 
     return ok;
   }
   c.openDataset(a.dataset);
-  c.send(proto::RenderRequest{proto::Encoding::RawRgba8, sceneJson(a, 256, 256, double(rng() % 360))});
+  c.send(proto::RenderRequest{proto::Encoding::RawRgba8, sceneJson(a, 256, 256, double(rng() % 360))});  // 256 KiB
   if (kind == "disconnect") {
     c.close();  // before the frame arrives
     return true;
   }
   if (kind == "slow") {
-    // Takes the frame a few bytes at a time, then leaves.
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    // Takes the frame 2 KiB at a time, 100 times a second at most, for a second, then leaves.
+    const auto end = Clock::now() + std::chrono::seconds(1);
+    while (Clock::now() < end && !c.receiveBytes(2048).empty())
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
     c.close();
     return true;
   }

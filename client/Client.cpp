@@ -54,6 +54,14 @@ uint32_t Client::send(const proto::Message& message) {
   return id;
 }
 
+std::vector<uint8_t> Client::receiveBytes(size_t max) {
+  std::vector<uint8_t> bytes(max);
+  boost::system::error_code ec;
+  bytes.resize(mImpl->socket.read_some(asio::buffer(bytes), ec));
+  if (ec && ec != asio::error::eof) throw ConnectionError("reading from " + mImpl->where + ": " + ec.message());
+  return bytes;
+}
+
 std::pair<uint32_t, proto::Message> Client::receive() {
   std::array<uint8_t, proto::kHeaderBytes> head{};
   boost::system::error_code ec;

@@ -54,6 +54,8 @@ class Client {
   uint32_t send(const proto::Message& message);
   /// Low level: sends raw bytes as they are (for tests of malformed input).
   void sendBytes(const std::vector<uint8_t>& bytes);
+  /// Low level: up to `max` raw bytes as they arrive (for tests of clients that read slowly); empty once closed.
+  std::vector<uint8_t> receiveBytes(size_t max);
   /// Low level: the next message from the server, with the request id it answers.
   std::pair<uint32_t, proto::Message> receive();
   /// Closes the socket without a Goodbye.
