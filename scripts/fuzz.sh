@@ -5,6 +5,12 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds="${1:-60}"
+bash scripts/setup.sh
+if ! command -v clang++ >/dev/null; then
+  # Debian's clang brings libFuzzer and the sanitizer runtimes (libclang-common-14-dev).
+  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y --no-install-recommends clang
+fi
 cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang \
   -DCMAKE_CXX_COMPILER=clang++ -DVOXBRICK_FUZZ=ON -DVOXBRICK_WERROR=ON -DVOXBRICK_BUILD_TESTS=OFF \
   -DVOXBRICK_BUILD_BENCH=OFF >/dev/null
