@@ -27,10 +27,9 @@ constexpr size_t kPrefetchWindow = 256;  // bricks decoded ahead of the one bein
 struct SliceVertex {
   float world[3];
   int32_t payload[4];
-  int32_t plane;
   int32_t ownLo[3], ownHi[3];
 };
-static_assert(sizeof(SliceVertex) == 56);
+static_assert(sizeof(SliceVertex) == 52);
 
 /// How far past the voxels it owns a box is drawn, in voxels, so that the fragment stage's ownership test decides
 /// coverage: at the volume's surface, and between neighbouring boxes (far above the rasterised edges' round-off).
@@ -143,8 +142,7 @@ void VolumeRenderer::drawBatch(Batch& batch, const Scene& scene, FrameStats& sta
     mGl.glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, stride, offset(offsetof(SliceVertex, world)));
     mGl.glEnableVertexAttribArray(3);
     mGl.glVertexAttribIPointer(3, 4, GL_INT, stride, offset(offsetof(SliceVertex, payload)));
-    mGl.glEnableVertexAttribArray(4);
-    mGl.glVertexAttribIPointer(4, 1, GL_INT, stride, offset(offsetof(SliceVertex, plane)));
+    mGl.glDisableVertexAttribArray(4);
     mGl.glEnableVertexAttribArray(5);
     mGl.glVertexAttribIPointer(5, 3, GL_INT, stride, offset(offsetof(SliceVertex, ownLo)));
     mGl.glEnableVertexAttribArray(6);
@@ -255,8 +253,6 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
   p.set(p.uniformLocation("uEye"), glm::vec3(camera.eye));
   p.set(p.uniformLocation("uViewDir"), glm::vec3(n));
   p.set(p.uniformLocation("uOrthographic"), camera.orthographic ? 1 : 0);
-  p.set(p.uniformLocation("uInvViewProj"), glm::mat4(glm::inverse(viewProj)));
-  p.set(p.uniformLocation("uPixelToNdc"), glm::vec2(2.0 / scene.width, 2.0 / scene.height));
 
   // Page and slice brick by brick, front to back; draw whenever the atlas is full of this batch's bricks.
   mGl.glBeginQuery(GL_SAMPLES_PASSED, mFragments.id());
@@ -342,7 +338,6 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
               v.ownLo[a] = ownLo[a], v.ownHi[a] = ownHi[a];
             }
             for (int a = 0; a < 4; ++a) v.payload[a] = payload[a];
-            v.plane = int32_t(k);
             batch.vertices.push_back(v);
           }
         }
