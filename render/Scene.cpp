@@ -88,8 +88,8 @@ Scene Scene::fromJson(const std::string& text, const std::string& what, bool all
       throw RenderInputError(what + ": 'size' must be [width, height] integers");
     const int64_t w = z[0].get<int64_t>(), h = z[1].get<int64_t>();
     if (w < 1 || h < 1 || w > kMaxImageSide || h > kMaxImageSide)
-      throw RenderInputError(what + ": 'size' " + std::to_string(w) + "x" + std::to_string(h) + " is outside 1.." +
-                             std::to_string(kMaxImageSide) + " per side");
+      throw RenderInputError(what + ": 'size': image size " + std::to_string(w) + "x" + std::to_string(h) +
+                             " is outside 1.." + std::to_string(kMaxImageSide) + " per side");
     s.width = int(w);
     s.height = int(h);
   }
