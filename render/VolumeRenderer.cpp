@@ -27,12 +27,14 @@ constexpr size_t kPrefetchWindow = 256;  // bricks decoded ahead of the one bein
 struct SliceVertex {
   float world[3];
   int32_t payload[4];
+  int32_t plane;  ///< global index of the vertex's plane
   int32_t ownLo[3], ownHi[3];
 };
-static_assert(sizeof(SliceVertex) == 52);
+static_assert(sizeof(SliceVertex) == 56);
 
 /// How far past the voxels it owns a box is drawn, in voxels, so that the fragment stage's ownership test decides
-/// coverage: at the volume's surface, and between neighbouring boxes (far above the rasterised edges' round-off).
+/// coverage: at the volume's surface, and between neighbouring sub-block boxes (far above the rasterised edges'
+/// round-off).
 constexpr double kSurfaceMargin = 0.25;
 constexpr double kInteriorMargin = 1.0 / 64;
 
@@ -83,10 +85,11 @@ VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickC
 
 VolumeRenderer::~VolumeRenderer() = default;
 
-const Program& VolumeRenderer::program(Slicer slicer, bool shading, bool roofline) {
-  Program& p = mPrograms[slicer == Slicer::Cpu][roofline ? 2 : int(shading)];
+const Program& VolumeRenderer::program(Slicer slicer, bool shading, bool roofline, bool exactOwnership) {
+  Program& p = mPrograms[slicer == Slicer::Cpu][roofline ? 2 : int(shading)][int(exactOwnership)];
   if (!p) {
     std::vector<std::string> defines;
+    if (exactOwnership) defines.push_back("EXACT_OWNERSHIP");
     if (roofline) defines.push_back("ROOFLINE");
     else if (shading) defines.push_back("SHADING");
     const char* vertex = slicer == Slicer::Cpu ? "slice_cpu.vert.glsl" : "slice.vert.glsl";
@@ -103,7 +106,7 @@ void VolumeRenderer::drawBatch(Batch& batch, const Scene& scene, FrameStats& sta
   if (batch.instances.empty() && batch.vertices.empty()) return;
   const auto t = Clock::now();
   mVertexArray.bind();
-  const Program& p = program(scene.slicer, scene.shading, mMode == RenderMode::Roofline);
+  const Program& p = program(scene.slicer, scene.shading, mMode == RenderMode::Roofline, mExactOwnership);
   p.use();
   if (scene.slicer == Slicer::Vertex) {
     mInstances.allocate(GL_ARRAY_BUFFER, batch.instances.size() * sizeof(SliceInstance), batch.instances.data(),
@@ -142,7 +145,8 @@ void VolumeRenderer::drawBatch(Batch& batch, const Scene& scene, FrameStats& sta
     mGl.glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, stride, offset(offsetof(SliceVertex, world)));
     mGl.glEnableVertexAttribArray(3);
     mGl.glVertexAttribIPointer(3, 4, GL_INT, stride, offset(offsetof(SliceVertex, payload)));
-    mGl.glDisableVertexAttribArray(4);
+    mGl.glEnableVertexAttribArray(4);
+    mGl.glVertexAttribIPointer(4, 1, GL_INT, stride, offset(offsetof(SliceVertex, plane)));
     mGl.glEnableVertexAttribArray(5);
     mGl.glVertexAttribIPointer(5, 3, GL_INT, stride, offset(offsetof(SliceVertex, ownLo)));
     mGl.glEnableVertexAttribArray(6);
@@ -235,7 +239,9 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
   const double minSpacing = std::min({meta.spacing.x, meta.spacing.y, meta.spacing.z});
   const double step = scene.step * minSpacing;
   const double referenceLength = tf.referenceLength().value_or(minSpacing);
-  const Program& p = program(scene.slicer, scene.shading, mode == RenderMode::Roofline);
+  const int subBlock = scene.subBlock > 0 && scene.subBlock < B ? scene.subBlock : 0;
+  mExactOwnership = subBlock > 0;
+  const Program& p = program(scene.slicer, scene.shading, mode == RenderMode::Roofline, mExactOwnership);
   p.set(p.uniformLocation("uViewProj"), glm::mat4(viewProj));
   p.set(p.uniformLocation(kSliceNormalUniform), glm::vec3(n));
   p.set(p.uniformLocation(kSlicePlaneIncrUniform), float(step));
@@ -253,18 +259,33 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
   p.set(p.uniformLocation("uEye"), glm::vec3(camera.eye));
   p.set(p.uniformLocation("uViewDir"), glm::vec3(n));
   p.set(p.uniformLocation("uOrthographic"), camera.orthographic ? 1 : 0);
+  // Pixel rays for exact ownership: the points at clip depth -1 and +1 are affine in window coordinates (the inverse
+  // projection's w does not depend on x and y), so origin and direction are three vectors each.
+  const glm::dmat4 inverseViewProj = glm::inverse(viewProj);
+  auto unproject = [&](double wx, double wy, double depth) {
+    const glm::dvec4 h = inverseViewProj * glm::dvec4(2 * wx / scene.width - 1, 2 * wy / scene.height - 1, depth, 1);
+    return glm::dvec3(h) / h.w;
+  };
+  const glm::dvec3 near0 = unproject(0, 0, -1), far0 = unproject(0, 0, 1);
+  const glm::dvec3 nearX = unproject(1, 0, -1), nearY = unproject(0, 1, -1);
+  p.set(p.uniformLocation("uRayOrigin"), glm::vec3(near0));
+  p.set(p.uniformLocation("uRayOriginDx"), glm::vec3(nearX - near0));
+  p.set(p.uniformLocation("uRayOriginDy"), glm::vec3(nearY - near0));
+  p.set(p.uniformLocation("uRayDirection"), glm::vec3(far0 - near0));
+  p.set(p.uniformLocation("uRayDirectionDx"), glm::vec3((unproject(1, 0, 1) - nearX) - (far0 - near0)));
+  p.set(p.uniformLocation("uRayDirectionDy"), glm::vec3((unproject(0, 1, 1) - nearY) - (far0 - near0)));
 
   // Page and slice brick by brick, front to back; draw whenever the atlas is full of this batch's bricks.
   mGl.glBeginQuery(GL_SAMPLES_PASSED, mFragments.id());
   Batch batch;
-  // Every box is drawn a little larger than the voxels it owns and the fragment program keeps only the samples it
-  // owns (volume.frag.glsl), so coverage does not depend on rasterised box edges: at the volume's surface that makes
-  // the outline independent of the bricking, and inside it lets boxes of different sizes (sub-blocks) meet without
-  // cracks or double samples where their edges form T-junctions.
+  // Boxes are drawn a little larger than the voxels they own and the fragment program keeps only the samples they
+  // own (volume.frag.glsl). Whole bricks own the whole volume: only the outline is cut, the same for every
+  // bricking. Sub-block boxes own their voxels and, with exact ownership, overlap their neighbours by a margin.
+  const double interiorMargin = subBlock ? kInteriorMargin : 0.0;
   auto withMargin = [&](Box b) {
     for (int a = 0; a < 3; ++a) {
-      b.min[a] -= (b.min[a] <= box.min[a] ? kSurfaceMargin : kInteriorMargin) * meta.spacing[a];
-      b.max[a] += (b.max[a] >= box.max[a] ? kSurfaceMargin : kInteriorMargin) * meta.spacing[a];
+      b.min[a] -= (b.min[a] <= box.min[a] ? kSurfaceMargin : interiorMargin) * meta.spacing[a];
+      b.max[a] += (b.max[a] >= box.max[a] ? kSurfaceMargin : interiorMargin) * meta.spacing[a];
     }
     return b;
   };
@@ -274,8 +295,8 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
     return scene.slicer == Slicer::Vertex ? slicerPlaneRange(b.min, b.max, n, step) : planeIndexRange(b.min, b.max, n, step);
   };
   SubBlockWalkStats subStats;
-  const int subBlock = scene.subBlock > 0 && scene.subBlock < B ? scene.subBlock : 0;
   std::vector<VoxelSpan> spans;
+  const glm::ivec3 volumeHi(meta.dims.x, meta.dims.y, meta.dims.z);
   for (const BrickDraw& visibleBrick : visible.bricks) {
     auto ts = Clock::now();
     const PlaneIndexRange brickPlanes = planeRange(withMargin(visibleBrick.box));
@@ -322,7 +343,8 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
       const Box drawBox = withMargin(voxelSpanBox(span.lo, span.hi, meta.dims, meta.spacing));
       const PlaneIndexRange planes = subBlock ? planeRange(drawBox) : brickPlanes;
       if (planes.count() == 0) continue;
-      const glm::ivec3 ownLo(span.lo.x, span.lo.y, span.lo.z), ownHi(span.hi.x, span.hi.y, span.hi.z);
+      const glm::ivec3 ownLo = subBlock ? glm::ivec3(span.lo.x, span.lo.y, span.lo.z) : glm::ivec3(0);
+      const glm::ivec3 ownHi = subBlock ? glm::ivec3(span.hi.x, span.hi.y, span.hi.z) : volumeHi;
       stats.slices += planes.count();
       if (scene.slicer == Slicer::Vertex) {
         batch.instances.push_back({glm::vec3(drawBox.min), glm::vec3(drawBox.max), 0.0f, payload,
@@ -338,6 +360,7 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
               v.ownLo[a] = ownLo[a], v.ownHi[a] = ownHi[a];
             }
             for (int a = 0; a < 4; ++a) v.payload[a] = payload[a];
+            v.plane = int32_t(k);
             batch.vertices.push_back(v);
           }
         }

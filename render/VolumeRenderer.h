@@ -54,7 +54,7 @@ class VolumeRenderer {
  private:
   struct Batch;
   void drawBatch(Batch& batch, const Scene& scene, FrameStats& stats);
-  const Program& program(Slicer slicer, bool shading, bool roofline);
+  const Program& program(Slicer slicer, bool shading, bool roofline, bool exactOwnership);
 
   const Gl& mGl;
   std::shared_ptr<store::BrickCache> mCache;
@@ -66,8 +66,9 @@ class VolumeRenderer {
   Framebuffer mTarget;
   Query mFragments;
   std::vector<SubBlockRanges> mSlotRanges;  // per atlas slot: sub-block ranges of the brick it holds
-  Program mPrograms[2][3];  // [slicer][plain, shading, roofline], built on first use
+  Program mPrograms[2][3][2];  // [slicer][plain, shading, roofline][exact ownership], built on first use
   RenderMode mMode = RenderMode::Normal;
+  bool mExactOwnership = false;  // this frame draws sub-block boxes (volume.frag.glsl's EXACT_OWNERSHIP)
 };
 
 }  // namespace voxbrick::render

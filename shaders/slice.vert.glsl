@@ -34,6 +34,7 @@ out vec3 vBoxCoord;  // the vertex in box coordinates, [0, 1]^3 over the box
 flat out ivec4 vPayload;
 flat out ivec3 vOwnLo;         // the voxels [lo, hi) the box owns: the fragment stage keeps only samples in them
 flat out ivec3 vOwnHi;
+flat out float vPlaneDistance;  // dot(n, x) of this polygon's plane
 
 const int kFan[12] = int[12](0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 5);
 
@@ -92,5 +93,6 @@ void main() {
   vPayload = aPayload;
   vOwnLo = aOwnLo;
   vOwnHi = aOwnHi;
+  vPlaneDistance = planeDistance;
   gl_Position = uViewProj * vec4(world, 1.0);
 }

@@ -2,10 +2,13 @@
 // the value window, classify with the 1D transfer function (post-classification), correct the opacity for the
 // length of this ray's segment between two planes, and emit premultiplied colour for front-to-back blending.
 //
-// Which box a sample belongs to is decided here, not by rasterised polygon edges: boxes are drawn a little larger
-// than the voxels they own, and a box keeps a sample only when it lies in its own voxels (half-open, the face
-// towards the eye included). Neighbouring boxes of any sizes (bricks, sub-blocks meeting at T-junctions) then take
-// every sample exactly once, and the volume's outline does not depend on the bricking.
+// A fragment is kept only when its sample lies in the voxels its box owns, vOwnLo..vOwnHi (half-open: the face
+// towards the eye included). Whole bricks own the whole volume here: between bricks of one size the rasterised
+// shared edges are exact, and the test only cuts the volume's outline, which is then the same for every bricking
+// (surface bricks are drawn a quarter voxel larger). With EXACT_OWNERSHIP (sub-blocks, whose boxes of different
+// sizes meet at T-junctions where rasterised edges leave cracks and double samples) every box owns just its voxels
+// and is drawn 1/64 voxel larger, and the sample is computed from the pixel's ray and the plane alone, so that two
+// boxes see exactly the same point and exactly one keeps it.
 //
 // vPayload.xyz = slot origin + 1 - brick start (voxels): adding it to the sample's voxel coordinate gives the atlas
 // texel coordinate; the one-voxel border keeps every fetch inside the slot. Voxel coordinates are clamped to
@@ -16,6 +19,7 @@ in vec3 vWorld;
 flat in ivec4 vPayload;
 flat in ivec3 vOwnLo;
 flat in ivec3 vOwnHi;
+flat in float vPlaneDistance;
 
 uniform sampler3D uAtlas;
 uniform sampler1D uTransfer;
@@ -29,6 +33,8 @@ uniform float uStepOverReference;  // plane spacing / reference length
 uniform vec3 uEye;
 uniform vec3 uViewDir;
 uniform int uOrthographic;
+uniform vec3 uRayOrigin, uRayOriginDx, uRayOriginDy;           // ray origin (on the near plane) at window (x, y)
+uniform vec3 uRayDirection, uRayDirectionDx, uRayDirectionDy;  // near plane to far plane at window (x, y)
 
 out vec4 fragColor;
 
@@ -39,16 +45,24 @@ float sampleAt(vec3 voxel) {
 }
 
 void main() {
-  const vec3 voxel = vWorld * uInvSpacing + uHalfDims;
-  // The ownership test sees the sample on a grid of 1/256 voxel. Box faces lie on that grid, and two boxes that
-  // share a face compute the same sample to within float round-off (far below 1/512 voxel), so near a face both
-  // snap to the same point and the half-open rule gives it to exactly one of them; a plane through a face (a view
-  // along an axis) lands on the face exactly.
-  const vec3 snapped = round(voxel * 256.0) * (1.0 / 256.0);
+#ifdef EXACT_OWNERSHIP
+  // The pixel's ray (origin and direction are affine in window coordinates) meets this fragment's plane.
+  const vec3 origin = uRayOrigin + gl_FragCoord.x * uRayOriginDx + gl_FragCoord.y * uRayOriginDy;
+  const vec3 direction = uRayDirection + gl_FragCoord.x * uRayDirectionDx + gl_FragCoord.y * uRayDirectionDy;
+  const vec3 world = origin + direction * ((vPlaneDistance - dot(uViewDir, origin)) / dot(uViewDir, direction));
+  const vec3 voxel = world * uInvSpacing + uHalfDims;
+  // On a grid of 1/256 voxel, so that a plane through a face (a view along an axis) lands on it despite the
+  // round-off of the ray.
+  const vec3 owned = round(voxel * 256.0) * (1.0 / 256.0);
+#else
+  const vec3 world = vWorld;
+  const vec3 voxel = world * uInvSpacing + uHalfDims;
+  const vec3 owned = voxel;
+#endif
   bool inside = true;
   for (int a = 0; a < 3; ++a) {
-    inside = inside && (uViewDir[a] >= 0.0 ? (snapped[a] >= float(vOwnLo[a]) && snapped[a] < float(vOwnHi[a]))
-                                           : (snapped[a] > float(vOwnLo[a]) && snapped[a] <= float(vOwnHi[a])));
+    inside = inside && (uViewDir[a] >= 0.0 ? (owned[a] >= float(vOwnLo[a]) && owned[a] < float(vOwnHi[a]))
+                                           : (owned[a] > float(vOwnLo[a]) && owned[a] <= float(vOwnHi[a])));
   }
   if (!inside) discard;
   const float value = sampleAt(voxel);
@@ -61,7 +75,7 @@ void main() {
 
   // Planes are uPlaneIncr apart along the view axis; a perspective ray crosses them obliquely, so its segment is
   // longer by 1 / cos(angle to the axis).
-  const float cosine = uOrthographic != 0 ? 1.0 : max(dot(normalize(vWorld - uEye), uViewDir), 1e-3);
+  const float cosine = uOrthographic != 0 ? 1.0 : max(dot(normalize(world - uEye), uViewDir), 1e-3);
   const float ratio = uStepOverReference / cosine;
   const float alpha = classified.a >= 1.0 ? 1.0 : 1.0 - exp(ratio * log(1.0 - classified.a));
 
@@ -74,7 +88,7 @@ void main() {
   const float magnitude = length(gradient);
   if (magnitude > 1e-12) {
     const vec3 normal = -gradient / magnitude;
-    const vec3 toEye = uOrthographic != 0 ? -uViewDir : normalize(uEye - vWorld);
+    const vec3 toEye = uOrthographic != 0 ? -uViewDir : normalize(uEye - world);
     const float diffuse = abs(dot(normal, toEye));  // two-sided headlight
     const float specular = pow(diffuse, 32.0);
     color = color * (0.3 + 0.7 * diffuse) + vec3(0.25 * specular);

