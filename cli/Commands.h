@@ -13,6 +13,8 @@ void addPrepCommand(CLI::App& app);
 void addInfoCommand(CLI::App& app);
 /// Adds `render` to the app.
 void addRenderCommand(CLI::App& app);
+/// Adds `compare` to the app.
+void addCompareCommand(CLI::App& app);
 
 /// Parses "a,b,c" into three numbers; throws CLI::ValidationError naming the option.
 template <typename T>

@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   voxbrick::cli::addPrepCommand(app);
   voxbrick::cli::addInfoCommand(app);
   voxbrick::cli::addRenderCommand(app);
+  voxbrick::cli::addCompareCommand(app);
 
   try {
     app.parse(argc, argv);
