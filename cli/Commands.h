@@ -15,6 +15,8 @@ void addInfoCommand(CLI::App& app);
 void addRenderCommand(CLI::App& app);
 /// Adds `compare` to the app.
 void addCompareCommand(CLI::App& app);
+/// Adds `bench` to the app.
+void addBenchCommand(CLI::App& app);
 
 /// Parses "a,b,c" into three numbers; throws CLI::ValidationError naming the option.
 template <typename T>

@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   voxbrick::cli::addInfoCommand(app);
   voxbrick::cli::addRenderCommand(app);
   voxbrick::cli::addCompareCommand(app);
+  voxbrick::cli::addBenchCommand(app);
 
   try {
     app.parse(argc, argv);
