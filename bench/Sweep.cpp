@@ -75,7 +75,7 @@ class ReferenceCache {
 
   /// The frame of `scene` at `step`; `msRendered` gets the time if it had to be rendered, else stays.
   render::ImageF get(const render::Scene& scene, double step, double* msRendered) {
-    const std::string key = "voxbrick-reference 1\n" + mStore->meta().source + "\n" + scene.toJson() +
+    const std::string key = "voxbrick-reference 2\n" + mStore->meta().source + "\n" + scene.toJson() +
                             "\nstep " + stepText(step) + "\n";
     char name[64];
     std::snprintf(name, sizeof name, "%016zx.ref", std::hash<std::string>{}(key));

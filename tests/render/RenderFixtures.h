@@ -36,8 +36,10 @@ inline std::shared_ptr<const store::BrickStore> prep(const std::string& spec, co
 /// A store of a known array (no VDB grid).
 template <typename T>
 std::shared_ptr<const store::BrickStore> prepArray(const store::Vec3i& n, store::ValueType type, std::vector<T> values,
-                                                   const std::filesystem::path& out, int brick) {
+                                                   const std::filesystem::path& out, int brick,
+                                                   const store::Vec3d& spacing = {}) {
   ArraySource<T> source(n, type, std::move(values));
+  source.setSpacing(spacing);
   store::PrepOptions options;
   options.brickSize = brick;
   options.writeVdb = false;
