@@ -169,7 +169,7 @@ SweepResult runSweep(const SweepSpec& spec, const fs::path& work, render::GlCont
         if (rendered >= 0) ms.push_back(rendered);
       }
       ReferenceReport report{d.name, variant, median(ms)};
-      if (variant.transferFunction == d.transferFunctions.front()) {
+      if (variant.transferFunction == defaultVariant(d).transferFunction) {
         const render::ImageError e = render::compareImages(
             truth.back()[0], references.get(viewScene(spec, variant, 0), spec.referenceStep / 2, nullptr));
         report.halvingPsnr = e.psnr;
@@ -249,30 +249,29 @@ std::optional<Setting> chooseDefault(const std::vector<Point>& points, const std
   std::optional<Setting> best;
   double bestCost = std::numeric_limits<double>::infinity();
   for (const Point& candidate : points) {
-    const Setting& s = candidate.setting;
-    // The alternatives (brick size, skipping, slicer) change the image only by round-off, so they were measured
-    // with the default variant alone: the variants' errors at the same step, from the baseline renderer, count too.
-    const Setting baseline{s.step};
-    bool everywhere = true;
     double cost = 0;
     for (const Dataset& d : datasets) {
-      bool measured = false;
-      for (const Point& p : points) {
-        if (p.dataset != d.name || !(p.setting == s || p.setting == baseline)) continue;
-        everywhere = everywhere && p.psnrMin >= psnrThreshold;
-        if (p.setting == s && p.variant == Variant{d.transferFunctions.front(), false}) {
-          measured = true;
-          cost += p.msMedian;
-        }
-      }
-      everywhere = everywhere && measured;
+      const auto p = std::find_if(points.begin(), points.end(), [&](const Point& q) {
+        return q.dataset == d.name && q.setting == candidate.setting && q.variant == defaultVariant(d);
+      });
+      cost += p != points.end() && p->psnrMin >= psnrThreshold ? p->msMedian : std::numeric_limits<double>::infinity();
     }
-    if (everywhere && cost < bestCost) {
-      best = s;
+    if (cost < bestCost) {
+      best = candidate.setting;
       bestCost = cost;
     }
   }
   return best;
+}
+
+std::optional<double> coarsestStep(const std::vector<Point>& points, const std::string& dataset, const Variant& variant,
+                                   double psnrThreshold) {
+  std::optional<double> step;
+  for (const Point& p : points)
+    if (p.dataset == dataset && p.variant == variant && p.setting == Setting{p.setting.step} &&
+        p.psnrMin >= psnrThreshold && (!step || p.setting.step > *step))
+      step = p.setting.step;
+  return step;
 }
 
 }  // namespace voxbrick::bench

@@ -89,7 +89,7 @@ struct SweepResult {
   SweepSpec spec;
   std::vector<Point> points;
   std::vector<ReferenceReport> references;
-  std::optional<Setting> chosen;  ///< the fastest setting at or above the threshold everywhere it was measured
+  std::optional<Setting> chosen;  ///< chooseDefault's answer
 };
 
 /// Runs the sweep. Stores go to `work`/NAME-bB.vbs (made once, kept), reference frames to `work`/reference (so a
@@ -100,11 +100,18 @@ SweepResult runSweep(const SweepSpec& spec, const std::filesystem::path& work, r
 /// Sets Point::pareto: per dataset and variant, the points no other point beats in both time and worst PSNR.
 void markPareto(std::vector<Point>& points);
 
-/// The fastest setting (sum of the default variant's median times over the datasets) among those measured on every
-/// dataset whose every point, and every point of the baseline renderer at the same step, reaches `psnrThreshold`;
-/// none if no setting does.
+/// A dataset's default variant: its first transfer function, unshaded.
+inline Variant defaultVariant(const Dataset& d) { return {d.transferFunctions.front(), false}; }
+
+/// The fastest setting (sum of the median times over the datasets) whose worst view reaches `psnrThreshold` on every
+/// dataset's default variant; none if no setting does.
 std::optional<Setting> chooseDefault(const std::vector<Point>& points, const std::vector<Dataset>& datasets,
                                      double psnrThreshold);
+
+/// The coarsest step at which the baseline renderer (B=32, skipping, vertex slicer) keeps the worst view of
+/// `variant` on `dataset` at or above `psnrThreshold`; none if no swept step does.
+std::optional<double> coarsestStep(const std::vector<Point>& points, const std::string& dataset, const Variant& variant,
+                                   double psnrThreshold);
 
 /// Writes sweep.csv, sweep.md and sweep.svg into `out`; throws std::runtime_error naming a file it cannot write.
 void writeResults(const SweepResult& result, const std::filesystem::path& out);

@@ -240,7 +240,8 @@ glm::dvec3 integrate(const Frame& f, const Sampler& sample, const Ray& ray, int6
     auto add = [&](const Piece& p) {
       if (p.alpha > 0) acc.add(p.color.r, p.color.g, p.color.b, p.alpha);
     };
-    // The interval [ta, tb] between two samples whose values straddle control points.
+    // Integrates the interval [ta, tb] between two samples finely: cut where the value crosses each control point
+    // between sa and sb, then several samples per piece.
     auto refine = [&](double ta, double sa, double tb, double sb) {
       const bool rising = sa < sb;
       const auto first = std::upper_bound(f.kinks.begin(), f.kinks.end(), std::min(sa, sb));
