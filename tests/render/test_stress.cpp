@@ -87,6 +87,7 @@ Scene orthoScene(const TransferFunction& tf, double height, glm::dvec3 eye = {0,
   scene.camera.up = std::abs(eye.y) > 0 && eye.x == 0 && eye.z == 0 ? glm::dvec3(0, 0, 1) : glm::dvec3(0, 1, 0);
   scene.camera.orthographic = true;
   scene.camera.fovY = 2 * glm::degrees(std::atan(0.5 * height / glm::length(eye)));
+  scene.step = 0.25;
   return scene;
 }
 
