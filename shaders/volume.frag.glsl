@@ -27,7 +27,7 @@ uniform int uOrthographic;
 out vec4 fragColor;
 
 // ln(1 - a) for a in [0, 1). Below 2^-6 a series: there 1 - a loses a's low bits to rounding, and a GPU's log is
-// accurate only in absolute terms near 1 (so alpha 1e-7 would come out 20 % off).
+// accurate only in absolute terms near 1 (alpha 1e-7 at step / L_ref = 1000 came out 3 % off on llvmpipe).
 float logOneMinus(float a) {
   return a < 0.015625 ? -a * (1.0 + a * (0.5 + a * (1.0 / 3.0 + a * 0.25))) : log(1.0 - a);
 }
