@@ -19,6 +19,10 @@ void addServeCommand(CLI::App& app);
 void addRequestCommand(CLI::App& app);
 /// Adds `load` to the app.
 void addLoadCommand(CLI::App& app);
+/// Adds `compare` to the app.
+void addCompareCommand(CLI::App& app);
+/// Adds `bench` to the app.
+void addBenchCommand(CLI::App& app);
 
 /// Parses "a,b,c" into three numbers; throws CLI::ValidationError naming the option.
 template <typename T>

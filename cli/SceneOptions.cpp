@@ -81,7 +81,7 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
   cmd->add_flag("--ortho", args.ortho, "orthographic projection");
   cmd->add_option("--size", args.size, "WIDTHxHEIGHT (default 512x512)");
   cmd->add_option("--tf", args.tf, "transfer function: preset name (config/tf) or JSON file (default grayscale)");
-  cmd->add_option("--step", args.step, "slice spacing in voxels (default 0.5)");
+  cmd->add_option("--step", args.step, "slice spacing in voxels (default 0.75)");
   cmd->add_option("--background", args.background, "r,g,b in [0, 1] (default 0,0,0)");
   cmd->add_option("--window", args.window, "LO,HI value window (default: the store's value range)");
   cmd->add_option("--slicer", args.slicer, "vertex (GPU vertex program) or cpu")

@@ -18,6 +18,8 @@ int main(int argc, char** argv) {
   voxbrick::cli::addServeCommand(app);
   voxbrick::cli::addRequestCommand(app);
   voxbrick::cli::addLoadCommand(app);
+  voxbrick::cli::addCompareCommand(app);
+  voxbrick::cli::addBenchCommand(app);
 
   try {
     app.parse(argc, argv);

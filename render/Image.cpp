@@ -144,4 +144,23 @@ ImageError compareImages(const ImageF& a, const ImageF& b) {
   return e;
 }
 
+ImageF differenceHeatmap(const ImageF& a, const ImageF& b, double scale) {
+  compareImages(a, b);  // the size check, with its message
+  if (!(scale > 0) || !std::isfinite(scale))
+    throw RenderError("differenceHeatmap: scale " + std::to_string(scale) + " is not finite and positive");
+  // A ramp whose lightness rises monotonically, so that it also reads in grey.
+  constexpr float kRamp[5][3] = {{0, 0, 0}, {0.35f, 0.05f, 0.55f}, {0.85f, 0.15f, 0.2f}, {1, 0.8f, 0.1f}, {1, 1, 1}};
+  ImageF out{a.width, a.height, std::vector<float>(a.rgba.size())};
+  for (size_t p = 0; p < a.rgba.size(); p += 4) {
+    double d = 0;
+    for (size_t c = 0; c < 3; ++c) d = std::max(d, std::abs(double(a.rgba[p + c]) - double(b.rgba[p + c])));
+    const double x = std::clamp(d / scale, 0.0, 1.0) * 4;
+    const int i = std::min(int(x), 3);
+    const float t = float(x - i);
+    for (size_t c = 0; c < 3; ++c) out.rgba[p + c] = kRamp[i][c] + t * (kRamp[i + 1][c] - kRamp[i][c]);
+    out.rgba[p + 3] = 1;
+  }
+  return out;
+}
+
 }  // namespace voxbrick::render

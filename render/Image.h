@@ -46,4 +46,8 @@ struct ImageError {
 /// Compares two images of the same size; throws RenderError if the sizes differ.
 ImageError compareImages(const ImageF& a, const ImageF& b);
 
+/// Where two images differ: each pixel's largest absolute RGB difference d, shown as black (0) through purple, red
+/// and yellow to white (d >= scale). `scale` must be finite and positive; throws RenderError as compareImages does.
+ImageF differenceHeatmap(const ImageF& a, const ImageF& b, double scale);
+
 }  // namespace voxbrick::render

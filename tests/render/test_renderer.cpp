@@ -5,66 +5,19 @@
 #include <cmath>
 #include <filesystem>
 
-#include "brickstore/BrickCache.h"
-#include "brickstore/BrickStore.h"
-#include "brickstore/StoreWriter.h"
-#include "render/GlContext.h"
-#include "render/Image.h"
-#include "render/VolumeRenderer.h"
-#include "support/ArraySource.h"
+#include "render/RenderFixtures.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {
 namespace {
 
+using test::context;
+using test::expectClose;
+using test::meanBrightness;
+using test::prep;
+using test::prepArray;
+using test::renderStore;
 using test::ScratchDir;
-
-std::shared_ptr<const store::BrickStore> prep(const std::string& spec, const std::filesystem::path& out, int brick) {
-  auto source = store::openSource(spec, {});
-  store::PrepOptions options;
-  options.brickSize = brick;
-  options.writeVdb = false;
-  store::prepStore(*source, out, options);
-  return store::BrickStore::open(out);
-}
-
-/// A store of a known array (no VDB grid).
-template <typename T>
-std::shared_ptr<const store::BrickStore> prepArray(const store::Vec3i& n, store::ValueType type, std::vector<T> values,
-                                                   const std::filesystem::path& out, int brick) {
-  test::ArraySource<T> source(n, type, std::move(values));
-  store::PrepOptions options;
-  options.brickSize = brick;
-  options.writeVdb = false;
-  store::prepStore(source, out, options);
-  return store::BrickStore::open(out);
-}
-
-/// One context for the whole suite: creating a llvmpipe context costs more than most of these frames.
-GlContext& context() {
-  static std::unique_ptr<GlContext> ctx = createContext(Backend::Auto);
-  ctx->makeCurrent();
-  return *ctx;
-}
-
-ImageF renderStore(std::shared_ptr<const store::BrickStore> s, const Scene& scene, FrameStats* stats = nullptr,
-                   size_t gpuBudget = size_t(256) << 20, size_t hostBudget = size_t(256) << 20) {
-  auto cache = std::make_shared<store::BrickCache>(std::move(s), hostBudget, 1);
-  VolumeRenderer renderer(context(), cache, gpuBudget);
-  return renderer.render(scene, stats);
-}
-
-/// Writes both images and a difference image next to the test's scratch files when they differ too much.
-void expectClose(const ImageF& a, const ImageF& b, double maxAbs, const std::string& what) {
-  const ImageError e = compareImages(a, b);
-  EXPECT_LE(e.maxAbs, maxAbs) << what << ": rmse " << e.rmse << ", psnr " << e.psnr;
-  if (e.maxAbs > maxAbs) {
-    const auto dir = std::filesystem::temp_directory_path();
-    writePng(dir / (what + "-a.png"), toImage8(a));
-    writePng(dir / (what + "-b.png"), toImage8(b));
-    std::cerr << "images written to " << dir / (what + "-{a,b}.png") << "\n";
-  }
-}
 
 Scene baseScene() {
   Scene scene;
@@ -75,12 +28,6 @@ Scene baseScene() {
   scene.transferFunction = TransferFunction::load("hot");
   scene.step = 0.5;
   return scene;
-}
-
-double meanBrightness(const ImageF& image) {
-  double sum = 0;
-  for (size_t i = 0; i < image.rgba.size(); i += 4) sum += image.rgba[i] + image.rgba[i + 1] + image.rgba[i + 2];
-  return sum / double(image.rgba.size() / 4 * 3);
 }
 
 TEST(RendererSeams, BrickSizesGiveTheSameImage) {

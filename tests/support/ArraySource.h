@@ -32,6 +32,8 @@ class ArraySource : public store::VolumeSource {
     mNextZ += count;
   }
 
+  /// Sets the voxel size (default 1, 1, 1).
+  void setSpacing(const store::Vec3d& spacing) { mInfo.spacing = spacing; }
   /// Makes readSlices throw once it would deliver slice z.
   void failAt(int64_t z) { mFailAtZ = z; }
   T at(int64_t x, int64_t y, int64_t z) const { return mValues[size_t(x + mInfo.dims.x * (y + mInfo.dims.y * z))]; }

@@ -1,0 +1,177 @@
+// SVG written directly: a small, fixed layout that a browser or an image viewer shows and a test can parse.
+#include "bench/SweepPlot.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <iterator>
+#include <sstream>
+
+namespace voxbrick::bench {
+namespace {
+
+constexpr double kPanelWidth = 430, kPanelHeight = 360;
+constexpr double kLeft = 58, kRight = 14, kTop = 34, kBottom = 46;  // margins of a panel's plot area
+constexpr double kLegendHeight = 120;
+constexpr double kPsnrCap = 100;  // identical images have infinite PSNR; they are drawn at the top
+constexpr const char* kColors[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b"};
+
+std::string svgf(const char* format, double a, double b = 0, double c = 0, double d = 0) {
+  char text[256];
+  std::snprintf(text, sizeof text, format, a, b, c, d);
+  return text;
+}
+
+std::string escape(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    if (c == '&') out += "&amp;";
+    else if (c == '<') out += "&lt;";
+    else if (c == '>') out += "&gt;";
+    else if (c == '"') out += "&quot;";
+    else out += c;
+  }
+  return out;
+}
+
+/// Which renderer alternative a setting is, for its marker: 0 baseline, 1 smaller bricks, 2 larger, 3 no skip, 4 cpu.
+int shapeOf(const Setting& s) {
+  if (s.slicer == render::Slicer::Cpu) return 4;
+  if (!s.skip) return 3;
+  if (s.brick < 32) return 1;
+  if (s.brick > 32) return 2;
+  return 0;
+}
+
+constexpr const char* kShapeNames[] = {"B=32, skip, vertex slicer", "B=16", "B=64", "no skipping", "cpu slicer"};
+
+std::string marker(int shape, double x, double y, const std::string& color, bool filled) {
+  const std::string style = " fill=\"" + (filled ? color : std::string("white")) + "\" stroke=\"" + color +
+                            "\" stroke-width=\"1.5\"";
+  switch (shape) {
+    case 1: return svgf("<rect x=\"%.1f\" y=\"%.1f\" width=\"8\" height=\"8\"", x - 4, y - 4) + style + "/>";
+    case 2:
+      return svgf("<polygon points=\"%.1f,%.1f %.1f,%.1f ", x, y - 5.5, x + 5.5, y) +
+             svgf("%.1f,%.1f %.1f,%.1f\"", x, y + 5.5, x - 5.5, y) + style + "/>";
+    case 3:
+      return svgf("<polygon points=\"%.1f,%.1f %.1f,%.1f ", x, y - 5.5, x + 5, y + 4) + svgf("%.1f,%.1f\"", x - 5, y + 4) +
+             style + "/>";
+    case 4:
+      return svgf("<path d=\"M%.1f %.1fL%.1f %.1f", x - 4.5, y - 4.5, x + 4.5, y + 4.5) +
+             svgf("M%.1f %.1fL%.1f %.1f\" fill=\"none\"", x - 4.5, y + 4.5, x + 4.5, y - 4.5) + " stroke=\"" + color +
+             "\" stroke-width=\"2\"/>";
+    default: return svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"4\"", x, y) + style + "/>";
+  }
+}
+
+double cappedPsnr(double psnr) { return std::min(psnr, kPsnrCap); }
+
+void panel(std::ostringstream& svg, const SweepResult& result, const Dataset& d, double x0) {
+  std::vector<const Point*> points;
+  for (const Point& p : result.points)
+    if (p.dataset == d.name) points.push_back(&p);
+  if (points.empty()) return;
+  double tMin = points[0]->msMedian, tMax = tMin, pMin = cappedPsnr(points[0]->psnrMin), pMax = pMin;
+  for (const Point* p : points) {
+    tMin = std::min(tMin, p->msMedian), tMax = std::max(tMax, p->msMedian);
+    pMin = std::min(pMin, cappedPsnr(p->psnrMin)), pMax = std::max(pMax, cappedPsnr(p->psnrMin));
+  }
+  pMin = std::min(pMin, result.spec.psnrThreshold);
+  const double lx0 = std::floor(std::log10(std::max(tMin, 1e-3)) * 4) / 4;
+  const double lx1 = std::max(std::ceil(std::log10(std::max(tMax, 1e-3)) * 4) / 4, lx0 + 0.25);
+  const double y0 = std::floor(pMin / 5) * 5, y1 = std::max(std::ceil(pMax / 5) * 5, y0 + 5);
+  const double left = x0 + kLeft, right = x0 + kPanelWidth - kRight, top = kTop, bottom = kPanelHeight - kBottom;
+  auto px = [&](double ms) { return left + (std::log10(std::max(ms, 1e-3)) - lx0) / (lx1 - lx0) * (right - left); };
+  auto py = [&](double psnr) { return bottom - (cappedPsnr(psnr) - y0) / (y1 - y0) * (bottom - top); };
+
+  svg << svgf("<rect x=\"%.1f\" y=\"%.1f\" width=\"%.1f\" height=\"%.1f\" fill=\"none\" stroke=\"#444\"/>\n", left, top,
+             right - left, bottom - top);
+  svg << "<text x=\"" << (left + right) / 2 << "\" y=\"" << top - 10
+      << "\" text-anchor=\"middle\" font-size=\"14\" font-weight=\"bold\">" << escape(d.name) << " ("
+      << escape(d.input.substr(d.input.find_last_of('/') + 1)) << ")</text>\n";
+  // Time ticks at 1, 2 and 5 times powers of ten; PSNR ticks every 5 dB.
+  for (int e = int(std::floor(lx0)); e <= int(std::ceil(lx1)); ++e)
+    for (double m : {1.0, 2.0, 5.0}) {
+      const double ms = m * std::pow(10.0, e), l = std::log10(ms);
+      if (l < lx0 - 1e-9 || l > lx1 + 1e-9) continue;
+      const double x = px(ms);
+      svg << svgf("<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#ddd\"/>\n", x, top, x, bottom);
+      svg << svgf("<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"middle\" font-size=\"11\">%g</text>\n", x, bottom + 14, ms);
+    }
+  for (double p = y0; p <= y1 + 1e-9; p += (y1 - y0 > 40 ? 10 : 5)) {
+    const double y = py(p);
+    svg << svgf("<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#ddd\"/>\n", left, y, right, y);
+    svg << svgf("<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"end\" font-size=\"11\">%g</text>\n", left - 5, y + 4, p);
+  }
+  svg << "<text x=\"" << (left + right) / 2 << "\" y=\"" << bottom + 32
+      << "\" text-anchor=\"middle\" font-size=\"12\">median frame time (ms, log) — faster to the left</text>\n";
+  svg << svgf("<text transform=\"translate(%.1f,%.1f) rotate(-90)\" text-anchor=\"middle\" font-size=\"12\">", x0 + 16,
+             (top + bottom) / 2)
+      << "PSNR of the worst view (dB) — better up</text>\n";
+  const double threshold = py(result.spec.psnrThreshold);
+  svg << svgf("<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#888\" stroke-dasharray=\"6 4\"/>\n", left,
+             threshold, right, threshold);
+  svg << svgf("<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"end\" font-size=\"11\" fill=\"#666\">%g dB</text>\n",
+             right - 4, threshold - 4, result.spec.psnrThreshold);
+
+  // Variants in the order the sweep measured them; each one's Pareto front as a line under its points.
+  std::vector<Variant> variants;
+  for (const Point* p : points)
+    if (std::find(variants.begin(), variants.end(), p->variant) == variants.end()) variants.push_back(p->variant);
+  for (size_t v = 0; v < variants.size(); ++v) {
+    const std::string color = kColors[v % std::size(kColors)];
+    std::vector<const Point*> front;
+    for (const Point* p : points)
+      if (p->variant == variants[v] && p->pareto) front.push_back(p);
+    std::sort(front.begin(), front.end(), [](const Point* a, const Point* b) { return a->msMedian < b->msMedian; });
+    svg << "<polyline fill=\"none\" stroke=\"" << color << "\" stroke-width=\"2\" stroke-opacity=\"0.6\" points=\"";
+    for (const Point* p : front) svg << svgf("%.1f,%.1f ", px(p->msMedian), py(p->psnrMin));
+    svg << "\"/>\n";
+    for (const Point* p : points) {
+      if (!(p->variant == variants[v])) continue;
+      const double x = px(p->msMedian), y = py(p->psnrMin);
+      svg << marker(shapeOf(p->setting), x, y, color, p->pareto) << "\n";
+      if (shapeOf(p->setting) == 0)
+        svg << svgf("<text x=\"%.1f\" y=\"%.1f\" font-size=\"9\" fill=\"#333\">%g</text>\n", x + 6, y - 5,
+                   p->setting.step);
+      if (result.chosen && p->setting == *result.chosen && v == 0)
+        svg << svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"9\" fill=\"none\" stroke=\"black\" stroke-width=\"1.5\"/>\n",
+                   x, y);
+    }
+    const double ly = kPanelHeight + 16 + 16 * double(v);
+    svg << svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"4\" fill=\"", left + 4, ly - 4) << color << "\"/>\n";
+    svg << svgf("<text x=\"%.1f\" y=\"%.1f\" font-size=\"11\">", left + 14, ly)
+        << escape(variants[v].transferFunction + (variants[v].shading ? ", shaded" : "")) << "</text>\n";
+  }
+}
+
+}  // namespace
+
+std::string sweepSvg(const SweepResult& result) {
+  const double width = kPanelWidth * double(std::max<size_t>(result.spec.datasets.size(), 1));
+  const double height = kPanelHeight + kLegendHeight;
+  std::ostringstream svg;
+  svg << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n";
+  svg << svgf("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" viewBox=\"0 0 %.0f %.0f\" ",
+             width, height, width, height)
+      << "font-family=\"sans-serif\">\n";
+  svg << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
+  svg << "<title>voxbrick bench: time against error, " << escape(result.device) << "</title>\n";
+  for (size_t i = 0; i < result.spec.datasets.size(); ++i)
+    panel(svg, result, result.spec.datasets[i], kPanelWidth * double(i));
+  // The marker key, shared by the panels.
+  const double ky = height - 22;
+  double kx = 20;
+  for (int shape = 0; shape < 5; ++shape) {
+    svg << marker(shape, kx, ky - 4, "#333", false) << "\n";
+    svg << svgf("<text x=\"%.1f\" y=\"%.1f\" font-size=\"11\">", kx + 10, ky) << kShapeNames[shape] << "</text>\n";
+    kx += 36 + 6.5 * double(std::string(kShapeNames[shape]).size());
+  }
+  svg << svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"8\" fill=\"none\" stroke=\"black\" stroke-width=\"1.5\"/>", kx, ky - 4)
+      << svgf("<text x=\"%.1f\" y=\"%.1f\" font-size=\"11\">", kx + 12, ky)
+      << "chosen default; filled = on its variant's Pareto front (line); labels = step in voxels</text>\n";
+  svg << "</svg>\n";
+  return svg.str();
+}
+
+}  // namespace voxbrick::bench

@@ -1,0 +1,459 @@
+// The reference renderer: one ray per pixel centre, composite midpoint rule along it, everything in double.
+#include "render/ReferenceRenderer.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <mutex>
+#include <optional>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "render/Camera.h"
+#include "render/Compositing.h"
+#include "render/RenderErrors.h"
+
+namespace voxbrick::render {
+
+/// Level-0 bricks, fetched from the cache on first use by any thread and held for the renderer's lifetime, so a
+/// sample costs one atomic load instead of a cache lookup.
+class ReferenceBricks {
+ public:
+  explicit ReferenceBricks(std::shared_ptr<store::BrickCache> cache)
+      : mCache(std::move(cache)),
+        mCount(size_t(mCache->store()->level(0).bricksTotal())),
+        mPointers(std::make_unique<std::atomic<const void*>[]>(mCount)) {
+    for (size_t i = 0; i < mCount; ++i) mPointers[i].store(nullptr, std::memory_order_relaxed);
+  }
+
+  const void* data(const store::BrickKey& key, size_t index) {
+    const void* p = mPointers[index].load(std::memory_order_acquire);
+    return p ? p : load(key, index);
+  }
+
+ private:
+  const void* load(const store::BrickKey& key, size_t index) {
+    store::BrickHandle brick = mCache->get(key);
+    std::lock_guard lock(mMutex);
+    if (const void* p = mPointers[index].load(std::memory_order_relaxed)) return p;
+    mPointers[index].store(brick->data(), std::memory_order_release);
+    mHandles.push_back(std::move(brick));
+    return mHandles.back()->data();
+  }
+
+  std::shared_ptr<store::BrickCache> mCache;
+  size_t mCount;
+  std::unique_ptr<std::atomic<const void*>[]> mPointers;
+  std::mutex mMutex;
+  std::vector<store::BrickHandle> mHandles;
+};
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// Below this transmittance a ray stops (see the class comment).
+constexpr double kTerminateTransmittance = 1e-9;
+
+/// Trilinear reconstruction of level 0 at a voxel coordinate (voxel i's centre at i + ½), clamp-to-edge. The cell's
+/// lower corner picks the brick, whose one-voxel border holds the upper corner, as on the GPU.
+template <typename T>
+class GridSampler {
+ public:
+  GridSampler(ReferenceBricks& bricks, const store::StoreMeta& meta)
+      : mBricks(bricks), mDims(meta.dims), mBrick(meta.brickSize), mEdge(meta.brickSize + 2),
+        mBrickGrid(meta.levels.at(0).bricks) {}
+
+  double operator()(const glm::dvec3& p) const {
+    int64_t brick[3], local[3];
+    double f[3];
+    for (int a = 0; a < 3; ++a) {
+      const double u = std::clamp(p[a] - 0.5, 0.0, double(mDims[a] - 1));
+      const int64_t i = std::min(int64_t(u), mDims[a] - 1);
+      f[a] = u - double(i);
+      brick[a] = i / mBrick;
+      local[a] = i - brick[a] * mBrick + 1;
+    }
+    const store::BrickKey key{0, uint32_t(brick[0]), uint32_t(brick[1]), uint32_t(brick[2])};
+    const size_t index = size_t(brick[0] + mBrickGrid.x * (brick[1] + mBrickGrid.y * brick[2]));
+    const T* v = static_cast<const T*>(mBricks.data(key, index)) + (local[0] + mEdge * (local[1] + mEdge * local[2]));
+    const int64_t dy = mEdge, dz = mEdge * mEdge;
+    auto lerp = [](double a, double b, double t) { return a + t * (b - a); };
+    const double x00 = lerp(double(v[0]), double(v[1]), f[0]);
+    const double x10 = lerp(double(v[dy]), double(v[dy + 1]), f[0]);
+    const double x01 = lerp(double(v[dz]), double(v[dz + 1]), f[0]);
+    const double x11 = lerp(double(v[dz + dy]), double(v[dz + dy + 1]), f[0]);
+    return lerp(lerp(x00, x10, f[1]), lerp(x01, x11, f[1]), f[2]);
+  }
+
+ private:
+  ReferenceBricks& mBricks;
+  store::Vec3i mDims;
+  int64_t mBrick, mEdge;
+  store::Vec3i mBrickGrid;
+};
+
+/// The analytic function at a voxel coordinate, clamped to the box (where it is defined).
+class AnalyticSampler {
+ public:
+  AnalyticSampler(const store::SyntheticField& field, const store::StoreMeta& meta) : mField(field), mMeta(meta) {}
+
+  double operator()(const glm::dvec3& p) const {
+    double x[3];
+    for (int a = 0; a < 3; ++a) {
+      const double n = double(mMeta.dims[a]);
+      x[a] = (std::clamp(p[a], 0.0, n) - 0.5 * n) * mMeta.spacing[a];
+    }
+    return mField.evaluate(x[0], x[1], x[2]);
+  }
+
+ private:
+  const store::SyntheticField& mField;
+  const store::StoreMeta& mMeta;
+};
+
+/// The ray parameters where a ray is inside an axis-aligned box; false if it misses. A ray in the plane of a face
+/// belongs to the box on its low face and not on its high one: the GPU's half-open rule, so that the two agree on
+/// the pixel centres that views along an axis put exactly on a face.
+bool clipToBox(const glm::dvec3& o, const glm::dvec3& d, const glm::dvec3& lo, const glm::dvec3& hi, double& t0,
+               double& t1) {
+  t0 = -std::numeric_limits<double>::infinity();
+  t1 = std::numeric_limits<double>::infinity();
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] == 0) {
+      if (o[a] < lo[a] || o[a] >= hi[a]) return false;
+      continue;
+    }
+    double ta = (lo[a] - o[a]) / d[a], tb = (hi[a] - o[a]) / d[a];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+  }
+  return t0 < t1;
+}
+
+/// Everything a ray needs that is the same for the whole frame.
+struct Frame {
+  const Scene* scene = nullptr;
+  glm::dvec3 spacing{1}, dims{1}, halfDims{0.5}, boxMin{0}, boxMax{0};
+  glm::dvec3 eye{0}, forward{0}, right{0}, up{0};
+  double tanHalfFov = 0, halfHeight = 0, aspect = 1, nearPlane = 0;
+  bool orthographic = false;
+  double lo = 0, inverseWidth = 1;
+  double step = 1;       // longest segment, world units
+  double referenceLength = 1;
+  std::vector<double> kinks;  // the transfer function's control points, distinct and sorted
+  // Empty-space skipping: transparent[i] for each level-0 brick; empty when off.
+  std::vector<uint8_t> transparent;
+  store::Vec3i brickGrid;
+  double brickSize = 32;
+};
+
+/// The time from the near plane to the box's exit for one pixel: origin, unit direction, interval.
+struct Ray {
+  glm::dvec3 origin, dir;
+  double t0 = 0, t1 = 0;
+};
+
+Ray pixelRay(const Frame& f, int x, int y, int width, int height) {
+  const double sx = 2.0 * (x + 0.5) / width - 1.0;
+  const double sy = 1.0 - 2.0 * (y + 0.5) / height;
+  Ray ray;
+  double tNear = 0;
+  if (f.orthographic) {
+    ray.origin = f.eye + sx * f.halfHeight * f.aspect * f.right + sy * f.halfHeight * f.up;
+    ray.dir = f.forward;
+    tNear = f.nearPlane;
+  } else {
+    ray.origin = f.eye;
+    ray.dir = glm::normalize(f.forward + sx * f.tanHalfFov * f.aspect * f.right + sy * f.tanHalfFov * f.up);
+    // The near plane is perpendicular to the view axis, so an oblique ray meets it further out.
+    tNear = f.nearPlane / glm::dot(ray.dir, f.forward);
+  }
+  if (!clipToBox(ray.origin, ray.dir, f.boxMin, f.boxMax, ray.t0, ray.t1)) {
+    ray.t0 = ray.t1 = 0;
+    return ray;
+  }
+  ray.t0 = std::max(ray.t0, tNear);
+  return ray;
+}
+
+/// The GPU's shading of colour `c` at ray parameter t: central differences half a voxel each way, two-sided Phong
+/// headlight.
+template <typename Sampler>
+glm::dvec3 shade(const Frame& f, const Sampler& sample, const Ray& ray, double t, const glm::dvec3& c) {
+  const glm::dvec3 world = ray.origin + t * ray.dir;
+  const glm::dvec3 p = world / f.spacing + f.halfDims;
+  glm::dvec3 gradient;
+  for (int a = 0; a < 3; ++a) {
+    glm::dvec3 d(0.0);
+    d[a] = 0.5;
+    gradient[a] = (sample(p + d) - sample(p - d)) / f.spacing[a];
+  }
+  const double magnitude = glm::length(gradient);
+  if (!(magnitude > 1e-12)) return c;
+  const glm::dvec3 normal = -gradient / magnitude;
+  const glm::dvec3 toEye = f.orthographic ? -f.forward : glm::normalize(f.eye - world);
+  const double diffuse = std::abs(glm::dot(normal, toEye));
+  const double specular = std::pow(diffuse, 32.0);
+  return c * (0.3 + 0.7 * diffuse) + glm::dvec3(0.25 * specular);
+}
+
+/// Integrates one ray; returns its colour over the background and adds to the counters.
+///
+/// Samples sit at the midpoints t_k of n equal segments of length h, and each sample's segment is composited as two
+/// halves (which equals the midpoint rule). Between two consecutive samples whose normalised values straddle a
+/// control point of the transfer function, or whose alphas differ by more than 1/16, the two halves are replaced by
+/// a finer rule: the interval is cut where the value crosses each control point (bisection), and each piece gets
+/// midpoint samples, more where alpha changes more. On every piece the transfer function is then linear in the
+/// value and the extinction well resolved, so steps, spikes and kinks converge like smooth parts instead of O(h).
+template <typename Sampler>
+glm::dvec3 integrate(const Frame& f, const Sampler& sample, const Ray& ray, int64_t& samples, int64_t& skipped) {
+  const Scene& scene = *f.scene;
+  FrontToBack<double> acc;
+  const double length = ray.t1 - ray.t0;
+  if (length > 0) {
+    const double segments = std::ceil(length / f.step);
+    const int64_t n = int64_t(segments);
+    const double h = length / segments;
+    auto at = [&](int64_t k) { return ray.t0 + (double(k) + 0.5) * h; };
+    auto voxel = [&](double t) { return (ray.origin + t * ray.dir) / f.spacing + f.halfDims; };
+    auto valueAt = [&](double t) {
+      ++samples;
+      return std::clamp((sample(voxel(t)) - f.lo) * f.inverseWidth, 0.0, 1.0);
+    };
+    struct Piece {
+      glm::dvec3 color{0.0};
+      double alpha = 0;  // corrected for the piece's length
+      double tfAlpha = 0;  // the transfer function's, per reference length
+    };
+    auto classify = [&](double t, double s, double pieceLength) {
+      const glm::dvec4 c = scene.transferFunction.evaluate(s);
+      Piece piece{glm::dvec3(c), TransferFunction::correctOpacity(c.a, pieceLength / f.referenceLength), c.a};
+      if (piece.alpha > 0 && scene.shading) piece.color = shade(f, sample, ray, t, piece.color);
+      return piece;
+    };
+    auto add = [&](const Piece& p) {
+      if (p.alpha > 0) acc.add(p.color.r, p.color.g, p.color.b, p.alpha);
+    };
+    // Integrates the interval [ta, tb] between two samples finely: cut where the value crosses each control point
+    // between sa and sb, then several samples per piece.
+    auto refine = [&](double ta, double sa, double tb, double sb) {
+      const bool rising = sa < sb;
+      const auto first = std::upper_bound(f.kinks.begin(), f.kinks.end(), std::min(sa, sb));
+      const auto last = std::upper_bound(f.kinks.begin(), f.kinks.end(), std::max(sa, sb));
+      double left = ta;
+      // Extinction −ln(1 − α) is not linear where α is, so a piece gets more samples the more α changes on it.
+      double sLeft = sa;
+      auto piece = [&](double a, double b, double sRight) {
+        const double change = std::abs(scene.transferFunction.evaluate(sRight).a -
+                                       scene.transferFunction.evaluate(sLeft).a);
+        const int m = 2 + int(32 * change);
+        for (int j = 0; j < m; ++j) {
+          const double t = a + (j + 0.5) / m * (b - a);
+          add(classify(t, valueAt(t), (b - a) / m));
+        }
+        sLeft = sRight;
+      };
+      for (ptrdiff_t i = 0; i < last - first; ++i) {
+        const double x = rising ? first[i] : last[-1 - i];
+        // Bisection keeps lo on the side of the value at `left`; 16 halvings place the cut within h / 65536.
+        double lo = left, hi = tb;
+        const bool above = (left == ta ? sa : valueAt(left)) >= x;
+        if ((sb >= x) == above) continue;  // not monotone here: no crossing to cut at
+        for (int iteration = 0; iteration < 16; ++iteration) {
+          const double mid = 0.5 * (lo + hi);
+          if ((valueAt(mid) >= x) == above)
+            lo = mid;
+          else
+            hi = mid;
+        }
+        const double cut = 0.5 * (lo + hi);
+        piece(left, cut, x);
+        left = cut;
+      }
+      piece(left, tb, sb);
+    };
+    // Refined: an interval where the value crosses a control point, or where alpha changes by more than 1/16.
+    auto refined = [&](double sa, const Piece& a, double sb, const Piece& b) {
+      return std::abs(a.tfAlpha - b.tfAlpha) > 1.0 / 16 ||
+             std::upper_bound(f.kinks.begin(), f.kinks.end(), std::min(sa, sb)) !=
+                 std::upper_bound(f.kinks.begin(), f.kinks.end(), std::max(sa, sb));
+    };
+    // The brick of the sample at t, if rays may jump over it: the parameter where the ray leaves its box.
+    auto transparentUntil = [&](double t) -> std::optional<double> {
+      if (f.transparent.empty()) return std::nullopt;
+      const glm::dvec3 p = voxel(t);
+      glm::dvec3 lo, hi;
+      int64_t index = 0, stride = 1;
+      for (int a = 0; a < 3; ++a) {
+        const int64_t b = std::clamp<int64_t>(int64_t(std::floor(p[a] / f.brickSize)), 0, f.brickGrid[a] - 1);
+        index += b * stride;
+        stride *= f.brickGrid[a];
+        lo[a] = (double(b) * f.brickSize - f.halfDims[a]) * f.spacing[a];
+        hi[a] = (std::min(double(b + 1) * f.brickSize, f.dims[a]) - f.halfDims[a]) * f.spacing[a];
+      }
+      if (!f.transparent[size_t(index)]) return std::nullopt;
+      double exit = std::numeric_limits<double>::infinity();
+      for (int a = 0; a < 3; ++a)
+        if (ray.dir[a] != 0) exit = std::min(exit, ((ray.dir[a] > 0 ? hi[a] : lo[a]) - ray.origin[a]) / ray.dir[a]);
+      return exit;
+    };
+
+    double tPrev = at(0), sPrev = valueAt(tPrev);
+    Piece halfPrev = classify(tPrev, sPrev, 0.5 * h);
+    add(halfPrev);
+    for (int64_t k = 1; k < n && 1 - acc.a >= kTerminateTransmittance; ++k) {
+      const double t = at(k), s = valueAt(t);
+      const Piece half = classify(t, s, 0.5 * h);
+      if (refined(sPrev, halfPrev, s, half)) {
+        refine(tPrev, sPrev, t, s);
+      } else {
+        add(halfPrev);
+        add(half);
+      }
+      tPrev = t, sPrev = s, halfPrev = half;
+      // Every sample before the ray leaves a transparent brick's box reads only that brick (border included), so
+      // the intervals between them add exactly nothing: continue from the last sample inside.
+      if (const std::optional<double> exit = transparentUntil(t)) {
+        const double past = std::ceil((*exit - ray.t0) / h - 0.5);  // first midpoint past the exit
+        const int64_t inside = std::clamp<int64_t>(int64_t(std::min(past, segments)) - 1, k, n - 1);
+        if (inside > k) {
+          tPrev = at(inside), sPrev = valueAt(tPrev), halfPrev = classify(tPrev, sPrev, 0.5 * h);
+          k = inside;
+          skipped += 1;
+        }
+      }
+    }
+    if (1 - acc.a >= kTerminateTransmittance) add(halfPrev);
+  }
+  const double t = 1 - std::clamp(acc.a, 0.0, 1.0);
+  return glm::clamp(glm::dvec3(acc.r, acc.g, acc.b) + t * scene.background, 0.0, 1.0);
+}
+
+}  // namespace
+
+ReferenceRenderer::ReferenceRenderer(std::shared_ptr<store::BrickCache> cache)
+    : mCache(std::move(cache)), mBricks(std::make_unique<ReferenceBricks>(mCache)) {}
+
+ReferenceRenderer::~ReferenceRenderer() = default;
+
+ImageF ReferenceRenderer::render(const Scene& scene, const ReferenceOptions& options, ReferenceStats* statsOut) {
+  const auto start = Clock::now();
+  scene.validate();
+  if (!(options.step >= 1e-4 && options.step <= 64))
+    throw RenderInputError("ReferenceRenderer: step " + numberText(options.step) + " is outside [1e-4, 64] voxels");
+  const store::BrickStore& store = *mCache->store();
+  const store::StoreMeta& meta = store.meta();
+
+  Frame f;
+  f.scene = &scene;
+  const Box box = volumeBox(meta.dims, meta.spacing);
+  f.boxMin = box.min;
+  f.boxMax = box.max;
+  for (int a = 0; a < 3; ++a) {
+    f.spacing[a] = meta.spacing[a];
+    f.dims[a] = double(meta.dims[a]);
+  }
+  f.halfDims = 0.5 * f.dims;
+
+  const Camera camera = scene.camera.resolve(box);
+  double farPlane = 0;
+  camera.clipRange(box, f.nearPlane, farPlane);
+  f.eye = camera.eye;
+  f.forward = camera.viewDirection();
+  f.up = camera.upVector();
+  f.right = glm::normalize(glm::cross(f.forward, f.up));
+  f.up = glm::cross(f.right, f.forward);
+  f.orthographic = camera.orthographic;
+  f.tanHalfFov = std::tan(0.5 * glm::radians(camera.fovYDegrees));
+  f.halfHeight = camera.distance() * f.tanHalfFov;
+  f.aspect = double(scene.width) / double(scene.height);
+
+  // The value window exactly as the GPU renderer takes it.
+  f.lo = scene.window ? (*scene.window)[0] : meta.valueMin;
+  double hi = scene.window ? (*scene.window)[1] : meta.valueMax;
+  if (!(hi > f.lo)) hi = f.lo + 1;
+  f.inverseWidth = 1.0 / (hi - f.lo);
+
+  for (const TransferFunction::Point& p : scene.transferFunction.points())
+    if (f.kinks.empty() || p.x > f.kinks.back()) f.kinks.push_back(p.x);
+
+  const double minSpacing = std::min({meta.spacing.x, meta.spacing.y, meta.spacing.z});
+  f.step = options.step * minSpacing;
+  f.referenceLength = scene.transferFunction.referenceLength().value_or(minSpacing);
+
+  if (!options.analytic && scene.skipEmpty) {
+    const store::LevelMeta& level = meta.levels.at(0);
+    f.brickGrid = level.bricks;
+    f.brickSize = double(meta.brickSize);
+    f.transparent.resize(size_t(level.bricksTotal()));
+    for (int64_t k = 0; k < level.bricks.z; ++k)
+      for (int64_t j = 0; j < level.bricks.y; ++j)
+        for (int64_t i = 0; i < level.bricks.x; ++i) {
+          const store::BrickRecord& r = store.record({0, uint32_t(i), uint32_t(j), uint32_t(k)});
+          f.transparent[size_t(i + level.bricks.x * (j + level.bricks.y * k))] = !scene.transferFunction.contributes(
+              (double(r.min) - f.lo) * f.inverseWidth, (double(r.max) - f.lo) * f.inverseWidth);
+        }
+  }
+
+  ImageF image{scene.width, scene.height, std::vector<float>(size_t(scene.width) * size_t(scene.height) * 4)};
+  std::atomic<int64_t> rays{0}, samples{0}, skipped{0};
+  auto renderRows = [&](const auto& sampler) {
+    tbb::parallel_for(tbb::blocked_range<int>(0, scene.height), [&](const tbb::blocked_range<int>& rows) {
+      int64_t rowRays = 0, rowSamples = 0, rowSkipped = 0;
+      for (int y = rows.begin(); y != rows.end(); ++y)
+        for (int x = 0; x < scene.width; ++x) {
+          const Ray ray = pixelRay(f, x, y, scene.width, scene.height);
+          rowRays += ray.t1 > ray.t0 ? 1 : 0;
+          const glm::dvec3 c = integrate(f, sampler, ray, rowSamples, rowSkipped);
+          float* out = image.pixel(x, y);
+          for (int ch = 0; ch < 3; ++ch) out[ch] = float(c[ch]);
+          out[3] = 1;
+        }
+      rays += rowRays;
+      samples += rowSamples;
+      skipped += rowSkipped;
+    });
+  };
+  if (options.analytic) {
+    renderRows(AnalyticSampler(*options.analytic, meta));
+  } else {
+    store::dispatchType(meta.type, [&](auto zero) { renderRows(GridSampler<decltype(zero)>(*mBricks, meta)); });
+  }
+
+  if (statsOut) {
+    statsOut->rays = rays;
+    statsOut->samples = samples;
+    statsOut->bricksSkipped = skipped;
+    statsOut->ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  }
+  return image;
+}
+
+store::SyntheticField analyticFieldFor(const store::StoreMeta& meta, const std::string& spec) {
+  const std::string name = spec.substr(0, spec.find(','));
+  // prep records a synthetic source as "synthetic NAME NXxNYxNZ".
+  const std::string recorded = "synthetic " + name + " ";
+  if (meta.source.rfind(recorded, 0) != 0)
+    throw RenderInputError("analytic field '" + spec + "': the store was made from '" + meta.source +
+                           "', not from synthetic:" + name);
+  const bool hasDims = spec.find(",n=") != std::string::npos || spec.find(",nx=") != std::string::npos ||
+                       spec.find(",ny=") != std::string::npos || spec.find(",nz=") != std::string::npos;
+  const std::string full = hasDims ? spec
+                                   : spec + ",nx=" + std::to_string(meta.dims.x) + ",ny=" +
+                                         std::to_string(meta.dims.y) + ",nz=" + std::to_string(meta.dims.z);
+  store::SyntheticField field = store::SyntheticField::parse(full);
+  if (!(field.dims() == meta.dims))
+    throw RenderInputError("analytic field '" + spec + "': dims " + std::to_string(field.dims().x) + "x" +
+                           std::to_string(field.dims().y) + "x" + std::to_string(field.dims().z) +
+                           " differ from the store's");
+  field.setSpacing(meta.spacing);
+  return field;
+}
+
+}  // namespace voxbrick::render

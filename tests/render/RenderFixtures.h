@@ -1,0 +1,102 @@
+// Fixtures shared by the rendering suites: small stores made in-process, one GL context per test binary, frames
+// from the GPU renderer and the reference.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "brickstore/BrickCache.h"
+#include "brickstore/BrickStore.h"
+#include "brickstore/StoreWriter.h"
+#include "render/GlContext.h"
+#include "render/Image.h"
+#include "render/ReferenceRenderer.h"
+#include "render/VolumeRenderer.h"
+#include "support/ArraySource.h"
+
+namespace voxbrick::test {
+
+/// A store of an input prep understands ("synthetic:...", a file), without the VDB grid.
+inline std::shared_ptr<const store::BrickStore> prep(const std::string& spec, const std::filesystem::path& out,
+                                                     int brick, const store::SourceOptions& sourceOptions = {}) {
+  auto source = store::openSource(spec, sourceOptions);
+  store::PrepOptions options;
+  options.brickSize = brick;
+  options.writeVdb = false;
+  store::prepStore(*source, out, options);
+  return store::BrickStore::open(out);
+}
+
+/// A store of a known array (no VDB grid).
+template <typename T>
+std::shared_ptr<const store::BrickStore> prepArray(const store::Vec3i& n, store::ValueType type, std::vector<T> values,
+                                                   const std::filesystem::path& out, int brick,
+                                                   const store::Vec3d& spacing = {}) {
+  ArraySource<T> source(n, type, std::move(values));
+  source.setSpacing(spacing);
+  store::PrepOptions options;
+  options.brickSize = brick;
+  options.writeVdb = false;
+  store::prepStore(source, out, options);
+  return store::BrickStore::open(out);
+}
+
+/// One context for the whole binary: creating a llvmpipe context costs more than most test frames.
+inline render::GlContext& context() {
+  static std::unique_ptr<render::GlContext> ctx = render::createContext(render::Backend::Auto);
+  ctx->makeCurrent();
+  return *ctx;
+}
+
+/// A GPU frame with a fresh renderer and cache.
+inline render::ImageF renderStore(std::shared_ptr<const store::BrickStore> s, const render::Scene& scene,
+                                  render::FrameStats* stats = nullptr, size_t gpuBudget = size_t(256) << 20,
+                                  size_t hostBudget = size_t(256) << 20) {
+  auto cache = std::make_shared<store::BrickCache>(std::move(s), hostBudget, 1);
+  render::VolumeRenderer renderer(context(), cache, gpuBudget);
+  return renderer.render(scene, stats);
+}
+
+/// A reference frame with a fresh renderer and cache.
+inline render::ImageF renderReference(std::shared_ptr<const store::BrickStore> s, const render::Scene& scene,
+                                      const render::ReferenceOptions& options = {},
+                                      render::ReferenceStats* stats = nullptr) {
+  auto cache = std::make_shared<store::BrickCache>(std::move(s), size_t(256) << 20, 0);
+  render::ReferenceRenderer renderer(cache);
+  return renderer.render(scene, options, stats);
+}
+
+/// Mean of R, G and B over the image: a frame that is (nearly) black proves nothing.
+inline double meanBrightness(const render::ImageF& image) {
+  double sum = 0;
+  for (size_t i = 0; i < image.rgba.size(); i += 4) sum += image.rgba[i] + image.rgba[i + 1] + image.rgba[i + 2];
+  return sum / double(image.rgba.size() / 4 * 3);
+}
+
+/// Expects max |diff| <= maxAbs; otherwise writes both images and their difference heat map to the temp directory.
+inline void expectClose(const render::ImageF& a, const render::ImageF& b, double maxAbs, const std::string& what) {
+  const render::ImageError e = render::compareImages(a, b);
+  EXPECT_LE(e.maxAbs, maxAbs) << what << ": rmse " << e.rmse << ", psnr " << e.psnr;
+  if (e.maxAbs > maxAbs) {
+    const auto dir = std::filesystem::temp_directory_path();
+    render::writePng(dir / (what + "-a.png"), render::toImage8(a));
+    render::writePng(dir / (what + "-b.png"), render::toImage8(b));
+    render::writePng(dir / (what + "-diff.png"), render::toImage8(render::differenceHeatmap(a, b, e.maxAbs)));
+    std::cerr << "images written to " << (dir / (what + "-{a,b,diff}.png")).string() << "\n";
+  }
+}
+
+/// True if every channel of every pixel is finite.
+inline bool allFinite(const render::ImageF& image) {
+  for (float v : image.rgba)
+    if (!std::isfinite(v)) return false;
+  return true;
+}
+
+}  // namespace voxbrick::test
