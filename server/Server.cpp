@@ -157,6 +157,8 @@ struct Server::Impl {
 
   void accept();
   void beginShutdown();
+  /// Polls until no session is left or `deadline` passes, then stops the I/O threads.
+  void waitForSessions(Clock::time_point deadline);
   void removeSession(const std::shared_ptr<Session>& session);
   /// Queues `job`, setting `replaced` to the request it replaced (latest wins); false if the session's queue is
   /// full (only without coalescing).
@@ -466,7 +468,6 @@ void Server::Impl::accept() {
 void Server::Impl::removeSession(const std::shared_ptr<Session>& session) {
   std::lock_guard lock(sessionsMutex);
   sessions.erase(session);
-  if (shuttingDown && sessions.empty()) asio::post(io, [this] { shutdownDeadline.cancel(); });
 }
 
 bool Server::Impl::submit(const std::shared_ptr<Session>& session, RenderJob job, std::optional<RenderJob>& replaced) {
@@ -557,16 +558,25 @@ void Server::Impl::beginShutdown() {
     std::lock_guard lock(sessionsMutex);
     open.assign(sessions.begin(), sessions.end());
   }
-  if (open.empty()) return;
   for (const auto& session : open)
     asio::post(session->socket.get_executor(), [session] {
       session->sendError(0, proto::ErrorCode::ShuttingDown, "server is stopping");
       session->closeAfterFlush();
     });
-  // Clients that never read their last reply do not hold the server up for long.
-  shutdownDeadline.expires_after(std::chrono::seconds(5));
-  shutdownDeadline.async_wait([this](boost::system::error_code ec) {
-    if (!ec) io.stop();
+  // Stop once every session has closed; clients that never read their last reply hold the server up 5 s at most.
+  waitForSessions(Clock::now() + std::chrono::seconds(5));
+}
+
+void Server::Impl::waitForSessions(Clock::time_point deadline) {
+  bool empty;
+  {
+    std::lock_guard lock(sessionsMutex);
+    empty = sessions.empty();
+  }
+  if (empty || Clock::now() >= deadline) return io.stop();
+  shutdownDeadline.expires_after(std::chrono::milliseconds(20));
+  shutdownDeadline.async_wait([this, deadline](boost::system::error_code ec) {
+    if (!ec) waitForSessions(deadline);
   });
 }
 
