@@ -60,18 +60,22 @@ void main() {
   const vec3 direction = uRayDirection + gl_FragCoord.x * uRayDirectionDx + gl_FragCoord.y * uRayDirectionDy;
   const vec3 world = origin + direction * ((vPlaneDistance - dot(uViewDir, origin)) / dot(uViewDir, direction));
   const vec3 voxel = world * uInvSpacing + uHalfDims;
-  // On a grid of 1/256 voxel, so that a plane through a face (a view along an axis) lands on it despite the
-  // round-off of the ray.
-  const vec3 owned = round(voxel * 256.0) * (1.0 / 256.0);
+  // Faces between boxes are tested on a grid of 1/256 voxel, so that a plane through a face (a view along an axis)
+  // lands on it despite the round-off of the ray. Faces on the volume's surface are tested exactly as for whole
+  // bricks, on the interpolated position: a ray grazing the surface then keeps the same samples either way.
+  const vec3 snapped = round(voxel * 256.0) * (1.0 / 256.0);
+  const vec3 interpolated = vWorld * uInvSpacing + uHalfDims;
+  const vec3 ownedLo = mix(snapped, interpolated, equal(vOwnLo, ivec3(0)));
+  const vec3 ownedHi = mix(snapped, interpolated, equal(vec3(vOwnHi), uDims));
 #else
   const vec3 world = vWorld;
   const vec3 voxel = world * uInvSpacing + uHalfDims;
-  const vec3 owned = voxel;
+  const vec3 ownedLo = voxel, ownedHi = voxel;
 #endif
   bool inside = true;
   for (int a = 0; a < 3; ++a) {
-    inside = inside && (uViewDir[a] >= 0.0 ? (owned[a] >= float(vOwnLo[a]) && owned[a] < float(vOwnHi[a]))
-                                           : (owned[a] > float(vOwnLo[a]) && owned[a] <= float(vOwnHi[a])));
+    inside = inside && (uViewDir[a] >= 0.0 ? (ownedLo[a] >= float(vOwnLo[a]) && ownedHi[a] < float(vOwnHi[a]))
+                                           : (ownedLo[a] > float(vOwnLo[a]) && ownedHi[a] <= float(vOwnHi[a])));
   }
   if (!inside) discard;
   const float value = sampleAt(voxel);
