@@ -28,6 +28,9 @@ void addBenchCommand(CLI::App& app);
 template <typename T>
 void parseTriple(const std::string& text, const std::string& option, T out[3]);
 
+/// Writes `text` to the file at `path`, replacing it; throws std::runtime_error naming the file on failure.
+void writeText(const std::string& path, const std::string& text);
+
 /// Formats a byte count as "12.3 MB".
 std::string formatBytes(double bytes);
 

@@ -1,5 +1,6 @@
-// Small text helpers shared by the subcommands: "a,b,c" triples and byte counts.
+// Small text helpers shared by the subcommands: "a,b,c" triples, byte counts, text files.
 #include <cstdio>
+#include <fstream>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -41,6 +42,13 @@ std::string formatBytes(double bytes) {
   char text[32];
   std::snprintf(text, sizeof text, u == 0 ? "%.0f %s" : "%.1f %s", bytes, units[u]);
   return text;
+}
+
+void writeText(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+  out.flush();
+  if (!out) throw std::runtime_error("cannot write " + path);
 }
 
 }  // namespace voxbrick::cli

@@ -4,7 +4,6 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
-#include <fstream>
 #include <map>
 #include <mutex>
 #include <random>
@@ -320,11 +319,7 @@ void runLoad(const LoadArgs& a) {
                 double(server["memory"]["peak_rss_bytes"]) / 1e6);
   std::printf("\n");
   for (const std::string& e : tally.errorSamples) std::printf("  error: %s\n", e.c_str());
-  if (!a.jsonPath.empty()) {
-    std::ofstream out(a.jsonPath);
-    out << report.dump(2) << "\n";
-    if (!out) throw std::runtime_error("cannot write " + a.jsonPath);
-  }
+  if (!a.jsonPath.empty()) writeText(a.jsonPath, report.dump(2) + "\n");
   if (a.requireClean && (tally.errors > 0 || unexpected > 0 || tally.frames == 0))
     throw std::runtime_error("the run was not clean: " + std::to_string(tally.errors) + " errors, " +
                              std::to_string(unexpected) + " unexpected fault replies, " +

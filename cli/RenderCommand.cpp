@@ -1,6 +1,5 @@
 // `voxbrick render STORE -o out.png`: one frame, headless, with its statistics.
 #include <cstdio>
-#include <fstream>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -37,12 +36,9 @@ void runReference(const RenderArgs& a, const render::Scene& scene, std::shared_p
   render::ReferenceStats stats;
   const render::ImageF image = renderer.render(scene, options, &stats);
   render::writePng(a.output, render::toImage8(image));
-  if (!a.statsPath.empty()) {
-    std::ofstream out(a.statsPath);
-    out << nlohmann::json{{"rays", stats.rays}, {"samples", stats.samples}, {"bricks_skipped", stats.bricksSkipped},
-                          {"ms", stats.ms}}.dump(2) << "\n";
-    if (!out) throw render::RenderError("cannot write " + a.statsPath);
-  }
+  if (!a.statsPath.empty())
+    writeText(a.statsPath, nlohmann::json{{"rays", stats.rays}, {"samples", stats.samples},
+                                          {"bricks_skipped", stats.bricksSkipped}, {"ms", stats.ms}}.dump(2) + "\n");
   std::printf("render: wrote %s (%dx%d) with the reference (%s, step %g voxels): %lld rays, %lld samples, %.1f ms\n",
               a.output.c_str(), scene.width, scene.height, options.analytic ? "analytic field" : "trilinear grid",
               options.step, (long long)stats.rays, (long long)stats.samples, stats.ms);
@@ -61,11 +57,7 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
   render::FrameStats stats;
   const render::ImageF image = renderer.render(scene, &stats);
   render::writePng(a.output, render::toImage8(image));
-  if (!a.statsPath.empty()) {
-    std::ofstream out(a.statsPath);
-    out << stats.toJson() << "\n";
-    if (!out) throw render::RenderError("cannot write " + a.statsPath);
-  }
+  if (!a.statsPath.empty()) writeText(a.statsPath, stats.toJson() + "\n");
   std::printf("render: wrote %s (%dx%d): %lld bricks drawn, %lld skipped empty, %lld culled, %lld paged in, "
               "%lld evicted, %lld batches, %.1f ms (paging %.1f, slicing %.1f, drawing %.1f, readback %.1f)\n",
               a.output.c_str(), scene.width, scene.height, (long long)stats.bricksDrawn,

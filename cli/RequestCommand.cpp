@@ -1,6 +1,5 @@
 // `voxbrick request HOST:PORT --dataset NAME [scene options] -o frame.png`: one frame from a running server.
 #include <cstdio>
-#include <fstream>
 
 #include <nlohmann/json.hpp>
 #include <zstd.h>
@@ -65,11 +64,7 @@ void runRequest(const RequestArgs& a, const CLI::App& cmd) {
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   c.goodbye();
   render::writePng(a.output, frameImage(frame));
-  if (!a.statsPath.empty()) {
-    std::ofstream out(a.statsPath);
-    out << nlohmann::json::parse(frame.statsJson).dump(2) << "\n";
-    if (!out) throw render::RenderError("cannot write " + a.statsPath);
-  }
+  if (!a.statsPath.empty()) writeText(a.statsPath, nlohmann::json::parse(frame.statsJson).dump(2) + "\n");
   std::printf("request: wrote %s (%ux%u, %zu bytes as %s) in %.1f ms\n", a.output.c_str(), frame.width, frame.height,
               frame.payload.size(), a.encoding.c_str(), ms);
 }
