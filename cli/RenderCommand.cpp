@@ -1,6 +1,5 @@
 // `voxbrick render STORE -o out.png`: one frame, headless, with its statistics.
 #include <cstdio>
-#include <sstream>
 
 #include <nlohmann/json.hpp>
 
