@@ -416,14 +416,18 @@ Server::Impl::Impl(const ServerConfig& c)
   const render::Backend backend = config.backend == "egl"      ? render::Backend::Egl
                                   : config.backend == "osmesa" ? render::Backend::OsMesa
                                                                : render::Backend::Auto;
-  // Contexts are made here so that a machine without GL fails at startup, then each moves to its thread.
+  boost::system::error_code addressError;
+  const asio::ip::address address = asio::ip::make_address(config.host, addressError);
+  if (addressError) throw std::runtime_error("host '" + config.host + "' is not an IP address (e.g. 127.0.0.1, 0.0.0.0, ::1)");
+  const tcp::endpoint endpoint(address, uint16_t(config.port));
+  // Contexts are made and the port bound before any thread starts, so that a machine without GL or a port in use
+  // fails at startup with an error, not with threads left running.
+  std::vector<std::unique_ptr<render::GlContext>> contexts;
   for (int i = 0; i < config.renderThreads; ++i) {
-    std::unique_ptr<render::GlContext> context = render::createContext(backend);
-    if (i == 0) spdlog::info("render threads: {} x {}", config.renderThreads, context->describe());
-    context->releaseCurrent();
-    renderThreads.emplace_back(&Impl::renderLoop, this, std::move(context), i);
+    contexts.push_back(render::createContext(backend));
+    contexts.back()->releaseCurrent();
   }
-  const tcp::endpoint endpoint(asio::ip::make_address(config.host), uint16_t(config.port));
+  spdlog::info("render threads: {} x {}", config.renderThreads, contexts.front()->describe());
   acceptor.open(endpoint.protocol());
   acceptor.set_option(tcp::acceptor::reuse_address(true));
   boost::system::error_code bindError;
@@ -432,6 +436,8 @@ Server::Impl::Impl(const ServerConfig& c)
     throw std::runtime_error("cannot listen on " + config.host + ":" + std::to_string(config.port) + ": " +
                              bindError.message());
   acceptor.listen();
+  for (int i = 0; i < config.renderThreads; ++i)
+    renderThreads.emplace_back(&Impl::renderLoop, this, std::move(contexts[size_t(i)]), i);
 }
 
 void Server::Impl::accept() {
