@@ -302,6 +302,14 @@ TEST_F(ServerTest, BadConfigurationIsRefusedWithTheKeyNamed) {
   auto server = std::make_unique<ServerProcess>(
       std::string("--config ") + VOXBRICK_SOURCE_DIR + "/config/server.toml --datasets " + datasets(), scratch());
   EXPECT_EQ(session(*server)->listDatasets().size(), 1u);
+  // A port in use and a host that is not an address are errors that name them.
+  r = test::runVoxbrick("serve --datasets " + datasets() + " --port " + std::to_string(server->port()));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.output.find("cannot listen on 127.0.0.1:" + std::to_string(server->port())), std::string::npos)
+      << r.output;
+  r = test::runVoxbrick("serve --datasets " + datasets() + " --host nowhere --port 0");
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.output.find("host 'nowhere'"), std::string::npos) << r.output;
 }
 
 TEST_F(ServerTest, RequestCommandAndPythonClientGetTheSameFrame) {
