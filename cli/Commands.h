@@ -31,6 +31,9 @@ void parseTriple(const std::string& text, const std::string& option, T out[3]);
 /// Writes `text` to the file at `path`, replacing it; throws std::runtime_error naming the file on failure.
 void writeText(const std::string& path, const std::string& text);
 
+/// Parses "WIDTHxHEIGHT" into two integers; throws store::InputError naming the option.
+void parseSize(const std::string& text, const std::string& option, int& width, int& height);
+
 /// Formats a byte count as "12.3 MB".
 std::string formatBytes(double bytes);
 

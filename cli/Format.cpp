@@ -1,4 +1,4 @@
-// Small text helpers shared by the subcommands: "a,b,c" triples, byte counts, text files.
+// Small text helpers shared by the subcommands: "a,b,c" triples, "WxH" sizes, byte counts, text files.
 #include <cstdio>
 #include <fstream>
 #include <stdexcept>
@@ -42,6 +42,12 @@ std::string formatBytes(double bytes) {
   char text[32];
   std::snprintf(text, sizeof text, u == 0 ? "%.0f %s" : "%.1f %s", bytes, units[u]);
   return text;
+}
+
+void parseSize(const std::string& text, const std::string& option, int& width, int& height) {
+  char extra = 0;
+  if (std::sscanf(text.c_str(), "%dx%d%c", &width, &height, &extra) != 2)
+    throw store::InputError(option + " '" + text + "': expected WIDTHxHEIGHT");
 }
 
 void writeText(const std::string& path, const std::string& text) {

@@ -20,8 +20,12 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using nlohmann::json;
 
+/// What faulty clients do, in turn (fault() handles each).
+const std::vector<std::string> kFaultKinds = {"disconnect", "garbage", "huge", "malformed", "slow"};
+
 struct LoadArgs {
-  std::string address, dataset, tf = "grayscale", faults, jsonPath, size = "128x128";
+  std::string address, dataset, tf = "grayscale", jsonPath, size = "128x128";
+  std::vector<std::string> faults;
   int clients = 4, faultClients = 0, idleSessions = 0;
   double duration = 10, step = 1, dragHz = 0;
   bool requireClean = false;
@@ -208,7 +212,7 @@ bool fault(const std::string& kind, const LoadArgs& a, const std::string& host, 
     c.close();
     return true;
   }
-  throw std::invalid_argument("unknown fault '" + kind + "' (disconnect, garbage, huge, malformed, slow)");
+  throw std::logic_error("fault '" + kind + "' is in kFaultKinds but not handled");
 }
 
 void faultClient(const LoadArgs& a, const std::string& host, int port, const std::vector<std::string>& kinds, int index,
@@ -219,7 +223,7 @@ void faultClient(const LoadArgs& a, const std::string& host, int port, const std
     bool ok = false;
     try {
       ok = fault(kind, a, host, port, rng);
-    } catch (const std::invalid_argument&) {
+    } catch (const std::logic_error&) {
       throw;
     } catch (const std::exception&) {
       ok = false;
@@ -237,20 +241,9 @@ void faultClient(const LoadArgs& a, const std::string& host, int port, const std
 void runLoad(const LoadArgs& a) {
   const auto [host, port] = client::parseAddress(a.address);
   int width = 0, height = 0;
-  char extra = 0;
-  if (std::sscanf(a.size.c_str(), "%dx%d%c", &width, &height, &extra) != 2 || width < 1 || height < 1)
-    throw std::invalid_argument("--size '" + a.size + "': expected WIDTHxHEIGHT");
-  std::vector<std::string> kinds;
-  for (size_t start = 0; start < a.faults.size();) {
-    const size_t comma = std::min(a.faults.find(',', start), a.faults.size());
-    if (comma > start) kinds.push_back(a.faults.substr(start, comma - start));
-    start = comma + 1;
-  }
-  if (a.faultClients > 0 && kinds.empty()) kinds = {"disconnect", "garbage", "huge", "malformed", "slow"};
-  for (const std::string& k : kinds)
-    if (k != "disconnect" && k != "garbage" && k != "huge" && k != "malformed" && k != "slow")
-      throw std::invalid_argument("--faults: unknown fault '" + k + "' (disconnect, garbage, huge, malformed, slow)");
-  if (a.dataset.empty()) throw std::invalid_argument("--dataset is required");
+  parseSize(a.size, "--size", width, height);
+  if (width < 1 || height < 1) throw std::invalid_argument("--size '" + a.size + "': sides must be positive");
+  const std::vector<std::string> kinds = a.faults.empty() ? kFaultKinds : a.faults;
 
   // Idle sessions: connected and greeted, then silent for the whole run.
   std::vector<std::unique_ptr<client::Client>> idle;
@@ -339,7 +332,9 @@ void addLoadCommand(CLI::App& app) {
   cmd->add_option("--tf", a->tf, "transfer function preset")->capture_default_str();
   cmd->add_option("--step", a->step, "slice spacing in voxels")->capture_default_str();
   cmd->add_option("--fault-clients", a->faultClients, "clients that misbehave in turn")->check(CLI::Range(0, 4096));
-  cmd->add_option("--faults", a->faults, "comma list: disconnect, garbage, huge, malformed, slow (default all)");
+  cmd->add_option("--faults", a->faults, "comma list of what faulty clients do (default all)")
+      ->delimiter(',')
+      ->check(CLI::IsMember(kFaultKinds));
   cmd->add_option("--idle-sessions", a->idleSessions, "sessions opened and left silent")->check(CLI::Range(0, 100000));
   cmd->add_option("--drag", a->dragHz,
                   "clients send a new camera this many times a second without waiting (a camera drag); latency "

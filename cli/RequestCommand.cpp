@@ -2,13 +2,13 @@
 #include <cstdio>
 
 #include <nlohmann/json.hpp>
-#include <zstd.h>
 
 #include "cli/Commands.h"
 #include "cli/SceneOptions.h"
 #include "client/Client.h"
 #include "render/Image.h"
 #include "render/RenderErrors.h"
+#include "server/FrameImage.h"
 
 namespace voxbrick::cli {
 namespace {
@@ -19,30 +19,6 @@ struct RequestArgs {
   double timeout = 120;
   bool list = false;
 };
-
-/// The frame as an image, whatever its encoding.
-render::Image8 frameImage(const proto::Frame& frame) {
-  render::Image8 image{int(frame.width), int(frame.height), {}};
-  const size_t bytes = size_t(frame.width) * size_t(frame.height) * 4;
-  switch (frame.encoding) {
-    case proto::Encoding::Png:
-      image = render::decodePng(frame.payload, "frame");
-      break;
-    case proto::Encoding::RawRgba8:
-      image.rgba = frame.payload;
-      break;
-    case proto::Encoding::ZstdRgba8: {
-      image.rgba.resize(bytes);
-      const size_t n = ZSTD_decompress(image.rgba.data(), bytes, frame.payload.data(), frame.payload.size());
-      if (ZSTD_isError(n) || n != bytes) throw std::runtime_error("frame: zstd payload does not decode to the frame size");
-      break;
-    }
-  }
-  if (image.width != int(frame.width) || image.height != int(frame.height) || image.rgba.size() != bytes)
-    throw std::runtime_error("frame: payload does not match its " + std::to_string(frame.width) + "x" +
-                             std::to_string(frame.height) + " size");
-  return image;
-}
 
 void runRequest(const RequestArgs& a, const CLI::App& cmd) {
   const auto [host, port] = client::parseAddress(a.address);
@@ -63,7 +39,7 @@ void runRequest(const RequestArgs& a, const CLI::App& cmd) {
   const proto::Frame frame = c.render(scene.toJson(), encoding);
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   c.goodbye();
-  render::writePng(a.output, frameImage(frame));
+  render::writePng(a.output, server::decodeFrameImage(frame));
   if (!a.statsPath.empty()) writeText(a.statsPath, nlohmann::json::parse(frame.statsJson).dump(2) + "\n");
   std::printf("request: wrote %s (%ux%u, %zu bytes as %s) in %.1f ms\n", a.output.c_str(), frame.width, frame.height,
               frame.payload.size(), a.encoding.c_str(), ms);

@@ -42,13 +42,7 @@ render::Scene buildScene(const SceneArgs& a, const CLI::App& cmd) {
   }
   if (cmd.count("--fov")) s.camera.fovY = a.fov;
   if (a.ortho) s.camera.orthographic = true;
-  if (!a.size.empty()) {
-    int w = 0, h = 0;
-    char extra = 0;
-    if (std::sscanf(a.size.c_str(), "%dx%d%c", &w, &h, &extra) != 2)
-      throw render::RenderInputError("--size '" + a.size + "': expected WIDTHxHEIGHT");
-    s.width = w, s.height = h;
-  }
+  if (!a.size.empty()) parseSize(a.size, "--size", s.width, s.height);
   if (!a.tf.empty()) {
     s.transferFunction = render::TransferFunction::load(a.tf);
     s.transferFunctionName = a.tf;

@@ -32,6 +32,12 @@ bool boolean(const json& j, const std::string& key, const std::string& what) {
 
 json toJson(const glm::dvec3& v) { return json::array({v.x, v.y, v.z}); }
 
+void checkImageSize(int64_t width, int64_t height, const std::string& prefix) {
+  if (width < 1 || height < 1 || width > Scene::kMaxImageSide || height > Scene::kMaxImageSide)
+    throw RenderInputError(prefix + "image size " + std::to_string(width) + "x" + std::to_string(height) +
+                           " is outside 1.." + std::to_string(Scene::kMaxImageSide) + " per side");
+}
+
 }  // namespace
 
 Camera CameraSpec::resolve(const Box& box) const {
@@ -87,9 +93,8 @@ Scene Scene::fromJson(const std::string& text, const std::string& what, bool all
     if (!z.is_array() || z.size() != 2 || !z[0].is_number_integer() || !z[1].is_number_integer())
       throw RenderInputError(what + ": 'size' must be [width, height] integers");
     const int64_t w = z[0].get<int64_t>(), h = z[1].get<int64_t>();
-    if (w < 1 || h < 1 || w > kMaxImageSide || h > kMaxImageSide)
-      throw RenderInputError(what + ": 'size': image size " + std::to_string(w) + "x" + std::to_string(h) +
-                             " is outside 1.." + std::to_string(kMaxImageSide) + " per side");
+    // Checked before narrowing to int, so that 2^32 + 512 is refused, not read as 512.
+    checkImageSize(w, h, what + ": 'size': ");
     s.width = int(w);
     s.height = int(h);
   }
@@ -138,9 +143,7 @@ Scene Scene::fromJson(const std::string& text, const std::string& what, bool all
 }
 
 void Scene::validate() const {
-  if (width < 1 || height < 1 || width > kMaxImageSide || height > kMaxImageSide)
-    throw RenderInputError("image size " + std::to_string(width) + "x" + std::to_string(height) +
-                           " is outside 1.." + std::to_string(kMaxImageSide) + " per side");
+  checkImageSize(width, height, "");
   if (!(step >= 1e-3 && step <= 64))
     throw RenderInputError("step " + std::to_string(step) + " is outside [0.001, 64] voxels");
   for (int c = 0; c < 3; ++c)

@@ -102,13 +102,12 @@ const Program& VolumeRenderer::program(Slicer slicer, bool shading, bool rooflin
   return p;
 }
 
-void VolumeRenderer::drawBatch(Batch& batch, const Scene& scene, FrameStats& stats) {
+void VolumeRenderer::drawBatch(Batch& batch, const Program& p, Slicer slicer, FrameStats& stats) {
   if (batch.instances.empty() && batch.vertices.empty()) return;
   const auto t = Clock::now();
   mVertexArray.bind();
-  const Program& p = program(scene.slicer, scene.shading, mMode == RenderMode::Roofline, mExactOwnership);
   p.use();
-  if (scene.slicer == Slicer::Vertex) {
+  if (slicer == Slicer::Vertex) {
     mInstances.allocate(GL_ARRAY_BUFFER, batch.instances.size() * sizeof(SliceInstance), batch.instances.data(),
                         GL_STREAM_DRAW);
     const GLsizei stride = sizeof(SliceInstance);
@@ -161,7 +160,6 @@ void VolumeRenderer::drawBatch(Batch& batch, const Scene& scene, FrameStats& sta
 ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMode mode) {
   const auto frameStart = Clock::now();
   scene.validate();
-  mMode = mode;
   FrameStats stats;
   const store::BrickStore& store = *mCache->store();
   const store::StoreMeta& meta = store.meta();
@@ -240,8 +238,7 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
   const double step = scene.step * minSpacing;
   const double referenceLength = tf.referenceLength().value_or(minSpacing);
   const int subBlock = scene.subBlock > 0 && scene.subBlock < B ? scene.subBlock : 0;
-  mExactOwnership = subBlock > 0;
-  const Program& p = program(scene.slicer, scene.shading, mode == RenderMode::Roofline, mExactOwnership);
+  const Program& p = program(scene.slicer, scene.shading, mode == RenderMode::Roofline, subBlock > 0);
   p.set(p.uniformLocation("uViewProj"), glm::mat4(viewProj));
   p.set(p.uniformLocation(kSliceNormalUniform), glm::vec3(n));
   p.set(p.uniformLocation(kSlicePlaneIncrUniform), float(step));
@@ -308,7 +305,7 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
     auto acquired = mAtlas.slots().acquire(key);
     if (!acquired) {
       stats.msPaging += msSince(tp);
-      drawBatch(batch, scene, stats);
+      drawBatch(batch, p, scene.slicer, stats);
       mAtlas.slots().unpinAll();
       tp = Clock::now();
       acquired = mAtlas.slots().acquire(key);
@@ -370,7 +367,7 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
   }
   stats.subBlocksSkipped = subStats.subBlocksSkipped;
   stats.boxesDrawn = subBlock ? subStats.boxes : stats.bricksDrawn;
-  drawBatch(batch, scene, stats);
+  drawBatch(batch, p, scene.slicer, stats);
   mAtlas.slots().unpinAll();
   mGl.glEndQuery(GL_SAMPLES_PASSED);
 

@@ -53,7 +53,7 @@ class VolumeRenderer {
 
  private:
   struct Batch;
-  void drawBatch(Batch& batch, const Scene& scene, FrameStats& stats);
+  void drawBatch(Batch& batch, const Program& program, Slicer slicer, FrameStats& stats);
   const Program& program(Slicer slicer, bool shading, bool roofline, bool exactOwnership);
 
   const Gl& mGl;
@@ -67,8 +67,6 @@ class VolumeRenderer {
   Query mFragments;
   std::vector<SubBlockRanges> mSlotRanges;  // per atlas slot: sub-block ranges of the brick it holds
   Program mPrograms[2][3][2];  // [slicer][plain, shading, roofline][exact ownership], built on first use
-  RenderMode mMode = RenderMode::Normal;
-  bool mExactOwnership = false;  // this frame draws sub-block boxes (volume.frag.glsl's EXACT_OWNERSHIP)
 };
 
 }  // namespace voxbrick::render

@@ -20,7 +20,6 @@
 #include <boost/asio.hpp>
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
-#include <zstd.h>
 
 #include "proto/Messages.h"
 #include "render/GlContext.h"
@@ -29,6 +28,7 @@
 #include "render/Scene.h"
 #include "render/VolumeRenderer.h"
 #include "server/Datasets.h"
+#include "server/FrameImage.h"
 
 namespace voxbrick::server {
 namespace {
@@ -92,6 +92,9 @@ class LatencyWindow {
   std::deque<Sample> mSamples;
 };
 
+/// Capacity of a session's read buffer kept between messages.
+constexpr size_t kKeptBodyBytes = 64 << 10;
+
 /// Without coalescing (a benchmark setting), how many renders one session may have waiting.
 constexpr size_t kMaxQueuedWithoutCoalescing = 64;
 
@@ -99,23 +102,6 @@ struct Counters {
   std::atomic<uint64_t> sessionsAccepted{0}, sessionsRefused{0}, messages{0}, renderRequests{0}, frames{0},
       renderErrors{0}, superseded{0}, protocolErrors{0}, timeouts{0}, slowClientsDropped{0};
 };
-
-std::vector<uint8_t> encodeImage(const render::Image8& image, proto::Encoding encoding) {
-  switch (encoding) {
-    case proto::Encoding::RawRgba8:
-      return image.rgba;
-    case proto::Encoding::Png:
-      return render::encodePng(image);
-    case proto::Encoding::ZstdRgba8: {
-      std::vector<uint8_t> out(ZSTD_compressBound(image.rgba.size()));
-      const size_t n = ZSTD_compress(out.data(), out.size(), image.rgba.data(), image.rgba.size(), 1);
-      if (ZSTD_isError(n)) throw std::runtime_error(std::string("zstd: ") + ZSTD_getErrorName(n));
-      out.resize(n);
-      return out;
-    }
-  }
-  throw std::runtime_error("unknown encoding");
-}
 
 }  // namespace
 
@@ -257,8 +243,9 @@ struct Session : std::enable_shared_from_this<Session> {
       spdlog::debug("{}: {} ({})", peer, e.what(), proto::errorCodeName(e.code()));
       sendError(header.requestId, e.code(), e.what());
     }
+    // Requests are small: the buffer is reused across them, and given back only after a large one.
+    if (body.capacity() > kKeptBodyBytes) body = {};
     body.clear();
-    body.shrink_to_fit();
     if (message) handle(*message);
     readHeader();
   }
@@ -528,7 +515,7 @@ void Server::Impl::renderLoop(std::unique_ptr<render::GlContext> context, int in
       frame.width = uint32_t(image.width);
       frame.height = uint32_t(image.height);
       frame.encoding = job.encoding;
-      frame.payload = encodeImage(render::toImage8(image), job.encoding);
+      frame.payload = encodeFrameImage(render::toImage8(image), job.encoding);
       json statsJson = json::parse(stats.toJson());
       statsJson["queue_ms"] = msBetween(job.received, start);
       statsJson["encode_ms"] = msBetween(encodeStart, Clock::now());

@@ -11,38 +11,60 @@ namespace {
 
 [[noreturn]] void fail(const std::string& what) { throw std::runtime_error(what); }
 
-template <typename T>
-void read(const toml::table& table, const std::string& section, const char* key, T& out, const std::string& file) {
-  const toml::node* node = table.get(key);
-  if (!node) return;
-  const std::string name = file + ": " + section + "." + key;
-  if constexpr (std::is_same_v<T, bool>) {
-    if (!node->is_boolean()) fail(name + " must be true or false");
-    out = node->as_boolean()->get();
-  } else if constexpr (std::is_same_v<T, std::string>) {
-    if (!node->is_string()) fail(name + " must be a string");
-    out = node->as_string()->get();
-  } else if constexpr (std::is_same_v<T, std::filesystem::path>) {
-    if (!node->is_string()) fail(name + " must be a string");
-    out = node->as_string()->get();
-  } else if constexpr (std::is_same_v<T, double>) {
-    if (!node->is_number()) fail(name + " must be a number");
-    out = node->value<double>().value();
-  } else {
-    if (!node->is_integer()) fail(name + " must be an integer");
-    const int64_t v = node->as_integer()->get();
-    if (v < 0 || uint64_t(v) > uint64_t(std::numeric_limits<T>::max())) fail(name + " = " + std::to_string(v) + " is out of range");
-    out = T(v);
-  }
-}
+/// One table of the file. It reads typed keys and remembers them, so anything else the table holds is an unknown
+/// key: the list of known keys is the list of reads.
+class Section {
+ public:
+  Section(const toml::table* table, std::string name, std::string file)
+      : mTable(table), mName(std::move(name)), mFile(std::move(file)) {}
 
-void checkKeys(const toml::table& table, const std::string& section, const std::set<std::string>& known,
-               const std::string& file) {
-  for (const auto& [key, node] : table) {
-    if (!known.count(std::string(key.str())))
-      fail(file + ": unknown key " + (section.empty() ? "" : section + ".") + std::string(key.str()));
+  /// The sub-table `key` (absent: an empty section).
+  Section table(const char* key) {
+    mKnown.insert(key);
+    const toml::node* node = mTable ? mTable->get(key) : nullptr;
+    if (node && !node->is_table()) fail(mFile + ": " + key + " must be a table");
+    return Section(node ? node->as_table() : nullptr, key, mFile);
   }
-}
+
+  /// Reads `key` into `out` if present; returns whether it was.
+  template <typename T>
+  bool read(const char* key, T& out) {
+    mKnown.insert(key);
+    const toml::node* node = mTable ? mTable->get(key) : nullptr;
+    if (!node) return false;
+    const std::string name = mFile + ": " + mName + "." + key;
+    if constexpr (std::is_same_v<T, bool>) {
+      if (!node->is_boolean()) fail(name + " must be true or false");
+      out = node->as_boolean()->get();
+    } else if constexpr (std::is_same_v<T, std::string> || std::is_same_v<T, std::filesystem::path>) {
+      if (!node->is_string()) fail(name + " must be a string");
+      out = node->as_string()->get();
+    } else if constexpr (std::is_same_v<T, double>) {
+      if (!node->is_number()) fail(name + " must be a number");
+      out = node->value<double>().value();
+    } else {
+      if (!node->is_integer()) fail(name + " must be an integer");
+      const int64_t v = node->as_integer()->get();
+      if (v < 0 || uint64_t(v) > uint64_t(std::numeric_limits<T>::max()))
+        fail(name + " = " + std::to_string(v) + " is out of range");
+      out = T(v);
+    }
+    return true;
+  }
+
+  /// Throws naming the first key no read() or table() asked for.
+  void rejectUnknown() const {
+    if (!mTable) return;
+    for (const auto& [key, node] : *mTable)
+      if (!mKnown.count(std::string(key.str())))
+        fail(mFile + ": unknown key " + (mName.empty() ? "" : mName + ".") + std::string(key.str()));
+  }
+
+ private:
+  const toml::table* mTable;
+  std::string mName, mFile;
+  std::set<std::string> mKnown;
+};
 
 }  // namespace
 
@@ -54,43 +76,30 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   } catch (const toml::parse_error& e) {
     fail(file + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description()));
   }
-  checkKeys(root, "", {"server", "limits", "memory"}, file);
   ServerConfig c;
-  auto section = [&](const char* name) -> const toml::table* {
-    const toml::node* node = root.get(name);
-    if (!node) return nullptr;
-    if (!node->is_table()) fail(file + ": " + name + " must be a table");
-    return node->as_table();
-  };
-  if (const toml::table* s = section("server")) {
-    checkKeys(*s, "server", {"host", "port", "datasets", "io_threads", "render_threads", "backend", "log_level", "coalesce"}, file);
-    read(*s, "server", "host", c.host, file);
-    read(*s, "server", "port", c.port, file);
-    read(*s, "server", "datasets", c.datasets, file);
-    read(*s, "server", "io_threads", c.ioThreads, file);
-    read(*s, "server", "render_threads", c.renderThreads, file);
-    read(*s, "server", "backend", c.backend, file);
-    read(*s, "server", "log_level", c.logLevel, file);
-    read(*s, "server", "coalesce", c.coalesce, file);
-    // A relative dataset directory is relative to the configuration file.
-    if (s->get("datasets") && c.datasets.is_relative()) c.datasets = path.parent_path() / c.datasets;
-  }
-  if (const toml::table* l = section("limits")) {
-    checkKeys(*l, "limits", {"max_sessions", "max_message_bytes", "max_image_side", "idle_timeout_s", "read_timeout_s",
-                             "write_timeout_s", "max_output_bytes"}, file);
-    read(*l, "limits", "max_sessions", c.maxSessions, file);
-    read(*l, "limits", "max_message_bytes", c.maxMessageBytes, file);
-    read(*l, "limits", "max_image_side", c.maxImageSide, file);
-    read(*l, "limits", "idle_timeout_s", c.idleTimeoutS, file);
-    read(*l, "limits", "read_timeout_s", c.readTimeoutS, file);
-    read(*l, "limits", "write_timeout_s", c.writeTimeoutS, file);
-    read(*l, "limits", "max_output_bytes", c.maxOutputBytes, file);
-  }
-  if (const toml::table* m = section("memory")) {
-    checkKeys(*m, "memory", {"host_cache_mb", "gpu_budget_mb"}, file);
-    read(*m, "memory", "host_cache_mb", c.hostCacheMB, file);
-    read(*m, "memory", "gpu_budget_mb", c.gpuBudgetMB, file);
-  }
+  Section top(&root, "", file);
+  Section server = top.table("server");
+  server.read("host", c.host);
+  server.read("port", c.port);
+  // A relative dataset directory is relative to the configuration file.
+  if (server.read("datasets", c.datasets) && c.datasets.is_relative()) c.datasets = path.parent_path() / c.datasets;
+  server.read("io_threads", c.ioThreads);
+  server.read("render_threads", c.renderThreads);
+  server.read("backend", c.backend);
+  server.read("log_level", c.logLevel);
+  server.read("coalesce", c.coalesce);
+  Section limits = top.table("limits");
+  limits.read("max_sessions", c.maxSessions);
+  limits.read("max_message_bytes", c.maxMessageBytes);
+  limits.read("max_image_side", c.maxImageSide);
+  limits.read("idle_timeout_s", c.idleTimeoutS);
+  limits.read("read_timeout_s", c.readTimeoutS);
+  limits.read("write_timeout_s", c.writeTimeoutS);
+  limits.read("max_output_bytes", c.maxOutputBytes);
+  Section memory = top.table("memory");
+  memory.read("host_cache_mb", c.hostCacheMB);
+  memory.read("gpu_budget_mb", c.gpuBudgetMB);
+  for (const Section* section : {&top, &server, &limits, &memory}) section->rejectUnknown();
   try {
     c.validate();
   } catch (const std::exception& e) {

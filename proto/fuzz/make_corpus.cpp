@@ -6,17 +6,12 @@
 #include <vector>
 
 #include "proto/Messages.h"
+#include "proto/fuzz/WireBytes.h"
 
 namespace {
 
 using namespace voxbrick::proto;
-using Bytes = std::vector<uint8_t>;
-
-Bytes concat(std::initializer_list<Bytes> parts) {
-  Bytes all;
-  for (const Bytes& p : parts) all.insert(all.end(), p.begin(), p.end());
-  return all;
-}
+using namespace voxbrick::proto::wire;
 
 Bytes header(MessageType type, uint32_t bodyBytes, uint16_t version = kVersion) {
   const auto bytes = encodeHeader({version, type, 7, bodyBytes});
@@ -32,8 +27,6 @@ Bytes withByte(Bytes bytes, size_t offset, uint8_t value) {
   bytes.at(offset) = value;
   return bytes;
 }
-
-Bytes u32(uint32_t v) { return {uint8_t(v), uint8_t(v >> 8), uint8_t(v >> 16), uint8_t(v >> 24)}; }
 
 const std::string kScene = R"({"camera": {"orbit": [30, 20, 2.5]}, "size": [64, 48]})";
 

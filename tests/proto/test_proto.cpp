@@ -11,22 +11,13 @@
 
 #include "proto/Messages.h"
 #include "proto/fuzz/FuzzCheck.h"
+#include "proto/fuzz/WireBytes.h"
 #include "support/TestSupport.h"
 
 namespace {
 
 using namespace voxbrick::proto;
-using Bytes = std::vector<uint8_t>;
-
-Bytes concat(std::initializer_list<Bytes> parts) {
-  Bytes all;
-  for (const Bytes& p : parts) all.insert(all.end(), p.begin(), p.end());
-  return all;
-}
-
-Bytes u16(uint16_t v) { return {uint8_t(v), uint8_t(v >> 8)}; }
-Bytes u32(uint32_t v) { return {uint8_t(v), uint8_t(v >> 8), uint8_t(v >> 16), uint8_t(v >> 24)}; }
-Bytes str(const std::string& s) { return concat({u32(uint32_t(s.size())), Bytes(s.begin(), s.end())}); }
+using namespace voxbrick::proto::wire;
 
 Bytes headerBytes(MessageType type, uint32_t requestId, size_t bodyBytes) {
   const auto bytes = encodeHeader({kVersion, type, requestId, uint32_t(bodyBytes)});

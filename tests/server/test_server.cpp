@@ -9,11 +9,11 @@
 #include <thread>
 
 #include <nlohmann/json.hpp>
-#include <zstd.h>
 
 #include "ServerProcess.h"
 #include "client/Client.h"
 #include "render/Image.h"
+#include "server/FrameImage.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick {
@@ -62,20 +62,7 @@ std::unique_ptr<Client> session(const ServerProcess& server, const std::string& 
   return c;
 }
 
-std::vector<uint8_t> pixels(const proto::Frame& frame) {
-  switch (frame.encoding) {
-    case proto::Encoding::Png:
-      return render::decodePng(frame.payload, "frame").rgba;
-    case proto::Encoding::RawRgba8:
-      return frame.payload;
-    case proto::Encoding::ZstdRgba8: {
-      std::vector<uint8_t> out(size_t(frame.width) * frame.height * 4);
-      EXPECT_EQ(ZSTD_decompress(out.data(), out.size(), frame.payload.data(), frame.payload.size()), out.size());
-      return out;
-    }
-  }
-  return {};
-}
+std::vector<uint8_t> pixels(const proto::Frame& frame) { return server::decodeFrameImage(frame).rgba; }
 
 /// The error a request gets; fails the test if it gets anything else.
 ErrorCode errorOf(const std::function<void()>& request) {
