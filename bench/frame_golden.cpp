@@ -1,0 +1,156 @@
+// Golden frames for refactors of the renderer: renders a fixed matrix of scenes and settings (every option the
+// tests and `voxbrick bench` cover) over stores made on the spot, and writes or checks the float images bit for bit.
+//
+//   frame_golden --work DIR --write GOLDEN_DIR   # before a change: one .f32 file per frame
+//   frame_golden --work DIR --check GOLDEN_DIR   # after it: every frame must be byte-identical
+//
+// Bit-identical is the bar for a change that only moves code: any difference in a float means the GPU did other
+// arithmetic, which is a behaviour change. The matrix stays in this one file so that the same source builds against
+// the code before and after the change.
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "brickstore/BrickCache.h"
+#include "brickstore/BrickStore.h"
+#include "brickstore/Sources.h"
+#include "brickstore/StoreWriter.h"
+#include "render/BrickAtlas.h"
+#include "render/GlContext.h"
+#include "render/Scene.h"
+#include "render/VolumeRenderer.h"
+
+namespace fs = std::filesystem;
+using namespace voxbrick;
+
+namespace {
+
+struct Case {
+  std::string name;
+  std::string store;  // key into the stores map
+  std::string sceneJson;
+  size_t gpuBudgetMB = 256;
+  render::AtlasFormat format = render::AtlasFormat::Float;
+  render::RenderMode mode = render::RenderMode::Normal;
+};
+
+std::shared_ptr<const store::BrickStore> prepStore(const std::string& spec, const fs::path& out, int brick) {
+  if (!fs::exists(out / "store.json")) {
+    auto source = store::openSource(spec, {});
+    store::PrepOptions options;
+    options.brickSize = brick;
+    options.writeVdb = false;
+    store::prepStore(*source, out, options);
+  }
+  return store::BrickStore::open(out);
+}
+
+std::vector<Case> cases() {
+  std::vector<Case> out;
+  const std::vector<std::string> views = {R"("orbit": [30, 20, 2.5])", R"("orbit": [90, 0, 2.2])",
+                                          R"("orbit": [0, 90, 2.5])", R"("orbit": [200, -35, 1.6])"};
+  auto scene = [](const std::string& camera, const std::string& rest) {
+    return "{\"camera\": {" + camera + "}, \"size\": [96, 80]" + (rest.empty() ? "" : ", " + rest) + "}";
+  };
+  for (const std::string store : {"ml32", "sparse32", "mri32", "mri16"}) {
+    const std::string tf = store == "sparse32" ? R"("transfer_function": "sparse")"
+                           : store.rfind("mri", 0) == 0 ? R"("transfer_function": "mri")"
+                                                        : R"("transfer_function": "grayscale")";
+    for (size_t v = 0; v < views.size(); ++v) {
+      const std::string tag = store + "-v" + std::to_string(v);
+      out.push_back({tag + "-default", store, scene(views[v], tf)});
+      out.push_back({tag + "-cpu", store, scene(views[v], tf + R"(, "slicer": "cpu")")});
+      out.push_back({tag + "-shaded", store, scene(views[v], tf + R"(, "shading": true)")});
+      out.push_back({tag + "-sub8", store, scene(views[v], tf + R"(, "sub_block": 8)")});
+      out.push_back({tag + "-sub4-cpu", store, scene(views[v], tf + R"(, "sub_block": 4, "slicer": "cpu")")});
+      out.push_back({tag + "-noskip", store, scene(views[v], tf + R"(, "skip_empty": false, "cull": false)")});
+      out.push_back({tag + "-step2", store, scene(views[v], tf + R"(, "step": 2)")});
+      out.push_back({tag + "-step025", store, scene(views[v], tf + R"(, "step": 0.25)")});
+    }
+    const std::string v0 = views[0];
+    out.push_back({store + "-ortho", store, scene(v0 + R"(, "orthographic": true)", tf)});
+    out.push_back({store + "-ortho-sub8", store, scene(v0 + R"(, "orthographic": true)", tf + R"(, "sub_block": 8)")});
+    out.push_back({store + "-inside", store, scene(R"("orbit": [40, 10, 0.3], "fov": 70)", tf)});
+    out.push_back({store + "-axis", store, scene(R"("eye": [0, 0, 400], "center": [0, 0, 0], "up": [0, 1, 0])", tf)});
+    out.push_back({store + "-window-bg", store,
+                   scene(v0, tf + R"(, "window": [0.1, 0.6], "background": [0.2, 0.3, 0.4])")});
+    out.push_back({store + "-ct-bone-shaded", store, scene(v0, R"("transfer_function": "ct-bone", "shading": true)")});
+    out.push_back({store + "-tight-budget", store, scene(v0, tf), 1});
+    out.push_back({store + "-tight-budget-sub8", store, scene(v0, tf + R"(, "sub_block": 8)"), 1});
+    out.push_back({store + "-native", store, scene(v0, tf), 256, render::AtlasFormat::Native});
+    out.push_back({store + "-half", store, scene(v0, tf), 256, render::AtlasFormat::Half});
+    out.push_back({store + "-roofline", store, scene(v0, tf + R"(, "skip_empty": false)"), 256,
+                   render::AtlasFormat::Float, render::RenderMode::Roofline});
+    out.push_back({store + "-roofline-cpu", store, scene(v0, tf + R"(, "slicer": "cpu")"), 256,
+                   render::AtlasFormat::Float, render::RenderMode::Roofline});
+  }
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  fs::path work = "golden-work", golden;
+  bool write = false;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string flag = argv[i];
+    if (flag == "--work") work = argv[i + 1];
+    else if (flag == "--write") golden = argv[i + 1], write = true;
+    else if (flag == "--check") golden = argv[i + 1], write = false;
+  }
+  if (golden.empty()) {
+    std::cerr << "usage: frame_golden --work DIR (--write DIR | --check DIR)\n";
+    return 2;
+  }
+  fs::create_directories(work);
+  fs::create_directories(golden);
+  const std::string mri = "/usr/share/mricron/templates/ch2better.nii.gz";
+  std::map<std::string, std::shared_ptr<const store::BrickStore>> stores = {
+      {"ml32", prepStore("synthetic:marschner-lobb,n=48", work / "ml32.vbs", 32)},
+      {"sparse32", prepStore("synthetic:sparse,n=96", work / "sparse32.vbs", 32)},
+      {"mri32", prepStore(mri, work / "mri32.vbs", 32)},
+      {"mri16", prepStore(mri, work / "mri16.vbs", 16)}};
+  auto context = render::createContext(render::Backend::Auto);
+  std::cout << context->describe() << "\n";
+  int failures = 0, frames = 0;
+  // One renderer per (store, budget, format), kept across cases as a server keeps them, so residency is exercised.
+  std::map<std::string, std::unique_ptr<render::VolumeRenderer>> renderers;
+  for (const Case& c : cases()) {
+    const std::string key = c.store + "/" + std::to_string(c.gpuBudgetMB) + "/" + std::to_string(int(c.format));
+    auto& renderer = renderers[key];
+    if (!renderer)
+      renderer = std::make_unique<render::VolumeRenderer>(
+          *context, std::make_shared<store::BrickCache>(stores.at(c.store), size_t(256) << 20, 1),
+          c.gpuBudgetMB << 20, c.format);
+    render::FrameStats stats;
+    const render::ImageF image = renderer->render(render::Scene::fromJson(c.sceneJson, c.name), &stats, c.mode);
+    std::string bytes(reinterpret_cast<const char*>(image.rgba.data()), image.rgba.size() * sizeof(float));
+    const std::string statsLine = std::to_string(stats.fragments) + " " + std::to_string(stats.slices) + " " +
+                                  std::to_string(stats.bricksDrawn) + " " + std::to_string(stats.boxesDrawn) + " " +
+                                  std::to_string(stats.bricksPagedIn) + " " + std::to_string(stats.batches);
+    const fs::path file = golden / (c.name + ".f32"), statsFile = golden / (c.name + ".stats");
+    ++frames;
+    if (write) {
+      std::ofstream(file, std::ios::binary) << bytes;
+      std::ofstream(statsFile) << statsLine;
+      continue;
+    }
+    std::ifstream in(file, std::ios::binary), inStats(statsFile);
+    const std::string expected((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::string expectedStats;
+    std::getline(inStats, expectedStats);
+    if (expected != bytes || expectedStats != statsLine) {
+      ++failures;
+      std::cout << "DIFFERS: " << c.name << (expected != bytes ? " (pixels)" : "") << " stats '" << statsLine
+                << "' expected '" << expectedStats << "'\n";
+    }
+  }
+  std::cout << frames << " frames, " << failures << " differ\n";
+  return failures == 0 ? 0 : 1;
+}
