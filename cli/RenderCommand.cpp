@@ -56,7 +56,7 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
   render::FrameStats stats;
   const render::ImageF image = renderer.render(scene, &stats);
   render::writePng(a.output, render::toImage8(image));
-  if (!a.statsPath.empty()) writeText(a.statsPath, stats.toJson() + "\n");
+  if (!a.statsPath.empty()) writeText(a.statsPath, stats.toJson().dump(2) + "\n");
   std::printf("render: wrote %s (%dx%d): %lld bricks drawn, %lld skipped empty, %lld culled, %lld paged in, "
               "%lld evicted, %lld batches, %.1f ms (paging %.1f, slicing %.1f, drawing %.1f, readback %.1f)\n",
               a.output.c_str(), scene.width, scene.height, (long long)stats.bricksDrawn,

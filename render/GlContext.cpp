@@ -5,22 +5,6 @@
 
 namespace voxbrick::render {
 
-const char* backendName(Backend backend) {
-  switch (backend) {
-    case Backend::Auto: return "auto";
-    case Backend::Egl: return "egl";
-    case Backend::OsMesa: return "osmesa";
-  }
-  return "unknown";
-}
-
-Backend parseBackend(const std::string& text) {
-  if (text == "auto") return Backend::Auto;
-  if (text == "egl") return Backend::Egl;
-  if (text == "osmesa") return Backend::OsMesa;
-  throw RenderInputError("parseBackend: unknown GL backend \"" + text + "\" (expected auto, egl or osmesa)");
-}
-
 void GlContext::initialise(GlProcLoader loader, const char* loaderName, std::string path) {
   mPath = std::move(path);
   // With libglvnd every "gl*" name resolves to a dispatch stub, so an entry point the driver lacks is not caught by

@@ -7,18 +7,10 @@
 #include <memory>
 #include <string>
 
+#include "render/Backend.h"
 #include "render/GlFunctions.h"
 
 namespace voxbrick::render {
-
-/// Which library creates the context. Auto tries EGL first (a GPU when there is one), then OSMesa.
-enum class Backend { Auto, Egl, OsMesa };
-
-/// "auto", "egl" or "osmesa".
-const char* backendName(Backend backend);
-
-/// Parses "auto", "egl" or "osmesa"; throws RenderInputError on anything else.
-Backend parseBackend(const std::string& text);
 
 /// Implementation limits, queried once when the context is created (never per frame).
 struct GlLimits {

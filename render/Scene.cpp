@@ -56,6 +56,15 @@ Camera CameraSpec::resolve(const Box& box) const {
 }
 
 Scene Scene::fromJson(const std::string& text, const std::string& what, bool allowPaths) {
+  return parse(text, what, allowPaths, nullptr);
+}
+
+Scene Scene::fromJson(const std::string& text, const std::string& what, const TransferFunctionPresets& presets) {
+  return parse(text, what, false, &presets);
+}
+
+Scene Scene::parse(const std::string& text, const std::string& what, bool allowPaths,
+                   const TransferFunctionPresets* presets) {
   json j;
   try {
     j = json::parse(text);
@@ -105,7 +114,8 @@ Scene Scene::fromJson(const std::string& text, const std::string& what, bool all
       if (!allowPaths && !TransferFunction::isPresetName(s.transferFunctionName))
         throw RenderInputError(what + ": 'transfer_function' must be a preset name (letters, digits, '-', '_') or "
                                "an inline object; paths are not accepted here");
-      s.transferFunction = TransferFunction::load(s.transferFunctionName);
+      s.transferFunction = presets ? presets->get(s.transferFunctionName)
+                                   : TransferFunction::load(s.transferFunctionName);
     } else if (t.is_object()) {
       s.transferFunctionName = "inline";
       s.transferFunction = TransferFunction::parse(t.dump(), what + ": transfer_function");

@@ -58,10 +58,17 @@ struct Scene {
   /// window [lo, hi], skip_empty, cull, slicer ("vertex" | "cpu"), shading, sub_block.
   /// `allowPaths` false (the server) accepts transfer functions by preset name or inline only, never a file path.
   static Scene fromJson(const std::string& text, const std::string& what, bool allowPaths = true);
+  /// The same, resolving preset names from `presets` (no file is read) and accepting no paths: what a server does
+  /// on its I/O threads.
+  static Scene fromJson(const std::string& text, const std::string& what, const TransferFunctionPresets& presets);
   /// Throws RenderInputError for values out of range (size, step, background, window).
   void validate() const;
   /// The scene as JSON (the transfer function inline), so a frame can be reproduced.
   std::string toJson() const;
+
+ private:
+  static Scene parse(const std::string& text, const std::string& what, bool allowPaths,
+                     const TransferFunctionPresets* presets);
 };
 
 }  // namespace voxbrick::render

@@ -52,18 +52,6 @@ struct VolumeRenderer::Batch {
   }
 };
 
-std::string FrameStats::toJson() const {
-  nlohmann::json j = {{"nodes_visited", nodesVisited},   {"bricks_skipped_empty", bricksSkippedEmpty},
-                      {"bricks_culled", bricksCulled},   {"bricks_drawn", bricksDrawn},
-                      {"bricks_paged_in", bricksPagedIn}, {"bricks_evicted", bricksEvicted},
-                      {"batches", batches},               {"slices", slices},
-                      {"fragments", fragments},           {"sub_blocks_skipped", subBlocksSkipped},
-                      {"boxes_drawn", boxesDrawn},
-                      {"ms", {{"traversal", msTraversal}, {"paging", msPaging}, {"slicing", msSlicing},
-                              {"drawing", msDrawing}, {"readback", msReadback}, {"total", msTotal}}}};
-  return j.dump(2);
-}
-
 VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes,
                                AtlasFormat format)
     : mGl(context.gl()),

@@ -516,7 +516,7 @@ void Server::Impl::renderLoop(std::unique_ptr<render::GlContext> context, int in
       frame.height = uint32_t(image.height);
       frame.encoding = job.encoding;
       frame.payload = encodeFrameImage(render::toImage8(image), job.encoding);
-      json statsJson = json::parse(stats.toJson());
+      json statsJson = stats.toJson();
       statsJson["queue_ms"] = msBetween(job.received, start);
       statsJson["encode_ms"] = msBetween(encodeStart, Clock::now());
       statsJson["render_thread"] = index;

@@ -1,0 +1,33 @@
+// Dataset kinds and opening by path.
+#include "render/Dataset.h"
+
+#include <stdexcept>
+
+namespace voxbrick::render {
+
+const char* datasetKindName(DatasetKind kind) {
+  switch (kind) {
+    case DatasetKind::BrickStore: return "brick-store";
+  }
+  return "unknown";
+}
+
+BrickStoreDataset::BrickStoreDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes,
+                                     int decodeThreads)
+    : Dataset(std::move(name), path),
+      mStore(store::BrickStore::open(path)),
+      mCache(std::make_shared<store::BrickCache>(mStore, cacheBytes, decodeThreads)) {}
+
+std::string BrickStoreDataset::infoJson() const { return mStore->meta().toJson(); }
+
+bool isDataset(const std::filesystem::path& path) {
+  std::error_code ec;
+  return std::filesystem::is_regular_file(path / "store.json", ec);
+}
+
+std::shared_ptr<const Dataset> openDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes) {
+  if (!isDataset(path)) throw std::runtime_error("openDataset: '" + path.string() + "' is not a dataset (no store.json)");
+  return std::make_shared<BrickStoreDataset>(std::move(name), path, cacheBytes);
+}
+
+}  // namespace voxbrick::render

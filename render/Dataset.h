@@ -1,0 +1,71 @@
+// What the server opens and a renderer draws: a dataset. Today one kind, a prepped brick store with its host cache;
+// an OpenVDB file read live and a tetrahedral mesh are the next kinds, each with its own renderer behind
+// RenderEngine. GL-free.
+#pragma once
+
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "brickstore/BrickCache.h"
+#include "brickstore/BrickStore.h"
+
+namespace voxbrick::render {
+
+/// The kinds of dataset; RenderEngine picks the renderer by kind.
+enum class DatasetKind { BrickStore };
+
+/// "brick-store".
+const char* datasetKindName(DatasetKind kind);
+
+/// An opened dataset, shared (read-only) by every session and render thread.
+class Dataset {
+ public:
+  virtual ~Dataset() = default;
+  Dataset(const Dataset&) = delete;
+  Dataset& operator=(const Dataset&) = delete;
+
+  virtual DatasetKind kind() const = 0;
+  /// Its name (in the server: the directory name under the datasets directory).
+  const std::string& name() const { return mName; }
+  const std::filesystem::path& path() const { return mPath; }
+  /// The metadata a client is given when it opens the dataset (JSON text).
+  virtual std::string infoJson() const = 0;
+  /// The host cache's counters, for statistics.
+  virtual store::CacheStats cacheStats() const = 0;
+
+ protected:
+  Dataset(std::string name, std::filesystem::path path) : mName(std::move(name)), mPath(std::move(path)) {}
+
+ private:
+  std::string mName;
+  std::filesystem::path mPath;
+};
+
+/// A prepped brick store (`voxbrick prep`) and its bounded host cache.
+class BrickStoreDataset final : public Dataset {
+ public:
+  /// Opens the store at `path` with a host cache of `cacheBytes` and `decodeThreads` prefetch workers; throws the
+  /// store's errors (CorruptStoreError, IoError) naming the problem.
+  BrickStoreDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes, int decodeThreads = 2);
+
+  DatasetKind kind() const override { return DatasetKind::BrickStore; }
+  std::string infoJson() const override;
+  store::CacheStats cacheStats() const override { return mCache->stats(); }
+
+  const std::shared_ptr<const store::BrickStore>& store() const { return mStore; }
+  const std::shared_ptr<store::BrickCache>& cache() const { return mCache; }
+
+ private:
+  std::shared_ptr<const store::BrickStore> mStore;
+  std::shared_ptr<store::BrickCache> mCache;
+};
+
+/// Whether `path` holds a dataset of a kind this build can open (a directory with a store.json).
+bool isDataset(const std::filesystem::path& path);
+
+/// Opens the dataset at `path` under `name`; throws std::runtime_error naming the path when it is no dataset, and
+/// the kind's own errors when it cannot be opened.
+std::shared_ptr<const Dataset> openDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes);
+
+}  // namespace voxbrick::render

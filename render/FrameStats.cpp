@@ -1,0 +1,17 @@
+// FrameStats as JSON.
+#include "render/FrameStats.h"
+
+namespace voxbrick::render {
+
+nlohmann::json FrameStats::toJson() const {
+  return {{"nodes_visited", nodesVisited},   {"bricks_skipped_empty", bricksSkippedEmpty},
+          {"bricks_culled", bricksCulled},   {"bricks_drawn", bricksDrawn},
+          {"bricks_paged_in", bricksPagedIn}, {"bricks_evicted", bricksEvicted},
+          {"batches", batches},               {"slices", slices},
+          {"fragments", fragments},           {"sub_blocks_skipped", subBlocksSkipped},
+          {"boxes_drawn", boxesDrawn},
+          {"ms", {{"traversal", msTraversal}, {"paging", msPaging}, {"slicing", msSlicing},
+                  {"drawing", msDrawing}, {"readback", msReadback}, {"total", msTotal}}}};
+}
+
+}  // namespace voxbrick::render

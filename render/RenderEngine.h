@@ -1,0 +1,42 @@
+// What a render thread holds: its own GL context and, per dataset it has drawn, the renderer of that dataset's kind.
+// This header is the renderer's whole interface for the server: it shows no GL.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "render/Backend.h"
+#include "render/Dataset.h"
+#include "render/FrameStats.h"
+#include "render/Image.h"
+#include "render/Scene.h"
+
+namespace voxbrick::render {
+
+class RenderEngine {
+ public:
+  /// Makes a GL context with `backend` (see createContext) and leaves it current on the calling thread; renderers
+  /// it makes later get atlases of `gpuBudgetBytes` each. Throws RenderError listing what was tried.
+  RenderEngine(Backend backend, size_t gpuBudgetBytes);
+  ~RenderEngine();
+  RenderEngine(const RenderEngine&) = delete;
+  RenderEngine& operator=(const RenderEngine&) = delete;
+
+  /// Binds the context to the calling thread; one thread at a time.
+  void makeCurrent();
+  /// Unbinds it, so that another thread may take the engine.
+  void releaseCurrent();
+  /// How the context was made and what runs it.
+  std::string describe() const;
+
+  /// One frame of `dataset` (the context must be current): the renderer for the dataset's kind, made on first use
+  /// and kept while the dataset lives. Throws RenderInputError for a scene the dataset cannot be drawn with and
+  /// RenderError for GL failures.
+  ImageF render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats = nullptr);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> mImpl;
+};
+
+}  // namespace voxbrick::render
