@@ -1,4 +1,4 @@
-// The one copy of the slicer's lookup tables and vertex layout, shared by slice.vert.glsl (as uniforms) and the CPU
+// The one copy of the slicer's lookup tables and vertex layouts, shared by slice.vert.glsl (as uniforms) and the CPU
 // mirror in Slicing.cpp.
 //
 // Box corners are numbered by bits: corner c sits at (c & 1 ? max.x : min.x, c & 2 ? max.y : min.y,
@@ -107,6 +107,26 @@ static_assert(offsetof(SliceInstance, boxMax) == 12 && offsetof(SliceInstance, p
                   offsetof(SliceInstance, payload) == 28 && offsetof(SliceInstance, firstPlane) == 44 &&
                   offsetof(SliceInstance, ownLo) == 48 && offsetof(SliceInstance, ownHi) == 60,
               "SliceInstance offsets changed");
+
+/// One vertex of the CPU slicer's draw (slice_cpu.vert.glsl): a corner of a polygon computed by rezkSalamaPolygon,
+/// with its box's payload, the global index of its plane and the voxels the box owns (what slice.vert.glsl would
+/// output for it). Drawn as GL_TRIANGLES through kSliceFan, no instancing. The locations are those of SliceInstance
+/// for the same data.
+struct SliceVertex {
+  float world[3];       ///< location 0, 3 x GL_FLOAT
+  int32_t payload[4];   ///< location 3, 4 x GL_INT
+  int32_t plane;        ///< location 4, 1 x GL_INT: global index of the vertex's plane
+  int32_t ownLo[3];     ///< location 5, 3 x GL_INT
+  int32_t ownHi[3];     ///< location 6, 3 x GL_INT
+};
+inline constexpr int kSliceVertexWorldLocation = 0;
+inline constexpr int kSliceVertexPayloadLocation = 3;
+inline constexpr int kSliceVertexPlaneLocation = 4;
+inline constexpr int kSliceVertexOwnLoLocation = 5;
+inline constexpr int kSliceVertexOwnHiLocation = 6;
+static_assert(sizeof(SliceVertex) == 56 && offsetof(SliceVertex, payload) == 12 && offsetof(SliceVertex, plane) == 28 &&
+                  offsetof(SliceVertex, ownLo) == 32 && offsetof(SliceVertex, ownHi) == 44,
+              "SliceVertex offsets changed");
 
 namespace detail {
 

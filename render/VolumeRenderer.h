@@ -1,18 +1,20 @@
-// Renders one frame of a brick store: octree traversal, paging into the atlas, slicing, classification and
-// front-to-back compositing in float, then the background.
+// Renders one frame of a brick store, as stages with one job each: the frame plan (FramePlan), residency in the
+// atlas (Residency), slice geometry (SliceGeometry), the drawing pass (SlicingPass) with its program
+// (VolumePrograms), and compositing with readback (Compositor).
 #pragma once
 
 #include <memory>
-#include <string>
 
 #include "brickstore/BrickCache.h"
 #include "render/BrickAtlas.h"
+#include "render/Compositor.h"
 #include "render/FrameRenderer.h"
 #include "render/GlContext.h"
 #include "render/GlObjects.h"
-#include "render/Image.h"
-#include "render/Scene.h"
-#include "render/SubBlocks.h"
+#include "render/Residency.h"
+#include "render/SliceGeometry.h"
+#include "render/SlicingPass.h"
+#include "render/VolumePrograms.h"
 
 namespace voxbrick::render {
 
@@ -22,29 +24,26 @@ class VolumeRenderer final : public FrameRenderer {
   /// `context` must be current on this thread whenever the renderer is used. `gpuBudgetBytes` bounds the atlas.
   VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes,
                  AtlasFormat format = AtlasFormat::Float);
-  ~VolumeRenderer();
+  ~VolumeRenderer() override;
 
   /// Renders `scene`; throws RenderInputError for an invalid scene and RenderError for GL failures.
   ImageF render(const Scene& scene, FrameStats* stats = nullptr, RenderMode mode = RenderMode::Normal) override;
 
-  const BrickAtlas& atlas() const { return mAtlas; }
+  const BrickAtlas& atlas() const { return mResidency.atlas(); }
+
+  /// Texels of the GPU's transfer-function table.
+  static constexpr int kTransferTableTexels = 4096;
 
  private:
-  struct Batch;
-  void drawBatch(Batch& batch, const Program& program, Slicer slicer, FrameStats& stats);
-  const Program& program(Slicer slicer, bool shading, bool roofline, bool exactOwnership);
+  SliceGeometry& geometry(Slicer slicer);
 
   const Gl& mGl;
-  std::shared_ptr<store::BrickCache> mCache;
-  BrickAtlas mAtlas;
+  Residency mResidency;
   Texture mTransfer;
-  Buffer mInstances;
-  Buffer mVertices;
-  VertexArray mVertexArray;
-  Framebuffer mTarget;
-  Query mFragments;
-  std::vector<SubBlockRanges> mSlotRanges;  // per atlas slot: sub-block ranges of the brick it holds
-  Program mPrograms[2][3][2];  // [slicer][plain, shading, roofline][exact ownership], built on first use
+  VolumePrograms mPrograms;
+  std::unique_ptr<SliceGeometry> mGeometry[2];  // by Slicer, made on first use
+  SlicingPass mSlicing;
+  Compositor mCompositor;
 };
 
 }  // namespace voxbrick::render

@@ -1,0 +1,77 @@
+// Planning a frame: everything about it that needs no GL.
+#include "render/FramePlan.h"
+
+#include <algorithm>
+
+namespace voxbrick::render {
+namespace {
+
+ValueWindow valueWindow(const Scene& scene, const store::StoreMeta& meta) {
+  ValueWindow w;
+  w.lo = scene.window ? (*scene.window)[0] : meta.valueMin;
+  w.hi = scene.window ? (*scene.window)[1] : meta.valueMax;
+  if (!(w.hi > w.lo)) w.hi = w.lo + 1;  // a constant volume: everything maps to 0
+  w.inverseWidth = 1.0 / (w.hi - w.lo);
+  return w;
+}
+
+PixelRays pixelRays(const glm::dmat4& viewProj, int width, int height) {
+  const glm::dmat4 inverseViewProj = glm::inverse(viewProj);
+  auto unproject = [&](double wx, double wy, double depth) {
+    const glm::dvec4 h = inverseViewProj * glm::dvec4(2 * wx / width - 1, 2 * wy / height - 1, depth, 1);
+    return glm::dvec3(h) / h.w;
+  };
+  const glm::dvec3 near0 = unproject(0, 0, -1), far0 = unproject(0, 0, 1);
+  const glm::dvec3 nearX = unproject(1, 0, -1), nearY = unproject(0, 1, -1);
+  PixelRays r;
+  r.origin = near0;
+  r.originDx = nearX - near0;
+  r.originDy = nearY - near0;
+  r.direction = far0 - near0;
+  r.directionDx = (unproject(1, 0, 1) - nearX) - (far0 - near0);
+  r.directionDy = (unproject(0, 1, 1) - nearY) - (far0 - near0);
+  return r;
+}
+
+}  // namespace
+
+Box FramePlan::drawBox(const Box& b, const store::Vec3d& spacing) const {
+  const double interiorMargin = subBlock ? kInteriorMargin : 0.0;
+  Box out = b;
+  for (int a = 0; a < 3; ++a) {
+    out.min[a] -= (out.min[a] <= volume.min[a] ? kSurfaceMargin : interiorMargin) * spacing[a];
+    out.max[a] += (out.max[a] >= volume.max[a] ? kSurfaceMargin : interiorMargin) * spacing[a];
+  }
+  return out;
+}
+
+FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int transferTableTexels) {
+  scene.validate();
+  const store::StoreMeta& meta = store.meta();
+  const int B = store.brickSize();
+  FramePlan plan;
+  plan.volume = volumeBox(meta.dims, meta.spacing);
+  plan.camera = scene.camera.resolve(plan.volume);
+  plan.camera.clipRange(plan.volume, plan.nearPlane, plan.farPlane);
+  plan.viewProj = plan.camera.projection(double(scene.width) / double(scene.height), plan.nearPlane, plan.farPlane) *
+                  plan.camera.view();
+  const Frustum frustum = Frustum::fromMatrix(plan.viewProj);
+
+  plan.window = valueWindow(scene, meta);
+  const double texel = 1.0 / transferTableTexels;
+  plan.contributes = [tf = scene.transferFunction, w = plan.window, texel](float mn, float mx) {
+    return tf.contributes((mn - w.lo) * w.inverseWidth - texel, (mx - w.lo) * w.inverseWidth + texel);
+  };
+  const OctreeTraversal traversal(store.octree(), meta.dims, B, meta.spacing);
+  plan.visible = traversal.run(plan.camera, frustum, plan.contributes, {scene.skipEmpty, scene.cullFrustum});
+
+  plan.planeNormal = plan.camera.viewDirection();
+  const double minSpacing = std::min({meta.spacing.x, meta.spacing.y, meta.spacing.z});
+  plan.step = scene.step * minSpacing;
+  plan.referenceLength = scene.transferFunction.referenceLength().value_or(minSpacing);
+  plan.subBlock = scene.subBlock > 0 && scene.subBlock < B ? scene.subBlock : 0;
+  plan.rays = pixelRays(plan.viewProj, scene.width, scene.height);
+  return plan;
+}
+
+}  // namespace voxbrick::render

@@ -1,0 +1,61 @@
+// The first stage of a frame, without GL: camera and clip range, value window and the transfer function's range
+// test, the bricks to draw in visibility order, slice-plane spacing and normal, the margins boxes are drawn with,
+// and the pixel rays of exact ownership. Later stages (residency, geometry, drawing passes) only read it.
+#pragma once
+
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "brickstore/BrickStore.h"
+#include "render/Camera.h"
+#include "render/Scene.h"
+#include "render/Slicing.h"
+#include "render/Traversal.h"
+
+namespace voxbrick::render {
+
+/// The value window [lo, hi] that maps raw values to [0, 1].
+struct ValueWindow {
+  double lo = 0, hi = 1;
+  double inverseWidth = 1;  ///< 1 / (hi - lo)
+};
+
+/// The ray through window position (x, y), from the near plane (clip depth -1) to the far plane (+1): both points
+/// are affine in window coordinates, since the inverse projection's w does not depend on x and y.
+struct PixelRays {
+  glm::dvec3 origin, originDx, originDy;
+  glm::dvec3 direction, directionDx, directionDy;
+};
+
+struct FramePlan {
+  Box volume;                 ///< the volume's world box
+  Camera camera;
+  double nearPlane = 0, farPlane = 0;
+  glm::dmat4 viewProj{1.0};   ///< world to clip
+  ValueWindow window;
+  /// Whether raw range [min, max] gets any opacity from the GPU's transfer table (the exact test, widened by one
+  /// table texel: a filtered lookup within one texel of an opaque region picks up some of its opacity).
+  RangePredicate contributes;
+  TraversalResult visible;    ///< bricks to draw, front to back, and what the traversal skipped
+  glm::dvec3 planeNormal{0, 0, 1};  ///< unit, from the eye into the scene
+  double step = 1;            ///< world distance between global slice planes
+  double referenceLength = 1; ///< the length transfer-function opacities are given for
+  int subBlock = 0;           ///< sub-block edge in voxels; 0 draws whole bricks
+  PixelRays rays;
+
+  /// The box to draw for voxel box `b`: larger than the voxels it owns, so that the fragment stage's ownership test
+  /// decides coverage. At the volume's surface by kSurfaceMargin voxels (whole bricks and sub-blocks alike); between
+  /// sub-block boxes by kInteriorMargin (exact ownership); between whole bricks not at all.
+  Box drawBox(const Box& b, const store::Vec3d& spacing) const;
+
+  /// How far past its voxels a box is drawn, in voxels (far above the rasterised edges' round-off).
+  static constexpr double kSurfaceMargin = 0.25;
+  static constexpr double kInteriorMargin = 1.0 / 64;
+};
+
+/// Plans a frame of `scene` over `store`. `transferTableTexels` is the size of the GPU's transfer-function table
+/// (the range test is widened by one of its texels). Throws RenderInputError for an invalid scene.
+FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int transferTableTexels);
+
+}  // namespace voxbrick::render

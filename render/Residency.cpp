@@ -1,0 +1,62 @@
+// Paging bricks into the atlas, with prefetch and sub-block ranges.
+#include "render/Residency.h"
+
+#include <algorithm>
+#include <span>
+
+namespace voxbrick::render {
+namespace {
+
+constexpr size_t kPrefetchWindow = 256;  // bricks decoded ahead of the one being paged
+
+}  // namespace
+
+Residency::Residency(const GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes,
+                     AtlasFormat format)
+    : mCache(std::move(cache)),
+      mAtlas(context, mCache->store()->type(), mCache->store()->brickEdge(), gpuBudgetBytes,
+             int(std::min<int64_t>(mCache->store()->level(0).bricksTotal(), 1 << 20)), format) {
+  mSlotRanges.resize(size_t(mAtlas.slots().capacity()));
+}
+
+void Residency::beginFrame(const std::vector<BrickDraw>& bricks) {
+  // Decoding runs ahead on the cache's workers, in the order the bricks will be drawn, a window at a time: the
+  // cache's queue drops its oldest requests when full, and those would be the ones needed first.
+  mToPage.clear();
+  for (const BrickDraw& d : bricks)
+    if (!mAtlas.slots().resident(d.key)) mToPage.push_back(d.key);
+  mPrefetched = mPaged = 0;
+  prefetchUpTo(kPrefetchWindow);
+}
+
+void Residency::prefetchUpTo(size_t end) {
+  end = std::min(end, mToPage.size());
+  if (end > mPrefetched)
+    mCache->prefetch(std::span<const store::BrickKey>(mToPage).subspan(mPrefetched, end - mPrefetched));
+  mPrefetched = std::max(mPrefetched, end);
+}
+
+std::optional<Residency::Resident> Residency::acquire(const store::BrickKey& key, int subBlock, FrameStats& stats) {
+  const auto acquired = mAtlas.slots().acquire(key);
+  if (!acquired) return std::nullopt;
+  const store::BrickStore& s = *mCache->store();
+  const int B = s.brickSize();
+  const store::Vec3i& dims = s.meta().dims;
+  const store::Vec3i lo{int64_t(key.i) * B, int64_t(key.j) * B, int64_t(key.k) * B};
+  const store::Vec3i owned{std::min<int64_t>(lo.x + B, dims.x) - lo.x, std::min<int64_t>(lo.y + B, dims.y) - lo.y,
+                           std::min<int64_t>(lo.z + B, dims.z) - lo.z};
+  SubBlockRanges& ranges = mSlotRanges[size_t(acquired->slot.index)];
+  if (!acquired->resident) {
+    prefetchUpTo(++mPaged + kPrefetchWindow);
+    const store::BrickHandle brick = mCache->get(key);
+    mAtlas.upload(acquired->slot, *brick);
+    ranges = subBlock ? SubBlockRanges(*brick, B, subBlock, owned) : SubBlockRanges();
+    stats.bricksPagedIn += 1;
+    stats.bricksEvicted += acquired->evicted ? 1 : 0;
+  } else if (subBlock && ranges.subBlock() != subBlock) {
+    ranges = SubBlockRanges(*mCache->get(key), B, subBlock, owned);
+  }
+  return Resident{acquired->slot, mAtlas.slotOrigin(acquired->slot), &ranges};
+}
+
+}  // namespace voxbrick::render

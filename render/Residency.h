@@ -1,0 +1,51 @@
+// The residency stage: which bricks are in the GPU atlas, paging them in from the host cache in draw order (their
+// decodes handed to the cache's workers a window ahead), and the sub-block value ranges kept with each slot.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "brickstore/BrickCache.h"
+#include "render/BrickAtlas.h"
+#include "render/FrameStats.h"
+#include "render/SubBlocks.h"
+#include "render/Traversal.h"
+
+namespace voxbrick::render {
+
+class Residency {
+ public:
+  /// An atlas of `gpuBudgetBytes` in `format` for the bricks of `cache`'s store; the context must be current.
+  Residency(const GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes,
+            AtlasFormat format);
+
+  /// Starts a frame that will acquire `bricks` in this order: decoding of the ones not resident starts now.
+  void beginFrame(const std::vector<BrickDraw>& bricks);
+
+  /// A brick in the atlas, pinned until endBatch().
+  struct Resident {
+    AtlasSlot slot;
+    glm::ivec3 origin;             ///< texel of the slot's first (border) sample
+    const SubBlockRanges* ranges;  ///< the brick's sub-block ranges at the frame's sub-block size (empty if 0)
+  };
+  /// The brick `key` in the atlas, paged in if it was not, with its sub-block ranges for `subBlock` (0: none);
+  /// nothing when every slot is pinned by the current batch (draw it, endBatch(), and ask again).
+  std::optional<Resident> acquire(const store::BrickKey& key, int subBlock, FrameStats& stats);
+  /// Ends a batch: its slots may be replaced again.
+  void endBatch() { mAtlas.slots().unpinAll(); }
+
+  const BrickAtlas& atlas() const { return mAtlas; }
+  const store::BrickStore& store() const { return *mCache->store(); }
+
+ private:
+  void prefetchUpTo(size_t end);
+
+  std::shared_ptr<store::BrickCache> mCache;
+  BrickAtlas mAtlas;
+  std::vector<SubBlockRanges> mSlotRanges;  // per atlas slot: sub-block ranges of the brick it holds
+  std::vector<store::BrickKey> mToPage;     // this frame's bricks that were not resident, in draw order
+  size_t mPrefetched = 0, mPaged = 0;
+};
+
+}  // namespace voxbrick::render

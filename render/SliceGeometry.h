@@ -1,0 +1,68 @@
+// The geometry stage: boxes and runs of global planes in, slice polygons on the GPU out, behind one interface with
+// one implementation per slicer (the vertex program of Rezk-Salama & Kolb, or its CPU mirror). Each owns its vertex
+// array, whose layout is set once, next to the struct it describes (render/SliceTables.h).
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "render/FramePlan.h"
+#include "render/GlObjects.h"
+#include "render/SliceTables.h"
+#include "render/Slicing.h"
+
+namespace voxbrick::render {
+
+class SliceGeometry {
+ public:
+  virtual ~SliceGeometry() = default;
+  /// The global plane indices to submit for drawn box `box` under `plan`.
+  virtual PlaneIndexRange planes(const Box& box, const FramePlan& plan) const = 0;
+  /// Queues the polygons of `planes` through `box`; `payload` and the owned voxels [ownLo, ownHi) go to the fragment
+  /// stage unchanged.
+  virtual void add(const Box& box, const PlaneIndexRange& planes, const glm::ivec4& payload, const glm::ivec3& ownLo,
+                   const glm::ivec3& ownHi, const FramePlan& plan) = 0;
+  /// True when nothing is queued.
+  virtual bool empty() const = 0;
+  /// Draws what is queued with the program in use, then empties the queue.
+  virtual void draw() = 0;
+};
+
+/// The slicer in the vertex program: one instance per box, 12 vertices per plane (slice.vert.glsl). The vertex
+/// program decides plane membership in float, so it is given one extra plane each side (slicerPlaneRange).
+class VertexSliceGeometry final : public SliceGeometry {
+ public:
+  explicit VertexSliceGeometry(const Gl& gl);
+  PlaneIndexRange planes(const Box& box, const FramePlan& plan) const override;
+  void add(const Box& box, const PlaneIndexRange& planes, const glm::ivec4& payload, const glm::ivec3& ownLo,
+           const glm::ivec3& ownHi, const FramePlan& plan) override;
+  bool empty() const override { return mInstances.empty(); }
+  void draw() override;
+
+ private:
+  const Gl& mGl;
+  Buffer mBuffer;
+  VertexArray mLayout;
+  std::vector<SliceInstance> mInstances;
+  int64_t mMaxPlanes = 0;
+};
+
+/// The CPU mirror: polygons from rezkSalamaPolygon over the exact plane range, drawn as triangles
+/// (slice_cpu.vert.glsl).
+class CpuSliceGeometry final : public SliceGeometry {
+ public:
+  explicit CpuSliceGeometry(const Gl& gl);
+  PlaneIndexRange planes(const Box& box, const FramePlan& plan) const override;
+  void add(const Box& box, const PlaneIndexRange& planes, const glm::ivec4& payload, const glm::ivec3& ownLo,
+           const glm::ivec3& ownHi, const FramePlan& plan) override;
+  bool empty() const override { return mVertices.empty(); }
+  void draw() override;
+
+ private:
+  const Gl& mGl;
+  Buffer mBuffer;
+  VertexArray mLayout;
+  std::vector<SliceVertex> mVertices;
+};
+
+}  // namespace voxbrick::render

@@ -1,0 +1,59 @@
+// The programs of the slicing technique: one variant per small descriptor, each with its uniforms located once
+// when it is built, and the per-frame uniform values taken from the frame plan.
+#pragma once
+
+#include <map>
+
+#include "render/BrickAtlas.h"
+#include "render/FramePlan.h"
+#include "render/GlObjects.h"
+#include "render/Scene.h"
+
+namespace voxbrick::render {
+
+/// What the fragment stage computes.
+enum class FragmentModel {
+  Plain,     ///< the optical model
+  Shaded,    ///< with gradients and a Phong headlight (SHADING)
+  Roofline,  ///< one atlas fetch, no classification, no blending (ROOFLINE): the sampling roofline
+};
+
+/// Which program variant a frame needs. Each field is one #define of volume.frag.glsl or the choice of vertex stage.
+struct ProgramKey {
+  Slicer slicer = Slicer::Vertex;
+  FragmentModel model = FragmentModel::Plain;
+  bool exactOwnership = false;  ///< EXACT_OWNERSHIP: samples from the pixel ray, owned per box (sub-blocks)
+  auto operator<=>(const ProgramKey&) const = default;
+};
+
+/// A linked slicing program and the locations of its uniforms (-1 where a variant does not use one).
+class VolumeProgram {
+ public:
+  /// Compiles and links the variant `key`; for the vertex slicer uploads the slicer tables once.
+  VolumeProgram(const Gl& gl, const ProgramKey& key);
+
+  const Program& program() const { return mProgram; }
+  /// Sets every per-frame uniform from `plan`; the atlas is on texture unit 0, the transfer table on unit 1.
+  void setFrame(const FramePlan& plan, const BrickAtlas& atlas, const store::StoreMeta& meta) const;
+
+ private:
+  Program mProgram;
+  struct Locations {
+    GLint viewProj, planeNormal, planeIncr, atlas, transfer, invAtlasSize, invSpacing, dims, halfDims, windowLo,
+        windowScale, stepOverReference, eye, viewDir, orthographic, rayOrigin, rayOriginDx, rayOriginDy,
+        rayDirection, rayDirectionDx, rayDirectionDy;
+  } mAt;
+};
+
+/// The variants built so far on one context, built on first use.
+class VolumePrograms {
+ public:
+  explicit VolumePrograms(const Gl& gl) : mGl(gl) {}
+  const VolumeProgram& get(const ProgramKey& key);
+
+ private:
+  const Gl& mGl;
+  std::map<ProgramKey, VolumeProgram> mPrograms;
+};
+
+}  // namespace voxbrick::render
