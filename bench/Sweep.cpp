@@ -74,13 +74,13 @@ class ReferenceCache {
   }
 
   /// The frame of `scene` at `step`; `msRendered` gets the time if it had to be rendered, else stays.
-  render::ImageF get(const render::Scene& scene, double step, double* msRendered) {
+  image::ImageF get(const render::Scene& scene, double step, double* msRendered) {
     const std::string key = "voxbrick-reference 2\n" + mStore->meta().source + "\n" + scene.toJson() +
                             "\nstep " + stepText(step) + "\n";
     char name[64];
     std::snprintf(name, sizeof name, "%016zx.ref", std::hash<std::string>{}(key));
     const fs::path path = mDir / name;
-    render::ImageF image{scene.width, scene.height, std::vector<float>(size_t(scene.width) * size_t(scene.height) * 4)};
+    image::ImageF image{scene.width, scene.height, std::vector<float>(size_t(scene.width) * size_t(scene.height) * 4)};
     const size_t bytes = image.rgba.size() * sizeof(float);
     if (std::ifstream in{path, std::ios::binary}) {
       std::string header(key.size(), '\0');
@@ -159,7 +159,7 @@ SweepResult runSweep(const SweepSpec& spec, const fs::path& work, render::GlCont
 
     // Reference frames of every view of every variant, and the self-check of each default-TF variant.
     ReferenceCache references(work / "reference" / d.name, stores[32]);
-    std::vector<std::vector<render::ImageF>> truth;
+    std::vector<std::vector<image::ImageF>> truth;
     for (const Variant& variant : variants) {
       std::vector<double> ms;
       truth.emplace_back();
@@ -170,7 +170,7 @@ SweepResult runSweep(const SweepSpec& spec, const fs::path& work, render::GlCont
       }
       ReferenceReport report{d.name, variant, median(ms)};
       if (variant.transferFunction == defaultVariant(d).transferFunction) {
-        const render::ImageError e = render::compareImages(
+        const image::ImageError e = image::compareImages(
             truth.back()[0], references.get(viewScene(spec, variant, 0), spec.referenceStep / 2, nullptr));
         report.halvingPsnr = e.psnr;
         report.halvingMaxAbs = e.maxAbs;
@@ -202,10 +202,10 @@ SweepResult runSweep(const SweepSpec& spec, const fs::path& work, render::GlCont
       p.psnrMin = std::numeric_limits<double>::infinity();
       for (int v = 0; v < spec.views; ++v) {
         render::FrameStats stats;
-        const render::ImageF image = renderer.render(sceneOf(v), &stats);
+        const image::ImageF image = renderer.render(sceneOf(v), &stats);
         ms.push_back(stats.msTotal);
         samples.push_back(double(stats.fragments));
-        const render::ImageError e = render::compareImages(image, truth[variantIndex][size_t(v)]);
+        const image::ImageError e = image::compareImages(image, truth[variantIndex][size_t(v)]);
         p.psnrMin = std::min(p.psnrMin, e.psnr);
         p.maxAbs = std::max(p.maxAbs, e.maxAbs);
         sumSquares += e.rmse * e.rmse;

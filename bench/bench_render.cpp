@@ -159,19 +159,19 @@ int main(int argc, char** argv) {
       runs.push_back(std::move(run));
     }
     for (int v = 0; v < views; ++v) {
-      render::ImageF baseline;
+      image::ImageF baseline;
       for (size_t i = 0; i < configs.size(); ++i) {
         Run& run = runs[i];
         run.scene.camera.azimuth = 360.0 * v / views;
         render::FrameStats stats;
-        render::ImageF image = run.renderer->render(run.scene, &stats, configs[i].mode);
+        image::ImageF image = run.renderer->render(run.scene, &stats, configs[i].mode);
         run.ms.push_back(stats.msTotal);
         run.fragments.push_back(double(stats.fragments));
         run.drawn.push_back(double(stats.bricksDrawn));
         if (i == 0)
           baseline = std::move(image);
         else if (configs[i].mode == render::RenderMode::Normal)
-          run.maxAbs = std::max(run.maxAbs, render::compareImages(image, baseline).maxAbs);
+          run.maxAbs = std::max(run.maxAbs, image::compareImages(image, baseline).maxAbs);
       }
     }
     for (size_t i = 0; i < configs.size(); ++i) {

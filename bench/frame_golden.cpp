@@ -129,7 +129,7 @@ int main(int argc, char** argv) {
           *context, std::make_shared<store::BrickCache>(stores.at(c.store), size_t(256) << 20, 1),
           c.gpuBudgetMB << 20, c.format);
     render::FrameStats stats;
-    const render::ImageF image = renderer->render(render::Scene::fromJson(c.sceneJson, c.name), &stats, c.mode);
+    const image::ImageF image = renderer->render(render::Scene::fromJson(c.sceneJson, c.name), &stats, c.mode);
     std::string bytes(reinterpret_cast<const char*>(image.rgba.data()), image.rgba.size() * sizeof(float));
     const std::string statsLine = std::to_string(stats.fragments) + " " + std::to_string(stats.slices) + " " +
                                   std::to_string(stats.bricksDrawn) + " " + std::to_string(stats.boxesDrawn) + " " +

@@ -5,7 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/Commands.h"
-#include "render/Image.h"
+#include "image/Image.h"
 #include "render/RenderErrors.h"
 
 namespace voxbrick::cli {
@@ -18,12 +18,12 @@ struct CompareArgs {
 };
 
 void runCompare(const CompareArgs& args) {
-  const render::ImageF a = render::toImageF(render::readPng(args.a));
-  const render::ImageF b = render::toImageF(render::readPng(args.b));
-  const render::ImageError e = render::compareImages(a, b);
+  const image::ImageF a = image::toImageF(image::readPng(args.a));
+  const image::ImageF b = image::toImageF(image::readPng(args.b));
+  const image::ImageError e = image::compareImages(a, b);
   // By default the heat map spans the largest difference, so that any difference is visible.
   const double scale = args.heatmapScale > 0 ? args.heatmapScale : (e.maxAbs > 0 ? e.maxAbs : 1.0);
-  if (!args.heatmap.empty()) render::writePng(args.heatmap, render::toImage8(render::differenceHeatmap(a, b, scale)));
+  if (!args.heatmap.empty()) image::writePng(args.heatmap, image::toImage8(image::differenceHeatmap(a, b, scale)));
   if (args.json) {
     nlohmann::json j = {{"a", args.a},       {"b", args.b},         {"width", a.width}, {"height", a.height},
                         {"rmse", e.rmse},    {"max_abs", e.maxAbs}, {"identical", e.maxAbs == 0}};

@@ -33,8 +33,8 @@ void runReference(const RenderArgs& a, const render::Scene& scene, std::shared_p
   if (!a.analytic.empty()) options.analytic = render::analyticFieldFor(cache->store()->meta(), a.analytic);
   render::ReferenceRenderer renderer(std::move(cache));
   render::ReferenceStats stats;
-  const render::ImageF image = renderer.render(scene, options, &stats);
-  render::writePng(a.output, render::toImage8(image));
+  const image::ImageF image = renderer.render(scene, options, &stats);
+  image::writePng(a.output, image::toImage8(image));
   if (!a.statsPath.empty())
     writeText(a.statsPath, nlohmann::json{{"rays", stats.rays}, {"samples", stats.samples},
                                           {"bricks_skipped", stats.bricksSkipped}, {"ms", stats.ms}}.dump(2) + "\n");
@@ -54,8 +54,8 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
   render::VolumeRenderer renderer(*context, cache, size_t(a.gpuBudgetMB) << 20,
                                   render::parseAtlasFormat(a.atlasFormat));
   render::FrameStats stats;
-  const render::ImageF image = renderer.render(scene, &stats);
-  render::writePng(a.output, render::toImage8(image));
+  const image::ImageF image = renderer.render(scene, &stats);
+  image::writePng(a.output, image::toImage8(image));
   if (!a.statsPath.empty()) writeText(a.statsPath, stats.toJson().dump(2) + "\n");
   std::printf("render: wrote %s (%dx%d): %lld bricks drawn, %lld skipped empty, %lld culled, %lld paged in, "
               "%lld evicted, %lld batches, %.1f ms (paging %.1f, slicing %.1f, drawing %.1f, readback %.1f)\n",

@@ -6,9 +6,9 @@
 #include "cli/Commands.h"
 #include "cli/SceneOptions.h"
 #include "client/Client.h"
-#include "render/Image.h"
+#include "image/Image.h"
 #include "render/RenderErrors.h"
-#include "server/FrameImage.h"
+#include "image/FrameImage.h"
 
 namespace voxbrick::cli {
 namespace {
@@ -39,7 +39,7 @@ void runRequest(const RequestArgs& a, const CLI::App& cmd) {
   const proto::Frame frame = c.render(scene.toJson(), encoding);
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   c.goodbye();
-  render::writePng(a.output, server::decodeFrameImage(frame));
+  image::writePng(a.output, image::decodeFrameImage(frame));
   if (!a.statsPath.empty()) writeText(a.statsPath, nlohmann::json::parse(frame.statsJson).dump(2) + "\n");
   std::printf("request: wrote %s (%ux%u, %zu bytes as %s) in %.1f ms\n", a.output.c_str(), frame.width, frame.height,
               frame.payload.size(), a.encoding.c_str(), ms);

@@ -31,7 +31,7 @@ void Compositor::begin(int width, int height, bool blend) {
   mGl.glBeginQuery(GL_SAMPLES_PASSED, mFragments.id());
 }
 
-ImageF Compositor::finish(const glm::dvec3& background, FrameStats& stats) {
+image::ImageF Compositor::finish(const glm::dvec3& background, FrameStats& stats) {
   mGl.glEndQuery(GL_SAMPLES_PASSED);
   auto t = Clock::now();
   mGl.glFinish();
@@ -40,7 +40,7 @@ ImageF Compositor::finish(const glm::dvec3& background, FrameStats& stats) {
   t = Clock::now();
   const std::vector<float> raw = mTarget.readRgba();
   const int width = mTarget.width(), height = mTarget.height();
-  ImageF image{width, height, std::vector<float>(raw.size())};
+  image::ImageF image{width, height, std::vector<float>(raw.size())};
   for (int y = 0; y < height; ++y) {
     const float* src = raw.data() + size_t(height - 1 - y) * size_t(width) * 4;
     float* dst = image.pixel(0, y);

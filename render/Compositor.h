@@ -4,7 +4,7 @@
 
 #include "render/FrameStats.h"
 #include "render/GlObjects.h"
-#include "render/Image.h"
+#include "image/Image.h"
 #include "render/Scene.h"
 
 namespace voxbrick::render {
@@ -18,7 +18,7 @@ class Compositor {
   void begin(int width, int height, bool blend);
   /// Waits for the passes, reads the target back and composites it over `background`: out = C + (1 - A) * bg.
   /// Fills fragments, msDrawing (the wait) and msReadback.
-  ImageF finish(const glm::dvec3& background, FrameStats& stats);
+  image::ImageF finish(const glm::dvec3& background, FrameStats& stats);
 
  private:
   const Gl& mGl;

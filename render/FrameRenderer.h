@@ -2,7 +2,7 @@
 #pragma once
 
 #include "render/FrameStats.h"
-#include "render/Image.h"
+#include "image/Image.h"
 #include "render/Scene.h"
 
 namespace voxbrick::render {
@@ -16,7 +16,7 @@ class FrameRenderer {
  public:
   virtual ~FrameRenderer() = default;
   /// Renders `scene`; throws RenderInputError for an invalid scene and RenderError for GL failures.
-  virtual ImageF render(const Scene& scene, FrameStats* stats = nullptr, RenderMode mode = RenderMode::Normal) = 0;
+  virtual image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, RenderMode mode = RenderMode::Normal) = 0;
 };
 
 }  // namespace voxbrick::render

@@ -342,7 +342,7 @@ ReferenceRenderer::ReferenceRenderer(std::shared_ptr<store::BrickCache> cache)
 
 ReferenceRenderer::~ReferenceRenderer() = default;
 
-ImageF ReferenceRenderer::render(const Scene& scene, const ReferenceOptions& options, ReferenceStats* statsOut) {
+image::ImageF ReferenceRenderer::render(const Scene& scene, const ReferenceOptions& options, ReferenceStats* statsOut) {
   const auto start = Clock::now();
   scene.validate();
   if (!(options.step >= 1e-4 && options.step <= 64))
@@ -401,7 +401,7 @@ ImageF ReferenceRenderer::render(const Scene& scene, const ReferenceOptions& opt
         }
   }
 
-  ImageF image{scene.width, scene.height, std::vector<float>(size_t(scene.width) * size_t(scene.height) * 4)};
+  image::ImageF image{scene.width, scene.height, std::vector<float>(size_t(scene.width) * size_t(scene.height) * 4)};
   std::atomic<int64_t> rays{0}, samples{0}, skipped{0};
   auto renderRows = [&](const auto& sampler) {
     tbb::parallel_for(tbb::blocked_range<int>(0, scene.height), [&](const tbb::blocked_range<int>& rows) {

@@ -9,7 +9,7 @@
 #include "brickstore/BrickCache.h"
 #include "brickstore/StoreMeta.h"
 #include "brickstore/SyntheticField.h"
-#include "render/Image.h"
+#include "image/Image.h"
 #include "render/Scene.h"
 
 namespace voxbrick::render {
@@ -60,7 +60,7 @@ class ReferenceRenderer {
 
   /// Renders `scene` (its step, culling and slicer do not apply; skipEmpty turns the exact brick skipping off, to
   /// check it); throws RenderInputError for an invalid scene or a step outside [1e-4, 64] voxels.
-  ImageF render(const Scene& scene, const ReferenceOptions& options = {}, ReferenceStats* stats = nullptr);
+  image::ImageF render(const Scene& scene, const ReferenceOptions& options = {}, ReferenceStats* stats = nullptr);
 
  private:
   std::shared_ptr<store::BrickCache> mCache;

@@ -51,7 +51,7 @@ void RenderEngine::makeCurrent() { mImpl->context->makeCurrent(); }
 void RenderEngine::releaseCurrent() { mImpl->context->releaseCurrent(); }
 std::string RenderEngine::describe() const { return mImpl->context->describe(); }
 
-ImageF RenderEngine::render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats) {
+image::ImageF RenderEngine::render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats) {
   if (!dataset) throw RenderInputError("RenderEngine::render: no dataset");
   return mImpl->rendererFor(dataset).render(scene, stats);
 }

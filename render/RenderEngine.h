@@ -8,7 +8,7 @@
 #include "render/Backend.h"
 #include "render/Dataset.h"
 #include "render/FrameStats.h"
-#include "render/Image.h"
+#include "image/Image.h"
 #include "render/Scene.h"
 
 namespace voxbrick::render {
@@ -32,7 +32,7 @@ class RenderEngine {
   /// One frame of `dataset` (the context must be current): the renderer for the dataset's kind, made on first use
   /// and kept while the dataset lives. Throws RenderInputError for a scene the dataset cannot be drawn with and
   /// RenderError for GL failures.
-  ImageF render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats = nullptr);
+  image::ImageF render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats = nullptr);
 
  private:
   struct Impl;

@@ -40,7 +40,7 @@ SliceGeometry& VolumeRenderer::geometry(Slicer slicer) {
   return *g;
 }
 
-ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMode mode) {
+image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMode mode) {
   const auto frameStart = Clock::now();
   FrameStats stats;
   const store::BrickStore& store = mResidency.store();
@@ -69,7 +69,7 @@ ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMo
   program.setFrame(plan, mResidency.atlas(), store.meta());
   mSlicing.draw(plan, mResidency, program, geometry(scene.slicer), stats);
 
-  const ImageF image = mCompositor.finish(scene.background, stats);
+  const image::ImageF image = mCompositor.finish(scene.background, stats);
   stats.msTotal = msSince(frameStart);
   if (statsOut) *statsOut = stats;
   return image;

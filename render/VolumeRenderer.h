@@ -27,7 +27,7 @@ class VolumeRenderer final : public FrameRenderer {
   ~VolumeRenderer() override;
 
   /// Renders `scene`; throws RenderInputError for an invalid scene and RenderError for GL failures.
-  ImageF render(const Scene& scene, FrameStats* stats = nullptr, RenderMode mode = RenderMode::Normal) override;
+  image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, RenderMode mode = RenderMode::Normal) override;
 
   const BrickAtlas& atlas() const { return mResidency.atlas(); }
 

@@ -40,8 +40,10 @@ std::shared_ptr<const Dataset> DatasetRegistry::open(const std::string& name) {
   auto dataset = std::make_shared<Dataset>();
   dataset->name = name;
   dataset->path = path;
-  dataset->store = store::BrickStore::open(path);
-  dataset->cache = std::make_shared<store::BrickCache>(dataset->store, mCacheBytes, 2);
+  auto opened = std::make_shared<render::BrickStoreDataset>(name, path, mCacheBytes);
+  dataset->store = opened->store();
+  dataset->cache = opened->cache();
+  dataset->dataset = opened;
   mOpen[name] = dataset;
   return dataset;
 }

@@ -11,6 +11,7 @@
 
 #include "brickstore/BrickCache.h"
 #include "brickstore/BrickStore.h"
+#include "render/Dataset.h"
 
 namespace voxbrick::server {
 
@@ -19,6 +20,7 @@ struct Dataset {
   std::filesystem::path path;
   std::shared_ptr<const store::BrickStore> store;
   std::shared_ptr<store::BrickCache> cache;
+  std::shared_ptr<const render::Dataset> dataset;
 };
 
 /// A named dataset is a subdirectory of the datasets directory holding a store.json; names are the directory

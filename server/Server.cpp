@@ -22,13 +22,12 @@
 #include <spdlog/spdlog.h>
 
 #include "proto/Messages.h"
-#include "render/GlContext.h"
-#include "render/Image.h"
+#include "image/Image.h"
 #include "render/RenderErrors.h"
 #include "render/Scene.h"
-#include "render/VolumeRenderer.h"
+#include "render/RenderEngine.h"
 #include "server/Datasets.h"
-#include "server/FrameImage.h"
+#include "image/FrameImage.h"
 
 namespace voxbrick::server {
 namespace {
@@ -149,7 +148,7 @@ struct Server::Impl {
   /// Queues `job`, setting `replaced` to the request it replaced (latest wins); false if the session's queue is
   /// full (only without coalescing).
   bool submit(const std::shared_ptr<Session>& session, RenderJob job, std::optional<RenderJob>& replaced);
-  void renderLoop(std::unique_ptr<render::GlContext> context, int index);
+  void renderLoop(std::unique_ptr<render::RenderEngine> engine, int index);
   json statsJson() const;
 };
 
@@ -409,9 +408,9 @@ Server::Impl::Impl(const ServerConfig& c)
   const tcp::endpoint endpoint(address, uint16_t(config.port));
   // Contexts are made and the port bound before any thread starts, so that a machine without GL or a port in use
   // fails at startup with an error, not with threads left running.
-  std::vector<std::unique_ptr<render::GlContext>> contexts;
+  std::vector<std::unique_ptr<render::RenderEngine>> contexts;
   for (int i = 0; i < config.renderThreads; ++i) {
-    contexts.push_back(render::createContext(backend));
+    contexts.push_back(std::make_unique<render::RenderEngine>(backend, size_t(config.gpuBudgetMB) << 20));
     contexts.back()->releaseCurrent();
   }
   spdlog::info("render threads: {} x {}", config.renderThreads, contexts.front()->describe());
@@ -481,10 +480,9 @@ bool Server::Impl::submit(const std::shared_ptr<Session>& session, RenderJob job
   return true;
 }
 
-void Server::Impl::renderLoop(std::unique_ptr<render::GlContext> context, int index) {
+void Server::Impl::renderLoop(std::unique_ptr<render::RenderEngine> context, int index) {
   context->makeCurrent();
   // Renderers hold GL objects: they live and die on this thread, with its context current.
-  std::map<const Dataset*, std::unique_ptr<render::VolumeRenderer>> renderers;
   for (;;) {
     std::shared_ptr<Session> session;
     RenderJob job;
@@ -504,18 +502,14 @@ void Server::Impl::renderLoop(std::unique_ptr<render::GlContext> context, int in
     const auto start = Clock::now();
     proto::Message reply;
     try {
-      auto& renderer = renderers[job.dataset.get()];
-      if (!renderer)
-        renderer = std::make_unique<render::VolumeRenderer>(*context, job.dataset->cache,
-                                                            size_t(config.gpuBudgetMB) << 20);
-      render::FrameStats stats;
-      const render::ImageF image = renderer->render(job.scene, &stats);
+render::FrameStats stats;
+      const image::ImageF image = context->render(job.dataset->dataset, job.scene, &stats);
       const auto encodeStart = Clock::now();
       proto::Frame frame;
       frame.width = uint32_t(image.width);
       frame.height = uint32_t(image.height);
       frame.encoding = job.encoding;
-      frame.payload = encodeFrameImage(render::toImage8(image), job.encoding);
+      frame.payload = encodeFrameImage(image::toImage8(image), job.encoding);
       json statsJson = stats.toJson();
       statsJson["queue_ms"] = msBetween(job.received, start);
       statsJson["encode_ms"] = msBetween(encodeStart, Clock::now());

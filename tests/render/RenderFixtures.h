@@ -15,7 +15,7 @@
 #include "brickstore/BrickStore.h"
 #include "brickstore/StoreWriter.h"
 #include "render/GlContext.h"
-#include "render/Image.h"
+#include "image/Image.h"
 #include "render/ReferenceRenderer.h"
 #include "render/VolumeRenderer.h"
 #include "support/ArraySource.h"
@@ -55,7 +55,7 @@ inline render::GlContext& context() {
 }
 
 /// A GPU frame with a fresh renderer and cache.
-inline render::ImageF renderStore(std::shared_ptr<const store::BrickStore> s, const render::Scene& scene,
+inline image::ImageF renderStore(std::shared_ptr<const store::BrickStore> s, const render::Scene& scene,
                                   render::FrameStats* stats = nullptr, size_t gpuBudget = size_t(256) << 20,
                                   size_t hostBudget = size_t(256) << 20) {
   auto cache = std::make_shared<store::BrickCache>(std::move(s), hostBudget, 1);
@@ -64,7 +64,7 @@ inline render::ImageF renderStore(std::shared_ptr<const store::BrickStore> s, co
 }
 
 /// A reference frame with a fresh renderer and cache.
-inline render::ImageF renderReference(std::shared_ptr<const store::BrickStore> s, const render::Scene& scene,
+inline image::ImageF renderReference(std::shared_ptr<const store::BrickStore> s, const render::Scene& scene,
                                       const render::ReferenceOptions& options = {},
                                       render::ReferenceStats* stats = nullptr) {
   auto cache = std::make_shared<store::BrickCache>(std::move(s), size_t(256) << 20, 0);
@@ -73,27 +73,27 @@ inline render::ImageF renderReference(std::shared_ptr<const store::BrickStore> s
 }
 
 /// Mean of R, G and B over the image: a frame that is (nearly) black proves nothing.
-inline double meanBrightness(const render::ImageF& image) {
+inline double meanBrightness(const image::ImageF& image) {
   double sum = 0;
   for (size_t i = 0; i < image.rgba.size(); i += 4) sum += image.rgba[i] + image.rgba[i + 1] + image.rgba[i + 2];
   return sum / double(image.rgba.size() / 4 * 3);
 }
 
 /// Expects max |diff| <= maxAbs; otherwise writes both images and their difference heat map to the temp directory.
-inline void expectClose(const render::ImageF& a, const render::ImageF& b, double maxAbs, const std::string& what) {
-  const render::ImageError e = render::compareImages(a, b);
+inline void expectClose(const image::ImageF& a, const image::ImageF& b, double maxAbs, const std::string& what) {
+  const image::ImageError e = image::compareImages(a, b);
   EXPECT_LE(e.maxAbs, maxAbs) << what << ": rmse " << e.rmse << ", psnr " << e.psnr;
   if (e.maxAbs > maxAbs) {
     const auto dir = std::filesystem::temp_directory_path();
-    render::writePng(dir / (what + "-a.png"), render::toImage8(a));
-    render::writePng(dir / (what + "-b.png"), render::toImage8(b));
-    render::writePng(dir / (what + "-diff.png"), render::toImage8(render::differenceHeatmap(a, b, e.maxAbs)));
+    image::writePng(dir / (what + "-a.png"), image::toImage8(a));
+    image::writePng(dir / (what + "-b.png"), image::toImage8(b));
+    image::writePng(dir / (what + "-diff.png"), image::toImage8(image::differenceHeatmap(a, b, e.maxAbs)));
     std::cerr << "images written to " << (dir / (what + "-{a,b,diff}.png")).string() << "\n";
   }
 }
 
 /// True if every channel of every pixel is finite.
-inline bool allFinite(const render::ImageF& image) {
+inline bool allFinite(const image::ImageF& image) {
   for (float v : image.rgba)
     if (!std::isfinite(v)) return false;
   return true;

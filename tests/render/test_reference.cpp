@@ -48,15 +48,15 @@ TEST(ReferenceConvergence, HalvingTheDefaultStepMovesNoPixelByMoreThanTheBound) 
   for (bool shading : {false, true}) {
     Scene scene = smallScene("hot");
     scene.shading = shading;
-    const ImageF coarse = renderReference(s, scene, withStep(0.125));
-    const ImageF fine = renderReference(s, scene, withStep(0.0625));
+    const image::ImageF coarse = renderReference(s, scene, withStep(0.125));
+    const image::ImageF fine = renderReference(s, scene, withStep(0.0625));
     ASSERT_GT(meanBrightness(fine), 0.05);
-    const ImageError e = compareImages(coarse, fine);
+    const image::ImageError e = image::compareImages(coarse, fine);
     EXPECT_LT(e.maxAbs, shading ? kShadedConvergenceBound : kConvergenceBound) << "shading " << shading;
     EXPECT_LT(e.rmse, kConvergenceRmse) << "shading " << shading;
     // The composite midpoint rule is second order where the integrand is smooth: a step four times coarser moves
     // the image by clearly more (so the bound above is not met by accident).
-    const ImageError rough = compareImages(renderReference(s, scene, withStep(0.5)), fine);
+    const image::ImageError rough = image::compareImages(renderReference(s, scene, withStep(0.5)), fine);
     EXPECT_GT(rough.maxAbs, 2 * e.maxAbs) << "shading " << shading;
     std::printf("reference, shading %d: step 1/8 vs 1/16: max |diff| %.3g, PSNR %.1f dB; step 1/2 vs 1/16: %.3g\n",
                 int(shading), e.maxAbs, e.psnr, rough.maxAbs);
@@ -70,9 +70,9 @@ TEST(ReferenceConvergence, AStepInTheTransferFunctionConvergesToo) {
   ScratchDir dir;
   auto s = prep("synthetic:sparse,n=40", dir / "sparse", 16);
   const Scene scene = smallScene("sparse");
-  const ImageF fine = renderReference(s, scene, withStep(0.0625));
+  const image::ImageF fine = renderReference(s, scene, withStep(0.0625));
   ASSERT_GT(meanBrightness(fine), 0.005);
-  const ImageError e = compareImages(renderReference(s, scene, withStep(0.125)), fine);
+  const image::ImageError e = image::compareImages(renderReference(s, scene, withStep(0.125)), fine);
   std::printf("reference, sparse preset: step 1/8 vs 1/16: max |diff| %.3g, PSNR %.1f dB\n", e.maxAbs, e.psnr);
   EXPECT_LT(e.rmse, kConvergenceRmse);
   EXPECT_LT(e.maxAbs, 1e-2);
@@ -94,7 +94,7 @@ TEST(ReferenceExact, ConstantSlabMatchesTheClosedFormForAnyStep) {
   // For a constant field the product of the segments' transmittances is exactly (1 - alpha)^(L / L_ref).
   const double opacity = 1 - std::pow(1 - alpha, 64.0);
   for (double step : {0.37, 1.0, 3.0, 50.0}) {
-    const ImageF image = renderReference(s, scene, withStep(step));
+    const image::ImageF image = renderReference(s, scene, withStep(step));
     for (int y = 0; y < scene.height; y += 5)
       for (int x = 0; x < scene.width; x += 5) {
         ASSERT_NEAR(image.pixel(x, y)[0], opacity, 1e-6) << "step " << step;
@@ -108,13 +108,13 @@ TEST(ReferenceStore, BrickSizeAndSkippingDoNotChangeTheImage) {
   Scene scene = smallScene("sparse");
   scene.shading = true;
   ReferenceStats skipping, full;
-  const ImageF base = renderReference(prep("synthetic:sparse,n=40", dir / "s32", 32), scene);
+  const image::ImageF base = renderReference(prep("synthetic:sparse,n=40", dir / "s32", 32), scene);
   ASSERT_GT(meanBrightness(base), 0.005);
   for (int brick : {16, 8}) {
     auto s = prep("synthetic:sparse,n=40", dir / ("s" + std::to_string(brick)), brick);
-    EXPECT_EQ(compareImages(renderReference(s, scene, {}, &skipping), base).maxAbs, 0) << "brick " << brick;
+    EXPECT_EQ(image::compareImages(renderReference(s, scene, {}, &skipping), base).maxAbs, 0) << "brick " << brick;
     scene.skipEmpty = false;
-    EXPECT_EQ(compareImages(renderReference(s, scene, {}, &full), base).maxAbs, 0) << "brick " << brick;
+    EXPECT_EQ(image::compareImages(renderReference(s, scene, {}, &full), base).maxAbs, 0) << "brick " << brick;
     scene.skipEmpty = true;
   }
   EXPECT_GT(skipping.bricksSkipped, 0);
@@ -128,10 +128,10 @@ TEST(ReferenceAnalytic, SeparatesReconstructionFromIntegrationError) {
   const Scene scene = smallScene("hot");
   ReferenceOptions analytic;
   analytic.analytic = analyticFieldFor(s->meta(), "marschner-lobb");
-  const ImageF exact = renderReference(s, scene, analytic);
+  const image::ImageF exact = renderReference(s, scene, analytic);
   analytic.step = 0.0625;
-  const ImageError integration = compareImages(exact, renderReference(s, scene, analytic));
-  const ImageError reconstruction = compareImages(exact, renderReference(s, scene));
+  const image::ImageError integration = image::compareImages(exact, renderReference(s, scene, analytic));
+  const image::ImageError reconstruction = image::compareImages(exact, renderReference(s, scene));
   std::printf("Marschner-Lobb 32^3: reconstruction (trilinear vs analytic) %.1f dB, max %.3g; integration "
               "(step 1/8 vs 1/16, analytic) max %.3g\n",
               reconstruction.psnr, reconstruction.maxAbs, integration.maxAbs);
@@ -149,11 +149,11 @@ TEST(ReferenceVsGpu, GpuConvergesTowardsTheReference) {
   ScratchDir dir;
   auto s = prep("synthetic:marschner-lobb,n=32", dir / "ml", 16);
   Scene scene = smallScene("hot");
-  const ImageF reference = renderReference(s, scene);
+  const image::ImageF reference = renderReference(s, scene);
   double previous = 0;
   for (double step : {1.0, 0.5, 0.25}) {
     scene.step = step;
-    const ImageError e = compareImages(renderStore(s, scene), reference);
+    const image::ImageError e = image::compareImages(renderStore(s, scene), reference);
     std::printf("GPU step %.2f vs reference: PSNR %.1f dB, max |diff| %.3g\n", step, e.psnr, e.maxAbs);
     EXPECT_GT(e.psnr, previous) << "a finer GPU step should come closer to the reference";
     previous = e.psnr;
@@ -172,8 +172,8 @@ TEST(ReferenceCli, RendersWithTheReferenceBackend) {
   r = test::runVoxbrick(common + "-o " + (dir / "exact.png").string() + " --analytic marschner-lobb");
   ASSERT_EQ(r.exitCode, 0) << r.output;
   EXPECT_NE(r.output.find("analytic"), std::string::npos) << r.output;
-  EXPECT_EQ(readPng(dir / "grid.png").width, 40);
-  EXPECT_EQ(readPng(dir / "exact.png").height, 30);
+  EXPECT_EQ(image::readPng(dir / "grid.png").width, 40);
+  EXPECT_EQ(image::readPng(dir / "exact.png").height, 30);
 
   r = test::runVoxbrick(common + "-o " + (dir / "bad.png").string() + " --analytic shells");
   EXPECT_EQ(r.exitCode, 1) << r.output;

@@ -39,11 +39,11 @@ TEST(RendererSeams, BrickSizesGiveTheSameImage) {
     Scene scene = baseScene();
     scene.camera.azimuth = view.x;
     scene.camera.elevation = view.y;
-    const ImageF whole = renderStore(stores[0], scene);
+    const image::ImageF whole = renderStore(stores[0], scene);
     ASSERT_GT(meanBrightness(whole), 0.02) << "the reference frame is empty; the test would prove nothing";
     for (size_t i = 1; i < stores.size(); ++i) {
       FrameStats stats;
-      const ImageF bricked = renderStore(stores[i], scene, &stats);
+      const image::ImageF bricked = renderStore(stores[i], scene, &stats);
       EXPECT_GT(stats.bricksDrawn, 1);
       expectClose(bricked, whole, 1.0 / 255,
                   "seams-" + std::to_string(stores[i]->brickSize()) + "-az" + std::to_string(int(view.x)));
@@ -57,10 +57,10 @@ TEST(RendererOutOfCore, TinyBudgetsGiveTheSameImage) {
   Scene scene = baseScene();
   scene.transferFunction = TransferFunction::load("grayscale");
   FrameStats roomy, tight;
-  const ImageF reference = renderStore(s, scene, &roomy);
+  const image::ImageF reference = renderStore(s, scene, &roomy);
   const size_t brickBytes = s->brickBytes() * sizeof(float) / store::valueSize(s->type());
   // Three atlas slots and a host cache smaller than the volume's decoded bricks.
-  const ImageF small = renderStore(s, scene, &tight, 3 * brickBytes, s->brickBytes() * 5);
+  const image::ImageF small = renderStore(s, scene, &tight, 3 * brickBytes, s->brickBytes() * 5);
   EXPECT_EQ(roomy.batches, 1);
   EXPECT_GT(tight.batches, 10);
   EXPECT_GT(tight.bricksEvicted, 0);
@@ -74,9 +74,9 @@ TEST(RendererSkipping, SameImageWithFarFewerBricksOnASparseField) {
   Scene scene = baseScene();
   scene.transferFunction = TransferFunction::load("sparse");
   FrameStats skipped, full;
-  const ImageF a = renderStore(s, scene, &skipped);
+  const image::ImageF a = renderStore(s, scene, &skipped);
   scene.skipEmpty = false;
-  const ImageF b = renderStore(s, scene, &full);
+  const image::ImageF b = renderStore(s, scene, &full);
   ASSERT_GT(meanBrightness(a), 0.001);
   expectClose(a, b, 1.0 / 255, "skipping");
   EXPECT_EQ(full.bricksSkippedEmpty, 0);
@@ -98,9 +98,9 @@ TEST(RendererSkipping, NeverDropsWhatTheTransferTableWouldDraw) {
   Scene scene = baseScene();
   scene.transferFunction = TransferFunction::load("sparse");
   scene.window = std::array<double, 2>{0.0, 1.0};
-  const ImageF skipped = renderStore(s, scene);
+  const image::ImageF skipped = renderStore(s, scene);
   scene.skipEmpty = false;
-  const ImageF full = renderStore(s, scene);
+  const image::ImageF full = renderStore(s, scene);
   ASSERT_GT(meanBrightness(full), 0.01) << "the near-step values should be visible";
   expectClose(skipped, full, 1.0 / 255, "skipping-table");
 }
@@ -117,14 +117,14 @@ TEST(RendererSubBlocks, SameImageWithFewerSamples) {
     scene.slicer = slicer;
     scene.subBlock = 0;
     FrameStats whole;
-    const ImageF reference = renderStore(s, scene, &whole);
+    const image::ImageF reference = renderStore(s, scene, &whole);
     ASSERT_GT(meanBrightness(reference), 0.001);
     EXPECT_EQ(whole.subBlocksSkipped, 0);
     EXPECT_EQ(whole.boxesDrawn, whole.bricksDrawn);
     for (int subBlock : {8, 4}) {
       scene.subBlock = subBlock;
       FrameStats stats;
-      const ImageF image = renderStore(s, scene, &stats);
+      const image::ImageF image = renderStore(s, scene, &stats);
       const std::string what = "sub-block-" + std::to_string(subBlock) + (slicer == Slicer::Cpu ? "-cpu" : "");
       expectClose(image, reference, 1.0 / 255, what);
       EXPECT_EQ(stats.bricksDrawn, whole.bricksDrawn) << what;
@@ -139,9 +139,9 @@ TEST(RendererSlicers, VertexProgramAndCpuSlicerAgree) {
   ScratchDir dir;
   auto s = prep("synthetic:shells,n=40", dir / "s", 16);
   Scene scene = baseScene();
-  const ImageF gpu = renderStore(s, scene);
+  const image::ImageF gpu = renderStore(s, scene);
   scene.slicer = Slicer::Cpu;
-  const ImageF cpu = renderStore(s, scene);
+  const image::ImageF cpu = renderStore(s, scene);
   ASSERT_GT(meanBrightness(gpu), 0.01);
   expectClose(gpu, cpu, 1.0 / 255, "slicers");
 }
@@ -162,7 +162,7 @@ TEST(RendererAnalytic, ConstantSlabHasClosedFormTransmittance) {
   scene.camera.fovY = 2;  // a view about 7 voxels high: every pixel looks through the full 64 voxels
   for (double step : {1.0, 0.5, 0.25}) {
     scene.step = step;
-    const ImageF image = renderStore(s, scene);
+    const image::ImageF image = renderStore(s, scene);
     // White emission over black: the pixel is the slab's opacity 1 - (1 - alpha)^(L / L_ref), L = 64 voxels.
     const double expected = 1 - std::pow(1 - alpha, 64.0);
     for (int y = 0; y < scene.height; y += 7)
@@ -189,10 +189,10 @@ TEST(RendererAtlasFormat, NativeAndHalfFormatsStayCloseToFloat) {
     VolumeRenderer renderer(context(), cache, size_t(64) << 20, format);
     return renderer.render(scene);
   };
-  const ImageF full = renderWith(AtlasFormat::Float);
+  const image::ImageF full = renderWith(AtlasFormat::Float);
   ASSERT_GT(meanBrightness(full), 0.01);
-  const ImageError native = compareImages(renderWith(AtlasFormat::Native), full);
-  const ImageError half = compareImages(renderWith(AtlasFormat::Half), full);
+  const image::ImageError native = image::compareImages(renderWith(AtlasFormat::Native), full);
+  const image::ImageError half = image::compareImages(renderWith(AtlasFormat::Half), full);
   EXPECT_GT(native.psnr, 35.0) << "native 8-bit atlas: rmse " << native.rmse;
   EXPECT_GT(half.psnr, 45.0) << "half atlas: rmse " << half.rmse;
   std::cout << "8-bit native atlas vs float: " << native.psnr << " dB; half: " << half.psnr << " dB\n";
@@ -206,7 +206,7 @@ TEST(RendererCli, WritesPngAndStats) {
                         " --stats " + (dir / "stats.json").string());
   ASSERT_EQ(r.exitCode, 0) << r.output;
   EXPECT_NE(r.output.find("llvmpipe"), std::string::npos) << r.output;
-  const Image8 png = readPng(dir / "f.png");
+  const image::Image8 png = image::readPng(dir / "f.png");
   EXPECT_EQ(png.width, 64);
   EXPECT_EQ(png.height, 48);
   const auto stats = test::readFile(dir / "stats.json");

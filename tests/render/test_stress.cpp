@@ -39,14 +39,14 @@ struct Bound {
 };
 
 /// Renders `scene` both ways; expects finite images within `bound`; prints the measured error.
-ImageError checkCase(const std::string& name, std::shared_ptr<const store::BrickStore> s, const Scene& scene,
+image::ImageError checkCase(const std::string& name, std::shared_ptr<const store::BrickStore> s, const Scene& scene,
                      Bound bound = {}, double minBrightness = 0.002) {
-  const ImageF gpu = renderStore(s, scene);
-  const ImageF reference = renderReference(s, scene);
+  const image::ImageF gpu = renderStore(s, scene);
+  const image::ImageF reference = renderReference(s, scene);
   EXPECT_TRUE(allFinite(gpu)) << name << ": the GPU frame has a non-finite pixel";
   EXPECT_TRUE(allFinite(reference)) << name << ": the reference frame has a non-finite pixel";
   EXPECT_GE(meanBrightness(reference), minBrightness) << name << ": an empty frame proves nothing";
-  const ImageError e = compareImages(gpu, reference);
+  const image::ImageError e = image::compareImages(gpu, reference);
   std::printf("stress %-40s rmse %.2e  max %.2e  psnr %5.1f dB\n", name.c_str(), e.rmse, e.maxAbs, e.psnr);
   EXPECT_LE(e.rmse, bound.rmse) << name;
   test::expectClose(gpu, reference, bound.maxAbs, "stress-" + name);
@@ -153,11 +153,11 @@ TEST(StressCompositing, TenThousandSlicesOnTheGpuStayCloseToTheReference) {
   Scene scene = orthoScene(TransferFunction::load("hot"), 10);
   scene.step = step;
   FrameStats stats;
-  const ImageF gpu = renderStore(s, scene, &stats);
-  const ImageF reference = renderReference(s, scene);
+  const image::ImageF gpu = renderStore(s, scene, &stats);
+  const image::ImageF reference = renderReference(s, scene);
   ASSERT_TRUE(allFinite(gpu));
   ASSERT_GT(meanBrightness(reference), 0.05);
-  const ImageError e = compareImages(gpu, reference);
+  const image::ImageError e = image::compareImages(gpu, reference);
   std::printf("GPU, %lld slices per pixel (RGBA32F): max |diff| %.2e, rmse %.2e against the reference\n",
               (long long)(stats.fragments / (scene.width * scene.height)), e.maxAbs, e.rmse);
   EXPECT_GE(stats.fragments, int64_t(scene.width) * scene.height * int64_t(double(depth) / step * 0.99));
@@ -197,8 +197,8 @@ TEST(StressOpacity, GpuSlabMatchesTheClosedFormForEveryRatioAndAlpha) {
       const double depth = 64 * ratio / step;  // slab length in reference lengths
       const double expected =
           alpha >= 1 ? 1.0 : double(-std::expm1(static_cast<long double>(depth) * std::log1p(-static_cast<long double>(alpha))));
-      const ImageF gpu = renderStore(s, scene);
-      const ImageF reference = renderReference(s, scene);
+      const image::ImageF gpu = renderStore(s, scene);
+      const image::ImageF reference = renderReference(s, scene);
       ASSERT_TRUE(allFinite(gpu) && allFinite(reference)) << "ratio " << ratio << " alpha " << alpha;
       const double gpuError = std::abs(gpu.pixel(4, 4)[0] - expected);
       const double referenceError = std::abs(reference.pixel(4, 4)[0] - expected);
@@ -278,10 +278,10 @@ TEST_F(StressCamera, SoFarAwayTheVolumeCoversAboutOnePixel) {
     scene.camera.azimuth = 30;
     scene.camera.elevation = 20;
     scene.camera.distance = distance;
-    const ImageF gpu = renderStore(sStore, scene);
-    const ImageF reference = renderReference(sStore, scene);
+    const image::ImageF gpu = renderStore(sStore, scene);
+    const image::ImageF reference = renderReference(sStore, scene);
     ASSERT_TRUE(allFinite(gpu) && allFinite(reference));
-    const ImageError e = compareImages(gpu, reference);
+    const image::ImageError e = image::compareImages(gpu, reference);
     const double centre = reference.pixel(16, 16)[0];
     std::printf("stress distance %-8g R: centre pixel GPU %.4f, reference %.4f; max |diff| %.2e\n", distance,
                 gpu.pixel(16, 16)[0], centre, e.maxAbs);
@@ -306,7 +306,7 @@ TEST_F(StressCamera, ExtremeFieldsOfView) {
     wide.step = 0.002;
     checkCase(std::string("fov 179, ") + (outside ? "outside" : "inside"), sStore, wide);
     wide.step = 0.25;
-    const ImageError coarse = compareImages(renderStore(sStore, wide), renderReference(sStore, wide));
+    const image::ImageError coarse = image::compareImages(renderStore(sStore, wide), renderReference(sStore, wide));
     std::printf("stress fov 179 at step 1/4: rmse %.2e (the border rays' planes are 29 voxels apart)\n", coarse.rmse);
   }
 }
@@ -422,7 +422,7 @@ TEST(StressTransferFunction, SpikeNarrowerThanOneVoxelsValueChange) {
   for (double step : {0.125, 0.015625}) {
     ReferenceOptions options;
     options.step = step;
-    const ImageF reference = renderReference(s, scene, options);
+    const image::ImageF reference = renderReference(s, scene, options);
     ASSERT_TRUE(allFinite(reference));
     const double error = std::abs(reference.pixel(4, 4)[0] - expected);
     std::printf("spike: reference step %g: %.4f, error %.2e\n", step, reference.pixel(4, 4)[0], error);
@@ -433,7 +433,7 @@ TEST(StressTransferFunction, SpikeNarrowerThanOneVoxelsValueChange) {
   }
   for (double step : {0.5, 0.25, 0.1}) {
     scene.step = step;
-    const ImageF gpu = renderStore(s, scene);
+    const image::ImageF gpu = renderStore(s, scene);
     ASSERT_TRUE(allFinite(gpu));
     const double error = std::abs(gpu.pixel(4, 4)[0] - expected);
     std::printf("spike: GPU step %g: %.4f, error %.2e\n", step, gpu.pixel(4, 4)[0], error);
@@ -492,13 +492,13 @@ TEST(StressRandom, SeededCases) {
       scene.camera.up = u(rng) < 0.2 ? scene.camera.center - scene.camera.eye
                                      : glm::dvec3(pick(-1, 1), pick(-1, 1), pick(-1, 1));
     }
-    const ImageF gpu = renderStore(s, scene);
-    const ImageF reference = renderReference(s, scene);
+    const image::ImageF gpu = renderStore(s, scene);
+    const image::ImageF reference = renderReference(s, scene);
     const std::string what = "random case " + std::to_string(seed) + " (" + std::to_string(nx) + "x" +
                              std::to_string(ny) + "x" + std::to_string(nz) + ", B=" + std::to_string(brick) +
                              ", spacing " + numberText(options.spacing.x) + ")";
     ASSERT_TRUE(allFinite(gpu) && allFinite(reference)) << what;
-    const ImageError e = compareImages(gpu, reference);
+    const image::ImageError e = image::compareImages(gpu, reference);
     worstRmse = std::max(worstRmse, e.rmse);
     // Random transfer functions are steeper than the presets and random cameras graze the volume's edges, where one
     // slice more or less weighs most: a looser bound than the listed cases.

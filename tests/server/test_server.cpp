@@ -12,8 +12,8 @@
 
 #include "ServerProcess.h"
 #include "client/Client.h"
-#include "render/Image.h"
-#include "server/FrameImage.h"
+#include "image/Image.h"
+#include "image/FrameImage.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick {
@@ -62,7 +62,7 @@ std::unique_ptr<Client> session(const ServerProcess& server, const std::string& 
   return c;
 }
 
-std::vector<uint8_t> pixels(const proto::Frame& frame) { return server::decodeFrameImage(frame).rgba; }
+std::vector<uint8_t> pixels(const proto::Frame& frame) { return image::decodeFrameImage(frame).rgba; }
 
 /// The error a request gets; fails the test if it gets anything else.
 ErrorCode errorOf(const std::function<void()>& request) {
@@ -104,7 +104,7 @@ TEST_F(ServerTest, ServedFramesEqualTheRenderCommandBitForBit) {
   const auto r = test::runVoxbrick("render " + datasets() + "/sparse --scene " + (scratch() / "scene.json").string() +
                                    " -q -o " + (scratch() / "rendered.png").string());
   ASSERT_EQ(r.exitCode, 0) << r.output;
-  const render::Image8 rendered = render::readPng(scratch() / "rendered.png");
+  const image::Image8 rendered = image::readPng(scratch() / "rendered.png");
   const std::vector<uint8_t> served = pixels(png);
   ASSERT_EQ(served.size(), rendered.rgba.size());
   EXPECT_EQ(served, rendered.rgba) << "the served frame differs from `voxbrick render` with the same scene";
@@ -310,7 +310,7 @@ TEST_F(ServerTest, RequestCommandAndPythonClientGetTheSameFrame) {
                      " --dataset sparse --scene " + (scratch() / "scene.json").string() + " -o " +
                      (scratch() / "python.png").string() + " 2>&1");
   ASSERT_EQ(r.exitCode, 0) << r.output;
-  EXPECT_EQ(render::readPng(scratch() / "request.png").rgba, render::readPng(scratch() / "python.png").rgba);
+  EXPECT_EQ(image::readPng(scratch() / "request.png").rgba, image::readPng(scratch() / "python.png").rgba);
   r = test::runVoxbrick("request " + address + " --dataset nope -o " + (scratch() / "x.png").string());
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_NE(r.output.find("UnknownDataset"), std::string::npos) << r.output;

@@ -1,19 +1,19 @@
 // PNG through render/Image, zstd at level 1 (fast enough not to show beside a frame's render time).
-#include "server/FrameImage.h"
+#include "image/FrameImage.h"
 
 #include <stdexcept>
 #include <string>
 
 #include <zstd.h>
 
-namespace voxbrick::server {
+namespace voxbrick::image {
 
-std::vector<uint8_t> encodeFrameImage(const render::Image8& image, proto::Encoding encoding) {
+std::vector<uint8_t> encodeFrameImage(const Image8& image, proto::Encoding encoding) {
   switch (encoding) {
     case proto::Encoding::RawRgba8:
       return image.rgba;
     case proto::Encoding::Png:
-      return render::encodePng(image);
+      return encodePng(image);
     case proto::Encoding::ZstdRgba8: {
       std::vector<uint8_t> out(ZSTD_compressBound(image.rgba.size()));
       const size_t n = ZSTD_compress(out.data(), out.size(), image.rgba.data(), image.rgba.size(), 1);
@@ -25,12 +25,12 @@ std::vector<uint8_t> encodeFrameImage(const render::Image8& image, proto::Encodi
   throw std::runtime_error("unknown frame encoding");
 }
 
-render::Image8 decodeFrameImage(const proto::Frame& frame) {
-  render::Image8 image{int(frame.width), int(frame.height), {}};
+Image8 decodeFrameImage(const proto::Frame& frame) {
+  Image8 image{int(frame.width), int(frame.height), {}};
   const size_t bytes = size_t(frame.width) * size_t(frame.height) * 4;
   switch (frame.encoding) {
     case proto::Encoding::Png:
-      image = render::decodePng(frame.payload, "frame");
+      image = decodePng(frame.payload, "frame");
       break;
     case proto::Encoding::RawRgba8:
       image.rgba = frame.payload;
@@ -48,4 +48,4 @@ render::Image8 decodeFrameImage(const proto::Frame& frame) {
   return image;
 }
 
-}  // namespace voxbrick::server
+}  // namespace voxbrick::image

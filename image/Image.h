@@ -1,13 +1,21 @@
-// Rendered images: linear float RGBA as the renderer produces them, 8-bit RGBA for output, PNG files, error metrics.
+// Images: linear float RGBA as renderers produce them, 8-bit RGBA for output, PNG files, error metrics. No GL: the
+// server, the clients and the benchmarks use it as the renderers do.
 #pragma once
 
 #include <cstdint>
 #include <filesystem>
 #include <span>
 #include <string>
+#include <stdexcept>
 #include <vector>
 
-namespace voxbrick::render {
+namespace voxbrick::image {
+
+/// A PNG that cannot be read or written, or images that cannot be compared; the message names the file or the sizes.
+class ImageFailure : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 /// An RGBA image, row 0 at the top, 4 floats per pixel in [0, 1] (colour already composited over the background).
 struct ImageF {
@@ -30,11 +38,11 @@ ImageF toImageF(const Image8& image);
 
 /// An 8-bit RGBA PNG in memory.
 std::vector<uint8_t> encodePng(const Image8& image);
-/// Decodes a PNG of any bit depth and colour type as 8-bit RGBA; throws RenderError naming `what`.
+/// Decodes a PNG of any bit depth and colour type as 8-bit RGBA; throws ImageFailure naming `what`.
 Image8 decodePng(std::span<const uint8_t> bytes, const std::string& what);
-/// Writes an 8-bit RGBA PNG; throws RenderError naming the file.
+/// Writes an 8-bit RGBA PNG; throws ImageFailure naming the file.
 void writePng(const std::filesystem::path& path, const Image8& image);
-/// Reads a PNG of any bit depth and colour type as 8-bit RGBA; throws RenderError naming the file.
+/// Reads a PNG of any bit depth and colour type as 8-bit RGBA; throws ImageFailure naming the file.
 Image8 readPng(const std::filesystem::path& path);
 
 /// Image differences on RGB in [0, 1] (alpha ignored), as the optical model measures error.
@@ -43,11 +51,11 @@ struct ImageError {
   double psnr = 0;     ///< 20 log10(1 / rmse) dB; infinity for identical images
   double maxAbs = 0;
 };
-/// Compares two images of the same size; throws RenderError if the sizes differ.
+/// Compares two images of the same size; throws ImageFailure if the sizes differ.
 ImageError compareImages(const ImageF& a, const ImageF& b);
 
 /// Where two images differ: each pixel's largest absolute RGB difference d, shown as black (0) through purple, red
-/// and yellow to white (d >= scale). `scale` must be finite and positive; throws RenderError as compareImages does.
+/// and yellow to white (d >= scale). `scale` must be finite and positive; throws ImageFailure as compareImages does.
 ImageF differenceHeatmap(const ImageF& a, const ImageF& b, double scale);
 
-}  // namespace voxbrick::render
+}  // namespace voxbrick::image

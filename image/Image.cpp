@@ -1,5 +1,5 @@
 // Image conversion, PNG I/O through libpng, and error metrics.
-#include "render/Image.h"
+#include "image/Image.h"
 
 #include <png.h>
 
@@ -11,9 +11,8 @@
 #include <limits>
 #include <memory>
 
-#include "render/RenderErrors.h"
 
-namespace voxbrick::render {
+namespace voxbrick::image {
 namespace {
 
 struct FileCloser {
@@ -46,10 +45,10 @@ std::vector<uint8_t> encodePng(const Image8& image) {
   std::string message;
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &message, pngError, nullptr);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
-  if (!png || !info) throw RenderError("encodePng: libpng could not start");
+  if (!png || !info) throw ImageFailure("encodePng: libpng could not start");
   if (setjmp(png_jmpbuf(png))) {
     png_destroy_write_struct(&png, &info);
-    throw RenderError("encodePng: " + message);
+    throw ImageFailure("encodePng: " + message);
   }
   png_set_write_fn(
       png, &out,
@@ -76,11 +75,11 @@ Image8 decodePng(std::span<const uint8_t> bytes, const std::string& what) {
   std::string message;
   png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &message, pngError, nullptr);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
-  if (!png || !info) throw RenderError("decodePng: libpng could not start");
+  if (!png || !info) throw ImageFailure("decodePng: libpng could not start");
   Image8 out;
   if (setjmp(png_jmpbuf(png))) {
     png_destroy_read_struct(&png, &info, nullptr);
-    throw RenderError(what + ": not a readable PNG (" + message + ")");
+    throw ImageFailure(what + ": not a readable PNG (" + message + ")");
   }
   png_set_read_fn(png, &reader, [](png_structp p, png_bytep data, png_size_t length) {
     auto* r = static_cast<Reader*>(png_get_io_ptr(p));
@@ -109,25 +108,25 @@ Image8 decodePng(std::span<const uint8_t> bytes, const std::string& what) {
 void writePng(const std::filesystem::path& path, const Image8& image) {
   const std::vector<uint8_t> bytes = encodePng(image);
   std::unique_ptr<FILE, FileCloser> file(std::fopen(path.c_str(), "wb"));
-  if (!file) throw RenderError("cannot write " + path.string() + ": " + std::strerror(errno));
+  if (!file) throw ImageFailure("cannot write " + path.string() + ": " + std::strerror(errno));
   if (std::fwrite(bytes.data(), 1, bytes.size(), file.get()) != bytes.size() || std::fflush(file.get()) != 0)
-    throw RenderError("cannot write " + path.string() + ": " + std::strerror(errno));
+    throw ImageFailure("cannot write " + path.string() + ": " + std::strerror(errno));
 }
 
 Image8 readPng(const std::filesystem::path& path) {
   std::unique_ptr<FILE, FileCloser> file(std::fopen(path.c_str(), "rb"));
-  if (!file) throw RenderError("cannot read " + path.string() + ": " + std::strerror(errno));
+  if (!file) throw ImageFailure("cannot read " + path.string() + ": " + std::strerror(errno));
   std::vector<uint8_t> bytes;
   uint8_t buffer[1 << 16];
   size_t n;
   while ((n = std::fread(buffer, 1, sizeof buffer, file.get())) > 0) bytes.insert(bytes.end(), buffer, buffer + n);
-  if (std::ferror(file.get())) throw RenderError("cannot read " + path.string() + ": " + std::strerror(errno));
+  if (std::ferror(file.get())) throw ImageFailure("cannot read " + path.string() + ": " + std::strerror(errno));
   return decodePng(bytes, path.string());
 }
 
 ImageError compareImages(const ImageF& a, const ImageF& b) {
   if (a.width != b.width || a.height != b.height)
-    throw RenderError("compareImages: sizes differ (" + std::to_string(a.width) + "x" + std::to_string(a.height) +
+    throw ImageFailure("compareImages: sizes differ (" + std::to_string(a.width) + "x" + std::to_string(a.height) +
                       " vs " + std::to_string(b.width) + "x" + std::to_string(b.height) + ")");
   double sum = 0, maxAbs = 0;
   const size_t pixels = size_t(a.width) * size_t(a.height);
@@ -147,7 +146,7 @@ ImageError compareImages(const ImageF& a, const ImageF& b) {
 ImageF differenceHeatmap(const ImageF& a, const ImageF& b, double scale) {
   compareImages(a, b);  // the size check, with its message
   if (!(scale > 0) || !std::isfinite(scale))
-    throw RenderError("differenceHeatmap: scale " + std::to_string(scale) + " is not finite and positive");
+    throw ImageFailure("differenceHeatmap: scale " + std::to_string(scale) + " is not finite and positive");
   // A ramp whose lightness rises monotonically, so that it also reads in grey.
   constexpr float kRamp[5][3] = {{0, 0, 0}, {0.35f, 0.05f, 0.55f}, {0.85f, 0.15f, 0.2f}, {1, 0.8f, 0.1f}, {1, 1, 1}};
   ImageF out{a.width, a.height, std::vector<float>(a.rgba.size())};
@@ -163,4 +162,4 @@ ImageF differenceHeatmap(const ImageF& a, const ImageF& b, double scale) {
   return out;
 }
 
-}  // namespace voxbrick::render
+}  // namespace voxbrick::image

@@ -5,11 +5,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "render/Image.h"
-#include "render/RenderErrors.h"
+#include "image/Image.h"
 #include "support/TestSupport.h"
 
-namespace voxbrick::render {
+namespace voxbrick::image {
 namespace {
 
 using test::ScratchDir;
@@ -32,8 +31,8 @@ TEST(CompareHeatmap, ShowsWhereAndHowMuch) {
   EXPECT_FLOAT_EQ(map.pixel(3, 2)[0], 0.0f) << "no difference is black";
   EXPECT_GT(map.pixel(0, 0)[0], 0.1f) << "a quarter of the scale is visible";
   EXPECT_LT(map.pixel(0, 0)[0], 0.9f);
-  EXPECT_THROW(differenceHeatmap(a, b, 0.0), RenderError);
-  EXPECT_THROW(differenceHeatmap(a, toImageF(grey(3, 4, 51)), 1.0), RenderError);
+  EXPECT_THROW(differenceHeatmap(a, b, 0.0), ImageFailure);
+  EXPECT_THROW(differenceHeatmap(a, toImageF(grey(3, 4, 51)), 1.0), ImageFailure);
 }
 
 TEST(CompareCli, PrintsTheKnownErrorAsTextAndJson) {
@@ -91,4 +90,4 @@ TEST(CompareCli, NamesMissingFilesAndSizeMismatches) {
 }
 
 }  // namespace
-}  // namespace voxbrick::render
+}  // namespace voxbrick::image

@@ -5,13 +5,13 @@
 #include <vector>
 
 #include "proto/Messages.h"
-#include "render/Image.h"
+#include "image/Image.h"
 
-namespace voxbrick::server {
+namespace voxbrick::image {
 
 /// The image as a Frame payload in `encoding`.
-std::vector<uint8_t> encodeFrameImage(const render::Image8& image, proto::Encoding encoding);
+std::vector<uint8_t> encodeFrameImage(const Image8& image, proto::Encoding encoding);
 /// A Frame's payload as an image; throws std::runtime_error if it does not decode to the frame's size.
-render::Image8 decodeFrameImage(const proto::Frame& frame);
+Image8 decodeFrameImage(const proto::Frame& frame);
 
-}  // namespace voxbrick::server
+}  // namespace voxbrick::image
