@@ -1,12 +1,26 @@
-// PNG through render/Image, zstd at level 1 (fast enough not to show beside a frame's render time).
+// Frame payloads: PNG through image/Image, zstd at level 1 (fast enough not to show beside a frame's render time).
 #include "image/FrameImage.h"
 
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include <zstd.h>
 
 namespace voxbrick::image {
+namespace {
+
+/// Width and height from a PNG's IHDR chunk (big-endian at bytes 16 and 20), read before libpng allocates for
+/// them; (0, 0) when the bytes are too short to hold one.
+std::pair<uint32_t, uint32_t> pngSize(const std::vector<uint8_t>& png) {
+  if (png.size() < 24) return {0, 0};
+  auto be32 = [&](size_t at) {
+    return uint32_t(png[at]) << 24 | uint32_t(png[at + 1]) << 16 | uint32_t(png[at + 2]) << 8 | uint32_t(png[at + 3]);
+  };
+  return {be32(16), be32(20)};
+}
+
+}  // namespace
 
 std::vector<uint8_t> encodeFrameImage(const Image8& image, proto::Encoding encoding) {
   switch (encoding) {
@@ -17,19 +31,26 @@ std::vector<uint8_t> encodeFrameImage(const Image8& image, proto::Encoding encod
     case proto::Encoding::ZstdRgba8: {
       std::vector<uint8_t> out(ZSTD_compressBound(image.rgba.size()));
       const size_t n = ZSTD_compress(out.data(), out.size(), image.rgba.data(), image.rgba.size(), 1);
-      if (ZSTD_isError(n)) throw std::runtime_error(std::string("zstd: ") + ZSTD_getErrorName(n));
+      if (ZSTD_isError(n)) throw ImageFailure(std::string("encodeFrameImage: zstd: ") + ZSTD_getErrorName(n));
       out.resize(n);
       return out;
     }
   }
-  throw std::runtime_error("unknown frame encoding");
+  throw ImageFailure("encodeFrameImage: unknown encoding " + std::to_string(int(encoding)));
 }
 
 Image8 decodeFrameImage(const proto::Frame& frame) {
+  // Checked before any size is computed from them: a hostile or broken server must not make a client allocate.
+  if (frame.width == 0 || frame.height == 0 || frame.width > kMaxFrameSide || frame.height > kMaxFrameSide)
+    throw ImageFailure("frame: size " + std::to_string(frame.width) + "x" + std::to_string(frame.height) +
+                       " is outside 1.." + std::to_string(kMaxFrameSide) + " per side");
   Image8 image{int(frame.width), int(frame.height), {}};
   const size_t bytes = size_t(frame.width) * size_t(frame.height) * 4;
   switch (frame.encoding) {
     case proto::Encoding::Png:
+      if (pngSize(frame.payload) != std::pair{frame.width, frame.height})
+        throw ImageFailure("frame: the PNG's header does not name the frame's " + std::to_string(frame.width) + "x" +
+                           std::to_string(frame.height) + " size");
       image = decodePng(frame.payload, "frame");
       break;
     case proto::Encoding::RawRgba8:
@@ -38,12 +59,12 @@ Image8 decodeFrameImage(const proto::Frame& frame) {
     case proto::Encoding::ZstdRgba8: {
       image.rgba.resize(bytes);
       const size_t n = ZSTD_decompress(image.rgba.data(), bytes, frame.payload.data(), frame.payload.size());
-      if (ZSTD_isError(n) || n != bytes) throw std::runtime_error("frame: zstd payload does not decode to the frame size");
+      if (ZSTD_isError(n) || n != bytes) throw ImageFailure("frame: zstd payload does not decode to the frame size");
       break;
     }
   }
   if (image.width != int(frame.width) || image.height != int(frame.height) || image.rgba.size() != bytes)
-    throw std::runtime_error("frame: payload does not match its " + std::to_string(frame.width) + "x" +
+    throw ImageFailure("frame: payload does not match its " + std::to_string(frame.width) + "x" +
                              std::to_string(frame.height) + " size");
   return image;
 }

@@ -1,0 +1,105 @@
+// The frame-image codec on its own: every encoding round-trips, encodes deterministically, and refuses payloads that
+// do not decode to the frame's size, with no socket, server or GL involved.
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <vector>
+
+#include "image/FrameImage.h"
+
+namespace voxbrick::image {
+namespace {
+
+/// A w x h image whose every byte differs from its neighbours' (so a shifted or swapped decode cannot pass).
+Image8 pattern(int width, int height) {
+  Image8 image{width, height, std::vector<uint8_t>(size_t(width) * size_t(height) * 4)};
+  for (size_t i = 0; i < image.rgba.size(); ++i) image.rgba[i] = uint8_t((i * 37 + i / 7) & 0xff);
+  return image;
+}
+
+proto::Frame frameOf(const Image8& image, proto::Encoding encoding) {
+  proto::Frame frame;
+  frame.width = uint32_t(image.width);
+  frame.height = uint32_t(image.height);
+  frame.encoding = encoding;
+  frame.payload = encodeFrameImage(image, encoding);
+  return frame;
+}
+
+const proto::Encoding kEncodings[] = {proto::Encoding::RawRgba8, proto::Encoding::Png, proto::Encoding::ZstdRgba8};
+
+TEST(FrameImage, EveryEncodingRoundTripsExactly) {
+  const Image8 image = pattern(37, 21);
+  for (proto::Encoding encoding : kEncodings) {
+    const Image8 back = decodeFrameImage(frameOf(image, encoding));
+    EXPECT_EQ(back.width, 37);
+    EXPECT_EQ(back.height, 21);
+    EXPECT_EQ(back.rgba, image.rgba) << "encoding " << int(encoding);
+  }
+}
+
+TEST(FrameImage, EncodingTwiceGivesTheSameBytes) {
+  const Image8 image = pattern(64, 48);
+  for (proto::Encoding encoding : kEncodings)
+    EXPECT_EQ(encodeFrameImage(image, encoding), encodeFrameImage(image, encoding)) << "encoding " << int(encoding);
+}
+
+TEST(FrameImage, CompressedEncodingsAreSmallerOnAFlatImage) {
+  Image8 flat{256, 256, std::vector<uint8_t>(256 * 256 * 4, 90)};
+  EXPECT_LT(encodeFrameImage(flat, proto::Encoding::Png).size(), flat.rgba.size() / 50);
+  EXPECT_LT(encodeFrameImage(flat, proto::Encoding::ZstdRgba8).size(), flat.rgba.size() / 50);
+}
+
+TEST(FrameImage, PayloadsOfTheWrongSizeAreRefused) {
+  const Image8 image = pattern(16, 8);
+  for (proto::Encoding encoding : kEncodings) {
+    proto::Frame frame = frameOf(image, encoding);
+    frame.height = 9;  // the payload holds 16 x 8
+    EXPECT_THROW(decodeFrameImage(frame), ImageFailure) << "encoding " << int(encoding);
+  }
+  proto::Frame raw = frameOf(image, proto::Encoding::RawRgba8);
+  raw.payload.pop_back();
+  EXPECT_THROW(decodeFrameImage(raw), ImageFailure);
+}
+
+TEST(FrameImage, TruncatedAndCorruptPayloadsAreRefusedForEveryCut) {
+  const Image8 image = pattern(20, 12);
+  for (proto::Encoding encoding : {proto::Encoding::Png, proto::Encoding::ZstdRgba8}) {
+    const proto::Frame whole = frameOf(image, encoding);
+    // libpng reads all pixels before the closing IEND chunk (12 bytes) and does not insist on it: a cut there may
+    // decode, but only to the very same pixels. Every other cut is refused.
+    const size_t trailer = encoding == proto::Encoding::Png ? 12 : 0;
+    for (size_t keep = 0; keep < whole.payload.size(); ++keep) {
+      proto::Frame cut = whole;
+      cut.payload.resize(keep);
+      if (keep >= whole.payload.size() - trailer) {
+        try {
+          EXPECT_EQ(decodeFrameImage(cut).rgba, image.rgba) << keep << " bytes";
+        } catch (const ImageFailure&) {
+        }
+        continue;
+      }
+      EXPECT_THROW(decodeFrameImage(cut), ImageFailure) << "encoding " << int(encoding) << ", " << keep << " bytes";
+    }
+  }
+  proto::Frame garbage = frameOf(image, proto::Encoding::ZstdRgba8);
+  for (uint8_t& b : garbage.payload) b ^= 0x5a;
+  EXPECT_THROW(decodeFrameImage(garbage), ImageFailure);
+}
+
+TEST(FrameImage, AbsurdSizesAreRefusedBeforeAnythingIsAllocated) {
+  proto::Frame frame = frameOf(pattern(4, 4), proto::Encoding::ZstdRgba8);
+  frame.width = 0xffffffffu;
+  frame.height = 0xffffffffu;
+  EXPECT_THROW(decodeFrameImage(frame), ImageFailure);
+  frame.width = 0;
+  frame.height = 4;
+  EXPECT_THROW(decodeFrameImage(frame), ImageFailure);
+  // A PNG whose header claims a size other than the frame's is refused before libpng allocates for it.
+  proto::Frame png = frameOf(pattern(4, 4), proto::Encoding::Png);
+  png.payload[16] = 0x7f;  // IHDR width's top byte
+  EXPECT_THROW(decodeFrameImage(png), ImageFailure);
+}
+
+}  // namespace
+}  // namespace voxbrick::image
