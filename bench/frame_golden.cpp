@@ -23,6 +23,7 @@
 #include "brickstore/StoreWriter.h"
 #include "render/BrickAtlas.h"
 #include "render/GlContext.h"
+#include "render/ReferenceRenderer.h"
 #include "render/Scene.h"
 #include "render/VolumeRenderer.h"
 
@@ -38,6 +39,8 @@ struct Case {
   size_t gpuBudgetMB = 256;
   render::AtlasFormat format = render::AtlasFormat::Float;
   render::RenderMode mode = render::RenderMode::Normal;
+  bool reference = false;  // the CPU reference renderer instead of the GPU
+  std::string analytic{};  // with reference: sample this synthetic field instead of the grid
 };
 
 std::shared_ptr<const store::BrickStore> prepStore(const std::string& spec, const fs::path& out, int brick) {
@@ -90,6 +93,24 @@ std::vector<Case> cases() {
     out.push_back({store + "-roofline-cpu", store, scene(v0, tf + R"(, "slicer": "cpu")"), 256,
                    render::AtlasFormat::Float, render::RenderMode::Roofline});
   }
+  // The CPU reference renderer: small, since it is slow on purpose.
+  auto reference = [&](const std::string& name, const std::string& store, const std::string& json,
+                       const std::string& analytic = "") {
+    Case c{name, store, json};
+    c.reference = true;
+    c.analytic = analytic;
+    out.push_back(c);
+  };
+  const std::string v0 = R"("camera": {"orbit": [30, 20, 2.5]}, "size": [40, 32])";
+  reference("ref-ml32", "ml32", "{" + v0 + "}");
+  reference("ref-ml32-shaded", "ml32", "{" + v0 + R"(, "shading": true})");
+  reference("ref-ml32-analytic", "ml32", "{" + v0 + "}", "marschner-lobb");
+  reference("ref-sparse32", "sparse32", "{" + v0 + R"(, "transfer_function": "sparse"})");
+  reference("ref-sparse32-noskip", "sparse32", "{" + v0 + R"(, "transfer_function": "sparse", "skip_empty": false})");
+  reference("ref-mri32-window-bg", "mri32",
+            "{" + v0 + R"(, "transfer_function": "ct-bone", "window": [20, 200], "background": [0.2, 0.3, 0.4]})");
+  reference("ref-mri32-ortho", "mri32",
+            R"({"camera": {"orbit": [90, 0, 2.2], "orthographic": true}, "size": [40, 32], "transfer_function": "mri"})");
   return out;
 }
 
@@ -124,12 +145,25 @@ int main(int argc, char** argv) {
   for (const Case& c : cases()) {
     const std::string key = c.store + "/" + std::to_string(c.gpuBudgetMB) + "/" + std::to_string(int(c.format));
     auto& renderer = renderers[key];
-    if (!renderer)
+    if (!renderer && !c.reference)
       renderer = std::make_unique<render::VolumeRenderer>(
           *context, std::make_shared<store::BrickCache>(stores.at(c.store), size_t(256) << 20, 1),
           c.gpuBudgetMB << 20, c.format);
     render::FrameStats stats;
-    const image::ImageF image = renderer->render(render::Scene::fromJson(c.sceneJson, c.name), &stats, c.mode);
+    const render::Scene scene = render::Scene::fromJson(c.sceneJson, c.name);
+    image::ImageF image;
+    if (c.reference) {
+      auto cache = std::make_shared<store::BrickCache>(stores.at(c.store), size_t(256) << 20, 0);
+      render::ReferenceOptions options;
+      if (!c.analytic.empty()) options.analytic = render::analyticFieldFor(cache->store()->meta(), c.analytic);
+      render::ReferenceStats referenceStats;
+      image = render::ReferenceRenderer(cache).render(scene, options, &referenceStats);
+      stats.fragments = referenceStats.samples;
+      stats.slices = referenceStats.rays;
+      stats.bricksDrawn = referenceStats.bricksSkipped;
+    } else {
+      image = renderer->render(scene, &stats, c.mode);
+    }
     std::string bytes(reinterpret_cast<const char*>(image.rgba.data()), image.rgba.size() * sizeof(float));
     const std::string statsLine = std::to_string(stats.fragments) + " " + std::to_string(stats.slices) + " " +
                                   std::to_string(stats.bricksDrawn) + " " + std::to_string(stats.boxesDrawn) + " " +

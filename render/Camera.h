@@ -17,8 +17,8 @@ struct Box {
   double radius() const { return 0.5 * glm::length(max - min); }
 };
 
-/// The world box of a volume of `dims` samples with `spacing`: extent dims*spacing centred on the origin (DESIGN.md,
-/// placement). Throws RenderInputError for dims <= 0 or a spacing that is not finite and positive.
+/// The world box of a volume of `dims` samples with `spacing`: extent dims*spacing centred on the origin
+/// (ARCHITECTURE.md, placement). Throws RenderInputError for dims <= 0 or a spacing that is not finite and positive.
 Box volumeBox(const store::Vec3i& dims, const store::Vec3d& spacing);
 
 /// A pinhole (or orthographic) camera in world space, right-handed, GL conventions: the view looks down -Z of eye

@@ -1,5 +1,5 @@
 // The compositing stage: the float target that drawing passes blend into front to back, and the readback that
-// composites the result over the scene's background (DESIGN's output rule).
+// composites the result over the scene's background (ARCHITECTURE.md, optical model: output).
 #pragma once
 
 #include "render/FrameStats.h"

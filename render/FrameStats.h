@@ -1,4 +1,4 @@
-// What one frame did (DESIGN: every frame reports it), whichever renderer drew it. GL-free.
+// What one frame did (every frame reports it), whichever renderer drew it. GL-free.
 #pragma once
 
 #include <cstdint>

@@ -1,4 +1,4 @@
-// The reference renderer: DESIGN's optical model on the CPU in double precision, the judge of every fast path.
+// The reference renderer: the optical model of ARCHITECTURE.md on the CPU in double precision, the judge of every fast path.
 #pragma once
 
 #include <cstdint>
@@ -17,7 +17,7 @@ namespace voxbrick::render {
 class ReferenceBricks;
 
 /// How the reference integrates. It converges to the continuous emission–absorption integral along each ray through
-/// a pixel centre, from the near plane to where the ray leaves the volume's box: the limit of DESIGN's discrete
+/// a pixel centre, from the near plane to where the ray leaves the volume's box: the limit of the discrete
 /// model as the step goes to 0 (extinction −ln(1 − α) / L_ref, emission the transfer function's colour).
 struct ReferenceOptions {
   /// Length of one integration segment along the ray, in voxels of the smallest level-0 spacing. Each ray's

@@ -81,7 +81,7 @@ inline constexpr const char* kSliceViewProjUniform = "uViewProj";
 /// One instance of the slicer draw: a world-space box, a run of planes, and ints passed through untouched to the
 /// fragment stage as flat varyings (the atlas slot and the voxels the box owns, for instance). The instance's
 /// vertices [12 * i, 12 * i + 12) are the polygon of plane i: dot(n, x) = planeDistance + (firstPlane + i) *
-/// uPlaneIncr. For DESIGN's globally spaced planes set planeDistance = 0 and firstPlane = the global index k of the
+/// uPlaneIncr. For the globally spaced planes of ARCHITECTURE.md set planeDistance = 0 and firstPlane = the global index k of the
 /// first plane (slicerPlaneRange(...).begin): plane k then has the same float distance in every brick. A draw of 12
 /// vertices per instance slices each box once, 12 * N vertices N times; planes outside the half-open slab
 /// [front, back) of the box (a plane through its back face included) collapse to a point. All seven attributes

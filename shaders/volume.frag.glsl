@@ -1,4 +1,4 @@
-// One slice fragment under the optical model of DESIGN.md: trilinear sample from the brick atlas, normalise through
+// One slice fragment under the optical model of ARCHITECTURE.md: trilinear sample from the brick atlas, normalise through
 // the value window, classify with the 1D transfer function (post-classification), correct the opacity for the
 // length of this ray's segment between two planes, and emit premultiplied colour for front-to-back blending.
 //

@@ -332,7 +332,7 @@ TEST(SlicerShader, NeighbouringBoxesShareFaceVerticesBitForBit) {
 }
 
 TEST(SlicerShader, RowsOfBricksDrawEveryGlobalPlaneExactlyOnce) {
-  // Eight bricks in a row along x, sliced with DESIGN's global planes as a renderer would (slicerPlaneRange per
+  // Eight bricks in a row along x, sliced with the global planes as a renderer would (slicerPlaneRange per
   // brick, planeDistance 0, firstPlane its first index), against the row sliced whole. For every plane k the
   // bricks' polygon areas must add up to the row's: a plane through a shared face drawn twice, or by neither brick,
   // shows as a whole face too much or too little. The normals include views along x off by 6e-17 in z, as an orbit
