@@ -400,9 +400,7 @@ Server::Impl::Impl(const ServerConfig& c)
   std::error_code ec;
   if (!std::filesystem::is_directory(config.datasets, ec))
     throw std::runtime_error("datasets directory '" + config.datasets.string() + "' does not exist");
-  const render::Backend backend = config.backend == "egl"      ? render::Backend::Egl
-                                  : config.backend == "osmesa" ? render::Backend::OsMesa
-                                                               : render::Backend::Auto;
+  const render::Backend backend = config.backend;
   boost::system::error_code addressError;
   const asio::ip::address address = asio::ip::make_address(config.host, addressError);
   if (addressError) throw std::runtime_error("host '" + config.host + "' is not an IP address (e.g. 127.0.0.1, 0.0.0.0, ::1)");
