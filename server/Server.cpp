@@ -8,7 +8,6 @@
 #include <condition_variable>
 #include <deque>
 #include <fstream>
-#include <map>
 #include <mutex>
 #include <optional>
 #include <set>
@@ -22,11 +21,11 @@
 #include <spdlog/spdlog.h>
 
 #include "proto/Messages.h"
-#include "render/GlContext.h"
 #include "render/Image.h"
+#include "render/RenderEngine.h"
 #include "render/RenderErrors.h"
 #include "render/Scene.h"
-#include "render/VolumeRenderer.h"
+#include "render/TransferFunction.h"
 #include "server/Datasets.h"
 #include "server/FrameImage.h"
 
@@ -111,7 +110,7 @@ struct RenderJob {
   uint32_t requestId = 0;
   proto::Encoding encoding = proto::Encoding::Png;
   render::Scene scene;
-  std::shared_ptr<const Dataset> dataset;
+  std::shared_ptr<const render::Dataset> dataset;
   Clock::time_point received;
 };
 
@@ -120,6 +119,7 @@ struct Server::Impl {
 
   ServerConfig config;
   proto::Limits limits;
+  render::TransferFunctionPresets presets;
   DatasetRegistry datasets;
   asio::io_context io;
   tcp::acceptor acceptor{io};
@@ -149,7 +149,7 @@ struct Server::Impl {
   /// Queues `job`, setting `replaced` to the request it replaced (latest wins); false if the session's queue is
   /// full (only without coalescing).
   bool submit(const std::shared_ptr<Session>& session, RenderJob job, std::optional<RenderJob>& replaced);
-  void renderLoop(std::unique_ptr<render::GlContext> context, int index);
+  void renderLoop(std::unique_ptr<render::RenderEngine> engine, int index);
   json statsJson() const;
 };
 
@@ -171,7 +171,7 @@ struct Session : std::enable_shared_from_this<Session> {
   proto::Header header;
   std::vector<uint8_t> body;
   bool greeted = false;
-  std::shared_ptr<const Dataset> dataset;
+  std::shared_ptr<const render::Dataset> dataset;
   std::deque<std::vector<uint8_t>> outbox;
   uint64_t outboxBytes = 0;
   bool writing = false, closing = false, closed = false, readingBody = false;
@@ -282,7 +282,7 @@ struct Session : std::enable_shared_from_this<Session> {
         spdlog::error("dataset '{}' cannot be opened: {}", open->name, e.what());
         return sendError(id, proto::ErrorCode::Internal, "dataset '" + open->name + "' cannot be opened: " + e.what());
       }
-      return send(proto::DatasetInfo{dataset->name, dataset->store->meta().toJson()}, id);
+      return send(proto::DatasetInfo{dataset->name(), dataset->infoJson()}, id);
     }
     if (const auto* request = std::get_if<proto::RenderRequest>(&message)) return onRender(*request, id);
     if (std::holds_alternative<proto::GetStats>(message)) return send(proto::Stats{server.statsJson().dump(2)}, id);
@@ -299,7 +299,7 @@ struct Session : std::enable_shared_from_this<Session> {
     job.dataset = dataset;
     job.received = Clock::now();
     try {
-      job.scene = render::Scene::fromJson(request.sceneJson, "scene", false);
+      job.scene = render::Scene::fromJson(request.sceneJson, "scene", server.presets);
     } catch (const std::exception& e) {
       return sendError(id, proto::ErrorCode::InvalidScene, e.what());
     }
@@ -394,7 +394,9 @@ struct Session : std::enable_shared_from_this<Session> {
 };
 
 Server::Impl::Impl(const ServerConfig& c)
-    : config(c), datasets(c.datasets, size_t(c.hostCacheMB) << 20) {
+    : config(c),
+      presets(render::TransferFunctionPresets::load(render::TransferFunction::configDirectory() / "tf")),
+      datasets(c.datasets, size_t(c.hostCacheMB) << 20) {
   config.validate();
   limits.maxBodyBytes = config.maxMessageBytes;
   std::error_code ec;
@@ -407,12 +409,12 @@ Server::Impl::Impl(const ServerConfig& c)
   const tcp::endpoint endpoint(address, uint16_t(config.port));
   // Contexts are made and the port bound before any thread starts, so that a machine without GL or a port in use
   // fails at startup with an error, not with threads left running.
-  std::vector<std::unique_ptr<render::GlContext>> contexts;
+  std::vector<std::unique_ptr<render::RenderEngine>> engines;
   for (int i = 0; i < config.renderThreads; ++i) {
-    contexts.push_back(render::createContext(backend));
-    contexts.back()->releaseCurrent();
+    engines.push_back(std::make_unique<render::RenderEngine>(backend, size_t(config.gpuBudgetMB) << 20));
+    engines.back()->releaseCurrent();
   }
-  spdlog::info("render threads: {} x {}", config.renderThreads, contexts.front()->describe());
+  spdlog::info("render threads: {} x {}", config.renderThreads, engines.front()->describe());
   acceptor.open(endpoint.protocol());
   acceptor.set_option(tcp::acceptor::reuse_address(true));
   boost::system::error_code bindError;
@@ -422,7 +424,7 @@ Server::Impl::Impl(const ServerConfig& c)
                              bindError.message());
   acceptor.listen();
   for (int i = 0; i < config.renderThreads; ++i)
-    renderThreads.emplace_back(&Impl::renderLoop, this, std::move(contexts[size_t(i)]), i);
+    renderThreads.emplace_back(&Impl::renderLoop, this, std::move(engines[size_t(i)]), i);
 }
 
 void Server::Impl::accept() {
@@ -479,10 +481,9 @@ bool Server::Impl::submit(const std::shared_ptr<Session>& session, RenderJob job
   return true;
 }
 
-void Server::Impl::renderLoop(std::unique_ptr<render::GlContext> context, int index) {
-  context->makeCurrent();
-  // Renderers hold GL objects: they live and die on this thread, with its context current.
-  std::map<const Dataset*, std::unique_ptr<render::VolumeRenderer>> renderers;
+void Server::Impl::renderLoop(std::unique_ptr<render::RenderEngine> engine, int index) {
+  // The engine's renderers hold GL objects: they live and die on this thread, with its context current.
+  engine->makeCurrent();
   for (;;) {
     std::shared_ptr<Session> session;
     RenderJob job;
@@ -502,12 +503,8 @@ void Server::Impl::renderLoop(std::unique_ptr<render::GlContext> context, int in
     const auto start = Clock::now();
     proto::Message reply;
     try {
-      auto& renderer = renderers[job.dataset.get()];
-      if (!renderer)
-        renderer = std::make_unique<render::VolumeRenderer>(*context, job.dataset->cache,
-                                                            size_t(config.gpuBudgetMB) << 20);
       render::FrameStats stats;
-      const render::ImageF image = renderer->render(job.scene, &stats);
+      const render::ImageF image = engine->render(job.dataset, job.scene, &stats);
       const auto encodeStart = Clock::now();
       proto::Frame frame;
       frame.width = uint32_t(image.width);
@@ -523,7 +520,7 @@ void Server::Impl::renderLoop(std::unique_ptr<render::GlContext> context, int in
     } catch (const render::RenderInputError& e) {
       reply = proto::Error{proto::ErrorCode::InvalidScene, e.what()};
     } catch (const std::exception& e) {
-      spdlog::error("render of request {} on '{}' failed: {}", job.requestId, job.dataset->name, e.what());
+      spdlog::error("render of request {} on '{}' failed: {}", job.requestId, job.dataset->name(), e.what());
       reply = proto::Error{proto::ErrorCode::Internal, std::string("render failed: ") + e.what()};
     }
     asio::post(session->socket.get_executor(),
@@ -575,9 +572,9 @@ json Server::Impl::statsJson() const {
   const auto [rss, peak] = residentMemory();
   json sets = json::array();
   for (const auto& d : datasets.opened()) {
-    const store::CacheStats c = d->cache->stats();
+    const store::CacheStats c = d->cacheStats();
     const double lookups = double(c.hits + c.misses);
-    sets.push_back({{"name", d->name},
+    sets.push_back({{"name", d->name()},
                     {"cache", {{"hits", c.hits},
                                {"misses", c.misses},
                                {"hit_rate", lookups > 0 ? double(c.hits) / lookups : 0.0},
