@@ -33,6 +33,11 @@ struct ServerConfig {
   int64_t hostCacheMB = 1024;                ///< decoded bricks per dataset, shared by render threads
   int64_t gpuBudgetMB = 1024;                ///< atlas per render thread and dataset
 
+  /// Without coalescing (a benchmark setting), how many renders one session may have waiting.
+  static constexpr size_t kMaxQueuedWithoutCoalescing = 64;
+  /// How many renders of one session may wait for a render thread (Capabilities.max_queued_per_session).
+  size_t maxQueuedPerSession() const { return coalesce ? 1 : kMaxQueuedWithoutCoalescing; }
+
   /// Reads `path` (TOML) over the defaults. Throws std::runtime_error naming the file, key and problem for a
   /// syntax error, an unknown key, a wrong type, a value out of range or an unknown backend name.
   static ServerConfig load(const std::filesystem::path& path);
