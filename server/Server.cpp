@@ -232,12 +232,11 @@ int Server::port() const { return mImpl->acceptor.local_endpoint().port(); }
 
 void Server::run() {
   Impl& s = *mImpl;
-  asio::post(s.control, [&s] {
-    s.signals.async_wait([&s](boost::system::error_code ec, int) {
-      if (!ec) s.requestStop();
-    });
-    s.accept();
+  // No I/O thread runs yet, so the acceptor and the signals may be used from here before they belong to `control`.
+  s.signals.async_wait([&s](boost::system::error_code ec, int) {
+    if (!ec) s.requestStop();
   });
+  s.accept();
   std::vector<std::thread> ioThreads;
   for (int i = 0; i < s.config.ioThreads; ++i) ioThreads.emplace_back([&s] { s.io.run(); });
   // This thread runs the lifecycle, so that waiting for renders and sessions never blocks an I/O thread.

@@ -88,7 +88,8 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   if (server.read("datasets", c.datasets) && c.datasets.is_relative()) c.datasets = path.parent_path() / c.datasets;
   server.read("io_threads", c.ioThreads);
   server.read("render_threads", c.renderThreads);
-  if (std::string backend; server.read("backend", backend)) c.backend = parseBackend(backend, file + ": server.backend");
+  if (std::string backend; server.read("backend", backend))
+    c.backend = parseBackend(backend, file + ": server.backend");
   server.read("log_level", c.logLevel);
   server.read("coalesce", c.coalesce);
   Section limits = top.table("limits");
