@@ -24,7 +24,7 @@ void runServe(const ServeArgs& a) {
   if (!a.host.empty()) c.host = a.host;
   if (a.port >= 0) c.port = a.port;
   if (!a.datasets.empty()) c.datasets = a.datasets;
-  if (!a.backend.empty()) c.backend = a.backend;
+  if (!a.backend.empty()) c.backend = server::ServerConfig::parseBackend(a.backend, "--backend");
   if (!a.logLevel.empty()) c.logLevel = a.logLevel;
   if (a.renderThreads > 0) c.renderThreads = a.renderThreads;
   if (a.ioThreads > 0) c.ioThreads = a.ioThreads;

@@ -1,4 +1,4 @@
-// The datasets a server offers: the stores in one directory, opened on first use and shared by every session and
+// The datasets a server offers: the datasets in one directory, opened on first use and shared by every session and
 // render thread (one host brick cache per dataset).
 #pragma once
 
@@ -6,46 +6,41 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
-#include "brickstore/BrickCache.h"
-#include "brickstore/BrickStore.h"
 #include "render/Dataset.h"
 
 namespace voxbrick::server {
 
-struct Dataset {
-  std::string name;
-  std::filesystem::path path;
-  std::shared_ptr<const store::BrickStore> store;
-  std::shared_ptr<store::BrickCache> cache;
-  std::shared_ptr<const render::Dataset> dataset;
-};
-
-/// A named dataset is a subdirectory of the datasets directory holding a store.json; names are the directory
-/// names, of letters, digits, '.', '-' and '_' only (never a path).
+/// A named dataset is a subdirectory of the datasets directory that render::isDataset accepts; names are the
+/// directory names, of letters, digits, '.', '-' and '_' only (never a path, never "." or "..").
 class DatasetRegistry {
  public:
   DatasetRegistry(std::filesystem::path directory, size_t cacheBytesPerDataset);
 
-  /// The datasets present now, sorted (the directory is scanned on every call, so stores added later appear).
+  /// The datasets present now, sorted (the directory is scanned on every call, so datasets added later appear).
   std::vector<std::string> names() const;
-  /// Opens `name` (or returns it if already open). Throws DatasetNotFound for a name that is not a store of the
-  /// directory, and the store's own errors (CorruptStoreError, IoError) for one that cannot be opened.
-  std::shared_ptr<const Dataset> open(const std::string& name);
-  /// The datasets opened so far.
-  std::vector<std::shared_ptr<const Dataset>> opened() const;
+  /// Opens `name` (or returns it if already open). Throws DatasetNotFound for a name that is not a dataset of the
+  /// directory, and the dataset's own errors (CorruptStoreError, IoError) for one that cannot be opened.
+  std::shared_ptr<const render::Dataset> open(const std::string& name);
+  /// The datasets opened so far, by name.
+  std::vector<std::shared_ptr<const render::Dataset>> opened() const;
 
   const std::filesystem::path& directory() const { return mDirectory; }
+
+  /// Whether `name` may name a dataset at all (see the class comment); says nothing of whether it exists.
+  static bool validName(const std::string& name);
 
  private:
   std::filesystem::path mDirectory;
   size_t mCacheBytes;
   mutable std::mutex mMutex;
-  std::map<std::string, std::shared_ptr<const Dataset>> mOpen;
+  std::map<std::string, std::shared_ptr<const render::Dataset>> mOpen;
 };
 
+/// OpenDataset named no dataset of the directory (the client's mistake): UnknownDataset.
 class DatasetNotFound : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;

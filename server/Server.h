@@ -1,6 +1,6 @@
-// The render service: a Boost.Asio TCP server speaking proto/PROTOCOL.md. I/O runs on a pool of Asio threads;
-// frames are rendered by dedicated render threads, each with its own GL context and renderers; a render queue
-// serves sessions in turn and keeps only the newest request of each (latest wins).
+// The render service: a Boost.Asio TCP server speaking proto/PROTOCOL.md. It accepts connections, wires the parts
+// (Session, MessageHandler, RenderScheduler, ServerStats) together, and runs the lifecycle: signals, shutdown,
+// waiting for sessions to flush.
 #pragma once
 
 #include <memory>
@@ -10,12 +10,11 @@
 
 namespace voxbrick::server {
 
-struct Session;
-
 class Server {
  public:
-  /// Creates the render threads' GL contexts and binds the listening socket; throws std::runtime_error naming the
-  /// problem (no GL, address in use, unreadable datasets directory).
+  /// Reads the transfer-function presets, makes the render threads' engines (GL contexts) and binds the listening
+  /// socket, all before any thread starts; throws std::runtime_error naming the problem (no GL, address in use,
+  /// unreadable datasets directory).
   explicit Server(const ServerConfig& config);
   ~Server();
   Server(const Server&) = delete;
@@ -26,13 +25,12 @@ class Server {
   /// Serves until stop() or SIGINT/SIGTERM; then closes every session (ShuttingDown), lets running renders finish
   /// and returns.
   void run();
-  /// Asks run() to return; safe from any thread.
+  /// Asks run() to return; safe from any thread, also before run() is called.
   void stop();
   /// Server statistics as JSON (what a Stats message carries).
   std::string statsJson() const;
 
  private:
-  friend struct Session;
   struct Impl;
   std::unique_ptr<Impl> mImpl;
 };

@@ -1,10 +1,13 @@
 // TOML configuration through toml++: every key is known, typed and range-checked.
 #include "server/ServerConfig.h"
 
+#include <limits>
 #include <set>
 #include <stdexcept>
 
 #include <toml++/toml.h>
+
+#include "render/RenderErrors.h"
 
 namespace voxbrick::server {
 namespace {
@@ -85,7 +88,8 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   if (server.read("datasets", c.datasets) && c.datasets.is_relative()) c.datasets = path.parent_path() / c.datasets;
   server.read("io_threads", c.ioThreads);
   server.read("render_threads", c.renderThreads);
-  server.read("backend", c.backend);
+  if (std::string backend; server.read("backend", backend))
+    c.backend = parseBackend(backend, file + ": server.backend");
   server.read("log_level", c.logLevel);
   server.read("coalesce", c.coalesce);
   Section limits = top.table("limits");
@@ -116,8 +120,6 @@ void ServerConfig::validate() const {
   range("server.port", port, 0, 65535);
   range("server.io_threads", ioThreads, 1, 64);
   range("server.render_threads", renderThreads, 1, 64);
-  if (backend != "auto" && backend != "egl" && backend != "osmesa")
-    fail("server.backend = '" + backend + "' must be auto, egl or osmesa");
   static const std::set<std::string> levels = {"trace", "debug", "info", "warn", "error", "off"};
   if (!levels.count(logLevel)) fail("server.log_level = '" + logLevel + "' is not a log level");
   range("limits.max_sessions", maxSessions, 1, 100000);
@@ -129,6 +131,14 @@ void ServerConfig::validate() const {
   range("limits.max_output_bytes", double(maxOutputBytes), 1 << 20, double(uint64_t(1) << 40));
   range("memory.host_cache_mb", double(hostCacheMB), 16, 1 << 22);
   range("memory.gpu_budget_mb", double(gpuBudgetMB), 16, 1 << 22);
+}
+
+render::Backend ServerConfig::parseBackend(const std::string& text, const std::string& what) {
+  try {
+    return render::parseBackend(text);
+  } catch (const render::RenderInputError&) {
+    fail(what + " = '" + text + "' must be auto, egl or osmesa");
+  }
 }
 
 }  // namespace voxbrick::server

@@ -2,9 +2,12 @@
 // defaults. Every limit the server enforces lives here.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <filesystem>
 #include <string>
+
+#include "render/Backend.h"
 
 namespace voxbrick::server {
 
@@ -15,7 +18,7 @@ struct ServerConfig {
   std::filesystem::path datasets = "demo";   ///< directory whose subdirectories are stores
   int ioThreads = 2;
   int renderThreads = 2;                     ///< each with its own GL context
-  std::string backend = "auto";              ///< auto | egl | osmesa
+  render::Backend backend = render::Backend::Auto;  ///< "auto" | "egl" | "osmesa" in the file
   std::string logLevel = "info";             ///< trace | debug | info | warn | error | off
   bool coalesce = true;                      ///< latest wins; off only to measure what it saves
   // [limits]
@@ -30,11 +33,19 @@ struct ServerConfig {
   int64_t hostCacheMB = 1024;                ///< decoded bricks per dataset, shared by render threads
   int64_t gpuBudgetMB = 1024;                ///< atlas per render thread and dataset
 
+  /// Without coalescing (a benchmark setting), how many renders one session may have waiting.
+  static constexpr size_t kMaxQueuedWithoutCoalescing = 64;
+  /// How many renders of one session may wait for a render thread (Capabilities.max_queued_per_session).
+  size_t maxQueuedPerSession() const { return coalesce ? 1 : kMaxQueuedWithoutCoalescing; }
+
   /// Reads `path` (TOML) over the defaults. Throws std::runtime_error naming the file, key and problem for a
-  /// syntax error, an unknown key, a wrong type or a value out of range.
+  /// syntax error, an unknown key, a wrong type, a value out of range or an unknown backend name.
   static ServerConfig load(const std::filesystem::path& path);
   /// Throws std::runtime_error naming the first value out of range.
   void validate() const;
+  /// The backend named `text` ("auto", "egl" or "osmesa"); throws std::runtime_error naming `what` (the key or
+  /// option it came from) and the bad value.
+  static render::Backend parseBackend(const std::string& text, const std::string& what);
 };
 
 }  // namespace voxbrick::server

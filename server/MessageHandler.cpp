@@ -1,0 +1,154 @@
+// The session state machine of PROTOCOL.md section 5: each client message in a state, to its replies.
+#include "server/MessageHandler.h"
+
+#include <string>
+#include <type_traits>
+#include <utility>
+
+#include <spdlog/spdlog.h>
+
+#include "render/Scene.h"
+#include "server/ErrorReply.h"
+
+namespace voxbrick::server {
+namespace {
+
+using proto::ErrorCode;
+using Clock = std::chrono::steady_clock;
+
+Outcome replyWith(proto::Message message, uint32_t requestId) {
+  Outcome outcome;
+  outcome.replies.push_back({std::move(message), requestId});
+  return outcome;
+}
+
+/// What an Internal error says the server was doing.
+std::string failureContext(const proto::Message& message) {
+  if (const auto* open = std::get_if<proto::OpenDataset>(&message))
+    return "dataset '" + open->name + "' cannot be opened";
+  return std::string(proto::messageTypeName(proto::messageType(message))) + " failed";
+}
+
+}  // namespace
+
+MessageHandler::MessageHandler(const ServerConfig& config, DatasetRegistry& datasets,
+                               const render::TransferFunctionPresets& presets, ServerStats& stats,
+                               std::function<nlohmann::json()> statsJson)
+    : mConfig(config), mDatasets(datasets), mPresets(presets), mStats(stats), mStatsJson(std::move(statsJson)) {}
+
+Outcome MessageHandler::handle(ConnectionState& state, const proto::Message& message, uint32_t requestId) {
+  try {
+    return dispatch(state, message, requestId);
+  } catch (...) {
+    return failed(std::current_exception(), requestId, failureContext(message));
+  }
+}
+
+Outcome MessageHandler::failed(const std::exception_ptr& error, uint32_t requestId, const std::string& context) {
+  proto::Error reply = errorReply(error, context);
+  Outcome outcome;
+  outcome.close = closesSession(reply.code);
+  outcome.replies.push_back({std::move(reply), requestId});
+  return outcome;
+}
+
+Outcome MessageHandler::dispatch(ConnectionState& state, const proto::Message& message, uint32_t requestId) {
+  // Failures are thrown as the typed exceptions errorReply maps, so that this reads as the state machine only.
+  if (const auto* h = std::get_if<proto::Hello>(&message)) return hello(state, *h, requestId);
+  if (std::holds_alternative<proto::Goodbye>(message)) return Outcome{{}, true, std::nullopt};
+  if (!state.greeted) throw proto::ProtocolError(ErrorCode::UnexpectedMessage, "send Hello first");
+  return std::visit(
+      [&](const auto& m) -> Outcome {
+        using M = std::decay_t<decltype(m)>;
+        if constexpr (std::is_same_v<M, proto::ListDatasets>) {
+          return replyWith(proto::DatasetList{mDatasets.names()}, requestId);
+        } else if constexpr (std::is_same_v<M, proto::OpenDataset>) {
+          return openDataset(state, m, requestId);
+        } else if constexpr (std::is_same_v<M, proto::RenderRequest>) {
+          return render(state, m, requestId);
+        } else if constexpr (std::is_same_v<M, proto::GetStats>) {
+          return replyWith(proto::Stats{mStatsJson().dump(2)}, requestId);
+        } else {
+          throw proto::ProtocolError(ErrorCode::UnexpectedMessage,
+                                     std::string(proto::messageTypeName(proto::messageType(message))) +
+                                         " is sent by servers, not clients");
+        }
+      },
+      message);
+}
+
+Outcome MessageHandler::hello(ConnectionState& state, const proto::Hello& hello, uint32_t requestId) {
+  if (state.greeted) throw proto::ProtocolError(ErrorCode::UnexpectedMessage, "Hello was already received");
+  if (hello.minVersion > proto::kVersion || hello.maxVersion < proto::kVersion)
+    throw proto::ProtocolError(ErrorCode::UnsupportedVersion,
+                               "client speaks versions " + std::to_string(hello.minVersion) + ".." +
+                                   std::to_string(hello.maxVersion) + ", server speaks " +
+                                   std::to_string(proto::kVersion));
+  state.greeted = true;
+  spdlog::debug("hello from '{}'", hello.client);
+  proto::Capabilities caps;
+  caps.server = "voxbrick 0.1.0";
+  caps.maxMessageBytes = mConfig.maxMessageBytes;
+  caps.maxImageSide = uint32_t(mConfig.maxImageSide);
+  caps.maxQueuedPerSession = uint32_t(mConfig.maxQueuedPerSession());
+  caps.encodings = {proto::Encoding::RawRgba8, proto::Encoding::Png, proto::Encoding::ZstdRgba8};
+  return replyWith(std::move(caps), requestId);
+}
+
+Outcome MessageHandler::openDataset(ConnectionState& state, const proto::OpenDataset& open, uint32_t requestId) {
+  std::shared_ptr<const render::Dataset> dataset = mDatasets.open(open.name);
+  state.dataset = dataset;
+  return replyWith(proto::DatasetInfo{dataset->name(), dataset->infoJson()}, requestId);
+}
+
+Outcome MessageHandler::render(ConnectionState& state, const proto::RenderRequest& request, uint32_t requestId) {
+  mStats.add(ServerEvent::RenderRequest);
+  if (!state.dataset) throw proto::ProtocolError(ErrorCode::UnexpectedMessage, "open a dataset before rendering");
+  RenderJob job;
+  job.requestId = requestId;
+  job.encoding = request.encoding;
+  job.dataset = state.dataset;
+  job.received = Clock::now();
+  // Presets were read at start: parsing a scene reads no file on an I/O thread.
+  job.scene = render::Scene::fromJson(request.sceneJson, "scene", mPresets);
+  if (job.scene.width > mConfig.maxImageSide || job.scene.height > mConfig.maxImageSide)
+    throw LimitExceededError("image " + std::to_string(job.scene.width) + "x" + std::to_string(job.scene.height) +
+                             " exceeds this server's limit of " + std::to_string(mConfig.maxImageSide) +
+                             " per side");
+  Outcome outcome;
+  outcome.render = std::move(job);
+  return outcome;
+}
+
+Outcome MessageHandler::submitted(ConnectionState& state, uint32_t requestId, Submission submission) {
+  switch (submission.result) {
+    case Submission::Result::Stopped:
+      return {};  // the session is being closed with ShuttingDown; the request gets no other reply
+    case Submission::Result::Full:
+      return replyWith(errorMessage(ErrorCode::LimitExceeded,
+                                    "more than " + std::to_string(ServerConfig::kMaxQueuedWithoutCoalescing) +
+                                        " renders queued"),
+                       requestId);
+    case Submission::Result::Queued: break;
+  }
+  ++state.outstandingRenders;
+  if (!submission.replaced) return {};
+  --state.outstandingRenders;
+  mStats.add(ServerEvent::Superseded);
+  const uint32_t replaced = submission.replaced->requestId;
+  return replyWith(errorMessage(ErrorCode::Superseded, "request " + std::to_string(replaced) +
+                                                           " was replaced by request " + std::to_string(requestId) +
+                                                           " before it started"),
+                   replaced);
+}
+
+Outcome MessageHandler::rendered(ConnectionState& state, const RenderJob& job, proto::Message reply) {
+  --state.outstandingRenders;
+  if (std::holds_alternative<proto::Frame>(reply))
+    mStats.frameDelivered(std::chrono::duration<double, std::milli>(Clock::now() - job.received).count());
+  else
+    mStats.add(ServerEvent::RenderError);
+  return replyWith(std::move(reply), job.requestId);
+}
+
+}  // namespace voxbrick::server

@@ -1,0 +1,82 @@
+// What the server answers: a function from decoded client messages to replies, with no sockets and no Asio, so it
+// can be tested on its own and put behind any transport (today Session's TCP framing).
+#pragma once
+
+#include <cstdint>
+#include <exception>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "proto/Messages.h"
+#include "render/Dataset.h"
+#include "render/TransferFunction.h"
+#include "server/Datasets.h"
+#include "server/RenderJob.h"
+#include "server/ServerConfig.h"
+#include "server/ServerStats.h"
+
+namespace voxbrick::server {
+
+/// One connection's place in the session state machine (PROTOCOL.md section 5). The transport keeps one per
+/// connection and hands it to every call; only the handler changes it.
+struct ConnectionState {
+  bool greeted = false;                            ///< Hello was accepted
+  std::shared_ptr<const render::Dataset> dataset;  ///< the open one; null before OpenDataset
+  int outstandingRenders = 0;                      ///< renders queued or drawing, not answered yet
+
+  /// Whether the client is waiting for a frame (so a silent client is not idle).
+  bool awaitingFrames() const { return outstandingRenders > 0; }
+};
+
+/// A message to send and the request id its header carries.
+struct Reply {
+  proto::Message message;
+  uint32_t requestId = 0;  ///< the id of the request it answers; 0 for none
+};
+
+/// What the transport does after a message: send the replies in order, queue the render job if there is one (and
+/// report what the queue did through MessageHandler::submitted), then close if asked once the replies are written.
+struct Outcome {
+  std::vector<Reply> replies;       ///< to send, in this order
+  bool close = false;               ///< end the session once the replies are written
+  std::optional<RenderJob> render;  ///< to queue for a render thread
+};
+
+class MessageHandler {
+ public:
+  /// `statsJson` gives the server's statistics for a Stats reply. Thread-safe: shared by every session.
+  MessageHandler(const ServerConfig& config, DatasetRegistry& datasets, const render::TransferFunctionPresets& presets,
+                 ServerStats& stats, std::function<nlohmann::json()> statsJson);
+
+  /// The answer to `message` (request `requestId`) in `state`, which it updates. Throws nothing but std::bad_alloc:
+  /// every failure is an Error reply (see errorReply).
+  Outcome handle(ConnectionState& state, const proto::Message& message, uint32_t requestId);
+  /// The answer once the queue took (or refused) the job of request `requestId`: Superseded for the request it
+  /// replaced, LimitExceeded or ShuttingDown if it was refused, nothing if it simply waits.
+  Outcome submitted(ConnectionState& state, uint32_t requestId, Submission submission);
+  /// The answer once a render thread made `reply` (renderReply) for `job`: the reply itself, counted.
+  Outcome rendered(ConnectionState& state, const RenderJob& job, proto::Message reply);
+  /// The answer to a message that could not be decoded (or any failure outside handle): the Error of
+  /// errorReply(error, context), closing the session when its code says so (closesSession).
+  static Outcome failed(const std::exception_ptr& error, uint32_t requestId,
+                        const std::string& context = "internal error");
+
+ private:
+  Outcome dispatch(ConnectionState& state, const proto::Message& message, uint32_t requestId);
+  Outcome hello(ConnectionState& state, const proto::Hello& hello, uint32_t requestId);
+  Outcome openDataset(ConnectionState& state, const proto::OpenDataset& open, uint32_t requestId);
+  Outcome render(ConnectionState& state, const proto::RenderRequest& request, uint32_t requestId);
+
+  const ServerConfig mConfig;
+  DatasetRegistry& mDatasets;
+  const render::TransferFunctionPresets& mPresets;
+  ServerStats& mStats;
+  const std::function<nlohmann::json()> mStatsJson;
+};
+
+}  // namespace voxbrick::server

@@ -1,0 +1,68 @@
+// The render queue and the render threads. Sessions with a job waiting are served in turn; when coalescing, each
+// holds at most one waiting job and a newer one replaces it (latest wins). Each thread owns a RenderEngine.
+#pragma once
+
+#include <condition_variable>
+#include <deque>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "render/RenderEngine.h"
+#include "server/RenderJob.h"
+
+namespace voxbrick::server {
+
+class RenderScheduler {
+ public:
+  /// Where the replies to one session's jobs go.
+  class Sink {
+   public:
+    virtual ~Sink() = default;
+    /// False once the session has ended: its waiting jobs are then dropped unrendered. Called on render threads.
+    virtual bool wantsReplies() const = 0;
+    /// Takes the reply to `job` on a render thread; must not block (a session posts it to its own strand).
+    virtual void rendered(RenderJob job, proto::Message reply) = 0;
+  };
+
+  /// Takes the engines (made, and released from the calling thread, by the caller: a machine without GL fails
+  /// there, before any thread exists). `coalesce` false keeps up to ServerConfig::kMaxQueuedWithoutCoalescing jobs
+  /// per session instead of one.
+  RenderScheduler(std::vector<std::unique_ptr<render::RenderEngine>> engines, bool coalesce);
+  /// stop().
+  ~RenderScheduler();
+  RenderScheduler(const RenderScheduler&) = delete;
+  RenderScheduler& operator=(const RenderScheduler&) = delete;
+
+  /// Starts one render thread per engine; each engine moves to its thread, which makes it current there and
+  /// destroys it there. Once.
+  void start();
+  /// Queues `job` for `sink`'s session; thread-safe. Only Submission::Result::Queued means a reply will come.
+  Submission submit(const std::shared_ptr<Sink>& sink, RenderJob job);
+  /// How many sessions have a job waiting.
+  size_t queuedSessions() const;
+  /// Drops every waiting job, lets each thread finish the frame it is drawing (its reply is still delivered) and
+  /// joins the threads. Idempotent; call it from any thread but a render thread.
+  void stop();
+
+ private:
+  void renderLoop(std::unique_ptr<render::RenderEngine> engine, int index);
+  /// Blocks for the next job; false once stopping.
+  bool next(std::shared_ptr<Sink>& sink, RenderJob& job);
+
+  const bool mCoalesce;
+  mutable std::mutex mMutex;
+  std::condition_variable mReady;
+  bool mStopping = false;
+  /// Sessions with a job waiting, each once, in the order they are served.
+  std::deque<std::shared_ptr<Sink>> mTurns;
+  /// Their waiting jobs, oldest first; a session has an entry exactly while it is in mTurns.
+  std::map<const Sink*, std::deque<RenderJob>> mWaiting;
+  std::vector<std::unique_ptr<render::RenderEngine>> mEngines;  ///< until start() hands them to their threads
+  std::mutex mJoinMutex;
+  std::vector<std::thread> mThreads;
+};
+
+}  // namespace voxbrick::server

@@ -1,0 +1,61 @@
+// The server's statistics: event counters, frame latencies and resident memory, and the Stats message's JSON.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "render/Dataset.h"
+#include "server/LatencyWindow.h"
+
+namespace voxbrick::server {
+
+/// What the server counts.
+enum class ServerEvent {
+  SessionAccepted,
+  SessionRefused,     ///< too many sessions, or stopping
+  Message,            ///< message bodies read, decodable or not
+  ProtocolError,      ///< headers and bodies that did not decode
+  RenderRequest,
+  Frame,
+  RenderError,        ///< renders answered with an Error instead of a Frame
+  Superseded,
+  Timeout,            ///< sessions closed idle or mid-message
+  SlowClientDropped,  ///< sessions closed because they did not read their replies
+};
+
+/// Counters are atomics: every I/O and render thread updates them without a lock.
+class ServerStats {
+ public:
+  /// What the server knows at the moment statistics are asked for (the counters are kept here).
+  struct Gauges {
+    size_t activeSessions = 0;
+    size_t queuedSessions = 0;  ///< sessions with a render waiting for a thread
+    std::vector<std::shared_ptr<const render::Dataset>> datasets;  ///< the opened ones
+    int renderThreads = 0;
+  };
+
+  /// Counts one `event`.
+  void add(ServerEvent event) { mCounts[size_t(event)]++; }
+  /// How many `event`s were counted since the server started.
+  uint64_t total(ServerEvent event) const { return mCounts[size_t(event)].load(); }
+  /// Counts a Frame delivered `latencyMs` after its request arrived.
+  void frameDelivered(double latencyMs);
+
+  /// The Stats message's JSON: uptime, sessions, messages, renders, latency_ms, datasets (with their cache
+  /// counters), memory and render_threads.
+  nlohmann::json toJson(const Gauges& gauges) const;
+
+ private:
+  static constexpr size_t kEvents = size_t(ServerEvent::SlowClientDropped) + 1;
+  std::array<std::atomic<uint64_t>, kEvents> mCounts{};
+  LatencyWindow mLatency;
+  std::chrono::steady_clock::time_point mStarted = std::chrono::steady_clock::now();
+};
+
+}  // namespace voxbrick::server

@@ -1,0 +1,93 @@
+// The TCP transport of one client connection: message framing (header, then body), deadlines (idle, read, write),
+// the queue of replies and closing after it is flushed. It decodes bytes into proto::Message and hands each to the
+// MessageHandler; it never looks at what a message means.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <deque>
+#include <exception>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <utility>  // before Asio: Boost 1.74's awaitable.hpp uses std::exchange without it
+
+#include <boost/asio.hpp>
+
+#include "proto/Messages.h"
+#include "server/MessageHandler.h"
+#include "server/RenderScheduler.h"
+#include "server/ServerConfig.h"
+#include "server/ServerStats.h"
+
+namespace voxbrick::server {
+
+class Session;
+
+/// What every session shares; owned by the server, which outlives its sessions.
+struct SessionServices {
+  const ServerConfig& config;  ///< timeouts and maxOutputBytes
+  proto::Limits limits;        ///< checked while decoding
+  MessageHandler& handler;
+  RenderScheduler& scheduler;
+  ServerStats& stats;
+  /// Called once when a session has closed (on its strand), so the server can forget it.
+  std::function<void(const std::shared_ptr<Session>&)> ended;
+};
+
+/// One client connection. Everything runs on the strand of its socket's executor; the public calls post there.
+class Session final : public RenderScheduler::Sink, public std::enable_shared_from_this<Session> {
+ public:
+  /// `socket` must be connected and bound to a strand executor.
+  Session(boost::asio::ip::tcp::socket socket, const SessionServices& services);
+
+  /// Starts reading messages. Safe from any thread.
+  void start();
+  /// Sends `error` with request id 0, then closes once the replies queued before it are written (a refused
+  /// connection, the server stopping). Safe from any thread.
+  void end(proto::Error error);
+  /// The client's address and port, for logs.
+  const std::string& peer() const { return mPeer; }
+
+  bool wantsReplies() const override { return mAlive; }
+  void rendered(RenderJob job, proto::Message reply) override;
+
+ private:
+  /// A completion handler that runs `step` on this session and closes the session instead of letting an exception
+  /// out of Asio.
+  template <typename Step>
+  auto guarded(Step step);
+  void failed(const std::exception_ptr& error) noexcept;
+
+  void readHeader();
+  void onHeader(boost::system::error_code ec);
+  void onBody(boost::system::error_code ec);
+  void armReadTimer(double seconds);
+  void onReadTimeout();
+  /// Carries out what the handler decided: replies, the render job, closing.
+  void apply(Outcome outcome);
+  void send(const proto::Message& message, uint32_t requestId);
+  void writeNext();
+  void onWritten(boost::system::error_code ec);
+  /// Stops reading; closes once every queued reply is written.
+  void closeAfterFlush();
+  void close();
+
+  const SessionServices& mServices;
+  boost::asio::ip::tcp::socket mSocket;
+  boost::asio::steady_timer mReadTimer, mWriteTimer;
+  std::string mPeer;
+  ConnectionState mState;
+  std::array<uint8_t, proto::kHeaderBytes> mHeaderBytes{};
+  proto::Header mHeader;
+  std::vector<uint8_t> mBody;
+  std::deque<std::vector<uint8_t>> mOutbox;
+  uint64_t mOutboxBytes = 0;
+  bool mWriting = false, mClosing = false, mClosed = false, mReadingBody = false;
+  std::atomic<bool> mAlive{true};  ///< read by render threads
+};
+
+}  // namespace voxbrick::server

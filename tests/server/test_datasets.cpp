@@ -1,0 +1,92 @@
+// DatasetRegistry: which names it lists and opens, and that a name is never a path.
+#include <gtest/gtest.h>
+
+#include "TestDatasets.h"
+#include "server/Datasets.h"
+#include "support/TestSupport.h"
+
+namespace voxbrick::server {
+namespace {
+
+/// A datasets directory with one real store ("sparse", copied from the shared one), a directory without a
+/// store.json, a plain file and a store whose store.json is broken. Real stores also lie where only a name that is
+/// a path, or has odd characters, would reach them: in the datasets directory itself, beside it ("outside"), and
+/// under names the check refuses. So only the name check keeps those names from opening something.
+class DatasetRegistryTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::filesystem::create_directories(datasets);
+    for (const std::filesystem::path& where : {datasets / "sparse", dir / "outside", datasets / "odd name",
+                                               datasets / "sp*rse", datasets / "sp\xC3\xA4rse",
+                                               datasets / "sparse\n"})
+      copyStore(where);
+    for (const auto& entry : std::filesystem::directory_iterator(test::testDatasets() / "sparse"))
+      std::filesystem::copy(entry.path(), datasets / entry.path().filename());  // "." and "sparse/.." are stores
+    std::filesystem::create_directories(datasets / "no-store");
+    test::writeFile(datasets / "no-store" / "README", std::string("not a store"));
+    test::writeFile(datasets / "file.json", std::string("{}"));
+    std::filesystem::create_directories(datasets / "broken");
+    test::writeFile(datasets / "broken" / "store.json", std::string("{"));
+  }
+  static void copyStore(const std::filesystem::path& to) {
+    std::filesystem::copy(test::testDatasets() / "sparse", to, std::filesystem::copy_options::recursive);
+  }
+
+  test::ScratchDir dir;
+  const std::filesystem::path datasets = dir / "datasets";
+  DatasetRegistry registry{datasets, size_t(16) << 20};
+};
+
+TEST_F(DatasetRegistryTest, ListsOnlyDirectoriesWithAStore) {
+  EXPECT_EQ(registry.names(), (std::vector<std::string>{"broken", "sparse"}));
+  // Scanned on every call: a store added later appears.
+  copyStore(datasets / "later");
+  EXPECT_EQ(registry.names(), (std::vector<std::string>{"broken", "later", "sparse"}));
+}
+
+TEST_F(DatasetRegistryTest, OpensAValidNameOnceAndSharesIt) {
+  const auto a = registry.open("sparse");
+  ASSERT_TRUE(a);
+  EXPECT_EQ(a->name(), "sparse");
+  EXPECT_EQ(a->kind(), render::DatasetKind::BrickStore);
+  EXPECT_EQ(registry.open("sparse"), a);
+  ASSERT_EQ(registry.opened().size(), 1u);
+  EXPECT_EQ(registry.opened()[0], a);
+}
+
+TEST_F(DatasetRegistryTest, NamesThatAreNotDatasetsAreNotFound) {
+  const std::string tooLong(256, 'a');
+  for (const std::string& name :
+       {std::string("."), std::string(".."), std::string(""), std::string("../outside"), std::string("sparse/"),
+        std::string("sparse/.."), std::string("sparse/../sparse"), (dir / "outside").string(), tooLong,
+        std::string("odd name"), std::string("sparse\n"), std::string("sp*rse"), std::string("sp\xC3\xA4rse"),
+        std::string("no-store"), std::string("file.json"), std::string("missing")})
+    EXPECT_THROW(registry.open(name), DatasetNotFound) << "'" << name << "'";
+  EXPECT_TRUE(registry.opened().empty());
+}
+
+TEST_F(DatasetRegistryTest, TheNameCheckAllowsOnlyPlainNames) {
+  for (const char* name : {"sparse", "a-b_c.1", "...", ".hidden", "CT.2024-01"})
+    EXPECT_TRUE(DatasetRegistry::validName(name)) << name;
+  EXPECT_TRUE(DatasetRegistry::validName(std::string(255, 'x')));
+  for (const std::string& name : {std::string(""), std::string("."), std::string(".."), std::string(256, 'x'),
+                                  std::string("a/b"), std::string("a\\b"), std::string("a b"), std::string("a:b"),
+                                  std::string("a\0b", 3), std::string("\xC3\xA4")})
+    EXPECT_FALSE(DatasetRegistry::validName(name)) << name;
+}
+
+TEST_F(DatasetRegistryTest, AStoreThatCannotBeOpenedIsNotANotFound) {
+  // Listed (it has a store.json), but opening it is the store's error, which the client sees as Internal.
+  try {
+    registry.open("broken");
+    ADD_FAILURE() << "a broken store opened";
+  } catch (const DatasetNotFound& e) {
+    ADD_FAILURE() << "reported as not found: " << e.what();
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("store.json"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(registry.opened().empty());
+}
+
+}  // namespace
+}  // namespace voxbrick::server

@@ -1,0 +1,176 @@
+// The render queue and threads with real engines (llvmpipe without a GPU), and a render thread's reply to a job.
+#include <gtest/gtest.h>
+
+#include <condition_variable>
+#include <mutex>
+
+#include <nlohmann/json.hpp>
+
+#include "TestDatasets.h"
+#include "render/TransferFunction.h"
+#include "server/Datasets.h"
+#include "image/FrameImage.h"
+#include "server/RenderScheduler.h"
+#include "server/ServerConfig.h"
+
+namespace voxbrick::server {
+namespace {
+
+using nlohmann::json;
+
+/// Collects the replies a scheduler delivers to one session.
+class RecordingSink : public RenderScheduler::Sink {
+ public:
+  std::atomic<bool> wants{true};
+
+  bool wantsReplies() const override { return wants; }
+  void rendered(RenderJob job, proto::Message reply) override {
+    {
+      std::lock_guard lock(mMutex);
+      mReplies.emplace_back(job.requestId, std::move(reply));
+    }
+    mChanged.notify_all();
+  }
+  /// The replies so far, once there are `count` of them (or after 60 s).
+  std::vector<std::pair<uint32_t, proto::Message>> await(size_t count) {
+    std::unique_lock lock(mMutex);
+    mChanged.wait_for(lock, std::chrono::seconds(60), [&] { return mReplies.size() >= count; });
+    return mReplies;
+  }
+
+ private:
+  std::mutex mMutex;
+  std::condition_variable mChanged;
+  std::vector<std::pair<uint32_t, proto::Message>> mReplies;
+};
+
+class RenderSchedulerTest : public ::testing::Test {
+ protected:
+  DatasetRegistry datasets{test::testDatasets(), size_t(16) << 20};
+  render::TransferFunctionPresets presets = render::TransferFunctionPresets::load(test::shippedPresets());
+
+  RenderJob job(uint32_t id, int width = 40) {
+    RenderJob j;
+    j.requestId = id;
+    j.encoding = proto::Encoding::RawRgba8;
+    j.dataset = datasets.open("sparse");
+    j.scene = render::Scene::fromJson(
+        R"({"camera": {"orbit": [40, 25, 2.2]}, "transfer_function": "sparse", "size": [)" + std::to_string(width) +
+            ", 32]}",
+        "scene", presets);
+    j.received = std::chrono::steady_clock::now();
+    return j;
+  }
+  static std::unique_ptr<RenderScheduler> scheduler(int threads, bool coalesce) {
+    std::vector<std::unique_ptr<render::RenderEngine>> engines;
+    for (int i = 0; i < threads; ++i) {
+      engines.push_back(std::make_unique<render::RenderEngine>(render::Backend::Auto, size_t(64) << 20));
+      engines.back()->releaseCurrent();
+    }
+    return std::make_unique<RenderScheduler>(std::move(engines), coalesce);
+  }
+};
+
+TEST_F(RenderSchedulerTest, TheNewestWaitingJobOfASessionWinsAndSessionsTakeTurns) {
+  auto s = scheduler(1, true);
+  auto a = std::make_shared<RecordingSink>(), b = std::make_shared<RecordingSink>();
+  Submission first = s->submit(a, job(1));
+  EXPECT_EQ(first.result, Submission::Result::Queued);
+  EXPECT_FALSE(first.replaced);
+  Submission second = s->submit(a, job(2, 48));
+  EXPECT_EQ(second.result, Submission::Result::Queued);
+  ASSERT_TRUE(second.replaced);
+  EXPECT_EQ(second.replaced->requestId, 1u);
+  EXPECT_EQ(s->queuedSessions(), 1u);
+  EXPECT_FALSE(s->submit(b, job(3)).replaced);
+  EXPECT_EQ(s->queuedSessions(), 2u);
+  s->start();
+  const auto fromA = a->await(1), fromB = b->await(1);
+  ASSERT_EQ(fromA.size(), 1u);
+  ASSERT_EQ(fromB.size(), 1u);
+  EXPECT_EQ(fromA[0].first, 2u);
+  EXPECT_EQ(fromB[0].first, 3u);
+  ASSERT_TRUE(std::holds_alternative<proto::Frame>(fromA[0].second));
+  EXPECT_EQ(std::get<proto::Frame>(fromA[0].second).width, 48u) << "the newer request's scene was drawn";
+  s->stop();
+  EXPECT_EQ(s->queuedSessions(), 0u);
+  EXPECT_EQ(a->await(1).size(), 1u) << "the replaced job was never rendered";
+}
+
+TEST_F(RenderSchedulerTest, WithoutCoalescingASessionMayQueueSixtyFour) {
+  auto s = scheduler(1, false);
+  auto a = std::make_shared<RecordingSink>();
+  for (uint32_t i = 1; i <= ServerConfig::kMaxQueuedWithoutCoalescing; ++i) {
+    const Submission r = s->submit(a, job(i));
+    EXPECT_EQ(r.result, Submission::Result::Queued) << i;
+    EXPECT_FALSE(r.replaced) << i;
+  }
+  EXPECT_EQ(s->submit(a, job(100)).result, Submission::Result::Full);
+  EXPECT_EQ(s->queuedSessions(), 1u);
+}
+
+TEST_F(RenderSchedulerTest, StopDropsWaitingJobsAndRefusesNewOnes) {
+  auto s = scheduler(1, true);
+  std::vector<std::shared_ptr<RecordingSink>> sinks;
+  s->start();
+  for (uint32_t i = 1; i <= 4; ++i) {
+    sinks.push_back(std::make_shared<RecordingSink>());
+    s->submit(sinks.back(), job(i));
+  }
+  s->stop();
+  // One thread finishes at most the frame it was drawing; the others waiting are dropped.
+  size_t replies = 0;
+  for (const auto& sink : sinks) replies += sink->await(0).size();
+  EXPECT_LE(replies, 1u);
+  EXPECT_EQ(s->queuedSessions(), 0u);
+  EXPECT_EQ(s->submit(sinks[0], job(5)).result, Submission::Result::Stopped);
+  s->stop();  // idempotent
+}
+
+TEST_F(RenderSchedulerTest, JobsOfAnEndedSessionAreNotRendered) {
+  auto s = scheduler(1, true);
+  auto gone = std::make_shared<RecordingSink>(), here = std::make_shared<RecordingSink>();
+  gone->wants = false;
+  s->submit(gone, job(1));
+  s->submit(here, job(2));
+  s->start();
+  ASSERT_EQ(here->await(1).size(), 1u);
+  s->stop();
+  EXPECT_TRUE(gone->await(0).empty());
+}
+
+TEST(RenderReply, AFrameCarriesTheImageAndTheServerTimings) {
+  DatasetRegistry datasets(test::testDatasets(), size_t(16) << 20);
+  const auto presets = render::TransferFunctionPresets::load(test::shippedPresets());
+  render::RenderEngine engine(render::Backend::Auto, size_t(64) << 20);
+  RenderJob job;
+  job.requestId = 5;
+  job.encoding = proto::Encoding::Png;
+  job.dataset = datasets.open("sparse");
+  job.scene = render::Scene::fromJson(R"({"size": [40, 32], "transfer_function": "sparse"})", "scene", presets);
+  job.received = std::chrono::steady_clock::now();
+  const proto::Message reply = renderReply(engine, job, 3);
+  ASSERT_TRUE(std::holds_alternative<proto::Frame>(reply));
+  const auto& frame = std::get<proto::Frame>(reply);
+  EXPECT_EQ(frame.width, 40u);
+  EXPECT_EQ(frame.height, 32u);
+  EXPECT_EQ(frame.encoding, proto::Encoding::Png);
+  const image::Image8 image = image::decodeFrameImage(frame);
+  size_t lit = 0;
+  for (size_t i = 0; i < image.rgba.size(); i += 4) lit += image.rgba[i] > 0 ? 1 : 0;
+  EXPECT_GT(lit, 20u) << "an empty frame would prove nothing";
+  const json stats = json::parse(frame.statsJson);
+  EXPECT_GT(stats["bricks_drawn"].get<int>(), 0);
+  EXPECT_GE(stats["queue_ms"].get<double>(), 0.0);
+  EXPECT_GE(stats["encode_ms"].get<double>(), 0.0);
+  EXPECT_EQ(stats["render_thread"], 3);
+
+  // What the renderer throws becomes the reply, through errorReply.
+  job.dataset = nullptr;
+  const proto::Message error = renderReply(engine, job, 3);
+  ASSERT_TRUE(std::holds_alternative<proto::Error>(error));
+  EXPECT_EQ(std::get<proto::Error>(error).code, proto::ErrorCode::InvalidScene);
+}
+
+}  // namespace
+}  // namespace voxbrick::server

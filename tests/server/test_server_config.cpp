@@ -1,0 +1,196 @@
+// The server configuration parser: ServerConfig::load and validate.
+#include <gtest/gtest.h>
+
+#include "server/ServerConfig.h"
+#include "support/TestSupport.h"
+
+namespace voxbrick::server {
+namespace {
+
+class ServerConfigTest : public ::testing::Test {
+ protected:
+  test::ScratchDir dir;
+
+  std::filesystem::path write(const std::string& toml) {
+    const auto path = dir / "server.toml";
+    test::writeFile(path, toml);
+    return path;
+  }
+  /// The message load() throws for `toml`; fails the test if it loads.
+  std::string loadError(const std::string& toml) {
+    try {
+      ServerConfig::load(write(toml));
+    } catch (const std::runtime_error& e) {
+      return e.what();
+    }
+    ADD_FAILURE() << "loaded: " << toml;
+    return "";
+  }
+};
+
+#define EXPECT_MENTIONS(text, part) EXPECT_NE((text).find(part), std::string::npos) << (text)
+
+TEST_F(ServerConfigTest, AnEmptyFileGivesTheDefaults) {
+  const ServerConfig c = ServerConfig::load(write(""));
+  const ServerConfig d;
+  EXPECT_EQ(c.host, "127.0.0.1");
+  EXPECT_EQ(c.port, 7420);
+  EXPECT_EQ(c.backend, render::Backend::Auto);
+  EXPECT_EQ(c.datasets, d.datasets);
+  EXPECT_EQ(c.renderThreads, d.renderThreads);
+  EXPECT_EQ(c.maxSessions, 64);
+  EXPECT_EQ(c.maxMessageBytes, 1u << 20);
+  EXPECT_EQ(c.maxImageSide, 4096);
+  EXPECT_TRUE(c.coalesce);
+  EXPECT_EQ(c.maxQueuedPerSession(), 1u);
+  EXPECT_NO_THROW(d.validate());
+}
+
+TEST_F(ServerConfigTest, EveryKeyIsRead) {
+  const ServerConfig c = ServerConfig::load(write(R"(
+[server]
+host = "0.0.0.0"
+port = 0
+datasets = "stores"
+io_threads = 3
+render_threads = 4
+backend = "osmesa"
+log_level = "debug"
+coalesce = false
+[limits]
+max_sessions = 5
+max_message_bytes = 2048
+max_image_side = 512
+idle_timeout_s = 1.5
+read_timeout_s = 2
+write_timeout_s = 3
+max_output_bytes = 2097152
+[memory]
+host_cache_mb = 32
+gpu_budget_mb = 64
+)"));
+  EXPECT_EQ(c.host, "0.0.0.0");
+  EXPECT_EQ(c.port, 0);
+  EXPECT_EQ(c.datasets, dir.path() / "stores") << "relative to the configuration file";
+  EXPECT_EQ(c.ioThreads, 3);
+  EXPECT_EQ(c.renderThreads, 4);
+  EXPECT_EQ(c.backend, render::Backend::OsMesa);
+  EXPECT_EQ(c.logLevel, "debug");
+  EXPECT_FALSE(c.coalesce);
+  EXPECT_EQ(c.maxQueuedPerSession(), ServerConfig::kMaxQueuedWithoutCoalescing);
+  EXPECT_EQ(c.maxSessions, 5);
+  EXPECT_EQ(c.maxMessageBytes, 2048u);
+  EXPECT_EQ(c.maxImageSide, 512);
+  EXPECT_DOUBLE_EQ(c.idleTimeoutS, 1.5);
+  EXPECT_DOUBLE_EQ(c.readTimeoutS, 2);
+  EXPECT_DOUBLE_EQ(c.writeTimeoutS, 3);
+  EXPECT_EQ(c.maxOutputBytes, 2097152u);
+  EXPECT_EQ(c.hostCacheMB, 32);
+  EXPECT_EQ(c.gpuBudgetMB, 64);
+}
+
+TEST_F(ServerConfigTest, TheShippedFileIsValid) {
+  const ServerConfig c = ServerConfig::load(std::string(VOXBRICK_SOURCE_DIR) + "/config/server.toml");
+  EXPECT_EQ(c.backend, render::Backend::Auto);
+  EXPECT_EQ(c.datasets.lexically_normal(), (std::filesystem::path(VOXBRICK_SOURCE_DIR) / "demo").lexically_normal());
+}
+
+TEST_F(ServerConfigTest, AWrongTypeNamesTheFileAndTheKey) {
+  struct Case {
+    const char* section;
+    const char* key;
+    const char* value;
+    const char* expected;
+  };
+  const Case cases[] = {
+      {"server", "host", "1", "must be a string"},
+      {"server", "port", "\"7420\"", "must be an integer"},
+      {"server", "datasets", "[]", "must be a string"},
+      {"server", "io_threads", "1.5", "must be an integer"},
+      {"server", "render_threads", "true", "must be an integer"},
+      {"server", "backend", "1", "must be a string"},
+      {"server", "log_level", "2", "must be a string"},
+      {"server", "coalesce", "\"yes\"", "must be true or false"},
+      {"limits", "max_sessions", "\"many\"", "must be an integer"},
+      {"limits", "max_message_bytes", "1e6", "must be an integer"},
+      {"limits", "max_image_side", "{}", "must be an integer"},
+      {"limits", "idle_timeout_s", "\"1\"", "must be a number"},
+      {"limits", "read_timeout_s", "false", "must be a number"},
+      {"limits", "write_timeout_s", "[1]", "must be a number"},
+      {"limits", "max_output_bytes", "1.0", "must be an integer"},
+      {"memory", "host_cache_mb", "\"1G\"", "must be an integer"},
+      {"memory", "gpu_budget_mb", "0.5", "must be an integer"},
+  };
+  for (const Case& c : cases) {
+    const std::string message =
+        loadError(std::string("[") + c.section + "]\n" + c.key + " = " + c.value + "\n");
+    EXPECT_MENTIONS(message, (dir / "server.toml").string());
+    EXPECT_MENTIONS(message, std::string(c.section) + "." + c.key);
+    EXPECT_MENTIONS(message, c.expected);
+  }
+  EXPECT_MENTIONS(loadError("limits = 3\n"), "limits must be a table");
+}
+
+TEST_F(ServerConfigTest, UnknownKeysAreRefusedByName) {
+  EXPECT_MENTIONS(loadError("[limits]\nmax_sesions = 4\n"), "unknown key limits.max_sesions");
+  EXPECT_MENTIONS(loadError("[server]\nthreads = 4\n"), "unknown key server.threads");
+  EXPECT_MENTIONS(loadError("[cache]\nsize = 4\n"), "unknown key cache");
+  EXPECT_MENTIONS(loadError("port = 4\n"), "unknown key port");
+}
+
+TEST_F(ServerConfigTest, ValuesOutOfRangeAreRefusedByName) {
+  const std::pair<const char*, const char*> cases[] = {
+      {"[server]\nport = 70000\n", "server.port"},
+      {"[server]\nport = -1\n", "server.port"},
+      {"[server]\nio_threads = 0\n", "server.io_threads"},
+      {"[server]\nrender_threads = 65\n", "server.render_threads"},
+      {"[server]\nlog_level = \"loud\"\n", "server.log_level"},
+      {"[limits]\nmax_sessions = 0\n", "limits.max_sessions"},
+      {"[limits]\nmax_message_bytes = 100\n", "limits.max_message_bytes"},
+      {"[limits]\nmax_image_side = 100000\n", "limits.max_image_side"},
+      {"[limits]\nidle_timeout_s = 0\n", "limits.idle_timeout_s"},
+      {"[limits]\nread_timeout_s = -1\n", "limits.read_timeout_s"},
+      {"[limits]\nwrite_timeout_s = 1e9\n", "limits.write_timeout_s"},
+      {"[limits]\nmax_output_bytes = 1000\n", "limits.max_output_bytes"},
+      {"[memory]\nhost_cache_mb = 1\n", "memory.host_cache_mb"},
+      {"[memory]\ngpu_budget_mb = 8\n", "memory.gpu_budget_mb"},
+  };
+  for (const auto& [toml, key] : cases) {
+    const std::string message = loadError(toml);
+    EXPECT_MENTIONS(message, key);
+    EXPECT_MENTIONS(message, (dir / "server.toml").string());
+  }
+  // validate() checks values set in code (the command line's overrides) the same way.
+  ServerConfig c;
+  c.maxImageSide = 0;
+  EXPECT_THROW(c.validate(), std::runtime_error);
+  try {
+    c.validate();
+  } catch (const std::runtime_error& e) {
+    EXPECT_MENTIONS(std::string(e.what()), "limits.max_image_side");
+  }
+}
+
+TEST_F(ServerConfigTest, ABadBackendNameIsRefusedWithTheValue) {
+  const std::string message = loadError("[server]\nbackend = \"vulkan\"\n");
+  EXPECT_MENTIONS(message, "server.backend");
+  EXPECT_MENTIONS(message, "'vulkan'");
+  EXPECT_MENTIONS(message, (dir / "server.toml").string());
+  EXPECT_EQ(ServerConfig::load(write("[server]\nbackend = \"egl\"\n")).backend, render::Backend::Egl);
+  EXPECT_EQ(ServerConfig::parseBackend("auto", "--backend"), render::Backend::Auto);
+  try {
+    ServerConfig::parseBackend("EGL", "--backend");
+    ADD_FAILURE() << "no silent fallback for an unknown name";
+  } catch (const std::runtime_error& e) {
+    EXPECT_MENTIONS(std::string(e.what()), "--backend = 'EGL'");
+  }
+}
+
+TEST_F(ServerConfigTest, ASyntaxErrorNamesTheFileAndLine) {
+  const std::string message = loadError("[server]\nport = 7420\nhost = \n");
+  EXPECT_EQ(message.rfind((dir / "server.toml").string() + ":3:", 0), 0u) << message;
+  EXPECT_MENTIONS(loadError("[server\n"), (dir / "server.toml").string());
+}
+
+}  // namespace
+}  // namespace voxbrick::server
