@@ -203,7 +203,7 @@ glm::dvec3 shade(const Frame& f, const Sampler& sample, const Ray& ray, double t
   return c * (0.3 + 0.7 * diffuse) + glm::dvec3(0.25 * specular);
 }
 
-/// Integrates one ray; returns its colour over the background and adds to the counters.
+/// Integrates one ray: its colour over the background, with its samples and skipped bricks added to the counters.
 ///
 /// Samples sit at the midpoints t_k of n equal segments of length h, and each sample's segment is composited as two
 /// halves (which equals the midpoint rule). Between two consecutive samples whose normalised values straddle a
@@ -212,104 +212,64 @@ glm::dvec3 shade(const Frame& f, const Sampler& sample, const Ray& ray, double t
 /// midpoint samples, more where alpha changes more. On every piece the transfer function is then linear in the
 /// value and the extinction well resolved, so steps, spikes and kinks converge like smooth parts instead of O(h).
 template <typename Sampler>
-glm::dvec3 integrate(const Frame& f, const Sampler& sample, const Ray& ray, int64_t& samples, int64_t& skipped) {
-  const Scene& scene = *f.scene;
-  FrontToBack<double> acc;
-  const double length = ray.t1 - ray.t0;
-  if (length > 0) {
-    const double segments = std::ceil(length / f.step);
-    const int64_t n = int64_t(segments);
-    const double h = length / segments;
-    auto at = [&](int64_t k) { return ray.t0 + (double(k) + 0.5) * h; };
-    auto voxel = [&](double t) { return (ray.origin + t * ray.dir) / f.spacing + f.halfDims; };
-    auto valueAt = [&](double t) {
-      ++samples;
-      return std::clamp((sample(voxel(t)) - f.lo) * f.inverseWidth, 0.0, 1.0);
-    };
-    struct Piece {
-      glm::dvec3 color{0.0};
-      double alpha = 0;  // corrected for the piece's length
-      double tfAlpha = 0;  // the transfer function's, per reference length
-    };
-    auto classify = [&](double t, double s, double pieceLength) {
-      const glm::dvec4 c = scene.transferFunction.evaluate(s);
-      Piece piece{glm::dvec3(c), TransferFunction::correctOpacity(c.a, pieceLength / f.referenceLength), c.a};
-      if (piece.alpha > 0 && scene.shading) piece.color = shade(f, sample, ray, t, piece.color);
-      return piece;
-    };
-    auto add = [&](const Piece& p) {
-      if (p.alpha > 0) acc.add(p.color.r, p.color.g, p.color.b, p.alpha);
-    };
-    // Integrates the interval [ta, tb] between two samples finely: cut where the value crosses each control point
-    // between sa and sb, then several samples per piece.
-    auto refine = [&](double ta, double sa, double tb, double sb) {
-      const bool rising = sa < sb;
-      const auto first = std::upper_bound(f.kinks.begin(), f.kinks.end(), std::min(sa, sb));
-      const auto last = std::upper_bound(f.kinks.begin(), f.kinks.end(), std::max(sa, sb));
-      double left = ta;
-      // Extinction −ln(1 − α) is not linear where α is, so a piece gets more samples the more α changes on it.
-      double sLeft = sa;
-      auto piece = [&](double a, double b, double sRight) {
-        const double change = std::abs(scene.transferFunction.evaluate(sRight).a -
-                                       scene.transferFunction.evaluate(sLeft).a);
-        const int m = 2 + int(32 * change);
-        for (int j = 0; j < m; ++j) {
-          const double t = a + (j + 0.5) / m * (b - a);
-          add(classify(t, valueAt(t), (b - a) / m));
-        }
-        sLeft = sRight;
-      };
-      for (ptrdiff_t i = 0; i < last - first; ++i) {
-        const double x = rising ? first[i] : last[-1 - i];
-        // Bisection keeps lo on the side of the value at `left`; 16 halvings place the cut within h / 65536.
-        double lo = left, hi = tb;
-        const bool above = (left == ta ? sa : valueAt(left)) >= x;
-        if ((sb >= x) == above) continue;  // not monotone here: no crossing to cut at
-        for (int iteration = 0; iteration < 16; ++iteration) {
-          const double mid = 0.5 * (lo + hi);
-          if ((valueAt(mid) >= x) == above)
-            lo = mid;
-          else
-            hi = mid;
-        }
-        const double cut = 0.5 * (lo + hi);
-        piece(left, cut, x);
-        left = cut;
-      }
-      piece(left, tb, sb);
-    };
-    // Refined: an interval where the value crosses a control point, or where alpha changes by more than 1/16.
-    auto refined = [&](double sa, const Piece& a, double sb, const Piece& b) {
-      return std::abs(a.tfAlpha - b.tfAlpha) > 1.0 / 16 ||
-             std::upper_bound(f.kinks.begin(), f.kinks.end(), std::min(sa, sb)) !=
-                 std::upper_bound(f.kinks.begin(), f.kinks.end(), std::max(sa, sb));
-    };
-    // The brick of the sample at t, if rays may jump over it: the parameter where the ray leaves its box.
-    auto transparentUntil = [&](double t) -> std::optional<double> {
-      if (f.transparent.empty()) return std::nullopt;
-      const glm::dvec3 p = voxel(t);
-      glm::dvec3 lo, hi;
-      int64_t index = 0, stride = 1;
-      for (int a = 0; a < 3; ++a) {
-        const int64_t b = std::clamp<int64_t>(int64_t(std::floor(p[a] / f.brickSize)), 0, f.brickGrid[a] - 1);
-        index += b * stride;
-        stride *= f.brickGrid[a];
-        lo[a] = (double(b) * f.brickSize - f.halfDims[a]) * f.spacing[a];
-        hi[a] = (std::min(double(b + 1) * f.brickSize, f.dims[a]) - f.halfDims[a]) * f.spacing[a];
-      }
-      if (!f.transparent[size_t(index)]) return std::nullopt;
-      double exit = std::numeric_limits<double>::infinity();
-      for (int a = 0; a < 3; ++a)
-        if (ray.dir[a] != 0) exit = std::min(exit, ((ray.dir[a] > 0 ? hi[a] : lo[a]) - ray.origin[a]) / ray.dir[a]);
-      return exit;
-    };
+class RayIntegrator {
+ public:
+  RayIntegrator(const Frame& frame, const Sampler& sample, const Ray& ray, int64_t& samples, int64_t& skipped)
+      : mFrame(frame), mScene(*frame.scene), mSample(sample), mRay(ray), mSamples(samples), mSkipped(skipped) {}
 
+  glm::dvec3 run();
+
+ private:
+  struct Piece {
+    glm::dvec3 color{0.0};
+    double alpha = 0;    // corrected for the piece's length
+    double tfAlpha = 0;  // the transfer function's, per reference length
+  };
+
+  double at(int64_t k) const { return mRay.t0 + (double(k) + 0.5) * mSegment; }
+  glm::dvec3 voxel(double t) const { return (mRay.origin + t * mRay.dir) / mFrame.spacing + mFrame.halfDims; }
+  double valueAt(double t) {
+    ++mSamples;
+    return std::clamp((mSample(voxel(t)) - mFrame.lo) * mFrame.inverseWidth, 0.0, 1.0);
+  }
+  Piece classify(double t, double s, double pieceLength) const {
+    const glm::dvec4 c = mScene.transferFunction.evaluate(s);
+    Piece piece{glm::dvec3(c), TransferFunction::correctOpacity(c.a, pieceLength / mFrame.referenceLength), c.a};
+    if (piece.alpha > 0 && mScene.shading) piece.color = shade(mFrame, mSample, mRay, t, piece.color);
+    return piece;
+  }
+  void add(const Piece& p) {
+    if (p.alpha > 0) mAcc.add(p.color.r, p.color.g, p.color.b, p.alpha);
+  }
+  bool opaque() const { return 1 - mAcc.a < kTerminateTransmittance; }
+  void refine(double ta, double sa, double tb, double sb);
+  void integratePiece(double a, double b, double& sLeft, double sRight);
+  bool refined(double sa, const Piece& a, double sb, const Piece& b) const;
+  std::optional<double> transparentUntil(double t) const;
+
+  const Frame& mFrame;
+  const Scene& mScene;
+  const Sampler& mSample;
+  const Ray& mRay;
+  int64_t& mSamples;
+  int64_t& mSkipped;
+  FrontToBack<double> mAcc;
+  double mSegment = 0;  // h, the length of one segment
+};
+
+template <typename Sampler>
+glm::dvec3 RayIntegrator<Sampler>::run() {
+  const double length = mRay.t1 - mRay.t0;
+  if (length > 0) {
+    const double segments = std::ceil(length / mFrame.step);
+    const int64_t n = int64_t(segments);
+    mSegment = length / segments;
     double tPrev = at(0), sPrev = valueAt(tPrev);
-    Piece halfPrev = classify(tPrev, sPrev, 0.5 * h);
+    Piece halfPrev = classify(tPrev, sPrev, 0.5 * mSegment);
     add(halfPrev);
-    for (int64_t k = 1; k < n && 1 - acc.a >= kTerminateTransmittance; ++k) {
+    for (int64_t k = 1; k < n && !opaque(); ++k) {
       const double t = at(k), s = valueAt(t);
-      const Piece half = classify(t, s, 0.5 * h);
+      const Piece half = classify(t, s, 0.5 * mSegment);
       if (refined(sPrev, halfPrev, s, half)) {
         refine(tPrev, sPrev, t, s);
       } else {
@@ -320,36 +280,94 @@ glm::dvec3 integrate(const Frame& f, const Sampler& sample, const Ray& ray, int6
       // Every sample before the ray leaves a transparent brick's box reads only that brick (border included), so
       // the intervals between them add exactly nothing: continue from the last sample inside.
       if (const std::optional<double> exit = transparentUntil(t)) {
-        const double past = std::ceil((*exit - ray.t0) / h - 0.5);  // first midpoint past the exit
+        const double past = std::ceil((*exit - mRay.t0) / mSegment - 0.5);  // first midpoint past the exit
         const int64_t inside = std::clamp<int64_t>(int64_t(std::min(past, segments)) - 1, k, n - 1);
         if (inside > k) {
-          tPrev = at(inside), sPrev = valueAt(tPrev), halfPrev = classify(tPrev, sPrev, 0.5 * h);
+          tPrev = at(inside), sPrev = valueAt(tPrev), halfPrev = classify(tPrev, sPrev, 0.5 * mSegment);
           k = inside;
-          skipped += 1;
+          mSkipped += 1;
         }
       }
     }
-    if (1 - acc.a >= kTerminateTransmittance) add(halfPrev);
+    if (!opaque()) add(halfPrev);
   }
-  const double t = 1 - std::clamp(acc.a, 0.0, 1.0);
-  return glm::clamp(glm::dvec3(acc.r, acc.g, acc.b) + t * scene.background, 0.0, 1.0);
+  const double t = 1 - std::clamp(mAcc.a, 0.0, 1.0);
+  return glm::clamp(glm::dvec3(mAcc.r, mAcc.g, mAcc.b) + t * mScene.background, 0.0, 1.0);
 }
 
-}  // namespace
+// Integrates the interval [ta, tb] between two mSamples finely: cut where the value crosses each control point
+// between sa and sb, then several mSamples per piece.
+template <typename Sampler>
+void RayIntegrator<Sampler>::refine(double ta, double sa, double tb, double sb) {
+  const bool rising = sa < sb;
+  const auto first = std::upper_bound(mFrame.kinks.begin(), mFrame.kinks.end(), std::min(sa, sb));
+  const auto last = std::upper_bound(mFrame.kinks.begin(), mFrame.kinks.end(), std::max(sa, sb));
+  double left = ta;
+  double sLeft = sa;
+  for (ptrdiff_t i = 0; i < last - first; ++i) {
+    const double x = rising ? first[i] : last[-1 - i];
+    // Bisection keeps lo on the side of the value at `left`; 16 halvings place the cut within h / 65536.
+    double lo = left, hi = tb;
+    const bool above = (left == ta ? sa : valueAt(left)) >= x;
+    if ((sb >= x) == above) continue;  // not monotone here: no crossing to cut at
+    for (int iteration = 0; iteration < 16; ++iteration) {
+      const double mid = 0.5 * (lo + hi);
+      if ((valueAt(mid) >= x) == above)
+        lo = mid;
+      else
+        hi = mid;
+    }
+    const double cut = 0.5 * (lo + hi);
+    integratePiece(left, cut, sLeft, x);
+    left = cut;
+  }
+  integratePiece(left, tb, sLeft, sb);
+}
 
-ReferenceRenderer::ReferenceRenderer(std::shared_ptr<store::BrickCache> cache)
-    : mCache(std::move(cache)), mBricks(std::make_unique<ReferenceBricks>(mCache)) {}
+// Extinction −ln(1 − α) is not linear where α is, so a piece gets more mSamples the more α changes on it. The
+// piece's values run from sLeft to sRight; sLeft moves on to sRight.
+template <typename Sampler>
+void RayIntegrator<Sampler>::integratePiece(double a, double b, double& sLeft, double sRight) {
+  const double change = std::abs(mScene.transferFunction.evaluate(sRight).a - mScene.transferFunction.evaluate(sLeft).a);
+  const int m = 2 + int(32 * change);
+  for (int j = 0; j < m; ++j) {
+    const double t = a + (j + 0.5) / m * (b - a);
+    add(classify(t, valueAt(t), (b - a) / m));
+  }
+  sLeft = sRight;
+}
 
-ReferenceRenderer::~ReferenceRenderer() = default;
+// Refined: an interval where the value crosses a control point, or where alpha changes by more than 1/16.
+template <typename Sampler>
+bool RayIntegrator<Sampler>::refined(double sa, const Piece& a, double sb, const Piece& b) const {
+  return std::abs(a.tfAlpha - b.tfAlpha) > 1.0 / 16 ||
+         std::upper_bound(mFrame.kinks.begin(), mFrame.kinks.end(), std::min(sa, sb)) !=
+             std::upper_bound(mFrame.kinks.begin(), mFrame.kinks.end(), std::max(sa, sb));
+}
 
-image::ImageF ReferenceRenderer::render(const Scene& scene, const ReferenceOptions& options, ReferenceStats* statsOut) {
-  const auto start = Clock::now();
-  scene.validate();
-  if (!(options.step >= 1e-4 && options.step <= 64))
-    throw RenderInputError("ReferenceRenderer: step " + numberText(options.step) + " is outside [1e-4, 64] voxels");
-  const store::BrickStore& store = *mCache->store();
-  const store::StoreMeta& meta = store.meta();
+// The brick of the sample at t, if rays may jump over it: the parameter where the ray leaves its box.
+template <typename Sampler>
+std::optional<double> RayIntegrator<Sampler>::transparentUntil(double t) const {
+  if (mFrame.transparent.empty()) return std::nullopt;
+  const glm::dvec3 p = voxel(t);
+  glm::dvec3 lo, hi;
+  int64_t index = 0, stride = 1;
+  for (int a = 0; a < 3; ++a) {
+    const int64_t b = std::clamp<int64_t>(int64_t(std::floor(p[a] / mFrame.brickSize)), 0, mFrame.brickGrid[a] - 1);
+    index += b * stride;
+    stride *= mFrame.brickGrid[a];
+    lo[a] = (double(b) * mFrame.brickSize - mFrame.halfDims[a]) * mFrame.spacing[a];
+    hi[a] = (std::min(double(b + 1) * mFrame.brickSize, mFrame.dims[a]) - mFrame.halfDims[a]) * mFrame.spacing[a];
+  }
+  if (!mFrame.transparent[size_t(index)]) return std::nullopt;
+  double exit = std::numeric_limits<double>::infinity();
+  for (int a = 0; a < 3; ++a)
+    if (mRay.dir[a] != 0) exit = std::min(exit, ((mRay.dir[a] > 0 ? hi[a] : lo[a]) - mRay.origin[a]) / mRay.dir[a]);
+  return exit;
+}
 
+/// Everything of the frame that is the same for every ray: camera basis, box, value window, control points, step.
+Frame makeFrame(const Scene& scene, const ReferenceOptions& options, const store::StoreMeta& meta) {
   Frame f;
   f.scene = &scene;
   const Box box = volumeBox(meta.dims, meta.spacing);
@@ -386,20 +404,42 @@ image::ImageF ReferenceRenderer::render(const Scene& scene, const ReferenceOptio
   const double minSpacing = std::min({meta.spacing.x, meta.spacing.y, meta.spacing.z});
   f.step = options.step * minSpacing;
   f.referenceLength = scene.transferFunction.referenceLength().value_or(minSpacing);
+  return f;
+}
 
-  if (!options.analytic && scene.skipEmpty) {
-    const store::LevelMeta& level = meta.levels.at(0);
-    f.brickGrid = level.bricks;
-    f.brickSize = double(meta.brickSize);
-    f.transparent.resize(size_t(level.bricksTotal()));
-    for (int64_t k = 0; k < level.bricks.z; ++k)
-      for (int64_t j = 0; j < level.bricks.y; ++j)
-        for (int64_t i = 0; i < level.bricks.x; ++i) {
-          const store::BrickRecord& r = store.record({0, uint32_t(i), uint32_t(j), uint32_t(k)});
-          f.transparent[size_t(i + level.bricks.x * (j + level.bricks.y * k))] = !scene.transferFunction.contributes(
-              (double(r.min) - f.lo) * f.inverseWidth, (double(r.max) - f.lo) * f.inverseWidth);
-        }
-  }
+/// Marks the level-0 bricks whose [min, max] the transfer function maps to zero opacity, for rays to jump over.
+void markTransparentBricks(Frame& f, const store::BrickStore& store) {
+  const store::StoreMeta& meta = store.meta();
+  const store::LevelMeta& level = meta.levels.at(0);
+  f.brickGrid = level.bricks;
+  f.brickSize = double(meta.brickSize);
+  f.transparent.resize(size_t(level.bricksTotal()));
+  for (int64_t k = 0; k < level.bricks.z; ++k)
+    for (int64_t j = 0; j < level.bricks.y; ++j)
+      for (int64_t i = 0; i < level.bricks.x; ++i) {
+        const store::BrickRecord& r = store.record({0, uint32_t(i), uint32_t(j), uint32_t(k)});
+        f.transparent[size_t(i + level.bricks.x * (j + level.bricks.y * k))] = !f.scene->transferFunction.contributes(
+            (double(r.min) - f.lo) * f.inverseWidth, (double(r.max) - f.lo) * f.inverseWidth);
+      }
+}
+
+}  // namespace
+
+ReferenceRenderer::ReferenceRenderer(std::shared_ptr<store::BrickCache> cache)
+    : mCache(std::move(cache)), mBricks(std::make_unique<ReferenceBricks>(mCache)) {}
+
+ReferenceRenderer::~ReferenceRenderer() = default;
+
+image::ImageF ReferenceRenderer::render(const Scene& scene, const ReferenceOptions& options, ReferenceStats* statsOut) {
+  const auto start = Clock::now();
+  scene.validate();
+  if (!(options.step >= 1e-4 && options.step <= 64))
+    throw RenderInputError("ReferenceRenderer: step " + numberText(options.step) + " is outside [1e-4, 64] voxels");
+  const store::BrickStore& store = *mCache->store();
+  const store::StoreMeta& meta = store.meta();
+
+  Frame f = makeFrame(scene, options, meta);
+  if (!options.analytic && scene.skipEmpty) markTransparentBricks(f, store);
 
   image::ImageF image{scene.width, scene.height, std::vector<float>(size_t(scene.width) * size_t(scene.height) * 4)};
   std::atomic<int64_t> rays{0}, samples{0}, skipped{0};
@@ -410,7 +450,7 @@ image::ImageF ReferenceRenderer::render(const Scene& scene, const ReferenceOptio
         for (int x = 0; x < scene.width; ++x) {
           const Ray ray = pixelRay(f, x, y, scene.width, scene.height);
           rowRays += ray.t1 > ray.t0 ? 1 : 0;
-          const glm::dvec3 c = integrate(f, sampler, ray, rowSamples, rowSkipped);
+          const glm::dvec3 c = RayIntegrator(f, sampler, ray, rowSamples, rowSkipped).run();
           float* out = image.pixel(x, y);
           for (int ch = 0; ch < 3; ++ch) out[ch] = float(c[ch]);
           out[3] = 1;
