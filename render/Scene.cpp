@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "render/RenderErrors.h"
+#include "render/TransferFunctionPresets.h"
 
 namespace voxbrick::render {
 namespace {

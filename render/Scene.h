@@ -13,6 +13,8 @@
 
 namespace voxbrick::render {
 
+class TransferFunctionPresets;
+
 /// How polygons of the slice planes are computed.
 enum class Slicer { Vertex, Cpu };
 

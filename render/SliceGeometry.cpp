@@ -6,7 +6,17 @@
 namespace voxbrick::render {
 namespace {
 
-void* offset(size_t bytes) { return reinterpret_cast<void*>(bytes); }
+/// Attribute `location` of the bound vertex array: `n` values of `type` (GL_FLOAT, or GL_INT read as integers) at
+/// byte `at` of each `stride`-byte element of the bound GL_ARRAY_BUFFER, one element per instance when `perInstance`.
+void attribute(const Gl& gl, int location, int n, GLenum type, GLsizei stride, size_t at, bool perInstance) {
+  const auto index = GLuint(location);
+  gl.glEnableVertexAttribArray(index);
+  if (type == GL_FLOAT)
+    gl.glVertexAttribPointer(index, n, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(at));
+  else
+    gl.glVertexAttribIPointer(index, n, type, stride, reinterpret_cast<void*>(at));
+  gl.glVertexAttribDivisor(index, perInstance ? 1 : 0);
+}
 
 }  // namespace
 
@@ -14,23 +24,13 @@ VertexSliceGeometry::VertexSliceGeometry(const Gl& gl) : mGl(gl), mBuffer(gl), m
   mLayout.bind();
   mBuffer.allocate(GL_ARRAY_BUFFER, 0, nullptr, GL_STREAM_DRAW);
   const GLsizei stride = sizeof(SliceInstance);
-  auto floats = [&](int location, int n, size_t at) {
-    mGl.glEnableVertexAttribArray(GLuint(location));
-    mGl.glVertexAttribPointer(GLuint(location), n, GL_FLOAT, GL_FALSE, stride, offset(at));
-    mGl.glVertexAttribDivisor(GLuint(location), 1);
-  };
-  auto ints = [&](int location, int n, size_t at) {
-    mGl.glEnableVertexAttribArray(GLuint(location));
-    mGl.glVertexAttribIPointer(GLuint(location), n, GL_INT, stride, offset(at));
-    mGl.glVertexAttribDivisor(GLuint(location), 1);
-  };
-  floats(kSliceBoxMinLocation, 3, offsetof(SliceInstance, boxMin));
-  floats(kSliceBoxMaxLocation, 3, offsetof(SliceInstance, boxMax));
-  floats(kSlicePlaneDistanceLocation, 1, offsetof(SliceInstance, planeDistance));
-  ints(kSlicePayloadLocation, 4, offsetof(SliceInstance, payload));
-  ints(kSliceFirstPlaneLocation, 1, offsetof(SliceInstance, firstPlane));
-  ints(kSliceOwnLoLocation, 3, offsetof(SliceInstance, ownLo));
-  ints(kSliceOwnHiLocation, 3, offsetof(SliceInstance, ownHi));
+  attribute(gl, kSliceBoxMinLocation, 3, GL_FLOAT, stride, offsetof(SliceInstance, boxMin), true);
+  attribute(gl, kSliceBoxMaxLocation, 3, GL_FLOAT, stride, offsetof(SliceInstance, boxMax), true);
+  attribute(gl, kSlicePlaneDistanceLocation, 1, GL_FLOAT, stride, offsetof(SliceInstance, planeDistance), true);
+  attribute(gl, kSlicePayloadLocation, 4, GL_INT, stride, offsetof(SliceInstance, payload), true);
+  attribute(gl, kSliceFirstPlaneLocation, 1, GL_INT, stride, offsetof(SliceInstance, firstPlane), true);
+  attribute(gl, kSliceOwnLoLocation, 3, GL_INT, stride, offsetof(SliceInstance, ownLo), true);
+  attribute(gl, kSliceOwnHiLocation, 3, GL_INT, stride, offsetof(SliceInstance, ownHi), true);
 }
 
 PlaneIndexRange VertexSliceGeometry::planes(const Box& box, const FramePlan& plan) const {
@@ -57,17 +57,11 @@ CpuSliceGeometry::CpuSliceGeometry(const Gl& gl) : mGl(gl), mBuffer(gl), mLayout
   mLayout.bind();
   mBuffer.allocate(GL_ARRAY_BUFFER, 0, nullptr, GL_STREAM_DRAW);
   const GLsizei stride = sizeof(SliceVertex);
-  mGl.glEnableVertexAttribArray(kSliceVertexWorldLocation);
-  mGl.glVertexAttribPointer(kSliceVertexWorldLocation, 3, GL_FLOAT, GL_FALSE, stride,
-                            offset(offsetof(SliceVertex, world)));
-  auto ints = [&](int location, int n, size_t at) {
-    mGl.glEnableVertexAttribArray(GLuint(location));
-    mGl.glVertexAttribIPointer(GLuint(location), n, GL_INT, stride, offset(at));
-  };
-  ints(kSliceVertexPayloadLocation, 4, offsetof(SliceVertex, payload));
-  ints(kSliceVertexPlaneLocation, 1, offsetof(SliceVertex, plane));
-  ints(kSliceVertexOwnLoLocation, 3, offsetof(SliceVertex, ownLo));
-  ints(kSliceVertexOwnHiLocation, 3, offsetof(SliceVertex, ownHi));
+  attribute(gl, kSliceVertexWorldLocation, 3, GL_FLOAT, stride, offsetof(SliceVertex, world), false);
+  attribute(gl, kSliceVertexPayloadLocation, 4, GL_INT, stride, offsetof(SliceVertex, payload), false);
+  attribute(gl, kSliceVertexPlaneLocation, 1, GL_INT, stride, offsetof(SliceVertex, plane), false);
+  attribute(gl, kSliceVertexOwnLoLocation, 3, GL_INT, stride, offsetof(SliceVertex, ownLo), false);
+  attribute(gl, kSliceVertexOwnHiLocation, 3, GL_INT, stride, offsetof(SliceVertex, ownHi), false);
 }
 
 PlaneIndexRange CpuSliceGeometry::planes(const Box& box, const FramePlan& plan) const {

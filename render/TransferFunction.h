@@ -2,7 +2,6 @@
 #pragma once
 
 #include <filesystem>
-#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -68,23 +67,6 @@ class TransferFunction {
   std::vector<Point> mPoints;
   std::optional<double> mReferenceLength;
   std::vector<int> mOpaqueBinsBefore;  // [b]: bins below b whose max alpha is > 0; kRangeBins + 1 entries
-};
-
-/// Presets read once (a server reads them at start), so that resolving a name does no I/O later.
-class TransferFunctionPresets {
- public:
-  TransferFunctionPresets() = default;
-  /// Reads every preset <name>.json of `directory` (TransferFunction::configDirectory() / "tf"); throws
-  /// RenderInputError naming a file that does not parse. A missing directory gives no presets.
-  static TransferFunctionPresets load(const std::filesystem::path& directory);
-  /// The preset `name`; throws RenderInputError naming it and listing the known names.
-  const TransferFunction& get(const std::string& name) const;
-  /// The names, sorted.
-  std::vector<std::string> names() const;
-
- private:
-  std::filesystem::path mDirectory;
-  std::map<std::string, TransferFunction> mPresets;
 };
 
 }  // namespace voxbrick::render

@@ -14,7 +14,7 @@
 
 #include "proto/Messages.h"
 #include "render/Dataset.h"
-#include "render/TransferFunction.h"
+#include "render/TransferFunctionPresets.h"
 #include "server/Datasets.h"
 #include "server/RenderJob.h"
 #include "server/ServerConfig.h"

@@ -15,7 +15,7 @@
 #include <spdlog/spdlog.h>
 
 #include "render/RenderEngine.h"
-#include "render/TransferFunction.h"
+#include "render/TransferFunctionPresets.h"
 #include "server/Datasets.h"
 #include "server/ErrorReply.h"
 #include "server/MessageHandler.h"

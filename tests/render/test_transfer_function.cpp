@@ -12,7 +12,9 @@
 #include <vector>
 
 #include "render/RenderErrors.h"
+#include "render/Scene.h"
 #include "render/TransferFunction.h"
+#include "render/TransferFunctionPresets.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {
@@ -294,6 +296,46 @@ TEST(TransferFunctionPresets, LoadsPathsAndReportsMissingFiles) {
   } catch (const RenderInputError& e) {
     EXPECT_NE(std::string(e.what()).find("presets: custom"), std::string::npos) << e.what();
   }
+}
+
+TEST(PresetsReadOnce, ResolvesNamesWithoutReadingFilesAgain) {
+  test::ScratchDir dir;
+  test::writeFile(dir / "warm.json", std::string(R"({"points": [[0, 1, 0.5, 0, 0], [1, 1, 0.5, 0, 0.4]]})"));
+  test::writeFile(dir / "cool.json", std::string(R"({"points": [[0, 0, 0, 1, 0.1]]})"));
+  test::writeFile(dir / "notes.txt", std::string("not a preset"));
+  test::writeFile(dir / "bad name.json", std::string(R"({"points": [[0, 0, 0, 1, 0.1]]})"));
+  const TransferFunctionPresets presets = TransferFunctionPresets::load(dir.path());
+  EXPECT_EQ(presets.names(), (std::vector<std::string>{"cool", "warm"}));
+  std::filesystem::remove_all(dir.path() / "warm.json");  // resolved from memory from now on
+  EXPECT_DOUBLE_EQ(presets.get("warm").evaluate(1.0).a, 0.4);
+  const Scene scene = Scene::fromJson(R"({"transfer_function": "warm"})", "request", presets);
+  EXPECT_DOUBLE_EQ(scene.transferFunction.evaluate(1.0).a, 0.4);
+  EXPECT_EQ(scene.transferFunctionName, "warm");
+}
+
+TEST(PresetsReadOnce, UnknownNamesPathsAndBadFilesAreRefusedByName) {
+  test::ScratchDir dir;
+  test::writeFile(dir / "only.json", std::string(R"({"points": [[0, 0, 0, 1, 0.1]]})"));
+  const TransferFunctionPresets presets = TransferFunctionPresets::load(dir.path());
+  try {
+    presets.get("grayscale");
+    ADD_FAILURE() << "found a preset that was not loaded";
+  } catch (const RenderInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("'grayscale'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("presets: only"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(Scene::fromJson(R"({"transfer_function": "grayscale"})", "request", presets), RenderInputError);
+  EXPECT_THROW(Scene::fromJson(R"({"transfer_function": "/etc/passwd"})", "request", presets), RenderInputError);
+  EXPECT_THROW(Scene::fromJson(R"({"transfer_function": "x.json"})", "request", presets), RenderInputError);
+
+  test::writeFile(dir / "broken.json", std::string(R"({"points": [[0, 0, 0, 1, 7]]})"));
+  try {
+    TransferFunctionPresets::load(dir.path());
+    ADD_FAILURE() << "loaded a broken preset";
+  } catch (const RenderInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("broken.json"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(TransferFunctionPresets::load(dir / "absent").names().empty());
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 
 #include "TestDatasets.h"
 #include "render/TransferFunction.h"
+#include "render/TransferFunctionPresets.h"
 #include "server/Datasets.h"
 #include "server/MessageHandler.h"
 #include "server/ServerStats.h"

@@ -8,6 +8,7 @@
 
 #include "TestDatasets.h"
 #include "render/TransferFunction.h"
+#include "render/TransferFunctionPresets.h"
 #include "server/Datasets.h"
 #include "image/FrameImage.h"
 #include "server/RenderScheduler.h"
