@@ -3,16 +3,13 @@
 
 #include <nlohmann/json.hpp>
 
-#include "brickstore/BrickCache.h"
-#include "brickstore/BrickStore.h"
-#include "brickstore/Errors.h"
 #include "cli/Commands.h"
 #include "cli/SceneOptions.h"
-#include "render/GlContext.h"
+#include "render/Dataset.h"
 #include "render/ReferenceRenderer.h"
+#include "render/RenderEngine.h"
 #include "render/RenderErrors.h"
 #include "render/Scene.h"
-#include "render/VolumeRenderer.h"
 
 namespace voxbrick::cli {
 namespace {
@@ -27,11 +24,15 @@ struct RenderArgs {
 };
 
 /// The CPU reference: slow on purpose, double precision, the same store and scene.
-void runReference(const RenderArgs& a, const render::Scene& scene, std::shared_ptr<store::BrickCache> cache) {
+void runReference(const RenderArgs& a, const render::Scene& scene, const render::Dataset& dataset) {
+  const auto* grid = dynamic_cast<const render::BrickStoreDataset*>(&dataset);
+  if (!grid)
+    throw render::RenderInputError("--backend reference renders brick stores; '" + a.store + "' is a " +
+                                   render::datasetKindName(dataset.kind()));
   render::ReferenceOptions options;
   options.step = a.referenceStep;
-  if (!a.analytic.empty()) options.analytic = render::analyticFieldFor(cache->store()->meta(), a.analytic);
-  render::ReferenceRenderer renderer(std::move(cache));
+  if (!a.analytic.empty()) options.analytic = render::analyticFieldFor(grid->store()->meta(), a.analytic);
+  render::ReferenceRenderer renderer(grid->cache());
   render::ReferenceStats stats;
   const image::ImageF image = renderer.render(scene, options, &stats);
   image::writePng(a.output, image::toImage8(image));
@@ -43,18 +44,17 @@ void runReference(const RenderArgs& a, const render::Scene& scene, std::shared_p
               options.step, (long long)stats.rays, (long long)stats.samples, stats.ms);
 }
 
+/// A GPU frame through the same seam the server's render threads use: a dataset and a RenderEngine.
 void runRender(const RenderArgs& a, const CLI::App& cmd) {
   const render::Scene scene = buildScene(a.scene, cmd);
-  auto store = store::BrickStore::open(a.store);
-  auto cache = std::make_shared<store::BrickCache>(store, size_t(a.hostBudgetMB) << 20, 2);
-  if (a.backend == "reference") return runReference(a, scene, std::move(cache));
+  const auto dataset = render::openDataset(a.store, a.store, size_t(a.hostBudgetMB) << 20);
+  if (a.backend == "reference") return runReference(a, scene, *dataset);
   if (!a.analytic.empty()) throw render::RenderInputError("--analytic needs --backend reference");
-  auto context = render::createContext(render::parseBackend(a.backend));
-  if (!a.quiet) std::fprintf(stderr, "render: %s\n", context->describe().c_str());
-  render::VolumeRenderer renderer(*context, cache, size_t(a.gpuBudgetMB) << 20,
-                                  render::parseAtlasFormat(a.atlasFormat));
+  render::RenderEngine engine({render::parseBackend(a.backend), size_t(a.gpuBudgetMB) << 20,
+                               render::parseAtlasFormat(a.atlasFormat)});
+  if (!a.quiet) std::fprintf(stderr, "render: %s\n", engine.describe().c_str());
   render::FrameStats stats;
-  const image::ImageF image = renderer.render(scene, &stats);
+  const image::ImageF image = engine.render(dataset, scene, &stats);
   image::writePng(a.output, image::toImage8(image));
   if (!a.statsPath.empty()) writeText(a.statsPath, stats.toJson().dump(2) + "\n");
   std::printf("render: wrote %s (%dx%d): %lld bricks drawn, %lld skipped empty, %lld culled, %lld paged in, "

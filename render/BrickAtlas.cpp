@@ -32,13 +32,6 @@ int slotCapacity(int edge, size_t texelBytes, size_t budgetBytes, int maxUsefulS
 
 }  // namespace
 
-AtlasFormat parseAtlasFormat(const std::string& text) {
-  if (text == "float") return AtlasFormat::Float;
-  if (text == "native") return AtlasFormat::Native;
-  if (text == "half") return AtlasFormat::Half;
-  throw RenderInputError("atlas format '" + text + "' is not float, native or half");
-}
-
 BrickAtlas::BrickAtlas(const GlContext& context, store::ValueType type, int brickEdge, size_t budgetBytes,
                        int maxUsefulSlots, AtlasFormat format)
     : mGl(context.gl()),

@@ -8,19 +8,12 @@
 #include <glm/glm.hpp>
 
 #include "brickstore/BrickCache.h"
+#include "render/AtlasFormat.h"
 #include "render/AtlasSlots.h"
 #include "render/GlContext.h"
 #include "render/GlObjects.h"
 
 namespace voxbrick::render {
-
-/// How the atlas stores samples. Float keeps full precision through trilinear filtering on every driver; Native
-/// keeps the store's type (8/16-bit normalised, 32-bit float), a quarter or half the memory for integer stores,
-/// but llvmpipe filters 8-bit textures in 8-bit fixed point; Half is 16-bit float for any store.
-enum class AtlasFormat { Float, Native, Half };
-
-/// "float", "native", "half"; throws RenderInputError for anything else.
-AtlasFormat parseAtlasFormat(const std::string& text);
 
 /// Slots are laid out in a grid inside one 3D texture of the chosen format (default GL_R32F: see AtlasFormat).
 /// The number of slots is the GPU budget divided by the slot size, capped by what the volume can use and by

@@ -11,7 +11,7 @@ namespace voxbrick::render {
 
 struct RenderEngine::Impl {
   std::unique_ptr<GlContext> context;
-  size_t gpuBudgetBytes = 0;
+  RenderEngineOptions options;
   // Renderers hold GL objects, so they live and die with the context current. Keyed by the dataset's control block,
   // never its address: a dataset closed and another opened at the same address must not inherit a renderer.
   std::map<std::weak_ptr<const Dataset>, std::unique_ptr<FrameRenderer>, std::owner_less<>> renderers;
@@ -26,7 +26,8 @@ FrameRenderer& RenderEngine::Impl::rendererFor(const std::shared_ptr<const Datas
     switch (dataset->kind()) {
       case DatasetKind::BrickStore:
         renderer = std::make_unique<VolumeRenderer>(
-            *context, static_cast<const BrickStoreDataset&>(*dataset).cache(), gpuBudgetBytes);
+            *context, static_cast<const BrickStoreDataset&>(*dataset).cache(), options.gpuBudgetBytes,
+            options.atlasFormat);
         break;
     }
     if (!renderer) throw RenderError("RenderEngine: no renderer for datasets of kind " +
@@ -35,9 +36,9 @@ FrameRenderer& RenderEngine::Impl::rendererFor(const std::shared_ptr<const Datas
   return *renderer;
 }
 
-RenderEngine::RenderEngine(Backend backend, size_t gpuBudgetBytes) : mImpl(std::make_unique<Impl>()) {
-  mImpl->context = createContext(backend);
-  mImpl->gpuBudgetBytes = gpuBudgetBytes;
+RenderEngine::RenderEngine(const RenderEngineOptions& options) : mImpl(std::make_unique<Impl>()) {
+  mImpl->options = options;
+  mImpl->context = createContext(options.backend);
 }
 
 RenderEngine::~RenderEngine() {

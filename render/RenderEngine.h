@@ -5,6 +5,7 @@
 #include <memory>
 #include <string>
 
+#include "render/AtlasFormat.h"
 #include "render/Backend.h"
 #include "render/Dataset.h"
 #include "render/FrameStats.h"
@@ -13,11 +14,18 @@
 
 namespace voxbrick::render {
 
+/// How a RenderEngine makes its context and its renderers.
+struct RenderEngineOptions {
+  Backend backend = Backend::Auto;
+  size_t gpuBudgetBytes = size_t(1) << 30;       ///< the atlas of each renderer (one per dataset drawn)
+  AtlasFormat atlasFormat = AtlasFormat::Float;  ///< how atlases store samples
+};
+
 class RenderEngine {
  public:
-  /// Makes a GL context with `backend` (see createContext) and leaves it current on the calling thread; renderers
-  /// it makes later get atlases of `gpuBudgetBytes` each. Throws RenderError listing what was tried.
-  RenderEngine(Backend backend, size_t gpuBudgetBytes);
+  /// Makes a GL context with `options.backend` (see createContext) and leaves it current on the calling thread.
+  /// Throws RenderError listing what was tried.
+  explicit RenderEngine(const RenderEngineOptions& options);
   ~RenderEngine();
   RenderEngine(const RenderEngine&) = delete;
   RenderEngine& operator=(const RenderEngine&) = delete;

@@ -54,7 +54,8 @@ tcp::endpoint listenEndpoint(const ServerConfig& config) {
 std::vector<std::unique_ptr<render::RenderEngine>> makeEngines(const ServerConfig& config) {
   std::vector<std::unique_ptr<render::RenderEngine>> engines;
   for (int i = 0; i < config.renderThreads; ++i) {
-    engines.push_back(std::make_unique<render::RenderEngine>(config.backend, size_t(config.gpuBudgetMB) << 20));
+    engines.push_back(std::make_unique<render::RenderEngine>(
+        render::RenderEngineOptions{config.backend, size_t(config.gpuBudgetMB) << 20}));
     engines.back()->releaseCurrent();
   }
   return engines;

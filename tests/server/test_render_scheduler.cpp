@@ -65,7 +65,8 @@ class RenderSchedulerTest : public ::testing::Test {
   static std::unique_ptr<RenderScheduler> scheduler(int threads, bool coalesce) {
     std::vector<std::unique_ptr<render::RenderEngine>> engines;
     for (int i = 0; i < threads; ++i) {
-      engines.push_back(std::make_unique<render::RenderEngine>(render::Backend::Auto, size_t(64) << 20));
+      engines.push_back(
+          std::make_unique<render::RenderEngine>(render::RenderEngineOptions{render::Backend::Auto, size_t(64) << 20}));
       engines.back()->releaseCurrent();
     }
     return std::make_unique<RenderScheduler>(std::move(engines), coalesce);
@@ -143,7 +144,7 @@ TEST_F(RenderSchedulerTest, JobsOfAnEndedSessionAreNotRendered) {
 TEST(RenderReply, AFrameCarriesTheImageAndTheServerTimings) {
   DatasetRegistry datasets(test::testDatasets(), size_t(16) << 20);
   const auto presets = render::TransferFunctionPresets::load(test::shippedPresets());
-  render::RenderEngine engine(render::Backend::Auto, size_t(64) << 20);
+  render::RenderEngine engine({render::Backend::Auto, size_t(64) << 20});
   RenderJob job;
   job.requestId = 5;
   job.encoding = proto::Encoding::Png;
