@@ -6,15 +6,6 @@
 namespace voxbrick::render {
 namespace {
 
-ValueWindow valueWindow(const Scene& scene, const store::StoreMeta& meta) {
-  ValueWindow w;
-  w.lo = scene.window ? (*scene.window)[0] : meta.valueMin;
-  w.hi = scene.window ? (*scene.window)[1] : meta.valueMax;
-  if (!(w.hi > w.lo)) w.hi = w.lo + 1;  // a constant volume: everything maps to 0
-  w.inverseWidth = 1.0 / (w.hi - w.lo);
-  return w;
-}
-
 PixelRays pixelRays(const glm::dmat4& viewProj, int width, int height) {
   const glm::dmat4 inverseViewProj = glm::inverse(viewProj);
   auto unproject = [&](double wx, double wy, double depth) {
@@ -34,6 +25,15 @@ PixelRays pixelRays(const glm::dmat4& viewProj, int width, int height) {
 }
 
 }  // namespace
+
+ValueWindow valueWindow(const Scene& scene, const store::StoreMeta& meta) {
+  ValueWindow w;
+  w.lo = scene.window ? (*scene.window)[0] : meta.valueMin;
+  w.hi = scene.window ? (*scene.window)[1] : meta.valueMax;
+  if (!(w.hi > w.lo)) w.hi = w.lo + 1;  // a constant volume: everything maps to 0
+  w.inverseWidth = 1.0 / (w.hi - w.lo);
+  return w;
+}
 
 Box FramePlan::drawBox(const Box& b, const store::Vec3d& spacing) const {
   const double interiorMargin = subBlock ? kInteriorMargin : 0.0;

@@ -21,6 +21,10 @@ struct ValueWindow {
   double inverseWidth = 1;  ///< 1 / (hi - lo)
 };
 
+/// The scene's value window over `meta`'s values (default the store's range; a constant volume gets [v, v + 1]).
+/// The GPU renderer and the reference take it from here, so that they normalise alike.
+ValueWindow valueWindow(const Scene& scene, const store::StoreMeta& meta);
+
 /// The ray through window position (x, y), from the near plane (clip depth -1) to the far plane (+1): both points
 /// are affine in window coordinates, since the inverse projection's w does not depend on x and y.
 struct PixelRays {

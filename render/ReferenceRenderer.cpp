@@ -15,6 +15,7 @@
 
 #include "render/Camera.h"
 #include "render/Compositing.h"
+#include "render/FramePlan.h"
 #include "render/RenderErrors.h"
 
 namespace voxbrick::render {
@@ -393,10 +394,9 @@ Frame makeFrame(const Scene& scene, const ReferenceOptions& options, const store
   f.aspect = double(scene.width) / double(scene.height);
 
   // The value window exactly as the GPU renderer takes it.
-  f.lo = scene.window ? (*scene.window)[0] : meta.valueMin;
-  double hi = scene.window ? (*scene.window)[1] : meta.valueMax;
-  if (!(hi > f.lo)) hi = f.lo + 1;
-  f.inverseWidth = 1.0 / (hi - f.lo);
+  const ValueWindow window = valueWindow(scene, meta);
+  f.lo = window.lo;
+  f.inverseWidth = window.inverseWidth;
 
   for (const TransferFunction::Point& p : scene.transferFunction.points())
     if (f.kinks.empty() || p.x > f.kinks.back()) f.kinks.push_back(p.x);
