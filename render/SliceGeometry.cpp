@@ -122,10 +122,13 @@ void SlabGeometry::draw() {
   if (mInstances.empty()) return;
   mLayout.bind();
   mBuffer.allocate(GL_ARRAY_BUFFER, mInstances.size() * sizeof(SlabInstance), mInstances.data(), GL_STREAM_DRAW);
-  // Back faces only: each pixel whose ray crosses the box gets one fragment per slab.
+  // Back faces only: each pixel whose ray crosses the box gets one fragment per slab. Depth clamping keeps back
+  // faces beyond the far plane: boxes are drawn larger than the volume, whose far side the far plane touches.
   mGl.glEnable(GL_CULL_FACE);
   mGl.glCullFace(GL_FRONT);
+  mGl.glEnable(GL_DEPTH_CLAMP);
   mGl.glDrawArraysInstanced(GL_TRIANGLES, 0, kSlabVerticesPerBox, GLsizei(mInstances.size()));
+  mGl.glDisable(GL_DEPTH_CLAMP);
   mGl.glDisable(GL_CULL_FACE);
   mInstances.clear();
 }

@@ -124,8 +124,11 @@ void main() {
     if (t < 0.0) continue;  // before the near plane, where slicing's polygons are clipped
     const vec3 world = origin + direction * t;
     const vec3 voxel = world * uInvSpacing + uHalfDims;
+    // Faces between boxes on the 1/256-voxel grid, as EXACT_OWNERSHIP; the volume's own faces on the unrounded
+    // point, as slicing tests them, so that rays grazing the surface keep the same samples.
     const vec3 snapped = round(voxel * 256.0) * (1.0 / 256.0);
-    if (!owned(snapped, snapped)) continue;
+    if (!owned(mix(snapped, voxel, equal(vOwnLo, ivec3(0))), mix(snapped, voxel, equal(vec3(vOwnHi), uDims))))
+      continue;
     const float value = sampleAt(voxel);
 #ifdef ROOFLINE
     sum = vec4(value);
