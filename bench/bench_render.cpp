@@ -43,6 +43,7 @@ struct Config {
   render::RenderMode mode = render::RenderMode::Normal;
   render::AtlasFormat format = render::AtlasFormat::Float;
   int subBlock = 0;
+  int slab = 0;  ///< planes per texture slab (0 slices); named in the setting, not a CSV column
 };
 
 struct Result {
@@ -105,6 +106,13 @@ int main(int argc, char** argv) {
        render::AtlasFormat::Float, 4},
       {"vertex slicer, skip, B=64, sub-block 8", 64, render::Slicer::Vertex, true, render::RenderMode::Normal,
        render::AtlasFormat::Float, 8},
+      {"slab 4, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal, render::AtlasFormat::Float, 0, 4},
+      {"slab 16, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal, render::AtlasFormat::Float, 0,
+       16},
+      {"slab whole brick, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
+       render::AtlasFormat::Float, 0, render::Scene::kMaxSlab},
+      {"slab whole brick, skip, B=16", 16, render::Slicer::Vertex, true, render::RenderMode::Normal,
+       render::AtlasFormat::Float, 0, render::Scene::kMaxSlab},
   };
 
   std::vector<Config> configs;
@@ -153,6 +161,7 @@ int main(int argc, char** argv) {
       scene.slicer = c.slicer;
       scene.skipEmpty = c.skip;
       scene.subBlock = c.subBlock;
+      scene.slab = c.slab;
       scene.camera.elevation = 20;
       scene.camera.distance = 2.2;
       run.renderer->render(scene, nullptr, c.mode);  // warm-up: pages every brick, compiles the program

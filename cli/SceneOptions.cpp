@@ -60,6 +60,7 @@ render::Scene buildScene(const SceneArgs& a, const CLI::App& cmd) {
   if (a.noCull) s.cullFrustum = false;
   if (a.shading) s.shading = true;
   if (a.subBlock >= 0) s.subBlock = a.subBlock;
+  if (a.slab >= 0) s.slab = a.slab;
   if (!a.slicer.empty()) s.slicer = a.slicer == "cpu" ? render::Slicer::Cpu : render::Slicer::Vertex;
   s.validate();
   return s;
@@ -84,6 +85,9 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
   cmd->add_flag("--no-cull", args.noCull, "draw bricks outside the view frustum");
   cmd->add_option("--sub-block", args.subBlock,
                   "skip empty sub-blocks of N voxels inside bricks (a power of two; 0 draws whole bricks)");
+  cmd->add_option("--slab", args.slab,
+                  "texture slabs of N planes: the fragment program marches N samples and blends once (0, the "
+                  "default, slices: one blended sample per fragment)");
   cmd->add_flag("--shading", args.shading, "gradient (central differences) and Phong headlight shading");
 }
 

@@ -14,6 +14,7 @@ struct SceneArgs {
   double fov = 0, step = 0;
   bool ortho = false, noSkip = false, noCull = false, shading = false;
   int subBlock = -1;
+  int slab = -1;
 };
 
 /// Registers the scene options on `cmd`, storing into `args` (which must outlive the app).

@@ -36,7 +36,7 @@ ValueWindow valueWindow(const Scene& scene, const store::StoreMeta& meta) {
 }
 
 Box FramePlan::drawBox(const Box& b, const store::Vec3d& spacing) const {
-  const double interiorMargin = subBlock ? kInteriorMargin : 0.0;
+  const double interiorMargin = exactOwnership() ? kInteriorMargin : 0.0;
   Box out = b;
   for (int a = 0; a < 3; ++a) {
     out.min[a] -= (out.min[a] <= volume.min[a] ? kSurfaceMargin : interiorMargin) * spacing[a];
@@ -70,6 +70,7 @@ FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int tran
   plan.step = scene.step * minSpacing;
   plan.referenceLength = scene.transferFunction.referenceLength().value_or(minSpacing);
   plan.subBlock = scene.subBlock > 0 && scene.subBlock < B ? scene.subBlock : 0;
+  plan.slab = scene.slab;
   plan.rays = pixelRays(plan.viewProj, scene.width, scene.height);
   return plan;
 }

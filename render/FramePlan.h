@@ -46,11 +46,17 @@ struct FramePlan {
   double step = 1;            ///< world distance between global slice planes
   double referenceLength = 1; ///< the length transfer-function opacities are given for
   int subBlock = 0;           ///< sub-block edge in voxels; 0 draws whole bricks
+  int slab = 0;               ///< planes per texture slab; 0 slices
   PixelRays rays;
 
+  /// Whether every box owns exactly its voxels, tested on the pixel's ray (sub-blocks, whose boxes meet at
+  /// T-junctions, and slabs, which march rays); else whole bricks share their rasterised faces and only the
+  /// volume's outline is tested.
+  bool exactOwnership() const { return subBlock > 0 || slab > 0; }
+
   /// The box to draw for voxel box `b`: larger than the voxels it owns, so that the fragment stage's ownership test
-  /// decides coverage. At the volume's surface by kSurfaceMargin voxels (whole bricks and sub-blocks alike); between
-  /// sub-block boxes by kInteriorMargin (exact ownership); between whole bricks not at all.
+  /// decides coverage. At the volume's surface by kSurfaceMargin voxels; between boxes by kInteriorMargin with
+  /// exact ownership, else not at all.
   Box drawBox(const Box& b, const store::Vec3d& spacing) const;
 
   /// How far past its voxels a box is drawn, in voxels (far above the rasterised edges' round-off).

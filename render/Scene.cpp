@@ -74,7 +74,7 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   }
   if (!j.is_object()) throw RenderInputError(what + ": a scene must be a JSON object");
   static const char* kKeys[] = {"camera", "size", "transfer_function", "step", "background", "window",
-                                "skip_empty", "cull", "slicer", "shading", "sub_block"};
+                                "skip_empty", "cull", "slicer", "shading", "sub_block", "slab"};
   for (auto it = j.begin(); it != j.end(); ++it)
     if (std::find(std::begin(kKeys), std::end(kKeys), it.key()) == std::end(kKeys))
       throw RenderInputError(what + ": unknown key '" + it.key() + "'");
@@ -149,6 +149,13 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
       throw RenderInputError(what + ": 'sub_block' must be 0 or a power of two up to " + std::to_string(kMaxSubBlock));
     s.subBlock = int(v);
   }
+  if (j.contains("slab")) {
+    const double v = number(j["slab"], "slab", what);
+    if (!(v >= 0 && v <= kMaxSlab) || v != std::floor(v))
+      throw RenderInputError(what + ": 'slab' must be 0 (slicing) or a whole number of planes up to " +
+                             std::to_string(kMaxSlab));
+    s.slab = int(v);
+  }
   s.validate();
   return s;
 }
@@ -164,6 +171,9 @@ void Scene::validate() const {
     throw RenderInputError("window [" + std::to_string((*window)[0]) + ", " + std::to_string((*window)[1]) +
                            "] must have hi > lo");
   if (!(camera.fovY > 0 && camera.fovY <= 179)) throw RenderInputError("fov must be in (0, 179] degrees");
+  if (slab < 0 || slab > kMaxSlab)
+    throw RenderInputError("slab " + std::to_string(slab) + " must be 0 (slicing) or 1.." + std::to_string(kMaxSlab) +
+                           " planes");
   if (subBlock != 0 && (subBlock < 2 || subBlock > kMaxSubBlock || (subBlock & (subBlock - 1)) != 0))
     throw RenderInputError("sub-block " + std::to_string(subBlock) + " must be 0 (whole bricks) or a power of two in "
                            "[2, " + std::to_string(kMaxSubBlock) + "]");
@@ -190,7 +200,8 @@ std::string Scene::toJson() const {
             {"cull", cullFrustum},
             {"slicer", slicer == Slicer::Vertex ? "vertex" : "cpu"},
             {"shading", shading},
-            {"sub_block", subBlock}};
+            {"sub_block", subBlock},
+            {"slab", slab}};
   if (window) j["window"] = json::array({(*window)[0], (*window)[1]});
   return j.dump(2);
 }

@@ -34,6 +34,7 @@ struct CameraSpec {
 struct Scene {
   static constexpr int kMaxImageSide = 8192;
   static constexpr int kMaxSubBlock = 256;
+  static constexpr int kMaxSlab = 4096;
 
   CameraSpec camera;
   int width = 512, height = 512;
@@ -53,11 +54,15 @@ struct Scene {
   /// value range the transfer function does not reject. 0 (or anything not below the store's brick size) draws
   /// whole bricks. A power of two.
   int subBlock = 0;
+  /// Texture slabs: 0 slices (one blended sample per fragment); N >= 1 draws each box once per slab of N
+  /// consecutive global planes, and the fragment program marches the pixel's ray through them, compositing in
+  /// registers. N at least a brick's planes makes it a brick ray caster. The samples are the same either way.
+  int slab = 0;
 
   /// Parses a scene JSON object; absent keys keep their defaults. Throws RenderInputError naming `what` and the
   /// key. Keys: camera {orbit: [az, el, dist] | eye, center, up; fov; orthographic}, size [w, h],
   /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b],
-  /// window [lo, hi], skip_empty, cull, slicer ("vertex" | "cpu"), shading, sub_block.
+  /// window [lo, hi], skip_empty, cull, slicer ("vertex" | "cpu"), shading, sub_block, slab.
   /// `allowPaths` false (the server) accepts transfer functions by preset name or inline only, never a file path.
   static Scene fromJson(const std::string& text, const std::string& what, bool allowPaths = true);
   /// The same, resolving preset names from `presets` (no file is read) and accepting no paths: what a server does

@@ -93,4 +93,44 @@ void CpuSliceGeometry::draw() {
   mVertices.clear();
 }
 
+SlabGeometry::SlabGeometry(const Gl& gl) : mGl(gl), mBuffer(gl), mLayout(gl) {
+  mLayout.bind();
+  mBuffer.allocate(GL_ARRAY_BUFFER, 0, nullptr, GL_STREAM_DRAW);
+  const GLsizei stride = sizeof(SlabInstance);
+  attribute(gl, kSliceBoxMinLocation, 3, GL_FLOAT, stride, offsetof(SlabInstance, boxMin), true);
+  attribute(gl, kSliceBoxMaxLocation, 3, GL_FLOAT, stride, offsetof(SlabInstance, boxMax), true);
+  attribute(gl, kSlicePayloadLocation, 4, GL_INT, stride, offsetof(SlabInstance, payload), true);
+  attribute(gl, kSliceFirstPlaneLocation, 1, GL_INT, stride, offsetof(SlabInstance, firstPlane), true);
+  attribute(gl, kSliceOwnLoLocation, 3, GL_INT, stride, offsetof(SlabInstance, ownLo), true);
+  attribute(gl, kSliceOwnHiLocation, 3, GL_INT, stride, offsetof(SlabInstance, ownHi), true);
+  attribute(gl, kSlabPlaneCountLocation, 1, GL_INT, stride, offsetof(SlabInstance, planeCount), true);
+}
+
+PlaneIndexRange SlabGeometry::planes(const Box& box, const FramePlan& plan) const {
+  return slicerPlaneRange(box.min, box.max, plan.planeNormal, plan.step);
+}
+
+void SlabGeometry::add(const Box& box, const PlaneIndexRange& planes, const glm::ivec4& payload,
+                       const glm::ivec3& ownLo, const glm::ivec3& ownHi, const FramePlan& plan) {
+  const int64_t n = std::max(plan.slab, 1);
+  for (int64_t first = planes.begin; first < planes.end; first += n)
+    mInstances.push_back({glm::vec3(box.min), glm::vec3(box.max), payload, int32_t(first), ownLo, ownHi,
+                          int32_t(std::min(n, planes.end - first))});
+}
+
+void SlabGeometry::draw() {
+  if (mInstances.empty()) return;
+  mLayout.bind();
+  mBuffer.allocate(GL_ARRAY_BUFFER, mInstances.size() * sizeof(SlabInstance), mInstances.data(), GL_STREAM_DRAW);
+  // Back faces only: each pixel whose ray crosses the box gets one fragment per slab. Depth clamping keeps back
+  // faces beyond the far plane: boxes are drawn larger than the volume, whose far side the far plane touches.
+  mGl.glEnable(GL_CULL_FACE);
+  mGl.glCullFace(GL_FRONT);
+  mGl.glEnable(GL_DEPTH_CLAMP);
+  mGl.glDrawArraysInstanced(GL_TRIANGLES, 0, kSlabVerticesPerBox, GLsizei(mInstances.size()));
+  mGl.glDisable(GL_DEPTH_CLAMP);
+  mGl.glDisable(GL_CULL_FACE);
+  mInstances.clear();
+}
+
 }  // namespace voxbrick::render

@@ -1,5 +1,5 @@
-// The geometry stage: boxes and runs of global planes in, slice polygons on the GPU out, behind one interface with
-// one implementation per slicer (the vertex program of Rezk-Salama & Kolb, or its CPU mirror). Each owns its vertex
+// The geometry stage: boxes and runs of global planes in, slice polygons (or slab proxies) on the GPU out, behind one
+// interface with one implementation per slicer (the vertex program of Rezk-Salama & Kolb, its CPU mirror, slabs). Each owns its vertex
 // array, whose layout is set once, next to the struct it describes (render/SliceTables.h).
 #pragma once
 
@@ -63,6 +63,25 @@ class CpuSliceGeometry final : public SliceGeometry {
   Buffer mBuffer;
   VertexArray mLayout;
   std::vector<SliceVertex> mVertices;
+};
+
+/// Texture slabs: each box is drawn once per slab of plan.slab consecutive planes, as its back faces (slab.vert.glsl),
+/// and the fragment program marches the slab's planes along its pixel's ray. The plane range is widened by one
+/// plane each side, as for the vertex slicer: the ownership test on the ray's points decides.
+class SlabGeometry final : public SliceGeometry {
+ public:
+  explicit SlabGeometry(const Gl& gl);
+  PlaneIndexRange planes(const Box& box, const FramePlan& plan) const override;
+  void add(const Box& box, const PlaneIndexRange& planes, const glm::ivec4& payload, const glm::ivec3& ownLo,
+           const glm::ivec3& ownHi, const FramePlan& plan) override;
+  bool empty() const override { return mInstances.empty(); }
+  void draw() override;
+
+ private:
+  const Gl& mGl;
+  Buffer mBuffer;
+  VertexArray mLayout;
+  std::vector<SlabInstance> mInstances;
 };
 
 }  // namespace voxbrick::render

@@ -128,6 +128,26 @@ static_assert(sizeof(SliceVertex) == 56 && offsetof(SliceVertex, payload) == 12 
                   offsetof(SliceVertex, ownLo) == 32 && offsetof(SliceVertex, ownHi) == 44,
               "SliceVertex offsets changed");
 
+/// One instance of the slab draw (slab.vert.glsl): a box, drawn as its 12 triangles (36 vertices, back faces kept),
+/// and the run of global planes [firstPlane, firstPlane + planeCount) its fragments march. Locations as in
+/// SliceInstance where the data is the same; all attributes have divisor 1.
+struct SlabInstance {
+  glm::vec3 boxMin;     ///< location 0, 3 x GL_FLOAT
+  glm::vec3 boxMax;     ///< location 1, 3 x GL_FLOAT
+  glm::ivec4 payload;   ///< location 3, 4 x GL_INT
+  int32_t firstPlane;   ///< location 4, 1 x GL_INT: global index of the slab's first plane
+  glm::ivec3 ownLo;     ///< location 5, 3 x GL_INT
+  glm::ivec3 ownHi;     ///< location 6, 3 x GL_INT
+  int32_t planeCount;   ///< location 7, 1 x GL_INT
+};
+inline constexpr int kSlabPlaneCountLocation = 7;
+/// Vertices drawn per slab instance: the box's 12 triangles.
+inline constexpr int kSlabVerticesPerBox = 36;
+static_assert(sizeof(SlabInstance) == 72 && offsetof(SlabInstance, payload) == 24 &&
+                  offsetof(SlabInstance, firstPlane) == 40 && offsetof(SlabInstance, ownLo) == 44 &&
+                  offsetof(SlabInstance, ownHi) == 56 && offsetof(SlabInstance, planeCount) == 68,
+              "SlabInstance offsets changed");
+
 namespace detail {
 
 constexpr bool sliceCornersAdjacent(int a, int b) {

@@ -69,15 +69,16 @@ void SlicingPass::queueBrick(const FramePlan& plan, const BrickDraw& draw, const
     mSpans.push_back({brickLo, brickHi});
   const glm::ivec4 payload(resident.origin.x + 1 - int32_t(brickLo.x), resident.origin.y + 1 - int32_t(brickLo.y),
                            resident.origin.z + 1 - int32_t(brickLo.z), 0);
-  // Whole bricks own the whole volume (only the outline is cut, the same for every bricking); sub-block boxes own
-  // just their voxels (volume.frag.glsl).
+  // Whole bricks own the whole volume (only the outline is cut, the same for every bricking); with exact ownership
+  // (sub-blocks, slabs) each box owns just its voxels (volume.frag.glsl).
   const glm::ivec3 volumeHi(meta.dims.x, meta.dims.y, meta.dims.z);
   for (const VoxelSpan& span : mSpans) {
     const Box box = plan.drawBox(voxelSpanBox(span.lo, span.hi, meta.dims, meta.spacing), meta.spacing);
     const PlaneIndexRange planes = plan.subBlock ? geometry.planes(box, plan) : brickPlanes;
     if (planes.count() == 0) continue;
-    const glm::ivec3 ownLo = plan.subBlock ? glm::ivec3(span.lo.x, span.lo.y, span.lo.z) : glm::ivec3(0);
-    const glm::ivec3 ownHi = plan.subBlock ? glm::ivec3(span.hi.x, span.hi.y, span.hi.z) : volumeHi;
+    const bool exact = plan.exactOwnership();
+    const glm::ivec3 ownLo = exact ? glm::ivec3(span.lo.x, span.lo.y, span.lo.z) : glm::ivec3(0);
+    const glm::ivec3 ownHi = exact ? glm::ivec3(span.hi.x, span.hi.y, span.hi.z) : volumeHi;
     stats.slices += planes.count();
     geometry.add(box, planes, payload, ownLo, ownHi, plan);
   }

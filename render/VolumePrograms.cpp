@@ -14,7 +14,10 @@ ProgramSources sources(const ProgramKey& key) {
   if (key.exactOwnership) defines.push_back("EXACT_OWNERSHIP");
   if (key.model == FragmentModel::Roofline) defines.push_back("ROOFLINE");
   if (key.model == FragmentModel::Shaded) defines.push_back("SHADING");
-  const char* vertex = key.slicer == Slicer::Cpu ? "slice_cpu.vert.glsl" : "slice.vert.glsl";
+  if (key.slab) defines.push_back("SLAB");
+  const char* vertex = key.slab                     ? "slab.vert.glsl"
+                       : key.slicer == Slicer::Cpu ? "slice_cpu.vert.glsl"
+                                                   : "slice.vert.glsl";
   return ProgramSources::fromFiles(std::string("volume/") + vertex,
                                    {{GL_VERTEX_SHADER, vertex}, {GL_FRAGMENT_SHADER, "volume.frag.glsl"}}, defines);
 }
@@ -22,7 +25,7 @@ ProgramSources sources(const ProgramKey& key) {
 }  // namespace
 
 VolumeProgram::VolumeProgram(const Gl& gl, const ProgramKey& key) : mProgram(gl, sources(key)) {
-  if (key.slicer == Slicer::Vertex)
+  if (key.slicer == Slicer::Vertex && !key.slab)
     for (const SliceTableUniform& table : kSliceTableUniforms)
       mProgram.set(mProgram.requireUniform(table.name), table.values);
   auto at = [this](const char* name) { return mProgram.uniformLocation(name); };

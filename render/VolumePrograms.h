@@ -23,6 +23,7 @@ struct ProgramKey {
   Slicer slicer = Slicer::Vertex;
   FragmentModel model = FragmentModel::Plain;
   bool exactOwnership = false;  ///< EXACT_OWNERSHIP: samples from the pixel ray, owned per box (sub-blocks)
+  bool slab = false;            ///< SLAB: box proxies (slab.vert.glsl), several samples per fragment
   auto operator<=>(const ProgramKey&) const = default;
 };
 

@@ -29,10 +29,13 @@ VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickC
 
 VolumeRenderer::~VolumeRenderer() = default;
 
-SliceGeometry& VolumeRenderer::geometry(Slicer slicer) {
-  auto& g = mGeometry[slicer == Slicer::Cpu];
+SliceGeometry& VolumeRenderer::geometry(const Scene& scene) {
+  const int which = scene.slab > 0 ? 2 : scene.slicer == Slicer::Cpu ? 1 : 0;
+  auto& g = mGeometry[which];
   if (!g) {
-    if (slicer == Slicer::Cpu)
+    if (which == 2)
+      g = std::make_unique<SlabGeometry>(mGl);
+    else if (which == 1)
       g = std::make_unique<CpuSliceGeometry>(mGl);
     else
       g = std::make_unique<VertexSliceGeometry>(mGl);
@@ -64,10 +67,10 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, R
                        mode == RenderMode::Roofline ? FragmentModel::Roofline
                        : scene.shading             ? FragmentModel::Shaded
                                                    : FragmentModel::Plain,
-                       plan.subBlock > 0};
+                       plan.subBlock > 0, plan.slab > 0};
   const VolumeProgram& program = mPrograms.get(key);
   program.setFrame(plan, mResidency.atlas(), store.meta());
-  mSlicing.draw(plan, mResidency, program, geometry(scene.slicer), stats);
+  mSlicing.draw(plan, mResidency, program, geometry(scene), stats);
 
   const image::ImageF image = mCompositor.finish(scene.background, stats);
   stats.msTotal = msSince(frameStart);

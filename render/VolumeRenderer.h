@@ -35,13 +35,13 @@ class VolumeRenderer final : public FrameRenderer {
   static constexpr int kTransferTableTexels = 4096;
 
  private:
-  SliceGeometry& geometry(Slicer slicer);
+  SliceGeometry& geometry(const Scene& scene);
 
   const Gl& mGl;
   Residency mResidency;
   Texture mTransfer;
   VolumePrograms mPrograms;
-  std::unique_ptr<SliceGeometry> mGeometry[2];  // by Slicer, made on first use
+  std::unique_ptr<SliceGeometry> mGeometry[3];  // vertex slicer, CPU slicer, slabs; made on first use
   SlicingPass mSlicing;
   Compositor mCompositor;
 };

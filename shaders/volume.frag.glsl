@@ -20,6 +20,11 @@ flat in ivec4 vPayload;
 flat in ivec3 vOwnLo;
 flat in ivec3 vOwnHi;
 flat in float vPlaneDistance;
+#ifdef SLAB
+flat in int vFirstPlane;  // the slab's planes: [vFirstPlane, vFirstPlane + vPlaneCount)
+flat in int vPlaneCount;
+uniform float uPlaneIncr;  // distance between consecutive global planes
+#endif
 
 uniform sampler3D uAtlas;
 uniform sampler1D uTransfer;
@@ -53,36 +58,8 @@ float sampleAt(vec3 voxel) {
   return texture(uAtlas, (clamp(voxel, vec3(0.0), uDims) + vec3(vPayload.xyz)) * uInvAtlasSize).r;
 }
 
-void main() {
-#ifdef EXACT_OWNERSHIP
-  // The pixel's ray (origin and direction are affine in window coordinates) meets this fragment's plane.
-  const vec3 origin = uRayOrigin + gl_FragCoord.x * uRayOriginDx + gl_FragCoord.y * uRayOriginDy;
-  const vec3 direction = uRayDirection + gl_FragCoord.x * uRayDirectionDx + gl_FragCoord.y * uRayDirectionDy;
-  const vec3 world = origin + direction * ((vPlaneDistance - dot(uViewDir, origin)) / dot(uViewDir, direction));
-  const vec3 voxel = world * uInvSpacing + uHalfDims;
-  // Faces between boxes are tested on a grid of 1/256 voxel, so that a plane through a face (a view along an axis)
-  // lands on it despite the round-off of the ray. Faces on the volume's surface are tested exactly as for whole
-  // bricks, on the interpolated position: a ray grazing the surface then keeps the same samples either way.
-  const vec3 snapped = round(voxel * 256.0) * (1.0 / 256.0);
-  const vec3 interpolated = vWorld * uInvSpacing + uHalfDims;
-  const vec3 ownedLo = mix(snapped, interpolated, equal(vOwnLo, ivec3(0)));
-  const vec3 ownedHi = mix(snapped, interpolated, equal(vec3(vOwnHi), uDims));
-#else
-  const vec3 world = vWorld;
-  const vec3 voxel = world * uInvSpacing + uHalfDims;
-  const vec3 ownedLo = voxel, ownedHi = voxel;
-#endif
-  bool inside = true;
-  for (int a = 0; a < 3; ++a) {
-    inside = inside && (uViewDir[a] >= 0.0 ? (ownedLo[a] >= float(vOwnLo[a]) && ownedHi[a] < float(vOwnHi[a]))
-                                           : (ownedLo[a] > float(vOwnLo[a]) && ownedHi[a] <= float(vOwnHi[a])));
-  }
-  if (!inside) discard;
-  const float value = sampleAt(voxel);
-#ifdef ROOFLINE
-  fragColor = vec4(value);
-  return;
-#endif
+// The classified, opacity-corrected, optionally shaded sample at `world` (voxel coordinate `voxel`), premultiplied.
+vec4 shadeSample(vec3 world, vec3 voxel, float value) {
   const float t = clamp((value - uWindowLo) * uWindowScale, 0.0, 1.0);
   const vec4 classified = texture(uTransfer, t);
 
@@ -107,5 +84,86 @@ void main() {
     color = color * (0.3 + 0.7 * diffuse) + vec3(0.25 * specular);
   }
 #endif
-  fragColor = vec4(color * alpha, alpha);
+  return vec4(color * alpha, alpha);
 }
+
+// Whether voxel coordinates `lo` and `hi` (the same point, or two roundings of it) lie in the voxels the box owns:
+// half-open, the face towards the eye included.
+bool owned(vec3 lo, vec3 hi) {
+  bool inside = true;
+  for (int a = 0; a < 3; ++a) {
+    inside = inside && (uViewDir[a] >= 0.0 ? (lo[a] >= float(vOwnLo[a]) && hi[a] < float(vOwnHi[a]))
+                                           : (lo[a] > float(vOwnLo[a]) && hi[a] <= float(vOwnHi[a])));
+  }
+  return inside;
+}
+
+#ifdef SLAB
+// A slab: the samples of this pixel's ray on the global planes [vFirstPlane, vFirstPlane + vPlaneCount) that lie in
+// the voxels the box owns, composited front to back in registers and emitted once (premultiplied).
+void main() {
+  const vec3 origin = uRayOrigin + gl_FragCoord.x * uRayOriginDx + gl_FragCoord.y * uRayOriginDy;
+  const vec3 direction = uRayDirection + gl_FragCoord.x * uRayDirectionDx + gl_FragCoord.y * uRayDirectionDy;
+  const float along = dot(uViewDir, direction);
+  const float start = dot(uViewDir, origin);
+  // The planes the ray can have inside the box: its parameter range in the owned voxels (widened by 1/128 voxel,
+  // beyond the ownership test's 1/256 grid) and one plane more each side. The ownership test alone decides.
+  const vec3 o = origin * uInvSpacing + uHalfDims;
+  const vec3 dv = direction * uInvSpacing;
+  const vec3 inv = 1.0 / mix(dv, vec3(1e-20), lessThan(abs(dv), vec3(1e-20)));
+  const vec3 ta = (vec3(vOwnLo) - 1.0 / 128.0 - o) * inv, tb = (vec3(vOwnHi) + 1.0 / 128.0 - o) * inv;
+  const float tIn = max(max(min(ta.x, tb.x), min(ta.y, tb.y)), max(min(ta.z, tb.z), 0.0));
+  const float tOut = min(min(max(ta.x, tb.x), max(ta.y, tb.y)), max(ta.z, tb.z));
+  const int first = max(vFirstPlane, int(floor((start + along * tIn) / uPlaneIncr)) - 1);
+  const int last = min(vFirstPlane + vPlaneCount, int(ceil((start + along * tOut) / uPlaneIncr)) + 2);
+  vec4 sum = vec4(0.0);
+  for (int k = first; k < last; ++k) {
+    // The ray's point on plane k, as EXACT_OWNERSHIP computes it, so that neighbouring boxes agree on its owner.
+    const float planeDistance = float(k) * uPlaneIncr;
+    const float t = (planeDistance - start) / along;
+    if (t < 0.0) continue;  // before the near plane, where slicing's polygons are clipped
+    const vec3 world = origin + direction * t;
+    const vec3 voxel = world * uInvSpacing + uHalfDims;
+    // Faces between boxes on the 1/256-voxel grid, as EXACT_OWNERSHIP; the volume's own faces on the unrounded
+    // point, as slicing tests them, so that rays grazing the surface keep the same samples.
+    const vec3 snapped = round(voxel * 256.0) * (1.0 / 256.0);
+    if (!owned(mix(snapped, voxel, equal(vOwnLo, ivec3(0))), mix(snapped, voxel, equal(vec3(vOwnHi), uDims))))
+      continue;
+    const float value = sampleAt(voxel);
+#ifdef ROOFLINE
+    sum = vec4(value);
+#else
+    sum += (1.0 - sum.a) * shadeSample(world, voxel, value);
+#endif
+  }
+  fragColor = sum;
+}
+#else
+void main() {
+#ifdef EXACT_OWNERSHIP
+  // The pixel's ray (origin and direction are affine in window coordinates) meets this fragment's plane.
+  const vec3 origin = uRayOrigin + gl_FragCoord.x * uRayOriginDx + gl_FragCoord.y * uRayOriginDy;
+  const vec3 direction = uRayDirection + gl_FragCoord.x * uRayDirectionDx + gl_FragCoord.y * uRayDirectionDy;
+  const vec3 world = origin + direction * ((vPlaneDistance - dot(uViewDir, origin)) / dot(uViewDir, direction));
+  const vec3 voxel = world * uInvSpacing + uHalfDims;
+  // Faces between boxes are tested on a grid of 1/256 voxel, so that a plane through a face (a view along an axis)
+  // lands on it despite the round-off of the ray. Faces on the volume's surface are tested exactly as for whole
+  // bricks, on the interpolated position: a ray grazing the surface then keeps the same samples either way.
+  const vec3 snapped = round(voxel * 256.0) * (1.0 / 256.0);
+  const vec3 interpolated = vWorld * uInvSpacing + uHalfDims;
+  const vec3 ownedLo = mix(snapped, interpolated, equal(vOwnLo, ivec3(0)));
+  const vec3 ownedHi = mix(snapped, interpolated, equal(vec3(vOwnHi), uDims));
+#else
+  const vec3 world = vWorld;
+  const vec3 voxel = world * uInvSpacing + uHalfDims;
+  const vec3 ownedLo = voxel, ownedHi = voxel;
+#endif
+  if (!owned(ownedLo, ownedHi)) discard;
+  const float value = sampleAt(voxel);
+#ifdef ROOFLINE
+  fragColor = vec4(value);
+  return;
+#endif
+  fragColor = shadeSample(world, voxel, value);
+}
+#endif
