@@ -20,9 +20,17 @@ void attribute(const Gl& gl, int location, int n, GLenum type, GLsizei stride, s
 
 }  // namespace
 
-VertexSliceGeometry::VertexSliceGeometry(const Gl& gl) : mGl(gl), mBuffer(gl), mLayout(gl) {
+SliceGeometry::SliceGeometry(const Gl& gl) : mGl(gl), mBuffer(gl), mLayout(gl) {
   mLayout.bind();
   mBuffer.allocate(GL_ARRAY_BUFFER, 0, nullptr, GL_STREAM_DRAW);
+}
+
+void SliceGeometry::upload(const void* data, size_t bytes) {
+  mLayout.bind();
+  mBuffer.allocate(GL_ARRAY_BUFFER, bytes, data, GL_STREAM_DRAW);
+}
+
+VertexSliceGeometry::VertexSliceGeometry(const Gl& gl) : SliceGeometry(gl) {
   const GLsizei stride = sizeof(SliceInstance);
   attribute(gl, kSliceBoxMinLocation, 3, GL_FLOAT, stride, offsetof(SliceInstance, boxMin), true);
   attribute(gl, kSliceBoxMaxLocation, 3, GL_FLOAT, stride, offsetof(SliceInstance, boxMax), true);
@@ -45,17 +53,14 @@ void VertexSliceGeometry::add(const Box& box, const PlaneIndexRange& planes, con
 
 void VertexSliceGeometry::draw() {
   if (mInstances.empty()) return;
-  mLayout.bind();
-  mBuffer.allocate(GL_ARRAY_BUFFER, mInstances.size() * sizeof(SliceInstance), mInstances.data(), GL_STREAM_DRAW);
+  upload(mInstances.data(), mInstances.size() * sizeof(SliceInstance));
   mGl.glDrawArraysInstanced(GL_TRIANGLES, 0, GLsizei(kSliceVerticesPerPolygon * mMaxPlanes),
                             GLsizei(mInstances.size()));
   mInstances.clear();
   mMaxPlanes = 0;
 }
 
-CpuSliceGeometry::CpuSliceGeometry(const Gl& gl) : mGl(gl), mBuffer(gl), mLayout(gl) {
-  mLayout.bind();
-  mBuffer.allocate(GL_ARRAY_BUFFER, 0, nullptr, GL_STREAM_DRAW);
+CpuSliceGeometry::CpuSliceGeometry(const Gl& gl) : SliceGeometry(gl) {
   const GLsizei stride = sizeof(SliceVertex);
   attribute(gl, kSliceVertexWorldLocation, 3, GL_FLOAT, stride, offsetof(SliceVertex, world), false);
   attribute(gl, kSliceVertexPayloadLocation, 4, GL_INT, stride, offsetof(SliceVertex, payload), false);
@@ -87,15 +92,12 @@ void CpuSliceGeometry::add(const Box& box, const PlaneIndexRange& planes, const 
 
 void CpuSliceGeometry::draw() {
   if (mVertices.empty()) return;
-  mLayout.bind();
-  mBuffer.allocate(GL_ARRAY_BUFFER, mVertices.size() * sizeof(SliceVertex), mVertices.data(), GL_STREAM_DRAW);
+  upload(mVertices.data(), mVertices.size() * sizeof(SliceVertex));
   mGl.glDrawArrays(GL_TRIANGLES, 0, GLsizei(mVertices.size()));
   mVertices.clear();
 }
 
-SlabGeometry::SlabGeometry(const Gl& gl) : mGl(gl), mBuffer(gl), mLayout(gl) {
-  mLayout.bind();
-  mBuffer.allocate(GL_ARRAY_BUFFER, 0, nullptr, GL_STREAM_DRAW);
+SlabGeometry::SlabGeometry(const Gl& gl) : SliceGeometry(gl) {
   const GLsizei stride = sizeof(SlabInstance);
   attribute(gl, kSliceBoxMinLocation, 3, GL_FLOAT, stride, offsetof(SlabInstance, boxMin), true);
   attribute(gl, kSliceBoxMaxLocation, 3, GL_FLOAT, stride, offsetof(SlabInstance, boxMax), true);
@@ -120,8 +122,7 @@ void SlabGeometry::add(const Box& box, const PlaneIndexRange& planes, const glm:
 
 void SlabGeometry::draw() {
   if (mInstances.empty()) return;
-  mLayout.bind();
-  mBuffer.allocate(GL_ARRAY_BUFFER, mInstances.size() * sizeof(SlabInstance), mInstances.data(), GL_STREAM_DRAW);
+  upload(mInstances.data(), mInstances.size() * sizeof(SlabInstance));
   // Back faces only: each pixel whose ray crosses the box gets one fragment per slab. Depth clamping keeps back
   // faces beyond the far plane: boxes are drawn larger than the volume, whose far side the far plane touches.
   mGl.glEnable(GL_CULL_FACE);

@@ -16,6 +16,8 @@ namespace voxbrick::render {
 class SliceGeometry {
  public:
   virtual ~SliceGeometry() = default;
+  SliceGeometry(const SliceGeometry&) = delete;
+  SliceGeometry& operator=(const SliceGeometry&) = delete;
   /// The global plane indices to submit for drawn box `box` under `plan`.
   virtual PlaneIndexRange planes(const Box& box, const FramePlan& plan) const = 0;
   /// Queues the polygons of `planes` through `box`; `payload` and the owned voxels [ownLo, ownHi) go to the fragment
@@ -26,6 +28,16 @@ class SliceGeometry {
   virtual bool empty() const = 0;
   /// Draws what is queued with the program in use, then empties the queue.
   virtual void draw() = 0;
+
+ protected:
+  /// Makes the buffer and the vertex array (bound, for the subclass to describe its layout).
+  explicit SliceGeometry(const Gl& gl);
+  /// Binds the vertex array and replaces the buffer's contents with `bytes` bytes of `data`.
+  void upload(const void* data, size_t bytes);
+
+  const Gl& mGl;
+  Buffer mBuffer;
+  VertexArray mLayout;
 };
 
 /// The slicer in the vertex program: one instance per box, 12 vertices per plane (slice.vert.glsl). The vertex
@@ -40,9 +52,6 @@ class VertexSliceGeometry final : public SliceGeometry {
   void draw() override;
 
  private:
-  const Gl& mGl;
-  Buffer mBuffer;
-  VertexArray mLayout;
   std::vector<SliceInstance> mInstances;
   int64_t mMaxPlanes = 0;
 };
@@ -59,9 +68,6 @@ class CpuSliceGeometry final : public SliceGeometry {
   void draw() override;
 
  private:
-  const Gl& mGl;
-  Buffer mBuffer;
-  VertexArray mLayout;
   std::vector<SliceVertex> mVertices;
 };
 
@@ -78,9 +84,6 @@ class SlabGeometry final : public SliceGeometry {
   void draw() override;
 
  private:
-  const Gl& mGl;
-  Buffer mBuffer;
-  VertexArray mLayout;
   std::vector<SlabInstance> mInstances;
 };
 
