@@ -3,6 +3,7 @@
 //
 //   frame_golden --work DIR --write GOLDEN_DIR   # before a change: one .f32 file per frame
 //   frame_golden --work DIR --check GOLDEN_DIR   # after it: every frame must be byte-identical
+//   frame_golden --work DIR --hashes FILE        # against committed digests (bench/results/golden-frames.txt)
 //
 // Bit-identical is the bar for a change that only moves code: any difference in a float means the GPU did other
 // arithmetic, which is a behaviour change. The matrix stays in this one file so that the same source builds against
@@ -42,6 +43,22 @@ struct Case {
   bool reference = false;  // the CPU reference renderer instead of the GPU
   std::string analytic{};  // with reference: sample this synthetic field instead of the grid
 };
+
+/// FNV-1a, 64 bits: a digest of a frame's floats, enough to tell any changed bit (not a cryptographic hash).
+uint64_t fnv1a(const std::string& bytes) {
+  uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : bytes) h = (h ^ c) * 1099511628211ull;
+  return h;
+}
+
+/// Lines "NAME DIGEST STATS..." of a digest file, by name.
+std::map<std::string, std::string> readDigests(const fs::path& file) {
+  std::map<std::string, std::string> out;
+  std::ifstream in(file);
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty() && line[0] != '#') out[line.substr(0, line.find(' '))] = line.substr(line.find(' ') + 1);
+  return out;
+}
 
 std::shared_ptr<const store::BrickStore> prepStore(const std::string& spec, const fs::path& out, int brick) {
   if (!fs::exists(out / "store.json")) {
@@ -117,20 +134,23 @@ std::vector<Case> cases() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  fs::path work = "golden-work", golden;
+  fs::path work = "golden-work", golden, hashes;
   bool write = false;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string flag = argv[i];
     if (flag == "--work") work = argv[i + 1];
     else if (flag == "--write") golden = argv[i + 1], write = true;
     else if (flag == "--check") golden = argv[i + 1], write = false;
+    else if (flag == "--hashes") hashes = argv[i + 1];
   }
-  if (golden.empty()) {
-    std::cerr << "usage: frame_golden --work DIR (--write DIR | --check DIR)\n";
+  if (golden.empty() == hashes.empty()) {
+    std::cerr << "usage: frame_golden --work DIR (--write DIR | --check DIR | --hashes FILE)\n";
     return 2;
   }
+  const std::map<std::string, std::string> digests = hashes.empty() ? std::map<std::string, std::string>{}
+                                                                     : readDigests(hashes);
   fs::create_directories(work);
-  fs::create_directories(golden);
+  if (!golden.empty()) fs::create_directories(golden);
   const std::string mri = "/usr/share/mricron/templates/ch2better.nii.gz";
   std::map<std::string, std::shared_ptr<const store::BrickStore>> stores = {
       {"ml32", prepStore("synthetic:marschner-lobb,n=48", work / "ml32.vbs", 32)},
@@ -168,8 +188,20 @@ int main(int argc, char** argv) {
     const std::string statsLine = std::to_string(stats.fragments) + " " + std::to_string(stats.slices) + " " +
                                   std::to_string(stats.bricksDrawn) + " " + std::to_string(stats.boxesDrawn) + " " +
                                   std::to_string(stats.bricksPagedIn) + " " + std::to_string(stats.batches);
-    const fs::path file = golden / (c.name + ".f32"), statsFile = golden / (c.name + ".stats");
     ++frames;
+    if (!hashes.empty()) {
+      char digest[32];
+      std::snprintf(digest, sizeof digest, "%016llx", (unsigned long long)fnv1a(bytes));
+      const std::string actual = std::string(digest) + " " + statsLine;
+      const auto expected = digests.find(c.name);
+      if (expected == digests.end() || expected->second != actual) {
+        ++failures;
+        std::cout << "DIFFERS: " << c.name << ": " << actual << ", expected "
+                  << (expected == digests.end() ? "no entry" : expected->second) << "\n";
+      }
+      continue;
+    }
+    const fs::path file = golden / (c.name + ".f32"), statsFile = golden / (c.name + ".stats");
     if (write) {
       std::ofstream(file, std::ios::binary) << bytes;
       std::ofstream(statsFile) << statsLine;
