@@ -114,10 +114,12 @@ std::filesystem::path TransferFunction::configDirectory() {
   return "config";
 }
 
-std::vector<std::string> TransferFunction::presetNames() {
+std::vector<std::string> TransferFunction::presetNames() { return presetNames(configDirectory() / "tf"); }
+
+std::vector<std::string> TransferFunction::presetNames(const std::filesystem::path& directory) {
   std::vector<std::string> names;
   std::error_code ec;
-  for (const auto& entry : std::filesystem::directory_iterator(configDirectory() / "tf", ec)) {
+  for (const auto& entry : std::filesystem::directory_iterator(directory, ec)) {
     const std::filesystem::path& p = entry.path();
     if (p.extension() == ".json" && isPresetName(p.stem().string()) && entry.is_regular_file(ec))
       names.push_back(p.stem().string());

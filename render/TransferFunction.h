@@ -42,6 +42,8 @@ class TransferFunction {
   static std::filesystem::path configDirectory();
   /// Names of the presets in configDirectory()/tf, sorted; empty if there is no such directory.
   static std::vector<std::string> presetNames();
+  /// Names of the presets in `directory` (files <name>.json with a preset name), sorted; empty if it is missing.
+  static std::vector<std::string> presetNames(const std::filesystem::path& directory);
 
   /// Straight RGB and alpha at normalised value x (NaN reads as 0).
   glm::dvec4 evaluate(double x) const;

@@ -8,12 +8,8 @@ namespace voxbrick::render {
 TransferFunctionPresets TransferFunctionPresets::load(const std::filesystem::path& directory) {
   TransferFunctionPresets presets;
   presets.mDirectory = directory;
-  std::error_code ec;
-  for (const auto& entry : std::filesystem::directory_iterator(directory, ec)) {
-    const std::filesystem::path& p = entry.path();
-    if (p.extension() == ".json" && TransferFunction::isPresetName(p.stem().string()) && entry.is_regular_file(ec))
-      presets.mPresets.emplace(p.stem().string(), TransferFunction::load(p.string()));
-  }
+  for (const std::string& name : TransferFunction::presetNames(directory))
+    presets.mPresets.emplace(name, TransferFunction::load((directory / (name + ".json")).string()));
   return presets;
 }
 
