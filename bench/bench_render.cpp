@@ -6,6 +6,7 @@
 //                [--configs 'NAME|NAME']  (only these settings, by exact name; the first of them in the built-in
 //                                          order is the baseline for max|diff|)
 //                [--name render]          (output files NAME.csv and NAME.md)
+//                [--tf PRESET]            (every dataset with this transfer function instead of its own)
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
@@ -44,12 +45,14 @@ struct Config {
   render::AtlasFormat format = render::AtlasFormat::Float;
   int subBlock = 0;
   int slab = 0;  ///< planes per texture slab (0 slices); named in the setting, not a CSV column
+  double ert = 0;              ///< early ray termination threshold (slabs); named in the setting
+  bool preIntegration = false;  ///< named in the setting
 };
 
 struct Result {
   std::string dataset;
   Config config;
-  double msMedian = 0, msMin = 0, msMax = 0, fragments = 0, bricksDrawn = 0, maxAbsVsBaseline = 0;
+  double msMedian = 0, msMin = 0, msMax = 0, fragments = 0, samples = 0, bricksDrawn = 0, maxAbsVsBaseline = 0;
 };
 
 }  // namespace
@@ -57,7 +60,7 @@ struct Result {
 int main(int argc, char** argv) {
   fs::path out = "bench/results", work = "bench/work";
   int size = 512, views = 36;
-  std::string only, onlyConfigs, name = "render";
+  std::string only, onlyConfigs, name = "render", tfOverride;
   double step = 0.5;
   for (int i = 1; i + 1 < argc; i += 2) {
     std::string a = argv[i];
@@ -69,6 +72,7 @@ int main(int argc, char** argv) {
     else if (a == "--datasets") only = argv[i + 1];
     else if (a == "--configs") onlyConfigs = argv[i + 1];
     else if (a == "--name") name = argv[i + 1];
+    else if (a == "--tf") tfOverride = argv[i + 1];
     else {
       std::fprintf(stderr, "bench_render: unknown option %s\n", a.c_str());
       return 2;
@@ -113,6 +117,20 @@ int main(int argc, char** argv) {
        render::AtlasFormat::Float, 0, render::Scene::kMaxSlab},
       {"slab whole brick, skip, B=16", 16, render::Slicer::Vertex, true, render::RenderMode::Normal,
        render::AtlasFormat::Float, 0, render::Scene::kMaxSlab},
+      {"slab 64, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal, render::AtlasFormat::Float, 0,
+       64},
+      {"slab 16, ert 0.99, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
+       render::AtlasFormat::Float, 0, 16, 0.99},
+      {"slab 64, ert 0.99, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
+       render::AtlasFormat::Float, 0, 64, 0.99},
+      {"slab 16, ert 0.99, skip, sub-block 8", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
+       render::AtlasFormat::Float, 8, 16, 0.99},
+      {"slab 64, ert 0.99, skip, sub-block 8", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
+       render::AtlasFormat::Float, 8, 64, 0.99},
+      {"slab 16, pre-int, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
+       render::AtlasFormat::Float, 0, 16, 0, true},
+      {"slab 16, ert 0.99, pre-int, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
+       render::AtlasFormat::Float, 0, 16, 0.99, true},
   };
 
   std::vector<Config> configs;
@@ -146,7 +164,7 @@ int main(int argc, char** argv) {
     struct Run {
       std::unique_ptr<render::VolumeRenderer> renderer;
       render::Scene scene;
-      std::vector<double> ms, fragments, drawn;
+      std::vector<double> ms, fragments, samples, drawn;
       double maxAbs = 0;
     };
     std::vector<Run> runs;
@@ -157,11 +175,13 @@ int main(int argc, char** argv) {
       render::Scene& scene = run.scene;
       scene.width = scene.height = size;
       scene.step = step;
-      scene.transferFunction = render::TransferFunction::load(d.tf);
+      scene.transferFunction = render::TransferFunction::load(tfOverride.empty() ? d.tf : tfOverride);
       scene.slicer = c.slicer;
       scene.skipEmpty = c.skip;
       scene.subBlock = c.subBlock;
       scene.slab = c.slab;
+      scene.ert = c.ert;
+      scene.preIntegration = c.preIntegration;
       scene.camera.elevation = 20;
       scene.camera.distance = 2.2;
       run.renderer->render(scene, nullptr, c.mode);  // warm-up: pages every brick, compiles the program
@@ -176,6 +196,7 @@ int main(int argc, char** argv) {
         image::ImageF image = run.renderer->render(run.scene, &stats, configs[i].mode);
         run.ms.push_back(stats.msTotal);
         run.fragments.push_back(double(stats.fragments));
+        run.samples.push_back(double(stats.samples));
         run.drawn.push_back(double(stats.bricksDrawn));
         if (i == 0)
           baseline = std::move(image);
@@ -190,6 +211,7 @@ int main(int argc, char** argv) {
       r.msMin = *std::min_element(run.ms.begin(), run.ms.end());
       r.msMax = *std::max_element(run.ms.begin(), run.ms.end());
       r.fragments = median(run.fragments);
+      r.samples = median(run.samples);
       r.bricksDrawn = median(run.drawn);
       r.maxAbsVsBaseline = run.maxAbs;
       std::printf("%-16s %-40s %9.1f ms  %12.0f fragments  %6.0f bricks  max|diff| %.5f\n", d.name.c_str(),
@@ -201,23 +223,26 @@ int main(int argc, char** argv) {
 
   std::ofstream csv(out / (name + ".csv"));
   csv << "dataset,config,brick,sub_block,slicer,skip,mode,median_ms,min_ms,max_ms,median_fragments,msamples_per_s,"
-         "median_bricks_drawn,max_abs_vs_baseline\n";
+         "median_bricks_drawn,max_abs_vs_baseline,median_samples\n";
   std::ofstream md(out / (name + ".md"));
   md << "Renderer on " << device << ", " << size << "x" << size << ", " << views << " views (azimuth 0..360, "
-     << "elevation 20, distance 2.2 R), step " << step << " voxels. Median frame time; samples = fragments "
-     << "shaded (GL_SAMPLES_PASSED). max|diff| is against the first row of the dataset, view by view.\n\n"
-     << "| dataset | setting | median ms | min..max ms | Msamples/s | bricks drawn | max abs diff |\n"
-     << "|---|---|---:|---:|---:|---:|---:|\n";
+     << "elevation 20, distance 2.2 R), step " << step << " voxels. Median frame time; samples taken "
+     << "(slicing: one per fragment shaded; slabs: counted by the fragment program). max|diff| is against the first "
+     << "row of the dataset, view by view.\n\n"
+     << "| dataset | setting | median ms | min..max ms | M fragments | M samples | Msamples/s | bricks drawn | "
+        "max abs diff |\n"
+     << "|---|---|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const Result& r : results) {
-    const double rate = r.fragments / (r.msMedian * 1e3);
+    const double rate = r.samples / (r.msMedian * 1e3);
     char line[512];
-    std::snprintf(line, sizeof line, "%s,%s,%d,%d,%s,%d,%s,%.2f,%.2f,%.2f,%.0f,%.2f,%.0f,%.6f\n", r.dataset.c_str(),
+    std::snprintf(line, sizeof line, "%s,%s,%d,%d,%s,%d,%s,%.2f,%.2f,%.2f,%.0f,%.2f,%.0f,%.6f,%.0f\n", r.dataset.c_str(),
                   r.config.name.c_str(), r.config.brick, r.config.subBlock, r.config.slicer == render::Slicer::Cpu ? "cpu" : "vertex",
                   int(r.config.skip), r.config.mode == render::RenderMode::Roofline ? "roofline" : "normal",
-                  r.msMedian, r.msMin, r.msMax, r.fragments, rate, r.bricksDrawn, r.maxAbsVsBaseline);
+                  r.msMedian, r.msMin, r.msMax, r.fragments, rate, r.bricksDrawn, r.maxAbsVsBaseline, r.samples);
     csv << line;
-    std::snprintf(line, sizeof line, "| %s | %s | %.1f | %.1f..%.1f | %.1f | %.0f | %.4f |\n", r.dataset.c_str(),
-                  r.config.name.c_str(), r.msMedian, r.msMin, r.msMax, rate, r.bricksDrawn, r.maxAbsVsBaseline);
+    std::snprintf(line, sizeof line, "| %s | %s | %.1f | %.1f..%.1f | %.2f | %.2f | %.1f | %.0f | %.4f |\n",
+                  r.dataset.c_str(), r.config.name.c_str(), r.msMedian, r.msMin, r.msMax, r.fragments * 1e-6,
+                  r.samples * 1e-6, rate, r.bricksDrawn, r.maxAbsVsBaseline);
     md << line;
   }
   // The two goals, as ratios measured side by side in this run.

@@ -61,6 +61,8 @@ render::Scene buildScene(const SceneArgs& a, const CLI::App& cmd) {
   if (a.shading) s.shading = true;
   if (a.subBlock >= 0) s.subBlock = a.subBlock;
   if (a.slab >= 0) s.slab = a.slab;
+  if (cmd.count("--ert")) s.ert = a.ert;
+  if (a.preIntegration) s.preIntegration = true;
   if (!a.slicer.empty()) s.slicer = a.slicer == "cpu" ? render::Slicer::Cpu : render::Slicer::Vertex;
   s.validate();
   return s;
@@ -88,6 +90,11 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
   cmd->add_option("--slab", args.slab,
                   "texture slabs of N planes: the fragment program marches N samples and blends once (0, the "
                   "default, slices: one blended sample per fragment)");
+  cmd->add_option("--ert", args.ert,
+                  "early ray termination on slabs: stop rays whose opacity reached this threshold in [0.5, 1] "
+                  "(0: off)");
+  cmd->add_flag("--pre-integration", args.preIntegration,
+                "pre-integrated classification on slabs: each segment between samples classified whole from a table");
   cmd->add_flag("--shading", args.shading, "gradient (central differences) and Phong headlight shading");
 }
 

@@ -14,13 +14,40 @@ double msSince(Clock::time_point t) { return std::chrono::duration<double, std::
 
 Compositor::Compositor(const Gl& gl) : mGl(gl), mFragments(gl) {}
 
-void Compositor::begin(int width, int height, bool blend) {
-  if (mTarget.width() != width || mTarget.height() != height)
+void Compositor::begin(int width, int height, bool blend, bool silhouette) {
+  if (mTarget.width() != width || mTarget.height() != height) {
     mTarget = Framebuffer::withColor(mGl, width, height, GL_RGBA32F);
+    mDepth.reset();
+    mDepthOnly.reset();
+  }
+  if (silhouette && !mDepth) {
+    mDepth = Texture(mGl, GL_TEXTURE_2D);
+    mGl.glBindTexture(GL_TEXTURE_2D, mDepth.id());
+    mGl.glTexStorage2D(GL_TEXTURE_2D, 1, GL_DEPTH_COMPONENT32F, width, height);
+    mGl.glBindFramebuffer(GL_FRAMEBUFFER, mTarget.id());
+    mGl.glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, mDepth.id(), 0);
+    mTarget.checkComplete("Compositor: target with silhouette map");
+    mDepthOnly = Framebuffer(mGl);
+    mGl.glBindFramebuffer(GL_FRAMEBUFFER, mDepthOnly.id());
+    mGl.glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, mDepth.id(), 0);
+    const GLenum none = GL_NONE;
+    mGl.glDrawBuffers(1, &none);
+    mGl.glReadBuffer(GL_NONE);
+    mDepthOnly.checkComplete("Compositor: silhouette map");
+  }
   mTarget.bind();
   const float zero[4] = {0, 0, 0, 0};
   mGl.glClearBufferfv(GL_COLOR, 0, zero);
-  mGl.glDisable(GL_DEPTH_TEST);
+  if (silhouette) {
+    const float one = 1;
+    mGl.glDepthMask(GL_TRUE);
+    mGl.glClearBufferfv(GL_DEPTH, 0, &one);
+    mGl.glDepthMask(GL_FALSE);
+    mGl.glEnable(GL_DEPTH_TEST);
+    mGl.glDepthFunc(GL_LESS);
+  } else {
+    mGl.glDisable(GL_DEPTH_TEST);
+  }
   mGl.glDisable(GL_CULL_FACE);
   if (blend)
     mGl.glEnable(GL_BLEND);
@@ -31,8 +58,14 @@ void Compositor::begin(int width, int height, bool blend) {
   mGl.glBeginQuery(GL_SAMPLES_PASSED, mFragments.id());
 }
 
+void Compositor::bindSilhouette() const {
+  mGl.glBindFramebuffer(GL_FRAMEBUFFER, mDepthOnly.id());
+  mGl.glViewport(0, 0, mTarget.width(), mTarget.height());
+}
+
 image::ImageF Compositor::finish(const glm::dvec3& background, FrameStats& stats) {
   mGl.glEndQuery(GL_SAMPLES_PASSED);
+  mGl.glDisable(GL_DEPTH_TEST);
   auto t = Clock::now();
   mGl.glFinish();
   stats.msDrawing += msSince(t);

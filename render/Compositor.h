@@ -15,7 +15,15 @@ class Compositor {
 
   /// Binds a cleared RGBA32F target of the scene's size and sets front-to-back blending (premultiplied colour:
   /// C += (1 - A) * c, A += (1 - A) * a), or no blending at all for the roofline probe. Starts counting fragments.
-  void begin(int width, int height, bool blend);
+  /// With `silhouette`, the target also has a depth buffer, cleared to 1, tested (GL_LESS) and not written: the
+  /// slab silhouette map of render/SlabPass.h.
+  void begin(int width, int height, bool blend, bool silhouette = false);
+  /// The colour accumulated so far, for a pass that reads it while bound to silhouette().
+  const Texture& accumulated() const { return mTarget.color(); }
+  /// Binds a framebuffer holding only the target's depth buffer (begin with `silhouette`), for a pass that writes
+  /// the silhouette map while it reads accumulated(); target() binds the whole target again.
+  void bindSilhouette() const;
+  void bindTarget() const { mTarget.bind(); }
   /// Waits for the passes, reads the target back and composites it over `background`: out = C + (1 - A) * bg.
   /// Fills fragments, msDrawing (the wait) and msReadback.
   image::ImageF finish(const glm::dvec3& background, FrameStats& stats);
@@ -23,6 +31,8 @@ class Compositor {
  private:
   const Gl& mGl;
   Framebuffer mTarget;
+  Texture mDepth;             // GL_DEPTH_COMPONENT32F, attached to mTarget and mDepthOnly when silhouettes are used
+  Framebuffer mDepthOnly;
   Query mFragments;
 };
 

@@ -2,6 +2,7 @@
 #include "render/FramePlan.h"
 
 #include <algorithm>
+#include <limits>
 
 namespace voxbrick::render {
 namespace {
@@ -71,8 +72,26 @@ FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int tran
   plan.referenceLength = scene.transferFunction.referenceLength().value_or(minSpacing);
   plan.subBlock = scene.subBlock > 0 && scene.subBlock < B ? scene.subBlock : 0;
   plan.slab = scene.slab;
+  plan.ert = scene.slab > 0 ? scene.ert : 0;
+  plan.preIntegration = scene.slab > 0 && scene.preIntegration;
+  plan.width = scene.width;
+  plan.height = scene.height;
   plan.rays = pixelRays(plan.viewProj, scene.width, scene.height);
   return plan;
+}
+
+std::pair<double, double> FramePlan::segmentRatios() const {
+  const double ratio = step / referenceLength;
+  if (camera.orthographic) return {ratio, ratio};
+  double lo = std::numeric_limits<double>::infinity(), hi = 0;
+  const double xs[] = {0.5, 0.5 * width, width - 0.5}, ys[] = {0.5, 0.5 * height, height - 0.5};
+  for (double x : xs)
+    for (double y : ys) {
+      const glm::dvec3 d = rays.direction + x * rays.directionDx + y * rays.directionDy;
+      const double cosine = std::max(glm::dot(glm::normalize(d), planeNormal), 1e-3);
+      lo = std::min(lo, ratio / cosine), hi = std::max(hi, ratio / cosine);
+    }
+  return {lo, hi};
 }
 
 }  // namespace voxbrick::render

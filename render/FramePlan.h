@@ -3,6 +3,7 @@
 // and the pixel rays of exact ownership. Later stages (residency, geometry, drawing passes) only read it.
 #pragma once
 
+#include <utility>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -47,12 +48,21 @@ struct FramePlan {
   double referenceLength = 1; ///< the length transfer-function opacities are given for
   int subBlock = 0;           ///< sub-block edge in voxels; 0 draws whole bricks
   int slab = 0;               ///< planes per texture slab; 0 slices
+  double ert = 0;             ///< early ray termination threshold on slabs; 0 off (always 0 when slicing)
+  bool preIntegration = false;  ///< pre-integrated classification (slabs only)
+  int width = 0, height = 0;    ///< image size in pixels
   PixelRays rays;
 
   /// Whether every box owns exactly its voxels, tested on the pixel's ray (sub-blocks, whose boxes meet at
   /// T-junctions, and slabs, which march rays); else whole bricks share their rasterised faces and only the
   /// volume's outline is tested.
   bool exactOwnership() const { return subBlock > 0 || slab > 0; }
+
+  /// The shortest and longest segment between two planes along any pixel's ray, in reference lengths: step / L
+  /// over the cosine of the ray's angle to the view axis (1 for an orthographic camera), over the image's corners and
+  /// centre (the cosine is largest at the centre or a corner and smallest at a corner, being a ratio of a linear
+  /// to a convex function of window position).
+  std::pair<double, double> segmentRatios() const;
 
   /// The box to draw for voxel box `b`: larger than the voxels it owns, so that the fragment stage's ownership test
   /// decides coverage. At the volume's surface by kSurfaceMargin voxels; between boxes by kInteriorMargin with

@@ -8,10 +8,12 @@ nlohmann::json FrameStats::toJson() const {
           {"bricks_culled", bricksCulled},   {"bricks_drawn", bricksDrawn},
           {"bricks_paged_in", bricksPagedIn}, {"bricks_evicted", bricksEvicted},
           {"batches", batches},               {"slices", slices},
-          {"fragments", fragments},           {"sub_blocks_skipped", subBlocksSkipped},
-          {"boxes_drawn", boxesDrawn},
+          {"fragments", fragments},           {"samples", samples},
+          {"samples_terminated", samplesTerminated}, {"slab_passes", slabPasses},
+          {"sub_blocks_skipped", subBlocksSkipped}, {"boxes_drawn", boxesDrawn},
           {"ms", {{"traversal", msTraversal}, {"paging", msPaging}, {"slicing", msSlicing},
-                  {"drawing", msDrawing}, {"readback", msReadback}, {"total", msTotal}}}};
+                  {"drawing", msDrawing}, {"readback", msReadback}, {"total", msTotal},
+                  {"pre_integration", msPreIntegration}}}};
 }
 
 }  // namespace voxbrick::render

@@ -16,12 +16,18 @@ struct FrameStats {
   int64_t bricksEvicted = 0;   ///< replaced in the atlas this frame
   int64_t batches = 0;         ///< draw batches (more than one when the atlas cannot hold the frame's bricks)
   int64_t slices = 0;          ///< brick-plane polygons submitted
-  int64_t fragments = 0;       ///< fragments shaded (GL_SAMPLES_PASSED): one volume sample each
+  int64_t fragments = 0;       ///< volume fragments started: slices (GL_SAMPLES_PASSED) or slab fragments
+  int64_t samples = 0;         ///< volume samples taken: one per slice fragment, several per slab fragment
+  /// Texture slabs: samples a fragment left when its own opacity reached the termination threshold (an upper bound:
+  /// planes of its range, before the ownership test). Fragments the silhouette map rejected are not started at all.
+  int64_t samplesTerminated = 0;
+  int64_t slabPasses = 0;      ///< texture slabs: draws of one slab each
   int64_t subBlocksSkipped = 0;  ///< sub-blocks of drawn bricks left out as empty (Scene::subBlock)
   int64_t boxesDrawn = 0;        ///< boxes sliced: bricks, or with sub-blocks the boxes bricks are drawn as
   /// Wall time of each phase on the calling thread. Drawing ends with a glFinish, but with several batches a
   /// batch's GPU work may instead be waited for by the next batch's uploads and show up as paging.
   double msTraversal = 0, msPaging = 0, msSlicing = 0, msDrawing = 0, msReadback = 0, msTotal = 0;
+  double msPreIntegration = 0;  ///< building the pre-integration table (0 when the last frame's was current)
 
   /// The statistics as a JSON object (snake_case keys, times under "ms"), to which callers may add their own keys.
   nlohmann::json toJson() const;

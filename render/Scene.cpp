@@ -74,7 +74,8 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   }
   if (!j.is_object()) throw RenderInputError(what + ": a scene must be a JSON object");
   static const char* kKeys[] = {"camera", "size", "transfer_function", "step", "background", "window",
-                                "skip_empty", "cull", "slicer", "shading", "sub_block", "slab"};
+                                "skip_empty", "cull", "slicer", "shading", "sub_block", "slab", "ert",
+                                "pre_integration"};
   for (auto it = j.begin(); it != j.end(); ++it)
     if (std::find(std::begin(kKeys), std::end(kKeys), it.key()) == std::end(kKeys))
       throw RenderInputError(what + ": unknown key '" + it.key() + "'");
@@ -156,6 +157,8 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
                              std::to_string(kMaxSlab));
     s.slab = int(v);
   }
+  if (j.contains("ert")) s.ert = number(j["ert"], "ert", what);
+  if (j.contains("pre_integration")) s.preIntegration = boolean(j["pre_integration"], "pre_integration", what);
   s.validate();
   return s;
 }
@@ -174,6 +177,9 @@ void Scene::validate() const {
   if (slab < 0 || slab > kMaxSlab)
     throw RenderInputError("slab " + std::to_string(slab) + " must be 0 (slicing) or 1.." + std::to_string(kMaxSlab) +
                            " planes");
+  if (!(ert == 0 || (ert >= 0.5 && ert <= 1)))
+    throw RenderInputError("ert " + std::to_string(ert) + " must be 0 (no early ray termination) or a threshold in "
+                           "[0.5, 1]");
   if (subBlock != 0 && (subBlock < 2 || subBlock > kMaxSubBlock || (subBlock & (subBlock - 1)) != 0))
     throw RenderInputError("sub-block " + std::to_string(subBlock) + " must be 0 (whole bricks) or a power of two in "
                            "[2, " + std::to_string(kMaxSubBlock) + "]");
@@ -201,7 +207,9 @@ std::string Scene::toJson() const {
             {"slicer", slicer == Slicer::Vertex ? "vertex" : "cpu"},
             {"shading", shading},
             {"sub_block", subBlock},
-            {"slab", slab}};
+            {"slab", slab},
+            {"ert", ert},
+            {"pre_integration", preIntegration}};
   if (window) j["window"] = json::array({(*window)[0], (*window)[1]});
   return j.dump(2);
 }

@@ -58,11 +58,21 @@ struct Scene {
   /// consecutive global planes, and the fragment program marches the pixel's ray through them, compositing in
   /// registers. N at least a brick's planes makes it a brick ray caster. The samples are the same either way.
   int slab = 0;
+  /// Early ray termination on texture slabs: 0 (off) or a threshold in [0.5, 1]. Between slabs a pass marks the
+  /// pixels whose accumulated opacity reached it in the depth buffer (a slab silhouette map), and the early depth
+  /// test skips their fragments in every later slab; a fragment also stops marching when its own opacity reaches
+  /// it. The image then differs from the full integral by at most 1 - ert per channel. No effect when slab is 0.
+  double ert = 0;
+  /// Pre-integrated classification (Engel et al. 2001) on texture slabs: each segment between two samples is
+  /// classified as a whole from its front and back values and length through a table rebuilt whenever the transfer
+  /// function or the step changes, instead of one post-classified sample per segment. No effect when slab is 0.
+  bool preIntegration = false;
 
   /// Parses a scene JSON object; absent keys keep their defaults. Throws RenderInputError naming `what` and the
   /// key. Keys: camera {orbit: [az, el, dist] | eye, center, up; fov; orthographic}, size [w, h],
   /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b],
-  /// window [lo, hi], skip_empty, cull, slicer ("vertex" | "cpu"), shading, sub_block, slab.
+  /// window [lo, hi], skip_empty, cull, slicer ("vertex" | "cpu"), shading, sub_block, slab, ert,
+  /// pre_integration.
   /// `allowPaths` false (the server) accepts transfer functions by preset name or inline only, never a file path.
   static Scene fromJson(const std::string& text, const std::string& what, bool allowPaths = true);
   /// The same, resolving preset names from `presets` (no file is read) and accepting no paths: what a server does

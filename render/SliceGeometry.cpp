@@ -128,7 +128,9 @@ void SlabGeometry::draw() {
   mGl.glEnable(GL_CULL_FACE);
   mGl.glCullFace(GL_FRONT);
   mGl.glEnable(GL_DEPTH_CLAMP);
+  mGl.glEnable(GL_CLIP_DISTANCE0);
   mGl.glDrawArraysInstanced(GL_TRIANGLES, 0, kSlabVerticesPerBox, GLsizei(mInstances.size()));
+  mGl.glDisable(GL_CLIP_DISTANCE0);
   mGl.glDisable(GL_DEPTH_CLAMP);
   mGl.glDisable(GL_CULL_FACE);
   mInstances.clear();

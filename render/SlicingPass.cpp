@@ -1,4 +1,4 @@
-// Slicing bricks front to back, batch by batch.
+// Walking bricks front to back, batch by batch; slicing a batch.
 #include "render/SlicingPass.h"
 
 #include <algorithm>
@@ -10,19 +10,10 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
-void drawBatch(const VolumeProgram& program, SliceGeometry& geometry, FrameStats& stats) {
-  if (geometry.empty()) return;
-  const auto t = Clock::now();
-  program.program().use();
-  geometry.draw();
-  stats.batches += 1;
-  stats.msDrawing += msSince(t);
-}
-
 }  // namespace
 
-void SlicingPass::draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program,
-                       SliceGeometry& geometry, FrameStats& stats) {
+void BrickWalk::run(const FramePlan& plan, Residency& residency, const SliceGeometry& geometry, FrameStats& stats,
+                    const std::function<void(const QueuedBox&)>& add, const std::function<void()>& flush) {
   const store::StoreMeta& meta = residency.store().meta();
   const int B = residency.store().brickSize();
   mSubStats = {};
@@ -32,12 +23,12 @@ void SlicingPass::draw(const FramePlan& plan, Residency& residency, const Volume
     stats.msSlicing += msSince(t);
     if (brickPlanes.count() == 0) continue;
 
-    // Page and slice brick by brick; draw whenever the atlas is full of this batch's bricks.
+    // Page and cut brick by brick; draw whenever the atlas is full of this batch's bricks.
     t = Clock::now();
     auto resident = residency.acquire(brick.key, plan.subBlock, stats);
     if (!resident) {
       stats.msPaging += msSince(t);
-      drawBatch(program, geometry, stats);
+      flush();
       residency.endBatch();
       t = Clock::now();
       resident = residency.acquire(brick.key, plan.subBlock, stats);
@@ -45,18 +36,19 @@ void SlicingPass::draw(const FramePlan& plan, Residency& residency, const Volume
     stats.msPaging += msSince(t);
 
     t = Clock::now();
-    queueBrick(plan, brick, *resident, brickPlanes, meta, B, geometry, stats);
+    cutBrick(plan, brick, *resident, brickPlanes, meta, B, geometry, stats, add);
     stats.msSlicing += msSince(t);
   }
   stats.subBlocksSkipped = mSubStats.subBlocksSkipped;
   stats.boxesDrawn = plan.subBlock ? mSubStats.boxes : stats.bricksDrawn;
-  drawBatch(program, geometry, stats);
+  flush();
   residency.endBatch();
 }
 
-void SlicingPass::queueBrick(const FramePlan& plan, const BrickDraw& draw, const Residency::Resident& resident,
-                             const PlaneIndexRange& brickPlanes, const store::StoreMeta& meta, int brickSize,
-                             SliceGeometry& geometry, FrameStats& stats) {
+void BrickWalk::cutBrick(const FramePlan& plan, const BrickDraw& draw, const Residency::Resident& resident,
+                         const PlaneIndexRange& brickPlanes, const store::StoreMeta& meta, int brickSize,
+                         const SliceGeometry& geometry, FrameStats& stats,
+                         const std::function<void(const QueuedBox&)>& add) {
   const store::BrickKey& key = draw.key;
   const store::Vec3i brickLo{int64_t(key.i) * brickSize, int64_t(key.j) * brickSize, int64_t(key.k) * brickSize};
   const store::Vec3i brickHi{std::min<int64_t>(brickLo.x + brickSize, meta.dims.x),
@@ -72,16 +64,32 @@ void SlicingPass::queueBrick(const FramePlan& plan, const BrickDraw& draw, const
   // Whole bricks own the whole volume (only the outline is cut, the same for every bricking); with exact ownership
   // (sub-blocks, slabs) each box owns just its voxels (volume.frag.glsl).
   const glm::ivec3 volumeHi(meta.dims.x, meta.dims.y, meta.dims.z);
+  const bool exact = plan.exactOwnership();
   for (const VoxelSpan& span : mSpans) {
-    const Box box = plan.drawBox(voxelSpanBox(span.lo, span.hi, meta.dims, meta.spacing), meta.spacing);
-    const PlaneIndexRange planes = plan.subBlock ? geometry.planes(box, plan) : brickPlanes;
-    if (planes.count() == 0) continue;
-    const bool exact = plan.exactOwnership();
-    const glm::ivec3 ownLo = exact ? glm::ivec3(span.lo.x, span.lo.y, span.lo.z) : glm::ivec3(0);
-    const glm::ivec3 ownHi = exact ? glm::ivec3(span.hi.x, span.hi.y, span.hi.z) : volumeHi;
-    stats.slices += planes.count();
-    geometry.add(box, planes, payload, ownLo, ownHi, plan);
+    QueuedBox queued;
+    queued.box = plan.drawBox(voxelSpanBox(span.lo, span.hi, meta.dims, meta.spacing), meta.spacing);
+    queued.planes = plan.subBlock ? geometry.planes(queued.box, plan) : brickPlanes;
+    if (queued.planes.count() == 0) continue;
+    queued.payload = payload;
+    queued.ownLo = exact ? glm::ivec3(span.lo.x, span.lo.y, span.lo.z) : glm::ivec3(0);
+    queued.ownHi = exact ? glm::ivec3(span.hi.x, span.hi.y, span.hi.z) : volumeHi;
+    stats.slices += queued.planes.count();
+    add(queued);
   }
+}
+
+void SlicingPass::draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program,
+                       SliceGeometry& geometry, FrameStats& stats) {
+  auto add = [&](const QueuedBox& b) { geometry.add(b.box, b.planes, b.payload, b.ownLo, b.ownHi, plan); };
+  auto flush = [&] {
+    if (geometry.empty()) return;
+    const auto t = Clock::now();
+    program.program().use();
+    geometry.draw();
+    stats.batches += 1;
+    stats.msDrawing += msSince(t);
+  };
+  mWalk.run(plan, residency, geometry, stats, add, flush);
 }
 
 }  // namespace voxbrick::render

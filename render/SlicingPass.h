@@ -1,8 +1,10 @@
-// The drawing technique of today: view-aligned slicing. Bricks (or, with sub-blocks, the boxes a brick is drawn
-// as) are sliced by the global planes, front to back, one blended sample per fragment, in batches of what the atlas
-// holds at once. Texture slabs will be a second pass beside this one.
+// The drawing passes. Both walk the frame's bricks front to back, page them in batches of what the atlas holds at
+// once, and cut each brick into the boxes it is drawn as (BrickWalk); they differ in how a batch is drawn.
+// SlicingPass: view-aligned slicing, every box sliced by the global planes, one blended sample per fragment.
+// Texture slabs are render/SlabPass.h.
 #pragma once
 
+#include <functional>
 #include <vector>
 
 #include "render/FramePlan.h"
@@ -13,6 +15,34 @@
 
 namespace voxbrick::render {
 
+/// One box to draw: its drawn (enlarged) world box, the global planes through it, the atlas payload and the voxels
+/// it owns [ownLo, ownHi) (volume.frag.glsl).
+struct QueuedBox {
+  Box box;
+  PlaneIndexRange planes;
+  glm::ivec4 payload;
+  glm::ivec3 ownLo, ownHi;
+};
+
+/// Pages plan.visible front to back and cuts each brick into its boxes (whole bricks, or with sub-blocks the boxes
+/// of its non-empty sub-blocks), in visibility order.
+class BrickWalk {
+ public:
+  /// Hands every box to `add`, in visibility order; calls `flush` when the atlas is full of the current batch's
+  /// bricks (the batch is then ended) and once at the end. `geometry` gives the planes through a box. Fills the
+  /// slicing, paging, sub-block and box counters of `stats`.
+  void run(const FramePlan& plan, Residency& residency, const SliceGeometry& geometry, FrameStats& stats,
+           const std::function<void(const QueuedBox&)>& add, const std::function<void()>& flush);
+
+ private:
+  void cutBrick(const FramePlan& plan, const BrickDraw& draw, const Residency::Resident& resident,
+                const PlaneIndexRange& brickPlanes, const store::StoreMeta& meta, int brickSize,
+                const SliceGeometry& geometry, FrameStats& stats, const std::function<void(const QueuedBox&)>& add);
+
+  std::vector<VoxelSpan> mSpans;
+  SubBlockWalkStats mSubStats;
+};
+
 class SlicingPass {
  public:
   /// Draws every brick of `plan.visible` with `program` through `geometry`, paging through `residency`. Fills the
@@ -21,13 +51,7 @@ class SlicingPass {
             FrameStats& stats);
 
  private:
-  /// Queues brick `draw` (resident as `resident`) as its boxes.
-  void queueBrick(const FramePlan& plan, const BrickDraw& draw, const Residency::Resident& resident,
-                  const PlaneIndexRange& brickPlanes, const store::StoreMeta& meta, int brickSize,
-                  SliceGeometry& geometry, FrameStats& stats);
-
-  std::vector<VoxelSpan> mSpans;
-  SubBlockWalkStats mSubStats;
+  BrickWalk mWalk;
 };
 
 }  // namespace voxbrick::render

@@ -15,6 +15,7 @@ ProgramSources sources(const ProgramKey& key) {
   if (key.model == FragmentModel::Roofline) defines.push_back("ROOFLINE");
   if (key.model == FragmentModel::Shaded) defines.push_back("SHADING");
   if (key.slab) defines.push_back("SLAB");
+  if (key.preIntegration) defines.push_back("PRE_INTEGRATION");
   const char* vertex = key.slab                     ? "slab.vert.glsl"
                        : key.slicer == Slicer::Cpu ? "slice_cpu.vert.glsl"
                                                    : "slice.vert.glsl";
@@ -33,7 +34,8 @@ VolumeProgram::VolumeProgram(const Gl& gl, const ProgramKey& key) : mProgram(gl,
          at("uTransfer"), at("uInvAtlasSize"), at("uInvSpacing"), at("uDims"), at("uHalfDims"), at("uWindowLo"),
          at("uWindowScale"), at("uStepOverReference"), at("uEye"), at("uViewDir"), at("uOrthographic"),
          at("uRayOrigin"), at("uRayOriginDx"), at("uRayOriginDy"), at("uRayDirection"), at("uRayDirectionDx"),
-         at("uRayDirectionDy")};
+         at("uRayDirectionDy"), at("uTermination"), at("uPreIntegrated"), at("uTableResolution"),
+         at("uRatioMin"), at("uLayerScale"), at("uLayers")};
 }
 
 void VolumeProgram::setFrame(const FramePlan& plan, const BrickAtlas& atlas, const store::StoreMeta& meta) const {
@@ -60,6 +62,16 @@ void VolumeProgram::setFrame(const FramePlan& plan, const BrickAtlas& atlas, con
   p.set(mAt.rayDirection, glm::vec3(plan.rays.direction));
   p.set(mAt.rayDirectionDx, glm::vec3(plan.rays.directionDx));
   p.set(mAt.rayDirectionDy, glm::vec3(plan.rays.directionDy));
+  // Above any opacity when termination is off.
+  p.set(mAt.termination, plan.ert > 0 ? float(plan.ert) : 2.0f);
+}
+
+void VolumeProgram::setTable(const PreIntegrationSpec& spec) const {
+  mProgram.set(mAt.table, 3);
+  mProgram.set(mAt.tableResolution, float(spec.resolution));
+  mProgram.set(mAt.ratioMin, float(spec.ratioMin));
+  mProgram.set(mAt.layerScale, float(spec.layerScale()));
+  mProgram.set(mAt.layers, float(spec.layers));
 }
 
 const VolumeProgram& VolumePrograms::get(const ProgramKey& key) {

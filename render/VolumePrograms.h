@@ -7,6 +7,7 @@
 #include "render/BrickAtlas.h"
 #include "render/FramePlan.h"
 #include "render/GlObjects.h"
+#include "render/PreIntegration.h"
 #include "render/Scene.h"
 
 namespace voxbrick::render {
@@ -24,6 +25,7 @@ struct ProgramKey {
   FragmentModel model = FragmentModel::Plain;
   bool exactOwnership = false;  ///< EXACT_OWNERSHIP: samples from the pixel ray, owned per box (sub-blocks)
   bool slab = false;            ///< SLAB: box proxies (slab.vert.glsl), several samples per fragment
+  bool preIntegration = false;  ///< PRE_INTEGRATION (with SLAB): segments classified from a table
   auto operator<=>(const ProgramKey&) const = default;
 };
 
@@ -36,13 +38,16 @@ class VolumeProgram {
   const Program& program() const { return mProgram; }
   /// Sets every per-frame uniform from `plan`; the atlas is on texture unit 0, the transfer table on unit 1.
   void setFrame(const FramePlan& plan, const BrickAtlas& atlas, const store::StoreMeta& meta) const;
+  /// Sets the pre-integration table's mapping (PRE_INTEGRATION variants); the table is on texture unit 3.
+  void setTable(const PreIntegrationSpec& spec) const;
 
  private:
   Program mProgram;
   struct Locations {
     GLint viewProj, planeNormal, planeIncr, atlas, transfer, invAtlasSize, invSpacing, dims, halfDims, windowLo,
         windowScale, stepOverReference, eye, viewDir, orthographic, rayOrigin, rayOriginDx, rayOriginDy,
-        rayDirection, rayDirectionDx, rayDirectionDy;
+        rayDirection, rayDirectionDx, rayDirectionDy, termination, table,
+        tableResolution, ratioMin, layerScale, layers;
   } mAt;
 };
 

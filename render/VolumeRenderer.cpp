@@ -19,7 +19,9 @@ VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickC
       mResidency(context, std::move(cache), gpuBudgetBytes, format),
       mTransfer(mGl, GL_TEXTURE_1D),
       mPrograms(mGl),
-      mCompositor(mGl) {
+      mCompositor(mGl),
+      mSlabs(mGl),
+      mPreIntegration(mGl) {
   mTransfer.bind(1);
   mGl.glTexStorage1D(GL_TEXTURE_1D, 1, GL_RGBA32F, kTransferTableTexels);
   mGl.glTexParameteri(GL_TEXTURE_1D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
@@ -57,7 +59,7 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, R
   stats.msTraversal = msSince(t);
 
   mResidency.beginFrame(plan.visible.bricks);
-  mCompositor.begin(scene.width, scene.height, mode != RenderMode::Roofline);
+  mCompositor.begin(scene.width, scene.height, mode != RenderMode::Roofline, plan.ert > 0);
   const std::vector<glm::vec4> table = scene.transferFunction.table(kTransferTableTexels);
   mTransfer.bind(1);
   mGl.glTexSubImage1D(GL_TEXTURE_1D, 0, 0, kTransferTableTexels, GL_RGBA, GL_FLOAT, table.data());
@@ -67,12 +69,23 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, R
                        mode == RenderMode::Roofline ? FragmentModel::Roofline
                        : scene.shading             ? FragmentModel::Shaded
                                                    : FragmentModel::Plain,
-                       plan.subBlock > 0, plan.slab > 0};
+                       plan.subBlock > 0, plan.slab > 0, plan.preIntegration};
   const VolumeProgram& program = mPrograms.get(key);
   program.setFrame(plan, mResidency.atlas(), store.meta());
-  mSlicing.draw(plan, mResidency, program, geometry(scene), stats);
+  if (plan.preIntegration) {
+    stats.msPreIntegration = mPreIntegration.update(scene.transferFunction, plan, 3);
+    program.setTable(mPreIntegration.spec());
+  }
+  if (plan.slab > 0)
+    mSlabs.draw(plan, mResidency, program, geometry(scene), mCompositor, stats);
+  else
+    mSlicing.draw(plan, mResidency, program, geometry(scene), stats);
 
   const image::ImageF image = mCompositor.finish(scene.background, stats);
+  if (plan.slab > 0)
+    mSlabs.finish(stats);
+  else
+    stats.samples = stats.fragments;
   stats.msTotal = msSince(frameStart);
   if (statsOut) *statsOut = stats;
   return image;

@@ -11,8 +11,10 @@
 #include "render/FrameRenderer.h"
 #include "render/GlContext.h"
 #include "render/GlObjects.h"
+#include "render/PreIntegrationTexture.h"
 #include "render/Residency.h"
 #include "render/SliceGeometry.h"
+#include "render/SlabPass.h"
 #include "render/SlicingPass.h"
 #include "render/VolumePrograms.h"
 
@@ -44,6 +46,8 @@ class VolumeRenderer final : public FrameRenderer {
   std::unique_ptr<SliceGeometry> mGeometry[3];  // vertex slicer, CPU slicer, slabs; made on first use
   SlicingPass mSlicing;
   Compositor mCompositor;
+  SlabPass mSlabs;
+  PreIntegrationTexture mPreIntegration;
 };
 
 }  // namespace voxbrick::render

@@ -6,6 +6,9 @@
 // two planes of the slab, where the front plane's polygon does not cover its pixel. The faces of a convex box facing
 // away from the eye cover every pixel whose ray crosses the box exactly once, also with the eye inside the box
 // (where front faces lie behind the near plane). Layout: SlabInstance in render/SliceTables.h.
+//
+// Each pixel whose ray crosses the box gets one fragment per slab, also where its ray has no sample in the slab
+// inside the box (the fragment then blends nothing); back faces in front of the slab are clipped away.
 
 layout(location = 0) in vec3 aBoxMin;
 layout(location = 1) in vec3 aBoxMax;
@@ -16,6 +19,8 @@ layout(location = 6) in ivec3 aOwnHi;
 layout(location = 7) in int aPlaneCount;
 
 uniform mat4 uViewProj;
+uniform vec3 uPlaneNormal;  // unit, from the eye into the scene
+uniform float uPlaneIncr;   // distance between consecutive global planes
 
 out vec3 vWorld;
 flat out ivec4 vPayload;
@@ -44,4 +49,11 @@ void main() {
   vFirstPlane = aFirstPlane;
   vPlaneCount = aPlaneCount;
   gl_Position = uViewProj * vec4(world, 1.0);
+  // Every slab fragment lies at depth 1/2 (window): the slab silhouette map (render/SlabPass.h) marks terminated
+  // pixels with depth 0, which the early depth test (GL_LESS) then rejects; unmarked pixels hold 1.
+  gl_Position.z = 0.0;
+  // A ray with samples in this slab inside the box leaves the box behind the slab's first plane, so back faces in
+  // front of that plane (less one plane, for round-off) cover no such ray: clip them away. (Those behind the slab's
+  // last plane cannot be clipped so: a ray crossing the slab may leave the box far behind it.)
+  gl_ClipDistance[0] = dot(uPlaneNormal, world) - float(aFirstPlane - 1) * uPlaneIncr;
 }

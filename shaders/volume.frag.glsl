@@ -23,7 +23,18 @@ flat in float vPlaneDistance;
 #ifdef SLAB
 flat in int vFirstPlane;  // the slab's planes: [vFirstPlane, vFirstPlane + vPlaneCount)
 flat in int vPlaneCount;
-uniform float uPlaneIncr;  // distance between consecutive global planes
+uniform float uPlaneIncr;    // distance between consecutive global planes
+uniform float uTermination;  // early ray termination: stop once the slab's own opacity reaches it (> 1: never)
+// What the slab fragments did, as 64-bit counters (low word, high word): fragments started, samples taken, samples
+// left untaken when the fragment's own opacity reached uTermination (render/SlabPass.h reads them).
+layout(std430, binding = 0) buffer SlabCounters { uint uCounters[6]; };
+// The depth test (the silhouette map) before the program runs: a program with atomics would otherwise be run and
+// then tested. Slab fragments neither discard nor write depth, so the result is the same.
+layout(early_fragment_tests) in;
+void count(int counter, uint n) {
+  const uint before = atomicAdd(uCounters[2 * counter], n);
+  if (before + n < before) atomicAdd(uCounters[2 * counter + 1], 1u);
+}
 #endif
 
 uniform sampler3D uAtlas;
@@ -58,18 +69,19 @@ float sampleAt(vec3 voxel) {
   return texture(uAtlas, (clamp(voxel, vec3(0.0), uDims) + vec3(vPayload.xyz)) * uInvAtlasSize).r;
 }
 
-// The classified, opacity-corrected, optionally shaded sample at `world` (voxel coordinate `voxel`), premultiplied.
-vec4 shadeSample(vec3 world, vec3 voxel, float value) {
-  const float t = clamp((value - uWindowLo) * uWindowScale, 0.0, 1.0);
-  const vec4 classified = texture(uTransfer, t);
-
-  // Planes are uPlaneIncr apart along the view axis; a perspective ray crosses them obliquely, so its segment is
-  // longer by 1 / cos(angle to the axis).
+// The length of this ray's segment between two planes, in reference lengths. Planes are uPlaneIncr apart along the
+// view axis; a perspective ray crosses them obliquely, so its segment is longer by 1 / cos(angle to the axis). The
+// same for every sample of a ray (world - eye runs along the ray).
+float segmentRatio(vec3 world) {
   const float cosine = uOrthographic != 0 ? 1.0 : max(dot(normalize(world - uEye), uViewDir), 1e-3);
-  const float ratio = uStepOverReference / cosine;
-  const float alpha = classified.a >= 1.0 ? 1.0 : oneMinusExp(ratio * logOneMinus(classified.a));
+  return uStepOverReference / cosine;
+}
 
-  vec3 color = classified.rgb;
+// The value window: raw atlas value to the transfer function's [0, 1].
+float normalised(float value) { return clamp((value - uWindowLo) * uWindowScale, 0.0, 1.0); }
+
+// Phong headlight on premultiplied `rgba` at `world` (voxel coordinate `voxel`); unchanged without SHADING.
+vec4 shade(vec4 rgba, vec3 world, vec3 voxel) {
 #ifdef SHADING
   // Central differences half a voxel each way: the samples stay inside the slot (whose border is one voxel).
   const vec3 gradient = vec3(sampleAt(voxel + vec3(0.5, 0, 0)) - sampleAt(voxel - vec3(0.5, 0, 0)),
@@ -81,11 +93,38 @@ vec4 shadeSample(vec3 world, vec3 voxel, float value) {
     const vec3 toEye = uOrthographic != 0 ? -uViewDir : normalize(uEye - world);
     const float diffuse = abs(dot(normal, toEye));  // two-sided headlight
     const float specular = pow(diffuse, 32.0);
-    color = color * (0.3 + 0.7 * diffuse) + vec3(0.25 * specular);
+    rgba.rgb = rgba.rgb * (0.3 + 0.7 * diffuse) + vec3(0.25 * specular) * rgba.a;
   }
 #endif
-  return vec4(color * alpha, alpha);
+  return rgba;
 }
+
+// The classified, opacity-corrected (for a segment of `ratio` reference lengths), optionally shaded sample at
+// `world` (voxel coordinate `voxel`), premultiplied.
+vec4 shadeSample(vec3 world, vec3 voxel, float value, float ratio) {
+  const vec4 classified = texture(uTransfer, normalised(value));
+  const float alpha = classified.a >= 1.0 ? 1.0 : oneMinusExp(ratio * logOneMinus(classified.a));
+  return shade(vec4(classified.rgb * alpha, alpha), world, voxel);
+}
+
+#ifdef PRE_INTEGRATION
+// The pre-integrated segment table (render/PreIntegration.h): premultiplied colour and opacity of a segment whose
+// normalised value runs linearly from front (s) to back (t), at layer r for its length.
+uniform sampler3D uPreIntegrated;
+uniform float uTableResolution;  // R
+uniform float uRatioMin;         // the first layer's segment length, in reference lengths
+uniform float uLayerScale;       // layers per unit of ln(ratio)
+uniform float uLayers;
+
+float layerCoordinate(float ratio) {
+  return (clamp(log(ratio / uRatioMin) * uLayerScale, 0.0, uLayers - 1.0) + 0.5) / uLayers;
+}
+
+vec4 preIntegrated(float front, float back, float layer) {
+  const vec2 st = (vec2(normalised(front), normalised(back)) * (uTableResolution - 1.0) + 0.5) / uTableResolution;
+  return texture(uPreIntegrated, vec3(st, layer));
+}
+#endif
 
 // Whether voxel coordinates `lo` and `hi` (the same point, or two roundings of it) lie in the voxels the box owns:
 // half-open, the face towards the eye included.
@@ -117,7 +156,23 @@ void main() {
   const int first = max(vFirstPlane, int(floor((start + along * tIn) / uPlaneIncr)) - 1);
   const int last = min(vFirstPlane + vPlaneCount, int(ceil((start + along * tOut) / uPlaneIncr)) + 2);
   vec4 sum = vec4(0.0);
+  uint taken = 0u, untaken = 0u;
+  const float ratio = segmentRatio(origin + direction);
+#ifdef PRE_INTEGRATION
+  const float layer = layerCoordinate(ratio);
+  // The segment from plane k to plane k + 1 belongs to the box owning sample k. Its back sample may lie beyond the
+  // box; it is read within half a voxel of the box's faces, where the slot's one-voxel border still holds the
+  // neighbours' values (further out, clamped to that shell: an approximation only near faces, for steps above half a
+  // voxel).
+  const vec3 backLo = vec3(vOwnLo) - 0.5, backHi = vec3(vOwnHi) + 0.5;
+  float back = 0.0;
+  int backPlane = first - 1;  // the plane `back` was read on
+#endif
   for (int k = first; k < last; ++k) {
+    if (sum.a >= uTermination) {
+      untaken = uint(last - k);  // planes, an upper bound of the owned samples left
+      break;
+    }
     // The ray's point on plane k, as EXACT_OWNERSHIP computes it, so that neighbouring boxes agree on its owner.
     const float planeDistance = float(k) * uPlaneIncr;
     const float t = (planeDistance - start) / along;
@@ -129,13 +184,26 @@ void main() {
     const vec3 snapped = round(voxel * 256.0) * (1.0 / 256.0);
     if (!owned(mix(snapped, voxel, equal(vOwnLo, ivec3(0))), mix(snapped, voxel, equal(vec3(vOwnHi), uDims))))
       continue;
+#ifdef PRE_INTEGRATION
+    const float value = backPlane == k ? back : sampleAt(voxel);
+    const vec3 next = (origin + direction * ((planeDistance + uPlaneIncr - start) / along)) * uInvSpacing + uHalfDims;
+    back = sampleAt(clamp(next, backLo, backHi));
+    backPlane = k + 1;
+#else
     const float value = sampleAt(voxel);
+#endif
+    ++taken;
 #ifdef ROOFLINE
     sum = vec4(value);
+#elif defined(PRE_INTEGRATION)
+    sum += (1.0 - sum.a) * shade(preIntegrated(value, back, layer), world, voxel);
 #else
-    sum += (1.0 - sum.a) * shadeSample(world, voxel, value);
+    sum += (1.0 - sum.a) * shadeSample(world, voxel, value, ratio);
 #endif
   }
+  count(0, 1u);
+  if (taken > 0u) count(1, taken);
+  if (untaken > 0u) count(2, untaken);
   fragColor = sum;
 }
 #else
@@ -164,6 +232,6 @@ void main() {
   fragColor = vec4(value);
   return;
 #endif
-  fragColor = shadeSample(world, voxel, value);
+  fragColor = shadeSample(world, voxel, value, segmentRatio(world));
 }
 #endif

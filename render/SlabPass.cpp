@@ -1,0 +1,90 @@
+// Slab-major drawing of each batch, with the termination pass of the silhouette map between slabs.
+#include "render/SlabPass.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <limits>
+
+namespace voxbrick::render {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+constexpr size_t kCounters = 3;  // fragments, samples taken, samples left by termination: (low, high) words each
+
+int64_t floorDiv(int64_t a, int64_t b) { return a / b - ((a % b != 0) && ((a < 0) != (b < 0))); }
+
+}  // namespace
+
+SlabPass::SlabPass(const Gl& gl)
+    : mGl(gl),
+      mTermination(gl, ProgramSources::fromFiles("termination", {{GL_VERTEX_SHADER, "termination.vert.glsl"},
+                                                                  {GL_FRAGMENT_SHADER, "termination.frag.glsl"}})),
+      mTerminationAt(mTermination.requireUniform("uTermination")),
+      mAccumulatedAt(mTermination.requireUniform("uAccumulated")),
+      mNoAttributes(gl),
+      mCounters(gl) {}
+
+void SlabPass::draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program,
+                    SliceGeometry& geometry, Compositor& compositor, FrameStats& stats) {
+  const std::array<uint32_t, 2 * kCounters> zero{};
+  mCounters.allocate(GL_SHADER_STORAGE_BUFFER, sizeof(zero), zero.data(), GL_DYNAMIC_COPY);
+  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, mCounters.id());
+  mBoxes.clear();
+  auto add = [&](const QueuedBox& b) { mBoxes.push_back(b); };
+  auto flush = [&] {
+    drawBatch(plan, program, geometry, compositor, stats);
+    mBoxes.clear();
+  };
+  mWalk.run(plan, residency, geometry, stats, add, flush);
+}
+
+void SlabPass::drawBatch(const FramePlan& plan, const VolumeProgram& program, SliceGeometry& geometry,
+                         Compositor& compositor, FrameStats& stats) {
+  if (mBoxes.empty()) return;
+  int64_t lo = std::numeric_limits<int64_t>::max(), hi = std::numeric_limits<int64_t>::min();
+  for (const QueuedBox& b : mBoxes) lo = std::min(lo, b.planes.begin), hi = std::max(hi, b.planes.end);
+  const int64_t n = std::max(plan.slab, 1);
+  stats.batches += 1;
+  for (int64_t first = floorDiv(lo, n) * n; first < hi; first += n) {
+    auto t = Clock::now();
+    for (const QueuedBox& b : mBoxes) {
+      const PlaneIndexRange planes{std::max(b.planes.begin, first), std::min(b.planes.end, first + n)};
+      if (planes.count() > 0) geometry.add(b.box, planes, b.payload, b.ownLo, b.ownHi, plan);
+    }
+    stats.msSlicing += msSince(t);
+    if (geometry.empty()) continue;
+    t = Clock::now();
+    program.program().use();
+    geometry.draw();
+    stats.slabPasses += 1;
+    if (plan.ert > 0 && first + n < hi) terminate(plan, compositor);
+    stats.msDrawing += msSince(t);
+  }
+}
+
+void SlabPass::terminate(const FramePlan& plan, Compositor& compositor) const {
+  compositor.bindSilhouette();
+  compositor.accumulated().bind(2);
+  mTermination.use();
+  mTermination.set(mAccumulatedAt, 2);
+  mTermination.set(mTerminationAt, float(plan.ert));
+  mNoAttributes.bind();
+  mGl.glDepthMask(GL_TRUE);
+  mGl.glDrawArrays(GL_TRIANGLES, 0, 3);
+  mGl.glDepthMask(GL_FALSE);
+  compositor.bindTarget();
+}
+
+void SlabPass::finish(FrameStats& stats) const {
+  std::array<uint32_t, 2 * kCounters> words{};
+  mCounters.read(0, sizeof(words), words.data());
+  auto counter = [&](size_t i) { return int64_t((uint64_t(words[2 * i + 1]) << 32) | words[2 * i]); };
+  stats.fragments = counter(0);
+  stats.samples = counter(1);
+  stats.samplesTerminated = counter(2);
+}
+
+}  // namespace voxbrick::render

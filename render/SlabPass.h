@@ -1,0 +1,48 @@
+// Texture slabs (Yalım 2005, seed 003, chapter 4), drawn slab by slab. A slab is N consecutive global planes; for
+// each slab, front to back, every box of the batch that the slab crosses is drawn once (its back faces,
+// slab.vert.glsl) and the fragment program marches its pixel's ray through the slab's planes inside the box,
+// compositing in registers and blending once (volume.frag.glsl, SLAB). The samples are the global planes' points
+// either way, so the image does not depend on N beyond round-off.
+//
+// Early ray termination (Scene::ert) uses a slab silhouette map in the target's depth buffer (Compositor): slab
+// fragments lie at depth 1/2 and are tested GL_LESS; after each slab a pass over the accumulated colour writes depth
+// 0 where its opacity reached the threshold, so the early depth test rejects those pixels' fragments in every later
+// slab. Within one batch of the atlas the order is slab-major, across batches brick order: both are visibility
+// orders along every ray (bricks are convex and drawn front to back; a ray crosses the planes in order).
+#pragma once
+
+#include <vector>
+
+#include "render/Compositor.h"
+#include "render/SlicingPass.h"
+
+namespace voxbrick::render {
+
+class SlabPass {
+ public:
+  explicit SlabPass(const Gl& gl);
+
+  /// Draws plan.visible as slabs of plan.slab planes with `program` (a SLAB variant) into `compositor`'s target,
+  /// which begin() set up with a silhouette map iff plan.ert > 0. Fills the counters and times of `stats` that the
+  /// GPU does not (see finish).
+  void draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program, SliceGeometry& geometry,
+            Compositor& compositor, FrameStats& stats);
+  /// After the compositor's finish: the slab fragments' own counts (fragments started, samples taken and left by
+  /// termination) into `stats`.
+  void finish(FrameStats& stats) const;
+
+ private:
+  void drawBatch(const FramePlan& plan, const VolumeProgram& program, SliceGeometry& geometry,
+                 Compositor& compositor, FrameStats& stats);
+  void terminate(const FramePlan& plan, Compositor& compositor) const;
+
+  const Gl& mGl;
+  BrickWalk mWalk;
+  std::vector<QueuedBox> mBoxes;  // the current batch's boxes, in visibility order
+  Program mTermination;
+  GLint mTerminationAt = -1, mAccumulatedAt = -1;
+  VertexArray mNoAttributes;
+  Buffer mCounters;  // SlabCounters of volume.frag.glsl
+};
+
+}  // namespace voxbrick::render
