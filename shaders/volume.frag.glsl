@@ -155,6 +155,13 @@ void main() {
   const float tOut = min(min(max(ta.x, tb.x), max(ta.y, tb.y)), max(ta.z, tb.z));
   const int first = max(vFirstPlane, int(floor((start + along * tIn) / uPlaneIncr)) - 1);
   const int last = min(vFirstPlane + vPlaneCount, int(ceil((start + along * tOut) / uPlaneIncr)) + 2);
+  // Planes whose point lies at least 1/64 voxel inside every owned face, one plane in from either end for round-off,
+  // are owned without a test (the ray's point is off by far less than 1/64 voxel).
+  const vec3 sa = (vec3(vOwnLo) + 1.0 / 64.0 - o) * inv, sb = (vec3(vOwnHi) - 1.0 / 64.0 - o) * inv;
+  const float sIn = max(max(min(sa.x, sb.x), min(sa.y, sb.y)), max(min(sa.z, sb.z), 0.0));
+  const float sOut = min(min(max(sa.x, sb.x), max(sa.y, sb.y)), max(sa.z, sb.z));
+  const int insideFirst = int(ceil((start + along * sIn) / uPlaneIncr)) + 1;
+  const int insideLast = int(floor((start + along * sOut) / uPlaneIncr)) - 1;
   vec4 sum = vec4(0.0);
   uint taken = 0u, untaken = 0u;
   const float ratio = segmentRatio(origin + direction);
@@ -176,14 +183,16 @@ void main() {
     // The ray's point on plane k, as EXACT_OWNERSHIP computes it, so that neighbouring boxes agree on its owner.
     const float planeDistance = float(k) * uPlaneIncr;
     const float t = (planeDistance - start) / along;
-    if (t < 0.0) continue;  // before the near plane, where slicing's polygons are clipped
     const vec3 world = origin + direction * t;
     const vec3 voxel = world * uInvSpacing + uHalfDims;
-    // Faces between boxes on the 1/256-voxel grid, as EXACT_OWNERSHIP; the volume's own faces on the unrounded
-    // point, as slicing tests them, so that rays grazing the surface keep the same samples.
-    const vec3 snapped = round(voxel * 256.0) * (1.0 / 256.0);
-    if (!owned(mix(snapped, voxel, equal(vOwnLo, ivec3(0))), mix(snapped, voxel, equal(vec3(vOwnHi), uDims))))
-      continue;
+    if (k < insideFirst || k > insideLast) {
+      if (t < 0.0) continue;  // before the near plane, where slicing's polygons are clipped
+      // Faces between boxes on the 1/256-voxel grid, as EXACT_OWNERSHIP; the volume's own faces on the unrounded
+      // point, as slicing tests them, so that rays grazing the surface keep the same samples.
+      const vec3 snapped = round(voxel * 256.0) * (1.0 / 256.0);
+      if (!owned(mix(snapped, voxel, equal(vOwnLo, ivec3(0))), mix(snapped, voxel, equal(vec3(vOwnHi), uDims))))
+        continue;
+    }
 #ifdef PRE_INTEGRATION
     const float value = backPlane == k ? back : sampleAt(voxel);
     const vec3 next = (origin + direction * ((planeDistance + uPlaneIncr - start) / along)) * uInvSpacing + uHalfDims;
