@@ -20,6 +20,7 @@ struct RenderArgs {
   std::string backend = "auto", atlasFormat = "float", analytic;
   double referenceStep = 0.125;
   bool quiet = false;
+  int warmUp = 0;
   int64_t gpuBudgetMB = 1024, hostBudgetMB = 1024;
 };
 
@@ -53,6 +54,9 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
   render::RenderEngine engine({render::parseBackend(a.backend), size_t(a.gpuBudgetMB) << 20,
                                render::parseAtlasFormat(a.atlasFormat)});
   if (!a.quiet) std::fprintf(stderr, "render: %s\n", engine.describe().c_str());
+  // Warm-up frames page the bricks in and build the programs, so that the frame reported is a warm one, as a
+  // server's next frame of the same dataset would be.
+  for (int i = 0; i < a.warmUp; ++i) engine.render(dataset, scene, nullptr);
   render::FrameStats stats;
   const image::ImageF image = engine.render(dataset, scene, &stats);
   image::writePng(a.output, image::toImage8(image));
@@ -73,6 +77,8 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("store", args->store, "store directory")->required();
   cmd->add_option("-o,--output", args->output, "PNG file to write")->required();
   cmd->add_option("--stats", args->statsPath, "write the frame statistics as JSON");
+  cmd->add_option("--warm-up", args->warmUp, "render the frame this many times before the one written and timed")
+      ->check(CLI::Range(0, 100));
   addSceneOptions(cmd, args->scene);
   cmd->add_option("--backend", args->backend,
                   "auto, egl or osmesa (a GL context), or reference (the CPU reference renderer)")
