@@ -3,12 +3,15 @@
 #include "bench/Sweep.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <map>
 #include <memory>
 #include <sstream>
+
+#include <nlohmann/json.hpp>
 
 #include "brickstore/BrickCache.h"
 #include "brickstore/BrickStore.h"
@@ -64,6 +67,15 @@ render::Scene viewScene(const SweepSpec& spec, const Variant& variant, int view)
   return scene;
 }
 
+/// The scene as the reference renderer sees it: without the GPU renderer's ERT and pre-integration settings (which
+/// it ignores), so that a cache made before they existed stays valid.
+std::string referenceJson(const render::Scene& scene) {
+  nlohmann::json j = nlohmann::json::parse(scene.toJson());
+  j.erase("ert");
+  j.erase("pre_integration");
+  return j.dump(2);
+}
+
 /// Reference frames on disk: a text header naming everything the frame depends on, then RGBA floats.
 class ReferenceCache {
  public:
@@ -75,7 +87,7 @@ class ReferenceCache {
 
   /// The frame of `scene` at `step`; `msRendered` gets the time if it had to be rendered, else stays.
   image::ImageF get(const render::Scene& scene, double step, double* msRendered) {
-    const std::string key = "voxbrick-reference 2\n" + mStore->meta().source + "\n" + scene.toJson() +
+    const std::string key = "voxbrick-reference 2\n" + mStore->meta().source + "\n" + referenceJson(scene) +
                             "\nstep " + stepText(step) + "\n";
     char name[64];
     std::snprintf(name, sizeof name, "%016zx.ref", std::hash<std::string>{}(key));
@@ -112,37 +124,196 @@ std::vector<Variant> variantsOf(const SweepSpec& spec, const Dataset& d) {
     variants.push_back({tf, false});
     if (spec.shadingVariants) variants.push_back({tf, true});
   }
+  if (!spec.slabs.empty())
+    for (const Variant& v : slabVariants(d, spec.opaqueVariants))
+      if (std::find(variants.begin(), variants.end(), v) == variants.end()) variants.push_back(v);
   return variants;
 }
 
 }  // namespace
 
+std::string slabLabel(int slab) {
+  if (slab <= 0) return "slicing";
+  return slab >= render::Scene::kMaxSlab ? "slab whole brick" : "slab " + std::to_string(slab);
+}
+
 std::string Setting::label() const {
-  return "step " + stepText(step) + ", B=" + std::to_string(brick) + (skip ? ", skip" : ", no skip") +
-         (slicer == render::Slicer::Cpu ? ", cpu slicer" : ", vertex");
+  std::string text = "step " + stepText(step) + ", B=" + std::to_string(brick) + (skip ? ", skip" : ", no skip") +
+                     (slicer == render::Slicer::Cpu ? ", cpu slicer" : ", vertex");
+  if (slab > 0) text += ", " + slabLabel(slab);
+  if (ert > 0) text += ", ert " + stepText(ert);
+  if (preIntegration) text += ", pre-int";
+  return text;
 }
 
 SweepSpec SweepSpec::full(const std::string& mriPath) {
   SweepSpec s;
-  s.datasets = {{"ml", "synthetic:marschner-lobb,n=128", {"hot", "ct-bone"}},
+  s.datasets = {{"ml", "synthetic:marschner-lobb,n=128", {"hot", "ct-bone"}, "ct-bone"},
                 {"sparse", "synthetic:sparse,n=256", {"sparse", "hot"}},
-                {"mri", mriPath, {"mri", "ct-bone"}}};
+                {"mri", mriPath, {"mri", "ct-bone"}, "ct-bone"}};
   s.steps = {0.25, 0.5, 0.75, 1, 1.5, 2};
   s.alternativeBricks = {16, 64};
+  s.slabs = {1, 4, 16, render::Scene::kMaxSlab};
+  s.erts = {0.99, 0.995, 0.999};
+  s.smallSlabMinStep = 0.5;  // slabs of 1 and 4 planes at step 0.25 would add about 15 minutes
   return s;
 }
 
 SweepSpec SweepSpec::quick(const std::string& mriPath) {
   SweepSpec s;
-  s.datasets = {{"ml", "synthetic:marschner-lobb,n=32", {"hot"}},
+  s.datasets = {{"ml", "synthetic:marschner-lobb,n=32", {"hot"}, "ct-bone"},
                 {"sparse", "synthetic:sparse,n=48", {"sparse"}},
                 {"mri", mriPath, {"mri"}}};
   s.steps = {0.5, 2};
   s.alternativeBricks = {16};
+  // Every kind of slab setting once, at the coarse step: whole bricks (the best other size), slab 16 with and
+  // without ERT and pre-integration, on the default variants and Marschner–Lobb's opaque one.
+  s.slabs = {16, render::Scene::kMaxSlab};
+  s.erts = {0.99};
+  s.slabSteps = {2};
+  s.slabTableStep = 2;
   s.views = 2;
   s.size = 48;
   s.referenceStep = 0.25;
   return s;
+}
+
+namespace {
+
+/// One dataset's part of the sweep: its stores, variants and reference frames, and (made when first needed, released
+/// between the sweep's phases) one GPU renderer per store, so that bricks stay resident across settings as in a
+/// server.
+class DatasetRun {
+ public:
+  DatasetRun(const SweepSpec& spec, const Dataset& d, const fs::path& work, render::GlContext& context,
+             SweepResult& result, const std::function<void(const std::string&)>& log)
+      : mSpec(spec), mDataset(d), mContext(context) {
+    mStores[32] = datasetStore(d, 32, work);
+    for (int b : spec.alternativeBricks) mStores[b] = datasetStore(d, b, work);
+    mVariants = variantsOf(spec, d);
+
+    // Reference frames of every view of every variant, and the self-check of each default-TF variant.
+    ReferenceCache references(work / "reference" / d.name, mStores[32]);
+    for (const Variant& variant : mVariants) {
+      std::vector<double> ms;
+      mTruth.emplace_back();
+      for (int v = 0; v < spec.views; ++v) {
+        double rendered = -1;
+        mTruth.back().push_back(references.get(viewScene(spec, variant, v), spec.referenceStep, &rendered));
+        if (rendered >= 0) ms.push_back(rendered);
+      }
+      ReferenceReport report{d.name, variant, median(ms)};
+      if (variant.transferFunction == defaultVariant(d).transferFunction) {
+        const image::ImageError e = image::compareImages(
+            mTruth.back()[0], references.get(viewScene(spec, variant, 0), spec.referenceStep / 2, nullptr));
+        report.halvingPsnr = e.psnr;
+        report.halvingMaxAbs = e.maxAbs;
+      }
+      result.references.push_back(report);
+      log(d.name + " reference, " + variant.label() + ": " + std::to_string(int(report.msPerView)) +
+          " ms per view (0: cached)");
+    }
+  }
+
+  const std::vector<Variant>& variants() const { return mVariants; }
+  size_t variantIndex(const Variant& v) const {
+    return size_t(std::find(mVariants.begin(), mVariants.end(), v) - mVariants.begin());
+  }
+
+  /// Frees the GPU renderers (and their atlases) until the next measure().
+  void release() { mRenderers.clear(); }
+
+  Point measure(const Setting& setting, size_t variantIndex) {
+    const Variant& variant = mVariants[variantIndex];
+    std::unique_ptr<render::VolumeRenderer>& slot = mRenderers[setting.brick];
+    if (!slot)
+      slot = std::make_unique<render::VolumeRenderer>(
+          mContext, std::make_shared<store::BrickCache>(mStores.at(setting.brick), kBudget, 2), kBudget);
+    render::VolumeRenderer& renderer = *slot;
+    auto sceneOf = [&](int v) {
+      render::Scene scene = viewScene(mSpec, variant, v);
+      scene.step = setting.step;
+      scene.skipEmpty = setting.skip;
+      scene.slicer = setting.slicer;
+      scene.slab = setting.slab;
+      scene.ert = setting.ert;
+      scene.preIntegration = setting.preIntegration;
+      return scene;
+    };
+    renderer.render(sceneOf(0));  // warm-up: pages what this setting draws, builds its program
+    Point p{mDataset.name, variant, setting};
+    std::vector<double> ms, samples, fragments, terminated, passes;
+    double sumSquares = 0;
+    p.psnrMin = std::numeric_limits<double>::infinity();
+    for (int v = 0; v < mSpec.views; ++v) {
+      render::FrameStats stats;
+      const image::ImageF image = renderer.render(sceneOf(v), &stats);
+      ms.push_back(stats.msTotal);
+      samples.push_back(double(stats.samples));
+      fragments.push_back(double(stats.fragments));
+      terminated.push_back(double(stats.samplesTerminated));
+      passes.push_back(double(stats.slabPasses));
+      const image::ImageError e = image::compareImages(image, mTruth[variantIndex][size_t(v)]);
+      p.psnrMin = std::min(p.psnrMin, e.psnr);
+      p.maxAbs = std::max(p.maxAbs, e.maxAbs);
+      sumSquares += e.rmse * e.rmse;
+    }
+    p.msMedian = median(ms);
+    p.msMin = *std::min_element(ms.begin(), ms.end());
+    p.msMax = *std::max_element(ms.begin(), ms.end());
+    p.samplesMedian = median(samples);
+    p.fragmentsMedian = median(fragments);
+    p.samplesTerminatedMedian = median(terminated);
+    p.slabPassesMedian = median(passes);
+    p.rmsePooled = std::sqrt(sumSquares / mSpec.views);
+    p.psnrPooled = p.rmsePooled > 0 ? 20 * std::log10(1 / p.rmsePooled) : std::numeric_limits<double>::infinity();
+    return p;
+  }
+
+ private:
+  const SweepSpec& mSpec;
+  const Dataset& mDataset;
+  render::GlContext& mContext;
+  std::map<int, std::shared_ptr<const store::BrickStore>> mStores;
+  std::vector<Variant> mVariants;
+  std::vector<std::vector<image::ImageF>> mTruth;
+  std::map<int, std::unique_ptr<render::VolumeRenderer>> mRenderers;
+};
+
+Setting slabSetting(double step, int slab, double ert = 0, bool preIntegration = false) {
+  Setting s{step};
+  s.slab = slab;
+  s.ert = ert;
+  s.preIntegration = preIntegration;
+  return s;
+}
+
+}  // namespace
+
+size_t SweepSpec::plannedPoints() const {
+  size_t n = 0;
+  for (const Dataset& d : datasets) {
+    n += variantsOf(*this, d).size() * steps.size();
+    n += steps.size() * (alternativeBricks.size() + size_t(alternativeNoSkip) + size_t(alternativeCpuSlicer));
+    if (slabs.empty()) continue;
+    const bool ertSlabSwept = std::find(slabs.begin(), slabs.end(), ertSlab) != slabs.end();
+    const bool otherSlab = std::any_of(slabs.begin(), slabs.end(), [&](int b) { return b != ertSlab; });
+    size_t perVariant = 0;
+    for (double step : slabStepsOrAll()) {
+      for (int slab : slabs) perVariant += slab >= ertSlab || step >= smallSlabMinStep;
+      perVariant += erts.size() + (!ertSlabSwept && (!erts.empty() || preIntegration));
+      if (ertAtBestSlab && otherSlab) perVariant += erts.size();
+      if (preIntegration) perVariant += erts.empty() ? 1 : 2;
+    }
+    n += slabVariants(d, opaqueVariants).size() * perVariant;
+  }
+  return n;
+}
+
+std::vector<Variant> slabVariants(const Dataset& d, bool opaque) {
+  std::vector<Variant> variants{defaultVariant(d)};
+  if (opaque && !d.opaque.empty() && !(Variant{d.opaque} == variants[0])) variants.push_back({d.opaque});
+  return variants;
 }
 
 SweepResult runSweep(const SweepSpec& spec, const fs::path& work, render::GlContext& context,
@@ -151,87 +322,84 @@ SweepResult runSweep(const SweepSpec& spec, const fs::path& work, render::GlCont
   result.device = context.describe();
   result.spec = spec;
   fs::create_directories(work);
+  const auto start = std::chrono::steady_clock::now();
+  const size_t planned = spec.plannedPoints();
+  auto record = [&](const Point& p) {
+    const double minutes = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / 60;
+    char line[320];
+    std::snprintf(line, sizeof line, "[%zu/%zu, %.1f min] %s %s, %s: %.1f ms, worst view %.1f dB",
+                  result.points.size() + 1, planned, minutes, p.dataset.c_str(), p.variant.label().c_str(),
+                  p.setting.label().c_str(), p.msMedian, p.psnrMin);
+    log(line);
+    result.points.push_back(p);
+  };
+  const std::vector<double> slabSteps = spec.slabStepsOrAll();
+  const bool ertSlabSwept = std::find(spec.slabs.begin(), spec.slabs.end(), spec.ertSlab) != spec.slabs.end();
+
+  // Phase 1, dataset by dataset: the baseline, the slicing alternatives, the slab sizes and the thresholds at ertSlab.
+  std::vector<std::unique_ptr<DatasetRun>> runs;
   for (const Dataset& d : spec.datasets) {
-    std::map<int, std::shared_ptr<const store::BrickStore>> stores;
-    stores[32] = datasetStore(d, 32, work);
-    for (int b : spec.alternativeBricks) stores[b] = datasetStore(d, b, work);
-    const std::vector<Variant> variants = variantsOf(spec, d);
-
-    // Reference frames of every view of every variant, and the self-check of each default-TF variant.
-    ReferenceCache references(work / "reference" / d.name, stores[32]);
-    std::vector<std::vector<image::ImageF>> truth;
-    for (const Variant& variant : variants) {
-      std::vector<double> ms;
-      truth.emplace_back();
-      for (int v = 0; v < spec.views; ++v) {
-        double rendered = -1;
-        truth.back().push_back(references.get(viewScene(spec, variant, v), spec.referenceStep, &rendered));
-        if (rendered >= 0) ms.push_back(rendered);
-      }
-      ReferenceReport report{d.name, variant, median(ms)};
-      if (variant.transferFunction == defaultVariant(d).transferFunction) {
-        const image::ImageError e = image::compareImages(
-            truth.back()[0], references.get(viewScene(spec, variant, 0), spec.referenceStep / 2, nullptr));
-        report.halvingPsnr = e.psnr;
-        report.halvingMaxAbs = e.maxAbs;
-      }
-      result.references.push_back(report);
-      log(d.name + " reference, " + variant.label() + ": " + std::to_string(int(report.msPerView)) +
-          " ms per view (0: cached)");
-    }
-
-    // GPU frames: one renderer per store, so that bricks stay resident across settings as in a server.
-    std::map<int, std::unique_ptr<render::VolumeRenderer>> renderers;
-    for (const auto& [brick, s] : stores)
-      renderers[brick] = std::make_unique<render::VolumeRenderer>(
-          context, std::make_shared<store::BrickCache>(s, kBudget, 2), kBudget);
-    auto measure = [&](const Setting& setting, size_t variantIndex) {
-      const Variant& variant = variants[variantIndex];
-      render::VolumeRenderer& renderer = *renderers.at(setting.brick);
-      auto sceneOf = [&](int v) {
-        render::Scene scene = viewScene(spec, variant, v);
-        scene.step = setting.step;
-        scene.skipEmpty = setting.skip;
-        scene.slicer = setting.slicer;
-        return scene;
-      };
-      renderer.render(sceneOf(0));  // warm-up: pages what this setting draws, builds its program
-      Point p{d.name, variant, setting};
-      std::vector<double> ms, samples;
-      double sumSquares = 0;
-      p.psnrMin = std::numeric_limits<double>::infinity();
-      for (int v = 0; v < spec.views; ++v) {
-        render::FrameStats stats;
-        const image::ImageF image = renderer.render(sceneOf(v), &stats);
-        ms.push_back(stats.msTotal);
-        samples.push_back(double(stats.fragments));
-        const image::ImageError e = image::compareImages(image, truth[variantIndex][size_t(v)]);
-        p.psnrMin = std::min(p.psnrMin, e.psnr);
-        p.maxAbs = std::max(p.maxAbs, e.maxAbs);
-        sumSquares += e.rmse * e.rmse;
-      }
-      p.msMedian = median(ms);
-      p.msMin = *std::min_element(ms.begin(), ms.end());
-      p.msMax = *std::max_element(ms.begin(), ms.end());
-      p.samplesMedian = median(samples);
-      p.rmsePooled = std::sqrt(sumSquares / spec.views);
-      p.psnrPooled = p.rmsePooled > 0 ? 20 * std::log10(1 / p.rmsePooled) : std::numeric_limits<double>::infinity();
-      char line[256];
-      std::snprintf(line, sizeof line, "%s %s, %s: %.1f ms, worst view %.1f dB", d.name.c_str(),
-                    variant.label().c_str(), setting.label().c_str(), p.msMedian, p.psnrMin);
-      log(line);
-      result.points.push_back(p);
-    };
-    for (size_t vi = 0; vi < variants.size(); ++vi)
-      for (double step : spec.steps) measure({step}, vi);
+    auto run = std::make_unique<DatasetRun>(spec, d, work, context, result, log);
+    for (size_t vi = 0; vi < run->variants().size(); ++vi)
+      for (double step : spec.steps) record(run->measure({step}, vi));
     for (double step : spec.steps) {
-      for (int b : spec.alternativeBricks) measure({step, b}, 0);
-      if (spec.alternativeNoSkip) measure({step, 32, false}, 0);
-      if (spec.alternativeCpuSlicer) measure({step, 32, true, render::Slicer::Cpu}, 0);
+      for (int b : spec.alternativeBricks) record(run->measure({step, b}, 0));
+      if (spec.alternativeNoSkip) record(run->measure({step, 32, false}, 0));
+      if (spec.alternativeCpuSlicer) record(run->measure({step, 32, true, render::Slicer::Cpu}, 0));
+    }
+    if (!spec.slabs.empty())
+      for (const Variant& variant : slabVariants(d, spec.opaqueVariants)) {
+        const size_t vi = run->variantIndex(variant);
+        for (double step : slabSteps) {
+          for (int slab : spec.slabs)
+            if (slab >= spec.ertSlab || step >= spec.smallSlabMinStep)
+              record(run->measure(slabSetting(step, slab), vi));
+          if (!ertSlabSwept && (!spec.erts.empty() || spec.preIntegration))
+            record(run->measure(slabSetting(step, spec.ertSlab), vi));
+          for (double ert : spec.erts) record(run->measure(slabSetting(step, spec.ertSlab, ert), vi));
+        }
+      }
+    run->release();
+    runs.push_back(std::move(run));
+  }
+
+  // Phase 2, with what phase 1 found over every dataset: the thresholds at the best other slab size, and
+  // pre-integration with ERT off and with the best threshold.
+  if (!spec.slabs.empty()) {
+    if (spec.ertAtBestSlab && !spec.erts.empty()) result.bestSlab = bestSlabSize(result.points, spec.ertSlab);
+    if (spec.preIntegration)
+      result.bestErt = bestErt(result.points, spec.ertSlab, spec.ertToleranceDb, spec.psnrHighThreshold);
+    if (result.bestSlab) log("best slab size besides " + slabLabel(spec.ertSlab) + ": " + slabLabel(*result.bestSlab));
+    if (result.bestErt) log("best ERT threshold: " + stepText(*result.bestErt));
+    for (size_t i = 0; i < spec.datasets.size(); ++i) {
+      DatasetRun& run = *runs[i];
+      for (const Variant& variant : slabVariants(spec.datasets[i], spec.opaqueVariants)) {
+        const size_t vi = run.variantIndex(variant);
+        for (double step : slabSteps) {
+          if (result.bestSlab && (*result.bestSlab >= spec.ertSlab || step >= spec.smallSlabMinStep))
+            for (double ert : spec.erts) record(run.measure(slabSetting(step, *result.bestSlab, ert), vi));
+          if (spec.preIntegration) {
+            record(run.measure(slabSetting(step, spec.ertSlab, 0, true), vi));
+            if (result.bestErt) record(run.measure(slabSetting(step, spec.ertSlab, *result.bestErt, true), vi));
+          }
+        }
+      }
+      run.release();
     }
   }
+  // Each dataset's points together, in the order measured.
+  std::stable_sort(result.points.begin(), result.points.end(), [&](const Point& a, const Point& b) {
+    auto index = [&](const Point& p) {
+      return std::find_if(spec.datasets.begin(), spec.datasets.end(),
+                          [&](const Dataset& d) { return d.name == p.dataset; }) -
+             spec.datasets.begin();
+    };
+    return index(a) < index(b);
+  });
+
   markPareto(result.points);
   result.chosen = chooseDefault(result.points, spec.datasets, spec.psnrThreshold);
+  result.chosenHigh = chooseDefault(result.points, spec.datasets, spec.psnrHighThreshold);
   return result;
 }
 
@@ -261,6 +429,62 @@ std::optional<Setting> chooseDefault(const std::vector<Point>& points, const std
       bestCost = cost;
     }
   }
+  return best;
+}
+
+std::optional<int> bestSlabSize(const std::vector<Point>& points, int exclude) {
+  // Per slab size, the (dataset, variant, step) it was measured at and its median time there.
+  std::map<int, std::map<std::string, double>> times;
+  for (const Point& p : points) {
+    const Setting& s = p.setting;
+    if (s.slab <= 0 || s.slab == exclude || s.ert > 0 || s.preIntegration || s.brick != 32 || !s.skip ||
+        s.slicer != render::Slicer::Vertex)
+      continue;
+    times[s.slab][p.dataset + "\n" + p.variant.label() + "\n" + stepText(s.step)] = p.msMedian;
+  }
+  std::map<std::string, size_t> sizesAt;  // how many sizes were measured at each (dataset, variant, step)
+  for (const auto& [slab, where] : times)
+    for (const auto& [key, ms] : where) ++sizesAt[key];
+  if (std::none_of(sizesAt.begin(), sizesAt.end(), [&](const auto& at) { return at.second == times.size(); }))
+    return std::nullopt;
+  std::optional<int> best;
+  double bestTotal = std::numeric_limits<double>::infinity();
+  for (const auto& [slab, where] : times) {
+    double total = 0;
+    for (const auto& [key, ms] : where)
+      if (sizesAt[key] == times.size()) total += ms;
+    if (total < bestTotal) best = slab, bestTotal = total;
+  }
+  return best;
+}
+
+std::optional<double> bestErt(const std::vector<Point>& points, int slab, double toleranceDb, double highThreshold) {
+  auto plainSlab = [&](const Setting& s) {
+    return s.slab == slab && !s.preIntegration && s.brick == 32 && s.skip && s.slicer == render::Slicer::Vertex;
+  };
+  std::map<double, bool> keeps;  // threshold -> keeps the accuracy everywhere
+  for (const Point& p : points) {
+    if (!plainSlab(p.setting) || p.setting.ert <= 0) continue;
+    bool& ok = keeps.try_emplace(p.setting.ert, true).first->second;
+    const auto off = std::find_if(points.begin(), points.end(), [&](const Point& q) {
+      return q.dataset == p.dataset && q.variant == p.variant && plainSlab(q.setting) && q.setting.ert == 0 &&
+             q.setting.step == p.setting.step;
+    });
+    if (off != points.end() && p.psnrMin < std::min(off->psnrMin - toleranceDb, highThreshold)) ok = false;
+  }
+  for (const auto& [ert, ok] : keeps)
+    if (ok) return ert;
+  if (keeps.empty()) return std::nullopt;
+  return keeps.rbegin()->first;
+}
+
+std::optional<Point> fastestPoint(const std::vector<Point>& points, const std::string& dataset, const Variant& variant,
+                                  double psnrThreshold) {
+  std::optional<Point> best;
+  for (const Point& p : points)
+    if (p.dataset == dataset && p.variant == variant && p.psnrMin >= psnrThreshold &&
+        (!best || p.msMedian < best->msMedian))
+      best = p;
   return best;
 }
 

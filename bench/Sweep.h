@@ -18,6 +18,9 @@ struct Dataset {
   std::string name;   ///< short, for file names and tables ("ml", "sparse", "mri")
   std::string input;  ///< what `voxbrick prep` takes
   std::vector<std::string> transferFunctions;
+  /// An opaque transfer function (where early ray termination matters most) on which the texture-slab settings run
+  /// too, unshaded; empty: none. Swept like the others if it is not among `transferFunctions`.
+  std::string opaque = {};
 };
 
 /// What the scene asks for besides the renderer's own settings: the transfer function and shading.
@@ -29,19 +32,34 @@ struct Variant {
   std::string label() const { return transferFunction + (shading ? ", shaded" : ""); }
 };
 
-/// The renderer's own choices, which a default can fix: step, brick size (of the store), skipping, slicer.
+/// The renderer's own choices, which a default can fix: step, brick size (of the store), skipping, slicer, and the
+/// texture-slab settings (render::Scene::slab, ert, preIntegration).
 struct Setting {
   double step = 0.5;
   int brick = 32;
   bool skip = true;
   render::Slicer slicer = render::Slicer::Vertex;
+  int slab = 0;                 ///< 0 slices; N texture slabs of N planes (render::Scene::kMaxSlab: whole bricks)
+  double ert = 0;               ///< early ray termination threshold (0 off); slabs only
+  bool preIntegration = false;  ///< pre-integrated classification; slabs only
   bool operator==(const Setting&) const = default;
-  /// E.g. "step 0.5, B=32, skip, vertex".
+  /// E.g. "step 0.5, B=32, skip, vertex"; the slab settings are appended only where not default: "step 1, B=32,
+  /// skip, vertex, slab 16, ert 0.99, pre-int" ("slab whole brick" for render::Scene::kMaxSlab).
   std::string label() const;
 };
 
-/// The sweep: every step with every variant (the baseline renderer), and the renderer alternatives (other brick
-/// sizes, no skipping, the CPU slicer) at every step with each dataset's default variant.
+/// "slab 16", "slab whole brick" (render::Scene::kMaxSlab), or "slicing" for 0.
+std::string slabLabel(int slab);
+
+/// The sweep: every step with every variant (the baseline renderer), the slicing alternatives (other brick sizes,
+/// no skipping, the CPU slicer) at every step with each dataset's default variant, and the texture-slab settings
+/// at every step (of `slabSteps`) with each dataset's slab variants (its default and its opaque variant):
+///   1. every slab size of `slabs`, without early ray termination;
+///   2. every threshold of `erts` at slab `ertSlab`;
+///   3. then, once every dataset has been through 1 and 2: every threshold at the best slab size (bestSlabSize) if
+///      that is not `ertSlab`, and pre-integration at `ertSlab` with ERT off and with the best threshold (bestErt).
+/// All slab settings use B=32, skipping and the vertex slicer; slab sizes below `ertSlab` skip the steps below
+/// `smallSlabMinStep`.
 struct SweepSpec {
   std::vector<Dataset> datasets;
   std::vector<double> steps;
@@ -49,14 +67,32 @@ struct SweepSpec {
   bool alternativeNoSkip = true;
   bool alternativeCpuSlicer = true;
   bool shadingVariants = true;        ///< each transfer function with shading off and on
+  std::vector<int> slabs;              ///< slab sizes swept without ERT; empty: no slab settings at all
+  int ertSlab = 16;                    ///< the slab size of the ERT thresholds and of pre-integration
+  std::vector<double> erts;            ///< ERT thresholds besides 0 (off)
+  bool ertAtBestSlab = true;           ///< also the thresholds at the fastest other slab size
+  bool preIntegration = true;          ///< pre-integration at `ertSlab`, with ERT off and with the best threshold
+  bool opaqueVariants = true;          ///< slab settings on each dataset's opaque transfer function too
+  std::vector<double> slabSteps;       ///< the steps of the slab settings (each one of `steps`); empty: every step
+  /// Slab sizes below `ertSlab` (a fragment per plane or few: the slowest settings) run only at steps at least this.
+  double smallSlabMinStep = 0;
+  double slabTableStep = 1;            ///< the step of sweep.md's slab table (else the nearest swept one)
+  double ertToleranceDb = 1;           ///< bestErt: worst-view PSNR a threshold may cost (below psnrHighThreshold)
   int views = 8;                       ///< orbit: azimuth 360·v/views, elevation 20°, distance 2.2 R
   int size = 256;                      ///< square images
   double referenceStep = 0.125;        ///< voxels
   double psnrThreshold = 40;           ///< dB, for the chosen default
+  double psnrHighThreshold = 50;       ///< dB, for the second answer (the fastest setting at this accuracy)
+
+  /// The steps at which the slab settings run.
+  std::vector<double> slabStepsOrAll() const { return slabSteps.empty() ? steps : slabSteps; }
+  /// How many points runSweep measures at most (the best slab size's thresholds counted as if it is not `ertSlab`).
+  size_t plannedPoints() const;
 
   /// The committed sweep: Marschner–Lobb 128³, the sparse field 256³ and the MRI at `mriPath`.
   static SweepSpec full(const std::string& mriPath);
-  /// A small sweep for CI (seconds): small synthetic volumes, the MRI, 48² images, two views, two steps.
+  /// A small sweep for CI (seconds): small synthetic volumes, the MRI, 48² images, two views, two steps, every kind of
+  /// slab setting at the coarser one.
   static SweepSpec quick(const std::string& mriPath);
 };
 
@@ -66,7 +102,10 @@ struct Point {
   Variant variant;
   Setting setting;
   double msMedian = 0, msMin = 0, msMax = 0;  ///< frame time over the views
-  double samplesMedian = 0;                    ///< fragments shaded per frame
+  double samplesMedian = 0;                    ///< volume samples taken per frame (FrameStats::samples)
+  double fragmentsMedian = 0;                  ///< fragments started per frame (slicing: = samples)
+  double samplesTerminatedMedian = 0;          ///< samples left by early ray termination inside a fragment
+  double slabPassesMedian = 0;                 ///< draws of one slab each (0 when slicing)
   double psnrMin = 0;     ///< the worst view's PSNR against the reference (dB)
   double psnrPooled = 0;  ///< PSNR of the RMSE over all views' pixels
   double rmsePooled = 0;
@@ -89,7 +128,10 @@ struct SweepResult {
   SweepSpec spec;
   std::vector<Point> points;
   std::vector<ReferenceReport> references;
-  std::optional<Setting> chosen;  ///< chooseDefault's answer
+  std::optional<Setting> chosen;      ///< chooseDefault's answer at spec.psnrThreshold
+  std::optional<Setting> chosenHigh;  ///< chooseDefault's answer at spec.psnrHighThreshold
+  std::optional<int> bestSlab;        ///< bestSlabSize: the other slab size the thresholds also ran at
+  std::optional<double> bestErt;      ///< bestErt: the threshold pre-integration also ran with
 };
 
 /// Runs the sweep. Stores go to `work`/NAME-bB.vbs (made once, kept), reference frames to `work`/reference (so a
@@ -102,6 +144,24 @@ void markPareto(std::vector<Point>& points);
 
 /// A dataset's default variant: its first transfer function, unshaded.
 inline Variant defaultVariant(const Dataset& d) { return {d.transferFunctions.front(), false}; }
+
+/// The variants the slab settings run on: the default one and, if the dataset has one and `opaque` is set, the
+/// opaque transfer function unshaded.
+std::vector<Variant> slabVariants(const Dataset& d, bool opaque);
+
+/// Of the slab sizes measured without ERT or pre-integration other than `exclude`, the one with the least total
+/// median time over the datasets, variants and steps at which every such size was measured; none if there is none.
+std::optional<int> bestSlabSize(const std::vector<Point>& points, int exclude);
+
+/// The lowest threshold (the most termination) of those measured at slab `slab` without pre-integration whose worst
+/// view, at every dataset, variant and step, stays at or above min(the same without ERT − toleranceDb,
+/// highThreshold): ERT may cost accuracy only where the frame stays above the higher threshold. If none does, the
+/// highest threshold measured; none if no threshold was measured.
+std::optional<double> bestErt(const std::vector<Point>& points, int slab, double toleranceDb, double highThreshold);
+
+/// The fastest point of `dataset` and `variant` whose worst view reaches `psnrThreshold`; none if no point does.
+std::optional<Point> fastestPoint(const std::vector<Point>& points, const std::string& dataset, const Variant& variant,
+                                  double psnrThreshold);
 
 /// The fastest setting (sum of the median times over the datasets) whose worst view reaches `psnrThreshold` on every
 /// dataset's default variant; none if no setting does.

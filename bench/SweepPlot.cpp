@@ -4,7 +4,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <iterator>
+#include <numbers>
 #include <sstream>
 
 namespace voxbrick::bench {
@@ -12,8 +14,8 @@ namespace {
 
 constexpr double kPanelWidth = 430, kPanelHeight = 360;
 constexpr double kLeft = 58, kRight = 14, kTop = 34, kBottom = 46;  // margins of a panel's plot area
-constexpr double kLegendHeight = 120;
-constexpr double kPsnrCap = 100;  // identical images have infinite PSNR; they are drawn at the top
+constexpr double kPsnrCap = 100;
+constexpr double kPi = std::numbers::pi;  // identical images have infinite PSNR; they are drawn at the top
 constexpr const char* kColors[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b"};
 
 std::string svgf(const char* format, double a, double b = 0, double c = 0, double d = 0) {
@@ -34,8 +36,16 @@ std::string escape(const std::string& text) {
   return out;
 }
 
-/// Which renderer alternative a setting is, for its marker: 0 baseline, 1 smaller bricks, 2 larger, 3 no skip, 4 cpu.
+/// Which renderer alternative a setting is, for its marker: 0 baseline, 1 smaller bricks, 2 larger, 3 no skip, 4 cpu;
+/// texture slabs 5 (1–2 planes), 6 (up to 8), 7 (fewer than whole bricks), 8 (whole bricks), 9 pre-integration.
+/// Early ray termination is a dot in the marker's middle (hasErtDot).
 int shapeOf(const Setting& s) {
+  if (s.slab > 0) {
+    if (s.preIntegration) return 9;
+    if (s.slab <= 2) return 5;
+    if (s.slab <= 8) return 6;
+    return s.slab < render::Scene::kMaxSlab ? 7 : 8;
+  }
   if (s.slicer == render::Slicer::Cpu) return 4;
   if (!s.skip) return 3;
   if (s.brick < 32) return 1;
@@ -43,7 +53,24 @@ int shapeOf(const Setting& s) {
   return 0;
 }
 
-constexpr const char* kShapeNames[] = {"B=32, skip, vertex slicer", "B=16", "B=64", "no skipping", "cpu slicer"};
+constexpr int kShapes = 10;
+constexpr const char* kShapeNames[kShapes] = {
+    "slicing: B=32, skip, vertex slicer", "B=16", "B=64", "no skipping", "cpu slicer",
+    "slab 1", "slab 4", "slab 16", "slab whole brick", "slab 16, pre-integration"};
+
+bool hasErtDot(const Setting& s) { return s.slab > 0 && s.ert > 0; }
+
+std::string ertDot(double x, double y) {
+  return svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"1.8\" fill=\"black\"/>", x, y);
+}
+
+std::string triangle(double x, double y, double dx, double dy, const std::string& style) {
+  // Pointing along (dx, dy): the tip 5.5 from the centre, the base 4 behind it, 5 to each side.
+  const double px = -dy, py = dx;
+  return svgf("<polygon points=\"%.1f,%.1f %.1f,%.1f ", x + 5.5 * dx, y + 5.5 * dy, x - 4 * dx + 5 * px,
+              y - 4 * dy + 5 * py) +
+         svgf("%.1f,%.1f\"", x - 4 * dx - 5 * px, y - 4 * dy - 5 * py) + style + "/>";
+}
 
 std::string marker(int shape, double x, double y, const std::string& color, bool filled) {
   const std::string style = " fill=\"" + (filled ? color : std::string("white")) + "\" stroke=\"" + color +
@@ -60,6 +87,23 @@ std::string marker(int shape, double x, double y, const std::string& color, bool
       return svgf("<path d=\"M%.1f %.1fL%.1f %.1f", x - 4.5, y - 4.5, x + 4.5, y + 4.5) +
              svgf("M%.1f %.1fL%.1f %.1f\" fill=\"none\"", x - 4.5, y + 4.5, x + 4.5, y - 4.5) + " stroke=\"" + color +
              "\" stroke-width=\"2\"/>";
+    case 5: return triangle(x, y, -1, 0, style);
+    case 6: return triangle(x, y, 0, 1, style);
+    case 7: return triangle(x, y, 1, 0, style);
+    case 8: {
+      std::string points;
+      for (int i = 0; i < 6; ++i)
+        points += svgf("%.1f,%.1f ", x + 5.5 * std::cos(i * kPi / 3), y + 5.5 * std::sin(i * kPi / 3));
+      return "<polygon points=\"" + points + "\"" + style + "/>";
+    }
+    case 9: {
+      std::string points;
+      for (int i = 0; i < 10; ++i) {
+        const double r = i % 2 ? 2.8 : 6.5, a = -kPi / 2 + i * kPi / 5;
+        points += svgf("%.1f,%.1f ", x + r * std::cos(a), y + r * std::sin(a));
+      }
+      return "<polygon points=\"" + points + "\"" + style + "/>";
+    }
     default: return svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"4\"", x, y) + style + "/>";
   }
 }
@@ -131,11 +175,16 @@ void panel(std::ostringstream& svg, const SweepResult& result, const Dataset& d,
       if (!(p->variant == variants[v])) continue;
       const double x = px(p->msMedian), y = py(p->psnrMin);
       svg << marker(shapeOf(p->setting), x, y, color, p->pareto) << "\n";
+      if (hasErtDot(p->setting)) svg << ertDot(x, y) << "\n";
       if (shapeOf(p->setting) == 0)
         svg << svgf("<text x=\"%.1f\" y=\"%.1f\" font-size=\"9\" fill=\"#333\">%g</text>\n", x + 6, y - 5,
                    p->setting.step);
       if (result.chosen && p->setting == *result.chosen && v == 0)
         svg << svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"9\" fill=\"none\" stroke=\"black\" stroke-width=\"1.5\"/>\n",
+                   x, y);
+      if (result.chosenHigh && p->setting == *result.chosenHigh && v == 0)
+        svg << svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"12\" fill=\"none\" stroke=\"black\" stroke-width=\"1.5\" "
+                   "stroke-dasharray=\"3 2\"/>\n",
                    x, y);
     }
     const double ly = kPanelHeight + 16 + 16 * double(v);
@@ -149,7 +198,51 @@ void panel(std::ostringstream& svg, const SweepResult& result, const Dataset& d,
 
 std::string sweepSvg(const SweepResult& result) {
   const double width = kPanelWidth * double(std::max<size_t>(result.spec.datasets.size(), 1));
-  const double height = kPanelHeight + kLegendHeight;
+  // The marker key, shared by the panels, laid out first (it wraps to the width): each entry a marker drawn at
+  // (x, y) and a text.
+  struct KeyEntry {
+    std::function<std::string(double, double)> marker;
+    std::string text;
+  };
+  std::vector<KeyEntry> entries;
+  for (int shape = 0; shape < kShapes; ++shape)
+    entries.push_back({[shape](double x, double y) { return marker(shape, x, y, "#333", false); }, kShapeNames[shape]});
+  entries.push_back(
+      {[](double x, double y) { return marker(7, x, y, "#333", false) + ertDot(x, y); }, "dot: early ray termination"});
+  entries.push_back({[](double x, double y) {
+                       return svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"8\" fill=\"none\" stroke=\"black\" "
+                                   "stroke-width=\"1.5\"/>",
+                                   x, y);
+                     },
+                     "chosen default (" + svgf("%g", result.spec.psnrThreshold) + " dB)"});
+  entries.push_back({[](double x, double y) {
+                       return svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"8\" fill=\"none\" stroke=\"black\" "
+                                   "stroke-width=\"1.5\" stroke-dasharray=\"3 2\"/>",
+                                   x, y);
+                     },
+                     "fastest at " + svgf("%g", result.spec.psnrHighThreshold) + " dB on every dataset"});
+  entries.push_back({nullptr, "filled = on its variant's Pareto front (line)"});
+  entries.push_back({nullptr, "labels = step in voxels (slicing, B=32)"});
+  std::vector<std::pair<double, int>> places;  // x and row of each entry
+  double kx = 20;
+  int row = 0;
+  for (const KeyEntry& e : entries) {
+    const double w = (e.marker ? 30 : 14) + 6.2 * double(e.text.size());
+    if (kx > 20 && kx + w > width - 10) kx = 20, ++row;
+    places.push_back({kx, row});
+    kx += w;
+  }
+  size_t variants = 1;
+  for (const Dataset& d : result.spec.datasets) {
+    std::vector<Variant> seen;
+    for (const Point& p : result.points)
+      if (p.dataset == d.name && std::find(seen.begin(), seen.end(), p.variant) == seen.end())
+        seen.push_back(p.variant);
+    variants = std::max(variants, seen.size());
+  }
+  const double keyTop = kPanelHeight + 16 * double(variants) + 34;
+  const double height = keyTop + 18 * double(row + 1) + 4;
+
   std::ostringstream svg;
   svg << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n";
   svg << svgf("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" viewBox=\"0 0 %.0f %.0f\" ",
@@ -159,17 +252,12 @@ std::string sweepSvg(const SweepResult& result) {
   svg << "<title>voxbrick bench: time against error, " << escape(result.device) << "</title>\n";
   for (size_t i = 0; i < result.spec.datasets.size(); ++i)
     panel(svg, result, result.spec.datasets[i], kPanelWidth * double(i));
-  // The marker key, shared by the panels.
-  const double ky = height - 22;
-  double kx = 20;
-  for (int shape = 0; shape < 5; ++shape) {
-    svg << marker(shape, kx, ky - 4, "#333", false) << "\n";
-    svg << svgf("<text x=\"%.1f\" y=\"%.1f\" font-size=\"11\">", kx + 10, ky) << kShapeNames[shape] << "</text>\n";
-    kx += 36 + 6.5 * double(std::string(kShapeNames[shape]).size());
+  for (size_t i = 0; i < entries.size(); ++i) {
+    const double x = places[i].first, y = keyTop + 18 * double(places[i].second);
+    if (entries[i].marker) svg << entries[i].marker(x, y - 4) << "\n";
+    svg << svgf("<text x=\"%.1f\" y=\"%.1f\" font-size=\"11\">", entries[i].marker ? x + 10 : x, y)
+        << escape(entries[i].text) << "</text>\n";
   }
-  svg << svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"8\" fill=\"none\" stroke=\"black\" stroke-width=\"1.5\"/>", kx, ky - 4)
-      << svgf("<text x=\"%.1f\" y=\"%.1f\" font-size=\"11\">", kx + 12, ky)
-      << "chosen default; filled = on its variant's Pareto front (line); labels = step in voxels</text>\n";
   svg << "</svg>\n";
   return svg.str();
 }

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <fstream>
 #include <stdexcept>
+#include <tuple>
 
 #include "bench/Sweep.h"
 #include "bench/SweepPlot.h"
@@ -27,7 +28,8 @@ void writeFile(const std::filesystem::path& path, const std::string& text) {
 std::string csv(const SweepResult& r) {
   std::string out =
       "dataset,transfer_function,shading,step,brick,skip,slicer,views,size,median_ms,min_ms,max_ms,median_samples,"
-      "psnr_worst_db,psnr_pooled_db,rmse_pooled,max_abs,pareto\n";
+      "psnr_worst_db,psnr_pooled_db,rmse_pooled,max_abs,pareto,slab,ert,pre_integration,samples_median,"
+      "fragments_median,samples_terminated_median,slab_passes_median\n";
   for (const Point& p : r.points) {
     out += p.dataset + "," + p.variant.transferFunction + "," + (p.variant.shading ? "1" : "0") + "," +
            number("%g", p.setting.step) + "," + std::to_string(p.setting.brick) + "," + (p.setting.skip ? "1" : "0") +
@@ -35,9 +37,85 @@ std::string csv(const SweepResult& r) {
            "," + std::to_string(r.spec.size) + "," + number("%.2f", p.msMedian) + "," + number("%.2f", p.msMin) +
            "," + number("%.2f", p.msMax) + "," + number("%.0f", p.samplesMedian) + "," + number("%.2f", p.psnrMin) +
            "," + number("%.2f", p.psnrPooled) + "," + number("%.6f", p.rmsePooled) + "," + number("%.6f", p.maxAbs) +
-           "," + (p.pareto ? "1" : "0") + "\n";
+           "," + (p.pareto ? "1" : "0") + "," + std::to_string(p.setting.slab) + "," + number("%g", p.setting.ert) +
+           "," + (p.setting.preIntegration ? "1" : "0") + "," + number("%.0f", p.samplesMedian) + "," +
+           number("%.0f", p.fragmentsMedian) + "," + number("%.0f", p.samplesTerminatedMedian) + "," +
+           number("%.0f", p.slabPassesMedian) + "\n";
   }
   return out;
+}
+
+/// The swept slab step nearest to the spec's table step.
+std::optional<double> slabTableStep(const SweepSpec& s) {
+  std::optional<double> best;
+  for (double step : s.slabStepsOrAll())
+    if (!best || std::abs(step - s.slabTableStep) < std::abs(*best - s.slabTableStep)) best = step;
+  return best;
+}
+
+/// Per dataset and slab variant, at one step: slicing, the slab sizes without ERT, with ERT and with
+/// pre-integration, as the seed paper tabulates them.
+std::string slabTables(const SweepResult& r) {
+  const SweepSpec& s = r.spec;
+  const std::optional<double> step = slabTableStep(s);
+  if (s.slabs.empty() || !step) return "";
+  std::string md = "\n## Texture slabs at step " + number("%g", *step) + "\n\n";
+  md += "Slicing (one blended sample per fragment) against texture slabs of N planes (a fragment marches its ray "
+        "through N planes and blends once; \"whole brick\": N = " + std::to_string(render::Scene::kMaxSlab) +
+        ", a brick ray caster), without and with early ray termination (ERT: a slab silhouette map between slabs "
+        "and a stop inside the fragment) and pre-integration; B=32, skipping, vertex slicer. *Fragments*: started "
+        "(fragments the silhouette map rejects are not); *samples*: taken; *share of samples*: samples with ERT "
+        "over samples without it at the same slab size; *speed-up*: slicing's median time over the setting's.";
+  if (r.bestSlab)
+    md += " ERT also ran at the fastest other slab size (" + slabLabel(*r.bestSlab) + ", least total time without "
+          "ERT).";
+  if (r.bestErt)
+    md += " Pre-integration ran with ERT off and at " + number("%g", *r.bestErt) + " (the lowest threshold costing "
+          "no more than " + number("%g", s.ertToleranceDb) + " dB of worst view below " +
+          number("%g", s.psnrHighThreshold) + " dB).";
+  md += "\n";
+  for (const Dataset& d : s.datasets)
+    for (const Variant& v : slabVariants(d, s.opaqueVariants)) {
+      std::vector<const Point*> rows;
+      const Point* slicing = nullptr;
+      for (const Point& p : r.points) {
+        if (p.dataset != d.name || !(p.variant == v) || p.setting.step != *step) continue;
+        if (p.setting == Setting{*step}) slicing = &p;
+        else if (p.setting.slab > 0 && p.setting.brick == 32 && p.setting.skip &&
+                 p.setting.slicer == render::Slicer::Vertex)
+          rows.push_back(&p);
+      }
+      if (rows.empty()) continue;
+      // Slab size, then pre-integration, then threshold (off first).
+      std::stable_sort(rows.begin(), rows.end(), [](const Point* a, const Point* b) {
+        return std::tuple(a->setting.slab, a->setting.preIntegration, a->setting.ert) <
+               std::tuple(b->setting.slab, b->setting.preIntegration, b->setting.ert);
+      });
+      if (slicing) rows.insert(rows.begin(), slicing);
+      md += "\n### " + d.name + ", " + v.label() + "\n\n| setting | median ms | speed-up | fragments (M) | "
+            "samples (M) | share of samples | worst view dB | max abs |\n|---|---:|---:|---:|---:|---:|---:|---:|\n";
+      for (const Point* p : rows) {
+        const Setting& t = p->setting;
+        std::string name = slabLabel(t.slab);
+        if (t.ert > 0) name += ", ert " + number("%g", t.ert);
+        if (t.preIntegration) name += ", pre-int";
+        std::string share = "—";
+        if (t.ert > 0) {
+          const auto off = std::find_if(r.points.begin(), r.points.end(), [&](const Point& q) {
+            Setting same = t;
+            same.ert = 0;
+            return q.dataset == p->dataset && q.variant == p->variant && q.setting == same;
+          });
+          if (off != r.points.end() && off->samplesMedian > 0)
+            share = number("%.0f", 100 * p->samplesMedian / off->samplesMedian) + " %";
+        }
+        md += "| " + name + " | " + number("%.1f", p->msMedian) + " | " +
+              (slicing && p->msMedian > 0 ? number("%.2f", slicing->msMedian / p->msMedian) + "×" : "—") + " | " +
+              number("%.3g", p->fragmentsMedian / 1e6) + " | " + number("%.3g", p->samplesMedian / 1e6) + " | " +
+              share + " | " + number("%.1f", p->psnrMin) + " | " + number("%.4f", p->maxAbs) + " |\n";
+      }
+    }
+  return md;
 }
 
 std::string markdown(const SweepResult& r) {
@@ -63,17 +141,64 @@ std::string markdown(const SweepResult& r) {
   } else {
     md += "No setting keeps " + number("%g", s.psnrThreshold) + " dB on every dataset.\n";
   }
+
+  // The same rule at both thresholds, side by side, then per dataset.
+  md += "\nThe same rule at " + number("%g", s.psnrThreshold) + " dB and at " + number("%g", s.psnrHighThreshold) +
+        " dB (each dataset's default transfer function, unshaded; median ms / worst view dB):\n\n| worst view ≥ | "
+        "setting |";
+  for (const Dataset& d : s.datasets) md += " " + d.name + " |";
+  md += " sum ms |\n|---:|---|";
+  for (size_t i = 0; i <= s.datasets.size(); ++i) md += "---:|";
+  md += "\n";
+  for (const auto& row : {std::pair{s.psnrThreshold, r.chosen}, std::pair{s.psnrHighThreshold, r.chosenHigh}}) {
+    const double threshold = row.first;
+    const std::optional<Setting>& chosen = row.second;
+    md += "| " + number("%g", threshold) + " dB | " + (chosen ? "**" + chosen->label() + "**" : "none") + " |";
+    double sum = 0;
+    for (const Dataset& d : s.datasets) {
+      const auto p = std::find_if(r.points.begin(), r.points.end(), [&](const Point& q) {
+        return chosen && q.dataset == d.name && q.variant == defaultVariant(d) && q.setting == *chosen;
+      });
+      if (p == r.points.end()) {
+        md += " — |";
+        continue;
+      }
+      md += " " + number("%.1f", p->msMedian) + " / " + number("%.1f", p->psnrMin) + " |";
+      sum += p->msMedian;
+    }
+    md += " " + (chosen ? number("%.1f", sum) : std::string("—")) + " |\n";
+  }
+  md += "\nThe fastest setting per dataset and variant (its default transfer function, and the opaque one of the "
+        "slab settings) at each threshold: median ms / worst view dB.\n\n| dataset | variant | fastest ≥ " +
+        number("%g", s.psnrThreshold) + " dB | ms / dB | fastest ≥ " + number("%g", s.psnrHighThreshold) +
+        " dB | ms / dB |\n|---|---|---|---:|---|---:|\n";
+  for (const Dataset& d : s.datasets)
+    for (const Variant& v : slabVariants(d, s.opaqueVariants && !s.slabs.empty())) {
+      md += "| " + d.name + " | " + v.label() + " |";
+      for (double threshold : {s.psnrThreshold, s.psnrHighThreshold}) {
+        const std::optional<Point> p = fastestPoint(r.points, d.name, v, threshold);
+        md += p ? " " + p->setting.label() + " | " + number("%.1f", p->msMedian) + " / " + number("%.1f", p->psnrMin) +
+                      " |"
+                : std::string(" none | — |");
+      }
+      md += "\n";
+    }
   md += "\nWhat the other variants need: the coarsest swept step at which the baseline renderer keeps the worst "
         "view at or above " + number("%g", s.psnrThreshold) + " dB.\n\n| dataset | variant | coarsest step |\n"
         "|---|---|---:|\n";
-  for (const Dataset& d : s.datasets)
-    for (const std::string& tf : d.transferFunctions)
+  for (const Dataset& d : s.datasets) {
+    std::vector<std::string> transferFunctions = d.transferFunctions;
+    if (!d.opaque.empty() && std::find(transferFunctions.begin(), transferFunctions.end(), d.opaque) ==
+                                 transferFunctions.end())
+      transferFunctions.push_back(d.opaque);
+    for (const std::string& tf : transferFunctions)
       for (bool shading : {false, true}) {
         const Variant v{tf, shading};
         if (std::none_of(r.points.begin(), r.points.end(), [&](const Point& p) { return p.variant == v; })) continue;
         const std::optional<double> step = coarsestStep(r.points, d.name, v, s.psnrThreshold);
         md += "| " + d.name + " | " + v.label() + " | " + (step ? number("%g", *step) : "none swept") + " |\n";
       }
+  }
 
   md += "\n## The reference\n\nTime per view, and its self-check: view 0 at the reference step against half that "
         "step (the bound it must stay far inside is the threshold above).\n\n"
@@ -86,15 +211,18 @@ std::string markdown(const SweepResult& r) {
                                                         : "— | —") +
           " |\n";
 
+  md += slabTables(r);
+
   for (const Dataset& d : s.datasets) {
     md += "\n## " + d.name + " (`" + d.input + "`)\n\n| variant | setting | median ms | min…max ms | Msamples | "
-          "worst view dB | pooled dB | max abs | Pareto |\n|---|---|---:|---:|---:|---:|---:|---:|:-:|\n";
+          "Mfragments | worst view dB | pooled dB | max abs | Pareto |\n"
+          "|---|---|---:|---:|---:|---:|---:|---:|---:|:-:|\n";
     for (const Point& p : r.points)
       if (p.dataset == d.name)
         md += "| " + p.variant.label() + " | " + p.setting.label() + " | " + number("%.1f", p.msMedian) + " | " +
               number("%.1f", p.msMin) + "…" + number("%.1f", p.msMax) + " | " + number("%.2f", p.samplesMedian / 1e6) +
-              " | " + number("%.1f", p.psnrMin) + " | " + number("%.1f", p.psnrPooled) + " | " +
-              number("%.4f", p.maxAbs) + " | " + (p.pareto ? "✓" : "") + " |\n";
+              " | " + number("%.2f", p.fragmentsMedian / 1e6) + " | " + number("%.1f", p.psnrMin) + " | " +
+              number("%.1f", p.psnrPooled) + " | " + number("%.4f", p.maxAbs) + " | " + (p.pareto ? "✓" : "") + " |\n";
   }
   return md;
 }

@@ -1,5 +1,6 @@
 // `voxbrick bench`: the time-versus-error sweep (bench/Sweep.h) with its files and the default it picks.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <set>
@@ -8,6 +9,7 @@
 #include "brickstore/Errors.h"
 #include "cli/Commands.h"
 #include "render/GlContext.h"
+#include "render/Scene.h"
 
 namespace voxbrick::cli {
 namespace {
@@ -15,9 +17,11 @@ namespace {
 struct BenchArgs {
   std::string out = "bench/results", work = "bench/work", datasets, steps, backend = "auto";
   std::string mri = "/usr/share/mricron/templates/ch2better.nii.gz";
-  bool quick = false, quiet = false;
-  int views = 0, size = 0;
-  double referenceStep = 0, threshold = 40;
+  std::string slabs, erts, slabSteps, alternatives;
+  bool quick = false, quiet = false, dryRun = false, noBestSlab = false, noPreIntegration = false, noOpaque = false,
+       noShading = false;
+  int views = 0, size = 0, ertSlab = 0;
+  double referenceStep = 0, threshold = 40, thresholdHigh = 50, slabTableStep = 0, smallSlabMinStep = -1;
 };
 
 std::vector<std::string> splitList(const std::string& text) {
@@ -28,6 +32,27 @@ std::vector<std::string> splitList(const std::string& text) {
     start = comma + 1;
   }
   return parts;
+}
+
+/// A comma-separated list of numbers in [lo, hi] (whole ones if `whole`), or "none" for an empty one; throws
+/// store::InputError naming the option.
+std::vector<double> numberList(const std::string& text, const std::string& option, double lo, double hi,
+                               bool whole = false) {
+  std::vector<double> values;
+  if (text == "none") return values;
+  for (const std::string& s : splitList(text)) {
+    char* end = nullptr;
+    const double v = std::strtod(s.c_str(), &end);
+    if (end != s.c_str() + s.size() || !(v >= lo && v <= hi) || (whole && v != std::floor(v))) {
+      char range[64];
+      std::snprintf(range, sizeof range, "[%g, %g]", lo, hi);
+      throw store::InputError(option + ": '" + s + "' is not " + (whole ? "a whole number" : "a number") + " in " +
+                              range);
+    }
+    values.push_back(v);
+  }
+  if (values.empty()) throw store::InputError(option + ": an empty list (write 'none' for none)");
+  return values;
 }
 
 void runBench(const BenchArgs& a) {
@@ -42,23 +67,64 @@ void runBench(const BenchArgs& a) {
       return std::find(wanted.begin(), wanted.end(), d.name) == wanted.end();
     });
   }
-  if (!a.steps.empty()) {
-    spec.steps.clear();
-    for (const std::string& s : splitList(a.steps)) {
-      char* end = nullptr;
-      const double step = std::strtod(s.c_str(), &end);
-      if (end != s.c_str() + s.size() || !(step >= 1e-3 && step <= 64))
-        throw store::InputError("--steps: '" + s + "' is not a step in [0.001, 64] voxels");
-      spec.steps.push_back(step);
+  if (!a.steps.empty()) spec.steps = numberList(a.steps, "--steps", 1e-3, 64);
+  if (!a.slabs.empty()) {
+    spec.slabs.clear();
+    for (double v : numberList(a.slabs, "--slabs", 1, render::Scene::kMaxSlab, true)) spec.slabs.push_back(int(v));
+  }
+  if (!a.erts.empty()) {
+    spec.erts.clear();
+    for (const std::string& t : a.erts == "none" ? std::vector<std::string>{} : splitList(a.erts))
+      if (t != "0") spec.erts.push_back(numberList(t, "--erts", 0.5, 1).front());  // off is always swept
+  }
+  if (a.ertSlab > 0) spec.ertSlab = a.ertSlab;
+  if (!a.slabSteps.empty()) {
+    spec.slabSteps = numberList(a.slabSteps, "--slab-steps", 1e-3, 64);
+    for (double step : spec.slabSteps)
+      if (std::find(spec.steps.begin(), spec.steps.end(), step) == spec.steps.end())
+        throw store::InputError("--slab-steps: " + std::to_string(step) + " is not one of --steps");
+  } else if (!a.steps.empty()) {
+    spec.slabSteps.clear();  // the quick sweep's coarse step may not be among the steps asked for
+  }
+  if (a.slabTableStep > 0) spec.slabTableStep = a.slabTableStep;
+  if (a.smallSlabMinStep >= 0) spec.smallSlabMinStep = a.smallSlabMinStep;
+  if (a.noBestSlab) spec.ertAtBestSlab = false;
+  if (a.noPreIntegration) spec.preIntegration = false;
+  if (a.noOpaque) spec.opaqueVariants = false;
+  if (a.noShading) spec.shadingVariants = false;
+  if (!a.alternatives.empty()) {
+    spec.alternativeBricks.clear();
+    spec.alternativeNoSkip = spec.alternativeCpuSlicer = false;
+    for (const std::string& alt : a.alternatives == "none" ? std::vector<std::string>{} : splitList(a.alternatives)) {
+      if (alt == "no-skip") {
+        spec.alternativeNoSkip = true;
+      } else if (alt == "cpu-slicer") {
+        spec.alternativeCpuSlicer = true;
+      } else if (alt.size() > 1 && alt[0] == 'b' && alt.find_first_not_of("0123456789", 1) == std::string::npos &&
+                 alt.size() < 5) {
+        const int brick = std::stoi(alt.substr(1));
+        if (brick < 8 || brick > 256 || (brick & (brick - 1)) || brick == 32)
+          throw store::InputError("--alternatives: '" + alt + "': a brick size is a power of two 8…256 besides 32");
+        spec.alternativeBricks.push_back(brick);
+      } else {
+        throw store::InputError("--alternatives: unknown alternative '" + alt + "' (bN, no-skip, cpu-slicer, none)");
+      }
     }
   }
   if (a.views > 0) spec.views = a.views;
   if (a.size > 0) spec.size = a.size;
   if (a.referenceStep > 0) spec.referenceStep = a.referenceStep;
   spec.psnrThreshold = a.threshold;
+  spec.psnrHighThreshold = a.thresholdHigh;
 
+  if (a.dryRun) {
+    std::printf("bench: at most %zu points, %d views each (and a warm-up frame), %dx%d\n", spec.plannedPoints(),
+                spec.views, spec.size, spec.size);
+    return;
+  }
   auto context = render::createContext(render::parseBackend(a.backend));
-  if (!a.quiet) std::fprintf(stderr, "bench: %s\n", context->describe().c_str());
+  if (!a.quiet)
+    std::fprintf(stderr, "bench: %s; at most %zu points\n", context->describe().c_str(), spec.plannedPoints());
   const bench::SweepResult result = bench::runSweep(spec, a.work, *context, [&](const std::string& line) {
     if (!a.quiet) std::fprintf(stderr, "bench: %s\n", line.c_str());
   });
@@ -69,6 +135,19 @@ void runBench(const BenchArgs& a) {
                 spec.psnrThreshold);
   else
     std::printf("bench: no setting keeps every dataset at >= %g dB\n", spec.psnrThreshold);
+  if (result.chosenHigh)
+    std::printf("bench: fastest keeping every dataset at >= %g dB: %s\n", spec.psnrHighThreshold,
+                result.chosenHigh->label().c_str());
+  else
+    std::printf("bench: no setting keeps every dataset at >= %g dB\n", spec.psnrHighThreshold);
+  for (const bench::Dataset& d : spec.datasets) {
+    const std::optional<bench::Point> p =
+        bench::fastestPoint(result.points, d.name, bench::defaultVariant(d), spec.psnrHighThreshold);
+    if (p)
+      std::printf("bench: %s, %s: fastest at >= %g dB: %s (%.1f ms, %.1f dB)\n", d.name.c_str(),
+                  p->variant.label().c_str(), spec.psnrHighThreshold, p->setting.label().c_str(), p->msMedian,
+                  p->psnrMin);
+  }
 }
 
 }  // namespace
@@ -83,14 +162,42 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_flag("--quick", args->quick, "the small sweep CI runs (seconds)");
   cmd->add_option("--datasets", args->datasets, "a subset of ml,sparse,mri (default all)");
   cmd->add_option("--steps", args->steps, "steps in voxels, comma-separated (default 0.25,0.5,0.75,1,1.5,2)");
+  cmd->add_option("--alternatives", args->alternatives,
+                  "slicing alternatives at every step, comma-separated: bN (bricks of N), no-skip, cpu-slicer, or "
+                  "none (default b16,b64,no-skip,cpu-slicer)");
+  cmd->add_flag("--no-shading", args->noShading, "no shaded variants");
+  cmd->add_option("--slabs", args->slabs,
+                  "texture-slab sizes swept at every step without ERT, comma-separated, 4096 = whole brick; none: no "
+                  "slab settings at all (default 1,4,16,4096)");
+  cmd->add_option("--ert-slab", args->ertSlab,
+                  "the slab size of the ERT thresholds and of pre-integration (default 16)")
+      ->check(CLI::Range(1, render::Scene::kMaxSlab));
+  cmd->add_option("--erts", args->erts,
+                  "early-ray-termination thresholds in [0.5, 1], comma-separated, or none; off (0) is always swept "
+                  "(default 0.99,0.995,0.999)");
+  cmd->add_flag("--no-best-slab", args->noBestSlab,
+                "ERT thresholds only at --ert-slab, not also at the fastest other size");
+  cmd->add_flag("--no-pre-integration", args->noPreIntegration, "no pre-integrated settings");
+  cmd->add_flag("--no-opaque", args->noOpaque,
+                "slab settings only with each dataset's default transfer function, not also with its opaque one");
+  cmd->add_option("--slab-steps", args->slabSteps, "the steps of the slab settings, a subset of --steps (default all)");
+  cmd->add_option("--small-slab-min-step", args->smallSlabMinStep,
+                  "slab sizes below --ert-slab (the slowest settings) only at steps at least this (default 0.5; 0: "
+                  "every step)")
+      ->check(CLI::Range(0.0, 64.0));
+  cmd->add_option("--slab-table-step", args->slabTableStep, "the step of sweep.md's slab table (default 1)")
+      ->check(CLI::Range(1e-3, 64.0));
   cmd->add_option("--views", args->views, "views of the orbit (default 8)")->check(CLI::Range(1, 360));
   cmd->add_option("--size", args->size, "image side in pixels (default 256)")->check(CLI::Range(8, 4096));
   cmd->add_option("--reference-step", args->referenceStep, "reference step in voxels (default 0.125)")
       ->check(CLI::Range(1e-4, 64.0));
   cmd->add_option("--threshold", args->threshold, "PSNR (dB) the chosen default must keep")->capture_default_str();
+  cmd->add_option("--threshold-high", args->thresholdHigh, "PSNR (dB) of the second answer: the fastest setting there")
+      ->capture_default_str();
   cmd->add_option("--mri", args->mri, "the MRI volume (Debian's mricron-data)")->capture_default_str();
   cmd->add_option("--backend", args->backend, "auto, egl or osmesa")->capture_default_str();
   cmd->add_flag("-q,--quiet", args->quiet, "no progress lines");
+  cmd->add_flag("--dry-run", args->dryRun, "print how many points the sweep would measure, and exit");
   cmd->callback([args] { runBench(*args); });
 }
 

@@ -2,9 +2,11 @@
 // quick `voxbrick bench` run whose files are checked field by field.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "bench/Sweep.h"
@@ -83,6 +85,175 @@ TEST(SweepDefault, FastestSettingAboveTheThresholdOnEveryDataset) {
   EXPECT_FALSE(coarsestStep(points, "a", {"hot", true}, 40));
 }
 
+Setting slab(double step, int size, double ert = 0, bool preIntegration = false) {
+  Setting s{step};
+  s.slab = size;
+  s.ert = ert;
+  s.preIntegration = preIntegration;
+  return s;
+}
+
+TEST(SweepSetting, LabelShowsSlabSettingsOnlyWhenNotDefault) {
+  // The labels of the settings that existed before the slabs are unchanged, so old tables stay comparable.
+  EXPECT_EQ(Setting{0.5}.label(), "step 0.5, B=32, skip, vertex");
+  EXPECT_EQ((Setting{1, 16, false, render::Slicer::Cpu}.label()), "step 1, B=16, no skip, cpu slicer");
+  EXPECT_EQ(slab(1, 16).label(), "step 1, B=32, skip, vertex, slab 16");
+  EXPECT_EQ(slab(1, 16, 0.99, true).label(), "step 1, B=32, skip, vertex, slab 16, ert 0.99, pre-int");
+  EXPECT_EQ(slab(0.75, 4, 0.995).label(), "step 0.75, B=32, skip, vertex, slab 4, ert 0.995");
+  EXPECT_EQ(slab(2, render::Scene::kMaxSlab).label(), "step 2, B=32, skip, vertex, slab whole brick");
+  EXPECT_EQ(slab(2, 16, 0, true).label(), "step 2, B=32, skip, vertex, slab 16, pre-int");
+  EXPECT_FALSE(slab(1, 16) == slab(1, 16, 0.99)) << "settings differing only in ERT are different points";
+  EXPECT_FALSE(slab(1, 16) == slab(1, 16, 0, true));
+}
+
+TEST(SweepSpecs, FullAndQuickSweepTheSlabSettingsOnAnOpaqueVariantToo) {
+  const SweepSpec full = SweepSpec::full("/x/mri.nii.gz");
+  EXPECT_EQ(full.slabs, (std::vector<int>{1, 4, 16, render::Scene::kMaxSlab}));
+  EXPECT_EQ(full.erts, (std::vector<double>{0.99, 0.995, 0.999}));
+  EXPECT_EQ(full.ertSlab, 16);
+  EXPECT_TRUE(full.preIntegration);
+  EXPECT_DOUBLE_EQ(full.psnrThreshold, 40);
+  EXPECT_DOUBLE_EQ(full.psnrHighThreshold, 50);
+  for (const Dataset& d : full.datasets)
+    if (d.name == "ml" || d.name == "mri") {
+      EXPECT_EQ(d.opaque, "ct-bone") << d.name;
+      EXPECT_EQ(slabVariants(d, true), (std::vector<Variant>{defaultVariant(d), {"ct-bone"}})) << d.name;
+    }
+  // 144 points as before the slabs; per slab variant 12 settings a step (4 sizes, 3 thresholds at 16 and at the
+  // best other size, 2 pre-integrated), 10 at step 0.25 (no slabs of 1 and 4), over 5 slab variants.
+  EXPECT_EQ(full.plannedPoints(), 144u + 5 * (5 * 12 + 10));
+
+  const SweepSpec quick = SweepSpec::quick("/x/mri.nii.gz");
+  ASSERT_FALSE(quick.slabs.empty());
+  ASSERT_FALSE(quick.erts.empty());
+  EXPECT_TRUE(quick.preIntegration);
+  EXPECT_TRUE(std::any_of(quick.datasets.begin(), quick.datasets.end(), [](const Dataset& d) {
+    return slabVariants(d, true).size() == 2;
+  })) << "an opaque variant";
+}
+
+TEST(SweepDefault, ChoosesAmongSlabSettingsAndAtTheHigherThreshold) {
+  const std::vector<Dataset> datasets = {{"a", "", {"hot", "ct-bone"}, "ct-bone"}, {"b", "", {"mri"}}};
+  const Setting ert99 = slab(1, 16, 0.99), ert999 = slab(1, 16, 0.999), preInt = slab(0.5, 16, 0.999, true);
+  std::vector<Point> points = {
+      point("a", {"hot"}, {1}, 30, 42),         point("b", {"mri"}, {1}, 40, 52),
+      point("a", {"hot"}, {0.5}, 60, 51),       point("b", {"mri"}, {0.5}, 80, 58),
+      point("a", {"hot"}, slab(1, 16), 32, 42), point("b", {"mri"}, slab(1, 16), 41, 52),
+      point("a", {"hot"}, ert99, 12, 41.5),     point("b", {"mri"}, ert99, 15, 45),     // fastest at 40 dB
+      point("a", {"hot"}, ert999, 14, 42),      point("b", {"mri"}, ert999, 18, 51.9),  // fails 50 dB on a
+      point("a", {"hot"}, preInt, 25, 50.5),    point("b", {"mri"}, preInt, 35, 57),    // fastest at 50 dB
+      // The opaque variant does not decide the defaults, but has its own fastest points.
+      point("a", {"ct-bone"}, ert99, 5, 60),    point("a", {"ct-bone"}, {1}, 20, 61),
+  };
+  EXPECT_EQ(chooseDefault(points, datasets, 40), ert99);
+  EXPECT_EQ(chooseDefault(points, datasets, 50), preInt);
+  EXPECT_FALSE(chooseDefault(points, datasets, 52));
+
+  const std::optional<Point> fastA = fastestPoint(points, "a", {"hot"}, 50);
+  ASSERT_TRUE(fastA);
+  EXPECT_EQ(fastA->setting, preInt);
+  const std::optional<Point> fastB = fastestPoint(points, "b", {"mri"}, 50);
+  ASSERT_TRUE(fastB);
+  EXPECT_EQ(fastB->setting, ert999) << "per dataset, the fastest at 50 dB may differ from the common answer";
+  EXPECT_EQ(fastestPoint(points, "a", {"ct-bone"}, 50)->setting, ert99);
+  EXPECT_FALSE(fastestPoint(points, "a", {"hot"}, 60));
+  EXPECT_EQ(coarsestStep(points, "a", {"hot"}, 40), 1.0) << "slab points are not the baseline renderer";
+}
+
+TEST(SweepSlabs, BestSlabSizeAndBestThreshold) {
+  const int whole = render::Scene::kMaxSlab;
+  std::vector<Point> points = {
+      point("a", {"hot"}, slab(1, 4), 50, 40),      point("a", {"hot"}, slab(2, 4), 20, 35),
+      point("a", {"hot"}, slab(1, 16), 30, 40),     point("a", {"hot"}, slab(2, 16), 15, 35),
+      point("a", {"hot"}, slab(1, whole), 32, 40),  point("a", {"hot"}, slab(2, whole), 16, 35),
+      point("a", {"hot"}, slab(1, 1), 80, 40),      point("a", {"hot"}, slab(2, 1), 40, 35),
+      point("b", {"mri"}, slab(1, 4), 100, 60),     point("b", {"mri"}, slab(1, 16), 90, 60),
+      point("b", {"mri"}, slab(1, whole), 70, 60),  point("b", {"mri"}, slab(1, 1), 150, 60),
+      // Where not every size was measured, no size counts: whole bricks 118 against slab 4's 170 and slab 1's 270.
+      point("a", {"hot"}, slab(0.5, 1), 1, 60),     point("a", {"hot"}, slab(0.25, whole), 1000, 60),
+      point("a", {"hot"}, slab(1, 16, 0, true), 1, 40),  // pre-integrated: not a plain slab size
+  };
+  EXPECT_EQ(bestSlabSize(points, 16), whole);
+  EXPECT_EQ(bestSlabSize(points, whole), 16);
+  EXPECT_FALSE(bestSlabSize({}, 16));
+  EXPECT_FALSE(bestSlabSize({point("a", {"hot"}, slab(1, 4), 1, 40), point("a", {"hot"}, slab(2, 1), 1, 40)}, 16))
+      << "no (dataset, variant, step) measured with every size";
+
+  // Thresholds at slab 16: 0.99 costs 3 dB on b at step 1 (60 -> 45 would be below 50 and more than 1 dB off);
+  // 0.995 costs 0.5 dB on a (within the tolerance) and 5 dB on b but stays above 50 dB there.
+  points.push_back(point("a", {"hot"}, slab(1, 16, 0.99), 20, 39.5));
+  points.push_back(point("b", {"mri"}, slab(1, 16, 0.99), 60, 45));
+  points.push_back(point("a", {"hot"}, slab(1, 16, 0.995), 22, 39.5));
+  points.push_back(point("b", {"mri"}, slab(1, 16, 0.995), 62, 55));
+  points.push_back(point("a", {"hot"}, slab(1, 16, 0.999), 25, 40));
+  points.push_back(point("b", {"mri"}, slab(1, 16, 0.999), 65, 59));
+  EXPECT_EQ(bestErt(points, 16, 1, 50), 0.995);
+  EXPECT_EQ(bestErt(points, 16, 0.1, 50), 0.999);
+  EXPECT_EQ(bestErt(points, 16, 20, 50), 0.99);
+  EXPECT_EQ(bestErt(points, 16, 0, 60), 0.999) << "none keeps it: the most accurate";
+  EXPECT_FALSE(bestErt(points, whole, 1, 50)) << "no threshold measured at that size";
+}
+
+std::vector<std::string> fields(const std::string& line);
+
+TEST(SweepFiles, CsvAppendsTheSlabColumnsAndMarkdownHasTheSlabTable) {
+  SweepResult result;
+  result.device = "test";
+  result.spec.datasets = {{"ml", "synthetic:marschner-lobb", {"hot", "ct-bone"}, "ct-bone"}};
+  result.spec.steps = {1};
+  result.spec.slabs = {16};
+  result.spec.erts = {0.99};
+  result.spec.views = 2;
+  result.spec.size = 16;
+  Point slicing = point("ml", {"hot"}, {1}, 40, 45);
+  slicing.samplesMedian = slicing.fragmentsMedian = 4e6;
+  Point slab16 = point("ml", {"hot"}, slab(1, 16), 50, 45);
+  slab16.samplesMedian = 4e6;
+  slab16.fragmentsMedian = 0.5e6;
+  slab16.slabPassesMedian = 12;
+  Point ert = point("ml", {"hot"}, slab(1, 16, 0.99), 20, 44);
+  ert.samplesMedian = 1e6;
+  ert.fragmentsMedian = 0.25e6;
+  ert.samplesTerminatedMedian = 0.1e6;
+  ert.slabPassesMedian = 12;
+  Point opaque = point("ml", {"ct-bone"}, slab(1, 16, 0.99, true), 10, 50);
+  result.points = {slicing, slab16, ert, opaque};
+  markPareto(result.points);
+  result.chosen = slab(1, 16, 0.99);
+  result.chosenHigh = std::nullopt;
+  test::ScratchDir dir;
+  writeResults(result, dir.path());
+
+  std::ifstream csv(dir / "sweep.csv");
+  std::string line;
+  ASSERT_TRUE(std::getline(csv, line));
+  const std::vector<std::string> header = fields(line);
+  const std::vector<std::string> expected = {
+      "dataset", "transfer_function", "shading", "step", "brick", "skip", "slicer", "views", "size", "median_ms",
+      "min_ms", "max_ms", "median_samples", "psnr_worst_db", "psnr_pooled_db", "rmse_pooled", "max_abs", "pareto",
+      // appended after the columns of the sweep before slabs, so that old readers keep working
+      "slab", "ert", "pre_integration", "samples_median", "fragments_median", "samples_terminated_median",
+      "slab_passes_median"};
+  EXPECT_EQ(header, expected);
+  std::vector<std::vector<std::string>> rows;
+  while (std::getline(csv, line)) rows.push_back(fields(line));
+  ASSERT_EQ(rows.size(), 4u);
+  for (const auto& row : rows) ASSERT_EQ(row.size(), header.size());
+  EXPECT_EQ((std::vector<std::string>(rows[0].begin() + 18, rows[0].end())),
+            (std::vector<std::string>{"0", "0", "0", "4000000", "4000000", "0", "0"}));
+  EXPECT_EQ((std::vector<std::string>(rows[2].begin() + 18, rows[2].end())),
+            (std::vector<std::string>{"16", "0.99", "0", "1000000", "250000", "100000", "12"}));
+  EXPECT_EQ(rows[2][12], "1000000") << "median_samples: samples taken";
+  EXPECT_EQ(rows[3][20], "1");
+
+  const auto bytes = test::readFile(dir / "sweep.md");
+  const std::string md(bytes.begin(), bytes.end());
+  for (const char* part : {"## Texture slabs at step 1", "### ml, hot", "### ml, ct-bone", "| slicing | 40.0 | 1.00× |",
+                           "| slab 16, ert 0.99 | 20.0 | 2.00× | 0.25 | 1 | 25 % | 44.0 |",
+                           "| 50 dB | none |", "**step 1, B=32, skip, vertex, slab 16, ert 0.99**"})
+    EXPECT_NE(md.find(part), std::string::npos) << part << "\n" << md;
+}
+
 TEST(SweepPlot, IsWellFormedSvgWithAPanelPerDataset) {
   SweepResult result;
   result.device = "a <device> & co";
@@ -90,9 +261,14 @@ TEST(SweepPlot, IsWellFormedSvgWithAPanelPerDataset) {
   result.points = {point("ml", {"hot"}, {0.5}, 20, 45), point("ml", {"hot"}, {2, 16}, 5, 30),
                    point("ml", {"hot", true}, {1, 32, false}, 7, 33),
                    point("mri", {"mri"}, {1, 32, true, render::Slicer::Cpu}, 300, 41),
-                   point("mri", {"mri"}, {0.5}, 500, std::numeric_limits<double>::infinity())};
+                   point("mri", {"mri"}, {0.5}, 500, std::numeric_limits<double>::infinity()),
+                   point("mri", {"mri"}, slab(0.5, 16), 450, 60), point("mri", {"mri"}, slab(0.5, 16, 0.99), 200, 55),
+                   point("mri", {"mri"}, slab(0.5, render::Scene::kMaxSlab), 300, 60),
+                   point("mri", {"mri"}, slab(0.5, 1), 900, 60), point("mri", {"mri"}, slab(0.5, 4), 700, 60),
+                   point("mri", {"mri"}, slab(0.5, 16, 0.99, true), 250, 57)};
   markPareto(result.points);
   result.chosen = Setting{0.5};
+  result.chosenHigh = slab(0.5, 16, 0.99);
   const std::string svg = sweepSvg(result);
   std::string why;
   EXPECT_TRUE(wellFormed(svg, why)) << why;
@@ -103,6 +279,11 @@ TEST(SweepPlot, IsWellFormedSvgWithAPanelPerDataset) {
   EXPECT_NE(svg.find("polyline"), std::string::npos) << "the Pareto fronts";
   EXPECT_EQ(svg.find("nan"), std::string::npos) << "an infinite PSNR must not reach a coordinate";
   EXPECT_EQ(svg.find("inf"), std::string::npos);
+  for (const char* key : {"slab 1", "slab 4", "slab 16", "slab whole brick", "slab 16, pre-integration",
+                          "dot: early ray termination", "fastest at 50 dB"})
+    EXPECT_NE(svg.find(std::string(">") + key), std::string::npos) << key;
+  EXPECT_NE(svg.find("r=\"1.8\" fill=\"black\""), std::string::npos) << "the ERT dot";
+  EXPECT_NE(svg.find("stroke-dasharray=\"3 2\""), std::string::npos) << "the ring of the 50 dB answer";
 }
 
 std::vector<std::string> fields(const std::string& line) {
@@ -117,16 +298,19 @@ TEST(BenchCli, QuickSweepWritesWellFormedFilesAndReusesItsReferences) {
   const std::string args = "bench --quick -q --out " + (dir / "out").string() + " --work " + (dir / "work").string();
   auto r = test::runVoxbrick(args);
   ASSERT_EQ(r.exitCode, 0) << r.output;
-  EXPECT_NE(r.output.find("bench: 30 points"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("bench: 56 points"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("every dataset at >= 50 dB"), std::string::npos) << "the second answer: " << r.output;
 
   std::ifstream csv(dir / "out" / "sweep.csv");
   std::string line;
   ASSERT_TRUE(std::getline(csv, line));
   const std::vector<std::string> header = fields(line);
-  ASSERT_EQ(header.size(), 18u);
+  ASSERT_EQ(header.size(), 25u);
   EXPECT_EQ(header[9], "median_ms");
   EXPECT_EQ(header[13], "psnr_worst_db");
-  int rows = 0, pareto = 0;
+  EXPECT_EQ(header[18], "slab");
+  int rows = 0, pareto = 0, slabErt = 0, preInt = 0, ertSavedSamples = 0;
+  std::map<std::string, double> samplesWithoutErt;
   for (; std::getline(csv, line); ++rows) {
     const std::vector<std::string> f = fields(line);
     ASSERT_EQ(f.size(), header.size()) << line;
@@ -139,14 +323,35 @@ TEST(BenchCli, QuickSweepWritesWellFormedFilesAndReusesItsReferences) {
     }
     EXPECT_GT(std::stod(f[9]), 0) << line;
     EXPECT_GT(std::stod(f[13]), 15) << "an error this large means the sweep compared the wrong frames: " << line;
+    EXPECT_GT(std::stod(f[21]), 0) << "samples taken: " << line;
+    EXPECT_GT(std::stod(f[22]), 0) << "fragments started: " << line;
+    if (f[18] == "0") {
+      EXPECT_EQ(f[21], f[22]) << "slicing: a sample per fragment: " << line;
+    } else {
+      EXPECT_LT(std::stod(f[22]), std::stod(f[21])) << "slabs: several samples per fragment: " << line;
+      EXPECT_GT(std::stod(f[24]), 0) << "slab passes: " << line;
+    }
+    const std::string where = f[0] + "," + f[1] + "," + f[3] + "," + f[18];
+    if (f[18] != "0" && f[19] == "0" && f[20] == "0") samplesWithoutErt[where] = std::stod(f[21]);
+    if (f[18] != "0" && f[19] != "0" && f[20] == "0") {
+      ++slabErt;
+      ASSERT_TRUE(samplesWithoutErt.count(where)) << "measured after the same slab without ERT: " << line;
+      ertSavedSamples += std::stod(f[21]) < samplesWithoutErt[where];
+    }
+    preInt += f[20] == "1";
     pareto += f[17] == "1";
   }
-  EXPECT_EQ(rows, 30);
+  EXPECT_EQ(rows, 56);
+  EXPECT_EQ(slabErt, 8) << "ERT at slab 16 and at whole bricks, on 4 slab variants";
+  EXPECT_EQ(preInt, 8) << "pre-integration with ERT off and at 0.99, on 4 slab variants";
+  EXPECT_GE(ertSavedSamples, 1) << "early ray termination left samples out somewhere";
   EXPECT_GE(pareto, 6) << "at least two points per dataset and variant on the front";
 
   const auto md = test::readFile(dir / "out" / "sweep.md");
   const std::string text(md.begin(), md.end());
-  for (const char* part : {"## Chosen default", "## The reference", "## ml", "## sparse", "## mri", "sweep.svg"})
+  for (const char* part : {"## Chosen default", "## The reference", "## ml", "## sparse", "## mri", "sweep.svg",
+                           "## Texture slabs at step 2", "### mri, mri", "### ml, ct-bone",
+                           "slab whole brick, ert 0.99"})
     EXPECT_NE(text.find(part), std::string::npos) << part;
   const auto svg = test::readFile(dir / "out" / "sweep.svg");
   std::string why;
@@ -157,15 +362,41 @@ TEST(BenchCli, QuickSweepWritesWellFormedFilesAndReusesItsReferences) {
   ASSERT_EQ(r.exitCode, 0) << r.output;
   const auto again = test::readFile(dir / "out" / "sweep.md");
   const std::string rerun(again.begin(), again.end());
-  const size_t from = rerun.find("## The reference"), to = rerun.find("## ml");
+  const size_t from = rerun.find("## The reference"), to = rerun.find("\n## ", from + 1);
   const std::string table = rerun.substr(from, to - from);
   size_t cached = 0;
   for (size_t i = table.find("| cached |"); i != std::string::npos; i = table.find("| cached |", i + 1)) ++cached;
-  EXPECT_EQ(cached, 6u) << table;
+  EXPECT_EQ(cached, 7u) << table;
 
   r = test::runVoxbrick("bench --quick -q --datasets ml,nosuch --out " + (dir / "x").string());
   EXPECT_EQ(r.exitCode, 1) << r.output;
   EXPECT_NE(r.output.find("nosuch"), std::string::npos) << r.output;
+}
+
+TEST(BenchCli, PlansTheSweepItIsAskedForAndRefusesBadLists) {
+  auto r = test::runVoxbrick("bench --dry-run");
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_NE(r.output.find("at most 494 points, 8 views"), std::string::npos) << r.output;
+  r = test::runVoxbrick("bench --quick --dry-run");
+  EXPECT_NE(r.output.find("at most 56 points"), std::string::npos) << r.output;
+  r = test::runVoxbrick("bench --dry-run --slabs none");
+  EXPECT_NE(r.output.find("at most 144 points"), std::string::npos) << "the sweep before slabs: " << r.output;
+  // One dataset (2 slab variants), 2 steps, no shading, no slicing alternatives: 2 variants x 2 steps of slicing;
+  // per slab variant and step slab 16 and 4096, ERT 0.9 at 16 and at the best other size (4096), pre-int twice.
+  r = test::runVoxbrick("bench --dry-run --datasets mri --steps 0.5,1 --no-shading --alternatives none "
+                        "--slabs 16,4096 --erts 0.9 --size 512");
+  EXPECT_NE(r.output.find("at most 28 points, 8 views each (and a warm-up frame), 512x512"), std::string::npos)
+      << r.output;
+  r = test::runVoxbrick("bench --dry-run --datasets mri --steps 1 --no-shading --alternatives b16,no-skip "
+                        "--slabs 4,16 --erts none --no-pre-integration --no-opaque");
+  EXPECT_NE(r.output.find("at most 6 points"), std::string::npos)
+      << "2 slicing, b16, no skip, slab 4, slab 16: " << r.output;
+
+  for (const char* bad : {"--erts 0.3", "--slabs 0", "--slabs 5000", "--slabs 4.5", "--steps 1 --slab-steps 2",
+                          "--alternatives b33", "--alternatives gpu", "--steps ,"}) {
+    r = test::runVoxbrick(std::string("bench --dry-run ") + bad);
+    EXPECT_EQ(r.exitCode, 1) << bad << ": " << r.output;
+  }
 }
 
 }  // namespace
