@@ -71,8 +71,8 @@ render::Scene viewScene(const SweepSpec& spec, const Variant& variant, int view)
 /// it ignores), so that a cache made before they existed stays valid.
 std::string referenceJson(const render::Scene& scene) {
   nlohmann::json j = nlohmann::json::parse(scene.toJson());
-  j.erase("ert");
-  j.erase("pre_integration");
+  // How the GPU draws does not change the reference's frame.
+  for (const char* key : {"slab", "ert", "pre_integration", "sub_block", "slicer"}) j.erase(key);
   return j.dump(2);
 }
 
@@ -143,6 +143,7 @@ std::string Setting::label() const {
   if (slab > 0) text += ", " + slabLabel(slab);
   if (ert > 0) text += ", ert " + stepText(ert);
   if (preIntegration) text += ", pre-int";
+  if (subBlock > 0) text += ", sub-block " + std::to_string(subBlock);
   return text;
 }
 
@@ -153,8 +154,10 @@ SweepSpec SweepSpec::full(const std::string& mriPath) {
                 {"mri", mriPath, {"mri", "ct-bone"}, "ct-bone"}};
   s.steps = {0.25, 0.5, 0.75, 1, 1.5, 2};
   s.alternativeBricks = {16, 64};
-  s.slabs = {1, 4, 16, render::Scene::kMaxSlab};
-  s.erts = {0.99, 0.995, 0.999};
+  s.slabs = {1, 4, 16, 32, render::Scene::kMaxSlab};
+  s.ertSlab = 32;
+  s.erts = {0.99, 0.999, 1};
+  s.slabSubBlocks = {8};
   s.smallSlabMinStep = 0.5;  // slabs of 1 and 4 planes at step 0.25 would add about 15 minutes
   return s;
 }
@@ -170,6 +173,7 @@ SweepSpec SweepSpec::quick(const std::string& mriPath) {
   // without ERT and pre-integration, on the default variants and Marschner–Lobb's opaque one.
   s.slabs = {16, render::Scene::kMaxSlab};
   s.erts = {0.99};
+  s.slabSubBlocks = {8};
   s.slabSteps = {2};
   s.slabTableStep = 2;
   s.views = 2;
@@ -238,6 +242,7 @@ class DatasetRun {
       scene.slab = setting.slab;
       scene.ert = setting.ert;
       scene.preIntegration = setting.preIntegration;
+      scene.subBlock = setting.subBlock;
       return scene;
     };
     renderer.render(sceneOf(0));  // warm-up: pages what this setting draws, builds its program
@@ -280,11 +285,12 @@ class DatasetRun {
   std::map<int, std::unique_ptr<render::VolumeRenderer>> mRenderers;
 };
 
-Setting slabSetting(double step, int slab, double ert = 0, bool preIntegration = false) {
+Setting slabSetting(double step, int slab, double ert = 0, bool preIntegration = false, int subBlock = 0) {
   Setting s{step};
   s.slab = slab;
   s.ert = ert;
   s.preIntegration = preIntegration;
+  s.subBlock = subBlock;
   return s;
 }
 
@@ -301,7 +307,7 @@ size_t SweepSpec::plannedPoints() const {
     size_t perVariant = 0;
     for (double step : slabStepsOrAll()) {
       for (int slab : slabs) perVariant += slab >= ertSlab || step >= smallSlabMinStep;
-      perVariant += erts.size() + (!ertSlabSwept && (!erts.empty() || preIntegration));
+      perVariant += erts.size() * (1 + slabSubBlocks.size()) + (!ertSlabSwept && (!erts.empty() || preIntegration));
       if (ertAtBestSlab && otherSlab) perVariant += erts.size();
       if (preIntegration) perVariant += erts.empty() ? 1 : 2;
     }
@@ -356,7 +362,11 @@ SweepResult runSweep(const SweepSpec& spec, const fs::path& work, render::GlCont
               record(run->measure(slabSetting(step, slab), vi));
           if (!ertSlabSwept && (!spec.erts.empty() || spec.preIntegration))
             record(run->measure(slabSetting(step, spec.ertSlab), vi));
-          for (double ert : spec.erts) record(run->measure(slabSetting(step, spec.ertSlab, ert), vi));
+          for (double ert : spec.erts) {
+            record(run->measure(slabSetting(step, spec.ertSlab, ert), vi));
+            for (int subBlock : spec.slabSubBlocks)
+              record(run->measure(slabSetting(step, spec.ertSlab, ert, false, subBlock), vi));
+          }
         }
       }
     run->release();

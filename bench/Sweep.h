@@ -42,6 +42,7 @@ struct Setting {
   int slab = 0;                 ///< 0 slices; N texture slabs of N planes (render::Scene::kMaxSlab: whole bricks)
   double ert = 0;               ///< early ray termination threshold (0 off); slabs only
   bool preIntegration = false;  ///< pre-integrated classification; slabs only
+  int subBlock = 0;             ///< empty sub-blocks skipped inside bricks (render::Scene::subBlock); 0 whole bricks
   bool operator==(const Setting&) const = default;
   /// E.g. "step 0.5, B=32, skip, vertex"; the slab settings are appended only where not default: "step 1, B=32,
   /// skip, vertex, slab 16, ert 0.99, pre-int" ("slab whole brick" for render::Scene::kMaxSlab).
@@ -70,6 +71,9 @@ struct SweepSpec {
   std::vector<int> slabs;              ///< slab sizes swept without ERT; empty: no slab settings at all
   int ertSlab = 16;                    ///< the slab size of the ERT thresholds and of pre-integration
   std::vector<double> erts;            ///< ERT thresholds besides 0 (off)
+  /// Each threshold of `erts` at `ertSlab` again with each of these sub-block sizes (empty space skipped inside
+  /// bricks, which slabs pay no extra ownership cost for).
+  std::vector<int> slabSubBlocks;
   bool ertAtBestSlab = true;           ///< also the thresholds at the fastest other slab size
   bool preIntegration = true;          ///< pre-integration at `ertSlab`, with ERT off and with the best threshold
   bool opaqueVariants = true;          ///< slab settings on each dataset's opaque transfer function too

@@ -17,7 +17,7 @@ namespace {
 struct BenchArgs {
   std::string out = "bench/results", work = "bench/work", datasets, steps, backend = "auto";
   std::string mri = "/usr/share/mricron/templates/ch2better.nii.gz";
-  std::string slabs, erts, slabSteps, alternatives;
+  std::string slabs, erts, slabSteps, alternatives, slabSubBlocks;
   bool quick = false, quiet = false, dryRun = false, noBestSlab = false, noPreIntegration = false, noOpaque = false,
        noShading = false;
   int views = 0, size = 0, ertSlab = 0;
@@ -78,6 +78,11 @@ void runBench(const BenchArgs& a) {
       if (t != "0") spec.erts.push_back(numberList(t, "--erts", 0.5, 1).front());  // off is always swept
   }
   if (a.ertSlab > 0) spec.ertSlab = a.ertSlab;
+  if (!a.slabSubBlocks.empty()) {
+    spec.slabSubBlocks.clear();
+    for (double v : numberList(a.slabSubBlocks, "--slab-sub-blocks", 2, render::Scene::kMaxSubBlock, true))
+      spec.slabSubBlocks.push_back(int(v));
+  }
   if (!a.slabSteps.empty()) {
     spec.slabSteps = numberList(a.slabSteps, "--slab-steps", 1e-3, 64);
     for (double step : spec.slabSteps)
@@ -175,6 +180,8 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_option("--erts", args->erts,
                   "early-ray-termination thresholds in [0.5, 1], comma-separated, or none; off (0) is always swept "
                   "(default 0.99,0.995,0.999)");
+  cmd->add_option("--slab-sub-blocks", args->slabSubBlocks,
+                  "each ERT threshold at --ert-slab again with these sub-block sizes, comma-separated (default none)");
   cmd->add_flag("--no-best-slab", args->noBestSlab,
                 "ERT thresholds only at --ert-slab, not also at the fastest other size");
   cmd->add_flag("--no-pre-integration", args->noPreIntegration, "no pre-integrated settings");

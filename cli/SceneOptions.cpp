@@ -86,13 +86,13 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
   cmd->add_flag("--no-skip", args.noSkip, "draw bricks the transfer function makes empty");
   cmd->add_flag("--no-cull", args.noCull, "draw bricks outside the view frustum");
   cmd->add_option("--sub-block", args.subBlock,
-                  "skip empty sub-blocks of N voxels inside bricks (a power of two; 0 draws whole bricks)");
+                  "skip empty sub-blocks of N voxels inside bricks (a power of two, default 8; 0 draws whole bricks)");
   cmd->add_option("--slab", args.slab,
-                  "texture slabs of N planes: the fragment program marches N samples and blends once (0, the "
-                  "default, slices: one blended sample per fragment)");
+                  "texture slabs of N planes: the fragment program marches N samples and blends once (default 32; "
+                  "0 slices: one blended sample per fragment)");
   cmd->add_option("--ert", args.ert,
                   "early ray termination on slabs: stop rays whose opacity reached this threshold in [0.5, 1] "
-                  "(0: off)");
+                  "(default 0.999; 0: off)");
   cmd->add_flag("--pre-integration", args.preIntegration,
                 "pre-integrated classification on slabs: each segment between samples classified whole from a table");
   cmd->add_flag("--shading", args.shading, "gradient (central differences) and Phong headlight shading");

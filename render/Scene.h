@@ -41,8 +41,10 @@ struct Scene {
   /// Default: the grayscale ramp (as config/tf/grayscale.json), built in so a scene never needs the config files.
   TransferFunction transferFunction{{{0.0, {0, 0, 0, 0}}, {1.0, {1, 1, 1, 0.5}}}};
   std::string transferFunctionName = "grayscale";  ///< preset name or path, or "inline"
-  /// Slice spacing in voxels of level 0 (of the smallest spacing). 0.75: the coarsest step that keeps every
-  /// dataset of bench/results/sweep.md at 40 dB or more against the reference (unshaded; shading needs finer).
+  /// Slice spacing in voxels of level 0 (of the smallest spacing). The default drawing, step 0.75 on slabs of 32
+  /// planes with termination at 0.999 and sub-blocks of 8, is the fastest setting of
+  /// bench/results/slabs-sweep/sweep.md that keeps every dataset at 40 dB or more against the reference (unshaded;
+  /// shading needs finer).
   double step = 0.75;
   glm::dvec3 background{0, 0, 0};     ///< opaque background colour, RGB in [0, 1]
   std::optional<std::array<double, 2>> window;  ///< value window [lo, hi]; default the store's value range
@@ -53,16 +55,16 @@ struct Scene {
   /// Empty-space skipping inside bricks: bricks are drawn as boxes of sub-blocks of this many voxels per edge whose
   /// value range the transfer function does not reject. 0 (or anything not below the store's brick size) draws
   /// whole bricks. A power of two.
-  int subBlock = 0;
+  int subBlock = 8;
   /// Texture slabs: 0 slices (one blended sample per fragment); N >= 1 draws each box once per slab of N
   /// consecutive global planes, and the fragment program marches the pixel's ray through them, compositing in
   /// registers. N at least a brick's planes makes it a brick ray caster. The samples are the same either way.
-  int slab = 0;
+  int slab = 32;
   /// Early ray termination on texture slabs: 0 (off) or a threshold in [0.5, 1]. Between slabs a pass marks the
   /// pixels whose accumulated opacity reached it in the depth buffer (a slab silhouette map), and the early depth
   /// test skips their fragments in every later slab; a fragment also stops marching when its own opacity reaches
   /// it. The image then differs from the full integral by at most 1 - ert per channel. No effect when slab is 0.
-  double ert = 0;
+  double ert = 0.999;
   /// Pre-integrated classification (Engel et al. 2001) on texture slabs: each segment between two samples is
   /// classified as a whole from its front and back values and length through a table rebuilt whenever the transfer
   /// function or the step changes, instead of one post-classified sample per segment. No effect when slab is 0.

@@ -104,13 +104,18 @@ TEST(SweepSetting, LabelShowsSlabSettingsOnlyWhenNotDefault) {
   EXPECT_EQ(slab(2, 16, 0, true).label(), "step 2, B=32, skip, vertex, slab 16, pre-int");
   EXPECT_FALSE(slab(1, 16) == slab(1, 16, 0.99)) << "settings differing only in ERT are different points";
   EXPECT_FALSE(slab(1, 16) == slab(1, 16, 0, true));
+  Setting skipping = slab(1, 32, 0.999);
+  skipping.subBlock = 8;
+  EXPECT_EQ(skipping.label(), "step 1, B=32, skip, vertex, slab 32, ert 0.999, sub-block 8");
+  EXPECT_FALSE(skipping == slab(1, 32, 0.999));
 }
 
 TEST(SweepSpecs, FullAndQuickSweepTheSlabSettingsOnAnOpaqueVariantToo) {
   const SweepSpec full = SweepSpec::full("/x/mri.nii.gz");
-  EXPECT_EQ(full.slabs, (std::vector<int>{1, 4, 16, render::Scene::kMaxSlab}));
-  EXPECT_EQ(full.erts, (std::vector<double>{0.99, 0.995, 0.999}));
-  EXPECT_EQ(full.ertSlab, 16);
+  EXPECT_EQ(full.slabs, (std::vector<int>{1, 4, 16, 32, render::Scene::kMaxSlab}));
+  EXPECT_EQ(full.erts, (std::vector<double>{0.99, 0.999, 1}));
+  EXPECT_EQ(full.ertSlab, 32);
+  EXPECT_EQ(full.slabSubBlocks, (std::vector<int>{8}));
   EXPECT_TRUE(full.preIntegration);
   EXPECT_DOUBLE_EQ(full.psnrThreshold, 40);
   EXPECT_DOUBLE_EQ(full.psnrHighThreshold, 50);
@@ -119,9 +124,10 @@ TEST(SweepSpecs, FullAndQuickSweepTheSlabSettingsOnAnOpaqueVariantToo) {
       EXPECT_EQ(d.opaque, "ct-bone") << d.name;
       EXPECT_EQ(slabVariants(d, true), (std::vector<Variant>{defaultVariant(d), {"ct-bone"}})) << d.name;
     }
-  // 144 points as before the slabs; per slab variant 12 settings a step (4 sizes, 3 thresholds at 16 and at the
-  // best other size, 2 pre-integrated), 10 at step 0.25 (no slabs of 1 and 4), over 5 slab variants.
-  EXPECT_EQ(full.plannedPoints(), 144u + 5 * (5 * 12 + 10));
+  // 144 points as before the slabs; per slab variant 16 settings a step (5 sizes; 3 thresholds at 32, each also
+  // with sub-blocks of 8; 3 at the best other size; 2 pre-integrated), 13 at step 0.25 (no slabs of 1, 4 and 16,
+  // the sizes below the ERT slab), over 5 slab variants.
+  EXPECT_EQ(full.plannedPoints(), 144u + 5 * (5 * 16 + 13));
 
   const SweepSpec quick = SweepSpec::quick("/x/mri.nii.gz");
   ASSERT_FALSE(quick.slabs.empty());
@@ -233,16 +239,16 @@ TEST(SweepFiles, CsvAppendsTheSlabColumnsAndMarkdownHasTheSlabTable) {
       "min_ms", "max_ms", "median_samples", "psnr_worst_db", "psnr_pooled_db", "rmse_pooled", "max_abs", "pareto",
       // appended after the columns of the sweep before slabs, so that old readers keep working
       "slab", "ert", "pre_integration", "samples_median", "fragments_median", "samples_terminated_median",
-      "slab_passes_median"};
+      "slab_passes_median", "sub_block"};
   EXPECT_EQ(header, expected);
   std::vector<std::vector<std::string>> rows;
   while (std::getline(csv, line)) rows.push_back(fields(line));
   ASSERT_EQ(rows.size(), 4u);
   for (const auto& row : rows) ASSERT_EQ(row.size(), header.size());
   EXPECT_EQ((std::vector<std::string>(rows[0].begin() + 18, rows[0].end())),
-            (std::vector<std::string>{"0", "0", "0", "4000000", "4000000", "0", "0"}));
+            (std::vector<std::string>{"0", "0", "0", "4000000", "4000000", "0", "0", "0"}));
   EXPECT_EQ((std::vector<std::string>(rows[2].begin() + 18, rows[2].end())),
-            (std::vector<std::string>{"16", "0.99", "0", "1000000", "250000", "100000", "12"}));
+            (std::vector<std::string>{"16", "0.99", "0", "1000000", "250000", "100000", "12", "0"}));
   EXPECT_EQ(rows[2][12], "1000000") << "median_samples: samples taken";
   EXPECT_EQ(rows[3][20], "1");
 
@@ -298,14 +304,14 @@ TEST(BenchCli, QuickSweepWritesWellFormedFilesAndReusesItsReferences) {
   const std::string args = "bench --quick -q --out " + (dir / "out").string() + " --work " + (dir / "work").string();
   auto r = test::runVoxbrick(args);
   ASSERT_EQ(r.exitCode, 0) << r.output;
-  EXPECT_NE(r.output.find("bench: 56 points"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("bench: 60 points"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("every dataset at >= 50 dB"), std::string::npos) << "the second answer: " << r.output;
 
   std::ifstream csv(dir / "out" / "sweep.csv");
   std::string line;
   ASSERT_TRUE(std::getline(csv, line));
   const std::vector<std::string> header = fields(line);
-  ASSERT_EQ(header.size(), 25u);
+  ASSERT_EQ(header.size(), 26u);
   EXPECT_EQ(header[9], "median_ms");
   EXPECT_EQ(header[13], "psnr_worst_db");
   EXPECT_EQ(header[18], "slab");
@@ -341,8 +347,8 @@ TEST(BenchCli, QuickSweepWritesWellFormedFilesAndReusesItsReferences) {
     preInt += f[20] == "1";
     pareto += f[17] == "1";
   }
-  EXPECT_EQ(rows, 56);
-  EXPECT_EQ(slabErt, 8) << "ERT at slab 16 and at whole bricks, on 4 slab variants";
+  EXPECT_EQ(rows, 60);
+  EXPECT_EQ(slabErt, 12) << "ERT at slab 16 (also with sub-blocks) and at whole bricks, on 4 slab variants";
   EXPECT_EQ(preInt, 8) << "pre-integration with ERT off and at 0.99, on 4 slab variants";
   EXPECT_GE(ertSavedSamples, 1) << "early ray termination left samples out somewhere";
   EXPECT_GE(pareto, 6) << "at least two points per dataset and variant on the front";
@@ -376,15 +382,15 @@ TEST(BenchCli, QuickSweepWritesWellFormedFilesAndReusesItsReferences) {
 TEST(BenchCli, PlansTheSweepItIsAskedForAndRefusesBadLists) {
   auto r = test::runVoxbrick("bench --dry-run");
   ASSERT_EQ(r.exitCode, 0) << r.output;
-  EXPECT_NE(r.output.find("at most 494 points, 8 views"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("at most 609 points, 8 views"), std::string::npos) << r.output;
   r = test::runVoxbrick("bench --quick --dry-run");
-  EXPECT_NE(r.output.find("at most 56 points"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("at most 60 points"), std::string::npos) << r.output;
   r = test::runVoxbrick("bench --dry-run --slabs none");
   EXPECT_NE(r.output.find("at most 144 points"), std::string::npos) << "the sweep before slabs: " << r.output;
   // One dataset (2 slab variants), 2 steps, no shading, no slicing alternatives: 2 variants x 2 steps of slicing;
   // per slab variant and step slab 16 and 4096, ERT 0.9 at 16 and at the best other size (4096), pre-int twice.
   r = test::runVoxbrick("bench --dry-run --datasets mri --steps 0.5,1 --no-shading --alternatives none "
-                        "--slabs 16,4096 --erts 0.9 --size 512");
+                        "--slabs 16,4096 --ert-slab 16 --erts 0.9 --slab-sub-blocks none --size 512");
   EXPECT_NE(r.output.find("at most 28 points, 8 views each (and a warm-up frame), 512x512"), std::string::npos)
       << r.output;
   r = test::runVoxbrick("bench --dry-run --datasets mri --steps 1 --no-shading --alternatives b16,no-skip "

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <tuple>
 
 #include "render/FramePlan.h"
 #include "render/RenderErrors.h"
@@ -87,6 +88,8 @@ TEST(FramePlan, DrawBoxesGrowAtTheSurfaceAndBetweenSubBlocksOnly) {
   const auto s = rampStore(dir);
   const store::Vec3d& spacing = s->meta().spacing;
   Scene scene;
+  scene.slab = 0;  // slicing whole bricks: they share their rasterised faces
+  scene.subBlock = 0;
   FramePlan plan = planFrame(scene, *s, kTexels);
   ASSERT_EQ(plan.subBlock, 0);
   // Brick (0, 0, 0) of B = 16: its low faces are on the surface, its high x and y faces are interior, its high z
@@ -108,6 +111,11 @@ TEST(FramePlan, DrawBoxesGrowAtTheSurfaceAndBetweenSubBlocksOnly) {
 
   scene.subBlock = 16;  // not below the brick size: whole bricks
   EXPECT_EQ(planFrame(scene, *s, kTexels).subBlock, 0);
+
+  scene.slab = 16;  // slabs own their voxels exactly, as sub-blocks do
+  plan = planFrame(scene, *s, kTexels);
+  ASSERT_TRUE(plan.exactOwnership());
+  EXPECT_DOUBLE_EQ(plan.drawBox(brick, spacing).max.x, brick.max.x + FramePlan::kInteriorMargin * spacing.x);
 }
 
 TEST(FramePlan, PixelRaysPassThroughTheirPixels) {
@@ -138,6 +146,30 @@ TEST(FramePlan, AnInvalidSceneIsRefused) {
   Scene scene;
   scene.step = 0;
   EXPECT_THROW(planFrame(scene, *s, kTexels), RenderInputError);
+}
+
+TEST(FramePlan, SegmentRatiosSpanThePixelRays) {
+  test::ScratchDir dir;
+  const auto s = rampStore(dir);
+  Scene scene;
+  scene.step = 0.8;
+  scene.width = 64;
+  scene.height = 48;
+  scene.camera.fovY = 60;
+  FramePlan plan = planFrame(scene, *s, kTexels);
+  const double ratio = plan.step / plan.referenceLength;
+  auto [lo, hi] = plan.segmentRatios();
+  // The centre ray runs along the view axis (cosine 1); the corner rays are the most oblique: with a 60° vertical
+  // field of view and a 4:3 image, tan of the corner's angle is tan(30°) * sqrt(1 + (4/3)^2), less half a pixel.
+  EXPECT_NEAR(lo, ratio, 1e-3 * ratio);
+  const double cornerTan = std::tan(glm::radians(30.0)) * std::hypot(1.0, 4.0 / 3.0);
+  EXPECT_NEAR(hi, ratio * std::sqrt(1 + cornerTan * cornerTan), 0.02 * ratio);
+  EXPECT_GT(hi, lo * 1.3);
+  scene.camera.orthographic = true;
+  plan = planFrame(scene, *s, kTexels);
+  std::tie(lo, hi) = plan.segmentRatios();
+  EXPECT_EQ(lo, ratio);
+  EXPECT_EQ(hi, ratio);
 }
 
 }  // namespace

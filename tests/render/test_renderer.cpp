@@ -19,8 +19,12 @@ using test::prepArray;
 using test::renderStore;
 using test::ScratchDir;
 
+/// Slicing: these seams are the slicer's (tests/render/test_slabs.cpp holds slabs to the same images).
 Scene baseScene() {
   Scene scene;
+  scene.slab = 0;
+  scene.ert = 0;
+  scene.subBlock = 0;
   scene.width = scene.height = 96;
   scene.camera.azimuth = 35;
   scene.camera.elevation = 25;
@@ -160,15 +164,19 @@ TEST(RendererAnalytic, ConstantSlabHasClosedFormTransmittance) {
   scene.camera.center = {0, 0, 0};
   scene.camera.orthographic = true;
   scene.camera.fovY = 2;  // a view about 7 voxels high: every pixel looks through the full 64 voxels
-  for (double step : {1.0, 0.5, 0.25}) {
-    scene.step = step;
-    const image::ImageF image = renderStore(s, scene);
-    // White emission over black: the pixel is the slab's opacity 1 - (1 - alpha)^(L / L_ref), L = 64 voxels.
-    const double expected = 1 - std::pow(1 - alpha, 64.0);
-    for (int y = 0; y < scene.height; y += 7)
-      for (int x = 0; x < scene.width; x += 7)
-        ASSERT_NEAR(image.pixel(x, y)[0], expected, 1e-4) << "step " << step << " pixel " << x << "," << y;
-  }
+  // Slicing, and the default drawing (texture slabs with termination, which this opacity never reaches).
+  for (int slab : {0, Scene{}.slab})
+    for (double step : {1.0, 0.5, 0.25}) {
+      scene.step = step;
+      scene.slab = slab;
+      const image::ImageF image = renderStore(s, scene);
+      // White emission over black: the pixel is the slab's opacity 1 - (1 - alpha)^(L / L_ref), L = 64 voxels.
+      const double expected = 1 - std::pow(1 - alpha, 64.0);
+      for (int y = 0; y < scene.height; y += 7)
+        for (int x = 0; x < scene.width; x += 7)
+          ASSERT_NEAR(image.pixel(x, y)[0], expected, 1e-4)
+              << "slab " << slab << " step " << step << " pixel " << x << "," << y;
+    }
 }
 
 TEST(RendererAtlasFormat, NativeAndHalfFormatsStayCloseToFloat) {

@@ -19,8 +19,12 @@ using test::prep;
 using test::renderStore;
 using test::ScratchDir;
 
+/// Slicing, the baseline slabs are held to.
 Scene sceneFor(const std::string& tf) {
   Scene scene;
+  scene.slab = 0;
+  scene.ert = 0;
+  scene.subBlock = 0;
   scene.width = 96;
   scene.height = 80;
   scene.camera.azimuth = 35;
@@ -224,7 +228,12 @@ TEST(Slabs, PreIntegrationCatchesWhatSamplesStepOverAndConverges) {
 
 TEST(Slabs, TheSceneKeyIsChecked) {
   EXPECT_EQ(Scene::fromJson(R"({"slab": 16})", "t").slab, 16);
-  EXPECT_EQ(Scene::fromJson("{}", "t").slab, 0) << "slicing is the default";
+  // The default chosen by bench/results/slabs-sweep/sweep.md: slabs of 32 planes, termination at 0.999, sub-blocks
+  // of 8 voxels.
+  EXPECT_EQ(Scene::fromJson("{}", "t").slab, 32);
+  EXPECT_EQ(Scene::fromJson("{}", "t").ert, 0.999);
+  EXPECT_EQ(Scene::fromJson("{}", "t").subBlock, 8);
+  EXPECT_EQ(Scene::fromJson(R"({"slab": 0})", "t").slab, 0) << "slicing on request";
   for (const char* bad : {R"({"slab": -1})", R"({"slab": 2.5})", R"({"slab": 5000})", R"({"slab": "4"})"})
     EXPECT_THROW(Scene::fromJson(bad, "t"), RenderInputError) << bad;
   Scene scene;
