@@ -162,6 +162,13 @@ void main() {
   const float sOut = min(min(max(sa.x, sb.x), max(sa.y, sb.y)), max(sa.z, sb.z));
   const int insideFirst = int(ceil((start + along * sIn) / uPlaneIncr)) + 1;
   const int insideLast = int(floor((start + along * sOut) / uPlaneIncr)) - 1;
+  // Faces between boxes are tested on the 1/256-voxel grid, as EXACT_OWNERSHIP; the volume's own faces on the
+  // unrounded point, as slicing tests them, so that rays grazing the surface keep the same samples - except faces the
+  // planes are parallel to (a view along an axis): a plane through such a face lands on it only on the grid, where
+  // the half-open rule keeps exactly one of the samples on the near and far faces, as slicing does.
+  const bvec3 parallel = greaterThan(abs(uViewDir), vec3(0.9999));
+  const bvec3 unroundedLo = bvec3(ivec3(equal(vOwnLo, ivec3(0))) * ivec3(not(parallel)));
+  const bvec3 unroundedHi = bvec3(ivec3(equal(vec3(vOwnHi), uDims)) * ivec3(not(parallel)));
   vec4 sum = vec4(0.0);
   uint taken = 0u, untaken = 0u;
   const float ratio = segmentRatio(origin + direction);
@@ -187,14 +194,7 @@ void main() {
     const vec3 voxel = world * uInvSpacing + uHalfDims;
     if (k < insideFirst || k > insideLast) {
       if (t < 0.0) continue;  // before the near plane, where slicing's polygons are clipped
-      // Faces between boxes on the 1/256-voxel grid, as EXACT_OWNERSHIP; the volume's own faces on the unrounded
-      // point, as slicing tests them, so that rays grazing the surface keep the same samples - except faces the
-      // planes are parallel to (a view along an axis): a plane through such a face lands on it only on the grid,
-      // where the half-open rule keeps exactly one of the samples on the near and far faces, as slicing does.
       const vec3 snapped = round(voxel * 256.0) * (1.0 / 256.0);
-      const bvec3 parallel = greaterThan(abs(uViewDir), vec3(0.9999));
-      const bvec3 unroundedLo = bvec3(ivec3(equal(vOwnLo, ivec3(0))) * ivec3(not(parallel)));
-      const bvec3 unroundedHi = bvec3(ivec3(equal(vec3(vOwnHi), uDims)) * ivec3(not(parallel)));
       if (!owned(mix(snapped, voxel, unroundedLo), mix(snapped, voxel, unroundedHi))) continue;
     }
 #ifdef PRE_INTEGRATION
