@@ -47,6 +47,7 @@ struct Config {
   int slab = 0;  ///< planes per texture slab (0 slices); named in the setting, not a CSV column
   double ert = 0;              ///< early ray termination threshold (slabs); named in the setting
   bool preIntegration = false;  ///< named in the setting
+  bool ess = false;             ///< empty-space silhouette maps; named in the setting
 };
 
 struct Result {
@@ -151,6 +152,12 @@ int main(int argc, char** argv) {
        render::AtlasFormat::Float, 0, 16, 0.999},
       {"slab 16, ert 0.999, skip, B=64", 64, render::Slicer::Vertex, true, render::RenderMode::Normal,
        render::AtlasFormat::Float, 0, 16, 0.999},
+      {"slab 32, ert 0.999, skip, ess", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
+       render::AtlasFormat::Float, 0, 32, 0.999, false, true},
+      {"slab 32, ert 0.999, skip, sub-block 8", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
+       render::AtlasFormat::Float, 8, 32, 0.999},
+      {"slab 32, ert 0.999, skip, sub-block 8, ess", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
+       render::AtlasFormat::Float, 8, 32, 0.999, false, true},
       {"slab 16, pre-int, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
        render::AtlasFormat::Float, 0, 16, 0, true},
       {"slab 16, ert 0.99, pre-int, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
@@ -206,6 +213,7 @@ int main(int argc, char** argv) {
       scene.slab = c.slab;
       scene.ert = c.ert;
       scene.preIntegration = c.preIntegration;
+      scene.ess = c.ess;
       scene.camera.elevation = 20;
       scene.camera.distance = 2.2;
       run.renderer->render(scene, nullptr, c.mode);  // warm-up: pages every brick, compiles the program

@@ -63,6 +63,7 @@ render::Scene buildScene(const SceneArgs& a, const CLI::App& cmd) {
   if (a.slab >= 0) s.slab = a.slab;
   if (cmd.count("--ert")) s.ert = a.ert;
   if (a.preIntegration) s.preIntegration = true;
+  if (a.ess) s.ess = true;
   if (!a.slicer.empty()) s.slicer = a.slicer == "cpu" ? render::Slicer::Cpu : render::Slicer::Vertex;
   s.validate();
   return s;
@@ -95,6 +96,8 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
                   "(default 0.999; 0: off)");
   cmd->add_flag("--pre-integration", args.preIntegration,
                 "pre-integrated classification on slabs: each segment between samples classified whole from a table");
+  cmd->add_flag("--ess", args.ess,
+                "empty-space silhouette maps on slabs: a pass before each slab marks the pixels with anything to draw");
   cmd->add_flag("--shading", args.shading, "gradient (central differences) and Phong headlight shading");
 }
 

@@ -74,6 +74,7 @@ FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int tran
   plan.slab = scene.slab;
   plan.ert = scene.slab > 0 ? scene.ert : 0;
   plan.preIntegration = scene.slab > 0 && scene.preIntegration;
+  plan.ess = scene.slab > 0 && scene.ess;
   plan.width = scene.width;
   plan.height = scene.height;
   plan.rays = pixelRays(plan.viewProj, scene.width, scene.height);

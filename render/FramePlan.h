@@ -50,6 +50,7 @@ struct FramePlan {
   int slab = 0;               ///< planes per texture slab; 0 slices
   double ert = 0;             ///< early ray termination threshold on slabs; 0 off (always 0 when slicing)
   bool preIntegration = false;  ///< pre-integrated classification (slabs only)
+  bool ess = false;             ///< empty-space silhouette maps (slabs only)
   int width = 0, height = 0;    ///< image size in pixels
   PixelRays rays;
 

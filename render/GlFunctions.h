@@ -35,6 +35,7 @@ namespace voxbrick::render {
   X(PFNGLCOLORMASKPROC, glColorMask)                                         \
   X(PFNGLDEPTHMASKPROC, glDepthMask)                                         \
   X(PFNGLDEPTHFUNCPROC, glDepthFunc)                                         \
+  X(PFNGLDEPTHRANGEPROC, glDepthRange)                                       \
   X(PFNGLCULLFACEPROC, glCullFace)                                           \
   X(PFNGLFRONTFACEPROC, glFrontFace)                                         \
   X(PFNGLBLENDFUNCPROC, glBlendFunc)                                         \

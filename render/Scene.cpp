@@ -75,7 +75,7 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   if (!j.is_object()) throw RenderInputError(what + ": a scene must be a JSON object");
   static const char* kKeys[] = {"camera", "size", "transfer_function", "step", "background", "window",
                                 "skip_empty", "cull", "slicer", "shading", "sub_block", "slab", "ert",
-                                "pre_integration"};
+                                "pre_integration", "ess"};
   for (auto it = j.begin(); it != j.end(); ++it)
     if (std::find(std::begin(kKeys), std::end(kKeys), it.key()) == std::end(kKeys))
       throw RenderInputError(what + ": unknown key '" + it.key() + "'");
@@ -159,6 +159,7 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   }
   if (j.contains("ert")) s.ert = number(j["ert"], "ert", what);
   if (j.contains("pre_integration")) s.preIntegration = boolean(j["pre_integration"], "pre_integration", what);
+  if (j.contains("ess")) s.ess = boolean(j["ess"], "ess", what);
   s.validate();
   return s;
 }
@@ -209,7 +210,8 @@ std::string Scene::toJson() const {
             {"sub_block", subBlock},
             {"slab", slab},
             {"ert", ert},
-            {"pre_integration", preIntegration}};
+            {"pre_integration", preIntegration},
+            {"ess", ess}};
   if (window) j["window"] = json::array({(*window)[0], (*window)[1]});
   return j.dump(2);
 }

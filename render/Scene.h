@@ -69,12 +69,17 @@ struct Scene {
   /// classified as a whole from its front and back values and length through a table rebuilt whenever the transfer
   /// function or the step changes, instead of one post-classified sample per segment. No effect when slab is 0.
   bool preIntegration = false;
+  /// Empty-space silhouette maps on texture slabs (the seed's CSSM pass): before each slab, a pass marches the
+  /// slab's samples of every pixel not yet terminated and marks in the depth buffer the pixels with any sample the
+  /// transfer function does not make transparent; the slab is then drawn for those pixels only. The image is the
+  /// same. No effect when slab is 0.
+  bool ess = false;
 
   /// Parses a scene JSON object; absent keys keep their defaults. Throws RenderInputError naming `what` and the
   /// key. Keys: camera {orbit: [az, el, dist] | eye, center, up; fov; orthographic}, size [w, h],
   /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b],
   /// window [lo, hi], skip_empty, cull, slicer ("vertex" | "cpu"), shading, sub_block, slab, ert,
-  /// pre_integration.
+  /// pre_integration, ess.
   /// `allowPaths` false (the server) accepts transfer functions by preset name or inline only, never a file path.
   static Scene fromJson(const std::string& text, const std::string& what, bool allowPaths = true);
   /// The same, resolving preset names from `presets` (no file is read) and accepting no paths: what a server does

@@ -12,7 +12,8 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
-constexpr size_t kCounters = 3;  // fragments, samples taken, samples left by termination: (low, high) words each
+constexpr size_t kCounters = 3;
+constexpr double kSlabDepthStep = 1.0 / (1 << 22);  // depths 1 - k * step are exact in float for k < 2^22  // fragments, samples taken, samples left by termination: (low, high) words each
 
 int64_t floorDiv(int64_t a, int64_t b) { return a / b - ((a % b != 0) && ((a < 0) != (b < 0))); }
 
@@ -28,21 +29,23 @@ SlabPass::SlabPass(const Gl& gl)
       mCounters(gl) {}
 
 void SlabPass::draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program,
-                    SliceGeometry& geometry, Compositor& compositor, FrameStats& stats) {
+                    const VolumeProgram* emptyTest, SlabGeometry& geometry, Compositor& compositor,
+                    FrameStats& stats) {
+  mSlabsDrawn = 0;
   const std::array<uint32_t, 2 * kCounters> zero{};
   mCounters.allocate(GL_SHADER_STORAGE_BUFFER, sizeof(zero), zero.data(), GL_DYNAMIC_COPY);
   mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, mCounters.id());
   mBoxes.clear();
   auto add = [&](const QueuedBox& b) { mBoxes.push_back(b); };
   auto flush = [&] {
-    drawBatch(plan, program, geometry, compositor, stats);
+    drawBatch(plan, program, plan.ess ? emptyTest : nullptr, geometry, compositor, stats);
     mBoxes.clear();
   };
   mWalk.run(plan, residency, geometry, stats, add, flush);
 }
 
-void SlabPass::drawBatch(const FramePlan& plan, const VolumeProgram& program, SliceGeometry& geometry,
-                         Compositor& compositor, FrameStats& stats) {
+void SlabPass::drawBatch(const FramePlan& plan, const VolumeProgram& program, const VolumeProgram* emptyTest,
+                         SlabGeometry& geometry, Compositor& compositor, FrameStats& stats) {
   if (mBoxes.empty()) return;
   int64_t lo = std::numeric_limits<int64_t>::max(), hi = std::numeric_limits<int64_t>::min();
   for (const QueuedBox& b : mBoxes) lo = std::min(lo, b.planes.begin), hi = std::max(hi, b.planes.end);
@@ -57,8 +60,26 @@ void SlabPass::drawBatch(const FramePlan& plan, const VolumeProgram& program, Sl
     stats.msSlicing += msSince(t);
     if (geometry.empty()) continue;
     t = Clock::now();
-    program.program().use();
-    geometry.draw();
+    if (emptyTest && mSlabsDrawn + 1 < int64_t(1) << 22) {
+      // One depth for every fragment of the slab, exactly (slab.vert.glsl).
+      const double depth = 1.0 - double(++mSlabsDrawn) * kSlabDepthStep;
+      mGl.glDepthRange(depth, depth);
+      emptyTest->program().use();
+      mGl.glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
+      mGl.glDepthMask(GL_TRUE);
+      geometry.drawKeep();
+      mGl.glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+      mGl.glDepthMask(GL_FALSE);
+      mGl.glDepthFunc(GL_EQUAL);
+      program.program().use();
+      geometry.draw();
+      mGl.glDepthFunc(GL_LESS);
+    } else {
+      mGl.glDepthRange(0.5, 0.5);
+      program.program().use();
+      geometry.draw();
+    }
+    mGl.glDepthRange(0, 1);
     stats.slabPasses += 1;
     if (plan.ert > 0 && first + n < hi) terminate(plan, compositor);
     stats.msDrawing += msSince(t);

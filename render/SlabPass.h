@@ -9,6 +9,12 @@
 // 0 where its opacity reached the threshold, so the early depth test rejects those pixels' fragments in every later
 // slab. Within one batch of the atlas the order is slab-major, across batches brick order: both are visibility
 // orders along every ray (bricks are convex and drawn front to back; a ray crosses the planes in order).
+//
+// Empty-space silhouette maps (Scene::ess, the seed's CSSM pass): each slab's fragments get their own depth,
+// 1 - k * 2^-22 for the frame's k-th slab, decreasing. Before slab k is marched, the same boxes are drawn with the
+// EMPTY_TEST program, colour off, depth written (GL_LESS) only where some sample (or pre-integrated segment) of the
+// slab has opacity; the march then tests GL_EQUAL, so it runs only on those pixels. Terminated pixels hold 0 and
+// fail both tests.
 #pragma once
 
 #include <vector>
@@ -25,15 +31,16 @@ class SlabPass {
   /// Draws plan.visible as slabs of plan.slab planes with `program` (a SLAB variant) into `compositor`'s target,
   /// which begin() set up with a silhouette map iff plan.ert > 0. Fills the counters and times of `stats` that the
   /// GPU does not (see finish).
-  void draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program, SliceGeometry& geometry,
-            Compositor& compositor, FrameStats& stats);
+  /// With plan.ess, `emptyTest` is the EMPTY_TEST variant of `program`.
+  void draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program,
+            const VolumeProgram* emptyTest, SlabGeometry& geometry, Compositor& compositor, FrameStats& stats);
   /// After the compositor's finish: the slab fragments' own counts (fragments started, samples taken and left by
   /// termination) into `stats`.
   void finish(FrameStats& stats) const;
 
  private:
-  void drawBatch(const FramePlan& plan, const VolumeProgram& program, SliceGeometry& geometry,
-                 Compositor& compositor, FrameStats& stats);
+  void drawBatch(const FramePlan& plan, const VolumeProgram& program, const VolumeProgram* emptyTest,
+                 SlabGeometry& geometry, Compositor& compositor, FrameStats& stats);
   void terminate(const FramePlan& plan, Compositor& compositor) const;
 
   const Gl& mGl;
@@ -43,6 +50,7 @@ class SlabPass {
   GLint mTerminationAt = -1, mAccumulatedAt = -1;
   VertexArray mNoAttributes;
   Buffer mCounters;  // SlabCounters of volume.frag.glsl
+  int64_t mSlabsDrawn = 0;  // this frame's, for the empty-space maps' depths
 };
 
 }  // namespace voxbrick::render

@@ -121,8 +121,16 @@ void SlabGeometry::add(const Box& box, const PlaneIndexRange& planes, const glm:
 }
 
 void SlabGeometry::draw() {
+  drawKeep();
+  mInstances.clear();
+  mUploaded = false;
+}
+
+void SlabGeometry::drawKeep() {
   if (mInstances.empty()) return;
-  upload(mInstances.data(), mInstances.size() * sizeof(SlabInstance));
+  if (!mUploaded) upload(mInstances.data(), mInstances.size() * sizeof(SlabInstance));
+  mUploaded = true;
+  mLayout.bind();
   // Back faces only: each pixel whose ray crosses the box gets one fragment per slab. Depth clamping keeps back
   // faces beyond the far plane: boxes are drawn larger than the volume, whose far side the far plane touches.
   mGl.glEnable(GL_CULL_FACE);
@@ -133,7 +141,6 @@ void SlabGeometry::draw() {
   mGl.glDisable(GL_CLIP_DISTANCE0);
   mGl.glDisable(GL_DEPTH_CLAMP);
   mGl.glDisable(GL_CULL_FACE);
-  mInstances.clear();
 }
 
 }  // namespace voxbrick::render

@@ -82,9 +82,12 @@ class SlabGeometry final : public SliceGeometry {
            const glm::ivec3& ownHi, const FramePlan& plan) override;
   bool empty() const override { return mInstances.empty(); }
   void draw() override;
+  /// Draws what is queued and keeps it queued (uploaded once), for a second pass over the same slab.
+  void drawKeep();
 
  private:
   std::vector<SlabInstance> mInstances;
+  bool mUploaded = false;  // mInstances are in the buffer
 };
 
 }  // namespace voxbrick::render

@@ -16,6 +16,7 @@ ProgramSources sources(const ProgramKey& key) {
   if (key.model == FragmentModel::Shaded) defines.push_back("SHADING");
   if (key.slab) defines.push_back("SLAB");
   if (key.preIntegration) defines.push_back("PRE_INTEGRATION");
+  if (key.emptyTest) defines.push_back("EMPTY_TEST");
   const char* vertex = key.slab                     ? "slab.vert.glsl"
                        : key.slicer == Slicer::Cpu ? "slice_cpu.vert.glsl"
                                                    : "slice.vert.glsl";

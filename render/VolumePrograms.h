@@ -26,6 +26,7 @@ struct ProgramKey {
   bool exactOwnership = false;  ///< EXACT_OWNERSHIP: samples from the pixel ray, owned per box (sub-blocks)
   bool slab = false;            ///< SLAB: box proxies (slab.vert.glsl), several samples per fragment
   bool preIntegration = false;  ///< PRE_INTEGRATION (with SLAB): segments classified from a table
+  bool emptyTest = false;       ///< EMPTY_TEST (with SLAB): the empty-space silhouette pass, no colour
   auto operator<=>(const ProgramKey&) const = default;
 };
 

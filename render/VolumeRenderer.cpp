@@ -59,7 +59,7 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, R
   stats.msTraversal = msSince(t);
 
   mResidency.beginFrame(plan.visible.bricks);
-  mCompositor.begin(scene.width, scene.height, mode != RenderMode::Roofline, plan.ert > 0);
+  mCompositor.begin(scene.width, scene.height, mode != RenderMode::Roofline, plan.ert > 0 || plan.ess);
   const std::vector<glm::vec4> table = scene.transferFunction.table(kTransferTableTexels);
   mTransfer.bind(1);
   mGl.glTexSubImage1D(GL_TEXTURE_1D, 0, 0, kTransferTableTexels, GL_RGBA, GL_FLOAT, table.data());
@@ -76,8 +76,17 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, R
     stats.msPreIntegration = mPreIntegration.update(scene.transferFunction, plan, 3);
     program.setTable(mPreIntegration.spec());
   }
+  const VolumeProgram* emptyTest = nullptr;
+  if (plan.ess) {
+    ProgramKey emptyKey = key;
+    emptyKey.emptyTest = true;
+    emptyTest = &mPrograms.get(emptyKey);
+    emptyTest->setFrame(plan, mResidency.atlas(), store.meta());
+    if (plan.preIntegration) emptyTest->setTable(mPreIntegration.spec());
+  }
   if (plan.slab > 0)
-    mSlabs.draw(plan, mResidency, program, geometry(scene), mCompositor, stats);
+    mSlabs.draw(plan, mResidency, program, emptyTest, static_cast<SlabGeometry&>(geometry(scene)), mCompositor,
+                stats);
   else
     mSlicing.draw(plan, mResidency, program, geometry(scene), stats);
 

@@ -49,8 +49,8 @@ void main() {
   vFirstPlane = aFirstPlane;
   vPlaneCount = aPlaneCount;
   gl_Position = uViewProj * vec4(world, 1.0);
-  // Every slab fragment lies at depth 1/2 (window): the slab silhouette map (render/SlabPass.h) marks terminated
-  // pixels with depth 0, which the early depth test (GL_LESS) then rejects; unmarked pixels hold 1.
+  // Every fragment of a slab gets the same window depth, exactly: render/SlabPass.h draws with depth clamping and a
+  // depth range of one value (glDepthRange(d, d)), so that the silhouette map can test it for equality.
   gl_Position.z = 0.0;
   // A ray with samples in this slab inside the box leaves the box behind the slab's first plane, so back faces in
   // front of that plane (less one plane, for round-off) cover no such ray: clip them away. (Those behind the slab's

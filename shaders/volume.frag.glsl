@@ -28,9 +28,12 @@ uniform float uTermination;  // early ray termination: stop once the slab's own 
 // What the slab fragments did, as 64-bit counters (low word, high word): fragments started, samples taken, samples
 // left untaken when the fragment's own opacity reached uTermination (render/SlabPass.h reads them).
 layout(std430, binding = 0) buffer SlabCounters { uint uCounters[6]; };
+#ifndef EMPTY_TEST
 // The depth test (the silhouette map) before the program runs: a program with atomics would otherwise be run and
-// then tested. Slab fragments neither discard nor write depth, so the result is the same.
+// then tested. Slab fragments neither discard nor write depth, so the result is the same. (The empty-space pass
+// discards, and must write depth only where it keeps a fragment: it is tested late.)
 layout(early_fragment_tests) in;
+#endif
 void count(int counter, uint n) {
   const uint before = atomicAdd(uCounters[2 * counter], n);
   if (before + n < before) atomicAdd(uCounters[2 * counter + 1], 1u);
@@ -197,6 +200,17 @@ void main() {
       const vec3 snapped = round(voxel * 256.0) * (1.0 / 256.0);
       if (!owned(mix(snapped, voxel, unroundedLo), mix(snapped, voxel, unroundedHi))) continue;
     }
+#ifdef EMPTY_TEST
+    // The empty-space silhouette pass: keep the fragment (its depth marks the pixel) at the first sample, or with
+    // pre-integration the first segment, the march would give any opacity; discard it if there is none.
+#ifdef PRE_INTEGRATION
+    const vec3 after = (origin + direction * ((planeDistance + uPlaneIncr - start) / along)) * uInvSpacing + uHalfDims;
+    if (preIntegrated(sampleAt(voxel), sampleAt(clamp(after, backLo, backHi)), layer).a > 0.0) return;
+#else
+    if (texture(uTransfer, normalised(sampleAt(voxel))).a > 0.0) return;
+#endif
+    continue;
+#endif
 #ifdef PRE_INTEGRATION
     const float value = backPlane == k ? back : sampleAt(voxel);
     const vec3 next = (origin + direction * ((planeDistance + uPlaneIncr - start) / along)) * uInvSpacing + uHalfDims;
@@ -214,10 +228,14 @@ void main() {
     sum += (1.0 - sum.a) * shadeSample(world, voxel, value, ratio);
 #endif
   }
+#ifdef EMPTY_TEST
+  discard;
+#else
   count(0, 1u);
   if (taken > 0u) count(1, taken);
   if (untaken > 0u) count(2, untaken);
   fragColor = sum;
+#endif
 }
 #else
 void main() {

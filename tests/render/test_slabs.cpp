@@ -226,6 +226,43 @@ TEST(Slabs, PreIntegrationCatchesWhatSamplesStepOverAndConverges) {
   EXPECT_GT(meanBrightness(renderStore(s, scene)), 0.005) << "shaded, terminated, pre-integrated";
 }
 
+// The empty-space silhouette pass marks the pixels a slab has anything to draw for; the march skips the rest. The
+// image must not change: a skipped pixel's samples were all transparent.
+TEST(Slabs, EmptySpaceMapsSkipEmptyPixelsAndChangeNothing) {
+  ScratchDir dir;
+  const auto s = prep("synthetic:sparse,n=96", dir / "s", 32);
+  for (bool preIntegration : {false, true})
+    for (double ert : {0.0, 0.999}) {
+      Scene scene = sceneFor("sparse");
+      scene.slab = 8;
+      scene.ert = ert;
+      scene.preIntegration = preIntegration;
+      FrameStats plain, mapped;
+      const image::ImageF without = renderStore(s, scene, &plain);
+      ASSERT_GT(meanBrightness(without), 0.001);
+      scene.ess = true;
+      const std::string what = "ess-ert" + std::to_string(ert) + (preIntegration ? "-pre-int" : "");
+      expectClose(renderStore(s, scene, &mapped), without, 1.0 / 255, what);
+      EXPECT_LT(mapped.fragments * 2, plain.fragments) << what << ": empty pixels are not marched";
+      EXPECT_LT(mapped.samples, plain.samples) << what;
+      // Out of core: the slab counter (and so the depths) carries on across batches.
+      FrameStats tight;
+      expectClose(renderStore(s, scene, &tight, size_t(34) * 34 * 34 * 4 * 3), without, 1.0 / 255 + 2 * (1 - ert),
+                  what + "-out-of-core");
+      EXPECT_GT(tight.batches, 3) << what;
+    }
+  // With the eye inside the volume, and a thin shell that pre-integration finds between samples.
+  Scene scene = sceneFor("sparse");
+  scene.camera.distance = 0.25;
+  scene.camera.fovY = 75;
+  scene.slab = 4;
+  const image::ImageF inside = renderStore(s, scene);
+  scene.ess = true;
+  expectClose(renderStore(s, scene), inside, 1.0 / 255, "ess-inside");
+  EXPECT_TRUE(Scene::fromJson(R"({"ess": true})", "t").ess);
+  EXPECT_FALSE(Scene::fromJson("{}", "t").ess);
+}
+
 TEST(Slabs, TheSceneKeyIsChecked) {
   EXPECT_EQ(Scene::fromJson(R"({"slab": 16})", "t").slab, 16);
   // The default chosen by bench/results/slabs-sweep/sweep.md: slabs of 32 planes, termination at 0.999, sub-blocks
