@@ -83,8 +83,9 @@ float segmentRatio(vec3 world) {
 // The value window: raw atlas value to the transfer function's [0, 1].
 float normalised(float value) { return clamp((value - uWindowLo) * uWindowScale, 0.0, 1.0); }
 
-// Phong headlight on premultiplied `rgba` at `world` (voxel coordinate `voxel`); unchanged without SHADING.
-vec4 shade(vec4 rgba, vec3 world, vec3 voxel) {
+// The Phong headlight at `world` (voxel coordinate `voxel`) as (diffuse factor, specular term): a colour c becomes
+// c * x + y. (1, 0) without SHADING or where the gradient vanishes.
+vec2 headlight(vec3 world, vec3 voxel) {
 #ifdef SHADING
   // Central differences half a voxel each way: the samples stay inside the slot (whose border is one voxel).
   const vec3 gradient = vec3(sampleAt(voxel + vec3(0.5, 0, 0)) - sampleAt(voxel - vec3(0.5, 0, 0)),
@@ -96,10 +97,10 @@ vec4 shade(vec4 rgba, vec3 world, vec3 voxel) {
     const vec3 toEye = uOrthographic != 0 ? -uViewDir : normalize(uEye - world);
     const float diffuse = abs(dot(normal, toEye));  // two-sided headlight
     const float specular = pow(diffuse, 32.0);
-    rgba.rgb = rgba.rgb * (0.3 + 0.7 * diffuse) + vec3(0.25 * specular) * rgba.a;
+    return vec2(0.3 + 0.7 * diffuse, 0.25 * specular);
   }
 #endif
-  return rgba;
+  return vec2(1.0, 0.0);
 }
 
 // The classified, opacity-corrected (for a segment of `ratio` reference lengths), optionally shaded sample at
@@ -107,7 +108,21 @@ vec4 shade(vec4 rgba, vec3 world, vec3 voxel) {
 vec4 shadeSample(vec3 world, vec3 voxel, float value, float ratio) {
   const vec4 classified = texture(uTransfer, normalised(value));
   const float alpha = classified.a >= 1.0 ? 1.0 : oneMinusExp(ratio * logOneMinus(classified.a));
-  return shade(vec4(classified.rgb * alpha, alpha), world, voxel);
+  vec3 color = classified.rgb;
+#ifdef SHADING
+  const vec2 light = headlight(world, voxel);
+  color = color * light.x + vec3(light.y);
+#endif
+  return vec4(color * alpha, alpha);
+}
+
+// Premultiplied `rgba` (a pre-integrated segment) shaded at `world`: the straight colour's c * x + y, premultiplied.
+vec4 shade(vec4 rgba, vec3 world, vec3 voxel) {
+#ifdef SHADING
+  const vec2 light = headlight(world, voxel);
+  rgba.rgb = rgba.rgb * light.x + vec3(light.y) * rgba.a;
+#endif
+  return rgba;
 }
 
 #ifdef PRE_INTEGRATION
