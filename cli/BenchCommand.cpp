@@ -173,15 +173,15 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_flag("--no-shading", args->noShading, "no shaded variants");
   cmd->add_option("--slabs", args->slabs,
                   "texture-slab sizes swept at every step without ERT, comma-separated, 4096 = whole brick; none: no "
-                  "slab settings at all (default 1,4,16,4096)");
+                  "slab settings at all (default 1,4,16,32,4096)");
   cmd->add_option("--ert-slab", args->ertSlab,
-                  "the slab size of the ERT thresholds and of pre-integration (default 16)")
+                  "the slab size of the ERT thresholds and of pre-integration (default 32)")
       ->check(CLI::Range(1, render::Scene::kMaxSlab));
   cmd->add_option("--erts", args->erts,
                   "early-ray-termination thresholds in [0.5, 1], comma-separated, or none; off (0) is always swept "
-                  "(default 0.99,0.995,0.999)");
+                  "(default 0.99,0.999,1)");
   cmd->add_option("--slab-sub-blocks", args->slabSubBlocks,
-                  "each ERT threshold at --ert-slab again with these sub-block sizes, comma-separated (default none)");
+                  "each ERT threshold at --ert-slab again with these sub-block sizes, comma-separated, or none (default 8)");
   cmd->add_flag("--no-best-slab", args->noBestSlab,
                 "ERT thresholds only at --ert-slab, not also at the fastest other size");
   cmd->add_flag("--no-pre-integration", args->noPreIntegration, "no pre-integrated settings");
