@@ -156,6 +156,20 @@ bool owned(vec3 lo, vec3 hi) {
 }
 
 #ifdef SLAB
+// The parameter range (in, out) of the ray o + t·d (voxel coordinates, inv = 1 / d) inside the box [lo, hi], from
+// t = 0 on: empty when in > out.
+vec2 rayBoxRange(vec3 o, vec3 inv, vec3 lo, vec3 hi) {
+  const vec3 a = (lo - o) * inv, b = (hi - o) * inv;
+  return vec2(max(max(min(a.x, b.x), min(a.y, b.y)), max(min(a.z, b.z), 0.0)),
+              min(min(max(a.x, b.x), max(a.y, b.y)), max(a.z, b.z)));
+}
+
+// The voxel coordinate of the ray origin + t·direction where it meets the plane at `distance` along the view axis
+// (start and along: the origin's and the direction's components along it).
+vec3 voxelOnPlane(vec3 origin, vec3 direction, float start, float along, float distance) {
+  return (origin + direction * ((distance - start) / along)) * uInvSpacing + uHalfDims;
+}
+
 // A slab: the samples of this pixel's ray on the global planes [vFirstPlane, vFirstPlane + vPlaneCount) that lie in
 // the voxels the box owns, composited front to back in registers and emitted once (premultiplied).
 void main() {
@@ -168,18 +182,14 @@ void main() {
   const vec3 o = origin * uInvSpacing + uHalfDims;
   const vec3 dv = direction * uInvSpacing;
   const vec3 inv = 1.0 / mix(dv, vec3(1e-20), lessThan(abs(dv), vec3(1e-20)));
-  const vec3 ta = (vec3(vOwnLo) - 1.0 / 128.0 - o) * inv, tb = (vec3(vOwnHi) + 1.0 / 128.0 - o) * inv;
-  const float tIn = max(max(min(ta.x, tb.x), min(ta.y, tb.y)), max(min(ta.z, tb.z), 0.0));
-  const float tOut = min(min(max(ta.x, tb.x), max(ta.y, tb.y)), max(ta.z, tb.z));
-  const int first = max(vFirstPlane, int(floor((start + along * tIn) / uPlaneIncr)) - 1);
-  const int last = min(vFirstPlane + vPlaneCount, int(ceil((start + along * tOut) / uPlaneIncr)) + 2);
+  const vec2 range = rayBoxRange(o, inv, vec3(vOwnLo) - 1.0 / 128.0, vec3(vOwnHi) + 1.0 / 128.0);
+  const int first = max(vFirstPlane, int(floor((start + along * range.x) / uPlaneIncr)) - 1);
+  const int last = min(vFirstPlane + vPlaneCount, int(ceil((start + along * range.y) / uPlaneIncr)) + 2);
   // Planes whose point lies at least 1/64 voxel inside every owned face, one plane in from either end for round-off,
   // are owned without a test (the ray's point is off by far less than 1/64 voxel).
-  const vec3 sa = (vec3(vOwnLo) + 1.0 / 64.0 - o) * inv, sb = (vec3(vOwnHi) - 1.0 / 64.0 - o) * inv;
-  const float sIn = max(max(min(sa.x, sb.x), min(sa.y, sb.y)), max(min(sa.z, sb.z), 0.0));
-  const float sOut = min(min(max(sa.x, sb.x), max(sa.y, sb.y)), max(sa.z, sb.z));
-  const int insideFirst = int(ceil((start + along * sIn) / uPlaneIncr)) + 1;
-  const int insideLast = int(floor((start + along * sOut) / uPlaneIncr)) - 1;
+  const vec2 inside = rayBoxRange(o, inv, vec3(vOwnLo) + 1.0 / 64.0, vec3(vOwnHi) - 1.0 / 64.0);
+  const int insideFirst = int(ceil((start + along * inside.x) / uPlaneIncr)) + 1;
+  const int insideLast = int(floor((start + along * inside.y) / uPlaneIncr)) - 1;
   // Faces between boxes are tested on the 1/256-voxel grid, as EXACT_OWNERSHIP; the volume's own faces on the
   // unrounded point, as slicing tests them, so that rays grazing the surface keep the same samples - except faces the
   // planes are parallel to (a view along an axis): a plane through such a face lands on it only on the grid, where
@@ -219,7 +229,7 @@ void main() {
     // The empty-space silhouette pass: keep the fragment (its depth marks the pixel) at the first sample, or with
     // pre-integration the first segment, the march would give any opacity; discard it if there is none.
 #ifdef PRE_INTEGRATION
-    const vec3 after = (origin + direction * ((planeDistance + uPlaneIncr - start) / along)) * uInvSpacing + uHalfDims;
+    const vec3 after = voxelOnPlane(origin, direction, start, along, planeDistance + uPlaneIncr);
     if (preIntegrated(sampleAt(voxel), sampleAt(clamp(after, backLo, backHi)), layer).a > 0.0) return;
 #else
     if (texture(uTransfer, normalised(sampleAt(voxel))).a > 0.0) return;
@@ -228,7 +238,7 @@ void main() {
 #endif
 #ifdef PRE_INTEGRATION
     const float value = backPlane == k ? back : sampleAt(voxel);
-    const vec3 next = (origin + direction * ((planeDistance + uPlaneIncr - start) / along)) * uInvSpacing + uHalfDims;
+    const vec3 next = voxelOnPlane(origin, direction, start, along, planeDistance + uPlaneIncr);
     back = sampleAt(clamp(next, backLo, backHi));
     backPlane = k + 1;
 #else
