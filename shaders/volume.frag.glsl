@@ -246,7 +246,7 @@ void main() {
 #endif
     ++taken;
 #ifdef ROOFLINE
-    sum = vec4(value);
+    sum = vec4(value * 1e-9);  // below any termination threshold: every sample taken
 #elif defined(PRE_INTEGRATION)
     sum += (1.0 - sum.a) * shade(preIntegrated(value, back, layer), world, voxel);
 #else
