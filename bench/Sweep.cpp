@@ -144,6 +144,7 @@ std::string Setting::label() const {
   if (ert > 0) text += ", ert " + stepText(ert);
   if (preIntegration) text += ", pre-int";
   if (subBlock > 0) text += ", sub-block " + std::to_string(subBlock);
+  if (lod > 0) text += ", lod " + stepText(lod);
   return text;
 }
 
@@ -243,6 +244,7 @@ class DatasetRun {
       scene.ert = setting.ert;
       scene.preIntegration = setting.preIntegration;
       scene.subBlock = setting.subBlock;
+      scene.lod = setting.lod;
       return scene;
     };
     renderer.render(sceneOf(0));  // warm-up: pages what this setting draws, builds its program
@@ -307,7 +309,8 @@ size_t SweepSpec::plannedPoints() const {
     size_t perVariant = 0;
     for (double step : slabStepsOrAll()) {
       for (int slab : slabs) perVariant += slab >= ertSlab || step >= smallSlabMinStep;
-      perVariant += erts.size() * (1 + slabSubBlocks.size()) + (!ertSlabSwept && (!erts.empty() || preIntegration));
+      perVariant += erts.size() * (1 + slabSubBlocks.size() + lods.size()) +
+                    (!ertSlabSwept && (!erts.empty() || preIntegration));
       if (ertAtBestSlab && otherSlab) perVariant += erts.size();
       if (preIntegration) perVariant += erts.empty() ? 1 : 2;
     }
@@ -366,6 +369,12 @@ SweepResult runSweep(const SweepSpec& spec, const fs::path& work, render::GlCont
             record(run->measure(slabSetting(step, spec.ertSlab, ert), vi));
             for (int subBlock : spec.slabSubBlocks)
               record(run->measure(slabSetting(step, spec.ertSlab, ert, false, subBlock), vi));
+            for (double lod : spec.lods) {
+              Setting s = slabSetting(step, spec.ertSlab, ert, false,
+                                      spec.slabSubBlocks.empty() ? 0 : spec.slabSubBlocks.back());
+              s.lod = lod;
+              record(run->measure(s, vi));
+            }
           }
         }
       }

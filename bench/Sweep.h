@@ -43,6 +43,7 @@ struct Setting {
   double ert = 0;               ///< early ray termination threshold (0 off); slabs only
   bool preIntegration = false;  ///< pre-integrated classification; slabs only
   int subBlock = 0;             ///< empty sub-blocks skipped inside bricks (render::Scene::subBlock); 0 whole bricks
+  double lod = 0;               ///< level of detail (render::Scene::lod); 0 level 0 everywhere
   bool operator==(const Setting&) const = default;
   /// E.g. "step 0.5, B=32, skip, vertex"; the slab settings are appended only where not default: "step 1, B=32,
   /// skip, vertex, slab 16, ert 0.99, pre-int" ("slab whole brick" for render::Scene::kMaxSlab).
@@ -74,6 +75,9 @@ struct SweepSpec {
   /// Each threshold of `erts` at `ertSlab` again with each of these sub-block sizes (empty space skipped inside
   /// bricks, which slabs pay no extra ownership cost for).
   std::vector<int> slabSubBlocks;
+  /// Levels of detail besides 0 (render::Scene::lod), each with every threshold of `erts` at `ertSlab` and the last
+  /// of `slabSubBlocks` (0 if none); the reference stays level 0, so their error is what a user sees.
+  std::vector<double> lods;
   bool ertAtBestSlab = true;           ///< also the thresholds at the fastest other slab size
   bool preIntegration = true;          ///< pre-integration at `ertSlab`, with ERT off and with the best threshold
   bool opaqueVariants = true;          ///< slab settings on each dataset's opaque transfer function too

@@ -29,7 +29,7 @@ std::string csv(const SweepResult& r) {
   std::string out =
       "dataset,transfer_function,shading,step,brick,skip,slicer,views,size,median_ms,min_ms,max_ms,median_samples,"
       "psnr_worst_db,psnr_pooled_db,rmse_pooled,max_abs,pareto,slab,ert,pre_integration,samples_median,"
-      "fragments_median,samples_terminated_median,slab_passes_median,sub_block\n";
+      "fragments_median,samples_terminated_median,slab_passes_median,sub_block,lod\n";
   for (const Point& p : r.points) {
     out += p.dataset + "," + p.variant.transferFunction + "," + (p.variant.shading ? "1" : "0") + "," +
            number("%g", p.setting.step) + "," + std::to_string(p.setting.brick) + "," + (p.setting.skip ? "1" : "0") +
@@ -40,7 +40,8 @@ std::string csv(const SweepResult& r) {
            "," + (p.pareto ? "1" : "0") + "," + std::to_string(p.setting.slab) + "," + number("%g", p.setting.ert) +
            "," + (p.setting.preIntegration ? "1" : "0") + "," + number("%.0f", p.samplesMedian) + "," +
            number("%.0f", p.fragmentsMedian) + "," + number("%.0f", p.samplesTerminatedMedian) + "," +
-           number("%.0f", p.slabPassesMedian) + "," + std::to_string(p.setting.subBlock) + "\n";
+           number("%.0f", p.slabPassesMedian) + "," + std::to_string(p.setting.subBlock) + "," +
+           number("%g", p.setting.lod) + "\n";
   }
   return out;
 }

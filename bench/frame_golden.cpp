@@ -75,9 +75,10 @@ std::vector<Case> cases() {
   std::vector<Case> out;
   const std::vector<std::string> views = {R"("orbit": [30, 20, 2.5])", R"("orbit": [90, 0, 2.2])",
                                           R"("orbit": [0, 90, 2.5])", R"("orbit": [200, -35, 1.6])"};
-  // Slicing, as when the digests were taken: the default drawing is now texture slabs (render/Scene.h).
+  // Slicing of level 0, as when the digests were taken: the default drawing is now texture slabs with level of
+  // detail (render/Scene.h).
   auto scene = [](const std::string& camera, const std::string& rest) {
-    const std::string drawing = std::string(R"("slab": 0, "ert": 0)") +
+    const std::string drawing = std::string(R"("slab": 0, "ert": 0, "lod": 0)") +
                                 (rest.find("sub_block") == std::string::npos ? R"(, "sub_block": 0)" : "");
     return "{\"camera\": {" + camera + "}, \"size\": [96, 80], " + drawing + (rest.empty() ? "" : ", " + rest) +
            "}";

@@ -17,7 +17,7 @@ namespace {
 struct BenchArgs {
   std::string out = "bench/results", work = "bench/work", datasets, steps, backend = "auto";
   std::string mri = "/usr/share/mricron/templates/ch2better.nii.gz";
-  std::string slabs, erts, slabSteps, alternatives, slabSubBlocks;
+  std::string slabs, erts, slabSteps, alternatives, slabSubBlocks, lods;
   bool quick = false, quiet = false, dryRun = false, noBestSlab = false, noPreIntegration = false, noOpaque = false,
        noShading = false;
   int views = 0, size = 0, ertSlab = 0;
@@ -82,6 +82,11 @@ void runBench(const BenchArgs& a) {
     spec.slabSubBlocks.clear();
     for (double v : numberList(a.slabSubBlocks, "--slab-sub-blocks", 2, render::Scene::kMaxSubBlock, true))
       spec.slabSubBlocks.push_back(int(v));
+  }
+  if (!a.lods.empty()) {
+    spec.lods.clear();
+    for (const std::string& t : a.lods == "none" ? std::vector<std::string>{} : splitList(a.lods))
+      if (t != "0") spec.lods.push_back(numberList(t, "--lods", 0, render::Scene::kMaxLod).front());
   }
   if (!a.slabSteps.empty()) {
     spec.slabSteps = numberList(a.slabSteps, "--slab-steps", 1e-3, 64);
@@ -182,6 +187,9 @@ void addBenchCommand(CLI::App& app) {
                   "(default 0.99,0.999,1)");
   cmd->add_option("--slab-sub-blocks", args->slabSubBlocks,
                   "each ERT threshold at --ert-slab again with these sub-block sizes, comma-separated, or none (default 8)");
+  cmd->add_option("--lods", args->lods,
+                  "levels of detail (pixels) besides 0, each with every ERT threshold at --ert-slab and the last "
+                  "--slab-sub-blocks size, comma-separated, or none (default none)");
   cmd->add_flag("--no-best-slab", args->noBestSlab,
                 "ERT thresholds only at --ert-slab, not also at the fastest other size");
   cmd->add_flag("--no-pre-integration", args->noPreIntegration, "no pre-integrated settings");

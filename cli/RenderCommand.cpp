@@ -61,9 +61,15 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
   const image::ImageF image = engine.render(dataset, scene, &stats);
   image::writePng(a.output, image::toImage8(image));
   if (!a.statsPath.empty()) writeText(a.statsPath, stats.toJson().dump(2) + "\n");
-  std::printf("render: wrote %s (%dx%d): %lld bricks drawn, %lld skipped empty, %lld culled, %lld paged in, "
+  std::string levels;
+  if (stats.bricksCoarse > 0) {
+    levels = " (per level:";
+    for (int64_t n : stats.bricksPerLevel) levels += " " + std::to_string(n);
+    levels += ")";
+  }
+  std::printf("render: wrote %s (%dx%d): %lld bricks drawn%s, %lld skipped empty, %lld culled, %lld paged in, "
               "%lld evicted, %lld batches, %.1f ms (paging %.1f, slicing %.1f, drawing %.1f, readback %.1f)\n",
-              a.output.c_str(), scene.width, scene.height, (long long)stats.bricksDrawn,
+              a.output.c_str(), scene.width, scene.height, (long long)stats.bricksDrawn, levels.c_str(),
               (long long)stats.bricksSkippedEmpty, (long long)stats.bricksCulled, (long long)stats.bricksPagedIn,
               (long long)stats.bricksEvicted, (long long)stats.batches, stats.msTotal, stats.msPaging,
               stats.msSlicing, stats.msDrawing, stats.msReadback);

@@ -62,6 +62,7 @@ render::Scene buildScene(const SceneArgs& a, const CLI::App& cmd) {
   if (a.subBlock >= 0) s.subBlock = a.subBlock;
   if (a.slab >= 0) s.slab = a.slab;
   if (cmd.count("--ert")) s.ert = a.ert;
+  if (cmd.count("--lod")) s.lod = a.lod;
   if (a.preIntegration) s.preIntegration = true;
   if (a.ess) s.ess = true;
   if (!a.slicer.empty()) s.slicer = a.slicer == "cpu" ? render::Slicer::Cpu : render::Slicer::Vertex;
@@ -96,6 +97,9 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
                   "(default 0.999; 0: off)");
   cmd->add_flag("--pre-integration", args.preIntegration,
                 "pre-integrated classification on slabs: each segment between samples classified whole from a table");
+  cmd->add_option("--lod", args.lod,
+                  "level of detail: draw a coarser pyramid level where its voxels are at most this many pixels tall "
+                  "(0: level 0 everywhere)");
   cmd->add_flag("--ess", args.ess,
                 "empty-space silhouette maps on slabs: a pass before each slab marks the pixels with anything to draw");
   cmd->add_flag("--shading", args.shading, "gradient (central differences) and Phong headlight shading");

@@ -16,6 +16,7 @@ struct SceneArgs {
   int subBlock = -1;
   int slab = -1;
   double ert = 0;
+  double lod = 0;
 };
 
 /// Registers the scene options on `cmd`, storing into `args` (which must outlive the app).

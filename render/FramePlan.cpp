@@ -64,7 +64,10 @@ FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int tran
     return tf.contributes((mn - w.lo) * w.inverseWidth - texel, (mx - w.lo) * w.inverseWidth + texel);
   };
   const OctreeTraversal traversal(store.octree(), meta.dims, B, meta.spacing);
-  plan.visible = traversal.run(plan.camera, frustum, plan.contributes, {scene.skipEmpty, scene.cullFrustum});
+  TraversalOptions options{scene.skipEmpty, scene.cullFrustum, {scene.lod, store.levelCount() - 1, scene.height}};
+  plan.visible = traversal.run(plan.camera, frustum, plan.contributes, options);
+  plan.coarsestLevel = int(plan.visible.stats.bricksPerLevel.size()) - 1;
+  if (plan.coarsestLevel < 0) plan.coarsestLevel = 0;
 
   plan.planeNormal = plan.camera.viewDirection();
   const double minSpacing = std::min({meta.spacing.x, meta.spacing.y, meta.spacing.z});
@@ -81,9 +84,25 @@ FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int tran
   return plan;
 }
 
+std::vector<uint8_t> brickLevels(const TraversalResult& visible, const store::StoreMeta& meta) {
+  const store::Vec3i& grid = meta.levels.at(0).bricks;
+  std::vector<uint8_t> levels(size_t(grid.volume()), 0);
+  for (const BrickDraw& d : visible.bricks) {
+    const int m = int(d.key.level);
+    if (m == 0) continue;
+    const int64_t lo[3] = {int64_t(d.key.i) << m, int64_t(d.key.j) << m, int64_t(d.key.k) << m};
+    for (int64_t k = lo[2]; k < std::min(lo[2] + (int64_t{1} << m), grid.z); ++k)
+      for (int64_t j = lo[1]; j < std::min(lo[1] + (int64_t{1} << m), grid.y); ++j)
+        for (int64_t i = lo[0]; i < std::min(lo[0] + (int64_t{1} << m), grid.x); ++i)
+          levels[size_t(i + grid.x * (j + grid.y * k))] = uint8_t(m);
+  }
+  return levels;
+}
+
 std::pair<double, double> FramePlan::segmentRatios() const {
   const double ratio = step / referenceLength;
-  if (camera.orthographic) return {ratio, ratio};
+  const double coarse = double(planeStride(coarsestLevel));
+  if (camera.orthographic) return {ratio, ratio * coarse};
   double lo = std::numeric_limits<double>::infinity(), hi = 0;
   const double xs[] = {0.5, 0.5 * width, width - 0.5}, ys[] = {0.5, 0.5 * height, height - 0.5};
   for (double x : xs)
@@ -92,7 +111,7 @@ std::pair<double, double> FramePlan::segmentRatios() const {
       const double cosine = std::max(glm::dot(glm::normalize(d), planeNormal), 1e-3);
       lo = std::min(lo, ratio / cosine), hi = std::max(hi, ratio / cosine);
     }
-  return {lo, hi};
+  return {lo, hi * coarse};
 }
 
 }  // namespace voxbrick::render

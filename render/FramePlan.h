@@ -3,6 +3,7 @@
 // and the pixel rays of exact ownership. Later stages (residency, geometry, drawing passes) only read it.
 #pragma once
 
+#include <cstdint>
 #include <utility>
 #include <vector>
 
@@ -51,18 +52,21 @@ struct FramePlan {
   double ert = 0;             ///< early ray termination threshold on slabs; 0 off (always 0 when slicing)
   bool preIntegration = false;  ///< pre-integrated classification (slabs only)
   bool ess = false;             ///< empty-space silhouette maps (slabs only)
+  int coarsestLevel = 0;        ///< the coarsest pyramid level among plan.visible's bricks (level of detail)
   int width = 0, height = 0;    ///< image size in pixels
   PixelRays rays;
 
-  /// Whether every box owns exactly its voxels, tested on the pixel's ray (sub-blocks, whose boxes meet at
-  /// T-junctions, and slabs, which march rays); else whole bricks share their rasterised faces and only the
-  /// volume's outline is tested.
-  bool exactOwnership() const { return subBlock > 0 || slab > 0; }
+  /// Whether every box owns exactly its voxels, tested on the pixel's ray (sub-blocks and bricks of different levels,
+  /// whose boxes meet at T-junctions, and slabs, which march rays); else whole bricks share their rasterised faces
+  /// and only the volume's outline is tested.
+  bool exactOwnership() const { return subBlock > 0 || slab > 0 || coarsestLevel > 0; }
+  /// Planes a box of pyramid level `level` samples: every one when slicing, every 2^level-th on slabs.
+  int planeStride(int level) const { return slab > 0 ? 1 << level : 1; }
 
   /// The shortest and longest segment between two planes along any pixel's ray, in reference lengths: step / L
   /// over the cosine of the ray's angle to the view axis (1 for an orthographic camera), over the image's corners and
   /// centre (the cosine is largest at the centre or a corner and smallest at a corner, being a ratio of a linear
-  /// to a convex function of window position).
+  /// to a convex function of window position). The longest is that of the coarsest level's plane stride.
   std::pair<double, double> segmentRatios() const;
 
   /// The box to draw for voxel box `b`: larger than the voxels it owns, so that the fragment stage's ownership test
@@ -74,6 +78,11 @@ struct FramePlan {
   static constexpr double kSurfaceMargin = 0.25;
   static constexpr double kInteriorMargin = 1.0 / 64;
 };
+
+/// The pyramid level of each level-0 brick in `visible` (x fastest over `meta`'s level-0 brick grid): m inside the
+/// voxels of every level-m brick drawn, 0 elsewhere. What ReferenceOptions::brickLevels takes, so that the reference
+/// samples the same level as the GPU everywhere.
+std::vector<uint8_t> brickLevels(const TraversalResult& visible, const store::StoreMeta& meta);
 
 /// Plans a frame of `scene` over `store`. `transferTableTexels` is the size of the GPU's transfer-function table
 /// (the range test is widened by one of its texels). Throws RenderInputError for an invalid scene.

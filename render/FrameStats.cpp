@@ -11,6 +11,8 @@ nlohmann::json FrameStats::toJson() const {
           {"fragments", fragments},           {"samples", samples},
           {"samples_terminated", samplesTerminated}, {"slab_passes", slabPasses},
           {"sub_blocks_skipped", subBlocksSkipped}, {"boxes_drawn", boxesDrawn},
+          {"bricks_coarse", bricksCoarse},   {"bricks_coarsened", bricksCoarsened},
+          {"bricks_per_level", bricksPerLevel},
           {"ms", {{"traversal", msTraversal}, {"paging", msPaging}, {"slicing", msSlicing},
                   {"drawing", msDrawing}, {"readback", msReadback}, {"total", msTotal},
                   {"pre_integration", msPreIntegration}}}};

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -11,7 +12,10 @@ struct FrameStats {
   int64_t nodesVisited = 0;
   int64_t bricksSkippedEmpty = 0;
   int64_t bricksCulled = 0;
-  int64_t bricksDrawn = 0;
+  int64_t bricksDrawn = 0;     ///< bricks drawn, of every level
+  int64_t bricksCoarse = 0;    ///< of those, bricks of a coarser level standing for level 0 (Scene::lod)
+  int64_t bricksCoarsened = 0; ///< level-0 bricks the coarse ones stood for
+  std::vector<int64_t> bricksPerLevel;  ///< bricks drawn of each pyramid level
   int64_t bricksPagedIn = 0;   ///< uploaded into the atlas this frame
   int64_t bricksEvicted = 0;   ///< replaced in the atlas this frame
   int64_t batches = 0;         ///< draw batches (more than one when the atlas cannot hold the frame's bricks)

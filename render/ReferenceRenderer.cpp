@@ -24,12 +24,19 @@ namespace voxbrick::render {
 /// sample costs one atomic load instead of a cache lookup.
 class ReferenceBricks {
  public:
-  explicit ReferenceBricks(std::shared_ptr<store::BrickCache> cache)
-      : mCache(std::move(cache)),
-        mCount(size_t(mCache->store()->level(0).bricksTotal())),
-        mPointers(std::make_unique<std::atomic<const void*>[]>(mCount)) {
+  explicit ReferenceBricks(std::shared_ptr<store::BrickCache> cache) : mCache(std::move(cache)) {
+    // One pointer per brick of every level, level after level.
+    mCount = 0;
+    for (int l = 0; l < mCache->store()->levelCount(); ++l) {
+      mLevelFirst.push_back(mCount);
+      mCount += size_t(mCache->store()->level(l).bricksTotal());
+    }
+    mPointers = std::make_unique<std::atomic<const void*>[]>(mCount);
     for (size_t i = 0; i < mCount; ++i) mPointers[i].store(nullptr, std::memory_order_relaxed);
   }
+
+  /// The index of `key`'s pointer from its index within its level.
+  size_t index(const store::BrickKey& key, size_t inLevel) const { return mLevelFirst[key.level] + inLevel; }
 
   const void* data(const store::BrickKey& key, size_t index) {
     const void* p = mPointers[index].load(std::memory_order_acquire);
@@ -48,6 +55,7 @@ class ReferenceBricks {
 
   std::shared_ptr<store::BrickCache> mCache;
   size_t mCount;
+  std::vector<size_t> mLevelFirst;
   std::unique_ptr<std::atomic<const void*>[]> mPointers;
   std::mutex mMutex;
   std::vector<store::BrickHandle> mHandles;
@@ -60,27 +68,41 @@ using Clock = std::chrono::steady_clock;
 /// Below this transmittance a ray stops (see the class comment).
 constexpr double kTerminateTransmittance = 1e-9;
 
-/// Trilinear reconstruction of level 0 at a voxel coordinate (voxel i's centre at i + ½), clamp-to-edge. The cell's
-/// lower corner picks the brick, whose one-voxel border holds the upper corner, as on the GPU.
+/// Trilinear reconstruction at a level-0 voxel coordinate (voxel i's centre at i + ½), clamp-to-edge, of level 0 or,
+/// with per-brick levels, of the level chosen for the level-0 brick the point lies in (at the coordinate clamped to
+/// the volume times 2^-m). The cell's lower corner picks the brick of that level, whose one-voxel border holds the
+/// upper corner, as on the GPU.
 template <typename T>
 class GridSampler {
  public:
-  GridSampler(ReferenceBricks& bricks, const store::StoreMeta& meta)
-      : mBricks(bricks), mDims(meta.dims), mBrick(meta.brickSize), mEdge(meta.brickSize + 2),
-        mBrickGrid(meta.levels.at(0).bricks) {}
+  GridSampler(ReferenceBricks& bricks, const store::StoreMeta& meta, const std::vector<uint8_t>& brickLevels)
+      : mBricks(bricks), mMeta(meta), mDims(meta.dims), mBrick(meta.brickSize), mEdge(meta.brickSize + 2),
+        mBrickGrid(meta.levels.at(0).bricks), mBrickLevels(brickLevels) {}
 
   double operator()(const glm::dvec3& p) const {
+    int level = 0;
+    glm::dvec3 q = p;
+    if (!mBrickLevels.empty()) {
+      int64_t b[3];
+      for (int a = 0; a < 3; ++a) {
+        q[a] = std::clamp(p[a], 0.0, double(mDims[a]));
+        b[a] = std::min(int64_t(q[a]), mDims[a] - 1) / mBrick;
+      }
+      level = mBrickLevels[size_t(b[0] + mBrickGrid.x * (b[1] + mBrickGrid.y * b[2]))];
+      q = std::ldexp(1.0, -level) * q;
+    }
+    const store::LevelMeta& lm = mMeta.levels[size_t(level)];
     int64_t brick[3], local[3];
     double f[3];
     for (int a = 0; a < 3; ++a) {
-      const double u = std::clamp(p[a] - 0.5, 0.0, double(mDims[a] - 1));
-      const int64_t i = std::min(int64_t(u), mDims[a] - 1);
+      const double u = std::clamp(q[a] - 0.5, 0.0, double(lm.dims[a] - 1));
+      const int64_t i = std::min(int64_t(u), lm.dims[a] - 1);
       f[a] = u - double(i);
       brick[a] = i / mBrick;
       local[a] = i - brick[a] * mBrick + 1;
     }
-    const store::BrickKey key{0, uint32_t(brick[0]), uint32_t(brick[1]), uint32_t(brick[2])};
-    const size_t index = size_t(brick[0] + mBrickGrid.x * (brick[1] + mBrickGrid.y * brick[2]));
+    const store::BrickKey key{uint32_t(level), uint32_t(brick[0]), uint32_t(brick[1]), uint32_t(brick[2])};
+    const size_t index = mBricks.index(key, size_t(brick[0] + lm.bricks.x * (brick[1] + lm.bricks.y * brick[2])));
     const T* v = static_cast<const T*>(mBricks.data(key, index)) + (local[0] + mEdge * (local[1] + mEdge * local[2]));
     const int64_t dy = mEdge, dz = mEdge * mEdge;
     auto lerp = [](double a, double b, double t) { return a + t * (b - a); };
@@ -93,9 +115,11 @@ class GridSampler {
 
  private:
   ReferenceBricks& mBricks;
+  const store::StoreMeta& mMeta;
   store::Vec3i mDims;
   int64_t mBrick, mEdge;
   store::Vec3i mBrickGrid;
+  const std::vector<uint8_t>& mBrickLevels;
 };
 
 /// The analytic function at a voxel coordinate, clamped to the box (where it is defined).
@@ -407,8 +431,9 @@ Frame makeFrame(const Scene& scene, const ReferenceOptions& options, const store
   return f;
 }
 
-/// Marks the level-0 bricks whose [min, max] the transfer function maps to zero opacity, for rays to jump over.
-void markTransparentBricks(Frame& f, const store::BrickStore& store) {
+/// Marks the level-0 bricks whose [min, max] the transfer function maps to zero opacity, for rays to jump over;
+/// never those sampled at a coarser level, whose reconstruction reads beyond them.
+void markTransparentBricks(Frame& f, const store::BrickStore& store, const std::vector<uint8_t>& brickLevels) {
   const store::StoreMeta& meta = store.meta();
   const store::LevelMeta& level = meta.levels.at(0);
   f.brickGrid = level.bricks;
@@ -418,8 +443,10 @@ void markTransparentBricks(Frame& f, const store::BrickStore& store) {
     for (int64_t j = 0; j < level.bricks.y; ++j)
       for (int64_t i = 0; i < level.bricks.x; ++i) {
         const store::BrickRecord& r = store.record({0, uint32_t(i), uint32_t(j), uint32_t(k)});
-        f.transparent[size_t(i + level.bricks.x * (j + level.bricks.y * k))] = !f.scene->transferFunction.contributes(
-            (double(r.min) - f.lo) * f.inverseWidth, (double(r.max) - f.lo) * f.inverseWidth);
+        const size_t index = size_t(i + level.bricks.x * (j + level.bricks.y * k));
+        f.transparent[index] = (brickLevels.empty() || brickLevels[index] == 0) &&
+                               !f.scene->transferFunction.contributes((double(r.min) - f.lo) * f.inverseWidth,
+                                                                      (double(r.max) - f.lo) * f.inverseWidth);
       }
 }
 
@@ -438,8 +465,18 @@ image::ImageF ReferenceRenderer::render(const Scene& scene, const ReferenceOptio
   const store::BrickStore& store = *mCache->store();
   const store::StoreMeta& meta = store.meta();
 
+  if (!options.brickLevels.empty()) {
+    if (options.analytic) throw RenderInputError("ReferenceRenderer: per-brick levels sample the store, not a field");
+    if (options.brickLevels.size() != size_t(meta.levels.at(0).bricksTotal()))
+      throw RenderInputError("ReferenceRenderer: " + std::to_string(options.brickLevels.size()) +
+                             " brick levels for " + std::to_string(meta.levels.at(0).bricksTotal()) + " bricks");
+    for (uint8_t l : options.brickLevels)
+      if (int(l) >= store.levelCount())
+        throw RenderInputError("ReferenceRenderer: brick level " + std::to_string(int(l)) + " beyond the store's " +
+                               std::to_string(store.levelCount()) + " levels");
+  }
   Frame f = makeFrame(scene, options, meta);
-  if (!options.analytic && scene.skipEmpty) markTransparentBricks(f, store);
+  if (!options.analytic && scene.skipEmpty) markTransparentBricks(f, store, options.brickLevels);
 
   image::ImageF image{scene.width, scene.height, std::vector<float>(size_t(scene.width) * size_t(scene.height) * 4)};
   std::atomic<int64_t> rays{0}, samples{0}, skipped{0};
@@ -463,7 +500,9 @@ image::ImageF ReferenceRenderer::render(const Scene& scene, const ReferenceOptio
   if (options.analytic) {
     renderRows(AnalyticSampler(*options.analytic, meta));
   } else {
-    store::dispatchType(meta.type, [&](auto zero) { renderRows(GridSampler<decltype(zero)>(*mBricks, meta)); });
+    store::dispatchType(meta.type, [&](auto zero) {
+      renderRows(GridSampler<decltype(zero)>(*mBricks, meta, options.brickLevels));
+    });
   }
 
   if (statsOut) {

@@ -5,6 +5,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "brickstore/BrickCache.h"
 #include "brickstore/StoreMeta.h"
@@ -28,6 +29,10 @@ struct ReferenceOptions {
   /// between the two images is the reconstruction error alone. Empty-space skipping is off then, since brick
   /// ranges do not bound the function between samples.
   std::optional<store::SyntheticField> analytic;
+  /// Level of detail: the pyramid level sampled inside each level-0 brick's voxels (x fastest over level 0's brick
+  /// grid), as a frame plan chose them (brickLevels() in render/FramePlan.h); empty: level 0 everywhere. Level m is
+  /// reconstructed trilinearly at the level-0 voxel coordinate times 2^-m, clamp-to-edge, as on the GPU.
+  std::vector<uint8_t> brickLevels;
 };
 
 /// What one reference frame did.

@@ -41,7 +41,7 @@ std::optional<Residency::Resident> Residency::acquire(const store::BrickKey& key
   if (!acquired) return std::nullopt;
   const store::BrickStore& s = *mCache->store();
   const int B = s.brickSize();
-  const store::Vec3i& dims = s.meta().dims;
+  const store::Vec3i& dims = s.level(int(key.level)).dims;
   const store::Vec3i lo{int64_t(key.i) * B, int64_t(key.j) * B, int64_t(key.k) * B};
   const store::Vec3i owned{std::min<int64_t>(lo.x + B, dims.x) - lo.x, std::min<int64_t>(lo.y + B, dims.y) - lo.y,
                            std::min<int64_t>(lo.z + B, dims.z) - lo.z};

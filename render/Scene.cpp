@@ -75,7 +75,7 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   if (!j.is_object()) throw RenderInputError(what + ": a scene must be a JSON object");
   static const char* kKeys[] = {"camera", "size", "transfer_function", "step", "background", "window",
                                 "skip_empty", "cull", "slicer", "shading", "sub_block", "slab", "ert",
-                                "pre_integration", "ess"};
+                                "pre_integration", "ess", "lod"};
   for (auto it = j.begin(); it != j.end(); ++it)
     if (std::find(std::begin(kKeys), std::end(kKeys), it.key()) == std::end(kKeys))
       throw RenderInputError(what + ": unknown key '" + it.key() + "'");
@@ -160,6 +160,7 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   if (j.contains("ert")) s.ert = number(j["ert"], "ert", what);
   if (j.contains("pre_integration")) s.preIntegration = boolean(j["pre_integration"], "pre_integration", what);
   if (j.contains("ess")) s.ess = boolean(j["ess"], "ess", what);
+  if (j.contains("lod")) s.lod = number(j["lod"], "lod", what);
   s.validate();
   return s;
 }
@@ -181,6 +182,9 @@ void Scene::validate() const {
   if (!(ert == 0 || (ert >= 0.5 && ert <= 1)))
     throw RenderInputError("ert " + std::to_string(ert) + " must be 0 (no early ray termination) or a threshold in "
                            "[0.5, 1]");
+  if (!(lod >= 0 && lod <= kMaxLod))
+    throw RenderInputError("lod " + std::to_string(lod) + " must be 0 (level 0 everywhere) or a number of pixels up to " +
+                           std::to_string(int(kMaxLod)));
   if (subBlock != 0 && (subBlock < 2 || subBlock > kMaxSubBlock || (subBlock & (subBlock - 1)) != 0))
     throw RenderInputError("sub-block " + std::to_string(subBlock) + " must be 0 (whole bricks) or a power of two in "
                            "[2, " + std::to_string(kMaxSubBlock) + "]");
@@ -211,7 +215,8 @@ std::string Scene::toJson() const {
             {"slab", slab},
             {"ert", ert},
             {"pre_integration", preIntegration},
-            {"ess", ess}};
+            {"ess", ess},
+            {"lod", lod}};
   if (window) j["window"] = json::array({(*window)[0], (*window)[1]});
   return j.dump(2);
 }

@@ -35,6 +35,7 @@ struct Scene {
   static constexpr int kMaxImageSide = 8192;
   static constexpr int kMaxSubBlock = 256;
   static constexpr int kMaxSlab = 4096;
+  static constexpr double kMaxLod = 1024;  ///< pixels; beyond it every node is coarse enough anyway
 
   CameraSpec camera;
   int width = 512, height = 512;
@@ -74,12 +75,18 @@ struct Scene {
   /// transfer function does not make transparent; the slab is then drawn for those pixels only. The image is the
   /// same. No effect when slab is 0.
   bool ess = false;
+  /// Level of detail: where a coarser level of the pyramid has voxels no taller than this many pixels on the image
+  /// (at their nearest depth), draw that level instead of the finer ones; 0 draws level 0 everywhere. On texture
+  /// slabs a level-m brick takes every 2^m-th global plane (fewer, longer segments, opacity corrected for their
+  /// length); slicing takes every plane at every level. Default 1 (a voxel no larger than a pixel), chosen by the
+  /// sweep (bench/results/lod.md).
+  double lod = 1;
 
   /// Parses a scene JSON object; absent keys keep their defaults. Throws RenderInputError naming `what` and the
   /// key. Keys: camera {orbit: [az, el, dist] | eye, center, up; fov; orthographic}, size [w, h],
   /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b],
   /// window [lo, hi], skip_empty, cull, slicer ("vertex" | "cpu"), shading, sub_block, slab, ert,
-  /// pre_integration, ess.
+  /// pre_integration, ess, lod.
   /// `allowPaths` false (the server) accepts transfer functions by preset name or inline only, never a file path.
   static Scene fromJson(const std::string& text, const std::string& what, bool allowPaths = true);
   /// The same, resolving preset names from `presets` (no file is read) and accepting no paths: what a server does

@@ -49,18 +49,23 @@ void BrickWalk::cutBrick(const FramePlan& plan, const BrickDraw& draw, const Res
                          const PlaneIndexRange& brickPlanes, const store::StoreMeta& meta, int brickSize,
                          const SliceGeometry& geometry, FrameStats& stats,
                          const std::function<void(const QueuedBox&)>& add) {
+  // The brick's first voxel in its own level; the voxels it owns in level 0's (a level-m voxel is 2^m across).
   const store::BrickKey& key = draw.key;
+  const int level = int(key.level);
   const store::Vec3i brickLo{int64_t(key.i) * brickSize, int64_t(key.j) * brickSize, int64_t(key.k) * brickSize};
-  const store::Vec3i brickHi{std::min<int64_t>(brickLo.x + brickSize, meta.dims.x),
-                             std::min<int64_t>(brickLo.y + brickSize, meta.dims.y),
-                             std::min<int64_t>(brickLo.z + brickSize, meta.dims.z)};
+  const store::Vec3i ownedLo{brickLo.x << level, brickLo.y << level, brickLo.z << level};
+  const store::Vec3i ownedHi{std::min<int64_t>((brickLo.x + brickSize) << level, meta.dims.x),
+                             std::min<int64_t>((brickLo.y + brickSize) << level, meta.dims.y),
+                             std::min<int64_t>((brickLo.z + brickSize) << level, meta.dims.z)};
   mSpans.clear();
   if (plan.subBlock)
-    subBlockBoxes(*resident.ranges, brickLo, meta.dims, meta.spacing, plan.camera, plan.contributes, mSpans, mSubStats);
+    subBlockBoxes(*resident.ranges, brickLo, level, meta.dims, meta.spacing, plan.camera, plan.contributes, mSpans,
+                  mSubStats);
   else
-    mSpans.push_back({brickLo, brickHi});
+    mSpans.push_back({ownedLo, ownedHi});
+  // xyz: added to a sample's voxel coordinate in the brick's level, gives its atlas texel; w: the level.
   const glm::ivec4 payload(resident.origin.x + 1 - int32_t(brickLo.x), resident.origin.y + 1 - int32_t(brickLo.y),
-                           resident.origin.z + 1 - int32_t(brickLo.z), 0);
+                           resident.origin.z + 1 - int32_t(brickLo.z), level);
   // Whole bricks own the whole volume (only the outline is cut, the same for every bricking); with exact ownership
   // (sub-blocks, slabs) each box owns just its voxels (volume.frag.glsl).
   const glm::ivec3 volumeHi(meta.dims.x, meta.dims.y, meta.dims.z);

@@ -99,6 +99,7 @@ namespace {
 struct Walk {
   const SubBlockRanges& ranges;
   const store::Vec3i& brickLo;
+  int level0Shift;  // the brick's pyramid level: its voxel v is level-0 voxel v << level0Shift
   const store::Vec3i& dims;
   const store::Vec3d& spacing;
   const Camera& camera;
@@ -112,11 +113,14 @@ struct Walk {
     const int64_t cell[3] = {i, j, k};
     VoxelSpan s;
     for (int a = 0; a < 3; ++a) {
-      s.lo[a] = brickLo[a] + cell[a] * e;
-      s.hi[a] = brickLo[a] + std::min<int64_t>((cell[a] + 1) * e, ranges.owned()[a]);
+      s.lo[a] = toLevel0(brickLo[a] + cell[a] * e, a);
+      s.hi[a] = toLevel0(brickLo[a] + std::min<int64_t>((cell[a] + 1) * e, ranges.owned()[a]), a);
     }
     return s;
   }
+
+  /// The level-0 face of the brick's level face v along axis a.
+  int64_t toLevel0(int64_t v, int a) const { return std::min<int64_t>(v << level0Shift, dims[a]); }
 
   int64_t finestBlocks(int level, int i, int j, int k) const {
     const int64_t s = ranges.subBlock(), e = ranges.edge(level);
@@ -146,7 +150,7 @@ struct Walk {
       if (camera.orthographic) {
         highFirst = direction[a] < 0;
       } else {
-        const double split = voxelFace(brickLo[a] + (2 * cell[a] + 1) * childEdge, dims[a], spacing[a]);
+        const double split = voxelFace(toLevel0(brickLo[a] + (2 * cell[a] + 1) * childEdge, a), dims[a], spacing[a]);
         highFirst = camera.eye[a] >= split;
       }
       if (highFirst) highNear |= 1 << a;
@@ -168,11 +172,11 @@ struct Walk {
 
 }  // namespace
 
-void subBlockBoxes(const SubBlockRanges& ranges, const store::Vec3i& brickLo, const store::Vec3i& dims,
+void subBlockBoxes(const SubBlockRanges& ranges, const store::Vec3i& brickLo, int level, const store::Vec3i& dims,
                    const store::Vec3d& spacing, const Camera& camera, const RangePredicate& contributes,
                    std::vector<VoxelSpan>& out, SubBlockWalkStats& stats) {
   const size_t before = out.size();
-  Walk walk{ranges, brickLo, dims, spacing, camera, camera.viewDirection(), contributes, out, stats};
+  Walk walk{ranges, brickLo, level, dims, spacing, camera, camera.viewDirection(), contributes, out, stats};
   walk.visit(0, 0, 0, 0);
   stats.boxes += int64_t(out.size() - before);
 }

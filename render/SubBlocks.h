@@ -61,11 +61,12 @@ struct SubBlockWalkStats {
   int64_t boxes = 0;             ///< boxes emitted (a node whose blocks all contribute is one box)
 };
 
-/// Appends to `out`, front to back, the voxel spans brick `brickLo` (its first voxel, level 0) is drawn as: nodes
-/// whose range `contributes` rejects are left out, and a node whose finest blocks all contribute is one span. The
-/// order rule is OctreeTraversal's: per axis, the child on the eye's side of the split first (the view direction's
-/// sign for an orthographic camera), with split planes from voxelFace.
-void subBlockBoxes(const SubBlockRanges& ranges, const store::Vec3i& brickLo, const store::Vec3i& dims,
+/// Appends to `out`, front to back, the voxel spans brick `brickLo` (its first voxel, in voxels of pyramid level
+/// `level`) is drawn as, in level-0 voxels (a level-m voxel v spans level-0 voxels [v * 2^m, (v + 1) * 2^m), cut at
+/// `dims`, level 0's size): nodes whose range `contributes` rejects are left out, and a node whose finest blocks all
+/// contribute is one span. The order rule is OctreeTraversal's: per axis, the child on the eye's side of the split
+/// first (the view direction's sign for an orthographic camera), with split planes from voxelFace.
+void subBlockBoxes(const SubBlockRanges& ranges, const store::Vec3i& brickLo, int level, const store::Vec3i& dims,
                    const store::Vec3d& spacing, const Camera& camera, const RangePredicate& contributes,
                    std::vector<VoxelSpan>& out, SubBlockWalkStats& stats);
 

@@ -1,7 +1,9 @@
-// Front-to-back octree traversal over level-0 bricks with empty-space skipping and frustum culling.
+// Front-to-back octree traversal over level-0 bricks with empty-space skipping, frustum culling and level of detail.
 #include "render/Traversal.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <string>
 #include <utility>
 
@@ -10,6 +12,7 @@
 namespace voxbrick::render {
 
 struct OctreeTraversal::Walk {
+  const Camera& camera;
   const Frustum& frustum;
   const RangePredicate& contributes;
   TraversalOptions options;
@@ -56,6 +59,24 @@ Box OctreeTraversal::nodeBox(int d, int64_t i, int64_t j, int64_t k) const {
   return voxelSpanBox(lo, hi, mDims, mSpacing);
 }
 
+bool OctreeTraversal::coarseEnough(const Camera& camera, const LevelOfDetail& lod, int level, const Box& box) const {
+  const double voxel = std::ldexp(std::max({mSpacing.x, mSpacing.y, mSpacing.z}), level);
+  const double tanHalf = std::tan(0.5 * camera.fovYDegrees * 3.14159265358979323846 / 180.0);
+  double depth = camera.distance();  // orthographic: the view's height is taken in the plane through the centre
+  if (!camera.orthographic) {
+    const glm::dvec3 direction = camera.viewDirection();
+    depth = std::numeric_limits<double>::infinity();
+    for (int corner = 0; corner < 8; ++corner) {
+      const glm::dvec3 p((corner & 1) ? box.max.x : box.min.x, (corner & 2) ? box.max.y : box.min.y,
+                         (corner & 4) ? box.max.z : box.min.z);
+      depth = std::min(depth, glm::dot(p - camera.eye, direction));
+    }
+    if (!(depth > 0)) return false;
+  }
+  const double pixelsTall = voxel * double(lod.imageHeight) / (2.0 * depth * tanHalf);
+  return pixelsTall <= lod.pixels;
+}
+
 Box OctreeTraversal::brickBox(int64_t i, int64_t j, int64_t k) const {
   return nodeBox(mOctree->depth(), i, j, k);
 }
@@ -64,7 +85,9 @@ TraversalResult OctreeTraversal::run(const Camera& camera, const Frustum& frustu
                                      const TraversalOptions& options) const {
   if (options.skipEmpty && !contributes)
     throw RenderInputError("OctreeTraversal::run: skipEmpty is set but the range predicate is empty");
-  Walk walk{frustum, contributes, options, camera.eye, camera.viewDirection(), camera.orthographic, {}};
+  if (options.lod.pixels < 0 || !std::isfinite(options.lod.pixels) || options.lod.imageHeight <= 0)
+    throw RenderInputError("OctreeTraversal::run: level of detail needs pixels >= 0 and an image height > 0");
+  Walk walk{camera, frustum, contributes, options, camera.eye, camera.viewDirection(), camera.orthographic, {}};
   visit(walk, 0, 0, 0, 0);
   return std::move(walk.result);
 }
@@ -87,10 +110,19 @@ void OctreeTraversal::visit(Walk& walk, int d, int64_t i, int64_t j, int64_t k) 
     stats.bricksCulled += bricks;
     return;
   }
-  if (d == mOctree->depth()) {
-    walk.result.bricks.push_back(
-        {store::BrickKey{0, static_cast<uint32_t>(i), static_cast<uint32_t>(j), static_cast<uint32_t>(k)}, box});
+  const int level = mOctree->depth() - d;
+  if (level == 0 || (walk.options.lod.pixels > 0 && level <= walk.options.lod.coarsest &&
+                     coarseEnough(walk.camera, walk.options.lod, level, box))) {
+    walk.result.bricks.push_back({store::BrickKey{static_cast<uint32_t>(level), static_cast<uint32_t>(i),
+                                                  static_cast<uint32_t>(j), static_cast<uint32_t>(k)},
+                                  box});
     ++stats.bricksDrawn;
+    if (level > 0) {
+      ++stats.bricksCoarse;
+      stats.bricksCoarsened += bricks;
+    }
+    if (stats.bricksPerLevel.size() <= size_t(level)) stats.bricksPerLevel.resize(size_t(level) + 1, 0);
+    ++stats.bricksPerLevel[size_t(level)];
     return;
   }
   // q = child bits XOR highNear has bit a clear when the child is on the eye's side of the split plane along a.

@@ -22,24 +22,41 @@ inline double voxelFace(int64_t v, int64_t n, double s) {
 Box voxelSpanBox(const store::Vec3i& lo, const store::Vec3i& hi, const store::Vec3i& dims,
                  const store::Vec3d& spacing);
 
-/// One brick to draw: its key (level 0) and the world box of the voxels it owns (borders excluded).
+/// One brick to draw: its key (level 0, or a coarser level of the pyramid standing for the level-0 bricks under it)
+/// and the world box of the level-0 voxels it owns (borders excluded).
 struct BrickDraw {
   store::BrickKey key;
   Box box;
 };
 
-/// What a traversal did. Skipped and culled count bricks, including every brick under a skipped or culled node, so
-/// bricksDrawn + bricksSkippedEmpty + bricksCulled is the number of bricks of the grid.
+/// What a traversal did. Skipped and culled count level-0 bricks, including every brick under a skipped or culled
+/// node, and so does bricksCoarsened for the nodes drawn at a coarser level: (bricksDrawn - bricksCoarse) +
+/// bricksCoarsened + bricksSkippedEmpty + bricksCulled is the number of bricks of the grid.
 struct TraversalStats {
   int64_t nodesVisited = 0;
   int64_t bricksSkippedEmpty = 0;
   int64_t bricksCulled = 0;
-  int64_t bricksDrawn = 0;
+  int64_t bricksDrawn = 0;      ///< bricks to draw, of every level
+  int64_t bricksCoarse = 0;     ///< of those, bricks of a level above 0
+  int64_t bricksCoarsened = 0;  ///< level-0 bricks the coarse ones stand for
+  std::vector<int64_t> bricksPerLevel;  ///< bricks to draw of each level (as long as the coarsest one drawn)
+};
+
+/// Level of detail by screen-space error. A node of the octree at height m above the leaves covers exactly brick
+/// (i, j, k) of pyramid level m, whose voxels are 2^m level-0 voxels across; it is drawn at that level when one of
+/// those voxels, at the node's nearest depth along the view axis, is at most `pixels` pixels tall on the image
+/// (perspective: at depth z a pixel is 2 z tan(fov / 2) / height world units; orthographic: the view's height over
+/// the image's). A node reaching in front of the eye is never coarsened.
+struct LevelOfDetail {
+  double pixels = 0;       ///< 0: level 0 everywhere
+  int coarsest = 0;        ///< the coarsest level that may be drawn (the store's last)
+  int imageHeight = 1;     ///< pixels
 };
 
 struct TraversalOptions {
   bool skipEmpty = true;    ///< skip nodes whose value range the predicate rejects
   bool cullFrustum = true;  ///< skip nodes whose box lies outside the frustum
+  LevelOfDetail lod;        ///< off by default
 };
 
 /// Raw (not normalised) value range of a node -> whether the transfer function gives it any opacity. It must be
@@ -76,6 +93,8 @@ class OctreeTraversal {
   Box brickBox(int64_t i, int64_t j, int64_t k) const;
   /// World box of octree node (d, i, j, k), clipped to the volume; the node must exist.
   Box nodeBox(int d, int64_t i, int64_t j, int64_t k) const;
+  /// Whether a node of height `level` with world box `box` may be drawn at that level under `lod` for `camera`.
+  bool coarseEnough(const Camera& camera, const LevelOfDetail& lod, int level, const Box& box) const;
   /// The volume's world box (volumeBox(dims, spacing)).
   const Box& volume() const { return mVolume; }
 

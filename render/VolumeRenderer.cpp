@@ -56,6 +56,9 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, R
   stats.bricksSkippedEmpty = plan.visible.stats.bricksSkippedEmpty;
   stats.bricksCulled = plan.visible.stats.bricksCulled;
   stats.bricksDrawn = plan.visible.stats.bricksDrawn;
+  stats.bricksCoarse = plan.visible.stats.bricksCoarse;
+  stats.bricksCoarsened = plan.visible.stats.bricksCoarsened;
+  stats.bricksPerLevel = plan.visible.stats.bricksPerLevel;
   stats.msTraversal = msSince(t);
 
   mResidency.beginFrame(plan.visible.bricks);
@@ -69,7 +72,7 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, R
                        mode == RenderMode::Roofline ? FragmentModel::Roofline
                        : scene.shading             ? FragmentModel::Shaded
                                                    : FragmentModel::Plain,
-                       plan.subBlock > 0, plan.slab > 0, plan.preIntegration};
+                       plan.subBlock > 0 || plan.coarsestLevel > 0, plan.slab > 0, plan.preIntegration};
   const VolumeProgram& program = mPrograms.get(key);
   program.setFrame(plan, mResidency.atlas(), store.meta());
   if (plan.preIntegration) {

@@ -10,10 +10,12 @@
 // and is drawn 1/64 voxel larger, and the sample is computed from the pixel's ray and the plane alone, so that two
 // boxes see exactly the same point and exactly one keeps it.
 //
-// vPayload.xyz = slot origin + 1 - brick start (voxels): adding it to the sample's voxel coordinate gives the atlas
-// texel coordinate; the one-voxel border keeps every fetch inside the slot. Voxel coordinates are clamped to
-// [0, n] before a fetch: within half a voxel of the surface the value is the edge voxel's (clamp-to-edge) either
-// way, and the fetch stays in the slot.
+// vPayload.xyz = slot origin + 1 - brick start (voxels of the brick's level): adding it to the sample's voxel
+// coordinate in that level gives the atlas texel coordinate; the one-voxel border keeps every fetch inside the slot.
+// vPayload.w = the brick's pyramid level m: a level-m voxel is 2^m level-0 voxels across, so the level's voxel
+// coordinate is the level-0 one times 2^-m (exactly the same number at level 0). Positions, ownership and planes stay
+// in level-0 voxels. Voxel coordinates are clamped to [0, n] before a fetch: within half a voxel of the surface the
+// value is the edge voxel's (clamp-to-edge) either way, and the fetch stays in the slot.
 
 in vec3 vWorld;
 flat in ivec4 vPayload;
@@ -68,8 +70,11 @@ float oneMinusExp(float y) {
   return y > -0.015625 ? -y * (1.0 + y * (0.5 + y * (1.0 / 6.0 + y * (1.0 / 24.0)))) : 1.0 - exp(y);
 }
 
+// 2^-m for the brick's level m.
+float levelScale() { return 1.0 / float(1 << vPayload.w); }
+
 float sampleAt(vec3 voxel) {
-  return texture(uAtlas, (clamp(voxel, vec3(0.0), uDims) + vec3(vPayload.xyz)) * uInvAtlasSize).r;
+  return texture(uAtlas, (clamp(voxel, vec3(0.0), uDims) * levelScale() + vec3(vPayload.xyz)) * uInvAtlasSize).r;
 }
 
 // The length of this ray's segment between two planes, in reference lengths. Planes are uPlaneIncr apart along the
@@ -171,7 +176,9 @@ vec3 voxelOnPlane(vec3 origin, vec3 direction, float start, float along, float d
 }
 
 // A slab: the samples of this pixel's ray on the global planes [vFirstPlane, vFirstPlane + vPlaneCount) that lie in
-// the voxels the box owns, composited front to back in registers and emitted once (premultiplied).
+// the voxels the box owns, composited front to back in registers and emitted once (premultiplied). A box of level m
+// takes every 2^m-th plane (those whose index is a multiple of 2^m, the same for every box of that level), each
+// sample standing for a segment 2^m planes long.
 void main() {
   const vec3 origin = uRayOrigin + gl_FragCoord.x * uRayOriginDx + gl_FragCoord.y * uRayOriginDy;
   const vec3 direction = uRayDirection + gl_FragCoord.x * uRayDirectionDx + gl_FragCoord.y * uRayDirectionDy;
@@ -183,7 +190,10 @@ void main() {
   const vec3 dv = direction * uInvSpacing;
   const vec3 inv = 1.0 / mix(dv, vec3(1e-20), lessThan(abs(dv), vec3(1e-20)));
   const vec2 range = rayBoxRange(o, inv, vec3(vOwnLo) - 1.0 / 128.0, vec3(vOwnHi) + 1.0 / 128.0);
-  const int first = max(vFirstPlane, int(floor((start + along * range.x) / uPlaneIncr)) - 1);
+  const int level = vPayload.w, stride = 1 << level;
+  // The first plane of the level's subset at or after the first plane the ray can have (>> floors negatives too).
+  const int first = ((max(vFirstPlane, int(floor((start + along * range.x) / uPlaneIncr)) - 1) + stride - 1) >> level)
+                    << level;
   const int last = min(vFirstPlane + vPlaneCount, int(ceil((start + along * range.y) / uPlaneIncr)) + 2);
   // Planes whose point lies at least 1/64 voxel inside every owned face, one plane in from either end for round-off,
   // are owned without a test (the ray's point is off by far less than 1/64 voxel).
@@ -199,7 +209,7 @@ void main() {
   const bvec3 unroundedHi = bvec3(ivec3(equal(vec3(vOwnHi), uDims)) * ivec3(not(parallel)));
   vec4 sum = vec4(0.0);
   uint taken = 0u, untaken = 0u;
-  const float ratio = segmentRatio(origin + direction);
+  const float ratio = segmentRatio(origin + direction) * float(stride);
 #ifdef PRE_INTEGRATION
   const float layer = layerCoordinate(ratio);
   // The segment from plane k to plane k + 1 belongs to the box owning sample k. Its back sample may lie beyond the
@@ -210,9 +220,9 @@ void main() {
   float back = 0.0;
   int backPlane = first - 1;  // the plane `back` was read on
 #endif
-  for (int k = first; k < last; ++k) {
+  for (int k = first; k < last; k += stride) {
     if (sum.a >= uTermination) {
-      untaken = uint(last - k);  // planes, an upper bound of the owned samples left
+      untaken = uint((last - k + stride - 1) >> level);  // planes, an upper bound of the owned samples left
       break;
     }
     // The ray's point on plane k, as EXACT_OWNERSHIP computes it, so that neighbouring boxes agree on its owner.
@@ -229,7 +239,7 @@ void main() {
     // The empty-space silhouette pass: keep the fragment (its depth marks the pixel) at the first sample, or with
     // pre-integration the first segment, the march would give any opacity; discard it if there is none.
 #ifdef PRE_INTEGRATION
-    const vec3 after = voxelOnPlane(origin, direction, start, along, planeDistance + uPlaneIncr);
+    const vec3 after = voxelOnPlane(origin, direction, start, along, planeDistance + uPlaneIncr * float(stride));
     if (preIntegrated(sampleAt(voxel), sampleAt(clamp(after, backLo, backHi)), layer).a > 0.0) return;
 #else
     if (texture(uTransfer, normalised(sampleAt(voxel))).a > 0.0) return;
@@ -238,9 +248,9 @@ void main() {
 #endif
 #ifdef PRE_INTEGRATION
     const float value = backPlane == k ? back : sampleAt(voxel);
-    const vec3 next = voxelOnPlane(origin, direction, start, along, planeDistance + uPlaneIncr);
+    const vec3 next = voxelOnPlane(origin, direction, start, along, planeDistance + uPlaneIncr * float(stride));
     back = sampleAt(clamp(next, backLo, backHi));
-    backPlane = k + 1;
+    backPlane = k + stride;
 #else
     const float value = sampleAt(voxel);
 #endif

@@ -239,16 +239,16 @@ TEST(SweepFiles, CsvAppendsTheSlabColumnsAndMarkdownHasTheSlabTable) {
       "min_ms", "max_ms", "median_samples", "psnr_worst_db", "psnr_pooled_db", "rmse_pooled", "max_abs", "pareto",
       // appended after the columns of the sweep before slabs, so that old readers keep working
       "slab", "ert", "pre_integration", "samples_median", "fragments_median", "samples_terminated_median",
-      "slab_passes_median", "sub_block"};
+      "slab_passes_median", "sub_block", "lod"};
   EXPECT_EQ(header, expected);
   std::vector<std::vector<std::string>> rows;
   while (std::getline(csv, line)) rows.push_back(fields(line));
   ASSERT_EQ(rows.size(), 4u);
   for (const auto& row : rows) ASSERT_EQ(row.size(), header.size());
   EXPECT_EQ((std::vector<std::string>(rows[0].begin() + 18, rows[0].end())),
-            (std::vector<std::string>{"0", "0", "0", "4000000", "4000000", "0", "0", "0"}));
+            (std::vector<std::string>{"0", "0", "0", "4000000", "4000000", "0", "0", "0", "0"}));
   EXPECT_EQ((std::vector<std::string>(rows[2].begin() + 18, rows[2].end())),
-            (std::vector<std::string>{"16", "0.99", "0", "1000000", "250000", "100000", "12", "0"}));
+            (std::vector<std::string>{"16", "0.99", "0", "1000000", "250000", "100000", "12", "0", "0"}));
   EXPECT_EQ(rows[2][12], "1000000") << "median_samples: samples taken";
   EXPECT_EQ(rows[3][20], "1");
 
@@ -311,7 +311,7 @@ TEST(BenchCli, QuickSweepWritesWellFormedFilesAndReusesItsReferences) {
   std::string line;
   ASSERT_TRUE(std::getline(csv, line));
   const std::vector<std::string> header = fields(line);
-  ASSERT_EQ(header.size(), 26u);
+  ASSERT_EQ(header.size(), 27u);
   EXPECT_EQ(header[9], "median_ms");
   EXPECT_EQ(header[13], "psnr_worst_db");
   EXPECT_EQ(header[18], "slab");

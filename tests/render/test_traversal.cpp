@@ -44,7 +44,7 @@ struct Grid {
   int64_t index(const store::BrickKey& k) const { return k.i + bricks.x * (k.j + bricks.y * int64_t{k.k}); }
 };
 
-const TraversalOptions kEverything{false, false};
+const TraversalOptions kEverything{false, false, {}};
 
 Camera lookingFrom(const glm::dvec3& eye, bool ortho = false, const glm::dvec3& center = {0.1, 0.2, 0.3}) {
   Camera camera;
@@ -205,7 +205,7 @@ TEST(TraversalSkip, SkipsExactlyTheRejectedBricksAndCountsThem) {
   OctreeTraversal traversal(grid.octree, kDims, kB, kSpacing);
   for (float threshold : {0.0f, 0.3f, 0.6f, 0.9f, 1.1f}) {
     auto contributes = [threshold](float, float max) { return max > threshold; };
-    TraversalResult r = traversal.run(lookingFrom({-60, 10, 70}), Frustum{}, contributes, {true, false});
+    TraversalResult r = traversal.run(lookingFrom({-60, 10, 70}), Frustum{}, contributes, {true, false, {}});
     auto seen = countKeys(r.bricks);
     int64_t expected = 0;
     for (uint32_t k = 0; k < 3; ++k)
@@ -230,7 +230,7 @@ TEST(TraversalSkip, AnEmptyRootSkipsTheWholeGridInOneVisit) {
   OctreeTraversal traversal(octree, {64 * 16, 64 * 16, 64 * 16}, 16, {1, 1, 1});
   TransferFunction tf({{0, {0, 0, 0, 0}}, {0.02, {0, 0, 0, 0}}, {0.02, {1, 1, 1, 0.3}}});
   auto contributes = [&tf](float min, float max) { return tf.contributes(min, max); };
-  TraversalResult r = traversal.run(lookingFrom({0, 0, 5000}), Frustum{}, contributes, {true, false});
+  TraversalResult r = traversal.run(lookingFrom({0, 0, 5000}), Frustum{}, contributes, {true, false, {}});
   ASSERT_EQ(r.bricks.size(), 1u);
   EXPECT_EQ(r.bricks[0].key, (store::BrickKey{0, 12345 % 64, (12345 / 64) % 64, 12345 / 4096}));
   EXPECT_EQ(r.stats.bricksSkippedEmpty, bricks.volume() - 1);
@@ -239,7 +239,7 @@ TEST(TraversalSkip, AnEmptyRootSkipsTheWholeGridInOneVisit) {
   ranges[12345] = {0.0f, 0.01f};
   MinMaxOctree empty(bricks, ranges);
   TraversalResult none = OctreeTraversal(empty, {1024, 1024, 1024}, 16, {1, 1, 1})
-                             .run(lookingFrom({0, 0, 5000}), Frustum{}, contributes, {true, false});
+                             .run(lookingFrom({0, 0, 5000}), Frustum{}, contributes, {true, false, {}});
   EXPECT_TRUE(none.bricks.empty());
   EXPECT_EQ(none.stats.nodesVisited, 1);
   EXPECT_EQ(none.stats.bricksSkippedEmpty, bricks.volume());
@@ -270,7 +270,7 @@ TEST(TraversalCull, RemovesExactlyTheBricksOutsideTheFrustumAndNoVisibleOne) {
     v.camera.clipRange(volume, near, far);
     glm::dmat4 vp = v.camera.projection(v.aspect, near, far) * v.camera.view();
     Frustum frustum = Frustum::fromMatrix(vp);
-    TraversalResult r = traversal.run(v.camera, frustum, {}, {false, true});
+    TraversalResult r = traversal.run(v.camera, frustum, {}, {false, true, {}});
     auto seen = countKeys(r.bricks);
     for (uint32_t k = 0; k < 3; ++k)
       for (uint32_t j = 0; j < 4; ++j)
@@ -390,7 +390,7 @@ TEST(SubBlocks, BoxesCoverTheContributingBlocksOnceFrontToBack) {
     const Camera camera = lookingFrom(eye, ortho, eye + glm::dvec3(coord(rng), coord(rng), coord(rng) + 0.5));
     std::vector<VoxelSpan> spans;
     SubBlockWalkStats stats;
-    subBlockBoxes(ranges, kBrickLo, kBrickDims, spacing, camera, contributes, spans, stats);
+    subBlockBoxes(ranges, kBrickLo, 0, kBrickDims, spacing, camera, contributes, spans, stats);
     EXPECT_EQ(stats.boxes, int64_t(spans.size()));
 
     // Every finest block is drawn exactly once if it contributes and never otherwise.
@@ -428,7 +428,7 @@ TEST(SubBlocks, ABrickWhoseBlocksAllContributeIsOneBox) {
   SubBlockRanges ranges(samples.data(), store::ValueType::F32, kSubB, 2, kBrickOwned);
   std::vector<VoxelSpan> spans;
   SubBlockWalkStats stats;
-  subBlockBoxes(ranges, kBrickLo, kBrickDims, kSpacing, lookingFrom({0, 0, 90}), [](float, float) { return true; },
+  subBlockBoxes(ranges, kBrickLo, 0, kBrickDims, kSpacing, lookingFrom({0, 0, 90}), [](float, float) { return true; },
                 spans, stats);
   ASSERT_EQ(spans.size(), 1u);
   EXPECT_EQ(spans[0].lo, kBrickLo);
@@ -442,7 +442,7 @@ TEST(TraversalInput, MismatchedGridsAndMissingPredicatesThrow) {
   EXPECT_THROW(OctreeTraversal(grid.octree, kDims, 0, kSpacing), RenderInputError);
   EXPECT_THROW(OctreeTraversal(grid.octree, kDims, kB, {1, 0, 1}), RenderInputError);
   OctreeTraversal traversal(grid.octree, kDims, kB, kSpacing);
-  EXPECT_THROW(traversal.run(lookingFrom({0, 0, 50}), Frustum{}, {}, {true, false}), RenderInputError);
+  EXPECT_THROW(traversal.run(lookingFrom({0, 0, 50}), Frustum{}, {}, {true, false, {}}), RenderInputError);
   EXPECT_THROW(traversal.run(lookingFrom({0, 0, 0}, false, {0, 0, 0}), Frustum{}, {}, kEverything),
                RenderInputError);
 }
