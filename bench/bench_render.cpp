@@ -222,7 +222,7 @@ int main(int argc, char** argv) {
       scene.ess = c.ess;
       scene.camera.elevation = 20;
       scene.camera.distance = 2.2;
-      run.renderer->render(scene, nullptr, c.mode);  // warm-up: pages every brick, compiles the program
+      run.renderer->render(scene, nullptr, {c.mode});  // warm-up: pages every brick, compiles the program
       runs.push_back(std::move(run));
     }
     for (int v = 0; v < views; ++v) {
@@ -231,7 +231,7 @@ int main(int argc, char** argv) {
         Run& run = runs[i];
         run.scene.camera.azimuth = 360.0 * v / views;
         render::FrameStats stats;
-        image::ImageF image = run.renderer->render(run.scene, &stats, configs[i].mode);
+        image::ImageF image = run.renderer->render(run.scene, &stats, {configs[i].mode});
         run.ms.push_back(stats.msTotal);
         run.fragments.push_back(double(stats.fragments));
         run.samples.push_back(double(stats.samples));

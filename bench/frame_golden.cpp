@@ -187,7 +187,7 @@ int main(int argc, char** argv) {
       stats.slices = referenceStats.rays;
       stats.bricksDrawn = referenceStats.bricksSkipped;
     } else {
-      image = renderer->render(scene, &stats, c.mode);
+      image = renderer->render(scene, &stats, {c.mode});
     }
     std::string bytes(reinterpret_cast<const char*>(image.rgba.data()), image.rgba.size() * sizeof(float));
     const std::string statsLine = std::to_string(stats.fragments) + " " + std::to_string(stats.slices) + " " +

@@ -95,6 +95,12 @@ BrickHandle BrickCache::get(const BrickKey& key) {
   return load(key, promise, false);
 }
 
+bool BrickCache::ready(const BrickKey& key) const {
+  if (!mStore->isStored(key)) return true;
+  std::lock_guard lock(mMutex);
+  return mEntries.contains(key);
+}
+
 void BrickCache::prefetch(std::span<const BrickKey> keys) {
   if (keys.empty()) return;
   std::unique_lock lock(mMutex);

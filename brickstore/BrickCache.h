@@ -122,11 +122,17 @@ class BrickCache {
   const std::shared_ptr<const BrickStore>& store() const { return mStore; }
   /// The byte budget.
   size_t budgetBytes() const { return mBudget; }
+  /// The most prefetch requests that wait at once.
+  size_t prefetchQueueLimit() const { return mQueueLimit; }
 
   /// The decoded brick `key`, from the cache or decoded now. Concurrent gets of a key that is not resident share
   /// one decode. Throws InputError if the store has no such brick, and CorruptStoreError (to every caller waiting
   /// on that decode) if its frame is corrupt; a failed decode is not remembered, so a later get retries it.
   BrickHandle get(const BrickKey& key);
+
+  /// Whether get(key) would return without touching the disk: the brick is resident or not stored. A decode in
+  /// flight does not count (get would wait for it). Throws InputError if the store has no such brick.
+  bool ready(const BrickKey& key) const;
 
   /// Queues `keys` for the worker threads to decode into the cache, in order, skipping keys that are resident,
   /// in flight, already queued, empty, not in the store, or larger than the budget. Never blocks on a decode.

@@ -1,5 +1,6 @@
 // `voxbrick render STORE -o out.png`: one frame, headless, with its statistics.
 #include <cstdio>
+#include <filesystem>
 
 #include <nlohmann/json.hpp>
 
@@ -57,10 +58,30 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
   // Warm-up frames page the bricks in and build the programs, so that the frame reported is a warm one, as a
   // server's next frame of the same dataset would be.
   for (int i = 0; i < a.warmUp; ++i) engine.render(dataset, scene, nullptr);
+  // Progressive: first the frame that waits for no disk read (stand-ins for what is not resident, written beside
+  // the output when there were any), then the exact one.
+  nlohmann::json provisionalJson;
+  if (scene.progressive) {
+    render::FrameStats first;
+    const image::ImageF provisional = engine.render(dataset, scene, &first, {render::RenderMode::Normal, true});
+    provisionalJson = first.toJson();
+    if (first.bricksStandIn > 0) {
+      const std::filesystem::path output(a.output);
+      const std::filesystem::path path =
+          output.parent_path() / (output.stem().string() + ".provisional" + output.extension().string());
+      image::writePng(path, image::toImage8(provisional));
+      std::printf("render: wrote %s, the provisional frame: %lld of %lld bricks stood in, %.1f ms\n",
+                  path.string().c_str(), (long long)first.bricksStandIn, (long long)first.bricksDrawn, first.msTotal);
+    }
+  }
   render::FrameStats stats;
   const image::ImageF image = engine.render(dataset, scene, &stats);
   image::writePng(a.output, image::toImage8(image));
-  if (!a.statsPath.empty()) writeText(a.statsPath, stats.toJson().dump(2) + "\n");
+  if (!a.statsPath.empty()) {
+    nlohmann::json json = stats.toJson();
+    if (!provisionalJson.is_null()) json["provisional_frame"] = provisionalJson;
+    writeText(a.statsPath, json.dump(2) + "\n");
+  }
   std::string levels;
   if (stats.bricksCoarse > 0) {
     levels = " (per level:";

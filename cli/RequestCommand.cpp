@@ -1,5 +1,6 @@
 // `voxbrick request HOST:PORT --dataset NAME [scene options] -o frame.png`: one frame from a running server.
 #include <cstdio>
+#include <filesystem>
 
 #include <nlohmann/json.hpp>
 
@@ -36,8 +37,22 @@ void runRequest(const RequestArgs& a, const CLI::App& cmd) {
                                    : a.encoding == "zstd" ? proto::Encoding::ZstdRgba8
                                                           : proto::Encoding::Png;
   const auto start = std::chrono::steady_clock::now();
-  const proto::Frame frame = c.render(scene.toJson(), encoding);
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  const auto msSinceStart = [&] {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  };
+  // A progressive scene may first bring provisional frames (bricks still on their way drawn coarser): each is
+  // written beside the output, the last one wins.
+  const std::filesystem::path output(a.output);
+  const std::filesystem::path provisionalPath =
+      output.parent_path() / (output.stem().string() + ".provisional" + output.extension().string());
+  const proto::Frame frame = c.render(scene.toJson(), encoding, [&](const proto::Frame& provisional) {
+    image::writePng(provisionalPath, image::decodeFrameImage(provisional));
+    const nlohmann::json stats = nlohmann::json::parse(provisional.statsJson);
+    std::printf("request: provisional frame (%lld bricks stood in) at %.1f ms, wrote %s\n",
+                static_cast<long long>(stats.value("bricks_standin", int64_t{0})), msSinceStart(),
+                provisionalPath.string().c_str());
+  });
+  const double ms = msSinceStart();
   c.goodbye();
   image::writePng(a.output, image::decodeFrameImage(frame));
   if (!a.statsPath.empty()) writeText(a.statsPath, nlohmann::json::parse(frame.statsJson).dump(2) + "\n");

@@ -65,6 +65,7 @@ render::Scene buildScene(const SceneArgs& a, const CLI::App& cmd) {
   if (cmd.count("--lod")) s.lod = a.lod;
   if (a.preIntegration) s.preIntegration = true;
   if (a.ess) s.ess = true;
+  if (a.progressive) s.progressive = true;
   if (!a.slicer.empty()) s.slicer = a.slicer == "cpu" ? render::Slicer::Cpu : render::Slicer::Vertex;
   s.validate();
   return s;
@@ -102,6 +103,9 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
                   "(0: level 0 everywhere)");
   cmd->add_flag("--ess", args.ess,
                 "empty-space silhouette maps on slabs: a pass before each slab marks the pixels with anything to draw");
+  cmd->add_flag("--progressive", args.progressive,
+                "coarse to fine: a provisional frame first, bricks not yet resident drawn from a coarser resident "
+                "level while they are read, then the exact frame");
   cmd->add_flag("--shading", args.shading, "gradient (central differences) and Phong headlight shading");
 }
 

@@ -7,6 +7,7 @@
 #include <utility>  // before Asio: Boost 1.74's awaitable.hpp uses std::exchange without it
 
 #include <boost/asio.hpp>
+#include <nlohmann/json.hpp>
 
 namespace voxbrick::client {
 
@@ -80,8 +81,9 @@ std::pair<uint32_t, proto::Message> Client::receive() {
   }
 }
 
-proto::Message Client::call(const proto::Message& message) {
-  const uint32_t id = send(message);
+proto::Message Client::call(const proto::Message& message) { return awaitReply(send(message)); }
+
+proto::Message Client::awaitReply(uint32_t id) {
   for (;;) {
     auto [replyId, reply] = receive();
     if (const auto* error = std::get_if<proto::Error>(&reply)) {
@@ -111,8 +113,19 @@ proto::DatasetInfo Client::openDataset(const std::string& name) {
   return expect<proto::DatasetInfo>(call(proto::OpenDataset{name}), "OpenDataset");
 }
 
-proto::Frame Client::render(const std::string& sceneJson, proto::Encoding encoding) {
-  return expect<proto::Frame>(call(proto::RenderRequest{encoding, sceneJson}), "Render");
+proto::Frame Client::render(const std::string& sceneJson, proto::Encoding encoding,
+                             const std::function<void(const proto::Frame&)>& onProvisional) {
+  const uint32_t id = send(proto::RenderRequest{encoding, sceneJson});
+  for (proto::Frame frame = expect<proto::Frame>(awaitReply(id), "Render");;
+       frame = expect<proto::Frame>(awaitReply(id), "Render")) {
+    if (!isProvisional(frame)) return frame;
+    if (onProvisional) onProvisional(frame);
+  }
+}
+
+bool isProvisional(const proto::Frame& frame) {
+  const nlohmann::json stats = nlohmann::json::parse(frame.statsJson, nullptr, false);
+  return stats.is_object() && stats.value("provisional", false) == true;
 }
 
 std::string Client::stats() { return expect<proto::Stats>(call(proto::GetStats{}), "GetStats").json; }

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <chrono>
+#include <functional>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -43,8 +44,11 @@ class Client {
   proto::Capabilities hello(const std::string& clientName = "voxbrick-client 0.1");
   std::vector<std::string> listDatasets();
   proto::DatasetInfo openDataset(const std::string& name);
-  /// One frame of the open dataset. Throws ServerError (InvalidScene, LimitExceeded, Superseded, ...).
-  proto::Frame render(const std::string& sceneJson, proto::Encoding encoding = proto::Encoding::Png);
+  /// One frame of the open dataset: the exact one. For a progressive scene the server may send a provisional Frame
+  /// first (isProvisional); it is handed to `onProvisional` if given, and the call waits for the exact Frame. Throws
+  /// ServerError (InvalidScene, LimitExceeded, Superseded, ...).
+  proto::Frame render(const std::string& sceneJson, proto::Encoding encoding = proto::Encoding::Png,
+                      const std::function<void(const proto::Frame&)>& onProvisional = {});
   /// Server statistics (JSON text).
   std::string stats();
   /// Sends Goodbye and closes.
@@ -64,11 +68,17 @@ class Client {
  private:
   /// Sends `message` and returns the reply to it; an Error reply throws ServerError.
   proto::Message call(const proto::Message& message);
+  /// The next reply to request `id`, skipping replies to other requests; an Error reply throws ServerError.
+  proto::Message awaitReply(uint32_t id);
 
   struct Impl;
   std::unique_ptr<Impl> mImpl;
   uint32_t mNextId = 1;
 };
+
+/// Whether `frame` is provisional: drawn with stand-ins for bricks not yet resident, the exact Frame of the same
+/// request to follow (its statistics' "provisional" key, PROTOCOL.md "Progressive frames").
+bool isProvisional(const proto::Frame& frame);
 
 /// "host:port" -> (host, port); throws std::invalid_argument naming the text.
 std::pair<std::string, int> parseAddress(const std::string& text);

@@ -44,7 +44,17 @@ BrickAtlas::BrickAtlas(const GlContext& context, store::ValueType type, int bric
   mGrid.x = std::min(want, perAxis);
   mGrid.y = std::min((want + mGrid.x - 1) / mGrid.x, perAxis);
   mGrid.z = std::min((want + mGrid.x * mGrid.y - 1) / (mGrid.x * mGrid.y), perAxis);
-  if (mGrid.x * mGrid.y * mGrid.z < want) mSlots = AtlasSlots(mGrid.x * mGrid.y * mGrid.z);
+  // Rounding up to whole rows and layers may leave spare slots in the texture: fine within the budget, but where
+  // the budget is what limits the slots, the texture must not outgrow it. Then rows are balanced (as long as the
+  // slots need rows, no longer) and only whole rows and layers are taken: a few slots go unused instead.
+  const size_t slotBytes = BrickAtlas::slotBytes(type, brickEdge, format);
+  if (size_t(mGrid.x) * size_t(mGrid.y) * size_t(mGrid.z) * slotBytes > budgetBytes) {
+    mGrid.x = want / ((want + perAxis - 1) / perAxis);
+    const int rows = want / mGrid.x;
+    mGrid.z = std::min((rows + perAxis - 1) / perAxis, perAxis);
+    mGrid.y = std::min(rows / mGrid.z, perAxis);
+  }
+  if (mGrid.x * mGrid.y * mGrid.z != want) mSlots = AtlasSlots(std::min(want, mGrid.x * mGrid.y * mGrid.z));
   mTexels = mGrid * brickEdge;
 
   mTexture = Texture(mGl, GL_TEXTURE_3D);
@@ -58,6 +68,10 @@ BrickAtlas::BrickAtlas(const GlContext& context, store::ValueType type, int bric
     throw RenderError("BrickAtlas: cannot allocate a " + std::to_string(mTexels.x) + "x" + std::to_string(mTexels.y) +
                       "x" + std::to_string(mTexels.z) + " texture (GL error " + std::to_string(error) + ")");
   mStaging.resize(size_t(brickEdge) * size_t(brickEdge) * size_t(brickEdge));
+}
+
+size_t BrickAtlas::slotBytes(store::ValueType type, int brickEdge, AtlasFormat format) {
+  return size_t(brickEdge) * size_t(brickEdge) * size_t(brickEdge) * texelFormat(type, format).bytes;
 }
 
 glm::ivec3 BrickAtlas::slotOrigin(AtlasSlot slot) const {

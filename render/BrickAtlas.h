@@ -30,6 +30,9 @@ class BrickAtlas {
   BrickAtlas(const GlContext& context, store::ValueType type, int brickEdge, size_t budgetBytes, int maxUsefulSlots,
              AtlasFormat format = AtlasFormat::Float);
 
+  /// Bytes of texture one slot takes.
+  static size_t slotBytes(store::ValueType type, int brickEdge, AtlasFormat format);
+
   AtlasSlots& slots() { return mSlots; }
   /// Copies a decoded brick into `slot` (converting it to float first for the Float and Half formats).
   void upload(AtlasSlot slot, const store::Brick& brick);
@@ -42,6 +45,7 @@ class BrickAtlas {
   glm::vec3 inverseSize() const { return 1.0f / glm::vec3(mTexels); }
   const Texture& texture() const { return mTexture; }
   int capacity() const { return mSlots.capacity(); }
+  /// Bytes of the texture: never above the budget it was built with.
   size_t bytes() const { return size_t(mTexels.x) * size_t(mTexels.y) * size_t(mTexels.z) * mTexel.bytes; }
 
  private:

@@ -88,13 +88,13 @@ std::vector<uint8_t> brickLevels(const TraversalResult& visible, const store::St
   const store::Vec3i& grid = meta.levels.at(0).bricks;
   std::vector<uint8_t> levels(size_t(grid.volume()), 0);
   for (const BrickDraw& d : visible.bricks) {
-    const int m = int(d.key.level);
-    if (m == 0) continue;
+    const int m = int(d.key.level), level = m + int(d.standIn);
+    if (level == 0) continue;
     const int64_t lo[3] = {int64_t(d.key.i) << m, int64_t(d.key.j) << m, int64_t(d.key.k) << m};
     for (int64_t k = lo[2]; k < std::min(lo[2] + (int64_t{1} << m), grid.z); ++k)
       for (int64_t j = lo[1]; j < std::min(lo[1] + (int64_t{1} << m), grid.y); ++j)
         for (int64_t i = lo[0]; i < std::min(lo[0] + (int64_t{1} << m), grid.x); ++i)
-          levels[size_t(i + grid.x * (j + grid.y * k))] = uint8_t(m);
+          levels[size_t(i + grid.x * (j + grid.y * k))] = uint8_t(level);
   }
   return levels;
 }

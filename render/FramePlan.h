@@ -52,7 +52,7 @@ struct FramePlan {
   double ert = 0;             ///< early ray termination threshold on slabs; 0 off (always 0 when slicing)
   bool preIntegration = false;  ///< pre-integrated classification (slabs only)
   bool ess = false;             ///< empty-space silhouette maps (slabs only)
-  int coarsestLevel = 0;        ///< the coarsest pyramid level among plan.visible's bricks (level of detail)
+  int coarsestLevel = 0;        ///< the coarsest pyramid level drawn: of plan.visible's bricks' sources
   int width = 0, height = 0;    ///< image size in pixels
   PixelRays rays;
 
@@ -79,10 +79,14 @@ struct FramePlan {
   static constexpr double kInteriorMargin = 1.0 / 64;
 };
 
-/// The pyramid level of each level-0 brick in `visible` (x fastest over `meta`'s level-0 brick grid): m inside the
-/// voxels of every level-m brick drawn, 0 elsewhere. What ReferenceOptions::brickLevels takes, so that the reference
-/// samples the same level as the GPU everywhere.
+/// The pyramid level of each level-0 brick in `visible` (x fastest over `meta`'s level-0 brick grid): the level of
+/// each draw's source() inside the voxels it owns, 0 elsewhere. What ReferenceOptions::brickLevels takes, so that the
+/// reference samples the same level as the GPU everywhere.
 std::vector<uint8_t> brickLevels(const TraversalResult& visible, const store::StoreMeta& meta);
+
+/// Texels of the GPU renderer's transfer-function table (VolumeRenderer), so that a plan made away from the GL
+/// renderer (the server's paging ahead) skips what the GPU would.
+inline constexpr int kTransferTableTexels = 4096;
 
 /// Plans a frame of `scene` over `store`. `transferTableTexels` is the size of the GPU's transfer-function table
 /// (the range test is widened by one of its texels). Throws RenderInputError for an invalid scene.

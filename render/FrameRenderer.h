@@ -1,6 +1,8 @@
 // The one call every renderer answers, whatever kind of dataset it draws. GL-free.
 #pragma once
 
+#include <cstddef>
+
 #include "render/FrameStats.h"
 #include "image/Image.h"
 #include "render/Scene.h"
@@ -11,12 +13,23 @@ namespace voxbrick::render {
 /// classification and no blending, the sampling roofline of the same geometry.
 enum class RenderMode { Normal, Roofline };
 
+/// How one frame is drawn, beyond its scene.
+struct FrameOptions {
+  RenderMode mode = RenderMode::Normal;
+  /// Coarse-to-fine streaming: a brick that is not resident (in the GPU atlas or the host cache) is drawn from its
+  /// nearest resident ancestor and paged for a later frame, so the frame never waits for the disk
+  /// (FrameStats::bricksStandIn counts them). False: every brick is drawn at its own level, read now if need be.
+  bool standIns = false;
+};
+
 /// A renderer of one dataset on one GL context (so one render thread); it keeps its GPU state between frames.
 class FrameRenderer {
  public:
   virtual ~FrameRenderer() = default;
   /// Renders `scene`; throws RenderInputError for an invalid scene and RenderError for GL failures.
-  virtual image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, RenderMode mode = RenderMode::Normal) = 0;
+  virtual image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) = 0;
+  /// GPU memory it holds for its data (the brick atlas), which its GPU budget bounds.
+  virtual size_t gpuBytes() const = 0;
 };
 
 }  // namespace voxbrick::render

@@ -12,7 +12,7 @@ nlohmann::json FrameStats::toJson() const {
           {"samples_terminated", samplesTerminated}, {"slab_passes", slabPasses},
           {"sub_blocks_skipped", subBlocksSkipped}, {"boxes_drawn", boxesDrawn},
           {"bricks_coarse", bricksCoarse},   {"bricks_coarsened", bricksCoarsened},
-          {"bricks_per_level", bricksPerLevel},
+          {"bricks_per_level", bricksPerLevel}, {"bricks_standin", bricksStandIn},
           {"ms", {{"traversal", msTraversal}, {"paging", msPaging}, {"slicing", msSlicing},
                   {"drawing", msDrawing}, {"readback", msReadback}, {"total", msTotal},
                   {"pre_integration", msPreIntegration}}}};

@@ -15,6 +15,9 @@ struct FrameStats {
   int64_t bricksDrawn = 0;     ///< bricks drawn, of every level
   int64_t bricksCoarse = 0;    ///< of those, bricks of a coarser level standing for level 0 (Scene::lod)
   int64_t bricksCoarsened = 0; ///< level-0 bricks the coarse ones stood for
+  /// Coarse-to-fine streaming (FrameOptions::standIns): bricks drawn from a resident ancestor because they were not
+  /// yet resident themselves (they are being paged for a later frame). 0: the frame is exactly the scene's.
+  int64_t bricksStandIn = 0;
   std::vector<int64_t> bricksPerLevel;  ///< bricks drawn of each pyramid level
   int64_t bricksPagedIn = 0;   ///< uploaded into the atlas this frame
   int64_t bricksEvicted = 0;   ///< replaced in the atlas this frame

@@ -1,8 +1,11 @@
 // A render thread's context and its renderers, one per dataset it has drawn.
 #include "render/RenderEngine.h"
 
+#include <algorithm>
+#include <atomic>
 #include <map>
 
+#include "render/BrickAtlas.h"
 #include "render/GlContext.h"
 #include "render/RenderErrors.h"
 #include "render/VolumeRenderer.h"
@@ -10,30 +13,72 @@
 namespace voxbrick::render {
 
 struct RenderEngine::Impl {
+  struct Entry {
+    std::unique_ptr<FrameRenderer> renderer;
+    uint64_t lastUse = 0;
+  };
+
   std::unique_ptr<GlContext> context;
   RenderEngineOptions options;
   // Renderers hold GL objects, so they live and die with the context current. Keyed by the dataset's control block,
   // never its address: a dataset closed and another opened at the same address must not inherit a renderer.
-  std::map<std::weak_ptr<const Dataset>, std::unique_ptr<FrameRenderer>, std::owner_less<>> renderers;
+  std::map<std::weak_ptr<const Dataset>, Entry, std::owner_less<>> renderers;
+  uint64_t uses = 0;
+  std::atomic<size_t> gpuBytes{0}, peakGpuBytes{0};
+  std::atomic<uint64_t> released{0};
 
   FrameRenderer& rendererFor(const std::shared_ptr<const Dataset>& dataset);
+  /// The atlas bytes a new renderer of `dataset` would take under the whole budget.
+  size_t wanted(const Dataset& dataset) const;
+  void account();
 };
 
+size_t RenderEngine::Impl::wanted(const Dataset& dataset) const {
+  if (dataset.kind() != DatasetKind::BrickStore) return 0;
+  const store::BrickStore& s = *static_cast<const BrickStoreDataset&>(dataset).store();
+  const size_t slot = BrickAtlas::slotBytes(s.type(), s.brickEdge(), options.atlasFormat);
+  const size_t useful = size_t(std::min<int64_t>(s.level(0).bricksTotal(), 1 << 20));
+  return std::min(options.gpuBudgetBytes / slot, useful) * slot;
+}
+
+void RenderEngine::Impl::account() {
+  size_t bytes = 0;
+  for (const auto& [dataset, entry] : renderers) bytes += entry.renderer->gpuBytes();
+  gpuBytes = bytes;
+  if (bytes > peakGpuBytes) peakGpuBytes = bytes;
+}
+
 FrameRenderer& RenderEngine::Impl::rendererFor(const std::shared_ptr<const Dataset>& dataset) {
-  std::erase_if(renderers, [](const auto& entry) { return entry.first.expired(); });
-  auto& renderer = renderers[dataset];
-  if (!renderer) {
-    switch (dataset->kind()) {
-      case DatasetKind::BrickStore:
-        renderer = std::make_unique<VolumeRenderer>(
-            *context, static_cast<const BrickStoreDataset&>(*dataset).cache(), options.gpuBudgetBytes,
-            options.atlasFormat);
-        break;
-    }
-    if (!renderer) throw RenderError("RenderEngine: no renderer for datasets of kind " +
-                                     std::string(datasetKindName(dataset->kind())));
+  if (std::erase_if(renderers, [](const auto& entry) { return entry.first.expired(); }) > 0) account();
+  if (auto it = renderers.find(dataset); it != renderers.end()) {
+    it->second.lastUse = ++uses;
+    return *it->second.renderer;
   }
-  return *renderer;
+  // Room for the new atlas: release the renderers used least recently until the budget holds it whole.
+  const size_t want = wanted(*dataset);
+  account();
+  while (!renderers.empty() && gpuBytes + want > options.gpuBudgetBytes) {
+    auto oldest = std::min_element(renderers.begin(), renderers.end(), [](const auto& a, const auto& b) {
+      return a.second.lastUse < b.second.lastUse;
+    });
+    renderers.erase(oldest);
+    ++released;
+    account();
+  }
+  std::unique_ptr<FrameRenderer> renderer;
+  switch (dataset->kind()) {
+    case DatasetKind::BrickStore:
+      renderer = std::make_unique<VolumeRenderer>(*context, static_cast<const BrickStoreDataset&>(*dataset).cache(),
+                                                  options.gpuBudgetBytes - gpuBytes, options.atlasFormat);
+      break;
+  }
+  if (!renderer) throw RenderError("RenderEngine: no renderer for datasets of kind " +
+                                   std::string(datasetKindName(dataset->kind())));
+  Entry& entry = renderers[dataset];
+  entry.renderer = std::move(renderer);
+  entry.lastUse = ++uses;
+  account();
+  return *entry.renderer;
 }
 
 RenderEngine::RenderEngine(const RenderEngineOptions& options) : mImpl(std::make_unique<Impl>()) {
@@ -51,10 +96,14 @@ RenderEngine::~RenderEngine() {
 void RenderEngine::makeCurrent() { mImpl->context->makeCurrent(); }
 void RenderEngine::releaseCurrent() { mImpl->context->releaseCurrent(); }
 std::string RenderEngine::describe() const { return mImpl->context->describe(); }
+size_t RenderEngine::gpuBytes() const { return mImpl->gpuBytes; }
+size_t RenderEngine::peakGpuBytes() const { return mImpl->peakGpuBytes; }
+uint64_t RenderEngine::renderersReleased() const { return mImpl->released; }
 
-image::ImageF RenderEngine::render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats) {
+image::ImageF RenderEngine::render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats,
+                                   const FrameOptions& options) {
   if (!dataset) throw RenderInputError("RenderEngine::render: no dataset");
-  return mImpl->rendererFor(dataset).render(scene, stats);
+  return mImpl->rendererFor(dataset).render(scene, stats, options);
 }
 
 }  // namespace voxbrick::render

@@ -8,6 +8,7 @@
 #include "render/AtlasFormat.h"
 #include "render/Backend.h"
 #include "render/Dataset.h"
+#include "render/FrameRenderer.h"
 #include "render/FrameStats.h"
 #include "image/Image.h"
 #include "render/Scene.h"
@@ -17,7 +18,9 @@ namespace voxbrick::render {
 /// How a RenderEngine makes its context and its renderers.
 struct RenderEngineOptions {
   Backend backend = Backend::Auto;
-  size_t gpuBudgetBytes = size_t(1) << 30;       ///< the atlas of each renderer (one per dataset drawn)
+  /// The atlases of all its renderers together (one per dataset drawn): a renderer not used for the longest is
+  /// released to make room for another dataset's atlas.
+  size_t gpuBudgetBytes = size_t(1) << 30;
   AtlasFormat atlasFormat = AtlasFormat::Float;  ///< how atlases store samples
 };
 
@@ -40,7 +43,15 @@ class RenderEngine {
   /// One frame of `dataset` (the context must be current): the renderer for the dataset's kind, made on first use
   /// and kept while the dataset lives. Throws RenderInputError for a scene the dataset cannot be drawn with and
   /// RenderError for GL failures.
-  image::ImageF render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats = nullptr);
+  image::ImageF render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats = nullptr,
+                       const FrameOptions& options = {});
+
+  /// GPU memory its renderers hold now (their atlases); never above options.gpuBudgetBytes. Any thread may ask.
+  size_t gpuBytes() const;
+  /// The most gpuBytes() has been.
+  size_t peakGpuBytes() const;
+  /// Renderers released to stay within the budget so far.
+  uint64_t renderersReleased() const;
 
  private:
   struct Impl;

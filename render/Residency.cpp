@@ -19,12 +19,31 @@ Residency::Residency(const GlContext& context, std::shared_ptr<store::BrickCache
   mSlotRanges.resize(size_t(mAtlas.slots().capacity()));
 }
 
+int64_t Residency::standIn(std::vector<BrickDraw>& bricks, int coarsest) {
+  const auto ready = [&](const store::BrickKey& key) {
+    return mAtlas.slots().resident(key) || mCache->ready(key);
+  };
+  std::vector<store::BrickKey> missing;
+  int64_t standIns = 0;
+  for (BrickDraw& d : bricks) {
+    d.standIn = 0;
+    if (int(d.key.level) >= coarsest || ready(d.key)) continue;
+    // The queue keeps its newest requests when full, and the first bricks drawn are the ones wanted first.
+    if (missing.size() < mCache->prefetchQueueLimit()) missing.push_back(d.key);
+    d.standIn = 1;
+    while (int(d.key.level + d.standIn) < coarsest && !ready(d.source())) ++d.standIn;
+    ++standIns;
+  }
+  mCache->prefetch(missing);
+  return standIns;
+}
+
 void Residency::beginFrame(const std::vector<BrickDraw>& bricks) {
   // Decoding runs ahead on the cache's workers, in the order the bricks will be drawn, a window at a time: the
   // cache's queue drops its oldest requests when full, and those would be the ones needed first.
   mToPage.clear();
   for (const BrickDraw& d : bricks)
-    if (!mAtlas.slots().resident(d.key)) mToPage.push_back(d.key);
+    if (!mAtlas.slots().resident(d.source())) mToPage.push_back(d.source());
   mPrefetched = mPaged = 0;
   prefetchUpTo(kPrefetchWindow);
 }

@@ -75,7 +75,7 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   if (!j.is_object()) throw RenderInputError(what + ": a scene must be a JSON object");
   static const char* kKeys[] = {"camera", "size", "transfer_function", "step", "background", "window",
                                 "skip_empty", "cull", "slicer", "shading", "sub_block", "slab", "ert",
-                                "pre_integration", "ess", "lod"};
+                                "pre_integration", "ess", "lod", "progressive"};
   for (auto it = j.begin(); it != j.end(); ++it)
     if (std::find(std::begin(kKeys), std::end(kKeys), it.key()) == std::end(kKeys))
       throw RenderInputError(what + ": unknown key '" + it.key() + "'");
@@ -161,6 +161,7 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   if (j.contains("pre_integration")) s.preIntegration = boolean(j["pre_integration"], "pre_integration", what);
   if (j.contains("ess")) s.ess = boolean(j["ess"], "ess", what);
   if (j.contains("lod")) s.lod = number(j["lod"], "lod", what);
+  if (j.contains("progressive")) s.progressive = boolean(j["progressive"], "progressive", what);
   s.validate();
   return s;
 }
@@ -216,7 +217,8 @@ std::string Scene::toJson() const {
             {"ert", ert},
             {"pre_integration", preIntegration},
             {"ess", ess},
-            {"lod", lod}};
+            {"lod", lod},
+            {"progressive", progressive}};
   if (window) j["window"] = json::array({(*window)[0], (*window)[1]});
   return j.dump(2);
 }

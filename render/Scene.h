@@ -81,12 +81,17 @@ struct Scene {
   /// length); slicing takes every plane at every level. Default 1 (a voxel no larger than a pixel), chosen by the
   /// sweep (bench/results/lod.md).
   double lod = 1;
+  /// Coarse-to-fine: the frame may be drawn first with stand-ins (bricks not yet resident drawn from a coarser
+  /// resident level while they are paged), then again once they are resident. The server then answers a Render with
+  /// a provisional Frame followed by the exact one (PROTOCOL.md); `voxbrick render` writes both. The final frame is
+  /// the same as without it.
+  bool progressive = false;
 
   /// Parses a scene JSON object; absent keys keep their defaults. Throws RenderInputError naming `what` and the
   /// key. Keys: camera {orbit: [az, el, dist] | eye, center, up; fov; orthographic}, size [w, h],
   /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b],
   /// window [lo, hi], skip_empty, cull, slicer ("vertex" | "cpu"), shading, sub_block, slab, ert,
-  /// pre_integration, ess, lod.
+  /// pre_integration, ess, lod, progressive.
   /// `allowPaths` false (the server) accepts transfer functions by preset name or inline only, never a file path.
   static Scene fromJson(const std::string& text, const std::string& what, bool allowPaths = true);
   /// The same, resolving preset names from `presets` (no file is read) and accepting no paths: what a server does

@@ -10,6 +10,13 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
+// Cuts `span` to [lo, hi); false when nothing is left.
+bool clipSpan(VoxelSpan& span, const store::Vec3i& lo, const store::Vec3i& hi) {
+  span.lo = {std::max(span.lo.x, lo.x), std::max(span.lo.y, lo.y), std::max(span.lo.z, lo.z)};
+  span.hi = {std::min(span.hi.x, hi.x), std::min(span.hi.y, hi.y), std::min(span.hi.z, hi.z)};
+  return span.lo.x < span.hi.x && span.lo.y < span.hi.y && span.lo.z < span.hi.z;
+}
+
 }  // namespace
 
 void BrickWalk::run(const FramePlan& plan, Residency& residency, const SliceGeometry& geometry, FrameStats& stats,
@@ -25,13 +32,13 @@ void BrickWalk::run(const FramePlan& plan, Residency& residency, const SliceGeom
 
     // Page and cut brick by brick; draw whenever the atlas is full of this batch's bricks.
     t = Clock::now();
-    auto resident = residency.acquire(brick.key, plan.subBlock, stats);
+    auto resident = residency.acquire(brick.source(), plan.subBlock, stats);
     if (!resident) {
       stats.msPaging += msSince(t);
       flush();
       residency.endBatch();
       t = Clock::now();
-      resident = residency.acquire(brick.key, plan.subBlock, stats);
+      resident = residency.acquire(brick.source(), plan.subBlock, stats);
     }
     stats.msPaging += msSince(t);
 
@@ -49,20 +56,29 @@ void BrickWalk::cutBrick(const FramePlan& plan, const BrickDraw& draw, const Res
                          const PlaneIndexRange& brickPlanes, const store::StoreMeta& meta, int brickSize,
                          const SliceGeometry& geometry, FrameStats& stats,
                          const std::function<void(const QueuedBox&)>& add) {
-  // The brick's first voxel in its own level; the voxels it owns in level 0's (a level-m voxel is 2^m across).
+  // The voxels the brick owns, in level 0's (a level-m voxel is 2^m across); the first voxel of the brick its
+  // samples come from (itself, or a stand-in ancestor), in that brick's level.
   const store::BrickKey& key = draw.key;
-  const int level = int(key.level);
-  const store::Vec3i brickLo{int64_t(key.i) * brickSize, int64_t(key.j) * brickSize, int64_t(key.k) * brickSize};
-  const store::Vec3i ownedLo{brickLo.x << level, brickLo.y << level, brickLo.z << level};
-  const store::Vec3i ownedHi{std::min<int64_t>((brickLo.x + brickSize) << level, meta.dims.x),
-                             std::min<int64_t>((brickLo.y + brickSize) << level, meta.dims.y),
-                             std::min<int64_t>((brickLo.z + brickSize) << level, meta.dims.z)};
+  const int keyLevel = int(key.level);
+  const store::Vec3i ownedLo{int64_t(key.i) * brickSize << keyLevel, int64_t(key.j) * brickSize << keyLevel,
+                             int64_t(key.k) * brickSize << keyLevel};
+  const store::Vec3i ownedHi{std::min<int64_t>(ownedLo.x + (int64_t(brickSize) << keyLevel), meta.dims.x),
+                             std::min<int64_t>(ownedLo.y + (int64_t(brickSize) << keyLevel), meta.dims.y),
+                             std::min<int64_t>(ownedLo.z + (int64_t(brickSize) << keyLevel), meta.dims.z)};
+  const store::BrickKey source = draw.source();
+  const int level = int(source.level);
+  const store::Vec3i brickLo{int64_t(source.i) * brickSize, int64_t(source.j) * brickSize,
+                             int64_t(source.k) * brickSize};
   mSpans.clear();
-  if (plan.subBlock)
+  if (plan.subBlock) {
     subBlockBoxes(*resident.ranges, brickLo, level, meta.dims, meta.spacing, plan.camera, plan.contributes, mSpans,
                   mSubStats);
-  else
+    // A stand-in's sub-blocks cover its whole brick: keep their parts inside the voxels this draw owns. Clipping
+    // to a box keeps the spans' front-to-back order.
+    if (draw.standIn > 0) std::erase_if(mSpans, [&](VoxelSpan& span) { return !clipSpan(span, ownedLo, ownedHi); });
+  } else {
     mSpans.push_back({ownedLo, ownedHi});
+  }
   // xyz: added to a sample's voxel coordinate in the brick's level, gives its atlas texel; w: the level.
   const glm::ivec4 payload(resident.origin.x + 1 - int32_t(brickLo.x), resident.origin.y + 1 - int32_t(brickLo.y),
                            resident.origin.z + 1 - int32_t(brickLo.z), level);

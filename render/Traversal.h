@@ -23,10 +23,18 @@ Box voxelSpanBox(const store::Vec3i& lo, const store::Vec3i& hi, const store::Ve
                  const store::Vec3d& spacing);
 
 /// One brick to draw: its key (level 0, or a coarser level of the pyramid standing for the level-0 bricks under it)
-/// and the world box of the level-0 voxels it owns (borders excluded).
+/// and the world box of the level-0 voxels it owns (borders excluded). Its samples come from source(): the brick
+/// itself, or (coarse-to-fine streaming, Residency::standIn) its ancestor `standIn` levels up, read over the same
+/// voxels while the brick itself is still on its way from the disk.
 struct BrickDraw {
   store::BrickKey key;
   Box box;
+  uint32_t standIn = 0;  ///< levels above key.level that the samples come from (0: the brick itself)
+
+  /// The brick whose samples are drawn.
+  store::BrickKey source() const {
+    return {key.level + standIn, key.i >> standIn, key.j >> standIn, key.k >> standIn};
+  }
 };
 
 /// What a traversal did. Skipped and culled count level-0 bricks, including every brick under a skipped or culled

@@ -45,13 +45,14 @@ SliceGeometry& VolumeRenderer::geometry(const Scene& scene) {
   return *g;
 }
 
-image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, RenderMode mode) {
+image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, const FrameOptions& options) {
+  const RenderMode mode = options.mode;
   const auto frameStart = Clock::now();
   FrameStats stats;
   const store::BrickStore& store = mResidency.store();
 
   auto t = Clock::now();
-  const FramePlan plan = planFrame(scene, store, kTransferTableTexels);
+  FramePlan plan = planFrame(scene, store, kTransferTableTexels);
   stats.nodesVisited = plan.visible.stats.nodesVisited;
   stats.bricksSkippedEmpty = plan.visible.stats.bricksSkippedEmpty;
   stats.bricksCulled = plan.visible.stats.bricksCulled;
@@ -61,6 +62,13 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, R
   stats.bricksPerLevel = plan.visible.stats.bricksPerLevel;
   stats.msTraversal = msSince(t);
 
+  if (options.standIns) {
+    t = Clock::now();
+    stats.bricksStandIn = mResidency.standIn(plan.visible.bricks, store.levelCount() - 1);
+    for (const BrickDraw& d : plan.visible.bricks)
+      plan.coarsestLevel = std::max(plan.coarsestLevel, int(d.key.level + d.standIn));
+    stats.msPaging += msSince(t);
+  }
   mResidency.beginFrame(plan.visible.bricks);
   mCompositor.begin(scene.width, scene.height, mode != RenderMode::Roofline, plan.ert > 0 || plan.ess);
   const std::vector<glm::vec4> table = scene.transferFunction.table(kTransferTableTexels);

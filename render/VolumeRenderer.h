@@ -29,12 +29,13 @@ class VolumeRenderer final : public FrameRenderer {
   ~VolumeRenderer() override;
 
   /// Renders `scene`; throws RenderInputError for an invalid scene and RenderError for GL failures.
-  image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, RenderMode mode = RenderMode::Normal) override;
+  image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) override;
 
   const BrickAtlas& atlas() const { return mResidency.atlas(); }
+  size_t gpuBytes() const override { return mResidency.atlas().bytes(); }
 
   /// Texels of the GPU's transfer-function table.
-  static constexpr int kTransferTableTexels = 4096;
+  static constexpr int kTransferTableTexels = render::kTransferTableTexels;
 
  private:
   SliceGeometry& geometry(const Scene& scene);

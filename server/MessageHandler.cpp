@@ -98,6 +98,7 @@ Outcome MessageHandler::hello(ConnectionState& state, const proto::Hello& hello,
 Outcome MessageHandler::openDataset(ConnectionState& state, const proto::OpenDataset& open, uint32_t requestId) {
   std::shared_ptr<const render::Dataset> dataset = mDatasets.open(open.name);
   state.dataset = dataset;
+  state.lastCamera.reset();
   return replyWith(proto::DatasetInfo{dataset->name(), dataset->infoJson()}, requestId);
 }
 
@@ -115,6 +116,8 @@ Outcome MessageHandler::render(ConnectionState& state, const proto::RenderReques
     throw LimitExceededError("image " + std::to_string(job.scene.width) + "x" + std::to_string(job.scene.height) +
                              " exceeds this server's limit of " + std::to_string(mConfig.maxImageSide) +
                              " per side");
+  job.previousCamera = state.lastCamera;
+  state.lastCamera = job.scene.camera;
   Outcome outcome;
   outcome.render = std::move(job);
   return outcome;
@@ -132,7 +135,8 @@ Outcome MessageHandler::submitted(ConnectionState& state, uint32_t requestId, Su
     case Submission::Result::Queued: break;
   }
   ++state.outstandingRenders;
-  if (!submission.replaced) return {};
+  // A refinement the client never asked for (its request already had a provisional Frame) goes without a word.
+  if (!submission.replaced || submission.replaced->refinement) return {};
   --state.outstandingRenders;
   mStats.add(ServerEvent::Superseded);
   const uint32_t replaced = submission.replaced->requestId;
@@ -143,11 +147,15 @@ Outcome MessageHandler::submitted(ConnectionState& state, uint32_t requestId, Su
 }
 
 Outcome MessageHandler::rendered(ConnectionState& state, const RenderJob& job, proto::Message reply) {
-  --state.outstandingRenders;
-  if (std::holds_alternative<proto::Frame>(reply))
-    mStats.frameDelivered(std::chrono::duration<double, std::milli>(Clock::now() - job.received).count());
+  // A provisional Frame answers its request as any Frame does; the refinement after it was not counted.
+  if (job.refinement)
+    mStats.add(ServerEvent::Refined);
   else
+    --state.outstandingRenders;
+  if (!std::holds_alternative<proto::Frame>(reply))
     mStats.add(ServerEvent::RenderError);
+  else if (!job.refinement)
+    mStats.frameDelivered(std::chrono::duration<double, std::milli>(Clock::now() - job.received).count());
   return replyWith(std::move(reply), job.requestId);
 }
 

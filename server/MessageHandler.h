@@ -28,6 +28,7 @@ struct ConnectionState {
   bool greeted = false;                            ///< Hello was accepted
   std::shared_ptr<const render::Dataset> dataset;  ///< the open one; null before OpenDataset
   int outstandingRenders = 0;                      ///< renders queued or drawing, not answered yet
+  std::optional<render::CameraSpec> lastCamera;    ///< of the last Render of the open dataset (paging ahead)
 
   /// Whether the client is waiting for a frame (so a silent client is not idle).
   bool awaitingFrames() const { return outstandingRenders > 0; }

@@ -5,8 +5,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "server/ErrorReply.h"
 #include "image/FrameImage.h"
+#include "render/FramePlan.h"
+#include "server/ErrorReply.h"
 
 namespace voxbrick::server {
 namespace {
@@ -19,11 +20,13 @@ double msBetween(Clock::time_point a, Clock::time_point b) {
 
 }  // namespace
 
-proto::Message renderReply(render::RenderEngine& engine, const RenderJob& job, int thread) {
+RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int thread) {
   const auto start = Clock::now();
   try {
     render::FrameStats stats;
-    const image::ImageF image = engine.render(job.dataset, job.scene, &stats);
+    render::FrameOptions options;
+    options.standIns = job.scene.progressive && !job.refinement;
+    const image::ImageF image = engine.render(job.dataset, job.scene, &stats, options);
     const auto encodeStart = Clock::now();
     proto::Frame frame;
     frame.width = uint32_t(image.width);
@@ -34,12 +37,56 @@ proto::Message renderReply(render::RenderEngine& engine, const RenderJob& job, i
     statsJson["queue_ms"] = msBetween(job.received, start);
     statsJson["encode_ms"] = msBetween(encodeStart, Clock::now());
     statsJson["render_thread"] = thread;
+    const bool provisional = stats.bricksStandIn > 0;
+    statsJson["provisional"] = provisional;
     frame.statsJson = statsJson.dump();
-    return frame;
+    return {std::move(frame), provisional};
   } catch (...) {
-    return errorReply(std::current_exception(),
-                      "render of request " + std::to_string(job.requestId) + " on '" +
-                          (job.dataset ? job.dataset->name() : std::string("no dataset")) + "' failed");
+    return {errorReply(std::current_exception(),
+                       "render of request " + std::to_string(job.requestId) + " on '" +
+                           (job.dataset ? job.dataset->name() : std::string("no dataset")) + "' failed"),
+            false};
+  }
+}
+
+namespace {
+
+/// The camera one more step along the motion from `a` to `b`; nothing if it did not move.
+std::optional<render::CameraSpec> extrapolate(const render::CameraSpec& a, const render::CameraSpec& b) {
+  if (a.orbit != b.orbit) return std::nullopt;
+  render::CameraSpec next = b;
+  if (b.orbit) {
+    if (a.azimuth == b.azimuth && a.elevation == b.elevation && a.distance == b.distance) return std::nullopt;
+    next.azimuth = 2 * b.azimuth - a.azimuth;
+    next.elevation = std::clamp(2 * b.elevation - a.elevation, -89.0, 89.0);
+    next.distance = b.distance * (b.distance / a.distance);
+  } else {
+    if (a.eye == b.eye && a.center == b.center) return std::nullopt;
+    next.eye = 2.0 * b.eye - a.eye;
+    next.center = 2.0 * b.center - a.center;
+  }
+  return next;
+}
+
+}  // namespace
+
+void prefetchAhead(const RenderJob& job) {
+  if (!job.previousCamera || !job.dataset || job.dataset->kind() != render::DatasetKind::BrickStore) return;
+  const auto next = extrapolate(*job.previousCamera, job.scene.camera);
+  if (!next) return;
+  try {
+    const auto& dataset = static_cast<const render::BrickStoreDataset&>(*job.dataset);
+    render::Scene scene = job.scene;
+    scene.camera = *next;
+    const render::FramePlan plan = render::planFrame(scene, *dataset.store(), render::kTransferTableTexels);
+    std::vector<store::BrickKey> keys;
+    for (const render::BrickDraw& d : plan.visible.bricks) {
+      if (keys.size() >= dataset.cache()->prefetchQueueLimit()) break;
+      keys.push_back(d.key);
+    }
+    dataset.cache()->prefetch(keys);
+  } catch (...) {
+    // An extrapolated camera can be invalid (inside out, degenerate): then there is nothing to page ahead for.
   }
 }
 

@@ -21,6 +21,12 @@ struct RenderJob {
   render::Scene scene;
   std::shared_ptr<const render::Dataset> dataset;  ///< the one open when the request came
   std::chrono::steady_clock::time_point received;   ///< for queue_ms and the latency statistics
+  /// The camera of the session's previous Render of the same dataset, if any: the render thread pages ahead for
+  /// the camera a drag would reach next (prefetchAhead).
+  std::optional<render::CameraSpec> previousCamera;
+  /// The exact frame of a progressive request already answered with a provisional one: queued by the render
+  /// thread, not by the client, so it is dropped silently when a newer Render of the session arrives.
+  bool refinement = false;
 };
 
 /// What the render queue did with a submitted job.
@@ -34,9 +40,21 @@ struct Submission {
   std::optional<RenderJob> replaced;  ///< the session's waiting job this one replaced (latest wins)
 };
 
+/// A render thread's answer to a job.
+struct RenderReply {
+  proto::Message message;    ///< a Frame or an Error
+  bool provisional = false;  ///< a Frame drawn with stand-ins: the exact one is to follow (a refinement job)
+};
+
 /// Renders `job` on `engine` (its context current on this thread) and encodes it: a Frame whose statistics add
-/// queue_ms, encode_ms and render_thread (`thread`) to the renderer's, or the Error that errorReply makes of what
-/// the renderer threw. Throws nothing but std::bad_alloc.
-proto::Message renderReply(render::RenderEngine& engine, const RenderJob& job, int thread);
+/// queue_ms, encode_ms, render_thread (`thread`) and provisional to the renderer's, or the Error that errorReply
+/// makes of what the renderer threw. A progressive scene's first frame is drawn with stand-ins (provisional when
+/// any brick stood in); a refinement is drawn exactly. Throws nothing but std::bad_alloc.
+RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int thread);
+
+/// Pages ahead of a drag: when `job` moved the camera from its previous one, queues on the dataset's host cache the
+/// bricks the next camera along the same motion would draw (the camera extrapolated one step). Advisory: does nothing
+/// for other dataset kinds or a camera that did not move, and never throws.
+void prefetchAhead(const RenderJob& job);
 
 }  // namespace voxbrick::server

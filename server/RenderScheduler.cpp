@@ -14,6 +14,8 @@ namespace voxbrick::server {
 RenderScheduler::RenderScheduler(std::vector<std::unique_ptr<render::RenderEngine>> engines, bool coalesce)
     : mCoalesce(coalesce), mEngines(std::move(engines)) {
   if (mEngines.empty()) throw std::invalid_argument("RenderScheduler: no render engine");
+  mGaugeCount = mEngines.size();
+  mGauges = std::make_unique<EngineGauge[]>(mGaugeCount);
   spdlog::info("render threads: {} x {}", mEngines.size(), mEngines.front()->describe());
 }
 
@@ -52,6 +54,30 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
     if (!inTurn) mTurns.push_back(sink);
   }
   mReady.notify_one();
+  return out;
+}
+
+void RenderScheduler::refine(const std::shared_ptr<Sink>& sink, RenderJob job) {
+  job.refinement = true;
+  job.received = std::chrono::steady_clock::now();
+  {
+    std::lock_guard lock(mMutex);
+    if (mStopping) return;
+    std::deque<RenderJob>& waiting = mWaiting[sink.get()];
+    if (!waiting.empty()) return;
+    waiting.push_back(std::move(job));
+    mTurns.push_back(sink);
+  }
+  mReady.notify_one();
+}
+
+RenderScheduler::GpuGauges RenderScheduler::gpu() const {
+  GpuGauges out;
+  for (size_t i = 0; i < mGaugeCount; ++i) {
+    out.bytes += mGauges[i].bytes;
+    out.peakBytes += mGauges[i].peakBytes;
+    out.renderersReleased += mGauges[i].released;
+  }
   return out;
 }
 
@@ -106,9 +132,16 @@ void RenderScheduler::renderLoop(std::unique_ptr<render::RenderEngine> engine, i
   RenderJob job;
   while (next(sink, job)) {
     if (sink->wantsReplies()) {
-      proto::Message reply = broken ? proto::Message(errorReply(broken, brokenContext))
-                                    : renderReply(*engine, job, index);
-      sink->rendered(std::move(job), std::move(reply));
+      RenderReply reply = broken ? RenderReply{errorReply(broken, brokenContext), false} : renderReply(*engine, job, index);
+      // The session gets its frame first; then the exact frame of a provisional one is queued, and the bricks of
+      // the camera a drag would reach next are paged ahead.
+      EngineGauge& gauge = mGauges[size_t(index)];
+      gauge.bytes = engine->gpuBytes();
+      gauge.peakBytes = engine->peakGpuBytes();
+      gauge.released = engine->renderersReleased();
+      sink->rendered(job, std::move(reply.message));
+      if (reply.provisional) refine(sink, job);
+      if (!job.refinement) prefetchAhead(job);
     }
     sink.reset();
     job = {};

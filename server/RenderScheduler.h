@@ -2,6 +2,7 @@
 // holds at most one waiting job and a newer one replaces it (latest wins). Each thread owns a RenderEngine.
 #pragma once
 
+#include <atomic>
 #include <condition_variable>
 #include <deque>
 #include <map>
@@ -41,6 +42,16 @@ class RenderScheduler {
   void start();
   /// Queues `job` for `sink`'s session; thread-safe. Only Submission::Result::Queued means a reply will come.
   Submission submit(const std::shared_ptr<Sink>& sink, RenderJob job);
+  /// Queues the exact frame of `job`, a progressive request just answered with a provisional frame, unless the
+  /// session has a newer job waiting (its camera moved on) or the server is stopping; a newer submit replaces it.
+  /// Thread-safe.
+  void refine(const std::shared_ptr<Sink>& sink, RenderJob job);
+  /// The atlases of all render threads' engines, as each thread last saw them after a job.
+  struct GpuGauges {
+    size_t bytes = 0, peakBytes = 0;  ///< peakBytes: the sum of each thread's peak
+    uint64_t renderersReleased = 0;
+  };
+  GpuGauges gpu() const;
   /// How many sessions have a job waiting.
   size_t queuedSessions() const;
   /// Drops every waiting job, lets each thread finish the frame it is drawing (its reply is still delivered) and
@@ -61,6 +72,12 @@ class RenderScheduler {
   /// Their waiting jobs, oldest first; a session has an entry exactly while it is in mTurns.
   std::map<const Sink*, std::deque<RenderJob>> mWaiting;
   std::vector<std::unique_ptr<render::RenderEngine>> mEngines;  ///< until start() hands them to their threads
+  struct EngineGauge {
+    std::atomic<size_t> bytes{0}, peakBytes{0};
+    std::atomic<uint64_t> released{0};
+  };
+  std::unique_ptr<EngineGauge[]> mGauges;  ///< one per engine, written by its thread
+  size_t mGaugeCount = 0;
   std::mutex mJoinMutex;
   std::vector<std::thread> mThreads;
 };

@@ -53,9 +53,10 @@ tcp::endpoint listenEndpoint(const ServerConfig& config) {
 /// at startup with an error, not with threads left running.
 std::vector<std::unique_ptr<render::RenderEngine>> makeEngines(const ServerConfig& config) {
   std::vector<std::unique_ptr<render::RenderEngine>> engines;
+  // The GPU budget is the server's: each thread's atlases, whichever datasets they hold, stay within its share.
+  const size_t share = (size_t(config.gpuBudgetMB) << 20) / size_t(config.renderThreads);
   for (int i = 0; i < config.renderThreads; ++i) {
-    engines.push_back(std::make_unique<render::RenderEngine>(
-        render::RenderEngineOptions{config.backend, size_t(config.gpuBudgetMB) << 20}));
+    engines.push_back(std::make_unique<render::RenderEngine>(render::RenderEngineOptions{config.backend, share}));
     engines.back()->releaseCurrent();
   }
   return engines;
@@ -222,6 +223,8 @@ json Server::Impl::statsJson() const {
   gauges.queuedSessions = scheduler.queuedSessions();
   gauges.datasets = datasets.opened();
   gauges.renderThreads = config.renderThreads;
+  gauges.gpu = scheduler.gpu();
+  gauges.gpuBudgetBytes = size_t(config.gpuBudgetMB) << 20;
   return stats.toJson(gauges);
 }
 

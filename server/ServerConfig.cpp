@@ -131,6 +131,9 @@ void ServerConfig::validate() const {
   range("limits.max_output_bytes", double(maxOutputBytes), 1 << 20, double(uint64_t(1) << 40));
   range("memory.host_cache_mb", double(hostCacheMB), 16, 1 << 22);
   range("memory.gpu_budget_mb", double(gpuBudgetMB), 16, 1 << 22);
+  if (gpuBudgetMB < 4 * int64_t(renderThreads))
+    fail("memory.gpu_budget_mb = " + std::to_string(gpuBudgetMB) + " leaves less than 4 MB to each of the " +
+         std::to_string(renderThreads) + " render threads");
 }
 
 render::Backend ServerConfig::parseBackend(const std::string& text, const std::string& what) {

@@ -31,7 +31,7 @@ struct ServerConfig {
   uint64_t maxOutputBytes = 256ull << 20;    ///< replies queued for a session that does not read
   // [memory]
   int64_t hostCacheMB = 1024;                ///< decoded bricks per dataset, shared by render threads
-  int64_t gpuBudgetMB = 1024;                ///< atlas per render thread and dataset
+  int64_t gpuBudgetMB = 1024;                ///< atlases of all render threads and datasets (equal shares per thread)
 
   /// Without coalescing (a benchmark setting), how many renders one session may have waiting.
   static constexpr size_t kMaxQueuedWithoutCoalescing = 64;

@@ -58,12 +58,17 @@ json ServerStats::toJson(const Gauges& gauges) const {
           {"renders", {{"requested", total(ServerEvent::RenderRequest)},
                        {"frames", frames},
                        {"superseded", total(ServerEvent::Superseded)},
+                       {"refined", total(ServerEvent::Refined)},
                        {"errors", total(ServerEvent::RenderError)},
                        {"queued", gauges.queuedSessions},
                        {"frames_per_s", uptime > 0 ? double(frames) / uptime : 0.0}}},
           {"latency_ms", mLatency.toJson()},
           {"datasets", sets},
           {"memory", {{"rss_bytes", rss}, {"peak_rss_bytes", peak}}},
+          {"gpu", {{"budget_bytes", gauges.gpuBudgetBytes},
+                   {"atlas_bytes", gauges.gpu.bytes},
+                   {"peak_atlas_bytes", gauges.gpu.peakBytes},
+                   {"renderers_released", gauges.gpu.renderersReleased}}},
           {"render_threads", gauges.renderThreads}};
 }
 

@@ -12,6 +12,7 @@
 
 #include "render/Dataset.h"
 #include "server/LatencyWindow.h"
+#include "server/RenderScheduler.h"
 
 namespace voxbrick::server {
 
@@ -25,6 +26,7 @@ enum class ServerEvent {
   Frame,
   RenderError,        ///< renders answered with an Error instead of a Frame
   Superseded,
+  Refined,            ///< exact frames sent after a provisional one (progressive scenes)
   Timeout,            ///< sessions closed idle or mid-message
   SlowClientDropped,  ///< sessions closed because they did not read their replies
 };
@@ -38,6 +40,8 @@ class ServerStats {
     size_t queuedSessions = 0;  ///< sessions with a render waiting for a thread
     std::vector<std::shared_ptr<const render::Dataset>> datasets;  ///< the opened ones
     int renderThreads = 0;
+    RenderScheduler::GpuGauges gpu;  ///< the render threads' atlases
+    size_t gpuBudgetBytes = 0;
   };
 
   /// Counts one `event`.

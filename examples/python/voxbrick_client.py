@@ -11,6 +11,7 @@ message, request id 1) and --decode FILE (print one message as JSON).
 import argparse
 import binascii
 import json
+import os
 import socket
 import struct
 import sys
@@ -129,9 +130,19 @@ class Client:
     def open_dataset(self, name):
         return json.loads(self._call('OpenDataset', 'DatasetInfo', name=name)['meta_json'])
 
-    def render(self, scene, encoding='png'):
-        frame = self._call('Render', 'Frame', encoding=encoding, scene_json=json.dumps(scene))
-        return frame['width'], frame['height'], frame['encoding'], json.loads(frame['stats_json']), frame['payload']
+    def render(self, scene, encoding='png', on_provisional=None):
+        """The exact frame as (width, height, encoding, stats, payload). For a scene with "progressive": true the
+        server may first send provisional frames (stats "provisional": true, bricks still on their way drawn from a
+        coarser level); each is passed to on_provisional, if given, as the same tuple."""
+        request_id = self._send('Render', encoding=encoding, scene_json=json.dumps(scene))
+        while True:
+            frame = self._await(request_id, 'Frame')
+            result = (frame['width'], frame['height'], frame['encoding'], json.loads(frame['stats_json']),
+                      frame['payload'])
+            if not result[3].get('provisional', False):
+                return result
+            if on_provisional:
+                on_provisional(*result)
 
     def stats(self):
         return json.loads(self._call('GetStats', 'Stats')['json'])
@@ -148,8 +159,14 @@ class Client:
         return self.next_id - 1
 
     def _call(self, type_name, reply_type, **fields):
+        return self._await(self._send(type_name, **fields), reply_type)
+
+    def _send(self, type_name, **fields):
         request_id = self._new_id()
         self.sock.sendall(encode(type_name, request_id, **fields))
+        return request_id
+
+    def _await(self, request_id, reply_type):
         while True:
             name, reply_id, size = decode_header(self._read(HEADER.size), self.max_body)
             body = self._read(size)
@@ -207,7 +224,17 @@ def render_frame(args):
             camera['orbit'] = [float(v) for v in args.orbit.split(',')]
         if args.size:
             scene['size'] = [int(v) for v in args.size.lower().split('x')]
-        width, height, encoding, stats, payload = client.render(scene, args.encoding)
+        if args.progressive:
+            scene['progressive'] = True
+
+        def provisional(width, height, encoding, stats, payload):
+            root, ext = os.path.splitext(args.output)
+            with open(root + '.provisional' + ext, 'wb') as f:
+                f.write(payload)
+            print(f'{root}.provisional{ext}: provisional {width}x{height}, {stats.get("bricks_standin")} bricks '
+                  'stood in')
+
+        width, height, encoding, stats, payload = client.render(scene, args.encoding, provisional)
         with open(args.output, 'wb') as f:
             f.write(payload)
         print(f'{args.output}: {width}x{height} {encoding}, {len(payload)} bytes; stats {json.dumps(stats)}')
@@ -223,6 +250,8 @@ def main():
     parser.add_argument('--orbit', help='AZ,EL,DIST camera orbit (degrees, degrees, bounding radii)')
     parser.add_argument('--size', help='WxH image size')
     parser.add_argument('--encoding', choices=list(ENCODINGS.values()), default='png')
+    parser.add_argument('--progressive', action='store_true',
+                        help='coarse to fine: also write the provisional frame (beside the output) if one comes')
     parser.add_argument('-o', '--output', default='frame.png', help='where the payload is written')
     parser.add_argument('--encode-hello', metavar='FILE', help='write a Hello message to FILE')
     parser.add_argument('--encode-render', metavar='FILE', help='write a Render message with --scene-json to FILE')

@@ -111,9 +111,11 @@ TEST(CliPrep, UnwritableOutputAndFullDiskLeaveNothingBehind) {
 
 TEST(CliPrep, InterruptLeavesNothingBehind) {
   ScratchDir dir;
-  // A 512^3 field takes seconds to convert; SIGINT half a second in must stop it cleanly.
+  // A 512^3 field takes seconds to convert; SIGINT once the store under construction appears (its handler is in
+  // place by then, however loaded the machine) must stop it cleanly.
   auto r = runShell("(" + std::string(VOXBRICK_EXE) + " prep synthetic:blobs,n=512 -q -o " + (dir / "s").string() +
-                    " & pid=$!; sleep 0.5; kill -INT $pid; wait $pid)");
+                    " & pid=$!; for i in $(seq 600); do [ -n \"$(ls -A " + dir.path().string() +
+                    ")\" ] && break; sleep 0.05; done; sleep 0.2; kill -INT $pid; wait $pid)");
   expectError(r, {"interrupted"});
   expectOnly(dir.path(), {});
 }

@@ -32,7 +32,7 @@ class MessageHandlerTest : public ::testing::Test {
   render::TransferFunctionPresets presets = render::TransferFunctionPresets::load(test::shippedPresets());
   ServerStats stats;
   MessageHandler handler{config, datasets, presets, stats,
-                         [this] { return stats.toJson(ServerStats::Gauges{3, 1, datasets.opened(), 2}); }};
+                         [this] { return stats.toJson(ServerStats::Gauges{3, 1, datasets.opened(), 2, {}, 0}); }};
   ConnectionState state;
 
   Outcome handle(const proto::Message& message, uint32_t id = 1) { return handler.handle(state, message, id); }
@@ -266,6 +266,38 @@ TEST_F(MessageHandlerTest, AReplacedJobIsAnsweredSuperseded) {
   EXPECT_FALSE(o.close);
   EXPECT_EQ(state.outstandingRenders, 1) << "one waits: the newest";
   EXPECT_EQ(stats.total(ServerEvent::Superseded), 1u);
+}
+
+// The exact frame after a provisional one was queued by the render thread: replacing it answers nothing, and its
+// Frame neither counts as a render answered nor as outstanding.
+TEST_F(MessageHandlerTest, ARefinementIsReplacedSilentlyAndNotCountedOutstanding) {
+  greetAndOpen();
+  RenderJob first = job(30);
+  handler.submitted(state, 30, Submission{});
+  handler.rendered(state, first, proto::Frame{});  // the provisional frame answers request 30
+  EXPECT_EQ(state.outstandingRenders, 0);
+  RenderJob refinement = first;
+  refinement.refinement = true;
+  const Outcome exact = handler.rendered(state, refinement, proto::Frame{});
+  EXPECT_EQ(onlyReply<proto::Frame>(exact, 30).width, 0u);
+  EXPECT_EQ(state.outstandingRenders, 0);
+  EXPECT_EQ(stats.total(ServerEvent::Refined), 1u);
+
+  Submission second;
+  second.replaced = refinement;
+  job(31);
+  EXPECT_TRUE(handler.submitted(state, 31, std::move(second)).replies.empty());
+  EXPECT_EQ(state.outstandingRenders, 1) << "the new request waits";
+  EXPECT_EQ(stats.total(ServerEvent::Superseded), 0u);
+}
+
+// Each Render carries the session's previous camera of the same dataset, for paging ahead of a drag.
+TEST_F(MessageHandlerTest, ARenderCarriesThePreviousCamera) {
+  greetAndOpen();
+  EXPECT_FALSE(job(40).previousCamera);
+  const RenderJob second = job(41);
+  ASSERT_TRUE(second.previousCamera);
+  EXPECT_EQ(second.previousCamera->azimuth, second.scene.camera.azimuth);
 }
 
 TEST_F(MessageHandlerTest, AFullQueueIsLimitExceededAndAStoppedOneIsSilent) {

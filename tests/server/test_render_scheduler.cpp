@@ -99,6 +99,49 @@ TEST_F(RenderSchedulerTest, TheNewestWaitingJobOfASessionWinsAndSessionsTakeTurn
   EXPECT_EQ(a->await(1).size(), 1u) << "the replaced job was never rendered";
 }
 
+// A progressive job on a cold cache: a provisional frame, then the exact one for the same request, equal to a plain
+// job's frame.
+TEST_F(RenderSchedulerTest, AProgressiveJobIsRefinedToTheExactFrame) {
+  auto s = scheduler(1, true);
+  auto a = std::make_shared<RecordingSink>();
+  s->start();
+  RenderJob progressive = job(7);
+  progressive.scene.progressive = true;
+  s->submit(a, progressive);
+  const auto two = a->await(2);
+  ASSERT_EQ(two.size(), 2u);
+  EXPECT_EQ(two[0].first, 7u);
+  EXPECT_EQ(two[1].first, 7u);
+  ASSERT_TRUE(std::holds_alternative<proto::Frame>(two[0].second));
+  ASSERT_TRUE(std::holds_alternative<proto::Frame>(two[1].second));
+  const json first = json::parse(std::get<proto::Frame>(two[0].second).statsJson);
+  const json second = json::parse(std::get<proto::Frame>(two[1].second).statsJson);
+  EXPECT_TRUE(first["provisional"].get<bool>());
+  EXPECT_GT(first["bricks_standin"].get<int>(), 0);
+  EXPECT_FALSE(second["provisional"].get<bool>());
+  s->submit(a, job(8));
+  const auto three = a->await(3);
+  ASSERT_EQ(three.size(), 3u);
+  EXPECT_EQ(std::get<proto::Frame>(three[2].second).payload, std::get<proto::Frame>(two[1].second).payload);
+  s->stop();
+}
+
+// A refinement waits only if the session has nothing newer waiting: a camera that moved on drops it.
+TEST_F(RenderSchedulerTest, ARefinementYieldsToANewerJob) {
+  auto s = scheduler(1, true);
+  auto a = std::make_shared<RecordingSink>();
+  s->submit(a, job(1));
+  s->refine(a, job(2));  // dropped: job 1 waits
+  s->start();
+  ASSERT_EQ(a->await(1).size(), 1u);
+  s->submit(a, job(3));
+  const auto replies = a->await(2);
+  ASSERT_EQ(replies.size(), 2u);
+  EXPECT_EQ(replies[0].first, 1u);
+  EXPECT_EQ(replies[1].first, 3u);
+  s->stop();
+}
+
 TEST_F(RenderSchedulerTest, WithoutCoalescingASessionMayQueueSixtyFour) {
   auto s = scheduler(1, false);
   auto a = std::make_shared<RecordingSink>();
@@ -151,7 +194,7 @@ TEST(RenderReply, AFrameCarriesTheImageAndTheServerTimings) {
   job.dataset = datasets.open("sparse");
   job.scene = render::Scene::fromJson(R"({"size": [40, 32], "transfer_function": "sparse"})", "scene", presets);
   job.received = std::chrono::steady_clock::now();
-  const proto::Message reply = renderReply(engine, job, 3);
+  const proto::Message reply = renderReply(engine, job, 3).message;
   ASSERT_TRUE(std::holds_alternative<proto::Frame>(reply));
   const auto& frame = std::get<proto::Frame>(reply);
   EXPECT_EQ(frame.width, 40u);
@@ -169,7 +212,7 @@ TEST(RenderReply, AFrameCarriesTheImageAndTheServerTimings) {
 
   // What the renderer throws becomes the reply, through errorReply.
   job.dataset = nullptr;
-  const proto::Message error = renderReply(engine, job, 3);
+  const proto::Message error = renderReply(engine, job, 3).message;
   ASSERT_TRUE(std::holds_alternative<proto::Error>(error));
   EXPECT_EQ(std::get<proto::Error>(error).code, proto::ErrorCode::InvalidScene);
 }

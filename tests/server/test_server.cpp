@@ -5,6 +5,7 @@
 
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <thread>
 
@@ -314,6 +315,109 @@ TEST_F(ServerTest, RequestCommandAndPythonClientGetTheSameFrame) {
   r = test::runVoxbrick("request " + address + " --dataset nope -o " + (scratch() / "x.png").string());
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_NE(r.output.find("UnknownDataset"), std::string::npos) << r.output;
+}
+
+/// kScene, progressive.
+std::string progressiveScene() {
+  json scene = json::parse(kScene);
+  scene["progressive"] = true;
+  return scene.dump();
+}
+
+// A cold server has no brick in memory: a progressive Render gets a provisional frame first (bricks drawn from the
+// coarsest level while they are read), then the exact frame, which equals a plain Render's and `voxbrick render`'s.
+TEST_F(ServerTest, AProgressiveRenderSendsAProvisionalFrameThenTheExactOne) {
+  auto server = start();
+  auto c = session(*server);
+  std::vector<proto::Frame> provisional;
+  const proto::Frame exact =
+      c->render(progressiveScene(), proto::Encoding::RawRgba8, [&](const proto::Frame& f) { provisional.push_back(f); });
+  ASSERT_EQ(provisional.size(), 1u) << "a cold cache must stand in";
+  const json first = json::parse(provisional[0].statsJson), last = json::parse(exact.statsJson);
+  EXPECT_TRUE(first["provisional"].get<bool>());
+  EXPECT_GT(first["bricks_standin"].get<int>(), 0);
+  EXPECT_FALSE(last["provisional"].get<bool>());
+  EXPECT_EQ(last["bricks_standin"].get<int>(), 0);
+  EXPECT_NE(pixels(provisional[0]), pixels(exact)) << "the provisional frame is coarser";
+  size_t lit = 0;
+  for (size_t i = 0; i < pixels(provisional[0]).size(); i += 4) lit += pixels(provisional[0])[i] > 0 ? 1 : 0;
+  EXPECT_GT(lit, 100u) << "a provisional frame is never empty";
+
+  // Everything is resident now: no provisional frame, and the same pixels as a plain Render.
+  int more = 0;
+  const proto::Frame again = c->render(progressiveScene(), proto::Encoding::RawRgba8, [&](const proto::Frame&) { ++more; });
+  EXPECT_EQ(more, 0);
+  EXPECT_EQ(pixels(again), pixels(exact));
+  EXPECT_EQ(pixels(c->render(kScene, proto::Encoding::RawRgba8)), pixels(exact));
+  const json stats = json::parse(c->stats());
+  EXPECT_EQ(stats["renders"]["refined"].get<int>(), 1);
+  c->goodbye();
+
+  test::writeFile(scratch() / "scene.json", std::string(kScene));
+  const auto r = test::runVoxbrick("render " + datasets() + "/sparse --scene " + (scratch() / "scene.json").string() +
+                                   " -q -o " + (scratch() / "rendered.png").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_EQ(pixels(exact), image::readPng(scratch() / "rendered.png").rgba);
+}
+
+// The command-line clients expose it: each writes the provisional frame beside the exact one.
+TEST_F(ServerTest, ClientsWriteTheProvisionalFrameOfAProgressiveRender) {
+  test::writeFile(scratch() / "scene.json", std::string(kScene));
+  const std::string scene = (scratch() / "scene.json").string();
+  {
+    auto server = start();
+    const auto r = test::runVoxbrick("request 127.0.0.1:" + std::to_string(server->port()) +
+                                     " --dataset sparse --progressive --scene " + scene + " -o " +
+                                     (scratch() / "progressive.png").string());
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_NE(r.output.find("provisional frame"), std::string::npos) << r.output;
+    EXPECT_TRUE(std::filesystem::exists(scratch() / "progressive.provisional.png"));
+  }
+  {
+    auto server = start();
+    const auto r = test::runShell(std::string("python3 ") + VOXBRICK_SOURCE_DIR +
+                                  "/examples/python/voxbrick_client.py 127.0.0.1:" + std::to_string(server->port()) +
+                                  " --dataset sparse --progressive --scene " + scene + " -o " +
+                                  (scratch() / "python-progressive.png").string() + " 2>&1");
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_NE(r.output.find("bricks stood in"), std::string::npos) << r.output;
+    EXPECT_TRUE(std::filesystem::exists(scratch() / "python-progressive.provisional.png"));
+  }
+  EXPECT_EQ(image::readPng(scratch() / "progressive.png").rgba, image::readPng(scratch() / "python-progressive.png").rgba);
+  EXPECT_NE(image::readPng(scratch() / "progressive.png").rgba,
+            image::readPng(scratch() / "progressive.provisional.png").rgba);
+}
+
+// The GPU budget is the server's: whatever datasets two render threads draw, their atlases stay within it, the
+// least recently used renderers giving way, and frames do not change.
+TEST_F(ServerTest, TheGpuBudgetHoldsAcrossDatasetsAndThreads) {
+  ScratchDir many;
+  const auto dir = many / "datasets";
+  std::filesystem::create_directories(dir);
+  // 512 bricks of 18^3 floats: 11.9 MB of atlas each, more than a thread's 8 MB share.
+  const auto r = test::runVoxbrick("prep synthetic:sparse,n=128 --brick 16 --no-vdb -q -o " + (dir / "a").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  for (const char* name : {"b", "c"})
+    std::filesystem::copy(dir / "a", dir / name, std::filesystem::copy_options::recursive);
+  ServerProcess server("--datasets " + dir.string() + " --render-threads 2 --gpu-budget 16", many.path());
+  std::map<std::string, std::vector<uint8_t>> first;
+  for (int round = 0; round < 3; ++round)
+    for (const char* name : {"a", "b", "c"}) {
+      auto c = session(server, name);
+      const std::vector<uint8_t> frame = pixels(c->render(kScene, proto::Encoding::RawRgba8));
+      if (round == 0)
+        first[name] = frame;
+      else
+        EXPECT_EQ(frame, first[name]) << name << ", round " << round;
+      const json gpu = json::parse(c->stats())["gpu"];
+      EXPECT_EQ(gpu["budget_bytes"].get<uint64_t>(), uint64_t(16) << 20);
+      EXPECT_LE(gpu["atlas_bytes"].get<uint64_t>(), uint64_t(16) << 20) << name << ", round " << round;
+      EXPECT_LE(gpu["peak_atlas_bytes"].get<uint64_t>(), uint64_t(16) << 20) << name << ", round " << round;
+      c->goodbye();
+    }
+  auto c = session(server, "");
+  EXPECT_GT(json::parse(c->stats())["gpu"]["renderers_released"].get<int>(), 0);
+  EXPECT_EQ(first["a"], first["b"]);
 }
 
 TEST_F(ServerTest, ShortLoadWithFaultsLeavesGoodClientsUnharmed) {

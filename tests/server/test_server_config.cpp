@@ -154,6 +154,8 @@ TEST_F(ServerConfigTest, ValuesOutOfRangeAreRefusedByName) {
       {"[limits]\nmax_output_bytes = 1000\n", "limits.max_output_bytes"},
       {"[memory]\nhost_cache_mb = 1\n", "memory.host_cache_mb"},
       {"[memory]\ngpu_budget_mb = 8\n", "memory.gpu_budget_mb"},
+      // The budget is shared by the render threads: 16 MB cannot be cut into 8 useful shares.
+      {"[server]\nrender_threads = 8\n[memory]\ngpu_budget_mb = 16\n", "memory.gpu_budget_mb"},
   };
   for (const auto& [toml, key] : cases) {
     const std::string message = loadError(toml);
