@@ -30,7 +30,7 @@ struct FrameStats {
   int64_t samplesTerminated = 0;
   int64_t slabPasses = 0;      ///< texture slabs: draws of one slab each
   int64_t subBlocksSkipped = 0;  ///< sub-blocks of drawn bricks left out as empty (Scene::subBlock)
-  int64_t boxesDrawn = 0;        ///< boxes sliced: bricks, or with sub-blocks the boxes bricks are drawn as
+  int64_t boxesDrawn = 0;        ///< boxes sliced: bricks (stand-ins merged), or with sub-blocks the boxes drawn
   /// Wall time of each phase on the calling thread. Drawing ends with a glFinish, but with several batches a
   /// batch's GPU work may instead be waited for by the next batch's uploads and show up as paging.
   double msTraversal = 0, msPaging = 0, msSlicing = 0, msDrawing = 0, msReadback = 0, msTotal = 0;

@@ -23,17 +23,46 @@ int64_t Residency::standIn(std::vector<BrickDraw>& bricks, int coarsest) {
   const auto ready = [&](const store::BrickKey& key) {
     return mAtlas.slots().resident(key) || mCache->ready(key);
   };
+  const store::StoreMeta& meta = mCache->store()->meta();
   std::vector<store::BrickKey> missing;
+  std::vector<BrickDraw> out;
+  out.reserve(bricks.size());
   int64_t standIns = 0;
-  for (BrickDraw& d : bricks) {
+  for (BrickDraw d : bricks) {
     d.standIn = 0;
-    if (int(d.key.level) >= coarsest || ready(d.key)) continue;
-    // The queue keeps its newest requests when full, and the first bricks drawn are the ones wanted first.
-    if (missing.size() < mCache->prefetchQueueLimit()) missing.push_back(d.key);
-    d.standIn = 1;
-    while (int(d.key.level + d.standIn) < coarsest && !ready(d.source())) ++d.standIn;
-    ++standIns;
+    if (int(d.key.level) < coarsest && !ready(d.key)) {
+      // The queue keeps its newest requests when full, and the first bricks drawn are the ones wanted first.
+      if (missing.size() < mCache->prefetchQueueLimit()) missing.push_back(d.key);
+      d.standIn = 1;
+      while (int(d.key.level + d.standIn) < coarsest && !ready(d.source())) ++d.standIn;
+      ++standIns;
+    }
+    out.push_back(d);
+    // Siblings are consecutive in the traversal's order: once every child of a node is drawn from the same
+    // ancestor above it, the node is one box (the same voxels, the same samples, far fewer boxes on a cold start).
+    while (out.back().standIn > 0) {
+      const BrickDraw& last = out.back();
+      const uint32_t level = last.key.level;
+      const store::BrickKey parent{level + 1, last.key.i >> 1, last.key.j >> 1, last.key.k >> 1};
+      const store::Vec3i& grid = meta.levels.at(level).bricks;
+      const auto span = [](uint32_t p, int64_t n) { return 2 * int64_t(p) + 1 < n ? 2 : 1; };
+      const size_t children = size_t(span(parent.i, grid.x) * span(parent.j, grid.y) * span(parent.k, grid.z));
+      if (out.size() < children) break;
+      Box box = last.box;
+      bool whole = true;
+      for (size_t c = out.size() - children; c < out.size() && whole; ++c) {
+        const BrickDraw& s = out[c];
+        whole = s.key.level == level && s.standIn == last.standIn && (s.key.i >> 1) == parent.i &&
+                (s.key.j >> 1) == parent.j && (s.key.k >> 1) == parent.k;
+        box.min = glm::min(box.min, s.box.min), box.max = glm::max(box.max, s.box.max);
+      }
+      if (!whole) break;
+      const uint32_t standIn = last.standIn - 1;
+      out.resize(out.size() - children);
+      out.push_back({parent, box, standIn});
+    }
   }
+  bricks = std::move(out);
   mCache->prefetch(missing);
   return standIns;
 }

@@ -23,8 +23,9 @@ class Residency {
   /// Coarse-to-fine streaming, before beginFrame: every brick of `bricks` that is neither in the atlas nor in the
   /// host cache is drawn from its nearest ancestor that is (up to level `coarsest`, whose brick is read now if no
   /// ancestor is ready), and queued, in draw order, for the cache's workers to decode for a later frame. So the
-  /// frame never waits for the disk but for at most one brick of the coarsest level, and leaves no hole. Returns
-  /// how many bricks stand-ins replaced.
+  /// frame never waits for the disk but for at most one brick of the coarsest level, and leaves no hole. All the
+  /// children of a node drawn from the same ancestor become the node's one box. Returns how many bricks stand-ins
+  /// replaced.
   int64_t standIn(std::vector<BrickDraw>& bricks, int coarsest);
 
   /// Starts a frame that will acquire the sources of `bricks` in this order: decoding of the ones not resident

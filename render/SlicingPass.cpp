@@ -47,7 +47,7 @@ void BrickWalk::run(const FramePlan& plan, Residency& residency, const SliceGeom
     stats.msSlicing += msSince(t);
   }
   stats.subBlocksSkipped = mSubStats.subBlocksSkipped;
-  stats.boxesDrawn = plan.subBlock ? mSubStats.boxes : stats.bricksDrawn;
+  stats.boxesDrawn = plan.subBlock ? mSubStats.boxes : int64_t(plan.visible.bricks.size());
   flush();
   residency.endBatch();
 }

@@ -161,6 +161,21 @@ TEST(Streaming, LaterFramesFillInToTheExactFrame) {
   EXPECT_EQ(exact.bricksPagedIn, 0) << "the refined frame paged everything";
 }
 
+// A cold start stands in everywhere: the children of a node drawn from the same ancestor are one box, so the first
+// frame costs about what the coarse level costs, not a box per brick.
+TEST(Streaming, AColdStartDrawsWholeNodes) {
+  ScratchDir dir;
+  const auto s = prep("synthetic:blobs,n=128", dir / "b", 16);
+  const Scene scene = streamScene(32, 0);
+  auto cache = std::make_shared<store::BrickCache>(s, size_t(256) << 20, 0);
+  VolumeRenderer renderer(test::context(), cache, size_t(256) << 20);
+  FrameStats stats;
+  const image::ImageF streamed = renderer.render(scene, &stats, {RenderMode::Normal, true});
+  EXPECT_EQ(stats.bricksStandIn, stats.bricksDrawn);
+  EXPECT_LT(stats.boxesDrawn * 4, stats.bricksDrawn) << stats.boxesDrawn << " boxes";
+  EXPECT_GT(psnr(streamed, test::renderStore(s, scene)), 25.0);
+}
+
 // With too small a host cache the bricks never all stay: every streamed frame still covers the whole volume.
 TEST(Streaming, AStarvedCacheStillDrawsEveryRegion) {
   ScratchDir dir;
