@@ -95,6 +95,20 @@ BrickHandle BrickCache::get(const BrickKey& key) {
   return load(key, promise, false);
 }
 
+size_t BrickCache::budgetBytes() const {
+  std::lock_guard lock(mMutex);
+  return mBudget;
+}
+
+void BrickCache::setBudget(size_t budgetBytes) {
+  std::lock_guard lock(mMutex);
+  mBudget = budgetBytes;
+  mProtectedBudget = budgetBytes / 5 * 4;
+  mStats.budgetBytes = budgetBytes;
+  while (mStats.residentBytes > mBudget) evictOneLocked();
+  demoteLocked();
+}
+
 bool BrickCache::ready(const BrickKey& key) const {
   if (!mStore->isStored(key)) return true;
   std::lock_guard lock(mMutex);
@@ -238,6 +252,10 @@ void BrickCache::touchLocked(Entry& entry) {
   mProtected.splice(mProtected.begin(), mProbation, entry.pos);
   entry.segment = Segment::Protected;
   mProtectedBytes += entry.brick->bytes();
+  demoteLocked();
+}
+
+void BrickCache::demoteLocked() {
   while (mProtectedBytes > mProtectedBudget && !mProtected.empty()) {
     Entry& demoted = mEntries.at(mProtected.back());
     mProbation.splice(mProbation.begin(), mProtected, demoted.pos);

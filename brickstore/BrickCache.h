@@ -121,7 +121,10 @@ class BrickCache {
   /// The store the bricks come from.
   const std::shared_ptr<const BrickStore>& store() const { return mStore; }
   /// The byte budget.
-  size_t budgetBytes() const { return mBudget; }
+  size_t budgetBytes() const;
+  /// Changes the budget; a smaller one evicts (least recently used first) down to it before returning. Handles
+  /// already given out keep their bricks alive.
+  void setBudget(size_t budgetBytes);
   /// The most prefetch requests that wait at once.
   size_t prefetchQueueLimit() const { return mQueueLimit; }
 
@@ -164,11 +167,12 @@ class BrickCache {
   void touchLocked(Entry& entry);
   void insertLocked(const BrickKey& key, const BrickHandle& brick, bool byPrefetch);
   void evictOneLocked();
+  void demoteLocked();
   void workerLoop();
 
   const std::shared_ptr<const BrickStore> mStore;
-  const size_t mBudget;
-  const size_t mProtectedBudget;
+  size_t mBudget;           // guarded by mMutex
+  size_t mProtectedBudget;  // guarded by mMutex
   const size_t mQueueLimit;
   const size_t mBrickBytes;
   const int mWorkerCount;

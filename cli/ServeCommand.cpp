@@ -76,7 +76,7 @@ void addServeCommand(CLI::App& app) {
   cmd->add_option("--idle-timeout", a->idleTimeout, "seconds without a message before a session is closed");
   cmd->add_option("--read-timeout", a->readTimeout, "seconds to complete a message once its header arrived");
   cmd->add_option("--write-timeout", a->writeTimeout, "seconds a client may take to accept a reply");
-  cmd->add_option("--host-cache", a->hostCacheMB, "MB of decoded bricks per dataset");
+  cmd->add_option("--host-cache", a->hostCacheMB, "MB of decoded bricks for all open datasets together (an equal share each)");
   cmd->add_option("--gpu-budget", a->gpuBudgetMB, "MB of GPU brick atlas for all render threads and datasets together (an equal share per thread)");
   cmd->add_flag("--no-coalesce", a->noCoalesce,
                 "render every request in order instead of only a session's newest (to measure what latest-wins saves)");

@@ -33,6 +33,8 @@ class Dataset {
   virtual std::string infoJson() const = 0;
   /// The host cache's counters, for statistics.
   virtual store::CacheStats cacheStats() const = 0;
+  /// Changes the host cache's budget (the cache is shared and thread-safe, so this is allowed on a const dataset).
+  virtual void setCacheBudget(size_t bytes) const = 0;
 
  protected:
   Dataset(std::string name, std::filesystem::path path) : mName(std::move(name)), mPath(std::move(path)) {}
@@ -52,6 +54,7 @@ class BrickStoreDataset final : public Dataset {
   DatasetKind kind() const override { return DatasetKind::BrickStore; }
   std::string infoJson() const override;
   store::CacheStats cacheStats() const override { return mCache->stats(); }
+  void setCacheBudget(size_t bytes) const override { mCache->setBudget(bytes); }
 
   const std::shared_ptr<const store::BrickStore>& store() const { return mStore; }
   const std::shared_ptr<store::BrickCache>& cache() const { return mCache; }

@@ -13,8 +13,8 @@ bool DatasetRegistry::validName(const std::string& name) {
   });
 }
 
-DatasetRegistry::DatasetRegistry(std::filesystem::path directory, size_t cacheBytesPerDataset)
-    : mDirectory(std::move(directory)), mCacheBytes(cacheBytesPerDataset) {}
+DatasetRegistry::DatasetRegistry(std::filesystem::path directory, size_t cacheBytes)
+    : mDirectory(std::move(directory)), mCacheBytes(cacheBytes) {}
 
 std::vector<std::string> DatasetRegistry::names() const {
   std::vector<std::string> out;
@@ -33,7 +33,10 @@ std::shared_ptr<const render::Dataset> DatasetRegistry::open(const std::string& 
   // The name is checked before it touches a path: "..", "/etc" and the like must never reach the file system.
   if (!validName(name) || !render::isDataset(mDirectory / name))
     throw DatasetNotFound("no dataset '" + name + "' (see ListDatasets)");
-  auto dataset = render::openDataset(name, mDirectory / name, mCacheBytes);
+  // One host budget for the server: the datasets open share it equally, so one more shrinks the others' caches.
+  const size_t share = mCacheBytes / (mOpen.size() + 1);
+  auto dataset = render::openDataset(name, mDirectory / name, share);
+  for (const auto& [other, open] : mOpen) open->setCacheBudget(share);
   mOpen[name] = dataset;
   return dataset;
 }

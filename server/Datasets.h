@@ -1,5 +1,5 @@
 // The datasets a server offers: the datasets in one directory, opened on first use and shared by every session and
-// render thread (one host brick cache per dataset).
+// render thread (one host brick cache per dataset, all within one budget).
 #pragma once
 
 #include <filesystem>
@@ -18,7 +18,9 @@ namespace voxbrick::server {
 /// directory names, of letters, digits, '.', '-' and '_' only (never a path, never "." or "..").
 class DatasetRegistry {
  public:
-  DatasetRegistry(std::filesystem::path directory, size_t cacheBytesPerDataset);
+  /// `cacheBytes` is the host budget of all the datasets open together: each of the n open has a cache of
+  /// cacheBytes / n (a dataset opened shrinks the others').
+  DatasetRegistry(std::filesystem::path directory, size_t cacheBytes);
 
   /// The datasets present now, sorted (the directory is scanned on every call, so datasets added later appear).
   std::vector<std::string> names() const;

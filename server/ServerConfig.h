@@ -30,7 +30,7 @@ struct ServerConfig {
   double writeTimeoutS = 30;                 ///< a reply must be taken by the client within this
   uint64_t maxOutputBytes = 256ull << 20;    ///< replies queued for a session that does not read
   // [memory]
-  int64_t hostCacheMB = 1024;                ///< decoded bricks per dataset, shared by render threads
+  int64_t hostCacheMB = 1024;                ///< decoded bricks of all open datasets together
   int64_t gpuBudgetMB = 1024;                ///< atlases of all render threads and datasets (equal shares per thread)
 
   /// Without coalescing (a benchmark setting), how many renders one session may have waiting.

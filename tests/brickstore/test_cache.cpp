@@ -205,6 +205,25 @@ TEST_F(BrickCacheTest, EvictsLeastRecentlyUsedProbationFirst) {
   EXPECT_EQ(cache.stats().bricksDecoded, 7u);
 }
 
+TEST_F(BrickCacheTest, AShrunkBudgetEvictsDownToItAtOnce) {
+  BrickCache cache(ts.store, 6 * bb, 0);
+  const auto& k = ts.storedKeys;
+  for (int i = 0; i < 6; ++i) cache.get(k[size_t(i)]);
+  cache.get(k[0]);  // protected: the hot one
+  ASSERT_EQ(cache.stats().residentBytes, 6 * bb);
+  cache.setBudget(2 * bb);
+  EXPECT_EQ(cache.budgetBytes(), 2 * bb);
+  const CacheStats s = cache.stats();
+  EXPECT_EQ(s.budgetBytes, 2 * bb);
+  EXPECT_EQ(s.residentBytes, 2 * bb);
+  EXPECT_EQ(s.evictions, 4u);
+  EXPECT_EQ(cache.residentKeys().front(), k[0]) << "the brick used twice stays";
+  // Growing it back lets bricks in again.
+  cache.setBudget(6 * bb);
+  for (int i = 1; i < 6; ++i) cache.get(k[size_t(i)]);
+  EXPECT_EQ(cache.stats().residentBytes, 6 * bb);
+}
+
 TEST_F(BrickCacheTest, HotSetSurvivesPrefetchBurst) {
   BrickCache cache(ts.store, 8 * bb, 2);
   const auto& k = ts.storedKeys;

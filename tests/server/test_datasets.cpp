@@ -54,6 +54,18 @@ TEST_F(DatasetRegistryTest, OpensAValidNameOnceAndSharesIt) {
   EXPECT_EQ(registry.opened()[0], a);
 }
 
+TEST_F(DatasetRegistryTest, TheDatasetsOpenShareOneHostBudget) {
+  copyStore(datasets / "second");
+  copyStore(datasets / "third");
+  DatasetRegistry shared(datasets, size_t(90) << 20);
+  const auto a = shared.open("sparse");
+  EXPECT_EQ(a->cacheStats().budgetBytes, size_t(90) << 20);
+  const auto b = shared.open("second");
+  EXPECT_EQ(a->cacheStats().budgetBytes, size_t(45) << 20);
+  const auto c = shared.open("third");
+  for (const auto& d : {a, b, c}) EXPECT_EQ(d->cacheStats().budgetBytes, size_t(30) << 20) << d->name();
+}
+
 TEST_F(DatasetRegistryTest, NamesThatAreNotDatasetsAreNotFound) {
   const std::string tooLong(256, 'a');
   for (const std::string& name :

@@ -416,8 +416,18 @@ TEST_F(ServerTest, TheGpuBudgetHoldsAcrossDatasetsAndThreads) {
       c->goodbye();
     }
   auto c = session(server, "");
-  EXPECT_GT(json::parse(c->stats())["gpu"]["renderers_released"].get<int>(), 0);
+  const json stats = json::parse(c->stats());
+  EXPECT_GT(stats["gpu"]["renderers_released"].get<int>(), 0);
   EXPECT_EQ(first["a"], first["b"]);
+  // The host budget (the default 1024 MB) is shared by the three datasets open.
+  ASSERT_EQ(stats["datasets"].size(), 3u);
+  uint64_t budgets = 0;
+  for (const json& d : stats["datasets"]) {
+    budgets += d["cache"]["budget_bytes"].get<uint64_t>();
+    EXPECT_LE(d["cache"]["resident_bytes"].get<uint64_t>(), d["cache"]["budget_bytes"].get<uint64_t>());
+  }
+  EXPECT_LE(budgets, uint64_t(1024) << 20);
+  EXPECT_GT(budgets, uint64_t(1000) << 20);
 }
 
 TEST_F(ServerTest, ShortLoadWithFaultsLeavesGoodClientsUnharmed) {
