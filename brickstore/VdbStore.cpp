@@ -18,6 +18,7 @@
 #include "brickstore/Errors.h"
 #include "brickstore/HistogramBuilder.h"
 #include "brickstore/LevelSources.h"
+#include "brickstore/SlabBricker.h"
 #include "brickstore/VdbGrid.h"
 
 namespace voxbrick::store {
@@ -256,16 +257,11 @@ void VdbStore::scan() {
       block.resize(size_t((hi.x - lo.x + 1) * (hi.y - lo.y + 1) * (hi.z - lo.z + 1)));
       fillFromTree(tree, origin, lo, hi, block.data());
       gatherSamples(block.data(), lo, hi, idx, B, n, samples.data());
-      float mn = samples[0], mx = samples[0];
       bool empty = true;
-      for (const float v : samples) {
-        mn = std::min(mn, v);
-        mx = std::max(mx, v);
-        empty = empty && v == background;
-      }
+      const MinMaxPair range = sampleRange(samples.data(), samples.size(), background, empty);
       BrickRecord& rec = mRecords[size_t(b)];
-      rec.min = mn;
-      rec.max = mx;
+      rec.min = range.min;
+      rec.max = range.max;
       rec.compressedSize = empty ? 0 : storedSize;
       const Vec3i own{std::min(B, n.x - idx.x * B), std::min(B, n.y - idx.y * B), std::min(B, n.z - idx.z * B)};
       Owned& o = owned[c];

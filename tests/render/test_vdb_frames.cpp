@@ -19,15 +19,8 @@ using test::renderStore;
 using test::ScratchDir;
 
 Scene vdbScene(double lod, int slab) {
-  Scene scene;
-  scene.width = 96;
-  scene.height = 80;
-  scene.camera.azimuth = 35;
-  scene.camera.elevation = 25;
+  Scene scene = test::lodScene(lod);
   scene.camera.distance = 2.0;
-  scene.transferFunction = TransferFunction::load("hot");
-  scene.step = 0.5;
-  scene.lod = lod;
   scene.slab = slab;
   return scene;
 }

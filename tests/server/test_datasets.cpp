@@ -75,16 +75,21 @@ TEST_F(DatasetRegistryTest, TheNameCheckAllowsOnlyPlainNames) {
     EXPECT_FALSE(DatasetRegistry::validName(name)) << name;
 }
 
+/// Expects opening `name` to fail with the dataset's own error (not DatasetNotFound), whose message holds `text`.
+void expectOpenFails(DatasetRegistry& registry, const std::string& name, const std::string& text) {
+  try {
+    registry.open(name);
+    ADD_FAILURE() << name << " opened";
+  } catch (const DatasetNotFound& e) {
+    ADD_FAILURE() << name << " reported as not found: " << e.what();
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find(text), std::string::npos) << e.what();
+  }
+}
+
 TEST_F(DatasetRegistryTest, AStoreThatCannotBeOpenedIsNotANotFound) {
   // Listed (it has a store.json), but opening it is the store's error, which the client sees as Internal.
-  try {
-    registry.open("broken");
-    ADD_FAILURE() << "a broken store opened";
-  } catch (const DatasetNotFound& e) {
-    ADD_FAILURE() << "reported as not found: " << e.what();
-  } catch (const std::exception& e) {
-    EXPECT_NE(std::string(e.what()).find("store.json"), std::string::npos) << e.what();
-  }
+  expectOpenFails(registry, "broken", "store.json");
   EXPECT_TRUE(registry.opened().empty());
 }
 
@@ -110,14 +115,7 @@ TEST(DatasetRegistryVdb, ListsAndOpensVdbFiles) {
   EXPECT_NE(live->infoJson().find("OpenVDB grid 'density'"), std::string::npos) << live->infoJson();
   EXPECT_EQ(registry.open("sparse.vdb"), live);
 
-  try {
-    registry.open("broken.vdb");
-    ADD_FAILURE() << "a broken .vdb opened";
-  } catch (const DatasetNotFound& e) {
-    ADD_FAILURE() << "reported as not found: " << e.what();
-  } catch (const std::exception& e) {
-    EXPECT_NE(std::string(e.what()).find("broken.vdb: not a readable OpenVDB file"), std::string::npos) << e.what();
-  }
+  expectOpenFails(registry, "broken.vdb", "broken.vdb: not a readable OpenVDB file");
   EXPECT_THROW(registry.open("folder.vdb"), DatasetNotFound);
 }
 
