@@ -107,13 +107,6 @@ struct Tile {
   float value;
 };
 
-/// Per-level scratch of one thread: the recursion from level m asks only for levels below m, so each level's
-/// buffers stay untouched while a finer brick is built on the same thread.
-struct Scratch {
-  std::array<std::vector<float>, kMaxLevels> blocks, windows;
-};
-thread_local Scratch tScratch;
-
 }  // namespace
 
 struct VdbStore::Grid {
@@ -382,8 +375,9 @@ void VdbStore::readStored(const BrickKey& key, void* dst, const BrickSamplesFetc
   const Vec3i n = mMeta.levels[size_t(level)].dims;
   Vec3i lo, hi;
   brickVoxels(idx, B, n, lo, hi);
-  std::vector<float>& block = tScratch.blocks[size_t(level)];
-  block.resize(size_t((hi.x - lo.x + 1) * (hi.y - lo.y + 1) * (hi.z - lo.z + 1)));
+  // Buffers per call, not per thread: building a coarse brick builds finer ones on the same thread, and a thread
+  // keeping the largest buffer of every level would hold far more than a brick's worth for its lifetime.
+  std::vector<float> block(size_t((hi.x - lo.x + 1) * (hi.y - lo.y + 1) * (hi.z - lo.z + 1)));
 
   if (level == 0) {
     fillFromTree(mGrid->grid->tree(), mGrid->origin, lo, hi, block.data());
@@ -405,8 +399,7 @@ void VdbStore::readStored(const BrickKey& key, void* dst, const BrickSamplesFetc
       fhi[a] = std::min(2 * hi[a] + 1, nf[a] - 1);
     }
     const int64_t wx = fhi.x - flo.x + 1, wy = fhi.y - flo.y + 1, wz = fhi.z - flo.z + 1;
-    std::vector<float>& window = tScratch.windows[size_t(level)];
-    window.resize(size_t(wx * wy * wz));
+    std::vector<float> window(size_t(wx * wy * wz));
     const float background = float(mMeta.background);
     for (int64_t fk = flo.z / B; fk <= fhi.z / B; ++fk)
       for (int64_t fj = flo.y / B; fj <= fhi.y / B; ++fj)
