@@ -105,7 +105,97 @@ void fillFromTree(const Tree& tree, const openvdb::Coord& origin, const Vec3i& l
 struct Tile {
   Vec3i lo, hi;  // volume coordinates, inclusive
   float value;
+  int64_t voxels() const { return (hi.x - lo.x + 1) * (hi.y - lo.y + 1) * (hi.z - lo.z + 1); }
 };
+
+/// What of the tree can hold anything but the background inside the volume: its leaf nodes, and its tiles (of any
+/// level above the leaves) whose value is neither the background nor NaN/Inf (read as the background; their voxels
+/// are counted). Every other voxel of the volume is the background.
+struct Topology {
+  Topology(const Tree& tree, const openvdb::Coord& volumeOrigin, const Vec3i& dims)
+      : origin(volumeOrigin),
+        volume(origin, origin + openvdb::Coord(int(dims.x) - 1, int(dims.y) - 1, int(dims.z) - 1)) {
+    for (auto it = tree.cbeginLeaf(); it; ++it) leaves.push_back(&*it);
+    Tree::ValueAllCIter it = tree.cbeginValueAll();
+    it.setMaxDepth(Tree::ValueAllCIter::LEAF_DEPTH - 1);
+    for (; it; ++it) {
+      openvdb::CoordBBox box;
+      it.getBoundingBox(box);
+      Tile tile{};
+      if (!clip(box, tile.lo, tile.hi)) continue;
+      if (!std::isfinite(*it))
+        nonFiniteTileVoxels += tile.voxels();
+      else if (*it != tree.background())
+        tiles.push_back({tile.lo, tile.hi, *it});
+    }
+  }
+
+  /// `box` (grid coordinates) clipped to the volume, in volume coordinates; false if nothing is left.
+  bool clip(openvdb::CoordBBox box, Vec3i& lo, Vec3i& hi) const {
+    box.intersect(volume);
+    if (box.empty()) return false;
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = box.min()[a] - origin[a];
+      hi[a] = box.max()[a] - origin[a];
+    }
+    return true;
+  }
+
+  openvdb::Coord origin;       // grid coordinate of volume voxel (0, 0, 0)
+  openvdb::CoordBBox volume;   // the volume in grid coordinates
+  std::vector<const Leaf*> leaves;
+  std::vector<Tile> tiles;
+  int64_t nonFiniteTileVoxels = 0;
+};
+
+/// The level-0 histogram over [lo, hi] (prep's bins) and the number of NaN/Inf voxels, voxel by voxel: leaves in
+/// parallel, then tiles, then the background for every voxel neither covers.
+Histogram voxelHistogram(const Topology& topology, const Vec3i& dims, float background, double lo, double hi,
+                         int64_t& nonFinite) {
+  struct Counts {
+    explicit Counts(const HistogramBuilder& empty) : histogram(empty) {}
+    HistogramBuilder histogram;
+    int64_t covered = 0, nonFinite = 0;
+  };
+  const HistogramBuilder empty(ValueType::F32, lo, hi);
+  tbb::enumerable_thread_specific<Counts> perThread([&] { return Counts(empty); });
+  const std::vector<const Leaf*>& leaves = topology.leaves;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size()), [&](const tbb::blocked_range<size_t>& r) {
+    Counts& counts = perThread.local();
+    std::array<float, Leaf::SIZE> values;
+    for (size_t l = r.begin(); l != r.end(); ++l) {
+      Vec3i vlo, vhi;
+      if (!topology.clip(leaves[l]->getNodeBoundingBox(), vlo, vhi)) continue;
+      const openvdb::Coord leafOrigin = leaves[l]->origin();
+      const float* data = leaves[l]->buffer().data();
+      size_t count = 0;
+      for (int64_t z = vlo.z; z <= vhi.z; ++z)
+        for (int64_t y = vlo.y; y <= vhi.y; ++y)
+          for (int64_t x = vlo.x; x <= vhi.x; ++x) {
+            const openvdb::Coord g = topology.origin + openvdb::Coord(int(x), int(y), int(z)) - leafOrigin;
+            const float v = data[(g.x() << 6) | (g.y() << 3) | g.z()];
+            counts.nonFinite += !std::isfinite(v);
+            values[count++] = sanitize(v, background);
+          }
+      counts.histogram.add(values.data(), int64_t(count));
+      counts.covered += int64_t(count);
+    }
+  });
+  HistogramBuilder histogram(ValueType::F32, lo, hi);
+  int64_t covered = 0;
+  nonFinite = topology.nonFiniteTileVoxels;
+  for (const Counts& counts : perThread) {
+    histogram.merge(counts.histogram);
+    covered += counts.covered;
+    nonFinite += counts.nonFinite;
+  }
+  for (const Tile& tile : topology.tiles) {
+    histogram.addRepeated(tile.value, uint64_t(tile.voxels()));
+    covered += tile.voxels();
+  }
+  histogram.addRepeated(background, uint64_t(dims.volume() - covered));
+  return histogram.finish();
+}
 
 }  // namespace
 
@@ -174,44 +264,9 @@ void VdbStore::scan() {
   const int64_t B = mMeta.brickSize;
   const float background = tree.background();
   const uint32_t storedSize = uint32_t(brickBytes());
-
-  // The volume in grid coordinates, and a node's box clipped to it in volume coordinates.
-  const openvdb::CoordBBox volume(origin, origin + openvdb::Coord(int(n.x) - 1, int(n.y) - 1, int(n.z) - 1));
-  auto clip = [&](openvdb::CoordBBox box, Vec3i& lo, Vec3i& hi) {
-    box.intersect(volume);
-    if (box.empty()) return false;
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = box.min()[a] - origin[a];
-      hi[a] = box.max()[a] - origin[a];
-    }
-    return true;
-  };
-
-  // The topology: leaf nodes, and tiles (of any level above the leaves) inside the volume. Tiles holding the
-  // background (or NaN/Inf, read as the background) leave their voxels empty; their NaN/Inf voxels are counted.
-  std::vector<const Leaf*> leaves;
-  for (auto it = tree.cbeginLeaf(); it; ++it) leaves.push_back(&*it);
-  std::vector<Tile> tiles;
-  int64_t nonFiniteTileVoxels = 0;
-  {
-    Tree::ValueAllCIter it = tree.cbeginValueAll();
-    it.setMaxDepth(Tree::ValueAllCIter::LEAF_DEPTH - 1);
-    for (; it; ++it) {
-      openvdb::CoordBBox box;
-      it.getBoundingBox(box);
-      Tile tile{};
-      if (!clip(box, tile.lo, tile.hi)) continue;
-      if (!std::isfinite(*it)) {
-        nonFiniteTileVoxels += (tile.hi.x - tile.lo.x + 1) * (tile.hi.y - tile.lo.y + 1) * (tile.hi.z - tile.lo.z + 1);
-        continue;
-      }
-      if (*it == background) continue;
-      tile.value = *it;
-      tiles.push_back(tile);
-    }
-  }
-  mOpenStats.leafNodes = int64_t(leaves.size());
-  mOpenStats.tiles = int64_t(tiles.size());
+  const Topology topology(tree, origin, n);
+  mOpenStats.leafNodes = int64_t(topology.leaves.size());
+  mOpenStats.tiles = int64_t(topology.tiles.size());
 
   // Bricks that read a voxel of a leaf or of such a tile; every other brick reads only the background.
   std::vector<uint8_t> near(size_t(nb.volume()), 0);
@@ -222,11 +277,11 @@ void VdbStore::scan() {
       for (int64_t j = first.y; j <= last.y; ++j)
         for (int64_t i = first.x; i <= last.x; ++i) near[size_t(i + nb.x * (j + nb.y * k))] = 1;
   };
-  for (const Leaf* leaf : leaves) {
+  for (const Leaf* leaf : topology.leaves) {
     Vec3i lo, hi;
-    if (clip(leaf->getNodeBoundingBox(), lo, hi)) mark(lo, hi);
+    if (topology.clip(leaf->getNodeBoundingBox(), lo, hi)) mark(lo, hi);
   }
-  for (const Tile& tile : tiles) mark(tile.lo, tile.hi);
+  for (const Tile& tile : topology.tiles) mark(tile.lo, tile.hi);
   std::vector<int64_t> candidates;
   for (int64_t b = 0; b < nb.volume(); ++b)
     if (near[size_t(b)]) candidates.push_back(b);
@@ -287,50 +342,7 @@ void VdbStore::scan() {
   mMeta.activeVoxels = active;
   for (int64_t b = 0; b < nb.volume(); ++b) mMeta.levels[0].bricksStored += mRecords[size_t(b)].compressedSize != 0;
 
-  // The histogram and the NaN/Inf count, voxel by voxel: leaves, tiles, and the background everywhere else.
-  struct Counts {
-    explicit Counts(const HistogramBuilder& empty) : histogram(empty) {}
-    HistogramBuilder histogram;
-    int64_t covered = 0, nonFinite = 0;
-  };
-  const HistogramBuilder emptyHistogram(ValueType::F32, lo, hi);
-  tbb::enumerable_thread_specific<Counts> perThread([&] { return Counts(emptyHistogram); });
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size()), [&](const tbb::blocked_range<size_t>& r) {
-    Counts& counts = perThread.local();
-    std::array<float, Leaf::SIZE> values;
-    for (size_t l = r.begin(); l != r.end(); ++l) {
-      Vec3i vlo, vhi;
-      if (!clip(leaves[l]->getNodeBoundingBox(), vlo, vhi)) continue;
-      const openvdb::Coord leafOrigin = leaves[l]->origin();
-      const float* data = leaves[l]->buffer().data();
-      size_t count = 0;
-      for (int64_t z = vlo.z; z <= vhi.z; ++z)
-        for (int64_t y = vlo.y; y <= vhi.y; ++y)
-          for (int64_t x = vlo.x; x <= vhi.x; ++x) {
-            const openvdb::Coord g = origin + openvdb::Coord(int(x), int(y), int(z)) - leafOrigin;
-            const float v = data[(g.x() << 6) | (g.y() << 3) | g.z()];
-            counts.nonFinite += !std::isfinite(v);
-            values[count++] = sanitize(v, background);
-          }
-      counts.histogram.add(values.data(), int64_t(count));
-      counts.covered += int64_t(count);
-    }
-  });
-  HistogramBuilder histogram(ValueType::F32, lo, hi);
-  int64_t covered = 0, nonFinite = nonFiniteTileVoxels;
-  for (const Counts& counts : perThread) {
-    histogram.merge(counts.histogram);
-    covered += counts.covered;
-    nonFinite += counts.nonFinite;
-  }
-  for (const Tile& tile : tiles) {
-    const int64_t count = (tile.hi.x - tile.lo.x + 1) * (tile.hi.y - tile.lo.y + 1) * (tile.hi.z - tile.lo.z + 1);
-    histogram.addRepeated(tile.value, uint64_t(count));
-    covered += count;
-  }
-  histogram.addRepeated(background, uint64_t(n.volume() - covered));
-  mMeta.histogram = histogram.finish();
-  mMeta.nonFiniteReplaced = nonFinite;
+  mMeta.histogram = voxelHistogram(topology, n, background, lo, hi, mMeta.nonFiniteReplaced);
 }
 
 void VdbStore::deriveCoarseRecords() {
@@ -349,7 +361,8 @@ void VdbStore::deriveCoarseRecords() {
           for (int64_t fk = 2 * lo.z / B; fk <= std::min(2 * hi.z + 1, nf.z - 1) / B; ++fk)
             for (int64_t fj = 2 * lo.y / B; fj <= std::min(2 * hi.y + 1, nf.y - 1) / B; ++fj)
               for (int64_t fi = 2 * lo.x / B; fi <= std::min(2 * hi.x + 1, nf.x - 1) / B; ++fi) {
-                const BrickRecord& f = mRecords[recordIndex({uint32_t(m - 1), uint32_t(fi), uint32_t(fj), uint32_t(fk)})];
+                const BrickKey fineKey{uint32_t(m - 1), uint32_t(fi), uint32_t(fj), uint32_t(fk)};
+                const BrickRecord& f = mRecords[recordIndex(fineKey)];
                 stored = stored || f.compressedSize != 0;
                 someEmpty = someEmpty || f.compressedSize == 0;
                 mn = std::min(mn, f.min);

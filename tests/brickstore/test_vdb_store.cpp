@@ -22,7 +22,8 @@ namespace {
 using test::ScratchDir;
 
 /// The store prep makes of `vdb` with bricks of `brick` (no VDB copy).
-std::shared_ptr<const BrickStore> prepOf(const std::filesystem::path& vdb, const std::filesystem::path& out, int brick) {
+std::shared_ptr<const BrickStore> prepOf(const std::filesystem::path& vdb, const std::filesystem::path& out,
+                                         int brick) {
   auto source = openSource(vdb.string(), SourceOptions{});
   PrepOptions options;
   options.brickSize = brick;
@@ -92,7 +93,7 @@ TEST_P(VdbStoreMatchesPrep, Metadata) {
     }
   }
   if (GetParam().sparse) {
-    EXPECT_LT(l.levels[0].bricksStored, l.levels[0].bricksTotal() / 2) << "the sparse grid must leave most bricks empty";
+    EXPECT_LT(l.levels[0].bricksStored, l.levels[0].bricksTotal() / 2) << "the sparse grid must leave bricks empty";
   } else {
     EXPECT_EQ(l.levels[0].bricksStored, l.levels[0].bricksTotal());
   }

@@ -30,7 +30,8 @@ inline openvdb::FloatGrid::Ptr sparseGrid(const std::string& name = "density") {
   acc.setValue(openvdb::Coord(-20, -10, 6), std::numeric_limits<float>::quiet_NaN());
   for (int z = 60; z <= 62; ++z)
     for (int y = 30; y <= 33; ++y)
-      for (int x = 40; x <= 47; ++x) acc.setValue(openvdb::Coord(x, y, z), float(0.5 + 0.1 * (x - 40) + 0.2 * (z - 60)));
+      for (int x = 40; x <= 47; ++x)
+        acc.setValue(openvdb::Coord(x, y, z), float(0.5 + 0.1 * (x - 40) + 0.2 * (z - 60)));
   acc.setValue(openvdb::Coord(70, 50, 70), 3.0f);
   grid->tree().fill(openvdb::CoordBBox(openvdb::Coord(16, 0, 32), openvdb::Coord(23, 7, 39)), 2.0f, true);
   acc.setValueOff(openvdb::Coord(0, 40, 20), 1.5f);
