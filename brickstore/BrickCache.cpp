@@ -204,7 +204,11 @@ BrickHandle BrickCache::decode(const BrickKey& key) {
   brick->mData = brick->mOwned.get();
   mLive->add(mBrickBytes);
   brick->mLive = mLive;
-  mStore->readBrick(key, brick->mOwned.get());
+  // A store that builds coarse bricks from finer ones gets those through this cache, so each is built once.
+  mStore->readBrick(key, brick->mOwned.get(), [this](const BrickKey& finer) {
+    BrickHandle samples = get(finer);
+    return std::shared_ptr<const void>(samples, samples->data());
+  });
   return brick;
 }
 

@@ -1,6 +1,9 @@
-// Opening a store: every size, count and checksum is checked before anything is sized from it.
+// The store's read side, and its directory backing: opening a prepped store checks every size, count and checksum
+// before anything is sized from it.
 #include "brickstore/BrickStore.h"
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -8,6 +11,7 @@
 
 #include "brickstore/BrickFile.h"
 #include "brickstore/Errors.h"
+#include "brickstore/VdbStore.h"
 
 namespace voxbrick::store {
 namespace fs = std::filesystem;
@@ -26,24 +30,29 @@ std::string readText(const fs::path& path, size_t limit) {
   return text.str();
 }
 
-}  // namespace
+/// A store directory written by `voxbrick prep`: bricks are zstd frames in bricks.bin, read with pread.
+class DirectoryStore final : public BrickStore {
+ public:
+  static std::shared_ptr<const BrickStore> open(const fs::path& dir);
 
-struct BrickStoreFile {
-  BrickFileReader reader;
+  StoreBacking backing() const override { return StoreBacking::Directory; }
+
+ protected:
+  void readStored(const BrickKey& key, void* dst, const BrickSamplesFetch&) const override {
+    mFile.decode(mRecords[recordIndex(key)], key, dst, brickBytes());
+  }
+
+ private:
+  DirectoryStore() = default;
+
+  BrickFileReader mFile;
 };
 
-BrickStore::~BrickStore() = default;
-
-size_t BrickStore::brickBytes() const {
-  const size_t e = static_cast<size_t>(brickEdge());
-  return e * e * e * valueSize(mMeta.type);
-}
-
-std::shared_ptr<const BrickStore> BrickStore::open(const fs::path& dir) {
+std::shared_ptr<const BrickStore> DirectoryStore::open(const fs::path& dir) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw CorruptStoreError(dir.string() + ": not a store directory");
-  std::shared_ptr<BrickStore> store(new BrickStore());
-  store->mDir = dir;
+  std::shared_ptr<DirectoryStore> store(new DirectoryStore());
+  store->mPath = dir;
 
   const fs::path metaPath = dir / "store.json";
   store->mMeta = StoreMeta::fromJson(readText(metaPath, 64 << 20), metaPath.string());
@@ -98,8 +107,8 @@ std::shared_ptr<const BrickStore> BrickStore::open(const fs::path& dir) {
   std::memcpy(store->mRecords.data(), index.data() + sizeof h + h.levelCount * sizeof(LevelEntry),
               h.recordCount * sizeof(BrickRecord));
 
-  store->mFile = std::make_unique<BrickStoreFile>(BrickStoreFile{BrickFileReader(dir / "bricks.bin", meta.type)});
-  const uint64_t bricksSize = store->mFile->reader.fileSize();
+  store->mFile = BrickFileReader(dir / "bricks.bin", meta.type);
+  const uint64_t bricksSize = store->mFile.fileSize();
   if (bricksSize != h.bricksFileSize)
     throw CorruptStoreError((dir / "bricks.bin").string() + ": " + std::to_string(bricksSize) + " bytes, index expects " +
                             std::to_string(h.bricksFileSize) + " (truncated or replaced)");
@@ -107,12 +116,49 @@ std::shared_ptr<const BrickStore> BrickStore::open(const fs::path& dir) {
     if (r.compressedSize != 0 && (r.offset > bricksSize || r.compressedSize > bricksSize - r.offset))
       throw CorruptStoreError(indexName + ": a brick record points past the end of bricks.bin");
 
-  // The octree is derived from the level-0 records, so it can never disagree with them.
-  const Vec3i nb = meta.levels[0].bricks;
-  std::vector<MinMaxOctree::Range> ranges(static_cast<size_t>(nb.volume()));
-  for (size_t n = 0; n < ranges.size(); ++n) ranges[n] = {store->mRecords[n].min, store->mRecords[n].max};
-  store->mOctree = MinMaxOctree(nb, ranges);
+  store->buildOctree();
   return store;
+}
+
+}  // namespace
+
+const char* storeBackingName(StoreBacking backing) {
+  switch (backing) {
+    case StoreBacking::Directory: return "directory";
+    case StoreBacking::VdbFile: return "vdb-file";
+  }
+  return "unknown";
+}
+
+BrickStore::~BrickStore() = default;
+
+std::shared_ptr<const BrickStore> BrickStore::open(const fs::path& dir) { return DirectoryStore::open(dir); }
+
+bool BrickStore::isVdbFile(const fs::path& path) {
+  std::string ext = path.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  std::error_code ec;
+  return ext == ".vdb" && !fs::is_directory(path, ec);
+}
+
+std::shared_ptr<const BrickStore> BrickStore::openAny(const fs::path& path, const StoreOpenOptions& options) {
+  if (isVdbFile(path)) return VdbStore::open(path, options);
+  if (!options.gridName.empty() || options.brickSize != StoreOpenOptions{}.brickSize)
+    throw InputError(path.string() + ": --grid and --brick apply to a .vdb file only (a store directory has its "
+                     "own brick size)");
+  return open(path);
+}
+
+size_t BrickStore::brickBytes() const {
+  const size_t e = static_cast<size_t>(brickEdge());
+  return e * e * e * valueSize(mMeta.type);
+}
+
+void BrickStore::buildOctree() {
+  const Vec3i nb = mMeta.levels.at(0).bricks;
+  std::vector<MinMaxOctree::Range> ranges(static_cast<size_t>(nb.volume()));
+  for (size_t n = 0; n < ranges.size(); ++n) ranges[n] = {mRecords[n].min, mRecords[n].max};
+  mOctree = MinMaxOctree(nb, ranges);
 }
 
 bool BrickStore::contains(const BrickKey& key) const {
@@ -122,13 +168,22 @@ bool BrickStore::contains(const BrickKey& key) const {
 }
 
 const BrickRecord& BrickStore::record(const BrickKey& key) const {
-  if (!contains(key)) throw InputError("BrickStore::record: " + toString(key) + " is outside " + mDir.string());
-  const LevelEntry& e = mLevels[key.level];
-  return mRecords[e.firstRecord + key.i + uint64_t(e.bricks[0]) * (key.j + uint64_t(e.bricks[1]) * key.k)];
+  if (!contains(key)) throw InputError("BrickStore::record: " + toString(key) + " is outside " + mPath.string());
+  return mRecords[recordIndex(key)];
 }
 
-void BrickStore::readBrick(const BrickKey& key, void* dst) const {
-  mFile->reader.read(record(key), key, dst, brickBytes(), mMeta.background);
+size_t BrickStore::recordIndex(const BrickKey& key) const {
+  const LevelEntry& e = mLevels[key.level];
+  return size_t(e.firstRecord + key.i + uint64_t(e.bricks[0]) * (key.j + uint64_t(e.bricks[1]) * key.k));
+}
+
+void BrickStore::readBrick(const BrickKey& key, void* dst, const BrickSamplesFetch& finer) const {
+  if (!isStored(key)) {
+    const size_t e = static_cast<size_t>(brickEdge());
+    fillValue(mMeta.type, mMeta.background, dst, e * e * e);
+    return;
+  }
+  readStored(key, dst, finer);
 }
 
 }  // namespace voxbrick::store

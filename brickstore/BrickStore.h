@@ -1,8 +1,12 @@
-// Read-only access to a prepared store: metadata, per-brick records, decoded bricks and the min/max octree.
+// The read side of a store, as the host cache and the renderer see it: metadata, per-brick records, bricks with
+// their borders and the min/max octree. Two backings: a prepped store directory (BrickStore::open) and an OpenVDB
+// file read live (VdbStore, brickstore/VdbStore.h).
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "brickstore/MinMaxOctree.h"
@@ -11,23 +15,53 @@
 
 namespace voxbrick::store {
 
-struct BrickStoreFile;
+/// What a store is read from.
+enum class StoreBacking {
+  Directory,  ///< a store directory written by `voxbrick prep`: compressed bricks on disk
+  VdbFile,    ///< an OpenVDB file read live: bricks extracted from the grid's tree on demand
+};
 
-/// An open store. Immutable after open(); every method is safe to call from many threads at once.
+/// "directory" or "vdb-file".
+const char* storeBackingName(StoreBacking backing);
+
+/// The samples of a brick ((B+2)^3 values of the store's type, as BrickStore::readBrick writes them), kept alive
+/// by the pointer. A store whose coarse levels are derived from finer bricks asks for those through this; the host
+/// cache passes its own get, so each finer brick is built once for every coarser brick that reads it.
+using BrickSamplesFetch = std::function<std::shared_ptr<const void>(const BrickKey& key)>;
+
+/// Options for opening a dataset file by its form (BrickStore::openAny).
+struct StoreOpenOptions {
+  std::string gridName;  ///< .vdb: the float grid to read (default: the first float grid, as prep chooses)
+  int brickSize = 32;    ///< .vdb: B, a power of two in [8, 256] (prep's default)
+};
+
+/// An open store. Immutable after opening; every method is safe to call from many threads at once.
 ///
 /// Brick (i, j, k) of a level holds (B+2)^3 samples, x fastest: sample (a, b, c) is the level's voxel
 /// (i*B + a - 1, j*B + b - 1, k*B + c - 1) with each coordinate clamped to [0, dims - 1] (the duplicated border).
+/// Both backings give the same samples for the same volume and brick size: a .vdb read live equals the store that
+/// `voxbrick prep` makes of it, level by level.
 class BrickStore {
  public:
   /// Opens and validates a store directory (index checksums, sizes, metadata). Throws CorruptStoreError or
   /// IoError naming the file and the problem; never returns a half-valid store.
   static std::shared_ptr<const BrickStore> open(const std::filesystem::path& dir);
+  /// Opens `path` by its form: a file ending in .vdb is read live (VdbStore::open with `options`), anything else
+  /// is opened as a store directory (then `options` must be the defaults). Throws what those throw, and InputError
+  /// for options given to a directory.
+  static std::shared_ptr<const BrickStore> openAny(const std::filesystem::path& path,
+                                                   const StoreOpenOptions& options = {});
+  /// True if `path` ends in ".vdb" (case-insensitive) and is not a directory: what openAny reads live (a missing
+  /// file then gets OpenVDB's reader's error, naming it).
+  static bool isVdbFile(const std::filesystem::path& path);
 
-  ~BrickStore();
+  virtual ~BrickStore();
   BrickStore(const BrickStore&) = delete;
   BrickStore& operator=(const BrickStore&) = delete;
 
-  const std::filesystem::path& path() const { return mDir; }
+  virtual StoreBacking backing() const = 0;
+  /// The store directory or the .vdb file.
+  const std::filesystem::path& path() const { return mPath; }
   const StoreMeta& meta() const { return mMeta; }
   int levelCount() const { return static_cast<int>(mMeta.levels.size()); }
   const LevelMeta& level(int l) const { return mMeta.levels.at(static_cast<size_t>(l)); }
@@ -40,27 +74,37 @@ class BrickStore {
 
   /// True if `key` names a brick of the store (level and indices in range).
   bool contains(const BrickKey& key) const;
-  /// The brick's index record; throws InputError if the key is out of range.
+  /// The brick's record; throws InputError if the key is out of range. Its min and max bound the brick's samples
+  /// (exactly for a store directory and for level 0 of a .vdb; see VdbStore for its coarser levels).
   const BrickRecord& record(const BrickKey& key) const;
-  /// False for bricks whose every sample equals the background (they are not stored and cost no I/O).
+  /// False for bricks known to hold only the background: they cost no I/O and no extraction.
   bool isStored(const BrickKey& key) const { return record(key).compressedSize != 0; }
 
-  /// Decodes brick `key` into dst (brickBytes() bytes, the store's type). A brick that is not stored is filled
-  /// with the background without touching the disk. Throws CorruptStoreError if its frame is corrupt.
-  void readBrick(const BrickKey& key, void* dst) const;
+  /// Writes brick `key` into dst (brickBytes() bytes, the store's type). A brick that is not stored is filled with
+  /// the background without touching the disk or the grid. `finer` (may be empty) is where a store that derives
+  /// coarse levels gets finer bricks; the other backing ignores it. Throws InputError for a key outside the store
+  /// and CorruptStoreError if a brick's frame is corrupt.
+  void readBrick(const BrickKey& key, void* dst, const BrickSamplesFetch& finer = {}) const;
 
   /// The min/max octree over level-0 bricks.
   const MinMaxOctree& octree() const { return mOctree; }
 
- private:
+ protected:
   BrickStore() = default;
 
-  std::filesystem::path mDir;
+  /// Fills dst with brick `key`, which is stored (isStored) and inside the store.
+  virtual void readStored(const BrickKey& key, void* dst, const BrickSamplesFetch& finer) const = 0;
+  /// The index of `key`'s record in mRecords; the key must be inside the store.
+  size_t recordIndex(const BrickKey& key) const;
+  /// Builds mOctree from the level-0 records (so it can never disagree with them).
+  void buildOctree();
+
+  // Filled by the backing when it opens; immutable after.
+  std::filesystem::path mPath;
   StoreMeta mMeta;
-  std::vector<LevelEntry> mLevels;
-  std::vector<BrickRecord> mRecords;
+  std::vector<LevelEntry> mLevels;      ///< per level: dims, bricks, first record
+  std::vector<BrickRecord> mRecords;    ///< every brick of every level, level after level
   MinMaxOctree mOctree;
-  std::unique_ptr<BrickStoreFile> mFile;
 };
 
 }  // namespace voxbrick::store

@@ -88,13 +88,7 @@ void DownsampleSource::readTyped(int64_t count, T* dst) {
       const int64_t y0 = 2 * y, y1 = std::min(2 * y + 1, f.y - 1);
       for (int64_t x = 0; x < n.x; ++x) {
         const int64_t x0 = 2 * x, x1 = std::min(2 * x + 1, f.x - 1);
-        double sum = 0;
-        for (int64_t zz = 0; zz < 2; ++zz) {
-          const T* plane = pair + zz * sliceValues;
-          sum += double(plane[x0 + f.x * y0]) + double(plane[x1 + f.x * y0]) + double(plane[x0 + f.x * y1]) +
-                 double(plane[x1 + f.x * y1]);
-        }
-        out[x + n.x * y] = average<T>(sum);
+        out[x + n.x * y] = downsample(pair, pair + sliceValues, f.x, x0, x1, y0, y1);
       }
     });
   }

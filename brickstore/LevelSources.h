@@ -2,7 +2,9 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 #include <functional>
+#include <initializer_list>
 #include <type_traits>
 #include <vector>
 
@@ -52,6 +54,18 @@ class DownsampleSource : public VolumeSource {
   /// The downsampled value of eight finer values, exactly as the pyramid computes it.
   template <typename T>
   static T average(double sum);
+
+  /// Coarse voxel from the finer voxels (x0 | x1, y0 | y1) of two finer z-planes p0 and p1 whose rows hold `stride`
+  /// values (x1 = x0 + 1, or x0 where the finer level ends; likewise y1 and p1): the pyramid's one arithmetic, in
+  /// its one summation order, shared by prep and by stores that build coarse levels on demand.
+  template <typename T>
+  static T downsample(const T* p0, const T* p1, int64_t stride, int64_t x0, int64_t x1, int64_t y0, int64_t y1) {
+    double sum = 0;
+    for (const T* plane : {p0, p1})
+      sum += double(plane[x0 + stride * y0]) + double(plane[x1 + stride * y0]) + double(plane[x0 + stride * y1]) +
+             double(plane[x1 + stride * y1]);
+    return average<T>(sum);
+  }
 
  private:
   template <typename T>

@@ -80,14 +80,8 @@ LevelBuild SlabBricker::runTyped() {
             }
           }
         }
-        T lo = brick[0], hi = brick[0];
         bool empty = true;
-        for (const T v : brick) {
-          lo = std::min(lo, v);
-          hi = std::max(hi, v);
-          empty = empty && v == background;
-        }
-        ranges[static_cast<size_t>(b)] = {static_cast<float>(lo), static_cast<float>(hi)};
+        ranges[static_cast<size_t>(b)] = sampleRange(brick.data(), brick.size(), background, empty);
         std::vector<char>& frame = frames[static_cast<size_t>(b)];
         if (empty)
           frame.clear();

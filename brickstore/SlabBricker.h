@@ -1,6 +1,8 @@
 // Cuts one level of a volume, streamed z-slice by z-slice, into bordered bricks and appends their zstd frames.
 #pragma once
 
+#include <algorithm>
+#include <cstddef>
 #include <functional>
 #include <vector>
 
@@ -14,6 +16,21 @@ namespace voxbrick::store {
 struct MinMaxPair {
   float min = 0, max = 0;
 };
+
+/// The [min, max] of a brick's samples (border included) and whether every one equals the background: what its
+/// record holds, and whether it is stored.
+template <typename T>
+MinMaxPair sampleRange(const T* samples, size_t count, T background, bool& allBackground) {
+  T lo = samples[0], hi = samples[0];
+  bool empty = true;
+  for (size_t n = 0; n < count; ++n) {
+    lo = std::min(lo, samples[n]);
+    hi = std::max(hi, samples[n]);
+    empty = empty && samples[n] == background;
+  }
+  allBackground = empty;
+  return {static_cast<float>(lo), static_cast<float>(hi)};
+}
 
 /// The bricks of one level as written: records indexed i + bricks.x * (j + bricks.y * k).
 struct LevelBuild {

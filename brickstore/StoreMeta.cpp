@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "brickstore/Errors.h"
+#include "brickstore/StoreFormat.h"
 
 namespace voxbrick::store {
 namespace {
@@ -135,6 +136,21 @@ StoreMeta StoreMeta::fromJson(const std::string& text, const std::string& what) 
     for (const json& f : j["vdb_files"]) m.vdbFiles.push_back(f.get<std::string>());
   m.source = j.value("source", std::string());
   return m;
+}
+
+std::vector<Vec3i> pyramidDims(Vec3i dims, int brickSize) {
+  std::vector<Vec3i> levels{dims};
+  while (dims.x > brickSize || dims.y > brickSize || dims.z > brickSize) {
+    dims = {divUp(dims.x, 2), divUp(dims.y, 2), divUp(dims.z, 2)};
+    levels.push_back(dims);
+  }
+  return levels;
+}
+
+void checkBrickSize(int brickSize) {
+  if (brickSize < 8 || brickSize > int(kMaxBrickSize) || (brickSize & (brickSize - 1)) != 0)
+    throw InputError("--brick " + std::to_string(brickSize) + " is not a power of two in [8, " +
+                     std::to_string(kMaxBrickSize) + "]");
 }
 
 }  // namespace voxbrick::store

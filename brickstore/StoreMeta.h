@@ -49,4 +49,11 @@ struct StoreMeta {
   static StoreMeta fromJson(const std::string& text, const std::string& what);
 };
 
+/// The dims of every LOD level: level 0, then each level halving the one before (rounding up) until the level fits
+/// in one brick of `brickSize` along every axis.
+std::vector<Vec3i> pyramidDims(Vec3i dims, int brickSize);
+
+/// Throws InputError unless `brickSize` is a power of two in [8, kMaxBrickSize] (the rule for --brick).
+void checkBrickSize(int brickSize);
+
 }  // namespace voxbrick::store

@@ -17,6 +17,7 @@
 
 #include "brickstore/BrickFile.h"
 #include "brickstore/Errors.h"
+#include "brickstore/HistogramBuilder.h"
 #include "brickstore/LevelSources.h"
 #include "brickstore/SlabBricker.h"
 #include "brickstore/VdbChunkWriter.h"
@@ -25,12 +26,8 @@ namespace voxbrick::store {
 namespace fs = std::filesystem;
 namespace {
 
-constexpr int kHistogramBins = 256;
-
 void validate(const VolumeInfo& info, const PrepOptions& options, double background) {
-  const int B = options.brickSize;
-  if (B < 8 || B > int(kMaxBrickSize) || (B & (B - 1)) != 0)
-    throw InputError("--brick " + std::to_string(B) + " is not a power of two in [8, 256]");
+  checkBrickSize(options.brickSize);
   if (options.zstdLevel < -7 || options.zstdLevel > 22)
     throw InputError("--zstd-level " + std::to_string(options.zstdLevel) + " is outside [-7, 22]");
   if (info.dims.x <= 0 || info.dims.y <= 0 || info.dims.z <= 0)
@@ -50,15 +47,6 @@ void validate(const VolumeInfo& info, const PrepOptions& options, double backgro
   constexpr int64_t kMaxDim = int64_t{1} << 30;
   if (info.dims.x > kMaxDim || info.dims.y > kMaxDim || info.dims.z > kMaxDim)
     throw InputError(info.description + ": a dimension exceeds 2^30 voxels");
-}
-
-std::vector<Vec3i> pyramidDims(Vec3i dims, int B) {
-  std::vector<Vec3i> levels{dims};
-  while (dims.x > B || dims.y > B || dims.z > B) {
-    dims = {divUp(dims.x, 2), divUp(dims.y, 2), divUp(dims.z, 2)};
-    levels.push_back(dims);
-  }
-  return levels;
 }
 
 int64_t peakRssBytes() {
@@ -116,49 +104,6 @@ class Level0Stats {
   VolumeInfo mInfo;
   double mBackground;
   NonFinitePolicy mPolicy;
-};
-
-/// Level-0 histogram. Integer types count each distinct value (a table of at most 65536 counters, so the pass is
-/// one increment per voxel) and are binned at the end; floats are binned as they come.
-class HistogramBuilder {
- public:
-  HistogramBuilder(ValueType type, double lo, double hi) : mType(type) {
-    mHistogram.lo = lo;
-    mHistogram.hi = hi;
-    mHistogram.counts.assign(kHistogramBins, 0);
-    if (type != ValueType::F32) mValueCounts.assign(type == ValueType::U8 ? 256 : 65536, 0);
-  }
-
-  void add(const void* values, int64_t count) {
-    dispatchType(mType, [&](auto tag) {
-      using T = decltype(tag);
-      const T* v = static_cast<const T*>(values);
-      if constexpr (std::is_same_v<T, float>) {
-        for (int64_t n = 0; n < count; ++n) mHistogram.counts[bin(v[n])] += 1;
-      } else {
-        constexpr int kOffset = std::is_signed_v<T> ? 32768 : 0;
-        for (int64_t n = 0; n < count; ++n) mValueCounts[size_t(int(v[n]) + kOffset)] += 1;
-      }
-    });
-  }
-
-  Histogram finish() {
-    const int offset = mType == ValueType::I16 ? 32768 : 0;
-    for (size_t value = 0; value < mValueCounts.size(); ++value)
-      if (mValueCounts[value] != 0) mHistogram.counts[bin(double(int(value) - offset))] += mValueCounts[value];
-    return mHistogram;
-  }
-
- private:
-  size_t bin(double v) const {
-    const double span = mHistogram.hi - mHistogram.lo;
-    const int b = span > 0 ? static_cast<int>((v - mHistogram.lo) * (kHistogramBins / span)) : 0;
-    return static_cast<size_t>(std::clamp(b, 0, kHistogramBins - 1));
-  }
-
-  ValueType mType;
-  Histogram mHistogram;
-  std::vector<uint64_t> mValueCounts;
 };
 
 void writeIndex(const fs::path& path, const std::vector<LevelBuild>& levels, int B, ValueType type,

@@ -1,4 +1,4 @@
-// `voxbrick info STORE [--json]`: what a store holds, level by level.
+// `voxbrick info STORE [--json]`: what a store (or a .vdb read live) holds, level by level.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -6,13 +6,15 @@
 #include <nlohmann/json.hpp>
 
 #include "brickstore/BrickStore.h"
+#include "brickstore/VdbStore.h"
 #include "cli/Commands.h"
 
 namespace voxbrick::cli {
 namespace {
 
 struct InfoArgs {
-  std::string store;
+  std::string store, grid;
+  int brick = 32;
   bool json = false;
 };
 
@@ -35,7 +37,8 @@ std::string sparkline(const store::Histogram& h) {
 }
 
 void runInfo(const InfoArgs& a) {
-  auto s = store::BrickStore::open(a.store);
+  auto s = store::BrickStore::openAny(a.store, {a.grid, a.brick});
+  const auto* live = dynamic_cast<const store::VdbStore*>(s.get());
   const store::StoreMeta& m = s->meta();
   int64_t total = 0, stored = 0;
   for (const auto& l : m.levels) total += l.bricksTotal(), stored += l.bricksStored;
@@ -50,10 +53,16 @@ void runInfo(const InfoArgs& a) {
     j["empty_fraction"] = emptyFraction;
     j["compression_ratio"] = ratio;
     j["octree_depth"] = s->octree().depth();
+    j["backing"] = store::storeBackingName(s->backing());
+    if (live) {
+      const store::VdbOpenStats& o = live->openStats();
+      j["open"] = {{"read_s", o.readSeconds}, {"scan_s", o.scanSeconds}, {"leaf_nodes", o.leafNodes},
+                   {"tiles", o.tiles}, {"bricks_scanned", o.bricksScanned}};
+    }
     std::printf("%s\n", j.dump(2).c_str());
     return;
   }
-  std::printf("store        %s\n", a.store.c_str());
+  std::printf("store        %s%s\n", a.store.c_str(), live ? " (OpenVDB file, read live)" : "");
   std::printf("source       %s\n", m.source.c_str());
   std::printf("dims         %s voxels, spacing %g x %g x %g, type %s\n", dimsText(m.dims).c_str(), m.spacing.x,
               m.spacing.y, m.spacing.z, std::string(store::valueTypeName(m.type)).c_str());
@@ -75,6 +84,17 @@ void runInfo(const InfoArgs& a) {
                 100.0 * (1.0 - double(lv.bricksStored) / double(lv.bricksTotal())),
                 formatBytes(double(lv.bytesStored)).c_str());
   }
+  if (live) {
+    const store::VdbOpenStats& o = live->openStats();
+    std::printf("empty        %.1f%% of level-0 bricks hold only the background; levels >= 1 count the bricks over "
+                "data (from the topology)\n", 100 * emptyFraction);
+    std::printf("size         %s raw, %s OpenVDB file, nothing stored: bricks are extracted from the tree on demand\n",
+                formatBytes(double(m.bytesRaw)).c_str(), formatBytes(double(m.bytesVdb)).c_str());
+    std::printf("open         %.3f s reading the file, %.3f s scanning the tree (%lld leaf nodes, %lld tiles, %lld of "
+                "%lld level-0 bricks extracted)\n", o.readSeconds, o.scanSeconds, (long long)o.leafNodes,
+                (long long)o.tiles, (long long)o.bricksScanned, (long long)m.levels[0].bricksTotal());
+    return;
+  }
   std::printf("empty        %.1f%% of level-0 bricks are empty (not stored)\n", 100 * emptyFraction);
   std::printf("size         %s raw, %s stored (all levels, %.2fx), %s OpenVDB grid in %zu file(s)\n",
               formatBytes(double(m.bytesRaw)).c_str(), formatBytes(double(m.bytesStored)).c_str(), ratio,
@@ -85,8 +105,10 @@ void runInfo(const InfoArgs& a) {
 
 void addInfoCommand(CLI::App& app) {
   auto args = std::make_shared<InfoArgs>();
-  CLI::App* cmd = app.add_subcommand("info", "Describe a brick store");
-  cmd->add_option("store", args->store, "store directory")->required();
+  CLI::App* cmd = app.add_subcommand("info", "Describe a brick store (or a .vdb, as it would be read live)");
+  cmd->add_option("store", args->store, "store directory, or a .vdb file")->required();
+  cmd->add_option("--grid", args->grid, ".vdb: the float grid to read (default: the first float grid)");
+  cmd->add_option("--brick", args->brick, ".vdb: brick size B, a power of two in [8, 256]")->capture_default_str();
   cmd->add_flag("--json", args->json, "print one JSON object");
   cmd->callback([args] { runInfo(*args); });
 }

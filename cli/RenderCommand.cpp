@@ -17,7 +17,8 @@ namespace {
 
 struct RenderArgs {
   SceneArgs scene;
-  std::string store, output, statsPath;
+  std::string store, output, statsPath, grid;
+  int brick = 32;
   std::string backend = "auto", atlasFormat = "float", analytic;
   double referenceStep = 0.125;
   bool quiet = false;
@@ -49,7 +50,8 @@ void runReference(const RenderArgs& a, const render::Scene& scene, const render:
 /// A GPU frame through the same seam the server's render threads use: a dataset and a RenderEngine.
 void runRender(const RenderArgs& a, const CLI::App& cmd) {
   const render::Scene scene = buildScene(a.scene, cmd);
-  const auto dataset = render::openDataset(a.store, a.store, size_t(a.hostBudgetMB) << 20);
+  const auto dataset =
+      render::openDataset(a.store, a.store, size_t(a.hostBudgetMB) << 20, store::StoreOpenOptions{a.grid, a.brick});
   if (a.backend == "reference") return runReference(a, scene, *dataset);
   if (!a.analytic.empty()) throw render::RenderInputError("--analytic needs --backend reference");
   render::RenderEngine engine({render::parseBackend(a.backend), size_t(a.gpuBudgetMB) << 20,
@@ -100,8 +102,10 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
 
 void addRenderCommand(CLI::App& app) {
   auto args = std::make_shared<RenderArgs>();
-  CLI::App* cmd = app.add_subcommand("render", "Render one frame of a store to a PNG, headless");
-  cmd->add_option("store", args->store, "store directory")->required();
+  CLI::App* cmd = app.add_subcommand("render", "Render one frame of a store (or a .vdb, read live) to a PNG, headless");
+  cmd->add_option("store", args->store, "store directory, or a .vdb file to read live (no prep)")->required();
+  cmd->add_option("--grid", args->grid, ".vdb: the float grid to read (default: the first float grid)");
+  cmd->add_option("--brick", args->brick, ".vdb: brick size B, a power of two in [8, 256]")->capture_default_str();
   cmd->add_option("-o,--output", args->output, "PNG file to write")->required();
   cmd->add_option("--stats", args->statsPath, "write the frame statistics as JSON");
   cmd->add_option("--warm-up", args->warmUp, "render the frame this many times before the one written and timed")

@@ -59,13 +59,16 @@ void runServe(const ServeArgs& a) {
 
 void addServeCommand(CLI::App& app) {
   auto a = std::make_shared<ServeArgs>();
-  CLI::App* cmd = app.add_subcommand("serve", "Serve frames of a directory of stores over TCP (proto/PROTOCOL.md)");
+  CLI::App* cmd = app.add_subcommand("serve",
+                                     "Serve frames of a directory of stores and .vdb files over TCP (proto/PROTOCOL.md)");
   cmd->add_option("--config", a->config, "TOML configuration (e.g. config/server.toml); options below override it")
       ->check(CLI::ExistingFile);
   cmd->add_option("--host", a->host, "address to listen on (default 127.0.0.1)");
   cmd->add_option("--port", a->port, "TCP port; 0 picks a free one (default 7420)")->check(CLI::Range(0, 65535));
   cmd->add_option("--port-file", a->portFile, "write the port actually bound to this file");
-  cmd->add_option("--datasets", a->datasets, "directory whose subdirectories are stores (default demo)");
+  cmd->add_option("--datasets", a->datasets,
+                  "directory whose subdirectories are stores and whose .vdb files are read live (first float grid, "
+                  "bricks of 32; default demo)");
   cmd->add_option("--backend", a->backend, "auto, egl or osmesa");
   cmd->add_option("--log-level", a->logLevel, "trace, debug, info, warn, error or off");
   cmd->add_option("--render-threads", a->renderThreads, "render threads, each with its own GL context");

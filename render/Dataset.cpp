@@ -13,21 +13,23 @@ const char* datasetKindName(DatasetKind kind) {
 }
 
 BrickStoreDataset::BrickStoreDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes,
-                                     int decodeThreads)
+                                     int decodeThreads, const store::StoreOpenOptions& options)
     : Dataset(std::move(name), path),
-      mStore(store::BrickStore::open(path)),
+      mStore(store::BrickStore::openAny(path, options)),
       mCache(std::make_shared<store::BrickCache>(mStore, cacheBytes, decodeThreads)) {}
 
 std::string BrickStoreDataset::infoJson() const { return mStore->meta().toJson(); }
 
 bool isDataset(const std::filesystem::path& path) {
   std::error_code ec;
-  return std::filesystem::is_regular_file(path / "store.json", ec);
+  return std::filesystem::is_regular_file(path / "store.json", ec) || store::BrickStore::isVdbFile(path);
 }
 
-std::shared_ptr<const Dataset> openDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes) {
-  if (!isDataset(path)) throw std::runtime_error("openDataset: '" + path.string() + "' is not a dataset (no store.json)");
-  return std::make_shared<BrickStoreDataset>(std::move(name), path, cacheBytes);
+std::shared_ptr<const Dataset> openDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes,
+                                           const store::StoreOpenOptions& options) {
+  if (!isDataset(path))
+    throw std::runtime_error("openDataset: '" + path.string() + "' is not a dataset (no store.json, not a .vdb file)");
+  return std::make_shared<BrickStoreDataset>(std::move(name), path, cacheBytes, 2, options);
 }
 
 }  // namespace voxbrick::render

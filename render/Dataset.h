@@ -1,6 +1,6 @@
-// What the server opens and a renderer draws: a dataset. Today one kind, a prepped brick store with its host cache;
-// an OpenVDB file read live and a tetrahedral mesh are the next kinds, each with its own renderer behind
-// RenderEngine. GL-free.
+// What the server opens and a renderer draws: a dataset. Today one kind, a brick store with its host cache, backed by
+// a prepped store directory or by an OpenVDB file read live (both give the same bricks, so one renderer draws
+// them); a tetrahedral mesh is the next kind, with its own renderer behind RenderEngine. GL-free.
 #pragma once
 
 #include <filesystem>
@@ -44,12 +44,14 @@ class Dataset {
   std::filesystem::path mPath;
 };
 
-/// A prepped brick store (`voxbrick prep`) and its bounded host cache.
+/// A brick store (a prepped directory, or a .vdb read live) and its bounded host cache.
 class BrickStoreDataset final : public Dataset {
  public:
-  /// Opens the store at `path` with a host cache of `cacheBytes` and `decodeThreads` prefetch workers; throws the
-  /// store's errors (CorruptStoreError, IoError) naming the problem.
-  BrickStoreDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes, int decodeThreads = 2);
+  /// Opens the store at `path` (store::BrickStore::openAny: a .vdb file is read live with `options`) with a host
+  /// cache of `cacheBytes` and `decodeThreads` prefetch workers; throws the store's errors (InputError,
+  /// CorruptStoreError, IoError) naming the problem.
+  BrickStoreDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes, int decodeThreads = 2,
+                    const store::StoreOpenOptions& options = {});
 
   DatasetKind kind() const override { return DatasetKind::BrickStore; }
   std::string infoJson() const override;
@@ -64,11 +66,13 @@ class BrickStoreDataset final : public Dataset {
   std::shared_ptr<store::BrickCache> mCache;
 };
 
-/// Whether `path` holds a dataset of a kind this build can open (a directory with a store.json).
+/// Whether `path` holds a dataset of a kind this build can open: a directory with a store.json, or a file whose name
+/// ends in .vdb (read live).
 bool isDataset(const std::filesystem::path& path);
 
-/// Opens the dataset at `path` under `name`; throws std::runtime_error naming the path when it is no dataset, and
-/// the kind's own errors when it cannot be opened.
-std::shared_ptr<const Dataset> openDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes);
+/// Opens the dataset at `path` under `name` (`options` apply to a .vdb: grid name and brick size); throws
+/// std::runtime_error naming the path when it is no dataset, and the kind's own errors when it cannot be opened.
+std::shared_ptr<const Dataset> openDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes,
+                                           const store::StoreOpenOptions& options = {});
 
 }  // namespace voxbrick::render

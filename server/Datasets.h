@@ -14,8 +14,10 @@
 
 namespace voxbrick::server {
 
-/// A named dataset is a subdirectory of the datasets directory that render::isDataset accepts; names are the
-/// directory names, of letters, digits, '.', '-' and '_' only (never a path, never "." or "..").
+/// A named dataset is an entry of the datasets directory that render::isDataset accepts: a subdirectory holding a
+/// prepped store, or a .vdb file read live with the defaults (its first float grid, bricks of 32). Names are the
+/// entries' names (a .vdb keeps its extension), of letters, digits, '.', '-' and '_' only (never a path, never "."
+/// or "..").
 class DatasetRegistry {
  public:
   /// `cacheBytes` is the host budget of all the datasets open together: each of the n open has a cache of

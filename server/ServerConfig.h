@@ -15,7 +15,7 @@ struct ServerConfig {
   // [server]
   std::string host = "127.0.0.1";
   int port = 7420;                           ///< 0 picks a free port (printed, and written to --port-file)
-  std::filesystem::path datasets = "demo";   ///< directory whose subdirectories are stores
+  std::filesystem::path datasets = "demo";   ///< directory whose subdirectories are stores (and .vdb files)
   int ioThreads = 2;
   int renderThreads = 2;                     ///< each with its own GL context
   render::Backend backend = render::Backend::Auto;  ///< "auto" | "egl" | "osmesa" in the file

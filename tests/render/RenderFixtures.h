@@ -47,6 +47,20 @@ std::shared_ptr<const store::BrickStore> prepArray(const store::Vec3i& n, store:
   return store::BrickStore::open(out);
 }
 
+/// A small frame (96x80, orbit 35°/25° at 2.2 radii, the "hot" preset, step 0.5) at level of detail `lod`.
+inline render::Scene lodScene(double lod) {
+  render::Scene scene;
+  scene.width = 96;
+  scene.height = 80;
+  scene.camera.azimuth = 35;
+  scene.camera.elevation = 25;
+  scene.camera.distance = 2.2;
+  scene.transferFunction = render::TransferFunction::load("hot");
+  scene.step = 0.5;
+  scene.lod = lod;
+  return scene;
+}
+
 /// One context for the whole binary: creating a llvmpipe context costs more than most test frames.
 inline render::GlContext& context() {
   static std::unique_ptr<render::GlContext> ctx = render::createContext(render::Backend::Auto);

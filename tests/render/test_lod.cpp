@@ -18,6 +18,7 @@ namespace voxbrick::render {
 namespace {
 
 using test::expectClose;
+using test::lodScene;
 using test::meanBrightness;
 using test::prep;
 using test::renderReference;
@@ -25,19 +26,6 @@ using test::renderStore;
 using test::ScratchDir;
 
 constexpr int kTexels = VolumeRenderer::kTransferTableTexels;
-
-Scene lodScene(double lod) {
-  Scene scene;
-  scene.width = 96;
-  scene.height = 80;
-  scene.camera.azimuth = 35;
-  scene.camera.elevation = 25;
-  scene.camera.distance = 2.2;
-  scene.transferFunction = TransferFunction::load("hot");
-  scene.step = 0.5;
-  scene.lod = lod;
-  return scene;
-}
 
 /// Levels drawn (those with at least one brick).
 std::set<int> levelsDrawn(const FrameStats& stats) {

@@ -87,17 +87,48 @@ TEST_F(DatasetRegistryTest, TheNameCheckAllowsOnlyPlainNames) {
     EXPECT_FALSE(DatasetRegistry::validName(name)) << name;
 }
 
+/// Expects opening `name` to fail with the dataset's own error (not DatasetNotFound), whose message holds `text`.
+void expectOpenFails(DatasetRegistry& registry, const std::string& name, const std::string& text) {
+  try {
+    registry.open(name);
+    ADD_FAILURE() << name << " opened";
+  } catch (const DatasetNotFound& e) {
+    ADD_FAILURE() << name << " reported as not found: " << e.what();
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find(text), std::string::npos) << e.what();
+  }
+}
+
 TEST_F(DatasetRegistryTest, AStoreThatCannotBeOpenedIsNotANotFound) {
   // Listed (it has a store.json), but opening it is the store's error, which the client sees as Internal.
-  try {
-    registry.open("broken");
-    ADD_FAILURE() << "a broken store opened";
-  } catch (const DatasetNotFound& e) {
-    ADD_FAILURE() << "reported as not found: " << e.what();
-  } catch (const std::exception& e) {
-    EXPECT_NE(std::string(e.what()).find("store.json"), std::string::npos) << e.what();
-  }
+  expectOpenFails(registry, "broken", "store.json");
   EXPECT_TRUE(registry.opened().empty());
+}
+
+/// A .vdb file (the OpenVDB grid prep writes beside a store) is a dataset of the directory under its file name,
+/// read live; a broken one is listed and fails to open with its own error; a directory named like one is not a .vdb.
+TEST(DatasetRegistryVdb, ListsAndOpensVdbFiles) {
+  test::ScratchDir dir;
+  const auto r = test::runVoxbrick("prep synthetic:sparse,n=32 --brick 16 -q -o '" + (dir / "withvdb").string() + "'");
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  const std::filesystem::path datasets = dir / "datasets";
+  std::filesystem::create_directories(datasets / "folder.vdb");
+  std::filesystem::copy_file(dir / "withvdb" / "vdb" / "level0-z00000.vdb", datasets / "sparse.vdb");
+  test::writeFile(datasets / "broken.vdb", std::string("not an OpenVDB file"));
+  DatasetRegistry registry(datasets, size_t(16) << 20);
+  EXPECT_EQ(registry.names(), (std::vector<std::string>{"broken.vdb", "sparse.vdb"}));
+
+  const auto live = registry.open("sparse.vdb");
+  EXPECT_EQ(live->kind(), render::DatasetKind::BrickStore);
+  const auto* grid = dynamic_cast<const render::BrickStoreDataset*>(live.get());
+  ASSERT_NE(grid, nullptr);
+  EXPECT_EQ(grid->store()->backing(), store::StoreBacking::VdbFile);
+  EXPECT_EQ(grid->store()->brickSize(), 32);
+  EXPECT_NE(live->infoJson().find("OpenVDB grid 'density'"), std::string::npos) << live->infoJson();
+  EXPECT_EQ(registry.open("sparse.vdb"), live);
+
+  expectOpenFails(registry, "broken.vdb", "broken.vdb: not a readable OpenVDB file");
+  EXPECT_THROW(registry.open("folder.vdb"), DatasetNotFound);
 }
 
 }  // namespace

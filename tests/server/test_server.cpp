@@ -119,6 +119,39 @@ TEST_F(ServerTest, ServedFramesEqualTheRenderCommandBitForBit) {
   c->goodbye();
 }
 
+// A .vdb in the datasets directory is listed and served live, with the frames of the store prep makes of it.
+TEST_F(ServerTest, ServesAVdbFileWithTheFramesOfItsPreppedStore) {
+  const std::filesystem::path work = scratch() / "vdb-case", datasets = work / "datasets";
+  std::filesystem::create_directories(datasets);
+  auto run = [](const std::string& args) {
+    const auto r = test::runVoxbrick(args);
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+  };
+  run("prep synthetic:sparse,n=64 --brick 16 -q -o " + (work / "withvdb").string());
+  std::filesystem::copy_file(work / "withvdb" / "vdb" / "level0-z00000.vdb", datasets / "sparse.vdb");
+  // The server reads a .vdb with the defaults (first float grid, bricks of 32), so the store is prepped likewise.
+  run("prep " + (datasets / "sparse.vdb").string() + " --no-vdb -q -o " + (datasets / "sparse-prepped").string());
+
+  ServerProcess server("--datasets " + datasets.string() + " --render-threads 2", work);
+  auto c = session(server, "");
+  EXPECT_EQ(c->listDatasets(), (std::vector<std::string>{"sparse-prepped", "sparse.vdb"}));
+  const proto::DatasetInfo liveInfo = c->openDataset("sparse.vdb");
+  const std::vector<uint8_t> live = pixels(c->render(kScene, proto::Encoding::RawRgba8));
+  const proto::DatasetInfo preppedInfo = c->openDataset("sparse-prepped");
+  const std::vector<uint8_t> prepped = pixels(c->render(kScene, proto::Encoding::RawRgba8));
+  EXPECT_EQ(json::parse(liveInfo.metaJson)["value_range"], json::parse(preppedInfo.metaJson)["value_range"]);
+  EXPECT_EQ(json::parse(liveInfo.metaJson)["dims"], json::parse(preppedInfo.metaJson)["dims"]);
+  ASSERT_EQ(live.size(), prepped.size());
+  EXPECT_EQ(live, prepped) << "the .vdb served live differs from its prepped store";
+  size_t lit = 0;
+  for (size_t i = 0; i < live.size(); i += 4) lit += live[i] > 0 ? 1 : 0;
+  EXPECT_GT(lit, 100u) << "an empty frame would prove nothing";
+  // The same frame again, now from bricks the host cache holds.
+  c->openDataset("sparse.vdb");
+  EXPECT_EQ(pixels(c->render(kScene, proto::Encoding::RawRgba8)), live);
+  c->goodbye();
+}
+
 TEST_F(ServerTest, MalformedMessagesGetTheirErrorsAndOtherSessionsGoOn) {
   auto server = start();
   auto good = session(*server);

@@ -1,0 +1,455 @@
+// A .vdb read live: the pass over the tree at open, level-0 bricks from leaves, coarse bricks from finer bricks.
+#include "brickstore/VdbStore.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <vector>
+
+#include <openvdb/openvdb.h>
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include "brickstore/BrickCache.h"
+#include "brickstore/Errors.h"
+#include "brickstore/HistogramBuilder.h"
+#include "brickstore/LevelSources.h"
+#include "brickstore/SlabBricker.h"
+#include "brickstore/VdbGrid.h"
+
+namespace voxbrick::store {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using Tree = openvdb::FloatTree;
+using Leaf = Tree::LeafNodeType;
+// One accessor per call and thread: unregistered, so making one costs no lock on the tree.
+using Accessor = openvdb::tree::ValueAccessor<const Tree, false>;
+
+double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+/// A voxel value as prep ingests it: NaN and Inf become the background (prep's default non-finite policy).
+float sanitize(float v, float background) { return std::isfinite(v) ? v : background; }
+
+/// The voxels brick `idx` of a level of `dims` reads: [i*B - 1, i*B + B] along each axis, clamped to the level.
+void brickVoxels(const Vec3i& idx, int64_t B, const Vec3i& dims, Vec3i& lo, Vec3i& hi) {
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = std::max<int64_t>(idx[a] * B - 1, 0);
+    hi[a] = std::min<int64_t>(idx[a] * B + B, dims[a] - 1);
+  }
+}
+
+/// The level-0 bricks whose voxels (border included) meet the voxels [lo, hi]: brick i reads [i*B - 1, i*B + B].
+void bricksReading(const Vec3i& lo, const Vec3i& hi, int64_t B, const Vec3i& bricks, Vec3i& first, Vec3i& last) {
+  for (int a = 0; a < 3; ++a) {
+    first[a] = std::max<int64_t>(0, (lo[a] + B - 1) / B - 1);
+    last[a] = std::min<int64_t>(bricks[a] - 1, (hi[a] + 1) / B);
+  }
+}
+
+/// The brick's (B+2)^3 samples from a block holding its voxels [lo, hi] (x fastest): sample a along x is voxel
+/// clamp(i*B + a - 1, 0, dims.x - 1), likewise y and z, as BrickStore promises.
+void gatherSamples(const float* block, const Vec3i& lo, const Vec3i& hi, const Vec3i& idx, int64_t B,
+                   const Vec3i& dims, float* dst) {
+  const int64_t E = B + 2, sx = hi.x - lo.x + 1, sy = hi.y - lo.y + 1;
+  std::array<int64_t, kMaxBrickSize + 2> ox{}, oy{}, oz{};
+  for (int64_t a = 0; a < E; ++a) {
+    ox[size_t(a)] = std::clamp<int64_t>(idx.x * B + a - 1, 0, dims.x - 1) - lo.x;
+    oy[size_t(a)] = (std::clamp<int64_t>(idx.y * B + a - 1, 0, dims.y - 1) - lo.y) * sx;
+    oz[size_t(a)] = (std::clamp<int64_t>(idx.z * B + a - 1, 0, dims.z - 1) - lo.z) * sx * sy;
+  }
+  for (int64_t c = 0; c < E; ++c)
+    for (int64_t b = 0; b < E; ++b) {
+      const float* row = block + oz[size_t(c)] + oy[size_t(b)];
+      for (int64_t a = 0; a < E; ++a) *dst++ = row[ox[size_t(a)]];
+    }
+}
+
+/// Level-0 voxels [lo, hi] (volume coordinates; voxel 0 is grid coordinate `origin`) into `block`, x fastest: one
+/// leaf lookup per 8^3 block of the tree; where there is no leaf, the tile's value (or the background).
+void fillFromTree(const Tree& tree, const openvdb::Coord& origin, const Vec3i& lo, const Vec3i& hi, float* block) {
+  Accessor acc(tree);
+  const float background = tree.background();
+  const int64_t sx = hi.x - lo.x + 1, sy = hi.y - lo.y + 1;
+  const int gx0 = origin.x() + int(lo.x), gy0 = origin.y() + int(lo.y), gz0 = origin.z() + int(lo.z);
+  const int gx1 = origin.x() + int(hi.x), gy1 = origin.y() + int(hi.y), gz1 = origin.z() + int(hi.z);
+  auto at = [&](int x, int y, int z) { return block + (x - gx0) + sx * ((y - gy0) + sy * int64_t(z - gz0)); };
+  for (int bz = gz0 & ~7; bz <= gz1; bz += 8)
+    for (int by = gy0 & ~7; by <= gy1; by += 8)
+      for (int bx = gx0 & ~7; bx <= gx1; bx += 8) {
+        const openvdb::Coord nodeOrigin(bx, by, bz);
+        const int x0 = std::max(bx, gx0), x1 = std::min(bx + 7, gx1);
+        const int y0 = std::max(by, gy0), y1 = std::min(by + 7, gy1);
+        const int z0 = std::max(bz, gz0), z1 = std::min(bz + 7, gz1);
+        if (const Leaf* leaf = acc.probeConstLeaf(nodeOrigin)) {
+          const float* values = leaf->buffer().data();  // offset ((x & 7) << 6) | ((y & 7) << 3) | (z & 7)
+          for (int z = z0; z <= z1; ++z)
+            for (int y = y0; y <= y1; ++y) {
+              float* out = at(x0, y, z);
+              const float* in = values + (((y & 7) << 3) | (z & 7));
+              for (int x = x0; x <= x1; ++x) *out++ = sanitize(in[(x & 7) << 6], background);
+            }
+        } else {
+          const float v = sanitize(acc.getValue(nodeOrigin), background);
+          for (int z = z0; z <= z1; ++z)
+            for (int y = y0; y <= y1; ++y) std::fill_n(at(x0, y, z), x1 - x0 + 1, v);
+        }
+      }
+}
+
+/// A tile of the tree inside the volume whose value is not the background.
+struct Tile {
+  Vec3i lo, hi;  // volume coordinates, inclusive
+  float value;
+  int64_t voxels() const { return (hi.x - lo.x + 1) * (hi.y - lo.y + 1) * (hi.z - lo.z + 1); }
+};
+
+/// What of the tree can hold anything but the background inside the volume: its leaf nodes, and its tiles (of any
+/// level above the leaves) whose value is neither the background nor NaN/Inf (read as the background; their voxels
+/// are counted). Every other voxel of the volume is the background.
+struct Topology {
+  Topology(const Tree& tree, const openvdb::Coord& volumeOrigin, const Vec3i& dims)
+      : origin(volumeOrigin),
+        volume(origin, origin + openvdb::Coord(int(dims.x) - 1, int(dims.y) - 1, int(dims.z) - 1)) {
+    for (auto it = tree.cbeginLeaf(); it; ++it) leaves.push_back(&*it);
+    Tree::ValueAllCIter it = tree.cbeginValueAll();
+    it.setMaxDepth(Tree::ValueAllCIter::LEAF_DEPTH - 1);
+    for (; it; ++it) {
+      openvdb::CoordBBox box;
+      it.getBoundingBox(box);
+      Tile tile{};
+      if (!clip(box, tile.lo, tile.hi)) continue;
+      if (!std::isfinite(*it))
+        nonFiniteTileVoxels += tile.voxels();
+      else if (*it != tree.background())
+        tiles.push_back({tile.lo, tile.hi, *it});
+    }
+  }
+
+  /// `box` (grid coordinates) clipped to the volume, in volume coordinates; false if nothing is left.
+  bool clip(openvdb::CoordBBox box, Vec3i& lo, Vec3i& hi) const {
+    box.intersect(volume);
+    if (box.empty()) return false;
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = box.min()[a] - origin[a];
+      hi[a] = box.max()[a] - origin[a];
+    }
+    return true;
+  }
+
+  openvdb::Coord origin;       // grid coordinate of volume voxel (0, 0, 0)
+  openvdb::CoordBBox volume;   // the volume in grid coordinates
+  std::vector<const Leaf*> leaves;
+  std::vector<Tile> tiles;
+  int64_t nonFiniteTileVoxels = 0;
+};
+
+/// The level-0 histogram over [lo, hi] (prep's bins) and the number of NaN/Inf voxels, voxel by voxel: leaves in
+/// parallel, then tiles, then the background for every voxel neither covers.
+Histogram voxelHistogram(const Topology& topology, const Vec3i& dims, float background, double lo, double hi,
+                         int64_t& nonFinite) {
+  struct Counts {
+    explicit Counts(const HistogramBuilder& empty) : histogram(empty) {}
+    HistogramBuilder histogram;
+    int64_t covered = 0, nonFinite = 0;
+  };
+  const HistogramBuilder empty(ValueType::F32, lo, hi);
+  tbb::enumerable_thread_specific<Counts> perThread([&] { return Counts(empty); });
+  const std::vector<const Leaf*>& leaves = topology.leaves;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size()), [&](const tbb::blocked_range<size_t>& r) {
+    Counts& counts = perThread.local();
+    std::array<float, Leaf::SIZE> values;
+    for (size_t l = r.begin(); l != r.end(); ++l) {
+      Vec3i vlo, vhi;
+      if (!topology.clip(leaves[l]->getNodeBoundingBox(), vlo, vhi)) continue;
+      const openvdb::Coord leafOrigin = leaves[l]->origin();
+      const float* data = leaves[l]->buffer().data();
+      size_t count = 0;
+      for (int64_t z = vlo.z; z <= vhi.z; ++z)
+        for (int64_t y = vlo.y; y <= vhi.y; ++y)
+          for (int64_t x = vlo.x; x <= vhi.x; ++x) {
+            const openvdb::Coord g = topology.origin + openvdb::Coord(int(x), int(y), int(z)) - leafOrigin;
+            const float v = data[(g.x() << 6) | (g.y() << 3) | g.z()];
+            counts.nonFinite += !std::isfinite(v);
+            values[count++] = sanitize(v, background);
+          }
+      counts.histogram.add(values.data(), int64_t(count));
+      counts.covered += int64_t(count);
+    }
+  });
+  HistogramBuilder histogram(ValueType::F32, lo, hi);
+  int64_t covered = 0;
+  nonFinite = topology.nonFiniteTileVoxels;
+  for (const Counts& counts : perThread) {
+    histogram.merge(counts.histogram);
+    covered += counts.covered;
+    nonFinite += counts.nonFinite;
+  }
+  for (const Tile& tile : topology.tiles) {
+    histogram.addRepeated(tile.value, uint64_t(tile.voxels()));
+    covered += tile.voxels();
+  }
+  histogram.addRepeated(background, uint64_t(dims.volume() - covered));
+  return histogram.finish();
+}
+
+}  // namespace
+
+struct VdbStore::Grid {
+  openvdb::FloatGrid::Ptr grid;
+  openvdb::Coord origin;  // grid coordinate of volume voxel (0, 0, 0)
+};
+
+VdbStore::VdbStore() = default;
+VdbStore::~VdbStore() = default;
+
+std::shared_ptr<const VdbStore> VdbStore::open(const std::filesystem::path& file, const StoreOpenOptions& options) {
+  checkBrickSize(options.brickSize);
+  const auto start = Clock::now();
+  SourceOptions sourceOptions;
+  sourceOptions.gridName = options.gridName;
+  VdbFloatGrid chosen = readVdbFloatGrid(file.string(), sourceOptions);
+
+  std::shared_ptr<VdbStore> store(new VdbStore());
+  store->mOpenStats.readSeconds = secondsSince(start);
+  store->mPath = file;
+  store->mGrid = std::make_unique<Grid>(Grid{chosen.grid, chosen.bbox.min()});
+
+  StoreMeta& meta = store->mMeta;
+  meta.dims = chosen.dims;
+  meta.spacing = chosen.spacing;
+  meta.type = ValueType::F32;
+  meta.background = chosen.grid->background();
+  meta.brickSize = options.brickSize;
+  meta.bytesRaw = meta.dims.volume() * int64_t(sizeof(float));
+  meta.source = chosen.description;
+  meta.vdbFiles = {file.filename().string()};
+  std::error_code ec;
+  meta.bytesVdb = int64_t(std::filesystem::file_size(file, ec));
+  if (ec) throw IoError("cannot stat " + file.string() + ": " + ec.message());
+
+  uint64_t first = 0;
+  for (const Vec3i& dims : pyramidDims(meta.dims, meta.brickSize)) {
+    const Vec3i bricks{divUp(dims.x, meta.brickSize), divUp(dims.y, meta.brickSize), divUp(dims.z, meta.brickSize)};
+    LevelEntry e{};
+    for (int a = 0; a < 3; ++a) {
+      e.dims[a] = dims[a];
+      e.bricks[a] = uint32_t(bricks[a]);
+    }
+    e.firstRecord = first;
+    first += uint64_t(bricks.volume());
+    store->mLevels.push_back(e);
+    meta.levels.push_back({dims, bricks, 0, 0});
+  }
+  store->mRecords.assign(first, BrickRecord{});
+  store->mBuilt = std::make_unique<std::atomic<int64_t>[]>(meta.levels.size());
+  for (size_t l = 0; l < meta.levels.size(); ++l) store->mBuilt[l] = 0;
+
+  const auto scanStart = Clock::now();
+  store->scan();
+  store->buildOctree();
+  store->deriveCoarseRecords();
+  store->mOpenStats.scanSeconds = secondsSince(scanStart);
+  return store;
+}
+
+void VdbStore::scan() {
+  const Tree& tree = mGrid->grid->tree();
+  const openvdb::Coord origin = mGrid->origin;
+  const Vec3i n = mMeta.dims, nb = mMeta.levels[0].bricks;
+  const int64_t B = mMeta.brickSize;
+  const float background = tree.background();
+  const uint32_t storedSize = uint32_t(brickBytes());
+  const Topology topology(tree, origin, n);
+  mOpenStats.leafNodes = int64_t(topology.leaves.size());
+  mOpenStats.tiles = int64_t(topology.tiles.size());
+
+  // Bricks that read a voxel of a leaf or of such a tile; every other brick reads only the background.
+  std::vector<uint8_t> near(size_t(nb.volume()), 0);
+  auto mark = [&](const Vec3i& lo, const Vec3i& hi) {
+    Vec3i first, last;
+    bricksReading(lo, hi, B, nb, first, last);
+    for (int64_t k = first.z; k <= last.z; ++k)
+      for (int64_t j = first.y; j <= last.y; ++j)
+        for (int64_t i = first.x; i <= last.x; ++i) near[size_t(i + nb.x * (j + nb.y * k))] = 1;
+  };
+  for (const Leaf* leaf : topology.leaves) {
+    Vec3i lo, hi;
+    if (topology.clip(leaf->getNodeBoundingBox(), lo, hi)) mark(lo, hi);
+  }
+  for (const Tile& tile : topology.tiles) mark(tile.lo, tile.hi);
+  std::vector<int64_t> candidates;
+  for (int64_t b = 0; b < nb.volume(); ++b)
+    if (near[size_t(b)]) candidates.push_back(b);
+  mOpenStats.bricksScanned = int64_t(candidates.size());
+
+  // Each candidate extracted once: its exact range and emptiness (border included), and the statistics of the
+  // voxels it owns (no border), so that every voxel is counted once.
+  struct Owned {
+    float min = std::numeric_limits<float>::max(), max = std::numeric_limits<float>::lowest();
+    int64_t active = 0;
+  };
+  std::vector<Owned> owned(candidates.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size()), [&](const tbb::blocked_range<size_t>& r) {
+    const int64_t E = B + 2;
+    std::vector<float> block, samples(size_t(E * E * E));
+    for (size_t c = r.begin(); c != r.end(); ++c) {
+      const int64_t b = candidates[c];
+      const Vec3i idx{b % nb.x, (b / nb.x) % nb.y, b / (nb.x * nb.y)};
+      Vec3i lo, hi;
+      brickVoxels(idx, B, n, lo, hi);
+      block.resize(size_t((hi.x - lo.x + 1) * (hi.y - lo.y + 1) * (hi.z - lo.z + 1)));
+      fillFromTree(tree, origin, lo, hi, block.data());
+      gatherSamples(block.data(), lo, hi, idx, B, n, samples.data());
+      bool empty = true;
+      const MinMaxPair range = sampleRange(samples.data(), samples.size(), background, empty);
+      BrickRecord& rec = mRecords[size_t(b)];
+      rec.min = range.min;
+      rec.max = range.max;
+      rec.compressedSize = empty ? 0 : storedSize;
+      const Vec3i own{std::min(B, n.x - idx.x * B), std::min(B, n.y - idx.y * B), std::min(B, n.z - idx.z * B)};
+      Owned& o = owned[c];
+      for (int64_t z = 1; z <= own.z; ++z)
+        for (int64_t y = 1; y <= own.y; ++y)
+          for (int64_t x = 1; x <= own.x; ++x) {
+            const float v = samples[size_t(x + E * (y + E * z))];
+            o.min = std::min(o.min, v);
+            o.max = std::max(o.max, v);
+            o.active += v != background;
+          }
+    }
+  });
+  for (int64_t b = 0; b < nb.volume(); ++b)
+    if (!near[size_t(b)]) mRecords[size_t(b)] = BrickRecord{0, 0, 0, background, background, 0};
+
+  double lo = std::numeric_limits<double>::max(), hi = std::numeric_limits<double>::lowest();
+  int64_t active = 0;
+  for (const Owned& o : owned) {
+    lo = std::min(lo, double(o.min));
+    hi = std::max(hi, double(o.max));
+    active += o.active;
+  }
+  if (int64_t(candidates.size()) < nb.volume()) {
+    lo = std::min(lo, double(background));
+    hi = std::max(hi, double(background));
+  }
+  mMeta.valueMin = lo;
+  mMeta.valueMax = hi;
+  mMeta.activeVoxels = active;
+  for (int64_t b = 0; b < nb.volume(); ++b) mMeta.levels[0].bricksStored += mRecords[size_t(b)].compressedSize != 0;
+
+  mMeta.histogram = voxelHistogram(topology, n, background, lo, hi, mMeta.nonFiniteReplaced);
+}
+
+void VdbStore::deriveCoarseRecords() {
+  const int64_t B = mMeta.brickSize;
+  const float background = float(mMeta.background);
+  const uint32_t storedSize = uint32_t(brickBytes());
+  for (size_t m = 1; m < mMeta.levels.size(); ++m) {
+    const Vec3i nm = mMeta.levels[m].dims, nf = mMeta.levels[m - 1].dims, nb = mMeta.levels[m].bricks;
+    for (int64_t k = 0; k < nb.z; ++k)
+      for (int64_t j = 0; j < nb.y; ++j)
+        for (int64_t i = 0; i < nb.x; ++i) {
+          Vec3i lo, hi;
+          brickVoxels({i, j, k}, B, nm, lo, hi);
+          bool stored = false, someEmpty = false;
+          float mn = std::numeric_limits<float>::max(), mx = std::numeric_limits<float>::lowest();
+          for (int64_t fk = 2 * lo.z / B; fk <= std::min(2 * hi.z + 1, nf.z - 1) / B; ++fk)
+            for (int64_t fj = 2 * lo.y / B; fj <= std::min(2 * hi.y + 1, nf.y - 1) / B; ++fj)
+              for (int64_t fi = 2 * lo.x / B; fi <= std::min(2 * hi.x + 1, nf.x - 1) / B; ++fi) {
+                const BrickKey fineKey{uint32_t(m - 1), uint32_t(fi), uint32_t(fj), uint32_t(fk)};
+                const BrickRecord& f = mRecords[recordIndex(fineKey)];
+                stored = stored || f.compressedSize != 0;
+                someEmpty = someEmpty || f.compressedSize == 0;
+                mn = std::min(mn, f.min);
+                mx = std::max(mx, f.max);
+              }
+          BrickRecord& rec = mRecords[recordIndex({uint32_t(m), uint32_t(i), uint32_t(j), uint32_t(k)})];
+          if (someEmpty) mn = std::min(mn, background), mx = std::max(mx, background);
+          rec = stored ? BrickRecord{0, storedSize, 0, mn, mx, 0} : BrickRecord{0, 0, 0, background, background, 0};
+          mMeta.levels[m].bricksStored += stored;
+        }
+  }
+}
+
+int64_t VdbStore::bricksBuilt(int level) const {
+  if (level < 0 || level >= levelCount()) throw InputError("VdbStore::bricksBuilt: no level " + std::to_string(level));
+  return mBuilt[size_t(level)].load(std::memory_order_relaxed);
+}
+
+void VdbStore::readStored(const BrickKey& key, void* dst, const BrickSamplesFetch& finer) const {
+  const int64_t B = mMeta.brickSize, E = B + 2;
+  const int level = int(key.level);
+  const Vec3i idx{key.i, key.j, key.k};
+  const Vec3i n = mMeta.levels[size_t(level)].dims;
+  Vec3i lo, hi;
+  brickVoxels(idx, B, n, lo, hi);
+  // Buffers per call, not per thread: building a coarse brick builds finer ones on the same thread, and a thread
+  // keeping the largest buffer of every level would hold far more than a brick's worth for its lifetime.
+  std::vector<float> block(size_t((hi.x - lo.x + 1) * (hi.y - lo.y + 1) * (hi.z - lo.z + 1)));
+
+  if (level == 0) {
+    fillFromTree(mGrid->grid->tree(), mGrid->origin, lo, hi, block.data());
+  } else {
+    if (!finer) {
+      BrickCache cache(shared_from_this(), kFallbackCacheBytes, 0);
+      readStored(key, dst, [&cache](const BrickKey& k) {
+        BrickHandle brick = cache.get(k);
+        return std::shared_ptr<const void>(brick, brick->data());
+      });
+      return;
+    }
+    // The finer voxels the coarse ones average: [2 lo, 2 hi + 1], clamped to the finer level, gathered from the
+    // interiors of the finer bricks that hold them.
+    const Vec3i nf = mMeta.levels[size_t(level) - 1].dims;
+    Vec3i flo, fhi;
+    for (int a = 0; a < 3; ++a) {
+      flo[a] = 2 * lo[a];
+      fhi[a] = std::min(2 * hi[a] + 1, nf[a] - 1);
+    }
+    const int64_t wx = fhi.x - flo.x + 1, wy = fhi.y - flo.y + 1, wz = fhi.z - flo.z + 1;
+    std::vector<float> window(size_t(wx * wy * wz));
+    const float background = float(mMeta.background);
+    for (int64_t fk = flo.z / B; fk <= fhi.z / B; ++fk)
+      for (int64_t fj = flo.y / B; fj <= fhi.y / B; ++fj)
+        for (int64_t fi = flo.x / B; fi <= fhi.x / B; ++fi) {
+          const BrickKey fineKey{key.level - 1, uint32_t(fi), uint32_t(fj), uint32_t(fk)};
+          const Vec3i blo{std::max(fi * B, flo.x), std::max(fj * B, flo.y), std::max(fk * B, flo.z)};
+          const Vec3i bhi{std::min(fi * B + B - 1, fhi.x), std::min(fj * B + B - 1, fhi.y),
+                          std::min(fk * B + B - 1, fhi.z)};
+          const int64_t run = bhi.x - blo.x + 1;
+          std::shared_ptr<const void> samples;
+          if (isStored(fineKey)) samples = finer(fineKey);
+          const float* s = static_cast<const float*>(samples.get());
+          for (int64_t z = blo.z; z <= bhi.z; ++z)
+            for (int64_t y = blo.y; y <= bhi.y; ++y) {
+              float* out = window.data() + (blo.x - flo.x) + wx * ((y - flo.y) + wy * (z - flo.z));
+              if (s)
+                std::memcpy(out, s + (blo.x - fi * B + 1) + E * ((y - fj * B + 1) + E * (z - fk * B + 1)),
+                            sizeof(float) * size_t(run));
+              else
+                std::fill_n(out, run, background);
+            }
+        }
+    const int64_t sx = hi.x - lo.x + 1, sy = hi.y - lo.y + 1;
+    for (int64_t z = lo.z; z <= hi.z; ++z) {
+      const float* p0 = window.data() + (2 * z - flo.z) * wx * wy;
+      const float* p1 = window.data() + (std::min(2 * z + 1, nf.z - 1) - flo.z) * wx * wy;
+      for (int64_t y = lo.y; y <= hi.y; ++y) {
+        const int64_t y0 = 2 * y - flo.y, y1 = std::min(2 * y + 1, nf.y - 1) - flo.y;
+        float* out = block.data() + sx * ((y - lo.y) + sy * (z - lo.z));
+        for (int64_t x = lo.x; x <= hi.x; ++x)
+          *out++ = DownsampleSource::downsample(p0, p1, wx, 2 * x - flo.x, std::min(2 * x + 1, nf.x - 1) - flo.x, y0,
+                                                y1);
+      }
+    }
+  }
+  gatherSamples(block.data(), lo, hi, idx, B, n, static_cast<float*>(dst));
+  mBuilt[size_t(level)].fetch_add(1, std::memory_order_relaxed);
+}
+
+}  // namespace voxbrick::store
