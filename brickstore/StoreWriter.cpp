@@ -6,7 +6,11 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <chrono>
@@ -26,6 +30,13 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr int kHistogramBins = 256;
+/// Slabs in flight at most: one being read while one is cut and one written is all two cores can overlap.
+constexpr int kMaxSlabsInFlight = 3;
+
+/// How many slabs of `slabBytes` fit in `freeBytes`, in [1, cap].
+int slabsInFlight(int64_t freeBytes, int64_t slabBytes, int cap) {
+  return static_cast<int>(std::clamp<int64_t>(freeBytes / std::max<int64_t>(1, slabBytes), 1, cap));
+}
 
 void validate(const VolumeInfo& info, const PrepOptions& options, double background) {
   const int B = options.brickSize;
@@ -74,7 +85,8 @@ void syncDirectory(const fs::path& dir) {
   ::close(fd);
 }
 
-/// Level-0 statistics gathered while slices stream past, with the non-finite policy applied first.
+/// Level-0 statistics gathered while slices stream past, with the non-finite policy applied first. Each batch is
+/// reduced in parallel over its rows, left to right, so ties (0 and -0) resolve as a pass in z order would.
 class Level0Stats {
  public:
   Level0Stats(const VolumeInfo& info, double background, NonFinitePolicy policy)
@@ -89,28 +101,55 @@ class Level0Stats {
 
  private:
   template <typename T>
-  void observeTyped(int64_t z0, int64_t count, T* v) {
-    const int64_t sliceValues = mInfo.dims.x * mInfo.dims.y, total = count * sliceValues;
-    const T bg = static_cast<T>(mBackground);
+  struct Partial {
     T lo = std::numeric_limits<T>::max(), hi = std::numeric_limits<T>::lowest();
-    for (int64_t n = 0; n < total; ++n) {
-      if constexpr (std::is_floating_point_v<T>) {
-        if (!std::isfinite(v[n])) {
-          if (mPolicy == NonFinitePolicy::Error) {
-            const int64_t z = z0 + n / sliceValues, y = (n % sliceValues) / mInfo.dims.x, x = n % mInfo.dims.x;
-            throw InputError(mInfo.description + ": non-finite value at voxel (" + std::to_string(x) + ", " +
-                             std::to_string(y) + ", " + std::to_string(z) + ") (policy: error)");
+    int64_t active = 0, nonFinite = 0;
+    int64_t firstBad = -1;  // index of the first non-finite value under the error policy
+  };
+
+  template <typename T>
+  void observeTyped(int64_t z0, int64_t count, T* v) {
+    const int64_t sliceValues = mInfo.dims.x * mInfo.dims.y, rowValues = mInfo.dims.x;
+    const T bg = static_cast<T>(mBackground);
+    const bool refuse = mPolicy == NonFinitePolicy::Error;
+    const Partial<T> total = tbb::parallel_reduce(
+        tbb::blocked_range<int64_t>(0, count * mInfo.dims.y), Partial<T>{},
+        [&](const tbb::blocked_range<int64_t>& rows, Partial<T> p) {
+          for (int64_t n = rows.begin() * rowValues; n != rows.end() * rowValues; ++n) {
+            if constexpr (std::is_floating_point_v<T>) {
+              if (!std::isfinite(v[n])) {
+                if (refuse) {
+                  if (p.firstBad < 0) p.firstBad = n;
+                  continue;
+                }
+                v[n] = bg;
+                ++p.nonFinite;
+              }
+            }
+            p.lo = std::min(p.lo, v[n]);
+            p.hi = std::max(p.hi, v[n]);
+            p.active += v[n] != bg;
           }
-          v[n] = bg;
-          ++nonFinite;
-        }
-      }
-      lo = std::min(lo, v[n]);
-      hi = std::max(hi, v[n]);
-      active += v[n] != bg;
+          return p;
+        },
+        [](Partial<T> a, const Partial<T>& b) {
+          a.lo = std::min(a.lo, b.lo);
+          a.hi = std::max(a.hi, b.hi);
+          a.active += b.active;
+          a.nonFinite += b.nonFinite;
+          if (a.firstBad < 0) a.firstBad = b.firstBad;
+          return a;
+        });
+    if (total.firstBad >= 0) {
+      const int64_t n = total.firstBad;
+      const int64_t z = z0 + n / sliceValues, y = (n % sliceValues) / mInfo.dims.x, x = n % mInfo.dims.x;
+      throw InputError(mInfo.description + ": non-finite value at voxel (" + std::to_string(x) + ", " +
+                       std::to_string(y) + ", " + std::to_string(z) + ") (policy: error)");
     }
-    min = std::min(min, double(lo));
-    max = std::max(max, double(hi));
+    min = std::min(min, double(total.lo));
+    max = std::max(max, double(total.hi));
+    active += total.active;
+    nonFinite += total.nonFinite;
   }
 
   VolumeInfo mInfo;
@@ -119,33 +158,48 @@ class Level0Stats {
 };
 
 /// Level-0 histogram. Integer types count each distinct value (a table of at most 65536 counters, so the pass is
-/// one increment per voxel) and are binned at the end; floats are binned as they come.
+/// one increment per voxel) and are binned at the end; floats are binned as they come. Each thread counts into
+/// its own table; the tables are summed at the end (counts do not depend on the order).
 class HistogramBuilder {
  public:
-  HistogramBuilder(ValueType type, double lo, double hi) : mType(type) {
+  HistogramBuilder(ValueType type, double lo, double hi)
+      : mType(type),
+        mCounts([size = type == ValueType::F32 ? size_t(kHistogramBins) : (type == ValueType::U8 ? 256u : 65536u)] {
+          return std::vector<uint64_t>(size, 0);
+        }) {
     mHistogram.lo = lo;
     mHistogram.hi = hi;
     mHistogram.counts.assign(kHistogramBins, 0);
-    if (type != ValueType::F32) mValueCounts.assign(type == ValueType::U8 ? 256 : 65536, 0);
   }
 
   void add(const void* values, int64_t count) {
     dispatchType(mType, [&](auto tag) {
       using T = decltype(tag);
       const T* v = static_cast<const T*>(values);
-      if constexpr (std::is_same_v<T, float>) {
-        for (int64_t n = 0; n < count; ++n) mHistogram.counts[bin(v[n])] += 1;
-      } else {
-        constexpr int kOffset = std::is_signed_v<T> ? 32768 : 0;
-        for (int64_t n = 0; n < count; ++n) mValueCounts[size_t(int(v[n]) + kOffset)] += 1;
-      }
+      tbb::parallel_for(tbb::blocked_range<int64_t>(0, count, int64_t{1} << 16), [&](const tbb::blocked_range<int64_t>& r) {
+        std::vector<uint64_t>& counts = mCounts.local();
+        if constexpr (std::is_same_v<T, float>) {
+          for (int64_t n = r.begin(); n != r.end(); ++n) counts[bin(v[n])] += 1;
+        } else {
+          constexpr int kOffset = std::is_signed_v<T> ? 32768 : 0;
+          for (int64_t n = r.begin(); n != r.end(); ++n) counts[size_t(int(v[n]) + kOffset)] += 1;
+        }
+      });
     });
   }
 
   Histogram finish() {
+    std::vector<uint64_t> counts = mCounts.combine([](std::vector<uint64_t> a, const std::vector<uint64_t>& b) {
+      for (size_t i = 0; i < a.size(); ++i) a[i] += b[i];
+      return a;
+    });
+    if (mType == ValueType::F32) {
+      mHistogram.counts = std::move(counts);
+      return mHistogram;
+    }
     const int offset = mType == ValueType::I16 ? 32768 : 0;
-    for (size_t value = 0; value < mValueCounts.size(); ++value)
-      if (mValueCounts[value] != 0) mHistogram.counts[bin(double(int(value) - offset))] += mValueCounts[value];
+    for (size_t value = 0; value < counts.size(); ++value)
+      if (counts[value] != 0) mHistogram.counts[bin(double(int(value) - offset))] += counts[value];
     return mHistogram;
   }
 
@@ -158,7 +212,7 @@ class HistogramBuilder {
 
   ValueType mType;
   Histogram mHistogram;
-  std::vector<uint64_t> mValueCounts;
+  tbb::enumerable_thread_specific<std::vector<uint64_t>> mCounts;
 };
 
 void writeIndex(const fs::path& path, const std::vector<LevelBuild>& levels, int B, ValueType type,
@@ -232,25 +286,30 @@ PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOp
       throw InputError(output.string() + ": exists and is not a voxbrick store; refusing to replace it");
   }
 
-  // Memory plan: the slab window, one slab of compressed frames, and (with the VDB grid) one chunk of it.
+  // Memory plan: the slab window, one slab of compressed frames, and (with the VDB grid) one chunk of it; more slabs
+  // in flight (reading ahead while one is cut) only from what is left after that, so the chunk size (and so the
+  // files written) does not depend on the threads.
   // The process itself (libraries, allocator, thread stacks) takes about this much before any buffer.
   constexpr int64_t kBaselineBytes = int64_t{64} << 20;
   const int64_t budget = options.memoryBudgetMB * 1024 * 1024 - kBaselineBytes;
-  const int64_t window = SlabBricker::windowBytes(info.dims, B, info.type);
-  const int64_t frames = window * (B + 2) * (B + 2) / (int64_t(B) * B) + (int64_t{64} << 10);
+  const int64_t slab = SlabBricker::slabBytes(info.dims, B, info.type);
   int64_t chunkSlices = info.dims.z;
   if (options.writeVdb) {
-    const int64_t left = budget - window - frames;
+    const int64_t left = budget - slab;
     const int64_t slabs = left / std::max<int64_t>(1, VdbChunkWriter::chunkBytes(info.dims, B));
     chunkSlices = std::min(info.dims.z, slabs * B);
     if (slabs < 1) chunkSlices = 0;
     if (options.vdbChunkSlices > 0) chunkSlices = std::min(chunkSlices, options.vdbChunkSlices);
   }
-  const int64_t needed = window + frames + (options.writeVdb ? VdbChunkWriter::chunkBytes(info.dims, B) : 0);
+  const int64_t needed = slab + (options.writeVdb ? VdbChunkWriter::chunkBytes(info.dims, B) : 0);
   if (needed > budget || chunkSlices <= 0)
     throw InputError("--memory " + std::to_string(options.memoryBudgetMB) + " MB is too small for slices of " +
                      std::to_string(info.dims.x) + "x" + std::to_string(info.dims.y) + " voxels with --brick " +
                      std::to_string(B) + ": needs at least " + std::to_string(divUp(needed + kBaselineBytes, 1 << 20)) + " MB");
+  const int maxInFlight =
+      tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism) > 1 ? kMaxSlabsInFlight : 1;
+  const int64_t vdbBytes = options.writeVdb ? VdbChunkWriter::chunkBytes(info.dims, chunkSlices) : 0;
+  const int level0InFlight = slabsInFlight(budget - vdbBytes, slab, maxInFlight);
 
   const fs::path parent = output.has_parent_path() ? output.parent_path() : fs::path(".");
   const fs::path tmp = parent / ("." + output.filename().string() + ".tmp-" + std::to_string(::getpid()));
@@ -286,12 +345,13 @@ PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOp
     std::unique_ptr<VdbChunkWriter> vdb;
     if (options.writeVdb) vdb = std::make_unique<VdbChunkWriter>(tmp, info, background, chunkSlices);
     SlabBricker bricker(source, B, background, options.zstdLevel, bricks);
+    bricker.setSlabsInFlight(level0InFlight);
     const int64_t sliceBytes = info.dims.x * info.dims.y * static_cast<int64_t>(valueSize(info.type));
     bricker.setSliceHook([&](int64_t z0, int64_t count, void* values) {
       stats.observe(z0, count, values);
-      if (vdb) vdb->addSlices(z0, count, values);
       state.bytesIn += count * sliceBytes;
     });
+    if (vdb) bricker.setSliceConsumer([&](int64_t z0, int64_t count, const void* values) { vdb->addSlices(z0, count, values); });
     bricker.setProgressHook([&](int64_t done, int64_t total) { report("level 0", done, total); });
     levels.push_back(bricker.run());
     if (vdb) {
@@ -316,6 +376,10 @@ PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOp
     if (l == 1) finer.setSliceHook(histogramHook);
     DownsampleSource coarse(finer);
     SlabBricker bricker(coarse, B, background, options.zstdLevel, bricks);
+    // The finer level's slab of B slices and the downsampler's two are held beside the slabs in flight.
+    const int64_t finerSlices = (B + 2) * pyramid[l - 1].x * pyramid[l - 1].y * int64_t(valueSize(info.type));
+    bricker.setSlabsInFlight(slabsInFlight(budget - finerSlices, SlabBricker::slabBytes(pyramid[l], B, info.type),
+                                           maxInFlight));
     const std::string stage = "level " + std::to_string(l);
     bricker.setProgressHook([&](int64_t done, int64_t total) { report(stage, done, total); });
     levels.push_back(bricker.run());
