@@ -21,7 +21,9 @@
 
 #include "brickstore/BrickFile.h"
 #include "brickstore/Errors.h"
+#include "brickstore/Level0Stats.h"
 #include "brickstore/LevelSources.h"
+#include "brickstore/Quantise.h"
 #include "brickstore/SlabBricker.h"
 #include "brickstore/VdbChunkWriter.h"
 
@@ -84,78 +86,6 @@ void syncDirectory(const fs::path& dir) {
   ::fsync(fd);
   ::close(fd);
 }
-
-/// Level-0 statistics gathered while slices stream past, with the non-finite policy applied first. Each batch is
-/// reduced in parallel over its rows, left to right, so ties (0 and -0) resolve as a pass in z order would.
-class Level0Stats {
- public:
-  Level0Stats(const VolumeInfo& info, double background, NonFinitePolicy policy)
-      : mInfo(info), mBackground(background), mPolicy(policy) {}
-
-  void observe(int64_t z0, int64_t count, void* values) {
-    dispatchType(mInfo.type, [&](auto tag) { observeTyped(z0, count, static_cast<decltype(tag)*>(values)); });
-  }
-
-  double min = std::numeric_limits<double>::max(), max = std::numeric_limits<double>::lowest();
-  int64_t active = 0, nonFinite = 0;
-
- private:
-  template <typename T>
-  struct Partial {
-    T lo = std::numeric_limits<T>::max(), hi = std::numeric_limits<T>::lowest();
-    int64_t active = 0, nonFinite = 0;
-    int64_t firstBad = -1;  // index of the first non-finite value under the error policy
-  };
-
-  template <typename T>
-  void observeTyped(int64_t z0, int64_t count, T* v) {
-    const int64_t sliceValues = mInfo.dims.x * mInfo.dims.y, rowValues = mInfo.dims.x;
-    const T bg = static_cast<T>(mBackground);
-    const bool refuse = mPolicy == NonFinitePolicy::Error;
-    const Partial<T> total = tbb::parallel_reduce(
-        tbb::blocked_range<int64_t>(0, count * mInfo.dims.y), Partial<T>{},
-        [&](const tbb::blocked_range<int64_t>& rows, Partial<T> p) {
-          for (int64_t n = rows.begin() * rowValues; n != rows.end() * rowValues; ++n) {
-            if constexpr (std::is_floating_point_v<T>) {
-              if (!std::isfinite(v[n])) {
-                if (refuse) {
-                  if (p.firstBad < 0) p.firstBad = n;
-                  continue;
-                }
-                v[n] = bg;
-                ++p.nonFinite;
-              }
-            }
-            p.lo = std::min(p.lo, v[n]);
-            p.hi = std::max(p.hi, v[n]);
-            p.active += v[n] != bg;
-          }
-          return p;
-        },
-        [](Partial<T> a, const Partial<T>& b) {
-          a.lo = std::min(a.lo, b.lo);
-          a.hi = std::max(a.hi, b.hi);
-          a.active += b.active;
-          a.nonFinite += b.nonFinite;
-          if (a.firstBad < 0) a.firstBad = b.firstBad;
-          return a;
-        });
-    if (total.firstBad >= 0) {
-      const int64_t n = total.firstBad;
-      const int64_t z = z0 + n / sliceValues, y = (n % sliceValues) / mInfo.dims.x, x = n % mInfo.dims.x;
-      throw InputError(mInfo.description + ": non-finite value at voxel (" + std::to_string(x) + ", " +
-                       std::to_string(y) + ", " + std::to_string(z) + ") (policy: error)");
-    }
-    min = std::min(min, double(total.lo));
-    max = std::max(max, double(total.hi));
-    active += total.active;
-    nonFinite += total.nonFinite;
-  }
-
-  VolumeInfo mInfo;
-  double mBackground;
-  NonFinitePolicy mPolicy;
-};
 
 /// Level-0 histogram. Integer types count each distinct value (a table of at most 65536 counters, so the pass is
 /// one increment per voxel) and are binned at the end; floats are binned as they come. Each thread counts into
@@ -271,9 +201,15 @@ bool looksLikeStore(const fs::path& dir) {
 PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOptions& options,
                       const std::function<void(const PrepProgress&)>& progress) {
   const auto start = std::chrono::steady_clock::now();
-  const VolumeInfo& info = source.info();
-  const double background = options.haveBackground ? options.background : info.background;
-  validate(info, options, background);
+  const VolumeInfo& input = source.info();
+  const double inputBackground = options.haveBackground ? options.background : input.background;
+  validate(input, options, inputBackground);
+  // From here on `info` and `background` describe what is stored: the input, or the input quantised.
+  std::optional<QuantisingSource> quantised;
+  if (options.quantise) quantised.emplace(source, *options.quantise, inputBackground, options.nonFinite);
+  VolumeSource& level0Source = quantised ? static_cast<VolumeSource&>(*quantised) : source;
+  const VolumeInfo& info = level0Source.info();
+  const double background = quantised ? info.background : inputBackground;
   const int B = options.brickSize;
   std::optional<tbb::global_control> threadLimit;
   if (options.threads > 0)
@@ -291,7 +227,8 @@ PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOp
   // files written) does not depend on the threads.
   // The process itself (libraries, allocator, thread stacks) takes about this much before any buffer.
   constexpr int64_t kBaselineBytes = int64_t{64} << 20;
-  const int64_t budget = options.memoryBudgetMB * 1024 * 1024 - kBaselineBytes;
+  const int64_t budget =
+      options.memoryBudgetMB * 1024 * 1024 - kBaselineBytes - (quantised ? quantised->stagingBytes() : 0);
   const int64_t slab = SlabBricker::slabBytes(info.dims, B, info.type);
   int64_t chunkSlices = info.dims.z;
   if (options.writeVdb) {
@@ -344,9 +281,9 @@ PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOp
     Level0Stats stats(info, background, options.nonFinite);
     std::unique_ptr<VdbChunkWriter> vdb;
     if (options.writeVdb) vdb = std::make_unique<VdbChunkWriter>(tmp, info, background, chunkSlices);
-    SlabBricker bricker(source, B, background, options.zstdLevel, bricks);
+    SlabBricker bricker(level0Source, B, background, options.zstdLevel, bricks);
     bricker.setSlabsInFlight(level0InFlight);
-    const int64_t sliceBytes = info.dims.x * info.dims.y * static_cast<int64_t>(valueSize(info.type));
+    const int64_t sliceBytes = input.dims.x * input.dims.y * static_cast<int64_t>(valueSize(input.type));
     bricker.setSliceHook([&](int64_t z0, int64_t count, void* values) {
       stats.observe(z0, count, values);
       state.bytesIn += count * sliceBytes;
@@ -362,7 +299,11 @@ PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOp
     meta.valueMin = stats.min;
     meta.valueMax = stats.max;
     meta.activeVoxels = stats.active;
-    meta.nonFiniteReplaced = stats.nonFinite;
+    meta.nonFiniteReplaced = quantised ? quantised->innerStats().nonFinite : stats.nonFinite;
+    if (quantised) {
+      meta.quantisation = options.quantise;
+      meta.quantisationClamped = quantised->clamped();
+    }
   }
 
   // Coarser levels, each read back from the one before; the pass over level 0 also fills the histogram.
