@@ -106,7 +106,8 @@ class HistogramBuilder {
     dispatchType(mType, [&](auto tag) {
       using T = decltype(tag);
       const T* v = static_cast<const T*>(values);
-      tbb::parallel_for(tbb::blocked_range<int64_t>(0, count, int64_t{1} << 16), [&](const tbb::blocked_range<int64_t>& r) {
+      const tbb::blocked_range<int64_t> all(0, count, int64_t{1} << 16);
+      tbb::parallel_for(all, [&](const tbb::blocked_range<int64_t>& r) {
         std::vector<uint64_t>& counts = mCounts.local();
         if constexpr (std::is_same_v<T, float>) {
           for (int64_t n = r.begin(); n != r.end(); ++n) counts[bin(v[n])] += 1;
@@ -288,7 +289,8 @@ PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOp
       stats.observe(z0, count, values);
       state.bytesIn += count * sliceBytes;
     });
-    if (vdb) bricker.setSliceConsumer([&](int64_t z0, int64_t count, const void* values) { vdb->addSlices(z0, count, values); });
+    if (vdb)
+      bricker.setSliceConsumer([&](int64_t z0, int64_t count, const void* values) { vdb->addSlices(z0, count, values); });
     bricker.setProgressHook([&](int64_t done, int64_t total) { report("level 0", done, total); });
     levels.push_back(bricker.run());
     if (vdb) {

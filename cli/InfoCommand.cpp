@@ -62,7 +62,8 @@ void runInfo(const InfoArgs& a) {
               100.0 * double(m.activeVoxels) / double(m.dims.volume()));
   if (m.quantisation)
     std::printf("quantised    from [%.9g, %.9g], a step of %.3g (%lld input voxels outside it clamped)\n",
-                m.quantisation->lo, m.quantisation->hi, (m.quantisation->hi - m.quantisation->lo) / m.quantisation->steps(),
+                m.quantisation->lo, m.quantisation->hi,
+                (m.quantisation->hi - m.quantisation->lo) / m.quantisation->steps(),
                 static_cast<long long>(m.quantisationClamped));
   if (m.nonFiniteReplaced > 0)
     std::printf("non-finite   %lld NaN/Inf voxels replaced by the background at ingest\n",

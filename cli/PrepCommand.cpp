@@ -68,10 +68,11 @@ void runPrep(PrepArgs& a, CLI::App& cmd) {
       // The input's exact range takes a pass of its own, through a second reader of the same input.
       auto first = store::openSource(a.input, so);
       const double background = a.options.haveBackground ? a.options.background : info.background;
-      const store::Level0Stats range = store::scanLevel0(*first, background, a.options.nonFinite, [&](int64_t done, int64_t total) {
+      auto onSlices = [&](int64_t done, int64_t total) {
         if (gInterrupted) throw store::StoreError("interrupted; nothing was written");
         progress.update("value range", done, total, 0);
-      });
+      };
+      const store::Level0Stats range = store::scanLevel0(*first, background, a.options.nonFinite, onSlices);
       q.lo = range.min;
       q.hi = range.max > range.min ? range.max : range.min + 1;  // a constant volume: everything stored as 0
     }

@@ -126,7 +126,8 @@ TEST(CliPrep, QuantiseFindsTheExactRangeOrTakesTheGivenOne) {
 
   const std::string out = "-o " + (dir / "c").string();
   expectError(runVoxbrick(in + "--quantise f32 " + out), {"--quantise", "f32", "u8 or u16"});
-  expectError(runVoxbrick(in + "--quantise u8 --quantise-range 2,2 " + out), {"--quantise-range", "lo must be below hi"});
+  expectError(runVoxbrick(in + "--quantise u8 --quantise-range 2,2 " + out),
+              {"--quantise-range", "lo must be below hi"});
   expectError(runVoxbrick(in + "--quantise u8 --quantise-range 3,1 " + out), {"lo must be below hi"});
   expectError(runVoxbrick(in + "--quantise u8 --quantise-range 0,inf " + out), {"finite"});
   expectError(runVoxbrick(in + "--quantise u8 --quantise-range 0,nan " + out), {"finite"});

@@ -158,7 +158,8 @@ TEST(StoreRoundTrip, ThreadsAndSlabsInFlightDoNotChangeTheBytes) {
     EXPECT_EQ(test::readFile(dir / "one" / f), test::readFile(dir / "two" / f)) << f;
   int vdbFiles = 0;
   for (const auto& entry : std::filesystem::directory_iterator(dir / "one" / "vdb")) {
-    std::vector<char> a = test::readFile(entry.path()), b = test::readFile(dir / "two" / "vdb" / entry.path().filename());
+    std::vector<char> a = test::readFile(entry.path());
+    std::vector<char> b = test::readFile(dir / "two" / "vdb" / entry.path().filename());
     ASSERT_GT(a.size(), 57u);
     ASSERT_EQ(a.size(), b.size()) << entry.path();
     std::fill_n(a.begin() + 21, 36, '-');  // the UUID
