@@ -3,6 +3,8 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
+#include <tbb/parallel_pipeline.h>
 
 #include <algorithm>
 #include <cstring>
@@ -15,9 +17,49 @@ int64_t SlabBricker::windowBytes(const Vec3i& dims, int brickSize, ValueType typ
   return (brickSize + 2) * dims.x * dims.y * static_cast<int64_t>(valueSize(type));
 }
 
+int64_t SlabBricker::slabBytes(const Vec3i& dims, int brickSize, ValueType type) {
+  const int64_t window = windowBytes(dims, brickSize, type), B = brickSize;
+  return window + window * (B + 2) * (B + 2) / (B * B) + (int64_t{64} << 10);
+}
+
 LevelBuild SlabBricker::run() {
   return dispatchType(mSource.info().type, [this](auto tag) { return runTyped<decltype(tag)>(); });
 }
+
+namespace {
+
+/// One slab in flight: its window and, once cut, its bricks' ranges and frames.
+template <typename T>
+struct Slab {
+  int64_t kz = 0;
+  int64_t z0 = 0, count = 0;  // the real slices it read: z of the first, how many, from window slot `firstSlot`
+  int64_t firstSlot = 0;
+  std::vector<T> window;
+  std::vector<MinMaxPair> ranges;
+  std::vector<std::vector<char>> frames;
+};
+
+/// Cuts brick (bi, bj) of a slab out of its window (slot s = z0 - 1 + s, x and y clamped) into dst.
+template <typename T>
+void cutBrick(const T* window, const Vec3i& n, int64_t B, int64_t bi, int64_t bj, T* dst) {
+  const int64_t E = B + 2, sliceValues = n.x * n.y;
+  for (int64_t c = 0; c < E; ++c) {
+    const T* plane = window + c * sliceValues;
+    for (int64_t yb = 0; yb < E; ++yb) {
+      const int64_t y = std::clamp<int64_t>(bj * B + yb - 1, 0, n.y - 1);
+      const T* row = plane + y * n.x;
+      const int64_t x0 = bi * B - 1;
+      if (x0 >= 0 && x0 + E <= n.x) {
+        std::memcpy(dst, row + x0, sizeof(T) * static_cast<size_t>(E));
+        dst += E;
+      } else {
+        for (int64_t xa = 0; xa < E; ++xa) *dst++ = row[std::clamp<int64_t>(x0 + xa, 0, n.x - 1)];
+      }
+    }
+  }
+}
+
+}  // namespace
 
 template <typename T>
 LevelBuild SlabBricker::runTyped() {
@@ -30,72 +72,88 @@ LevelBuild SlabBricker::runTyped() {
   level.dims = n;
   level.bricks = {divUp(n.x, B), divUp(n.y, B), divUp(n.z, B)};
   level.records.assign(static_cast<size_t>(level.bricks.volume()), BrickRecord{});
-
-  // Slot s of the window holds slice z = kz*B - 1 + s of slab kz, clamped to [0, n.z - 1].
-  std::vector<T> window(static_cast<size_t>(E * sliceValues));
-  auto slot = [&](int64_t s) { return window.data() + s * sliceValues; };
-  int64_t nextZ = 0;
-  auto readInto = [&](int64_t firstSlot, int64_t count) {
-    mSource.readSlices(count, slot(firstSlot));
-    if (mSliceHook) mSliceHook(nextZ, count, slot(firstSlot));
-    nextZ += count;
-  };
-
   const int64_t slabBricks = level.bricks.x * level.bricks.y;
-  std::vector<std::vector<char>> frames(static_cast<size_t>(slabBricks));
-  std::vector<MinMaxPair> ranges(static_cast<size_t>(slabBricks));
 
-  for (int64_t kz = 0; kz < level.bricks.z; ++kz) {
+  // The slabs in flight take turns through a ring: slab kz uses slabs[kz % ring]; the pipeline admits no more
+  // than `ring` at once, so the one it replaces has been written, and the one before it (whose last two slices
+  // become this window's first two) is still there.
+  const int64_t ring = std::min<int64_t>(mSlabsInFlight, level.bricks.z);
+  std::vector<Slab<T>> slabs(static_cast<size_t>(ring));
+  for (Slab<T>& slab : slabs) {
+    slab.window.resize(static_cast<size_t>(E * sliceValues));
+    slab.ranges.resize(static_cast<size_t>(slabBricks));
+    slab.frames.resize(static_cast<size_t>(slabBricks));
+  }
+  const size_t sliceBytes = sizeof(T) * static_cast<size_t>(sliceValues);
+  int64_t nextZ = 0, nextSlab = 0;
+
+  // Stage 1, in order: slot s of slab kz's window holds slice z = kz*B - 1 + s, clamped to [0, n.z - 1].
+  auto read = [&](tbb::flow_control& fc) -> Slab<T>* {
+    if (nextSlab == level.bricks.z) {
+      fc.stop();
+      return nullptr;
+    }
+    const int64_t kz = nextSlab++;
+    Slab<T>& slab = slabs[static_cast<size_t>(kz % ring)];
+    T* window = slab.window.data();
+    auto slot = [&](int64_t s) { return window + s * sliceValues; };
+    slab.kz = kz;
+    slab.z0 = nextZ;
     int64_t lastReal;
     if (kz == 0) {
-      int64_t count = std::min(n.z, B + 1);
-      readInto(1, count);
-      std::memcpy(slot(0), slot(1), sizeof(T) * static_cast<size_t>(sliceValues));
-      lastReal = count;
+      slab.count = std::min(n.z, B + 1);
+      slab.firstSlot = 1;
     } else {
-      std::memmove(slot(0), slot(B), sizeof(T) * static_cast<size_t>(2 * sliceValues));
-      int64_t count = std::min(n.z - nextZ, B);
-      if (count > 0) readInto(2, count);
-      lastReal = 1 + count;
+      const T* previous = slabs[static_cast<size_t>((kz - 1) % ring)].window.data();
+      std::memmove(slot(0), previous + B * sliceValues, 2 * sliceBytes);
+      slab.count = std::min(n.z - nextZ, B);
+      slab.firstSlot = 2;
     }
-    for (int64_t s = lastReal + 1; s < E; ++s)
-      std::memcpy(slot(s), slot(lastReal), sizeof(T) * static_cast<size_t>(sliceValues));
+    if (slab.count > 0) {
+      mSource.readSlices(slab.count, slot(slab.firstSlot));
+      if (mSliceHook) mSliceHook(slab.z0, slab.count, slot(slab.firstSlot));
+    }
+    nextZ += slab.count;
+    if (kz == 0) std::memcpy(slot(0), slot(1), sliceBytes);
+    lastReal = slab.firstSlot + slab.count - 1;
+    for (int64_t s = lastReal + 1; s < E; ++s) std::memcpy(slot(s), slot(lastReal), sliceBytes);
+    return &slab;
+  };
 
-    tbb::parallel_for(tbb::blocked_range<int64_t>(0, slabBricks), [&](const tbb::blocked_range<int64_t>& r) {
-      std::vector<T> brick(static_cast<size_t>(E * E * E));
-      for (int64_t b = r.begin(); b != r.end(); ++b) {
-        const int64_t bi = b % level.bricks.x, bj = b / level.bricks.x;
-        T* dst = brick.data();
-        for (int64_t c = 0; c < E; ++c) {
-          const T* plane = slot(c);
-          for (int64_t yb = 0; yb < E; ++yb) {
-            int64_t y = std::clamp<int64_t>(bj * B + yb - 1, 0, n.y - 1);
-            const T* row = plane + y * n.x;
-            const int64_t x0 = bi * B - 1;
-            if (x0 >= 0 && x0 + E <= n.x) {
-              std::memcpy(dst, row + x0, sizeof(T) * static_cast<size_t>(E));
-              dst += E;
-            } else {
-              for (int64_t xa = 0; xa < E; ++xa) *dst++ = row[std::clamp<int64_t>(x0 + xa, 0, n.x - 1)];
-            }
-          }
+  // Stage 2, in order (for the consumer): the consumer beside the bricks, which are cut and compressed in parallel.
+  auto cut = [&](Slab<T>* slab) -> Slab<T>* {
+    auto bricks = [&] {
+      tbb::parallel_for(tbb::blocked_range<int64_t>(0, slabBricks), [&](const tbb::blocked_range<int64_t>& r) {
+        thread_local std::vector<T> brick;
+        brick.resize(static_cast<size_t>(E * E * E));
+        for (int64_t b = r.begin(); b != r.end(); ++b) {
+          cutBrick(slab->window.data(), n, B, b % level.bricks.x, b / level.bricks.x, brick.data());
+          bool empty = true;
+          slab->ranges[static_cast<size_t>(b)] = sampleRange(brick.data(), brick.size(), background, empty);
+          std::vector<char>& frame = slab->frames[static_cast<size_t>(b)];
+          if (empty)
+            frame.clear();
+          else
+            compressFrame(brick.data(), brick.size() * sizeof(T), sizeof(T), mZstdLevel, frame);
         }
-        bool empty = true;
-        ranges[static_cast<size_t>(b)] = sampleRange(brick.data(), brick.size(), background, empty);
-        std::vector<char>& frame = frames[static_cast<size_t>(b)];
-        if (empty)
-          frame.clear();
-        else
-          compressFrame(brick.data(), brick.size() * sizeof(T), sizeof(T), mZstdLevel, frame);
-      }
-    });
+      });
+    };
+    if (mSliceConsumer && slab->count > 0) {
+      const T* first = slab->window.data() + slab->firstSlot * sliceValues;
+      tbb::parallel_invoke([&] { mSliceConsumer(slab->z0, slab->count, first); }, bricks);
+    } else {
+      bricks();
+    }
+    return slab;
+  };
 
-    // Frames go out in brick order so that the same input always gives the same file.
+  // Stage 3, in order: frames go out in brick order so that the same input always gives the same file.
+  auto write = [&](Slab<T>* slab) {
     for (int64_t b = 0; b < slabBricks; ++b) {
-      BrickRecord& rec = level.records[static_cast<size_t>(b + slabBricks * kz)];
-      const std::vector<char>& frame = frames[static_cast<size_t>(b)];
-      rec.min = ranges[static_cast<size_t>(b)].min;
-      rec.max = ranges[static_cast<size_t>(b)].max;
+      BrickRecord& rec = level.records[static_cast<size_t>(b + slabBricks * slab->kz)];
+      const std::vector<char>& frame = slab->frames[static_cast<size_t>(b)];
+      rec.min = slab->ranges[static_cast<size_t>(b)].min;
+      rec.max = slab->ranges[static_cast<size_t>(b)].max;
       if (!frame.empty()) {
         rec.offset = mOut.append(frame.data(), frame.size());
         rec.compressedSize = static_cast<uint32_t>(frame.size());
@@ -103,8 +161,13 @@ LevelBuild SlabBricker::runTyped() {
         level.bytesStored += static_cast<int64_t>(frame.size());
       }
     }
-    if (mProgressHook) mProgressHook(kz + 1, level.bricks.z);
-  }
+    if (mProgressHook) mProgressHook(slab->kz + 1, level.bricks.z);
+  };
+
+  tbb::parallel_pipeline(static_cast<size_t>(ring),
+                         tbb::make_filter<void, Slab<T>*>(tbb::filter_mode::serial_in_order, read) &
+                             tbb::make_filter<Slab<T>*, Slab<T>*>(tbb::filter_mode::serial_in_order, cut) &
+                             tbb::make_filter<Slab<T>*, void>(tbb::filter_mode::serial_in_order, write));
   return level;
 }
 

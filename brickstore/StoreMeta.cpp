@@ -72,6 +72,10 @@ std::string StoreMeta::toJson() const {
             {"nonfinite_replaced", nonFiniteReplaced},
             {"vdb_files", vdbFiles},
             {"source", source}};
+  if (quantisation)
+    j["quantisation"] = {{"type", std::string(valueTypeName(quantisation->type))},
+                         {"range", json::array({quantisation->lo, quantisation->hi})},
+                         {"clamped", quantisationClamped}};
   return j.dump(2) + "\n";
 }
 
@@ -135,6 +139,28 @@ StoreMeta StoreMeta::fromJson(const std::string& text, const std::string& what) 
   if (j.contains("vdb_files") && j["vdb_files"].is_array())
     for (const json& f : j["vdb_files"]) m.vdbFiles.push_back(f.get<std::string>());
   m.source = j.value("source", std::string());
+  if (j.contains("quantisation")) {
+    const json& q = j["quantisation"];
+    const json& qrange = field(q, "range", what);
+    const json& qtype = field(q, "type", what);
+    if (!qrange.is_array() || qrange.size() != 2 || !qrange[0].is_number() || !qrange[1].is_number() ||
+        !qtype.is_string())
+      throw CorruptStoreError(what + ": key 'quantisation' is malformed");
+    Quantisation quantisation;
+    try {
+      quantisation.type = parseQuantiseType(qtype.get<std::string>());
+      quantisation.lo = qrange[0].get<double>();
+      quantisation.hi = qrange[1].get<double>();
+      quantisation.validate();
+    } catch (const InputError& e) {
+      throw CorruptStoreError(what + ": key 'quantisation': " + e.what());
+    }
+    if (quantisation.type != m.type)
+      throw CorruptStoreError(what + ": quantised to " + qtype.get<std::string>() + " but the store type is " +
+                              std::string(valueTypeName(m.type)));
+    m.quantisation = quantisation;
+    m.quantisationClamped = q.value("clamped", int64_t{0});
+  }
   return m;
 }
 

@@ -2,9 +2,11 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "brickstore/Quantise.h"
 #include "brickstore/Types.h"
 
 namespace voxbrick::store {
@@ -42,6 +44,13 @@ struct StoreMeta {
   int64_t nonFiniteReplaced = 0;  ///< NaN/Inf voxels set to the background at ingest
   std::vector<std::string> vdbFiles;  ///< relative to the store directory, in z order
   std::string source;         ///< the input's description
+  /// Set when prep quantised the input: the stored integers q stand for quantisation->dequantise(q). Every other
+  /// value here (background, value range, histogram, brick and node ranges) is in stored units.
+  std::optional<Quantisation> quantisation;
+  int64_t quantisationClamped = 0;  ///< finite input values outside the quantisation range (stored as 0 or steps)
+
+  /// A value of the input in stored units: itself, or quantisation->toSteps(v) (not rounded, not clamped).
+  double storedValue(double v) const { return quantisation ? quantisation->toSteps(v) : v; }
 
   /// The JSON object stored as store.json (keys as in `voxbrick info --json`).
   std::string toJson() const;

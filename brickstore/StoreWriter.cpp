@@ -6,7 +6,11 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <chrono>
@@ -18,13 +22,23 @@
 #include "brickstore/BrickFile.h"
 #include "brickstore/Errors.h"
 #include "brickstore/HistogramBuilder.h"
+#include "brickstore/Level0Stats.h"
 #include "brickstore/LevelSources.h"
+#include "brickstore/Quantise.h"
 #include "brickstore/SlabBricker.h"
 #include "brickstore/VdbChunkWriter.h"
 
 namespace voxbrick::store {
 namespace fs = std::filesystem;
 namespace {
+
+/// Slabs in flight at most: one being read while one is cut and one written is all two cores can overlap.
+constexpr int kMaxSlabsInFlight = 3;
+
+/// How many slabs of `slabBytes` fit in `freeBytes`, in [1, cap].
+int slabsInFlight(int64_t freeBytes, int64_t slabBytes, int cap) {
+  return static_cast<int>(std::clamp<int64_t>(freeBytes / std::max<int64_t>(1, slabBytes), 1, cap));
+}
 
 void validate(const VolumeInfo& info, const PrepOptions& options, double background) {
   checkBrickSize(options.brickSize);
@@ -62,48 +76,31 @@ void syncDirectory(const fs::path& dir) {
   ::close(fd);
 }
 
-/// Level-0 statistics gathered while slices stream past, with the non-finite policy applied first.
-class Level0Stats {
+/// The level-0 histogram counted on every thread: a HistogramBuilder per thread, merged at the end (counts do not
+/// depend on the order).
+class ParallelHistogram {
  public:
-  Level0Stats(const VolumeInfo& info, double background, NonFinitePolicy policy)
-      : mInfo(info), mBackground(background), mPolicy(policy) {}
+  ParallelHistogram(ValueType type, double lo, double hi)
+      : mType(type), mLo(lo), mHi(hi), mBuilders([type, lo, hi] { return HistogramBuilder(type, lo, hi); }) {}
 
-  void observe(int64_t z0, int64_t count, void* values) {
-    dispatchType(mInfo.type, [&](auto tag) { observeTyped(z0, count, static_cast<decltype(tag)*>(values)); });
+  void add(const void* values, int64_t count) {
+    const auto* bytes = static_cast<const std::byte*>(values);
+    const size_t size = valueSize(mType);
+    tbb::parallel_for(tbb::blocked_range<int64_t>(0, count, int64_t{1} << 16), [&](const auto& r) {
+      mBuilders.local().add(bytes + size_t(r.begin()) * size, r.end() - r.begin());
+    });
   }
 
-  double min = std::numeric_limits<double>::max(), max = std::numeric_limits<double>::lowest();
-  int64_t active = 0, nonFinite = 0;
+  Histogram finish() {
+    HistogramBuilder all(mType, mLo, mHi);
+    for (const HistogramBuilder& b : mBuilders) all.merge(b);
+    return all.finish();
+  }
 
  private:
-  template <typename T>
-  void observeTyped(int64_t z0, int64_t count, T* v) {
-    const int64_t sliceValues = mInfo.dims.x * mInfo.dims.y, total = count * sliceValues;
-    const T bg = static_cast<T>(mBackground);
-    T lo = std::numeric_limits<T>::max(), hi = std::numeric_limits<T>::lowest();
-    for (int64_t n = 0; n < total; ++n) {
-      if constexpr (std::is_floating_point_v<T>) {
-        if (!std::isfinite(v[n])) {
-          if (mPolicy == NonFinitePolicy::Error) {
-            const int64_t z = z0 + n / sliceValues, y = (n % sliceValues) / mInfo.dims.x, x = n % mInfo.dims.x;
-            throw InputError(mInfo.description + ": non-finite value at voxel (" + std::to_string(x) + ", " +
-                             std::to_string(y) + ", " + std::to_string(z) + ") (policy: error)");
-          }
-          v[n] = bg;
-          ++nonFinite;
-        }
-      }
-      lo = std::min(lo, v[n]);
-      hi = std::max(hi, v[n]);
-      active += v[n] != bg;
-    }
-    min = std::min(min, double(lo));
-    max = std::max(max, double(hi));
-  }
-
-  VolumeInfo mInfo;
-  double mBackground;
-  NonFinitePolicy mPolicy;
+  ValueType mType;
+  double mLo, mHi;
+  tbb::enumerable_thread_specific<HistogramBuilder> mBuilders;
 };
 
 void writeIndex(const fs::path& path, const std::vector<LevelBuild>& levels, int B, ValueType type,
@@ -162,9 +159,15 @@ bool looksLikeStore(const fs::path& dir) {
 PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOptions& options,
                       const std::function<void(const PrepProgress&)>& progress) {
   const auto start = std::chrono::steady_clock::now();
-  const VolumeInfo& info = source.info();
-  const double background = options.haveBackground ? options.background : info.background;
-  validate(info, options, background);
+  const VolumeInfo& input = source.info();
+  const double inputBackground = options.haveBackground ? options.background : input.background;
+  validate(input, options, inputBackground);
+  // From here on `info` and `background` describe what is stored: the input, or the input quantised.
+  std::optional<QuantisingSource> quantised;
+  if (options.quantise) quantised.emplace(source, *options.quantise, inputBackground, options.nonFinite);
+  VolumeSource& level0Source = quantised ? static_cast<VolumeSource&>(*quantised) : source;
+  const VolumeInfo& info = level0Source.info();
+  const double background = quantised ? info.background : inputBackground;
   const int B = options.brickSize;
   std::optional<tbb::global_control> threadLimit;
   if (options.threads > 0)
@@ -177,25 +180,31 @@ PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOp
       throw InputError(output.string() + ": exists and is not a voxbrick store; refusing to replace it");
   }
 
-  // Memory plan: the slab window, one slab of compressed frames, and (with the VDB grid) one chunk of it.
+  // Memory plan: the slab window, one slab of compressed frames, and (with the VDB grid) one chunk of it; more slabs
+  // in flight (reading ahead while one is cut) only from what is left after that, so the chunk size (and so the
+  // files written) does not depend on the threads.
   // The process itself (libraries, allocator, thread stacks) takes about this much before any buffer.
   constexpr int64_t kBaselineBytes = int64_t{64} << 20;
-  const int64_t budget = options.memoryBudgetMB * 1024 * 1024 - kBaselineBytes;
-  const int64_t window = SlabBricker::windowBytes(info.dims, B, info.type);
-  const int64_t frames = window * (B + 2) * (B + 2) / (int64_t(B) * B) + (int64_t{64} << 10);
+  const int64_t budget =
+      options.memoryBudgetMB * 1024 * 1024 - kBaselineBytes - (quantised ? quantised->stagingBytes() : 0);
+  const int64_t slab = SlabBricker::slabBytes(info.dims, B, info.type);
   int64_t chunkSlices = info.dims.z;
   if (options.writeVdb) {
-    const int64_t left = budget - window - frames;
+    const int64_t left = budget - slab;
     const int64_t slabs = left / std::max<int64_t>(1, VdbChunkWriter::chunkBytes(info.dims, B));
     chunkSlices = std::min(info.dims.z, slabs * B);
     if (slabs < 1) chunkSlices = 0;
     if (options.vdbChunkSlices > 0) chunkSlices = std::min(chunkSlices, options.vdbChunkSlices);
   }
-  const int64_t needed = window + frames + (options.writeVdb ? VdbChunkWriter::chunkBytes(info.dims, B) : 0);
+  const int64_t needed = slab + (options.writeVdb ? VdbChunkWriter::chunkBytes(info.dims, B) : 0);
   if (needed > budget || chunkSlices <= 0)
     throw InputError("--memory " + std::to_string(options.memoryBudgetMB) + " MB is too small for slices of " +
                      std::to_string(info.dims.x) + "x" + std::to_string(info.dims.y) + " voxels with --brick " +
                      std::to_string(B) + ": needs at least " + std::to_string(divUp(needed + kBaselineBytes, 1 << 20)) + " MB");
+  const int maxInFlight =
+      tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism) > 1 ? kMaxSlabsInFlight : 1;
+  const int64_t vdbBytes = options.writeVdb ? VdbChunkWriter::chunkBytes(info.dims, chunkSlices) : 0;
+  const int level0InFlight = slabsInFlight(budget - vdbBytes, slab, maxInFlight);
 
   const fs::path parent = output.has_parent_path() ? output.parent_path() : fs::path(".");
   const fs::path tmp = parent / ("." + output.filename().string() + ".tmp-" + std::to_string(::getpid()));
@@ -230,13 +239,15 @@ PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOp
     Level0Stats stats(info, background, options.nonFinite);
     std::unique_ptr<VdbChunkWriter> vdb;
     if (options.writeVdb) vdb = std::make_unique<VdbChunkWriter>(tmp, info, background, chunkSlices);
-    SlabBricker bricker(source, B, background, options.zstdLevel, bricks);
-    const int64_t sliceBytes = info.dims.x * info.dims.y * static_cast<int64_t>(valueSize(info.type));
+    SlabBricker bricker(level0Source, B, background, options.zstdLevel, bricks);
+    bricker.setSlabsInFlight(level0InFlight);
+    const int64_t sliceBytes = input.dims.x * input.dims.y * static_cast<int64_t>(valueSize(input.type));
     bricker.setSliceHook([&](int64_t z0, int64_t count, void* values) {
       stats.observe(z0, count, values);
-      if (vdb) vdb->addSlices(z0, count, values);
       state.bytesIn += count * sliceBytes;
     });
+    if (vdb)
+      bricker.setSliceConsumer([&](int64_t z0, int64_t count, const void* values) { vdb->addSlices(z0, count, values); });
     bricker.setProgressHook([&](int64_t done, int64_t total) { report("level 0", done, total); });
     levels.push_back(bricker.run());
     if (vdb) {
@@ -247,11 +258,15 @@ PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOp
     meta.valueMin = stats.min;
     meta.valueMax = stats.max;
     meta.activeVoxels = stats.active;
-    meta.nonFiniteReplaced = stats.nonFinite;
+    meta.nonFiniteReplaced = quantised ? quantised->innerStats().nonFinite : stats.nonFinite;
+    if (quantised) {
+      meta.quantisation = options.quantise;
+      meta.quantisationClamped = quantised->clamped();
+    }
   }
 
   // Coarser levels, each read back from the one before; the pass over level 0 also fills the histogram.
-  HistogramBuilder histogram(info.type, meta.valueMin, meta.valueMax);
+  ParallelHistogram histogram(info.type, meta.valueMin, meta.valueMax);
   BrickFileReader reader(tmp / "bricks.bin", info.type);
   auto histogramHook = [&](int64_t, int64_t count, const void* values) {
     histogram.add(values, count * info.dims.x * info.dims.y);
@@ -261,6 +276,10 @@ PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOp
     if (l == 1) finer.setSliceHook(histogramHook);
     DownsampleSource coarse(finer);
     SlabBricker bricker(coarse, B, background, options.zstdLevel, bricks);
+    // The finer level's slab of B slices and the downsampler's two are held beside the slabs in flight.
+    const int64_t finerSlices = (B + 2) * pyramid[l - 1].x * pyramid[l - 1].y * int64_t(valueSize(info.type));
+    bricker.setSlabsInFlight(slabsInFlight(budget - finerSlices, SlabBricker::slabBytes(pyramid[l], B, info.type),
+                                           maxInFlight));
     const std::string stage = "level " + std::to_string(l);
     bricker.setProgressHook([&](int64_t done, int64_t total) { report(stage, done, total); });
     levels.push_back(bricker.run());

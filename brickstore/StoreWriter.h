@@ -4,18 +4,14 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 
+#include "brickstore/Level0Stats.h"
 #include "brickstore/StoreMeta.h"
 #include "brickstore/VolumeSource.h"
 
 namespace voxbrick::store {
-
-/// What to do with NaN and Inf voxels of float inputs.
-enum class NonFinitePolicy {
-  Background,  ///< replace with the background value (so they are empty space), count and report them
-  Error,       ///< refuse the input, naming the first bad voxel
-};
 
 struct PrepOptions {
   int brickSize = 32;            ///< B: a power of two in [8, 256]
@@ -27,7 +23,10 @@ struct PrepOptions {
   bool writeVdb = true;          ///< write the canonical OpenVDB grid
   int64_t vdbChunkSlices = 0;    ///< z-slices per VDB file; 0: as many as the memory budget allows
   bool overwrite = false;        ///< replace an existing store (only once the new one is complete)
-  int threads = 0;               ///< worker threads for compression; 0 = hardware concurrency
+  int threads = 0;               ///< worker threads; 0 = hardware concurrency
+  /// Store u8 or u16 values: the input mapped linearly from quantise->lo..hi (scanLevel0 gives the input's exact
+  /// range). Non-finite values take the background first; the background is quantised too.
+  std::optional<Quantisation> quantise;
 };
 
 /// Progress of a running prep, for a progress bar.

@@ -209,6 +209,7 @@ SyntheticField SyntheticField::parse(const std::string& spec) {
     case Kind::Hdr: break;
   }
   args.checkAllUsed(info->keys);
+  field.updateAxes();
   return field;
 }
 
@@ -217,6 +218,19 @@ void SyntheticField::setSpacing(const Vec3d& spacing) {
     if (!(spacing[a] > 0) || !std::isfinite(spacing[a]))
       throw InputError("synthetic " + mName + ": spacing must be positive and finite");
   mSpacing = spacing;
+  updateAxes();
+}
+
+void SyntheticField::updateAxes() {
+  // The same expressions as sample() and evaluate(), so the tables hold the very doubles they compute.
+  for (int a = 0; a < 3; ++a) {
+    const double n = static_cast<double>(mDims[a]), s = mSpacing[a];
+    mAxis[a].resize(static_cast<size_t>(mDims[a]));
+    for (int64_t i = 0; i < mDims[a]; ++i) {
+      const double p = (static_cast<double>(i) + 0.5 - 0.5 * n) * s;
+      mAxis[a][static_cast<size_t>(i)] = 2.0 * p / (n * s);
+    }
+  }
 }
 
 double SyntheticField::evaluate(double x, double y, double z) const {
@@ -229,6 +243,80 @@ double SyntheticField::sample(int64_t i, int64_t j, int64_t k) const {
   return evaluate((static_cast<double>(i) + 0.5 - 0.5 * static_cast<double>(mDims.x)) * mSpacing.x,
                   (static_cast<double>(j) + 0.5 - 0.5 * static_cast<double>(mDims.y)) * mSpacing.y,
                   (static_cast<double>(k) + 0.5 - 0.5 * static_cast<double>(mDims.z)) * mSpacing.z);
+}
+
+template <typename PerVoxel>
+void SyntheticField::sampleRowWith(int64_t j, int64_t k, float* out, PerVoxel f) const {
+  const double y = mAxis[1][static_cast<size_t>(j)], z = mAxis[2][static_cast<size_t>(k)];
+  for (size_t i = 0; i < mAxis[0].size(); ++i) out[i] = static_cast<float>(f(mAxis[0][i], y, z));
+}
+
+void SyntheticField::sampleRow(int64_t j, int64_t k, float* out) const {
+  switch (mKind) {
+    case Kind::MarschnerLobb: {
+      // sin(πz/2) is the same for the whole row; the rest is marschnerLobb() term by term.
+      const double sinZ = std::sin(kPi * mAxis[2][static_cast<size_t>(k)] / 2.0);
+      return sampleRowWith(j, k, out, [&](double x, double y, double) {
+        const double rhoR = std::cos(2.0 * kPi * mFm * std::cos(kPi * std::sqrt(x * x + y * y) / 2.0));
+        return (1.0 - sinZ + mAlpha * (1.0 + rhoR)) / (2.0 * (1.0 + mAlpha));
+      });
+    }
+    case Kind::Shells: return sampleRowWith(j, k, out, [&](double x, double y, double z) { return shells(x, y, z); });
+    case Kind::Blobs: return blobsRow(j, k, out);
+    case Kind::Sparse: return sparseRow(j, k, out);
+    case Kind::Hdr: return sampleRowWith(j, k, out, [](double x, double y, double z) { return hdr(x, y, z); });
+  }
+}
+
+void SyntheticField::blobsRow(int64_t j, int64_t k, float* out) const {
+  // blobs() voxel by voxel, with each bump's dy², dz² and 2σ² taken once per row; the sum keeps its bump order.
+  struct RowBump {
+    double cx, dyy, dzz, twoSigma2, amplitude;
+  };
+  thread_local std::vector<RowBump> row;
+  row.clear();
+  const double y = mAxis[1][static_cast<size_t>(j)], z = mAxis[2][static_cast<size_t>(k)];
+  for (const Bump& b : mBumps) {
+    const double dy = y - b.cy, dz = z - b.cz;
+    row.push_back({b.cx, dy * dy, dz * dz, 2.0 * b.radius * b.radius, b.amplitude});
+  }
+  for (size_t i = 0; i < mAxis[0].size(); ++i) {
+    const double x = mAxis[0][i];
+    double sum = 0.0;
+    for (const RowBump& b : row) {
+      const double dx = x - b.cx;
+      sum += b.amplitude * std::exp(-(dx * dx + b.dyy + b.dzz) / b.twoSigma2);
+    }
+    out[i] = static_cast<float>(sum);
+  }
+}
+
+void SyntheticField::sparseRow(int64_t j, int64_t k, float* out) const {
+  // A ball with fl(dy² + dz²) / R² >= 1 contains no voxel of the row: rounding is monotonic, so adding dx² >= 0
+  // first (as sparse() does) can only make the quotient larger. The others are tried in sparse()'s order.
+  struct RowBall {
+    double cx, dyy, dzz, r2;
+  };
+  thread_local std::vector<RowBall> row;
+  row.clear();
+  const double y = mAxis[1][static_cast<size_t>(j)], z = mAxis[2][static_cast<size_t>(k)];
+  for (const Bump& b : mBumps) {
+    const double dy = y - b.cy, dz = z - b.cz, r2 = b.radius * b.radius;
+    if ((dy * dy + dz * dz) / r2 < 1.0) row.push_back({b.cx, dy * dy, dz * dz, r2});
+  }
+  for (size_t i = 0; i < mAxis[0].size(); ++i) {
+    const double x = mAxis[0][i];
+    double value = 0.0;
+    for (const RowBall& b : row) {
+      const double dx = x - b.cx;
+      const double d2 = (dx * dx + b.dyy + b.dzz) / b.r2;
+      if (d2 < 1.0) {
+        value = 1.0 - d2;
+        break;
+      }
+    }
+    out[i] = static_cast<float>(value);
+  }
 }
 
 double SyntheticField::evaluateNormalised(double x, double y, double z) const {

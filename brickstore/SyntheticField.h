@@ -60,6 +60,10 @@ class SyntheticField {
   double evaluateNormalised(double x, double y, double z) const;
   /// f at the centre of voxel (i,j,k).
   double sample(int64_t i, int64_t j, int64_t k) const;
+  /// Row (j, k) of samples: out[i] = float(sample(i, j, k)) for i in [0, nx), bit for bit (the same operations in
+  /// the same order), with what the row shares computed once: coordinates, each bump's y and z terms, and the balls
+  /// that miss the row altogether. Thread-safe.
+  void sampleRow(int64_t j, int64_t k, float* out) const;
 
  private:
   enum class Kind { MarschnerLobb, Shells, Blobs, Sparse, Hdr };
@@ -72,6 +76,12 @@ class SyntheticField {
   };
 
   SyntheticField() = default;
+  /// Fills mAxis from the dims and spacing.
+  void updateAxes();
+  template <typename PerVoxel>
+  void sampleRowWith(int64_t j, int64_t k, float* out, PerVoxel f) const;
+  void blobsRow(int64_t j, int64_t k, float* out) const;
+  void sparseRow(int64_t j, int64_t k, float* out) const;
   double marschnerLobb(double x, double y, double z) const;
   double shells(double x, double y, double z) const;
   double blobs(double x, double y, double z) const;
@@ -86,6 +96,7 @@ class SyntheticField {
   int64_t mCount = 0;                // shells
   double mWidth = 0.0;               // shells
   std::vector<Bump> mBumps;          // blobs, sparse
+  std::vector<double> mAxis[3];      // normalised coordinate of every sample index along x, y, z
 };
 
 }  // namespace voxbrick::store

@@ -33,9 +33,7 @@ class SyntheticSource final : public VolumeSource {
     // One task per row keeps the grain coarse enough for tbb yet fine enough to balance a single slice.
     tbb::parallel_for(tbb::blocked_range<int64_t>(0, count * n.y), [&](const tbb::blocked_range<int64_t>& rows) {
       for (int64_t row = rows.begin(); row != rows.end(); ++row) {
-        const int64_t j = row % n.y, k = z0 + row / n.y;
-        float* line = out + row * n.x;
-        for (int64_t i = 0; i < n.x; ++i) line[i] = static_cast<float>(mField.sample(i, j, k));
+        mField.sampleRow(row % n.y, z0 + row / n.y, out + row * n.x);
       }
     });
     mNextZ += count;

@@ -69,6 +69,11 @@ void runInfo(const InfoArgs& a) {
   std::printf("values       [%g, %g], background %g, %lld active voxels (%.1f%%)\n", m.valueMin, m.valueMax,
               m.background, static_cast<long long>(m.activeVoxels),
               100.0 * double(m.activeVoxels) / double(m.dims.volume()));
+  if (m.quantisation)
+    std::printf("quantised    from [%.9g, %.9g], a step of %.3g (%lld input voxels outside it clamped)\n",
+                m.quantisation->lo, m.quantisation->hi,
+                (m.quantisation->hi - m.quantisation->lo) / m.quantisation->steps(),
+                static_cast<long long>(m.quantisationClamped));
   if (m.nonFiniteReplaced > 0)
     std::printf("non-finite   %lld NaN/Inf voxels replaced by the background at ingest\n",
                 static_cast<long long>(m.nonFiniteReplaced));

@@ -17,6 +17,7 @@ extern "C" void onInterrupt(int) { gInterrupted = true; }
 
 struct PrepArgs {
   std::string input, output, dims, type, spacing, endian = "little", grid, nonFinite = "background";
+  std::string quantise, quantiseRange;
   int64_t headerBytes = 0;
   double background = 0;
   bool quiet = false;
@@ -57,6 +58,29 @@ void runPrep(PrepArgs& a, CLI::App& cmd) {
 
   if (gInterrupted) throw store::StoreError("interrupted; nothing was written");
   Progress progress(a.quiet);
+  if (!a.quantiseRange.empty() && a.quantise.empty()) throw store::InputError("--quantise-range needs --quantise");
+  if (!a.quantise.empty()) {
+    store::Quantisation q;
+    q.type = store::parseQuantiseType(a.quantise);
+    if (!a.quantiseRange.empty()) {
+      store::parseQuantiseRange(a.quantiseRange, q);
+    } else {
+      // The input's exact range takes a pass of its own, through a second reader of the same input.
+      auto first = store::openSource(a.input, so);
+      const double background = a.options.haveBackground ? a.options.background : info.background;
+      auto onSlices = [&](int64_t done, int64_t total) {
+        if (gInterrupted) throw store::StoreError("interrupted; nothing was written");
+        progress.update("value range", done, total, 0);
+      };
+      const store::Level0Stats range = store::scanLevel0(*first, background, a.options.nonFinite, onSlices);
+      q.lo = range.min;
+      q.hi = range.max > range.min ? range.max : range.min + 1;  // a constant volume: everything stored as 0
+    }
+    q.validate();
+    if (!a.quiet)
+      std::fprintf(stderr, "prep: quantising [%.9g, %.9g] to %s\n", q.lo, q.hi, a.quantise.c_str());
+    a.options.quantise = q;
+  }
   auto summary = store::prepStore(*source, a.output, a.options, [&](const store::PrepProgress& p) {
     if (gInterrupted) throw store::StoreError("interrupted; nothing was written");
     progress.update(p.stage, p.done, p.total, p.stage == "level 0" ? p.bytesIn : 0);
@@ -66,6 +90,11 @@ void runPrep(PrepArgs& a, CLI::App& cmd) {
   const store::StoreMeta& m = summary.meta;
   int64_t total = 0, stored = 0;
   for (const auto& l : m.levels) total += l.bricksTotal(), stored += l.bricksStored;
+  if (m.quantisation)
+    std::printf("prep: quantised [%.9g, %.9g] to %s (a step is %.3g); %lld voxels outside the range clamped\n",
+                m.quantisation->lo, m.quantisation->hi, std::string(store::valueTypeName(m.type)).c_str(),
+                (m.quantisation->hi - m.quantisation->lo) / m.quantisation->steps(),
+                static_cast<long long>(m.quantisationClamped));
   if (m.nonFiniteReplaced > 0)
     std::printf("non-finite voxels: %lld NaN/Inf values replaced by the background %g\n",
                 static_cast<long long>(m.nonFiniteReplaced), m.background);
@@ -111,6 +140,11 @@ void addPrepCommand(CLI::App& app) {
   cmd->add_flag("!--no-vdb", args->options.writeVdb, "do not write the canonical OpenVDB grid");
   cmd->add_option("--vdb-chunk", args->options.vdbChunkSlices, "z-slices per OpenVDB file (0: as --memory allows)")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--quantise", args->quantise,
+                  "store u8 or u16: the value range mapped linearly onto 0..255 or 0..65535");
+  cmd->add_option("--quantise-range", args->quantiseRange,
+                  "lo,hi: the values stored as 0 and as the largest integer (default: the input's exact range, "
+                  "found by a first pass over the input)");
   cmd->add_flag("--force", args->options.overwrite, "replace an existing store (once the new one is complete)");
   cmd->add_option("--threads", args->options.threads, "worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
   cmd->add_flag("-q,--quiet", args->quiet, "no progress output");

@@ -29,8 +29,10 @@ PixelRays pixelRays(const glm::dmat4& viewProj, int width, int height) {
 
 ValueWindow valueWindow(const Scene& scene, const store::StoreMeta& meta) {
   ValueWindow w;
-  w.lo = scene.window ? (*scene.window)[0] : meta.valueMin;
-  w.hi = scene.window ? (*scene.window)[1] : meta.valueMax;
+  // A window is given in the input's values; a quantised store holds steps, so it is mapped onto them (the default,
+  // the store's range, is in stored units already).
+  w.lo = scene.window ? meta.storedValue((*scene.window)[0]) : meta.valueMin;
+  w.hi = scene.window ? meta.storedValue((*scene.window)[1]) : meta.valueMax;
   if (!(w.hi > w.lo)) w.hi = w.lo + 1;  // a constant volume: everything maps to 0
   w.inverseWidth = 1.0 / (w.hi - w.lo);
   return w;

@@ -24,6 +24,7 @@ struct ValueWindow {
 };
 
 /// The scene's value window over `meta`'s values (default the store's range; a constant volume gets [v, v + 1]).
+/// A scene's window is in the input's values, mapped onto a quantised store's steps (StoreMeta::storedValue).
 /// The GPU renderer and the reference take it from here, so that they normalise alike.
 ValueWindow valueWindow(const Scene& scene, const store::StoreMeta& meta);
 

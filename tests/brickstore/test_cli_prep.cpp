@@ -94,6 +94,49 @@ TEST(CliPrep, NonFiniteVoxelsAreCountedOrRefused) {
   expectOnly(dir.path(), {"v.raw", "s"});
 }
 
+TEST(CliPrep, QuantiseFindsTheExactRangeOrTakesTheGivenOne) {
+  ScratchDir dir;
+  std::vector<float> v(20 * 12 * 9);
+  for (size_t i = 0; i < v.size(); ++i) v[i] = float(-1.5 + 4.0 * std::sin(double(i) * 0.013));
+  v[7] = NAN;  // replaced by the background (0) before the range is taken
+  test::writeFile(dir / "v.raw", v.data(), v.size() * 4);
+  float lo = 0, hi = 0;  // the background is part of the range
+  for (float x : v)
+    if (!std::isnan(x)) lo = std::min(lo, x), hi = std::max(hi, x);
+  const std::string in = "prep " + (dir / "v.raw").string() + " --dims 20,12,9 --type f32 --brick 8 -q ";
+  auto r = runVoxbrick(in + "--quantise u8 -o " + (dir / "a").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_NE(r.output.find("quantised ["), std::string::npos) << r.output;
+  r = runVoxbrick("info --json " + (dir / "a").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  auto j = nlohmann::json::parse(r.output);
+  EXPECT_EQ(j["type"], "u8");
+  EXPECT_EQ(j["quantisation"]["type"], "u8");
+  EXPECT_EQ(j["quantisation"]["range"], nlohmann::json({double(lo), double(hi)}));
+  EXPECT_EQ(j["value_range"], nlohmann::json({0.0, 255.0}));
+  EXPECT_EQ(j["nonfinite_replaced"], 1);
+
+  r = runVoxbrick(in + "--quantise u16 --quantise-range -1,1 -o " + (dir / "b").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  j = nlohmann::json::parse(runVoxbrick("info --json " + (dir / "b").string()).output);
+  EXPECT_EQ(j["type"], "u16");
+  EXPECT_EQ(j["quantisation"]["range"], nlohmann::json({-1.0, 1.0}));
+  EXPECT_GT(j["quantisation"]["clamped"].get<int64_t>(), 0);
+  EXPECT_NE(runVoxbrick("info " + (dir / "b").string()).output.find("quantised    from [-1, 1]"), std::string::npos);
+
+  const std::string out = "-o " + (dir / "c").string();
+  expectError(runVoxbrick(in + "--quantise f32 " + out), {"--quantise", "f32", "u8 or u16"});
+  expectError(runVoxbrick(in + "--quantise u8 --quantise-range 2,2 " + out),
+              {"--quantise-range", "lo must be below hi"});
+  expectError(runVoxbrick(in + "--quantise u8 --quantise-range 3,1 " + out), {"lo must be below hi"});
+  expectError(runVoxbrick(in + "--quantise u8 --quantise-range 0,inf " + out), {"finite"});
+  expectError(runVoxbrick(in + "--quantise u8 --quantise-range 0,nan " + out), {"finite"});
+  expectError(runVoxbrick(in + "--quantise u8 --quantise-range 0 " + out), {"two numbers"});
+  expectError(runVoxbrick(in + "--quantise-range 0,1 " + out), {"--quantise-range needs --quantise"});
+  expectError(runVoxbrick(in + "--quantise u8 --nonfinite error " + out), {"non-finite", "(7, 0, 0)"});
+  expectOnly(dir.path(), {"v.raw", "a", "b"});
+}
+
 TEST(CliPrep, UnwritableOutputAndFullDiskLeaveNothingBehind) {
   ScratchDir dir;
   std::vector<float> v(64 * 64 * 64);

@@ -141,6 +141,35 @@ TEST(StoreRoundTrip, EncodingTwiceGivesTheSameBytes) {
     EXPECT_EQ(test::readFile(dir / "a" / f), test::readFile(dir / "b" / f)) << f;
 }
 
+TEST(StoreRoundTrip, ThreadsAndSlabsInFlightDoNotChangeTheBytes) {
+  // One thread cuts one slab at a time; two threads read ahead (up to three slabs in flight) and write the OpenVDB
+  // chunks beside the cutting. The files must not tell them apart (OpenVDB's random file UUID aside).
+  ScratchDir dir;
+  auto d = makeVolume<float>({70, 50, 90}, -1, 1, 6, true, 60);
+  auto withThreads = [](int threads) {
+    PrepOptions o;
+    o.threads = threads;
+    o.vdbChunkSlices = 24;  // several chunks, not on slab boundaries
+    return o;
+  };
+  prepDense(d, ValueType::F32, dir / "one", 8, withThreads(1));
+  prepDense(d, ValueType::F32, dir / "two", 8, withThreads(2));
+  for (const char* f : {"bricks.bin", "index.bin", "store.json"})
+    EXPECT_EQ(test::readFile(dir / "one" / f), test::readFile(dir / "two" / f)) << f;
+  int vdbFiles = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir / "one" / "vdb")) {
+    std::vector<char> a = test::readFile(entry.path());
+    std::vector<char> b = test::readFile(dir / "two" / "vdb" / entry.path().filename());
+    ASSERT_GT(a.size(), 57u);
+    ASSERT_EQ(a.size(), b.size()) << entry.path();
+    std::fill_n(a.begin() + 21, 36, '-');  // the UUID
+    std::fill_n(b.begin() + 21, 36, '-');
+    EXPECT_TRUE(a == b) << entry.path();
+    ++vdbFiles;
+  }
+  EXPECT_EQ(vdbFiles, 4);  // z = 0, 24, 48, 72
+}
+
 TEST(StoreSparse, EmptyBricksAreAbsentAndCostNothing) {
   ScratchDir dir;
   auto d = makeVolume<float>({64, 64, 64}, 0.5, 1, 6, true, 20);
