@@ -141,19 +141,31 @@ TEST(Streaming, StandInsLeaveNoHoles) {
   }
 }
 
+/// The 128^3 blobs in bricks of 16, a cold host cache with `workers` paging threads, and a renderer over it.
+struct ColdStart {
+  explicit ColdStart(int workers)
+      : s(prep("synthetic:blobs,n=128", dir / "b", 16)),
+        cache(std::make_shared<store::BrickCache>(s, size_t(256) << 20, workers)),
+        renderer(test::context(), cache, size_t(256) << 20) {}
+
+  ScratchDir dir;
+  std::shared_ptr<const store::BrickStore> s;
+  std::shared_ptr<store::BrickCache> cache;
+  VolumeRenderer renderer;
+};
+
 // From a cold cache: the first frame stands in and queues what it lacks; once the workers have paged it, the next
 // streamed frame has no stand-in and is bit for bit the frame drawn without streaming.
 TEST(Streaming, LaterFramesFillInToTheExactFrame) {
-  ScratchDir dir;
-  const auto s = prep("synthetic:blobs,n=128", dir / "b", 16);
+  ColdStart rig(2);
+  const auto& s = rig.s;
+  auto& renderer = rig.renderer;
   const Scene scene = streamScene(32, 8);
-  auto cache = std::make_shared<store::BrickCache>(s, size_t(256) << 20, 2);
-  VolumeRenderer renderer(test::context(), cache, size_t(256) << 20);
   FrameStats first, second, exact;
   renderer.render(scene, &first, {RenderMode::Normal, true});
   EXPECT_GT(first.bricksStandIn, first.bricksDrawn / 2) << "a cold cache has almost nothing resident";
   EXPECT_LE(first.bricksPagedIn, first.bricksDrawn - first.bricksStandIn + s->levelCount());
-  waitForPaging(*cache);
+  waitForPaging(*rig.cache);
   const image::ImageF refined = renderer.render(scene, &second, {RenderMode::Normal, true});
   EXPECT_EQ(second.bricksStandIn, 0);
   const image::ImageF whole = renderer.render(scene, &exact);
@@ -164,16 +176,13 @@ TEST(Streaming, LaterFramesFillInToTheExactFrame) {
 // A cold start stands in everywhere: the children of a node drawn from the same ancestor are one box, so the first
 // frame costs about what the coarse level costs, not a box per brick.
 TEST(Streaming, AColdStartDrawsWholeNodes) {
-  ScratchDir dir;
-  const auto s = prep("synthetic:blobs,n=128", dir / "b", 16);
+  ColdStart rig(0);
   const Scene scene = streamScene(32, 0);
-  auto cache = std::make_shared<store::BrickCache>(s, size_t(256) << 20, 0);
-  VolumeRenderer renderer(test::context(), cache, size_t(256) << 20);
   FrameStats stats;
-  const image::ImageF streamed = renderer.render(scene, &stats, {RenderMode::Normal, true});
+  const image::ImageF streamed = rig.renderer.render(scene, &stats, {RenderMode::Normal, true});
   EXPECT_EQ(stats.bricksStandIn, stats.bricksDrawn);
   EXPECT_LT(stats.boxesDrawn * 4, stats.bricksDrawn) << stats.boxesDrawn << " boxes";
-  EXPECT_GT(psnr(streamed, test::renderStore(s, scene)), 25.0);
+  EXPECT_GT(psnr(streamed, test::renderStore(rig.s, scene)), 25.0);
 }
 
 // With too small a host cache the bricks never all stay: every streamed frame still covers the whole volume.
