@@ -31,6 +31,9 @@ void parseTriple(const std::string& text, const std::string& option, T out[3]);
 /// Writes `text` to the file at `path`, replacing it; throws std::runtime_error naming the file on failure.
 void writeText(const std::string& path, const std::string& text);
 
+/// Where the provisional frame of a progressive render goes beside `output`: "dir/f.png" -> "dir/f.provisional.png".
+std::string provisionalPath(const std::string& output);
+
 /// Parses "WIDTHxHEIGHT" into two integers; throws store::InputError naming the option.
 void parseSize(const std::string& text, const std::string& option, int& width, int& height);
 

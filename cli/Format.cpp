@@ -1,5 +1,6 @@
 // Small text helpers shared by the subcommands: "a,b,c" triples, "WxH" sizes, byte counts, text files.
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <stdexcept>
 #include <string>
@@ -48,6 +49,11 @@ void parseSize(const std::string& text, const std::string& option, int& width, i
   char extra = 0;
   if (std::sscanf(text.c_str(), "%dx%d%c", &width, &height, &extra) != 2)
     throw store::InputError(option + " '" + text + "': expected WIDTHxHEIGHT");
+}
+
+std::string provisionalPath(const std::string& output) {
+  const std::filesystem::path path(output);
+  return (path.parent_path() / (path.stem().string() + ".provisional" + path.extension().string())).string();
 }
 
 void writeText(const std::string& path, const std::string& text) {

@@ -1,6 +1,5 @@
 // `voxbrick render STORE -o out.png`: one frame, headless, with its statistics.
 #include <cstdio>
-#include <filesystem>
 
 #include <nlohmann/json.hpp>
 
@@ -68,12 +67,10 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
     const image::ImageF provisional = engine.render(dataset, scene, &first, {render::RenderMode::Normal, true});
     provisionalJson = first.toJson();
     if (first.bricksStandIn > 0) {
-      const std::filesystem::path output(a.output);
-      const std::filesystem::path path =
-          output.parent_path() / (output.stem().string() + ".provisional" + output.extension().string());
+      const std::string path = provisionalPath(a.output);
       image::writePng(path, image::toImage8(provisional));
       std::printf("render: wrote %s, the provisional frame: %lld of %lld bricks stood in, %.1f ms\n",
-                  path.string().c_str(), (long long)first.bricksStandIn, (long long)first.bricksDrawn, first.msTotal);
+                  path.c_str(), (long long)first.bricksStandIn, (long long)first.bricksDrawn, first.msTotal);
     }
   }
   render::FrameStats stats;

@@ -1,6 +1,5 @@
 // `voxbrick request HOST:PORT --dataset NAME [scene options] -o frame.png`: one frame from a running server.
 #include <cstdio>
-#include <filesystem>
 
 #include <nlohmann/json.hpp>
 
@@ -42,15 +41,13 @@ void runRequest(const RequestArgs& a, const CLI::App& cmd) {
   };
   // A progressive scene may first bring provisional frames (bricks still on their way drawn coarser): each is
   // written beside the output, the last one wins.
-  const std::filesystem::path output(a.output);
-  const std::filesystem::path provisionalPath =
-      output.parent_path() / (output.stem().string() + ".provisional" + output.extension().string());
-  const proto::Frame frame = c.render(scene.toJson(), encoding, [&](const proto::Frame& provisional) {
-    image::writePng(provisionalPath, image::decodeFrameImage(provisional));
-    const nlohmann::json stats = nlohmann::json::parse(provisional.statsJson);
+  const std::string provisional = provisionalPath(a.output);
+  const proto::Frame frame = c.render(scene.toJson(), encoding, [&](const proto::Frame& early) {
+    image::writePng(provisional, image::decodeFrameImage(early));
+    const nlohmann::json stats = nlohmann::json::parse(early.statsJson);
     std::printf("request: provisional frame (%lld bricks stood in) at %.1f ms, wrote %s\n",
                 static_cast<long long>(stats.value("bricks_standin", int64_t{0})), msSinceStart(),
-                provisionalPath.string().c_str());
+                provisional.c_str());
   });
   const double ms = msSinceStart();
   c.goodbye();

@@ -5,7 +5,7 @@
 #include <atomic>
 #include <map>
 
-#include "render/BrickAtlas.h"
+#include "render/Residency.h"
 #include "render/GlContext.h"
 #include "render/RenderErrors.h"
 #include "render/VolumeRenderer.h"
@@ -35,10 +35,8 @@ struct RenderEngine::Impl {
 
 size_t RenderEngine::Impl::wanted(const Dataset& dataset) const {
   if (dataset.kind() != DatasetKind::BrickStore) return 0;
-  const store::BrickStore& s = *static_cast<const BrickStoreDataset&>(dataset).store();
-  const size_t slot = BrickAtlas::slotBytes(s.type(), s.brickEdge(), options.atlasFormat);
-  const size_t useful = size_t(std::min<int64_t>(s.level(0).bricksTotal(), 1 << 20));
-  return std::min(options.gpuBudgetBytes / slot, useful) * slot;
+  return Residency::atlasBytes(*static_cast<const BrickStoreDataset&>(dataset).store(), options.gpuBudgetBytes,
+                               options.atlasFormat);
 }
 
 void RenderEngine::Impl::account() {

@@ -15,7 +15,7 @@ Residency::Residency(const GlContext& context, std::shared_ptr<store::BrickCache
                      AtlasFormat format)
     : mCache(std::move(cache)),
       mAtlas(context, mCache->store()->type(), mCache->store()->brickEdge(), gpuBudgetBytes,
-             int(std::min<int64_t>(mCache->store()->level(0).bricksTotal(), 1 << 20)), format) {
+             usefulSlots(*mCache->store()), format) {
   mSlotRanges.resize(size_t(mAtlas.slots().capacity()));
 }
 
@@ -65,6 +65,15 @@ int64_t Residency::standIn(std::vector<BrickDraw>& bricks, int coarsest) {
   bricks = std::move(out);
   mCache->prefetch(missing);
   return standIns;
+}
+
+int Residency::usefulSlots(const store::BrickStore& store) {
+  return int(std::min<int64_t>(store.level(0).bricksTotal(), 1 << 20));
+}
+
+size_t Residency::atlasBytes(const store::BrickStore& store, size_t gpuBudgetBytes, AtlasFormat format) {
+  const size_t slot = BrickAtlas::slotBytes(store.type(), store.brickEdge(), format);
+  return std::min(gpuBudgetBytes / slot, size_t(usefulSlots(store))) * slot;
 }
 
 void Residency::beginFrame(const std::vector<BrickDraw>& bricks) {

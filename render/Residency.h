@@ -16,6 +16,12 @@ namespace voxbrick::render {
 
 class Residency {
  public:
+  /// The most atlas slots a frame of `store` can use: one per level-0 brick (a frame draws at most one brick per
+  /// level-0 region, whatever its levels), capped.
+  static int usefulSlots(const store::BrickStore& store);
+  /// The texture bytes an atlas for `store` takes under `gpuBudgetBytes` (at most the budget).
+  static size_t atlasBytes(const store::BrickStore& store, size_t gpuBudgetBytes, AtlasFormat format);
+
   /// An atlas of `gpuBudgetBytes` in `format` for the bricks of `cache`'s store; the context must be current.
   Residency(const GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes,
             AtlasFormat format);

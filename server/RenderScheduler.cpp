@@ -3,6 +3,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include <spdlog/spdlog.h>
 
@@ -42,19 +43,24 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
       return out;
     }
     std::deque<RenderJob>& waiting = mWaiting[sink.get()];
-    const bool inTurn = !waiting.empty();
-    if (mCoalesce && inTurn) {
-      out.replaced = std::move(waiting.front());
-      waiting.clear();
+    if (mCoalesce && !waiting.empty()) {
+      // The one waiting job is replaced in place: the session keeps its turn.
+      out.replaced = std::exchange(waiting.front(), std::move(job));
     } else if (waiting.size() >= ServerConfig::kMaxQueuedWithoutCoalescing) {
       out.result = Submission::Result::Full;
       return out;
+    } else {
+      enqueueLocked(sink, std::move(job));
     }
-    waiting.push_back(std::move(job));
-    if (!inTurn) mTurns.push_back(sink);
   }
   mReady.notify_one();
   return out;
+}
+
+void RenderScheduler::enqueueLocked(const std::shared_ptr<Sink>& sink, RenderJob job) {
+  std::deque<RenderJob>& waiting = mWaiting[sink.get()];
+  if (waiting.empty()) mTurns.push_back(sink);
+  waiting.push_back(std::move(job));
 }
 
 void RenderScheduler::refine(const std::shared_ptr<Sink>& sink, RenderJob job) {
@@ -63,10 +69,8 @@ void RenderScheduler::refine(const std::shared_ptr<Sink>& sink, RenderJob job) {
   {
     std::lock_guard lock(mMutex);
     if (mStopping) return;
-    std::deque<RenderJob>& waiting = mWaiting[sink.get()];
-    if (!waiting.empty()) return;
-    waiting.push_back(std::move(job));
-    mTurns.push_back(sink);
+    if (auto it = mWaiting.find(sink.get()); it != mWaiting.end() && !it->second.empty()) return;
+    enqueueLocked(sink, std::move(job));
   }
   mReady.notify_one();
 }

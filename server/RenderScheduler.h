@@ -60,6 +60,8 @@ class RenderScheduler {
 
  private:
   void renderLoop(std::unique_ptr<render::RenderEngine> engine, int index);
+  /// Appends `job` to the session's waiting jobs, giving the session a turn if it had none. mMutex held.
+  void enqueueLocked(const std::shared_ptr<Sink>& sink, RenderJob job);
   /// Blocks for the next job; false once stopping.
   bool next(std::shared_ptr<Sink>& sink, RenderJob& job);
 
