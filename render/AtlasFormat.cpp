@@ -12,4 +12,20 @@ AtlasFormat parseAtlasFormat(const std::string& text) {
   throw RenderInputError("atlas format '" + text + "' is not float, native or half");
 }
 
+AtlasUploads parseAtlasUploads(const std::string& text) {
+  if (text == "auto") return AtlasUploads::Auto;
+  if (text == "direct") return AtlasUploads::Direct;
+  if (text == "staged") return AtlasUploads::Staged;
+  throw RenderInputError("atlas uploads '" + text + "' is not auto, direct or staged");
+}
+
+const char* atlasUploadsName(AtlasUploads uploads) {
+  switch (uploads) {
+    case AtlasUploads::Auto: return "auto";
+    case AtlasUploads::Direct: return "direct";
+    case AtlasUploads::Staged: return "staged";
+  }
+  return "auto";
+}
+
 }  // namespace voxbrick::render

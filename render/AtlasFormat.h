@@ -13,4 +13,16 @@ enum class AtlasFormat { Float, Native, Half };
 /// "float", "native", "half"; throws RenderInputError for anything else.
 AtlasFormat parseAtlasFormat(const std::string& text);
 
+/// How bricks reach the atlas. Direct: glTexSubImage3D from the host brick (the driver copies it before the call
+/// returns). Staged: the brick is written into a ring of pixel-unpack buffer regions and the texture copy is queued
+/// from there, fenced, so the CPU goes on to the next brick while the GPU copies and draws (a region is reused
+/// once its fence has passed). Auto: Staged on a GPU, Direct on a software rasteriser, whose texture is host memory
+/// and where staging only adds a copy (bench/results/uploads.md).
+enum class AtlasUploads { Auto, Direct, Staged };
+
+/// "auto", "direct", "staged"; throws RenderInputError for anything else.
+AtlasUploads parseAtlasUploads(const std::string& text);
+/// The name parseAtlasUploads reads.
+const char* atlasUploadsName(AtlasUploads uploads);
+
 }  // namespace voxbrick::render

@@ -47,6 +47,15 @@ void AtlasSlots::unpinAll() {
   mPinnedCount = 0;
 }
 
+void AtlasSlots::forget(const store::BrickKey& key) {
+  const auto it = mWhere.find(key);
+  if (it == mWhere.end()) return;
+  Slot& slot = mSlots[size_t(it->second)];
+  slot.key.reset();
+  mLru.splice(mLru.begin(), mLru, slot.lru);  // the first to be reused
+  mWhere.erase(it);
+}
+
 void AtlasSlots::clear() {
   for (Slot& s : mSlots) s.key.reset(), s.pinned = false;
   mWhere.clear();

@@ -36,6 +36,8 @@ class AtlasSlots {
   void unpinAll();
   /// Forgets every brick (e.g. when the atlas texture is recreated).
   void clear();
+  /// Forgets `key` (its slot is empty again, e.g. when the upload into it failed); nothing if it is not resident.
+  void forget(const store::BrickKey& key);
 
   int capacity() const { return static_cast<int>(mSlots.size()); }
   int pinned() const { return mPinnedCount; }

@@ -2,6 +2,7 @@
 #include "render/BrickAtlas.h"
 
 #include <algorithm>
+#include <cstring>
 
 #include "render/RenderErrors.h"
 
@@ -32,13 +33,38 @@ int slotCapacity(int edge, size_t texelBytes, size_t budgetBytes, int maxUsefulS
 
 }  // namespace
 
+size_t BrickAtlas::uploadBytes(store::ValueType type, int brickEdge, AtlasFormat format) {
+  const TexelFormat texel = texelFormat(type, format);
+  return size_t(brickEdge) * size_t(brickEdge) * size_t(brickEdge) * (texel.type == GL_FLOAT ? 4 : texel.bytes);
+}
+
+size_t BrickAtlas::stagingBytes(store::ValueType type, int brickEdge, size_t budgetBytes, AtlasFormat format) {
+  const size_t region = uploadBytes(type, brickEdge, format);
+  const size_t regions = std::min(kStagingBytes, budgetBytes / 8) / region;
+  return regions >= 2 ? regions * region : 0;
+}
+
+AtlasUploads BrickAtlas::resolveUploads(const GlContext& context, AtlasUploads uploads) {
+  if (uploads != AtlasUploads::Auto) return uploads;
+  return context.software() ? AtlasUploads::Direct : AtlasUploads::Staged;
+}
+
 BrickAtlas::BrickAtlas(const GlContext& context, store::ValueType type, int brickEdge, size_t budgetBytes,
-                       int maxUsefulSlots, AtlasFormat format)
+                       int maxUsefulSlots, AtlasFormat format, AtlasUploads uploads)
+    : BrickAtlas(context, type, brickEdge,
+                 resolveUploads(context, uploads) == AtlasUploads::Staged
+                     ? stagingBytes(type, brickEdge, budgetBytes, format)
+                     : 0,
+                 budgetBytes, maxUsefulSlots, format) {}
+
+BrickAtlas::BrickAtlas(const GlContext& context, store::ValueType type, int brickEdge, size_t staging,
+                       size_t budgetBytes, int maxUsefulSlots, AtlasFormat format)
     : mGl(context.gl()),
       mFormat(format),
       mTexel(texelFormat(type, format)),
       mEdge(brickEdge),
-      mSlots(slotCapacity(brickEdge, mTexel.bytes, budgetBytes, maxUsefulSlots)) {
+      mSlots(slotCapacity(brickEdge, mTexel.bytes, budgetBytes - staging, maxUsefulSlots)) {
+  budgetBytes -= staging;
   const int perAxis = std::max(1, context.limits().max3DTextureSize / brickEdge);
   const int want = mSlots.capacity();
   mGrid.x = std::min(want, perAxis);
@@ -67,7 +93,12 @@ BrickAtlas::BrickAtlas(const GlContext& context, store::ValueType type, int bric
   if (GLenum error = mGl.glGetError(); error != GL_NO_ERROR)
     throw RenderError("BrickAtlas: cannot allocate a " + std::to_string(mTexels.x) + "x" + std::to_string(mTexels.y) +
                       "x" + std::to_string(mTexels.z) + " texture (GL error " + std::to_string(error) + ")");
-  mStaging.resize(size_t(brickEdge) * size_t(brickEdge) * size_t(brickEdge));
+  if (staging > 0) {
+    const size_t region = uploadBytes(type, brickEdge, format);
+    mRing = std::make_unique<UploadRing>(mGl, region, int(staging / region));
+  } else if (type != store::ValueType::F32 && mTexel.type == GL_FLOAT) {
+    mStaging.resize(size_t(brickEdge) * size_t(brickEdge) * size_t(brickEdge));
+  }
 }
 
 size_t BrickAtlas::slotBytes(store::ValueType type, int brickEdge, AtlasFormat format) {
@@ -79,18 +110,36 @@ glm::ivec3 BrickAtlas::slotOrigin(AtlasSlot slot) const {
   return glm::ivec3(i % mGrid.x, (i / mGrid.x) % mGrid.y, i / (mGrid.x * mGrid.y)) * mEdge;
 }
 
-void BrickAtlas::upload(AtlasSlot slot, const store::Brick& brick) {
-  const void* data = brick.data();
+void BrickAtlas::convert(const store::Brick& brick, void* out) const {
+  const size_t n = size_t(mEdge) * size_t(mEdge) * size_t(mEdge);
   if (brick.type() != store::ValueType::F32 && mTexel.type == GL_FLOAT) {
     store::dispatchType(brick.type(), [&](auto tag) {
       const auto* in = static_cast<const decltype(tag)*>(brick.data());
-      for (size_t n = 0; n < mStaging.size(); ++n) mStaging[n] = float(in[n]);
+      float* to = static_cast<float*>(out);
+      for (size_t i = 0; i < n; ++i) to[i] = float(in[i]);
     });
-    data = mStaging.data();
+  } else {
+    std::memcpy(out, brick.data(), n * store::valueSize(brick.type()));
   }
+}
+
+void BrickAtlas::upload(AtlasSlot slot, const store::Brick& brick) {
   const glm::ivec3 o = slotOrigin(slot);
   mTexture.bind(0);
   mGl.glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  if (mRing) {
+    convert(brick, mRing->map());
+    const size_t offset = mRing->unmap();
+    mGl.glTexSubImage3D(GL_TEXTURE_3D, 0, o.x, o.y, o.z, mEdge, mEdge, mEdge, GL_RED, mTexel.type,
+                        reinterpret_cast<const void*>(offset));
+    mRing->fence();
+    return;
+  }
+  const void* data = brick.data();
+  if (!mStaging.empty()) {
+    convert(brick, mStaging.data());
+    data = mStaging.data();
+  }
   mGl.glTexSubImage3D(GL_TEXTURE_3D, 0, o.x, o.y, o.z, mEdge, mEdge, mEdge, GL_RED, mTexel.type, data);
 }
 

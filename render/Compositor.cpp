@@ -56,6 +56,19 @@ void Compositor::begin(int width, int height, bool blend, bool silhouette) {
   mGl.glBlendEquation(GL_FUNC_ADD);
   mGl.glBlendFuncSeparate(GL_ONE_MINUS_DST_ALPHA, GL_ONE, GL_ONE_MINUS_DST_ALPHA, GL_ONE);
   mGl.glBeginQuery(GL_SAMPLES_PASSED, mFragments.id());
+  mCounting = true;
+}
+
+void Compositor::abort() {
+  if (mCounting) mGl.glEndQuery(GL_SAMPLES_PASSED);
+  mCounting = false;
+  mGl.glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+  mGl.glDepthMask(GL_FALSE);
+  mGl.glDepthRange(0, 1);
+  mGl.glDepthFunc(GL_LESS);
+  mGl.glDisable(GL_DEPTH_TEST);
+  mGl.glDisable(GL_BLEND);
+  mGl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
 }
 
 void Compositor::bindSilhouette() const {
@@ -65,6 +78,7 @@ void Compositor::bindSilhouette() const {
 
 image::ImageF Compositor::finish(const glm::dvec3& background, FrameStats& stats) {
   mGl.glEndQuery(GL_SAMPLES_PASSED);
+  mCounting = false;
   mGl.glDisable(GL_DEPTH_TEST);
   auto t = Clock::now();
   mGl.glFinish();

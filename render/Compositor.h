@@ -27,6 +27,9 @@ class Compositor {
   /// Waits for the passes, reads the target back and composites it over `background`: out = C + (1 - A) * bg.
   /// Fills fragments, msDrawing (the wait) and msReadback.
   image::ImageF finish(const glm::dvec3& background, FrameStats& stats);
+  /// After a frame failed between begin() and finish(): ends the fragment count and puts back the state every
+  /// pass expects at the start of a frame (colour and depth writes, depth range), so the next frame starts clean.
+  void abort();
 
  private:
   const Gl& mGl;
@@ -34,6 +37,7 @@ class Compositor {
   Texture mDepth;             // GL_DEPTH_COMPONENT32F, attached to mTarget and mDepthOnly when silhouettes are used
   Framebuffer mDepthOnly;
   Query mFragments;
+  bool mCounting = false;  // between begin() and finish()/abort(): the fragment query is active
 };
 
 }  // namespace voxbrick::render

@@ -5,6 +5,8 @@
 
 #include <filesystem>
 #include <memory>
+#include <mutex>
+#include <optional>
 #include <string>
 
 #include "brickstore/BrickCache.h"
@@ -36,12 +38,27 @@ class Dataset {
   /// Changes the host cache's budget (the cache is shared and thread-safe, so this is allowed on a const dataset).
   virtual void setCacheBudget(size_t bytes) const = 0;
 
+  /// Marks the dataset as failing its checks (e.g. a corrupt brick met while drawing): a server then answers its
+  /// renders with `reason` without drawing, until the data is replaced on disk and opened again. The first reason
+  /// stays. Thread-safe, so allowed on a const dataset.
+  void quarantine(const std::string& reason) const {
+    std::lock_guard lock(mQuarantineMutex);
+    if (!mQuarantine) mQuarantine = reason;
+  }
+  /// Why the dataset is quarantined; nothing if it is not.
+  std::optional<std::string> quarantined() const {
+    std::lock_guard lock(mQuarantineMutex);
+    return mQuarantine;
+  }
+
  protected:
   Dataset(std::string name, std::filesystem::path path) : mName(std::move(name)), mPath(std::move(path)) {}
 
  private:
   std::string mName;
   std::filesystem::path mPath;
+  mutable std::mutex mQuarantineMutex;
+  mutable std::optional<std::string> mQuarantine;
 };
 
 /// A brick store (a prepped directory, or a .vdb read live) and its bounded host cache.

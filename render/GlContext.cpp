@@ -45,6 +45,13 @@ void GlContext::initialise(GlProcLoader loader, const char* loaderName, std::str
   checkGlError(mGl, (mPath + ": querying limits").c_str());
 }
 
+bool GlContext::software() const {
+  if (backend() == Backend::OsMesa) return true;
+  for (const char* name : {"llvmpipe", "softpipe", "swrast", "SWR"})
+    if (mRenderer.find(name) != std::string::npos) return true;
+  return false;
+}
+
 std::unique_ptr<GlContext> createContext(Backend backend) {
   std::string failures;
   if (backend == Backend::Auto || backend == Backend::Egl) {

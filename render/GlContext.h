@@ -48,6 +48,8 @@ class GlContext {
   const GlLimits& limits() const { return mLimits; }
   /// How it was made and what runs it, e.g. "EGL surfaceless — llvmpipe (LLVM 15.0.6, 256 bits), 4.5 (Core ...)".
   std::string describe() const { return mPath + " — " + mRenderer + ", " + mVersion; }
+  /// True for a software rasteriser (llvmpipe, softpipe, OSMesa): textures and buffers are host memory.
+  bool software() const;
   /// GL_RENDERER as the driver reports it.
   const std::string& renderer() const { return mRenderer; }
   /// GL_VERSION as the driver reports it.

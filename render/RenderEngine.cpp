@@ -5,8 +5,9 @@
 #include <atomic>
 #include <map>
 
-#include "render/Residency.h"
+#include "render/BrickAtlas.h"
 #include "render/GlContext.h"
+#include "render/Residency.h"
 #include "render/RenderErrors.h"
 #include "render/VolumeRenderer.h"
 
@@ -36,7 +37,7 @@ struct RenderEngine::Impl {
 size_t RenderEngine::Impl::wanted(const Dataset& dataset) const {
   if (dataset.kind() != DatasetKind::BrickStore) return 0;
   return Residency::atlasBytes(*static_cast<const BrickStoreDataset&>(dataset).store(), options.gpuBudgetBytes,
-                               options.atlasFormat);
+                               options.atlasFormat, BrickAtlas::resolveUploads(*context, options.atlasUploads));
 }
 
 void RenderEngine::Impl::account() {
@@ -67,7 +68,8 @@ FrameRenderer& RenderEngine::Impl::rendererFor(const std::shared_ptr<const Datas
   switch (dataset->kind()) {
     case DatasetKind::BrickStore:
       renderer = std::make_unique<VolumeRenderer>(*context, static_cast<const BrickStoreDataset&>(*dataset).cache(),
-                                                  options.gpuBudgetBytes - gpuBytes, options.atlasFormat);
+                                                  options.gpuBudgetBytes - gpuBytes, options.atlasFormat,
+                                                  options.atlasUploads);
       break;
   }
   if (!renderer) throw RenderError("RenderEngine: no renderer for datasets of kind " +

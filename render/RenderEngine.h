@@ -22,6 +22,7 @@ struct RenderEngineOptions {
   /// released to make room for another dataset's atlas.
   size_t gpuBudgetBytes = size_t(1) << 30;
   AtlasFormat atlasFormat = AtlasFormat::Float;  ///< how atlases store samples
+  AtlasUploads atlasUploads = AtlasUploads::Auto;  ///< how bricks reach the atlases
 };
 
 class RenderEngine {

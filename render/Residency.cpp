@@ -12,10 +12,10 @@ constexpr size_t kPrefetchWindow = 256;  // bricks decoded ahead of the one bein
 }  // namespace
 
 Residency::Residency(const GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes,
-                     AtlasFormat format)
+                     AtlasFormat format, AtlasUploads uploads)
     : mCache(std::move(cache)),
       mAtlas(context, mCache->store()->type(), mCache->store()->brickEdge(), gpuBudgetBytes,
-             usefulSlots(*mCache->store()), format) {
+             usefulSlots(*mCache->store()), format, uploads) {
   mSlotRanges.resize(size_t(mAtlas.slots().capacity()));
 }
 
@@ -71,9 +71,13 @@ int Residency::usefulSlots(const store::BrickStore& store) {
   return int(std::min<int64_t>(store.level(0).bricksTotal(), 1 << 20));
 }
 
-size_t Residency::atlasBytes(const store::BrickStore& store, size_t gpuBudgetBytes, AtlasFormat format) {
+size_t Residency::atlasBytes(const store::BrickStore& store, size_t gpuBudgetBytes, AtlasFormat format,
+                             AtlasUploads uploads) {
+  const size_t staging = uploads == AtlasUploads::Staged
+                             ? BrickAtlas::stagingBytes(store.type(), store.brickEdge(), gpuBudgetBytes, format)
+                             : 0;
   const size_t slot = BrickAtlas::slotBytes(store.type(), store.brickEdge(), format);
-  return std::min(gpuBudgetBytes / slot, size_t(usefulSlots(store))) * slot;
+  return std::min((gpuBudgetBytes - staging) / slot, size_t(usefulSlots(store))) * slot + staging;
 }
 
 void Residency::beginFrame(const std::vector<BrickDraw>& bricks) {
@@ -105,8 +109,14 @@ std::optional<Residency::Resident> Residency::acquire(const store::BrickKey& key
   SubBlockRanges& ranges = mSlotRanges[size_t(acquired->slot.index)];
   if (!acquired->resident) {
     prefetchUpTo(++mPaged + kPrefetchWindow);
-    const store::BrickHandle brick = mCache->get(key);
-    mAtlas.upload(acquired->slot, *brick);
+    store::BrickHandle brick;
+    try {
+      brick = mCache->get(key);
+      mAtlas.upload(acquired->slot, *brick);
+    } catch (...) {
+      mAtlas.slots().forget(key);  // the slot holds no brick now: a later frame must read it again, not draw it
+      throw;
+    }
     ranges = subBlock ? SubBlockRanges(*brick, B, subBlock, owned) : SubBlockRanges();
     stats.bricksPagedIn += 1;
     stats.bricksEvicted += acquired->evicted ? 1 : 0;

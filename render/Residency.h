@@ -19,12 +19,14 @@ class Residency {
   /// The most atlas slots a frame of `store` can use: one per level-0 brick (a frame draws at most one brick per
   /// level-0 region, whatever its levels), capped.
   static int usefulSlots(const store::BrickStore& store);
-  /// The texture bytes an atlas for `store` takes under `gpuBudgetBytes` (at most the budget).
-  static size_t atlasBytes(const store::BrickStore& store, size_t gpuBudgetBytes, AtlasFormat format);
+  /// The bytes an atlas for `store` takes under `gpuBudgetBytes` (at most the budget), texture and staging,
+  /// with `uploads` resolved (Direct or Staged).
+  static size_t atlasBytes(const store::BrickStore& store, size_t gpuBudgetBytes, AtlasFormat format,
+                           AtlasUploads uploads);
 
   /// An atlas of `gpuBudgetBytes` in `format` for the bricks of `cache`'s store; the context must be current.
   Residency(const GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes,
-            AtlasFormat format);
+            AtlasFormat format, AtlasUploads uploads = AtlasUploads::Auto);
 
   /// Coarse-to-fine streaming, before beginFrame: every brick of `bricks` that is neither in the atlas nor in the
   /// host cache is drawn from its nearest ancestor that is (up to level `coarsest`, whose brick is read now if no
@@ -49,6 +51,8 @@ class Residency {
   std::optional<Resident> acquire(const store::BrickKey& key, int subBlock, FrameStats& stats);
   /// Ends a batch: its slots may be replaced again.
   void endBatch() { mAtlas.slots().unpinAll(); }
+  /// After a frame failed: unpins every slot (a slot whose brick failed to arrive already holds none).
+  void abortFrame() { endBatch(); }
 
   const BrickAtlas& atlas() const { return mAtlas; }
   const store::BrickStore& store() const { return *mCache->store(); }

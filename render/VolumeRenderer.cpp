@@ -14,9 +14,9 @@ double msSince(Clock::time_point t) { return std::chrono::duration<double, std::
 }  // namespace
 
 VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes,
-                               AtlasFormat format)
+                               AtlasFormat format, AtlasUploads uploads)
     : mGl(context.gl()),
-      mResidency(context, std::move(cache), gpuBudgetBytes, format),
+      mResidency(context, std::move(cache), gpuBudgetBytes, format, uploads),
       mTransfer(mGl, GL_TEXTURE_1D),
       mPrograms(mGl),
       mCompositor(mGl),
@@ -45,30 +45,10 @@ SliceGeometry& VolumeRenderer::geometry(const Scene& scene) {
   return *g;
 }
 
-image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, const FrameOptions& options) {
+image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, const FrameOptions& options,
+                                   FrameStats& stats) {
   const RenderMode mode = options.mode;
-  const auto frameStart = Clock::now();
-  FrameStats stats;
   const store::BrickStore& store = mResidency.store();
-
-  auto t = Clock::now();
-  FramePlan plan = planFrame(scene, store, kTransferTableTexels);
-  stats.nodesVisited = plan.visible.stats.nodesVisited;
-  stats.bricksSkippedEmpty = plan.visible.stats.bricksSkippedEmpty;
-  stats.bricksCulled = plan.visible.stats.bricksCulled;
-  stats.bricksDrawn = plan.visible.stats.bricksDrawn;
-  stats.bricksCoarse = plan.visible.stats.bricksCoarse;
-  stats.bricksCoarsened = plan.visible.stats.bricksCoarsened;
-  stats.bricksPerLevel = plan.visible.stats.bricksPerLevel;
-  stats.msTraversal = msSince(t);
-
-  if (options.standIns) {
-    t = Clock::now();
-    stats.bricksStandIn = mResidency.standIn(plan.visible.bricks, store.levelCount() - 1);
-    for (const BrickDraw& d : plan.visible.bricks)
-      plan.coarsestLevel = std::max(plan.coarsestLevel, int(d.key.level + d.standIn));
-    stats.msPaging += msSince(t);
-  }
   mResidency.beginFrame(plan.visible.bricks);
   mCompositor.begin(scene.width, scene.height, mode != RenderMode::Roofline, plan.ert > 0 || plan.ess);
   const std::vector<glm::vec4> table = scene.transferFunction.table(kTransferTableTexels);
@@ -101,7 +81,45 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, c
   else
     mSlicing.draw(plan, mResidency, program, geometry(scene), stats);
 
-  const image::ImageF image = mCompositor.finish(scene.background, stats);
+  return mCompositor.finish(scene.background, stats);
+}
+
+image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, const FrameOptions& options) {
+  const auto frameStart = Clock::now();
+  FrameStats stats;
+  const store::BrickStore& store = mResidency.store();
+
+  auto t = Clock::now();
+  FramePlan plan = planFrame(scene, store, kTransferTableTexels);
+  stats.nodesVisited = plan.visible.stats.nodesVisited;
+  stats.bricksSkippedEmpty = plan.visible.stats.bricksSkippedEmpty;
+  stats.bricksCulled = plan.visible.stats.bricksCulled;
+  stats.bricksDrawn = plan.visible.stats.bricksDrawn;
+  stats.bricksCoarse = plan.visible.stats.bricksCoarse;
+  stats.bricksCoarsened = plan.visible.stats.bricksCoarsened;
+  stats.bricksPerLevel = plan.visible.stats.bricksPerLevel;
+  stats.msTraversal = msSince(t);
+
+  if (options.standIns) {
+    t = Clock::now();
+    stats.bricksStandIn = mResidency.standIn(plan.visible.bricks, store.levelCount() - 1);
+    for (const BrickDraw& d : plan.visible.bricks)
+      plan.coarsestLevel = std::max(plan.coarsestLevel, int(d.key.level + d.standIn));
+    stats.msPaging += msSince(t);
+  }
+  image::ImageF image;
+  try {
+    image = draw(scene, plan, options, stats);
+  } catch (...) {
+    // A brick that fails its checks (or any other failure mid-frame) must not leave the context half way through
+    // a frame: the next frame, of any dataset, starts from the state every pass expects.
+    mCompositor.abort();
+    mResidency.abortFrame();
+    mGl.glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
+    for (int i = 0; i < 16 && mGl.glGetError() != GL_NO_ERROR; ++i) {  // errors the failure left (bounded: a
+    }                                                                   // lost context reports one forever)
+    throw;
+  }
   if (plan.slab > 0)
     mSlabs.finish(stats);
   else

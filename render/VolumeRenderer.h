@@ -25,7 +25,7 @@ class VolumeRenderer final : public FrameRenderer {
  public:
   /// `context` must be current on this thread whenever the renderer is used. `gpuBudgetBytes` bounds the atlas.
   VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes,
-                 AtlasFormat format = AtlasFormat::Float);
+                 AtlasFormat format = AtlasFormat::Float, AtlasUploads uploads = AtlasUploads::Auto);
   ~VolumeRenderer() override;
 
   /// Renders `scene`; throws RenderInputError for an invalid scene and RenderError for GL failures.
@@ -39,6 +39,8 @@ class VolumeRenderer final : public FrameRenderer {
 
  private:
   SliceGeometry& geometry(const Scene& scene);
+  /// The GL part of a frame, from paging to readback; render() puts the context back in order if it throws.
+  image::ImageF draw(const Scene& scene, const FramePlan& plan, const FrameOptions& options, FrameStats& stats);
 
   const Gl& mGl;
   Residency mResidency;

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 
+#include <sys/stat.h>
+
 namespace voxbrick::server {
 
 bool DatasetRegistry::validName(const std::string& name) {
@@ -27,24 +29,42 @@ std::vector<std::string> DatasetRegistry::names() const {
   return out;
 }
 
+std::string datasetIdentity(const std::filesystem::path& path) {
+  std::string out;
+  const bool directory = std::filesystem::is_directory(path);
+  for (const std::filesystem::path& file :
+       directory ? std::vector{path / "store.json", path / "bricks.bin"} : std::vector{path}) {
+    struct stat s {};
+    if (::stat(file.c_str(), &s) != 0) return {};
+    out += std::to_string(s.st_dev) + ":" + std::to_string(s.st_ino) + ":" + std::to_string(s.st_size) + ":" +
+           std::to_string(s.st_mtim.tv_sec) + "." + std::to_string(s.st_mtim.tv_nsec) + ";";
+  }
+  return out;
+}
+
 std::shared_ptr<const render::Dataset> DatasetRegistry::open(const std::string& name) {
   std::lock_guard lock(mMutex);
-  if (auto it = mOpen.find(name); it != mOpen.end()) return it->second;
   // The name is checked before it touches a path: "..", "/etc" and the like must never reach the file system.
-  if (!validName(name) || !render::isDataset(mDirectory / name))
-    throw DatasetNotFound("no dataset '" + name + "' (see ListDatasets)");
+  if (!validName(name)) throw DatasetNotFound("no dataset '" + name + "' (see ListDatasets)");
+  const std::filesystem::path path = mDirectory / name;
+  const std::string identity = datasetIdentity(path);
+  if (auto it = mOpen.find(name); it != mOpen.end()) {
+    if (it->second.identity == identity) return it->second.dataset;
+    mOpen.erase(it);  // replaced on disk (or gone): sessions holding the old one keep it until they open again
+  }
+  if (!render::isDataset(path)) throw DatasetNotFound("no dataset '" + name + "' (see ListDatasets)");
   // One host budget for the server: the datasets open share it equally, so one more shrinks the others' caches.
   const size_t share = mCacheBytes / (mOpen.size() + 1);
-  auto dataset = render::openDataset(name, mDirectory / name, share);
-  for (const auto& [other, open] : mOpen) open->setCacheBudget(share);
-  mOpen[name] = dataset;
+  auto dataset = render::openDataset(name, path, share);
+  for (const auto& [other, open] : mOpen) open.dataset->setCacheBudget(share);
+  mOpen[name] = {dataset, identity};
   return dataset;
 }
 
 std::vector<std::shared_ptr<const render::Dataset>> DatasetRegistry::opened() const {
   std::lock_guard lock(mMutex);
   std::vector<std::shared_ptr<const render::Dataset>> out;
-  for (const auto& [name, dataset] : mOpen) out.push_back(dataset);
+  for (const auto& [name, open] : mOpen) out.push_back(open.dataset);
   return out;
 }
 

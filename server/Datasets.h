@@ -26,8 +26,10 @@ class DatasetRegistry {
 
   /// The datasets present now, sorted (the directory is scanned on every call, so datasets added later appear).
   std::vector<std::string> names() const;
-  /// Opens `name` (or returns it if already open). Throws DatasetNotFound for a name that is not a dataset of the
-  /// directory, and the dataset's own errors (CorruptStoreError, IoError) for one that cannot be opened.
+  /// Opens `name`, or returns it if already open and its files on disk are the ones it was opened from (their
+  /// identity: device, inode, size and modification time); a dataset replaced on disk (e.g. by `prep --force`) is
+  /// opened again, and the new one is not quarantined. Throws DatasetNotFound for a name that is not a dataset of
+  /// the directory, and the dataset's own errors (CorruptStoreError, IoError) for one that cannot be opened.
   std::shared_ptr<const render::Dataset> open(const std::string& name);
   /// The datasets opened so far, by name.
   std::vector<std::shared_ptr<const render::Dataset>> opened() const;
@@ -41,7 +43,21 @@ class DatasetRegistry {
   std::filesystem::path mDirectory;
   size_t mCacheBytes;
   mutable std::mutex mMutex;
-  std::map<std::string, std::shared_ptr<const render::Dataset>> mOpen;
+  struct Open {
+    std::shared_ptr<const render::Dataset> dataset;
+    std::string identity;  // of its files when opened (datasetIdentity)
+  };
+  std::map<std::string, Open> mOpen;
+};
+
+/// The identity of a dataset's files (a store directory's store.json and bricks.bin, or a .vdb file): device,
+/// inode, size and modification time of each, as text; empty when they cannot be read.
+std::string datasetIdentity(const std::filesystem::path& path);
+
+/// A Render for a quarantined dataset (answered as Internal, without drawing and without logging again).
+class DatasetUnavailable : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
 };
 
 /// OpenDataset named no dataset of the directory (the client's mistake): UnknownDataset.

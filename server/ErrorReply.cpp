@@ -30,6 +30,8 @@ proto::Error errorReply(const std::exception_ptr& error, const std::string& cont
     return errorMessage(e.code(), e.what());
   } catch (const DatasetNotFound& e) {
     return errorMessage(ErrorCode::UnknownDataset, e.what());
+  } catch (const DatasetUnavailable& e) {
+    return errorMessage(ErrorCode::Internal, e.what());
   } catch (const render::RenderInputError& e) {
     return errorMessage(ErrorCode::InvalidScene, e.what());
   } catch (const LimitExceededError& e) {

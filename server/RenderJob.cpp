@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "brickstore/Errors.h"
 #include "image/FrameImage.h"
 #include "render/FramePlan.h"
 #include "server/ErrorReply.h"
@@ -41,6 +42,14 @@ RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int 
     statsJson["provisional"] = provisional;
     frame.statsJson = statsJson.dump();
     return {std::move(frame), provisional};
+  } catch (const store::CorruptStoreError& e) {
+    // The data failed its checks: the dataset's later renders are refused without drawing (MessageHandler).
+    if (job.dataset) job.dataset->quarantine(e.what());
+    return {errorReply(std::current_exception(),
+                       "render of request " + std::to_string(job.requestId) + " on '" +
+                           (job.dataset ? job.dataset->name() : std::string("no dataset")) +
+                           "' failed; the dataset is quarantined until it is replaced"),
+            false};
   } catch (...) {
     return {errorReply(std::current_exception(),
                        "render of request " + std::to_string(job.requestId) + " on '" +

@@ -31,7 +31,8 @@ json datasetJson(const render::Dataset& dataset) {
                      {"hit_rate", lookups > 0 ? double(c.hits) / lookups : 0.0},
                      {"resident_bytes", c.residentBytes},
                      {"budget_bytes", c.budgetBytes},
-                     {"evictions", c.evictions}}}};
+                     {"evictions", c.evictions}}},
+          {"quarantined", dataset.quarantined() ? json(*dataset.quarantined()) : json(nullptr)}};
 }
 
 }  // namespace

@@ -463,6 +463,66 @@ TEST_F(ServerTest, TheGpuBudgetHoldsAcrossDatasetsAndThreads) {
   EXPECT_GT(budgets, uint64_t(1000) << 20);
 }
 
+TEST_F(ServerTest, ACorruptDatasetIsQuarantinedAndEveryOtherKeepsRendering) {
+  ScratchDir work;
+  const auto dir = work / "datasets";
+  std::filesystem::create_directories(dir);
+  std::filesystem::copy(std::filesystem::path(datasets()) / "sparse", dir / "good",
+                        std::filesystem::copy_options::recursive);
+  std::filesystem::copy(dir / "good", dir / "bad", std::filesystem::copy_options::recursive);
+  {
+    // Eight bytes flipped every 2 KiB of bricks.bin: every brick of any size fails its decode.
+    std::fstream file(dir / "bad" / "bricks.bin", std::ios::in | std::ios::out | std::ios::binary);
+    const auto size = std::streamoff(std::filesystem::file_size(dir / "bad" / "bricks.bin"));
+    for (std::streamoff at = 512; at + 8 < size; at += 2048) {
+      char bytes[8];
+      file.seekg(at);
+      file.read(bytes, 8);
+      for (char& c : bytes) c = static_cast<char>(~c);
+      file.seekp(at);
+      file.write(bytes, 8);
+    }
+    ASSERT_TRUE(file.good());
+  }
+  // One render thread: before, a failed frame left its context unusable for every later frame of any dataset.
+  ServerProcess server("--datasets " + dir.string() + " --render-threads 1", work.path());
+  auto good = session(server, "good");
+  const std::vector<uint8_t> before = pixels(good->render(kScene, proto::Encoding::RawRgba8));
+
+  auto bad = session(server, "bad");
+  std::string first, second;
+  try {
+    bad->render(kScene, proto::Encoding::RawRgba8);
+    ADD_FAILURE() << "a corrupt dataset rendered";
+  } catch (const ServerError& e) {
+    EXPECT_EQ(e.code(), ErrorCode::Internal);
+    first = e.what();
+  }
+  EXPECT_NE(first.find("quarantined"), std::string::npos) << first;
+  EXPECT_NE(first.find("bricks.bin"), std::string::npos) << first;
+  for (int round = 0; round < 3; ++round) {
+    EXPECT_EQ(pixels(good->render(kScene, proto::Encoding::RawRgba8)), before) << "round " << round;
+    try {
+      bad->render(kScene, proto::Encoding::RawRgba8);
+      ADD_FAILURE() << "a quarantined dataset rendered";
+    } catch (const ServerError& e) {
+      EXPECT_EQ(e.code(), ErrorCode::Internal);
+      second = e.what();
+    }
+    EXPECT_NE(second.find("is quarantined until it is replaced"), std::string::npos) << second;
+  }
+  const json stats = json::parse(good->stats());
+  for (const json& d : stats["datasets"])
+    EXPECT_EQ(d["quarantined"].is_string(), d["name"] == "bad") << d.dump();
+
+  // Replaced on disk (as `prep --force` does: a new directory): the same session draws the new data.
+  std::filesystem::remove_all(dir / "bad");
+  std::filesystem::copy(dir / "good", dir / "bad", std::filesystem::copy_options::recursive);
+  EXPECT_EQ(pixels(bad->render(kScene, proto::Encoding::RawRgba8)), before);
+  auto again = session(server, "bad");
+  EXPECT_EQ(pixels(again->render(kScene, proto::Encoding::RawRgba8)), before);
+}
+
 TEST_F(ServerTest, ShortLoadWithFaultsLeavesGoodClientsUnharmed) {
   auto server = start();
   const std::string address = "127.0.0.1:" + std::to_string(server->port());

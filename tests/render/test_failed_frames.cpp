@@ -1,0 +1,101 @@
+// A frame that fails (a corrupt brick met in the middle of drawing) leaves its GL context as it found it: the same
+// engine then draws other datasets exactly as a fresh one does, and the bad dataset fails again with the same clear
+// error, never a GL one.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "brickstore/Errors.h"
+#include "render/Dataset.h"
+#include "render/RenderEngine.h"
+#include "render/RenderFixtures.h"
+#include "support/TestSupport.h"
+
+namespace voxbrick::render {
+namespace {
+
+using test::ScratchDir;
+
+/// Flips bytes in the middle of one stored brick of level 0 (the seventh in storage order), so that a frame pages
+/// good bricks before it meets the bad one, and a frame that did not read it again would not fail.
+void corruptBricks(const std::filesystem::path& storeDir) {
+  const auto s = store::BrickStore::open(storeDir);
+  std::fstream file(storeDir / "bricks.bin", std::ios::in | std::ios::out | std::ios::binary);
+  ASSERT_TRUE(file.good());
+  const store::LevelMeta& level = s->level(0);
+  int stored = 0;
+  for (uint32_t k = 0; k < uint32_t(level.bricks.z); ++k)
+    for (uint32_t j = 0; j < uint32_t(level.bricks.y); ++j)
+      for (uint32_t i = 0; i < uint32_t(level.bricks.x); ++i) {
+        const store::BrickRecord& r = s->record({0, i, j, k});
+        if (r.compressedSize < 64 || ++stored != 7) continue;
+        std::vector<char> bytes(8);
+        const auto at = static_cast<std::streamoff>(r.offset + r.compressedSize / 2);
+        file.seekg(at);
+        file.read(bytes.data(), std::streamsize(bytes.size()));
+        for (char& c : bytes) c = static_cast<char>(~c);
+        file.seekp(at);
+        file.write(bytes.data(), std::streamsize(bytes.size()));
+      }
+  ASSERT_TRUE(file.good());
+  ASSERT_GE(stored, 7);
+}
+
+std::string failure(RenderEngine& engine, const std::shared_ptr<const Dataset>& d, const Scene& scene) {
+  try {
+    engine.render(d, scene);
+  } catch (const store::CorruptStoreError& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "not a CorruptStoreError: " << e.what();
+    return e.what();
+  }
+  ADD_FAILURE() << "the frame of a corrupt store did not fail";
+  return {};
+}
+
+TEST(FailedFrames, LeaveTheContextAsTheyFoundIt) {
+  ScratchDir dir;
+  test::prep("synthetic:blobs,n=64,seed=5", dir / "bad", 16);
+  test::prep("synthetic:blobs,n=64,seed=6", dir / "good", 16);
+  corruptBricks(dir / "bad");
+  const auto bad = openDataset("bad", dir / "bad", size_t(64) << 20);
+  const auto good = openDataset("good", dir / "good", size_t(64) << 20);
+
+  // Every way a frame draws: slicing, slabs, the CPU slicer, out of core, after stand-ins, staged uploads.
+  for (int variant = 0; variant < 6; ++variant) {
+    Scene s = test::lodScene(0);
+    RenderEngineOptions options{Backend::Auto, size_t(64) << 20, AtlasFormat::Float};
+    switch (variant) {
+      case 0: s.slab = 0; break;
+      case 1: break;
+      case 2: s.slicer = Slicer::Cpu; s.slab = 0; break;
+      case 3: options.gpuBudgetBytes = size_t(200) << 10; break;
+      case 5: options.atlasUploads = AtlasUploads::Staged; break;
+    }
+    const std::string what = "variant " + std::to_string(variant);
+    image::ImageF want;
+    {
+      RenderEngine fresh(options);
+      want = fresh.render(good, s);
+      ASSERT_GT(test::meanBrightness(want), 0.01) << what;
+    }
+    RenderEngine engine(options);
+    if (variant == 4) {
+      // A provisional frame draws the bad bricks from their (sound) ancestors and queues them, which fails
+      // quietly on the cache's workers; the exact frame then meets them.
+      FrameStats stats;
+      engine.render(bad, s, &stats, {RenderMode::Normal, true});
+      EXPECT_GT(stats.bricksStandIn, 0) << what;
+    }
+    const std::string first = failure(engine, bad, s);
+    EXPECT_NE(first.find("bricks.bin"), std::string::npos) << what << ": " << first;
+    for (int round = 0; round < 2; ++round) {
+      test::expectClose(engine.render(good, s), want, 0.0, what + ", a good dataset after it");
+      EXPECT_EQ(failure(engine, bad, s), first) << what << ": the bad one fails again, the same way";
+    }
+  }
+}
+
+}  // namespace
+}  // namespace voxbrick::render
