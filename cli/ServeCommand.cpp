@@ -14,6 +14,7 @@ namespace {
 struct ServeArgs {
   std::string config, host, datasets, backend, logLevel, portFile;
   int port = -1, renderThreads = 0, ioThreads = 0, maxSessions = 0, maxImageSide = 0;
+  double maxRenderMSamples = 0;
   double idleTimeout = 0, readTimeout = 0, writeTimeout = 0;
   bool noCoalesce = false;
   int64_t hostCacheMB = 0, gpuBudgetMB = 0, maxMessageBytes = 0;
@@ -30,6 +31,7 @@ void runServe(const ServeArgs& a) {
   if (a.ioThreads > 0) c.ioThreads = a.ioThreads;
   if (a.maxSessions > 0) c.maxSessions = a.maxSessions;
   if (a.maxImageSide > 0) c.maxImageSide = a.maxImageSide;
+  if (a.maxRenderMSamples > 0) c.maxRenderMSamples = a.maxRenderMSamples;
   if (a.maxMessageBytes > 0) c.maxMessageBytes = uint32_t(std::min<int64_t>(a.maxMessageBytes, UINT32_MAX));
   if (a.idleTimeout > 0) c.idleTimeoutS = a.idleTimeout;
   if (a.readTimeout > 0) c.readTimeoutS = a.readTimeout;
@@ -75,6 +77,8 @@ void addServeCommand(CLI::App& app) {
   cmd->add_option("--io-threads", a->ioThreads, "network I/O threads");
   cmd->add_option("--max-sessions", a->maxSessions, "concurrent sessions");
   cmd->add_option("--max-image-side", a->maxImageSide, "largest frame side in pixels");
+  cmd->add_option("--max-render-msamples", a->maxRenderMSamples,
+                  "most a Render may cost, in millions of samples (an upper estimate made before drawing)");
   cmd->add_option("--max-message-bytes", a->maxMessageBytes, "largest client message body");
   cmd->add_option("--idle-timeout", a->idleTimeout, "seconds without a message before a session is closed");
   cmd->add_option("--read-timeout", a->readTimeout, "seconds to complete a message once its header arrived");

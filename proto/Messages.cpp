@@ -43,39 +43,6 @@ T getLittleEndian(const uint8_t* in) {
   return static_cast<T>(value);
 }
 
-/// Offset of the first byte that does not start a well-formed UTF-8 sequence (Unicode Table 3-7: no overlong
-/// forms, no surrogates, nothing above U+10FFFF), or `size` if all are well formed.
-size_t invalidUtf8At(const uint8_t* p, size_t size) {
-  size_t i = 0;
-  while (i < size) {
-    const uint8_t c = p[i];
-    if (c < 0x80) {
-      ++i;
-      continue;
-    }
-    size_t length;
-    uint8_t lo = 0x80, hi = 0xBF;  // the range of the second byte; later ones are always 80..BF
-    if (c >= 0xC2 && c <= 0xDF) {
-      length = 2;
-    } else if (c >= 0xE0 && c <= 0xEF) {
-      length = 3;
-      if (c == 0xE0) lo = 0xA0;
-      if (c == 0xED) hi = 0x9F;
-    } else if (c >= 0xF0 && c <= 0xF4) {
-      length = 4;
-      if (c == 0xF0) lo = 0x90;
-      if (c == 0xF4) hi = 0x8F;
-    } else {
-      return i;
-    }
-    if (size - i < length || p[i + 1] < lo || p[i + 1] > hi) return i;
-    for (size_t k = 2; k < length; ++k)
-      if (p[i + k] < 0x80 || p[i + k] > 0xBF) return i;
-    i += length;
-  }
-  return size;
-}
-
 /// Counts the bytes a body will take, so that encode() can refuse an oversized body and allocate once.
 class Sizer {
  public:
@@ -314,6 +281,38 @@ Message decodeAs(const Header& header, std::span<const uint8_t> body, const Limi
 }
 
 }  // namespace
+
+size_t invalidUtf8At(const uint8_t* p, size_t size) {
+  size_t i = 0;
+  while (i < size) {
+    const uint8_t c = p[i];
+    if (c < 0x80) {
+      ++i;
+      continue;
+    }
+    size_t length;
+    uint8_t lo = 0x80, hi = 0xBF;  // the range of the second byte; later ones are always 80..BF
+    if (c >= 0xC2 && c <= 0xDF) {
+      length = 2;
+    } else if (c >= 0xE0 && c <= 0xEF) {
+      length = 3;
+      if (c == 0xE0) lo = 0xA0;
+      if (c == 0xED) hi = 0x9F;
+    } else if (c >= 0xF0 && c <= 0xF4) {
+      length = 4;
+      if (c == 0xF0) lo = 0x90;
+      if (c == 0xF4) hi = 0x8F;
+    } else {
+      return i;
+    }
+    if (size - i < length || p[i + 1] < lo || p[i + 1] > hi) return i;
+    for (size_t k = 2; k < length; ++k)
+      if (p[i + k] < 0x80 || p[i + k] > 0xBF) return i;
+    i += length;
+  }
+  return size;
+}
+
 
 const char* errorCodeName(ErrorCode code) {
   switch (code) {

@@ -51,6 +51,10 @@ enum class ErrorCode : uint16_t {
   ShuttingDown = 12,       ///< the server is stopping
   Timeout = 13,            ///< idle or read timeout (the server closes)
 };
+/// Offset of the first byte of `p` that does not start a well-formed UTF-8 sequence (Unicode Table 3-7: no overlong
+/// forms, no surrogates, nothing above U+10FFFF), or `size` if all are well formed.
+size_t invalidUtf8At(const uint8_t* p, size_t size);
+
 /// The code's name as PROTOCOL.md spells it ("BadMagic", ...), or "unknown" for a value outside the enum.
 const char* errorCodeName(ErrorCode code);
 

@@ -101,6 +101,31 @@ std::vector<uint8_t> brickLevels(const TraversalResult& visible, const store::St
   return levels;
 }
 
+double FramePlan::estimatedSamples() const {
+  double samples = 0;
+  for (const BrickDraw& brick : visible.bricks) {
+    const Box& b = brick.box;
+    glm::dvec2 lo(1e300), hi(-1e300);
+    double nearest = 1e300, farthest = -1e300;
+    bool behind = false;
+    for (int c = 0; c < 8; ++c) {
+      const glm::dvec3 p{c & 1 ? b.max.x : b.min.x, c & 2 ? b.max.y : b.min.y, c & 4 ? b.max.z : b.min.z};
+      const glm::dvec4 clip = viewProj * glm::dvec4(p, 1.0);
+      if (clip.w <= 1e-12) behind = true;
+      else lo = glm::min(lo, glm::dvec2(clip) / clip.w), hi = glm::max(hi, glm::dvec2(clip) / clip.w);
+      const double d = glm::dot(p, planeNormal);
+      nearest = std::min(nearest, d), farthest = std::max(farthest, d);
+    }
+    // A box reaching behind the eye may cover the whole screen.
+    if (behind) lo = glm::dvec2(-1), hi = glm::dvec2(1);
+    lo = glm::clamp(lo, -1.0, 1.0), hi = glm::clamp(hi, -1.0, 1.0);
+    const double pixels = (hi.x - lo.x) * 0.5 * width * (hi.y - lo.y) * 0.5 * height;
+    const double planes = (farthest - nearest) / (step * planeStride(int(brick.key.level + brick.standIn))) + 1;
+    samples += std::max(pixels, 0.0) * planes;
+  }
+  return samples;
+}
+
 std::pair<double, double> FramePlan::segmentRatios() const {
   const double ratio = step / referenceLength;
   const double coarse = double(planeStride(coarsestLevel));

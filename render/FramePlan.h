@@ -70,6 +70,11 @@ struct FramePlan {
   /// to a convex function of window position). The longest is that of the coarsest level's plane stride.
   std::pair<double, double> segmentRatios() const;
 
+  /// An upper estimate of the samples the frame takes, its cost: for each brick to draw, the pixels of the screen
+  /// rectangle around its projected box times the planes through it at its level's stride (every plane when
+  /// slicing, so slicing's finer levels cost what they do). No GL, a few operations per brick.
+  double estimatedSamples() const;
+
   /// The box to draw for voxel box `b`: larger than the voxels it owns, so that the fragment stage's ownership test
   /// decides coverage. At the volume's surface by kSurfaceMargin voxels; between boxes by kInteriorMargin with
   /// exact ownership, else not at all.

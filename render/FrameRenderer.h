@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 
 #include "render/FrameStats.h"
 #include "image/Image.h"
@@ -20,6 +21,13 @@ struct FrameOptions {
   /// nearest resident ancestor and paged for a later frame, so the frame never waits for the disk
   /// (FrameStats::bricksStandIn counts them). False: every brick is drawn at its own level, read now if need be.
   bool standIns = false;
+  /// The most samples the frame may cost (FramePlan::estimatedSamples, checked before anything is paged or drawn);
+  /// above it the frame throws RenderLimitError. 0: no limit.
+  double maxSamples = 0;
+  /// Asked between batches and texture slabs: true gives the frame up (FrameCancelled), leaving the context clean.
+  /// With it the renderer also keeps at most two checkpoints of GL work queued, so that giving up takes effect
+  /// within about one slab's work rather than after the whole queued frame. Empty: never cancelled.
+  std::function<bool()> cancelled = {};
 };
 
 /// A renderer of one dataset on one GL context (so one render thread); it keeps its GPU state between frames.

@@ -8,7 +8,7 @@ nlohmann::json FrameStats::toJson() const {
           {"bricks_culled", bricksCulled},   {"bricks_drawn", bricksDrawn},
           {"bricks_paged_in", bricksPagedIn}, {"bricks_evicted", bricksEvicted},
           {"batches", batches},               {"slices", slices},
-          {"fragments", fragments},           {"samples", samples},
+          {"fragments", fragments},           {"samples", samples},             {"samples_estimated", samplesEstimated},
           {"samples_terminated", samplesTerminated}, {"slab_passes", slabPasses},
           {"sub_blocks_skipped", subBlocksSkipped}, {"boxes_drawn", boxesDrawn},
           {"bricks_coarse", bricksCoarse},   {"bricks_coarsened", bricksCoarsened},

@@ -21,6 +21,7 @@ struct FrameStats {
   std::vector<int64_t> bricksPerLevel;  ///< bricks drawn of each pyramid level
   int64_t bricksPagedIn = 0;   ///< uploaded into the atlas this frame
   int64_t bricksEvicted = 0;   ///< replaced in the atlas this frame
+  double samplesEstimated = 0; ///< the frame's cost as estimated before drawing (FramePlan::estimatedSamples)
   int64_t batches = 0;         ///< draw batches (more than one when the atlas cannot hold the frame's bricks)
   int64_t slices = 0;          ///< brick-plane polygons submitted
   int64_t fragments = 0;       ///< volume fragments started: slices (GL_SAMPLES_PASSED) or slab fragments

@@ -19,6 +19,18 @@ class RenderInputError : public RenderError {
   using RenderError::RenderError;
 };
 
+/// A frame whose estimated cost is above the limit its caller set (FrameOptions::maxSamples).
+class RenderLimitError : public RenderError {
+ public:
+  using RenderError::RenderError;
+};
+
+/// A frame given up part way because its caller no longer wants it (FrameOptions::cancelled).
+class FrameCancelled : public RenderError {
+ public:
+  using RenderError::RenderError;
+};
+
 /// Formats a number for an error message: the shortest text that reads back as the same double ("0.1", "1e-09").
 inline std::string numberText(double value) {
   char buffer[32];

@@ -66,6 +66,9 @@ Scene Scene::fromJson(const std::string& text, const std::string& what, const Tr
 
 Scene Scene::parse(const std::string& text, const std::string& what, bool allowPaths,
                    const TransferFunctionPresets* presets) {
+  // The JSON parser stops at a NUL as at the end of the text: what follows one would be ignored, not refused.
+  if (const size_t nul = text.find('\0'); nul != std::string::npos)
+    throw RenderInputError(what + ": not valid JSON (a NUL byte at offset " + std::to_string(nul) + ")");
   json j;
   try {
     j = json::parse(text);
@@ -84,6 +87,10 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   if (j.contains("camera")) {
     const json& c = j["camera"];
     if (!c.is_object()) throw RenderInputError(what + ": 'camera' must be an object");
+    static const char* kCameraKeys[] = {"orbit", "eye", "center", "up", "fov", "orthographic"};
+    for (auto it = c.begin(); it != c.end(); ++it)
+      if (std::find(std::begin(kCameraKeys), std::end(kCameraKeys), it.key()) == std::end(kCameraKeys))
+        throw RenderInputError(what + ": unknown key 'camera." + it.key() + "'");
     if (c.contains("orbit")) {
       const glm::dvec3 o = vec3(c["orbit"], "camera.orbit", what);
       s.camera.orbit = true;

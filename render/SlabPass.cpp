@@ -30,7 +30,7 @@ SlabPass::SlabPass(const Gl& gl)
 
 void SlabPass::draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program,
                     const VolumeProgram* emptyTest, SlabGeometry& geometry, Compositor& compositor,
-                    FrameStats& stats) {
+                    FrameStats& stats, Checkpoints& checkpoints) {
   mSlabsDrawn = 0;
   const std::array<uint32_t, 2 * kCounters> zero{};
   mCounters.allocate(GL_SHADER_STORAGE_BUFFER, sizeof(zero), zero.data(), GL_DYNAMIC_COPY);
@@ -38,14 +38,15 @@ void SlabPass::draw(const FramePlan& plan, Residency& residency, const VolumePro
   mBoxes.clear();
   auto add = [&](const QueuedBox& b) { mBoxes.push_back(b); };
   auto flush = [&] {
-    drawBatch(plan, program, plan.ess ? emptyTest : nullptr, geometry, compositor, stats);
+    drawBatch(plan, program, plan.ess ? emptyTest : nullptr, geometry, compositor, stats, checkpoints);
     mBoxes.clear();
   };
-  mWalk.run(plan, residency, geometry, stats, add, flush);
+  mWalk.run(plan, residency, geometry, stats, checkpoints, add, flush);
 }
 
 void SlabPass::drawBatch(const FramePlan& plan, const VolumeProgram& program, const VolumeProgram* emptyTest,
-                         SlabGeometry& geometry, Compositor& compositor, FrameStats& stats) {
+                         SlabGeometry& geometry, Compositor& compositor, FrameStats& stats,
+                         Checkpoints& checkpoints) {
   if (mBoxes.empty()) return;
   int64_t lo = std::numeric_limits<int64_t>::max(), hi = std::numeric_limits<int64_t>::min();
   for (const QueuedBox& b : mBoxes) lo = std::min(lo, b.planes.begin), hi = std::max(hi, b.planes.end);
@@ -82,6 +83,7 @@ void SlabPass::drawBatch(const FramePlan& plan, const VolumeProgram& program, co
     mGl.glDepthRange(0, 1);
     stats.slabPasses += 1;
     if (plan.ert > 0 && first + n < hi) terminate(plan, compositor);
+    checkpoints.pace();
     stats.msDrawing += msSince(t);
   }
 }

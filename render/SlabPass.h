@@ -33,14 +33,15 @@ class SlabPass {
   /// GPU does not (see finish).
   /// With plan.ess, `emptyTest` is the EMPTY_TEST variant of `program`.
   void draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program,
-            const VolumeProgram* emptyTest, SlabGeometry& geometry, Compositor& compositor, FrameStats& stats);
+            const VolumeProgram* emptyTest, SlabGeometry& geometry, Compositor& compositor, FrameStats& stats,
+            Checkpoints& checkpoints);
   /// After the compositor's finish: the slab fragments' own counts (fragments started, samples taken and left by
   /// termination) into `stats`.
   void finish(FrameStats& stats) const;
 
  private:
   void drawBatch(const FramePlan& plan, const VolumeProgram& program, const VolumeProgram* emptyTest,
-                 SlabGeometry& geometry, Compositor& compositor, FrameStats& stats);
+                 SlabGeometry& geometry, Compositor& compositor, FrameStats& stats, Checkpoints& checkpoints);
   void terminate(const FramePlan& plan, Compositor& compositor) const;
 
   const Gl& mGl;

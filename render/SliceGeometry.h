@@ -28,6 +28,8 @@ class SliceGeometry {
   virtual bool empty() const = 0;
   /// Draws what is queued with the program in use, then empties the queue.
   virtual void draw() = 0;
+  /// Empties the queue without drawing (a frame given up part way).
+  virtual void clear() = 0;
 
  protected:
   /// Makes the buffer and the vertex array (bound, for the subclass to describe its layout).
@@ -50,6 +52,7 @@ class VertexSliceGeometry final : public SliceGeometry {
            const glm::ivec3& ownHi, const FramePlan& plan) override;
   bool empty() const override { return mInstances.empty(); }
   void draw() override;
+  void clear() override { mInstances.clear(); }
 
  private:
   std::vector<SliceInstance> mInstances;
@@ -66,6 +69,7 @@ class CpuSliceGeometry final : public SliceGeometry {
            const glm::ivec3& ownHi, const FramePlan& plan) override;
   bool empty() const override { return mVertices.empty(); }
   void draw() override;
+  void clear() override { mVertices.clear(); }
 
  private:
   std::vector<SliceVertex> mVertices;
@@ -82,6 +86,7 @@ class SlabGeometry final : public SliceGeometry {
            const glm::ivec3& ownHi, const FramePlan& plan) override;
   bool empty() const override { return mInstances.empty(); }
   void draw() override;
+  void clear() override { mInstances.clear(); }
   /// Draws what is queued and keeps it queued (uploaded once), for a second pass over the same slab.
   void drawKeep();
 

@@ -20,11 +20,13 @@ bool clipSpan(VoxelSpan& span, const store::Vec3i& lo, const store::Vec3i& hi) {
 }  // namespace
 
 void BrickWalk::run(const FramePlan& plan, Residency& residency, const SliceGeometry& geometry, FrameStats& stats,
-                    const std::function<void(const QueuedBox&)>& add, const std::function<void()>& flush) {
+                    const Checkpoints& checkpoints, const std::function<void(const QueuedBox&)>& add,
+                    const std::function<void()>& flush) {
   const store::StoreMeta& meta = residency.store().meta();
   const int B = residency.store().brickSize();
   mSubStats = {};
   for (const BrickDraw& brick : plan.visible.bricks) {
+    checkpoints.poll();
     auto t = Clock::now();
     const PlaneIndexRange brickPlanes = geometry.planes(plan.drawBox(brick.box, meta.spacing), plan);
     stats.msSlicing += msSince(t);
@@ -100,7 +102,7 @@ void BrickWalk::cutBrick(const FramePlan& plan, const BrickDraw& draw, const Res
 }
 
 void SlicingPass::draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program,
-                       SliceGeometry& geometry, FrameStats& stats) {
+                       SliceGeometry& geometry, FrameStats& stats, Checkpoints& checkpoints) {
   auto add = [&](const QueuedBox& b) { geometry.add(b.box, b.planes, b.payload, b.ownLo, b.ownHi, plan); };
   auto flush = [&] {
     if (geometry.empty()) return;
@@ -108,9 +110,10 @@ void SlicingPass::draw(const FramePlan& plan, Residency& residency, const Volume
     program.program().use();
     geometry.draw();
     stats.batches += 1;
+    checkpoints.pace();
     stats.msDrawing += msSince(t);
   };
-  mWalk.run(plan, residency, geometry, stats, add, flush);
+  mWalk.run(plan, residency, geometry, stats, checkpoints, add, flush);
 }
 
 }  // namespace voxbrick::render

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "render/FramePlan.h"
+#include "render/Checkpoints.h"
 #include "render/Residency.h"
 #include "render/SliceGeometry.h"
 #include "render/SubBlocks.h"
@@ -30,9 +31,10 @@ class BrickWalk {
  public:
   /// Hands every box to `add`, in visibility order; calls `flush` when the atlas is full of the current batch's
   /// bricks (the batch is then ended) and once at the end. `geometry` gives the planes through a box. Fills the
-  /// slicing, paging, sub-block and box counters of `stats`.
+  /// slicing, paging, sub-block and box counters of `stats`. Polls `checkpoints` before each brick.
   void run(const FramePlan& plan, Residency& residency, const SliceGeometry& geometry, FrameStats& stats,
-           const std::function<void(const QueuedBox&)>& add, const std::function<void()>& flush);
+           const Checkpoints& checkpoints, const std::function<void(const QueuedBox&)>& add,
+           const std::function<void()>& flush);
 
  private:
   void cutBrick(const FramePlan& plan, const BrickDraw& draw, const Residency::Resident& resident,
@@ -46,9 +48,9 @@ class BrickWalk {
 class SlicingPass {
  public:
   /// Draws every brick of `plan.visible` with `program` through `geometry`, paging through `residency`. Fills the
-  /// slicing, paging and drawing counters and times of `stats`.
+  /// slicing, paging and drawing counters and times of `stats`. Paces `checkpoints` after each batch.
   void draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program, SliceGeometry& geometry,
-            FrameStats& stats);
+            FrameStats& stats, Checkpoints& checkpoints);
 
  private:
   BrickWalk mWalk;

@@ -2,8 +2,10 @@
 #include "render/VolumeRenderer.h"
 
 #include <chrono>
+#include <cmath>
 
 #include "render/FramePlan.h"
+#include "render/RenderErrors.h"
 
 namespace voxbrick::render {
 namespace {
@@ -75,11 +77,12 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
     emptyTest->setFrame(plan, mResidency.atlas(), store.meta());
     if (plan.preIntegration) emptyTest->setTable(mPreIntegration.spec());
   }
+  Checkpoints checkpoints(mGl, options.cancelled);
   if (plan.slab > 0)
     mSlabs.draw(plan, mResidency, program, emptyTest, static_cast<SlabGeometry&>(geometry(scene)), mCompositor,
-                stats);
+                stats, checkpoints);
   else
-    mSlicing.draw(plan, mResidency, program, geometry(scene), stats);
+    mSlicing.draw(plan, mResidency, program, geometry(scene), stats, checkpoints);
 
   return mCompositor.finish(scene.background, stats);
 }
@@ -99,6 +102,11 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, c
   stats.bricksCoarsened = plan.visible.stats.bricksCoarsened;
   stats.bricksPerLevel = plan.visible.stats.bricksPerLevel;
   stats.msTraversal = msSince(t);
+  stats.samplesEstimated = plan.estimatedSamples();
+  if (options.maxSamples > 0 && stats.samplesEstimated > options.maxSamples)
+    throw RenderLimitError("the frame would take about " + numberText(std::round(stats.samplesEstimated / 1e6)) +
+                           " million samples, above the limit of " + numberText(options.maxSamples / 1e6) +
+                           " million; ask for a smaller image, a coarser step or a level of detail");
 
   if (options.standIns) {
     t = Clock::now();
@@ -115,6 +123,8 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, c
     // a frame: the next frame, of any dataset, starts from the state every pass expects.
     mCompositor.abort();
     mResidency.abortFrame();
+    for (auto& g : mGeometry)
+      if (g) g->clear();  // boxes queued for a batch that was never drawn
     mGl.glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
     for (int i = 0; i < 16 && mGl.glGetError() != GL_NO_ERROR; ++i) {  // errors the failure left (bounded: a
     }                                                                   // lost context reports one forever)

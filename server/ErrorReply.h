@@ -16,7 +16,12 @@ class LimitExceededError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// An Error reply; `message` is cut (at a UTF-8 character boundary) to 4096 bytes.
+/// What a client may be told of `text`: valid UTF-8 (each byte that starts no well-formed sequence becomes U+FFFD)
+/// and no path of the server's (an absolute path with two slashes or more becomes "…/" and its last part, e.g.
+/// "…/bricks.bin"). The full text goes to the server's log where it matters (errorReply, Internal).
+std::string clientText(const std::string& text);
+
+/// An Error reply; `message` goes through clientText and is cut (at a UTF-8 character boundary) to 4096 bytes.
 proto::Error errorMessage(proto::ErrorCode code, const std::string& message);
 
 /// The Error reply for `error`: proto::ProtocolError -> its code, DatasetNotFound -> UnknownDataset,

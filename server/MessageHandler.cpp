@@ -122,6 +122,18 @@ Outcome MessageHandler::render(ConnectionState& state, const proto::RenderReques
     throw LimitExceededError("image " + std::to_string(job.scene.width) + "x" + std::to_string(job.scene.height) +
                              " exceeds this server's limit of " + std::to_string(mConfig.maxImageSide) +
                              " per side");
+  // A raw frame's size is known now: one the session could not receive is refused before it is drawn (the stats
+  // take a few hundred bytes; 4 KiB is kept for them). Other encodings are checked once encoded (renderReply).
+  job.maxBodyBytes = mConfig.maxMessageBytes;
+  job.maxSamples = mConfig.maxRenderMSamples * 1e6;
+  if (job.encoding == proto::Encoding::RawRgba8) {
+    const uint64_t body = frameBodyBytes(4096, uint64_t(job.scene.width) * uint64_t(job.scene.height) * 4);
+    if (body > job.maxBodyBytes)
+      throw LimitExceededError("a raw_rgba8 frame of " + std::to_string(job.scene.width) + "x" +
+                               std::to_string(job.scene.height) + " takes about " + std::to_string(body) +
+                               " bytes, above this server's message limit of " + std::to_string(job.maxBodyBytes) +
+                               "; ask for png or zstd_rgba8, or a smaller image");
+  }
   job.previousCamera = state.lastCamera;
   state.lastCamera = job.scene.camera;
   Outcome outcome;

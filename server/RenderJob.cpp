@@ -8,6 +8,7 @@
 #include "brickstore/Errors.h"
 #include "image/FrameImage.h"
 #include "render/FramePlan.h"
+#include "render/RenderErrors.h"
 #include "server/ErrorReply.h"
 
 namespace voxbrick::server {
@@ -21,12 +22,19 @@ double msBetween(Clock::time_point a, Clock::time_point b) {
 
 }  // namespace
 
-RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int thread) {
+uint64_t frameBodyBytes(size_t statsBytes, size_t payloadBytes) {
+  return 4 + 4 + 1 + 4 + uint64_t(statsBytes) + 4 + uint64_t(payloadBytes);
+}
+
+RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int thread,
+                        const std::function<bool()>& cancelled) {
   const auto start = Clock::now();
   try {
     render::FrameStats stats;
     render::FrameOptions options;
     options.standIns = job.scene.progressive && !job.refinement;
+    options.maxSamples = job.maxSamples;
+    options.cancelled = cancelled;
     const image::ImageF image = engine.render(job.dataset, job.scene, &stats, options);
     const auto encodeStart = Clock::now();
     proto::Frame frame;
@@ -41,7 +49,15 @@ RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int 
     const bool provisional = stats.bricksStandIn > 0;
     statsJson["provisional"] = provisional;
     frame.statsJson = statsJson.dump();
+    if (const uint64_t body = frameBodyBytes(frame.statsJson.size(), frame.payload.size()); body > job.maxBodyBytes)
+      return {errorMessage(proto::ErrorCode::LimitExceeded,
+                           "the " + std::to_string(image.width) + "x" + std::to_string(image.height) + " frame takes " +
+                               std::to_string(body) + " bytes, above this server's message limit of " +
+                               std::to_string(job.maxBodyBytes) + "; ask for a smaller image or another encoding"),
+              false};
     return {std::move(frame), provisional};
+  } catch (const render::FrameCancelled&) {
+    return {proto::Error{proto::ErrorCode::Internal, "cancelled"}, false, true};
   } catch (const store::CorruptStoreError& e) {
     // The data failed its checks: the dataset's later renders are refused without drawing (MessageHandler).
     if (job.dataset) job.dataset->quarantine(e.what());

@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 
@@ -27,7 +28,15 @@ struct RenderJob {
   /// The exact frame of a progressive request already answered with a provisional one: queued by the render
   /// thread, not by the client, so it is dropped silently when a newer Render of the session arrives.
   bool refinement = false;
+  /// The body limit of the session (Capabilities' max_message_bytes): a Frame whose body would exceed it is
+  /// answered LimitExceeded instead.
+  uint64_t maxBodyBytes = UINT64_MAX;
+  /// The most samples the frame may cost (ServerConfig::maxRenderMSamples); 0: no limit.
+  double maxSamples = 0;
 };
+
+/// The body bytes of a Frame: width, height, encoding, and the two length-prefixed fields.
+uint64_t frameBodyBytes(size_t statsBytes, size_t payloadBytes);
 
 /// What the render queue did with a submitted job.
 struct Submission {
@@ -44,13 +53,17 @@ struct Submission {
 struct RenderReply {
   proto::Message message;    ///< a Frame or an Error
   bool provisional = false;  ///< a Frame drawn with stand-ins: the exact one is to follow (a refinement job)
+  bool cancelled = false;    ///< given up part way (`cancelled` said so): nobody is to get `message`
 };
 
 /// Renders `job` on `engine` (its context current on this thread) and encodes it: a Frame whose statistics add
 /// queue_ms, encode_ms, render_thread (`thread`) and provisional to the renderer's, or the Error that errorReply
 /// makes of what the renderer threw. A progressive scene's first frame is drawn with stand-ins (provisional when
-/// any brick stood in); a refinement is drawn exactly. Throws nothing but std::bad_alloc.
-RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int thread);
+/// any brick stood in); a refinement is drawn exactly. A frame above job.maxSamples is answered LimitExceeded
+/// before anything is drawn; `cancelled` (may be empty) is asked between batches and slabs, and gives the frame up.
+/// Throws nothing but std::bad_alloc.
+RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int thread,
+                        const std::function<bool()>& cancelled = {});
 
 /// Pages ahead of a drag: when `job` moved the camera from its previous one, queues on the dataset's host cache the
 /// bricks the next camera along the same motion would draw (the camera extrapolated one step). Advisory: does nothing

@@ -104,6 +104,11 @@ void RenderScheduler::stop() {
     if (thread.joinable()) thread.join();
 }
 
+bool RenderScheduler::waiting(const Sink& sink) const {
+  std::lock_guard lock(mMutex);
+  return mWaiting.count(&sink) != 0;
+}
+
 bool RenderScheduler::next(std::shared_ptr<Sink>& sink, RenderJob& job) {
   std::unique_lock lock(mMutex);
   mReady.wait(lock, [&] { return mStopping || !mTurns.empty(); });
@@ -136,13 +141,23 @@ void RenderScheduler::renderLoop(std::unique_ptr<render::RenderEngine> engine, i
   RenderJob job;
   while (next(sink, job)) {
     if (sink->wantsReplies()) {
-      RenderReply reply = broken ? RenderReply{errorReply(broken, brokenContext), false} : renderReply(*engine, job, index);
+      // Given up between batches when the session has gone, or when a refinement (whose request was answered by its
+      // provisional frame) is overtaken by a newer Render of the session.
+      const auto cancelled = [&] { return !sink->wantsReplies() || (job.refinement && waiting(*sink)); };
+      RenderReply reply = broken ? RenderReply{errorReply(broken, brokenContext), false}
+                                 : renderReply(*engine, job, index, cancelled);
       // The session gets its frame first; then the exact frame of a provisional one is queued, and the bricks of
       // the camera a drag would reach next are paged ahead.
       EngineGauge& gauge = mGauges[size_t(index)];
       gauge.bytes = engine->gpuBytes();
       gauge.peakBytes = engine->peakGpuBytes();
       gauge.released = engine->renderersReleased();
+      if (reply.cancelled) {
+        mCancelled.fetch_add(1);
+        sink.reset();
+        job = {};
+        continue;
+      }
       sink->rendered(job, std::move(reply.message));
       if (reply.provisional) refine(sink, job);
       if (!job.refinement) prefetchAhead(job);

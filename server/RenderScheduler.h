@@ -54,6 +54,8 @@ class RenderScheduler {
   GpuGauges gpu() const;
   /// How many sessions have a job waiting.
   size_t queuedSessions() const;
+  /// Frames given up part way: their session had gone, or a refinement was overtaken by a newer Render.
+  uint64_t cancelled() const { return mCancelled.load(); }
   /// Drops every waiting job, lets each thread finish the frame it is drawing (its reply is still delivered) and
   /// joins the threads. Idempotent; call it from any thread but a render thread.
   void stop();
@@ -64,6 +66,8 @@ class RenderScheduler {
   void enqueueLocked(const std::shared_ptr<Sink>& sink, RenderJob job);
   /// Blocks for the next job; false once stopping.
   bool next(std::shared_ptr<Sink>& sink, RenderJob& job);
+  /// Whether `sink`'s session has a job waiting.
+  bool waiting(const Sink& sink) const;
 
   const bool mCoalesce;
   mutable std::mutex mMutex;
@@ -80,6 +84,7 @@ class RenderScheduler {
   };
   std::unique_ptr<EngineGauge[]> mGauges;  ///< one per engine, written by its thread
   size_t mGaugeCount = 0;
+  std::atomic<uint64_t> mCancelled{0};
   std::mutex mJoinMutex;
   std::vector<std::thread> mThreads;
 };

@@ -221,6 +221,7 @@ json Server::Impl::statsJson() const {
     gauges.activeSessions = sessions.size();
   }
   gauges.queuedSessions = scheduler.queuedSessions();
+  gauges.rendersCancelled = scheduler.cancelled();
   gauges.datasets = datasets.opened();
   gauges.renderThreads = config.renderThreads;
   gauges.gpu = scheduler.gpu();

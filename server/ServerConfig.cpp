@@ -100,6 +100,7 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   limits.read("read_timeout_s", c.readTimeoutS);
   limits.read("write_timeout_s", c.writeTimeoutS);
   limits.read("max_output_bytes", c.maxOutputBytes);
+  limits.read("max_render_msamples", c.maxRenderMSamples);
   Section memory = top.table("memory");
   memory.read("host_cache_mb", c.hostCacheMB);
   memory.read("gpu_budget_mb", c.gpuBudgetMB);
@@ -129,6 +130,7 @@ void ServerConfig::validate() const {
   range("limits.read_timeout_s", readTimeoutS, 0.1, 3600);
   range("limits.write_timeout_s", writeTimeoutS, 0.1, 3600);
   range("limits.max_output_bytes", double(maxOutputBytes), 1 << 20, double(uint64_t(1) << 40));
+  range("limits.max_render_msamples", maxRenderMSamples, 1, 1e9);
   range("memory.host_cache_mb", double(hostCacheMB), 16, 1 << 22);
   range("memory.gpu_budget_mb", double(gpuBudgetMB), 16, 1 << 22);
   if (gpuBudgetMB < 4 * int64_t(renderThreads))

@@ -29,6 +29,10 @@ struct ServerConfig {
   double readTimeoutS = 30;                  ///< a message whose header arrived must complete within this
   double writeTimeoutS = 30;                 ///< a reply must be taken by the client within this
   uint64_t maxOutputBytes = 256ull << 20;    ///< replies queued for a session that does not read
+  /// The most a Render may cost, in millions of samples as FramePlan::estimatedSamples bounds them (an upper
+  /// estimate, 5-20x the samples a frame takes): a 4096² frame of a 1024³ volume at the default step fits, 4096² at
+  /// step 0.001 does not.
+  double maxRenderMSamples = 100000;
   // [memory]
   int64_t hostCacheMB = 1024;                ///< decoded bricks of all open datasets together
   int64_t gpuBudgetMB = 1024;                ///< atlases of all render threads and datasets (equal shares per thread)

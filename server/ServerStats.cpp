@@ -61,6 +61,7 @@ json ServerStats::toJson(const Gauges& gauges) const {
                        {"superseded", total(ServerEvent::Superseded)},
                        {"refined", total(ServerEvent::Refined)},
                        {"errors", total(ServerEvent::RenderError)},
+                       {"cancelled", gauges.rendersCancelled},
                        {"queued", gauges.queuedSessions},
                        {"frames_per_s", uptime > 0 ? double(frames) / uptime : 0.0}}},
           {"latency_ms", mLatency.toJson()},

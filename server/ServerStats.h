@@ -42,6 +42,7 @@ class ServerStats {
     int renderThreads = 0;
     RenderScheduler::GpuGauges gpu;  ///< the render threads' atlases
     size_t gpuBudgetBytes = 0;
+    uint64_t rendersCancelled = 0;  ///< frames given up part way (RenderScheduler::cancelled)
   };
 
   /// Counts one `event`.

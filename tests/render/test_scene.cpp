@@ -41,6 +41,9 @@ TEST(SceneJson, ErrorsNameTheKey) {
   };
   expectError("[1, 2]", "object");
   expectError("{\"sise\": [1, 2]}", "unknown key 'sise'");
+  expectError("{\"camera\": {\"orbit\": [0, 0, 2], \"zoom\": 2}}", "unknown key 'camera.zoom'");
+  expectError(std::string("{\"size\": [32, 32]}") + '\0' + "garbage", "NUL byte at offset 18");
+  expectError("{\"size\": [32, 32]} {}", "not valid JSON");
   expectError("{\"size\": [0, 10]}", "image size");
   expectError("{\"size\": [100000, 10]}", "image size");
   expectError("{\"size\": [10]}", "size");

@@ -73,5 +73,24 @@ TEST(ErrorReply, OnlyTheClosingCodesEndASession) {
     EXPECT_FALSE(closesSession(code)) << proto::errorCodeName(code);
 }
 
+TEST(ErrorReply, ClientsGetValidUtf8AndNoServerPaths) {
+  // Raw bytes (a binary store.json quoted in a message) become U+FFFD; valid characters stay.
+  const std::string bytes = std::string("store.json: unexpected '") + char(0xFF) + char(0xC3) + "' near é";
+  const std::string clean = clientText(bytes);
+  EXPECT_EQ(proto::invalidUtf8At(reinterpret_cast<const uint8_t*>(clean.data()), clean.size()), clean.size());
+  EXPECT_EQ(clean, "store.json: unexpected '\xEF\xBF\xBD\xEF\xBF\xBD' near é");
+  // Paths of the server keep their last part only; what only looks like one stays.
+  EXPECT_EQ(clientText("/srv/data/ct/bricks.bin: frame at offset 12 does not decode"),
+            "…/bricks.bin: frame at offset 12 does not decode");
+  EXPECT_EQ(clientText("cannot open '/etc/voxbrick/tf/hot.json' (No such file)"),
+            "cannot open '…/hot.json' (No such file)");
+  EXPECT_EQ(clientText("ert must be 0 or in [0.5, 1]; 1/255 is the step; a / b"),
+            "ert must be 0 or in [0.5, 1]; 1/255 is the step; a / b");
+  const proto::Error e = replyTo(std::runtime_error("reading /tmp/x/datasets/bad/bricks.bin failed"), "render");
+  EXPECT_EQ(e.message, "render: reading …/bricks.bin failed");
+  const proto::Error cut = errorMessage(ErrorCode::Internal, std::string(5000, 'x') + char(0xFF));
+  EXPECT_LE(cut.message.size(), 4096u);
+}
+
 }  // namespace
 }  // namespace voxbrick::server

@@ -19,7 +19,7 @@ using proto::ErrorCode;
 ServerConfig handlerConfig() {
   ServerConfig config;
   config.maxImageSide = 100;
-  config.maxMessageBytes = 4096;
+  config.maxMessageBytes = 65536;  // room for the tests' raw 80x64 frames (20 KB)
   return config;
 }
 
@@ -74,7 +74,7 @@ TEST_F(MessageHandlerTest, HelloGetsCapabilities) {
   const auto caps = onlyReply<proto::Capabilities>(o, 9);
   EXPECT_EQ(caps.version, proto::kVersion);
   EXPECT_EQ(caps.maxImageSide, 100u);
-  EXPECT_EQ(caps.maxMessageBytes, 4096u);
+  EXPECT_EQ(caps.maxMessageBytes, 65536u);
   EXPECT_EQ(caps.maxQueuedPerSession, 1u);
   EXPECT_EQ(caps.encodings.size(), 3u);
   EXPECT_FALSE(o.close);
@@ -292,6 +292,25 @@ TEST_F(MessageHandlerTest, ARefinementIsReplacedSilentlyAndNotCountedOutstanding
 }
 
 // Each Render carries the session's previous camera of the same dataset, for paging ahead of a drag.
+TEST_F(MessageHandlerTest, ARawFrameAboveTheMessageLimitIsRefusedBeforeItIsQueued) {
+  greetAndOpen();
+  // 100x100 raw is 40 000 bytes of pixels: within the 64 KiB limit; a zstd or png frame is checked once encoded.
+  EXPECT_EQ(job(1, R"({"size": [100, 100]})").maxBodyBytes, 65536u);
+  ServerConfig small = config;
+  small.maxMessageBytes = 32768;
+  MessageHandler tight{small, datasets, presets, stats, [this] { return stats.toJson(ServerStats::Gauges{}); }};
+  ConnectionState session;
+  tight.handle(session, proto::Hello{1, 1, "test"}, 1);
+  tight.handle(session, proto::OpenDataset{"sparse"}, 2);
+  const Outcome o = tight.handle(session, proto::RenderRequest{proto::Encoding::RawRgba8, R"({"size": [100, 100]})"}, 3);
+  EXPECT_FALSE(o.render.has_value());
+  const proto::Error e = onlyReply<proto::Error>(o, 3);
+  EXPECT_EQ(e.code, proto::ErrorCode::LimitExceeded);
+  EXPECT_NE(e.message.find("32768"), std::string::npos) << e.message;
+  EXPECT_TRUE(tight.handle(session, proto::RenderRequest{proto::Encoding::Png, R"({"size": [100, 100]})"}, 4)
+                  .render.has_value());
+}
+
 TEST_F(MessageHandlerTest, ARenderCarriesThePreviousCamera) {
   greetAndOpen();
   EXPECT_FALSE(job(40).previousCamera);

@@ -235,14 +235,15 @@ TEST_F(ServerTest, MalformedMessagesGetTheirErrorsAndOtherSessionsGoOn) {
 }
 
 TEST_F(ServerTest, LimitsAreEnforced) {
-  auto server = start("--max-sessions 3 --idle-timeout 1 --max-image-side 100 --max-message-bytes 2048");
+  // The message limit holds for replies too: 64 KiB leaves room for a 100x100 PNG frame.
+  auto server = start("--max-sessions 3 --idle-timeout 1 --max-image-side 100 --max-message-bytes 65536");
   auto a = session(*server);
   // Image side and message size.
   EXPECT_EQ(errorOf([&] { a->render(R"({"size": [101, 10]})"); }), ErrorCode::LimitExceeded);
   {
     auto c = session(*server);
     std::string big = R"({"step": 1, "background": [0, 0, 0])";
-    big += std::string(4000, ' ') + "}";
+    big += std::string(70000, ' ') + "}";
     c->send(proto::RenderRequest{proto::Encoding::Png, big});
     EXPECT_EQ(errorsUntilClosed(*c), std::vector<ErrorCode>{ErrorCode::TooLarge});
   }
@@ -261,6 +262,64 @@ TEST_F(ServerTest, LimitsAreEnforced) {
   const json stats = json::parse(fresh->stats());
   EXPECT_GE(stats["sessions"]["refused"].get<int>(), 1);
   EXPECT_GE(stats["sessions"]["timed_out"].get<int>(), 1);
+}
+
+TEST_F(ServerTest, FramesAboveTheMessageLimitAreRefusedNotSent) {
+  // The default body limit is 1 MiB in both directions (PROTOCOL.md, Limits): a 512x512 raw frame needs 1 MiB of
+  // pixels and more, so it is refused before it is drawn; a PNG of it fits; a larger limit lets the raw one through.
+  auto server = start();
+  auto c = session(*server);
+  const std::string scene = R"({"size": [512, 512], "transfer_function": "sparse"})";
+  try {
+    c->render(scene, proto::Encoding::RawRgba8);
+    ADD_FAILURE() << "a frame above the limit was sent";
+  } catch (const ServerError& e) {
+    EXPECT_EQ(e.code(), ErrorCode::LimitExceeded);
+    EXPECT_NE(std::string(e.what()).find("1048576"), std::string::npos) << e.what();
+  }
+  const json cache = json::parse(c->stats())["datasets"][0]["cache"];
+  EXPECT_EQ(cache["hits"].get<int>() + cache["misses"].get<int>(), 0) << "refused before drawing: no brick read";
+  EXPECT_EQ(c->render(scene, proto::Encoding::Png).width, 512u);
+  // Encoded frames are checked once encoded: a noisy PNG larger than a tiny limit is refused too.
+  auto tiny = start("--max-message-bytes 4096");
+  auto t = session(*tiny);
+  EXPECT_EQ(errorOf([&] { t->render(R"({"size": [256, 256], "transfer_function": "sparse"})"); }),
+            ErrorCode::LimitExceeded);
+  auto large = start("--max-message-bytes 2000000");
+  EXPECT_EQ(pixels(session(*large)->render(scene, proto::Encoding::RawRgba8)).size(), size_t(512) * 512 * 4);
+}
+
+TEST_F(ServerTest, AbandonedRendersAreCancelledAndCostlyOnesRefused) {
+  // A render far longer than the test's frames (step 0.002: about 300 million samples of a 64³ field).
+  const std::string heavy = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [256, 256], "transfer_function": "sparse",
+                                "step": 0.002})";
+  {
+    auto server = start("", 1);  // one render thread: before, the abandoned frame held it to the end
+    {
+      auto gone = session(*server);
+      gone->send(proto::RenderRequest{proto::Encoding::Png, heavy});
+      std::this_thread::sleep_for(std::chrono::milliseconds(700));  // drawing now
+    }  // the client leaves without its frame
+    auto c = session(*server);
+    const proto::Frame frame = c->render(kScene, proto::Encoding::RawRgba8);
+    EXPECT_EQ(frame.width, 80u);
+    const json stats = json::parse(c->stats());
+    EXPECT_EQ(stats["renders"]["cancelled"].get<int>(), 1) << stats.dump();
+    EXPECT_EQ(stats["renders"]["frames"].get<int>(), 1) << "the abandoned frame was never finished";
+  }
+  // A cost limit: the heavy scene is refused before it is drawn, naming the limit; the ordinary one is drawn.
+  auto server = start("--max-render-msamples 100");
+  auto c = session(*server);
+  try {
+    c->render(heavy);
+    ADD_FAILURE() << "a render above the cost limit was drawn";
+  } catch (const ServerError& e) {
+    EXPECT_EQ(e.code(), ErrorCode::LimitExceeded);
+    EXPECT_NE(std::string(e.what()).find("million samples, above the limit of 100 million"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(c->render(kScene, proto::Encoding::RawRgba8).width, 80u);
+  EXPECT_LE(json::parse(c->stats())["renders"]["frames"].get<int>(), 1);
 }
 
 TEST_F(ServerTest, ANewerRenderReplacesOneStillQueued) {
