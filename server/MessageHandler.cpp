@@ -105,12 +105,11 @@ Outcome MessageHandler::openDataset(ConnectionState& state, const proto::OpenDat
 Outcome MessageHandler::render(ConnectionState& state, const proto::RenderRequest& request, uint32_t requestId) {
   mStats.add(ServerEvent::RenderRequest);
   if (!state.dataset) throw proto::ProtocolError(ErrorCode::UnexpectedMessage, "open a dataset before rendering");
-  if (state.dataset->quarantined()) {
-    // Replaced on disk since? Then the session draws the new one; else the request is refused without drawing.
-    state.dataset = mDatasets.open(state.dataset->name());
-    if (const auto why = state.dataset->quarantined())
-      throw DatasetUnavailable("dataset '" + state.dataset->name() + "' is quarantined until it is replaced: " + *why);
-  }
+  // Replaced on disk since it was opened (two stat calls tell)? Then the session draws the new files. A quarantined
+  // dataset that was not replaced is refused without drawing.
+  state.dataset = mDatasets.open(state.dataset->name());
+  if (const auto why = state.dataset->quarantined())
+    throw DatasetUnavailable("dataset '" + state.dataset->name() + "' is quarantined until it is replaced: " + *why);
   RenderJob job;
   job.requestId = requestId;
   job.encoding = request.encoding;

@@ -582,6 +582,26 @@ TEST_F(ServerTest, ACorruptDatasetIsQuarantinedAndEveryOtherKeepsRendering) {
   EXPECT_EQ(pixels(again->render(kScene, proto::Encoding::RawRgba8)), before);
 }
 
+TEST_F(ServerTest, ADatasetReplacedOnDiskIsServedFresh) {
+  ScratchDir work;
+  const auto dir = work / "datasets";
+  std::filesystem::create_directories(dir);
+  auto prep = [&](int seed) {
+    const auto r = test::runVoxbrick("prep synthetic:blobs,n=48,seed=" + std::to_string(seed) +
+                                     " --brick 16 --no-vdb --force -q -o " + (dir / "d").string());
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+  };
+  prep(1);
+  ServerProcess server("--datasets " + dir.string() + " --render-threads 1", work.path());
+  const std::string scene = R"({"size": [64, 48], "transfer_function": "hot"})";
+  auto c = session(server, "d");
+  const std::vector<uint8_t> first = pixels(c->render(scene, proto::Encoding::RawRgba8));
+  prep(2);  // `prep --force` over the served store
+  const std::vector<uint8_t> after = pixels(c->render(scene, proto::Encoding::RawRgba8));
+  EXPECT_NE(after, first) << "the session still draws the replaced store";
+  EXPECT_EQ(pixels(session(server, "d")->render(scene, proto::Encoding::RawRgba8)), after);
+}
+
 TEST_F(ServerTest, ShortLoadWithFaultsLeavesGoodClientsUnharmed) {
   auto server = start();
   const std::string address = "127.0.0.1:" + std::to_string(server->port());
