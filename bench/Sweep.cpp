@@ -23,15 +23,15 @@
 namespace voxbrick::bench {
 namespace fs = std::filesystem;
 
-namespace {
-
-constexpr size_t kBudget = size_t(2) << 30;  // host cache and GPU atlas: every dataset here fits
-
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   if (v.empty()) return 0;
   return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
+
+namespace {
+
+constexpr size_t kBudget = size_t(2) << 30;  // host cache and GPU atlas: every dataset here fits
 
 std::string stepText(double step) {
   char text[32];

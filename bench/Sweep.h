@@ -53,6 +53,9 @@ struct Setting {
 /// "slab 16", "slab whole brick" (render::Scene::kMaxSlab), or "slicing" for 0.
 std::string slabLabel(int slab);
 
+/// The median of `v` (the mean of the middle two for an even count); 0 when empty.
+double median(std::vector<double> v);
+
 /// The sweep: every step with every variant (the baseline renderer), the slicing alternatives (other brick sizes,
 /// no skipping, the CPU slicer) at every step with each dataset's default variant, and the texture-slab settings
 /// at every step (of `slabSteps`) with each dataset's slab variants (its default and its opaque variant):

@@ -27,16 +27,13 @@
 #include "image/Image.h"
 #include "render/GlContext.h"
 #include "render/VolumeRenderer.h"
+#include "bench/Sweep.h"
 
 namespace fs = std::filesystem;
 using namespace voxbrick;
+using voxbrick::bench::median;
 
 namespace {
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0 : (v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]));
-}
 
 /// RMS over RGB of (a - b) - (c - d); pass empty c and d for RMS(a - b).
 double rmsDifference(const image::ImageF& a, const image::ImageF& b, const image::ImageF* c = nullptr,

@@ -21,16 +21,13 @@
 #include "brickstore/StoreWriter.h"
 #include "render/GlContext.h"
 #include "render/VolumeRenderer.h"
+#include "bench/Sweep.h"
 
 namespace fs = std::filesystem;
 using namespace voxbrick;
+using voxbrick::bench::median;
 
 namespace {
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0 : (v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]));
-}
 
 struct Dataset {
   std::string name, input, tf;
