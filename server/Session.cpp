@@ -165,9 +165,9 @@ void Session::onReadTimeout() {
     return;
   }
   sv.stats.add(ServerEvent::Timeout);
-  const std::string what =
-      mReadingMessage ? "message not completed within " + std::to_string(sv.config.readTimeoutS) + " s of its first byte"
-                      : "idle for " + std::to_string(sv.config.idleTimeoutS) + " s";
+  const std::string what = mReadingMessage ? "message not completed within " + std::to_string(sv.config.readTimeoutS) +
+                                                 " s of its first byte"
+                                           : "idle for " + std::to_string(sv.config.idleTimeoutS) + " s";
   spdlog::info("{}: closing: {}", mPeer, what);
   send(errorMessage(proto::ErrorCode::Timeout, what), 0);
   closeAfterFlush();

@@ -80,7 +80,8 @@ std::optional<proto::Message> RawSocket::receive(std::chrono::milliseconds timeo
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   for (;;) {
     if (auto message = take()) return message;
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     if (left.count() <= 0 || !fill(left)) return std::nullopt;
   }
 }
@@ -91,7 +92,8 @@ bool RawSocket::waitClosed(std::chrono::milliseconds timeout, std::vector<proto:
     while (auto message = take())
       if (const auto* e = std::get_if<proto::Error>(&*message); e && codes) codes->push_back(e->code);
     if (mClosed) return true;
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     if (left.count() <= 0) return false;
     fill(left);
   }
