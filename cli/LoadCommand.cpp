@@ -21,7 +21,13 @@ using Clock = std::chrono::steady_clock;
 using nlohmann::json;
 
 /// What faulty clients do, in turn (fault() handles each).
-const std::vector<std::string> kFaultKinds = {"disconnect", "garbage", "huge", "malformed", "slow"};
+const std::vector<std::string> kFaultKinds = {"disconnect", "garbage", "huge", "malformed", "slow",
+                                              "silent",     "trickle", "unread"};
+
+/// The server's deadlines that faults wait out (its Stats "limits"; the documented defaults if it has none).
+struct ServerDeadlines {
+  double helloS = 5, readS = 30;
+};
 
 struct LoadArgs {
   std::string address, dataset, tf = "grayscale", jsonPath, size = "128x128";
@@ -164,12 +170,39 @@ std::vector<proto::ErrorCode> drain(client::Client& c, Clock::duration limit) {
   return codes;
 }
 
+std::chrono::milliseconds millis(double seconds) { return std::chrono::milliseconds(int64_t(seconds * 1000)); }
+
+ServerDeadlines serverDeadlines(const std::string& host, int port) {
+  ServerDeadlines d;
+  try {
+    client::Client c(host, port, std::chrono::seconds(30));
+    c.hello("voxbrick-load-limits");
+    const json limits = json::parse(c.stats()).value("limits", json::object());
+    d.helloS = limits.value("hello_timeout_s", d.helloS);
+    d.readS = limits.value("read_timeout_s", d.readS);
+    c.goodbye();
+  } catch (const std::exception&) {  // the faults then wait for the defaults; a bad server shows in their replies
+  }
+  return d;
+}
+
 /// One fault of the given kind; returns whether the server answered as documented.
-bool fault(const std::string& kind, const LoadArgs& a, const std::string& host, int port, std::mt19937& rng) {
-  client::Client c(host, port, std::chrono::seconds(10));
+bool fault(const std::string& kind, const LoadArgs& a, const ServerDeadlines& deadlines, const std::string& host,
+           int port, std::mt19937& rng) {
+  const double waitS = kind == "silent" ? deadlines.helloS : kind == "trickle" ? deadlines.readS : 0;
+  client::Client c(host, port, std::chrono::seconds(10) + millis(waitS));
   auto has = [](const std::vector<proto::ErrorCode>& codes, proto::ErrorCode code) {
     return std::find(codes.begin(), codes.end(), code) != codes.end();
   };
+  if (kind == "silent") {
+    // Connects and says nothing: closed at the Hello deadline with Timeout, or sooner with LimitExceeded when it
+    // gave way to newer connections.
+    const auto start = Clock::now();
+    const std::vector<proto::ErrorCode> codes = drain(c, millis(deadlines.helloS + 5));
+    const bool inTime = Clock::now() - start < millis(deadlines.helloS + 2);
+    return inTime && codes.size() == 1 &&
+           (codes[0] == proto::ErrorCode::Timeout || codes[0] == proto::ErrorCode::LimitExceeded);
+  }
   if (kind == "garbage") {
     std::vector<uint8_t> bytes(64);
     for (uint8_t& b : bytes) b = uint8_t(rng());
@@ -186,6 +219,22 @@ bool fault(const std::string& kind, const LoadArgs& a, const std::string& host, 
     return has(drain(c, std::chrono::seconds(5)), proto::ErrorCode::TooLarge);
   }
   c.hello("voxbrick-load-fault");
+  if (kind == "trickle") {
+    // A message one byte at a time, 16 bytes over twice the read timeout: closed with Timeout within the read
+    // timeout of its first byte, before the header is complete.
+    const std::vector<uint8_t> bytes = proto::encode(proto::ListDatasets{}, 7);
+    const auto interval = millis(deadlines.readS / 8);
+    const auto start = Clock::now();
+    try {
+      for (uint8_t byte : bytes) {
+        c.sendBytes({byte});
+        std::this_thread::sleep_for(interval);
+      }
+    } catch (const client::ConnectionError&) {  // the server closed it: what is expected
+    }
+    const bool inTime = Clock::now() - start < millis(deadlines.readS + 1) + 2 * interval;
+    return inTime && drain(c, std::chrono::seconds(5)) == std::vector<proto::ErrorCode>{proto::ErrorCode::Timeout};
+  }
   if (kind == "malformed") {
     std::vector<uint8_t> bytes = proto::encode(proto::RenderRequest{proto::Encoding::Png, "{}"}, 99);
     bytes.pop_back();  // one byte short of its declared string
@@ -204,6 +253,28 @@ bool fault(const std::string& kind, const LoadArgs& a, const std::string& host, 
     c.close();  // before the frame arrives
     return true;
   }
+  if (kind == "unread") {
+    // Floods requests of small messages with large replies (OpenDataset: about 40 bytes in, kilobytes out), reads
+    // nothing for a second, then takes every reply: the server stops reading while they wait, and loses none.
+    const std::vector<uint8_t> one = proto::encode(proto::OpenDataset{a.dataset}, 0);
+    // Within what the socket buffers hold, so that sending never waits on a server that stopped reading.
+    const uint32_t n = uint32_t(std::clamp<size_t>((48u << 10) / one.size(), 1, 2000));
+    std::vector<uint8_t> flood;
+    for (uint32_t i = 0; i < n; ++i) {
+      const std::vector<uint8_t> bytes = proto::encode(proto::OpenDataset{a.dataset}, 1000 + i);
+      flood.insert(flood.end(), bytes.begin(), bytes.end());
+    }
+    c.receive();  // the frame asked for above
+    c.sendBytes(flood);
+    std::this_thread::sleep_for(std::chrono::seconds(1));
+    bool ok = true;
+    for (uint32_t i = 0; i < n && ok; ++i) {
+      auto [id, m] = c.receive();
+      ok = id == 1000 + i && std::holds_alternative<proto::DatasetInfo>(m);
+    }
+    c.goodbye();
+    return ok;
+  }
   if (kind == "slow") {
     // Takes the frame 2 KiB at a time, 100 times a second at most, for a second, then leaves.
     const auto end = Clock::now() + std::chrono::seconds(1);
@@ -215,14 +286,14 @@ bool fault(const std::string& kind, const LoadArgs& a, const std::string& host, 
   throw std::logic_error("fault '" + kind + "' is in kFaultKinds but not handled");
 }
 
-void faultClient(const LoadArgs& a, const std::string& host, int port, const std::vector<std::string>& kinds, int index,
-                 Clock::time_point deadline, Tally& tally) {
+void faultClient(const LoadArgs& a, const ServerDeadlines& deadlines, const std::string& host, int port,
+                 const std::vector<std::string>& kinds, int index, Clock::time_point deadline, Tally& tally) {
   std::mt19937 rng(unsigned(1234 + index));
   for (size_t n = size_t(index); Clock::now() < deadline; ++n) {
     const std::string& kind = kinds[n % kinds.size()];
     bool ok = false;
     try {
-      ok = fault(kind, a, host, port, rng);
+      ok = fault(kind, a, deadlines, host, port, rng);
     } catch (const std::logic_error&) {
       throw;
     } catch (const std::exception&) {
@@ -252,6 +323,7 @@ void runLoad(const LoadArgs& a) {
     idle.back()->hello("voxbrick-load-idle");
   }
 
+  const ServerDeadlines deadlines = a.faultClients > 0 ? serverDeadlines(host, port) : ServerDeadlines{};
   Tally tally;
   const auto start = Clock::now();
   const auto deadline = start + std::chrono::milliseconds(int64_t(a.duration * 1000));
@@ -259,7 +331,8 @@ void runLoad(const LoadArgs& a) {
   for (int i = 0; i < a.clients; ++i)
     threads.emplace_back(a.dragHz > 0 ? dragClient : goodClient, std::cref(a), host, port, width, height, i, deadline, std::ref(tally));
   for (int i = 0; i < a.faultClients; ++i)
-    threads.emplace_back(faultClient, std::cref(a), host, port, std::cref(kinds), i, deadline, std::ref(tally));
+    threads.emplace_back(faultClient, std::cref(a), std::cref(deadlines), host, port, std::cref(kinds), i, deadline,
+                         std::ref(tally));
   for (std::thread& t : threads) t.join();
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
 
@@ -332,7 +405,10 @@ void addLoadCommand(CLI::App& app) {
   cmd->add_option("--tf", a->tf, "transfer function preset")->capture_default_str();
   cmd->add_option("--step", a->step, "slice spacing in voxels")->capture_default_str();
   cmd->add_option("--fault-clients", a->faultClients, "clients that misbehave in turn")->check(CLI::Range(0, 4096));
-  cmd->add_option("--faults", a->faults, "comma list of what faulty clients do (default all)")
+  cmd->add_option("--faults", a->faults,
+                  "comma list of what faulty clients do (default all): disconnect, garbage, huge, malformed, slow, "
+                  "silent (never speaks; lasts the server's Hello timeout), trickle (a message a byte at a time; "
+                  "lasts its read timeout), unread (floods requests, reads nothing for a second)")
       ->delimiter(',')
       ->check(CLI::IsMember(kFaultKinds));
   cmd->add_option("--idle-sessions", a->idleSessions, "sessions opened and left silent")->check(CLI::Range(0, 100000));

@@ -15,7 +15,9 @@ struct ServeArgs {
   std::string config, host, datasets, backend, logLevel, portFile;
   int port = -1, renderThreads = 0, ioThreads = 0, maxSessions = 0, maxImageSide = 0;
   double maxRenderMSamples = 0;
-  double idleTimeout = 0, readTimeout = 0, writeTimeout = 0;
+  int maxPending = 0, maxPerAddress = -1;
+  double idleTimeout = 0, readTimeout = 0, writeTimeout = 0, helloTimeout = 0;
+  int64_t maxTotalOutputMB = 0;
   bool noCoalesce = false;
   int64_t hostCacheMB = 0, gpuBudgetMB = 0, maxMessageBytes = 0;
 };
@@ -36,6 +38,10 @@ void runServe(const ServeArgs& a) {
   if (a.idleTimeout > 0) c.idleTimeoutS = a.idleTimeout;
   if (a.readTimeout > 0) c.readTimeoutS = a.readTimeout;
   if (a.writeTimeout > 0) c.writeTimeoutS = a.writeTimeout;
+  if (a.helloTimeout > 0) c.helloTimeoutS = a.helloTimeout;
+  if (a.maxPending > 0) c.maxPendingConnections = a.maxPending;
+  if (a.maxPerAddress >= 0) c.maxConnectionsPerAddress = a.maxPerAddress;
+  if (a.maxTotalOutputMB > 0) c.maxTotalOutputBytes = uint64_t(a.maxTotalOutputMB) << 20;
   if (a.hostCacheMB > 0) c.hostCacheMB = a.hostCacheMB;
   if (a.noCoalesce) c.coalesce = false;
   if (a.gpuBudgetMB > 0) c.gpuBudgetMB = a.gpuBudgetMB;
@@ -81,8 +87,17 @@ void addServeCommand(CLI::App& app) {
                   "most a Render may cost, in millions of samples (an upper estimate made before drawing)");
   cmd->add_option("--max-message-bytes", a->maxMessageBytes, "largest client message body");
   cmd->add_option("--idle-timeout", a->idleTimeout, "seconds without a message before a session is closed");
-  cmd->add_option("--read-timeout", a->readTimeout, "seconds to complete a message once its header arrived");
-  cmd->add_option("--write-timeout", a->writeTimeout, "seconds a client may take to accept a reply");
+  cmd->add_option("--read-timeout", a->readTimeout, "seconds to complete a message from its first byte");
+  cmd->add_option("--write-timeout", a->writeTimeout,
+                  "seconds a client may take to accept a reply (a client that never reads is closed after it)");
+  cmd->add_option("--hello-timeout", a->helloTimeout, "seconds a new connection has to complete its Hello");
+  cmd->add_option("--max-pending-connections", a->maxPending,
+                  "connections not yet past Hello; one more closes the oldest of them");
+  cmd->add_option("--max-connections-per-address", a->maxPerAddress,
+                  "connections of one client address (0: no limit; loopback is exempt unless the configuration "
+                  "says loopback_exempt = false)");
+  cmd->add_option("--max-total-output-mb", a->maxTotalOutputMB,
+                  "MB of replies not yet read by all clients together; a frame beyond it is answered LimitExceeded");
   cmd->add_option("--host-cache", a->hostCacheMB, "MB of decoded bricks for all open datasets together (an equal share each)");
   cmd->add_option("--gpu-budget", a->gpuBudgetMB, "MB of GPU brick atlas for all render threads and datasets together (an equal share per thread)");
   cmd->add_flag("--no-coalesce", a->noCoalesce,

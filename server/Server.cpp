@@ -3,8 +3,9 @@
 
 #include <chrono>
 #include <condition_variable>
+#include <map>
 #include <mutex>
-#include <set>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -16,9 +17,11 @@
 
 #include "render/RenderEngine.h"
 #include "render/TransferFunctionPresets.h"
+#include "server/Admission.h"
 #include "server/Datasets.h"
 #include "server/ErrorReply.h"
 #include "server/MessageHandler.h"
+#include "server/OutputBudget.h"
 #include "server/RenderScheduler.h"
 #include "server/ServerStats.h"
 #include "server/Session.h"
@@ -47,6 +50,36 @@ tcp::endpoint listenEndpoint(const ServerConfig& config) {
   const asio::ip::address address = asio::ip::make_address(config.host, ec);
   if (ec) throw std::runtime_error("host '" + config.host + "' is not an IP address (e.g. 127.0.0.1, 0.0.0.0, ::1)");
   return tcp::endpoint(address, uint16_t(config.port));
+}
+
+/// The address a connection is counted against, and whether it is loopback. An IPv4 client of a dual-stack socket
+/// counts as its IPv4 address.
+std::pair<std::string, bool> clientAddress(const tcp::socket& socket) {
+  boost::system::error_code ec;
+  asio::ip::address address = socket.remote_endpoint(ec).address();
+  if (ec) return {"?", false};
+  if (address.is_v6() && address.to_v6().is_v4_mapped())
+    address = asio::ip::make_address_v4(asio::ip::v4_mapped, address.to_v6());
+  return {address.to_string(), address.is_loopback()};
+}
+
+Admission::Limits admissionLimits(const ServerConfig& config) {
+  return {size_t(config.maxSessions), size_t(config.maxPendingConnections), size_t(config.maxConnectionsPerAddress)};
+}
+
+/// The limits a client or a load test may want to know (Stats "limits").
+json limitsJson(const ServerConfig& config) {
+  return {{"max_sessions", config.maxSessions},
+          {"max_pending_connections", config.maxPendingConnections},
+          {"max_connections_per_address", config.maxConnectionsPerAddress},
+          {"loopback_exempt", config.loopbackExempt},
+          {"hello_timeout_s", config.helloTimeoutS},
+          {"idle_timeout_s", config.idleTimeoutS},
+          {"read_timeout_s", config.readTimeoutS},
+          {"write_timeout_s", config.writeTimeoutS},
+          {"max_output_bytes", config.maxOutputBytes},
+          {"pause_reading_bytes", config.pauseReadingBytes},
+          {"max_total_output_bytes", config.maxTotalOutputBytes}};
 }
 
 /// One engine per render thread, made here on the calling thread and released, so that a machine without GL fails
@@ -78,6 +111,8 @@ struct Server::Impl {
   /// for the sessions to flush and close, then stops the I/O threads.
   void shutdown();
   void removeSession(const std::shared_ptr<Session>& session);
+  /// A connection's Hello was accepted: whether it becomes a session (Admission::greet).
+  bool greet(const Session& session);
   json statsJson() const;
 
   const ServerConfig config;
@@ -86,6 +121,7 @@ struct Server::Impl {
   const render::TransferFunctionPresets presets;
   DatasetRegistry datasets;
   ServerStats stats;
+  OutputBudget output;
   RenderScheduler scheduler;
   MessageHandler handler;
   asio::io_context io;
@@ -97,7 +133,10 @@ struct Server::Impl {
 
   mutable std::mutex sessionsMutex;
   std::condition_variable sessionsChanged;
-  std::set<std::shared_ptr<Session>> sessions;
+  /// Every open connection: sessions, connections waiting for Hello, refused ones until their error is written.
+  std::map<ConnectionId, std::shared_ptr<Session>> sessions;
+  Admission admission;   ///< guarded by sessionsMutex
+  uint64_t accepted = 0;  ///< connections so far: the next ConnectionId
   bool shuttingDown = false;  ///< guarded by sessionsMutex, so no session joins after the ShuttingDown round
 
   std::mutex stopMutex;
@@ -110,13 +149,21 @@ Server::Impl::Impl(const ServerConfig& c)
       endpoint(listenEndpoint(config)),
       presets(render::TransferFunctionPresets::load(render::TransferFunction::configDirectory() / "tf")),
       datasets(config.datasets, size_t(config.hostCacheMB) << 20),
+      output(config.maxTotalOutputBytes),
       scheduler(makeEngines(config), config.coalesce),
       handler(config, datasets, presets, stats, [this] { return statsJson(); }),
       control(asio::make_strand(io)),
       acceptor(control),
       signals(control, SIGINT, SIGTERM),
-      sessionServices{config, proto::Limits{}, handler, scheduler, stats,
-                      [this](const std::shared_ptr<Session>& session) { removeSession(session); }} {
+      sessionServices{config,
+                      proto::Limits{},
+                      handler,
+                      scheduler,
+                      stats,
+                      output,
+                      [this](const std::shared_ptr<Session>& session) { removeSession(session); },
+                      [this](const Session& session) { return greet(session); }},
+      admission(admissionLimits(config)) {
   sessionServices.limits.maxBodyBytes = config.maxMessageBytes;
   acceptor.open(endpoint.protocol());
   acceptor.set_option(tcp::acceptor::reuse_address(true));
@@ -150,30 +197,61 @@ void Server::Impl::accept() {
 }
 
 void Server::Impl::onAccepted(tcp::socket socket) {
-  auto session = std::make_shared<Session>(std::move(socket), sessionServices);
-  bool stopping, full;
+  const auto [address, loopback] = clientAddress(socket);
+  std::shared_ptr<Session> session, evicted;
+  std::optional<proto::Error> refusal;
   {
     std::lock_guard lock(sessionsMutex);
-    stopping = shuttingDown;
-    full = int(sessions.size()) >= config.maxSessions;
-    sessions.insert(session);  // refused ones too, until their error is written
+    const ConnectionId id{++accepted};
+    session = std::make_shared<Session>(std::move(socket), sessionServices, id);
+    sessions.emplace(id, session);  // refused ones too, until their error is written
+    if (shuttingDown) {
+      refusal = errorMessage(proto::ErrorCode::ShuttingDown, "server is stopping");
+    } else {
+      const Admission::Verdict verdict = admission.admit(id, address, !(loopback && config.loopbackExempt));
+      using Result = Admission::Verdict::Result;
+      if (verdict.result == Result::TooManySessions)
+        refusal = errorMessage(proto::ErrorCode::LimitExceeded,
+                               "too many sessions (limit " + std::to_string(config.maxSessions) + ")");
+      else if (verdict.result == Result::TooManyFromAddress)
+        refusal = errorMessage(proto::ErrorCode::LimitExceeded,
+                               "too many connections from " + address + " (limit " +
+                                   std::to_string(config.maxConnectionsPerAddress) + ")");
+      if (verdict.evicted) evicted = sessions.at(*verdict.evicted);
+    }
   }
-  if (stopping || full) {
+  if (refusal) {
     stats.add(ServerEvent::SessionRefused);
-    session->end(stopping ? errorMessage(proto::ErrorCode::ShuttingDown, "server is stopping")
-                          : errorMessage(proto::ErrorCode::LimitExceeded,
-                                         "too many sessions (limit " + std::to_string(config.maxSessions) + ")"));
+    spdlog::debug("{}: refused: {}", session->peer(), refusal->message);
+    session->end(std::move(*refusal));
     return;
   }
-  stats.add(ServerEvent::SessionAccepted);
+  if (evicted) {
+    // The pending connections are full of clients that have not said Hello: the one waiting longest (of the
+    // address with the most) gives way, so a client that says Hello at once always gets in.
+    stats.add(ServerEvent::PendingEvicted);
+    spdlog::info("{}: closing: no Hello yet and {} connections wait for theirs", evicted->peer(),
+                 config.maxPendingConnections);
+    evicted->end(errorMessage(proto::ErrorCode::LimitExceeded,
+                              "too many connections waiting for Hello (limit " +
+                                  std::to_string(config.maxPendingConnections) + "): the oldest gives way"));
+  }
   spdlog::debug("{}: connected", session->peer());
   session->start();
+}
+
+bool Server::Impl::greet(const Session& session) {
+  std::lock_guard lock(sessionsMutex);
+  if (!admission.greet(session.id())) return false;
+  stats.add(ServerEvent::SessionAccepted);
+  return true;
 }
 
 void Server::Impl::removeSession(const std::shared_ptr<Session>& session) {
   {
     std::lock_guard lock(sessionsMutex);
-    sessions.erase(session);
+    sessions.erase(session->id());
+    admission.remove(session->id());
   }
   sessionsChanged.notify_all();
 }
@@ -198,7 +276,7 @@ void Server::Impl::shutdown() {
   {
     std::lock_guard lock(sessionsMutex);
     shuttingDown = true;
-    open.assign(sessions.begin(), sessions.end());
+    for (const auto& [id, session] : sessions) open.push_back(session);
   }
   asio::post(control, [this] {
     boost::system::error_code ignored;
@@ -218,8 +296,13 @@ json Server::Impl::statsJson() const {
   ServerStats::Gauges gauges;
   {
     std::lock_guard lock(sessionsMutex);
-    gauges.activeSessions = sessions.size();
+    gauges.activeSessions = admission.sessions();
+    gauges.pendingConnections = admission.pending();
   }
+  gauges.outputQueuedBytes = output.queued();
+  gauges.outputPeakBytes = output.peak();
+  gauges.outputLimitBytes = output.limit();
+  gauges.limits = limitsJson(config);
   gauges.queuedSessions = scheduler.queuedSessions();
   gauges.rendersCancelled = scheduler.cancelled();
   gauges.datasets = datasets.opened();

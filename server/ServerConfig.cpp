@@ -101,6 +101,12 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   limits.read("write_timeout_s", c.writeTimeoutS);
   limits.read("max_output_bytes", c.maxOutputBytes);
   limits.read("max_render_msamples", c.maxRenderMSamples);
+  limits.read("max_pending_connections", c.maxPendingConnections);
+  limits.read("hello_timeout_s", c.helloTimeoutS);
+  limits.read("max_connections_per_address", c.maxConnectionsPerAddress);
+  limits.read("loopback_exempt", c.loopbackExempt);
+  limits.read("pause_reading_bytes", c.pauseReadingBytes);
+  limits.read("max_total_output_bytes", c.maxTotalOutputBytes);
   Section memory = top.table("memory");
   memory.read("host_cache_mb", c.hostCacheMB);
   memory.read("gpu_budget_mb", c.gpuBudgetMB);
@@ -131,6 +137,12 @@ void ServerConfig::validate() const {
   range("limits.write_timeout_s", writeTimeoutS, 0.1, 3600);
   range("limits.max_output_bytes", double(maxOutputBytes), 1 << 20, double(uint64_t(1) << 40));
   range("limits.max_render_msamples", maxRenderMSamples, 1, 1e9);
+  range("limits.max_pending_connections", maxPendingConnections, 1, 100000);
+  range("limits.hello_timeout_s", helloTimeoutS, 0.1, 3600);
+  range("limits.max_connections_per_address", maxConnectionsPerAddress, 0, 100000);
+  // Below max_output_bytes, or a session would be dropped before it is ever paused.
+  range("limits.pause_reading_bytes", double(pauseReadingBytes), 4096, double(maxOutputBytes));
+  range("limits.max_total_output_bytes", double(maxTotalOutputBytes), 1 << 20, double(uint64_t(1) << 42));
   range("memory.host_cache_mb", double(hostCacheMB), 16, 1 << 22);
   range("memory.gpu_budget_mb", double(gpuBudgetMB), 16, 1 << 22);
   if (gpuBudgetMB < 4 * int64_t(renderThreads))

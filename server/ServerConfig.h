@@ -33,6 +33,15 @@ struct ServerConfig {
   /// estimate, 5-20x the samples a frame takes): a 4096² frame of a 1024³ volume at the default step fits, 4096² at
   /// step 0.001 does not.
   double maxRenderMSamples = 100000;
+  // Hostile clients (PROTOCOL.md section 3, "Connections"): sockets that never speak, clients that never read.
+  // max_sessions counts connections past Hello only, and read_timeout_s runs from a message's first byte
+  // (Session).
+  int maxPendingConnections = 16;            ///< connections without Hello yet; one more evicts the oldest
+  double helloTimeoutS = 5;                  ///< a connection's Hello must be complete within this of its accept
+  int maxConnectionsPerAddress = 32;         ///< connections of one client IP address, pending or not; 0: no limit
+  bool loopbackExempt = true;                ///< loopback clients are not held to maxConnectionsPerAddress
+  uint64_t pauseReadingBytes = 1ull << 20;   ///< a session with more replies queued is not read until they drain
+  uint64_t maxTotalOutputBytes = 1ull << 30; ///< replies queued for all sessions; a frame beyond it: LimitExceeded
   // [memory]
   int64_t hostCacheMB = 1024;                ///< decoded bricks of all open datasets together
   int64_t gpuBudgetMB = 1024;                ///< atlases of all render threads and datasets (equal shares per thread)

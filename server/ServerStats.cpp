@@ -50,8 +50,10 @@ json ServerStats::toJson(const Gauges& gauges) const {
   const uint64_t frames = total(ServerEvent::Frame);
   return {{"uptime_s", uptime},
           {"sessions", {{"active", gauges.activeSessions},
+                        {"pending", gauges.pendingConnections},
                         {"accepted", total(ServerEvent::SessionAccepted)},
                         {"refused", total(ServerEvent::SessionRefused)},
+                        {"evicted", total(ServerEvent::PendingEvicted)},
                         {"timed_out", total(ServerEvent::Timeout)},
                         {"dropped_slow", total(ServerEvent::SlowClientDropped)}}},
           {"messages", total(ServerEvent::Message)},
@@ -67,10 +69,16 @@ json ServerStats::toJson(const Gauges& gauges) const {
           {"latency_ms", mLatency.toJson()},
           {"datasets", sets},
           {"memory", {{"rss_bytes", rss}, {"peak_rss_bytes", peak}}},
+          {"output", {{"queued_bytes", gauges.outputQueuedBytes},
+                      {"peak_queued_bytes", gauges.outputPeakBytes},
+                      {"limit_bytes", gauges.outputLimitBytes},
+                      {"reading_paused", total(ServerEvent::ReadingPaused)},
+                      {"frames_refused", total(ServerEvent::OutputRefused)}}},
           {"gpu", {{"budget_bytes", gauges.gpuBudgetBytes},
                    {"atlas_bytes", gauges.gpu.bytes},
                    {"peak_atlas_bytes", gauges.gpu.peakBytes},
                    {"renderers_released", gauges.gpu.renderersReleased}}},
+          {"limits", gauges.limits},
           {"render_threads", gauges.renderThreads}};
 }
 

@@ -603,7 +603,8 @@ TEST_F(ServerTest, ADatasetReplacedOnDiskIsServedFresh) {
 }
 
 TEST_F(ServerTest, ShortLoadWithFaultsLeavesGoodClientsUnharmed) {
-  auto server = start();
+  // Short deadlines: the silent and trickle faults each last one of them.
+  auto server = start("--hello-timeout 1 --read-timeout 2");
   const std::string address = "127.0.0.1:" + std::to_string(server->port());
   const auto report = scratch() / "load.json";
   const auto r = test::runVoxbrick("load " + address + " --dataset sparse --clients 16 --duration 10 --size 64x64 " +
@@ -614,7 +615,7 @@ TEST_F(ServerTest, ShortLoadWithFaultsLeavesGoodClientsUnharmed) {
   const json j = json::parse(in);
   EXPECT_EQ(j["errors"].get<int>(), 0);
   EXPECT_GT(j["frames"].get<int>(), 16);
-  for (const char* fault : {"disconnect", "garbage", "huge", "malformed", "slow"}) {
+  for (const char* fault : {"disconnect", "garbage", "huge", "malformed", "slow", "silent", "trickle", "unread"}) {
     EXPECT_GT(j["faults"][fault]["done"].get<int>(), 0) << fault;
     EXPECT_EQ(j["faults"][fault]["unexpected"].get<int>(), 0) << fault;
   }

@@ -43,6 +43,12 @@ TEST_F(ServerConfigTest, AnEmptyFileGivesTheDefaults) {
   EXPECT_EQ(c.maxImageSide, 4096);
   EXPECT_TRUE(c.coalesce);
   EXPECT_EQ(c.maxQueuedPerSession(), 1u);
+  EXPECT_EQ(c.maxPendingConnections, 16);
+  EXPECT_DOUBLE_EQ(c.helloTimeoutS, 5);
+  EXPECT_EQ(c.maxConnectionsPerAddress, 32);
+  EXPECT_TRUE(c.loopbackExempt);
+  EXPECT_EQ(c.pauseReadingBytes, 1u << 20);
+  EXPECT_EQ(c.maxTotalOutputBytes, 1ull << 30);
   EXPECT_NO_THROW(d.validate());
 }
 
@@ -65,6 +71,12 @@ idle_timeout_s = 1.5
 read_timeout_s = 2
 write_timeout_s = 3
 max_output_bytes = 2097152
+max_pending_connections = 4
+hello_timeout_s = 0.5
+max_connections_per_address = 0
+loopback_exempt = false
+pause_reading_bytes = 65536
+max_total_output_bytes = 8388608
 [memory]
 host_cache_mb = 32
 gpu_budget_mb = 64
@@ -85,6 +97,12 @@ gpu_budget_mb = 64
   EXPECT_DOUBLE_EQ(c.readTimeoutS, 2);
   EXPECT_DOUBLE_EQ(c.writeTimeoutS, 3);
   EXPECT_EQ(c.maxOutputBytes, 2097152u);
+  EXPECT_EQ(c.maxPendingConnections, 4);
+  EXPECT_DOUBLE_EQ(c.helloTimeoutS, 0.5);
+  EXPECT_EQ(c.maxConnectionsPerAddress, 0);
+  EXPECT_FALSE(c.loopbackExempt);
+  EXPECT_EQ(c.pauseReadingBytes, 65536u);
+  EXPECT_EQ(c.maxTotalOutputBytes, 8388608u);
   EXPECT_EQ(c.hostCacheMB, 32);
   EXPECT_EQ(c.gpuBudgetMB, 64);
 }
@@ -118,6 +136,12 @@ TEST_F(ServerConfigTest, AWrongTypeNamesTheFileAndTheKey) {
       {"limits", "read_timeout_s", "false", "must be a number"},
       {"limits", "write_timeout_s", "[1]", "must be a number"},
       {"limits", "max_output_bytes", "1.0", "must be an integer"},
+      {"limits", "max_pending_connections", "\"16\"", "must be an integer"},
+      {"limits", "hello_timeout_s", "true", "must be a number"},
+      {"limits", "max_connections_per_address", "-1", "out of range"},
+      {"limits", "loopback_exempt", "1", "must be true or false"},
+      {"limits", "pause_reading_bytes", "1.5", "must be an integer"},
+      {"limits", "max_total_output_bytes", "\"1G\"", "must be an integer"},
       {"memory", "host_cache_mb", "\"1G\"", "must be an integer"},
       {"memory", "gpu_budget_mb", "0.5", "must be an integer"},
   };
@@ -152,6 +176,13 @@ TEST_F(ServerConfigTest, ValuesOutOfRangeAreRefusedByName) {
       {"[limits]\nread_timeout_s = -1\n", "limits.read_timeout_s"},
       {"[limits]\nwrite_timeout_s = 1e9\n", "limits.write_timeout_s"},
       {"[limits]\nmax_output_bytes = 1000\n", "limits.max_output_bytes"},
+      {"[limits]\nmax_pending_connections = 0\n", "limits.max_pending_connections"},
+      {"[limits]\nhello_timeout_s = 0\n", "limits.hello_timeout_s"},
+      {"[limits]\nmax_connections_per_address = 1000000\n", "limits.max_connections_per_address"},
+      {"[limits]\npause_reading_bytes = 100\n", "limits.pause_reading_bytes"},
+      // Pausing must come before the session's own limit drops it.
+      {"[limits]\nmax_output_bytes = 2097152\npause_reading_bytes = 4194304\n", "limits.pause_reading_bytes"},
+      {"[limits]\nmax_total_output_bytes = 1000\n", "limits.max_total_output_bytes"},
       {"[memory]\nhost_cache_mb = 1\n", "memory.host_cache_mb"},
       {"[memory]\ngpu_budget_mb = 8\n", "memory.gpu_budget_mb"},
       // The budget is shared by the render threads: 16 MB cannot be cut into 8 useful shares.

@@ -1,0 +1,285 @@
+// The render service against hostile clients: connections that never speak, bytes trickled to outlast the
+// deadlines, clients that flood requests and never read. The real `voxbrick serve` process on loopback.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "RawSocket.h"
+#include "ServerProcess.h"
+#include "client/Client.h"
+#include "support/TestSupport.h"
+
+namespace voxbrick {
+namespace {
+
+using client::Client;
+using client::ServerError;
+using proto::ErrorCode;
+using test::RawSocket;
+using test::ScratchDir;
+using test::ServerProcess;
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+using namespace std::chrono_literals;
+
+class HostileClientTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    sDir = new ScratchDir();
+    std::filesystem::create_directories(*sDir / "datasets");
+    const auto r = test::runVoxbrick("prep synthetic:sparse,n=64 --brick 16 --no-vdb -q -o " +
+                                     (*sDir / "datasets" / "sparse").string());
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+  }
+  static void TearDownTestSuite() {
+    delete sDir;
+    sDir = nullptr;
+  }
+  static std::filesystem::path scratch() { return sDir->path(); }
+
+  std::unique_ptr<ServerProcess> start(const std::string& extra) {
+    return std::make_unique<ServerProcess>(
+        "--datasets " + (*sDir / "datasets").string() + " --render-threads 2 " + extra, scratch());
+  }
+
+  static ScratchDir* sDir;
+};
+ScratchDir* HostileClientTest::sDir = nullptr;
+
+const char* kScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [80, 64], "transfer_function": "sparse"})";
+
+std::unique_ptr<Client> session(const ServerProcess& server, std::chrono::milliseconds timeout = 60s) {
+  auto c = std::make_unique<Client>("127.0.0.1", server.port(), timeout);
+  c->hello("test");
+  c->openDataset("sparse");
+  return c;
+}
+
+/// Threads that run until asked to stop, stopped and joined however the test ends (an ASSERT, an exception).
+class Background {
+ public:
+  ~Background() { stop(); }
+  /// Runs `body(stopping)` on a thread of its own; it should return soon after `stopping` turns true.
+  void run(std::function<void(const std::atomic<bool>& stopping)> body) {
+    mThreads.emplace_back([this, body = std::move(body)] { body(mStop); });
+  }
+  void stop() {
+    mStop = true;
+    for (std::thread& t : mThreads)
+      if (t.joinable()) t.join();
+  }
+
+ private:
+  std::atomic<bool> mStop{false};
+  std::vector<std::thread> mThreads;
+};
+
+double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+json statsOf(const ServerProcess& server) {
+  Client c("127.0.0.1", server.port(), 10s);
+  c.hello("stats");
+  return json::parse(c.stats());
+}
+
+/// Polls the server's statistics until `done` holds for them or `timeout` passes; returns the last ones.
+json waitForStats(const ServerProcess& server, const std::function<bool(const json&)>& done,
+                  std::chrono::milliseconds timeout) {
+  const auto deadline = Clock::now() + timeout;
+  json stats = statsOf(server);
+  while (!done(stats) && Clock::now() < deadline) {
+    std::this_thread::sleep_for(100ms);
+    stats = statsOf(server);
+  }
+  return stats;
+}
+
+// Before: connections without Hello counted against max_sessions (64) and held their slot for the idle timeout,
+// so 64 silent sockets refused every good client.
+TEST_F(HostileClientTest, SilentAndTricklingConnectionsCannotLockOutAGoodClient) {
+  auto server = start("--hello-timeout 2");
+  std::vector<std::unique_ptr<RawSocket>> silent, trickling;
+  for (int i = 0; i < 72; ++i) silent.push_back(std::make_unique<RawSocket>(server->port()));
+  for (int i = 0; i < 8; ++i) trickling.push_back(std::make_unique<RawSocket>(server->port()));
+  // The trickling ones send a Hello one byte every 300 ms: a whole one would take 9 s.
+  const std::vector<uint8_t> hello = proto::encode(proto::Hello{1, 1, "trickle"}, 1);
+  Background trickle;
+  trickle.run([&](const std::atomic<bool>& stopping) {
+    for (size_t i = 0; i < hello.size() && !stopping; ++i) {
+      for (auto& s : trickling) s->sendSome(std::span(hello).subspan(i, 1));
+      std::this_thread::sleep_for(300ms);
+    }
+  });
+  std::this_thread::sleep_for(300ms);  // every one of them accepted and waiting
+
+  const auto t0 = Clock::now();
+  std::unique_ptr<Client> good;
+  ASSERT_NO_THROW(good = session(*server, 10s)) << server->log();
+  EXPECT_EQ(good->render(kScene).width, 80u);
+  EXPECT_LT(secondsSince(t0), 3.0) << "a good client must be served promptly";
+
+  // Every silent connection is closed: the oldest at once to make room (LimitExceeded), the rest when their Hello
+  // deadline passes (Timeout). None stays past it.
+  for (auto& s : silent) {
+    std::vector<ErrorCode> codes;
+    EXPECT_TRUE(s->waitClosed(4s, &codes)) << "a silent connection outlived the Hello deadline";
+    ASSERT_EQ(codes.size(), 1u);
+    EXPECT_TRUE(codes[0] == ErrorCode::Timeout || codes[0] == ErrorCode::LimitExceeded) << int(codes[0]);
+  }
+  trickle.stop();
+  for (auto& s : trickling) EXPECT_TRUE(s->waitClosed(1s)) << "a trickled Hello outlived its deadline";
+  const json stats = statsOf(*server);
+  EXPECT_EQ(stats.at("sessions").at("pending").get<int>(), 0);
+  EXPECT_GT(stats.at("sessions").at("evicted").get<int>(), 0);
+  EXPECT_GE(stats["sessions"]["timed_out"].get<int>(), 8);
+  EXPECT_EQ(good->render(kScene).width, 80u);
+  EXPECT_TRUE(server->running());
+}
+
+// Before: the read timeout started only once a header was complete, so a header trickled a byte at a time kept
+// the connection for the idle timeout.
+TEST_F(HostileClientTest, ATrickledMessageIsClosedWithinTheReadTimeoutOfItsFirstByte) {
+  auto server = start("--read-timeout 1 --idle-timeout 30");
+  RawSocket s(server->port());
+  ASSERT_TRUE(s.sendAll(proto::encode(proto::Hello{1, 1, "trickle"}, 1)));
+  const auto capabilities = s.receive(10s);
+  ASSERT_TRUE(capabilities && std::holds_alternative<proto::Capabilities>(*capabilities));
+
+  const std::vector<uint8_t> message = proto::encode(proto::OpenDataset{"sparse"}, 2);
+  const auto first = Clock::now();
+  std::vector<ErrorCode> codes;
+  bool closed = false;
+  for (size_t i = 0; i < message.size() && !closed; ++i) {
+    s.sendSome(std::span(message).subspan(i, 1));
+    closed = s.waitClosed(250ms, &codes);
+  }
+  const double elapsed = secondsSince(first);
+  EXPECT_TRUE(closed) << "a message trickled over " << elapsed << " s was not closed";
+  EXPECT_LT(elapsed, 2.0) << "the read timeout (1 s) counts from the message's first byte";
+  EXPECT_EQ(codes, std::vector<ErrorCode>{ErrorCode::Timeout});
+
+  // A message sent at an ordinary pace is untouched by it.
+  auto good = session(*server);
+  EXPECT_EQ(good->listDatasets().size(), 1u);
+}
+
+// Before: a session's replies were queued whatever the client read (up to 256 MiB each); eight sessions flooding
+// OpenDataset without reading took the server from 0.6 to 2.6 GB, and most of it stayed after they closed.
+TEST_F(HostileClientTest, ClientsThatNeverReadStayBoundedAndGiveTheirMemoryBack) {
+  auto server = start("--write-timeout 4");
+  auto good = session(*server);
+  for (int i = 0; i < 3; ++i) good->render(kScene, proto::Encoding::RawRgba8);
+  const uint64_t before = server->residentBytes();
+
+  std::vector<uint8_t> flood;  // 2000 OpenDataset requests: about 7 MB of replies
+  for (uint32_t id = 0; id < 2000; ++id) {
+    const std::vector<uint8_t> one = proto::encode(proto::OpenDataset{"sparse"}, id + 10);
+    flood.insert(flood.end(), one.begin(), one.end());
+  }
+  std::vector<std::unique_ptr<RawSocket>> flooders;
+  for (int i = 0; i < 8; ++i) {
+    flooders.push_back(std::make_unique<RawSocket>(server->port()));
+    ASSERT_TRUE(flooders.back()->sendAll(proto::encode(proto::Hello{1, 1, "flood"}, 1)));
+  }
+  std::atomic<uint64_t> sentBytes{0};
+  Background flooding;
+  for (auto& f : flooders)
+    flooding.run([&, socket = f.get()](const std::atomic<bool>& stopping) {
+      size_t at = 0;
+      while (!stopping) {
+        const long n = socket->sendSome(std::span(flood).subspan(at));
+        if (n < 0) return;
+        if (n == 0) std::this_thread::sleep_for(1ms);
+        sentBytes += uint64_t(n);
+        at = (at + size_t(n)) % flood.size();
+      }
+    });
+  // For three seconds of flooding, the server stays small and good frames keep coming.
+  uint64_t peak = before;
+  double slowest = 0;
+  const auto t0 = Clock::now();
+  while (secondsSince(t0) < 3) {
+    const auto t = Clock::now();
+    EXPECT_EQ(good->render(kScene, proto::Encoding::RawRgba8).width, 80u);
+    slowest = std::max(slowest, secondsSince(t));
+    peak = std::max(peak, server->residentBytes());
+    std::this_thread::sleep_for(100ms);
+  }
+  flooding.stop();
+  EXPECT_LT(double(peak), double(before) + 64e6)
+      << "resident memory went from " << before / 1e6 << " to " << peak / 1e6 << " MB (" << sentBytes / 1e6
+      << " MB of requests sent)";
+  EXPECT_LT(slowest, 2.0) << "good frames were delayed";
+
+  // They never read: each is closed once a reply waits longer than the write timeout, and the memory is back.
+  const json stats = waitForStats(*server, [](const json& s) { return s["sessions"]["dropped_slow"] >= 8; }, 10s);
+  EXPECT_GE(stats["sessions"]["dropped_slow"].get<int>(), 8);
+  for (auto& f : flooders) EXPECT_TRUE(f->waitClosed(2s)) << "a session that never reads was kept";
+  std::this_thread::sleep_for(200ms);
+  const uint64_t after = server->residentBytes();
+  EXPECT_LT(double(after), std::max(double(before) * 1.1, double(before) + 32e6))
+      << "resident memory " << before / 1e6 << " MB before the flood, " << after / 1e6 << " MB after";
+  EXPECT_EQ(good->render(kScene, proto::Encoding::RawRgba8).width, 80u);
+}
+
+// Replies waiting for all sessions together are bounded too: a frame that would take them past the server's
+// output budget is answered LimitExceeded instead, until the client that does not read is dropped.
+TEST_F(HostileClientTest, AFrameBeyondTheServersOutputBudgetIsRefusedUntilTheNonReaderLeaves) {
+  // Frames of 16 MiB: more than the kernel's socket buffers take from a client that does not read (and within a
+  // message limit raised to let such a frame through at all).
+  auto server = start("--write-timeout 3 --max-total-output-mb 16 --max-message-bytes 33554432");
+  const char* bigScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [2048, 2048], "transfer_function": "sparse",
+                             "step": 4})";
+  RawSocket hog(server->port());
+  ASSERT_TRUE(hog.sendAll(proto::encode(proto::Hello{1, 1, "hog"}, 1)));
+  ASSERT_TRUE(hog.sendAll(proto::encode(proto::OpenDataset{"sparse"}, 2)));
+  ASSERT_TRUE(hog.sendAll(proto::encode(proto::RenderRequest{proto::Encoding::RawRgba8, bigScene}, 3)));
+  const json rendered = waitForStats(*server, [](const json& s) { return s["renders"]["frames"] >= 1; }, 30s);
+  ASSERT_GE(rendered["renders"]["frames"].get<int>(), 1);
+
+  auto good = session(*server);
+  try {
+    good->render(bigScene, proto::Encoding::RawRgba8);
+    ADD_FAILURE() << "a 16 MiB frame went out while another waited unread";
+  } catch (const ServerError& e) {
+    EXPECT_EQ(e.code(), ErrorCode::LimitExceeded) << e.what();
+  }
+  EXPECT_EQ(good->listDatasets().size(), 1u) << "the session goes on, and replies other than frames still go";
+  // The client that does not read is dropped once its frame waited the write timeout (3 s) (watched without
+  // reading from it: that would take the frame).
+  const json dropped = waitForStats(*server, [](const json& s) { return s["sessions"]["dropped_slow"] >= 1; }, 10s);
+  EXPECT_EQ(dropped["sessions"]["dropped_slow"].get<int>(), 1);
+  EXPECT_EQ(dropped.at("output").at("queued_bytes").get<uint64_t>(), 0u);
+  EXPECT_EQ(good->render(bigScene, proto::Encoding::RawRgba8).height, 2048u);
+}
+
+// One address may hold only so many connections; loopback is exempt unless configured otherwise.
+TEST_F(HostileClientTest, ConnectionsFromOneAddressAreLimited) {
+  test::writeFile(scratch() / "per-address.toml",
+                  std::string("[limits]\nmax_connections_per_address = 3\nloopback_exempt = false\n"));
+  auto server = start("--config " + (scratch() / "per-address.toml").string());
+  auto a = session(*server);
+  RawSocket b(server->port()), c(server->port());
+  RawSocket d(server->port());
+  std::vector<ErrorCode> codes;
+  EXPECT_TRUE(d.waitClosed(5s, &codes));
+  EXPECT_EQ(codes, std::vector<ErrorCode>{ErrorCode::LimitExceeded});
+  a->goodbye();
+  std::this_thread::sleep_for(200ms);
+  auto e = session(*server);
+  EXPECT_EQ(e->listDatasets().size(), 1u);
+  EXPECT_FALSE(b.waitClosed(100ms));
+
+  // The default: loopback clients are held to max_sessions only.
+  auto open = start("--max-connections-per-address 2");
+  std::vector<std::unique_ptr<Client>> many;
+  for (int i = 0; i < 6; ++i) EXPECT_NO_THROW(many.push_back(session(*open)));
+}
+
+}  // namespace
+}  // namespace voxbrick
