@@ -21,8 +21,8 @@ using Clock = std::chrono::steady_clock;
 using nlohmann::json;
 
 /// What faulty clients do, in turn (fault() handles each).
-const std::vector<std::string> kFaultKinds = {"disconnect", "garbage", "huge", "malformed", "slow",
-                                              "silent",     "trickle", "unread"};
+const std::vector<std::string> kFaultKinds = {"disconnect", "garbage", "huge",   "malformed", "slow",
+                                              "silent",     "trickle", "unread", "abandon",   "corrupt"};
 
 /// The server's deadlines that faults wait out (its Stats "limits"; the documented defaults if it has none).
 struct ServerDeadlines {
@@ -30,7 +30,7 @@ struct ServerDeadlines {
 };
 
 struct LoadArgs {
-  std::string address, dataset, tf = "grayscale", jsonPath, size = "128x128";
+  std::string address, dataset, tf = "grayscale", jsonPath, size = "128x128", corruptDataset;
   std::vector<std::string> faults;
   int clients = 4, faultClients = 0, idleSessions = 0;
   double duration = 10, step = 1, dragHz = 0;
@@ -247,7 +247,31 @@ bool fault(const std::string& kind, const LoadArgs& a, const ServerDeadlines& de
     c.goodbye();
     return ok;
   }
+  if (kind == "corrupt") {
+    // A damaged dataset: every Render of it is answered Internal, the first by the failed frame, the later ones at
+    // once (quarantined); the session goes on.
+    c.openDataset(a.corruptDataset);
+    bool ok = false;
+    try {
+      c.render(sceneJson(a, 64, 64, double(rng() % 360)));
+    } catch (const client::ServerError& e) {
+      ok = e.code() == proto::ErrorCode::Internal && std::string(e.what()).find("quarantined") != std::string::npos;
+    }
+    c.listDatasets();
+    c.goodbye();
+    return ok;
+  }
   c.openDataset(a.dataset);
+  if (kind == "abandon") {
+    // A heavy render (256², a step 50 times finer than the good clients'), left after a fifth of a second: the
+    // server gives it up part way (Stats renders.cancelled) instead of drawing it for nobody.
+    json heavy = json::parse(sceneJson(a, 256, 256, double(rng() % 360)));
+    heavy["step"] = std::max(0.001, a.step / 50);
+    c.send(proto::RenderRequest{proto::Encoding::Png, heavy.dump()});
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    c.close();
+    return true;
+  }
   c.send(proto::RenderRequest{proto::Encoding::RawRgba8, sceneJson(a, 256, 256, double(rng() % 360))});  // 256 KiB
   if (kind == "disconnect") {
     c.close();  // before the frame arrives
@@ -314,7 +338,12 @@ void runLoad(const LoadArgs& a) {
   int width = 0, height = 0;
   parseSize(a.size, "--size", width, height);
   if (width < 1 || height < 1) throw std::invalid_argument("--size '" + a.size + "': sides must be positive");
-  const std::vector<std::string> kinds = a.faults.empty() ? kFaultKinds : a.faults;
+  std::vector<std::string> kinds = a.faults;
+  if (kinds.empty())  // all, "corrupt" only with a damaged dataset to render
+    std::copy_if(kFaultKinds.begin(), kFaultKinds.end(), std::back_inserter(kinds),
+                 [&](const std::string& k) { return k != "corrupt" || !a.corruptDataset.empty(); });
+  if (a.corruptDataset.empty() && std::find(kinds.begin(), kinds.end(), "corrupt") != kinds.end())
+    throw std::runtime_error("the 'corrupt' fault needs --corrupt-dataset NAME (a damaged dataset of the server)");
 
   // Idle sessions: connected and greeted, then silent for the whole run.
   std::vector<std::unique_ptr<client::Client>> idle;
@@ -408,9 +437,13 @@ void addLoadCommand(CLI::App& app) {
   cmd->add_option("--faults", a->faults,
                   "comma list of what faulty clients do (default all): disconnect, garbage, huge, malformed, slow, "
                   "silent (never speaks; lasts the server's Hello timeout), trickle (a message a byte at a time; "
-                  "lasts its read timeout), unread (floods requests, reads nothing for a second)")
+                  "lasts its read timeout), unread (floods requests, reads nothing for a second), abandon (a heavy "
+                  "render, left after 0.2 s), corrupt (renders --corrupt-dataset)")
       ->delimiter(',')
       ->check(CLI::IsMember(kFaultKinds));
+  cmd->add_option("--corrupt-dataset", a->corruptDataset,
+                  "a damaged dataset of the server for the 'corrupt' fault (its renders must be answered Internal, "
+                  "quarantined)");
   cmd->add_option("--idle-sessions", a->idleSessions, "sessions opened and left silent")->check(CLI::Range(0, 100000));
   cmd->add_option("--drag", a->dragHz,
                   "clients send a new camera this many times a second without waiting (a camera drag); latency "

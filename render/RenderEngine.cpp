@@ -48,7 +48,12 @@ void RenderEngine::Impl::account() {
 }
 
 FrameRenderer& RenderEngine::Impl::rendererFor(const std::shared_ptr<const Dataset>& dataset) {
-  if (std::erase_if(renderers, [](const auto& entry) { return entry.first.expired(); }) > 0) account();
+  // Renderers of datasets closed, or quarantined (they will draw nothing more), give their atlases back.
+  if (std::erase_if(renderers, [](const auto& entry) {
+        const auto d = entry.first.lock();
+        return !d || d->quarantined();
+      }) > 0)
+    account();
   if (auto it = renderers.find(dataset); it != renderers.end()) {
     it->second.lastUse = ++uses;
     return *it->second.renderer;

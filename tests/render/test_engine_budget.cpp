@@ -69,5 +69,23 @@ TEST(GpuBudget, AnEngineKeepsAllItsAtlasesWithinOneBudget) {
   EXPECT_LE(tight.gpuBytes(), oneAtlas / 3);
 }
 
+TEST(GpuBudget, AQuarantinedDatasetGivesItsAtlasBack) {
+  ScratchDir dir;
+  test::prep("synthetic:blobs,n=64,seed=1", dir / "a", 16);
+  test::prep("synthetic:blobs,n=64,seed=2", dir / "b", 16);
+  const auto a = openDataset("a", dir / "a", size_t(64) << 20);
+  const auto b = openDataset("b", dir / "b", size_t(64) << 20);
+  RenderEngine engine({Backend::Auto, size_t(256) << 20, AtlasFormat::Float});
+  Scene scene;
+  scene.width = scene.height = 32;
+  engine.render(a, scene);
+  const size_t one = engine.gpuBytes();
+  engine.render(b, scene);
+  EXPECT_EQ(engine.gpuBytes(), 2 * one);
+  a->quarantine("its bricks failed their checks");  // what the server does when a frame of it meets a bad brick
+  engine.render(b, scene);
+  EXPECT_EQ(engine.gpuBytes(), one) << "the quarantined dataset's renderer is released at the next frame";
+}
+
 }  // namespace
 }  // namespace voxbrick::render
