@@ -7,6 +7,10 @@
 #include <filesystem>
 #include <string>
 
+#include <gtest/gtest.h>
+
+#include "support/TestSupport.h"
+
 namespace voxbrick::test {
 
 class ServerProcess {
@@ -34,6 +38,27 @@ class ServerProcess {
   int mPort = 0;
   int mStatus = -1;
   std::filesystem::path mLog;
+};
+
+/// Suites of the real server over one directory of stores, made once per suite: a sparse synthetic field (64³) in
+/// bricks of 16, named "sparse".
+class SparseDatasetSuite : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    sDir = new ScratchDir();
+    std::filesystem::create_directories(*sDir / "datasets");
+    const auto r = runVoxbrick("prep synthetic:sparse,n=64 --brick 16 --no-vdb -q -o " +
+                               (*sDir / "datasets" / "sparse").string());
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+  }
+  static void TearDownTestSuite() {
+    delete sDir;
+    sDir = nullptr;
+  }
+  static std::string datasets() { return (*sDir / "datasets").string(); }
+  static std::filesystem::path scratch() { return sDir->path(); }
+
+  static inline ScratchDir* sDir = nullptr;
 };
 
 }  // namespace voxbrick::test

@@ -27,31 +27,13 @@ using test::ScratchDir;
 using test::ServerProcess;
 using nlohmann::json;
 
-/// One directory of stores for the whole suite: a sparse synthetic field in bricks of 16.
-class ServerTest : public ::testing::Test {
+class ServerTest : public test::SparseDatasetSuite {
  protected:
-  static void SetUpTestSuite() {
-    sDir = new ScratchDir();
-    std::filesystem::create_directories(*sDir / "datasets");
-    const auto r = test::runVoxbrick("prep synthetic:sparse,n=64 --brick 16 --no-vdb -q -o " +
-                                     (*sDir / "datasets" / "sparse").string());
-    ASSERT_EQ(r.exitCode, 0) << r.output;
-  }
-  static void TearDownTestSuite() {
-    delete sDir;
-    sDir = nullptr;
-  }
-  static std::string datasets() { return (*sDir / "datasets").string(); }
-  static std::filesystem::path scratch() { return sDir->path(); }
-
   std::unique_ptr<ServerProcess> start(const std::string& extra = "", int renderThreads = 2) {
     return std::make_unique<ServerProcess>(
         "--datasets " + datasets() + " --render-threads " + std::to_string(renderThreads) + " " + extra, scratch());
   }
-
-  static ScratchDir* sDir;
 };
-ScratchDir* ServerTest::sDir = nullptr;
 
 const char* kScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [80, 64], "transfer_function": "sparse",
                          "step": 0.75})";

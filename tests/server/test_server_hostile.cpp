@@ -27,29 +27,12 @@ using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 using namespace std::chrono_literals;
 
-class HostileClientTest : public ::testing::Test {
+class HostileClientTest : public test::SparseDatasetSuite {
  protected:
-  static void SetUpTestSuite() {
-    sDir = new ScratchDir();
-    std::filesystem::create_directories(*sDir / "datasets");
-    const auto r = test::runVoxbrick("prep synthetic:sparse,n=64 --brick 16 --no-vdb -q -o " +
-                                     (*sDir / "datasets" / "sparse").string());
-    ASSERT_EQ(r.exitCode, 0) << r.output;
-  }
-  static void TearDownTestSuite() {
-    delete sDir;
-    sDir = nullptr;
-  }
-  static std::filesystem::path scratch() { return sDir->path(); }
-
   std::unique_ptr<ServerProcess> start(const std::string& extra) {
-    return std::make_unique<ServerProcess>(
-        "--datasets " + (*sDir / "datasets").string() + " --render-threads 2 " + extra, scratch());
+    return std::make_unique<ServerProcess>("--datasets " + datasets() + " --render-threads 2 " + extra, scratch());
   }
-
-  static ScratchDir* sDir;
 };
-ScratchDir* HostileClientTest::sDir = nullptr;
 
 const char* kScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [80, 64], "transfer_function": "sparse"})";
 
