@@ -41,8 +41,9 @@ struct FramePlan {
   double nearPlane = 0, farPlane = 0;
   glm::dmat4 viewProj{1.0};   ///< world to clip
   ValueWindow window;
-  /// Whether raw range [min, max] gets any opacity from the GPU's transfer table (the exact test, widened by one
-  /// table texel: a filtered lookup within one texel of an opaque region picks up some of its opacity).
+  /// Whether raw range [min, max] gets any opacity from the GPU's transfer table: the range test over the table
+  /// entries a filtered lookup in [min, max] reads (exact at the window's ends: background at the low end is skipped
+  /// when the transfer function is transparent there).
   RangePredicate contributes;
   TraversalResult visible;    ///< bricks to draw, front to back, and what the traversal skipped
   glm::dvec3 planeNormal{0, 0, 1};  ///< unit, from the eye into the scene
@@ -95,7 +96,7 @@ std::vector<uint8_t> brickLevels(const TraversalResult& visible, const store::St
 inline constexpr int kTransferTableTexels = 4096;
 
 /// Plans a frame of `scene` over `store`. `transferTableTexels` is the size of the GPU's transfer-function table
-/// (the range test is widened by one of its texels). Throws RenderInputError for an invalid scene.
+/// (the range test covers the entries a lookup reads). Throws RenderInputError for an invalid scene.
 FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int transferTableTexels);
 
 }  // namespace voxbrick::render

@@ -181,7 +181,7 @@ glm::dvec4 TransferFunction::evaluate(double x) const {
 std::vector<glm::vec4> TransferFunction::table(int n) const {
   if (n < 1) throw RenderInputError("TransferFunction::table: size " + std::to_string(n) + " < 1");
   std::vector<glm::vec4> texels(static_cast<size_t>(n));
-  for (int i = 0; i < n; ++i) texels[static_cast<size_t>(i)] = glm::vec4(evaluate((i + 0.5) / n));
+  for (int i = 0; i < n; ++i) texels[static_cast<size_t>(i)] = glm::vec4(evaluate(n > 1 ? double(i) / (n - 1) : 0.0));
   return texels;
 }
 

@@ -47,7 +47,9 @@ class TransferFunction {
 
   /// Straight RGB and alpha at normalised value x (NaN reads as 0).
   glm::dvec4 evaluate(double x) const;
-  /// n samples at texel centres (i + 0.5) / n, for a GPU 1D texture; throws RenderInputError for n < 1.
+  /// n samples at i / (n - 1), both ends included, for a GPU 1D texture read at (x (n - 1) + 0.5) / n, so that a
+  /// lookup is exact at 0 and 1 and linear in between (no half-texel clamp at the ends: a value at the window's
+  /// low end gets exactly tf(0), transparent where the function is); throws RenderInputError for n < 1.
   std::vector<glm::vec4> table(int n) const;
   /// The length the alphas are given for, if the JSON set one (the renderer's default: the smallest level-0
   /// spacing).

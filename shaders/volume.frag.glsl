@@ -88,6 +88,13 @@ float segmentRatio(vec3 world) {
 // The value window: raw atlas value to the transfer function's [0, 1].
 float normalised(float value) { return clamp((value - uWindowLo) * uWindowScale, 0.0, 1.0); }
 
+// The transfer function at normalised x: its table holds tf(k / (n - 1)), k = 0 .. n - 1 (TransferFunction::table),
+// so x maps to texel coordinate x (n - 1) + 0.5, exact at both ends.
+vec4 classify(float x) {
+  const float n = float(textureSize(uTransfer, 0));
+  return texture(uTransfer, (x * (n - 1.0) + 0.5) / n);
+}
+
 // The Phong headlight at `world` (voxel coordinate `voxel`) as (diffuse factor, specular term): a colour c becomes
 // c * x + y. (1, 0) without SHADING or where the gradient vanishes.
 vec2 headlight(vec3 world, vec3 voxel) {
@@ -111,7 +118,7 @@ vec2 headlight(vec3 world, vec3 voxel) {
 // The classified, opacity-corrected (for a segment of `ratio` reference lengths), optionally shaded sample at
 // `world` (voxel coordinate `voxel`), premultiplied.
 vec4 shadeSample(vec3 world, vec3 voxel, float value, float ratio) {
-  const vec4 classified = texture(uTransfer, normalised(value));
+  const vec4 classified = classify(normalised(value));
   const float alpha = classified.a >= 1.0 ? 1.0 : oneMinusExp(ratio * logOneMinus(classified.a));
   vec3 color = classified.rgb;
 #ifdef SHADING
@@ -242,7 +249,7 @@ void main() {
     const vec3 after = voxelOnPlane(origin, direction, start, along, planeDistance + uPlaneIncr * float(stride));
     if (preIntegrated(sampleAt(voxel), sampleAt(clamp(after, backLo, backHi)), layer).a > 0.0) return;
 #else
-    if (texture(uTransfer, normalised(sampleAt(voxel))).a > 0.0) return;
+    if (classify(normalised(sampleAt(voxel))).a > 0.0) return;
 #endif
     continue;
 #endif

@@ -64,11 +64,12 @@ TEST(Lod, MixedLevelsMatchTheReferenceOfTheSameLevels) {
               << whole << " dB, mixed against level 0 " << psnr(gpu, level0) << " dB\n";
     const double maxAbs = image::compareImages(gpu, reference).maxAbs;
     std::cout << what << ": max |diff| against the same levels' reference " << maxAbs << "\n";
-    // Slicing samples every plane at every level, so it meets the same levels as closely as level 0 meets level 0
-    // (a crack or a double sample where levels meet would cost tens of dB); slabs take every 2^m-th plane in level
-    // m, a coarser step there, and stay far above the 40 dB a user would see.
+    // Slicing samples every plane at every level, so it meets the same levels about as closely as level 0 meets
+    // level 0 (a crack or a double sample where levels meet would cost tens of dB; level 0 reaches 100 dB here,
+    // where what separates the two is float round-off, so the bar is at most 80 dB); slabs take every 2^m-th plane
+    // in level m, a coarser step there, and stay far above the 40 dB a user would see.
     if (slab == 0) {
-      EXPECT_GT(mixed, whole - 1.0) << what;
+      EXPECT_GT(mixed, std::min(whole, 80.0) - 1.0) << what;
       EXPECT_LT(maxAbs, 2.0 / 255) << what;
     } else {
       EXPECT_GT(mixed, 60.0) << what;

@@ -130,7 +130,7 @@ TEST(Streaming, StandInsLeaveNoHoles) {
     // move pixels by a tenth or more. Slicing samples every plane at every level; on slabs the coarsest level here
     // takes every 8th plane (a 4-voxel step, which the reference does not take), so it is held less tightly.
     if (c.slab == 0) {
-      EXPECT_GT(sameLevels, whole - 3.0) << c.what;
+      EXPECT_GT(sameLevels, std::min(whole, 80.0) - 3.0) << c.what;  // level 0 reaches 100 dB: see test_lod.cpp
       EXPECT_LT(maxAbs, 2.0 / 255) << c.what;
     } else {
       EXPECT_GT(sameLevels, 50.0) << c.what;

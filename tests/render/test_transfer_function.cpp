@@ -135,17 +135,19 @@ TEST(TransferFunctionEvaluate, InterpolatesClampsAndSteps) {
   EXPECT_EQ(single.evaluate(1.0), glm::dvec4(0.1, 0.2, 0.3, 0.4));
 }
 
-TEST(TransferFunctionTable, SamplesAtTexelCentres) {
+TEST(TransferFunctionTable, SamplesBothEndsAndEvenlyBetween) {
   TransferFunction tf({{0, {0, 0, 0, 0}}, {1, {1, 0.5, 0.25, 1}}});
   std::vector<glm::vec4> t = tf.table(4);
   ASSERT_EQ(t.size(), 4u);
+  EXPECT_EQ(t.front().a, 0.0f) << "the low end is tf(0) exactly: transparent background stays transparent";
+  EXPECT_EQ(t.back().a, 1.0f);
   for (int i = 0; i < 4; ++i) {
-    double x = (i + 0.5) / 4;
+    double x = i / 3.0;
     EXPECT_FLOAT_EQ(t[static_cast<size_t>(i)].r, static_cast<float>(x));
     EXPECT_FLOAT_EQ(t[static_cast<size_t>(i)].g, static_cast<float>(0.5 * x));
     EXPECT_FLOAT_EQ(t[static_cast<size_t>(i)].a, static_cast<float>(x));
   }
-  EXPECT_EQ(tf.table(1).at(0), glm::vec4(0.5f, 0.25f, 0.125f, 0.5f));
+  EXPECT_EQ(tf.table(1).at(0), glm::vec4(0.0f, 0.0f, 0.0f, 0.0f));
   EXPECT_THROW(tf.table(0), RenderInputError);
 }
 

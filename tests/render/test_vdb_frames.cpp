@@ -73,7 +73,7 @@ TEST_P(VdbFrames, EqualThePreppedStoreBitForBit) {
 }
 
 TEST_P(VdbFrames, EqualUnderTightBudgets) {
-  // A GPU budget of a dozen bricks draws level 0 in many batches; a host cache of six bricks evicts finer
+  // A GPU budget of three bricks draws level 0 in many batches; a host cache of six bricks evicts finer
   // bricks while the coarse ones are built from them.
   const std::string grid = GetParam() ? "sparse" : "dense";
   const size_t brickBytes = live->brickBytes();
@@ -84,10 +84,10 @@ TEST_P(VdbFrames, EqualUnderTightBudgets) {
     FrameStats stats;
     image::ImageF a;
     {
-      VolumeRenderer renderer(test::context(), cache, brickBytes * 12);
+      VolumeRenderer renderer(test::context(), cache, brickBytes * 3);
       a = renderer.render(scene, &stats);
     }
-    const image::ImageF b = renderStore(prepped, scene, nullptr, brickBytes * 12, brickBytes * 6);
+    const image::ImageF b = renderStore(prepped, scene, nullptr, brickBytes * 3, brickBytes * 6);
     if (lod == 0) {
       EXPECT_GT(stats.batches, 1) << what;
     } else {
