@@ -61,17 +61,9 @@ FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int tran
   const Frustum frustum = Frustum::fromMatrix(plan.viewProj);
 
   plan.window = valueWindow(scene, meta);
-  // A filtered lookup at x reads table entries floor(x g) and ceil(x g), g = texels - 1 (entry k holds tf(k / g)):
-  // the range test covers the entries [mn, mx] can read, with a margin for the GPU's float arithmetic, except at the
-  // window's ends, which the GPU computes exactly (0 and 1 read one entry): a brick of background at the low end is
-  // skipped when tf(0) is transparent.
-  const double g = std::max(1, transferTableTexels - 1);
-  plan.contributes = [tf = scene.transferFunction, w = plan.window, g](float mn, float mx) {
-    const double lo = std::clamp((double(mn) - w.lo) * w.inverseWidth, 0.0, 1.0);
-    const double hi = std::clamp((double(mx) - w.lo) * w.inverseWidth, 0.0, 1.0);
-    const double first = lo >= 1 ? g : std::max(0.0, std::floor(lo * g - 1e-3));
-    const double last = hi <= 0 ? 0 : std::min(g, std::ceil(hi * g + 1e-3));
-    return first == last ? tf.evaluate(first / g).a > 0 : tf.contributes(first / g, last / g);
+  plan.contributes = [tf = scene.transferFunction, w = plan.window, transferTableTexels](float mn, float mx) {
+    return tf.tableContributes((double(mn) - w.lo) * w.inverseWidth, (double(mx) - w.lo) * w.inverseWidth,
+                               transferTableTexels);
   };
   const OctreeTraversal traversal(store.octree(), meta.dims, B, meta.spacing);
   TraversalOptions options{scene.skipEmpty, scene.cullFrustum, {scene.lod, store.levelCount() - 1, scene.height}};

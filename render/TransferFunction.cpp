@@ -185,6 +185,15 @@ std::vector<glm::vec4> TransferFunction::table(int n) const {
   return texels;
 }
 
+bool TransferFunction::tableContributes(double lo, double hi, int n) const {
+  if (std::isnan(lo) || std::isnan(hi)) return true;
+  const double g = std::max(1, n - 1);
+  lo = std::clamp(lo, 0.0, 1.0), hi = std::clamp(hi, 0.0, 1.0);
+  const double first = lo >= 1 ? g : std::max(0.0, std::floor(lo * g - 1e-3));
+  const double last = hi <= 0 ? 0 : std::min(g, std::ceil(hi * g + 1e-3));
+  return first == last ? evaluate(first / g).a > 0 : contributes(first / g, last / g);
+}
+
 bool TransferFunction::contributes(double lo, double hi) const {
   if (std::isnan(lo) || std::isnan(hi)) return true;
   if (lo > hi) std::swap(lo, hi);

@@ -61,6 +61,11 @@ class TransferFunction {
   /// are never missed. Conservative: it may say true for a range that only shares one of kRangeBins bins with
   /// opacity, never false for a range with opacity.
   bool contributes(double lo, double hi) const;
+  /// The same test for what the GPU reads from table(n): a filtered lookup at x reads entries floor(x (n - 1)) and
+  /// ceil(x (n - 1)), so the range covers the entries [lo, hi] can read, with a margin for the GPU's float
+  /// arithmetic, except at 0 and 1, which read one entry exactly (background at the window's low end is skipped
+  /// when tf(0) is transparent). lo <= hi, normalised (clamped to [0, 1]); NaN gives true.
+  bool tableContributes(double lo, double hi, int n) const;
 
   /// Opacity for a step of stepOverReference reference lengths: 1 - (1 - alpha)^stepOverReference, accurate for
   /// alpha near 0 or 1. alpha is clamped to [0, 1]; alpha 0 gives 0, alpha 1 gives 1 for any step > 0; a step

@@ -125,7 +125,6 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, c
     mResidency.abortFrame();
     for (auto& g : mGeometry)
       if (g) g->clear();  // boxes queued for a batch that was never drawn
-    mGl.glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
     for (int i = 0; i < 16 && mGl.glGetError() != GL_NO_ERROR; ++i) {  // errors the failure left (bounded: a
     }                                                                   // lost context reports one forever)
     throw;

@@ -135,6 +135,16 @@ TEST(TransferFunctionEvaluate, InterpolatesClampsAndSteps) {
   EXPECT_EQ(single.evaluate(1.0), glm::dvec4(0.1, 0.2, 0.3, 0.4));
 }
 
+TEST(TransferFunctionTable, TheRangeTestCoversWhatALookupReads) {
+  const TransferFunction ramp({{0, {0, 0, 0, 0}}, {1, {1, 1, 1, 1}}});
+  EXPECT_FALSE(ramp.tableContributes(0, 0, 4096)) << "the low end reads tf(0) alone";
+  EXPECT_TRUE(ramp.tableContributes(0, 1e-6, 4096)) << "just above it reads the next entry too";
+  const TransferFunction foot({{0, {0, 0, 0, 0}}, {0.5, {0, 0, 0, 0}}, {1, {1, 1, 1, 1}}});
+  EXPECT_FALSE(foot.tableContributes(0.1, 0.49, 4096));
+  EXPECT_TRUE(foot.tableContributes(0.1, 0.5, 4096)) << "0.5 reads entries up to the first opaque one";
+  EXPECT_TRUE(foot.tableContributes(std::nan(""), 0.2, 4096));
+}
+
 TEST(TransferFunctionTable, SamplesBothEndsAndEvenlyBetween) {
   TransferFunction tf({{0, {0, 0, 0, 0}}, {1, {1, 0.5, 0.25, 1}}});
   std::vector<glm::vec4> t = tf.table(4);
