@@ -60,7 +60,11 @@ render::Scene buildScene(const SceneArgs& a, const CLI::App& cmd) {
   if (a.noCull) s.cullFrustum = false;
   if (a.shading) s.shading = true;
   if (a.subBlock >= 0) s.subBlock = a.subBlock;
-  if (a.slab >= 0) s.slab = a.slab;
+  if (a.slab >= 0) {
+    s.slab = a.slab;
+    s.raycast = false;  // --slab N asks for slicing or slabs
+  }
+  if (a.raycast) s.raycast = true;
   if (cmd.count("--ert")) s.ert = a.ert;
   if (cmd.count("--lod")) s.lod = a.lod;
   if (a.preIntegration) s.preIntegration = true;
@@ -93,11 +97,14 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
   cmd->add_option("--slab", args.slab,
                   "texture slabs of N planes: the fragment program marches N samples and blends once (default 32; "
                   "0 slices: one blended sample per fragment)");
+  cmd->add_flag("--raycast", args.raycast,
+                "frame ray casting: one fragment per pixel marches its ray through every brick, each sample's brick "
+                "looked up in a table of cells (the same samples as slabs; --slab and --ess then have no effect)");
   cmd->add_option("--ert", args.ert,
-                  "early ray termination on slabs: stop rays whose opacity reached this threshold in [0.5, 1] "
+                  "early ray termination when marching (slabs, ray casting): stop rays whose opacity reached this threshold in [0.5, 1] "
                   "(default 0.999; 0: off)");
   cmd->add_flag("--pre-integration", args.preIntegration,
-                "pre-integrated classification on slabs: each segment between samples classified whole from a table");
+                "pre-integrated classification when marching (slabs, ray casting): each segment between samples classified whole from a table");
   cmd->add_option("--lod", args.lod,
                   "level of detail: draw a coarser pyramid level where its voxels are at most this many pixels tall "
                   "(0: level 0 everywhere)");

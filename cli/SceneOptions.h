@@ -13,7 +13,7 @@ struct SceneArgs {
   std::string sceneFile, orbit, eye, center, up, size, tf, background, window, slicer;
   double fov = 0, step = 0;
   bool ortho = false, noSkip = false, noCull = false, shading = false, preIntegration = false, ess = false,
-       progressive = false;
+       progressive = false, raycast = false;
   int subBlock = -1;
   int slab = -1;
   double ert = 0;

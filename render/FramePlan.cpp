@@ -76,14 +76,27 @@ FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int tran
   plan.step = scene.step * minSpacing;
   plan.referenceLength = scene.transferFunction.referenceLength().value_or(minSpacing);
   plan.subBlock = scene.subBlock > 0 && scene.subBlock < B ? scene.subBlock : 0;
-  plan.slab = scene.slab;
-  plan.ert = scene.slab > 0 ? scene.ert : 0;
-  plan.preIntegration = scene.slab > 0 && scene.preIntegration;
-  plan.ess = scene.slab > 0 && scene.ess;
+  plan.raycast = scene.raycast;
+  if (plan.raycast) {
+    plan.cellSize = rayCastCellSize(meta.dims, plan.subBlock, B);
+    plan.raycast = plan.cellSize > 0;  // else texture slabs, of the scene's size or the default
+  }
+  plan.slab = plan.raycast ? 0 : scene.slab > 0 || !scene.raycast ? scene.slab : Scene{}.slab;
+  plan.ert = plan.marches() ? scene.ert : 0;
+  plan.preIntegration = plan.marches() && scene.preIntegration;
+  plan.ess = plan.slab > 0 && scene.ess;
   plan.width = scene.width;
   plan.height = scene.height;
   plan.rays = pixelRays(plan.viewProj, scene.width, scene.height);
   return plan;
+}
+
+int rayCastCellSize(const store::Vec3i& dims, int subBlock, int brickSize) {
+  auto cells = [&](int64_t c) { return ((dims.x + c - 1) / c) * ((dims.y + c - 1) / c) * ((dims.z + c - 1) / c); };
+  int size = subBlock > 0 ? subBlock : brickSize;
+  while (cells(size) > kMaxRayCastCells && size < brickSize) size *= 2;
+  if (cells(size) > kMaxRayCastCells || std::max({dims.x, dims.y, dims.z}) > 32767) return 0;
+  return size;
 }
 
 std::vector<uint8_t> brickLevels(const TraversalResult& visible, const store::StoreMeta& meta) {

@@ -50,9 +50,11 @@ struct FramePlan {
   double step = 1;            ///< world distance between global slice planes
   double referenceLength = 1; ///< the length transfer-function opacities are given for
   int subBlock = 0;           ///< sub-block edge in voxels; 0 draws whole bricks
-  int slab = 0;               ///< planes per texture slab; 0 slices
-  double ert = 0;             ///< early ray termination threshold on slabs; 0 off (always 0 when slicing)
-  bool preIntegration = false;  ///< pre-integrated classification (slabs only)
+  int slab = 0;               ///< planes per texture slab; 0 slices (ignored when ray casting)
+  bool raycast = false;       ///< frame ray casting (render/RayCastPass.h) instead of slicing or slabs
+  int cellSize = 0;           ///< ray casting: the cell table's cell edge in level-0 voxels (render/CellTable.h)
+  double ert = 0;             ///< early ray termination threshold when marching; 0 off (always 0 when slicing)
+  bool preIntegration = false;  ///< pre-integrated classification (when marching)
   bool ess = false;             ///< empty-space silhouette maps (slabs only)
   int coarsestLevel = 0;        ///< the coarsest pyramid level drawn: of plan.visible's bricks' sources
   int width = 0, height = 0;    ///< image size in pixels
@@ -61,9 +63,11 @@ struct FramePlan {
   /// Whether every box owns exactly its voxels, tested on the pixel's ray (sub-blocks and bricks of different levels,
   /// whose boxes meet at T-junctions, and slabs, which march rays); else whole bricks share their rasterised faces
   /// and only the volume's outline is tested.
-  bool exactOwnership() const { return subBlock > 0 || slab > 0 || coarsestLevel > 0; }
-  /// Planes a box of pyramid level `level` samples: every one when slicing, every 2^level-th on slabs.
-  int planeStride(int level) const { return slab > 0 ? 1 << level : 1; }
+  bool exactOwnership() const { return subBlock > 0 || marches() || coarsestLevel > 0; }
+  /// Whether fragments march rays through several planes (slabs or the frame ray caster), rather than slice.
+  bool marches() const { return slab > 0 || raycast; }
+  /// Planes a box of pyramid level `level` samples: every one when slicing, every 2^level-th when marching.
+  int planeStride(int level) const { return marches() ? 1 << level : 1; }
 
   /// The shortest and longest segment between two planes along any pixel's ray, in reference lengths: step / L
   /// over the cosine of the ray's angle to the view axis (1 for an orthographic camera), over the image's corners and
@@ -90,6 +94,15 @@ struct FramePlan {
 /// each draw's source() inside the voxels it owns, 0 elsewhere. What ReferenceOptions::brickLevels takes, so that the
 /// reference samples the same level as the GPU everywhere.
 std::vector<uint8_t> brickLevels(const TraversalResult& visible, const store::StoreMeta& meta);
+
+/// The most cells a ray-casting frame's cell table may have (8 bytes each): cells are the sub-blocks, doubled until
+/// the table fits, at most bricks; a volume whose bricks need more cells (or with a side beyond 32767 voxels, past
+/// the table's 16-bit offsets) is drawn with texture slabs instead.
+inline constexpr int64_t kMaxRayCastCells = int64_t{1} << 22;
+
+/// The cell edge of a ray-casting frame's cell table over `dims` voxels: the sub-block (or with none the brick),
+/// doubled while the table would exceed kMaxRayCastCells; 0 when even bricks would, or a side exceeds 32767 voxels.
+int rayCastCellSize(const store::Vec3i& dims, int subBlock, int brickSize);
 
 /// Texels of the GPU renderer's transfer-function table (VolumeRenderer), so that a plan made away from the GL
 /// renderer (the server's paging ahead) skips what the GPU would.

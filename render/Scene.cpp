@@ -77,7 +77,7 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   }
   if (!j.is_object()) throw RenderInputError(what + ": a scene must be a JSON object");
   static const char* kKeys[] = {"camera", "size", "transfer_function", "step", "background", "window",
-                                "skip_empty", "cull", "slicer", "shading", "sub_block", "slab", "ert",
+                                "skip_empty", "cull", "slicer", "shading", "sub_block", "slab", "raycast", "ert",
                                 "pre_integration", "ess", "lod", "progressive"};
   for (auto it = j.begin(); it != j.end(); ++it)
     if (std::find(std::begin(kKeys), std::end(kKeys), it.key()) == std::end(kKeys))
@@ -163,7 +163,9 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
       throw RenderInputError(what + ": 'slab' must be 0 (slicing) or a whole number of planes up to " +
                              std::to_string(kMaxSlab));
     s.slab = int(v);
+    s.raycast = false;  // a slab size asks for slicing or slabs, unless 'raycast' says otherwise
   }
+  if (j.contains("raycast")) s.raycast = boolean(j["raycast"], "raycast", what);
   if (j.contains("ert")) s.ert = number(j["ert"], "ert", what);
   if (j.contains("pre_integration")) s.preIntegration = boolean(j["pre_integration"], "pre_integration", what);
   if (j.contains("ess")) s.ess = boolean(j["ess"], "ess", what);
@@ -221,6 +223,7 @@ std::string Scene::toJson() const {
             {"shading", shading},
             {"sub_block", subBlock},
             {"slab", slab},
+            {"raycast", raycast},
             {"ert", ert},
             {"pre_integration", preIntegration},
             {"ess", ess},

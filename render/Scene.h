@@ -61,6 +61,11 @@ struct Scene {
   /// consecutive global planes, and the fragment program marches the pixel's ray through them, compositing in
   /// registers. N at least a brick's planes makes it a brick ray caster. The samples are the same either way.
   int slab = 32;
+  /// Frame ray casting (render/RayCastPass.h): one fragment per pixel and atlas batch marches the pixel's ray through
+  /// every brick of the batch, finding each sample's brick in a table of cells (sub-blocks, else bricks) instead of
+  /// drawing a proxy per box and slab. The samples are the same global planes' points as slicing and slabs take, so
+  /// the image is the same beyond round-off; `slab` and `ess` then have no effect, ert and pre_integration apply.
+  bool raycast = false;
   /// Early ray termination on texture slabs: 0 (off) or a threshold in [0.5, 1]. Between slabs a pass marks the
   /// pixels whose accumulated opacity reached it in the depth buffer (a slab silhouette map), and the early depth
   /// test skips their fragments in every later slab; a fragment also stops marching when its own opacity reaches
@@ -90,7 +95,7 @@ struct Scene {
   /// Parses a scene JSON object; absent keys keep their defaults. Throws RenderInputError naming `what` and the
   /// key. Keys: camera {orbit: [az, el, dist] | eye, center, up; fov; orthographic}, size [w, h],
   /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b],
-  /// window [lo, hi], skip_empty, cull, slicer ("vertex" | "cpu"), shading, sub_block, slab, ert,
+  /// window [lo, hi], skip_empty, cull, slicer ("vertex" | "cpu"), shading, sub_block, slab, raycast, ert,
   /// pre_integration, ess, lod, progressive.
   /// `allowPaths` false (the server) accepts transfer functions by preset name or inline only, never a file path.
   static Scene fromJson(const std::string& text, const std::string& what, bool allowPaths = true);

@@ -2,7 +2,6 @@
 #include "render/SlabPass.h"
 
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <limits>
 
@@ -12,29 +11,20 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
-constexpr size_t kCounters = 3;
-constexpr double kSlabDepthStep = 1.0 / (1 << 22);  // depths 1 - k * step are exact in float for k < 2^22  // fragments, samples taken, samples left by termination: (low, high) words each
+constexpr double kSlabDepthStep = 1.0 / (1 << 22);  // depths 1 - k * step are exact in float for k < 2^22
 
 int64_t floorDiv(int64_t a, int64_t b) { return a / b - ((a % b != 0) && ((a < 0) != (b < 0))); }
 
 }  // namespace
 
 SlabPass::SlabPass(const Gl& gl)
-    : mGl(gl),
-      mTermination(gl, ProgramSources::fromFiles("termination", {{GL_VERTEX_SHADER, "termination.vert.glsl"},
-                                                                  {GL_FRAGMENT_SHADER, "termination.frag.glsl"}})),
-      mTerminationAt(mTermination.requireUniform("uTermination")),
-      mAccumulatedAt(mTermination.requireUniform("uAccumulated")),
-      mNoAttributes(gl),
-      mCounters(gl) {}
+    : mGl(gl), mTermination(gl), mCounters(gl) {}
 
 void SlabPass::draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program,
                     const VolumeProgram* emptyTest, SlabGeometry& geometry, Compositor& compositor,
                     FrameStats& stats, Checkpoints& checkpoints) {
   mSlabsDrawn = 0;
-  const std::array<uint32_t, 2 * kCounters> zero{};
-  mCounters.allocate(GL_SHADER_STORAGE_BUFFER, sizeof(zero), zero.data(), GL_DYNAMIC_COPY);
-  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, mCounters.id());
+  mCounters.reset();
   mBoxes.clear();
   auto add = [&](const QueuedBox& b) { mBoxes.push_back(b); };
   auto flush = [&] {
@@ -82,32 +72,12 @@ void SlabPass::drawBatch(const FramePlan& plan, const VolumeProgram& program, co
     }
     mGl.glDepthRange(0, 1);
     stats.slabPasses += 1;
-    if (plan.ert > 0 && first + n < hi) terminate(plan, compositor);
+    if (plan.ert > 0 && first + n < hi) mTermination.run(plan.ert, compositor);
     checkpoints.pace();
     stats.msDrawing += msSince(t);
   }
 }
 
-void SlabPass::terminate(const FramePlan& plan, Compositor& compositor) const {
-  compositor.bindSilhouette();
-  compositor.accumulated().bind(2);
-  mTermination.use();
-  mTermination.set(mAccumulatedAt, 2);
-  mTermination.set(mTerminationAt, float(plan.ert));
-  mNoAttributes.bind();
-  mGl.glDepthMask(GL_TRUE);
-  mGl.glDrawArrays(GL_TRIANGLES, 0, 3);
-  mGl.glDepthMask(GL_FALSE);
-  compositor.bindTarget();
-}
-
-void SlabPass::finish(FrameStats& stats) const {
-  std::array<uint32_t, 2 * kCounters> words{};
-  mCounters.read(0, sizeof(words), words.data());
-  auto counter = [&](size_t i) { return int64_t((uint64_t(words[2 * i + 1]) << 32) | words[2 * i]); };
-  stats.fragments = counter(0);
-  stats.samples = counter(1);
-  stats.samplesTerminated = counter(2);
-}
+void SlabPass::finish(FrameStats& stats) const { mCounters.read(stats); }
 
 }  // namespace voxbrick::render

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "render/Compositor.h"
+#include "render/Marching.h"
 #include "render/SlicingPass.h"
 
 namespace voxbrick::render {
@@ -42,15 +43,12 @@ class SlabPass {
  private:
   void drawBatch(const FramePlan& plan, const VolumeProgram& program, const VolumeProgram* emptyTest,
                  SlabGeometry& geometry, Compositor& compositor, FrameStats& stats, Checkpoints& checkpoints);
-  void terminate(const FramePlan& plan, Compositor& compositor) const;
 
   const Gl& mGl;
   BrickWalk mWalk;
   std::vector<QueuedBox> mBoxes;  // the current batch's boxes, in visibility order
-  Program mTermination;
-  GLint mTerminationAt = -1, mAccumulatedAt = -1;
-  VertexArray mNoAttributes;
-  Buffer mCounters;  // SlabCounters of volume.frag.glsl
+  TerminationPass mTermination;
+  SampleCounters mCounters;
   int64_t mSlabsDrawn = 0;  // this frame's, for the empty-space maps' depths
 };
 

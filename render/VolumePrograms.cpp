@@ -15,9 +15,11 @@ ProgramSources sources(const ProgramKey& key) {
   if (key.model == FragmentModel::Roofline) defines.push_back("ROOFLINE");
   if (key.model == FragmentModel::Shaded) defines.push_back("SHADING");
   if (key.slab) defines.push_back("SLAB");
+  if (key.raycast) defines.push_back("RAYCAST");
   if (key.preIntegration) defines.push_back("PRE_INTEGRATION");
   if (key.emptyTest) defines.push_back("EMPTY_TEST");
-  const char* vertex = key.slab                     ? "slab.vert.glsl"
+  const char* vertex = key.raycast                  ? "raycast.vert.glsl"
+                       : key.slab                  ? "slab.vert.glsl"
                        : key.slicer == Slicer::Cpu ? "slice_cpu.vert.glsl"
                                                    : "slice.vert.glsl";
   return ProgramSources::fromFiles(std::string("volume/") + vertex,
@@ -27,7 +29,7 @@ ProgramSources sources(const ProgramKey& key) {
 }  // namespace
 
 VolumeProgram::VolumeProgram(const Gl& gl, const ProgramKey& key) : mProgram(gl, sources(key)) {
-  if (key.slicer == Slicer::Vertex && !key.slab)
+  if (key.slicer == Slicer::Vertex && !key.slab && !key.raycast)
     for (const SliceTableUniform& table : kSliceTableUniforms)
       mProgram.set(mProgram.requireUniform(table.name), table.values);
   auto at = [this](const char* name) { return mProgram.uniformLocation(name); };
@@ -36,7 +38,7 @@ VolumeProgram::VolumeProgram(const Gl& gl, const ProgramKey& key) : mProgram(gl,
          at("uWindowScale"), at("uStepOverReference"), at("uEye"), at("uViewDir"), at("uOrthographic"),
          at("uRayOrigin"), at("uRayOriginDx"), at("uRayOriginDy"), at("uRayDirection"), at("uRayDirectionDx"),
          at("uRayDirectionDy"), at("uTermination"), at("uPreIntegrated"), at("uTableResolution"),
-         at("uRatioMin"), at("uLayerScale"), at("uLayers")};
+         at("uRatioMin"), at("uLayerScale"), at("uLayers"), at("uCells"), at("uCellShift"), at("uCellCount")};
 }
 
 void VolumeProgram::setFrame(const FramePlan& plan, const BrickAtlas& atlas, const store::StoreMeta& meta) const {
@@ -73,6 +75,12 @@ void VolumeProgram::setTable(const PreIntegrationSpec& spec) const {
   mProgram.set(mAt.ratioMin, float(spec.ratioMin));
   mProgram.set(mAt.layerScale, float(spec.layerScale()));
   mProgram.set(mAt.layers, float(spec.layers));
+}
+
+void VolumeProgram::setCells(const glm::ivec3& cells, int shift) const {
+  mProgram.set(mAt.cells, 4);
+  mProgram.set(mAt.cellShift, shift);
+  mProgram.set(mAt.cellCount, glm::vec3(cells));
 }
 
 const VolumeProgram& VolumePrograms::get(const ProgramKey& key) {

@@ -27,6 +27,7 @@ struct ProgramKey {
   bool slab = false;            ///< SLAB: box proxies (slab.vert.glsl), several samples per fragment
   bool preIntegration = false;  ///< PRE_INTEGRATION (with SLAB): segments classified from a table
   bool emptyTest = false;       ///< EMPTY_TEST (with SLAB): the empty-space silhouette pass, no colour
+  bool raycast = false;         ///< RAYCAST: a full-screen proxy (raycast.vert.glsl), a pixel's whole ray per fragment
   auto operator<=>(const ProgramKey&) const = default;
 };
 
@@ -41,6 +42,8 @@ class VolumeProgram {
   void setFrame(const FramePlan& plan, const BrickAtlas& atlas, const store::StoreMeta& meta) const;
   /// Sets the pre-integration table's mapping (PRE_INTEGRATION variants); the table is on texture unit 3.
   void setTable(const PreIntegrationSpec& spec) const;
+  /// Sets the cell table's grid (RAYCAST variants): `cells` cells of 2^`shift` voxels; the table is on texture unit 4.
+  void setCells(const glm::ivec3& cells, int shift) const;
 
  private:
   Program mProgram;
@@ -48,7 +51,7 @@ class VolumeProgram {
     GLint viewProj, planeNormal, planeIncr, atlas, transfer, invAtlasSize, invSpacing, dims, halfDims, windowLo,
         windowScale, stepOverReference, eye, viewDir, orthographic, rayOrigin, rayOriginDx, rayOriginDy,
         rayDirection, rayDirectionDx, rayDirectionDy, termination, table,
-        tableResolution, ratioMin, layerScale, layers;
+        tableResolution, ratioMin, layerScale, layers, cells, cellShift, cellCount;
   } mAt;
 };
 

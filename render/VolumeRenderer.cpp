@@ -23,6 +23,7 @@ VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickC
       mPrograms(mGl),
       mCompositor(mGl),
       mSlabs(mGl),
+      mRayCast(mGl),
       mPreIntegration(mGl) {
   mTransfer.bind(1);
   mGl.glTexStorage1D(GL_TEXTURE_1D, 1, GL_RGBA32F, kTransferTableTexels);
@@ -34,7 +35,7 @@ VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickC
 VolumeRenderer::~VolumeRenderer() = default;
 
 SliceGeometry& VolumeRenderer::geometry(const Scene& scene) {
-  const int which = scene.slab > 0 ? 2 : scene.slicer == Slicer::Cpu ? 1 : 0;
+  const int which = scene.slab > 0 || scene.raycast ? 2 : scene.slicer == Slicer::Cpu ? 1 : 0;
   auto& g = mGeometry[which];
   if (!g) {
     if (which == 2)
@@ -58,11 +59,12 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
   mGl.glTexSubImage1D(GL_TEXTURE_1D, 0, 0, kTransferTableTexels, GL_RGBA, GL_FLOAT, table.data());
   mResidency.atlas().texture().bind(0);
 
-  const ProgramKey key{scene.slicer,
+  ProgramKey key{scene.slicer,
                        mode == RenderMode::Roofline ? FragmentModel::Roofline
                        : scene.shading             ? FragmentModel::Shaded
                                                    : FragmentModel::Plain,
                        plan.subBlock > 0 || plan.coarsestLevel > 0, plan.slab > 0, plan.preIntegration};
+  key.raycast = plan.raycast;
   const VolumeProgram& program = mPrograms.get(key);
   program.setFrame(plan, mResidency.atlas(), store.meta());
   if (plan.preIntegration) {
@@ -78,7 +80,9 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
     if (plan.preIntegration) emptyTest->setTable(mPreIntegration.spec());
   }
   Checkpoints checkpoints(mGl, options.cancelled);
-  if (plan.slab > 0)
+  if (plan.raycast)
+    mRayCast.draw(plan, mResidency, program, geometry(scene), mCompositor, stats, checkpoints);
+  else if (plan.slab > 0)
     mSlabs.draw(plan, mResidency, program, emptyTest, static_cast<SlabGeometry&>(geometry(scene)), mCompositor,
                 stats, checkpoints);
   else
@@ -129,7 +133,9 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, c
     }                                                                   // lost context reports one forever)
     throw;
   }
-  if (plan.slab > 0)
+  if (plan.raycast)
+    mRayCast.finish(stats);
+  else if (plan.slab > 0)
     mSlabs.finish(stats);
   else
     stats.samples = stats.fragments;

@@ -14,6 +14,7 @@
 #include "render/PreIntegrationTexture.h"
 #include "render/Residency.h"
 #include "render/SliceGeometry.h"
+#include "render/RayCastPass.h"
 #include "render/SlabPass.h"
 #include "render/SlicingPass.h"
 #include "render/VolumePrograms.h"
@@ -50,6 +51,7 @@ class VolumeRenderer final : public FrameRenderer {
   SlicingPass mSlicing;
   Compositor mCompositor;
   SlabPass mSlabs;
+  RayCastPass mRayCast;
   PreIntegrationTexture mPreIntegration;
 };
 

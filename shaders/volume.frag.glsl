@@ -17,22 +17,32 @@
 // in level-0 voxels. Voxel coordinates are clamped to [0, n] before a fetch: within half a voxel of the surface the
 // value is the edge voxel's (clamp-to-edge) either way, and the fetch stays in the slot.
 
+#ifdef RAYCAST
+// The frame ray caster has no box: each sample's brick comes from the cell table (render/CellTable.h), and its
+// payload is set here before the sample is read.
+ivec4 gPayload = ivec4(0);
+#define PAYLOAD gPayload
+#else
 in vec3 vWorld;
 flat in ivec4 vPayload;
 flat in ivec3 vOwnLo;
 flat in ivec3 vOwnHi;
 flat in float vPlaneDistance;
+#define PAYLOAD vPayload
+#endif
+#if defined(SLAB) || defined(RAYCAST)
 #ifdef SLAB
 flat in int vFirstPlane;  // the slab's planes: [vFirstPlane, vFirstPlane + vPlaneCount)
 flat in int vPlaneCount;
+#endif
 uniform float uPlaneIncr;    // distance between consecutive global planes
-uniform float uTermination;  // early ray termination: stop once the slab's own opacity reaches it (> 1: never)
-// What the slab fragments did, as 64-bit counters (low word, high word): fragments started, samples taken, samples
-// left untaken when the fragment's own opacity reached uTermination (render/SlabPass.h reads them).
+uniform float uTermination;  // early ray termination: stop once the fragment's own opacity reaches it (> 1: never)
+// What the marching fragments did, as 64-bit counters (low word, high word): fragments started, samples taken,
+// samples left untaken when the fragment's own opacity reached uTermination (render/Marching.h reads them).
 layout(std430, binding = 0) buffer SlabCounters { uint uCounters[6]; };
 #ifndef EMPTY_TEST
 // The depth test (the silhouette map) before the program runs: a program with atomics would otherwise be run and
-// then tested. Slab fragments neither discard nor write depth, so the result is the same. (The empty-space pass
+// then tested. Marching fragments neither discard nor write depth, so the result is the same. (The empty-space pass
 // discards, and must write depth only where it keeps a fragment: it is tested late.)
 layout(early_fragment_tests) in;
 #endif
@@ -71,10 +81,10 @@ float oneMinusExp(float y) {
 }
 
 // 2^-m for the brick's level m.
-float levelScale() { return 1.0 / float(1 << vPayload.w); }
+float levelScale() { return 1.0 / float(1 << PAYLOAD.w); }
 
 float sampleAt(vec3 voxel) {
-  return texture(uAtlas, (clamp(voxel, vec3(0.0), uDims) * levelScale() + vec3(vPayload.xyz)) * uInvAtlasSize).r;
+  return texture(uAtlas, (clamp(voxel, vec3(0.0), uDims) * levelScale() + vec3(PAYLOAD.xyz)) * uInvAtlasSize).r;
 }
 
 // The length of this ray's segment between two planes, in reference lengths. Planes are uPlaneIncr apart along the
@@ -158,16 +168,20 @@ vec4 preIntegrated(float front, float back, float layer) {
 
 // Whether voxel coordinates `lo` and `hi` (the same point, or two roundings of it) lie in the voxels the box owns:
 // half-open, the face towards the eye included.
-bool owned(vec3 lo, vec3 hi) {
+bool ownedBy(vec3 lo, vec3 hi, vec3 ownLo, vec3 ownHi) {
   bool inside = true;
   for (int a = 0; a < 3; ++a) {
-    inside = inside && (uViewDir[a] >= 0.0 ? (lo[a] >= float(vOwnLo[a]) && hi[a] < float(vOwnHi[a]))
-                                           : (lo[a] > float(vOwnLo[a]) && hi[a] <= float(vOwnHi[a])));
+    inside = inside && (uViewDir[a] >= 0.0 ? (lo[a] >= ownLo[a] && hi[a] < ownHi[a])
+                                           : (lo[a] > ownLo[a] && hi[a] <= ownHi[a]));
   }
   return inside;
 }
 
-#ifdef SLAB
+#ifndef RAYCAST
+bool owned(vec3 lo, vec3 hi) { return ownedBy(lo, hi, vec3(vOwnLo), vec3(vOwnHi)); }
+#endif
+
+#if defined(SLAB) || defined(RAYCAST)
 // The parameter range (in, out) of the ray o + t·d (voxel coordinates, inv = 1 / d) inside the box [lo, hi], from
 // t = 0 on: empty when in > out.
 vec2 rayBoxRange(vec3 o, vec3 inv, vec3 lo, vec3 hi) {
@@ -181,7 +195,9 @@ vec2 rayBoxRange(vec3 o, vec3 inv, vec3 lo, vec3 hi) {
 vec3 voxelOnPlane(vec3 origin, vec3 direction, float start, float along, float distance) {
   return (origin + direction * ((distance - start) / along)) * uInvSpacing + uHalfDims;
 }
+#endif
 
+#ifdef SLAB
 // A slab: the samples of this pixel's ray on the global planes [vFirstPlane, vFirstPlane + vPlaneCount) that lie in
 // the voxels the box owns, composited front to back in registers and emitted once (premultiplied). A box of level m
 // takes every 2^m-th plane (those whose index is a multiple of 2^m, the same for every box of that level), each
@@ -278,6 +294,110 @@ void main() {
   if (untaken > 0u) count(2, untaken);
   fragColor = sum;
 #endif
+}
+#elif defined(RAYCAST)
+uniform isampler3D uCells;  // per cell: its brick's atlas payload (xyz) and level (w); w = -1: nothing to draw there,
+                            // -2: a brick of another batch (render/CellTable.h)
+uniform int uCellShift;     // a cell is 2^uCellShift level-0 voxels across
+uniform vec3 uCellCount;   // cells along x, y, z
+
+// The frame ray caster (render/RayCastPass.h): this pixel's samples on the global planes, through every cell of the
+// batch, composited front to back in registers and emitted once (premultiplied). A sample belongs to the cell that
+// owns its point as EXACT_OWNERSHIP decides between boxes (on the 1/256-voxel grid, half-open with the face towards
+// the eye included) and to the volume as slabs decide at its outline, so that it takes the samples slabs take. A
+// cell of level m takes the planes whose index is a multiple of 2^m, each standing for a segment 2^m planes long.
+// Cells with nothing to draw, and planes a coarse cell does not take, are stepped over to the cell's exit.
+void main() {
+  const vec3 origin = uRayOrigin + gl_FragCoord.x * uRayOriginDx + gl_FragCoord.y * uRayOriginDy;
+  const vec3 direction = uRayDirection + gl_FragCoord.x * uRayDirectionDx + gl_FragCoord.y * uRayDirectionDy;
+  const float along = dot(uViewDir, direction);
+  const float start = dot(uViewDir, origin);
+  const vec3 o = origin * uInvSpacing + uHalfDims;
+  const vec3 dv = direction * uInvSpacing;
+  const vec3 inv = 1.0 / mix(dv, vec3(1e-20), lessThan(abs(dv), vec3(1e-20)));
+  const vec2 range = rayBoxRange(o, inv, vec3(-1.0 / 128.0), uDims + 1.0 / 128.0);
+  if (range.x > range.y) {
+    fragColor = vec4(0.0);
+    return;
+  }
+  int k = int(floor((start + along * range.x) / uPlaneIncr)) - 1;
+  const int last = int(ceil((start + along * range.y) / uPlaneIncr)) + 2;
+  // Planes at least 1/64 voxel inside the volume, one plane in from either end, need no outline test.
+  const vec2 inside = rayBoxRange(o, inv, vec3(1.0 / 64.0), uDims - 1.0 / 64.0);
+  const int insideFirst = int(ceil((start + along * inside.x) / uPlaneIncr)) + 1;
+  const int insideLast = int(floor((start + along * inside.y) / uPlaneIncr)) - 1;
+  // The outline is tested on the unrounded point, except faces the planes are parallel to (as slabs test it).
+  const bvec3 parallel = greaterThan(abs(uViewDir), vec3(0.9999));
+  const bvec3 eyeAtHi = lessThan(uViewDir, vec3(0.0));  // the cell face at hi faces the eye: owned, lo is not
+  const float cellScale = 1.0 / float(1 << uCellShift);
+  const float ratio = segmentRatio(origin + direction);
+#ifdef PRE_INTEGRATION
+  float back = 0.0;
+  int backPlane = k - 1;  // the plane `back` was read on
+  ivec3 backCell = ivec3(-1);
+#endif
+  vec4 sum = vec4(0.0);
+  uint taken = 0u, untaken = 0u;
+  while (k < last) {
+    if (sum.a >= uTermination) {
+      untaken = uint(last - k);  // planes, an upper bound of the samples left
+      break;
+    }
+    const float planeDistance = float(k) * uPlaneIncr;
+    const float t = (planeDistance - start) / along;
+    const vec3 world = origin + direction * t;
+    const vec3 voxel = world * uInvSpacing + uHalfDims;
+    const vec3 snapped = round(voxel * 256.0) * (1.0 / 256.0);
+    if (k < insideFirst || k > insideLast) {
+      const vec3 outline = mix(voxel, snapped, parallel);
+      if (t < 0.0 || !ownedBy(outline, outline, vec3(0.0), uDims)) {
+        ++k;
+        continue;
+      }
+    }
+    const vec3 scaled = snapped * cellScale;
+    const ivec3 cell = clamp(ivec3(mix(floor(scaled), ceil(scaled) - 1.0, eyeAtHi)), ivec3(0), ivec3(uCellCount) - 1);
+    const ivec4 entry = texelFetch(uCells, cell, 0);
+    const int level = entry.w;
+    const int stride = 1 << max(level, 0);
+    if (level < 0 || (k & (stride - 1)) != 0) {
+      // Nothing to draw in this cell, or a plane its level does not take. A cell with nothing to draw at all adds
+      // nothing even on its faces (render/CellTable.h): on to the first plane at its exit. Otherwise on to the
+      // plane one before the last the ray has in the cell, or the next plane the level takes if that comes first,
+      // so that points near the faces are owned plane by plane. At least the next plane.
+      const float exitT = rayBoxRange(o, inv, vec3(cell << uCellShift), vec3((cell + 1) << uCellShift)).y;
+      const float exitPlane = (start + along * exitT) / uPlaneIncr;
+      const int next = level == -1 ? int(ceil(exitPlane - 0.01))
+                       : level < 0 ? int(floor(exitPlane)) - 1
+                                   : min(int(floor(exitPlane)) - 1, (k + stride - 1) & ~(stride - 1));
+      k = max(k + 1, next);
+      continue;
+    }
+    gPayload = entry;
+#ifdef PRE_INTEGRATION
+    // As slabs: the back sample from this cell's brick, within half a voxel of the cell.
+    const float value = backPlane == k && backCell == cell ? back : sampleAt(voxel);
+    const vec3 next = voxelOnPlane(origin, direction, start, along, planeDistance + uPlaneIncr * float(stride));
+    back = sampleAt(clamp(next, vec3(cell << uCellShift) - 0.5, vec3((cell + 1) << uCellShift) + 0.5));
+    backPlane = k + stride;
+    backCell = cell;
+#else
+    const float value = sampleAt(voxel);
+#endif
+    ++taken;
+#ifdef ROOFLINE
+    sum = vec4(value * 1e-9);  // below any termination threshold: every sample taken
+#elif defined(PRE_INTEGRATION)
+    sum += (1.0 - sum.a) * shade(preIntegrated(value, back, layerCoordinate(ratio * float(stride))), world, voxel);
+#else
+    sum += (1.0 - sum.a) * shadeSample(world, voxel, value, ratio * float(stride));
+#endif
+    ++k;
+  }
+  count(0, 1u);
+  if (taken > 0u) count(1, taken);
+  if (untaken > 0u) count(2, untaken);
+  fragColor = sum;
 }
 #else
 void main() {

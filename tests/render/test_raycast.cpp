@@ -1,0 +1,236 @@
+// The frame ray caster against slicing and slabs: the same samples on the same global planes, found through the
+// cell table instead of a proxy per box, must give their image (within 1/255) for any camera, bricking, sub-block,
+// budget and level of detail; termination stays within its bound; the cell table's limits fall back to slabs.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "image/Image.h"
+#include "render/FramePlan.h"
+#include "render/ReferenceRenderer.h"
+#include "render/RenderErrors.h"
+#include "render/RenderFixtures.h"
+#include "support/TestSupport.h"
+
+namespace voxbrick::render {
+namespace {
+
+using test::expectClose;
+using test::meanBrightness;
+using test::prep;
+using test::renderStore;
+using test::ScratchDir;
+
+/// Slicing, the baseline.
+Scene slicing(const std::string& tf) {
+  Scene scene;
+  scene.slab = 0;
+  scene.raycast = false;
+  scene.ert = 0;
+  scene.subBlock = 0;
+  scene.width = 96;
+  scene.height = 80;
+  scene.camera.azimuth = 35;
+  scene.camera.elevation = 25;
+  scene.camera.distance = 2.2;
+  scene.transferFunction = TransferFunction::load(tf);
+  scene.step = 0.5;
+  return scene;
+}
+
+Scene rayCast(Scene scene) {
+  scene.raycast = true;
+  return scene;
+}
+
+/// Oblique perspective, a view along an axis (planes through cell faces), orthographic from below, the eye inside
+/// the volume (rays start inside), and a view along an axis from the far side (the faces towards the eye flip).
+std::vector<std::pair<std::string, CameraSpec>> cameras() {
+  std::vector<std::pair<std::string, CameraSpec>> out;
+  CameraSpec c;
+  c.azimuth = 35, c.elevation = 25, c.distance = 2.2;
+  out.push_back({"oblique", c});
+  CameraSpec axis;
+  axis.orbit = false;
+  axis.eye = {0, 0, 300};
+  out.push_back({"axis", axis});
+  CameraSpec back = axis;
+  back.eye = {0, 0, -300};
+  out.push_back({"axis-back", back});
+  CameraSpec ortho = c;
+  ortho.orthographic = true;
+  ortho.azimuth = 200, ortho.elevation = -40;
+  out.push_back({"ortho", ortho});
+  CameraSpec inside = c;
+  inside.distance = 0.25, inside.fovY = 75;
+  out.push_back({"inside", inside});
+  return out;
+}
+
+TEST(RayCast, GivesSlicingsImageForEveryCameraAndCell) {
+  ScratchDir dir;
+  const auto s = prep("synthetic:marschner-lobb,n=40", dir / "ml", 16);
+  for (const auto& [name, camera] : cameras()) {
+    Scene scene = slicing("hot");
+    scene.camera = camera;
+    const image::ImageF sliced = renderStore(s, scene);
+    ASSERT_GT(meanBrightness(sliced), 0.005) << name;
+    for (int subBlock : {0, 4}) {
+      Scene cast = rayCast(scene);
+      cast.subBlock = subBlock;
+      FrameStats stats;
+      expectClose(renderStore(s, cast, &stats), sliced, 1.0 / 255, "raycast-sub" + std::to_string(subBlock) + "-" + name);
+      // One fragment per pixel whose ray meets the volume, at most.
+      EXPECT_LE(stats.fragments, int64_t(scene.width) * scene.height) << name;
+      EXPECT_GT(stats.samples, 10 * stats.fragments) << name << ": a whole ray per fragment";
+      EXPECT_EQ(stats.slabPasses, 0) << name;
+    }
+  }
+}
+
+TEST(RayCast, TakesTheSamplesSlabsTake) {
+  ScratchDir dir;
+  const auto s = prep("synthetic:sparse,n=96", dir / "s", 16);
+  Scene scene = slicing("sparse");
+  scene.slab = 8;
+  scene.subBlock = 4;
+  FrameStats slabbed, cast;
+  const image::ImageF slabs = renderStore(s, scene, &slabbed);
+  ASSERT_GT(meanBrightness(slabs), 0.001);
+  expectClose(renderStore(s, rayCast(scene), &cast), slabs, 1.0 / 255, "raycast-vs-slabs");
+  // Every sample a slab takes in a box, the ray caster takes in the box's cells (samples exactly on a face between
+  // an empty cell and a drawn one may go either way; they add nothing).
+  EXPECT_NEAR(double(cast.samples), double(slabbed.samples), 0.01 * double(slabbed.samples));
+  EXPECT_LT(cast.fragments * 4, slabbed.fragments) << "one fragment per pixel, not per box and slab";
+  // Sub-blocks skip empty space inside bricks here too: fewer samples than whole bricks would take.
+  FrameStats whole;
+  scene.subBlock = 0;
+  renderStore(s, rayCast(scene), &whole);
+  EXPECT_LT(cast.samples * 10, whole.samples * 9);
+}
+
+TEST(RayCast, ShadingAndPreIntegration) {
+  ScratchDir dir;
+  const auto s = prep("synthetic:sparse,n=96", dir / "s", 16);
+  Scene scene = slicing("sparse");
+  scene.shading = true;
+  const image::ImageF sliced = renderStore(s, scene);
+  ASSERT_GT(meanBrightness(sliced), 0.001);
+  for (int subBlock : {0, 4}) {
+    Scene cast = rayCast(scene);
+    cast.subBlock = subBlock;
+    expectClose(renderStore(s, cast), sliced, 1.0 / 255, "raycast-shaded-sub" + std::to_string(subBlock));
+  }
+  // Pre-integrated: a whole-brick cell is the slab's box, so the back samples are read alike.
+  scene.shading = false;
+  scene.preIntegration = true;
+  scene.slab = 16;
+  scene.step = 1;
+  const image::ImageF slabs = renderStore(s, scene);
+  ASSERT_GT(meanBrightness(slabs), 0.001);
+  const image::ImageF cast = renderStore(s, rayCast(scene));
+  expectClose(cast, slabs, 1.0 / 255, "raycast-pre-integrated");
+  scene.preIntegration = false;
+  EXPECT_GT(image::compareImages(renderStore(s, rayCast(scene)), cast).maxAbs, 4.0 / 255)
+      << "the table is used: post-classification at this step differs";
+}
+
+TEST(RayCast, OutOfCoreEqualsInCoreAndTerminationStaysWithinItsBound) {
+  ScratchDir dir;
+  const auto s = prep("synthetic:blobs,n=48", dir / "b", 8);
+  Scene scene = rayCast(slicing("hot"));
+  scene.transferFunction = TransferFunction::parse(
+      R"({"points": [[0, 0, 0, 0, 0], [0.04, 0, 0, 0, 0], [0.08, 1, 0.6, 0.3, 0.9], [1, 1, 1, 1, 1]]})", "opaque");
+  scene.subBlock = 4;
+  for (const auto& [name, camera] : cameras()) {
+    scene.camera = camera;
+    scene.ert = 0;
+    FrameStats full;
+    const image::ImageF reference = renderStore(s, scene, &full);
+    ASSERT_GT(meanBrightness(reference), 0.005) << name;
+    EXPECT_EQ(full.samplesTerminated, 0) << name;
+    FrameStats tight;
+    // A budget of a few bricks: many batches, composited one after the other along every ray.
+    expectClose(renderStore(s, scene, &tight, size_t(10) * 10 * 10 * 4 * 6), reference, 1.0 / 255,
+                "raycast-out-of-core-" + name);
+    EXPECT_GT(tight.batches, 5) << name;
+    for (double ert : {0.95, 0.999}) {
+      scene.ert = ert;
+      FrameStats cut;
+      // What a terminated ray leaves out is at most its remaining transmittance, 1 - ert, in every channel.
+      expectClose(renderStore(s, scene, &cut), reference, (1 - ert) + 1.0 / 255, "raycast-ert-" + name);
+      if (name == "oblique") {
+        EXPECT_LT(cut.samples * (ert < 0.99 ? 2 : 1), full.samples) << ert;
+        EXPECT_GT(cut.samplesTerminated, 0) << ert;
+      }
+      // Out of core the silhouette map keeps terminated pixels from later batches.
+      FrameStats pagedCut;
+      expectClose(renderStore(s, scene, &pagedCut, size_t(10) * 10 * 10 * 4 * 6), reference,
+                  (1 - ert) + 1.0 / 255, "raycast-ert-out-of-core-" + name);
+      if (name == "oblique") {
+        EXPECT_LT(pagedCut.fragments, tight.fragments) << ert;
+      }
+    }
+  }
+}
+
+TEST(RayCast, MixedLevelsGiveSlabsImage) {
+  ScratchDir dir;
+  const auto s = prep("synthetic:blobs,n=128", dir / "b", 16);
+  for (int subBlock : {0, 8}) {
+    Scene scene = test::lodScene(1.5);
+    scene.ert = 0;
+    scene.slab = 32;
+    scene.subBlock = subBlock;
+    FrameStats slabbed, cast;
+    const image::ImageF slabs = renderStore(s, scene, &slabbed);
+    ASSERT_GT(meanBrightness(slabs), 0.01);
+    ASSERT_GT(slabbed.bricksCoarse, 0) << "the camera must mix levels for this test to mean anything";
+    expectClose(renderStore(s, rayCast(scene), &cast), slabs, 1.0 / 255, "raycast-lod-sub" + std::to_string(subBlock));
+    EXPECT_NEAR(double(cast.samples), double(slabbed.samples), 0.01 * double(slabbed.samples));
+    // Out of core, each batch mixing levels.
+    const size_t brick = size_t(s->brickEdge()) * s->brickEdge() * s->brickEdge() * 4;
+    FrameStats tight;
+    expectClose(renderStore(s, rayCast(scene), &tight, 6 * brick), slabs, 1.0 / 255,
+                "raycast-lod-out-of-core-sub" + std::to_string(subBlock));
+    EXPECT_GT(tight.batches, 3);
+  }
+}
+
+TEST(RayCast, CellTableSizeAndFallback) {
+  // Sub-blocks are the cells while the table stays small; coarser cells, up to bricks, beyond.
+  EXPECT_EQ(rayCastCellSize({301, 370, 316}, 8, 32), 8);
+  EXPECT_EQ(rayCastCellSize({301, 370, 316}, 0, 32), 32);
+  EXPECT_EQ(rayCastCellSize({2048, 2048, 2048}, 8, 32), 16);
+  EXPECT_EQ(rayCastCellSize({4096, 4096, 4096}, 8, 32), 32);
+  // Beyond what bricks can hold, or past 16-bit atlas offsets: texture slabs instead.
+  EXPECT_EQ(rayCastCellSize({8192, 8192, 8192}, 8, 32), 0);
+  EXPECT_EQ(rayCastCellSize({40000, 16, 16}, 8, 32), 0);
+
+  ScratchDir dir;
+  const auto s = prep("synthetic:blobs,n=48", dir / "b", 16);
+  Scene scene = rayCast(slicing("hot"));
+  scene.subBlock = 4;
+  const FramePlan plan = planFrame(scene, *s, kTransferTableTexels);
+  EXPECT_TRUE(plan.raycast);
+  EXPECT_EQ(plan.cellSize, 4);
+  EXPECT_EQ(plan.slab, 0);
+  EXPECT_TRUE(plan.marches());
+  EXPECT_EQ(plan.planeStride(2), 4) << "coarse levels take every 2^m-th plane, as slabs";
+}
+
+TEST(RayCast, TheSceneKeyIsChecked) {
+  EXPECT_TRUE(Scene::fromJson(R"({"raycast": true})", "t").raycast);
+  EXPECT_THROW(Scene::fromJson(R"({"raycast": 1})", "t"), RenderInputError);
+  // A slab size asks for slicing or slabs unless the request says "raycast" too.
+  Scene def;
+  def.raycast = true;
+  EXPECT_FALSE(Scene::fromJson(R"({"slab": 0})", "t").raycast);
+  EXPECT_TRUE(Scene::fromJson(R"({"slab": 0, "raycast": true})", "t").raycast);
+  EXPECT_TRUE(Scene::fromJson(def.toJson(), "t").raycast) << "toJson keeps it";
+  def.raycast = false;
+  EXPECT_FALSE(Scene::fromJson(def.toJson(), "t").raycast);
+}
+
+}  // namespace
+}  // namespace voxbrick::render
