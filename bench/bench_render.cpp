@@ -45,6 +45,7 @@ struct Config {
   double ert = 0;              ///< early ray termination threshold (slabs); named in the setting
   bool preIntegration = false;  ///< named in the setting
   bool ess = false;             ///< empty-space silhouette maps; named in the setting
+  bool raycast = false;         ///< the frame ray caster (render::Scene::raycast); named in the setting
 };
 
 struct Result {
@@ -161,6 +162,16 @@ int main(int argc, char** argv) {
        render::AtlasFormat::Float, 8, 32},
       {"slab 32, skip, sub-block 8, roofline", 32, render::Slicer::Vertex, true, render::RenderMode::Roofline,
        render::AtlasFormat::Float, 8, 32},
+      {"raycast, ert 0.999, skip, sub-block 8", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
+       render::AtlasFormat::Float, 8, 0, 0.999, false, false, true},
+      {"raycast, ert 0.999, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
+       render::AtlasFormat::Float, 0, 0, 0.999, false, false, true},
+      {"raycast, skip, sub-block 8", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
+       render::AtlasFormat::Float, 8, 0, 0, false, false, true},
+      {"raycast, skip, sub-block 8, roofline", 32, render::Slicer::Vertex, true, render::RenderMode::Roofline,
+       render::AtlasFormat::Float, 8, 0, 0, false, false, true},
+      {"raycast, ert 0.999, skip, sub-block 8, native atlas", 32, render::Slicer::Vertex, true,
+       render::RenderMode::Normal, render::AtlasFormat::Native, 8, 0, 0.999, false, false, true},
       {"slab 16, pre-int, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
        render::AtlasFormat::Float, 0, 16, 0, true},
       {"slab 16, ert 0.99, pre-int, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
@@ -217,6 +228,7 @@ int main(int argc, char** argv) {
       scene.ert = c.ert;
       scene.preIntegration = c.preIntegration;
       scene.ess = c.ess;
+      scene.raycast = c.raycast;
       scene.camera.elevation = 20;
       scene.camera.distance = 2.2;
       run.renderer->render(scene, nullptr, {c.mode});  // warm-up: pages every brick, compiles the program
