@@ -1,4 +1,4 @@
-// Marking and uploading the cells of a batch.
+// Marking the cells of a batch, computing how far a ray may leap from each empty cell, and uploading the table.
 #include "render/CellTable.h"
 
 #include <algorithm>
@@ -19,35 +19,20 @@ int cellsAlong(int voxels, int cellSize) { return (voxels + cellSize - 1) / cell
 
 }  // namespace
 
-int64_t CellTable::cellCount(const glm::ivec3& dims, int cellSize) {
-  return int64_t(cellsAlong(dims.x, cellSize)) * cellsAlong(dims.y, cellSize) * cellsAlong(dims.z, cellSize);
-}
-
 void CellTable::begin(const glm::ivec3& dims, int cellSize) {
   const glm::ivec3 cells(cellsAlong(dims.x, cellSize), cellsAlong(dims.y, cellSize), cellsAlong(dims.z, cellSize));
   mShift = std::countr_zero(unsigned(cellSize));
   if (cells != mCells || !mTexture) {
     mCells = cells;
-    mHost.assign(size_t(cells.x) * size_t(cells.y) * size_t(cells.z), kEmpty);
     mTexture = Texture(mGl, GL_TEXTURE_3D);
     mTexture.bind(4);
     mGl.glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGBA16I, cells.x, cells.y, cells.z);
     mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
     mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    mUploadedLo = 0;  // the new texture's contents are undefined: clear all of it at the first upload
-    mUploadedHi = cells.z - 1;
-  } else {
-    clearLayers(mTouchedLo, mTouchedHi);  // a frame that failed before its upload
   }
-  mTouchedLo = 1;
-  mTouchedHi = 0;
-  if (!mDeferred.empty()) {
-    // The previous frame's deferred cells: back to nothing, and uploaded so at the first batch.
-    std::fill(mHost.begin(), mHost.end(), kEmpty);
-    mDeferred.clear();
-    mUploadedLo = 0;
-    mUploadedHi = mCells.z - 1;
-  }
+  mDeferred.clear();
+  mHost.assign(size_t(cells.x) * size_t(cells.y) * size_t(cells.z), kEmpty);
+  mMarked = false;
 }
 
 void CellTable::deferAll(const TraversalResult& visible, int brickSize) {
@@ -59,25 +44,9 @@ void CellTable::deferAll(const TraversalResult& visible, int brickSize) {
     const glm::ivec3 hi = glm::min(lo + (brickSize << m), dims);
     const glm::ivec3 c0 = lo >> mShift, c1 = (hi + ((1 << mShift) - 1)) >> mShift;
     for (int z = c0.z; z < c1.z; ++z)
-      for (int y = c0.y; y < c1.y; ++y) {
-        std::fill_n(mDeferred.begin() + ptrdiff_t(index(c0.x, y, z)), c1.x - c0.x, uint8_t(1));
-        std::fill_n(mHost.begin() + ptrdiff_t(index(c0.x, y, z)), c1.x - c0.x, kDeferred);
-      }
+      for (int y = c0.y; y < c1.y; ++y) std::fill_n(mDeferred.begin() + ptrdiff_t(index(c0.x, y, z)), c1.x - c0.x, 1);
   }
-  mUploadedLo = 0;  // the whole table goes up with the first batch
-  mUploadedHi = mCells.z - 1;
-}
-
-void CellTable::clearLayers(int lo, int hi) {
-  lo = std::max(lo, 0);
-  hi = std::min(hi, mCells.z - 1);
-  if (lo > hi) return;
-  const size_t begin = index(0, 0, lo), end = index(0, 0, hi + 1);
-  if (mDeferred.empty()) {
-    std::fill(mHost.begin() + ptrdiff_t(begin), mHost.begin() + ptrdiff_t(end), kEmpty);
-    return;
-  }
-  for (size_t i = begin; i < end; ++i) mHost[i] = mDeferred[i] ? kDeferred : kEmpty;
+  reset();
 }
 
 void CellTable::add(const QueuedBox& box) {
@@ -90,28 +59,58 @@ void CellTable::add(const QueuedBox& box) {
   const glm::ivec3 hi = glm::min((box.ownHi + ((1 << mShift) - 1)) >> mShift, mCells);
   for (int z = lo.z; z < hi.z; ++z)
     for (int y = lo.y; y < hi.y; ++y) std::fill_n(mHost.begin() + ptrdiff_t(index(lo.x, y, z)), hi.x - lo.x, entry);
-  if (lo.z < hi.z) {
-    mTouchedLo = empty() ? lo.z : std::min(mTouchedLo, lo.z);
-    mTouchedHi = std::max(mTouchedHi, hi.z - 1);
-  }
+  mMarked = mMarked || (lo.x < hi.x && lo.y < hi.y && lo.z < hi.z);
 }
 
 void CellTable::upload() {
-  // The layers to write: this batch's marks, and the previous batch's, which must be cleared.
-  const int lo = mUploadedLo <= mUploadedHi ? std::min(mUploadedLo, mTouchedLo) : mTouchedLo;
-  const int hi = mUploadedLo <= mUploadedHi ? std::max(mUploadedHi, mTouchedHi) : mTouchedHi;
+  computeLeaps(mHost, mCells, mScratch);
   mTexture.bind(4);
-  if (lo <= hi) {
-    mGl.glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
-    mGl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-    mGl.glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, lo, mCells.x, mCells.y, hi - lo + 1, GL_RGBA_INTEGER, GL_SHORT,
-                        mHost.data() + index(0, 0, lo));
+  mGl.glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
+  mGl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  mGl.glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, mCells.x, mCells.y, mCells.z, GL_RGBA_INTEGER, GL_SHORT,
+                      mHost.data());
+  reset();
+}
+
+void CellTable::reset() {
+  if (mDeferred.empty())
+    std::fill(mHost.begin(), mHost.end(), kEmpty);
+  else
+    for (size_t i = 0; i < mHost.size(); ++i) mHost[i] = mDeferred[i] ? kDeferred : kEmpty;
+  mMarked = false;
+}
+
+void computeLeaps(std::vector<glm::i16vec4>& cells, const glm::ivec3& grid, std::vector<uint8_t>& scratch) {
+  // Level by level, which aligned blocks of 2^j cells have nothing to draw, in place in `scratch`: block (x, y, z)
+  // of level j reads its children at (2x.., 2y.., 2z..) of level j - 1, which lie at or after it in x-fastest
+  // order, and every block read later lies after it too, so no child is overwritten before it is read.
+  auto cell = [&](const glm::ivec3& dims, int x, int y, int z) {
+    return (size_t(z) * size_t(dims.y) + size_t(y)) * size_t(dims.x) + size_t(x);
+  };
+  scratch.resize(cells.size());
+  for (size_t i = 0; i < cells.size(); ++i) scratch[i] = cells[i].w == CellTable::kNothing;
+  glm::ivec3 blocks = grid;
+  for (int j = 1; j <= CellTable::kMaxLeapLevel; ++j) {
+    const glm::ivec3 finer = blocks;
+    blocks = (finer + 1) >> 1;
+    bool any = false;
+    for (int z = 0; z < blocks.z; ++z)
+      for (int y = 0; y < blocks.y; ++y)
+        for (int x = 0; x < blocks.x; ++x) {
+          bool empty = true;
+          for (int c = 0; c < 8 && empty; ++c) {
+            const int cx = 2 * x + (c & 1), cy = 2 * y + ((c >> 1) & 1), cz = 2 * z + (c >> 2);
+            empty = cx >= finer.x || cy >= finer.y || cz >= finer.z || scratch[cell(finer, cx, cy, cz)];
+          }
+          scratch[cell(blocks, x, y, z)] = empty;
+          any = any || empty;
+        }
+    if (!any) break;
+    for (int z = 0; z < grid.z; ++z)
+      for (int y = 0; y < grid.y; ++y)
+        for (int x = 0; x < grid.x; ++x)
+          if (scratch[cell(blocks, x >> j, y >> j, z >> j)]) cells[cell(grid, x, y, z)].x = int16_t(j);
   }
-  mUploadedLo = mTouchedLo;
-  mUploadedHi = mTouchedHi;
-  clearLayers(mTouchedLo, mTouchedHi);
-  mTouchedLo = 1;
-  mTouchedHi = 0;
 }
 
 }  // namespace voxbrick::render

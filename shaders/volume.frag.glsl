@@ -296,8 +296,8 @@ void main() {
 #endif
 }
 #elif defined(RAYCAST)
-uniform isampler3D uCells;  // per cell: its brick's atlas payload (xyz) and level (w); w = -1: nothing to draw there,
-                            // -2: a brick of another batch (render/CellTable.h)
+uniform isampler3D uCells;  // per cell: its brick's atlas payload (xyz) and level (w); w = -1: nothing to draw there
+                            // (x: log2 of the block to leap), -2: a brick of another batch (render/CellTable.h)
 uniform int uCellShift;     // a cell is 2^uCellShift level-0 voxels across
 uniform vec3 uCellCount;   // cells along x, y, z
 
@@ -365,7 +365,10 @@ void main() {
       // nothing even on its faces (render/CellTable.h): on to the first plane at its exit. Otherwise on to the
       // plane one before the last the ray has in the cell, or the next plane the level takes if that comes first,
       // so that points near the faces are owned plane by plane. At least the next plane.
-      const float exitT = rayBoxRange(o, inv, vec3(cell << uCellShift), vec3((cell + 1) << uCellShift)).y;
+      // A cell with nothing to draw leaps out of its block of 2^entry.x cells with nothing to draw.
+      const int leap = level == -1 ? entry.x : 0;
+      const ivec3 blockLo = (cell >> leap) << (leap + uCellShift);
+      const float exitT = rayBoxRange(o, inv, vec3(blockLo), vec3(blockLo + (1 << (leap + uCellShift)))).y;
       const float exitPlane = (start + along * exitT) / uPlaneIncr;
       const int next = level == -1 ? int(ceil(exitPlane - 0.01))
                        : level < 0 ? int(floor(exitPlane)) - 1

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "image/Image.h"
+#include "render/CellTable.h"
 #include "render/FramePlan.h"
 #include "render/ReferenceRenderer.h"
 #include "render/RenderErrors.h"
@@ -217,6 +218,27 @@ TEST(RayCast, CellTableSizeAndFallback) {
   EXPECT_EQ(plan.slab, 0);
   EXPECT_TRUE(plan.marches());
   EXPECT_EQ(plan.planeStride(2), 4) << "coarse levels take every 2^m-th plane, as slabs";
+}
+
+TEST(RayCast, EmptyCellsLeapOutOfTheLargestEmptyBlock) {
+  const glm::ivec3 grid(8, 8, 8);
+  std::vector<glm::i16vec4> cells(512, glm::i16vec4(0, 0, 0, CellTable::kNothing));
+  auto at = [&](int x, int y, int z) -> glm::i16vec4& { return cells[size_t((z * 8 + y) * 8 + x)]; };
+  at(1, 1, 1) = glm::i16vec4(5, 6, 7, 0);                              // drawn
+  at(7, 7, 7) = glm::i16vec4(0, 0, 0, CellTable::kOtherBatch);         // another batch's: not empty
+  std::vector<uint8_t> scratch;
+  computeLeaps(cells, grid, scratch);
+  EXPECT_EQ(at(1, 1, 1), glm::i16vec4(5, 6, 7, 0)) << "a drawn cell keeps its payload";
+  EXPECT_EQ(at(0, 0, 0).x, 0) << "its 2-block holds the drawn cell";
+  EXPECT_EQ(at(2, 0, 0).x, 1) << "an empty 2-block inside a 4-block that is not";
+  EXPECT_EQ(at(4, 0, 0).x, 2) << "an empty 4-block inside the 8-block that is not";
+  EXPECT_EQ(at(6, 6, 6).x, 0) << "a brick of another batch is not nothing";
+  EXPECT_EQ(at(4, 4, 4).x, 1) << "its 4-block holds the other batch's cell";
+  EXPECT_EQ(at(7, 7, 7).w, CellTable::kOtherBatch);
+  // Past the grid counts as nothing: an all-empty grid of odd size leaps in blocks of 8.
+  std::vector<glm::i16vec4> odd(5 * 3 * 3, glm::i16vec4(0, 0, 0, CellTable::kNothing));
+  computeLeaps(odd, {5, 3, 3}, scratch);
+  for (const glm::i16vec4& c : odd) EXPECT_EQ(c.x, CellTable::kMaxLeapLevel);
 }
 
 TEST(RayCast, TheSceneKeyIsChecked) {
