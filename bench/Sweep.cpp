@@ -67,12 +67,12 @@ render::Scene viewScene(const SweepSpec& spec, const Variant& variant, int view)
   return scene;
 }
 
-/// The scene as the reference renderer sees it: without the GPU renderer's ERT and pre-integration settings (which
-/// it ignores), so that a cache made before they existed stays valid.
+/// The scene as the reference renderer sees it: without the GPU renderer's drawing settings (which it ignores), so
+/// that a cache made before they existed stays valid.
 std::string referenceJson(const render::Scene& scene) {
   nlohmann::json j = nlohmann::json::parse(scene.toJson());
   // How the GPU draws does not change the reference's frame.
-  for (const char* key : {"slab", "ert", "pre_integration", "sub_block", "slicer"}) j.erase(key);
+  for (const char* key : {"slab", "raycast", "ert", "pre_integration", "sub_block", "slicer"}) j.erase(key);
   return j.dump(2);
 }
 
@@ -124,7 +124,7 @@ std::vector<Variant> variantsOf(const SweepSpec& spec, const Dataset& d) {
     variants.push_back({tf, false});
     if (spec.shadingVariants) variants.push_back({tf, true});
   }
-  if (!spec.slabs.empty())
+  if (spec.marches())
     for (const Variant& v : slabVariants(d, spec.opaqueVariants))
       if (std::find(variants.begin(), variants.end(), v) == variants.end()) variants.push_back(v);
   return variants;
@@ -137,15 +137,30 @@ std::string slabLabel(int slab) {
   return slab >= render::Scene::kMaxSlab ? "slab whole brick" : "slab " + std::to_string(slab);
 }
 
+namespace {
+
+/// The settings after the renderer in a label: ", ert 0.99, pre-int, sub-block 8, lod 2", each only where not default.
+std::string marchingOptions(const Setting& s) {
+  std::string text;
+  if (s.ert > 0) text += ", ert " + stepText(s.ert);
+  if (s.preIntegration) text += ", pre-int";
+  if (s.subBlock > 0) text += ", sub-block " + std::to_string(s.subBlock);
+  if (s.lod > 0) text += ", lod " + stepText(s.lod);
+  return text;
+}
+
+}  // namespace
+
+std::string marchingLabel(const Setting& s) {
+  return (s.raycast ? std::string("raycast") : slabLabel(s.slab)) + marchingOptions(s);
+}
+
 std::string Setting::label() const {
   std::string text = "step " + stepText(step) + ", B=" + std::to_string(brick) + (skip ? ", skip" : ", no skip") +
                      (slicer == render::Slicer::Cpu ? ", cpu slicer" : ", vertex");
-  if (slab > 0) text += ", " + slabLabel(slab);
-  if (ert > 0) text += ", ert " + stepText(ert);
-  if (preIntegration) text += ", pre-int";
-  if (subBlock > 0) text += ", sub-block " + std::to_string(subBlock);
-  if (lod > 0) text += ", lod " + stepText(lod);
-  return text;
+  if (raycast) text += ", raycast";
+  else if (slab > 0) text += ", " + slabLabel(slab);
+  return text + marchingOptions(*this);
 }
 
 SweepSpec SweepSpec::full(const std::string& mriPath) {
@@ -160,6 +175,7 @@ SweepSpec SweepSpec::full(const std::string& mriPath) {
   s.erts = {0.99, 0.999, 1};
   s.slabSubBlocks = {8};
   s.smallSlabMinStep = 0.5;  // slabs of 1 and 4 planes at step 0.25 would add about 15 minutes
+  s.rayCast = true;
   return s;
 }
 
@@ -170,11 +186,13 @@ SweepSpec SweepSpec::quick(const std::string& mriPath) {
                 {"mri", mriPath, {"mri"}}};
   s.steps = {0.5, 2};
   s.alternativeBricks = {16};
-  // Every kind of slab setting once, at the coarse step: whole bricks (the best other size), slab 16 with and
-  // without ERT and pre-integration, on the default variants and Marschner–Lobb's opaque one.
+  // Every kind of slab and ray-caster setting once, at the coarse step: whole bricks (the best other size), slab 16
+  // and the ray caster with and without ERT and pre-integration, on the default variants and Marschner–Lobb's
+  // opaque one.
   s.slabs = {16, render::Scene::kMaxSlab};
   s.erts = {0.99};
   s.slabSubBlocks = {8};
+  s.rayCast = true;
   s.slabSteps = {2};
   s.slabTableStep = 2;
   s.views = 2;
@@ -241,6 +259,7 @@ class DatasetRun {
       scene.skipEmpty = setting.skip;
       scene.slicer = setting.slicer;
       scene.slab = setting.slab;
+      scene.raycast = setting.raycast;
       scene.ert = setting.ert;
       scene.preIntegration = setting.preIntegration;
       scene.subBlock = setting.subBlock;
@@ -296,6 +315,19 @@ Setting slabSetting(double step, int slab, double ert = 0, bool preIntegration =
   return s;
 }
 
+Setting rayCastSetting(double step, double ert = 0, bool preIntegration = false, int subBlock = 0) {
+  Setting s = slabSetting(step, 0, ert, preIntegration, subBlock);
+  s.raycast = true;
+  return s;
+}
+
+/// The ray caster's thresholds: off, then each of `erts`.
+std::vector<double> rayCastErts(const SweepSpec& spec) {
+  std::vector<double> erts{0};
+  erts.insert(erts.end(), spec.erts.begin(), spec.erts.end());
+  return erts;
+}
+
 }  // namespace
 
 size_t SweepSpec::plannedPoints() const {
@@ -303,16 +335,21 @@ size_t SweepSpec::plannedPoints() const {
   for (const Dataset& d : datasets) {
     n += variantsOf(*this, d).size() * steps.size();
     n += steps.size() * (alternativeBricks.size() + size_t(alternativeNoSkip) + size_t(alternativeCpuSlicer));
-    if (slabs.empty()) continue;
+    if (!marches()) continue;
     const bool ertSlabSwept = std::find(slabs.begin(), slabs.end(), ertSlab) != slabs.end();
     const bool otherSlab = std::any_of(slabs.begin(), slabs.end(), [&](int b) { return b != ertSlab; });
+    const size_t preIntegrated = preIntegration ? (erts.empty() ? 1 : 2) : 0;
     size_t perVariant = 0;
     for (double step : slabStepsOrAll()) {
-      for (int slab : slabs) perVariant += slab >= ertSlab || step >= smallSlabMinStep;
-      perVariant += erts.size() * (1 + slabSubBlocks.size() + lods.size()) +
-                    (!ertSlabSwept && (!erts.empty() || preIntegration));
-      if (ertAtBestSlab && otherSlab) perVariant += erts.size();
-      if (preIntegration) perVariant += erts.empty() ? 1 : 2;
+      if (!slabs.empty()) {
+        for (int slab : slabs) perVariant += slab >= ertSlab || step >= smallSlabMinStep;
+        perVariant += erts.size() * (1 + slabSubBlocks.size() + lods.size()) +
+                      (!ertSlabSwept && (!erts.empty() || preIntegration));
+        if (ertAtBestSlab && otherSlab) perVariant += erts.size();
+        perVariant += preIntegrated;
+      }
+      if (rayCast)
+        perVariant += (1 + erts.size()) * (1 + slabSubBlocks.size()) + erts.size() * lods.size() + preIntegrated;
     }
     n += slabVariants(d, opaqueVariants).size() * perVariant;
   }
@@ -378,18 +415,40 @@ SweepResult runSweep(const SweepSpec& spec, const fs::path& work, render::GlCont
           }
         }
       }
+    if (spec.rayCast)
+      for (const Variant& variant : slabVariants(d, spec.opaqueVariants)) {
+        const size_t vi = run->variantIndex(variant);
+        for (double step : slabSteps) {
+          for (double ert : rayCastErts(spec)) {
+            record(run->measure(rayCastSetting(step, ert), vi));
+            for (int subBlock : spec.slabSubBlocks)
+              record(run->measure(rayCastSetting(step, ert, false, subBlock), vi));
+          }
+          for (double ert : spec.erts)
+            for (double lod : spec.lods) {
+              Setting s = rayCastSetting(step, ert, false, spec.slabSubBlocks.empty() ? 0 : spec.slabSubBlocks.back());
+              s.lod = lod;
+              record(run->measure(s, vi));
+            }
+        }
+      }
     run->release();
     runs.push_back(std::move(run));
   }
 
   // Phase 2, with what phase 1 found over every dataset: the thresholds at the best other slab size, and
-  // pre-integration with ERT off and with the best threshold.
-  if (!spec.slabs.empty()) {
-    if (spec.ertAtBestSlab && !spec.erts.empty()) result.bestSlab = bestSlabSize(result.points, spec.ertSlab);
-    if (spec.preIntegration)
+  // pre-integration with ERT off and with the best threshold, on slabs and on the ray caster. The ray caster's best
+  // threshold is its own, so that its points do not depend on the slab part being swept.
+  if (spec.marches()) {
+    const bool slabs = !spec.slabs.empty();
+    if (slabs && spec.ertAtBestSlab && !spec.erts.empty()) result.bestSlab = bestSlabSize(result.points, spec.ertSlab);
+    if (slabs && spec.preIntegration)
       result.bestErt = bestErt(result.points, spec.ertSlab, spec.ertToleranceDb, spec.psnrHighThreshold);
+    if (spec.rayCast && spec.preIntegration)
+      result.bestRayCastErt = bestRayCastErt(result.points, spec.ertToleranceDb, spec.psnrHighThreshold);
     if (result.bestSlab) log("best slab size besides " + slabLabel(spec.ertSlab) + ": " + slabLabel(*result.bestSlab));
     if (result.bestErt) log("best ERT threshold: " + stepText(*result.bestErt));
+    if (result.bestRayCastErt) log("best ERT threshold of the ray caster: " + stepText(*result.bestRayCastErt));
     for (size_t i = 0; i < spec.datasets.size(); ++i) {
       DatasetRun& run = *runs[i];
       for (const Variant& variant : slabVariants(spec.datasets[i], spec.opaqueVariants)) {
@@ -397,9 +456,13 @@ SweepResult runSweep(const SweepSpec& spec, const fs::path& work, render::GlCont
         for (double step : slabSteps) {
           if (result.bestSlab && (*result.bestSlab >= spec.ertSlab || step >= spec.smallSlabMinStep))
             for (double ert : spec.erts) record(run.measure(slabSetting(step, *result.bestSlab, ert), vi));
-          if (spec.preIntegration) {
+          if (slabs && spec.preIntegration) {
             record(run.measure(slabSetting(step, spec.ertSlab, 0, true), vi));
             if (result.bestErt) record(run.measure(slabSetting(step, spec.ertSlab, *result.bestErt, true), vi));
+          }
+          if (spec.rayCast && spec.preIntegration) {
+            record(run.measure(rayCastSetting(step, 0, true), vi));
+            if (result.bestRayCastErt) record(run.measure(rayCastSetting(step, *result.bestRayCastErt, true), vi));
           }
         }
       }
@@ -456,7 +519,7 @@ std::optional<int> bestSlabSize(const std::vector<Point>& points, int exclude) {
   std::map<int, std::map<std::string, double>> times;
   for (const Point& p : points) {
     const Setting& s = p.setting;
-    if (s.slab <= 0 || s.slab == exclude || s.ert > 0 || s.preIntegration || s.brick != 32 || !s.skip ||
+    if (s.slab <= 0 || s.raycast || s.slab == exclude || s.ert > 0 || s.preIntegration || s.brick != 32 || !s.skip ||
         s.slicer != render::Slicer::Vertex)
       continue;
     times[s.slab][p.dataset + "\n" + p.variant.label() + "\n" + stepText(s.step)] = p.msMedian;
@@ -477,16 +540,18 @@ std::optional<int> bestSlabSize(const std::vector<Point>& points, int exclude) {
   return best;
 }
 
-std::optional<double> bestErt(const std::vector<Point>& points, int slab, double toleranceDb, double highThreshold) {
-  auto plainSlab = [&](const Setting& s) {
-    return s.slab == slab && !s.preIntegration && s.brick == 32 && s.skip && s.slicer == render::Slicer::Vertex;
-  };
+namespace {
+
+/// bestErt's rule over the points whose setting is `plain` (one renderer, without pre-integration).
+std::optional<double> lowestKeepingErt(const std::vector<Point>& points,
+                                       const std::function<bool(const Setting&)>& plain, double toleranceDb,
+                                       double highThreshold) {
   std::map<double, bool> keeps;  // threshold -> keeps the accuracy everywhere
   for (const Point& p : points) {
-    if (!plainSlab(p.setting) || p.setting.ert <= 0) continue;
+    if (!plain(p.setting) || p.setting.ert <= 0) continue;
     bool& ok = keeps.try_emplace(p.setting.ert, true).first->second;
     const auto off = std::find_if(points.begin(), points.end(), [&](const Point& q) {
-      return q.dataset == p.dataset && q.variant == p.variant && plainSlab(q.setting) && q.setting.ert == 0 &&
+      return q.dataset == p.dataset && q.variant == p.variant && plain(q.setting) && q.setting.ert == 0 &&
              q.setting.step == p.setting.step;
     });
     if (off != points.end() && p.psnrMin < std::min(off->psnrMin - toleranceDb, highThreshold)) ok = false;
@@ -495,6 +560,27 @@ std::optional<double> bestErt(const std::vector<Point>& points, int slab, double
     if (ok) return ert;
   if (keeps.empty()) return std::nullopt;
   return keeps.rbegin()->first;
+}
+
+}  // namespace
+
+std::optional<double> bestErt(const std::vector<Point>& points, int slab, double toleranceDb, double highThreshold) {
+  return lowestKeepingErt(
+      points,
+      [&](const Setting& s) {
+        return s.slab == slab && !s.raycast && !s.preIntegration && s.brick == 32 && s.skip &&
+               s.slicer == render::Slicer::Vertex;
+      },
+      toleranceDb, highThreshold);
+}
+
+std::optional<double> bestRayCastErt(const std::vector<Point>& points, double toleranceDb, double highThreshold) {
+  return lowestKeepingErt(
+      points,
+      [](const Setting& s) {
+        return s.raycast && !s.preIntegration && s.brick == 32 && s.skip && s.slicer == render::Slicer::Vertex;
+      },
+      toleranceDb, highThreshold);
 }
 
 std::optional<Point> fastestPoint(const std::vector<Point>& points, const std::string& dataset, const Variant& variant,

@@ -33,25 +33,34 @@ struct Variant {
 };
 
 /// The renderer's own choices, which a default can fix: step, brick size (of the store), skipping, slicer, and the
-/// texture-slab settings (render::Scene::slab, ert, preIntegration).
+/// marching settings (render::Scene::slab, raycast, ert, preIntegration).
 struct Setting {
   double step = 0.5;
   int brick = 32;
   bool skip = true;
   render::Slicer slicer = render::Slicer::Vertex;
   int slab = 0;                 ///< 0 slices; N texture slabs of N planes (render::Scene::kMaxSlab: whole bricks)
-  double ert = 0;               ///< early ray termination threshold (0 off); slabs only
-  bool preIntegration = false;  ///< pre-integrated classification; slabs only
-  int subBlock = 0;             ///< empty sub-blocks skipped inside bricks (render::Scene::subBlock); 0 whole bricks
+  /// The frame ray caster (render::Scene::raycast). Its settings keep slab 0: the ray caster ignores slab, which
+  /// only picks the slabs drawn instead where a volume is too large for its cell table (render::FramePlan).
+  bool raycast = false;
+  double ert = 0;               ///< early ray termination threshold (0 off); slabs and the ray caster only
+  bool preIntegration = false;  ///< pre-integrated classification; slabs and the ray caster only
+  /// Empty sub-blocks skipped inside bricks (render::Scene::subBlock), the ray caster's cell size; 0 whole bricks.
+  int subBlock = 0;
   double lod = 0;               ///< level of detail (render::Scene::lod); 0 level 0 everywhere
   bool operator==(const Setting&) const = default;
-  /// E.g. "step 0.5, B=32, skip, vertex"; the slab settings are appended only where not default: "step 1, B=32,
-  /// skip, vertex, slab 16, ert 0.99, pre-int" ("slab whole brick" for render::Scene::kMaxSlab).
+  /// E.g. "step 0.5, B=32, skip, vertex"; the marching settings are appended only where not default: "step 1, B=32,
+  /// skip, vertex, slab 16, ert 0.99, pre-int" ("slab whole brick" for render::Scene::kMaxSlab), "step 0.5, B=32,
+  /// skip, vertex, raycast, ert 0.999, sub-block 8".
   std::string label() const;
 };
 
 /// "slab 16", "slab whole brick" (render::Scene::kMaxSlab), or "slicing" for 0.
 std::string slabLabel(int slab);
+
+/// The part of Setting::label() after the slicer, for tables of one step, brick size and slicer: "slicing",
+/// "slab 16, ert 0.99, pre-int", "raycast, ert 0.999, sub-block 8".
+std::string marchingLabel(const Setting& s);
 
 /// The median of `v` (the mean of the middle two for an even count); 0 when empty.
 double median(std::vector<double> v);
@@ -64,7 +73,12 @@ double median(std::vector<double> v);
 ///   3. then, once every dataset has been through 1 and 2: every threshold at the best slab size (bestSlabSize) if
 ///      that is not `ertSlab`, and pre-integration at `ertSlab` with ERT off and with the best threshold (bestErt).
 /// All slab settings use B=32, skipping and the vertex slicer; slab sizes below `ertSlab` skip the steps below
-/// `smallSlabMinStep`.
+/// `smallSlabMinStep`. The ray-caster settings (`rayCast`) run at the same steps on the same variants, B=32,
+/// skipping, vertex slicer:
+///   1. ERT off and every threshold of `erts`, each with whole-brick cells and with each of `slabSubBlocks`, and each
+///      level of `lods` as for slabs;
+///   2. once every dataset has been through 1: pre-integration with whole-brick cells, ERT off and the ray caster's
+///      own best threshold (bestRayCastErt), as for slabs.
 struct SweepSpec {
   std::vector<Dataset> datasets;
   std::vector<double> steps;
@@ -83,7 +97,11 @@ struct SweepSpec {
   std::vector<double> lods;
   bool ertAtBestSlab = true;           ///< also the thresholds at the fastest other slab size
   bool preIntegration = true;          ///< pre-integration at `ertSlab`, with ERT off and with the best threshold
-  bool opaqueVariants = true;          ///< slab settings on each dataset's opaque transfer function too
+  bool opaqueVariants = true;          ///< slab and ray-caster settings on each dataset's opaque transfer function too
+  /// The frame ray caster (render::Scene::raycast) with ERT off and each of `erts`, each with whole-brick cells and
+  /// each of `slabSubBlocks`; each of `lods` as for slabs; pre-integration if `preIntegration`. Independent of
+  /// `slabs`, on the slab variants.
+  bool rayCast = false;
   std::vector<double> slabSteps;       ///< the steps of the slab settings (each one of `steps`); empty: every step
   /// Slab sizes below `ertSlab` (a fragment per plane or few: the slowest settings) run only at steps at least this.
   double smallSlabMinStep = 0;
@@ -95,15 +113,17 @@ struct SweepSpec {
   double psnrThreshold = 40;           ///< dB, for the chosen default
   double psnrHighThreshold = 50;       ///< dB, for the second answer (the fastest setting at this accuracy)
 
-  /// The steps at which the slab settings run.
+  /// The steps at which the slab and ray-caster settings run.
   std::vector<double> slabStepsOrAll() const { return slabSteps.empty() ? steps : slabSteps; }
+  /// Whether any setting runs on the slab variants (slabs or the ray caster).
+  bool marches() const { return !slabs.empty() || rayCast; }
   /// How many points runSweep measures at most (the best slab size's thresholds counted as if it is not `ertSlab`).
   size_t plannedPoints() const;
 
-  /// The committed sweep: Marschner–Lobb 128³, the sparse field 256³ and the MRI at `mriPath`.
+  /// The committed sweep: Marschner–Lobb 128³, the sparse field 256³ and the MRI at `mriPath`, with the ray caster.
   static SweepSpec full(const std::string& mriPath);
   /// A small sweep for CI (seconds): small synthetic volumes, the MRI, 48² images, two views, two steps, every kind of
-  /// slab setting at the coarser one.
+  /// slab and ray-caster setting at the coarser one.
   static SweepSpec quick(const std::string& mriPath);
 };
 
@@ -143,6 +163,7 @@ struct SweepResult {
   std::optional<Setting> chosenHigh;  ///< chooseDefault's answer at spec.psnrHighThreshold
   std::optional<int> bestSlab;        ///< bestSlabSize: the other slab size the thresholds also ran at
   std::optional<double> bestErt;      ///< bestErt: the threshold pre-integration also ran with
+  std::optional<double> bestRayCastErt;  ///< bestRayCastErt: the threshold the ray caster's pre-integration ran with
 };
 
 /// Runs the sweep. Stores go to `work`/NAME-bB.vbs (made once, kept), reference frames to `work`/reference (so a
@@ -156,8 +177,8 @@ void markPareto(std::vector<Point>& points);
 /// A dataset's default variant: its first transfer function, unshaded.
 inline Variant defaultVariant(const Dataset& d) { return {d.transferFunctions.front(), false}; }
 
-/// The variants the slab settings run on: the default one and, if the dataset has one and `opaque` is set, the
-/// opaque transfer function unshaded.
+/// The variants the slab and ray-caster settings run on: the default one and, if the dataset has one and `opaque` is
+/// set, the opaque transfer function unshaded.
 std::vector<Variant> slabVariants(const Dataset& d, bool opaque);
 
 /// Of the slab sizes measured without ERT or pre-integration other than `exclude`, the one with the least total
@@ -169,6 +190,10 @@ std::optional<int> bestSlabSize(const std::vector<Point>& points, int exclude);
 /// highThreshold): ERT may cost accuracy only where the frame stays above the higher threshold. If none does, the
 /// highest threshold measured; none if no threshold was measured.
 std::optional<double> bestErt(const std::vector<Point>& points, int slab, double toleranceDb, double highThreshold);
+
+/// The same rule over the ray caster's points: thresholds measured with it without pre-integration, each against the
+/// ray caster without ERT.
+std::optional<double> bestRayCastErt(const std::vector<Point>& points, double toleranceDb, double highThreshold);
 
 /// The fastest point of `dataset` and `variant` whose worst view reaches `psnrThreshold`; none if no point does.
 std::optional<Point> fastestPoint(const std::vector<Point>& points, const std::string& dataset, const Variant& variant,

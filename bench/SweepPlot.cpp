@@ -37,9 +37,10 @@ std::string escape(const std::string& text) {
 }
 
 /// Which renderer alternative a setting is, for its marker: 0 baseline, 1 smaller bricks, 2 larger, 3 no skip, 4 cpu;
-/// texture slabs 5 (1–2 planes), 6 (up to 8), 7 (fewer than whole bricks), 8 (whole bricks), 9 pre-integration.
-/// Early ray termination is a dot in the marker's middle (hasErtDot).
+/// texture slabs 5 (1–2 planes), 6 (up to 8), 7 (fewer than whole bricks), 8 (whole bricks), 9 pre-integration; the
+/// frame ray caster 10, 11 pre-integrated. Early ray termination is a dot in the marker's middle (hasErtDot).
 int shapeOf(const Setting& s) {
+  if (s.raycast) return s.preIntegration ? 11 : 10;
   if (s.slab > 0) {
     if (s.preIntegration) return 9;
     if (s.slab <= 2) return 5;
@@ -53,12 +54,13 @@ int shapeOf(const Setting& s) {
   return 0;
 }
 
-constexpr int kShapes = 10;
+constexpr int kShapes = 12;
 constexpr const char* kShapeNames[kShapes] = {
     "slicing: B=32, skip, vertex slicer", "B=16", "B=64", "no skipping", "cpu slicer",
-    "slab 1", "slab 4", "slab 16", "slab whole brick", "slab 16, pre-integration"};
+    "slab 1", "slab 4", "slab 16", "slab whole brick", "slab 16, pre-integration",
+    "raycast", "raycast, pre-integration"};
 
-bool hasErtDot(const Setting& s) { return s.slab > 0 && s.ert > 0; }
+bool hasErtDot(const Setting& s) { return (s.slab > 0 || s.raycast) && s.ert > 0; }
 
 std::string ertDot(double x, double y) {
   return svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"1.8\" fill=\"black\"/>", x, y);
@@ -101,6 +103,22 @@ std::string marker(int shape, double x, double y, const std::string& color, bool
       for (int i = 0; i < 10; ++i) {
         const double r = i % 2 ? 2.8 : 6.5, a = -kPi / 2 + i * kPi / 5;
         points += svgf("%.1f,%.1f ", x + r * std::cos(a), y + r * std::sin(a));
+      }
+      return "<polygon points=\"" + points + "\"" + style + "/>";
+    }
+    case 10: {
+      // A plus as one outline, so that it fills like the other markers and leaves room for the ERT dot.
+      constexpr double kPlus[12][2] = {{-2.2, -6}, {2.2, -6}, {2.2, -2.2}, {6, -2.2},  {6, 2.2},   {2.2, 2.2},
+                                       {2.2, 6},   {-2.2, 6}, {-2.2, 2.2}, {-6, 2.2}, {-6, -2.2}, {-2.2, -2.2}};
+      std::string points;
+      for (const auto& corner : kPlus) points += svgf("%.1f,%.1f ", x + corner[0], y + corner[1]);
+      return "<polygon points=\"" + points + "\"" + style + "/>";
+    }
+    case 11: {
+      std::string points;
+      for (int i = 0; i < 5; ++i) {
+        const double a = -kPi / 2 + i * 2 * kPi / 5;
+        points += svgf("%.1f,%.1f ", x + 6 * std::cos(a), y + 6 * std::sin(a));
       }
       return "<polygon points=\"" + points + "\"" + style + "/>";
     }

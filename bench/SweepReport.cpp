@@ -29,7 +29,7 @@ std::string csv(const SweepResult& r) {
   std::string out =
       "dataset,transfer_function,shading,step,brick,skip,slicer,views,size,median_ms,min_ms,max_ms,median_samples,"
       "psnr_worst_db,psnr_pooled_db,rmse_pooled,max_abs,pareto,slab,ert,pre_integration,samples_median,"
-      "fragments_median,samples_terminated_median,slab_passes_median,sub_block,lod\n";
+      "fragments_median,samples_terminated_median,slab_passes_median,sub_block,lod,raycast\n";
   for (const Point& p : r.points) {
     out += p.dataset + "," + p.variant.transferFunction + "," + (p.variant.shading ? "1" : "0") + "," +
            number("%g", p.setting.step) + "," + std::to_string(p.setting.brick) + "," + (p.setting.skip ? "1" : "0") +
@@ -41,7 +41,7 @@ std::string csv(const SweepResult& r) {
            "," + (p.setting.preIntegration ? "1" : "0") + "," + number("%.0f", p.samplesMedian) + "," +
            number("%.0f", p.fragmentsMedian) + "," + number("%.0f", p.samplesTerminatedMedian) + "," +
            number("%.0f", p.slabPassesMedian) + "," + std::to_string(p.setting.subBlock) + "," +
-           number("%g", p.setting.lod) + "\n";
+           number("%g", p.setting.lod) + "," + (p.setting.raycast ? "1" : "0") + "\n";
   }
   return out;
 }
@@ -55,18 +55,28 @@ std::optional<double> slabTableStep(const SweepSpec& s) {
 }
 
 /// Per dataset and slab variant, at one step: slicing, the slab sizes without ERT, with ERT and with
-/// pre-integration, as the seed paper tabulates them.
+/// pre-integration, as the seed paper tabulates them, then the ray caster's settings.
 std::string slabTables(const SweepResult& r) {
   const SweepSpec& s = r.spec;
   const std::optional<double> step = slabTableStep(s);
-  if (s.slabs.empty() || !step) return "";
-  std::string md = "\n## Texture slabs at step " + number("%g", *step) + "\n\n";
-  md += "Slicing (one blended sample per fragment) against texture slabs of N planes (a fragment marches its ray "
-        "through N planes and blends once; \"whole brick\": N = " + std::to_string(render::Scene::kMaxSlab) +
-        ", a brick ray caster), without and with early ray termination (ERT: a slab silhouette map between slabs "
-        "and a stop inside the fragment) and pre-integration; B=32, skipping, vertex slicer. *Fragments*: started "
-        "(fragments the silhouette map rejects are not); *samples*: taken; *share of samples*: samples with ERT "
-        "over samples without it at the same slab size; *speed-up*: slicing's median time over the setting's.";
+  if (!s.marches() || !step) return "";
+  const bool slabs = !s.slabs.empty();
+  const char* title = !slabs ? "The frame ray caster" : s.rayCast ? "Texture slabs and the frame ray caster"
+                                                                   : "Texture slabs";
+  std::string md = "\n## " + std::string(title) + " at step " + number("%g", *step) + "\n\n";
+  if (slabs)
+    md += "Slicing (one blended sample per fragment) against texture slabs of N planes (a fragment marches its ray "
+          "through N planes and blends once; \"whole brick\": N = " + std::to_string(render::Scene::kMaxSlab) +
+          ", a brick ray caster), without and with early ray termination (ERT: a slab silhouette map between slabs "
+          "and a stop inside the fragment) and pre-integration; B=32, skipping, vertex slicer.";
+  if (s.rayCast)
+    md += std::string(slabs ? " " : "") + "*raycast*: the frame ray caster (a fragment per pixel and atlas batch "
+          "marches the pixel's whole ray through a cell table, taking the same samples; ERT stops it in the fragment "
+          "and by the silhouette map between batches), with cells of whole bricks or of sub-blocks" +
+          (slabs ? "" : "; B=32, skipping, vertex slicer") + ".";
+  md += " *Fragments*: started (fragments the silhouette map rejects are not); *samples*: taken; *share of samples*: "
+        "samples with ERT over samples of the same setting without it; *speed-up*: slicing's median time over the "
+        "setting's.";
   if (r.bestSlab)
     md += " ERT also ran at the fastest other slab size (" + slabLabel(*r.bestSlab) + ", least total time without "
           "ERT).";
@@ -74,6 +84,9 @@ std::string slabTables(const SweepResult& r) {
     md += " Pre-integration ran with ERT off and at " + number("%g", *r.bestErt) + " (the lowest threshold costing "
           "no more than " + number("%g", s.ertToleranceDb) + " dB of worst view below " +
           number("%g", s.psnrHighThreshold) + " dB).";
+  if (r.bestRayCastErt)
+    md += " The ray caster's pre-integration ran with ERT off and at " + number("%g", *r.bestRayCastErt) +
+          " (the same rule over its own points).";
   md += "\n";
   for (const Dataset& d : s.datasets)
     for (const Variant& v : slabVariants(d, s.opaqueVariants)) {
@@ -82,24 +95,21 @@ std::string slabTables(const SweepResult& r) {
       for (const Point& p : r.points) {
         if (p.dataset != d.name || !(p.variant == v) || p.setting.step != *step) continue;
         if (p.setting == Setting{*step}) slicing = &p;
-        else if (p.setting.slab > 0 && p.setting.brick == 32 && p.setting.skip &&
+        else if ((p.setting.slab > 0 || p.setting.raycast) && p.setting.brick == 32 && p.setting.skip &&
                  p.setting.slicer == render::Slicer::Vertex)
           rows.push_back(&p);
       }
       if (rows.empty()) continue;
-      // Slab size, then pre-integration, then threshold (off first).
+      // Slab size (the ray caster last), then pre-integration, then threshold (off first).
       std::stable_sort(rows.begin(), rows.end(), [](const Point* a, const Point* b) {
-        return std::tuple(a->setting.slab, a->setting.preIntegration, a->setting.ert) <
-               std::tuple(b->setting.slab, b->setting.preIntegration, b->setting.ert);
+        return std::tuple(a->setting.raycast, a->setting.slab, a->setting.preIntegration, a->setting.ert) <
+               std::tuple(b->setting.raycast, b->setting.slab, b->setting.preIntegration, b->setting.ert);
       });
       if (slicing) rows.insert(rows.begin(), slicing);
       md += "\n### " + d.name + ", " + v.label() + "\n\n| setting | median ms | speed-up | fragments (M) | "
             "samples (M) | share of samples | worst view dB | max abs |\n|---|---:|---:|---:|---:|---:|---:|---:|\n";
       for (const Point* p : rows) {
         const Setting& t = p->setting;
-        std::string name = slabLabel(t.slab);
-        if (t.ert > 0) name += ", ert " + number("%g", t.ert);
-        if (t.preIntegration) name += ", pre-int";
         std::string share = "—";
         if (t.ert > 0) {
           const auto off = std::find_if(r.points.begin(), r.points.end(), [&](const Point& q) {
@@ -110,7 +120,7 @@ std::string slabTables(const SweepResult& r) {
           if (off != r.points.end() && off->samplesMedian > 0)
             share = number("%.0f", 100 * p->samplesMedian / off->samplesMedian) + " %";
         }
-        md += "| " + name + " | " + number("%.1f", p->msMedian) + " | " +
+        md += "| " + marchingLabel(t) + " | " + number("%.1f", p->msMedian) + " | " +
               (slicing && p->msMedian > 0 ? number("%.2f", slicing->msMedian / p->msMedian) + "×" : "—") + " | " +
               number("%.3g", p->fragmentsMedian / 1e6) + " | " + number("%.3g", p->samplesMedian / 1e6) + " | " +
               share + " | " + number("%.1f", p->psnrMin) + " | " + number("%.4f", p->maxAbs) + " |\n";
@@ -174,7 +184,7 @@ std::string markdown(const SweepResult& r) {
         number("%g", s.psnrThreshold) + " dB | ms / dB | fastest ≥ " + number("%g", s.psnrHighThreshold) +
         " dB | ms / dB |\n|---|---|---|---:|---|---:|\n";
   for (const Dataset& d : s.datasets)
-    for (const Variant& v : slabVariants(d, s.opaqueVariants && !s.slabs.empty())) {
+    for (const Variant& v : slabVariants(d, s.opaqueVariants && s.marches())) {
       md += "| " + d.name + " | " + v.label() + " |";
       for (double threshold : {s.psnrThreshold, s.psnrHighThreshold}) {
         const std::optional<Point> p = fastestPoint(r.points, d.name, v, threshold);

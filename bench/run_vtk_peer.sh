@@ -10,7 +10,8 @@
 #   e.g. bash bench/run_vtk_peer.sh --views 8 --vtk-steps 1,0.5 --voxbrick 'step=0.75' --voxbrick 'step=0.5'
 #
 # Each --voxbrick value is one voxbrick setting: a comma list of key=value merged into the scene JSON (values are
-# JSON when they parse as JSON, else strings; 'a.b=v' nests), or a JSON object. Scene keys of render/Scene.h that
+# JSON when they parse as JSON, else strings; 1 and 0 are true and false for the scene's boolean keys, so
+# 'step=0.5,raycast=1' is the frame ray caster; 'a.b=v' nests), or a JSON object. Scene keys of render/Scene.h that
 # change the picture (camera, size, transfer_function, background, window, shading) are refused there. --vtk-steps
 # defaults to the steps of the voxbrick settings. Writes OUT/NAME.{csv,md} (NAME default peer-vtk); frames, heat
 # maps and the cached reference frames go to WORK (default bench/work/peer-vtk). Installs its own dependencies
@@ -35,7 +36,7 @@ while [ $# -gt 0 ]; do
     --reference-step|--heatmaps)
       [ $# -ge 2 ] || { echo "run_vtk_peer.sh: $1 needs a value" >&2; exit 2; }
       pass+=("$1" "$2"); shift 2 ;;
-    -h|--help) sed -n 2,17p "$0"; exit 0 ;;
+    -h|--help) sed -n 2,18p "$0"; exit 0 ;;
     *) echo "run_vtk_peer.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
   esac
 done

@@ -41,6 +41,8 @@ import numpy as np
 # script's own options (the same for every renderer), so a --voxbrick fragment may not change them.
 SCENE_KEYS = {"camera", "size", "transfer_function", "background", "window", "shading"}
 VOXBRICK_DEFAULT_STEP = 0.75  # render/Scene.h Scene::step
+# Scene keys that take true or false (render/Scene.cpp), which a setting may also give as 1 or 0 ('raycast=1').
+BOOLEAN_KEYS = {"skip_empty", "cull", "raycast", "pre_integration", "ess", "progressive"}
 RAYCAST_LABEL = "VTK FixedPoint (its ray-cast image)"
 
 
@@ -86,8 +88,8 @@ def split_top_level(text, sep=","):
 
 
 def parse_fragment(text):
-    """A --voxbrick value: 'k=v,k2=v2' (v parsed as JSON when it is JSON, else a string; 'a.b=v' nests) or a JSON
-    object. Returns the dict to merge into the scene."""
+    """A --voxbrick value: 'k=v,k2=v2' (v parsed as JSON when it is JSON, else a string; 'a.b=v' nests; 1 and 0 are
+    true and false for the keys of BOOLEAN_KEYS) or a JSON object. Returns the dict to merge into the scene."""
     text = text.strip()
     if text.startswith("{"):
         obj = json.loads(text)
@@ -103,6 +105,8 @@ def parse_fragment(text):
             parsed = json.loads(value)
         except json.JSONDecodeError:
             parsed = value
+        if key in BOOLEAN_KEYS and parsed in (0, 1) and not isinstance(parsed, bool):
+            parsed = bool(parsed)
         node = out
         parts = key.split(".")
         for p in parts[:-1]:
@@ -405,7 +409,8 @@ def main():
     ap.add_argument("--config-dir", default="config")
     ap.add_argument("--window", default=None, help="LO,HI (default the store's value range)")
     ap.add_argument("--voxbrick", action="append", default=[],
-                    help="a voxbrick setting: comma list of key=value merged into the scene JSON (repeatable)")
+                    help="a voxbrick setting: comma list of key=value merged into the scene JSON (repeatable), e.g. "
+                         "step=0.5,raycast=1")
     ap.add_argument("--vtk-steps", default=None, help="VTK steps in voxels (default: the voxbrick settings' steps)")
     ap.add_argument("--mappers", default="fixed,gpu")
     ap.add_argument("--no-pad", action="store_true",

@@ -19,7 +19,7 @@ struct BenchArgs {
   std::string mri = "/usr/share/mricron/templates/ch2better.nii.gz";
   std::string slabs, erts, slabSteps, alternatives, slabSubBlocks, lods;
   bool quick = false, quiet = false, dryRun = false, noBestSlab = false, noPreIntegration = false, noOpaque = false,
-       noShading = false;
+       noShading = false, rayCast = false, noRayCast = false;
   int views = 0, size = 0, ertSlab = 0;
   double referenceStep = 0, threshold = 40, thresholdHigh = 50, slabTableStep = 0, smallSlabMinStep = -1;
 };
@@ -102,6 +102,8 @@ void runBench(const BenchArgs& a) {
   if (a.noPreIntegration) spec.preIntegration = false;
   if (a.noOpaque) spec.opaqueVariants = false;
   if (a.noShading) spec.shadingVariants = false;
+  if (a.rayCast) spec.rayCast = true;
+  if (a.noRayCast) spec.rayCast = false;
   if (!a.alternatives.empty()) {
     spec.alternativeBricks.clear();
     spec.alternativeNoSkip = spec.alternativeCpuSlicer = false;
@@ -178,7 +180,7 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_flag("--no-shading", args->noShading, "no shaded variants");
   cmd->add_option("--slabs", args->slabs,
                   "texture-slab sizes swept at every step without ERT, comma-separated, 4096 = whole brick; none: no "
-                  "slab settings at all (default 1,4,16,32,4096)");
+                  "slab settings at all (the ray caster's stay; default 1,4,16,32,4096)");
   cmd->add_option("--ert-slab", args->ertSlab,
                   "the slab size of the ERT thresholds and of pre-integration (default 32)")
       ->check(CLI::Range(1, render::Scene::kMaxSlab));
@@ -186,16 +188,25 @@ void addBenchCommand(CLI::App& app) {
                   "early-ray-termination thresholds in [0.5, 1], comma-separated, or none; off (0) is always swept "
                   "(default 0.99,0.999,1)");
   cmd->add_option("--slab-sub-blocks", args->slabSubBlocks,
-                  "each ERT threshold at --ert-slab again with these sub-block sizes, comma-separated, or none (default 8)");
+                  "each ERT threshold at --ert-slab (and the ray caster's, off too) again with these sub-block "
+                  "sizes, comma-separated, or none (default 8)");
   cmd->add_option("--lods", args->lods,
-                  "levels of detail (pixels) besides 0, each with every ERT threshold at --ert-slab and the last "
-                  "--slab-sub-blocks size, comma-separated, or none (default none)");
+                  "levels of detail (pixels) besides 0, each with every ERT threshold at --ert-slab (and on the ray "
+                  "caster) and the last --slab-sub-blocks size, comma-separated, or none (default none)");
   cmd->add_flag("--no-best-slab", args->noBestSlab,
                 "ERT thresholds only at --ert-slab, not also at the fastest other size");
   cmd->add_flag("--no-pre-integration", args->noPreIntegration, "no pre-integrated settings");
   cmd->add_flag("--no-opaque", args->noOpaque,
-                "slab settings only with each dataset's default transfer function, not also with its opaque one");
-  cmd->add_option("--slab-steps", args->slabSteps, "the steps of the slab settings, a subset of --steps (default all)");
+                "slab and ray-caster settings only with each dataset's default transfer function, not also with its "
+                "opaque one");
+  CLI::Option* rayCast =
+      cmd->add_flag("--raycast", args->rayCast,
+                    "ray-caster settings (with or without --slabs) at the slab steps on the slab variants: ERT off "
+                    "and each --erts threshold, each with whole-brick cells and each --slab-sub-blocks size; each "
+                    "--lods level; pre-integration (default on)");
+  cmd->add_flag("--no-raycast", args->noRayCast, "no ray-caster settings")->excludes(rayCast);
+  cmd->add_option("--slab-steps", args->slabSteps,
+                  "the steps of the slab and ray-caster settings, a subset of --steps (default all)");
   cmd->add_option("--small-slab-min-step", args->smallSlabMinStep,
                   "slab sizes below --ert-slab (the slowest settings) only at steps at least this (default 0.5; 0: "
                   "every step)")

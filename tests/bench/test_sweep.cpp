@@ -93,6 +93,15 @@ Setting slab(double step, int size, double ert = 0, bool preIntegration = false)
   return s;
 }
 
+Setting raycast(double step, double ert = 0, int subBlock = 0, bool preIntegration = false) {
+  Setting s{step};
+  s.raycast = true;
+  s.ert = ert;
+  s.subBlock = subBlock;
+  s.preIntegration = preIntegration;
+  return s;
+}
+
 TEST(SweepSetting, LabelShowsSlabSettingsOnlyWhenNotDefault) {
   // The labels of the settings that existed before the slabs are unchanged, so old tables stay comparable.
   EXPECT_EQ(Setting{0.5}.label(), "step 0.5, B=32, skip, vertex");
@@ -108,6 +117,23 @@ TEST(SweepSetting, LabelShowsSlabSettingsOnlyWhenNotDefault) {
   skipping.subBlock = 8;
   EXPECT_EQ(skipping.label(), "step 1, B=32, skip, vertex, slab 32, ert 0.999, sub-block 8");
   EXPECT_FALSE(skipping == slab(1, 32, 0.999));
+  EXPECT_EQ(marchingLabel(skipping), "slab 32, ert 0.999, sub-block 8");
+  EXPECT_EQ(marchingLabel(Setting{1}), "slicing");
+}
+
+TEST(SweepSetting, RayCasterLabelsNameItWithoutASlab) {
+  EXPECT_EQ(raycast(0.5).label(), "step 0.5, B=32, skip, vertex, raycast");
+  EXPECT_EQ(raycast(0.5, 0.999, 8).label(), "step 0.5, B=32, skip, vertex, raycast, ert 0.999, sub-block 8");
+  EXPECT_EQ(raycast(1, 0.99, 0, true).label(), "step 1, B=32, skip, vertex, raycast, ert 0.99, pre-int");
+  Setting coarse = raycast(1, 0.999, 8);
+  coarse.lod = 2;
+  EXPECT_EQ(coarse.label(), "step 1, B=32, skip, vertex, raycast, ert 0.999, sub-block 8, lod 2");
+  EXPECT_EQ(marchingLabel(raycast(0.5, 0.999, 8)), "raycast, ert 0.999, sub-block 8");
+  Setting slicing{0.5};
+  slicing.ert = 0.999;
+  slicing.subBlock = 8;
+  EXPECT_FALSE(raycast(0.5, 0.999, 8) == slicing) << "the ray caster is its own setting";
+  EXPECT_NE(raycast(0.5, 0.999, 8).label(), slicing.label());
 }
 
 TEST(SweepSpecs, FullAndQuickSweepTheSlabSettingsOnAnOpaqueVariantToo) {
@@ -124,15 +150,26 @@ TEST(SweepSpecs, FullAndQuickSweepTheSlabSettingsOnAnOpaqueVariantToo) {
       EXPECT_EQ(d.opaque, "ct-bone") << d.name;
       EXPECT_EQ(slabVariants(d, true), (std::vector<Variant>{defaultVariant(d), {"ct-bone"}})) << d.name;
     }
+  EXPECT_TRUE(full.rayCast);
   // 144 points as before the slabs; per slab variant 16 settings a step (5 sizes; 3 thresholds at 32, each also
   // with sub-blocks of 8; 3 at the best other size; 2 pre-integrated), 13 at step 0.25 (no slabs of 1, 4 and 16,
-  // the sizes below the ERT slab), over 5 slab variants.
-  EXPECT_EQ(full.plannedPoints(), 144u + 5 * (5 * 16 + 13));
+  // the sizes below the ERT slab), over 5 slab variants; the ray caster 10 a step on each (ERT off and 3
+  // thresholds, each with whole-brick cells and sub-blocks of 8; 2 pre-integrated).
+  EXPECT_EQ(full.plannedPoints(), 144u + 5 * (5 * 16 + 13) + 5 * 6 * 10);
+  SweepSpec slabsOnly = full;
+  slabsOnly.rayCast = false;
+  EXPECT_EQ(slabsOnly.plannedPoints(), 144u + 5 * (5 * 16 + 13));
+  SweepSpec rayCastOnly = full;
+  rayCastOnly.slabs.clear();
+  EXPECT_EQ(rayCastOnly.plannedPoints(), 144u + 5 * 6 * 10) << "the ray caster does not need the slab sizes";
+  rayCastOnly.lods = {1, 2};
+  EXPECT_EQ(rayCastOnly.plannedPoints(), 144u + 5 * 6 * (10 + 3 * 2)) << "each level with each threshold";
 
   const SweepSpec quick = SweepSpec::quick("/x/mri.nii.gz");
   ASSERT_FALSE(quick.slabs.empty());
   ASSERT_FALSE(quick.erts.empty());
   EXPECT_TRUE(quick.preIntegration);
+  EXPECT_TRUE(quick.rayCast);
   EXPECT_TRUE(std::any_of(quick.datasets.begin(), quick.datasets.end(), [](const Dataset& d) {
     return slabVariants(d, true).size() == 2;
   })) << "an opaque variant";
@@ -164,6 +201,19 @@ TEST(SweepDefault, ChoosesAmongSlabSettingsAndAtTheHigherThreshold) {
   EXPECT_EQ(fastestPoint(points, "a", {"ct-bone"}, 50)->setting, ert99);
   EXPECT_FALSE(fastestPoint(points, "a", {"hot"}, 60));
   EXPECT_EQ(coarsestStep(points, "a", {"hot"}, 40), 1.0) << "slab points are not the baseline renderer";
+
+  // The ray caster competes like any setting, compared with itself on every dataset.
+  const Setting rc = raycast(1, 0.99, 8);
+  points.push_back(point("a", {"hot"}, rc, 8, 41));
+  points.push_back(point("b", {"mri"}, rc, 11, 44));
+  EXPECT_EQ(chooseDefault(points, datasets, 40), rc);
+  EXPECT_EQ(chooseDefault(points, datasets, 50), preInt);
+  Setting notRc = rc;
+  notRc.raycast = false;
+  points.push_back(point("a", {"hot"}, raycast(1), 1, 45));  // not measured on b: never chosen
+  points.push_back(point("b", {"mri"}, notRc, 1, 45));        // not the ray caster: does not complete it
+  EXPECT_EQ(chooseDefault(points, datasets, 40), rc);
+  EXPECT_EQ(coarsestStep(points, "a", {"hot"}, 40), 1.0) << "ray-caster points are not the baseline renderer";
 }
 
 TEST(SweepSlabs, BestSlabSizeAndBestThreshold) {
@@ -198,6 +248,23 @@ TEST(SweepSlabs, BestSlabSizeAndBestThreshold) {
   EXPECT_EQ(bestErt(points, 16, 20, 50), 0.99);
   EXPECT_EQ(bestErt(points, 16, 0, 60), 0.999) << "none keeps it: the most accurate";
   EXPECT_FALSE(bestErt(points, whole, 1, 50)) << "no threshold measured at that size";
+  EXPECT_FALSE(bestRayCastErt(points, 1, 50)) << "no ray-caster point";
+
+  // The ray caster's thresholds, against the ray caster without ERT: 0.99 costs 5 dB on a. They change neither the
+  // slab answers nor the best slab size (the ray caster is fastest, but is no slab size).
+  points.push_back(point("a", {"hot"}, raycast(1), 10, 40));
+  points.push_back(point("b", {"mri"}, raycast(1), 10, 60));
+  points.push_back(point("a", {"hot"}, raycast(1, 0.99), 5, 35));
+  points.push_back(point("b", {"mri"}, raycast(1, 0.99), 5, 60));
+  points.push_back(point("a", {"hot"}, raycast(1, 0.999), 6, 40));
+  points.push_back(point("b", {"mri"}, raycast(1, 0.999), 6, 59.5));
+  points.push_back(point("a", {"hot"}, raycast(2), 1, 40));
+  EXPECT_EQ(bestRayCastErt(points, 1, 50), 0.999);
+  EXPECT_EQ(bestRayCastErt(points, 6, 50), 0.99);
+  EXPECT_EQ(bestErt(points, 16, 1, 50), 0.995);
+  EXPECT_EQ(bestSlabSize(points, 16), whole);
+  points.push_back(point("a", {"hot"}, raycast(1, 0.9, 0, true), 1, 10));  // pre-integrated: not counted
+  EXPECT_EQ(bestRayCastErt(points, 1, 50), 0.999);
 }
 
 std::vector<std::string> fields(const std::string& line);
@@ -223,7 +290,14 @@ TEST(SweepFiles, CsvAppendsTheSlabColumnsAndMarkdownHasTheSlabTable) {
   ert.samplesTerminatedMedian = 0.1e6;
   ert.slabPassesMedian = 12;
   Point opaque = point("ml", {"ct-bone"}, slab(1, 16, 0.99, true), 10, 50);
-  result.points = {slicing, slab16, ert, opaque};
+  Point rayCast = point("ml", {"hot"}, raycast(1, 0, 8), 30, 45);
+  rayCast.samplesMedian = 4e6;
+  rayCast.fragmentsMedian = 256;
+  Point rayCastErt = point("ml", {"hot"}, raycast(1, 0.99, 8), 8, 44);
+  rayCastErt.samplesMedian = 0.6e6;
+  rayCastErt.fragmentsMedian = 256;
+  result.spec.rayCast = true;
+  result.points = {slicing, slab16, ert, opaque, rayCast, rayCastErt};
   markPareto(result.points);
   result.chosen = slab(1, 16, 0.99);
   result.chosenHigh = std::nullopt;
@@ -239,25 +313,42 @@ TEST(SweepFiles, CsvAppendsTheSlabColumnsAndMarkdownHasTheSlabTable) {
       "min_ms", "max_ms", "median_samples", "psnr_worst_db", "psnr_pooled_db", "rmse_pooled", "max_abs", "pareto",
       // appended after the columns of the sweep before slabs, so that old readers keep working
       "slab", "ert", "pre_integration", "samples_median", "fragments_median", "samples_terminated_median",
-      "slab_passes_median", "sub_block", "lod"};
+      "slab_passes_median", "sub_block", "lod", "raycast"};
   EXPECT_EQ(header, expected);
   std::vector<std::vector<std::string>> rows;
   while (std::getline(csv, line)) rows.push_back(fields(line));
-  ASSERT_EQ(rows.size(), 4u);
+  ASSERT_EQ(rows.size(), 6u);
   for (const auto& row : rows) ASSERT_EQ(row.size(), header.size());
   EXPECT_EQ((std::vector<std::string>(rows[0].begin() + 18, rows[0].end())),
-            (std::vector<std::string>{"0", "0", "0", "4000000", "4000000", "0", "0", "0", "0"}));
+            (std::vector<std::string>{"0", "0", "0", "4000000", "4000000", "0", "0", "0", "0", "0"}));
   EXPECT_EQ((std::vector<std::string>(rows[2].begin() + 18, rows[2].end())),
-            (std::vector<std::string>{"16", "0.99", "0", "1000000", "250000", "100000", "12", "0", "0"}));
+            (std::vector<std::string>{"16", "0.99", "0", "1000000", "250000", "100000", "12", "0", "0", "0"}));
   EXPECT_EQ(rows[2][12], "1000000") << "median_samples: samples taken";
   EXPECT_EQ(rows[3][20], "1");
+  EXPECT_EQ((std::vector<std::string>(rows[5].begin() + 18, rows[5].end())),
+            (std::vector<std::string>{"0", "0.99", "0", "600000", "256", "0", "0", "8", "0", "1"}))
+      << "the ray caster: slab 0, and raycast 1 where slicing has 0";
 
   const auto bytes = test::readFile(dir / "sweep.md");
   const std::string md(bytes.begin(), bytes.end());
-  for (const char* part : {"## Texture slabs at step 1", "### ml, hot", "### ml, ct-bone", "| slicing | 40.0 | 1.00× |",
+  for (const char* part : {"## Texture slabs and the frame ray caster at step 1", "### ml, hot", "### ml, ct-bone",
+                           "| slicing | 40.0 | 1.00× |",
                            "| slab 16, ert 0.99 | 20.0 | 2.00× | 0.25 | 1 | 25 % | 44.0 |",
+                           "| raycast, sub-block 8 | 30.0 | 1.33× | 0.000256 | 4 | — | 45.0 |",
+                           "| raycast, ert 0.99, sub-block 8 | 8.0 | 5.00× | 0.000256 | 0.6 | 15 % | 44.0 |",
+                           "| ml | hot | step 1, B=32, skip, vertex, raycast, ert 0.99, sub-block 8 | 8.0 / 44.0 |",
                            "| 50 dB | none |", "**step 1, B=32, skip, vertex, slab 16, ert 0.99**"})
     EXPECT_NE(md.find(part), std::string::npos) << part << "\n" << md;
+  EXPECT_LT(md.find("| slab 16, ert 0.99 |"), md.find("| raycast, sub-block 8 |")) << "the ray caster after the slabs";
+
+  // Without the ray caster the section keeps its name.
+  result.spec.rayCast = false;
+  result.points.resize(4);
+  writeResults(result, dir.path());
+  const auto slabBytes = test::readFile(dir / "sweep.md");
+  const std::string slabMd(slabBytes.begin(), slabBytes.end());
+  EXPECT_NE(slabMd.find("## Texture slabs at step 1"), std::string::npos) << slabMd;
+  EXPECT_EQ(slabMd.find("raycast"), std::string::npos) << slabMd;
 }
 
 TEST(SweepPlot, IsWellFormedSvgWithAPanelPerDataset) {
@@ -271,7 +362,9 @@ TEST(SweepPlot, IsWellFormedSvgWithAPanelPerDataset) {
                    point("mri", {"mri"}, slab(0.5, 16), 450, 60), point("mri", {"mri"}, slab(0.5, 16, 0.99), 200, 55),
                    point("mri", {"mri"}, slab(0.5, render::Scene::kMaxSlab), 300, 60),
                    point("mri", {"mri"}, slab(0.5, 1), 900, 60), point("mri", {"mri"}, slab(0.5, 4), 700, 60),
-                   point("mri", {"mri"}, slab(0.5, 16, 0.99, true), 250, 57)};
+                   point("mri", {"mri"}, slab(0.5, 16, 0.99, true), 250, 57),
+                   point("mri", {"mri"}, raycast(0.5, 0.99, 8), 150, 55),
+                   point("mri", {"mri"}, raycast(0.5, 0, 0, true), 260, 57)};
   markPareto(result.points);
   result.chosen = Setting{0.5};
   result.chosenHigh = slab(0.5, 16, 0.99);
@@ -286,9 +379,22 @@ TEST(SweepPlot, IsWellFormedSvgWithAPanelPerDataset) {
   EXPECT_EQ(svg.find("nan"), std::string::npos) << "an infinite PSNR must not reach a coordinate";
   EXPECT_EQ(svg.find("inf"), std::string::npos);
   for (const char* key : {"slab 1", "slab 4", "slab 16", "slab whole brick", "slab 16, pre-integration",
-                          "dot: early ray termination", "fastest at 50 dB"})
+                          "raycast<", "raycast, pre-integration<", "dot: early ray termination", "fastest at 50 dB"})
     EXPECT_NE(svg.find(std::string(">") + key), std::string::npos) << key;
   EXPECT_NE(svg.find("r=\"1.8\" fill=\"black\""), std::string::npos) << "the ERT dot";
+  // The ray caster's markers, a plus (12 corners) and a pentagon (5): each in the key and at its point, in the
+  // variant's colour; the ray caster with ERT, the fastest point, is filled (on the front) with the dot.
+  std::map<size_t, std::vector<std::string>> polygons;  // corners -> fill of each
+  const std::string polygon = "<polygon points=\"";
+  for (size_t i = svg.find(polygon); i != std::string::npos; i = svg.find(polygon, i + 1)) {
+    const size_t from = i + polygon.size(), to = svg.find('"', from);
+    const std::string corners = svg.substr(from, to - from);
+    const size_t fill = svg.find("fill=\"", to) + 6;
+    polygons[size_t(std::count(corners.begin(), corners.end(), ','))].push_back(
+        svg.substr(fill, svg.find('"', fill) - fill));
+  }
+  EXPECT_EQ(polygons[12], (std::vector<std::string>{"#1f77b4", "white"})) << "the point, then the key";
+  EXPECT_EQ(polygons[5], (std::vector<std::string>{"white", "white"}));
   EXPECT_NE(svg.find("stroke-dasharray=\"3 2\""), std::string::npos) << "the ring of the 50 dB answer";
 }
 
@@ -304,18 +410,20 @@ TEST(BenchCli, QuickSweepWritesWellFormedFilesAndReusesItsReferences) {
   const std::string args = "bench --quick -q --out " + (dir / "out").string() + " --work " + (dir / "work").string();
   auto r = test::runVoxbrick(args);
   ASSERT_EQ(r.exitCode, 0) << r.output;
-  EXPECT_NE(r.output.find("bench: 60 points"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("bench: 84 points"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("every dataset at >= 50 dB"), std::string::npos) << "the second answer: " << r.output;
 
   std::ifstream csv(dir / "out" / "sweep.csv");
   std::string line;
   ASSERT_TRUE(std::getline(csv, line));
   const std::vector<std::string> header = fields(line);
-  ASSERT_EQ(header.size(), 27u);
+  ASSERT_EQ(header.size(), 28u);
   EXPECT_EQ(header[9], "median_ms");
   EXPECT_EQ(header[13], "psnr_worst_db");
   EXPECT_EQ(header[18], "slab");
-  int rows = 0, pareto = 0, slabErt = 0, preInt = 0, ertSavedSamples = 0;
+  EXPECT_EQ(header[27], "raycast");
+  int rows = 0, pareto = 0, slabErt = 0, preInt = 0, ertSavedSamples = 0, rayCast = 0, rayCastErt = 0,
+      rayCastPreInt = 0, rayCastSubBlocks = 0;
   std::map<std::string, double> samplesWithoutErt;
   for (; std::getline(csv, line); ++rows) {
     const std::vector<std::string> f = fields(line);
@@ -331,33 +439,51 @@ TEST(BenchCli, QuickSweepWritesWellFormedFilesAndReusesItsReferences) {
     EXPECT_GT(std::stod(f[13]), 15) << "an error this large means the sweep compared the wrong frames: " << line;
     EXPECT_GT(std::stod(f[21]), 0) << "samples taken: " << line;
     EXPECT_GT(std::stod(f[22]), 0) << "fragments started: " << line;
-    if (f[18] == "0") {
+    if (f[27] == "1") {
+      // Had the ray caster not reached the scene, these would be slicing's frames: a fragment per sample.
+      ++rayCast;
+      EXPECT_EQ(f[18], "0") << "the ray caster keeps no slab size: " << line;
+      EXPECT_LE(std::stod(f[22]), 4 * 48 * 48) << "the ray caster: a fragment per pixel and batch: " << line;
+      EXPECT_LT(std::stod(f[22]), std::stod(f[21])) << line;
+      EXPECT_EQ(f[24], "0") << "no slab passes: " << line;
+      rayCastErt += f[19] != "0" && f[20] == "0";
+      rayCastPreInt += f[20] == "1";
+      rayCastSubBlocks += f[25] == "8";
+    } else if (f[18] == "0") {
       EXPECT_EQ(f[21], f[22]) << "slicing: a sample per fragment: " << line;
     } else {
       EXPECT_LT(std::stod(f[22]), std::stod(f[21])) << "slabs: several samples per fragment: " << line;
       EXPECT_GT(std::stod(f[24]), 0) << "slab passes: " << line;
     }
-    const std::string where = f[0] + "," + f[1] + "," + f[3] + "," + f[18];
-    if (f[18] != "0" && f[19] == "0" && f[20] == "0") samplesWithoutErt[where] = std::stod(f[21]);
-    if (f[18] != "0" && f[19] != "0" && f[20] == "0") {
-      ++slabErt;
-      ASSERT_TRUE(samplesWithoutErt.count(where)) << "measured after the same slab without ERT: " << line;
-      ertSavedSamples += std::stod(f[21]) < samplesWithoutErt[where];
+    const std::string where = f[0] + "," + f[1] + "," + f[3] + "," + f[18] + "," + f[25] + "," + f[27];
+    const bool marching = f[18] != "0" || f[27] == "1";
+    if (marching && f[19] == "0" && f[20] == "0") samplesWithoutErt[where] = std::stod(f[21]);
+    if (marching && f[19] != "0" && f[20] == "0") {
+      slabErt += f[27] == "0";
+      if (f[25] == "0" || f[27] == "1") {
+        ASSERT_TRUE(samplesWithoutErt.count(where)) << "measured after the same setting without ERT: " << line;
+        ertSavedSamples += std::stod(f[21]) < samplesWithoutErt[where];
+      }
     }
-    preInt += f[20] == "1";
+    preInt += f[20] == "1" && f[27] == "0";
     pareto += f[17] == "1";
   }
-  EXPECT_EQ(rows, 60);
+  EXPECT_EQ(rows, 84);
   EXPECT_EQ(slabErt, 12) << "ERT at slab 16 (also with sub-blocks) and at whole bricks, on 4 slab variants";
   EXPECT_EQ(preInt, 8) << "pre-integration with ERT off and at 0.99, on 4 slab variants";
-  EXPECT_GE(ertSavedSamples, 1) << "early ray termination left samples out somewhere";
+  EXPECT_EQ(rayCast, 24) << "the ray caster on 4 slab variants: ERT off and 0.99, each also with sub-blocks; "
+                            "pre-integrated with ERT off and at 0.99";
+  EXPECT_EQ(rayCastErt, 8);
+  EXPECT_EQ(rayCastPreInt, 8);
+  EXPECT_EQ(rayCastSubBlocks, 8);
+  EXPECT_GE(ertSavedSamples, 2) << "early ray termination left samples out somewhere, with slabs and ray casting";
   EXPECT_GE(pareto, 6) << "at least two points per dataset and variant on the front";
 
   const auto md = test::readFile(dir / "out" / "sweep.md");
   const std::string text(md.begin(), md.end());
   for (const char* part : {"## Chosen default", "## The reference", "## ml", "## sparse", "## mri", "sweep.svg",
-                           "## Texture slabs at step 2", "### mri, mri", "### ml, ct-bone",
-                           "slab whole brick, ert 0.99"})
+                           "## Texture slabs and the frame ray caster at step 2", "### mri, mri", "### ml, ct-bone",
+                           "slab whole brick, ert 0.99", "| raycast, ert 0.99, sub-block 8 |", "| raycast, pre-int |"})
     EXPECT_NE(text.find(part), std::string::npos) << part;
   const auto svg = test::readFile(dir / "out" / "sweep.svg");
   std::string why;
@@ -382,27 +508,43 @@ TEST(BenchCli, QuickSweepWritesWellFormedFilesAndReusesItsReferences) {
 TEST(BenchCli, PlansTheSweepItIsAskedForAndRefusesBadLists) {
   auto r = test::runVoxbrick("bench --dry-run");
   ASSERT_EQ(r.exitCode, 0) << r.output;
-  EXPECT_NE(r.output.find("at most 609 points, 8 views"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("at most 909 points, 8 views"), std::string::npos) << r.output;
+  r = test::runVoxbrick("bench --dry-run --no-raycast");
+  EXPECT_NE(r.output.find("at most 609 points, 8 views"), std::string::npos) << "the sweep before the ray caster: "
+                                                                              << r.output;
   r = test::runVoxbrick("bench --quick --dry-run");
-  EXPECT_NE(r.output.find("at most 60 points"), std::string::npos) << r.output;
-  r = test::runVoxbrick("bench --dry-run --slabs none");
+  EXPECT_NE(r.output.find("at most 84 points"), std::string::npos) << r.output;
+  r = test::runVoxbrick("bench --dry-run --slabs none --no-raycast");
   EXPECT_NE(r.output.find("at most 144 points"), std::string::npos) << "the sweep before slabs: " << r.output;
+  r = test::runVoxbrick("bench --dry-run --slabs none");
+  EXPECT_NE(r.output.find("at most 444 points"), std::string::npos) << "the ray caster without slabs: " << r.output;
   // One dataset (2 slab variants), 2 steps, no shading, no slicing alternatives: 2 variants x 2 steps of slicing;
-  // per slab variant and step slab 16 and 4096, ERT 0.9 at 16 and at the best other size (4096), pre-int twice.
-  r = test::runVoxbrick("bench --dry-run --datasets mri --steps 0.5,1 --no-shading --alternatives none "
-                        "--slabs 16,4096 --ert-slab 16 --erts 0.9 --slab-sub-blocks none --size 512");
+  // per slab variant and step slab 16 and 4096, ERT 0.9 at 16 and at the best other size (4096), pre-int twice;
+  // with --raycast also the ray caster with ERT off and 0.9, pre-integrated twice.
+  const std::string focused = "bench --dry-run --datasets mri --steps 0.5,1 --no-shading --alternatives none "
+                              "--slabs 16,4096 --ert-slab 16 --erts 0.9 --slab-sub-blocks none --size 512";
+  r = test::runVoxbrick(focused + " --no-raycast");
   EXPECT_NE(r.output.find("at most 28 points, 8 views each (and a warm-up frame), 512x512"), std::string::npos)
       << r.output;
+  r = test::runVoxbrick(focused + " --raycast");
+  EXPECT_NE(r.output.find("at most 44 points"), std::string::npos) << r.output;
   r = test::runVoxbrick("bench --dry-run --datasets mri --steps 1 --no-shading --alternatives b16,no-skip "
-                        "--slabs 4,16 --erts none --no-pre-integration --no-opaque");
+                        "--slabs 4,16 --erts none --no-pre-integration --no-opaque --no-raycast");
   EXPECT_NE(r.output.find("at most 6 points"), std::string::npos)
       << "2 slicing, b16, no skip, slab 4, slab 16: " << r.output;
+  r = test::runVoxbrick("bench --dry-run --datasets mri --steps 1 --no-shading --alternatives b16,no-skip "
+                        "--slabs 4,16 --erts none --no-pre-integration --no-opaque");
+  EXPECT_NE(r.output.find("at most 8 points"), std::string::npos)
+      << "and the ray caster without ERT, with whole-brick cells and sub-blocks of 8: " << r.output;
 
   for (const char* bad : {"--erts 0.3", "--slabs 0", "--slabs 5000", "--slabs 4.5", "--steps 1 --slab-steps 2",
                           "--alternatives b33", "--alternatives gpu", "--steps ,"}) {
     r = test::runVoxbrick(std::string("bench --dry-run ") + bad);
     EXPECT_EQ(r.exitCode, 1) << bad << ": " << r.output;
   }
+  r = test::runVoxbrick("bench --dry-run --raycast --no-raycast");  // refused by the option parser
+  EXPECT_NE(r.exitCode, 0) << r.output;
+  EXPECT_NE(r.output.find("--raycast excludes --no-raycast"), std::string::npos) << r.output;
 }
 
 }  // namespace
