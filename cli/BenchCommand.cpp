@@ -224,7 +224,10 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_option("--backend", args->backend, "auto, egl or osmesa")->capture_default_str();
   cmd->add_flag("-q,--quiet", args->quiet, "no progress lines");
   cmd->add_flag("--dry-run", args->dryRun, "print how many points the sweep would measure, and exit");
-  cmd->callback([args] { runBench(*args); });
+  cmd->callback([args] {
+    keepFreedMemoryForFrames();
+    runBench(*args);
+  });
 }
 
 }  // namespace voxbrick::cli

@@ -40,4 +40,8 @@ void parseSize(const std::string& text, const std::string& option, int& width, i
 /// Formats a byte count as "12.3 MB".
 std::string formatBytes(double bytes);
 
+/// For `render`, `serve` and `bench`: keeps freed memory of up to 32 MB a block (frames, read-backs, bricks) in the
+/// process for the next frame instead of returning it to the system (cli/Allocator.cpp says why).
+void keepFreedMemoryForFrames();
+
 }  // namespace voxbrick::cli

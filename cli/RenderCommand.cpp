@@ -127,7 +127,10 @@ void addRenderCommand(CLI::App& app) {
                   "direct, or auto (staged on a GPU, direct on a software rasteriser)")
       ->check(CLI::IsMember({"auto", "direct", "staged"}));
   cmd->add_flag("-q,--quiet", args->quiet, "do not print the renderer's name");
-  cmd->callback([args, cmd] { runRender(*args, *cmd); });
+  cmd->callback([args, cmd] {
+    keepFreedMemoryForFrames();
+    runRender(*args, *cmd);
+  });
 }
 
 }  // namespace voxbrick::cli

@@ -95,11 +95,12 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
   cmd->add_option("--sub-block", args.subBlock,
                   "skip empty sub-blocks of N voxels inside bricks (a power of two, default 8; 0 draws whole bricks)");
   cmd->add_option("--slab", args.slab,
-                  "texture slabs of N planes: the fragment program marches N samples and blends once (default 32; "
+                  "draw with texture slabs of N planes instead of the ray caster: the fragment program marches N "
+                  "samples and blends once (slabs of 32 when a volume is too large for the ray caster's cell table; "
                   "0 slices: one blended sample per fragment)");
   cmd->add_flag("--raycast", args.raycast,
-                "frame ray casting: one fragment per pixel marches its ray through every brick, each sample's brick "
-                "looked up in a table of cells (the same samples as slabs; --slab and --ess then have no effect)");
+                "frame ray casting (the default): one fragment per pixel marches its ray through every brick, each "
+                "sample's brick looked up in a table of cells (the same samples as slabs); over a scene's 'slab'");
   cmd->add_option("--ert", args.ert,
                   "early ray termination when marching (slabs, ray casting): stop rays whose opacity reached this threshold in [0.5, 1] "
                   "(default 0.999; 0: off)");

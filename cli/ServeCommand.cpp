@@ -102,7 +102,10 @@ void addServeCommand(CLI::App& app) {
   cmd->add_option("--gpu-budget", a->gpuBudgetMB, "MB of GPU brick atlas for all render threads and datasets together (an equal share per thread)");
   cmd->add_flag("--no-coalesce", a->noCoalesce,
                 "render every request in order instead of only a session's newest (to measure what latest-wins saves)");
-  cmd->callback([a] { runServe(*a); });
+  cmd->callback([a] {
+    keepFreedMemoryForFrames();
+    runServe(*a);
+  });
 }
 
 }  // namespace voxbrick::cli

@@ -85,7 +85,8 @@ image::ImageF Compositor::finish(const glm::dvec3& background, FrameStats& stats
   stats.msDrawing += msSince(t);
   stats.fragments = int64_t(mFragments.result());
   t = Clock::now();
-  const std::vector<float> raw = mTarget.readRgba();
+  mTarget.readRgba(mRaw);
+  const std::vector<float>& raw = mRaw;
   const int width = mTarget.width(), height = mTarget.height();
   image::ImageF image{width, height, std::vector<float>(raw.size())};
   for (int y = 0; y < height; ++y) {

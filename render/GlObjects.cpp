@@ -139,13 +139,18 @@ void Framebuffer::checkComplete(const char* what) const {
 }
 
 std::vector<float> Framebuffer::readRgba() const {
-  std::vector<float> pixels(size_t(mWidth) * size_t(mHeight) * 4);
+  std::vector<float> pixels;
+  readRgba(pixels);
+  return pixels;
+}
+
+void Framebuffer::readRgba(std::vector<float>& pixels) const {
+  pixels.resize(size_t(mWidth) * size_t(mHeight) * 4);
   gl()->glBindFramebuffer(GL_FRAMEBUFFER, id());
   gl()->glReadBuffer(GL_COLOR_ATTACHMENT0);
   gl()->glPixelStorei(GL_PACK_ALIGNMENT, 4);
   gl()->glReadPixels(0, 0, mWidth, mHeight, GL_RGBA, GL_FLOAT, pixels.data());
   checkGlError(*gl(), "Framebuffer::readRgba");
-  return pixels;
 }
 
 ProgramSources ProgramSources::fromFiles(std::string name, std::vector<std::pair<GLenum, std::string>> stageFiles,

@@ -118,6 +118,8 @@ class Framebuffer : public detail::GlName<detail::deleteFramebuffer> {
   void checkComplete(const char* what) const;
   /// Reads the colour attachment as RGBA floats, bottom row first (binds it).
   std::vector<float> readRgba() const;
+  /// The same into `pixels`, resized to fit: a buffer kept from frame to frame is not faulted in again.
+  void readRgba(std::vector<float>& pixels) const;
   /// The colour texture made by withColor (empty otherwise).
   const Texture& color() const { return mColor; }
   int width() const { return mWidth; }

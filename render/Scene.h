@@ -42,10 +42,10 @@ struct Scene {
   /// Default: the grayscale ramp (as config/tf/grayscale.json), built in so a scene never needs the config files.
   TransferFunction transferFunction{{{0.0, {0, 0, 0, 0}}, {1.0, {1, 1, 1, 0.5}}}};
   std::string transferFunctionName = "grayscale";  ///< preset name or path, or "inline"
-  /// Slice spacing in voxels of level 0 (of the smallest spacing). The default drawing, step 0.75 on slabs of 32
-  /// planes with termination at 0.999 and sub-blocks of 8, is the fastest setting of
-  /// bench/results/slabs-sweep/sweep.md that keeps every dataset at 40 dB or more against the reference (unshaded;
-  /// shading needs finer).
+  /// Slice spacing in voxels of level 0 (of the smallest spacing). The default drawing, step 0.75 through the frame
+  /// ray caster with termination at 0.999 and cells of sub-blocks of 8, is the fastest setting of
+  /// bench/results/raycast-sweep/sweep.md that keeps every dataset at 40 dB or more against the reference
+  /// (unshaded; shading needs finer).
   double step = 0.75;
   glm::dvec3 background{0, 0, 0};     ///< opaque background colour, RGB in [0, 1]
   std::optional<std::array<double, 2>> window;  ///< value window [lo, hi]; default the store's value range
@@ -65,7 +65,8 @@ struct Scene {
   /// every brick of the batch, finding each sample's brick in a table of cells (sub-blocks, else bricks) instead of
   /// drawing a proxy per box and slab. The samples are the same global planes' points as slicing and slabs take, so
   /// the image is the same beyond round-off; `slab` and `ess` then have no effect, ert and pre_integration apply.
-  bool raycast = false;
+  /// The default; a volume too large for the cell table (render/FramePlan.h) is drawn with slabs instead.
+  bool raycast = true;
   /// Early ray termination on texture slabs: 0 (off) or a threshold in [0.5, 1]. Between slabs a pass marks the
   /// pixels whose accumulated opacity reached it in the depth buffer (a slab silhouette map), and the early depth
   /// test skips their fragments in every later slab; a fragment also stops marching when its own opacity reaches

@@ -63,16 +63,18 @@ TEST(FailedFrames, LeaveTheContextAsTheyFoundIt) {
   const auto bad = openDataset("bad", dir / "bad", size_t(64) << 20);
   const auto good = openDataset("good", dir / "good", size_t(64) << 20);
 
-  // Every way a frame draws: slicing, slabs, the CPU slicer, out of core, after stand-ins, staged uploads.
-  for (int variant = 0; variant < 6; ++variant) {
+  // Every way a frame draws: slicing, the ray caster, the CPU slicer, out of core, after stand-ins, staged uploads,
+  // slabs.
+  for (int variant = 0; variant < 7; ++variant) {
     Scene s = test::lodScene(0);
     RenderEngineOptions options{Backend::Auto, size_t(64) << 20, AtlasFormat::Float};
     switch (variant) {
-      case 0: s.slab = 0; break;
+      case 0: s.slab = 0; s.raycast = false; break;
       case 1: break;
-      case 2: s.slicer = Slicer::Cpu; s.slab = 0; break;
+      case 2: s.slicer = Slicer::Cpu; s.slab = 0; s.raycast = false; break;
       case 3: options.gpuBudgetBytes = size_t(200) << 10; break;
       case 5: options.atlasUploads = AtlasUploads::Staged; break;
+      case 6: s.raycast = false; break;
     }
     const std::string what = "variant " + std::to_string(variant);
     image::ImageF want;
@@ -102,9 +104,11 @@ TEST(FailedFrames, ACancelledFrameStopsAtACheckpointAndLeavesNoTrace) {
   ScratchDir dir;
   test::prep("synthetic:blobs,n=64,seed=7", dir / "d", 16);
   const auto d = openDataset("d", dir / "d", size_t(64) << 20);
-  for (const bool slabs : {true, false}) {
+  for (const int slab : {-1, 4, 0}) {  // the ray caster, slabs, slicing
     Scene s = test::lodScene(0);
-    s.slab = slabs ? 4 : 0;
+    s.raycast = slab < 0;
+    if (slab >= 0) s.slab = slab;
+    const std::string what = slab < 0 ? "raycast, paced" : slab > 0 ? "slabs, paced" : "slicing, paced";
     // In core: out of core, which bricks a cancelled frame left resident changes the batches, and the image by up
     // to 1/255 (as any two batchings do).
     RenderEngine engine({Backend::Auto, size_t(64) << 20, AtlasFormat::Float});
@@ -112,12 +116,12 @@ TEST(FailedFrames, ACancelledFrameStopsAtACheckpointAndLeavesNoTrace) {
     int asked = 0;
     FrameOptions options;
     options.cancelled = [&] { return ++asked > 5; };
-    EXPECT_THROW(engine.render(d, s, nullptr, options), FrameCancelled);
-    EXPECT_EQ(asked, 6) << "given up at the first checkpoint that said so";
+    EXPECT_THROW(engine.render(d, s, nullptr, options), FrameCancelled) << what;
+    EXPECT_EQ(asked, 6) << what << ": given up at the first checkpoint that said so";
     FrameStats stats;
     options.cancelled = [] { return false; };
-    test::expectClose(engine.render(d, s, &stats, options), want, 0.0, slabs ? "slabs, paced" : "slicing, paced");
-    EXPECT_GT(stats.samplesEstimated, double(stats.samples)) << "the cost estimate bounds the samples taken";
+    test::expectClose(engine.render(d, s, &stats, options), want, 0.0, what);
+    EXPECT_GT(stats.samplesEstimated, double(stats.samples)) << what << ": the cost estimate bounds the samples taken";
   }
 }
 

@@ -89,6 +89,7 @@ TEST(FramePlan, DrawBoxesGrowAtTheSurfaceAndBetweenSubBlocksOnly) {
   const store::Vec3d& spacing = s->meta().spacing;
   Scene scene;
   scene.slab = 0;  // slicing whole bricks: they share their rasterised faces
+  scene.raycast = false;
   scene.subBlock = 0;
   FramePlan plan = planFrame(scene, *s, kTexels);
   ASSERT_EQ(plan.subBlock, 0);
@@ -113,6 +114,7 @@ TEST(FramePlan, DrawBoxesGrowAtTheSurfaceAndBetweenSubBlocksOnly) {
   EXPECT_EQ(planFrame(scene, *s, kTexels).subBlock, 0);
 
   scene.slab = 16;  // slabs own their voxels exactly, as sub-blocks do
+  scene.raycast = false;
   plan = planFrame(scene, *s, kTexels);
   ASSERT_TRUE(plan.exactOwnership());
   EXPECT_DOUBLE_EQ(plan.drawBox(brick, spacing).max.x, brick.max.x + FramePlan::kInteriorMargin * spacing.x);

@@ -45,6 +45,7 @@ TEST(Lod, MixedLevelsMatchTheReferenceOfTheSameLevels) {
     const std::string what = slab ? "slabs" : "slicing";
     Scene scene = lodScene(1.5);
     scene.slab = slab;
+    scene.raycast = false;
     scene.ert = 0;
     FrameStats stats;
     const image::ImageF gpu = renderStore(s, scene, &stats);

@@ -182,6 +182,7 @@ TEST(RayCast, MixedLevelsGiveSlabsImage) {
     Scene scene = test::lodScene(1.5);
     scene.ert = 0;
     scene.slab = 32;
+    scene.raycast = false;
     scene.subBlock = subBlock;
     FrameStats slabbed, cast;
     const image::ImageF slabs = renderStore(s, scene, &slabbed);
@@ -239,6 +240,23 @@ TEST(RayCast, EmptyCellsLeapOutOfTheLargestEmptyBlock) {
   std::vector<glm::i16vec4> odd(5 * 3 * 3, glm::i16vec4(0, 0, 0, CellTable::kNothing));
   computeLeaps(odd, {5, 3, 3}, scratch);
   for (const glm::i16vec4& c : odd) EXPECT_EQ(c.x, CellTable::kMaxLeapLevel);
+}
+
+TEST(RayCast, IsTheDefaultDrawing) {
+  EXPECT_TRUE(Scene().raycast);
+  EXPECT_TRUE(Scene::fromJson("{}", "t").raycast) << "a request without drawing keys";
+  ScratchDir dir;
+  const auto s = prep("synthetic:blobs,n=48", dir / "b", 16);
+  Scene scene;
+  scene.width = 64;
+  scene.height = 48;
+  FrameStats stats;
+  const image::ImageF frame = renderStore(s, scene, &stats);
+  ASSERT_GT(meanBrightness(frame), 0.005);
+  EXPECT_EQ(stats.slabPasses, 0) << "no slab drawn";
+  EXPECT_GE(stats.batches, 1);
+  EXPECT_LE(stats.fragments, int64_t(64) * 48 * stats.batches) << "at most one fragment a pixel and batch";
+  EXPECT_GT(stats.samples, stats.fragments) << "each marching its ray";
 }
 
 TEST(RayCast, TheSceneKeyIsChecked) {

@@ -23,6 +23,7 @@ using test::ScratchDir;
 Scene baseScene() {
   Scene scene;
   scene.slab = 0;
+  scene.raycast = false;
   scene.ert = 0;
   scene.subBlock = 0;
   scene.width = scene.height = 96;
@@ -34,9 +35,10 @@ Scene baseScene() {
   return scene;
 }
 
-/// `scene` drawn as the default draws: texture slabs with termination and sub-blocks.
+/// `scene` drawn as the default draws: the frame ray caster with termination and sub-blocks.
 Scene defaultDrawing(Scene scene) {
   const Scene defaults;
+  scene.raycast = defaults.raycast;
   scene.slab = defaults.slab;
   scene.ert = defaults.ert;
   scene.subBlock = defaults.subBlock;
@@ -187,6 +189,7 @@ TEST(RendererAnalytic, ConstantSlabHasClosedFormTransmittance) {
     for (double step : {1.0, 0.5, 0.25}) {
       scene.step = step;
       scene.slab = slab;
+      scene.raycast = false;
       const image::ImageF image = renderStore(s, scene);
       // White emission over black: the pixel is the slab's opacity 1 - (1 - alpha)^(L / L_ref), L = 64 voxels.
       const double expected = 1 - std::pow(1 - alpha, 64.0);

@@ -23,6 +23,7 @@ using test::ScratchDir;
 Scene sceneFor(const std::string& tf) {
   Scene scene;
   scene.slab = 0;
+  scene.raycast = false;
   scene.ert = 0;
   scene.subBlock = 0;
   scene.width = 96;
@@ -66,6 +67,7 @@ TEST(Slabs, EverySlabSizeGivesSlicingsImage) {
     ASSERT_GT(meanBrightness(sliced), 0.005) << name;
     for (int slab : {1, 3, 16, Scene::kMaxSlab}) {
       scene.slab = slab;
+      scene.raycast = false;
       expectClose(renderStore(s, scene), sliced, 1.0 / 255, "slab-" + std::to_string(slab) + "-" + name);
     }
   }
@@ -81,6 +83,7 @@ TEST(Slabs, ShadingSubBlocksAndSparseData) {
   for (int subBlock : {0, 4}) {
     scene.subBlock = subBlock;
     scene.slab = 8;
+    scene.raycast = false;
     expectClose(renderStore(s, scene), sliced, 1.0 / 255, "slab-8-shaded-sub" + std::to_string(subBlock));
   }
 }
@@ -91,10 +94,13 @@ TEST(Slabs, OutOfCoreEqualsInCoreAndFewerFragmentsForLargerSlabs) {
   Scene scene = sceneFor("hot");
   FrameStats one, four, whole, tight;
   scene.slab = 1;
+  scene.raycast = false;
   const image::ImageF roomy = renderStore(s, scene, &one);
   scene.slab = 4;
+  scene.raycast = false;
   const image::ImageF byFour = renderStore(s, scene, &four);
   scene.slab = Scene::kMaxSlab;
+  scene.raycast = false;
   const image::ImageF wholeBricks = renderStore(s, scene, &whole);
   // A budget of a few bricks: many batches, bricks evicted and paged again.
   const image::ImageF paged = renderStore(s, scene, &tight, size_t(10) * 10 * 10 * 4 * 6);
@@ -123,6 +129,7 @@ TEST(Slabs, EarlyRayTerminationStaysWithinItsBoundAndSkipsWork) {
   const auto s = prep("synthetic:blobs,n=64", dir / "b", 16);
   Scene scene = opaqueScene();
   scene.slab = 16;
+  scene.raycast = false;
   scene.subBlock = 4;  // so that most samples lie where rays can terminate
   FrameStats full, cut;
   const image::ImageF reference = renderStore(s, scene, &full);
@@ -139,6 +146,7 @@ TEST(Slabs, EarlyRayTerminationStaysWithinItsBoundAndSkipsWork) {
   }
   // Off on slicing: no slabs to put a silhouette map between.
   scene.slab = 0;
+  scene.raycast = false;
   scene.ert = 0.9;
   expectClose(renderStore(s, scene), reference, 1.0 / 255, "ert-ignored-when-slicing");
 }
@@ -148,6 +156,7 @@ TEST(Slabs, EarlyRayTerminationOutOfCoreAndInside) {
   const auto s = prep("synthetic:blobs,n=48", dir / "b", 8);
   Scene scene = opaqueScene();
   scene.slab = 2;
+  scene.raycast = false;
   const double ert = 0.95;
   for (const auto& [name, camera] : cameras()) {
     scene.camera = camera;
@@ -169,6 +178,7 @@ TEST(Slabs, SlabsTakeSlicingsSamples) {
   FrameStats sliced, slabbed;
   renderStore(s, scene, &sliced);
   scene.slab = 5;
+  scene.raycast = false;
   renderStore(s, scene, &slabbed);
   EXPECT_EQ(sliced.samples, sliced.fragments);
   EXPECT_NEAR(double(slabbed.samples), double(sliced.samples), 0.01 * double(sliced.samples));
@@ -192,6 +202,7 @@ TEST(Slabs, PreIntegrationCatchesWhatSamplesStepOverAndConverges) {
   const image::ImageF shell = test::renderReference(s, scene, options);
   ASSERT_GT(meanBrightness(shell), 0.005);
   scene.slab = 16;
+  scene.raycast = false;
   for (double step : {0.5, 2.0}) {
     scene.step = step;
     scene.preIntegration = false;
@@ -205,6 +216,7 @@ TEST(Slabs, PreIntegrationCatchesWhatSamplesStepOverAndConverges) {
   scene = sceneFor("ct-bone");
   const image::ImageF bone = test::renderReference(s, scene, options);
   scene.slab = 16;
+  scene.raycast = false;
   scene.preIntegration = true;
   scene.step = 0.25;
   const image::ImageError fine = image::compareImages(renderStore(s, scene), bone);
@@ -217,8 +229,10 @@ TEST(Slabs, PreIntegrationCatchesWhatSamplesStepOverAndConverges) {
   // The image does not depend on the slab size; shading and termination work with it.
   const image::ImageF sixteen = renderStore(s, scene);
   scene.slab = 1;
+  scene.raycast = false;
   expectClose(renderStore(s, scene), sixteen, 1.0 / 255, "pre-int-slab-1");
   scene.slab = Scene::kMaxSlab;
+  scene.raycast = false;
   expectClose(renderStore(s, scene), sixteen, 1.0 / 255, "pre-int-slab-whole");
   scene.ert = 0.99;
   expectClose(renderStore(s, scene), sixteen, 0.01 + 1.0 / 255, "pre-int-ert");
@@ -235,6 +249,7 @@ TEST(Slabs, EmptySpaceMapsSkipEmptyPixelsAndChangeNothing) {
     for (double ert : {0.0, 0.999}) {
       Scene scene = sceneFor("sparse");
       scene.slab = 8;
+      scene.raycast = false;
       scene.ert = ert;
       scene.preIntegration = preIntegration;
       FrameStats plain, mapped;
@@ -256,6 +271,7 @@ TEST(Slabs, EmptySpaceMapsSkipEmptyPixelsAndChangeNothing) {
   scene.camera.distance = 0.25;
   scene.camera.fovY = 75;
   scene.slab = 4;
+  scene.raycast = false;
   const image::ImageF inside = renderStore(s, scene);
   scene.ess = true;
   expectClose(renderStore(s, scene), inside, 1.0 / 255, "ess-inside");
@@ -265,8 +281,8 @@ TEST(Slabs, EmptySpaceMapsSkipEmptyPixelsAndChangeNothing) {
 
 TEST(Slabs, TheSceneKeyIsChecked) {
   EXPECT_EQ(Scene::fromJson(R"({"slab": 16})", "t").slab, 16);
-  // The default chosen by bench/results/slabs-sweep/sweep.md: slabs of 32 planes, termination at 0.999, sub-blocks
-  // of 8 voxels.
+  // The default chosen by bench/results/raycast-sweep/sweep.md: the ray caster, termination at 0.999, sub-blocks of
+  // 8 voxels; slabs of 32 planes where it falls back to slabs.
   EXPECT_EQ(Scene::fromJson("{}", "t").slab, 32);
   EXPECT_EQ(Scene::fromJson("{}", "t").ert, 0.999);
   EXPECT_EQ(Scene::fromJson("{}", "t").subBlock, 8);
@@ -275,6 +291,7 @@ TEST(Slabs, TheSceneKeyIsChecked) {
     EXPECT_THROW(Scene::fromJson(bad, "t"), RenderInputError) << bad;
   Scene scene;
   scene.slab = 7;
+  scene.raycast = false;
   scene.ert = 0.98;
   EXPECT_EQ(Scene::fromJson(scene.toJson(), "t").slab, 7) << "toJson keeps it";
   EXPECT_EQ(Scene::fromJson(scene.toJson(), "t").ert, 0.98);

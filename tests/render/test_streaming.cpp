@@ -36,6 +36,7 @@ Scene streamScene(int slab, int subBlock) {
   scene.step = 0.5;
   scene.lod = 0;
   scene.slab = slab;
+  scene.raycast = false;
   scene.ert = 0;
   scene.subBlock = subBlock;
   return scene;

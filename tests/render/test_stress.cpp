@@ -62,6 +62,7 @@ const TransferFunction kRed({{0.0, {1, 0.2, 0.1, 0.3}}, {1.0, {1, 0.9, 0.2, 0.6}
 Scene slicing() {
   Scene scene;
   scene.slab = 0;
+  scene.raycast = false;
   scene.ert = 0;
   scene.subBlock = 0;
   scene.lod = 0;
@@ -170,6 +171,7 @@ TEST(StressCompositing, TenThousandSlicesOnTheGpuStayCloseToTheReference) {
   // a time: the same float accumulation either way.
   for (int slab : {0, 16, Scene::kMaxSlab}) {
     scene.slab = slab;
+    scene.raycast = false;
     FrameStats stats;
     const image::ImageF gpu = renderStore(s, scene, &stats);
     ASSERT_TRUE(allFinite(gpu)) << "slab " << slab;
@@ -495,6 +497,7 @@ TEST(StressRandom, SeededCases) {
     // Slicing or slabs (of a few planes, or whole bricks), with or without termination at 0.999.
     const double drawing = u(rng);
     scene.slab = drawing < 0.4 ? 0 : drawing < 0.7 ? 1 + int(pick(0, 15.99)) : Scene::kMaxSlab;
+    scene.raycast = false;
     scene.ert = scene.slab > 0 && u(rng) < 0.5 ? 0.999 : 0;
     scene.transferFunction = TransferFunction(points);
     scene.shading = u(rng) < 0.3;

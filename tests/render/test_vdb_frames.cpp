@@ -22,6 +22,7 @@ Scene vdbScene(double lod, int slab) {
   Scene scene = test::lodScene(lod);
   scene.camera.distance = 2.0;
   scene.slab = slab;
+  scene.raycast = false;
   return scene;
 }
 
