@@ -144,11 +144,15 @@ std::string markdown(const SweepResult& r) {
     md += "**" + r.chosen->label() + "**: the fastest setting (sum of the median times over the datasets) that "
           "keeps the worst view at or above " + number("%g", s.psnrThreshold) + " dB against the reference on every "
           "dataset, each with its default transfer function, unshaded. At this setting:\n\n";
-    md += "| dataset | variant | median ms | worst view dB | pooled dB |\n|---|---|---:|---:|---:|\n";
+    md += "| dataset | variant | median ms | slowest view ms | min/max frame rate | worst view dB | pooled dB |\n"
+          "|---|---|---:|---:|---:|---:|---:|\n";
     for (const Point& p : r.points)
       if (p.setting == *r.chosen)
         md += "| " + p.dataset + " | " + p.variant.label() + " | " + number("%.1f", p.msMedian) + " | " +
-              number("%.1f", p.psnrMin) + " | " + number("%.1f", p.psnrPooled) + " |\n";
+              number("%.1f", p.msMax) + " | " + (p.msMin > 0 ? "1:" + number("%.2f", p.msMax / p.msMin) : "—") +
+              " | " + number("%.1f", p.psnrMin) + " | " + number("%.1f", p.psnrPooled) + " |\n";
+    md += "\n*Slowest view* and *min/max frame rate* (the fastest view's frame time over the slowest's, as 1:x) are "
+          "over the orbit's views: what a user turning the volume sees at worst.\n";
   } else {
     md += "No setting keeps " + number("%g", s.psnrThreshold) + " dB on every dataset.\n";
   }

@@ -41,6 +41,7 @@ struct Tally {
   std::mutex mutex;
   std::vector<double> latencies;
   std::vector<double> renderMs;  ///< the renderer's own frame time (frame statistics), well-behaved clients
+  std::vector<double> renderMsWarm;  ///< the same without each client's first frame (which pages its bricks in)
   int64_t frames = 0, errors = 0, superseded = 0;
   std::vector<std::string> errorSamples;
   std::map<std::string, int64_t> faultsDone, faultsUnexpected;
@@ -66,6 +67,14 @@ std::string sceneJson(const LoadArgs& a, int width, int height, double azimuth) 
       .dump();
 }
 
+/// The slowest frame's rate over the fastest's (the fastest frame's time over the slowest's), in (0, 1]; 0 when
+/// there are no frames.
+double frameRateRatio(const std::vector<double>& ms) {
+  if (ms.empty()) return 0;
+  const auto [lo, hi] = std::minmax_element(ms.begin(), ms.end());
+  return *hi > 0 ? *lo / *hi : 0;
+}
+
 /// A well-behaved client: one request at a time until the deadline, every latency recorded.
 void goodClient(const LoadArgs& a, const std::string& host, int port, int width, int height, int index,
                 Clock::time_point deadline, Tally& tally) {
@@ -82,6 +91,7 @@ void goodClient(const LoadArgs& a, const std::string& host, int port, int width,
       std::lock_guard lock(tally.mutex);
       tally.latencies.push_back(ms);
       tally.renderMs.push_back(stats["ms"]["total"].get<double>());
+      if (n > 0) tally.renderMsWarm.push_back(tally.renderMs.back());
       ++tally.frames;
     }
     c.goodbye();
@@ -400,6 +410,9 @@ void runLoad(const LoadArgs& a) {
                       {"p99", percentile(tally.latencies, 0.99)},
                       {"max", percentile(tally.latencies, 1.0)}}},
       {"render_ms_p50", percentile(tally.renderMs, 0.5)},
+      // Over the orbit the clients turn through (warm frames): the slowest frame against the fastest.
+      {"warm_render_ms", {{"min", percentile(tally.renderMsWarm, 0.0)}, {"max", percentile(tally.renderMsWarm, 1.0)}}},
+      {"frame_rate_min_over_max", frameRateRatio(tally.renderMsWarm)},
       {"faults", faults},
       {"server", server}};
   std::printf("load: %d clients (+%d faulty, %d idle) for %.1f s: %lld frames, %.1f frames/s, latency p50 %.1f "
@@ -409,6 +422,9 @@ void runLoad(const LoadArgs& a) {
               percentile(tally.latencies, 0.99), percentile(tally.latencies, 1.0), (long long)tally.superseded,
               (long long)tally.errors,
               (long long)unexpected);
+  if (!tally.renderMsWarm.empty())
+    std::printf(", warm frames %.1f-%.1f ms (min/max frame rate 1:%.2f)", percentile(tally.renderMsWarm, 0.0),
+                percentile(tally.renderMsWarm, 1.0), 1 / frameRateRatio(tally.renderMsWarm));
   if (server.contains("memory"))
     std::printf(", server RSS %.0f MB (peak %.0f MB)", double(server["memory"]["rss_bytes"]) / 1e6,
                 double(server["memory"]["peak_rss_bytes"]) / 1e6);

@@ -289,6 +289,8 @@ TEST(SweepFiles, CsvAppendsTheSlabColumnsAndMarkdownHasTheSlabTable) {
   ert.fragmentsMedian = 0.25e6;
   ert.samplesTerminatedMedian = 0.1e6;
   ert.slabPassesMedian = 12;
+  ert.msMin = 16;  // the orbit's fastest and slowest views
+  ert.msMax = 24;
   Point opaque = point("ml", {"ct-bone"}, slab(1, 16, 0.99, true), 10, 50);
   Point rayCast = point("ml", {"hot"}, raycast(1, 0, 8), 30, 45);
   rayCast.samplesMedian = 4e6;
@@ -337,7 +339,8 @@ TEST(SweepFiles, CsvAppendsTheSlabColumnsAndMarkdownHasTheSlabTable) {
                            "| raycast, sub-block 8 | 30.0 | 1.33× | 0.000256 | 4 | — | 45.0 |",
                            "| raycast, ert 0.99, sub-block 8 | 8.0 | 5.00× | 0.000256 | 0.6 | 15 % | 44.0 |",
                            "| ml | hot | step 1, B=32, skip, vertex, raycast, ert 0.99, sub-block 8 | 8.0 / 44.0 |",
-                           "| 50 dB | none |", "**step 1, B=32, skip, vertex, slab 16, ert 0.99**"})
+                           "| 50 dB | none |", "**step 1, B=32, skip, vertex, slab 16, ert 0.99**",
+                           "| ml | hot | 20.0 | 24.0 | 1:1.50 | 44.0 | 0.0 |"})
     EXPECT_NE(md.find(part), std::string::npos) << part << "\n" << md;
   EXPECT_LT(md.find("| slab 16, ert 0.99 |"), md.find("| raycast, sub-block 8 |")) << "the ray caster after the slabs";
 

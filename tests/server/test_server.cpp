@@ -597,6 +597,12 @@ TEST_F(ServerTest, ShortLoadWithFaultsLeavesGoodClientsUnharmed) {
   const json j = json::parse(in);
   EXPECT_EQ(j["errors"].get<int>(), 0);
   EXPECT_GT(j["frames"].get<int>(), 16);
+  // The worst frame over the clients' orbit, warm: min <= max, the ratio their quotient.
+  const double lo = j["warm_render_ms"]["min"].get<double>(), hi = j["warm_render_ms"]["max"].get<double>();
+  EXPECT_GT(lo, 0);
+  EXPECT_LE(lo, hi);
+  EXPECT_NEAR(j["frame_rate_min_over_max"].get<double>(), lo / hi, 1e-9);
+  EXPECT_NE(r.output.find("min/max frame rate 1:"), std::string::npos) << r.output;
   for (const char* fault : {"disconnect", "garbage", "huge", "malformed", "slow", "silent", "trickle", "unread"}) {
     EXPECT_GT(j["faults"][fault]["done"].get<int>(), 0) << fault;
     EXPECT_EQ(j["faults"][fault]["unexpected"].get<int>(), 0) << fault;
