@@ -24,6 +24,8 @@
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
+
 #include "brickstore/BrickCache.h"
 #include "brickstore/BrickStore.h"
 #include "render/Camera.h"
@@ -158,41 +160,28 @@ std::string plot(const std::vector<Series>& series, const std::vector<std::pair<
 
 int main(int argc, char** argv) {
   std::string storesText, labelsText, drawingsText = "raycast,slab,slicing", axesText = "x,y,z", tf = "hot",
-                                      name = "orientation";
-  fs::path out = "bench/results";
+                                      name = "orientation", outText = "bench/results";
   double step = 5, ert = 0, distance = 2.5;
   int runs = 3, size = 256;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "bench_orientation: %s needs a value\n", a.c_str());
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    if (a == "--stores") storesText = value();
-    else if (a == "--labels") labelsText = value();
-    else if (a == "--drawings") drawingsText = value();
-    else if (a == "--axes") axesText = value();
-    else if (a == "--degrees-per-step") step = std::stod(value());
-    else if (a == "--runs") runs = std::stoi(value());
-    else if (a == "--size") size = std::stoi(value());
-    else if (a == "--tf") tf = value();
-    else if (a == "--ert") ert = std::stod(value());
-    else if (a == "--distance") distance = std::stod(value());
-    else if (a == "--out") out = value();
-    else if (a == "--name") name = value();
-    else {
-      std::fprintf(stderr, "bench_orientation: unknown option %s\n", a.c_str());
-      return 2;
-    }
-  }
+  CLI::App app{"bench_orientation: frame time against view angle about each axis"};
+  app.add_option("--stores", storesText, "stores to turn, comma-separated")->required();
+  app.add_option("--labels", labelsText, "a label per store, comma-separated (default: the stores' names)");
+  app.add_option("--drawings", drawingsText, "raycast, slab, slicing, comma-separated");
+  app.add_option("--axes", axesText, "x, y, z, comma-separated");
+  app.add_option("--degrees-per-step", step, "degrees between views")->check(CLI::Range(0.1, 180.0));
+  app.add_option("--runs", runs, "timed passes after the warm-up pass")->check(CLI::Range(1, 1000));
+  app.add_option("--size", size, "frame side in pixels")->check(CLI::Range(8, 8192));
+  app.add_option("--tf", tf, "transfer function preset");
+  app.add_option("--ert", ert, "early ray termination threshold (0: off, so every sample is taken)");
+  app.add_option("--distance", distance, "eye distance in bounding radii");
+  app.add_option("--out", outText, "output directory");
+  app.add_option("--name", name, "output file name stem");
+  CLI11_PARSE(app, argc, argv);
+  const fs::path out = outText;
   const std::vector<std::string> stores = split(storesText), drawings = split(drawingsText);
   std::vector<std::string> labels = split(labelsText);
-  if (stores.empty() || runs < 1 || !(step > 0 && step <= 180) || size < 8) {
-    std::fprintf(stderr, "bench_orientation: --stores is required; --runs >= 1, 0 < --degrees-per-step <= 180, "
-                         "--size >= 8\n");
+  if (stores.empty()) {
+    std::fprintf(stderr, "bench_orientation: --stores names no store\n");
     return 2;
   }
   if (labels.size() != stores.size()) {
