@@ -35,15 +35,16 @@ VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickC
 VolumeRenderer::~VolumeRenderer() = default;
 
 SliceGeometry& VolumeRenderer::geometry(const Scene& scene) {
-  const int which = scene.slab > 0 || scene.raycast ? 2 : scene.slicer == Slicer::Cpu ? 1 : 0;
-  auto& g = mGeometry[which];
+  // Slabs and the ray caster draw box proxies whatever the slicer.
+  const bool slabs = scene.slab > 0 || scene.raycast;
+  auto& g = mGeometry[slabs ? kSlicers.size() : size_t(scene.slicer)];
   if (!g) {
-    if (which == 2)
+    if (slabs)
       g = std::make_unique<SlabGeometry>(mGl);
-    else if (which == 1)
+    else if (scene.slicer == Slicer::Cpu)
       g = std::make_unique<CpuSliceGeometry>(mGl);
     else
-      g = std::make_unique<VertexSliceGeometry>(mGl);
+      g = std::make_unique<GpuSliceGeometry>(mGl, scene.slicer);
   }
   return *g;
 }
@@ -59,7 +60,7 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
   mGl.glTexSubImage1D(GL_TEXTURE_1D, 0, 0, kTransferTableTexels, GL_RGBA, GL_FLOAT, table.data());
   mResidency.atlas().texture().bind(0);
 
-  ProgramKey key{scene.slicer,
+  ProgramKey key{plan.slab > 0 || plan.raycast ? Slicer::Vertex : scene.slicer,
                        mode == RenderMode::Roofline ? FragmentModel::Roofline
                        : scene.shading             ? FragmentModel::Shaded
                                                    : FragmentModel::Plain,
