@@ -86,8 +86,13 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
   else if (plan.slab > 0)
     mSlabs.draw(plan, mResidency, program, emptyTest, static_cast<SlabGeometry&>(geometry(scene)), mCompositor,
                 stats, checkpoints);
-  else
+  else if (mode == RenderMode::Points) {
+    mGl.glPolygonMode(GL_FRONT_AND_BACK, GL_POINT);
     mSlicing.draw(plan, mResidency, program, geometry(scene), stats, checkpoints);
+    mGl.glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+  } else {
+    mSlicing.draw(plan, mResidency, program, geometry(scene), stats, checkpoints);
+  }
 
   return mCompositor.finish(scene.background, stats);
 }
@@ -108,6 +113,8 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, c
   stats.bricksPerLevel = plan.visible.stats.bricksPerLevel;
   stats.msTraversal = msSince(t);
   stats.samplesEstimated = plan.estimatedSamples();
+  if (options.mode == RenderMode::Points && (plan.slab > 0 || plan.raycast))
+    throw RenderInputError("the points mode draws the corners of slices: it needs slicing (slab 0, no raycast)");
   if (options.maxSamples > 0 && stats.samplesEstimated > options.maxSamples)
     throw RenderLimitError("the frame would take about " + numberText(std::round(stats.samplesEstimated / 1e6)) +
                            " million samples, above the limit of " + numberText(options.maxSamples / 1e6) +
@@ -128,6 +135,7 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, c
     // a frame: the next frame, of any dataset, starts from the state every pass expects.
     mCompositor.abort();
     mResidency.abortFrame();
+    mGl.glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);  // a points-mode frame given up while slicing
     for (auto& g : mGeometry)
       if (g) g->clear();  // boxes queued for a batch that was never drawn
     for (int i = 0; i < 16 && mGl.glGetError() != GL_NO_ERROR; ++i) {  // errors the failure left (bounded: a

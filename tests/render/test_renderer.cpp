@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "render/RenderErrors.h"
 #include "render/RenderFixtures.h"
 #include "support/TestSupport.h"
 
@@ -228,6 +229,29 @@ TEST(RendererSlicers, SlicerDoesNotApplyToSlabsOrTheRayCaster) {
       expectClose(renderStore(s, scene), vertex, 0, std::string(raycast ? "raycast-" : "slabs-") + slicerName(slicer));
     }
   }
+}
+
+TEST(RendererSlicers, PointsModeDrawsOnlyTheCornersOfSlices) {
+  // The benchmark's points mode (RenderMode::Points): the same slices, a small part of the fragments, and the
+  // context back to filled polygons for the next frame. Slicing only.
+  ScratchDir dir;
+  auto s = prep("synthetic:shells,n=40", dir / "s", 16);
+  auto cache = std::make_shared<store::BrickCache>(s, size_t(256) << 20, 1);
+  VolumeRenderer renderer(context(), cache, size_t(256) << 20);
+  Scene scene = baseScene();
+  for (Slicer slicer : kSlicers) {
+    scene.slicer = slicer;
+    FrameStats blending, points, after;
+    const image::ImageF reference = renderer.render(scene, &blending);
+    renderer.render(scene, &points, {RenderMode::Points});
+    const image::ImageF again = renderer.render(scene, &after);
+    EXPECT_EQ(points.slices, blending.slices) << slicerName(slicer);
+    EXPECT_GT(points.fragments, 0) << slicerName(slicer);
+    EXPECT_LT(points.fragments * 4, blending.fragments) << slicerName(slicer);
+    expectClose(again, reference, 0, std::string("points-then-blending-") + slicerName(slicer));
+  }
+  scene.slab = 8;
+  EXPECT_THROW(renderer.render(scene, nullptr, {RenderMode::Points}), RenderInputError);
 }
 
 TEST(RendererAnalytic, ConstantSlabHasClosedFormTransmittance) {
