@@ -33,7 +33,7 @@ std::string csv(const SweepResult& r) {
   for (const Point& p : r.points) {
     out += p.dataset + "," + p.variant.transferFunction + "," + (p.variant.shading ? "1" : "0") + "," +
            number("%g", p.setting.step) + "," + std::to_string(p.setting.brick) + "," + (p.setting.skip ? "1" : "0") +
-           "," + (p.setting.slicer == render::Slicer::Cpu ? "cpu" : "vertex") + "," + std::to_string(r.spec.views) +
+           "," + render::slicerName(p.setting.slicer) + "," + std::to_string(r.spec.views) +
            "," + std::to_string(r.spec.size) + "," + number("%.2f", p.msMedian) + "," + number("%.2f", p.msMin) +
            "," + number("%.2f", p.msMax) + "," + number("%.0f", p.samplesMedian) + "," + number("%.2f", p.psnrMin) +
            "," + number("%.2f", p.psnrPooled) + "," + number("%.6f", p.rmsePooled) + "," + number("%.6f", p.maxAbs) +

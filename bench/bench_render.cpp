@@ -283,7 +283,7 @@ int main(int argc, char** argv) {
     const double rate = r.samples / (r.msMedian * 1e3);
     char line[512];
     std::snprintf(line, sizeof line, "%s,%s,%d,%d,%s,%d,%s,%.2f,%.2f,%.2f,%.0f,%.2f,%.0f,%.6f,%.0f\n", r.dataset.c_str(),
-                  r.config.name.c_str(), r.config.brick, r.config.subBlock, r.config.slicer == render::Slicer::Cpu ? "cpu" : "vertex",
+                  r.config.name.c_str(), r.config.brick, r.config.subBlock, render::slicerName(r.config.slicer),
                   int(r.config.skip), r.config.mode == render::RenderMode::Roofline ? "roofline" : "normal",
                   r.msMedian, r.msMin, r.msMax, r.fragments, rate, r.bricksDrawn, r.maxAbsVsBaseline, r.samples);
     csv << line;

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <fstream>
 #include <sstream>
+#include <vector>
 
 #include "cli/Commands.h"
 #include "render/RenderErrors.h"
@@ -23,6 +24,12 @@ glm::dvec3 triple(const std::string& text, const std::string& option) {
   double v[3];
   parseTriple(text, option, v);
   return {v[0], v[1], v[2]};
+}
+
+std::vector<std::string> slicerNames() {
+  std::vector<std::string> names;
+  for (render::Slicer slicer : render::kSlicers) names.emplace_back(render::slicerName(slicer));
+  return names;
 }
 
 }  // namespace
@@ -70,7 +77,7 @@ render::Scene buildScene(const SceneArgs& a, const CLI::App& cmd) {
   if (a.preIntegration) s.preIntegration = true;
   if (a.ess) s.ess = true;
   if (a.progressive) s.progressive = true;
-  if (!a.slicer.empty()) s.slicer = a.slicer == "cpu" ? render::Slicer::Cpu : render::Slicer::Vertex;
+  if (!a.slicer.empty()) s.slicer = render::parseSlicer(a.slicer, "--slicer");
   s.validate();
   return s;
 }
@@ -88,8 +95,10 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
   cmd->add_option("--step", args.step, "slice spacing in voxels (default 0.75)");
   cmd->add_option("--background", args.background, "r,g,b in [0, 1] (default 0,0,0)");
   cmd->add_option("--window", args.window, "LO,HI value window (default: the store's value range)");
-  cmd->add_option("--slicer", args.slicer, "vertex (GPU vertex program) or cpu")
-      ->check(CLI::IsMember({"vertex", "cpu"}));
+  cmd->add_option("--slicer", args.slicer,
+                  "where slice polygons are computed when slicing (--slab 0): vertex (the vertex program, default), "
+                  "cpu, vertex-lean (paths chosen on the CPU), geometry (a geometry program), vertex-geometry (both)")
+      ->check(CLI::IsMember(slicerNames()));
   cmd->add_flag("--no-skip", args.noSkip, "draw bricks the transfer function makes empty");
   cmd->add_flag("--no-cull", args.noCull, "draw bricks outside the view frustum");
   cmd->add_option("--sub-block", args.subBlock,

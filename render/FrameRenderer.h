@@ -10,9 +10,16 @@
 
 namespace voxbrick::render {
 
-/// What the fragment stage does: the optical model, or (for benchmarks) exactly one sample per fragment with no
-/// classification and no blending, the sampling roofline of the same geometry.
-enum class RenderMode { Normal, Roofline };
+/// What the fragment stage does, and on what: the optical model, or for benchmarks the sampling roofline of the same
+/// geometry, or the slices' corners alone.
+enum class RenderMode {
+  Normal,    ///< the optical model
+  Roofline,  ///< exactly one sample per fragment, no classification, no blending
+  /// Slices drawn as their corners (glPolygonMode GL_POINT), so that the fragment stage has almost nothing to do and
+  /// the slicer's own time shows (Zellmann & Lang's "Points" mode). Slicing only: a frame drawn with texture slabs
+  /// or the ray caster throws RenderInputError.
+  Points,
+};
 
 /// How one frame is drawn, beyond its scene.
 struct FrameOptions {

@@ -38,6 +38,7 @@ namespace voxbrick::render {
   X(PFNGLDEPTHRANGEPROC, glDepthRange)                                       \
   X(PFNGLCULLFACEPROC, glCullFace)                                           \
   X(PFNGLFRONTFACEPROC, glFrontFace)                                         \
+  X(PFNGLPOLYGONMODEPROC, glPolygonMode)                                     \
   X(PFNGLBLENDFUNCPROC, glBlendFunc)                                         \
   X(PFNGLBLENDFUNCSEPARATEPROC, glBlendFuncSeparate)                         \
   X(PFNGLBLENDEQUATIONPROC, glBlendEquation)                                 \

@@ -154,11 +154,15 @@ void Framebuffer::readRgba(std::vector<float>& pixels) const {
 }
 
 ProgramSources ProgramSources::fromFiles(std::string name, std::vector<std::pair<GLenum, std::string>> stageFiles,
-                                         std::vector<std::string> defines) {
+                                         std::vector<std::string> defines, const std::string& libraryFile) {
   ProgramSources sources;
   sources.name = std::move(name);
   sources.preamble = std::string(shaderSource("preamble.glsl"));
   sources.defines = std::move(defines);
+  if (!libraryFile.empty()) {
+    sources.libraryName = libraryFile;
+    sources.library = std::string(shaderSource(libraryFile));
+  }
   for (auto& [type, file] : stageFiles) sources.stages.push_back({type, file, std::string(shaderSource(file))});
   return sources;
 }
@@ -166,8 +170,13 @@ ProgramSources ProgramSources::fromFiles(std::string name, std::vector<std::pair
 Program::Program(const Gl& gl, const ProgramSources& sources) : GlName(gl, gl.glCreateProgram()), mName(sources.name) {
   if (id() == 0) throw RenderError("Program " + mName + ": glCreateProgram failed");
   if (sources.stages.empty()) throw RenderInputError("Program " + mName + ": no shader stages");
-  std::string defines;
-  for (const std::string& define : sources.defines) defines += "#define " + define + "\n";
+  // What every stage has before its own file: the defines, then the library as source string 2, so that the info
+  // log's line numbers are those of its file.
+  std::string head;
+  for (const std::string& define : sources.defines) head += "#define " + define + "\n";
+  if (!sources.library.empty()) head += "#line 1 2\n" + sources.library + "\n";
+  const std::string sourceNumbers =
+      sources.library.empty() ? "source 0 is the preamble" : "source 0 is the preamble, 2 " + sources.libraryName;
   ShaderList shaders{gl, {}};
   for (const ShaderStage& stage : sources.stages) {
     const GLuint shader = gl.glCreateShader(stage.type);
@@ -175,7 +184,7 @@ Program::Program(const Gl& gl, const ProgramSources& sources) : GlName(gl, gl.gl
     shaders.ids.push_back(shader);
     // "#line 1 1" restarts counting so that the info log's line numbers are those of the stage's own file (source
     // string 1, where the driver reports it; the preamble is source 0).
-    const std::string body = defines + "#line 1 1\n" + stage.body;
+    const std::string body = head + "#line 1 1\n" + stage.body;
     const char* strings[] = {sources.preamble.c_str(), "\n", body.c_str()};
     gl.glShaderSource(shader, 3, strings, nullptr);
     gl.glCompileShader(shader);
@@ -187,7 +196,7 @@ Program::Program(const Gl& gl, const ProgramSources& sources) : GlName(gl, gl.gl
       std::string log(size_t(std::max(length, 1)), '\0');
       gl.glGetShaderInfoLog(shader, GLsizei(log.size()), nullptr, log.data());
       throw RenderError("Program " + mName + ": " + stageName(stage.type) + " shader " + stage.name +
-                        " does not compile (lines of " + stage.name + "; source 0 is the preamble):\n" + log.c_str());
+                        " does not compile (lines of " + stage.name + "; " + sourceNumbers + "):\n" + log.c_str());
     }
     gl.glAttachShader(id(), shader);
   }

@@ -138,17 +138,21 @@ struct ShaderStage {
   std::string body;
 };
 
-/// What a Program is made of: the shared preamble, one "#define" line per feature, then each stage's body.
+/// What a Program is made of: the shared preamble, one "#define" line per feature, the library, then each stage's
+/// body.
 struct ProgramSources {
   std::string name;                           ///< for error messages
   std::string preamble;                       ///< starts with #version; shared by every stage
   std::vector<std::string> defines;           ///< "FEATURE" or "NAME value", each becomes one #define line
+  std::string libraryName;                    ///< for error messages: the library is source string 2
+  std::string library;                        ///< helpers shared by every stage, after the defines; may be empty
   std::vector<ShaderStage> stages;            ///< at least one
   std::vector<std::string> feedbackVaryings;  ///< if not empty, captured interleaved by transform feedback
 
-  /// Sources from the embedded shaders/ files: preamble.glsl plus the named stage files.
+  /// Sources from the embedded shaders/ files: preamble.glsl plus the named stage files, with `libraryFile` (if not
+  /// empty) as the library.
   static ProgramSources fromFiles(std::string name, std::vector<std::pair<GLenum, std::string>> stageFiles,
-                                  std::vector<std::string> defines = {});
+                                  std::vector<std::string> defines = {}, const std::string& libraryFile = {});
 };
 
 /// A linked GLSL program. Uniform setters use glProgramUniform*, so the program need not be in use.

@@ -41,6 +41,29 @@ void checkImageSize(int64_t width, int64_t height, const std::string& prefix) {
 
 }  // namespace
 
+const char* slicerName(Slicer slicer) {
+  switch (slicer) {
+    case Slicer::Vertex: return "vertex";
+    case Slicer::Cpu: return "cpu";
+    case Slicer::VertexLean: return "vertex-lean";
+    case Slicer::Geometry: return "geometry";
+    case Slicer::VertexGeometry: return "vertex-geometry";
+  }
+  return "?";
+}
+
+std::string slicerNames() {
+  std::string names;
+  for (Slicer slicer : kSlicers) names += std::string(names.empty() ? "" : ", ") + "\"" + slicerName(slicer) + "\"";
+  return names;
+}
+
+Slicer parseSlicer(const std::string& name, const std::string& what) {
+  for (Slicer slicer : kSlicers)
+    if (name == slicerName(slicer)) return slicer;
+  throw RenderInputError(what + ": unknown slicer '" + name + "' (one of " + slicerNames() + ")");
+}
+
 Camera CameraSpec::resolve(const Box& box) const {
   Camera c;
   if (orbit) {
@@ -143,12 +166,8 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   if (j.contains("cull")) s.cullFrustum = boolean(j["cull"], "cull", what);
   if (j.contains("slicer")) {
     const json& sl = j["slicer"];
-    if (sl == "vertex")
-      s.slicer = Slicer::Vertex;
-    else if (sl == "cpu")
-      s.slicer = Slicer::Cpu;
-    else
-      throw RenderInputError(what + ": 'slicer' must be \"vertex\" or \"cpu\"");
+    if (!sl.is_string()) throw RenderInputError(what + ": 'slicer' must be one of " + slicerNames());
+    s.slicer = parseSlicer(sl.get<std::string>(), what + ": 'slicer'");
   }
   if (j.contains("shading")) s.shading = boolean(j["shading"], "shading", what);
   if (j.contains("sub_block")) {
@@ -219,7 +238,7 @@ std::string Scene::toJson() const {
             {"background", render::toJson(background)},
             {"skip_empty", skipEmpty},
             {"cull", cullFrustum},
-            {"slicer", slicer == Slicer::Vertex ? "vertex" : "cpu"},
+            {"slicer", slicerName(slicer)},
             {"shading", shading},
             {"sub_block", subBlock},
             {"slab", slab},

@@ -15,8 +15,27 @@ namespace voxbrick::render {
 
 class TransferFunctionPresets;
 
-/// How polygons of the slice planes are computed.
-enum class Slicer { Vertex, Cpu };
+/// How polygons of the slice planes are computed (when slicing: slabs and the ray caster draw no slices). Every
+/// slicer gives the same polygons; they differ in where the work is done.
+enum class Slicer {
+  Vertex,          ///< "vertex": the vertex program of Rezk-Salama & Kolb, 12 vertices per plane
+  Cpu,             ///< "cpu": its mirror on the CPU, the reference and fallback
+  VertexLean,      ///< "vertex-lean": the vertex program with the paths chosen on the CPU, one table (Zellmann & Lang)
+  Geometry,        ///< "geometry": a geometry program, one point in per box and plane, a triangle strip out
+  VertexGeometry,  ///< "vertex-geometry": P0, P2, P4 in the vertex program, P1, P3, P5 in a geometry program
+};
+
+/// Every slicer, in the enum's order.
+inline constexpr std::array<Slicer, 5> kSlicers = {Slicer::Vertex, Slicer::Cpu, Slicer::VertexLean, Slicer::Geometry,
+                                                   Slicer::VertexGeometry};
+
+/// The slicer's name in scenes and on the command line ("vertex", "cpu", "vertex-lean", "geometry",
+/// "vertex-geometry").
+const char* slicerName(Slicer slicer);
+/// The slicer named `name`; throws RenderInputError naming `what` and listing the valid names otherwise.
+Slicer parseSlicer(const std::string& name, const std::string& what);
+/// The valid names, "vertex", "cpu", ... quoted and separated by commas, for messages and help texts.
+std::string slicerNames();
 
 /// The camera as a user gives it: an orbit around the volume, or eye/center/up.
 struct CameraSpec {
@@ -51,6 +70,7 @@ struct Scene {
   std::optional<std::array<double, 2>> window;  ///< value window [lo, hi]; default the store's value range
   bool skipEmpty = true;
   bool cullFrustum = true;
+  /// Where slice polygons are computed when slicing (slab 0, no raycast); no effect on slabs or the ray caster.
   Slicer slicer = Slicer::Vertex;
   bool shading = false;
   /// Empty-space skipping inside bricks: bricks are drawn as boxes of sub-blocks of this many voxels per edge whose
@@ -96,7 +116,7 @@ struct Scene {
   /// Parses a scene JSON object; absent keys keep their defaults. Throws RenderInputError naming `what` and the
   /// key. Keys: camera {orbit: [az, el, dist] | eye, center, up; fov; orthographic}, size [w, h],
   /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b],
-  /// window [lo, hi], skip_empty, cull, slicer ("vertex" | "cpu"), shading, sub_block, slab, raycast, ert,
+  /// window [lo, hi], skip_empty, cull, slicer (slicerName), shading, sub_block, slab, raycast, ert,
   /// pre_integration, ess, lod, progressive.
   /// `allowPaths` false (the server) accepts transfer functions by preset name or inline only, never a file path.
   static Scene fromJson(const std::string& text, const std::string& what, bool allowPaths = true);

@@ -1,7 +1,10 @@
-// The two slicers' vertex layouts, queues and draws.
+// The slicers' vertex layouts, queues and draws.
 #include "render/SliceGeometry.h"
 
 #include <algorithm>
+#include <string>
+
+#include "render/RenderErrors.h"
 
 namespace voxbrick::render {
 namespace {
@@ -30,7 +33,19 @@ void SliceGeometry::upload(const void* data, size_t bytes) {
   mBuffer.allocate(GL_ARRAY_BUFFER, bytes, data, GL_STREAM_DRAW);
 }
 
-VertexSliceGeometry::VertexSliceGeometry(const Gl& gl) : SliceGeometry(gl) {
+SliceDraw sliceDraw(Slicer slicer) {
+  switch (slicer) {
+    case Slicer::Vertex:
+    case Slicer::VertexLean: return {GL_TRIANGLES, kSliceVerticesPerPolygon};
+    case Slicer::Geometry: return {GL_POINTS, kSlicePointVerticesPerPlane};
+    case Slicer::VertexGeometry: return {GL_TRIANGLES, kSliceEvenVerticesPerPlane};
+    case Slicer::Cpu: break;
+  }
+  throw RenderInputError(std::string("sliceDraw: the '") + slicerName(slicer) +
+                         "' slicer draws no instances (CpuSliceGeometry)");
+}
+
+GpuSliceGeometry::GpuSliceGeometry(const Gl& gl, Slicer slicer) : SliceGeometry(gl), mDraw(sliceDraw(slicer)) {
   const GLsizei stride = sizeof(SliceInstance);
   attribute(gl, kSliceBoxMinLocation, 3, GL_FLOAT, stride, offsetof(SliceInstance, boxMin), true);
   attribute(gl, kSliceBoxMaxLocation, 3, GL_FLOAT, stride, offsetof(SliceInstance, boxMax), true);
@@ -41,20 +56,20 @@ VertexSliceGeometry::VertexSliceGeometry(const Gl& gl) : SliceGeometry(gl) {
   attribute(gl, kSliceOwnHiLocation, 3, GL_INT, stride, offsetof(SliceInstance, ownHi), true);
 }
 
-PlaneIndexRange VertexSliceGeometry::planes(const Box& box, const FramePlan& plan) const {
+PlaneIndexRange GpuSliceGeometry::planes(const Box& box, const FramePlan& plan) const {
   return slicerPlaneRange(box.min, box.max, plan.planeNormal, plan.step);
 }
 
-void VertexSliceGeometry::add(const Box& box, const PlaneIndexRange& planes, const glm::ivec4& payload,
-                              const glm::ivec3& ownLo, const glm::ivec3& ownHi, const FramePlan&) {
+void GpuSliceGeometry::add(const Box& box, const PlaneIndexRange& planes, const glm::ivec4& payload,
+                           const glm::ivec3& ownLo, const glm::ivec3& ownHi, const FramePlan&) {
   mInstances.push_back({glm::vec3(box.min), glm::vec3(box.max), 0.0f, payload, int32_t(planes.begin), ownLo, ownHi});
   mMaxPlanes = std::max(mMaxPlanes, planes.count());
 }
 
-void VertexSliceGeometry::draw() {
+void GpuSliceGeometry::draw() {
   if (mInstances.empty()) return;
   upload(mInstances.data(), mInstances.size() * sizeof(SliceInstance));
-  mGl.glDrawArraysInstanced(GL_TRIANGLES, 0, GLsizei(kSliceVerticesPerPolygon * mMaxPlanes),
+  mGl.glDrawArraysInstanced(mDraw.primitive, 0, GLsizei(mDraw.verticesPerPlane * mMaxPlanes),
                             GLsizei(mInstances.size()));
   mInstances.clear();
   mMaxPlanes = 0;

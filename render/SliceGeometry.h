@@ -1,6 +1,7 @@
 // The geometry stage: boxes and runs of global planes in, slice polygons (or slab proxies) on the GPU out, behind one
-// interface with one implementation per slicer (the vertex program of Rezk-Salama & Kolb, its CPU mirror, slabs). Each owns its vertex
-// array, whose layout is set once, next to the struct it describes (render/SliceTables.h).
+// interface with one implementation per kind of input (the slicers in GL programs: the vertex program of Rezk-Salama &
+// Kolb and Zellmann & Lang's variants; the CPU mirror; slabs). Each owns its vertex array, whose layout is set once,
+// next to the struct it describes (render/SliceTables.h).
 #pragma once
 
 #include <memory>
@@ -42,11 +43,23 @@ class SliceGeometry {
   VertexArray mLayout;
 };
 
-/// The slicer in the vertex program: one instance per box, 12 vertices per plane (slice.vert.glsl). The vertex
-/// program decides plane membership in float, so it is given one extra plane each side (slicerPlaneRange).
-class VertexSliceGeometry final : public SliceGeometry {
+/// How a slicer in GL programs draws: the primitive, and the vertices per plane of an instance.
+struct SliceDraw {
+  GLenum primitive = GL_TRIANGLES;
+  int verticesPerPlane = kSliceVerticesPerPolygon;
+};
+/// The draw of `slicer` (see GpuSliceGeometry); throws RenderInputError for Slicer::Cpu.
+SliceDraw sliceDraw(Slicer slicer);
+
+/// The slicers in GL programs: one SliceInstance per box, and per plane the vertices the slicer's program expects:
+/// 12 as triangles for the vertex programs (Slicer::Vertex: slice.vert.glsl; Slicer::VertexLean:
+/// slice_lean.vert.glsl), one point for the geometry program (Slicer::Geometry: slice.geom.glsl), the triangle
+/// P0, P2, P4 for the vertex-geometry pair (Slicer::VertexGeometry: slice_odd.geom.glsl). The programs decide plane
+/// membership in float, so each box is given one extra plane each side (slicerPlaneRange).
+class GpuSliceGeometry final : public SliceGeometry {
  public:
-  explicit VertexSliceGeometry(const Gl& gl);
+  /// Throws RenderInputError for Slicer::Cpu (CpuSliceGeometry).
+  GpuSliceGeometry(const Gl& gl, Slicer slicer);
   PlaneIndexRange planes(const Box& box, const FramePlan& plan) const override;
   void add(const Box& box, const PlaneIndexRange& planes, const glm::ivec4& payload, const glm::ivec3& ownLo,
            const glm::ivec3& ownHi, const FramePlan& plan) override;
@@ -57,6 +70,7 @@ class VertexSliceGeometry final : public SliceGeometry {
  private:
   std::vector<SliceInstance> mInstances;
   int64_t mMaxPlanes = 0;
+  SliceDraw mDraw;
 };
 
 /// The CPU mirror: polygons from rezkSalamaPolygon over the exact plane range, drawn as triangles

@@ -1,5 +1,5 @@
-// The one copy of the slicer's lookup tables and vertex layouts, shared by slice.vert.glsl (as uniforms) and the CPU
-// mirror in Slicing.cpp.
+// The one copy of the slicers' lookup tables and vertex layouts, shared by the GPU slicers (as uniforms) and the CPU
+// mirrors in Slicing.cpp.
 //
 // Box corners are numbered by bits: corner c sits at (c & 1 ? max.x : min.x, c & 2 ? max.y : min.y,
 // c & 4 ? max.z : min.z). For a plane normal n (pointing from the eye into the scene) the front corner, the one with
@@ -45,6 +45,35 @@ inline constexpr std::array<int, 24> kSliceEdgeStart = {0, 1, 4, 4, 1, 0, 1, 4, 
 inline constexpr std::array<int, 24> kSliceEdgeEnd = {1, 4, 7, 7, 5, 1, 4, 7, 2, 5, 7, 7,
                                                       6, 2, 5, 7, 3, 6, 7, 7, 4, 3, 6, 7};
 
+/// kSlicePaths[p * 4 + k]: the k-th corner (in path numbering V0..V7) of the path that polygon vertex Pp walks in
+/// Zellmann & Lang's variants (their listing 2): every path runs V0 -> V7 along three edges, the three of the paper
+/// for P0, P2, P4, and for P1, P3, P5 the path that leaves P(p-1)'s path after its first edge along the dotted edge
+/// (V1-V5, V2-V6, V3-V4). Each path crosses every plane between V0 and V7 once, so Pp needs at most three edge tests;
+/// an odd vertex whose dotted edge misses the plane lands on a neighbour (P1 on P0 or P2, and so on), where
+/// kSliceEdgeStart/kSliceEdgeEnd repeat the even vertex before it: the same polygon with the repeats elsewhere.
+inline constexpr std::array<int, 24> kSlicePaths = {0, 1, 4, 7, 0, 1, 5, 7, 0, 2, 5, 7,
+                                                    0, 2, 6, 7, 0, 3, 6, 7, 0, 3, 4, 7};
+
+/// kSliceStrip[s]: the polygon vertex Pp emitted s-th by the geometry program's triangle strip (slice.geom.glsl).
+/// The strip zigzags between the chains P0 -> P1 -> P2 -> P3 and P0 -> P5 -> P4 -> P3, so its four triangles
+/// (P0,P1,P5) (P1,P2,P5) (P5,P2,P4) (P2,P3,P4) run counter-clockwise like the fan, and an odd vertex repeating a
+/// neighbour only empties a triangle.
+inline constexpr std::array<int, 6> kSliceStrip = {0, 1, 5, 2, 4, 3};
+
+/// The path table of the vertex-lean, geometry and vertex-geometry slicers for front corner `front`: kSlicePaths
+/// with each path corner replaced by the box corner that plays it (kSliceSequence), rows in polygon order (P0..P5),
+/// or in strip order (kSliceStrip) when `stripOrder`. The CPU computes it once per view direction, so the programs
+/// hold this one table and look nothing else up.
+constexpr std::array<int, 24> sliceCornerPaths(int front, bool stripOrder) {
+  std::array<int, 24> paths{};
+  for (int row = 0; row < 6; ++row) {
+    const int p = stripOrder ? kSliceStrip[size_t(row)] : row;
+    for (int k = 0; k < 4; ++k)
+      paths[size_t(row * 4 + k)] = kSliceSequence[size_t(front * 8 + kSlicePaths[size_t(p * 4 + k)])];
+  }
+  return paths;
+}
+
 /// Vertices drawn per polygon: the fan (P0,P1,P2) (P0,P2,P3) (P0,P3,P4) (P0,P4,P5) as GL_TRIANGLES; repeated
 /// polygon vertices make degenerate triangles that rasterise nothing.
 inline constexpr int kSliceVerticesPerPolygon = 12;
@@ -71,6 +100,16 @@ inline constexpr std::array<SliceTableUniform, 3> kSliceTableUniforms = {{
     {"uEdgeStart", kSliceEdgeStart},
     {"uEdgeEnd", kSliceEdgeEnd},
 }};
+
+/// The uniform of the vertex-lean, geometry and vertex-geometry slicers holding sliceCornerPaths (int uPaths[24]),
+/// set with the other per-frame uniforms.
+inline constexpr const char* kSlicePathsUniform = "uPaths";
+
+/// Vertices drawn per plane of an instance by the geometry-program slicers (the vertex programs draw
+/// kSliceVerticesPerPolygon): one point (slice_point.vert.glsl into slice.geom.glsl, GL_POINTS), and the triangle
+/// P0, P2, P4 (slice_even.vert.glsl into slice_odd.geom.glsl, GL_TRIANGLES).
+inline constexpr int kSlicePointVerticesPerPlane = 1;
+inline constexpr int kSliceEvenVerticesPerPlane = 3;
 
 /// The per-frame uniforms of slice.vert.glsl: vec3 plane normal n (unit, from the eye into the scene), float
 /// distance between consecutive global planes, mat4 view-projection (world to clip).
@@ -188,6 +227,27 @@ constexpr bool sliceTablesValid() {
       if (!isEdge) return false;
     }
   }
+  for (int p = 0; p < 6; ++p) {
+    const int* path = kSlicePaths.data() + p * 4;
+    if (path[0] != 0 || path[3] != 7) return false;
+    for (int k = 0; k < 3; ++k) {
+      bool isEdge = false;
+      for (const auto& edge : pathEdges) isEdge = isEdge || (edge[0] == path[k] && edge[1] == path[k + 1]);
+      if (!isEdge) return false;
+    }
+    const int* start = kSliceEdgeStart.data() + p * 4;
+    const int* end = kSliceEdgeEnd.data() + p * 4;
+    if (p % 2 == 0) {
+      // P0, P2, P4 walk the paths of kSliceEdgeStart/kSliceEdgeEnd.
+      if (path[0] != start[0] || path[1] != end[0] || path[2] != end[1] || path[3] != end[2]) return false;
+    } else {
+      // P1, P3, P5 share the first edge of the path before and then take their dotted edge.
+      if (path[1] != kSlicePaths[size_t(p * 4 - 3)] || path[1] != start[0] || path[2] != end[0]) return false;
+    }
+  }
+  int stripSeen = 0;
+  for (int p : kSliceStrip) stripSeen |= 1 << p;
+  if (stripSeen != 0x3f || kSliceStrip[0] != 0) return false;
   return true;
 }
 
@@ -195,6 +255,7 @@ constexpr bool sliceTablesValid() {
 
 static_assert(detail::sliceTablesValid(),
               "kSliceSequence rows must be cube rotations with V0 = front, V7 = back, a left-handed (V1, V2, V3) "
-              "frame, and the edge tables must name path or dotted edges only");
+              "frame, the edge tables must name path or dotted edges only, kSlicePaths must hold the paths of "
+              "P0..P5 as the edge tables walk them, and kSliceStrip a permutation of P0..P5 from P0");
 
 }  // namespace voxbrick::render

@@ -1,4 +1,4 @@
-// The exact box-plane polygon, the Rezk-Salama CPU mirror of slice.vert.glsl, and the global slice planes.
+// The exact box-plane polygon, the CPU mirrors of the GPU slicers' path walks, and the global slice planes.
 #include "render/Slicing.h"
 
 #include <algorithm>
@@ -29,9 +29,22 @@ void checkBoxAndNormal(const char* function, const glm::dvec3& boxMin, const glm
   }
 }
 
-// Corner c of the box by selection (bit 0 = x, bit 1 = y, bit 2 = z), as slice.vert.glsl's boxCorner.
+// Corner c of the box by selection (bit 0 = x, bit 1 = y, bit 2 = z), as slicer.glsl's boxCorner.
 glm::dvec3 boxCorner(const glm::dvec3& boxMin, const glm::dvec3& boxMax, int corner) {
   return {corner & 1 ? boxMax.x : boxMin.x, corner & 2 ? boxMax.y : boxMin.y, corner & 4 ? boxMax.z : boxMin.z};
+}
+
+// The point at `lambda` on the edge from corner `startCorner` to `endCorner`: only the coordinate along the edge is
+// interpolated, as slicer.glsl's edgePoint does.
+glm::dvec3 edgePoint(const glm::dvec3& boxMin, const glm::dvec3& boxMax, int startCorner, int endCorner,
+                     double lambda) {
+  const glm::dvec3 start = boxCorner(boxMin, boxMax, startCorner);
+  const glm::dvec3 end = boxCorner(boxMin, boxMax, endCorner);
+  glm::dvec3 vertex = start;
+  for (int axis = 0; axis < 3; ++axis) {
+    if ((startCorner ^ endCorner) & (1 << axis)) vertex[axis] = start[axis] * (1.0 - lambda) + end[axis] * lambda;
+  }
+  return vertex;
 }
 
 }  // namespace
@@ -120,13 +133,42 @@ std::array<glm::dvec3, 6> rezkSalamaPolygon(const glm::dvec3& boxMin, const glm:
         }
       }
     }
-    const glm::dvec3 start = boxCorner(boxMin, boxMax, startCorner);
-    const glm::dvec3 end = boxCorner(boxMin, boxMax, endCorner);
-    glm::dvec3 vertex = start;
-    for (int axis = 0; axis < 3; ++axis) {
-      if ((startCorner ^ endCorner) & (1 << axis)) vertex[axis] = start[axis] * (1.0 - lambda) + end[axis] * lambda;
+    polygon[size_t(polygonVertex)] = edgePoint(boxMin, boxMax, startCorner, endCorner, lambda);
+  }
+  return polygon;
+}
+
+std::array<glm::dvec3, 6> pathSlicePolygon(const glm::dvec3& boxMin, const glm::dvec3& boxMax, const glm::dvec3& n,
+                                           double d, bool stripOrder) {
+  checkBoxAndNormal("pathSlicePolygon", boxMin, boxMax, n);
+  if (!std::isfinite(d)) throw RenderInputError("pathSlicePolygon: bad plane distance " + numberText(d));
+
+  // As the programs walk their paths (slicer.glsl's crossPath), in double precision.
+  const std::array<int, 24> paths = sliceCornerPaths(sliceFrontIndex(n.x, n.y, n.z), stripOrder);
+  double cornerDistance[8];
+  for (int corner = 0; corner < 8; ++corner) cornerDistance[corner] = glm::dot(n, boxCorner(boxMin, boxMax, corner));
+  const int front = paths[0], back = paths[3];
+
+  std::array<glm::dvec3, 6> polygon;
+  for (size_t row = 0; row < 6; ++row) {
+    int startCorner = front;
+    int endCorner = front;
+    double lambda = 0;
+    if (cornerDistance[front] <= d && d < cornerDistance[back]) {
+      for (size_t e = 0; e < 3; ++e) {
+        const int i = paths[row * 4 + e];
+        const int j = paths[row * 4 + e + 1];
+        const double di = cornerDistance[i];
+        const double dj = cornerDistance[j];
+        if (di < dj && di <= d && d <= dj) {
+          startCorner = i;
+          endCorner = j;
+          lambda = std::clamp((d - di) / (dj - di), 0.0, 1.0);
+          break;
+        }
+      }
     }
-    polygon[size_t(polygonVertex)] = vertex;
+    polygon[row] = edgePoint(boxMin, boxMax, startCorner, endCorner, lambda);
   }
   return polygon;
 }

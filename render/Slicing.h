@@ -1,4 +1,4 @@
-// Slice-plane geometry without GL: the exact box-plane polygon, the CPU mirror of slice.vert.glsl, global planes.
+// Slice-plane geometry without GL: the exact box-plane polygon, the CPU mirrors of the GPU slicers, global planes.
 //
 // A plane is dot(n, x) = d with n pointing from the eye into the scene, so nearer planes have smaller d and
 // front-to-back order is increasing d. Every polygon here runs counter-clockwise as seen from the eye looking along
@@ -28,6 +28,13 @@ std::vector<glm::dvec3> intersectBoxPlane(const glm::dvec3& boxMin, const glm::d
 /// intersectBoxPlane.
 std::array<glm::dvec3, 6> rezkSalamaPolygon(const glm::dvec3& boxMin, const glm::dvec3& boxMax, const glm::dvec3& n,
                                             double d);
+
+/// The CPU mirror of the path walk of Zellmann & Lang's slicers (slice_lean.vert.glsl, slice.geom.glsl,
+/// slice_even.vert.glsl and slice_odd.geom.glsl): Pp is the first crossing on path p of sliceCornerPaths, in polygon
+/// order, or in strip order (kSliceStrip) when `stripOrder`. The same vertices as rezkSalamaPolygon (bit for bit),
+/// repeated in other places; half-open along n likewise. Throws as intersectBoxPlane.
+std::array<glm::dvec3, 6> pathSlicePolygon(const glm::dvec3& boxMin, const glm::dvec3& boxMax, const glm::dvec3& n,
+                                           double d, bool stripOrder = false);
 
 /// Signed area of a planar polygon, positive when it runs counter-clockwise seen looking along +n (n any length).
 double polygonArea(std::span<const glm::dvec3> polygon, const glm::dvec3& n);

@@ -4,10 +4,18 @@
 #include <string>
 #include <vector>
 
+#include "render/RenderErrors.h"
+#include "render/Shaders.h"
 #include "render/SliceTables.h"
 
 namespace voxbrick::render {
 namespace {
+
+/// The helpers every slicer in GL programs shares.
+constexpr const char* kLibrary = "slicer.glsl";
+
+/// True when `key` slices (neither slabs nor the ray caster), so that its slicer's stages apply.
+bool slices(const ProgramKey& key) { return !key.slab && !key.raycast; }
 
 ProgramSources sources(const ProgramKey& key) {
   std::vector<std::string> defines;
@@ -18,20 +26,62 @@ ProgramSources sources(const ProgramKey& key) {
   if (key.raycast) defines.push_back("RAYCAST");
   if (key.preIntegration) defines.push_back("PRE_INTEGRATION");
   if (key.emptyTest) defines.push_back("EMPTY_TEST");
-  const char* vertex = key.raycast                  ? "raycast.vert.glsl"
-                       : key.slab                  ? "slab.vert.glsl"
-                       : key.slicer == Slicer::Cpu ? "slice_cpu.vert.glsl"
-                                                   : "slice.vert.glsl";
-  return ProgramSources::fromFiles(std::string("volume/") + vertex,
-                                   {{GL_VERTEX_SHADER, vertex}, {GL_FRAGMENT_SHADER, "volume.frag.glsl"}}, defines);
+  // The stages before the fragment program: the proxy of slabs or the ray caster, or the slicer's.
+  ProgramSources program = key.raycast ? ProgramSources::fromFiles({}, {{GL_VERTEX_SHADER, "raycast.vert.glsl"}})
+                           : key.slab  ? ProgramSources::fromFiles({}, {{GL_VERTEX_SHADER, "slab.vert.glsl"}})
+                                       : slicerSources(key.slicer, {});
+  program.name = "volume/";
+  for (const ShaderStage& stage : program.stages) program.name += stage.name + "+";
+  program.name += "volume.frag.glsl";
+  program.stages.push_back({GL_FRAGMENT_SHADER, "volume.frag.glsl", std::string(shaderSource("volume.frag.glsl"))});
+  program.defines = std::move(defines);
+  return program;
+}
+
+/// Builds the variant; a slicer's program that the context cannot build names the slicer (a geometry program needs
+/// GL 3.2 or later; a driver may still refuse one).
+Program build(const Gl& gl, const ProgramKey& key) {
+  try {
+    return Program(gl, sources(key));
+  } catch (const RenderError& e) {
+    if (!slices(key)) throw;
+    throw RenderError(std::string("the '") + slicerName(key.slicer) + "' slicer cannot be built on this context: " +
+                      e.what());
+  }
 }
 
 }  // namespace
 
-VolumeProgram::VolumeProgram(const Gl& gl, const ProgramKey& key) : mProgram(gl, sources(key)) {
-  if (key.slicer == Slicer::Vertex && !key.slab && !key.raycast)
+ProgramSources slicerSources(Slicer slicer, std::string name) {
+  using Stages = std::vector<std::pair<GLenum, std::string>>;
+  switch (slicer) {
+    case Slicer::Vertex: return ProgramSources::fromFiles(name, {{GL_VERTEX_SHADER, "slice.vert.glsl"}}, {}, kLibrary);
+    case Slicer::Cpu: return ProgramSources::fromFiles(name, {{GL_VERTEX_SHADER, "slice_cpu.vert.glsl"}});
+    case Slicer::VertexLean:
+      return ProgramSources::fromFiles(name, {{GL_VERTEX_SHADER, "slice_lean.vert.glsl"}}, {}, kLibrary);
+    case Slicer::Geometry:
+      return ProgramSources::fromFiles(
+          name, Stages{{GL_VERTEX_SHADER, "slice_point.vert.glsl"}, {GL_GEOMETRY_SHADER, "slice.geom.glsl"}}, {},
+          kLibrary);
+    case Slicer::VertexGeometry:
+      return ProgramSources::fromFiles(
+          name, Stages{{GL_VERTEX_SHADER, "slice_even.vert.glsl"}, {GL_GEOMETRY_SHADER, "slice_odd.geom.glsl"}}, {},
+          kLibrary);
+  }
+  throw RenderInputError("slicerSources: unknown slicer " + std::to_string(int(slicer)));
+}
+
+VolumeProgram::VolumeProgram(const Gl& gl, const ProgramKey& key) : mProgram(build(gl, key)) {
+  if (key.slicer == Slicer::Vertex && slices(key))
     for (const SliceTableUniform& table : kSliceTableUniforms)
       mProgram.set(mProgram.requireUniform(table.name), table.values);
+  // The path table follows the view direction, set per frame (setFrame); the strip of the geometry program wants its
+  // rows in strip order.
+  if (slices(key) && (key.slicer == Slicer::VertexLean || key.slicer == Slicer::Geometry ||
+                      key.slicer == Slicer::VertexGeometry)) {
+    mPaths = mProgram.requireUniform(kSlicePathsUniform);
+    mStripOrder = key.slicer == Slicer::Geometry;
+  }
   auto at = [this](const char* name) { return mProgram.uniformLocation(name); };
   mAt = {at(kSliceViewProjUniform), at(kSliceNormalUniform), at(kSlicePlaneIncrUniform), at("uAtlas"),
          at("uTransfer"), at("uInvAtlasSize"), at("uInvSpacing"), at("uDims"), at("uHalfDims"), at("uWindowLo"),
@@ -46,6 +96,12 @@ void VolumeProgram::setFrame(const FramePlan& plan, const BrickAtlas& atlas, con
   p.set(mAt.viewProj, glm::mat4(plan.viewProj));
   p.set(mAt.planeNormal, glm::vec3(plan.planeNormal));
   p.set(mAt.planeIncr, float(plan.step));
+  if (mPaths >= 0) {
+    // The front corner of the normal the programs see, in float, so that a component too small for a float can
+    // never flip it.
+    const glm::vec3 n(plan.planeNormal);
+    p.set(mPaths, std::span<const int>(sliceCornerPaths(sliceFrontIndex(n.x, n.y, n.z), mStripOrder)));
+  }
   p.set(mAt.atlas, 0);
   p.set(mAt.transfer, 1);
   p.set(mAt.invAtlasSize, atlas.inverseSize());

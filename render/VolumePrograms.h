@@ -19,9 +19,10 @@ enum class FragmentModel {
   Roofline,  ///< one atlas fetch, no classification, no blending (ROOFLINE): the sampling roofline
 };
 
-/// Which program variant a frame needs. Each field is one #define of volume.frag.glsl or the choice of vertex stage.
+/// Which program variant a frame needs. Each field is one #define of volume.frag.glsl or the choice of the stages
+/// before it.
 struct ProgramKey {
-  Slicer slicer = Slicer::Vertex;
+  Slicer slicer = Slicer::Vertex;  ///< the stages that slice (Vertex where the key does not slice)
   FragmentModel model = FragmentModel::Plain;
   bool exactOwnership = false;  ///< EXACT_OWNERSHIP: samples from the pixel ray, owned per box (sub-blocks)
   bool slab = false;            ///< SLAB: box proxies (slab.vert.glsl), several samples per fragment
@@ -31,14 +32,20 @@ struct ProgramKey {
   auto operator<=>(const ProgramKey&) const = default;
 };
 
+/// The stages of `slicer` before the fragment program and their library (none for the CPU slicer), as program
+/// `name`: what a slicing variant is built of, and what the tests capture with transform feedback.
+ProgramSources slicerSources(Slicer slicer, std::string name);
+
 /// A linked slicing program and the locations of its uniforms (-1 where a variant does not use one).
 class VolumeProgram {
  public:
-  /// Compiles and links the variant `key`; for the vertex slicer uploads the slicer tables once.
+  /// Compiles and links the variant `key`; for the vertex slicer uploads the slicer tables once. Throws RenderError,
+  /// naming the slicer when a slicing variant cannot be built.
   VolumeProgram(const Gl& gl, const ProgramKey& key);
 
   const Program& program() const { return mProgram; }
-  /// Sets every per-frame uniform from `plan`; the atlas is on texture unit 0, the transfer table on unit 1.
+  /// Sets every per-frame uniform from `plan` (with the path table of Zellmann & Lang's slicers, which follows the
+  /// view direction); the atlas is on texture unit 0, the transfer table on unit 1.
   void setFrame(const FramePlan& plan, const BrickAtlas& atlas, const store::StoreMeta& meta) const;
   /// Sets the pre-integration table's mapping (PRE_INTEGRATION variants); the table is on texture unit 3.
   void setTable(const PreIntegrationSpec& spec) const;
@@ -53,6 +60,8 @@ class VolumeProgram {
         rayDirection, rayDirectionDx, rayDirectionDy, termination, table,
         tableResolution, ratioMin, layerScale, layers, cells, cellShift, cellCount;
   } mAt;
+  GLint mPaths = -1;         // uPaths of the vertex-lean, geometry and vertex-geometry slicers
+  bool mStripOrder = false;  // its rows in strip order (the geometry slicer)
 };
 
 /// The variants built so far on one context, built on first use.

@@ -35,15 +35,16 @@ VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickC
 VolumeRenderer::~VolumeRenderer() = default;
 
 SliceGeometry& VolumeRenderer::geometry(const Scene& scene) {
-  const int which = scene.slab > 0 || scene.raycast ? 2 : scene.slicer == Slicer::Cpu ? 1 : 0;
-  auto& g = mGeometry[which];
+  // Slabs and the ray caster draw box proxies whatever the slicer.
+  const bool slabs = scene.slab > 0 || scene.raycast;
+  auto& g = mGeometry[slabs ? kSlicers.size() : size_t(scene.slicer)];
   if (!g) {
-    if (which == 2)
+    if (slabs)
       g = std::make_unique<SlabGeometry>(mGl);
-    else if (which == 1)
+    else if (scene.slicer == Slicer::Cpu)
       g = std::make_unique<CpuSliceGeometry>(mGl);
     else
-      g = std::make_unique<VertexSliceGeometry>(mGl);
+      g = std::make_unique<GpuSliceGeometry>(mGl, scene.slicer);
   }
   return *g;
 }
@@ -59,7 +60,7 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
   mGl.glTexSubImage1D(GL_TEXTURE_1D, 0, 0, kTransferTableTexels, GL_RGBA, GL_FLOAT, table.data());
   mResidency.atlas().texture().bind(0);
 
-  ProgramKey key{scene.slicer,
+  ProgramKey key{plan.slab > 0 || plan.raycast ? Slicer::Vertex : scene.slicer,
                        mode == RenderMode::Roofline ? FragmentModel::Roofline
                        : scene.shading             ? FragmentModel::Shaded
                                                    : FragmentModel::Plain,
@@ -85,8 +86,13 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
   else if (plan.slab > 0)
     mSlabs.draw(plan, mResidency, program, emptyTest, static_cast<SlabGeometry&>(geometry(scene)), mCompositor,
                 stats, checkpoints);
-  else
+  else if (mode == RenderMode::Points) {
+    mGl.glPolygonMode(GL_FRONT_AND_BACK, GL_POINT);
     mSlicing.draw(plan, mResidency, program, geometry(scene), stats, checkpoints);
+    mGl.glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+  } else {
+    mSlicing.draw(plan, mResidency, program, geometry(scene), stats, checkpoints);
+  }
 
   return mCompositor.finish(scene.background, stats);
 }
@@ -107,6 +113,8 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, c
   stats.bricksPerLevel = plan.visible.stats.bricksPerLevel;
   stats.msTraversal = msSince(t);
   stats.samplesEstimated = plan.estimatedSamples();
+  if (options.mode == RenderMode::Points && (plan.slab > 0 || plan.raycast))
+    throw RenderInputError("the points mode draws the corners of slices: it needs slicing (slab 0, no raycast)");
   if (options.maxSamples > 0 && stats.samplesEstimated > options.maxSamples)
     throw RenderLimitError("the frame would take about " + numberText(std::round(stats.samplesEstimated / 1e6)) +
                            " million samples, above the limit of " + numberText(options.maxSamples / 1e6) +
@@ -127,6 +135,7 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, c
     // a frame: the next frame, of any dataset, starts from the state every pass expects.
     mCompositor.abort();
     mResidency.abortFrame();
+    mGl.glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);  // a points-mode frame given up while slicing
     for (auto& g : mGeometry)
       if (g) g->clear();  // boxes queued for a batch that was never drawn
     for (int i = 0; i < 16 && mGl.glGetError() != GL_NO_ERROR; ++i) {  // errors the failure left (bounded: a

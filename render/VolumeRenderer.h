@@ -47,7 +47,8 @@ class VolumeRenderer final : public FrameRenderer {
   Residency mResidency;
   Texture mTransfer;
   VolumePrograms mPrograms;
-  std::unique_ptr<SliceGeometry> mGeometry[3];  // vertex slicer, CPU slicer, slabs; made on first use
+  // One per slicer (by the Slicer's value), then slabs; made on first use.
+  std::unique_ptr<SliceGeometry> mGeometry[kSlicers.size() + 1];
   SlicingPass mSlicing;
   Compositor mCompositor;
   SlabPass mSlabs;

@@ -1,11 +1,6 @@
 #version 430 core
-// The preamble of every voxbrick program: version, precision, and helpers any stage may use. The feature #defines
-// and a "#line 1 1" follow it, then the stage's own file.
+// The preamble of every voxbrick program: version and precision. The feature #defines follow it, then a program's
+// library of helpers if it has one (slicer.glsl, after "#line 1 2"), then "#line 1 1" and the stage's own file.
 
 precision highp float;
 precision highp int;
-
-// The corner of the unit cube with bit 0 = x, bit 1 = y, bit 2 = z (render/SliceTables.h numbers box corners so).
-vec3 unitCorner(int corner) {
-  return vec3(float(corner & 1), float((corner >> 1) & 1), float((corner >> 2) & 1));
-}

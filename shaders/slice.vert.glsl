@@ -5,14 +5,15 @@
 // With aPlaneDistance = 0 and aFirstPlane the global index k of the first plane, every box computes plane k's
 // distance bit for bit alike, so neighbours agree on which of them owns a plane through a shared face.
 // render/SliceTables.h holds the tables (uploaded into uSequence, uEdgeStart, uEdgeEnd), the corner numbering and the
-// instance layout; render/Slicing.cpp mirrors this program on the CPU, line for line.
+// instance layout; render/Slicing.cpp mirrors this program on the CPU, line for line. The library slicer.glsl comes
+// first.
 //
 // Where it departs from the paper's listing, it does so for robustness in float: the distances of the eight corners
 // are computed once, up front, instead of once per edge, so along every path they grow monotonically and a plane
 // inside the box always finds its edge on each path (per-edge sums can, by rounding, miss a plane through a corner);
 // a plane outside the box gives a defined, empty polygon (the paper leaves it undefined); and vertices are computed
 // from world-space corners alone, exact at the corners, so two boxes sharing a face produce bit-identical vertices
-// on it and slices of neighbouring bricks meet without cracks.
+// on it and slices of neighbouring bricks meet without cracks (slicer.glsl's edgePoint).
 
 layout(location = 0) in vec3 aBoxMin;
 layout(location = 1) in vec3 aBoxMax;
@@ -38,11 +39,6 @@ flat out float vPlaneDistance;  // dot(n, x) of this polygon's plane
 
 const int kFan[12] = int[12](0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 5);
 
-// Box corner by a boolean select, never by arithmetic: min + 1 * (max - min) need not round to max.
-vec3 boxCorner(int corner) {
-  return mix(aBoxMin, aBoxMax, bvec3((corner & 1) != 0, (corner & 2) != 0, (corner & 4) != 0));
-}
-
 void main() {
   const int polygonVertex = kFan[gl_VertexID % 12];
   precise float planeDistance = aPlaneDistance + float(aFirstPlane + gl_VertexID / 12) * uPlaneIncr;
@@ -50,9 +46,9 @@ void main() {
   // it can never disagree with uPlaneNormal; the CPU mirror uses the same rule (sliceFrontIndex).
   const int front = (uPlaneNormal.x < 0.0 ? 1 : 0) | (uPlaneNormal.y < 0.0 ? 2 : 0) | (uPlaneNormal.z < 0.0 ? 4 : 0);
 
-  precise float cornerDistance[8];
+  precise float distances[8];
   for (int corner = 0; corner < 8; ++corner) {
-    cornerDistance[corner] = dot(uPlaneNormal, boxCorner(corner));
+    distances[corner] = cornerDistance(uPlaneNormal, aBoxMin, aBoxMax, corner);
   }
 
   // A plane outside [front, back) collapses the whole polygon onto the front corner: zero area, nothing drawn.
@@ -62,31 +58,21 @@ void main() {
   int startCorner = front;
   int endCorner = front;
   precise float lambda = 0.0;
-  if (cornerDistance[front] <= planeDistance && planeDistance < cornerDistance[front ^ 7]) {
+  if (distances[front] <= planeDistance && planeDistance < distances[front ^ 7]) {
     for (int e = 0; e < 4; ++e) {
       const int i = uSequence[front * 8 + uEdgeStart[polygonVertex * 4 + e]];
       const int j = uSequence[front * 8 + uEdgeEnd[polygonVertex * 4 + e]];
-      const float di = cornerDistance[i];
-      const float dj = cornerDistance[j];
-      // di < dj skips edges parallel to the plane, as the paper's non-zero denominator does.
-      if (di < dj && di <= planeDistance && planeDistance <= dj) {
+      float t;
+      if (crossEdge(distances[i], distances[j], planeDistance, t)) {
         startCorner = i;
         endCorner = j;
-        lambda = clamp((planeDistance - di) / (dj - di), 0.0, 1.0);
+        lambda = t;
         break;
       }
     }
   }
-  // a * (1 - t) + b * t rather than a + t * (b - a), so that t = 0 and t = 1 give the corners exactly; and only the
-  // one coordinate that varies along the edge is interpolated, so that the other two are exactly the corner's and
-  // vBoxCoord is exactly 0 or 1 there.
-  const vec3 start = boxCorner(startCorner);
-  const vec3 end = boxCorner(endCorner);
-  const vec3 startCoord = unitCorner(startCorner);
-  const vec3 endCoord = unitCorner(endCorner);
-  const bvec3 along = notEqual(startCoord, endCoord);
-  precise vec3 world = mix(start, start * (1.0 - lambda) + end * lambda, along);
-  precise vec3 boxCoord = mix(startCoord, startCoord * (1.0 - lambda) + endCoord * lambda, along);
+  precise vec3 world, boxCoord;
+  edgePoint(aBoxMin, aBoxMax, startCorner, endCorner, lambda, world, boxCoord);
 
   vWorld = world;
   vBoxCoord = boxCoord;

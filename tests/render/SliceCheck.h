@@ -1,8 +1,10 @@
-// Test helpers for the slicer: random and degenerate box/plane cases, and the comparison of a Rezk-Salama polygon
-// (six vertices with repeats) with the exact one, shared by the CPU-mirror and the GLSL tests.
+// Test helpers for the slicers: random and degenerate box/plane cases, the comparison of a Rezk-Salama polygon (six
+// vertices with repeats) with the exact one, and of a slicer's triangles with another's polygon, shared by the
+// CPU-mirror and the GLSL tests.
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -12,6 +14,7 @@
 
 #include <glm/glm.hpp>
 
+#include "render/SliceTables.h"
 #include "render/Slicing.h"
 
 namespace voxbrick::test {
@@ -272,6 +275,73 @@ inline PolygonCheck checkPolygon(std::span<const glm::dvec3> got, const std::vec
     check.failure = "area " + std::to_string(gotArea) + " != exact " + std::to_string(exactArea);
   }
   return check;
+}
+
+/// One triangle as a slicer draws it.
+using Triangle = std::array<glm::dvec3, 3>;
+
+/// The triangles of a fan of six polygon vertices drawn through kSliceFan (P0..P5 with repeats).
+inline std::vector<Triangle> fanTriangles(std::span<const glm::dvec3> polygon) {
+  std::vector<Triangle> out;
+  for (size_t k = 0; k + 2 < render::kSliceFan.size(); k += 3) {
+    out.push_back({polygon[size_t(render::kSliceFan[k])], polygon[size_t(render::kSliceFan[k + 1])],
+                   polygon[size_t(render::kSliceFan[k + 2])]});
+  }
+  return out;
+}
+
+/// The triangles of a triangle strip, each in the order that keeps the strip's winding (odd ones swapped, as GL
+/// rasterises them).
+inline std::vector<Triangle> stripTriangles(std::span<const glm::dvec3> strip) {
+  std::vector<Triangle> out;
+  for (size_t i = 0; i + 2 < strip.size(); ++i) {
+    if (i % 2 == 0)
+      out.push_back({strip[i], strip[i + 1], strip[i + 2]});
+    else
+      out.push_back({strip[i + 1], strip[i], strip[i + 2]});
+  }
+  return out;
+}
+
+/// Whether `triangles` (a slicer's drawing of one plane through one box) tile the polygon `reference` (six vertices
+/// with repeats, from another slicer): the same distinct vertices bit for bit, no triangle clockwise seen along +n
+/// (beyond round-off), and their areas adding up to the polygon's, so that they neither overlap nor leave a hole.
+/// Drawing nothing is right for a polygon of no area only. Empty when they do; otherwise what is wrong.
+inline std::string checkTiling(const std::vector<Triangle>& triangles, std::span<const glm::dvec3> reference,
+                               const glm::dvec3& n) {
+  auto bits = [](const glm::dvec3& p) { return std::array<double, 3>{p.x, p.y, p.z}; };
+  std::vector<std::array<double, 3>> want, got;
+  for (const glm::dvec3& p : reference) want.push_back(bits(p));
+  for (const Triangle& t : triangles)
+    for (const glm::dvec3& p : t) got.push_back(bits(p));
+  std::sort(want.begin(), want.end());
+  want.erase(std::unique(want.begin(), want.end()), want.end());
+  std::sort(got.begin(), got.end());
+  got.erase(std::unique(got.begin(), got.end()), got.end());
+
+  double perimeter = 0;
+  for (size_t i = 0; i < reference.size(); ++i)
+    perimeter += glm::length(reference[(i + 1) % reference.size()] - reference[i]);
+  const double area = render::polygonArea(reference, n);
+  // Both sums are exact but for double round-off; a misplaced triangle is off by its own area.
+  const double areaTolerance = 1e-9 * perimeter * perimeter;
+  if (triangles.empty()) {
+    return std::abs(area) <= areaTolerance ? "" : "nothing drawn for a polygon of area " + std::to_string(area);
+  }
+  if (got != want) {
+    return "the distinct vertices differ: " + std::to_string(got.size()) + " drawn, " + std::to_string(want.size()) +
+           " in the polygon";
+  }
+  double sum = 0;
+  for (const Triangle& t : triangles) {
+    const double a = render::polygonArea(t, n);
+    if (a < -areaTolerance) return "a triangle runs clockwise (area " + std::to_string(a) + ")";
+    sum += a;
+  }
+  if (std::abs(sum - area) > areaTolerance) {
+    return "the triangles' areas add up to " + std::to_string(sum) + ", the polygon's is " + std::to_string(area);
+  }
+  return "";
 }
 
 }  // namespace voxbrick::test

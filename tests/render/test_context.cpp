@@ -11,6 +11,7 @@
 #include "render/GlContext.h"
 #include "render/GlObjects.h"
 #include "render/RenderErrors.h"
+#include "render/Shaders.h"
 
 namespace voxbrick::render {
 namespace {
@@ -118,7 +119,22 @@ TEST(Context, ProgramErrorsNameTheShaderAndCarryTheLog) {
     // writes "0:7(16)", NVIDIA "1(7)".
     EXPECT_TRUE(message.find(":7(") != std::string::npos || message.find("(7)") != std::string::npos) << message;
   }
-  // The same program with a valid body links, with the preamble's helper available.
+  // An error in the library names it, with its own line numbers (source string 2): Mesa "2:2(", NVIDIA "2(2)".
+  sources.stages.back().body = "void main() { gl_Position = vec4(helper()); }\n";
+  sources.libraryName = "helpers.glsl";
+  sources.library = "// line 1\nfloat helper() { return undefinedInLibrary; }\n";
+  try {
+    Program program(context->gl(), sources);
+    FAIL() << "a broken library compiled";
+  } catch (const RenderError& error) {
+    const std::string message = error.what();
+    EXPECT_NE(message.find("2 helpers.glsl"), std::string::npos) << message;
+    EXPECT_NE(message.find("undefinedInLibrary"), std::string::npos) << message;
+    EXPECT_TRUE(message.find("2:2(") != std::string::npos || message.find("2(2)") != std::string::npos) << message;
+  }
+  // The same program with a valid body links, with its library's helpers available (the slicers').
+  sources.libraryName = "slicer.glsl";
+  sources.library = std::string(shaderSource("slicer.glsl"));
   sources.stages.back().body = "void main() { gl_Position = vec4(unitCorner(gl_VertexID), 1.0); }\n";
   sources.defines = {"VOXBRICK_TEST_FEATURE", "VOXBRICK_TEST_VALUE 3"};
   Program program(context->gl(), sources);

@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 
+#include "render/RenderErrors.h"
 #include "render/RenderFixtures.h"
 #include "support/TestSupport.h"
 
@@ -168,6 +170,92 @@ TEST(RendererSlicers, VertexProgramAndCpuSlicerAgree) {
   const image::ImageF cpu = renderStore(s, scene);
   ASSERT_GT(meanBrightness(gpu), 0.01);
   expectClose(gpu, cpu, 1.0 / 255, "slicers");
+}
+
+TEST(RendererSlicers, ZellmannVariantsDrawTheVertexProgramsFrame) {
+  // Vertex-lean, geometry and vertex-geometry against the vertex program: an oblique view, views along an axis and
+  // a diagonal (planes through brick faces, edges and corners), the eye inside the volume, orthographic, and with
+  // sub-blocks (boxes of several sizes, exact ownership) and a GPU budget of a few bricks.
+  ScratchDir dir;
+  auto s = prep("synthetic:shells,n=40", dir / "s", 16);
+  struct View {
+    const char* name;
+    double azimuth, elevation, distance;
+    bool orthographic;
+    int subBlock;
+    size_t gpuBudget;
+  };
+  const size_t brickBytes = s->brickBytes() * sizeof(float) / store::valueSize(s->type());
+  const std::vector<View> views = {{"oblique", 35, 25, 2.2, false, 0, size_t(256) << 20},
+                                   {"axis", 0, 0, 2.2, false, 0, size_t(256) << 20},
+                                   {"diagonal", 45, 35.2643897, 2.2, true, 0, size_t(256) << 20},
+                                   {"inside", 20, 10, 0.3, false, 0, size_t(256) << 20},
+                                   {"sub-blocks", 35, 25, 2.2, false, 4, size_t(256) << 20},
+                                   {"out-of-core", 110, -30, 2.2, false, 0, 5 * brickBytes}};
+  for (const View& view : views) {
+    Scene scene = baseScene();
+    scene.camera.azimuth = view.azimuth;
+    scene.camera.elevation = view.elevation;
+    scene.camera.distance = view.distance;
+    scene.camera.orthographic = view.orthographic;
+    scene.subBlock = view.subBlock;
+    const image::ImageF vertex = renderStore(s, scene, nullptr, view.gpuBudget);
+    ASSERT_GT(meanBrightness(vertex), 0.005) << view.name;
+    for (Slicer slicer : {Slicer::VertexLean, Slicer::Geometry, Slicer::VertexGeometry}) {
+      scene.slicer = slicer;
+      FrameStats stats;
+      const image::ImageF frame = renderStore(s, scene, &stats, view.gpuBudget);
+      const std::string what = std::string("slicer-") + slicerName(slicer) + "-" + view.name;
+      expectClose(frame, vertex, 1.0 / 255, what);
+      EXPECT_GT(stats.slices, 0) << what;
+      if (view.gpuBudget < brickBytes * 8) {
+        EXPECT_GT(stats.batches, 2) << what << ": not out of core";
+      }
+      std::printf("[ info ] %s: max |diff| %.3g against the vertex program\n", what.c_str(),
+                  image::compareImages(frame, vertex).maxAbs);
+    }
+  }
+}
+
+TEST(RendererSlicers, SlicerDoesNotApplyToSlabsOrTheRayCaster) {
+  // Texture slabs and the ray caster draw box proxies whatever the slicer: the same frame bit for bit.
+  ScratchDir dir;
+  auto s = prep("synthetic:shells,n=40", dir / "s", 16);
+  for (bool raycast : {false, true}) {
+    Scene scene = defaultDrawing(baseScene());
+    scene.raycast = raycast;
+    const image::ImageF vertex = renderStore(s, scene);
+    ASSERT_GT(meanBrightness(vertex), 0.005);
+    for (Slicer slicer : {Slicer::Cpu, Slicer::VertexLean, Slicer::Geometry, Slicer::VertexGeometry}) {
+      scene.slicer = slicer;
+      expectClose(renderStore(s, scene), vertex, 0, std::string(raycast ? "raycast-" : "slabs-") + slicerName(slicer));
+    }
+  }
+}
+
+TEST(RendererSlicers, PointsModeDrawsOnlyTheCornersOfSlices) {
+  // The benchmark's points mode (RenderMode::Points): the same slices, a small part of the fragments, and the
+  // context back to filled polygons for the next frame. Slicing only.
+  ScratchDir dir;
+  auto s = prep("synthetic:shells,n=40", dir / "s", 16);
+  auto cache = std::make_shared<store::BrickCache>(s, size_t(256) << 20, 1);
+  VolumeRenderer renderer(context(), cache, size_t(256) << 20);
+  Scene scene = baseScene();
+  for (Slicer slicer : kSlicers) {
+    scene.slicer = slicer;
+    FrameStats blending, points, after;
+    const image::ImageF reference = renderer.render(scene, &blending);
+    renderer.render(scene, &points, {RenderMode::Points});
+    const image::ImageF again = renderer.render(scene, &after);
+    EXPECT_EQ(points.slices, blending.slices) << slicerName(slicer);
+    EXPECT_GT(points.fragments, 0) << slicerName(slicer);
+    EXPECT_LT(points.fragments * 4, blending.fragments) << slicerName(slicer);
+    expectClose(again, reference, 0, std::string("points-then-blending-") + slicerName(slicer));
+  }
+  scene.slab = 8;
+  EXPECT_THROW(renderer.render(scene, nullptr, {RenderMode::Points}), RenderInputError) << "slabs";
+  scene.raycast = true;
+  EXPECT_THROW(renderer.render(scene, nullptr, {RenderMode::Points}), RenderInputError) << "the ray caster";
 }
 
 TEST(RendererAnalytic, ConstantSlabHasClosedFormTransmittance) {

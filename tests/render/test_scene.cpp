@@ -54,9 +54,25 @@ TEST(SceneJson, ErrorsNameTheKey) {
   expectError("{\"camera\": {\"orbit\": [0, 0, 2], \"eye\": [1, 2, 3]}}", "both");
   expectError("{\"camera\": {\"fov\": 200}}", "fov");
   expectError("{\"slicer\": \"gpu\"}", "slicer");
+  // An unknown slicer is refused with the valid names.
+  expectError("{\"slicer\": \"gpu\"}",
+              "unknown slicer 'gpu' (one of \"vertex\", \"cpu\", \"vertex-lean\", \"geometry\", \"vertex-geometry\")");
+  expectError("{\"slicer\": 2}", "'slicer' must be one of \"vertex\"");
   expectError("{\"transfer_function\": {\"points\": []}}", "transfer_function");
   expectError("{\"transfer_function\": 7}", "transfer_function");
   expectError("not json", "not valid JSON");
+}
+
+TEST(SceneJson, EverySlicerByName) {
+  for (Slicer slicer : kSlicers) {
+    const std::string name = slicerName(slicer);
+    const Scene s = Scene::fromJson("{\"slicer\": \"" + name + "\"}", "scene.json");
+    EXPECT_EQ(s.slicer, slicer) << name;
+    EXPECT_EQ(Scene::fromJson(s.toJson(), "round trip").slicer, slicer) << name;
+    EXPECT_EQ(parseSlicer(name, "--slicer"), slicer);
+  }
+  EXPECT_EQ(std::string(slicerName(Slicer::VertexGeometry)), "vertex-geometry");
+  EXPECT_THROW(parseSlicer("Vertex", "--slicer"), RenderInputError);
 }
 
 TEST(SceneJson, ToJsonRoundTrips) {

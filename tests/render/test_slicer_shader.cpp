@@ -1,10 +1,15 @@
-// Tests of slice.vert.glsl through transform feedback (rasterizer discarded): its polygons against the exact ones
-// and the CPU mirror on random and degenerate cases, several planes per instance, shared faces, outputs.
+// Tests of the GPU slicers through transform feedback (rasterizer discarded; from the geometry program where there is
+// one): slice.vert.glsl's polygons against the exact ones and the CPU mirror on random and degenerate cases, several
+// planes per instance, shared faces, outputs; and Zellmann & Lang's variants (vertex-lean, geometry,
+// vertex-geometry) against slice.vert.glsl on the same cases, box by box and plane by plane.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <map>
+#include <ostream>
 #include <random>
 #include <set>
 #include <tuple>
@@ -15,10 +20,16 @@
 #include "render/GlObjects.h"
 #include "render/Shaders.h"
 #include "render/SliceCheck.h"
+#include "render/SliceGeometry.h"
 #include "render/SliceTables.h"
 #include "render/Slicing.h"
+#include "render/VolumePrograms.h"
 
 namespace voxbrick::render {
+
+/// Slicers by name in test output.
+void PrintTo(Slicer slicer, std::ostream* os) { *os << slicerName(slicer); }
+
 namespace {
 
 using test::SliceCase;
@@ -42,8 +53,16 @@ struct CapturedVertex {
   float boxCoord[3];
   int32_t payload[4];
   float position[4];
+  float planeDistance;
 };
-static_assert(sizeof(CapturedVertex) == 56);
+static_assert(sizeof(CapturedVertex) == 60);
+
+/// What a slicer drew for each instance and plane (slot instance * planes + plane): the vertices of its triangles,
+/// three per triangle, as captured (the 12 of the fan for the vertex programs).
+using Slots = std::vector<std::vector<CapturedVertex>>;
+
+/// Triangles drawn per plane at most: the fan's four, or a strip's four.
+constexpr size_t kMaxTrianglesPerPlane = 4;
 
 /// The case as the GPU sees it: every input rounded to float.
 SliceCase toFloat(const SliceCase& c) {
@@ -70,16 +89,52 @@ std::array<glm::dvec3, 6> polygonOf(const CapturedVertex* twelve, std::string& f
   return polygon;
 }
 
-/// A GL context with the slicer program, ready to capture.
+/// The triangles of a slot, in double.
+std::vector<test::Triangle> trianglesOf(const std::vector<CapturedVertex>& slot) {
+  std::vector<test::Triangle> out;
+  for (size_t v = 0; v + 2 < slot.size(); v += 3)
+    out.push_back({world(slot[v]), world(slot[v + 1]), world(slot[v + 2])});
+  return out;
+}
+
+/// The 12 fan vertices of every slot, in slot order: what a vertex program draws (it draws every plane, repeating
+/// one corner for a plane that misses the box).
+std::vector<CapturedVertex> fanVertices(const Slots& slots) {
+  std::vector<CapturedVertex> out;
+  for (const auto& slot : slots) {
+    EXPECT_EQ(slot.size(), size_t(kSliceVerticesPerPolygon));
+    if (slot.size() != size_t(kSliceVerticesPerPolygon)) return {};
+    out.insert(out.end(), slot.begin(), slot.end());
+  }
+  return out;
+}
+
+/// The plane distance instance `in` gives its plane `p`, in float as the programs compute it.
+float planeDistanceOf(const SliceInstance& in, int p, float incr) {
+  volatile float product = float(in.firstPlane + p) * incr;
+  volatile float sum = in.planeDistance + product;
+  return sum;
+}
+
+/// A GL context with a slicer's program, ready to capture.
 class ShaderSlicer {
  public:
-  explicit ShaderSlicer(Backend backend) : mContext(createContext(backend)) {
+  explicit ShaderSlicer(Backend backend, Slicer slicer = Slicer::Vertex)
+      : ShaderSlicer(std::shared_ptr<GlContext>(createContext(backend)), slicer) {}
+
+  /// A second slicer on the context of another, to compare the two.
+  ShaderSlicer(std::shared_ptr<GlContext> context, Slicer slicer)
+      : mContext(std::move(context)), mSlicer(slicer), mDraw(sliceDraw(slicer)) {
     const Gl& gl = mContext->gl();
-    ProgramSources sources = ProgramSources::fromFiles("slice capture", {{GL_VERTEX_SHADER, "slice.vert.glsl"}});
-    sources.feedbackVaryings = {"vWorld", "vBoxCoord", "vPayload", "gl_Position"};
+    ProgramSources sources = slicerSources(slicer, std::string("capture ") + slicerName(slicer));
+    sources.feedbackVaryings = {"vWorld", "vBoxCoord", "vPayload", "gl_Position", "vPlaneDistance"};
     mProgram = Program(gl, sources);
-    for (const SliceTableUniform& table : kSliceTableUniforms) {
-      mProgram.set(mProgram.requireUniform(table.name), table.values);
+    if (slicer == Slicer::Vertex) {
+      for (const SliceTableUniform& table : kSliceTableUniforms) {
+        mProgram.set(mProgram.requireUniform(table.name), table.values);
+      }
+    } else {
+      mPaths = mProgram.requireUniform(kSlicePathsUniform);
     }
     mNormal = mProgram.requireUniform(kSliceNormalUniform);
     mIncr = mProgram.uniformLocation(kSlicePlaneIncrUniform);
@@ -93,11 +148,12 @@ class ShaderSlicer {
   }
 
   const GlContext& context() const { return *mContext; }
+  const std::shared_ptr<GlContext>& sharedContext() const { return mContext; }
 
   /// Slices each case's box with its own plane (firstPlane 0, planeDistance d), `planes` planes per instance from
-  /// there on; returns the captured vertices (12 * planes per case, in case order).
-  std::vector<CapturedVertex> run(const std::vector<SliceCase>& cases, int planes = 1, float incr = 0,
-                                  const glm::mat4& viewProj = glm::mat4(1)) {
+  /// there on; returns what was drawn for each case and plane.
+  Slots run(const std::vector<SliceCase>& cases, int planes = 1, float incr = 0,
+            const glm::mat4& viewProj = glm::mat4(1)) {
     std::vector<SliceInstance> instances;
     std::vector<glm::vec3> normals;
     for (size_t i = 0; i < cases.size(); ++i) {
@@ -108,11 +164,11 @@ class ShaderSlicer {
     return runInstances(instances, normals, planes, incr, viewProj);
   }
 
-  /// Draws the instances, `planes` planes each, one draw per run of equal normals (normals[i] is instance i's);
-  /// returns the captured vertices (12 * planes per instance, in instance order).
-  std::vector<CapturedVertex> runInstances(const std::vector<SliceInstance>& instances,
-                                           const std::vector<glm::vec3>& normals, int planes, float incr,
-                                           const glm::mat4& viewProj = glm::mat4(1)) {
+  /// Draws the instances (payload.x its index), `planes` planes each, one draw per run of equal normals (normals[i]
+  /// is instance i's); returns what was drawn for each instance and plane, told apart by payload.x and the plane
+  /// distance.
+  Slots runInstances(const std::vector<SliceInstance>& instances, const std::vector<glm::vec3>& normals, int planes,
+                     float incr, const glm::mat4& viewProj = glm::mat4(1)) {
     const Gl& gl = mContext->gl();
     mVao.bind();
     mInstances.allocate(GL_ARRAY_BUFFER, instances.size() * sizeof(SliceInstance), instances.data(), GL_STATIC_DRAW);
@@ -132,33 +188,65 @@ class ShaderSlicer {
     attribute(kSlicePayloadLocation, 4, GL_INT, offsetof(SliceInstance, payload));
     attribute(kSliceFirstPlaneLocation, 1, GL_INT, offsetof(SliceInstance, firstPlane));
 
-    const size_t vertices = instances.size() * size_t(kSliceVerticesPerPolygon * planes);
-    mFeedback.allocate(GL_TRANSFORM_FEEDBACK_BUFFER, vertices * sizeof(CapturedVertex), nullptr, GL_STREAM_READ);
+    const size_t slots = instances.size() * size_t(planes);
+    const size_t capacity = slots * kMaxTrianglesPerPlane * 3;
+    mFeedback.allocate(GL_TRANSFORM_FEEDBACK_BUFFER, capacity * sizeof(CapturedVertex), nullptr, GL_STREAM_READ);
     gl.glBindBufferBase(GL_TRANSFORM_FEEDBACK_BUFFER, 0, mFeedback.id());
     mTarget.bind();
     mProgram.use();
     mProgram.set(mIncr, incr);
     mProgram.set(mViewProj, viewProj);
     gl.glEnable(GL_RASTERIZER_DISCARD);
+    const Query written(gl);
+    gl.glBeginQuery(GL_TRANSFORM_FEEDBACK_PRIMITIVES_WRITTEN, written.id());
     gl.glBeginTransformFeedback(GL_TRIANGLES);
     for (size_t begin = 0; begin < instances.size();) {
       size_t end = begin + 1;
       while (end < instances.size() && normals[end] == normals[begin]) ++end;
       mProgram.set(mNormal, normals[begin]);
-      gl.glDrawArraysInstancedBaseInstance(GL_TRIANGLES, 0, kSliceVerticesPerPolygon * planes, GLsizei(end - begin),
-                                           GLuint(begin));
+      // The path table follows the front corner of the normal, as VolumeProgram::setFrame sets it.
+      const glm::vec3& n = normals[begin];
+      if (mPaths >= 0) {
+        mProgram.set(mPaths, std::span<const int>(sliceCornerPaths(sliceFrontIndex(n.x, n.y, n.z),
+                                                                   mSlicer == Slicer::Geometry)));
+      }
+      gl.glDrawArraysInstancedBaseInstance(mDraw.primitive, 0, mDraw.verticesPerPlane * planes,
+                                           GLsizei(end - begin), GLuint(begin));
       begin = end;
     }
     gl.glEndTransformFeedback();
+    gl.glEndQuery(GL_TRANSFORM_FEEDBACK_PRIMITIVES_WRITTEN);
     gl.glDisable(GL_RASTERIZER_DISCARD);
-    std::vector<CapturedVertex> captured(vertices);
-    mFeedback.read(0, vertices * sizeof(CapturedVertex), captured.data());
+    const size_t vertices = size_t(written.result()) * 3;
+    EXPECT_LE(vertices, capacity);
+    std::vector<CapturedVertex> captured(std::min(vertices, capacity));
+    mFeedback.read(0, captured.size() * sizeof(CapturedVertex), captured.data());
     checkGlError(gl, "ShaderSlicer::runInstances");
-    return captured;
+
+    // Primitives come out in the order of the draws' vertices: instance by instance, plane by plane.
+    Slots out(slots);
+    size_t slot = 0;
+    auto belongs = [&](const CapturedVertex& v, size_t at) {
+      const SliceInstance& in = instances[at / size_t(planes)];
+      return v.payload[0] == in.payload.x && v.planeDistance == planeDistanceOf(in, int(at % size_t(planes)), incr);
+    };
+    for (size_t v = 0; v + 2 < captured.size(); v += 3) {
+      while (slot < slots && !belongs(captured[v], slot)) ++slot;
+      if (slot == slots || !belongs(captured[v + 1], slot) || !belongs(captured[v + 2], slot)) {
+        ADD_FAILURE() << slicerName(mSlicer) << ": captured triangle " << v / 3 << " belongs to no instance and plane"
+                      << " in order (payload " << captured[v].payload[0] << ", plane distance "
+                      << captured[v].planeDistance << ")";
+        break;
+      }
+      out[slot].insert(out[slot].end(), &captured[v], &captured[v] + 3);
+    }
+    return out;
   }
 
  private:
-  std::unique_ptr<GlContext> mContext;
+  std::shared_ptr<GlContext> mContext;
+  Slicer mSlicer;
+  SliceDraw mDraw;
   Program mProgram;
   VertexArray mVao;
   Buffer mInstances;
@@ -167,6 +255,7 @@ class ShaderSlicer {
   GLint mNormal = -1;
   GLint mIncr = -1;
   GLint mViewProj = -1;
+  GLint mPaths = -1;
 };
 
 /// The worst vertex error seen: relative to scale x conditioning (what the tolerance bounds), and relative to the
@@ -176,16 +265,19 @@ struct WorstError {
   double perBoxSize = 0;
 };
 
-/// Checks every case's captured polygon against the exact polygon and the CPU mirror of the float inputs.
+/// Checks every case's captured polygon (a vertex program's fan) against the exact polygon and the CPU mirror of the
+/// float inputs.
 WorstError expectMatches(const std::vector<SliceCase>& cases, const std::vector<CapturedVertex>& captured,
-                     const char* what) {
+                         const char* what, Slicer slicer = Slicer::Vertex) {
   WorstError worst;
   for (size_t i = 0; i < cases.size(); ++i) {
     const SliceCase c = toFloat(cases[i]);
     std::string failure;
     const auto polygon = polygonOf(&captured[i * 12], failure);
     const auto exact = test::expectedSlice(c, true);
-    const auto mirror = rezkSalamaPolygon(c.boxMin, c.boxMax, c.n, c.d);
+    // The mirror of the program's own path walk (the lean program repeats vertices elsewhere).
+    const auto mirror = slicer == Slicer::VertexLean ? pathSlicePolygon(c.boxMin, c.boxMax, c.n, c.d)
+                                                     : rezkSalamaPolygon(c.boxMin, c.boxMax, c.n, c.d);
     const double scale = test::caseScale(c) * test::edgeConditioning(exact, c);
     const double tol = kShaderTolerance * scale;
     const test::PolygonCheck check = test::checkPolygon(polygon, exact, c.n, tol);
@@ -240,7 +332,7 @@ TEST(SlicerShader, MatchesExactPolygonsOnRandomCases) {
       const glm::dvec3 n = toFloat({glm::dvec3(0), glm::dvec3(1), test::randomNormal(rng), 0}).n;
       for (int k = 0; k < kCasesPerNormal; ++k) cases.push_back(test::randomSliceCase(rng, n));
     }
-    const WorstError batchWorst = expectMatches(cases, slicer.run(cases), "random");
+    const WorstError batchWorst = expectMatches(cases, fanVertices(slicer.run(cases)), "random");
     worst.conditioned = std::max(worst.conditioned, batchWorst.conditioned);
     worst.perBoxSize = std::max(worst.perBoxSize, batchWorst.perBoxSize);
   }
@@ -253,7 +345,7 @@ TEST(SlicerShader, MatchesExactPolygonsOnDegenerateCases) {
   const std::vector<SliceCase> cases = test::degenerateSliceCases();
   for (Backend backend : {Backend::Egl, Backend::OsMesa}) {
     ShaderSlicer slicer(backend);
-    const WorstError worst = expectMatches(cases, slicer.run(cases), backendName(backend));
+    const WorstError worst = expectMatches(cases, fanVertices(slicer.run(cases)), backendName(backend));
     std::printf("[ info ] %s: worst shader error over %zu degenerate cases: %.3g of scale x conditioning, %.3g of "
                 "the box size\n",
                 slicer.context().describe().c_str(), cases.size(), worst.conditioned, worst.perBoxSize);
@@ -270,7 +362,7 @@ TEST(SlicerShader, SlicesEachBoxManyTimesWithThePlaneIndexInTheVertexStream) {
   }
   constexpr int kPlanes = 16;
   const float incr = 0.37f;
-  const std::vector<CapturedVertex> captured = slicer.run(cases, kPlanes, incr);
+  const std::vector<CapturedVertex> captured = fanVertices(slicer.run(cases, kPlanes, incr));
   for (size_t i = 0; i < cases.size() && !HasFailure(); ++i) {
     // Planes run from d by incr; the box size varies, so some planes cut and the rest fall past the box.
     std::vector<SliceCase> perPlane;
@@ -319,7 +411,7 @@ TEST(SlicerShader, NeighbouringBoxesShareFaceVerticesBitForBit) {
       cases.push_back(b);
     }
   }
-  const std::vector<CapturedVertex> captured = slicer.run(cases);
+  const std::vector<CapturedVertex> captured = fanVertices(slicer.run(cases));
   size_t shared = 0;
   for (size_t i = 0; i < cases.size(); i += 2) {
     const float faceX = float(cases[i].boxMax.x);
@@ -331,41 +423,55 @@ TEST(SlicerShader, NeighbouringBoxesShareFaceVerticesBitForBit) {
   EXPECT_GT(shared, cases.size() / 2);
 }
 
+/// A row of eight bricks along x, and the row whole as instance 8, sliced with the global planes of `step` along `n`
+/// (already float) as a renderer would: slicerPlaneRange per box, planeDistance 0, firstPlane its first index.
+struct BrickRow {
+  static constexpr glm::dvec3 kMin{-30, -30, -30}, kMax{34, -22, -22};
+  std::vector<SliceInstance> instances;
+  std::vector<glm::vec3> normals;  // one per instance
+  int planes = 0;                  // per instance: the most any box has
+
+  BrickRow(const glm::dvec3& n, double step) {
+    for (int b = 0; b <= 8; ++b) {
+      const glm::dvec3 lo = b < 8 ? glm::dvec3(kMin.x + 8 * b, kMin.y, kMin.z) : kMin;
+      const glm::dvec3 hi = b < 8 ? glm::dvec3(lo.x + 8, kMax.y, kMax.z) : kMax;
+      const PlaneIndexRange range = slicerPlaneRange(lo, hi, n, step);
+      instances.push_back(
+          {glm::vec3(lo), glm::vec3(hi), 0.0f, glm::ivec4(b), int32_t(range.begin), glm::ivec3(0), glm::ivec3(0)});
+      normals.push_back(glm::vec3(n));
+      planes = std::max(planes, int(range.count()));
+    }
+  }
+
+  /// The normals of the row tests: views along x off by 6e-17 in z, as an orbit at azimuth 90 gives, where double
+  /// and float disagree about which side of a face a plane falls; along other axes; and random ones. As float.
+  static std::vector<glm::dvec3> testNormals() {
+    std::mt19937_64 rng(17);
+    std::vector<glm::dvec3> normals = {{-1, 0, -6.123233995736766e-17}, {1, 0, 6.1e-17}, {1, -1e-9, 0},
+                                       {-1, 0, 0}, {0.8, 0.6, 0}, {0, 0, 1}};
+    for (int i = 0; i < 6; ++i) normals.push_back(test::randomNormal(rng));
+    for (glm::dvec3& n : normals) n = toFloat({kMin, kMax, n, 0}).n;
+    return normals;
+  }
+};
+
 TEST(SlicerShader, RowsOfBricksDrawEveryGlobalPlaneExactlyOnce) {
-  // Eight bricks in a row along x, sliced with the global planes as a renderer would (slicerPlaneRange per
-  // brick, planeDistance 0, firstPlane its first index), against the row sliced whole. For every plane k the
-  // bricks' polygon areas must add up to the row's: a plane through a shared face drawn twice, or by neither brick,
-  // shows as a whole face too much or too little. The normals include views along x off by 6e-17 in z, as an orbit
-  // at azimuth 90 gives, where double and float disagree about which side of a face a plane falls.
+  // For every plane k the bricks' polygon areas must add up to the row's: a plane through a shared face drawn twice,
+  // or by neither brick, shows as a whole face too much or too little.
   ShaderSlicer slicer(Backend::Auto);
-  std::mt19937_64 rng(17);
-  const glm::dvec3 rowMin(-30, -30, -30), rowMax(34, -22, -22);
-  std::vector<glm::dvec3> normals = {{-1, 0, -6.123233995736766e-17}, {1, 0, 6.1e-17}, {1, -1e-9, 0},
-                                     {-1, 0, 0}, {0.8, 0.6, 0}, {0, 0, 1}};
-  for (int i = 0; i < 6; ++i) normals.push_back(test::randomNormal(rng));
-  const double face = (rowMax.y - rowMin.y) * (rowMax.z - rowMin.z);
-  for (const glm::dvec3& n : normals) {
+  const double face = (BrickRow::kMax.y - BrickRow::kMin.y) * (BrickRow::kMax.z - BrickRow::kMin.z);
+  for (const glm::dvec3& nf : BrickRow::testNormals()) {
     for (double step : {0.5, 0.3, 1.0 / 3.0}) {
-      const glm::dvec3 nf = toFloat({rowMin, rowMax, n, 0}).n;
-      std::vector<SliceInstance> instances;
-      int planes = 0;
-      for (int b = 0; b <= 8; ++b) {  // 8 bricks, then the whole row as instance 8
-        const glm::dvec3 lo = b < 8 ? glm::dvec3(rowMin.x + 8 * b, rowMin.y, rowMin.z) : rowMin;
-        const glm::dvec3 hi = b < 8 ? glm::dvec3(lo.x + 8, rowMax.y, rowMax.z) : rowMax;
-        const PlaneIndexRange range = slicerPlaneRange(lo, hi, nf, step);
-        instances.push_back(
-            {glm::vec3(lo), glm::vec3(hi), 0.0f, glm::ivec4(b), int32_t(range.begin), glm::ivec3(0), glm::ivec3(0)});
-        planes = std::max(planes, int(range.count()));
-      }
-      const std::vector<glm::vec3> instanceNormals(instances.size(), glm::vec3(nf));
-      const auto captured = slicer.runInstances(instances, instanceNormals, planes, float(step));
+      const BrickRow row(nf, step);
+      const int planes = row.planes;
+      const auto captured = fanVertices(slicer.runInstances(row.instances, row.normals, planes, float(step)));
       std::map<int64_t, double> bricked, whole;
-      for (size_t b = 0; b < instances.size(); ++b) {
+      for (size_t b = 0; b < row.instances.size(); ++b) {
         for (int p = 0; p < planes; ++p) {
           std::string failure;
           const auto polygon = polygonOf(&captured[(b * size_t(planes) + size_t(p)) * 12], failure);
           ASSERT_EQ(failure, "");
-          (b < 8 ? bricked : whole)[instances[b].firstPlane + p] += polygonArea(polygon, nf);
+          (b < 8 ? bricked : whole)[row.instances[b].firstPlane + p] += polygonArea(polygon, nf);
         }
       }
       int wholePlanes = 0;
@@ -382,10 +488,11 @@ TEST(SlicerShader, RowsOfBricksDrawEveryGlobalPlaneExactlyOnce) {
   }
 }
 
-TEST(SlicerShader, OutputsPositionBoxCoordinatesAndPayload) {
-  ShaderSlicer slicer(Backend::Auto);
+/// Boxes cut through the middle, each with a camera looking along the plane normal at it: the slices must come
+/// out counter-clockwise on screen, with clip positions, box coordinates and payloads as the vertex program's.
+void expectOutputs(Slicer slicer) {
+  ShaderSlicer shader(Backend::Auto, slicer);
   std::mt19937_64 rng(3);
-  // A real camera: the eye looks along n at the box, so slices must come out counter-clockwise on screen.
   std::vector<SliceCase> cases;
   std::vector<glm::mat4> cameras;
   for (int g = 0; g < 40; ++g) {
@@ -401,12 +508,14 @@ TEST(SlicerShader, OutputsPositionBoxCoordinatesAndPayload) {
   }
   for (size_t i = 0; i < cases.size(); ++i) {
     const std::vector<SliceCase> one = {cases[i]};
-    const std::vector<CapturedVertex> captured = slicer.run(one, 1, 0, cameras[i]);
+    const Slots slots = shader.run(one, 1, 0, cameras[i]);
+    const std::vector<CapturedVertex>& captured = slots[0];
     const SliceCase c = toFloat(cases[i]);
     const glm::vec3 lo(c.boxMin), hi(c.boxMax);
+    ASSERT_GE(captured.size(), 3u) << slicerName(slicer) << ": nothing drawn for " << test::caseText(c);
     double screenArea = 0;
-    for (int k = 0; k < 12; ++k) {
-      const CapturedVertex& v = captured[size_t(k)];
+    for (size_t k = 0; k < captured.size(); ++k) {
+      const CapturedVertex& v = captured[k];
       const glm::vec3 w(v.world[0], v.world[1], v.world[2]);
       const glm::vec4 expected = cameras[i] * glm::vec4(w, 1);
       for (int a = 0; a < 4; ++a) EXPECT_NEAR(v.position[a], expected[a], 1e-5 * (1 + std::abs(expected[a])));
@@ -417,18 +526,169 @@ TEST(SlicerShader, OutputsPositionBoxCoordinatesAndPayload) {
       }
       EXPECT_EQ(v.payload[0], 0);
       EXPECT_EQ(v.payload[2], 7);
-      if (k % 3 == 2) {  // a triangle of the fan, in normalised device coordinates
-        auto ndc = [&](int j) {
-          const float* p = captured[size_t(j)].position;
+      if (k % 3 == 2) {  // a triangle, in normalised device coordinates
+        auto ndc = [&](size_t j) {
+          const float* p = captured[j].position;
           return glm::dvec2(p[0] / p[3], p[1] / p[3]);
         };
         const glm::dvec2 a = ndc(k - 2), b = ndc(k - 1), e = ndc(k);
-        screenArea += 0.5 * ((b.x - a.x) * (e.y - a.y) - (b.y - a.y) * (e.x - a.x));
+        const double area = 0.5 * ((b.x - a.x) * (e.y - a.y) - (b.y - a.y) * (e.x - a.x));
+        EXPECT_GE(area, -1e-9) << slicerName(slicer) << ": a clockwise triangle on screen: " << test::caseText(c);
+        screenArea += area;
       }
     }
-    EXPECT_GT(screenArea, 0) << "slice is not front-facing (counter-clockwise) on screen: " << test::caseText(c);
+    EXPECT_GT(screenArea, 0) << slicerName(slicer) << ": slice is not front-facing (counter-clockwise) on screen: "
+                             << test::caseText(c);
   }
 }
+
+TEST(SlicerShader, OutputsPositionBoxCoordinatesAndPayload) { expectOutputs(Slicer::Vertex); }
+
+// Zellmann & Lang's variants, each against the vertex program on the same instances, slot by slot.
+
+class SlicerVariant : public ::testing::TestWithParam<Slicer> {};
+
+/// "vertex_lean" for Slicer::VertexLean: test names take no '-'.
+std::string variantName(const ::testing::TestParamInfo<Slicer>& param) {
+  std::string name = slicerName(param.param);
+  std::replace(name.begin(), name.end(), '-', '_');
+  return name;
+}
+
+INSTANTIATE_TEST_SUITE_P(Zellmann, SlicerVariant,
+                         ::testing::Values(Slicer::VertexLean, Slicer::Geometry, Slicer::VertexGeometry), variantName);
+
+/// Draws the instances with the vertex program and with the variant, and expects the variant's triangles for every
+/// box and plane to tile the vertex program's polygon with the same vertices bit for bit (test::checkTiling).
+/// `describe(i)` names instance i in a failure. Returns the triangles the variant drew.
+size_t expectTilesVertexProgram(ShaderSlicer& vertex, ShaderSlicer& variant, Slicer slicer,
+                                const std::vector<SliceInstance>& instances, const std::vector<glm::vec3>& normals,
+                                int planes, float incr, const std::function<std::string(size_t)>& describe) {
+  const Slots reference = vertex.runInstances(instances, normals, planes, incr);
+  const Slots drawn = variant.runInstances(instances, normals, planes, incr);
+  size_t triangles = 0;
+  for (size_t slot = 0; slot < reference.size(); ++slot) {
+    const size_t instance = slot / size_t(planes);
+    std::string failure;
+    if (reference[slot].size() != size_t(kSliceVerticesPerPolygon)) failure = "the vertex program drew no fan";
+    const auto polygon = failure.empty() ? polygonOf(reference[slot].data(), failure) : std::array<glm::dvec3, 6>{};
+    if (failure.empty()) failure = test::checkTiling(trianglesOf(drawn[slot]), polygon, glm::dvec3(normals[instance]));
+    if (!failure.empty()) {
+      std::vector<glm::dvec3> got;
+      for (const CapturedVertex& v : drawn[slot]) got.push_back(world(v));
+      ADD_FAILURE() << slicerName(slicer) << ", " << describe(instance) << ", plane " << slot % size_t(planes) << ": "
+                    << failure << "\n  vertex program " << test::polygonText(polygon) << "\n  " << slicerName(slicer)
+                    << " (triangles) " << test::polygonText(got);
+      return triangles;
+    }
+    triangles += drawn[slot].size() / 3;
+  }
+  return triangles;
+}
+
+/// The cases as instances as ShaderSlicer::run makes them (one plane each at the case's d, payload.x the index).
+std::vector<SliceInstance> caseInstances(const std::vector<SliceCase>& cases, std::vector<glm::vec3>& normals) {
+  std::vector<SliceInstance> instances;
+  normals.clear();
+  for (size_t i = 0; i < cases.size(); ++i) {
+    instances.push_back({glm::vec3(cases[i].boxMin), glm::vec3(cases[i].boxMax), float(cases[i].d),
+                         glm::ivec4(int(i), -int(i), 7, int(i) * 3), 0, glm::ivec3(0), glm::ivec3(0)});
+    normals.push_back(glm::vec3(cases[i].n));
+  }
+  return instances;
+}
+
+TEST(SlicerShader, VariantSourcesHoldTheOneTableOfTheHeader) {
+  // The path table is a uniform filled from SliceTables.h (sliceCornerPaths), declared with its size; the lean
+  // program's fan is kSliceFan.
+  const std::string declaration = "uniform int " + std::string(kSlicePathsUniform) + "[24];";
+  for (const char* file : {"slice_lean.vert.glsl", "slice.geom.glsl", "slice_even.vert.glsl", "slice_odd.geom.glsl"})
+    EXPECT_NE(std::string(shaderSource(file)).find(declaration), std::string::npos) << file << ": " << declaration;
+  std::string fan = "int[12](";
+  for (size_t k = 0; k < kSliceFan.size(); ++k) fan += (k ? ", " : "") + std::to_string(kSliceFan[k]);
+  EXPECT_NE(std::string(shaderSource("slice_lean.vert.glsl")).find(fan + ")"), std::string::npos);
+  // The geometry programs emit at most the strip of kMaxTrianglesPerPlane triangles.
+  for (const char* file : {"slice.geom.glsl", "slice_odd.geom.glsl"})
+    EXPECT_NE(std::string(shaderSource(file)).find("max_vertices = " + std::to_string(kMaxTrianglesPerPlane + 2)),
+              std::string::npos)
+        << file;
+}
+
+TEST_P(SlicerVariant, TilesTheVertexProgramsPolygonsOnRandomCases) {
+  const Slicer slicer = GetParam();
+  ShaderSlicer vertex(Backend::Auto), variant(vertex.sharedContext(), slicer);
+  std::mt19937_64 rng(4243);
+  size_t triangles = 0, planes = 0;
+  constexpr int kBatches = 2, kNormalsPerBatch = 200, kCasesPerNormal = 100;  // 4 * 10^4 cases
+  for (int batch = 0; batch < kBatches && !HasFailure(); ++batch) {
+    std::vector<SliceCase> cases;
+    for (int g = 0; g < kNormalsPerBatch; ++g) {
+      const glm::dvec3 n = toFloat({glm::dvec3(0), glm::dvec3(1), test::randomNormal(rng), 0}).n;
+      for (int k = 0; k < kCasesPerNormal; ++k) cases.push_back(test::randomSliceCase(rng, n));
+    }
+    std::vector<glm::vec3> normals;
+    const std::vector<SliceInstance> instances = caseInstances(cases, normals);
+    triangles += expectTilesVertexProgram(vertex, variant, slicer, instances, normals, 1, 0,
+                                          [&](size_t i) { return "random case " + test::caseText(toFloat(cases[i])); });
+    planes += cases.size();
+    // The lean program draws the fan: its P0..P5 against the exact polygon and the CPU mirror of its path walk.
+    if (slicer == Slicer::VertexLean) expectMatches(cases, fanVertices(variant.run(cases)), "random", slicer);
+  }
+  std::printf("[ info ] %s: %zu triangles (degenerate ones included) for %zu planes\n", slicerName(slicer),
+              triangles, planes);
+}
+
+TEST_P(SlicerVariant, TilesTheVertexProgramsPolygonsOnDegenerateCases) {
+  // Planes through corners, edges and faces of boxes from 1e-6 to 1e6, along axes and diagonals, and just outside.
+  const Slicer slicer = GetParam();
+  const std::vector<SliceCase> cases = test::degenerateSliceCases();
+  std::vector<glm::vec3> normals;
+  const std::vector<SliceInstance> instances = caseInstances(cases, normals);
+  for (Backend backend : {Backend::Egl, Backend::OsMesa}) {
+    ShaderSlicer vertex(backend), variant(vertex.sharedContext(), slicer);
+    expectTilesVertexProgram(vertex, variant, slicer, instances, normals, 1, 0, [&](size_t i) {
+      return std::string(backendName(backend)) + " degenerate case " + test::caseText(toFloat(cases[i]));
+    });
+    if (slicer == Slicer::VertexLean)
+      expectMatches(cases, fanVertices(variant.run(cases)), backendName(backend), slicer);
+  }
+}
+
+TEST_P(SlicerVariant, SlicesEachBoxManyTimesWithThePlaneIndexInTheVertexStream) {
+  const Slicer slicer = GetParam();
+  ShaderSlicer vertex(Backend::Auto), variant(vertex.sharedContext(), slicer);
+  std::mt19937_64 rng(5);
+  std::vector<SliceCase> cases;
+  for (int g = 0; g < 20; ++g) {
+    const glm::dvec3 n = toFloat({glm::dvec3(0), glm::dvec3(1), test::randomNormal(rng), 0}).n;
+    for (int k = 0; k < 50; ++k) cases.push_back(test::randomSliceCase(rng, n));
+  }
+  std::vector<glm::vec3> normals;
+  const std::vector<SliceInstance> instances = caseInstances(cases, normals);
+  // Planes run from d by 0.37; the box size varies, so some planes cut and the rest fall past the box.
+  expectTilesVertexProgram(vertex, variant, slicer, instances, normals, 16, 0.37f,
+                           [&](size_t i) { return "case " + test::caseText(toFloat(cases[i])); });
+}
+
+TEST_P(SlicerVariant, RowsOfBricksAsTheVertexProgramDrawsThem) {
+  // The global planes of a brick row (slicerPlaneRange, one plane more each side, the float test deciding): every
+  // brick draws what the vertex program draws for every plane, so it too draws each plane exactly once.
+  const Slicer slicer = GetParam();
+  ShaderSlicer vertex(Backend::Auto), variant(vertex.sharedContext(), slicer);
+  for (const glm::dvec3& nf : BrickRow::testNormals()) {
+    for (double step : {0.5, 0.3, 1.0 / 3.0}) {
+      const BrickRow row(nf, step);
+      expectTilesVertexProgram(vertex, variant, slicer, row.instances, row.normals, row.planes, float(step),
+                               [&](size_t b) {
+                                 return "brick " + std::to_string(b) + " of the row, step " + std::to_string(step) +
+                                        ", n " + test::vec3Text(nf);
+                               });
+      if (HasFailure()) return;
+    }
+  }
+}
+
+TEST_P(SlicerVariant, OutputsPositionBoxCoordinatesAndPayload) { expectOutputs(GetParam()); }
 
 }  // namespace
 }  // namespace voxbrick::render

@@ -1,5 +1,6 @@
 // Tests of the GL-free slicer geometry: the exact box-plane polygon on hand cases, the Rezk-Salama CPU mirror
-// against it on random and degenerate cases, shared-face vertices of neighbouring boxes, and the global planes.
+// against it on random and degenerate cases, Zellmann & Lang's path walk against the mirror, shared-face vertices of
+// neighbouring boxes, and the global planes.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -132,6 +133,59 @@ TEST(Slicing, MirrorMatchesExactOnDegenerateCases) {
   }
   std::printf("[ info ] worst mirror error over %zu degenerate cases: %.3g of scale x conditioning\n", cases.size(),
               worst);
+}
+
+// Zellmann & Lang's path walk (pathSlicePolygon) against the Rezk-Salama mirror: the same vertices bit for bit,
+// drawn by the fan (vertex-lean) or in strip order by the strip (geometry program), tiling the same polygon.
+void expectPathWalkMatches(const SliceCase& c) {
+  const auto reference = rezkSalamaPolygon(c.boxMin, c.boxMax, c.n, c.d);
+  const auto lean = pathSlicePolygon(c.boxMin, c.boxMax, c.n, c.d);
+  const auto strip = pathSlicePolygon(c.boxMin, c.boxMax, c.n, c.d, true);
+  const std::string fan = test::checkTiling(test::fanTriangles(lean), reference, c.n);
+  ASSERT_EQ(fan, "") << test::caseText(c) << "\n  lean " << test::polygonText(lean) << "\n  mirror "
+                     << test::polygonText(reference);
+  const std::string zigzag = test::checkTiling(test::stripTriangles(strip), reference, c.n);
+  ASSERT_EQ(zigzag, "") << test::caseText(c) << "\n  strip " << test::polygonText(strip) << "\n  mirror "
+                        << test::polygonText(reference);
+  for (size_t k = 0; k < 6; ++k) ASSERT_EQ(strip[k], lean[size_t(kSliceStrip[k])]) << test::caseText(c);
+}
+
+TEST(Slicing, PathWalkGivesTheMirrorsPolygonOnRandomCases) {
+  std::mt19937_64 rng(31337);
+  for (int i = 0; i < 100000 && !HasFatalFailure(); ++i) expectPathWalkMatches(test::randomSliceCase(rng));
+}
+
+TEST(Slicing, PathWalkGivesTheMirrorsPolygonOnDegenerateCases) {
+  // Planes through corners, edges and faces, and just outside: repeats land elsewhere, the polygon is the same.
+  for (const SliceCase& c : test::degenerateSliceCases()) {
+    expectPathWalkMatches(c);
+    if (HasFatalFailure()) return;
+  }
+}
+
+TEST(Slicing, CornerPathsRunFromFrontToBackAlongEdges) {
+  for (int front = 0; front < 8; ++front) {
+    // A normal whose front corner is `front`: its distances grow along every path.
+    const glm::dvec3 n(front & 1 ? -1.0 : 1.0, front & 2 ? -1.3 : 1.3, front & 4 ? -0.7 : 0.7);
+    ASSERT_EQ(sliceFrontIndex(n.x, n.y, n.z), front);
+    for (bool stripOrder : {false, true}) {
+      const std::array<int, 24> paths = sliceCornerPaths(front, stripOrder);
+      std::set<std::pair<int, int>> edges;
+      for (int row = 0; row < 6; ++row) {
+        EXPECT_EQ(paths[size_t(row * 4)], front);
+        EXPECT_EQ(paths[size_t(row * 4 + 3)], front ^ 7);
+        for (int k = 0; k < 3; ++k) {
+          const int a = paths[size_t(row * 4 + k)], b = paths[size_t(row * 4 + k + 1)];
+          const int diff = a ^ b;
+          EXPECT_TRUE(diff == 1 || diff == 2 || diff == 4) << "front " << front << " row " << row;
+          const glm::dvec3 pa(a & 1, (a >> 1) & 1, (a >> 2) & 1), pb(b & 1, (b >> 1) & 1, (b >> 2) & 1);
+          EXPECT_GT(glm::dot(n, pb), glm::dot(n, pa)) << "front " << front << " row " << row;
+          edges.insert({a, b});
+        }
+      }
+      EXPECT_EQ(edges.size(), 12u) << "the six paths use each of the box's 12 edges";
+    }
+  }
 }
 
 // Vertices strictly inside an edge of the face x = faceX (y and z: one at a bound, one strictly between).
