@@ -47,6 +47,18 @@ glm::dvec3 edgePoint(const glm::dvec3& boxMin, const glm::dvec3& boxMax, int sta
   return vertex;
 }
 
+// Whether the plane at distance d crosses the edge from corner i to corner j (distances rising along it, d within
+// them); if so, the vertex's edge and its parameter on it (clamped to [0, 1]) are set.
+bool crossEdge(const double* cornerDistance, int i, int j, double d, int& startCorner, int& endCorner,
+               double& lambda) {
+  const double di = cornerDistance[i], dj = cornerDistance[j];
+  if (!(di < dj && di <= d && d <= dj)) return false;
+  startCorner = i;
+  endCorner = j;
+  lambda = std::clamp((d - di) / (dj - di), 0.0, 1.0);
+  return true;
+}
+
 }  // namespace
 
 std::vector<glm::dvec3> intersectBoxPlane(const glm::dvec3& boxMin, const glm::dvec3& boxMax, const glm::dvec3& n,
@@ -123,14 +135,7 @@ std::array<glm::dvec3, 6> rezkSalamaPolygon(const glm::dvec3& boxMin, const glm:
       for (int e = 0; e < 4; ++e) {
         const int i = kSliceSequence[front * 8 + kSliceEdgeStart[polygonVertex * 4 + e]];
         const int j = kSliceSequence[front * 8 + kSliceEdgeEnd[polygonVertex * 4 + e]];
-        const double di = cornerDistance[i];
-        const double dj = cornerDistance[j];
-        if (di < dj && di <= d && d <= dj) {
-          startCorner = i;
-          endCorner = j;
-          lambda = std::clamp((d - di) / (dj - di), 0.0, 1.0);
-          break;
-        }
+        if (crossEdge(cornerDistance, i, j, d, startCorner, endCorner, lambda)) break;
       }
     }
     polygon[size_t(polygonVertex)] = edgePoint(boxMin, boxMax, startCorner, endCorner, lambda);
@@ -155,18 +160,9 @@ std::array<glm::dvec3, 6> pathSlicePolygon(const glm::dvec3& boxMin, const glm::
     int endCorner = front;
     double lambda = 0;
     if (cornerDistance[front] <= d && d < cornerDistance[back]) {
-      for (size_t e = 0; e < 3; ++e) {
-        const int i = paths[row * 4 + e];
-        const int j = paths[row * 4 + e + 1];
-        const double di = cornerDistance[i];
-        const double dj = cornerDistance[j];
-        if (di < dj && di <= d && d <= dj) {
-          startCorner = i;
-          endCorner = j;
-          lambda = std::clamp((d - di) / (dj - di), 0.0, 1.0);
+      for (size_t e = 0; e < 3; ++e)
+        if (crossEdge(cornerDistance, paths[row * 4 + e], paths[row * 4 + e + 1], d, startCorner, endCorner, lambda))
           break;
-        }
-      }
     }
     polygon[row] = edgePoint(boxMin, boxMax, startCorner, endCorner, lambda);
   }
