@@ -61,6 +61,45 @@ inline render::Scene lodScene(double lod) {
   return scene;
 }
 
+/// Slicing (no slabs, no ray caster, no termination, whole bricks) of lodScene's frame at the default level of detail
+/// with transfer function `tf`: the baseline that slabs and the ray caster are held to.
+inline render::Scene slicingScene(const std::string& tf) {
+  render::Scene scene = lodScene(render::Scene{}.lod);
+  scene.transferFunction = render::TransferFunction::load(tf);
+  scene.slab = 0;
+  scene.raycast = false;
+  scene.ert = 0;
+  scene.subBlock = 0;
+  return scene;
+}
+
+/// Cameras that stress a ray march: oblique perspective, a view along an axis (planes through brick and cell
+/// faces), orthographic from below, and the eye inside the volume (the near plane cuts bricks, rays start inside);
+/// with `fromBehind`, the axis view from the far side too (the faces towards the eye flip).
+inline std::vector<std::pair<std::string, render::CameraSpec>> marchCameras(bool fromBehind) {
+  std::vector<std::pair<std::string, render::CameraSpec>> out;
+  render::CameraSpec c;
+  c.azimuth = 35, c.elevation = 25, c.distance = 2.2;
+  out.push_back({"oblique", c});
+  render::CameraSpec axis;
+  axis.orbit = false;
+  axis.eye = {0, 0, 300};
+  out.push_back({"axis", axis});
+  if (fromBehind) {
+    render::CameraSpec back = axis;
+    back.eye = {0, 0, -300};
+    out.push_back({"axis-back", back});
+  }
+  render::CameraSpec ortho = c;
+  ortho.orthographic = true;
+  ortho.azimuth = 200, ortho.elevation = -40;
+  out.push_back({"ortho", ortho});
+  render::CameraSpec inside = c;
+  inside.distance = 0.25, inside.fovY = 75;
+  out.push_back({"inside", inside});
+  return out;
+}
+
 /// One context for the whole binary: creating a llvmpipe context costs more than most test frames.
 inline render::GlContext& context() {
   static std::unique_ptr<render::GlContext> ctx = render::createContext(render::Backend::Auto);

@@ -23,50 +23,15 @@ using test::renderStore;
 using test::ScratchDir;
 
 /// Slicing, the baseline.
-Scene slicing(const std::string& tf) {
-  Scene scene;
-  scene.slab = 0;
-  scene.raycast = false;
-  scene.ert = 0;
-  scene.subBlock = 0;
-  scene.width = 96;
-  scene.height = 80;
-  scene.camera.azimuth = 35;
-  scene.camera.elevation = 25;
-  scene.camera.distance = 2.2;
-  scene.transferFunction = TransferFunction::load(tf);
-  scene.step = 0.5;
-  return scene;
-}
+Scene slicing(const std::string& tf) { return test::slicingScene(tf); }
 
 Scene rayCast(Scene scene) {
   scene.raycast = true;
   return scene;
 }
 
-/// Oblique perspective, a view along an axis (planes through cell faces), orthographic from below, the eye inside
-/// the volume (rays start inside), and a view along an axis from the far side (the faces towards the eye flip).
-std::vector<std::pair<std::string, CameraSpec>> cameras() {
-  std::vector<std::pair<std::string, CameraSpec>> out;
-  CameraSpec c;
-  c.azimuth = 35, c.elevation = 25, c.distance = 2.2;
-  out.push_back({"oblique", c});
-  CameraSpec axis;
-  axis.orbit = false;
-  axis.eye = {0, 0, 300};
-  out.push_back({"axis", axis});
-  CameraSpec back = axis;
-  back.eye = {0, 0, -300};
-  out.push_back({"axis-back", back});
-  CameraSpec ortho = c;
-  ortho.orthographic = true;
-  ortho.azimuth = 200, ortho.elevation = -40;
-  out.push_back({"ortho", ortho});
-  CameraSpec inside = c;
-  inside.distance = 0.25, inside.fovY = 75;
-  out.push_back({"inside", inside});
-  return out;
-}
+/// The march's cameras, with the axis view from the far side as well.
+std::vector<std::pair<std::string, CameraSpec>> cameras() { return test::marchCameras(true); }
 
 TEST(RayCast, GivesSlicingsImageForEveryCameraAndCell) {
   ScratchDir dir;

@@ -20,42 +20,9 @@ using test::renderStore;
 using test::ScratchDir;
 
 /// Slicing, the baseline slabs are held to.
-Scene sceneFor(const std::string& tf) {
-  Scene scene;
-  scene.slab = 0;
-  scene.raycast = false;
-  scene.ert = 0;
-  scene.subBlock = 0;
-  scene.width = 96;
-  scene.height = 80;
-  scene.camera.azimuth = 35;
-  scene.camera.elevation = 25;
-  scene.camera.distance = 2.2;
-  scene.transferFunction = TransferFunction::load(tf);
-  scene.step = 0.5;
-  return scene;
-}
+Scene sceneFor(const std::string& tf) { return test::slicingScene(tf); }
 
-/// Cameras that stress the ray marcher: oblique perspective, a view along an axis (planes through brick faces),
-/// orthographic, and an eye inside the volume (the near plane cuts bricks).
-std::vector<std::pair<std::string, CameraSpec>> cameras() {
-  std::vector<std::pair<std::string, CameraSpec>> out;
-  CameraSpec c;
-  c.azimuth = 35, c.elevation = 25, c.distance = 2.2;
-  out.push_back({"oblique", c});
-  CameraSpec axis;
-  axis.orbit = false;
-  axis.eye = {0, 0, 300};
-  out.push_back({"axis", axis});
-  CameraSpec ortho = c;
-  ortho.orthographic = true;
-  ortho.azimuth = 200, ortho.elevation = -40;
-  out.push_back({"ortho", ortho});
-  CameraSpec inside = c;
-  inside.distance = 0.25, inside.fovY = 75;
-  out.push_back({"inside", inside});
-  return out;
-}
+std::vector<std::pair<std::string, CameraSpec>> cameras() { return test::marchCameras(false); }
 
 TEST(Slabs, EverySlabSizeGivesSlicingsImage) {
   ScratchDir dir;
