@@ -2,6 +2,7 @@
 #include "render/GlObjects.h"
 
 #include <algorithm>
+#include <cctype>
 
 #include <glm/gtc/type_ptr.hpp>
 
@@ -184,7 +185,11 @@ Program::Program(const Gl& gl, const ProgramSources& sources) : GlName(gl, gl.gl
     shaders.ids.push_back(shader);
     // "#line 1 1" restarts counting so that the info log's line numbers are those of the stage's own file (source
     // string 1, where the driver reports it; the preamble is source 0).
-    const std::string body = head + "#line 1 1\n" + stage.body;
+    // Each stage also knows which it is (VERTEX_STAGE, GEOMETRY_STAGE, ...), so that a library can declare what only
+    // one stage may (a vertex program's attributes).
+    std::string stageMacro = stageName(stage.type);
+    for (char& c : stageMacro) c = char(std::toupper(static_cast<unsigned char>(c)));
+    const std::string body = "#define " + stageMacro + "_STAGE\n" + head + "#line 1 1\n" + stage.body;
     const char* strings[] = {sources.preamble.c_str(), "\n", body.c_str()};
     gl.glShaderSource(shader, 3, strings, nullptr);
     gl.glCompileShader(shader);

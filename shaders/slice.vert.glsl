@@ -6,7 +6,7 @@
 // distance bit for bit alike, so neighbours agree on which of them owns a plane through a shared face.
 // render/SliceTables.h holds the tables (uploaded into uSequence, uEdgeStart, uEdgeEnd), the corner numbering and the
 // instance layout; render/Slicing.cpp mirrors this program on the CPU, line for line. The library slicer.glsl comes
-// first.
+// first and declares the instance's attributes.
 //
 // Where it departs from the paper's listing, it does so for robustness in float: the distances of the eight corners
 // are computed once, up front, instead of once per edge, so along every path they grow monotonically and a plane
@@ -14,14 +14,6 @@
 // a plane outside the box gives a defined, empty polygon (the paper leaves it undefined); and vertices are computed
 // from world-space corners alone, exact at the corners, so two boxes sharing a face produce bit-identical vertices
 // on it and slices of neighbouring bricks meet without cracks (slicer.glsl's edgePoint).
-
-layout(location = 0) in vec3 aBoxMin;
-layout(location = 1) in vec3 aBoxMax;
-layout(location = 2) in float aPlaneDistance;
-layout(location = 3) in ivec4 aPayload;
-layout(location = 4) in int aFirstPlane;
-layout(location = 5) in ivec3 aOwnLo;
-layout(location = 6) in ivec3 aOwnHi;
 
 uniform vec3 uPlaneNormal;  // unit, pointing from the eye into the scene
 uniform float uPlaneIncr;   // distance between consecutive planes

@@ -6,15 +6,8 @@
 // uPaths, sliceCornerPaths in render/SliceTables.h in polygon order). Each also hands on the distances of its path's
 // two middle corners, which between them hold the ends of every dotted edge, so that the geometry program computes
 // no distance, and whether the plane cuts the half-open box [front, back) at all. Layout: SliceInstance in
-// render/SliceTables.h. The library slicer.glsl comes first.
-
-layout(location = 0) in vec3 aBoxMin;
-layout(location = 1) in vec3 aBoxMax;
-layout(location = 2) in float aPlaneDistance;
-layout(location = 3) in ivec4 aPayload;
-layout(location = 4) in int aFirstPlane;
-layout(location = 5) in ivec3 aOwnLo;
-layout(location = 6) in ivec3 aOwnHi;
+// render/SliceTables.h. The library slicer.glsl comes first and declares the instance's
+// attributes.
 
 uniform vec3 uPlaneNormal;  // unit, pointing from the eye into the scene
 uniform float uPlaneIncr;   // distance between consecutive planes

@@ -8,15 +8,7 @@
 // distances of those four corners and tests at most three edges, where slice.vert.glsl computes eight and tests up
 // to four through three tables. The odd vertices walk their own paths (the dotted edge second), so where the
 // polygon has fewer than six corners they repeat a neighbour on either side; the fan draws the same triangles.
-// The library slicer.glsl comes first.
-
-layout(location = 0) in vec3 aBoxMin;
-layout(location = 1) in vec3 aBoxMax;
-layout(location = 2) in float aPlaneDistance;
-layout(location = 3) in ivec4 aPayload;
-layout(location = 4) in int aFirstPlane;
-layout(location = 5) in ivec3 aOwnLo;
-layout(location = 6) in ivec3 aOwnHi;
+// The library slicer.glsl comes first and declares the instance's attributes.
 
 uniform vec3 uPlaneNormal;  // unit, pointing from the eye into the scene
 uniform float uPlaneIncr;   // distance between consecutive planes

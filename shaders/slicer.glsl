@@ -4,6 +4,18 @@
 // same order of operations, so the variants give the same vertices bit for bit, as neighbouring boxes do on a
 // shared face. render/Slicing.cpp mirrors them in double precision.
 
+#ifdef VERTEX_STAGE
+// The instance every GPU slicer's vertex program reads: one world-space box and a run of planes (SliceInstance, its
+// attribute locations and SliceGeometry's layout in render/SliceTables.h).
+layout(location = 0) in vec3 aBoxMin;
+layout(location = 1) in vec3 aBoxMax;
+layout(location = 2) in float aPlaneDistance;
+layout(location = 3) in ivec4 aPayload;
+layout(location = 4) in int aFirstPlane;
+layout(location = 5) in ivec3 aOwnLo;
+layout(location = 6) in ivec3 aOwnHi;
+#endif
+
 // The corner of the unit cube with bit 0 = x, bit 1 = y, bit 2 = z (render/SliceTables.h numbers box corners so).
 vec3 unitCorner(int corner) {
   return vec3(float(corner & 1), float((corner >> 1) & 1), float((corner >> 2) & 1));

@@ -182,6 +182,27 @@ bool owned(vec3 lo, vec3 hi) { return ownedBy(lo, hi, vec3(vOwnLo), vec3(vOwnHi)
 #endif
 
 #if defined(SLAB) || defined(RAYCAST)
+// This pixel's ray, origin (on the near plane) + t·direction in world units (both affine in window coordinates),
+// their components along the view axis (start, along), and the same ray in voxel coordinates, o + t·dv, with inv the
+// reciprocal of dv (components below 1e-20 replaced, so that it stays finite).
+struct PixelRay {
+  vec3 origin, direction;
+  float along, start;
+  vec3 o, inv;
+};
+
+PixelRay pixelRay() {
+  PixelRay r;
+  r.origin = uRayOrigin + gl_FragCoord.x * uRayOriginDx + gl_FragCoord.y * uRayOriginDy;
+  r.direction = uRayDirection + gl_FragCoord.x * uRayDirectionDx + gl_FragCoord.y * uRayDirectionDy;
+  r.along = dot(uViewDir, r.direction);
+  r.start = dot(uViewDir, r.origin);
+  r.o = r.origin * uInvSpacing + uHalfDims;
+  const vec3 dv = r.direction * uInvSpacing;
+  r.inv = 1.0 / mix(dv, vec3(1e-20), lessThan(abs(dv), vec3(1e-20)));
+  return r;
+}
+
 // The parameter range (in, out) of the ray o + t·d (voxel coordinates, inv = 1 / d) inside the box [lo, hi], from
 // t = 0 on: empty when in > out.
 vec2 rayBoxRange(vec3 o, vec3 inv, vec3 lo, vec3 hi) {
@@ -203,15 +224,11 @@ vec3 voxelOnPlane(vec3 origin, vec3 direction, float start, float along, float d
 // takes every 2^m-th plane (those whose index is a multiple of 2^m, the same for every box of that level), each
 // sample standing for a segment 2^m planes long.
 void main() {
-  const vec3 origin = uRayOrigin + gl_FragCoord.x * uRayOriginDx + gl_FragCoord.y * uRayOriginDy;
-  const vec3 direction = uRayDirection + gl_FragCoord.x * uRayDirectionDx + gl_FragCoord.y * uRayDirectionDy;
-  const float along = dot(uViewDir, direction);
-  const float start = dot(uViewDir, origin);
+  const PixelRay ray = pixelRay();
+  const vec3 origin = ray.origin, direction = ray.direction, o = ray.o, inv = ray.inv;
+  const float along = ray.along, start = ray.start;
   // The planes the ray can have inside the box: its parameter range in the owned voxels (widened by 1/128 voxel,
   // beyond the ownership test's 1/256 grid) and one plane more each side. The ownership test alone decides.
-  const vec3 o = origin * uInvSpacing + uHalfDims;
-  const vec3 dv = direction * uInvSpacing;
-  const vec3 inv = 1.0 / mix(dv, vec3(1e-20), lessThan(abs(dv), vec3(1e-20)));
   const vec2 range = rayBoxRange(o, inv, vec3(vOwnLo) - 1.0 / 128.0, vec3(vOwnHi) + 1.0 / 128.0);
   const int level = vPayload.w, stride = 1 << level;
   // The first plane of the level's subset at or after the first plane the ray can have (>> floors negatives too).
@@ -308,13 +325,9 @@ uniform vec3 uCellCount;   // cells along x, y, z
 // cell of level m takes the planes whose index is a multiple of 2^m, each standing for a segment 2^m planes long.
 // Cells with nothing to draw, and planes a coarse cell does not take, are stepped over to the cell's exit.
 void main() {
-  const vec3 origin = uRayOrigin + gl_FragCoord.x * uRayOriginDx + gl_FragCoord.y * uRayOriginDy;
-  const vec3 direction = uRayDirection + gl_FragCoord.x * uRayDirectionDx + gl_FragCoord.y * uRayDirectionDy;
-  const float along = dot(uViewDir, direction);
-  const float start = dot(uViewDir, origin);
-  const vec3 o = origin * uInvSpacing + uHalfDims;
-  const vec3 dv = direction * uInvSpacing;
-  const vec3 inv = 1.0 / mix(dv, vec3(1e-20), lessThan(abs(dv), vec3(1e-20)));
+  const PixelRay ray = pixelRay();
+  const vec3 origin = ray.origin, direction = ray.direction, o = ray.o, inv = ray.inv;
+  const float along = ray.along, start = ray.start;
   const vec2 range = rayBoxRange(o, inv, vec3(-1.0 / 128.0), uDims + 1.0 / 128.0);
   if (range.x > range.y) {
     fragColor = vec4(0.0);
