@@ -1,0 +1,37 @@
+// An unstructured tetrahedral mesh in memory: vertices, tetrahedra as four vertex indices, one scalar per vertex.
+// What ingest (mesh/MeshReaders.h) produces, the mesh store (mesh/MeshStore.h) keeps and the renderers draw. No GL.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+namespace voxbrick::mesh {
+
+/// Bad mesh input (a malformed file, indices out of range, a mesh that cannot be repaired): the message names the
+/// file, the place in it and what is wrong.
+class MeshError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Four vertex indices. After validate() every tet is positively oriented: (v1 - v0) x (v2 - v0) . (v3 - v0) > 0.
+using Tet = std::array<uint32_t, 4>;
+
+struct TetMesh {
+  std::vector<glm::vec3> points;  ///< vertex positions, world units
+  std::vector<Tet> tets;
+  std::vector<float> scalars;     ///< one per vertex
+  std::string field;              ///< the scalar's name in the source file
+
+  /// The axis-aligned bounds of the points ({+inf}, {-inf} when there are none).
+  std::pair<glm::vec3, glm::vec3> bounds() const;
+  /// The smallest and largest scalar (0, 0 when there are none).
+  std::pair<float, float> scalarRange() const;
+};
+
+}  // namespace voxbrick::mesh
