@@ -10,7 +10,10 @@
 // rays). Writes NAME.csv (one row per store, drawing, axis, angle, run), NAME.md (min, max, ratio, mean, standard
 // deviation per axis and over all) and NAME.svg (time against angle, one panel per store and drawing).
 //
-//   bench_orientation --stores A.vbs,B.vbs [--labels a,b] [--drawings raycast,slab,slicing] [--axes x,y,z]
+// A store may be listed twice with different --brickings (single, multi-oriented: AtlasBricking), to compare them.
+//
+//   bench_orientation --stores A.vbs,B.vbs [--labels a,b] [--brickings single,multi-oriented]
+//                     [--drawings raycast,slab,slicing] [--axes x,y,z]
 //                     [--degrees-per-step 5] [--runs 3] [--size 256] [--tf hot] [--ert 0] [--distance 2.5]
 //                     [--out bench/results] [--name orientation]
 #include <algorithm>
@@ -159,13 +162,15 @@ std::string plot(const std::vector<Series>& series, const std::vector<std::pair<
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string storesText, labelsText, drawingsText = "raycast,slab,slicing", axesText = "x,y,z", tf = "hot",
-                                      name = "orientation", outText = "bench/results";
+  std::string storesText, labelsText, brickingsText, drawingsText = "raycast,slab,slicing", axesText = "x,y,z",
+              tf = "hot", name = "orientation", outText = "bench/results";
   double step = 5, ert = 0, distance = 2.5;
   int runs = 3, size = 256;
   CLI::App app{"bench_orientation: frame time against view angle about each axis"};
   app.add_option("--stores", storesText, "stores to turn, comma-separated")->required();
   app.add_option("--labels", labelsText, "a label per store, comma-separated (default: the stores' names)");
+  app.add_option("--brickings", brickingsText,
+                 "a bricking per store, comma-separated: single or multi-oriented (default: single for every store)");
   app.add_option("--drawings", drawingsText, "raycast, slab, slicing, comma-separated");
   app.add_option("--axes", axesText, "x, y, z, comma-separated");
   app.add_option("--degrees-per-step", step, "degrees between views")->check(CLI::Range(0.1, 180.0));
@@ -187,6 +192,21 @@ int main(int argc, char** argv) {
   if (labels.size() != stores.size()) {
     labels.clear();
     for (const std::string& s : stores) labels.push_back(fs::path(s).filename().string());
+  }
+  std::vector<render::AtlasBricking> brickings(stores.size(), render::AtlasBricking::Single);
+  if (!brickingsText.empty()) {
+    const std::vector<std::string> names = split(brickingsText);
+    if (names.size() != stores.size()) {
+      std::fprintf(stderr, "bench_orientation: --brickings names %zu brickings for %zu stores\n", names.size(),
+                   stores.size());
+      return 2;
+    }
+    try {
+      for (size_t i = 0; i < names.size(); ++i) brickings[i] = render::parseAtlasBricking(names[i]);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "bench_orientation: %s\n", e.what());
+      return 2;
+    }
   }
   std::vector<int> axes;
   for (const std::string& a : split(axesText)) {
@@ -236,7 +256,8 @@ int main(int argc, char** argv) {
       }
       for (int run = -1; run < runs; ++run) {  // run -1: the warm-up pass, discarded
         // A fresh renderer each run: the atlas (the texture) is loaded anew, as in the paper's protocol.
-        render::VolumeRenderer renderer(*context, cache, size_t(2048) << 20);
+        render::VolumeRenderer renderer(*context, cache, size_t(2048) << 20, render::AtlasFormat::Float,
+                                        render::AtlasUploads::Auto, brickings[si]);
         scene.camera = cameraAbout(axes[0], angles[0], distance * box.radius());
         renderer.render(scene);  // untimed: uploads the bricks, so that no timed frame pays for the load
         for (size_t ai = 0; ai < axes.size(); ++ai)

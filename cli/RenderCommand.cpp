@@ -18,7 +18,7 @@ struct RenderArgs {
   SceneArgs scene;
   std::string store, output, statsPath, grid;
   int brick = 32;
-  std::string backend = "auto", atlasFormat = "float", uploads = "auto", analytic;
+  std::string backend = "auto", atlasFormat = "float", uploads = "auto", bricking = "single", analytic;
   double referenceStep = 0.125;
   bool quiet = false;
   int warmUp = 0;
@@ -54,7 +54,8 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
   if (a.backend == "reference") return runReference(a, scene, *dataset);
   if (!a.analytic.empty()) throw render::RenderInputError("--analytic needs --backend reference");
   render::RenderEngine engine({render::parseBackend(a.backend), size_t(a.gpuBudgetMB) << 20,
-                               render::parseAtlasFormat(a.atlasFormat), render::parseAtlasUploads(a.uploads)});
+                               render::parseAtlasFormat(a.atlasFormat), render::parseAtlasUploads(a.uploads),
+                               render::parseAtlasBricking(a.bricking)});
   if (!a.quiet) std::fprintf(stderr, "render: %s\n", engine.describe().c_str());
   // Warm-up frames page the bricks in and build the programs, so that the frame reported is a warm one, as a
   // server's next frame of the same dataset would be.
@@ -126,6 +127,10 @@ void addRenderCommand(CLI::App& app) {
                   "how bricks reach the atlas: staged (a fenced ring of pixel buffers, overlapping the GPU's work), "
                   "direct, or auto (staged on a GPU, direct on a software rasteriser)")
       ->check(CLI::IsMember({"auto", "direct", "staged"}));
+  cmd->add_option("--bricking", args->bricking,
+                  "how bricks lie in the atlas: single (the volume's axis order) or multi-oriented (axis order "
+                  "rotated from brick to brick, for texture caches that favour one direction; the same image)")
+      ->capture_default_str()->check(CLI::IsMember({"single", "multi-oriented"}));
   cmd->add_flag("-q,--quiet", args->quiet, "do not print the renderer's name");
   cmd->callback([args, cmd] {
     keepFreedMemoryForFrames();

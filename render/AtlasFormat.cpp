@@ -28,4 +28,19 @@ const char* atlasUploadsName(AtlasUploads uploads) {
   return "auto";
 }
 
+AtlasBricking parseAtlasBricking(const std::string& text) {
+  if (text == "single") return AtlasBricking::Single;
+  if (text == "multi-oriented") return AtlasBricking::MultiOriented;
+  throw RenderInputError("atlas bricking '" + text + "' is not single or multi-oriented");
+}
+
+const char* atlasBrickingName(AtlasBricking bricking) {
+  return bricking == AtlasBricking::MultiOriented ? "multi-oriented" : "single";
+}
+
+int brickOrientation(AtlasBricking bricking, const store::BrickKey& key) {
+  if (bricking == AtlasBricking::Single) return 0;
+  return int((uint64_t(key.i) + key.j + key.k) % 3);
+}
+
 }  // namespace voxbrick::render

@@ -3,6 +3,10 @@
 
 #include <string>
 
+#include <glm/glm.hpp>
+
+#include "brickstore/Types.h"
+
 namespace voxbrick::render {
 
 /// How the atlas stores samples. Float keeps full precision through trilinear filtering on every driver; Native
@@ -24,5 +28,32 @@ enum class AtlasUploads { Auto, Direct, Staged };
 AtlasUploads parseAtlasUploads(const std::string& text);
 /// The name parseAtlasUploads reads.
 const char* atlasUploadsName(AtlasUploads uploads);
+
+/// How bricks lie in the atlas (Weiskopf, Weiler & Ertl: multi-oriented bricking). Single: every brick in the
+/// volume's axis order (x fastest). MultiOriented: brick (i, j, k) is stored with its axes rotated by
+/// brickOrientation(), so the texture's fast axis alternates between x, y and z from one brick to the next and a
+/// texture cache that favours one walking direction sees all three in any view. Sampling accounts for each
+/// brick's rotation (volume.frag.glsl, MULTI_ORIENTED); the images are the same.
+enum class AtlasBricking { Single, MultiOriented };
+
+/// "single", "multi-oriented"; throws RenderInputError for anything else.
+AtlasBricking parseAtlasBricking(const std::string& text);
+/// The name parseAtlasBricking reads.
+const char* atlasBrickingName(AtlasBricking bricking);
+
+/// The axis rotation brick `key` is stored with: 0 under Single; (i + j + k) mod 3 under MultiOriented, so that
+/// neighbours along every axis differ.
+int brickOrientation(AtlasBricking bricking, const store::BrickKey& key);
+
+/// Where voxel v of a brick lies in its slot under rotation r: v (r = 0), v.yzx (r = 1), v.zxy (r = 2). The slot's
+/// texel (a.x, a.y, a.z) holds the brick's voxel whose rotation is a; volume.frag.glsl's orient() is the mirror.
+inline glm::ivec3 orientVoxel(const glm::ivec3& v, int r) {
+  return r == 1 ? glm::ivec3(v.y, v.z, v.x) : r == 2 ? glm::ivec3(v.z, v.x, v.y) : v;
+}
+
+/// The payload's w for a brick of pyramid `level` stored with rotation r: level + 64 r (a store has fewer than 64
+/// levels, store::kMaxLevels; negative w are the cell table's "nothing" markers). The shader reads level w & 63
+/// and rotation w >> 6.
+inline int payloadLevel(int level, int r) { return level + 64 * r; }
 
 }  // namespace voxbrick::render

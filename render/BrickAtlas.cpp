@@ -50,17 +50,18 @@ AtlasUploads BrickAtlas::resolveUploads(const GlContext& context, AtlasUploads u
 }
 
 BrickAtlas::BrickAtlas(const GlContext& context, store::ValueType type, int brickEdge, size_t budgetBytes,
-                       int maxUsefulSlots, AtlasFormat format, AtlasUploads uploads)
+                       int maxUsefulSlots, AtlasFormat format, AtlasUploads uploads, AtlasBricking bricking)
     : BrickAtlas(context, type, brickEdge,
                  resolveUploads(context, uploads) == AtlasUploads::Staged
                      ? stagingBytes(type, brickEdge, budgetBytes, format)
                      : 0,
-                 budgetBytes, maxUsefulSlots, format) {}
+                 budgetBytes, maxUsefulSlots, format, bricking) {}
 
 BrickAtlas::BrickAtlas(const GlContext& context, store::ValueType type, int brickEdge, size_t staging,
-                       size_t budgetBytes, int maxUsefulSlots, AtlasFormat format)
+                       size_t budgetBytes, int maxUsefulSlots, AtlasFormat format, AtlasBricking bricking)
     : mGl(context.gl()),
       mFormat(format),
+      mBricking(bricking),
       mTexel(texelFormat(type, format)),
       mEdge(brickEdge),
       mSlots(slotCapacity(brickEdge, mTexel.bytes, budgetBytes - staging, maxUsefulSlots)) {
@@ -96,8 +97,8 @@ BrickAtlas::BrickAtlas(const GlContext& context, store::ValueType type, int bric
   if (staging > 0) {
     const size_t region = uploadBytes(type, brickEdge, format);
     mRing = std::make_unique<UploadRing>(mGl, region, int(staging / region));
-  } else if (type != store::ValueType::F32 && mTexel.type == GL_FLOAT) {
-    mStaging.resize(size_t(brickEdge) * size_t(brickEdge) * size_t(brickEdge));
+  } else if ((type != store::ValueType::F32 && mTexel.type == GL_FLOAT) || bricking != AtlasBricking::Single) {
+    mStaging.resize(uploadBytes(type, brickEdge, format));
   }
 }
 
@@ -110,13 +111,40 @@ glm::ivec3 BrickAtlas::slotOrigin(AtlasSlot slot) const {
   return glm::ivec3(i % mGrid.x, (i / mGrid.x) % mGrid.y, i / (mGrid.x * mGrid.y)) * mEdge;
 }
 
-void BrickAtlas::convert(const store::Brick& brick, void* out) const {
+namespace {
+
+/// Copies an edge^3 brick `in` to `out` with its axes rotated by r (orientVoxel): out's texel a holds in's voxel v
+/// with a = orientVoxel(v, r); each value passes through `cast`.
+template <typename In, typename Out>
+void rotateBrick(const In* in, Out* out, int edge, int r) {
+  const size_t e = size_t(edge);
+  if (r == 0) {
+    for (size_t i = 0; i < e * e * e; ++i) out[i] = Out(in[i]);
+    return;
+  }
+  // Strides in `out` of a step along the brick's x, y and z: r = 1 puts x at a.z, y at a.x, z at a.y; r = 2 puts
+  // x at a.y, y at a.z, z at a.x.
+  const size_t sx = r == 1 ? e * e : e, sy = r == 1 ? 1 : e * e, sz = r == 1 ? e : 1;
+  for (size_t z = 0; z < e; ++z)
+    for (size_t y = 0; y < e; ++y) {
+      const In* row = in + (z * e + y) * e;
+      Out* to = out + z * sz + y * sy;
+      for (size_t x = 0; x < e; ++x) to[x * sx] = Out(row[x]);
+    }
+}
+
+}  // namespace
+
+void BrickAtlas::convert(const store::Brick& brick, void* out, int orientation) const {
   const size_t n = size_t(mEdge) * size_t(mEdge) * size_t(mEdge);
   if (brick.type() != store::ValueType::F32 && mTexel.type == GL_FLOAT) {
     store::dispatchType(brick.type(), [&](auto tag) {
-      const auto* in = static_cast<const decltype(tag)*>(brick.data());
-      float* to = static_cast<float*>(out);
-      for (size_t i = 0; i < n; ++i) to[i] = float(in[i]);
+      rotateBrick(static_cast<const decltype(tag)*>(brick.data()), static_cast<float*>(out), mEdge, orientation);
+    });
+  } else if (orientation != 0) {
+    store::dispatchType(brick.type(), [&](auto tag) {
+      using T = decltype(tag);
+      rotateBrick(static_cast<const T*>(brick.data()), static_cast<T*>(out), mEdge, orientation);
     });
   } else {
     std::memcpy(out, brick.data(), n * store::valueSize(brick.type()));
@@ -125,10 +153,11 @@ void BrickAtlas::convert(const store::Brick& brick, void* out) const {
 
 void BrickAtlas::upload(AtlasSlot slot, const store::Brick& brick) {
   const glm::ivec3 o = slotOrigin(slot);
+  const int orientation = this->orientation(brick.key());
   mTexture.bind(0);
   mGl.glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   if (mRing) {
-    convert(brick, mRing->map());
+    convert(brick, mRing->map(), orientation);
     const size_t offset = mRing->unmap();
     mGl.glTexSubImage3D(GL_TEXTURE_3D, 0, o.x, o.y, o.z, mEdge, mEdge, mEdge, GL_RED, mTexel.type,
                         reinterpret_cast<const void*>(offset));
@@ -136,8 +165,8 @@ void BrickAtlas::upload(AtlasSlot slot, const store::Brick& brick) {
     return;
   }
   const void* data = brick.data();
-  if (!mStaging.empty()) {
-    convert(brick, mStaging.data());
+  if (!mStaging.empty() && (orientation != 0 || (brick.type() != store::ValueType::F32 && mTexel.type == GL_FLOAT))) {
+    convert(brick, mStaging.data(), orientation);
     data = mStaging.data();
   }
   mGl.glTexSubImage3D(GL_TEXTURE_3D, 0, o.x, o.y, o.z, mEdge, mEdge, mEdge, GL_RED, mTexel.type, data);

@@ -35,7 +35,8 @@ class BrickAtlas {
   /// number of bricks of the volume). `uploads` Auto is resolved with the context (resolveUploads). Throws
   /// RenderInputError when the budget holds less than one slot.
   BrickAtlas(const GlContext& context, store::ValueType type, int brickEdge, size_t budgetBytes, int maxUsefulSlots,
-             AtlasFormat format = AtlasFormat::Float, AtlasUploads uploads = AtlasUploads::Auto);
+             AtlasFormat format = AtlasFormat::Float, AtlasUploads uploads = AtlasUploads::Auto,
+             AtlasBricking bricking = AtlasBricking::Single);
 
   /// Bytes of texture one slot takes.
   static size_t slotBytes(store::ValueType type, int brickEdge, AtlasFormat format);
@@ -48,8 +49,12 @@ class BrickAtlas {
   static AtlasUploads resolveUploads(const GlContext& context, AtlasUploads uploads);
 
   AtlasSlots& slots() { return mSlots; }
-  /// Copies a decoded brick into `slot` (converting it to float first for the Float and Half formats).
+  /// Copies a decoded brick into `slot` (converting it to float first for the Float and Half formats), its axes
+  /// rotated by orientation() (orientVoxel).
   void upload(AtlasSlot slot, const store::Brick& brick);
+  /// The axis rotation brick `key` has in its slot: brickOrientation(bricking(), key).
+  int orientation(const store::BrickKey& key) const { return brickOrientation(mBricking, key); }
+  AtlasBricking bricking() const { return mBricking; }
   /// What a texture fetch returns for a raw value v is v * valueScale() (normalised formats read v / 255 etc.).
   double valueScale() const { return mTexel.valueScale; }
   AtlasFormat format() const { return mFormat; }
@@ -71,7 +76,7 @@ class BrickAtlas {
  private:
   /// The constructor, with `staging` bytes of the budget for the upload ring (0: direct uploads).
   BrickAtlas(const GlContext& context, store::ValueType type, int brickEdge, size_t staging, size_t budgetBytes,
-             int maxUsefulSlots, AtlasFormat format);
+             int maxUsefulSlots, AtlasFormat format, AtlasBricking bricking);
 
   const Gl& mGl;
   /// GL internal format, upload type, bytes per texel and value scale of the chosen format.
@@ -83,16 +88,18 @@ class BrickAtlas {
   static TexelFormat texelFormat(store::ValueType type, AtlasFormat format);
 
   AtlasFormat mFormat;
+  AtlasBricking mBricking;
   TexelFormat mTexel;
   int mEdge;
   glm::ivec3 mGrid{1};    // slots per axis
   glm::ivec3 mTexels{1};  // texture size
   Texture mTexture;
   AtlasSlots mSlots;
-  std::vector<float> mStaging;          // direct uploads converted to float
+  std::vector<uint8_t> mStaging;        // direct uploads converted to float or rotated
   std::unique_ptr<UploadRing> mRing;    // staged uploads
-  /// Writes `brick` into `out` as the upload type (converted to float where the format needs it).
-  void convert(const store::Brick& brick, void* out) const;
+  /// Writes `brick` into `out` as the upload type (converted to float where the format needs it), rotated by
+  /// `orientation`.
+  void convert(const store::Brick& brick, void* out, int orientation) const;
 };
 
 }  // namespace voxbrick::render

@@ -74,7 +74,7 @@ FrameRenderer& RenderEngine::Impl::rendererFor(const std::shared_ptr<const Datas
     case DatasetKind::BrickStore:
       renderer = std::make_unique<VolumeRenderer>(*context, static_cast<const BrickStoreDataset&>(*dataset).cache(),
                                                   options.gpuBudgetBytes - gpuBytes, options.atlasFormat,
-                                                  options.atlasUploads);
+                                                  options.atlasUploads, options.atlasBricking);
       break;
   }
   if (!renderer) throw RenderError("RenderEngine: no renderer for datasets of kind " +

@@ -23,6 +23,7 @@ struct RenderEngineOptions {
   size_t gpuBudgetBytes = size_t(1) << 30;
   AtlasFormat atlasFormat = AtlasFormat::Float;  ///< how atlases store samples
   AtlasUploads atlasUploads = AtlasUploads::Auto;  ///< how bricks reach the atlases
+  AtlasBricking atlasBricking = AtlasBricking::Single;  ///< how bricks lie in the atlases
 };
 
 class RenderEngine {

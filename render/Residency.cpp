@@ -12,10 +12,10 @@ constexpr size_t kPrefetchWindow = 256;  // bricks decoded ahead of the one bein
 }  // namespace
 
 Residency::Residency(const GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes,
-                     AtlasFormat format, AtlasUploads uploads)
+                     AtlasFormat format, AtlasUploads uploads, AtlasBricking bricking)
     : mCache(std::move(cache)),
       mAtlas(context, mCache->store()->type(), mCache->store()->brickEdge(), gpuBudgetBytes,
-             usefulSlots(*mCache->store()), format, uploads) {
+             usefulSlots(*mCache->store()), format, uploads, bricking) {
   mSlotRanges.resize(size_t(mAtlas.slots().capacity()));
 }
 
@@ -123,7 +123,7 @@ std::optional<Residency::Resident> Residency::acquire(const store::BrickKey& key
   } else if (subBlock && ranges.subBlock() != subBlock) {
     ranges = SubBlockRanges(*mCache->get(key), B, subBlock, owned);
   }
-  return Resident{acquired->slot, mAtlas.slotOrigin(acquired->slot), &ranges};
+  return Resident{acquired->slot, mAtlas.slotOrigin(acquired->slot), mAtlas.orientation(key), &ranges};
 }
 
 }  // namespace voxbrick::render

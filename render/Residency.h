@@ -26,7 +26,8 @@ class Residency {
 
   /// An atlas of `gpuBudgetBytes` in `format` for the bricks of `cache`'s store; the context must be current.
   Residency(const GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes,
-            AtlasFormat format, AtlasUploads uploads = AtlasUploads::Auto);
+            AtlasFormat format, AtlasUploads uploads = AtlasUploads::Auto,
+            AtlasBricking bricking = AtlasBricking::Single);
 
   /// Coarse-to-fine streaming, before beginFrame: every brick of `bricks` that is neither in the atlas nor in the
   /// host cache is drawn from its nearest ancestor that is (up to level `coarsest`, whose brick is read now if no
@@ -44,6 +45,7 @@ class Residency {
   struct Resident {
     AtlasSlot slot;
     glm::ivec3 origin;             ///< texel of the slot's first (border) sample
+    int orientation;               ///< the brick's axis rotation in its slot (orientVoxel)
     const SubBlockRanges* ranges;  ///< the brick's sub-block ranges at the frame's sub-block size (empty if 0)
   };
   /// The brick `key` in the atlas, paged in if it was not, with its sub-block ranges for `subBlock` (0: none);

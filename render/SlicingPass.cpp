@@ -81,9 +81,11 @@ void BrickWalk::cutBrick(const FramePlan& plan, const BrickDraw& draw, const Res
   } else {
     mSpans.push_back({ownedLo, ownedHi});
   }
-  // xyz: added to a sample's voxel coordinate in the brick's level, gives its atlas texel; w: the level.
-  const glm::ivec4 payload(resident.origin.x + 1 - int32_t(brickLo.x), resident.origin.y + 1 - int32_t(brickLo.y),
-                           resident.origin.z + 1 - int32_t(brickLo.z), level);
+  // xyz: added to a sample's voxel coordinate in the brick's level (rotated as the brick is in its slot), gives
+  // its atlas texel: slot origin + 1 + rotated(v - brickLo); w: the level and the rotation (payloadLevel).
+  const glm::ivec3 rotatedLo =
+      orientVoxel(glm::ivec3(int32_t(brickLo.x), int32_t(brickLo.y), int32_t(brickLo.z)), resident.orientation);
+  const glm::ivec4 payload(resident.origin + 1 - rotatedLo, payloadLevel(level, resident.orientation));
   // Whole bricks own the whole volume (only the outline is cut, the same for every bricking); with exact ownership
   // (sub-blocks, slabs) each box owns just its voxels (volume.frag.glsl).
   const glm::ivec3 volumeHi(meta.dims.x, meta.dims.y, meta.dims.z);

@@ -26,6 +26,7 @@ ProgramSources sources(const ProgramKey& key) {
   if (key.raycast) defines.push_back("RAYCAST");
   if (key.preIntegration) defines.push_back("PRE_INTEGRATION");
   if (key.emptyTest) defines.push_back("EMPTY_TEST");
+  if (key.multiOriented) defines.push_back("MULTI_ORIENTED");
   // The stages before the fragment program: the proxy of slabs or the ray caster, or the slicer's.
   ProgramSources program = key.raycast ? ProgramSources::fromFiles({}, {{GL_VERTEX_SHADER, "raycast.vert.glsl"}})
                            : key.slab  ? ProgramSources::fromFiles({}, {{GL_VERTEX_SHADER, "slab.vert.glsl"}})

@@ -29,6 +29,7 @@ struct ProgramKey {
   bool preIntegration = false;  ///< PRE_INTEGRATION (with SLAB): segments classified from a table
   bool emptyTest = false;       ///< EMPTY_TEST (with SLAB): the empty-space silhouette pass, no colour
   bool raycast = false;         ///< RAYCAST: a full-screen proxy (raycast.vert.glsl), a pixel's whole ray per fragment
+  bool multiOriented = false;   ///< MULTI_ORIENTED: bricks lie in the atlas with rotated axes (AtlasBricking)
   auto operator<=>(const ProgramKey&) const = default;
 };
 

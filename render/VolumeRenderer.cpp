@@ -16,9 +16,9 @@ double msSince(Clock::time_point t) { return std::chrono::duration<double, std::
 }  // namespace
 
 VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes,
-                               AtlasFormat format, AtlasUploads uploads)
+                               AtlasFormat format, AtlasUploads uploads, AtlasBricking bricking)
     : mGl(context.gl()),
-      mResidency(context, std::move(cache), gpuBudgetBytes, format, uploads),
+      mResidency(context, std::move(cache), gpuBudgetBytes, format, uploads, bricking),
       mTransfer(mGl, GL_TEXTURE_1D),
       mPrograms(mGl),
       mCompositor(mGl),
@@ -66,6 +66,7 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
                                                    : FragmentModel::Plain,
                        plan.subBlock > 0 || plan.coarsestLevel > 0, plan.slab > 0, plan.preIntegration};
   key.raycast = plan.raycast;
+  key.multiOriented = mResidency.atlas().bricking() == AtlasBricking::MultiOriented;
   const VolumeProgram& program = mPrograms.get(key);
   program.setFrame(plan, mResidency.atlas(), store.meta());
   if (plan.preIntegration) {

@@ -26,7 +26,8 @@ class VolumeRenderer final : public FrameRenderer {
  public:
   /// `context` must be current on this thread whenever the renderer is used. `gpuBudgetBytes` bounds the atlas.
   VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes,
-                 AtlasFormat format = AtlasFormat::Float, AtlasUploads uploads = AtlasUploads::Auto);
+                 AtlasFormat format = AtlasFormat::Float, AtlasUploads uploads = AtlasUploads::Auto,
+                 AtlasBricking bricking = AtlasBricking::Single);
   ~VolumeRenderer() override;
 
   /// Renders `scene`; throws RenderInputError for an invalid scene and RenderError for GL failures.

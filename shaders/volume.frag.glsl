@@ -12,7 +12,9 @@
 //
 // vPayload.xyz = slot origin + 1 - brick start (voxels of the brick's level): adding it to the sample's voxel
 // coordinate in that level gives the atlas texel coordinate; the one-voxel border keeps every fetch inside the slot.
-// vPayload.w = the brick's pyramid level m: a level-m voxel is 2^m level-0 voxels across, so the level's voxel
+// With MULTI_ORIENTED the brick lies in its slot with rotated axes, and both the start and the coordinate are
+// rotated (orient). vPayload.w = the brick's pyramid level m (and the rotation: levelOf, orient): a level-m voxel is
+// 2^m level-0 voxels across, so the level's voxel
 // coordinate is the level-0 one times 2^-m (exactly the same number at level 0). Positions, ownership and planes stay
 // in level-0 voxels. Voxel coordinates are clamped to [0, n] before a fetch: within half a voxel of the surface the
 // value is the edge voxel's (clamp-to-edge) either way, and the fetch stays in the slot.
@@ -80,11 +82,25 @@ float oneMinusExp(float y) {
   return y > -0.015625 ? -y * (1.0 + y * (0.5 + y * (1.0 / 6.0 + y * (1.0 / 24.0)))) : 1.0 - exp(y);
 }
 
+// A payload's w holds the brick's level and, with MULTI_ORIENTED, the rotation of its axes in the slot (AtlasFormat.h:
+// payloadLevel, orientVoxel): level w & 63, rotation w >> 6; negative w (the cell table's markers) pass unchanged.
+#ifdef MULTI_ORIENTED
+int levelOf(int w) { return w < 0 ? w : (w & 63); }
+vec3 orient(vec3 v, int w) {
+  const int r = w >> 6;
+  return r == 1 ? v.yzx : r == 2 ? v.zxy : v;
+}
+#else
+int levelOf(int w) { return w; }
+vec3 orient(vec3 v, int w) { return v; }
+#endif
+
 // 2^-m for the brick's level m.
-float levelScale() { return 1.0 / float(1 << PAYLOAD.w); }
+float levelScale() { return 1.0 / float(1 << levelOf(PAYLOAD.w)); }
 
 float sampleAt(vec3 voxel) {
-  return texture(uAtlas, (clamp(voxel, vec3(0.0), uDims) * levelScale() + vec3(PAYLOAD.xyz)) * uInvAtlasSize).r;
+  return texture(uAtlas, (orient(clamp(voxel, vec3(0.0), uDims) * levelScale(), PAYLOAD.w) + vec3(PAYLOAD.xyz)) *
+                             uInvAtlasSize).r;
 }
 
 // The length of this ray's segment between two planes, in reference lengths. Planes are uPlaneIncr apart along the
@@ -230,7 +246,7 @@ void main() {
   // The planes the ray can have inside the box: its parameter range in the owned voxels (widened by 1/128 voxel,
   // beyond the ownership test's 1/256 grid) and one plane more each side. The ownership test alone decides.
   const vec2 range = rayBoxRange(o, inv, vec3(vOwnLo) - 1.0 / 128.0, vec3(vOwnHi) + 1.0 / 128.0);
-  const int level = vPayload.w, stride = 1 << level;
+  const int level = levelOf(vPayload.w), stride = 1 << level;
   // The first plane of the level's subset at or after the first plane the ray can have (>> floors negatives too).
   const int first = ((max(vFirstPlane, int(floor((start + along * range.x) / uPlaneIncr)) - 1) + stride - 1) >> level)
                     << level;
@@ -371,7 +387,7 @@ void main() {
     const vec3 scaled = snapped * cellScale;
     const ivec3 cell = clamp(ivec3(mix(floor(scaled), ceil(scaled) - 1.0, eyeAtHi)), ivec3(0), ivec3(uCellCount) - 1);
     const ivec4 entry = texelFetch(uCells, cell, 0);
-    const int level = entry.w;
+    const int level = levelOf(entry.w);
     const int stride = 1 << max(level, 0);
     if (level < 0 || (k & (stride - 1)) != 0) {
       // Nothing to draw in this cell, or a plane its level does not take. A cell with nothing to draw at all adds
