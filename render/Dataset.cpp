@@ -8,6 +8,7 @@ namespace voxbrick::render {
 const char* datasetKindName(DatasetKind kind) {
   switch (kind) {
     case DatasetKind::BrickStore: return "brick-store";
+    case DatasetKind::TetMesh: return "tet-mesh";
   }
   return "unknown";
 }

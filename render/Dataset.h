@@ -15,9 +15,9 @@
 namespace voxbrick::render {
 
 /// The kinds of dataset; RenderEngine picks the renderer by kind.
-enum class DatasetKind { BrickStore };
+enum class DatasetKind { BrickStore, TetMesh };
 
-/// "brick-store".
+/// "brick-store", "tet-mesh".
 const char* datasetKindName(DatasetKind kind);
 
 /// An opened dataset, shared (read-only) by every session and render thread.

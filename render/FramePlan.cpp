@@ -5,7 +5,6 @@
 #include <limits>
 
 namespace voxbrick::render {
-namespace {
 
 PixelRays pixelRays(const glm::dmat4& viewProj, int width, int height) {
   const glm::dmat4 inverseViewProj = glm::inverse(viewProj);
@@ -24,8 +23,6 @@ PixelRays pixelRays(const glm::dmat4& viewProj, int width, int height) {
   r.directionDy = (unproject(0, 1, 1) - nearY) - (far0 - near0);
   return r;
 }
-
-}  // namespace
 
 ValueWindow valueWindow(const Scene& scene, const store::StoreMeta& meta) {
   ValueWindow w;

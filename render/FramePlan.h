@@ -35,6 +35,9 @@ struct PixelRays {
   glm::dvec3 direction, directionDx, directionDy;
 };
 
+/// The pixel rays of a `width` x `height` window under `viewProj` (world to clip).
+PixelRays pixelRays(const glm::dmat4& viewProj, int width, int height);
+
 struct FramePlan {
   Box volume;                 ///< the volume's world box
   Camera camera;

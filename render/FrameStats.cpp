@@ -13,9 +13,10 @@ nlohmann::json FrameStats::toJson() const {
           {"sub_blocks_skipped", subBlocksSkipped}, {"boxes_drawn", boxesDrawn},
           {"bricks_coarse", bricksCoarse},   {"bricks_coarsened", bricksCoarsened},
           {"bricks_per_level", bricksPerLevel}, {"bricks_standin", bricksStandIn},
+          {"tets_drawn", tetsDrawn},
           {"ms", {{"traversal", msTraversal}, {"paging", msPaging}, {"slicing", msSlicing},
                   {"drawing", msDrawing}, {"readback", msReadback}, {"total", msTotal},
-                  {"pre_integration", msPreIntegration}}}};
+                  {"pre_integration", msPreIntegration}, {"sorting", msSorting}}}};
 }
 
 }  // namespace voxbrick::render

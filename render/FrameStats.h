@@ -35,6 +35,8 @@ struct FrameStats {
   /// Wall time of each phase on the calling thread. Drawing ends with a glFinish, but with several batches a
   /// batch's GPU work may instead be waited for by the next batch's uploads and show up as paging.
   double msTraversal = 0, msPaging = 0, msSlicing = 0, msDrawing = 0, msReadback = 0, msTotal = 0;
+  int64_t tetsDrawn = 0;        ///< tetrahedra drawn (a mesh frame)
+  double msSorting = 0;         ///< a mesh frame's visibility sort
   double msPreIntegration = 0;  ///< building the pre-integration table (0 when the last frame's was current)
 
   /// The statistics as a JSON object (snake_case keys, times under "ms"), to which callers may add their own keys.

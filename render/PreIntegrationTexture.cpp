@@ -17,6 +17,10 @@ bool samePoints(const std::vector<TransferFunction::Point>& a, const std::vector
 
 double PreIntegrationTexture::update(const TransferFunction& tf, const FramePlan& plan, int unit) {
   const auto [ratioMin, ratioMax] = plan.segmentRatios();
+  return update(tf, ratioMin, ratioMax, unit);
+}
+
+double PreIntegrationTexture::update(const TransferFunction& tf, double ratioMin, double ratioMax, int unit) {
   mTexture.bind(unit);
   if (mBuilt && mSpec.ratioMin == ratioMin && mSpec.ratioMax == ratioMax && mReferenceLength == tf.referenceLength() &&
       samePoints(mPoints, tf.points()))

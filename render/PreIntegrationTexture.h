@@ -24,6 +24,8 @@ class PreIntegrationTexture {
   /// Makes the table of `tf` for `plan`'s segment lengths current, rebuilding it only if they changed, and binds it
   /// on texture unit `unit`. Returns the milliseconds spent building (0 when it was current).
   double update(const TransferFunction& tf, const FramePlan& plan, int unit);
+  /// The same for segments of [ratioMin, ratioMax] reference lengths (a mesh frame's).
+  double update(const TransferFunction& tf, double ratioMin, double ratioMax, int unit);
   /// The table's shape and texel mapping (valid after update).
   const PreIntegrationSpec& spec() const { return mSpec; }
 

@@ -9,6 +9,7 @@
 #include "render/GlContext.h"
 #include "render/Residency.h"
 #include "render/RenderErrors.h"
+#include "render/TetRenderer.h"
 #include "render/VolumeRenderer.h"
 
 namespace voxbrick::render {
@@ -35,7 +36,8 @@ struct RenderEngine::Impl {
 };
 
 size_t RenderEngine::Impl::wanted(const Dataset& dataset) const {
-  if (dataset.kind() != DatasetKind::BrickStore) return 0;
+  if (dataset.kind() == DatasetKind::TetMesh)
+    return TetRenderer::bytesFor(static_cast<const TetMeshDataset&>(dataset).data()->mesh.tets.size());
   return Residency::atlasBytes(*static_cast<const BrickStoreDataset&>(dataset).store(), options.gpuBudgetBytes,
                                options.atlasFormat, BrickAtlas::resolveUploads(*context, options.atlasUploads));
 }
@@ -75,6 +77,10 @@ FrameRenderer& RenderEngine::Impl::rendererFor(const std::shared_ptr<const Datas
       renderer = std::make_unique<VolumeRenderer>(*context, static_cast<const BrickStoreDataset&>(*dataset).cache(),
                                                   options.gpuBudgetBytes - gpuBytes, options.atlasFormat,
                                                   options.atlasUploads, options.atlasBricking);
+      break;
+    case DatasetKind::TetMesh:
+      renderer = std::make_unique<TetRenderer>(*context, static_cast<const TetMeshDataset&>(*dataset).data(),
+                                               options.gpuBudgetBytes - gpuBytes);
       break;
   }
   if (!renderer) throw RenderError("RenderEngine: no renderer for datasets of kind " +

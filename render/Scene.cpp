@@ -52,6 +52,8 @@ const char* slicerName(Slicer slicer) {
   return "?";
 }
 
+const char* tetSortName(TetSort sort) { return sort == TetSort::Centroid ? "centroid" : "mpvo"; }
+
 std::string slicerNames() {
   std::string names;
   for (Slicer slicer : kSlicers) names += std::string(names.empty() ? "" : ", ") + "\"" + slicerName(slicer) + "\"";
@@ -101,7 +103,7 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   if (!j.is_object()) throw RenderInputError(what + ": a scene must be a JSON object");
   static const char* kKeys[] = {"camera", "size", "transfer_function", "step", "background", "window",
                                 "skip_empty", "cull", "slicer", "shading", "sub_block", "slab", "raycast", "ert",
-                                "pre_integration", "ess", "lod", "progressive"};
+                                "pre_integration", "ess", "lod", "progressive", "visibility"};
   for (auto it = j.begin(); it != j.end(); ++it)
     if (std::find(std::begin(kKeys), std::end(kKeys), it.key()) == std::end(kKeys))
       throw RenderInputError(what + ": unknown key '" + it.key() + "'");
@@ -168,6 +170,16 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
     const json& sl = j["slicer"];
     if (!sl.is_string()) throw RenderInputError(what + ": 'slicer' must be one of " + slicerNames());
     s.slicer = parseSlicer(sl.get<std::string>(), what + ": 'slicer'");
+  }
+  if (j.contains("visibility")) {
+    const json& v = j["visibility"];
+    const std::string name = v.is_string() ? v.get<std::string>() : "";
+    if (name == "mpvo")
+      s.visibility = TetSort::Mpvo;
+    else if (name == "centroid")
+      s.visibility = TetSort::Centroid;
+    else
+      throw RenderInputError(what + ": 'visibility' must be \"mpvo\" or \"centroid\"");
   }
   if (j.contains("shading")) s.shading = boolean(j["shading"], "shading", what);
   if (j.contains("sub_block")) {
@@ -247,7 +259,8 @@ std::string Scene::toJson() const {
             {"pre_integration", preIntegration},
             {"ess", ess},
             {"lod", lod},
-            {"progressive", progressive}};
+            {"progressive", progressive},
+            {"visibility", tetSortName(visibility)}};
   if (window) j["window"] = json::array({(*window)[0], (*window)[1]});
   return j.dump(2);
 }

@@ -37,6 +37,14 @@ Slicer parseSlicer(const std::string& name, const std::string& what);
 /// The valid names, "vertex", "cpu", ... quoted and separated by commas, for messages and help texts.
 std::string slicerNames();
 
+/// How a tetrahedral mesh's cells are put in visibility order (seed 002). Mpvo: the meshed-polyhedra visibility
+/// order, a breadth-first walk of the face-adjacency graph from the cells nothing hides (exact for a convex mesh
+/// without cycles). Centroid: cells by the distance of their centroids from the eye (cheaper, approximate where
+/// cells of different sizes meet).
+enum class TetSort { Mpvo, Centroid };
+/// "mpvo", "centroid".
+const char* tetSortName(TetSort sort);
+
 /// The camera as a user gives it: an orbit around the volume, or eye/center/up.
 struct CameraSpec {
   bool orbit = true;
@@ -112,12 +120,14 @@ struct Scene {
   /// a provisional Frame followed by the exact one (PROTOCOL.md); `voxbrick render` writes both. The final frame is
   /// the same as without it.
   bool progressive = false;
+  /// Visibility order of a tetrahedral mesh's cells (no effect on a grid).
+  TetSort visibility = TetSort::Mpvo;
 
   /// Parses a scene JSON object; absent keys keep their defaults. Throws RenderInputError naming `what` and the
   /// key. Keys: camera {orbit: [az, el, dist] | eye, center, up; fov; orthographic}, size [w, h],
   /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b],
   /// window [lo, hi], skip_empty, cull, slicer (slicerName), shading, sub_block, slab, raycast, ert,
-  /// pre_integration, ess, lod, progressive.
+  /// pre_integration, ess, lod, progressive, visibility (tetSortName).
   /// `allowPaths` false (the server) accepts transfer functions by preset name or inline only, never a file path.
   static Scene fromJson(const std::string& text, const std::string& what, bool allowPaths = true);
   /// The same, resolving preset names from `presets` (no file is read) and accepting no paths: what a server does

@@ -1,0 +1,47 @@
+// A tetrahedral mesh as a dataset (seed 002): the mesh, its face adjacency, and what every frame of it needs (its
+// world box, the default reference length), held in memory and shared read-only by every render thread. GL-free.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "mesh/TetMesh.h"
+#include "mesh/Topology.h"
+#include "render/Camera.h"
+#include "render/Dataset.h"
+
+namespace voxbrick::render {
+
+/// A mesh ready to draw. Built once per dataset.
+struct TetMeshData {
+  mesh::TetMesh mesh;
+  mesh::Topology topology;
+  Box bounds;                     ///< the points' box, world units (the camera orbits its centre)
+  double meanEdgeLength = 1;      ///< over every tet's six edges: the default reference length (a "cell")
+  double longestEdge = 1;         ///< the longest segment a ray can have in one tet
+  float scalarMin = 0, scalarMax = 0;
+
+  /// Derives the box, lengths and range from `mesh` (which must hold at least one tet with valid indices).
+  TetMeshData(mesh::TetMesh mesh, mesh::Topology topology);
+};
+
+/// A mesh dataset: what the server and `render` open; RenderEngine draws it with a TetRenderer.
+class TetMeshDataset final : public Dataset {
+ public:
+  /// A dataset of `data` (already loaded) under `name`, read from `path`.
+  TetMeshDataset(std::string name, const std::filesystem::path& path, std::shared_ptr<const TetMeshData> data);
+
+  DatasetKind kind() const override { return DatasetKind::TetMesh; }
+  /// {"kind": "tet-mesh", "tets", "points", "field", "bounds", "value_range", "reference_length"}.
+  std::string infoJson() const override;
+  /// A mesh is held whole in memory: no cache.
+  store::CacheStats cacheStats() const override { return {}; }
+  void setCacheBudget(size_t) const override {}
+
+  const std::shared_ptr<const TetMeshData>& data() const { return mData; }
+
+ private:
+  std::shared_ptr<const TetMeshData> mData;
+};
+
+}  // namespace voxbrick::render

@@ -1,0 +1,154 @@
+// A mesh frame: visibility order on the CPU, the table, one instanced draw, readback.
+#include "render/TetRenderer.h"
+
+#include <chrono>
+#include <cmath>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "mesh/Visibility.h"
+#include "render/FramePlan.h"
+#include "render/RenderErrors.h"
+
+namespace voxbrick::render {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+/// The shortest segment the table holds, as a share of the longest: shorter ones scale its first layer
+/// (tet.frag.glsl), exact to first order in the length.
+constexpr double kShortestRatioShare = 1.0 / 64;
+
+Program tetProgram(const Gl& gl, bool nullFragment) {
+  std::vector<std::string> defines;
+  if (nullFragment) defines.push_back("NULL_FRAGMENT");
+  return Program(gl, ProgramSources::fromFiles(nullFragment ? "tet-null" : "tet",
+                                               {{GL_VERTEX_SHADER, "tet.vert.glsl"}, {GL_FRAGMENT_SHADER, "tet.frag.glsl"}},
+                                               std::move(defines)));
+}
+
+}  // namespace
+
+size_t TetRenderer::bytesFor(size_t tets) {
+  const size_t table = size_t(PreIntegrationTexture::kResolution) * PreIntegrationTexture::kResolution * 64 * 16;
+  return tets * (64 + 4) + table;
+}
+
+TetRenderer::TetRenderer(GlContext& context, std::shared_ptr<const TetMeshData> data, size_t gpuBudgetBytes)
+    : mGl(context.gl()),
+      mData(std::move(data)),
+      mVertices(mGl),
+      mOrderBuffer(mGl),
+      mEmpty(mGl),
+      mProgram(tetProgram(mGl, false)),
+      mNullProgram(tetProgram(mGl, true)),
+      mCompositor(mGl),
+      mTable(mGl) {
+  const mesh::TetMesh& m = mData->mesh;
+  if (bytesFor(m.tets.size()) > gpuBudgetBytes)
+    throw RenderInputError("tet mesh: " + std::to_string(m.tets.size()) + " tets need " +
+                           std::to_string(bytesFor(m.tets.size())) + " bytes of GPU memory, more than the budget of " +
+                           std::to_string(gpuBudgetBytes));
+  // Positions relative to the box's centre keep single precision where the tets are (a mesh far from the origin
+  // would otherwise lose its small cells' shape).
+  const glm::dvec3 centre = mData->bounds.center();
+  std::vector<glm::vec4> texels(m.tets.size() * 4);
+  for (size_t t = 0; t < m.tets.size(); ++t)
+    for (int i = 0; i < 4; ++i) {
+      const uint32_t v = m.tets[t][i];
+      texels[4 * t + i] = glm::vec4(glm::vec3(glm::dvec3(m.points[v]) - centre), m.scalars[v]);
+    }
+  mVertices.allocate(GL_SHADER_STORAGE_BUFFER, texels.size() * sizeof(glm::vec4), texels.data(), GL_STATIC_DRAW);
+  mOrderBuffer.allocate(GL_SHADER_STORAGE_BUFFER, m.tets.size() * sizeof(uint32_t), nullptr, GL_STREAM_DRAW);
+  checkGlError(mGl, "TetRenderer: uploading the mesh");
+}
+
+TetRenderer::~TetRenderer() = default;
+
+size_t TetRenderer::gpuBytes() const { return bytesFor(mData->mesh.tets.size()); }
+
+image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, const FrameOptions& options) {
+  scene.validate();
+  const auto frameStart = Clock::now();
+  FrameStats stats;
+  const TetMeshData& d = *mData;
+  const glm::dvec3 centre = d.bounds.center();
+  const Camera camera = scene.camera.resolve(d.bounds);
+  double nearPlane = 0, farPlane = 0;
+  camera.clipRange(d.bounds, nearPlane, farPlane);
+  const double aspect = double(scene.width) / double(scene.height);
+  // World centred on the box, as the vertices are.
+  const glm::dmat4 viewProj =
+      camera.projection(aspect, nearPlane, farPlane) * camera.view() * glm::translate(glm::dmat4(1.0), centre);
+  const PixelRays rays = pixelRays(viewProj, scene.width, scene.height);
+
+  // The visibility order, front to back.
+  const mesh::ViewPoint view{camera.eye, camera.viewDirection(), camera.orthographic};
+  mesh::VisibilityStats sortStats;
+  if (scene.visibility == TetSort::Mpvo)
+    mesh::mpvoOrder(d.mesh, d.topology, view, mOrder, &sortStats);
+  else
+    mesh::centroidOrder(d.mesh, view, mOrder, &sortStats);
+  stats.msSorting = sortStats.ms;
+  if (options.cancelled && options.cancelled()) throw FrameCancelled("frame cancelled");
+
+  // The value window (default the scalars' range) and the segment lengths of the table.
+  double lo = d.scalarMin, hi = d.scalarMax;
+  if (scene.window) {
+    lo = (*scene.window)[0];
+    hi = (*scene.window)[1];
+  }
+  if (!(hi > lo)) hi = lo + 1;
+  const double reference = scene.transferFunction.referenceLength().value_or(d.meanEdgeLength);
+  const double ratioMax = d.longestEdge / reference;
+  const double ratioMin = ratioMax * kShortestRatioShare;
+  const bool nullFragment = options.mode == RenderMode::Roofline;
+  if (options.mode == RenderMode::Points)
+    throw RenderInputError("a tet mesh has no slices to draw as points (RenderMode::Points)");
+  if (!nullFragment) stats.msPreIntegration = mTable.update(scene.transferFunction, ratioMin, ratioMax, 3);
+  const PreIntegrationSpec& spec = mTable.spec();
+
+  const auto drawStart = Clock::now();
+  mCompositor.begin(scene.width, scene.height, true);
+  try {
+    mOrderBuffer.allocate(GL_SHADER_STORAGE_BUFFER, mOrder.size() * sizeof(uint32_t), mOrder.data(), GL_STREAM_DRAW);
+    const Program& p = nullFragment ? mNullProgram : mProgram;
+    p.set(p.uniformLocation("uViewProj"), glm::mat4(viewProj));
+    p.set(p.uniformLocation("uWindowLo"), float(lo));
+    p.set(p.uniformLocation("uWindowScale"), float(1.0 / (hi - lo)));
+    p.set(p.uniformLocation("uPixel"), glm::vec2(2.0f / float(scene.width), 2.0f / float(scene.height)));
+    p.set(p.uniformLocation("uRayOrigin"), glm::vec3(rays.origin));
+    p.set(p.uniformLocation("uRayOriginDx"), glm::vec3(rays.originDx));
+    p.set(p.uniformLocation("uRayOriginDy"), glm::vec3(rays.originDy));
+    p.set(p.uniformLocation("uRayDirection"), glm::vec3(rays.direction));
+    p.set(p.uniformLocation("uRayDirectionDx"), glm::vec3(rays.directionDx));
+    p.set(p.uniformLocation("uRayDirectionDy"), glm::vec3(rays.directionDy));
+    p.set(p.uniformLocation("uInvReference"), float(1.0 / reference));
+    p.set(p.uniformLocation("uPreIntegrated"), 3);
+    p.set(p.uniformLocation("uTableResolution"), float(spec.resolution));
+    p.set(p.uniformLocation("uRatioMin"), float(spec.ratioMin));
+    p.set(p.uniformLocation("uLayerScale"), float(spec.layerScale()));
+    p.set(p.uniformLocation("uLayers"), float(spec.layers));
+    p.use();
+    mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mVertices.id());
+    mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, mOrderBuffer.id());
+    mEmpty.bind();
+    mGl.glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(mOrder.size()));
+    checkGlError(mGl, "TetRenderer: drawing");
+  } catch (...) {
+    mCompositor.abort();
+    throw;
+  }
+  stats.msDrawing = msSince(drawStart);
+  stats.tetsDrawn = int64_t(mOrder.size());
+  stats.batches = 1;
+  image::ImageF image = mCompositor.finish(scene.background, stats);
+  mGl.glDisable(GL_BLEND);
+  mGl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  stats.msTotal = msSince(frameStart);
+  if (statsOut) *statsOut = stats;
+  return image;
+}
+
+}  // namespace voxbrick::render

@@ -1,0 +1,52 @@
+// Renders a tetrahedral mesh (seed 002, Carrard & Juliachs): cells sorted front to back on the CPU (MPVO or by
+// centroid, mesh/Visibility.h), then one instance per tet drawn in that order, its quad covering the tet's
+// projection, its fragments finding the pixel ray's entry and exit faces and classifying the segment from the
+// pre-integrated table (front value, back value, length): shaders/tet.vert.glsl and tet.frag.glsl.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "render/Compositor.h"
+#include "render/FrameRenderer.h"
+#include "render/GlContext.h"
+#include "render/GlObjects.h"
+#include "render/PreIntegrationTexture.h"
+#include "render/TetDataset.h"
+
+namespace voxbrick::render {
+
+/// One per GL context and mesh. The tets stay on the GPU between frames (64 bytes each: four vertices as position
+/// and scalar), as does the pre-integrated table while the transfer function and the lengths stay the same; each
+/// frame uploads only the order (4 bytes a tet).
+class TetRenderer final : public FrameRenderer {
+ public:
+  /// Uploads the mesh. Throws RenderInputError when it needs more than `gpuBudgetBytes` (tets, order and the
+  /// largest pre-integration table).
+  TetRenderer(GlContext& context, std::shared_ptr<const TetMeshData> data, size_t gpuBudgetBytes);
+  ~TetRenderer() override;
+
+  /// Renders `scene` (camera, size, transfer function, window, background, visibility; RenderMode::Roofline draws
+  /// with the seed's null fragment program). Throws RenderInputError for an invalid scene, RenderError for GL
+  /// failures, FrameCancelled when options.cancelled says so before drawing.
+  image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) override;
+  size_t gpuBytes() const override;
+
+  /// The GPU bytes a mesh of `tets` tetrahedra takes: its vertices, its order and the table.
+  static size_t bytesFor(size_t tets);
+  /// The last frame's visibility order (front to back), for tests.
+  const std::vector<uint32_t>& order() const { return mOrder; }
+
+ private:
+  const Gl& mGl;
+  std::shared_ptr<const TetMeshData> mData;
+  Buffer mVertices;  // 4 vec4 per tet: position (centred on the mesh's box) and raw scalar
+  Buffer mOrderBuffer;
+  VertexArray mEmpty;  // core profile draws need a vertex array, even one without attributes
+  Program mProgram, mNullProgram;
+  Compositor mCompositor;
+  PreIntegrationTexture mTable;
+  std::vector<uint32_t> mOrder;
+};
+
+}  // namespace voxbrick::render

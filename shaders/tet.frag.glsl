@@ -1,0 +1,54 @@
+// A fragment of a projected tetrahedron: its pixel's ray meets the tet between the entry and exit faces (where the
+// barycentric planes of tet.vert.glsl cross zero), the scalar is linear in between, and the segment's colour and
+// opacity come from the pre-integrated table (front value, back value, length): render/PreIntegration.h, the
+// optical model of ARCHITECTURE.md. Exact for perspective rays (the ray is the pixel's own, in world units), with
+// no sprite size limit. Premultiplied output, blended front to back in the visibility order.
+flat in vec4 vPlane[4];
+flat in vec4 vScalar;
+
+uniform vec3 uRayOrigin, uRayOriginDx, uRayOriginDy;           // ray origin (near plane) at window (x, y)
+uniform vec3 uRayDirection, uRayDirectionDx, uRayDirectionDy;  // near plane to far plane at window (x, y)
+uniform float uInvReference;  // 1 / the transfer function's reference length
+
+// The pre-integrated table (render/PreIntegration.h), its resolution and length layers.
+uniform sampler3D uPreIntegrated;
+uniform float uTableResolution;
+uniform float uRatioMin;
+uniform float uLayerScale;
+uniform float uLayers;
+
+out vec4 fragColor;
+
+void main() {
+#ifdef NULL_FRAGMENT
+  // The seed's null fragment program (its Table 3): no computation, a constant colour, so that what remains is the
+  // vertex stage, rasterisation and blending.
+  fragColor = vec4(1.0);
+  return;
+#endif
+  const vec3 origin = uRayOrigin + gl_FragCoord.x * uRayOriginDx + gl_FragCoord.y * uRayOriginDy;
+  const vec3 direction = uRayDirection + gl_FragCoord.x * uRayDirectionDx + gl_FragCoord.y * uRayDirectionDy;
+  // The ray's parameter range inside the tet (t in [0, 1] runs from the near plane to the far plane).
+  float enter = 0.0, leave = 1.0;
+  for (int i = 0; i < 4; ++i) {
+    const float at = dot(vPlane[i].xyz, origin) + vPlane[i].w;
+    const float rate = dot(vPlane[i].xyz, direction);
+    // Inside where at + t * rate >= 0: rising through the face enters, falling leaves; parallel and outside misses.
+    if (rate > 0.0)
+      enter = max(enter, -at / rate);
+    else if (rate < 0.0)
+      leave = min(leave, -at / rate);
+    else if (at < 0.0)
+      discard;
+  }
+  if (!(leave > enter)) discard;
+  const float front = dot(vScalar.xyz, origin + enter * direction) + vScalar.w;
+  const float back = dot(vScalar.xyz, origin + leave * direction) + vScalar.w;
+  const float ratio = (leave - enter) * length(direction) * uInvReference;
+  // Below the table's shortest segment both colour and opacity are linear in the length to first order (a thin
+  // segment): the shortest layer's entry, scaled.
+  const float scale = ratio < uRatioMin ? ratio / uRatioMin : 1.0;
+  const float layer = (clamp(log(max(ratio, uRatioMin) / uRatioMin) * uLayerScale, 0.0, uLayers - 1.0) + 0.5) / uLayers;
+  const vec2 st = (clamp(vec2(front, back), 0.0, 1.0) * (uTableResolution - 1.0) + 0.5) / uTableResolution;
+  fragColor = texture(uPreIntegrated, vec3(st, layer)) * scale;
+}
