@@ -6,6 +6,7 @@
 #include <string>
 
 #include "mesh/FileCursor.h"
+#include "mesh/VtkTypes.h"
 
 namespace voxbrick::mesh {
 
@@ -69,24 +70,6 @@ void checkWritable(const TetMesh& mesh, const std::filesystem::path& path) {
     throw MeshError(path.string() + ": too many vertices or tets for 32-bit indices");
 }
 
-// VTK 7+ escapes names as %XX; older readers read such names verbatim, which is still a valid name.
-std::string vtkName(const std::string& field) {
-  const std::string name = field.empty() ? "scalars" : field;
-  std::string out;
-  const char* hex = "0123456789ABCDEF";
-  for (char c : name) {
-    const auto u = static_cast<unsigned char>(c);
-    if (u <= ' ' || u >= 127 || c == '%') {
-      out += '%';
-      out += hex[u >> 4];
-      out += hex[u & 15];
-    } else {
-      out += c;
-    }
-  }
-  return out;
-}
-
 }  // namespace
 
 void writeVtk(const TetMesh& mesh, const std::filesystem::path& path, bool binary, bool bigEndian) {
@@ -122,8 +105,8 @@ void writeVtk(const TetMesh& mesh, const std::filesystem::path& path, bool binar
   out.text((binary ? "\nCELL_TYPES " : "CELL_TYPES ") + m + "\n");
   for (size_t t = 0; t < mesh.tets.size(); ++t) binary ? out.binary(int32_t{10}, bigEndian) : out.text("10\n");
   if (!mesh.scalars.empty()) {
-    out.text((binary ? "\nPOINT_DATA " : "POINT_DATA ") + n + "\nSCALARS " + vtkName(mesh.field) +
-             " float 1\nLOOKUP_TABLE default\n");
+    const std::string name = encodeVtkName(mesh.field.empty() ? "scalars" : mesh.field);
+    out.text((binary ? "\nPOINT_DATA " : "POINT_DATA ") + n + "\nSCALARS " + name + " float 1\nLOOKUP_TABLE default\n");
     for (float s : mesh.scalars) {
       if (binary) {
         out.binary(s, bigEndian);

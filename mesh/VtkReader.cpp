@@ -1,95 +1,14 @@
 // The VTK legacy unstructured-grid reader (readVtk in mesh/MeshReaders.h).
-#include <array>
 #include <cstdint>
 #include <optional>
 
 #include "mesh/MeshReaders.h"
 #include "mesh/ReaderSupport.h"
+#include "mesh/VtkTypes.h"
 
 namespace voxbrick::mesh {
 
 namespace {
-
-enum class VtkType { Bit, Int8, UInt8, Int16, UInt16, Int32, UInt32, Int64, UInt64, Float32, Float64, String };
-
-struct TypeInfo {
-  const char* name;
-  VtkType type;
-  uint32_t bytes;  // in binary files; 0 for bit and string arrays
-};
-
-constexpr TypeInfo kTypes[] = {
-    {"bit", VtkType::Bit, 0},           {"char", VtkType::Int8, 1},           {"signed_char", VtkType::Int8, 1},
-    {"unsigned_char", VtkType::UInt8, 1}, {"short", VtkType::Int16, 2},     {"unsigned_short", VtkType::UInt16, 2},
-    {"int", VtkType::Int32, 4},         {"unsigned_int", VtkType::UInt32, 4},
-    // "long" has the writer's sizeof(long): 8 on the LP64 systems that write nearly all such files.
-    {"long", VtkType::Int64, 8},        {"unsigned_long", VtkType::UInt64, 8}, {"vtkidtype", VtkType::Int64, 8},
-    {"vtktypeint8", VtkType::Int8, 1},  {"vtktypeuint8", VtkType::UInt8, 1},  {"vtktypeint16", VtkType::Int16, 2},
-    {"vtktypeuint16", VtkType::UInt16, 2}, {"vtktypeint32", VtkType::Int32, 4}, {"vtktypeuint32", VtkType::UInt32, 4},
-    {"vtktypeint64", VtkType::Int64, 8}, {"vtktypeuint64", VtkType::UInt64, 8}, {"float", VtkType::Float32, 4},
-    {"double", VtkType::Float64, 8},    {"vtktypefloat32", VtkType::Float32, 4}, {"vtktypefloat64", VtkType::Float64, 8},
-    {"string", VtkType::String, 0},     {"utf8_string", VtkType::String, 0}};
-
-constexpr int kTetra = 10;
-
-// VTK's cell types (vtkCellType.h) by number: name and dimension. Cells below dimension 3 are boundary or
-// annotation cells and are dropped; volume cells other than the linear tetra are refused.
-struct CellKind {
-  const char* name;
-  int dim;
-};
-
-std::optional<CellKind> cellKind(int64_t type) {
-  static const std::pair<int, CellKind> kKinds[] = {
-      {0, {"empty cell", 0}}, {1, {"vertex", 0}}, {2, {"poly-vertex", 0}}, {3, {"line", 1}}, {4, {"poly-line", 1}},
-      {5, {"triangle", 2}}, {6, {"triangle strip", 2}}, {7, {"polygon", 2}}, {8, {"pixel", 2}}, {9, {"quad", 2}},
-      {10, {"tetra", 3}}, {11, {"voxel", 3}}, {12, {"hexahedron", 3}}, {13, {"wedge", 3}}, {14, {"pyramid", 3}},
-      {15, {"pentagonal prism", 3}}, {16, {"hexagonal prism", 3}}, {21, {"quadratic edge", 1}},
-      {22, {"quadratic triangle", 2}}, {23, {"quadratic quad", 2}}, {24, {"quadratic tetra", 3}},
-      {25, {"quadratic hexahedron", 3}}, {26, {"quadratic wedge", 3}}, {27, {"quadratic pyramid", 3}},
-      {28, {"biquadratic quad", 2}}, {29, {"triquadratic hexahedron", 3}}, {30, {"quadratic-linear quad", 2}},
-      {31, {"quadratic-linear wedge", 3}}, {32, {"biquadratic-quadratic wedge", 3}},
-      {33, {"biquadratic-quadratic hexahedron", 3}}, {34, {"biquadratic triangle", 2}}, {35, {"cubic line", 1}},
-      {36, {"quadratic polygon", 2}}, {37, {"triquadratic pyramid", 3}}, {41, {"convex point set", 3}},
-      {42, {"polyhedron", 3}}, {51, {"parametric curve", 1}}, {52, {"parametric surface", 2}},
-      {53, {"parametric tri surface", 2}}, {54, {"parametric quad surface", 2}},
-      {55, {"parametric tetra region", 3}}, {56, {"parametric hex region", 3}}, {60, {"higher-order edge", 1}},
-      {61, {"higher-order triangle", 2}}, {62, {"higher-order quad", 2}}, {63, {"higher-order polygon", 2}},
-      {64, {"higher-order tetrahedron", 3}}, {65, {"higher-order wedge", 3}}, {66, {"higher-order pyramid", 3}},
-      {67, {"higher-order hexahedron", 3}}, {68, {"Lagrange curve", 1}}, {69, {"Lagrange triangle", 2}},
-      {70, {"Lagrange quadrilateral", 2}}, {71, {"Lagrange tetrahedron", 3}}, {72, {"Lagrange hexahedron", 3}},
-      {73, {"Lagrange wedge", 3}}, {74, {"Lagrange pyramid", 3}}, {75, {"Bezier curve", 1}},
-      {76, {"Bezier triangle", 2}}, {77, {"Bezier quadrilateral", 2}}, {78, {"Bezier tetrahedron", 3}},
-      {79, {"Bezier hexahedron", 3}}, {80, {"Bezier wedge", 3}}, {81, {"Bezier pyramid", 3}}};
-  // Indexed once: a file can hold millions of cells.
-  static const auto kByNumber = [] {
-    std::array<std::optional<CellKind>, 82> table{};
-    for (const auto& [number, kind] : kKinds) table[static_cast<size_t>(number)] = kind;
-    return table;
-  }();
-  if (type < 0 || type >= static_cast<int64_t>(kByNumber.size())) return std::nullopt;
-  return kByNumber[static_cast<size_t>(type)];
-}
-
-// VTK 7+ writes names with spaces and unprintable bytes as %XX.
-std::string decodeName(std::string_view text) {
-  auto hex = [](char c) -> int {
-    if (c >= '0' && c <= '9') return c - '0';
-    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-    return -1;
-  };
-  std::string out;
-  for (size_t i = 0; i < text.size(); ++i) {
-    if (text[i] == '%' && i + 2 < text.size() && hex(text[i + 1]) >= 0 && hex(text[i + 2]) >= 0) {
-      out += static_cast<char>(hex(text[i + 1]) * 16 + hex(text[i + 2]));
-      i += 2;
-    } else {
-      out += text[i];
-    }
-  }
-  return out;
-}
 
 // Binary content that makes no sense in the byte order tried (a cell type VTK does not have, cell sizes that do
 // not add up): readVtk then tries the other order.
@@ -115,14 +34,14 @@ class VtkParser {
   void skipMetadataIfPresent();
   TetMesh assemble();
 
-  const TypeInfo& readType(const char* what);
+  const VtkTypeInfo& readType(const char* what);
   void endHeader();
   std::vector<std::string> restOfLine();
-  void guard(const TypeInfo& type, uint64_t count, const char* what);
-  int64_t integerValue(const TypeInfo& type, const char* what);
+  void guard(const VtkTypeInfo& type, uint64_t count, const char* what);
+  int64_t integerValue(const VtkTypeInfo& type, const char* what);
   template <class Sink>
-  void readReals(const TypeInfo& type, uint64_t count, const char* what, Sink&& sink);
-  void skipValues(const TypeInfo& type, uint64_t count, const char* what);
+  void readReals(const VtkTypeInfo& type, uint64_t count, const char* what, Sink&& sink);
+  void skipValues(const VtkTypeInfo& type, uint64_t count, const char* what);
   [[noreturn]] void suspect(size_t offset, const std::string& what) const;
 
   FileCursor& mIn;
@@ -141,11 +60,10 @@ void VtkParser::suspect(size_t offset, const std::string& what) const {
   mIn.failAt(offset, what);
 }
 
-const TypeInfo& VtkParser::readType(const char* what) {
+const VtkTypeInfo& VtkParser::readType(const char* what) {
   const size_t at = (mIn.skipWhitespace(), mIn.offset());
   const std::string name = lowerCase(mIn.token(what));
-  for (const TypeInfo& info : kTypes)
-    if (name == info.name) return info;
+  if (const VtkTypeInfo* info = findVtkType(name)) return *info;
   mIn.failAt(at, "unknown data type '" + name + "' for " + what);
 }
 
@@ -167,14 +85,14 @@ std::vector<std::string> VtkParser::restOfLine() {
   return words;
 }
 
-void VtkParser::guard(const TypeInfo& type, uint64_t count, const char* what) {
+void VtkParser::guard(const VtkTypeInfo& type, uint64_t count, const char* what) {
   if (type.type == VtkType::String) mIn.fail(std::string("string arrays are not supported (") + what + ")");
   if (!mBinary) return mIn.requireFits(count, 2, what, 1);  // a digit and a separator, none after the last
   if (type.type == VtkType::Bit) return mIn.requireFits((count + 7) / 8, 1, what);
   mIn.requireFits(count, type.bytes, what);
 }
 
-int64_t VtkParser::integerValue(const TypeInfo& type, const char* what) {
+int64_t VtkParser::integerValue(const VtkTypeInfo& type, const char* what) {
   if (!mBinary) return mIn.integer(what);
   switch (type.type) {
     case VtkType::Int8: return mIn.binary<int8_t>(mSwap, what);
@@ -193,7 +111,7 @@ int64_t VtkParser::integerValue(const TypeInfo& type, const char* what) {
 }
 
 template <class Sink>
-void VtkParser::readReals(const TypeInfo& type, uint64_t count, const char* what, Sink&& sink) {
+void VtkParser::readReals(const VtkTypeInfo& type, uint64_t count, const char* what, Sink&& sink) {
   guard(type, count, what);
   if (!mBinary) {
     if (type.type == VtkType::Float32) {
@@ -221,7 +139,7 @@ void VtkParser::readReals(const TypeInfo& type, uint64_t count, const char* what
   }
 }
 
-void VtkParser::skipValues(const TypeInfo& type, uint64_t count, const char* what) {
+void VtkParser::skipValues(const VtkTypeInfo& type, uint64_t count, const char* what) {
   guard(type, count, what);
   if (!mBinary) {
     for (uint64_t i = 0; i < count; ++i) mIn.token(what);
@@ -254,7 +172,7 @@ void VtkParser::readPoints() {
   const size_t at = mIn.offset();
   if (mPoints) mIn.failAt(at, "a second POINTS section");
   const uint64_t n = static_cast<uint64_t>(mIn.integer("point count", 0, UINT32_MAX));
-  const TypeInfo& type = readType("POINTS");
+  const VtkTypeInfo& type = readType("POINTS");
   endHeader();
   guard(type, 3 * n, "POINTS");
   mPoints.emplace(n);
@@ -267,12 +185,12 @@ void VtkParser::readCells() {
   const uint64_t first = static_cast<uint64_t>(mIn.integer("CELLS count", 0, UINT32_MAX));
   const uint64_t size = static_cast<uint64_t>(mIn.integer("CELLS size", 0, INT64_MAX));
   const size_t afterCounts = mIn.offset();
-  const TypeInfo int32Type{"int", VtkType::Int32, 4};
+  const VtkTypeInfo int32Type{"int", VtkType::Int32, 4};
   std::vector<uint64_t>& starts = mCellStart.emplace();
   if (lowerCase(mIn.peekToken()) == "offsets") {
     // VTK >= 5.1: "CELLS nOffsets nConnectivity", then the offsets (one more than the cells) and connectivity.
     mIn.expect("OFFSETS");
-    const TypeInfo& offsetType = readType("OFFSETS");
+    const VtkTypeInfo& offsetType = readType("OFFSETS");
     endHeader();
     guard(offsetType, first, "OFFSETS");
     starts.reserve(first);
@@ -291,7 +209,7 @@ void VtkParser::readCells() {
                                 std::to_string(size) + " entries");
     if (starts.empty()) starts.push_back(0);
     mIn.expect("CONNECTIVITY");
-    const TypeInfo& indexType = readType("CONNECTIVITY");
+    const VtkTypeInfo& indexType = readType("CONNECTIVITY");
     endHeader();
     guard(indexType, size, "CONNECTIVITY");
     mConnectivity.reserve(size);
@@ -342,14 +260,14 @@ void VtkParser::readCellTypes() {
   if (n != cells) mIn.failAt(at, "CELL_TYPES has " + std::to_string(n) + " entries for " + std::to_string(cells) +
                                      " cells");
   endHeader();
-  const TypeInfo int32Type{"int", VtkType::Int32, 4};
+  const VtkTypeInfo int32Type{"int", VtkType::Int32, 4};
   guard(int32Type, n, "CELL_TYPES");
   std::vector<int32_t>& types = mCellTypes.emplace();
   types.reserve(n);
   for (uint64_t c = 0; c < n; ++c) {
     const size_t typeAt = mIn.offset();
     const int64_t type = integerValue(int32Type, "CELL_TYPES");
-    if (!cellKind(type))
+    if (!vtkCellKind(type))
       suspect(typeAt, "cell " + std::to_string(c) + " has type " + std::to_string(type) + ", not a VTK cell type");
     types.push_back(static_cast<int32_t>(type));
   }
@@ -371,14 +289,14 @@ void VtkParser::readFieldArrays(uint64_t count, bool pointData, bool datasetLeve
   const int64_t arrays = mIn.integer("FIELD array count", 0, 1 << 20);
   endHeader();
   for (int64_t a = 0; a < arrays; ++a) {
-    const std::string name = decodeName(mIn.token("a FIELD array name"));
+    const std::string name = decodeVtkName(mIn.token("a FIELD array name"));
     if (name == "NULL_ARRAY") {
       endHeader();
       continue;
     }
     const int64_t components = mIn.integer("FIELD array components", 1, 1 << 20);
     const uint64_t tuples = static_cast<uint64_t>(mIn.integer("FIELD array tuples", 0, UINT32_MAX));
-    const TypeInfo& type = readType("FIELD array");
+    const VtkTypeInfo& type = readType("FIELD array");
     endHeader();
     const uint64_t values = tuples * static_cast<uint64_t>(components);
     const bool scalar = !datasetLevel && pointData && components == 1 && tuples == count;
@@ -401,8 +319,8 @@ void VtkParser::readAttributes(uint64_t count, bool pointData) {
     const size_t at = (mIn.skipWhitespace(), mIn.offset());
     const std::string keyword = lowerCase(mIn.peekToken());
     auto skipArray = [&](uint64_t perTuple) {
-      const std::string name = decodeName(mIn.token("an array name"));
-      const TypeInfo& type = readType(keyword.c_str());
+      const std::string name = decodeVtkName(mIn.token("an array name"));
+      const VtkTypeInfo& type = readType(keyword.c_str());
       endHeader();
       mPicker.noteUnusable(name, pointData ? std::to_string(perTuple) + " components" : "cell data");
       skipValues(type, count * perTuple, keyword.c_str());
@@ -411,11 +329,9 @@ void VtkParser::readAttributes(uint64_t count, bool pointData) {
       mIn.token();
       const std::vector<std::string> words = restOfLine();  // name type [components]
       if (words.size() < 2 || words.size() > 3) mIn.failAt(at, "expected SCALARS name type [components]");
-      const std::string name = decodeName(words[0]);
+      const std::string name = decodeVtkName(words[0]);
       const std::string typeName = lowerCase(words[1]);
-      const TypeInfo* type = nullptr;
-      for (const TypeInfo& info : kTypes)
-        if (typeName == info.name) type = &info;
+      const VtkTypeInfo* type = findVtkType(typeName);
       if (!type) mIn.failAt(at, "unknown data type '" + typeName + "' for SCALARS " + name);
       int components = 1;
       if (words.size() == 3) {
@@ -457,9 +373,9 @@ void VtkParser::readAttributes(uint64_t count, bool pointData) {
       skipArray(1);
     } else if (keyword == "texture_coordinates") {
       mIn.token();
-      const std::string name = decodeName(mIn.token("an array name"));
+      const std::string name = decodeVtkName(mIn.token("an array name"));
       const int64_t dim = mIn.integer("texture coordinate dimension", 1, 3);
-      const TypeInfo& type = readType("TEXTURE_COORDINATES");
+      const VtkTypeInfo& type = readType("TEXTURE_COORDINATES");
       endHeader();
       mPicker.noteUnusable(name, pointData ? "texture coordinates" : "cell data");
       skipValues(type, count * static_cast<uint64_t>(dim), "TEXTURE_COORDINATES");
@@ -470,7 +386,7 @@ void VtkParser::readAttributes(uint64_t count, bool pointData) {
       const int64_t perTuple = mIn.integer(keyword == "lookup_table" ? "table size" : "colour components", 0,
                                            keyword == "lookup_table" ? INT32_MAX : 4);
       endHeader();
-      const TypeInfo bytes{"unsigned_char", VtkType::UInt8, 1};
+      const VtkTypeInfo bytes{"unsigned_char", VtkType::UInt8, 1};
       skipValues(bytes, keyword == "lookup_table" ? 4 * static_cast<uint64_t>(perTuple)
                                                   : count * static_cast<uint64_t>(perTuple), "colours");
     } else if (keyword == "field") {
@@ -526,12 +442,13 @@ TetMesh VtkParser::assemble() {
   TetMesh mesh;
   mesh.points = std::move(*mPoints);
   const std::vector<uint64_t>& starts = *mCellStart;
+  mesh.tets.reserve(starts.size() - 1);
   CellCensus census;
   for (size_t c = 0; c + 1 < starts.size(); ++c) {
     const int32_t type = (*mCellTypes)[c];
     const uint64_t n = starts[c + 1] - starts[c];
-    const CellKind kind = *cellKind(type);
-    if (type == kTetra) {
+    const VtkCellKind kind = *vtkCellKind(type);
+    if (type == kVtkTetra) {
       if (n != 4)
         throw MeshError(mIn.name() + ": cell " + std::to_string(c) + " is a tetra with " + std::to_string(n) +
                         " points");
