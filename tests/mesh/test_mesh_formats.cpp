@@ -321,6 +321,123 @@ $EndNodeData
   EXPECT_NE(error.find("velocity (3 components)"), std::string::npos) << error;
 }
 
+// MSH 4.1 as gmsh writes it for a real model: several entity blocks, sparse unordered node tags, parametric
+// coordinates on a curve's nodes, surface elements to drop, and sections to skip.
+const char* kGmsh41 = R"($MeshFormat
+4.1 0 8
+$EndMeshFormat
+$PhysicalNames
+1
+3 1 "solid"
+$EndPhysicalNames
+$Entities
+1 0 0 1
+1 0 0 0 0
+1 0 0 0 1 1 1 1 1 0
+$EndEntities
+$Nodes
+3 5 3 900
+0 1 0 1
+900
+0 0 0
+1 4 1 1
+3
+1 0 0 0.25
+3 1 0 3
+7
+42
+100
+0 1 0
+0 0 1
+1 1 1
+$EndNodes
+$Elements
+2 3 1 3
+2 1 2 1
+5 900 3 7
+3 1 4 2
+8 900 3 7 42
+9 3 7 42 100
+$EndElements
+$Comments
+anything at all, even $Nodes
+$EndComments
+$NodeData
+1
+"T"
+1
+0.0
+3
+0
+1
+5
+900 0.5
+3 1.5
+7 2.5
+42 3.5
+100 4.5
+$EndNodeData
+)";
+
+TEST(MeshFormats, Gmsh41EntityBlocksAndSparseTags) {
+  const TetMesh mesh = readText("model.msh", kGmsh41);
+  TetMesh expected;
+  expected.points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}};  // in file order
+  expected.tets = {{0, 1, 2, 3}, {1, 2, 3, 4}};
+  expected.scalars = {0.5f, 1.5f, 2.5f, 3.5f, 4.5f};
+  expected.field = "T";
+  expectSameMesh(expected, mesh);
+}
+
+// Binary gmsh from a machine of the other byte order: the endianness check reads as 0x01000000.
+std::string swappedGmsh(int version) {
+  std::string out = version == 2 ? "$MeshFormat\n2.2 1 8\n" : "$MeshFormat\n4.1 1 8\n";
+  auto put = [&]<class T>(T value) {
+    char bytes[sizeof(T)];
+    std::memcpy(bytes, &value, sizeof(T));
+    for (size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(bytes[i], bytes[sizeof(T) - 1 - i]);
+    out.append(bytes, sizeof(T));
+  };
+  const double coordinates[4][3] = {{0, 0, 0}, {3, 0, 0}, {0, 3, 0}, {0, 0, 3}};
+  put(int32_t{1});
+  out += "\n$EndMeshFormat\n$Nodes\n";
+  if (version == 2) {
+    out += "4\n";
+    for (int i = 0; i < 4; ++i) {
+      put(int32_t{10 + i});
+      for (double c : coordinates[i]) put(c);
+    }
+    out += "\n$EndNodes\n$Elements\n1\n";
+    for (int32_t v : {4, 1, 2, 77, 0, 1, 10, 11, 12, 13}) put(v);  // run header, then tag, 2 tags, 4 nodes
+  } else {
+    for (uint64_t v : {1, 4, 10, 13}) put(v);
+    for (int32_t v : {3, 1, 0}) put(v);
+    put(uint64_t{4});
+    for (uint64_t tag : {10, 11, 12, 13}) put(tag);
+    for (const auto& point : coordinates)
+      for (double c : point) put(c);
+    out += "\n$EndNodes\n$Elements\n";
+    for (uint64_t v : {1, 1, 77, 77}) put(v);
+    for (int32_t v : {3, 1, 4}) put(v);
+    for (uint64_t v : {1, 77, 10, 11, 12, 13}) put(v);
+  }
+  out += "\n$EndElements\n$NodeData\n1\n\"s\"\n1\n0\n3\n0\n1\n4\n";
+  for (int i = 0; i < 4; ++i) {
+    put(int32_t{10 + i});
+    put(0.25 * i);
+  }
+  return out + "\n$EndNodeData\n";
+}
+
+TEST(MeshFormats, BinaryGmshInTheOtherByteOrder) {
+  for (int version : {2, 4}) {
+    const TetMesh mesh = readText("swapped.msh", swappedGmsh(version));
+    EXPECT_EQ(mesh.points, (std::vector<glm::vec3>{{0, 0, 0}, {3, 0, 0}, {0, 3, 0}, {0, 0, 3}})) << version;
+    EXPECT_EQ(mesh.tets, (std::vector<Tet>{{0, 1, 2, 3}})) << version;
+    EXPECT_EQ(mesh.scalars, (std::vector<float>{0, 0.25f, 0.5f, 0.75f})) << version;
+  }
+}
+
 TEST(MeshFormats, ContentDecidesOverExtension) {
   ScratchDir dir;
   const TetMesh source = syntheticMesh("box,n=1");
