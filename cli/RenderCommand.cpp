@@ -88,6 +88,14 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
     for (int64_t n : stats.bricksPerLevel) levels += " " + std::to_string(n);
     levels += ")";
   }
+  if (dataset->kind() == render::DatasetKind::TetMesh) {
+    std::printf("render: wrote %s (%dx%d): %lld tets drawn in %s order, %lld fragments, %.1f ms (sorting %.1f, "
+                "pre-integration %.1f, drawing %.1f, readback %.1f)\n",
+                a.output.c_str(), scene.width, scene.height, (long long)stats.tetsDrawn,
+                render::tetSortName(scene.visibility), (long long)stats.fragments, stats.msTotal, stats.msSorting,
+                stats.msPreIntegration, stats.msDrawing, stats.msReadback);
+    return;
+  }
   std::printf("render: wrote %s (%dx%d): %lld bricks drawn%s, %lld skipped empty, %lld culled, %lld paged in, "
               "%lld evicted, %lld batches, %.1f ms (paging %.1f, slicing %.1f, drawing %.1f, readback %.1f)\n",
               a.output.c_str(), scene.width, scene.height, (long long)stats.bricksDrawn, levels.c_str(),
