@@ -4,7 +4,12 @@
 
 #include <cmath>
 
+#include <nlohmann/json.hpp>
+
+#include "image/Image.h"
 #include "mesh/MeshStoreFixtures.h"
+#include "mesh/MeshWriters.h"
+#include "mesh/SyntheticMesh.h"
 #include "mesh/Visibility.h"
 #include "render/RenderErrors.h"
 #include "render/RenderFixtures.h"
@@ -62,6 +67,46 @@ TEST(TetRenderer, MpvoAndCentroidOrdersAgreeOnAConvexGrid) {
   // Centroid order misplaces tets of a Kuhn grid against their neighbours only where their centroids tie in depth
   // for the view; MPVO is exact. The frames agree closely on such a regular grid.
   test::expectClose(mpvo, centroid, 2.0 / 255, "tets-mpvo-vs-centroid");
+}
+
+// A mesh file end to end through the command: prep (a binary VTK file, then the same file again without and with
+// --force), info, render; a file of hexahedra is refused naming them, and nothing is written.
+TEST(TetCommands, PrepInfoRenderAndRefusals) {
+  test::ScratchDir dir;
+  mesh::TetMesh ball = mesh::syntheticMesh("ball,n=8");
+  mesh::writeVtk(ball, dir / "ball.vtk", true);
+  auto r = test::runVoxbrick("prep " + (dir / "ball.vtk").string() + " -q -o " + (dir / "ball").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_NE(r.output.find("prep: wrote mesh store"), std::string::npos) << r.output;
+  r = test::runVoxbrick("info --json " + (dir / "ball").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  const nlohmann::json info = nlohmann::json::parse(r.output);
+  EXPECT_EQ(info["kind"], "tet-mesh");
+  EXPECT_EQ(info["tets"].get<size_t>(), ball.tets.size());
+  EXPECT_EQ(info["field"], ball.field);
+  r = test::runVoxbrick("prep " + (dir / "ball.vtk").string() + " -q -o " + (dir / "ball").string());
+  EXPECT_NE(r.exitCode, 0) << "an existing store is replaced only with --force";
+  r = test::runVoxbrick("prep " + (dir / "ball.vtk").string() + " -q --force -o " + (dir / "ball").string());
+  EXPECT_EQ(r.exitCode, 0) << r.output;
+  r = test::runVoxbrick("render " + (dir / "ball").string() + " --size 64x48 --tf hot -q -o " +
+                        (dir / "ball.png").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_NE(r.output.find("tets drawn in mpvo order"), std::string::npos) << r.output;
+  const image::Image8 png = image::readPng(dir / "ball.png");
+  EXPECT_EQ(png.width, 64);
+  size_t lit = 0;
+  for (size_t i = 0; i < png.rgba.size(); i += 4) lit += png.rgba[i] > 10 ? 1 : 0;
+  EXPECT_GT(lit, 200u);
+
+  test::writeFile(dir / "hex.vtk",
+                  std::string("# vtk DataFile Version 3.0\nhex\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 8 float\n"
+                              "0 0 0 1 0 0 0 1 0 1 1 0 0 0 1 1 0 1 0 1 1 1 1 1\nCELLS 1 9\n8 0 1 3 2 4 5 7 6\n"
+                              "CELL_TYPES 1\n12\nPOINT_DATA 8\nSCALARS s float\nLOOKUP_TABLE default\n"
+                              "0 1 2 3 4 5 6 7\n"));
+  r = test::runVoxbrick("prep " + (dir / "hex.vtk").string() + " -q -o " + (dir / "hex").string());
+  EXPECT_NE(r.exitCode, 0);
+  EXPECT_NE(r.output.find("hexahedron"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "hex"));
 }
 
 }  // namespace
