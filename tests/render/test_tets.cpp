@@ -2,7 +2,11 @@
 // visibility orders themselves.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+
+#include <glm/gtc/matrix_transform.hpp>
 
 #include <nlohmann/json.hpp>
 
@@ -162,6 +166,126 @@ TEST(TetRenderer, NonConvexMeshOrdersAgainstTheReference) {
   EXPECT_GT(worst[int(TetSort::Mpvo)], 60.0);
   EXPECT_GT(worst[int(TetSort::Centroid)], 55.0);
   EXPECT_GE(worst[int(TetSort::Mpvo)], worst[int(TetSort::Centroid)]);
+}
+
+/// The strip tet.vert.glsl makes for each tet, captured by transform feedback (rasterizer discarded): two triangles
+/// per tet, in normalised device coordinates.
+std::vector<std::array<glm::vec2, 6>> capturedStrips(const std::vector<glm::vec4>& vertices, const glm::mat4& viewProj) {
+  const Gl& gl = test::context().gl();
+  ProgramSources sources = ProgramSources::fromFiles("capture tet", {{GL_VERTEX_SHADER, "tet.vert.glsl"}});
+  sources.feedbackVaryings = {"gl_Position"};
+  const Program program(gl, sources);
+  const size_t tets = vertices.size() / 4;
+  std::vector<uint32_t> order(tets);
+  for (size_t t = 0; t < tets; ++t) order[t] = uint32_t(t);
+  Buffer tetBuffer(gl), orderBuffer(gl), feedback(gl);
+  tetBuffer.allocate(GL_SHADER_STORAGE_BUFFER, vertices.size() * sizeof(glm::vec4), vertices.data(), GL_STATIC_DRAW);
+  orderBuffer.allocate(GL_SHADER_STORAGE_BUFFER, order.size() * 4, order.data(), GL_STATIC_DRAW);
+  feedback.allocate(GL_TRANSFORM_FEEDBACK_BUFFER, tets * 6 * sizeof(glm::vec4), nullptr, GL_STREAM_READ);
+  gl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, tetBuffer.id());
+  gl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, orderBuffer.id());
+  gl.glBindBufferBase(GL_TRANSFORM_FEEDBACK_BUFFER, 0, feedback.id());
+  program.set(program.uniformLocation("uViewProj"), viewProj);
+  program.set(program.uniformLocation("uWindowLo"), 0.0f);
+  program.set(program.uniformLocation("uWindowScale"), 1.0f);
+  program.use();
+  const VertexArray empty(gl);
+  empty.bind();
+  const Framebuffer target = Framebuffer::withColor(gl, 4, 4, GL_RGBA32F);  // a surfaceless context has none
+  target.bind();
+  gl.glEnable(GL_RASTERIZER_DISCARD);
+  gl.glBeginTransformFeedback(GL_TRIANGLES);
+  gl.glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(tets));
+  gl.glEndTransformFeedback();
+  gl.glDisable(GL_RASTERIZER_DISCARD);
+  std::vector<glm::vec4> out(tets * 6);
+  feedback.read(0, out.size() * sizeof(glm::vec4), out.data());
+  checkGlError(gl, "capturedStrips");
+  std::vector<std::array<glm::vec2, 6>> strips(tets);
+  for (size_t t = 0; t < tets; ++t)
+    for (int i = 0; i < 6; ++i) strips[t][size_t(i)] = glm::vec2(out[6 * t + size_t(i)]) / out[6 * t + size_t(i)].w;
+  return strips;
+}
+
+double cross2(glm::dvec2 a, glm::dvec2 b, glm::dvec2 c) { return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x); }
+
+/// The area of the convex hull of four points (the largest of the quadrilaterals' and triangles' areas would do,
+/// but the hull is computed directly: gift wrapping).
+double hullArea(const std::array<glm::dvec2, 4>& p) {
+  std::vector<glm::dvec2> pts(p.begin(), p.end());
+  std::sort(pts.begin(), pts.end(), [](auto a, auto b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
+  std::vector<glm::dvec2> hull;
+  for (int pass = 0; pass < 2; ++pass) {
+    const size_t start = hull.size();
+    for (const glm::dvec2& q : pts) {
+      while (hull.size() >= start + 2 && cross2(hull[hull.size() - 2], hull.back(), q) <= 0) hull.pop_back();
+      hull.push_back(q);
+    }
+    hull.pop_back();
+    std::reverse(pts.begin(), pts.end());
+  }
+  double area = 0;
+  for (size_t i = 0; i < hull.size(); ++i) {
+    const glm::dvec2 a = hull[i], b = hull[(i + 1) % hull.size()];
+    area += a.x * b.y - a.y * b.x;
+  }
+  return 0.5 * std::abs(area);
+}
+
+// The strip covers exactly the tet's projection (the convex hull of its projected vertices) in every case: a
+// quadrilateral, a triangle with a vertex inside, a vertex behind the eye (the whole viewport), a degenerate tet
+// (nothing), and random tets under a perspective camera, checked against the hull computed on the CPU.
+TEST(TetRenderer, StripsCoverExactlyTheProjection) {
+  const glm::mat4 ortho = glm::mat4(1.0f);  // world x, y are the projection's
+  std::vector<glm::vec4> v = {
+      // a quadrilateral: two opposite edges cross in projection
+      {-0.5f, -0.5f, 0.0f, 0}, {0.5f, 0.5f, 0.2f, 0}, {0.5f, -0.5f, 0.6f, 0}, {-0.5f, 0.5f, 0.4f, 0},
+      // a triangle, the fourth vertex projecting inside it
+      {-0.6f, -0.4f, 0.0f, 0}, {0.6f, -0.4f, 0.0f, 0}, {0.0f, 0.7f, 0.0f, 0}, {0.0f, 0.0f, 0.5f, 0},
+      // degenerate: four points in a plane
+      {0, 0, 0, 0}, {0.5f, 0, 0, 0}, {0, 0.5f, 0, 0}, {0.5f, 0.5f, 0, 0},
+  };
+  auto strips = capturedStrips(v, ortho);
+  ASSERT_EQ(strips.size(), 3u);
+  auto stripArea = [](const std::array<glm::vec2, 6>& s) {
+    return 0.5 * (std::abs(cross2(s[0], s[1], s[2])) + std::abs(cross2(s[3], s[4], s[5])));
+  };
+  auto projected = [&](size_t t, const glm::mat4& m) {
+    std::array<glm::dvec2, 4> p;
+    for (size_t i = 0; i < 4; ++i) {
+      const glm::vec4 c = m * glm::vec4(glm::vec3(v[4 * t + i]), 1.0f);
+      p[i] = glm::dvec2(c) / double(c.w);
+    }
+    return p;
+  };
+  EXPECT_NEAR(stripArea(strips[0]), hullArea(projected(0, ortho)), 1e-6);
+  EXPECT_NEAR(stripArea(strips[0]), 1.0, 1e-6);
+  EXPECT_NEAR(stripArea(strips[1]), hullArea(projected(1, ortho)), 1e-6);
+  for (const glm::vec2& corner : strips[2]) EXPECT_GT(corner.x, 1.0f) << "a degenerate tet draws nothing";
+
+  // Random tets under a perspective camera, one with a vertex behind the eye.
+  const glm::mat4 perspective = glm::perspective(glm::radians(40.0f), 1.0f, 0.1f, 10.0f) *
+                                glm::lookAt(glm::vec3(0, 0, 3), glm::vec3(0), glm::vec3(0, 1, 0));
+  v.clear();
+  uint32_t seed = 12345;
+  auto rnd = [&] {
+    seed = seed * 1664525u + 1013904223u;
+    return float(seed >> 8) / float(1 << 24) * 2.0f - 1.0f;
+  };
+  for (int t = 0; t < 200; ++t)
+    for (int i = 0; i < 4; ++i) v.push_back({rnd(), rnd(), rnd(), 0});
+  v.insert(v.end(), {{0, 0, 0, 0}, {0.5f, 0, 0, 0}, {0, 0.5f, 0, 0}, {0.1f, 0.1f, 5.0f, 0}});  // past the eye
+  strips = capturedStrips(v, perspective);
+  for (size_t t = 0; t < 200; ++t) {
+    const double hull = hullArea(projected(t, perspective));
+    EXPECT_NEAR(stripArea(strips[t]), hull, 1e-5 * std::max(1.0, hull)) << "tet " << t;
+    for (const glm::vec2& corner : strips[t]) {
+      bool isVertex = false;
+      for (const glm::dvec2& p : projected(t, perspective)) isVertex = isVertex || glm::length(glm::dvec2(corner) - p) < 1e-5;
+      EXPECT_TRUE(isVertex) << "tet " << t << ": the strip's corners are the projected vertices";
+    }
+  }
+  EXPECT_NEAR(stripArea(strips[200]), 4.0, 1e-6) << "a vertex behind the eye: the whole viewport";
 }
 
 // A mesh file end to end through the command: prep (a binary VTK file, then the same file again without and with
