@@ -3,10 +3,12 @@
 // opacity come from the pre-integrated table (front value, back value, length): render/PreIntegration.h, the
 // optical model of ARCHITECTURE.md. Exact for perspective rays (the ray is the pixel's own, in world units), with
 // no sprite size limit. Premultiplied output, blended front to back in the visibility order.
-flat in vec4 vPlane[4];
-flat in vec4 vScalar;
+noperspective in vec4 vAt;     // tet.vert.glsl: the barycentric planes along the ray, at + t * rate
+noperspective in vec4 vRate;
+noperspective in vec2 vValue;  // the normalised scalar along the ray, vValue.x + t * vValue.y
+flat in vec4 vNormSquared;
+flat in vec4 vTie;
 
-uniform vec3 uRayOrigin, uRayOriginDx, uRayOriginDy;           // ray origin (near plane) at window (x, y)
 uniform vec3 uRayDirection, uRayDirectionDx, uRayDirectionDy;  // near plane to far plane at window (x, y)
 uniform float uInvReference;  // 1 / the transfer function's reference length
 
@@ -26,37 +28,30 @@ void main() {
   fragColor = vec4(1.0);
   return;
 #endif
-  const vec3 origin = uRayOrigin + gl_FragCoord.x * uRayOriginDx + gl_FragCoord.y * uRayOriginDy;
   const vec3 direction = uRayDirection + gl_FragCoord.x * uRayDirectionDx + gl_FragCoord.y * uRayDirectionDy;
+  const float directionSquared = dot(direction, direction);
   // The ray's parameter range inside the tet (t in [0, 1] runs from the near plane to the far plane).
   float enter = 0.0, leave = 1.0;
   for (int i = 0; i < 4; ++i) {
-    const vec3 n = vPlane[i].xyz;
-    const float at = dot(n, origin) + vPlane[i].w;
-    const float rate = dot(n, direction);
-    // Inside where at + t * rate >= 0: rising through the face enters, falling leaves.
-    if (abs(rate) > 1e-6 * length(n) * length(direction)) {
+    const float at = vAt[i], rate = vRate[i];
+    // Inside where at + t * rate >= 0: rising through the face enters, falling leaves. (Parallel: |cos| <= 1e-6,
+    // compared in squares.)
+    if (rate * rate > 1e-12 * vNormSquared[i] * directionSquared) {
       if (rate > 0.0)
         enter = max(enter, -at / rate);
       else
         leave = min(leave, -at / rate);
-      continue;
+    } else if ((abs(at) <= 1e-5 ? vTie[i] : at) <= 0.0) {
+      // A ray parallel to the face (a view along a mesh's own planes) is inside or outside all along; in the face's
+      // plane, where the two tets sharing it would each decide by their own rounding (both keeping the ray, or
+      // neither: a line across the image), the tie rule of tet.vert.glsl decides, as the reference does.
+      discard;
     }
-    // A ray parallel to the face (a view along a mesh's own planes) is inside or outside all along. In the face's
-    // plane, where the two tets sharing it would each decide by their own rounding (both keeping the ray, or
-    // neither: a line across the image), the ray is taken as moved by eps * (one pixel right) + eps^2 * (one pixel
-    // up), as the reference does: the two tets' planes point opposite ways, so exactly one keeps it.
-    float side = at;
-    if (abs(at) <= 1e-5) {
-      side = dot(n, uRayOriginDx);
-      if (abs(side) <= 1e-6 * length(n) * length(uRayOriginDx)) side = dot(n, uRayOriginDy);
-    }
-    if (side <= 0.0) discard;
   }
   if (!(leave > enter)) discard;
-  const float front = dot(vScalar.xyz, origin + enter * direction) + vScalar.w;
-  const float back = dot(vScalar.xyz, origin + leave * direction) + vScalar.w;
-  const float ratio = (leave - enter) * length(direction) * uInvReference;
+  const float front = vValue.x + enter * vValue.y;
+  const float back = vValue.x + leave * vValue.y;
+  const float ratio = (leave - enter) * sqrt(directionSquared) * uInvReference;
   // Below the table's shortest segment both colour and opacity are linear in the length to first order (a thin
   // segment): the shortest layer's entry, scaled.
   const float scale = ratio < uRatioMin ? ratio / uRatioMin : 1.0;

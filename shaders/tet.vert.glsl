@@ -3,18 +3,28 @@
 // (render/TetRenderer.h). The tet's 64 bytes (four vec4: position xyz, scalar w) are read once per quad corner from
 // a storage buffer, the same bytes a point sprite would carry.
 //
-// Per-tet constants for the fragment stage, computed here: the four face planes scaled to be the barycentric
-// coordinates (plane i is 1 at vertex i and 0 on the opposite face, so the tet is where all four are >= 0), and the
-// scalar as a linear function of position (sum of s_i times plane i), normalised through the value window.
+// What the fragment stage needs, computed here. The four face planes scaled to be the barycentric coordinates (plane
+// i is 1 at vertex i and 0 on the opposite face, so the tet is where all four are >= 0) and the scalar as a linear
+// function of position (the sum of s_i times plane i, normalised through the value window). Along the pixel ray
+// origin + t * direction (both affine in window coordinates), plane i is at_i + t * rate_i and the scalar
+// s0 + t * s1, and at_i, rate_i, s0, s1 are themselves affine in window coordinates: computed at the strip's
+// corners, they are interpolated exactly (noperspective) to every fragment, which then needs only four divisions
+// to find where its ray enters and leaves the tet.
 layout(std430, binding = 1) readonly buffer TetVertices { vec4 uTetVertices[]; };
 layout(std430, binding = 2) readonly buffer TetOrder { uint uOrder[]; };
 
 uniform mat4 uViewProj;   // world (centred on the mesh) to clip
 uniform float uWindowLo;  // the value window [lo, hi] as lo and 1 / (hi - lo)
 uniform float uWindowScale;
+uniform vec2 uViewport;   // width, height in pixels
+uniform vec3 uRayOrigin, uRayOriginDx, uRayOriginDy;           // ray origin (near plane) at window (x, y)
+uniform vec3 uRayDirection, uRayDirectionDx, uRayDirectionDy;  // near plane to far plane at window (x, y)
 
-flat out vec4 vPlane[4];  // barycentric planes: dot(plane.xyz, x) + plane.w
-flat out vec4 vScalar;    // normalised value at x: dot(vScalar.xyz, x) + vScalar.w
+noperspective out vec4 vAt;    // the planes at the ray's origin
+noperspective out vec4 vRate;  // the planes' change along the ray (per unit of t)
+noperspective out vec2 vValue; // the normalised scalar at the origin and its change along the ray
+flat out vec4 vNormSquared;    // |n_i|^2 of each plane, for the test of a ray parallel to a face
+flat out vec4 vTie;            // each plane's side of a ray lying in it (tet.frag.glsl)
 
 // Twice the signed area of triangle (a, b, c).
 float orient(vec2 a, vec2 b, vec2 c) { return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x); }
@@ -45,6 +55,7 @@ void main() {
   vec4 v[4];
   for (int i = 0; i < 4; ++i) v[i] = uTetVertices[4u * tet + uint(i)];
   // Face i is opposite vertex i; its plane is scaled so that it is 1 at vertex i.
+  vec4 plane[4];
   vec4 scalar = vec4(0.0);
   bool degenerate = false;
   for (int i = 0; i < 4; ++i) {
@@ -52,11 +63,9 @@ void main() {
     const vec3 n = cross(b - a, c - a);
     const float atVertex = dot(n, v[i].xyz - a);
     degenerate = degenerate || abs(atVertex) <= 1e-30;
-    const vec4 plane = vec4(n, -dot(n, a)) / atVertex;
-    vPlane[i] = plane;
-    scalar += plane * ((v[i].w - uWindowLo) * uWindowScale);
+    plane[i] = vec4(n, -dot(n, a)) / atVertex;
+    scalar += plane[i] * ((v[i].w - uWindowLo) * uWindowScale);
   }
-  vScalar = scalar;
   // The tet's projection, a triangle or a convex quadrilateral (the convex hull of its four projected vertices),
   // drawn as a strip of four vertices: only pixels whose rays meet the tet start a fragment (a bounding rectangle
   // would start about twice as many). A vertex behind the eye (w <= 0) leaves the projection unbounded: then the
@@ -78,6 +87,22 @@ void main() {
   } else {
     strip = hullStrip(p);
   }
+  const vec2 corner = p[strip[gl_VertexID]];
   // A degenerate tet (validation removes them; this guards the division): an empty strip.
-  gl_Position = degenerate ? vec4(2.0, 2.0, 0.0, 1.0) : vec4(p[strip[gl_VertexID]], 0.0, 1.0);
+  gl_Position = degenerate ? vec4(2.0, 2.0, 0.0, 1.0) : vec4(corner, 0.0, 1.0);
+  // The ray through this corner, and the affine quantities there.
+  const vec2 window = (corner * 0.5 + 0.5) * uViewport;
+  const vec3 origin = uRayOrigin + window.x * uRayOriginDx + window.y * uRayOriginDy;
+  const vec3 direction = uRayDirection + window.x * uRayDirectionDx + window.y * uRayDirectionDy;
+  for (int i = 0; i < 4; ++i) {
+    const vec3 n = plane[i].xyz;
+    vAt[i] = dot(n, origin) + plane[i].w;
+    vRate[i] = dot(n, direction);
+    vNormSquared[i] = dot(n, n);
+    // A ray in the face's plane is taken as moved by eps * (one pixel right) + eps^2 * (one pixel up): the two tets
+    // sharing the face have planes pointing opposite ways, so exactly one keeps it.
+    const float right = dot(n, uRayOriginDx);
+    vTie[i] = right * right > 1e-12 * dot(n, n) * dot(uRayOriginDx, uRayOriginDx) ? right : dot(n, uRayOriginDy);
+  }
+  vValue = vec2(dot(scalar.xyz, origin) + scalar.w, dot(scalar.xyz, direction));
 }
