@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The main job: set up, build, prepare the demo stores (a real MRI and a sparse synthetic field), describe them,
-# render a frame of each, headless, to demo/*.png, and have the server render one over TCP to demo/served.png.
+# The main job: set up, build, prepare the demo stores (a real MRI, a sparse synthetic field and a tetrahedral mesh),
+# describe them, render a frame of each, headless, to demo/*.png, and have the server render the MRI and the mesh
+# over TCP to demo/served.png and demo/served-mesh.png.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
@@ -13,6 +14,9 @@ mri=/usr/share/mricron/templates/ch2better.nii.gz
 ./build/voxbrick info demo/sparse.vbs
 ./build/voxbrick render demo/mri.vbs -o demo/mri.png --scene config/scenes/mri-lateral.json --stats demo/mri-stats.json
 ./build/voxbrick render demo/sparse.vbs -o demo/sparse.png --tf sparse --orbit 30,20,2.5
+./build/voxbrick prep synthetic-mesh:ball,n=32 -o demo/ball.vms --force
+./build/voxbrick info demo/ball.vms
+./build/voxbrick render demo/ball.vms -o demo/ball.png --tf hot --orbit 30,20,2.5
 
 # A served frame: start the server on the demo stores, ask it for the MRI over TCP, save the PNG, stop the server.
 rm -f demo/server.port
@@ -24,7 +28,9 @@ for _ in $(seq 600); do [ -s demo/server.port ] && break; sleep 0.1; done
 port=$(cat demo/server.port)
 ./build/voxbrick request "127.0.0.1:$port" --list
 ./build/voxbrick request "127.0.0.1:$port" --dataset mri.vbs --scene config/scenes/mri-lateral.json -o demo/served.png
+./build/voxbrick request "127.0.0.1:$port" --dataset ball.vms --tf hot --orbit 30,20,2.5 -o demo/served-mesh.png
 kill -TERM $server
 wait $server
 trap - EXIT
-echo "demo: stores in demo/*.vbs, frames in demo/mri.png and demo/sparse.png, served frame in demo/served.png"
+echo "demo: stores in demo/*.vbs and demo/ball.vms, frames in demo/{mri,sparse,ball}.png, served frames in" \
+  "demo/served.png and demo/served-mesh.png"
