@@ -13,7 +13,7 @@ nlohmann::json FrameStats::toJson() const {
           {"sub_blocks_skipped", subBlocksSkipped}, {"boxes_drawn", boxesDrawn},
           {"bricks_coarse", bricksCoarse},   {"bricks_coarsened", bricksCoarsened},
           {"bricks_per_level", bricksPerLevel}, {"bricks_standin", bricksStandIn},
-          {"tets_drawn", tetsDrawn},
+          {"tets_drawn", tetsDrawn}, {"tets_skipped_empty", tetsSkippedEmpty},
           {"ms", {{"traversal", msTraversal}, {"paging", msPaging}, {"slicing", msSlicing},
                   {"drawing", msDrawing}, {"readback", msReadback}, {"total", msTotal},
                   {"pre_integration", msPreIntegration}, {"sorting", msSorting}}}};

@@ -36,6 +36,7 @@ struct FrameStats {
   /// batch's GPU work may instead be waited for by the next batch's uploads and show up as paging.
   double msTraversal = 0, msPaging = 0, msSlicing = 0, msDrawing = 0, msReadback = 0, msTotal = 0;
   int64_t tetsDrawn = 0;        ///< tetrahedra drawn (a mesh frame)
+  int64_t tetsSkippedEmpty = 0; ///< tetrahedra the transfer function makes transparent over their value range
   double msSorting = 0;         ///< a mesh frame's visibility sort
   double msPreIntegration = 0;  ///< building the pre-integration table (0 when the last frame's was current)
 

@@ -18,6 +18,15 @@ TetMeshData::TetMeshData(mesh::TetMesh m, mesh::Topology t) : mesh(std::move(m))
   scalarMin = smin;
   scalarMax = smax;
   double sum = 0, longest = 0;
+  tetRanges.reserve(mesh.tets.size());
+  for (const mesh::Tet& tet : mesh.tets) {
+    float tetLo = mesh.scalars[tet[0]], tetHi = tetLo;
+    for (int i = 1; i < 4; ++i) {
+      tetLo = std::min(tetLo, mesh.scalars[tet[i]]);
+      tetHi = std::max(tetHi, mesh.scalars[tet[i]]);
+    }
+    tetRanges.emplace_back(tetLo, tetHi);
+  }
   for (const mesh::Tet& tet : mesh.tets)
     for (int a = 0; a < 4; ++a)
       for (int b = a + 1; b < 4; ++b) {

@@ -4,6 +4,8 @@
 
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "mesh/TetMesh.h"
 #include "mesh/Topology.h"
@@ -20,6 +22,9 @@ struct TetMeshData {
   double meanEdgeLength = 1;      ///< over every tet's six edges: the default reference length (a "cell")
   double longestEdge = 1;         ///< the longest segment a ray can have in one tet
   float scalarMin = 0, scalarMax = 0;
+  /// Per tet, the smallest and largest of its four scalars: the values inside it (linear) lie between, so a tet the
+  /// transfer function makes transparent over that range adds nothing and is not drawn.
+  std::vector<std::pair<float, float>> tetRanges;
 
   /// Derives the box, lengths and range from `mesh` (which must hold at least one tet with valid indices).
   TetMeshData(mesh::TetMesh mesh, mesh::Topology topology);

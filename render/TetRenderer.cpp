@@ -100,6 +100,18 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
     hi = (*scene.window)[1];
   }
   if (!(hi > lo)) hi = lo + 1;
+  // Empty-space skipping per tet: one whose value range the transfer function makes transparent is left out of the
+  // order (after sorting: MPVO needs every tet's faces to order the others).
+  if (scene.skipEmpty) {
+    const double inverse = 1.0 / (hi - lo);
+    const TransferFunction& tf = scene.transferFunction;
+    const size_t before = mOrder.size();
+    std::erase_if(mOrder, [&](uint32_t t) {
+      const auto [tetLo, tetHi] = d.tetRanges[t];
+      return !tf.contributes((double(tetLo) - lo) * inverse, (double(tetHi) - lo) * inverse);
+    });
+    stats.tetsSkippedEmpty = int64_t(before - mOrder.size());
+  }
   const double reference = scene.transferFunction.referenceLength().value_or(d.meanEdgeLength);
   const double ratioMax = d.longestEdge / reference;
   const double ratioMin = ratioMax * kShortestRatioShare;

@@ -113,9 +113,34 @@ TEST(TetRenderer, FramesMatchTheExactReference) {
           reference.render(TetReferenceParams::fromScene(scene, data->mesh, data->meanEdgeLength), &refStats);
       ASSERT_GT(test::meanBrightness(exact), 0.005) << tf << " " << v.name;
       test::expectClose(gpu, exact, 2.0 / 255, "tets-reference-" + tf + "-" + v.name);
-      // A fragment per segment of positive length the reference found, up to the pixels on shared edges.
+      // A fragment per segment of positive length the reference found, up to the pixels on shared edges (with
+      // every tet drawn: skipping leaves out those of transparent tets).
+      scene.skipEmpty = false;
+      renderer.render(scene, &stats);
       EXPECT_NEAR(double(stats.fragments), double(refStats.segments), 0.01 * double(refStats.segments)) << v.name;
     }
+}
+
+// Tets the transfer function makes transparent over their value range are left out: the same image, fewer tets.
+TEST(TetRenderer, EmptyTetsAreSkippedWithoutChangingTheImage) {
+  auto m = mesh::syntheticMesh("ball,n=12");
+  mesh::Topology t = mesh::buildTopology(m);
+  auto data = std::make_shared<const TetMeshData>(std::move(m), std::move(t));
+  TetRenderer renderer(test::context(), data, size_t(256) << 20);
+  Scene scene;
+  scene.width = 96;
+  scene.height = 80;
+  // Transparent below 0.4 of the value range, a ramp above.
+  scene.transferFunction = TransferFunction({{0, {1, 0.5, 0, 0}}, {0.4, {1, 0.5, 0, 0}}, {1, {1, 1, 1, 0.6}}});
+  FrameStats skipped, all;
+  const image::ImageF fast = renderer.render(scene, &skipped);
+  scene.skipEmpty = false;
+  const image::ImageF slow = renderer.render(scene, &all);
+  ASSERT_GT(test::meanBrightness(slow), 0.005);
+  EXPECT_EQ(all.tetsSkippedEmpty, 0);
+  EXPECT_GT(skipped.tetsSkippedEmpty, all.tetsDrawn / 4);
+  EXPECT_EQ(skipped.tetsDrawn + skipped.tetsSkippedEmpty, all.tetsDrawn);
+  test::expectClose(fast, slow, 0.0, "tets-skip-empty");
 }
 
 /// A cube of Kuhn cells with a hollow: the cells whose centres lie within `radius` of a point off the centre are
