@@ -355,27 +355,3 @@ TEST(TetCommands, PrepInfoRenderAndRefusals) {
 
 }  // namespace
 }  // namespace voxbrick::render
-
-namespace voxbrick::render {
-namespace {
-TEST(TetRendererProbe, DISABLED_Timing) {
-  auto data = gridData(55);
-  Scene scene = test::lodScene(0);
-  scene.width = scene.height = 512;
-  scene.transferFunction = TransferFunction::load("hot");
-  TetRenderer renderer(test::context(), data, size_t(1) << 30);
-  for (TetSort sort : {TetSort::Mpvo, TetSort::Centroid})
-    for (int i = 0; i < 3; ++i) {
-      scene.visibility = sort;
-      FrameStats stats;
-      renderer.render(scene, &stats);
-      std::printf("%s tets %lld sort %.1f ms draw %.1f ms total %.1f ms fragments %lld\n", tetSortName(sort),
-                  (long long)stats.tetsDrawn, stats.msSorting, stats.msDrawing, stats.msTotal,
-                  (long long)stats.fragments);
-    }
-  FrameStats stats;
-  renderer.render(scene, &stats, {RenderMode::Roofline});
-  std::printf("null fragment: draw %.1f total %.1f\n", stats.msDrawing, stats.msTotal);
-}
-}  // namespace
-}  // namespace voxbrick::render
