@@ -157,4 +157,34 @@ bool Frustum::intersects(const Box& box) const {
   return true;
 }
 
+RayBasis RayBasis::of(const Camera& camera, double aspect, double nearPlane) {
+  RayBasis b;
+  b.eye = camera.eye;
+  b.forward = camera.viewDirection();
+  b.up = camera.upVector();
+  b.right = glm::normalize(glm::cross(b.forward, b.up));
+  b.up = glm::cross(b.right, b.forward);
+  b.orthographic = camera.orthographic;
+  b.tanHalfFov = std::tan(0.5 * glm::radians(camera.fovYDegrees));
+  b.halfHeight = camera.distance() * b.tanHalfFov;
+  b.aspect = aspect;
+  b.nearPlane = nearPlane;
+  return b;
+}
+
+void RayBasis::pixelRay(int x, int y, int width, int height, glm::dvec3& origin, glm::dvec3& direction,
+                        double& tNear) const {
+  const double sx = 2.0 * (x + 0.5) / width - 1.0;
+  const double sy = 1.0 - 2.0 * (y + 0.5) / height;
+  if (orthographic) {
+    origin = eye + sx * halfHeight * aspect * right + sy * halfHeight * up;
+    direction = forward;
+    tNear = nearPlane;
+  } else {
+    origin = eye;
+    direction = glm::normalize(forward + sx * tanHalfFov * aspect * right + sy * tanHalfFov * up);
+    tNear = nearPlane / glm::dot(direction, forward);
+  }
+}
+
 }  // namespace voxbrick::render

@@ -62,6 +62,24 @@ struct Camera {
   void clipRange(const Box& box, double& near, double& far) const;
 };
 
+/// The reference renderers' pixel rays (ReferenceRenderer, TetReference): the camera's orthonormal basis and the
+/// frame's constants, so that both cast exactly the same rays.
+struct RayBasis {
+  glm::dvec3 eye{0.0}, forward{0.0, 0.0, -1.0}, right{1.0, 0.0, 0.0}, up{0.0, 1.0, 0.0};
+  bool orthographic = false;
+  double tanHalfFov = 0, halfHeight = 0, aspect = 1;
+  double nearPlane = 0;  ///< distance of the near plane from the eye, along the view axis
+
+  /// The basis of `camera` (right = forward x up, up re-orthogonalised) for an image of `aspect` = width / height,
+  /// with the near plane at `nearPlane`.
+  static RayBasis of(const Camera& camera, double aspect, double nearPlane);
+
+  /// The ray through the centre of pixel (x, y) of a width x height image (row 0 at the top): origin (the eye, or
+  /// for an orthographic view the pixel's point in the eye's plane), unit direction, and the distance along it to
+  /// the near plane (perpendicular to the view axis, so an oblique ray meets it further out).
+  void pixelRay(int x, int y, int width, int height, glm::dvec3& origin, glm::dvec3& direction, double& tNear) const;
+};
+
 /// The six planes of a view volume, each (a, b, c, d) with a point p inside when a*p.x + b*p.y + c*p.z + d >= 0,
 /// normalised so that (a, b, c) is a unit vector. Order: left, right, bottom, top, near, far. The default frustum
 /// (0, 0, 0, 1) x 6 contains everything.

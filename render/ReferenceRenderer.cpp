@@ -165,9 +165,7 @@ bool clipToBox(const glm::dvec3& o, const glm::dvec3& d, const glm::dvec3& lo, c
 struct Frame {
   const Scene* scene = nullptr;
   glm::dvec3 spacing{1}, dims{1}, halfDims{0.5}, boxMin{0}, boxMax{0};
-  glm::dvec3 eye{0}, forward{0}, right{0}, up{0};
-  double tanHalfFov = 0, halfHeight = 0, aspect = 1, nearPlane = 0;
-  bool orthographic = false;
+  RayBasis basis;
   double lo = 0, inverseWidth = 1;
   double step = 1;       // longest segment, world units
   double referenceLength = 1;
@@ -185,20 +183,9 @@ struct Ray {
 };
 
 Ray pixelRay(const Frame& f, int x, int y, int width, int height) {
-  const double sx = 2.0 * (x + 0.5) / width - 1.0;
-  const double sy = 1.0 - 2.0 * (y + 0.5) / height;
   Ray ray;
   double tNear = 0;
-  if (f.orthographic) {
-    ray.origin = f.eye + sx * f.halfHeight * f.aspect * f.right + sy * f.halfHeight * f.up;
-    ray.dir = f.forward;
-    tNear = f.nearPlane;
-  } else {
-    ray.origin = f.eye;
-    ray.dir = glm::normalize(f.forward + sx * f.tanHalfFov * f.aspect * f.right + sy * f.tanHalfFov * f.up);
-    // The near plane is perpendicular to the view axis, so an oblique ray meets it further out.
-    tNear = f.nearPlane / glm::dot(ray.dir, f.forward);
-  }
+  f.basis.pixelRay(x, y, width, height, ray.origin, ray.dir, tNear);
   if (!clipToBox(ray.origin, ray.dir, f.boxMin, f.boxMax, ray.t0, ray.t1)) {
     ray.t0 = ray.t1 = 0;
     return ray;
@@ -222,7 +209,7 @@ glm::dvec3 shade(const Frame& f, const Sampler& sample, const Ray& ray, double t
   const double magnitude = glm::length(gradient);
   if (!(magnitude > 1e-12)) return c;
   const glm::dvec3 normal = -gradient / magnitude;
-  const glm::dvec3 toEye = f.orthographic ? -f.forward : glm::normalize(f.eye - world);
+  const glm::dvec3 toEye = f.basis.orthographic ? -f.basis.forward : glm::normalize(f.basis.eye - world);
   const double diffuse = std::abs(glm::dot(normal, toEye));
   const double specular = std::pow(diffuse, 32.0);
   return c * (0.3 + 0.7 * diffuse) + glm::dvec3(0.25 * specular);
@@ -405,17 +392,9 @@ Frame makeFrame(const Scene& scene, const ReferenceOptions& options, const store
   f.halfDims = 0.5 * f.dims;
 
   const Camera camera = scene.camera.resolve(box);
-  double farPlane = 0;
-  camera.clipRange(box, f.nearPlane, farPlane);
-  f.eye = camera.eye;
-  f.forward = camera.viewDirection();
-  f.up = camera.upVector();
-  f.right = glm::normalize(glm::cross(f.forward, f.up));
-  f.up = glm::cross(f.right, f.forward);
-  f.orthographic = camera.orthographic;
-  f.tanHalfFov = std::tan(0.5 * glm::radians(camera.fovYDegrees));
-  f.halfHeight = camera.distance() * f.tanHalfFov;
-  f.aspect = double(scene.width) / double(scene.height);
+  double nearPlane = 0, farPlane = 0;
+  camera.clipRange(box, nearPlane, farPlane);
+  f.basis = RayBasis::of(camera, double(scene.width) / double(scene.height), nearPlane);
 
   // The value window exactly as the GPU renderer takes it.
   const ValueWindow window = valueWindow(scene, meta);

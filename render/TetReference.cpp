@@ -42,9 +42,7 @@ struct BvhNode {
 
 /// The camera basis and projection of a frame, as ReferenceRenderer's makeFrame computes them.
 struct View {
-  glm::dvec3 eye{0.0}, forward{0.0}, right{0.0}, up{0.0};
-  bool orthographic = false;
-  double tanHalfFov = 0, halfHeight = 0, aspect = 1, nearPlane = 0;
+  RayBasis basis;
   int width = 1, height = 1;
 };
 
@@ -260,40 +258,18 @@ void TetReference::Data::collect(const TetRay& ray, std::vector<TetSegment>& out
 namespace {
 
 View makeView(const TetReferenceParams& params, const Box& bounds, bool hasBounds) {
-  View v;
-  const Camera& camera = params.camera;
-  double farPlane = 0;
-  if (hasBounds) camera.clipRange(bounds, v.nearPlane, farPlane);
-  v.eye = camera.eye;
-  v.forward = camera.viewDirection();
-  v.up = camera.upVector();
-  v.right = glm::normalize(glm::cross(v.forward, v.up));
-  v.up = glm::cross(v.right, v.forward);
-  v.orthographic = camera.orthographic;
-  v.tanHalfFov = std::tan(0.5 * glm::radians(camera.fovYDegrees));
-  v.halfHeight = camera.distance() * v.tanHalfFov;
-  v.aspect = double(params.width) / double(params.height);
-  v.width = params.width;
-  v.height = params.height;
-  return v;
+  double nearPlane = 0, farPlane = 0;
+  if (hasBounds) params.camera.clipRange(bounds, nearPlane, farPlane);
+  return {RayBasis::of(params.camera, double(params.width) / double(params.height), nearPlane), params.width,
+          params.height};
 }
 
-/// ReferenceRenderer's pixel ray: through the pixel centre, from the near plane (perpendicular to the view axis).
+/// ReferenceRenderer's pixel ray (RayBasis): through the pixel centre, from the near plane.
 TetRay viewRay(const View& v, int x, int y) {
-  const double sx = 2.0 * (x + 0.5) / v.width - 1.0;
-  const double sy = 1.0 - 2.0 * (y + 0.5) / v.height;
   TetRay ray;
-  ray.right = v.right;
-  ray.up = v.up;
-  if (v.orthographic) {
-    ray.origin = v.eye + sx * v.halfHeight * v.aspect * v.right + sy * v.halfHeight * v.up;
-    ray.direction = v.forward;
-    ray.tNear = v.nearPlane;
-  } else {
-    ray.origin = v.eye;
-    ray.direction = glm::normalize(v.forward + sx * v.tanHalfFov * v.aspect * v.right + sy * v.tanHalfFov * v.up);
-    ray.tNear = v.nearPlane / glm::dot(ray.direction, v.forward);
-  }
+  ray.right = v.basis.right;
+  ray.up = v.basis.up;
+  v.basis.pixelRay(x, y, v.width, v.height, ray.origin, ray.direction, ray.tNear);
   return ray;
 }
 

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -17,10 +18,22 @@
 #include "render/GlContext.h"
 #include "image/Image.h"
 #include "render/ReferenceRenderer.h"
+#include "render/TransferFunction.h"
 #include "render/VolumeRenderer.h"
 #include "support/ArraySource.h"
 
 namespace voxbrick::test {
+
+/// The transfer-function presets of config/tf.
+inline const std::vector<std::string> kPresets = {"ct-bone", "grayscale", "hot", "mri", "sparse"};
+
+/// A preset of config/tf: by name where VOXBRICK_CONFIG_DIR is set (as ctest sets it), else from the source tree, so
+/// that the test binary also runs on its own from any directory.
+inline render::TransferFunction preset(const std::string& name) {
+  if (const char* dir = std::getenv("VOXBRICK_CONFIG_DIR"); dir && *dir) return render::TransferFunction::load(name);
+  return render::TransferFunction::load(
+      (std::filesystem::path(VOXBRICK_SOURCE_DIR) / "config" / "tf" / (name + ".json")).string());
+}
 
 /// A store of an input prep understands ("synthetic:...", a file), without the VDB grid.
 inline std::shared_ptr<const store::BrickStore> prep(const std::string& spec, const std::filesystem::path& out,

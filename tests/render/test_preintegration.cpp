@@ -19,22 +19,18 @@
 #include "render/Compositing.h"
 #include "render/PreIntegration.h"
 #include "render/RenderErrors.h"
+#include "render/RenderFixtures.h"
 #include "render/TransferFunction.h"
 
 namespace voxbrick::render {
 namespace {
 
+using test::kPresets;
+using test::preset;
+
 using Point = TransferFunction::Point;
 
-const std::vector<std::string> kPresets = {"ct-bone", "grayscale", "hot", "mri", "sparse"};
 
-/// A preset of config/tf: by name where VOXBRICK_CONFIG_DIR is set (as ctest sets it), else from the source tree, so
-/// that the binary also runs on its own from any directory.
-TransferFunction preset(const std::string& name) {
-  if (const char* dir = std::getenv("VOXBRICK_CONFIG_DIR"); dir && *dir) return TransferFunction::load(name);
-  return TransferFunction::load(
-      (std::filesystem::path(VOXBRICK_SOURCE_DIR) / "config" / "tf" / (name + ".json")).string());
-}
 
 /// The reference renderer's integration of one linear segment, converged: the segment is cut where the value crosses
 /// a control point (as the reference refines), and each piece gets midpoint substeps in proportion to its length

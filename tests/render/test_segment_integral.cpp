@@ -14,21 +14,18 @@
 #include "render/Compositing.h"
 #include "render/PreIntegration.h"
 #include "render/SegmentIntegral.h"
+#include "render/RenderFixtures.h"
 #include "render/TransferFunction.h"
 
 namespace voxbrick::render {
 namespace {
 
+using test::kPresets;
+using test::preset;
+
 using Point = TransferFunction::Point;
 
-const std::vector<std::string> kPresets = {"ct-bone", "grayscale", "hot", "mri", "sparse"};
 
-/// A preset of config/tf, by name where VOXBRICK_CONFIG_DIR is set (as ctest sets it), else from the source tree.
-TransferFunction preset(const std::string& name) {
-  if (const char* dir = std::getenv("VOXBRICK_CONFIG_DIR"); dir && *dir) return TransferFunction::load(name);
-  return TransferFunction::load(
-      (std::filesystem::path(VOXBRICK_SOURCE_DIR) / "config" / "tf" / (name + ".json")).string());
-}
 
 /// The composite midpoint rule with about n * refine substeps over the segment, cut where the value crosses a control
 /// point (each piece then has a smooth integrand, so the error falls as n^-2), each substep classified with

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "RenderFixtures.h"
+#include "render/RenderFixtures.h"
 #include "TetMeshes.h"
 #include "TetReferenceChecks.h"
 #include "mesh/TetMesh.h"
@@ -23,6 +23,9 @@
 
 namespace voxbrick::render {
 namespace {
+
+using test::kPresets;
+using test::preset;
 
 using test::bruteForce;
 using test::cameras;
@@ -37,12 +40,6 @@ using test::maxDifference;
 using test::oneSegment;
 using test::perspectiveDirection;
 
-/// A preset of config/tf, by name where VOXBRICK_CONFIG_DIR is set (as ctest sets it), else from the source tree.
-TransferFunction preset(const std::string& name) {
-  if (const char* dir = std::getenv("VOXBRICK_CONFIG_DIR"); dir && *dir) return TransferFunction::load(name);
-  return TransferFunction::load(
-      (std::filesystem::path(VOXBRICK_SOURCE_DIR) / "config" / "tf" / (name + ".json")).string());
-}
 
 TransferFunction constantTf(const glm::dvec3& rgb, double alpha) {
   return TransferFunction({{0.0, glm::dvec4(rgb, alpha)}, {1.0, glm::dvec4(rgb, alpha)}});
