@@ -38,7 +38,13 @@ The two VTK mappers as configured here:
     vtkUnstructuredGridPartialPreIntegration (Moreland and Angel: exact for piecewise-linear transfer functions),
     'linear' vtkUnstructuredGridLinearRayIntegrator (integrates each segment of the piecewise-linear function),
     'homogeneous' vtkUnstructuredGridHomogeneousRayIntegrator (one value per segment). Its image is drawn into the
-    window by VTK's ray-cast display helper, as a VTK user gets it.
+    window by VTK's ray-cast display helper, stretched by one pixel (texture coordinates from the first to the last
+    texel centre) and resampled bilinearly: that frame is what a VTK user gets. The mapper's own image of the same
+    frame (read from the object, see VtkTetPeer.raycast_image) is judged too, as "its ray-cast image".
+
+The issue's criterion, in the summary: voxbrick's median time at most half the projected-tetrahedra mapper's median
+time, and its median PSNR at least the ray-cast mapper's (the first of --integrators), taking the better of that
+mapper's window frame and its own ray-cast image.
 
 Timing: per view and renderer one warm-up frame (discarded: sorting structures, textures, shaders, the Bunyk
 mapper's face tables), then --repeats timed frames (Render() + GetPixelData), median. voxbrick: one
@@ -76,6 +82,7 @@ INTEGRATORS = {
 }
 PT_LABEL = "VTK ProjectedTetrahedra"
 RC_LABEL = "VTK UGridRayCast"
+RC_IMAGE_LABEL = "VTK UGridRayCast, its ray-cast image"
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -376,6 +383,41 @@ class VtkTetPeer:
         rgb = self.np_support.vtk_to_numpy(arr).reshape(self.height, self.width, 3)[::-1]
         return ms, rgb
 
+    def raycast_image(self, kind):
+        """The ray-cast mapper's own image of its last frame (RGB, premultiplied over black as it is drawn; row 0 at
+        the top), without the display step, or None where it cannot be found.
+
+        vtkUnstructuredGridVolumeRayCastMapper has no getter for it (unlike the FixedPoint mapper's
+        GetRayCastImage), so it is found in the object: the header declares, one after the other, int
+        ImageViewportSize[2], ImageMemorySize[2], ImageInUseSize[2], ImageOrigin[2] and then unsigned char *Image
+        (RGBA, ImageMemorySize). The first three pairs and the last are known from the public getters and the
+        memory size is the power of two (at least 32) the mapper picks, so the eight ints are searched for in the
+        object's first kilobyte and the pointer after them is read. Checked against the window: this image, put
+        through the display helper's resampling, gives the window's frame to 62 dB (8-bit rounding)."""
+        import ctypes
+
+        _, _, m = self._window(kind)
+        vp, use, origin = m.GetImageViewportSize(), m.GetImageInUseSize(), m.GetImageOrigin()
+        mem = [32, 32]
+        for a in range(2):
+            while mem[a] < use[a]:
+                mem[a] *= 2
+        this = m.__this__  # '_<hex address>_p_vtkUnstructuredGridVolumeRayCastMapper'
+        address = int(this[1:this.index("_p_")], 16)
+        head = ctypes.string_at(address, 1024)
+        at = head.find(struct.pack("8i", *vp, *mem, *use, *origin))
+        if at < 0 or at % 4:
+            return None
+        ptr_at = (at + 32 + ctypes.sizeof(ctypes.c_void_p) - 1) // ctypes.sizeof(ctypes.c_void_p) * \
+            ctypes.sizeof(ctypes.c_void_p)
+        pointer = ctypes.c_void_p.from_buffer_copy(head, ptr_at).value
+        if not pointer:
+            return None
+        img = np.frombuffer(ctypes.string_at(pointer, mem[0] * mem[1] * 4), np.uint8).reshape(mem[1], mem[0], 4)
+        out = np.zeros((vp[1], vp[0], 3), np.uint8)
+        out[origin[1]:origin[1] + use[1], origin[0]:origin[0] + use[0]] = img[:use[1], :use[0], :3]
+        return out[::-1].copy()
+
     def errors(self):
         try:
             with open(self.log_file, errors="replace") as f:
@@ -578,7 +620,7 @@ def main():
     log(f"VTK {vtk_version}: {info_of} {failed or ''}")
 
     # 3. Frames, interleaved view by view.
-    rows = []
+    rows, no_image = [], set()
     for vi, az in enumerate(views):
         eye, centre, up = orbit_camera(az, args.elevation, args.distance, consts["bounds"])
 
@@ -619,6 +661,15 @@ def main():
                 rows.append({"renderer": label(k), "setting": setting_of(k), "kind": k, "view": vi, "azimuth": az,
                              "ms": median(times), "times": times, "process_ms": "", "png": png,
                              "rgb": None if vb else rgb.copy()})
+                own = peer.raycast_image(k) if k.startswith("rc:") else None
+                if own is not None:
+                    png2 = os.path.join(frames_dir, f"vtk-{k.replace(':', '-')}-raycast-az{az:g}.png")
+                    write_png(png2, own)
+                    rows.append({"renderer": RC_IMAGE_LABEL, "setting": setting_of(k), "kind": k + ":image",
+                                 "view": vi, "azimuth": az, "ms": median(times), "times": times, "process_ms": "",
+                                 "png": png2, "rgb": None if vb else own})
+                elif k.startswith("rc:"):
+                    no_image.add(k)
                 log(f"az {az:g} {label(k)} [{setting_of(k)}]: {median(times):.0f} ms "
                     f"({', '.join(f'{t:.0f}' for t in times)})")
 
@@ -727,14 +778,18 @@ def main():
 
     # The issue's criterion: voxbrick at most half the time of the projected-tetrahedra mapper, PSNR at least the
     # ray-cast mapper's (the first integrator of --integrators: VTK's own choice unless told otherwise).
-    judge_rc = next(((RC_LABEL, setting_of(k)) for k in kinds if k.startswith("rc:") and k not in failed), None)
-    if vb and pt_ms and judge_rc and judge_rc in groups:
-        rc_rows = group_rows(judge_rc)
-        rc_db = median([r["psnr"] for r in rc_rows])
-        rc_worst = min(r["psnr"] for r in rc_rows)
+    first_rc = next((k for k in kinds if k.startswith("rc:") and k not in failed), None)
+    judges = [g for g in ((RC_LABEL, setting_of(first_rc)), (RC_IMAGE_LABEL, setting_of(first_rc)))
+              if first_rc and g in groups]
+    if vb and pt_ms and judges:
+        judge_db = {g: (median([r["psnr"] for r in group_rows(g)]), min(r["psnr"] for r in group_rows(g)))
+                    for g in judges}
+        best = max(judges, key=lambda g: judge_db[g][0])
+        said = "; ".join(f"{g[0]} median {fmt_db(judge_db[g][0])} dB, worst view {fmt_db(judge_db[g][1])} dB"
+                         for g in judges)
         lines.append(f"Criterion (same run): voxbrick ≤ 0.5 × the time of {PT_LABEL} (median {pt_ms:.0f} ms), and "
-                     f"PSNR ≥ {RC_LABEL} [{judge_rc[1]}] (median {fmt_db(rc_db)} dB, worst view {fmt_db(rc_worst)} "
-                     "dB):")
+                     f"median PSNR ≥ the ray-cast mapper's [{setting_of(first_rc)}], taken as the better of its "
+                     f"window frame and its own ray-cast image ({said}):")
         lines.append("")
         lines.append("| voxbrick setting | time / ProjectedTetrahedra | median dB − ray cast's | "
                      "worst view dB − ray cast's | met |")
@@ -744,8 +799,8 @@ def main():
                 continue
             g = group_rows(k)
             ratio = median([r["ms"] for r in g]) / pt_ms
-            d_med = median([r["psnr"] for r in g]) - rc_db
-            d_worst = min(r["psnr"] for r in g) - rc_worst
+            d_med = median([r["psnr"] for r in g]) - judge_db[best][0]
+            d_worst = min(r["psnr"] for r in g) - judge_db[best][1]
             met = ratio <= 0.5 and d_med >= 0
             lines.append(f"| {k[1]} | {ratio:.3f} | {d_med:+.1f} | {d_worst:+.1f} | {'yes' if met else 'no'} |")
         lines.append("")
@@ -761,6 +816,14 @@ def main():
                          f"`{info_of[k].get('integrator')}`, one ray per pixel (ImageSampleDistance 1, no "
                          f"auto-adjust), {info_of[k].get('threads')} threads; its image reaches the window through "
                          "VTK's ray-cast display helper.")
+    if any(k.startswith("rc:") for k in kinds):
+        lines.append(f"- `{RC_IMAGE_LABEL}`: the ray-cast mapper's own image of the same timed frame, read from the "
+                     "mapper's memory (it has no getter) instead of the window. VTK draws that image into the window "
+                     "as a texture whose coordinates run from the first to the last texel *centre* over the full "
+                     "pixel rectangle (vtkOpenGLRayCastImageDisplayHelper), i.e. stretched by one pixel and "
+                     "resampled bilinearly; the window's frame is what a VTK user gets, the ray-cast image isolates "
+                     "the mapper's sampling and compositing from that display step."
+                     + (f" Not found for {', '.join(sorted(no_image))}." if no_image else ""))
     lines.append(f"- VTK: per view one warm-up frame (discarded), then {args.repeats} timed frame(s) (`Render()` + "
                  "`GetPixelData`), median; the table gives the median over the views.")
     if vb:
