@@ -8,6 +8,7 @@
 #include "brickstore/BrickStore.h"
 #include "brickstore/VdbStore.h"
 #include "cli/Commands.h"
+#include "mesh/MeshStore.h"
 
 namespace voxbrick::cli {
 namespace {
@@ -36,7 +37,33 @@ std::string sparkline(const store::Histogram& h) {
   return line;
 }
 
+/// `info` of a mesh store: what its index says, and with --json the same as JSON.
+void runMeshInfo(const InfoArgs& a) {
+  const mesh::MeshStore s = mesh::MeshStore::open(a.store);
+  if (!a.json) {
+    std::printf("%s", mesh::describeMeshStore(s).c_str());
+    return;
+  }
+  const mesh::MeshStoreInfo& i = s.info();
+  const nlohmann::json j = {{"path", a.store},
+                            {"kind", "tet-mesh"},
+                            {"source", i.source},
+                            {"field", i.field},
+                            {"points", i.vertexCount},
+                            {"tets", i.tetCount},
+                            {"boundary_faces", i.boundaryFaceCount},
+                            {"chunks", i.chunkCount},
+                            {"tets_per_chunk", i.tetsPerChunk},
+                            {"bounds", {{i.boundsMin.x, i.boundsMin.y, i.boundsMin.z},
+                                        {i.boundsMax.x, i.boundsMax.y, i.boundsMax.z}}},
+                            {"value_range", {i.scalarMin, i.scalarMax}},
+                            {"bytes_raw", i.bytesRaw},
+                            {"bytes_stored", i.bytesStored}};
+  std::printf("%s\n", j.dump(2).c_str());
+}
+
 void runInfo(const InfoArgs& a) {
+  if (mesh::looksLikeMeshStore(a.store)) return runMeshInfo(a);
   auto s = store::BrickStore::openAny(a.store, {a.grid, a.brick});
   const auto* live = dynamic_cast<const store::VdbStore*>(s.get());
   const store::StoreMeta& m = s->meta();

@@ -19,7 +19,7 @@ class MeshError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// Four vertex indices. After validate() every tet is positively oriented: (v1 - v0) x (v2 - v0) . (v3 - v0) > 0.
+/// Four vertex indices. After validateMesh() (mesh/Validate.h) every tet is positively oriented: (v1 - v0) x (v2 - v0) . (v3 - v0) > 0.
 using Tet = std::array<uint32_t, 4>;
 
 struct TetMesh {

@@ -3,6 +3,11 @@
 
 #include <stdexcept>
 
+#include <nlohmann/json.hpp>
+
+#include "mesh/MeshStore.h"
+#include "render/TetDataset.h"
+
 namespace voxbrick::render {
 
 const char* datasetKindName(DatasetKind kind) {
@@ -19,17 +24,29 @@ BrickStoreDataset::BrickStoreDataset(std::string name, const std::filesystem::pa
       mStore(store::BrickStore::openAny(path, options)),
       mCache(std::make_shared<store::BrickCache>(mStore, cacheBytes, decodeThreads)) {}
 
-std::string BrickStoreDataset::infoJson() const { return mStore->meta().toJson(); }
+std::string BrickStoreDataset::infoJson() const {
+  nlohmann::json j = nlohmann::json::parse(mStore->meta().toJson());
+  j["kind"] = datasetKindName(kind());
+  return j.dump();
+}
 
 bool isDataset(const std::filesystem::path& path) {
   std::error_code ec;
-  return std::filesystem::is_regular_file(path / "store.json", ec) || store::BrickStore::isVdbFile(path);
+  return std::filesystem::is_regular_file(path / "store.json", ec) || store::BrickStore::isVdbFile(path) ||
+         mesh::looksLikeMeshStore(path);
 }
 
 std::shared_ptr<const Dataset> openDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes,
                                            const store::StoreOpenOptions& options) {
   if (!isDataset(path))
-    throw std::runtime_error("openDataset: '" + path.string() + "' is not a dataset (no store.json, not a .vdb file)");
+    throw std::runtime_error("openDataset: '" + path.string() +
+                             "' is not a dataset (no store.json, not a .vdb file, not a mesh store)");
+  if (mesh::looksLikeMeshStore(path)) {
+    // A mesh is held whole: its chunks are read and checked once, here.
+    const mesh::MeshStore meshStore = mesh::MeshStore::open(path);
+    auto data = std::make_shared<const TetMeshData>(meshStore.readAll(), meshStore.readTopology());
+    return std::make_shared<TetMeshDataset>(std::move(name), path, std::move(data));
+  }
   return std::make_shared<BrickStoreDataset>(std::move(name), path, cacheBytes, 2, options);
 }
 

@@ -1,6 +1,6 @@
-// What the server opens and a renderer draws: a dataset. Today one kind, a brick store with its host cache, backed by
-// a prepped store directory or by an OpenVDB file read live (both give the same bricks, so one renderer draws
-// them); a tetrahedral mesh is the next kind, with its own renderer behind RenderEngine. GL-free.
+// What the server opens and a renderer draws: a dataset. Two kinds: a brick store with its host cache, backed by a
+// prepped store directory or by an OpenVDB file read live (both give the same bricks, so one renderer draws them),
+// and a tetrahedral mesh (render/TetDataset.h), with its own renderer behind RenderEngine. GL-free.
 #pragma once
 
 #include <filesystem>
@@ -83,12 +83,13 @@ class BrickStoreDataset final : public Dataset {
   std::shared_ptr<store::BrickCache> mCache;
 };
 
-/// Whether `path` holds a dataset of a kind this build can open: a directory with a store.json, or a file whose name
-/// ends in .vdb (read live).
+/// Whether `path` holds a dataset of a kind this build can open: a directory with a store.json, a file whose name
+/// ends in .vdb (read live), or a mesh store (mesh/MeshStore.h).
 bool isDataset(const std::filesystem::path& path);
 
-/// Opens the dataset at `path` under `name` (`options` apply to a .vdb: grid name and brick size); throws
-/// std::runtime_error naming the path when it is no dataset, and the kind's own errors when it cannot be opened.
+/// Opens the dataset at `path` under `name` (`options` apply to a .vdb: grid name and brick size): a BrickStoreDataset
+/// or, for a mesh store, a TetMeshDataset (the mesh read whole). Throws std::runtime_error naming the path when it is
+/// no dataset, and the kind's own errors (mesh::MeshError for a corrupt mesh store) when it cannot be opened.
 std::shared_ptr<const Dataset> openDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes,
                                            const store::StoreOpenOptions& options = {});
 

@@ -8,29 +8,12 @@
 #include <string>
 
 #include "render/RenderErrors.h"
+#include "render/SegmentIntegral.h"
 
 namespace voxbrick::render {
 namespace {
 
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
-
-/// The mean of -ln(1 - a) over a running linearly from a0 to a1 (both in [0, 1]); infinite only if both are 1.
-/// With b = 1 - a linear, the mean is ((b0 ln b0 - b1 ln b1) / (b1 - b0)) + 1; that cancels badly when b0 and b1
-/// are close, where the series in x = (b1 - b0) / (b0 + b1) around the midpoint takes over:
-/// -ln m + x^2/6 + x^4/20 + x^6/42 + x^8/72 + x^10/110 (the next term is below 1e-13 of it for |x| < 0.1).
-double meanExtinction(double a0, double a1) {
-  if (a0 >= 1 && a1 >= 1) return kInfinity;
-  const double b0 = 1 - a0, b1 = 1 - a1;
-  const double x = (b1 - b0) / (b0 + b1);
-  if (std::abs(x) < 0.1) {
-    const double x2 = x * x;
-    const double series = x2 * (1.0 / 6 + x2 * (1.0 / 20 + x2 * (1.0 / 42 + x2 * (1.0 / 72 + x2 / 110))));
-    return -std::log1p(-0.5 * (a0 + a1)) + series;
-  }
-  // ln b from log1p(-a): exact for small a, and b ln b -> 0 as b -> 0 (an alpha of 1 at one end is integrable).
-  auto bLogB = [](double a, double b) { return b > 0 ? b * std::log1p(-a) : 0.0; };
-  return (bLogB(a0, b0) - bLogB(a1, b1)) / (b1 - b0) + 1;
-}
 
 /// A part of a value cell on which the transfer function is linear. Depths are optical depths per reference length
 /// of the segment's share of the whole cell (width of the piece in cells times mean extinction); the table scales
@@ -47,18 +30,6 @@ struct Cells {
   std::vector<Piece> pieces;
   std::vector<size_t> first;
 };
-
-/// The transfer function's linear formula on the open interval around m (constant outside its control points).
-glm::dvec4 linearAround(const std::vector<TransferFunction::Point>& points, double m, double s) {
-  const auto right = std::upper_bound(points.begin(), points.end(), m,
-                                      [](double v, const TransferFunction::Point& p) { return v < p.x; });
-  if (right == points.begin()) return points.front().rgba;
-  if (right == points.end()) return points.back().rgba;
-  const TransferFunction::Point& a = *(right - 1);
-  const TransferFunction::Point& b = *right;  // a.x <= m < b.x, so a.x < b.x
-  const double t = std::clamp((s - a.x) / (b.x - a.x), 0.0, 1.0);
-  return a.rgba + t * (b.rgba - a.rgba);
-}
 
 Cells makeCells(const TransferFunction& tf, int cells) {
   const std::vector<TransferFunction::Point>& points = tf.points();
@@ -87,17 +58,6 @@ Cells makeCells(const TransferFunction& tf, int cells) {
   return out;
 }
 
-/// Premultiplied colour and transmittance of a stretch of the segment.
-struct Span {
-  glm::dvec3 color{0.0};
-  double transmittance = 1;
-};
-
-/// `front` then `back`, front to back.
-inline Span over(const Span& front, const Span& back) {
-  return {front.color + front.transmittance * back.color, front.transmittance * back.transmittance};
-}
-
 /// J(tau) = Int_0^1 (y^2 - y) exp(-tau y) dy = (2 - tau - (2 + tau) exp(-tau)) / tau^3, which cancels for small
 /// tau: there its series -Sum_n (-tau)^n / (n! (n + 2) (n + 3)) (the first omitted term is below 3e-13 for tau < 0.1).
 inline double quadraticMoment(double tau, double t) {
@@ -117,32 +77,32 @@ inline double quadraticMoment(double tau, double t) {
 /// T is exact at both ends and m is the only approximation: the optical depth from the entry is taken as the
 /// quadratic tau y + c (y^2 - y) through the exact depth at the middle (c = 2 tau - 4 half, zero when extinction is
 /// constant), to first order in c: m = (1 - t) / tau - c J(tau). The error is O(c^2), c itself O(tau / R).
-inline Span crossPiece(const glm::dvec3& entry, const glm::dvec3& exit, double tau, double half) {
+inline RaySpan crossPiece(const glm::dvec3& entry, const glm::dvec3& exit, double tau, double half) {
   if (!(tau > 1e-300)) return {};
   if (tau == kInfinity) return {entry, 0.0};
   const double absorbed = -std::expm1(-tau);
   const double t = 1 - absorbed;
   const double mean = std::clamp(absorbed / tau - (2 * tau - 4 * half) * quadraticMoment(tau, t), t, 1.0);
-  return {entry * (1 - mean) + exit * (mean - t), t};
+  return crossLinearPiece(entry, exit, t, mean);
 }
 
 /// Piece p crossed upwards (ascending values) or downwards, with `scale` = r / k.
-inline Span crossPiece(const Piece& p, bool upwards, double scale) {
+inline RaySpan crossPiece(const Piece& p, bool upwards, double scale) {
   const double tau = p.depth * scale, lower = p.lowerDepth * scale;
   return upwards ? crossPiece(p.lower, p.upper, tau, lower) : crossPiece(p.upper, p.lower, tau, tau - lower);
 }
 
 /// Cell c crossed upwards or downwards, with `scale` = r / k (the cell's share of the segment's reference lengths).
-inline Span crossCell(const Cells& cells, int c, bool upwards, double scale) {
+inline RaySpan crossCell(const Cells& cells, int c, bool upwards, double scale) {
   const size_t begin = cells.first[size_t(c)], end = cells.first[size_t(c) + 1];
   if (end - begin == 1) return crossPiece(cells.pieces[begin], upwards, scale);
-  Span span;
+  RaySpan span;
   for (size_t i = begin; i < end; ++i)
     span = over(span, crossPiece(cells.pieces[upwards ? i : end - 1 - (i - begin)], upwards, scale));
   return span;
 }
 
-glm::vec4 texel(const Span& span) {
+glm::vec4 texel(const RaySpan& span) {
   return glm::vec4(glm::clamp(glm::vec3(span.color), 0.0f, 1.0f),
                    std::clamp(float(1 - span.transmittance), 0.0f, 1.0f));
 }
@@ -155,7 +115,7 @@ void fillDiagonals(const Cells& cells, const PreIntegrationSpec& spec, int z, st
   const int n = spec.resolution - 1;
   const double r = spec.layerRatio(z);
   const size_t count = size_t(n);
-  std::vector<Span> cell(count), suffix(count), prefix(count);
+  std::vector<RaySpan> cell(count), suffix(count), prefix(count);
   for (int k = 1; k <= n; ++k) {
     const double scale = r / k;
     for (int upwards = 0; upwards < 2; ++upwards) {
@@ -169,7 +129,7 @@ void fillDiagonals(const Cells& cells, const PreIntegrationSpec& spec, int z, st
         for (int m = block + 1; m < end; ++m) prefix[size_t(m)] = over(prefix[size_t(m) - 1], cell[size_t(m)]);
       }
       for (int m = 0; m + k <= n; ++m) {
-        const Span window = m % k == 0 ? suffix[size_t(m)] : over(suffix[size_t(m)], prefix[size_t(m + k - 1)]);
+        const RaySpan window = m % k == 0 ? suffix[size_t(m)] : over(suffix[size_t(m)], prefix[size_t(m + k - 1)]);
         const int front = upwards ? m : n - m;
         const int back = upwards ? m + k : n - m - k;
         table[spec.index(front, back, z)] = texel(window);

@@ -117,7 +117,6 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
     p.set(p.uniformLocation("uViewProj"), glm::mat4(viewProj));
     p.set(p.uniformLocation("uWindowLo"), float(lo));
     p.set(p.uniformLocation("uWindowScale"), float(1.0 / (hi - lo)));
-    p.set(p.uniformLocation("uPixel"), glm::vec2(2.0f / float(scene.width), 2.0f / float(scene.height)));
     p.set(p.uniformLocation("uRayOrigin"), glm::vec3(rays.origin));
     p.set(p.uniformLocation("uRayOriginDx"), glm::vec3(rays.originDx));
     p.set(p.uniformLocation("uRayOriginDy"), glm::vec3(rays.originDy));

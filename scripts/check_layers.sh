@@ -30,9 +30,9 @@ for name in $core Compositing FrameRenderer RenderErrors SliceTables; do
 done
 [ ${#coreFiles[@]} -ge 10 ] || { echo "check_layers: could not read the core list from render/CMakeLists.txt"; exit 1; }
 
-mapfile -t outsideRender < <(sources brickstore proto image server client cli bench)
-mapfile -t notAsio < <(sources brickstore proto image render bench)
-mapfile -t notVdb < <(sources proto image render server client cli bench)
+mapfile -t outsideRender < <(sources brickstore mesh proto image server client cli bench)
+mapfile -t notAsio < <(sources brickstore mesh proto image render bench)
+mapfile -t notVdb < <(sources mesh proto image render server client cli bench)
 mapfile -t everything < <(sources .)
 
 forbid "GL, EGL or OSMesa headers outside render/'s GL layer" '#include <(GL|EGL|KHR)/' \

@@ -31,15 +31,27 @@ void main() {
   // The ray's parameter range inside the tet (t in [0, 1] runs from the near plane to the far plane).
   float enter = 0.0, leave = 1.0;
   for (int i = 0; i < 4; ++i) {
-    const float at = dot(vPlane[i].xyz, origin) + vPlane[i].w;
-    const float rate = dot(vPlane[i].xyz, direction);
-    // Inside where at + t * rate >= 0: rising through the face enters, falling leaves; parallel and outside misses.
-    if (rate > 0.0)
-      enter = max(enter, -at / rate);
-    else if (rate < 0.0)
-      leave = min(leave, -at / rate);
-    else if (at < 0.0)
-      discard;
+    const vec3 n = vPlane[i].xyz;
+    const float at = dot(n, origin) + vPlane[i].w;
+    const float rate = dot(n, direction);
+    // Inside where at + t * rate >= 0: rising through the face enters, falling leaves.
+    if (abs(rate) > 1e-6 * length(n) * length(direction)) {
+      if (rate > 0.0)
+        enter = max(enter, -at / rate);
+      else
+        leave = min(leave, -at / rate);
+      continue;
+    }
+    // A ray parallel to the face (a view along a mesh's own planes) is inside or outside all along. In the face's
+    // plane, where the two tets sharing it would each decide by their own rounding (both keeping the ray, or
+    // neither: a line across the image), the ray is taken as moved by eps * (one pixel right) + eps^2 * (one pixel
+    // up), as the reference does: the two tets' planes point opposite ways, so exactly one keeps it.
+    float side = at;
+    if (abs(at) <= 1e-5) {
+      side = dot(n, uRayOriginDx);
+      if (abs(side) <= 1e-6 * length(n) * length(uRayOriginDx)) side = dot(n, uRayOriginDy);
+    }
+    if (side <= 0.0) discard;
   }
   if (!(leave > enter)) discard;
   const float front = dot(vScalar.xyz, origin + enter * direction) + vScalar.w;

@@ -134,6 +134,34 @@ TEST_F(ServerTest, ServesAVdbFileWithTheFramesOfItsPreppedStore) {
   c->goodbye();
 }
 
+// A tetrahedral mesh store is a dataset like a grid: listed, described with its kind, served with the frames of
+// `voxbrick render`.
+TEST_F(ServerTest, ServesATetMeshWithTheRenderCommandsFrame) {
+  const std::filesystem::path work = scratch() / "mesh-case", datasets = work / "datasets";
+  std::filesystem::create_directories(datasets);
+  auto r = test::runVoxbrick("prep synthetic-mesh:ball,n=10 -q -o " + (datasets / "ball").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  ServerProcess server("--datasets " + datasets.string() + " --render-threads 2", work);
+  auto c = session(server, "");
+  EXPECT_EQ(c->listDatasets(), std::vector<std::string>{"ball"});
+  const json meta = json::parse(c->openDataset("ball").metaJson);
+  EXPECT_EQ(meta["kind"], "tet-mesh");
+  EXPECT_GT(meta["tets"].get<int>(), 1000);
+  const std::string scene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [80, 64], "transfer_function": "hot"})";
+  const proto::Frame frame = c->render(scene, proto::Encoding::RawRgba8);
+  EXPECT_EQ(json::parse(frame.statsJson)["tets_drawn"], meta["tets"]);
+  test::writeFile(work / "scene.json", scene);
+  r = test::runVoxbrick("render " + (datasets / "ball").string() + " --scene " + (work / "scene.json").string() +
+                        " -q -o " + (work / "rendered.png").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  const std::vector<uint8_t> served = pixels(frame);
+  EXPECT_EQ(served, image::readPng(work / "rendered.png").rgba) << "the served mesh frame differs from `render`";
+  size_t lit = 0;
+  for (size_t i = 0; i < served.size(); i += 4) lit += served[i] > 0 ? 1 : 0;
+  EXPECT_GT(lit, 500u) << "an empty frame would prove nothing";
+  c->goodbye();
+}
+
 TEST_F(ServerTest, MalformedMessagesGetTheirErrorsAndOtherSessionsGoOn) {
   auto server = start();
   auto good = session(*server);
