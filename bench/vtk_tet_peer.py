@@ -172,7 +172,11 @@ def merge(base, extra):
 
 
 def run(cmd, **kw):
-    return subprocess.run(cmd, check=True, text=True, capture_output=True, **kw)
+    """Runs cmd, returning its output as UTF-8 text whatever the locale (voxbrick prints non-ASCII characters)."""
+    try:
+        return subprocess.run(cmd, check=True, capture_output=True, encoding="utf-8", errors="replace", **kw)
+    except subprocess.CalledProcessError as e:
+        sys.exit(f"vtk_tet_peer: {' '.join(cmd)} failed (exit {e.returncode}):\n{(e.stderr or '')[-2000:]}")
 
 
 def median(values):
