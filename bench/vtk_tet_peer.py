@@ -700,10 +700,13 @@ def main():
     csv_path = os.path.join(args.out, f"{args.name}.csv")
     with open(csv_path, "w") as f:
         w = csv.writer(f, lineterminator="\n")
-        w.writerow(["renderer", "setting", "view", "azimuth", "ms", "process_ms", "psnr_db", "rmse", "max_abs",
-                    "judge"])
+        w.writerow(["renderer", "setting", "view", "azimuth", "ms", "ms_sorting", "ms_drawing", "process_ms",
+                    "psnr_db", "rmse", "max_abs", "judge"])
         for r in rows:
+            ph = r.get("phases", {})
             w.writerow([r["renderer"], r["setting"], r["view"], f"{r['azimuth']:g}", f"{r['ms']:.1f}",
+                        f"{ph['sorting']:.1f}" if "sorting" in ph else "",
+                        f"{ph['drawing']:.1f}" if "drawing" in ph else "",
                         f"{r['process_ms']:.0f}" if r["process_ms"] != "" else "", f"{r['psnr']:.2f}",
                         f"{r['rmse']:.6f}", f"{r['max_abs']:.4f}", "reference" if vb else "vtk-rc"])
 
@@ -831,8 +834,17 @@ def main():
     lines.append(f"- VTK: per view one warm-up frame (discarded), then {args.repeats} timed frame(s) (`Render()` + "
                  "`GetPixelData`), median; the table gives the median over the views.")
     if vb:
+        phases = []
+        for k in groups:
+            if k[0] == "voxbrick":
+                g = group_rows(k)
+                names = [n for n in ("sorting", "pre_integration", "drawing", "readback")
+                         if all(n in r["phases"] for r in g)]
+                phases.append(f"`{k[1]}`: " + ", ".join(
+                    f"{n.replace('_', '-')} {median([r['phases'][n] for r in g]):.0f}" for n in names))
         lines.append("- voxbrick: one `voxbrick render --warm-up 1` process per view and setting: a warm-up frame, "
-                     "then the timed frame, whose `ms.total` (from `--stats`) is the time given.")
+                     "then the timed frame, whose `ms.total` (from `--stats`) is the time given. Its phases, median "
+                     "ms over the views: " + "; ".join(phases) + ".")
         if ref_ms:
             lines.append(f"- References rendered in this run: median {median(ref_ms) / 1e3:.1f} s each (cached "
                          f"afterwards in `{ref_dir}`).")
