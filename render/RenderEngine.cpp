@@ -36,8 +36,10 @@ struct RenderEngine::Impl {
 };
 
 size_t RenderEngine::Impl::wanted(const Dataset& dataset) const {
+  // A mesh takes its resident size, at most the whole budget (a larger one is streamed).
   if (dataset.kind() == DatasetKind::TetMesh)
-    return TetRenderer::bytesFor(static_cast<const TetMeshDataset&>(dataset).data()->mesh.tets.size());
+    return std::min(options.gpuBudgetBytes,
+                    TetRenderer::bytesFor(static_cast<const TetMeshDataset&>(dataset).data()->mesh.tets.size()));
   return Residency::atlasBytes(*static_cast<const BrickStoreDataset&>(dataset).store(), options.gpuBudgetBytes,
                                options.atlasFormat, BrickAtlas::resolveUploads(*context, options.atlasUploads));
 }

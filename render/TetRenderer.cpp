@@ -30,10 +30,13 @@ Program tetProgram(const Gl& gl, bool nullFragment) {
 
 }  // namespace
 
-size_t TetRenderer::bytesFor(size_t tets) {
-  const size_t table = size_t(PreIntegrationTexture::kResolution) * PreIntegrationTexture::kResolution * 64 * 16;
-  return tets * (64 + 4) + table;
+size_t TetRenderer::tableBytes() {
+  return size_t(PreIntegrationTexture::kResolution) * PreIntegrationTexture::kResolution * 64 * 16;
 }
+
+size_t TetRenderer::bytesFor(size_t tets) { return tets * (kBytesPerTet + 4) + tableBytes(); }
+
+size_t TetRenderer::minimumBytes() { return kMinBatchTets * (kBytesPerTet + 4) + tableBytes(); }
 
 TetRenderer::TetRenderer(GlContext& context, std::shared_ptr<const TetMeshData> data, size_t gpuBudgetBytes)
     : mGl(context.gl()),
@@ -46,27 +49,43 @@ TetRenderer::TetRenderer(GlContext& context, std::shared_ptr<const TetMeshData> 
       mCompositor(mGl),
       mTable(mGl) {
   const mesh::TetMesh& m = mData->mesh;
-  if (bytesFor(m.tets.size()) > gpuBudgetBytes)
-    throw RenderInputError("tet mesh: " + std::to_string(m.tets.size()) + " tets need " +
-                           std::to_string(bytesFor(m.tets.size())) + " bytes of GPU memory, more than the budget of " +
-                           std::to_string(gpuBudgetBytes));
+  if (gpuBudgetBytes < minimumBytes())
+    throw RenderInputError("tet mesh: a GPU budget of " + std::to_string(gpuBudgetBytes) +
+                           " bytes holds no batch of tets (the pre-integration table and " +
+                           std::to_string(kMinBatchTets) + " tets take " + std::to_string(minimumBytes()) + ")");
+  if (bytesFor(m.tets.size()) <= gpuBudgetBytes) {
+    // Resident: every tet uploaded once, in mesh order, drawn through the order buffer.
+    mBatchTets = m.tets.size();
+    std::vector<glm::vec4> texels(m.tets.size() * 4);
+    for (size_t t = 0; t < m.tets.size(); ++t) writeTet(uint32_t(t), &texels[4 * t]);
+    mVertices.allocate(GL_SHADER_STORAGE_BUFFER, texels.size() * sizeof(glm::vec4), texels.data(), GL_STATIC_DRAW);
+  } else {
+    // Streamed: batches of tets in visibility order are written into one buffer and drawn in turn, as many as the
+    // budget holds; the order buffer is the identity over a batch.
+    mStreamed = true;
+    mBatchTets = std::max(kMinBatchTets, (gpuBudgetBytes - tableBytes()) / (kBytesPerTet + 4));
+    mVertices.allocate(GL_SHADER_STORAGE_BUFFER, mBatchTets * kBytesPerTet, nullptr, GL_STREAM_DRAW);
+    std::vector<uint32_t> identity(mBatchTets);
+    for (size_t i = 0; i < identity.size(); ++i) identity[i] = uint32_t(i);
+    mOrderBuffer.allocate(GL_SHADER_STORAGE_BUFFER, identity.size() * 4, identity.data(), GL_STATIC_DRAW);
+  }
+  checkGlError(mGl, "TetRenderer: uploading the mesh");
+}
+
+void TetRenderer::writeTet(uint32_t tet, glm::vec4* out) const {
   // Positions relative to the box's centre keep single precision where the tets are (a mesh far from the origin
   // would otherwise lose its small cells' shape).
+  const mesh::TetMesh& m = mData->mesh;
   const glm::dvec3 centre = mData->bounds.center();
-  std::vector<glm::vec4> texels(m.tets.size() * 4);
-  for (size_t t = 0; t < m.tets.size(); ++t)
-    for (int i = 0; i < 4; ++i) {
-      const uint32_t v = m.tets[t][i];
-      texels[4 * t + i] = glm::vec4(glm::vec3(glm::dvec3(m.points[v]) - centre), m.scalars[v]);
-    }
-  mVertices.allocate(GL_SHADER_STORAGE_BUFFER, texels.size() * sizeof(glm::vec4), texels.data(), GL_STATIC_DRAW);
-  mOrderBuffer.allocate(GL_SHADER_STORAGE_BUFFER, m.tets.size() * sizeof(uint32_t), nullptr, GL_STREAM_DRAW);
-  checkGlError(mGl, "TetRenderer: uploading the mesh");
+  for (int i = 0; i < 4; ++i) {
+    const uint32_t v = m.tets[tet][i];
+    out[i] = glm::vec4(glm::vec3(glm::dvec3(m.points[v]) - centre), m.scalars[v]);
+  }
 }
 
 TetRenderer::~TetRenderer() = default;
 
-size_t TetRenderer::gpuBytes() const { return bytesFor(mData->mesh.tets.size()); }
+size_t TetRenderer::gpuBytes() const { return mBatchTets * (kBytesPerTet + 4) + tableBytes(); }
 
 image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, const FrameOptions& options) {
   scene.validate();
@@ -124,7 +143,8 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
   const auto drawStart = Clock::now();
   mCompositor.begin(scene.width, scene.height, true);
   try {
-    mOrderBuffer.allocate(GL_SHADER_STORAGE_BUFFER, mOrder.size() * sizeof(uint32_t), mOrder.data(), GL_STREAM_DRAW);
+    if (!mStreamed)
+      mOrderBuffer.allocate(GL_SHADER_STORAGE_BUFFER, mOrder.size() * sizeof(uint32_t), mOrder.data(), GL_STREAM_DRAW);
     const Program& p = nullFragment ? mNullProgram : mProgram;
     p.set(p.uniformLocation("uViewProj"), glm::mat4(viewProj));
     p.set(p.uniformLocation("uWindowLo"), float(lo));
@@ -146,7 +166,24 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
     mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mVertices.id());
     mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, mOrderBuffer.id());
     mEmpty.bind();
-    mGl.glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(mOrder.size()));
+    if (!mStreamed) {
+      mGl.glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(mOrder.size()));
+      stats.batches = 1;
+    } else {
+      // Each batch is written into a fresh store of the buffer (the driver keeps the previous one until its draw has
+      // read it), then drawn: the frame is the resident one, batch by batch.
+      std::vector<glm::vec4> staging(mBatchTets * 4);
+      for (size_t first = 0; first < mOrder.size(); first += mBatchTets) {
+        if (options.cancelled && options.cancelled()) throw FrameCancelled("frame cancelled");
+        const size_t count = std::min(mBatchTets, mOrder.size() - first);
+        for (size_t i = 0; i < count; ++i) writeTet(mOrder[first + i], &staging[4 * i]);
+        mVertices.allocate(GL_SHADER_STORAGE_BUFFER, mBatchTets * kBytesPerTet, nullptr, GL_STREAM_DRAW);
+        mGl.glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, GLsizeiptr(count * kBytesPerTet), staging.data());
+        mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mVertices.id());
+        mGl.glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(count));
+        stats.batches += 1;
+      }
+    }
     checkGlError(mGl, "TetRenderer: drawing");
   } catch (...) {
     mCompositor.abort();
@@ -154,7 +191,6 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
   }
   stats.msDrawing = msSince(drawStart);
   stats.tetsDrawn = int64_t(mOrder.size());
-  stats.batches = 1;
   image::ImageF image = mCompositor.finish(scene.background, stats);
   mGl.glDisable(GL_BLEND);
   mGl.glBindFramebuffer(GL_FRAMEBUFFER, 0);

@@ -21,8 +21,9 @@ namespace voxbrick::render {
 /// frame uploads only the order (4 bytes a tet).
 class TetRenderer final : public FrameRenderer {
  public:
-  /// Uploads the mesh. Throws RenderInputError when it needs more than `gpuBudgetBytes` (tets, order and the
-  /// largest pre-integration table).
+  /// Uploads the mesh when it fits `gpuBudgetBytes` (bytesFor); otherwise each frame streams the tets, in
+  /// visibility order, through a buffer of as many as the budget holds (the same image, a batch per draw). Throws
+  /// RenderInputError when the budget is below minimumBytes().
   TetRenderer(GlContext& context, std::shared_ptr<const TetMeshData> data, size_t gpuBudgetBytes);
   ~TetRenderer() override;
 
@@ -32,14 +33,27 @@ class TetRenderer final : public FrameRenderer {
   image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) override;
   size_t gpuBytes() const override;
 
-  /// The GPU bytes a mesh of `tets` tetrahedra takes: its vertices, its order and the table.
+  /// The GPU bytes a mesh of `tets` tetrahedra takes resident: its vertices, its order and the table.
   static size_t bytesFor(size_t tets);
+  /// The least budget a renderer works in: the table and a batch of kMinBatchTets.
+  static size_t minimumBytes();
+  /// Whether the tets are streamed in batches each frame (the mesh is larger than the budget).
+  bool streamed() const { return mStreamed; }
   /// The last frame's visibility order (front to back), for tests.
   const std::vector<uint32_t>& order() const { return mOrder; }
 
  private:
+  static constexpr size_t kBytesPerTet = 64;     // four vec4: position and scalar
+  static constexpr size_t kMinBatchTets = 4096;  // the smallest streamed batch
+  /// The largest pre-integration table (64 length layers of RGBA32F).
+  static size_t tableBytes();
+  /// Tet `tet`'s four vertices as the shader reads them.
+  void writeTet(uint32_t tet, glm::vec4* out) const;
+
   const Gl& mGl;
   std::shared_ptr<const TetMeshData> mData;
+  bool mStreamed = false;
+  size_t mBatchTets = 0;  // tets the vertex buffer holds: all of them, or a streamed batch
   Buffer mVertices;  // 4 vec4 per tet: position (centred on the mesh's box) and raw scalar
   Buffer mOrderBuffer;
   VertexArray mEmpty;  // core profile draws need a vertex array, even one without attributes

@@ -143,6 +143,37 @@ TEST(TetRenderer, EmptyTetsAreSkippedWithoutChangingTheImage) {
   test::expectClose(fast, slow, 0.0, "tets-skip-empty");
 }
 
+// A mesh larger than the GPU budget is streamed in batches of tets in visibility order: the same image; a budget
+// below one batch and the table is refused naming both.
+TEST(TetRenderer, AMeshLargerThanTheBudgetIsStreamedToTheSameImage) {
+  auto m = mesh::syntheticMesh("ball,n=20");
+  mesh::Topology t = mesh::buildTopology(m);
+  auto data = std::make_shared<const TetMeshData>(std::move(m), std::move(t));
+  ASSERT_GT(data->mesh.tets.size(), 3 * 4096u);
+  Scene scene;
+  scene.width = 96;
+  scene.height = 80;
+  scene.transferFunction = TransferFunction::load("hot");
+  TetRenderer resident(test::context(), data, TetRenderer::bytesFor(data->mesh.tets.size()));
+  EXPECT_FALSE(resident.streamed());
+  TetRenderer streamed(test::context(), data, TetRenderer::minimumBytes() + 1000);
+  EXPECT_TRUE(streamed.streamed());
+  EXPECT_LE(streamed.gpuBytes(), TetRenderer::minimumBytes() + 1000);
+  FrameStats one, many;
+  const image::ImageF want = resident.render(scene, &one);
+  ASSERT_GT(test::meanBrightness(want), 0.01);
+  test::expectClose(streamed.render(scene, &many), want, 0.0, "tets-streamed");
+  EXPECT_EQ(one.batches, 1);
+  EXPECT_GE(many.batches, 3);
+  EXPECT_EQ(many.tetsDrawn, one.tetsDrawn);
+  try {
+    TetRenderer tooSmall(test::context(), data, TetRenderer::minimumBytes() - 1);
+    FAIL() << "a budget below one batch must be refused";
+  } catch (const RenderInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("holds no batch"), std::string::npos) << e.what();
+  }
+}
+
 /// A cube of Kuhn cells with a hollow: the cells whose centres lie within `radius` of a point off the centre are
 /// left out, so that rays cross the hollow and tets on its far side are hidden by tets they share no face with.
 std::shared_ptr<const TetMeshData> hollowCube(int n, double radius) {
