@@ -28,14 +28,13 @@ import json
 import os
 import platform
 import shutil
-import statistics
 import struct
-import subprocess
 import sys
 import time
-import zlib
 
 import numpy as np
+
+from peer_common import fmt_db, median, merge, parse_fragment, run, split_top_level, write_png
 
 # Keys of a voxbrick scene that define the picture rather than how voxbrick renders it: they are set by this
 # script's own options (the same for every renderer), so a --voxbrick fragment may not change them.
@@ -52,85 +51,6 @@ RAYCAST_LABEL = "VTK FixedPoint (its ray-cast image)"
 
 def log(msg):
     print(f"[vtk_peer {time.strftime('%H:%M:%S')}] {msg}", flush=True)
-
-
-def write_png(path, rgb):
-    """8-bit RGB PNG of an (h, w, 3) uint8 array, row 0 at the top."""
-    rgb = np.ascontiguousarray(rgb, dtype=np.uint8)
-    h, w, _ = rgb.shape
-    raw = b"".join(b"\x00" + rgb[y].tobytes() for y in range(h))
-
-    def chunk(tag, data):
-        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
-
-    with open(path, "wb") as f:
-        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)) +
-                chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))
-
-
-def split_top_level(text, sep=","):
-    """Splits on `sep` outside brackets, braces and double quotes (so background=[0,0,0] stays one item)."""
-    items, depth, quoted, cur = [], 0, False, ""
-    for ch in text:
-        if ch == '"':
-            quoted = not quoted
-        elif not quoted and ch in "[{":
-            depth += 1
-        elif not quoted and ch in "]}":
-            depth -= 1
-        if ch == sep and depth == 0 and not quoted:
-            items.append(cur)
-            cur = ""
-        else:
-            cur += ch
-    items.append(cur)
-    return [i.strip() for i in items if i.strip()]
-
-
-def parse_fragment(text):
-    """A --voxbrick value: 'k=v,k2=v2' (v parsed as JSON when it is JSON, else a string; 'a.b=v' nests; 1 and 0 are
-    true and false for the keys of BOOLEAN_KEYS) or a JSON object. Returns the dict to merge into the scene."""
-    text = text.strip()
-    if text.startswith("{"):
-        obj = json.loads(text)
-        if not isinstance(obj, dict):
-            raise ValueError(f"--voxbrick {text!r}: not a JSON object")
-        return obj
-    out = {}
-    for item in split_top_level(text):
-        if "=" not in item:
-            raise ValueError(f"--voxbrick {text!r}: '{item}' is not key=value")
-        key, value = (s.strip() for s in item.split("=", 1))
-        try:
-            parsed = json.loads(value)
-        except json.JSONDecodeError:
-            parsed = value
-        if key in BOOLEAN_KEYS and parsed in (0, 1) and not isinstance(parsed, bool):
-            parsed = bool(parsed)
-        node = out
-        parts = key.split(".")
-        for p in parts[:-1]:
-            node = node.setdefault(p, {})
-        node[parts[-1]] = parsed
-    return out
-
-
-def merge(base, extra):
-    out = json.loads(json.dumps(base))
-    for k, v in extra.items():
-        if isinstance(v, dict) and isinstance(out.get(k), dict):
-            out[k] = merge(out[k], v)
-        else:
-            out[k] = v
-    return out
-
-
-def run(cmd, **kw):
-    return subprocess.run(cmd, check=True, text=True, capture_output=True, **kw)
-
-
-def median(values):
-    return statistics.median(values) if values else float("nan")
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -386,10 +306,6 @@ def orbit_camera(az, el, dist, dims, spacing):
     return list(dist * radius * direction), [0.0, 0.0, 0.0], [0.0, 1.0, 0.0]
 
 
-def fmt_db(x):
-    return "inf" if x == float("inf") else f"{x:.1f}"
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--voxbrick-bin", default="build/voxbrick")
@@ -466,7 +382,7 @@ def main():
     # Settings.
     settings = []
     for text in args.voxbrick or ["step=0.75"]:
-        frag = parse_fragment(text)
+        frag = parse_fragment(text, BOOLEAN_KEYS)
         bad = SCENE_KEYS & set(frag)
         if bad:
             sys.exit(f"vtk_peer: --voxbrick {text!r} sets {sorted(bad)}: these define the scene (the same for every "
