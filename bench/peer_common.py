@@ -98,3 +98,30 @@ def run(cmd, **kw):
         return subprocess.run(cmd, check=True, capture_output=True, encoding="utf-8", errors="replace", **kw)
     except subprocess.CalledProcessError as e:
         sys.exit(f"{os.path.basename(sys.argv[0])}: {' '.join(cmd)} failed (exit {e.returncode}):\n{(e.stderr or '')[-2000:]}")
+
+
+def volume_property(vtk, tf, window, reference_length):
+    """voxbrick's transfer function as a vtkVolumeProperty: control points at raw values lo + x (hi - lo) of the
+    window, straight colours, alpha as opacity per `reference_length` (SetScalarOpacityUnitDistance), linear
+    interpolation, no shading. `vtk` is the imported module (the peers import it only once they run)."""
+    lo, hi = window
+    ctf, otf = vtk.vtkColorTransferFunction(), vtk.vtkPiecewiseFunction()
+    ctf.SetColorSpaceToRGB()
+    ctf.ClampingOn()
+    otf.ClampingOn()
+    points = tf["points"]
+    for i, (x, r, g, b, a) in enumerate(points):
+        v = lo + x * (hi - lo)
+        # Two points at one x make a step whose value at x is the later point's: move the earlier one left.
+        if i + 1 < len(points) and points[i + 1][0] == x:
+            v -= 1e-6 * (hi - lo)
+        ctf.AddRGBPoint(v, r, g, b)
+        otf.AddPoint(v, a)
+    prop = vtk.vtkVolumeProperty()
+    prop.SetColor(ctf)
+    prop.SetScalarOpacity(otf)
+    prop.SetScalarOpacityUnitDistance(reference_length)
+    prop.SetInterpolationTypeToLinear()
+    prop.ShadeOff()
+    prop.SetIndependentComponents(1)
+    return prop

@@ -69,7 +69,7 @@ import time
 
 import numpy as np
 
-from peer_common import fmt_db, median, merge, parse_fragment, run, split_top_level, write_png
+from peer_common import fmt_db, median, merge, parse_fragment, run, split_top_level, volume_property, write_png
 
 # Keys of a voxbrick scene that define the picture (set by this script's options, the same for every renderer).
 SCENE_KEYS = {"camera", "size", "transfer_function", "background", "window", "shading"}
@@ -207,27 +207,7 @@ class VtkTetPeer:
         self.width, self.height = width, height
         self.grid = grid
 
-        lo, hi = window
-        ctf, otf = vtk.vtkColorTransferFunction(), vtk.vtkPiecewiseFunction()
-        ctf.SetColorSpaceToRGB()
-        ctf.ClampingOn()
-        otf.ClampingOn()
-        points = tf["points"]
-        for i, (x, r, g, b, a) in enumerate(points):
-            v = lo + x * (hi - lo)
-            # Two points at one x make a step whose value at x is the later point's: move the earlier one left.
-            if i + 1 < len(points) and points[i + 1][0] == x:
-                v -= 1e-6 * (hi - lo)
-            ctf.AddRGBPoint(v, r, g, b)
-            otf.AddPoint(v, a)
-        prop = vtk.vtkVolumeProperty()
-        prop.SetColor(ctf)
-        prop.SetScalarOpacity(otf)
-        prop.SetScalarOpacityUnitDistance(reference_length)
-        prop.SetInterpolationTypeToLinear()
-        prop.ShadeOff()
-        prop.SetIndependentComponents(1)
-        self.prop = prop
+        self.prop = volume_property(vtk, tf, window, reference_length)
         self.windows = {}
 
     def _window(self, kind):
