@@ -7,6 +7,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "mesh/Visibility.h"
+#include "render/Checkpoints.h"
 #include "render/FramePlan.h"
 #include "render/RenderErrors.h"
 
@@ -19,6 +20,9 @@ double msSince(Clock::time_point t) { return std::chrono::duration<double, std::
 /// The shortest segment the table holds, as a share of the longest: shorter ones scale its first layer
 /// (tet.frag.glsl), exact to first order in the length.
 constexpr double kShortestRatioShare = 1.0 / 64;
+
+/// The most tets one draw call takes: cancellation is checked between draws.
+constexpr size_t kTetsPerDraw = 262144;
 
 Program tetProgram(const Gl& gl, bool nullFragment) {
   std::vector<std::string> defines;
@@ -166,21 +170,30 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
     mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mVertices.id());
     mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, mOrderBuffer.id());
     mEmpty.bind();
+    // Cancellation: checked between draws of at most kTetsPerDraw tets, with at most two of them queued
+    // (Checkpoints), so that a frame given up stops within about one draw's work.
+    Checkpoints checkpoints(mGl, options.cancelled);
+    const GLint orderOffset = p.uniformLocation("uOrderOffset");
     if (!mStreamed) {
-      mGl.glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(mOrder.size()));
+      for (size_t first = 0; first < mOrder.size(); first += kTetsPerDraw) {
+        p.set(orderOffset, int(first));
+        mGl.glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(std::min(kTetsPerDraw, mOrder.size() - first)));
+        checkpoints.pace();
+      }
       stats.batches = 1;
     } else {
+      p.set(orderOffset, 0);
       // Each batch is written into a fresh store of the buffer (the driver keeps the previous one until its draw has
       // read it), then drawn: the frame is the resident one, batch by batch.
       std::vector<glm::vec4> staging(mBatchTets * 4);
       for (size_t first = 0; first < mOrder.size(); first += mBatchTets) {
-        if (options.cancelled && options.cancelled()) throw FrameCancelled("frame cancelled");
         const size_t count = std::min(mBatchTets, mOrder.size() - first);
         for (size_t i = 0; i < count; ++i) writeTet(mOrder[first + i], &staging[4 * i]);
         mVertices.allocate(GL_SHADER_STORAGE_BUFFER, mBatchTets * kBytesPerTet, nullptr, GL_STREAM_DRAW);
         mGl.glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, GLsizeiptr(count * kBytesPerTet), staging.data());
         mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mVertices.id());
         mGl.glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(count));
+        checkpoints.pace();
         stats.batches += 1;
       }
     }

@@ -13,6 +13,7 @@
 layout(std430, binding = 1) readonly buffer TetVertices { vec4 uTetVertices[]; };
 layout(std430, binding = 2) readonly buffer TetOrder { uint uOrder[]; };
 
+uniform int uOrderOffset;  // the first of this draw's tets in the order (a frame is drawn in several draws)
 uniform mat4 uViewProj;   // world (centred on the mesh) to clip
 uniform float uWindowLo;  // the value window [lo, hi] as lo and 1 / (hi - lo)
 uniform float uWindowScale;
@@ -51,7 +52,7 @@ ivec4 hullStrip(vec2 p[4]) {
 }
 
 void main() {
-  const uint tet = uOrder[gl_InstanceID];
+  const uint tet = uOrder[uOrderOffset + gl_InstanceID];
   vec4 v[4];
   for (int i = 0; i < 4; ++i) v[i] = uTetVertices[4u * tet + uint(i)];
   // Face i is opposite vertex i; its plane is scaled so that it is 1 at vertex i.

@@ -174,6 +174,29 @@ TEST(TetRenderer, AMeshLargerThanTheBudgetIsStreamedToTheSameImage) {
   }
 }
 
+// A mesh frame given up part way (between its draws) throws FrameCancelled, and the next frame is a fresh renderer's.
+TEST(TetRenderer, ACancelledFrameLeavesTheNextOneIntact) {
+  auto m = mesh::syntheticMesh("ball,n=48");  // several draws of tets
+  mesh::Topology t = mesh::buildTopology(m);
+  auto data = std::make_shared<const TetMeshData>(std::move(m), std::move(t));
+  Scene scene;
+  scene.width = 64;
+  scene.height = 48;
+  scene.transferFunction = TransferFunction::load("hot");
+  for (bool streamed : {false, true}) {
+    TetRenderer renderer(test::context(), data,
+                         streamed ? TetRenderer::minimumBytes() : TetRenderer::bytesFor(data->mesh.tets.size()));
+    ASSERT_EQ(renderer.streamed(), streamed);
+    int asked = 0;
+    FrameOptions options;
+    options.cancelled = [&] { return ++asked > 2; };  // the sort's check and one draw pass, then give up
+    EXPECT_THROW(renderer.render(scene, nullptr, options), FrameCancelled);
+    EXPECT_GT(asked, 2);
+    TetRenderer fresh(test::context(), data, size_t(512) << 20);
+    test::expectClose(renderer.render(scene), fresh.render(scene), 0.0, "tets-after-cancel");
+  }
+}
+
 /// A cube of Kuhn cells with a hollow: the cells whose centres lie within `radius` of a point off the centre are
 /// left out, so that rays cross the hollow and tets on its far side are hidden by tets they share no face with.
 std::shared_ptr<const TetMeshData> hollowCube(int n, double radius) {
