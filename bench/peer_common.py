@@ -125,3 +125,29 @@ def volume_property(vtk, tf, window, reference_length):
     prop.ShadeOff()
     prop.SetIndependentComponents(1)
     return prop
+
+
+def offscreen_window(vtk, mapper, prop, width, height):
+    """A volume of `mapper` with `prop` in an offscreen render window of width x height, black background, no
+    multisampling, rendered as a still frame (never VTK's interactive settings). Returns (window, renderer)."""
+    vol = vtk.vtkVolume()
+    vol.SetMapper(mapper)
+    vol.SetProperty(prop)
+    ren = vtk.vtkRenderer()
+    ren.SetBackground(0, 0, 0)
+    ren.AddVolume(vol)
+    rw = vtk.vtkRenderWindow()
+    rw.SetOffScreenRendering(1)
+    rw.SetMultiSamples(0)
+    rw.SetSize(width, height)
+    rw.AddRenderer(ren)
+    rw.SetDesiredUpdateRate(1e-4)
+    return rw, ren
+
+
+def gl_description(rw):
+    """The renderer and version strings of a render window's GL context (after a Render())."""
+    caps = rw.ReportCapabilities() or ""
+    gl = [l.split(":", 1)[1].strip() for l in caps.splitlines()
+          if l.startswith("OpenGL renderer string") or l.startswith("OpenGL version string")]
+    return ", ".join(gl)

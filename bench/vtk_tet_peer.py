@@ -69,7 +69,8 @@ import time
 
 import numpy as np
 
-from peer_common import fmt_db, median, merge, parse_fragment, run, split_top_level, volume_property, write_png
+from peer_common import (fmt_db, gl_description, median, merge, offscreen_window, parse_fragment, run,
+                         split_top_level, volume_property, write_png)
 
 # Keys of a voxbrick scene that define the picture (set by this script's options, the same for every renderer).
 SCENE_KEYS = {"camera", "size", "transfer_function", "background", "window", "shading"}
@@ -228,28 +229,14 @@ class VtkTetPeer:
             m.SetRayIntegrator(getattr(vtk, INTEGRATORS[integrator])())
         m.SetInputData(self.grid)
         m.SetBlendModeToComposite()
-        vol = vtk.vtkVolume()
-        vol.SetMapper(m)
-        vol.SetProperty(self.prop)
-        ren = vtk.vtkRenderer()
-        ren.SetBackground(0, 0, 0)
-        ren.AddVolume(vol)
-        rw = vtk.vtkRenderWindow()
-        rw.SetOffScreenRendering(1)
-        rw.SetMultiSamples(0)
-        rw.SetSize(self.width, self.height)
-        rw.AddRenderer(ren)
-        rw.SetDesiredUpdateRate(1e-4)  # a still render, never the interactive settings
+        rw, ren = offscreen_window(vtk, m, self.prop, self.width, self.height)
         self.windows[kind] = (rw, ren, m)
         return self.windows[kind]
 
     def describe(self, kind):
         rw, _, m = self._window(kind)
         rw.Render()
-        caps = rw.ReportCapabilities() or ""
-        gl = [l.split(":", 1)[1].strip() for l in caps.splitlines()
-              if l.startswith("OpenGL renderer string") or l.startswith("OpenGL version string")]
-        d = {"gl": ", ".join(gl), "class": m.GetClassName()}
+        d = {"gl": gl_description(rw), "class": m.GetClassName()}
         if kind == "pt":
             d["supported"] = bool(m.IsSupported(rw))
             d["float_framebuffer"] = bool(m.GetUseFloatingPointFrameBuffer())

@@ -174,30 +174,28 @@ void writeGmsh(const TetMesh& mesh, const std::filesystem::path& path, int versi
     for (int k = 0; k < 3; ++k) real(n ? hi[k] : 0.0f, " ");
     size(0, " ");  // physical tags
     size(0, "\n");  // bounding surfaces
-    out.text(binary ? "\n$EndEntities\n$Nodes\n" : "$EndEntities\n$Nodes\n");
-    size(n ? 1 : 0, " ");
-    size(n, " ");
-    size(n ? 1 : 0, " ");
-    size(n, "\n");
-    if (n) {
+    // A section's header (blocks, count, tag range) and its one block's header in volume entity 1: `kind` is the
+    // nodes' parametric flag (0) or the elements' type (4: tetrahedra). Nothing after the header for an empty one.
+    auto sectionOfOneBlock = [&](size_t count, int32_t kind) {
+      size(count ? 1 : 0, " ");
+      size(count, " ");
+      size(count ? 1 : 0, " ");
+      size(count, "\n");
+      if (count == 0) return false;
       integer(3, " ");
       integer(1, " ");
-      integer(0, " ");
-      size(n, "\n");
+      integer(kind, " ");
+      size(count, "\n");
+      return true;
+    };
+    out.text(binary ? "\n$EndEntities\n$Nodes\n" : "$EndEntities\n$Nodes\n");
+    if (sectionOfOneBlock(n, 0)) {
       for (size_t i = 0; i < n; ++i) size(i + 1, "\n");
       for (const glm::vec3& p : mesh.points)
         for (int k = 0; k < 3; ++k) real(p[k], k < 2 ? " " : "\n");
     }
     out.text(binary ? "\n$EndNodes\n$Elements\n" : "$EndNodes\n$Elements\n");
-    size(m ? 1 : 0, " ");
-    size(m, " ");
-    size(m ? 1 : 0, " ");
-    size(m, "\n");
-    if (m) {
-      integer(3, " ");
-      integer(1, " ");
-      integer(4, " ");
-      size(m, "\n");
+    if (sectionOfOneBlock(m, 4)) {
       for (size_t t = 0; t < m; ++t) {
         size(t + 1, " ");
         for (int k = 0; k < 4; ++k) size(uint64_t{mesh.tets[t][k]} + 1, k < 3 ? " " : "\n");

@@ -38,15 +38,15 @@ bool isDataset(const std::filesystem::path& path) {
 
 std::shared_ptr<const Dataset> openDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes,
                                            const store::StoreOpenOptions& options) {
-  if (!isDataset(path))
-    throw std::runtime_error("openDataset: '" + path.string() +
-                             "' is not a dataset (no store.json, not a .vdb file, not a mesh store)");
   if (mesh::looksLikeMeshStore(path)) {
     // A mesh is held whole: its chunks are read and checked once, here.
     const mesh::MeshStore meshStore = mesh::MeshStore::open(path);
     auto data = std::make_shared<const TetMeshData>(meshStore.readAll(), meshStore.readTopology());
     return std::make_shared<TetMeshDataset>(std::move(name), path, std::move(data));
   }
+  if (!isDataset(path))
+    throw std::runtime_error("openDataset: '" + path.string() +
+                             "' is not a dataset (no store.json, not a .vdb file, not a mesh store)");
   return std::make_shared<BrickStoreDataset>(std::move(name), path, cacheBytes, 2, options);
 }
 

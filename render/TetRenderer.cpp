@@ -185,12 +185,12 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
       p.set(orderOffset, 0);
       // Each batch is written into a fresh store of the buffer (the driver keeps the previous one until its draw has
       // read it), then drawn: the frame is the resident one, batch by batch.
-      std::vector<glm::vec4> staging(mBatchTets * 4);
+      mStaging.resize(mBatchTets * 4);
       for (size_t first = 0; first < mOrder.size(); first += mBatchTets) {
         const size_t count = std::min(mBatchTets, mOrder.size() - first);
-        for (size_t i = 0; i < count; ++i) writeTet(mOrder[first + i], &staging[4 * i]);
+        for (size_t i = 0; i < count; ++i) writeTet(mOrder[first + i], &mStaging[4 * i]);
         mVertices.allocate(GL_SHADER_STORAGE_BUFFER, mBatchTets * kBytesPerTet, nullptr, GL_STREAM_DRAW);
-        mGl.glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, GLsizeiptr(count * kBytesPerTet), staging.data());
+        mGl.glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, GLsizeiptr(count * kBytesPerTet), mStaging.data());
         mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mVertices.id());
         mGl.glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(count));
         checkpoints.pace();

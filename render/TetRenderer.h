@@ -39,8 +39,6 @@ class TetRenderer final : public FrameRenderer {
   static size_t minimumBytes();
   /// Whether the tets are streamed in batches each frame (the mesh is larger than the budget).
   bool streamed() const { return mStreamed; }
-  /// The last frame's visibility order (front to back), for tests.
-  const std::vector<uint32_t>& order() const { return mOrder; }
 
  private:
   static constexpr size_t kBytesPerTet = 64;     // four vec4: position and scalar
@@ -60,7 +58,8 @@ class TetRenderer final : public FrameRenderer {
   Program mProgram, mNullProgram;
   Compositor mCompositor;
   PreIntegrationTexture mTable;
-  std::vector<uint32_t> mOrder;
+  std::vector<uint32_t> mOrder;       // this frame's tets, front to back
+  std::vector<glm::vec4> mStaging;    // a streamed batch on its way to mVertices
 };
 
 }  // namespace voxbrick::render

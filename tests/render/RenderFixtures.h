@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -17,6 +18,7 @@
 #include "brickstore/StoreWriter.h"
 #include "render/GlContext.h"
 #include "image/Image.h"
+#include "render/Compositing.h"
 #include "render/ReferenceRenderer.h"
 #include "render/TransferFunction.h"
 #include "render/VolumeRenderer.h"
@@ -33,6 +35,35 @@ inline render::TransferFunction preset(const std::string& name) {
   if (const char* dir = std::getenv("VOXBRICK_CONFIG_DIR"); dir && *dir) return render::TransferFunction::load(name);
   return render::TransferFunction::load(
       (std::filesystem::path(VOXBRICK_SOURCE_DIR) / "config" / "tf" / (name + ".json")).string());
+}
+
+/// The largest difference of two premultiplied RGBA values.
+inline double maxDifference(const glm::dvec4& a, const glm::dvec4& b) {
+  const glm::dvec4 d = glm::abs(a - b);
+  return std::max({d.r, d.g, d.b, d.a});
+}
+
+/// The composite midpoint rule over a segment whose normalised value runs linearly from sf to sb, r reference lengths
+/// long: cut where the value crosses a control point (each piece then has a smooth integrand, so the error falls as
+/// n^-2), each piece in max(minSteps, ceil(n * its share)) * refine substeps, each classified with
+/// TransferFunction::evaluate (the window's clamp included) and opacity-corrected for its length, front to back.
+/// refine = 2 halves every substep of refine = 1, as Richardson's extrapolation needs. Premultiplied RGBA.
+inline glm::dvec4 midpointSegment(const render::TransferFunction& tf, double sf, double sb, double r, int n,
+                                  int minSteps, int refine = 1) {
+  std::vector<double> cuts{0.0, 1.0};
+  for (const render::TransferFunction::Point& p : tf.points())
+    if (sf != sb && (p.x - sf) / (sb - sf) > 0 && (p.x - sf) / (sb - sf) < 1) cuts.push_back((p.x - sf) / (sb - sf));
+  std::sort(cuts.begin(), cuts.end());
+  render::FrontToBack<double> acc;
+  for (size_t i = 0; i + 1 < cuts.size(); ++i) {
+    const double u0 = cuts[i], length = cuts[i + 1] - cuts[i];
+    const int steps = std::max(minSteps, int(std::ceil(n * length))) * refine;
+    for (int j = 0; j < steps; ++j) {
+      const glm::dvec4 c = tf.evaluate(sf + (u0 + (j + 0.5) / steps * length) * (sb - sf));
+      acc.add(c.r, c.g, c.b, render::TransferFunction::correctOpacity(c.a, r * length / steps));
+    }
+  }
+  return {acc.r, acc.g, acc.b, acc.a};
 }
 
 /// A store of an input prep understands ("synthetic:...", a file), without the VDB grid.

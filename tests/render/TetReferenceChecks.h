@@ -12,6 +12,7 @@
 
 #include "TetMeshes.h"
 #include "render/Compositing.h"
+#include "render/RenderFixtures.h"
 #include "render/Scene.h"
 #include "render/SegmentIntegral.h"
 #include "render/TetReference.h"
@@ -48,11 +49,6 @@ inline glm::dvec4 bruteForce(const TetReferenceParams& p, const Field& field, co
     }
   }
   return {acc.r, acc.g, acc.b, acc.a};
-}
-
-inline double maxDifference(const glm::dvec4& a, const glm::dvec4& b) {
-  const glm::dvec4 d = glm::abs(a - b);
-  return std::max({d.r, d.g, d.b, d.a});
 }
 
 /// The single segment of a linear field along [t0, t1]: what a mesh of that field must composite to along the ray.

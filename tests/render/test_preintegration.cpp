@@ -26,11 +26,10 @@ namespace voxbrick::render {
 namespace {
 
 using test::kPresets;
+using test::maxDifference;
 using test::preset;
 
 using Point = TransferFunction::Point;
-
-
 
 /// The reference renderer's integration of one linear segment, converged: the segment is cut where the value crosses
 /// a control point (as the reference refines), and each piece gets midpoint substeps in proportion to its length
@@ -38,20 +37,7 @@ using Point = TransferFunction::Point;
 /// back. Every piece's integrand is then smooth, so the error is O(n^-2): below 1e-8 here (400000 substeps change
 /// no result by more than 3e-9).
 glm::dvec4 bruteForce(const TransferFunction& tf, double sf, double sb, double r, int n = 20000) {
-  std::vector<double> cuts{0.0, 1.0};
-  for (const Point& p : tf.points())
-    if (sf != sb && (p.x - sf) / (sb - sf) > 0 && (p.x - sf) / (sb - sf) < 1) cuts.push_back((p.x - sf) / (sb - sf));
-  std::sort(cuts.begin(), cuts.end());
-  FrontToBack<double> acc;
-  for (size_t i = 0; i + 1 < cuts.size(); ++i) {
-    const double u0 = cuts[i], length = cuts[i + 1] - cuts[i];
-    const int steps = std::max(16, int(n * length));
-    for (int j = 0; j < steps; ++j) {
-      const glm::dvec4 c = tf.evaluate(sf + (u0 + (j + 0.5) / steps * length) * (sb - sf));
-      acc.add(c.r, c.g, c.b, TransferFunction::correctOpacity(c.a, r * length / steps));
-    }
-  }
-  return {acc.r, acc.g, acc.b, acc.a};
+  return test::midpointSegment(tf, sf, sb, r, n, 16);
 }
 
 /// The classic O(R^2) approximation (Engel et al. 2001, eq. 8) that neglects attenuation inside the segment:
@@ -66,11 +52,6 @@ glm::dvec4 withoutSelfAttenuation(const TransferFunction& tf, double sf, double 
     depth += k * r / n;
   }
   return {color, -std::expm1(-depth)};
-}
-
-double maxDifference(const glm::dvec4& a, const glm::dvec4& b) {
-  const glm::dvec4 d = glm::abs(a - b);
-  return std::max({d.r, d.g, d.b, d.a});
 }
 
 glm::dvec4 at(const std::vector<glm::vec4>& table, const PreIntegrationSpec& spec, int x, int y, int z) {

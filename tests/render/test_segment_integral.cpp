@@ -21,37 +21,15 @@ namespace voxbrick::render {
 namespace {
 
 using test::kPresets;
+using test::maxDifference;
 using test::preset;
 
-using Point = TransferFunction::Point;
-
-
-
-/// The composite midpoint rule with about n * refine substeps over the segment, cut where the value crosses a control
-/// point (each piece then has a smooth integrand, so the error falls as n^-2), each substep classified with
-/// TransferFunction::evaluate (the window's clamp included) and opacity-corrected for its length, front to back.
-/// refine = 2 halves every substep of refine = 1, as Richardson's extrapolation needs.
+/// The midpoint rule of RenderFixtures.h, at least 4 substeps a piece.
 glm::dvec4 midpoint(const TransferFunction& tf, double sf, double sb, double r, int n, int refine = 1) {
-  std::vector<double> cuts{0.0, 1.0};
-  for (const Point& p : tf.points())
-    if (sf != sb && (p.x - sf) / (sb - sf) > 0 && (p.x - sf) / (sb - sf) < 1) cuts.push_back((p.x - sf) / (sb - sf));
-  std::sort(cuts.begin(), cuts.end());
-  FrontToBack<double> acc;
-  for (size_t i = 0; i + 1 < cuts.size(); ++i) {
-    const double u0 = cuts[i], length = cuts[i + 1] - cuts[i];
-    const int steps = std::max(4, int(std::ceil(n * length))) * refine;
-    for (int j = 0; j < steps; ++j) {
-      const glm::dvec4 c = tf.evaluate(sf + (u0 + (j + 0.5) / steps * length) * (sb - sf));
-      acc.add(c.r, c.g, c.b, TransferFunction::correctOpacity(c.a, r * length / steps));
-    }
-  }
-  return {acc.r, acc.g, acc.b, acc.a};
+  return test::midpointSegment(tf, sf, sb, r, n, 4, refine);
 }
 
-double maxDifference(const glm::dvec4& a, const glm::dvec4& b) {
-  const glm::dvec4 d = glm::abs(a - b);
-  return std::max({d.r, d.g, d.b, d.a});
-}
+using Point = TransferFunction::Point;
 
 TEST(TetReferenceSegment, ClosedFormsAndEdgeCases) {
   const TransferFunction tf = preset("hot");
