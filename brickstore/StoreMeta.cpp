@@ -1,6 +1,8 @@
 // store.json: the metadata of a store, written by prep and checked by every reader.
 #include "brickstore/StoreMeta.h"
 
+#include <cmath>
+
 #include <nlohmann/json.hpp>
 
 #include "brickstore/Errors.h"
@@ -44,6 +46,29 @@ T number(const json& j, const char* key, const std::string& what) {
   return v.get<T>();
 }
 
+Orientation orientationFromJson(const json& o, const std::string& what) {
+  auto bad = [&](const std::string& why) { return CorruptStoreError(what + ": key 'orientation' " + why); };
+  if (!o.is_object()) throw bad("is not an object");
+  if (o.value("space", "") != "RAS") throw bad("must have space \"RAS\"");
+  auto vec = [&](const json& v, const char* name) {
+    if (!v.is_array() || v.size() != 3 || !v[0].is_number() || !v[1].is_number() || !v[2].is_number())
+      throw bad(std::string("has '") + name + "' that is not three numbers");
+    Orientation::Vec r{v[0].get<double>(), v[1].get<double>(), v[2].get<double>()};
+    for (double x : r)
+      if (!std::isfinite(x)) throw bad(std::string("has a non-finite '") + name + "'");
+    return r;
+  };
+  Orientation r;
+  const json& axes = field(o, "axes", what);
+  if (!axes.is_array() || axes.size() != 3) throw bad("has 'axes' that is not three vectors");
+  for (int a = 0; a < 3; ++a) r.axes[a] = vec(axes[a], "axes");
+  r.origin = vec(field(o, "origin", what), "origin");
+  const json& patient = field(o, "patient", what);
+  if (!patient.is_boolean()) throw bad("has 'patient' that is not true or false");
+  r.patient = patient.get<bool>();
+  return r;
+}
+
 }  // namespace
 
 std::string StoreMeta::toJson() const {
@@ -72,6 +97,11 @@ std::string StoreMeta::toJson() const {
             {"nonfinite_replaced", nonFiniteReplaced},
             {"vdb_files", vdbFiles},
             {"source", source}};
+  if (!(orientation == Orientation{}))
+    j["orientation"] = {{"space", "RAS"},
+                        {"axes", orientation.axes},
+                        {"origin", orientation.origin},
+                        {"patient", orientation.patient}};
   if (quantisation)
     j["quantisation"] = {{"type", std::string(valueTypeName(quantisation->type))},
                          {"range", json::array({quantisation->lo, quantisation->hi})},
@@ -95,6 +125,7 @@ StoreMeta StoreMeta::fromJson(const std::string& text, const std::string& what) 
   StoreMeta m;
   m.dims = vec3i(j, "dims", what);
   m.spacing = vec3d(j, "spacing", what);
+  if (j.contains("orientation")) m.orientation = orientationFromJson(j["orientation"], what);
   const json& type = field(j, "type", what);
   if (!type.is_string()) throw CorruptStoreError(what + ": key 'type' is not a string");
   try {

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "brickstore/Orientation.h"
 #include "brickstore/Quantise.h"
 #include "brickstore/Types.h"
 
@@ -31,6 +32,8 @@ struct StoreMeta {
 
   Vec3i dims;                 ///< level 0 voxels
   Vec3d spacing;
+  /// Index-to-world (RAS) of level 0; store.json key "orientation" (absent in older stores: the identity).
+  Orientation orientation;
   ValueType type = ValueType::F32;
   double background = 0;      ///< value of empty (inactive, not stored) space
   double valueMin = 0, valueMax = 0;  ///< over every level-0 voxel, after the non-finite policy

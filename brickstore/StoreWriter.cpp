@@ -216,6 +216,7 @@ PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOp
   StoreMeta meta;
   meta.dims = info.dims;
   meta.spacing = info.spacing;
+  meta.orientation = info.orientation;
   meta.type = info.type;
   meta.background = background;
   meta.brickSize = B;

@@ -4,6 +4,7 @@
 #include <memory>
 #include <string>
 
+#include "brickstore/Orientation.h"
 #include "brickstore/Types.h"
 
 namespace voxbrick::store {
@@ -17,6 +18,7 @@ struct VolumeInfo {
   ValueType type = ValueType::F32;  ///< type of the slices readSlices() delivers
   double background = 0.0;     ///< value of empty space (a VDB grid's background; 0 for dense files)
   std::string description;     ///< one line for logs, e.g. "NRRD uint16 gzip 256x256x128"
+  Orientation orientation;     ///< index-to-world (RAS); identity for inputs without a patient frame
 };
 
 /// A volume delivered in order, z-slice by z-slice, so that files larger than memory stream through a bounded
