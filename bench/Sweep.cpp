@@ -39,9 +39,11 @@ std::string stepText(double step) {
   return text;
 }
 
-/// The store of `d` with brick size `brick` in `work`, made by prep unless one from the same input is there.
+/// The store of `d` with brick size `brick` in `work`, made by prep unless one from the same input is there; or the
+/// one `d.store` names, as it is.
 std::shared_ptr<const store::BrickStore> datasetStore(const Dataset& d, int brick, const fs::path& work) {
-  const fs::path path = work / (d.name + "-b" + std::to_string(brick) + ".vbs");
+  const fs::path path = datasetStorePath(d, brick, work);
+  if (!d.store.empty()) return store::BrickStore::openAny(path);
   auto source = store::openSource(d.input, {});
   if (fs::exists(path / "store.json")) {
     auto existing = store::BrickStore::open(path);
@@ -132,6 +134,35 @@ std::vector<Variant> variantsOf(const SweepSpec& spec, const Dataset& d) {
 
 }  // namespace
 
+fs::path datasetStorePath(const Dataset& d, int brick, const fs::path& work) {
+  if (!d.store.empty()) return d.store;
+  return work / (d.name + "-b" + std::to_string(brick) + ".vbs");
+}
+
+render::QualityTable qualityTable(const SweepResult& result, const fs::path& work, const fs::path& store) {
+  render::QualityTable table;
+  table.device = result.device;
+  table.width = table.height = result.spec.size;
+  table.views = result.spec.views;
+  for (const Point& p : result.points) {
+    const auto d = std::find_if(result.spec.datasets.begin(), result.spec.datasets.end(),
+                                [&](const Dataset& x) { return x.name == p.dataset; });
+    const Setting& s = p.setting;
+    if (d == result.spec.datasets.end() || datasetStorePath(*d, 32, work) != store || s.brick != 32 || !s.skip ||
+        s.slicer != render::Slicer::Vertex)
+      continue;
+    render::QualityEntry e;
+    e.transferFunction = p.variant.transferFunction;
+    e.shading = p.variant.shading;
+    e.setting = {s.step, s.raycast, s.slab, s.ert, s.preIntegration, s.subBlock, s.lod};
+    e.msMedian = p.msMedian;
+    // An image equal to the reference has an infinite PSNR, which JSON cannot hold: 999 dB stands for it.
+    e.psnrMin = std::min(p.psnrMin, 999.0);
+    table.entries.push_back(e);
+  }
+  return table;
+}
+
 std::string slabLabel(int slab) {
   if (slab <= 0) return "slicing";
   return slab >= render::Scene::kMaxSlab ? "slab whole brick" : "slab " + std::to_string(slab);
@@ -198,6 +229,22 @@ SweepSpec SweepSpec::quick(const std::string& mriPath) {
   s.views = 2;
   s.size = 48;
   s.referenceStep = 0.25;
+  return s;
+}
+
+SweepSpec SweepSpec::calibrate(const std::string& store, const std::vector<std::string>& transferFunctions) {
+  SweepSpec s;
+  const std::string name = fs::path(store).filename().string();
+  for (const std::string& tf : transferFunctions) s.datasets.push_back({name + "-" + tf, "", {tf}, "", store});
+  s.steps = {0.35, 0.5, 0.75, 1, 1.5, 2, 3};
+  s.alternativeNoSkip = s.alternativeCpuSlicer = false;
+  s.shadingVariants = false;
+  s.erts = {0.999};
+  s.slabSubBlocks = {8};
+  s.lods = {1, 2};
+  s.opaqueVariants = false;
+  s.rayCast = true;
+  s.views = 4;
   return s;
 }
 

@@ -21,6 +21,8 @@ struct Dataset {
   /// An opaque transfer function (where early ray termination matters most) on which the texture-slab settings run
   /// too, unshaded; empty: none. Swept like the others if it is not among `transferFunctions`.
   std::string opaque = {};
+  /// An existing store (or .vdb) to measure as it is, instead of prepping `input` (SweepSpec::calibrate).
+  std::string store = {};
 };
 
 /// What the scene asks for besides the renderer's own settings: the transfer function and shading.
@@ -125,6 +127,11 @@ struct SweepSpec {
   /// A small sweep for CI (seconds): small synthetic volumes, the MRI, 48² images, two views, two steps, every kind of
   /// slab and ray-caster setting at the coarser one.
   static SweepSpec quick(const std::string& mriPath);
+  /// The calibration of one dataset for quality by target (render/Quality.h): the store at `store` as it is, one
+  /// sweep dataset per transfer function of `transferFunctions` (so that each gets every setting), unshaded; the
+  /// ray caster at steps 0.35 to 3 with ERT off and 0.999, whole-brick cells and sub-blocks of 8, levels of detail 1
+  /// and 2, pre-integration, and slicing at each step; 4 views at 256².
+  static SweepSpec calibrate(const std::string& store, const std::vector<std::string>& transferFunctions);
 };
 
 /// One measured point: a dataset, a variant and a setting over every view.
@@ -208,6 +215,15 @@ std::optional<Setting> chooseDefault(const std::vector<Point>& points, const std
 /// `variant` on `dataset` at or above `psnrThreshold`; none if no swept step does.
 std::optional<double> coarsestStep(const std::vector<Point>& points, const std::string& dataset, const Variant& variant,
                                    double psnrThreshold);
+
+/// Where runSweep keeps the store of `d` with brick size `brick`: `work`/NAME-bB.vbs, or `d.store` if set.
+std::filesystem::path datasetStorePath(const Dataset& d, int brick, const std::filesystem::path& work);
+
+/// The quality table (render/Quality.h) of the points measured on `store` (a path, as datasetStorePath gives it):
+/// every point of a dataset kept there with bricks of 32 (the store's), skipping and the vertex slicer, one entry per
+/// transfer function, shading and setting. `device` names the GL renderer.
+render::QualityTable qualityTable(const SweepResult& result, const std::filesystem::path& work,
+                                  const std::filesystem::path& store);
 
 /// Writes sweep.csv, sweep.md and sweep.svg into `out`; throws std::runtime_error naming a file it cannot write.
 void writeResults(const SweepResult& result, const std::filesystem::path& out);

@@ -3,21 +3,29 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <set>
 
+#include <unistd.h>
+
 #include "bench/Sweep.h"
+#include "brickstore/BrickStore.h"
 #include "brickstore/Errors.h"
 #include "cli/Commands.h"
 #include "render/GlContext.h"
+#include "render/Quality.h"
 #include "render/Scene.h"
+#include "render/TransferFunction.h"
 
 namespace voxbrick::cli {
 namespace {
 
+namespace fs = std::filesystem;
+
 struct BenchArgs {
   std::string out = "bench/results", work = "bench/work", datasets, steps, backend = "auto";
   std::string mri = "/usr/share/mricron/templates/ch2better.nii.gz";
-  std::string slabs, erts, slabSteps, alternatives, slabSubBlocks, lods;
+  std::string slabs, erts, slabSteps, alternatives, slabSubBlocks, lods, calibrate, tfs = "grayscale";
   bool quick = false, quiet = false, dryRun = false, noBestSlab = false, noPreIntegration = false, noOpaque = false,
        noShading = false, rayCast = false, noRayCast = false;
   int views = 0, size = 0, ertSlab = 0;
@@ -55,8 +63,33 @@ std::vector<double> numberList(const std::string& text, const std::string& optio
   return values;
 }
 
-void runBench(const BenchArgs& a) {
-  bench::SweepSpec spec = a.quick ? bench::SweepSpec::quick(a.mri) : bench::SweepSpec::full(a.mri);
+/// Writes the quality table of the sweep's measurements on `store` beside it and says what it holds.
+void saveQualityTable(const bench::SweepResult& result, const fs::path& work, const fs::path& store) {
+  const render::QualityTable table = bench::qualityTable(result, work, store);
+  if (table.entries.empty()) return;
+  table.save(store);
+  std::printf("bench: wrote %s (%zu settings measured at %dx%d, %d views)\n",
+              render::QualityTable::pathFor(store).string().c_str(), table.entries.size(), table.width, table.height,
+              table.views);
+}
+
+/// The sweep spec the options ask for: the committed sweep, the quick one, or the calibration of one dataset.
+bench::SweepSpec baseSpec(const BenchArgs& a) {
+  if (a.calibrate.empty()) return a.quick ? bench::SweepSpec::quick(a.mri) : bench::SweepSpec::full(a.mri);
+  if (a.quick || !a.datasets.empty())
+    throw store::InputError("--calibrate measures the dataset it names: not with --quick or --datasets");
+  if (!fs::exists(a.calibrate)) throw store::InputError("--calibrate: '" + a.calibrate + "' does not exist");
+  if (!fs::exists(fs::path(a.calibrate) / "store.json") && !store::BrickStore::isVdbFile(a.calibrate))
+    throw store::InputError("--calibrate: '" + a.calibrate +
+                            "' is not a brick store or a .vdb file (quality tables are measured on grids)");
+  const std::vector<std::string> tfs = splitList(a.tfs);
+  if (tfs.empty()) throw store::InputError("--tf: an empty list");
+  for (const std::string& tf : tfs) render::TransferFunction::load(tf);  // refuses an unknown preset now, not later
+  return bench::SweepSpec::calibrate(a.calibrate, tfs);
+}
+
+void runBench(const BenchArgs& a, const CLI::App& cmd) {
+  bench::SweepSpec spec = baseSpec(a);
   if (!a.datasets.empty()) {
     std::set<std::string> known;
     for (const bench::Dataset& d : spec.datasets) known.insert(d.name);
@@ -137,9 +170,18 @@ void runBench(const BenchArgs& a) {
   auto context = render::createContext(render::parseBackend(a.backend));
   if (!a.quiet)
     std::fprintf(stderr, "bench: %s; at most %zu points\n", context->describe().c_str(), spec.plannedPoints());
-  const bench::SweepResult result = bench::runSweep(spec, a.work, *context, [&](const std::string& line) {
+  // A calibration keeps its reference frames in a temporary directory unless --work names one.
+  const bool temporaryWork = !a.calibrate.empty() && !cmd.count("--work");
+  const fs::path work = temporaryWork ? fs::temp_directory_path() / ("voxbrick-calibrate-" + std::to_string(getpid()))
+                                      : fs::path(a.work);
+  const bench::SweepResult result = bench::runSweep(spec, work, *context, [&](const std::string& line) {
     if (!a.quiet) std::fprintf(stderr, "bench: %s\n", line.c_str());
   });
+  if (temporaryWork) fs::remove_all(work);
+  if (!a.calibrate.empty()) {
+    saveQualityTable(result, work, a.calibrate);
+    if (!cmd.count("--out")) return;
+  }
   bench::writeResults(result, a.out);
   std::printf("bench: %zu points; wrote %s/sweep.csv, sweep.md, sweep.svg\n", result.points.size(), a.out.c_str());
   if (result.chosen)
@@ -152,6 +194,8 @@ void runBench(const BenchArgs& a) {
                 result.chosenHigh->label().c_str());
   else
     std::printf("bench: no setting keeps every dataset at >= %g dB\n", spec.psnrHighThreshold);
+  if (a.calibrate.empty())
+    for (const bench::Dataset& d : spec.datasets) saveQualityTable(result, work, bench::datasetStorePath(d, 32, work));
   for (const bench::Dataset& d : spec.datasets) {
     const std::optional<bench::Point> p =
         bench::fastestPoint(result.points, d.name, bench::defaultVariant(d), spec.psnrHighThreshold);
@@ -172,6 +216,13 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_option("--work", args->work, "directory for the stores and the cached reference frames")
       ->capture_default_str();
   cmd->add_flag("--quick", args->quick, "the small sweep CI runs (seconds)");
+  cmd->add_option("--calibrate", args->calibrate,
+                  "measure this brick store (or .vdb) for quality by target (render --quality): the ray caster at "
+                  "steps 0.35-3 with and without ERT, sub-blocks, LOD and pre-integration, and slicing, against the "
+                  "reference, written to its quality.json (FILE.quality.json beside a .vdb); the sweep's files only "
+                  "with --out");
+  cmd->add_option("--tf", args->tfs, "--calibrate: transfer functions to measure, comma-separated presets or files")
+      ->capture_default_str();
   cmd->add_option("--datasets", args->datasets, "a subset of ml,sparse,mri (default all)");
   cmd->add_option("--steps", args->steps, "steps in voxels, comma-separated (default 0.25,0.5,0.75,1,1.5,2)");
   cmd->add_option("--alternatives", args->alternatives,
@@ -224,9 +275,9 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_option("--backend", args->backend, "auto, egl or osmesa")->capture_default_str();
   cmd->add_flag("-q,--quiet", args->quiet, "no progress lines");
   cmd->add_flag("--dry-run", args->dryRun, "print how many points the sweep would measure, and exit");
-  cmd->callback([args] {
+  cmd->callback([args, cmd] {
     keepFreedMemoryForFrames();
-    runBench(*args);
+    runBench(*args, *cmd);
   });
 }
 

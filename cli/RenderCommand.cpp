@@ -103,6 +103,13 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
     if (!provisionalJson.is_null()) json["provisional_frame"] = provisionalJson;
     writeText(a.statsPath, json.dump(2) + "\n");
   }
+  if (!stats.quality.is_null()) {
+    const auto& q = stats.quality;
+    std::printf("render: quality %s chose %s (%s; measured worst view %.1f dB, %.0f ms expected at this size)%s\n",
+                q["target"].get<std::string>().c_str(), q["setting"].get<std::string>().c_str(),
+                q["basis"].get<std::string>().c_str(), q["expected_psnr"].get<double>(),
+                q["expected_ms"].get<double>(), q["met"].get<bool>() ? "" : "; NO setting meets the target: the closest");
+  }
   std::string levels;
   if (stats.bricksCoarse > 0) {
     levels = " (per level:";

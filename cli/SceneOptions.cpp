@@ -79,6 +79,16 @@ render::Scene buildScene(const SceneArgs& a, const CLI::App& cmd) {
   if (a.progressive) s.progressive = true;
   if (!a.slicer.empty()) s.slicer = render::parseSlicer(a.slicer, "--slicer");
   if (!a.visibility.empty()) s.visibility = a.visibility == "centroid" ? render::TetSort::Centroid : render::TetSort::Mpvo;
+  if (!a.quality.empty()) {
+    for (const char* option : {"--step", "--raycast", "--slab", "--ert", "--pre-integration", "--sub-block", "--lod"})
+      if (cmd.count(option))
+        throw render::RenderInputError(std::string("--quality chooses what ") + option +
+                                       " sets, from the dataset's quality table: give one or the other");
+    s.quality = render::QualityTarget::parse(a.quality, "--quality");
+  } else if (s.quality && (cmd.count("--step") || cmd.count("--raycast") || cmd.count("--slab") || cmd.count("--ert") ||
+                           cmd.count("--pre-integration") || cmd.count("--sub-block") || cmd.count("--lod"))) {
+    s.quality.reset();  // drawing settings on the command line replace the scene file's target
+  }
   s.validate();
   return s;
 }
@@ -128,6 +138,11 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
                 "coarse to fine: a provisional frame first, bricks not yet resident drawn from a coarser resident "
                 "level while they are read, then the exact frame");
   cmd->add_flag("--shading", args.shading, "gradient (central differences) and Phong headlight shading");
+  cmd->add_option("--quality", args.quality,
+                  "quality by target: psnr:DB (the fastest setting whose worst view reached DB against the reference) "
+                  "or ms:N (the most accurate one measured within N ms, scaled to the image size), from the "
+                  "dataset's quality table (made by `voxbrick bench --calibrate DATASET`); replaces --step, "
+                  "--raycast, --slab, --ert, --pre-integration, --sub-block and --lod");
 }
 
 }  // namespace voxbrick::cli

@@ -10,7 +10,7 @@
 namespace voxbrick::cli {
 
 struct SceneArgs {
-  std::string sceneFile, orbit, eye, center, up, size, tf, background, window, slicer, visibility;
+  std::string sceneFile, orbit, eye, center, up, size, tf, background, window, slicer, visibility, quality;
   double fov = 0, step = 0;
   bool ortho = false, noSkip = false, noCull = false, shading = false, preIntegration = false, ess = false,
        progressive = false, raycast = false;

@@ -11,6 +11,8 @@
 
 #include "brickstore/BrickCache.h"
 #include "brickstore/BrickStore.h"
+#include "render/Quality.h"
+#include "render/Scene.h"
 
 namespace voxbrick::render {
 
@@ -51,12 +53,20 @@ class Dataset {
     return mQuarantine;
   }
 
+ /// The dataset's quality table (QualityTable::load: DIR/quality.json, FILE.quality.json), read on first use and
+  /// again whenever the file changes (so a calibration made while a server runs takes effect); none if there is
+  /// none. Throws RenderInputError for a malformed one. Thread-safe.
+  std::optional<QualityTable> qualityTable() const;
+
  protected:
   Dataset(std::string name, std::filesystem::path path) : mName(std::move(name)), mPath(std::move(path)) {}
 
  private:
   std::string mName;
   std::filesystem::path mPath;
+  mutable std::mutex mQualityMutex;
+  mutable std::optional<QualityTable> mQuality;
+  mutable std::filesystem::file_time_type mQualityTime{};
   mutable std::mutex mQuarantineMutex;
   mutable std::optional<std::string> mQuarantine;
 };
@@ -82,6 +92,11 @@ class BrickStoreDataset final : public Dataset {
   std::shared_ptr<const store::BrickStore> mStore;
   std::shared_ptr<store::BrickCache> mCache;
 };
+
+/// `scene` with its quality target (Scene::quality) resolved through the dataset's quality table: the drawing
+/// settings replaced by the chosen ones, and `choice` (if given) set to what was chosen. A scene without a target
+/// comes back as it is. Throws RenderInputError when the dataset has no table, saying how to make one.
+Scene resolveQuality(const Dataset& dataset, const Scene& scene, std::optional<QualityChoice>* choice = nullptr);
 
 /// Whether `path` holds a dataset of a kind this build can open: a directory with a store.json, a file whose name
 /// ends in .vdb (read live), or a mesh store (mesh/MeshStore.h).

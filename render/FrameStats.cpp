@@ -4,7 +4,7 @@
 namespace voxbrick::render {
 
 nlohmann::json FrameStats::toJson() const {
-  return {{"nodes_visited", nodesVisited},   {"bricks_skipped_empty", bricksSkippedEmpty},
+  nlohmann::json j = {{"nodes_visited", nodesVisited},   {"bricks_skipped_empty", bricksSkippedEmpty},
           {"bricks_culled", bricksCulled},   {"bricks_drawn", bricksDrawn},
           {"bricks_paged_in", bricksPagedIn}, {"bricks_evicted", bricksEvicted},
           {"batches", batches},               {"slices", slices},
@@ -17,6 +17,8 @@ nlohmann::json FrameStats::toJson() const {
           {"ms", {{"traversal", msTraversal}, {"paging", msPaging}, {"slicing", msSlicing},
                   {"drawing", msDrawing}, {"readback", msReadback}, {"total", msTotal},
                   {"pre_integration", msPreIntegration}, {"sorting", msSorting}}}};
+  if (!quality.is_null()) j["quality"] = quality;
+  return j;
 }
 
 }  // namespace voxbrick::render

@@ -39,6 +39,8 @@ struct FrameStats {
   int64_t tetsSkippedEmpty = 0; ///< tetrahedra the transfer function makes transparent over their value range
   double msSorting = 0;         ///< a mesh frame's visibility sort
   double msPreIntegration = 0;  ///< building the pre-integration table (0 when the last frame's was current)
+  /// A scene with a quality target: what it chose (QualityChoice::toJson); null otherwise.
+  nlohmann::json quality;
 
   /// The statistics as a JSON object (snake_case keys, times under "ms"), to which callers may add their own keys.
   nlohmann::json toJson() const;

@@ -116,7 +116,11 @@ uint64_t RenderEngine::renderersReleased() const { return mImpl->released; }
 image::ImageF RenderEngine::render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats,
                                    const FrameOptions& options) {
   if (!dataset) throw RenderInputError("RenderEngine::render: no dataset");
-  return mImpl->rendererFor(dataset).render(scene, stats, options);
+  std::optional<QualityChoice> choice;
+  const Scene resolved = resolveQuality(*dataset, scene, &choice);
+  image::ImageF image = mImpl->rendererFor(dataset).render(resolved, stats, options);
+  if (stats && choice) stats->quality = choice->toJson();
+  return image;
 }
 
 }  // namespace voxbrick::render

@@ -41,6 +41,8 @@ void checkImageSize(int64_t width, int64_t height, const std::string& prefix) {
 
 }  // namespace
 
+const char* const kQualityChosenKeys[7] = {"step", "raycast", "slab", "ert", "pre_integration", "sub_block", "lod"};
+
 const char* slicerName(Slicer slicer) {
   switch (slicer) {
     case Slicer::Vertex: return "vertex";
@@ -103,7 +105,7 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   if (!j.is_object()) throw RenderInputError(what + ": a scene must be a JSON object");
   static const char* kKeys[] = {"camera", "size", "transfer_function", "step", "background", "window",
                                 "skip_empty", "cull", "slicer", "shading", "sub_block", "slab", "raycast", "ert",
-                                "pre_integration", "ess", "lod", "progressive", "visibility"};
+                                "pre_integration", "ess", "lod", "progressive", "visibility", "quality"};
   for (auto it = j.begin(); it != j.end(); ++it)
     if (std::find(std::begin(kKeys), std::end(kKeys), it.key()) == std::end(kKeys))
       throw RenderInputError(what + ": unknown key '" + it.key() + "'");
@@ -202,6 +204,14 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   if (j.contains("ess")) s.ess = boolean(j["ess"], "ess", what);
   if (j.contains("lod")) s.lod = number(j["lod"], "lod", what);
   if (j.contains("progressive")) s.progressive = boolean(j["progressive"], "progressive", what);
+  if (j.contains("quality")) {
+    if (!j["quality"].is_string()) throw RenderInputError(what + ": 'quality' must be a string like \"psnr:40\"");
+    for (const char* key : kQualityChosenKeys)
+      if (j.contains(key))
+        throw RenderInputError(what + ": 'quality' chooses '" + key + "' from the dataset's quality table; give "
+                               "one or the other");
+    s.quality = QualityTarget::parse(j["quality"].get<std::string>(), what + ": 'quality'");
+  }
   s.validate();
   return s;
 }
@@ -262,6 +272,11 @@ std::string Scene::toJson() const {
             {"progressive", progressive},
             {"visibility", tetSortName(visibility)}};
   if (window) j["window"] = json::array({(*window)[0], (*window)[1]});
+  if (quality) {
+    // The target stands for the settings it chooses, so that the JSON reads back.
+    for (const char* key : kQualityChosenKeys) j.erase(key);
+    j["quality"] = quality->text();
+  }
   return j.dump(2);
 }
 

@@ -9,6 +9,7 @@
 #include <glm/glm.hpp>
 
 #include "render/Camera.h"
+#include "render/Quality.h"
 #include "render/TransferFunction.h"
 
 namespace voxbrick::render {
@@ -44,6 +45,9 @@ std::string slicerNames();
 enum class TetSort { Mpvo, Centroid };
 /// "mpvo", "centroid".
 const char* tetSortName(TetSort sort);
+
+/// The scene keys a quality target chooses (QualitySetting's fields): a scene with "quality" names none of them.
+extern const char* const kQualityChosenKeys[7];
 
 /// The camera as a user gives it: an orbit around the volume, or eye/center/up.
 struct CameraSpec {
@@ -122,12 +126,17 @@ struct Scene {
   bool progressive = false;
   /// Visibility order of a tetrahedral mesh's cells (no effect on a grid).
   TetSort visibility = TetSort::Mpvo;
+  /// Quality by target ("psnr:40", "ms:200"): the drawing settings (step, raycast, slab, ert, pre_integration,
+  /// sub_block, lod) are chosen from the dataset's quality table when the frame is drawn (render/Quality.h,
+  /// resolveQuality in render/Dataset.h), replacing the scene's own; a scene with a target names none of them.
+  std::optional<QualityTarget> quality;
 
   /// Parses a scene JSON object; absent keys keep their defaults. Throws RenderInputError naming `what` and the
   /// key. Keys: camera {orbit: [az, el, dist] | eye, center, up; fov; orthographic}, size [w, h],
   /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b],
   /// window [lo, hi], skip_empty, cull, slicer (slicerName), shading, sub_block, slab, raycast, ert,
-  /// pre_integration, ess, lod, progressive, visibility (tetSortName).
+  /// pre_integration, ess, lod, progressive, visibility (tetSortName), quality ("psnr:DB" or "ms:N"; not with
+  /// step, raycast, slab, ert, pre_integration, sub_block or lod).
   /// `allowPaths` false (the server) accepts transfer functions by preset name or inline only, never a file path.
   static Scene fromJson(const std::string& text, const std::string& what, bool allowPaths = true);
   /// The same, resolving preset names from `presets` (no file is read) and accepting no paths: what a server does

@@ -101,6 +101,44 @@ TEST_F(ServerTest, ServedFramesEqualTheRenderCommandBitForBit) {
   c->goodbye();
 }
 
+// Quality by target over the wire: a Render whose scene asks for "psnr:40" is drawn with the setting the dataset's
+// quality table names, says so in its statistics, and equals the frame of that setting asked for directly; a dataset
+// without a table answers with an error that says how to make one.
+TEST_F(ServerTest, AQualityTargetIsResolvedFromTheDatasetsTable) {
+  auto server = start();
+  auto c = session(*server);
+  json scene = json::parse(kScene);
+  scene.erase("step");
+  scene["quality"] = "psnr:40";
+  const ErrorCode code = errorOf([&] { c->render(scene.dump()); });
+  EXPECT_EQ(code, ErrorCode::InvalidScene);
+
+  // Step 2 is fast and coarse, step 0.5 slow and fine (made-up figures, as bench --calibrate would write them).
+  const std::filesystem::path table = std::filesystem::path(datasets()) / "sparse" / "quality.json";
+  test::writeFile(table, json{{"format", "voxbrick-quality"}, {"version", 1}, {"device", "test"}, {"size", {80, 64}},
+                              {"views", 2},
+                              {"entries", {{{"transfer_function", "sparse"}, {"shading", false}, {"step", 2},
+                                            {"raycast", true}, {"slab", 0}, {"ert", 0.999}, {"pre_integration", false},
+                                            {"sub_block", 8}, {"lod", 0}, {"ms_median", 10}, {"psnr_min", 35}},
+                                           {{"transfer_function", "sparse"}, {"shading", false}, {"step", 0.5},
+                                            {"raycast", true}, {"slab", 0}, {"ert", 0.999}, {"pre_integration", false},
+                                            {"sub_block", 8}, {"lod", 0}, {"ms_median", 30}, {"psnr_min", 48}}}}}
+                                 .dump());
+  const proto::Frame frame = c->render(scene.dump());
+  const json stats = json::parse(frame.statsJson);
+  ASSERT_TRUE(stats.contains("quality")) << frame.statsJson;
+  EXPECT_EQ(stats["quality"]["setting"], "step 0.5, raycast, ert 0.999, sub-block 8");
+  EXPECT_EQ(stats["quality"]["met"], true);
+  EXPECT_EQ(stats["quality"]["expected_psnr"], 48);
+  json direct = json::parse(kScene);
+  direct["step"] = 0.5;
+  EXPECT_EQ(pixels(frame), pixels(c->render(direct.dump())));
+  direct["step"] = 2;
+  EXPECT_NE(pixels(frame), pixels(c->render(direct.dump()))) << "the two settings must draw different frames";
+  std::filesystem::remove(table);
+  c->goodbye();
+}
+
 // A .vdb in the datasets directory is listed and served live, with the frames of the store prep makes of it.
 TEST_F(ServerTest, ServesAVdbFileWithTheFramesOfItsPreppedStore) {
   const std::filesystem::path work = scratch() / "vdb-case", datasets = work / "datasets";
