@@ -61,7 +61,7 @@ render::Scene viewScene(const SweepSpec& spec, const Variant& variant, int view)
   render::Scene scene;
   scene.width = scene.height = spec.size;
   scene.camera.azimuth = 360.0 * view / spec.views;
-  scene.camera.elevation = 20;
+  scene.camera.elevation = spec.elevations.empty() ? 20 : spec.elevations[size_t(view) % spec.elevations.size()];
   scene.camera.distance = 2.2;
   scene.transferFunction = render::TransferFunction::load(variant.transferFunction);
   scene.transferFunctionName = variant.transferFunction;
@@ -244,7 +244,8 @@ SweepSpec SweepSpec::calibrate(const std::string& store, const std::vector<std::
   s.lods = {1, 2};
   s.opaqueVariants = false;
   s.rayCast = true;
-  s.views = 4;
+  s.views = 6;
+  s.elevations = {20, -30, 55};
   return s;
 }
 

@@ -109,7 +109,8 @@ struct SweepSpec {
   double smallSlabMinStep = 0;
   double slabTableStep = 1;            ///< the step of sweep.md's slab table (else the nearest swept one)
   double ertToleranceDb = 1;           ///< bestErt: worst-view PSNR a threshold may cost (below psnrHighThreshold)
-  int views = 8;                       ///< orbit: azimuth 360·v/views, elevation 20°, distance 2.2 R
+  int views = 8;                       ///< orbit: azimuth 360·v/views, elevation elevations[v % size], 2.2 R
+  std::vector<double> elevations = {20};  ///< degrees, taken in turn by the views
   int size = 256;                      ///< square images
   double referenceStep = 0.125;        ///< voxels
   double psnrThreshold = 40;           ///< dB, for the chosen default
@@ -130,7 +131,7 @@ struct SweepSpec {
   /// The calibration of one dataset for quality by target (render/Quality.h): the store at `store` as it is, one
   /// sweep dataset per transfer function of `transferFunctions` (so that each gets every setting), unshaded; the
   /// ray caster at steps 0.35 to 3 with ERT off and 0.999, whole-brick cells and sub-blocks of 8, levels of detail 1
-  /// and 2, pre-integration, and slicing at each step; 4 views at 256².
+  /// and 2, pre-integration, and slicing at each step; 6 views at 256², at elevations 20, -30 and 55 in turn.
   static SweepSpec calibrate(const std::string& store, const std::vector<std::string>& transferFunctions);
 };
 

@@ -221,7 +221,8 @@ QualityChoice QualityTable::choose(const QualityTarget& target, const Scene& sce
   };
   std::vector<Candidate> meeting;
   for (const Candidate& c : all)
-    if (target.kind == QualityTarget::Kind::Psnr ? c.psnr >= target.value : c.ms <= target.value)
+    if (target.kind == QualityTarget::Kind::Psnr ? c.psnr >= target.value + kPsnrMargin
+                                                 : c.ms <= target.value * kTimeMargin)
       meeting.push_back(c);
   choice.met = !meeting.empty();
   const Candidate best =

@@ -89,10 +89,15 @@ struct QualityTable {
   /// Writes the table where pathFor() says, atomically; throws RenderInputError naming the file on failure.
   void save(const std::filesystem::path& dataset) const;
 
+  /// Margins a setting must keep beyond the target, as views and machines the table did not measure vary: its worst
+  /// measured view at least kPsnrMargin dB above a PSNR target, its expected time at most kTimeMargin of a time one.
+  static constexpr double kPsnrMargin = 1, kTimeMargin = 0.9;
+
   /// The setting `target` asks for with `scene` (its transfer function by name and its shading; if the table has
   /// no entry for them, each setting counts with its worst PSNR and longest time over every entry; times scale with
-  /// the scene's pixel count against the table's). psnr:X: the fastest setting with worst view >= X, else the most
-  /// accurate. ms:N: the most accurate setting expected within N ms, else the fastest. Ties go to the faster.
+  /// the scene's pixel count against the table's). psnr:X: the fastest setting with worst view >= X + kPsnrMargin,
+  /// else the most accurate. ms:N: the most accurate setting expected within kTimeMargin * N ms, else the fastest.
+  /// Ties go to the faster.
   /// Throws RenderInputError if the table is empty.
   QualityChoice choose(const QualityTarget& target, const Scene& scene) const;
 };

@@ -63,22 +63,26 @@ TEST(QualityTarget, ParsesBothFormsAndRefusesTheRestWithTheFormsNamed) {
   }
 }
 
-TEST(QualityTable, ChoosesTheFastestSettingMeetingAPsnrTarget) {
+TEST(QualityTable, ChoosesTheFastestSettingMeetingAPsnrTargetWithItsMargin) {
   const QualityChoice c = table().choose(QualityTarget::parse("psnr:40", "q"), scene("hot"));
   EXPECT_TRUE(c.met);
   EXPECT_EQ(c.setting.step, 1);
   EXPECT_EQ(c.expectedPsnr, 44);
   EXPECT_EQ(c.expectedMs, 20);
   EXPECT_EQ(c.basis, "hot, unshaded");
+  // 44 dB is not a decibel above 43.5: the more accurate step 0.5 is needed.
+  EXPECT_EQ(table().choose(QualityTarget::parse("psnr:43.5", "q"), scene("hot")).setting.step, 0.5);
   // The same target on another transfer function's entries.
   EXPECT_EQ(table().choose(QualityTarget::parse("psnr:40", "q"), scene("mri")).setting.step, 0.5);
 }
 
 TEST(QualityTable, ChoosesTheMostAccurateSettingWithinATimeScaledToTheImage) {
   EXPECT_EQ(table().choose(QualityTarget::parse("ms:25", "q"), scene("hot")).setting.step, 1);
-  EXPECT_EQ(table().choose(QualityTarget::parse("ms:40", "q"), scene("hot")).setting.step, 0.5);
-  // Four times the pixels: four times the time, so 80 ms buys what 20 ms bought at 100².
-  const QualityChoice c = table().choose(QualityTarget::parse("ms:80", "q"), scene("hot", 200));
+  // 40 ms is not within 90 % of 40 ms (the margin), but is of 45.
+  EXPECT_EQ(table().choose(QualityTarget::parse("ms:40", "q"), scene("hot")).setting.step, 1);
+  EXPECT_EQ(table().choose(QualityTarget::parse("ms:45", "q"), scene("hot")).setting.step, 0.5);
+  // Four times the pixels: four times the time, so 90 ms buys what 22.5 ms bought at 100².
+  const QualityChoice c = table().choose(QualityTarget::parse("ms:90", "q"), scene("hot", 200));
   EXPECT_EQ(c.setting.step, 1);
   EXPECT_EQ(c.expectedMs, 80);
 }
@@ -184,8 +188,8 @@ TEST(QualityEndToEnd, APsnrTargetGivesAFrameThatReachesItAgainstTheReference) {
   EXPECT_EQ(table.views, 2);
   EXPECT_GE(table.entries.size(), 9u);  // 3 steps x (slicing, ray caster with and without ERT, ...)
 
-  // The calibration's view 1: azimuth 180, elevation 20, 2.2 radii (bench::viewScene).
-  const std::string view = " --tf hot --size 48x48 --orbit 180,20,2.2 -q";
+  // The calibration's view 0: azimuth 0, elevation 20, 2.2 radii (bench::viewScene).
+  const std::string view = " --tf hot --size 48x48 --orbit 0,20,2.2 -q";
   r = test::runVoxbrick("render " + store + view + " --backend reference -o " + (dir / "ref.png").string());
   ASSERT_EQ(r.exitCode, 0) << r.output;
   const image::ImageF reference = image::toImageF(image::readPng(dir / "ref.png"));
@@ -203,7 +207,7 @@ TEST(QualityEndToEnd, APsnrTargetGivesAFrameThatReachesItAgainstTheReference) {
     frames[q["setting"].get<std::string>()] = frame.rgba;
     if (!q["met"].get<bool>()) continue;  // the table says no setting reaches it: nothing is promised
     ++met;
-    EXPECT_GE(q["expected_psnr"].get<double>(), target);
+    EXPECT_GE(q["expected_psnr"].get<double>(), target + QualityTable::kPsnrMargin);
     const double psnr = image::compareImages(image::toImageF(frame), reference).psnr;
     // The frame is 8-bit like the reference's PNG: allow the rounding of both (< 0.5 dB at these levels).
     EXPECT_GE(psnr, target - 0.5);
