@@ -39,6 +39,15 @@ class TiffFile {
   /// " (libtiff: LAST ERROR)", or "" when libtiff said nothing.
   std::string detail() const { return mError.empty() ? "" : " (libtiff: " + mError + ")"; }
 
+  /// Moves to the next page: true if there is one, false at the last; throws InputError when the next page's
+  /// directory is damaged (libtiff returns 0 for both, and tells them apart only by reporting an error).
+  bool nextPage(const std::string& where) {
+    mError.clear();
+    if (TIFFReadDirectory(mTiff)) return true;
+    if (!mError.empty()) throw InputError(where + ": cannot read the next page" + detail());
+    return false;
+  }
+
  private:
   static int onError(TIFF*, void* self, const char* module, const char* format, va_list args) {
     char text[512];
@@ -142,7 +151,7 @@ class TiffSource final : public VolumeSource {
     const bool multiPage = mFiles.size() == 1;
     if (!multiPage) mFile = std::make_unique<TiffFile>(mFiles[size_t(mNextZ)]);
     else if (!mFile) mFile = std::make_unique<TiffFile>(mFiles.front());
-    else if (!TIFFReadDirectory(mFile->get()))
+    else if (!mFile->nextPage(pageName(*mFile, int(mNextZ) - 1, true)))
       throw InputError(pageName(*mFile, int(mNextZ), true) + ": missing" + mFile->detail());
     const std::string where = pageName(*mFile, int(mNextZ), multiPage);
     checkSame(mFormat, readFormat(*mFile, where), "the first page", where);
@@ -161,7 +170,7 @@ std::pair<PageFormat, int64_t> scanPages(const std::string& path) {
   TiffFile f(path);
   const PageFormat first = readFormat(f, pageName(f, 0, true));
   int64_t pages = 1;
-  while (TIFFReadDirectory(f.get())) {
+  while (f.nextPage(pageName(f, int(pages) - 1, true))) {
     checkSame(first, readFormat(f, pageName(f, int(pages), true)), pageName(f, 0, true), pageName(f, int(pages), true));
     ++pages;
   }
@@ -174,7 +183,7 @@ PageFormat scanFiles(const std::vector<std::string>& files) {
   for (size_t i = 0; i < files.size(); ++i) {
     TiffFile f(files[i]);
     const PageFormat p = readFormat(f, f.path());
-    if (TIFFReadDirectory(f.get()))
+    if (f.nextPage(f.path()))
       throw InputError(f.path() + ": has more than one page; a stack of files needs single-page files (or give one "
                                   "multi-page file)");
     if (i == 0) first = p;

@@ -199,5 +199,19 @@ TEST(Tiff, RefusalsNameTheFileAndProblem) {
   expectRefused(openAndRead(empty.path().string()), {empty.path().string(), "without DICOM or TIFF"});
 }
 
+TEST(Tiff, TruncatedFilesAreInputErrorsNotCrashes) {
+  ScratchDir dir;
+  std::vector<Page> pages;
+  for (int z = 0; z < 3; ++z) pages.push_back(page<uint16_t>(7, 5, [z](uint32_t x, uint32_t y) { return ramp(x, y, z); }));
+  writeTiff(dir / "full.tif", pages);
+  const std::vector<char> bytes = test::readFile(dir / "full.tif");
+  const std::string cutFile = (dir / "cut.tif").string();
+  for (size_t cut = 0; cut < bytes.size(); ++cut) {
+    test::writeFile(cutFile, bytes.data(), cut);
+    SCOPED_TRACE("cut at " + std::to_string(cut) + " of " + std::to_string(bytes.size()));
+    expectRefused(openAndRead(cutFile), {"cut.tif"});
+  }
+}
+
 }  // namespace
 }  // namespace voxbrick
