@@ -30,7 +30,7 @@ namespace {
 
 using Vec = Orientation::Vec;
 
-constexpr double kSpacingTolerance = 0.01;  // slice steps may differ from the series' step by 1 %
+constexpr double kSpacingTolerance = 0.01;    // slice steps may differ from the series' step by 1 %
 constexpr double kDirectionTolerance = 1e-4;  // direction cosines of two slices count as equal within this
 
 /// What one file's header says, before any pixel is decoded.
@@ -80,15 +80,25 @@ std::string syntaxName(const gdcm::TransferSyntax& ts) {
 bool decodable(const gdcm::TransferSyntax& ts) {
   using T = gdcm::TransferSyntax;
   switch (T::TSType(ts)) {
-    case T::ImplicitVRLittleEndian: case T::ExplicitVRLittleEndian: case T::DeflatedExplicitVRLittleEndian:
-    case T::ExplicitVRBigEndian: case T::JPEGBaselineProcess1: case T::JPEGExtendedProcess2_4:
-    case T::JPEGExtendedProcess3_5: case T::JPEGSpectralSelectionProcess6_8: case T::JPEGFullProgressionProcess10_12:
-    case T::JPEGLosslessProcess14: case T::JPEGLosslessProcess14_1: case T::JPEGLSLossless:
-    case T::JPEGLSNearLossless: case T::JPEG2000Lossless: case T::JPEG2000: case T::JPEG2000Part2Lossless:
-    case T::JPEG2000Part2: case T::RLELossless:
-      return true;
-    default:
-      return false;
+    case T::ImplicitVRLittleEndian:
+    case T::ExplicitVRLittleEndian:
+    case T::DeflatedExplicitVRLittleEndian:
+    case T::ExplicitVRBigEndian:
+    case T::JPEGBaselineProcess1:
+    case T::JPEGExtendedProcess2_4:
+    case T::JPEGExtendedProcess3_5:
+    case T::JPEGSpectralSelectionProcess6_8:
+    case T::JPEGFullProgressionProcess10_12:
+    case T::JPEGLosslessProcess14:
+    case T::JPEGLosslessProcess14_1:
+    case T::JPEGLSLossless:
+    case T::JPEGLSNearLossless:
+    case T::JPEG2000Lossless:
+    case T::JPEG2000:
+    case T::JPEG2000Part2Lossless:
+    case T::JPEG2000Part2:
+    case T::RLELossless: return true;
+    default: return false;
   }
 }
 
@@ -240,8 +250,7 @@ std::vector<SliceHeader> selectSeries(std::vector<SliceHeader> all, const std::s
     throw InputError(what + ": holds " + std::to_string(series.size()) +
                      " DICOM series; pick one with --series UID: " + seriesList(series));
   auto it = series.find(chosenUid);
-  if (it == series.end())
-    throw InputError(what + ": no DICOM series " + chosenUid + "; found " + seriesList(series));
+  if (it == series.end()) throw InputError(what + ": no DICOM series " + chosenUid + "; found " + seriesList(series));
   return std::move(it->second);
 }
 
@@ -261,9 +270,10 @@ void checkConsistent(const std::vector<SliceHeader>& slices) {
       throw differ("size", std::to_string(a.columns) + "x" + std::to_string(a.rows),
                    std::to_string(b.columns) + "x" + std::to_string(b.rows));
     if (b.bitsAllocated != a.bitsAllocated || b.bitsStored != a.bitsStored || b.isSigned != a.isSigned)
-      throw differ("pixel format (bits allocated/stored, signed)",
-                   std::to_string(a.bitsAllocated) + "/" + std::to_string(a.bitsStored) + (a.isSigned ? " signed" : ""),
-                   std::to_string(b.bitsAllocated) + "/" + std::to_string(b.bitsStored) + (b.isSigned ? " signed" : ""));
+      throw differ(
+          "pixel format (bits allocated/stored, signed)",
+          std::to_string(a.bitsAllocated) + "/" + std::to_string(a.bitsStored) + (a.isSigned ? " signed" : ""),
+          std::to_string(b.bitsAllocated) + "/" + std::to_string(b.bitsStored) + (b.isSigned ? " signed" : ""));
     if (!sameDirection(a.row, b.row) || !sameDirection(a.column, b.column))
       throw differ("ImageOrientationPatient", vecText(a.row) + "\\" + vecText(a.column),
                    vecText(b.row) + "\\" + vecText(b.column));
@@ -277,8 +287,7 @@ void checkConsistent(const std::vector<SliceHeader>& slices) {
 /// The unit row, column and normal directions (LPS) of the series; refuses non-orthogonal or zero vectors.
 std::array<Vec, 3> directions(const SliceHeader& h) {
   const double r = norm(h.row), c = norm(h.column);
-  if (!(r > 0.5 && c > 0.5))
-    throw InputError(h.file + ": ImageOrientationPatient holds a zero vector");
+  if (!(r > 0.5 && c > 0.5)) throw InputError(h.file + ": ImageOrientationPatient holds a zero vector");
   const Vec row = scaled(h.row, 1 / r), column = scaled(h.column, 1 / c);
   if (std::fabs(dot(row, column)) > 1e-3)
     throw InputError(h.file + ": ImageOrientationPatient row and column directions are not orthogonal");
@@ -396,8 +405,10 @@ class DicomSource final : public VolumeSource {
           bits = b;
         }
         const double v = h.slope * double(storedValue(bits, h.bitsStored, h.isSigned)) + h.intercept;
-        if constexpr (std::is_floating_point_v<T>) out[i] = T(v);
-        else out[i] = T(std::llround(v));
+        if constexpr (std::is_floating_point_v<T>)
+          out[i] = T(v);
+        else
+          out[i] = T(std::llround(v));
       }
     });
   }
@@ -422,10 +433,10 @@ VolumeInfo volumeInfo(const std::vector<SliceHeader>& slices, const std::array<V
   info.orientation.origin = lpsToRas(a.position);
   info.orientation.patient = true;
   const bool rescaled = a.slope != 1 || a.intercept != 0;
-  info.description = "DICOM series " + a.seriesUid + (a.description.empty() ? "" : " '" + a.description + "'") +
-                     " " + std::to_string(a.bitsStored) + "-bit " + (a.isSigned ? "signed " : "") +
-                     dimsText(info.dims) + " " + std::string(valueTypeName(info.type)) +
-                     (rescaled ? " (rescaled)" : "") + ", " + syntaxName(a.syntax) + " (" + baseName(a.file) + ", ...)";
+  info.description = "DICOM series " + a.seriesUid + (a.description.empty() ? "" : " '" + a.description + "'") + " " +
+                     std::to_string(a.bitsStored) + "-bit " + (a.isSigned ? "signed " : "") + dimsText(info.dims) +
+                     " " + std::string(valueTypeName(info.type)) + (rescaled ? " (rescaled)" : "") + ", " +
+                     syntaxName(a.syntax) + " (" + baseName(a.file) + ", ...)";
   return info;
 }
 

@@ -46,7 +46,9 @@ class Walker {
       throw InputError(mPath + ": truncated DICOM file (an element runs past the end at byte " + std::to_string(at) +
                        " of " + std::to_string(mBytes.size()) + ")");
   }
-  [[noreturn]] void fail(const std::string& why) const { throw InputError(mPath + ": malformed DICOM file (" + why + ")"); }
+  [[noreturn]] void fail(const std::string& why) const {
+    throw InputError(mPath + ": malformed DICOM file (" + why + ")");
+  }
 
   /// Elements from pos; until a delimiter (FFFE,E00D or E0DD) when `untilDelimiter`, else to the end of the file.
   void walk(bool untilDelimiter, int depth) {

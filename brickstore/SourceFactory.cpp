@@ -81,8 +81,10 @@ std::vector<std::string> directoryFiles(const std::string& dir) {
 std::unique_ptr<VolumeSource> openDirectory(const std::string& dir, const SourceOptions& options) {
   std::vector<std::string> dicom, tiff;
   for (const std::string& f : directoryFiles(dir)) {
-    if (isTiffName(f)) tiff.push_back(f);
-    else if (isDicomFile(f)) dicom.push_back(f);
+    if (isTiffName(f))
+      tiff.push_back(f);
+    else if (isDicomFile(f))
+      dicom.push_back(f);
   }
   if (!dicom.empty() && !tiff.empty())
     throw InputError(dir + ": holds both DICOM (" + std::to_string(dicom.size()) + ") and TIFF (" +
@@ -90,8 +92,9 @@ std::unique_ptr<VolumeSource> openDirectory(const std::string& dir, const Source
                      "/*.tif'");
   if (!dicom.empty()) return openDicomSeries(dicom, options, "", dir);
   if (!tiff.empty()) return openTiffSource(tiff, options);
-  throw InputError(dir + ": is a directory without DICOM or TIFF files (expected a volume file, a DICOM series or a "
-                         "TIFF stack)");
+  throw InputError(dir +
+                   ": is a directory without DICOM or TIFF files (expected a volume file, a DICOM series or a "
+                   "TIFF stack)");
 }
 
 /// The DICOM files beside `file` (its directory), for the series `file` belongs to.
@@ -99,7 +102,8 @@ std::vector<std::string> dicomSiblings(const std::string& file) {
   std::filesystem::path dir = std::filesystem::path(file).parent_path();
   std::vector<std::string> files;
   for (const std::string& f : directoryFiles(dir.empty() ? "." : dir.string()))
-    if (!isTiffName(f) && isDicomFile(f)) files.push_back(dir.empty() ? std::filesystem::path(f).filename().string() : f);
+    if (!isTiffName(f) && isDicomFile(f))
+      files.push_back(dir.empty() ? std::filesystem::path(f).filename().string() : f);
   if (std::find(files.begin(), files.end(), file) == files.end()) files.push_back(file);
   return files;
 }
@@ -135,10 +139,14 @@ std::unique_ptr<VolumeSource> openSource(const std::vector<std::string>& inputs,
   for (const std::string& f : files) {
     std::error_code ec;
     if (!std::filesystem::is_regular_file(f, ec)) throw InputError(f + ": no such file (or not a regular file)");
-    if (isTiffName(f)) ++tiff;
-    else if (isDicomFile(f)) ++dicom;
-    else throw InputError(f + ": neither DICOM nor TIFF; several inputs must be the files of one DICOM series or "
-                              "one TIFF stack");
+    if (isTiffName(f))
+      ++tiff;
+    else if (isDicomFile(f))
+      ++dicom;
+    else
+      throw InputError(f +
+                       ": neither DICOM nor TIFF; several inputs must be the files of one DICOM series or "
+                       "one TIFF stack");
   }
   if (tiff == files.size()) return openTiffSource(files, options);
   if (dicom == files.size())

@@ -97,12 +97,18 @@ PageFormat readFormat(const TiffFile& f, const std::string& where) {
   if (TIFFIsTiled(f.get())) throw InputError(where + ": tiled TIFF pages are not supported (only strips)");
   const auto bits = field<uint16_t>(f, TIFFTAG_BITSPERSAMPLE, 1);
   const auto format = field<uint16_t>(f, TIFFTAG_SAMPLEFORMAT, SAMPLEFORMAT_UINT);
-  if (bits == 8 && format == SAMPLEFORMAT_UINT) p.type = ValueType::U8;
-  else if (bits == 16 && format == SAMPLEFORMAT_UINT) p.type = ValueType::U16;
-  else if (bits == 16 && format == SAMPLEFORMAT_INT) p.type = ValueType::I16;
-  else if (bits == 32 && format == SAMPLEFORMAT_IEEEFP) p.type = ValueType::F32;
+  if (bits == 8 && format == SAMPLEFORMAT_UINT)
+    p.type = ValueType::U8;
+  else if (bits == 16 && format == SAMPLEFORMAT_UINT)
+    p.type = ValueType::U16;
+  else if (bits == 16 && format == SAMPLEFORMAT_INT)
+    p.type = ValueType::I16;
+  else if (bits == 32 && format == SAMPLEFORMAT_IEEEFP)
+    p.type = ValueType::F32;
   else {
-    const char* kind = format == SAMPLEFORMAT_INT ? "signed integer" : format == SAMPLEFORMAT_IEEEFP ? "float" : "unsigned integer";
+    const char* kind = format == SAMPLEFORMAT_INT      ? "signed integer"
+                       : format == SAMPLEFORMAT_IEEEFP ? "float"
+                                                       : "unsigned integer";
     throw InputError(where + ": " + std::to_string(bits) + "-bit " + kind +
                      " samples are not supported (8/16-bit unsigned, 16-bit signed or 32-bit float)");
   }
@@ -149,8 +155,10 @@ class TiffSource final : public VolumeSource {
   /// file may change between open and read.
   void readNext(unsigned char* dst) {
     const bool multiPage = mFiles.size() == 1;
-    if (!multiPage) mFile = std::make_unique<TiffFile>(mFiles[size_t(mNextZ)]);
-    else if (!mFile) mFile = std::make_unique<TiffFile>(mFiles.front());
+    if (!multiPage)
+      mFile = std::make_unique<TiffFile>(mFiles[size_t(mNextZ)]);
+    else if (!mFile)
+      mFile = std::make_unique<TiffFile>(mFiles.front());
     else if (!mFile->nextPage(pageName(*mFile, int(mNextZ) - 1, true)))
       throw InputError(pageName(*mFile, int(mNextZ), true) + ": missing" + mFile->detail());
     const std::string where = pageName(*mFile, int(mNextZ), multiPage);
@@ -184,10 +192,13 @@ PageFormat scanFiles(const std::vector<std::string>& files) {
     TiffFile f(files[i]);
     const PageFormat p = readFormat(f, f.path());
     if (f.nextPage(f.path()))
-      throw InputError(f.path() + ": has more than one page; a stack of files needs single-page files (or give one "
-                                  "multi-page file)");
-    if (i == 0) first = p;
-    else checkSame(first, p, files.front(), f.path());
+      throw InputError(f.path() +
+                       ": has more than one page; a stack of files needs single-page files (or give one "
+                       "multi-page file)");
+    if (i == 0)
+      first = p;
+    else
+      checkSame(first, p, files.front(), f.path());
   }
   return first;
 }
@@ -198,8 +209,10 @@ std::unique_ptr<VolumeSource> openTiffSource(const std::vector<std::string>& fil
   if (files.empty()) throw InputError("no TIFF files");
   PageFormat format;
   int64_t pages = int64_t(files.size());
-  if (files.size() == 1) std::tie(format, pages) = scanPages(files.front());
-  else format = scanFiles(files);
+  if (files.size() == 1)
+    std::tie(format, pages) = scanPages(files.front());
+  else
+    format = scanFiles(files);
 
   VolumeInfo info;
   info.dims = {int64_t(format.width), int64_t(format.height), pages};

@@ -26,10 +26,11 @@ TEST(CliDicom, PrepOfASeriesDirectoryKeepsDimsSpacingAndOrientation) {
   test::DicomSeriesSpec s;
   s.dims = {12, 10, 9};
   s.spacing = {0.7, 0.9, 2.5};
-  s.rowLps = {0, 1, 0};     // a sagittal series: columns run posterior
-  s.columnLps = {0, 0, -1}; // rows run inferior; slices step along row x column = (-1, 0, 0): right
+  s.rowLps = {0, 1, 0};      // a sagittal series: columns run posterior
+  s.columnLps = {0, 0, -1};  // rows run inferior; slices step along row x column = (-1, 0, 0): right
   s.originLps = {40, -60, 80};
-  test::writeDicomSeries(dir / "series", s, [](const test::Vec3& ras) { return 500 + ras[0] + 2 * ras[1] + 3 * ras[2]; });
+  test::writeDicomSeries(dir / "series", s,
+                         [](const test::Vec3& ras) { return 500 + ras[0] + 2 * ras[1] + 3 * ras[2]; });
   auto r = runVoxbrick("prep " + (dir / "series").string() + " --brick 8 -q -o " + (dir / "store").string());
   ASSERT_EQ(r.exitCode, 0) << r.output;
 

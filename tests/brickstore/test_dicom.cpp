@@ -182,8 +182,8 @@ TEST(Dicom, FlippedCoronalOrientation) {
   DicomSeriesSpec s;
   s.dims = {4, 6, 5};
   s.spacing = {1.0, 1.5, 2.5};
-  s.rowLps = {-1, 0, 0};      // columns run towards the patient's right
-  s.columnLps = {0, 0, -1};   // rows run towards the feet; slices step along row x column = (0, -1, 0): anterior
+  s.rowLps = {-1, 0, 0};     // columns run towards the patient's right
+  s.columnLps = {0, 0, -1};  // rows run towards the feet; slices step along row x column = (0, -1, 0): anterior
   s.originLps = {3, -4, 5};
   s.shuffleSeed = 7;
   test::writeDicomSeries(dir.path(), s, phantom);
@@ -202,13 +202,12 @@ TEST(Dicom, RescaleKeepsIntegerTypesWhenTheyHoldTheValues) {
     ValueType type;
   };
   const Case cases[] = {
-      {16, true, 1, 0, ValueType::I16},          // stored as is
-      {16, false, 1, 0, ValueType::U16},
-      {8, false, 1, 0, ValueType::U8},
-      {8, false, 2, 10, ValueType::U16},         // [10, 520]
-      {8, true, 1, -100, ValueType::I16},        // [-228, 27]
-      {16, false, 1, -1024, ValueType::F32},     // [-1024, 64511]: no 16-bit type holds it
-      {16, true, 0.5, -3.25, ValueType::F32},    // not integral
+      {16, true, 1, 0, ValueType::I16},  // stored as is
+      {16, false, 1, 0, ValueType::U16},      {8, false, 1, 0, ValueType::U8},
+      {8, false, 2, 10, ValueType::U16},       // [10, 520]
+      {8, true, 1, -100, ValueType::I16},      // [-228, 27]
+      {16, false, 1, -1024, ValueType::F32},   // [-1024, 64511]: no 16-bit type holds it
+      {16, true, 0.5, -3.25, ValueType::F32},  // not integral
   };
   for (const Case& c : cases) {
     ScratchDir dir;
@@ -256,8 +255,9 @@ TEST(Dicom, MixedSeriesAreListedAndSeriesPicksOne) {
   b.prefix = "b";
   test::writeDicomSeries(dir.path(), a, phantom);
   const auto bFiles = test::writeDicomSeries(dir.path(), b, phantom);
-  expectRefused(openAndRead(dir.path().string()), {dir.path().string(), "2 DICOM series", "--series", "1.2.3.4.100",
-                                                   "3 files", "first series", "1.2.3.4.200", "5 files", "second series"});
+  expectRefused(openAndRead(dir.path().string()),
+                {dir.path().string(), "2 DICOM series", "--series", "1.2.3.4.100", "3 files", "first series",
+                 "1.2.3.4.200", "5 files", "second series"});
   store::SourceOptions pick;
   pick.seriesUid = "1.2.3.4.200";
   auto picked = store::openSource(dir.path().string(), pick);
@@ -279,8 +279,8 @@ TEST(Dicom, GapIsRefusedNamingTheSlicesAroundIt) {
   s.spacing = {1, 1, 2};
   const auto files = test::writeDicomSeries(dir.path(), s, phantom);
   std::filesystem::remove(files[3]);
-  expectRefused(openAndRead(dir.path().string()), {"uneven slice spacing", files[2].string(), files[4].string(), "4 mm",
-                                                   "2 mm"});
+  expectRefused(openAndRead(dir.path().string()),
+                {"uneven slice spacing", files[2].string(), files[4].string(), "4 mm", "2 mm"});
 }
 
 TEST(Dicom, UnevenSpacingIsRefused) {
@@ -337,8 +337,8 @@ TEST(Dicom, UnsupportedTransferSyntaxIsRefusedByName) {
   s.dims = {4, 4, 2};
   s.transferSyntax = "1.2.840.10008.1.2.4.100";  // MPEG2 Main Profile @ Main Level: video
   test::writeDicomSeries(dir.path(), s, phantom);
-  expectRefused(openAndRead(dir.path().string()), {"unsupported transfer syntax", "1.2.840.10008.1.2.4.100", "MPEG2",
-                                                   ".dcm"});
+  expectRefused(openAndRead(dir.path().string()),
+                {"unsupported transfer syntax", "1.2.840.10008.1.2.4.100", "MPEG2", ".dcm"});
 }
 
 TEST(Dicom, JpegLsCompressedSeriesDecodes) {

@@ -32,7 +32,9 @@ Page page(uint32_t width, uint32_t height, const std::function<double(uint32_t, 
   Page p;
   p.width = width, p.height = height;
   p.bits = uint16_t(8 * sizeof(T));
-  p.format = std::is_floating_point_v<T> ? SAMPLEFORMAT_IEEEFP : std::is_signed_v<T> ? SAMPLEFORMAT_INT : SAMPLEFORMAT_UINT;
+  p.format = std::is_floating_point_v<T> ? SAMPLEFORMAT_IEEEFP
+             : std::is_signed_v<T>       ? SAMPLEFORMAT_INT
+                                         : SAMPLEFORMAT_UINT;
   p.data.resize(size_t(width) * height * sizeof(T));
   for (uint32_t y = 0; y < height; ++y)
     for (uint32_t x = 0; x < width; ++x) {
@@ -105,7 +107,8 @@ double ramp(uint32_t x, uint32_t y, int z) { return 1000.0 * z + 10.0 * y + x; }
 TEST(Tiff, MultiPageFileIsAStackOfSlices) {
   ScratchDir dir;
   std::vector<Page> pages;
-  for (int z = 0; z < 3; ++z) pages.push_back(page<uint16_t>(5, 4, [z](uint32_t x, uint32_t y) { return ramp(x, y, z); }));
+  for (int z = 0; z < 3; ++z)
+    pages.push_back(page<uint16_t>(5, 4, [z](uint32_t x, uint32_t y) { return ramp(x, y, z); }));
   writeTiff(dir / "stack.tif", pages);
   auto source = store::openSource((dir / "stack.tif").string(), {});
   const store::VolumeInfo& info = source->info();
@@ -202,7 +205,8 @@ TEST(Tiff, RefusalsNameTheFileAndProblem) {
 TEST(Tiff, TruncatedFilesAreInputErrorsNotCrashes) {
   ScratchDir dir;
   std::vector<Page> pages;
-  for (int z = 0; z < 3; ++z) pages.push_back(page<uint16_t>(7, 5, [z](uint32_t x, uint32_t y) { return ramp(x, y, z); }));
+  for (int z = 0; z < 3; ++z)
+    pages.push_back(page<uint16_t>(7, 5, [z](uint32_t x, uint32_t y) { return ramp(x, y, z); }));
   writeTiff(dir / "full.tif", pages);
   const std::vector<char> bytes = test::readFile(dir / "full.tif");
   const std::string cutFile = (dir / "cut.tif").string();

@@ -26,8 +26,8 @@ struct DicomSeriesSpec {
   bool isSigned = true;              ///< PixelRepresentation 1
   std::string seriesUid = "1.2.826.0.1.3680043.9.7777.1";
   std::string description = "phantom";
-  std::string prefix = "slice";      ///< files are PREFIXnnn.dcm
-  uint32_t shuffleSeed = 1;          ///< file names number the slices in a shuffled order (0: in slice order)
+  std::string prefix = "slice";  ///< files are PREFIXnnn.dcm
+  uint32_t shuffleSeed = 1;      ///< file names number the slices in a shuffled order (0: in slice order)
   /// "" writes explicit VR little endian; "jpegls" compresses losslessly (JPEG-LS); any other text is written as the
   /// meta header's TransferSyntaxUID over an explicit little-endian data set (to test refusals).
   std::string transferSyntax;
