@@ -3,6 +3,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "brickstore/VolumeSource.h"
 
@@ -20,6 +21,20 @@ std::unique_ptr<VolumeSource> openNiftiSource(const std::string& path, const Sou
 
 /// An OpenVDB float grid (by name, or the first float grid), over its active voxels' bounding box.
 std::unique_ptr<VolumeSource> openVdbSource(const std::string& path, const SourceOptions& options);
+
+/// A DICOM series, one slice a file, in any order: files are grouped by SeriesInstanceUID (options.seriesUid picks
+/// one when there are several), sorted along the slice normal, checked for gaps, duplicates and mismatched slices,
+/// and rescaled (RescaleSlope/Intercept). Slices are decoded one at a time as readSlices() asks for them.
+std::unique_ptr<VolumeSource> openDicomSource(const std::vector<std::string>& files, const SourceOptions& options);
+
+/// As openDicomSource, for the DICOM files of a directory: the series `chosenFile` (one of `files`, or "") belongs
+/// to unless options.seriesUid names one; `what` names the input in errors.
+std::unique_ptr<VolumeSource> openDicomSeries(const std::vector<std::string>& files, const SourceOptions& options,
+                                              const std::string& chosenFile, const std::string& what);
+
+/// A TIFF stack: one multi-page file (`files` of size one) or single-page files in the given order; single channel
+/// u8, u16, i16 or f32 pages of one size. Spacing is options.spacing (1,1,1 unless given).
+std::unique_ptr<VolumeSource> openTiffSource(const std::vector<std::string>& files, const SourceOptions& options);
 
 /// A synthetic field; `spec` is what follows "synthetic:", e.g. "marschner-lobb,n=64".
 std::unique_ptr<VolumeSource> openSyntheticSource(const std::string& spec, const SourceOptions& options);

@@ -3,6 +3,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "brickstore/Orientation.h"
 #include "brickstore/Types.h"
@@ -48,10 +49,17 @@ struct SourceOptions {
   bool bigEndian = false;          ///< raw: byte order of the file
   int64_t headerBytes = 0;         ///< raw: bytes to skip before the voxels
   std::string gridName;            ///< vdb: grid to read (default: the first float grid)
+  std::string seriesUid;           ///< dicom: the SeriesInstanceUID to read when the input holds several
 };
 
-/// Opens INPUT by its form: "synthetic:NAME[,k=v...]", *.vdb, *.nrrd / *.nhdr, *.nii / *.nii.gz, else raw.
+/// Opens INPUT by its form: "synthetic:NAME[,k=v...]", *.vdb, *.nrrd / *.nhdr, *.nii / *.nii.gz, a DICOM file
+/// (*.dcm or a file with the DICM preamble: the series it belongs to, from its directory), *.tif / *.tiff (a stack of
+/// pages), a directory (its DICOM series or its TIFF files), a glob pattern ("dir/*.tif"), else raw.
 /// Throws InputError naming the file and the problem.
 std::unique_ptr<VolumeSource> openSource(const std::string& input, const SourceOptions& options);
+
+/// Opens several files as one volume: all DICOM (one series, one slice a file) or all TIFF (single-page files,
+/// z in natural name order). One input is the same as openSource(input). Throws InputError otherwise.
+std::unique_ptr<VolumeSource> openSource(const std::vector<std::string>& inputs, const SourceOptions& options);
 
 }  // namespace voxbrick::store

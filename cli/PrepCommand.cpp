@@ -5,6 +5,8 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <string>
+#include <vector>
 
 #include "brickstore/Errors.h"
 #include "brickstore/StoreWriter.h"
@@ -24,7 +26,8 @@ extern "C" void onInterrupt(int) { gInterrupted = true; }
 
 struct PrepArgs {
   std::string input, output, dims, type, spacing, endian = "little", grid, nonFinite = "background";
-  std::string quantise, quantiseRange, field;
+  std::string quantise, quantiseRange, field, series;
+  std::vector<std::string> inputs;  ///< the input; several for the files of a DICOM series or a TIFF stack
   int64_t headerBytes = 0;
   uint32_t tetsPerChunk = mesh::MeshStoreOptions{}.tetsPerChunk;
   double background = 0;
@@ -96,17 +99,23 @@ void runPrep(PrepArgs& a, CLI::App& cmd) {
     for (double v : s)
       if (!(v > 0) || !std::isfinite(v)) throw store::InputError("--spacing values must be positive and finite");
   }
+  a.input = a.inputs.front();
+  if (a.inputs.size() > 1) {
+    for (const std::string& in : a.inputs)
+      if (isMeshInput(in)) throw store::InputError(in + ": a mesh is prepped on its own (one input)");
+  }
   if (isMeshInput(a.input)) return runMeshPrep(a);
   if (!a.field.empty()) throw store::InputError("--field names a mesh's scalar; '" + a.input + "' is not a mesh");
   so.type = a.type;
   so.bigEndian = a.endian == "big";
   so.headerBytes = a.headerBytes;
   so.gridName = a.grid;
+  so.seriesUid = a.series;
   a.options.haveBackground = cmd.count("--background") > 0;
   a.options.background = a.background;
   a.options.nonFinite = a.nonFinite == "error" ? store::NonFinitePolicy::Error : store::NonFinitePolicy::Background;
 
-  auto source = store::openSource(a.input, so);
+  auto source = store::openSource(a.inputs, so);
   const store::VolumeInfo& info = source->info();
   if (!a.quiet)
     std::fprintf(stderr, "prep: %s -> %s (brick %d, zstd %d)\n", info.description.c_str(), a.output.c_str(),
@@ -122,7 +131,7 @@ void runPrep(PrepArgs& a, CLI::App& cmd) {
       store::parseQuantiseRange(a.quantiseRange, q);
     } else {
       // The input's exact range takes a pass of its own, through a second reader of the same input.
-      auto first = store::openSource(a.input, so);
+      auto first = store::openSource(a.inputs, so);
       const double background = a.options.haveBackground ? a.options.background : info.background;
       auto onSlices = [&](int64_t done, int64_t total) {
         if (gInterrupted) throw store::StoreError("interrupted; nothing was written");
@@ -172,10 +181,12 @@ void addPrepCommand(CLI::App& app) {
   auto args = std::make_shared<PrepArgs>();
   CLI::App* cmd =
       app.add_subcommand("prep", "Convert a volume into a brick store, or a tetrahedral mesh into a mesh store");
-  cmd->add_option("input", args->input,
+  cmd->add_option("input", args->inputs,
                   "raw file, .nrrd/.nhdr, .nii/.nii.gz, .vdb, or synthetic:NAME[,key=value...] (marschner-lobb, "
-                  "shells, blobs, sparse, hdr); a tetrahedral mesh: .vtk (legacy unstructured grid), .msh (gmsh 2 or "
-                  "4), or synthetic-mesh:box|ball[,n=N][,field=blobs|linear]")
+                  "shells, blobs, sparse, hdr); a DICOM series (a directory, one of its files, or its files / a "
+                  "quoted glob); a TIFF stack (one multi-page .tif, or a directory / files / quoted glob of "
+                  "single-page .tif files, z in natural name order); a tetrahedral mesh: .vtk (legacy unstructured "
+                  "grid), .msh (gmsh 2 or 4), or synthetic-mesh:box|ball[,n=N][,field=blobs|linear]")
       ->required();
   cmd->add_option("-o,--output", args->output, "store directory to create")->required();
   cmd->add_option("--dims", args->dims, "raw: X,Y,Z voxels");
@@ -185,6 +196,8 @@ void addPrepCommand(CLI::App& app) {
   cmd->add_option("--header-bytes", args->headerBytes, "raw: bytes to skip before the voxels")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--grid", args->grid, "vdb: name of the float grid (default: the first)");
+  cmd->add_option("--series", args->series,
+                  "dicom: the SeriesInstanceUID to read when the input holds several series");
   cmd->add_option("--brick", args->options.brickSize, "brick size B (power of two, 8..256)")->capture_default_str();
   cmd->add_option("--zstd-level", args->options.zstdLevel, "zstd compression level")->capture_default_str();
   cmd->add_option("--memory", args->options.memoryBudgetMB, "memory bound in MB for slabs and VDB chunks")

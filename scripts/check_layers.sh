@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The folder rules that include paths cannot enforce (tests/CMakeLists.txt probes the rest with the compiler):
 # system GL/EGL/OSMesa headers and GL calls only in render/'s GL layer, Asio only in server/, client/ and cli/,
-# OpenVDB only in brickstore/, and no include that climbs out of the folders by a relative path.
+# OpenVDB, GDCM and libtiff only in brickstore/ (tests may use them to write files), and no include that climbs out
+# of the folders by a relative path.
 # Prints every violation as FILE:LINE: text and exits 1 if there is any. Run from the repository root.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -41,6 +42,7 @@ forbid "GL, EGL or OSMesa calls outside render/'s GL layer" '\b(gl|egl)[A-Z][A-Z
   "${outsideRender[@]}" "${coreFiles[@]}"
 forbid "Asio outside server/, client/ and cli/" '#include <boost/asio' "${notAsio[@]}"
 forbid "OpenVDB outside brickstore/" '#include <(openvdb|nanovdb)/' "${notVdb[@]}"
+forbid "GDCM or libtiff outside brickstore/" '#include <(gdcm[A-Za-z0-9]*\.h|tiff[a-z]*\.h)>' "${notVdb[@]}"
 forbid "relative includes that leave a folder" '#include "\.\./' "${everything[@]}"
 
 [ $status -eq 0 ] && echo "check_layers: every rule holds (${#everything[@]} files)"
