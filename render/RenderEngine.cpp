@@ -9,6 +9,7 @@
 #include "render/GlContext.h"
 #include "render/Residency.h"
 #include "render/RenderErrors.h"
+#include "render/WorldFrame.h"
 #include "render/TetRenderer.h"
 #include "render/VolumeRenderer.h"
 
@@ -116,7 +117,9 @@ uint64_t RenderEngine::renderersReleased() const { return mImpl->released; }
 image::ImageF RenderEngine::render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats,
                                    const FrameOptions& options) {
   if (!dataset) throw RenderInputError("RenderEngine::render: no dataset");
-  return mImpl->rendererFor(dataset).render(scene, stats, options);
+  image::ImageF image = mImpl->rendererFor(dataset).render(scene, stats, options);
+  finishImage(dataset->worldFrame(), image);  // the renderers draw in the local frame
+  return image;
 }
 
 }  // namespace voxbrick::render
