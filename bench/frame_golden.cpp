@@ -73,8 +73,11 @@ std::shared_ptr<const store::BrickStore> prepStore(const std::string& spec, cons
 
 std::vector<Case> cases() {
   std::vector<Case> out;
-  const std::vector<std::string> views = {R"("orbit": [30, 20, 2.5])", R"("orbit": [90, 0, 2.2])",
-                                          R"("orbit": [0, 90, 2.5])", R"("orbit": [200, -35, 1.6])"};
+  // The Y-up orbit of the digests' time (the default up axis is now +z): the same floats.
+  const std::vector<std::string> views = {R"("orbit": [30, 20, 2.5], "up_axis": "+y")",
+                                          R"("orbit": [90, 0, 2.2], "up_axis": "+y")",
+                                          R"("orbit": [0, 90, 2.5], "up_axis": "+y")",
+                                          R"("orbit": [200, -35, 1.6], "up_axis": "+y")"};
   // Slicing of level 0, as when the digests were taken: the default drawing is now texture slabs with level of
   // detail (render/Scene.h).
   auto scene = [](const std::string& camera, const std::string& rest) {
@@ -101,8 +104,13 @@ std::vector<Case> cases() {
     const std::string v0 = views[0];
     out.push_back({store + "-ortho", store, scene(v0 + R"(, "orthographic": true)", tf)});
     out.push_back({store + "-ortho-sub8", store, scene(v0 + R"(, "orthographic": true)", tf + R"(, "sub_block": 8)")});
-    out.push_back({store + "-inside", store, scene(R"("orbit": [40, 10, 0.3], "fov": 70)", tf)});
-    out.push_back({store + "-axis", store, scene(R"("eye": [0, 0, 400], "center": [0, 0, 0], "up": [0, 1, 0])", tf)});
+    out.push_back({store + "-inside", store, scene(R"("orbit": [40, 10, 0.3], "up_axis": "+y", "fov": 70)", tf)});
+    // Explicit cameras are world coordinates: the MRI's box is centred on (0, -14.75, 9.25) (its sform), the same
+    // view of its box as (0, 0, 400) was of the box centred on the origin.
+    const std::string axis = store.rfind("mri", 0) == 0
+                                 ? R"("eye": [0, -14.75, 409.25], "center": [0, -14.75, 9.25], "up": [0, 1, 0])"
+                                 : R"("eye": [0, 0, 400], "center": [0, 0, 0], "up": [0, 1, 0])";
+    out.push_back({store + "-axis", store, scene(axis, tf)});
     out.push_back({store + "-window-bg", store,
                    scene(v0, tf + R"(, "window": [0.1, 0.6], "background": [0.2, 0.3, 0.4])")});
     out.push_back({store + "-ct-bone-shaded", store, scene(v0, R"("transfer_function": "ct-bone", "shading": true)")});
@@ -123,7 +131,7 @@ std::vector<Case> cases() {
     c.analytic = analytic;
     out.push_back(c);
   };
-  const std::string v0 = R"("camera": {"orbit": [30, 20, 2.5]}, "size": [40, 32])";
+  const std::string v0 = R"("camera": {"orbit": [30, 20, 2.5], "up_axis": "+y"}, "size": [40, 32])";
   reference("ref-ml32", "ml32", "{" + v0 + "}");
   reference("ref-ml32-shaded", "ml32", "{" + v0 + R"(, "shading": true})");
   reference("ref-ml32-analytic", "ml32", "{" + v0 + "}", "marschner-lobb");
@@ -132,7 +140,8 @@ std::vector<Case> cases() {
   reference("ref-mri32-window-bg", "mri32",
             "{" + v0 + R"(, "transfer_function": "ct-bone", "window": [20, 200], "background": [0.2, 0.3, 0.4]})");
   reference("ref-mri32-ortho", "mri32",
-            R"({"camera": {"orbit": [90, 0, 2.2], "orthographic": true}, "size": [40, 32], "transfer_function": "mri"})");
+            R"({"camera": {"orbit": [90, 0, 2.2], "up_axis": "+y", "orthographic": true}, "size": [40, 32], )"
+            R"("transfer_function": "mri"})");
   return out;
 }
 

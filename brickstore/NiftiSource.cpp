@@ -9,6 +9,7 @@
 #include "brickstore/ByteStream.h"
 #include "brickstore/Convert.h"
 #include "brickstore/Errors.h"
+#include "brickstore/Orientation.h"
 #include "brickstore/Sources.h"
 
 namespace voxbrick::store {
@@ -26,6 +27,10 @@ constexpr size_t kPixdimOffset = 76;
 constexpr size_t kVoxOffsetOffset = 108;
 constexpr size_t kSclSlopeOffset = 112;
 constexpr size_t kSclInterOffset = 116;
+constexpr size_t kQformCodeOffset = 252;
+constexpr size_t kSformCodeOffset = 254;
+constexpr size_t kQuaternOffset = 256;  // quatern_b, c, d, then qoffset_x, y, z
+constexpr size_t kSrowOffset = 280;     // srow_x, srow_y, srow_z: 4 floats each
 constexpr size_t kMagicOffset = 344;
 
 // Reads header fields in the file's byte order.
@@ -98,6 +103,57 @@ std::optional<FileValueType> datatypeValue(int code) {
 double spacingOf(float pixdim) {
   double v = std::fabs(static_cast<double>(pixdim));
   return (v > 0.0 && std::isfinite(v)) ? v : 1.0;
+}
+
+// sform: the affine rows srow_x, srow_y, srow_z; column a is the world step of index axis a, column 3 the origin.
+Directions sformDirections(const HeaderView& h) {
+  Directions d;
+  for (int row = 0; row < 3; ++row) {
+    for (int a = 0; a < 3; ++a) d.columns[a][row] = h.f32(kSrowOffset + 16 * row + 4 * a);
+    d.origin[row] = h.f32(kSrowOffset + 16 * row + 12);
+  }
+  return d;
+}
+
+// qform: the rotation of the quaternion (b, c, d) with a = sqrt(1 - b^2 - c^2 - d^2), the k axis negated when
+// qfac (pixdim[0]) is negative, scaled by pixdim[1..3] (NIfTI-1 standard, method 2).
+Directions qformDirections(const HeaderView& h) {
+  const double b = h.f32(kQuaternOffset), c = h.f32(kQuaternOffset + 4), d = h.f32(kQuaternOffset + 8);
+  double a = 1.0 - (b * b + c * c + d * d);
+  // nifti1_io: a (nearly) non-positive remainder means a 180-degree rotation, a = 0 with (b, c, d) renormalised.
+  double bn = b, cn = c, dn = d;
+  if (a < 1e-7) {
+    const double n = std::sqrt(b * b + c * c + d * d);
+    a = 0.0, bn = b / n, cn = c / n, dn = d / n;
+  } else {
+    a = std::sqrt(a);
+  }
+  const double r[3][3] = {{a * a + bn * bn - cn * cn - dn * dn, 2 * (bn * cn - a * dn), 2 * (bn * dn + a * cn)},
+                          {2 * (bn * cn + a * dn), a * a + cn * cn - bn * bn - dn * dn, 2 * (cn * dn - a * bn)},
+                          {2 * (bn * dn - a * cn), 2 * (cn * dn + a * bn), a * a + dn * dn - cn * cn - bn * bn}};
+  const double qfac = h.f32(kPixdimOffset) < 0 ? -1.0 : 1.0;
+  const double step[3] = {spacingOf(h.f32(kPixdimOffset + 4)), spacingOf(h.f32(kPixdimOffset + 8)),
+                          qfac * spacingOf(h.f32(kPixdimOffset + 12))};
+  Directions out;
+  for (int row = 0; row < 3; ++row) {
+    for (int col = 0; col < 3; ++col) out.columns[col][row] = r[row][col] * step[col];
+    out.origin[row] = h.f32(kQuaternOffset + 12 + 4 * size_t(row));
+  }
+  return out;
+}
+
+// NIfTI-1's precedence: the sform when sform_code > 0, else the qform when qform_code > 0, else no patient frame
+// (the identity, as nifti1_io's method 1 gives only pixdim scaling). Both frames are RAS.
+Orientation niftiOrientation(const HeaderView& h, const std::string& path, Vec3d& spacing) {
+  Directions d;
+  if (h.i16(kSformCodeOffset) > 0) {
+    d = sformDirections(h);
+  } else if (h.i16(kQformCodeOffset) > 0) {
+    d = qformDirections(h);
+  } else {
+    return Orientation{};
+  }
+  return fromDirections(d, path + (h.i16(kSformCodeOffset) > 0 ? ": sform" : ": qform"), spacing);
 }
 
 }  // namespace
@@ -173,6 +229,7 @@ std::unique_ptr<VolumeSource> openNiftiSource(const std::string& path, const Sou
 
   Vec3d spacing{spacingOf(h.f32(kPixdimOffset + 4)), spacingOf(h.f32(kPixdimOffset + 8)),
                 spacingOf(h.f32(kPixdimOffset + 12))};
+  const Orientation orientation = niftiOrientation(h, path, spacing);
   if (options.spacingGiven) spacing = options.spacing;
   checkSpacing(spacing, path);
 
@@ -206,6 +263,7 @@ std::unique_ptr<VolumeSource> openNiftiSource(const std::string& path, const Sou
   VolumeInfo info;
   info.dims = dims;
   info.spacing = spacing;
+  info.orientation = orientation;
   info.type = conversion.to();
   info.background = 0.0;
   const bool bigEndian = swap == needsSwap(true);

@@ -13,6 +13,7 @@
 #include "brickstore/ByteStream.h"
 #include "brickstore/Convert.h"
 #include "brickstore/Errors.h"
+#include "brickstore/Orientation.h"
 #include "brickstore/Sources.h"
 
 namespace voxbrick::store {
@@ -187,35 +188,107 @@ class FieldReader {
   const NrrdHeader& mHeader;
 };
 
-// The length of each "space directions" vector; NaN for a "none" axis.
-std::vector<double> directionLengths(const FieldReader& fields, const std::string& value) {
+// A "(x,y,z)" vector starting at value[i]; i is moved past the ')'.
+std::vector<double> parseVector(const FieldReader& fields, const std::string& name, const std::string& value,
+                                size_t& i) {
+  if (value[i] != '(') fields.bad(name, value, "expected '(x,y,z)'");
+  size_t close = value.find(')', i);
+  if (close == std::string::npos) fields.bad(name, value, "missing ')'");
+  std::string inner = value.substr(i + 1, close - i - 1);
+  std::vector<double> out;
+  size_t start = 0;
+  while (true) {
+    size_t comma = inner.find(',', start);
+    double c = fields.real(name, trim(inner.substr(start, comma == std::string::npos ? comma : comma - start)));
+    if (!std::isfinite(c)) fields.bad(name, value, "components must be finite");
+    out.push_back(c);
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  i = close + 1;
+  return out;
+}
+
+// Each "space directions" vector; empty for a "none" axis.
+std::vector<std::vector<double>> directionVectors(const FieldReader& fields, const std::string& value) {
   const std::string name = "space directions";
-  std::vector<double> lengths;
+  std::vector<std::vector<double>> vectors;
   size_t i = 0;
   while ((i = value.find_first_not_of(" \t", i)) != std::string::npos) {
     if (value.compare(i, 4, "none") == 0) {
-      lengths.push_back(std::nan(""));
+      vectors.emplace_back();
       i += 4;
       continue;
     }
     if (value[i] != '(') fields.bad(name, value, "expected '(x,y,z)' or 'none' per axis");
-    size_t close = value.find(')', i);
-    if (close == std::string::npos) fields.bad(name, value, "missing ')'");
-    std::string inner = value.substr(i + 1, close - i - 1);
+    vectors.push_back(parseVector(fields, name, value, i));
+  }
+  return vectors;
+}
+
+// The length of each "space directions" vector; NaN for a "none" axis.
+std::vector<double> directionLengths(const FieldReader& fields, const std::string& value) {
+  std::vector<double> lengths;
+  for (const std::vector<double>& v : directionVectors(fields, value)) {
     double sum = 0;
-    size_t start = 0;
-    while (true) {
-      size_t comma = inner.find(',', start);
-      double c = fields.real(name, trim(inner.substr(start, comma == std::string::npos ? comma : comma - start)));
-      if (!std::isfinite(c)) fields.bad(name, value, "components must be finite");
-      sum += c * c;
-      if (comma == std::string::npos) break;
-      start = comma + 1;
-    }
-    lengths.push_back(std::sqrt(sum));
-    i = close + 1;
+    for (double c : v) sum += c * c;
+    lengths.push_back(v.empty() ? std::nan("") : std::sqrt(sum));
   }
   return lengths;
+}
+
+// The signs that turn the "space" field's coordinates into RAS, and whether it is a patient frame. Spaces without
+// anatomy (scanner-xyz, 3D-right-handed, 3D-left-handed) keep their coordinates and are not patient frames.
+struct SpaceFrame {
+  double sign[3] = {1, 1, 1};
+  bool patient = false;
+};
+
+SpaceFrame parseSpace(const FieldReader& fields, const std::string& value) {
+  const std::string v = lower(value);
+  SpaceFrame f;
+  f.patient = true;
+  if (v == "right-anterior-superior" || v == "ras") return f;
+  if (v == "left-anterior-superior" || v == "las") {
+    f.sign[0] = -1;
+    return f;
+  }
+  if (v == "left-posterior-superior" || v == "lps") {
+    f.sign[0] = -1, f.sign[1] = -1;
+    return f;
+  }
+  f.patient = false;
+  if (v == "scanner-xyz" || v == "3d-right-handed" || v == "3d-left-handed") return f;
+  fields.bad("space", value,
+             "supported: right-anterior-superior (RAS), left-anterior-superior (LAS), left-posterior-superior (LPS), "
+             "scanner-xyz, 3D-right-handed, 3D-left-handed; time-varying spaces are not");
+}
+
+// The orientation from "space", "space directions" and "space origin"; the identity without "space directions" (or
+// with a 'none' spatial axis). `spacing` becomes the directions' lengths.
+Orientation parseOrientation(const FieldReader& fields, int64_t dimension, Vec3d& spacing) {
+  const std::string* dirs = fields.find("space directions");
+  if (!dirs) return Orientation{};
+  const SpaceFrame space = fields.find("space") ? parseSpace(fields, *fields.find("space")) : SpaceFrame{};
+  if (const std::string* sd = fields.find("space dimension"); sd && fields.integer("space dimension", *sd) != 3)
+    fields.bad("space dimension", *sd, "only 3 is supported");
+  const std::vector<std::vector<double>> vectors = directionVectors(fields, *dirs);
+  Directions d;
+  d.patient = space.patient;
+  for (int a = 0; a < 3; ++a) {
+    const std::vector<double>& v = vectors.at(size_t(dimension - 3 + a));
+    if (v.empty()) return Orientation{};
+    if (v.size() != 3) fields.bad("space directions", *dirs, "each vector needs 3 components");
+    for (int b = 0; b < 3; ++b) d.columns[a][b] = space.sign[b] * v[size_t(b)];
+  }
+  if (const std::string* origin = fields.find("space origin")) {
+    size_t i = origin->find_first_not_of(" \t");
+    if (i == std::string::npos) fields.bad("space origin", *origin, "expected '(x,y,z)'");
+    const std::vector<double> o = parseVector(fields, "space origin", *origin, i);
+    if (o.size() != 3) fields.bad("space origin", *origin, "expected 3 components");
+    for (int b = 0; b < 3; ++b) d.origin[b] = space.sign[b] * o[size_t(b)];
+  }
+  return fromDirections(d, fields.path() + ": space directions", spacing);
 }
 
 // Spacing of the three spatial axes (the last three), from "space directions" or else "spacings"; 1 where unknown.
@@ -315,6 +388,7 @@ std::unique_ptr<VolumeSource> openNrrdSource(const std::string& path, const Sour
   }
 
   Vec3d spacing = parseSpacing(fields, dimension);
+  const Orientation orientation = parseOrientation(fields, dimension, spacing);
   if (options.spacingGiven) spacing = options.spacing;
   checkSpacing(spacing, path);
 
@@ -355,6 +429,7 @@ std::unique_ptr<VolumeSource> openNrrdSource(const std::string& path, const Sour
   VolumeInfo info;
   info.dims = dims;
   info.spacing = spacing;
+  info.orientation = orientation;
   info.type = conversion.to();
   info.background = 0.0;
   info.description = "NRRD " + std::string(fileValueTypeName(*fileType)) + (gzip ? " gzip " : " raw ") +

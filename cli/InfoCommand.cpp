@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "brickstore/BrickStore.h"
+#include "brickstore/Orientation.h"
 #include "brickstore/VdbStore.h"
 #include "cli/Commands.h"
 #include "mesh/MeshStore.h"
@@ -81,6 +82,12 @@ void runInfo(const InfoArgs& a) {
     j["compression_ratio"] = ratio;
     j["octree_depth"] = s->octree().depth();
     j["backing"] = store::storeBackingName(s->backing());
+    // Always present here (store.json omits the identity): the axes as letters too.
+    j["orientation"] = {{"space", "RAS"},
+                        {"axes", m.orientation.axes},
+                        {"origin", m.orientation.origin},
+                        {"patient", m.orientation.patient},
+                        {"letters", store::axesLetters(m.orientation)}};
     if (live) {
       const store::VdbOpenStats& o = live->openStats();
       j["open"] = {{"read_s", o.readSeconds}, {"scan_s", o.scanSeconds}, {"leaf_nodes", o.leafNodes},
@@ -93,6 +100,9 @@ void runInfo(const InfoArgs& a) {
   std::printf("source       %s\n", m.source.c_str());
   std::printf("dims         %s voxels, spacing %g x %g x %g, type %s\n", dimsText(m.dims).c_str(), m.spacing.x,
               m.spacing.y, m.spacing.z, std::string(store::valueTypeName(m.type)).c_str());
+  std::printf("orientation  %s\n", m.orientation == store::Orientation{}
+                                        ? "none stated (the box is centred on the origin)"
+                                        : store::orientationText(m.orientation).c_str());
   std::printf("values       [%g, %g], background %g, %lld active voxels (%.1f%%)\n", m.valueMin, m.valueMax,
               m.background, static_cast<long long>(m.activeVoxels),
               100.0 * double(m.activeVoxels) / double(m.dims.volume()));

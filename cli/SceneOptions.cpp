@@ -1,6 +1,7 @@
 // Scene options of `render` and `request`.
 #include "cli/SceneOptions.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -32,21 +33,49 @@ std::vector<std::string> slicerNames() {
   return names;
 }
 
+// "AZ,EL" (a fitted orbit) or "AZ,EL,DIST" (DIST in bounding-sphere radii) into `camera`.
+void applyOrbit(const std::string& text, render::CameraSpec& camera) {
+  const auto commas = std::count(text.begin(), text.end(), ',');
+  if (commas != 1 && commas != 2)
+    throw render::RenderInputError("--orbit '" + text + "': expected AZ,EL or AZ,EL,DIST");
+  const bool withDistance = commas == 2;
+  const glm::dvec3 o = triple(withDistance ? text : text + ",1", "--orbit");
+  camera.orbit = true;
+  camera.azimuth = o.x, camera.elevation = o.y;
+  camera.distance = std::nullopt;
+  if (withDistance) camera.distance = o.z;
+}
+
+// The camera options on top of the scene's camera (buildScene in SceneOptions.h says what each does).
+void applyCamera(const SceneArgs& a, render::CameraSpec& camera) {
+  if (int(!a.orbit.empty()) + int(!a.view.empty()) + int(!a.eye.empty()) > 1)
+    throw render::RenderInputError("give at most one of --orbit, --view and --eye");
+  if ((!a.center.empty() || !a.up.empty()) && a.eye.empty() && camera.orbit)
+    throw render::RenderInputError("--center and --up need --eye (or a --scene with an explicit 'eye'): an orbit or "
+                                   "view looks at the volume's centre, with --up-axis as its up");
+  if (!a.view.empty() && !a.upAxis.empty())
+    throw render::RenderInputError("--view sets the up axis (+z); give --orbit with --up-axis instead");
+  if (!a.orbit.empty()) applyOrbit(a.orbit, camera);
+  if (!a.view.empty()) camera.setView(a.view, "--view");
+  if (!a.upAxis.empty()) {
+    camera.upAxis = render::parseUpAxis(a.upAxis, "--up-axis");
+  }
+  if (!a.eye.empty()) {
+    camera.orbit = false;
+    camera.eye = triple(a.eye, "--eye");
+  }
+  if (!a.center.empty()) camera.center = triple(a.center, "--center");
+  if (!a.up.empty()) camera.up = triple(a.up, "--up");
+  if ((a.fit || !a.upAxis.empty()) && !camera.orbit)
+    throw render::RenderInputError("--fit and --up-axis apply to an orbit or view, not to an explicit eye");
+  if (a.fit) camera.distance = std::nullopt;
+}
+
 }  // namespace
 
 render::Scene buildScene(const SceneArgs& a, const CLI::App& cmd) {
   render::Scene s = a.sceneFile.empty() ? render::Scene{} : render::Scene::fromJson(readText(a.sceneFile), a.sceneFile);
-  if (!a.orbit.empty()) {
-    const glm::dvec3 o = triple(a.orbit, "--orbit");
-    s.camera.orbit = true;
-    s.camera.azimuth = o.x, s.camera.elevation = o.y, s.camera.distance = o.z;
-  }
-  if (!a.eye.empty()) {
-    s.camera.orbit = false;
-    s.camera.eye = triple(a.eye, "--eye");
-    s.camera.center = a.center.empty() ? glm::dvec3(0) : triple(a.center, "--center");
-    s.camera.up = a.up.empty() ? glm::dvec3(0, 1, 0) : triple(a.up, "--up");
-  }
+  applyCamera(a, s.camera);
   if (cmd.count("--fov")) s.camera.fovY = a.fov;
   if (a.ortho) s.camera.orthographic = true;
   if (!a.size.empty()) parseSize(a.size, "--size", s.width, s.height);
@@ -95,10 +124,20 @@ render::Scene buildScene(const SceneArgs& a, const CLI::App& cmd) {
 
 void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
   cmd->add_option("--scene", args.sceneFile, "scene JSON (the options below override it)");
-  cmd->add_option("--orbit", args.orbit, "AZ,EL,DIST: degrees, degrees, bounding-sphere radii (default 30,20,2.5)");
-  cmd->add_option("--eye", args.eye, "x,y,z eye position (world units)");
-  cmd->add_option("--center", args.center, "x,y,z look-at point (default 0,0,0)");
-  cmd->add_option("--up", args.up, "x,y,z up vector (default 0,1,0)");
+  cmd->add_option("--orbit", args.orbit,
+                  "AZ,EL[,DIST]: degrees about the up axis, and bounding-sphere radii (default 30,20 at the fitted "
+                  "distance: the whole volume in frame); az 0 looks from +y (anterior), az 90 from -x (the patient's "
+                  "left) when the up axis is +z");
+  cmd->add_option("--up-axis", args.upAxis,
+                  "the orbit's up axis: +z (default; superior for patient data), -z, +y (the Y-up orbit of earlier "
+                  "versions: az 0 from +z), -y, +x, -x");
+  cmd->add_option("--view", args.view, "a named view about +z: " + render::viewNames() +
+                                           " (for data without a patient frame: from +y, -y, -x, +x, +z, -z)");
+  cmd->add_flag("--fit", args.fit, "place the orbit's eye so that the whole volume is in frame (the default unless "
+                                   "--orbit gives a distance)");
+  cmd->add_option("--eye", args.eye, "x,y,z eye position (world coordinates: RAS for patient data)");
+  cmd->add_option("--center", args.center, "x,y,z look-at point (world; default the scene's, else 0,0,0)");
+  cmd->add_option("--up", args.up, "x,y,z up vector (world; default the scene's, else 0,1,0)");
   cmd->add_option("--fov", args.fov, "vertical field of view in degrees (default 30)");
   cmd->add_flag("--ortho", args.ortho, "orthographic projection");
   cmd->add_option("--size", args.size, "WIDTHxHEIGHT (default 512x512)");

@@ -42,21 +42,67 @@ Box volumeBox(const store::Vec3i& dims, const store::Vec3d& spacing) {
   return Box{-half, half};
 }
 
-Camera Camera::orbit(double azimuthDeg, double elevationDeg, double distanceInRadii, const Box& box) {
+const char* upAxisName(UpAxis axis) {
+  static const char* kNames[] = {"+x", "-x", "+y", "-y", "+z", "-z"};
+  return kNames[int(axis)];
+}
+
+UpAxis parseUpAxis(const std::string& name, const std::string& what) {
+  const std::string full = name.size() == 1 ? "+" + name : name;
+  for (int a = 0; a < 6; ++a)
+    if (full == upAxisName(UpAxis(a))) return UpAxis(a);
+  throw RenderInputError(what + ": unknown up axis '" + name + "' (one of +x, -x, +y, -y, +z, -z)");
+}
+
+OrbitAxes OrbitAxes::of(UpAxis axis) {
+  const int a = int(axis) / 2;
+  OrbitAxes o;
+  o.up = glm::dvec3(0.0);
+  o.up[a] = int(axis) % 2 ? -1.0 : 1.0;
+  o.front = a == 2 ? glm::dvec3{0, 1, 0} : glm::dvec3{0, 0, 1};  // the table in Camera.h
+  o.side = glm::cross(o.up, o.front);
+  return o;
+}
+
+Camera Camera::orbitAt(double azimuthDeg, double elevationDeg, double distance, const Box& box,
+                       const OrbitAxes& axes) {
   if (!std::isfinite(azimuthDeg) || !std::isfinite(elevationDeg))
     throw RenderInputError("Camera::orbit: angles (" + numberText(azimuthDeg) + ", " + numberText(elevationDeg) +
                            ") are not finite");
+  if (!(distance > 0) || !std::isfinite(distance))
+    throw RenderInputError("Camera::orbit: distance " + numberText(distance) + " is not finite and positive");
+  checkBox(box, "Camera::orbit");
+  const double az = glm::radians(azimuthDeg), el = glm::radians(elevationDeg);
+  const glm::dvec3 around = std::cos(az) * axes.front + std::sin(az) * axes.side;
+  Camera camera;
+  camera.center = box.center();
+  camera.eye = camera.center + distance * (std::cos(el) * around + std::sin(el) * axes.up);
+  // Away from the pole the pole axis itself (negated past it) projects to exactly this derivative, and gives the
+  // same floats as the orbit of earlier versions; near it (and at it, where the projection vanishes) the derivative.
+  const double c = std::cos(el);
+  camera.up = std::abs(c) > 1e-6 ? (c > 0 ? axes.up : -axes.up) : -std::sin(el) * around + c * axes.up;
+  return camera;
+}
+
+Camera Camera::orbit(double azimuthDeg, double elevationDeg, double distanceInRadii, const Box& box,
+                     const OrbitAxes& axes) {
   if (!(distanceInRadii > 0) || !std::isfinite(distanceInRadii))
     throw RenderInputError("Camera::orbit: distance " + numberText(distanceInRadii) +
                            " radii is not finite and positive");
   checkBox(box, "Camera::orbit");
-  double az = glm::radians(azimuthDeg), el = glm::radians(elevationDeg);
-  glm::dvec3 direction{std::cos(el) * std::sin(az), std::sin(el), std::cos(el) * std::cos(az)};
-  Camera camera;
-  camera.center = box.center();
-  camera.eye = camera.center + distanceInRadii * box.radius() * direction;
-  camera.up = {0.0, 1.0, 0.0};
-  return camera;
+  return orbitAt(azimuthDeg, elevationDeg, distanceInRadii * box.radius(), box, axes);
+}
+
+double Camera::fitDistance(double radius, double fovYDegrees, double aspect, bool orthographic) {
+  if (!(radius > 0) || !std::isfinite(radius) || !(fovYDegrees > 0 && fovYDegrees <= 179) || !(aspect > 0) ||
+      !std::isfinite(aspect))
+    throw RenderInputError("Camera::fitDistance: radius " + numberText(radius) + ", fov " + numberText(fovYDegrees) +
+                           " and aspect " + numberText(aspect) + " do not give a view");
+  const double tanHalfY = std::tan(0.5 * glm::radians(fovYDegrees));
+  const double r = kFitMargin * radius;
+  if (orthographic) return std::max(r / (tanHalfY * std::min(1.0, aspect)), r);
+  const double halfSmaller = std::atan(tanHalfY * std::min(1.0, aspect));
+  return r / std::sin(halfSmaller);
 }
 
 void Camera::validate() const {

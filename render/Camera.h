@@ -1,6 +1,8 @@
 // The camera of the optical model: world boxes, the orbit shorthand, view/projection matrices, clip range, frustum.
 #pragma once
 
+#include <string>
+
 #include <glm/glm.hpp>
 
 #include "brickstore/Types.h"
@@ -21,14 +23,42 @@ struct Box {
 /// (ARCHITECTURE.md, placement). Throws RenderInputError for dims <= 0 or a spacing that is not finite and positive.
 Box volumeBox(const store::Vec3i& dims, const store::Vec3d& spacing);
 
+/// The pole of an orbit (CameraSpec::upAxis, `--up-axis`): a world axis.
+enum class UpAxis { PosX, NegX, PosY, NegY, PosZ, NegZ };
+
+/// "+x", "-x", "+y", "-y", "+z", "-z".
+const char* upAxisName(UpAxis axis);
+/// The up axis named "+x", "-x", "+y", "-y", "+z" or "-z" ("x" = "+x"); throws RenderInputError naming `what` and
+/// the valid names otherwise.
+UpAxis parseUpAxis(const std::string& name, const std::string& what);
+
+/// The axes of an orbit: `up` (the pole), `front` (where the eye is at azimuth 0, elevation 0) and `side` = up x
+/// front (where the eye is at azimuth 90, elevation 0). For each up axis (of):
+///
+/// | up axis | front (az 0) | side (az 90) | for patient data (RAS)                                            |
+/// | ------- | ------------ | ------------ | ----------------------------------------------------------------- |
+/// | +z      | +y           | -x           | superior up; az 0 anterior view, az 90 the patient's left, 180 posterior |
+/// | -z      | +y           | +x           |                                                                   |
+/// | +y      | +z           | +x           | the Y-up orbit of earlier versions                                |
+/// | -y      | +z           | -x           |                                                                   |
+/// | +x      | +z           | -y           |                                                                   |
+/// | -x      | +z           | +y           |                                                                   |
+struct OrbitAxes {
+  glm::dvec3 up{0, 1, 0}, front{0, 0, 1}, side{1, 0, 0};
+
+  /// The axes of the table above.
+  static OrbitAxes of(UpAxis axis);
+  /// of(parseUpAxis(name, what)).
+  static OrbitAxes ofUpAxis(const std::string& name, const std::string& what) { return of(parseUpAxis(name, what)); }
+};
+
 /// A pinhole (or orthographic) camera in world space, right-handed, GL conventions: the view looks down -Z of eye
 /// space, clip-space depth is [-1, 1].
 ///
 /// Up: the basis uses `up` projected onto the plane perpendicular to the view direction. When nothing is left of it
-/// (`up` zero or parallel to the view direction, as for orbit() at elevation +-90), the camera uses
-/// normalize(cross(+X, viewDirection)) instead, or normalize(cross(+Y, viewDirection)) if the view is nearly along X
-/// (|viewDirection.x| >= 0.9). For an orbit at azimuth 0 this is the limit as the elevation approaches +-90 (looking
-/// down from +Y, screen-up is -Z; looking up from -Y, it is +Z). "Nothing left" means less than 1e-9 of unit length.
+/// (`up` zero or parallel to the view direction), the camera uses normalize(cross(+X, viewDirection)) instead, or
+/// normalize(cross(+Y, viewDirection)) if the view is nearly along X (|viewDirection.x| >= 0.9). "Nothing left"
+/// means less than 1e-9 of unit length. orbit() never needs the fallback: its up is exact at every elevation.
 struct Camera {
   glm::dvec3 eye{0.0, 0.0, 1.0};
   glm::dvec3 center{0.0};
@@ -36,10 +66,27 @@ struct Camera {
   double fovYDegrees = 30;     ///< vertical field of view, in (0, 179]; also sizes the orthographic view
   bool orthographic = false;
 
-  /// eye = box centre + distanceInRadii * R * (cos el * sin az, sin el, cos el * cos az), R = box.radius(), looking
-  /// at the box centre with up +Y (az 0, el 0 puts the eye on +Z; az 90 on +X; el 90 on +Y). Throws
-  /// RenderInputError for non-finite angles, distanceInRadii not finite and > 0, or a box without finite size.
-  static Camera orbit(double azimuthDeg, double elevationDeg, double distanceInRadii, const Box& box);
+  /// The eye at `distance` (world units) from the box centre in the direction cos el * (cos az * front + sin az *
+  /// side) + sin el * up, looking at the box centre. Screen-up is the derivative of that direction by the elevation,
+  /// -sin el * (cos az * front + sin az * side) + cos el * up (`up` holds `axes.up`, negated past the pole, where
+  /// that projects to the same direction, and the derivative within 1e-6 rad of the pole): continuous through el = +-90
+  /// (at el 90 and az 0 it is -front, the old Y-up orbit's limit), so an orbit dragged over the pole turns the image
+  /// smoothly instead of flipping it. Throws RenderInputError for non-finite angles, a distance not finite and > 0,
+  /// or a box without finite size.
+  static Camera orbitAt(double azimuthDeg, double elevationDeg, double distance, const Box& box,
+                        const OrbitAxes& axes);
+  /// orbitAt with the distance in bounding-sphere radii (box.radius()) and the Y-up axes (up +y, az 0 on +z, az 90
+  /// on +x, el 90 on +y) unless others are given.
+  static Camera orbit(double azimuthDeg, double elevationDeg, double distanceInRadii, const Box& box,
+                      const OrbitAxes& axes = {});
+  /// The distance from a sphere's centre at which a camera aimed at it sees all of it: radius / sin(half the smaller
+  /// of the vertical and horizontal fov) for a perspective camera, so that the sphere's silhouette touches the
+  /// frame at most; for an orthographic one the distance whose view (2 * distance * tan(fov / 2) tall, `aspect` as
+  /// wide) spans the sphere's diameter, and never inside the sphere. Both with a margin of kFitMargin. Throws
+  /// RenderInputError for a radius, fov or aspect out of range.
+  static double fitDistance(double radius, double fovYDegrees, double aspect, bool orthographic);
+  /// The fit's margin: the sphere fills at most 1 / kFitMargin of the frame's smaller side.
+  static constexpr double kFitMargin = 1.05;
 
   /// Throws RenderInputError (naming the value) for non-finite eye/center/up, eye == center, fov outside (0, 179].
   void validate() const;

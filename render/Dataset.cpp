@@ -60,7 +60,14 @@ BrickStoreDataset::BrickStoreDataset(std::string name, const std::filesystem::pa
 std::string BrickStoreDataset::infoJson() const {
   nlohmann::json j = nlohmann::json::parse(mStore->meta().toJson());
   j["kind"] = datasetKindName(kind());
+  const store::Orientation& o = mStore->meta().orientation;
+  j["orientation"] = {{"space", "RAS"}, {"axes", o.axes}, {"origin", o.origin}, {"patient", o.patient}};
   return j.dump();
+}
+
+WorldFrame BrickStoreDataset::worldFrame() const {
+  const store::StoreMeta& m = mStore->meta();
+  return WorldFrame::of(m.orientation, m.dims, m.spacing);
 }
 
 bool isDataset(const std::filesystem::path& path) {

@@ -13,6 +13,7 @@
 #include "brickstore/BrickStore.h"
 #include "render/Quality.h"
 #include "render/Scene.h"
+#include "render/WorldFrame.h"
 
 namespace voxbrick::render {
 
@@ -35,6 +36,8 @@ class Dataset {
   const std::filesystem::path& path() const { return mPath; }
   /// The metadata a client is given when it opens the dataset (JSON text).
   virtual std::string infoJson() const = 0;
+  /// Where the renderer's local frame lies in the world (the identity for meshes, whose points are in the world).
+  virtual WorldFrame worldFrame() const { return {}; }
   /// The host cache's counters, for statistics.
   virtual store::CacheStats cacheStats() const = 0;
   /// Changes the host cache's budget (the cache is shared and thread-safe, so this is allowed on a const dataset).
@@ -81,7 +84,10 @@ class BrickStoreDataset final : public Dataset {
                     const store::StoreOpenOptions& options = {});
 
   DatasetKind kind() const override { return DatasetKind::BrickStore; }
+  /// The store's metadata with "kind" and "orientation" (always present; the identity when the input had none).
   std::string infoJson() const override;
+  /// The store's orientation placed around its local box.
+  WorldFrame worldFrame() const override;
   store::CacheStats cacheStats() const override { return mCache->stats(); }
   void setCacheBudget(size_t bytes) const override { mCache->setBudget(bytes); }
 

@@ -51,7 +51,8 @@ FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int tran
   const int B = store.brickSize();
   FramePlan plan;
   plan.volume = volumeBox(meta.dims, meta.spacing);
-  plan.camera = scene.camera.resolve(plan.volume);
+  plan.camera = scene.camera.resolve(plan.volume, WorldFrame::of(meta.orientation, meta.dims, meta.spacing),
+                                     double(scene.width) / double(scene.height));
   plan.camera.clipRange(plan.volume, plan.nearPlane, plan.farPlane);
   plan.viewProj = plan.camera.projection(double(scene.width) / double(scene.height), plan.nearPlane, plan.farPlane) *
                   plan.camera.view();

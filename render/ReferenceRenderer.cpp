@@ -17,6 +17,7 @@
 #include "render/Compositing.h"
 #include "render/FramePlan.h"
 #include "render/RenderErrors.h"
+#include "render/WorldFrame.h"
 
 namespace voxbrick::render {
 
@@ -391,10 +392,11 @@ Frame makeFrame(const Scene& scene, const ReferenceOptions& options, const store
   }
   f.halfDims = 0.5 * f.dims;
 
-  const Camera camera = scene.camera.resolve(box);
+  const double aspect = double(scene.width) / double(scene.height);
+  const Camera camera = scene.camera.resolve(box, WorldFrame::of(meta.orientation, meta.dims, meta.spacing), aspect);
   double nearPlane = 0, farPlane = 0;
   camera.clipRange(box, nearPlane, farPlane);
-  f.basis = RayBasis::of(camera, double(scene.width) / double(scene.height), nearPlane);
+  f.basis = RayBasis::of(camera, aspect, nearPlane);
 
   // The value window exactly as the GPU renderer takes it.
   const ValueWindow window = valueWindow(scene, meta);
@@ -490,6 +492,7 @@ image::ImageF ReferenceRenderer::render(const Scene& scene, const ReferenceOptio
     statsOut->bricksSkipped = skipped;
     statsOut->ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
   }
+  finishImage(WorldFrame::of(meta.orientation, meta.dims, meta.spacing), image);
   return image;
 }
 

@@ -9,6 +9,7 @@
 #include "render/GlContext.h"
 #include "render/Residency.h"
 #include "render/RenderErrors.h"
+#include "render/WorldFrame.h"
 #include "render/TetRenderer.h"
 #include "render/VolumeRenderer.h"
 
@@ -119,6 +120,7 @@ image::ImageF RenderEngine::render(const std::shared_ptr<const Dataset>& dataset
   std::optional<QualityChoice> choice;
   const Scene resolved = resolveQuality(*dataset, scene, &choice);
   image::ImageF image = mImpl->rendererFor(dataset).render(resolved, stats, options);
+  finishImage(dataset->worldFrame(), image);  // the renderers draw in the local frame
   if (stats && choice) stats->quality = choice->toJson();
   return image;
 }

@@ -39,6 +39,54 @@ void checkImageSize(int64_t width, int64_t height, const std::string& prefix) {
                            " is outside 1.." + std::to_string(Scene::kMaxImageSide) + " per side");
 }
 
+// The scene's "camera" object into `camera` (Scene::fromJson lists the keys and what is refused).
+void parseCamera(const json& c, const std::string& what, CameraSpec& camera) {
+  static const char* kCameraKeys[] = {"orbit", "fit", "up_axis", "view", "eye", "center", "up", "fov", "orthographic"};
+  for (auto it = c.begin(); it != c.end(); ++it)
+    if (std::find(std::begin(kCameraKeys), std::end(kCameraKeys), it.key()) == std::end(kCameraKeys))
+      throw RenderInputError(what + ": unknown key 'camera." + it.key() + "' (one of orbit, fit, up_axis, view, eye, "
+                                    "center, up, fov, orthographic)");
+  if (c.contains("orbit") && c.contains("eye")) throw RenderInputError(what + ": 'camera' has both 'orbit' and 'eye'");
+  for (const char* key : {"center", "up"})
+    if (c.contains(key) && !c.contains("eye"))
+      throw RenderInputError(what + ": 'camera." + key + "' needs 'camera.eye' (an orbit or view looks at the "
+                                    "volume's centre with its up axis)");
+  if (c.contains("view")) {
+    for (const char* key : {"orbit", "eye", "up_axis"})
+      if (c.contains(key))
+        throw RenderInputError(what + ": 'camera.view' cannot be combined with 'camera." + key + "'");
+    if (!c["view"].is_string()) throw RenderInputError(what + ": 'camera.view' must be a string");
+    camera.setView(c["view"].get<std::string>(), what + ": 'camera.view'");
+  }
+  if (c.contains("orbit")) {
+    const json& o = c["orbit"];
+    if (!o.is_array() || (o.size() != 2 && o.size() != 3))
+      throw RenderInputError(what + ": 'camera.orbit' must be [az, el] or [az, el, dist]");
+    camera.orbit = true;
+    camera.azimuth = number(o[0], "camera.orbit", what), camera.elevation = number(o[1], "camera.orbit", what);
+    camera.distance = std::nullopt;
+    if (o.size() == 3) camera.distance = number(o[2], "camera.orbit", what);
+  }
+  if (c.contains("up_axis")) {
+    if (!c["up_axis"].is_string()) throw RenderInputError(what + ": 'camera.up_axis' must be a string");
+    camera.upAxis = parseUpAxis(c["up_axis"].get<std::string>(), what + ": 'camera.up_axis'");
+  }
+  if (c.contains("eye")) {
+    if (c.contains("fit") || c.contains("up_axis"))
+      throw RenderInputError(what + ": 'camera.fit' and 'camera.up_axis' apply to an orbit, not to 'camera.eye'");
+    camera.orbit = false;
+    camera.eye = vec3(c["eye"], "camera.eye", what);
+    camera.center = c.contains("center") ? vec3(c["center"], "camera.center", what) : glm::dvec3(0);
+    camera.up = c.contains("up") ? vec3(c["up"], "camera.up", what) : glm::dvec3(0, 1, 0);
+  }
+  // "fit": true asks for the fitted distance over the orbit's; false only confirms a distance.
+  if (c.contains("fit") && boolean(c["fit"], "camera.fit", what)) camera.distance = std::nullopt;
+  if (c.contains("fit") && !c["fit"].get<bool>() && !camera.distance)
+    throw RenderInputError(what + ": 'camera.fit' false needs a distance: 'orbit': [az, el, dist]");
+  if (c.contains("fov")) camera.fovY = number(c["fov"], "camera.fov", what);
+  if (c.contains("orthographic")) camera.orthographic = boolean(c["orthographic"], "camera.orthographic", what);
+}
+
 }  // namespace
 
 const char* const kQualityChosenKeys[7] = {"step", "raycast", "slab", "ert", "pre_integration", "sub_block", "lod"};
@@ -68,14 +116,50 @@ Slicer parseSlicer(const std::string& name, const std::string& what) {
   throw RenderInputError(what + ": unknown slicer '" + name + "' (one of " + slicerNames() + ")");
 }
 
-Camera CameraSpec::resolve(const Box& box) const {
+namespace {
+
+struct NamedView {
+  const char* name;
+  double azimuth, elevation;
+};
+// The table of CameraSpec::setView.
+constexpr NamedView kViews[] = {{"anterior", 0, 0},    {"posterior", 180, 0},  {"left", 90, 0},
+                                {"right", 270, 0},     {"superior", 180, 90},  {"inferior", 0, -90}};
+
+}  // namespace
+
+std::string viewNames() {
+  std::string names;
+  for (const NamedView& v : kViews) names += std::string(names.empty() ? "" : ", ") + v.name;
+  return names;
+}
+
+void CameraSpec::setView(const std::string& name, const std::string& what) {
+  for (const NamedView& v : kViews) {
+    if (name != v.name) continue;
+    orbit = true;
+    azimuth = v.azimuth, elevation = v.elevation;
+    upAxis = UpAxis::PosZ;
+    return;
+  }
+  throw RenderInputError(what + ": unknown view '" + name + "' (one of " + viewNames() + ")");
+}
+
+Camera CameraSpec::resolve(const Box& localBox, const WorldFrame& frame, double aspect) const {
   Camera c;
   if (orbit) {
-    c = Camera::orbit(azimuth, elevation, distance, box);
+    // The world orbit about the box's centre, built in the local frame from the world axes turned into it: the
+    // same camera, and for an identity rotation the same floats as an orbit of the local box.
+    const OrbitAxes world = OrbitAxes::of(upAxis);
+    const OrbitAxes axes{frame.directionToLocal(world.up), frame.directionToLocal(world.front),
+                         frame.directionToLocal(world.side)};
+    const double d = distance ? *distance * localBox.radius()
+                              : Camera::fitDistance(localBox.radius(), fovY, aspect, orthographic);
+    c = Camera::orbitAt(azimuth, elevation, d, localBox, axes);
   } else {
-    c.eye = eye;
-    c.center = center;
-    c.up = up;
+    c.eye = frame.pointToLocal(eye);
+    c.center = frame.pointToLocal(center);
+    c.up = frame.directionToLocal(up);
   }
   c.fovYDegrees = fovY;
   c.orthographic = orthographic;
@@ -114,24 +198,7 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   if (j.contains("camera")) {
     const json& c = j["camera"];
     if (!c.is_object()) throw RenderInputError(what + ": 'camera' must be an object");
-    static const char* kCameraKeys[] = {"orbit", "eye", "center", "up", "fov", "orthographic"};
-    for (auto it = c.begin(); it != c.end(); ++it)
-      if (std::find(std::begin(kCameraKeys), std::end(kCameraKeys), it.key()) == std::end(kCameraKeys))
-        throw RenderInputError(what + ": unknown key 'camera." + it.key() + "'");
-    if (c.contains("orbit")) {
-      const glm::dvec3 o = vec3(c["orbit"], "camera.orbit", what);
-      s.camera.orbit = true;
-      s.camera.azimuth = o.x, s.camera.elevation = o.y, s.camera.distance = o.z;
-    }
-    if (c.contains("eye")) {
-      if (c.contains("orbit")) throw RenderInputError(what + ": 'camera' has both 'orbit' and 'eye'");
-      s.camera.orbit = false;
-      s.camera.eye = vec3(c["eye"], "camera.eye", what);
-      s.camera.center = c.contains("center") ? vec3(c["center"], "camera.center", what) : glm::dvec3(0);
-      s.camera.up = c.contains("up") ? vec3(c["up"], "camera.up", what) : glm::dvec3(0, 1, 0);
-    }
-    if (c.contains("fov")) s.camera.fovY = number(c["fov"], "camera.fov", what);
-    if (c.contains("orthographic")) s.camera.orthographic = boolean(c["orthographic"], "camera.orthographic", what);
+    parseCamera(c, what, s.camera);
   }
   if (j.contains("size")) {
     const json& z = j["size"];
@@ -244,7 +311,9 @@ void Scene::validate() const {
 std::string Scene::toJson() const {
   json cam = {{"fov", camera.fovY}, {"orthographic", camera.orthographic}};
   if (camera.orbit)
-    cam["orbit"] = json::array({camera.azimuth, camera.elevation, camera.distance});
+    cam["orbit"] = camera.distance ? json::array({camera.azimuth, camera.elevation, *camera.distance})
+                                   : json::array({camera.azimuth, camera.elevation}),
+    cam["up_axis"] = upAxisName(camera.upAxis);
   else
     cam["eye"] = render::toJson(camera.eye), cam["center"] = render::toJson(camera.center),
     cam["up"] = render::toJson(camera.up);

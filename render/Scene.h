@@ -11,6 +11,7 @@
 #include "render/Camera.h"
 #include "render/Quality.h"
 #include "render/TransferFunction.h"
+#include "render/WorldFrame.h"
 
 namespace voxbrick::render {
 
@@ -49,17 +50,36 @@ const char* tetSortName(TetSort sort);
 /// The scene keys a quality target chooses (QualitySetting's fields): a scene with "quality" names none of them.
 extern const char* const kQualityChosenKeys[7];
 
-/// The camera as a user gives it: an orbit around the volume, or eye/center/up.
+/// The camera as a user gives it, in world coordinates (RAS for patient data; a volume without a patient frame has
+/// its local frame as the world, ARCHITECTURE.md placement): an orbit around the volume, or eye/center/up.
 struct CameraSpec {
   bool orbit = true;
-  double azimuth = 30, elevation = 20, distance = 2.5;  ///< degrees, degrees, bounding-sphere radii
-  glm::dvec3 eye{0, 0, 1}, center{0, 0, 0}, up{0, 1, 0};
+  double azimuth = 30, elevation = 20;  ///< degrees, about upAxis (OrbitAxes in Camera.h: az 0 on front, 90 on side)
+  /// The orbit's distance in bounding-sphere radii; empty (the default): fitted from the field of view and the aspect
+  /// (Camera::fitDistance), the whole volume in frame at any angle.
+  std::optional<double> distance;
+  UpAxis upAxis = UpAxis::PosZ;  ///< the orbit's pole (default +z: superior for patient data)
+  glm::dvec3 eye{0, 0, 1}, center{0, 0, 0}, up{0, 1, 0};  ///< world coordinates; used when !orbit
   double fovY = 30;  ///< degrees
   bool orthographic = false;
 
-  /// The camera for a volume occupying `box`; throws RenderInputError for invalid values.
-  Camera resolve(const Box& box) const;
+  /// The camera in the local frame of a volume whose local box is `localBox` and whose world frame is `frame`
+  /// (identity: local = world, as for meshes), for an image of `aspect` = width / height. The orbit turns about the
+  /// world box's centre with the world up axis; an explicit eye, center and up are world coordinates. When
+  /// frame.mirrored() the local camera is the proper one (its right vector is the world view's negated): the image
+  /// must go through finishImage. Throws RenderInputError for invalid values.
+  Camera resolve(const Box& localBox, const WorldFrame& frame = {}, double aspect = 1) const;
+
+  /// Sets a named view: an orbit about +z (az, el) of anterior (0, 0), left (90, 0), posterior (180, 0), right
+  /// (270, 0), superior (180, 90: looking down, anterior at the top) and inferior (0, -90: looking up, anterior at
+  /// the top); the distance stays as it is. For patient data these are the anatomical views (RAS: the patient's
+  /// left is -x); for other data the same axes (anterior = from +y, left = from -x, superior = from +z). Throws
+  /// RenderInputError naming `what` and the valid names for another name.
+  void setView(const std::string& name, const std::string& what);
 };
+
+/// The named views' names, "anterior", "posterior", "left", "right", "superior", "inferior", comma separated.
+std::string viewNames();
 
 /// Everything a frame depends on besides the store.
 struct Scene {
@@ -132,7 +152,9 @@ struct Scene {
   std::optional<QualityTarget> quality;
 
   /// Parses a scene JSON object; absent keys keep their defaults. Throws RenderInputError naming `what` and the
-  /// key. Keys: camera {orbit: [az, el, dist] | eye, center, up; fov; orthographic}, size [w, h],
+  /// key. Keys: camera {orbit: [az, el] (fitted) or [az, el, dist], fit, up_axis, view (setView) | eye, center,
+  /// up; fov; orthographic} (an unknown key, center or up without eye, or a view beside orbit, eye or up_axis is
+  /// refused), size [w, h],
   /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b],
   /// window [lo, hi], skip_empty, cull, slicer (slicerName), shading, sub_block, slab, raycast, ert,
   /// pre_integration, ess, lod, progressive, visibility (tetSortName), quality ("psnr:DB" or "ms:N"; not with

@@ -295,7 +295,8 @@ TetReferenceParams TetReferenceParams::fromScene(const Scene& scene, const mesh:
   if (mesh.points.empty()) throw RenderInputError("TetReferenceParams::fromScene: the mesh has no points");
   const auto [lo, hi] = mesh.bounds();
   TetReferenceParams p;
-  p.camera = scene.camera.resolve(Box{glm::dvec3(lo), glm::dvec3(hi)});
+  // A mesh's points are in the world: the identity frame.
+  p.camera = scene.camera.resolve(Box{glm::dvec3(lo), glm::dvec3(hi)}, {}, double(scene.width) / double(scene.height));
   p.transferFunction = scene.transferFunction;
   p.width = scene.width;
   p.height = scene.height;

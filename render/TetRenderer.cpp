@@ -97,7 +97,7 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
   FrameStats stats;
   const TetMeshData& d = *mData;
   const glm::dvec3 centre = d.bounds.center();
-  const Camera camera = scene.camera.resolve(d.bounds);
+  const Camera camera = scene.camera.resolve(d.bounds, {}, double(scene.width) / double(scene.height));
   double nearPlane = 0, farPlane = 0;
   camera.clipRange(d.bounds, nearPlane, farPlane);
   const double aspect = double(scene.width) / double(scene.height);

@@ -13,10 +13,10 @@ mri=/usr/share/mricron/templates/ch2better.nii.gz
 ./build/voxbrick prep synthetic:sparse,n=256 -o demo/sparse.vbs --force
 ./build/voxbrick info demo/sparse.vbs
 ./build/voxbrick render demo/mri.vbs -o demo/mri.png --scene config/scenes/mri-lateral.json --stats demo/mri-stats.json
-./build/voxbrick render demo/sparse.vbs -o demo/sparse.png --tf sparse --orbit 30,20,2.5
+./build/voxbrick render demo/sparse.vbs -o demo/sparse.png --tf sparse --orbit 30,20
 ./build/voxbrick prep synthetic-mesh:ball,n=32 -o demo/ball.vms --force
 ./build/voxbrick info demo/ball.vms
-./build/voxbrick render demo/ball.vms -o demo/ball.png --tf hot --orbit 30,20,2.5
+./build/voxbrick render demo/ball.vms -o demo/ball.png --tf hot --orbit 30,20
 
 # A served frame: start the server on the demo stores, ask it for the MRI over TCP, save the PNG, stop the server.
 rm -f demo/server.port
@@ -28,7 +28,7 @@ for _ in $(seq 600); do [ -s demo/server.port ] && break; sleep 0.1; done
 port=$(cat demo/server.port)
 ./build/voxbrick request "127.0.0.1:$port" --list
 ./build/voxbrick request "127.0.0.1:$port" --dataset mri.vbs --scene config/scenes/mri-lateral.json -o demo/served.png
-./build/voxbrick request "127.0.0.1:$port" --dataset ball.vms --tf hot --orbit 30,20,2.5 -o demo/served-mesh.png
+./build/voxbrick request "127.0.0.1:$port" --dataset ball.vms --tf hot --orbit 30,20 -o demo/served-mesh.png
 kill -TERM $server
 wait $server
 trap - EXIT

@@ -78,13 +78,14 @@ namespace {
 
 /// The camera one more step along the motion from `a` to `b`; nothing if it did not move.
 std::optional<render::CameraSpec> extrapolate(const render::CameraSpec& a, const render::CameraSpec& b) {
-  if (a.orbit != b.orbit) return std::nullopt;
+  if (a.orbit != b.orbit || a.upAxis != b.upAxis) return std::nullopt;
   render::CameraSpec next = b;
   if (b.orbit) {
     if (a.azimuth == b.azimuth && a.elevation == b.elevation && a.distance == b.distance) return std::nullopt;
     next.azimuth = 2 * b.azimuth - a.azimuth;
     next.elevation = std::clamp(2 * b.elevation - a.elevation, -89.0, 89.0);
-    next.distance = b.distance * (b.distance / a.distance);
+    // A zoom goes on; a fitted orbit (no distance) stays fitted.
+    if (a.distance && b.distance) next.distance = *b.distance * (*b.distance / *a.distance);
   } else {
     if (a.eye == b.eye && a.center == b.center) return std::nullopt;
     next.eye = 2.0 * b.eye - a.eye;

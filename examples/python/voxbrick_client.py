@@ -219,7 +219,7 @@ def render_frame(args):
                 scene = json.load(f)
         if args.orbit:
             camera = scene.setdefault('camera', {})
-            for key in ('eye', 'center', 'up'):
+            for key in ('eye', 'center', 'up', 'view'):
                 camera.pop(key, None)
             camera['orbit'] = [float(v) for v in args.orbit.split(',')]
         if args.size:
@@ -247,7 +247,7 @@ def main():
     parser.add_argument('address', nargs='?', help='HOST:PORT of the server')
     parser.add_argument('--dataset', help='dataset to render (without it: list the datasets)')
     parser.add_argument('--scene', help='scene JSON file (the schema of `voxbrick render --scene`)')
-    parser.add_argument('--orbit', help='AZ,EL,DIST camera orbit (degrees, degrees, bounding radii)')
+    parser.add_argument('--orbit', help='AZ,EL[,DIST] camera orbit (degrees about the up axis, +z by default; bounding radii, default fitted)')
     parser.add_argument('--size', help='WxH image size')
     parser.add_argument('--encoding', choices=list(ENCODINGS.values()), default='png')
     parser.add_argument('--progressive', action='store_true',

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "brickstore/Errors.h"
+#include "brickstore/Orientation.h"
 #include "brickstore/Sources.h"
 #include "support/TestSupport.h"
 
@@ -322,10 +323,11 @@ TEST(NrrdSource, ReadsSpacingFromSpacingsAndSpaceDirections) {
   EXPECT_EQ(spacingOf(nrrdHeader("uchar", kSmall, "raw", false)), (Vec3d{1, 1, 1}));
   EXPECT_EQ(spacingOf(nrrdHeader("uchar", kSmall, "raw", false, "spacings: 0.5 2 -3\n")), (Vec3d{0.5, 2, 3}));
   EXPECT_EQ(spacingOf(nrrdHeader("uchar", kSmall, "raw", false, "spacings: 0.5 nan +4\n")), (Vec3d{0.5, 1, 4}));
+  // Oblique but orthogonal directions (a sheared set is refused: NrrdOrientation).
   EXPECT_EQ(spacingOf(nrrdHeader("uchar", kSmall, "raw", false,
-                                 "space: right-anterior-superior\nspace directions: (0.5,0,0) (0, -0.25, 0) (3,4,0)\n"
+                                 "space: right-anterior-superior\nspace directions: (0.5,0,0) (0, -3, 4) (0,4,3)\n"
                                  "space origin: (1,2,3)\n")),
-            (Vec3d{0.5, 0.25, 5}));
+            (Vec3d{0.5, 5, 5}));
   const std::string fourD = "NRRD0005\ntype: uchar\ndimension: 4\nsizes: 1 7 5 3\nkinds: scalar domain domain "
                             "domain\nencoding: raw\nspace dimension: 3\nspace directions: none (2,0,0) (0,3,0) "
                             "(0,0,4)\n";
@@ -523,6 +525,9 @@ struct NiftiSpec {
   float inter = 0;
   std::string magic = std::string("n+1\0", 4);
   bool bigEndian = false;
+  int16_t qformCode = 0, sformCode = 0;
+  std::array<float, 6> quatern{0, 0, 0, 0, 0, 0};  ///< quatern_b, c, d, qoffset_x, y, z
+  std::array<float, 12> srow{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};  ///< srow_x, srow_y, srow_z
 };
 
 template <typename T>
@@ -545,6 +550,10 @@ Bytes niftiFile(const NiftiSpec& s, const Vec3i& dims, const Bytes& data) {
   put<float>(file, 108, s.voxOffset, s.bigEndian);
   put<float>(file, 112, s.slope, s.bigEndian);
   put<float>(file, 116, s.inter, s.bigEndian);
+  put<int16_t>(file, 252, s.qformCode, s.bigEndian);
+  put<int16_t>(file, 254, s.sformCode, s.bigEndian);
+  for (size_t i = 0; i < 6; ++i) put<float>(file, 256 + 4 * i, s.quatern[i], s.bigEndian);
+  for (size_t i = 0; i < 12; ++i) put<float>(file, 280 + 4 * i, s.srow[i], s.bigEndian);
   std::copy(s.magic.begin(), s.magic.end(), file.begin() + 344);
   return concat(file, data);
 }
@@ -758,4 +767,110 @@ TEST(NiftiSource, ReadsTheRealMriTemplate) {
   EXPECT_LT(nonZero, static_cast<std::ptrdiff_t>(voxels.size())) << "the background should be zero";
 }
 
+// ---------------------------------------------------------------------------------------------------------------
+// Orientation
+
+void expectAxes(const Orientation& o, const std::array<Orientation::Vec, 3>& axes, const Orientation::Vec& origin,
+                const std::string& what) {
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) EXPECT_NEAR(o.axes[a][b], axes[a][b], 1e-6) << what << " axis " << a;
+  for (int b = 0; b < 3; ++b) EXPECT_NEAR(o.origin[b], origin[b], 1e-4) << what << " origin";
+}
+
+// The NIfTI file `spec` describes (dims 4x3x2, u8) opened as a source.
+std::unique_ptr<VolumeSource> openNifti(const ScratchDir& dir, const NiftiSpec& spec, const SourceOptions& o = {}) {
+  const std::string path = (dir / "o.nii").string();
+  writeBytes(path, niftiFile(spec, {4, 3, 2}, Bytes(24, 1)));
+  return openNiftiSource(path, o);
+}
+
+TEST(NiftiOrientation, SformWinsOverQformAndGivesSpacing) {
+  ScratchDir dir;
+  NiftiSpec spec;
+  spec.pixdim = {1, 9, 9, 9, 1, 1, 1, 1};
+  spec.sformCode = 1;
+  spec.qformCode = 1;  // ignored: the sform takes precedence
+  spec.quatern = {0, 0, 1, 0, 0, 0};
+  // i towards the left (x flipped) with 2 mm, j anterior 3 mm, k superior 4 mm; voxel 0 at (10, -20, 30).
+  spec.srow = {-2, 0, 0, 10, 0, 3, 0, -20, 0, 0, 4, 30};
+  auto source = openNifti(dir, spec);
+  expectAxes(source->info().orientation, {{{-1, 0, 0}, {0, 1, 0}, {0, 0, 1}}}, {10, -20, 30}, "sform");
+  EXPECT_TRUE(source->info().orientation.patient);
+  EXPECT_EQ(source->info().spacing, (Vec3d{2, 3, 4}));
+  EXPECT_EQ(axesLetters(source->info().orientation), "LAS");
+  // --spacing replaces the spacing only.
+  SourceOptions o;
+  o.spacingGiven = true;
+  o.spacing = {1, 1, 1};
+  auto overridden = openNifti(dir, spec, o);
+  EXPECT_EQ(overridden->info().spacing, (Vec3d{1, 1, 1}));
+  expectAxes(overridden->info().orientation, {{{-1, 0, 0}, {0, 1, 0}, {0, 0, 1}}}, {10, -20, 30}, "sform, --spacing");
+}
+
+TEST(NiftiOrientation, QformQuaternionWithQfac) {
+  ScratchDir dir;
+  NiftiSpec spec;
+  spec.qformCode = 1;
+  spec.pixdim = {-1, 2, 3, 4, 1, 1, 1, 1};  // qfac -1: k flipped
+  // 90 degrees about z: (b, c, d) = (0, 0, sin 45); i -> +y, j -> -x.
+  spec.quatern = {0, 0, float(std::sqrt(0.5)), 5, 6, 7};
+  auto source = openNifti(dir, spec);
+  expectAxes(source->info().orientation, {{{0, 1, 0}, {-1, 0, 0}, {0, 0, -1}}}, {5, 6, 7}, "qform");
+  EXPECT_NEAR(source->info().spacing.x, 2, 1e-6);  // the float quaternion's rotation is unit to about 1e-7
+  EXPECT_NEAR(source->info().spacing.y, 3, 1e-6);
+  EXPECT_NEAR(source->info().spacing.z, 4, 1e-6);
+  EXPECT_EQ(axesLetters(source->info().orientation), "ALI");
+  // Neither code: the identity, no patient frame.
+  spec.qformCode = 0;
+  auto plain = openNifti(dir, spec);
+  EXPECT_EQ(plain->info().orientation, Orientation{});
+}
+
+TEST(NiftiOrientation, ShearIsRefusedAndRoundOffCorrected) {
+  ScratchDir dir;
+  NiftiSpec spec;
+  spec.sformCode = 2;
+  spec.srow = {1, 0.2f, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};  // j leans 11 degrees towards i
+  try {
+    openNifti(dir, spec);
+    ADD_FAILURE() << "a sheared sform was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("index axes i and j are 78.69"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("sheared"), std::string::npos) << e.what();
+  }
+  spec.srow = {1, 1e-5f, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};  // float round-off: made orthonormal
+  const Orientation o = openNifti(dir, spec)->info().orientation;
+  EXPECT_NEAR(o.axes[0][0] * o.axes[1][0] + o.axes[0][1] * o.axes[1][1] + o.axes[0][2] * o.axes[1][2], 0, 1e-15);
+  spec.srow = {0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};  // i has no direction
+  expectError([&] { openNifti(dir, spec); }, "o.nii", "index axis i (0, 0, 0) is not a finite non-zero vector");
+}
+
+TEST(NrrdOrientation, SpacesDirectionsAndOriginBecomeRas) {
+  ScratchDir dir;
+  const std::string path = (dir / "o.nrrd").string();
+  auto open = [&](const std::string& extra) {
+    writeBytes(path, concat(textBytes(nrrdHeader("uchar", {4, 3, 2}, "raw", false, extra) + "\n"), Bytes(24, 1)));
+    return openNrrdSource(path, {});
+  };
+  // LPS: x and y negate (LPS +x is towards the left, RAS -x).
+  auto lps = open("space: left-posterior-superior\nspace directions: (2,0,0) (0,3,0) (0,0,4)\n"
+                  "space origin: (10,20,30)\n");
+  expectAxes(lps->info().orientation, {{{-1, 0, 0}, {0, -1, 0}, {0, 0, 1}}}, {-10, -20, 30}, "LPS");
+  EXPECT_EQ(lps->info().spacing, (Vec3d{2, 3, 4}));
+  EXPECT_TRUE(lps->info().orientation.patient);
+  EXPECT_EQ(axesLetters(lps->info().orientation), "LPS");
+  auto ras = open("space: RAS\nspace directions: (0,2,0) (3,0,0) (0,0,-4)\n");
+  expectAxes(ras->info().orientation, {{{0, 1, 0}, {1, 0, 0}, {0, 0, -1}}}, {0, 0, 0}, "RAS");
+  auto scanner = open("space: scanner-xyz\nspace directions: (1,0,0) (0,1,0) (0,0,1)\n");
+  EXPECT_FALSE(scanner->info().orientation.patient);
+  auto none = open("spacings: 1 2 3\n");
+  EXPECT_EQ(none->info().orientation, Orientation{});
+  expectError([&] { open("space: right-anterior-superior-time\nspace directions: (1,0,0) (0,1,0) (0,0,1)\n"); },
+              "o.nrrd", "header field 'space' has a bad value");
+  expectError([&] { open("space: RAS\nspace directions: (1,0,0) (0,1,0) (0,0,1)\nspace origin: (1,2)\n"); },
+              "o.nrrd", "'space origin'");
+  expectError([&] { open("space: RAS\nspace directions: (1,0,0) (1,1,0) (0,0,1)\n"); }, "o.nrrd", "sheared");
+}
+
 }  // namespace
+

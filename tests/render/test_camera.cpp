@@ -1,6 +1,7 @@
 // Camera math: volume boxes, orbit placement, view basis, matrices, clip range, frustum tests and validation.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -120,6 +121,79 @@ TEST(CameraOrbit, PolesGiveAValidBasisContinuousWithAzimuthZero) {
   Camera zeroUp;
   zeroUp.up = {0, 0, 0};
   expectValidBasis(zeroUp);
+}
+
+TEST(CameraOrbit, UpAxesFollowTheTable) {
+  const Box box = volumeBox({8, 8, 8}, {1, 1, 1});
+  const double r = box.radius();
+  // +z (the default of a scene): az 0 from +y (anterior), az 90 from -x (the patient's left), el 90 from +z.
+  const OrbitAxes z = OrbitAxes::ofUpAxis("+z", "test");
+  expectNear(Camera::orbit(0, 0, 2, box, z).eye, {0, 2 * r, 0}, 1e-9);
+  expectNear(Camera::orbit(90, 0, 2, box, z).eye, {-2 * r, 0, 0}, 1e-9);
+  expectNear(Camera::orbit(0, 90, 2, box, z).eye, {0, 0, 2 * r}, 1e-9);
+  // Below the pole, screen-up is +z made orthogonal to the view direction.
+  const Camera general = Camera::orbit(30, 20, 2, box, z);
+  const glm::dvec3 d = general.viewDirection(), up{0, 0, 1};
+  expectNear(general.upVector(), glm::normalize(up - glm::dot(up, d) * d), 1e-12);
+  // +y is the orbit of earlier versions, and the default of Camera::orbit.
+  const OrbitAxes y = OrbitAxes::ofUpAxis("y", "test");
+  expectNear(Camera::orbit(30, 40, 1.5, box, y).eye, Camera::orbit(30, 40, 1.5, box).eye, 0);
+  for (const char* name : {"+x", "-x", "+y", "-y", "+z", "-z"}) {
+    const OrbitAxes a = OrbitAxes::ofUpAxis(name, "test");
+    EXPECT_NEAR(glm::dot(glm::cross(a.front, a.side), a.up), 1.0, 1e-12) << name;  // side = up x front
+    EXPECT_NEAR(glm::dot(a.front, a.up), 0.0, 0) << name;
+    expectValidBasis(Camera::orbit(123, -45, 3, box, a));
+  }
+  EXPECT_NE(inputError([] { OrbitAxes::ofUpAxis("up", "--up-axis"); }).find("--up-axis: unknown up axis 'up'"),
+            std::string::npos);
+}
+
+TEST(CameraOrbit, CrossingThePoleTurnsTheImageSmoothly) {
+  // The up vector is continuous through el 90 (the old orbit's +Y projection flipped there), for both up axes.
+  const Box box = volumeBox({8, 8, 8}, {1, 1, 1});
+  for (const char* name : {"+y", "+z"}) {
+    const OrbitAxes axes = OrbitAxes::ofUpAxis(name, "test");
+    for (double az : {0.0, 37.0, 200.0}) {
+      const glm::dvec3 below = Camera::orbit(az, 89.9, 2, box, axes).upVector();
+      const glm::dvec3 at = Camera::orbit(az, 90, 2, box, axes).upVector();
+      const glm::dvec3 above = Camera::orbit(az, 90.1, 2, box, axes).upVector();
+      EXPECT_LT(glm::length(below - at), 0.01) << name << " az " << az;
+      EXPECT_LT(glm::length(above - at), 0.01) << name << " az " << az;
+      // Past the pole the eye has moved on over the top: the same point as az + 180 at el 89.9.
+      expectNear(Camera::orbit(az, 90.1, 2, box, axes).eye, Camera::orbit(az + 180, 89.9, 2, box, axes).eye, 1e-9);
+    }
+  }
+}
+
+TEST(CameraOrbit, FitDistanceKeepsEveryCornerInFrame) {
+  // The whole box is in frame at any angle and aspect, and the margin is small: the old default (2.5 radii at a
+  // 30-degree fov) cut corners off.
+  const Box box = volumeBox({64, 40, 20}, {1, 1, 2});
+  const double r = box.radius();
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> angle(-180, 180);
+  for (double aspect : {0.5, 1.0, 2.0})
+    for (bool ortho : {false, true})
+      for (double fov : {10.0, 30.0, 90.0}) {
+        const double d = Camera::fitDistance(r, fov, aspect, ortho);
+        double largest = 0;
+        for (int i = 0; i < 20; ++i) {
+          Camera c = Camera::orbitAt(angle(rng), angle(rng) / 2, d, box, {});
+          c.fovYDegrees = fov;
+          c.orthographic = ortho;
+          double near = 0, far = 0;
+          c.clipRange(box, near, far);
+          const glm::dmat4 m = c.projection(aspect, near, far) * c.view();
+          for (int k = 0; k < 8; ++k) {
+            const glm::dvec3 p = toNdc(m, corner(box, k));
+            largest = std::max({largest, std::abs(p.x), std::abs(p.y)});
+          }
+        }
+        EXPECT_LE(largest, 1.0) << "aspect " << aspect << " ortho " << ortho << " fov " << fov;
+        EXPECT_GT(largest, 0.5) << "aspect " << aspect << " ortho " << ortho << " fov " << fov;
+      }
+  EXPECT_GT(Camera::fitDistance(r, 30, 1, false), 3.8 * r);
+  EXPECT_NE(inputError([] { Camera::fitDistance(1, 0, 1, false); }).find("fov 0"), std::string::npos);
 }
 
 TEST(CameraMatrices, ViewProjectionMapsTheCentreToTheMiddle) {

@@ -44,6 +44,9 @@ TEST(GpuBudget, AnEngineKeepsAllItsAtlasesWithinOneBudget) {
   RenderEngine engine({Backend::Auto, budget, AtlasFormat::Float});
   Scene scene;
   scene.width = scene.height = 48;
+  // The view these bounds were set for (before the fitted, +z-up default): the data fills the frame.
+  scene.camera.distance = 2.5;
+  scene.camera.upAxis = UpAxis::PosY;
   scene.transferFunction = TransferFunction::load("hot");
   std::vector<image::ImageF> first;
   for (int round = 0; round < 3; ++round)

@@ -46,6 +46,8 @@ TEST(QuantisedStore, RendersLikeTheFloatStore) {
     scene.height = 96;
     scene.camera.azimuth = 30;
     scene.camera.elevation = 20;
+    scene.camera.distance = 2.5;  // the view these bounds were set for (before the fitted, +z-up default)
+    scene.camera.upAxis = UpAxis::PosY;
     scene.transferFunction = TransferFunction::load("hot");
     if (window) scene.window = std::array<double, 2>{0.2, 0.9};  // in the input's values
     const image::ImageF reference = renderStore(f32, scene);

@@ -25,6 +25,7 @@ Scene smallScene(const std::string& tf, int size = 64) {
   scene.camera.azimuth = 35;
   scene.camera.elevation = 25;
   scene.camera.distance = 2.2;
+  scene.camera.upAxis = UpAxis::PosY;  // the view the convergence bounds were measured on (the orbit was Y-up)
   scene.transferFunction = TransferFunction::load(tf);
   return scene;
 }

@@ -104,5 +104,99 @@ TEST(SceneJson, ToJsonRoundTrips) {
   EXPECT_EQ(t.transferFunction.evaluate(0.37), s.transferFunction.evaluate(0.37));
 }
 
+TEST(SceneJson, CameraKeysAndWhatIsRefused) {
+  auto expectError = [](const std::string& json, const std::string& words) {
+    try {
+      Scene::fromJson(json, "scene.json");
+      ADD_FAILURE() << "accepted " << json;
+    } catch (const RenderInputError& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+  };
+  // center and up only mean something beside an eye: an orbit silently dropped them before.
+  expectError("{\"camera\": {\"orbit\": [0, 0, 2], \"center\": [1, 2, 3]}}", "'camera.center' needs 'camera.eye'");
+  expectError("{\"camera\": {\"up\": [0, 0, 1]}}", "'camera.up' needs 'camera.eye'");
+  expectError("{\"camera\": {\"view\": \"anterior\", \"orbit\": [0, 0]}}", "'camera.view' cannot be combined");
+  expectError("{\"camera\": {\"view\": \"front\"}}", "unknown view 'front' (one of anterior, posterior, left");
+  expectError("{\"camera\": {\"up_axis\": \"z+\"}}", "unknown up axis 'z+'");
+  expectError("{\"camera\": {\"eye\": [0, 0, 5], \"fit\": true}}", "apply to an orbit");
+  expectError("{\"camera\": {\"orbit\": [0]}}", "[az, el] or [az, el, dist]");
+  expectError("{\"camera\": {\"orbit\": [0, 0], \"fit\": false}}", "'camera.fit' false needs a distance");
+  expectError("{\"camera\": {\"orbit\": [0, 0, 2], \"zoom\": 2}}", "(one of orbit, fit, up_axis, view, eye");
+
+  const Scene fitted = Scene::fromJson("{\"camera\": {\"orbit\": [10, 20]}}", "s");
+  EXPECT_FALSE(fitted.camera.distance);
+  EXPECT_EQ(fitted.camera.upAxis, UpAxis::PosZ);
+  const Scene placed = Scene::fromJson("{\"camera\": {\"orbit\": [10, 20, 3], \"up_axis\": \"-y\"}}", "s");
+    EXPECT_EQ(placed.camera.distance.value_or(0), 3);
+  EXPECT_EQ(placed.camera.upAxis, UpAxis::NegY);
+  EXPECT_FALSE(Scene::fromJson("{\"camera\": {\"orbit\": [10, 20, 3], \"fit\": true}}", "s").camera.distance);
+  const Scene left = Scene::fromJson("{\"camera\": {\"view\": \"left\"}}", "s");
+  EXPECT_EQ(left.camera.azimuth, 90);
+  EXPECT_EQ(left.camera.elevation, 0);
+  EXPECT_FALSE(left.camera.distance);
+  const Scene again = Scene::fromJson(placed.toJson(), "round trip");
+    EXPECT_EQ(again.camera.upAxis, UpAxis::NegY);
+  EXPECT_EQ(again.camera.distance.value_or(0), 3);
+}
+
+// NDC x and y of world point `p` seen by `camera` drawing a square image.
+glm::dvec2 project(const Camera& camera, const glm::dvec3& p) {
+  const glm::dvec4 c = camera.projection(1, 0.1, 1000) * camera.view() * glm::dvec4(p, 1);
+  return glm::dvec2(c) / c.w;
+}
+
+TEST(CameraSpecWorld, ResolvedCameraSeesTheWorldAsTheWorldCameraDoes) {
+  // A volume whose index axes are permuted and flipped, off the origin: the camera resolved into its local frame
+  // sees each point where the same spec resolved in the world sees its world position; a mirrored frame sees it
+  // mirrored left to right (which finishImage undoes).
+  const Box local = volumeBox({10, 20, 30}, {1, 2, 0.5});
+  for (bool mirrored : {false, true}) {
+    store::Orientation o;
+    o.axes = {{{0, 1, 0}, {mirrored ? 1.0 : -1.0, 0, 0}, {0, 0, 1}}};
+    o.origin = {5, -7, 11};
+    o.patient = true;
+    const WorldFrame frame = WorldFrame::of(o, {10, 20, 30}, {1, 2, 0.5});
+    EXPECT_EQ(frame.mirrored(), mirrored);
+    const glm::dvec3 half = 0.5 * local.extent();
+    const Box worldBox{frame.center - half, frame.center + half};
+    for (bool orbit : {true, false}) {
+      CameraSpec spec;
+      spec.orbit = orbit;
+      spec.eye = frame.center + glm::dvec3(30, 40, 50);
+      spec.center = frame.center + glm::dvec3(1, 2, 3);
+      spec.up = {0, 0, 1};
+      const Camera inLocal = spec.resolve(local, frame), inWorld = spec.resolve(worldBox);
+      for (const glm::dvec3& p : {glm::dvec3(0.0), glm::dvec3(3, -4, 5), glm::dvec3(-6, 2, -1)}) {
+        const glm::dvec2 w = project(inWorld, frame.pointToWorld(p)), l = project(inLocal, p);
+        EXPECT_NEAR(l.x, mirrored ? -w.x : w.x, 1e-9) << "orbit " << orbit << " mirrored " << mirrored;
+        EXPECT_NEAR(l.y, w.y, 1e-9) << "orbit " << orbit << " mirrored " << mirrored;
+      }
+    }
+  }
+  // Voxel (0, 0, 0) of the local box sits at the orientation's origin.
+  store::Orientation o;
+  o.origin = {1, 2, 3};
+  const WorldFrame frame = WorldFrame::of(o, {10, 20, 30}, {1, 2, 0.5});
+  const glm::dvec3 voxel0 = local.min + 0.5 * glm::dvec3(1, 2, 0.5);
+  const glm::dvec3 world0 = frame.pointToWorld(voxel0);
+  EXPECT_NEAR(world0.x, 1, 1e-12);
+  EXPECT_NEAR(world0.y, 2, 1e-12);
+  EXPECT_NEAR(world0.z, 3, 1e-12);
+}
+
+TEST(CameraSpecWorld, FlipHorizontallyMirrorsRows) {
+  image::ImageF image{3, 2, std::vector<float>(24)};
+  for (size_t i = 0; i < image.rgba.size(); ++i) image.rgba[i] = float(i);
+  WorldFrame frame;
+  finishImage(frame, image);  // not mirrored: unchanged
+  EXPECT_EQ(image.pixel(0, 1)[0], 12.0f);
+  frame.rotation[0] = -frame.rotation[0];
+  finishImage(frame, image);
+  EXPECT_EQ(image.pixel(0, 1)[0], 20.0f);
+  EXPECT_EQ(image.pixel(2, 1)[3], 15.0f);
+  EXPECT_EQ(image.pixel(1, 0)[1], 5.0f);
+}
+
 }  // namespace
 }  // namespace voxbrick::render
