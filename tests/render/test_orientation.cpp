@@ -219,7 +219,9 @@ TEST_F(OrientationPhantom, EveryFileOfTheSameWorldRendersTheSameImage) {
     EXPECT_LE(e.maxAbs, 4.0 / 255) << file;
     // The phantom is asymmetric: reading the flipped file without its orientation gives the mirror image, which
     // is far from this one.
-    if (std::string(file) == "flipped.nii") EXPECT_GT(image::compareImages(mirrored(reference), image).maxAbs, 0.5);
+    if (std::string(file) == "flipped.nii") {
+      EXPECT_GT(image::compareImages(mirrored(reference), image).maxAbs, 0.5);
+    }
   }
   const image::ImageF tilted = prepAndRender(mDir, "oblique.nii", camera);
   EXPECT_GT(image::compareImages(reference, tilted).psnr, 25);
