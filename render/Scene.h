@@ -57,6 +57,11 @@ struct CameraSpec {
   Camera resolve(const Box& box) const;
 };
 
+/// A pixel's output from premultiplied colour `c` and opacity `a` (ARCHITECTURE.md, optical model: output):
+/// c + (1 - a)·background with alpha 1; with a transparent background, straight colour c / a and alpha a (all 0
+/// where nothing was drawn). Clamped to [0, 1].
+glm::dvec4 outputPixel(const glm::dvec3& c, double a, const glm::dvec3& background, bool transparent);
+
 /// Everything a frame depends on besides the store.
 struct Scene {
   static constexpr int kMaxImageSide = 8192;
@@ -75,6 +80,9 @@ struct Scene {
   /// (unshaded; shading needs finer).
   double step = 0.75;
   glm::dvec3 background{0, 0, 0};     ///< opaque background colour, RGB in [0, 1]
+  /// No background ("background": "none"): frames carry alpha, the accumulated opacity, with straight (not
+  /// premultiplied) colour, as PNG stores it; `background` is then unused.
+  bool transparent = false;
   std::optional<std::array<double, 2>> window;  ///< value window [lo, hi]; default the store's value range
   bool skipEmpty = true;
   bool cullFrustum = true;
@@ -125,7 +133,7 @@ struct Scene {
 
   /// Parses a scene JSON object; absent keys keep their defaults. Throws RenderInputError naming `what` and the
   /// key. Keys: camera {orbit: [az, el, dist] | eye, center, up; fov; orthographic}, size [w, h],
-  /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b],
+  /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b] or "none",
   /// window [lo, hi], skip_empty, cull, slicer (slicerName), shading, sub_block, slab, raycast, ert,
   /// pre_integration, ess, lod, progressive, visibility (tetSortName).
   /// `allowPaths` false (the server) accepts transfer functions by preset name or inline only, never a file path.
@@ -137,6 +145,8 @@ struct Scene {
   void validate() const;
   /// The scene as JSON (the transfer function inline), so a frame can be reproduced.
   std::string toJson() const;
+  /// A pixel's output from its premultiplied colour and opacity: outputPixel with this scene's background.
+  glm::dvec4 output(const glm::dvec3& c, double a) const;
 
  private:
   static Scene parse(const std::string& text, const std::string& what, bool allowPaths,
