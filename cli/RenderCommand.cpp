@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/Commands.h"
+#include "cli/Progress.h"
 #include "cli/SceneOptions.h"
 #include "image/ImageFile.h"
 #include "render/Dataset.h"
@@ -34,6 +35,19 @@ void writeFrame(const RenderArgs& a, const std::string& path, const image::Image
   image::writeImage(path, image::toImage8(frame), {a.jpegQuality});
 }
 
+/// Runs `draw`, showing how long it has been drawing once that passes a second (Progress::elapsed) unless --quiet.
+template <typename Draw>
+image::ImageF withProgress(const RenderArgs& a, const render::Scene& scene, Draw&& draw) {
+  Progress progress(a.quiet);
+  image::ImageF image;
+  {
+    ElapsedTicker ticker(progress, "render: drawing " + std::to_string(scene.width) + "x" + std::to_string(scene.height));
+    image = draw();
+  }
+  progress.finish();
+  return image;
+}
+
 /// The CPU reference: slow on purpose, double precision, the same store and scene.
 /// The exact reference of a tetrahedral mesh (render/TetReference.h): every ray's segments through the tets,
 /// integrated in closed form.
@@ -42,8 +56,9 @@ void runTetReference(const RenderArgs& a, const render::Scene& scene, const rend
   const render::TetMeshData& d = *dataset.data();
   const render::TetReference reference(d.mesh);
   render::TetReferenceStats stats;
-  const image::ImageF image =
-      reference.render(render::TetReferenceParams::fromScene(scene, d.mesh, d.meanEdgeLength), &stats);
+  const image::ImageF image = withProgress(a, scene, [&] {
+    return reference.render(render::TetReferenceParams::fromScene(scene, d.mesh, d.meanEdgeLength), &stats);
+  });
   writeFrame(a, a.output, image);
   if (!a.statsPath.empty())
     writeText(a.statsPath, nlohmann::json{{"rays", stats.rays}, {"segments", stats.segments},
@@ -64,7 +79,7 @@ void runReference(const RenderArgs& a, const render::Scene& scene, const render:
   if (!a.analytic.empty()) options.analytic = render::analyticFieldFor(grid->store()->meta(), a.analytic);
   render::ReferenceRenderer renderer(grid->cache());
   render::ReferenceStats stats;
-  const image::ImageF image = renderer.render(scene, options, &stats);
+  const image::ImageF image = withProgress(a, scene, [&] { return renderer.render(scene, options, &stats); });
   writeFrame(a, a.output, image);
   if (!a.statsPath.empty())
     writeText(a.statsPath, nlohmann::json{{"rays", stats.rays}, {"samples", stats.samples},
@@ -118,7 +133,7 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
     }
   }
   render::FrameStats stats;
-  const image::ImageF image = engine.render(dataset, scene, &stats);
+  const image::ImageF image = withProgress(a, scene, [&] { return engine.render(dataset, scene, &stats); });
   writeFrame(a, a.output, image);
   if (!a.statsPath.empty()) {
     nlohmann::json json = stats.toJson();
@@ -188,7 +203,7 @@ void addRenderCommand(CLI::App& app) {
                   "how bricks lie in the atlas: single (the volume's axis order) or multi-oriented (axis order "
                   "rotated from brick to brick, for texture caches that favour one direction; the same image)")
       ->capture_default_str()->check(CLI::IsMember({"single", "multi-oriented"}));
-  cmd->add_flag("-q,--quiet", args->quiet, "do not print the renderer's name");
+  cmd->add_flag("-q,--quiet", args->quiet, "do not print the renderer's name, nor progress of a frame past a second");
   cmd->callback([args, cmd] {
     keepFreedMemoryForFrames();
     runRender(*args, *cmd);

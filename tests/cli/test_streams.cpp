@@ -51,5 +51,21 @@ TEST(Streams, RenderPrintsItsRendererOnStderrAndItsResultOnStdout) {
   EXPECT_NE(r.err.find("render: "), std::string::npos) << r.err;
 }
 
+TEST(Streams, FramesPastASecondShowProgressOnStderr) {
+  test::ScratchDir dir;
+  const std::string store = test::preppedStore("synthetic:blobs,n=64", "--brick 16");
+  const std::string slow = "render " + store + " --size 64x64 --step 0.001 -o " + (dir / "slow.png").string();
+  const test::SplitResult r = runSplit(slow);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.err.find("render: drawing 64x64: 1 s\n"), std::string::npos) << r.err;
+  EXPECT_EQ(lineCount(r.out), 1) << r.out;
+  const test::SplitResult quiet = runSplit(slow + " -q");
+  ASSERT_EQ(quiet.exitCode, 0) << quiet.err;
+  EXPECT_TRUE(quiet.err.empty()) << quiet.err;
+  const test::SplitResult fast = runSplit("render " + store + " --size 32x32 -o " + (dir / "fast.png").string());
+  ASSERT_EQ(fast.exitCode, 0) << fast.err;
+  EXPECT_EQ(fast.err.find("drawing"), std::string::npos) << fast.err;
+}
+
 }  // namespace
 }  // namespace voxbrick
