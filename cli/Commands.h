@@ -13,6 +13,8 @@ void addPrepCommand(CLI::App& app);
 void addInfoCommand(CLI::App& app);
 /// Adds `render` to the app.
 void addRenderCommand(CLI::App& app);
+/// Adds `orbit` (a turntable of frames) to the app.
+void addOrbitCommand(CLI::App& app);
 /// Adds `serve` to the app.
 void addServeCommand(CLI::App& app);
 /// Adds `request` to the app.
