@@ -1,6 +1,7 @@
 // Reading one float grid of a .vdb file: every read checked, the grid chosen by name or as the first float grid.
 #include "brickstore/VdbGrid.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -68,6 +69,26 @@ openvdb::FloatGrid::Ptr chooseFloatGrid(const openvdb::GridPtrVec& grids, const 
 
 }  // namespace
 
+/// The voxel spacing of an axis-aligned linear transform, one per axis: uniform, or anisotropic as prep writes for
+/// volumes with non-uniform spacing (a scale and a translation). Rotated, sheared or non-linear transforms are
+/// refused: a store's voxels lie along its axes.
+Vec3d axisAlignedSpacing(const openvdb::FloatGrid& grid, const std::string& path) {
+  const openvdb::math::Transform& xform = grid.transform();
+  const std::string what = path + ": grid '" + grid.getName() + "' has a ";
+  if (!xform.isLinear())
+    throw InputError(what + "non-linear transform (" + xform.mapType() + "); give the spacing explicitly");
+  const openvdb::math::Mat4d m = xform.baseMap()->getAffineMap()->getMat4();
+  const double largest = std::max({std::abs(m(0, 0)), std::abs(m(1, 1)), std::abs(m(2, 2))});
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (i != j && !(std::abs(m(i, j)) <= 1e-9 * largest))
+        throw InputError(what + "rotated or sheared transform (" + xform.mapType() + "); give the spacing explicitly");
+  for (int a = 0; a < 3; ++a)
+    if (!(std::abs(m(a, a)) > 0) || !std::isfinite(m(a, a)))
+      throw InputError(what + "voxel size " + std::to_string(m(a, a)) + " along axis " + std::to_string(a));
+  return {std::abs(m(0, 0)), std::abs(m(1, 1)), std::abs(m(2, 2))};
+}
+
 VdbFloatGrid readVdbFloatGrid(const std::string& path, const SourceOptions& options) {
   initializeOpenVdb();
   openvdb::FloatGrid::Ptr grid = chooseFloatGrid(readAllGrids(path), path, options.gridName);
@@ -78,15 +99,7 @@ VdbFloatGrid readVdbFloatGrid(const std::string& path, const SourceOptions& opti
       if (!(spacing[a] > 0) || !std::isfinite(spacing[a]))
         throw InputError(path + ": the given spacing must be positive and finite");
   } else {
-    const openvdb::math::Transform& xform = grid->transform();
-    const openvdb::Vec3d voxel = xform.voxelSize();
-    if (!xform.isLinear() || !xform.hasUniformScale())
-      throw InputError(path + ": grid '" + grid->getName() + "' has a " +
-                       (xform.isLinear() ? "non-uniform" : "non-linear") + " transform (" + xform.mapType() +
-                       "); give the spacing explicitly");
-    if (!(voxel[0] > 0) || !std::isfinite(voxel[0]))
-      throw InputError(path + ": grid '" + grid->getName() + "' has voxel size " + std::to_string(voxel[0]));
-    spacing = {voxel[0], voxel[0], voxel[0]};
+    spacing = axisAlignedSpacing(*grid, path);
   }
 
   const openvdb::CoordBBox bbox = grid->evalActiveVoxelBoundingBox();

@@ -234,7 +234,7 @@ void addBenchCommand(CLI::App& app) {
                   "slab settings at all (the ray caster's stay; default 1,4,16,32,4096)");
   cmd->add_option("--ert-slab", args->ertSlab,
                   "the slab size of the ERT thresholds and of pre-integration (default 32)")
-      ->check(CLI::Range(1, render::Scene::kMaxSlab));
+      ->check(between(1, render::Scene::kMaxSlab));
   cmd->add_option("--erts", args->erts,
                   "early-ray-termination thresholds in [0.5, 1], comma-separated, or none; off (0) is always swept "
                   "(default 0.99,0.999,1)");
@@ -261,13 +261,13 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_option("--small-slab-min-step", args->smallSlabMinStep,
                   "slab sizes below --ert-slab (the slowest settings) only at steps at least this (default 0.5; 0: "
                   "every step)")
-      ->check(CLI::Range(0.0, 64.0));
+      ->check(between(0.0, 64.0));
   cmd->add_option("--slab-table-step", args->slabTableStep, "the step of sweep.md's slab table (default 1)")
-      ->check(CLI::Range(1e-3, 64.0));
-  cmd->add_option("--views", args->views, "views of the orbit (default 8)")->check(CLI::Range(1, 360));
-  cmd->add_option("--size", args->size, "image side in pixels (default 256)")->check(CLI::Range(8, 4096));
+      ->check(between(1e-3, 64.0));
+  cmd->add_option("--views", args->views, "views of the orbit (default 8)")->check(between(1, 360));
+  cmd->add_option("--size", args->size, "image side in pixels (default 256)")->check(between(8, 4096));
   cmd->add_option("--reference-step", args->referenceStep, "reference step in voxels (default 0.125)")
-      ->check(CLI::Range(1e-4, 64.0));
+      ->check(between(1e-4, 64.0));
   cmd->add_option("--threshold", args->threshold, "PSNR (dB) the chosen default must keep")->capture_default_str();
   cmd->add_option("--threshold-high", args->thresholdHigh, "PSNR (dB) of the second answer: the fastest setting there")
       ->capture_default_str();

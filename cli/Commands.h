@@ -13,6 +13,8 @@ void addPrepCommand(CLI::App& app);
 void addInfoCommand(CLI::App& app);
 /// Adds `render` to the app.
 void addRenderCommand(CLI::App& app);
+/// Adds `orbit` (a turntable of frames) to the app.
+void addOrbitCommand(CLI::App& app);
 /// Adds `serve` to the app.
 void addServeCommand(CLI::App& app);
 /// Adds `request` to the app.
@@ -28,7 +30,12 @@ void addBenchCommand(CLI::App& app);
 template <typename T>
 void parseTriple(const std::string& text, const std::string& option, T out[3]);
 
-/// Writes `text` to the file at `path`, replacing it; throws std::runtime_error naming the file on failure.
+/// A check for a numeric option: accepts numbers in [lo, hi] (inclusive); its error reads "must be between LO and HI
+/// UNIT, not 'VALUE'", which CLI11 prefixes with the option's name.
+CLI::Validator between(double lo, double hi, const std::string& unit = "");
+
+/// Writes `text` to the file at `path`, replacing it atomically (a temporary renamed over it); throws
+/// image::ImageFailure naming the file on failure.
 void writeText(const std::string& path, const std::string& text);
 
 /// Where the provisional frame of a progressive render goes beside `output`: "dir/f.png" -> "dir/f.provisional.png".

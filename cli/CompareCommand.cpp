@@ -6,6 +6,7 @@
 
 #include "cli/Commands.h"
 #include "image/Image.h"
+#include "image/ImageFile.h"
 #include "render/RenderErrors.h"
 
 namespace voxbrick::cli {
@@ -18,12 +19,12 @@ struct CompareArgs {
 };
 
 void runCompare(const CompareArgs& args) {
-  const image::ImageF a = image::toImageF(image::readPng(args.a));
-  const image::ImageF b = image::toImageF(image::readPng(args.b));
+  const image::ImageF a = image::toImageF(image::readImage(args.a));
+  const image::ImageF b = image::toImageF(image::readImage(args.b));
   const image::ImageError e = image::compareImages(a, b);
   // By default the heat map spans the largest difference, so that any difference is visible.
   const double scale = args.heatmapScale > 0 ? args.heatmapScale : (e.maxAbs > 0 ? e.maxAbs : 1.0);
-  if (!args.heatmap.empty()) image::writePng(args.heatmap, image::toImage8(image::differenceHeatmap(a, b, scale)));
+  if (!args.heatmap.empty()) image::writeImage(args.heatmap, image::toImage8(image::differenceHeatmap(a, b, scale)));
   if (args.json) {
     nlohmann::json j = {{"a", args.a},       {"b", args.b},         {"width", a.width}, {"height", a.height},
                         {"rmse", e.rmse},    {"max_abs", e.maxAbs}, {"identical", e.maxAbs == 0}};
@@ -45,12 +46,12 @@ void runCompare(const CompareArgs& args) {
 void addCompareCommand(CLI::App& app) {
   auto args = std::make_shared<CompareArgs>();
   CLI::App* cmd = app.add_subcommand("compare", "Image error between two PNGs: RMSE, PSNR, max |diff| on RGB in [0, 1]");
-  cmd->add_option("a", args->a, "first PNG")->required();
+  cmd->add_option("a", args->a, "first image (PNG or JPEG)")->required();
   cmd->add_option("b", args->b, "second PNG (same size)")->required();
   cmd->add_option("--heatmap", args->heatmap, "write a PNG of where the images differ (per-pixel max |diff|)");
   cmd->add_option("--heatmap-scale", args->heatmapScale,
                   "the difference shown as white in the heat map (default: the largest difference)")
-      ->check(CLI::PositiveNumber);
+      ->check(between(1e-6, 1));
   cmd->add_flag("--json", args->json, "print one JSON object instead of a line");
   cmd->callback([args] { runCompare(*args); });
 }

@@ -1,13 +1,13 @@
 // Small text helpers shared by the subcommands: "a,b,c" triples, "WxH" sizes, byte counts, text files.
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
 
 #include "brickstore/Errors.h"
 #include "cli/Commands.h"
+#include "image/ImageFile.h"
 
 namespace voxbrick::cli {
 
@@ -57,10 +57,7 @@ std::string provisionalPath(const std::string& output) {
 }
 
 void writeText(const std::string& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary);
-  out << text;
-  out.flush();
-  if (!out) throw std::runtime_error("cannot write " + path);
+  image::writeFileAtomically(path, {reinterpret_cast<const uint8_t*>(text.data()), text.size()});
 }
 
 }  // namespace voxbrick::cli

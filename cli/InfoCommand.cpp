@@ -150,7 +150,9 @@ void addInfoCommand(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("info", "Describe a brick store (or a .vdb, as it would be read live)");
   cmd->add_option("store", args->store, "store directory, or a .vdb file")->required();
   cmd->add_option("--grid", args->grid, ".vdb: the float grid to read (default: the first float grid)");
-  cmd->add_option("--brick", args->brick, ".vdb: brick size B, a power of two in [8, 256]")->capture_default_str();
+  cmd->add_option("--brick", args->brick, ".vdb: brick size B, a power of two in [8, 256]")
+      ->capture_default_str()
+      ->check(between(8, 256, "voxels"));
   cmd->add_flag("--json", args->json, "print one JSON object");
   cmd->callback([args] { runInfo(*args); });
 }

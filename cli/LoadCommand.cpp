@@ -444,12 +444,14 @@ void addLoadCommand(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("load", "Load-test a running server with concurrent clients and faults");
   cmd->add_option("address", a->address, "HOST:PORT of the server")->required();
   cmd->add_option("--dataset", a->dataset, "dataset the clients render")->required();
-  cmd->add_option("--clients", a->clients, "well-behaved clients")->capture_default_str()->check(CLI::Range(0, 4096));
-  cmd->add_option("--duration", a->duration, "seconds")->capture_default_str()->check(CLI::Range(0.1, 86400.0));
+  cmd->add_option("--clients", a->clients, "well-behaved clients")->capture_default_str()->check(between(0, 4096));
+  cmd->add_option("--duration", a->duration, "seconds")->capture_default_str()->check(between(0.1, 86400.0));
   cmd->add_option("--size", a->size, "frame size WIDTHxHEIGHT")->capture_default_str();
   cmd->add_option("--tf", a->tf, "transfer function preset")->capture_default_str();
-  cmd->add_option("--step", a->step, "slice spacing in voxels")->capture_default_str();
-  cmd->add_option("--fault-clients", a->faultClients, "clients that misbehave in turn")->check(CLI::Range(0, 4096));
+  cmd->add_option("--step", a->step, "slice spacing in voxels")
+      ->capture_default_str()
+      ->check(between(0.001, 64, "voxels"));
+  cmd->add_option("--fault-clients", a->faultClients, "clients that misbehave in turn")->check(between(0, 4096));
   cmd->add_option("--faults", a->faults,
                   "comma list of what faulty clients do (default all): disconnect, garbage, huge, malformed, slow, "
                   "silent (never speaks; lasts the server's Hello timeout), trickle (a message a byte at a time; "
@@ -460,10 +462,10 @@ void addLoadCommand(CLI::App& app) {
   cmd->add_option("--corrupt-dataset", a->corruptDataset,
                   "a damaged dataset of the server for the 'corrupt' fault (its renders must be answered Internal, "
                   "quarantined)");
-  cmd->add_option("--idle-sessions", a->idleSessions, "sessions opened and left silent")->check(CLI::Range(0, 100000));
+  cmd->add_option("--idle-sessions", a->idleSessions, "sessions opened and left silent")->check(between(0, 100000));
   cmd->add_option("--drag", a->dragHz,
                   "clients send a new camera this many times a second without waiting (a camera drag); latency "
-                  "is then the age of the camera each frame shows")->check(CLI::Range(0.0, 1000.0));
+                  "is then the age of the camera each frame shows")->check(between(0.0, 1000.0));
   cmd->add_option("--json", a->jsonPath, "write the report as JSON");
   cmd->add_flag("--require-clean", a->requireClean,
                 "exit non-zero unless every good request succeeded and every fault got its documented reply");

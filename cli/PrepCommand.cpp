@@ -68,7 +68,7 @@ void runMeshPrep(const PrepArgs& a) {
   const mesh::MeshStoreInfo info = mesh::writeMeshStore(m, topology, a.output, options);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (repairs.flipped + repairs.removedDegenerate + repairs.unreferencedVertices > 0)
-    std::printf("prep: repaired: %zu inverted tets flipped, %zu degenerate tets removed, %zu points no tet uses\n",
+    std::fprintf(stderr, "prep: repaired: %zu inverted tets flipped, %zu degenerate tets removed, %zu points no tet uses\n",
                 repairs.flipped, repairs.removedDegenerate, repairs.unreferencedVertices);
   std::printf("prep: wrote mesh store %s: %llu tets, %llu points, %llu boundary faces, field '%s' in [%g, %g], "
               "%u chunks\n",
@@ -156,12 +156,12 @@ void runPrep(PrepArgs& a, CLI::App& cmd) {
   int64_t total = 0, stored = 0;
   for (const auto& l : m.levels) total += l.bricksTotal(), stored += l.bricksStored;
   if (m.quantisation)
-    std::printf("prep: quantised [%.9g, %.9g] to %s (a step is %.3g); %lld voxels outside the range clamped\n",
+    std::fprintf(stderr, "prep: quantised [%.9g, %.9g] to %s (a step is %.3g); %lld voxels outside the range clamped\n",
                 m.quantisation->lo, m.quantisation->hi, std::string(store::valueTypeName(m.type)).c_str(),
                 (m.quantisation->hi - m.quantisation->lo) / m.quantisation->steps(),
                 static_cast<long long>(m.quantisationClamped));
   if (m.nonFiniteReplaced > 0)
-    std::printf("non-finite voxels: %lld NaN/Inf values replaced by the background %g\n",
+    std::fprintf(stderr, "prep: non-finite voxels: %lld NaN/Inf values replaced by the background %g\n",
                 static_cast<long long>(m.nonFiniteReplaced), m.background);
   std::printf("prep: wrote %s: %lldx%lldx%lld %s, %zu levels, %lld of %lld bricks stored\n", a.output.c_str(),
               static_cast<long long>(m.dims.x), static_cast<long long>(m.dims.y), static_cast<long long>(m.dims.z),
@@ -194,32 +194,39 @@ void addPrepCommand(CLI::App& app) {
   cmd->add_option("--spacing", args->spacing, "voxel spacing a,b,c (overrides the file's)");
   cmd->add_option("--endian", args->endian, "raw: byte order")->check(CLI::IsMember({"little", "big"}));
   cmd->add_option("--header-bytes", args->headerBytes, "raw: bytes to skip before the voxels")
-      ->check(CLI::NonNegativeNumber);
+      ->check(between(0, 1e15, "bytes"));
   cmd->add_option("--grid", args->grid, "vdb: name of the float grid (default: the first)");
   cmd->add_option("--series", args->series,
                   "dicom: the SeriesInstanceUID to read when the input holds several series");
-  cmd->add_option("--brick", args->options.brickSize, "brick size B (power of two, 8..256)")->capture_default_str();
-  cmd->add_option("--zstd-level", args->options.zstdLevel, "zstd compression level")->capture_default_str();
+  cmd->add_option("--brick", args->options.brickSize, "brick size B (power of two, 8..256)")
+      ->capture_default_str()
+      ->check(between(8, 256, "voxels"));
+  cmd->add_option("--zstd-level", args->options.zstdLevel, "zstd compression level")
+      ->capture_default_str()
+      ->check(between(-7, 22));
   cmd->add_option("--memory", args->options.memoryBudgetMB, "memory bound in MB for slabs and VDB chunks")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
-  cmd->add_option("--background", args->background, "value of empty space (default: the source's, 0 for files)");
+      ->check(between(16, 1 << 20, "MB"));
+  cmd->add_option("--background", args->background, "value of empty space (default: the source's, 0 for files)")
+      ->check(between(-3.4e38, 3.4e38));
   cmd->add_option("--nonfinite", args->nonFinite,
                   "NaN/Inf voxels: 'background' replaces and counts them, 'error' refuses the input")
       ->check(CLI::IsMember({"background", "error"}))
       ->capture_default_str();
   cmd->add_flag("!--no-vdb", args->options.writeVdb, "do not write the canonical OpenVDB grid");
   cmd->add_option("--vdb-chunk", args->options.vdbChunkSlices, "z-slices per OpenVDB file (0: as --memory allows)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(between(0, 1 << 20, "slices"));
   cmd->add_option("--quantise", args->quantise,
                   "store u8 or u16: the value range mapped linearly onto 0..255 or 0..65535");
   cmd->add_option("--quantise-range", args->quantiseRange,
                   "lo,hi: the values stored as 0 and as the largest integer (default: the input's exact range, "
                   "found by a first pass over the input)");
   cmd->add_option("--field", args->field, "mesh: the point scalar to keep (default: the first)");
-  cmd->add_option("--tets-per-chunk", args->tetsPerChunk, "mesh: tetrahedra per store chunk")->capture_default_str();
+  cmd->add_option("--tets-per-chunk", args->tetsPerChunk, "mesh: tetrahedra per store chunk")
+      ->capture_default_str()
+      ->check(between(1, mesh::kMaxTetsPerChunk, "tets"));
   cmd->add_flag("--force", args->options.overwrite, "replace an existing store (once the new one is complete)");
-  cmd->add_option("--threads", args->options.threads, "worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--threads", args->options.threads, "worker threads (0: all cores)")->check(between(0, 1024));
   cmd->add_flag("-q,--quiet", args->quiet, "no progress output");
   cmd->callback([args, cmd] { runPrep(*args, *cmd); });
 }

@@ -37,6 +37,40 @@ void Progress::update(const std::string& stage, int64_t done, int64_t total, int
   }
 }
 
+void Progress::elapsed(const std::string& stage) {
+  if (mQuiet) return;
+  const auto now = std::chrono::steady_clock::now();
+  const double seconds = std::chrono::duration<double>(now - mStart).count();
+  if (seconds < 1) return;
+  if (mTerminal) {
+    if (now - mLastLine < std::chrono::milliseconds(250)) return;
+    std::fprintf(stderr, "\r%s: %.0f s   ", stage.c_str(), seconds);
+    std::fflush(stderr);
+    mDrawn = true;
+  } else {
+    if (mLastStage == stage && now - mLastLine < std::chrono::seconds(2)) return;
+    std::fprintf(stderr, "%s: %.0f s\n", stage.c_str(), seconds);
+    mLastStage = stage;
+  }
+  mLastLine = now;
+}
+
+ElapsedTicker::ElapsedTicker(Progress& progress, std::string stage)
+    : mThread([this, &progress, stage = std::move(stage)] {
+        std::unique_lock lock(mMutex);
+        while (!mWake.wait_for(lock, std::chrono::milliseconds(250), [this] { return mDone; }))
+          progress.elapsed(stage);
+      }) {}
+
+ElapsedTicker::~ElapsedTicker() {
+  {
+    std::lock_guard lock(mMutex);
+    mDone = true;
+  }
+  mWake.notify_one();
+  mThread.join();
+}
+
 void Progress::finish() {
   if (mDrawn) std::fprintf(stderr, "\n");
   mDrawn = false;

@@ -4,7 +4,9 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/Commands.h"
+#include "cli/Progress.h"
 #include "cli/SceneOptions.h"
+#include "image/ImageFile.h"
 #include "render/Dataset.h"
 #include "render/TetDataset.h"
 #include "render/TetReference.h"
@@ -24,8 +26,27 @@ struct RenderArgs {
   double referenceStep = 0.125;
   bool quiet = false;
   int warmUp = 0;
+  int jpegQuality = 90;
   int64_t gpuBudgetMB = 1024, hostBudgetMB = 1024;
 };
+
+/// Writes a frame in the format the path's extension names (PNG or JPEG), atomically.
+void writeFrame(const RenderArgs& a, const std::string& path, const image::ImageF& frame) {
+  image::writeImage(path, image::toImage8(frame), {a.jpegQuality});
+}
+
+/// Runs `draw`, showing how long it has been drawing once that passes a second (Progress::elapsed) unless --quiet.
+template <typename Draw>
+image::ImageF withProgress(const RenderArgs& a, const render::Scene& scene, Draw&& draw) {
+  Progress progress(a.quiet);
+  image::ImageF image;
+  {
+    ElapsedTicker ticker(progress, "render: drawing " + std::to_string(scene.width) + "x" + std::to_string(scene.height));
+    image = draw();
+  }
+  progress.finish();
+  return image;
+}
 
 /// The CPU reference: slow on purpose, double precision, the same store and scene.
 /// The exact reference of a tetrahedral mesh (render/TetReference.h): every ray's segments through the tets,
@@ -35,9 +56,10 @@ void runTetReference(const RenderArgs& a, const render::Scene& scene, const rend
   const render::TetMeshData& d = *dataset.data();
   const render::TetReference reference(d.mesh);
   render::TetReferenceStats stats;
-  const image::ImageF image =
-      reference.render(render::TetReferenceParams::fromScene(scene, d.mesh, d.meanEdgeLength), &stats);
-  image::writePng(a.output, image::toImage8(image));
+  const image::ImageF image = withProgress(a, scene, [&] {
+    return reference.render(render::TetReferenceParams::fromScene(scene, d.mesh, d.meanEdgeLength), &stats);
+  });
+  writeFrame(a, a.output, image);
   if (!a.statsPath.empty())
     writeText(a.statsPath, nlohmann::json{{"rays", stats.rays}, {"segments", stats.segments},
                                           {"tet_tests", stats.tetTests}, {"ambiguous", stats.ambiguous},
@@ -57,8 +79,8 @@ void runReference(const RenderArgs& a, const render::Scene& scene, const render:
   if (!a.analytic.empty()) options.analytic = render::analyticFieldFor(grid->store()->meta(), a.analytic);
   render::ReferenceRenderer renderer(grid->cache());
   render::ReferenceStats stats;
-  const image::ImageF image = renderer.render(scene, options, &stats);
-  image::writePng(a.output, image::toImage8(image));
+  const image::ImageF image = withProgress(a, scene, [&] { return renderer.render(scene, options, &stats); });
+  writeFrame(a, a.output, image);
   if (!a.statsPath.empty())
     writeText(a.statsPath, nlohmann::json{{"rays", stats.rays}, {"samples", stats.samples},
                                           {"bricks_skipped", stats.bricksSkipped}, {"ms", stats.ms}}.dump(2) + "\n");
@@ -67,11 +89,26 @@ void runReference(const RenderArgs& a, const render::Scene& scene, const render:
               options.step, (long long)stats.rays, (long long)stats.samples, stats.ms);
 }
 
+/// A --sub-block typed on the command line must cut the dataset's bricks: a power of two below the brick size (the
+/// renderer alone takes one equal to it as whole bricks, since the scene's default of 8 meets bricks of 8).
+void checkSubBlock(const RenderArgs& a, const CLI::App& cmd, const render::Dataset& dataset) {
+  const auto* grid = dynamic_cast<const render::BrickStoreDataset*>(&dataset);
+  if (!grid || !cmd.count("--sub-block") || a.scene.subBlock == 0) return;
+  const int B = grid->store()->brickSize();
+  if (a.scene.subBlock >= B)
+    throw render::RenderInputError("--sub-block " + std::to_string(a.scene.subBlock) +
+                                   " must be 0 (whole bricks) or a power of two below the brick size " +
+                                   std::to_string(B) + " of '" + a.store + "'");
+}
+
 /// A GPU frame through the same seam the server's render threads use: a dataset and a RenderEngine.
 void runRender(const RenderArgs& a, const CLI::App& cmd) {
+  image::imageFormatFor(a.output);  // an output we cannot write is refused before the frame is drawn
   const render::Scene scene = buildScene(a.scene, cmd);
   const auto dataset =
       render::openDataset(a.store, a.store, size_t(a.hostBudgetMB) << 20, store::StoreOpenOptions{a.grid, a.brick});
+  checkSubBlock(a, cmd, *dataset);
+  checkOutputFormat(scene, a.output);
   if (a.backend == "reference") return runReference(a, scene, *dataset);
   if (!a.analytic.empty()) throw render::RenderInputError("--analytic needs --backend reference");
   render::RenderEngine engine({render::parseBackend(a.backend), size_t(a.gpuBudgetMB) << 20,
@@ -90,14 +127,14 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
     provisionalJson = first.toJson();
     if (first.bricksStandIn > 0) {
       const std::string path = provisionalPath(a.output);
-      image::writePng(path, image::toImage8(provisional));
+      writeFrame(a, path, provisional);
       std::printf("render: wrote %s, the provisional frame: %lld of %lld bricks stood in, %.1f ms\n",
                   path.c_str(), (long long)first.bricksStandIn, (long long)first.bricksDrawn, first.msTotal);
     }
   }
   render::FrameStats stats;
-  const image::ImageF image = engine.render(dataset, scene, &stats);
-  image::writePng(a.output, image::toImage8(image));
+  const image::ImageF image = withProgress(a, scene, [&] { return engine.render(dataset, scene, &stats); });
+  writeFrame(a, a.output, image);
   if (!a.statsPath.empty()) {
     nlohmann::json json = stats.toJson();
     if (!provisionalJson.is_null()) json["provisional_frame"] = provisionalJson;
@@ -139,23 +176,29 @@ void addRenderCommand(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("render", "Render one frame of a store (or a .vdb, read live) to a PNG, headless");
   cmd->add_option("store", args->store, "store directory, or a .vdb file to read live (no prep)")->required();
   cmd->add_option("--grid", args->grid, ".vdb: the float grid to read (default: the first float grid)");
-  cmd->add_option("--brick", args->brick, ".vdb: brick size B, a power of two in [8, 256]")->capture_default_str();
-  cmd->add_option("-o,--output", args->output, "PNG file to write")->required();
+  cmd->add_option("--brick", args->brick, ".vdb: brick size B, a power of two in [8, 256]")
+      ->capture_default_str()
+      ->check(between(8, 256, "voxels"));
+  cmd->add_option("-o,--output", args->output, "image to write: .png, or .jpg/.jpeg (JPEG)")->required();
+  cmd->add_option("--jpeg-quality", args->jpegQuality, "JPEG quality of a .jpg/.jpeg output")
+      ->capture_default_str()
+      ->check(between(1, 100));
   cmd->add_option("--stats", args->statsPath, "write the frame statistics as JSON");
   cmd->add_option("--warm-up", args->warmUp, "render the frame this many times before the one written and timed")
-      ->check(CLI::Range(0, 100));
+      ->check(between(0, 100));
   addSceneOptions(cmd, args->scene);
   cmd->add_option("--backend", args->backend,
                   "auto, egl or osmesa (a GL context), or reference (the CPU reference renderer)")
       ->capture_default_str();
   cmd->add_option("--reference-step", args->referenceStep, "reference: integration step in voxels")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(between(0.001, 64, "voxels"));
   cmd->add_option("--analytic", args->analytic,
                   "reference: sample this synthetic field (NAME[,k=v...] as after synthetic:) instead of the grid");
   cmd->add_option("--gpu-budget", args->gpuBudgetMB, "MB of GPU memory for the brick atlas")
-      ->capture_default_str()->check(CLI::PositiveNumber);
+      ->capture_default_str()->check(between(16, 1 << 22, "MB"));
   cmd->add_option("--host-budget", args->hostBudgetMB, "MB of host memory for decoded bricks")
-      ->capture_default_str()->check(CLI::NonNegativeNumber);
+      ->capture_default_str()->check(between(0, 1 << 22, "MB"));
   cmd->add_option("--atlas-format", args->atlasFormat,
                   "float (default: full-precision filtering), native (the store's type: less memory) or half")
       ->check(CLI::IsMember({"float", "native", "half"}));
@@ -167,7 +210,7 @@ void addRenderCommand(CLI::App& app) {
                   "how bricks lie in the atlas: single (the volume's axis order) or multi-oriented (axis order "
                   "rotated from brick to brick, for texture caches that favour one direction; the same image)")
       ->capture_default_str()->check(CLI::IsMember({"single", "multi-oriented"}));
-  cmd->add_flag("-q,--quiet", args->quiet, "do not print the renderer's name");
+  cmd->add_flag("-q,--quiet", args->quiet, "do not print the renderer's name, nor progress of a frame past a second");
   cmd->callback([args, cmd] {
     keepFreedMemoryForFrames();
     runRender(*args, *cmd);

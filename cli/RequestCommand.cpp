@@ -9,6 +9,7 @@
 #include "image/Image.h"
 #include "render/RenderErrors.h"
 #include "image/FrameImage.h"
+#include "image/ImageFile.h"
 
 namespace voxbrick::cli {
 namespace {
@@ -17,10 +18,12 @@ struct RequestArgs {
   SceneArgs scene;
   std::string address, dataset, output, statsPath, encoding = "png";
   double timeout = 120;
+  int jpegQuality = 90;
   bool list = false;
 };
 
 void runRequest(const RequestArgs& a, const CLI::App& cmd) {
+  if (!a.output.empty()) image::imageFormatFor(a.output);  // an output we cannot write is refused before connecting
   const auto [host, port] = client::parseAddress(a.address);
   client::Client c(host, port, std::chrono::milliseconds(int64_t(a.timeout * 1000)));
   c.hello("voxbrick-request 0.1");
@@ -31,6 +34,7 @@ void runRequest(const RequestArgs& a, const CLI::App& cmd) {
   }
   if (a.output.empty()) throw render::RenderInputError("-o/--output is required to render");
   const render::Scene scene = buildScene(a.scene, cmd);
+  checkOutputFormat(scene, a.output);
   c.openDataset(a.dataset);
   const proto::Encoding encoding = a.encoding == "raw"    ? proto::Encoding::RawRgba8
                                    : a.encoding == "zstd" ? proto::Encoding::ZstdRgba8
@@ -43,7 +47,7 @@ void runRequest(const RequestArgs& a, const CLI::App& cmd) {
   // written beside the output, the last one wins.
   const std::string provisional = provisionalPath(a.output);
   const proto::Frame frame = c.render(scene.toJson(), encoding, [&](const proto::Frame& early) {
-    image::writePng(provisional, image::decodeFrameImage(early));
+    image::writeImage(provisional, image::decodeFrameImage(early), {a.jpegQuality});
     const nlohmann::json stats = nlohmann::json::parse(early.statsJson);
     std::printf("request: provisional frame (%lld bricks stood in) at %.1f ms, wrote %s\n",
                 static_cast<long long>(stats.value("bricks_standin", int64_t{0})), msSinceStart(),
@@ -51,7 +55,7 @@ void runRequest(const RequestArgs& a, const CLI::App& cmd) {
   });
   const double ms = msSinceStart();
   c.goodbye();
-  image::writePng(a.output, image::decodeFrameImage(frame));
+  image::writeImage(a.output, image::decodeFrameImage(frame), {a.jpegQuality});
   if (!a.statsPath.empty()) writeText(a.statsPath, nlohmann::json::parse(frame.statsJson).dump(2) + "\n");
   std::printf("request: wrote %s (%ux%u, %zu bytes as %s) in %.1f ms\n", a.output.c_str(), frame.width, frame.height,
               frame.payload.size(), a.encoding.c_str(), ms);
@@ -61,15 +65,20 @@ void runRequest(const RequestArgs& a, const CLI::App& cmd) {
 
 void addRequestCommand(CLI::App& app) {
   auto a = std::make_shared<RequestArgs>();
-  CLI::App* cmd = app.add_subcommand("request", "Ask a running server for one frame and save it as PNG");
+  CLI::App* cmd = app.add_subcommand("request", "Ask a running server for one frame and save it as PNG or JPEG");
   cmd->add_option("address", a->address, "HOST:PORT of the server")->required();
   cmd->add_option("--dataset", a->dataset, "dataset to render (without it: list the datasets)");
   cmd->add_flag("--list", a->list, "list the server's datasets");
-  cmd->add_option("-o,--output", a->output, "PNG file to write");
+  cmd->add_option("-o,--output", a->output, "image to write: .png, or .jpg/.jpeg (JPEG)");
+  cmd->add_option("--jpeg-quality", a->jpegQuality, "JPEG quality of a .jpg/.jpeg output")
+      ->capture_default_str()
+      ->check(between(1, 100));
   cmd->add_option("--stats", a->statsPath, "write the frame's statistics as JSON");
   cmd->add_option("--encoding", a->encoding, "how the frame travels: png, raw or zstd")
       ->check(CLI::IsMember({"png", "raw", "zstd"}))->capture_default_str();
-  cmd->add_option("--timeout", a->timeout, "seconds to wait for the server")->capture_default_str();
+  cmd->add_option("--timeout", a->timeout, "seconds to wait for the server")
+      ->capture_default_str()
+      ->check(between(0.001, 86400, "seconds"));
   addSceneOptions(cmd, a->scene);
   cmd->callback([a, cmd] { runRequest(*a, *cmd); });
 }

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "cli/Commands.h"
+#include "image/ImageFile.h"
 #include "render/RenderErrors.h"
 
 namespace voxbrick::cli {
@@ -84,7 +85,12 @@ render::Scene buildScene(const SceneArgs& a, const CLI::App& cmd) {
     s.transferFunctionName = a.tf;
   }
   if (cmd.count("--step")) s.step = a.step;
-  if (!a.background.empty()) s.background = triple(a.background, "--background");
+  if (a.background == "none") {
+    s.transparent = true;
+  } else if (!a.background.empty()) {
+    s.background = triple(a.background, "--background");
+    s.transparent = false;
+  }
   if (!a.window.empty()) {
     double lo = 0, hi = 0;
     char extra = 0;
@@ -122,6 +128,11 @@ render::Scene buildScene(const SceneArgs& a, const CLI::App& cmd) {
   return s;
 }
 
+void checkOutputFormat(const render::Scene& scene, const std::string& output) {
+  if (scene.transparent && image::imageFormatFor(output) == image::ImageFormat::Jpeg)
+    throw render::RenderInputError("--background none needs a .png output: JPEG has no alpha (" + output + ")");
+}
+
 void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
   cmd->add_option("--scene", args.sceneFile, "scene JSON (the options below override it)");
   cmd->add_option("--orbit", args.orbit,
@@ -138,12 +149,14 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
   cmd->add_option("--eye", args.eye, "x,y,z eye position (world coordinates: RAS for patient data)");
   cmd->add_option("--center", args.center, "x,y,z look-at point (world; default the scene's, else 0,0,0)");
   cmd->add_option("--up", args.up, "x,y,z up vector (world; default the scene's, else 0,1,0)");
-  cmd->add_option("--fov", args.fov, "vertical field of view in degrees (default 30)");
+  cmd->add_option("--fov", args.fov, "vertical field of view in degrees (default 30)")
+      ->check(between(0.01, 179, "degrees"));
   cmd->add_flag("--ortho", args.ortho, "orthographic projection");
   cmd->add_option("--size", args.size, "WIDTHxHEIGHT (default 512x512)");
   cmd->add_option("--tf", args.tf, "transfer function: preset name (config/tf) or JSON file (default grayscale)");
-  cmd->add_option("--step", args.step, "slice spacing in voxels (default 0.75)");
-  cmd->add_option("--background", args.background, "r,g,b in [0, 1] (default 0,0,0)");
+  cmd->add_option("--step", args.step, "slice spacing in voxels (default 0.75)")
+      ->check(between(0.001, 64, "voxels"));
+  cmd->add_option("--background", args.background, "r,g,b in [0, 1] (default 0,0,0), or none: a transparent frame (RGBA PNG, alpha the accumulated opacity)");
   cmd->add_option("--window", args.window, "LO,HI value window (default: the store's value range)");
   cmd->add_option("--visibility", args.visibility,
                   "a tetrahedral mesh's visibility order: mpvo (the face-adjacency walk, default) or centroid")
@@ -155,22 +168,27 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
   cmd->add_flag("--no-skip", args.noSkip, "draw bricks the transfer function makes empty");
   cmd->add_flag("--no-cull", args.noCull, "draw bricks outside the view frustum");
   cmd->add_option("--sub-block", args.subBlock,
-                  "skip empty sub-blocks of N voxels inside bricks (a power of two, default 8; 0 draws whole bricks)");
+                  "skip empty sub-blocks of N voxels inside bricks (a power of two below the brick size, default 8; 0 draws "
+                  "whole bricks)")
+      ->check(between(0, render::Scene::kMaxSubBlock, "voxels"));
   cmd->add_option("--slab", args.slab,
                   "draw with texture slabs of N planes instead of the ray caster: the fragment program marches N "
                   "samples and blends once (slabs of 32 when a volume is too large for the ray caster's cell table; "
-                  "0 slices: one blended sample per fragment)");
+                  "0 slices: one blended sample per fragment)")
+      ->check(between(0, render::Scene::kMaxSlab, "planes"));
   cmd->add_flag("--raycast", args.raycast,
                 "frame ray casting (the default): one fragment per pixel marches its ray through every brick, each "
                 "sample's brick looked up in a table of cells (the same samples as slabs); over a scene's 'slab'");
   cmd->add_option("--ert", args.ert,
                   "early ray termination when marching (slabs, ray casting): stop rays whose opacity reached this threshold in [0.5, 1] "
-                  "(default 0.999; 0: off)");
+                  "(default 0.999; 0: off)")
+      ->check(between(0, 1));
   cmd->add_flag("--pre-integration", args.preIntegration,
                 "pre-integrated classification when marching (slabs, ray casting): each segment between samples classified whole from a table");
   cmd->add_option("--lod", args.lod,
                   "level of detail: draw a coarser pyramid level where its voxels are at most this many pixels tall "
-                  "(0: level 0 everywhere)");
+                  "(0: level 0 everywhere)")
+      ->check(between(0, render::Scene::kMaxLod, "pixels"));
   cmd->add_flag("--ess", args.ess,
                 "empty-space silhouette maps on slabs: a pass before each slab marks the pixels with anything to draw");
   cmd->add_flag("--progressive", args.progressive,

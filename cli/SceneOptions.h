@@ -23,6 +23,9 @@ struct SceneArgs {
 
 /// Registers the scene options on `cmd`, storing into `args` (which must outlive the app).
 void addSceneOptions(CLI::App* cmd, SceneArgs& args);
+/// Refuses an output the scene's frame cannot go to: a transparent frame (--background none) as JPEG, which has no
+/// alpha. Throws RenderInputError naming the file.
+void checkOutputFormat(const render::Scene& scene, const std::string& output);
 /// The scene: --scene first, then every option given on the command line on top of it. Throws RenderInputError.
 /// Camera: --orbit, --view and --eye each replace the scene's camera placement (one of them at most); --eye keeps the
 /// scene's center and up unless --center/--up are given; --center/--up without --eye apply to a scene whose camera

@@ -72,34 +72,50 @@ void addServeCommand(CLI::App& app) {
   cmd->add_option("--config", a->config, "TOML configuration (e.g. config/server.toml); options below override it")
       ->check(CLI::ExistingFile);
   cmd->add_option("--host", a->host, "address to listen on (default 127.0.0.1)");
-  cmd->add_option("--port", a->port, "TCP port; 0 picks a free one (default 7420)")->check(CLI::Range(0, 65535));
+  cmd->add_option("--port", a->port, "TCP port; 0 picks a free one (default 7420)")
+      ->check(between(0, 65535));
   cmd->add_option("--port-file", a->portFile, "write the port actually bound to this file");
   cmd->add_option("--datasets", a->datasets,
                   "directory whose subdirectories are stores and whose .vdb files are read live (first float grid, "
                   "bricks of 32; default demo)");
   cmd->add_option("--backend", a->backend, "auto, egl or osmesa");
   cmd->add_option("--log-level", a->logLevel, "trace, debug, info, warn, error or off");
-  cmd->add_option("--render-threads", a->renderThreads, "render threads, each with its own GL context");
-  cmd->add_option("--io-threads", a->ioThreads, "network I/O threads");
-  cmd->add_option("--max-sessions", a->maxSessions, "concurrent sessions");
-  cmd->add_option("--max-image-side", a->maxImageSide, "largest frame side in pixels");
+  cmd->add_option("--render-threads", a->renderThreads, "render threads, each with its own GL context")
+      ->check(between(1, 64));
+  cmd->add_option("--io-threads", a->ioThreads, "network I/O threads")
+      ->check(between(1, 64));
+  cmd->add_option("--max-sessions", a->maxSessions, "concurrent sessions")
+      ->check(between(1, 100000));
+  cmd->add_option("--max-image-side", a->maxImageSide, "largest frame side in pixels")
+      ->check(between(1, 8192, "pixels"));
   cmd->add_option("--max-render-msamples", a->maxRenderMSamples,
-                  "most a Render may cost, in millions of samples (an upper estimate made before drawing)");
-  cmd->add_option("--max-message-bytes", a->maxMessageBytes, "largest client message body");
-  cmd->add_option("--idle-timeout", a->idleTimeout, "seconds without a message before a session is closed");
-  cmd->add_option("--read-timeout", a->readTimeout, "seconds to complete a message from its first byte");
+                  "most a Render may cost, in millions of samples (an upper estimate made before drawing)")
+      ->check(between(1, 1e9, "million samples"));
+  cmd->add_option("--max-message-bytes", a->maxMessageBytes, "largest client message body")
+      ->check(between(1024, 64 << 20, "bytes"));
+  cmd->add_option("--idle-timeout", a->idleTimeout, "seconds without a message before a session is closed")
+      ->check(between(0.1, 86400, "seconds"));
+  cmd->add_option("--read-timeout", a->readTimeout, "seconds to complete a message from its first byte")
+      ->check(between(0.1, 3600, "seconds"));
   cmd->add_option("--write-timeout", a->writeTimeout,
-                  "seconds a client may take to accept a reply (a client that never reads is closed after it)");
-  cmd->add_option("--hello-timeout", a->helloTimeout, "seconds a new connection has to complete its Hello");
+                  "seconds a client may take to accept a reply (a client that never reads is closed after it)")
+      ->check(between(0.1, 3600, "seconds"));
+  cmd->add_option("--hello-timeout", a->helloTimeout, "seconds a new connection has to complete its Hello")
+      ->check(between(0.1, 3600, "seconds"));
   cmd->add_option("--max-pending-connections", a->maxPending,
-                  "connections not yet past Hello; one more closes the oldest of them");
+                  "connections not yet past Hello; one more closes the oldest of them")
+      ->check(between(1, 100000));
   cmd->add_option("--max-connections-per-address", a->maxPerAddress,
                   "connections of one client address (0: no limit; loopback is exempt unless the configuration "
-                  "says loopback_exempt = false)");
+                  "says loopback_exempt = false)")
+      ->check(between(0, 100000));
   cmd->add_option("--max-total-output-mb", a->maxTotalOutputMB,
-                  "MB of replies not yet read by all clients together; a frame beyond it is answered LimitExceeded");
-  cmd->add_option("--host-cache", a->hostCacheMB, "MB of decoded bricks for all open datasets together (an equal share each)");
-  cmd->add_option("--gpu-budget", a->gpuBudgetMB, "MB of GPU brick atlas for all render threads and datasets together (an equal share per thread)");
+                  "MB of replies not yet read by all clients together; a frame beyond it is answered LimitExceeded")
+      ->check(between(1, 1 << 22, "MB"));
+  cmd->add_option("--host-cache", a->hostCacheMB, "MB of decoded bricks for all open datasets together (an equal share each)")
+      ->check(between(16, 1 << 22, "MB"));
+  cmd->add_option("--gpu-budget", a->gpuBudgetMB, "MB of GPU brick atlas for all render threads and datasets together (an equal share per thread)")
+      ->check(between(16, 1 << 22, "MB"));
   cmd->add_flag("--no-coalesce", a->noCoalesce,
                 "render every request in order instead of only a session's newest (to measure what latest-wins saves)");
   cmd->callback([a] {

@@ -1,9 +1,8 @@
-// Blocking client over Boost.Asio; every read and write is bounded by the session's timeout.
+// Blocking client over Boost.Asio; the connect and every read and write are bounded by the session's timeout.
 #include "client/Client.h"
 
-#include <sys/socket.h>
-#include <sys/time.h>
-
+#include <cstdio>
+#include <type_traits>
 #include <utility>  // before Asio: Boost 1.74's awaitable.hpp uses std::exchange without it
 
 #include <boost/asio.hpp>
@@ -19,6 +18,33 @@ struct Client::Impl {
   tcp::socket socket{io};
   proto::Limits limits;
   std::string where;
+  std::chrono::milliseconds timeout{0};
+
+  /// Runs one asynchronous operation (`start` is given its completion handler) until it completes or the timeout
+  /// passes. Blocking socket calls cannot do this: Asio waits for readiness with no limit when SO_RCVTIMEO fires, and
+  /// a connect has no timeout at all. On time-out the socket is closed (the operation then ends aborted) and
+  /// ConnectionError says what did not happen in time. Returns the operation's error code and byte count.
+  template <typename Start>
+  std::pair<boost::system::error_code, size_t> run(const std::string& what, Start&& start) {
+    boost::system::error_code result = asio::error::would_block;
+    size_t bytes = 0;
+    start([&](const boost::system::error_code& ec, auto n) {
+      result = ec;
+      if constexpr (std::is_integral_v<decltype(n)>) bytes = size_t(n);
+    });
+    io.restart();
+    io.run_for(timeout);
+    if (result == asio::error::would_block) {
+      boost::system::error_code ignored;
+      socket.close(ignored);
+      io.restart();
+      io.run();  // the aborted operation's handler
+      char seconds[32];
+      std::snprintf(seconds, sizeof seconds, "%g", double(timeout.count()) / 1000);
+      throw ConnectionError(what + " " + where + ": no answer within " + seconds + " s");
+    }
+    return {result, bytes};
+  }
 };
 
 Client::Client(const std::string& host, int port, std::chrono::milliseconds timeout) : mImpl(std::make_unique<Impl>()) {
@@ -26,26 +52,29 @@ Client::Client(const std::string& host, int port, std::chrono::milliseconds time
   // Frames can be large: accept bodies up to the protocol's ceiling.
   mImpl->limits.maxBodyBytes = 1u << 30;
   mImpl->limits.maxStringBytes = 64u << 20;
+  mImpl->timeout = timeout;
+  tcp::resolver::results_type endpoints;
   try {
     tcp::resolver resolver(mImpl->io);
-    asio::connect(mImpl->socket, resolver.resolve(host, std::to_string(port)));
+    endpoints = resolver.resolve(host, std::to_string(port));
   } catch (const boost::system::system_error& e) {
     throw ConnectionError("cannot connect to " + mImpl->where + ": " + e.code().message());
   }
-  timeval tv{};
-  tv.tv_sec = timeout.count() / 1000;
-  tv.tv_usec = (timeout.count() % 1000) * 1000;
-  const int fd = mImpl->socket.native_handle();
-  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-  ::setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+  const boost::system::error_code ec = mImpl->run("connecting to", [&](auto handler) {
+    asio::async_connect(mImpl->socket, endpoints, [handler](const boost::system::error_code& e, const tcp::endpoint&) {
+      handler(e, 0);
+    });
+  }).first;
+  if (ec) throw ConnectionError("cannot connect to " + mImpl->where + ": " + ec.message());
   mImpl->socket.set_option(tcp::no_delay(true));
 }
 
 Client::~Client() = default;
 
 void Client::sendBytes(const std::vector<uint8_t>& bytes) {
-  boost::system::error_code ec;
-  asio::write(mImpl->socket, asio::buffer(bytes), ec);
+  const boost::system::error_code ec = mImpl->run("sending to", [&](auto handler) {
+    asio::async_write(mImpl->socket, asio::buffer(bytes), handler);
+  }).first;
   if (ec) throw ConnectionError("sending to " + mImpl->where + ": " + ec.message());
 }
 
@@ -57,23 +86,27 @@ uint32_t Client::send(const proto::Message& message) {
 
 std::vector<uint8_t> Client::receiveBytes(size_t max) {
   std::vector<uint8_t> bytes(max);
-  boost::system::error_code ec;
-  bytes.resize(mImpl->socket.read_some(asio::buffer(bytes), ec));
+  const auto [ec, n] = mImpl->run("reading from", [&](auto handler) {
+    mImpl->socket.async_read_some(asio::buffer(bytes), handler);
+  });
+  bytes.resize(ec ? 0 : n);
   if (ec && ec != asio::error::eof) throw ConnectionError("reading from " + mImpl->where + ": " + ec.message());
   return bytes;
 }
 
 std::pair<uint32_t, proto::Message> Client::receive() {
   std::array<uint8_t, proto::kHeaderBytes> head{};
-  boost::system::error_code ec;
-  asio::read(mImpl->socket, asio::buffer(head), ec);
+  auto readAll = [&](asio::mutable_buffer buffer) {
+    return mImpl->run("reading from", [&](auto handler) { asio::async_read(mImpl->socket, buffer, handler); }).first;
+  };
+  boost::system::error_code ec = readAll(asio::buffer(head));
   if (ec)
     throw ConnectionError("reading from " + mImpl->where + ": " +
                           (ec == asio::error::eof ? std::string("the server closed the connection") : ec.message()));
   try {
     const proto::Header header = proto::decodeHeader(head, mImpl->limits);
     std::vector<uint8_t> body(header.bodyBytes);
-    asio::read(mImpl->socket, asio::buffer(body), ec);
+    ec = readAll(asio::buffer(body));
     if (ec) throw ConnectionError("reading from " + mImpl->where + ": " + ec.message());
     return {header.requestId, proto::decodeBody(header, body, mImpl->limits)};
   } catch (const proto::ProtocolError& e) {

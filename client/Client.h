@@ -34,7 +34,8 @@ class ConnectionError : public std::runtime_error {
 /// One session. Not thread-safe: use one Client per thread.
 class Client {
  public:
-  /// Connects to host:port; `timeout` bounds the connect and every later read or write. Throws ConnectionError.
+  /// Connects to host:port; `timeout` bounds the connect and every later read or write (one that does not complete
+  /// in time closes the connection and throws ConnectionError saying so). Throws ConnectionError.
   Client(const std::string& host, int port, std::chrono::milliseconds timeout = std::chrono::seconds(60));
   ~Client();
   Client(const Client&) = delete;

@@ -1,5 +1,6 @@
 // Image conversion, PNG I/O through libpng, and error metrics.
 #include "image/Image.h"
+#include "image/ImageFile.h"
 
 #include <png.h>
 
@@ -105,13 +106,7 @@ Image8 decodePng(std::span<const uint8_t> bytes, const std::string& what) {
   return out;
 }
 
-void writePng(const std::filesystem::path& path, const Image8& image) {
-  const std::vector<uint8_t> bytes = encodePng(image);
-  std::unique_ptr<FILE, FileCloser> file(std::fopen(path.c_str(), "wb"));
-  if (!file) throw ImageFailure("cannot write " + path.string() + ": " + std::strerror(errno));
-  if (std::fwrite(bytes.data(), 1, bytes.size(), file.get()) != bytes.size() || std::fflush(file.get()) != 0)
-    throw ImageFailure("cannot write " + path.string() + ": " + std::strerror(errno));
-}
+void writePng(const std::filesystem::path& path, const Image8& image) { writeFileAtomically(path, encodePng(image)); }
 
 Image8 readPng(const std::filesystem::path& path) {
   std::unique_ptr<FILE, FileCloser> file(std::fopen(path.c_str(), "rb"));

@@ -40,7 +40,7 @@ ImageF toImageF(const Image8& image);
 std::vector<uint8_t> encodePng(const Image8& image);
 /// Decodes a PNG of any bit depth and colour type as 8-bit RGBA; throws ImageFailure naming `what`.
 Image8 decodePng(std::span<const uint8_t> bytes, const std::string& what);
-/// Writes an 8-bit RGBA PNG; throws ImageFailure naming the file.
+/// Writes an 8-bit RGBA PNG atomically (image/ImageFile.h); throws ImageFailure naming the file.
 void writePng(const std::filesystem::path& path, const Image8& image);
 /// Reads a PNG of any bit depth and colour type as 8-bit RGBA; throws ImageFailure naming the file.
 Image8 readPng(const std::filesystem::path& path);

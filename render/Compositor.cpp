@@ -76,7 +76,7 @@ void Compositor::bindSilhouette() const {
   mGl.glViewport(0, 0, mTarget.width(), mTarget.height());
 }
 
-image::ImageF Compositor::finish(const glm::dvec3& background, FrameStats& stats) {
+image::ImageF Compositor::finish(const Scene& scene, FrameStats& stats) {
   mGl.glEndQuery(GL_SAMPLES_PASSED);
   mCounting = false;
   mGl.glDisable(GL_DEPTH_TEST);
@@ -93,8 +93,14 @@ image::ImageF Compositor::finish(const glm::dvec3& background, FrameStats& stats
     const float* src = raw.data() + size_t(height - 1 - y) * size_t(width) * 4;
     float* dst = image.pixel(0, y);
     for (int x = 0; x < width; ++x, src += 4, dst += 4) {
+      if (scene.transparent) {
+        const glm::dvec4 out = scene.output({src[0], src[1], src[2]}, src[3]);
+        for (int c = 0; c < 4; ++c) dst[c] = float(out[c]);
+        continue;
+      }
+      // Scene::output in float, as the opaque frames have always been computed (bit for bit: the golden frames).
       const float a = std::clamp(src[3], 0.0f, 1.0f);
-      for (int c = 0; c < 3; ++c) dst[c] = std::clamp(src[c] + (1 - a) * float(background[c]), 0.0f, 1.0f);
+      for (int c = 0; c < 3; ++c) dst[c] = std::clamp(src[c] + (1 - a) * float(scene.background[c]), 0.0f, 1.0f);
       dst[3] = 1;
     }
   }

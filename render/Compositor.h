@@ -26,9 +26,10 @@ class Compositor {
   /// the silhouette map while it reads accumulated(); target() binds the whole target again.
   void bindSilhouette() const;
   void bindTarget() const { mTarget.bind(); }
-  /// Waits for the passes, reads the target back and composites it over `background`: out = C + (1 - A) * bg.
-  /// Fills fragments, msDrawing (the wait) and msReadback.
-  image::ImageF finish(const glm::dvec3& background, FrameStats& stats);
+  /// Waits for the passes, reads the target back and composites it over the scene's background, out = C + (1 - A)
+  /// * bg, or keeps the opacity as alpha when the background is transparent (Scene::output). Fills fragments,
+  /// msDrawing (the wait) and msReadback.
+  image::ImageF finish(const Scene& scene, FrameStats& stats);
   /// After a frame failed between begin() and finish(): ends the fragment count and puts back the state every
   /// pass expects at the start of a frame (colour and depth writes, depth range), so the next frame starts clean.
   void abort();

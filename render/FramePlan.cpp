@@ -3,6 +3,9 @@
 
 #include <algorithm>
 #include <limits>
+#include <string>
+
+#include "render/RenderErrors.h"
 
 namespace voxbrick::render {
 
@@ -73,6 +76,12 @@ FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int tran
   const double minSpacing = std::min({meta.spacing.x, meta.spacing.y, meta.spacing.z});
   plan.step = scene.step * minSpacing;
   plan.referenceLength = scene.transferFunction.referenceLength().value_or(minSpacing);
+  // A sub-block as large as the brick is the brick itself (whole bricks, as 0); a larger one cannot be cut from it.
+  // The scene's default (8) meets bricks of 8, so equality is not an error here; `voxbrick render` refuses it when
+  // it is typed.
+  if (scene.subBlock > B)
+    throw RenderInputError("sub-block " + std::to_string(scene.subBlock) +
+                           " must be 0 (whole bricks) or a power of two below the brick size " + std::to_string(B));
   plan.subBlock = scene.subBlock > 0 && scene.subBlock < B ? scene.subBlock : 0;
   plan.raycast = scene.raycast;
   if (plan.raycast) {

@@ -216,7 +216,7 @@ glm::dvec3 shade(const Frame& f, const Sampler& sample, const Ray& ray, double t
   return c * (0.3 + 0.7 * diffuse) + glm::dvec3(0.25 * specular);
 }
 
-/// Integrates one ray: its colour over the background, with its samples and skipped bricks added to the counters.
+/// Integrates one ray: its output pixel (Scene::output: over the background, or with alpha), with its samples and skipped bricks added to the counters.
 ///
 /// Samples sit at the midpoints t_k of n equal segments of length h, and each sample's segment is composited as two
 /// halves (which equals the midpoint rule). Between two consecutive samples whose normalised values straddle a
@@ -230,7 +230,7 @@ class RayIntegrator {
   RayIntegrator(const Frame& frame, const Sampler& sample, const Ray& ray, int64_t& samples, int64_t& skipped)
       : mFrame(frame), mScene(*frame.scene), mSample(sample), mRay(ray), mSamples(samples), mSkipped(skipped) {}
 
-  glm::dvec3 run();
+  glm::dvec4 run();
 
  private:
   struct Piece {
@@ -271,7 +271,7 @@ class RayIntegrator {
 };
 
 template <typename Sampler>
-glm::dvec3 RayIntegrator<Sampler>::run() {
+glm::dvec4 RayIntegrator<Sampler>::run() {
   const double length = mRay.t1 - mRay.t0;
   if (length > 0) {
     const double segments = std::ceil(length / mFrame.step);
@@ -304,8 +304,7 @@ glm::dvec3 RayIntegrator<Sampler>::run() {
     }
     if (!opaque()) add(halfPrev);
   }
-  const double t = 1 - std::clamp(mAcc.a, 0.0, 1.0);
-  return glm::clamp(glm::dvec3(mAcc.r, mAcc.g, mAcc.b) + t * mScene.background, 0.0, 1.0);
+  return mScene.output(glm::dvec3(mAcc.r, mAcc.g, mAcc.b), mAcc.a);
 }
 
 // Integrates the interval [ta, tb] between two mSamples finely: cut where the value crosses each control point
@@ -468,10 +467,9 @@ image::ImageF ReferenceRenderer::render(const Scene& scene, const ReferenceOptio
         for (int x = 0; x < scene.width; ++x) {
           const Ray ray = pixelRay(f, x, y, scene.width, scene.height);
           rowRays += ray.t1 > ray.t0 ? 1 : 0;
-          const glm::dvec3 c = RayIntegrator(f, sampler, ray, rowSamples, rowSkipped).run();
+          const glm::dvec4 c = RayIntegrator(f, sampler, ray, rowSamples, rowSkipped).run();
           float* out = image.pixel(x, y);
-          for (int ch = 0; ch < 3; ++ch) out[ch] = float(c[ch]);
-          out[3] = 1;
+          for (int ch = 0; ch < 4; ++ch) out[ch] = float(c[ch]);
         }
       rays += rowRays;
       samples += rowSamples;

@@ -227,7 +227,10 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
     }
   }
   if (j.contains("step")) s.step = number(j["step"], "step", what);
-  if (j.contains("background")) s.background = vec3(j["background"], "background", what);
+  if (j.contains("background")) {
+    s.transparent = j["background"] == "none";
+    if (!s.transparent) s.background = vec3(j["background"], "background", what);
+  }
   if (j.contains("window")) {
     const json& w = j["window"];
     if (!w.is_array() || w.size() != 2) throw RenderInputError(what + ": 'window' must be [lo, hi]");
@@ -308,6 +311,15 @@ void Scene::validate() const {
                            "[2, " + std::to_string(kMaxSubBlock) + "]");
 }
 
+glm::dvec4 outputPixel(const glm::dvec3& c, double a, const glm::dvec3& background, bool transparent) {
+  a = std::clamp(a, 0.0, 1.0);
+  if (!transparent) return {glm::clamp(c + (1 - a) * background, 0.0, 1.0), 1.0};
+  if (a <= 0) return glm::dvec4(0);
+  return {glm::clamp(c / a, 0.0, 1.0), a};
+}
+
+glm::dvec4 Scene::output(const glm::dvec3& c, double a) const { return outputPixel(c, a, background, transparent); }
+
 std::string Scene::toJson() const {
   json cam = {{"fov", camera.fovY}, {"orthographic", camera.orthographic}};
   if (camera.orbit)
@@ -326,7 +338,7 @@ std::string Scene::toJson() const {
             {"size", {width, height}},
             {"transfer_function", tf},
             {"step", step},
-            {"background", render::toJson(background)},
+            {"background", transparent ? json("none") : render::toJson(background)},
             {"skip_empty", skipEmpty},
             {"cull", cullFrustum},
             {"slicer", slicerName(slicer)},

@@ -81,6 +81,11 @@ struct CameraSpec {
 /// The named views' names, "anterior", "posterior", "left", "right", "superior", "inferior", comma separated.
 std::string viewNames();
 
+/// A pixel's output from premultiplied colour `c` and opacity `a` (ARCHITECTURE.md, optical model: output):
+/// c + (1 - a)·background with alpha 1; with a transparent background, straight colour c / a and alpha a (all 0
+/// where nothing was drawn). Clamped to [0, 1].
+glm::dvec4 outputPixel(const glm::dvec3& c, double a, const glm::dvec3& background, bool transparent);
+
 /// Everything a frame depends on besides the store.
 struct Scene {
   static constexpr int kMaxImageSide = 8192;
@@ -99,6 +104,9 @@ struct Scene {
   /// (unshaded; shading needs finer).
   double step = 0.75;
   glm::dvec3 background{0, 0, 0};     ///< opaque background colour, RGB in [0, 1]
+  /// No background ("background": "none"): frames carry alpha, the accumulated opacity, with straight (not
+  /// premultiplied) colour, as PNG stores it; `background` is then unused.
+  bool transparent = false;
   std::optional<std::array<double, 2>> window;  ///< value window [lo, hi]; default the store's value range
   bool skipEmpty = true;
   bool cullFrustum = true;
@@ -155,7 +163,7 @@ struct Scene {
   /// key. Keys: camera {orbit: [az, el] (fitted) or [az, el, dist], fit, up_axis, view (setView) | eye, center,
   /// up; fov; orthographic} (an unknown key, center or up without eye, or a view beside orbit, eye or up_axis is
   /// refused), size [w, h],
-  /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b],
+  /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b] or "none",
   /// window [lo, hi], skip_empty, cull, slicer (slicerName), shading, sub_block, slab, raycast, ert,
   /// pre_integration, ess, lod, progressive, visibility (tetSortName), quality ("psnr:DB" or "ms:N"; not with
   /// step, raycast, slab, ert, pre_integration, sub_block or lod).
@@ -168,6 +176,8 @@ struct Scene {
   void validate() const;
   /// The scene as JSON (the transfer function inline), so a frame can be reproduced.
   std::string toJson() const;
+  /// A pixel's output from its premultiplied colour and opacity: outputPixel with this scene's background.
+  glm::dvec4 output(const glm::dvec3& c, double a) const;
 
  private:
   static Scene parse(const std::string& text, const std::string& what, bool allowPaths,

@@ -301,6 +301,7 @@ TetReferenceParams TetReferenceParams::fromScene(const Scene& scene, const mesh:
   p.width = scene.width;
   p.height = scene.height;
   p.background = scene.background;
+  p.transparent = scene.transparent;
   const auto [vmin, vmax] = mesh.scalarRange();
   p.windowLo = scene.window ? (*scene.window)[0] : double(vmin);
   p.windowHi = scene.window ? (*scene.window)[1] : double(vmax);
@@ -392,11 +393,9 @@ image::ImageF TetReference::render(const TetReferenceParams& params, TetReferenc
         rowRays += found.empty() ? 0 : 1;
         rowSegments += int64_t(found.size());
         const glm::dvec4 c = composite(found, params);
-        const double transmittance = 1 - std::clamp(c.a, 0.0, 1.0);
-        const glm::dvec3 out = glm::clamp(glm::dvec3(c) + transmittance * params.background, 0.0, 1.0);
+        const glm::dvec4 out = outputPixel(glm::dvec3(c), c.a, params.background, params.transparent);
         float* pixel = image.pixel(x, y);
-        for (int ch = 0; ch < 3; ++ch) pixel[ch] = float(out[ch]);
-        pixel[3] = 1;
+        for (int ch = 0; ch < 4; ++ch) pixel[ch] = float(out[ch]);
       }
     rays += rowRays, segments += rowSegments, tests += rowTests, ambiguous += rowAmbiguous;
   });

@@ -26,6 +26,7 @@ struct TetReferenceParams {
   double referenceLength = 1;  ///< L_ref, world units: alpha is per this length
   int width = 256, height = 256;
   glm::dvec3 background{0.0};  ///< opaque background colour, RGB in [0, 1]
+  bool transparent = false;    ///< no background: alpha is the opacity, colour straight (Scene::transparent)
 
   /// The parameters of `scene` for `mesh`: the scene's camera resolved on the mesh's bounds (its orbit is about
   /// them), its transfer function, size and background, its window or else the mesh's scalar range (a constant mesh
@@ -85,8 +86,8 @@ class TetReference {
   TetReference(TetReference&&) noexcept;
   TetReference& operator=(TetReference&&) noexcept;
 
-  /// The frame: for each pixel the composited colour over the background (RGB clamped to [0, 1], alpha 1), as
-  /// ReferenceRenderer writes it. Throws RenderInputError from params.validate().
+  /// The frame: for each pixel the colour over the background (alpha 1) or, with a transparent one, straight colour
+  /// and the opacity as alpha (outputPixel), as ReferenceRenderer writes it. Throws RenderInputError from params.validate().
   image::ImageF render(const TetReferenceParams& params, TetReferenceStats* stats = nullptr) const;
   /// The ray of pixel (x, y) of `params`' image: from the eye (or the view plane) through the pixel centre, starting
   /// at the near plane of the mesh's bounds.

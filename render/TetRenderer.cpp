@@ -204,7 +204,7 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
   }
   stats.msDrawing = msSince(drawStart);
   stats.tetsDrawn = int64_t(mOrder.size());
-  image::ImageF image = mCompositor.finish(scene.background, stats);
+  image::ImageF image = mCompositor.finish(scene, stats);
   mGl.glDisable(GL_BLEND);
   mGl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
   stats.msTotal = msSince(frameStart);

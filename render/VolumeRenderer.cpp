@@ -95,7 +95,7 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
     mSlicing.draw(plan, mResidency, program, geometry(scene), stats, checkpoints);
   }
 
-  return mCompositor.finish(scene.background, stats);
+  return mCompositor.finish(scene, stats);
 }
 
 image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, const FrameOptions& options) {

@@ -177,19 +177,27 @@ TEST_F(VdbSourceTest, EmptyGridIsAnError) {
   EXPECT_EQ(openError(path), path + ": grid 'density' has no active voxels");
 }
 
-TEST_F(VdbSourceTest, NonUniformTransformNeedsExplicitSpacing) {
+// An axis-aligned scale (uniform or not: prep writes anisotropic grids so) gives the spacing per axis; a rotated
+// transform needs the spacing given.
+TEST_F(VdbSourceTest, AxisAlignedTransformsGiveTheirSpacingRotatedOnesNeedItGiven) {
   openvdb::FloatGrid::Ptr grid = makeDensity("density");
   auto map = std::make_shared<openvdb::math::ScaleMap>(openvdb::Vec3d(1, 1, 2));
   grid->setTransform(std::make_shared<openvdb::math::Transform>(map));
-  std::string path = write("aniso.vdb", {grid});
-  std::string message = openError(path);
-  EXPECT_NE(message.find("non-uniform transform"), std::string::npos) << message;
+  const std::string aniso = write("aniso.vdb", {grid});
+  EXPECT_EQ(openVdbSource(aniso, SourceOptions{})->info().spacing, (Vec3d{1, 1, 2}));
+
+  openvdb::math::Mat4d rotation = openvdb::math::Mat4d::identity();
+  rotation.preRotate(openvdb::math::Z_AXIS, 0.3);
+  grid->setTransform(openvdb::math::Transform::createLinearTransform(rotation));
+  const std::string rotated = write("rotated.vdb", {grid});
+  const std::string message = openError(rotated);
+  EXPECT_NE(message.find("rotated or sheared transform"), std::string::npos) << message;
   EXPECT_NE(message.find("give the spacing explicitly"), std::string::npos) << message;
 
   SourceOptions options;
   options.spacing = {1, 1, 2};
   options.spacingGiven = true;
-  EXPECT_EQ(openVdbSource(path, options)->info().spacing, options.spacing);
+  EXPECT_EQ(openVdbSource(rotated, options)->info().spacing, options.spacing);
 }
 
 TEST_F(VdbSourceTest, CorruptFilesAreInputErrors) {

@@ -1,0 +1,39 @@
+// Checks of numeric options whose errors name readable bounds ("must be between 16 and 1048576 MB, not 0"), in
+// place of CLI11's ranges, which print the limits of double (a 309-digit number for PositiveNumber).
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include "cli/Commands.h"
+
+namespace voxbrick::cli {
+namespace {
+
+/// A bound as a person writes it: integers without a fraction or an exponent, others to six digits.
+std::string formatBound(double v) {
+  char text[64];
+  if (v == std::floor(v) && std::fabs(v) < 1e15)
+    std::snprintf(text, sizeof text, "%.0f", v);
+  else
+    std::snprintf(text, sizeof text, "%.6g", v);
+  return text;
+}
+
+}  // namespace
+
+CLI::Validator between(double lo, double hi, const std::string& unit) {
+  const std::string range = formatBound(lo) + " and " + formatBound(hi) + (unit.empty() ? "" : " " + unit);
+  CLI::Validator check(
+      [lo, hi, range](std::string& input) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(input.c_str(), &end);
+        if (input.empty() || end != input.c_str() + input.size() || !(v >= lo && v <= hi))
+          return "must be between " + range + ", not '" + input + "'";
+        return {};
+      },
+      "in [" + formatBound(lo) + ", " + formatBound(hi) + "]" + (unit.empty() ? "" : " " + unit));
+  return check;
+}
+
+}  // namespace voxbrick::cli

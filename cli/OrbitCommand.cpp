@@ -1,0 +1,108 @@
+// `voxbrick orbit STORE -o frames/f%03d.png --frames N`: a turntable, N frames about the volume from one warm process.
+#include <cstdio>
+#include <filesystem>
+#include <regex>
+
+#include "cli/Commands.h"
+#include "cli/SceneOptions.h"
+#include "image/ImageFile.h"
+#include "render/Dataset.h"
+#include "render/RenderEngine.h"
+#include "render/RenderErrors.h"
+#include "render/Scene.h"
+
+namespace voxbrick::cli {
+namespace {
+
+struct OrbitArgs {
+  SceneArgs scene;
+  std::string store, pattern, grid, backend = "auto";
+  int brick = 32, frames = 36, jpegQuality = 90;
+  double elevation = 0;
+  int64_t gpuBudgetMB = 1024, hostBudgetMB = 1024;
+  bool quiet = false;
+};
+
+/// The file of frame `index`: the pattern holds one printf integer conversion (%d, %03d, ...) and no other '%'.
+std::string framePath(const std::string& pattern, int index) {
+  static const std::regex kOne(R"(^[^%]*%0?[0-9]*d[^%]*$)");
+  if (!std::regex_match(pattern, kOne))
+    throw render::RenderInputError("-o '" + pattern + "': expected a pattern with one frame number, e.g. "
+                                   "frames/f%03d.png");
+  char path[4096];
+  std::snprintf(path, sizeof path, pattern.c_str(), index);
+  return path;
+}
+
+/// The turntable's scene: the scene options' orbit camera (default azimuth 30, elevation 20, distance 2.5), its
+/// elevation replaced by --elevation when given; frame i turns the azimuth by 360·i/N degrees.
+render::Scene orbitScene(const OrbitArgs& a, const CLI::App& cmd) {
+  render::Scene scene = buildScene(a.scene, cmd);
+  if (!scene.camera.orbit)
+    throw render::RenderInputError("orbit turns an orbit camera (--orbit AZ,EL,DIST); an explicit --eye cannot turn");
+  if (cmd.count("--elevation")) scene.camera.elevation = a.elevation;
+  return scene;
+}
+
+void runOrbit(const OrbitArgs& a, const CLI::App& cmd) {
+  render::Scene scene = orbitScene(a, cmd);
+  const std::string first = framePath(a.pattern, 0);
+  image::imageFormatFor(first);  // refused before anything is drawn
+  checkOutputFormat(scene, first);
+  const std::filesystem::path dir = std::filesystem::path(first).parent_path();
+  if (!dir.empty()) std::filesystem::create_directories(dir);
+  const auto dataset =
+      render::openDataset(a.store, a.store, size_t(a.hostBudgetMB) << 20, store::StoreOpenOptions{a.grid, a.brick});
+  render::RenderEngineOptions options;
+  options.backend = render::parseBackend(a.backend);
+  options.gpuBudgetBytes = size_t(a.gpuBudgetMB) << 20;
+  render::RenderEngine engine(options);
+  if (!a.quiet) std::fprintf(stderr, "orbit: %s\n", engine.describe().c_str());
+  const double start = scene.camera.azimuth;
+  double totalMs = 0;
+  for (int i = 0; i < a.frames; ++i) {
+    scene.camera.azimuth = start + 360.0 * i / a.frames;
+    render::FrameStats stats;
+    const image::ImageF frame = engine.render(dataset, scene, &stats);
+    const std::string path = framePath(a.pattern, i);
+    image::writeImage(path, image::toImage8(frame), {a.jpegQuality});
+    totalMs += stats.msTotal;
+    if (!a.quiet) std::fprintf(stderr, "orbit: frame %d/%d, azimuth %g, %.1f ms\n", i + 1, a.frames,
+                               scene.camera.azimuth, stats.msTotal);
+  }
+  std::printf("orbit: wrote %d frames (%dx%d) to %s, %.1f ms a frame\n", a.frames, scene.width, scene.height,
+              a.pattern.c_str(), totalMs / a.frames);
+}
+
+}  // namespace
+
+void addOrbitCommand(CLI::App& app) {
+  auto a = std::make_shared<OrbitArgs>();
+  CLI::App* cmd = app.add_subcommand("orbit", "Render a turntable: N frames about the volume, from one warm renderer");
+  cmd->add_option("store", a->store, "store directory, or a .vdb file to read live")->required();
+  cmd->add_option("-o,--output", a->pattern, "frame files, a pattern with one frame number: frames/f%03d.png (or .jpg)")
+      ->required();
+  cmd->add_option("--frames", a->frames, "frames in the full turn")->capture_default_str()->check(between(1, 100000));
+  cmd->add_option("--elevation", a->elevation, "degrees above the equator (default: the --orbit camera's, 20)")
+      ->check(between(-90, 90, "degrees"));
+  cmd->add_option("--grid", a->grid, ".vdb: the float grid to read (default: the first float grid)");
+  cmd->add_option("--brick", a->brick, ".vdb: brick size B, a power of two in [8, 256]")
+      ->capture_default_str()
+      ->check(between(8, 256, "voxels"));
+  cmd->add_option("--jpeg-quality", a->jpegQuality, "JPEG quality of .jpg/.jpeg frames")
+      ->capture_default_str()
+      ->check(between(1, 100));
+  addSceneOptions(cmd, a->scene);
+  cmd->add_option("--backend", a->backend, "auto, egl or osmesa")->capture_default_str();
+  cmd->add_option("--gpu-budget", a->gpuBudgetMB, "MB of GPU memory for the brick atlas")
+      ->capture_default_str()->check(between(16, 1 << 22, "MB"));
+  cmd->add_option("--host-budget", a->hostBudgetMB, "MB of host memory for decoded bricks")
+      ->capture_default_str()->check(between(0, 1 << 22, "MB"));
+  cmd->add_flag("-q,--quiet", a->quiet, "no progress lines");
+  cmd->callback([a, cmd] {
+    keepFreedMemoryForFrames();
+    runOrbit(*a, *cmd);
+  });
+}
+
+}  // namespace voxbrick::cli

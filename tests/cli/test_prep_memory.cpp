@@ -1,0 +1,50 @@
+// `prep --memory MB` bounds the whole process's peak resident memory, measured on the child by wait4.
+#include <gtest/gtest.h>
+
+#include <spawn.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+
+#include <string>
+#include <vector>
+
+#include "support/TestSupport.h"
+
+extern char** environ;
+
+namespace voxbrick {
+namespace {
+
+/// Runs the binary with `args` (no shell) and returns its peak resident memory in MB; fails the test if it does
+/// not exit 0.
+double peakRssMB(const std::vector<std::string>& args) {
+  std::vector<char*> argv;
+  std::string exe = VOXBRICK_EXE;
+  argv.push_back(exe.data());
+  std::vector<std::string> copy = args;
+  for (std::string& a : copy) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  EXPECT_EQ(posix_spawn(&pid, exe.c_str(), nullptr, nullptr, argv.data(), environ), 0);
+  int status = 0;
+  rusage usage{};
+  EXPECT_EQ(wait4(pid, &status, 0, &usage), pid);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "status " << status;
+  return double(usage.ru_maxrss) / 1024;  // kilobytes on Linux
+}
+
+TEST(PrepMemory, PeakResidentMemoryStaysWithinTheBudget) {
+  // The process before any buffer: prep counts 96 MB for it.
+  const double idle = peakRssMB({"--version"});
+  EXPECT_LT(idle, 96) << "the idle process outgrew what prep counts for it (StoreWriter.cpp, kBaselineBytes)";
+  test::ScratchDir dir;
+  for (const int budget : {136, 192}) {
+    const std::string out = (dir / ("s" + std::to_string(budget))).string();
+    const double peak = peakRssMB({"prep", "synthetic:blobs,n=256", "--memory", std::to_string(budget), "-q", "-o", out});
+    EXPECT_LE(peak, budget) << "--memory " << budget << " (idle process " << idle << " MB)";
+    EXPECT_GT(peak, idle) << "the measurement sees the work";
+  }
+}
+
+}  // namespace
+}  // namespace voxbrick
