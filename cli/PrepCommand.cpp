@@ -206,7 +206,7 @@ void addPrepCommand(CLI::App& app) {
       ->check(between(-7, 22));
   cmd->add_option("--memory", args->options.memoryBudgetMB, "memory bound in MB for slabs and VDB chunks")
       ->capture_default_str()
-      ->check(between(16, 1 << 20, "MB"));
+      ->check(between(128, 1 << 20, "MB"));
   cmd->add_option("--background", args->background, "value of empty space (default: the source's, 0 for files)")
       ->check(between(-3.4e38, 3.4e38));
   cmd->add_option("--nonfinite", args->nonFinite,

@@ -105,7 +105,10 @@ TEST(CliDicom, PrepOfATiffGlobWithSpacing) {
   EXPECT_EQ(j["dims"], nlohmann::json({6, 5, 10}));
   expectNear(j["spacing"], {0.3, 0.3, 1.2}, "spacing");
   EXPECT_EQ(j["type"], "u16");
-  EXPECT_FALSE(j.contains("orientation")) << r.output;
+  // A TIFF states no patient frame: the identity, patient false.
+  ASSERT_TRUE(j.contains("orientation")) << r.output;
+  EXPECT_EQ(j["orientation"]["patient"], false);
+  EXPECT_EQ(j["orientation"]["axes"], nlohmann::json({{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}));
 }
 
 }  // namespace

@@ -78,7 +78,7 @@ TEST(Usage, BadOptionsExitOneWithOneLineNamingTheOption) {
 
 TEST(Usage, RangesAreReadable) {
   const test::SplitResult r = runSplit("prep synthetic:blobs -o s --memory 0");
-  EXPECT_EQ(r.err, "voxbrick prep: error: --memory: must be between 16 and 1048576 MB, not '0'\n");
+  EXPECT_EQ(r.err, "voxbrick prep: error: --memory: must be between 128 and 1048576 MB, not '0'\n");
   const test::SplitResult step = runSplit("render s -o f.png --step 0");
   EXPECT_NE(step.err.find("between 0.001 and 64 voxels"), std::string::npos) << step.err;
 }
