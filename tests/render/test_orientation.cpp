@@ -14,6 +14,7 @@
 #include <glm/glm.hpp>
 
 #include "image/Image.h"
+#include "support/DicomSeries.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick {
@@ -118,6 +119,22 @@ void writeNrrd(const std::filesystem::path& path, const Placement& p, const std:
   test::writeFile(path, bytes.data(), bytes.size());
 }
 
+// The phantom as a DICOM series in `dir`, acquired coronally in DICOM's LPS frame: rows run to the patient's left,
+// columns down (inferior), slices posterior; values stored as integers of 1/1000 with a rescale slope of 0.001.
+void writeDicom(const std::filesystem::path& dir) {
+  const glm::dmat3 axes(glm::dvec3(-1, 0, 0), glm::dvec3(0, 0, -1), glm::dvec3(0, -1, 0));  // RAS: L, I, P
+  const Placement p = centred(axes);
+  test::DicomSeriesSpec spec;
+  spec.dims = {kN, kN, kN};
+  spec.spacing = {kSpacing, kSpacing, kSpacing};
+  spec.rowLps = {1, 0, 0};
+  spec.columnLps = {0, 0, -1};
+  spec.originLps = {-p.origin.x, -p.origin.y, p.origin.z};
+  spec.slope = 0.001;
+  std::filesystem::create_directories(dir);
+  test::writeDicomSeries(dir, spec, [](const test::Vec3& ras) { return phantom({ras[0], ras[1], ras[2]}); });
+}
+
 // Red for the blob, green for the bar, a faint blue for the ball; nothing else.
 const char* kTransferFunction = R"({"points": [[0.0, 0, 0, 0, 0], [0.3, 0, 0, 0, 0], [0.4, 0, 0, 1, 0.03],
   [0.5, 0, 0, 0, 0], [0.62, 0, 0, 0, 0], [0.7, 0, 1, 0, 0.3], [0.78, 0, 0, 0, 0], [0.9, 0, 0, 0, 0],
@@ -198,6 +215,7 @@ TEST_F(OrientationPhantom, EveryFileOfTheSameWorldRendersTheSameImage) {
   writeNifti(mDir / "oblique.nii", obliquePlacement, bcd);
   writeNrrd(mDir / "ras.nrrd", centred(permuted), "right-anterior-superior");
   writeNrrd(mDir / "lps.nrrd", centred(flipX), "left-posterior-superior");
+  writeDicom(mDir / "coronal-dicom");
 
   const std::string camera = "--view anterior";
   const image::ImageF reference = prepAndRender(mDir, "identity.nii", camera);
@@ -212,7 +230,7 @@ TEST_F(OrientationPhantom, EveryFileOfTheSameWorldRendersTheSameImage) {
   EXPECT_GT(blob.z, 5);  // both in sight: tens of pixels each
   EXPECT_GT(bar.z, 5);
 
-  for (const char* file : {"flipped.nii", "permuted.nii", "ras.nrrd", "lps.nrrd"}) {
+  for (const char* file : {"flipped.nii", "permuted.nii", "ras.nrrd", "lps.nrrd", "coronal-dicom"}) {
     const image::ImageF image = prepAndRender(mDir, file, camera);
     const image::ImageError e = image::compareImages(reference, image);
     EXPECT_GT(e.psnr, 40) << file;
