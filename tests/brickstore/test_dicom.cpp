@@ -14,10 +14,13 @@
 #include "brickstore/Errors.h"
 #include "brickstore/Sources.h"
 #include "support/DicomSeries.h"
+#include "InputRefusals.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick {
 namespace {
+
+using test::expectRefused;
 
 using store::InputError;
 using store::ValueType;
@@ -83,17 +86,6 @@ std::vector<std::string> strings(const std::vector<std::filesystem::path>& paths
   std::vector<std::string> out;
   for (const auto& p : paths) out.push_back(p.string());
   return out;
-}
-
-/// Expects an InputError whose message holds every word.
-void expectRefused(const std::function<void()>& fn, const std::vector<std::string>& words) {
-  try {
-    fn();
-    ADD_FAILURE() << "no error; expected one with '" << words.front() << "'";
-  } catch (const InputError& e) {
-    const std::string m = e.what();
-    for (const std::string& w : words) EXPECT_NE(m.find(w), std::string::npos) << "missing '" << w << "' in: " << m;
-  }
 }
 
 /// Opens and reads the whole input.

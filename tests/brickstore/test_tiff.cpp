@@ -10,10 +10,13 @@
 
 #include "brickstore/Errors.h"
 #include "brickstore/Sources.h"
+#include "InputRefusals.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick {
 namespace {
+
+using test::expectRefused;
 
 using store::InputError;
 using store::ValueType;
@@ -83,16 +86,6 @@ std::vector<double> readVolume(store::VolumeSource& source) {
     });
   }
   return out;
-}
-
-void expectRefused(const std::function<void()>& fn, const std::vector<std::string>& words) {
-  try {
-    fn();
-    ADD_FAILURE() << "no error; expected one with '" << words.front() << "'";
-  } catch (const InputError& e) {
-    const std::string m = e.what();
-    for (const std::string& w : words) EXPECT_NE(m.find(w), std::string::npos) << "missing '" << w << "' in: " << m;
-  }
 }
 
 std::function<void()> openAndRead(const std::string& input) {

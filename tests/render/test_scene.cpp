@@ -30,15 +30,17 @@ TEST(SceneJson, ShippedExamplesParse) {
   EXPECT_EQ(mri.transferFunctionName, "mri");
 }
 
+/// Expects the scene `json` to be refused with `words` in the message.
+void expectError(const std::string& json, const std::string& words) {
+  try {
+    Scene::fromJson(json, "scene.json");
+    ADD_FAILURE() << "accepted " << json;
+  } catch (const RenderInputError& e) {
+    EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+  }
+}
+
 TEST(SceneJson, ErrorsNameTheKey) {
-  auto expectError = [](const std::string& json, const std::string& words) {
-    try {
-      Scene::fromJson(json, "scene.json");
-      ADD_FAILURE() << "accepted " << json;
-    } catch (const RenderInputError& e) {
-      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
-    }
-  };
   expectError("[1, 2]", "object");
   expectError("{\"sise\": [1, 2]}", "unknown key 'sise'");
   expectError("{\"camera\": {\"orbit\": [0, 0, 2], \"zoom\": 2}}", "unknown key 'camera.zoom'");
@@ -105,14 +107,6 @@ TEST(SceneJson, ToJsonRoundTrips) {
 }
 
 TEST(SceneJson, CameraKeysAndWhatIsRefused) {
-  auto expectError = [](const std::string& json, const std::string& words) {
-    try {
-      Scene::fromJson(json, "scene.json");
-      ADD_FAILURE() << "accepted " << json;
-    } catch (const RenderInputError& e) {
-      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
-    }
-  };
   // center and up only mean something beside an eye: an orbit silently dropped them before.
   expectError("{\"camera\": {\"orbit\": [0, 0, 2], \"center\": [1, 2, 3]}}", "'camera.center' needs 'camera.eye'");
   expectError("{\"camera\": {\"up\": [0, 0, 1]}}", "'camera.up' needs 'camera.eye'");
