@@ -139,13 +139,15 @@ TEST(Presets, TheDefaultTransferFunctionSkipsEmptySpace) {
   // Blobs are Gaussian bumps: their background is small but nowhere exactly 0, so a ramp transparent only at 0
   // draws every brick. The default's transparent band at the bottom of the window makes the corners empty.
   test::ScratchDir dir;
-  const test::SplitResult r = runSplit("render -q " + blobs() + " --size 48x48 -o " + (dir / "f.png").string() +
-                                       " --stats " + (dir / "stats.json").string());
+  // Level 0, so that every brick is either drawn or skipped (coarser levels would stand in for the corners).
+  const test::SplitResult r = runSplit("render -q " + blobs() + " --size 48x48 --lod 0 -o " +
+                                       (dir / "f.png").string() + " --stats " + (dir / "stats.json").string());
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const std::vector<char> bytes = test::readFile(dir / "stats.json");
   const nlohmann::json stats = nlohmann::json::parse(std::string(bytes.begin(), bytes.end()));
   EXPECT_GT(stats.at("bricks_skipped_empty").get<int>(), 0) << stats.dump();
   EXPECT_GT(stats.at("bricks_drawn").get<int>(), 0) << stats.dump();
+  EXPECT_EQ(stats.at("bricks_drawn").get<int>() + stats.at("bricks_skipped_empty").get<int>(), 64) << stats.dump();
 }
 
 }  // namespace
