@@ -35,7 +35,9 @@ std::string swatch(const render::TransferFunction& tf, bool colour) {
       out += "\x1b[48;2;" + std::to_string(byte(c.r)) + ";" + std::to_string(byte(c.g)) + ";" +
              std::to_string(byte(c.b)) + "m ";
     } else {
-      out += ink[size_t(std::min(std::lround(std::clamp(c.a, 0.0, 1.0) * 2 * (ink.size() - 1)), long(ink.size() - 1)))];
+      // Opacity 0.5 (most presets' highest) or more is the darkest character.
+      const double ink01 = std::clamp(c.a * 2, 0.0, 1.0);
+      out += ink[size_t(std::lround(ink01 * double(ink.size() - 1)))];
     }
   }
   return colour ? out + "\x1b[0m" : "|" + out + "|";
