@@ -25,6 +25,8 @@ void addLoadCommand(CLI::App& app);
 void addCompareCommand(CLI::App& app);
 /// Adds `bench` to the app.
 void addBenchCommand(CLI::App& app);
+/// Adds `presets` (the transfer-function presets) to the app.
+void addPresetsCommand(CLI::App& app);
 
 /// Parses "a,b,c" into three numbers; throws CLI::ValidationError naming the option.
 template <typename T>

@@ -44,6 +44,7 @@ int main(int argc, char** argv) {
   voxbrick::cli::addLoadCommand(app);
   voxbrick::cli::addCompareCommand(app);
   voxbrick::cli::addBenchCommand(app);
+  voxbrick::cli::addPresetsCommand(app);
 
   try {
     app.parse(argc, argv);

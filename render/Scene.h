@@ -96,7 +96,9 @@ struct Scene {
   CameraSpec camera;
   int width = 512, height = 512;
   /// Default: the grayscale ramp (as config/tf/grayscale.json), built in so a scene never needs the config files.
-  TransferFunction transferFunction{{{0.0, {0, 0, 0, 0}}, {1.0, {1, 1, 1, 0.5}}}};
+  /// Transparent up to 0.05 of the window, so that empty space (a background at the window's low end, and its
+  /// noise) is skipped; then grey rising to white and opacity rising to 0.5.
+  TransferFunction transferFunction{{{0.0, {0, 0, 0, 0}}, {0.05, {0.05, 0.05, 0.05, 0}}, {1.0, {1, 1, 1, 0.5}}}};
   std::string transferFunctionName = "grayscale";  ///< preset name or path, or "inline"
   /// Slice spacing in voxels of level 0 (of the smallest spacing). The default drawing, step 0.75 through the frame
   /// ray caster with termination at 0.999 and cells of sub-blocks of 8, is the fastest setting of

@@ -20,7 +20,7 @@ namespace voxbrick::render {
 struct TetReferenceParams {
   Camera camera;  ///< perspective or orthographic, as Camera defines them (CameraSpec::resolve gives one)
   /// Default: the grayscale ramp, as Scene's.
-  TransferFunction transferFunction{{{0.0, {0, 0, 0, 0}}, {1.0, {1, 1, 1, 0.5}}}};
+  TransferFunction transferFunction{{{0.0, {0, 0, 0, 0}}, {0.05, {0.05, 0.05, 0.05, 0}}, {1.0, {1, 1, 1, 0.5}}}};
   /// The value window: raw scalar windowLo maps to 0 and windowHi to 1, linearly, clamped beyond (as the grid's).
   double windowLo = 0, windowHi = 1;
   double referenceLength = 1;  ///< L_ref, world units: alpha is per this length

@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "render/BuiltInPresets.h"
 #include "render/RenderErrors.h"
 
 namespace voxbrick::render {
@@ -108,13 +109,21 @@ std::filesystem::path TransferFunction::configDirectory() {
   std::error_code ec;
   std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
   if (!ec) {
-    std::filesystem::path beside = exe.parent_path().parent_path() / "config";
-    if (std::filesystem::is_directory(beside, ec)) return beside;
+    // build/voxbrick finds the source tree's config/; an installed PREFIX/bin/voxbrick finds PREFIX/share/voxbrick.
+    const std::filesystem::path root = exe.parent_path().parent_path();
+    for (const std::filesystem::path& beside : {root / "config", root / "share" / "voxbrick"})
+      if (std::filesystem::is_directory(beside, ec)) return beside;
   }
   return "config";
 }
 
-std::vector<std::string> TransferFunction::presetNames() { return presetNames(configDirectory() / "tf"); }
+std::vector<std::string> TransferFunction::presetNames() {
+  std::vector<std::string> names = presetNames(configDirectory() / "tf");
+  for (const BuiltInPreset& p : builtInPresets()) names.emplace_back(p.name);
+  std::sort(names.begin(), names.end());
+  names.erase(std::unique(names.begin(), names.end()), names.end());
+  return names;
+}
 
 std::vector<std::string> TransferFunction::presetNames(const std::filesystem::path& directory) {
   std::vector<std::string> names;
@@ -148,10 +157,13 @@ TransferFunction TransferFunction::load(const std::string& nameOrPath) {
                              "'-', '_')");
     path = configDirectory() / "tf" / (nameOrPath + ".json");
     std::error_code ec;
+    // A file of the name overrides the built-in preset, so a site can retune one without a rebuild.
     if (!std::filesystem::is_regular_file(path, ec)) {
+      if (const BuiltInPreset* builtIn = findBuiltInPreset(nameOrPath))
+        return parse(std::string(builtIn->json), "built-in preset '" + nameOrPath + "'");
       std::string known;
       for (const std::string& name : presetNames()) known += (known.empty() ? "" : ", ") + name;
-      throw RenderInputError("TransferFunction::load: no preset '" + nameOrPath + "' in " +
+      throw RenderInputError("TransferFunction::load: no preset '" + nameOrPath + "' built in or in " +
                              (configDirectory() / "tf").string() + " (presets: " +
                              (known.empty() ? "none" : known) + "; set VOXBRICK_CONFIG_DIR to choose the directory)");
     }

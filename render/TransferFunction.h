@@ -31,16 +31,18 @@ class TransferFunction {
 
   /// Parses the JSON text; throws RenderInputError naming `what`, and the point index or key, for any violation.
   static TransferFunction parse(const std::string& json, const std::string& what);
-  /// Reads a file when `nameOrPath` contains '/' or ends in ".json"; otherwise loads the preset
-  /// configDirectory()/tf/<name>.json (names of letters, digits, '-', '_'). Throws RenderInputError for a missing
-  /// or unreadable file (listing the presets for an unknown name) and for its content.
+  /// Reads a file when `nameOrPath` contains '/' or ends in ".json"; otherwise loads the preset <name> (letters,
+  /// digits, '-', '_'): configDirectory()/tf/<name>.json if that file exists, else the built-in preset of that name
+  /// (BuiltInPresets.h). Throws RenderInputError for a missing or unreadable file, an unknown name (listing the
+  /// presets) and bad content.
   static TransferFunction load(const std::string& nameOrPath);
   /// Whether `name` is a preset name: non-empty, letters, digits, '-' and '_' only.
   static bool isPresetName(const std::string& name);
-  /// Where presets live: $VOXBRICK_CONFIG_DIR if set and non-empty; else "config" beside the directory holding the
-  /// running executable (build/voxbrick -> config/), if that is a directory; else "./config".
+  /// Where configuration lives: $VOXBRICK_CONFIG_DIR if set and non-empty; else "config" beside the directory holding
+  /// the running executable (build/voxbrick -> config/), if that is a directory; else "share/voxbrick" there (an
+  /// installed PREFIX/bin/voxbrick -> PREFIX/share/voxbrick), if that is one; else "./config".
   static std::filesystem::path configDirectory();
-  /// Names of the presets in configDirectory()/tf, sorted; empty if there is no such directory.
+  /// Names of the presets load() resolves: the built-in ones and those in configDirectory()/tf, sorted, once each.
   static std::vector<std::string> presetNames();
   /// Names of the presets in `directory` (files <name>.json with a preset name), sorted; empty if it is missing.
   static std::vector<std::string> presetNames(const std::filesystem::path& directory);

@@ -14,9 +14,14 @@
 namespace voxbrick::test {
 
 SplitResult runSplit(const std::string& args, double timeoutSeconds, const std::string& shellPrefix) {
+  return runExe(VOXBRICK_EXE, args, timeoutSeconds, shellPrefix);
+}
+
+SplitResult runExe(const std::string& exe, const std::string& args, double timeoutSeconds,
+                   const std::string& shellPrefix) {
   ScratchDir dir;
   const std::string out = (dir / "out").string(), err = (dir / "err").string();
-  const std::string command = shellPrefix + " timeout " + std::to_string(timeoutSeconds) + " " + VOXBRICK_EXE + " " + args +
+  const std::string command = shellPrefix + " timeout " + std::to_string(timeoutSeconds) + " " + exe + " " + args +
                               " </dev/null >" + out + " 2>" + err;
   const int status = std::system(command.c_str());
   SplitResult r;

@@ -15,6 +15,9 @@ struct SplitResult {
 /// Runs the built `voxbrick` with `args` (shell-quoted where needed) through /bin/sh, stdin from /dev/null, killed
 /// after `timeoutSeconds`. `shellPrefix` runs first in the same shell (e.g. "ulimit -f 2;").
 SplitResult runSplit(const std::string& args, double timeoutSeconds = 120, const std::string& shellPrefix = "");
+/// As runSplit, for the binary at `exe` (a copy moved elsewhere, an installed one).
+SplitResult runExe(const std::string& exe, const std::string& args, double timeoutSeconds = 120,
+                   const std::string& shellPrefix = "");
 
 /// A store `voxbrick prep SPEC OPTIONS` made once per test program (kept until it ends), e.g.
 /// preppedStore("synthetic:blobs,n=64", "--brick 16"). Throws std::runtime_error with prep's errors if it fails.

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "render/BuiltInPresets.h"
 #include "render/RenderErrors.h"
 #include "render/Scene.h"
 #include "render/TransferFunction.h"
@@ -302,12 +303,60 @@ TEST(TransferFunctionPresets, LoadsPathsAndReportsMissingFiles) {
   test::writeFile(dir / "tf" / "custom.json", std::string(R"({"points": [[0, 0, 0, 1, 0.25]]})"));
   EnvGuard env("VOXBRICK_CONFIG_DIR", dir.path().string());
   EXPECT_EQ(TransferFunction::load("custom").evaluate(0).b, 1.0);
+  // A name the directory lacks falls back to the built-in preset; one that is neither is refused, listing both.
+  EXPECT_EQ(TransferFunction::load("grayscale").points().size(), 3u);
   try {
-    TransferFunction::load("grayscale");
-    ADD_FAILURE() << "found a preset that is not in the directory";
+    TransferFunction::load("nosuch");
+    ADD_FAILURE() << "found a preset that is neither built in nor in the directory";
   } catch (const RenderInputError& e) {
-    EXPECT_NE(std::string(e.what()).find("presets: custom"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("presets: ct-bone, custom, grayscale, hot, mri, sparse"), std::string::npos)
+        << e.what();
   }
+}
+
+TEST(TransferFunctionPresets, BuiltInPresetsAreTheShippedFilesAndFilesOverrideThem) {
+  // The embedded text is the file's: every shipped file, nothing else, equal point for point.
+  const std::filesystem::path shipped = sourceDir() / "config" / "tf";
+  std::vector<std::string> builtIn;
+  for (const BuiltInPreset& p : builtInPresets()) {
+    builtIn.emplace_back(p.name);
+    const TransferFunction file = TransferFunction::load((shipped / (builtIn.back() + ".json")).string());
+    const TransferFunction embedded = TransferFunction::parse(std::string(p.json), "built-in");
+    ASSERT_EQ(embedded.points().size(), file.points().size()) << p.name;
+    for (size_t i = 0; i < file.points().size(); ++i) {
+      EXPECT_EQ(embedded.points()[i].x, file.points()[i].x) << p.name;
+      EXPECT_EQ(embedded.points()[i].rgba, file.points()[i].rgba) << p.name;
+    }
+  }
+  EXPECT_EQ(builtIn, TransferFunction::presetNames(shipped));
+  EXPECT_NE(findBuiltInPreset("mri"), nullptr);
+  EXPECT_EQ(findBuiltInPreset("nosuch"), nullptr);
+
+  test::ScratchDir dir;
+  test::writeFile(dir / "mri.json", std::string(R"({"points": [[0, 1, 0, 0, 0.25]]})"));
+  const TransferFunctionPresets presets = TransferFunctionPresets::load(dir.path());
+  EXPECT_TRUE(presets.file("mri") == dir / "mri.json");
+  EXPECT_EQ(presets.get("mri").evaluate(0.5).a, 0.25);
+  EXPECT_FALSE(presets.file("hot").has_value()) << "built in";
+  EnvGuard env("VOXBRICK_CONFIG_DIR", (dir / "absent").string());
+  EXPECT_EQ(TransferFunction::presetNames(), builtIn);
+  EXPECT_EQ(TransferFunction::load("mri").points().size(), 6u);
+}
+
+TEST(TransferFunctionPresets, TheDefaultIsTheGrayscalePresetAndSkipsTheBottomOfTheWindow) {
+  EnvGuard env("VOXBRICK_CONFIG_DIR", (sourceDir() / "config").string());
+  const TransferFunction preset = TransferFunction::load("grayscale");
+  const TransferFunction builtIn = Scene{}.transferFunction;
+  ASSERT_EQ(builtIn.points().size(), preset.points().size());
+  for (size_t i = 0; i < preset.points().size(); ++i) {
+    EXPECT_EQ(builtIn.points()[i].x, preset.points()[i].x) << i;
+    EXPECT_EQ(builtIn.points()[i].rgba, preset.points()[i].rgba) << i;
+  }
+  // Empty space at the window's low end, and noise a little above it, is transparent, so the plan skips it.
+  EXPECT_FALSE(builtIn.contributes(0.0, 0.04));
+  EXPECT_FALSE(builtIn.tableContributes(0.0, 0.04, 256));
+  EXPECT_TRUE(builtIn.contributes(0.0, 0.06));
+  EXPECT_DOUBLE_EQ(builtIn.evaluate(1.0).a, 0.5);
 }
 
 TEST(PresetsReadOnce, ResolvesNamesWithoutReadingFilesAgain) {
@@ -317,7 +366,8 @@ TEST(PresetsReadOnce, ResolvesNamesWithoutReadingFilesAgain) {
   test::writeFile(dir / "notes.txt", std::string("not a preset"));
   test::writeFile(dir / "bad name.json", std::string(R"({"points": [[0, 0, 0, 1, 0.1]]})"));
   const TransferFunctionPresets presets = TransferFunctionPresets::load(dir.path());
-  EXPECT_EQ(presets.names(), (std::vector<std::string>{"cool", "warm"}));
+  EXPECT_EQ(presets.names(),
+            (std::vector<std::string>{"cool", "ct-bone", "grayscale", "hot", "mri", "sparse", "warm"}));
   std::filesystem::remove_all(dir.path() / "warm.json");  // resolved from memory from now on
   EXPECT_DOUBLE_EQ(presets.get("warm").evaluate(1.0).a, 0.4);
   const Scene scene = Scene::fromJson(R"({"transfer_function": "warm"})", "request", presets);
@@ -330,13 +380,14 @@ TEST(PresetsReadOnce, UnknownNamesPathsAndBadFilesAreRefusedByName) {
   test::writeFile(dir / "only.json", std::string(R"({"points": [[0, 0, 0, 1, 0.1]]})"));
   const TransferFunctionPresets presets = TransferFunctionPresets::load(dir.path());
   try {
-    presets.get("grayscale");
+    presets.get("nosuch");
     ADD_FAILURE() << "found a preset that was not loaded";
   } catch (const RenderInputError& e) {
-    EXPECT_NE(std::string(e.what()).find("'grayscale'"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("presets: only"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("'nosuch'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("presets: ct-bone, grayscale, hot, mri, only, sparse"), std::string::npos)
+        << e.what();
   }
-  EXPECT_THROW(Scene::fromJson(R"({"transfer_function": "grayscale"})", "request", presets), RenderInputError);
+  EXPECT_THROW(Scene::fromJson(R"({"transfer_function": "nosuch"})", "request", presets), RenderInputError);
   EXPECT_THROW(Scene::fromJson(R"({"transfer_function": "/etc/passwd"})", "request", presets), RenderInputError);
   EXPECT_THROW(Scene::fromJson(R"({"transfer_function": "x.json"})", "request", presets), RenderInputError);
 
@@ -347,7 +398,8 @@ TEST(PresetsReadOnce, UnknownNamesPathsAndBadFilesAreRefusedByName) {
   } catch (const RenderInputError& e) {
     EXPECT_NE(std::string(e.what()).find("broken.json"), std::string::npos) << e.what();
   }
-  EXPECT_TRUE(TransferFunctionPresets::load(dir / "absent").names().empty());
+  EXPECT_EQ(TransferFunctionPresets::load(dir / "absent").names(),
+            (std::vector<std::string>{"ct-bone", "grayscale", "hot", "mri", "sparse"}));
 }
 
 }  // namespace
