@@ -8,6 +8,7 @@
 #include <map>
 #include <sstream>
 
+#include "image/ImageFile.h"
 #include "render/RenderErrors.h"
 #include "render/Scene.h"
 
@@ -185,20 +186,12 @@ std::optional<QualityTable> QualityTable::load(const std::filesystem::path& data
 }
 
 void QualityTable::save(const std::filesystem::path& dataset) const {
-  const std::filesystem::path path = pathFor(dataset), tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << toJson();
-    out.flush();
-    if (!out) {
-      std::error_code ignored;
-      std::filesystem::remove(tmp, ignored);
-      throw RenderInputError(tmp.string() + ": cannot write the quality table");
-    }
+  const std::string text = toJson();
+  try {
+    image::writeFileAtomically(pathFor(dataset), {reinterpret_cast<const uint8_t*>(text.data()), text.size()});
+  } catch (const image::ImageFailure& e) {
+    throw RenderInputError(std::string("cannot write the quality table: ") + e.what());
   }
-  std::error_code error;
-  std::filesystem::rename(tmp, path, error);
-  if (error) throw RenderInputError(path.string() + ": cannot write the quality table (" + error.message() + ")");
 }
 
 QualityChoice QualityTable::choose(const QualityTarget& target, const Scene& scene) const {
