@@ -1,10 +1,12 @@
-// `voxbrick serve [--config config/server.toml] [overrides]`: the render service.
+// `voxbrick serve [--config config/server.toml | --no-config] [overrides]`: the render service.
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 
 #include <spdlog/spdlog.h>
 
 #include "cli/Commands.h"
+#include "render/TransferFunction.h"
 #include "server/Server.h"
 #include "server/ServerConfig.h"
 
@@ -18,12 +20,23 @@ struct ServeArgs {
   int maxPending = 0, maxPerAddress = -1;
   double idleTimeout = 0, readTimeout = 0, writeTimeout = 0, helloTimeout = 0;
   int64_t maxTotalOutputMB = 0;
-  bool noCoalesce = false;
+  bool noCoalesce = false, noConfig = false;
   int64_t hostCacheMB = 0, gpuBudgetMB = 0, maxMessageBytes = 0;
 };
 
+/// The configuration file serve reads: --config, else server.toml in the configuration directory (the source tree's
+/// config/ beside build/, an installed PREFIX/share/voxbrick, or $VOXBRICK_CONFIG_DIR) if there is one and
+/// --no-config was not given; empty: the built-in defaults.
+std::string configFile(const ServeArgs& a) {
+  if (!a.config.empty() || a.noConfig) return a.config;
+  const std::filesystem::path found = render::TransferFunction::configDirectory() / "server.toml";
+  std::error_code ec;
+  return std::filesystem::is_regular_file(found, ec) ? found.string() : std::string();
+}
+
 void runServe(const ServeArgs& a) {
-  server::ServerConfig c = a.config.empty() ? server::ServerConfig{} : server::ServerConfig::load(a.config);
+  const std::string file = configFile(a);
+  server::ServerConfig c = file.empty() ? server::ServerConfig{} : server::ServerConfig::load(file);
   if (!a.host.empty()) c.host = a.host;
   if (a.port >= 0) c.port = a.port;
   if (!a.datasets.empty()) c.datasets = a.datasets;
@@ -49,6 +62,7 @@ void runServe(const ServeArgs& a) {
   spdlog::set_level(spdlog::level::from_str(c.logLevel));
   spdlog::set_pattern("[%Y-%m-%d %H:%M:%S.%e] [%l] %v");
 
+  spdlog::info("configuration: {}", file.empty() ? std::string("the built-in defaults") : file);
   server::Server server(c);
   spdlog::info("serving datasets from {} on {}:{}", c.datasets.string(), c.host, server.port());
   std::printf("listening on %s:%d\n", c.host.c_str(), server.port());
@@ -69,8 +83,14 @@ void addServeCommand(CLI::App& app) {
   auto a = std::make_shared<ServeArgs>();
   CLI::App* cmd = app.add_subcommand("serve",
                                      "Serve frames of a directory of stores and .vdb files over TCP (proto/PROTOCOL.md)");
-  cmd->add_option("--config", a->config, "TOML configuration (e.g. config/server.toml); options below override it")
-      ->check(CLI::ExistingFile);
+  CLI::Option* config =
+      cmd->add_option("--config", a->config,
+                      "TOML configuration; options below override it (default: server.toml in the configuration "
+                      "directory if there is one: config/ beside build/, PREFIX/share/voxbrick when installed, or "
+                      "$VOXBRICK_CONFIG_DIR)")
+          ->check(CLI::ExistingFile);
+  cmd->add_flag("--no-config", a->noConfig, "read no configuration file: the built-in defaults and the options below")
+      ->excludes(config);
   cmd->add_option("--host", a->host, "address to listen on (default 127.0.0.1)");
   cmd->add_option("--port", a->port, "TCP port; 0 picks a free one (default 7420)")
       ->check(between(0, 65535));

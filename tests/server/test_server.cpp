@@ -3,6 +3,7 @@
 
 #include <signal.h>
 
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -314,6 +315,33 @@ TEST_F(ServerTest, LimitsAreEnforced) {
   const json stats = json::parse(fresh->stats());
   EXPECT_GE(stats["sessions"]["refused"].get<int>(), 1);
   EXPECT_GE(stats["sessions"]["timed_out"].get<int>(), 1);
+}
+
+// Without --config, serve reads server.toml from the configuration directory (an installed PREFIX/share/voxbrick,
+// the source tree's config/, or $VOXBRICK_CONFIG_DIR), and --no-config reads none.
+TEST_F(ServerTest, ServeReadsTheConfigurationDirectorysServerTomlUnlessToldNot) {
+  test::ScratchDir dir;
+  std::filesystem::create_directories(dir / "config");
+  const std::string file = (dir / "config" / "server.toml").string();
+  test::writeFile(file, std::string("[limits]\nmax_image_side = 64\n"));
+  const char* before = std::getenv("VOXBRICK_CONFIG_DIR");
+  const std::string saved = before ? before : "";
+  ::setenv("VOXBRICK_CONFIG_DIR", (dir / "config").string().c_str(), 1);
+  std::unique_ptr<ServerProcess> configured, defaults;
+  try {
+    configured = start();
+    defaults = start("--no-config");
+  } catch (...) {
+    before ? ::setenv("VOXBRICK_CONFIG_DIR", saved.c_str(), 1) : ::unsetenv("VOXBRICK_CONFIG_DIR");
+    throw;
+  }
+  before ? ::setenv("VOXBRICK_CONFIG_DIR", saved.c_str(), 1) : ::unsetenv("VOXBRICK_CONFIG_DIR");
+  // kScene is 80 pixels wide: above the file's limit, within the default's.
+  auto limited = session(*configured);
+  EXPECT_EQ(errorOf([&] { limited->render(kScene); }), ErrorCode::LimitExceeded);
+  EXPECT_NE(configured->log().find("configuration: " + file), std::string::npos) << configured->log();
+  EXPECT_EQ(session(*defaults)->render(kScene).width, 80u);
+  EXPECT_NE(defaults->log().find("configuration: the built-in defaults"), std::string::npos) << defaults->log();
 }
 
 TEST_F(ServerTest, FramesAboveTheMessageLimitAreRefusedNotSent) {
