@@ -3,8 +3,13 @@
 
 #include <chrono>
 #include <cmath>
+#include <functional>
+#include <limits>
 
 #include <glm/gtc/matrix_transform.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include "mesh/Visibility.h"
 #include "render/Checkpoints.h"
@@ -23,6 +28,10 @@ constexpr double kShortestRatioShare = 1.0 / 64;
 
 /// The most tets one draw call takes: cancellation is checked between draws.
 constexpr size_t kTetsPerDraw = 262144;
+
+/// A tet's vertex stage (its strip's hull and planes, for each of four strip vertices) in fragments' work: about
+/// 0.7 s for a million tets on llvmpipe against about 45 ns a fragment (bench/results/tets.md).
+constexpr double kFragmentsPerTet = 16;
 
 Program tetProgram(const Gl& gl, bool nullFragment) {
   std::vector<std::string> defines;
@@ -91,6 +100,50 @@ TetRenderer::~TetRenderer() = default;
 
 size_t TetRenderer::gpuBytes() const { return mBatchTets * (kBytesPerTet + 4) + tableBytes(); }
 
+double TetRenderer::estimatedCost(const glm::dmat4& viewProj, int width, int height) {
+  // Each point projected once (window coordinates; points at or behind the eye plane marked), then per tet to be
+  // drawn the pixels of its projection's bounding box inside the window: a tet with a point behind the eye plane may
+  // cover the window.
+  const mesh::TetMesh& m = mData->mesh;
+  const glm::dvec3 centre = mData->bounds.center();
+  mProjected.resize(m.points.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, m.points.size(), 16384), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) {
+      const glm::dvec4 clip = viewProj * glm::dvec4(glm::dvec3(m.points[i]) - centre, 1.0);
+      mProjected[i] = clip.w > 1e-12 ? glm::vec3((clip.x / clip.w + 1) * 0.5 * width,
+                                                 (clip.y / clip.w + 1) * 0.5 * height, 1.0f)
+                                     : glm::vec3(0.0f);
+    }
+  });
+  const double window = double(width) * double(height);
+  // In mesh order (mDrawn: the tets of the frame), where neighbouring tets share points.
+  const double fragments = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, m.tets.size(), 16384), 0.0,
+      [&](const tbb::blocked_range<size_t>& r, double sum) {
+        for (size_t t = r.begin(); t != r.end(); ++t) {
+          if (!mDrawn[t]) continue;
+          glm::vec2 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
+          bool behind = false;
+          for (uint32_t v : m.tets[t]) {
+            const glm::vec3& p = mProjected[v];
+            behind = behind || p.z == 0.0f;
+            lo = glm::min(lo, glm::vec2(p));
+            hi = glm::max(hi, glm::vec2(p));
+          }
+          if (behind) {
+            sum += window;
+            continue;
+          }
+          const double w = std::min(double(hi.x), double(width)) - std::max(double(lo.x), 0.0);
+          const double h = std::min(double(hi.y), double(height)) - std::max(double(lo.y), 0.0);
+          if (w > 0 && h > 0) sum += (std::ceil(w) + 1) * (std::ceil(h) + 1);
+        }
+        return sum;
+      },
+      std::plus<double>());
+  return fragments + kFragmentsPerTet * double(mOrder.size());
+}
+
 image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, const FrameOptions& options) {
   scene.validate();
   const auto frameStart = Clock::now();
@@ -125,16 +178,29 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
   if (!(hi > lo)) hi = lo + 1;
   // Empty-space skipping per tet: one whose value range the transfer function makes transparent is left out of the
   // order (after sorting: MPVO needs every tet's faces to order the others).
+  const size_t tetCount = d.mesh.tets.size();
+  mDrawn.assign(tetCount, 1);
   if (scene.skipEmpty) {
     const double inverse = 1.0 / (hi - lo);
     const TransferFunction& tf = scene.transferFunction;
-    const size_t before = mOrder.size();
-    std::erase_if(mOrder, [&](uint32_t t) {
-      const auto [tetLo, tetHi] = d.tetRanges[t];
-      return !tf.contributes((double(tetLo) - lo) * inverse, (double(tetHi) - lo) * inverse);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, tetCount, 16384), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t t = r.begin(); t != r.end(); ++t) {
+        const auto [tetLo, tetHi] = d.tetRanges[t];
+        mDrawn[t] = tf.contributes((double(tetLo) - lo) * inverse, (double(tetHi) - lo) * inverse);
+      }
     });
+    const size_t before = mOrder.size();
+    std::erase_if(mOrder, [&](uint32_t t) { return !mDrawn[t]; });
     stats.tetsSkippedEmpty = int64_t(before - mOrder.size());
   }
+  // The frame's cost before anything is drawn, in the unit of FrameOptions::maxSamples: a fragment counts as a
+  // sample, and each tet's projected bounding box bounds its fragments.
+  stats.samplesEstimated = estimatedCost(viewProj, scene.width, scene.height);
+  if (options.maxSamples > 0 && stats.samplesEstimated > options.maxSamples)
+    throw RenderLimitError("the mesh frame would take about " + numberText(std::round(stats.samplesEstimated / 1e6)) +
+                           " million fragments' work (" + std::to_string(mOrder.size()) +
+                           " tets drawn), above the limit of " + numberText(options.maxSamples / 1e6) +
+                           " million samples; ask for a smaller image or a view with less of the mesh");
   const double reference = scene.transferFunction.referenceLength().value_or(d.meanEdgeLength);
   const double ratioMax = d.longestEdge / reference;
   const double ratioMin = ratioMax * kShortestRatioShare;

@@ -47,6 +47,10 @@ class TetRenderer final : public FrameRenderer {
   static size_t tableBytes();
   /// Tet `tet`'s four vertices as the shader reads them.
   void writeTet(uint32_t tet, glm::vec4* out) const;
+  /// The cost of drawing the tets of mDrawn with `viewProj` into a width x height window, in FrameOptions::maxSamples' unit: the
+  /// pixels of each tet's projected bounding box inside the window (an upper bound of its fragments; the whole window
+  /// for a tet reaching behind the eye plane), plus kFragmentsPerTet a tet for its vertex stage.
+  double estimatedCost(const glm::dmat4& viewProj, int width, int height);
 
   const Gl& mGl;
   std::shared_ptr<const TetMeshData> mData;
@@ -60,6 +64,8 @@ class TetRenderer final : public FrameRenderer {
   PreIntegrationTexture mTable;
   std::vector<uint32_t> mOrder;       // this frame's tets, front to back
   std::vector<glm::vec4> mStaging;    // a streamed batch on its way to mVertices
+  std::vector<glm::vec3> mProjected;  // estimatedCost: each point's window position, z 0 at or behind the eye
+  std::vector<uint8_t> mDrawn;        // per tet in mesh order: 1 if this frame draws it (not skipped as empty)
 };
 
 }  // namespace voxbrick::render

@@ -31,7 +31,8 @@ struct ServerConfig {
   uint64_t maxOutputBytes = 256ull << 20;    ///< replies queued for a session that does not read
   /// The most a Render may cost, in millions of samples as FramePlan::estimatedSamples bounds them (an upper
   /// estimate, 5-20x the samples a frame takes): a 4096² frame of a 1024³ volume at the default step fits, 4096² at
-  /// step 0.001 does not.
+  /// step 0.001 does not. A mesh frame counts its fragments, bounded by each drawn tet's projected bounding box, plus
+  /// 16 a tet (TetRenderer::estimatedCost: 2-4x the fragments it draws).
   double maxRenderMSamples = 100000;
   // Hostile clients (PROTOCOL.md section 3, "Connections"): sockets that never speak, clients that never read.
   // max_sessions counts connections past Hello only, and read_timeout_s runs from a message's first byte

@@ -143,6 +143,49 @@ TEST(TetRenderer, EmptyTetsAreSkippedWithoutChangingTheImage) {
   test::expectClose(fast, slow, 0.0, "tets-skip-empty");
 }
 
+// A mesh frame's cost is estimated before drawing (each drawn tet's projected bounding box, plus its vertex stage):
+// never below the fragments it draws, within a small factor of them, lower when empty tets are skipped, and a frame
+// above FrameOptions::maxSamples is refused naming the limit, with the renderer fine for the next frame.
+TEST(TetRenderer, TheFrameCostIsEstimatedBeforeDrawingAndLimited) {
+  auto m = mesh::syntheticMesh("ball,n=12");
+  mesh::Topology t = mesh::buildTopology(m);
+  auto data = std::make_shared<const TetMeshData>(std::move(m), std::move(t));
+  TetRenderer renderer(test::context(), data, size_t(256) << 20);
+  Scene scene;
+  scene.width = 96;
+  scene.height = 80;
+  scene.transferFunction = TransferFunction({{0, {1, 0.5, 0, 0}}, {0.4, {1, 0.5, 0, 0}}, {1, {1, 1, 1, 0.6}}});
+  for (const char* orbit : {"far", "close", "inside"}) {
+    SCOPED_TRACE(orbit);
+    const std::string o = orbit;
+    scene.camera.distance = o == "far" ? 3.0 : o == "close" ? 1.1 : 0.3;  // bounding radii
+    FrameStats skipped, all;
+    scene.skipEmpty = true;
+    renderer.render(scene, &skipped);
+    scene.skipEmpty = false;
+    renderer.render(scene, &all);
+    ASSERT_GT(all.fragments, 0);
+    EXPECT_GE(all.samplesEstimated, double(all.fragments));
+    EXPECT_GE(skipped.samplesEstimated, double(skipped.fragments));
+    EXPECT_LT(skipped.samplesEstimated, all.samplesEstimated);
+    // Far from the eye, bounding boxes are at most a few times a tet's projection.
+    if (o == "far") EXPECT_LT(all.samplesEstimated, 8.0 * double(all.fragments));
+  }
+  scene.camera.distance = 3.0;
+  FrameStats measured;
+  const image::ImageF before = renderer.render(scene, &measured);
+  FrameOptions options;
+  options.maxSamples = 0.5 * measured.samplesEstimated;
+  try {
+    renderer.render(scene, nullptr, options);
+    ADD_FAILURE() << "a mesh frame above the limit was drawn";
+  } catch (const RenderLimitError& e) {
+    EXPECT_NE(std::string(e.what()).find("above the limit"), std::string::npos) << e.what();
+  }
+  options.maxSamples = 2 * measured.samplesEstimated;
+  test::expectClose(renderer.render(scene, nullptr, options), before, 0.0, "tets-after-limit");
+}
+
 // A mesh larger than the GPU budget is streamed in batches of tets in visibility order: the same image; a budget
 // below one batch and the table is refused naming both.
 TEST(TetRenderer, AMeshLargerThanTheBudgetIsStreamedToTheSameImage) {

@@ -198,7 +198,14 @@ TEST_F(ServerTest, ServesATetMeshWithTheRenderCommandsFrame) {
   size_t lit = 0;
   for (size_t i = 0; i < served.size(); i += 4) lit += served[i] > 0 ? 1 : 0;
   EXPECT_GT(lit, 500u) << "an empty frame would prove nothing";
+  EXPECT_GT(json::parse(frame.statsJson)["samples_estimated"].get<double>(), 0.0);
   c->goodbye();
+  // The frame-cost limit holds for meshes too: a large frame is refused before drawing, a small one is drawn.
+  ServerProcess limited("--datasets " + datasets.string() + " --max-render-msamples 1", work);
+  auto l = session(limited, "ball");
+  const char* large = R"({"camera": {"orbit": [40, 25, 1.5]}, "size": [1024, 1024], "transfer_function": "hot"})";
+  EXPECT_EQ(errorOf([&] { l->render(large); }), ErrorCode::LimitExceeded);
+  EXPECT_EQ(l->render(scene).width, 80u);
 }
 
 TEST_F(ServerTest, MalformedMessagesGetTheirErrorsAndOtherSessionsGoOn) {
