@@ -12,18 +12,7 @@
 namespace voxbrick::bench {
 namespace {
 
-std::string number(const char* format, double value) {
-  if (std::isinf(value)) return "inf";
-  char text[64];
-  std::snprintf(text, sizeof text, format, value);
-  return text;
-}
-
-void writeFile(const std::filesystem::path& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out << text;
-  if (!out) throw std::runtime_error("cannot write " + path.string());
-}
+std::string number(const char* format, double value) { return formatNumber(format, value); }
 
 std::string csv(const SweepResult& r) {
   std::string out =
@@ -246,9 +235,22 @@ std::string markdown(const SweepResult& r) {
 
 void writeResults(const SweepResult& result, const std::filesystem::path& out) {
   std::filesystem::create_directories(out);
-  writeFile(out / "sweep.csv", csv(result));
-  writeFile(out / "sweep.md", markdown(result));
-  writeFile(out / "sweep.svg", sweepSvg(result));
+  writeTextFile(out / "sweep.csv", csv(result));
+  writeTextFile(out / "sweep.md", markdown(result));
+  writeTextFile(out / "sweep.svg", sweepSvg(result));
+}
+
+std::string formatNumber(const char* format, double value) {
+  if (std::isinf(value)) return "inf";
+  char text[64];
+  std::snprintf(text, sizeof text, format, value);
+  return text;
+}
+
+void writeTextFile(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out << text;
+  if (!out) throw std::runtime_error("cannot write " + path.string());
 }
 
 }  // namespace voxbrick::bench

@@ -8,6 +8,7 @@
 
 #include <unistd.h>
 
+#include "bench/MeshSweep.h"
 #include "bench/Sweep.h"
 #include "brickstore/BrickStore.h"
 #include "brickstore/Errors.h"
@@ -28,6 +29,7 @@ struct BenchArgs {
   std::string slabs, erts, slabSteps, alternatives, slabSubBlocks, lods, calibrate, tfs = "grayscale";
   bool quick = false, quiet = false, dryRun = false, noBestSlab = false, noPreIntegration = false, noOpaque = false,
        noShading = false, rayCast = false, noRayCast = false;
+  std::vector<std::string> meshes;
   int views = 0, size = 0, ertSlab = 0;
   double referenceStep = 0, threshold = 40, thresholdHigh = 50, slabTableStep = 0, smallSlabMinStep = -1;
 };
@@ -88,7 +90,33 @@ bench::SweepSpec baseSpec(const BenchArgs& a) {
   return bench::SweepSpec::calibrate(a.calibrate, tfs);
 }
 
+/// `bench --mesh INPUT...`: the mesh sweep (bench/MeshSweep.h) with its files and the default it picks.
+void runMeshBench(const BenchArgs& a, const CLI::App& cmd) {
+  if (a.quick || !a.calibrate.empty() || !a.datasets.empty())
+    throw store::InputError("--mesh sweeps the meshes it names: not with --quick, --calibrate or --datasets");
+  for (const std::string& m : a.meshes)
+    if (m.rfind("synthetic-mesh:", 0) != 0 && !fs::exists(m))
+      throw store::InputError("--mesh: '" + m + "' does not exist");
+  bench::MeshSweepSpec spec;
+  spec.meshes = a.meshes;
+  if (cmd.count("--tf") > 0) spec.transferFunctions = splitList(a.tfs);
+  if (spec.transferFunctions.empty()) throw store::InputError("--tf: an empty list");
+  if (a.views > 0) spec.views = a.views;
+  if (a.size > 0) spec.size = a.size;
+  spec.psnrThreshold = a.threshold;
+  auto context = render::createContext(render::parseBackend(a.backend));
+  if (!a.quiet) std::fprintf(stderr, "bench: %s\n", context->describe().c_str());
+  const bench::MeshSweepResult result = bench::runMeshSweep(spec, *context, [&](const std::string& line) {
+    if (!a.quiet) std::fprintf(stderr, "bench: %s\n", line.c_str());
+  });
+  bench::writeMeshResults(result, a.out);
+  std::printf("bench: wrote %s/mesh-sweep.{csv,md,svg} (%zu points)\n", a.out.c_str(), result.points.size());
+  std::printf("bench: default at >= %g dB: %s\n", spec.psnrThreshold,
+              result.chosen ? result.chosen->label().c_str() : "none");
+}
+
 void runBench(const BenchArgs& a, const CLI::App& cmd) {
+  if (!a.meshes.empty()) return runMeshBench(a, cmd);
   bench::SweepSpec spec = baseSpec(a);
   if (!a.datasets.empty()) {
     std::set<std::string> known;
@@ -221,7 +249,13 @@ void addBenchCommand(CLI::App& app) {
                   "steps 0.35-3 with and without ERT, sub-blocks, LOD and pre-integration, and slicing, against the "
                   "reference, written to its quality.json (FILE.quality.json beside a .vdb); the sweep's files only "
                   "with --out");
-  cmd->add_option("--tf", args->tfs, "--calibrate: transfer functions to measure, comma-separated presets or files")
+  cmd->add_option("--mesh", args->meshes,
+                  "sweep tetrahedral meshes instead of the grids (repeatable): a mesh store, a .vtk or .msh file, or "
+                  "synthetic-mesh:SPEC; visibility mpvo and centroid, with and without empty-space skipping, against "
+                  "the exact reference, into mesh-sweep.{csv,md,svg} (default --tf hot, 4 views)");
+  cmd->add_option("--tf", args->tfs,
+                  "--calibrate and --mesh: transfer functions to measure, comma-separated presets or files (default "
+                  "grayscale; hot with --mesh)")
       ->capture_default_str();
   cmd->add_option("--datasets", args->datasets, "a subset of ml,sparse,mri (default all)");
   cmd->add_option("--steps", args->steps, "steps in voxels, comma-separated (default 0.25,0.5,0.75,1,1.5,2)");

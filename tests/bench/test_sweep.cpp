@@ -508,6 +508,70 @@ TEST(BenchCli, QuickSweepWritesWellFormedFilesAndReusesItsReferences) {
   EXPECT_NE(r.output.find("nosuch"), std::string::npos) << r.output;
 }
 
+// `bench --mesh`: a synthetic mesh (non-convex: the staircase ball) and a mesh store, two transfer functions, every
+// setting against the exact reference, the files written with one row per point, the front and the default, and
+// bad input refused by name.
+TEST(BenchCli, MeshSweepMeasuresEverySettingAgainstTheExactReference) {
+  test::ScratchDir dir;
+  auto r = test::runVoxbrick("prep synthetic-mesh:box,n=4 -q -o " + (dir / "box.vms").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  r = test::runVoxbrick("bench -q --mesh synthetic-mesh:ball,n=6 --mesh " + (dir / "box.vms").string() +
+                        " --tf hot,ct-bone --views 2 --size 40 --out " + (dir / "out").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_NE(r.output.find("bench: default at >= 40 dB: "), std::string::npos) << r.output;
+  std::ifstream csv(dir / "out" / "mesh-sweep.csv");
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line.rfind("mesh,tets,transfer_function,visibility,skip_empty,", 0), 0u) << line;
+  std::map<std::string, int> rows, fronts;
+  while (std::getline(csv, line)) {
+    // Fields split at commas outside quotes (a synthetic spec is quoted).
+    std::vector<std::string> f(1);
+    bool quoted = false;
+    for (char c : line) {
+      if (c == '"') quoted = !quoted;
+      else if (c == ',' && !quoted) f.emplace_back();
+      else f.back() += c;
+    }
+    ASSERT_EQ(f.size(), 17u) << line;
+    const std::string key = f[0] + "/" + f[2];
+    rows[key] += 1;
+    fronts[key] += f[16] == "1" ? 1 : 0;
+    EXPECT_GT(std::stod(f[13]), 40.0) << "worst view against the exact reference: " << line;
+    EXPECT_GT(std::stod(f[7]), 0.0) << line;
+  }
+  ASSERT_EQ(rows.size(), 4u);  // two meshes, two transfer functions
+  for (const auto& [key, n] : rows) {
+    EXPECT_EQ(n, 4) << key;  // mpvo and centroid, with and without skipping
+    EXPECT_GE(fronts[key], 1) << key;
+  }
+  for (const char* name : {"mesh-sweep.md", "mesh-sweep.svg"})
+    EXPECT_TRUE(std::filesystem::is_regular_file(dir / "out" / name)) << name;
+  const std::vector<char> svgBytes = test::readFile(dir / "out" / "mesh-sweep.svg");
+  const std::string svg(svgBytes.begin(), svgBytes.end());
+  EXPECT_EQ(svg.rfind("<svg ", 0), 0u);
+  EXPECT_NE(svg.find("</svg>"), std::string::npos);
+  EXPECT_EQ(std::count(svg.begin(), svg.end(), '<') - std::count(svg.begin(), svg.end(), '>'), 0);
+  auto occurrences = [&](const std::string& what) {
+    size_t n = 0;
+    for (size_t at = svg.find(what); at != std::string::npos; at = svg.find(what, at + 1)) ++n;
+    return n;
+  };
+  EXPECT_EQ(occurrences("font-weight=\"bold\""), 4u);  // a panel per mesh and transfer function
+  EXPECT_EQ(occurrences("<circle "), 16u);               // a point per row
+  // Refusals name what is wrong.
+  r = test::runVoxbrick("bench -q --mesh " + (dir / "missing.vtk").string());
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.output.find("missing.vtk' does not exist"), std::string::npos) << r.output;
+  r = test::runVoxbrick("bench -q --quick --mesh synthetic-mesh:ball,n=4");
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.output.find("not with --quick"), std::string::npos) << r.output;
+  r = test::runVoxbrick("bench -q --mesh synthetic-mesh:ball,n=4 --tf nosuch --size 16 --views 1 --out " +
+                        (dir / "x").string());
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.output.find("nosuch"), std::string::npos) << r.output;
+}
+
 TEST(BenchCli, PlansTheSweepItIsAskedForAndRefusesBadLists) {
   auto r = test::runVoxbrick("bench --dry-run");
   ASSERT_EQ(r.exitCode, 0) << r.output;
