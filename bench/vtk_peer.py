@@ -367,7 +367,9 @@ def main():
         base_scene["window"] = window
 
     def scene_for(az):
-        return merge(base_scene, {"camera": {"orbit": [az, args.elevation, args.distance], "fov": args.fov}})
+        # The orbit as orbit_camera places VTK's: up +Y (voxbrick's default up axis is +z).
+        return merge(base_scene, {"camera": {"orbit": [az, args.elevation, args.distance], "fov": args.fov,
+                                             "up_axis": "+y"}})
 
     # The store's identity for the cache: its metadata file.
     with open(os.path.join(args.store, "store.json"), "rb") as f:

@@ -458,8 +458,9 @@ def main():
         base_scene["window"] = window
 
     def scene_for(az):
+        # The orbit as orbit_camera places VTK's: up +Y (voxbrick's default up axis is +z).
         return merge(base_scene, {"camera": {"orbit": [az, args.elevation, args.distance], "fov": args.fov,
-                                             "orthographic": False}})
+                                             "orthographic": False, "up_axis": "+y"}})
 
     # 1. References (cached by scene content, store and reference step).
     refs, ref_ms = {}, []
