@@ -208,8 +208,7 @@ MeshSweepResult runMeshSweep(const MeshSweepSpec& spec, render::GlContext& conte
         renderer.render(sceneOf(0));  // warm-up: the program, the table
         MeshPoint p{name, tf, setting, int64_t(data->mesh.tets.size())};
         std::vector<double> ms, sort, fragments, drawn;
-        double sumSquares = 0;
-        p.psnrMin = std::numeric_limits<double>::infinity();
+        ErrorTally errors;
         for (int v = 0; v < spec.views; ++v) {
           render::FrameStats stats;
           const image::ImageF image = renderer.render(sceneOf(v), &stats);
@@ -217,19 +216,17 @@ MeshSweepResult runMeshSweep(const MeshSweepSpec& spec, render::GlContext& conte
           sort.push_back(stats.msSorting);
           fragments.push_back(double(stats.fragments));
           drawn.push_back(double(stats.tetsDrawn));
-          const image::ImageError e = image::compareImages(image, truth[size_t(v)]);
-          p.psnrMin = std::min(p.psnrMin, e.psnr);
-          p.maxAbs = std::max(p.maxAbs, e.maxAbs);
-          sumSquares += e.rmse * e.rmse;
+          errors.add(image::compareImages(image, truth[size_t(v)]));
         }
+        p.psnrMin = errors.psnrMin;
+        p.maxAbs = errors.maxAbs;
+        p.psnrPooled = errors.psnrPooled();
         p.msMedian = median(ms);
         p.msMin = *std::min_element(ms.begin(), ms.end());
         p.msMax = *std::max_element(ms.begin(), ms.end());
         p.sortMsMedian = median(sort);
         p.fragmentsMedian = median(fragments);
         p.tetsDrawnMedian = median(drawn);
-        const double rmse = std::sqrt(sumSquares / spec.views);
-        p.psnrPooled = rmse > 0 ? 20 * std::log10(1 / rmse) : std::numeric_limits<double>::infinity();
         log("mesh " + name + ", " + tf + ", " + setting.label() + ": " + number("%.1f", p.msMedian) + " ms, " +
             number("%.1f", p.psnrMin) + " dB worst view");
         result.points.push_back(p);

@@ -29,6 +29,20 @@ double median(std::vector<double> v) {
   return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
 
+void ErrorTally::add(const image::ImageError& e) {
+  psnrMin = std::min(psnrMin, e.psnr);
+  maxAbs = std::max(maxAbs, e.maxAbs);
+  sumSquares += e.rmse * e.rmse;
+  ++views;
+}
+
+double ErrorTally::rmsePooled() const { return views > 0 ? std::sqrt(sumSquares / views) : 0.0; }
+
+double ErrorTally::psnrPooled() const {
+  const double rmse = rmsePooled();
+  return rmse > 0 ? 20 * std::log10(1 / rmse) : std::numeric_limits<double>::infinity();
+}
+
 namespace {
 
 constexpr size_t kBudget = size_t(2) << 30;  // host cache and GPU atlas: every dataset here fits
@@ -317,8 +331,7 @@ class DatasetRun {
     renderer.render(sceneOf(0));  // warm-up: pages what this setting draws, builds its program
     Point p{mDataset.name, variant, setting};
     std::vector<double> ms, samples, fragments, terminated, passes;
-    double sumSquares = 0;
-    p.psnrMin = std::numeric_limits<double>::infinity();
+    ErrorTally errors;
     for (int v = 0; v < mSpec.views; ++v) {
       render::FrameStats stats;
       const image::ImageF image = renderer.render(sceneOf(v), &stats);
@@ -327,11 +340,10 @@ class DatasetRun {
       fragments.push_back(double(stats.fragments));
       terminated.push_back(double(stats.samplesTerminated));
       passes.push_back(double(stats.slabPasses));
-      const image::ImageError e = image::compareImages(image, mTruth[variantIndex][size_t(v)]);
-      p.psnrMin = std::min(p.psnrMin, e.psnr);
-      p.maxAbs = std::max(p.maxAbs, e.maxAbs);
-      sumSquares += e.rmse * e.rmse;
+      errors.add(image::compareImages(image, mTruth[variantIndex][size_t(v)]));
     }
+    p.psnrMin = errors.psnrMin;
+    p.maxAbs = errors.maxAbs;
     p.msMedian = median(ms);
     p.msMin = *std::min_element(ms.begin(), ms.end());
     p.msMax = *std::max_element(ms.begin(), ms.end());
@@ -339,8 +351,8 @@ class DatasetRun {
     p.fragmentsMedian = median(fragments);
     p.samplesTerminatedMedian = median(terminated);
     p.slabPassesMedian = median(passes);
-    p.rmsePooled = std::sqrt(sumSquares / mSpec.views);
-    p.psnrPooled = p.rmsePooled > 0 ? 20 * std::log10(1 / p.rmsePooled) : std::numeric_limits<double>::infinity();
+    p.rmsePooled = errors.rmsePooled();
+    p.psnrPooled = errors.psnrPooled();
     return p;
   }
 

@@ -4,10 +4,12 @@
 
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "image/Image.h"
 #include "render/GlContext.h"
 #include "render/Scene.h"
 
@@ -66,6 +68,18 @@ std::string marchingLabel(const Setting& s);
 
 /// The median of `v` (the mean of the middle two for an even count); 0 when empty.
 double median(std::vector<double> v);
+
+/// A setting's frames against their references, view by view: the worst view's PSNR, the largest difference and the
+/// pooled error (the RMSE over all views' pixels, each view the same size).
+struct ErrorTally {
+  double psnrMin = std::numeric_limits<double>::infinity();
+  double maxAbs = 0;
+  double sumSquares = 0;
+  int views = 0;
+  void add(const image::ImageError& e);
+  double rmsePooled() const;
+  double psnrPooled() const;  ///< infinity for identical frames
+};
 
 /// The sweep: every step with every variant (the baseline renderer), the slicing alternatives (other brick sizes,
 /// no skipping, the CPU slicer) at every step with each dataset's default variant, and the texture-slab settings

@@ -25,6 +25,22 @@
 namespace voxbrick::render {
 namespace {
 
+/// A synthetic mesh (mesh::syntheticMesh `spec`) with its face adjacency, ready to draw.
+std::shared_ptr<const TetMeshData> syntheticData(const std::string& spec) {
+  mesh::TetMesh m = mesh::syntheticMesh(spec);
+  mesh::Topology t = mesh::buildTopology(m);
+  return std::make_shared<const TetMeshData>(std::move(m), std::move(t));
+}
+
+/// 96x80 frames of a transfer function transparent below 0.4 of the value range and a ramp above.
+Scene partlyTransparentScene() {
+  Scene scene;
+  scene.width = 96;
+  scene.height = 80;
+  scene.transferFunction = TransferFunction({{0, {1, 0.5, 0, 0}}, {0.4, {1, 0.5, 0, 0}}, {1, {1, 1, 1, 0.6}}});
+  return scene;
+}
+
 std::shared_ptr<const TetMeshData> gridData(int n, float scalar = -1) {
   mesh::TetMesh m = mesh::test::kuhnGrid(n, n, n);
   if (scalar >= 0)
@@ -80,9 +96,7 @@ TEST(TetRenderer, MpvoAndCentroidOrdersAgreeOnAConvexGrid) {
 // functions. The bound: the pre-integrated table's lookup (render/PreIntegration.h: at most 6e-3 in a segment's
 // opacity near a transfer function's kinks, 2e-4 on average) and float arithmetic; measured 1/255 at most.
 TEST(TetRenderer, FramesMatchTheExactReference) {
-  auto m = mesh::syntheticMesh("ball,n=12");
-  mesh::Topology t = mesh::buildTopology(m);
-  auto data = std::make_shared<const TetMeshData>(std::move(m), std::move(t));
+  auto data = syntheticData("ball,n=12");
   const TetReference reference(data->mesh);
   TetRenderer renderer(test::context(), data, size_t(256) << 20);
   struct View {
@@ -123,15 +137,9 @@ TEST(TetRenderer, FramesMatchTheExactReference) {
 
 // Tets the transfer function makes transparent over their value range are left out: the same image, fewer tets.
 TEST(TetRenderer, EmptyTetsAreSkippedWithoutChangingTheImage) {
-  auto m = mesh::syntheticMesh("ball,n=12");
-  mesh::Topology t = mesh::buildTopology(m);
-  auto data = std::make_shared<const TetMeshData>(std::move(m), std::move(t));
+  auto data = syntheticData("ball,n=12");
   TetRenderer renderer(test::context(), data, size_t(256) << 20);
-  Scene scene;
-  scene.width = 96;
-  scene.height = 80;
-  // Transparent below 0.4 of the value range, a ramp above.
-  scene.transferFunction = TransferFunction({{0, {1, 0.5, 0, 0}}, {0.4, {1, 0.5, 0, 0}}, {1, {1, 1, 1, 0.6}}});
+  Scene scene = partlyTransparentScene();
   FrameStats skipped, all;
   const image::ImageF fast = renderer.render(scene, &skipped);
   scene.skipEmpty = false;
@@ -147,14 +155,9 @@ TEST(TetRenderer, EmptyTetsAreSkippedWithoutChangingTheImage) {
 // never below the fragments it draws, within a small factor of them, lower when empty tets are skipped, and a frame
 // above FrameOptions::maxSamples is refused naming the limit, with the renderer fine for the next frame.
 TEST(TetRenderer, TheFrameCostIsEstimatedBeforeDrawingAndLimited) {
-  auto m = mesh::syntheticMesh("ball,n=12");
-  mesh::Topology t = mesh::buildTopology(m);
-  auto data = std::make_shared<const TetMeshData>(std::move(m), std::move(t));
+  auto data = syntheticData("ball,n=12");
   TetRenderer renderer(test::context(), data, size_t(256) << 20);
-  Scene scene;
-  scene.width = 96;
-  scene.height = 80;
-  scene.transferFunction = TransferFunction({{0, {1, 0.5, 0, 0}}, {0.4, {1, 0.5, 0, 0}}, {1, {1, 1, 1, 0.6}}});
+  Scene scene = partlyTransparentScene();
   for (const char* orbit : {"far", "close", "inside"}) {
     SCOPED_TRACE(orbit);
     const std::string o = orbit;
@@ -189,9 +192,7 @@ TEST(TetRenderer, TheFrameCostIsEstimatedBeforeDrawingAndLimited) {
 // A mesh larger than the GPU budget is streamed in batches of tets in visibility order: the same image; a budget
 // below one batch and the table is refused naming both.
 TEST(TetRenderer, AMeshLargerThanTheBudgetIsStreamedToTheSameImage) {
-  auto m = mesh::syntheticMesh("ball,n=20");
-  mesh::Topology t = mesh::buildTopology(m);
-  auto data = std::make_shared<const TetMeshData>(std::move(m), std::move(t));
+  auto data = syntheticData("ball,n=20");
   ASSERT_GT(data->mesh.tets.size(), 3 * 4096u);
   Scene scene;
   scene.width = 96;
@@ -219,9 +220,7 @@ TEST(TetRenderer, AMeshLargerThanTheBudgetIsStreamedToTheSameImage) {
 
 // A mesh frame given up part way (between its draws) throws FrameCancelled, and the next frame is a fresh renderer's.
 TEST(TetRenderer, ACancelledFrameLeavesTheNextOneIntact) {
-  auto m = mesh::syntheticMesh("ball,n=48");  // several draws of tets
-  mesh::Topology t = mesh::buildTopology(m);
-  auto data = std::make_shared<const TetMeshData>(std::move(m), std::move(t));
+  auto data = syntheticData("ball,n=48");  // several draws of tets
   Scene scene;
   scene.width = 64;
   scene.height = 48;
