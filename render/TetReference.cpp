@@ -274,13 +274,45 @@ TetRay viewRay(const View& v, int x, int y) {
 }
 
 /// Front-to-back compositing of sorted segments: premultiplied colour and opacity.
-glm::dvec4 composite(const std::vector<TetSegment>& segments, const TetReferenceParams& params) {
+/// What shading needs of the mesh: each tet's points and scalars.
+struct TetGeometry {
+  const std::vector<glm::dvec3>& points;
+  const std::vector<double>& scalars;
+  const std::vector<mesh::Tet>& tets;
+};
+
+/// The raw scalar's gradient in tet `t` (per world unit; zero for a flat tet): the g with g . (p_i - p_0) =
+/// s_i - s_0 for the three edges from vertex 0.
+glm::dvec3 tetGradient(const TetGeometry& g, uint32_t t) {
+  const mesh::Tet& tet = g.tets[t];
+  const glm::dvec3 p0 = g.points[tet[0]];
+  const glm::dvec3 e1 = g.points[tet[1]] - p0, e2 = g.points[tet[2]] - p0, e3 = g.points[tet[3]] - p0;
+  const double s0 = g.scalars[tet[0]];
+  const double det = glm::dot(e1, glm::cross(e2, e3));
+  if (det == 0) return glm::dvec3(0.0);
+  return ((g.scalars[tet[1]] - s0) * glm::cross(e2, e3) + (g.scalars[tet[2]] - s0) * glm::cross(e3, e1) +
+          (g.scalars[tet[3]] - s0) * glm::cross(e1, e2)) /
+         det;
+}
+
+/// Premultiplied colour `c` and opacity `a` of a segment along `direction` (unit length) in a tet whose scalar has
+/// `gradient`, shaded by the grids' two-sided Phong headlight (ReferenceRenderer's shade()): c x + y a.
+glm::dvec3 shadeSegment(const glm::dvec3& c, double a, const glm::dvec3& gradient, const glm::dvec3& direction) {
+  const double magnitude = glm::length(gradient);
+  if (!(magnitude > 1e-12)) return c;
+  const double diffuse = std::abs(glm::dot(gradient / magnitude, direction));
+  return c * (0.3 + 0.7 * diffuse) + glm::dvec3(0.25 * std::pow(diffuse, 32.0) * a);
+}
+
+glm::dvec4 composite(const std::vector<TetSegment>& segments, const TetReferenceParams& params,
+                     const TetGeometry& geometry, const glm::dvec3& direction) {
   const double inverseWidth = 1.0 / (params.windowHi - params.windowLo);
   RaySpan sum;
   for (const TetSegment& s : segments) {
-    const glm::dvec4 c = integrateSegment(params.transferFunction, (s.value0 - params.windowLo) * inverseWidth,
-                                          (s.value1 - params.windowLo) * inverseWidth,
-                                          (s.t1 - s.t0) / params.referenceLength);
+    glm::dvec4 c = integrateSegment(params.transferFunction, (s.value0 - params.windowLo) * inverseWidth,
+                                    (s.value1 - params.windowLo) * inverseWidth,
+                                    (s.t1 - s.t0) / params.referenceLength);
+    if (params.shading) c = glm::dvec4(shadeSegment(glm::dvec3(c), c.a, tetGradient(geometry, s.tet), direction), c.a);
     sum = over(sum, {glm::dvec3(c), 1 - c.a});
     if (sum.transmittance < kTerminateTransmittance) break;
   }
@@ -302,6 +334,7 @@ TetReferenceParams TetReferenceParams::fromScene(const Scene& scene, const mesh:
   p.height = scene.height;
   p.background = scene.background;
   p.transparent = scene.transparent;
+  p.shading = scene.shading;
   const auto [vmin, vmax] = mesh.scalarRange();
   p.windowLo = scene.window ? (*scene.window)[0] : double(vmin);
   p.windowHi = scene.window ? (*scene.window)[1] : double(vmax);
@@ -374,13 +407,14 @@ std::vector<TetSegment> TetReference::segments(const TetRay& ray, int64_t* ambig
 }
 
 glm::dvec4 TetReference::integrate(const TetRay& ray, const TetReferenceParams& params) const {
-  return composite(segments(ray), params);
+  return composite(segments(ray), params, {mData->points, mData->scalars, mData->tets}, ray.direction);
 }
 
 image::ImageF TetReference::render(const TetReferenceParams& params, TetReferenceStats* statsOut) const {
   const auto start = Clock::now();
   params.validate();
   const View view = makeView(params, mData->bounds, mData->hasBounds);
+  const TetGeometry geometry{mData->points, mData->scalars, mData->tets};
   image::ImageF image{params.width, params.height,
                       std::vector<float>(size_t(params.width) * size_t(params.height) * 4)};
   std::atomic<int64_t> rays{0}, segments{0}, tests{0}, ambiguous{0};
@@ -389,10 +423,11 @@ image::ImageF TetReference::render(const TetReferenceParams& params, TetReferenc
     std::vector<TetSegment> found;
     for (int y = rows.begin(); y != rows.end(); ++y)
       for (int x = 0; x < params.width; ++x) {
-        mData->collect(viewRay(view, x, y), found, rowTests, rowAmbiguous);
+        const TetRay ray = viewRay(view, x, y);
+        mData->collect(ray, found, rowTests, rowAmbiguous);
         rowRays += found.empty() ? 0 : 1;
         rowSegments += int64_t(found.size());
-        const glm::dvec4 c = composite(found, params);
+        const glm::dvec4 c = composite(found, params, geometry, ray.direction);
         const glm::dvec4 out = outputPixel(glm::dvec3(c), c.a, params.background, params.transparent);
         float* pixel = image.pixel(x, y);
         for (int ch = 0; ch < 4; ++ch) pixel[ch] = float(out[ch]);

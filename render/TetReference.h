@@ -27,6 +27,9 @@ struct TetReferenceParams {
   int width = 256, height = 256;
   glm::dvec3 background{0.0};  ///< opaque background colour, RGB in [0, 1]
   bool transparent = false;    ///< no background: alpha is the opacity, colour straight (Scene::transparent)
+  /// The grids' two-sided Phong headlight (Scene::shading), the normal each tet's scalar gradient: constant along a
+  /// segment, as is the direction to the eye, so it shades each pre-integrated segment exactly.
+  bool shading = false;
 
   /// The parameters of `scene` for `mesh`: the scene's camera resolved on the mesh's bounds (its orbit is about
   /// them), its transfer function, size and background, its window or else the mesh's scalar range (a constant mesh

@@ -33,10 +33,11 @@ constexpr size_t kTetsPerDraw = 262144;
 /// 0.7 s for a million tets on llvmpipe against about 45 ns a fragment (bench/results/tets.md).
 constexpr double kFragmentsPerTet = 16;
 
-Program tetProgram(const Gl& gl, bool nullFragment) {
+Program tetProgram(const Gl& gl, bool nullFragment, bool shaded = false) {
   std::vector<std::string> defines;
   if (nullFragment) defines.push_back("NULL_FRAGMENT");
-  return Program(gl, ProgramSources::fromFiles(nullFragment ? "tet-null" : "tet",
+  if (shaded) defines.push_back("SHADING");
+  return Program(gl, ProgramSources::fromFiles(nullFragment ? "tet-null" : shaded ? "tet-shaded" : "tet",
                                                {{GL_VERTEX_SHADER, "tet.vert.glsl"}, {GL_FRAGMENT_SHADER, "tet.frag.glsl"}},
                                                std::move(defines)));
 }
@@ -59,6 +60,7 @@ TetRenderer::TetRenderer(GlContext& context, std::shared_ptr<const TetMeshData> 
       mEmpty(mGl),
       mProgram(tetProgram(mGl, false)),
       mNullProgram(tetProgram(mGl, true)),
+      mShadedProgram(tetProgram(mGl, false, true)),
       mCompositor(mGl),
       mTable(mGl) {
   const mesh::TetMesh& m = mData->mesh;
@@ -215,7 +217,7 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
   try {
     if (!mStreamed)
       mOrderBuffer.allocate(GL_SHADER_STORAGE_BUFFER, mOrder.size() * sizeof(uint32_t), mOrder.data(), GL_STREAM_DRAW);
-    const Program& p = nullFragment ? mNullProgram : mProgram;
+    const Program& p = nullFragment ? mNullProgram : scene.shading ? mShadedProgram : mProgram;
     p.set(p.uniformLocation("uViewProj"), glm::mat4(viewProj));
     p.set(p.uniformLocation("uWindowLo"), float(lo));
     p.set(p.uniformLocation("uWindowScale"), float(1.0 / (hi - lo)));

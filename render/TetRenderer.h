@@ -27,7 +27,7 @@ class TetRenderer final : public FrameRenderer {
   TetRenderer(GlContext& context, std::shared_ptr<const TetMeshData> data, size_t gpuBudgetBytes);
   ~TetRenderer() override;
 
-  /// Renders `scene` (camera, size, transfer function, window, background, visibility; RenderMode::Roofline draws
+  /// Renders `scene` (camera, size, transfer function, window, background, visibility, shading; RenderMode::Roofline draws
   /// with the seed's null fragment program). Throws RenderInputError for an invalid scene, RenderError for GL
   /// failures, FrameCancelled when options.cancelled says so before drawing.
   image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) override;
@@ -59,7 +59,7 @@ class TetRenderer final : public FrameRenderer {
   Buffer mVertices;  // 4 vec4 per tet: position (centred on the mesh's box) and raw scalar
   Buffer mOrderBuffer;
   VertexArray mEmpty;  // core profile draws need a vertex array, even one without attributes
-  Program mProgram, mNullProgram;
+  Program mProgram, mNullProgram, mShadedProgram;
   Compositor mCompositor;
   PreIntegrationTexture mTable;
   std::vector<uint32_t> mOrder;       // this frame's tets, front to back

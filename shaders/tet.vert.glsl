@@ -26,6 +26,9 @@ noperspective out vec4 vRate;  // the planes' change along the ray (per unit of 
 noperspective out vec2 vValue; // the normalised scalar at the origin and its change along the ray
 flat out vec4 vNormSquared;    // |n_i|^2 of each plane, for the test of a ray parallel to a face
 flat out vec4 vTie;            // each plane's side of a ray lying in it (tet.frag.glsl)
+#ifdef SHADING
+flat out vec3 vGradient;       // the raw scalar's gradient (per world unit): constant in a tet, its shading normal
+#endif
 
 // Twice the signed area of triangle (a, b, c).
 float orient(vec2 a, vec2 b, vec2 c) { return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x); }
@@ -106,4 +109,7 @@ void main() {
     vTie[i] = right * right > 1e-12 * dot(n, n) * dot(uRayOriginDx, uRayOriginDx) ? right : dot(n, uRayOriginDy);
   }
   vValue = vec2(dot(scalar.xyz, origin) + scalar.w, dot(scalar.xyz, direction));
+#ifdef SHADING
+  vGradient = scalar.xyz / uWindowScale;
+#endif
 }

@@ -135,6 +135,34 @@ TEST(TetRenderer, FramesMatchTheExactReference) {
     }
 }
 
+// Shading (Scene::shading): the grids' headlight with each tet's scalar gradient as the normal, exact for a
+// pre-integrated segment (normal and eye direction are constant along it), so the GPU frame stays within the same
+// bound of the exact reference; the shaded frame differs from the unshaded one, and by the headlight's rule: its
+// ambient floor keeps at least 0.3 of the unshaded colour.
+TEST(TetRenderer, ShadedFramesMatchTheExactReference) {
+  auto data = syntheticData("ball,n=12");
+  const TetReference reference(data->mesh);
+  TetRenderer renderer(test::context(), data, size_t(256) << 20);
+  for (const bool orthographic : {false, true}) {
+    SCOPED_TRACE(orthographic ? "orthographic" : "perspective");
+    Scene scene = partlyTransparentScene();
+    scene.camera.azimuth = 35;
+    scene.camera.elevation = 25;
+    scene.camera.orthographic = orthographic;
+    const image::ImageF unshaded = renderer.render(scene);
+    scene.shading = true;
+    const image::ImageF gpu = renderer.render(scene);
+    const TetReferenceParams params = TetReferenceParams::fromScene(scene, data->mesh, data->meanEdgeLength);
+    ASSERT_TRUE(params.shading);
+    const image::ImageF exact = reference.render(params);
+    ASSERT_GT(test::meanBrightness(exact), 0.005);
+    test::expectClose(gpu, exact, 2.0 / 255, orthographic ? "tets-shaded-ortho" : "tets-shaded");
+    EXPECT_GT(image::compareImages(gpu, unshaded).maxAbs, 0.05) << "shading changed nothing";
+    for (size_t i = 0; i < gpu.rgba.size(); i += 4)
+      for (size_t c = 0; c < 3; ++c) ASSERT_GE(gpu.rgba[i + c], 0.3f * unshaded.rgba[i + c] - 2.0f / 255) << i;
+  }
+}
+
 // Tets the transfer function makes transparent over their value range are left out: the same image, fewer tets.
 TEST(TetRenderer, EmptyTetsAreSkippedWithoutChangingTheImage) {
   auto data = syntheticData("ball,n=12");
@@ -172,7 +200,9 @@ TEST(TetRenderer, TheFrameCostIsEstimatedBeforeDrawingAndLimited) {
     EXPECT_GE(skipped.samplesEstimated, double(skipped.fragments));
     EXPECT_LT(skipped.samplesEstimated, all.samplesEstimated);
     // Far from the eye, bounding boxes are at most a few times a tet's projection.
-    if (o == "far") EXPECT_LT(all.samplesEstimated, 8.0 * double(all.fragments));
+    if (o == "far") {
+      EXPECT_LT(all.samplesEstimated, 8.0 * double(all.fragments));
+    }
   }
   scene.camera.distance = 3.0;
   FrameStats measured;
