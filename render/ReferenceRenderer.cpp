@@ -16,6 +16,7 @@
 #include "render/Camera.h"
 #include "render/Compositing.h"
 #include "render/FramePlan.h"
+#include "render/Headlight.h"
 #include "render/RenderErrors.h"
 #include "render/WorldFrame.h"
 
@@ -211,9 +212,8 @@ glm::dvec3 shade(const Frame& f, const Sampler& sample, const Ray& ray, double t
   if (!(magnitude > 1e-12)) return c;
   const glm::dvec3 normal = -gradient / magnitude;
   const glm::dvec3 toEye = f.basis.orthographic ? -f.basis.forward : glm::normalize(f.basis.eye - world);
-  const double diffuse = std::abs(glm::dot(normal, toEye));
-  const double specular = std::pow(diffuse, 32.0);
-  return c * (0.3 + 0.7 * diffuse) + glm::dvec3(0.25 * specular);
+  const glm::dvec2 light = headlight(std::abs(glm::dot(normal, toEye)));
+  return c * light.x + glm::dvec3(light.y);
 }
 
 /// Integrates one ray: its output pixel (Scene::output: over the background, or with alpha), with its samples and skipped bricks added to the counters.

@@ -14,6 +14,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "render/Headlight.h"
 #include "render/RenderErrors.h"
 #include "render/SegmentIntegral.h"
 
@@ -273,7 +274,6 @@ TetRay viewRay(const View& v, int x, int y) {
   return ray;
 }
 
-/// Front-to-back compositing of sorted segments: premultiplied colour and opacity.
 /// What shading needs of the mesh: each tet's points and scalars.
 struct TetGeometry {
   const std::vector<glm::dvec3>& points;
@@ -296,14 +296,15 @@ glm::dvec3 tetGradient(const TetGeometry& g, uint32_t t) {
 }
 
 /// Premultiplied colour `c` and opacity `a` of a segment along `direction` (unit length) in a tet whose scalar has
-/// `gradient`, shaded by the grids' two-sided Phong headlight (ReferenceRenderer's shade()): c x + y a.
+/// `gradient`, shaded by the headlight (render/Headlight.h): c x + y a.
 glm::dvec3 shadeSegment(const glm::dvec3& c, double a, const glm::dvec3& gradient, const glm::dvec3& direction) {
   const double magnitude = glm::length(gradient);
   if (!(magnitude > 1e-12)) return c;
-  const double diffuse = std::abs(glm::dot(gradient / magnitude, direction));
-  return c * (0.3 + 0.7 * diffuse) + glm::dvec3(0.25 * std::pow(diffuse, 32.0) * a);
+  const glm::dvec2 light = headlight(std::abs(glm::dot(gradient / magnitude, direction)));
+  return c * light.x + glm::dvec3(light.y * a);
 }
 
+/// Front-to-back compositing of sorted segments: premultiplied colour and opacity (each segment shaded if asked).
 glm::dvec4 composite(const std::vector<TetSegment>& segments, const TetReferenceParams& params,
                      const TetGeometry& geometry, const glm::dvec3& direction) {
   const double inverseWidth = 1.0 / (params.windowHi - params.windowLo);

@@ -62,7 +62,7 @@ void main() {
   const vec2 st = (clamp(vec2(front, back), 0.0, 1.0) * (uTableResolution - 1.0) + 0.5) / uTableResolution;
   fragColor = texture(uPreIntegrated, vec3(st, layer)) * scale;
 #ifdef SHADING
-  // The grids' two-sided Phong headlight (volume.frag.glsl), normal -gradient / |gradient|. In a tet both the normal
+  // The grids' two-sided Phong headlight (render/Headlight.h, volume.frag.glsl), normal -gradient / |gradient|. In a tet both the normal
   // and the direction to the eye (against the ray's) are constant along the segment, so shading the emission, c x +
   // y, shades the pre-integrated segment exactly: C x + y A, premultiplied.
   const float magnitude = length(vGradient);

@@ -121,8 +121,8 @@ vec4 classify(float x) {
   return texture(uTransfer, (x * (n - 1.0) + 0.5) / n);
 }
 
-// The Phong headlight at `world` (voxel coordinate `voxel`) as (diffuse factor, specular term): a colour c becomes
-// c * x + y. (1, 0) without SHADING or where the gradient vanishes.
+// The Phong headlight (render/Headlight.h) at `world` (voxel coordinate `voxel`) as (diffuse factor, specular term):
+// a colour c becomes c * x + y. (1, 0) without SHADING or where the gradient vanishes.
 vec2 headlight(vec3 world, vec3 voxel) {
 #ifdef SHADING
   // Central differences half a voxel each way: the samples stay inside the slot (whose border is one voxel).
