@@ -97,12 +97,17 @@ std::function<void()> openAndRead(const std::string& input) {
 
 double ramp(uint32_t x, uint32_t y, int z) { return 1000.0 * z + 10.0 * y + x; }
 
-TEST(Tiff, MultiPageFileIsAStackOfSlices) {
-  ScratchDir dir;
+/// Three 16-bit pages of width x height holding ramp(x, y, page).
+std::vector<Page> rampPages(uint32_t width, uint32_t height) {
   std::vector<Page> pages;
   for (int z = 0; z < 3; ++z)
-    pages.push_back(page<uint16_t>(5, 4, [z](uint32_t x, uint32_t y) { return ramp(x, y, z); }));
-  writeTiff(dir / "stack.tif", pages);
+    pages.push_back(page<uint16_t>(width, height, [z](uint32_t x, uint32_t y) { return ramp(x, y, z); }));
+  return pages;
+}
+
+TEST(Tiff, MultiPageFileIsAStackOfSlices) {
+  ScratchDir dir;
+  writeTiff(dir / "stack.tif", rampPages(5, 4));
   auto source = store::openSource((dir / "stack.tif").string(), {});
   const store::VolumeInfo& info = source->info();
   EXPECT_EQ(info.dims, (store::Vec3i{5, 4, 3}));
@@ -197,10 +202,7 @@ TEST(Tiff, RefusalsNameTheFileAndProblem) {
 
 TEST(Tiff, TruncatedFilesAreInputErrorsNotCrashes) {
   ScratchDir dir;
-  std::vector<Page> pages;
-  for (int z = 0; z < 3; ++z)
-    pages.push_back(page<uint16_t>(7, 5, [z](uint32_t x, uint32_t y) { return ramp(x, y, z); }));
-  writeTiff(dir / "full.tif", pages);
+  writeTiff(dir / "full.tif", rampPages(7, 5));
   const std::vector<char> bytes = test::readFile(dir / "full.tif");
   const std::string cutFile = (dir / "cut.tif").string();
   for (size_t cut = 0; cut < bytes.size(); ++cut) {
