@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <limits>
 #include <memory>
+#include <stdexcept>
 
 #include "bench/Sweep.h"
 #include "mesh/MeshReaders.h"
@@ -65,11 +66,12 @@ std::string csvField(const std::string& text) {
 
 std::string csv(const MeshSweepResult& r) {
   std::string out =
-      "mesh,tets,transfer_function,visibility,skip_empty,views,size,median_ms,min_ms,max_ms,sort_ms_median,"
+      "mesh,tets,transfer_function,visibility,skip_empty,ert,views,size,median_ms,min_ms,max_ms,sort_ms_median,"
       "fragments_median,tets_drawn_median,psnr_worst_db,psnr_pooled_db,max_abs,pareto\n";
   for (const MeshPoint& p : r.points)
     out += csvField(p.mesh) + "," + std::to_string(p.tets) + "," + csvField(p.transferFunction) + "," +
            render::tetSortName(p.setting.visibility) + "," + (p.setting.skipEmpty ? "1" : "0") + "," +
+           number("%g", p.setting.visibility == render::TetSort::Ray ? p.setting.ert : 0) + "," +
            std::to_string(r.spec.views) + "," + std::to_string(r.spec.size) + "," + number("%.2f", p.msMedian) +
            "," + number("%.2f", p.msMin) + "," + number("%.2f", p.msMax) + "," + number("%.2f", p.sortMsMedian) +
            "," + number("%.0f", p.fragmentsMedian) + "," + number("%.0f", p.tetsDrawnMedian) + "," +
@@ -169,6 +171,8 @@ std::string svg(const MeshSweepResult& r) {
 }  // namespace
 
 std::string MeshSetting::label() const {
+  if (visibility == render::TetSort::Ray)
+    return std::string(render::tetSortName(visibility)) + (ert > 0 ? ", ert " + number("%g", ert) : ", no ert");
   return std::string(render::tetSortName(visibility)) + (skipEmpty ? ", skip" : ", no skip");
 }
 
@@ -203,6 +207,7 @@ MeshSweepResult runMeshSweep(const MeshSweepSpec& spec, render::GlContext& conte
           render::Scene scene = viewScene(spec, tf, v);
           scene.visibility = setting.visibility;
           scene.skipEmpty = setting.skipEmpty;
+          scene.ert = setting.ert;
           return scene;
         };
         renderer.render(sceneOf(0));  // warm-up: the program, the table
@@ -214,7 +219,10 @@ MeshSweepResult runMeshSweep(const MeshSweepSpec& spec, render::GlContext& conte
           const image::ImageF image = renderer.render(sceneOf(v), &stats);
           ms.push_back(stats.msTotal);
           sort.push_back(stats.msSorting);
-          fragments.push_back(double(stats.fragments));
+          if (setting.visibility == render::TetSort::Ray && stats.tetRayPasses == 0)
+            throw std::runtime_error("mesh " + name + ", view " + std::to_string(v) +
+                                     ": the ray caster could not draw it (the camera is within the mesh's box)");
+          fragments.push_back(double(stats.tetRayPasses > 0 ? stats.samples : stats.fragments));
           drawn.push_back(double(stats.tetsDrawn));
           errors.add(image::compareImages(image, truth[size_t(v)]));
         }

@@ -14,12 +14,15 @@
 
 namespace voxbrick::bench {
 
-/// The mesh renderer's own choices (render::Scene::visibility and skipEmpty): what a default can fix.
+/// The mesh renderer's own choices (render::Scene::visibility, skipEmpty and, for the ray caster, ert): what a default
+/// can fix.
 struct MeshSetting {
   render::TetSort visibility = render::TetSort::Mpvo;
   bool skipEmpty = true;
+  double ert = 0;  ///< render::Scene::ert: the ray caster's termination threshold (0: none); only with Ray
   bool operator==(const MeshSetting&) const = default;
-  /// E.g. "mpvo, skip", "centroid, no skip".
+  /// E.g. "mpvo, skip", "centroid, no skip"; "raycast, ert 0.999", "raycast, no ert" (a ray walks every tet it
+  /// meets: skipEmpty has no effect).
   std::string label() const;
 };
 
@@ -32,7 +35,9 @@ struct MeshSweepSpec {
   std::vector<MeshSetting> settings = {{render::TetSort::Mpvo, true},
                                        {render::TetSort::Mpvo, false},
                                        {render::TetSort::Centroid, true},
-                                       {render::TetSort::Centroid, false}};
+                                       {render::TetSort::Centroid, false},
+                                       {render::TetSort::Ray, true, 0.999},
+                                       {render::TetSort::Ray, true, 0}};
   int views = 4;
   int size = 256;
   double elevation = 20;
@@ -48,7 +53,7 @@ struct MeshPoint {
   int64_t tets = 0;                            ///< in the mesh
   double msMedian = 0, msMin = 0, msMax = 0;  ///< frame time over the views
   double sortMsMedian = 0;                     ///< the visibility order's part of it
-  double fragmentsMedian = 0;                  ///< fragments drawn per frame
+  double fragmentsMedian = 0;                  ///< segments classified per frame: fragments, or the ray caster's steps
   double tetsDrawnMedian = 0;                  ///< tets drawn per frame (skipEmpty leaves some out)
   double psnrMin = 0;                          ///< the worst view's PSNR against the exact reference (dB)
   double psnrPooled = 0;                       ///< PSNR of the RMSE over all views' pixels

@@ -9,7 +9,7 @@
 // load reaches all alike.
 //
 //   bench_tets --store MESH.vms [--out bench/results] [--name tets] [--sizes 256,512,768,1024] [--views 10]
-//              [--runs 3] [--tf hot] [--visibility mpvo|centroid]
+//              [--runs 3] [--tf hot] [--visibility mpvo|centroid|raycast]
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
@@ -65,7 +65,8 @@ int main(int argc, char** argv) {
   app.add_option("--views", views, "frames a pass (the eye turning about the mesh)")->check(CLI::Range(1, 1000));
   app.add_option("--runs", runs, "timed passes (after a warm-up pass)")->check(CLI::Range(1, 100));
   app.add_option("--tf", tf, "transfer function preset");
-  app.add_option("--visibility", visibility, "mpvo or centroid")->check(CLI::IsMember({"mpvo", "centroid"}));
+  app.add_option("--visibility", visibility, "mpvo, centroid or raycast")
+      ->check(CLI::IsMember({"mpvo", "centroid", "raycast"}));
   CLI11_PARSE(app, argc, argv);
   const std::vector<int> sizes = parseSizes(sizesText);
 
@@ -81,7 +82,7 @@ int main(int argc, char** argv) {
   render::Scene scene;
   scene.transferFunction = render::TransferFunction::load(tf);
   scene.transferFunctionName = tf;
-  scene.visibility = visibility == "centroid" ? render::TetSort::Centroid : render::TetSort::Mpvo;
+  scene.visibility = render::parseTetSort(visibility, "--visibility");
   auto pass = [&](int size, bool nullFragment) {
     scene.width = scene.height = size;
     Pass p;

@@ -251,8 +251,9 @@ void addBenchCommand(CLI::App& app) {
                   "with --out");
   cmd->add_option("--mesh", args->meshes,
                   "sweep tetrahedral meshes instead of the grids (repeatable): a mesh store, a .vtk or .msh file, or "
-                  "synthetic-mesh:SPEC; visibility mpvo and centroid, with and without empty-space skipping, against "
-                  "the exact reference, into mesh-sweep.{csv,md,svg} (default --tf hot, 4 views)");
+                  "synthetic-mesh:SPEC; visibility mpvo and centroid, with and without empty-space skipping, and the ray "
+                  "caster with and without ert 0.999, against the exact reference, into mesh-sweep.{csv,md,svg} "
+                  "(default --tf hot, 4 views)");
   cmd->add_option("--tf", args->tfs,
                   "--calibrate and --mesh: transfer functions to measure, comma-separated presets or files (default "
                   "grayscale; hot with --mesh)")

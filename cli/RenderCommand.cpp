@@ -153,11 +153,21 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
     for (int64_t n : stats.bricksPerLevel) levels += " " + std::to_string(n);
     levels += ")";
   }
+  if (dataset->kind() == render::DatasetKind::TetMesh && stats.tetRayPasses > 0) {
+    std::printf("render: wrote %s (%dx%d): %lld tet segments ray cast (%lld rays, %lld terminated early, %lld "
+                "pass%s), %.1f ms (pre-integration %.1f, drawing %.1f, readback %.1f)\n",
+                a.output.c_str(), scene.width, scene.height, (long long)stats.samples, (long long)stats.fragments,
+                (long long)stats.samplesTerminated, (long long)stats.tetRayPasses,
+                stats.tetRayPasses == 1 ? "" : "es", stats.msTotal, stats.msPreIntegration, stats.msDrawing,
+                stats.msReadback);
+    return;
+  }
   if (dataset->kind() == render::DatasetKind::TetMesh) {
     std::printf("render: wrote %s (%dx%d): %lld tets drawn in %s order, %lld fragments, %.1f ms (sorting %.1f, "
                 "pre-integration %.1f, drawing %.1f, readback %.1f)\n",
                 a.output.c_str(), scene.width, scene.height, (long long)stats.tetsDrawn,
-                render::tetSortName(scene.visibility), (long long)stats.fragments, stats.msTotal, stats.msSorting,
+                render::tetSortName(scene.visibility == render::TetSort::Centroid ? render::TetSort::Centroid
+                                                                                  : render::TetSort::Mpvo), (long long)stats.fragments, stats.msTotal, stats.msSorting,
                 stats.msPreIntegration, stats.msDrawing, stats.msReadback);
     return;
   }

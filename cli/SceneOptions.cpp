@@ -113,7 +113,7 @@ render::Scene buildScene(const SceneArgs& a, const CLI::App& cmd) {
   if (a.ess) s.ess = true;
   if (a.progressive) s.progressive = true;
   if (!a.slicer.empty()) s.slicer = render::parseSlicer(a.slicer, "--slicer");
-  if (!a.visibility.empty()) s.visibility = a.visibility == "centroid" ? render::TetSort::Centroid : render::TetSort::Mpvo;
+  if (!a.visibility.empty()) s.visibility = render::parseTetSort(a.visibility, "--visibility");
   if (!a.quality.empty()) {
     for (const char* option : {"--step", "--raycast", "--slab", "--ert", "--pre-integration", "--sub-block", "--lod"})
       if (cmd.count(option))
@@ -159,8 +159,9 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
   cmd->add_option("--background", args.background, "r,g,b in [0, 1] (default 0,0,0), or none: a transparent frame (RGBA PNG, alpha the accumulated opacity)");
   cmd->add_option("--window", args.window, "LO,HI value window (default: the store's value range)");
   cmd->add_option("--visibility", args.visibility,
-                  "a tetrahedral mesh's visibility order: mpvo (the face-adjacency walk, default) or centroid")
-      ->check(CLI::IsMember({"mpvo", "centroid"}));
+                  "how a tetrahedral mesh's cells are put in order: mpvo (sorted by the face-adjacency walk, default), "
+                  "centroid (sorted by distance), or raycast (each pixel's ray walks the adjacency, --ert applies)")
+      ->check(CLI::IsMember({"mpvo", "centroid", "raycast"}));
   cmd->add_option("--slicer", args.slicer,
                   "where slice polygons are computed when slicing (--slab 0): vertex (the vertex program, default), "
                   "cpu, vertex-lean (paths chosen on the CPU), geometry (a geometry program), vertex-geometry (both)")

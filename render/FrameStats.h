@@ -38,6 +38,9 @@ struct FrameStats {
   int64_t tetsDrawn = 0;        ///< tetrahedra drawn (a mesh frame)
   int64_t tetsSkippedEmpty = 0; ///< tetrahedra the transfer function makes transparent over their value range
   double msSorting = 0;         ///< a mesh frame's visibility sort
+  /// A ray-cast mesh frame's entry passes (render/TetRayCaster.h), each followed by a ray pass but the last, which
+  /// found no entry: 2 for a convex mesh. 0 when the frame was projected.
+  int64_t tetRayPasses = 0;
   double msPreIntegration = 0;  ///< building the pre-integration table (0 when the last frame's was current)
   /// A scene with a quality target: what it chose (QualityChoice::toJson); null otherwise.
   nlohmann::json quality;

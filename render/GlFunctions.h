@@ -22,6 +22,7 @@ namespace voxbrick::render {
   X(PFNGLDISABLEPROC, glDisable)                                             \
   X(PFNGLFINISHPROC, glFinish)                                               \
   X(PFNGLFLUSHPROC, glFlush)                                                 \
+  X(PFNGLMEMORYBARRIERPROC, glMemoryBarrier)                                 \
   X(PFNGLFENCESYNCPROC, glFenceSync)                                         \
   X(PFNGLCLIENTWAITSYNCPROC, glClientWaitSync)                               \
   X(PFNGLDELETESYNCPROC, glDeleteSync)                                       \
@@ -32,6 +33,7 @@ namespace voxbrick::render {
   X(PFNGLCLEARCOLORPROC, glClearColor)                                       \
   X(PFNGLCLEARDEPTHPROC, glClearDepth)                                       \
   X(PFNGLCLEARBUFFERFVPROC, glClearBufferfv)                                 \
+  X(PFNGLCLEARBUFFERUIVPROC, glClearBufferuiv)                               \
   X(PFNGLCOLORMASKPROC, glColorMask)                                         \
   X(PFNGLDEPTHMASKPROC, glDepthMask)                                         \
   X(PFNGLDEPTHFUNCPROC, glDepthFunc)                                         \

@@ -102,7 +102,20 @@ const char* slicerName(Slicer slicer) {
   return "?";
 }
 
-const char* tetSortName(TetSort sort) { return sort == TetSort::Centroid ? "centroid" : "mpvo"; }
+const char* tetSortName(TetSort sort) {
+  switch (sort) {
+    case TetSort::Mpvo: return "mpvo";
+    case TetSort::Centroid: return "centroid";
+    case TetSort::Ray: return "raycast";
+  }
+  return "?";
+}
+
+TetSort parseTetSort(const std::string& name, const std::string& what) {
+  for (TetSort sort : {TetSort::Mpvo, TetSort::Centroid, TetSort::Ray})
+    if (name == tetSortName(sort)) return sort;
+  throw RenderInputError(what + " must be \"mpvo\", \"centroid\" or \"raycast\"");
+}
 
 std::string slicerNames() {
   std::string names;
@@ -245,13 +258,7 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   }
   if (j.contains("visibility")) {
     const json& v = j["visibility"];
-    const std::string name = v.is_string() ? v.get<std::string>() : "";
-    if (name == "mpvo")
-      s.visibility = TetSort::Mpvo;
-    else if (name == "centroid")
-      s.visibility = TetSort::Centroid;
-    else
-      throw RenderInputError(what + ": 'visibility' must be \"mpvo\" or \"centroid\"");
+    s.visibility = parseTetSort(v.is_string() ? v.get<std::string>() : "", what + ": 'visibility'");
   }
   if (j.contains("shading")) s.shading = boolean(j["shading"], "shading", what);
   if (j.contains("sub_block")) {

@@ -39,7 +39,7 @@ Program tetProgram(const Gl& gl, bool nullFragment, bool shaded = false) {
   if (shaded) defines.push_back("SHADING");
   return Program(gl, ProgramSources::fromFiles(nullFragment ? "tet-null" : shaded ? "tet-shaded" : "tet",
                                                {{GL_VERTEX_SHADER, "tet.vert.glsl"}, {GL_FRAGMENT_SHADER, "tet.frag.glsl"}},
-                                               std::move(defines)));
+                                               std::move(defines), "tet.glsl"));
 }
 
 }  // namespace
@@ -55,6 +55,7 @@ size_t TetRenderer::minimumBytes() { return kMinBatchTets * (kBytesPerTet + 4) +
 TetRenderer::TetRenderer(GlContext& context, std::shared_ptr<const TetMeshData> data, size_t gpuBudgetBytes)
     : mGl(context.gl()),
       mData(std::move(data)),
+      mGpuBudget(gpuBudgetBytes),
       mVertices(mGl),
       mOrderBuffer(mGl),
       mEmpty(mGl),
@@ -100,9 +101,30 @@ void TetRenderer::writeTet(uint32_t tet, glm::vec4* out) const {
 
 TetRenderer::~TetRenderer() = default;
 
-size_t TetRenderer::gpuBytes() const { return mBatchTets * (kBytesPerTet + 4) + tableBytes(); }
+size_t TetRenderer::gpuBytes() const {
+  return mBatchTets * (kBytesPerTet + 4) + tableBytes() + (mRayCaster ? mRayCaster->gpuBytes() : 0);
+}
 
-double TetRenderer::estimatedCost(const glm::dmat4& viewProj, int width, int height) {
+bool TetRenderer::rayCastable(const Camera& camera, double nearPlane) {
+  if (mStreamed) return false;
+  const Box& box = mData->bounds;
+  const glm::dvec3 d = camera.viewDirection();
+  for (int c = 0; c < 8; ++c) {
+    const glm::dvec3 corner{(c & 1) ? box.max.x : box.min.x, (c & 2) ? box.max.y : box.min.y,
+                            (c & 4) ? box.max.z : box.min.z};
+    if (glm::dot(corner - camera.eye, d) < nearPlane) return false;
+  }
+  if (!mRayCaster) {
+    const size_t tets = mData->mesh.tets.size();
+    if (tets > TetRayCaster::kMaxTets ||
+        gpuBytes() + TetRayCaster::bytesFor(tets, mData->topology.boundary.size()) > mGpuBudget)
+      return false;
+    mRayCaster = std::make_unique<TetRayCaster>(mGl, *mData);
+  }
+  return true;
+}
+
+double TetRenderer::estimatedCost(const glm::dmat4& viewProj, int width, int height, size_t vertexStages) {
   // Each point projected once (window coordinates; points at or behind the eye plane marked), then per tet to be
   // drawn the pixels of its projection's bounding box inside the window: a tet with a point behind the eye plane may
   // cover the window.
@@ -143,7 +165,7 @@ double TetRenderer::estimatedCost(const glm::dmat4& viewProj, int width, int hei
         return sum;
       },
       std::plus<double>());
-  return fragments + kFragmentsPerTet * double(mOrder.size());
+  return fragments + kFragmentsPerTet * double(vertexStages);
 }
 
 image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, const FrameOptions& options) {
@@ -159,16 +181,25 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
   // World centred on the box, as the vertices are.
   const glm::dmat4 viewProj =
       camera.projection(aspect, nearPlane, farPlane) * camera.view() * glm::translate(glm::dmat4(1.0), centre);
-  const PixelRays rays = pixelRays(viewProj, scene.width, scene.height);
+  const PixelRays pixels = pixelRays(viewProj, scene.width, scene.height);
 
-  // The visibility order, front to back.
-  const mesh::ViewPoint view{camera.eye, camera.viewDirection(), camera.orthographic};
-  mesh::VisibilityStats sortStats;
-  if (scene.visibility == TetSort::Mpvo)
-    mesh::mpvoOrder(d.mesh, d.topology, view, mOrder, &sortStats);
-  else
-    mesh::centroidOrder(d.mesh, view, mOrder, &sortStats);
-  stats.msSorting = sortStats.ms;
+  const bool nullFragment = options.mode == RenderMode::Roofline;
+  if (options.mode == RenderMode::Points)
+    throw RenderInputError("a tet mesh has no slices to draw as points (RenderMode::Points)");
+  // Ray casting when asked for and possible (rayCastable); otherwise projected in MPVO order.
+  const bool rays = scene.visibility == TetSort::Ray && !nullFragment && rayCastable(camera, nearPlane);
+
+  // The visibility order, front to back (none when ray casting: each ray finds its own).
+  mOrder.clear();
+  if (!rays) {
+    const mesh::ViewPoint view{camera.eye, camera.viewDirection(), camera.orthographic};
+    mesh::VisibilityStats sortStats;
+    if (scene.visibility == TetSort::Centroid)
+      mesh::centroidOrder(d.mesh, view, mOrder, &sortStats);
+    else
+      mesh::mpvoOrder(d.mesh, d.topology, view, mOrder, &sortStats);
+    stats.msSorting = sortStats.ms;
+  }
   if (options.cancelled && options.cancelled()) throw FrameCancelled("frame cancelled");
 
   // The value window (default the scalars' range) and the segment lengths of the table.
@@ -182,7 +213,7 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
   // order (after sorting: MPVO needs every tet's faces to order the others).
   const size_t tetCount = d.mesh.tets.size();
   mDrawn.assign(tetCount, 1);
-  if (scene.skipEmpty) {
+  if (scene.skipEmpty && !rays) {
     const double inverse = 1.0 / (hi - lo);
     const TransferFunction& tf = scene.transferFunction;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, tetCount, 16384), [&](const tbb::blocked_range<size_t>& r) {
@@ -196,75 +227,38 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
     stats.tetsSkippedEmpty = int64_t(before - mOrder.size());
   }
   // The frame's cost before anything is drawn, in the unit of FrameOptions::maxSamples: a fragment counts as a
-  // sample, and each tet's projected bounding box bounds its fragments.
-  stats.samplesEstimated = estimatedCost(viewProj, scene.width, scene.height);
+  // sample, and each tet's projected bounding box bounds its fragments (and so the ray caster's segments, which have
+  // no vertex stages to add).
+  stats.samplesEstimated = estimatedCost(viewProj, scene.width, scene.height, rays ? 0 : mOrder.size());
   if (options.maxSamples > 0 && stats.samplesEstimated > options.maxSamples)
     throw RenderLimitError("the mesh frame would take about " + numberText(std::round(stats.samplesEstimated / 1e6)) +
-                           " million fragments' work (" + std::to_string(mOrder.size()) +
-                           " tets drawn), above the limit of " + numberText(options.maxSamples / 1e6) +
+                           " million fragments' work (" + std::to_string(rays ? tetCount : mOrder.size()) +
+                           " tets), above the limit of " + numberText(options.maxSamples / 1e6) +
                            " million samples; ask for a smaller image or a view with less of the mesh");
   const double reference = scene.transferFunction.referenceLength().value_or(d.meanEdgeLength);
   const double ratioMax = d.longestEdge / reference;
   const double ratioMin = ratioMax * kShortestRatioShare;
-  const bool nullFragment = options.mode == RenderMode::Roofline;
-  if (options.mode == RenderMode::Points)
-    throw RenderInputError("a tet mesh has no slices to draw as points (RenderMode::Points)");
   if (!nullFragment) stats.msPreIntegration = mTable.update(scene.transferFunction, ratioMin, ratioMax, 3);
   const PreIntegrationSpec& spec = mTable.spec();
 
   const auto drawStart = Clock::now();
   mCompositor.begin(scene.width, scene.height, true);
+  TetFrameUniforms uniforms;
+  uniforms.viewProj = viewProj;
+  uniforms.rays = pixels;
+  uniforms.width = scene.width;
+  uniforms.height = scene.height;
+  uniforms.windowLo = lo;
+  uniforms.windowScale = 1.0 / (hi - lo);
+  uniforms.reference = reference;
+  uniforms.tableUnit = 3;
+  uniforms.table = spec;
   try {
-    if (!mStreamed)
-      mOrderBuffer.allocate(GL_SHADER_STORAGE_BUFFER, mOrder.size() * sizeof(uint32_t), mOrder.data(), GL_STREAM_DRAW);
-    const Program& p = nullFragment ? mNullProgram : scene.shading ? mShadedProgram : mProgram;
-    p.set(p.uniformLocation("uViewProj"), glm::mat4(viewProj));
-    p.set(p.uniformLocation("uWindowLo"), float(lo));
-    p.set(p.uniformLocation("uWindowScale"), float(1.0 / (hi - lo)));
-    p.set(p.uniformLocation("uViewport"), glm::vec2(float(scene.width), float(scene.height)));
-    p.set(p.uniformLocation("uRayOrigin"), glm::vec3(rays.origin));
-    p.set(p.uniformLocation("uRayOriginDx"), glm::vec3(rays.originDx));
-    p.set(p.uniformLocation("uRayOriginDy"), glm::vec3(rays.originDy));
-    p.set(p.uniformLocation("uRayDirection"), glm::vec3(rays.direction));
-    p.set(p.uniformLocation("uRayDirectionDx"), glm::vec3(rays.directionDx));
-    p.set(p.uniformLocation("uRayDirectionDy"), glm::vec3(rays.directionDy));
-    p.set(p.uniformLocation("uInvReference"), float(1.0 / reference));
-    p.set(p.uniformLocation("uPreIntegrated"), 3);
-    p.set(p.uniformLocation("uTableResolution"), float(spec.resolution));
-    p.set(p.uniformLocation("uRatioMin"), float(spec.ratioMin));
-    p.set(p.uniformLocation("uLayerScale"), float(spec.layerScale()));
-    p.set(p.uniformLocation("uLayers"), float(spec.layers));
-    p.use();
-    mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mVertices.id());
-    mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, mOrderBuffer.id());
-    mEmpty.bind();
-    // Cancellation: checked between draws of at most kTetsPerDraw tets, with at most two of them queued
-    // (Checkpoints), so that a frame given up stops within about one draw's work.
-    Checkpoints checkpoints(mGl, options.cancelled);
-    const GLint orderOffset = p.uniformLocation("uOrderOffset");
-    if (!mStreamed) {
-      for (size_t first = 0; first < mOrder.size(); first += kTetsPerDraw) {
-        p.set(orderOffset, int(first));
-        mGl.glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(std::min(kTetsPerDraw, mOrder.size() - first)));
-        checkpoints.pace();
-      }
-      stats.batches = 1;
-    } else {
-      p.set(orderOffset, 0);
-      // Each batch is written into a fresh store of the buffer (the driver keeps the previous one until its draw has
-      // read it), then drawn: the frame is the resident one, batch by batch.
-      mStaging.resize(mBatchTets * 4);
-      for (size_t first = 0; first < mOrder.size(); first += mBatchTets) {
-        const size_t count = std::min(mBatchTets, mOrder.size() - first);
-        for (size_t i = 0; i < count; ++i) writeTet(mOrder[first + i], &mStaging[4 * i]);
-        mVertices.allocate(GL_SHADER_STORAGE_BUFFER, mBatchTets * kBytesPerTet, nullptr, GL_STREAM_DRAW);
-        mGl.glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, GLsizeiptr(count * kBytesPerTet), mStaging.data());
-        mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mVertices.id());
-        mGl.glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(count));
-        checkpoints.pace();
-        stats.batches += 1;
-      }
-    }
+    if (rays)
+      mRayCaster->draw(uniforms, scene.ert, scene.shading, mCompositor, stats, options.cancelled);
+    else
+      drawProjected(uniforms, nullFragment ? mNullProgram : scene.shading ? mShadedProgram : mProgram, stats,
+                    options.cancelled);
     checkGlError(mGl, "TetRenderer: drawing");
   } catch (...) {
     mCompositor.abort();
@@ -273,11 +267,50 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
   stats.msDrawing = msSince(drawStart);
   stats.tetsDrawn = int64_t(mOrder.size());
   image::ImageF image = mCompositor.finish(scene, stats);
+  if (rays) mRayCaster->readCounters(stats);
   mGl.glDisable(GL_BLEND);
   mGl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
   stats.msTotal = msSince(frameStart);
   if (statsOut) *statsOut = stats;
   return image;
+}
+
+void TetRenderer::drawProjected(const TetFrameUniforms& uniforms, const Program& p, FrameStats& stats,
+                                const std::function<bool()>& cancelled) {
+  if (!mStreamed)
+    mOrderBuffer.allocate(GL_SHADER_STORAGE_BUFFER, mOrder.size() * sizeof(uint32_t), mOrder.data(), GL_STREAM_DRAW);
+  setTetUniforms(p, uniforms);
+  p.use();
+  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mVertices.id());
+  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, mOrderBuffer.id());
+  mEmpty.bind();
+  // Cancellation: checked between draws of at most kTetsPerDraw tets, with at most two of them queued
+  // (Checkpoints), so that a frame given up stops within about one draw's work.
+  Checkpoints checkpoints(mGl, cancelled);
+  const GLint orderOffset = p.uniformLocation("uOrderOffset");
+  if (!mStreamed) {
+    for (size_t first = 0; first < mOrder.size(); first += kTetsPerDraw) {
+      p.set(orderOffset, int(first));
+      mGl.glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(std::min(kTetsPerDraw, mOrder.size() - first)));
+      checkpoints.pace();
+    }
+    stats.batches = 1;
+  } else {
+    p.set(orderOffset, 0);
+    // Each batch is written into a fresh store of the buffer (the driver keeps the previous one until its draw has
+    // read it), then drawn: the frame is the resident one, batch by batch.
+    mStaging.resize(mBatchTets * 4);
+    for (size_t first = 0; first < mOrder.size(); first += mBatchTets) {
+      const size_t count = std::min(mBatchTets, mOrder.size() - first);
+      for (size_t i = 0; i < count; ++i) writeTet(mOrder[first + i], &mStaging[4 * i]);
+      mVertices.allocate(GL_SHADER_STORAGE_BUFFER, mBatchTets * kBytesPerTet, nullptr, GL_STREAM_DRAW);
+      mGl.glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, GLsizeiptr(count * kBytesPerTet), mStaging.data());
+      mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mVertices.id());
+      mGl.glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(count));
+      checkpoints.pace();
+      stats.batches += 1;
+    }
+  }
 }
 
 }  // namespace voxbrick::render

@@ -13,6 +13,7 @@
 #include "render/GlObjects.h"
 #include "render/PreIntegrationTexture.h"
 #include "render/TetDataset.h"
+#include "render/TetRayCaster.h"
 
 namespace voxbrick::render {
 
@@ -27,8 +28,10 @@ class TetRenderer final : public FrameRenderer {
   TetRenderer(GlContext& context, std::shared_ptr<const TetMeshData> data, size_t gpuBudgetBytes);
   ~TetRenderer() override;
 
-  /// Renders `scene` (camera, size, transfer function, window, background, visibility, shading; RenderMode::Roofline draws
-  /// with the seed's null fragment program). Throws RenderInputError for an invalid scene, RenderError for GL
+  /// Renders `scene` (camera, size, transfer function, window, background, visibility, shading, ert for the ray
+  /// caster; RenderMode::Roofline draws projected tets with the seed's null fragment program). Visibility
+  /// TetSort::Ray draws with the ray caster where rayCastable, otherwise projected in MPVO order
+  /// (FrameStats::tetRayPasses says which). Throws RenderInputError for an invalid scene, RenderError for GL
   /// failures, FrameCancelled when options.cancelled says so before drawing.
   image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) override;
   size_t gpuBytes() const override;
@@ -48,12 +51,21 @@ class TetRenderer final : public FrameRenderer {
   /// Tet `tet`'s four vertices as the shader reads them.
   void writeTet(uint32_t tet, glm::vec4* out) const;
   /// The cost of drawing the tets of mDrawn with `viewProj` into a width x height window, in FrameOptions::maxSamples' unit: the
-  /// pixels of each tet's projected bounding box inside the window (an upper bound of its fragments; the whole window
-  /// for a tet reaching behind the eye plane), plus kFragmentsPerTet a tet for its vertex stage.
-  double estimatedCost(const glm::dmat4& viewProj, int width, int height);
+  /// pixels of each tet's projected bounding box inside the window (an upper bound of its fragments, or of the ray
+  /// caster's segments in it; the whole window for a tet reaching behind the eye plane), plus kFragmentsPerTet for
+  /// each of `vertexStages` tets drawn projected.
+  double estimatedCost(const glm::dmat4& viewProj, int width, int height, size_t vertexStages);
+  /// Whether this frame can be ray cast: the mesh is resident, its box lies wholly beyond the near plane (each ray
+  /// then meets the mesh first at a boundary face) and the ray caster's buffers fit the budget beside the projected
+  /// tets' (made on first use).
+  bool rayCastable(const Camera& camera, double nearPlane);
+  /// Draws the tets of mOrder projected, with `program` (plain, shaded or null).
+  void drawProjected(const TetFrameUniforms& uniforms, const Program& program, FrameStats& stats,
+                     const std::function<bool()>& cancelled);
 
   const Gl& mGl;
   std::shared_ptr<const TetMeshData> mData;
+  size_t mGpuBudget = 0;
   bool mStreamed = false;
   size_t mBatchTets = 0;  // tets the vertex buffer holds: all of them, or a streamed batch
   Buffer mVertices;  // 4 vec4 per tet: position (centred on the mesh's box) and raw scalar
@@ -62,6 +74,7 @@ class TetRenderer final : public FrameRenderer {
   Program mProgram, mNullProgram, mShadedProgram;
   Compositor mCompositor;
   PreIntegrationTexture mTable;
+  std::unique_ptr<TetRayCaster> mRayCaster;  // made by the first frame that ray casts
   std::vector<uint32_t> mOrder;       // this frame's tets, front to back
   std::vector<glm::vec4> mStaging;    // a streamed batch on its way to mVertices
   std::vector<glm::vec3> mProjected;  // estimatedCost: each point's window position, z 0 at or behind the eye

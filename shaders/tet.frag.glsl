@@ -1,8 +1,8 @@
 // A fragment of a projected tetrahedron: its pixel's ray meets the tet between the entry and exit faces (where the
 // barycentric planes of tet.vert.glsl cross zero), the scalar is linear in between, and the segment's colour and
-// opacity come from the pre-integrated table (front value, back value, length): render/PreIntegration.h, the
-// optical model of ARCHITECTURE.md (with SHADING, the headlight of the grids). Exact for perspective rays (the ray is the pixel's own, in world units), with
-// no sprite size limit. Premultiplied output, blended front to back in the visibility order.
+// opacity come from the pre-integrated table (front value, back value, length; with SHADING, the grids' headlight):
+// classifySegment and shadeSegment of the library tet.glsl. Exact for perspective rays, with no sprite size limit.
+// Premultiplied output, blended front to back in the visibility order.
 noperspective in vec4 vAt;     // tet.vert.glsl: the barycentric planes along the ray, at + t * rate
 noperspective in vec4 vRate;
 noperspective in vec2 vValue;  // the normalised scalar along the ray, vValue.x + t * vValue.y
@@ -13,15 +13,6 @@ flat in vec3 vGradient;
 #endif
 
 uniform vec3 uRayDirection, uRayDirectionDx, uRayDirectionDy;  // near plane to far plane at window (x, y)
-uniform float uInvReference;  // 1 / the transfer function's reference length
-
-// The pre-integrated table (render/PreIntegration.h), its resolution and length layers.
-uniform sampler3D uPreIntegrated;
-uniform float uTableResolution;
-uniform float uRatioMin;
-uniform float uLayerScale;
-uniform float uLayers;
-
 out vec4 fragColor;
 
 void main() {
@@ -55,20 +46,8 @@ void main() {
   const float front = vValue.x + enter * vValue.y;
   const float back = vValue.x + leave * vValue.y;
   const float ratio = (leave - enter) * sqrt(directionSquared) * uInvReference;
-  // Below the table's shortest segment both colour and opacity are linear in the length to first order (a thin
-  // segment): the shortest layer's entry, scaled.
-  const float scale = ratio < uRatioMin ? ratio / uRatioMin : 1.0;
-  const float layer = (clamp(log(max(ratio, uRatioMin) / uRatioMin) * uLayerScale, 0.0, uLayers - 1.0) + 0.5) / uLayers;
-  const vec2 st = (clamp(vec2(front, back), 0.0, 1.0) * (uTableResolution - 1.0) + 0.5) / uTableResolution;
-  fragColor = texture(uPreIntegrated, vec3(st, layer)) * scale;
+  fragColor = classifySegment(front, back, ratio);
 #ifdef SHADING
-  // The grids' two-sided Phong headlight (render/Headlight.h, volume.frag.glsl), normal -gradient / |gradient|. In a tet both the normal
-  // and the direction to the eye (against the ray's) are constant along the segment, so shading the emission, c x +
-  // y, shades the pre-integrated segment exactly: C x + y A, premultiplied.
-  const float magnitude = length(vGradient);
-  if (magnitude > 1e-12) {
-    const float diffuse = abs(dot(vGradient, direction)) / (magnitude * sqrt(directionSquared));
-    fragColor.rgb = fragColor.rgb * (0.3 + 0.7 * diffuse) + vec3(0.25 * pow(diffuse, 32.0) * fragColor.a);
-  }
+  fragColor = shadeSegment(fragColor, vGradient, direction);
 #endif
 }

@@ -522,8 +522,8 @@ TEST(BenchCli, MeshSweepMeasuresEverySettingAgainstTheExactReference) {
   std::ifstream csv(dir / "out" / "mesh-sweep.csv");
   std::string line;
   std::getline(csv, line);
-  EXPECT_EQ(line.rfind("mesh,tets,transfer_function,visibility,skip_empty,", 0), 0u) << line;
-  std::map<std::string, int> rows, fronts;
+  EXPECT_EQ(line.rfind("mesh,tets,transfer_function,visibility,skip_empty,ert,", 0), 0u) << line;
+  std::map<std::string, int> rows, fronts, rayCast;
   while (std::getline(csv, line)) {
     // Fields split at commas outside quotes (a synthetic spec is quoted).
     std::vector<std::string> f(1);
@@ -533,16 +533,19 @@ TEST(BenchCli, MeshSweepMeasuresEverySettingAgainstTheExactReference) {
       else if (c == ',' && !quoted) f.emplace_back();
       else f.back() += c;
     }
-    ASSERT_EQ(f.size(), 17u) << line;
+    ASSERT_EQ(f.size(), 18u) << line;
     const std::string key = f[0] + "/" + f[2];
     rows[key] += 1;
-    fronts[key] += f[16] == "1" ? 1 : 0;
-    EXPECT_GT(std::stod(f[13]), 40.0) << "worst view against the exact reference: " << line;
-    EXPECT_GT(std::stod(f[7]), 0.0) << line;
+    fronts[key] += f[17] == "1" ? 1 : 0;
+    rayCast[key] += f[3] == "raycast" ? 1 : 0;
+    EXPECT_GT(std::stod(f[14]), 40.0) << "worst view against the exact reference: " << line;
+    EXPECT_GT(std::stod(f[8]), 0.0) << line;
+    EXPECT_GT(std::stod(f[12]), 0.0) << "segments classified: " << line;
   }
   ASSERT_EQ(rows.size(), 4u);  // two meshes, two transfer functions
   for (const auto& [key, n] : rows) {
-    EXPECT_EQ(n, 4) << key;  // mpvo and centroid, with and without skipping
+    EXPECT_EQ(n, 6) << key;  // mpvo and centroid, with and without skipping; the ray caster with and without ert
+    EXPECT_EQ(rayCast[key], 2) << key;
     EXPECT_GE(fronts[key], 1) << key;
   }
   for (const char* name : {"mesh-sweep.md", "mesh-sweep.svg"})
@@ -558,7 +561,7 @@ TEST(BenchCli, MeshSweepMeasuresEverySettingAgainstTheExactReference) {
     return n;
   };
   EXPECT_EQ(occurrences("font-weight=\"bold\""), 4u);  // a panel per mesh and transfer function
-  EXPECT_EQ(occurrences("<circle "), 16u);               // a point per row
+  EXPECT_EQ(occurrences("<circle "), 24u);               // a point per row
   // Refusals name what is wrong.
   r = test::runVoxbrick("bench -q --mesh " + (dir / "missing.vtk").string());
   EXPECT_EQ(r.exitCode, 1);

@@ -38,6 +38,7 @@ Scene partlyTransparentScene() {
   scene.width = 96;
   scene.height = 80;
   scene.transferFunction = TransferFunction({{0, {1, 0.5, 0, 0}}, {0.4, {1, 0.5, 0, 0}}, {1, {1, 1, 1, 0.6}}});
+  scene.visibility = TetSort::Mpvo;  // projected; the ray caster's tests ask for it
   return scene;
 }
 
@@ -63,6 +64,7 @@ TEST(TetRenderer, ConstantScalarGivesTheAnalyticOpacity) {
   const double alpha = 0.05;
   scene.transferFunction = TransferFunction({{0, {1, 1, 1, alpha}}, {1, {1, 1, 1, alpha}}}, 1.0);
   scene.window = std::array<double, 2>{0, 1};
+  scene.visibility = TetSort::Mpvo;
   TetRenderer renderer(test::context(), data, size_t(256) << 20);
   FrameStats stats;
   const image::ImageF image = renderer.render(scene, &stats);
@@ -73,6 +75,14 @@ TEST(TetRenderer, ConstantScalarGivesTheAnalyticOpacity) {
   EXPECT_NEAR(centre[0], want, 2e-3);
   // A corner pixel is outside the cube's projection (the view is 2 * 37 * tan 15 = 19.8 units tall).
   EXPECT_NEAR(image.pixel(1, 1)[0], 0.0, 1e-6);
+  // The ray caster, along the grid's own axis (rays parallel to faces and edges, in their planes where a pixel's
+  // centre falls on the lattice): the same opacity, every segment walked.
+  scene.visibility = TetSort::Ray;
+  scene.ert = 0;
+  const image::ImageF rays = renderer.render(scene, &stats);
+  EXPECT_EQ(stats.tetRayPasses, 2);
+  EXPECT_NEAR(rays.pixel(32, 32)[0], want, 2e-3);
+  test::expectClose(rays, image, 1.0 / 255, "tets-ray-axis");
 }
 
 TEST(TetRenderer, MpvoAndCentroidOrdersAgreeOnAConvexGrid) {
@@ -120,6 +130,7 @@ TEST(TetRenderer, FramesMatchTheExactReference) {
       scene.height = 80;
       scene.camera = v.camera;
       scene.transferFunction = TransferFunction::load(tf);
+      scene.visibility = TetSort::Mpvo;
       FrameStats stats;
       const image::ImageF gpu = renderer.render(scene, &stats);
       TetReferenceStats refStats;
@@ -138,29 +149,33 @@ TEST(TetRenderer, FramesMatchTheExactReference) {
 // Shading (Scene::shading): the grids' headlight with each tet's scalar gradient as the normal, exact for a
 // pre-integrated segment (normal and eye direction are constant along it), so the GPU frame stays within the same
 // bound of the exact reference; the shaded frame differs from the unshaded one, and by the headlight's rule: its
-// ambient floor keeps at least 0.3 of the unshaded colour.
+// ambient floor keeps at least 0.3 of the unshaded colour. Projected and ray cast (the gradient from the tet's
+// vertices there) alike.
 TEST(TetRenderer, ShadedFramesMatchTheExactReference) {
   auto data = syntheticData("ball,n=12");
   const TetReference reference(data->mesh);
   TetRenderer renderer(test::context(), data, size_t(256) << 20);
-  for (const bool orthographic : {false, true}) {
-    SCOPED_TRACE(orthographic ? "orthographic" : "perspective");
-    Scene scene = partlyTransparentScene();
-    scene.camera.azimuth = 35;
-    scene.camera.elevation = 25;
-    scene.camera.orthographic = orthographic;
-    const image::ImageF unshaded = renderer.render(scene);
-    scene.shading = true;
-    const image::ImageF gpu = renderer.render(scene);
-    const TetReferenceParams params = TetReferenceParams::fromScene(scene, data->mesh, data->meanEdgeLength);
-    ASSERT_TRUE(params.shading);
-    const image::ImageF exact = reference.render(params);
-    ASSERT_GT(test::meanBrightness(exact), 0.005);
-    test::expectClose(gpu, exact, 2.0 / 255, orthographic ? "tets-shaded-ortho" : "tets-shaded");
-    EXPECT_GT(image::compareImages(gpu, unshaded).maxAbs, 0.05) << "shading changed nothing";
-    for (size_t i = 0; i < gpu.rgba.size(); i += 4)
-      for (size_t c = 0; c < 3; ++c) ASSERT_GE(gpu.rgba[i + c], 0.3f * unshaded.rgba[i + c] - 2.0f / 255) << i;
-  }
+  for (const bool orthographic : {false, true})
+    for (const TetSort sort : {TetSort::Mpvo, TetSort::Ray}) {
+      SCOPED_TRACE(std::string(orthographic ? "orthographic, " : "perspective, ") + tetSortName(sort));
+      Scene scene = partlyTransparentScene();
+      scene.visibility = sort;
+      scene.ert = 0;
+      scene.camera.azimuth = 35;
+      scene.camera.elevation = 25;
+      scene.camera.orthographic = orthographic;
+      const image::ImageF unshaded = renderer.render(scene);
+      scene.shading = true;
+      const image::ImageF gpu = renderer.render(scene);
+      const TetReferenceParams params = TetReferenceParams::fromScene(scene, data->mesh, data->meanEdgeLength);
+      ASSERT_TRUE(params.shading);
+      const image::ImageF exact = reference.render(params);
+      ASSERT_GT(test::meanBrightness(exact), 0.005);
+      test::expectClose(gpu, exact, 2.0 / 255, orthographic ? "tets-shaded-ortho" : "tets-shaded");
+      EXPECT_GT(image::compareImages(gpu, unshaded).maxAbs, 0.05) << "shading changed nothing";
+      for (size_t i = 0; i < gpu.rgba.size(); i += 4)
+        for (size_t c = 0; c < 3; ++c) ASSERT_GE(gpu.rgba[i + c], 0.3f * unshaded.rgba[i + c] - 2.0f / 255) << i;
+    }
 }
 
 // Tets the transfer function makes transparent over their value range are left out: the same image, fewer tets.
@@ -228,6 +243,7 @@ TEST(TetRenderer, AMeshLargerThanTheBudgetIsStreamedToTheSameImage) {
   scene.width = 96;
   scene.height = 80;
   scene.transferFunction = TransferFunction::load("hot");
+  scene.visibility = TetSort::Mpvo;
   TetRenderer resident(test::context(), data, TetRenderer::bytesFor(data->mesh.tets.size()));
   EXPECT_FALSE(resident.streamed());
   TetRenderer streamed(test::context(), data, TetRenderer::minimumBytes() + 1000);
@@ -255,6 +271,7 @@ TEST(TetRenderer, ACancelledFrameLeavesTheNextOneIntact) {
   scene.width = 64;
   scene.height = 48;
   scene.transferFunction = TransferFunction::load("hot");
+  scene.visibility = TetSort::Mpvo;
   for (bool streamed : {false, true}) {
     TetRenderer renderer(test::context(), data,
                          streamed ? TetRenderer::minimumBytes() : TetRenderer::bytesFor(data->mesh.tets.size()));
@@ -317,6 +334,135 @@ TEST(TetRenderer, NonConvexMeshOrdersAgainstTheReference) {
   EXPECT_GT(worst[int(TetSort::Mpvo)], 60.0);
   EXPECT_GT(worst[int(TetSort::Centroid)], 55.0);
   EXPECT_GE(worst[int(TetSort::Mpvo)], worst[int(TetSort::Centroid)]);
+}
+
+// The adjacency ray caster (TetSort::Ray) against the exact reference, on the staircase ball (non-convex: rays leave
+// it and enter again, a pass each), perspective from outside, close up and orthographic, two transfer functions,
+// without termination: the same bound as projected tets (the same segments, the same table). It walks a segment
+// per tet the reference crosses, up to the pixels on shared edges.
+TEST(TetRayCaster, FramesMatchTheExactReference) {
+  auto data = syntheticData("ball,n=12");
+  const TetReference reference(data->mesh);
+  TetRenderer renderer(test::context(), data, size_t(256) << 20);
+  CameraSpec orbit, close, orthographic;
+  orbit.azimuth = 35;
+  orbit.elevation = 25;
+  close.distance = 1.3;
+  orthographic.orthographic = true;
+  orthographic.azimuth = 90;
+  orthographic.elevation = 0;
+  int64_t mostPasses = 0;
+  for (const std::string tf : {"hot", "ct-bone"})
+    for (const CameraSpec& camera : {orbit, close, orthographic}) {
+      SCOPED_TRACE(tf + (camera.orthographic ? ", orthographic" : camera.distance ? ", close" : ", orbit"));
+      Scene scene;
+      scene.width = 96;
+      scene.height = 80;
+      scene.camera = camera;
+      scene.transferFunction = TransferFunction::load(tf);
+      scene.visibility = TetSort::Ray;
+      scene.ert = 0;
+      FrameStats stats;
+      const image::ImageF gpu = renderer.render(scene, &stats);
+      TetReferenceStats refStats;
+      const image::ImageF exact =
+          reference.render(TetReferenceParams::fromScene(scene, data->mesh, data->meanEdgeLength), &refStats);
+      ASSERT_GT(test::meanBrightness(exact), 0.005);
+      test::expectClose(gpu, exact, 2.0 / 255, "tets-ray-reference-" + tf);
+      ASSERT_GE(stats.tetRayPasses, 2);  // a pass, and the entry pass that found nothing more
+      EXPECT_EQ(stats.tetsDrawn, 0);
+      EXPECT_EQ(stats.msSorting, 0.0);
+      EXPECT_EQ(stats.samplesTerminated, 0);
+      EXPECT_NEAR(double(stats.samples), double(refStats.segments), 0.01 * double(refStats.segments));
+      mostPasses = std::max(mostPasses, stats.tetRayPasses);
+    }
+  EXPECT_GE(mostPasses, 3) << "no ray left the staircase ball and entered it again";
+}
+
+// The ray caster on the hollow cube, whose rays cross the hollow (an inner boundary, a pass more): exact in its
+// order whatever the mesh's shape, so at least as close to the reference as MPVO (measured 66.4 dB at worst).
+TEST(TetRayCaster, AHollowMeshMatchesTheReference) {
+  auto data = hollowCube(10, 3.2);
+  const TetReference reference(data->mesh);
+  TetRenderer renderer(test::context(), data, size_t(256) << 20);
+  Scene scene;
+  scene.width = 96;
+  scene.height = 80;
+  scene.transferFunction = TransferFunction::load("hot");
+  scene.ert = 0;
+  for (double azimuth : {0.0, 40.0, 100.0, 210.0}) {
+    SCOPED_TRACE(azimuth);
+    scene.camera.azimuth = azimuth;
+    const image::ImageF exact =
+        reference.render(TetReferenceParams::fromScene(scene, data->mesh, data->meanEdgeLength));
+    scene.visibility = TetSort::Ray;
+    FrameStats stats;
+    const image::ImageF rayImage = renderer.render(scene, &stats);
+    const double rays = image::compareImages(rayImage, exact).psnr;
+    test::expectClose(rayImage, exact, 2.0 / 255, "tets-ray-hollow");
+    EXPECT_GE(stats.tetRayPasses, 3);
+    scene.visibility = TetSort::Mpvo;
+    const double mpvo = image::compareImages(renderer.render(scene), exact).psnr;
+    std::printf("hollow cube, azimuth %.0f: ray caster %.1f dB, MPVO %.1f dB against the reference\n", azimuth, rays,
+                mpvo);
+    EXPECT_GT(rays, 60.0);
+    EXPECT_GT(rays, mpvo - 1.0);
+  }
+}
+
+// Early ray termination (Scene::ert) on the ray caster: with a nearly opaque transfer function rays stop early, fewer
+// segments are walked, and the image differs from the whole integral by at most 1 - ert.
+TEST(TetRayCaster, EarlyTerminationStopsRaysWithinItsBound) {
+  auto data = syntheticData("ball,n=16");
+  TetRenderer renderer(test::context(), data, size_t(256) << 20);
+  Scene scene;
+  scene.width = 96;
+  scene.height = 80;
+  scene.transferFunction = TransferFunction({{0, {1, 0.6, 0.2, 0.6}}, {1, {0.2, 0.6, 1, 0.9}}});
+  scene.visibility = TetSort::Ray;
+  scene.ert = 0;
+  FrameStats whole, stopped;
+  const image::ImageF all = renderer.render(scene, &whole);
+  scene.ert = 0.99;
+  const image::ImageF early = renderer.render(scene, &stopped);
+  EXPECT_EQ(whole.samplesTerminated, 0);
+  EXPECT_GT(stopped.samplesTerminated, whole.fragments / 4);
+  EXPECT_LT(double(stopped.samples), 0.8 * double(whole.samples));
+  test::expectClose(early, all, 0.01 + 1e-5, "tets-ray-ert");
+  EXPECT_GT(image::compareImages(early, all).maxAbs, 0.0) << "termination changed nothing: a test that cannot fail";
+}
+
+// Where rays cannot start outside the mesh (the eye within its box), or with the null fragment program, the frame is
+// drawn projected in MPVO order instead, and says so; a frame given up between passes throws FrameCancelled and the
+// next is whole; the frame cost's estimate bounds the segments.
+TEST(TetRayCaster, FallsBackWhereItCannotStartAndCancelsBetweenPasses) {
+  auto data = syntheticData("ball,n=12");
+  TetRenderer renderer(test::context(), data, size_t(256) << 20);
+  Scene scene = partlyTransparentScene();
+  scene.visibility = TetSort::Ray;
+  FrameStats stats;
+  const image::ImageF outside = renderer.render(scene, &stats);
+  EXPECT_GE(stats.tetRayPasses, 2);
+  EXPECT_GE(stats.samplesEstimated, double(stats.samples));
+  EXPECT_GT(renderer.gpuBytes(), TetRenderer::bytesFor(data->mesh.tets.size()));  // the ray caster's buffers
+  scene.camera.distance = 0.3;  // bounding radii: within the box
+  const image::ImageF inside = renderer.render(scene, &stats);
+  EXPECT_EQ(stats.tetRayPasses, 0);
+  EXPECT_GT(stats.tetsDrawn, 0);
+  scene.visibility = TetSort::Mpvo;
+  test::expectClose(inside, renderer.render(scene), 0.0, "tets-ray-inside");
+  scene.visibility = TetSort::Ray;
+  scene.camera.distance.reset();
+  FrameOptions options;
+  options.cancelled = [] { return true; };
+  EXPECT_THROW(renderer.render(scene, nullptr, options), FrameCancelled);
+  test::expectClose(renderer.render(scene), outside, 0.0, "tets-ray-after-cancel");
+  // A budget without room for the ray caster beside the projected tets: projected.
+  TetRenderer small(test::context(), data,
+                    std::max(TetRenderer::bytesFor(data->mesh.tets.size()), TetRenderer::minimumBytes()));
+  ASSERT_FALSE(small.streamed());
+  small.render(scene, &stats);
+  EXPECT_EQ(stats.tetRayPasses, 0);
 }
 
 /// The strip tet.vert.glsl makes for each tet, captured by transform feedback (rasterizer discarded): two triangles
@@ -460,6 +606,10 @@ TEST(TetCommands, PrepInfoRenderAndRefusals) {
   EXPECT_EQ(r.exitCode, 0) << r.output;
   r = test::runVoxbrick("render " + (dir / "ball").string() + " --size 64x48 --tf hot -q -o " +
                         (dir / "ball.png").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_NE(r.output.find("tet segments ray cast"), std::string::npos) << r.output;  // the default
+  r = test::runVoxbrick("render " + (dir / "ball").string() + " --size 64x48 --tf hot -q --visibility mpvo -o " +
+                        (dir / "mpvo.png").string());
   ASSERT_EQ(r.exitCode, 0) << r.output;
   EXPECT_NE(r.output.find("tets drawn in mpvo order"), std::string::npos) << r.output;
   const image::Image8 png = image::readPng(dir / "ball.png");

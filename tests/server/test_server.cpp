@@ -186,9 +186,10 @@ TEST_F(ServerTest, ServesATetMeshWithTheRenderCommandsFrame) {
   const json meta = json::parse(c->openDataset("ball").metaJson);
   EXPECT_EQ(meta["kind"], "tet-mesh");
   EXPECT_GT(meta["tets"].get<int>(), 1000);
+  // The default drawing, ray cast: served as `render` draws it.
   const std::string scene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [80, 64], "transfer_function": "hot"})";
   const proto::Frame frame = c->render(scene, proto::Encoding::RawRgba8);
-  EXPECT_EQ(json::parse(frame.statsJson)["tets_drawn"], meta["tets"]);
+  EXPECT_GE(json::parse(frame.statsJson)["tet_ray_passes"].get<int>(), 2) << frame.statsJson;
   test::writeFile(work / "scene.json", scene);
   r = test::runVoxbrick("render " + (datasets / "ball").string() + " --scene " + (work / "scene.json").string() +
                         " -q -o " + (work / "rendered.png").string());
@@ -199,6 +200,15 @@ TEST_F(ServerTest, ServesATetMeshWithTheRenderCommandsFrame) {
   for (size_t i = 0; i < served.size(); i += 4) lit += served[i] > 0 ? 1 : 0;
   EXPECT_GT(lit, 500u) << "an empty frame would prove nothing";
   EXPECT_GT(json::parse(frame.statsJson)["samples_estimated"].get<double>(), 0.0);
+  // Projected in MPVO order (the seed's drawing): every tet drawn, the same frame within the ray's termination.
+  const std::string mpvoScene =
+      R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [80, 64], "transfer_function": "hot", "visibility": "mpvo"})";
+  const proto::Frame mpvoFrame = c->render(mpvoScene, proto::Encoding::RawRgba8);
+  EXPECT_EQ(json::parse(mpvoFrame.statsJson)["tets_drawn"], meta["tets"]);
+  EXPECT_EQ(json::parse(mpvoFrame.statsJson)["tet_ray_passes"], 0);
+  const std::vector<uint8_t> projected = pixels(mpvoFrame);
+  ASSERT_EQ(projected.size(), served.size());
+  for (size_t i = 0; i < projected.size(); ++i) ASSERT_NEAR(int(projected[i]), int(served[i]), 2) << i;
   c->goodbye();
   // The frame-cost limit holds for meshes too: a large frame is refused before drawing, a small one is drawn.
   ServerProcess limited("--datasets " + datasets.string() + " --max-render-msamples 1", work);

@@ -1,0 +1,58 @@
+// What the tetrahedral meshes' fragment programs share (tet.frag.glsl: projected tets; tet_ray.frag.glsl: the
+// adjacency ray caster): a ray segment through one tet, with its scalar linear along it, classified from the
+// pre-integrated table (front value, back value, length: render/PreIntegration.h, the optical model of
+// ARCHITECTURE.md), and with SHADING its headlight. Exact for perspective rays: the segment is the pixel's own, in
+// world units. With TET_RAY, the ray caster's tets (render/TetRayCaster.h).
+#ifdef FRAGMENT_STAGE
+uniform float uInvReference;  // 1 / the transfer function's reference length
+
+// The pre-integrated table (render/PreIntegration.h), its resolution and length layers.
+uniform sampler3D uPreIntegrated;
+uniform float uTableResolution;
+uniform float uRatioMin;
+uniform float uLayerScale;
+uniform float uLayers;
+
+// The premultiplied colour and opacity of a segment whose normalised scalar runs from `front` to `back` over `ratio`
+// reference lengths. (Level 0 explicitly: the ray caster looks the table up in a loop, where implicit derivatives
+// are undefined; the table has one level and one filter, so this is what texture() reads.)
+vec4 classifySegment(float front, float back, float ratio) {
+  // Below the table's shortest segment both colour and opacity are linear in the length to first order (a thin
+  // segment): the shortest layer's entry, scaled.
+  const float scale = ratio < uRatioMin ? ratio / uRatioMin : 1.0;
+  const float layer = (clamp(log(max(ratio, uRatioMin) / uRatioMin) * uLayerScale, 0.0, uLayers - 1.0) + 0.5) / uLayers;
+  const vec2 st = (clamp(vec2(front, back), 0.0, 1.0) * (uTableResolution - 1.0) + 0.5) / uTableResolution;
+  return textureLod(uPreIntegrated, vec3(st, layer), 0.0) * scale;
+}
+
+#ifdef SHADING
+// The grids' two-sided Phong headlight (render/Headlight.h, volume.frag.glsl), normal -gradient / |gradient|, for a
+// segment along `direction` through a tet whose raw scalar has `gradient` (per world unit). In a tet both the normal
+// and the direction to the eye (against the ray's) are constant along the segment, so shading the emission, c x +
+// y, shades the pre-integrated segment exactly: C x + y A, premultiplied.
+vec4 shadeSegment(vec4 segment, vec3 gradient, vec3 direction) {
+  const float magnitude = length(gradient);
+  if (magnitude <= 1e-12) return segment;
+  const float diffuse = abs(dot(gradient, direction)) / (magnitude * length(direction));
+  return vec4(segment.rgb * (0.3 + 0.7 * diffuse) + vec3(0.25 * pow(diffuse, 32.0) * segment.a), segment.a);
+}
+#endif
+#endif
+
+#if defined(TET_RAY) && defined(FRAGMENT_STAGE)
+// The ray caster's tets: four vertices each (position centred on the mesh's box, raw scalar; the projected tets'
+// buffer), and across each face the neighbour and its face, coded as tet * 8 + 4 if the tet's stored order is
+// negatively oriented + face, or -1 on the boundary.
+layout(std430, binding = 1) readonly buffer TetVertices { vec4 uTetVertices[]; };
+layout(std430, binding = 3) readonly buffer TetNeighbours { ivec4 uNext[]; };
+// Per pixel (row-major, bottom row first): the ray parameter where the last pass left the mesh, -1 before the first
+// pass, 2 once the ray terminated (beyond every entry: t runs from 0 on the near plane to 1 on the far plane).
+layout(std430, binding = 6) buffer RayExits { float uExits[]; };
+uniform int uWidth;
+uniform vec3 uRayOrigin, uRayOriginDx, uRayOriginDy;           // ray origin (near plane) at window (x, y)
+uniform vec3 uRayDirection, uRayDirectionDx, uRayDirectionDy;  // near plane to far plane at window (x, y)
+
+int pixelIndex() { return int(gl_FragCoord.y) * uWidth + int(gl_FragCoord.x); }
+vec3 rayOrigin() { return uRayOrigin + gl_FragCoord.x * uRayOriginDx + gl_FragCoord.y * uRayOriginDy; }
+vec3 rayDirection() { return uRayDirection + gl_FragCoord.x * uRayDirectionDx + gl_FragCoord.y * uRayDirectionDy; }
+#endif
