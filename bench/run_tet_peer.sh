@@ -15,7 +15,7 @@
 # WORK/stores), then runs bench/vtk_tet_peer.py under xvfb-run. Writes OUT/NAME.{csv,md} (NAME default
 # peer-tets-SHAPE-N; with several counts a given --name gets -N appended); frames, heat maps and cached reference
 # frames go to WORK (default bench/work/peer-tets). --vtk-only renders the VTK side alone (no build needed). Each
-# --voxbrick value is one voxbrick setting merged into the scene JSON (default visibility=mpvo), as in
+# --voxbrick value is one voxbrick setting merged into the scene JSON (default visibility=raycast), as in
 # run_vtk_peer.sh. Installs its own dependencies (python3-vtk9, python3-numpy, xvfb, xauth, gmsh) with apt-get when
 # they are missing; run as root on Debian 12.
 set -euo pipefail

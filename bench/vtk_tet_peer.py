@@ -356,7 +356,7 @@ def main():
     ap.add_argument("--window", default=None, help="LO,HI (default the mesh's scalar range)")
     ap.add_argument("--voxbrick", action="append", default=[],
                     help="a voxbrick setting: comma list of key=value merged into the scene JSON (repeatable), e.g. "
-                         "visibility=centroid; default one setting, visibility=mpvo")
+                         "visibility=centroid; default one setting, visibility=raycast (the renderer's default)")
     ap.add_argument("--mappers", default="pt,rc", help="pt (projected tetrahedra), rc (unstructured-grid ray cast)")
     ap.add_argument("--integrators", default="pre",
                     help="ray integrators of the ray-cast mapper, comma list of " + ", ".join(INTEGRATORS) +
@@ -430,7 +430,7 @@ def main():
     reference_length = float(tf.get("reference_length", consts["mean_edge"]))
 
     settings = []
-    for text in args.voxbrick or ["visibility=mpvo"]:
+    for text in args.voxbrick or ["visibility=raycast"]:
         frag = parse_fragment(text, BOOLEAN_KEYS)
         bad = SCENE_KEYS & set(frag)
         if bad:
