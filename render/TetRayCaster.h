@@ -57,7 +57,8 @@ class TetRayCaster {
 
   /// Draws a frame into `compositor` (begun, blending front to back), the pre-integrated table bound on
   /// uniforms.tableUnit. `termination`: the opacity where a ray stops (0: never). Counts the entry passes in
-  /// stats.tetRayPasses; `cancelled` is checked between passes. Leaves the compositor's target bound.
+  /// stats.tetRayPasses; `cancelled` is checked between passes and between bands of 64 rows of a ray pass (throwing
+  /// FrameCancelled). Leaves the compositor's target bound.
   void draw(const TetFrameUniforms& uniforms, double termination, bool shading, Compositor& compositor,
             FrameStats& stats, const std::function<bool()>& cancelled);
   /// After the compositor's finish: the frame's counts into stats.fragments (rays walked: one per pixel and pass

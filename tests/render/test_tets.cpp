@@ -409,9 +409,9 @@ TEST(TetRayCaster, EarlyTerminationStopsRaysWithinItsBound) {
 }
 
 // Where rays cannot start outside the mesh (the eye within its box), or with the null fragment program, the frame is
-// drawn projected in MPVO order instead, and says so; a frame given up between passes throws FrameCancelled and the
-// next is whole; the frame cost's estimate bounds the segments.
-TEST(TetRayCaster, FallsBackWhereItCannotStartAndCancelsBetweenPasses) {
+// drawn projected in MPVO order instead, and says so; a frame given up part way (between passes or bands of a pass)
+// throws FrameCancelled and the next is whole; the frame cost's estimate bounds the segments.
+TEST(TetRayCaster, FallsBackWhereItCannotStartAndCancelsPartWay) {
   auto data = syntheticData("ball,n=12");
   TetRenderer renderer(test::context(), data, size_t(256) << 20);
   Scene scene = partlyTransparentScene();
@@ -429,9 +429,17 @@ TEST(TetRayCaster, FallsBackWhereItCannotStartAndCancelsBetweenPasses) {
   test::expectClose(inside, renderer.render(scene), 0.0, "tets-ray-inside");
   scene.visibility = TetSort::Ray;
   scene.camera.distance.reset();
+  FrameOptions roofline;
+  roofline.mode = RenderMode::Roofline;  // the seed's null fragment program: projected tets only
+  renderer.render(scene, &stats, roofline);
+  EXPECT_EQ(stats.tetRayPasses, 0);
+  EXPECT_GT(stats.tetsDrawn + stats.tetsSkippedEmpty, 0);
+  // Given up in the first ray pass, after its first band of rows (asked before the pass and after each band).
+  int asked = 0;
   FrameOptions options;
-  options.cancelled = [] { return true; };
+  options.cancelled = [&] { return ++asked > 2; };
   EXPECT_THROW(renderer.render(scene, nullptr, options), FrameCancelled);
+  EXPECT_EQ(asked, 3);
   test::expectClose(renderer.render(scene), outside, 0.0, "tets-ray-after-cancel");
   // A budget without room for the ray caster beside the projected tets: projected.
   TetRenderer small(test::context(), data,
