@@ -128,7 +128,7 @@ void main() {
     accumulated += (1.0 - accumulated.a) * segment;
     ++steps;
     segments += exitT > t ? 1 : 0;
-    // A guard: a ray that went round kMaxStalled tets without moving along is given up (never seen).
+    // A guard: a ray that went round kMaxStalled tets without moving along is given up.
     stalled = exitT > t ? 0 : stalled + 1;
     t = exitT;
     point = exitPoint;
