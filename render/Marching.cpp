@@ -1,6 +1,7 @@
 // The termination pass and the counters of marching fragments.
 #include "render/Marching.h"
 
+#include <algorithm>
 #include <array>
 
 namespace voxbrick::render {
@@ -44,6 +45,21 @@ void SampleCounters::read(FrameStats& stats) const {
   stats.fragments = counter(0);
   stats.samples = counter(1);
   stats.samplesTerminated = counter(2);
+}
+
+void drawInBands(const Gl& gl, int width, int height, Checkpoints& checkpoints) {
+  gl.glEnable(GL_SCISSOR_TEST);
+  try {
+    for (int y = 0; y < height; y += kBandRows) {
+      gl.glScissor(0, y, width, std::min(kBandRows, height - y));
+      gl.glDrawArrays(GL_TRIANGLES, 0, 3);
+      checkpoints.pace();
+    }
+  } catch (...) {
+    gl.glDisable(GL_SCISSOR_TEST);  // a cancelled frame leaves the state every pass expects
+    throw;
+  }
+  gl.glDisable(GL_SCISSOR_TEST);
 }
 
 }  // namespace voxbrick::render

@@ -1,7 +1,9 @@
-// What the two marching passes share (texture slabs, render/SlabPass.h, and the frame ray caster,
-// render/RayCastPass.h): the termination pass of the silhouette map and the fragment program's counters.
+// What the marching passes share (texture slabs, render/SlabPass.h, the frame ray caster, render/RayCastPass.h, and
+// the mesh ray caster, render/TetRayCaster.h): the termination pass of the silhouette map, the fragment program's
+// counters, and full-screen passes drawn in bands.
 #pragma once
 
+#include "render/Checkpoints.h"
 #include "render/Compositor.h"
 #include "render/FrameStats.h"
 #include "render/GlObjects.h"
@@ -38,5 +40,13 @@ class SampleCounters {
   const Gl& mGl;
   Buffer mBuffer;
 };
+
+/// Rows of a band of drawInBands.
+inline constexpr int kBandRows = 64;
+
+/// Draws the bound program's full-screen triangle (three vertices, no attributes) over a width x height target in
+/// bands of kBandRows rows, scissored, pacing `checkpoints` after each band, so that a frame given up stops within
+/// a band's work. The scissor test is off afterwards, also when FrameCancelled is thrown.
+void drawInBands(const Gl& gl, int width, int height, Checkpoints& checkpoints);
 
 }  // namespace voxbrick::render

@@ -40,18 +40,7 @@ void RayCastPass::drawBatch(const FramePlan& plan, const VolumeProgram& program,
   t = Clock::now();
   program.program().use();
   mNoAttributes.bind();
-  mGl.glEnable(GL_SCISSOR_TEST);
-  try {
-    for (int y = 0; y < plan.height; y += kBandRows) {
-      mGl.glScissor(0, y, plan.width, std::min(kBandRows, plan.height - y));
-      mGl.glDrawArrays(GL_TRIANGLES, 0, 3);
-      checkpoints.pace();
-    }
-  } catch (...) {
-    mGl.glDisable(GL_SCISSOR_TEST);  // a cancelled frame leaves the state every pass expects
-    throw;
-  }
-  mGl.glDisable(GL_SCISSOR_TEST);
+  drawInBands(mGl, plan.width, plan.height, checkpoints);
   ++mBatchesDrawn;
   stats.batches += 1;
   stats.msDrawing += msSince(t);

@@ -29,9 +29,6 @@ class RayCastPass {
   /// After the compositor's finish: fragments started, samples taken and left by termination into `stats`.
   void finish(FrameStats& stats) const { mCounters.read(stats); }
 
-  /// Rows per band of the full-screen draw.
-  static constexpr int kBandRows = 64;
-
  private:
   void drawBatch(const FramePlan& plan, const VolumeProgram& program, Compositor& compositor, FrameStats& stats,
                  Checkpoints& checkpoints);

@@ -37,8 +37,6 @@ constexpr int kEntryDepthUnit = 5;
 /// the entry pass's own t), so the passes end by themselves, after as many as a ray enters the mesh; a guard.
 constexpr int64_t kMaxPasses = 1024;
 
-/// Rows of a ray pass's band: the ray pass is drawn band by band.
-constexpr int kBandRows = 64;
 
 /// Tets one pass of a ray walks at most: far beyond any real mesh's (a ray crosses about 200 tets of a million-tet
 /// ball); a guard against a cycle that round-off might make.
@@ -237,20 +235,7 @@ void TetRayCaster::draw(const TetFrameUniforms& uniforms, double termination, bo
     mEntryTexture.bind(kEntryUnit);
     mEntryDepth.bind(kEntryDepthUnit);
     ray.use();
-    // In bands of rows, cancellation checked between them (Checkpoints), so that a frame given up stops within a
-    // band's work.
-    mGl.glEnable(GL_SCISSOR_TEST);
-    try {
-      for (int y = 0; y < mHeight; y += kBandRows) {
-        mGl.glScissor(0, y, mWidth, std::min(kBandRows, mHeight - y));
-        mGl.glDrawArrays(GL_TRIANGLES, 0, 3);
-        checkpoints.pace();
-      }
-    } catch (...) {
-      mGl.glDisable(GL_SCISSOR_TEST);  // a cancelled frame leaves the state every pass expects
-      throw;
-    }
-    mGl.glDisable(GL_SCISSOR_TEST);
+    drawInBands(mGl, mWidth, mHeight, checkpoints);
     mGl.glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
   }
   compositor.bindTarget();
