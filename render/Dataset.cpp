@@ -1,6 +1,7 @@
 // Dataset kinds and opening by path.
 #include "render/Dataset.h"
 
+#include <cstdio>
 #include <stdexcept>
 
 #include <nlohmann/json.hpp>
@@ -76,11 +77,30 @@ bool isDataset(const std::filesystem::path& path) {
          mesh::looksLikeMeshStore(path);
 }
 
+namespace {
+
+std::string mebibytes(size_t bytes) {
+  if (bytes < (size_t(1) << 20)) return std::to_string(bytes) + " bytes";
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.1f MiB", double(bytes) / double(size_t(1) << 20));
+  return text;
+}
+
+}  // namespace
+
 std::shared_ptr<const Dataset> openDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes,
                                            const store::StoreOpenOptions& options) {
   if (mesh::looksLikeMeshStore(path)) {
-    // A mesh is held whole: its chunks are read and checked once, here.
+    // A mesh is held whole: its chunks are read and checked once, here, if it fits the host budget (paging a mesh's
+    // chunks from disk is not built).
     const mesh::MeshStore meshStore = mesh::MeshStore::open(path);
+    const mesh::MeshStoreInfo& info = meshStore.info();
+    const size_t bytes = TetMeshData::hostBytes(info.tetCount, info.vertexCount, info.boundaryFaceCount);
+    if (bytes > cacheBytes)
+      throw RenderLimitError("tet mesh '" + name + "': held whole in memory it takes " + mebibytes(bytes) +
+                             ", above the host budget it may use, " + mebibytes(cacheBytes) +
+                             " (render's --host-budget; a server's host_cache_mb, shared among its open datasets); "
+                             "a mesh is not paged from disk");
     auto data = std::make_shared<const TetMeshData>(meshStore.readAll(), meshStore.readTopology());
     return std::make_shared<TetMeshDataset>(std::move(name), path, std::move(data));
   }

@@ -109,8 +109,10 @@ Scene resolveQuality(const Dataset& dataset, const Scene& scene, std::optional<Q
 bool isDataset(const std::filesystem::path& path);
 
 /// Opens the dataset at `path` under `name` (`options` apply to a .vdb: grid name and brick size): a BrickStoreDataset
-/// or, for a mesh store, a TetMeshDataset (the mesh read whole). Throws std::runtime_error naming the path when it is
-/// no dataset, and the kind's own errors (mesh::MeshError for a corrupt mesh store) when it cannot be opened.
+/// or, for a mesh store, a TetMeshDataset (the mesh read whole). `cacheBytes` is the host memory it may use: a brick
+/// store's cache, or the whole of a mesh (TetMeshData::hostBytes), which is refused with RenderLimitError when
+/// larger. Throws std::runtime_error naming the path when it is no dataset, and the kind's own errors
+/// (mesh::MeshError for a corrupt mesh store) when it cannot be opened.
 std::shared_ptr<const Dataset> openDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes,
                                            const store::StoreOpenOptions& options = {});
 

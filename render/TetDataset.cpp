@@ -10,6 +10,12 @@
 
 namespace voxbrick::render {
 
+size_t TetMeshData::hostBytes(uint64_t tets, uint64_t points, uint64_t boundaryFaces) {
+  return size_t(points * (sizeof(glm::vec3) + sizeof(float)) +
+                tets * (sizeof(mesh::Tet) + sizeof(std::array<int32_t, 4>) + sizeof(std::pair<float, float>)) +
+                boundaryFaces * sizeof(mesh::BoundaryFace));
+}
+
 TetMeshData::TetMeshData(mesh::TetMesh m, mesh::Topology t) : mesh(std::move(m)), topology(std::move(t)) {
   if (mesh.tets.empty()) throw RenderInputError("tet mesh: no tetrahedra to draw");
   const auto [lo, hi] = mesh.bounds();

@@ -28,6 +28,10 @@ struct TetMeshData {
 
   /// Derives the box, lengths and range from `mesh` (which must hold at least one tet with valid indices).
   TetMeshData(mesh::TetMesh mesh, mesh::Topology topology);
+
+  /// The host bytes a mesh of these counts takes held whole: points and scalars (16 a point), tets, neighbours and
+  /// value ranges (40 a tet), boundary faces (8 each).
+  static size_t hostBytes(uint64_t tets, uint64_t points, uint64_t boundaryFaces);
 };
 
 /// A mesh dataset: what the server and `render` open; RenderEngine draws it with a TetRenderer.

@@ -16,6 +16,7 @@
 #include "mesh/SyntheticMesh.h"
 #include "mesh/Topology.h"
 #include "mesh/Visibility.h"
+#include "render/Dataset.h"
 #include "render/RenderErrors.h"
 #include "render/RenderFixtures.h"
 #include "render/TetReference.h"
@@ -584,6 +585,14 @@ TEST(TetCommands, PrepInfoRenderAndRefusals) {
   EXPECT_EQ(info["kind"], "tet-mesh");
   EXPECT_EQ(info["tets"].get<size_t>(), ball.tets.size());
   EXPECT_EQ(info["field"], ball.field);
+  // A mesh is held whole: one larger than the host budget it may use is refused, naming both sizes.
+  EXPECT_EQ(openDataset("ball", dir / "ball", size_t(1) << 30)->kind(), DatasetKind::TetMesh);
+  try {
+    openDataset("ball", dir / "ball", 1000);
+    ADD_FAILURE() << "a mesh above its host budget was opened";
+  } catch (const RenderLimitError& e) {
+    EXPECT_NE(std::string(e.what()).find("above the host budget it may use, 1000 bytes"), std::string::npos) << e.what();
+  }
   r = test::runVoxbrick("prep " + (dir / "ball.vtk").string() + " -q -o " + (dir / "ball").string());
   EXPECT_NE(r.exitCode, 0) << "an existing store is replaced only with --force";
   r = test::runVoxbrick("prep " + (dir / "ball.vtk").string() + " -q --force -o " + (dir / "ball").string());
