@@ -155,6 +155,7 @@ TetRayCaster::TetRayCaster(const Gl& gl, const TetMeshData& data)
                     corners.empty() ? nullptr : corners.data(), GL_STATIC_DRAW);
   mFaces.allocate(GL_SHADER_STORAGE_BUFFER, std::max<size_t>(1, faces.size()) * sizeof(uint32_t),
                   faces.empty() ? nullptr : faces.data(), GL_STATIC_DRAW);
+  mEntryCount.allocate(GL_SHADER_STORAGE_BUFFER, sizeof(uint32_t), nullptr, GL_DYNAMIC_COPY);
   mBytes = bytesFor(mTets, mBoundaryFaces);
   checkGlError(mGl, "TetRayCaster: uploading the mesh");
 }
@@ -178,7 +179,8 @@ void TetRayCaster::prepareTargets(int width, int height) {
   mGl.glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, mEntryTexture.id(), 0);
   mGl.glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, mEntryDepth.id(), 0);
   mEntryTarget.checkComplete("TetRayCaster: entry target");
-  mExits.allocate(GL_SHADER_STORAGE_BUFFER, size_t(width) * size_t(height) * sizeof(float), nullptr, GL_DYNAMIC_COPY);
+  mBeforeMesh.assign(size_t(width) * size_t(height), -1.0f);
+  mExits.allocate(GL_SHADER_STORAGE_BUFFER, mBeforeMesh.size() * sizeof(float), nullptr, GL_DYNAMIC_COPY);
   mWidth = width;
   mHeight = height;
 }
@@ -186,17 +188,16 @@ void TetRayCaster::prepareTargets(int width, int height) {
 void TetRayCaster::draw(const TetFrameUniforms& uniforms, double termination, bool shading, Compositor& compositor,
                         FrameStats& stats, const std::function<bool()>& cancelled) {
   prepareTargets(uniforms.width, uniforms.height);
-  {
-    // Every ray starts before the mesh.
-    const std::vector<float> before(size_t(mWidth) * size_t(mHeight), -1.0f);
-    mExits.allocate(GL_SHADER_STORAGE_BUFFER, before.size() * sizeof(float), before.data(), GL_DYNAMIC_COPY);
-  }
+  // Every ray starts before the mesh (mBeforeMesh: -1 for each pixel, made with the target).
+  mExits.bind(GL_SHADER_STORAGE_BUFFER);
+  mGl.glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, GLsizeiptr(mBeforeMesh.size() * sizeof(float)), mBeforeMesh.data());
   mCounters.reset();
   mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mVertices.id());
   mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, mNeighbours.id());
   mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, mCorners.id());
   mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, mFaces.id());
   mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, mExits.id());
+  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, mEntryCount.id());
   const Program& ray = shading ? mShadedRayProgram : mRayProgram;
   setTetUniforms(mEntryProgram, uniforms);
   setTetUniforms(ray, uniforms);
@@ -212,8 +213,8 @@ void TetRayCaster::draw(const TetFrameUniforms& uniforms, double termination, bo
     checkpoints.poll();
     stats.tetRayPasses += 1;
     const uint32_t zero = 0;
-    mEntryCount.allocate(GL_SHADER_STORAGE_BUFFER, sizeof(zero), &zero, GL_DYNAMIC_COPY);
-    mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, mEntryCount.id());
+    mEntryCount.bind(GL_SHADER_STORAGE_BUFFER);
+    mGl.glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, sizeof(zero), &zero);
     mGl.glBindFramebuffer(GL_FRAMEBUFFER, mEntryTarget.id());
     mGl.glViewport(0, 0, mWidth, mHeight);
     mGl.glDisable(GL_BLEND);

@@ -13,6 +13,7 @@
 #pragma once
 
 #include <functional>
+#include <vector>
 
 #include "render/Compositor.h"
 #include "render/FramePlan.h"
@@ -79,6 +80,7 @@ class TetRayCaster {
   Buffer mCorners;        // three vec4 per boundary face
   Buffer mFaces;          // per boundary face its tet and face, coded
   Buffer mExits;          // per pixel: where the last pass left the mesh
+  std::vector<float> mBeforeMesh;  // its contents at the start of a frame, kept with the target's size
   Buffer mEntryCount;     // fragments the entry pass kept
   Program mEntryProgram, mRayProgram, mShadedRayProgram;
   Framebuffer mEntryTarget;

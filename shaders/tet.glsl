@@ -2,7 +2,7 @@
 // adjacency ray caster): a ray segment through one tet, with its scalar linear along it, classified from the
 // pre-integrated table (front value, back value, length: render/PreIntegration.h, the optical model of
 // ARCHITECTURE.md), and with SHADING its headlight. Exact for perspective rays: the segment is the pixel's own, in
-// world units. With TET_RAY, the ray caster's tets (render/TetRayCaster.h).
+// world units. With TET_RAY, the ray caster's buffers, pixel ray and edge product (render/TetRayCaster.h).
 #ifdef FRAGMENT_STAGE
 uniform float uInvReference;  // 1 / the transfer function's reference length
 
@@ -55,4 +55,18 @@ uniform vec3 uRayDirection, uRayDirectionDx, uRayDirectionDy;  // near plane to 
 int pixelIndex() { return int(gl_FragCoord.y) * uWidth + int(gl_FragCoord.x); }
 vec3 rayOrigin() { return uRayOrigin + gl_FragCoord.x * uRayOriginDx + gl_FragCoord.y * uRayOriginDy; }
 vec3 rayDirection() { return uRayDirection + gl_FragCoord.x * uRayDirectionDx + gl_FragCoord.y * uRayDirectionDy; }
+
+// The Plücker product of edge p -> q (p its lower end in an order fixed for the mesh) with the ray of direction d
+// and moment m = cross(origin, d): dot(q, cross(d, p)) + dot(q, m) - dot(p, m), computed the same way wherever the
+// edge appears (the ray pass and the entry pass).
+// A product of 0 (the ray meets the edge's line, or runs along a face) is replaced by the sign of its change as the
+// ray moves by eps * right + eps^2 * up, scaled far below any product that is not 0: a sign the tets around the edge
+// again agree on. An edge parallel to the ray stays 0: the moved ray passes no face containing it.
+float edgeProduct(vec3 p, vec3 q, vec3 d, vec3 m) {
+  precise float product = dot(q, cross(d, p)) + dot(q, m) - dot(p, m);
+  if (product != 0.0) return product;
+  const vec3 c = cross(d, q - p);
+  const float right = dot(uRayOriginDx, c);
+  return 1e-30 * sign(right != 0.0 ? right : dot(uRayOriginDy, c));
+}
 #endif

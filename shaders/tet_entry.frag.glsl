@@ -16,12 +16,10 @@ vec3 gDirection, gMoment;
 
 bool lexLess(vec3 p, vec3 q) { return p.x < q.x || (p.x == q.x && (p.y < q.y || (p.y == q.y && p.z < q.z))); }
 
-// The Plücker product of the ray and the directed edge a -> b, the same to the bit for b -> a negated.
+// The product of the directed edge a -> b (edgeProduct of tet.glsl, from its lexicographically lower end), so that
+// b -> a is the same value negated to the bit.
 float side(vec3 a, vec3 b) {
-  const bool flip = lexLess(b, a);
-  const vec3 p = flip ? b : a, q = flip ? a : b;
-  precise float s = dot(q, cross(gDirection, p)) + dot(q, gMoment) - dot(p, gMoment);
-  return flip ? -s : s;
+  return lexLess(b, a) ? -edgeProduct(b, a, gDirection, gMoment) : edgeProduct(a, b, gDirection, gMoment);
 }
 
 void main() {

@@ -34,19 +34,6 @@ void count(int counter, uint n) {
   if (before + n < before) atomicAdd(uCounters[2 * counter + 1], 1u);
 }
 
-// The product of edge p -> q (p the lower in the stored order) with the ray of direction d and moment m =
-// cross(origin, d): dot(q, cross(d, p)) + dot(q, m) - dot(p, m), computed the same way wherever the edge appears.
-// A product of 0 (the ray meets the edge's line, or runs along a face) is replaced by the sign of its change as the
-// ray moves by eps * right + eps^2 * up, scaled far below any product that is not 0: a sign the tets around the edge
-// again agree on. An edge parallel to the ray stays 0: the moved ray passes no face containing it.
-float edgeProduct(vec3 p, vec3 q, vec3 d, vec3 m) {
-  precise float product = dot(q, cross(d, p)) + dot(q, m) - dot(p, m);
-  if (product != 0.0) return product;
-  const vec3 c = cross(d, q - p);
-  const float right = dot(uRayOriginDx, c);
-  return 1e-30 * sign(right != 0.0 ? right : dot(uRayOriginDy, c));
-}
-
 // The six edge products of a tet with vertices v: low = 0->1, 0->2, 0->3; high = 1->2, 1->3, 2->3.
 void edgeProducts(const vec4 v[4], vec3 d, vec3 m, out vec3 low, out vec3 high) {
   low = vec3(edgeProduct(v[0].xyz, v[1].xyz, d, m), edgeProduct(v[0].xyz, v[2].xyz, d, m),
