@@ -53,11 +53,15 @@ image::ImageF withProgress(const RenderArgs& a, const render::Scene& scene, Draw
 /// integrated in closed form.
 void runTetReference(const RenderArgs& a, const render::Scene& scene, const render::TetMeshDataset& dataset) {
   if (!a.analytic.empty()) throw render::RenderInputError("--analytic samples a grid's field; a mesh has none");
-  const render::TetMeshData& d = *dataset.data();
-  const render::TetReference reference(d.mesh);
+  // A paged mesh gives the reference the chunks the frame needs (those in view that the transfer function does not
+  // make transparent: the rest adds nothing to any ray), as it gives the GPU renderer.
+  const render::TetMeshSource& source = *dataset.source();
+  const std::shared_ptr<const render::TetMeshData> d =
+      source.frameData(scene, render::TetView::of(scene, source.constants()), nullptr);
+  const render::TetReference reference(d ? d->mesh : mesh::TetMesh{});
   render::TetReferenceStats stats;
   const image::ImageF image = withProgress(a, scene, [&] {
-    return reference.render(render::TetReferenceParams::fromScene(scene, d.mesh, d.meanEdgeLength), &stats);
+    return reference.render(render::TetReferenceParams::fromScene(scene, source.constants()), &stats);
   });
   writeFrame(a, a.output, image);
   if (!a.statsPath.empty())
@@ -152,6 +156,14 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
     levels = " (per level:";
     for (int64_t n : stats.bricksPerLevel) levels += " " + std::to_string(n);
     levels += ")";
+  }
+  if (const auto* tets = dynamic_cast<const render::TetMeshDataset*>(dataset.get()); tets && tets->source()->paged()) {
+    const store::CacheStats c = tets->cacheStats();
+    std::printf("render: mesh paged within %.1f MiB: %lld of %zu chunks in view, %lld of those left out as "
+                "transparent; %lld chunk reads in all, paging %.1f ms this frame; %.1f MiB held at most\n",
+                double(c.budgetBytes) / 1048576.0, (long long)(int64_t(tets->source()->chunkCount()) - stats.tetChunksCulled),
+                tets->source()->chunkCount(), (long long)stats.tetChunksSkippedEmpty, (long long)c.bricksDecoded,
+                stats.msPaging, double(c.peakResidentBytes) / 1048576.0);
   }
   if (dataset->kind() == render::DatasetKind::TetMesh && stats.tetRayPasses > 0) {
     std::printf("render: wrote %s (%dx%d): %lld tet segments ray cast (%lld rays, %lld terminated early, %lld "

@@ -2,6 +2,8 @@
 // tools can describe a store without parsing binary.
 #include "mesh/MeshMeta.h"
 
+#include <cmath>
+
 #include <nlohmann/json.hpp>
 
 namespace voxbrick::mesh {
@@ -27,6 +29,7 @@ std::string meshInfoToJson(const MeshStoreInfo& info) {
   j["zstdLevel"] = info.zstdLevel;
   j["bounds"] = {{"min", vec(info.boundsMin)}, {"max", vec(info.boundsMax)}};
   j["scalarRange"] = {info.scalarMin, info.scalarMax};
+  j["edgeLengths"] = {{"mean", info.meanEdgeLength}, {"longest", info.longestEdge}};
   j["bytesRaw"] = info.bytesRaw;
   j["bytesStored"] = info.bytesStored;
   // Non-ASCII in a field name or path is replaced rather than thrown on: the metadata must always be writable.
@@ -51,6 +54,14 @@ MeshStoreInfo meshInfoFromJson(const std::string& text, const std::string& where
     info.chunkCount = j.at("chunks").get<uint32_t>();
     info.tetsPerChunk = j.at("tetsPerChunk").get<uint32_t>();
     info.zstdLevel = j.at("zstdLevel").get<int>();
+    if (j.contains("edgeLengths")) {  // absent in stores written before it was recorded
+      info.meanEdgeLength = j.at("edgeLengths").at("mean").get<double>();
+      info.longestEdge = j.at("edgeLengths").at("longest").get<double>();
+      if (!(info.meanEdgeLength > 0 && info.longestEdge >= info.meanEdgeLength && std::isfinite(info.longestEdge)))
+        throw MeshError(where + ": edgeLengths: a mean of " + std::to_string(info.meanEdgeLength) +
+                        " and a longest of " + std::to_string(info.longestEdge) +
+                        " are not the lengths of a mesh's edges");
+    }
   } catch (const nlohmann::json::exception& e) {
     throw MeshError(where + ": " + e.what());
   }

@@ -229,6 +229,14 @@ TetMesh MeshStore::readAll() const {
   return mesh;
 }
 
+std::pair<double, double> MeshStore::edgeLengths() const {
+  if (mInfo.meanEdgeLength > 0) return {mInfo.meanEdgeLength, mInfo.longestEdge};
+  EdgeLengths edges;  // chunk by chunk in the store's order, as the writer sums them
+  for (size_t i = 0; i < mChunks.size(); ++i)
+    for (const Tet& tet : readChunk(i).tets) edges.add(mPoints, tet);
+  return {edges.mean(), edges.longest};
+}
+
 Topology MeshStore::readTopology() const {
   Topology topology;
   topology.neighbours.resize(mInfo.tetCount);

@@ -48,6 +48,9 @@ struct MeshStoreInfo {
   int zstdLevel = 0;
   glm::vec3 boundsMin{0.0f}, boundsMax{0.0f};  ///< of every vertex
   float scalarMin = 0.0f, scalarMax = 0.0f;
+  /// Over every tet's six edges in the store's order (EdgeLengths): the mean and the longest. 0 in a store written
+  /// before mesh.json recorded them; MeshStore::edgeLengths() then measures them.
+  double meanEdgeLength = 0, longestEdge = 0;
   uint64_t bytesRaw = 0;     ///< every block decoded: 16 a vertex, 32 a tet, 8 a boundary face
   uint64_t bytesStored = 0;  ///< mesh-data.bin and mesh-index.bin
 };
@@ -103,6 +106,9 @@ class MeshStore {
   TetMesh readAll() const;
   /// The whole topology, indexed like readAll().tets; checks that the boundary list matches the neighbours.
   Topology readTopology() const;
+  /// The mean and longest edge length over every tet: mesh.json's, or (a store written before it recorded them)
+  /// measured by reading every chunk once, one at a time. Throws MeshError.
+  std::pair<double, double> edgeLengths() const;
 
  private:
   MeshStore() = default;

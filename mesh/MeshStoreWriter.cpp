@@ -187,6 +187,10 @@ MeshStoreInfo writeMeshStore(const TetMesh& mesh, const Topology& topology, cons
   info.zstdLevel = options.zstdLevel;
   std::tie(info.boundsMin, info.boundsMax) = mesh.bounds();
   std::tie(info.scalarMin, info.scalarMax) = mesh.scalarRange();
+  EdgeLengths edges;  // in the store's order, as a reader summing chunk by chunk would
+  for (const uint32_t t : order) edges.add(mesh.points, mesh.tets[t]);
+  info.meanEdgeLength = edges.mean();
+  info.longestEdge = edges.longest;
 
   StagingDirectory staging(dir);
   MeshOutputFile data(staging.path() / kMeshDataFile);

@@ -20,4 +20,14 @@ std::pair<float, float> TetMesh::scalarRange() const {
   return {*lo, *hi};
 }
 
+void EdgeLengths::add(const std::vector<glm::vec3>& points, const Tet& tet) {
+  for (int a = 0; a < 4; ++a)
+    for (int b = a + 1; b < 4; ++b) {
+      const double length = glm::length(glm::dvec3(points[tet[a]]) - glm::dvec3(points[tet[b]]));
+      sum += length;
+      longest = std::max(longest, length);
+    }
+  edges += 6;
+}
+
 }  // namespace voxbrick::mesh

@@ -34,4 +34,16 @@ struct TetMesh {
   std::pair<float, float> scalarRange() const;
 };
 
+/// The lengths of tets' edges (six a tet), summed in the order the tets are added: the mean is a mesh's default
+/// reference length, the longest bounds a ray's segment in one tet. The same tets added in the same order give the
+/// same bits, whether from a whole mesh or chunk by chunk from a store.
+struct EdgeLengths {
+  double sum = 0;
+  double longest = 0;
+  uint64_t edges = 0;
+
+  void add(const std::vector<glm::vec3>& points, const Tet& tet);
+  double mean() const { return edges > 0 ? sum / double(edges) : 0.0; }
+};
+
 }  // namespace voxbrick::mesh

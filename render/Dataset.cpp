@@ -1,7 +1,6 @@
 // Dataset kinds and opening by path.
 #include "render/Dataset.h"
 
-#include <cstdio>
 #include <stdexcept>
 
 #include <nlohmann/json.hpp>
@@ -77,32 +76,29 @@ bool isDataset(const std::filesystem::path& path) {
          mesh::looksLikeMeshStore(path);
 }
 
-namespace {
 
-std::string mebibytes(size_t bytes) {
-  if (bytes < (size_t(1) << 20)) return std::to_string(bytes) + " bytes";
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.1f MiB", double(bytes) / double(size_t(1) << 20));
-  return text;
+std::vector<std::filesystem::path> datasetFiles(const std::filesystem::path& path) {
+  if (mesh::looksLikeMeshStore(path))
+    return {path / mesh::kMeshMetaFile, path / mesh::kMeshIndexFile, path / mesh::kMeshDataFile};
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) return {path / "store.json", path / "bricks.bin"};
+  return {path};
 }
-
-}  // namespace
 
 std::shared_ptr<const Dataset> openDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes,
                                            const store::StoreOpenOptions& options) {
   if (mesh::looksLikeMeshStore(path)) {
-    // A mesh is held whole: its chunks are read and checked once, here, if it fits the host budget (paging a mesh's
-    // chunks from disk is not built).
-    const mesh::MeshStore meshStore = mesh::MeshStore::open(path);
-    const mesh::MeshStoreInfo& info = meshStore.info();
-    const size_t bytes = TetMeshData::hostBytes(info.tetCount, info.vertexCount, info.boundaryFaceCount);
-    if (bytes > cacheBytes)
-      throw RenderLimitError("tet mesh '" + name + "': held whole in memory it takes " + mebibytes(bytes) +
-                             ", above the host budget it may use, " + mebibytes(cacheBytes) +
-                             " (render's --host-budget; a server's host_cache_mb, shared among its open datasets); "
-                             "a mesh is not paged from disk");
-    auto data = std::make_shared<const TetMeshData>(meshStore.readAll(), meshStore.readTopology());
-    return std::make_shared<TetMeshDataset>(std::move(name), path, std::move(data));
+    // A mesh that fits the host budget whole is read and checked once, here; a larger one is paged by view: its
+    // points stay in memory, and each frame reads the chunks it needs (TetMeshSource).
+    auto meshStore = std::make_shared<const mesh::MeshStore>(mesh::MeshStore::open(path));
+    const mesh::MeshStoreInfo& info = meshStore->info();
+    std::shared_ptr<const TetMeshSource> source;
+    if (TetMeshData::hostBytes(info.tetCount, info.vertexCount, info.boundaryFaceCount) <= cacheBytes)
+      source = std::make_shared<const TetMeshSource>(
+          std::make_shared<const TetMeshData>(meshStore->readAll(), meshStore->readTopology()));
+    else
+      source = std::make_shared<const TetMeshSource>(std::move(meshStore), cacheBytes);
+    return std::make_shared<TetMeshDataset>(std::move(name), path, std::move(source));
   }
   if (!isDataset(path))
     throw std::runtime_error("openDataset: '" + path.string() +

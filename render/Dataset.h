@@ -8,6 +8,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "brickstore/BrickCache.h"
 #include "brickstore/BrickStore.h"
@@ -108,10 +109,14 @@ Scene resolveQuality(const Dataset& dataset, const Scene& scene, std::optional<Q
 /// ends in .vdb (read live), or a mesh store (mesh/MeshStore.h).
 bool isDataset(const std::filesystem::path& path);
 
+/// The files whose change on disk means the dataset at `path` was replaced (a brick store's store.json and
+/// bricks.bin, a mesh store's mesh.json, mesh-index.bin and mesh-data.bin, or the .vdb file itself).
+std::vector<std::filesystem::path> datasetFiles(const std::filesystem::path& path);
+
 /// Opens the dataset at `path` under `name` (`options` apply to a .vdb: grid name and brick size): a BrickStoreDataset
-/// or, for a mesh store, a TetMeshDataset (the mesh read whole). `cacheBytes` is the host memory it may use: a brick
-/// store's cache, or the whole of a mesh (TetMeshData::hostBytes), which is refused with RenderLimitError when
-/// larger. Throws std::runtime_error naming the path when it is no dataset, and the kind's own errors
+/// or, for a mesh store, a TetMeshDataset. `cacheBytes` is the host memory it may use: a brick store's cache; a mesh
+/// is read whole when it fits (TetMeshData::hostBytes), and otherwise paged by view (TetMeshSource: its points
+/// resident, each frame's chunks within the rest), refused with RenderLimitError when even its points exceed it. Throws std::runtime_error naming the path when it is no dataset, and the kind's own errors
 /// (mesh::MeshError for a corrupt mesh store) when it cannot be opened.
 std::shared_ptr<const Dataset> openDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes,
                                            const store::StoreOpenOptions& options = {});

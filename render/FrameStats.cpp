@@ -14,6 +14,8 @@ nlohmann::json FrameStats::toJson() const {
           {"bricks_coarse", bricksCoarse},   {"bricks_coarsened", bricksCoarsened},
           {"bricks_per_level", bricksPerLevel}, {"bricks_standin", bricksStandIn},
           {"tets_drawn", tetsDrawn}, {"tets_skipped_empty", tetsSkippedEmpty},
+          {"tet_chunks_culled", tetChunksCulled}, {"tet_chunks_skipped_empty", tetChunksSkippedEmpty},
+          {"tet_chunks_read", tetChunksRead},
           {"tet_ray_passes", tetRayPasses},
           {"ms", {{"traversal", msTraversal}, {"paging", msPaging}, {"slicing", msSlicing},
                   {"drawing", msDrawing}, {"readback", msReadback}, {"total", msTotal},

@@ -37,6 +37,9 @@ struct FrameStats {
   double msTraversal = 0, msPaging = 0, msSlicing = 0, msDrawing = 0, msReadback = 0, msTotal = 0;
   int64_t tetsDrawn = 0;        ///< tetrahedra drawn (a mesh frame)
   int64_t tetsSkippedEmpty = 0; ///< tetrahedra the transfer function makes transparent over their value range
+  /// A paged mesh (TetMeshSource): chunks outside the view frustum, chunks the transfer function makes transparent
+  /// over their value range, and chunks read from the store for this frame (0 when its working set was kept).
+  int64_t tetChunksCulled = 0, tetChunksSkippedEmpty = 0, tetChunksRead = 0;
   double msSorting = 0;         ///< a mesh frame's visibility sort
   /// A ray-cast mesh frame's entry passes (render/TetRayCaster.h), each followed by a ray pass but the last, which
   /// found no entry: 2 for a convex mesh. 0 when the frame was projected.

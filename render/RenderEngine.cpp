@@ -40,7 +40,7 @@ size_t RenderEngine::Impl::wanted(const Dataset& dataset) const {
   // A mesh takes its resident size, at most the whole budget (a larger one is streamed).
   if (dataset.kind() == DatasetKind::TetMesh)
     return std::min(options.gpuBudgetBytes,
-                    TetRenderer::bytesFor(static_cast<const TetMeshDataset&>(dataset).data()->mesh.tets.size()));
+                    TetRenderer::bytesFor(static_cast<const TetMeshDataset&>(dataset).source()->constants().tetCount));
   return Residency::atlasBytes(*static_cast<const BrickStoreDataset&>(dataset).store(), options.gpuBudgetBytes,
                                options.atlasFormat, BrickAtlas::resolveUploads(*context, options.atlasUploads));
 }
@@ -82,7 +82,7 @@ FrameRenderer& RenderEngine::Impl::rendererFor(const std::shared_ptr<const Datas
                                                   options.atlasUploads, options.atlasBricking);
       break;
     case DatasetKind::TetMesh:
-      renderer = std::make_unique<TetRenderer>(*context, static_cast<const TetMeshDataset&>(*dataset).data(),
+      renderer = std::make_unique<TetRenderer>(*context, static_cast<const TetMeshDataset&>(*dataset).source(),
                                                options.gpuBudgetBytes - gpuBytes);
       break;
   }

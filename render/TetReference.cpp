@@ -324,23 +324,30 @@ glm::dvec4 composite(const std::vector<TetSegment>& segments, const TetReference
 
 TetReferenceParams TetReferenceParams::fromScene(const Scene& scene, const mesh::TetMesh& mesh,
                                                  double defaultReferenceLength) {
-  scene.validate();
   if (mesh.points.empty()) throw RenderInputError("TetReferenceParams::fromScene: the mesh has no points");
+  TetMeshConstants constants;
   const auto [lo, hi] = mesh.bounds();
+  constants.bounds = Box{glm::dvec3(lo), glm::dvec3(hi)};
+  std::tie(constants.scalarMin, constants.scalarMax) = mesh.scalarRange();
+  constants.meanEdgeLength = defaultReferenceLength;
+  return fromScene(scene, constants);
+}
+
+TetReferenceParams TetReferenceParams::fromScene(const Scene& scene, const TetMeshConstants& constants) {
+  scene.validate();
+  // A mesh's points are in the world: the identity frame; the camera and the window as the GPU renderers take them.
+  const TetView view = TetView::of(scene, constants);
   TetReferenceParams p;
-  // A mesh's points are in the world: the identity frame.
-  p.camera = scene.camera.resolve(Box{glm::dvec3(lo), glm::dvec3(hi)}, {}, double(scene.width) / double(scene.height));
+  p.camera = view.camera;
   p.transferFunction = scene.transferFunction;
   p.width = scene.width;
   p.height = scene.height;
   p.background = scene.background;
   p.transparent = scene.transparent;
   p.shading = scene.shading;
-  const auto [vmin, vmax] = mesh.scalarRange();
-  p.windowLo = scene.window ? (*scene.window)[0] : double(vmin);
-  p.windowHi = scene.window ? (*scene.window)[1] : double(vmax);
-  if (!(p.windowHi > p.windowLo)) p.windowHi = p.windowLo + 1;  // a constant mesh: everything maps to 0
-  p.referenceLength = scene.transferFunction.referenceLength().value_or(defaultReferenceLength);
+  p.windowLo = view.windowLo;
+  p.windowHi = view.windowHi;
+  p.referenceLength = scene.transferFunction.referenceLength().value_or(constants.meanEdgeLength);
   p.validate();
   return p;
 }

@@ -12,6 +12,7 @@
 #include "mesh/TetMesh.h"
 #include "render/Camera.h"
 #include "render/Scene.h"
+#include "render/TetDataset.h"
 #include "render/TransferFunction.h"
 
 namespace voxbrick::render {
@@ -36,6 +37,9 @@ struct TetReferenceParams {
   /// gets [v, v + 1], as a constant store does), and L_ref the transfer function's or `defaultReferenceLength`.
   /// Throws RenderInputError for an invalid scene or an empty mesh.
   static TetReferenceParams fromScene(const Scene& scene, const mesh::TetMesh& mesh, double defaultReferenceLength);
+  /// The same for a mesh of `constants` (its box, scalar range and mean edge length): those of the whole mesh when
+  /// the reference integrates a part of it (a paged mesh's working set, TetMeshSource::frameData).
+  static TetReferenceParams fromScene(const Scene& scene, const TetMeshConstants& constants);
   /// Throws RenderInputError naming the value for an invalid camera, a size outside [1, Scene::kMaxImageSide], a
   /// window that is not finite with lo < hi, L_ref not finite and positive, a background outside [0, 1].
   void validate() const;

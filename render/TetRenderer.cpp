@@ -52,9 +52,9 @@ size_t TetRenderer::bytesFor(size_t tets) { return tets * (kBytesPerTet + 4) + t
 
 size_t TetRenderer::minimumBytes() { return kMinBatchTets * (kBytesPerTet + 4) + tableBytes(); }
 
-TetRenderer::TetRenderer(GlContext& context, std::shared_ptr<const TetMeshData> data, size_t gpuBudgetBytes)
+TetRenderer::TetRenderer(GlContext& context, std::shared_ptr<const TetMeshSource> source, size_t gpuBudgetBytes)
     : mGl(context.gl()),
-      mData(std::move(data)),
+      mSource(std::move(source)),
       mGpuBudget(gpuBudgetBytes),
       mVertices(mGl),
       mOrderBuffer(mGl),
@@ -64,28 +64,39 @@ TetRenderer::TetRenderer(GlContext& context, std::shared_ptr<const TetMeshData> 
       mShadedProgram(tetProgram(mGl, false, true)),
       mCompositor(mGl),
       mTable(mGl) {
-  const mesh::TetMesh& m = mData->mesh;
   if (gpuBudgetBytes < minimumBytes())
     throw RenderInputError("tet mesh: a GPU budget of " + std::to_string(gpuBudgetBytes) +
                            " bytes holds no batch of tets (the pre-integration table and " +
                            std::to_string(kMinBatchTets) + " tets take " + std::to_string(minimumBytes()) + ")");
-  if (bytesFor(m.tets.size()) <= gpuBudgetBytes) {
+  if (!mSource->paged()) upload(mSource->whole());
+}
+
+void TetRenderer::upload(std::shared_ptr<const TetMeshData> data) {
+  mData = std::move(data);
+  mRayCaster.reset();
+  mUploaded = 0;
+  const mesh::TetMesh& m = mData->mesh;
+  if (bytesFor(m.tets.size()) <= mGpuBudget) {
     // Resident: every tet uploaded once, in mesh order, drawn through the order buffer.
+    mStreamed = false;
     mBatchTets = m.tets.size();
     std::vector<glm::vec4> texels(m.tets.size() * 4);
-    for (size_t t = 0; t < m.tets.size(); ++t) writeTet(uint32_t(t), &texels[4 * t]);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, m.tets.size(), 16384), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t t = r.begin(); t != r.end(); ++t) writeTet(uint32_t(t), &texels[4 * t]);
+    });
     mVertices.allocate(GL_SHADER_STORAGE_BUFFER, texels.size() * sizeof(glm::vec4), texels.data(), GL_STATIC_DRAW);
   } else {
     // Streamed: batches of tets in visibility order are written into one buffer and drawn in turn, as many as the
     // budget holds; the order buffer is the identity over a batch.
     mStreamed = true;
-    mBatchTets = std::max(kMinBatchTets, (gpuBudgetBytes - tableBytes()) / (kBytesPerTet + 4));
+    mBatchTets = std::max(kMinBatchTets, (mGpuBudget - tableBytes()) / (kBytesPerTet + 4));
     mVertices.allocate(GL_SHADER_STORAGE_BUFFER, mBatchTets * kBytesPerTet, nullptr, GL_STREAM_DRAW);
     std::vector<uint32_t> identity(mBatchTets);
     for (size_t i = 0; i < identity.size(); ++i) identity[i] = uint32_t(i);
     mOrderBuffer.allocate(GL_SHADER_STORAGE_BUFFER, identity.size() * 4, identity.data(), GL_STATIC_DRAW);
   }
   checkGlError(mGl, "TetRenderer: uploading the mesh");
+  mUploaded = mData->id;
 }
 
 void TetRenderer::writeTet(uint32_t tet, glm::vec4* out) const {
@@ -172,43 +183,57 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
   scene.validate();
   const auto frameStart = Clock::now();
   FrameStats stats;
-  const TetMeshData& d = *mData;
-  const glm::dvec3 centre = d.bounds.center();
-  const Camera camera = scene.camera.resolve(d.bounds, {}, double(scene.width) / double(scene.height));
-  double nearPlane = 0, farPlane = 0;
-  camera.clipRange(d.bounds, nearPlane, farPlane);
-  const double aspect = double(scene.width) / double(scene.height);
+  const TetView view = TetView::of(scene, mSource->constants());
+  const Camera& camera = view.camera;
+  const double nearPlane = view.nearPlane;
   // World centred on the box, as the vertices are.
-  const glm::dmat4 viewProj =
-      camera.projection(aspect, nearPlane, farPlane) * camera.view() * glm::translate(glm::dmat4(1.0), centre);
+  const glm::dvec3 centre = mSource->constants().bounds.center();
+  const glm::dmat4 viewProj = view.clipFromWorld * glm::translate(glm::dmat4(1.0), centre);
   const PixelRays pixels = pixelRays(viewProj, scene.width, scene.height);
-
-  const bool nullFragment = options.mode == RenderMode::Roofline;
   if (options.mode == RenderMode::Points)
     throw RenderInputError("a tet mesh has no slices to draw as points (RenderMode::Points)");
+
+  // The frame's tets: a paged mesh's working set is held only while the frame draws it (its GPU copy stays).
+  struct Release {
+    TetRenderer& r;
+    ~Release() {
+      if (r.mSource->paged()) r.mData.reset();
+    }
+  } release{*this};
+  if (std::shared_ptr<const TetMeshData> data = mSource->frameData(scene, view, &stats); !data) {
+    // Nothing in view that the transfer function shows: the background.
+    mCompositor.begin(scene.width, scene.height, true);
+    image::ImageF image = mCompositor.finish(scene, stats);
+    mGl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    stats.msTotal = msSince(frameStart);
+    if (statsOut) *statsOut = stats;
+    return image;
+  } else if (data->id != mUploaded) {
+    upload(std::move(data));
+  } else {
+    mData = std::move(data);
+  }
+  const TetMeshData& d = *mData;
+
+  const bool nullFragment = options.mode == RenderMode::Roofline;
   // Ray casting when asked for and possible (rayCastable); otherwise projected in MPVO order.
   const bool rays = scene.visibility == TetSort::Ray && !nullFragment && rayCastable(camera, nearPlane);
 
   // The visibility order, front to back (none when ray casting: each ray finds its own).
   mOrder.clear();
   if (!rays) {
-    const mesh::ViewPoint view{camera.eye, camera.viewDirection(), camera.orthographic};
+    const mesh::ViewPoint eye{camera.eye, camera.viewDirection(), camera.orthographic};
     mesh::VisibilityStats sortStats;
     if (scene.visibility == TetSort::Centroid)
-      mesh::centroidOrder(d.mesh, view, mOrder, &sortStats);
+      mesh::centroidOrder(d.mesh, eye, mOrder, &sortStats);
     else
-      mesh::mpvoOrder(d.mesh, d.topology, view, mOrder, &sortStats);
+      mesh::mpvoOrder(d.mesh, d.topology, eye, mOrder, &sortStats);
     stats.msSorting = sortStats.ms;
   }
   if (options.cancelled && options.cancelled()) throw FrameCancelled("frame cancelled");
 
   // The value window (default the scalars' range) and the segment lengths of the table.
-  double lo = d.scalarMin, hi = d.scalarMax;
-  if (scene.window) {
-    lo = (*scene.window)[0];
-    hi = (*scene.window)[1];
-  }
-  if (!(hi > lo)) hi = lo + 1;
+  const double lo = view.windowLo, hi = view.windowHi;
   // Empty-space skipping per tet: one whose value range the transfer function makes transparent is left out of the
   // order (after sorting: MPVO needs every tet's faces to order the others).
   const size_t tetCount = d.mesh.tets.size();

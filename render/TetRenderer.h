@@ -22,17 +22,22 @@ namespace voxbrick::render {
 /// frame uploads only the order (4 bytes a tet).
 class TetRenderer final : public FrameRenderer {
  public:
-  /// Uploads the mesh when it fits `gpuBudgetBytes` (bytesFor); otherwise each frame streams the tets, in
-  /// visibility order, through a buffer of as many as the budget holds (the same image, a batch per draw). Throws
-  /// RenderInputError when the budget is below minimumBytes().
-  TetRenderer(GlContext& context, std::shared_ptr<const TetMeshData> data, size_t gpuBudgetBytes);
+  /// Draws the tets of `source`: a whole mesh is uploaded now, a paged one's working set when a frame first needs it
+  /// (and again when a frame needs another). Tets are uploaded when they fit `gpuBudgetBytes` (bytesFor); otherwise
+  /// each frame streams them, in visibility order, through a buffer of as many as the budget holds (the same image,
+  /// a batch per draw). Throws RenderInputError when the budget is below minimumBytes().
+  TetRenderer(GlContext& context, std::shared_ptr<const TetMeshSource> source, size_t gpuBudgetBytes);
+  /// The same for a whole mesh held in memory.
+  TetRenderer(GlContext& context, std::shared_ptr<const TetMeshData> whole, size_t gpuBudgetBytes)
+      : TetRenderer(context, std::make_shared<const TetMeshSource>(std::move(whole)), gpuBudgetBytes) {}
   ~TetRenderer() override;
 
   /// Renders `scene` (camera, size, transfer function, window, background, visibility, shading, ert for the ray
   /// caster; RenderMode::Roofline draws projected tets with the seed's null fragment program). Visibility
   /// TetSort::Ray draws with the ray caster where rayCastable, otherwise projected in MPVO order
-  /// (FrameStats::tetRayPasses says which). Throws RenderInputError for an invalid scene, RenderError for GL
-  /// failures, FrameCancelled when options.cancelled says so before drawing.
+  /// (FrameStats::tetRayPasses says which). A paged mesh draws the chunks the frame needs (TetMeshSource::frameData);
+  /// a frame that needs none is the background. Throws RenderInputError for an invalid scene, RenderError for GL
+  /// failures, FrameCancelled when options.cancelled says so before drawing, and what frameData throws.
   image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) override;
   size_t gpuBytes() const override;
 
@@ -48,6 +53,8 @@ class TetRenderer final : public FrameRenderer {
   static constexpr size_t kMinBatchTets = 4096;  // the smallest streamed batch
   /// The largest pre-integration table (64 length layers of RGBA32F).
   static size_t tableBytes();
+  /// Makes `data` the tets on the GPU (resident, or streamed when larger than the budget).
+  void upload(std::shared_ptr<const TetMeshData> data);
   /// Tet `tet`'s four vertices as the shader reads them.
   void writeTet(uint32_t tet, glm::vec4* out) const;
   /// The cost of drawing the tets of mDrawn with `viewProj` into a width x height window, in FrameOptions::maxSamples' unit: the
@@ -64,7 +71,9 @@ class TetRenderer final : public FrameRenderer {
                      const std::function<bool()>& cancelled);
 
   const Gl& mGl;
-  std::shared_ptr<const TetMeshData> mData;
+  std::shared_ptr<const TetMeshSource> mSource;
+  std::shared_ptr<const TetMeshData> mData;  // the tets on the GPU; a paged mesh's only while a frame draws them
+  uint64_t mUploaded = 0;                    // the id (TetMeshData::id) of the tets on the GPU; 0 for none
   size_t mGpuBudget = 0;
   bool mStreamed = false;
   size_t mBatchTets = 0;  // tets the vertex buffer holds: all of them, or a streamed batch

@@ -31,9 +31,7 @@ std::vector<std::string> DatasetRegistry::names() const {
 
 std::string datasetIdentity(const std::filesystem::path& path) {
   std::string out;
-  const bool directory = std::filesystem::is_directory(path);
-  for (const std::filesystem::path& file :
-       directory ? std::vector{path / "store.json", path / "bricks.bin"} : std::vector{path}) {
+  for (const std::filesystem::path& file : render::datasetFiles(path)) {
     struct stat s {};
     if (::stat(file.c_str(), &s) != 0) return {};
     out += std::to_string(s.st_dev) + ":" + std::to_string(s.st_ino) + ":" + std::to_string(s.st_size) + ":" +

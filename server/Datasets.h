@@ -50,8 +50,9 @@ class DatasetRegistry {
   std::map<std::string, Open> mOpen;
 };
 
-/// The identity of a dataset's files (a store directory's store.json and bricks.bin, or a .vdb file): device,
-/// inode, size and modification time of each, as text; empty when they cannot be read.
+/// The identity of a dataset's files (render::datasetFiles: a brick store's store.json and bricks.bin, a mesh
+/// store's three files, or a .vdb file): device, inode, size and modification time of each, as text; empty when they
+/// cannot be read.
 std::string datasetIdentity(const std::filesystem::path& path);
 
 /// A Render for a quarantined dataset (answered as Internal, without drawing and without logging again).

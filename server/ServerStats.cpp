@@ -30,6 +30,7 @@ json datasetJson(const render::Dataset& dataset) {
                      {"misses", c.misses},
                      {"hit_rate", lookups > 0 ? double(c.hits) / lookups : 0.0},
                      {"resident_bytes", c.residentBytes},
+                     {"peak_resident_bytes", c.peakResidentBytes},
                      {"budget_bytes", c.budgetBytes},
                      {"evictions", c.evictions}}},
           {"quarantined", dataset.quarantined() ? json(*dataset.quarantined()) : json(nullptr)}};

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <limits>
 #include <map>
@@ -151,6 +152,39 @@ TEST(MeshStore, GridChunksAreCompactAndExact) {
   // 96 tets are 16 unit cubes: in Z-order, two 2x2x2 blocks side by side, so the 32 boxes tile the grid (a sum of
   // 512). Chunks of the shuffled input would each span nearly the whole grid (a sum near 32 x 512).
   EXPECT_LT(chunkVolume, 1.25 * 512.0) << "chunk boxes sum to " << chunkVolume << " for a 512 volume";
+}
+
+// mesh.json records the mean and longest edge, summed in the store's order; a store written before it did is measured
+// chunk by chunk to the same bits, and values that are no mesh's lengths are refused.
+TEST(MeshStore, RecordsItsEdgeLengths) {
+  ScratchDir scratch;
+  TetMesh grid = test::kuhnGrid(6, 5, 4);
+  const Topology topo = test::matchFaces(grid);
+  writeMeshStore(grid, topo, scratch / "grid", chunksOf(50));
+  const MeshStore store = MeshStore::open(scratch / "grid");
+  EdgeLengths inStoreOrder;
+  for (const Tet& tet : store.readAll().tets) inStoreOrder.add(store.points(), tet);
+  EXPECT_EQ(store.info().meanEdgeLength, inStoreOrder.mean());
+  EXPECT_EQ(store.info().longestEdge, inStoreOrder.longest);
+  EXPECT_EQ(store.edgeLengths(), std::make_pair(inStoreOrder.mean(), inStoreOrder.longest));
+  EXPECT_NEAR(inStoreOrder.longest, std::sqrt(3.0), 1e-6);  // a unit Kuhn cell's main diagonal
+
+  const std::vector<char> bytes = readFile(scratch / "grid" / kMeshMetaFile);
+  const std::string text(bytes.begin(), bytes.end());
+  const size_t at = text.find("\"edgeLengths\"");
+  ASSERT_NE(at, std::string::npos) << text;
+  const size_t end = text.find('}', at) + 1;
+  // Without the key (an older store): measured, the same bits.
+  voxbrick::test::writeFile(scratch / "grid" / kMeshMetaFile, text.substr(0, at) + "\"older\": 1" + text.substr(end));
+  const MeshStore older = MeshStore::open(scratch / "grid");
+  EXPECT_EQ(older.info().meanEdgeLength, 0.0);
+  EXPECT_EQ(older.edgeLengths(), store.edgeLengths());
+  // Lengths that no mesh has.
+  for (const std::string bad : {R"("edgeLengths": {"mean": -1, "longest": 1})", R"("edgeLengths": {"mean": 2, "longest": 1})",
+                                R"("edgeLengths": {"mean": 1})"}) {
+    voxbrick::test::writeFile(scratch / "grid" / kMeshMetaFile, text.substr(0, at) + bad + text.substr(end));
+    EXPECT_THROW(MeshStore::open(scratch / "grid"), MeshError) << bad;
+  }
 }
 
 TEST(MeshStore, OneTetPerChunkAndOneChunk) {

@@ -585,7 +585,8 @@ TEST(TetCommands, PrepInfoRenderAndRefusals) {
   EXPECT_EQ(info["kind"], "tet-mesh");
   EXPECT_EQ(info["tets"].get<size_t>(), ball.tets.size());
   EXPECT_EQ(info["field"], ball.field);
-  // A mesh is held whole: one larger than the host budget it may use is refused, naming both sizes.
+  // A mesh that fits its host budget is held whole (a larger one is paged: test_tet_paging.cpp); one whose points
+  // alone exceed it is refused, naming both sizes.
   EXPECT_EQ(openDataset("ball", dir / "ball", size_t(1) << 30)->kind(), DatasetKind::TetMesh);
   try {
     openDataset("ball", dir / "ball", 1000);

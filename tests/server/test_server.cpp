@@ -218,6 +218,58 @@ TEST_F(ServerTest, ServesATetMeshWithTheRenderCommandsFrame) {
   EXPECT_EQ(l->render(scene).width, 80u);
 }
 
+// A mesh larger than the server's host cache is paged by view: a frame whose chunks fit is served as `render` draws
+// it under the same budget; a view whose chunks cannot fit is refused with LimitExceeded and the session goes on.
+TEST_F(ServerTest, ServesAMeshLargerThanItsHostBudgetPagedByView) {
+  const std::filesystem::path work = scratch() / "paged-mesh", datasets = work / "datasets";
+  std::filesystem::create_directories(datasets);
+  // 444528 tets: 17 MiB held whole, above the smallest host cache a server takes (16 MiB).
+  auto r = test::runVoxbrick("prep synthetic-mesh:box,n=42 --tets-per-chunk 2048 -q -o " + (datasets / "box").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  ServerProcess server("--datasets " + datasets.string() + " --host-cache 16 --render-threads 1", work);
+  auto c = session(server, "");
+  const json meta = json::parse(c->openDataset("box").metaJson);
+  EXPECT_EQ(meta["paged"], true);
+  EXPECT_EQ(meta["tets"].get<int>(), 444528);
+  // ct-bone leaves the low values transparent: the chunks it shows fit.
+  const std::string scene = R"({"camera": {"orbit": [40, 25]}, "size": [80, 64], "transfer_function": "ct-bone"})";
+  const proto::Frame frame = c->render(scene, proto::Encoding::RawRgba8);
+  const json stats = json::parse(frame.statsJson);
+  EXPECT_GT(stats["tet_chunks_skipped_empty"].get<int>(), 0) << frame.statsJson;
+  EXPECT_GT(stats["tet_chunks_read"].get<int>(), 0) << frame.statsJson;
+  test::writeFile(work / "scene.json", scene);
+  r = test::runVoxbrick("render " + (datasets / "box").string() + " --host-budget 16 --scene " +
+                        (work / "scene.json").string() + " -o " + (work / "rendered.png").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_NE(r.output.find("mesh paged within 16.0 MiB"), std::string::npos) << r.output;
+  const std::vector<uint8_t> served = pixels(frame);
+  EXPECT_EQ(served, image::readPng(work / "rendered.png").rgba) << "the served paged frame differs from `render`";
+  size_t lit = 0;
+  for (size_t i = 0; i < served.size(); i += 4) lit += served[i] > 0 ? 1 : 0;
+  EXPECT_GT(lit, 300u) << "an empty frame would prove nothing";
+  // hot shows every value: the whole box would be needed.
+  const std::string all = R"({"camera": {"orbit": [40, 25]}, "size": [80, 64], "transfer_function": "hot"})";
+  try {
+    c->render(all);
+    ADD_FAILURE() << "a view needing more than the host budget was served";
+  } catch (const ServerError& e) {
+    EXPECT_EQ(e.code(), ErrorCode::LimitExceeded);
+    EXPECT_NE(std::string(e.what()).find("this view needs"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(pixels(c->render(scene, proto::Encoding::RawRgba8)), served) << "the session goes on";
+  const json serverStats = json::parse(c->stats());
+  ASSERT_EQ(serverStats["datasets"].size(), 1u);
+  EXPECT_LE(serverStats["datasets"][0]["cache"]["peak_resident_bytes"].get<size_t>(), size_t(16) << 20)
+      << serverStats.dump();
+  // Replaced on disk by a small mesh (`prep --force`): the same session draws the new one, held whole.
+  r = test::runVoxbrick("prep synthetic-mesh:ball,n=10 --force -q -o " + (datasets / "box").string());
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  const proto::Frame replaced = c->render(all, proto::Encoding::RawRgba8);
+  EXPECT_EQ(json::parse(replaced.statsJson)["tet_chunks_read"], 0) << replaced.statsJson;
+  EXPECT_NE(pixels(replaced), served);
+  c->goodbye();
+}
+
 TEST_F(ServerTest, MalformedMessagesGetTheirErrorsAndOtherSessionsGoOn) {
   auto server = start();
   auto good = session(*server);
