@@ -171,6 +171,15 @@ const ChunkInfo& MeshStore::chunk(size_t i) const {
   return mChunks[i];
 }
 
+size_t MeshStore::chunkOf(uint64_t tet) const {
+  if (tet >= mInfo.tetCount)
+    throw MeshError(mPath.string() + ": tet " + std::to_string(tet) + " of " + std::to_string(mInfo.tetCount));
+  // Chunks follow one another from tet 0 (checked at open): the last one starting at or before `tet`.
+  const auto after = std::upper_bound(mChunks.begin(), mChunks.end(), tet,
+                                      [](uint64_t t, const ChunkInfo& c) { return t < c.firstTet; });
+  return size_t(after - mChunks.begin()) - 1;
+}
+
 MeshChunk MeshStore::readChunk(size_t i) const {
   const ChunkInfo& c = chunk(i);
   const MeshChunkRecord& r = mRecords[i];

@@ -96,6 +96,8 @@ class MeshStore {
   size_t chunkCount() const { return mChunks.size(); }
   /// The index record of chunk i; throws MeshError when i is out of range.
   const ChunkInfo& chunk(size_t i) const;
+  /// The chunk holding tet `tet` (a global index in the store's order); throws MeshError when it is out of range.
+  size_t chunkOf(uint64_t tet) const;
   /// Reads chunk i: checksums verified, vertex and neighbour indices range-checked. Throws MeshError.
   MeshChunk readChunk(size_t i) const;
   const std::vector<glm::vec3>& points() const { return mPoints; }

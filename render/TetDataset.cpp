@@ -120,7 +120,6 @@ struct TetMeshSource::Paged {
   };
 
   std::shared_ptr<const mesh::MeshStore> store;
-  std::vector<uint64_t> firstTets;  // per chunk, for finding a neighbour's chunk
   size_t resident = 0;
   std::shared_ptr<Live> live = std::make_shared<Live>();
   mutable std::mutex mutex;  // the fields below, and one working set built at a time
@@ -162,6 +161,7 @@ struct TetMeshSource::Paged {
           "--host-budget; a server's host_cache_mb)");
     makeRoom(bytes);
   }
+  /// Reads `chunks` into a working set and keeps it (or throws as reserve() does, or CorruptStoreError).
   std::shared_ptr<const TetMeshData> build(const std::vector<uint32_t>& chunks, const TetMeshConstants& constants);
 };
 
@@ -185,9 +185,9 @@ std::shared_ptr<const TetMeshData> TetMeshSource::Paged::build(const std::vector
   // to meet there (transparent or outside the view), and the ray caster looks for where it enters again.
   auto renumber = [&](int32_t neighbour) -> int32_t {
     if (neighbour == mesh::Topology::kBoundary) return neighbour;
-    const auto c = size_t(std::upper_bound(firstTets.begin(), firstTets.end(), uint64_t(neighbour)) -
-                          firstTets.begin()) - 1;
-    return offset[c] < 0 ? mesh::Topology::kBoundary : int32_t(offset[c] + (int64_t(neighbour) - int64_t(firstTets[c])));
+    const size_t c = s.chunkOf(uint64_t(neighbour));
+    return offset[c] < 0 ? mesh::Topology::kBoundary
+                         : int32_t(offset[c] + (int64_t(neighbour) - int64_t(s.chunk(c).firstTet)));
   };
   try {
     tbb::parallel_for(size_t{0}, chunks.size(), [&](size_t i) {
@@ -232,10 +232,13 @@ std::shared_ptr<const TetMeshData> TetMeshSource::Paged::build(const std::vector
   auto* data = new TetMeshData(std::move(part), std::move(topology), constants);
   live->bytes += bytes;
   counters.peakResidentBytes = std::max(counters.peakResidentBytes, resident + live->bytes);
-  return std::shared_ptr<const TetMeshData>(data, [live = live, bytes](const TetMeshData* d) {
+  ++counters.misses;
+  std::shared_ptr<const TetMeshData> built(data, [live = live, bytes](const TetMeshData* d) {
     live->bytes -= bytes;
     delete d;
   });
+  kept.push_back({chunks, built, bytes, ++uses});
+  return built;
 }
 
 TetMeshSource::TetMeshSource(std::shared_ptr<const TetMeshData> whole)
@@ -258,8 +261,6 @@ TetMeshSource::TetMeshSource(std::shared_ptr<const mesh::MeshStore> store, size_
   mConstants.tetCount = info.tetCount;
   mConstants.pointCount = info.vertexCount;
   mConstants.field = info.field;
-  mPaged->firstTets.reserve(store->chunkCount());
-  for (size_t c = 0; c < store->chunkCount(); ++c) mPaged->firstTets.push_back(store->chunk(c).firstTet);
   mPaged->store = std::move(store);
   mPaged->budget = hostBudget;
   mPaged->counters.budgetBytes = hostBudget;
@@ -324,12 +325,7 @@ std::shared_ptr<const TetMeshData> TetMeshSource::frameData(const Scene& scene, 
         if (p.tooLarge.size() > Paged::kTooLargeKept) p.tooLarge.erase(p.tooLarge.begin());
         return nullptr;
       }
-      ++p.counters.misses;
       read = int64_t(chunks.size());
-      p.kept.push_back({chunks, built,
-                        TetMeshData::hostBytes(built->mesh.tets.size(), built->mesh.points.size(),
-                                               built->topology.boundary.size()),
-                        ++p.uses});
       p.makeRoom(0);  // a smaller budget since the last frame drops what no frame holds
       return built;
     };
