@@ -14,10 +14,10 @@
 #include "mesh/SyntheticMesh.h"
 #include "mesh/Topology.h"
 #include "mesh/Validate.h"
-#include "render/TetDataset.h"
-#include "render/TetReference.h"
-#include "render/TetRenderer.h"
-#include "render/TransferFunction.h"
+#include "render/tets/TetMeshDataset.h"
+#include "render/reference/TetReference.h"
+#include "render/gl/tets/TetRenderer.h"
+#include "render/core/TransferFunction.h"
 
 namespace voxbrick::bench {
 namespace {
@@ -85,7 +85,7 @@ std::string markdown(const MeshSweepResult& r) {
   std::string out = "# Mesh sweep: time against error\n\nDevice: " + r.device + ". " + std::to_string(s.views) +
                     " views (azimuth 0…" + number("%g", 360.0 * (s.views - 1) / s.views) + "°, elevation " +
                     number("%g", s.elevation) + "°, " + number("%g", s.distance) + " R), " + std::to_string(s.size) +
-                    "², after a warm-up frame; PSNR against the exact reference (render/TetReference.h).\n\n";
+                    "², after a warm-up frame; PSNR against the exact reference (render/reference/TetReference.h).\n\n";
   for (const auto& [what, ms] : r.referenceMs) out += "- Reference, " + what + ": " + number("%.0f", ms) + " ms a view\n";
   out += "\n| mesh | tets | transfer function | setting | median ms | sort ms | fragments (M) | tets drawn | worst "
          "view dB | pooled dB | front |\n|---|---:|---|---|---:|---:|---:|---:|---:|---:|:-:|\n";

@@ -1,5 +1,5 @@
 // The time-versus-error sweep of tetrahedral meshes behind `voxbrick bench --mesh`: GPU frames of each mesh
-// setting against the exact reference (render/TetReference.h) of the same views, with the Pareto front, the default
+// setting against the exact reference (render/reference/TetReference.h) of the same views, with the Pareto front, the default
 // it implies and a plot.
 #pragma once
 
@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "render/GlContext.h"
-#include "render/Scene.h"
+#include "render/gl/GlContext.h"
+#include "render/core/Scene.h"
 
 namespace voxbrick::bench {
 

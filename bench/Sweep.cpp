@@ -16,9 +16,9 @@
 #include "brickstore/BrickCache.h"
 #include "brickstore/BrickStore.h"
 #include "brickstore/StoreWriter.h"
-#include "render/ReferenceRenderer.h"
-#include "render/RenderErrors.h"
-#include "render/VolumeRenderer.h"
+#include "render/reference/ReferenceRenderer.h"
+#include "render/core/RenderErrors.h"
+#include "render/gl/volume/VolumeRenderer.h"
 
 namespace voxbrick::bench {
 namespace fs = std::filesystem;

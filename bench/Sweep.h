@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "image/Image.h"
-#include "render/GlContext.h"
-#include "render/Scene.h"
+#include "render/gl/GlContext.h"
+#include "render/core/Scene.h"
 
 namespace voxbrick::bench {
 
@@ -142,7 +142,7 @@ struct SweepSpec {
   /// A small sweep for CI (seconds): small synthetic volumes, the MRI, 48² images, two views, two steps, every kind of
   /// slab and ray-caster setting at the coarser one.
   static SweepSpec quick(const std::string& mriPath);
-  /// The calibration of one dataset for quality by target (render/Quality.h): the store at `store` as it is, one
+  /// The calibration of one dataset for quality by target (render/core/Quality.h): the store at `store` as it is, one
   /// sweep dataset per transfer function of `transferFunctions` (so that each gets every setting), unshaded; the
   /// ray caster at steps 0.35 to 3 with ERT off and 0.999, whole-brick cells and sub-blocks of 8, levels of detail 1
   /// and 2, pre-integration, and slicing at each step; 6 views at 256², at elevations 20, -30 and 55 in turn.
@@ -234,7 +234,7 @@ std::optional<double> coarsestStep(const std::vector<Point>& points, const std::
 /// Where runSweep keeps the store of `d` with brick size `brick`: `work`/NAME-bB.vbs, or `d.store` if set.
 std::filesystem::path datasetStorePath(const Dataset& d, int brick, const std::filesystem::path& work);
 
-/// The quality table (render/Quality.h) of the points measured on `store` (a path, as datasetStorePath gives it):
+/// The quality table (render/core/Quality.h) of the points measured on `store` (a path, as datasetStorePath gives it):
 /// every point of a dataset kept there with bricks of 32 (the store's), skipping and the vertex slicer, one entry per
 /// transfer function, shading and setting. `device` names the GL renderer.
 render::QualityTable qualityTable(const SweepResult& result, const std::filesystem::path& work,

@@ -25,8 +25,8 @@
 #include "brickstore/BrickCache.h"
 #include "brickstore/BrickStore.h"
 #include "image/Image.h"
-#include "render/GlContext.h"
-#include "render/VolumeRenderer.h"
+#include "render/gl/GlContext.h"
+#include "render/gl/volume/VolumeRenderer.h"
 #include "bench/Sweep.h"
 
 namespace fs = std::filesystem;

@@ -31,9 +31,9 @@
 
 #include "brickstore/BrickCache.h"
 #include "brickstore/BrickStore.h"
-#include "render/Camera.h"
-#include "render/GlContext.h"
-#include "render/VolumeRenderer.h"
+#include "render/core/Camera.h"
+#include "render/gl/GlContext.h"
+#include "render/gl/volume/VolumeRenderer.h"
 #include "bench/Sweep.h"
 
 namespace fs = std::filesystem;

@@ -19,8 +19,8 @@
 #include "brickstore/BrickCache.h"
 #include "brickstore/BrickStore.h"
 #include "brickstore/StoreWriter.h"
-#include "render/GlContext.h"
-#include "render/VolumeRenderer.h"
+#include "render/gl/GlContext.h"
+#include "render/gl/volume/VolumeRenderer.h"
 #include "bench/Sweep.h"
 
 namespace fs = std::filesystem;

@@ -30,8 +30,8 @@
 #include "brickstore/BrickCache.h"
 #include "brickstore/BrickStore.h"
 #include "brickstore/StoreWriter.h"
-#include "render/GlContext.h"
-#include "render/VolumeRenderer.h"
+#include "render/gl/GlContext.h"
+#include "render/gl/volume/VolumeRenderer.h"
 
 namespace fs = std::filesystem;
 using namespace voxbrick;

@@ -22,8 +22,8 @@
 #include <CLI/CLI.hpp>
 
 #include "mesh/MeshStore.h"
-#include "render/GlContext.h"
-#include "render/TetRenderer.h"
+#include "render/gl/GlContext.h"
+#include "render/gl/tets/TetRenderer.h"
 
 namespace fs = std::filesystem;
 using namespace voxbrick;

@@ -22,11 +22,11 @@
 #include "brickstore/BrickStore.h"
 #include "brickstore/Sources.h"
 #include "brickstore/StoreWriter.h"
-#include "render/BrickAtlas.h"
-#include "render/GlContext.h"
-#include "render/ReferenceRenderer.h"
-#include "render/Scene.h"
-#include "render/VolumeRenderer.h"
+#include "render/gl/volume/BrickAtlas.h"
+#include "render/gl/GlContext.h"
+#include "render/reference/ReferenceRenderer.h"
+#include "render/core/Scene.h"
+#include "render/gl/volume/VolumeRenderer.h"
 
 namespace fs = std::filesystem;
 using namespace voxbrick;
@@ -79,7 +79,7 @@ std::vector<Case> cases() {
                                           R"("orbit": [0, 90, 2.5], "up_axis": "+y")",
                                           R"("orbit": [200, -35, 1.6], "up_axis": "+y")"};
   // Slicing of level 0, as when the digests were taken: the default drawing is now texture slabs with level of
-  // detail (render/Scene.h).
+  // detail (render/core/Scene.h).
   auto scene = [](const std::string& camera, const std::string& rest) {
     const std::string drawing = std::string(R"("slab": 0, "ert": 0, "lod": 0)") +
                                 (rest.find("sub_block") == std::string::npos ? R"(, "sub_block": 0)" : "");

@@ -11,7 +11,7 @@
 #
 # Each --voxbrick value is one voxbrick setting: a comma list of key=value merged into the scene JSON (values are
 # JSON when they parse as JSON, else strings; 1 and 0 are true and false for the scene's boolean keys, so
-# 'step=0.5,raycast=1' is the frame ray caster; 'a.b=v' nests), or a JSON object. Scene keys of render/Scene.h that
+# 'step=0.5,raycast=1' is the frame ray caster; 'a.b=v' nests), or a JSON object. Scene keys of render/core/Scene.h that
 # change the picture (camera, size, transfer_function, background, window, shading) are refused there. --vtk-steps
 # defaults to the steps of the voxbrick settings. Writes OUT/NAME.{csv,md} (NAME default peer-vtk); frames, heat
 # maps and the cached reference frames go to WORK (default bench/work/peer-vtk). Installs its own dependencies

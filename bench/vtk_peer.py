@@ -5,7 +5,7 @@ and by voxbrick, every frame judged against voxbrick's CPU reference renderer.
 Normally started by bench/run_vtk_peer.sh (which installs VTK, preps the store and provides an X server through
 xvfb-run); see bench/README.md, "Peer: VTK". Needs Debian's python3-vtk9 and python3-numpy (/usr/bin/python3).
 
-Geometry, as voxbrick defines it (render/Camera.cpp volumeBox, render/ReferenceRenderer.cpp):
+Geometry, as voxbrick defines it (render/core/Camera.cpp volumeBox, render/reference/ReferenceRenderer.cpp):
   - the volume's world box is dims * spacing, centred on the origin; voxel (i, j, k) of the raw grid (i fastest, as
     stored in the file; no qform/sform) has its centre at ((i, j, k) + 0.5 - dims / 2) * spacing, i along x, j along
     y, k along z. VTK places point samples at origin + index * spacing, so the image's origin is
@@ -40,8 +40,8 @@ from peer_common import (fmt_db, gl_description, median, merge, offscreen_window
 # Keys of a voxbrick scene that define the picture rather than how voxbrick renders it: they are set by this
 # script's own options (the same for every renderer), so a --voxbrick fragment may not change them.
 SCENE_KEYS = {"camera", "size", "transfer_function", "background", "window", "shading"}
-VOXBRICK_DEFAULT_STEP = 0.75  # render/Scene.h Scene::step
-# Scene keys that take true or false (render/Scene.cpp), which a setting may also give as 1 or 0 ('raycast=1').
+VOXBRICK_DEFAULT_STEP = 0.75  # render/core/Scene.h Scene::step
+# Scene keys that take true or false (render/core/Scene.cpp), which a setting may also give as 1 or 0 ('raycast=1').
 BOOLEAN_KEYS = {"skip_empty", "cull", "raycast", "pre_integration", "ess", "progressive"}
 RAYCAST_LABEL = "VTK FixedPoint (its ray-cast image)"
 
@@ -325,7 +325,7 @@ def main():
     value_range = [float(v) for v in info["value_range"]]
     window = [float(v) for v in args.window.split(",")] if args.window else value_range
     if not window[1] > window[0]:
-        window = [window[0], window[0] + 1]  # render/FramePlan.cpp valueWindow: a constant volume
+        window = [window[0], window[0] + 1]  # render/volume/FramePlan.cpp valueWindow: a constant volume
 
     # The transfer function, inline in every scene (the reference cache key then covers its content).
     tf_path = args.tf if (args.tf.endswith(".json") or "/" in args.tf) else os.path.join(

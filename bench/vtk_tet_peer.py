@@ -11,7 +11,7 @@ Both sides read the same file: --mesh, a VTK legacy UNSTRUCTURED_GRID of tetrahe
 reads with vtkUnstructuredGridReader and `voxbrick prep` turned into --store. The script checks the store against
 the file (tet and point counts, bounds, value range, reference length from `voxbrick info --json`) before rendering.
 
-Geometry and optics, as voxbrick defines them for a mesh (render/TetDataset.cpp, render/Camera.cpp):
+Geometry and optics, as voxbrick defines them for a mesh (render/tets/TetMeshSource.cpp, render/core/Camera.cpp):
   - mesh coordinates are used as they are (no re-centring, no scaling). The box is the points' axis-aligned bounds,
     its centre c = (min + max) / 2, its radius R = |max - min| / 2 (half the diagonal).
   - orbit camera: eye = c + dist * R * (cos el sin az, sin el, cos el cos az), looking at c, up +Y, vertical field of
@@ -20,7 +20,7 @@ Geometry and optics, as voxbrick defines them for a mesh (render/TetDataset.cpp,
   - transfer function (config/tf/*.json): piecewise linear over x = (value - lo) / (hi - lo), [lo, hi] the mesh's
     scalar range unless --window; colours straight (not premultiplied); alpha is the opacity of a segment of the
     reference length L, i.e. an extinction of -ln(1 - alpha) / L per world unit. L defaults to the MEAN EDGE LENGTH
-    of the mesh (every tet's six edges, shared edges counted once per tet; render/TetDataset.cpp) unless the preset
+    of the mesh (every tet's six edges, shared edges counted once per tet; render/tets/TetMeshSource.cpp) unless the preset
     gives "reference_length". In VTK: colour and opacity control points at raw values lo + x (hi - lo) (two points
     at one x, a step, are split by 1e-6 of the window), clamping on, RGB colour space, SetScalarOpacityUnitDistance(L)
     (the same convention: opacity per L), linear interpolation, shading off, black background.
@@ -107,7 +107,7 @@ def image_error(a, b):
 
 def mesh_constants(grid, field):
     """Bounds, scalar range, mean and longest edge length of a vtkUnstructuredGrid of tetrahedra, computed the way
-    render/TetDataset.cpp does (double arithmetic on the float positions, every tet's six edges)."""
+    render/tets/TetMeshSource.cpp does (double arithmetic on the float positions, every tet's six edges)."""
     from vtkmodules.util import numpy_support as ns
 
     pts = ns.vtk_to_numpy(grid.GetPoints().GetData()).astype(np.float64)
@@ -421,7 +421,7 @@ def main():
     value_range = consts["value_range"]
     window = [float(v) for v in args.window.split(",")] if args.window else list(value_range)
     if not window[1] > window[0]:
-        window = [window[0], window[0] + 1]  # render/TetRenderer.cpp: a constant field
+        window = [window[0], window[0] + 1]  # render/gl/tets/TetRenderer.cpp: a constant field
 
     tf_path = args.tf if (args.tf.endswith(".json") or "/" in args.tf) else os.path.join(
         args.config_dir, "tf", args.tf + ".json")

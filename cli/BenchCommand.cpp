@@ -13,10 +13,10 @@
 #include "brickstore/BrickStore.h"
 #include "brickstore/Errors.h"
 #include "cli/Commands.h"
-#include "render/GlContext.h"
-#include "render/Quality.h"
-#include "render/Scene.h"
-#include "render/TransferFunction.h"
+#include "render/gl/GlContext.h"
+#include "render/core/Quality.h"
+#include "render/core/Scene.h"
+#include "render/core/TransferFunction.h"
 
 namespace voxbrick::cli {
 namespace {

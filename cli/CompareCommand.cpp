@@ -7,7 +7,7 @@
 #include "cli/Commands.h"
 #include "image/Image.h"
 #include "image/ImageFile.h"
-#include "render/RenderErrors.h"
+#include "render/core/RenderErrors.h"
 
 namespace voxbrick::cli {
 namespace {

@@ -13,6 +13,7 @@
 
 #include "cli/Commands.h"
 #include "client/Client.h"
+#include "render/datasets/Datasets.h"
 
 namespace voxbrick::cli {
 namespace {

@@ -6,10 +6,11 @@
 #include "cli/Commands.h"
 #include "cli/SceneOptions.h"
 #include "image/ImageFile.h"
-#include "render/Dataset.h"
-#include "render/RenderEngine.h"
-#include "render/RenderErrors.h"
-#include "render/Scene.h"
+#include "render/core/Dataset.h"
+#include "render/engine/RenderEngine.h"
+#include "render/core/RenderErrors.h"
+#include "render/core/Scene.h"
+#include "render/datasets/Datasets.h"
 
 namespace voxbrick::cli {
 namespace {

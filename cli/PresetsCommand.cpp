@@ -9,8 +9,8 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/Commands.h"
-#include "render/TransferFunction.h"
-#include "render/TransferFunctionPresets.h"
+#include "render/core/TransferFunction.h"
+#include "render/core/TransferFunctionPresets.h"
 
 namespace voxbrick::cli {
 namespace {

@@ -7,13 +7,15 @@
 #include "cli/Progress.h"
 #include "cli/SceneOptions.h"
 #include "image/ImageFile.h"
-#include "render/Dataset.h"
-#include "render/TetDataset.h"
-#include "render/TetReference.h"
-#include "render/ReferenceRenderer.h"
-#include "render/RenderEngine.h"
-#include "render/RenderErrors.h"
-#include "render/Scene.h"
+#include "render/core/Dataset.h"
+#include "render/tets/TetMeshDataset.h"
+#include "render/reference/TetReference.h"
+#include "render/reference/ReferenceRenderer.h"
+#include "render/engine/RenderEngine.h"
+#include "render/core/RenderErrors.h"
+#include "render/core/Scene.h"
+#include "render/datasets/Datasets.h"
+#include "render/volume/BrickStoreDataset.h"
 
 namespace voxbrick::cli {
 namespace {
@@ -49,7 +51,7 @@ image::ImageF withProgress(const RenderArgs& a, const render::Scene& scene, Draw
 }
 
 /// The CPU reference: slow on purpose, double precision, the same store and scene.
-/// The exact reference of a tetrahedral mesh (render/TetReference.h): every ray's segments through the tets,
+/// The exact reference of a tetrahedral mesh (render/reference/TetReference.h): every ray's segments through the tets,
 /// integrated in closed form.
 void runTetReference(const RenderArgs& a, const render::Scene& scene, const render::TetMeshDataset& dataset) {
   if (!a.analytic.empty()) throw render::RenderInputError("--analytic samples a grid's field; a mesh has none");

@@ -7,7 +7,8 @@
 #include "cli/SceneOptions.h"
 #include "client/Client.h"
 #include "image/Image.h"
-#include "render/RenderErrors.h"
+#include "render/core/RenderErrors.h"
+#include "render/datasets/Datasets.h"
 #include "image/FrameImage.h"
 #include "image/ImageFile.h"
 

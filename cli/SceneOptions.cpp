@@ -9,7 +9,7 @@
 
 #include "cli/Commands.h"
 #include "image/ImageFile.h"
-#include "render/RenderErrors.h"
+#include "render/core/RenderErrors.h"
 
 namespace voxbrick::cli {
 namespace {

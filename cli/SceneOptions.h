@@ -5,7 +5,7 @@
 
 #include <string>
 
-#include "render/Scene.h"
+#include "render/core/Scene.h"
 
 namespace voxbrick::cli {
 

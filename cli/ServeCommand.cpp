@@ -6,7 +6,7 @@
 #include <spdlog/spdlog.h>
 
 #include "cli/Commands.h"
-#include "render/TransferFunction.h"
+#include "render/core/TransferFunction.h"
 #include "server/Server.h"
 #include "server/ServerConfig.h"
 

@@ -2,7 +2,7 @@
 # file's stem), sorted by name.
 file(GLOB presets "${PRESET_DIR}/*.json")
 list(SORT presets)
-set(body "// Generated from config/tf/*.json at build time. Do not edit.\n#include \"render/BuiltInPresets.h\"\n\nnamespace voxbrick::render {\n\nconst std::vector<BuiltInPreset>& builtInPresets() {\n  static const std::vector<BuiltInPreset> presets = {\n")
+set(body "// Generated from config/tf/*.json at build time. Do not edit.\n#include \"render/core/BuiltInPresets.h\"\n\nnamespace voxbrick::render {\n\nconst std::vector<BuiltInPreset>& builtInPresets() {\n  static const std::vector<BuiltInPreset> presets = {\n")
 foreach(path IN LISTS presets)
   get_filename_component(name "${path}" NAME_WE)
   file(READ "${path}" text)

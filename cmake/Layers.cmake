@@ -30,3 +30,23 @@ function(voxbrick_layer_probe name target header)
   string(REPLACE "." "\\." pattern "${header}")
   set_tests_properties(layers.${name} PROPERTIES PASS_REGULAR_EXPRESSION "${pattern}: No such file or directory")
 endfunction()
+
+# voxbrick_expose_folder(TARGET SCOPE): links every header directly in the calling CMakeLists' folder as
+# <folder>/<header> (the folder's path from the repository root) in TARGET's header directory, and adds that
+# directory to TARGET's include path with SCOPE. The folder decides what is exposed: a new header needs no list, and a
+# subfolder (its own library) is not exposed with its parent. Call it once per target and scope.
+function(voxbrick_expose_folder target scope)
+  file(RELATIVE_PATH folder ${PROJECT_SOURCE_DIR} ${CMAKE_CURRENT_SOURCE_DIR})
+  file(GLOB headers CONFIGURE_DEPENDS RELATIVE ${CMAKE_CURRENT_SOURCE_DIR} ${CMAKE_CURRENT_SOURCE_DIR}/*.h)
+  voxbrick_expose(${target} ${scope} ${folder} ${headers})
+endfunction()
+
+# voxbrick_folder_library(TARGET [EXTRA_SOURCE...]): the calling CMakeLists' folder as one static library: every
+# .cpp directly in it (and EXTRA_SOURCEs, e.g. generated ones), its headers exposed PUBLIC (voxbrick_expose_folder),
+# warnings on. What it may include is what it links: give it its dependencies with target_link_libraries.
+function(voxbrick_folder_library target)
+  file(GLOB sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*.cpp)
+  add_library(${target} STATIC ${sources} ${ARGN})
+  voxbrick_expose_folder(${target} PUBLIC)
+  target_link_libraries(${target} PRIVATE voxbrick_warnings)
+endfunction()

@@ -5,7 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
-bash scripts/build.sh
+bash scripts/build.sh voxbrick
 mkdir -p demo
 mri=/usr/share/mricron/templates/ch2better.nii.gz
 ./build/voxbrick prep "$mri" -o demo/mri.vbs --force

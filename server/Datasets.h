@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "render/Dataset.h"
+#include "render/core/Dataset.h"
 
 namespace voxbrick::server {
 

@@ -5,7 +5,7 @@
 
 #include <spdlog/spdlog.h>
 
-#include "render/RenderErrors.h"
+#include "render/core/RenderErrors.h"
 #include "server/Datasets.h"
 
 namespace voxbrick::server {

@@ -7,7 +7,8 @@
 
 #include <spdlog/spdlog.h>
 
-#include "render/Scene.h"
+#include "render/core/Scene.h"
+#include "render/datasets/Datasets.h"
 #include "server/ErrorReply.h"
 
 namespace voxbrick::server {

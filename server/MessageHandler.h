@@ -13,8 +13,9 @@
 #include <nlohmann/json.hpp>
 
 #include "proto/Messages.h"
-#include "render/Dataset.h"
-#include "render/TransferFunctionPresets.h"
+#include "render/core/Dataset.h"
+#include "render/core/TransferFunctionPresets.h"
+#include "render/datasets/Datasets.h"
 #include "server/Datasets.h"
 #include "server/RenderJob.h"
 #include "server/ServerConfig.h"

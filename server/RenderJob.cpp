@@ -7,8 +7,9 @@
 
 #include "brickstore/Errors.h"
 #include "image/FrameImage.h"
-#include "render/FramePlan.h"
-#include "render/RenderErrors.h"
+#include "render/volume/FramePlan.h"
+#include "render/core/RenderErrors.h"
+#include "render/volume/BrickStoreDataset.h"
 #include "server/ErrorReply.h"
 
 namespace voxbrick::server {

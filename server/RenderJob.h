@@ -9,9 +9,9 @@
 #include <optional>
 
 #include "proto/Messages.h"
-#include "render/Dataset.h"
-#include "render/RenderEngine.h"
-#include "render/Scene.h"
+#include "render/core/Dataset.h"
+#include "render/engine/RenderEngine.h"
+#include "render/core/Scene.h"
 
 namespace voxbrick::server {
 

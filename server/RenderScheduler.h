@@ -11,7 +11,7 @@
 #include <thread>
 #include <vector>
 
-#include "render/RenderEngine.h"
+#include "render/engine/RenderEngine.h"
 #include "server/RenderJob.h"
 
 namespace voxbrick::server {

@@ -15,8 +15,8 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
-#include "render/RenderEngine.h"
-#include "render/TransferFunctionPresets.h"
+#include "render/engine/RenderEngine.h"
+#include "render/core/TransferFunctionPresets.h"
 #include "server/Admission.h"
 #include "server/Datasets.h"
 #include "server/ErrorReply.h"

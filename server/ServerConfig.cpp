@@ -7,7 +7,7 @@
 
 #include <toml++/toml.h>
 
-#include "render/RenderErrors.h"
+#include "render/core/RenderErrors.h"
 
 namespace voxbrick::server {
 namespace {

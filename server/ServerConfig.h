@@ -7,7 +7,7 @@
 #include <filesystem>
 #include <string>
 
-#include "render/Backend.h"
+#include "render/core/Backend.h"
 
 namespace voxbrick::server {
 

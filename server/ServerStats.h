@@ -10,7 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "render/Dataset.h"
+#include "render/core/Dataset.h"
 #include "server/LatencyWindow.h"
 #include "server/RenderScheduler.h"
 

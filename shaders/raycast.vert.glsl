@@ -1,4 +1,4 @@
-// The frame ray caster's proxy (render/RayCastPass.h): one triangle covering the viewport at window depth 1/2, where
+// The frame ray caster's proxy (render/gl/volume/RayCastPass.h): one triangle covering the viewport at window depth 1/2, where
 // marching fragments lie for the silhouette map's depth test (render/Marching.h). The fragment program
 // (volume.frag.glsl with RAYCAST) finds its pixel's ray from gl_FragCoord alone.
 void main() {

@@ -5,7 +5,7 @@
 // Why back faces of the box, and not the slab's front plane: a ray can enter the box through a side face between
 // two planes of the slab, where the front plane's polygon does not cover its pixel. The faces of a convex box facing
 // away from the eye cover every pixel whose ray crosses the box exactly once, also with the eye inside the box
-// (where front faces lie behind the near plane). Layout: SlabInstance in render/SliceTables.h.
+// (where front faces lie behind the near plane). Layout: SlabInstance in render/volume/SliceTables.h.
 //
 // Each pixel whose ray crosses the box gets one fragment per slab, also where its ray has no sample in the slab
 // inside the box (the fragment then blends nothing); back faces in front of the slab are clipped away.
@@ -49,7 +49,7 @@ void main() {
   vFirstPlane = aFirstPlane;
   vPlaneCount = aPlaneCount;
   gl_Position = uViewProj * vec4(world, 1.0);
-  // Every fragment of a slab gets the same window depth, exactly: render/SlabPass.h draws with depth clamping and a
+  // Every fragment of a slab gets the same window depth, exactly: render/gl/volume/SlabPass.h draws with depth clamping and a
   // depth range of one value (glDepthRange(d, d)), so that the silhouette map can test it for equality.
   gl_Position.z = 0.0;
   // A ray with samples in this slab inside the box leaves the box behind the slab's first plane, so back faces in

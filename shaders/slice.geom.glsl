@@ -2,7 +2,7 @@
 // one box, from one point (slice_point.vert.glsl), as a triangle strip of four triangles.
 //
 // The polygon is the vertex-lean slicer's (slice_lean.vert.glsl): the vertices walk the paths of uPaths
-// (sliceCornerPaths in render/SliceTables.h), here with the rows in strip order (kSliceStrip: P0, P1, P5, P2, P4,
+// (sliceCornerPaths in render/volume/SliceTables.h), here with the rows in strip order (kSliceStrip: P0, P1, P5, P2, P4,
 // P3), so that the strip zigzags across the polygon and its triangles run counter-clockwise as the fan's do. A
 // polygon of fewer than six corners repeats vertices, as in the paper: the triangles they empty rasterise nothing.
 // A plane outside the half-open box [front, back) emits nothing. The library slicer.glsl comes first.

@@ -4,8 +4,8 @@
 // kFan[k] of the polygon cut by plane i, dot(uPlaneNormal, x) = aPlaneDistance + (aFirstPlane + i) * uPlaneIncr.
 // With aPlaneDistance = 0 and aFirstPlane the global index k of the first plane, every box computes plane k's
 // distance bit for bit alike, so neighbours agree on which of them owns a plane through a shared face.
-// render/SliceTables.h holds the tables (uploaded into uSequence, uEdgeStart, uEdgeEnd), the corner numbering and the
-// instance layout; render/Slicing.cpp mirrors this program on the CPU, line for line. The library slicer.glsl comes
+// render/volume/SliceTables.h holds the tables (uploaded into uSequence, uEdgeStart, uEdgeEnd), the corner numbering and the
+// instance layout; render/volume/Slicing.cpp mirrors this program on the CPU, line for line. The library slicer.glsl comes
 // first and declares the instance's attributes.
 //
 // Where it departs from the paper's listing, it does so for robustness in float: the distances of the eight corners

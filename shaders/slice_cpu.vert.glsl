@@ -1,4 +1,4 @@
-// Vertex program of the CPU slicer: polygons arrive as world-space triangles computed by render/Slicing.cpp
+// Vertex program of the CPU slicer: polygons arrive as world-space triangles computed by render/volume/Slicing.cpp
 // (rezkSalamaPolygon, the CPU mirror of slice.vert.glsl), each vertex with its box's payload, the global index of
 // its plane and the voxels the box owns (the outputs of slice.vert.glsl).
 

@@ -3,10 +3,10 @@
 // crosses their dotted edges.
 //
 // Vertex 3 * i + k of an instance is P(2k) on plane i, found as slice_lean.vert.glsl finds it (the path of row 2k of
-// uPaths, sliceCornerPaths in render/SliceTables.h in polygon order). Each also hands on the distances of its path's
+// uPaths, sliceCornerPaths in render/volume/SliceTables.h in polygon order). Each also hands on the distances of its path's
 // two middle corners, which between them hold the ends of every dotted edge, so that the geometry program computes
 // no distance, and whether the plane cuts the half-open box [front, back) at all. Layout: SliceInstance in
-// render/SliceTables.h. The library slicer.glsl comes first and declares the instance's
+// render/volume/SliceTables.h. The library slicer.glsl comes first and declares the instance's
 // attributes.
 
 uniform vec3 uPlaneNormal;  // unit, pointing from the eye into the scene

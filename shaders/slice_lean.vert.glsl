@@ -3,7 +3,7 @@
 //
 // The instance layout, the draw (12 vertices per plane, the fan kFan) and the outputs are slice.vert.glsl's. What
 // depends only on the view direction (the front corner, and which box corner plays each Vi) is looked up once per
-// frame on the CPU: uPaths (sliceCornerPaths in render/SliceTables.h) holds, for each polygon vertex Pp, the four
+// frame on the CPU: uPaths (sliceCornerPaths in render/volume/SliceTables.h) holds, for each polygon vertex Pp, the four
 // box corners of the path it walks from the front corner to the back one. A vertex reads its row, computes the
 // distances of those four corners and tests at most three edges, where slice.vert.glsl computes eight and tests up
 // to four through three tables. The odd vertices walk their own paths (the dotted edge second), so where the

@@ -2,7 +2,7 @@
 // passed on to slice.geom.glsl, which computes the whole polygon. Vertex i of an instance stands for plane i, at
 // dot(n, x) = aPlaneDistance + (aFirstPlane + i) * uPlaneIncr (as in slice.vert.glsl, so every box computes plane k's
 // distance bit for bit alike). The library slicer.glsl comes first and declares the instance (SliceInstance in
-// render/SliceTables.h).
+// render/volume/SliceTables.h).
 
 uniform float uPlaneIncr;  // distance between consecutive planes
 

@@ -2,11 +2,11 @@
 // slice_odd.geom.glsl): box corners by selection, their distances along the plane normal, the crossing of a plane
 // with an edge or a path of edges, and the point there. Every slicer computes its vertices through these, in the
 // same order of operations, so the variants give the same vertices bit for bit, as neighbouring boxes do on a
-// shared face. render/Slicing.cpp mirrors them in double precision.
+// shared face. render/volume/Slicing.cpp mirrors them in double precision.
 
 #ifdef VERTEX_STAGE
 // The instance every GPU slicer's vertex program reads: one world-space box and a run of planes (SliceInstance, its
-// attribute locations and SliceGeometry's layout in render/SliceTables.h).
+// attribute locations and SliceGeometry's layout in render/volume/SliceTables.h).
 layout(location = 0) in vec3 aBoxMin;
 layout(location = 1) in vec3 aBoxMax;
 layout(location = 2) in float aPlaneDistance;
@@ -16,7 +16,7 @@ layout(location = 5) in ivec3 aOwnLo;
 layout(location = 6) in ivec3 aOwnHi;
 #endif
 
-// The corner of the unit cube with bit 0 = x, bit 1 = y, bit 2 = z (render/SliceTables.h numbers box corners so).
+// The corner of the unit cube with bit 0 = x, bit 1 = y, bit 2 = z (render/volume/SliceTables.h numbers box corners so).
 vec3 unitCorner(int corner) {
   return vec3(float(corner & 1), float((corner >> 1) & 1), float((corner >> 2) & 1));
 }

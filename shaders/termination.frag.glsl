@@ -1,4 +1,4 @@
-// Early ray termination (render/SlabPass.h): keeps the pixels whose accumulated opacity reached uTermination, so
+// Early ray termination (render/gl/volume/SlabPass.h): keeps the pixels whose accumulated opacity reached uTermination, so
 // that their depth becomes 0 and the early depth test rejects their fragments in every later slab. It reads the
 // accumulated colour through a framebuffer that holds only the depth buffer: no feedback loop.
 uniform sampler2D uAccumulated;

@@ -1,12 +1,12 @@
 // What the tetrahedral meshes' fragment programs share (tet.frag.glsl: projected tets; tet_ray.frag.glsl: the
 // adjacency ray caster): a ray segment through one tet, with its scalar linear along it, classified from the
-// pre-integrated table (front value, back value, length: render/PreIntegration.h, the optical model of
+// pre-integrated table (front value, back value, length: render/core/PreIntegration.h, the optical model of
 // ARCHITECTURE.md), and with SHADING its headlight. Exact for perspective rays: the segment is the pixel's own, in
-// world units. With TET_RAY, the ray caster's buffers, pixel ray and edge product (render/TetRayCaster.h).
+// world units. With TET_RAY, the ray caster's buffers, pixel ray and edge product (render/gl/tets/TetRayCaster.h).
 #ifdef FRAGMENT_STAGE
 uniform float uInvReference;  // 1 / the transfer function's reference length
 
-// The pre-integrated table (render/PreIntegration.h), its resolution and length layers.
+// The pre-integrated table (render/core/PreIntegration.h), its resolution and length layers.
 uniform sampler3D uPreIntegrated;
 uniform float uTableResolution;
 uniform float uRatioMin;
@@ -26,7 +26,7 @@ vec4 classifySegment(float front, float back, float ratio) {
 }
 
 #ifdef SHADING
-// The grids' two-sided Phong headlight (render/Headlight.h, volume.frag.glsl), normal -gradient / |gradient|, for a
+// The grids' two-sided Phong headlight (render/reference/Headlight.h, volume.frag.glsl), normal -gradient / |gradient|, for a
 // segment along `direction` through a tet whose raw scalar has `gradient` (per world unit). In a tet both the normal
 // and the direction to the eye (against the ray's) are constant along the segment, so shading the emission, c x +
 // y, shades the pre-integrated segment exactly: C x + y A, premultiplied.

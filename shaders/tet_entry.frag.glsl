@@ -1,4 +1,4 @@
-// The entry pass of the adjacency ray caster (render/TetRayCaster.h): of the boundary faces where the pixel's ray
+// The entry pass of the adjacency ray caster (render/gl/tets/TetRayCaster.h): of the boundary faces where the pixel's ray
 // enters the mesh beyond where the last pass left it, the nearest (depth = the ray parameter, tested GL_LESS) writes
 // its tet and face. Whether the ray crosses the face is decided exactly, with the Plücker products of its edges (the
 // ray passes through a triangle where they agree in sign), each edge's computed from its ends in one order fixed for

@@ -1,4 +1,4 @@
-// The adjacency ray caster's entry pass (render/TetRayCaster.h): per boundary face, a rectangle covering its
+// The adjacency ray caster's entry pass (render/gl/tets/TetRayCaster.h): per boundary face, a rectangle covering its
 // projection with a pixel to spare (two triangles), pulled from storage buffers (three corners a face, centred on the
 // mesh's box, counter-clockwise seen from outside; and the tet and face, coded as the ray caster's neighbours are). The rasteriser's own coverage of
 // the face could miss a pixel whose ray does cross it (it snaps corners to its sub-pixel grid); the fragment stage

@@ -1,4 +1,4 @@
-// The adjacency ray caster (render/TetRayCaster.h): one fragment per pixel and pass walks the pixel's ray from the
+// The adjacency ray caster (render/gl/tets/TetRayCaster.h): one fragment per pixel and pass walks the pixel's ray from the
 // boundary face the entry pass found, tet to tet across the faces it leaves through (the face-adjacency graph), to
 // where it leaves the mesh or its opacity reaches the termination threshold. Each tet's segment is classified from
 // the pre-integrated table as a projected tet's fragment is (classifySegment of tet.glsl: the same segments, the
@@ -6,7 +6,7 @@
 //
 // The walk decides with Plücker coordinates (Platis & Theoharis 2003): for each edge, the side of the ray it passes
 // on, the sign of the permuted inner product of the two lines. A tet's vertices are stored in the order of their
-// indices in the mesh (render/TetRayCaster.cpp), and each edge's product is computed from its lower vertex to its
+// indices in the mesh (render/gl/tets/TetRayCaster.cpp), and each edge's product is computed from its lower vertex to its
 // higher, so every tet sharing an edge gets the same value to the bit: a ray through an edge or a vertex goes on
 // into exactly one of the tets around it, never lost between them, whatever the round-off. The ray passes through a
 // face where the products of its three edges, taken around it, agree in sign: the sign the entry face has is

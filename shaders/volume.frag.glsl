@@ -20,7 +20,7 @@
 // value is the edge voxel's (clamp-to-edge) either way, and the fetch stays in the slot.
 
 #ifdef RAYCAST
-// The frame ray caster has no box: each sample's brick comes from the cell table (render/CellTable.h), and its
+// The frame ray caster has no box: each sample's brick comes from the cell table (render/gl/volume/CellTable.h), and its
 // payload is set here before the sample is read.
 ivec4 gPayload = ivec4(0);
 #define PAYLOAD gPayload
@@ -121,7 +121,7 @@ vec4 classify(float x) {
   return texture(uTransfer, (x * (n - 1.0) + 0.5) / n);
 }
 
-// The Phong headlight (render/Headlight.h) at `world` (voxel coordinate `voxel`) as (diffuse factor, specular term):
+// The Phong headlight (render/reference/Headlight.h) at `world` (voxel coordinate `voxel`) as (diffuse factor, specular term):
 // a colour c becomes c * x + y. (1, 0) without SHADING or where the gradient vanishes.
 vec2 headlight(vec3 world, vec3 voxel) {
 #ifdef SHADING
@@ -164,7 +164,7 @@ vec4 shade(vec4 rgba, vec3 world, vec3 voxel) {
 }
 
 #ifdef PRE_INTEGRATION
-// The pre-integrated segment table (render/PreIntegration.h): premultiplied colour and opacity of a segment whose
+// The pre-integrated segment table (render/core/PreIntegration.h): premultiplied colour and opacity of a segment whose
 // normalised value runs linearly from front (s) to back (t), at layer r for its length.
 uniform sampler3D uPreIntegrated;
 uniform float uTableResolution;  // R
@@ -330,11 +330,11 @@ void main() {
 }
 #elif defined(RAYCAST)
 uniform isampler3D uCells;  // per cell: its brick's atlas payload (xyz) and level (w); w = -1: nothing to draw there
-                            // (x: log2 of the block to leap), -2: a brick of another batch (render/CellTable.h)
+                            // (x: log2 of the block to leap), -2: a brick of another batch (render/gl/volume/CellTable.h)
 uniform int uCellShift;     // a cell is 2^uCellShift level-0 voxels across
 uniform vec3 uCellCount;   // cells along x, y, z
 
-// The frame ray caster (render/RayCastPass.h): this pixel's samples on the global planes, through every cell of the
+// The frame ray caster (render/gl/volume/RayCastPass.h): this pixel's samples on the global planes, through every cell of the
 // batch, composited front to back in registers and emitted once (premultiplied). A sample belongs to the cell that
 // owns its point as EXACT_OWNERSHIP decides between boxes (on the 1/256-voxel grid, half-open with the face towards
 // the eye included) and to the volume as slabs decide at its outline, so that it takes the samples slabs take. A
@@ -391,7 +391,7 @@ void main() {
     const int stride = 1 << max(level, 0);
     if (level < 0 || (k & (stride - 1)) != 0) {
       // Nothing to draw in this cell, or a plane its level does not take. A cell with nothing to draw at all adds
-      // nothing even on its faces (render/CellTable.h): on to the first plane at its exit. Otherwise on to the
+      // nothing even on its faces (render/gl/volume/CellTable.h): on to the first plane at its exit. Otherwise on to the
       // plane one before the last the ray has in the cell, or the next plane the level takes if that comes first,
       // so that points near the faces are owned plane by plane. At least the next plane.
       // A cell with nothing to draw leaps out of its block of 2^entry.x cells with nothing to draw.

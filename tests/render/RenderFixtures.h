@@ -1,5 +1,5 @@
-// Fixtures shared by the rendering suites: small stores made in-process, one GL context per test binary, frames
-// from the GPU renderer and the reference.
+// Fixtures shared by the rendering suites: small stores made in-process, scenes and cameras, frames from the
+// reference, image checks. GL-free; the GL suites add render/gl/GlFixtures.h.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -16,12 +16,10 @@
 #include "brickstore/BrickCache.h"
 #include "brickstore/BrickStore.h"
 #include "brickstore/StoreWriter.h"
-#include "render/GlContext.h"
 #include "image/Image.h"
-#include "render/Compositing.h"
-#include "render/ReferenceRenderer.h"
-#include "render/TransferFunction.h"
-#include "render/VolumeRenderer.h"
+#include "render/reference/Compositing.h"
+#include "render/reference/ReferenceRenderer.h"
+#include "render/core/TransferFunction.h"
 #include "support/ArraySource.h"
 
 namespace voxbrick::test {
@@ -142,22 +140,6 @@ inline std::vector<std::pair<std::string, render::CameraSpec>> marchCameras(bool
   inside.distance = 0.25, inside.fovY = 75;
   out.push_back({"inside", inside});
   return out;
-}
-
-/// One context for the whole binary: creating a llvmpipe context costs more than most test frames.
-inline render::GlContext& context() {
-  static std::unique_ptr<render::GlContext> ctx = render::createContext(render::Backend::Auto);
-  ctx->makeCurrent();
-  return *ctx;
-}
-
-/// A GPU frame with a fresh renderer and cache.
-inline image::ImageF renderStore(std::shared_ptr<const store::BrickStore> s, const render::Scene& scene,
-                                  render::FrameStats* stats = nullptr, size_t gpuBudget = size_t(256) << 20,
-                                  size_t hostBudget = size_t(256) << 20) {
-  auto cache = std::make_shared<store::BrickCache>(std::move(s), hostBudget, 1);
-  render::VolumeRenderer renderer(context(), cache, gpuBudget);
-  return renderer.render(scene, stats);
 }
 
 /// A reference frame with a fresh renderer and cache.

@@ -14,8 +14,8 @@
 
 #include <glm/glm.hpp>
 
-#include "render/SliceTables.h"
-#include "render/Slicing.h"
+#include "render/volume/SliceTables.h"
+#include "render/volume/Slicing.h"
 
 namespace voxbrick::test {
 

@@ -11,11 +11,11 @@
 #include <glm/glm.hpp>
 
 #include "TetMeshes.h"
-#include "render/Compositing.h"
+#include "render/reference/Compositing.h"
 #include "render/RenderFixtures.h"
-#include "render/Scene.h"
-#include "render/SegmentIntegral.h"
-#include "render/TetReference.h"
+#include "render/core/Scene.h"
+#include "render/core/SegmentIntegral.h"
+#include "render/reference/TetReference.h"
 
 namespace voxbrick::test {
 

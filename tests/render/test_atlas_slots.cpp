@@ -4,8 +4,8 @@
 
 #include <set>
 
-#include "render/AtlasSlots.h"
-#include "render/RenderErrors.h"
+#include "render/volume/AtlasSlots.h"
+#include "render/core/RenderErrors.h"
 
 namespace voxbrick::render {
 namespace {

@@ -9,8 +9,8 @@
 
 #include <glm/glm.hpp>
 
-#include "render/Camera.h"
-#include "render/RenderErrors.h"
+#include "render/core/Camera.h"
+#include "render/core/RenderErrors.h"
 
 namespace voxbrick::render {
 namespace {

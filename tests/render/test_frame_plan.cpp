@@ -5,8 +5,8 @@
 #include <cmath>
 #include <tuple>
 
-#include "render/FramePlan.h"
-#include "render/RenderErrors.h"
+#include "render/volume/FramePlan.h"
+#include "render/core/RenderErrors.h"
 #include "render/RenderFixtures.h"
 #include "support/TestSupport.h"
 

@@ -16,11 +16,11 @@
 #include <tuple>
 #include <vector>
 
-#include "render/Compositing.h"
-#include "render/PreIntegration.h"
-#include "render/RenderErrors.h"
+#include "render/reference/Compositing.h"
+#include "render/core/PreIntegration.h"
+#include "render/core/RenderErrors.h"
 #include "render/RenderFixtures.h"
-#include "render/TransferFunction.h"
+#include "render/core/TransferFunction.h"
 
 namespace voxbrick::render {
 namespace {

@@ -8,9 +8,9 @@
 #include <nlohmann/json.hpp>
 
 #include "image/Image.h"
-#include "render/Quality.h"
-#include "render/RenderErrors.h"
-#include "render/Scene.h"
+#include "render/core/Quality.h"
+#include "render/core/RenderErrors.h"
+#include "render/core/Scene.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {

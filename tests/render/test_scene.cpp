@@ -3,8 +3,8 @@
 
 #include <filesystem>
 
-#include "render/RenderErrors.h"
-#include "render/Scene.h"
+#include "render/core/RenderErrors.h"
+#include "render/core/Scene.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {

@@ -1,4 +1,4 @@
-// The exact integral of a linear segment (render/SegmentIntegral.h) that the tetrahedral reference composites: closed
+// The exact integral of a linear segment (render/core/SegmentIntegral.h) that the tetrahedral reference composites: closed
 // forms, convergence of brute force towards it, and the pre-integration table held to it for the segments tets make.
 #include <gtest/gtest.h>
 
@@ -11,11 +11,11 @@
 #include <string>
 #include <vector>
 
-#include "render/Compositing.h"
-#include "render/PreIntegration.h"
-#include "render/SegmentIntegral.h"
+#include "render/reference/Compositing.h"
+#include "render/core/PreIntegration.h"
+#include "render/core/SegmentIntegral.h"
 #include "render/RenderFixtures.h"
-#include "render/TransferFunction.h"
+#include "render/core/TransferFunction.h"
 
 namespace voxbrick::render {
 namespace {
@@ -151,7 +151,7 @@ TEST(TetReferenceSegment, OpaqueTransferFunctions) {
   EXPECT_NEAR(front.r, 0.5 + 0.5 * (0.1 / 0.6), 1e-15);  // rgb(0.5), between the points at 0.4 and 1
 }
 
-// The pre-integration table (render/PreIntegration.h), looked up as the GPU filters it, against the direct integral,
+// The pre-integration table (render/core/PreIntegration.h), looked up as the GPU filters it, against the direct integral,
 // for the segments a tetrahedral mesh makes: arbitrary front and back values and any length. The table's own build
 // is within 1e-6 of the integral at its texels (test_preintegration.cpp); between texels the lookup interpolates
 // (bilinear in the values, linear in ln r between layers), which costs up to the bound below, largest next to the

@@ -9,9 +9,9 @@
 #include <set>
 #include <tuple>
 
-#include "render/RenderErrors.h"
-#include "render/SliceTables.h"
-#include "render/Slicing.h"
+#include "render/core/RenderErrors.h"
+#include "render/volume/SliceTables.h"
+#include "render/volume/Slicing.h"
 #include "render/SliceCheck.h"
 
 namespace voxbrick::render {

@@ -1,4 +1,4 @@
-// The tetrahedral reference renderer (render/TetReference.h): closed forms on a single tet, convergence of brute
+// The tetrahedral reference renderer (render/reference/TetReference.h): closed forms on a single tet, convergence of brute
 // force to it, the same image from two splittings of a cube (rays through edges and vertices included), a grid of
 // tets against one analytic segment per ray, order along the ray, perspective, and the grid reference on a box.
 #include <gtest/gtest.h>
@@ -16,9 +16,9 @@
 #include "TetMeshes.h"
 #include "TetReferenceChecks.h"
 #include "mesh/TetMesh.h"
-#include "render/RenderErrors.h"
-#include "render/SegmentIntegral.h"
-#include "render/TetReference.h"
+#include "render/core/RenderErrors.h"
+#include "render/core/SegmentIntegral.h"
+#include "render/reference/TetReference.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {

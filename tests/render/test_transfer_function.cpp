@@ -11,11 +11,11 @@
 #include <string>
 #include <vector>
 
-#include "render/BuiltInPresets.h"
-#include "render/RenderErrors.h"
-#include "render/Scene.h"
-#include "render/TransferFunction.h"
-#include "render/TransferFunctionPresets.h"
+#include "render/core/BuiltInPresets.h"
+#include "render/core/RenderErrors.h"
+#include "render/core/Scene.h"
+#include "render/core/TransferFunction.h"
+#include "render/core/TransferFunctionPresets.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {

@@ -11,11 +11,11 @@
 #include <vector>
 
 #include "brickstore/MinMaxOctree.h"
-#include "render/Camera.h"
-#include "render/RenderErrors.h"
-#include "render/TransferFunction.h"
-#include "render/SubBlocks.h"
-#include "render/Traversal.h"
+#include "render/core/Camera.h"
+#include "render/core/RenderErrors.h"
+#include "render/core/TransferFunction.h"
+#include "render/volume/SubBlocks.h"
+#include "render/volume/Traversal.h"
 
 namespace voxbrick::render {
 namespace {

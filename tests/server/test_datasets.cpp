@@ -4,6 +4,7 @@
 #include "TestDatasets.h"
 #include "server/Datasets.h"
 #include "support/TestSupport.h"
+#include "render/volume/BrickStoreDataset.h"
 
 namespace voxbrick::server {
 namespace {

@@ -1,7 +1,7 @@
 // The one mapping from exceptions to protocol errors, and which codes end a session.
 #include <gtest/gtest.h>
 
-#include "render/RenderErrors.h"
+#include "render/core/RenderErrors.h"
 #include "server/Datasets.h"
 #include "server/ErrorReply.h"
 

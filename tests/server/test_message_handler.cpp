@@ -4,8 +4,8 @@
 #include <nlohmann/json.hpp>
 
 #include "TestDatasets.h"
-#include "render/TransferFunction.h"
-#include "render/TransferFunctionPresets.h"
+#include "render/core/TransferFunction.h"
+#include "render/core/TransferFunctionPresets.h"
 #include "server/Datasets.h"
 #include "server/MessageHandler.h"
 #include "server/ServerStats.h"

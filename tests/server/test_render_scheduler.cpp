@@ -7,8 +7,8 @@
 #include <nlohmann/json.hpp>
 
 #include "TestDatasets.h"
-#include "render/TransferFunction.h"
-#include "render/TransferFunctionPresets.h"
+#include "render/core/TransferFunction.h"
+#include "render/core/TransferFunctionPresets.h"
 #include "server/Datasets.h"
 #include "image/FrameImage.h"
 #include "server/RenderScheduler.h"

@@ -17,6 +17,7 @@
 #include "image/Image.h"
 #include "image/FrameImage.h"
 #include "support/TestSupport.h"
+#include "render/datasets/Datasets.h"
 
 namespace voxbrick {
 namespace {

@@ -13,6 +13,7 @@
 #include "ServerProcess.h"
 #include "client/Client.h"
 #include "support/TestSupport.h"
+#include "render/datasets/Datasets.h"
 
 namespace voxbrick {
 namespace {

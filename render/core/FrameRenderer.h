@@ -1,0 +1,50 @@
+// The one call every renderer answers, whatever kind of dataset it draws. GL-free.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+
+#include "render/core/FrameStats.h"
+#include "image/Image.h"
+#include "render/core/Scene.h"
+
+namespace voxbrick::render {
+
+/// What the fragment stage does, and on what: the optical model, or for benchmarks the sampling roofline of the same
+/// geometry, or the slices' corners alone.
+enum class RenderMode {
+  Normal,    ///< the optical model
+  Roofline,  ///< exactly one sample per fragment, no classification, no blending
+  /// Slices drawn as their corners (glPolygonMode GL_POINT), so that the fragment stage has almost nothing to do and
+  /// the slicer's own time shows (Zellmann & Lang's "Points" mode). Slicing only: a frame drawn with texture slabs
+  /// or the ray caster throws RenderInputError.
+  Points,
+};
+
+/// How one frame is drawn, beyond its scene.
+struct FrameOptions {
+  RenderMode mode = RenderMode::Normal;
+  /// Coarse-to-fine streaming: a brick that is not resident (in the GPU atlas or the host cache) is drawn from its
+  /// nearest resident ancestor and paged for a later frame, so the frame never waits for the disk
+  /// (FrameStats::bricksStandIn counts them). False: every brick is drawn at its own level, read now if need be.
+  bool standIns = false;
+  /// The most samples the frame may cost (FramePlan::estimatedSamples, checked before anything is paged or drawn);
+  /// above it the frame throws RenderLimitError. 0: no limit.
+  double maxSamples = 0;
+  /// Asked between batches and texture slabs: true gives the frame up (FrameCancelled), leaving the context clean.
+  /// With it the renderer also keeps at most two checkpoints of GL work queued, so that giving up takes effect
+  /// within about one slab's work rather than after the whole queued frame. Empty: never cancelled.
+  std::function<bool()> cancelled = {};
+};
+
+/// A renderer of one dataset on one GL context (so one render thread); it keeps its GPU state between frames.
+class FrameRenderer {
+ public:
+  virtual ~FrameRenderer() = default;
+  /// Renders `scene`; throws RenderInputError for an invalid scene and RenderError for GL failures.
+  virtual image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) = 0;
+  /// GPU memory it holds for its data (the brick atlas), which its GPU budget bounds.
+  virtual size_t gpuBytes() const = 0;
+};
+
+}  // namespace voxbrick::render

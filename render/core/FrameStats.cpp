@@ -1,0 +1,27 @@
+// FrameStats as JSON.
+#include "render/core/FrameStats.h"
+
+namespace voxbrick::render {
+
+nlohmann::json FrameStats::toJson() const {
+  nlohmann::json j = {{"nodes_visited", nodesVisited},   {"bricks_skipped_empty", bricksSkippedEmpty},
+          {"bricks_culled", bricksCulled},   {"bricks_drawn", bricksDrawn},
+          {"bricks_paged_in", bricksPagedIn}, {"bricks_evicted", bricksEvicted},
+          {"batches", batches},               {"slices", slices},
+          {"fragments", fragments},           {"samples", samples},             {"samples_estimated", samplesEstimated},
+          {"samples_terminated", samplesTerminated}, {"slab_passes", slabPasses},
+          {"sub_blocks_skipped", subBlocksSkipped}, {"boxes_drawn", boxesDrawn},
+          {"bricks_coarse", bricksCoarse},   {"bricks_coarsened", bricksCoarsened},
+          {"bricks_per_level", bricksPerLevel}, {"bricks_standin", bricksStandIn},
+          {"tets_drawn", tetsDrawn}, {"tets_skipped_empty", tetsSkippedEmpty},
+          {"tet_chunks_culled", tetChunksCulled}, {"tet_chunks_skipped_empty", tetChunksSkippedEmpty},
+          {"tet_chunks_read", tetChunksRead},
+          {"tet_ray_passes", tetRayPasses},
+          {"ms", {{"traversal", msTraversal}, {"paging", msPaging}, {"slicing", msSlicing},
+                  {"drawing", msDrawing}, {"readback", msReadback}, {"total", msTotal},
+                  {"pre_integration", msPreIntegration}, {"sorting", msSorting}}}};
+  if (!quality.is_null()) j["quality"] = quality;
+  return j;
+}
+
+}  // namespace voxbrick::render

@@ -1,0 +1,194 @@
+// A render request's scene: camera, transfer function, image size, step, background and options. The same JSON
+// schema is read by `voxbrick render --scene` and (later) by the server.
+#pragma once
+
+#include <array>
+#include <optional>
+#include <string>
+
+#include <glm/glm.hpp>
+
+#include "render/core/Camera.h"
+#include "render/core/Quality.h"
+#include "render/core/TransferFunction.h"
+#include "render/core/WorldFrame.h"
+
+namespace voxbrick::render {
+
+class TransferFunctionPresets;
+
+/// How polygons of the slice planes are computed (when slicing: slabs and the ray caster draw no slices). Every
+/// slicer gives the same polygons; they differ in where the work is done.
+enum class Slicer {
+  Vertex,          ///< "vertex": the vertex program of Rezk-Salama & Kolb, 12 vertices per plane
+  Cpu,             ///< "cpu": its mirror on the CPU, the reference and fallback
+  VertexLean,      ///< "vertex-lean": the vertex program with the paths chosen on the CPU, one table (Zellmann & Lang)
+  Geometry,        ///< "geometry": a geometry program, one point in per box and plane, a triangle strip out
+  VertexGeometry,  ///< "vertex-geometry": P0, P2, P4 in the vertex program, P1, P3, P5 in a geometry program
+};
+
+/// Every slicer, in the enum's order.
+inline constexpr std::array<Slicer, 5> kSlicers = {Slicer::Vertex, Slicer::Cpu, Slicer::VertexLean, Slicer::Geometry,
+                                                   Slicer::VertexGeometry};
+
+/// The slicer's name in scenes and on the command line ("vertex", "cpu", "vertex-lean", "geometry",
+/// "vertex-geometry").
+const char* slicerName(Slicer slicer);
+/// The slicer named `name`; throws RenderInputError naming `what` and listing the valid names otherwise.
+Slicer parseSlicer(const std::string& name, const std::string& what);
+/// The valid names, "vertex", "cpu", ... quoted and separated by commas, for messages and help texts.
+std::string slicerNames();
+
+/// How a tetrahedral mesh's cells are put in visibility order (seed 002). Mpvo: the meshed-polyhedra visibility
+/// order, a breadth-first walk of the face-adjacency graph from the cells nothing hides (exact for a convex mesh
+/// without cycles). Centroid: cells by the distance of their centroids from the eye (cheaper, approximate where
+/// cells of different sizes meet). Ray: no sort; each pixel's ray walks the face-adjacency graph from the boundary
+/// face where it enters (render/gl/tets/TetRayCaster.h): exact for any mesh, with early ray termination (Scene::ert).
+enum class TetSort { Mpvo, Centroid, Ray };
+/// "mpvo", "centroid", "raycast".
+const char* tetSortName(TetSort sort);
+/// The order named `name`; throws RenderInputError naming `what` and the valid names otherwise.
+TetSort parseTetSort(const std::string& name, const std::string& what);
+
+/// The scene keys a quality target chooses (QualitySetting's fields): a scene with "quality" names none of them.
+extern const char* const kQualityChosenKeys[7];
+
+/// The camera as a user gives it, in world coordinates (RAS for patient data; a volume without a patient frame has
+/// its local frame as the world, ARCHITECTURE.md placement): an orbit around the volume, or eye/center/up.
+struct CameraSpec {
+  bool orbit = true;
+  double azimuth = 30, elevation = 20;  ///< degrees, about upAxis (OrbitAxes in Camera.h: az 0 on front, 90 on side)
+  /// The orbit's distance in bounding-sphere radii; empty (the default): fitted from the field of view and the aspect
+  /// (Camera::fitDistance), the whole volume in frame at any angle.
+  std::optional<double> distance;
+  UpAxis upAxis = UpAxis::PosZ;  ///< the orbit's pole (default +z: superior for patient data)
+  glm::dvec3 eye{0, 0, 1}, center{0, 0, 0}, up{0, 1, 0};  ///< world coordinates; used when !orbit
+  double fovY = 30;  ///< degrees
+  bool orthographic = false;
+
+  /// The camera in the local frame of a volume whose local box is `localBox` and whose world frame is `frame`
+  /// (identity: local = world, as for meshes), for an image of `aspect` = width / height. The orbit turns about the
+  /// world box's centre with the world up axis; an explicit eye, center and up are world coordinates. When
+  /// frame.mirrored() the local camera is the proper one (its right vector is the world view's negated): the image
+  /// must go through finishImage. Throws RenderInputError for invalid values.
+  Camera resolve(const Box& localBox, const WorldFrame& frame = {}, double aspect = 1) const;
+
+  /// Sets a named view: an orbit about +z (az, el) of anterior (0, 0), left (90, 0), posterior (180, 0), right
+  /// (270, 0), superior (180, 90: looking down, anterior at the top) and inferior (0, -90: looking up, anterior at
+  /// the top); the distance stays as it is. For patient data these are the anatomical views (RAS: the patient's
+  /// left is -x); for other data the same axes (anterior = from +y, left = from -x, superior = from +z). Throws
+  /// RenderInputError naming `what` and the valid names for another name.
+  void setView(const std::string& name, const std::string& what);
+};
+
+/// The named views' names, "anterior", "posterior", "left", "right", "superior", "inferior", comma separated.
+std::string viewNames();
+
+/// A pixel's output from premultiplied colour `c` and opacity `a` (ARCHITECTURE.md, optical model: output):
+/// c + (1 - a)·background with alpha 1; with a transparent background, straight colour c / a and alpha a (all 0
+/// where nothing was drawn). Clamped to [0, 1].
+glm::dvec4 outputPixel(const glm::dvec3& c, double a, const glm::dvec3& background, bool transparent);
+
+/// Everything a frame depends on besides the store.
+struct Scene {
+  static constexpr int kMaxImageSide = 8192;
+  static constexpr int kMaxSubBlock = 256;
+  static constexpr int kMaxSlab = 4096;
+  static constexpr double kMaxLod = 1024;  ///< pixels; beyond it every node is coarse enough anyway
+
+  CameraSpec camera;
+  int width = 512, height = 512;
+  /// Default: the grayscale ramp (as config/tf/grayscale.json), built in so a scene never needs the config files.
+  /// Transparent up to 0.05 of the window, so that empty space (a background at the window's low end, and its
+  /// noise) is skipped; then grey rising to white and opacity rising to 0.5.
+  TransferFunction transferFunction{{{0.0, {0, 0, 0, 0}}, {0.05, {0.05, 0.05, 0.05, 0}}, {1.0, {1, 1, 1, 0.5}}}};
+  std::string transferFunctionName = "grayscale";  ///< preset name or path, or "inline"
+  /// Slice spacing in voxels of level 0 (of the smallest spacing). The default drawing, step 0.75 through the frame
+  /// ray caster with termination at 0.999 and cells of sub-blocks of 8, is the fastest setting of
+  /// bench/results/raycast-sweep/sweep.md that keeps every dataset at 40 dB or more against the reference
+  /// (unshaded; shading needs finer).
+  double step = 0.75;
+  glm::dvec3 background{0, 0, 0};     ///< opaque background colour, RGB in [0, 1]
+  /// No background ("background": "none"): frames carry alpha, the accumulated opacity, with straight (not
+  /// premultiplied) colour, as PNG stores it; `background` is then unused.
+  bool transparent = false;
+  std::optional<std::array<double, 2>> window;  ///< value window [lo, hi]; default the store's value range
+  bool skipEmpty = true;
+  bool cullFrustum = true;
+  /// Where slice polygons are computed when slicing (slab 0, no raycast); no effect on slabs or the ray caster.
+  Slicer slicer = Slicer::Vertex;
+  bool shading = false;
+  /// Empty-space skipping inside bricks: bricks are drawn as boxes of sub-blocks of this many voxels per edge whose
+  /// value range the transfer function does not reject. 0 (or anything not below the store's brick size) draws
+  /// whole bricks. A power of two.
+  int subBlock = 8;
+  /// Texture slabs: 0 slices (one blended sample per fragment); N >= 1 draws each box once per slab of N
+  /// consecutive global planes, and the fragment program marches the pixel's ray through them, compositing in
+  /// registers. N at least a brick's planes makes it a brick ray caster. The samples are the same either way.
+  int slab = 32;
+  /// Frame ray casting (render/gl/volume/RayCastPass.h): one fragment per pixel and atlas batch marches the pixel's ray through
+  /// every brick of the batch, finding each sample's brick in a table of cells (sub-blocks, else bricks) instead of
+  /// drawing a proxy per box and slab. The samples are the same global planes' points as slicing and slabs take, so
+  /// the image is the same beyond round-off; `slab` and `ess` then have no effect, ert and pre_integration apply.
+  /// The default; a volume too large for the cell table (render/volume/FramePlan.h) is drawn with slabs instead.
+  bool raycast = true;
+  /// Early ray termination on texture slabs: 0 (off) or a threshold in [0.5, 1]. Between slabs a pass marks the
+  /// pixels whose accumulated opacity reached it in the depth buffer (a slab silhouette map), and the early depth
+  /// test skips their fragments in every later slab; a fragment also stops marching when its own opacity reaches
+  /// it. The image then differs from the full integral by at most 1 - ert per channel. No effect when slab is 0.
+  double ert = 0.999;
+  /// Pre-integrated classification (Engel et al. 2001) on texture slabs: each segment between two samples is
+  /// classified as a whole from its front and back values and length through a table rebuilt whenever the transfer
+  /// function or the step changes, instead of one post-classified sample per segment. No effect when slab is 0.
+  bool preIntegration = false;
+  /// Empty-space silhouette maps on texture slabs (the seed's CSSM pass): before each slab, a pass marches the
+  /// slab's samples of every pixel not yet terminated and marks in the depth buffer the pixels with any sample the
+  /// transfer function does not make transparent; the slab is then drawn for those pixels only. The image is the
+  /// same. No effect when slab is 0.
+  bool ess = false;
+  /// Level of detail: where a coarser level of the pyramid has voxels no taller than this many pixels on the image
+  /// (at their nearest depth), draw that level instead of the finer ones; 0 draws level 0 everywhere. On texture
+  /// slabs a level-m brick takes every 2^m-th global plane (fewer, longer segments, opacity corrected for their
+  /// length); slicing takes every plane at every level. Default 1 (a voxel no larger than a pixel), chosen by the
+  /// sweep (bench/results/lod.md).
+  double lod = 1;
+  /// Coarse-to-fine: the frame may be drawn first with stand-ins (bricks not yet resident drawn from a coarser
+  /// resident level while they are paged), then again once they are resident. The server then answers a Render with
+  /// a provisional Frame followed by the exact one (PROTOCOL.md); `voxbrick render` writes both. The final frame is
+  /// the same as without it.
+  bool progressive = false;
+  /// How a tetrahedral mesh's cells are put in order (no effect on a grid). The default, the ray caster with `ert`
+  /// 0.999, is the fastest setting of bench/results/mesh-sweep/mesh-sweep.md that keeps every mesh at 40 dB or more
+  /// against the exact reference (4× MPVO's speed on the 1 M-tet ball; slower on the small Kuhn ball).
+  TetSort visibility = TetSort::Ray;
+  /// Quality by target ("psnr:40", "ms:200"): the drawing settings (step, raycast, slab, ert, pre_integration,
+  /// sub_block, lod) are chosen from the dataset's quality table when the frame is drawn (render/core/Quality.h,
+  /// resolveQuality in render/core/Dataset.h), replacing the scene's own; a scene with a target names none of them.
+  std::optional<QualityTarget> quality;
+
+  /// Parses a scene JSON object; absent keys keep their defaults. Throws RenderInputError naming `what` and the
+  /// key. Keys: camera {orbit: [az, el] (fitted) or [az, el, dist], fit, up_axis, view (setView) | eye, center,
+  /// up; fov; orthographic} (an unknown key, center or up without eye, or a view beside orbit, eye or up_axis is
+  /// refused), size [w, h],
+  /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b] or "none",
+  /// window [lo, hi], skip_empty, cull, slicer (slicerName), shading, sub_block, slab, raycast, ert,
+  /// pre_integration, ess, lod, progressive, visibility (tetSortName), quality ("psnr:DB" or "ms:N"; not with
+  /// step, raycast, slab, ert, pre_integration, sub_block or lod).
+  /// `allowPaths` false (the server) accepts transfer functions by preset name or inline only, never a file path.
+  static Scene fromJson(const std::string& text, const std::string& what, bool allowPaths = true);
+  /// The same, resolving preset names from `presets` (no file is read) and accepting no paths: what a server does
+  /// on its I/O threads.
+  static Scene fromJson(const std::string& text, const std::string& what, const TransferFunctionPresets& presets);
+  /// Throws RenderInputError for values out of range (size, step, background, window).
+  void validate() const;
+  /// The scene as JSON (the transfer function inline), so a frame can be reproduced.
+  std::string toJson() const;
+  /// A pixel's output from its premultiplied colour and opacity: outputPixel with this scene's background.
+  glm::dvec4 output(const glm::dvec3& c, double a) const;
+
+ private:
+  static Scene parse(const std::string& text, const std::string& what, bool allowPaths,
+                     const TransferFunctionPresets* presets);
+};
+
+}  // namespace voxbrick::render

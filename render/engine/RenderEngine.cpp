@@ -1,0 +1,129 @@
+// A render thread's context and its renderers, one per dataset it has drawn.
+#include "render/engine/RenderEngine.h"
+
+#include <algorithm>
+#include <atomic>
+#include <map>
+
+#include "render/gl/volume/BrickAtlas.h"
+#include "render/gl/GlContext.h"
+#include "render/gl/volume/Residency.h"
+#include "render/core/RenderErrors.h"
+#include "render/core/WorldFrame.h"
+#include "render/gl/tets/TetRenderer.h"
+#include "render/gl/volume/VolumeRenderer.h"
+#include "render/volume/BrickStoreDataset.h"
+
+namespace voxbrick::render {
+
+struct RenderEngine::Impl {
+  struct Entry {
+    std::unique_ptr<FrameRenderer> renderer;
+    uint64_t lastUse = 0;
+  };
+
+  std::unique_ptr<GlContext> context;
+  RenderEngineOptions options;
+  // Renderers hold GL objects, so they live and die with the context current. Keyed by the dataset's control block,
+  // never its address: a dataset closed and another opened at the same address must not inherit a renderer.
+  std::map<std::weak_ptr<const Dataset>, Entry, std::owner_less<>> renderers;
+  uint64_t uses = 0;
+  std::atomic<size_t> gpuBytes{0}, peakGpuBytes{0};
+  std::atomic<uint64_t> released{0};
+
+  FrameRenderer& rendererFor(const std::shared_ptr<const Dataset>& dataset);
+  /// The atlas bytes a new renderer of `dataset` would take under the whole budget.
+  size_t wanted(const Dataset& dataset) const;
+  void account();
+};
+
+size_t RenderEngine::Impl::wanted(const Dataset& dataset) const {
+  // A mesh takes its resident size, at most the whole budget (a larger one is streamed).
+  if (dataset.kind() == DatasetKind::TetMesh)
+    return std::min(options.gpuBudgetBytes,
+                    TetRenderer::bytesFor(static_cast<const TetMeshDataset&>(dataset).source()->constants().tetCount));
+  return Residency::atlasBytes(*static_cast<const BrickStoreDataset&>(dataset).store(), options.gpuBudgetBytes,
+                               options.atlasFormat, BrickAtlas::resolveUploads(*context, options.atlasUploads));
+}
+
+void RenderEngine::Impl::account() {
+  size_t bytes = 0;
+  for (const auto& [dataset, entry] : renderers) bytes += entry.renderer->gpuBytes();
+  gpuBytes = bytes;
+  if (bytes > peakGpuBytes) peakGpuBytes = bytes;
+}
+
+FrameRenderer& RenderEngine::Impl::rendererFor(const std::shared_ptr<const Dataset>& dataset) {
+  // Renderers of datasets closed, or quarantined (they will draw nothing more), give their atlases back.
+  if (std::erase_if(renderers, [](const auto& entry) {
+        const auto d = entry.first.lock();
+        return !d || d->quarantined();
+      }) > 0)
+    account();
+  if (auto it = renderers.find(dataset); it != renderers.end()) {
+    it->second.lastUse = ++uses;
+    return *it->second.renderer;
+  }
+  // Room for the new atlas: release the renderers used least recently until the budget holds it whole.
+  const size_t want = wanted(*dataset);
+  account();
+  while (!renderers.empty() && gpuBytes + want > options.gpuBudgetBytes) {
+    auto oldest = std::min_element(renderers.begin(), renderers.end(), [](const auto& a, const auto& b) {
+      return a.second.lastUse < b.second.lastUse;
+    });
+    renderers.erase(oldest);
+    ++released;
+    account();
+  }
+  std::unique_ptr<FrameRenderer> renderer;
+  switch (dataset->kind()) {
+    case DatasetKind::BrickStore:
+      renderer = std::make_unique<VolumeRenderer>(*context, static_cast<const BrickStoreDataset&>(*dataset).cache(),
+                                                  options.gpuBudgetBytes - gpuBytes, options.atlasFormat,
+                                                  options.atlasUploads, options.atlasBricking);
+      break;
+    case DatasetKind::TetMesh:
+      renderer = std::make_unique<TetRenderer>(*context, static_cast<const TetMeshDataset&>(*dataset).source(),
+                                               options.gpuBudgetBytes - gpuBytes);
+      break;
+  }
+  if (!renderer) throw RenderError("RenderEngine: no renderer for datasets of kind " +
+                                   std::string(datasetKindName(dataset->kind())));
+  Entry& entry = renderers[dataset];
+  entry.renderer = std::move(renderer);
+  entry.lastUse = ++uses;
+  account();
+  return *entry.renderer;
+}
+
+RenderEngine::RenderEngine(const RenderEngineOptions& options) : mImpl(std::make_unique<Impl>()) {
+  mImpl->options = options;
+  mImpl->context = createContext(options.backend);
+}
+
+RenderEngine::~RenderEngine() {
+  if (!mImpl->renderers.empty()) {
+    mImpl->context->makeCurrent();
+    mImpl->renderers.clear();
+  }
+}
+
+void RenderEngine::makeCurrent() { mImpl->context->makeCurrent(); }
+void RenderEngine::releaseCurrent() { mImpl->context->releaseCurrent(); }
+std::string RenderEngine::describe() const { return mImpl->context->describe(); }
+size_t RenderEngine::gpuBytes() const { return mImpl->gpuBytes; }
+size_t RenderEngine::peakGpuBytes() const { return mImpl->peakGpuBytes; }
+uint64_t RenderEngine::renderersReleased() const { return mImpl->released; }
+
+image::ImageF RenderEngine::render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats,
+                                   const FrameOptions& options) {
+  if (!dataset) throw RenderInputError("RenderEngine::render: no dataset");
+  std::optional<QualityChoice> choice;
+  const Scene resolved = resolveQuality(*dataset, scene, &choice);
+  image::ImageF image = mImpl->rendererFor(dataset).render(resolved, stats, options);
+  finishImage(dataset->worldFrame(), image);  // the renderers draw in the local frame
+  if (stats && choice) stats->quality = choice->toJson();
+  return image;
+}
+
+}  // namespace voxbrick::render

@@ -1,0 +1,63 @@
+// What a render thread holds: its own GL context and, per dataset it has drawn, the renderer of that dataset's kind.
+// This header is the renderer's whole interface for the server: it shows no GL.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "render/volume/AtlasFormat.h"
+#include "render/core/Backend.h"
+#include "render/core/Dataset.h"
+#include "render/core/FrameRenderer.h"
+#include "render/core/FrameStats.h"
+#include "image/Image.h"
+#include "render/core/Scene.h"
+
+namespace voxbrick::render {
+
+/// How a RenderEngine makes its context and its renderers.
+struct RenderEngineOptions {
+  Backend backend = Backend::Auto;
+  /// The atlases of all its renderers together (one per dataset drawn): a renderer not used for the longest is
+  /// released to make room for another dataset's atlas.
+  size_t gpuBudgetBytes = size_t(1) << 30;
+  AtlasFormat atlasFormat = AtlasFormat::Float;  ///< how atlases store samples
+  AtlasUploads atlasUploads = AtlasUploads::Auto;  ///< how bricks reach the atlases
+  AtlasBricking atlasBricking = AtlasBricking::Single;  ///< how bricks lie in the atlases
+};
+
+class RenderEngine {
+ public:
+  /// Makes a GL context with `options.backend` (see createContext) and leaves it current on the calling thread.
+  /// Throws RenderError listing what was tried.
+  explicit RenderEngine(const RenderEngineOptions& options);
+  ~RenderEngine();
+  RenderEngine(const RenderEngine&) = delete;
+  RenderEngine& operator=(const RenderEngine&) = delete;
+
+  /// Binds the context to the calling thread; one thread at a time.
+  void makeCurrent();
+  /// Unbinds it, so that another thread may take the engine.
+  void releaseCurrent();
+  /// How the context was made and what runs it.
+  std::string describe() const;
+
+  /// One frame of `dataset` (the context must be current): the renderer for the dataset's kind, made on first use
+  /// and kept while the dataset lives. Throws RenderInputError for a scene the dataset cannot be drawn with and
+  /// RenderError for GL failures.
+  image::ImageF render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats = nullptr,
+                       const FrameOptions& options = {});
+
+  /// GPU memory its renderers hold now (their atlases); never above options.gpuBudgetBytes. Any thread may ask.
+  size_t gpuBytes() const;
+  /// The most gpuBytes() has been.
+  size_t peakGpuBytes() const;
+  /// Renderers released to stay within the budget so far.
+  uint64_t renderersReleased() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> mImpl;
+};
+
+}  // namespace voxbrick::render

@@ -1,0 +1,45 @@
+// Walking a frame's bricks for the drawing passes: page plan.visible front to back in batches of what the atlas holds
+// at once, and cut each brick into the boxes it is drawn as. Every drawing pass (slicing, slabs, ray casting) uses it.
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include "render/gl/Checkpoints.h"
+#include "render/volume/FramePlan.h"
+#include "render/gl/volume/Residency.h"
+#include "render/gl/volume/SliceGeometry.h"
+#include "render/volume/SubBlocks.h"
+
+namespace voxbrick::render {
+
+/// One box to draw: its drawn (enlarged) world box, the global planes through it, the atlas payload and the voxels
+/// it owns [ownLo, ownHi) (volume.frag.glsl).
+struct QueuedBox {
+  Box box;
+  PlaneIndexRange planes;
+  glm::ivec4 payload;
+  glm::ivec3 ownLo, ownHi;
+};
+
+/// Pages plan.visible front to back and cuts each brick into its boxes (whole bricks, or with sub-blocks the boxes
+/// of its non-empty sub-blocks), in visibility order.
+class BrickWalk {
+ public:
+  /// Hands every box to `add`, in visibility order; calls `flush` when the atlas is full of the current batch's
+  /// bricks (the batch is then ended) and once at the end. `geometry` gives the planes through a box. Fills the
+  /// slicing, paging, sub-block and box counters of `stats`. Polls `checkpoints` before each brick.
+  void run(const FramePlan& plan, Residency& residency, const SliceGeometry& geometry, FrameStats& stats,
+           const Checkpoints& checkpoints, const std::function<void(const QueuedBox&)>& add,
+           const std::function<void()>& flush);
+
+ private:
+  void cutBrick(const FramePlan& plan, const BrickDraw& draw, const Residency::Resident& resident,
+                const PlaneIndexRange& brickPlanes, const store::StoreMeta& meta, int brickSize,
+                const SliceGeometry& geometry, FrameStats& stats, const std::function<void(const QueuedBox&)>& add);
+
+  std::vector<VoxelSpan> mSpans;
+  SubBlockWalkStats mSubStats;
+};
+
+}  // namespace voxbrick::render

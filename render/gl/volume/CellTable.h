@@ -1,0 +1,77 @@
+// The frame ray caster's cell table (render/gl/volume/RayCastPass.h): the volume cut into cells of C level-0 voxels (the
+// frame's sub-blocks, or its bricks), each holding the atlas payload of the brick that owns it in the current batch
+// and that brick's level, or "nothing to draw" (a cell of an empty sub-block, a skipped or culled brick), or "a
+// brick of another batch". One RGBA16I texel per cell, on texture unit 4: for a drawn cell xyz is what
+// volume.frag.glsl adds to a sample's voxel coordinate in the brick's level to find its atlas texel and w the
+// level; otherwise w is kNothing or kOtherBatch.
+//
+// The two kinds of "nothing" differ for the ray. A cell with nothing to draw adds nothing even at points on its
+// faces, since its value range covers every sample that reads its voxels, so a ray may leap to where it leaves the
+// cell, and further: such a cell's x holds j, the largest (up to kMaxLeapLevel) such that the aligned block of 2^j
+// cells around it has nothing to draw, and the ray leaps out of that block. A cell of a brick drawn in another batch
+// must be stepped through plane by plane near its faces, where a point may belong to a neighbour of this batch.
+// Frames of one batch have no such cells.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "render/gl/GlObjects.h"
+
+namespace voxbrick::render {
+
+struct QueuedBox;
+struct TraversalResult;
+
+class CellTable {
+ public:
+  explicit CellTable(const Gl& gl) : mGl(gl) {}
+
+  /// Cell levels (w) that are not a brick's level.
+  static constexpr int16_t kNothing = -1, kOtherBatch = -2;
+  /// The largest block a ray leaps over at once: 2^kMaxLeapLevel cells a side.
+  static constexpr int kMaxLeapLevel = 3;
+
+  /// Starts a frame: a table of `cellSize` (a power of two) voxel cells over `dims` voxels, every cell with nothing
+  /// to draw. The texture is (re)made when the cell grid changes.
+  void begin(const glm::ivec3& dims, int cellSize);
+  /// For a frame of several batches, after begin(): marks the cells of every brick of `visible` (bricks of
+  /// `brickSize` level-0 voxels at level 0) as drawn in another batch, what they return to after each batch.
+  void deferAll(const TraversalResult& visible, int brickSize);
+  /// Marks the cells of `box` (its owned voxels, aligned to the cell size except at the volume's far faces) as drawn
+  /// from its payload. Throws RenderError if the payload does not fit 16 bits (an atlas beyond 32767 texels).
+  void add(const QueuedBox& box);
+  /// Whether no cell has been marked since begin() or the last upload().
+  bool empty() const { return !mMarked; }
+  /// Computes the leaps, uploads the table, binds it to texture unit 4 and resets the host copy for the next batch
+  /// (the texture keeps this batch's cells until the next upload).
+  void upload();
+
+  glm::ivec3 cells() const { return mCells; }
+  /// log2 of the cell size.
+  int shift() const { return mShift; }
+
+ private:
+  size_t index(int x, int y, int z) const {
+    return (size_t(z) * size_t(mCells.y) + size_t(y)) * size_t(mCells.x) + size_t(x);
+  }
+  void reset();  // every cell back to kNothing, or kOtherBatch where deferred
+
+  const Gl& mGl;
+  Texture mTexture;
+  glm::ivec3 mCells{0};
+  int mShift = 0;
+  std::vector<glm::i16vec4> mHost;
+  std::vector<uint8_t> mDeferred;  // per cell: 1 where a brick of another batch of this frame owns it
+  std::vector<uint8_t> mScratch;   // for computeLeaps
+  bool mMarked = false;
+};
+
+/// Sets x of every cell of `cells` (a grid of `grid` cells, x fastest) whose w is CellTable::kNothing to the
+/// largest j <= CellTable::kMaxLeapLevel such that the aligned block of 2^j cells a side around it has nothing to
+/// draw (cells past the grid count as nothing: no ray samples there). `scratch` is reused between calls.
+void computeLeaps(std::vector<glm::i16vec4>& cells, const glm::ivec3& grid, std::vector<uint8_t>& scratch);
+
+}  // namespace voxbrick::render

@@ -1,0 +1,49 @@
+// Filling the cell table batch by batch and drawing each batch as one full-screen ray-casting pass, in bands.
+#include "render/gl/volume/RayCastPass.h"
+
+#include <algorithm>
+#include <chrono>
+
+namespace voxbrick::render {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+}  // namespace
+
+RayCastPass::RayCastPass(const Gl& gl) : mGl(gl), mCells(gl), mTermination(gl), mCounters(gl), mNoAttributes(gl) {}
+
+void RayCastPass::draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program,
+                       const SliceGeometry& planes, Compositor& compositor, FrameStats& stats,
+                       Checkpoints& checkpoints) {
+  mBatchesDrawn = 0;
+  mCounters.reset();
+  const store::StoreMeta& meta = residency.store().meta();
+  mCells.begin(glm::ivec3(meta.dims.x, meta.dims.y, meta.dims.z), plan.cellSize);
+  // More bricks than slots: several batches (an upper bound: stand-ins may share a source).
+  if (plan.visible.bricks.size() > size_t(residency.atlas().capacity()))
+    mCells.deferAll(plan.visible, residency.store().brickSize());
+  program.setCells(mCells.cells(), mCells.shift());
+  auto add = [&](const QueuedBox& b) { mCells.add(b); };
+  auto flush = [&] { drawBatch(plan, program, compositor, stats, checkpoints); };
+  mWalk.run(plan, residency, planes, stats, checkpoints, add, flush);
+}
+
+void RayCastPass::drawBatch(const FramePlan& plan, const VolumeProgram& program, Compositor& compositor,
+                            FrameStats& stats, Checkpoints& checkpoints) {
+  if (mCells.empty()) return;
+  auto t = Clock::now();
+  if (plan.ert > 0 && mBatchesDrawn > 0) mTermination.run(plan.ert, compositor);
+  mCells.upload();
+  stats.msSlicing += msSince(t);
+  t = Clock::now();
+  program.program().use();
+  mNoAttributes.bind();
+  drawInBands(mGl, plan.width, plan.height, checkpoints);
+  ++mBatchesDrawn;
+  stats.batches += 1;
+  stats.msDrawing += msSince(t);
+}
+
+}  // namespace voxbrick::render

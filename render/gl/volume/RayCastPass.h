@@ -1,0 +1,47 @@
+// The frame ray caster: for each batch of bricks the atlas holds at once, the cell table (render/gl/volume/CellTable.h) is
+// filled with the batch's boxes and one fragment per pixel marches its ray through the whole batch, finding each
+// sample's brick in the table (volume.frag.glsl with RAYCAST). Where texture slabs draw a proxy per box and slab and
+// blend once per box, the ray caster draws one full-screen triangle and blends once per pixel and batch: no box
+// geometry, no fragment per box, a ray that stops at the termination threshold stops for the whole batch.
+//
+// The samples are the global planes' points that slicing and slabs take, owned as slabs own them, so the image is
+// the same beyond round-off. Batches are taken front to back along the bricks' visibility order, which every ray
+// follows, so compositing batch after batch is compositing along each ray; between batches the silhouette map
+// (render/gl/volume/TerminationPass.h) keeps terminated pixels from being marched again. The frame is drawn in bands of rows, so
+// that a cancelled frame stops within a band (render/gl/Checkpoints.h).
+#pragma once
+
+#include "render/gl/volume/CellTable.h"
+#include "render/gl/Compositor.h"
+#include "render/gl/Bands.h"
+#include "render/gl/SampleCounters.h"
+#include "render/gl/volume/TerminationPass.h"
+#include "render/gl/volume/SlicingPass.h"
+
+namespace voxbrick::render {
+
+class RayCastPass {
+ public:
+  explicit RayCastPass(const Gl& gl);
+
+  /// Draws plan.visible with `program` (a RAYCAST variant) into `compositor`'s target, which begin() set up with a
+  /// silhouette map iff plan.ert > 0. `planes` gives the planes through a box (boxes with none are left out).
+  void draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program, const SliceGeometry& planes,
+            Compositor& compositor, FrameStats& stats, Checkpoints& checkpoints);
+  /// After the compositor's finish: fragments started, samples taken and left by termination into `stats`.
+  void finish(FrameStats& stats) const { mCounters.read(stats); }
+
+ private:
+  void drawBatch(const FramePlan& plan, const VolumeProgram& program, Compositor& compositor, FrameStats& stats,
+                 Checkpoints& checkpoints);
+
+  const Gl& mGl;
+  BrickWalk mWalk;
+  CellTable mCells;
+  TerminationPass mTermination;
+  SampleCounters mCounters;
+  VertexArray mNoAttributes;
+  int mBatchesDrawn = 0;  // this frame's
+};
+
+}  // namespace voxbrick::render

@@ -1,0 +1,27 @@
+// The termination pass of the silhouette map.
+#include "render/gl/volume/TerminationPass.h"
+
+namespace voxbrick::render {
+
+TerminationPass::TerminationPass(const Gl& gl)
+    : mGl(gl),
+      mProgram(gl, ProgramSources::fromFiles("termination", {{GL_VERTEX_SHADER, "termination.vert.glsl"},
+                                                              {GL_FRAGMENT_SHADER, "termination.frag.glsl"}})),
+      mTerminationAt(mProgram.requireUniform("uTermination")),
+      mAccumulatedAt(mProgram.requireUniform("uAccumulated")),
+      mNoAttributes(gl) {}
+
+void TerminationPass::run(double threshold, Compositor& compositor) const {
+  compositor.bindSilhouette();
+  compositor.accumulated().bind(2);
+  mProgram.use();
+  mProgram.set(mAccumulatedAt, 2);
+  mProgram.set(mTerminationAt, float(threshold));
+  mNoAttributes.bind();
+  mGl.glDepthMask(GL_TRUE);
+  mGl.glDrawArrays(GL_TRIANGLES, 0, 3);
+  mGl.glDepthMask(GL_FALSE);
+  compositor.bindTarget();
+}
+
+}  // namespace voxbrick::render

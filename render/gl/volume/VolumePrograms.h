@@ -1,0 +1,79 @@
+// The programs of the slicing technique: one variant per small descriptor, each with its uniforms located once
+// when it is built, and the per-frame uniform values taken from the frame plan.
+#pragma once
+
+#include <map>
+
+#include "render/gl/volume/BrickAtlas.h"
+#include "render/volume/FramePlan.h"
+#include "render/gl/GlObjects.h"
+#include "render/core/PreIntegration.h"
+#include "render/core/Scene.h"
+
+namespace voxbrick::render {
+
+/// What the fragment stage computes.
+enum class FragmentModel {
+  Plain,     ///< the optical model
+  Shaded,    ///< with gradients and a Phong headlight (SHADING)
+  Roofline,  ///< one atlas fetch, no classification, no blending (ROOFLINE): the sampling roofline
+};
+
+/// Which program variant a frame needs. Each field is one #define of volume.frag.glsl or the choice of the stages
+/// before it.
+struct ProgramKey {
+  Slicer slicer = Slicer::Vertex;  ///< the stages that slice (Vertex where the key does not slice)
+  FragmentModel model = FragmentModel::Plain;
+  bool exactOwnership = false;  ///< EXACT_OWNERSHIP: samples from the pixel ray, owned per box (sub-blocks)
+  bool slab = false;            ///< SLAB: box proxies (slab.vert.glsl), several samples per fragment
+  bool preIntegration = false;  ///< PRE_INTEGRATION (with SLAB): segments classified from a table
+  bool emptyTest = false;       ///< EMPTY_TEST (with SLAB): the empty-space silhouette pass, no colour
+  bool raycast = false;         ///< RAYCAST: a full-screen proxy (raycast.vert.glsl), a pixel's whole ray per fragment
+  bool multiOriented = false;   ///< MULTI_ORIENTED: bricks lie in the atlas with rotated axes (AtlasBricking)
+  auto operator<=>(const ProgramKey&) const = default;
+};
+
+/// The stages of `slicer` before the fragment program and their library (none for the CPU slicer), as program
+/// `name`: what a slicing variant is built of, and what the tests capture with transform feedback.
+ProgramSources slicerSources(Slicer slicer, std::string name);
+
+/// A linked slicing program and the locations of its uniforms (-1 where a variant does not use one).
+class VolumeProgram {
+ public:
+  /// Compiles and links the variant `key`; for the vertex slicer uploads the slicer tables once. Throws RenderError,
+  /// naming the slicer when a slicing variant cannot be built.
+  VolumeProgram(const Gl& gl, const ProgramKey& key);
+
+  const Program& program() const { return mProgram; }
+  /// Sets every per-frame uniform from `plan` (with the path table of Zellmann & Lang's slicers, which follows the
+  /// view direction); the atlas is on texture unit 0, the transfer table on unit 1.
+  void setFrame(const FramePlan& plan, const BrickAtlas& atlas, const store::StoreMeta& meta) const;
+  /// Sets the pre-integration table's mapping (PRE_INTEGRATION variants); the table is on texture unit 3.
+  void setTable(const PreIntegrationSpec& spec) const;
+  /// Sets the cell table's grid (RAYCAST variants): `cells` cells of 2^`shift` voxels; the table is on texture unit 4.
+  void setCells(const glm::ivec3& cells, int shift) const;
+
+ private:
+  Program mProgram;
+  struct Locations {
+    GLint viewProj, planeNormal, planeIncr, atlas, transfer, invAtlasSize, invSpacing, dims, halfDims, windowLo,
+        windowScale, stepOverReference, eye, viewDir, orthographic, rayOrigin, rayOriginDx, rayOriginDy,
+        rayDirection, rayDirectionDx, rayDirectionDy, termination, table,
+        tableResolution, ratioMin, layerScale, layers, cells, cellShift, cellCount;
+  } mAt;
+  GLint mPaths = -1;         // uPaths of the vertex-lean, geometry and vertex-geometry slicers
+  bool mStripOrder = false;  // its rows in strip order (the geometry slicer)
+};
+
+/// The variants built so far on one context, built on first use.
+class VolumePrograms {
+ public:
+  explicit VolumePrograms(const Gl& gl) : mGl(gl) {}
+  const VolumeProgram& get(const ProgramKey& key);
+
+ private:
+  const Gl& mGl;
+  std::map<ProgramKey, VolumeProgram> mPrograms;
+};
+
+}  // namespace voxbrick::render

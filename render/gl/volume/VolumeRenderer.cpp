@@ -1,0 +1,158 @@
+// A frame: plan -> residency -> geometry and drawing pass -> compositing and readback, each timed.
+#include "render/gl/volume/VolumeRenderer.h"
+
+#include <chrono>
+#include <cmath>
+
+#include "render/volume/FramePlan.h"
+#include "render/core/RenderErrors.h"
+
+namespace voxbrick::render {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+}  // namespace
+
+VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes,
+                               AtlasFormat format, AtlasUploads uploads, AtlasBricking bricking)
+    : mGl(context.gl()),
+      mResidency(context, std::move(cache), gpuBudgetBytes, format, uploads, bricking),
+      mTransfer(mGl, GL_TEXTURE_1D),
+      mPrograms(mGl),
+      mCompositor(mGl),
+      mSlabs(mGl),
+      mRayCast(mGl),
+      mPreIntegration(mGl) {
+  mTransfer.bind(1);
+  mGl.glTexStorage1D(GL_TEXTURE_1D, 1, GL_RGBA32F, kTransferTableTexels);
+  mGl.glTexParameteri(GL_TEXTURE_1D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  mGl.glTexParameteri(GL_TEXTURE_1D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  mGl.glTexParameteri(GL_TEXTURE_1D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+}
+
+VolumeRenderer::~VolumeRenderer() = default;
+
+SliceGeometry& VolumeRenderer::geometry(const Scene& scene) {
+  // Slabs and the ray caster draw box proxies whatever the slicer.
+  const bool slabs = scene.slab > 0 || scene.raycast;
+  auto& g = mGeometry[slabs ? kSlicers.size() : size_t(scene.slicer)];
+  if (!g) {
+    if (slabs)
+      g = std::make_unique<SlabGeometry>(mGl);
+    else if (scene.slicer == Slicer::Cpu)
+      g = std::make_unique<CpuSliceGeometry>(mGl);
+    else
+      g = std::make_unique<GpuSliceGeometry>(mGl, scene.slicer);
+  }
+  return *g;
+}
+
+image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, const FrameOptions& options,
+                                   FrameStats& stats) {
+  const RenderMode mode = options.mode;
+  const store::BrickStore& store = mResidency.store();
+  mResidency.beginFrame(plan.visible.bricks);
+  mCompositor.begin(scene.width, scene.height, mode != RenderMode::Roofline, plan.ert > 0 || plan.ess);
+  const std::vector<glm::vec4> table = scene.transferFunction.table(kTransferTableTexels);
+  mTransfer.bind(1);
+  mGl.glTexSubImage1D(GL_TEXTURE_1D, 0, 0, kTransferTableTexels, GL_RGBA, GL_FLOAT, table.data());
+  mResidency.atlas().texture().bind(0);
+
+  ProgramKey key{plan.slab > 0 || plan.raycast ? Slicer::Vertex : scene.slicer,
+                       mode == RenderMode::Roofline ? FragmentModel::Roofline
+                       : scene.shading             ? FragmentModel::Shaded
+                                                   : FragmentModel::Plain,
+                       plan.subBlock > 0 || plan.coarsestLevel > 0, plan.slab > 0, plan.preIntegration};
+  key.raycast = plan.raycast;
+  key.multiOriented = mResidency.atlas().bricking() == AtlasBricking::MultiOriented;
+  const VolumeProgram& program = mPrograms.get(key);
+  program.setFrame(plan, mResidency.atlas(), store.meta());
+  if (plan.preIntegration) {
+    const auto [ratioMin, ratioMax] = plan.segmentRatios();
+    stats.msPreIntegration = mPreIntegration.update(scene.transferFunction, ratioMin, ratioMax, 3);
+    program.setTable(mPreIntegration.spec());
+  }
+  const VolumeProgram* emptyTest = nullptr;
+  if (plan.ess) {
+    ProgramKey emptyKey = key;
+    emptyKey.emptyTest = true;
+    emptyTest = &mPrograms.get(emptyKey);
+    emptyTest->setFrame(plan, mResidency.atlas(), store.meta());
+    if (plan.preIntegration) emptyTest->setTable(mPreIntegration.spec());
+  }
+  Checkpoints checkpoints(mGl, options.cancelled);
+  if (plan.raycast)
+    mRayCast.draw(plan, mResidency, program, geometry(scene), mCompositor, stats, checkpoints);
+  else if (plan.slab > 0)
+    mSlabs.draw(plan, mResidency, program, emptyTest, static_cast<SlabGeometry&>(geometry(scene)), mCompositor,
+                stats, checkpoints);
+  else if (mode == RenderMode::Points) {
+    mGl.glPolygonMode(GL_FRONT_AND_BACK, GL_POINT);
+    mSlicing.draw(plan, mResidency, program, geometry(scene), stats, checkpoints);
+    mGl.glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+  } else {
+    mSlicing.draw(plan, mResidency, program, geometry(scene), stats, checkpoints);
+  }
+
+  return mCompositor.finish(scene, stats);
+}
+
+image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, const FrameOptions& options) {
+  const auto frameStart = Clock::now();
+  FrameStats stats;
+  const store::BrickStore& store = mResidency.store();
+
+  auto t = Clock::now();
+  FramePlan plan = planFrame(scene, store, kTransferTableTexels);
+  stats.nodesVisited = plan.visible.stats.nodesVisited;
+  stats.bricksSkippedEmpty = plan.visible.stats.bricksSkippedEmpty;
+  stats.bricksCulled = plan.visible.stats.bricksCulled;
+  stats.bricksDrawn = plan.visible.stats.bricksDrawn;
+  stats.bricksCoarse = plan.visible.stats.bricksCoarse;
+  stats.bricksCoarsened = plan.visible.stats.bricksCoarsened;
+  stats.bricksPerLevel = plan.visible.stats.bricksPerLevel;
+  stats.msTraversal = msSince(t);
+  stats.samplesEstimated = plan.estimatedSamples();
+  if (options.mode == RenderMode::Points && (plan.slab > 0 || plan.raycast))
+    throw RenderInputError("the points mode draws the corners of slices: it needs slicing (slab 0, no raycast)");
+  if (options.maxSamples > 0 && stats.samplesEstimated > options.maxSamples)
+    throw RenderLimitError("the frame would take about " + numberText(std::round(stats.samplesEstimated / 1e6)) +
+                           " million samples, above the limit of " + numberText(options.maxSamples / 1e6) +
+                           " million; ask for a smaller image, a coarser step or a level of detail");
+
+  if (options.standIns) {
+    t = Clock::now();
+    stats.bricksStandIn = mResidency.standIn(plan.visible.bricks, store.levelCount() - 1);
+    for (const BrickDraw& d : plan.visible.bricks)
+      plan.coarsestLevel = std::max(plan.coarsestLevel, int(d.key.level + d.standIn));
+    stats.msPaging += msSince(t);
+  }
+  image::ImageF image;
+  try {
+    image = draw(scene, plan, options, stats);
+  } catch (...) {
+    // A brick that fails its checks (or any other failure mid-frame) must not leave the context half way through
+    // a frame: the next frame, of any dataset, starts from the state every pass expects.
+    mCompositor.abort();
+    mResidency.abortFrame();
+    mGl.glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);  // a points-mode frame given up while slicing
+    for (auto& g : mGeometry)
+      if (g) g->clear();  // boxes queued for a batch that was never drawn
+    for (int i = 0; i < 16 && mGl.glGetError() != GL_NO_ERROR; ++i) {  // errors the failure left (bounded: a
+    }                                                                   // lost context reports one forever)
+    throw;
+  }
+  if (plan.raycast)
+    mRayCast.finish(stats);
+  else if (plan.slab > 0)
+    mSlabs.finish(stats);
+  else
+    stats.samples = stats.fragments;
+  stats.msTotal = msSince(frameStart);
+  if (statsOut) *statsOut = stats;
+  return image;
+}
+
+}  // namespace voxbrick::render

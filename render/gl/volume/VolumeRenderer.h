@@ -1,0 +1,60 @@
+// Renders one frame of a brick store, as stages with one job each: the frame plan (FramePlan), residency in the
+// atlas (Residency), slice geometry (SliceGeometry), the drawing pass (SlicingPass) with its program
+// (VolumePrograms), and compositing with readback (Compositor).
+#pragma once
+
+#include <memory>
+
+#include "brickstore/BrickCache.h"
+#include "render/gl/volume/BrickAtlas.h"
+#include "render/gl/Compositor.h"
+#include "render/core/FrameRenderer.h"
+#include "render/gl/GlContext.h"
+#include "render/gl/GlObjects.h"
+#include "render/gl/PreIntegrationTexture.h"
+#include "render/gl/volume/Residency.h"
+#include "render/gl/volume/SliceGeometry.h"
+#include "render/gl/volume/RayCastPass.h"
+#include "render/gl/volume/SlabPass.h"
+#include "render/gl/volume/SlicingPass.h"
+#include "render/gl/volume/VolumePrograms.h"
+
+namespace voxbrick::render {
+
+/// One renderer per GL context (so per render thread). It keeps its atlas between frames, so bricks stay resident.
+class VolumeRenderer final : public FrameRenderer {
+ public:
+  /// `context` must be current on this thread whenever the renderer is used. `gpuBudgetBytes` bounds the atlas.
+  VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickCache> cache, size_t gpuBudgetBytes,
+                 AtlasFormat format = AtlasFormat::Float, AtlasUploads uploads = AtlasUploads::Auto,
+                 AtlasBricking bricking = AtlasBricking::Single);
+  ~VolumeRenderer() override;
+
+  /// Renders `scene`; throws RenderInputError for an invalid scene and RenderError for GL failures.
+  image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) override;
+
+  const BrickAtlas& atlas() const { return mResidency.atlas(); }
+  size_t gpuBytes() const override { return mResidency.atlas().bytes(); }
+
+  /// Texels of the GPU's transfer-function table.
+  static constexpr int kTransferTableTexels = render::kTransferTableTexels;
+
+ private:
+  SliceGeometry& geometry(const Scene& scene);
+  /// The GL part of a frame, from paging to readback; render() puts the context back in order if it throws.
+  image::ImageF draw(const Scene& scene, const FramePlan& plan, const FrameOptions& options, FrameStats& stats);
+
+  const Gl& mGl;
+  Residency mResidency;
+  Texture mTransfer;
+  VolumePrograms mPrograms;
+  // One per slicer (by the Slicer's value), then slabs; made on first use.
+  std::unique_ptr<SliceGeometry> mGeometry[kSlicers.size() + 1];
+  SlicingPass mSlicing;
+  Compositor mCompositor;
+  SlabPass mSlabs;
+  RayCastPass mRayCast;
+  PreIntegrationTexture mPreIntegration;
+};
+
+}  // namespace voxbrick::render

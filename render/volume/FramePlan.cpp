@@ -1,0 +1,146 @@
+// Planning a frame: everything about it that needs no GL.
+#include "render/volume/FramePlan.h"
+
+#include <algorithm>
+#include <limits>
+#include <string>
+
+#include "render/core/RenderErrors.h"
+
+namespace voxbrick::render {
+
+ValueWindow valueWindow(const Scene& scene, const store::StoreMeta& meta) {
+  ValueWindow w;
+  // A window is given in the input's values; a quantised store holds steps, so it is mapped onto them (the default,
+  // the store's range, is in stored units already).
+  w.lo = scene.window ? meta.storedValue((*scene.window)[0]) : meta.valueMin;
+  w.hi = scene.window ? meta.storedValue((*scene.window)[1]) : meta.valueMax;
+  if (!(w.hi > w.lo)) w.hi = w.lo + 1;  // a constant volume: everything maps to 0
+  w.inverseWidth = 1.0 / (w.hi - w.lo);
+  return w;
+}
+
+Box FramePlan::drawBox(const Box& b, const store::Vec3d& spacing) const {
+  const double interiorMargin = exactOwnership() ? kInteriorMargin : 0.0;
+  Box out = b;
+  for (int a = 0; a < 3; ++a) {
+    out.min[a] -= (out.min[a] <= volume.min[a] ? kSurfaceMargin : interiorMargin) * spacing[a];
+    out.max[a] += (out.max[a] >= volume.max[a] ? kSurfaceMargin : interiorMargin) * spacing[a];
+  }
+  return out;
+}
+
+FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int transferTableTexels) {
+  scene.validate();
+  const store::StoreMeta& meta = store.meta();
+  const int B = store.brickSize();
+  FramePlan plan;
+  plan.volume = volumeBox(meta.dims, meta.spacing);
+  plan.camera = scene.camera.resolve(plan.volume, WorldFrame::of(meta.orientation, meta.dims, meta.spacing),
+                                     double(scene.width) / double(scene.height));
+  plan.camera.clipRange(plan.volume, plan.nearPlane, plan.farPlane);
+  plan.viewProj = plan.camera.projection(double(scene.width) / double(scene.height), plan.nearPlane, plan.farPlane) *
+                  plan.camera.view();
+  const Frustum frustum = Frustum::fromMatrix(plan.viewProj);
+
+  plan.window = valueWindow(scene, meta);
+  plan.contributes = [tf = scene.transferFunction, w = plan.window, transferTableTexels](float mn, float mx) {
+    return tf.tableContributes((double(mn) - w.lo) * w.inverseWidth, (double(mx) - w.lo) * w.inverseWidth,
+                               transferTableTexels);
+  };
+  const OctreeTraversal traversal(store.octree(), meta.dims, B, meta.spacing);
+  TraversalOptions options{scene.skipEmpty, scene.cullFrustum, {scene.lod, store.levelCount() - 1, scene.height}};
+  plan.visible = traversal.run(plan.camera, frustum, plan.contributes, options);
+  plan.coarsestLevel = int(plan.visible.stats.bricksPerLevel.size()) - 1;
+  if (plan.coarsestLevel < 0) plan.coarsestLevel = 0;
+
+  plan.planeNormal = plan.camera.viewDirection();
+  const double minSpacing = std::min({meta.spacing.x, meta.spacing.y, meta.spacing.z});
+  plan.step = scene.step * minSpacing;
+  plan.referenceLength = scene.transferFunction.referenceLength().value_or(minSpacing);
+  // A sub-block as large as the brick is the brick itself (whole bricks, as 0); a larger one cannot be cut from it.
+  // The scene's default (8) meets bricks of 8, so equality is not an error here; `voxbrick render` refuses it when
+  // it is typed.
+  if (scene.subBlock > B)
+    throw RenderInputError("sub-block " + std::to_string(scene.subBlock) +
+                           " must be 0 (whole bricks) or a power of two below the brick size " + std::to_string(B));
+  plan.subBlock = scene.subBlock > 0 && scene.subBlock < B ? scene.subBlock : 0;
+  plan.raycast = scene.raycast;
+  if (plan.raycast) {
+    plan.cellSize = rayCastCellSize(meta.dims, plan.subBlock, B);
+    plan.raycast = plan.cellSize > 0;  // else texture slabs, of the scene's size or the default
+  }
+  plan.slab = plan.raycast ? 0 : scene.slab > 0 || !scene.raycast ? scene.slab : Scene{}.slab;
+  plan.ert = plan.marches() ? scene.ert : 0;
+  plan.preIntegration = plan.marches() && scene.preIntegration;
+  plan.ess = plan.slab > 0 && scene.ess;
+  plan.width = scene.width;
+  plan.height = scene.height;
+  plan.rays = pixelRays(plan.viewProj, scene.width, scene.height);
+  return plan;
+}
+
+int rayCastCellSize(const store::Vec3i& dims, int subBlock, int brickSize) {
+  auto cells = [&](int64_t c) { return ((dims.x + c - 1) / c) * ((dims.y + c - 1) / c) * ((dims.z + c - 1) / c); };
+  int size = subBlock > 0 ? subBlock : brickSize;
+  while (cells(size) > kMaxRayCastCells && size < brickSize) size *= 2;
+  if (cells(size) > kMaxRayCastCells || std::max({dims.x, dims.y, dims.z}) > 32767) return 0;
+  return size;
+}
+
+std::vector<uint8_t> brickLevels(const TraversalResult& visible, const store::StoreMeta& meta) {
+  const store::Vec3i& grid = meta.levels.at(0).bricks;
+  std::vector<uint8_t> levels(size_t(grid.volume()), 0);
+  for (const BrickDraw& d : visible.bricks) {
+    const int m = int(d.key.level), level = m + int(d.standIn);
+    if (level == 0) continue;
+    const int64_t lo[3] = {int64_t(d.key.i) << m, int64_t(d.key.j) << m, int64_t(d.key.k) << m};
+    for (int64_t k = lo[2]; k < std::min(lo[2] + (int64_t{1} << m), grid.z); ++k)
+      for (int64_t j = lo[1]; j < std::min(lo[1] + (int64_t{1} << m), grid.y); ++j)
+        for (int64_t i = lo[0]; i < std::min(lo[0] + (int64_t{1} << m), grid.x); ++i)
+          levels[size_t(i + grid.x * (j + grid.y * k))] = uint8_t(level);
+  }
+  return levels;
+}
+
+double FramePlan::estimatedSamples() const {
+  double samples = 0;
+  for (const BrickDraw& brick : visible.bricks) {
+    const Box& b = brick.box;
+    glm::dvec2 lo(1e300), hi(-1e300);
+    double nearest = 1e300, farthest = -1e300;
+    bool behind = false;
+    for (int c = 0; c < 8; ++c) {
+      const glm::dvec3 p{c & 1 ? b.max.x : b.min.x, c & 2 ? b.max.y : b.min.y, c & 4 ? b.max.z : b.min.z};
+      const glm::dvec4 clip = viewProj * glm::dvec4(p, 1.0);
+      if (clip.w <= 1e-12) behind = true;
+      else lo = glm::min(lo, glm::dvec2(clip) / clip.w), hi = glm::max(hi, glm::dvec2(clip) / clip.w);
+      const double d = glm::dot(p, planeNormal);
+      nearest = std::min(nearest, d), farthest = std::max(farthest, d);
+    }
+    // A box reaching behind the eye may cover the whole screen.
+    if (behind) lo = glm::dvec2(-1), hi = glm::dvec2(1);
+    lo = glm::clamp(lo, -1.0, 1.0), hi = glm::clamp(hi, -1.0, 1.0);
+    const double pixels = (hi.x - lo.x) * 0.5 * width * (hi.y - lo.y) * 0.5 * height;
+    const double planes = (farthest - nearest) / (step * planeStride(int(brick.key.level + brick.standIn))) + 1;
+    samples += std::max(pixels, 0.0) * planes;
+  }
+  return samples;
+}
+
+std::pair<double, double> FramePlan::segmentRatios() const {
+  const double ratio = step / referenceLength;
+  const double coarse = double(planeStride(coarsestLevel));
+  if (camera.orthographic) return {ratio, ratio * coarse};
+  double lo = std::numeric_limits<double>::infinity(), hi = 0;
+  const double xs[] = {0.5, 0.5 * width, width - 0.5}, ys[] = {0.5, 0.5 * height, height - 0.5};
+  for (double x : xs)
+    for (double y : ys) {
+      const glm::dvec3 d = rays.direction + x * rays.directionDx + y * rays.directionDy;
+      const double cosine = std::max(glm::dot(glm::normalize(d), planeNormal), 1e-3);
+      lo = std::min(lo, ratio / cosine), hi = std::max(hi, ratio / cosine);
+    }
+  return {lo, hi * coarse};
+}
+
+}  // namespace voxbrick::render

@@ -1,0 +1,109 @@
+// The first stage of a frame, without GL: camera and clip range, value window and the transfer function's range
+// test, the bricks to draw in visibility order, slice-plane spacing and normal, the margins boxes are drawn with,
+// and the pixel rays of exact ownership. Later stages (residency, geometry, drawing passes) only read it.
+#pragma once
+
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "brickstore/BrickStore.h"
+#include "render/core/Camera.h"
+#include "render/core/PixelRays.h"
+#include "render/core/Scene.h"
+#include "render/volume/Slicing.h"
+#include "render/volume/Traversal.h"
+
+namespace voxbrick::render {
+
+/// The value window [lo, hi] that maps raw values to [0, 1].
+struct ValueWindow {
+  double lo = 0, hi = 1;
+  double inverseWidth = 1;  ///< 1 / (hi - lo)
+};
+
+/// The scene's value window over `meta`'s values (default the store's range; a constant volume gets [v, v + 1]).
+/// A scene's window is in the input's values, mapped onto a quantised store's steps (StoreMeta::storedValue).
+/// The GPU renderer and the reference take it from here, so that they normalise alike.
+ValueWindow valueWindow(const Scene& scene, const store::StoreMeta& meta);
+
+struct FramePlan {
+  Box volume;                 ///< the volume's world box
+  Camera camera;
+  double nearPlane = 0, farPlane = 0;
+  glm::dmat4 viewProj{1.0};   ///< world to clip
+  ValueWindow window;
+  /// Whether raw range [min, max] gets any opacity from the GPU's transfer table: the range test over the table
+  /// entries a filtered lookup in [min, max] reads (exact at the window's ends: background at the low end is skipped
+  /// when the transfer function is transparent there).
+  RangePredicate contributes;
+  TraversalResult visible;    ///< bricks to draw, front to back, and what the traversal skipped
+  glm::dvec3 planeNormal{0, 0, 1};  ///< unit, from the eye into the scene
+  double step = 1;            ///< world distance between global slice planes
+  double referenceLength = 1; ///< the length transfer-function opacities are given for
+  int subBlock = 0;           ///< sub-block edge in voxels; 0 draws whole bricks
+  int slab = 0;               ///< planes per texture slab; 0 slices (ignored when ray casting)
+  bool raycast = false;       ///< frame ray casting (render/gl/volume/RayCastPass.h) instead of slicing or slabs
+  int cellSize = 0;           ///< ray casting: the cell table's cell edge in level-0 voxels (render/gl/volume/CellTable.h)
+  double ert = 0;             ///< early ray termination threshold when marching; 0 off (always 0 when slicing)
+  bool preIntegration = false;  ///< pre-integrated classification (when marching)
+  bool ess = false;             ///< empty-space silhouette maps (slabs only)
+  int coarsestLevel = 0;        ///< the coarsest pyramid level drawn: of plan.visible's bricks' sources
+  int width = 0, height = 0;    ///< image size in pixels
+  PixelRays rays;
+
+  /// Whether every box owns exactly its voxels, tested on the pixel's ray (sub-blocks and bricks of different levels,
+  /// whose boxes meet at T-junctions, and slabs, which march rays); else whole bricks share their rasterised faces
+  /// and only the volume's outline is tested.
+  bool exactOwnership() const { return subBlock > 0 || marches() || coarsestLevel > 0; }
+  /// Whether fragments march rays through several planes (slabs or the frame ray caster), rather than slice.
+  bool marches() const { return slab > 0 || raycast; }
+  /// Planes a box of pyramid level `level` samples: every one when slicing, every 2^level-th when marching.
+  int planeStride(int level) const { return marches() ? 1 << level : 1; }
+
+  /// The shortest and longest segment between two planes along any pixel's ray, in reference lengths: step / L
+  /// over the cosine of the ray's angle to the view axis (1 for an orthographic camera), over the image's corners and
+  /// centre (the cosine is largest at the centre or a corner and smallest at a corner, being a ratio of a linear
+  /// to a convex function of window position). The longest is that of the coarsest level's plane stride.
+  std::pair<double, double> segmentRatios() const;
+
+  /// An upper estimate of the samples the frame takes, its cost: for each brick to draw, the pixels of the screen
+  /// rectangle around its projected box times the planes through it at its level's stride (every plane when
+  /// slicing, so slicing's finer levels cost what they do). No GL, a few operations per brick.
+  double estimatedSamples() const;
+
+  /// The box to draw for voxel box `b`: larger than the voxels it owns, so that the fragment stage's ownership test
+  /// decides coverage. At the volume's surface by kSurfaceMargin voxels; between boxes by kInteriorMargin with
+  /// exact ownership, else not at all.
+  Box drawBox(const Box& b, const store::Vec3d& spacing) const;
+
+  /// How far past its voxels a box is drawn, in voxels (far above the rasterised edges' round-off).
+  static constexpr double kSurfaceMargin = 0.25;
+  static constexpr double kInteriorMargin = 1.0 / 64;
+};
+
+/// The pyramid level of each level-0 brick in `visible` (x fastest over `meta`'s level-0 brick grid): the level of
+/// each draw's source() inside the voxels it owns, 0 elsewhere. What ReferenceOptions::brickLevels takes, so that the
+/// reference samples the same level as the GPU everywhere.
+std::vector<uint8_t> brickLevels(const TraversalResult& visible, const store::StoreMeta& meta);
+
+/// The most cells a ray-casting frame's cell table may have (8 bytes each): cells are the sub-blocks, doubled until
+/// the table fits, at most bricks; a volume whose bricks need more cells (or with a side beyond 32767 voxels, past
+/// the table's 16-bit offsets) is drawn with texture slabs instead.
+inline constexpr int64_t kMaxRayCastCells = int64_t{1} << 22;
+
+/// The cell edge of a ray-casting frame's cell table over `dims` voxels: the sub-block (or with none the brick),
+/// doubled while the table would exceed kMaxRayCastCells; 0 when even bricks would, or a side exceeds 32767 voxels.
+int rayCastCellSize(const store::Vec3i& dims, int subBlock, int brickSize);
+
+/// Texels of the GPU renderer's transfer-function table (VolumeRenderer), so that a plan made away from the GL
+/// renderer (the server's paging ahead) skips what the GPU would.
+inline constexpr int kTransferTableTexels = 4096;
+
+/// Plans a frame of `scene` over `store`. `transferTableTexels` is the size of the GPU's transfer-function table
+/// (the range test covers the entries a lookup reads). Throws RenderInputError for an invalid scene.
+FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int transferTableTexels);
+
+}  // namespace voxbrick::render
