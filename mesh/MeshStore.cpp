@@ -11,6 +11,7 @@
 #include <iomanip>
 #include <sstream>
 
+#include "common/Checksum.h"
 #include "mesh/MeshMeta.h"
 
 namespace voxbrick::mesh {
@@ -45,7 +46,7 @@ bool inside(const glm::vec3& lo, const glm::vec3& hi, const glm::vec3& outerLo, 
 
 /// The header's fields that need no other file: magic, version, checksum, reserved bytes, counts within limits.
 void checkHeader(const MeshIndexHeader& h, const std::string& where) {
-  if (h.headerCrc32 != meshCrc32(&h, offsetof(MeshIndexHeader, headerCrc32)))
+  if (h.headerCrc32 != common::crc32Of(&h, offsetof(MeshIndexHeader, headerCrc32)))
     throw MeshError(where + ": header checksum mismatch (corrupt index)");
   if (h.reserved != 0) throw MeshError(where + ": reserved header field is not zero");
   auto count = [&](const char* what, uint64_t value, uint64_t lo, uint64_t hi) {
@@ -97,7 +98,7 @@ MeshStore MeshStore::open(const fs::path& dir) {
     throw MeshError(indexName + ": counts do not match " + metaPath.string());
   store.mRecords.resize(h.chunkCount);
   index.readAt(sizeof h, store.mRecords.data(), store.mRecords.size() * sizeof(MeshChunkRecord));
-  if (meshCrc32(store.mRecords.data(), store.mRecords.size() * sizeof(MeshChunkRecord)) != h.bodyCrc32)
+  if (common::crc32Of(store.mRecords.data(), store.mRecords.size() * sizeof(MeshChunkRecord)) != h.bodyCrc32)
     throw MeshError(indexName + ": chunk table checksum mismatch (corrupt index)");
 
   store.mData = MeshInputFile(dir / kMeshDataFile);
