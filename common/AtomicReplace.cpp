@@ -79,7 +79,8 @@ int sync(const fs::path& path, Kind kind) {
 }
 
 void syncOrFail(const fs::path& path, Kind kind, const fs::path& target) {
-  if (const int error = sync(path, kind)) fail("cannot flush " + path.string() + " to replace " + target.string(), error);
+  if (const int error = sync(path, kind))
+    fail("cannot flush " + path.string() + " to replace " + target.string(), error);
 }
 
 /// Flushes every file and directory below `dir`, then `dir` itself; symbolic links are not followed.

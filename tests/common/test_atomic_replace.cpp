@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <fstream>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -46,6 +47,17 @@ std::vector<std::string> tree(const fs::path& dir) {
 struct Injected : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
+
+/// Runs `replace`, which must throw a ReplaceError whose message names `path` and holds `reason`.
+void expectErrorNaming(const std::function<void()>& replace, const fs::path& path, const std::string& reason) {
+  try {
+    replace();
+    ADD_FAILURE() << "no error";
+  } catch (const ReplaceError& e) {
+    EXPECT_NE(std::string(e.what()).find(path.string()), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(reason), std::string::npos) << e.what();
+  }
+}
 
 std::span<const uint8_t> bytesOf(const std::string& text) {
   return {reinterpret_cast<const uint8_t*>(text.data()), text.size()};
@@ -103,13 +115,8 @@ TEST(ReplaceFile, AMissingParentIsAnErrorNamingThePath) {
   ScratchDir scratch;
   const fs::path file = scratch / "missing" / "f.txt";
   bool called = false;
-  try {
-    replaceFile(file, [&](const fs::path&) { called = true; });
-    FAIL() << "no error";
-  } catch (const ReplaceError& e) {
-    EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("No such file or directory"), std::string::npos) << e.what();
-  }
+  expectErrorNaming([&] { replaceFile(file, [&](const fs::path&) { called = true; }); }, file,
+                    "No such file or directory");
   EXPECT_FALSE(called);
   EXPECT_TRUE(entries(scratch.path()).empty());
 }
@@ -118,12 +125,7 @@ TEST(ReplaceFile, ADirectoryAtThePathIsAnErrorAndStays) {
   ScratchDir scratch;
   fs::create_directory(scratch / "d");
   writeText(scratch / "d" / "keep", "kept");
-  try {
-    replaceFile(scratch / "d", bytesOf("new"));
-    FAIL() << "no error";
-  } catch (const ReplaceError& e) {
-    EXPECT_NE(std::string(e.what()).find((scratch / "d").string()), std::string::npos) << e.what();
-  }
+  expectErrorNaming([&] { replaceFile(scratch / "d", bytesOf("new")); }, scratch / "d", "Is a directory");
   EXPECT_EQ(tree(scratch / "d"), std::vector<std::string>{"keep=kept"});
   EXPECT_EQ(entries(scratch.path()), std::vector<std::string>{"d"});
 }
@@ -184,13 +186,8 @@ TEST_P(ReplaceDirectory, AMissingParentIsAnErrorNamingThePath) {
   ScratchDir scratch;
   const fs::path dir = scratch / "missing" / "store";
   bool called = false;
-  try {
-    replaceDirectory(dir, [&](const fs::path&) { called = true; }, GetParam());
-    FAIL() << "no error";
-  } catch (const ReplaceError& e) {
-    EXPECT_NE(std::string(e.what()).find(dir.string()), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("No such file or directory"), std::string::npos) << e.what();
-  }
+  expectErrorNaming([&] { replaceDirectory(dir, [&](const fs::path&) { called = true; }, GetParam()); }, dir,
+                    "No such file or directory");
   EXPECT_FALSE(called);
   EXPECT_TRUE(entries(scratch.path()).empty());
 }

@@ -97,7 +97,8 @@ class DamagedStore : public ::testing::Test {
   template <typename T>
   BlockRef appendBlock(const std::vector<T>& values) {
     const std::vector<char> encoded = encodeBlock(values.data(), values.size() * sizeof(T), 3);
-    BlockRef ref{mData.size(), encoded.size(), values.size() * sizeof(T), common::crc32Of(encoded.data(), encoded.size()), 0};
+    BlockRef ref{mData.size(), encoded.size(), values.size() * sizeof(T),
+                 common::crc32Of(encoded.data(), encoded.size()), 0};
     mData.insert(mData.end(), encoded.begin(), encoded.end());
     voxbrick::test::writeFile(mDir / kMeshDataFile, mData.data(), mData.size());
     mHeader.dataFileSize = mData.size();
