@@ -3,7 +3,6 @@
 
 #include <fcntl.h>
 #include <unistd.h>
-#include <zlib.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -120,17 +119,6 @@ void fillValue(ValueType type, double value, void* dst, size_t count) {
     case ValueType::I16: std::fill_n(static_cast<int16_t*>(dst), count, static_cast<int16_t>(value)); break;
     case ValueType::F32: std::fill_n(static_cast<float*>(dst), count, static_cast<float>(value)); break;
   }
-}
-
-uint32_t crc32Of(const void* data, size_t size, uint32_t crc) {
-  const auto* p = static_cast<const Bytef*>(data);
-  while (size > 0) {
-    uInt chunk = static_cast<uInt>(std::min<size_t>(size, 1u << 30));
-    crc = static_cast<uint32_t>(::crc32(crc, p, chunk));
-    p += chunk;
-    size -= chunk;
-  }
-  return crc;
 }
 
 }  // namespace voxbrick::store

@@ -59,7 +59,4 @@ class BrickFileReader {
 /// Fills `count` values of type `type` at dst with `value` (converted to the type).
 void fillValue(ValueType type, double value, void* dst, size_t count);
 
-/// CRC-32 (zlib's) of a buffer, continuing from `crc`.
-uint32_t crc32Of(const void* data, size_t size, uint32_t crc = 0);
-
 }  // namespace voxbrick::store

@@ -12,6 +12,7 @@
 #include "brickstore/BrickFile.h"
 #include "brickstore/Errors.h"
 #include "brickstore/VdbStore.h"
+#include "common/Checksum.h"
 
 namespace voxbrick::store {
 namespace fs = std::filesystem;
@@ -65,7 +66,7 @@ std::shared_ptr<const BrickStore> DirectoryStore::open(const fs::path& dir) {
   IndexHeader h;
   std::memcpy(&h, index.data(), sizeof h);
   if (std::memcmp(h.magic, kIndexMagic, sizeof h.magic) != 0) throw CorruptStoreError(indexName + ": bad magic");
-  if (crc32Of(&h, offsetof(IndexHeader, headerCrc32)) != h.headerCrc32)
+  if (common::crc32Of(&h, offsetof(IndexHeader, headerCrc32)) != h.headerCrc32)
     throw CorruptStoreError(indexName + ": header checksum mismatch");
   if (h.version != kIndexVersion)
     throw CorruptStoreError(indexName + ": index version " + std::to_string(h.version) + ", this build reads " +
@@ -83,7 +84,7 @@ std::shared_ptr<const BrickStore> DirectoryStore::open(const fs::path& dir) {
   if (h.recordCount > (uint64_t{1} << 40) || bodySize != expected)
     throw CorruptStoreError(indexName + ": " + std::to_string(bodySize) + " body bytes, expected " +
                             std::to_string(expected) + " (truncated or corrupt)");
-  if (crc32Of(index.data() + sizeof h, bodySize) != h.bodyCrc32)
+  if (common::crc32Of(index.data() + sizeof h, bodySize) != h.bodyCrc32)
     throw CorruptStoreError(indexName + ": checksum mismatch (corrupt index)");
 
   store->mLevels.resize(h.levelCount);

@@ -239,4 +239,21 @@ int64_t offsetAfterLines(const std::string& path, int64_t offset, int64_t lines)
   }
 }
 
+std::unique_ptr<ByteStream> openVoxelData(const std::string& path, int64_t start, int64_t skip, bool gzip,
+                                          int64_t dataBytes) {
+  if (gzip) {
+    auto stream = std::make_unique<ByteStream>(path, start, ByteStream::Compression::Gzip);
+    stream->skip(static_cast<uint64_t>(skip));
+    return stream;
+  }
+  // Raw data can be checked against the file size before any voxel is read.
+  const int64_t size = fileSize(path);
+  const int64_t offset = skip == -1 ? size - dataBytes : start + skip;
+  if (offset < start || size - offset < dataBytes) {
+    throw InputError(path + ": truncated: expected " + std::to_string(dataBytes) + " bytes of voxel data from byte " +
+                     std::to_string(std::max(offset, start)) + ", file has " + std::to_string(size) + " bytes");
+  }
+  return std::make_unique<ByteStream>(path, offset, ByteStream::Compression::None);
+}
+
 }  // namespace voxbrick::store

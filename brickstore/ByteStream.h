@@ -65,6 +65,12 @@ bool isGzipFile(const std::string& path);
 /// for headers.
 std::vector<char> readFilePrefix(const std::string& path, size_t maxBytes);
 
+/// A volume's `dataBytes` bytes of voxel data in `path`, `skip` bytes after byte `start`: inflated from `start` (the
+/// skip counted in decoded bytes) when `gzip`; else read in place once the file is known to hold them all, where a
+/// skip of -1 means the file's last `dataBytes` bytes. Throws InputError "<file>: truncated: ..." when it is short.
+std::unique_ptr<ByteStream> openVoxelData(const std::string& path, int64_t start, int64_t skip, bool gzip,
+                                          int64_t dataBytes);
+
 /// The file offset just after `lines` newline characters counted from `offset`. Throws InputError when the file
 /// ends first.
 int64_t offsetAfterLines(const std::string& path, int64_t offset, int64_t lines);

@@ -156,13 +156,10 @@ Orientation niftiOrientation(const HeaderView& h, const std::string& path, Vec3d
   return fromDirections(d, path + (h.i16(kSformCodeOffset) > 0 ? ": sform" : ": qform"), spacing);
 }
 
-}  // namespace
-
-std::unique_ptr<VolumeSource> openNiftiSource(const std::string& path, const SourceOptions& options) {
-  const bool gzip = isGzipFile(path);
-  const std::vector<char> bytes = readFilePrefix(path, kHeaderSize);
+/// Checks sizeof_hdr (in either byte order), the header's length and the single-file magic; returns whether the
+/// header's byte order is the other one.
+bool checkHeaderStart(const std::vector<char>& bytes, const std::string& path) {
   if (bytes.size() < 4) throw InputError(path + ": not a NIfTI-1 file (shorter than a header)");
-
   int32_t sizeofHdr;
   std::memcpy(&sizeofHdr, bytes.data(), 4);
   bool swap = false;
@@ -187,8 +184,11 @@ std::unique_ptr<VolumeSource> openNiftiSource(const std::string& path, const Sou
   if (std::memcmp(magic, "n+1\0", 4) != 0) {
     throw InputError(path + ": not a NIfTI-1 file (no 'n+1' magic; an ANALYZE 7.5 header?)");
   }
+  return swap;
+}
 
-  const HeaderView h(bytes, swap);
+/// dim[1..3]; every further dimension must be 1.
+Vec3i niftiDims(const HeaderView& h, const std::string& path) {
   const int dimCount = h.i16(kDimOffset);
   if (dimCount < 1 || dimCount > 7) {
     throw InputError(path + ": bad dim[0] " + std::to_string(dimCount) + " (expected 1 to 7)");
@@ -196,7 +196,6 @@ std::unique_ptr<VolumeSource> openNiftiSource(const std::string& path, const Sou
   if (dimCount < 3) {
     throw InputError(path + ": only 3D scalar volumes are supported (dim[0] is " + std::to_string(dimCount) + ")");
   }
-  const Vec3i dims{h.i16(kDimOffset + 2), h.i16(kDimOffset + 4), h.i16(kDimOffset + 6)};
   for (int d = 4; d <= dimCount; ++d) {
     const int extent = h.i16(kDimOffset + 2 * static_cast<size_t>(d));
     if (extent != 1) {
@@ -204,7 +203,11 @@ std::unique_ptr<VolumeSource> openNiftiSource(const std::string& path, const Sou
                        std::to_string(extent) + ")");
     }
   }
+  return {h.i16(kDimOffset + 2), h.i16(kDimOffset + 4), h.i16(kDimOffset + 6)};
+}
 
+/// The datatype, which must be a supported scalar type whose size bitpix agrees with.
+FileValueType niftiValueType(const HeaderView& h, const std::string& path) {
   const int datatype = h.i16(kDatatypeOffset);
   const std::optional<FileValueType> fileType = datatypeValue(datatype);
   if (!fileType) {
@@ -217,24 +220,24 @@ std::unique_ptr<VolumeSource> openNiftiSource(const std::string& path, const Sou
                      ") has bitpix " + std::to_string(bitpix) + ", expected " +
                      std::to_string(8 * fileValueSize(*fileType)));
   }
-  const int64_t dataBytes = checkedVolumeBytes(dims, fileValueSize(*fileType), path);
+  return *fileType;
+}
 
+/// vox_offset, a float holding a whole number of bytes at least past the header and its extension flag.
+int64_t niftiVoxOffset(const HeaderView& h, const std::string& path) {
   const double voxOffsetValue = h.f32(kVoxOffsetOffset);
   if (!std::isfinite(voxOffsetValue) || voxOffsetValue < static_cast<double>(kMinVoxOffset) ||
       voxOffsetValue != std::floor(voxOffsetValue) || voxOffsetValue > 1e15) {
     throw InputError(path + ": bad vox_offset " + std::to_string(voxOffsetValue) +
                      " (a single-file .nii needs a whole number >= 352)");
   }
-  const auto voxOffset = static_cast<int64_t>(voxOffsetValue);
+  return static_cast<int64_t>(voxOffsetValue);
+}
 
-  Vec3d spacing{spacingOf(h.f32(kPixdimOffset + 4)), spacingOf(h.f32(kPixdimOffset + 8)),
-                spacingOf(h.f32(kPixdimOffset + 12))};
-  const Orientation orientation = niftiOrientation(h, path, spacing);
-  if (options.spacingGiven) spacing = options.spacing;
-  checkSpacing(spacing, path);
-
+/// The values' conversion: the byte order, and scl_slope/scl_inter where they scale.
+Conversion niftiConversion(const HeaderView& h, FileValueType fileType, bool swap) {
   Conversion conversion;
-  conversion.from = *fileType;
+  conversion.from = fileType;
   conversion.swapBytes = swap;
   const double slope = h.f32(kSclSlopeOffset);
   double inter = h.f32(kSclInterOffset);
@@ -245,20 +248,29 @@ std::unique_ptr<VolumeSource> openNiftiSource(const std::string& path, const Sou
     conversion.slope = slope;
     conversion.inter = inter;
   }
+  return conversion;
+}
 
-  std::unique_ptr<ByteStream> stream;
-  if (gzip) {
-    stream = std::make_unique<ByteStream>(path, 0, ByteStream::Compression::Gzip);
-    stream->skip(static_cast<uint64_t>(voxOffset));
-  } else {
-    const int64_t size = fileSize(path);
-    if (size < voxOffset || size - voxOffset < dataBytes) {
-      throw InputError(path + ": truncated: expected " + std::to_string(dataBytes) +
-                       " bytes of voxel data from byte " + std::to_string(voxOffset) + ", file has " +
-                       std::to_string(size) + " bytes");
-    }
-    stream = std::make_unique<ByteStream>(path, voxOffset, ByteStream::Compression::None);
-  }
+}  // namespace
+
+std::unique_ptr<VolumeSource> openNiftiSource(const std::string& path, const SourceOptions& options) {
+  const bool gzip = isGzipFile(path);
+  const std::vector<char> bytes = readFilePrefix(path, kHeaderSize);
+  const bool swap = checkHeaderStart(bytes, path);
+  const HeaderView h(bytes, swap);
+  const Vec3i dims = niftiDims(h, path);
+  const FileValueType fileType = niftiValueType(h, path);
+  const int64_t dataBytes = checkedVolumeBytes(dims, fileValueSize(fileType), path);
+  const int64_t voxOffset = niftiVoxOffset(h, path);
+
+  Vec3d spacing{spacingOf(h.f32(kPixdimOffset + 4)), spacingOf(h.f32(kPixdimOffset + 8)),
+                spacingOf(h.f32(kPixdimOffset + 12))};
+  const Orientation orientation = niftiOrientation(h, path, spacing);
+  if (options.spacingGiven) spacing = options.spacing;
+  checkSpacing(spacing, path);
+
+  const Conversion conversion = niftiConversion(h, fileType, swap);
+  std::unique_ptr<ByteStream> stream = openVoxelData(path, 0, voxOffset, gzip, dataBytes);
 
   VolumeInfo info;
   info.dims = dims;
@@ -267,6 +279,7 @@ std::unique_ptr<VolumeSource> openNiftiSource(const std::string& path, const Sou
   info.type = conversion.to();
   info.background = 0.0;
   const bool bigEndian = swap == needsSwap(true);
+  const int datatype = h.i16(kDatatypeOffset);
   info.description = "NIfTI-1 " + datatypeName(datatype) + (gzip ? " gzip " : " ") + (bigEndian ? "big-endian " : "") +
                      dimsText(dims) + (conversion.scaled ? " scaled to f32" : "") + " (" + baseName(path) + ")";
   return std::make_unique<DenseSource>(std::move(info), std::move(stream), conversion, path);

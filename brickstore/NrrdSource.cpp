@@ -335,21 +335,9 @@ std::string resolveDataFile(const FieldReader& fields, const std::string& value)
   return file.string();
 }
 
-}  // namespace
-
-std::unique_ptr<VolumeSource> openNrrdSource(const std::string& path, const SourceOptions& options) {
-  const NrrdHeader header = parseHeader(path);
-  const FieldReader fields(path, header);
-  // Without a blank line the data can only be elsewhere; otherwise the header was cut short.
-  if (header.dataOffset < 0 && !fields.find("data file")) {
-    throw InputError(path + ": truncated or corrupt header (no blank line after it and no 'data file' field)");
-  }
-
-  const std::string& typeText = fields.required("type");
-  const std::optional<FileValueType> fileType = parseNrrdType(typeText);
-  if (!fileType) throw InputError(path + ": unsupported NRRD type '" + typeText + "'");
-
-  const int64_t dimension = fields.integer("dimension", fields.required("dimension"));
+/// The volume's size from 'sizes': `dimension` positive values, a leading 1 when there are four.
+Vec3i nrrdDims(const FieldReader& fields, int64_t dimension) {
+  const std::string& path = fields.path();
   const std::string& sizesText = fields.required("sizes");
   const std::vector<std::string> sizeTokens = tokens(sizesText);
   if (dimension != 3 && dimension != 4) {
@@ -367,61 +355,76 @@ std::unique_ptr<VolumeSource> openNrrdSource(const std::string& path, const Sour
   if (dimension == 4 && sizes[0] != 1) {
     throw InputError(path + ": only 3D scalar volumes are supported (dimension 4 with sizes " + sizesText + ")");
   }
-  const Vec3i dims{sizes[dimension - 3], sizes[dimension - 2], sizes[dimension - 1]};
-  const int64_t dataBytes = checkedVolumeBytes(dims, fileValueSize(*fileType), path);
+  return {sizes[dimension - 3], sizes[dimension - 2], sizes[dimension - 1]};
+}
 
+/// Whether 'encoding' is gzip; raw is the only other one read.
+bool nrrdGzip(const FieldReader& fields) {
   const std::string encodingText = lower(fields.required("encoding"));
-  bool gzip = false;
-  if (encodingText == "gzip" || encodingText == "gz") {
-    gzip = true;
-  } else if (encodingText != "raw") {
-    throw InputError(path + ": unsupported NRRD encoding '" + encodingText + "' (supported: raw, gzip)");
-  }
+  if (encodingText == "gzip" || encodingText == "gz") return true;
+  if (encodingText != "raw")
+    throw InputError(fields.path() + ": unsupported NRRD encoding '" + encodingText + "' (supported: raw, gzip)");
+  return false;
+}
 
-  bool bigEndian = false;
+/// Whether 'endian' is big; required for values wider than a byte.
+bool nrrdBigEndian(const FieldReader& fields, FileValueType fileType, const std::string& typeText) {
   if (const std::string* endian = fields.find("endian")) {
     const std::string e = lower(*endian);
     if (e != "little" && e != "big") fields.bad("endian", *endian, "expected little or big");
-    bigEndian = e == "big";
-  } else if (fileValueSize(*fileType) > 1) {
-    throw InputError(path + ": missing required header field 'endian' (needed for type '" + typeText + "')");
+    return e == "big";
   }
+  if (fileValueSize(fileType) > 1) {
+    throw InputError(fields.path() + ": missing required header field 'endian' (needed for type '" + typeText + "')");
+  }
+  return false;
+}
 
-  Vec3d spacing = parseSpacing(fields, dimension);
-  const Orientation orientation = parseOrientation(fields, dimension, spacing);
-  if (options.spacingGiven) spacing = options.spacing;
-  checkSpacing(spacing, path);
-
+/// The voxel data: in the header's file after the blank line or in 'data file', after 'line skip' lines and
+/// 'byte skip' bytes. Sets `dataPath` to the file it is in.
+std::unique_ptr<ByteStream> openNrrdData(const FieldReader& fields, const NrrdHeader& header, bool gzip,
+                                         int64_t dataBytes, std::string& dataPath) {
   const int64_t lineSkip = fields.optionalInteger("line skip", 0);
   if (lineSkip < 0) fields.bad("line skip", std::to_string(lineSkip), "must be >= 0");
   const int64_t byteSkip = fields.optionalInteger("byte skip", 0);
   if (byteSkip < -1) fields.bad("byte skip", std::to_string(byteSkip), "must be >= -1");
   if (byteSkip == -1 && gzip) fields.bad("byte skip", "-1", "-1 is only allowed with raw encoding");
-
-  std::string dataPath = path;
+  dataPath = fields.path();
   int64_t start = header.dataOffset;
   if (const std::string* dataFile = fields.find("data file")) {
     dataPath = resolveDataFile(fields, *dataFile);
     start = 0;
   }
   start = offsetAfterLines(dataPath, start, lineSkip);
+  return openVoxelData(dataPath, start, byteSkip, gzip, dataBytes);
+}
 
-  std::unique_ptr<ByteStream> stream;
-  if (gzip) {
-    stream = std::make_unique<ByteStream>(dataPath, start, ByteStream::Compression::Gzip);
-    stream->skip(static_cast<uint64_t>(byteSkip));
-  } else {
-    // Raw data can be checked against the file size before any voxel is read.
-    const int64_t size = fileSize(dataPath);
-    const int64_t offset = byteSkip == -1 ? size - dataBytes : start + byteSkip;
-    if (offset < start || size - offset < dataBytes) {
-      throw InputError(dataPath + ": truncated: expected " + std::to_string(dataBytes) +
-                       " bytes of voxel data from byte " + std::to_string(std::max(offset, start)) + ", file has " +
-                       std::to_string(size) + " bytes");
-    }
-    stream = std::make_unique<ByteStream>(dataPath, offset, ByteStream::Compression::None);
+}  // namespace
+
+std::unique_ptr<VolumeSource> openNrrdSource(const std::string& path, const SourceOptions& options) {
+  const NrrdHeader header = parseHeader(path);
+  const FieldReader fields(path, header);
+  // Without a blank line the data can only be elsewhere; otherwise the header was cut short.
+  if (header.dataOffset < 0 && !fields.find("data file")) {
+    throw InputError(path + ": truncated or corrupt header (no blank line after it and no 'data file' field)");
   }
 
+  const std::string& typeText = fields.required("type");
+  const std::optional<FileValueType> fileType = parseNrrdType(typeText);
+  if (!fileType) throw InputError(path + ": unsupported NRRD type '" + typeText + "'");
+  const int64_t dimension = fields.integer("dimension", fields.required("dimension"));
+  const Vec3i dims = nrrdDims(fields, dimension);
+  const int64_t dataBytes = checkedVolumeBytes(dims, fileValueSize(*fileType), path);
+  const bool gzip = nrrdGzip(fields);
+  const bool bigEndian = nrrdBigEndian(fields, *fileType, typeText);
+
+  Vec3d spacing = parseSpacing(fields, dimension);
+  const Orientation orientation = parseOrientation(fields, dimension, spacing);
+  if (options.spacingGiven) spacing = options.spacing;
+  checkSpacing(spacing, path);
+
+  std::string dataPath;
+  std::unique_ptr<ByteStream> stream = openNrrdData(fields, header, gzip, dataBytes, dataPath);
   Conversion conversion;
   conversion.from = *fileType;
   conversion.swapBytes = fileValueSize(*fileType) > 1 && needsSwap(bigEndian);

@@ -59,6 +59,75 @@ void cutBrick(const T* window, const Vec3i& n, int64_t B, int64_t bi, int64_t bj
   }
 }
 
+/// Reads slab `slab.kz` into its window: slot s holds slice z = kz*B - 1 + s, clamped to [0, n.z - 1]. The first
+/// two slots come from `previous`'s last two (none for the first slab); `nextZ` is the next slice of the source.
+template <typename T>
+void readSlab(Slab<T>& slab, const Slab<T>* previous, VolumeSource& source, const SlabBricker::SliceHook& hook,
+              int64_t B, int64_t& nextZ) {
+  const Vec3i n = source.info().dims;
+  const int64_t E = B + 2, sliceValues = n.x * n.y;
+  const size_t sliceBytes = sizeof(T) * static_cast<size_t>(sliceValues);
+  T* window = slab.window.data();
+  auto slot = [&](int64_t s) { return window + s * sliceValues; };
+  slab.z0 = nextZ;
+  if (!previous) {
+    slab.count = std::min(n.z, B + 1);
+    slab.firstSlot = 1;
+  } else {
+    std::memmove(slot(0), previous->window.data() + B * sliceValues, 2 * sliceBytes);
+    slab.count = std::min(n.z - nextZ, B);
+    slab.firstSlot = 2;
+  }
+  if (slab.count > 0) {
+    source.readSlices(slab.count, slot(slab.firstSlot));
+    if (hook) hook(slab.z0, slab.count, slot(slab.firstSlot));
+  }
+  nextZ += slab.count;
+  if (!previous) std::memcpy(slot(0), slot(1), sliceBytes);
+  const int64_t lastReal = slab.firstSlot + slab.count - 1;
+  for (int64_t s = lastReal + 1; s < E; ++s) std::memcpy(slot(s), slot(lastReal), sliceBytes);
+}
+
+/// Cuts every brick of a slab out of its window in parallel, taking its value range and, unless it holds only the
+/// background, its zstd frame.
+template <typename T>
+void cutBricks(Slab<T>& slab, const Vec3i& n, int64_t B, const Vec3i& bricks, T background, int zstdLevel) {
+  const int64_t E = B + 2;
+  tbb::parallel_for(tbb::blocked_range<int64_t>(0, bricks.x * bricks.y), [&](const tbb::blocked_range<int64_t>& r) {
+    thread_local std::vector<T> brick;
+    brick.resize(static_cast<size_t>(E * E * E));
+    for (int64_t b = r.begin(); b != r.end(); ++b) {
+      cutBrick(slab.window.data(), n, B, b % bricks.x, b / bricks.x, brick.data());
+      bool empty = true;
+      slab.ranges[static_cast<size_t>(b)] = sampleRange(brick.data(), brick.size(), background, empty);
+      std::vector<char>& frame = slab.frames[static_cast<size_t>(b)];
+      if (empty)
+        frame.clear();
+      else
+        compressFrame(brick.data(), brick.size() * sizeof(T), sizeof(T), zstdLevel, frame);
+    }
+  });
+}
+
+/// Appends a slab's frames to `out` in brick order, so that the same input always gives the same file, and fills
+/// their records in `level`.
+template <typename T>
+void writeSlab(const Slab<T>& slab, LevelBuild& level, OutputFile& out) {
+  const int64_t slabBricks = level.bricks.x * level.bricks.y;
+  for (int64_t b = 0; b < slabBricks; ++b) {
+    BrickRecord& rec = level.records[static_cast<size_t>(b + slabBricks * slab.kz)];
+    const std::vector<char>& frame = slab.frames[static_cast<size_t>(b)];
+    rec.min = slab.ranges[static_cast<size_t>(b)].min;
+    rec.max = slab.ranges[static_cast<size_t>(b)].max;
+    if (!frame.empty()) {
+      rec.offset = out.append(frame.data(), frame.size());
+      rec.compressedSize = static_cast<uint32_t>(frame.size());
+      level.bricksStored += 1;
+      level.bytesStored += static_cast<int64_t>(frame.size());
+    }
+  }
+}
+
 }  // namespace
 
 template <typename T>
@@ -84,10 +153,9 @@ LevelBuild SlabBricker::runTyped() {
     slab.ranges.resize(static_cast<size_t>(slabBricks));
     slab.frames.resize(static_cast<size_t>(slabBricks));
   }
-  const size_t sliceBytes = sizeof(T) * static_cast<size_t>(sliceValues);
   int64_t nextZ = 0, nextSlab = 0;
 
-  // Stage 1, in order: slot s of slab kz's window holds slice z = kz*B - 1 + s, clamped to [0, n.z - 1].
+  // Stage 1, in order: the source's slices into the slab's window.
   auto read = [&](tbb::flow_control& fc) -> Slab<T>* {
     if (nextSlab == level.bricks.z) {
       fc.stop();
@@ -95,49 +163,14 @@ LevelBuild SlabBricker::runTyped() {
     }
     const int64_t kz = nextSlab++;
     Slab<T>& slab = slabs[static_cast<size_t>(kz % ring)];
-    T* window = slab.window.data();
-    auto slot = [&](int64_t s) { return window + s * sliceValues; };
     slab.kz = kz;
-    slab.z0 = nextZ;
-    int64_t lastReal;
-    if (kz == 0) {
-      slab.count = std::min(n.z, B + 1);
-      slab.firstSlot = 1;
-    } else {
-      const T* previous = slabs[static_cast<size_t>((kz - 1) % ring)].window.data();
-      std::memmove(slot(0), previous + B * sliceValues, 2 * sliceBytes);
-      slab.count = std::min(n.z - nextZ, B);
-      slab.firstSlot = 2;
-    }
-    if (slab.count > 0) {
-      mSource.readSlices(slab.count, slot(slab.firstSlot));
-      if (mSliceHook) mSliceHook(slab.z0, slab.count, slot(slab.firstSlot));
-    }
-    nextZ += slab.count;
-    if (kz == 0) std::memcpy(slot(0), slot(1), sliceBytes);
-    lastReal = slab.firstSlot + slab.count - 1;
-    for (int64_t s = lastReal + 1; s < E; ++s) std::memcpy(slot(s), slot(lastReal), sliceBytes);
+    readSlab(slab, kz == 0 ? nullptr : &slabs[static_cast<size_t>((kz - 1) % ring)], mSource, mSliceHook, B, nextZ);
     return &slab;
   };
 
   // Stage 2, in order (for the consumer): the consumer beside the bricks, which are cut and compressed in parallel.
   auto cut = [&](Slab<T>* slab) -> Slab<T>* {
-    auto bricks = [&] {
-      tbb::parallel_for(tbb::blocked_range<int64_t>(0, slabBricks), [&](const tbb::blocked_range<int64_t>& r) {
-        thread_local std::vector<T> brick;
-        brick.resize(static_cast<size_t>(E * E * E));
-        for (int64_t b = r.begin(); b != r.end(); ++b) {
-          cutBrick(slab->window.data(), n, B, b % level.bricks.x, b / level.bricks.x, brick.data());
-          bool empty = true;
-          slab->ranges[static_cast<size_t>(b)] = sampleRange(brick.data(), brick.size(), background, empty);
-          std::vector<char>& frame = slab->frames[static_cast<size_t>(b)];
-          if (empty)
-            frame.clear();
-          else
-            compressFrame(brick.data(), brick.size() * sizeof(T), sizeof(T), mZstdLevel, frame);
-        }
-      });
-    };
+    auto bricks = [&] { cutBricks(*slab, n, B, level.bricks, background, mZstdLevel); };
     if (mSliceConsumer && slab->count > 0) {
       const T* first = slab->window.data() + slab->firstSlot * sliceValues;
       tbb::parallel_invoke([&] { mSliceConsumer(slab->z0, slab->count, first); }, bricks);
@@ -147,20 +180,9 @@ LevelBuild SlabBricker::runTyped() {
     return slab;
   };
 
-  // Stage 3, in order: frames go out in brick order so that the same input always gives the same file.
+  // Stage 3, in order: the frames appended.
   auto write = [&](Slab<T>* slab) {
-    for (int64_t b = 0; b < slabBricks; ++b) {
-      BrickRecord& rec = level.records[static_cast<size_t>(b + slabBricks * slab->kz)];
-      const std::vector<char>& frame = slab->frames[static_cast<size_t>(b)];
-      rec.min = slab->ranges[static_cast<size_t>(b)].min;
-      rec.max = slab->ranges[static_cast<size_t>(b)].max;
-      if (!frame.empty()) {
-        rec.offset = mOut.append(frame.data(), frame.size());
-        rec.compressedSize = static_cast<uint32_t>(frame.size());
-        level.bricksStored += 1;
-        level.bytesStored += static_cast<int64_t>(frame.size());
-      }
-    }
+    writeSlab(*slab, level, mOut);
     if (mProgressHook) mProgressHook(slab->kz + 1, level.bricks.z);
   };
 

@@ -109,7 +109,10 @@ std::string StoreMeta::toJson() const {
   return j.dump(2) + "\n";
 }
 
-StoreMeta StoreMeta::fromJson(const std::string& text, const std::string& what) {
+namespace {
+
+/// store.json's object, once it is known to be a store of the format version this build reads.
+json parseStoreJson(const std::string& text, const std::string& what) {
   json j;
   try {
     j = json::parse(text);
@@ -119,49 +122,95 @@ StoreMeta StoreMeta::fromJson(const std::string& text, const std::string& what) 
   if (!j.is_object()) throw CorruptStoreError(what + ": not a JSON object");
   if (j.value("format", "") != "voxbrick-store") throw CorruptStoreError(what + ": not a voxbrick store");
   int version = number<int>(j, "version", what);
-  if (version != kFormatVersion)
+  if (version != StoreMeta::kFormatVersion)
     throw CorruptStoreError(what + ": store format version " + std::to_string(version) + ", this build reads " +
-                            std::to_string(kFormatVersion));
-  StoreMeta m;
-  m.dims = vec3i(j, "dims", what);
-  m.spacing = vec3d(j, "spacing", what);
-  if (j.contains("orientation")) m.orientation = orientationFromJson(j["orientation"], what);
+                            std::to_string(StoreMeta::kFormatVersion));
+  return j;
+}
+
+ValueType typeFromJson(const json& j, const std::string& what) {
   const json& type = field(j, "type", what);
   if (!type.is_string()) throw CorruptStoreError(what + ": key 'type' is not a string");
   try {
-    m.type = parseValueType(type.get<std::string>());
+    return parseValueType(type.get<std::string>());
   } catch (const InputError& e) {
     throw CorruptStoreError(what + ": " + e.what());
   }
-  m.background = number<double>(j, "background", what);
-  const json& range = field(j, "value_range", what);
-  if (!range.is_array() || range.size() != 2 || !range[0].is_number() || !range[1].is_number())
-    throw CorruptStoreError(what + ": key 'value_range' is not two numbers");
-  m.valueMin = range[0].get<double>();
-  m.valueMax = range[1].get<double>();
+}
+
+Histogram histogramFromJson(const json& j, const std::string& what) {
   const json& hist = field(j, "histogram", what);
   if (!hist.is_object()) throw CorruptStoreError(what + ": key 'histogram' is not an object");
   const json& hrange = field(hist, "range", what);
   const json& counts = field(hist, "counts", what);
   if (!hrange.is_array() || hrange.size() != 2 || !counts.is_array())
     throw CorruptStoreError(what + ": key 'histogram' is malformed");
-  m.histogram.lo = hrange[0].get<double>();
-  m.histogram.hi = hrange[1].get<double>();
+  Histogram histogram;
+  histogram.lo = hrange[0].get<double>();
+  histogram.hi = hrange[1].get<double>();
   for (const json& c : counts) {
     if (!c.is_number_unsigned()) throw CorruptStoreError(what + ": histogram counts must be unsigned integers");
-    m.histogram.counts.push_back(c.get<uint64_t>());
+    histogram.counts.push_back(c.get<uint64_t>());
   }
-  m.brickSize = number<int>(j, "brick_size", what);
+  return histogram;
+}
+
+std::vector<LevelMeta> levelsFromJson(const json& j, const std::string& what) {
   const json& levels = field(j, "levels", what);
   if (!levels.is_array() || levels.empty()) throw CorruptStoreError(what + ": key 'levels' is not a non-empty array");
+  std::vector<LevelMeta> out;
   for (const json& l : levels) {
     LevelMeta lm;
     lm.dims = vec3i(l, "dims", what);
     lm.bricks = vec3i(l, "bricks", what);
     lm.bricksStored = number<int64_t>(l, "bricks_stored", what);
     lm.bytesStored = number<int64_t>(l, "bytes_stored", what);
-    m.levels.push_back(lm);
+    out.push_back(lm);
   }
+  return out;
+}
+
+/// The "quantisation" object `q` into `m`, whose type it must agree with.
+void quantisationFromJson(const json& q, StoreMeta& m, const std::string& what) {
+  const json& qrange = field(q, "range", what);
+  const json& qtype = field(q, "type", what);
+  if (!qrange.is_array() || qrange.size() != 2 || !qrange[0].is_number() || !qrange[1].is_number() ||
+      !qtype.is_string())
+    throw CorruptStoreError(what + ": key 'quantisation' is malformed");
+  Quantisation quantisation;
+  try {
+    quantisation.type = parseQuantiseType(qtype.get<std::string>());
+    quantisation.lo = qrange[0].get<double>();
+    quantisation.hi = qrange[1].get<double>();
+    quantisation.validate();
+  } catch (const InputError& e) {
+    throw CorruptStoreError(what + ": key 'quantisation': " + e.what());
+  }
+  if (quantisation.type != m.type)
+    throw CorruptStoreError(what + ": quantised to " + qtype.get<std::string>() + " but the store type is " +
+                            std::string(valueTypeName(m.type)));
+  m.quantisation = quantisation;
+  m.quantisationClamped = q.value("clamped", int64_t{0});
+}
+
+}  // namespace
+
+StoreMeta StoreMeta::fromJson(const std::string& text, const std::string& what) {
+  const json j = parseStoreJson(text, what);
+  StoreMeta m;
+  m.dims = vec3i(j, "dims", what);
+  m.spacing = vec3d(j, "spacing", what);
+  if (j.contains("orientation")) m.orientation = orientationFromJson(j["orientation"], what);
+  m.type = typeFromJson(j, what);
+  m.background = number<double>(j, "background", what);
+  const json& range = field(j, "value_range", what);
+  if (!range.is_array() || range.size() != 2 || !range[0].is_number() || !range[1].is_number())
+    throw CorruptStoreError(what + ": key 'value_range' is not two numbers");
+  m.valueMin = range[0].get<double>();
+  m.valueMax = range[1].get<double>();
+  m.histogram = histogramFromJson(j, what);
+  m.brickSize = number<int>(j, "brick_size", what);
+  m.levels = levelsFromJson(j, what);
   m.bytesRaw = number<int64_t>(j, "bytes_raw", what);
   m.bytesStored = number<int64_t>(j, "bytes_stored", what);
   m.bytesVdb = j.value("bytes_vdb", int64_t{0});
@@ -170,28 +219,7 @@ StoreMeta StoreMeta::fromJson(const std::string& text, const std::string& what) 
   if (j.contains("vdb_files") && j["vdb_files"].is_array())
     for (const json& f : j["vdb_files"]) m.vdbFiles.push_back(f.get<std::string>());
   m.source = j.value("source", std::string());
-  if (j.contains("quantisation")) {
-    const json& q = j["quantisation"];
-    const json& qrange = field(q, "range", what);
-    const json& qtype = field(q, "type", what);
-    if (!qrange.is_array() || qrange.size() != 2 || !qrange[0].is_number() || !qrange[1].is_number() ||
-        !qtype.is_string())
-      throw CorruptStoreError(what + ": key 'quantisation' is malformed");
-    Quantisation quantisation;
-    try {
-      quantisation.type = parseQuantiseType(qtype.get<std::string>());
-      quantisation.lo = qrange[0].get<double>();
-      quantisation.hi = qrange[1].get<double>();
-      quantisation.validate();
-    } catch (const InputError& e) {
-      throw CorruptStoreError(what + ": key 'quantisation': " + e.what());
-    }
-    if (quantisation.type != m.type)
-      throw CorruptStoreError(what + ": quantised to " + qtype.get<std::string>() + " but the store type is " +
-                              std::string(valueTypeName(m.type)));
-    m.quantisation = quantisation;
-    m.quantisationClamped = q.value("clamped", int64_t{0});
-  }
+  if (j.contains("quantisation")) quantisationFromJson(j["quantisation"], m, what);
   return m;
 }
 

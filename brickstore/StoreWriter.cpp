@@ -1,10 +1,8 @@
 // prep: level 0 from the source (with the non-finite policy, statistics and the VDB grid), then each coarser
-// level from the one before, then the index and metadata, then an atomic rename into place.
+// level from the one before, then the index and metadata, all in a directory beside the store swapped into place.
 #include "brickstore/StoreWriter.h"
 
-#include <fcntl.h>
 #include <sys/resource.h>
-#include <unistd.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -27,6 +25,8 @@
 #include "brickstore/Quantise.h"
 #include "brickstore/SlabBricker.h"
 #include "brickstore/VdbChunkWriter.h"
+#include "common/AtomicReplace.h"
+#include "common/Checksum.h"
 
 namespace voxbrick::store {
 namespace fs = std::filesystem;
@@ -67,13 +67,6 @@ int64_t peakRssBytes() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   return static_cast<int64_t>(usage.ru_maxrss) * 1024;
-}
-
-void syncDirectory(const fs::path& dir) {
-  int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd < 0) return;
-  ::fsync(fd);
-  ::close(fd);
 }
 
 /// The level-0 histogram counted on every thread: a HistogramBuilder per thread, merged at the end (counts do not
@@ -127,31 +120,203 @@ void writeIndex(const fs::path& path, const std::vector<LevelBuild>& levels, int
   h.valueType = uint32_t(type);
   h.bricksFileSize = bricksFileSize;
   h.recordCount = first;
-  h.bodyCrc32 = crc32Of(body.data(), body.size());
-  h.headerCrc32 = crc32Of(&h, offsetof(IndexHeader, headerCrc32));
+  h.bodyCrc32 = common::crc32Of(body.data(), body.size());
+  h.headerCrc32 = common::crc32Of(&h, offsetof(IndexHeader, headerCrc32));
   OutputFile out(path);
   out.append(&h, sizeof h);
   out.append(body.data(), body.size());
   out.close();
 }
 
-/// Removes the temporary store unless release() was called.
-class TempDirGuard {
- public:
-  explicit TempDirGuard(fs::path dir) : mDir(std::move(dir)) {}
-  ~TempDirGuard() {
-    std::error_code ec;
-    if (!mDir.empty()) fs::remove_all(mDir, ec);
-  }
-  void release() { mDir.clear(); }
-
- private:
-  fs::path mDir;
-};
-
 bool looksLikeStore(const fs::path& dir) {
   std::error_code ec;
   return fs::is_directory(dir, ec) && (fs::exists(dir / "store.json", ec) || fs::exists(dir / "index.bin", ec));
+}
+
+/// An existing `output` is replaced only with --force, and only if it is a store.
+void checkOutput(const fs::path& output, const PrepOptions& options) {
+  std::error_code ec;
+  if (!fs::exists(output, ec)) return;
+  if (!options.overwrite) throw InputError(output.string() + ": already exists (use --force to replace it)");
+  if (!looksLikeStore(output))
+    throw InputError(output.string() + ": exists and is not a voxbrick store; refusing to replace it");
+}
+
+/// How a prep's memory is shared out (see planMemory).
+struct MemoryPlan {
+  int64_t budget = 0;       ///< bytes for the buffers: --memory less the process's baseline and the quantiser's staging
+  int64_t chunkSlices = 0;  ///< z-slices a VDB file
+  int maxInFlight = 1;      ///< slabs in flight at most, by the threads
+  int level0InFlight = 1;   ///< slabs in flight for level 0
+};
+
+/// Memory plan: the slab window, one slab of compressed frames, and (with the VDB grid) one chunk of it; more slabs
+/// in flight (reading ahead while one is cut) only from what is left after that, so the chunk size (and so the
+/// files written) does not depend on the threads. Throws InputError when --memory cannot hold one slab and chunk.
+MemoryPlan planMemory(const VolumeInfo& info, const PrepOptions& options, int64_t stagingBytes) {
+  // The process itself (libraries, allocator, thread stacks) takes about this much before any buffer: an idle
+  // `voxbrick --version` is 97 MB resident on Debian 12 (OpenVDB, TBB, Mesa, GDCM and the rest mapped), so --memory is a
+  // bound on the whole process's peak RSS. A constant, not a measurement, so that the chunking (the files written)
+  // depends on the options alone.
+  constexpr int64_t kBaselineBytes = int64_t{112} << 20;
+  const int B = options.brickSize;
+  MemoryPlan plan;
+  plan.budget = options.memoryBudgetMB * 1024 * 1024 - kBaselineBytes - stagingBytes;
+  const int64_t slab = SlabBricker::slabBytes(info.dims, B, info.type);
+  plan.chunkSlices = info.dims.z;
+  if (options.writeVdb) {
+    const int64_t left = plan.budget - slab;
+    const int64_t slabs = left / std::max<int64_t>(1, VdbChunkWriter::chunkBytes(info.dims, B));
+    plan.chunkSlices = std::min(info.dims.z, slabs * B);
+    if (slabs < 1) plan.chunkSlices = 0;
+    if (options.vdbChunkSlices > 0) plan.chunkSlices = std::min(plan.chunkSlices, options.vdbChunkSlices);
+  }
+  const int64_t needed = slab + (options.writeVdb ? VdbChunkWriter::chunkBytes(info.dims, B) : 0);
+  if (needed > plan.budget || plan.chunkSlices <= 0)
+    throw InputError("--memory " + std::to_string(options.memoryBudgetMB) + " MB is too small for slices of " +
+                     std::to_string(info.dims.x) + "x" + std::to_string(info.dims.y) + " voxels with --brick " +
+                     std::to_string(B) + ": needs at least " + std::to_string(divUp(needed + kBaselineBytes, 1 << 20)) + " MB");
+  plan.maxInFlight =
+      tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism) > 1 ? kMaxSlabsInFlight : 1;
+  const int64_t vdbBytes = options.writeVdb ? VdbChunkWriter::chunkBytes(info.dims, plan.chunkSlices) : 0;
+  plan.level0InFlight = slabsInFlight(plan.budget - vdbBytes, slab, plan.maxInFlight);
+  return plan;
+}
+
+/// What the steps of a prep share. `info` and `background` describe what is stored: the input, or the input
+/// quantised (then `quantised` is the source that does it).
+struct PrepPlan {
+  const PrepOptions& options;
+  const VolumeInfo& input;
+  VolumeSource& level0Source;
+  QuantisingSource* quantised;
+  const VolumeInfo& info;
+  double background;
+  MemoryPlan memory;
+};
+
+/// Hands a running prep's progress to the caller's callback, if there is one.
+class ProgressReport {
+ public:
+  explicit ProgressReport(const std::function<void(const PrepProgress&)>& progress) : mProgress(progress) {}
+  void operator()(const std::string& stage, int64_t done, int64_t total) {
+    if (!mProgress) return;
+    mState.stage = stage;
+    mState.done = done;
+    mState.total = total;
+    mProgress(mState);
+  }
+  void addBytesIn(int64_t bytes) { mState.bytesIn += bytes; }
+  int64_t bytesIn() const { return mState.bytesIn; }
+
+ private:
+  const std::function<void(const PrepProgress&)>& mProgress;
+  PrepProgress mState;
+};
+
+/// The metadata known before any voxel is read.
+StoreMeta describeStore(const PrepPlan& plan) {
+  const VolumeInfo& info = plan.info;
+  StoreMeta meta;
+  meta.dims = info.dims;
+  meta.spacing = info.spacing;
+  meta.orientation = info.orientation;
+  meta.type = info.type;
+  meta.background = plan.background;
+  meta.brickSize = plan.options.brickSize;
+  meta.bytesRaw = info.dims.volume() * static_cast<int64_t>(valueSize(info.type));
+  meta.source = info.description;
+  return meta;
+}
+
+/// Level 0 from the source into `bricks` (and the VDB grid into `dir`); its statistics, VDB files and quantisation
+/// go into `meta`.
+LevelBuild writeLevel0(const PrepPlan& plan, const fs::path& dir, OutputFile& bricks, StoreMeta& meta,
+                       ProgressReport& report) {
+  const PrepOptions& options = plan.options;
+  const VolumeInfo& info = plan.info;
+  Level0Stats stats(info, plan.background, options.nonFinite);
+  std::unique_ptr<VdbChunkWriter> vdb;
+  if (options.writeVdb) vdb = std::make_unique<VdbChunkWriter>(dir, info, plan.background, plan.memory.chunkSlices);
+  SlabBricker bricker(plan.level0Source, options.brickSize, plan.background, options.zstdLevel, bricks);
+  bricker.setSlabsInFlight(plan.memory.level0InFlight);
+  const int64_t sliceBytes = plan.input.dims.x * plan.input.dims.y * static_cast<int64_t>(valueSize(plan.input.type));
+  bricker.setSliceHook([&](int64_t z0, int64_t count, void* values) {
+    stats.observe(z0, count, values);
+    report.addBytesIn(count * sliceBytes);
+  });
+  if (vdb)
+    bricker.setSliceConsumer([&](int64_t z0, int64_t count, const void* values) { vdb->addSlices(z0, count, values); });
+  bricker.setProgressHook([&](int64_t done, int64_t total) { report("level 0", done, total); });
+  LevelBuild level = bricker.run();
+  if (vdb) {
+    vdb->finish();
+    meta.vdbFiles = vdb->files();
+    meta.bytesVdb = vdb->bytes();
+  }
+  meta.valueMin = stats.min;
+  meta.valueMax = stats.max;
+  meta.activeVoxels = stats.active;
+  meta.nonFiniteReplaced = plan.quantised ? plan.quantised->innerStats().nonFinite : stats.nonFinite;
+  if (plan.quantised) {
+    meta.quantisation = options.quantise;
+    meta.quantisationClamped = plan.quantised->clamped();
+  }
+  return level;
+}
+
+/// Coarser levels, each read back from the one before (in `dir`/bricks.bin) and appended to `bricks` and `levels`;
+/// the pass over level 0 also counts the histogram of `meta`'s value range, which it returns.
+Histogram writeCoarserLevels(const PrepPlan& plan, const fs::path& dir, OutputFile& bricks,
+                             std::vector<LevelBuild>& levels, const StoreMeta& meta, ProgressReport& report) {
+  const VolumeInfo& info = plan.info;
+  const int B = plan.options.brickSize;
+  const std::vector<Vec3i> pyramid = pyramidDims(info.dims, B);
+  ParallelHistogram histogram(info.type, meta.valueMin, meta.valueMax);
+  BrickFileReader reader(dir / "bricks.bin", info.type);
+  auto histogramHook = [&](int64_t, int64_t count, const void* values) {
+    histogram.add(values, count * info.dims.x * info.dims.y);
+  };
+  for (size_t l = 1; l < pyramid.size(); ++l) {
+    StoredLevelSource finer(reader, levels[l - 1], uint32_t(l - 1), B, info.type, plan.background, info.spacing);
+    if (l == 1) finer.setSliceHook(histogramHook);
+    DownsampleSource coarse(finer);
+    SlabBricker bricker(coarse, B, plan.background, plan.options.zstdLevel, bricks);
+    // The finer level's slab of B slices and the downsampler's two are held beside the slabs in flight.
+    const int64_t finerSlices = (B + 2) * pyramid[l - 1].x * pyramid[l - 1].y * int64_t(valueSize(info.type));
+    bricker.setSlabsInFlight(slabsInFlight(plan.memory.budget - finerSlices,
+                                           SlabBricker::slabBytes(pyramid[l], B, info.type), plan.memory.maxInFlight));
+    const std::string stage = "level " + std::to_string(l);
+    bricker.setProgressHook([&](int64_t done, int64_t total) { report(stage, done, total); });
+    levels.push_back(bricker.run());
+  }
+  if (pyramid.size() == 1) {
+    StoredLevelSource only(reader, levels[0], 0, B, info.type, plan.background, info.spacing);
+    only.setSliceHook(histogramHook);
+    std::vector<char> slice(static_cast<size_t>(info.dims.x * info.dims.y) * valueSize(info.type));
+    for (int64_t z = 0; z < info.dims.z; ++z) only.readSlices(1, slice.data());
+  }
+  return histogram.finish();
+}
+
+/// The whole store into the empty directory `dir`: the levels' bricks, the index and store.json; returns its
+/// metadata.
+StoreMeta writeStore(const PrepPlan& plan, const fs::path& dir, ProgressReport& report) {
+  StoreMeta meta = describeStore(plan);
+  OutputFile bricks(dir / "bricks.bin");
+  std::vector<LevelBuild> levels;
+  levels.push_back(writeLevel0(plan, dir, bricks, meta, report));
+  meta.histogram = writeCoarserLevels(plan, dir, bricks, levels, meta, report);
+  const uint64_t bricksSize = bricks.size();
+  bricks.close();
+  writeIndex(dir / "index.bin", levels, plan.options.brickSize, plan.info.type, bricksSize);
+  meta.bytesStored = int64_t(bricksSize) + int64_t(fs::file_size(dir / "index.bin"));
+  for (const LevelBuild& l : levels) meta.levels.push_back({l.dims, l.bricks, l.bricksStored, l.bytesStored});
+  OutputFile json(dir / "store.json");
+  const std::string text = meta.toJson();
+  json.append(text.data(), text.size());
+  json.close();
+  return meta;
 }
 
 }  // namespace
@@ -162,173 +327,31 @@ PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOp
   const VolumeInfo& input = source.info();
   const double inputBackground = options.haveBackground ? options.background : input.background;
   validate(input, options, inputBackground);
-  // From here on `info` and `background` describe what is stored: the input, or the input quantised.
   std::optional<QuantisingSource> quantised;
   if (options.quantise) quantised.emplace(source, *options.quantise, inputBackground, options.nonFinite);
   VolumeSource& level0Source = quantised ? static_cast<VolumeSource&>(*quantised) : source;
-  const VolumeInfo& info = level0Source.info();
-  const double background = quantised ? info.background : inputBackground;
-  const int B = options.brickSize;
   std::optional<tbb::global_control> threadLimit;
   if (options.threads > 0)
     threadLimit.emplace(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(options.threads));
+  checkOutput(output, options);
+  const VolumeInfo& info = level0Source.info();
+  const PrepPlan plan{options,
+                      input,
+                      level0Source,
+                      quantised ? &*quantised : nullptr,
+                      info,
+                      quantised ? info.background : inputBackground,
+                      planMemory(info, options, quantised ? quantised->stagingBytes() : 0)};
 
-  std::error_code ec;
-  if (fs::exists(output, ec)) {
-    if (!options.overwrite) throw InputError(output.string() + ": already exists (use --force to replace it)");
-    if (!looksLikeStore(output))
-      throw InputError(output.string() + ": exists and is not a voxbrick store; refusing to replace it");
-  }
-
-  // Memory plan: the slab window, one slab of compressed frames, and (with the VDB grid) one chunk of it; more slabs
-  // in flight (reading ahead while one is cut) only from what is left after that, so the chunk size (and so the
-  // files written) does not depend on the threads.
-  // The process itself (libraries, allocator, thread stacks) takes about this much before any buffer: an idle
-  // `voxbrick --version` is 97 MB resident on Debian 12 (OpenVDB, TBB, Mesa, GDCM and the rest mapped), so --memory is a
-  // bound on the whole process's peak RSS. A constant, not a measurement, so that the chunking (the files written)
-  // depends on the options alone.
-  constexpr int64_t kBaselineBytes = int64_t{112} << 20;
-  const int64_t budget =
-      options.memoryBudgetMB * 1024 * 1024 - kBaselineBytes - (quantised ? quantised->stagingBytes() : 0);
-  const int64_t slab = SlabBricker::slabBytes(info.dims, B, info.type);
-  int64_t chunkSlices = info.dims.z;
-  if (options.writeVdb) {
-    const int64_t left = budget - slab;
-    const int64_t slabs = left / std::max<int64_t>(1, VdbChunkWriter::chunkBytes(info.dims, B));
-    chunkSlices = std::min(info.dims.z, slabs * B);
-    if (slabs < 1) chunkSlices = 0;
-    if (options.vdbChunkSlices > 0) chunkSlices = std::min(chunkSlices, options.vdbChunkSlices);
-  }
-  const int64_t needed = slab + (options.writeVdb ? VdbChunkWriter::chunkBytes(info.dims, B) : 0);
-  if (needed > budget || chunkSlices <= 0)
-    throw InputError("--memory " + std::to_string(options.memoryBudgetMB) + " MB is too small for slices of " +
-                     std::to_string(info.dims.x) + "x" + std::to_string(info.dims.y) + " voxels with --brick " +
-                     std::to_string(B) + ": needs at least " + std::to_string(divUp(needed + kBaselineBytes, 1 << 20)) + " MB");
-  const int maxInFlight =
-      tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism) > 1 ? kMaxSlabsInFlight : 1;
-  const int64_t vdbBytes = options.writeVdb ? VdbChunkWriter::chunkBytes(info.dims, chunkSlices) : 0;
-  const int level0InFlight = slabsInFlight(budget - vdbBytes, slab, maxInFlight);
-
-  const fs::path parent = output.has_parent_path() ? output.parent_path() : fs::path(".");
-  const fs::path tmp = parent / ("." + output.filename().string() + ".tmp-" + std::to_string(::getpid()));
-  fs::remove_all(tmp, ec);
-  if (!fs::create_directory(tmp, ec) || ec)
-    throw IoError("cannot create " + tmp.string() + ": " + (ec ? ec.message() : std::string("already exists")));
-  TempDirGuard guard(tmp);
-
-  StoreMeta meta;
-  meta.dims = info.dims;
-  meta.spacing = info.spacing;
-  meta.orientation = info.orientation;
-  meta.type = info.type;
-  meta.background = background;
-  meta.brickSize = B;
-  meta.bytesRaw = info.dims.volume() * static_cast<int64_t>(valueSize(info.type));
-  meta.source = info.description;
-
-  OutputFile bricks(tmp / "bricks.bin");
-  std::vector<LevelBuild> levels;
-  PrepProgress state;
-  const std::vector<Vec3i> pyramid = pyramidDims(info.dims, B);
-  auto report = [&](const std::string& stage, int64_t done, int64_t total) {
-    if (!progress) return;
-    state.stage = stage;
-    state.done = done;
-    state.total = total;
-    progress(state);
-  };
-
-  // Level 0.
-  {
-    Level0Stats stats(info, background, options.nonFinite);
-    std::unique_ptr<VdbChunkWriter> vdb;
-    if (options.writeVdb) vdb = std::make_unique<VdbChunkWriter>(tmp, info, background, chunkSlices);
-    SlabBricker bricker(level0Source, B, background, options.zstdLevel, bricks);
-    bricker.setSlabsInFlight(level0InFlight);
-    const int64_t sliceBytes = input.dims.x * input.dims.y * static_cast<int64_t>(valueSize(input.type));
-    bricker.setSliceHook([&](int64_t z0, int64_t count, void* values) {
-      stats.observe(z0, count, values);
-      state.bytesIn += count * sliceBytes;
-    });
-    if (vdb)
-      bricker.setSliceConsumer([&](int64_t z0, int64_t count, const void* values) { vdb->addSlices(z0, count, values); });
-    bricker.setProgressHook([&](int64_t done, int64_t total) { report("level 0", done, total); });
-    levels.push_back(bricker.run());
-    if (vdb) {
-      vdb->finish();
-      meta.vdbFiles = vdb->files();
-      meta.bytesVdb = vdb->bytes();
-    }
-    meta.valueMin = stats.min;
-    meta.valueMax = stats.max;
-    meta.activeVoxels = stats.active;
-    meta.nonFiniteReplaced = quantised ? quantised->innerStats().nonFinite : stats.nonFinite;
-    if (quantised) {
-      meta.quantisation = options.quantise;
-      meta.quantisationClamped = quantised->clamped();
-    }
-  }
-
-  // Coarser levels, each read back from the one before; the pass over level 0 also fills the histogram.
-  ParallelHistogram histogram(info.type, meta.valueMin, meta.valueMax);
-  BrickFileReader reader(tmp / "bricks.bin", info.type);
-  auto histogramHook = [&](int64_t, int64_t count, const void* values) {
-    histogram.add(values, count * info.dims.x * info.dims.y);
-  };
-  for (size_t l = 1; l < pyramid.size(); ++l) {
-    StoredLevelSource finer(reader, levels[l - 1], uint32_t(l - 1), B, info.type, background, info.spacing);
-    if (l == 1) finer.setSliceHook(histogramHook);
-    DownsampleSource coarse(finer);
-    SlabBricker bricker(coarse, B, background, options.zstdLevel, bricks);
-    // The finer level's slab of B slices and the downsampler's two are held beside the slabs in flight.
-    const int64_t finerSlices = (B + 2) * pyramid[l - 1].x * pyramid[l - 1].y * int64_t(valueSize(info.type));
-    bricker.setSlabsInFlight(slabsInFlight(budget - finerSlices, SlabBricker::slabBytes(pyramid[l], B, info.type),
-                                           maxInFlight));
-    const std::string stage = "level " + std::to_string(l);
-    bricker.setProgressHook([&](int64_t done, int64_t total) { report(stage, done, total); });
-    levels.push_back(bricker.run());
-  }
-  if (pyramid.size() == 1) {
-    StoredLevelSource only(reader, levels[0], 0, B, info.type, background, info.spacing);
-    only.setSliceHook(histogramHook);
-    std::vector<char> slice(static_cast<size_t>(info.dims.x * info.dims.y) * valueSize(info.type));
-    for (int64_t z = 0; z < info.dims.z; ++z) only.readSlices(1, slice.data());
-  }
-
-  meta.histogram = histogram.finish();
-  const uint64_t bricksSize = bricks.size();
-  bricks.close();
-  writeIndex(tmp / "index.bin", levels, B, info.type, bricksSize);
-  meta.bytesStored = int64_t(bricksSize) + int64_t(fs::file_size(tmp / "index.bin"));
-  for (const LevelBuild& l : levels) meta.levels.push_back({l.dims, l.bricks, l.bricksStored, l.bytesStored});
-  {
-    OutputFile json(tmp / "store.json");
-    const std::string text = meta.toJson();
-    json.append(text.data(), text.size());
-    json.close();
-  }
-  syncDirectory(tmp);
-
-  // Into place: an existing store is moved aside first and removed only once the new one is there.
-  const fs::path old = parent / ("." + output.filename().string() + ".old-" + std::to_string(::getpid()));
-  const bool replacing = fs::exists(output, ec);
-  if (replacing) {
-    fs::rename(output, old, ec);
-    if (ec) throw IoError("cannot move aside " + output.string() + ": " + ec.message());
-  }
-  fs::rename(tmp, output, ec);
-  if (ec) {
-    std::error_code ignore;
-    if (replacing) fs::rename(old, output, ignore);
-    throw IoError("cannot rename " + tmp.string() + " to " + output.string() + ": " + ec.message());
-  }
-  guard.release();
-  if (replacing) fs::remove_all(old, ec);
-  syncDirectory(parent);
-
+  // Built beside `output`, then swapped in: an existing store stays at the path until the new one replaces it.
+  ProgressReport report(progress);
   PrepSummary summary;
-  summary.meta = std::move(meta);
-  summary.bytesIn = state.bytesIn;
+  try {
+    common::replaceDirectory(output, [&](const fs::path& dir) { summary.meta = writeStore(plan, dir, report); });
+  } catch (const common::ReplaceError& e) {
+    throw IoError(e.what());
+  }
+  summary.bytesIn = report.bytesIn();
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   summary.peakRssBytes = peakRssBytes();
   return summary;

@@ -114,6 +114,26 @@ std::string knownNames() {
   return out;
 }
 
+/// The spec's comma-separated parts: the field's name, then key=value pairs.
+std::vector<std::string> splitSpec(const std::string& spec) {
+  std::vector<std::string> parts;
+  for (size_t start = 0;;) {
+    size_t comma = spec.find(',', start);
+    parts.push_back(spec.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return parts;
+}
+
+const FieldInfo& findField(const std::string& spec, const std::string& name) {
+  for (const FieldInfo& f : kFields)
+    if (name == f.name) return f;
+  throw InputError("synthetic spec '" + spec + "': " +
+                   (name.empty() ? std::string("no field name") : "unknown field '" + name + "'") +
+                   " (known: " + knownNames() + "; form NAME[,key=value...])");
+}
+
 }  // namespace
 
 std::vector<std::string> SyntheticField::names() {
@@ -122,27 +142,48 @@ std::vector<std::string> SyntheticField::names() {
   return out;
 }
 
+void SyntheticField::drawBlobs(int64_t count, uint64_t seed) {
+  SplitMix64 rng(seed);
+  for (int64_t b = 0; b < count; ++b) {
+    Bump bump;
+    bump.cx = rng.uniform(-0.6, 0.6);
+    bump.cy = rng.uniform(-0.6, 0.6);
+    bump.cz = rng.uniform(-0.6, 0.6);
+    bump.radius = rng.uniform(0.08, 0.2);
+    bump.amplitude = rng.uniform(0.5, 1.0);
+    mBumps.push_back(bump);
+  }
+}
+
+bool SyntheticField::drawBalls(double fill, int64_t count, uint64_t seed) {
+  SplitMix64 rng(seed);
+  // Balls of volume 8 * fill / count each fill `fill` of the cube [-1,1]^3 when disjoint and inside it.
+  const double radius = std::cbrt(6.0 * fill / (kPi * static_cast<double>(count)));
+  // Greedy rejection sampling can paint itself into a corner with a few large balls, hence the restarts.
+  for (int restart = 0; restart < 200 && mBumps.size() < static_cast<size_t>(count); ++restart) {
+    mBumps.clear();
+    for (int attempt = 0; attempt < 2000 && mBumps.size() < static_cast<size_t>(count); ++attempt) {
+      Bump ball;
+      ball.cx = rng.uniform(-1 + radius, 1 - radius);
+      ball.cy = rng.uniform(-1 + radius, 1 - radius);
+      ball.cz = rng.uniform(-1 + radius, 1 - radius);
+      ball.radius = radius;
+      bool clear = std::all_of(mBumps.begin(), mBumps.end(), [&](const Bump& o) {
+        double dx = o.cx - ball.cx, dy = o.cy - ball.cy, dz = o.cz - ball.cz;
+        return dx * dx + dy * dy + dz * dz >= 4 * radius * radius;
+      });
+      if (clear) mBumps.push_back(ball);
+    }
+  }
+  return mBumps.size() >= static_cast<size_t>(count);
+}
+
 SyntheticField SyntheticField::parse(const std::string& spec) {
-  std::vector<std::string> parts;
-  for (size_t start = 0;;) {
-    size_t comma = spec.find(',', start);
-    parts.push_back(spec.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
-    if (comma == std::string::npos) break;
-    start = comma + 1;
-  }
-
-  const FieldInfo* info = nullptr;
-  for (const FieldInfo& f : kFields)
-    if (parts[0] == f.name) info = &f;
-  if (!info) {
-    throw InputError("synthetic spec '" + spec + "': " +
-                     (parts[0].empty() ? std::string("no field name") : "unknown field '" + parts[0] + "'") +
-                     " (known: " + knownNames() + "; form NAME[,key=value...])");
-  }
-
+  const std::vector<std::string> parts = splitSpec(spec);
+  const FieldInfo& info = findField(spec, parts[0]);
   SyntheticField field;
-  field.mName = info->name;
-  field.mKind = static_cast<Kind>(info - kFields);  // kFields lists the fields in Kind's order
+  field.mName = info.name;
+  field.mKind = static_cast<Kind>(&info - kFields);  // kFields lists the fields in Kind's order
 
   SpecArgs args(spec, field.mName);
   for (size_t p = 1; p < parts.size(); ++p) {
@@ -151,7 +192,7 @@ SyntheticField SyntheticField::parse(const std::string& spec) {
     args.add(parts[p].substr(0, eq), parts[p].substr(eq + 1));
   }
 
-  const int64_t n = args.integer("n", info->defaultN, 1, kMaxDim);
+  const int64_t n = args.integer("n", info.defaultN, 1, kMaxDim);
   field.mDims = {args.integer("nx", n, 1, kMaxDim), args.integer("ny", n, 1, kMaxDim),
                  args.integer("nz", n, 1, kMaxDim)};
   field.mSpacing = {1, 1, 1};
@@ -168,47 +209,19 @@ SyntheticField SyntheticField::parse(const std::string& spec) {
       break;
     case Kind::Blobs: {
       const int64_t count = args.integer("count", 8, 1, 10000);
-      SplitMix64 rng(static_cast<uint64_t>(args.integer("seed", 1, 0, INT64_MAX)));
-      for (int64_t b = 0; b < count; ++b) {
-        Bump bump;
-        bump.cx = rng.uniform(-0.6, 0.6);
-        bump.cy = rng.uniform(-0.6, 0.6);
-        bump.cz = rng.uniform(-0.6, 0.6);
-        bump.radius = rng.uniform(0.08, 0.2);
-        bump.amplitude = rng.uniform(0.5, 1.0);
-        field.mBumps.push_back(bump);
-      }
+      field.drawBlobs(count, static_cast<uint64_t>(args.integer("seed", 1, 0, INT64_MAX)));
       break;
     }
     case Kind::Sparse: {
       const double fill = args.real("fill", 0.03, [](double v) { return v > 0 && v <= 0.2; }, "in (0, 0.2]");
       const int64_t count = args.integer("count", 6, 1, 10000);
-      SplitMix64 rng(static_cast<uint64_t>(args.integer("seed", 1, 0, INT64_MAX)));
-      // Balls of volume 8 * fill / count each fill `fill` of the cube [-1,1]^3 when disjoint and inside it.
-      const double radius = std::cbrt(6.0 * fill / (kPi * static_cast<double>(count)));
-      // Greedy rejection sampling can paint itself into a corner with a few large balls, hence the restarts.
-      for (int restart = 0; restart < 200 && field.mBumps.size() < static_cast<size_t>(count); ++restart) {
-        field.mBumps.clear();
-        for (int attempt = 0; attempt < 2000 && field.mBumps.size() < static_cast<size_t>(count); ++attempt) {
-          Bump ball;
-          ball.cx = rng.uniform(-1 + radius, 1 - radius);
-          ball.cy = rng.uniform(-1 + radius, 1 - radius);
-          ball.cz = rng.uniform(-1 + radius, 1 - radius);
-          ball.radius = radius;
-          bool clear = std::all_of(field.mBumps.begin(), field.mBumps.end(), [&](const Bump& o) {
-            double dx = o.cx - ball.cx, dy = o.cy - ball.cy, dz = o.cz - ball.cz;
-            return dx * dx + dy * dy + dz * dz >= 4 * radius * radius;
-          });
-          if (clear) field.mBumps.push_back(ball);
-        }
-      }
-      if (field.mBumps.size() < static_cast<size_t>(count))
+      if (!field.drawBalls(fill, count, static_cast<uint64_t>(args.integer("seed", 1, 0, INT64_MAX))))
         args.fail("could not place " + std::to_string(count) + " disjoint balls; lower fill or raise count");
       break;
     }
     case Kind::Hdr: break;
   }
-  args.checkAllUsed(info->keys);
+  args.checkAllUsed(info.keys);
   field.updateAxes();
   return field;
 }

@@ -78,6 +78,11 @@ class SyntheticField {
   SyntheticField() = default;
   /// Fills mAxis from the dims and spacing.
   void updateAxes();
+  /// The blobs: `count` bumps drawn from a SplitMix64 stream seeded with `seed`.
+  void drawBlobs(int64_t count, uint64_t seed);
+  /// The sparse field's balls: `count` disjoint balls filling `fill` of the cube, drawn from a SplitMix64 stream
+  /// seeded with `seed`; false if they could not be placed.
+  bool drawBalls(double fill, int64_t count, uint64_t seed);
   template <typename PerVoxel>
   void sampleRowWith(int64_t j, int64_t k, float* out, PerVoxel f) const;
   void blobsRow(int64_t j, int64_t k, float* out) const;

@@ -197,6 +197,61 @@ Histogram voxelHistogram(const Topology& topology, const Vec3i& dims, float back
   return histogram.finish();
 }
 
+/// The level-0 bricks (flags by brick index) that read a voxel of a leaf or of a tile the topology lists; every
+/// other brick reads only the background.
+std::vector<uint8_t> bricksNearData(const Topology& topology, int64_t B, const Vec3i& nb) {
+  std::vector<uint8_t> near(size_t(nb.volume()), 0);
+  auto mark = [&](const Vec3i& lo, const Vec3i& hi) {
+    Vec3i first, last;
+    bricksReading(lo, hi, B, nb, first, last);
+    for (int64_t k = first.z; k <= last.z; ++k)
+      for (int64_t j = first.y; j <= last.y; ++j)
+        for (int64_t i = first.x; i <= last.x; ++i) near[size_t(i + nb.x * (j + nb.y * k))] = 1;
+  };
+  for (const Leaf* leaf : topology.leaves) {
+    Vec3i lo, hi;
+    if (topology.clip(leaf->getNodeBoundingBox(), lo, hi)) mark(lo, hi);
+  }
+  for (const Tile& tile : topology.tiles) mark(tile.lo, tile.hi);
+  return near;
+}
+
+/// The statistics of the voxels a brick owns (no border), so that every voxel is counted once.
+struct OwnedStats {
+  float min = std::numeric_limits<float>::max(), max = std::numeric_limits<float>::lowest();
+  int64_t active = 0;
+};
+
+/// Extracts level-0 brick `idx` of a volume of `n` voxels once: its record (exact range and emptiness, border
+/// included; a brick that is not empty is stored at `storedSize` bytes) into `rec`, and the statistics of the voxels
+/// it owns. `block` and `samples` (of (B + 2)^3 values) are scratch.
+OwnedStats scanBrick(const Tree& tree, const openvdb::Coord& origin, const Vec3i& idx, int64_t B, const Vec3i& n,
+                     uint32_t storedSize, BrickRecord& rec, std::vector<float>& block, std::vector<float>& samples) {
+  const int64_t E = B + 2;
+  const float background = tree.background();
+  Vec3i lo, hi;
+  brickVoxels(idx, B, n, lo, hi);
+  block.resize(size_t((hi.x - lo.x + 1) * (hi.y - lo.y + 1) * (hi.z - lo.z + 1)));
+  fillFromTree(tree, origin, lo, hi, block.data());
+  gatherSamples(block.data(), lo, hi, idx, B, n, samples.data());
+  bool empty = true;
+  const MinMaxPair range = sampleRange(samples.data(), samples.size(), background, empty);
+  rec.min = range.min;
+  rec.max = range.max;
+  rec.compressedSize = empty ? 0 : storedSize;
+  const Vec3i own{std::min(B, n.x - idx.x * B), std::min(B, n.y - idx.y * B), std::min(B, n.z - idx.z * B)};
+  OwnedStats o;
+  for (int64_t z = 1; z <= own.z; ++z)
+    for (int64_t y = 1; y <= own.y; ++y)
+      for (int64_t x = 1; x <= own.x; ++x) {
+        const float v = samples[size_t(x + E * (y + E * z))];
+        o.min = std::min(o.min, v);
+        o.max = std::max(o.max, v);
+        o.active += v != background;
+      }
+  return o;
+}
+
 }  // namespace
 
 struct VdbStore::Grid {
@@ -268,59 +323,18 @@ void VdbStore::scan() {
   mOpenStats.leafNodes = int64_t(topology.leaves.size());
   mOpenStats.tiles = int64_t(topology.tiles.size());
 
-  // Bricks that read a voxel of a leaf or of such a tile; every other brick reads only the background.
-  std::vector<uint8_t> near(size_t(nb.volume()), 0);
-  auto mark = [&](const Vec3i& lo, const Vec3i& hi) {
-    Vec3i first, last;
-    bricksReading(lo, hi, B, nb, first, last);
-    for (int64_t k = first.z; k <= last.z; ++k)
-      for (int64_t j = first.y; j <= last.y; ++j)
-        for (int64_t i = first.x; i <= last.x; ++i) near[size_t(i + nb.x * (j + nb.y * k))] = 1;
-  };
-  for (const Leaf* leaf : topology.leaves) {
-    Vec3i lo, hi;
-    if (topology.clip(leaf->getNodeBoundingBox(), lo, hi)) mark(lo, hi);
-  }
-  for (const Tile& tile : topology.tiles) mark(tile.lo, tile.hi);
+  const std::vector<uint8_t> near = bricksNearData(topology, B, nb);
   std::vector<int64_t> candidates;
   for (int64_t b = 0; b < nb.volume(); ++b)
     if (near[size_t(b)]) candidates.push_back(b);
   mOpenStats.bricksScanned = int64_t(candidates.size());
-
-  // Each candidate extracted once: its exact range and emptiness (border included), and the statistics of the
-  // voxels it owns (no border), so that every voxel is counted once.
-  struct Owned {
-    float min = std::numeric_limits<float>::max(), max = std::numeric_limits<float>::lowest();
-    int64_t active = 0;
-  };
-  std::vector<Owned> owned(candidates.size());
+  std::vector<OwnedStats> owned(candidates.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size()), [&](const tbb::blocked_range<size_t>& r) {
-    const int64_t E = B + 2;
-    std::vector<float> block, samples(size_t(E * E * E));
+    std::vector<float> block, samples(size_t((B + 2) * (B + 2) * (B + 2)));
     for (size_t c = r.begin(); c != r.end(); ++c) {
       const int64_t b = candidates[c];
       const Vec3i idx{b % nb.x, (b / nb.x) % nb.y, b / (nb.x * nb.y)};
-      Vec3i lo, hi;
-      brickVoxels(idx, B, n, lo, hi);
-      block.resize(size_t((hi.x - lo.x + 1) * (hi.y - lo.y + 1) * (hi.z - lo.z + 1)));
-      fillFromTree(tree, origin, lo, hi, block.data());
-      gatherSamples(block.data(), lo, hi, idx, B, n, samples.data());
-      bool empty = true;
-      const MinMaxPair range = sampleRange(samples.data(), samples.size(), background, empty);
-      BrickRecord& rec = mRecords[size_t(b)];
-      rec.min = range.min;
-      rec.max = range.max;
-      rec.compressedSize = empty ? 0 : storedSize;
-      const Vec3i own{std::min(B, n.x - idx.x * B), std::min(B, n.y - idx.y * B), std::min(B, n.z - idx.z * B)};
-      Owned& o = owned[c];
-      for (int64_t z = 1; z <= own.z; ++z)
-        for (int64_t y = 1; y <= own.y; ++y)
-          for (int64_t x = 1; x <= own.x; ++x) {
-            const float v = samples[size_t(x + E * (y + E * z))];
-            o.min = std::min(o.min, v);
-            o.max = std::max(o.max, v);
-            o.active += v != background;
-          }
+      owned[c] = scanBrick(tree, origin, idx, B, n, storedSize, mRecords[size_t(b)], block, samples);
     }
   });
   for (int64_t b = 0; b < nb.volume(); ++b)
@@ -328,7 +342,7 @@ void VdbStore::scan() {
 
   double lo = std::numeric_limits<double>::max(), hi = std::numeric_limits<double>::lowest();
   int64_t active = 0;
-  for (const Owned& o : owned) {
+  for (const OwnedStats& o : owned) {
     lo = std::min(lo, double(o.min));
     hi = std::max(hi, double(o.max));
     active += o.active;

@@ -1,13 +1,9 @@
 // Image files: JPEG through libjpeg(-turbo), the choice of format by extension, and atomic writes.
 #include "image/ImageFile.h"
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <jpeglib.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <csetjmp>
@@ -16,6 +12,8 @@
 #include <fstream>
 #include <iterator>
 #include <memory>
+
+#include "common/AtomicReplace.h"
 
 namespace voxbrick::image {
 namespace {
@@ -39,26 +37,6 @@ std::string lowerExtension(const std::filesystem::path& path) {
   std::string ext = path.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   return ext;
-}
-
-/// A name beside `path` that no other writer of this process or another picks.
-std::filesystem::path temporaryBeside(const std::filesystem::path& path) {
-  static std::atomic<unsigned> counter{0};
-  const std::string name = "." + path.filename().string() + ".tmp-" + std::to_string(::getpid()) + "-" +
-                           std::to_string(counter.fetch_add(1));
-  return path.parent_path() / name;
-}
-
-/// Writes all of `bytes` to `fd`, then flushes them to the disk; false (errno set) on the first failure.
-bool writeAll(int fd, std::span<const uint8_t> bytes) {
-  size_t done = 0;
-  while (done < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    done += size_t(n);
-  }
-  return ::fsync(fd) == 0;
 }
 
 }  // namespace
@@ -146,20 +124,10 @@ Image8 decodeJpeg(std::span<const uint8_t> bytes, const std::string& what) {
 }
 
 void writeFileAtomically(const std::filesystem::path& path, std::span<const uint8_t> bytes) {
-  const std::filesystem::path temporary = temporaryBeside(path);
-  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-  if (fd < 0) throw ImageFailure("cannot write " + path.string() + ": " + std::strerror(errno));
-  const bool written = writeAll(fd, bytes);
-  const int writeErrno = errno;
-  const bool closed = ::close(fd) == 0;
-  if (!written || !closed) {
-    ::unlink(temporary.c_str());
-    throw ImageFailure("cannot write " + path.string() + ": " + std::strerror(written ? errno : writeErrno));
-  }
-  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
-    const int renameErrno = errno;
-    ::unlink(temporary.c_str());
-    throw ImageFailure("cannot write " + path.string() + ": " + std::strerror(renameErrno));
+  try {
+    common::replaceFile(path, bytes);
+  } catch (const common::ReplaceError& e) {
+    throw ImageFailure(e.what());
   }
 }
 

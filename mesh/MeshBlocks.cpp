@@ -5,15 +5,14 @@
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
-#include <zlib.h>
 #include <zstd.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
-#include <limits>
 #include <utility>
 
+#include "common/Checksum.h"
 #include "mesh/TetMesh.h"
 
 namespace voxbrick::mesh {
@@ -34,19 +33,6 @@ void unshuffle4(const char* src, char* dst, size_t count) {
 }
 
 }  // namespace
-
-uint32_t meshCrc32(const void* data, size_t size, uint32_t crc) {
-  // zlib takes a uInt length; feed larger buffers in pieces.
-  const auto* p = static_cast<const Bytef*>(data);
-  uLong c = crc;
-  while (size > 0) {
-    const auto n = static_cast<uInt>(std::min<size_t>(size, std::numeric_limits<uInt>::max()));
-    c = ::crc32(c, p, n);
-    p += n;
-    size -= n;
-  }
-  return static_cast<uint32_t>(c);
-}
 
 std::vector<char> encodeBlock(const void* values, size_t bytes, int level) {
   if (bytes % 4 != 0)
@@ -90,7 +76,7 @@ BlockRef MeshOutputFile::appendBlock(const std::vector<char>& encoded, uint64_t 
   BlockRef ref{};
   ref.compressedSize = encoded.size();
   ref.rawSize = rawSize;
-  ref.crc32 = meshCrc32(encoded.data(), encoded.size());
+  ref.crc32 = common::crc32Of(encoded.data(), encoded.size());
   ref.offset = append(encoded.data(), encoded.size());
   return ref;
 }
@@ -158,7 +144,7 @@ void MeshInputFile::readBlock(const BlockRef& ref, void* dst, uint64_t rawSize, 
   checkBlockRef(ref, mSize, rawSize, mPath.string(), what);
   std::vector<char> compressed(ref.compressedSize);
   readAt(ref.offset, compressed.data(), compressed.size());
-  if (meshCrc32(compressed.data(), compressed.size()) != ref.crc32)
+  if (common::crc32Of(compressed.data(), compressed.size()) != ref.crc32)
     throw MeshError(mPath.string() + ": " + what + ": checksum mismatch (corrupt data)");
   const unsigned long long declared = ZSTD_getFrameContentSize(compressed.data(), compressed.size());
   if (declared != rawSize)

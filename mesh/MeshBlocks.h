@@ -12,9 +12,6 @@
 
 namespace voxbrick::mesh {
 
-/// CRC-32 (zlib's) of a buffer of any size, continuing from `crc`.
-uint32_t meshCrc32(const void* data, size_t size, uint32_t crc = 0);
-
 /// Shuffles `bytes` bytes of 4-byte values into planes and compresses them into one zstd frame at `level`.
 /// `bytes` must be a multiple of 4.
 std::vector<char> encodeBlock(const void* values, size_t bytes, int level);

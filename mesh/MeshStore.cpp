@@ -11,6 +11,7 @@
 #include <iomanip>
 #include <sstream>
 
+#include "common/Checksum.h"
 #include "mesh/MeshMeta.h"
 
 namespace voxbrick::mesh {
@@ -45,7 +46,7 @@ bool inside(const glm::vec3& lo, const glm::vec3& hi, const glm::vec3& outerLo, 
 
 /// The header's fields that need no other file: magic, version, checksum, reserved bytes, counts within limits.
 void checkHeader(const MeshIndexHeader& h, const std::string& where) {
-  if (h.headerCrc32 != meshCrc32(&h, offsetof(MeshIndexHeader, headerCrc32)))
+  if (h.headerCrc32 != common::crc32Of(&h, offsetof(MeshIndexHeader, headerCrc32)))
     throw MeshError(where + ": header checksum mismatch (corrupt index)");
   if (h.reserved != 0) throw MeshError(where + ": reserved header field is not zero");
   auto count = [&](const char* what, uint64_t value, uint64_t lo, uint64_t hi) {
@@ -62,20 +63,9 @@ void checkHeader(const MeshIndexHeader& h, const std::string& where) {
     throw MeshError(where + ": bounds or scalar range not finite and ordered");
 }
 
-}  // namespace
-
-MeshStore MeshStore::open(const fs::path& dir) {
-  std::error_code ec;
-  if (!fs::is_directory(dir, ec)) throw MeshError(dir.string() + ": not a mesh store directory");
-  MeshStore store;
-  store.mPath = dir;
-  const fs::path metaPath = dir / kMeshMetaFile;
-  const MeshStoreInfo meta = meshInfoFromJson(readMeta(metaPath), metaPath.string());
-
-  // The index: magic and version first (a later version may lay out the rest differently), then the header.
-  const fs::path indexPath = dir / kMeshIndexFile;
-  const std::string indexName = indexPath.string();
-  MeshInputFile index(indexPath);
+/// The index's header: magic and version first (a later version may lay out the rest differently), then the
+/// fields checkHeader checks.
+MeshIndexHeader readHeader(const MeshInputFile& index, const std::string& indexName) {
   MeshIndexHeader h{};
   if (index.size() < offsetof(MeshIndexHeader, chunkCount))
     throw MeshError(indexName + ": " + std::to_string(index.size()) + " bytes, truncated header");
@@ -88,33 +78,36 @@ MeshStore MeshStore::open(const fs::path& dir) {
     throw MeshError(indexName + ": " + std::to_string(index.size()) + " bytes, truncated header");
   index.readAt(0, &h, sizeof h);
   checkHeader(h, indexName);
+  return h;
+}
+
+/// The chunk table after the header, checked against the index's size, mesh.json's counts and the checksum.
+std::vector<MeshChunkRecord> readRecords(const MeshInputFile& index, const MeshIndexHeader& h,
+                                         const MeshStoreInfo& meta, const std::string& metaName) {
+  const std::string indexName = index.path().string();
   const uint64_t expected = sizeof h + uint64_t(h.chunkCount) * sizeof(MeshChunkRecord);
   if (index.size() != expected)
     throw MeshError(indexName + ": " + std::to_string(index.size()) + " bytes, " + std::to_string(h.chunkCount) +
                     " chunks need " + std::to_string(expected) + " (truncated or corrupt)");
   if (meta.vertexCount != h.vertexCount || meta.tetCount != h.tetCount || meta.chunkCount != h.chunkCount ||
       meta.boundaryFaceCount != h.boundaryFaceCount || meta.tetsPerChunk != h.tetsPerChunk)
-    throw MeshError(indexName + ": counts do not match " + metaPath.string());
-  store.mRecords.resize(h.chunkCount);
-  index.readAt(sizeof h, store.mRecords.data(), store.mRecords.size() * sizeof(MeshChunkRecord));
-  if (meshCrc32(store.mRecords.data(), store.mRecords.size() * sizeof(MeshChunkRecord)) != h.bodyCrc32)
+    throw MeshError(indexName + ": counts do not match " + metaName);
+  std::vector<MeshChunkRecord> records(h.chunkCount);
+  index.readAt(sizeof h, records.data(), records.size() * sizeof(MeshChunkRecord));
+  if (common::crc32Of(records.data(), records.size() * sizeof(MeshChunkRecord)) != h.bodyCrc32)
     throw MeshError(indexName + ": chunk table checksum mismatch (corrupt index)");
+  return records;
+}
 
-  store.mData = MeshInputFile(dir / kMeshDataFile);
-  const uint64_t dataSize = store.mData.size();
-  if (dataSize != h.dataFileSize)
-    throw MeshError(store.mData.path().string() + ": " + std::to_string(dataSize) + " bytes, the index expects " +
-                    std::to_string(h.dataFileSize) + " (truncated or replaced)");
-  checkBlockRef(h.points, dataSize, h.vertexCount * 12, indexName, "points");
-  checkBlockRef(h.scalars, dataSize, h.vertexCount * 4, indexName, "scalars");
-  checkBlockRef(h.boundary, dataSize, h.boundaryFaceCount * 8, indexName, "boundary");
-  store.mBoundaryBlock = h.boundary;
-
+/// The chunks the records describe, each checked to follow the one before, to lie within the mesh's bounds and
+/// range and to name blocks inside the data file of `dataSize` bytes.
+std::vector<ChunkInfo> chunksOf(const std::vector<MeshChunkRecord>& records, const MeshIndexHeader& h,
+                                uint64_t dataSize, const std::string& indexName) {
   const glm::vec3 lo = toVec(h.boundsMin), hi = toVec(h.boundsMax);
   uint64_t next = 0;
-  store.mChunks.resize(h.chunkCount);
+  std::vector<ChunkInfo> chunks(h.chunkCount);
   for (uint32_t c = 0; c < h.chunkCount; ++c) {
-    const MeshChunkRecord& r = store.mRecords[c];
+    const MeshChunkRecord& r = records[c];
     const std::string what = "chunk " + std::to_string(c);
     if (r.firstTet != next || r.tetCount < 1 || r.tetCount > kMaxTetsPerChunk || r.tetCount > h.tetCount - next ||
         r.reserved != 0)
@@ -128,36 +121,70 @@ MeshStore MeshStore::open(const fs::path& dir) {
       throw MeshError(indexName + ": " + what + ": bounds or scalar range outside the mesh's");
     checkBlockRef(r.tets, dataSize, uint64_t(r.tetCount) * 16, indexName, what + " tets");
     checkBlockRef(r.neighbours, dataSize, uint64_t(r.tetCount) * 16, indexName, what + " neighbours");
-    store.mChunks[c] = ChunkInfo{r.firstTet, r.tetCount, clo, chi, r.scalarMin, r.scalarMax,
-                                 r.tets.compressedSize + r.neighbours.compressedSize};
+    chunks[c] = ChunkInfo{r.firstTet, r.tetCount, clo, chi, r.scalarMin, r.scalarMax,
+                          r.tets.compressedSize + r.neighbours.compressedSize};
   }
   if (next != h.tetCount)
     throw MeshError(indexName + ": chunks hold " + std::to_string(next) + " tets, the header says " +
                     std::to_string(h.tetCount));
+  return chunks;
+}
 
-  // Every count is now bounded by the file sizes, so the vertex arrays can be sized from them.
-  store.mPoints.resize(h.vertexCount);
-  store.mData.readBlock(h.points, store.mPoints.data(), h.vertexCount * 12, "points");
-  store.mScalars.resize(h.vertexCount);
-  store.mData.readBlock(h.scalars, store.mScalars.data(), h.vertexCount * 4, "scalars");
-  // The writer takes both from TetMesh::bounds() and scalarRange(), so they match exactly.
-  glm::vec3 plo = store.mPoints[0], phi = plo;
-  float smin = store.mScalars[0], smax = smin;
-  for (size_t v = 0; v < store.mPoints.size(); ++v) {
-    const glm::vec3& p = store.mPoints[v];
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z) || !std::isfinite(store.mScalars[v]))
-      throw MeshError(store.mData.path().string() + ": vertex " + std::to_string(v) + " is not finite");
-    plo = glm::min(plo, store.mPoints[v]);
-    phi = glm::max(phi, store.mPoints[v]);
-    smin = std::min(smin, store.mScalars[v]);
-    smax = std::max(smax, store.mScalars[v]);
+/// The points and scalars, checked finite and to span exactly the index's bounds and range (the writer takes both
+/// from TetMesh::bounds() and scalarRange(), so they match exactly). Every count is bounded by the file sizes by
+/// now, so the arrays can be sized from them.
+void readVertices(const MeshInputFile& data, const MeshIndexHeader& h, std::vector<glm::vec3>& points,
+                  std::vector<float>& scalars) {
+  points.resize(h.vertexCount);
+  data.readBlock(h.points, points.data(), h.vertexCount * 12, "points");
+  scalars.resize(h.vertexCount);
+  data.readBlock(h.scalars, scalars.data(), h.vertexCount * 4, "scalars");
+  glm::vec3 plo = points[0], phi = plo;
+  float smin = scalars[0], smax = smin;
+  for (size_t v = 0; v < points.size(); ++v) {
+    const glm::vec3& p = points[v];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z) || !std::isfinite(scalars[v]))
+      throw MeshError(data.path().string() + ": vertex " + std::to_string(v) + " is not finite");
+    plo = glm::min(plo, points[v]);
+    phi = glm::max(phi, points[v]);
+    smin = std::min(smin, scalars[v]);
+    smax = std::max(smax, scalars[v]);
   }
-  if (plo != lo || phi != hi || smin != h.scalarMin || smax != h.scalarMax)
-    throw MeshError(store.mData.path().string() + ": points or scalars do not match the index's bounds and range");
+  if (plo != toVec(h.boundsMin) || phi != toVec(h.boundsMax) || smin != h.scalarMin || smax != h.scalarMax)
+    throw MeshError(data.path().string() + ": points or scalars do not match the index's bounds and range");
+}
+
+}  // namespace
+
+MeshStore MeshStore::open(const fs::path& dir) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) throw MeshError(dir.string() + ": not a mesh store directory");
+  MeshStore store;
+  store.mPath = dir;
+  const fs::path metaPath = dir / kMeshMetaFile;
+  const MeshStoreInfo meta = meshInfoFromJson(readMeta(metaPath), metaPath.string());
+
+  const fs::path indexPath = dir / kMeshIndexFile;
+  const std::string indexName = indexPath.string();
+  MeshInputFile index(indexPath);
+  const MeshIndexHeader h = readHeader(index, indexName);
+  store.mRecords = readRecords(index, h, meta, metaPath.string());
+
+  store.mData = MeshInputFile(dir / kMeshDataFile);
+  const uint64_t dataSize = store.mData.size();
+  if (dataSize != h.dataFileSize)
+    throw MeshError(store.mData.path().string() + ": " + std::to_string(dataSize) + " bytes, the index expects " +
+                    std::to_string(h.dataFileSize) + " (truncated or replaced)");
+  checkBlockRef(h.points, dataSize, h.vertexCount * 12, indexName, "points");
+  checkBlockRef(h.scalars, dataSize, h.vertexCount * 4, indexName, "scalars");
+  checkBlockRef(h.boundary, dataSize, h.boundaryFaceCount * 8, indexName, "boundary");
+  store.mBoundaryBlock = h.boundary;
+  store.mChunks = chunksOf(store.mRecords, h, dataSize, indexName);
+  readVertices(store.mData, h, store.mPoints, store.mScalars);
 
   store.mInfo = meta;
-  store.mInfo.boundsMin = lo;
-  store.mInfo.boundsMax = hi;
+  store.mInfo.boundsMin = toVec(h.boundsMin);
+  store.mInfo.boundsMax = toVec(h.boundsMax);
   store.mInfo.scalarMin = h.scalarMin;
   store.mInfo.scalarMax = h.scalarMax;
   store.mInfo.bytesRaw = h.vertexCount * 16 + h.tetCount * 32 + h.boundaryFaceCount * 8;

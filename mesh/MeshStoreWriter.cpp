@@ -1,5 +1,5 @@
 // writeMeshStore: check the mesh and topology, sort the tets in Z-order, cut them into chunks, write the blocks, the
-// index and mesh.json into a staging directory, then put it in place.
+// index and mesh.json into a directory beside the store, then swap it into place.
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
@@ -9,9 +9,10 @@
 #include <limits>
 #include <utility>
 
+#include "common/AtomicReplace.h"
+#include "common/Checksum.h"
 #include "mesh/MeshMeta.h"
 #include "mesh/MeshStore.h"
-#include "mesh/StagingDirectory.h"
 
 namespace voxbrick::mesh {
 namespace fs = std::filesystem;
@@ -150,38 +151,23 @@ void report(const MeshStoreOptions& options, const char* stage, uint64_t done = 
   if (options.progress) options.progress(MeshWriteProgress{stage, done, total});
 }
 
-}  // namespace
-
-bool looksLikeMeshStore(const fs::path& dir) {
+/// An existing `dir` is replaced only with overwrite (--force), and only if it is a mesh store.
+void checkOutput(const fs::path& dir, const MeshStoreOptions& options) {
   std::error_code ec;
-  return fs::is_directory(dir, ec) && (fs::exists(dir / kMeshMetaFile, ec) || fs::exists(dir / kMeshIndexFile, ec));
+  if (!fs::exists(dir, ec)) return;
+  if (!options.overwrite) throw MeshError(dir.string() + ": already exists (use --force to replace it)");
+  if (!looksLikeMeshStore(dir))
+    throw MeshError(dir.string() + ": exists and is not a voxbrick mesh store; refusing to replace it");
 }
 
-MeshStoreInfo writeMeshStore(const TetMesh& mesh, const Topology& topology, const fs::path& dir,
-                             const MeshStoreOptions& options) {
-  checkOptions(options);
-  checkInput(mesh, topology);
-  std::error_code ec;
-  if (fs::exists(dir, ec)) {
-    if (!options.overwrite) throw MeshError(dir.string() + ": already exists (use --force to replace it)");
-    if (!looksLikeMeshStore(dir))
-      throw MeshError(dir.string() + ": exists and is not a voxbrick mesh store; refusing to replace it");
-  }
-
-  const uint64_t tetCount = mesh.tets.size();
-  const uint64_t chunkCount = (tetCount + options.tetsPerChunk - 1) / options.tetsPerChunk;
-  if (chunkCount > kMaxChunks)
-    throw MeshError("writeMeshStore: " + std::to_string(tetCount) + " tets make more than " +
-                    std::to_string(kMaxChunks) + " chunks; raise tetsPerChunk");
-  const std::vector<uint32_t> order = mortonOrder(mesh);
-  std::vector<uint32_t> newIndex(order.size());
-  for (size_t i = 0; i < order.size(); ++i) newIndex[order[i]] = uint32_t(i);
-
+/// What the store holds, as far as the mesh, its order and the options tell before anything is written.
+MeshStoreInfo describeStore(const TetMesh& mesh, const std::vector<uint32_t>& order, uint64_t chunkCount,
+                            const MeshStoreOptions& options) {
   MeshStoreInfo info;
   info.field = mesh.field;
   info.source = options.source;
   info.vertexCount = mesh.points.size();
-  info.tetCount = tetCount;
+  info.tetCount = mesh.tets.size();
   info.chunkCount = uint32_t(chunkCount);
   info.tetsPerChunk = options.tetsPerChunk;
   info.zstdLevel = options.zstdLevel;
@@ -191,23 +177,20 @@ MeshStoreInfo writeMeshStore(const TetMesh& mesh, const Topology& topology, cons
   for (const uint32_t t : order) edges.add(mesh.points, mesh.tets[t]);
   info.meanEdgeLength = edges.mean();
   info.longestEdge = edges.longest;
+  return info;
+}
 
-  StagingDirectory staging(dir);
-  MeshOutputFile data(staging.path() / kMeshDataFile);
-  MeshIndexHeader header{};
-  std::memcpy(header.magic, kMeshIndexMagic, sizeof header.magic);
-  header.version = kMeshIndexVersion;
-  const size_t pointBytes = mesh.points.size() * sizeof(glm::vec3);
-  static_assert(sizeof(glm::vec3) == 12);
-  header.points = data.appendBlock(encodeBlock(mesh.points.data(), pointBytes, options.zstdLevel), pointBytes);
-  report(options, "points");
-  const size_t scalarBytes = mesh.scalars.size() * sizeof(float);
-  header.scalars = data.appendBlock(encodeBlock(mesh.scalars.data(), scalarBytes, options.zstdLevel), scalarBytes);
-  report(options, "scalars");
-
+/// The chunks, encoded in parallel batches and appended to `data` in order; returns their records and adds their
+/// boundary faces to `boundary`.
+std::vector<MeshChunkRecord> appendChunks(const TetMesh& mesh, const Topology& topology,
+                                          const std::vector<uint32_t>& order, uint64_t chunkCount,
+                                          const MeshStoreOptions& options, MeshOutputFile& data,
+                                          std::vector<std::pair<uint32_t, uint32_t>>& boundary) {
+  std::vector<uint32_t> newIndex(order.size());
+  for (size_t i = 0; i < order.size(); ++i) newIndex[order[i]] = uint32_t(i);
   // Chunk c holds sorted tets [c n / k, (c + 1) n / k): sizes differ by at most one, so no chunk is a tiny remainder.
+  const uint64_t tetCount = mesh.tets.size();
   std::vector<MeshChunkRecord> records(chunkCount);
-  std::vector<std::pair<uint32_t, uint32_t>> boundary;
   auto chunkStart = [&](uint64_t c) { return c * tetCount / chunkCount; };
   for (uint64_t batch = 0; batch < chunkCount; batch += kChunkBatch) {
     const uint64_t end = std::min<uint64_t>(chunkCount, batch + kChunkBatch);
@@ -227,6 +210,25 @@ MeshStoreInfo writeMeshStore(const TetMesh& mesh, const Topology& topology, cons
       report(options, "chunks", c + 1, chunkCount);
     }
   }
+  return records;
+}
+
+/// data.bin at `path`: the points, the scalars, the chunks and the boundary faces. Fills `header`'s block
+/// references and data size and `info`'s boundary face count; returns the chunk records.
+std::vector<MeshChunkRecord> writeData(const TetMesh& mesh, const Topology& topology,
+                                       const std::vector<uint32_t>& order, const fs::path& path,
+                                       const MeshStoreOptions& options, MeshIndexHeader& header, MeshStoreInfo& info) {
+  MeshOutputFile data(path);
+  const size_t pointBytes = mesh.points.size() * sizeof(glm::vec3);
+  static_assert(sizeof(glm::vec3) == 12);
+  header.points = data.appendBlock(encodeBlock(mesh.points.data(), pointBytes, options.zstdLevel), pointBytes);
+  report(options, "points");
+  const size_t scalarBytes = mesh.scalars.size() * sizeof(float);
+  header.scalars = data.appendBlock(encodeBlock(mesh.scalars.data(), scalarBytes, options.zstdLevel), scalarBytes);
+  report(options, "scalars");
+  std::vector<std::pair<uint32_t, uint32_t>> boundary;
+  std::vector<MeshChunkRecord> records =
+      appendChunks(mesh, topology, order, info.chunkCount, options, data, boundary);
   info.boundaryFaceCount = boundary.size();
   const size_t boundaryBytes = boundary.size() * 8;
   static_assert(sizeof(boundary[0]) == 8);
@@ -234,36 +236,76 @@ MeshStoreInfo writeMeshStore(const TetMesh& mesh, const Topology& topology, cons
   report(options, "boundary");
   header.dataFileSize = data.size();
   data.close();
+  return records;
+}
 
-  header.chunkCount = uint32_t(chunkCount);
+/// index.bin at `path`: `header` completed from `info` and checksummed, then the chunk records; returns its size.
+uint64_t writeIndex(const fs::path& path, MeshIndexHeader header, const MeshStoreInfo& info,
+                    const std::vector<MeshChunkRecord>& records) {
+  header.chunkCount = info.chunkCount;
   header.vertexCount = info.vertexCount;
-  header.tetCount = tetCount;
+  header.tetCount = info.tetCount;
   header.boundaryFaceCount = info.boundaryFaceCount;
   std::memcpy(header.boundsMin, &info.boundsMin[0], sizeof header.boundsMin);
   std::memcpy(header.boundsMax, &info.boundsMax[0], sizeof header.boundsMax);
   header.scalarMin = info.scalarMin;
   header.scalarMax = info.scalarMax;
-  header.tetsPerChunk = options.tetsPerChunk;
-  header.bodyCrc32 = meshCrc32(records.data(), records.size() * sizeof(MeshChunkRecord));
-  header.headerCrc32 = meshCrc32(&header, offsetof(MeshIndexHeader, headerCrc32));
-  {
-    MeshOutputFile index(staging.path() / kMeshIndexFile);
-    index.append(&header, sizeof header);
-    index.append(records.data(), records.size() * sizeof(MeshChunkRecord));
-    index.close();
-    info.bytesStored = header.dataFileSize + index.size();
-  }
+  header.tetsPerChunk = info.tetsPerChunk;
+  header.bodyCrc32 = common::crc32Of(records.data(), records.size() * sizeof(MeshChunkRecord));
+  header.headerCrc32 = common::crc32Of(&header, offsetof(MeshIndexHeader, headerCrc32));
+  MeshOutputFile index(path);
+  index.append(&header, sizeof header);
+  index.append(records.data(), records.size() * sizeof(MeshChunkRecord));
+  index.close();
+  return index.size();
+}
+
+/// The store's three files into the empty directory `dir`; completes `info` with what writing them found.
+void writeStoreFiles(const TetMesh& mesh, const Topology& topology, const std::vector<uint32_t>& order,
+                     const fs::path& dir, const MeshStoreOptions& options, MeshStoreInfo& info) {
+  MeshIndexHeader header{};
+  std::memcpy(header.magic, kMeshIndexMagic, sizeof header.magic);
+  header.version = kMeshIndexVersion;
+  const std::vector<MeshChunkRecord> records =
+      writeData(mesh, topology, order, dir / kMeshDataFile, options, header, info);
+  info.bytesStored = header.dataFileSize + writeIndex(dir / kMeshIndexFile, header, info, records);
   report(options, "index");
-  info.bytesRaw = info.vertexCount * 16 + tetCount * 32 + info.boundaryFaceCount * 8;
-  {
-    MeshOutputFile meta(staging.path() / kMeshMetaFile);
-    const std::string text = meshInfoToJson(info);
-    meta.append(text.data(), text.size());
-    meta.close();
-  }
+  info.bytesRaw = info.vertexCount * 16 + info.tetCount * 32 + info.boundaryFaceCount * 8;
+  MeshOutputFile meta(dir / kMeshMetaFile);
+  const std::string text = meshInfoToJson(info);
+  meta.append(text.data(), text.size());
+  meta.close();
   report(options, "metadata");
-  report(options, "commit");
-  staging.commit();
+}
+
+}  // namespace
+
+bool looksLikeMeshStore(const fs::path& dir) {
+  std::error_code ec;
+  return fs::is_directory(dir, ec) && (fs::exists(dir / kMeshMetaFile, ec) || fs::exists(dir / kMeshIndexFile, ec));
+}
+
+MeshStoreInfo writeMeshStore(const TetMesh& mesh, const Topology& topology, const fs::path& dir,
+                             const MeshStoreOptions& options) {
+  checkOptions(options);
+  checkInput(mesh, topology);
+  checkOutput(dir, options);
+  const uint64_t tetCount = mesh.tets.size();
+  const uint64_t chunkCount = (tetCount + options.tetsPerChunk - 1) / options.tetsPerChunk;
+  if (chunkCount > kMaxChunks)
+    throw MeshError("writeMeshStore: " + std::to_string(tetCount) + " tets make more than " +
+                    std::to_string(kMaxChunks) + " chunks; raise tetsPerChunk");
+  const std::vector<uint32_t> order = mortonOrder(mesh);
+  MeshStoreInfo info = describeStore(mesh, order, chunkCount, options);
+  // Written beside `dir`, then swapped in: an existing store stays at the path until the new one replaces it.
+  try {
+    common::replaceDirectory(dir, [&](const fs::path& staging) {
+      writeStoreFiles(mesh, topology, order, staging, options, info);
+      report(options, "commit");
+    });
+  } catch (const common::ReplaceError& e) {
+    throw MeshError(e.what());
+  }
   return info;
 }
 

@@ -120,101 +120,138 @@ void writeVtk(const TetMesh& mesh, const std::filesystem::path& path, bool binar
   out.close();
 }
 
+namespace {
+
+/// A gmsh file's numbers: text, each followed by its separator, or binary values of the given types in the
+/// machine's byte order (gmsh writes its machine's order).
+class GmshOut {
+ public:
+  GmshOut(const std::filesystem::path& path, bool binary) : mOut(path), mBinary(binary) {}
+  void text(std::string_view s) { mOut.text(s); }
+  /// Text after a run of numbers: binary values end without a newline, so one goes first.
+  void textAfterData(const std::string& s) { mOut.text(mBinary ? "\n" + s : s); }
+  void size(uint64_t v, const char* after) { put(v, after); }
+  void integer(int32_t v, const char* after) { put(v, after); }
+  void real(double v, const char* after) { put(v, after); }
+  void close() { mOut.close(); }
+
+ private:
+  template <class T>
+  void put(T v, const char* after) {
+    constexpr bool kNative = std::endian::native == std::endian::big;
+    if (mBinary) {
+      mOut.binary(v, kNative);
+    } else {
+      mOut.number(v);
+      mOut.text(after);
+    }
+  }
+
+  OutFile mOut;
+  bool mBinary;
+};
+
+/// Version 2.2: nodes, then tetrahedra with two tags each (binary: in one run of type 4).
+void writeGmsh2Body(GmshOut& out, const TetMesh& mesh, bool binary) {
+  const size_t n = mesh.points.size(), m = mesh.tets.size();
+  out.text("$Nodes\n" + std::to_string(n) + "\n");
+  for (size_t i = 0; i < n; ++i) {
+    out.integer(static_cast<int32_t>(i + 1), " ");
+    for (int k = 0; k < 3; ++k) out.real(mesh.points[i][k], k < 2 ? " " : "\n");
+  }
+  out.textAfterData("$EndNodes\n$Elements\n");
+  out.text(std::to_string(m) + "\n");
+  if (binary && m > 0) {  // one run: type 4, m elements, 2 tags each
+    out.integer(4, "");
+    out.integer(static_cast<int32_t>(m), "");
+    out.integer(2, "");
+  }
+  for (size_t t = 0; t < m; ++t) {
+    out.integer(static_cast<int32_t>(t + 1), " ");
+    if (!binary) out.text("4 2 ");
+    out.integer(0, " ");  // physical group
+    out.integer(1, " ");  // elementary entity
+    for (int k = 0; k < 4; ++k) out.integer(static_cast<int32_t>(mesh.tets[t][k] + 1), k < 3 ? " " : "\n");
+  }
+  out.textAfterData("$EndElements\n");
+}
+
+/// A version 4 section's header (blocks, count, tag range) and its one block's header in volume entity 1: `kind`
+/// is the nodes' parametric flag (0) or the elements' type (4: tetrahedra). Nothing after the header for an empty
+/// one; returns whether the block follows.
+bool gmsh4SectionOfOneBlock(GmshOut& out, size_t count, int32_t kind) {
+  out.size(count ? 1 : 0, " ");
+  out.size(count, " ");
+  out.size(count ? 1 : 0, " ");
+  out.size(count, "\n");
+  if (count == 0) return false;
+  out.integer(3, " ");
+  out.integer(1, " ");
+  out.integer(kind, " ");
+  out.size(count, "\n");
+  return true;
+}
+
+/// Version 4.1: one volume entity holds every node and element.
+void writeGmsh4Body(GmshOut& out, const TetMesh& mesh) {
+  const size_t n = mesh.points.size(), m = mesh.tets.size();
+  const auto [lo, hi] = mesh.bounds();
+  out.text("$Entities\n");
+  for (uint64_t count : {0, 0, 0, 1}) out.size(count, count == 1 ? "\n" : " ");
+  out.integer(1, " ");
+  for (int k = 0; k < 3; ++k) out.real(n ? lo[k] : 0.0f, " ");
+  for (int k = 0; k < 3; ++k) out.real(n ? hi[k] : 0.0f, " ");
+  out.size(0, " ");  // physical tags
+  out.size(0, "\n");  // bounding surfaces
+  out.textAfterData("$EndEntities\n$Nodes\n");
+  if (gmsh4SectionOfOneBlock(out, n, 0)) {
+    for (size_t i = 0; i < n; ++i) out.size(i + 1, "\n");
+    for (const glm::vec3& p : mesh.points)
+      for (int k = 0; k < 3; ++k) out.real(p[k], k < 2 ? " " : "\n");
+  }
+  out.textAfterData("$EndNodes\n$Elements\n");
+  if (gmsh4SectionOfOneBlock(out, m, 4)) {
+    for (size_t t = 0; t < m; ++t) {
+      out.size(t + 1, " ");
+      for (int k = 0; k < 4; ++k) out.size(uint64_t{mesh.tets[t][k]} + 1, k < 3 ? " " : "\n");
+    }
+  }
+  out.textAfterData("$EndElements\n");
+}
+
+/// The scalars as one $NodeData view named after the field.
+void writeGmshNodeData(GmshOut& out, const TetMesh& mesh) {
+  std::string name = mesh.field.empty() ? "scalars" : mesh.field;
+  for (char& c : name)
+    if (c == '"' || c == '\n' || c == '\r') c = '_';
+  const size_t n = mesh.points.size();
+  out.text("$NodeData\n1\n\"" + name + "\"\n1\n0\n3\n0\n1\n" + std::to_string(n) + "\n");
+  for (size_t i = 0; i < n; ++i) {
+    out.integer(static_cast<int32_t>(i + 1), " ");
+    out.real(mesh.scalars[i], "\n");
+  }
+  out.textAfterData("$EndNodeData\n");
+}
+
+}  // namespace
+
 void writeGmsh(const TetMesh& mesh, const std::filesystem::path& path, int version, bool binary) {
   if (version != 2 && version != 4)
     throw MeshError(path.string() + ": gmsh version " + std::to_string(version) + " cannot be written (2 or 4)");
   checkWritable(mesh, path);
-  constexpr bool kNative = std::endian::native == std::endian::big;  // gmsh writes its machine's order
-  OutFile out(path);
-  const size_t n = mesh.points.size(), m = mesh.tets.size();
+  GmshOut out(path, binary);
   out.text(version == 2 ? "$MeshFormat\n2.2 " : "$MeshFormat\n4.1 ");
   out.text(binary ? "1 8\n" : "0 8\n");
   if (binary) {
-    out.binary(int32_t{1}, kNative);
+    out.integer(1, "");
     out.text("\n");
   }
   out.text("$EndMeshFormat\n");
-  // Text lines of numbers, or the same numbers as binary values of the given types.
-  auto size = [&](uint64_t v, const char* after) {
-    binary ? out.binary(v, kNative) : (out.number(v), out.text(after));
-  };
-  auto integer = [&](int32_t v, const char* after) {
-    binary ? out.binary(v, kNative) : (out.number(v), out.text(after));
-  };
-  auto real = [&](double v, const char* after) { binary ? out.binary(v, kNative) : (out.number(v), out.text(after)); };
-
-  if (version == 2) {
-    out.text("$Nodes\n" + std::to_string(n) + "\n");
-    for (size_t i = 0; i < n; ++i) {
-      integer(static_cast<int32_t>(i + 1), " ");
-      for (int k = 0; k < 3; ++k) real(mesh.points[i][k], k < 2 ? " " : "\n");
-    }
-    out.text(binary ? "\n$EndNodes\n$Elements\n" : "$EndNodes\n$Elements\n");
-    out.text(std::to_string(m) + "\n");
-    if (binary && m > 0) {  // one run: type 4, m elements, 2 tags each
-      integer(4, "");
-      integer(static_cast<int32_t>(m), "");
-      integer(2, "");
-    }
-    for (size_t t = 0; t < m; ++t) {
-      integer(static_cast<int32_t>(t + 1), " ");
-      if (!binary) out.text("4 2 ");
-      integer(0, " ");  // physical group
-      integer(1, " ");  // elementary entity
-      for (int k = 0; k < 4; ++k) integer(static_cast<int32_t>(mesh.tets[t][k] + 1), k < 3 ? " " : "\n");
-    }
-    out.text(binary ? "\n$EndElements\n" : "$EndElements\n");
-  } else {
-    // One volume entity holds every node and element.
-    const auto [lo, hi] = mesh.bounds();
-    out.text("$Entities\n");
-    for (uint64_t count : {0, 0, 0, 1}) size(count, count == 1 ? "\n" : " ");
-    integer(1, " ");
-    for (int k = 0; k < 3; ++k) real(n ? lo[k] : 0.0f, " ");
-    for (int k = 0; k < 3; ++k) real(n ? hi[k] : 0.0f, " ");
-    size(0, " ");  // physical tags
-    size(0, "\n");  // bounding surfaces
-    // A section's header (blocks, count, tag range) and its one block's header in volume entity 1: `kind` is the
-    // nodes' parametric flag (0) or the elements' type (4: tetrahedra). Nothing after the header for an empty one.
-    auto sectionOfOneBlock = [&](size_t count, int32_t kind) {
-      size(count ? 1 : 0, " ");
-      size(count, " ");
-      size(count ? 1 : 0, " ");
-      size(count, "\n");
-      if (count == 0) return false;
-      integer(3, " ");
-      integer(1, " ");
-      integer(kind, " ");
-      size(count, "\n");
-      return true;
-    };
-    out.text(binary ? "\n$EndEntities\n$Nodes\n" : "$EndEntities\n$Nodes\n");
-    if (sectionOfOneBlock(n, 0)) {
-      for (size_t i = 0; i < n; ++i) size(i + 1, "\n");
-      for (const glm::vec3& p : mesh.points)
-        for (int k = 0; k < 3; ++k) real(p[k], k < 2 ? " " : "\n");
-    }
-    out.text(binary ? "\n$EndNodes\n$Elements\n" : "$EndNodes\n$Elements\n");
-    if (sectionOfOneBlock(m, 4)) {
-      for (size_t t = 0; t < m; ++t) {
-        size(t + 1, " ");
-        for (int k = 0; k < 4; ++k) size(uint64_t{mesh.tets[t][k]} + 1, k < 3 ? " " : "\n");
-      }
-    }
-    out.text(binary ? "\n$EndElements\n" : "$EndElements\n");
-  }
-
-  if (!mesh.scalars.empty()) {
-    std::string name = mesh.field.empty() ? "scalars" : mesh.field;
-    for (char& c : name)
-      if (c == '"' || c == '\n' || c == '\r') c = '_';
-    out.text("$NodeData\n1\n\"" + name + "\"\n1\n0\n3\n0\n1\n" + std::to_string(n) + "\n");
-    for (size_t i = 0; i < n; ++i) {
-      integer(static_cast<int32_t>(i + 1), " ");
-      real(mesh.scalars[i], "\n");
-    }
-    out.text(binary ? "\n$EndNodeData\n" : "$EndNodeData\n");
-  }
+  if (version == 2)
+    writeGmsh2Body(out, mesh, binary);
+  else
+    writeGmsh4Body(out, mesh);
+  if (!mesh.scalars.empty()) writeGmshNodeData(out, mesh);
   out.close();
 }
 

@@ -30,6 +30,9 @@ class VtkParser {
   void readCells();
   void readCellTypes();
   void readAttributes(uint64_t count, bool pointData);
+  void readScalars(size_t at, uint64_t count, bool pointData);
+  void skipArray(const std::string& keyword, uint64_t count, uint64_t perTuple, bool pointData);
+  void skipColours(const std::string& keyword, uint64_t count);
   void readFieldArrays(uint64_t count, bool pointData, bool datasetLevel);
   void skipMetadataIfPresent();
   TetMesh assemble();
@@ -314,63 +317,83 @@ void VtkParser::readFieldArrays(uint64_t count, bool pointData, bool datasetLeve
   }
 }
 
+/// After the SCALARS keyword: "name type [components]", an optional LOOKUP_TABLE line, then the values, read as the
+/// field if the picker takes it, else skipped. `at` is the keyword's offset, for errors.
+void VtkParser::readScalars(size_t at, uint64_t count, bool pointData) {
+  const std::vector<std::string> words = restOfLine();  // name type [components]
+  if (words.size() < 2 || words.size() > 3) mIn.failAt(at, "expected SCALARS name type [components]");
+  const std::string name = decodeVtkName(words[0]);
+  const std::string typeName = lowerCase(words[1]);
+  const VtkTypeInfo* type = findVtkType(typeName);
+  if (!type) mIn.failAt(at, "unknown data type '" + typeName + "' for SCALARS " + name);
+  int components = 1;
+  if (words.size() == 3) {
+    FileCursor number(mIn.name(), std::vector<char>(words[2].begin(), words[2].end()));
+    try {
+      components = static_cast<int>(number.integer("SCALARS components", 1, 4));
+    } catch (const MeshError&) {
+      mIn.failAt(at, "SCALARS " + name + ": bad component count '" + words[2] + "' (1 to 4)");
+    }
+  }
+  const size_t beforeTable = mIn.offset();
+  if (lowerCase(mIn.peekToken()) == "lookup_table") {
+    mIn.token();
+    mIn.token("a lookup table name");
+    endHeader();
+  } else {
+    mIn.seek(beforeTable);  // the table line is optional here; what follows is data
+  }
+  const uint64_t values = count * static_cast<uint64_t>(components);
+  if (pointData && components == 1 && type->type != VtkType::Bit && mPicker.offer(name)) {
+    mScalars.resize(count);
+    readReals(*type, values, "SCALARS", [&](uint64_t i, double v) { mScalars[i] = static_cast<float>(v); });
+  } else {
+    if (!pointData || components != 1)
+      mPicker.noteUnusable(name, pointData ? std::to_string(components) + " components" : "cell data");
+    skipValues(*type, values, "SCALARS");
+  }
+}
+
+/// After an attribute's keyword: "name type", then `perTuple` values a tuple, skipped (not a field one can choose).
+void VtkParser::skipArray(const std::string& keyword, uint64_t count, uint64_t perTuple, bool pointData) {
+  const std::string name = decodeVtkName(mIn.token("an array name"));
+  const VtkTypeInfo& type = readType(keyword.c_str());
+  endHeader();
+  mPicker.noteUnusable(name, pointData ? std::to_string(perTuple) + " components" : "cell data");
+  skipValues(type, count * perTuple, keyword.c_str());
+}
+
+/// After COLOR_SCALARS or LOOKUP_TABLE: skips the colours, unsigned bytes in binary files and reals in ASCII ones;
+/// a table has 4 per entry.
+void VtkParser::skipColours(const std::string& keyword, uint64_t count) {
+  mIn.token("a name");
+  const int64_t perTuple = mIn.integer(keyword == "lookup_table" ? "table size" : "colour components", 0,
+                                       keyword == "lookup_table" ? INT32_MAX : 4);
+  endHeader();
+  const VtkTypeInfo bytes{"unsigned_char", VtkType::UInt8, 1};
+  skipValues(bytes, keyword == "lookup_table" ? 4 * static_cast<uint64_t>(perTuple)
+                                              : count * static_cast<uint64_t>(perTuple), "colours");
+}
+
 void VtkParser::readAttributes(uint64_t count, bool pointData) {
   for (;;) {
     const size_t at = (mIn.skipWhitespace(), mIn.offset());
     const std::string keyword = lowerCase(mIn.peekToken());
-    auto skipArray = [&](uint64_t perTuple) {
-      const std::string name = decodeVtkName(mIn.token("an array name"));
-      const VtkTypeInfo& type = readType(keyword.c_str());
-      endHeader();
-      mPicker.noteUnusable(name, pointData ? std::to_string(perTuple) + " components" : "cell data");
-      skipValues(type, count * perTuple, keyword.c_str());
-    };
     if (keyword == "scalars") {
       mIn.token();
-      const std::vector<std::string> words = restOfLine();  // name type [components]
-      if (words.size() < 2 || words.size() > 3) mIn.failAt(at, "expected SCALARS name type [components]");
-      const std::string name = decodeVtkName(words[0]);
-      const std::string typeName = lowerCase(words[1]);
-      const VtkTypeInfo* type = findVtkType(typeName);
-      if (!type) mIn.failAt(at, "unknown data type '" + typeName + "' for SCALARS " + name);
-      int components = 1;
-      if (words.size() == 3) {
-        FileCursor number(mIn.name(), std::vector<char>(words[2].begin(), words[2].end()));
-        try {
-          components = static_cast<int>(number.integer("SCALARS components", 1, 4));
-        } catch (const MeshError&) {
-          mIn.failAt(at, "SCALARS " + name + ": bad component count '" + words[2] + "' (1 to 4)");
-        }
-      }
-      const size_t beforeTable = mIn.offset();
-      if (lowerCase(mIn.peekToken()) == "lookup_table") {
-        mIn.token();
-        mIn.token("a lookup table name");
-        endHeader();
-      } else {
-        mIn.seek(beforeTable);  // the table line is optional here; what follows is data
-      }
-      const uint64_t values = count * static_cast<uint64_t>(components);
-      if (pointData && components == 1 && type->type != VtkType::Bit && mPicker.offer(name)) {
-        mScalars.resize(count);
-        readReals(*type, values, "SCALARS", [&](uint64_t i, double v) { mScalars[i] = static_cast<float>(v); });
-      } else {
-        if (!pointData || components != 1)
-          mPicker.noteUnusable(name, pointData ? std::to_string(components) + " components" : "cell data");
-        skipValues(*type, values, "SCALARS");
-      }
+      readScalars(at, count, pointData);
     } else if (keyword == "vectors" || keyword == "normals") {
       mIn.token();
-      skipArray(3);
+      skipArray(keyword, count, 3, pointData);
     } else if (keyword == "tensors") {
       mIn.token();
-      skipArray(9);
+      skipArray(keyword, count, 9, pointData);
     } else if (keyword == "tensors6") {
       mIn.token();
-      skipArray(6);
+      skipArray(keyword, count, 6, pointData);
     } else if (keyword == "global_ids" || keyword == "pedigree_ids") {
       mIn.token();
-      skipArray(1);
+      skipArray(keyword, count, 1, pointData);
     } else if (keyword == "texture_coordinates") {
       mIn.token();
       const std::string name = decodeVtkName(mIn.token("an array name"));
@@ -380,15 +403,8 @@ void VtkParser::readAttributes(uint64_t count, bool pointData) {
       mPicker.noteUnusable(name, pointData ? "texture coordinates" : "cell data");
       skipValues(type, count * static_cast<uint64_t>(dim), "TEXTURE_COORDINATES");
     } else if (keyword == "color_scalars" || keyword == "lookup_table") {
-      // Colours are unsigned bytes in binary files, reals in ASCII ones; a table has 4 per entry.
       mIn.token();
-      mIn.token("a name");
-      const int64_t perTuple = mIn.integer(keyword == "lookup_table" ? "table size" : "colour components", 0,
-                                           keyword == "lookup_table" ? INT32_MAX : 4);
-      endHeader();
-      const VtkTypeInfo bytes{"unsigned_char", VtkType::UInt8, 1};
-      skipValues(bytes, keyword == "lookup_table" ? 4 * static_cast<uint64_t>(perTuple)
-                                                  : count * static_cast<uint64_t>(perTuple), "colours");
+      skipColours(keyword, count);
     } else if (keyword == "field") {
       mIn.token();
       readFieldArrays(count, pointData, false);

@@ -3,10 +3,12 @@
 #include <openvdb/openvdb.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
 #include "brickstore/BrickStore.h"
 #include "brickstore/Errors.h"
@@ -277,6 +279,33 @@ TEST(StoreAtomic, FailedPrepLeavesNoStoreAndKeepsTheOldOne) {
   options.overwrite = true;
   prepStore(good, dir / "s", options);
   expectLevelMatches(*BrickStore::open(dir / "s"), 0, other, 0);
+}
+
+/// --force swaps the new store in: a reader looking at the path all along always finds a store there.
+TEST(StoreAtomic, AReplacedStoreIsAlwaysAtItsPath) {
+  ScratchDir dir;
+  auto d = makeVolume<uint8_t>({16, 16, 16}, 0, 255, 12, false);
+  PrepOptions options;
+  options.overwrite = true;
+  options.writeVdb = false;
+  prepDense(d, ValueType::U8, dir / "s", 8, options);
+  std::atomic<bool> done{false};
+  std::atomic<int> looks{0}, missing{0};
+  std::thread reader([&] {
+    while (!done) {
+      std::error_code ec;
+      if (!std::filesystem::exists(dir / "s" / "store.json", ec)) ++missing;
+      ++looks;
+    }
+  });
+  for (int i = 0; i < 10; ++i) prepDense(d, ValueType::U8, dir / "s", 8, options);
+  done = true;
+  reader.join();
+  EXPECT_GT(looks.load(), 0);
+  EXPECT_EQ(missing.load(), 0) << "of " << looks.load() << " looks";
+  expectLevelMatches(*BrickStore::open(dir / "s"), 0, d, 0);
+  for (auto& entry : std::filesystem::directory_iterator(dir.path()))
+    EXPECT_EQ(entry.path().filename(), "s") << "left behind: " << entry.path();
 }
 
 TEST(StoreCorrupt, DamagedFilesAreRejectedWithTheirName) {

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "common/Checksum.h"
 #include "mesh/MeshBlocks.h"
 #include "mesh/MeshFormat.h"
 #include "mesh/MeshStore.h"
@@ -83,8 +84,8 @@ class DamagedStore : public ::testing::Test {
   /// Writes a header and records, with fresh checksums (so only the values are wrong) unless told not to.
   void writeIndex(MeshIndexHeader h, const std::vector<MeshChunkRecord>& records, bool fixChecksums = true) {
     if (fixChecksums) {
-      h.bodyCrc32 = meshCrc32(records.data(), records.size() * sizeof(MeshChunkRecord));
-      h.headerCrc32 = meshCrc32(&h, offsetof(MeshIndexHeader, headerCrc32));
+      h.bodyCrc32 = common::crc32Of(records.data(), records.size() * sizeof(MeshChunkRecord));
+      h.headerCrc32 = common::crc32Of(&h, offsetof(MeshIndexHeader, headerCrc32));
     }
     std::vector<char> bytes(sizeof h + records.size() * sizeof(MeshChunkRecord));
     std::memcpy(bytes.data(), &h, sizeof h);
@@ -96,7 +97,8 @@ class DamagedStore : public ::testing::Test {
   template <typename T>
   BlockRef appendBlock(const std::vector<T>& values) {
     const std::vector<char> encoded = encodeBlock(values.data(), values.size() * sizeof(T), 3);
-    BlockRef ref{mData.size(), encoded.size(), values.size() * sizeof(T), meshCrc32(encoded.data(), encoded.size()), 0};
+    BlockRef ref{mData.size(), encoded.size(), values.size() * sizeof(T),
+                 common::crc32Of(encoded.data(), encoded.size()), 0};
     mData.insert(mData.end(), encoded.begin(), encoded.end());
     voxbrick::test::writeFile(mDir / kMeshDataFile, mData.data(), mData.size());
     mHeader.dataFileSize = mData.size();
