@@ -111,6 +111,15 @@ class ConnectionTest : public ::testing::Test {
     flush();
     ASSERT_TRUE(core.state().greeted);
   }
+  /// Reports that `deadline` passed, and checks that the connection answers Timeout and closes once it is written.
+  void expectTimedOut(Deadline deadline) {
+    const size_t before = transport->writes.size();
+    core.expired(deadline);
+    ASSERT_EQ(transport->writes.size(), before + 1);
+    EXPECT_EQ(errorIn(transport->writes.back(), 0), ErrorCode::Timeout);
+    flush();
+    EXPECT_TRUE(transport->closed);
+  }
   /// The encoded size of the reply to ListDatasets.
   size_t listReplyBytes() {
     ConnectionState greeted;
@@ -162,11 +171,7 @@ TEST_F(ConnectionTest, AHelloFindingTheSessionsFullIsRefused) {
 
 TEST_F(ConnectionTest, AnIdleSessionIsClosed) {
   greet();
-  core.expired(Deadline::Read);
-  ASSERT_EQ(transport->writes.size(), 2u);
-  EXPECT_EQ(errorIn(transport->writes[1], 0), ErrorCode::Timeout);
-  flush();
-  EXPECT_TRUE(transport->closed);
+  expectTimedOut(Deadline::Read);
   EXPECT_EQ(stats.total(ServerEvent::Timeout), 1u);
 }
 
@@ -174,11 +179,7 @@ TEST_F(ConnectionTest, AMessageMustCompleteWithinTheReadTimeoutOfItsFirstByte) {
   greet();
   core.messageStarted();
   EXPECT_EQ(transport->armed.at(Deadline::Read), config.readTimeoutS) << "a started message has the read timeout";
-  core.expired(Deadline::Read);
-  ASSERT_EQ(transport->writes.size(), 2u);
-  EXPECT_EQ(errorIn(transport->writes[1], 0), ErrorCode::Timeout);
-  flush();
-  EXPECT_TRUE(transport->closed);
+  expectTimedOut(Deadline::Read);
 }
 
 TEST_F(ConnectionTest, AClientWaitingForAFrameIsNotIdle) {
