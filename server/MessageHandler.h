@@ -1,5 +1,5 @@
 // What the server answers: a function from decoded client messages to replies, with no sockets and no Asio, so it
-// can be tested on its own and put behind any transport (today Session's TCP framing).
+// can be tested on its own and put behind any transport (through Connection, today under TcpSession).
 #pragma once
 
 #include <cstdint>
@@ -23,7 +23,7 @@
 
 namespace voxbrick::server {
 
-/// One connection's place in the session state machine (PROTOCOL.md section 5). The transport keeps one per
+/// One connection's place in the session state machine (PROTOCOL.md section 5). Its Connection keeps one per
 /// connection and hands it to every call; only the handler changes it.
 struct ConnectionState {
   bool greeted = false;                            ///< Hello was accepted
@@ -41,7 +41,7 @@ struct Reply {
   uint32_t requestId = 0;  ///< the id of the request it answers; 0 for none
 };
 
-/// What the transport does after a message: send the replies in order, queue the render job if there is one (and
+/// What the Connection does after a message: send the replies in order, queue the render job if there is one (and
 /// report what the queue did through MessageHandler::submitted), then close if asked once the replies are written.
 struct Outcome {
   std::vector<Reply> replies;       ///< to send, in this order

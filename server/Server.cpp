@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <condition_variable>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -25,6 +26,7 @@
 #include "server/RenderScheduler.h"
 #include "server/ServerStats.h"
 #include "server/Session.h"
+#include "server/TcpSession.h"
 
 namespace voxbrick::server {
 namespace {
@@ -104,15 +106,19 @@ struct Server::Impl {
 
   void accept();
   void onAccepted(tcp::socket socket);
+  /// Registers a new connection from `address` made by `make` (given its ConnectionId), whatever its transport:
+  /// admits or refuses it, evicts a pending one if the pool is full, and starts it.
+  void adopt(const std::string& address, bool loopback,
+             const std::function<std::shared_ptr<Session>(ConnectionId)>& make);
   void requestStop();
   /// Blocks until stop() or a signal asks for it.
   void waitForStopRequest();
   /// Refuses new sessions, ends the open ones with ShuttingDown, stops rendering, waits (kShutdownGrace at most)
   /// for the sessions to flush and close, then stops the I/O threads.
   void shutdown();
-  void removeSession(const std::shared_ptr<Session>& session);
+  void removeSession(ConnectionId id);
   /// A connection's Hello was accepted: whether it becomes a session (Admission::greet).
-  bool greet(const Session& session);
+  bool greet(ConnectionId id);
   json statsJson() const;
 
   const ServerConfig config;
@@ -161,8 +167,8 @@ Server::Impl::Impl(const ServerConfig& c)
                       scheduler,
                       stats,
                       output,
-                      [this](const std::shared_ptr<Session>& session) { removeSession(session); },
-                      [this](const Session& session) { return greet(session); }},
+                      [this](ConnectionId id) { removeSession(id); },
+                      [this](ConnectionId id) { return greet(id); }},
       admission(admissionLimits(config)) {
   sessionServices.limits.maxBodyBytes = config.maxMessageBytes;
   acceptor.open(endpoint.protocol());
@@ -198,12 +204,19 @@ void Server::Impl::accept() {
 
 void Server::Impl::onAccepted(tcp::socket socket) {
   const auto [address, loopback] = clientAddress(socket);
+  adopt(address, loopback, [&](ConnectionId id) {
+    return std::make_shared<TcpSession>(std::move(socket), sessionServices, id);
+  });
+}
+
+void Server::Impl::adopt(const std::string& address, bool loopback,
+                         const std::function<std::shared_ptr<Session>(ConnectionId)>& make) {
   std::shared_ptr<Session> session, evicted;
   std::optional<proto::Error> refusal;
   {
     std::lock_guard lock(sessionsMutex);
     const ConnectionId id{++accepted};
-    session = std::make_shared<Session>(std::move(socket), sessionServices, id);
+    session = make(id);
     sessions.emplace(id, session);  // refused ones too, until their error is written
     if (shuttingDown) {
       refusal = errorMessage(proto::ErrorCode::ShuttingDown, "server is stopping");
@@ -240,18 +253,18 @@ void Server::Impl::onAccepted(tcp::socket socket) {
   session->start();
 }
 
-bool Server::Impl::greet(const Session& session) {
+bool Server::Impl::greet(ConnectionId id) {
   std::lock_guard lock(sessionsMutex);
-  if (!admission.greet(session.id())) return false;
+  if (!admission.greet(id)) return false;
   stats.add(ServerEvent::SessionAccepted);
   return true;
 }
 
-void Server::Impl::removeSession(const std::shared_ptr<Session>& session) {
+void Server::Impl::removeSession(ConnectionId id) {
   {
     std::lock_guard lock(sessionsMutex);
-    sessions.erase(session->id());
-    admission.remove(session->id());
+    sessions.erase(id);
+    admission.remove(id);
   }
   sessionsChanged.notify_all();
 }

@@ -1,6 +1,6 @@
 // The render service: a Boost.Asio TCP server speaking proto/PROTOCOL.md. It accepts connections, wires the parts
-// (Session, MessageHandler, RenderScheduler, ServerStats) together, and runs the lifecycle: signals, shutdown,
-// waiting for sessions to flush.
+// (sessions, MessageHandler, RenderScheduler, ServerStats) together, and runs the lifecycle: signals, shutdown,
+// waiting for sessions to flush. It holds each connection as a Session, whatever its transport (TcpSession).
 #pragma once
 
 #include <memory>

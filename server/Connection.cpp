@@ -1,0 +1,294 @@
+// The transport-independent rules of one client connection: deadlines, admission, decoding, the reply queue, its
+// back-pressure and the output budget.
+#include "server/Connection.h"
+
+#include <algorithm>
+#include <utility>
+
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include "server/ErrorReply.h"
+
+namespace voxbrick::server {
+namespace {
+
+/// Bytes a Frame takes encoded, near enough to weigh it against the output budget before encoding it.
+uint64_t encodedBytes(const proto::Frame& frame) {
+  return proto::kHeaderBytes + 64 + frame.statsJson.size() + frame.payload.size();
+}
+
+/// Hands memory freed by the allocator back to the system. glibc keeps what a large reply queue freed in its
+/// arenas (its mmap threshold rises with the sizes it sees), so without this the resident size of the server stays
+/// at its peak after the clients that caused it are gone.
+void releaseFreedMemory() {
+#if defined(__GLIBC__)
+  malloc_trim(0);
+#endif
+}
+
+/// The first reply's error, for logs.
+std::string describeError(const Outcome& outcome) {
+  if (outcome.replies.empty()) return "?";
+  const auto* error = std::get_if<proto::Error>(&outcome.replies.front().message);
+  return error ? error->message + " (" + proto::errorCodeName(error->code) + ")" : "?";
+}
+
+}  // namespace
+
+Connection::Connection(Transport& transport, const SessionServices& services, ConnectionId id, std::string peer)
+    : mTransport(transport), mServices(services), mId(id), mPeer(std::move(peer)) {}
+
+Connection::~Connection() {
+  // The buffers are freed here, not in close(): an aborted write may still refer to them until it reported.
+  const bool large = mPeakOutboxBytes > mServices.config.pauseReadingBytes;
+  mOutbox.clear();
+  mOutbox.shrink_to_fit();
+  if (large) releaseFreedMemory();
+}
+
+void Connection::start() {
+  // A connection that has not said Hello is not a session yet: it gets a short deadline of its own, so streams that
+  // never speak (or trickle bytes) hold a pending slot for seconds, not the idle timeout.
+  mTransport.arm(Deadline::Hello, mServices.config.helloTimeoutS);
+  readMessage();
+}
+
+void Connection::end(proto::Error error) {
+  send(error, 0);
+  closeAfterFlush();
+}
+
+void Connection::expired(Deadline deadline) {
+  switch (deadline) {
+    case Deadline::Hello: return onHelloTimeout();
+    case Deadline::Read: return onReadTimeout();
+    case Deadline::Write: return onWriteTimeout();
+  }
+}
+
+void Connection::onHelloTimeout() {
+  if (mState.greeted || mClosing || mClosed) return;
+  timedOut("no Hello within " + std::to_string(mServices.config.helloTimeoutS) + " s");
+}
+
+void Connection::onReadTimeout() {
+  if (mClosed || mClosing) return;
+  const ServerConfig& config = mServices.config;
+  if (!mReadingMessage && mState.awaitingFrames()) {  // the client is waiting for us, not idle
+    mTransport.arm(Deadline::Read, config.idleTimeoutS);
+    return;
+  }
+  timedOut(mReadingMessage ? "message not completed within " + std::to_string(config.readTimeoutS) +
+                                 " s of its first byte"
+                           : "idle for " + std::to_string(config.idleTimeoutS) + " s");
+}
+
+void Connection::onWriteTimeout() {
+  if (mClosed) return;
+  mServices.stats.add(ServerEvent::SlowClientDropped);
+  spdlog::info("{}: a reply was not taken within {} s, closing", mPeer, mServices.config.writeTimeoutS);
+  close();
+}
+
+void Connection::timedOut(const std::string& what) {
+  mServices.stats.add(ServerEvent::Timeout);
+  spdlog::info("{}: closing: {}", mPeer, what);
+  send(errorMessage(proto::ErrorCode::Timeout, what), 0);
+  closeAfterFlush();
+}
+
+void Connection::rendered(const RenderJob& job, proto::Message reply) {
+  if (mClosing || mClosed) return;  // PROTOCOL.md: a session's end drops its renders unanswered
+  if (!withinOutputBudget(job, reply)) return;
+  apply(mServices.handler.rendered(mState, job, std::move(reply)));
+}
+
+bool Connection::withinOutputBudget(const RenderJob& job, proto::Message& reply) {
+  // Each request keeps exactly one answer (PROTOCOL.md 5.4 and 5.8): an exact frame whose provisional one was
+  // refused, or one that does not fit when its provisional one already answered the request, is dropped.
+  if (job.refinement && mRefusedProvisional.erase(job.requestId) > 0) return false;
+  const auto* frame = std::get_if<proto::Frame>(&reply);
+  if (!frame) return true;
+  const uint64_t bytes = encodedBytes(*frame);
+  if (mServices.output.fits(bytes)) return true;
+  mServices.stats.add(ServerEvent::OutputRefused);
+  if (job.refinement) return false;
+  const nlohmann::json stats = nlohmann::json::parse(frame->statsJson, nullptr, false);
+  if (stats.is_object() && stats.value("provisional", false)) mRefusedProvisional.insert(job.requestId);
+  spdlog::info("{}: frame of {} bytes refused: {} bytes of replies wait for their clients", mPeer, bytes,
+               mServices.output.queued());
+  reply = errorMessage(proto::ErrorCode::LimitExceeded,
+                       "frame of " + std::to_string(bytes) + " bytes not sent: the server holds " +
+                           std::to_string(mServices.output.queued()) + " bytes of replies its clients have not read " +
+                           "(limit " + std::to_string(mServices.output.limit()) + "); try again");
+  return true;
+}
+
+void Connection::readNext() {
+  if (mOutboxBytes > mServices.config.pauseReadingBytes) {
+    // The client is not taking its replies: reading its next request would only queue more of them. Its requests
+    // wait in the transport's buffers (and then its own) until written() resumes; the write deadline closes it if
+    // it never reads.
+    mPaused = true;
+    mServices.stats.add(ServerEvent::ReadingPaused);
+    spdlog::debug("{}: {} bytes of replies not read, reading paused", mPeer, mOutboxBytes);
+    return;
+  }
+  readMessage();
+}
+
+void Connection::readMessage() {
+  if (mClosing || mClosed) return;
+  mReadingMessage = false;
+  mTransport.arm(Deadline::Read, mServices.config.idleTimeoutS);
+  mTransport.readMessage();
+}
+
+void Connection::messageStarted() {
+  if (mReadingMessage) return;
+  // The whole message, header and body, must arrive within the read timeout of its first byte: a client that
+  // trickles bytes cannot stretch the deadline.
+  mReadingMessage = true;
+  mTransport.arm(Deadline::Read, mServices.config.readTimeoutS);
+}
+
+void Connection::readFailed() { close(); }
+
+std::optional<proto::Header> Connection::headerReceived(std::span<const uint8_t, proto::kHeaderBytes> bytes) {
+  try {
+    mHeader = proto::decodeHeader(bytes, mServices.limits);  // bodyBytes at most limits.maxBodyBytes
+  } catch (...) {
+    refuseStream(std::current_exception());
+    return std::nullopt;
+  }
+  return mHeader;
+}
+
+void Connection::refuseStream(const std::exception_ptr& error) {
+  mServices.stats.add(ServerEvent::ProtocolError);
+  Outcome outcome = MessageHandler::failed(error, 0);
+  // Without a trustworthy header the stream cannot be resynchronised, whatever the code.
+  outcome.close = true;
+  spdlog::info("{}: {}, closing", mPeer, describeError(outcome));
+  apply(std::move(outcome));
+}
+
+void Connection::received(std::span<const uint8_t> message) {
+  if (message.size() < proto::kHeaderBytes)
+    return refuseStream(std::make_exception_ptr(proto::ProtocolError(
+        proto::ErrorCode::Malformed, "message of " + std::to_string(message.size()) + " bytes has no whole header")));
+  if (headerReceived(message.first<proto::kHeaderBytes>())) bodyReceived(message.subspan(proto::kHeaderBytes));
+}
+
+void Connection::bodyReceived(std::span<const uint8_t> body) {
+  mTransport.cancel(Deadline::Read);
+  mServices.stats.add(ServerEvent::Message);
+  std::optional<proto::Message> message;
+  Outcome outcome;
+  try {
+    if (body.size() != mHeader.bodyBytes)  // only where the transport delimits messages itself
+      throw proto::ProtocolError(proto::ErrorCode::Malformed, "body of " + std::to_string(body.size()) +
+                                                                  " bytes where its header announces " +
+                                                                  std::to_string(mHeader.bodyBytes));
+    message = proto::decodeBody(mHeader, body, mServices.limits);
+  } catch (...) {
+    // The length was valid, so the next message starts where this one ended: the session goes on.
+    mServices.stats.add(ServerEvent::ProtocolError);
+    outcome = MessageHandler::failed(std::current_exception(), mHeader.requestId);
+    spdlog::debug("{}: {}", mPeer, describeError(outcome));
+  }
+  const bool wasGreeted = mState.greeted;
+  if (message) outcome = mServices.handler.handle(mState, *message, mHeader.requestId);
+  if (!wasGreeted && mState.greeted) admit(outcome);
+  apply(std::move(outcome));
+  readNext();
+}
+
+void Connection::admit(Outcome& outcome) {
+  mTransport.cancel(Deadline::Hello);
+  if (mServices.greeted(mId)) return;
+  // Sessions filled up while this connection waited for its Hello (or it was evicted): refused as on connect.
+  mServices.stats.add(ServerEvent::SessionRefused);
+  outcome = Outcome{};
+  outcome.replies.push_back(
+      {errorMessage(proto::ErrorCode::LimitExceeded,
+                    "too many sessions (limit " + std::to_string(mServices.config.maxSessions) + ")"),
+       0});
+  outcome.close = true;
+}
+
+void Connection::apply(Outcome outcome) {
+  for (const Reply& reply : outcome.replies) send(reply.message, reply.requestId);
+  if (outcome.render && !mClosed && !mClosing) {
+    const uint32_t requestId = outcome.render->requestId;
+    Submission submission = mServices.scheduler.submit(mTransport.renderSink(), std::move(*outcome.render));
+    apply(mServices.handler.submitted(mState, requestId, std::move(submission)));
+  }
+  if (outcome.close) closeAfterFlush();
+}
+
+void Connection::send(const proto::Message& message, uint32_t requestId) {
+  if (mClosed) return;
+  std::vector<uint8_t> bytes;
+  try {
+    bytes = proto::encode(message, requestId);
+  } catch (...) {  // a reply above 4 GiB, or no memory for it: the request is answered with the failure instead
+    bytes = proto::encode(errorReply(std::current_exception(), "reply cannot be encoded"), requestId);
+  }
+  if (mOutboxBytes + bytes.size() > mServices.config.maxOutputBytes) {
+    mServices.stats.add(ServerEvent::SlowClientDropped);
+    spdlog::warn("{}: {} bytes of replies not read, dropping the session", mPeer, mOutboxBytes);
+    return close();
+  }
+  mOutboxBytes += bytes.size();
+  mPeakOutboxBytes = std::max(mPeakOutboxBytes, mOutboxBytes);
+  mServices.output.add(bytes.size());
+  mOutbox.push_back(std::move(bytes));
+  if (!mWriting) writeNext();
+}
+
+void Connection::writeNext() {
+  mWriting = true;
+  mTransport.arm(Deadline::Write, mServices.config.writeTimeoutS);
+  mTransport.write(mOutbox.front());
+}
+
+void Connection::written(bool ok) {
+  mTransport.cancel(Deadline::Write);
+  if (!ok || mClosed) return close();  // close() has released the queue's bytes already
+  mOutboxBytes -= mOutbox.front().size();
+  mServices.output.release(mOutbox.front().size());
+  mOutbox.pop_front();
+  // Resumed once half the threshold is written, so a client reading at its own pace is not paused at every reply.
+  if (mPaused && mOutboxBytes <= mServices.config.pauseReadingBytes / 2) {
+    mPaused = false;
+    readMessage();
+  }
+  if (!mOutbox.empty()) return writeNext();
+  mWriting = false;
+  if (mClosing) close();
+}
+
+void Connection::closeAfterFlush() {
+  mClosing = true;
+  mAlive = false;  // its waiting renders are dropped unrendered
+  if (!mWriting) close();
+}
+
+void Connection::close() {
+  if (mClosed) return;
+  mClosed = true;
+  mAlive = false;
+  for (const Deadline deadline : {Deadline::Hello, Deadline::Read, Deadline::Write}) mTransport.cancel(deadline);
+  mServices.output.release(mOutboxBytes);
+  mOutboxBytes = 0;
+  mTransport.close();
+  mServices.ended(mId);
+}
+
+}  // namespace voxbrick::server

@@ -1,0 +1,134 @@
+// The rules of one client connection that hold whatever carries its bytes: the Hello deadline and admission as a
+// session, the idle and read deadlines, decoding and handing each message to the MessageHandler, submitting renders,
+// the queue of replies with its per-session limit, back-pressure (pausing reading while too many replies wait) and
+// its share of the server's output budget, the write deadline, and closing after the queue is flushed. It owns no
+// socket and no timer: it drives a Transport (TcpSession over TCP) and is driven by it, one call at a time.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <deque>
+#include <exception>
+#include <functional>
+#include <optional>
+#include <set>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "proto/Messages.h"
+#include "server/Admission.h"
+#include "server/MessageHandler.h"
+#include "server/OutputBudget.h"
+#include "server/RenderScheduler.h"
+#include "server/ServerConfig.h"
+#include "server/ServerStats.h"
+#include "server/Transport.h"
+
+namespace voxbrick::server {
+
+/// What every connection shares; owned by the server, which outlives its connections.
+struct SessionServices {
+  const ServerConfig& config;  ///< timeouts and the output limits
+  proto::Limits limits;        ///< checked while decoding
+  MessageHandler& handler;
+  RenderScheduler& scheduler;
+  ServerStats& stats;
+  OutputBudget& output;        ///< replies queued for every session together
+  /// Called once when a connection has closed (on its serial context), so the server can forget it.
+  std::function<void(ConnectionId)> ended;
+  /// Called once the connection's Hello was accepted: whether it may become a session (false when max_sessions are
+  /// open, or it was evicted meanwhile; it is then refused with LimitExceeded).
+  std::function<bool(ConnectionId)> greeted;
+};
+
+/// One client connection's state machine. Not thread-safe: every call but alive() is made on the connection's
+/// serial context (a strand), the Transport's reports included.
+class Connection {
+ public:
+  /// `transport` carries the connection's bytes and outlives it; `peer` names the client in logs.
+  Connection(Transport& transport, const SessionServices& services, ConnectionId id, std::string peer);
+  /// Gives freed reply buffers back to the system when its queue was large (see the .cpp).
+  ~Connection();
+  Connection(const Connection&) = delete;
+  Connection& operator=(const Connection&) = delete;
+
+  /// Starts the Hello deadline and reading messages.
+  void start();
+  /// Sends `error` with request id 0, then closes once the replies queued before it are written (a refused
+  /// connection, the server stopping).
+  void end(proto::Error error);
+
+  // What the transport reports.
+  /// The first bytes of a message arrived: the whole message must now arrive within the read timeout. A transport
+  /// that cannot tell leaves the idle deadline to cover the message.
+  void messageStarted();
+  /// The header of the next message: its decoded form, whose bodyBytes the transport reads next, or nothing when
+  /// it is invalid (the connection then answers and closes: the stream cannot be resynchronised).
+  std::optional<proto::Header> headerReceived(std::span<const uint8_t, proto::kHeaderBytes> bytes);
+  /// The body of the message whose header was accepted last (exactly its bodyBytes long).
+  void bodyReceived(std::span<const uint8_t> body);
+  /// A whole message, header and body, from a transport that delimits messages itself (one WebSocket message).
+  void received(std::span<const uint8_t> message);
+  /// The stream ended or failed while reading.
+  void readFailed();
+  /// The message given to Transport::write was written (`ok`) or could not be.
+  void written(bool ok);
+  /// `deadline` passed.
+  void expired(Deadline deadline);
+  /// A render thread's `reply` to `job`, as the render sink received it.
+  void rendered(const RenderJob& job, proto::Message reply);
+  /// Closes at once, dropping what is queued (also after an unexpected failure). Idempotent.
+  void close();
+
+  /// False once the connection is ending: its waiting renders are dropped unrendered. Safe from any thread.
+  bool alive() const { return mAlive; }
+  ConnectionId id() const { return mId; }
+  const std::string& peer() const { return mPeer; }
+  const ConnectionState& state() const { return mState; }
+  /// Bytes of replies queued and not written yet.
+  uint64_t queuedBytes() const { return mOutboxBytes; }
+  /// Whether reading waits for the client to take its replies.
+  bool readingPaused() const { return mPaused; }
+  bool closed() const { return mClosed; }
+
+ private:
+  void onHelloTimeout();
+  void onReadTimeout();
+  void onWriteTimeout();
+  /// Reads the next message, unless the client has too many replies waiting (then written() resumes).
+  void readNext();
+  void readMessage();
+  /// Answers a header or a whole message that cannot be trusted, and closes.
+  void refuseStream(const std::exception_ptr& error);
+  /// The connection's Hello was accepted: it becomes a session, or `outcome` is made its refusal.
+  void admit(Outcome& outcome);
+  /// Whether a render thread's `reply` to `job` is to be answered, turned into LimitExceeded past the server's
+  /// output budget.
+  bool withinOutputBudget(const RenderJob& job, proto::Message& reply);
+  /// Carries out what the handler decided: replies, the render job, closing.
+  void apply(Outcome outcome);
+  void send(const proto::Message& message, uint32_t requestId);
+  void writeNext();
+  /// Stops reading; closes once every queued reply is written.
+  void closeAfterFlush();
+  /// Sends a Timeout error naming `what`, then closes.
+  void timedOut(const std::string& what);
+
+  Transport& mTransport;
+  const SessionServices& mServices;
+  const ConnectionId mId;
+  const std::string mPeer;
+  ConnectionState mState;
+  proto::Header mHeader;  ///< of the message being read
+  std::deque<std::vector<uint8_t>> mOutbox;
+  uint64_t mOutboxBytes = 0, mPeakOutboxBytes = 0;
+  /// Requests whose provisional Frame was refused (output budget): their exact frame is dropped, not sent.
+  std::set<uint32_t> mRefusedProvisional;
+  bool mWriting = false, mClosing = false, mClosed = false;
+  bool mReadingMessage = false;  ///< a message's first byte has arrived (its read deadline runs)
+  bool mPaused = false;          ///< not reading until the client takes its replies
+  std::atomic<bool> mAlive{true};  ///< read by render threads
+};
+
+}  // namespace voxbrick::server

@@ -1,0 +1,309 @@
+// A connection's transport-independent rules, driven through a recording fake transport: no socket, no timer, no
+// Asio. Deadlines pass when a test says so; writes complete when a test says so.
+#include <gtest/gtest.h>
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "TestDatasets.h"
+#include "render/RenderEngine.h"
+#include "render/TransferFunctionPresets.h"
+#include "server/Connection.h"
+#include "server/Datasets.h"
+#include "server/ErrorReply.h"
+#include "server/MessageHandler.h"
+
+namespace voxbrick::server {
+namespace {
+
+using proto::ErrorCode;
+
+/// Records what the connection asks of its transport.
+class FakeTransport : public Transport,
+                      public RenderScheduler::Sink,
+                      public std::enable_shared_from_this<FakeTransport> {
+ public:
+  int reads = 0;                               ///< readMessage calls
+  std::vector<std::vector<uint8_t>> writes;    ///< every message given to write, in order
+  bool writing = false;                        ///< the last write has not been reported yet
+  std::map<Deadline, double> armed;            ///< running deadlines and their seconds
+  bool closed = false;
+
+  void readMessage() override { ++reads; }
+  void write(std::span<const uint8_t> message) override {
+    EXPECT_FALSE(writing) << "one write at a time";
+    writes.emplace_back(message.begin(), message.end());
+    writing = true;
+  }
+  void arm(Deadline deadline, double seconds) override { armed[deadline] = seconds; }
+  void cancel(Deadline deadline) override { armed.erase(deadline); }
+  void close() override { closed = true; }
+  std::shared_ptr<RenderScheduler::Sink> renderSink() override { return shared_from_this(); }
+
+  bool wantsReplies() const override { return true; }
+  void rendered(RenderJob, proto::Message) override {}
+};
+
+/// The message `bytes` encode and its request id.
+std::pair<proto::Message, uint32_t> decoded(const std::vector<uint8_t>& bytes) {
+  const proto::Header header =
+      proto::decodeHeader(std::span<const uint8_t, proto::kHeaderBytes>(bytes.data(), proto::kHeaderBytes), {});
+  return {proto::decodeBody(header, std::span(bytes).subspan(proto::kHeaderBytes), {}), header.requestId};
+}
+
+/// The error code of the Error that `bytes` encode, checking it answers `requestId`.
+ErrorCode errorIn(const std::vector<uint8_t>& bytes, uint32_t requestId) {
+  const auto [message, id] = decoded(bytes);
+  EXPECT_EQ(id, requestId);
+  const auto* error = std::get_if<proto::Error>(&message);
+  EXPECT_NE(error, nullptr) << proto::messageTypeName(proto::messageType(message));
+  return error ? error->code : ErrorCode::Internal;
+}
+
+std::unique_ptr<RenderScheduler> idleScheduler() {
+  std::vector<std::unique_ptr<render::RenderEngine>> engines;
+  engines.push_back(
+      std::make_unique<render::RenderEngine>(render::RenderEngineOptions{render::Backend::Auto, size_t(64) << 20}));
+  engines.back()->releaseCurrent();
+  return std::make_unique<RenderScheduler>(std::move(engines), true);  // never started: jobs only wait
+}
+
+const char* kScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [40, 32], "transfer_function": "sparse"})";
+
+class ConnectionTest : public ::testing::Test {
+ protected:
+  ServerConfig config;
+  ServerStats stats;
+  DatasetRegistry datasets{test::testDatasets(), size_t(16) << 20};
+  render::TransferFunctionPresets presets = render::TransferFunctionPresets::load(test::shippedPresets());
+  MessageHandler handler{config, datasets, presets, stats, [] { return nlohmann::json::object(); }};
+  std::unique_ptr<RenderScheduler> scheduler = idleScheduler();
+  OutputBudget output{1u << 20};
+  std::vector<ConnectionId> ended;
+  bool sessionsFree = true;
+  SessionServices services{config,
+                           proto::Limits{},
+                           handler,
+                           *scheduler,
+                           stats,
+                           output,
+                           [this](ConnectionId id) { ended.push_back(id); },
+                           [this](ConnectionId) { return sessionsFree; }};
+  std::shared_ptr<FakeTransport> transport = std::make_shared<FakeTransport>();
+  Connection core{*transport, services, ConnectionId{7}, "test:1"};
+
+  void receive(const proto::Message& message, uint32_t requestId) { core.received(proto::encode(message, requestId)); }
+  /// Reports the write in flight as written.
+  void writeOne() {
+    ASSERT_TRUE(transport->writing);
+    transport->writing = false;
+    core.written(true);
+  }
+  /// Reports every write as written, the queue's included.
+  void flush() {
+    while (transport->writing) writeOne();
+  }
+  void greet() {
+    core.start();
+    receive(proto::Hello{1, 1, "test"}, 1);
+    flush();
+    ASSERT_TRUE(core.state().greeted);
+  }
+  /// Reports that `deadline` passed, and checks that the connection answers Timeout and closes once it is written.
+  void expectTimedOut(Deadline deadline) {
+    const size_t before = transport->writes.size();
+    core.expired(deadline);
+    ASSERT_EQ(transport->writes.size(), before + 1);
+    EXPECT_EQ(errorIn(transport->writes.back(), 0), ErrorCode::Timeout);
+    flush();
+    EXPECT_TRUE(transport->closed);
+  }
+  /// The encoded size of the reply to ListDatasets.
+  size_t listReplyBytes() {
+    ConnectionState greeted;
+    greeted.greeted = true;
+    return proto::encode(handler.handle(greeted, proto::ListDatasets{}, 2).replies.at(0).message, 2).size();
+  }
+};
+
+TEST_F(ConnectionTest, TheHelloDeadlineClosesAConnectionThatNeverGreets) {
+  core.start();
+  EXPECT_EQ(transport->armed.at(Deadline::Hello), config.helloTimeoutS);
+  EXPECT_EQ(transport->reads, 1);
+  core.expired(Deadline::Hello);
+  ASSERT_EQ(transport->writes.size(), 1u);
+  EXPECT_EQ(errorIn(transport->writes[0], 0), ErrorCode::Timeout);
+  EXPECT_FALSE(core.alive()) << "its renders are dropped at once";
+  EXPECT_FALSE(transport->closed) << "closed once its error is written";
+  writeOne();
+  EXPECT_TRUE(transport->closed);
+  EXPECT_TRUE(transport->armed.empty());
+  ASSERT_EQ(ended.size(), 1u);
+  EXPECT_EQ(ended[0].value, 7u);
+  EXPECT_EQ(stats.total(ServerEvent::Timeout), 1u);
+  EXPECT_EQ(transport->reads, 1) << "no more reading once closing";
+}
+
+TEST_F(ConnectionTest, HelloStopsItsDeadlineAndMakesASession) {
+  greet();
+  EXPECT_FALSE(transport->armed.contains(Deadline::Hello));
+  EXPECT_EQ(transport->armed.at(Deadline::Read), config.idleTimeoutS);
+  ASSERT_EQ(transport->writes.size(), 1u);
+  EXPECT_TRUE(std::holds_alternative<proto::Capabilities>(decoded(transport->writes[0]).first));
+  core.expired(Deadline::Hello);  // a deadline that passed as Hello arrived changes nothing
+  EXPECT_EQ(transport->writes.size(), 1u);
+  EXPECT_TRUE(core.alive());
+  EXPECT_EQ(transport->reads, 2);
+}
+
+TEST_F(ConnectionTest, AHelloFindingTheSessionsFullIsRefused) {
+  sessionsFree = false;
+  core.start();
+  receive(proto::Hello{1, 1, "test"}, 1);
+  ASSERT_EQ(transport->writes.size(), 1u);
+  EXPECT_EQ(errorIn(transport->writes[0], 0), ErrorCode::LimitExceeded);
+  writeOne();
+  EXPECT_TRUE(transport->closed);
+  EXPECT_EQ(stats.total(ServerEvent::SessionRefused), 1u);
+}
+
+TEST_F(ConnectionTest, AnIdleSessionIsClosed) {
+  greet();
+  expectTimedOut(Deadline::Read);
+  EXPECT_EQ(stats.total(ServerEvent::Timeout), 1u);
+}
+
+TEST_F(ConnectionTest, AMessageMustCompleteWithinTheReadTimeoutOfItsFirstByte) {
+  greet();
+  core.messageStarted();
+  EXPECT_EQ(transport->armed.at(Deadline::Read), config.readTimeoutS) << "a started message has the read timeout";
+  expectTimedOut(Deadline::Read);
+}
+
+TEST_F(ConnectionTest, AClientWaitingForAFrameIsNotIdle) {
+  greet();
+  receive(proto::OpenDataset{"sparse"}, 2);
+  receive(proto::RenderRequest{proto::Encoding::RawRgba8, kScene}, 3);
+  flush();
+  ASSERT_TRUE(core.state().awaitingFrames());
+  transport->armed.erase(Deadline::Read);
+  core.expired(Deadline::Read);
+  EXPECT_EQ(transport->armed.at(Deadline::Read), config.idleTimeoutS) << "the idle deadline starts again";
+  EXPECT_FALSE(transport->writing);
+  EXPECT_TRUE(core.alive());
+}
+
+TEST_F(ConnectionTest, BackPressurePausesReadingAboveTheLimitAndResumesBelowHalfOfIt) {
+  greet();
+  const size_t reply = listReplyBytes();
+  config.pauseReadingBytes = 2 * reply;
+  receive(proto::ListDatasets{}, 2);  // being written
+  receive(proto::ListDatasets{}, 2);  // queued: 2 replies, at the limit
+  EXPECT_FALSE(core.readingPaused());
+  EXPECT_EQ(transport->reads, 4);
+  receive(proto::ListDatasets{}, 2);  // 3 replies: above it
+  EXPECT_EQ(core.queuedBytes(), 3 * reply);
+  EXPECT_TRUE(core.readingPaused());
+  EXPECT_EQ(transport->reads, 4) << "the next request is not read";
+  EXPECT_EQ(stats.total(ServerEvent::ReadingPaused), 1u);
+  writeOne();  // 2 left: above half the limit
+  EXPECT_TRUE(core.readingPaused());
+  EXPECT_EQ(transport->reads, 4);
+  writeOne();  // 1 left: half the limit
+  EXPECT_FALSE(core.readingPaused());
+  EXPECT_EQ(transport->reads, 5);
+  EXPECT_EQ(transport->armed.at(Deadline::Read), config.idleTimeoutS);
+}
+
+TEST_F(ConnectionTest, ANewerRenderReplacesAWaitingOlderOne) {
+  greet();
+  receive(proto::OpenDataset{"sparse"}, 2);
+  receive(proto::RenderRequest{proto::Encoding::RawRgba8, kScene}, 3);
+  receive(proto::RenderRequest{proto::Encoding::RawRgba8, kScene}, 4);
+  flush();
+  ASSERT_EQ(transport->writes.size(), 3u);  // Capabilities, DatasetInfo, Superseded
+  EXPECT_EQ(errorIn(transport->writes[2], 3), ErrorCode::Superseded);
+  EXPECT_EQ(core.state().outstandingRenders, 1);
+  EXPECT_EQ(scheduler->queuedSessions(), 1u);
+
+  RenderJob job;
+  job.requestId = 4;
+  core.rendered(job, proto::Frame{40, 32, proto::Encoding::RawRgba8, "{}", std::vector<uint8_t>(40 * 32 * 4)});
+  ASSERT_EQ(transport->writes.size(), 4u);
+  const auto [frame, id] = decoded(transport->writes[3]);
+  EXPECT_EQ(id, 4u);
+  EXPECT_TRUE(std::holds_alternative<proto::Frame>(frame));
+  EXPECT_EQ(core.state().outstandingRenders, 0);
+}
+
+TEST_F(ConnectionTest, AFramePastTheOutputBudgetIsRefusedAndTheBudgetIsReleasedWhenTheSessionEnds) {
+  greet();
+  receive(proto::ListDatasets{}, 2);  // being written, and counted against the budget
+  ASSERT_TRUE(transport->writing);
+  EXPECT_EQ(output.queued(), core.queuedBytes());
+  RenderJob job;
+  job.requestId = 5;
+  core.rendered(job, proto::Frame{1024, 1024, proto::Encoding::RawRgba8, "{}", std::vector<uint8_t>(2u << 20)});
+  EXPECT_EQ(stats.total(ServerEvent::OutputRefused), 1u);
+  ASSERT_EQ(transport->writes.size(), 2u) << "Capabilities, and the reply to ListDatasets being written";
+  EXPECT_EQ(output.queued(), core.queuedBytes());
+  core.end(errorMessage(ErrorCode::ShuttingDown, "server is stopping"));
+  EXPECT_GT(output.queued(), 0u);
+  writeOne();
+  ASSERT_EQ(transport->writes.size(), 3u);
+  EXPECT_EQ(errorIn(transport->writes[2], 5), ErrorCode::LimitExceeded);
+  transport->writing = false;
+  core.written(false);  // the client went away with replies unwritten
+  EXPECT_TRUE(transport->closed);
+  EXPECT_EQ(output.queued(), 0u);
+  EXPECT_EQ(core.queuedBytes(), 0u);
+  EXPECT_EQ(ended.size(), 1u);
+}
+
+TEST_F(ConnectionTest, ASessionPastItsOwnOutputLimitIsDropped) {
+  greet();
+  config.maxOutputBytes = 2 * listReplyBytes();
+  receive(proto::ListDatasets{}, 2);
+  receive(proto::ListDatasets{}, 2);
+  EXPECT_FALSE(transport->closed);
+  receive(proto::ListDatasets{}, 2);
+  EXPECT_TRUE(transport->closed) << "dropped at once, not after a flush";
+  EXPECT_EQ(stats.total(ServerEvent::SlowClientDropped), 1u);
+  EXPECT_EQ(output.queued(), 0u);
+}
+
+TEST_F(ConnectionTest, AReplyNotTakenWithinTheWriteDeadlineCloses) {
+  core.start();
+  receive(proto::Hello{1, 1, "test"}, 1);
+  EXPECT_EQ(transport->armed.at(Deadline::Write), config.writeTimeoutS);
+  core.expired(Deadline::Write);
+  EXPECT_TRUE(transport->closed);
+  EXPECT_EQ(stats.total(ServerEvent::SlowClientDropped), 1u);
+  EXPECT_EQ(output.queued(), 0u);
+}
+
+TEST_F(ConnectionTest, WholeMessagesAreDecodedOrAnswered) {
+  greet();
+  std::vector<uint8_t> bytes = proto::encode(proto::ListDatasets{}, 2);
+  bytes.push_back(0);  // a body longer than its header says: that message is refused, the session goes on
+  core.received(bytes);
+  flush();
+  ASSERT_EQ(transport->writes.size(), 2u);
+  EXPECT_EQ(errorIn(transport->writes[1], 2), ErrorCode::Malformed);
+  EXPECT_FALSE(transport->closed);
+  EXPECT_EQ(transport->reads, 3);
+
+  bytes = proto::encode(proto::ListDatasets{}, 3);
+  bytes[0] ^= 0xff;  // no magic: the connection closes
+  core.received(bytes);
+  ASSERT_EQ(transport->writes.size(), 3u);
+  EXPECT_EQ(errorIn(transport->writes[2], 0), ErrorCode::BadMagic);
+  flush();
+  EXPECT_TRUE(transport->closed);
+  EXPECT_EQ(stats.total(ServerEvent::ProtocolError), 2u);
+}
+
+}  // namespace
+}  // namespace voxbrick::server
