@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "TestDatasets.h"
-#include "render/RenderEngine.h"
-#include "render/TransferFunctionPresets.h"
+#include "render/engine/RenderEngine.h"
+#include "render/core/TransferFunctionPresets.h"
 #include "server/Connection.h"
 #include "server/Datasets.h"
 #include "server/ErrorReply.h"
