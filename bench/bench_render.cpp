@@ -19,13 +19,13 @@
 #include "brickstore/BrickCache.h"
 #include "brickstore/BrickStore.h"
 #include "brickstore/StoreWriter.h"
+#include "quality/Statistics.h"
 #include "render/GlContext.h"
 #include "render/VolumeRenderer.h"
-#include "bench/Sweep.h"
 
 namespace fs = std::filesystem;
 using namespace voxbrick;
-using voxbrick::bench::median;
+using voxbrick::quality::median;
 
 namespace {
 
