@@ -8,12 +8,13 @@
 #include <memory>
 #include <stdexcept>
 
-#include "bench/Sweep.h"
+#include "bench/SweepReport.h"
 #include "mesh/MeshReaders.h"
 #include "mesh/MeshStore.h"
 #include "mesh/SyntheticMesh.h"
 #include "mesh/Topology.h"
 #include "mesh/Validate.h"
+#include "quality/Statistics.h"
 #include "render/tets/TetMeshDataset.h"
 #include "render/reference/TetReference.h"
 #include "render/gl/tets/TetRenderer.h"
@@ -21,6 +22,9 @@
 
 namespace voxbrick::bench {
 namespace {
+
+using quality::ErrorTally;
+using quality::median;
 
 namespace fs = std::filesystem;
 

@@ -12,6 +12,12 @@
 namespace voxbrick::bench {
 namespace {
 
+using quality::Dataset;
+using quality::Point;
+using quality::Setting;
+using quality::SweepResult;
+using quality::Variant;
+
 constexpr double kPanelWidth = 430, kPanelHeight = 360;
 constexpr double kLeft = 58, kRight = 14, kTop = 34, kBottom = 46;  // margins of a panel's plot area
 constexpr double kPsnrCap = 100;
@@ -128,40 +134,49 @@ std::string marker(int shape, double x, double y, const std::string& color, bool
 
 double cappedPsnr(double psnr) { return std::min(psnr, kPsnrCap); }
 
-void panel(std::ostringstream& svg, const SweepResult& result, const Dataset& d, double x0) {
-  std::vector<const Point*> points;
-  for (const Point& p : result.points)
-    if (p.dataset == d.name) points.push_back(&p);
-  if (points.empty()) return;
+/// A panel's scales: log time across, PSNR up, both rounded out to ticks.
+struct PanelAxes {
+  double lx0, lx1, y0, y1;            ///< log10 of the time, and the PSNR, at the edges
+  double left, right, top, bottom;  ///< the plot area in the document
+  double px(double ms) const {
+    return left + (std::log10(std::max(ms, 1e-3)) - lx0) / (lx1 - lx0) * (right - left);
+  }
+  double py(double psnr) const { return bottom - (cappedPsnr(psnr) - y0) / (y1 - y0) * (bottom - top); }
+};
+
+/// The scales that hold every point and the threshold, for the panel at `x0`.
+PanelAxes panelAxes(const std::vector<const Point*>& points, double threshold, double x0) {
   double tMin = points[0]->msMedian, tMax = tMin, pMin = cappedPsnr(points[0]->psnrMin), pMax = pMin;
   for (const Point* p : points) {
     tMin = std::min(tMin, p->msMedian), tMax = std::max(tMax, p->msMedian);
     pMin = std::min(pMin, cappedPsnr(p->psnrMin)), pMax = std::max(pMax, cappedPsnr(p->psnrMin));
   }
-  pMin = std::min(pMin, result.spec.psnrThreshold);
+  pMin = std::min(pMin, threshold);
   const double lx0 = std::floor(std::log10(std::max(tMin, 1e-3)) * 4) / 4;
   const double lx1 = std::max(std::ceil(std::log10(std::max(tMax, 1e-3)) * 4) / 4, lx0 + 0.25);
   const double y0 = std::floor(pMin / 5) * 5, y1 = std::max(std::ceil(pMax / 5) * 5, y0 + 5);
-  const double left = x0 + kLeft, right = x0 + kPanelWidth - kRight, top = kTop, bottom = kPanelHeight - kBottom;
-  auto px = [&](double ms) { return left + (std::log10(std::max(ms, 1e-3)) - lx0) / (lx1 - lx0) * (right - left); };
-  auto py = [&](double psnr) { return bottom - (cappedPsnr(psnr) - y0) / (y1 - y0) * (bottom - top); };
+  return {lx0, lx1, y0, y1, x0 + kLeft, x0 + kPanelWidth - kRight, kTop, kPanelHeight - kBottom};
+}
 
+/// The panel's box, title, ticks, axis labels and the threshold line.
+void drawFrame(std::ostringstream& svg, const PanelAxes& a, const Dataset& d, double x0, double psnrThreshold) {
+  const double left = a.left, right = a.right, top = a.top, bottom = a.bottom;
   svg << svgf("<rect x=\"%.1f\" y=\"%.1f\" width=\"%.1f\" height=\"%.1f\" fill=\"none\" stroke=\"#444\"/>\n", left, top,
              right - left, bottom - top);
   svg << "<text x=\"" << (left + right) / 2 << "\" y=\"" << top - 10
       << "\" text-anchor=\"middle\" font-size=\"14\" font-weight=\"bold\">" << escape(d.name) << " ("
       << escape(d.input.substr(d.input.find_last_of('/') + 1)) << ")</text>\n";
   // Time ticks at 1, 2 and 5 times powers of ten; PSNR ticks every 5 dB.
-  for (int e = int(std::floor(lx0)); e <= int(std::ceil(lx1)); ++e)
+  for (int e = int(std::floor(a.lx0)); e <= int(std::ceil(a.lx1)); ++e)
     for (double m : {1.0, 2.0, 5.0}) {
       const double ms = m * std::pow(10.0, e), l = std::log10(ms);
-      if (l < lx0 - 1e-9 || l > lx1 + 1e-9) continue;
-      const double x = px(ms);
+      if (l < a.lx0 - 1e-9 || l > a.lx1 + 1e-9) continue;
+      const double x = a.px(ms);
       svg << svgf("<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#ddd\"/>\n", x, top, x, bottom);
       svg << svgf("<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"middle\" font-size=\"11\">%g</text>\n", x, bottom + 14, ms);
     }
-  for (double p = y0; p <= y1 + 1e-9; p += (y1 - y0 > 40 ? 10 : 5)) {
-    const double y = py(p);
+  for (double p = a.y0; p <= a.y1 + 1e-9; p += (a.y1 - a.y0 > 40 ? 10 : 5)) {
+    const double y = a.py(p);
     svg << svgf("<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#ddd\"/>\n", left, y, right, y);
     svg << svgf("<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"end\" font-size=\"11\">%g</text>\n", left - 5, y + 4, p);
   }
@@ -170,46 +185,59 @@ void panel(std::ostringstream& svg, const SweepResult& result, const Dataset& d,
   svg << svgf("<text transform=\"translate(%.1f,%.1f) rotate(-90)\" text-anchor=\"middle\" font-size=\"12\">", x0 + 16,
              (top + bottom) / 2)
       << "PSNR of the worst view (dB) — better up</text>\n";
-  const double threshold = py(result.spec.psnrThreshold);
+  const double threshold = a.py(psnrThreshold);
   svg << svgf("<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#888\" stroke-dasharray=\"6 4\"/>\n", left,
              threshold, right, threshold);
   svg << svgf("<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"end\" font-size=\"11\" fill=\"#666\">%g dB</text>\n",
-             right - 4, threshold - 4, result.spec.psnrThreshold);
+             right - 4, threshold - 4, psnrThreshold);
+}
 
-  // Variants in the order the sweep measured them; each one's Pareto front as a line under its points.
+/// Variant `v` (the `v`-th the sweep measured): its Pareto front as a line under its points, the points (the chosen
+/// settings ringed on the first variant), and its entry in the key.
+void drawVariant(std::ostringstream& svg, const PanelAxes& a, const SweepResult& result,
+                 const std::vector<const Point*>& points, const Variant& variant, size_t v) {
+  const std::string color = kColors[v % std::size(kColors)];
+  std::vector<const Point*> front;
+  for (const Point* p : points)
+    if (p->variant == variant && p->pareto) front.push_back(p);
+  std::sort(front.begin(), front.end(), [](const Point* x, const Point* y) { return x->msMedian < y->msMedian; });
+  svg << "<polyline fill=\"none\" stroke=\"" << color << "\" stroke-width=\"2\" stroke-opacity=\"0.6\" points=\"";
+  for (const Point* p : front) svg << svgf("%.1f,%.1f ", a.px(p->msMedian), a.py(p->psnrMin));
+  svg << "\"/>\n";
+  for (const Point* p : points) {
+    if (!(p->variant == variant)) continue;
+    const double x = a.px(p->msMedian), y = a.py(p->psnrMin);
+    svg << marker(shapeOf(p->setting), x, y, color, p->pareto) << "\n";
+    if (hasErtDot(p->setting)) svg << ertDot(x, y) << "\n";
+    if (shapeOf(p->setting) == 0)
+      svg << svgf("<text x=\"%.1f\" y=\"%.1f\" font-size=\"9\" fill=\"#333\">%g</text>\n", x + 6, y - 5,
+                 p->setting.step);
+    if (result.chosen && p->setting == *result.chosen && v == 0)
+      svg << svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"9\" fill=\"none\" stroke=\"black\" stroke-width=\"1.5\"/>\n",
+                 x, y);
+    if (result.chosenHigh && p->setting == *result.chosenHigh && v == 0)
+      svg << svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"12\" fill=\"none\" stroke=\"black\" stroke-width=\"1.5\" "
+                 "stroke-dasharray=\"3 2\"/>\n",
+                 x, y);
+  }
+  const double ly = kPanelHeight + 16 + 16 * double(v);
+  svg << svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"4\" fill=\"", a.left + 4, ly - 4) << color << "\"/>\n";
+  svg << svgf("<text x=\"%.1f\" y=\"%.1f\" font-size=\"11\">", a.left + 14, ly)
+      << escape(variant.transferFunction + (variant.shading ? ", shaded" : "")) << "</text>\n";
+}
+
+void panel(std::ostringstream& svg, const SweepResult& result, const Dataset& d, double x0) {
+  std::vector<const Point*> points;
+  for (const Point& p : result.points)
+    if (p.dataset == d.name) points.push_back(&p);
+  if (points.empty()) return;
+  const PanelAxes axes = panelAxes(points, result.spec.psnrThreshold, x0);
+  drawFrame(svg, axes, d, x0, result.spec.psnrThreshold);
+  // Variants in the order the sweep measured them.
   std::vector<Variant> variants;
   for (const Point* p : points)
     if (std::find(variants.begin(), variants.end(), p->variant) == variants.end()) variants.push_back(p->variant);
-  for (size_t v = 0; v < variants.size(); ++v) {
-    const std::string color = kColors[v % std::size(kColors)];
-    std::vector<const Point*> front;
-    for (const Point* p : points)
-      if (p->variant == variants[v] && p->pareto) front.push_back(p);
-    std::sort(front.begin(), front.end(), [](const Point* a, const Point* b) { return a->msMedian < b->msMedian; });
-    svg << "<polyline fill=\"none\" stroke=\"" << color << "\" stroke-width=\"2\" stroke-opacity=\"0.6\" points=\"";
-    for (const Point* p : front) svg << svgf("%.1f,%.1f ", px(p->msMedian), py(p->psnrMin));
-    svg << "\"/>\n";
-    for (const Point* p : points) {
-      if (!(p->variant == variants[v])) continue;
-      const double x = px(p->msMedian), y = py(p->psnrMin);
-      svg << marker(shapeOf(p->setting), x, y, color, p->pareto) << "\n";
-      if (hasErtDot(p->setting)) svg << ertDot(x, y) << "\n";
-      if (shapeOf(p->setting) == 0)
-        svg << svgf("<text x=\"%.1f\" y=\"%.1f\" font-size=\"9\" fill=\"#333\">%g</text>\n", x + 6, y - 5,
-                   p->setting.step);
-      if (result.chosen && p->setting == *result.chosen && v == 0)
-        svg << svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"9\" fill=\"none\" stroke=\"black\" stroke-width=\"1.5\"/>\n",
-                   x, y);
-      if (result.chosenHigh && p->setting == *result.chosenHigh && v == 0)
-        svg << svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"12\" fill=\"none\" stroke=\"black\" stroke-width=\"1.5\" "
-                   "stroke-dasharray=\"3 2\"/>\n",
-                   x, y);
-    }
-    const double ly = kPanelHeight + 16 + 16 * double(v);
-    svg << svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"4\" fill=\"", left + 4, ly - 4) << color << "\"/>\n";
-    svg << svgf("<text x=\"%.1f\" y=\"%.1f\" font-size=\"11\">", left + 14, ly)
-        << escape(variants[v].transferFunction + (variants[v].shading ? ", shaded" : "")) << "</text>\n";
-  }
+  for (size_t v = 0; v < variants.size(); ++v) drawVariant(svg, axes, result, points, variants[v], v);
 }
 
 }  // namespace

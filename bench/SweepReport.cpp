@@ -6,11 +6,21 @@
 #include <stdexcept>
 #include <tuple>
 
-#include "bench/Sweep.h"
 #include "bench/SweepPlot.h"
+#include "bench/SweepReport.h"
+#include "quality/SettingChoice.h"
 
 namespace voxbrick::bench {
 namespace {
+
+using quality::Dataset;
+using quality::Point;
+using quality::ReferenceReport;
+using quality::Setting;
+using quality::slabLabel;
+using quality::SweepResult;
+using quality::SweepSpec;
+using quality::Variant;
 
 std::string number(const char* format, double value) { return formatNumber(format, value); }
 
@@ -118,7 +128,8 @@ std::string slabTables(const SweepResult& r) {
   return md;
 }
 
-std::string markdown(const SweepResult& r) {
+/// The title and what a point is.
+std::string introduction(const SweepResult& r) {
   const SweepSpec& s = r.spec;
   std::string md = "# Time against error\n\n";
   md += "GPU renderer on " + r.device + "; " + std::to_string(s.size) + "×" + std::to_string(s.size) + " frames, " +
@@ -127,8 +138,13 @@ std::string markdown(const SweepResult& r) {
         "renderer (step " + number("%g", s.referenceStep) + " voxel): the worst view's PSNR, the PSNR of all views' "
         "pixels together, and the largest pixel difference. Pareto: no other point of the same dataset and variant is "
         "both faster and at least as accurate.\n\n![time against error](sweep.svg)\n\n";
+  return md;
+}
 
-  md += "## Chosen default\n\n";
+/// The chosen default and its frames on every dataset.
+std::string chosenDefault(const SweepResult& r) {
+  const SweepSpec& s = r.spec;
+  std::string md = "## Chosen default\n\n";
   if (r.chosen) {
     md += "**" + r.chosen->label() + "**: the fastest setting (sum of the median times over the datasets) that "
           "keeps the worst view at or above " + number("%g", s.psnrThreshold) + " dB against the reference on every "
@@ -145,8 +161,13 @@ std::string markdown(const SweepResult& r) {
   } else {
     md += "No setting keeps " + number("%g", s.psnrThreshold) + " dB on every dataset.\n";
   }
+  return md;
+}
 
-  // The same rule at both thresholds, side by side, then per dataset.
+/// The same rule at both thresholds, side by side.
+std::string bothThresholds(const SweepResult& r) {
+  const SweepSpec& s = r.spec;
+  std::string md;
   md += "\nThe same rule at " + number("%g", s.psnrThreshold) + " dB and at " + number("%g", s.psnrHighThreshold) +
         " dB (each dataset's default transfer function, unshaded; median ms / worst view dB):\n\n| worst view ≥ | "
         "setting |";
@@ -172,6 +193,13 @@ std::string markdown(const SweepResult& r) {
     }
     md += " " + (chosen ? number("%.1f", sum) : std::string("—")) + " |\n";
   }
+  return md;
+}
+
+/// The fastest setting per dataset and variant at each threshold.
+std::string fastestPerDataset(const SweepResult& r) {
+  const SweepSpec& s = r.spec;
+  std::string md;
   md += "\nThe fastest setting per dataset and variant (its default transfer function, and the opaque one of the "
         "slab settings) at each threshold: median ms / worst view dB.\n\n| dataset | variant | fastest ≥ " +
         number("%g", s.psnrThreshold) + " dB | ms / dB | fastest ≥ " + number("%g", s.psnrHighThreshold) +
@@ -187,6 +215,13 @@ std::string markdown(const SweepResult& r) {
       }
       md += "\n";
     }
+  return md;
+}
+
+/// The coarsest step at which the baseline keeps the threshold, per dataset and variant.
+std::string coarsestSteps(const SweepResult& r) {
+  const SweepSpec& s = r.spec;
+  std::string md;
   md += "\nWhat the other variants need: the coarsest swept step at which the baseline renderer keeps the worst "
         "view at or above " + number("%g", s.psnrThreshold) + " dB.\n\n| dataset | variant | coarsest step |\n"
         "|---|---|---:|\n";
@@ -203,7 +238,12 @@ std::string markdown(const SweepResult& r) {
         md += "| " + d.name + " | " + v.label() + " | " + (step ? number("%g", *step) : "none swept") + " |\n";
       }
   }
+  return md;
+}
 
+/// The reference's time per view and its self-check.
+std::string referenceTable(const SweepResult& r) {
+  std::string md;
   md += "\n## The reference\n\nTime per view, and its self-check: view 0 at the reference step against half that "
         "step (the bound it must stay far inside is the threshold above).\n\n"
         "| dataset | variant | ms per view | step vs step/2: PSNR | max abs |\n|---|---|---:|---:|---:|\n";
@@ -214,9 +254,13 @@ std::string markdown(const SweepResult& r) {
                                                               number("%.2g", ref.halvingMaxAbs)
                                                         : "— | —") +
           " |\n";
+  return md;
+}
 
-  md += slabTables(r);
-
+/// Every point of each dataset.
+std::string datasetTables(const SweepResult& r) {
+  const SweepSpec& s = r.spec;
+  std::string md;
   for (const Dataset& d : s.datasets) {
     md += "\n## " + d.name + " (`" + d.input + "`)\n\n| variant | setting | median ms | min…max ms | Msamples | "
           "Mfragments | worst view dB | pooled dB | max abs | Pareto |\n"
@@ -231,9 +275,14 @@ std::string markdown(const SweepResult& r) {
   return md;
 }
 
+std::string markdown(const SweepResult& r) {
+  return introduction(r) + chosenDefault(r) + bothThresholds(r) + fastestPerDataset(r) + coarsestSteps(r) +
+         referenceTable(r) + slabTables(r) + datasetTables(r);
+}
+
 }  // namespace
 
-void writeResults(const SweepResult& result, const std::filesystem::path& out) {
+void writeResults(const quality::SweepResult& result, const std::filesystem::path& out) {
   std::filesystem::create_directories(out);
   writeTextFile(out / "sweep.csv", csv(result));
   writeTextFile(out / "sweep.md", markdown(result));

@@ -24,6 +24,7 @@
 #include <map>
 #include <memory>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -31,16 +32,23 @@
 
 #include "brickstore/BrickCache.h"
 #include "brickstore/BrickStore.h"
+#include "quality/Statistics.h"
 #include "render/core/Camera.h"
 #include "render/gl/GlContext.h"
 #include "render/gl/volume/VolumeRenderer.h"
-#include "bench/Sweep.h"
 
 namespace fs = std::filesystem;
 using namespace voxbrick;
-using voxbrick::bench::median;
+using voxbrick::quality::median;
 
 namespace {
+
+struct Options {
+  std::string stores, labels, brickings, drawings = "raycast,slab,slicing", axes = "x,y,z", tf = "hot",
+              name = "orientation", out = "bench/results";
+  double step = 5, ert = 0, distance = 2.5;
+  int runs = 3, size = 256;
+};
 
 std::vector<std::string> split(const std::string& text) {
   std::vector<std::string> out;
@@ -159,163 +167,195 @@ std::string plot(const std::vector<Series>& series, const std::vector<std::pair<
   return svg.str();
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  std::string storesText, labelsText, brickingsText, drawingsText = "raycast,slab,slicing", axesText = "x,y,z",
-              tf = "hot", name = "orientation", outText = "bench/results";
-  double step = 5, ert = 0, distance = 2.5;
-  int runs = 3, size = 256;
-  CLI::App app{"bench_orientation: frame time against view angle about each axis"};
-  app.add_option("--stores", storesText, "stores to turn, comma-separated")->required();
-  app.add_option("--labels", labelsText, "a label per store, comma-separated (default: the stores' names)");
-  app.add_option("--brickings", brickingsText,
+void addOptions(CLI::App& app, Options& o) {
+  app.add_option("--stores", o.stores, "stores to turn, comma-separated")->required();
+  app.add_option("--labels", o.labels, "a label per store, comma-separated (default: the stores' names)");
+  app.add_option("--brickings", o.brickings,
                  "a bricking per store, comma-separated: single or multi-oriented (default: single for every store)");
-  app.add_option("--drawings", drawingsText, "raycast, slab, slicing, comma-separated");
-  app.add_option("--axes", axesText, "x, y, z, comma-separated");
-  app.add_option("--degrees-per-step", step, "degrees between views")->check(CLI::Range(0.1, 180.0));
-  app.add_option("--runs", runs, "timed passes after the warm-up pass")->check(CLI::Range(1, 1000));
-  app.add_option("--size", size, "frame side in pixels")->check(CLI::Range(8, 8192));
-  app.add_option("--tf", tf, "transfer function preset");
-  app.add_option("--ert", ert, "early ray termination threshold (0: off, so every sample is taken)");
-  app.add_option("--distance", distance, "eye distance in bounding radii");
-  app.add_option("--out", outText, "output directory");
-  app.add_option("--name", name, "output file name stem");
-  CLI11_PARSE(app, argc, argv);
-  const fs::path out = outText;
-  const std::vector<std::string> stores = split(storesText), drawings = split(drawingsText);
-  std::vector<std::string> labels = split(labelsText);
-  if (stores.empty()) {
-    std::fprintf(stderr, "bench_orientation: --stores names no store\n");
-    return 2;
-  }
-  if (labels.size() != stores.size()) {
-    labels.clear();
-    for (const std::string& s : stores) labels.push_back(fs::path(s).filename().string());
-  }
-  std::vector<render::AtlasBricking> brickings(stores.size(), render::AtlasBricking::Single);
-  if (!brickingsText.empty()) {
-    const std::vector<std::string> names = split(brickingsText);
-    if (names.size() != stores.size()) {
-      std::fprintf(stderr, "bench_orientation: --brickings names %zu brickings for %zu stores\n", names.size(),
-                   stores.size());
-      return 2;
-    }
-    try {
-      for (size_t i = 0; i < names.size(); ++i) brickings[i] = render::parseAtlasBricking(names[i]);
-    } catch (const std::exception& e) {
-      std::fprintf(stderr, "bench_orientation: %s\n", e.what());
-      return 2;
-    }
-  }
+  app.add_option("--drawings", o.drawings, "raycast, slab, slicing, comma-separated");
+  app.add_option("--axes", o.axes, "x, y, z, comma-separated");
+  app.add_option("--degrees-per-step", o.step, "degrees between views")->check(CLI::Range(0.1, 180.0));
+  app.add_option("--runs", o.runs, "timed passes after the warm-up pass")->check(CLI::Range(1, 1000));
+  app.add_option("--size", o.size, "frame side in pixels")->check(CLI::Range(8, 8192));
+  app.add_option("--tf", o.tf, "transfer function preset");
+  app.add_option("--ert", o.ert, "early ray termination threshold (0: off, so every sample is taken)");
+  app.add_option("--distance", o.distance, "eye distance in bounding radii");
+  app.add_option("--out", o.out, "output directory");
+  app.add_option("--name", o.name, "output file name stem");
+}
+
+/// What the options name: stores with their labels and brickings, axes, drawings and the angles of a turn.
+struct Plan {
+  std::vector<std::string> stores, labels, drawings;
+  std::vector<render::AtlasBricking> brickings;
   std::vector<int> axes;
-  for (const std::string& a : split(axesText)) {
-    if (a != "x" && a != "y" && a != "z") {
-      std::fprintf(stderr, "bench_orientation: axis '%s' is not x, y or z\n", a.c_str());
-      return 2;
-    }
-    axes.push_back(a[0] - 'x');
-  }
-  for (const std::string& d : drawings)
-    if (d != "raycast" && d != "slab" && d != "slicing") {
-      std::fprintf(stderr, "bench_orientation: drawing '%s' is not raycast, slab or slicing\n", d.c_str());
-      return 2;
-    }
   std::vector<double> angles;
-  for (double a = 0; a < 360 - 1e-9; a += step) angles.push_back(a);
+};
 
-  auto context = render::createContext(render::Backend::Auto);
-  const std::string device = context->describe();
-  std::printf("bench_orientation on %s: %zu stores, %zu drawings, %zu axes, %zu angles, %d runs\n", device.c_str(),
-              stores.size(), drawings.size(), axes.size(), angles.size(), runs);
-  std::vector<Series> series;
-  std::vector<std::pair<std::string, std::string>> panels;
-  for (size_t si = 0; si < stores.size(); ++si) {
-    auto store = store::BrickStore::openAny(stores[si]);
-    const render::Box box = render::volumeBox(store->meta().dims, store->meta().spacing);
-    auto cache = std::make_shared<store::BrickCache>(store, size_t(4096) << 20, 2);
-    for (const std::string& drawing : drawings) {
-      panels.push_back({labels[si], drawing});
-      render::Scene scene;
-      scene.width = scene.height = size;
-      scene.transferFunction = render::TransferFunction::load(tf);
-      scene.transferFunctionName = tf;
-      scene.ert = ert;
-      scene.lod = 0;
-      scene.raycast = drawing == "raycast";
-      scene.slab = drawing == "slicing" ? 0 : 32;
-      const size_t first = series.size();
-      for (int axis : axes) {
-        Series s;
-        s.store = labels[si];
-        s.drawing = drawing;
-        s.axis = axis;
-        s.angles = angles;
-        s.runs.resize(angles.size());
-        series.push_back(std::move(s));
-      }
-      for (int run = -1; run < runs; ++run) {  // run -1: the warm-up pass, discarded
-        // A fresh renderer each run: the atlas (the texture) is loaded anew, as in the paper's protocol.
-        render::VolumeRenderer renderer(*context, cache, size_t(2048) << 20, render::AtlasFormat::Float,
-                                        render::AtlasUploads::Auto, brickings[si]);
-        scene.camera = cameraAbout(axes[0], angles[0], distance * box.radius());
-        renderer.render(scene);  // untimed: uploads the bricks, so that no timed frame pays for the load
-        for (size_t ai = 0; ai < axes.size(); ++ai)
-          for (size_t k = 0; k < angles.size(); ++k) {
-            scene.camera = cameraAbout(axes[ai], angles[k], distance * box.radius());
-            render::FrameStats stats;
-            renderer.render(scene, &stats);
-            if (run >= 0) series[first + ai].runs[k].push_back({stats.msTotal, double(stats.samples)});
-          }
-        if (run >= 0)
-          std::printf("%s, %s: run %d of %d done\n", labels[si].c_str(), drawing.c_str(), run + 1, runs);
-        std::fflush(stdout);
-      }
-    }
+/// A bricking per store: single for each, or those `text` names; throws std::invalid_argument if they do not match.
+std::vector<render::AtlasBricking> brickingsOf(const std::string& text, size_t stores) {
+  std::vector<render::AtlasBricking> brickings(stores, render::AtlasBricking::Single);
+  if (text.empty()) return brickings;
+  const std::vector<std::string> names = split(text);
+  if (names.size() != stores)
+    throw std::invalid_argument("--brickings names " + std::to_string(names.size()) + " brickings for " +
+                                std::to_string(stores) + " stores");
+  for (size_t i = 0; i < names.size(); ++i) brickings[i] = render::parseAtlasBricking(names[i]);
+  return brickings;
+}
+
+/// The plan of the options; throws std::invalid_argument (or what parseAtlasBricking throws) naming what is wrong.
+Plan planOf(const Options& o) {
+  Plan p;
+  p.stores = split(o.stores);
+  p.drawings = split(o.drawings);
+  p.labels = split(o.labels);
+  if (p.stores.empty()) throw std::invalid_argument("--stores names no store");
+  if (p.labels.size() != p.stores.size()) {
+    p.labels.clear();
+    for (const std::string& s : p.stores) p.labels.push_back(fs::path(s).filename().string());
   }
+  p.brickings = brickingsOf(o.brickings, p.stores.size());
+  for (const std::string& a : split(o.axes)) {
+    if (a != "x" && a != "y" && a != "z") throw std::invalid_argument("axis '" + a + "' is not x, y or z");
+    p.axes.push_back(a[0] - 'x');
+  }
+  for (const std::string& d : p.drawings)
+    if (d != "raycast" && d != "slab" && d != "slicing")
+      throw std::invalid_argument("drawing '" + d + "' is not raycast, slab or slicing");
+  for (double a = 0; a < 360 - 1e-9; a += o.step) p.angles.push_back(a);
+  return p;
+}
 
-  fs::create_directories(out);
-  std::ofstream csv(out / (name + ".csv"));
-  csv << "# " << device << "; " << size << "x" << size << ", tf " << tf << ", ert " << ert << ", distance " << distance
-      << " R, " << step << " degrees a step, " << runs << " runs after a warm-up pass\n";
+render::Scene drawingScene(const Options& o, const std::string& drawing) {
+  render::Scene scene;
+  scene.width = scene.height = o.size;
+  scene.transferFunction = render::TransferFunction::load(o.tf);
+  scene.transferFunctionName = o.tf;
+  scene.ert = o.ert;
+  scene.lod = 0;
+  scene.raycast = drawing == "raycast";
+  scene.slab = drawing == "slicing" ? 0 : 32;
+  return scene;
+}
+
+/// Store `si` with `drawing`: a series per axis appended to `series`, each angle timed in every run. A fresh
+/// renderer each run (the atlas, the texture, loaded anew, as in the paper's protocol); run -1 is the warm-up pass,
+/// discarded.
+void measureDrawing(render::GlContext& context, const std::shared_ptr<store::BrickCache>& cache, const Plan& plan,
+                    size_t si, const std::string& drawing, const Options& o, std::vector<Series>& series) {
+  const render::Box box = render::volumeBox(cache->store()->meta().dims, cache->store()->meta().spacing);
+  render::Scene scene = drawingScene(o, drawing);
+  const size_t first = series.size();
+  for (int axis : plan.axes) {
+    Series s;
+    s.store = plan.labels[si];
+    s.drawing = drawing;
+    s.axis = axis;
+    s.angles = plan.angles;
+    s.runs.resize(plan.angles.size());
+    series.push_back(std::move(s));
+  }
+  for (int run = -1; run < o.runs; ++run) {
+    render::VolumeRenderer renderer(context, cache, size_t(2048) << 20, render::AtlasFormat::Float,
+                                    render::AtlasUploads::Auto, plan.brickings[si]);
+    scene.camera = cameraAbout(plan.axes[0], plan.angles[0], o.distance * box.radius());
+    renderer.render(scene);  // untimed: uploads the bricks, so that no timed frame pays for the load
+    for (size_t ai = 0; ai < plan.axes.size(); ++ai)
+      for (size_t k = 0; k < plan.angles.size(); ++k) {
+        scene.camera = cameraAbout(plan.axes[ai], plan.angles[k], o.distance * box.radius());
+        render::FrameStats stats;
+        renderer.render(scene, &stats);
+        if (run >= 0) series[first + ai].runs[k].push_back({stats.msTotal, double(stats.samples)});
+      }
+    if (run >= 0) std::printf("%s, %s: run %d of %d done\n", plan.labels[si].c_str(), drawing.c_str(), run + 1, o.runs);
+    std::fflush(stdout);
+  }
+}
+
+void writeCsv(const fs::path& path, const std::string& device, const Options& o, const std::vector<Series>& series) {
+  std::ofstream csv(path);
+  csv << "# " << device << "; " << o.size << "x" << o.size << ", tf " << o.tf << ", ert " << o.ert << ", distance "
+      << o.distance << " R, " << o.step << " degrees a step, " << o.runs << " runs after a warm-up pass\n";
   csv << "store,drawing,axis,angle,run,ms_total,samples\n";
   for (const Series& s : series)
     for (size_t k = 0; k < s.angles.size(); ++k)
       for (size_t r = 0; r < s.runs[k].size(); ++r)
         csv << s.store << "," << s.drawing << "," << kAxisNames[s.axis] << "," << s.angles[k] << "," << r << ","
             << s.runs[k][r].ms << "," << s.runs[k][r].samples << "\n";
+}
 
-  std::ofstream md(out / (name + ".md"));
-  md << "Device: " << device << ". " << size << "×" << size << ", transfer function `" << tf << "`, termination "
-     << (ert > 0 ? std::to_string(ert) : std::string("off")) << ", level 0, the eye at " << distance
-     << " bounding radii on a circle about each axis (up along the axis), " << step << "° a step (" << angles.size()
-     << " angles an axis); per store and drawing a fresh renderer each run, a warm-up pass discarded, " << runs
-     << " timed runs; per angle the median frame time over the runs.\n\n";
-  md << "| store | drawing | axis | min ms | max ms | min/max frame rate | mean ms | sd ms | min ns/sample | max "
-        "ns/sample | ns/sample ratio |\n|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+/// A panel's rows: one per axis, then one over all its axes.
+void writeSummaryRows(std::ofstream& md, const std::vector<Series>& series, const std::string& store,
+                      const std::string& drawing) {
   char line[512];
-  for (const auto& [store, drawing] : panels) {
-    std::vector<double> allMs, allNs;
-    for (const Series& s : series) {
-      if (s.store != store || s.drawing != drawing) continue;
-      const std::vector<double> ms = s.medianMs(), ns = s.nsPerSample();
-      allMs.insert(allMs.end(), ms.begin(), ms.end());
-      allNs.insert(allNs.end(), ns.begin(), ns.end());
-      const Summary t = summarise(ms), n = summarise(ns);
-      std::snprintf(line, sizeof line, "| %s | %s | %s | %.1f | %.1f | 1:%.2f | %.1f | %.1f | %.2f | %.2f | %.2f |\n",
-                    store.c_str(), drawing.c_str(), kAxisNames[s.axis], t.min, t.max, t.max / t.min, t.mean, t.sd,
-                    n.min, n.max, n.max / n.min);
-      md << line;
-    }
-    const Summary t = summarise(allMs), n = summarise(allNs);
-    std::snprintf(line, sizeof line,
-                  "| %s | %s | **all** | %.1f | %.1f | **1:%.2f** | %.1f | %.1f | %.2f | %.2f | %.2f |\n",
-                  store.c_str(), drawing.c_str(), t.min, t.max, t.max / t.min, t.mean, t.sd, n.min, n.max,
-                  n.max / n.min);
+  std::vector<double> allMs, allNs;
+  for (const Series& s : series) {
+    if (s.store != store || s.drawing != drawing) continue;
+    const std::vector<double> ms = s.medianMs(), ns = s.nsPerSample();
+    allMs.insert(allMs.end(), ms.begin(), ms.end());
+    allNs.insert(allNs.end(), ns.begin(), ns.end());
+    const Summary t = summarise(ms), n = summarise(ns);
+    std::snprintf(line, sizeof line, "| %s | %s | %s | %.1f | %.1f | 1:%.2f | %.1f | %.1f | %.2f | %.2f | %.2f |\n",
+                  store.c_str(), drawing.c_str(), kAxisNames[s.axis], t.min, t.max, t.max / t.min, t.mean, t.sd,
+                  n.min, n.max, n.max / n.min);
     md << line;
   }
-  md << "\n![frame time against angle](" << name << ".svg)\n";
-  std::ofstream(out / (name + ".svg")) << plot(series, panels);
-  std::printf("wrote %s.{csv,md,svg} in %s\n", name.c_str(), out.string().c_str());
+  const Summary t = summarise(allMs), n = summarise(allNs);
+  std::snprintf(line, sizeof line,
+                "| %s | %s | **all** | %.1f | %.1f | **1:%.2f** | %.1f | %.1f | %.2f | %.2f | %.2f |\n",
+                store.c_str(), drawing.c_str(), t.min, t.max, t.max / t.min, t.mean, t.sd, n.min, n.max,
+                n.max / n.min);
+  md << line;
+}
+
+void writeMarkdown(const fs::path& path, const std::string& device, const Options& o, size_t angles,
+                   const std::vector<Series>& series,
+                   const std::vector<std::pair<std::string, std::string>>& panels) {
+  std::ofstream md(path);
+  md << "Device: " << device << ". " << o.size << "×" << o.size << ", transfer function `" << o.tf
+     << "`, termination " << (o.ert > 0 ? std::to_string(o.ert) : std::string("off")) << ", level 0, the eye at "
+     << o.distance << " bounding radii on a circle about each axis (up along the axis), " << o.step << "° a step ("
+     << angles << " angles an axis); per store and drawing a fresh renderer each run, a warm-up pass discarded, "
+     << o.runs << " timed runs; per angle the median frame time over the runs.\n\n";
+  md << "| store | drawing | axis | min ms | max ms | min/max frame rate | mean ms | sd ms | min ns/sample | max "
+        "ns/sample | ns/sample ratio |\n|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  for (const auto& [store, drawing] : panels) writeSummaryRows(md, series, store, drawing);
+  md << "\n![frame time against angle](" << o.name << ".svg)\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  CLI::App app{"bench_orientation: frame time against view angle about each axis"};
+  addOptions(app, o);
+  CLI11_PARSE(app, argc, argv);
+  Plan plan;
+  try {
+    plan = planOf(o);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_orientation: %s\n", e.what());
+    return 2;
+  }
+  auto context = render::createContext(render::Backend::Auto);
+  const std::string device = context->describe();
+  std::printf("bench_orientation on %s: %zu stores, %zu drawings, %zu axes, %zu angles, %d runs\n", device.c_str(),
+              plan.stores.size(), plan.drawings.size(), plan.axes.size(), plan.angles.size(), o.runs);
+  std::vector<Series> series;
+  std::vector<std::pair<std::string, std::string>> panels;
+  for (size_t si = 0; si < plan.stores.size(); ++si) {
+    auto cache = std::make_shared<store::BrickCache>(store::BrickStore::openAny(plan.stores[si]), size_t(4096) << 20, 2);
+    for (const std::string& drawing : plan.drawings) {
+      panels.push_back({plan.labels[si], drawing});
+      measureDrawing(*context, cache, plan, si, drawing, o, series);
+    }
+  }
+  const fs::path out = o.out;
+  fs::create_directories(out);
+  writeCsv(out / (o.name + ".csv"), device, o, series);
+  writeMarkdown(out / (o.name + ".md"), device, o, plan.angles.size(), series, panels);
+  std::ofstream(out / (o.name + ".svg")) << plot(series, panels);
+  std::printf("wrote %s.{csv,md,svg} in %s\n", o.name.c_str(), out.string().c_str());
   return 0;
 }

@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "brickstore/BrickCache.h"
@@ -39,6 +40,13 @@ using namespace voxbrick;
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+struct Options {
+  std::string out = "bench/results", work = "bench/work", name = "slicers", input = "synthetic:blobs,n=256";
+  std::string tf = "hot", slicers = "vertex,vertex-lean,geometry,vertex-geometry,cpu", modes = "blending,points";
+  int brick = 16, subBlock = 0, size = 512, rotations = 90, runs = 10, passes = 10;
+  double step = 1, degrees = 2;
+};
 
 /// One timed setting: a slicer in a mode.
 struct Setting {
@@ -93,138 +101,121 @@ double deviation(const std::vector<double>& v) {
   return std::sqrt(sum / double(v.size() - 1));
 }
 
-}  // namespace
+void addOptions(CLI::App& app, Options& o) {
+  app.add_option("--out", o.out, "output directory")->capture_default_str();
+  app.add_option("--work", o.work, "directory for the store (made once, kept)")->capture_default_str();
+  app.add_option("--name", o.name, "output files NAME.csv and NAME.md")->capture_default_str();
+  app.add_option("--input", o.input, "what `voxbrick prep` takes")->capture_default_str();
+  app.add_option("--tf", o.tf, "transfer function preset")->capture_default_str();
+  app.add_option("--brick", o.brick, "brick size of the store")->capture_default_str();
+  app.add_option("--sub-block", o.subBlock, "sub-block size (0: whole bricks)")->capture_default_str();
+  app.add_option("--size", o.size, "frame side in pixels")->capture_default_str();
+  app.add_option("--step", o.step, "step in voxels")->capture_default_str();
+  app.add_option("--rotations", o.rotations, "turns about each axis")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
+  app.add_option("--degrees", o.degrees, "degrees a turn")->capture_default_str();
+  app.add_option("--runs", o.runs, "runs, each with a fresh renderer")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
+  app.add_option("--passes", o.passes, "timed passes a run")->capture_default_str()->check(CLI::Range(1, 100000));
+  app.add_option("--slicers", o.slicers, "slicers, comma-separated")->capture_default_str();
+  app.add_option("--modes", o.modes, "blending, points, comma-separated")->capture_default_str();
+}
 
-int main(int argc, char** argv) {
-  fs::path out = "bench/results", work = "bench/work";
-  std::string name = "slicers", input = "synthetic:blobs,n=256", tf = "hot";
-  std::string slicerList = "vertex,vertex-lean,geometry,vertex-geometry,cpu", modeList = "blending,points";
-  int brick = 16, subBlock = 0, size = 512, count = 90, runs = 10, passes = 10;
-  double step = 1, degrees = 2;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string a = argv[i], v = argv[i + 1];
-    if (a == "--out") out = v;
-    else if (a == "--work") work = v;
-    else if (a == "--name") name = v;
-    else if (a == "--input") input = v;
-    else if (a == "--tf") tf = v;
-    else if (a == "--brick") brick = std::stoi(v);
-    else if (a == "--sub-block") subBlock = std::stoi(v);
-    else if (a == "--size") size = std::stoi(v);
-    else if (a == "--step") step = std::stod(v);
-    else if (a == "--rotations") count = std::stoi(v);
-    else if (a == "--degrees") degrees = std::stod(v);
-    else if (a == "--runs") runs = std::stoi(v);
-    else if (a == "--passes") passes = std::stoi(v);
-    else if (a == "--slicers") slicerList = v;
-    else if (a == "--modes") modeList = v;
-    else {
-      std::fprintf(stderr, "bench_slicers: unknown option %s\n", a.c_str());
-      return 2;
-    }
-  }
-  if (argc % 2 == 0) {
-    std::fprintf(stderr, "bench_slicers: option %s needs a value\n", argv[argc - 1]);
-    return 2;
-  }
-  if (count < 1 || runs < 1 || passes < 1) {
-    std::fprintf(stderr, "bench_slicers: --rotations, --runs and --passes must be at least 1\n");
-    return 2;
-  }
-
+/// Every slicer of `o.slicers` in every mode of `o.modes`; throws std::invalid_argument naming an unknown one.
+std::vector<Setting> settingsOf(const Options& o) {
   std::vector<Setting> settings;
-  try {
-    for (const std::string& m : items(modeList)) {
-      if (m != "blending" && m != "points") throw std::invalid_argument("--modes: unknown mode '" + m + "'");
-      for (const std::string& s : items(slicerList))
-        settings.push_back({render::parseSlicer(s, "--slicers"),
-                            m == "points" ? render::RenderMode::Points : render::RenderMode::Normal, {}});
-    }
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "bench_slicers: %s\n", e.what());
-    return 2;
+  for (const std::string& m : items(o.modes)) {
+    if (m != "blending" && m != "points") throw std::invalid_argument("--modes: unknown mode '" + m + "'");
+    for (const std::string& s : items(o.slicers))
+      settings.push_back({render::parseSlicer(s, "--slicers"),
+                          m == "points" ? render::RenderMode::Points : render::RenderMode::Normal, {}});
   }
+  return settings;
+}
 
-  fs::create_directories(out);
-  fs::create_directories(work);
-  std::string storeName = input;
+/// The store of `o.input` with bricks of `o.brick` in `o.work`, made by prep unless there.
+std::shared_ptr<const store::BrickStore> openStore(const Options& o) {
+  std::string storeName = o.input;
   for (char& c : storeName)
     if (!std::isalnum(static_cast<unsigned char>(c))) c = '-';
-  const fs::path storePath = work / (storeName + "-b" + std::to_string(brick) + ".vbs");
+  const fs::path storePath = fs::path(o.work) / (storeName + "-b" + std::to_string(o.brick) + ".vbs");
   if (!fs::exists(storePath / "store.json")) {
-    auto source = store::openSource(input, {});
+    auto source = store::openSource(o.input, {});
     store::PrepOptions options;
-    options.brickSize = brick;
+    options.brickSize = o.brick;
     options.writeVdb = false;
     options.overwrite = true;
     store::prepStore(*source, storePath, options);
   }
-  const auto store = store::BrickStore::open(storePath);
-  auto context = render::createContext(render::Backend::Auto);
-  const std::string device = context->describe();
+  return store::BrickStore::open(storePath);
+}
 
+/// The scene of the protocol (slicing, level 0) and its cameras, the whole volume in view at every turn: its
+/// bounding sphere inside the vertical field of view.
+render::Scene sliceScene(const Options& o, const store::StoreMeta& meta, std::vector<render::CameraSpec>& cameras) {
   render::Scene scene;
-  scene.width = scene.height = size;
-  scene.step = step;
-  scene.transferFunction = render::TransferFunction::load(tf);
-  scene.transferFunctionName = tf;
+  scene.width = scene.height = o.size;
+  scene.step = o.step;
+  scene.transferFunction = render::TransferFunction::load(o.tf);
+  scene.transferFunctionName = o.tf;
   scene.slab = 0;  // slicing: the slicers apply only there
   scene.raycast = false;
   scene.ert = 0;
-  scene.subBlock = subBlock;
+  scene.subBlock = o.subBlock;
   scene.lod = 0;
-  // The whole volume in view at every turn: its bounding sphere inside the vertical field of view.
-  const store::StoreMeta& meta = store->meta();
   const glm::dvec3 extent(double(meta.dims.x) * meta.spacing.x, double(meta.dims.y) * meta.spacing.y,
                           double(meta.dims.z) * meta.spacing.z);
   const double radius = 0.5 * glm::length(extent);
   const double distance = 1.05 * radius / std::sin(glm::radians(0.5 * scene.camera.fovY));
-  const std::vector<render::CameraSpec> cameras = rotations(count, degrees, distance);
-  std::printf("bench_slicers on %s\n%s, bricks of %d, sub-blocks %d, %s, step %g, %dx%d, %zu views, %d runs of "
-              "1 + %d passes\n",
-              device.c_str(), input.c_str(), brick, subBlock, tf.c_str(), step, size, size, cameras.size(), runs,
-              passes);
+  cameras = rotations(o.rotations, o.degrees, distance);
+  return scene;
+}
 
-  for (int run = 0; run < runs; ++run) {
-    for (Setting& s : settings) {
-      // A fresh renderer and cache: the bricks are paged into a new atlas, as the paper reloads its texture.
-      auto cache = std::make_shared<store::BrickCache>(store, size_t(4) << 30, 1);
-      render::VolumeRenderer renderer(*context, cache, size_t(2) << 30);
-      scene.slicer = s.slicer;
-      const render::FrameOptions options{s.mode};
-      double slices = 0, boxes = 0;
-      auto pass = [&](bool tally) {
-        for (const render::CameraSpec& camera : cameras) {
-          scene.camera = camera;
-          render::FrameStats stats;
-          renderer.render(scene, &stats, options);
-          if (tally) slices += double(stats.slices), boxes += double(stats.boxesDrawn);
-        }
-      };
-      pass(false);  // warm-up: pages every brick, builds the program; discarded
-      const auto start = Clock::now();
-      for (int p = 0; p < passes; ++p) pass(run == 0 && p == 0);
-      const double seconds = std::chrono::duration<double>(Clock::now() - start).count() / passes;
-      s.runSeconds.push_back(seconds);
-      if (run == 0) {
-        s.slicesPerFrame = slices / double(cameras.size());
-        s.boxesPerFrame = boxes / double(cameras.size());
-      }
-      std::printf("run %d  %-16s %-9s %8.3f s per %zu frames\n", run + 1, render::slicerName(s.slicer),
-                  modeName(s.mode), seconds, cameras.size());
-      std::fflush(stdout);
+/// One run of setting `s`: a fresh renderer and cache (the bricks paged into a new atlas, as the paper reloads its
+/// texture), a warm-up pass discarded, then the timed passes; the first run also counts slices and boxes.
+void timeRun(render::GlContext& context, const std::shared_ptr<const store::BrickStore>& store, render::Scene scene,
+             const std::vector<render::CameraSpec>& cameras, int run, const Options& o, Setting& s) {
+  auto cache = std::make_shared<store::BrickCache>(store, size_t(4) << 30, 1);
+  render::VolumeRenderer renderer(context, cache, size_t(2) << 30);
+  scene.slicer = s.slicer;
+  const render::FrameOptions options{s.mode};
+  double slices = 0, boxes = 0;
+  auto pass = [&](bool tally) {
+    for (const render::CameraSpec& camera : cameras) {
+      scene.camera = camera;
+      render::FrameStats stats;
+      renderer.render(scene, &stats, options);
+      if (tally) slices += double(stats.slices), boxes += double(stats.boxesDrawn);
     }
+  };
+  pass(false);  // warm-up: pages every brick, builds the program; discarded
+  const auto start = Clock::now();
+  for (int p = 0; p < o.passes; ++p) pass(run == 0 && p == 0);
+  const double seconds = std::chrono::duration<double>(Clock::now() - start).count() / o.passes;
+  s.runSeconds.push_back(seconds);
+  if (run == 0) {
+    s.slicesPerFrame = slices / double(cameras.size());
+    s.boxesPerFrame = boxes / double(cameras.size());
   }
+  std::printf("run %d  %-16s %-9s %8.3f s per %zu frames\n", run + 1, render::slicerName(s.slicer),
+              modeName(s.mode), seconds, cameras.size());
+  std::fflush(stdout);
+}
 
-  std::ofstream csv(out / (name + ".csv"));
+void writeResults(const std::string& device, const Options& o, const std::vector<Setting>& settings,
+                  size_t frames) {
+  const fs::path out = o.out;
+  std::ofstream csv(out / (o.name + ".csv"));
   csv << "slicer,mode,runs,passes,frames_per_pass,mean_s,stddev_s,mean_ms_per_frame,slices_per_frame,"
          "boxes_per_frame\n";
-  std::ofstream md(out / (name + ".md"));
-  md << "Slicers after Zellmann & Lang (2011) on " << device << ": " << input << " in bricks of " << brick
-     << (subBlock ? ", sub-blocks of " + std::to_string(subBlock) : std::string()) << ", transfer function " << tf
-     << ", step " << step << " voxels, " << size << "x" << size << ". Seconds per pass of " << cameras.size()
-     << " frames (" << count << " rotations of " << degrees << " degrees about x, y and z), the mean of " << passes
-     << " passes after one discarded, averaged over " << runs
+  std::ofstream md(out / (o.name + ".md"));
+  md << "Slicers after Zellmann & Lang (2011) on " << device << ": " << o.input << " in bricks of " << o.brick
+     << (o.subBlock ? ", sub-blocks of " + std::to_string(o.subBlock) : std::string()) << ", transfer function "
+     << o.tf << ", step " << o.step << " voxels, " << o.size << "x" << o.size << ". Seconds per pass of " << frames
+     << " frames (" << o.rotations << " rotations of " << o.degrees << " degrees about x, y and z), the mean of "
+     << o.passes << " passes after one discarded, averaged over " << o.runs
      << " runs, each with a fresh renderer (bricks paged anew); in parentheses the standard deviation over the runs. "
         "Blending: the normal frame; points: slices drawn as their corners (glPolygonMode GL_POINT). Slices: the "
         "planes given to the boxes of a frame (box-plane intersections; the GPU slicers get one plane more each side "
@@ -235,13 +226,45 @@ int main(int argc, char** argv) {
     const double m = mean(s.runSeconds), sd = deviation(s.runSeconds);
     char line[512];
     std::snprintf(line, sizeof line, "%s,%s,%d,%d,%zu,%.4f,%.4f,%.3f,%.0f,%.0f\n", render::slicerName(s.slicer),
-                  modeName(s.mode), runs, passes, cameras.size(), m, sd, 1e3 * m / double(cameras.size()),
-                  s.slicesPerFrame, s.boxesPerFrame);
+                  modeName(s.mode), o.runs, o.passes, frames, m, sd, 1e3 * m / double(frames), s.slicesPerFrame,
+                  s.boxesPerFrame);
     csv << line;
     std::snprintf(line, sizeof line, "| %s | %s | %.3f (%.3f) | %.2f | %.0f | %.0f |\n", render::slicerName(s.slicer),
-                  modeName(s.mode), m, sd, 1e3 * m / double(cameras.size()), s.slicesPerFrame, s.boxesPerFrame);
+                  modeName(s.mode), m, sd, 1e3 * m / double(frames), s.slicesPerFrame, s.boxesPerFrame);
     md << line;
   }
-  std::printf("wrote %s and %s\n", (out / (name + ".md")).string().c_str(), (out / (name + ".csv")).string().c_str());
+  std::printf("wrote %s and %s\n", (out / (o.name + ".md")).string().c_str(),
+              (out / (o.name + ".csv")).string().c_str());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  CLI::App app{"bench_slicers: the slicers' frame time after Zellmann & Lang (2011)"};
+  addOptions(app, o);
+  CLI11_PARSE(app, argc, argv);
+  std::vector<Setting> settings;
+  try {
+    settings = settingsOf(o);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_slicers: %s\n", e.what());
+    return 2;
+  }
+  fs::create_directories(o.out);
+  fs::create_directories(o.work);
+  const auto store = openStore(o);
+  auto context = render::createContext(render::Backend::Auto);
+  const std::string device = context->describe();
+  std::vector<render::CameraSpec> cameras;
+  const render::Scene scene = sliceScene(o, store->meta(), cameras);
+  std::printf("bench_slicers on %s\n%s, bricks of %d, sub-blocks %d, %s, step %g, %dx%d, %zu views, %d runs of "
+              "1 + %d passes\n",
+              device.c_str(), o.input.c_str(), o.brick, o.subBlock, o.tf.c_str(), o.step, o.size, o.size,
+              cameras.size(), o.runs, o.passes);
+  // Every run goes through all settings in turn, so that a drift of the machine's load reaches all of them alike.
+  for (int run = 0; run < o.runs; ++run)
+    for (Setting& s : settings) timeRun(*context, store, scene, cameras, run, o, s);
+  writeResults(device, o, settings, cameras.size());
   return 0;
 }

@@ -18,6 +18,8 @@
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
+
 #include "brickstore/BrickCache.h"
 #include "brickstore/BrickStore.h"
 #include "brickstore/Sources.h"
@@ -32,6 +34,13 @@ namespace fs = std::filesystem;
 using namespace voxbrick;
 
 namespace {
+
+struct Options {
+  std::string work = "golden-work";
+  std::string write;   ///< write each frame into this directory
+  std::string check;   ///< check each frame against this directory
+  std::string hashes;  ///< check each frame against this digest file
+};
 
 struct Case {
   std::string name;
@@ -145,91 +154,132 @@ std::vector<Case> cases() {
   return out;
 }
 
+/// A rendered frame: its floats as bytes and its statistics as the line the golden files keep.
+struct Frame {
+  std::string bytes, statsLine;
+};
+
+using Stores = std::map<std::string, std::shared_ptr<const store::BrickStore>>;
+
+Stores goldenStores(const fs::path& work) {
+  const std::string mri = "/usr/share/mricron/templates/ch2better.nii.gz";
+  return {{"ml32", prepStore("synthetic:marschner-lobb,n=48", work / "ml32.vbs", 32)},
+          {"sparse32", prepStore("synthetic:sparse,n=96", work / "sparse32.vbs", 32)},
+          {"mri32", prepStore(mri, work / "mri32.vbs", 32)},
+          {"mri16", prepStore(mri, work / "mri16.vbs", 16)}};
+}
+
+/// The CPU reference renderer's frame of `c`, its statistics in the GPU's fields.
+image::ImageF referenceFrame(const Stores& stores, const Case& c, const render::Scene& scene,
+                             render::FrameStats& stats) {
+  auto cache = std::make_shared<store::BrickCache>(stores.at(c.store), size_t(256) << 20, 0);
+  render::ReferenceOptions options;
+  if (!c.analytic.empty()) options.analytic = render::analyticFieldFor(cache->store()->meta(), c.analytic);
+  render::ReferenceStats referenceStats;
+  image::ImageF image = render::ReferenceRenderer(cache).render(scene, options, &referenceStats);
+  stats.fragments = referenceStats.samples;
+  stats.slices = referenceStats.rays;
+  stats.bricksDrawn = referenceStats.bricksSkipped;
+  return image;
+}
+
+/// Renders the frames of the cases: one GPU renderer per (store, budget, format), kept across cases as a server
+/// keeps them, so residency is exercised.
+class Renderers {
+ public:
+  Renderers(render::GlContext& context, Stores stores) : mContext(context), mStores(std::move(stores)) {}
+
+  Frame render(const Case& c) {
+    render::FrameStats stats;
+    const render::Scene scene = render::Scene::fromJson(c.sceneJson, c.name);
+    const image::ImageF image = c.reference ? referenceFrame(mStores, c, scene, stats)
+                                            : renderer(c).render(scene, &stats, {c.mode});
+    Frame f;
+    f.bytes.assign(reinterpret_cast<const char*>(image.rgba.data()), image.rgba.size() * sizeof(float));
+    f.statsLine = std::to_string(stats.fragments) + " " + std::to_string(stats.slices) + " " +
+                  std::to_string(stats.bricksDrawn) + " " + std::to_string(stats.boxesDrawn) + " " +
+                  std::to_string(stats.bricksPagedIn) + " " + std::to_string(stats.batches);
+    return f;
+  }
+
+ private:
+  render::VolumeRenderer& renderer(const Case& c) {
+    const std::string key = c.store + "/" + std::to_string(c.gpuBudgetMB) + "/" + std::to_string(int(c.format));
+    auto& slot = mRenderers[key];
+    if (!slot)
+      slot = std::make_unique<render::VolumeRenderer>(
+          mContext, std::make_shared<store::BrickCache>(mStores.at(c.store), size_t(256) << 20, 1),
+          c.gpuBudgetMB << 20, c.format);
+    return *slot;
+  }
+
+  render::GlContext& mContext;
+  Stores mStores;
+  std::map<std::string, std::unique_ptr<render::VolumeRenderer>> mRenderers;
+};
+
+/// Whether the frame's digest and statistics are the committed ones; prints the case if not.
+bool matchesDigest(const Case& c, const Frame& f, const std::map<std::string, std::string>& digests) {
+  char digest[32];
+  std::snprintf(digest, sizeof digest, "%016llx", (unsigned long long)fnv1a(f.bytes));
+  const std::string actual = std::string(digest) + " " + f.statsLine;
+  const auto expected = digests.find(c.name);
+  if (expected != digests.end() && expected->second == actual) return true;
+  std::cout << "DIFFERS: " << c.name << ": " << actual << ", expected "
+            << (expected == digests.end() ? "no entry" : expected->second) << "\n";
+  return false;
+}
+
+void writeGolden(const fs::path& golden, const Case& c, const Frame& f) {
+  std::ofstream(golden / (c.name + ".f32"), std::ios::binary) << f.bytes;
+  std::ofstream(golden / (c.name + ".stats")) << f.statsLine;
+}
+
+/// Whether the frame is byte for byte the one written before, with the same statistics; prints the case if not.
+bool matchesGolden(const fs::path& golden, const Case& c, const Frame& f) {
+  std::ifstream in(golden / (c.name + ".f32"), std::ios::binary), inStats(golden / (c.name + ".stats"));
+  const std::string expected((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string expectedStats;
+  std::getline(inStats, expectedStats);
+  if (expected == f.bytes && expectedStats == f.statsLine) return true;
+  std::cout << "DIFFERS: " << c.name << (expected != f.bytes ? " (pixels)" : "") << " stats '" << f.statsLine
+            << "' expected '" << expectedStats << "'\n";
+  return false;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  fs::path work = "golden-work", golden, hashes;
-  bool write = false;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string flag = argv[i];
-    if (flag == "--work") work = argv[i + 1];
-    else if (flag == "--write") golden = argv[i + 1], write = true;
-    else if (flag == "--check") golden = argv[i + 1], write = false;
-    else if (flag == "--hashes") hashes = argv[i + 1];
-  }
-  if (golden.empty() == hashes.empty()) {
+  Options o;
+  CLI::App app{"frame_golden: the renderer's frames over a fixed matrix of scenes, written or checked bit for bit"};
+  app.add_option("--work", o.work, "directory for the stores (made once, kept)")->capture_default_str();
+  CLI::Option* write = app.add_option("--write", o.write, "write one .f32 (and .stats) file per frame here");
+  CLI::Option* check = app.add_option("--check", o.check, "check every frame against the files --write made here");
+  app.add_option("--hashes", o.hashes, "check every frame against committed digests (bench/results/golden-frames.txt)")
+      ->excludes(write)
+      ->excludes(check);
+  write->excludes(check);
+  CLI11_PARSE(app, argc, argv);
+  const fs::path golden = o.write.empty() ? o.check : o.write;
+  if (golden.empty() == o.hashes.empty()) {
     std::cerr << "usage: frame_golden --work DIR (--write DIR | --check DIR | --hashes FILE)\n";
     return 2;
   }
-  const std::map<std::string, std::string> digests = hashes.empty() ? std::map<std::string, std::string>{}
-                                                                     : readDigests(hashes);
-  fs::create_directories(work);
+  const std::map<std::string, std::string> digests = o.hashes.empty() ? std::map<std::string, std::string>{}
+                                                                       : readDigests(o.hashes);
+  fs::create_directories(o.work);
   if (!golden.empty()) fs::create_directories(golden);
-  const std::string mri = "/usr/share/mricron/templates/ch2better.nii.gz";
-  std::map<std::string, std::shared_ptr<const store::BrickStore>> stores = {
-      {"ml32", prepStore("synthetic:marschner-lobb,n=48", work / "ml32.vbs", 32)},
-      {"sparse32", prepStore("synthetic:sparse,n=96", work / "sparse32.vbs", 32)},
-      {"mri32", prepStore(mri, work / "mri32.vbs", 32)},
-      {"mri16", prepStore(mri, work / "mri16.vbs", 16)}};
+  Stores stores = goldenStores(o.work);
   auto context = render::createContext(render::Backend::Auto);
   std::cout << context->describe() << "\n";
+  Renderers renderers(*context, std::move(stores));
   int failures = 0, frames = 0;
-  // One renderer per (store, budget, format), kept across cases as a server keeps them, so residency is exercised.
-  std::map<std::string, std::unique_ptr<render::VolumeRenderer>> renderers;
   for (const Case& c : cases()) {
-    const std::string key = c.store + "/" + std::to_string(c.gpuBudgetMB) + "/" + std::to_string(int(c.format));
-    auto& renderer = renderers[key];
-    if (!renderer && !c.reference)
-      renderer = std::make_unique<render::VolumeRenderer>(
-          *context, std::make_shared<store::BrickCache>(stores.at(c.store), size_t(256) << 20, 1),
-          c.gpuBudgetMB << 20, c.format);
-    render::FrameStats stats;
-    const render::Scene scene = render::Scene::fromJson(c.sceneJson, c.name);
-    image::ImageF image;
-    if (c.reference) {
-      auto cache = std::make_shared<store::BrickCache>(stores.at(c.store), size_t(256) << 20, 0);
-      render::ReferenceOptions options;
-      if (!c.analytic.empty()) options.analytic = render::analyticFieldFor(cache->store()->meta(), c.analytic);
-      render::ReferenceStats referenceStats;
-      image = render::ReferenceRenderer(cache).render(scene, options, &referenceStats);
-      stats.fragments = referenceStats.samples;
-      stats.slices = referenceStats.rays;
-      stats.bricksDrawn = referenceStats.bricksSkipped;
-    } else {
-      image = renderer->render(scene, &stats, {c.mode});
-    }
-    std::string bytes(reinterpret_cast<const char*>(image.rgba.data()), image.rgba.size() * sizeof(float));
-    const std::string statsLine = std::to_string(stats.fragments) + " " + std::to_string(stats.slices) + " " +
-                                  std::to_string(stats.bricksDrawn) + " " + std::to_string(stats.boxesDrawn) + " " +
-                                  std::to_string(stats.bricksPagedIn) + " " + std::to_string(stats.batches);
+    const Frame f = renderers.render(c);
     ++frames;
-    if (!hashes.empty()) {
-      char digest[32];
-      std::snprintf(digest, sizeof digest, "%016llx", (unsigned long long)fnv1a(bytes));
-      const std::string actual = std::string(digest) + " " + statsLine;
-      const auto expected = digests.find(c.name);
-      if (expected == digests.end() || expected->second != actual) {
-        ++failures;
-        std::cout << "DIFFERS: " << c.name << ": " << actual << ", expected "
-                  << (expected == digests.end() ? "no entry" : expected->second) << "\n";
-      }
-      continue;
-    }
-    const fs::path file = golden / (c.name + ".f32"), statsFile = golden / (c.name + ".stats");
-    if (write) {
-      std::ofstream(file, std::ios::binary) << bytes;
-      std::ofstream(statsFile) << statsLine;
-      continue;
-    }
-    std::ifstream in(file, std::ios::binary), inStats(statsFile);
-    const std::string expected((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    std::string expectedStats;
-    std::getline(inStats, expectedStats);
-    if (expected != bytes || expectedStats != statsLine) {
-      ++failures;
-      std::cout << "DIFFERS: " << c.name << (expected != bytes ? " (pixels)" : "") << " stats '" << statsLine
-                << "' expected '" << expectedStats << "'\n";
-    }
+    if (!o.hashes.empty()) failures += !matchesDigest(c, f, digests);
+    else if (!o.write.empty()) writeGolden(golden, c, f);
+    else failures += !matchesGolden(golden, c, f);
   }
   std::cout << frames << " frames, " << failures << " differ\n";
   return failures == 0 ? 0 : 1;

@@ -1,4 +1,5 @@
-// `voxbrick bench`: the time-versus-error sweep (bench/Sweep.h) with its files and the default it picks.
+// `voxbrick bench`: the time-versus-error sweep (quality/SweepRun.h) with its files (bench/SweepReport.h) and the
+// default it picks; `--calibrate` writes a store's quality table (quality/Calibration.h).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -9,10 +10,13 @@
 #include <unistd.h>
 
 #include "bench/MeshSweep.h"
-#include "bench/Sweep.h"
+#include "bench/SweepReport.h"
 #include "brickstore/BrickStore.h"
 #include "brickstore/Errors.h"
 #include "cli/Commands.h"
+#include "quality/Calibration.h"
+#include "quality/SettingChoice.h"
+#include "quality/SweepRun.h"
 #include "render/gl/GlContext.h"
 #include "render/core/Quality.h"
 #include "render/core/Scene.h"
@@ -66,18 +70,17 @@ std::vector<double> numberList(const std::string& text, const std::string& optio
 }
 
 /// Writes the quality table of the sweep's measurements on `store` beside it and says what it holds.
-void saveQualityTable(const bench::SweepResult& result, const fs::path& work, const fs::path& store) {
-  const render::QualityTable table = bench::qualityTable(result, work, store);
+void writeQualityTable(const quality::SweepResult& result, const fs::path& work, const fs::path& store) {
+  const render::QualityTable table = quality::saveQualityTable(result, work, store);
   if (table.entries.empty()) return;
-  table.save(store);
   std::printf("bench: wrote %s (%zu settings measured at %dx%d, %d views)\n",
               render::QualityTable::pathFor(store).string().c_str(), table.entries.size(), table.width, table.height,
               table.views);
 }
 
 /// The sweep spec the options ask for: the committed sweep, the quick one, or the calibration of one dataset.
-bench::SweepSpec baseSpec(const BenchArgs& a) {
-  if (a.calibrate.empty()) return a.quick ? bench::SweepSpec::quick(a.mri) : bench::SweepSpec::full(a.mri);
+quality::SweepSpec baseSpec(const BenchArgs& a) {
+  if (a.calibrate.empty()) return a.quick ? quality::SweepSpec::quick(a.mri) : quality::SweepSpec::full(a.mri);
   if (a.quick || !a.datasets.empty())
     throw store::InputError("--calibrate measures the dataset it names: not with --quick or --datasets");
   if (!fs::exists(a.calibrate)) throw store::InputError("--calibrate: '" + a.calibrate + "' does not exist");
@@ -87,7 +90,7 @@ bench::SweepSpec baseSpec(const BenchArgs& a) {
   const std::vector<std::string> tfs = splitList(a.tfs);
   if (tfs.empty()) throw store::InputError("--tf: an empty list");
   for (const std::string& tf : tfs) render::TransferFunction::load(tf);  // refuses an unknown preset now, not later
-  return bench::SweepSpec::calibrate(a.calibrate, tfs);
+  return quality::SweepSpec::calibrate(a.calibrate, tfs);
 }
 
 /// `bench --mesh INPUT...`: the mesh sweep (bench/MeshSweep.h) with its files and the default it picks.
@@ -115,40 +118,43 @@ void runMeshBench(const BenchArgs& a, const CLI::App& cmd) {
               result.chosen ? result.chosen->label().c_str() : "none");
 }
 
-void runBench(const BenchArgs& a, const CLI::App& cmd) {
-  if (!a.meshes.empty()) return runMeshBench(a, cmd);
-  bench::SweepSpec spec = baseSpec(a);
-  if (!a.datasets.empty()) {
-    std::set<std::string> known;
-    for (const bench::Dataset& d : spec.datasets) known.insert(d.name);
-    const std::vector<std::string> wanted = splitList(a.datasets);
-    for (const std::string& name : wanted)
-      if (!known.count(name)) throw store::InputError("--datasets: unknown dataset '" + name + "' (ml, sparse, mri)");
-    std::erase_if(spec.datasets, [&](const bench::Dataset& d) {
-      return std::find(wanted.begin(), wanted.end(), d.name) == wanted.end();
-    });
-  }
+/// Keeps the datasets --datasets names; throws store::InputError naming an unknown one.
+void selectDatasets(const BenchArgs& a, quality::SweepSpec& spec) {
+  if (a.datasets.empty()) return;
+  std::set<std::string> known;
+  for (const quality::Dataset& d : spec.datasets) known.insert(d.name);
+  const std::vector<std::string> wanted = splitList(a.datasets);
+  for (const std::string& name : wanted)
+    if (!known.count(name)) throw store::InputError("--datasets: unknown dataset '" + name + "' (ml, sparse, mri)");
+  std::erase_if(spec.datasets, [&](const quality::Dataset& d) {
+    return std::find(wanted.begin(), wanted.end(), d.name) == wanted.end();
+  });
+}
+
+/// A list of whole numbers (numberList with `whole`).
+std::vector<int> intList(const std::string& text, const std::string& option, double lo, double hi) {
+  std::vector<int> values;
+  for (double v : numberList(text, option, lo, hi, true)) values.push_back(int(v));
+  return values;
+}
+
+/// The values of a list besides 0 (which the sweep always has), each checked by numberList; "none" for none.
+std::vector<double> nonZeroList(const std::string& text, const std::string& option, double lo, double hi) {
+  std::vector<double> values;
+  for (const std::string& t : text == "none" ? std::vector<std::string>{} : splitList(text))
+    if (t != "0") values.push_back(numberList(t, option, lo, hi).front());
+  return values;
+}
+
+/// The steps, slab sizes, thresholds, sub-blocks, levels of detail and slab steps the options list.
+void applyLists(const BenchArgs& a, quality::SweepSpec& spec) {
   if (!a.steps.empty()) spec.steps = numberList(a.steps, "--steps", 1e-3, 64);
-  if (!a.slabs.empty()) {
-    spec.slabs.clear();
-    for (double v : numberList(a.slabs, "--slabs", 1, render::Scene::kMaxSlab, true)) spec.slabs.push_back(int(v));
-  }
-  if (!a.erts.empty()) {
-    spec.erts.clear();
-    for (const std::string& t : a.erts == "none" ? std::vector<std::string>{} : splitList(a.erts))
-      if (t != "0") spec.erts.push_back(numberList(t, "--erts", 0.5, 1).front());  // off is always swept
-  }
+  if (!a.slabs.empty()) spec.slabs = intList(a.slabs, "--slabs", 1, render::Scene::kMaxSlab);
+  if (!a.erts.empty()) spec.erts = nonZeroList(a.erts, "--erts", 0.5, 1);  // off is always swept
   if (a.ertSlab > 0) spec.ertSlab = a.ertSlab;
-  if (!a.slabSubBlocks.empty()) {
-    spec.slabSubBlocks.clear();
-    for (double v : numberList(a.slabSubBlocks, "--slab-sub-blocks", 2, render::Scene::kMaxSubBlock, true))
-      spec.slabSubBlocks.push_back(int(v));
-  }
-  if (!a.lods.empty()) {
-    spec.lods.clear();
-    for (const std::string& t : a.lods == "none" ? std::vector<std::string>{} : splitList(a.lods))
-      if (t != "0") spec.lods.push_back(numberList(t, "--lods", 0, render::Scene::kMaxLod).front());
-  }
+  if (!a.slabSubBlocks.empty())
+    spec.slabSubBlocks = intList(a.slabSubBlocks, "--slab-sub-blocks", 2, render::Scene::kMaxSubBlock);
+  if (!a.lods.empty()) spec.lods = nonZeroList(a.lods, "--lods", 0, render::Scene::kMaxLod);
   if (!a.slabSteps.empty()) {
     spec.slabSteps = numberList(a.slabSteps, "--slab-steps", 1e-3, 64);
     for (double step : spec.slabSteps)
@@ -157,6 +163,31 @@ void runBench(const BenchArgs& a, const CLI::App& cmd) {
   } else if (!a.steps.empty()) {
     spec.slabSteps.clear();  // the quick sweep's coarse step may not be among the steps asked for
   }
+}
+
+/// --alternatives: bN (bricks of N), no-skip, cpu-slicer, or none; throws store::InputError naming a bad one.
+void applyAlternatives(const std::string& text, quality::SweepSpec& spec) {
+  spec.alternativeBricks.clear();
+  spec.alternativeNoSkip = spec.alternativeCpuSlicer = false;
+  for (const std::string& alt : text == "none" ? std::vector<std::string>{} : splitList(text)) {
+    if (alt == "no-skip") {
+      spec.alternativeNoSkip = true;
+    } else if (alt == "cpu-slicer") {
+      spec.alternativeCpuSlicer = true;
+    } else if (alt.size() > 1 && alt[0] == 'b' && alt.find_first_not_of("0123456789", 1) == std::string::npos &&
+               alt.size() < 5) {
+      const int brick = std::stoi(alt.substr(1));
+      if (brick < 8 || brick > 256 || (brick & (brick - 1)) || brick == 32)
+        throw store::InputError("--alternatives: '" + alt + "': a brick size is a power of two 8…256 besides 32");
+      spec.alternativeBricks.push_back(brick);
+    } else {
+      throw store::InputError("--alternatives: unknown alternative '" + alt + "' (bN, no-skip, cpu-slicer, none)");
+    }
+  }
+}
+
+/// The switches, the frames and the thresholds the options set.
+void applySettings(const BenchArgs& a, quality::SweepSpec& spec) {
   if (a.slabTableStep > 0) spec.slabTableStep = a.slabTableStep;
   if (a.smallSlabMinStep >= 0) spec.smallSlabMinStep = a.smallSlabMinStep;
   if (a.noBestSlab) spec.ertAtBestSlab = false;
@@ -165,53 +196,16 @@ void runBench(const BenchArgs& a, const CLI::App& cmd) {
   if (a.noShading) spec.shadingVariants = false;
   if (a.rayCast) spec.rayCast = true;
   if (a.noRayCast) spec.rayCast = false;
-  if (!a.alternatives.empty()) {
-    spec.alternativeBricks.clear();
-    spec.alternativeNoSkip = spec.alternativeCpuSlicer = false;
-    for (const std::string& alt : a.alternatives == "none" ? std::vector<std::string>{} : splitList(a.alternatives)) {
-      if (alt == "no-skip") {
-        spec.alternativeNoSkip = true;
-      } else if (alt == "cpu-slicer") {
-        spec.alternativeCpuSlicer = true;
-      } else if (alt.size() > 1 && alt[0] == 'b' && alt.find_first_not_of("0123456789", 1) == std::string::npos &&
-                 alt.size() < 5) {
-        const int brick = std::stoi(alt.substr(1));
-        if (brick < 8 || brick > 256 || (brick & (brick - 1)) || brick == 32)
-          throw store::InputError("--alternatives: '" + alt + "': a brick size is a power of two 8…256 besides 32");
-        spec.alternativeBricks.push_back(brick);
-      } else {
-        throw store::InputError("--alternatives: unknown alternative '" + alt + "' (bN, no-skip, cpu-slicer, none)");
-      }
-    }
-  }
+  if (!a.alternatives.empty()) applyAlternatives(a.alternatives, spec);
   if (a.views > 0) spec.views = a.views;
   if (a.size > 0) spec.size = a.size;
   if (a.referenceStep > 0) spec.referenceStep = a.referenceStep;
   spec.psnrThreshold = a.threshold;
   spec.psnrHighThreshold = a.thresholdHigh;
+}
 
-  if (a.dryRun) {
-    std::printf("bench: at most %zu points, %d views each (and a warm-up frame), %dx%d\n", spec.plannedPoints(),
-                spec.views, spec.size, spec.size);
-    return;
-  }
-  auto context = render::createContext(render::parseBackend(a.backend));
-  if (!a.quiet)
-    std::fprintf(stderr, "bench: %s; at most %zu points\n", context->describe().c_str(), spec.plannedPoints());
-  // A calibration keeps its reference frames in a temporary directory unless --work names one.
-  const bool temporaryWork = !a.calibrate.empty() && !cmd.count("--work");
-  const fs::path work = temporaryWork ? fs::temp_directory_path() / ("voxbrick-calibrate-" + std::to_string(getpid()))
-                                      : fs::path(a.work);
-  const bench::SweepResult result = bench::runSweep(spec, work, *context, [&](const std::string& line) {
-    if (!a.quiet) std::fprintf(stderr, "bench: %s\n", line.c_str());
-  });
-  if (temporaryWork) fs::remove_all(work);
-  if (!a.calibrate.empty()) {
-    saveQualityTable(result, work, a.calibrate);
-    if (!cmd.count("--out")) return;
-  }
-  bench::writeResults(result, a.out);
-  std::printf("bench: %zu points; wrote %s/sweep.csv, sweep.md, sweep.svg\n", result.points.size(), a.out.c_str());
+/// What the sweep chose: the default, the answer at the higher threshold, and per dataset the fastest setting there.
+void printChoices(const quality::SweepSpec& spec, const quality::SweepResult& result) {
   if (result.chosen)
     std::printf("bench: default: %s (fastest keeping every dataset at >= %g dB)\n", result.chosen->label().c_str(),
                 spec.psnrThreshold);
@@ -222,16 +216,58 @@ void runBench(const BenchArgs& a, const CLI::App& cmd) {
                 result.chosenHigh->label().c_str());
   else
     std::printf("bench: no setting keeps every dataset at >= %g dB\n", spec.psnrHighThreshold);
-  if (a.calibrate.empty())
-    for (const bench::Dataset& d : spec.datasets) saveQualityTable(result, work, bench::datasetStorePath(d, 32, work));
-  for (const bench::Dataset& d : spec.datasets) {
-    const std::optional<bench::Point> p =
-        bench::fastestPoint(result.points, d.name, bench::defaultVariant(d), spec.psnrHighThreshold);
+}
+
+void printFastestPerDataset(const quality::SweepSpec& spec, const quality::SweepResult& result) {
+  for (const quality::Dataset& d : spec.datasets) {
+    const std::optional<quality::Point> p =
+        quality::fastestPoint(result.points, d.name, quality::defaultVariant(d), spec.psnrHighThreshold);
     if (p)
       std::printf("bench: %s, %s: fastest at >= %g dB: %s (%.1f ms, %.1f dB)\n", d.name.c_str(),
                   p->variant.label().c_str(), spec.psnrHighThreshold, p->setting.label().c_str(), p->msMedian,
                   p->psnrMin);
   }
+}
+
+/// Runs the sweep of `spec`: a calibration writes its store's quality table (and the sweep's files only with
+/// --out); otherwise the files, the choices and a quality table beside each dataset's store.
+void runGridSweep(const BenchArgs& a, const CLI::App& cmd, const quality::SweepSpec& spec) {
+  auto context = render::createContext(render::parseBackend(a.backend));
+  if (!a.quiet)
+    std::fprintf(stderr, "bench: %s; at most %zu points\n", context->describe().c_str(), spec.plannedPoints());
+  // A calibration keeps its reference frames in a temporary directory unless --work names one.
+  const bool temporaryWork = !a.calibrate.empty() && !cmd.count("--work");
+  const fs::path work = temporaryWork ? fs::temp_directory_path() / ("voxbrick-calibrate-" + std::to_string(getpid()))
+                                      : fs::path(a.work);
+  const quality::SweepResult result = quality::runSweep(spec, work, *context, [&](const std::string& line) {
+    if (!a.quiet) std::fprintf(stderr, "bench: %s\n", line.c_str());
+  });
+  if (temporaryWork) fs::remove_all(work);
+  if (!a.calibrate.empty()) {
+    writeQualityTable(result, work, a.calibrate);
+    if (!cmd.count("--out")) return;
+  }
+  bench::writeResults(result, a.out);
+  std::printf("bench: %zu points; wrote %s/sweep.csv, sweep.md, sweep.svg\n", result.points.size(), a.out.c_str());
+  printChoices(spec, result);
+  if (a.calibrate.empty())
+    for (const quality::Dataset& d : spec.datasets)
+      writeQualityTable(result, work, quality::datasetStorePath(d, 32, work));
+  printFastestPerDataset(spec, result);
+}
+
+void runBench(const BenchArgs& a, const CLI::App& cmd) {
+  if (!a.meshes.empty()) return runMeshBench(a, cmd);
+  quality::SweepSpec spec = baseSpec(a);
+  selectDatasets(a, spec);
+  applyLists(a, spec);
+  applySettings(a, spec);
+  if (a.dryRun) {
+    std::printf("bench: at most %zu points, %d views each (and a warm-up frame), %dx%d\n", spec.plannedPoints(),
+                spec.views, spec.size, spec.size);
+    return;
+  }
+  runGridSweep(a, cmd, spec);
 }
 
 }  // namespace

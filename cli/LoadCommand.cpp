@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/Commands.h"
+#include "cli/LoadFaults.h"
 #include "client/Client.h"
 #include "render/datasets/Datasets.h"
 
@@ -20,23 +21,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 using nlohmann::json;
-
-/// What faulty clients do, in turn (fault() handles each).
-const std::vector<std::string> kFaultKinds = {"disconnect", "garbage", "huge",   "malformed", "slow",
-                                              "silent",     "trickle", "unread", "abandon",   "corrupt"};
-
-/// The server's deadlines that faults wait out (its Stats "limits"; the documented defaults if it has none).
-struct ServerDeadlines {
-  double helloS = 5, readS = 30;
-};
-
-struct LoadArgs {
-  std::string address, dataset, tf = "grayscale", jsonPath, size = "128x128", corruptDataset;
-  std::vector<std::string> faults;
-  int clients = 4, faultClients = 0, idleSessions = 0;
-  double duration = 10, step = 1, dragHz = 0;
-  bool requireClean = false;
-};
 
 struct Tally {
   std::mutex mutex;
@@ -58,14 +42,6 @@ double percentile(std::vector<double> v, double p) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
   return v[std::min(v.size() - 1, size_t(p * double(v.size())))];
-}
-
-std::string sceneJson(const LoadArgs& a, int width, int height, double azimuth) {
-  return json{{"camera", {{"orbit", {azimuth, 20, 2.5}}}},
-              {"size", {width, height}},
-              {"transfer_function", a.tf},
-              {"step", a.step}}
-      .dump();
 }
 
 /// The slowest frame's rate over the fastest's (the fastest frame's time over the slowest's), in (0, 1]; 0 when
@@ -167,22 +143,6 @@ void dragClient(const LoadArgs& a, const std::string& host, int port, int width,
   }
 }
 
-/// Reads replies until the server closes the connection (or `limit` passes); returns the error codes seen.
-std::vector<proto::ErrorCode> drain(client::Client& c, Clock::duration limit) {
-  std::vector<proto::ErrorCode> codes;
-  const auto end = Clock::now() + limit;
-  try {
-    while (Clock::now() < end) {
-      auto [id, m] = c.receive();
-      if (auto* e = std::get_if<proto::Error>(&m)) codes.push_back(e->code);
-    }
-  } catch (const std::exception&) {
-  }
-  return codes;
-}
-
-std::chrono::milliseconds millis(double seconds) { return std::chrono::milliseconds(int64_t(seconds * 1000)); }
-
 ServerDeadlines serverDeadlines(const std::string& host, int port) {
   ServerDeadlines d;
   try {
@@ -197,225 +157,91 @@ ServerDeadlines serverDeadlines(const std::string& host, int port) {
   return d;
 }
 
-/// One fault of the given kind; returns whether the server answered as documented.
-bool fault(const std::string& kind, const LoadArgs& a, const ServerDeadlines& deadlines, const std::string& host,
-           int port, std::mt19937& rng) {
-  const double waitS = kind == "silent" ? deadlines.helloS : kind == "trickle" ? deadlines.readS : 0;
-  client::Client c(host, port, std::chrono::seconds(10) + millis(waitS));
-  auto has = [](const std::vector<proto::ErrorCode>& codes, proto::ErrorCode code) {
-    return std::find(codes.begin(), codes.end(), code) != codes.end();
-  };
-  if (kind == "silent") {
-    // Connects and says nothing: closed at the Hello deadline with Timeout, or sooner with LimitExceeded when it
-    // gave way to newer connections.
-    const auto start = Clock::now();
-    const std::vector<proto::ErrorCode> codes = drain(c, millis(deadlines.helloS + 5));
-    const bool inTime = Clock::now() - start < millis(deadlines.helloS + 2);
-    return inTime && codes.size() == 1 &&
-           (codes[0] == proto::ErrorCode::Timeout || codes[0] == proto::ErrorCode::LimitExceeded);
-  }
-  if (kind == "garbage") {
-    std::vector<uint8_t> bytes(64);
-    for (uint8_t& b : bytes) b = uint8_t(rng());
-    bytes[0] = 'G';  // never the magic
-    c.sendBytes(bytes);
-    return has(drain(c, std::chrono::seconds(5)), proto::ErrorCode::BadMagic);
-  }
-  if (kind == "huge") {
-    proto::Header h;
-    h.type = proto::MessageType::Render;
-    h.bodyBytes = 0xFFFFFFFFu;
-    const auto head = proto::encodeHeader(h);
-    c.sendBytes(std::vector<uint8_t>(head.begin(), head.end()));
-    return has(drain(c, std::chrono::seconds(5)), proto::ErrorCode::TooLarge);
-  }
-  c.hello("voxbrick-load-fault");
-  if (kind == "trickle") {
-    // A message one byte at a time, 16 bytes over twice the read timeout: closed with Timeout within the read
-    // timeout of its first byte, before the header is complete.
-    const std::vector<uint8_t> bytes = proto::encode(proto::ListDatasets{}, 7);
-    const auto interval = millis(deadlines.readS / 8);
-    const auto start = Clock::now();
-    try {
-      for (uint8_t byte : bytes) {
-        c.sendBytes({byte});
-        std::this_thread::sleep_for(interval);
-      }
-    } catch (const client::ConnectionError&) {  // the server closed it: what is expected
-    }
-    const bool inTime = Clock::now() - start < millis(deadlines.readS + 1) + 2 * interval;
-    return inTime && drain(c, std::chrono::seconds(5)) == std::vector<proto::ErrorCode>{proto::ErrorCode::Timeout};
-  }
-  if (kind == "malformed") {
-    std::vector<uint8_t> bytes = proto::encode(proto::RenderRequest{proto::Encoding::Png, "{}"}, 99);
-    bytes.pop_back();  // one byte short of its declared string
-    bytes[12] = uint8_t(bytes.size() - proto::kHeaderBytes);  // body length matches what is sent
-    c.sendBytes(bytes);
-    auto [id, m] = c.receive();
-    const auto* e = std::get_if<proto::Error>(&m);
-    const bool ok = e && e->code == proto::ErrorCode::Malformed;
-    c.listDatasets();  // the session goes on
-    c.goodbye();
-    return ok;
-  }
-  if (kind == "corrupt") {
-    // A damaged dataset: every Render of it is answered Internal, the first by the failed frame, the later ones at
-    // once (quarantined); the session goes on.
-    c.openDataset(a.corruptDataset);
-    bool ok = false;
-    try {
-      c.render(sceneJson(a, 64, 64, double(rng() % 360)));
-    } catch (const client::ServerError& e) {
-      ok = e.code() == proto::ErrorCode::Internal && std::string(e.what()).find("quarantined") != std::string::npos;
-    }
-    c.listDatasets();
-    c.goodbye();
-    return ok;
-  }
-  c.openDataset(a.dataset);
-  if (kind == "abandon") {
-    // A heavy render (256², a step 50 times finer than the good clients'), left after a fifth of a second: the
-    // server gives it up part way (Stats renders.cancelled) instead of drawing it for nobody.
-    json heavy = json::parse(sceneJson(a, 256, 256, double(rng() % 360)));
-    heavy["step"] = std::max(0.001, a.step / 50);
-    c.send(proto::RenderRequest{proto::Encoding::Png, heavy.dump()});
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    c.close();
-    return true;
-  }
-  c.send(proto::RenderRequest{proto::Encoding::RawRgba8, sceneJson(a, 256, 256, double(rng() % 360))});  // 256 KiB
-  if (kind == "disconnect") {
-    c.close();  // before the frame arrives
-    return true;
-  }
-  if (kind == "unread") {
-    // Floods requests of small messages with large replies (OpenDataset: about 40 bytes in, kilobytes out), reads
-    // nothing for a second, then takes every reply: the server stops reading while they wait, and loses none.
-    const std::vector<uint8_t> one = proto::encode(proto::OpenDataset{a.dataset}, 0);
-    // Within what the socket buffers hold, so that sending never waits on a server that stopped reading.
-    const uint32_t n = uint32_t(std::clamp<size_t>((48u << 10) / one.size(), 1, 2000));
-    std::vector<uint8_t> flood;
-    for (uint32_t i = 0; i < n; ++i) {
-      const std::vector<uint8_t> bytes = proto::encode(proto::OpenDataset{a.dataset}, 1000 + i);
-      flood.insert(flood.end(), bytes.begin(), bytes.end());
-    }
-    c.receive();  // the frame asked for above
-    c.sendBytes(flood);
-    std::this_thread::sleep_for(std::chrono::seconds(1));
-    bool ok = true;
-    for (uint32_t i = 0; i < n && ok; ++i) {
-      auto [id, m] = c.receive();
-      ok = id == 1000 + i && std::holds_alternative<proto::DatasetInfo>(m);
-    }
-    c.goodbye();
-    return ok;
-  }
-  if (kind == "slow") {
-    // Takes the frame 2 KiB at a time, 100 times a second at most, for a second, then leaves.
-    const auto end = Clock::now() + std::chrono::seconds(1);
-    while (Clock::now() < end && !c.receiveBytes(2048).empty())
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    c.close();
-    return true;
-  }
-  throw std::logic_error("fault '" + kind + "' is in kFaultKinds but not handled");
-}
-
 void faultClient(const LoadArgs& a, const ServerDeadlines& deadlines, const std::string& host, int port,
-                 const std::vector<std::string>& kinds, int index, Clock::time_point deadline, Tally& tally) {
+                 const std::vector<const Fault*>& faults, int index, Clock::time_point deadline, Tally& tally) {
   std::mt19937 rng(unsigned(1234 + index));
+  FaultRun run{a, deadlines, rng};
   for (size_t n = size_t(index); Clock::now() < deadline; ++n) {
-    const std::string& kind = kinds[n % kinds.size()];
+    const Fault& f = *faults[n % faults.size()];
     bool ok = false;
     try {
-      ok = fault(kind, a, deadlines, host, port, rng);
-    } catch (const std::logic_error&) {
-      throw;
+      ok = runFault(f, host, port, run);
     } catch (const std::exception&) {
       ok = false;
     }
     {
       std::lock_guard lock(tally.mutex);
-      ++tally.faultsDone[kind];
-      if (!ok) ++tally.faultsUnexpected[kind];
+      ++tally.faultsDone[f.name];
+      if (!ok) ++tally.faultsUnexpected[f.name];
     }
     // Faults are mixed in, not a flood: each faulty client misbehaves about twenty times a second at most.
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
 }
 
-void runLoad(const LoadArgs& a) {
-  const auto [host, port] = client::parseAddress(a.address);
-  int width = 0, height = 0;
-  parseSize(a.size, "--size", width, height);
-  if (width < 1 || height < 1) throw std::invalid_argument("--size '" + a.size + "': sides must be positive");
-  std::vector<std::string> kinds = a.faults;
-  if (kinds.empty())  // all, "corrupt" only with a damaged dataset to render
-    std::copy_if(kFaultKinds.begin(), kFaultKinds.end(), std::back_inserter(kinds),
-                 [&](const std::string& k) { return k != "corrupt" || !a.corruptDataset.empty(); });
-  if (a.corruptDataset.empty() && std::find(kinds.begin(), kinds.end(), "corrupt") != kinds.end())
-    throw std::runtime_error("the 'corrupt' fault needs --corrupt-dataset NAME (a damaged dataset of the server)");
-
-  // Idle sessions: connected and greeted, then silent for the whole run.
+/// Idle sessions: connected and greeted, then silent for the whole run.
+std::vector<std::unique_ptr<client::Client>> openIdleSessions(const std::string& host, int port, int count) {
   std::vector<std::unique_ptr<client::Client>> idle;
-  for (int i = 0; i < a.idleSessions; ++i) {
+  for (int i = 0; i < count; ++i) {
     idle.push_back(std::make_unique<client::Client>(host, port, std::chrono::seconds(10)));
     idle.back()->hello("voxbrick-load-idle");
   }
+  return idle;
+}
 
-  const ServerDeadlines deadlines = a.faultClients > 0 ? serverDeadlines(host, port) : ServerDeadlines{};
-  Tally tally;
-  const auto start = Clock::now();
-  const auto deadline = start + std::chrono::milliseconds(int64_t(a.duration * 1000));
-  std::vector<std::thread> threads;
-  for (int i = 0; i < a.clients; ++i)
-    threads.emplace_back(a.dragHz > 0 ? dragClient : goodClient, std::cref(a), host, port, width, height, i, deadline, std::ref(tally));
-  for (int i = 0; i < a.faultClients; ++i)
-    threads.emplace_back(faultClient, std::cref(a), std::cref(deadlines), host, port, std::cref(kinds), i, deadline,
-                         std::ref(tally));
-  for (std::thread& t : threads) t.join();
-  const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
-
-  json server;
+/// The server's statistics after the run; an error in the tally (and an empty object) if it does not answer.
+json serverStatsAfter(const std::string& host, int port, Tally& tally) {
   try {
     client::Client c(host, port, std::chrono::seconds(30));
     c.hello("voxbrick-load-stats");
-    server = json::parse(c.stats());
+    json server = json::parse(c.stats());
     c.goodbye();
+    return server;
   } catch (const std::exception& e) {
     tally.error(std::string("server statistics after the run: ") + e.what());
   }
-  idle.clear();
+  return json();
+}
 
+/// Per fault, how often it ran and how many replies were not as documented; `unexpected` gets the total of those.
+json faultCounts(const Tally& tally, int64_t& unexpected) {
   json faults = json::object();
-  int64_t unexpected = 0;
+  unexpected = 0;
   for (const auto& [kind, n] : tally.faultsDone) {
     const int64_t bad = tally.faultsUnexpected.count(kind) ? tally.faultsUnexpected.at(kind) : 0;
     faults[kind] = {{"done", n}, {"unexpected", bad}};
     unexpected += bad;
   }
-  const json report = {
-      {"clients", a.clients},
-      {"fault_clients", a.faultClients},
-      {"idle_sessions", a.idleSessions},
-      {"duration_s", seconds},
-      {"size", {width, height}},
-      {"frames", tally.frames},
-      {"frames_per_s", double(tally.frames) / seconds},
-      {"errors", tally.errors},
-      {"superseded", tally.superseded},
-      {"drag_hz", a.dragHz},
-      {"error_samples", tally.errorSamples},
-      {"latency_ms", {{"p50", percentile(tally.latencies, 0.5)},
-                      {"p95", percentile(tally.latencies, 0.95)},
-                      {"p99", percentile(tally.latencies, 0.99)},
-                      {"max", percentile(tally.latencies, 1.0)}}},
-      {"render_ms_p50", percentile(tally.renderMs, 0.5)},
-      // Over the orbit the clients turn through (warm frames): the slowest frame against the fastest.
-      {"warm_render_ms", {{"min", percentile(tally.renderMsWarm, 0.0)}, {"max", percentile(tally.renderMsWarm, 1.0)}}},
-      {"frame_rate_min_over_max", frameRateRatio(tally.renderMsWarm)},
-      {"faults", faults},
-      {"server", server}};
+  return faults;
+}
+
+json loadReport(const LoadArgs& a, const Tally& tally, double seconds, int width, int height, const json& faults,
+                const json& server) {
+  return {{"clients", a.clients},
+          {"fault_clients", a.faultClients},
+          {"idle_sessions", a.idleSessions},
+          {"duration_s", seconds},
+          {"size", {width, height}},
+          {"frames", tally.frames},
+          {"frames_per_s", double(tally.frames) / seconds},
+          {"errors", tally.errors},
+          {"superseded", tally.superseded},
+          {"drag_hz", a.dragHz},
+          {"error_samples", tally.errorSamples},
+          {"latency_ms", {{"p50", percentile(tally.latencies, 0.5)},
+                          {"p95", percentile(tally.latencies, 0.95)},
+                          {"p99", percentile(tally.latencies, 0.99)},
+                          {"max", percentile(tally.latencies, 1.0)}}},
+          {"render_ms_p50", percentile(tally.renderMs, 0.5)},
+          // Over the orbit the clients turn through (warm frames): the slowest frame against the fastest.
+          {"warm_render_ms",
+           {{"min", percentile(tally.renderMsWarm, 0.0)}, {"max", percentile(tally.renderMsWarm, 1.0)}}},
+          {"frame_rate_min_over_max", frameRateRatio(tally.renderMsWarm)},
+          {"faults", faults},
+          {"server", server}};
+}
+
+void printSummary(const LoadArgs& a, const Tally& tally, double seconds, int64_t unexpected, const json& server) {
   std::printf("load: %d clients (+%d faulty, %d idle) for %.1f s: %lld frames, %.1f frames/s, latency p50 %.1f "
               "p95 %.1f p99 %.1f max %.1f ms, %lld superseded, %lld errors, %lld unexpected fault replies",
               a.clients, a.faultClients, a.idleSessions, seconds, (long long)tally.frames,
@@ -431,7 +257,37 @@ void runLoad(const LoadArgs& a) {
                 double(server["memory"]["peak_rss_bytes"]) / 1e6);
   std::printf("\n");
   for (const std::string& e : tally.errorSamples) std::printf("  error: %s\n", e.c_str());
-  if (!a.jsonPath.empty()) writeText(a.jsonPath, report.dump(2) + "\n");
+}
+
+void runLoad(const LoadArgs& a) {
+  const auto [host, port] = client::parseAddress(a.address);
+  int width = 0, height = 0;
+  parseSize(a.size, "--size", width, height);
+  if (width < 1 || height < 1) throw std::invalid_argument("--size '" + a.size + "': sides must be positive");
+  const std::vector<const Fault*> faults = faultsToRun(a);
+  std::vector<std::unique_ptr<client::Client>> idle = openIdleSessions(host, port, a.idleSessions);
+
+  const ServerDeadlines deadlines = a.faultClients > 0 ? serverDeadlines(host, port) : ServerDeadlines{};
+  Tally tally;
+  const auto start = Clock::now();
+  const auto deadline = start + std::chrono::milliseconds(int64_t(a.duration * 1000));
+  std::vector<std::thread> threads;
+  for (int i = 0; i < a.clients; ++i)
+    threads.emplace_back(a.dragHz > 0 ? dragClient : goodClient, std::cref(a), host, port, width, height, i, deadline,
+                         std::ref(tally));
+  for (int i = 0; i < a.faultClients; ++i)
+    threads.emplace_back(faultClient, std::cref(a), std::cref(deadlines), host, port, std::cref(faults), i, deadline,
+                         std::ref(tally));
+  for (std::thread& t : threads) t.join();
+  const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+
+  const json server = serverStatsAfter(host, port, tally);
+  idle.clear();
+  int64_t unexpected = 0;
+  const json faultsDone = faultCounts(tally, unexpected);
+  printSummary(a, tally, seconds, unexpected, server);
+  if (!a.jsonPath.empty())
+    writeText(a.jsonPath, loadReport(a, tally, seconds, width, height, faultsDone, server).dump(2) + "\n");
   if (a.requireClean && (tally.errors > 0 || unexpected > 0 || tally.frames == 0))
     throw std::runtime_error("the run was not clean: " + std::to_string(tally.errors) + " errors, " +
                              std::to_string(unexpected) + " unexpected fault replies, " +
@@ -453,13 +309,9 @@ void addLoadCommand(CLI::App& app) {
       ->capture_default_str()
       ->check(between(0.001, 64, "voxels"));
   cmd->add_option("--fault-clients", a->faultClients, "clients that misbehave in turn")->check(between(0, 4096));
-  cmd->add_option("--faults", a->faults,
-                  "comma list of what faulty clients do (default all): disconnect, garbage, huge, malformed, slow, "
-                  "silent (never speaks; lasts the server's Hello timeout), trickle (a message a byte at a time; "
-                  "lasts its read timeout), unread (floods requests, reads nothing for a second), abandon (a heavy "
-                  "render, left after 0.2 s), corrupt (renders --corrupt-dataset)")
+  cmd->add_option("--faults", a->faults, "comma list of what faulty clients do (default all): " + faultUsage())
       ->delimiter(',')
-      ->check(CLI::IsMember(kFaultKinds));
+      ->check(CLI::IsMember(faultNames()));
   cmd->add_option("--corrupt-dataset", a->corruptDataset,
                   "a damaged dataset of the server for the 'corrupt' fault (its renders must be answered Internal, "
                   "quarantined)");

@@ -81,10 +81,8 @@ void runMeshPrep(const PrepArgs& a) {
               info.tetCount > 0 ? double(info.bytesStored) / double(info.tetCount) : 0.0, seconds);
 }
 
-void runPrep(PrepArgs& a, CLI::App& cmd) {
-  // Installed first, so that an early Ctrl-C also ends in the clean-up path rather than a killed process.
-  std::signal(SIGINT, onInterrupt);
-  std::signal(SIGTERM, onInterrupt);
+/// How to read a volume input: --dims and --spacing (checked), the raw file's layout, the grid and the series.
+store::SourceOptions sourceOptions(const PrepArgs& a) {
   store::SourceOptions so;
   if (!a.dims.empty()) {
     int64_t d[3];
@@ -99,59 +97,40 @@ void runPrep(PrepArgs& a, CLI::App& cmd) {
     for (double v : s)
       if (!(v > 0) || !std::isfinite(v)) throw store::InputError("--spacing values must be positive and finite");
   }
-  a.input = a.inputs.front();
-  if (a.inputs.size() > 1) {
-    for (const std::string& in : a.inputs)
-      if (isMeshInput(in)) throw store::InputError(in + ": a mesh is prepped on its own (one input)");
-  }
-  if (isMeshInput(a.input)) return runMeshPrep(a);
-  if (!a.field.empty()) throw store::InputError("--field names a mesh's scalar; '" + a.input + "' is not a mesh");
   so.type = a.type;
   so.bigEndian = a.endian == "big";
   so.headerBytes = a.headerBytes;
   so.gridName = a.grid;
   so.seriesUid = a.series;
-  a.options.haveBackground = cmd.count("--background") > 0;
-  a.options.background = a.background;
-  a.options.nonFinite = a.nonFinite == "error" ? store::NonFinitePolicy::Error : store::NonFinitePolicy::Background;
+  return so;
+}
 
-  auto source = store::openSource(a.inputs, so);
-  const store::VolumeInfo& info = source->info();
-  if (!a.quiet)
-    std::fprintf(stderr, "prep: %s -> %s (brick %d, zstd %d)\n", info.description.c_str(), a.output.c_str(),
-                 a.options.brickSize, a.options.zstdLevel);
-
-  if (gInterrupted) throw store::StoreError("interrupted; nothing was written");
-  Progress progress(a.quiet);
-  if (!a.quantiseRange.empty() && a.quantise.empty()) throw store::InputError("--quantise-range needs --quantise");
-  if (!a.quantise.empty()) {
-    store::Quantisation q;
-    q.type = store::parseQuantiseType(a.quantise);
-    if (!a.quantiseRange.empty()) {
-      store::parseQuantiseRange(a.quantiseRange, q);
-    } else {
-      // The input's exact range takes a pass of its own, through a second reader of the same input.
-      auto first = store::openSource(a.inputs, so);
-      const double background = a.options.haveBackground ? a.options.background : info.background;
-      auto onSlices = [&](int64_t done, int64_t total) {
-        if (gInterrupted) throw store::StoreError("interrupted; nothing was written");
-        progress.update("value range", done, total, 0);
-      };
-      const store::Level0Stats range = store::scanLevel0(*first, background, a.options.nonFinite, onSlices);
-      q.lo = range.min;
-      q.hi = range.max > range.min ? range.max : range.min + 1;  // a constant volume: everything stored as 0
-    }
-    q.validate();
-    if (!a.quiet)
-      std::fprintf(stderr, "prep: quantising [%.9g, %.9g] to %s\n", q.lo, q.hi, a.quantise.c_str());
-    a.options.quantise = q;
+/// --quantise's mapping: the range --quantise-range gives, or the input's exact range, which takes a pass of its own
+/// through a second reader of the same input.
+store::Quantisation quantisation(const PrepArgs& a, const store::SourceOptions& so, const store::VolumeInfo& info,
+                                 Progress& progress) {
+  store::Quantisation q;
+  q.type = store::parseQuantiseType(a.quantise);
+  if (!a.quantiseRange.empty()) {
+    store::parseQuantiseRange(a.quantiseRange, q);
+  } else {
+    auto first = store::openSource(a.inputs, so);
+    const double background = a.options.haveBackground ? a.options.background : info.background;
+    auto onSlices = [&](int64_t done, int64_t total) {
+      if (gInterrupted) throw store::StoreError("interrupted; nothing was written");
+      progress.update("value range", done, total, 0);
+    };
+    const store::Level0Stats range = store::scanLevel0(*first, background, a.options.nonFinite, onSlices);
+    q.lo = range.min;
+    q.hi = range.max > range.min ? range.max : range.min + 1;  // a constant volume: everything stored as 0
   }
-  auto summary = store::prepStore(*source, a.output, a.options, [&](const store::PrepProgress& p) {
-    if (gInterrupted) throw store::StoreError("interrupted; nothing was written");
-    progress.update(p.stage, p.done, p.total, p.stage == "level 0" ? p.bytesIn : 0);
-  });
-  progress.finish();
+  q.validate();
+  if (!a.quiet) std::fprintf(stderr, "prep: quantising [%.9g, %.9g] to %s\n", q.lo, q.hi, a.quantise.c_str());
+  return q;
+}
 
+/// What the store holds and what writing it took.
+void printPrepSummary(const PrepArgs& a, const store::PrepSummary& summary) {
   const store::StoreMeta& m = summary.meta;
   int64_t total = 0, stored = 0;
   for (const auto& l : m.levels) total += l.bricksTotal(), stored += l.bricksStored;
@@ -173,6 +152,40 @@ void runPrep(PrepArgs& a, CLI::App& cmd) {
               formatBytes(double(m.bytesVdb)).c_str(), summary.seconds,
               summary.seconds > 0 ? summary.bytesIn / 1e6 / summary.seconds : 0.0,
               formatBytes(double(summary.peakRssBytes)).c_str());
+}
+
+void runPrep(PrepArgs& a, CLI::App& cmd) {
+  // Installed first, so that an early Ctrl-C also ends in the clean-up path rather than a killed process.
+  std::signal(SIGINT, onInterrupt);
+  std::signal(SIGTERM, onInterrupt);
+  const store::SourceOptions so = sourceOptions(a);
+  a.input = a.inputs.front();
+  if (a.inputs.size() > 1) {
+    for (const std::string& in : a.inputs)
+      if (isMeshInput(in)) throw store::InputError(in + ": a mesh is prepped on its own (one input)");
+  }
+  if (isMeshInput(a.input)) return runMeshPrep(a);
+  if (!a.field.empty()) throw store::InputError("--field names a mesh's scalar; '" + a.input + "' is not a mesh");
+  a.options.haveBackground = cmd.count("--background") > 0;
+  a.options.background = a.background;
+  a.options.nonFinite = a.nonFinite == "error" ? store::NonFinitePolicy::Error : store::NonFinitePolicy::Background;
+
+  auto source = store::openSource(a.inputs, so);
+  const store::VolumeInfo& info = source->info();
+  if (!a.quiet)
+    std::fprintf(stderr, "prep: %s -> %s (brick %d, zstd %d)\n", info.description.c_str(), a.output.c_str(),
+                 a.options.brickSize, a.options.zstdLevel);
+
+  if (gInterrupted) throw store::StoreError("interrupted; nothing was written");
+  Progress progress(a.quiet);
+  if (!a.quantiseRange.empty() && a.quantise.empty()) throw store::InputError("--quantise-range needs --quantise");
+  if (!a.quantise.empty()) a.options.quantise = quantisation(a, so, info, progress);
+  auto summary = store::prepStore(*source, a.output, a.options, [&](const store::PrepProgress& p) {
+    if (gInterrupted) throw store::StoreError("interrupted; nothing was written");
+    progress.update(p.stage, p.done, p.total, p.stage == "level 0" ? p.bytesIn : 0);
+  });
+  progress.finish();
+  printPrepSummary(a, summary);
 }
 
 }  // namespace

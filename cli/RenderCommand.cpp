@@ -107,6 +107,74 @@ void checkSubBlock(const RenderArgs& a, const CLI::App& cmd, const render::Datas
                                    std::to_string(B) + " of '" + a.store + "'");
 }
 
+/// Progressive: the frame that waits for no disk read (stand-ins for what is not resident), written beside the
+/// output when there were any; its statistics.
+nlohmann::json renderProvisional(const RenderArgs& a, render::RenderEngine& engine,
+                                 const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene) {
+  render::FrameStats first;
+  const image::ImageF provisional = engine.render(dataset, scene, &first, {render::RenderMode::Normal, true});
+  if (first.bricksStandIn > 0) {
+    const std::string path = provisionalPath(a.output);
+    writeFrame(a, path, provisional);
+    std::printf("render: wrote %s, the provisional frame: %lld of %lld bricks stood in, %.1f ms\n",
+                path.c_str(), (long long)first.bricksStandIn, (long long)first.bricksDrawn, first.msTotal);
+  }
+  return first.toJson();
+}
+
+/// What quality by target chose, if the scene asked for it.
+void printQualityChoice(const render::FrameStats& stats) {
+  if (stats.quality.is_null()) return;
+  const auto& q = stats.quality;
+  std::printf("render: quality %s chose %s (%s; measured worst view %.1f dB, %.0f ms expected at this size)%s\n",
+              q["target"].get<std::string>().c_str(), q["setting"].get<std::string>().c_str(),
+              q["basis"].get<std::string>().c_str(), q["expected_psnr"].get<double>(),
+              q["expected_ms"].get<double>(), q["met"].get<bool>() ? "" : "; NO setting meets the target: the closest");
+}
+
+/// The line (or lines) about the frame written: a paged mesh's paging, then the mesh's or the grid's counts and times.
+void printFrameSummary(const RenderArgs& a, const render::Scene& scene, const render::Dataset& dataset,
+                       const render::FrameStats& stats) {
+  std::string levels;
+  if (stats.bricksCoarse > 0) {
+    levels = " (per level:";
+    for (int64_t n : stats.bricksPerLevel) levels += " " + std::to_string(n);
+    levels += ")";
+  }
+  if (const auto* tets = dynamic_cast<const render::TetMeshDataset*>(&dataset); tets && tets->source()->paged()) {
+    const store::CacheStats c = tets->cacheStats();
+    std::printf("render: mesh paged within %.1f MiB: %lld of %zu chunks in view, %lld of those left out as "
+                "transparent; %lld chunk reads in all, paging %.1f ms this frame; %.1f MiB held at most\n",
+                double(c.budgetBytes) / 1048576.0, (long long)(int64_t(tets->source()->chunkCount()) - stats.tetChunksCulled),
+                tets->source()->chunkCount(), (long long)stats.tetChunksSkippedEmpty, (long long)c.bricksDecoded,
+                stats.msPaging, double(c.peakResidentBytes) / 1048576.0);
+  }
+  if (dataset.kind() == render::DatasetKind::TetMesh && stats.tetRayPasses > 0) {
+    std::printf("render: wrote %s (%dx%d): %lld tet segments ray cast (%lld rays, %lld terminated early, %lld "
+                "pass%s), %.1f ms (pre-integration %.1f, drawing %.1f, readback %.1f)\n",
+                a.output.c_str(), scene.width, scene.height, (long long)stats.samples, (long long)stats.fragments,
+                (long long)stats.samplesTerminated, (long long)stats.tetRayPasses,
+                stats.tetRayPasses == 1 ? "" : "es", stats.msTotal, stats.msPreIntegration, stats.msDrawing,
+                stats.msReadback);
+    return;
+  }
+  if (dataset.kind() == render::DatasetKind::TetMesh) {
+    std::printf("render: wrote %s (%dx%d): %lld tets drawn in %s order, %lld fragments, %.1f ms (sorting %.1f, "
+                "pre-integration %.1f, drawing %.1f, readback %.1f)\n",
+                a.output.c_str(), scene.width, scene.height, (long long)stats.tetsDrawn,
+                render::tetSortName(scene.visibility == render::TetSort::Centroid ? render::TetSort::Centroid
+                                                                                  : render::TetSort::Mpvo), (long long)stats.fragments, stats.msTotal, stats.msSorting,
+                stats.msPreIntegration, stats.msDrawing, stats.msReadback);
+    return;
+  }
+  std::printf("render: wrote %s (%dx%d): %lld bricks drawn%s, %lld skipped empty, %lld culled, %lld paged in, "
+              "%lld evicted, %lld batches, %.1f ms (paging %.1f, slicing %.1f, drawing %.1f, readback %.1f)\n",
+              a.output.c_str(), scene.width, scene.height, (long long)stats.bricksDrawn, levels.c_str(),
+              (long long)stats.bricksSkippedEmpty, (long long)stats.bricksCulled, (long long)stats.bricksPagedIn,
+              (long long)stats.bricksEvicted, (long long)stats.batches, stats.msTotal, stats.msPaging,
+              stats.msSlicing, stats.msDrawing, stats.msReadback);
+}
+
 /// A GPU frame through the same seam the server's render threads use: a dataset and a RenderEngine.
 void runRender(const RenderArgs& a, const CLI::App& cmd) {
   image::imageFormatFor(a.output);  // an output we cannot write is refused before the frame is drawn
@@ -124,20 +192,9 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
   // Warm-up frames page the bricks in and build the programs, so that the frame reported is a warm one, as a
   // server's next frame of the same dataset would be.
   for (int i = 0; i < a.warmUp; ++i) engine.render(dataset, scene, nullptr);
-  // Progressive: first the frame that waits for no disk read (stand-ins for what is not resident, written beside
-  // the output when there were any), then the exact one.
-  nlohmann::json provisionalJson;
-  if (scene.progressive) {
-    render::FrameStats first;
-    const image::ImageF provisional = engine.render(dataset, scene, &first, {render::RenderMode::Normal, true});
-    provisionalJson = first.toJson();
-    if (first.bricksStandIn > 0) {
-      const std::string path = provisionalPath(a.output);
-      writeFrame(a, path, provisional);
-      std::printf("render: wrote %s, the provisional frame: %lld of %lld bricks stood in, %.1f ms\n",
-                  path.c_str(), (long long)first.bricksStandIn, (long long)first.bricksDrawn, first.msTotal);
-    }
-  }
+  // Progressive: first the frame that waits for no disk read, then the exact one.
+  const nlohmann::json provisionalJson = scene.progressive ? renderProvisional(a, engine, dataset, scene)
+                                                           : nlohmann::json();
   render::FrameStats stats;
   const image::ImageF image = withProgress(a, scene, [&] { return engine.render(dataset, scene, &stats); });
   writeFrame(a, a.output, image);
@@ -146,51 +203,8 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
     if (!provisionalJson.is_null()) json["provisional_frame"] = provisionalJson;
     writeText(a.statsPath, json.dump(2) + "\n");
   }
-  if (!stats.quality.is_null()) {
-    const auto& q = stats.quality;
-    std::printf("render: quality %s chose %s (%s; measured worst view %.1f dB, %.0f ms expected at this size)%s\n",
-                q["target"].get<std::string>().c_str(), q["setting"].get<std::string>().c_str(),
-                q["basis"].get<std::string>().c_str(), q["expected_psnr"].get<double>(),
-                q["expected_ms"].get<double>(), q["met"].get<bool>() ? "" : "; NO setting meets the target: the closest");
-  }
-  std::string levels;
-  if (stats.bricksCoarse > 0) {
-    levels = " (per level:";
-    for (int64_t n : stats.bricksPerLevel) levels += " " + std::to_string(n);
-    levels += ")";
-  }
-  if (const auto* tets = dynamic_cast<const render::TetMeshDataset*>(dataset.get()); tets && tets->source()->paged()) {
-    const store::CacheStats c = tets->cacheStats();
-    std::printf("render: mesh paged within %.1f MiB: %lld of %zu chunks in view, %lld of those left out as "
-                "transparent; %lld chunk reads in all, paging %.1f ms this frame; %.1f MiB held at most\n",
-                double(c.budgetBytes) / 1048576.0, (long long)(int64_t(tets->source()->chunkCount()) - stats.tetChunksCulled),
-                tets->source()->chunkCount(), (long long)stats.tetChunksSkippedEmpty, (long long)c.bricksDecoded,
-                stats.msPaging, double(c.peakResidentBytes) / 1048576.0);
-  }
-  if (dataset->kind() == render::DatasetKind::TetMesh && stats.tetRayPasses > 0) {
-    std::printf("render: wrote %s (%dx%d): %lld tet segments ray cast (%lld rays, %lld terminated early, %lld "
-                "pass%s), %.1f ms (pre-integration %.1f, drawing %.1f, readback %.1f)\n",
-                a.output.c_str(), scene.width, scene.height, (long long)stats.samples, (long long)stats.fragments,
-                (long long)stats.samplesTerminated, (long long)stats.tetRayPasses,
-                stats.tetRayPasses == 1 ? "" : "es", stats.msTotal, stats.msPreIntegration, stats.msDrawing,
-                stats.msReadback);
-    return;
-  }
-  if (dataset->kind() == render::DatasetKind::TetMesh) {
-    std::printf("render: wrote %s (%dx%d): %lld tets drawn in %s order, %lld fragments, %.1f ms (sorting %.1f, "
-                "pre-integration %.1f, drawing %.1f, readback %.1f)\n",
-                a.output.c_str(), scene.width, scene.height, (long long)stats.tetsDrawn,
-                render::tetSortName(scene.visibility == render::TetSort::Centroid ? render::TetSort::Centroid
-                                                                                  : render::TetSort::Mpvo), (long long)stats.fragments, stats.msTotal, stats.msSorting,
-                stats.msPreIntegration, stats.msDrawing, stats.msReadback);
-    return;
-  }
-  std::printf("render: wrote %s (%dx%d): %lld bricks drawn%s, %lld skipped empty, %lld culled, %lld paged in, "
-              "%lld evicted, %lld batches, %.1f ms (paging %.1f, slicing %.1f, drawing %.1f, readback %.1f)\n",
-              a.output.c_str(), scene.width, scene.height, (long long)stats.bricksDrawn, levels.c_str(),
-              (long long)stats.bricksSkippedEmpty, (long long)stats.bricksCulled, (long long)stats.bricksPagedIn,
-              (long long)stats.bricksEvicted, (long long)stats.batches, stats.msTotal, stats.msPaging,
-              stats.msSlicing, stats.msDrawing, stats.msReadback);
+  printQualityChoice(stats);
+  printFrameSummary(a, scene, *dataset, stats);
 }
 
 }  // namespace

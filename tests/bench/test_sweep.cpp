@@ -1,5 +1,5 @@
-// The time-versus-error sweep: Pareto front and default choice on made-up points, the SVG's well-formedness, and a
-// quick `voxbrick bench` run whose files are checked field by field.
+// The time-versus-error sweep (quality/) and its files (bench/): Pareto front and default choice on made-up points,
+// the SVG's well-formedness, and a quick `voxbrick bench` run whose files are checked field by field.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -9,12 +9,16 @@
 #include <map>
 #include <sstream>
 
-#include "bench/Sweep.h"
 #include "bench/SweepPlot.h"
+#include "bench/SweepReport.h"
+#include "quality/SettingChoice.h"
 #include "support/TestSupport.h"
 
-namespace voxbrick::bench {
+namespace voxbrick::quality {
 namespace {
+
+using bench::sweepSvg;
+using bench::writeResults;
 
 Point point(const std::string& dataset, Variant variant, Setting setting, double ms, double psnr) {
   Point p{dataset, std::move(variant), setting};
@@ -618,4 +622,4 @@ TEST(BenchCli, PlansTheSweepItIsAskedForAndRefusesBadLists) {
 }
 
 }  // namespace
-}  // namespace voxbrick::bench
+}  // namespace voxbrick::quality

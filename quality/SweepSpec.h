@@ -1,19 +1,15 @@
-// The time-versus-error sweep behind `voxbrick bench`: GPU frames of each setting against reference frames of the
-// same views, with the Pareto front and the default it implies.
+// What the time-versus-error sweep measures: the volumes, the scene variants, the renderer settings and the spec
+// that combines them (the committed sweep, the quick one for CI, and the calibration of one store for quality by
+// target).
 #pragma once
 
 #include <filesystem>
-#include <functional>
-#include <limits>
-#include <optional>
 #include <string>
 #include <vector>
 
-#include "image/Image.h"
-#include "render/gl/GlContext.h"
 #include "render/core/Scene.h"
 
-namespace voxbrick::bench {
+namespace voxbrick::quality {
 
 /// A volume to sweep: a prep input and the transfer-function presets to try on it (the first is its default).
 struct Dataset {
@@ -65,21 +61,6 @@ std::string slabLabel(int slab);
 /// The part of Setting::label() after the slicer, for tables of one step, brick size and slicer: "slicing",
 /// "slab 16, ert 0.99, pre-int", "raycast, ert 0.999, sub-block 8".
 std::string marchingLabel(const Setting& s);
-
-/// The median of `v` (the mean of the middle two for an even count); 0 when empty.
-double median(std::vector<double> v);
-
-/// A setting's frames against their references, view by view: the worst view's PSNR, the largest difference and the
-/// pooled error (the RMSE over all views' pixels, each view the same size).
-struct ErrorTally {
-  double psnrMin = std::numeric_limits<double>::infinity();
-  double maxAbs = 0;
-  double sumSquares = 0;
-  int views = 0;
-  void add(const image::ImageError& e);
-  double rmsePooled() const;
-  double psnrPooled() const;  ///< infinity for identical frames
-};
 
 /// The sweep: every step with every variant (the baseline renderer), the slicing alternatives (other brick sizes,
 /// no skipping, the CPU slicer) at every step with each dataset's default variant, and the texture-slab settings
@@ -149,53 +130,6 @@ struct SweepSpec {
   static SweepSpec calibrate(const std::string& store, const std::vector<std::string>& transferFunctions);
 };
 
-/// One measured point: a dataset, a variant and a setting over every view.
-struct Point {
-  std::string dataset;
-  Variant variant;
-  Setting setting;
-  double msMedian = 0, msMin = 0, msMax = 0;  ///< frame time over the views
-  double samplesMedian = 0;                    ///< volume samples taken per frame (FrameStats::samples)
-  double fragmentsMedian = 0;                  ///< fragments started per frame (slicing: = samples)
-  double samplesTerminatedMedian = 0;          ///< samples left by early ray termination inside a fragment
-  double slabPassesMedian = 0;                 ///< draws of one slab each (0 when slicing)
-  double psnrMin = 0;     ///< the worst view's PSNR against the reference (dB)
-  double psnrPooled = 0;  ///< PSNR of the RMSE over all views' pixels
-  double rmsePooled = 0;
-  double maxAbs = 0;      ///< over all views
-  bool pareto = false;    ///< on the Pareto front (time, worst PSNR) of its dataset and variant
-};
-
-/// How the reference was made for a dataset, and its self-check: view 0 of each default-transfer-function variant at
-/// the reference step against half that step.
-struct ReferenceReport {
-  std::string dataset;
-  Variant variant;
-  double msPerView = 0;    ///< median over the views that were not cached (0 if all were)
-  double halvingPsnr = 0;  ///< step vs step/2
-  double halvingMaxAbs = 0;
-};
-
-struct SweepResult {
-  std::string device;
-  SweepSpec spec;
-  std::vector<Point> points;
-  std::vector<ReferenceReport> references;
-  std::optional<Setting> chosen;      ///< chooseDefault's answer at spec.psnrThreshold
-  std::optional<Setting> chosenHigh;  ///< chooseDefault's answer at spec.psnrHighThreshold
-  std::optional<int> bestSlab;        ///< bestSlabSize: the other slab size the thresholds also ran at
-  std::optional<double> bestErt;      ///< bestErt: the threshold pre-integration also ran with
-  std::optional<double> bestRayCastErt;  ///< bestRayCastErt: the threshold the ray caster's pre-integration ran with
-};
-
-/// Runs the sweep. Stores go to `work`/NAME-bB.vbs (made once, kept), reference frames to `work`/reference (so a
-/// rerun only renders the GPU frames). `log` gets one line per step of progress.
-SweepResult runSweep(const SweepSpec& spec, const std::filesystem::path& work, render::GlContext& context,
-                     const std::function<void(const std::string&)>& log);
-
-/// Sets Point::pareto: per dataset and variant, the points no other point beats in both time and worst PSNR.
-void markPareto(std::vector<Point>& points);
-
 /// A dataset's default variant: its first transfer function, unshaded.
 inline Variant defaultVariant(const Dataset& d) { return {d.transferFunctions.front(), false}; }
 
@@ -203,50 +137,14 @@ inline Variant defaultVariant(const Dataset& d) { return {d.transferFunctions.fr
 /// set, the opaque transfer function unshaded.
 std::vector<Variant> slabVariants(const Dataset& d, bool opaque);
 
-/// Of the slab sizes measured without ERT or pre-integration other than `exclude`, the one with the least total
-/// median time over the datasets, variants and steps at which every such size was measured; none if there is none.
-std::optional<int> bestSlabSize(const std::vector<Point>& points, int exclude);
+/// Every variant the sweep renders of `d`: each transfer function unshaded (and shaded with
+/// SweepSpec::shadingVariants), then the slab variants not among them when the spec marches.
+std::vector<Variant> sweptVariants(const SweepSpec& spec, const Dataset& d);
 
-/// The lowest threshold (the most termination) of those measured at slab `slab` without pre-integration whose worst
-/// view, at every dataset, variant and step, stays at or above min(the same without ERT − toleranceDb,
-/// highThreshold): ERT may cost accuracy only where the frame stays above the higher threshold. If none does, the
-/// highest threshold measured; none if no threshold was measured.
-std::optional<double> bestErt(const std::vector<Point>& points, int slab, double toleranceDb, double highThreshold);
-
-/// The same rule over the ray caster's points: thresholds measured with it without pre-integration, each against the
-/// ray caster without ERT.
-std::optional<double> bestRayCastErt(const std::vector<Point>& points, double toleranceDb, double highThreshold);
-
-/// The fastest point of `dataset` and `variant` whose worst view reaches `psnrThreshold`; none if no point does.
-std::optional<Point> fastestPoint(const std::vector<Point>& points, const std::string& dataset, const Variant& variant,
-                                  double psnrThreshold);
-
-/// The fastest setting (sum of the median times over the datasets) whose worst view reaches `psnrThreshold` on every
-/// dataset's default variant; none if no setting does.
-std::optional<Setting> chooseDefault(const std::vector<Point>& points, const std::vector<Dataset>& datasets,
-                                     double psnrThreshold);
-
-/// The coarsest step at which the baseline renderer (B=32, skipping, vertex slicer) keeps the worst view of
-/// `variant` on `dataset` at or above `psnrThreshold`; none if no swept step does.
-std::optional<double> coarsestStep(const std::vector<Point>& points, const std::string& dataset, const Variant& variant,
-                                   double psnrThreshold);
-
-/// Where runSweep keeps the store of `d` with brick size `brick`: `work`/NAME-bB.vbs, or `d.store` if set.
+/// Where the sweep keeps the store of `d` with brick size `brick`: `work`/NAME-bB.vbs, or `d.store` if set.
 std::filesystem::path datasetStorePath(const Dataset& d, int brick, const std::filesystem::path& work);
 
-/// The quality table (render/core/Quality.h) of the points measured on `store` (a path, as datasetStorePath gives it):
-/// every point of a dataset kept there with bricks of 32 (the store's), skipping and the vertex slicer, one entry per
-/// transfer function, shading and setting. `device` names the GL renderer.
-render::QualityTable qualityTable(const SweepResult& result, const std::filesystem::path& work,
-                                  const std::filesystem::path& store);
+/// A step, threshold or level as "%g" prints it: "0.5", "0.999".
+std::string stepText(double step);
 
-/// Writes sweep.csv, sweep.md and sweep.svg into `out`; throws std::runtime_error naming a file it cannot write.
-void writeResults(const SweepResult& result, const std::filesystem::path& out);
-
-/// `value` printed with `format` (one double), "inf" for an infinite one (a PSNR of identical images).
-std::string formatNumber(const char* format, double value);
-
-/// Writes `text` to `path` (replacing it); throws std::runtime_error naming the file if it cannot.
-void writeTextFile(const std::filesystem::path& path, const std::string& text);
-
-}  // namespace voxbrick::bench
+}  // namespace voxbrick::quality
