@@ -159,8 +159,8 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
   cmd->add_option("--background", args.background, "r,g,b in [0, 1] (default 0,0,0), or none: a transparent frame (RGBA PNG, alpha the accumulated opacity)");
   cmd->add_option("--window", args.window, "LO,HI value window (default: the store's value range)");
   cmd->add_option("--visibility", args.visibility,
-                  "how a tetrahedral mesh's cells are put in order: mpvo (sorted by the face-adjacency walk, default), "
-                  "centroid (sorted by distance), or raycast (each pixel's ray walks the adjacency, --ert applies)")
+                  "how a tetrahedral mesh's cells are put in order: raycast (each pixel's ray walks the adjacency, "
+                  "--ert applies; default), mpvo (sorted by the face-adjacency walk), or centroid (sorted by distance)")
       ->check(CLI::IsMember({"mpvo", "centroid", "raycast"}));
   cmd->add_option("--slicer", args.slicer,
                   "where slice polygons are computed when slicing (--slab 0): vertex (the vertex program, default), "

@@ -133,10 +133,12 @@ fs::path putInPlace(const fs::path& staging, const fs::path& target, DirectorySw
   return moveAsideAndRename(staging, target);
 }
 
-/// Writes all of `bytes` to the file at `path`, which exists.
-void writeBytes(const fs::path& path, std::span<const uint8_t> bytes) {
+/// Writes all of `bytes` to the file at `path`, which exists: the temporary that will replace `target`, which the
+/// errors name (a full disk or a file size limit is the target's problem to whoever reads the message).
+void writeBytes(const fs::path& path, std::span<const uint8_t> bytes, const fs::path& target) {
+  const std::string what = "cannot write " + target.string() + " (through " + path.filename().string() + ")";
   const int fd = ::open(path.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
-  if (fd < 0) fail("cannot open " + path.string(), errno);
+  if (fd < 0) fail(what, errno);
   size_t done = 0;
   while (done < bytes.size()) {
     const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
@@ -144,11 +146,11 @@ void writeBytes(const fs::path& path, std::span<const uint8_t> bytes) {
     if (n <= 0) {
       const int error = n < 0 ? errno : EIO;
       ::close(fd);
-      fail("cannot write " + path.string(), error);
+      fail(what, error);
     }
     done += size_t(n);
   }
-  if (::close(fd) != 0) fail("cannot write " + path.string(), errno);
+  if (::close(fd) != 0) fail(what, errno);
 }
 
 }  // namespace
@@ -164,7 +166,7 @@ void replaceFile(const fs::path& path, const std::function<void(const fs::path& 
 }
 
 void replaceFile(const fs::path& path, std::span<const uint8_t> bytes) {
-  replaceFile(path, [bytes](const fs::path& temporary) { writeBytes(temporary, bytes); });
+  replaceFile(path, [&](const fs::path& temporary) { writeBytes(temporary, bytes, path); });
 }
 
 void replaceDirectory(const fs::path& path, const std::function<void(const fs::path& staging)>& write,

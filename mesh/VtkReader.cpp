@@ -1,4 +1,5 @@
-// The VTK legacy unstructured-grid reader (readVtk in mesh/MeshReaders.h).
+// The VTK legacy unstructured-grid reader (readVtk in mesh/MeshReaders.h). One file of about 500 lines on purpose: the
+// format's header, points, cells, cell types and attributes are read by one parser (VtkParser) whose state they share.
 #include <cstdint>
 #include <optional>
 

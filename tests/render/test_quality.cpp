@@ -188,7 +188,7 @@ TEST(QualityEndToEnd, APsnrTargetGivesAFrameThatReachesItAgainstTheReference) {
   EXPECT_EQ(table.views, 2);
   EXPECT_GE(table.entries.size(), 9u);  // 3 steps x (slicing, ray caster with and without ERT, ...)
 
-  // The calibration's view 0: azimuth 0, elevation 20, 2.2 radii (bench::viewScene).
+  // The calibration's view 0: azimuth 0, elevation 20, 2.2 radii (quality::viewScene).
   const std::string view = " --tf hot --size 48x48 --orbit 0,20,2.2 -q";
   r = test::runVoxbrick("render " + store + view + " --backend reference -o " + (dir / "ref.png").string());
   ASSERT_EQ(r.exitCode, 0) << r.output;
