@@ -131,6 +131,17 @@ TEST(Context, ProgramErrorsNameTheShaderAndCarryTheLog) {
     EXPECT_NE(message.find("undefinedInLibrary"), std::string::npos) << message;
     EXPECT_TRUE(message.find("2:2(") != std::string::npos || message.find("2(2)") != std::string::npos) << message;
   }
+  // A second library is source string 3, after the first.
+  sources.libraries = {{"helpers.glsl", "float helper() { return 1.0; }\n"},
+                       {"more.glsl", "// line 1\nfloat more() { return helper() + undefinedInMore; }\n"}};
+  try {
+    Program program(context->gl(), sources);
+    FAIL() << "a broken second library compiled";
+  } catch (const RenderError& error) {
+    const std::string message = error.what();
+    EXPECT_NE(message.find("2 helpers.glsl, 3 more.glsl"), std::string::npos) << message;
+    EXPECT_TRUE(message.find("3:2(") != std::string::npos || message.find("3(2)") != std::string::npos) << message;
+  }
   // The same program with a valid body links, with its library's helpers available (the slicers').
   sources.libraries = {{"slicer.glsl", std::string(shaderSource("slicer.glsl"))}};
   sources.stages.back().body = "void main() { gl_Position = vec4(unitCorner(gl_VertexID), 1.0); }\n";
