@@ -264,7 +264,8 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
   const double reference = scene.transferFunction.referenceLength().value_or(d.meanEdgeLength);
   const double ratioMax = d.longestEdge / reference;
   const double ratioMin = ratioMax * kShortestRatioShare;
-  if (!nullFragment) stats.msPreIntegration = mTable.update(scene.transferFunction, ratioMin, ratioMax, VB_UNIT_PRE_INTEGRATED);
+  if (!nullFragment)
+    stats.msPreIntegration = mTable.update(scene.transferFunction, ratioMin, ratioMax, VB_UNIT_PRE_INTEGRATED);
   const PreIntegrationSpec& spec = mTable.spec();
 
   const auto drawStart = Clock::now();
