@@ -1,5 +1,5 @@
 // Vertex program of texture slabs: the back faces of one box per instance (a brick, or a sub-block box), drawn once
-// per slab of consecutive global planes. The fragment program (volume.frag.glsl with SLAB) marches its pixel's ray
+// per slab of consecutive global planes. The fragment program (slab.frag.glsl) marches its pixel's ray
 // through the slab's planes and keeps the samples in the voxels the box owns.
 //
 // Why back faces of the box, and not the slab's front plane: a ray can enter the box through a side face between

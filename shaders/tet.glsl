@@ -7,7 +7,7 @@
 uniform float uInvReference;  // 1 / the transfer function's reference length
 
 // The pre-integrated table (render/core/PreIntegration.h), its resolution and length layers.
-uniform sampler3D uPreIntegrated;
+layout(binding = VB_UNIT_PRE_INTEGRATED) uniform sampler3D uPreIntegrated;
 uniform float uTableResolution;
 uniform float uRatioMin;
 uniform float uLayerScale;
@@ -26,7 +26,7 @@ vec4 classifySegment(float front, float back, float ratio) {
 }
 
 #ifdef SHADING
-// The grids' two-sided Phong headlight (render/reference/Headlight.h, volume.frag.glsl), normal -gradient / |gradient|, for a
+// The grids' two-sided Phong headlight (render/reference/Headlight.h, volume_sample.glsl), normal -gradient / |gradient|, for a
 // segment along `direction` through a tet whose raw scalar has `gradient` (per world unit). In a tet both the normal
 // and the direction to the eye (against the ray's) are constant along the segment, so shading the emission, c x +
 // y, shades the pre-integrated segment exactly: C x + y A, premultiplied.
@@ -43,11 +43,11 @@ vec4 shadeSegment(vec4 segment, vec3 gradient, vec3 direction) {
 // The ray caster's tets: four vertices each (position centred on the mesh's box, raw scalar; the projected tets'
 // buffer), and across each face the neighbour and its face, coded as tet * 8 + 4 if the tet's stored order is
 // negatively oriented + face, or -1 on the boundary.
-layout(std430, binding = 1) readonly buffer TetVertices { vec4 uTetVertices[]; };
-layout(std430, binding = 3) readonly buffer TetNeighbours { ivec4 uNext[]; };
+layout(std430, binding = VB_BINDING_TET_VERTICES) readonly buffer TetVertices { vec4 uTetVertices[]; };
+layout(std430, binding = VB_BINDING_TET_NEIGHBOURS) readonly buffer TetNeighbours { ivec4 uNext[]; };
 // Per pixel (row-major, bottom row first): the ray parameter where the last pass left the mesh, -1 before the first
 // pass, 2 once the ray terminated (beyond every entry: t runs from 0 on the near plane to 1 on the far plane).
-layout(std430, binding = 6) buffer RayExits { float uExits[]; };
+layout(std430, binding = VB_BINDING_RAY_EXITS) buffer RayExits { float uExits[]; };
 uniform int uWidth;
 uniform vec3 uRayOrigin, uRayOriginDx, uRayOriginDy;           // ray origin (near plane) at window (x, y)
 uniform vec3 uRayDirection, uRayDirectionDx, uRayDirectionDy;  // near plane to far plane at window (x, y)

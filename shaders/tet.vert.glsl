@@ -10,8 +10,8 @@
 // s0 + t * s1, and at_i, rate_i, s0, s1 are themselves affine in window coordinates: computed at the strip's
 // corners, they are interpolated exactly (noperspective) to every fragment, which then needs only four divisions
 // to find where its ray enters and leaves the tet.
-layout(std430, binding = 1) readonly buffer TetVertices { vec4 uTetVertices[]; };
-layout(std430, binding = 2) readonly buffer TetOrder { uint uOrder[]; };
+layout(std430, binding = VB_BINDING_TET_VERTICES) readonly buffer TetVertices { vec4 uTetVertices[]; };
+layout(std430, binding = VB_BINDING_TET_ORDER) readonly buffer TetOrder { uint uOrder[]; };
 
 uniform int uOrderOffset;  // the first of this draw's tets in the order (a frame is drawn in several draws)
 uniform mat4 uViewProj;   // world (centred on the mesh) to clip

@@ -5,7 +5,7 @@
 // the mesh (lexicographic), so that faces sharing an edge agree on it: a ray is never let through between two faces.
 // A face the ray leaves through, or meets edge-on, is no entry. Each kept fragment counts, so that a pass finding
 // none ends the frame.
-layout(std430, binding = 7) buffer EntryCount { uint uEntries; };
+layout(std430, binding = VB_BINDING_ENTRY_COUNT) buffer EntryCount { uint uEntries; };
 
 flat in uint vFace;
 flat in vec3 vCorner0, vCorner1, vCorner2;

@@ -3,8 +3,8 @@
 // mesh's box, counter-clockwise seen from outside; and the tet and face, coded as the ray caster's neighbours are). The rasteriser's own coverage of
 // the face could miss a pixel whose ray does cross it (it snaps corners to its sub-pixel grid); the fragment stage
 // decides exactly instead, from its triangle's corners.
-layout(std430, binding = 4) readonly buffer BoundaryCorners { vec4 uCorners[]; };
-layout(std430, binding = 5) readonly buffer BoundaryFaces { uint uFaces[]; };
+layout(std430, binding = VB_BINDING_BOUNDARY_CORNERS) readonly buffer BoundaryCorners { vec4 uCorners[]; };
+layout(std430, binding = VB_BINDING_BOUNDARY_FACES) readonly buffer BoundaryFaces { uint uFaces[]; };
 
 uniform mat4 uViewProj;  // world (centred on the mesh) to clip
 uniform vec2 uViewport;  // width, height in pixels

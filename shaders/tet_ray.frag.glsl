@@ -13,10 +13,13 @@
 // entering, the other leaving. The products are also the barycentric weights of the point where the ray crosses
 // the face (each vertex's the product of the edge opposite it), which give the exit's ray parameter and scalar; the
 // next tet takes them over as its entry.
-layout(std430, binding = 0) buffer SlabCounters { uint uCounters[6]; };
+// The marching fragments' counters, as volume_counters.glsl declares them (render/gl/SampleCounters.h reads them).
+layout(std430, binding = VB_BINDING_SAMPLE_COUNTERS) buffer SlabCounters { uint uCounters[2 * VB_COUNTERS]; };
 
-uniform usampler2D uEntry;  // the entry pass's tet and face (coded as uNext's), or 0xffffffff
-uniform sampler2D uEntryDepth;  // and its depth: the entry's t as the entry pass computed it
+// The entry pass's tet and face (coded as uNext's), or 0xffffffff, and its depth: the entry's t as the entry pass
+// computed it.
+layout(binding = VB_UNIT_TET_ENTRY) uniform usampler2D uEntry;
+layout(binding = VB_UNIT_TET_ENTRY_DEPTH) uniform sampler2D uEntryDepth;
 uniform float uWindowLo;    // the value window [lo, hi] as lo and 1 / (hi - lo)
 uniform float uWindowScale;
 uniform float uTermination; // early ray termination: the opacity where a ray stops (above 1: never)
@@ -157,8 +160,8 @@ void main() {
   const float entryPassT = texelFetch(uEntryDepth, ivec2(gl_FragCoord.xy), 0).r;
   const float exitRule = t - entryT > 2.0 * kBeyond ? t - kBeyond : max(t, entryT) + kBeyond;
   uExits[pixelIndex()] = terminated ? 2.0 : max(exitRule, entryPassT + kBeyond);
-  count(0, 1u);
-  count(1, uint(segments));
-  if (terminated) count(2, 1u);
+  count(VB_COUNTER_FRAGMENTS, 1u);
+  count(VB_COUNTER_SAMPLES, uint(segments));
+  if (terminated) count(VB_COUNTER_SAMPLES_TERMINATED, 1u);
   fragColor = accumulated;
 }

@@ -155,15 +155,20 @@ void Framebuffer::readRgba(std::vector<float>& pixels) const {
 }
 
 ProgramSources ProgramSources::fromFiles(std::string name, std::vector<std::pair<GLenum, std::string>> stageFiles,
-                                         std::vector<std::string> defines, const std::string& libraryFile) {
+                                         std::vector<std::string> defines, const char* libraryFile) {
+  std::vector<std::string> libraryFiles;
+  if (libraryFile != nullptr) libraryFiles.emplace_back(libraryFile);
+  return fromFiles(std::move(name), std::move(stageFiles), std::move(defines), libraryFiles);
+}
+
+ProgramSources ProgramSources::fromFiles(std::string name, std::vector<std::pair<GLenum, std::string>> stageFiles,
+                                         std::vector<std::string> defines,
+                                         const std::vector<std::string>& libraryFiles) {
   ProgramSources sources;
   sources.name = std::move(name);
-  sources.preamble = std::string(shaderSource("preamble.glsl"));
+  sources.preamble = std::string(shaderSource("preamble.glsl")) + "\n" + std::string(shaderSource("Bindings.h"));
   sources.defines = std::move(defines);
-  if (!libraryFile.empty()) {
-    sources.libraryName = libraryFile;
-    sources.library = std::string(shaderSource(libraryFile));
-  }
+  for (const std::string& file : libraryFiles) sources.libraries.push_back({file, std::string(shaderSource(file))});
   for (auto& [type, file] : stageFiles) sources.stages.push_back({type, file, std::string(shaderSource(file))});
   return sources;
 }
@@ -171,13 +176,16 @@ ProgramSources ProgramSources::fromFiles(std::string name, std::vector<std::pair
 Program::Program(const Gl& gl, const ProgramSources& sources) : GlName(gl, gl.glCreateProgram()), mName(sources.name) {
   if (id() == 0) throw RenderError("Program " + mName + ": glCreateProgram failed");
   if (sources.stages.empty()) throw RenderInputError("Program " + mName + ": no shader stages");
-  // What every stage has before its own file: the defines, then the library as source string 2, so that the info
-  // log's line numbers are those of its file.
+  // What every stage has before its own file: the defines, then the libraries as source strings 2, 3, ..., so that
+  // the info log's line numbers are those of their files.
   std::string head;
   for (const std::string& define : sources.defines) head += "#define " + define + "\n";
-  if (!sources.library.empty()) head += "#line 1 2\n" + sources.library + "\n";
-  const std::string sourceNumbers =
-      sources.library.empty() ? "source 0 is the preamble" : "source 0 is the preamble, 2 " + sources.libraryName;
+  std::string sourceNumbers = "source 0 is the preamble";
+  for (size_t i = 0; i < sources.libraries.size(); ++i) {
+    const std::string number = std::to_string(i + 2);
+    head += "#line 1 " + number + "\n" + sources.libraries[i].body + "\n";
+    sourceNumbers += ", " + number + " " + sources.libraries[i].name;
+  }
   ShaderList shaders{gl, {}};
   for (const ShaderStage& stage : sources.stages) {
     const GLuint shader = gl.glCreateShader(stage.type);

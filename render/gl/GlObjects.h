@@ -138,21 +138,29 @@ struct ShaderStage {
   std::string body;
 };
 
-/// What a Program is made of: the shared preamble, one "#define" line per feature, the library, then each stage's
+/// A library of GLSL helpers that every stage of a program gets: a name for messages and its text.
+struct ShaderLibrary {
+  std::string name;
+  std::string body;
+};
+
+/// What a Program is made of: the shared preamble, one "#define" line per feature, the libraries, then each stage's
 /// body.
 struct ProgramSources {
   std::string name;                           ///< for error messages
   std::string preamble;                       ///< starts with #version; shared by every stage
   std::vector<std::string> defines;           ///< "FEATURE" or "NAME value", each becomes one #define line
-  std::string libraryName;                    ///< for error messages: the library is source string 2
-  std::string library;                        ///< helpers shared by every stage, after the defines; may be empty
+  std::vector<ShaderLibrary> libraries;       ///< after the defines, in order: source strings 2, 3, ... ; may be empty
   std::vector<ShaderStage> stages;            ///< at least one
   std::vector<std::string> feedbackVaryings;  ///< if not empty, captured interleaved by transform feedback
 
-  /// Sources from the embedded shaders/ files: preamble.glsl plus the named stage files, with `libraryFile` (if not
-  /// empty) as the library.
+  /// Sources from the embedded shaders/ files: preamble.glsl and Bindings.h (the binding points C++ shares) as the
+  /// preamble, the named stage files, and `libraryFile` (if not null) as the library.
   static ProgramSources fromFiles(std::string name, std::vector<std::pair<GLenum, std::string>> stageFiles,
-                                  std::vector<std::string> defines = {}, const std::string& libraryFile = {});
+                                  std::vector<std::string> defines = {}, const char* libraryFile = nullptr);
+  /// The same with the libraries `libraryFiles`, in that order.
+  static ProgramSources fromFiles(std::string name, std::vector<std::pair<GLenum, std::string>> stageFiles,
+                                  std::vector<std::string> defines, const std::vector<std::string>& libraryFiles);
 };
 
 /// A linked GLSL program. Uniform setters use glProgramUniform*, so the program need not be in use.

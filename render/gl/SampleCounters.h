@@ -6,7 +6,8 @@
 
 namespace voxbrick::render {
 
-/// The marching fragments' counters (SlabCounters of volume.frag.glsl, shader storage binding 0): fragments started,
+/// The marching fragments' counters (SlabCounters of volume_counters.glsl, storage binding VB_BINDING_SAMPLE_COUNTERS
+/// of render/gl/Bindings.h): fragments started,
 /// samples taken, samples left when a fragment's opacity reached the termination threshold, as 64-bit counts.
 class SampleCounters {
  public:

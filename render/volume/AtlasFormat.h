@@ -33,7 +33,7 @@ const char* atlasUploadsName(AtlasUploads uploads);
 /// volume's axis order (x fastest). MultiOriented: brick (i, j, k) is stored with its axes rotated by
 /// brickOrientation(), so the texture's fast axis alternates between x, y and z from one brick to the next and a
 /// texture cache that favours one walking direction sees all three in any view. Sampling accounts for each
-/// brick's rotation (volume.frag.glsl, MULTI_ORIENTED); the images are the same.
+/// brick's rotation (volume_sample.glsl, MULTI_ORIENTED); the images are the same.
 enum class AtlasBricking { Single, MultiOriented };
 
 /// "single", "multi-oriented"; throws RenderInputError for anything else.
@@ -46,7 +46,7 @@ const char* atlasBrickingName(AtlasBricking bricking);
 int brickOrientation(AtlasBricking bricking, const store::BrickKey& key);
 
 /// Where voxel v of a brick lies in its slot under rotation r: v (r = 0), v.yzx (r = 1), v.zxy (r = 2). The slot's
-/// texel (a.x, a.y, a.z) holds the brick's voxel whose rotation is a; volume.frag.glsl's orient() is the mirror.
+/// texel (a.x, a.y, a.z) holds the brick's voxel whose rotation is a; volume_sample.glsl's orient() is the mirror.
 inline glm::ivec3 orientVoxel(const glm::ivec3& v, int r) {
   return r == 1 ? glm::ivec3(v.y, v.z, v.x) : r == 2 ? glm::ivec3(v.z, v.x, v.y) : v;
 }

@@ -9,6 +9,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "render/gl/Bindings.h"
 #include "render/gl/Checkpoints.h"
 #include "render/core/RenderErrors.h"
 
@@ -30,8 +31,8 @@ bool negative(const mesh::TetMesh& m, size_t t) {
 }
 
 /// The texture units of the entry pass's result and its depth (the entry's t), read by the ray pass.
-constexpr int kEntryUnit = 4;
-constexpr int kEntryDepthUnit = 5;
+constexpr int kEntryUnit = VB_UNIT_TET_ENTRY;
+constexpr int kEntryDepthUnit = VB_UNIT_TET_ENTRY_DEPTH;
 
 /// Passes a frame takes at most: each pass's entries lie beyond the last pass's (the ray pass stores an exit beyond
 /// the entry pass's own t), so the passes end by themselves, after as many as a ray enters the mesh; a guard.
@@ -192,12 +193,12 @@ void TetRayCaster::draw(const TetFrameUniforms& uniforms, double termination, bo
   mExits.bind(GL_SHADER_STORAGE_BUFFER);
   mGl.glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, GLsizeiptr(mBeforeMesh.size() * sizeof(float)), mBeforeMesh.data());
   mCounters.reset();
-  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mVertices.id());
-  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, mNeighbours.id());
-  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, mCorners.id());
-  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, mFaces.id());
-  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, mExits.id());
-  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, mEntryCount.id());
+  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_TET_VERTICES, mVertices.id());
+  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_TET_NEIGHBOURS, mNeighbours.id());
+  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_BOUNDARY_CORNERS, mCorners.id());
+  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_BOUNDARY_FACES, mFaces.id());
+  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_RAY_EXITS, mExits.id());
+  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_ENTRY_COUNT, mEntryCount.id());
   const Program& ray = shading ? mShadedRayProgram : mRayProgram;
   setTetUniforms(mEntryProgram, uniforms);
   setTetUniforms(ray, uniforms);

@@ -15,6 +15,7 @@
 #include <functional>
 #include <vector>
 
+#include "render/gl/Bindings.h"
 #include "render/gl/Compositor.h"
 #include "render/core/PixelRays.h"
 #include "render/core/FrameStats.h"
@@ -34,7 +35,7 @@ struct TetFrameUniforms {
   int width = 0, height = 0;
   double windowLo = 0, windowScale = 1;  ///< the value window as lo and 1 / (hi - lo)
   double reference = 1;                  ///< the transfer function's reference length
-  int tableUnit = 3;                     ///< the texture unit the pre-integrated table is bound on
+  int tableUnit = VB_UNIT_PRE_INTEGRATED;  ///< the texture unit the pre-integrated table is bound on
   PreIntegrationSpec table;
 };
 

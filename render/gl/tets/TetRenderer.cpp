@@ -12,6 +12,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include "mesh/Visibility.h"
+#include "render/gl/Bindings.h"
 #include "render/gl/Checkpoints.h"
 #include "render/core/PixelRays.h"
 #include "render/core/RenderErrors.h"
@@ -263,7 +264,8 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
   const double reference = scene.transferFunction.referenceLength().value_or(d.meanEdgeLength);
   const double ratioMax = d.longestEdge / reference;
   const double ratioMin = ratioMax * kShortestRatioShare;
-  if (!nullFragment) stats.msPreIntegration = mTable.update(scene.transferFunction, ratioMin, ratioMax, 3);
+  if (!nullFragment)
+    stats.msPreIntegration = mTable.update(scene.transferFunction, ratioMin, ratioMax, VB_UNIT_PRE_INTEGRATED);
   const PreIntegrationSpec& spec = mTable.spec();
 
   const auto drawStart = Clock::now();
@@ -276,7 +278,7 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
   uniforms.windowLo = lo;
   uniforms.windowScale = 1.0 / (hi - lo);
   uniforms.reference = reference;
-  uniforms.tableUnit = 3;
+  uniforms.tableUnit = VB_UNIT_PRE_INTEGRATED;
   uniforms.table = spec;
   try {
     if (rays)
@@ -306,8 +308,8 @@ void TetRenderer::drawProjected(const TetFrameUniforms& uniforms, const Program&
     mOrderBuffer.allocate(GL_SHADER_STORAGE_BUFFER, mOrder.size() * sizeof(uint32_t), mOrder.data(), GL_STREAM_DRAW);
   setTetUniforms(p, uniforms);
   p.use();
-  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mVertices.id());
-  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, mOrderBuffer.id());
+  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_TET_VERTICES, mVertices.id());
+  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_TET_ORDER, mOrderBuffer.id());
   mEmpty.bind();
   // Cancellation: checked between draws of at most kTetsPerDraw tets, with at most two of them queued
   // (Checkpoints), so that a frame given up stops within about one draw's work.
@@ -330,7 +332,7 @@ void TetRenderer::drawProjected(const TetFrameUniforms& uniforms, const Program&
       for (size_t i = 0; i < count; ++i) writeTet(mOrder[first + i], &mStaging[4 * i]);
       mVertices.allocate(GL_SHADER_STORAGE_BUFFER, mBatchTets * kBytesPerTet, nullptr, GL_STREAM_DRAW);
       mGl.glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, GLsizeiptr(count * kBytesPerTet), mStaging.data());
-      mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mVertices.id());
+      mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_TET_VERTICES, mVertices.id());
       mGl.glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(count));
       checkpoints.pace();
       stats.batches += 1;

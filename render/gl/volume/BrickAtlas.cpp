@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "render/core/RenderErrors.h"
+#include "render/gl/Bindings.h"
 
 namespace voxbrick::render {
 
@@ -85,7 +86,7 @@ BrickAtlas::BrickAtlas(const GlContext& context, store::ValueType type, int bric
   mTexels = mGrid * brickEdge;
 
   mTexture = Texture(mGl, GL_TEXTURE_3D);
-  mTexture.bind(0);
+  mTexture.bind(VB_UNIT_ATLAS);
   mGl.glTexStorage3D(GL_TEXTURE_3D, 1, mTexel.internal, mTexels.x, mTexels.y, mTexels.z);
   mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
   mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
@@ -154,7 +155,7 @@ void BrickAtlas::convert(const store::Brick& brick, void* out, int orientation) 
 void BrickAtlas::upload(AtlasSlot slot, const store::Brick& brick) {
   const glm::ivec3 o = slotOrigin(slot);
   const int orientation = this->orientation(brick.key());
-  mTexture.bind(0);
+  mTexture.bind(VB_UNIT_ATLAS);
   mGl.glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   if (mRing) {
     convert(brick, mRing->map(), orientation);

@@ -87,7 +87,7 @@ void BrickWalk::cutBrick(const FramePlan& plan, const BrickDraw& draw, const Res
       orientVoxel(glm::ivec3(int32_t(brickLo.x), int32_t(brickLo.y), int32_t(brickLo.z)), resident.orientation);
   const glm::ivec4 payload(resident.origin + 1 - rotatedLo, payloadLevel(level, resident.orientation));
   // Whole bricks own the whole volume (only the outline is cut, the same for every bricking); with exact ownership
-  // (sub-blocks, slabs) each box owns just its voxels (volume.frag.glsl).
+  // (sub-blocks, slabs) each box owns just its voxels (volume_ownership.glsl).
   const glm::ivec3 volumeHi(meta.dims.x, meta.dims.y, meta.dims.z);
   const bool exact = plan.exactOwnership();
   for (const VoxelSpan& span : mSpans) {

@@ -14,7 +14,7 @@
 namespace voxbrick::render {
 
 /// One box to draw: its drawn (enlarged) world box, the global planes through it, the atlas payload and the voxels
-/// it owns [ownLo, ownHi) (volume.frag.glsl).
+/// it owns [ownLo, ownHi) (volume_ownership.glsl).
 struct QueuedBox {
   Box box;
   PlaneIndexRange planes;

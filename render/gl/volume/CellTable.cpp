@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "render/core/RenderErrors.h"
+#include "render/gl/Bindings.h"
 #include "render/gl/volume/SlicingPass.h"
 #include "render/volume/Traversal.h"
 
@@ -25,7 +26,7 @@ void CellTable::begin(const glm::ivec3& dims, int cellSize) {
   if (cells != mCells || !mTexture) {
     mCells = cells;
     mTexture = Texture(mGl, GL_TEXTURE_3D);
-    mTexture.bind(4);
+    mTexture.bind(VB_UNIT_CELLS);
     mGl.glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGBA16I, cells.x, cells.y, cells.z);
     mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
     mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
@@ -64,7 +65,7 @@ void CellTable::add(const QueuedBox& box) {
 
 void CellTable::upload() {
   computeLeaps(mHost, mCells, mScratch);
-  mTexture.bind(4);
+  mTexture.bind(VB_UNIT_CELLS);
   mGl.glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
   mGl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   mGl.glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, mCells.x, mCells.y, mCells.z, GL_RGBA_INTEGER, GL_SHORT,

@@ -1,6 +1,6 @@
 // The frame ray caster: for each batch of bricks the atlas holds at once, the cell table (render/gl/volume/CellTable.h) is
 // filled with the batch's boxes and one fragment per pixel marches its ray through the whole batch, finding each
-// sample's brick in the table (volume.frag.glsl with RAYCAST). Where texture slabs draw a proxy per box and slab and
+// sample's brick in the table (raycast.frag.glsl). Where texture slabs draw a proxy per box and slab and
 // blend once per box, the ray caster draws one full-screen triangle and blends once per pixel and batch: no box
 // geometry, no fragment per box, a ray that stops at the termination threshold stops for the whole batch.
 //
@@ -24,7 +24,7 @@ class RayCastPass {
  public:
   explicit RayCastPass(const Gl& gl);
 
-  /// Draws plan.visible with `program` (a RAYCAST variant) into `compositor`'s target, which begin() set up with a
+  /// Draws plan.visible with `program` (a ray caster variant) into `compositor`'s target, which begin() set up with a
   /// silhouette map iff plan.ert > 0. `planes` gives the planes through a box (boxes with none are left out).
   void draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program, const SliceGeometry& planes,
             Compositor& compositor, FrameStats& stats, Checkpoints& checkpoints);

@@ -1,7 +1,7 @@
 // Texture slabs (Yalım 2005, seed 003, chapter 4), drawn slab by slab. A slab is N consecutive global planes; for
 // each slab, front to back, every box of the batch that the slab crosses is drawn once (its back faces,
 // slab.vert.glsl) and the fragment program marches its pixel's ray through the slab's planes inside the box,
-// compositing in registers and blending once (volume.frag.glsl, SLAB). The samples are the global planes' points
+// compositing in registers and blending once (slab.frag.glsl). The samples are the global planes' points
 // either way, so the image does not depend on N beyond round-off.
 //
 // Early ray termination (Scene::ert) uses a slab silhouette map in the target's depth buffer (Compositor): slab
@@ -30,7 +30,7 @@ class SlabPass {
  public:
   explicit SlabPass(const Gl& gl);
 
-  /// Draws plan.visible as slabs of plan.slab planes with `program` (a SLAB variant) into `compositor`'s target,
+  /// Draws plan.visible as slabs of plan.slab planes with `program` (a slab variant) into `compositor`'s target,
   /// which begin() set up with a silhouette map iff plan.ert > 0. Fills the counters and times of `stats` that the
   /// GPU does not (see finish).
   /// With plan.ess, `emptyTest` is the EMPTY_TEST variant of `program`.

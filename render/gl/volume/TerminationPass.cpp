@@ -1,6 +1,8 @@
 // The termination pass of the silhouette map.
 #include "render/gl/volume/TerminationPass.h"
 
+#include "render/gl/Bindings.h"
+
 namespace voxbrick::render {
 
 TerminationPass::TerminationPass(const Gl& gl)
@@ -8,14 +10,12 @@ TerminationPass::TerminationPass(const Gl& gl)
       mProgram(gl, ProgramSources::fromFiles("termination", {{GL_VERTEX_SHADER, "termination.vert.glsl"},
                                                               {GL_FRAGMENT_SHADER, "termination.frag.glsl"}})),
       mTerminationAt(mProgram.requireUniform("uTermination")),
-      mAccumulatedAt(mProgram.requireUniform("uAccumulated")),
       mNoAttributes(gl) {}
 
 void TerminationPass::run(double threshold, Compositor& compositor) const {
   compositor.bindSilhouette();
-  compositor.accumulated().bind(2);
+  compositor.accumulated().bind(VB_UNIT_ACCUMULATED);
   mProgram.use();
-  mProgram.set(mAccumulatedAt, 2);
   mProgram.set(mTerminationAt, float(threshold));
   mNoAttributes.bind();
   mGl.glDepthMask(GL_TRUE);

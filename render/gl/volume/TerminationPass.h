@@ -18,7 +18,7 @@ class TerminationPass {
  private:
   const Gl& mGl;
   Program mProgram;
-  GLint mTerminationAt = -1, mAccumulatedAt = -1;
+  GLint mTerminationAt = -1;
   VertexArray mNoAttributes;
 };
 

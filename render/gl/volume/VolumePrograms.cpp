@@ -22,8 +22,6 @@ ProgramSources sources(const ProgramKey& key) {
   if (key.exactOwnership) defines.push_back("EXACT_OWNERSHIP");
   if (key.model == FragmentModel::Roofline) defines.push_back("ROOFLINE");
   if (key.model == FragmentModel::Shaded) defines.push_back("SHADING");
-  if (key.slab) defines.push_back("SLAB");
-  if (key.raycast) defines.push_back("RAYCAST");
   if (key.preIntegration) defines.push_back("PRE_INTEGRATION");
   if (key.emptyTest) defines.push_back("EMPTY_TEST");
   if (key.multiOriented) defines.push_back("MULTI_ORIENTED");
@@ -31,10 +29,15 @@ ProgramSources sources(const ProgramKey& key) {
   ProgramSources program = key.raycast ? ProgramSources::fromFiles({}, {{GL_VERTEX_SHADER, "raycast.vert.glsl"}})
                            : key.slab  ? ProgramSources::fromFiles({}, {{GL_VERTEX_SHADER, "slab.vert.glsl"}})
                                        : slicerSources(key.slicer, {});
+  // The technique's fragment program and the grid programs' libraries it uses (after the slicer's, if any).
+  const char* fragment = key.raycast ? "raycast.frag.glsl" : key.slab ? "slab.frag.glsl" : "slice.frag.glsl";
+  std::vector<std::string> libraries{"volume_sample.glsl", "volume_ownership.glsl", "volume_ray.glsl"};
+  if (!slices(key)) libraries.push_back("volume_counters.glsl");
+  for (const std::string& file : libraries) program.libraries.push_back({file, std::string(shaderSource(file))});
   program.name = "volume/";
   for (const ShaderStage& stage : program.stages) program.name += stage.name + "+";
-  program.name += "volume.frag.glsl";
-  program.stages.push_back({GL_FRAGMENT_SHADER, "volume.frag.glsl", std::string(shaderSource("volume.frag.glsl"))});
+  program.name += fragment;
+  program.stages.push_back({GL_FRAGMENT_SHADER, fragment, std::string(shaderSource(fragment))});
   program.defines = std::move(defines);
   return program;
 }
@@ -84,12 +87,12 @@ VolumeProgram::VolumeProgram(const Gl& gl, const ProgramKey& key) : mProgram(bui
     mStripOrder = key.slicer == Slicer::Geometry;
   }
   auto at = [this](const char* name) { return mProgram.uniformLocation(name); };
-  mAt = {at(kSliceViewProjUniform), at(kSliceNormalUniform), at(kSlicePlaneIncrUniform), at("uAtlas"),
-         at("uTransfer"), at("uInvAtlasSize"), at("uInvSpacing"), at("uDims"), at("uHalfDims"), at("uWindowLo"),
-         at("uWindowScale"), at("uStepOverReference"), at("uEye"), at("uViewDir"), at("uOrthographic"),
-         at("uRayOrigin"), at("uRayOriginDx"), at("uRayOriginDy"), at("uRayDirection"), at("uRayDirectionDx"),
-         at("uRayDirectionDy"), at("uTermination"), at("uPreIntegrated"), at("uTableResolution"),
-         at("uRatioMin"), at("uLayerScale"), at("uLayers"), at("uCells"), at("uCellShift"), at("uCellCount")};
+  mAt = {at(kSliceViewProjUniform), at(kSliceNormalUniform), at(kSlicePlaneIncrUniform), at("uInvAtlasSize"),
+         at("uInvSpacing"), at("uDims"), at("uHalfDims"), at("uWindowLo"), at("uWindowScale"),
+         at("uStepOverReference"), at("uEye"), at("uViewDir"), at("uOrthographic"), at("uRayOrigin"),
+         at("uRayOriginDx"), at("uRayOriginDy"), at("uRayDirection"), at("uRayDirectionDx"), at("uRayDirectionDy"),
+         at("uTermination"), at("uTableResolution"), at("uRatioMin"), at("uLayerScale"), at("uLayers"),
+         at("uCellShift"), at("uCellCount")};
 }
 
 void VolumeProgram::setFrame(const FramePlan& plan, const BrickAtlas& atlas, const store::StoreMeta& meta) const {
@@ -103,8 +106,6 @@ void VolumeProgram::setFrame(const FramePlan& plan, const BrickAtlas& atlas, con
     const glm::vec3 n(plan.planeNormal);
     p.set(mPaths, std::span<const int>(sliceCornerPaths(sliceFrontIndex(n.x, n.y, n.z), mStripOrder)));
   }
-  p.set(mAt.atlas, 0);
-  p.set(mAt.transfer, 1);
   p.set(mAt.invAtlasSize, atlas.inverseSize());
   p.set(mAt.invSpacing, glm::vec3(1.0 / meta.spacing.x, 1.0 / meta.spacing.y, 1.0 / meta.spacing.z));
   p.set(mAt.dims, glm::vec3(double(meta.dims.x), double(meta.dims.y), double(meta.dims.z)));
@@ -127,7 +128,6 @@ void VolumeProgram::setFrame(const FramePlan& plan, const BrickAtlas& atlas, con
 }
 
 void VolumeProgram::setTable(const PreIntegrationSpec& spec) const {
-  mProgram.set(mAt.table, 3);
   mProgram.set(mAt.tableResolution, float(spec.resolution));
   mProgram.set(mAt.ratioMin, float(spec.ratioMin));
   mProgram.set(mAt.layerScale, float(spec.layerScale()));
@@ -135,7 +135,6 @@ void VolumeProgram::setTable(const PreIntegrationSpec& spec) const {
 }
 
 void VolumeProgram::setCells(const glm::ivec3& cells, int shift) const {
-  mProgram.set(mAt.cells, 4);
   mProgram.set(mAt.cellShift, shift);
   mProgram.set(mAt.cellCount, glm::vec3(cells));
 }

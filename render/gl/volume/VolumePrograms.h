@@ -19,16 +19,18 @@ enum class FragmentModel {
   Roofline,  ///< one atlas fetch, no classification, no blending (ROOFLINE): the sampling roofline
 };
 
-/// Which program variant a frame needs. Each field is one #define of volume.frag.glsl or the choice of the stages
-/// before it.
+/// Which program variant a frame needs. Each field is the choice of the technique's stages (slicer, slab, raycast:
+/// which files, shaders/README.md) or one #define of its fragment program.
 struct ProgramKey {
   Slicer slicer = Slicer::Vertex;  ///< the stages that slice (Vertex where the key does not slice)
   FragmentModel model = FragmentModel::Plain;
   bool exactOwnership = false;  ///< EXACT_OWNERSHIP: samples from the pixel ray, owned per box (sub-blocks)
-  bool slab = false;            ///< SLAB: box proxies (slab.vert.glsl), several samples per fragment
-  bool preIntegration = false;  ///< PRE_INTEGRATION (with SLAB): segments classified from a table
-  bool emptyTest = false;       ///< EMPTY_TEST (with SLAB): the empty-space silhouette pass, no colour
-  bool raycast = false;         ///< RAYCAST: a full-screen proxy (raycast.vert.glsl), a pixel's whole ray per fragment
+  bool slab = false;            ///< texture slabs: box proxies (slab.vert.glsl, slab.frag.glsl), several samples
+                                ///< per fragment
+  bool preIntegration = false;  ///< PRE_INTEGRATION (slabs, the ray caster): segments classified from a table
+  bool emptyTest = false;       ///< EMPTY_TEST (slabs): the empty-space silhouette pass, no colour
+  bool raycast = false;         ///< the frame ray caster: a full-screen proxy (raycast.vert.glsl, raycast.frag.glsl), a
+                                ///< pixel's whole ray per fragment
   bool multiOriented = false;   ///< MULTI_ORIENTED: bricks lie in the atlas with rotated axes (AtlasBricking)
   auto operator<=>(const ProgramKey&) const = default;
 };
@@ -46,20 +48,22 @@ class VolumeProgram {
 
   const Program& program() const { return mProgram; }
   /// Sets every per-frame uniform from `plan` (with the path table of Zellmann & Lang's slicers, which follows the
-  /// view direction); the atlas is on texture unit 0, the transfer table on unit 1.
+  /// view direction); the atlas is on texture unit VB_UNIT_ATLAS, the transfer table on VB_UNIT_TRANSFER
+  /// (render/gl/Bindings.h, declared by the shaders).
   void setFrame(const FramePlan& plan, const BrickAtlas& atlas, const store::StoreMeta& meta) const;
-  /// Sets the pre-integration table's mapping (PRE_INTEGRATION variants); the table is on texture unit 3.
+  /// Sets the pre-integration table's mapping (PRE_INTEGRATION variants); the table is on VB_UNIT_PRE_INTEGRATED.
   void setTable(const PreIntegrationSpec& spec) const;
-  /// Sets the cell table's grid (RAYCAST variants): `cells` cells of 2^`shift` voxels; the table is on texture unit 4.
+  /// Sets the cell table's grid (ray caster variants): `cells` cells of 2^`shift` voxels; the table is on
+  /// VB_UNIT_CELLS.
   void setCells(const glm::ivec3& cells, int shift) const;
 
  private:
   Program mProgram;
   struct Locations {
-    GLint viewProj, planeNormal, planeIncr, atlas, transfer, invAtlasSize, invSpacing, dims, halfDims, windowLo,
-        windowScale, stepOverReference, eye, viewDir, orthographic, rayOrigin, rayOriginDx, rayOriginDy,
-        rayDirection, rayDirectionDx, rayDirectionDy, termination, table,
-        tableResolution, ratioMin, layerScale, layers, cells, cellShift, cellCount;
+    GLint viewProj, planeNormal, planeIncr, invAtlasSize, invSpacing, dims, halfDims, windowLo, windowScale,
+        stepOverReference, eye, viewDir, orthographic, rayOrigin, rayOriginDx, rayOriginDy, rayDirection,
+        rayDirectionDx, rayDirectionDy, termination, tableResolution, ratioMin, layerScale, layers, cellShift,
+        cellCount;
   } mAt;
   GLint mPaths = -1;         // uPaths of the vertex-lean, geometry and vertex-geometry slicers
   bool mStripOrder = false;  // its rows in strip order (the geometry slicer)

@@ -6,6 +6,7 @@
 
 #include "render/volume/FramePlan.h"
 #include "render/core/RenderErrors.h"
+#include "render/gl/Bindings.h"
 
 namespace voxbrick::render {
 namespace {
@@ -25,7 +26,7 @@ VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickC
       mSlabs(mGl),
       mRayCast(mGl),
       mPreIntegration(mGl) {
-  mTransfer.bind(1);
+  mTransfer.bind(VB_UNIT_TRANSFER);
   mGl.glTexStorage1D(GL_TEXTURE_1D, 1, GL_RGBA32F, kTransferTableTexels);
   mGl.glTexParameteri(GL_TEXTURE_1D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
   mGl.glTexParameteri(GL_TEXTURE_1D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
@@ -56,9 +57,9 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
   mResidency.beginFrame(plan.visible.bricks);
   mCompositor.begin(scene.width, scene.height, mode != RenderMode::Roofline, plan.ert > 0 || plan.ess);
   const std::vector<glm::vec4> table = scene.transferFunction.table(kTransferTableTexels);
-  mTransfer.bind(1);
+  mTransfer.bind(VB_UNIT_TRANSFER);
   mGl.glTexSubImage1D(GL_TEXTURE_1D, 0, 0, kTransferTableTexels, GL_RGBA, GL_FLOAT, table.data());
-  mResidency.atlas().texture().bind(0);
+  mResidency.atlas().texture().bind(VB_UNIT_ATLAS);
 
   ProgramKey key{plan.slab > 0 || plan.raycast ? Slicer::Vertex : scene.slicer,
                        mode == RenderMode::Roofline ? FragmentModel::Roofline
@@ -71,7 +72,7 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
   program.setFrame(plan, mResidency.atlas(), store.meta());
   if (plan.preIntegration) {
     const auto [ratioMin, ratioMax] = plan.segmentRatios();
-    stats.msPreIntegration = mPreIntegration.update(scene.transferFunction, ratioMin, ratioMax, 3);
+    stats.msPreIntegration = mPreIntegration.update(scene.transferFunction, ratioMin, ratioMax, VB_UNIT_PRE_INTEGRATED);
     program.setTable(mPreIntegration.spec());
   }
   const VolumeProgram* emptyTest = nullptr;

@@ -9,6 +9,7 @@
 #include "render/volume/AtlasFormat.h"
 #include "render/gl/volume/BrickAtlas.h"
 #include "render/core/RenderErrors.h"
+#include "render/gl/Bindings.h"
 #include "render/gl/GlFixtures.h"
 #include "support/TestSupport.h"
 
@@ -82,7 +83,7 @@ TEST(AtlasBricking, TheAtlasHoldsEachBrickRotated) {
       }
       // Read the texture back as floats (a normalised format reads v / 255).
       std::vector<float> texels;
-      atlas.texture().bind(0);
+      atlas.texture().bind(VB_UNIT_ATLAS);
       const glm::ivec3 size(glm::round(1.0f / atlas.inverseSize()));
       const int w = size.x, h = size.y, d = size.z;
       texels.resize(size_t(w) * size_t(h) * size_t(d));

@@ -121,8 +121,7 @@ TEST(Context, ProgramErrorsNameTheShaderAndCarryTheLog) {
   }
   // An error in the library names it, with its own line numbers (source string 2): Mesa "2:2(", NVIDIA "2(2)".
   sources.stages.back().body = "void main() { gl_Position = vec4(helper()); }\n";
-  sources.libraryName = "helpers.glsl";
-  sources.library = "// line 1\nfloat helper() { return undefinedInLibrary; }\n";
+  sources.libraries = {{"helpers.glsl", "// line 1\nfloat helper() { return undefinedInLibrary; }\n"}};
   try {
     Program program(context->gl(), sources);
     FAIL() << "a broken library compiled";
@@ -132,9 +131,19 @@ TEST(Context, ProgramErrorsNameTheShaderAndCarryTheLog) {
     EXPECT_NE(message.find("undefinedInLibrary"), std::string::npos) << message;
     EXPECT_TRUE(message.find("2:2(") != std::string::npos || message.find("2(2)") != std::string::npos) << message;
   }
+  // A second library is source string 3, after the first.
+  sources.libraries = {{"helpers.glsl", "float helper() { return 1.0; }\n"},
+                       {"more.glsl", "// line 1\nfloat more() { return helper() + undefinedInMore; }\n"}};
+  try {
+    Program program(context->gl(), sources);
+    FAIL() << "a broken second library compiled";
+  } catch (const RenderError& error) {
+    const std::string message = error.what();
+    EXPECT_NE(message.find("2 helpers.glsl, 3 more.glsl"), std::string::npos) << message;
+    EXPECT_TRUE(message.find("3:2(") != std::string::npos || message.find("3(2)") != std::string::npos) << message;
+  }
   // The same program with a valid body links, with its library's helpers available (the slicers').
-  sources.libraryName = "slicer.glsl";
-  sources.library = std::string(shaderSource("slicer.glsl"));
+  sources.libraries = {{"slicer.glsl", std::string(shaderSource("slicer.glsl"))}};
   sources.stages.back().body = "void main() { gl_Position = vec4(unitCorner(gl_VertexID), 1.0); }\n";
   sources.defines = {"VOXBRICK_TEST_FEATURE", "VOXBRICK_TEST_VALUE 3"};
   Program program(context->gl(), sources);

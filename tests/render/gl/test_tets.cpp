@@ -18,6 +18,7 @@
 #include "mesh/Visibility.h"
 #include "render/core/Dataset.h"
 #include "render/core/RenderErrors.h"
+#include "render/gl/Bindings.h"
 #include "render/gl/GlFixtures.h"
 #include "render/reference/TetReference.h"
 #include "render/gl/tets/TetRenderer.h"
@@ -465,8 +466,8 @@ std::vector<std::array<glm::vec2, 6>> capturedStrips(const std::vector<glm::vec4
   tetBuffer.allocate(GL_SHADER_STORAGE_BUFFER, vertices.size() * sizeof(glm::vec4), vertices.data(), GL_STATIC_DRAW);
   orderBuffer.allocate(GL_SHADER_STORAGE_BUFFER, order.size() * 4, order.data(), GL_STATIC_DRAW);
   feedback.allocate(GL_TRANSFORM_FEEDBACK_BUFFER, tets * 6 * sizeof(glm::vec4), nullptr, GL_STREAM_READ);
-  gl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, tetBuffer.id());
-  gl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, orderBuffer.id());
+  gl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_TET_VERTICES, tetBuffer.id());
+  gl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_TET_ORDER, orderBuffer.id());
   gl.glBindBufferBase(GL_TRANSFORM_FEEDBACK_BUFFER, 0, feedback.id());
   program.set(program.uniformLocation("uViewProj"), viewProj);
   program.set(program.uniformLocation("uWindowLo"), 0.0f);
