@@ -180,16 +180,10 @@ Camera CameraSpec::resolve(const Box& localBox, const WorldFrame& frame, double 
   return c;
 }
 
-Scene Scene::fromJson(const std::string& text, const std::string& what, bool allowPaths) {
-  return parse(text, what, allowPaths, nullptr);
-}
+namespace {
 
-Scene Scene::fromJson(const std::string& text, const std::string& what, const TransferFunctionPresets& presets) {
-  return parse(text, what, false, &presets);
-}
-
-Scene Scene::parse(const std::string& text, const std::string& what, bool allowPaths,
-                   const TransferFunctionPresets* presets) {
+/// The scene object of JSON `text`, its keys checked.
+json sceneObject(const std::string& text, const std::string& what) {
   // The JSON parser stops at a NUL as at the end of the text: what follows one would be ignored, not refused.
   if (const size_t nul = text.find('\0'); nul != std::string::npos)
     throw RenderInputError(what + ": not valid JSON (a NUL byte at offset " + std::to_string(nul) + ")");
@@ -206,6 +200,70 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   for (auto it = j.begin(); it != j.end(); ++it)
     if (std::find(std::begin(kKeys), std::end(kKeys), it.key()) == std::end(kKeys))
       throw RenderInputError(what + ": unknown key '" + it.key() + "'");
+  return j;
+}
+
+/// 'size': [width, height].
+void parseSize(const json& z, const std::string& what, Scene& s) {
+  if (!z.is_array() || z.size() != 2 || !z[0].is_number_integer() || !z[1].is_number_integer())
+    throw RenderInputError(what + ": 'size' must be [width, height] integers");
+  const int64_t w = z[0].get<int64_t>(), h = z[1].get<int64_t>();
+  // Checked before narrowing to int, so that 2^32 + 512 is refused, not read as 512.
+  checkImageSize(w, h, what + ": 'size': ");
+  s.width = int(w);
+  s.height = int(h);
+}
+
+/// 'transfer_function': a preset name (or with `allowPaths` a file), or an inline object.
+void parseTransferFunction(const json& t, const std::string& what, bool allowPaths,
+                           const TransferFunctionPresets* presets, Scene& s) {
+  if (t.is_string()) {
+    s.transferFunctionName = t.get<std::string>();
+    if (!allowPaths && !TransferFunction::isPresetName(s.transferFunctionName))
+      throw RenderInputError(what + ": 'transfer_function' must be a preset name (letters, digits, '-', '_') or "
+                             "an inline object; paths are not accepted here");
+    s.transferFunction = presets ? presets->get(s.transferFunctionName)
+                                 : TransferFunction::load(s.transferFunctionName);
+  } else if (t.is_object()) {
+    s.transferFunctionName = "inline";
+    s.transferFunction = TransferFunction::parse(t.dump(), what + ": transfer_function");
+  } else {
+    throw RenderInputError(what + ": 'transfer_function' must be a preset name, a path or an object");
+  }
+}
+
+/// 'sub_block': 0 or a power of two up to Scene::kMaxSubBlock.
+int subBlockSize(const json& value, const std::string& what) {
+  const double v = number(value, "sub_block", what);
+  if (!(v >= 0 && v <= Scene::kMaxSubBlock) || v != std::floor(v))
+    throw RenderInputError(what + ": 'sub_block' must be 0 or a power of two up to " +
+                           std::to_string(Scene::kMaxSubBlock));
+  return int(v);
+}
+
+/// 'quality', which chooses kQualityChosenKeys and so appears without them.
+QualityTarget qualityTarget(const json& j, const std::string& what) {
+  if (!j["quality"].is_string()) throw RenderInputError(what + ": 'quality' must be a string like \"psnr:40\"");
+  for (const char* key : kQualityChosenKeys)
+    if (j.contains(key))
+      throw RenderInputError(what + ": 'quality' chooses '" + key + "' from the dataset's quality table; give "
+                             "one or the other");
+  return QualityTarget::parse(j["quality"].get<std::string>(), what + ": 'quality'");
+}
+
+}  // namespace
+
+Scene Scene::fromJson(const std::string& text, const std::string& what, bool allowPaths) {
+  return parse(text, what, allowPaths, nullptr);
+}
+
+Scene Scene::fromJson(const std::string& text, const std::string& what, const TransferFunctionPresets& presets) {
+  return parse(text, what, false, &presets);
+}
+
+Scene Scene::parse(const std::string& text, const std::string& what, bool allowPaths,
+                   const TransferFunctionPresets* presets) {
+  const json j = sceneObject(text, what);
 
   Scene s;
   if (j.contains("camera")) {
@@ -213,32 +271,8 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
     if (!c.is_object()) throw RenderInputError(what + ": 'camera' must be an object");
     parseCamera(c, what, s.camera);
   }
-  if (j.contains("size")) {
-    const json& z = j["size"];
-    if (!z.is_array() || z.size() != 2 || !z[0].is_number_integer() || !z[1].is_number_integer())
-      throw RenderInputError(what + ": 'size' must be [width, height] integers");
-    const int64_t w = z[0].get<int64_t>(), h = z[1].get<int64_t>();
-    // Checked before narrowing to int, so that 2^32 + 512 is refused, not read as 512.
-    checkImageSize(w, h, what + ": 'size': ");
-    s.width = int(w);
-    s.height = int(h);
-  }
-  if (j.contains("transfer_function")) {
-    const json& t = j["transfer_function"];
-    if (t.is_string()) {
-      s.transferFunctionName = t.get<std::string>();
-      if (!allowPaths && !TransferFunction::isPresetName(s.transferFunctionName))
-        throw RenderInputError(what + ": 'transfer_function' must be a preset name (letters, digits, '-', '_') or "
-                               "an inline object; paths are not accepted here");
-      s.transferFunction = presets ? presets->get(s.transferFunctionName)
-                                   : TransferFunction::load(s.transferFunctionName);
-    } else if (t.is_object()) {
-      s.transferFunctionName = "inline";
-      s.transferFunction = TransferFunction::parse(t.dump(), what + ": transfer_function");
-    } else {
-      throw RenderInputError(what + ": 'transfer_function' must be a preset name, a path or an object");
-    }
-  }
+  if (j.contains("size")) parseSize(j["size"], what, s);
+  if (j.contains("transfer_function")) parseTransferFunction(j["transfer_function"], what, allowPaths, presets, s);
   if (j.contains("step")) s.step = number(j["step"], "step", what);
   if (j.contains("background")) {
     s.transparent = j["background"] == "none";
@@ -261,12 +295,7 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
     s.visibility = parseTetSort(v.is_string() ? v.get<std::string>() : "", what + ": 'visibility'");
   }
   if (j.contains("shading")) s.shading = boolean(j["shading"], "shading", what);
-  if (j.contains("sub_block")) {
-    const double v = number(j["sub_block"], "sub_block", what);
-    if (!(v >= 0 && v <= kMaxSubBlock) || v != std::floor(v))
-      throw RenderInputError(what + ": 'sub_block' must be 0 or a power of two up to " + std::to_string(kMaxSubBlock));
-    s.subBlock = int(v);
-  }
+  if (j.contains("sub_block")) s.subBlock = subBlockSize(j["sub_block"], what);
   if (j.contains("slab")) {
     const double v = number(j["slab"], "slab", what);
     if (!(v >= 0 && v <= kMaxSlab) || v != std::floor(v))
@@ -281,14 +310,7 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   if (j.contains("ess")) s.ess = boolean(j["ess"], "ess", what);
   if (j.contains("lod")) s.lod = number(j["lod"], "lod", what);
   if (j.contains("progressive")) s.progressive = boolean(j["progressive"], "progressive", what);
-  if (j.contains("quality")) {
-    if (!j["quality"].is_string()) throw RenderInputError(what + ": 'quality' must be a string like \"psnr:40\"");
-    for (const char* key : kQualityChosenKeys)
-      if (j.contains(key))
-        throw RenderInputError(what + ": 'quality' chooses '" + key + "' from the dataset's quality table; give "
-                               "one or the other");
-    s.quality = QualityTarget::parse(j["quality"].get<std::string>(), what + ": 'quality'");
-  }
+  if (j.contains("quality")) s.quality = qualityTarget(j, what);
   s.validate();
   return s;
 }

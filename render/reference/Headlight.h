@@ -1,5 +1,5 @@
 // The shading of the optical model (ARCHITECTURE.md): a two-sided Phong headlight, computed alike by the GPU's
-// programs (volume.frag.glsl, tet.frag.glsl) and the CPU references of grids and meshes.
+// programs (volume_sample.glsl, tet.glsl) and the CPU references of grids and meshes.
 #pragma once
 
 #include <cmath>

@@ -94,15 +94,25 @@ TetRayCaster::TetRayCaster(const Gl& gl, const TetMeshData& data)
   if (mTets > kMaxTets)
     throw RenderInputError("tet mesh: " + std::to_string(mTets) + " tets are more than the ray caster addresses (" +
                            std::to_string(kMaxTets) + "); draw it projected");
+  // newIndex: where each of a tet's vertices (and so the face opposite it) went in the order the ray caster reads
+  // them; reversed: 1 where that order is negatively oriented.
+  std::vector<std::array<uint8_t, 4>> newIndex(mTets);
+  std::vector<uint8_t> reversed(mTets);
+  uploadVertices(data, newIndex, reversed);
+  uploadNeighbours(data.topology, newIndex, reversed);
+  uploadBoundary(data, newIndex, reversed);
+  mEntryCount.allocate(GL_SHADER_STORAGE_BUFFER, sizeof(uint32_t), nullptr, GL_DYNAMIC_COPY);
+  mBytes = bytesFor(mTets, mBoundaryFaces);
+  checkGlError(mGl, "TetRayCaster: uploading the mesh");
+}
+
+void TetRayCaster::uploadVertices(const TetMeshData& data, std::vector<std::array<uint8_t, 4>>& newIndex,
+                                  std::vector<uint8_t>& reversed) {
   const mesh::TetMesh& m = data.mesh;
-  const mesh::Topology& topology = data.topology;
   // Each tet's vertices in the order of their indices in the mesh (tet_ray.frag.glsl computes each edge from its
-  // lower vertex to its higher), positions relative to the box's centre as the projected tets have them; newIndex:
-  // where each of a tet's vertices (and so the face opposite it) went.
+  // lower vertex to its higher), positions relative to the box's centre as the projected tets have them.
   const glm::dvec3 centre = data.bounds.center();
   std::vector<glm::vec4> vertices(4 * mTets);
-  std::vector<std::array<uint8_t, 4>> newIndex(mTets);
-  std::vector<uint8_t> reversed(mTets);  // 1 where the new order is negatively oriented
   tbb::parallel_for(tbb::blocked_range<size_t>(0, mTets, 16384), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t t = r.begin(); t != r.end(); ++t) {
       const mesh::Tet& tet = m.tets[t];
@@ -120,7 +130,10 @@ TetRayCaster::TetRayCaster(const Gl& gl, const TetMeshData& data)
     }
   });
   mVertices.allocate(GL_SHADER_STORAGE_BUFFER, vertices.size() * sizeof(glm::vec4), vertices.data(), GL_STATIC_DRAW);
-  vertices = {};
+}
+
+void TetRayCaster::uploadNeighbours(const mesh::Topology& topology, const std::vector<std::array<uint8_t, 4>>& newIndex,
+                                    const std::vector<uint8_t>& reversed) {
   // Across each face (in the new order), the neighbour and which of its faces it is.
   std::vector<glm::ivec4> next(mTets);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, mTets, 16384), [&](const tbb::blocked_range<size_t>& r) {
@@ -136,7 +149,13 @@ TetRayCaster::TetRayCaster(const Gl& gl, const TetMeshData& data)
       }
   });
   mNeighbours.allocate(GL_SHADER_STORAGE_BUFFER, next.size() * sizeof(glm::ivec4), next.data(), GL_STATIC_DRAW);
-  next = {};
+}
+
+void TetRayCaster::uploadBoundary(const TetMeshData& data, const std::vector<std::array<uint8_t, 4>>& newIndex,
+                                  const std::vector<uint8_t>& reversed) {
+  const mesh::TetMesh& m = data.mesh;
+  const mesh::Topology& topology = data.topology;
+  const glm::dvec3 centre = data.bounds.center();
   // The boundary faces' corners counter-clockwise seen from outside (for a positively oriented tet, faces 0 and 2 are
   // k+1, k+2, k+3 so, faces 1 and 3 the other way), and each face coded (code()) in the new order.
   std::vector<glm::vec4> corners(3 * mBoundaryFaces);
@@ -156,9 +175,6 @@ TetRayCaster::TetRayCaster(const Gl& gl, const TetMeshData& data)
                     corners.empty() ? nullptr : corners.data(), GL_STATIC_DRAW);
   mFaces.allocate(GL_SHADER_STORAGE_BUFFER, std::max<size_t>(1, faces.size()) * sizeof(uint32_t),
                   faces.empty() ? nullptr : faces.data(), GL_STATIC_DRAW);
-  mEntryCount.allocate(GL_SHADER_STORAGE_BUFFER, sizeof(uint32_t), nullptr, GL_DYNAMIC_COPY);
-  mBytes = bytesFor(mTets, mBoundaryFaces);
-  checkGlError(mGl, "TetRayCaster: uploading the mesh");
 }
 
 TetRayCaster::~TetRayCaster() = default;

@@ -12,6 +12,8 @@
 // non-convex one a pass per re-entry of the ray (depth peeling of the boundary).
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <functional>
 #include <vector>
 
@@ -72,6 +74,16 @@ class TetRayCaster {
  private:
   /// The entry pass's target of `width` x `height`: the entry (R32UI) and its depth.
   void prepareTargets(int width, int height);
+  /// Uploads each tet's vertices in the order of their indices; sets `newIndex` (where each stored vertex went in
+  /// that order) and `reversed` (1 where that order is negatively oriented), per tet.
+  void uploadVertices(const TetMeshData& data, std::vector<std::array<uint8_t, 4>>& newIndex,
+                      std::vector<uint8_t>& reversed);
+  /// Uploads each tet's neighbour across each of its faces, coded, in that order.
+  void uploadNeighbours(const mesh::Topology& topology, const std::vector<std::array<uint8_t, 4>>& newIndex,
+                        const std::vector<uint8_t>& reversed);
+  /// Uploads the boundary faces: their corners and each one's tet and face, coded.
+  void uploadBoundary(const TetMeshData& data, const std::vector<std::array<uint8_t, 4>>& newIndex,
+                      const std::vector<uint8_t>& reversed);
 
   const Gl& mGl;
   size_t mTets = 0;

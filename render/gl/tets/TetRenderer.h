@@ -1,9 +1,12 @@
-// Renders a tetrahedral mesh (seed 002, Carrard & Juliachs): cells sorted front to back on the CPU (MPVO or by
-// centroid, mesh/Visibility.h), then one instance per tet drawn in that order, its quad covering the tet's
-// projection, its fragments finding the pixel ray's entry and exit faces and classifying the segment from the
-// pre-integrated table (front value, back value, length): shaders/tet.vert.glsl and tet.frag.glsl.
+// Renders a tetrahedral mesh (seed 002, Carrard & Juliachs) in stages: the plan (TetFramePlan, GL-free), the frame's
+// tets on the GPU (TetResidency), the visibility order on the CPU (TetOrder: MPVO or by centroid, mesh/Visibility.h,
+// less the empty tets), the cost check (TetFrameCost), then a pass: the ray caster (TetRayCaster) or the projected
+// tets drawn here, one instance per tet in visibility order, its quad covering the tet's projection, its fragments
+// finding the pixel ray's entry and exit faces and classifying the segment from the pre-integrated table (front
+// value, back value, length): shaders/tet.vert.glsl and tet.frag.glsl.
 #pragma once
 
+#include <chrono>
 #include <memory>
 #include <vector>
 
@@ -14,6 +17,10 @@
 #include "render/gl/PreIntegrationTexture.h"
 #include "render/tets/TetMeshDataset.h"
 #include "render/gl/tets/TetRayCaster.h"
+#include "render/gl/tets/TetResidency.h"
+#include "render/tets/TetFrameCost.h"
+#include "render/tets/TetFramePlan.h"
+#include "render/tets/TetOrder.h"
 
 namespace voxbrick::render {
 
@@ -46,48 +53,35 @@ class TetRenderer final : public FrameRenderer {
   /// The least budget a renderer works in: the table and a batch of kMinBatchTets.
   static size_t minimumBytes();
   /// Whether the tets are streamed in batches each frame (the mesh is larger than the budget).
-  bool streamed() const { return mStreamed; }
+  bool streamed() const { return mResidency.streamed(); }
 
  private:
-  static constexpr size_t kBytesPerTet = 64;     // four vec4: position and scalar
-  static constexpr size_t kMinBatchTets = 4096;  // the smallest streamed batch
-  /// The largest pre-integration table (64 length layers of RGBA32F).
-  static size_t tableBytes();
-  /// Makes `data` the tets on the GPU (resident, or streamed when larger than the budget).
-  void upload(std::shared_ptr<const TetMeshData> data);
+  using TimePoint = std::chrono::steady_clock::time_point;
+  static constexpr size_t kBytesPerTet = TetResidency::kBytesPerTet;
+  /// Uploads the tets held (TetResidency::hold) for the projected pass: all of them, or the streamed batch's buffer.
+  void upload();
   /// Tet `tet`'s four vertices as the shader reads them.
   void writeTet(uint32_t tet, glm::vec4* out) const;
-  /// The cost of drawing the tets of mDrawn with `viewProj` into a width x height window, in FrameOptions::maxSamples' unit: the
-  /// pixels of each tet's projected bounding box inside the window (an upper bound of its fragments, or of the ray
-  /// caster's segments in it; the whole window for a tet reaching behind the eye plane), plus kFragmentsPerTet for
-  /// each of `vertexStages` tets drawn projected.
-  double estimatedCost(const glm::dmat4& viewProj, int width, int height, size_t vertexStages);
-  /// Whether this frame can be ray cast: the mesh is resident, its box lies wholly beyond the near plane (each ray
-  /// then meets the mesh first at a boundary face) and the ray caster's buffers fit the budget beside the projected
-  /// tets' (made on first use).
-  bool rayCastable(const Camera& camera, double nearPlane);
+  /// A frame with nothing to draw.
+  image::ImageF background(const Scene& scene, FrameStats& stats, TimePoint frameStart, FrameStats* statsOut);
+  /// The table, the pass (the ray caster when `rays`, else the projected tets of mOrder) and the readback.
+  image::ImageF draw(const Scene& scene, const TetFramePlan& plan, bool rays, FrameStats& stats,
+                     const FrameOptions& options, TimePoint frameStart, FrameStats* statsOut);
   /// Draws the tets of mOrder projected, with `program` (plain, shaded or null).
   void drawProjected(const TetFrameUniforms& uniforms, const Program& program, FrameStats& stats,
                      const std::function<bool()>& cancelled);
 
   const Gl& mGl;
-  std::shared_ptr<const TetMeshSource> mSource;
-  std::shared_ptr<const TetMeshData> mData;  // the tets on the GPU; a paged mesh's only while a frame draws them
-  uint64_t mUploaded = 0;                    // the id (TetMeshData::id) of the tets on the GPU; 0 for none
-  size_t mGpuBudget = 0;
-  bool mStreamed = false;
-  size_t mBatchTets = 0;  // tets the vertex buffer holds: all of them, or a streamed batch
+  TetResidency mResidency;
   Buffer mVertices;  // 4 vec4 per tet: position (centred on the mesh's box) and raw scalar
   Buffer mOrderBuffer;
   VertexArray mEmpty;  // core profile draws need a vertex array, even one without attributes
   Program mProgram, mNullProgram, mShadedProgram;
   Compositor mCompositor;
   PreIntegrationTexture mTable;
-  std::unique_ptr<TetRayCaster> mRayCaster;  // made by the first frame that ray casts
-  std::vector<uint32_t> mOrder;       // this frame's tets, front to back
-  std::vector<glm::vec4> mStaging;    // a streamed batch on its way to mVertices
-  std::vector<glm::vec3> mProjected;  // estimatedCost: each point's window position, z 0 at or behind the eye
-  std::vector<uint8_t> mDrawn;        // per tet in mesh order: 1 if this frame draws it (not skipped as empty)
+  TetOrder mOrder;                  // this frame's tets, front to back
+  TetFrameCost mCost;
+  std::vector<glm::vec4> mStaging;  // a streamed batch on its way to mVertices
 };
 
 }  // namespace voxbrick::render
