@@ -15,10 +15,10 @@
 #include "mesh/Topology.h"
 #include "mesh/Validate.h"
 #include "quality/Statistics.h"
-#include "render/tets/TetMeshDataset.h"
-#include "render/reference/TetReference.h"
-#include "render/gl/tets/TetRenderer.h"
 #include "render/core/TransferFunction.h"
+#include "render/gl/tets/TetRenderer.h"
+#include "render/reference/TetReference.h"
+#include "render/tets/TetMeshDataset.h"
 
 namespace voxbrick::bench {
 namespace {
@@ -76,9 +76,9 @@ std::string csv(const MeshSweepResult& r) {
     out += csvField(p.mesh) + "," + std::to_string(p.tets) + "," + csvField(p.transferFunction) + "," +
            render::tetSortName(p.setting.visibility) + "," + (p.setting.skipEmpty ? "1" : "0") + "," +
            number("%g", p.setting.visibility == render::TetSort::Ray ? p.setting.ert : 0) + "," +
-           std::to_string(r.spec.views) + "," + std::to_string(r.spec.size) + "," + number("%.2f", p.msMedian) +
-           "," + number("%.2f", p.msMin) + "," + number("%.2f", p.msMax) + "," + number("%.2f", p.sortMsMedian) +
-           "," + number("%.0f", p.fragmentsMedian) + "," + number("%.0f", p.tetsDrawnMedian) + "," +
+           std::to_string(r.spec.views) + "," + std::to_string(r.spec.size) + "," + number("%.2f", p.msMedian) + "," +
+           number("%.2f", p.msMin) + "," + number("%.2f", p.msMax) + "," + number("%.2f", p.sortMsMedian) + "," +
+           number("%.0f", p.fragmentsMedian) + "," + number("%.0f", p.tetsDrawnMedian) + "," +
            number("%.2f", p.psnrMin) + "," + number("%.2f", p.psnrPooled) + "," + number("%.6f", p.maxAbs) + "," +
            (p.pareto ? "1" : "0") + "\n";
   return out;
@@ -90,9 +90,11 @@ std::string markdown(const MeshSweepResult& r) {
                     " views (azimuth 0…" + number("%g", 360.0 * (s.views - 1) / s.views) + "°, elevation " +
                     number("%g", s.elevation) + "°, " + number("%g", s.distance) + " R), " + std::to_string(s.size) +
                     "², after a warm-up frame; PSNR against the exact reference (render/reference/TetReference.h).\n\n";
-  for (const auto& [what, ms] : r.referenceMs) out += "- Reference, " + what + ": " + number("%.0f", ms) + " ms a view\n";
-  out += "\n| mesh | tets | transfer function | setting | median ms | sort ms | fragments (M) | tets drawn | worst "
-         "view dB | pooled dB | front |\n|---|---:|---|---|---:|---:|---:|---:|---:|---:|:-:|\n";
+  for (const auto& [what, ms] : r.referenceMs)
+    out += "- Reference, " + what + ": " + number("%.0f", ms) + " ms a view\n";
+  out +=
+      "\n| mesh | tets | transfer function | setting | median ms | sort ms | fragments (M) | tets drawn | worst "
+      "view dB | pooled dB | front |\n|---|---:|---|---|---:|---:|---:|---:|---:|---:|:-:|\n";
   for (const MeshPoint& p : r.points)
     out += "| " + p.mesh + " | " + std::to_string(p.tets) + " | " + p.transferFunction + " | " + p.setting.label() +
            " | " + number("%.1f", p.msMedian) + " | " + number("%.1f", p.sortMsMedian) + " | " +
@@ -149,16 +151,19 @@ std::string svg(const MeshSweepResult& r) {
     std::vector<const MeshPoint*> front;
     for (const MeshPoint* p : pts)
       if (p->pareto) front.push_back(p);
-    std::sort(front.begin(), front.end(), [](const MeshPoint* a, const MeshPoint* b) { return a->msMedian < b->msMedian; });
+    std::sort(front.begin(), front.end(),
+              [](const MeshPoint* a, const MeshPoint* b) { return a->msMedian < b->msMedian; });
     if (front.size() > 1) {
       out += "<polyline fill=\"none\" stroke=\"#444\" points=\"";
-      for (const MeshPoint* p : front) out += number("%.1f", X(p->msMedian)) + "," + number("%.1f", Y(p->psnrMin)) + " ";
+      for (const MeshPoint* p : front)
+        out += number("%.1f", X(p->msMedian)) + "," + number("%.1f", Y(p->psnrMin)) + " ";
       out += "\"/>\n";
     }
     for (size_t k = 0; k < pts.size(); ++k) {
       const MeshPoint& p = *pts[k];
-      const size_t c = size_t(std::find(r.spec.settings.begin(), r.spec.settings.end(), p.setting) -
-                              r.spec.settings.begin()) % std::size(kColors);
+      const size_t c =
+          size_t(std::find(r.spec.settings.begin(), r.spec.settings.end(), p.setting) - r.spec.settings.begin()) %
+          std::size(kColors);
       out += "<circle cx=\"" + number("%.1f", X(p.msMedian)) + "\" cy=\"" + number("%.1f", Y(p.psnrMin)) +
              "\" r=\"5\" stroke=\"" + kColors[c] + "\" fill=\"" + (p.pareto ? kColors[c] : "none") + "\"><title>" +
              p.setting.label() + ": " + number("%.1f", p.msMedian) + " ms, " + number("%.1f", p.psnrMin) +

@@ -1,6 +1,6 @@
 // The time-versus-error sweep of tetrahedral meshes behind `voxbrick bench --mesh`: GPU frames of each mesh
-// setting against the exact reference (render/reference/TetReference.h) of the same views, with the Pareto front, the default
-// it implies and a plot.
+// setting against the exact reference (render/reference/TetReference.h) of the same views, with the Pareto front, the
+// default it implies and a plot.
 #pragma once
 
 #include <filesystem>
@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "render/gl/GlContext.h"
 #include "render/core/Scene.h"
+#include "render/gl/GlContext.h"
 
 namespace voxbrick::bench {
 
@@ -32,12 +32,9 @@ struct MeshSetting {
 struct MeshSweepSpec {
   std::vector<std::string> meshes;
   std::vector<std::string> transferFunctions = {"hot"};
-  std::vector<MeshSetting> settings = {{render::TetSort::Mpvo, true},
-                                       {render::TetSort::Mpvo, false},
-                                       {render::TetSort::Centroid, true},
-                                       {render::TetSort::Centroid, false},
-                                       {render::TetSort::Ray, true, 0.999},
-                                       {render::TetSort::Ray, true, 0}};
+  std::vector<MeshSetting> settings = {{render::TetSort::Mpvo, true},       {render::TetSort::Mpvo, false},
+                                       {render::TetSort::Centroid, true},   {render::TetSort::Centroid, false},
+                                       {render::TetSort::Ray, true, 0.999}, {render::TetSort::Ray, true, 0}};
   int views = 4;
   int size = 256;
   double elevation = 20;
@@ -50,15 +47,15 @@ struct MeshPoint {
   std::string mesh;  ///< its name: the input's file name, or the synthetic spec
   std::string transferFunction;
   MeshSetting setting;
-  int64_t tets = 0;                            ///< in the mesh
+  int64_t tets = 0;                           ///< in the mesh
   double msMedian = 0, msMin = 0, msMax = 0;  ///< frame time over the views
-  double sortMsMedian = 0;                     ///< the visibility order's part of it
-  double fragmentsMedian = 0;                  ///< segments classified per frame: fragments, or the ray caster's steps
-  double tetsDrawnMedian = 0;                  ///< tets drawn per frame (skipEmpty leaves some out)
-  double psnrMin = 0;                          ///< the worst view's PSNR against the exact reference (dB)
-  double psnrPooled = 0;                       ///< PSNR of the RMSE over all views' pixels
-  double maxAbs = 0;                           ///< over all views
-  bool pareto = false;                         ///< on the front (time, worst PSNR) of its mesh and transfer function
+  double sortMsMedian = 0;                    ///< the visibility order's part of it
+  double fragmentsMedian = 0;                 ///< segments classified per frame: fragments, or the ray caster's steps
+  double tetsDrawnMedian = 0;                 ///< tets drawn per frame (skipEmpty leaves some out)
+  double psnrMin = 0;                         ///< the worst view's PSNR against the exact reference (dB)
+  double psnrPooled = 0;                      ///< PSNR of the RMSE over all views' pixels
+  double maxAbs = 0;                          ///< over all views
+  bool pareto = false;                        ///< on the front (time, worst PSNR) of its mesh and transfer function
 };
 
 struct MeshSweepResult {

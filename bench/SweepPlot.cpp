@@ -33,11 +33,16 @@ std::string svgf(const char* format, double a, double b = 0, double c = 0, doubl
 std::string escape(const std::string& text) {
   std::string out;
   for (char c : text) {
-    if (c == '&') out += "&amp;";
-    else if (c == '<') out += "&lt;";
-    else if (c == '>') out += "&gt;";
-    else if (c == '"') out += "&quot;";
-    else out += c;
+    if (c == '&')
+      out += "&amp;";
+    else if (c == '<')
+      out += "&lt;";
+    else if (c == '>')
+      out += "&gt;";
+    else if (c == '"')
+      out += "&quot;";
+    else
+      out += c;
   }
   return out;
 }
@@ -61,10 +66,18 @@ int shapeOf(const Setting& s) {
 }
 
 constexpr int kShapes = 12;
-constexpr const char* kShapeNames[kShapes] = {
-    "slicing: B=32, skip, vertex slicer", "B=16", "B=64", "no skipping", "cpu slicer",
-    "slab 1", "slab 4", "slab 16", "slab whole brick", "slab 16, pre-integration",
-    "raycast", "raycast, pre-integration"};
+constexpr const char* kShapeNames[kShapes] = {"slicing: B=32, skip, vertex slicer",
+                                              "B=16",
+                                              "B=64",
+                                              "no skipping",
+                                              "cpu slicer",
+                                              "slab 1",
+                                              "slab 4",
+                                              "slab 16",
+                                              "slab whole brick",
+                                              "slab 16, pre-integration",
+                                              "raycast",
+                                              "raycast, pre-integration"};
 
 bool hasErtDot(const Setting& s) { return (s.slab > 0 || s.raycast) && s.ert > 0; }
 
@@ -81,16 +94,16 @@ std::string triangle(double x, double y, double dx, double dy, const std::string
 }
 
 std::string marker(int shape, double x, double y, const std::string& color, bool filled) {
-  const std::string style = " fill=\"" + (filled ? color : std::string("white")) + "\" stroke=\"" + color +
-                            "\" stroke-width=\"1.5\"";
+  const std::string style =
+      " fill=\"" + (filled ? color : std::string("white")) + "\" stroke=\"" + color + "\" stroke-width=\"1.5\"";
   switch (shape) {
     case 1: return svgf("<rect x=\"%.1f\" y=\"%.1f\" width=\"8\" height=\"8\"", x - 4, y - 4) + style + "/>";
     case 2:
       return svgf("<polygon points=\"%.1f,%.1f %.1f,%.1f ", x, y - 5.5, x + 5.5, y) +
              svgf("%.1f,%.1f %.1f,%.1f\"", x, y + 5.5, x - 5.5, y) + style + "/>";
     case 3:
-      return svgf("<polygon points=\"%.1f,%.1f %.1f,%.1f ", x, y - 5.5, x + 5, y + 4) + svgf("%.1f,%.1f\"", x - 5, y + 4) +
-             style + "/>";
+      return svgf("<polygon points=\"%.1f,%.1f %.1f,%.1f ", x, y - 5.5, x + 5, y + 4) +
+             svgf("%.1f,%.1f\"", x - 5, y + 4) + style + "/>";
     case 4:
       return svgf("<path d=\"M%.1f %.1fL%.1f %.1f", x - 4.5, y - 4.5, x + 4.5, y + 4.5) +
              svgf("M%.1f %.1fL%.1f %.1f\" fill=\"none\"", x - 4.5, y + 4.5, x + 4.5, y - 4.5) + " stroke=\"" + color +
@@ -114,7 +127,7 @@ std::string marker(int shape, double x, double y, const std::string& color, bool
     }
     case 10: {
       // A plus as one outline, so that it fills like the other markers and leaves room for the ERT dot.
-      constexpr double kPlus[12][2] = {{-2.2, -6}, {2.2, -6}, {2.2, -2.2}, {6, -2.2},  {6, 2.2},   {2.2, 2.2},
+      constexpr double kPlus[12][2] = {{-2.2, -6}, {2.2, -6}, {2.2, -2.2}, {6, -2.2}, {6, 2.2},   {2.2, 2.2},
                                        {2.2, 6},   {-2.2, 6}, {-2.2, 2.2}, {-6, 2.2}, {-6, -2.2}, {-2.2, -2.2}};
       std::string points;
       for (const auto& corner : kPlus) points += svgf("%.1f,%.1f ", x + corner[0], y + corner[1]);
@@ -136,11 +149,9 @@ double cappedPsnr(double psnr) { return std::min(psnr, kPsnrCap); }
 
 /// A panel's scales: log time across, PSNR up, both rounded out to ticks.
 struct PanelAxes {
-  double lx0, lx1, y0, y1;            ///< log10 of the time, and the PSNR, at the edges
+  double lx0, lx1, y0, y1;          ///< log10 of the time, and the PSNR, at the edges
   double left, right, top, bottom;  ///< the plot area in the document
-  double px(double ms) const {
-    return left + (std::log10(std::max(ms, 1e-3)) - lx0) / (lx1 - lx0) * (right - left);
-  }
+  double px(double ms) const { return left + (std::log10(std::max(ms, 1e-3)) - lx0) / (lx1 - lx0) * (right - left); }
   double py(double psnr) const { return bottom - (cappedPsnr(psnr) - y0) / (y1 - y0) * (bottom - top); }
 };
 
@@ -162,7 +173,7 @@ PanelAxes panelAxes(const std::vector<const Point*>& points, double threshold, d
 void drawFrame(std::ostringstream& svg, const PanelAxes& a, const Dataset& d, double x0, double psnrThreshold) {
   const double left = a.left, right = a.right, top = a.top, bottom = a.bottom;
   svg << svgf("<rect x=\"%.1f\" y=\"%.1f\" width=\"%.1f\" height=\"%.1f\" fill=\"none\" stroke=\"#444\"/>\n", left, top,
-             right - left, bottom - top);
+              right - left, bottom - top);
   svg << "<text x=\"" << (left + right) / 2 << "\" y=\"" << top - 10
       << "\" text-anchor=\"middle\" font-size=\"14\" font-weight=\"bold\">" << escape(d.name) << " ("
       << escape(d.input.substr(d.input.find_last_of('/') + 1)) << ")</text>\n";
@@ -173,7 +184,8 @@ void drawFrame(std::ostringstream& svg, const PanelAxes& a, const Dataset& d, do
       if (l < a.lx0 - 1e-9 || l > a.lx1 + 1e-9) continue;
       const double x = a.px(ms);
       svg << svgf("<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#ddd\"/>\n", x, top, x, bottom);
-      svg << svgf("<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"middle\" font-size=\"11\">%g</text>\n", x, bottom + 14, ms);
+      svg << svgf("<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"middle\" font-size=\"11\">%g</text>\n", x, bottom + 14,
+                  ms);
     }
   for (double p = a.y0; p <= a.y1 + 1e-9; p += (a.y1 - a.y0 > 40 ? 10 : 5)) {
     const double y = a.py(p);
@@ -183,13 +195,13 @@ void drawFrame(std::ostringstream& svg, const PanelAxes& a, const Dataset& d, do
   svg << "<text x=\"" << (left + right) / 2 << "\" y=\"" << bottom + 32
       << "\" text-anchor=\"middle\" font-size=\"12\">median frame time (ms, log) — faster to the left</text>\n";
   svg << svgf("<text transform=\"translate(%.1f,%.1f) rotate(-90)\" text-anchor=\"middle\" font-size=\"12\">", x0 + 16,
-             (top + bottom) / 2)
+              (top + bottom) / 2)
       << "PSNR of the worst view (dB) — better up</text>\n";
   const double threshold = a.py(psnrThreshold);
-  svg << svgf("<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#888\" stroke-dasharray=\"6 4\"/>\n", left,
-             threshold, right, threshold);
+  svg << svgf("<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#888\" stroke-dasharray=\"6 4\"/>\n",
+              left, threshold, right, threshold);
   svg << svgf("<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"end\" font-size=\"11\" fill=\"#666\">%g dB</text>\n",
-             right - 4, threshold - 4, psnrThreshold);
+              right - 4, threshold - 4, psnrThreshold);
 }
 
 /// Variant `v` (the `v`-th the sweep measured): its Pareto front as a line under its points, the points (the chosen
@@ -211,14 +223,15 @@ void drawVariant(std::ostringstream& svg, const PanelAxes& a, const SweepResult&
     if (hasErtDot(p->setting)) svg << ertDot(x, y) << "\n";
     if (shapeOf(p->setting) == 0)
       svg << svgf("<text x=\"%.1f\" y=\"%.1f\" font-size=\"9\" fill=\"#333\">%g</text>\n", x + 6, y - 5,
-                 p->setting.step);
+                  p->setting.step);
     if (result.chosen && p->setting == *result.chosen && v == 0)
-      svg << svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"9\" fill=\"none\" stroke=\"black\" stroke-width=\"1.5\"/>\n",
-                 x, y);
+      svg << svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"9\" fill=\"none\" stroke=\"black\" stroke-width=\"1.5\"/>\n", x,
+                  y);
     if (result.chosenHigh && p->setting == *result.chosenHigh && v == 0)
-      svg << svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"12\" fill=\"none\" stroke=\"black\" stroke-width=\"1.5\" "
-                 "stroke-dasharray=\"3 2\"/>\n",
-                 x, y);
+      svg << svgf(
+          "<circle cx=\"%.1f\" cy=\"%.1f\" r=\"12\" fill=\"none\" stroke=\"black\" stroke-width=\"1.5\" "
+          "stroke-dasharray=\"3 2\"/>\n",
+          x, y);
   }
   const double ly = kPanelHeight + 16 + 16 * double(v);
   svg << svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"4\" fill=\"", a.left + 4, ly - 4) << color << "\"/>\n";
@@ -256,15 +269,17 @@ std::string sweepSvg(const SweepResult& result) {
   entries.push_back(
       {[](double x, double y) { return marker(7, x, y, "#333", false) + ertDot(x, y); }, "dot: early ray termination"});
   entries.push_back({[](double x, double y) {
-                       return svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"8\" fill=\"none\" stroke=\"black\" "
-                                   "stroke-width=\"1.5\"/>",
-                                   x, y);
+                       return svgf(
+                           "<circle cx=\"%.1f\" cy=\"%.1f\" r=\"8\" fill=\"none\" stroke=\"black\" "
+                           "stroke-width=\"1.5\"/>",
+                           x, y);
                      },
                      "chosen default (" + svgf("%g", result.spec.psnrThreshold) + " dB)"});
   entries.push_back({[](double x, double y) {
-                       return svgf("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"8\" fill=\"none\" stroke=\"black\" "
-                                   "stroke-width=\"1.5\" stroke-dasharray=\"3 2\"/>",
-                                   x, y);
+                       return svgf(
+                           "<circle cx=\"%.1f\" cy=\"%.1f\" r=\"8\" fill=\"none\" stroke=\"black\" "
+                           "stroke-width=\"1.5\" stroke-dasharray=\"3 2\"/>",
+                           x, y);
                      },
                      "fastest at " + svgf("%g", result.spec.psnrHighThreshold) + " dB on every dataset"});
   entries.push_back({nullptr, "filled = on its variant's Pareto front (line)"});
@@ -292,7 +307,7 @@ std::string sweepSvg(const SweepResult& result) {
   std::ostringstream svg;
   svg << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n";
   svg << svgf("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" viewBox=\"0 0 %.0f %.0f\" ",
-             width, height, width, height)
+              width, height, width, height)
       << "font-family=\"sans-serif\">\n";
   svg << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
   svg << "<title>voxbrick bench: time against error, " << escape(result.device) << "</title>\n";

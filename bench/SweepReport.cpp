@@ -32,12 +32,12 @@ std::string csv(const SweepResult& r) {
   for (const Point& p : r.points) {
     out += p.dataset + "," + p.variant.transferFunction + "," + (p.variant.shading ? "1" : "0") + "," +
            number("%g", p.setting.step) + "," + std::to_string(p.setting.brick) + "," + (p.setting.skip ? "1" : "0") +
-           "," + render::slicerName(p.setting.slicer) + "," + std::to_string(r.spec.views) +
-           "," + std::to_string(r.spec.size) + "," + number("%.2f", p.msMedian) + "," + number("%.2f", p.msMin) +
-           "," + number("%.2f", p.msMax) + "," + number("%.0f", p.samplesMedian) + "," + number("%.2f", p.psnrMin) +
-           "," + number("%.2f", p.psnrPooled) + "," + number("%.6f", p.rmsePooled) + "," + number("%.6f", p.maxAbs) +
-           "," + (p.pareto ? "1" : "0") + "," + std::to_string(p.setting.slab) + "," + number("%g", p.setting.ert) +
-           "," + (p.setting.preIntegration ? "1" : "0") + "," + number("%.0f", p.samplesMedian) + "," +
+           "," + render::slicerName(p.setting.slicer) + "," + std::to_string(r.spec.views) + "," +
+           std::to_string(r.spec.size) + "," + number("%.2f", p.msMedian) + "," + number("%.2f", p.msMin) + "," +
+           number("%.2f", p.msMax) + "," + number("%.0f", p.samplesMedian) + "," + number("%.2f", p.psnrMin) + "," +
+           number("%.2f", p.psnrPooled) + "," + number("%.6f", p.rmsePooled) + "," + number("%.6f", p.maxAbs) + "," +
+           (p.pareto ? "1" : "0") + "," + std::to_string(p.setting.slab) + "," + number("%g", p.setting.ert) + "," +
+           (p.setting.preIntegration ? "1" : "0") + "," + number("%.0f", p.samplesMedian) + "," +
            number("%.0f", p.fragmentsMedian) + "," + number("%.0f", p.samplesTerminatedMedian) + "," +
            number("%.0f", p.slabPassesMedian) + "," + std::to_string(p.setting.subBlock) + "," +
            number("%g", p.setting.lod) + "," + (p.setting.raycast ? "1" : "0") + "\n";
@@ -60,29 +60,36 @@ std::string slabTables(const SweepResult& r) {
   const std::optional<double> step = slabTableStep(s);
   if (!s.marches() || !step) return "";
   const bool slabs = !s.slabs.empty();
-  const char* title = !slabs ? "The frame ray caster" : s.rayCast ? "Texture slabs and the frame ray caster"
-                                                                   : "Texture slabs";
+  const char* title = !slabs      ? "The frame ray caster"
+                      : s.rayCast ? "Texture slabs and the frame ray caster"
+                                  : "Texture slabs";
   std::string md = "\n## " + std::string(title) + " at step " + number("%g", *step) + "\n\n";
   if (slabs)
-    md += "Slicing (one blended sample per fragment) against texture slabs of N planes (a fragment marches its ray "
-          "through N planes and blends once; \"whole brick\": N = " + std::to_string(render::Scene::kMaxSlab) +
-          ", a brick ray caster), without and with early ray termination (ERT: a slab silhouette map between slabs "
-          "and a stop inside the fragment) and pre-integration; B=32, skipping, vertex slicer.";
+    md +=
+        "Slicing (one blended sample per fragment) against texture slabs of N planes (a fragment marches its ray "
+        "through N planes and blends once; \"whole brick\": N = " +
+        std::to_string(render::Scene::kMaxSlab) +
+        ", a brick ray caster), without and with early ray termination (ERT: a slab silhouette map between slabs "
+        "and a stop inside the fragment) and pre-integration; B=32, skipping, vertex slicer.";
   if (s.rayCast)
-    md += std::string(slabs ? " " : "") + "*raycast*: the frame ray caster (a fragment per pixel and atlas batch "
+    md += std::string(slabs ? " " : "") +
+          "*raycast*: the frame ray caster (a fragment per pixel and atlas batch "
           "marches the pixel's whole ray through a cell table, taking the same samples; ERT stops it in the fragment "
           "and by the silhouette map between batches), with cells of whole bricks or of sub-blocks" +
           (slabs ? "" : "; B=32, skipping, vertex slicer") + ".";
-  md += " *Fragments*: started (fragments the silhouette map rejects are not); *samples*: taken; *share of samples*: "
-        "samples with ERT over samples of the same setting without it; *speed-up*: slicing's median time over the "
-        "setting's.";
+  md +=
+      " *Fragments*: started (fragments the silhouette map rejects are not); *samples*: taken; *share of samples*: "
+      "samples with ERT over samples of the same setting without it; *speed-up*: slicing's median time over the "
+      "setting's.";
   if (r.bestSlab)
-    md += " ERT also ran at the fastest other slab size (" + slabLabel(*r.bestSlab) + ", least total time without "
+    md += " ERT also ran at the fastest other slab size (" + slabLabel(*r.bestSlab) +
+          ", least total time without "
           "ERT).";
   if (r.bestErt)
-    md += " Pre-integration ran with ERT off and at " + number("%g", *r.bestErt) + " (the lowest threshold costing "
-          "no more than " + number("%g", s.ertToleranceDb) + " dB of worst view below " +
-          number("%g", s.psnrHighThreshold) + " dB).";
+    md += " Pre-integration ran with ERT off and at " + number("%g", *r.bestErt) +
+          " (the lowest threshold costing "
+          "no more than " +
+          number("%g", s.ertToleranceDb) + " dB of worst view below " + number("%g", s.psnrHighThreshold) + " dB).";
   if (r.bestRayCastErt)
     md += " The ray caster's pre-integration ran with ERT off and at " + number("%g", *r.bestRayCastErt) +
           " (the same rule over its own points).";
@@ -93,7 +100,8 @@ std::string slabTables(const SweepResult& r) {
       const Point* slicing = nullptr;
       for (const Point& p : r.points) {
         if (p.dataset != d.name || !(p.variant == v) || p.setting.step != *step) continue;
-        if (p.setting == Setting{*step}) slicing = &p;
+        if (p.setting == Setting{*step})
+          slicing = &p;
         else if ((p.setting.slab > 0 || p.setting.raycast) && p.setting.brick == 32 && p.setting.skip &&
                  p.setting.slicer == render::Slicer::Vertex)
           rows.push_back(&p);
@@ -105,7 +113,8 @@ std::string slabTables(const SweepResult& r) {
                std::tuple(b->setting.raycast, b->setting.slab, b->setting.preIntegration, b->setting.ert);
       });
       if (slicing) rows.insert(rows.begin(), slicing);
-      md += "\n### " + d.name + ", " + v.label() + "\n\n| setting | median ms | speed-up | fragments (M) | "
+      md += "\n### " + d.name + ", " + v.label() +
+            "\n\n| setting | median ms | speed-up | fragments (M) | "
             "samples (M) | share of samples | worst view dB | max abs |\n|---|---:|---:|---:|---:|---:|---:|---:|\n";
       for (const Point* p : rows) {
         const Setting& t = p->setting;
@@ -133,9 +142,12 @@ std::string introduction(const SweepResult& r) {
   const SweepSpec& s = r.spec;
   std::string md = "# Time against error\n\n";
   md += "GPU renderer on " + r.device + "; " + std::to_string(s.size) + "×" + std::to_string(s.size) + " frames, " +
-        std::to_string(s.views) + " views (azimuth 0…360°, elevation 20°, 2.2 bounding radii). Each point: the median "
+        std::to_string(s.views) +
+        " views (azimuth 0…360°, elevation 20°, 2.2 bounding radii). Each point: the median "
         "frame time over the views (after a warm-up frame) and the error of the same views against the reference "
-        "renderer (step " + number("%g", s.referenceStep) + " voxel): the worst view's PSNR, the PSNR of all views' "
+        "renderer (step " +
+        number("%g", s.referenceStep) +
+        " voxel): the worst view's PSNR, the PSNR of all views' "
         "pixels together, and the largest pixel difference. Pareto: no other point of the same dataset and variant is "
         "both faster and at least as accurate.\n\n![time against error](sweep.svg)\n\n";
   return md;
@@ -146,18 +158,23 @@ std::string chosenDefault(const SweepResult& r) {
   const SweepSpec& s = r.spec;
   std::string md = "## Chosen default\n\n";
   if (r.chosen) {
-    md += "**" + r.chosen->label() + "**: the fastest setting (sum of the median times over the datasets) that "
-          "keeps the worst view at or above " + number("%g", s.psnrThreshold) + " dB against the reference on every "
+    md += "**" + r.chosen->label() +
+          "**: the fastest setting (sum of the median times over the datasets) that "
+          "keeps the worst view at or above " +
+          number("%g", s.psnrThreshold) +
+          " dB against the reference on every "
           "dataset, each with its default transfer function, unshaded. At this setting:\n\n";
-    md += "| dataset | variant | median ms | slowest view ms | min/max frame rate | worst view dB | pooled dB |\n"
-          "|---|---|---:|---:|---:|---:|---:|\n";
+    md +=
+        "| dataset | variant | median ms | slowest view ms | min/max frame rate | worst view dB | pooled dB |\n"
+        "|---|---|---:|---:|---:|---:|---:|\n";
     for (const Point& p : r.points)
       if (p.setting == *r.chosen)
         md += "| " + p.dataset + " | " + p.variant.label() + " | " + number("%.1f", p.msMedian) + " | " +
-              number("%.1f", p.msMax) + " | " + (p.msMin > 0 ? "1:" + number("%.2f", p.msMax / p.msMin) : "—") +
-              " | " + number("%.1f", p.psnrMin) + " | " + number("%.1f", p.psnrPooled) + " |\n";
-    md += "\n*Slowest view* and *min/max frame rate* (the fastest view's frame time over the slowest's, as 1:x) are "
-          "over the orbit's views: what a user turning the volume sees at worst.\n";
+              number("%.1f", p.msMax) + " | " + (p.msMin > 0 ? "1:" + number("%.2f", p.msMax / p.msMin) : "—") + " | " +
+              number("%.1f", p.psnrMin) + " | " + number("%.1f", p.psnrPooled) + " |\n";
+    md +=
+        "\n*Slowest view* and *min/max frame rate* (the fastest view's frame time over the slowest's, as 1:x) are "
+        "over the orbit's views: what a user turning the volume sees at worst.\n";
   } else {
     md += "No setting keeps " + number("%g", s.psnrThreshold) + " dB on every dataset.\n";
   }
@@ -200,10 +217,11 @@ std::string bothThresholds(const SweepResult& r) {
 std::string fastestPerDataset(const SweepResult& r) {
   const SweepSpec& s = r.spec;
   std::string md;
-  md += "\nThe fastest setting per dataset and variant (its default transfer function, and the opaque one of the "
-        "slab settings) at each threshold: median ms / worst view dB.\n\n| dataset | variant | fastest ≥ " +
-        number("%g", s.psnrThreshold) + " dB | ms / dB | fastest ≥ " + number("%g", s.psnrHighThreshold) +
-        " dB | ms / dB |\n|---|---|---|---:|---|---:|\n";
+  md +=
+      "\nThe fastest setting per dataset and variant (its default transfer function, and the opaque one of the "
+      "slab settings) at each threshold: median ms / worst view dB.\n\n| dataset | variant | fastest ≥ " +
+      number("%g", s.psnrThreshold) + " dB | ms / dB | fastest ≥ " + number("%g", s.psnrHighThreshold) +
+      " dB | ms / dB |\n|---|---|---|---:|---|---:|\n";
   for (const Dataset& d : s.datasets)
     for (const Variant& v : slabVariants(d, s.opaqueVariants && s.marches())) {
       md += "| " + d.name + " | " + v.label() + " |";
@@ -222,13 +240,16 @@ std::string fastestPerDataset(const SweepResult& r) {
 std::string coarsestSteps(const SweepResult& r) {
   const SweepSpec& s = r.spec;
   std::string md;
-  md += "\nWhat the other variants need: the coarsest swept step at which the baseline renderer keeps the worst "
-        "view at or above " + number("%g", s.psnrThreshold) + " dB.\n\n| dataset | variant | coarsest step |\n"
-        "|---|---|---:|\n";
+  md +=
+      "\nWhat the other variants need: the coarsest swept step at which the baseline renderer keeps the worst "
+      "view at or above " +
+      number("%g", s.psnrThreshold) +
+      " dB.\n\n| dataset | variant | coarsest step |\n"
+      "|---|---|---:|\n";
   for (const Dataset& d : s.datasets) {
     std::vector<std::string> transferFunctions = d.transferFunctions;
-    if (!d.opaque.empty() && std::find(transferFunctions.begin(), transferFunctions.end(), d.opaque) ==
-                                 transferFunctions.end())
+    if (!d.opaque.empty() &&
+        std::find(transferFunctions.begin(), transferFunctions.end(), d.opaque) == transferFunctions.end())
       transferFunctions.push_back(d.opaque);
     for (const std::string& tf : transferFunctions)
       for (bool shading : {false, true}) {
@@ -244,15 +265,16 @@ std::string coarsestSteps(const SweepResult& r) {
 /// The reference's time per view and its self-check.
 std::string referenceTable(const SweepResult& r) {
   std::string md;
-  md += "\n## The reference\n\nTime per view, and its self-check: view 0 at the reference step against half that "
-        "step (the bound it must stay far inside is the threshold above).\n\n"
-        "| dataset | variant | ms per view | step vs step/2: PSNR | max abs |\n|---|---|---:|---:|---:|\n";
+  md +=
+      "\n## The reference\n\nTime per view, and its self-check: view 0 at the reference step against half that "
+      "step (the bound it must stay far inside is the threshold above).\n\n"
+      "| dataset | variant | ms per view | step vs step/2: PSNR | max abs |\n|---|---|---:|---:|---:|\n";
   for (const ReferenceReport& ref : r.references)
     md += "| " + ref.dataset + " | " + ref.variant.label() + " | " +
           (ref.msPerView > 0 ? number("%.0f", ref.msPerView) : "cached") + " | " +
-          (ref.halvingMaxAbs > 0 || ref.halvingPsnr > 0 ? number("%.1f", ref.halvingPsnr) + " | " +
-                                                              number("%.2g", ref.halvingMaxAbs)
-                                                        : "— | —") +
+          (ref.halvingMaxAbs > 0 || ref.halvingPsnr > 0
+               ? number("%.1f", ref.halvingPsnr) + " | " + number("%.2g", ref.halvingMaxAbs)
+               : "— | —") +
           " |\n";
   return md;
 }
@@ -262,7 +284,8 @@ std::string datasetTables(const SweepResult& r) {
   const SweepSpec& s = r.spec;
   std::string md;
   for (const Dataset& d : s.datasets) {
-    md += "\n## " + d.name + " (`" + d.input + "`)\n\n| variant | setting | median ms | min…max ms | Msamples | "
+    md += "\n## " + d.name + " (`" + d.input +
+          "`)\n\n| variant | setting | median ms | min…max ms | Msamples | "
           "Mfragments | worst view dB | pooled dB | max abs | Pareto |\n"
           "|---|---|---:|---:|---:|---:|---:|---:|---:|:-:|\n";
     for (const Point& p : r.points)

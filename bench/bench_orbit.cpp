@@ -131,8 +131,8 @@ std::vector<Frame> renderOrbit(render::GlContext& context, const std::shared_ptr
     scene.camera.azimuth = o.azimuth(v);
     Frame f;
     f.image = renderer.render(scene, &f.stats);
-    std::printf("lod %g view %d (azimuth %.1f): %.0f ms, bricks per level %s\n", lod, v, o.azimuth(v),
-                f.stats.msTotal, levels(f.stats).c_str());
+    std::printf("lod %g view %d (azimuth %.1f): %.0f ms, bricks per level %s\n", lod, v, o.azimuth(v), f.stats.msTotal,
+                levels(f.stats).c_str());
     std::fflush(stdout);
     if (!o.framesDir.empty()) {
       char file[64];
@@ -197,8 +197,10 @@ void writeLod(std::ofstream& csv, std::ofstream& md, const std::vector<std::vect
     t.minPsnr = std::min(t.minPsnr, psnr);
     csv << lods[l] << "," << v << "," << o.azimuth(v) << "," << f.stats.msTotal << "," << levels(f.stats) << ","
         << psnr;
-    if (v + 1 < o.views) tallyPair(csv, frames[0], frames[l], size_t(v), t);
-    else csv << ",,,,";
+    if (v + 1 < o.views)
+      tallyPair(csv, frames[0], frames[l], size_t(v), t);
+    else
+      csv << ",,,,";
     csv << "\n";
   }
   char row[512];
@@ -221,8 +223,8 @@ int main(int argc, char** argv) {
   auto context = render::createContext(render::Backend::Auto);
   const std::string device = context->describe();
   auto cache = std::make_shared<store::BrickCache>(store::BrickStore::openAny(o.storePath), o.hostMb << 20, 2);
-  std::printf("bench_orbit on %s: %s, %dx%d, %d views over %.1f degrees\n", device.c_str(), o.storePath.c_str(),
-              o.size, o.size, o.views, o.degrees);
+  std::printf("bench_orbit on %s: %s, %dx%d, %d views over %.1f degrees\n", device.c_str(), o.storePath.c_str(), o.size,
+              o.size, o.views, o.degrees);
   if (!o.framesDir.empty()) fs::create_directories(o.framesDir);
   const render::Scene scene = orbitScene(o);
   std::vector<std::vector<Frame>> frames;

@@ -5,10 +5,10 @@
 // time against angle can be read off.
 //
 // Protocol: for each store and drawing, a fresh renderer per run (the texture loaded anew, by an untimed frame), one
-// warm-up pass over every angle discarded, then --runs timed passes; per angle the median over the runs. Time per sample (ns) is
-// reported beside the frame time, since the samples a view takes change with the angle (a diagonal view has longer
-// rays). Writes NAME.csv (one row per store, drawing, axis, angle, run), NAME.md (min, max, ratio, mean, standard
-// deviation per axis and over all) and NAME.svg (time against angle, one panel per store and drawing).
+// warm-up pass over every angle discarded, then --runs timed passes; per angle the median over the runs. Time per
+// sample (ns) is reported beside the frame time, since the samples a view takes change with the angle (a diagonal view
+// has longer rays). Writes NAME.csv (one row per store, drawing, axis, angle, run), NAME.md (min, max, ratio, mean,
+// standard deviation per axis and over all) and NAME.svg (time against angle, one panel per store and drawing).
 //
 // A store may be listed twice with different --brickings (single, multi-oriented: AtlasBricking), to compare them.
 //
@@ -45,7 +45,7 @@ namespace {
 
 struct Options {
   std::string stores, labels, brickings, drawings = "raycast,slab,slicing", axes = "x,y,z", tf = "hot",
-              name = "orientation", out = "bench/results";
+                                         name = "orientation", out = "bench/results";
   double step = 5, ert = 0, distance = 2.5;
   int runs = 3, size = 256;
 };
@@ -150,8 +150,8 @@ std::string plot(const std::vector<Series>& series, const std::vector<std::pair<
       svg << "<text x='" << x0 + w * t / 4.0 << "' y='" << y0 + h + 14 << "' text-anchor='middle'>" << angle
           << "°</text>\n";
     }
-    svg << "<text x='" << x0 - 38 << "' y='" << y0 + h / 2 << "' transform='rotate(-90 " << x0 - 38 << " "
-        << y0 + h / 2 << ")' text-anchor='middle'>ms a frame</text>\n";
+    svg << "<text x='" << x0 - 38 << "' y='" << y0 + h / 2 << "' transform='rotate(-90 " << x0 - 38 << " " << y0 + h / 2
+        << ")' text-anchor='middle'>ms a frame</text>\n";
     int legend = 0;
     for (const Series& s : series) {
       if (s.store != panels[p].first || s.drawing != panels[p].second) continue;
@@ -159,8 +159,8 @@ std::string plot(const std::vector<Series>& series, const std::vector<std::pair<
       svg << "<polyline fill='none' stroke='" << kAxisColours[s.axis] << "' stroke-width='1.5' points='";
       for (size_t i = 0; i < ms.size(); ++i)
         svg << x0 + w * s.angles[i] / 360.0 << "," << y0 + h - h * (ms[i] - lo) / (hi - lo) << " ";
-      svg << "'/>\n<text x='" << x0 + 8 + 70 * legend++ << "' y='" << y0 + h + 30 << "' fill='"
-          << kAxisColours[s.axis] << "'>about " << kAxisNames[s.axis] << "</text>\n";
+      svg << "'/>\n<text x='" << x0 + 8 + 70 * legend++ << "' y='" << y0 + h + 30 << "' fill='" << kAxisColours[s.axis]
+          << "'>about " << kAxisNames[s.axis] << "</text>\n";
     }
   }
   svg << "</svg>\n";
@@ -297,27 +297,25 @@ void writeSummaryRows(std::ofstream& md, const std::vector<Series>& series, cons
     allNs.insert(allNs.end(), ns.begin(), ns.end());
     const Summary t = summarise(ms), n = summarise(ns);
     std::snprintf(line, sizeof line, "| %s | %s | %s | %.1f | %.1f | 1:%.2f | %.1f | %.1f | %.2f | %.2f | %.2f |\n",
-                  store.c_str(), drawing.c_str(), kAxisNames[s.axis], t.min, t.max, t.max / t.min, t.mean, t.sd,
-                  n.min, n.max, n.max / n.min);
+                  store.c_str(), drawing.c_str(), kAxisNames[s.axis], t.min, t.max, t.max / t.min, t.mean, t.sd, n.min,
+                  n.max, n.max / n.min);
     md << line;
   }
   const Summary t = summarise(allMs), n = summarise(allNs);
   std::snprintf(line, sizeof line,
-                "| %s | %s | **all** | %.1f | %.1f | **1:%.2f** | %.1f | %.1f | %.2f | %.2f | %.2f |\n",
-                store.c_str(), drawing.c_str(), t.min, t.max, t.max / t.min, t.mean, t.sd, n.min, n.max,
-                n.max / n.min);
+                "| %s | %s | **all** | %.1f | %.1f | **1:%.2f** | %.1f | %.1f | %.2f | %.2f | %.2f |\n", store.c_str(),
+                drawing.c_str(), t.min, t.max, t.max / t.min, t.mean, t.sd, n.min, n.max, n.max / n.min);
   md << line;
 }
 
 void writeMarkdown(const fs::path& path, const std::string& device, const Options& o, size_t angles,
-                   const std::vector<Series>& series,
-                   const std::vector<std::pair<std::string, std::string>>& panels) {
+                   const std::vector<Series>& series, const std::vector<std::pair<std::string, std::string>>& panels) {
   std::ofstream md(path);
-  md << "Device: " << device << ". " << o.size << "×" << o.size << ", transfer function `" << o.tf
-     << "`, termination " << (o.ert > 0 ? std::to_string(o.ert) : std::string("off")) << ", level 0, the eye at "
-     << o.distance << " bounding radii on a circle about each axis (up along the axis), " << o.step << "° a step ("
-     << angles << " angles an axis); per store and drawing a fresh renderer each run, a warm-up pass discarded, "
-     << o.runs << " timed runs; per angle the median frame time over the runs.\n\n";
+  md << "Device: " << device << ". " << o.size << "×" << o.size << ", transfer function `" << o.tf << "`, termination "
+     << (o.ert > 0 ? std::to_string(o.ert) : std::string("off")) << ", level 0, the eye at " << o.distance
+     << " bounding radii on a circle about each axis (up along the axis), " << o.step << "° a step (" << angles
+     << " angles an axis); per store and drawing a fresh renderer each run, a warm-up pass discarded, " << o.runs
+     << " timed runs; per angle the median frame time over the runs.\n\n";
   md << "| store | drawing | axis | min ms | max ms | min/max frame rate | mean ms | sd ms | min ns/sample | max "
         "ns/sample | ns/sample ratio |\n|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const auto& [store, drawing] : panels) writeSummaryRows(md, series, store, drawing);
@@ -345,7 +343,8 @@ int main(int argc, char** argv) {
   std::vector<Series> series;
   std::vector<std::pair<std::string, std::string>> panels;
   for (size_t si = 0; si < plan.stores.size(); ++si) {
-    auto cache = std::make_shared<store::BrickCache>(store::BrickStore::openAny(plan.stores[si]), size_t(4096) << 20, 2);
+    auto cache =
+        std::make_shared<store::BrickCache>(store::BrickStore::openAny(plan.stores[si]), size_t(4096) << 20, 2);
     for (const std::string& drawing : plan.drawings) {
       panels.push_back({plan.labels[si], drawing});
       measureDrawing(*context, cache, plan, si, drawing, o, series);

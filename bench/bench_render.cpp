@@ -53,8 +53,8 @@ struct Config {
   render::RenderMode mode = render::RenderMode::Normal;
   render::AtlasFormat format = render::AtlasFormat::Float;
   int subBlock = 0;
-  int slab = 0;  ///< planes per texture slab (0 slices); named in the setting, not a CSV column
-  double ert = 0;              ///< early ray termination threshold (slabs); named in the setting
+  int slab = 0;                 ///< planes per texture slab (0 slices); named in the setting, not a CSV column
+  double ert = 0;               ///< early ray termination threshold (slabs); named in the setting
   bool preIntegration = false;  ///< named in the setting
   bool ess = false;             ///< empty-space silhouette maps; named in the setting
   bool raycast = false;         ///< the frame ray caster (render::Scene::raycast); named in the setting
@@ -102,14 +102,12 @@ const std::vector<Config> kConfigs = {
     {"vertex slicer, skip, B=64, sub-block 8", 64, render::Slicer::Vertex, true, render::RenderMode::Normal,
      render::AtlasFormat::Float, 8},
     {"slab 4, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal, render::AtlasFormat::Float, 0, 4},
-    {"slab 16, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal, render::AtlasFormat::Float, 0,
-     16},
-    {"slab whole brick, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
-     render::AtlasFormat::Float, 0, render::Scene::kMaxSlab},
+    {"slab 16, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal, render::AtlasFormat::Float, 0, 16},
+    {"slab whole brick, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal, render::AtlasFormat::Float,
+     0, render::Scene::kMaxSlab},
     {"slab whole brick, skip, B=16", 16, render::Slicer::Vertex, true, render::RenderMode::Normal,
      render::AtlasFormat::Float, 0, render::Scene::kMaxSlab},
-    {"slab 64, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal, render::AtlasFormat::Float, 0,
-     64},
+    {"slab 64, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal, render::AtlasFormat::Float, 0, 64},
     {"slab 16, ert 0.99, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
      render::AtlasFormat::Float, 0, 16, 0.99},
     {"slab 64, ert 0.99, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
@@ -118,12 +116,11 @@ const std::vector<Config> kConfigs = {
      render::AtlasFormat::Float, 8, 16, 0.99},
     {"slab 64, ert 0.99, skip, sub-block 8", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
      render::AtlasFormat::Float, 8, 64, 0.99},
-    {"slab 16, ert 1, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
-     render::AtlasFormat::Float, 0, 16, 1.0},
-    {"slab 64, ert 1, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
-     render::AtlasFormat::Float, 0, 64, 1.0},
-    {"slab 1, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal, render::AtlasFormat::Float, 0,
-     1},
+    {"slab 16, ert 1, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal, render::AtlasFormat::Float,
+     0, 16, 1.0},
+    {"slab 64, ert 1, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal, render::AtlasFormat::Float,
+     0, 64, 1.0},
+    {"slab 1, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal, render::AtlasFormat::Float, 0, 1},
     {"slab 16, ert 0.999, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
      render::AtlasFormat::Float, 0, 16, 0.999},
     {"slab 8, ert 0.999, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
@@ -148,8 +145,8 @@ const std::vector<Config> kConfigs = {
      render::AtlasFormat::Float, 8, 32, 0.999},
     {"slab 32, ert 0.999, skip, sub-block 8, ess", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
      render::AtlasFormat::Float, 8, 32, 0.999, false, true},
-    {"slab 32, ert 0.999, skip, sub-block 8, roofline", 32, render::Slicer::Vertex, true,
-     render::RenderMode::Roofline, render::AtlasFormat::Float, 8, 32, 0.999},
+    {"slab 32, ert 0.999, skip, sub-block 8, roofline", 32, render::Slicer::Vertex, true, render::RenderMode::Roofline,
+     render::AtlasFormat::Float, 8, 32, 0.999},
     {"slab 32, skip, sub-block 8", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
      render::AtlasFormat::Float, 8, 32},
     {"slab 32, skip, sub-block 8, roofline", 32, render::Slicer::Vertex, true, render::RenderMode::Roofline,
@@ -164,8 +161,8 @@ const std::vector<Config> kConfigs = {
      render::AtlasFormat::Float, 8, 0, 0, false, false, true},
     {"raycast, ert 0.999, skip, sub-block 8, native atlas", 32, render::Slicer::Vertex, true,
      render::RenderMode::Normal, render::AtlasFormat::Native, 8, 0, 0.999, false, false, true},
-    {"slab 16, pre-int, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
-     render::AtlasFormat::Float, 0, 16, 0, true},
+    {"slab 16, pre-int, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal, render::AtlasFormat::Float,
+     0, 16, 0, true},
     {"slab 16, ert 0.99, pre-int, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
      render::AtlasFormat::Float, 0, 16, 0.99, true},
 };
@@ -274,8 +271,8 @@ Result summarise(const Dataset& d, const Config& c, const Run& run) {
   r.samples = median(run.samples);
   r.bricksDrawn = median(run.drawn);
   r.maxAbsVsBaseline = run.maxAbs;
-  std::printf("%-16s %-40s %9.1f ms  %12.0f fragments  %6.0f bricks  max|diff| %.5f\n", d.name.c_str(),
-              c.name.c_str(), r.msMedian, r.fragments, r.bricksDrawn, r.maxAbsVsBaseline);
+  std::printf("%-16s %-40s %9.1f ms  %12.0f fragments  %6.0f bricks  max|diff| %.5f\n", d.name.c_str(), c.name.c_str(),
+              r.msMedian, r.fragments, r.bricksDrawn, r.maxAbsVsBaseline);
   std::fflush(stdout);
   return r;
 }
@@ -299,10 +296,11 @@ void writeCsv(const fs::path& path, const std::vector<Result>& results) {
   for (const Result& r : results) {
     const double rate = r.samples / (r.msMedian * 1e3);
     char line[512];
-    std::snprintf(line, sizeof line, "%s,%s,%d,%d,%s,%d,%s,%.2f,%.2f,%.2f,%.0f,%.2f,%.0f,%.6f,%.0f\n", r.dataset.c_str(),
-                  r.config.name.c_str(), r.config.brick, r.config.subBlock, render::slicerName(r.config.slicer),
-                  int(r.config.skip), r.config.mode == render::RenderMode::Roofline ? "roofline" : "normal",
-                  r.msMedian, r.msMin, r.msMax, r.fragments, rate, r.bricksDrawn, r.maxAbsVsBaseline, r.samples);
+    std::snprintf(line, sizeof line, "%s,%s,%d,%d,%s,%d,%s,%.2f,%.2f,%.2f,%.0f,%.2f,%.0f,%.6f,%.0f\n",
+                  r.dataset.c_str(), r.config.name.c_str(), r.config.brick, r.config.subBlock,
+                  render::slicerName(r.config.slicer), int(r.config.skip),
+                  r.config.mode == render::RenderMode::Roofline ? "roofline" : "normal", r.msMedian, r.msMin, r.msMax,
+                  r.fragments, rate, r.bricksDrawn, r.maxAbsVsBaseline, r.samples);
     csv << line;
   }
 }

@@ -130,7 +130,8 @@ std::vector<Setting> settingsOf(const Options& o) {
     if (m != "blending" && m != "points") throw std::invalid_argument("--modes: unknown mode '" + m + "'");
     for (const std::string& s : items(o.slicers))
       settings.push_back({render::parseSlicer(s, "--slicers"),
-                          m == "points" ? render::RenderMode::Points : render::RenderMode::Normal, {}});
+                          m == "points" ? render::RenderMode::Points : render::RenderMode::Normal,
+                          {}});
   }
   return settings;
 }
@@ -199,21 +200,20 @@ void timeRun(render::GlContext& context, const std::shared_ptr<const store::Bric
     s.slicesPerFrame = slices / double(cameras.size());
     s.boxesPerFrame = boxes / double(cameras.size());
   }
-  std::printf("run %d  %-16s %-9s %8.3f s per %zu frames\n", run + 1, render::slicerName(s.slicer),
-              modeName(s.mode), seconds, cameras.size());
+  std::printf("run %d  %-16s %-9s %8.3f s per %zu frames\n", run + 1, render::slicerName(s.slicer), modeName(s.mode),
+              seconds, cameras.size());
   std::fflush(stdout);
 }
 
-void writeResults(const std::string& device, const Options& o, const std::vector<Setting>& settings,
-                  size_t frames) {
+void writeResults(const std::string& device, const Options& o, const std::vector<Setting>& settings, size_t frames) {
   const fs::path out = o.out;
   std::ofstream csv(out / (o.name + ".csv"));
   csv << "slicer,mode,runs,passes,frames_per_pass,mean_s,stddev_s,mean_ms_per_frame,slices_per_frame,"
          "boxes_per_frame\n";
   std::ofstream md(out / (o.name + ".md"));
   md << "Slicers after Zellmann & Lang (2011) on " << device << ": " << o.input << " in bricks of " << o.brick
-     << (o.subBlock ? ", sub-blocks of " + std::to_string(o.subBlock) : std::string()) << ", transfer function "
-     << o.tf << ", step " << o.step << " voxels, " << o.size << "x" << o.size << ". Seconds per pass of " << frames
+     << (o.subBlock ? ", sub-blocks of " + std::to_string(o.subBlock) : std::string()) << ", transfer function " << o.tf
+     << ", step " << o.step << " voxels, " << o.size << "x" << o.size << ". Seconds per pass of " << frames
      << " frames (" << o.rotations << " rotations of " << o.degrees << " degrees about x, y and z), the mean of "
      << o.passes << " passes after one discarded, averaged over " << o.runs
      << " runs, each with a fresh renderer (bricks paged anew); in parentheses the standard deviation over the runs. "
@@ -258,10 +258,11 @@ int main(int argc, char** argv) {
   const std::string device = context->describe();
   std::vector<render::CameraSpec> cameras;
   const render::Scene scene = sliceScene(o, store->meta(), cameras);
-  std::printf("bench_slicers on %s\n%s, bricks of %d, sub-blocks %d, %s, step %g, %dx%d, %zu views, %d runs of "
-              "1 + %d passes\n",
-              device.c_str(), o.input.c_str(), o.brick, o.subBlock, o.tf.c_str(), o.step, o.size, o.size,
-              cameras.size(), o.runs, o.passes);
+  std::printf(
+      "bench_slicers on %s\n%s, bricks of %d, sub-blocks %d, %s, step %g, %dx%d, %zu views, %d runs of "
+      "1 + %d passes\n",
+      device.c_str(), o.input.c_str(), o.brick, o.subBlock, o.tf.c_str(), o.step, o.size, o.size, cameras.size(),
+      o.runs, o.passes);
   // Every run goes through all settings in turn, so that a drift of the machine's load reaches all of them alike.
   for (int run = 0; run < o.runs; ++run)
     for (Setting& s : settings) timeRun(*context, store, scene, cameras, run, o, s);

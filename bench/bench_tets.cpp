@@ -113,14 +113,13 @@ Passes timeRuns(render::TetRenderer& renderer, render::Scene& scene, const std::
 void writeCsv(const fs::path& path, const std::string& device, size_t tets, const std::vector<int>& sizes,
               const Passes& p, const Options& o) {
   std::ofstream csv(path);
-  csv << "# " << device << "; " << tets << " tets, " << o.views << " views a pass, median of " << o.runs
-      << " passes\n";
+  csv << "# " << device << "; " << tets << " tets, " << o.views << " views a pass, median of " << o.runs << " passes\n";
   csv << "size,fragment_program,sort_ms,render_ms,total_ms,tets_per_s,fragments\n";
   for (int size : sizes)
     for (bool nullFragment : {false, true})
-      csv << size << "," << (nullFragment ? "null" : "tet") << "," << p.median(size, nullFragment, &Pass::sortMs)
-          << "," << p.median(size, nullFragment, &Pass::drawMs) << "," << p.median(size, nullFragment, &Pass::totalMs)
-          << "," << double(tets) / (p.median(size, nullFragment, &Pass::totalMs) / 1000) << ","
+      csv << size << "," << (nullFragment ? "null" : "tet") << "," << p.median(size, nullFragment, &Pass::sortMs) << ","
+          << p.median(size, nullFragment, &Pass::drawMs) << "," << p.median(size, nullFragment, &Pass::totalMs) << ","
+          << double(tets) / (p.median(size, nullFragment, &Pass::totalMs) / 1000) << ","
           << p.median(size, nullFragment, &Pass::fragments) << "\n";
 }
 
@@ -162,13 +161,12 @@ void writeMarkdown(const fs::path& path, const std::string& device, size_t tets,
               {"tets/s (10⁶)", [&](int s) { return fmt("%.2f", n / p.median(s, false, &Pass::totalMs) / 1000); }},
               {"fragments (10⁶)", [&](int s) { return fmt("%.1f", p.median(s, false, &Pass::fragments) / 1e6); }}});
   md << "\n\nTable 3 (a null fragment program: no ray-tet intersection, no classification, a constant colour):\n\n";
-  writeTable(md, sizes,
-             {{"t rendering (ms)", [&](int s) { return fmt("%.0f", p.median(s, true, &Pass::drawMs)); }},
-              {"tets/s rendered (10⁶)",
-               [&](int s) { return fmt("%.2f", n / p.median(s, true, &Pass::drawMs) / 1000); }},
-              {"rendering time ratio", [&](int s) {
-                 return fmt("%.1f", p.median(s, false, &Pass::drawMs) / p.median(s, true, &Pass::drawMs));
-               }}});
+  writeTable(
+      md, sizes,
+      {{"t rendering (ms)", [&](int s) { return fmt("%.0f", p.median(s, true, &Pass::drawMs)); }},
+       {"tets/s rendered (10⁶)", [&](int s) { return fmt("%.2f", n / p.median(s, true, &Pass::drawMs) / 1000); }},
+       {"rendering time ratio",
+        [&](int s) { return fmt("%.1f", p.median(s, false, &Pass::drawMs) / p.median(s, true, &Pass::drawMs)); }}});
   md << "\n\nBytes a tet: 64 on the GPU (four vertices, position and scalar, read by vertex pulling: the seed's point "
         "sprite) + 4 of visibility order uploaded each frame; "
      << fmt("%.1f", double(info.bytesStored) / double(info.tetCount)) << " in the store (zstd, "

@@ -24,11 +24,11 @@
 #include "brickstore/BrickStore.h"
 #include "brickstore/Sources.h"
 #include "brickstore/StoreWriter.h"
-#include "render/gl/volume/BrickAtlas.h"
-#include "render/gl/GlContext.h"
-#include "render/reference/ReferenceRenderer.h"
 #include "render/core/Scene.h"
+#include "render/gl/GlContext.h"
+#include "render/gl/volume/BrickAtlas.h"
 #include "render/gl/volume/VolumeRenderer.h"
+#include "render/reference/ReferenceRenderer.h"
 
 namespace fs = std::filesystem;
 using namespace voxbrick;
@@ -83,20 +83,18 @@ std::shared_ptr<const store::BrickStore> prepStore(const std::string& spec, cons
 std::vector<Case> cases() {
   std::vector<Case> out;
   // The Y-up orbit of the digests' time (the default up axis is now +z): the same floats.
-  const std::vector<std::string> views = {R"("orbit": [30, 20, 2.5], "up_axis": "+y")",
-                                          R"("orbit": [90, 0, 2.2], "up_axis": "+y")",
-                                          R"("orbit": [0, 90, 2.5], "up_axis": "+y")",
-                                          R"("orbit": [200, -35, 1.6], "up_axis": "+y")"};
+  const std::vector<std::string> views = {
+      R"("orbit": [30, 20, 2.5], "up_axis": "+y")", R"("orbit": [90, 0, 2.2], "up_axis": "+y")",
+      R"("orbit": [0, 90, 2.5], "up_axis": "+y")", R"("orbit": [200, -35, 1.6], "up_axis": "+y")"};
   // Slicing of level 0, as when the digests were taken: the default drawing is now texture slabs with level of
   // detail (render/core/Scene.h).
   auto scene = [](const std::string& camera, const std::string& rest) {
     const std::string drawing = std::string(R"("slab": 0, "ert": 0, "lod": 0)") +
                                 (rest.find("sub_block") == std::string::npos ? R"(, "sub_block": 0)" : "");
-    return "{\"camera\": {" + camera + "}, \"size\": [96, 80], " + drawing + (rest.empty() ? "" : ", " + rest) +
-           "}";
+    return "{\"camera\": {" + camera + "}, \"size\": [96, 80], " + drawing + (rest.empty() ? "" : ", " + rest) + "}";
   };
   for (const std::string store : {"ml32", "sparse32", "mri32", "mri16"}) {
-    const std::string tf = store == "sparse32" ? R"("transfer_function": "sparse")"
+    const std::string tf = store == "sparse32"          ? R"("transfer_function": "sparse")"
                            : store.rfind("mri", 0) == 0 ? R"("transfer_function": "mri")"
                                                         : R"("transfer_function": "grayscale")";
     for (size_t v = 0; v < views.size(); ++v) {
@@ -120,8 +118,8 @@ std::vector<Case> cases() {
                                  ? R"("eye": [0, -14.75, 409.25], "center": [0, -14.75, 9.25], "up": [0, 1, 0])"
                                  : R"("eye": [0, 0, 400], "center": [0, 0, 0], "up": [0, 1, 0])";
     out.push_back({store + "-axis", store, scene(axis, tf)});
-    out.push_back({store + "-window-bg", store,
-                   scene(v0, tf + R"(, "window": [0.1, 0.6], "background": [0.2, 0.3, 0.4])")});
+    out.push_back(
+        {store + "-window-bg", store, scene(v0, tf + R"(, "window": [0.1, 0.6], "background": [0.2, 0.3, 0.4])")});
     out.push_back({store + "-ct-bone-shaded", store, scene(v0, R"("transfer_function": "ct-bone", "shading": true)")});
     out.push_back({store + "-tight-budget", store, scene(v0, tf), 1});
     out.push_back({store + "-tight-budget-sub8", store, scene(v0, tf + R"(, "sub_block": 8)"), 1});
@@ -192,8 +190,8 @@ class Renderers {
   Frame render(const Case& c) {
     render::FrameStats stats;
     const render::Scene scene = render::Scene::fromJson(c.sceneJson, c.name);
-    const image::ImageF image = c.reference ? referenceFrame(mStores, c, scene, stats)
-                                            : renderer(c).render(scene, &stats, {c.mode});
+    const image::ImageF image =
+        c.reference ? referenceFrame(mStores, c, scene, stats) : renderer(c).render(scene, &stats, {c.mode});
     Frame f;
     f.bytes.assign(reinterpret_cast<const char*>(image.rgba.data()), image.rgba.size() * sizeof(float));
     f.statsLine = std::to_string(stats.fragments) + " " + std::to_string(stats.slices) + " " +
@@ -208,8 +206,8 @@ class Renderers {
     auto& slot = mRenderers[key];
     if (!slot)
       slot = std::make_unique<render::VolumeRenderer>(
-          mContext, std::make_shared<store::BrickCache>(mStores.at(c.store), size_t(256) << 20, 1),
-          c.gpuBudgetMB << 20, c.format);
+          mContext, std::make_shared<store::BrickCache>(mStores.at(c.store), size_t(256) << 20, 1), c.gpuBudgetMB << 20,
+          c.format);
     return *slot;
   }
 
@@ -265,8 +263,8 @@ int main(int argc, char** argv) {
     std::cerr << "usage: frame_golden --work DIR (--write DIR | --check DIR | --hashes FILE)\n";
     return 2;
   }
-  const std::map<std::string, std::string> digests = o.hashes.empty() ? std::map<std::string, std::string>{}
-                                                                       : readDigests(o.hashes);
+  const std::map<std::string, std::string> digests =
+      o.hashes.empty() ? std::map<std::string, std::string>{} : readDigests(o.hashes);
   fs::create_directories(o.work);
   if (!golden.empty()) fs::create_directories(golden);
   Stores stores = goldenStores(o.work);
@@ -277,9 +275,12 @@ int main(int argc, char** argv) {
   for (const Case& c : cases()) {
     const Frame f = renderers.render(c);
     ++frames;
-    if (!o.hashes.empty()) failures += !matchesDigest(c, f, digests);
-    else if (!o.write.empty()) writeGolden(golden, c, f);
-    else failures += !matchesGolden(golden, c, f);
+    if (!o.hashes.empty())
+      failures += !matchesDigest(c, f, digests);
+    else if (!o.write.empty())
+      writeGolden(golden, c, f);
+    else
+      failures += !matchesGolden(golden, c, f);
   }
   std::cout << frames << " frames, " << failures << " differ\n";
   return failures == 0 ? 0 : 1;

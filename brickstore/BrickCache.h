@@ -54,9 +54,9 @@ class Brick {
   size_t mBytes = 0;
   ValueType mType = ValueType::F32;
   bool mEmpty = false;
-  std::unique_ptr<std::byte[]> mOwned;               // decoded samples (null for empty bricks)
-  std::shared_ptr<const std::byte[]> mBackground;    // the shared background samples (empty bricks only)
-  std::shared_ptr<LiveBytes> mLive;                  // counts decoded bytes alive anywhere (decoded bricks only)
+  std::unique_ptr<std::byte[]> mOwned;             // decoded samples (null for empty bricks)
+  std::shared_ptr<const std::byte[]> mBackground;  // the shared background samples (empty bricks only)
+  std::shared_ptr<LiveBytes> mLive;                // counts decoded bytes alive anywhere (decoded bricks only)
 };
 
 /// A shared, immutable decoded brick. Never null when returned by BrickCache::get.

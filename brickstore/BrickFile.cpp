@@ -4,11 +4,11 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <sys/stat.h>
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <utility>
-#include <sys/stat.h>
 
 #include "brickstore/Codec.h"
 #include "brickstore/Errors.h"
@@ -93,12 +93,11 @@ void BrickFileReader::decode(const BrickRecord& record, const BrickKey& key, voi
   frame.resize(record.compressedSize);
   size_t done = 0;
   while (done < record.compressedSize) {
-    ssize_t n = ::pread(mFd, frame.data() + done, record.compressedSize - done,
-                        static_cast<off_t>(record.offset + done));
+    ssize_t n =
+        ::pread(mFd, frame.data() + done, record.compressedSize - done, static_cast<off_t>(record.offset + done));
     if (n < 0 && errno == EINTR) continue;
     if (n < 0) throw IoError(errnoMessage(mPath.string() + ": reading " + toString(key)));
-    if (n == 0)
-      throw CorruptStoreError(mPath.string() + ": " + toString(key) + " lies past the end of the file");
+    if (n == 0) throw CorruptStoreError(mPath.string() + ": " + toString(key) + " lies past the end of the file");
     done += static_cast<size_t>(n);
   }
   decompressFrame(frame.data(), frame.size(), mElementSize, dst, bytes, mPath.string() + ": " + toString(key));

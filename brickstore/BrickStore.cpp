@@ -23,7 +23,8 @@ std::string readText(const fs::path& path, size_t limit) {
   if (!fs::is_regular_file(path, ec)) throw CorruptStoreError(path.string() + ": missing (not a complete store)");
   auto size = fs::file_size(path, ec);
   if (ec) throw IoError("cannot stat " + path.string() + ": " + ec.message());
-  if (size > limit) throw CorruptStoreError(path.string() + ": " + std::to_string(size) + " bytes, larger than any store writes");
+  if (size > limit)
+    throw CorruptStoreError(path.string() + ": " + std::to_string(size) + " bytes, larger than any store writes");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError(errnoMessage("cannot open " + path.string()));
   std::ostringstream text;
@@ -76,7 +77,8 @@ std::shared_ptr<const BrickStore> DirectoryStore::open(const fs::path& dir) {
                             " does not match store.json (" + std::to_string(meta.levels.size()) + ")");
   if (h.brickSize != uint32_t(meta.brickSize) || h.brickSize < 8 || h.brickSize > kMaxBrickSize ||
       (h.brickSize & (h.brickSize - 1)) != 0)
-    throw CorruptStoreError(indexName + ": brick size " + std::to_string(h.brickSize) + " is invalid or does not "
+    throw CorruptStoreError(indexName + ": brick size " + std::to_string(h.brickSize) +
+                            " is invalid or does not "
                             "match store.json");
   if (h.valueType != uint32_t(meta.type)) throw CorruptStoreError(indexName + ": value type does not match store.json");
   const uint64_t bodySize = index.size() - sizeof h;
@@ -102,7 +104,8 @@ std::shared_ptr<const BrickStore> DirectoryStore::open(const fs::path& dir) {
     first += uint64_t(bricks.volume());
   }
   if (first != h.recordCount) throw CorruptStoreError(indexName + ": record count does not match the levels");
-  if (!(meta.levels[0].dims == meta.dims)) throw CorruptStoreError(metaPath.string() + ": level 0 dims differ from dims");
+  if (!(meta.levels[0].dims == meta.dims))
+    throw CorruptStoreError(metaPath.string() + ": level 0 dims differ from dims");
 
   store->mRecords.resize(h.recordCount);
   std::memcpy(store->mRecords.data(), index.data() + sizeof h + h.levelCount * sizeof(LevelEntry),
@@ -111,8 +114,8 @@ std::shared_ptr<const BrickStore> DirectoryStore::open(const fs::path& dir) {
   store->mFile = BrickFileReader(dir / "bricks.bin", meta.type);
   const uint64_t bricksSize = store->mFile.fileSize();
   if (bricksSize != h.bricksFileSize)
-    throw CorruptStoreError((dir / "bricks.bin").string() + ": " + std::to_string(bricksSize) + " bytes, index expects " +
-                            std::to_string(h.bricksFileSize) + " (truncated or replaced)");
+    throw CorruptStoreError((dir / "bricks.bin").string() + ": " + std::to_string(bricksSize) +
+                            " bytes, index expects " + std::to_string(h.bricksFileSize) + " (truncated or replaced)");
   for (const BrickRecord& r : store->mRecords)
     if (r.compressedSize != 0 && (r.offset > bricksSize || r.compressedSize > bricksSize - r.offset))
       throw CorruptStoreError(indexName + ": a brick record points past the end of bricks.bin");
@@ -145,7 +148,8 @@ bool BrickStore::isVdbFile(const fs::path& path) {
 std::shared_ptr<const BrickStore> BrickStore::openAny(const fs::path& path, const StoreOpenOptions& options) {
   if (isVdbFile(path)) return VdbStore::open(path, options);
   if (!options.gridName.empty() || options.brickSize != StoreOpenOptions{}.brickSize)
-    throw InputError(path.string() + ": --grid and --brick apply to a .vdb file only (a store directory has its "
+    throw InputError(path.string() +
+                     ": --grid and --brick apply to a .vdb file only (a store directory has its "
                      "own brick size)");
   return open(path);
 }

@@ -102,8 +102,8 @@ class BrickStore {
   // Filled by the backing when it opens; immutable after.
   std::filesystem::path mPath;
   StoreMeta mMeta;
-  std::vector<LevelEntry> mLevels;      ///< per level: dims, bricks, first record
-  std::vector<BrickRecord> mRecords;    ///< every brick of every level, level after level
+  std::vector<LevelEntry> mLevels;    ///< per level: dims, bricks, first record
+  std::vector<BrickRecord> mRecords;  ///< every brick of every level, level after level
   MinMaxOctree mOctree;
 };
 

@@ -82,8 +82,8 @@ ByteStream::~ByteStream() {
 }
 
 void ByteStream::throwTruncated(size_t expected, size_t got, const char* what) const {
-  throw InputError(mPath + ": truncated: expected " + std::to_string(expected) + " more bytes of " + what +
-                   ", got " + std::to_string(got));
+  throw InputError(mPath + ": truncated: expected " + std::to_string(expected) + " more bytes of " + what + ", got " +
+                   std::to_string(got));
 }
 
 void ByteStream::readExact(void* dst, size_t n) {

@@ -10,8 +10,12 @@
 namespace voxbrick::store {
 namespace {
 
-struct CCtxDeleter { void operator()(ZSTD_CCtx* c) const { ZSTD_freeCCtx(c); } };
-struct DCtxDeleter { void operator()(ZSTD_DCtx* c) const { ZSTD_freeDCtx(c); } };
+struct CCtxDeleter {
+  void operator()(ZSTD_CCtx* c) const { ZSTD_freeCCtx(c); }
+};
+struct DCtxDeleter {
+  void operator()(ZSTD_DCtx* c) const { ZSTD_freeDCtx(c); }
+};
 
 ZSTD_CCtx* threadCCtx() {
   thread_local std::unique_ptr<ZSTD_CCtx, CCtxDeleter> ctx(ZSTD_createCCtx());
@@ -73,8 +77,7 @@ void compressFrame(const void* src, size_t size, size_t elementSize, int level, 
 void decompressFrame(const void* src, size_t size, size_t elementSize, void* dst, size_t expectedSize,
                      const std::string& what) {
   unsigned long long content = ZSTD_getFrameContentSize(src, size);
-  if (content == ZSTD_CONTENTSIZE_ERROR)
-    throw CorruptStoreError(what + ": not a zstd frame");
+  if (content == ZSTD_CONTENTSIZE_ERROR) throw CorruptStoreError(what + ": not a zstd frame");
   if (content != ZSTD_CONTENTSIZE_UNKNOWN && content != expectedSize)
     throw CorruptStoreError(what + ": frame holds " + std::to_string(content) + " bytes, expected " +
                             std::to_string(expectedSize));

@@ -18,9 +18,9 @@ constexpr size_t kStagingBytes = size_t(1) << 20;
 
 template <typename T>
 T loadValue(const unsigned char* p, bool swap) {
-  using Bits = std::conditional_t<sizeof(T) == 1, uint8_t,
-                                  std::conditional_t<sizeof(T) == 2, uint16_t,
-                                                     std::conditional_t<sizeof(T) == 4, uint32_t, uint64_t>>>;
+  using Bits = std::conditional_t<
+      sizeof(T) == 1, uint8_t,
+      std::conditional_t<sizeof(T) == 2, uint16_t, std::conditional_t<sizeof(T) == 4, uint32_t, uint64_t>>>;
   Bits bits;
   std::memcpy(&bits, p, sizeof(bits));
   if (swap) {
@@ -119,8 +119,8 @@ bool needsSwap(bool fileBigEndian) { return fileBigEndian != (std::endian::nativ
 
 int64_t checkedVolumeBytes(const Vec3i& dims, size_t valueBytes, const std::string& file) {
   if (dims.x <= 0 || dims.y <= 0 || dims.z <= 0) {
-    throw InputError(file + ": zero or negative dims " + std::to_string(dims.x) + "," + std::to_string(dims.y) +
-                     "," + std::to_string(dims.z));
+    throw InputError(file + ": zero or negative dims " + std::to_string(dims.x) + "," + std::to_string(dims.y) + "," +
+                     std::to_string(dims.z));
   }
   int64_t bytes = 0;
   if (__builtin_mul_overflow(dims.x, dims.y, &bytes) || __builtin_mul_overflow(bytes, dims.z, &bytes) ||
@@ -148,8 +148,7 @@ std::string baseName(const std::string& path) {
   return slash == std::string::npos ? path : path.substr(slash + 1);
 }
 
-DenseSource::DenseSource(VolumeInfo info, std::unique_ptr<ByteStream> stream, Conversion conversion,
-                         std::string file)
+DenseSource::DenseSource(VolumeInfo info, std::unique_ptr<ByteStream> stream, Conversion conversion, std::string file)
     : mInfo(std::move(info)), mStream(std::move(stream)), mConversion(conversion), mFile(std::move(file)) {
   if (mInfo.type != mConversion.to()) {
     throw StoreError(mFile + ": internal error: source type " + std::string(valueTypeName(mInfo.type)) +
@@ -160,8 +159,8 @@ DenseSource::DenseSource(VolumeInfo info, std::unique_ptr<ByteStream> stream, Co
 void DenseSource::readSlices(int64_t count, void* dst) {
   if (count < 0) throw InputError(mFile + ": negative slice count " + std::to_string(count));
   if (count > mInfo.dims.z - mNextZ) {
-    throw InputError(mFile + ": read past the end of the volume: asked for z-slices " + std::to_string(mNextZ) +
-                     ".." + std::to_string(mNextZ + count - 1) + " but dims.z is " + std::to_string(mInfo.dims.z));
+    throw InputError(mFile + ": read past the end of the volume: asked for z-slices " + std::to_string(mNextZ) + ".." +
+                     std::to_string(mNextZ + count - 1) + " but dims.z is " + std::to_string(mInfo.dims.z));
   }
   const size_t values = static_cast<size_t>(count * mInfo.dims.x * mInfo.dims.y);
   const size_t inSize = fileValueSize(mConversion.from);

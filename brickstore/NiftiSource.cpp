@@ -178,8 +178,9 @@ bool checkHeaderStart(const std::vector<char>& bytes, const std::string& path) {
   }
   const char* magic = bytes.data() + kMagicOffset;
   if (std::memcmp(magic, "ni1\0", 4) == 0) {
-    throw InputError(path + ": is the header of a NIfTI-1 .hdr/.img pair (magic 'ni1'); only single-file .nii "
-                            "is supported");
+    throw InputError(path +
+                     ": is the header of a NIfTI-1 .hdr/.img pair (magic 'ni1'); only single-file .nii "
+                     "is supported");
   }
   if (std::memcmp(magic, "n+1\0", 4) != 0) {
     throw InputError(path + ": not a NIfTI-1 file (no 'n+1' magic; an ANALYZE 7.5 header?)");
@@ -211,14 +212,13 @@ FileValueType niftiValueType(const HeaderView& h, const std::string& path) {
   const int datatype = h.i16(kDatatypeOffset);
   const std::optional<FileValueType> fileType = datatypeValue(datatype);
   if (!fileType) {
-    throw InputError(path + ": unsupported NIfTI datatype " + std::to_string(datatype) + " (" +
-                     datatypeName(datatype) + ")");
+    throw InputError(path + ": unsupported NIfTI datatype " + std::to_string(datatype) + " (" + datatypeName(datatype) +
+                     ")");
   }
   const int bitpix = h.i16(kBitpixOffset);
   if (bitpix != static_cast<int>(8 * fileValueSize(*fileType))) {
-    throw InputError(path + ": datatype " + std::to_string(datatype) + " (" + datatypeName(datatype) +
-                     ") has bitpix " + std::to_string(bitpix) + ", expected " +
-                     std::to_string(8 * fileValueSize(*fileType)));
+    throw InputError(path + ": datatype " + std::to_string(datatype) + " (" + datatypeName(datatype) + ") has bitpix " +
+                     std::to_string(bitpix) + ", expected " + std::to_string(8 * fileValueSize(*fileType)));
   }
   return *fileType;
 }

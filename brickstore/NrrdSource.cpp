@@ -52,20 +52,34 @@ std::optional<FileValueType> parseNrrdType(const std::string& text) {
   std::string t;
   for (const std::string& word : tokens(lower(text))) t += (t.empty() ? "" : " ") + word;
   static const std::map<std::string, FileValueType> kTypes = {
-      {"signed char", FileValueType::I8},        {"int8", FileValueType::I8},
-      {"int8_t", FileValueType::I8},             {"uchar", FileValueType::U8},
-      {"unsigned char", FileValueType::U8},      {"uint8", FileValueType::U8},
-      {"uint8_t", FileValueType::U8},            {"short", FileValueType::I16},
-      {"short int", FileValueType::I16},         {"signed short", FileValueType::I16},
-      {"signed short int", FileValueType::I16},  {"int16", FileValueType::I16},
-      {"int16_t", FileValueType::I16},           {"ushort", FileValueType::U16},
-      {"unsigned short", FileValueType::U16},    {"unsigned short int", FileValueType::U16},
-      {"uint16", FileValueType::U16},            {"uint16_t", FileValueType::U16},
-      {"int", FileValueType::I32},               {"signed int", FileValueType::I32},
-      {"int32", FileValueType::I32},             {"int32_t", FileValueType::I32},
-      {"uint", FileValueType::U32},              {"unsigned int", FileValueType::U32},
-      {"uint32", FileValueType::U32},            {"uint32_t", FileValueType::U32},
-      {"float", FileValueType::F32},             {"double", FileValueType::F64},
+      {"signed char", FileValueType::I8},
+      {"int8", FileValueType::I8},
+      {"int8_t", FileValueType::I8},
+      {"uchar", FileValueType::U8},
+      {"unsigned char", FileValueType::U8},
+      {"uint8", FileValueType::U8},
+      {"uint8_t", FileValueType::U8},
+      {"short", FileValueType::I16},
+      {"short int", FileValueType::I16},
+      {"signed short", FileValueType::I16},
+      {"signed short int", FileValueType::I16},
+      {"int16", FileValueType::I16},
+      {"int16_t", FileValueType::I16},
+      {"ushort", FileValueType::U16},
+      {"unsigned short", FileValueType::U16},
+      {"unsigned short int", FileValueType::U16},
+      {"uint16", FileValueType::U16},
+      {"uint16_t", FileValueType::U16},
+      {"int", FileValueType::I32},
+      {"signed int", FileValueType::I32},
+      {"int32", FileValueType::I32},
+      {"int32_t", FileValueType::I32},
+      {"uint", FileValueType::U32},
+      {"unsigned int", FileValueType::U32},
+      {"uint32", FileValueType::U32},
+      {"uint32_t", FileValueType::U32},
+      {"float", FileValueType::F32},
+      {"double", FileValueType::F64},
   };
   auto it = kTypes.find(t);
   if (it == kTypes.end()) return std::nullopt;
@@ -133,8 +147,9 @@ NrrdHeader parseHeader(const std::string& path) {
     std::string value = trim(line.substr(colon + 1));
     // The file names of "data file: LIST" follow as header lines, so this must be caught before parsing on.
     if (key == "data file" && value.rfind("LIST", 0) == 0) {
-      throw InputError(path + ": 'data file: " + value + "' names several data files; only a single data file is "
-                              "supported");
+      throw InputError(path + ": 'data file: " + value +
+                       "' names several data files; only a single data file is "
+                       "supported");
     }
     if (!header.fields.emplace(key, std::move(value)).second) {
       throw InputError(path + ": header field '" + key + "' is given twice");

@@ -20,7 +20,7 @@ namespace voxbrick::store {
 struct Orientation {
   using Vec = std::array<double, 3>;
   std::array<Vec, 3> axes{{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};  ///< world direction of index axes i, j, k (RAS)
-  Vec origin{0, 0, 0};  ///< world position of voxel (0, 0, 0)'s centre
+  Vec origin{0, 0, 0};                                         ///< world position of voxel (0, 0, 0)'s centre
   /// True when the input stated a patient frame: named views and the default up then mean anatomy (superior up).
   bool patient = false;
 

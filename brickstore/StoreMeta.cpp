@@ -98,10 +98,8 @@ std::string StoreMeta::toJson() const {
             {"vdb_files", vdbFiles},
             {"source", source}};
   if (!(orientation == Orientation{}))
-    j["orientation"] = {{"space", "RAS"},
-                        {"axes", orientation.axes},
-                        {"origin", orientation.origin},
-                        {"patient", orientation.patient}};
+    j["orientation"] = {
+        {"space", "RAS"}, {"axes", orientation.axes}, {"origin", orientation.origin}, {"patient", orientation.patient}};
   if (quantisation)
     j["quantisation"] = {{"type", std::string(valueTypeName(quantisation->type))},
                          {"range", json::array({quantisation->lo, quantisation->hi})},

@@ -30,23 +30,23 @@ struct Histogram {
 struct StoreMeta {
   static constexpr int kFormatVersion = 1;
 
-  Vec3i dims;                 ///< level 0 voxels
+  Vec3i dims;  ///< level 0 voxels
   Vec3d spacing;
   /// Index-to-world (RAS) of level 0; store.json key "orientation" (absent in older stores: the identity).
   Orientation orientation;
   ValueType type = ValueType::F32;
-  double background = 0;      ///< value of empty (inactive, not stored) space
+  double background = 0;              ///< value of empty (inactive, not stored) space
   double valueMin = 0, valueMax = 0;  ///< over every level-0 voxel, after the non-finite policy
   Histogram histogram;
   int brickSize = 32;
   std::vector<LevelMeta> levels;
-  int64_t bytesRaw = 0;       ///< level-0 voxels times the type size
-  int64_t bytesStored = 0;    ///< bricks.bin + index.bin over all levels
-  int64_t bytesVdb = 0;       ///< the canonical OpenVDB grid files
-  int64_t activeVoxels = 0;   ///< level-0 voxels different from the background
-  int64_t nonFiniteReplaced = 0;  ///< NaN/Inf voxels set to the background at ingest
+  int64_t bytesRaw = 0;               ///< level-0 voxels times the type size
+  int64_t bytesStored = 0;            ///< bricks.bin + index.bin over all levels
+  int64_t bytesVdb = 0;               ///< the canonical OpenVDB grid files
+  int64_t activeVoxels = 0;           ///< level-0 voxels different from the background
+  int64_t nonFiniteReplaced = 0;      ///< NaN/Inf voxels set to the background at ingest
   std::vector<std::string> vdbFiles;  ///< relative to the store directory, in z order
-  std::string source;         ///< the input's description
+  std::string source;                 ///< the input's description
   /// Set when prep quantised the input: the stored integers q stand for quantisation->dequantise(q). Every other
   /// value here (background, value range, histogram, brick and node ranges) is in stored units.
   std::optional<Quantisation> quantisation;

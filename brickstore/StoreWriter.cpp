@@ -155,8 +155,8 @@ struct MemoryPlan {
 /// files written) does not depend on the threads. Throws InputError when --memory cannot hold one slab and chunk.
 MemoryPlan planMemory(const VolumeInfo& info, const PrepOptions& options, int64_t stagingBytes) {
   // The process itself (libraries, allocator, thread stacks) takes about this much before any buffer: an idle
-  // `voxbrick --version` is 97 MB resident on Debian 12 (OpenVDB, TBB, Mesa, GDCM and the rest mapped), so --memory is a
-  // bound on the whole process's peak RSS. A constant, not a measurement, so that the chunking (the files written)
+  // `voxbrick --version` is 97 MB resident on Debian 12 (OpenVDB, TBB, Mesa, GDCM and the rest mapped), so --memory is
+  // a bound on the whole process's peak RSS. A constant, not a measurement, so that the chunking (the files written)
   // depends on the options alone.
   constexpr int64_t kBaselineBytes = int64_t{112} << 20;
   const int B = options.brickSize;
@@ -175,7 +175,8 @@ MemoryPlan planMemory(const VolumeInfo& info, const PrepOptions& options, int64_
   if (needed > plan.budget || plan.chunkSlices <= 0)
     throw InputError("--memory " + std::to_string(options.memoryBudgetMB) + " MB is too small for slices of " +
                      std::to_string(info.dims.x) + "x" + std::to_string(info.dims.y) + " voxels with --brick " +
-                     std::to_string(B) + ": needs at least " + std::to_string(divUp(needed + kBaselineBytes, 1 << 20)) + " MB");
+                     std::to_string(B) + ": needs at least " + std::to_string(divUp(needed + kBaselineBytes, 1 << 20)) +
+                     " MB");
   plan.maxInFlight =
       tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism) > 1 ? kMaxSlabsInFlight : 1;
   const int64_t vdbBytes = options.writeVdb ? VdbChunkWriter::chunkBytes(info.dims, plan.chunkSlices) : 0;

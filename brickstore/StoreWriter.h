@@ -14,16 +14,16 @@
 namespace voxbrick::store {
 
 struct PrepOptions {
-  int brickSize = 32;            ///< B: a power of two in [8, 256]
-  int zstdLevel = 1;             ///< zstd level for brick frames (1: chosen by bench/results/store.md)
-  int64_t memoryBudgetMB = 1024; ///< bound on the slab window and per-chunk VDB grid; checked before starting
-  bool haveBackground = false;   ///< if false, the source's background is used
+  int brickSize = 32;             ///< B: a power of two in [8, 256]
+  int zstdLevel = 1;              ///< zstd level for brick frames (1: chosen by bench/results/store.md)
+  int64_t memoryBudgetMB = 1024;  ///< bound on the slab window and per-chunk VDB grid; checked before starting
+  bool haveBackground = false;    ///< if false, the source's background is used
   double background = 0.0;
   NonFinitePolicy nonFinite = NonFinitePolicy::Background;
-  bool writeVdb = true;          ///< write the canonical OpenVDB grid
-  int64_t vdbChunkSlices = 0;    ///< z-slices per VDB file; 0: as many as the memory budget allows
-  bool overwrite = false;        ///< replace an existing store (only once the new one is complete)
-  int threads = 0;               ///< worker threads; 0 = hardware concurrency
+  bool writeVdb = true;        ///< write the canonical OpenVDB grid
+  int64_t vdbChunkSlices = 0;  ///< z-slices per VDB file; 0: as many as the memory budget allows
+  bool overwrite = false;      ///< replace an existing store (only once the new one is complete)
+  int threads = 0;             ///< worker threads; 0 = hardware concurrency
   /// Store u8 or u16 values: the input mapped linearly from quantise->lo..hi (scanLevel0 gives the input's exact
   /// range). Non-finite values take the background first; the background is quantised too.
   std::optional<Quantisation> quantise;
@@ -31,9 +31,9 @@ struct PrepOptions {
 
 /// Progress of a running prep, for a progress bar.
 struct PrepProgress {
-  std::string stage;         ///< "level 0", "level 1", ..., "histogram"
+  std::string stage;            ///< "level 0", "level 1", ..., "histogram"
   int64_t done = 0, total = 0;  ///< units of the stage (slices)
-  int64_t bytesIn = 0;       ///< input bytes consumed so far (level 0)
+  int64_t bytesIn = 0;          ///< input bytes consumed so far (level 0)
 };
 
 /// What a finished prep reports.

@@ -129,8 +129,8 @@ std::vector<std::string> splitSpec(const std::string& spec) {
 const FieldInfo& findField(const std::string& spec, const std::string& name) {
   for (const FieldInfo& f : kFields)
     if (name == f.name) return f;
-  throw InputError("synthetic spec '" + spec + "': " +
-                   (name.empty() ? std::string("no field name") : "unknown field '" + name + "'") +
+  throw InputError("synthetic spec '" + spec +
+                   "': " + (name.empty() ? std::string("no field name") : "unknown field '" + name + "'") +
                    " (known: " + knownNames() + "; form NAME[,key=value...])");
 }
 
@@ -201,7 +201,8 @@ SyntheticField SyntheticField::parse(const std::string& spec) {
   switch (field.mKind) {
     case Kind::MarschnerLobb:
       field.mFm = args.real("fm", 6.0, positive, "> 0");
-      field.mAlpha = args.real("alpha", 0.25, [](double v) { return v >= 0; }, ">= 0");
+      field.mAlpha = args.real(
+          "alpha", 0.25, [](double v) { return v >= 0; }, ">= 0");
       break;
     case Kind::Shells:
       field.mCount = args.integer("count", 3, 1, 1000);
@@ -213,7 +214,8 @@ SyntheticField SyntheticField::parse(const std::string& spec) {
       break;
     }
     case Kind::Sparse: {
-      const double fill = args.real("fill", 0.03, [](double v) { return v > 0 && v <= 0.2; }, "in (0, 0.2]");
+      const double fill = args.real(
+          "fill", 0.03, [](double v) { return v > 0 && v <= 0.2; }, "in (0, 0.2]");
       const int64_t count = args.integer("count", 6, 1, 10000);
       if (!field.drawBalls(fill, count, static_cast<uint64_t>(args.integer("seed", 1, 0, INT64_MAX))))
         args.fail("could not place " + std::to_string(count) + " disjoint balls; lower fill or raise count");

@@ -97,11 +97,11 @@ class SyntheticField {
   std::string mName;
   Vec3i mDims;
   Vec3d mSpacing;
-  double mFm = 6.0, mAlpha = 0.25;   // marschner-lobb
-  int64_t mCount = 0;                // shells
-  double mWidth = 0.0;               // shells
-  std::vector<Bump> mBumps;          // blobs, sparse
-  std::vector<double> mAxis[3];      // normalised coordinate of every sample index along x, y, z
+  double mFm = 6.0, mAlpha = 0.25;  // marschner-lobb
+  int64_t mCount = 0;               // shells
+  double mWidth = 0.0;              // shells
+  std::vector<Bump> mBumps;         // blobs, sparse
+  std::vector<double> mAxis[3];     // normalised coordinate of every sample index along x, y, z
 };
 
 }  // namespace voxbrick::store

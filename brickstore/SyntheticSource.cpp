@@ -26,8 +26,8 @@ class SyntheticSource final : public VolumeSource {
   void readSlices(int64_t count, void* dst) override {
     const Vec3i& n = mInfo.dims;
     if (count < 0 || count > n.z - mNextZ)
-      throw InputError(mInfo.description + ": asked for " + std::to_string(count) + " slices at z = " +
-                       std::to_string(mNextZ) + ", but the volume has " + std::to_string(n.z));
+      throw InputError(mInfo.description + ": asked for " + std::to_string(count) +
+                       " slices at z = " + std::to_string(mNextZ) + ", but the volume has " + std::to_string(n.z));
     float* out = static_cast<float*>(dst);
     const int64_t z0 = mNextZ;
     // One task per row keeps the grain coarse enough for tbb yet fine enough to balance a single slice.

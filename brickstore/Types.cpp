@@ -37,8 +37,8 @@ ValueType parseValueType(std::string_view name) {
 }
 
 std::string toString(const BrickKey& key) {
-  return "brick (level " + std::to_string(key.level) + ", " + std::to_string(key.i) + ", " +
-         std::to_string(key.j) + ", " + std::to_string(key.k) + ")";
+  return "brick (level " + std::to_string(key.level) + ", " + std::to_string(key.i) + ", " + std::to_string(key.j) +
+         ", " + std::to_string(key.k) + ")";
 }
 
 std::string errnoMessage(const std::string& what) { return what + ": " + std::strerror(errno); }

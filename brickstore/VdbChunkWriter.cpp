@@ -44,9 +44,9 @@ void VdbChunkWriter::addSlices(int64_t z0, int64_t count, const void* values) {
     }
     const int64_t take = std::min(count, mChunkStart + mChunkSlices - z0);
     if (!mImpl->grid) mImpl->grid = openvdb::FloatGrid::create(static_cast<float>(mBackground));
-    openvdb::CoordBBox box(openvdb::Coord(0, 0, static_cast<int>(z0)),
-                           openvdb::Coord(static_cast<int>(n.x - 1), static_cast<int>(n.y - 1),
-                                          static_cast<int>(z0 + take - 1)));
+    openvdb::CoordBBox box(
+        openvdb::Coord(0, 0, static_cast<int>(z0)),
+        openvdb::Coord(static_cast<int>(n.x - 1), static_cast<int>(n.y - 1), static_cast<int>(z0 + take - 1)));
     dispatchType(mInfo.type, [&](auto tag) {
       using T = decltype(tag);
       // Dense wants a mutable pointer; copyFromDense only reads through it.

@@ -16,8 +16,7 @@ namespace voxbrick::store {
 /// as the optical model does ((i + 1/2 - n/2) * spacing), so the chunks together form one grid.
 class VdbChunkWriter {
  public:
-  VdbChunkWriter(const std::filesystem::path& storeDir, const VolumeInfo& info, double background,
-                 int64_t chunkSlices);
+  VdbChunkWriter(const std::filesystem::path& storeDir, const VolumeInfo& info, double background, int64_t chunkSlices);
   ~VdbChunkWriter();
 
   /// Adds `count` slices starting at z0 (the next ones in order) of the volume's type.

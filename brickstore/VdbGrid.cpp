@@ -62,8 +62,7 @@ openvdb::FloatGrid::Ptr chooseFloatGrid(const openvdb::GridPtrVec& grids, const 
   if (!chosen && gridName.empty()) throw InputError(path + ": has no float grid (grids: " + quotedList(grids) + ")");
   if (!chosen) throw InputError(path + ": has no grid named '" + gridName + "' (grids: " + quotedList(grids) + ")");
   if (!chosen->isType<openvdb::FloatGrid>())
-    throw InputError(path + ": grid '" + chosen->getName() + "' is " + chosen->valueType() +
-                     ", expected a float grid");
+    throw InputError(path + ": grid '" + chosen->getName() + "' is " + chosen->valueType() + ", expected a float grid");
   return openvdb::gridPtrCast<openvdb::FloatGrid>(chosen);
 }
 

@@ -13,10 +13,10 @@ namespace voxbrick::store {
 /// A float grid chosen from a .vdb file and the volume it stands for.
 struct VdbFloatGrid {
   openvdb::FloatGrid::Ptr grid;
-  openvdb::CoordBBox bbox;   ///< the volume: the active voxels' bounding box; voxel (0, 0, 0) is bbox.min()
-  Vec3i dims;                ///< bbox.dim()
-  Vec3d spacing;             ///< from the grid's transform, or options.spacing when given
-  std::string description;   ///< "OpenVDB grid 'NAME' NXxNYxNZ (FILE)", what prep records as the source
+  openvdb::CoordBBox bbox;  ///< the volume: the active voxels' bounding box; voxel (0, 0, 0) is bbox.min()
+  Vec3i dims;               ///< bbox.dim()
+  Vec3d spacing;            ///< from the grid's transform, or options.spacing when given
+  std::string description;  ///< "OpenVDB grid 'NAME' NXxNYxNZ (FILE)", what prep records as the source
 };
 
 /// Reads `path` whole (checking every read, so a truncated file is an error) and picks the grid named

@@ -53,8 +53,8 @@ void bricksReading(const Vec3i& lo, const Vec3i& hi, int64_t B, const Vec3i& bri
 
 /// The brick's (B+2)^3 samples from a block holding its voxels [lo, hi] (x fastest): sample a along x is voxel
 /// clamp(i*B + a - 1, 0, dims.x - 1), likewise y and z, as BrickStore promises.
-void gatherSamples(const float* block, const Vec3i& lo, const Vec3i& hi, const Vec3i& idx, int64_t B,
-                   const Vec3i& dims, float* dst) {
+void gatherSamples(const float* block, const Vec3i& lo, const Vec3i& hi, const Vec3i& idx, int64_t B, const Vec3i& dims,
+                   float* dst) {
   const int64_t E = B + 2, sx = hi.x - lo.x + 1, sy = hi.y - lo.y + 1;
   std::array<int64_t, kMaxBrickSize + 2> ox{}, oy{}, oz{};
   for (int64_t a = 0; a < E; ++a) {
@@ -141,8 +141,8 @@ struct Topology {
     return true;
   }
 
-  openvdb::Coord origin;       // grid coordinate of volume voxel (0, 0, 0)
-  openvdb::CoordBBox volume;   // the volume in grid coordinates
+  openvdb::Coord origin;      // grid coordinate of volume voxel (0, 0, 0)
+  openvdb::CoordBBox volume;  // the volume in grid coordinates
   std::vector<const Leaf*> leaves;
   std::vector<Tile> tiles;
   int64_t nonFiniteTileVoxels = 0;
@@ -457,8 +457,8 @@ void VdbStore::readStored(const BrickKey& key, void* dst, const BrickSamplesFetc
         const int64_t y0 = 2 * y - flo.y, y1 = std::min(2 * y + 1, nf.y - 1) - flo.y;
         float* out = block.data() + sx * ((y - lo.y) + sy * (z - lo.z));
         for (int64_t x = lo.x; x <= hi.x; ++x)
-          *out++ = DownsampleSource::downsample(p0, p1, wx, 2 * x - flo.x, std::min(2 * x + 1, nf.x - 1) - flo.x, y0,
-                                                y1);
+          *out++ =
+              DownsampleSource::downsample(p0, p1, wx, 2 * x - flo.x, std::min(2 * x + 1, nf.x - 1) - flo.x, y0, y1);
       }
     }
   }

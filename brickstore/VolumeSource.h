@@ -14,12 +14,12 @@ class SyntheticField;
 
 /// What a source knows about its volume before any voxel is read.
 struct VolumeInfo {
-  Vec3i dims;                  ///< voxels along x, y, z; all > 0
-  Vec3d spacing;               ///< physical voxel size; all > 0 and finite
+  Vec3i dims;                       ///< voxels along x, y, z; all > 0
+  Vec3d spacing;                    ///< physical voxel size; all > 0 and finite
   ValueType type = ValueType::F32;  ///< type of the slices readSlices() delivers
-  double background = 0.0;     ///< value of empty space (a VDB grid's background; 0 for dense files)
-  std::string description;     ///< one line for logs, e.g. "NRRD uint16 gzip 256x256x128"
-  Orientation orientation;     ///< index-to-world (RAS); identity for inputs without a patient frame
+  double background = 0.0;          ///< value of empty space (a VDB grid's background; 0 for dense files)
+  std::string description;          ///< one line for logs, e.g. "NRRD uint16 gzip 256x256x128"
+  Orientation orientation;          ///< index-to-world (RAS); identity for inputs without a patient frame
 };
 
 /// A volume delivered in order, z-slice by z-slice, so that files larger than memory stream through a bounded
@@ -42,14 +42,14 @@ class VolumeSource {
 
 /// Options a user gives prep for inputs whose files do not describe themselves (raw) or to override them.
 struct SourceOptions {
-  Vec3i dims;                      ///< raw: required
-  std::string type;                ///< raw: required ("u8", "u16", "i16", "f32")
-  Vec3d spacing;                   ///< raw: default 1,1,1
-  bool spacingGiven = false;       ///< true if spacing overrides the file's own
-  bool bigEndian = false;          ///< raw: byte order of the file
-  int64_t headerBytes = 0;         ///< raw: bytes to skip before the voxels
-  std::string gridName;            ///< vdb: grid to read (default: the first float grid)
-  std::string seriesUid;           ///< dicom: the SeriesInstanceUID to read when the input holds several
+  Vec3i dims;                 ///< raw: required
+  std::string type;           ///< raw: required ("u8", "u16", "i16", "f32")
+  Vec3d spacing;              ///< raw: default 1,1,1
+  bool spacingGiven = false;  ///< true if spacing overrides the file's own
+  bool bigEndian = false;     ///< raw: byte order of the file
+  int64_t headerBytes = 0;    ///< raw: bytes to skip before the voxels
+  std::string gridName;       ///< vdb: grid to read (default: the first float grid)
+  std::string seriesUid;      ///< dicom: the SeriesInstanceUID to read when the input holds several
 };
 
 /// Opens INPUT by its form: "synthetic:NAME[,k=v...]", *.vdb, *.nrrd / *.nhdr, *.nii / *.nii.gz, a DICOM file

@@ -17,10 +17,10 @@
 #include "quality/Calibration.h"
 #include "quality/SettingChoice.h"
 #include "quality/SweepRun.h"
-#include "render/gl/GlContext.h"
 #include "render/core/Quality.h"
 #include "render/core/Scene.h"
 #include "render/core/TransferFunction.h"
+#include "render/gl/GlContext.h"
 
 namespace voxbrick::cli {
 namespace {
@@ -237,8 +237,8 @@ void runGridSweep(const BenchArgs& a, const CLI::App& cmd, const quality::SweepS
     std::fprintf(stderr, "bench: %s; at most %zu points\n", context->describe().c_str(), spec.plannedPoints());
   // A calibration keeps its reference frames in a temporary directory unless --work names one.
   const bool temporaryWork = !a.calibrate.empty() && !cmd.count("--work");
-  const fs::path work = temporaryWork ? fs::temp_directory_path() / ("voxbrick-calibrate-" + std::to_string(getpid()))
-                                      : fs::path(a.work);
+  const fs::path work =
+      temporaryWork ? fs::temp_directory_path() / ("voxbrick-calibrate-" + std::to_string(getpid())) : fs::path(a.work);
   const quality::SweepResult result = quality::runSweep(spec, work, *context, [&](const std::string& line) {
     if (!a.quiet) std::fprintf(stderr, "bench: %s\n", line.c_str());
   });
@@ -285,11 +285,12 @@ void addBenchCommand(CLI::App& app) {
                   "steps 0.35-3 with and without ERT, sub-blocks, LOD and pre-integration, and slicing, against the "
                   "reference, written to its quality.json (FILE.quality.json beside a .vdb); the sweep's files only "
                   "with --out");
-  cmd->add_option("--mesh", args->meshes,
-                  "sweep tetrahedral meshes instead of the grids (repeatable): a mesh store, a .vtk or .msh file, or "
-                  "synthetic-mesh:SPEC; visibility mpvo and centroid, with and without empty-space skipping, and the ray "
-                  "caster with and without ert 0.999, against the exact reference, into mesh-sweep.{csv,md,svg} "
-                  "(default --tf hot, 4 views)");
+  cmd->add_option(
+      "--mesh", args->meshes,
+      "sweep tetrahedral meshes instead of the grids (repeatable): a mesh store, a .vtk or .msh file, or "
+      "synthetic-mesh:SPEC; visibility mpvo and centroid, with and without empty-space skipping, and the ray "
+      "caster with and without ert 0.999, against the exact reference, into mesh-sweep.{csv,md,svg} "
+      "(default --tf hot, 4 views)");
   cmd->add_option("--tf", args->tfs,
                   "--calibrate and --mesh: transfer functions to measure, comma-separated presets or files (default "
                   "grayscale; hot with --mesh)")

@@ -26,8 +26,8 @@ void runCompare(const CompareArgs& args) {
   const double scale = args.heatmapScale > 0 ? args.heatmapScale : (e.maxAbs > 0 ? e.maxAbs : 1.0);
   if (!args.heatmap.empty()) image::writeImage(args.heatmap, image::toImage8(image::differenceHeatmap(a, b, scale)));
   if (args.json) {
-    nlohmann::json j = {{"a", args.a},       {"b", args.b},         {"width", a.width}, {"height", a.height},
-                        {"rmse", e.rmse},    {"max_abs", e.maxAbs}, {"identical", e.maxAbs == 0}};
+    nlohmann::json j = {{"a", args.a},    {"b", args.b},         {"width", a.width},          {"height", a.height},
+                        {"rmse", e.rmse}, {"max_abs", e.maxAbs}, {"identical", e.maxAbs == 0}};
     // JSON has no infinity: identical images have "psnr": null.
     j["psnr"] = std::isfinite(e.psnr) ? nlohmann::json(e.psnr) : nlohmann::json(nullptr);
     if (!args.heatmap.empty()) j["heatmap"] = {{"file", args.heatmap}, {"scale", scale}};
@@ -37,15 +37,15 @@ void runCompare(const CompareArgs& args) {
   char psnr[32] = "inf";
   if (std::isfinite(e.psnr)) std::snprintf(psnr, sizeof(psnr), "%.2f", e.psnr);
   std::printf("compare: %dx%d  rmse %.6g  psnr %s dB  max_abs %.6g\n", a.width, a.height, e.rmse, psnr, e.maxAbs);
-  if (!args.heatmap.empty())
-    std::printf("compare: wrote %s (white = |diff| >= %.6g)\n", args.heatmap.c_str(), scale);
+  if (!args.heatmap.empty()) std::printf("compare: wrote %s (white = |diff| >= %.6g)\n", args.heatmap.c_str(), scale);
 }
 
 }  // namespace
 
 void addCompareCommand(CLI::App& app) {
   auto args = std::make_shared<CompareArgs>();
-  CLI::App* cmd = app.add_subcommand("compare", "Image error between two PNGs: RMSE, PSNR, max |diff| on RGB in [0, 1]");
+  CLI::App* cmd =
+      app.add_subcommand("compare", "Image error between two PNGs: RMSE, PSNR, max |diff| on RGB in [0, 1]");
   cmd->add_option("a", args->a, "first image (PNG or JPEG)")->required();
   cmd->add_option("b", args->b, "second PNG (same size)")->required();
   cmd->add_option("--heatmap", args->heatmap, "write a PNG of where the images differ (per-pixel max |diff|)");

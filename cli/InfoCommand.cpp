@@ -46,20 +46,20 @@ void runMeshInfo(const InfoArgs& a) {
     return;
   }
   const mesh::MeshStoreInfo& i = s.info();
-  const nlohmann::json j = {{"path", a.store},
-                            {"kind", "tet-mesh"},
-                            {"source", i.source},
-                            {"field", i.field},
-                            {"points", i.vertexCount},
-                            {"tets", i.tetCount},
-                            {"boundary_faces", i.boundaryFaceCount},
-                            {"chunks", i.chunkCount},
-                            {"tets_per_chunk", i.tetsPerChunk},
-                            {"bounds", {{i.boundsMin.x, i.boundsMin.y, i.boundsMin.z},
-                                        {i.boundsMax.x, i.boundsMax.y, i.boundsMax.z}}},
-                            {"value_range", {i.scalarMin, i.scalarMax}},
-                            {"bytes_raw", i.bytesRaw},
-                            {"bytes_stored", i.bytesStored}};
+  const nlohmann::json j = {
+      {"path", a.store},
+      {"kind", "tet-mesh"},
+      {"source", i.source},
+      {"field", i.field},
+      {"points", i.vertexCount},
+      {"tets", i.tetCount},
+      {"boundary_faces", i.boundaryFaceCount},
+      {"chunks", i.chunkCount},
+      {"tets_per_chunk", i.tetsPerChunk},
+      {"bounds", {{i.boundsMin.x, i.boundsMin.y, i.boundsMin.z}, {i.boundsMax.x, i.boundsMax.y, i.boundsMax.z}}},
+      {"value_range", {i.scalarMin, i.scalarMax}},
+      {"bytes_raw", i.bytesRaw},
+      {"bytes_stored", i.bytesStored}};
   std::printf("%s\n", j.dump(2).c_str());
 }
 
@@ -70,9 +70,8 @@ void runInfo(const InfoArgs& a) {
   const store::StoreMeta& m = s->meta();
   int64_t total = 0, stored = 0;
   for (const auto& l : m.levels) total += l.bricksTotal(), stored += l.bricksStored;
-  const double emptyFraction = m.levels[0].bricksTotal() > 0
-                                   ? 1.0 - double(m.levels[0].bricksStored) / double(m.levels[0].bricksTotal())
-                                   : 0.0;
+  const double emptyFraction =
+      m.levels[0].bricksTotal() > 0 ? 1.0 - double(m.levels[0].bricksStored) / double(m.levels[0].bricksTotal()) : 0.0;
   const double ratio = m.bytesStored > 0 ? double(m.bytesRaw) / double(m.bytesStored) : 0.0;
 
   if (a.json) {
@@ -90,8 +89,11 @@ void runInfo(const InfoArgs& a) {
                         {"letters", store::axesLetters(m.orientation)}};
     if (live) {
       const store::VdbOpenStats& o = live->openStats();
-      j["open"] = {{"read_s", o.readSeconds}, {"scan_s", o.scanSeconds}, {"leaf_nodes", o.leafNodes},
-                   {"tiles", o.tiles}, {"bricks_scanned", o.bricksScanned}};
+      j["open"] = {{"read_s", o.readSeconds},
+                   {"scan_s", o.scanSeconds},
+                   {"leaf_nodes", o.leafNodes},
+                   {"tiles", o.tiles},
+                   {"bricks_scanned", o.bricksScanned}};
     }
     std::printf("%s\n", j.dump(2).c_str());
     return;
@@ -101,8 +103,8 @@ void runInfo(const InfoArgs& a) {
   std::printf("dims         %s voxels, spacing %g x %g x %g, type %s\n", dimsText(m.dims).c_str(), m.spacing.x,
               m.spacing.y, m.spacing.z, std::string(store::valueTypeName(m.type)).c_str());
   std::printf("orientation  %s\n", m.orientation == store::Orientation{}
-                                        ? "none stated (the box is centred on the origin)"
-                                        : store::orientationText(m.orientation).c_str());
+                                       ? "none stated (the box is centred on the origin)"
+                                       : store::orientationText(m.orientation).c_str());
   std::printf("values       [%g, %g], background %g, %lld active voxels (%.1f%%)\n", m.valueMin, m.valueMax,
               m.background, static_cast<long long>(m.activeVoxels),
               100.0 * double(m.activeVoxels) / double(m.dims.volume()));
@@ -128,13 +130,17 @@ void runInfo(const InfoArgs& a) {
   }
   if (live) {
     const store::VdbOpenStats& o = live->openStats();
-    std::printf("empty        %.1f%% of level-0 bricks hold only the background; levels >= 1 count the bricks over "
-                "data (from the topology)\n", 100 * emptyFraction);
+    std::printf(
+        "empty        %.1f%% of level-0 bricks hold only the background; levels >= 1 count the bricks over "
+        "data (from the topology)\n",
+        100 * emptyFraction);
     std::printf("size         %s raw, %s OpenVDB file, nothing stored: bricks are extracted from the tree on demand\n",
                 formatBytes(double(m.bytesRaw)).c_str(), formatBytes(double(m.bytesVdb)).c_str());
-    std::printf("open         %.3f s reading the file, %.3f s scanning the tree (%lld leaf nodes, %lld tiles, %lld of "
-                "%lld level-0 bricks extracted)\n", o.readSeconds, o.scanSeconds, (long long)o.leafNodes,
-                (long long)o.tiles, (long long)o.bricksScanned, (long long)m.levels[0].bricksTotal());
+    std::printf(
+        "open         %.3f s reading the file, %.3f s scanning the tree (%lld leaf nodes, %lld tiles, %lld of "
+        "%lld level-0 bricks extracted)\n",
+        o.readSeconds, o.scanSeconds, (long long)o.leafNodes, (long long)o.tiles, (long long)o.bricksScanned,
+        (long long)m.levels[0].bricksTotal());
     return;
   }
   std::printf("empty        %.1f%% of level-0 bricks are empty (not stored)\n", 100 * emptyFraction);

@@ -25,7 +25,7 @@ using nlohmann::json;
 struct Tally {
   std::mutex mutex;
   std::vector<double> latencies;
-  std::vector<double> renderMs;  ///< the renderer's own frame time (frame statistics), well-behaved clients
+  std::vector<double> renderMs;      ///< the renderer's own frame time (frame statistics), well-behaved clients
   std::vector<double> renderMsWarm;  ///< the same without each client's first frame (which pages its bricks in)
   int64_t frames = 0, errors = 0, superseded = 0;
   std::vector<std::string> errorSamples;
@@ -123,8 +123,8 @@ void dragClient(const LoadArgs& a, const std::string& host, int port, int width,
     for (int n = 0; Clock::now() < deadline; ++n) {
       {
         std::lock_guard lock(mutex);
-        const uint32_t id = c.send(proto::RenderRequest{proto::Encoding::ZstdRgba8,
-                                                        sceneJson(a, width, height, 10.0 * index + 2.0 * n)});
+        const uint32_t id = c.send(
+            proto::RenderRequest{proto::Encoding::ZstdRgba8, sceneJson(a, width, height, 10.0 * index + 2.0 * n)});
         sent[id] = Clock::now();
       }
       next += std::chrono::duration_cast<Clock::duration>(period);
@@ -217,38 +217,38 @@ json faultCounts(const Tally& tally, int64_t& unexpected) {
 
 json loadReport(const LoadArgs& a, const Tally& tally, double seconds, int width, int height, const json& faults,
                 const json& server) {
-  return {{"clients", a.clients},
-          {"fault_clients", a.faultClients},
-          {"idle_sessions", a.idleSessions},
-          {"duration_s", seconds},
-          {"size", {width, height}},
-          {"frames", tally.frames},
-          {"frames_per_s", double(tally.frames) / seconds},
-          {"errors", tally.errors},
-          {"superseded", tally.superseded},
-          {"drag_hz", a.dragHz},
-          {"error_samples", tally.errorSamples},
-          {"latency_ms", {{"p50", percentile(tally.latencies, 0.5)},
-                          {"p95", percentile(tally.latencies, 0.95)},
-                          {"p99", percentile(tally.latencies, 0.99)},
-                          {"max", percentile(tally.latencies, 1.0)}}},
-          {"render_ms_p50", percentile(tally.renderMs, 0.5)},
-          // Over the orbit the clients turn through (warm frames): the slowest frame against the fastest.
-          {"warm_render_ms",
-           {{"min", percentile(tally.renderMsWarm, 0.0)}, {"max", percentile(tally.renderMsWarm, 1.0)}}},
-          {"frame_rate_min_over_max", frameRateRatio(tally.renderMsWarm)},
-          {"faults", faults},
-          {"server", server}};
+  return {
+      {"clients", a.clients},
+      {"fault_clients", a.faultClients},
+      {"idle_sessions", a.idleSessions},
+      {"duration_s", seconds},
+      {"size", {width, height}},
+      {"frames", tally.frames},
+      {"frames_per_s", double(tally.frames) / seconds},
+      {"errors", tally.errors},
+      {"superseded", tally.superseded},
+      {"drag_hz", a.dragHz},
+      {"error_samples", tally.errorSamples},
+      {"latency_ms",
+       {{"p50", percentile(tally.latencies, 0.5)},
+        {"p95", percentile(tally.latencies, 0.95)},
+        {"p99", percentile(tally.latencies, 0.99)},
+        {"max", percentile(tally.latencies, 1.0)}}},
+      {"render_ms_p50", percentile(tally.renderMs, 0.5)},
+      // Over the orbit the clients turn through (warm frames): the slowest frame against the fastest.
+      {"warm_render_ms", {{"min", percentile(tally.renderMsWarm, 0.0)}, {"max", percentile(tally.renderMsWarm, 1.0)}}},
+      {"frame_rate_min_over_max", frameRateRatio(tally.renderMsWarm)},
+      {"faults", faults},
+      {"server", server}};
 }
 
 void printSummary(const LoadArgs& a, const Tally& tally, double seconds, int64_t unexpected, const json& server) {
-  std::printf("load: %d clients (+%d faulty, %d idle) for %.1f s: %lld frames, %.1f frames/s, latency p50 %.1f "
-              "p95 %.1f p99 %.1f max %.1f ms, %lld superseded, %lld errors, %lld unexpected fault replies",
-              a.clients, a.faultClients, a.idleSessions, seconds, (long long)tally.frames,
-              double(tally.frames) / seconds, percentile(tally.latencies, 0.5), percentile(tally.latencies, 0.95),
-              percentile(tally.latencies, 0.99), percentile(tally.latencies, 1.0), (long long)tally.superseded,
-              (long long)tally.errors,
-              (long long)unexpected);
+  std::printf(
+      "load: %d clients (+%d faulty, %d idle) for %.1f s: %lld frames, %.1f frames/s, latency p50 %.1f "
+      "p95 %.1f p99 %.1f max %.1f ms, %lld superseded, %lld errors, %lld unexpected fault replies",
+      a.clients, a.faultClients, a.idleSessions, seconds, (long long)tally.frames, double(tally.frames) / seconds,
+      percentile(tally.latencies, 0.5), percentile(tally.latencies, 0.95), percentile(tally.latencies, 0.99),
+      percentile(tally.latencies, 1.0), (long long)tally.superseded, (long long)tally.errors, (long long)unexpected);
   if (!tally.renderMsWarm.empty())
     std::printf(", warm frames %.1f-%.1f ms (min/max frame rate 1:%.2f)", percentile(tally.renderMsWarm, 0.0),
                 percentile(tally.renderMsWarm, 1.0), 1 / frameRateRatio(tally.renderMsWarm));
@@ -290,8 +290,8 @@ void runLoad(const LoadArgs& a) {
     writeText(a.jsonPath, loadReport(a, tally, seconds, width, height, faultsDone, server).dump(2) + "\n");
   if (a.requireClean && (tally.errors > 0 || unexpected > 0 || tally.frames == 0))
     throw std::runtime_error("the run was not clean: " + std::to_string(tally.errors) + " errors, " +
-                             std::to_string(unexpected) + " unexpected fault replies, " +
-                             std::to_string(tally.frames) + " frames");
+                             std::to_string(unexpected) + " unexpected fault replies, " + std::to_string(tally.frames) +
+                             " frames");
 }
 
 }  // namespace
@@ -318,7 +318,8 @@ void addLoadCommand(CLI::App& app) {
   cmd->add_option("--idle-sessions", a->idleSessions, "sessions opened and left silent")->check(between(0, 100000));
   cmd->add_option("--drag", a->dragHz,
                   "clients send a new camera this many times a second without waiting (a camera drag); latency "
-                  "is then the age of the camera each frame shows")->check(between(0.0, 1000.0));
+                  "is then the age of the camera each frame shows")
+      ->check(between(0.0, 1000.0));
   cmd->add_option("--json", a->jsonPath, "write the report as JSON");
   cmd->add_flag("--require-clean", a->requireClean,
                 "exit non-zero unless every good request succeeded and every fault got its documented reply");

@@ -93,7 +93,7 @@ bool trickleFault(client::Client& c, FaultRun& r) {
 /// A Render one byte short of its declared string: answered Malformed, and the session goes on.
 bool malformedFault(client::Client& c, FaultRun&) {
   std::vector<uint8_t> bytes = proto::encode(proto::RenderRequest{proto::Encoding::Png, "{}"}, 99);
-  bytes.pop_back();  // one byte short of its declared string
+  bytes.pop_back();                                         // one byte short of its declared string
   bytes[12] = uint8_t(bytes.size() - proto::kHeaderBytes);  // body length matches what is sent
   c.sendBytes(bytes);
   auto [id, m] = c.receive();

@@ -7,10 +7,10 @@
 #include "cli/SceneOptions.h"
 #include "image/ImageFile.h"
 #include "render/core/Dataset.h"
-#include "render/engine/RenderEngine.h"
 #include "render/core/RenderErrors.h"
 #include "render/core/Scene.h"
 #include "render/datasets/Datasets.h"
+#include "render/engine/RenderEngine.h"
 
 namespace voxbrick::cli {
 namespace {
@@ -28,7 +28,8 @@ struct OrbitArgs {
 std::string framePath(const std::string& pattern, int index) {
   static const std::regex kOne(R"(^[^%]*%0?[0-9]*d[^%]*$)");
   if (!std::regex_match(pattern, kOne))
-    throw render::RenderInputError("-o '" + pattern + "': expected a pattern with one frame number, e.g. "
+    throw render::RenderInputError("-o '" + pattern +
+                                   "': expected a pattern with one frame number, e.g. "
                                    "frames/f%03d.png");
   char path[4096];
   std::snprintf(path, sizeof path, pattern.c_str(), index);
@@ -68,8 +69,9 @@ void runOrbit(const OrbitArgs& a, const CLI::App& cmd) {
     const std::string path = framePath(a.pattern, i);
     image::writeImage(path, image::toImage8(frame), {a.jpegQuality});
     totalMs += stats.msTotal;
-    if (!a.quiet) std::fprintf(stderr, "orbit: frame %d/%d, azimuth %g, %.1f ms\n", i + 1, a.frames,
-                               scene.camera.azimuth, stats.msTotal);
+    if (!a.quiet)
+      std::fprintf(stderr, "orbit: frame %d/%d, azimuth %g, %.1f ms\n", i + 1, a.frames, scene.camera.azimuth,
+                   stats.msTotal);
   }
   std::printf("orbit: wrote %d frames (%dx%d) to %s, %.1f ms a frame\n", a.frames, scene.width, scene.height,
               a.pattern.c_str(), totalMs / a.frames);
@@ -96,9 +98,11 @@ void addOrbitCommand(CLI::App& app) {
   addSceneOptions(cmd, a->scene);
   cmd->add_option("--backend", a->backend, "auto, egl or osmesa")->capture_default_str();
   cmd->add_option("--gpu-budget", a->gpuBudgetMB, "MB of GPU memory for the brick atlas")
-      ->capture_default_str()->check(between(16, 1 << 22, "MB"));
+      ->capture_default_str()
+      ->check(between(16, 1 << 22, "MB"));
   cmd->add_option("--host-budget", a->hostBudgetMB, "MB of host memory for decoded bricks")
-      ->capture_default_str()->check(between(0, 1 << 22, "MB"));
+      ->capture_default_str()
+      ->check(between(0, 1 << 22, "MB"));
   cmd->add_flag("-q,--quiet", a->quiet, "no progress lines");
   cmd->callback([a, cmd] {
     keepFreedMemoryForFrames();

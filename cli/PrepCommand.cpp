@@ -68,13 +68,14 @@ void runMeshPrep(const PrepArgs& a) {
   const mesh::MeshStoreInfo info = mesh::writeMeshStore(m, topology, a.output, options);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (repairs.flipped + repairs.removedDegenerate + repairs.unreferencedVertices > 0)
-    std::fprintf(stderr, "prep: repaired: %zu inverted tets flipped, %zu degenerate tets removed, %zu points no tet uses\n",
-                repairs.flipped, repairs.removedDegenerate, repairs.unreferencedVertices);
-  std::printf("prep: wrote mesh store %s: %llu tets, %llu points, %llu boundary faces, field '%s' in [%g, %g], "
-              "%u chunks\n",
-              a.output.c_str(), (unsigned long long)info.tetCount, (unsigned long long)info.vertexCount,
-              (unsigned long long)info.boundaryFaceCount, info.field.c_str(), info.scalarMin, info.scalarMax,
-              info.chunkCount);
+    std::fprintf(stderr,
+                 "prep: repaired: %zu inverted tets flipped, %zu degenerate tets removed, %zu points no tet uses\n",
+                 repairs.flipped, repairs.removedDegenerate, repairs.unreferencedVertices);
+  std::printf(
+      "prep: wrote mesh store %s: %llu tets, %llu points, %llu boundary faces, field '%s' in [%g, %g], "
+      "%u chunks\n",
+      a.output.c_str(), (unsigned long long)info.tetCount, (unsigned long long)info.vertexCount,
+      (unsigned long long)info.boundaryFaceCount, info.field.c_str(), info.scalarMin, info.scalarMax, info.chunkCount);
   std::printf("prep: %s raw, %s stored (%.2fx, %.1f bytes a tet), %.2f s\n", formatBytes(double(info.bytesRaw)).c_str(),
               formatBytes(double(info.bytesStored)).c_str(),
               info.bytesStored > 0 ? double(info.bytesRaw) / double(info.bytesStored) : 0.0,
@@ -136,12 +137,12 @@ void printPrepSummary(const PrepArgs& a, const store::PrepSummary& summary) {
   for (const auto& l : m.levels) total += l.bricksTotal(), stored += l.bricksStored;
   if (m.quantisation)
     std::fprintf(stderr, "prep: quantised [%.9g, %.9g] to %s (a step is %.3g); %lld voxels outside the range clamped\n",
-                m.quantisation->lo, m.quantisation->hi, std::string(store::valueTypeName(m.type)).c_str(),
-                (m.quantisation->hi - m.quantisation->lo) / m.quantisation->steps(),
-                static_cast<long long>(m.quantisationClamped));
+                 m.quantisation->lo, m.quantisation->hi, std::string(store::valueTypeName(m.type)).c_str(),
+                 (m.quantisation->hi - m.quantisation->lo) / m.quantisation->steps(),
+                 static_cast<long long>(m.quantisationClamped));
   if (m.nonFiniteReplaced > 0)
     std::fprintf(stderr, "prep: non-finite voxels: %lld NaN/Inf values replaced by the background %g\n",
-                static_cast<long long>(m.nonFiniteReplaced), m.background);
+                 static_cast<long long>(m.nonFiniteReplaced), m.background);
   std::printf("prep: wrote %s: %lldx%lldx%lld %s, %zu levels, %lld of %lld bricks stored\n", a.output.c_str(),
               static_cast<long long>(m.dims.x), static_cast<long long>(m.dims.y), static_cast<long long>(m.dims.z),
               std::string(store::valueTypeName(m.type)).c_str(), m.levels.size(), static_cast<long long>(stored),
@@ -209,8 +210,7 @@ void addPrepCommand(CLI::App& app) {
   cmd->add_option("--header-bytes", args->headerBytes, "raw: bytes to skip before the voxels")
       ->check(between(0, 1e15, "bytes"));
   cmd->add_option("--grid", args->grid, "vdb: name of the float grid (default: the first)");
-  cmd->add_option("--series", args->series,
-                  "dicom: the SeriesInstanceUID to read when the input holds several series");
+  cmd->add_option("--series", args->series, "dicom: the SeriesInstanceUID to read when the input holds several series");
   cmd->add_option("--brick", args->options.brickSize, "brick size B (power of two, 8..256)")
       ->capture_default_str()
       ->check(between(8, 256, "voxels"));

@@ -56,11 +56,12 @@ void printJson(const render::TransferFunctionPresets& presets) {
     nlohmann::json points = nlohmann::json::array();
     for (const auto& p : tf.points()) points.push_back({p.x, p.rgba.r, p.rgba.g, p.rgba.b, p.rgba.a});
     const auto& file = presets.file(name);
-    list.push_back({{"name", name},
-                    {"built_in", !file},
-                    {"file", file ? nlohmann::json(file->string()) : nlohmann::json(nullptr)},
-                    {"reference_length", tf.referenceLength() ? nlohmann::json(*tf.referenceLength()) : nlohmann::json(nullptr)},
-                    {"points", points}});
+    list.push_back(
+        {{"name", name},
+         {"built_in", !file},
+         {"file", file ? nlohmann::json(file->string()) : nlohmann::json(nullptr)},
+         {"reference_length", tf.referenceLength() ? nlohmann::json(*tf.referenceLength()) : nlohmann::json(nullptr)},
+         {"points", points}});
   }
   std::printf("%s\n", list.dump(2).c_str());
 }

@@ -8,7 +8,9 @@
 namespace voxbrick::cli {
 
 Progress::Progress(bool quiet)
-    : mQuiet(quiet), mTerminal(isatty(STDERR_FILENO) != 0), mStart(std::chrono::steady_clock::now()),
+    : mQuiet(quiet),
+      mTerminal(isatty(STDERR_FILENO) != 0),
+      mStart(std::chrono::steady_clock::now()),
       mLastLine(mStart) {}
 
 void Progress::update(const std::string& stage, int64_t done, int64_t total, int64_t bytesIn) {
@@ -58,8 +60,7 @@ void Progress::elapsed(const std::string& stage) {
 ElapsedTicker::ElapsedTicker(Progress& progress, std::string stage)
     : mThread([this, &progress, stage = std::move(stage)] {
         std::unique_lock lock(mMutex);
-        while (!mWake.wait_for(lock, std::chrono::milliseconds(250), [this] { return mDone; }))
-          progress.elapsed(stage);
+        while (!mWake.wait_for(lock, std::chrono::milliseconds(250), [this] { return mDone; })) progress.elapsed(stage);
       }) {}
 
 ElapsedTicker::~ElapsedTicker() {

@@ -8,13 +8,13 @@
 #include "cli/SceneOptions.h"
 #include "image/ImageFile.h"
 #include "render/core/Dataset.h"
-#include "render/tets/TetMeshDataset.h"
-#include "render/reference/TetReference.h"
-#include "render/reference/ReferenceRenderer.h"
-#include "render/engine/RenderEngine.h"
 #include "render/core/RenderErrors.h"
 #include "render/core/Scene.h"
 #include "render/datasets/Datasets.h"
+#include "render/engine/RenderEngine.h"
+#include "render/reference/ReferenceRenderer.h"
+#include "render/reference/TetReference.h"
+#include "render/tets/TetMeshDataset.h"
 #include "render/volume/BrickStoreDataset.h"
 
 namespace voxbrick::cli {
@@ -43,7 +43,8 @@ image::ImageF withProgress(const RenderArgs& a, const render::Scene& scene, Draw
   Progress progress(a.quiet);
   image::ImageF image;
   {
-    ElapsedTicker ticker(progress, "render: drawing " + std::to_string(scene.width) + "x" + std::to_string(scene.height));
+    ElapsedTicker ticker(progress,
+                         "render: drawing " + std::to_string(scene.width) + "x" + std::to_string(scene.height));
     image = draw();
   }
   progress.finish();
@@ -67,9 +68,13 @@ void runTetReference(const RenderArgs& a, const render::Scene& scene, const rend
   });
   writeFrame(a, a.output, image);
   if (!a.statsPath.empty())
-    writeText(a.statsPath, nlohmann::json{{"rays", stats.rays}, {"segments", stats.segments},
-                                          {"tet_tests", stats.tetTests}, {"ambiguous", stats.ambiguous},
-                                          {"ms", stats.ms}}.dump(2) + "\n");
+    writeText(a.statsPath, nlohmann::json{{"rays", stats.rays},
+                                          {"segments", stats.segments},
+                                          {"tet_tests", stats.tetTests},
+                                          {"ambiguous", stats.ambiguous},
+                                          {"ms", stats.ms}}
+                                   .dump(2) +
+                               "\n");
   std::printf("render: wrote %s (%dx%d) with the exact tet reference: %lld rays, %lld segments, %.1f ms\n",
               a.output.c_str(), scene.width, scene.height, (long long)stats.rays, (long long)stats.segments, stats.ms);
 }
@@ -88,8 +93,12 @@ void runReference(const RenderArgs& a, const render::Scene& scene, const render:
   const image::ImageF image = withProgress(a, scene, [&] { return renderer.render(scene, options, &stats); });
   writeFrame(a, a.output, image);
   if (!a.statsPath.empty())
-    writeText(a.statsPath, nlohmann::json{{"rays", stats.rays}, {"samples", stats.samples},
-                                          {"bricks_skipped", stats.bricksSkipped}, {"ms", stats.ms}}.dump(2) + "\n");
+    writeText(
+        a.statsPath,
+        nlohmann::json{
+            {"rays", stats.rays}, {"samples", stats.samples}, {"bricks_skipped", stats.bricksSkipped}, {"ms", stats.ms}}
+                .dump(2) +
+            "\n");
   std::printf("render: wrote %s (%dx%d) with the reference (%s, step %g voxels): %lld rays, %lld samples, %.1f ms\n",
               a.output.c_str(), scene.width, scene.height, options.analytic ? "analytic field" : "trilinear grid",
               options.step, (long long)stats.rays, (long long)stats.samples, stats.ms);
@@ -116,8 +125,8 @@ nlohmann::json renderProvisional(const RenderArgs& a, render::RenderEngine& engi
   if (first.bricksStandIn > 0) {
     const std::string path = provisionalPath(a.output);
     writeFrame(a, path, provisional);
-    std::printf("render: wrote %s, the provisional frame: %lld of %lld bricks stood in, %.1f ms\n",
-                path.c_str(), (long long)first.bricksStandIn, (long long)first.bricksDrawn, first.msTotal);
+    std::printf("render: wrote %s, the provisional frame: %lld of %lld bricks stood in, %.1f ms\n", path.c_str(),
+                (long long)first.bricksStandIn, (long long)first.bricksDrawn, first.msTotal);
   }
   return first.toJson();
 }
@@ -128,8 +137,8 @@ void printQualityChoice(const render::FrameStats& stats) {
   const auto& q = stats.quality;
   std::printf("render: quality %s chose %s (%s; measured worst view %.1f dB, %.0f ms expected at this size)%s\n",
               q["target"].get<std::string>().c_str(), q["setting"].get<std::string>().c_str(),
-              q["basis"].get<std::string>().c_str(), q["expected_psnr"].get<double>(),
-              q["expected_ms"].get<double>(), q["met"].get<bool>() ? "" : "; NO setting meets the target: the closest");
+              q["basis"].get<std::string>().c_str(), q["expected_psnr"].get<double>(), q["expected_ms"].get<double>(),
+              q["met"].get<bool>() ? "" : "; NO setting meets the target: the closest");
 }
 
 /// The line (or lines) about the frame written: a paged mesh's paging, then the mesh's or the grid's counts and times.
@@ -143,36 +152,40 @@ void printFrameSummary(const RenderArgs& a, const render::Scene& scene, const re
   }
   if (const auto* tets = dynamic_cast<const render::TetMeshDataset*>(&dataset); tets && tets->source()->paged()) {
     const store::CacheStats c = tets->cacheStats();
-    std::printf("render: mesh paged within %.1f MiB: %lld of %zu chunks in view, %lld of those left out as "
-                "transparent; %lld chunk reads in all, paging %.1f ms this frame; %.1f MiB held at most\n",
-                double(c.budgetBytes) / 1048576.0, (long long)(int64_t(tets->source()->chunkCount()) - stats.tetChunksCulled),
-                tets->source()->chunkCount(), (long long)stats.tetChunksSkippedEmpty, (long long)c.bricksDecoded,
-                stats.msPaging, double(c.peakResidentBytes) / 1048576.0);
+    std::printf(
+        "render: mesh paged within %.1f MiB: %lld of %zu chunks in view, %lld of those left out as "
+        "transparent; %lld chunk reads in all, paging %.1f ms this frame; %.1f MiB held at most\n",
+        double(c.budgetBytes) / 1048576.0, (long long)(int64_t(tets->source()->chunkCount()) - stats.tetChunksCulled),
+        tets->source()->chunkCount(), (long long)stats.tetChunksSkippedEmpty, (long long)c.bricksDecoded,
+        stats.msPaging, double(c.peakResidentBytes) / 1048576.0);
   }
   if (dataset.kind() == render::DatasetKind::TetMesh && stats.tetRayPasses > 0) {
-    std::printf("render: wrote %s (%dx%d): %lld tet segments ray cast (%lld rays, %lld terminated early, %lld "
-                "pass%s), %.1f ms (pre-integration %.1f, drawing %.1f, readback %.1f)\n",
-                a.output.c_str(), scene.width, scene.height, (long long)stats.samples, (long long)stats.fragments,
-                (long long)stats.samplesTerminated, (long long)stats.tetRayPasses,
-                stats.tetRayPasses == 1 ? "" : "es", stats.msTotal, stats.msPreIntegration, stats.msDrawing,
-                stats.msReadback);
+    std::printf(
+        "render: wrote %s (%dx%d): %lld tet segments ray cast (%lld rays, %lld terminated early, %lld "
+        "pass%s), %.1f ms (pre-integration %.1f, drawing %.1f, readback %.1f)\n",
+        a.output.c_str(), scene.width, scene.height, (long long)stats.samples, (long long)stats.fragments,
+        (long long)stats.samplesTerminated, (long long)stats.tetRayPasses, stats.tetRayPasses == 1 ? "" : "es",
+        stats.msTotal, stats.msPreIntegration, stats.msDrawing, stats.msReadback);
     return;
   }
   if (dataset.kind() == render::DatasetKind::TetMesh) {
-    std::printf("render: wrote %s (%dx%d): %lld tets drawn in %s order, %lld fragments, %.1f ms (sorting %.1f, "
-                "pre-integration %.1f, drawing %.1f, readback %.1f)\n",
-                a.output.c_str(), scene.width, scene.height, (long long)stats.tetsDrawn,
-                render::tetSortName(scene.visibility == render::TetSort::Centroid ? render::TetSort::Centroid
-                                                                                  : render::TetSort::Mpvo), (long long)stats.fragments, stats.msTotal, stats.msSorting,
-                stats.msPreIntegration, stats.msDrawing, stats.msReadback);
+    std::printf(
+        "render: wrote %s (%dx%d): %lld tets drawn in %s order, %lld fragments, %.1f ms (sorting %.1f, "
+        "pre-integration %.1f, drawing %.1f, readback %.1f)\n",
+        a.output.c_str(), scene.width, scene.height, (long long)stats.tetsDrawn,
+        render::tetSortName(scene.visibility == render::TetSort::Centroid ? render::TetSort::Centroid
+                                                                          : render::TetSort::Mpvo),
+        (long long)stats.fragments, stats.msTotal, stats.msSorting, stats.msPreIntegration, stats.msDrawing,
+        stats.msReadback);
     return;
   }
-  std::printf("render: wrote %s (%dx%d): %lld bricks drawn%s, %lld skipped empty, %lld culled, %lld paged in, "
-              "%lld evicted, %lld batches, %.1f ms (paging %.1f, slicing %.1f, drawing %.1f, readback %.1f)\n",
-              a.output.c_str(), scene.width, scene.height, (long long)stats.bricksDrawn, levels.c_str(),
-              (long long)stats.bricksSkippedEmpty, (long long)stats.bricksCulled, (long long)stats.bricksPagedIn,
-              (long long)stats.bricksEvicted, (long long)stats.batches, stats.msTotal, stats.msPaging,
-              stats.msSlicing, stats.msDrawing, stats.msReadback);
+  std::printf(
+      "render: wrote %s (%dx%d): %lld bricks drawn%s, %lld skipped empty, %lld culled, %lld paged in, "
+      "%lld evicted, %lld batches, %.1f ms (paging %.1f, slicing %.1f, drawing %.1f, readback %.1f)\n",
+      a.output.c_str(), scene.width, scene.height, (long long)stats.bricksDrawn, levels.c_str(),
+      (long long)stats.bricksSkippedEmpty, (long long)stats.bricksCulled, (long long)stats.bricksPagedIn,
+      (long long)stats.bricksEvicted, (long long)stats.batches, stats.msTotal, stats.msPaging, stats.msSlicing,
+      stats.msDrawing, stats.msReadback);
 }
 
 /// A GPU frame through the same seam the server's render threads use: a dataset and a RenderEngine.
@@ -193,8 +206,8 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
   // server's next frame of the same dataset would be.
   for (int i = 0; i < a.warmUp; ++i) engine.render(dataset, scene, nullptr);
   // Progressive: first the frame that waits for no disk read, then the exact one.
-  const nlohmann::json provisionalJson = scene.progressive ? renderProvisional(a, engine, dataset, scene)
-                                                           : nlohmann::json();
+  const nlohmann::json provisionalJson =
+      scene.progressive ? renderProvisional(a, engine, dataset, scene) : nlohmann::json();
   render::FrameStats stats;
   const image::ImageF image = withProgress(a, scene, [&] { return engine.render(dataset, scene, &stats); });
   writeFrame(a, a.output, image);
@@ -234,9 +247,11 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("--analytic", args->analytic,
                   "reference: sample this synthetic field (NAME[,k=v...] as after synthetic:) instead of the grid");
   cmd->add_option("--gpu-budget", args->gpuBudgetMB, "MB of GPU memory for the brick atlas")
-      ->capture_default_str()->check(between(16, 1 << 22, "MB"));
+      ->capture_default_str()
+      ->check(between(16, 1 << 22, "MB"));
   cmd->add_option("--host-budget", args->hostBudgetMB, "MB of host memory for decoded bricks")
-      ->capture_default_str()->check(between(0, 1 << 22, "MB"));
+      ->capture_default_str()
+      ->check(between(0, 1 << 22, "MB"));
   cmd->add_option("--atlas-format", args->atlasFormat,
                   "float (default: full-precision filtering), native (the store's type: less memory) or half")
       ->check(CLI::IsMember({"float", "native", "half"}));
@@ -247,7 +262,8 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("--bricking", args->bricking,
                   "how bricks lie in the atlas: single (the volume's axis order) or multi-oriented (axis order "
                   "rotated from brick to brick, for texture caches that favour one direction; the same image)")
-      ->capture_default_str()->check(CLI::IsMember({"single", "multi-oriented"}));
+      ->capture_default_str()
+      ->check(CLI::IsMember({"single", "multi-oriented"}));
   cmd->add_flag("-q,--quiet", args->quiet, "do not print the renderer's name, nor progress of a frame past a second");
   cmd->callback([args, cmd] {
     keepFreedMemoryForFrames();

@@ -6,11 +6,11 @@
 #include "cli/Commands.h"
 #include "cli/SceneOptions.h"
 #include "client/Client.h"
+#include "image/FrameImage.h"
 #include "image/Image.h"
+#include "image/ImageFile.h"
 #include "render/core/RenderErrors.h"
 #include "render/datasets/Datasets.h"
-#include "image/FrameImage.h"
-#include "image/ImageFile.h"
 
 namespace voxbrick::cli {
 namespace {
@@ -51,8 +51,7 @@ void runRequest(const RequestArgs& a, const CLI::App& cmd) {
     image::writeImage(provisional, image::decodeFrameImage(early), {a.jpegQuality});
     const nlohmann::json stats = nlohmann::json::parse(early.statsJson);
     std::printf("request: provisional frame (%lld bricks stood in) at %.1f ms, wrote %s\n",
-                static_cast<long long>(stats.value("bricks_standin", int64_t{0})), msSinceStart(),
-                provisional.c_str());
+                static_cast<long long>(stats.value("bricks_standin", int64_t{0})), msSinceStart(), provisional.c_str());
   });
   const double ms = msSinceStart();
   c.goodbye();
@@ -76,7 +75,8 @@ void addRequestCommand(CLI::App& app) {
       ->check(between(1, 100));
   cmd->add_option("--stats", a->statsPath, "write the frame's statistics as JSON");
   cmd->add_option("--encoding", a->encoding, "how the frame travels: png, raw or zstd")
-      ->check(CLI::IsMember({"png", "raw", "zstd"}))->capture_default_str();
+      ->check(CLI::IsMember({"png", "raw", "zstd"}))
+      ->capture_default_str();
   cmd->add_option("--timeout", a->timeout, "seconds to wait for the server")
       ->capture_default_str()
       ->check(between(0.001, 86400, "seconds"));

@@ -52,8 +52,9 @@ void applyCamera(const SceneArgs& a, render::CameraSpec& camera) {
   if (int(!a.orbit.empty()) + int(!a.view.empty()) + int(!a.eye.empty()) > 1)
     throw render::RenderInputError("give at most one of --orbit, --view and --eye");
   if ((!a.center.empty() || !a.up.empty()) && a.eye.empty() && camera.orbit)
-    throw render::RenderInputError("--center and --up need --eye (or a --scene with an explicit 'eye'): an orbit or "
-                                   "view looks at the volume's centre, with --up-axis as its up");
+    throw render::RenderInputError(
+        "--center and --up need --eye (or a --scene with an explicit 'eye'): an orbit or "
+        "view looks at the volume's centre, with --up-axis as its up");
   if (!a.view.empty() && !a.upAxis.empty())
     throw render::RenderInputError("--view sets the up axis (+z); give --orbit with --up-axis instead");
   if (!a.orbit.empty()) applyOrbit(a.orbit, camera);
@@ -142,10 +143,12 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
   cmd->add_option("--up-axis", args.upAxis,
                   "the orbit's up axis: +z (default; superior for patient data), -z, +y (the Y-up orbit of earlier "
                   "versions: az 0 from +z), -y, +x, -x");
-  cmd->add_option("--view", args.view, "a named view about +z: " + render::viewNames() +
-                                           " (for data without a patient frame: from +y, -y, -x, +x, +z, -z)");
-  cmd->add_flag("--fit", args.fit, "place the orbit's eye so that the whole volume is in frame (the default unless "
-                                   "--orbit gives a distance)");
+  cmd->add_option("--view", args.view,
+                  "a named view about +z: " + render::viewNames() +
+                      " (for data without a patient frame: from +y, -y, -x, +x, +z, -z)");
+  cmd->add_flag("--fit", args.fit,
+                "place the orbit's eye so that the whole volume is in frame (the default unless "
+                "--orbit gives a distance)");
   cmd->add_option("--eye", args.eye, "x,y,z eye position (world coordinates: RAS for patient data)");
   cmd->add_option("--center", args.center, "x,y,z look-at point (world; default the scene's, else 0,0,0)");
   cmd->add_option("--up", args.up, "x,y,z up vector (world; default the scene's, else 0,1,0)");
@@ -154,9 +157,10 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
   cmd->add_flag("--ortho", args.ortho, "orthographic projection");
   cmd->add_option("--size", args.size, "WIDTHxHEIGHT (default 512x512)");
   cmd->add_option("--tf", args.tf, "transfer function: preset name (config/tf) or JSON file (default grayscale)");
-  cmd->add_option("--step", args.step, "slice spacing in voxels (default 0.75)")
-      ->check(between(0.001, 64, "voxels"));
-  cmd->add_option("--background", args.background, "r,g,b in [0, 1] (default 0,0,0), or none: a transparent frame (RGBA PNG, alpha the accumulated opacity)");
+  cmd->add_option("--step", args.step, "slice spacing in voxels (default 0.75)")->check(between(0.001, 64, "voxels"));
+  cmd->add_option(
+      "--background", args.background,
+      "r,g,b in [0, 1] (default 0,0,0), or none: a transparent frame (RGBA PNG, alpha the accumulated opacity)");
   cmd->add_option("--window", args.window, "LO,HI value window (default: the store's value range)");
   cmd->add_option("--visibility", args.visibility,
                   "how a tetrahedral mesh's cells are put in order: raycast (each pixel's ray walks the adjacency, "
@@ -168,9 +172,10 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
       ->check(CLI::IsMember(slicerNames()));
   cmd->add_flag("--no-skip", args.noSkip, "draw bricks the transfer function makes empty");
   cmd->add_flag("--no-cull", args.noCull, "draw bricks outside the view frustum");
-  cmd->add_option("--sub-block", args.subBlock,
-                  "skip empty sub-blocks of N voxels inside bricks (a power of two below the brick size, default 8; 0 draws "
-                  "whole bricks)")
+  cmd->add_option(
+         "--sub-block", args.subBlock,
+         "skip empty sub-blocks of N voxels inside bricks (a power of two below the brick size, default 8; 0 draws "
+         "whole bricks)")
       ->check(between(0, render::Scene::kMaxSubBlock, "voxels"));
   cmd->add_option("--slab", args.slab,
                   "draw with texture slabs of N planes instead of the ray caster: the fragment program marches N "
@@ -181,11 +186,13 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& args) {
                 "frame ray casting (the default): one fragment per pixel marches its ray through every brick, each "
                 "sample's brick looked up in a table of cells (the same samples as slabs); over a scene's 'slab'");
   cmd->add_option("--ert", args.ert,
-                  "early ray termination when marching (slabs, ray casting): stop rays whose opacity reached this threshold in [0.5, 1] "
+                  "early ray termination when marching (slabs, ray casting): stop rays whose opacity reached this "
+                  "threshold in [0.5, 1] "
                   "(default 0.999; 0: off)")
       ->check(between(0, 1));
   cmd->add_flag("--pre-integration", args.preIntegration,
-                "pre-integrated classification when marching (slabs, ray casting): each segment between samples classified whole from a table");
+                "pre-integrated classification when marching (slabs, ray casting): each segment between samples "
+                "classified whole from a table");
   cmd->add_option("--lod", args.lod,
                   "level of detail: draw a coarser pyramid level where its voxels are at most this many pixels tall "
                   "(0: level 0 everywhere)")

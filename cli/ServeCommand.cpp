@@ -81,8 +81,8 @@ void runServe(const ServeArgs& a) {
 
 void addServeCommand(CLI::App& app) {
   auto a = std::make_shared<ServeArgs>();
-  CLI::App* cmd = app.add_subcommand("serve",
-                                     "Serve frames of a directory of stores and .vdb files over TCP (proto/PROTOCOL.md)");
+  CLI::App* cmd =
+      app.add_subcommand("serve", "Serve frames of a directory of stores and .vdb files over TCP (proto/PROTOCOL.md)");
   CLI::Option* config =
       cmd->add_option("--config", a->config,
                       "TOML configuration; options below override it (default: server.toml in the configuration "
@@ -92,8 +92,7 @@ void addServeCommand(CLI::App& app) {
   cmd->add_flag("--no-config", a->noConfig, "read no configuration file: the built-in defaults and the options below")
       ->excludes(config);
   cmd->add_option("--host", a->host, "address to listen on (default 127.0.0.1)");
-  cmd->add_option("--port", a->port, "TCP port; 0 picks a free one (default 7420)")
-      ->check(between(0, 65535));
+  cmd->add_option("--port", a->port, "TCP port; 0 picks a free one (default 7420)")->check(between(0, 65535));
   cmd->add_option("--port-file", a->portFile, "write the port actually bound to this file");
   cmd->add_option("--datasets", a->datasets,
                   "directory whose subdirectories are stores and whose .vdb files are read live (first float grid, "
@@ -102,10 +101,8 @@ void addServeCommand(CLI::App& app) {
   cmd->add_option("--log-level", a->logLevel, "trace, debug, info, warn, error or off");
   cmd->add_option("--render-threads", a->renderThreads, "render threads, each with its own GL context")
       ->check(between(1, 64));
-  cmd->add_option("--io-threads", a->ioThreads, "network I/O threads")
-      ->check(between(1, 64));
-  cmd->add_option("--max-sessions", a->maxSessions, "concurrent sessions")
-      ->check(between(1, 100000));
+  cmd->add_option("--io-threads", a->ioThreads, "network I/O threads")->check(between(1, 64));
+  cmd->add_option("--max-sessions", a->maxSessions, "concurrent sessions")->check(between(1, 100000));
   cmd->add_option("--max-image-side", a->maxImageSide, "largest frame side in pixels")
       ->check(between(1, 8192, "pixels"));
   cmd->add_option("--max-render-msamples", a->maxRenderMSamples,
@@ -132,9 +129,11 @@ void addServeCommand(CLI::App& app) {
   cmd->add_option("--max-total-output-mb", a->maxTotalOutputMB,
                   "MB of replies not yet read by all clients together; a frame beyond it is answered LimitExceeded")
       ->check(between(1, 1 << 22, "MB"));
-  cmd->add_option("--host-cache", a->hostCacheMB, "MB of decoded bricks for all open datasets together (an equal share each)")
+  cmd->add_option("--host-cache", a->hostCacheMB,
+                  "MB of decoded bricks for all open datasets together (an equal share each)")
       ->check(between(16, 1 << 22, "MB"));
-  cmd->add_option("--gpu-budget", a->gpuBudgetMB, "MB of GPU brick atlas for all render threads and datasets together (an equal share per thread)")
+  cmd->add_option("--gpu-budget", a->gpuBudgetMB,
+                  "MB of GPU brick atlas for all render threads and datasets together (an equal share per thread)")
       ->check(between(16, 1 << 22, "MB"));
   cmd->add_flag("--no-coalesce", a->noCoalesce,
                 "render every request in order instead of only a session's newest (to measure what latest-wins saves)");

@@ -60,11 +60,15 @@ Client::Client(const std::string& host, int port, std::chrono::milliseconds time
   } catch (const boost::system::system_error& e) {
     throw ConnectionError("cannot connect to " + mImpl->where + ": " + e.code().message());
   }
-  const boost::system::error_code ec = mImpl->run("connecting to", [&](auto handler) {
-    asio::async_connect(mImpl->socket, endpoints, [handler](const boost::system::error_code& e, const tcp::endpoint&) {
-      handler(e, 0);
-    });
-  }).first;
+  const boost::system::error_code ec =
+      mImpl
+          ->run("connecting to",
+                [&](auto handler) {
+                  asio::async_connect(
+                      mImpl->socket, endpoints,
+                      [handler](const boost::system::error_code& e, const tcp::endpoint&) { handler(e, 0); });
+                })
+          .first;
   if (ec) throw ConnectionError("cannot connect to " + mImpl->where + ": " + ec.message());
   mImpl->socket.set_option(tcp::no_delay(true));
 }
@@ -72,9 +76,9 @@ Client::Client(const std::string& host, int port, std::chrono::milliseconds time
 Client::~Client() = default;
 
 void Client::sendBytes(const std::vector<uint8_t>& bytes) {
-  const boost::system::error_code ec = mImpl->run("sending to", [&](auto handler) {
-    asio::async_write(mImpl->socket, asio::buffer(bytes), handler);
-  }).first;
+  const boost::system::error_code ec =
+      mImpl->run("sending to", [&](auto handler) { asio::async_write(mImpl->socket, asio::buffer(bytes), handler); })
+          .first;
   if (ec) throw ConnectionError("sending to " + mImpl->where + ": " + ec.message());
 }
 
@@ -86,9 +90,8 @@ uint32_t Client::send(const proto::Message& message) {
 
 std::vector<uint8_t> Client::receiveBytes(size_t max) {
   std::vector<uint8_t> bytes(max);
-  const auto [ec, n] = mImpl->run("reading from", [&](auto handler) {
-    mImpl->socket.async_read_some(asio::buffer(bytes), handler);
-  });
+  const auto [ec, n] =
+      mImpl->run("reading from", [&](auto handler) { mImpl->socket.async_read_some(asio::buffer(bytes), handler); });
   bytes.resize(ec ? 0 : n);
   if (ec && ec != asio::error::eof) throw ConnectionError("reading from " + mImpl->where + ": " + ec.message());
   return bytes;
@@ -147,7 +150,7 @@ proto::DatasetInfo Client::openDataset(const std::string& name) {
 }
 
 proto::Frame Client::render(const std::string& sceneJson, proto::Encoding encoding,
-                             const std::function<void(const proto::Frame&)>& onProvisional) {
+                            const std::function<void(const proto::Frame&)>& onProvisional) {
   const uint32_t id = send(proto::RenderRequest{encoding, sceneJson});
   for (proto::Frame frame = expect<proto::Frame>(awaitReply(id), "Render");;
        frame = expect<proto::Frame>(awaitReply(id), "Render")) {

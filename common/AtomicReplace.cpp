@@ -16,9 +16,7 @@ namespace voxbrick::common {
 namespace fs = std::filesystem;
 namespace {
 
-[[noreturn]] void fail(const std::string& what, int error) {
-  throw ReplaceError(what + ": " + std::strerror(error));
-}
+[[noreturn]] void fail(const std::string& what, int error) { throw ReplaceError(what + ": " + std::strerror(error)); }
 
 /// `path` without a trailing slash, which would put the temporary inside it.
 fs::path normalised(fs::path path) {

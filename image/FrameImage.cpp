@@ -24,10 +24,8 @@ std::pair<uint32_t, uint32_t> pngSize(const std::vector<uint8_t>& png) {
 
 std::vector<uint8_t> encodeFrameImage(const Image8& image, proto::Encoding encoding) {
   switch (encoding) {
-    case proto::Encoding::RawRgba8:
-      return image.rgba;
-    case proto::Encoding::Png:
-      return encodePng(image);
+    case proto::Encoding::RawRgba8: return image.rgba;
+    case proto::Encoding::Png: return encodePng(image);
     case proto::Encoding::ZstdRgba8: {
       std::vector<uint8_t> out(ZSTD_compressBound(image.rgba.size()));
       const size_t n = ZSTD_compress(out.data(), out.size(), image.rgba.data(), image.rgba.size(), 1);
@@ -53,9 +51,7 @@ Image8 decodeFrameImage(const proto::Frame& frame) {
                            std::to_string(frame.height) + " size");
       image = decodePng(frame.payload, "frame");
       break;
-    case proto::Encoding::RawRgba8:
-      image.rgba = frame.payload;
-      break;
+    case proto::Encoding::RawRgba8: image.rgba = frame.payload; break;
     case proto::Encoding::ZstdRgba8: {
       image.rgba.resize(bytes);
       const size_t n = ZSTD_decompress(image.rgba.data(), bytes, frame.payload.data(), frame.payload.size());
@@ -65,7 +61,7 @@ Image8 decodeFrameImage(const proto::Frame& frame) {
   }
   if (image.width != int(frame.width) || image.height != int(frame.height) || image.rgba.size() != bytes)
     throw ImageFailure("frame: payload does not match its " + std::to_string(frame.width) + "x" +
-                             std::to_string(frame.height) + " size");
+                       std::to_string(frame.height) + " size");
   return image;
 }
 

@@ -4,8 +4,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "proto/Messages.h"
 #include "image/Image.h"
+#include "proto/Messages.h"
 
 namespace voxbrick::image {
 

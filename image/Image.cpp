@@ -5,13 +5,12 @@
 #include <png.h>
 
 #include <algorithm>
-#include <cmath>
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <limits>
 #include <memory>
-
 
 namespace voxbrick::image {
 namespace {
@@ -61,8 +60,7 @@ std::vector<uint8_t> encodePng(const Image8& image) {
   png_set_IHDR(png, info, png_uint_32(image.width), png_uint_32(image.height), 8, PNG_COLOR_TYPE_RGBA,
                PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
   png_write_info(png, info);
-  for (int y = 0; y < image.height; ++y)
-    png_write_row(png, image.rgba.data() + size_t(y) * size_t(image.width) * 4);
+  for (int y = 0; y < image.height; ++y) png_write_row(png, image.rgba.data() + size_t(y) * size_t(image.width) * 4);
   png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
   return out;
@@ -122,7 +120,7 @@ Image8 readPng(const std::filesystem::path& path) {
 ImageError compareImages(const ImageF& a, const ImageF& b) {
   if (a.width != b.width || a.height != b.height)
     throw ImageFailure("compareImages: sizes differ (" + std::to_string(a.width) + "x" + std::to_string(a.height) +
-                      " vs " + std::to_string(b.width) + "x" + std::to_string(b.height) + ")");
+                       " vs " + std::to_string(b.width) + "x" + std::to_string(b.height) + ")");
   double sum = 0, maxAbs = 0;
   const size_t pixels = size_t(a.width) * size_t(a.height);
   for (size_t p = 0; p < pixels; ++p)

@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <filesystem>
 #include <span>
-#include <string>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace voxbrick::image {
@@ -48,7 +48,7 @@ Image8 readPng(const std::filesystem::path& path);
 /// Image differences on RGB in [0, 1] (alpha ignored), as the optical model measures error.
 struct ImageError {
   double rmse = 0;
-  double psnr = 0;     ///< 20 log10(1 / rmse) dB; infinity for identical images
+  double psnr = 0;  ///< 20 log10(1 / rmse) dB; infinity for identical images
   double maxAbs = 0;
 };
 /// Compares two images of the same size; throws ImageFailure if the sizes differ.

@@ -45,8 +45,7 @@ ImageFormat imageFormatFor(const std::filesystem::path& path) {
   const std::string ext = lowerExtension(path);
   if (ext == ".png") return ImageFormat::Png;
   if (ext == ".jpg" || ext == ".jpeg") return ImageFormat::Jpeg;
-  throw ImageFailure(path.string() + ": cannot write images of extension '" + ext +
-                     "' (use .png, .jpg or .jpeg)");
+  throw ImageFailure(path.string() + ": cannot write images of extension '" + ext + "' (use .png, .jpg or .jpeg)");
 }
 
 std::vector<uint8_t> encodeJpeg(const Image8& image, int quality) {

@@ -23,18 +23,39 @@ struct GmshKind {
 // gmsh's element types by number (the reference manual's list): the node count is needed to step over elements
 // we do not keep, the dimension decides between dropping (boundary and point tags) and refusing.
 std::optional<GmshKind> gmshKind(int64_t type) {
-  static const std::pair<int, GmshKind> kKinds[] = {
-      {1, {"line", 2, 1}}, {2, {"triangle", 3, 2}}, {3, {"quadrangle", 4, 2}}, {4, {"tetrahedron", 4, 3}},
-      {5, {"hexahedron", 8, 3}}, {6, {"prism", 6, 3}}, {7, {"pyramid", 5, 3}}, {8, {"3-node line", 3, 1}},
-      {9, {"6-node triangle", 6, 2}}, {10, {"9-node quadrangle", 9, 2}}, {11, {"10-node tetrahedron", 10, 3}},
-      {12, {"27-node hexahedron", 27, 3}}, {13, {"18-node prism", 18, 3}}, {14, {"14-node pyramid", 14, 3}},
-      {15, {"point", 1, 0}}, {16, {"8-node quadrangle", 8, 2}}, {17, {"20-node hexahedron", 20, 3}},
-      {18, {"15-node prism", 15, 3}}, {19, {"13-node pyramid", 13, 3}}, {20, {"9-node triangle", 9, 2}},
-      {21, {"10-node triangle", 10, 2}}, {22, {"12-node triangle", 12, 2}}, {23, {"15-node triangle", 15, 2}},
-      {24, {"15-node incomplete triangle", 15, 2}}, {25, {"21-node triangle", 21, 2}}, {26, {"4-node line", 4, 1}},
-      {27, {"5-node line", 5, 1}}, {28, {"6-node line", 6, 1}}, {29, {"20-node tetrahedron", 20, 3}},
-      {30, {"35-node tetrahedron", 35, 3}}, {31, {"56-node tetrahedron", 56, 3}},
-      {92, {"64-node hexahedron", 64, 3}}, {93, {"125-node hexahedron", 125, 3}}};
+  static const std::pair<int, GmshKind> kKinds[] = {{1, {"line", 2, 1}},
+                                                    {2, {"triangle", 3, 2}},
+                                                    {3, {"quadrangle", 4, 2}},
+                                                    {4, {"tetrahedron", 4, 3}},
+                                                    {5, {"hexahedron", 8, 3}},
+                                                    {6, {"prism", 6, 3}},
+                                                    {7, {"pyramid", 5, 3}},
+                                                    {8, {"3-node line", 3, 1}},
+                                                    {9, {"6-node triangle", 6, 2}},
+                                                    {10, {"9-node quadrangle", 9, 2}},
+                                                    {11, {"10-node tetrahedron", 10, 3}},
+                                                    {12, {"27-node hexahedron", 27, 3}},
+                                                    {13, {"18-node prism", 18, 3}},
+                                                    {14, {"14-node pyramid", 14, 3}},
+                                                    {15, {"point", 1, 0}},
+                                                    {16, {"8-node quadrangle", 8, 2}},
+                                                    {17, {"20-node hexahedron", 20, 3}},
+                                                    {18, {"15-node prism", 15, 3}},
+                                                    {19, {"13-node pyramid", 13, 3}},
+                                                    {20, {"9-node triangle", 9, 2}},
+                                                    {21, {"10-node triangle", 10, 2}},
+                                                    {22, {"12-node triangle", 12, 2}},
+                                                    {23, {"15-node triangle", 15, 2}},
+                                                    {24, {"15-node incomplete triangle", 15, 2}},
+                                                    {25, {"21-node triangle", 21, 2}},
+                                                    {26, {"4-node line", 4, 1}},
+                                                    {27, {"5-node line", 5, 1}},
+                                                    {28, {"6-node line", 6, 1}},
+                                                    {29, {"20-node tetrahedron", 20, 3}},
+                                                    {30, {"35-node tetrahedron", 35, 3}},
+                                                    {31, {"56-node tetrahedron", 56, 3}},
+                                                    {92, {"64-node hexahedron", 64, 3}},
+                                                    {93, {"125-node hexahedron", 125, 3}}};
   for (const auto& [number, kind] : kKinds)
     if (number == type) return kind;
   return std::nullopt;
@@ -282,8 +303,8 @@ void GmshParser::readElements2() {
       const std::optional<GmshKind> kind = gmshKind(type);
       if (!kind) mIn.failAt(runAt, "unknown gmsh element type " + std::to_string(type));
       if (static_cast<uint64_t>(count) > n - done)
-        mIn.failAt(runAt, "a run of " + std::to_string(count) + " elements exceeds the element count " +
-                              std::to_string(n));
+        mIn.failAt(runAt,
+                   "a run of " + std::to_string(count) + " elements exceeds the element count " + std::to_string(n));
       guard(static_cast<uint64_t>(count), 4 * static_cast<uint64_t>(1 + tags + kind->nodes), 0, "$Elements");
       nodes.resize(static_cast<size_t>(kind->nodes));
       for (int64_t e = 0; e < count; ++e) {
@@ -335,8 +356,8 @@ void GmshParser::readElements4() {
     done += count;
   }
   if (done != n)
-    mIn.failAt(at, "the entity blocks hold " + std::to_string(done) + " elements, the header says " +
-                       std::to_string(n));
+    mIn.failAt(at,
+               "the entity blocks hold " + std::to_string(done) + " elements, the header says " + std::to_string(n));
   endSection("Elements");
 }
 
@@ -362,8 +383,8 @@ void GmshParser::readData(const std::string& section) {
   if (ints.size() < 3) mIn.failAt(at, "$NodeData needs 3 integer tags (time step, components, count)");
   const int64_t components = ints[1];
   const int64_t count = ints[2];
-  if (components < 1 || components > 1000) mIn.failAt(at, "$NodeData has " + std::to_string(components) +
-                                                              " components");
+  if (components < 1 || components > 1000)
+    mIn.failAt(at, "$NodeData has " + std::to_string(components) + " components");
   if (count < 0 || count > static_cast<int64_t>(kNoIndex))
     mIn.failAt(at, "$NodeData count " + std::to_string(count) + " is out of range");
   endHeaderLine();

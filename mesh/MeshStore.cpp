@@ -121,7 +121,12 @@ std::vector<ChunkInfo> chunksOf(const std::vector<MeshChunkRecord>& records, con
       throw MeshError(indexName + ": " + what + ": bounds or scalar range outside the mesh's");
     checkBlockRef(r.tets, dataSize, uint64_t(r.tetCount) * 16, indexName, what + " tets");
     checkBlockRef(r.neighbours, dataSize, uint64_t(r.tetCount) * 16, indexName, what + " neighbours");
-    chunks[c] = ChunkInfo{r.firstTet, r.tetCount, clo, chi, r.scalarMin, r.scalarMax,
+    chunks[c] = ChunkInfo{r.firstTet,
+                          r.tetCount,
+                          clo,
+                          chi,
+                          r.scalarMin,
+                          r.scalarMax,
                           r.tets.compressedSize + r.neighbours.compressedSize};
   }
   if (next != h.tetCount)

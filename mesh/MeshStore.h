@@ -67,7 +67,7 @@ struct ChunkInfo {
 /// One chunk, decoded: tets firstTet .. firstTet + tets.size() - 1 of the store.
 struct MeshChunk {
   uint64_t firstTet = 0;
-  std::vector<Tet> tets;                             ///< indices into MeshStore::points()
+  std::vector<Tet> tets;                           ///< indices into MeshStore::points()
   std::vector<std::array<int32_t, 4>> neighbours;  ///< global tet indices, or Topology::kBoundary
 };
 

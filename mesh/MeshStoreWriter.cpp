@@ -38,8 +38,8 @@ void checkInput(const TetMesh& mesh, const Topology& topology) {
     throw MeshError(where + std::to_string(mesh.tets.size()) + " tets and " + std::to_string(mesh.points.size()) +
                     " vertices exceed the format's limits");
   if (mesh.scalars.size() != mesh.points.size())
-    throw MeshError(where + std::to_string(mesh.scalars.size()) + " scalars for " +
-                    std::to_string(mesh.points.size()) + " vertices");
+    throw MeshError(where + std::to_string(mesh.scalars.size()) + " scalars for " + std::to_string(mesh.points.size()) +
+                    " vertices");
   for (size_t v = 0; v < mesh.points.size(); ++v) {
     const glm::vec3& p = mesh.points[v];
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z) || !std::isfinite(mesh.scalars[v]))
@@ -227,8 +227,7 @@ std::vector<MeshChunkRecord> writeData(const TetMesh& mesh, const Topology& topo
   header.scalars = data.appendBlock(encodeBlock(mesh.scalars.data(), scalarBytes, options.zstdLevel), scalarBytes);
   report(options, "scalars");
   std::vector<std::pair<uint32_t, uint32_t>> boundary;
-  std::vector<MeshChunkRecord> records =
-      appendChunks(mesh, topology, order, info.chunkCount, options, data, boundary);
+  std::vector<MeshChunkRecord> records = appendChunks(mesh, topology, order, info.chunkCount, options, data, boundary);
   info.boundaryFaceCount = boundary.size();
   const size_t boundaryBytes = boundary.size() * 8;
   static_assert(sizeof(boundary[0]) == 8);

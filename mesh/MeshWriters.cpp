@@ -201,7 +201,7 @@ void writeGmsh4Body(GmshOut& out, const TetMesh& mesh) {
   out.integer(1, " ");
   for (int k = 0; k < 3; ++k) out.real(n ? lo[k] : 0.0f, " ");
   for (int k = 0; k < 3; ++k) out.real(n ? hi[k] : 0.0f, " ");
-  out.size(0, " ");  // physical tags
+  out.size(0, " ");   // physical tags
   out.size(0, "\n");  // bounding surfaces
   out.textAfterData("$EndEntities\n$Nodes\n");
   if (gmsh4SectionOfOneBlock(out, n, 0)) {

@@ -17,9 +17,7 @@ struct Options {
 };
 
 Options parseSpec(const std::string& spec) {
-  auto fail = [&](const std::string& problem) -> void {
-    throw MeshError("synthetic mesh '" + spec + "': " + problem);
-  };
+  auto fail = [&](const std::string& problem) -> void { throw MeshError("synthetic mesh '" + spec + "': " + problem); };
   std::vector<std::string> parts;
   for (size_t start = 0;;) {
     const size_t comma = spec.find(',', start);
@@ -98,9 +96,8 @@ TetMesh syntheticMesh(const std::string& spec) {
   for (uint32_t k = 0; k < m; ++k)
     for (uint32_t j = 0; j < m; ++j)
       for (uint32_t i = 0; i < m; ++i)
-        mesh.points[i + m * (j + static_cast<size_t>(m) * k)] =
-            glm::vec3(static_cast<float>(coordinate(i)), static_cast<float>(coordinate(j)),
-                      static_cast<float>(coordinate(k)));
+        mesh.points[i + m * (j + static_cast<size_t>(m) * k)] = glm::vec3(
+            static_cast<float>(coordinate(i)), static_cast<float>(coordinate(j)), static_cast<float>(coordinate(k)));
 
   const std::vector<std::array<int, 4>> cellTets = kuhnTets();
   auto cornerOffset = [&](int mask) {

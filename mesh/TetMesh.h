@@ -19,14 +19,15 @@ class MeshError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// Four vertex indices. After validateMesh() (mesh/Validate.h) every tet is positively oriented: (v1 - v0) x (v2 - v0) . (v3 - v0) > 0.
+/// Four vertex indices. After validateMesh() (mesh/Validate.h) every tet is positively oriented: (v1 - v0) x (v2 - v0)
+/// . (v3 - v0) > 0.
 using Tet = std::array<uint32_t, 4>;
 
 struct TetMesh {
   std::vector<glm::vec3> points;  ///< vertex positions, world units
   std::vector<Tet> tets;
-  std::vector<float> scalars;     ///< one per vertex
-  std::string field;              ///< the scalar's name in the source file
+  std::vector<float> scalars;  ///< one per vertex
+  std::string field;           ///< the scalar's name in the source file
 
   /// The axis-aligned bounds of the points ({+inf}, {-inf} when there are none).
   std::pair<glm::vec3, glm::vec3> bounds() const;

@@ -58,8 +58,8 @@ Topology buildTopology(const TetMesh& mesh) {
   }
 
   Topology topology;
-  topology.neighbours.assign(tetCount, {Topology::kBoundary, Topology::kBoundary, Topology::kBoundary,
-                                        Topology::kBoundary});
+  topology.neighbours.assign(tetCount,
+                             {Topology::kBoundary, Topology::kBoundary, Topology::kBoundary, Topology::kBoundary});
   auto& neighbours = topology.neighbours;
   tbb::parallel_for(tbb::blocked_range<size_t>(0, vertexCount, 1024), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t a = range.begin(); a != range.end(); ++a) {
@@ -77,10 +77,11 @@ Topology buildTopology(const TetMesh& mesh) {
           neighbours[run[1].tetFace / 4][run[1].tetFace % 4] = static_cast<int32_t>(run[0].tetFace / 4);
         } else if (end - run > 2) {
           std::string tets;
-          for (const FaceEntry* e = run; e != end; ++e) tets += (tets.empty() ? "" : ", ") + std::to_string(e->tetFace / 4);
+          for (const FaceEntry* e = run; e != end; ++e)
+            tets += (tets.empty() ? "" : ", ") + std::to_string(e->tetFace / 4);
           throw MeshError("buildTopology: the face of vertices " + std::to_string(a) + ", " + std::to_string(run->b) +
-                          ", " + std::to_string(run->c) + " is shared by " + std::to_string(end - run) +
-                          " tets (" + tets + "): the mesh is not manifold");
+                          ", " + std::to_string(run->c) + " is shared by " + std::to_string(end - run) + " tets (" +
+                          tets + "): the mesh is not manifold");
         }
         run = end;
       }

@@ -52,9 +52,8 @@ void centroidOrder(const TetMesh& mesh, const ViewPoint& view, std::vector<uint3
   const std::vector<double> depth = centroidDepths(mesh, view);
   order.resize(mesh.tets.size());
   for (size_t t = 0; t < order.size(); ++t) order[t] = uint32_t(t);
-  tbb::parallel_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
-    return depth[a] < depth[b] || (depth[a] == depth[b] && a < b);
-  });
+  tbb::parallel_sort(order.begin(), order.end(),
+                     [&](uint32_t a, uint32_t b) { return depth[a] < depth[b] || (depth[a] == depth[b] && a < b); });
   if (stats) {
     *stats = {};
     stats->ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
@@ -99,8 +98,9 @@ void mpvoOrder(const TetMesh& mesh, const Topology& topology, const ViewPoint& v
       if (byDepth.empty()) {
         byDepth.resize(n);
         for (size_t t = 0; t < n; ++t) byDepth[t] = uint32_t(t);
-        tbb::parallel_sort(byDepth.begin(), byDepth.end(),
-                           [&](uint32_t a, uint32_t b) { return depth[a] < depth[b] || (depth[a] == depth[b] && a < b); });
+        tbb::parallel_sort(byDepth.begin(), byDepth.end(), [&](uint32_t a, uint32_t b) {
+          return depth[a] < depth[b] || (depth[a] == depth[b] && a < b);
+        });
       }
       while (placed[byDepth[nextByDepth]]) ++nextByDepth;
       ready.push(byDepth[nextByDepth]);

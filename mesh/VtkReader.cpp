@@ -261,8 +261,8 @@ void VtkParser::readCellTypes() {
   if (mCellTypes) mIn.failAt(at, "a second CELL_TYPES section");
   const uint64_t cells = mCellStart->size() - 1;
   const uint64_t n = static_cast<uint64_t>(mIn.integer("CELL_TYPES count", 0, UINT32_MAX));
-  if (n != cells) mIn.failAt(at, "CELL_TYPES has " + std::to_string(n) + " entries for " + std::to_string(cells) +
-                                     " cells");
+  if (n != cells)
+    mIn.failAt(at, "CELL_TYPES has " + std::to_string(n) + " entries for " + std::to_string(cells) + " cells");
   endHeader();
   const VtkTypeInfo int32Type{"int", VtkType::Int32, 4};
   guard(int32Type, n, "CELL_TYPES");
@@ -309,9 +309,9 @@ void VtkParser::readFieldArrays(uint64_t count, bool pointData, bool datasetLeve
       readReals(type, values, "FIELD array", [&](uint64_t i, double v) { mScalars[i] = static_cast<float>(v); });
     } else {
       if (!datasetLevel && !scalar)
-        mPicker.noteUnusable(name, !pointData ? "cell data"
-                                              : components != 1 ? std::to_string(components) + " components"
-                                                                : std::to_string(tuples) + " tuples");
+        mPicker.noteUnusable(name, !pointData        ? "cell data"
+                                   : components != 1 ? std::to_string(components) + " components"
+                                                     : std::to_string(tuples) + " tuples");
       skipValues(type, values, "FIELD array");
     }
     skipMetadataIfPresent();
@@ -372,8 +372,9 @@ void VtkParser::skipColours(const std::string& keyword, uint64_t count) {
                                        keyword == "lookup_table" ? INT32_MAX : 4);
   endHeader();
   const VtkTypeInfo bytes{"unsigned_char", VtkType::UInt8, 1};
-  skipValues(bytes, keyword == "lookup_table" ? 4 * static_cast<uint64_t>(perTuple)
-                                              : count * static_cast<uint64_t>(perTuple), "colours");
+  skipValues(bytes,
+             keyword == "lookup_table" ? 4 * static_cast<uint64_t>(perTuple) : count * static_cast<uint64_t>(perTuple),
+             "colours");
 }
 
 void VtkParser::readAttributes(uint64_t count, bool pointData) {

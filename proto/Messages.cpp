@@ -79,10 +79,8 @@ class Writer {
     putLittleEndian(mOut.data() + mOut.size() - sizeof(T), value);
   }
   template <class E>
-    requires std::is_enum_v<E>
-  void number(Field field, E value) {
-    number(field, static_cast<std::underlying_type_t<E>>(value));
-  }
+  requires std::is_enum_v<E>
+  void number(Field field, E value) { number(field, static_cast<std::underlying_type_t<E>>(value)); }
   // Every length and count fits its u32: each is at most the body size, which encode() has checked.
   void string(Field field, const std::string& text) {
     number(field, static_cast<uint32_t>(text.size()));
@@ -117,7 +115,7 @@ class Reader {
     value = getLittleEndian<T>(take(field, sizeof(T)));
   }
   template <class E>
-    requires std::is_enum_v<E>
+  requires std::is_enum_v<E>
   void number(Field field, E& value) {
     std::underlying_type_t<E> raw;
     number(field, raw);
@@ -127,8 +125,7 @@ class Reader {
   void string(Field field, std::string& text) {
     const uint32_t size = length(field, mLimits.maxStringBytes);
     const uint8_t* p = take(field, size);
-    if (size_t bad = invalidUtf8At(p, size); bad != size)
-      fail(field, "not valid UTF-8 at byte " + std::to_string(bad));
+    if (size_t bad = invalidUtf8At(p, size); bad != size) fail(field, "not valid UTF-8 at byte " + std::to_string(bad));
     text.assign(reinterpret_cast<const char*>(p), size);
   }
   void bytes(Field field, std::vector<uint8_t>& data) {
@@ -171,15 +168,15 @@ class Reader {
     number(field, size);
     if (size > limit) fail(field, "length " + std::to_string(size) + " exceeds limit " + std::to_string(limit));
     if (size > left())
-      fail(field, "length " + std::to_string(size) + " exceeds the " + std::to_string(left()) +
-                      " bytes left in the body");
+      fail(field,
+           "length " + std::to_string(size) + " exceeds the " + std::to_string(left()) + " bytes left in the body");
     return size;
   }
 
   const uint8_t* take(Field field, size_t size) {
     if (size > left())
-      fail(field, "truncated: needs " + std::to_string(size) + " bytes, " + std::to_string(left()) +
-                      " left in the body");
+      fail(field,
+           "truncated: needs " + std::to_string(size) + " bytes, " + std::to_string(left()) + " left in the body");
     const uint8_t* p = mBody.data() + mOffset;
     mOffset += size;
     return p;
@@ -202,7 +199,7 @@ template <class M, class T>
 concept Is = std::same_as<std::remove_const_t<M>, T>;
 
 template <class Io, class M>
-  requires Is<M, ListDatasets> || Is<M, GetStats> || Is<M, Goodbye>
+requires Is<M, ListDatasets> || Is<M, GetStats> || Is<M, Goodbye>
 void fields(Io&, M&) {}
 
 template <class Io, Is<Hello> M>
@@ -312,7 +309,6 @@ size_t invalidUtf8At(const uint8_t* p, size_t size) {
   }
   return size;
 }
-
 
 const char* errorCodeName(ErrorCode code) {
   switch (code) {

@@ -6,8 +6,8 @@
 
 #include "brickstore/BrickStore.h"
 #include "image/Image.h"
-#include "render/reference/ReferenceRenderer.h"
 #include "render/core/Scene.h"
+#include "render/reference/ReferenceRenderer.h"
 
 namespace voxbrick::quality {
 

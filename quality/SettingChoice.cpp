@@ -11,8 +11,8 @@ namespace voxbrick::quality {
 void markPareto(std::vector<Point>& points) {
   for (Point& p : points) {
     p.pareto = std::none_of(points.begin(), points.end(), [&](const Point& q) {
-      return q.dataset == p.dataset && q.variant == p.variant && q.msMedian <= p.msMedian &&
-             q.psnrMin >= p.psnrMin && (q.msMedian < p.msMedian || q.psnrMin > p.psnrMin);
+      return q.dataset == p.dataset && q.variant == p.variant && q.msMedian <= p.msMedian && q.psnrMin >= p.psnrMin &&
+             (q.msMedian < p.msMedian || q.psnrMin > p.psnrMin);
     });
   }
 }

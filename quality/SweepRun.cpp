@@ -50,8 +50,7 @@ class Recorder {
       : mResult(result), mLog(log), mPlanned(result.spec.plannedPoints()), mStart(std::chrono::steady_clock::now()) {}
 
   void operator()(const Point& p) {
-    const double minutes =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - mStart).count() / 60;
+    const double minutes = std::chrono::duration<double>(std::chrono::steady_clock::now() - mStart).count() / 60;
     char line[320];
     std::snprintf(line, sizeof line, "[%zu/%zu, %.1f min] %s %s, %s: %.1f ms, worst view %.1f dB",
                   mResult.points.size() + 1, mPlanned, minutes, p.dataset.c_str(), p.variant.label().c_str(),

@@ -44,8 +44,10 @@ std::string marchingLabel(const Setting& s) {
 std::string Setting::label() const {
   std::string text = "step " + stepText(step) + ", B=" + std::to_string(brick) + (skip ? ", skip" : ", no skip") +
                      (slicer == render::Slicer::Cpu ? ", cpu slicer" : ", vertex");
-  if (raycast) text += ", raycast";
-  else if (slab > 0) text += ", " + slabLabel(slab);
+  if (raycast)
+    text += ", raycast";
+  else if (slab > 0)
+    text += ", " + slabLabel(slab);
   return text + marchingOptions(*this);
 }
 

@@ -39,7 +39,7 @@ struct Setting {
   int brick = 32;
   bool skip = true;
   render::Slicer slicer = render::Slicer::Vertex;
-  int slab = 0;                 ///< 0 slices; N texture slabs of N planes (render::Scene::kMaxSlab: whole bricks)
+  int slab = 0;  ///< 0 slices; N texture slabs of N planes (render::Scene::kMaxSlab: whole bricks)
   /// The frame ray caster (render::Scene::raycast). Its settings keep slab 0: the ray caster ignores slab, which
   /// only picks the slabs drawn instead where a volume is too large for its cell table (render::FramePlan).
   bool raycast = false;
@@ -47,7 +47,7 @@ struct Setting {
   bool preIntegration = false;  ///< pre-integrated classification; slabs and the ray caster only
   /// Empty sub-blocks skipped inside bricks (render::Scene::subBlock), the ray caster's cell size; 0 whole bricks.
   int subBlock = 0;
-  double lod = 0;               ///< level of detail (render::Scene::lod); 0 level 0 everywhere
+  double lod = 0;  ///< level of detail (render::Scene::lod); 0 level 0 everywhere
   bool operator==(const Setting&) const = default;
   /// E.g. "step 0.5, B=32, skip, vertex"; the marching settings are appended only where not default: "step 1, B=32,
   /// skip, vertex, slab 16, ert 0.99, pre-int" ("slab whole brick" for render::Scene::kMaxSlab), "step 0.5, B=32,
@@ -82,34 +82,34 @@ struct SweepSpec {
   std::vector<int> alternativeBricks;  ///< brick sizes besides 32
   bool alternativeNoSkip = true;
   bool alternativeCpuSlicer = true;
-  bool shadingVariants = true;        ///< each transfer function with shading off and on
-  std::vector<int> slabs;              ///< slab sizes swept without ERT; empty: no slab settings at all
-  int ertSlab = 16;                    ///< the slab size of the ERT thresholds and of pre-integration
-  std::vector<double> erts;            ///< ERT thresholds besides 0 (off)
+  bool shadingVariants = true;  ///< each transfer function with shading off and on
+  std::vector<int> slabs;       ///< slab sizes swept without ERT; empty: no slab settings at all
+  int ertSlab = 16;             ///< the slab size of the ERT thresholds and of pre-integration
+  std::vector<double> erts;     ///< ERT thresholds besides 0 (off)
   /// Each threshold of `erts` at `ertSlab` again with each of these sub-block sizes (empty space skipped inside
   /// bricks, which slabs pay no extra ownership cost for).
   std::vector<int> slabSubBlocks;
   /// Levels of detail besides 0 (render::Scene::lod), each with every threshold of `erts` at `ertSlab` and the last
   /// of `slabSubBlocks` (0 if none); the reference stays level 0, so their error is what a user sees.
   std::vector<double> lods;
-  bool ertAtBestSlab = true;           ///< also the thresholds at the fastest other slab size
-  bool preIntegration = true;          ///< pre-integration at `ertSlab`, with ERT off and with the best threshold
-  bool opaqueVariants = true;          ///< slab and ray-caster settings on each dataset's opaque transfer function too
+  bool ertAtBestSlab = true;   ///< also the thresholds at the fastest other slab size
+  bool preIntegration = true;  ///< pre-integration at `ertSlab`, with ERT off and with the best threshold
+  bool opaqueVariants = true;  ///< slab and ray-caster settings on each dataset's opaque transfer function too
   /// The frame ray caster (render::Scene::raycast) with ERT off and each of `erts`, each with whole-brick cells and
   /// each of `slabSubBlocks`; each of `lods` as for slabs; pre-integration if `preIntegration`. Independent of
   /// `slabs`, on the slab variants.
   bool rayCast = false;
-  std::vector<double> slabSteps;       ///< the steps of the slab settings (each one of `steps`); empty: every step
+  std::vector<double> slabSteps;  ///< the steps of the slab settings (each one of `steps`); empty: every step
   /// Slab sizes below `ertSlab` (a fragment per plane or few: the slowest settings) run only at steps at least this.
   double smallSlabMinStep = 0;
-  double slabTableStep = 1;            ///< the step of sweep.md's slab table (else the nearest swept one)
-  double ertToleranceDb = 1;           ///< bestErt: worst-view PSNR a threshold may cost (below psnrHighThreshold)
-  int views = 8;                       ///< orbit: azimuth 360·v/views, elevation elevations[v % size], 2.2 R
+  double slabTableStep = 1;               ///< the step of sweep.md's slab table (else the nearest swept one)
+  double ertToleranceDb = 1;              ///< bestErt: worst-view PSNR a threshold may cost (below psnrHighThreshold)
+  int views = 8;                          ///< orbit: azimuth 360·v/views, elevation elevations[v % size], 2.2 R
   std::vector<double> elevations = {20};  ///< degrees, taken in turn by the views
-  int size = 256;                      ///< square images
-  double referenceStep = 0.125;        ///< voxels
-  double psnrThreshold = 40;           ///< dB, for the chosen default
-  double psnrHighThreshold = 50;       ///< dB, for the second answer (the fastest setting at this accuracy)
+  int size = 256;                         ///< square images
+  double referenceStep = 0.125;           ///< voxels
+  double psnrThreshold = 40;              ///< dB, for the chosen default
+  double psnrHighThreshold = 50;          ///< dB, for the second answer (the fastest setting at this accuracy)
 
   /// The steps at which the slab and ray-caster settings run.
   std::vector<double> slabStepsOrAll() const { return slabSteps.empty() ? steps : slabSteps; }

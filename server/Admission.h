@@ -21,9 +21,9 @@ struct ConnectionId {
 class Admission {
  public:
   struct Limits {
-    size_t maxSessions = 64;     ///< greeted connections
-    size_t maxPending = 16;      ///< connections without Hello yet
-    size_t maxPerAddress = 0;    ///< connections (pending or greeted) of one address; 0: no limit
+    size_t maxSessions = 64;   ///< greeted connections
+    size_t maxPending = 16;    ///< connections without Hello yet
+    size_t maxPerAddress = 0;  ///< connections (pending or greeted) of one address; 0: no limit
   };
 
   /// What admit() decided.

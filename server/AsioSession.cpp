@@ -3,8 +3,8 @@
 
 #include <chrono>
 
-#include <boost/asio/post.hpp>
 #include <spdlog/spdlog.h>
+#include <boost/asio/post.hpp>
 
 namespace voxbrick::server {
 namespace {
@@ -13,8 +13,8 @@ std::chrono::milliseconds milliseconds(double seconds) { return std::chrono::mil
 
 }  // namespace
 
-AsioSession::AsioSession(const boost::asio::any_io_executor& executor, const SessionServices& services,
-                         ConnectionId id, std::string peer)
+AsioSession::AsioSession(const boost::asio::any_io_executor& executor, const SessionServices& services, ConnectionId id,
+                         std::string peer)
     : mCore(*this, services, id, std::move(peer)),
       mExecutor(executor),
       mHelloTimer(executor),
@@ -30,8 +30,7 @@ void AsioSession::end(proto::Error error) {
 }
 
 void AsioSession::rendered(RenderJob job, proto::Message reply) {
-  boost::asio::post(mExecutor,
-                    guarded(this, [job = std::move(job), reply = std::move(reply)](AsioSession& s) mutable {
+  boost::asio::post(mExecutor, guarded(this, [job = std::move(job), reply = std::move(reply)](AsioSession& s) mutable {
                       s.mCore.rendered(job, std::move(reply));
                     }));
 }

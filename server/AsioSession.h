@@ -47,14 +47,14 @@ class AsioSession : public Session,
   /// connection instead of letting an exception out of Asio. `self` is `this` as the derived transport.
   template <typename Self, typename Step>
   auto guarded(Self* self, Step step) {
-    return [keep = std::shared_ptr<Self>(shared_from_this(), self), step = std::move(step)](auto&&... args) mutable
-           noexcept {
-             try {
-               step(*keep, std::forward<decltype(args)>(args)...);
-             } catch (...) {
-               keep->failed(std::current_exception());
-             }
-           };
+    return [keep = std::shared_ptr<Self>(shared_from_this(), self),
+            step = std::move(step)](auto&&... args) mutable noexcept {
+      try {
+        step(*keep, std::forward<decltype(args)>(args)...);
+      } catch (...) {
+        keep->failed(std::current_exception());
+      }
+    };
   }
 
   /// Logs an unexpected failure and closes the connection.

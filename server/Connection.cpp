@@ -9,8 +9,8 @@
 #include <malloc.h>
 #endif
 
-#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
+#include <nlohmann/json.hpp>
 
 #include "server/ErrorReply.h"
 
@@ -83,9 +83,9 @@ void Connection::onReadTimeout() {
     mTransport.arm(Deadline::Read, config.idleTimeoutS);
     return;
   }
-  timedOut(mReadingMessage ? "message not completed within " + std::to_string(config.readTimeoutS) +
-                                 " s of its first byte"
-                           : "idle for " + std::to_string(config.idleTimeoutS) + " s");
+  timedOut(mReadingMessage
+               ? "message not completed within " + std::to_string(config.readTimeoutS) + " s of its first byte"
+               : "idle for " + std::to_string(config.idleTimeoutS) + " s");
 }
 
 void Connection::onWriteTimeout() {

@@ -34,7 +34,7 @@ struct SessionServices {
   MessageHandler& handler;
   RenderScheduler& scheduler;
   ServerStats& stats;
-  OutputBudget& output;        ///< replies queued for every session together
+  OutputBudget& output;  ///< replies queued for every session together
   /// Called once when a connection has closed (on its serial context), so the server can forget it.
   std::function<void(ConnectionId)> ended;
   /// Called once the connection's Hello was accepted: whether it may become a session (false when max_sessions are
@@ -126,8 +126,8 @@ class Connection {
   /// Requests whose provisional Frame was refused (output budget): their exact frame is dropped, not sent.
   std::set<uint32_t> mRefusedProvisional;
   bool mWriting = false, mClosing = false, mClosed = false;
-  bool mReadingMessage = false;  ///< a message's first byte has arrived (its read deadline runs)
-  bool mPaused = false;          ///< not reading until the client takes its replies
+  bool mReadingMessage = false;    ///< a message's first byte has arrived (its read deadline runs)
+  bool mPaused = false;            ///< not reading until the client takes its replies
   std::atomic<bool> mAlive{true};  ///< read by render threads
 };
 

@@ -70,9 +70,9 @@ Outcome MessageHandler::dispatch(ConnectionState& state, const proto::Message& m
         } else if constexpr (std::is_same_v<M, proto::GetStats>) {
           return replyWith(proto::Stats{mStatsJson().dump(2)}, requestId);
         } else {
-          throw proto::ProtocolError(ErrorCode::UnexpectedMessage,
-                                     std::string(proto::messageTypeName(proto::messageType(message))) +
-                                         " is sent by servers, not clients");
+          throw proto::ProtocolError(
+              ErrorCode::UnexpectedMessage,
+              std::string(proto::messageTypeName(proto::messageType(message))) + " is sent by servers, not clients");
         }
       },
       message);
@@ -81,10 +81,10 @@ Outcome MessageHandler::dispatch(ConnectionState& state, const proto::Message& m
 Outcome MessageHandler::hello(ConnectionState& state, const proto::Hello& hello, uint32_t requestId) {
   if (state.greeted) throw proto::ProtocolError(ErrorCode::UnexpectedMessage, "Hello was already received");
   if (hello.minVersion > proto::kVersion || hello.maxVersion < proto::kVersion)
-    throw proto::ProtocolError(ErrorCode::UnsupportedVersion,
-                               "client speaks versions " + std::to_string(hello.minVersion) + ".." +
-                                   std::to_string(hello.maxVersion) + ", server speaks " +
-                                   std::to_string(proto::kVersion));
+    throw proto::ProtocolError(ErrorCode::UnsupportedVersion, "client speaks versions " +
+                                                                  std::to_string(hello.minVersion) + ".." +
+                                                                  std::to_string(hello.maxVersion) +
+                                                                  ", server speaks " + std::to_string(proto::kVersion));
   state.greeted = true;
   spdlog::debug("hello from '{}'", hello.client);
   proto::Capabilities caps;
@@ -120,8 +120,7 @@ Outcome MessageHandler::render(ConnectionState& state, const proto::RenderReques
   job.scene = render::Scene::fromJson(request.sceneJson, "scene", mPresets);
   if (job.scene.width > mConfig.maxImageSide || job.scene.height > mConfig.maxImageSide)
     throw LimitExceededError("image " + std::to_string(job.scene.width) + "x" + std::to_string(job.scene.height) +
-                             " exceeds this server's limit of " + std::to_string(mConfig.maxImageSide) +
-                             " per side");
+                             " exceeds this server's limit of " + std::to_string(mConfig.maxImageSide) + " per side");
   // A raw frame's size is known now: one the session could not receive is refused before it is drawn (the stats
   // take a few hundred bytes; 4 KiB is kept for them). Other encodings are checked once encoded (renderReply).
   job.maxBodyBytes = mConfig.maxMessageBytes;
@@ -146,10 +145,10 @@ Outcome MessageHandler::submitted(ConnectionState& state, uint32_t requestId, Su
     case Submission::Result::Stopped:
       return {};  // the session is being closed with ShuttingDown; the request gets no other reply
     case Submission::Result::Full:
-      return replyWith(errorMessage(ErrorCode::LimitExceeded,
-                                    "more than " + std::to_string(ServerConfig::kMaxQueuedWithoutCoalescing) +
-                                        " renders queued"),
-                       requestId);
+      return replyWith(
+          errorMessage(ErrorCode::LimitExceeded,
+                       "more than " + std::to_string(ServerConfig::kMaxQueuedWithoutCoalescing) + " renders queued"),
+          requestId);
     case Submission::Result::Queued: break;
   }
   ++state.outstandingRenders;
@@ -158,10 +157,10 @@ Outcome MessageHandler::submitted(ConnectionState& state, uint32_t requestId, Su
   --state.outstandingRenders;
   mStats.add(ServerEvent::Superseded);
   const uint32_t replaced = submission.replaced->requestId;
-  return replyWith(errorMessage(ErrorCode::Superseded, "request " + std::to_string(replaced) +
-                                                           " was replaced by request " + std::to_string(requestId) +
-                                                           " before it started"),
-                   replaced);
+  return replyWith(
+      errorMessage(ErrorCode::Superseded, "request " + std::to_string(replaced) + " was replaced by request " +
+                                              std::to_string(requestId) + " before it started"),
+      replaced);
 }
 
 Outcome MessageHandler::rendered(ConnectionState& state, const RenderJob& job, proto::Message reply) {

@@ -7,9 +7,9 @@
 
 #include "brickstore/Errors.h"
 #include "image/FrameImage.h"
-#include "render/volume/FramePlan.h"
 #include "render/core/RenderErrors.h"
 #include "render/volume/BrickStoreDataset.h"
+#include "render/volume/FramePlan.h"
 #include "server/ErrorReply.h"
 
 namespace voxbrick::server {
@@ -62,15 +62,14 @@ RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int 
   } catch (const store::CorruptStoreError& e) {
     // The data failed its checks: the dataset's later renders are refused without drawing (MessageHandler).
     if (job.dataset) job.dataset->quarantine(e.what());
-    return {errorReply(std::current_exception(),
-                       "render of request " + std::to_string(job.requestId) + " on '" +
-                           (job.dataset ? job.dataset->name() : std::string("no dataset")) +
-                           "' failed; the dataset is quarantined until it is replaced"),
+    return {errorReply(std::current_exception(), "render of request " + std::to_string(job.requestId) + " on '" +
+                                                     (job.dataset ? job.dataset->name() : std::string("no dataset")) +
+                                                     "' failed; the dataset is quarantined until it is replaced"),
             false};
   } catch (...) {
-    return {errorReply(std::current_exception(),
-                       "render of request " + std::to_string(job.requestId) + " on '" +
-                           (job.dataset ? job.dataset->name() : std::string("no dataset")) + "' failed"),
+    return {errorReply(std::current_exception(), "render of request " + std::to_string(job.requestId) + " on '" +
+                                                     (job.dataset ? job.dataset->name() : std::string("no dataset")) +
+                                                     "' failed"),
             false};
   }
 }

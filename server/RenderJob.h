@@ -10,8 +10,8 @@
 
 #include "proto/Messages.h"
 #include "render/core/Dataset.h"
-#include "render/engine/RenderEngine.h"
 #include "render/core/Scene.h"
+#include "render/engine/RenderEngine.h"
 
 namespace voxbrick::server {
 
@@ -21,7 +21,7 @@ struct RenderJob {
   proto::Encoding encoding = proto::Encoding::Png;  ///< of the Frame's payload
   render::Scene scene;
   std::shared_ptr<const render::Dataset> dataset;  ///< the one open when the request came
-  std::chrono::steady_clock::time_point received;   ///< for queue_ms and the latency statistics
+  std::chrono::steady_clock::time_point received;  ///< for queue_ms and the latency statistics
   /// The camera of the session's previous Render of the same dataset, if any: the render thread pages ahead for
   /// the camera a drag would reach next (prefetchAhead).
   std::optional<render::CameraSpec> previousCamera;

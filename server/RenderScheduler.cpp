@@ -144,8 +144,8 @@ void RenderScheduler::renderLoop(std::unique_ptr<render::RenderEngine> engine, i
       // Given up between batches when the session has gone, or when a refinement (whose request was answered by its
       // provisional frame) is overtaken by a newer Render of the session.
       const auto cancelled = [&] { return !sink->wantsReplies() || (job.refinement && waiting(*sink)); };
-      RenderReply reply = broken ? RenderReply{errorReply(broken, brokenContext), false}
-                                 : renderReply(*engine, job, index, cancelled);
+      RenderReply reply =
+          broken ? RenderReply{errorReply(broken, brokenContext), false} : renderReply(*engine, job, index, cancelled);
       // The session gets its frame first; then the exact frame of a provisional one is queued, and the bricks of
       // the camera a drag would reach next are paged ahead.
       EngineGauge& gauge = mGauges[size_t(index)];

@@ -12,12 +12,12 @@
 
 #include <utility>  // before Asio: Boost 1.74's awaitable.hpp uses std::exchange without it
 
+#include <spdlog/spdlog.h>
 #include <boost/asio.hpp>
 #include <nlohmann/json.hpp>
-#include <spdlog/spdlog.h>
 
-#include "render/engine/RenderEngine.h"
 #include "render/core/TransferFunctionPresets.h"
+#include "render/engine/RenderEngine.h"
 #include "server/Admission.h"
 #include "server/Datasets.h"
 #include "server/ErrorReply.h"
@@ -141,8 +141,8 @@ struct Server::Impl {
   std::condition_variable sessionsChanged;
   /// Every open connection: sessions, connections waiting for Hello, refused ones until their error is written.
   std::map<ConnectionId, std::shared_ptr<Session>> sessions;
-  Admission admission;   ///< guarded by sessionsMutex
-  uint64_t accepted = 0;  ///< connections so far: the next ConnectionId
+  Admission admission;        ///< guarded by sessionsMutex
+  uint64_t accepted = 0;      ///< connections so far: the next ConnectionId
   bool shuttingDown = false;  ///< guarded by sessionsMutex, so no session joins after the ShuttingDown round
 
   std::mutex stopMutex;
@@ -204,9 +204,8 @@ void Server::Impl::accept() {
 
 void Server::Impl::onAccepted(tcp::socket socket) {
   const auto [address, loopback] = clientAddress(socket);
-  adopt(address, loopback, [&](ConnectionId id) {
-    return std::make_shared<TcpSession>(std::move(socket), sessionServices, id);
-  });
+  adopt(address, loopback,
+        [&](ConnectionId id) { return std::make_shared<TcpSession>(std::move(socket), sessionServices, id); });
 }
 
 void Server::Impl::adopt(const std::string& address, bool loopback,
@@ -227,9 +226,9 @@ void Server::Impl::adopt(const std::string& address, bool loopback,
         refusal = errorMessage(proto::ErrorCode::LimitExceeded,
                                "too many sessions (limit " + std::to_string(config.maxSessions) + ")");
       else if (verdict.result == Result::TooManyFromAddress)
-        refusal = errorMessage(proto::ErrorCode::LimitExceeded,
-                               "too many connections from " + address + " (limit " +
-                                   std::to_string(config.maxConnectionsPerAddress) + ")");
+        refusal =
+            errorMessage(proto::ErrorCode::LimitExceeded, "too many connections from " + address + " (limit " +
+                                                              std::to_string(config.maxConnectionsPerAddress) + ")");
       if (verdict.evicted) evicted = sessions.at(*verdict.evicted);
     }
   }
@@ -245,9 +244,9 @@ void Server::Impl::adopt(const std::string& address, bool loopback,
     stats.add(ServerEvent::PendingEvicted);
     spdlog::info("{}: closing: no Hello yet and {} connections wait for theirs", evicted->peer(),
                  config.maxPendingConnections);
-    evicted->end(errorMessage(proto::ErrorCode::LimitExceeded,
-                              "too many connections waiting for Hello (limit " +
-                                  std::to_string(config.maxPendingConnections) + "): the oldest gives way"));
+    evicted->end(errorMessage(proto::ErrorCode::LimitExceeded, "too many connections waiting for Hello (limit " +
+                                                                   std::to_string(config.maxPendingConnections) +
+                                                                   "): the oldest gives way"));
   }
   spdlog::debug("{}: connected", session->peer());
   session->start();

@@ -14,21 +14,21 @@ namespace voxbrick::server {
 struct ServerConfig {
   // [server]
   std::string host = "127.0.0.1";
-  int port = 7420;                           ///< 0 picks a free port (printed, and written to --port-file)
-  std::filesystem::path datasets = "demo";   ///< directory whose subdirectories are stores (and .vdb files)
+  int port = 7420;                          ///< 0 picks a free port (printed, and written to --port-file)
+  std::filesystem::path datasets = "demo";  ///< directory whose subdirectories are stores (and .vdb files)
   int ioThreads = 2;
-  int renderThreads = 2;                     ///< each with its own GL context
+  int renderThreads = 2;                            ///< each with its own GL context
   render::Backend backend = render::Backend::Auto;  ///< "auto" | "egl" | "osmesa" in the file
-  std::string logLevel = "info";             ///< trace | debug | info | warn | error | off
-  bool coalesce = true;                      ///< latest wins; off only to measure what it saves
+  std::string logLevel = "info";                    ///< trace | debug | info | warn | error | off
+  bool coalesce = true;                             ///< latest wins; off only to measure what it saves
   // [limits]
-  int maxSessions = 64;                      ///< connections beyond this are refused with LimitExceeded
-  uint32_t maxMessageBytes = 1u << 20;       ///< body of a client message
-  int maxImageSide = 4096;                   ///< per side of a requested frame
-  double idleTimeoutS = 300;                 ///< no message (and no frame outstanding) for this long closes
-  double readTimeoutS = 30;                  ///< a message whose header arrived must complete within this
-  double writeTimeoutS = 30;                 ///< a reply must be taken by the client within this
-  uint64_t maxOutputBytes = 256ull << 20;    ///< replies queued for a session that does not read
+  int maxSessions = 64;                    ///< connections beyond this are refused with LimitExceeded
+  uint32_t maxMessageBytes = 1u << 20;     ///< body of a client message
+  int maxImageSide = 4096;                 ///< per side of a requested frame
+  double idleTimeoutS = 300;               ///< no message (and no frame outstanding) for this long closes
+  double readTimeoutS = 30;                ///< a message whose header arrived must complete within this
+  double writeTimeoutS = 30;               ///< a reply must be taken by the client within this
+  uint64_t maxOutputBytes = 256ull << 20;  ///< replies queued for a session that does not read
   /// The most a Render may cost, in millions of samples as FramePlan::estimatedSamples bounds them (an upper
   /// estimate, 5-20x the samples a frame takes): a 4096² frame of a 1024³ volume at the default step fits, 4096² at
   /// step 0.001 does not. A mesh frame counts its fragments, bounded by each drawn tet's projected bounding box, plus
@@ -37,15 +37,15 @@ struct ServerConfig {
   // Hostile clients (PROTOCOL.md section 3, "Connections"): sockets that never speak, clients that never read.
   // max_sessions counts connections past Hello only, and read_timeout_s runs from a message's first byte
   // (Session).
-  int maxPendingConnections = 16;            ///< connections without Hello yet; one more evicts the oldest
-  double helloTimeoutS = 5;                  ///< a connection's Hello must be complete within this of its accept
-  int maxConnectionsPerAddress = 32;         ///< connections of one client IP address, pending or not; 0: no limit
-  bool loopbackExempt = true;                ///< loopback clients are not held to maxConnectionsPerAddress
-  uint64_t pauseReadingBytes = 1ull << 20;   ///< a session with more replies queued is not read until they drain
-  uint64_t maxTotalOutputBytes = 1ull << 30; ///< replies queued for all sessions; a frame beyond it: LimitExceeded
+  int maxPendingConnections = 16;             ///< connections without Hello yet; one more evicts the oldest
+  double helloTimeoutS = 5;                   ///< a connection's Hello must be complete within this of its accept
+  int maxConnectionsPerAddress = 32;          ///< connections of one client IP address, pending or not; 0: no limit
+  bool loopbackExempt = true;                 ///< loopback clients are not held to maxConnectionsPerAddress
+  uint64_t pauseReadingBytes = 1ull << 20;    ///< a session with more replies queued is not read until they drain
+  uint64_t maxTotalOutputBytes = 1ull << 30;  ///< replies queued for all sessions; a frame beyond it: LimitExceeded
   // [memory]
-  int64_t hostCacheMB = 1024;                ///< decoded bricks of all open datasets together
-  int64_t gpuBudgetMB = 1024;                ///< atlases of all render threads and datasets (equal shares per thread)
+  int64_t hostCacheMB = 1024;  ///< decoded bricks of all open datasets together
+  int64_t gpuBudgetMB = 1024;  ///< atlases of all render threads and datasets (equal shares per thread)
 
   /// Without coalescing (a benchmark setting), how many renders one session may have waiting.
   static constexpr size_t kMaxQueuedWithoutCoalescing = 64;

@@ -18,14 +18,14 @@ namespace voxbrick::server {
 
 /// What the server counts.
 enum class ServerEvent {
-  SessionAccepted,    ///< connections whose Hello made them a session
-  SessionRefused,     ///< too many sessions or connections of one address, or stopping
-  PendingEvicted,     ///< connections without Hello closed to make room for a newer one
-  Message,            ///< message bodies read, decodable or not
-  ProtocolError,      ///< headers and bodies that did not decode
+  SessionAccepted,  ///< connections whose Hello made them a session
+  SessionRefused,   ///< too many sessions or connections of one address, or stopping
+  PendingEvicted,   ///< connections without Hello closed to make room for a newer one
+  Message,          ///< message bodies read, decodable or not
+  ProtocolError,    ///< headers and bodies that did not decode
   RenderRequest,
   Frame,
-  RenderError,        ///< renders answered with an Error instead of a Frame
+  RenderError,  ///< renders answered with an Error instead of a Frame
   Superseded,
   Refined,            ///< exact frames sent after a provisional one (progressive scenes)
   Timeout,            ///< sessions closed idle or mid-message
@@ -39,16 +39,16 @@ class ServerStats {
  public:
   /// What the server knows at the moment statistics are asked for (the counters are kept here).
   struct Gauges {
-    size_t activeSessions = 0;  ///< connections past Hello
-    size_t queuedSessions = 0;  ///< sessions with a render waiting for a thread
+    size_t activeSessions = 0;                                     ///< connections past Hello
+    size_t queuedSessions = 0;                                     ///< sessions with a render waiting for a thread
     std::vector<std::shared_ptr<const render::Dataset>> datasets;  ///< the opened ones
     int renderThreads = 0;
     RenderScheduler::GpuGauges gpu;  ///< the render threads' atlases
     size_t gpuBudgetBytes = 0;
-    size_t pendingConnections = 0;  ///< accepted, no Hello yet
+    size_t pendingConnections = 0;                                              ///< accepted, no Hello yet
     uint64_t outputQueuedBytes = 0, outputPeakBytes = 0, outputLimitBytes = 0;  ///< replies not yet written
     nlohmann::json limits = nlohmann::json::object();  ///< the configuration's limits, for clients and load tests
-    uint64_t rendersCancelled = 0;  ///< frames given up part way (RenderScheduler::cancelled)
+    uint64_t rendersCancelled = 0;                     ///< frames given up part way (RenderScheduler::cancelled)
   };
 
   /// Counts one `event`.

@@ -21,8 +21,8 @@ bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.
 
 void checkBox(const Box& box, const char* function) {
   double r = box.radius();
-  if (!finite(box.min) || !finite(box.max) || !(box.min.x <= box.max.x && box.min.y <= box.max.y &&
-                                                box.min.z <= box.max.z) || !(r > 0) || !std::isfinite(r))
+  if (!finite(box.min) || !finite(box.max) ||
+      !(box.min.x <= box.max.x && box.min.y <= box.max.y && box.min.z <= box.max.z) || !(r > 0) || !std::isfinite(r))
     throw RenderInputError(std::string(function) + ": box " + vecText(box.min) + " - " + vecText(box.max) +
                            " is not a finite box of positive size");
 }
@@ -64,8 +64,7 @@ OrbitAxes OrbitAxes::of(UpAxis axis) {
   return o;
 }
 
-Camera Camera::orbitAt(double azimuthDeg, double elevationDeg, double distance, const Box& box,
-                       const OrbitAxes& axes) {
+Camera Camera::orbitAt(double azimuthDeg, double elevationDeg, double distance, const Box& box, const OrbitAxes& axes) {
   if (!std::isfinite(azimuthDeg) || !std::isfinite(elevationDeg))
     throw RenderInputError("Camera::orbit: angles (" + numberText(azimuthDeg) + ", " + numberText(elevationDeg) +
                            ") are not finite");

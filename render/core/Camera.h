@@ -63,7 +63,7 @@ struct Camera {
   glm::dvec3 eye{0.0, 0.0, 1.0};
   glm::dvec3 center{0.0};
   glm::dvec3 up{0.0, 1.0, 0.0};
-  double fovYDegrees = 30;     ///< vertical field of view, in (0, 179]; also sizes the orthographic view
+  double fovYDegrees = 30;  ///< vertical field of view, in (0, 179]; also sizes the orthographic view
   bool orthographic = false;
 
   /// The eye at `distance` (world units) from the box centre in the direction cos el * (cos az * front + sin az *
@@ -73,8 +73,7 @@ struct Camera {
   /// (at el 90 and az 0 it is -front, the old Y-up orbit's limit), so an orbit dragged over the pole turns the image
   /// smoothly instead of flipping it. Throws RenderInputError for non-finite angles, a distance not finite and > 0,
   /// or a box without finite size.
-  static Camera orbitAt(double azimuthDeg, double elevationDeg, double distance, const Box& box,
-                        const OrbitAxes& axes);
+  static Camera orbitAt(double azimuthDeg, double elevationDeg, double distance, const Box& box, const OrbitAxes& axes);
   /// orbitAt with the distance in bounding-sphere radii (box.radius()) and the Y-up axes (up +y, az 0 on +z, az 90
   /// on +x, el 90 on +y) unless others are given.
   static Camera orbit(double azimuthDeg, double elevationDeg, double distanceInRadii, const Box& box,

@@ -56,7 +56,7 @@ class Dataset {
     return mQuarantine;
   }
 
- /// The dataset's quality table (QualityTable::load: DIR/quality.json, FILE.quality.json), read on first use and
+  /// The dataset's quality table (QualityTable::load: DIR/quality.json, FILE.quality.json), read on first use and
   /// again whenever the file changes (so a calibration made while a server runs takes effect); none if there is
   /// none. Throws RenderInputError for a malformed one. Thread-safe.
   std::optional<QualityTable> qualityTable() const;

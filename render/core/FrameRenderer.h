@@ -4,8 +4,8 @@
 #include <cstddef>
 #include <functional>
 
-#include "render/core/FrameStats.h"
 #include "image/Image.h"
+#include "render/core/FrameStats.h"
 #include "render/core/Scene.h"
 
 namespace voxbrick::render {

@@ -12,37 +12,37 @@ struct FrameStats {
   int64_t nodesVisited = 0;
   int64_t bricksSkippedEmpty = 0;
   int64_t bricksCulled = 0;
-  int64_t bricksDrawn = 0;     ///< bricks drawn, of every level
-  int64_t bricksCoarse = 0;    ///< of those, bricks of a coarser level standing for level 0 (Scene::lod)
-  int64_t bricksCoarsened = 0; ///< level-0 bricks the coarse ones stood for
+  int64_t bricksDrawn = 0;      ///< bricks drawn, of every level
+  int64_t bricksCoarse = 0;     ///< of those, bricks of a coarser level standing for level 0 (Scene::lod)
+  int64_t bricksCoarsened = 0;  ///< level-0 bricks the coarse ones stood for
   /// Coarse-to-fine streaming (FrameOptions::standIns): bricks drawn from a resident ancestor because they were not
   /// yet resident themselves (they are being paged for a later frame). 0: the frame is exactly the scene's.
   int64_t bricksStandIn = 0;
   std::vector<int64_t> bricksPerLevel;  ///< bricks drawn of each pyramid level
-  int64_t bricksPagedIn = 0;   ///< uploaded into the atlas this frame
-  int64_t bricksEvicted = 0;   ///< replaced in the atlas this frame
-  double samplesEstimated = 0; ///< the frame's cost as estimated before drawing (FramePlan::estimatedSamples)
-  int64_t batches = 0;         ///< draw batches (more than one when the atlas cannot hold the frame's bricks)
-  int64_t slices = 0;          ///< brick-plane polygons submitted
-  int64_t fragments = 0;       ///< volume fragments started: slices (GL_SAMPLES_PASSED) or slab fragments
-  int64_t samples = 0;         ///< volume samples taken: one per slice fragment, several per slab fragment
+  int64_t bricksPagedIn = 0;            ///< uploaded into the atlas this frame
+  int64_t bricksEvicted = 0;            ///< replaced in the atlas this frame
+  double samplesEstimated = 0;          ///< the frame's cost as estimated before drawing (FramePlan::estimatedSamples)
+  int64_t batches = 0;                  ///< draw batches (more than one when the atlas cannot hold the frame's bricks)
+  int64_t slices = 0;                   ///< brick-plane polygons submitted
+  int64_t fragments = 0;                ///< volume fragments started: slices (GL_SAMPLES_PASSED) or slab fragments
+  int64_t samples = 0;                  ///< volume samples taken: one per slice fragment, several per slab fragment
   /// Texture slabs: samples a fragment left when its own opacity reached the termination threshold (an upper bound:
   /// planes of its range, before the ownership test). Fragments the silhouette map rejected are not started at all.
   int64_t samplesTerminated = 0;
-  int64_t slabPasses = 0;      ///< texture slabs: draws of one slab each
+  int64_t slabPasses = 0;        ///< texture slabs: draws of one slab each
   int64_t subBlocksSkipped = 0;  ///< sub-blocks of drawn bricks left out as empty (Scene::subBlock)
   int64_t boxesDrawn = 0;        ///< boxes sliced: bricks (stand-ins merged), or with sub-blocks the boxes drawn
   /// Wall time of each phase on the calling thread. Drawing ends with a glFinish, but with several batches a
   /// batch's GPU work may instead be waited for by the next batch's uploads and show up as paging.
   double msTraversal = 0, msPaging = 0, msSlicing = 0, msDrawing = 0, msReadback = 0, msTotal = 0;
-  int64_t tetsDrawn = 0;        ///< tetrahedra drawn (a mesh frame)
-  int64_t tetsSkippedEmpty = 0; ///< tetrahedra the transfer function makes transparent over their value range
+  int64_t tetsDrawn = 0;         ///< tetrahedra drawn (a mesh frame)
+  int64_t tetsSkippedEmpty = 0;  ///< tetrahedra the transfer function makes transparent over their value range
   /// A paged mesh (TetMeshSource): chunks outside the view frustum, chunks the transfer function makes transparent
   /// over their value range, and chunks read from the store for this frame (0 when its working set was kept).
   int64_t tetChunksCulled = 0, tetChunksSkippedEmpty = 0, tetChunksRead = 0;
-  double msSorting = 0;         ///< a mesh frame's visibility sort
-  /// A ray-cast mesh frame's entry passes (render/gl/tets/TetRayCaster.h), each followed by a ray pass but the last, which
-  /// found no entry: 2 for a convex mesh. 0 when the frame was projected.
+  double msSorting = 0;  ///< a mesh frame's visibility sort
+  /// A ray-cast mesh frame's entry passes (render/gl/tets/TetRayCaster.h), each followed by a ray pass but the last,
+  /// which found no entry: 2 for a convex mesh. 0 when the frame was projected.
   int64_t tetRayPasses = 0;
   double msPreIntegration = 0;  ///< building the pre-integration table (0 when the last frame's was current)
   /// A scene with a quality target: what it chose (QualityChoice::toJson); null otherwise.

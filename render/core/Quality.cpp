@@ -97,8 +97,12 @@ std::string QualitySetting::label() const {
 }
 
 json QualityChoice::toJson() const {
-  return {{"target", target.text()}, {"setting", setting.label()}, {"expected_psnr", expectedPsnr},
-          {"expected_ms", expectedMs}, {"met", met},       {"basis", basis}};
+  return {{"target", target.text()},
+          {"setting", setting.label()},
+          {"expected_psnr", expectedPsnr},
+          {"expected_ms", expectedMs},
+          {"met", met},
+          {"basis", basis}};
 }
 
 std::string QualityTable::toJson() const {
@@ -117,9 +121,14 @@ std::string QualityTable::toJson() const {
                     {"ms_median", e.msMedian},
                     {"psnr_min", e.psnrMin}});
   }
-  return json{{"format", "voxbrick-quality"}, {"version", kFormatVersion}, {"device", device},
-              {"size", {width, height}},     {"views", views},            {"entries", rows}}
-             .dump(1) + "\n";
+  return json{{"format", "voxbrick-quality"},
+              {"version", kFormatVersion},
+              {"device", device},
+              {"size", {width, height}},
+              {"views", views},
+              {"entries", rows}}
+             .dump(1) +
+         "\n";
 }
 
 QualityTable QualityTable::fromJson(const std::string& text, const std::string& what) {
@@ -218,12 +227,11 @@ QualityChoice QualityTable::choose(const QualityTarget& target, const Scene& sce
                                                  : c.ms <= target.value * kTimeMargin)
       meeting.push_back(c);
   choice.met = !meeting.empty();
-  const Candidate best =
-      target.kind == QualityTarget::Kind::Psnr
-          ? (choice.met ? *std::min_element(meeting.begin(), meeting.end(), faster)
-                        : *std::min_element(all.begin(), all.end(), moreAccurate))
-          : (choice.met ? *std::min_element(meeting.begin(), meeting.end(), moreAccurate)
-                        : *std::min_element(all.begin(), all.end(), faster));
+  const Candidate best = target.kind == QualityTarget::Kind::Psnr
+                             ? (choice.met ? *std::min_element(meeting.begin(), meeting.end(), faster)
+                                           : *std::min_element(all.begin(), all.end(), moreAccurate))
+                             : (choice.met ? *std::min_element(meeting.begin(), meeting.end(), moreAccurate)
+                                           : *std::min_element(all.begin(), all.end(), faster));
   choice.setting = best.setting;
   choice.expectedPsnr = best.psnr;
   choice.expectedMs = best.ms;

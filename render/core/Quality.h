@@ -18,8 +18,8 @@ struct Scene;
 /// A target a user asks for instead of drawing settings.
 struct QualityTarget {
   enum class Kind { Psnr, Ms };
-  static constexpr double kMinPsnr = 10, kMaxPsnr = 100;    ///< dB
-  static constexpr double kMinMs = 1, kMaxMs = 3'600'000;    ///< milliseconds
+  static constexpr double kMinPsnr = 10, kMaxPsnr = 100;   ///< dB
+  static constexpr double kMinMs = 1, kMaxMs = 3'600'000;  ///< milliseconds
   Kind kind = Kind::Psnr;
   double value = 40;
 
@@ -64,7 +64,7 @@ struct QualityChoice {
   double expectedPsnr = 0;  ///< the worst view measured with this setting (dB)
   double expectedMs = 0;    ///< its median time scaled to the scene's pixel count
   bool met = false;         ///< false: no setting meets the target; this is the closest (most accurate, or fastest)
-  std::string basis;        ///< which entries were used, e.g. "mri, unshaded" or "the worst over every transfer function"
+  std::string basis;  ///< which entries were used, e.g. "mri, unshaded" or "the worst over every transfer function"
 
   /// {"target", "setting", "expected_psnr", "expected_ms", "met", "basis"}.
   nlohmann::json toJson() const;

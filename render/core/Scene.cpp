@@ -44,13 +44,15 @@ void parseCamera(const json& c, const std::string& what, CameraSpec& camera) {
   static const char* kCameraKeys[] = {"orbit", "fit", "up_axis", "view", "eye", "center", "up", "fov", "orthographic"};
   for (auto it = c.begin(); it != c.end(); ++it)
     if (std::find(std::begin(kCameraKeys), std::end(kCameraKeys), it.key()) == std::end(kCameraKeys))
-      throw RenderInputError(what + ": unknown key 'camera." + it.key() + "' (one of orbit, fit, up_axis, view, eye, "
-                                    "center, up, fov, orthographic)");
+      throw RenderInputError(what + ": unknown key 'camera." + it.key() +
+                             "' (one of orbit, fit, up_axis, view, eye, "
+                             "center, up, fov, orthographic)");
   if (c.contains("orbit") && c.contains("eye")) throw RenderInputError(what + ": 'camera' has both 'orbit' and 'eye'");
   for (const char* key : {"center", "up"})
     if (c.contains(key) && !c.contains("eye"))
-      throw RenderInputError(what + ": 'camera." + key + "' needs 'camera.eye' (an orbit or view looks at the "
-                                    "volume's centre with its up axis)");
+      throw RenderInputError(what + ": 'camera." + key +
+                             "' needs 'camera.eye' (an orbit or view looks at the "
+                             "volume's centre with its up axis)");
   if (c.contains("view")) {
     for (const char* key : {"orbit", "eye", "up_axis"})
       if (c.contains(key))
@@ -136,8 +138,8 @@ struct NamedView {
   double azimuth, elevation;
 };
 // The table of CameraSpec::setView.
-constexpr NamedView kViews[] = {{"anterior", 0, 0},    {"posterior", 180, 0},  {"left", 90, 0},
-                                {"right", 270, 0},     {"superior", 180, 90},  {"inferior", 0, -90}};
+constexpr NamedView kViews[] = {{"anterior", 0, 0}, {"posterior", 180, 0}, {"left", 90, 0},
+                                {"right", 270, 0},  {"superior", 180, 90}, {"inferior", 0, -90}};
 
 }  // namespace
 
@@ -166,8 +168,8 @@ Camera CameraSpec::resolve(const Box& localBox, const WorldFrame& frame, double 
     const OrbitAxes world = OrbitAxes::of(upAxis);
     const OrbitAxes axes{frame.directionToLocal(world.up), frame.directionToLocal(world.front),
                          frame.directionToLocal(world.side)};
-    const double d = distance ? *distance * localBox.radius()
-                              : Camera::fitDistance(localBox.radius(), fovY, aspect, orthographic);
+    const double d =
+        distance ? *distance * localBox.radius() : Camera::fitDistance(localBox.radius(), fovY, aspect, orthographic);
     c = Camera::orbitAt(azimuth, elevation, d, localBox, axes);
   } else {
     c.eye = frame.pointToLocal(eye);
@@ -194,9 +196,10 @@ json sceneObject(const std::string& text, const std::string& what) {
     throw RenderInputError(what + ": not valid JSON (" + e.what() + ")");
   }
   if (!j.is_object()) throw RenderInputError(what + ": a scene must be a JSON object");
-  static const char* kKeys[] = {"camera", "size", "transfer_function", "step", "background", "window",
-                                "skip_empty", "cull", "slicer", "shading", "sub_block", "slab", "raycast", "ert",
-                                "pre_integration", "ess", "lod", "progressive", "visibility", "quality"};
+  static const char* kKeys[] = {
+      "camera", "size",        "transfer_function", "step",   "background", "window", "skip_empty",      "cull",
+      "slicer", "shading",     "sub_block",         "slab",   "raycast",    "ert",    "pre_integration", "ess",
+      "lod",    "progressive", "visibility",        "quality"};
   for (auto it = j.begin(); it != j.end(); ++it)
     if (std::find(std::begin(kKeys), std::end(kKeys), it.key()) == std::end(kKeys))
       throw RenderInputError(what + ": unknown key '" + it.key() + "'");
@@ -220,10 +223,11 @@ void parseTransferFunction(const json& t, const std::string& what, bool allowPat
   if (t.is_string()) {
     s.transferFunctionName = t.get<std::string>();
     if (!allowPaths && !TransferFunction::isPresetName(s.transferFunctionName))
-      throw RenderInputError(what + ": 'transfer_function' must be a preset name (letters, digits, '-', '_') or "
+      throw RenderInputError(what +
+                             ": 'transfer_function' must be a preset name (letters, digits, '-', '_') or "
                              "an inline object; paths are not accepted here");
-    s.transferFunction = presets ? presets->get(s.transferFunctionName)
-                                 : TransferFunction::load(s.transferFunctionName);
+    s.transferFunction =
+        presets ? presets->get(s.transferFunctionName) : TransferFunction::load(s.transferFunctionName);
   } else if (t.is_object()) {
     s.transferFunctionName = "inline";
     s.transferFunction = TransferFunction::parse(t.dump(), what + ": transfer_function");
@@ -246,7 +250,8 @@ QualityTarget qualityTarget(const json& j, const std::string& what) {
   if (!j["quality"].is_string()) throw RenderInputError(what + ": 'quality' must be a string like \"psnr:40\"");
   for (const char* key : kQualityChosenKeys)
     if (j.contains(key))
-      throw RenderInputError(what + ": 'quality' chooses '" + key + "' from the dataset's quality table; give "
+      throw RenderInputError(what + ": 'quality' chooses '" + key +
+                             "' from the dataset's quality table; give "
                              "one or the other");
   return QualityTarget::parse(j["quality"].get<std::string>(), what + ": 'quality'");
 }
@@ -320,8 +325,7 @@ void Scene::validate() const {
   if (!(step >= 1e-3 && step <= 64))
     throw RenderInputError("step " + std::to_string(step) + " is outside [0.001, 64] voxels");
   for (int c = 0; c < 3; ++c)
-    if (!(background[c] >= 0 && background[c] <= 1))
-      throw RenderInputError("background components must be in [0, 1]");
+    if (!(background[c] >= 0 && background[c] <= 1)) throw RenderInputError("background components must be in [0, 1]");
   if (window && !((*window)[1] > (*window)[0]))
     throw RenderInputError("window [" + std::to_string((*window)[0]) + ", " + std::to_string((*window)[1]) +
                            "] must have hi > lo");
@@ -330,14 +334,18 @@ void Scene::validate() const {
     throw RenderInputError("slab " + std::to_string(slab) + " must be 0 (slicing) or 1.." + std::to_string(kMaxSlab) +
                            " planes");
   if (!(ert == 0 || (ert >= 0.5 && ert <= 1)))
-    throw RenderInputError("ert " + std::to_string(ert) + " must be 0 (no early ray termination) or a threshold in "
+    throw RenderInputError("ert " + std::to_string(ert) +
+                           " must be 0 (no early ray termination) or a threshold in "
                            "[0.5, 1]");
   if (!(lod >= 0 && lod <= kMaxLod))
-    throw RenderInputError("lod " + std::to_string(lod) + " must be 0 (level 0 everywhere) or a number of pixels up to " +
+    throw RenderInputError("lod " + std::to_string(lod) +
+                           " must be 0 (level 0 everywhere) or a number of pixels up to " +
                            std::to_string(int(kMaxLod)));
   if (subBlock != 0 && (subBlock < 2 || subBlock > kMaxSubBlock || (subBlock & (subBlock - 1)) != 0))
-    throw RenderInputError("sub-block " + std::to_string(subBlock) + " must be 0 (whole bricks) or a power of two in "
-                           "[2, " + std::to_string(kMaxSubBlock) + "]");
+    throw RenderInputError("sub-block " + std::to_string(subBlock) +
+                           " must be 0 (whole bricks) or a power of two in "
+                           "[2, " +
+                           std::to_string(kMaxSubBlock) + "]");
 }
 
 glm::dvec4 outputPixel(const glm::dvec3& c, double a, const glm::dvec3& background, bool transparent) {
@@ -359,8 +367,7 @@ std::string Scene::toJson() const {
     cam["eye"] = render::toJson(camera.eye), cam["center"] = render::toJson(camera.center),
     cam["up"] = render::toJson(camera.up);
   json points = json::array();
-  for (const auto& p : transferFunction.points())
-    points.push_back({p.x, p.rgba.r, p.rgba.g, p.rgba.b, p.rgba.a});
+  for (const auto& p : transferFunction.points()) points.push_back({p.x, p.rgba.r, p.rgba.g, p.rgba.b, p.rgba.a});
   json tf = {{"points", points}};
   if (transferFunction.referenceLength()) tf["reference_length"] = *transferFunction.referenceLength();
   json j = {{"camera", cam},

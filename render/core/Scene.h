@@ -61,9 +61,9 @@ struct CameraSpec {
   /// The orbit's distance in bounding-sphere radii; empty (the default): fitted from the field of view and the aspect
   /// (Camera::fitDistance), the whole volume in frame at any angle.
   std::optional<double> distance;
-  UpAxis upAxis = UpAxis::PosZ;  ///< the orbit's pole (default +z: superior for patient data)
+  UpAxis upAxis = UpAxis::PosZ;                           ///< the orbit's pole (default +z: superior for patient data)
   glm::dvec3 eye{0, 0, 1}, center{0, 0, 0}, up{0, 1, 0};  ///< world coordinates; used when !orbit
-  double fovY = 30;  ///< degrees
+  double fovY = 30;                                       ///< degrees
   bool orthographic = false;
 
   /// The camera in the local frame of a volume whose local box is `localBox` and whose world frame is `frame`
@@ -108,7 +108,7 @@ struct Scene {
   /// bench/results/raycast-sweep/sweep.md that keeps every dataset at 40 dB or more against the reference
   /// (unshaded; shading needs finer).
   double step = 0.75;
-  glm::dvec3 background{0, 0, 0};     ///< opaque background colour, RGB in [0, 1]
+  glm::dvec3 background{0, 0, 0};  ///< opaque background colour, RGB in [0, 1]
   /// No background ("background": "none"): frames carry alpha, the accumulated opacity, with straight (not
   /// premultiplied) colour, as PNG stores it; `background` is then unused.
   bool transparent = false;
@@ -126,11 +126,11 @@ struct Scene {
   /// consecutive global planes, and the fragment program marches the pixel's ray through them, compositing in
   /// registers. N at least a brick's planes makes it a brick ray caster. The samples are the same either way.
   int slab = 32;
-  /// Frame ray casting (render/gl/volume/RayCastPass.h): one fragment per pixel and atlas batch marches the pixel's ray through
-  /// every brick of the batch, finding each sample's brick in a table of cells (sub-blocks, else bricks) instead of
-  /// drawing a proxy per box and slab. The samples are the same global planes' points as slicing and slabs take, so
-  /// the image is the same beyond round-off; `slab` and `ess` then have no effect, ert and pre_integration apply.
-  /// The default; a volume too large for the cell table (render/volume/FramePlan.h) is drawn with slabs instead.
+  /// Frame ray casting (render/gl/volume/RayCastPass.h): one fragment per pixel and atlas batch marches the pixel's ray
+  /// through every brick of the batch, finding each sample's brick in a table of cells (sub-blocks, else bricks)
+  /// instead of drawing a proxy per box and slab. The samples are the same global planes' points as slicing and slabs
+  /// take, so the image is the same beyond round-off; `slab` and `ess` then have no effect, ert and pre_integration
+  /// apply. The default; a volume too large for the cell table (render/volume/FramePlan.h) is drawn with slabs instead.
   bool raycast = true;
   /// Early ray termination on texture slabs: 0 (off) or a threshold in [0.5, 1]. Between slabs a pass marks the
   /// pixels whose accumulated opacity reached it in the depth buffer (a slab silhouette map), and the early depth

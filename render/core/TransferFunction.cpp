@@ -49,8 +49,8 @@ TransferFunction::TransferFunction(std::vector<Point> points, std::optional<doub
   // point inside it; a point exactly on a bin boundary belongs to both bins (it may be the left limit of a step).
   std::vector<double> binMax(kRangeBins);
   for (int b = 0; b < kRangeBins; ++b)
-    binMax[static_cast<size_t>(b)] = std::max(evaluate(static_cast<double>(b) / kRangeBins).a,
-                                              evaluate(static_cast<double>(b + 1) / kRangeBins).a);
+    binMax[static_cast<size_t>(b)] =
+        std::max(evaluate(static_cast<double>(b) / kRangeBins).a, evaluate(static_cast<double>(b + 1) / kRangeBins).a);
   for (const Point& p : mPoints) {
     double s = p.x * kRangeBins;
     int first = std::max(static_cast<int>(std::ceil(s)) - 1, 0);
@@ -59,8 +59,7 @@ TransferFunction::TransferFunction(std::vector<Point> points, std::optional<doub
       binMax[static_cast<size_t>(b)] = std::max(binMax[static_cast<size_t>(b)], p.rgba.a);
   }
   mOpaqueBinsBefore.assign(kRangeBins + 1, 0);
-  for (size_t b = 0; b < binMax.size(); ++b)
-    mOpaqueBinsBefore[b + 1] = mOpaqueBinsBefore[b] + (binMax[b] > 0 ? 1 : 0);
+  for (size_t b = 0; b < binMax.size(); ++b) mOpaqueBinsBefore[b + 1] = mOpaqueBinsBefore[b] + (binMax[b] > 0 ? 1 : 0);
 }
 
 TransferFunction TransferFunction::parse(const std::string& text, const std::string& what) {
@@ -86,8 +85,7 @@ TransferFunction TransferFunction::parse(const std::string& text, const std::str
   for (size_t i = 0; i < it->size(); ++i) {
     const json& p = (*it)[i];
     std::string where = what + ": points[" + std::to_string(i) + "]";
-    if (!p.is_array() || p.size() != 5)
-      throw RenderInputError(where + " is not an array [x, r, g, b, a] of 5 numbers");
+    if (!p.is_array() || p.size() != 5) throw RenderInputError(where + " is not an array [x, r, g, b, a] of 5 numbers");
     double values[5];
     for (size_t c = 0; c < 5; ++c) {
       if (!p[c].is_number()) throw RenderInputError(where + ": " + kComponentNames[c] + " is not a number");
@@ -164,8 +162,8 @@ TransferFunction TransferFunction::load(const std::string& nameOrPath) {
       std::string known;
       for (const std::string& name : presetNames()) known += (known.empty() ? "" : ", ") + name;
       throw RenderInputError("TransferFunction::load: no preset '" + nameOrPath + "' built in or in " +
-                             (configDirectory() / "tf").string() + " (presets: " +
-                             (known.empty() ? "none" : known) + "; set VOXBRICK_CONFIG_DIR to choose the directory)");
+                             (configDirectory() / "tf").string() + " (presets: " + (known.empty() ? "none" : known) +
+                             "; set VOXBRICK_CONFIG_DIR to choose the directory)");
     }
   }
   std::error_code ec;
@@ -180,8 +178,7 @@ TransferFunction TransferFunction::load(const std::string& nameOrPath) {
 glm::dvec4 TransferFunction::evaluate(double x) const {
   if (std::isnan(x)) x = 0;
   // The first point strictly right of x: the value at a step is the later point's (right-continuous).
-  auto right = std::upper_bound(mPoints.begin(), mPoints.end(), x,
-                                [](double v, const Point& p) { return v < p.x; });
+  auto right = std::upper_bound(mPoints.begin(), mPoints.end(), x, [](double v, const Point& p) { return v < p.x; });
   if (right == mPoints.begin()) return mPoints.front().rgba;
   if (right == mPoints.end()) return mPoints.back().rgba;
   const Point& a = *(right - 1);

@@ -35,8 +35,8 @@ bool WorldFrame::mirrored() const { return glm::determinant(rotation) < 0; }
 
 void flipHorizontally(image::ImageF& image) {
   for (int y = 0; y < image.height; ++y)
-    for (int x = 0; x < image.width / 2; ++x) std::swap_ranges(image.pixel(x, y), image.pixel(x, y) + 4,
-                                                               image.pixel(image.width - 1 - x, y));
+    for (int x = 0; x < image.width / 2; ++x)
+      std::swap_ranges(image.pixel(x, y), image.pixel(x, y) + 4, image.pixel(image.width - 1 - x, y));
 }
 
 void finishImage(const WorldFrame& frame, image::ImageF& image) {

@@ -4,8 +4,8 @@
 #include <stdexcept>
 
 #include "mesh/MeshStore.h"
-#include "render/volume/BrickStoreDataset.h"
 #include "render/tets/TetMeshDataset.h"
+#include "render/volume/BrickStoreDataset.h"
 
 namespace voxbrick::render {
 
@@ -14,7 +14,6 @@ bool isDataset(const std::filesystem::path& path) {
   return std::filesystem::is_regular_file(path / "store.json", ec) || store::BrickStore::isVdbFile(path) ||
          mesh::looksLikeMeshStore(path);
 }
-
 
 std::vector<std::filesystem::path> datasetFiles(const std::filesystem::path& path) {
   if (mesh::looksLikeMeshStore(path))

@@ -23,8 +23,9 @@ std::vector<std::filesystem::path> datasetFiles(const std::filesystem::path& pat
 /// Opens the dataset at `path` under `name` (`options` apply to a .vdb: grid name and brick size): a BrickStoreDataset
 /// or, for a mesh store, a TetMeshDataset. `cacheBytes` is the host memory it may use: a brick store's cache; a mesh
 /// is read whole when it fits (TetMeshData::hostBytes), and otherwise paged by view (TetMeshSource: its points
-/// resident, each frame's chunks within the rest), refused with RenderLimitError when even its points exceed it. Throws std::runtime_error naming the path when it is no dataset, and the kind's own errors
-/// (mesh::MeshError for a corrupt mesh store) when it cannot be opened.
+/// resident, each frame's chunks within the rest), refused with RenderLimitError when even its points exceed it. Throws
+/// std::runtime_error naming the path when it is no dataset, and the kind's own errors (mesh::MeshError for a corrupt
+/// mesh store) when it cannot be opened.
 std::shared_ptr<const Dataset> openDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes,
                                            const store::StoreOpenOptions& options = {});
 

@@ -5,12 +5,12 @@
 #include <atomic>
 #include <map>
 
-#include "render/gl/volume/BrickAtlas.h"
-#include "render/gl/GlContext.h"
-#include "render/gl/volume/Residency.h"
 #include "render/core/RenderErrors.h"
 #include "render/core/WorldFrame.h"
+#include "render/gl/GlContext.h"
 #include "render/gl/tets/TetRenderer.h"
+#include "render/gl/volume/BrickAtlas.h"
+#include "render/gl/volume/Residency.h"
 #include "render/gl/volume/VolumeRenderer.h"
 #include "render/volume/BrickStoreDataset.h"
 
@@ -68,9 +68,8 @@ FrameRenderer& RenderEngine::Impl::rendererFor(const std::shared_ptr<const Datas
   const size_t want = wanted(*dataset);
   account();
   while (!renderers.empty() && gpuBytes + want > options.gpuBudgetBytes) {
-    auto oldest = std::min_element(renderers.begin(), renderers.end(), [](const auto& a, const auto& b) {
-      return a.second.lastUse < b.second.lastUse;
-    });
+    auto oldest = std::min_element(renderers.begin(), renderers.end(),
+                                   [](const auto& a, const auto& b) { return a.second.lastUse < b.second.lastUse; });
     renderers.erase(oldest);
     ++released;
     account();
@@ -87,8 +86,9 @@ FrameRenderer& RenderEngine::Impl::rendererFor(const std::shared_ptr<const Datas
                                                options.gpuBudgetBytes - gpuBytes);
       break;
   }
-  if (!renderer) throw RenderError("RenderEngine: no renderer for datasets of kind " +
-                                   std::string(datasetKindName(dataset->kind())));
+  if (!renderer)
+    throw RenderError("RenderEngine: no renderer for datasets of kind " +
+                      std::string(datasetKindName(dataset->kind())));
   Entry& entry = renderers[dataset];
   entry.renderer = std::move(renderer);
   entry.lastUse = ++uses;

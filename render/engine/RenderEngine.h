@@ -5,13 +5,13 @@
 #include <memory>
 #include <string>
 
-#include "render/volume/AtlasFormat.h"
+#include "image/Image.h"
 #include "render/core/Backend.h"
 #include "render/core/Dataset.h"
 #include "render/core/FrameRenderer.h"
 #include "render/core/FrameStats.h"
-#include "image/Image.h"
 #include "render/core/Scene.h"
+#include "render/volume/AtlasFormat.h"
 
 namespace voxbrick::render {
 
@@ -21,8 +21,8 @@ struct RenderEngineOptions {
   /// The atlases of all its renderers together (one per dataset drawn): a renderer not used for the longest is
   /// released to make room for another dataset's atlas.
   size_t gpuBudgetBytes = size_t(1) << 30;
-  AtlasFormat atlasFormat = AtlasFormat::Float;  ///< how atlases store samples
-  AtlasUploads atlasUploads = AtlasUploads::Auto;  ///< how bricks reach the atlases
+  AtlasFormat atlasFormat = AtlasFormat::Float;         ///< how atlases store samples
+  AtlasUploads atlasUploads = AtlasUploads::Auto;       ///< how bricks reach the atlases
   AtlasBricking atlasBricking = AtlasBricking::Single;  ///< how bricks lie in the atlases
 };
 

@@ -28,8 +28,8 @@
 #define VB_BINDING_ENTRY_COUNT 7       // EntryCount: the entry pass's kept fragments (uint)
 
 // SlabCounters: VB_COUNTERS 64-bit counters, each as two uint words (low, high), indexed by these.
-#define VB_COUNTER_FRAGMENTS 0          // marching fragments started
-#define VB_COUNTER_SAMPLES 1            // samples taken
+#define VB_COUNTER_FRAGMENTS 0           // marching fragments started
+#define VB_COUNTER_SAMPLES 1             // samples taken
 #define VB_COUNTER_SAMPLES_TERMINATED 2  // samples left untaken when a fragment's opacity reached the threshold
 #define VB_COUNTERS 3
 

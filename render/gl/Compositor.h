@@ -4,10 +4,10 @@
 
 #include <vector>
 
-#include "render/core/FrameStats.h"
-#include "render/gl/GlObjects.h"
 #include "image/Image.h"
+#include "render/core/FrameStats.h"
 #include "render/core/Scene.h"
+#include "render/gl/GlObjects.h"
 
 namespace voxbrick::render {
 
@@ -37,10 +37,10 @@ class Compositor {
  private:
   const Gl& mGl;
   Framebuffer mTarget;
-  Texture mDepth;             // GL_DEPTH_COMPONENT32F, attached to mTarget and mDepthOnly when silhouettes are used
+  Texture mDepth;  // GL_DEPTH_COMPONENT32F, attached to mTarget and mDepthOnly when silhouettes are used
   Framebuffer mDepthOnly;
   Query mFragments;
-  bool mCounting = false;  // between begin() and finish()/abort(): the fragment query is active
+  bool mCounting = false;   // between begin() and finish()/abort(): the fragment query is active
   std::vector<float> mRaw;  // the readback, kept: faulting in 4 MB of fresh pages costs 13 ms on a VM
 };
 

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "render/gl/GlContext.h"
 #include "render/core/RenderErrors.h"
+#include "render/gl/GlContext.h"
 
 namespace voxbrick::render {
 
@@ -129,8 +129,8 @@ std::unique_ptr<GlContext> contextOnDisplay(EGLDisplay display, std::string& lab
   if (!eglBindAPI(EGL_OPENGL_API)) return fail("eglBindAPI(EGL_OPENGL_API) failed (" + eglErrorText() + ")");
 
   const char* extensions = eglQueryString(display, EGL_EXTENSIONS);
-  const bool configless = hasExtension(extensions, "EGL_KHR_no_config_context") ||
-                          hasExtension(extensions, "EGL_MESA_configless_context");
+  const bool configless =
+      hasExtension(extensions, "EGL_KHR_no_config_context") || hasExtension(extensions, "EGL_MESA_configless_context");
   const bool surfaceless = hasExtension(extensions, "EGL_KHR_surfaceless_context");
   EGLConfig config = EGL_NO_CONFIG_KHR;
   if (!configless || !surfaceless) {
@@ -141,8 +141,9 @@ std::unique_ptr<GlContext> contextOnDisplay(EGLDisplay display, std::string& lab
       return fail("no EGL config with EGL_OPENGL_BIT and EGL_PBUFFER_BIT (" + eglErrorText() + ")");
     }
   }
-  const EGLint contextAttribs[] = {EGL_CONTEXT_MAJOR_VERSION, 4, EGL_CONTEXT_MINOR_VERSION, 3,
-                                   EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
+  const EGLint contextAttribs[] = {
+      EGL_CONTEXT_MAJOR_VERSION,           4,       EGL_CONTEXT_MINOR_VERSION, 3, EGL_CONTEXT_OPENGL_PROFILE_MASK,
+      EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
   context = eglCreateContext(display, config, EGL_NO_CONTEXT, contextAttribs);
   if (context == EGL_NO_CONTEXT) return fail("eglCreateContext(OpenGL 4.3 core) failed (" + eglErrorText() + ")");
   if (!surfaceless) {

@@ -60,8 +60,8 @@ std::unique_ptr<GlContext> createContext(Backend backend) {
   if (backend == Backend::Auto || backend == Backend::OsMesa) {
     if (auto context = createOsMesaContext(failures)) return context;
   }
-  throw RenderError(std::string("createContext(") + backendName(backend) + "): no OpenGL 4.3 core context; tried:" +
-                    failures);
+  throw RenderError(std::string("createContext(") + backendName(backend) +
+                    "): no OpenGL 4.3 core context; tried:" + failures);
 }
 
 }  // namespace voxbrick::render

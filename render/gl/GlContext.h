@@ -14,18 +14,18 @@ namespace voxbrick::render {
 
 /// Implementation limits, queried once when the context is created (never per frame).
 struct GlLimits {
-  int versionMajor = 0;          ///< GL_MAJOR_VERSION
-  int versionMinor = 0;          ///< GL_MINOR_VERSION
-  int max3DTextureSize = 0;      ///< GL_MAX_3D_TEXTURE_SIZE: the largest atlas edge in texels
-  int maxTextureSize = 0;        ///< GL_MAX_TEXTURE_SIZE: the largest 1D/2D edge
-  int maxTextureUnits = 0;       ///< GL_MAX_COMBINED_TEXTURE_IMAGE_UNITS
-  int maxRenderbufferSize = 0;   ///< GL_MAX_RENDERBUFFER_SIZE: the largest framebuffer edge
-  int maxViewportWidth = 0;      ///< GL_MAX_VIEWPORT_DIMS[0]
-  int maxViewportHeight = 0;     ///< GL_MAX_VIEWPORT_DIMS[1]
-  int maxVertexAttribs = 0;      ///< GL_MAX_VERTEX_ATTRIBS
-  int maxUniformBlockSize = 0;   ///< GL_MAX_UNIFORM_BLOCK_SIZE in bytes
-  int maxColorAttachments = 0;   ///< GL_MAX_COLOR_ATTACHMENTS
-  int maxFeedbackComponents = 0; ///< GL_MAX_TRANSFORM_FEEDBACK_INTERLEAVED_COMPONENTS
+  int versionMajor = 0;           ///< GL_MAJOR_VERSION
+  int versionMinor = 0;           ///< GL_MINOR_VERSION
+  int max3DTextureSize = 0;       ///< GL_MAX_3D_TEXTURE_SIZE: the largest atlas edge in texels
+  int maxTextureSize = 0;         ///< GL_MAX_TEXTURE_SIZE: the largest 1D/2D edge
+  int maxTextureUnits = 0;        ///< GL_MAX_COMBINED_TEXTURE_IMAGE_UNITS
+  int maxRenderbufferSize = 0;    ///< GL_MAX_RENDERBUFFER_SIZE: the largest framebuffer edge
+  int maxViewportWidth = 0;       ///< GL_MAX_VIEWPORT_DIMS[0]
+  int maxViewportHeight = 0;      ///< GL_MAX_VIEWPORT_DIMS[1]
+  int maxVertexAttribs = 0;       ///< GL_MAX_VERTEX_ATTRIBS
+  int maxUniformBlockSize = 0;    ///< GL_MAX_UNIFORM_BLOCK_SIZE in bytes
+  int maxColorAttachments = 0;    ///< GL_MAX_COLOR_ATTACHMENTS
+  int maxFeedbackComponents = 0;  ///< GL_MAX_TRANSFORM_FEEDBACK_INTERLEAVED_COMPONENTS
 };
 
 /// An OpenGL 4.3+ core-profile context with its function table. Move-free: hold it by unique_ptr.

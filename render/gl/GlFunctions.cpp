@@ -27,10 +27,10 @@ std::string glErrorName(GLenum code) {
 Gl loadGl(GlProcLoader loader, const char* loaderName) {
   Gl gl;
   // Function-to-function reinterpret_cast is well defined to round-trip; the loader hands back the right type.
-#define VOXBRICK_GL_LOAD(type, name)                                                                         \
-  gl.name = reinterpret_cast<type>(loader(#name));                                                          \
-  if (gl.name == nullptr) {                                                                                 \
-    throw RenderError(std::string("loadGl: ") + loaderName + " returned no address for " #name);            \
+#define VOXBRICK_GL_LOAD(type, name)                                                             \
+  gl.name = reinterpret_cast<type>(loader(#name));                                               \
+  if (gl.name == nullptr) {                                                                      \
+    throw RenderError(std::string("loadGl: ") + loaderName + " returned no address for " #name); \
   }
   VOXBRICK_GL_FUNCTIONS(VOXBRICK_GL_LOAD)
 #undef VOXBRICK_GL_LOAD

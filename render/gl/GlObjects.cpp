@@ -115,8 +115,8 @@ Framebuffer Framebuffer::withColor(const Gl& gl, int width, int height, GLenum i
   gl.glTexStorage2D(GL_TEXTURE_2D, 1, internalFormat, width, height);
   gl.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
   gl.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-  checkGlError(gl, ("Framebuffer::withColor: colour texture " + std::to_string(width) + "x" +
-                    std::to_string(height)).c_str());
+  checkGlError(
+      gl, ("Framebuffer::withColor: colour texture " + std::to_string(width) + "x" + std::to_string(height)).c_str());
   gl.glBindFramebuffer(GL_FRAMEBUFFER, fb.id());
   gl.glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, fb.mColor.id(), 0);
   const GLenum drawBuffer = GL_COLOR_ATTACHMENT0;

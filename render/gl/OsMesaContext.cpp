@@ -1,8 +1,8 @@
 // GlContext on OSMesa: Mesa's off-screen software renderer, the fallback when no EGL path works.
 // glcorearb.h (through GlContext.h) must come before osmesa.h: osmesa.h pulls in gl.h, whose GL_VERSION_1_1 guard
 // would otherwise hide the 1.1 function-pointer types that GlFunctions.h names.
-#include "render/gl/GlContext.h"
 #include "render/core/RenderErrors.h"
+#include "render/gl/GlContext.h"
 
 #include <GL/osmesa.h>
 

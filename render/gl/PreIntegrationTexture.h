@@ -5,8 +5,8 @@
 
 #include <vector>
 
-#include "render/gl/GlObjects.h"
 #include "render/core/PreIntegration.h"
+#include "render/gl/GlObjects.h"
 
 namespace voxbrick::render {
 

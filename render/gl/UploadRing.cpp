@@ -35,8 +35,8 @@ void* UploadRing::map() {
   if (!data) {
     const GLenum error = mGl.glGetError();
     mGl.glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
-    throw RenderError("UploadRing: cannot map " + std::to_string(mRegionBytes) + " bytes of the upload buffer (GL error " +
-                      std::to_string(error) + ")");
+    throw RenderError("UploadRing: cannot map " + std::to_string(mRegionBytes) +
+                      " bytes of the upload buffer (GL error " + std::to_string(error) + ")");
   }
   mMapped = mNext;
   mNext = (mNext + 1) % mFences.size();

@@ -1,4 +1,5 @@
-// Front-to-back emission–absorption compositing (ARCHITECTURE.md, optical model), generic in the accumulator's precision.
+// Front-to-back emission–absorption compositing (ARCHITECTURE.md, optical model), generic in the accumulator's
+// precision.
 #pragma once
 
 namespace voxbrick::render {

@@ -22,7 +22,7 @@ struct Frame {
   glm::dvec3 spacing{1}, dims{1}, halfDims{0.5}, boxMin{0}, boxMax{0};
   RayBasis basis;
   double lo = 0, inverseWidth = 1;
-  double step = 1;       // longest segment, world units
+  double step = 1;  // longest segment, world units
   double referenceLength = 1;
   std::vector<double> kinks;  // the transfer function's control points, distinct and sorted
   // Empty-space skipping: transparent[i] for each level-0 brick; empty when off.

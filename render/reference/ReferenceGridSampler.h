@@ -21,8 +21,13 @@ template <typename T>
 class GridSampler {
  public:
   GridSampler(ReferenceBricks& bricks, const store::StoreMeta& meta, const std::vector<uint8_t>& brickLevels)
-      : mBricks(bricks), mMeta(meta), mDims(meta.dims), mBrick(meta.brickSize), mEdge(meta.brickSize + 2),
-        mBrickGrid(meta.levels.at(0).bricks), mBrickLevels(brickLevels) {}
+      : mBricks(bricks),
+        mMeta(meta),
+        mDims(meta.dims),
+        mBrick(meta.brickSize),
+        mEdge(meta.brickSize + 2),
+        mBrickGrid(meta.levels.at(0).bricks),
+        mBrickLevels(brickLevels) {}
 
   double operator()(const glm::dvec3& p) const {
     int level = 0;

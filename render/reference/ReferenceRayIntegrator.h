@@ -41,7 +41,8 @@ glm::dvec3 shade(const Frame& f, const Sampler& sample, const Ray& ray, double t
   return c * light.x + glm::dvec3(light.y);
 }
 
-/// Integrates one ray: its output pixel (Scene::output: over the background, or with alpha), with its samples and skipped bricks added to the counters.
+/// Integrates one ray: its output pixel (Scene::output: over the background, or with alpha), with its samples and
+/// skipped bricks added to the counters.
 ///
 /// Samples sit at the midpoints t_k of n equal segments of length h, and each sample's segment is composited as two
 /// halves (which equals the midpoint rule). Between two consecutive samples whose normalised values straddle a
@@ -165,7 +166,8 @@ void RayIntegrator<Sampler>::refine(double ta, double sa, double tb, double sb) 
 // piece's values run from sLeft to sRight; sLeft moves on to sRight.
 template <typename Sampler>
 void RayIntegrator<Sampler>::integratePiece(double a, double b, double& sLeft, double sRight) {
-  const double change = std::abs(mScene.transferFunction.evaluate(sRight).a - mScene.transferFunction.evaluate(sLeft).a);
+  const double change =
+      std::abs(mScene.transferFunction.evaluate(sRight).a - mScene.transferFunction.evaluate(sLeft).a);
   const int m = 2 + int(32 * change);
   for (int j = 0; j < m; ++j) {
     const double t = a + (j + 0.5) / m * (b - a);

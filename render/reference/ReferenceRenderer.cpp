@@ -45,8 +45,8 @@ image::ImageF ReferenceRenderer::render(const Scene& scene, const ReferenceOptio
   if (!options.brickLevels.empty()) {
     if (options.analytic) throw RenderInputError("ReferenceRenderer: per-brick levels sample the store, not a field");
     if (options.brickLevels.size() != size_t(meta.levels.at(0).bricksTotal()))
-      throw RenderInputError("ReferenceRenderer: " + std::to_string(options.brickLevels.size()) +
-                             " brick levels for " + std::to_string(meta.levels.at(0).bricksTotal()) + " bricks");
+      throw RenderInputError("ReferenceRenderer: " + std::to_string(options.brickLevels.size()) + " brick levels for " +
+                             std::to_string(meta.levels.at(0).bricksTotal()) + " bricks");
     for (uint8_t l : options.brickLevels)
       if (int(l) >= store.levelCount())
         throw RenderInputError("ReferenceRenderer: brick level " + std::to_string(int(l)) + " beyond the store's " +
@@ -76,9 +76,8 @@ image::ImageF ReferenceRenderer::render(const Scene& scene, const ReferenceOptio
   if (options.analytic) {
     renderRows(AnalyticSampler(*options.analytic, meta));
   } else {
-    store::dispatchType(meta.type, [&](auto zero) {
-      renderRows(GridSampler<decltype(zero)>(*mBricks, meta, options.brickLevels));
-    });
+    store::dispatchType(
+        meta.type, [&](auto zero) { renderRows(GridSampler<decltype(zero)>(*mBricks, meta, options.brickLevels)); });
   }
 
   if (statsOut) {
@@ -101,8 +100,8 @@ store::SyntheticField analyticFieldFor(const store::StoreMeta& meta, const std::
   const bool hasDims = spec.find(",n=") != std::string::npos || spec.find(",nx=") != std::string::npos ||
                        spec.find(",ny=") != std::string::npos || spec.find(",nz=") != std::string::npos;
   const std::string full = hasDims ? spec
-                                   : spec + ",nx=" + std::to_string(meta.dims.x) + ",ny=" +
-                                         std::to_string(meta.dims.y) + ",nz=" + std::to_string(meta.dims.z);
+                                   : spec + ",nx=" + std::to_string(meta.dims.x) +
+                                         ",ny=" + std::to_string(meta.dims.y) + ",nz=" + std::to_string(meta.dims.z);
   store::SyntheticField field = store::SyntheticField::parse(full);
   if (!(field.dims() == meta.dims))
     throw RenderInputError("analytic field '" + spec + "': dims " + std::to_string(field.dims().x) + "x" +
@@ -113,4 +112,3 @@ store::SyntheticField analyticFieldFor(const store::StoreMeta& meta, const std::
 }
 
 }  // namespace voxbrick::render
-

@@ -1,4 +1,5 @@
-// The reference renderer: the optical model of ARCHITECTURE.md on the CPU in double precision, the judge of every fast path.
+// The reference renderer: the optical model of ARCHITECTURE.md on the CPU in double precision, the judge of every fast
+// path.
 #pragma once
 
 #include <cstdint>
@@ -30,17 +31,17 @@ struct ReferenceOptions {
   /// ranges do not bound the function between samples.
   std::optional<store::SyntheticField> analytic;
   /// Level of detail: the pyramid level sampled inside each level-0 brick's voxels (x fastest over level 0's brick
-  /// grid), as a frame plan chose them (brickLevels() in render/volume/FramePlan.h); empty: level 0 everywhere. Level m is
-  /// reconstructed trilinearly at the level-0 voxel coordinate times 2^-m, clamp-to-edge, as on the GPU.
+  /// grid), as a frame plan chose them (brickLevels() in render/volume/FramePlan.h); empty: level 0 everywhere. Level m
+  /// is reconstructed trilinearly at the level-0 voxel coordinate times 2^-m, clamp-to-edge, as on the GPU.
   std::vector<uint8_t> brickLevels;
 };
 
 /// What one reference frame did.
 struct ReferenceStats {
-  int64_t rays = 0;      ///< rays that met the volume
-  int64_t samples = 0;   ///< field samples taken (gradient samples not counted)
+  int64_t rays = 0;           ///< rays that met the volume
+  int64_t samples = 0;        ///< field samples taken (gradient samples not counted)
   int64_t bricksSkipped = 0;  ///< brick crossings skipped because the transfer function makes them transparent
-  double ms = 0;         ///< wall time
+  double ms = 0;              ///< wall time
 };
 
 /// Renders a scene from the same store as VolumeRenderer, with the same camera, clip range, value window and

@@ -14,9 +14,9 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "render/reference/Headlight.h"
 #include "render/core/RenderErrors.h"
 #include "render/core/SegmentIntegral.h"
+#include "render/reference/Headlight.h"
 
 namespace voxbrick::render {
 namespace {
@@ -58,9 +58,9 @@ int signOf(double v) { return v > 0 ? 1 : v < 0 ? -1 : 0; }
 constexpr double kSnap = 1e-12;
 
 /// The sign of the side test of edge a -> b (e = b - a) for the ray moved by eps * right + eps^2 * up (eps -> 0+),
-/// where the test itself is zero. The test d . ((a - o) x (b - a)) changes by delta . ((a - b) x d) when the origin moves
-/// by delta. Zero only for an edge parallel to the ray, which lies in faces the ray cannot cross (they then count as
-/// missed, which is right: a ray parallel to a face never passes through it).
+/// where the test itself is zero. The test d . ((a - o) x (b - a)) changes by delta . ((a - b) x d) when the origin
+/// moves by delta. Zero only for an edge parallel to the ray, which lies in faces the ray cannot cross (they then count
+/// as missed, which is right: a ray parallel to a face never passes through it).
 int tieSign(const TetRay& ray, const glm::dvec3& e) {
   const glm::dvec3 m = glm::cross(ray.direction, e);  // (a - b) x d
   const double tolerance = kSnap * glm::length(e);
@@ -200,8 +200,9 @@ Crossing TetReference::Data::cross(uint32_t tet, const TetRay& ray, TetSegment& 
     const double wa = side[b][c], wb = side[c][a], wc = side[a][b];
     const double w = wa + wb + wc;
     if (w == 0) return Crossing::Ambiguous;
-    const double t = (wa * glm::dot(q[a], ray.direction) + wb * glm::dot(q[b], ray.direction) +
-                      wc * glm::dot(q[c], ray.direction)) / w;
+    const double t =
+        (wa * glm::dot(q[a], ray.direction) + wb * glm::dot(q[b], ray.direction) + wc * glm::dot(q[c], ray.direction)) /
+        w;
     const double value = (wa * scalars[v[a]] + wb * scalars[v[b]] + wc * scalars[v[c]]) / w;
     // Positive tests: the ray runs along the normal (b - a) x (c - a), which points into the tet iff
     // det(a, b, c, v_i) > 0.
@@ -251,9 +252,8 @@ void TetReference::Data::collect(const TetRay& ray, std::vector<TetSegment>& out
       out.push_back(segment);
     }
   }
-  std::sort(out.begin(), out.end(), [](const TetSegment& x, const TetSegment& y) {
-    return x.t0 != y.t0 ? x.t0 < y.t0 : x.t1 < y.t1;
-  });
+  std::sort(out.begin(), out.end(),
+            [](const TetSegment& x, const TetSegment& y) { return x.t0 != y.t0 ? x.t0 < y.t0 : x.t1 < y.t1; });
 }
 
 namespace {
@@ -310,9 +310,9 @@ glm::dvec4 composite(const std::vector<TetSegment>& segments, const TetReference
   const double inverseWidth = 1.0 / (params.windowHi - params.windowLo);
   RaySpan sum;
   for (const TetSegment& s : segments) {
-    glm::dvec4 c = integrateSegment(params.transferFunction, (s.value0 - params.windowLo) * inverseWidth,
-                                    (s.value1 - params.windowLo) * inverseWidth,
-                                    (s.t1 - s.t0) / params.referenceLength);
+    glm::dvec4 c =
+        integrateSegment(params.transferFunction, (s.value0 - params.windowLo) * inverseWidth,
+                         (s.value1 - params.windowLo) * inverseWidth, (s.t1 - s.t0) / params.referenceLength);
     if (params.shading) c = glm::dvec4(shadeSegment(glm::dvec3(c), c.a, tetGradient(geometry, s.tet), direction), c.a);
     sum = over(sum, {glm::dvec3(c), 1 - c.a});
     if (sum.transmittance < kTerminateTransmittance) break;
@@ -383,8 +383,8 @@ TetReference::TetReference(const mesh::TetMesh& mesh) : mData(std::make_unique<D
         throw RenderInputError("TetReference: tet " + std::to_string(t) + " names vertex " + std::to_string(index) +
                                " of " + std::to_string(d.points.size()));
     const glm::dvec3 p0 = d.points[d.tets[t][0]];
-    const double volume = glm::dot(d.points[d.tets[t][1]] - p0,
-                                   glm::cross(d.points[d.tets[t][2]] - p0, d.points[d.tets[t][3]] - p0));
+    const double volume =
+        glm::dot(d.points[d.tets[t][1]] - p0, glm::cross(d.points[d.tets[t][2]] - p0, d.points[d.tets[t][3]] - p0));
     d.orientation[t] = int8_t(std::isfinite(volume) ? signOf(volume) : 0);
   }
   if (!mesh.points.empty()) {

@@ -12,8 +12,8 @@
 #include "mesh/TetMesh.h"
 #include "render/core/Camera.h"
 #include "render/core/Scene.h"
-#include "render/tets/TetMeshDataset.h"
 #include "render/core/TransferFunction.h"
+#include "render/tets/TetMeshDataset.h"
 
 namespace voxbrick::render {
 
@@ -51,7 +51,7 @@ struct TetReferenceParams {
 /// lies inside exactly one of the tets around it, on the same side for every tet (no face counted twice, no gap).
 struct TetRay {
   glm::dvec3 origin{0.0};
-  glm::dvec3 direction{0.0, 0.0, -1.0};  ///< unit length
+  glm::dvec3 direction{0.0, 0.0, -1.0};                ///< unit length
   glm::dvec3 right{1.0, 0.0, 0.0}, up{0.0, 1.0, 0.0};  ///< with direction, a basis (the camera's)
   double tNear = 0;  ///< the ray starts here (the near plane); parameters are world lengths along it
 };
@@ -94,7 +94,8 @@ class TetReference {
   TetReference& operator=(TetReference&&) noexcept;
 
   /// The frame: for each pixel the colour over the background (alpha 1) or, with a transparent one, straight colour
-  /// and the opacity as alpha (outputPixel), as ReferenceRenderer writes it. Throws RenderInputError from params.validate().
+  /// and the opacity as alpha (outputPixel), as ReferenceRenderer writes it. Throws RenderInputError from
+  /// params.validate().
   image::ImageF render(const TetReferenceParams& params, TetReferenceStats* stats = nullptr) const;
   /// The ray of pixel (x, y) of `params`' image: from the eye (or the view plane) through the pixel centre, starting
   /// at the near plane of the mesh's bounds.

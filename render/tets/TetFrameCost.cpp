@@ -25,9 +25,9 @@ double TetFrameCost::estimate(const TetMeshData& data, const TetFramePlan& plan,
   tbb::parallel_for(tbb::blocked_range<size_t>(0, m.points.size(), 16384), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t i = r.begin(); i != r.end(); ++i) {
       const glm::dvec4 clip = viewProj * glm::dvec4(glm::dvec3(m.points[i]) - centre, 1.0);
-      mProjected[i] = clip.w > 1e-12 ? glm::vec3((clip.x / clip.w + 1) * 0.5 * width,
-                                                 (clip.y / clip.w + 1) * 0.5 * height, 1.0f)
-                                     : glm::vec3(0.0f);
+      mProjected[i] = clip.w > 1e-12
+                          ? glm::vec3((clip.x / clip.w + 1) * 0.5 * width, (clip.y / clip.w + 1) * 0.5 * height, 1.0f)
+                          : glm::vec3(0.0f);
     }
   });
   const double window = double(width) * double(height);

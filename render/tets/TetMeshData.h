@@ -16,9 +16,9 @@ namespace voxbrick::render {
 /// What every frame of a mesh uses, whatever part of it is drawn: all of the whole mesh, so that a frame drawn from
 /// part of the tets equals one drawn from all of them.
 struct TetMeshConstants {
-  Box bounds;                  ///< the points' box, world units (the camera orbits its centre; vertices are centred on it)
-  double meanEdgeLength = 1;   ///< over every tet's six edges: the default reference length (a "cell")
-  double longestEdge = 1;      ///< the longest segment a ray can have in one tet
+  Box bounds;  ///< the points' box, world units (the camera orbits its centre; vertices are centred on it)
+  double meanEdgeLength = 1;  ///< over every tet's six edges: the default reference length (a "cell")
+  double longestEdge = 1;     ///< the longest segment a ray can have in one tet
   float scalarMin = 0, scalarMax = 0;
   uint64_t tetCount = 0, pointCount = 0;
   std::string field;

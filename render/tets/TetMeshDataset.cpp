@@ -11,16 +11,16 @@ TetMeshDataset::TetMeshDataset(std::string name, const std::filesystem::path& pa
 
 std::string TetMeshDataset::infoJson() const {
   const TetMeshConstants& d = mSource->constants();
-  nlohmann::json j = {{"kind", datasetKindName(kind())},
-                      {"tets", d.tetCount},
-                      {"points", d.pointCount},
-                      {"field", d.field},
-                      {"bounds", {{d.bounds.min.x, d.bounds.min.y, d.bounds.min.z},
-                                  {d.bounds.max.x, d.bounds.max.y, d.bounds.max.z}}},
-                      {"value_range", {d.scalarMin, d.scalarMax}},
-                      {"reference_length", d.meanEdgeLength},
-                      {"paged", mSource->paged()},
-                      {"chunks", mSource->chunkCount()}};
+  nlohmann::json j = {
+      {"kind", datasetKindName(kind())},
+      {"tets", d.tetCount},
+      {"points", d.pointCount},
+      {"field", d.field},
+      {"bounds", {{d.bounds.min.x, d.bounds.min.y, d.bounds.min.z}, {d.bounds.max.x, d.bounds.max.y, d.bounds.max.z}}},
+      {"value_range", {d.scalarMin, d.scalarMax}},
+      {"reference_length", d.meanEdgeLength},
+      {"paged", mSource->paged()},
+      {"chunks", mSource->chunkCount()}};
   return j.dump();
 }
 

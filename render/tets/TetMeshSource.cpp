@@ -218,9 +218,8 @@ std::shared_ptr<const TetMeshData> TetMeshSource::frameData(const Scene& scene, 
       continue;
     }
     visible.push_back(uint32_t(c));
-    if (!scene.skipEmpty ||
-        scene.transferFunction.contributes((double(info.scalarMin) - view.windowLo) * inverse,
-                                           (double(info.scalarMax) - view.windowLo) * inverse))
+    if (!scene.skipEmpty || scene.transferFunction.contributes((double(info.scalarMin) - view.windowLo) * inverse,
+                                                               (double(info.scalarMax) - view.windowLo) * inverse))
       needed.push_back(uint32_t(c));
   }
   std::shared_ptr<const TetMeshData> data;
@@ -231,7 +230,8 @@ std::shared_ptr<const TetMeshData> TetMeshSource::frameData(const Scene& scene, 
     // A kept set, or a new one; nothing when `chunks` does not fit and may be given up (the view's transparent
     // chunks: the frame then does without them).
     auto obtain = [&](const std::vector<uint32_t>& chunks, bool mayGiveUp) -> std::shared_ptr<const TetMeshData> {
-      if (auto it = std::find_if(p.kept.begin(), p.kept.end(), [&](const Paged::Kept& k) { return k.chunks == chunks; });
+      if (auto it =
+              std::find_if(p.kept.begin(), p.kept.end(), [&](const Paged::Kept& k) { return k.chunks == chunks; });
           it != p.kept.end()) {
         ++p.counters.hits;
         it->lastUse = ++p.uses;

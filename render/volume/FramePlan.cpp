@@ -113,8 +113,10 @@ double FramePlan::estimatedSamples() const {
     for (int c = 0; c < 8; ++c) {
       const glm::dvec3 p{c & 1 ? b.max.x : b.min.x, c & 2 ? b.max.y : b.min.y, c & 4 ? b.max.z : b.min.z};
       const glm::dvec4 clip = viewProj * glm::dvec4(p, 1.0);
-      if (clip.w <= 1e-12) behind = true;
-      else lo = glm::min(lo, glm::dvec2(clip) / clip.w), hi = glm::max(hi, glm::dvec2(clip) / clip.w);
+      if (clip.w <= 1e-12)
+        behind = true;
+      else
+        lo = glm::min(lo, glm::dvec2(clip) / clip.w), hi = glm::max(hi, glm::dvec2(clip) / clip.w);
       const double d = glm::dot(p, planeNormal);
       nearest = std::min(nearest, d), farthest = std::max(farthest, d);
     }

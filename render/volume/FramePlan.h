@@ -30,24 +30,24 @@ struct ValueWindow {
 ValueWindow valueWindow(const Scene& scene, const store::StoreMeta& meta);
 
 struct FramePlan {
-  Box volume;                 ///< the volume's world box
+  Box volume;  ///< the volume's world box
   Camera camera;
   double nearPlane = 0, farPlane = 0;
-  glm::dmat4 viewProj{1.0};   ///< world to clip
+  glm::dmat4 viewProj{1.0};  ///< world to clip
   ValueWindow window;
   /// Whether raw range [min, max] gets any opacity from the GPU's transfer table: the range test over the table
   /// entries a filtered lookup in [min, max] reads (exact at the window's ends: background at the low end is skipped
   /// when the transfer function is transparent there).
   RangePredicate contributes;
-  TraversalResult visible;    ///< bricks to draw, front to back, and what the traversal skipped
+  TraversalResult visible;          ///< bricks to draw, front to back, and what the traversal skipped
   glm::dvec3 planeNormal{0, 0, 1};  ///< unit, from the eye into the scene
-  double step = 1;            ///< world distance between global slice planes
-  double referenceLength = 1; ///< the length transfer-function opacities are given for
-  int subBlock = 0;           ///< sub-block edge in voxels; 0 draws whole bricks
-  int slab = 0;               ///< planes per texture slab; 0 slices (ignored when ray casting)
-  bool raycast = false;       ///< frame ray casting (render/gl/volume/RayCastPass.h) instead of slicing or slabs
-  int cellSize = 0;           ///< ray casting: the cell table's cell edge in level-0 voxels (render/gl/volume/CellTable.h)
-  double ert = 0;             ///< early ray termination threshold when marching; 0 off (always 0 when slicing)
+  double step = 1;                  ///< world distance between global slice planes
+  double referenceLength = 1;       ///< the length transfer-function opacities are given for
+  int subBlock = 0;                 ///< sub-block edge in voxels; 0 draws whole bricks
+  int slab = 0;                     ///< planes per texture slab; 0 slices (ignored when ray casting)
+  bool raycast = false;             ///< frame ray casting (render/gl/volume/RayCastPass.h) instead of slicing or slabs
+  int cellSize = 0;  ///< ray casting: the cell table's cell edge in level-0 voxels (render/gl/volume/CellTable.h)
+  double ert = 0;    ///< early ray termination threshold when marching; 0 off (always 0 when slicing)
   bool preIntegration = false;  ///< pre-integrated classification (when marching)
   bool ess = false;             ///< empty-space silhouette maps (slabs only)
   int coarsestLevel = 0;        ///< the coarsest pyramid level drawn: of plan.visible's bricks' sources

@@ -120,9 +120,9 @@ inline constexpr const char* kSliceViewProjUniform = "uViewProj";
 /// One instance of the slicer draw: a world-space box, a run of planes, and ints passed through untouched to the
 /// fragment stage as flat varyings (the atlas slot and the voxels the box owns, for instance). The instance's
 /// vertices [12 * i, 12 * i + 12) are the polygon of plane i: dot(n, x) = planeDistance + (firstPlane + i) *
-/// uPlaneIncr. For the globally spaced planes of ARCHITECTURE.md set planeDistance = 0 and firstPlane = the global index k of the
-/// first plane (slicerPlaneRange(...).begin): plane k then has the same float distance in every brick. A draw of 12
-/// vertices per instance slices each box once, 12 * N vertices N times; planes outside the half-open slab
+/// uPlaneIncr. For the globally spaced planes of ARCHITECTURE.md set planeDistance = 0 and firstPlane = the global
+/// index k of the first plane (slicerPlaneRange(...).begin): plane k then has the same float distance in every brick. A
+/// draw of 12 vertices per instance slices each box once, 12 * N vertices N times; planes outside the half-open slab
 /// [front, back) of the box (a plane through its back face included) collapse to a point. All seven attributes
 /// have divisor 1.
 struct SliceInstance {
@@ -152,11 +152,11 @@ static_assert(offsetof(SliceInstance, boxMax) == 12 && offsetof(SliceInstance, p
 /// output for it). Drawn as GL_TRIANGLES through kSliceFan, no instancing. The locations are those of SliceInstance
 /// for the same data.
 struct SliceVertex {
-  float world[3];       ///< location 0, 3 x GL_FLOAT
-  int32_t payload[4];   ///< location 3, 4 x GL_INT
-  int32_t plane;        ///< location 4, 1 x GL_INT: global index of the vertex's plane
-  int32_t ownLo[3];     ///< location 5, 3 x GL_INT
-  int32_t ownHi[3];     ///< location 6, 3 x GL_INT
+  float world[3];      ///< location 0, 3 x GL_FLOAT
+  int32_t payload[4];  ///< location 3, 4 x GL_INT
+  int32_t plane;       ///< location 4, 1 x GL_INT: global index of the vertex's plane
+  int32_t ownLo[3];    ///< location 5, 3 x GL_INT
+  int32_t ownHi[3];    ///< location 6, 3 x GL_INT
 };
 inline constexpr int kSliceVertexWorldLocation = 0;
 inline constexpr int kSliceVertexPayloadLocation = 3;
@@ -171,13 +171,13 @@ static_assert(sizeof(SliceVertex) == 56 && offsetof(SliceVertex, payload) == 12 
 /// and the run of global planes [firstPlane, firstPlane + planeCount) its fragments march. Locations as in
 /// SliceInstance where the data is the same; all attributes have divisor 1.
 struct SlabInstance {
-  glm::vec3 boxMin;     ///< location 0, 3 x GL_FLOAT
-  glm::vec3 boxMax;     ///< location 1, 3 x GL_FLOAT
-  glm::ivec4 payload;   ///< location 3, 4 x GL_INT
-  int32_t firstPlane;   ///< location 4, 1 x GL_INT: global index of the slab's first plane
-  glm::ivec3 ownLo;     ///< location 5, 3 x GL_INT
-  glm::ivec3 ownHi;     ///< location 6, 3 x GL_INT
-  int32_t planeCount;   ///< location 7, 1 x GL_INT
+  glm::vec3 boxMin;    ///< location 0, 3 x GL_FLOAT
+  glm::vec3 boxMax;    ///< location 1, 3 x GL_FLOAT
+  glm::ivec4 payload;  ///< location 3, 4 x GL_INT
+  int32_t firstPlane;  ///< location 4, 1 x GL_INT: global index of the slab's first plane
+  glm::ivec3 ownLo;    ///< location 5, 3 x GL_INT
+  glm::ivec3 ownHi;    ///< location 6, 3 x GL_INT
+  int32_t planeCount;  ///< location 7, 1 x GL_INT
 };
 inline constexpr int kSlabPlaneCountLocation = 7;
 /// Vertices drawn per slab instance: the box's 12 triangles.

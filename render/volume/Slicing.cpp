@@ -19,8 +19,7 @@ std::string vectorText(const glm::dvec3& v) {
 
 bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
-void checkBoxAndNormal(const char* function, const glm::dvec3& boxMin, const glm::dvec3& boxMax,
-                       const glm::dvec3& n) {
+void checkBoxAndNormal(const char* function, const glm::dvec3& boxMin, const glm::dvec3& boxMax, const glm::dvec3& n) {
   if (!finite(boxMin) || !finite(boxMax) || boxMin.x > boxMax.x || boxMin.y > boxMax.y || boxMin.z > boxMax.z) {
     throw RenderInputError(std::string(function) + ": bad box " + vectorText(boxMin) + " - " + vectorText(boxMax));
   }
@@ -49,8 +48,7 @@ glm::dvec3 edgePoint(const glm::dvec3& boxMin, const glm::dvec3& boxMax, int sta
 
 // Whether the plane at distance d crosses the edge from corner i to corner j (distances rising along it, d within
 // them); if so, the vertex's edge and its parameter on it (clamped to [0, 1]) are set.
-bool crossEdge(const double* cornerDistance, int i, int j, double d, int& startCorner, int& endCorner,
-               double& lambda) {
+bool crossEdge(const double* cornerDistance, int i, int j, double d, int& startCorner, int& endCorner, double& lambda) {
   const double di = cornerDistance[i], dj = cornerDistance[j];
   if (!(di < dj && di <= d && d <= dj)) return false;
   startCorner = i;
@@ -203,8 +201,7 @@ PlaneIndexRange planeIndexRange(const glm::dvec3& boxMin, const glm::dvec3& boxM
   return range;
 }
 
-PlaneIndexRange slicerPlaneRange(const glm::dvec3& boxMin, const glm::dvec3& boxMax, const glm::dvec3& n,
-                                 double step) {
+PlaneIndexRange slicerPlaneRange(const glm::dvec3& boxMin, const glm::dvec3& boxMax, const glm::dvec3& n, double step) {
   PlaneIndexRange range = planeIndexRange(boxMin, boxMax, n, step);
   range.begin -= 1;
   range.end += 1;

@@ -57,8 +57,7 @@ PlaneIndexRange planeIndexRange(const glm::dvec3& boxMin, const glm::dvec3& boxM
 /// The planes to give slice.vert.glsl for a box: planeIndexRange widened by one plane on each side. The shader
 /// decides in float whether each plane lies in the box, and near a face float may put a plane on the other side of
 /// it than double did; with the extra plane each side, the box that float says owns it always has it to draw.
-PlaneIndexRange slicerPlaneRange(const glm::dvec3& boxMin, const glm::dvec3& boxMax, const glm::dvec3& n,
-                                 double step);
+PlaneIndexRange slicerPlaneRange(const glm::dvec3& boxMin, const glm::dvec3& boxMax, const glm::dvec3& n, double step);
 
 /// The globally spaced planes that cut a box, nearest first: plane i is at distance (firstIndex + i) * step.
 struct SlicePlanes {

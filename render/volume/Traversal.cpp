@@ -25,18 +25,17 @@ struct OctreeTraversal::Walk {
 OctreeTraversal::OctreeTraversal(const store::MinMaxOctree& octree, const store::Vec3i& dims, int brickSize,
                                  const store::Vec3d& spacing)
     : mOctree(&octree), mDims(dims), mBrickSize(brickSize), mSpacing(spacing) {
-  if (brickSize <= 0)
-    throw RenderInputError("OctreeTraversal: brick size " + std::to_string(brickSize) + " <= 0");
+  if (brickSize <= 0) throw RenderInputError("OctreeTraversal: brick size " + std::to_string(brickSize) + " <= 0");
   mVolume = volumeBox(dims, spacing);  // checks dims and spacing
   store::Vec3i expected{store::divUp(dims.x, mBrickSize), store::divUp(dims.y, mBrickSize),
                         store::divUp(dims.z, mBrickSize)};
   const store::Vec3i& bricks = octree.bricks();
   if (!(bricks == expected))
-    throw RenderInputError("OctreeTraversal: octree has " + std::to_string(bricks.x) + "x" +
-                           std::to_string(bricks.y) + "x" + std::to_string(bricks.z) + " bricks, but dims " +
-                           std::to_string(dims.x) + "x" + std::to_string(dims.y) + "x" + std::to_string(dims.z) +
-                           " with brick size " + std::to_string(brickSize) + " need " + std::to_string(expected.x) +
-                           "x" + std::to_string(expected.y) + "x" + std::to_string(expected.z));
+    throw RenderInputError("OctreeTraversal: octree has " + std::to_string(bricks.x) + "x" + std::to_string(bricks.y) +
+                           "x" + std::to_string(bricks.z) + " bricks, but dims " + std::to_string(dims.x) + "x" +
+                           std::to_string(dims.y) + "x" + std::to_string(dims.z) + " with brick size " +
+                           std::to_string(brickSize) + " need " + std::to_string(expected.x) + "x" +
+                           std::to_string(expected.y) + "x" + std::to_string(expected.z));
 }
 
 Box voxelSpanBox(const store::Vec3i& lo, const store::Vec3i& hi, const store::Vec3i& dims,
@@ -77,9 +76,7 @@ bool OctreeTraversal::coarseEnough(const Camera& camera, const LevelOfDetail& lo
   return pixelsTall <= lod.pixels;
 }
 
-Box OctreeTraversal::brickBox(int64_t i, int64_t j, int64_t k) const {
-  return nodeBox(mOctree->depth(), i, j, k);
-}
+Box OctreeTraversal::brickBox(int64_t i, int64_t j, int64_t k) const { return nodeBox(mOctree->depth(), i, j, k); }
 
 TraversalResult OctreeTraversal::run(const Camera& camera, const Frustum& frustum, const RangePredicate& contributes,
                                      const TraversalOptions& options) const {

@@ -19,8 +19,7 @@ inline double voxelFace(int64_t v, int64_t n, double s) {
 }
 
 /// The world box of voxels [lo, hi) of a volume of `dims` voxels.
-Box voxelSpanBox(const store::Vec3i& lo, const store::Vec3i& hi, const store::Vec3i& dims,
-                 const store::Vec3d& spacing);
+Box voxelSpanBox(const store::Vec3i& lo, const store::Vec3i& hi, const store::Vec3i& dims, const store::Vec3d& spacing);
 
 /// One brick to draw: its key (level 0, or a coarser level of the pyramid standing for the level-0 bricks under it)
 /// and the world box of the level-0 voxels it owns (borders excluded). Its samples come from source(): the brick
@@ -32,9 +31,7 @@ struct BrickDraw {
   uint32_t standIn = 0;  ///< levels above key.level that the samples come from (0: the brick itself)
 
   /// The brick whose samples are drawn.
-  store::BrickKey source() const {
-    return {key.level + standIn, key.i >> standIn, key.j >> standIn, key.k >> standIn};
-  }
+  store::BrickKey source() const { return {key.level + standIn, key.i >> standIn, key.j >> standIn, key.k >> standIn}; }
 };
 
 /// What a traversal did. Skipped and culled count level-0 bricks, including every brick under a skipped or culled
@@ -44,9 +41,9 @@ struct TraversalStats {
   int64_t nodesVisited = 0;
   int64_t bricksSkippedEmpty = 0;
   int64_t bricksCulled = 0;
-  int64_t bricksDrawn = 0;      ///< bricks to draw, of every level
-  int64_t bricksCoarse = 0;     ///< of those, bricks of a level above 0
-  int64_t bricksCoarsened = 0;  ///< level-0 bricks the coarse ones stand for
+  int64_t bricksDrawn = 0;              ///< bricks to draw, of every level
+  int64_t bricksCoarse = 0;             ///< of those, bricks of a level above 0
+  int64_t bricksCoarsened = 0;          ///< level-0 bricks the coarse ones stand for
   std::vector<int64_t> bricksPerLevel;  ///< bricks to draw of each level (as long as the coarsest one drawn)
 };
 
@@ -56,9 +53,9 @@ struct TraversalStats {
 /// (perspective: at depth z a pixel is 2 z tan(fov / 2) / height world units; orthographic: the view's height over
 /// the image's). A node reaching in front of the eye is never coarsened.
 struct LevelOfDetail {
-  double pixels = 0;       ///< 0: level 0 everywhere
-  int coarsest = 0;        ///< the coarsest level that may be drawn (the store's last)
-  int imageHeight = 1;     ///< pixels
+  double pixels = 0;    ///< 0: level 0 everywhere
+  int coarsest = 0;     ///< the coarsest level that may be drawn (the store's last)
+  int imageHeight = 1;  ///< pixels
 };
 
 struct TraversalOptions {

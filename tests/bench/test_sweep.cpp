@@ -52,7 +52,7 @@ TEST(SweepPareto, KeepsOnlyUndominatedPointsPerDatasetAndVariant) {
   const Variant hot{"hot"}, shaded{"hot", true};
   std::vector<Point> points = {point("a", hot, {0.25}, 40, 50), point("a", hot, {0.5}, 20, 45),
                                point("a", hot, {1}, 25, 40),  // slower and worse than step 0.5
-                               point("a", hot, {2}, 10, 30),     point("a", shaded, {2}, 30, 20),  // own variant
+                               point("a", hot, {2}, 10, 30),    point("a", shaded, {2}, 30, 20),  // own variant
                                point("b", hot, {0.5}, 100, 45)};
   markPareto(points);
   EXPECT_TRUE(points[0].pareto);
@@ -67,12 +67,17 @@ TEST(SweepDefault, FastestSettingAboveTheThresholdOnEveryDataset) {
   const std::vector<Dataset> datasets = {{"a", "", {"hot", "ct-bone"}}, {"b", "", {"mri"}}};
   const Setting cpuAt1{1, 32, true, render::Slicer::Cpu};
   std::vector<Point> points = {
-      point("a", {"hot"}, {0.5}, 20, 45), point("b", {"mri"}, {0.5}, 30, 44),
-      point("a", {"hot"}, {1}, 10, 42),   point("b", {"mri"}, {1}, 15, 41),
-      point("a", {"hot"}, {2}, 5, 35),    point("b", {"mri"}, {2}, 8, 41),  // step 2 fails on a
-      point("a", {"hot"}, cpuAt1, 8, 42), point("b", {"mri"}, cpuAt1, 12, 41),
+      point("a", {"hot"}, {0.5}, 20, 45),
+      point("b", {"mri"}, {0.5}, 30, 44),
+      point("a", {"hot"}, {1}, 10, 42),
+      point("b", {"mri"}, {1}, 15, 41),
+      point("a", {"hot"}, {2}, 5, 35),
+      point("b", {"mri"}, {2}, 8, 41),  // step 2 fails on a
+      point("a", {"hot"}, cpuAt1, 8, 42),
+      point("b", {"mri"}, cpuAt1, 12, 41),
       // Other variants show what they need but do not decide the default.
-      point("a", {"hot", true}, {1}, 12, 30), point("a", {"ct-bone"}, {0.5}, 25, 41),
+      point("a", {"hot", true}, {1}, 12, 30),
+      point("a", {"ct-bone"}, {0.5}, 25, 41),
       point("a", {"ct-bone"}, {1}, 11, 39),
   };
   std::optional<Setting> chosen = chooseDefault(points, datasets, 40);
@@ -183,14 +188,21 @@ TEST(SweepDefault, ChoosesAmongSlabSettingsAndAtTheHigherThreshold) {
   const std::vector<Dataset> datasets = {{"a", "", {"hot", "ct-bone"}, "ct-bone"}, {"b", "", {"mri"}}};
   const Setting ert99 = slab(1, 16, 0.99), ert999 = slab(1, 16, 0.999), preInt = slab(0.5, 16, 0.999, true);
   std::vector<Point> points = {
-      point("a", {"hot"}, {1}, 30, 42),         point("b", {"mri"}, {1}, 40, 52),
-      point("a", {"hot"}, {0.5}, 60, 51),       point("b", {"mri"}, {0.5}, 80, 58),
-      point("a", {"hot"}, slab(1, 16), 32, 42), point("b", {"mri"}, slab(1, 16), 41, 52),
-      point("a", {"hot"}, ert99, 12, 41.5),     point("b", {"mri"}, ert99, 15, 45),     // fastest at 40 dB
-      point("a", {"hot"}, ert999, 14, 42),      point("b", {"mri"}, ert999, 18, 51.9),  // fails 50 dB on a
-      point("a", {"hot"}, preInt, 25, 50.5),    point("b", {"mri"}, preInt, 35, 57),    // fastest at 50 dB
+      point("a", {"hot"}, {1}, 30, 42),
+      point("b", {"mri"}, {1}, 40, 52),
+      point("a", {"hot"}, {0.5}, 60, 51),
+      point("b", {"mri"}, {0.5}, 80, 58),
+      point("a", {"hot"}, slab(1, 16), 32, 42),
+      point("b", {"mri"}, slab(1, 16), 41, 52),
+      point("a", {"hot"}, ert99, 12, 41.5),
+      point("b", {"mri"}, ert99, 15, 45),  // fastest at 40 dB
+      point("a", {"hot"}, ert999, 14, 42),
+      point("b", {"mri"}, ert999, 18, 51.9),  // fails 50 dB on a
+      point("a", {"hot"}, preInt, 25, 50.5),
+      point("b", {"mri"}, preInt, 35, 57),  // fastest at 50 dB
       // The opaque variant does not decide the defaults, but has its own fastest points.
-      point("a", {"ct-bone"}, ert99, 5, 60),    point("a", {"ct-bone"}, {1}, 20, 61),
+      point("a", {"ct-bone"}, ert99, 5, 60),
+      point("a", {"ct-bone"}, {1}, 20, 61),
   };
   EXPECT_EQ(chooseDefault(points, datasets, 40), ert99);
   EXPECT_EQ(chooseDefault(points, datasets, 50), preInt);
@@ -215,7 +227,7 @@ TEST(SweepDefault, ChoosesAmongSlabSettingsAndAtTheHigherThreshold) {
   Setting notRc = rc;
   notRc.raycast = false;
   points.push_back(point("a", {"hot"}, raycast(1), 1, 45));  // not measured on b: never chosen
-  points.push_back(point("b", {"mri"}, notRc, 1, 45));        // not the ray caster: does not complete it
+  points.push_back(point("b", {"mri"}, notRc, 1, 45));       // not the ray caster: does not complete it
   EXPECT_EQ(chooseDefault(points, datasets, 40), rc);
   EXPECT_EQ(coarsestStep(points, "a", {"hot"}, 40), 1.0) << "ray-caster points are not the baseline renderer";
 }
@@ -223,14 +235,14 @@ TEST(SweepDefault, ChoosesAmongSlabSettingsAndAtTheHigherThreshold) {
 TEST(SweepSlabs, BestSlabSizeAndBestThreshold) {
   const int whole = render::Scene::kMaxSlab;
   std::vector<Point> points = {
-      point("a", {"hot"}, slab(1, 4), 50, 40),      point("a", {"hot"}, slab(2, 4), 20, 35),
-      point("a", {"hot"}, slab(1, 16), 30, 40),     point("a", {"hot"}, slab(2, 16), 15, 35),
-      point("a", {"hot"}, slab(1, whole), 32, 40),  point("a", {"hot"}, slab(2, whole), 16, 35),
-      point("a", {"hot"}, slab(1, 1), 80, 40),      point("a", {"hot"}, slab(2, 1), 40, 35),
-      point("b", {"mri"}, slab(1, 4), 100, 60),     point("b", {"mri"}, slab(1, 16), 90, 60),
-      point("b", {"mri"}, slab(1, whole), 70, 60),  point("b", {"mri"}, slab(1, 1), 150, 60),
+      point("a", {"hot"}, slab(1, 4), 50, 40), point("a", {"hot"}, slab(2, 4), 20, 35),
+      point("a", {"hot"}, slab(1, 16), 30, 40), point("a", {"hot"}, slab(2, 16), 15, 35),
+      point("a", {"hot"}, slab(1, whole), 32, 40), point("a", {"hot"}, slab(2, whole), 16, 35),
+      point("a", {"hot"}, slab(1, 1), 80, 40), point("a", {"hot"}, slab(2, 1), 40, 35),
+      point("b", {"mri"}, slab(1, 4), 100, 60), point("b", {"mri"}, slab(1, 16), 90, 60),
+      point("b", {"mri"}, slab(1, whole), 70, 60), point("b", {"mri"}, slab(1, 1), 150, 60),
       // Where not every size was measured, no size counts: whole bricks 118 against slab 4's 170 and slab 1's 270.
-      point("a", {"hot"}, slab(0.5, 1), 1, 60),     point("a", {"hot"}, slab(0.25, whole), 1000, 60),
+      point("a", {"hot"}, slab(0.5, 1), 1, 60), point("a", {"hot"}, slab(0.25, whole), 1000, 60),
       point("a", {"hot"}, slab(1, 16, 0, true), 1, 40),  // pre-integrated: not a plain slab size
   };
   EXPECT_EQ(bestSlabSize(points, 16), whole);
@@ -337,14 +349,13 @@ TEST(SweepFiles, CsvAppendsTheSlabColumnsAndMarkdownHasTheSlabTable) {
 
   const auto bytes = test::readFile(dir / "sweep.md");
   const std::string md(bytes.begin(), bytes.end());
-  for (const char* part : {"## Texture slabs and the frame ray caster at step 1", "### ml, hot", "### ml, ct-bone",
-                           "| slicing | 40.0 | 1.00× |",
-                           "| slab 16, ert 0.99 | 20.0 | 2.00× | 0.25 | 1 | 25 % | 44.0 |",
-                           "| raycast, sub-block 8 | 30.0 | 1.33× | 0.000256 | 4 | — | 45.0 |",
-                           "| raycast, ert 0.99, sub-block 8 | 8.0 | 5.00× | 0.000256 | 0.6 | 15 % | 44.0 |",
-                           "| ml | hot | step 1, B=32, skip, vertex, raycast, ert 0.99, sub-block 8 | 8.0 / 44.0 |",
-                           "| 50 dB | none |", "**step 1, B=32, skip, vertex, slab 16, ert 0.99**",
-                           "| ml | hot | 20.0 | 24.0 | 1:1.50 | 44.0 | 0.0 |"})
+  for (const char* part :
+       {"## Texture slabs and the frame ray caster at step 1", "### ml, hot", "### ml, ct-bone",
+        "| slicing | 40.0 | 1.00× |", "| slab 16, ert 0.99 | 20.0 | 2.00× | 0.25 | 1 | 25 % | 44.0 |",
+        "| raycast, sub-block 8 | 30.0 | 1.33× | 0.000256 | 4 | — | 45.0 |",
+        "| raycast, ert 0.99, sub-block 8 | 8.0 | 5.00× | 0.000256 | 0.6 | 15 % | 44.0 |",
+        "| ml | hot | step 1, B=32, skip, vertex, raycast, ert 0.99, sub-block 8 | 8.0 / 44.0 |", "| 50 dB | none |",
+        "**step 1, B=32, skip, vertex, slab 16, ert 0.99**", "| ml | hot | 20.0 | 24.0 | 1:1.50 | 44.0 | 0.0 |"})
     EXPECT_NE(md.find(part), std::string::npos) << part << "\n" << md;
   EXPECT_LT(md.find("| slab 16, ert 0.99 |"), md.find("| raycast, sub-block 8 |")) << "the ray caster after the slabs";
 
@@ -362,13 +373,16 @@ TEST(SweepPlot, IsWellFormedSvgWithAPanelPerDataset) {
   SweepResult result;
   result.device = "a <device> & co";
   result.spec.datasets = {{"ml", "synthetic:marschner-lobb", {"hot"}}, {"mri", "/x/ch2.nii.gz", {"mri"}}};
-  result.points = {point("ml", {"hot"}, {0.5}, 20, 45), point("ml", {"hot"}, {2, 16}, 5, 30),
+  result.points = {point("ml", {"hot"}, {0.5}, 20, 45),
+                   point("ml", {"hot"}, {2, 16}, 5, 30),
                    point("ml", {"hot", true}, {1, 32, false}, 7, 33),
                    point("mri", {"mri"}, {1, 32, true, render::Slicer::Cpu}, 300, 41),
                    point("mri", {"mri"}, {0.5}, 500, std::numeric_limits<double>::infinity()),
-                   point("mri", {"mri"}, slab(0.5, 16), 450, 60), point("mri", {"mri"}, slab(0.5, 16, 0.99), 200, 55),
+                   point("mri", {"mri"}, slab(0.5, 16), 450, 60),
+                   point("mri", {"mri"}, slab(0.5, 16, 0.99), 200, 55),
                    point("mri", {"mri"}, slab(0.5, render::Scene::kMaxSlab), 300, 60),
-                   point("mri", {"mri"}, slab(0.5, 1), 900, 60), point("mri", {"mri"}, slab(0.5, 4), 700, 60),
+                   point("mri", {"mri"}, slab(0.5, 1), 900, 60),
+                   point("mri", {"mri"}, slab(0.5, 4), 700, 60),
                    point("mri", {"mri"}, slab(0.5, 16, 0.99, true), 250, 57),
                    point("mri", {"mri"}, raycast(0.5, 0.99, 8), 150, 55),
                    point("mri", {"mri"}, raycast(0.5, 0, 0, true), 260, 57)};
@@ -385,8 +399,8 @@ TEST(SweepPlot, IsWellFormedSvgWithAPanelPerDataset) {
   EXPECT_NE(svg.find("polyline"), std::string::npos) << "the Pareto fronts";
   EXPECT_EQ(svg.find("nan"), std::string::npos) << "an infinite PSNR must not reach a coordinate";
   EXPECT_EQ(svg.find("inf"), std::string::npos);
-  for (const char* key : {"slab 1", "slab 4", "slab 16", "slab whole brick", "slab 16, pre-integration",
-                          "raycast<", "raycast, pre-integration<", "dot: early ray termination", "fastest at 50 dB"})
+  for (const char* key : {"slab 1", "slab 4", "slab 16", "slab whole brick", "slab 16, pre-integration", "raycast<",
+                          "raycast, pre-integration<", "dot: early ray termination", "fastest at 50 dB"})
     EXPECT_NE(svg.find(std::string(">") + key), std::string::npos) << key;
   EXPECT_NE(svg.find("r=\"1.8\" fill=\"black\""), std::string::npos) << "the ERT dot";
   // The ray caster's markers, a plus (12 corners) and a pentagon (5): each in the key and at its point, in the
@@ -533,9 +547,12 @@ TEST(BenchCli, MeshSweepMeasuresEverySettingAgainstTheExactReference) {
     std::vector<std::string> f(1);
     bool quoted = false;
     for (char c : line) {
-      if (c == '"') quoted = !quoted;
-      else if (c == ',' && !quoted) f.emplace_back();
-      else f.back() += c;
+      if (c == '"')
+        quoted = !quoted;
+      else if (c == ',' && !quoted)
+        f.emplace_back();
+      else
+        f.back() += c;
     }
     ASSERT_EQ(f.size(), 18u) << line;
     const std::string key = f[0] + "/" + f[2];
@@ -565,7 +582,7 @@ TEST(BenchCli, MeshSweepMeasuresEverySettingAgainstTheExactReference) {
     return n;
   };
   EXPECT_EQ(occurrences("font-weight=\"bold\""), 4u);  // a panel per mesh and transfer function
-  EXPECT_EQ(occurrences("<circle "), 24u);               // a point per row
+  EXPECT_EQ(occurrences("<circle "), 24u);             // a point per row
   // Refusals name what is wrong.
   r = test::runVoxbrick("bench -q --mesh " + (dir / "missing.vtk").string());
   EXPECT_EQ(r.exitCode, 1);
@@ -584,8 +601,8 @@ TEST(BenchCli, PlansTheSweepItIsAskedForAndRefusesBadLists) {
   ASSERT_EQ(r.exitCode, 0) << r.output;
   EXPECT_NE(r.output.find("at most 909 points, 8 views"), std::string::npos) << r.output;
   r = test::runVoxbrick("bench --dry-run --no-raycast");
-  EXPECT_NE(r.output.find("at most 609 points, 8 views"), std::string::npos) << "the sweep before the ray caster: "
-                                                                              << r.output;
+  EXPECT_NE(r.output.find("at most 609 points, 8 views"), std::string::npos)
+      << "the sweep before the ray caster: " << r.output;
   r = test::runVoxbrick("bench --quick --dry-run");
   EXPECT_NE(r.output.find("at most 84 points"), std::string::npos) << r.output;
   r = test::runVoxbrick("bench --dry-run --slabs none --no-raycast");
@@ -595,19 +612,22 @@ TEST(BenchCli, PlansTheSweepItIsAskedForAndRefusesBadLists) {
   // One dataset (2 slab variants), 2 steps, no shading, no slicing alternatives: 2 variants x 2 steps of slicing;
   // per slab variant and step slab 16 and 4096, ERT 0.9 at 16 and at the best other size (4096), pre-int twice;
   // with --raycast also the ray caster with ERT off and 0.9, pre-integrated twice.
-  const std::string focused = "bench --dry-run --datasets mri --steps 0.5,1 --no-shading --alternatives none "
-                              "--slabs 16,4096 --ert-slab 16 --erts 0.9 --slab-sub-blocks none --size 512";
+  const std::string focused =
+      "bench --dry-run --datasets mri --steps 0.5,1 --no-shading --alternatives none "
+      "--slabs 16,4096 --ert-slab 16 --erts 0.9 --slab-sub-blocks none --size 512";
   r = test::runVoxbrick(focused + " --no-raycast");
   EXPECT_NE(r.output.find("at most 28 points, 8 views each (and a warm-up frame), 512x512"), std::string::npos)
       << r.output;
   r = test::runVoxbrick(focused + " --raycast");
   EXPECT_NE(r.output.find("at most 44 points"), std::string::npos) << r.output;
-  r = test::runVoxbrick("bench --dry-run --datasets mri --steps 1 --no-shading --alternatives b16,no-skip "
-                        "--slabs 4,16 --erts none --no-pre-integration --no-opaque --no-raycast");
+  r = test::runVoxbrick(
+      "bench --dry-run --datasets mri --steps 1 --no-shading --alternatives b16,no-skip "
+      "--slabs 4,16 --erts none --no-pre-integration --no-opaque --no-raycast");
   EXPECT_NE(r.output.find("at most 6 points"), std::string::npos)
       << "2 slicing, b16, no skip, slab 4, slab 16: " << r.output;
-  r = test::runVoxbrick("bench --dry-run --datasets mri --steps 1 --no-shading --alternatives b16,no-skip "
-                        "--slabs 4,16 --erts none --no-pre-integration --no-opaque");
+  r = test::runVoxbrick(
+      "bench --dry-run --datasets mri --steps 1 --no-shading --alternatives b16,no-skip "
+      "--slabs 4,16 --erts none --no-pre-integration --no-opaque");
   EXPECT_NE(r.output.find("at most 8 points"), std::string::npos)
       << "and the ray caster without ERT, with whole-brick cells and sub-blocks of 8: " << r.output;
 

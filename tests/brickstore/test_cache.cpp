@@ -285,8 +285,8 @@ class BrickCachePrefetch : public BrickCacheTest {};
 
 TEST_F(BrickCachePrefetch, MakesLaterGetsHits) {
   BrickCache cache(ts.store, 1u << 30, 2);
-  std::vector<BrickKey> keys = ts.allKeys;       // empty keys are skipped
-  keys.push_back(BrickKey{0, 5000, 0, 0});       // keys outside the store are ignored
+  std::vector<BrickKey> keys = ts.allKeys;  // empty keys are skipped
+  keys.push_back(BrickKey{0, 5000, 0, 0});  // keys outside the store are ignored
   cache.prefetch(keys);
   cache.prefetch(keys);  // resident, in-flight and queued keys are skipped
   ASSERT_TRUE(waitFor(cache, [&](const CacheStats& s) { return s.bricksDecoded == ts.storedKeys.size(); }));

@@ -26,7 +26,8 @@ void expectOnly(const std::filesystem::path& dir, std::vector<std::string> names
 
 void expectError(const test::CommandResult& r, const std::vector<std::string>& words) {
   EXPECT_EQ(r.exitCode, 1) << r.output;
-  for (const std::string& w : words) EXPECT_NE(r.output.find(w), std::string::npos) << "missing '" << w << "' in:\n" << r.output;
+  for (const std::string& w : words)
+    EXPECT_NE(r.output.find(w), std::string::npos) << "missing '" << w << "' in:\n" << r.output;
   // One clear line, not a stack of them.
   EXPECT_LE(std::count(r.output.begin(), r.output.end(), '\n'), 2) << r.output;
 }

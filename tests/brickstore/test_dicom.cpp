@@ -11,10 +11,10 @@
 #include <functional>
 #include <vector>
 
+#include "InputRefusals.h"
 #include "brickstore/Errors.h"
 #include "brickstore/Sources.h"
 #include "support/DicomSeries.h"
-#include "InputRefusals.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick {

@@ -26,7 +26,7 @@ TEST(Quantisation, MapsTheRangeOntoTheStepsWithinHalfAStep) {
     const double step = (q.hi - q.lo) / q.steps();
     EXPECT_EQ(q.quantise(q.lo), 0);
     EXPECT_EQ(q.quantise(q.hi), q.steps());
-    EXPECT_EQ(q.quantise(-100), 0);        // clamped below
+    EXPECT_EQ(q.quantise(-100), 0);           // clamped below
     EXPECT_EQ(q.quantise(1e300), q.steps());  // and above
     EXPECT_DOUBLE_EQ(q.dequantise(q.steps()), q.hi);
     double worst = 0;
@@ -66,8 +66,8 @@ TEST(QuantisedStore, EveryVoxelIsTheQuantisedInputAndTheRangeReadsBack) {
   const Vec3i n{23, 17, 41};
   std::vector<float> v = test::randomVolume<float>(n, -2.0, 6.0, 7);
   for (size_t i = 0; i < v.size(); i += 5) v[i] = 0.0f;  // the background
-  v[11] = std::nanf("");                                  // replaced by the background, then quantised
-  v[12] = 9.0f;                                           // outside the range below: clamped
+  v[11] = std::nanf("");                                 // replaced by the background, then quantised
+  v[12] = 9.0f;                                          // outside the range below: clamped
   ArraySource<float> src(n, ValueType::F32, v);
   PrepOptions options;
   options.brickSize = 8;

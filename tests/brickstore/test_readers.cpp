@@ -188,8 +188,11 @@ TEST(RawSource, SizeMismatchNamesBothNumbers) {
   ScratchDir dir;
   const std::string path = (dir / "vol.raw").string();
   writeBytes(path, Bytes(1000));
-  expectError([&] { openRawSource(path, rawOptions({10, 10, 11}, "u8")); }, "vol.raw",
-              "size 1000 bytes does not match --dims 10,10,11 --type u8 (expected 1100 bytes)");
+  expectError(
+      [&] {
+        openRawSource(path, rawOptions({10, 10, 11}, "u8"));
+      },
+      "vol.raw", "size 1000 bytes does not match --dims 10,10,11 --type u8 (expected 1100 bytes)");
   SourceOptions withHeader = rawOptions({10, 10, 10}, "u8");
   withHeader.headerBytes = 8;
   expectError([&] { openRawSource(path, withHeader); }, "vol.raw", "expected 1008 bytes");
@@ -214,8 +217,8 @@ TEST(RawSource, RejectsBadOptions) {
     badSpacing.spacingGiven = true;
     expectError([&] { openRawSource(path, badSpacing); }, "vol.raw", "positive and finite");
   }
-  expectError<IoError>([&] { openRawSource((dir / "absent.raw").string(), rawOptions(kSmall, "u8")); },
-                       "absent.raw", "No such file");
+  expectError<IoError>([&] { openRawSource((dir / "absent.raw").string(), rawOptions(kSmall, "u8")); }, "absent.raw",
+                       "No such file");
 }
 
 TEST(RawSource, ReadingPastTheLastSliceThrows) {
@@ -328,9 +331,10 @@ TEST(NrrdSource, ReadsSpacingFromSpacingsAndSpaceDirections) {
                                  "space: right-anterior-superior\nspace directions: (0.5,0,0) (0, -3, 4) (0,4,3)\n"
                                  "space origin: (1,2,3)\n")),
             (Vec3d{0.5, 5, 5}));
-  const std::string fourD = "NRRD0005\ntype: uchar\ndimension: 4\nsizes: 1 7 5 3\nkinds: scalar domain domain "
-                            "domain\nencoding: raw\nspace dimension: 3\nspace directions: none (2,0,0) (0,3,0) "
-                            "(0,0,4)\n";
+  const std::string fourD =
+      "NRRD0005\ntype: uchar\ndimension: 4\nsizes: 1 7 5 3\nkinds: scalar domain domain "
+      "domain\nencoding: raw\nspace dimension: 3\nspace directions: none (2,0,0) (0,3,0) "
+      "(0,0,4)\n";
   EXPECT_EQ(spacingOf(fourD), (Vec3d{2, 3, 4}));
   SourceOptions override;
   override.spacing = Vec3d{7, 8, 9};
@@ -423,12 +427,11 @@ TEST(NrrdErrors, RejectsNon3DAndUnsupportedTypesAndEncodings) {
     expectError([&] { openNrrdSource(path, {}); }, "bad.nrrd", keyword);
   };
   check("NRRD0004\ntype: uchar\ndimension: 2\nsizes: 7 5\nencoding: raw\n", "only 3D scalar volumes are supported");
-  check("NRRD0004\ntype: uchar\ndimension: 4\nsizes: 3 7 5 3\nencoding: raw\n",
-        "only 3D scalar volumes are supported");
+  check("NRRD0004\ntype: uchar\ndimension: 4\nsizes: 3 7 5 3\nencoding: raw\n", "only 3D scalar volumes are supported");
   check("NRRD0004\ntype: uchar\ndimension: 5\nsizes: 1 1 7 5 3\nencoding: raw\n",
         "only 3D scalar volumes are supported");
-  for (std::string type : {"int64", "long long", "signed long long int", "ulonglong", "uint64_t", "block",
-                                  "complex", "half"}) {
+  for (std::string type :
+       {"int64", "long long", "signed long long int", "ulonglong", "uint64_t", "block", "complex", "half"}) {
     check(nrrdHeader(type, kSmall, "raw", false), "unsupported NRRD type '" + type + "'");
   }
   for (std::string encoding : {"ascii", "text", "hex", "bzip2"}) {
@@ -467,8 +470,7 @@ TEST(NrrdErrors, RejectsTruncatedAndCorruptData) {
   // A complete gzip stream that holds too few bytes.
   const std::string gzShort = (dir / "gzshort.nrrd").string();
   writeBytes(gzShort, concat(textBytes(gzHeader), gzip(Bytes(data.begin(), data.end() - 100))));
-  expectError(openAndRead([&] { return openNrrdSource(gzShort, {}); }), "gzshort.nrrd",
-              "truncated: expected");
+  expectError(openAndRead([&] { return openNrrdSource(gzShort, {}); }), "gzshort.nrrd", "truncated: expected");
 
   // A gzip stream cut in the middle.
   const Bytes compressed = gzip(data);
@@ -526,7 +528,7 @@ struct NiftiSpec {
   std::string magic = std::string("n+1\0", 4);
   bool bigEndian = false;
   int16_t qformCode = 0, sformCode = 0;
-  std::array<float, 6> quatern{0, 0, 0, 0, 0, 0};  ///< quatern_b, c, d, qoffset_x, y, z
+  std::array<float, 6> quatern{0, 0, 0, 0, 0, 0};                  ///< quatern_b, c, d, qoffset_x, y, z
   std::array<float, 12> srow{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};  ///< srow_x, srow_y, srow_z
 };
 
@@ -569,8 +571,8 @@ void roundTripNifti(int16_t datatype, ValueType expectedType, const Vec3i& dims,
   spec.bigEndian = bigEndian;
   const Bytes file = niftiFile(spec, dims, fileBytes(values, bigEndian));
   writeBytes(path, gzipped ? gzip(file) : file);
-  const std::string what = "NIfTI datatype " + std::to_string(datatype) + (gzipped ? " gz" : "") +
-                           (bigEndian ? " big" : "");
+  const std::string what =
+      "NIfTI datatype " + std::to_string(datatype) + (gzipped ? " gz" : "") + (bigEndian ? " big" : "");
   auto source = openNiftiSource(path, {});
   EXPECT_EQ(source->info().dims, dims) << what;
   EXPECT_EQ(source->info().type, expectedType) << what;
@@ -853,8 +855,9 @@ TEST(NrrdOrientation, SpacesDirectionsAndOriginBecomeRas) {
     return openNrrdSource(path, {});
   };
   // LPS: x and y negate (LPS +x is towards the left, RAS -x).
-  auto lps = open("space: left-posterior-superior\nspace directions: (2,0,0) (0,3,0) (0,0,4)\n"
-                  "space origin: (10,20,30)\n");
+  auto lps = open(
+      "space: left-posterior-superior\nspace directions: (2,0,0) (0,3,0) (0,0,4)\n"
+      "space origin: (10,20,30)\n");
   expectAxes(lps->info().orientation, {{{-1, 0, 0}, {0, -1, 0}, {0, 0, 1}}}, {-10, -20, 30}, "LPS");
   EXPECT_EQ(lps->info().spacing, (Vec3d{2, 3, 4}));
   EXPECT_TRUE(lps->info().orientation.patient);
@@ -867,10 +870,9 @@ TEST(NrrdOrientation, SpacesDirectionsAndOriginBecomeRas) {
   EXPECT_EQ(none->info().orientation, Orientation{});
   expectError([&] { open("space: right-anterior-superior-time\nspace directions: (1,0,0) (0,1,0) (0,0,1)\n"); },
               "o.nrrd", "header field 'space' has a bad value");
-  expectError([&] { open("space: RAS\nspace directions: (1,0,0) (0,1,0) (0,0,1)\nspace origin: (1,2)\n"); },
-              "o.nrrd", "'space origin'");
+  expectError([&] { open("space: RAS\nspace directions: (1,0,0) (0,1,0) (0,0,1)\nspace origin: (1,2)\n"); }, "o.nrrd",
+              "'space origin'");
   expectError([&] { open("space: RAS\nspace directions: (1,0,0) (1,1,0) (0,0,1)\n"); }, "o.nrrd", "sheared");
 }
 
 }  // namespace
-

@@ -95,8 +95,8 @@ Dense<T> makeVolume(Vec3i n, double lo, double hi, uint32_t seed, bool sparse, i
 }
 
 template <typename T>
-std::shared_ptr<const BrickStore> prepDense(const Dense<T>& d, ValueType type, const std::filesystem::path& out,
-                                            int B, PrepOptions options = {}) {
+std::shared_ptr<const BrickStore> prepDense(const Dense<T>& d, ValueType type, const std::filesystem::path& out, int B,
+                                            PrepOptions options = {}) {
   ArraySource<T> src(d.n, type, d.v);
   options.brickSize = B;
   prepStore(src, out, options);
@@ -337,8 +337,7 @@ TEST(StoreCorrupt, DamagedFilesAreRejectedWithTheirName) {
   expectOpenFails(damaged("hdr", [&](auto p) { flipByte(p / "index.bin", 13); }), "index.bin");
   expectOpenFails(damaged("trunc-idx", [](auto p) { std::filesystem::resize_file(p / "index.bin", 100); }),
                   "index.bin");
-  expectOpenFails(damaged("trunc-bricks",
-                          [](auto p) { std::filesystem::resize_file(p / "bricks.bin", 1000); }),
+  expectOpenFails(damaged("trunc-bricks", [](auto p) { std::filesystem::resize_file(p / "bricks.bin", 1000); }),
                   "bricks.bin");
   expectOpenFails(damaged("no-meta", [](auto p) { std::filesystem::remove(p / "store.json"); }), "store.json");
   expectOpenFails(damaged("bad-meta", [](auto p) { test::writeFile(p / "store.json", std::string("{\"format\":")); }),

@@ -8,9 +8,9 @@
 #include <functional>
 #include <vector>
 
+#include "InputRefusals.h"
 #include "brickstore/Errors.h"
 #include "brickstore/Sources.h"
-#include "InputRefusals.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick {

@@ -117,10 +117,10 @@ TEST_F(VdbSourceTest, StoredValuesOfInactiveVoxelsAndTilesAreKept) {
   std::vector<float> volume(static_cast<size_t>(n.volume()));
   source->readSlices(n.z, volume.data());
   auto at = [&](int x, int y, int z) { return volume[static_cast<size_t>(((z + 5) * n.y + (y + 4)) * n.x + x + 9)]; };
-  EXPECT_EQ(at(0, 0, 0), -2.0f);    // inactive, but not background
-  EXPECT_EQ(at(20, 3, 10), 3.0f);   // inside the active tile
+  EXPECT_EQ(at(0, 0, 0), -2.0f);   // inactive, but not background
+  EXPECT_EQ(at(20, 3, 10), 3.0f);  // inside the active tile
   EXPECT_EQ(at(-9, 3, -5), -900.0f + 30.0f - 5.0f);
-  EXPECT_EQ(at(-8, 3, -5), 0.5f);   // background between the scattered voxels
+  EXPECT_EQ(at(-8, 3, -5), 0.5f);  // background between the scattered voxels
   EXPECT_EQ(at(30, -4, 20), 7.0f);
 }
 
@@ -151,14 +151,12 @@ TEST_F(VdbSourceTest, GridSelectionErrors) {
   SourceOptions options;
   options.gridName = "velocity";
   std::string wrongType = openError(path, options);
-  EXPECT_NE(wrongType.find(path + ": grid 'velocity' is vec3s, expected a float grid"), std::string::npos)
-      << wrongType;
+  EXPECT_NE(wrongType.find(path + ": grid 'velocity' is vec3s, expected a float grid"), std::string::npos) << wrongType;
 
   options.gridName = "pressure";
   std::string missing = openError(path, options);
   EXPECT_NE(missing.find(path + ": has no grid named 'pressure'"), std::string::npos) << missing;
-  EXPECT_NE(missing.find("'velocity' (vec3s), 'density' (float), 'temperature' (float)"), std::string::npos)
-      << missing;
+  EXPECT_NE(missing.find("'velocity' (vec3s), 'density' (float), 'temperature' (float)"), std::string::npos) << missing;
 
   openvdb::Vec3SGrid::Ptr only = openvdb::Vec3SGrid::create();
   only->setName("v");

@@ -25,8 +25,10 @@ SplitResult runExe(const std::string& exe, const std::string& args, double timeo
                               " </dev/null >" + out + " 2>" + err;
   const int status = std::system(command.c_str());
   SplitResult r;
-  if (WIFEXITED(status)) r.exitCode = WEXITSTATUS(status);
-  else if (WIFSIGNALED(status)) r.exitCode = 128 + WTERMSIG(status);
+  if (WIFEXITED(status))
+    r.exitCode = WEXITSTATUS(status);
+  else if (WIFSIGNALED(status))
+    r.exitCode = 128 + WTERMSIG(status);
   const std::vector<char> o = readFile(out), e = readFile(err);
   r.out.assign(o.begin(), o.end());
   r.err.assign(e.begin(), e.end());

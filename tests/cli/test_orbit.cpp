@@ -18,8 +18,9 @@ TEST(Orbit, WritesDistinctFramesAndTheFirstIsRendersFrame) {
   test::ScratchDir dir;
   const std::string store = test::preppedStore("synthetic:blobs,n=64", "--brick 16");
   const std::string scene = " --size 48x48 --tf hot";
-  const test::SplitResult r = runSplit("orbit -q " + store + scene + " --orbit 10,15,2.5 --elevation 25 --frames 4 -o " +
-                                       (dir / "frames" / "f%03d.png").string());
+  const test::SplitResult r =
+      runSplit("orbit -q " + store + scene + " --orbit 10,15,2.5 --elevation 25 --frames 4 -o " +
+               (dir / "frames" / "f%03d.png").string());
   ASSERT_EQ(r.exitCode, 0) << r.err;
   EXPECT_EQ(test::lineCount(r.out), 1) << r.out;
   std::vector<image::ImageF> frames;

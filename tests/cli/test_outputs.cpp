@@ -25,7 +25,8 @@ std::string blobs() { return test::preppedStore("synthetic:blobs,n=64", "--brick
 /// The spread of a channel over the image: a frame with a volume in it is far from uniform.
 int channelSpread(const image::Image8& img, int channel) {
   uint8_t lo = 255, hi = 0;
-  for (size_t i = size_t(channel); i < img.rgba.size(); i += 4) lo = std::min(lo, img.rgba[i]), hi = std::max(hi, img.rgba[i]);
+  for (size_t i = size_t(channel); i < img.rgba.size(); i += 4)
+    lo = std::min(lo, img.rgba[i]), hi = std::max(hi, img.rgba[i]);
   return int(hi) - int(lo);
 }
 
@@ -134,7 +135,8 @@ TEST(AtomicOutput, StatsAndUnwritableDirectoriesNameTheFile) {
 /// A transfer function with little opacity everywhere: rays through the volume stay translucent.
 std::string translucentTf(const test::ScratchDir& dir) {
   const fs::path path = dir / "faint.json";
-  test::writeFile(path, std::string(R"({"points": [[0, 1, 0.5, 0.2, 0], [0.2, 1, 0.5, 0.2, 0.002], [1, 1, 1, 1, 0.004]]})"));
+  test::writeFile(path,
+                  std::string(R"({"points": [[0, 1, 0.5, 0.2, 0], [0.2, 1, 0.5, 0.2, 0.002], [1, 1, 1, 1, 0.004]]})"));
   return path.string();
 }
 
@@ -158,10 +160,13 @@ TEST(Transparency, BackgroundNoneGivesAlphaFromOpacity) {
   expectTransparency(gpu, "gpu");
   expectTransparency(ref, "reference");
   int worst = 0;
-  for (size_t i = 3; i < gpu.rgba.size(); i += 4) worst = std::max(worst, std::abs(int(gpu.rgba[i]) - int(ref.rgba[i])));
+  for (size_t i = 3; i < gpu.rgba.size(); i += 4)
+    worst = std::max(worst, std::abs(int(gpu.rgba[i]) - int(ref.rgba[i])));
   EXPECT_LE(worst, 3) << "the GPU's alpha is the reference's";
   // Opaque by default; and JPEG, which has no alpha, is refused.
-  ASSERT_EQ(runSplit("render -q " + blobs() + " --size 48x48 --tf " + tf + " -o " + (dir / "opaque.png").string()).exitCode, 0);
+  ASSERT_EQ(
+      runSplit("render -q " + blobs() + " --size 48x48 --tf " + tf + " -o " + (dir / "opaque.png").string()).exitCode,
+      0);
   const image::Image8 opaque = image::readPng(dir / "opaque.png");
   EXPECT_EQ(channelSpread(opaque, 3), 0);
   EXPECT_EQ(opaque.rgba[3], 255);
@@ -173,16 +178,16 @@ TEST(Transparency, BackgroundNoneGivesAlphaFromOpacity) {
 TEST(Transparency, TheServerSendsAlphaInEveryEncoding) {
   test::ScratchDir dir;
   fs::create_directories(dir / "datasets");
-  ASSERT_EQ(runSplit("prep synthetic:blobs,n=64 --brick 16 --no-vdb -q -o " + (dir / "datasets" / "blobs").string())
-                .exitCode,
-            0);
+  ASSERT_EQ(
+      runSplit("prep synthetic:blobs,n=64 --brick 16 --no-vdb -q -o " + (dir / "datasets" / "blobs").string()).exitCode,
+      0);
   test::ServerProcess server("--datasets " + (dir / "datasets").string(), dir.path());
   const std::string tf = translucentTf(dir);
   for (const std::string encoding : {"png", "raw", "zstd"}) {
     const fs::path out = dir / (encoding + ".png");
     const test::SplitResult r = runSplit("request 127.0.0.1:" + std::to_string(server.port()) +
-                                         " --dataset blobs --size 48x48 --background none --tf " + tf +
-                                         " --encoding " + encoding + " -o " + out.string());
+                                         " --dataset blobs --size 48x48 --background none --tf " + tf + " --encoding " +
+                                         encoding + " -o " + out.string());
     ASSERT_EQ(r.exitCode, 0) << r.err;
     expectTransparency(image::readPng(out), "served as " + encoding);
   }

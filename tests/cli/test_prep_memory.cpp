@@ -40,7 +40,8 @@ TEST(PrepMemory, PeakResidentMemoryStaysWithinTheBudget) {
   test::ScratchDir dir;
   for (const int budget : {152, 208}) {
     const std::string out = (dir / ("s" + std::to_string(budget))).string();
-    const double peak = peakRssMB({"prep", "synthetic:blobs,n=256", "--memory", std::to_string(budget), "-q", "-o", out});
+    const double peak =
+        peakRssMB({"prep", "synthetic:blobs,n=256", "--memory", std::to_string(budget), "-q", "-o", out});
     EXPECT_LE(peak, budget) << "--memory " << budget << " (idle process " << idle << " MB)";
     EXPECT_GT(peak, idle) << "the measurement sees the work";
   }

@@ -21,8 +21,8 @@ TEST(PrepVdb, AnisotropicGridIsReadBackWithItsSpacing) {
   for (size_t i = 0; i < v.size(); ++i) v[i] = uint8_t((i * 7) % 200);
   test::writeFile(dir / "v.raw", v.data(), v.size());
   const std::string store = (dir / "s").string();
-  ASSERT_EQ(runSplit("prep " + (dir / "v.raw").string() + " --dims 32,32,16 --type u8 --spacing 1,1.5,2.5 --brick 8 -q -o " +
-                     store)
+  ASSERT_EQ(runSplit("prep " + (dir / "v.raw").string() +
+                     " --dims 32,32,16 --type u8 --spacing 1,1.5,2.5 --brick 8 -q -o " + store)
                 .exitCode,
             0);
   const std::string vdb = (dir / "s" / "vdb" / "level0-z00000.vdb").string();

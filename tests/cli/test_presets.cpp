@@ -64,15 +64,15 @@ TEST(Presets, AMovedBinaryRendersABuiltInPresetAndAConfigFileOverridesIt) {
   const test::SplitResult builtIn = runExe(exe, frame + (dir / "built-in.png").string(), 120, nowhere(dir));
   ASSERT_EQ(builtIn.exitCode, 0) << builtIn.err;
   const fs::path config = overridingConfig(dir);
-  const test::SplitResult file = runExe(exe, frame + (dir / "file.png").string(), 120,
-                                        "VOXBRICK_CONFIG_DIR=" + config.string());
+  const test::SplitResult file =
+      runExe(exe, frame + (dir / "file.png").string(), 120, "VOXBRICK_CONFIG_DIR=" + config.string());
   ASSERT_EQ(file.exitCode, 0) << file.err;
   const image::Image8 a = image::readPng(dir / "built-in.png"), b = image::readPng(dir / "file.png");
   ASSERT_EQ(a.rgba.size(), b.rgba.size());
   EXPECT_GT(maxDifference(a, b), 50) << "the file mri.json replaces the built-in mri";
   // A name neither built in nor in the directory is refused, naming both places.
-  const test::SplitResult unknown = runExe(exe, "render -q " + blobs() + " --tf nosuch -o " +
-                                                    (dir / "x.png").string(), 120, nowhere(dir));
+  const test::SplitResult unknown =
+      runExe(exe, "render -q " + blobs() + " --tf nosuch -o " + (dir / "x.png").string(), 120, nowhere(dir));
   EXPECT_EQ(unknown.exitCode, 1);
   EXPECT_NE(unknown.err.find("no preset 'nosuch' built in or in"), std::string::npos) << unknown.err;
   EXPECT_NE(unknown.err.find("mri"), std::string::npos) << unknown.err;
@@ -116,8 +116,8 @@ TEST(Presets, JsonParsesAndShowsAnOverrideAsComingFromItsFile) {
 TEST(Presets, AnInstalledBinaryFindsItsShareDirectory) {
   test::ScratchDir dir;
   const fs::path prefix = dir / "prefix";
-  const test::CommandResult install = test::runShell(std::string(VOXBRICK_CMAKE) + " --install " +
-                                                     VOXBRICK_BUILD_DIR + " --prefix " + prefix.string() + " 2>&1");
+  const test::CommandResult install = test::runShell(std::string(VOXBRICK_CMAKE) + " --install " + VOXBRICK_BUILD_DIR +
+                                                     " --prefix " + prefix.string() + " 2>&1");
   ASSERT_EQ(install.exitCode, 0) << install.output;
   const fs::path share = prefix / "share" / "voxbrick";
   for (const fs::path& p : {share / "server.toml", share / "tf" / "mri.json", share / "scenes" / "orbit-default.json",
@@ -140,8 +140,8 @@ TEST(Presets, TheDefaultTransferFunctionSkipsEmptySpace) {
   // draws every brick. The default's transparent band at the bottom of the window makes the corners empty.
   test::ScratchDir dir;
   // Level 0, so that every brick is either drawn or skipped (coarser levels would stand in for the corners).
-  const test::SplitResult r = runSplit("render -q " + blobs() + " --size 48x48 --lod 0 -o " +
-                                       (dir / "f.png").string() + " --stats " + (dir / "stats.json").string());
+  const test::SplitResult r = runSplit("render -q " + blobs() + " --size 48x48 --lod 0 -o " + (dir / "f.png").string() +
+                                       " --stats " + (dir / "stats.json").string());
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const std::vector<char> bytes = test::readFile(dir / "stats.json");
   const nlohmann::json stats = nlohmann::json::parse(std::string(bytes.begin(), bytes.end()));

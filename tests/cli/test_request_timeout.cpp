@@ -58,8 +58,8 @@ class SilentListener {
 
 void expectTimesOut(const SilentListener& listener, const std::string& what) {
   const auto start = std::chrono::steady_clock::now();
-  const test::SplitResult r = test::runSplit("request 127.0.0.1:" + std::to_string(listener.port()) +
-                                             " --dataset d -o f.png --timeout 1", 20);
+  const test::SplitResult r =
+      test::runSplit("request 127.0.0.1:" + std::to_string(listener.port()) + " --dataset d -o f.png --timeout 1", 20);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   EXPECT_EQ(r.exitCode, 1) << r.err;
   EXPECT_LT(seconds, 3.0);

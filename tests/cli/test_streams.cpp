@@ -20,8 +20,7 @@ TEST(Streams, ServerLogsGoToStderrAndStdoutHasOnlyTheAddress) {
   test::ScratchDir dir;
   std::filesystem::create_directories(dir / "datasets");
   // `timeout` ends it with SIGTERM, which the server takes as a request to stop.
-  const test::SplitResult r =
-      runSplit("serve --port 0 --log-level info --datasets " + (dir / "datasets").string(), 8);
+  const test::SplitResult r = runSplit("serve --port 0 --log-level info --datasets " + (dir / "datasets").string(), 8);
   EXPECT_EQ(lineCount(r.out), 1) << r.out;
   EXPECT_EQ(r.out.rfind("listening on 127.0.0.1:", 0), 0u) << r.out;
   EXPECT_NE(r.err.find("serving datasets from"), std::string::npos) << r.err;
@@ -33,8 +32,8 @@ TEST(Streams, PrepWarningsGoToStderrAndResultsToStdout) {
   std::vector<float> v(4 * 4 * 4, 1.0f);
   v[5] = std::numeric_limits<float>::quiet_NaN();
   test::writeFile(dir / "v.raw", v.data(), v.size() * sizeof(float));
-  const test::SplitResult r = runSplit("prep " + (dir / "v.raw").string() + " --dims 4,4,4 --type f32 --brick 8 -q -o " +
-                                       (dir / "s").string());
+  const test::SplitResult r =
+      runSplit("prep " + (dir / "v.raw").string() + " --dims 4,4,4 --type f32 --brick 8 -q -o " + (dir / "s").string());
   ASSERT_EQ(r.exitCode, 0) << r.err;
   EXPECT_NE(r.err.find("non-finite voxels: 1 "), std::string::npos) << r.err;
   EXPECT_EQ(r.out.find("non-finite"), std::string::npos) << r.out;

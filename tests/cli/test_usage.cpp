@@ -14,8 +14,8 @@ using test::lineCount;
 using test::runSplit;
 
 struct BadUsage {
-  std::string args;  ///< the command line after `voxbrick`
-  std::string named; ///< what the error line must contain (the option, usually)
+  std::string args;   ///< the command line after `voxbrick`
+  std::string named;  ///< what the error line must contain (the option, usually)
 };
 
 /// Every subcommand with options out of range, of the wrong kind, unknown, or missing. Commands that would run
@@ -108,7 +108,8 @@ test::ScratchDir* SubBlock::sDir = nullptr;
 
 TEST_F(SubBlock, SizesThatCannotCutTheBricksAreRefused) {
   for (const std::string size : {"16", "32", "64"}) {
-    const test::SplitResult r = runSplit("render " + store() + " -o " + out("f.png") + " --size 32x32 --sub-block " + size);
+    const test::SplitResult r =
+        runSplit("render " + store() + " -o " + out("f.png") + " --size 32x32 --sub-block " + size);
     EXPECT_EQ(r.exitCode, 1) << size << "\n" << r.err;
     EXPECT_EQ(lineCount(r.err), 1) << r.err;
     EXPECT_NE(r.err.find("--sub-block " + size), std::string::npos) << r.err;

@@ -156,10 +156,11 @@ TEST_P(ReplaceDirectory, OldTreeUntilTheSwapNewAfter) {
 
 TEST_P(ReplaceDirectory, WhereNothingWasAndThroughATrailingSlash) {
   ScratchDir scratch;
-  replaceDirectory(scratch / "store", [](const fs::path& staging) { writeText(staging / "x", "1"); }, GetParam());
+  replaceDirectory(
+      scratch / "store", [](const fs::path& staging) { writeText(staging / "x", "1"); }, GetParam());
   EXPECT_EQ(tree(scratch / "store"), std::vector<std::string>{"x=1"});
-  replaceDirectory(scratch.path() / "store/", [](const fs::path& staging) { writeText(staging / "y", "2"); },
-                   GetParam());
+  replaceDirectory(
+      scratch.path() / "store/", [](const fs::path& staging) { writeText(staging / "y", "2"); }, GetParam());
   EXPECT_EQ(tree(scratch / "store"), std::vector<std::string>{"y=2"});
   EXPECT_EQ(entries(scratch.path()), std::vector<std::string>{"store"});
 }
@@ -186,8 +187,12 @@ TEST_P(ReplaceDirectory, AMissingParentIsAnErrorNamingThePath) {
   ScratchDir scratch;
   const fs::path dir = scratch / "missing" / "store";
   bool called = false;
-  expectErrorNaming([&] { replaceDirectory(dir, [&](const fs::path&) { called = true; }, GetParam()); }, dir,
-                    "No such file or directory");
+  expectErrorNaming(
+      [&] {
+        replaceDirectory(
+            dir, [&](const fs::path&) { called = true; }, GetParam());
+      },
+      dir, "No such file or directory");
   EXPECT_FALSE(called);
   EXPECT_TRUE(entries(scratch.path()).empty());
 }

@@ -53,8 +53,8 @@ inline Topology matchFaces(const TetMesh& mesh) {
     for (int f = 0; f < 4; ++f) faces.emplace_back(faceOf(mesh.tets[t], f), t, f);
   std::sort(faces.begin(), faces.end());
   Topology topo;
-  topo.neighbours.assign(mesh.tets.size(), {Topology::kBoundary, Topology::kBoundary, Topology::kBoundary,
-                                            Topology::kBoundary});
+  topo.neighbours.assign(mesh.tets.size(),
+                         {Topology::kBoundary, Topology::kBoundary, Topology::kBoundary, Topology::kBoundary});
   for (size_t i = 0; i + 1 < faces.size(); ++i)
     if (std::get<0>(faces[i]) == std::get<0>(faces[i + 1])) {
       const auto [fa, ta, a] = faces[i];

@@ -7,12 +7,12 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "MeshStoreFixtures.h"
 #include "common/Checksum.h"
 #include "mesh/MeshBlocks.h"
 #include "mesh/MeshFormat.h"
 #include "mesh/MeshStore.h"
 #include "support/TestSupport.h"
-#include "MeshStoreFixtures.h"
 
 namespace voxbrick::mesh {
 namespace {

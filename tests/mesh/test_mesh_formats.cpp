@@ -8,11 +8,11 @@
 #include <random>
 
 #include "mesh/MeshReaders.h"
+#include "mesh/MeshTestSupport.h"
 #include "mesh/MeshWriters.h"
 #include "mesh/SyntheticMesh.h"
 #include "mesh/Topology.h"
 #include "mesh/Validate.h"
-#include "mesh/MeshTestSupport.h"
 #include "support/TestSupport.h"
 
 using namespace voxbrick::mesh;
@@ -110,7 +110,8 @@ TEST_P(MeshFormats, DamagedBytesNeverCrash) {
     for (int h = 0; h < hits; ++h) {
       const size_t at = random() % damaged.size();
       // Digits and bit flips: a changed count or index is the interesting damage, not only garbage.
-      damaged[at] = trial % 2 ? static_cast<char>('0' + random() % 10) : static_cast<char>(damaged[at] ^ (1 << random() % 8));
+      damaged[at] =
+          trial % 2 ? static_cast<char>('0' + random() % 10) : static_cast<char>(damaged[at] ^ (1 << random() % 8));
     }
     try {
       TetMesh mesh = readMeshBytes(path.string(), damaged);

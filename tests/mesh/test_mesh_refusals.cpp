@@ -27,9 +27,8 @@ std::string vtkWithCells(const std::string& cells, const std::string& types, con
 }
 
 TEST(MeshRefusals, VtkHexahedronAndWedgeAreNamedWithCounts) {
-  const std::string file = vtkWithCells(
-      "CELLS 4 28\n8 0 1 3 2 4 5 7 6\n6 0 1 2 4 5 6\n4 0 1 2 4\n6 1 3 2 5 7 6\n",
-      "CELL_TYPES 4\n12\n13\n10\n13\n");
+  const std::string file = vtkWithCells("CELLS 4 28\n8 0 1 3 2 4 5 7 6\n6 0 1 2 4 5 6\n4 0 1 2 4\n6 1 3 2 5 7 6\n",
+                                        "CELL_TYPES 4\n12\n13\n10\n13\n");
   const std::string error = readError("hex.vtk", file);
   EXPECT_CONTAINS(error, "hex.vtk");
   EXPECT_CONTAINS(error, "1 x hexahedron (VTK type 12)");
@@ -68,8 +67,7 @@ TEST(MeshRefusals, VtkUnknownCellTypeAndBadSizes) {
 }
 
 TEST(MeshRefusals, VtkTruncatedNamesTheLine) {
-  const std::string full =
-      vtkWithCells("CELLS 1 5\n4 0 1 2 4\n", "CELL_TYPES 1\n10\n", "10 11 12 13 14 15 16 17\n");
+  const std::string full = vtkWithCells("CELLS 1 5\n4 0 1 2 4\n", "CELL_TYPES 1\n10\n", "10 11 12 13 14 15 16 17\n");
   // Cut inside the points: too few bytes left for 24 numbers, found before reading them.
   const std::string points = readError("cut.vtk", full.substr(0, full.find("1 1 1\n") + 3));
   EXPECT_CONTAINS(points, "cut.vtk, line 5 (byte 79): POINTS: a count of 24 needs at least 48 bytes, but only 46");
@@ -87,8 +85,9 @@ TEST(MeshRefusals, VtkBadTokenNamesTheLine) {
 }
 
 TEST(MeshRefusals, VtkAbsurdCountsFailBeforeAllocating) {
-  const std::string points = "# vtk DataFile Version 3.0\nx\nBINARY\nDATASET UNSTRUCTURED_GRID\n"
-                             "POINTS 4000000000 double\n\x01\x02";
+  const std::string points =
+      "# vtk DataFile Version 3.0\nx\nBINARY\nDATASET UNSTRUCTURED_GRID\n"
+      "POINTS 4000000000 double\n\x01\x02";
   EXPECT_CONTAINS(readError("big.vtk", points), "a count of 12000000000 needs at least 96000000000 bytes");
   const std::string cells = vtkWithCells("CELLS 3000000000 9000000000000000000\n4 0 1 2 4\n", "");
   EXPECT_CONTAINS(readError("big.vtk", cells), "CELLS: a count of 9000000000000000000 needs at least");
@@ -118,8 +117,7 @@ TEST(MeshRefusals, MissingFieldListsTheAvailableOnes) {
 }
 
 TEST(MeshRefusals, NanScalarIsRefusedByValidationNamingTheVertex) {
-  const std::string file =
-      vtkWithCells("CELLS 1 5\n4 0 1 2 4\n", "CELL_TYPES 1\n10\n", "0 1 nan 3 4 5 6 7\n");
+  const std::string file = vtkWithCells("CELLS 1 5\n4 0 1 2 4\n", "CELL_TYPES 1\n10\n", "0 1 nan 3 4 5 6 7\n");
   TetMesh mesh = readText("nan.vtk", file);  // reading keeps what the file says
   EXPECT_TRUE(std::isnan(mesh.scalars[2]));
   try {
@@ -148,7 +146,8 @@ TEST(MeshRefusals, LittleEndianVtkWithHexahedraReportsTheHexahedra) {
 }
 
 const char* kGmshHeader = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n";
-const char* kGmshNodes = "$Nodes\n8\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 1 1 0\n5 0 0 1\n6 1 0 1\n7 0 1 1\n8 1 1 1\n$EndNodes\n";
+const char* kGmshNodes =
+    "$Nodes\n8\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 1 1 0\n5 0 0 1\n6 1 0 1\n7 0 1 1\n8 1 1 1\n$EndNodes\n";
 const char* kGmshData = "$NodeData\n1\n\"s\"\n1\n0\n3\n0\n1\n8\n1 0\n2 1\n3 2\n4 3\n5 4\n6 5\n7 6\n8 7\n$EndNodeData\n";
 
 std::string gmshWith(const std::string& elements) {
@@ -156,8 +155,9 @@ std::string gmshWith(const std::string& elements) {
 }
 
 TEST(MeshRefusals, GmshHexahedraPrismsAndSecondOrderTets) {
-  const std::string file = gmshWith("5\n1 5 2 0 1 1 2 4 3 5 6 8 7\n2 6 2 0 1 1 2 3 5 6 7\n3 6 2 0 1 2 4 3 6 8 7\n"
-                                    "4 4 2 0 1 1 2 3 5\n5 2 2 0 1 1 2 3\n");
+  const std::string file = gmshWith(
+      "5\n1 5 2 0 1 1 2 4 3 5 6 8 7\n2 6 2 0 1 1 2 3 5 6 7\n3 6 2 0 1 2 4 3 6 8 7\n"
+      "4 4 2 0 1 1 2 3 5\n5 2 2 0 1 1 2 3\n");
   const std::string error = readError("h.msh", file);
   EXPECT_CONTAINS(error, "h.msh: only linear tetrahedra");
   EXPECT_CONTAINS(error, "1 x hexahedron (gmsh type 5)");
@@ -200,7 +200,8 @@ TEST(MeshRefusals, GmshAbsurdCountsAndVersions) {
   const int32_t two = 2;
   badOne.append(reinterpret_cast<const char*>(&two), 4);
   EXPECT_CONTAINS(readError("e.msh", badOne + "\n$EndMeshFormat\n"), "the binary endianness check is 2, not 1");
-  EXPECT_CONTAINS(readError("s.msh", std::string(kGmshHeader) + "$Comments\nno end"), "section $Comments has no $EndComments");
+  EXPECT_CONTAINS(readError("s.msh", std::string(kGmshHeader) + "$Comments\nno end"),
+                  "section $Comments has no $EndComments");
   EXPECT_CONTAINS(readError("s.msh", std::string(kGmshHeader) + kGmshNodes), "no $Elements section");
 }
 

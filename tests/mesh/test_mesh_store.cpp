@@ -11,16 +11,16 @@
 #include <set>
 #include <stdexcept>
 
+#include "MeshStoreFixtures.h"
 #include "mesh/MeshStore.h"
 #include "support/TestSupport.h"
-#include "MeshStoreFixtures.h"
 
 namespace voxbrick::mesh {
 namespace {
 
 namespace fs = std::filesystem;
-using voxbrick::test::ScratchDir;
 using voxbrick::test::readFile;
+using voxbrick::test::ScratchDir;
 
 MeshStoreOptions chunksOf(uint32_t tets) {
   MeshStoreOptions o;
@@ -89,8 +89,8 @@ TEST(MeshStore, HandCubeRoundTrip) {
   EXPECT_EQ(info.scalarMin, -7.5f);
   EXPECT_EQ(info.scalarMax, 6.0f);
   EXPECT_EQ(info.bytesRaw, 8u * 16 + 5u * 32 + 12u * 8);
-  EXPECT_EQ(info.bytesStored, fs::file_size(scratch / "cube" / kMeshDataFile) +
-                                  fs::file_size(scratch / "cube" / kMeshIndexFile));
+  EXPECT_EQ(info.bytesStored,
+            fs::file_size(scratch / "cube" / kMeshDataFile) + fs::file_size(scratch / "cube" / kMeshIndexFile));
   EXPECT_EQ(written.bytesStored, info.bytesStored);
   EXPECT_EQ(written.boundaryFaceCount, info.boundaryFaceCount);
   ASSERT_EQ(store.chunkCount(), 3u);
@@ -180,8 +180,8 @@ TEST(MeshStore, RecordsItsEdgeLengths) {
   EXPECT_EQ(older.info().meanEdgeLength, 0.0);
   EXPECT_EQ(older.edgeLengths(), store.edgeLengths());
   // Lengths that no mesh has.
-  for (const std::string bad : {R"("edgeLengths": {"mean": -1, "longest": 1})", R"("edgeLengths": {"mean": 2, "longest": 1})",
-                                R"("edgeLengths": {"mean": 1})"}) {
+  for (const std::string bad : {R"("edgeLengths": {"mean": -1, "longest": 1})",
+                                R"("edgeLengths": {"mean": 2, "longest": 1})", R"("edgeLengths": {"mean": 1})"}) {
     voxbrick::test::writeFile(scratch / "grid" / kMeshMetaFile, text.substr(0, at) + bad + text.substr(end));
     EXPECT_THROW(MeshStore::open(scratch / "grid"), MeshError) << bad;
   }

@@ -72,8 +72,7 @@ TEST(SyntheticMesh, BadSpecsNameTheKey) {
   EXPECT_EQ(specError("box,m=4"), "synthetic mesh 'box,m=4': unknown key 'm' (known: n, field)");
   EXPECT_EQ(specError("box,n=x"), "synthetic mesh 'box,n=x': key 'n': expected an integer in [1, 256], got 'x'");
   EXPECT_EQ(specError("box,n=0"), "synthetic mesh 'box,n=0': key 'n': expected an integer in [1, 256], got '0'");
-  EXPECT_EQ(specError("box,n=257"),
-            "synthetic mesh 'box,n=257': key 'n': expected an integer in [1, 256], got '257'");
+  EXPECT_EQ(specError("box,n=257"), "synthetic mesh 'box,n=257': key 'n': expected an integer in [1, 256], got '257'");
   EXPECT_EQ(specError("box,n=4,n=5"), "synthetic mesh 'box,n=4,n=5': key 'n' is given twice");
   EXPECT_EQ(specError("box,n"), "synthetic mesh 'box,n': expected key=value, got 'n'");
   EXPECT_EQ(specError("box,field=noise"),

@@ -92,8 +92,9 @@ TEST(Topology, ThreeTetsOnOneFaceAreRefused) {
     buildTopology(mesh);
     FAIL() << "a non-manifold face was accepted";
   } catch (const MeshError& e) {
-    EXPECT_STREQ(e.what(), "buildTopology: the face of vertices 0, 1, 2 is shared by 3 tets (0, 1, 2): the mesh is "
-                           "not manifold");
+    EXPECT_STREQ(e.what(),
+                 "buildTopology: the face of vertices 0, 1, 2 is shared by 3 tets (0, 1, 2): the mesh is "
+                 "not manifold");
   }
 }
 

@@ -45,7 +45,8 @@ TEST(Validate, InvertedTetsAreFlippedAndCounted) {
 
 TEST(Validate, DegenerateTetsAreRemovedKeepingOrder) {
   TetMesh mesh = cornerMesh();
-  mesh.tets = {{0, 1, 2, 5}, {0, 1, 2, 3}, {1, 1, 2, 3}, {1, 2, 3, 4}, {3, 2, 3, 0}};  // flat, ok, repeated, ok, repeated
+  mesh.tets = {
+      {0, 1, 2, 5}, {0, 1, 2, 3}, {1, 1, 2, 3}, {1, 2, 3, 4}, {3, 2, 3, 0}};  // flat, ok, repeated, ok, repeated
   const MeshRepairs repairs = validateMesh(mesh);
   EXPECT_EQ(repairs.removedDegenerate, 3u);
   EXPECT_EQ(mesh.tets, (std::vector<Tet>{{0, 1, 2, 3}, {1, 2, 3, 4}}));

@@ -34,10 +34,10 @@ TEST(Visibility, MpvoOrdersEveryInteriorFaceOnConvexMeshes) {
   const TetMesh m = syntheticMesh("box,n=6");
   const Topology topo = buildTopology(m);
   std::vector<ViewPoint> views = {
-      {{3.1, 2.3, 4.7}, {0, 0, -1}, false},                          // outside, perspective
-      {{0.13, -0.21, 0.07}, {0, 0, -1}, false},                      // inside the mesh
+      {{3.1, 2.3, 4.7}, {0, 0, -1}, false},                             // outside, perspective
+      {{0.13, -0.21, 0.07}, {0, 0, -1}, false},                         // inside the mesh
       {{0, 0, 0}, glm::normalize(glm::dvec3(-0.3, -0.5, -0.8)), true},  // orthographic, oblique
-      {{0, 0, 0}, {0, 0, -1}, true},                                 // orthographic along an axis: faces edge on
+      {{0, 0, 0}, {0, 0, -1}, true},                                    // orthographic along an axis: faces edge on
   };
   for (size_t v = 0; v < views.size(); ++v) {
     std::vector<uint32_t> order;

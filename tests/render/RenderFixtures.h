@@ -17,9 +17,9 @@
 #include "brickstore/BrickStore.h"
 #include "brickstore/StoreWriter.h"
 #include "image/Image.h"
+#include "render/core/TransferFunction.h"
 #include "render/reference/Compositing.h"
 #include "render/reference/ReferenceRenderer.h"
-#include "render/core/TransferFunction.h"
 #include "support/ArraySource.h"
 
 namespace voxbrick::test {
@@ -144,8 +144,8 @@ inline std::vector<std::pair<std::string, render::CameraSpec>> marchCameras(bool
 
 /// A reference frame with a fresh renderer and cache.
 inline image::ImageF renderReference(std::shared_ptr<const store::BrickStore> s, const render::Scene& scene,
-                                      const render::ReferenceOptions& options = {},
-                                      render::ReferenceStats* stats = nullptr) {
+                                     const render::ReferenceOptions& options = {},
+                                     render::ReferenceStats* stats = nullptr) {
   auto cache = std::make_shared<store::BrickCache>(std::move(s), size_t(256) << 20, 0);
   render::ReferenceRenderer renderer(cache);
   return renderer.render(scene, options, stats);

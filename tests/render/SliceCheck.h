@@ -84,8 +84,8 @@ inline std::vector<glm::dvec3> expectedSlice(const SliceCase& c, bool inFloat = 
   const int back = 7 ^ ((c.n.x < 0 ? 1 : 0) | (c.n.y < 0 ? 2 : 0) | (c.n.z < 0 ? 4 : 0));
   const glm::dvec3 backCorner(back & 1 ? c.boxMax.x : c.boxMin.x, back & 2 ? c.boxMax.y : c.boxMin.y,
                               back & 4 ? c.boxMax.z : c.boxMin.z);
-  const double backDistance = inFloat ? double(glm::dot(glm::vec3(c.n), glm::vec3(backCorner)))
-                                      : glm::dot(c.n, backCorner);
+  const double backDistance =
+      inFloat ? double(glm::dot(glm::vec3(c.n), glm::vec3(backCorner))) : glm::dot(c.n, backCorner);
   if (c.d >= backDistance) return {};
   return render::intersectBoxPlane(c.boxMin, c.boxMax, c.n, c.d);
 }
@@ -119,8 +119,8 @@ inline SliceCase randomSliceCase(std::mt19937_64& rng, const glm::dvec3& n) {
 inline void maxXFaceDistanceRange(const SliceCase& c, double& lo, double& hi) {
   lo = 1e300, hi = -1e300;
   for (int corner = 0; corner < 4; ++corner) {
-    const double v = glm::dot(c.n, glm::dvec3(c.boxMax.x, corner & 1 ? c.boxMax.y : c.boxMin.y,
-                                              corner & 2 ? c.boxMax.z : c.boxMin.z));
+    const double v = glm::dot(
+        c.n, glm::dvec3(c.boxMax.x, corner & 1 ? c.boxMax.y : c.boxMin.y, corner & 2 ? c.boxMax.z : c.boxMin.z));
     lo = std::min(lo, v);
     hi = std::max(hi, v);
   }
@@ -264,8 +264,8 @@ inline PolygonCheck checkPolygon(std::span<const glm::dvec3> got, const std::vec
     // In a convex polygon running counter-clockwise about towardViewer, b bulges out past the chord from a to c.
     const double outward = glm::dot(glm::cross(b - a, c - a), towardViewer) / chord;
     if (outward < -tol) {
-      check.failure = "not convex and counter-clockwise: vertex " + std::to_string((i + 1) % merged.size()) +
-                      " lies " + std::to_string(-outward) + " inside the chord of its neighbours";
+      check.failure = "not convex and counter-clockwise: vertex " + std::to_string((i + 1) % merged.size()) + " lies " +
+                      std::to_string(-outward) + " inside the chord of its neighbours";
       return check;
     }
   }

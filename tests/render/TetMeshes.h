@@ -41,9 +41,10 @@ inline mesh::TetMesh cube(bool kuhn, const Field& field, double lo = 0, double h
   for (int c = 0; c < 8; ++c) points.emplace_back(c & 1 ? hi : lo, c & 2 ? hi : lo, c & 4 ? hi : lo);
   const std::vector<mesh::Tet> kuhnTets = {{0, 1, 3, 7}, {0, 1, 5, 7}, {0, 2, 3, 7},
                                            {0, 2, 6, 7}, {0, 4, 5, 7}, {0, 4, 6, 7}};
-  return makeMesh(points, kuhn ? kuhnTets : std::vector<mesh::Tet>{{0, 1, 2, 4}, {3, 2, 1, 7}, {5, 1, 4, 7},
-                                                                   {6, 4, 2, 7}, {1, 2, 4, 7}},
-                  field);
+  return makeMesh(
+      points,
+      kuhn ? kuhnTets : std::vector<mesh::Tet>{{0, 1, 2, 4}, {3, 2, 1, 7}, {5, 1, 4, 7}, {6, 4, 2, 7}, {1, 2, 4, 7}},
+      field);
 }
 
 /// n^3 cubes over [lo, hi]^3, each split as Kuhn's (which conforms across cubes).
@@ -91,8 +92,8 @@ inline bool clipToTet(const std::array<glm::dvec3, 4>& p, const glm::dvec3& o, c
 }
 
 /// Where the ray o + t d is inside the box [lo, hi] (closed); false if it misses.
-inline bool clipToBox(const glm::dvec3& lo, const glm::dvec3& hi, const glm::dvec3& o, const glm::dvec3& d,
-                      double& t0, double& t1) {
+inline bool clipToBox(const glm::dvec3& lo, const glm::dvec3& hi, const glm::dvec3& o, const glm::dvec3& d, double& t0,
+                      double& t1) {
   t0 = -std::numeric_limits<double>::infinity(), t1 = std::numeric_limits<double>::infinity();
   for (int a = 0; a < 3; ++a) {
     if (d[a] == 0) {

@@ -11,10 +11,10 @@
 #include <glm/glm.hpp>
 
 #include "TetMeshes.h"
-#include "render/reference/Compositing.h"
 #include "render/RenderFixtures.h"
 #include "render/core/Scene.h"
 #include "render/core/SegmentIntegral.h"
+#include "render/reference/Compositing.h"
 #include "render/reference/TetReference.h"
 
 namespace voxbrick::test {
@@ -27,8 +27,8 @@ using render::TransferFunction;
 
 /// The model along o + t d over [t0, t1] by the midpoint rule with about n * refine substeps, cut where the normalised
 /// value (linear along the ray) crosses a control point or an end of the window, so that each piece is smooth.
-inline glm::dvec4 bruteForce(const TetReferenceParams& p, const Field& field, const glm::dvec3& o,
-                             const glm::dvec3& d, double t0, double t1, int n, int refine = 1) {
+inline glm::dvec4 bruteForce(const TetReferenceParams& p, const Field& field, const glm::dvec3& o, const glm::dvec3& d,
+                             double t0, double t1, int n, int refine = 1) {
   auto value = [&](double t) { return (field(o + t * d) - p.windowLo) / (p.windowHi - p.windowLo); };
   const double v0 = value(t0), v1 = value(t1);
   std::vector<double> cuts{0.0, 1.0};
@@ -52,8 +52,8 @@ inline glm::dvec4 bruteForce(const TetReferenceParams& p, const Field& field, co
 }
 
 /// The single segment of a linear field along [t0, t1]: what a mesh of that field must composite to along the ray.
-inline glm::dvec4 oneSegment(const TetReferenceParams& p, const Field& field, const glm::dvec3& o,
-                             const glm::dvec3& d, double t0, double t1) {
+inline glm::dvec4 oneSegment(const TetReferenceParams& p, const Field& field, const glm::dvec3& o, const glm::dvec3& d,
+                             double t0, double t1) {
   const double w = p.windowHi - p.windowLo;
   return render::integrateSegment(p.transferFunction, (field(o + t0 * d) - p.windowLo) / w,
                                   (field(o + t1 * d) - p.windowLo) / w, (t1 - t0) / p.referenceLength);

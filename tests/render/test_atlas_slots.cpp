@@ -4,8 +4,8 @@
 
 #include <set>
 
-#include "render/volume/AtlasSlots.h"
 #include "render/core/RenderErrors.h"
+#include "render/volume/AtlasSlots.h"
 
 namespace voxbrick::render {
 namespace {

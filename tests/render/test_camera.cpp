@@ -238,12 +238,12 @@ TEST(CameraFrustum, CullsBoxesOutsideAndKeepsBoxesInside) {
   camera.center = {0, 0, 0};
   Frustum f = Frustum::fromMatrix(camera.projection(1, 1, 100) * camera.view());
   EXPECT_TRUE(f.intersects({{-1, -1, -1}, {1, 1, 1}}));
-  EXPECT_FALSE(f.intersects({{-1, -1, 11}, {1, 1, 13}}));      // behind the eye
-  EXPECT_FALSE(f.intersects({{-1, -1, 9.5}, {1, 1, 9.9}}));    // between the eye and the near plane
-  EXPECT_FALSE(f.intersects({{-1, -1, -95}, {1, 1, -91}}));    // beyond the far plane
-  EXPECT_FALSE(f.intersects({{20, -1, -1}, {22, 1, 1}}));      // off to the right
+  EXPECT_FALSE(f.intersects({{-1, -1, 11}, {1, 1, 13}}));        // behind the eye
+  EXPECT_FALSE(f.intersects({{-1, -1, 9.5}, {1, 1, 9.9}}));      // between the eye and the near plane
+  EXPECT_FALSE(f.intersects({{-1, -1, -95}, {1, 1, -91}}));      // beyond the far plane
+  EXPECT_FALSE(f.intersects({{20, -1, -1}, {22, 1, 1}}));        // off to the right
   EXPECT_TRUE(f.intersects({{-100, -100, -1}, {100, 100, 1}}));  // contains the whole cross-section
-  EXPECT_TRUE(f.intersects({{2, -1, -1}, {22, 1, 1}}));         // straddles the right plane
+  EXPECT_TRUE(f.intersects({{2, -1, -1}, {22, 1, 1}}));          // straddles the right plane
   // A box touching a side plane from outside is kept: only boxes wholly outside are culled.
   double edge = 10 * std::tan(glm::radians(15.0));
   EXPECT_TRUE(f.intersects({{edge, -1, 0}, {edge + 1, 1, 0}}));

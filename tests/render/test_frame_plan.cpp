@@ -5,9 +5,9 @@
 #include <cmath>
 #include <tuple>
 
-#include "render/volume/FramePlan.h"
-#include "render/core/RenderErrors.h"
 #include "render/RenderFixtures.h"
+#include "render/core/RenderErrors.h"
+#include "render/volume/FramePlan.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {
@@ -47,8 +47,8 @@ TEST(FramePlan, WindowStepAndReferenceLengthFollowTheSceneAndStore) {
 
 TEST(FramePlan, AConstantVolumeGetsAUnitWindow) {
   test::ScratchDir dir;
-  const auto s = test::prepArray(store::Vec3i{8, 8, 8}, store::ValueType::F32, std::vector<float>(512, 5.0f),
-                                 dir / "flat.vbs", 8);
+  const auto s =
+      test::prepArray(store::Vec3i{8, 8, 8}, store::ValueType::F32, std::vector<float>(512, 5.0f), dir / "flat.vbs", 8);
   const FramePlan plan = planFrame(Scene{}, *s, kTexels);
   EXPECT_DOUBLE_EQ(plan.window.lo, 5.0);
   EXPECT_DOUBLE_EQ(plan.window.hi, 6.0);
@@ -59,8 +59,8 @@ TEST(FramePlan, TheSkipTestIsWidenedByOneTableTexel) {
   const auto s = rampStore(dir);
   Scene scene;
   // Opaque only above 0.5 of the window [0, 39].
-  scene.transferFunction = TransferFunction({{0.0, {1, 1, 1, 0}}, {0.5, {1, 1, 1, 0}}, {0.5, {1, 1, 1, 1}},
-                                             {1.0, {1, 1, 1, 1}}});
+  scene.transferFunction =
+      TransferFunction({{0.0, {1, 1, 1, 0}}, {0.5, {1, 1, 1, 0}}, {0.5, {1, 1, 1, 1}}, {1.0, {1, 1, 1, 1}}});
   const FramePlan plan = planFrame(scene, *s, kTexels);
   const float edge = float(0.5 * 39);
   const float halfTexel = float(0.5 * 39.0 / kTexels), fourTexels = float(4 * 39.0 / kTexels);

@@ -23,8 +23,8 @@ namespace {
 using test::runVoxbrick;
 using test::ScratchDir;
 
-constexpr int kN = 48;             // samples per axis
-constexpr double kSpacing = 1.5;   // mm
+constexpr int kN = 48;              // samples per axis
+constexpr double kSpacing = 1.5;    // mm
 const glm::dvec3 kCentre{0, 0, 6};  // world centre of every file's box
 
 // A smooth step from 0 (d <= -0.75) to 1 (d >= 0.75): soft edges, so that an oblique grid samples the same shapes.
@@ -47,9 +47,7 @@ struct Placement {
 };
 
 // The placement whose box is centred on kCentre.
-Placement centred(const glm::dmat3& axes) {
-  return {axes, kCentre - axes * glm::dvec3(0.5 * (kN - 1) * kSpacing)};
-}
+Placement centred(const glm::dmat3& axes) { return {axes, kCentre - axes * glm::dvec3(0.5 * (kN - 1) * kSpacing)}; }
 
 // The phantom sampled at the placement's voxel centres, x fastest.
 std::vector<float> sample(const Placement& p) {
@@ -57,8 +55,7 @@ std::vector<float> sample(const Placement& p) {
   v.reserve(size_t(kN) * kN * kN);
   for (int k = 0; k < kN; ++k)
     for (int j = 0; j < kN; ++j)
-      for (int i = 0; i < kN; ++i)
-        v.push_back(float(phantom(p.origin + p.axes * (kSpacing * glm::dvec3(i, j, k)))));
+      for (int i = 0; i < kN; ++i) v.push_back(float(phantom(p.origin + p.axes * (kSpacing * glm::dvec3(i, j, k)))));
   return v;
 }
 
@@ -107,9 +104,9 @@ std::string vectorText(const glm::dvec3& v) {
 // directions and origin are written in LPS, x and y negated).
 void writeNrrd(const std::filesystem::path& path, const Placement& p, const std::string& space) {
   const glm::dvec3 toSpace = space == "left-posterior-superior" ? glm::dvec3(-1, -1, 1) : glm::dvec3(1);
-  std::string header = "NRRD0004\ntype: float\ndimension: 3\nsizes: " + std::to_string(kN) + " " +
-                       std::to_string(kN) + " " + std::to_string(kN) + "\nencoding: raw\nendian: little\nspace: " +
-                       space + "\nspace directions:";
+  std::string header = "NRRD0004\ntype: float\ndimension: 3\nsizes: " + std::to_string(kN) + " " + std::to_string(kN) +
+                       " " + std::to_string(kN) + "\nencoding: raw\nendian: little\nspace: " + space +
+                       "\nspace directions:";
   for (int a = 0; a < 3; ++a) header += " " + vectorText(toSpace * (kSpacing * p.axes[a]));
   header += "\nspace origin: " + vectorText(toSpace * p.origin) + "\n\n";
   const std::vector<float> values = sample(p);
@@ -274,8 +271,7 @@ TEST_F(OrientationPhantom, CameraOptionsAreAppliedOrRefused) {
     EXPECT_NE(r.output.find("--center and --up need --eye"), std::string::npos) << r.output;
   }
   // --eye over a scene keeps the scene's center and up (it reset them to 0,0,0 and +y).
-  test::writeFile(mDir / "scene.json",
-                  R"({"camera": {"eye": [0, 150, 6], "center": [10, 0, 6], "up": [0, 0, 1]}})");
+  test::writeFile(mDir / "scene.json", R"({"camera": {"eye": [0, 150, 6], "center": [10, 0, 6], "up": [0, 0, 1]}})");
   const std::string scene = "--scene " + (mDir / "scene.json").string();
   const image::ImageF fromScene = render(mDir, store, scene);
   const image::ImageF withEye = render(mDir, store, scene + " --eye 0,150,6");

@@ -16,11 +16,11 @@
 #include <tuple>
 #include <vector>
 
-#include "render/reference/Compositing.h"
+#include "render/RenderFixtures.h"
 #include "render/core/PreIntegration.h"
 #include "render/core/RenderErrors.h"
-#include "render/RenderFixtures.h"
 #include "render/core/TransferFunction.h"
+#include "render/reference/Compositing.h"
 
 namespace voxbrick::render {
 namespace {

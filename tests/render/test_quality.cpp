@@ -51,8 +51,8 @@ TEST(QualityTarget, ParsesBothFormsAndRefusesTheRestWithTheFormsNamed) {
   EXPECT_EQ(QualityTarget::parse("psnr:40", "--quality"), (QualityTarget{QualityTarget::Kind::Psnr, 40}));
   EXPECT_EQ(QualityTarget::parse("ms:200", "--quality"), (QualityTarget{QualityTarget::Kind::Ms, 200}));
   EXPECT_EQ(QualityTarget::parse("psnr:42.5", "x").text(), "psnr:42.5");
-  for (const char* bad : {"", "psnr", "psnr:", "psnr:abc", "psnr:40dB", "psnr:5", "psnr:101", "ms:0", "ms:-3",
-                          "ms:nan", "ms:inf", "fps:30", "40"}) {
+  for (const char* bad : {"", "psnr", "psnr:", "psnr:abc", "psnr:40dB", "psnr:5", "psnr:101", "ms:0", "ms:-3", "ms:nan",
+                          "ms:inf", "fps:30", "40"}) {
     try {
       QualityTarget::parse(bad, "--quality");
       ADD_FAILURE() << "accepted '" << bad << "'";

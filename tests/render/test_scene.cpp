@@ -122,7 +122,7 @@ TEST(SceneJson, CameraKeysAndWhatIsRefused) {
   EXPECT_FALSE(fitted.camera.distance);
   EXPECT_EQ(fitted.camera.upAxis, UpAxis::PosZ);
   const Scene placed = Scene::fromJson("{\"camera\": {\"orbit\": [10, 20, 3], \"up_axis\": \"-y\"}}", "s");
-    EXPECT_EQ(placed.camera.distance.value_or(0), 3);
+  EXPECT_EQ(placed.camera.distance.value_or(0), 3);
   EXPECT_EQ(placed.camera.upAxis, UpAxis::NegY);
   EXPECT_FALSE(Scene::fromJson("{\"camera\": {\"orbit\": [10, 20, 3], \"fit\": true}}", "s").camera.distance);
   const Scene left = Scene::fromJson("{\"camera\": {\"view\": \"left\"}}", "s");
@@ -130,7 +130,7 @@ TEST(SceneJson, CameraKeysAndWhatIsRefused) {
   EXPECT_EQ(left.camera.elevation, 0);
   EXPECT_FALSE(left.camera.distance);
   const Scene again = Scene::fromJson(placed.toJson(), "round trip");
-    EXPECT_EQ(again.camera.upAxis, UpAxis::NegY);
+  EXPECT_EQ(again.camera.upAxis, UpAxis::NegY);
   EXPECT_EQ(again.camera.distance.value_or(0), 3);
 }
 

@@ -1,5 +1,6 @@
-// The exact integral of a linear segment (render/core/SegmentIntegral.h) that the tetrahedral reference composites: closed
-// forms, convergence of brute force towards it, and the pre-integration table held to it for the segments tets make.
+// The exact integral of a linear segment (render/core/SegmentIntegral.h) that the tetrahedral reference composites:
+// closed forms, convergence of brute force towards it, and the pre-integration table held to it for the segments tets
+// make.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,11 +12,11 @@
 #include <string>
 #include <vector>
 
-#include "render/reference/Compositing.h"
+#include "render/RenderFixtures.h"
 #include "render/core/PreIntegration.h"
 #include "render/core/SegmentIntegral.h"
-#include "render/RenderFixtures.h"
 #include "render/core/TransferFunction.h"
+#include "render/reference/Compositing.h"
 
 namespace voxbrick::render {
 namespace {
@@ -71,8 +72,7 @@ TEST(TetReferenceSegment, ClosedFormsAndEdgeCases) {
     const double sf = unit(random), sb = unit(random), r = 8 * unit(random), u = unit(random);
     const double sm = sf + u * (sb - sf);
     const RaySpan halves = over(part(sf, sm, r * u), part(sm, sb, r * (1 - u)));
-    ASSERT_LT(maxDifference(integrateSegment(tf, sf, sb, r), glm::dvec4(halves.color, 1 - halves.transmittance)),
-              1e-13)
+    ASSERT_LT(maxDifference(integrateSegment(tf, sf, sb, r), glm::dvec4(halves.color, 1 - halves.transmittance)), 1e-13)
         << sf << " " << sm << " " << sb << " " << r;
   }
 }
@@ -128,11 +128,11 @@ TEST(TetReferenceSegment, OpaqueTransferFunctions) {
   double worst = 0;
   for (size_t t = 0; t < tfs.size(); ++t)
     for (const auto& [sf, sb, r] : std::vector<std::tuple<double, double, double>>{{0.0, 1.0, 0.05},
-                                                                                  {1.0, 0.0, 0.05},
-                                                                                  {0.0, 0.4, 0.5},
-                                                                                  {0.4, 0.0, 0.5},
-                                                                                  {0.2, 0.35, 2.0},
-                                                                                  {0.9, 0.1, 1e-3}}) {
+                                                                                   {1.0, 0.0, 0.05},
+                                                                                   {0.0, 0.4, 0.5},
+                                                                                   {0.4, 0.0, 0.5},
+                                                                                   {0.2, 0.35, 2.0},
+                                                                                   {0.9, 0.1, 1e-3}}) {
       const glm::dvec4 exact = integrateSegment(tfs[t], sf, sb, r);
       EXPECT_TRUE(std::isfinite(exact.r) && std::isfinite(exact.a));
       EXPECT_LE(std::max({exact.r, exact.g, exact.b}), exact.a + 1e-15);
@@ -151,9 +151,9 @@ TEST(TetReferenceSegment, OpaqueTransferFunctions) {
   EXPECT_NEAR(front.r, 0.5 + 0.5 * (0.1 / 0.6), 1e-15);  // rgb(0.5), between the points at 0.4 and 1
 }
 
-// The pre-integration table (render/core/PreIntegration.h), looked up as the GPU filters it, against the direct integral,
-// for the segments a tetrahedral mesh makes: arbitrary front and back values and any length. The table's own build
-// is within 1e-6 of the integral at its texels (test_preintegration.cpp); between texels the lookup interpolates
+// The pre-integration table (render/core/PreIntegration.h), looked up as the GPU filters it, against the direct
+// integral, for the segments a tetrahedral mesh makes: arbitrary front and back values and any length. The table's own
+// build is within 1e-6 of the integral at its texels (test_preintegration.cpp); between texels the lookup interpolates
 // (bilinear in the values, linear in ln r between layers), which costs up to the bound below, largest next to the
 // diagonal where a kink of the transfer function falls between two texels. A step (the sparse preset's, at 0.02)
 // cannot be interpolated: segments next to it are off by up to the step's whole effect, so it is held only on average.

@@ -9,10 +9,10 @@
 #include <set>
 #include <tuple>
 
+#include "render/SliceCheck.h"
 #include "render/core/RenderErrors.h"
 #include "render/volume/SliceTables.h"
 #include "render/volume/Slicing.h"
-#include "render/SliceCheck.h"
 
 namespace voxbrick::render {
 namespace {
@@ -49,8 +49,7 @@ TEST(Slicing, TriangleQuadPentagonHexagon) {
   expectPolygon({0, 0, 1}, 0.5, {{0, 0, 0.5}, {1, 0, 0.5}, {1, 1, 0.5}, {0, 1, 0.5}}, 1);
   expectPolygon(glm::dvec3(1, 1, 0) / s2, 0.5 / s2, {{0.5, 0, 0}, {0, 0.5, 0}, {0, 0.5, 1}, {0.5, 0, 1}}, 1 / s2);
   // x + y + 2z = 1.5: the corners below it are 0, (1,0,0) and (0,1,0); five edges cross.
-  expectPolygon({1, 1, 2}, 1.5, {{0, 0, 0.75}, {1, 0.5, 0}, {1, 0, 0.25}, {0.5, 1, 0}, {0, 1, 0.25}},
-                0.875 * s6 / 2);
+  expectPolygon({1, 1, 2}, 1.5, {{0, 0, 0.75}, {1, 0.5, 0}, {1, 0, 0.25}, {0.5, 1, 0}, {0, 1, 0.25}}, 0.875 * s6 / 2);
   expectPolygon(glm::dvec3(1, 1, 1) / s3, 1.5 / s3,
                 {{1, 0.5, 0}, {0.5, 1, 0}, {0, 1, 0.5}, {0, 0.5, 1}, {0.5, 0, 1}, {1, 0, 0.5}}, 3 * s3 / 4);
   // The same hexagon seen from the other side runs the other way round in space but is again counter-clockwise.
@@ -110,8 +109,8 @@ void expectMirrorMatches(const SliceCase& c, double& worst) {
   const double scale = test::caseScale(c) * test::edgeConditioning(exact, c);
   const test::PolygonCheck check = test::checkPolygon(mirror, exact, c.n, kMirrorTolerance * scale);
   worst = std::max(worst, check.error / scale);
-  ASSERT_TRUE(check.failure.empty()) << test::caseText(c) << "\n  mirror " << test::polygonText(mirror)
-                                     << "\n  exact  " << test::polygonText(exact) << "\n  " << check.failure;
+  ASSERT_TRUE(check.failure.empty()) << test::caseText(c) << "\n  mirror " << test::polygonText(mirror) << "\n  exact  "
+                                     << test::polygonText(exact) << "\n  " << check.failure;
 }
 
 TEST(Slicing, MirrorMatchesExactOnRandomCases) {

@@ -7,11 +7,11 @@
 #include <string>
 
 #include "mesh/Topology.h"
+#include "render/TetMeshes.h"
 #include "render/core/RenderErrors.h"
 #include "render/tets/TetFrameCost.h"
 #include "render/tets/TetFramePlan.h"
 #include "render/tets/TetOrder.h"
-#include "render/TetMeshes.h"
 
 namespace voxbrick::render {
 namespace {

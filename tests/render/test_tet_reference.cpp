@@ -1,5 +1,5 @@
-// The tetrahedral reference renderer (render/reference/TetReference.h): closed forms on a single tet, convergence of brute
-// force to it, the same image from two splittings of a cube (rays through edges and vertices included), a grid of
+// The tetrahedral reference renderer (render/reference/TetReference.h): closed forms on a single tet, convergence of
+// brute force to it, the same image from two splittings of a cube (rays through edges and vertices included), a grid of
 // tets against one analytic segment per ray, order along the ray, perspective, and the grid reference on a box.
 #include <gtest/gtest.h>
 
@@ -12,10 +12,10 @@
 #include <string>
 #include <vector>
 
-#include "render/RenderFixtures.h"
 #include "TetMeshes.h"
 #include "TetReferenceChecks.h"
 #include "mesh/TetMesh.h"
+#include "render/RenderFixtures.h"
 #include "render/core/RenderErrors.h"
 #include "render/core/SegmentIntegral.h"
 #include "render/reference/TetReference.h"
@@ -39,7 +39,6 @@ using test::makeMesh;
 using test::maxDifference;
 using test::oneSegment;
 using test::perspectiveDirection;
-
 
 TransferFunction constantTf(const glm::dvec3& rgb, double alpha) {
   return TransferFunction({{0.0, glm::dvec4(rgb, alpha)}, {1.0, glm::dvec4(rgb, alpha)}});
@@ -257,11 +256,12 @@ TEST(TetReference, GridOfTetsIsOneSegmentPerRay) {
         for (int c = 0; c < 3; ++c) ASSERT_NEAR(image.pixel(x, y)[c], out[c], 2e-7);
       }
     EXPECT_LT(worst, 1e-12);
-    std::printf("[ tet-ref ] %zu tets, %s %dx%d: %.1f ms, %lld rays, %.1f segments and %.1f tet tests per ray; "
-                "max |mesh - one segment| %.2g\n",
-                grid.tets.size(), orthographic ? "orthographic" : "perspective", p.width, p.height, stats.ms,
-                (long long)stats.rays, double(stats.segments) / double(stats.rays),
-                double(stats.tetTests) / double(p.width * p.height), worst);
+    std::printf(
+        "[ tet-ref ] %zu tets, %s %dx%d: %.1f ms, %lld rays, %.1f segments and %.1f tet tests per ray; "
+        "max |mesh - one segment| %.2g\n",
+        grid.tets.size(), orthographic ? "orthographic" : "perspective", p.width, p.height, stats.ms,
+        (long long)stats.rays, double(stats.segments) / double(stats.rays),
+        double(stats.tetTests) / double(p.width * p.height), worst);
   }
 }
 
@@ -296,9 +296,8 @@ TEST(TetReference, SymmetricViewsGiveOneSegmentPerRay) {
               if (clipToBox(glm::dvec3(-1), glm::dvec3(1), ray.origin, ray.direction, t0, t1))
                 expected = oneSegment(p, field, ray.origin, ray.direction, std::max(t0, ray.tNear), t1);
               const double error = maxDifference(reference.integrate(ray, p), expected);
-              ASSERT_LT(error, 1e-12) << mesh.tets.size() << " tets, azimuth " << azimuth << ", elevation "
-                                      << elevation << (orthographic ? ", orthographic" : "") << ", pixel " << x
-                                      << ", " << y;
+              ASSERT_LT(error, 1e-12) << mesh.tets.size() << " tets, azimuth " << azimuth << ", elevation " << elevation
+                                      << (orthographic ? ", orthographic" : "") << ", pixel " << x << ", " << y;
               worst = std::max(worst, error);
             }
         }
@@ -311,8 +310,8 @@ TEST(TetReference, SymmetricViewsGiveOneSegmentPerRay) {
 TEST(TetReference, SeparatedTetsCompositeFrontToBack) {
   // Value 0.2: red, alpha 0.6; value 0.8: blue, alpha 0.3 (a step at 0.5).
   TetReferenceParams p;
-  p.transferFunction = TransferFunction(
-      {{0.0, {1, 0, 0, 0.6}}, {0.5, {1, 0, 0, 0.6}}, {0.5, {0, 0, 1, 0.3}}, {1.0, {0, 0, 1, 0.3}}});
+  p.transferFunction =
+      TransferFunction({{0.0, {1, 0, 0, 0.6}}, {0.5, {1, 0, 0, 0.6}}, {0.5, {0, 0, 1, 0.3}}, {1.0, {0, 0, 1, 0.3}}});
   p.referenceLength = 0.5;
   const glm::dvec3 lift(0, 0, 3);
   std::vector<glm::dvec3> points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
@@ -340,11 +339,10 @@ TEST(TetReference, SeparatedTetsCompositeFrontToBack) {
     EXPECT_NEAR(fromBelow.a, fromAbove.a, 1e-14);
     const std::vector<TetSegment> segments = reference.segments(down);
     ASSERT_EQ(segments.size(), 2u);
-    EXPECT_EQ(segments[0].tet, liftedFirst ? 0u : 1u);  // the lifted tet is nearer the eye
+    EXPECT_EQ(segments[0].tet, liftedFirst ? 0u : 1u);               // the lifted tet is nearer the eye
     EXPECT_NEAR(segments[1].t0 - segments[0].t1, 3 - chord, 1e-13);  // the gap
   }
 }
-
 
 // Perspective: each pixel against its analytic chord (Cyrus–Beck on the pixel's ray), from outside and from inside
 // the tet (the near plane cuts it); a distant perspective camera approaches the orthographic image.
@@ -403,9 +401,10 @@ TEST(TetReference, PerspectiveCameraMatchesAnalyticChords) {
 // centres, the camera, the near plane, the window, L_ref and the background to the same conventions.
 TEST(TetReference, MatchesTheGridReferenceOnAConstantBox) {
   test::ScratchDir dir;
-  auto store = test::prepArray({8, 8, 8}, store::ValueType::F32, std::vector<float>(512, 0.5f), dir / "box", 8,
-                               {0.5, 0.5, 0.5});
-  const mesh::TetMesh box = cube(false, [](const glm::dvec3&) { return 0.5; }, -2, 2);
+  auto store =
+      test::prepArray({8, 8, 8}, store::ValueType::F32, std::vector<float>(512, 0.5f), dir / "box", 8, {0.5, 0.5, 0.5});
+  const mesh::TetMesh box = cube(
+      false, [](const glm::dvec3&) { return 0.5; }, -2, 2);
   for (const auto& [name, spec] : cameras(TetReference(box).bounds())) {
     Scene scene;
     scene.camera = spec;
@@ -449,7 +448,9 @@ TEST(TetReference, ParametersAndErrors) {
       [](TetReferenceParams& q) { q.windowLo = NAN; },
       [](TetReferenceParams& q) { q.referenceLength = 0; },
       [](TetReferenceParams& q) { q.referenceLength = INFINITY; },
-      [](TetReferenceParams& q) { q.background = {0, 2, 0}; },
+      [](TetReferenceParams& q) {
+        q.background = {0, 2, 0};
+      },
       [](TetReferenceParams& q) { q.camera.eye = q.camera.center; },
   };
   for (const auto& change : changes) {

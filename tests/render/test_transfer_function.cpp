@@ -124,7 +124,7 @@ TEST(TransferFunctionEvaluate, InterpolatesClampsAndSteps) {
   EXPECT_NEAR(mid.r, 0.5, 1e-12);
   EXPECT_NEAR(mid.g, 0.25, 1e-12);
   EXPECT_NEAR(mid.a, 0.2, 1e-12);
-  EXPECT_NEAR(tf.evaluate(0.6 - 1e-12).a, 0.4, 1e-9);  // left of the step
+  EXPECT_NEAR(tf.evaluate(0.6 - 1e-12).a, 0.4, 1e-9);     // left of the step
   EXPECT_EQ(tf.evaluate(0.6), glm::dvec4(0, 1, 0, 0.8));  // at the step: the later point
   EXPECT_NEAR(tf.evaluate(0.7).a, 0.4, 1e-12);
   EXPECT_EQ(tf.evaluate(0.9), glm::dvec4(0, 0, 1, 0));

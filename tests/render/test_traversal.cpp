@@ -349,7 +349,8 @@ TEST(SubBlocks, RangesCoverExactlyTheSamplesTrilinearReads) {
           for (int i = 0; i < n; ++i) {
             const int cell[3] = {i, j, k};
             bool exists = true;
-            int lo[3], hi[3];  // data indices, inclusive: owned voxels [c * e, min((c + 1) * e, owned)) plus one each side
+            int lo[3],
+                hi[3];  // data indices, inclusive: owned voxels [c * e, min((c + 1) * e, owned)) plus one each side
             for (int a = 0; a < 3; ++a) {
               exists = exists && cell[a] * e < kBrickOwned[a];
               lo[a] = cell[a] * e;
@@ -365,7 +366,8 @@ TEST(SubBlocks, RangesCoverExactlyTheSamplesTrilinearReads) {
                   mx = std::max(mx, samples[size_t((z * side + y) * side + x)]);
                 }
             const SubBlockRanges::Range r = ranges.range(level, i, j, k);
-            EXPECT_EQ(r.min, mn) << "sub-block " << subBlock << " level " << level << " node " << i << "," << j << "," << k;
+            EXPECT_EQ(r.min, mn) << "sub-block " << subBlock << " level " << level << " node " << i << "," << j << ","
+                                 << k;
             EXPECT_EQ(r.max, mx);
           }
     }
@@ -400,7 +402,8 @@ TEST(SubBlocks, BoxesCoverTheContributingBlocksOnceFrontToBack) {
       for (int64_t z = s.lo.z; z < s.hi.z; ++z)
         for (int64_t y = s.lo.y; y < s.hi.y; ++y)
           for (int64_t x = s.lo.x; x < s.hi.x; ++x)
-            if ((x - kBrickLo.x) % subBlock == 0 && (y - kBrickLo.y) % subBlock == 0 && (z - kBrickLo.z) % subBlock == 0)
+            if ((x - kBrickLo.x) % subBlock == 0 && (y - kBrickLo.y) % subBlock == 0 &&
+                (z - kBrickLo.z) % subBlock == 0)
               ++covered[size_t(((z - kBrickLo.z) / subBlock * perAxis + (y - kBrickLo.y) / subBlock) * perAxis +
                                (x - kBrickLo.x) / subBlock)];
     int64_t rejected = 0;
@@ -417,7 +420,8 @@ TEST(SubBlocks, BoxesCoverTheContributingBlocksOnceFrontToBack) {
     ASSERT_GT(rejected, 0) << "the test data should leave some blocks out";
 
     std::vector<BrickDraw> boxes;
-    for (const VoxelSpan& s : spans) boxes.push_back({store::BrickKey{}, voxelSpanBox(s.lo, s.hi, kBrickDims, spacing)});
+    for (const VoxelSpan& s : spans)
+      boxes.push_back({store::BrickKey{}, voxelSpanBox(s.lo, s.hi, kBrickDims, spacing)});
     constrained += checkVisibilityOrder(boxes, camera);
   }
   EXPECT_GT(constrained, 60 * 20);
@@ -428,8 +432,9 @@ TEST(SubBlocks, ABrickWhoseBlocksAllContributeIsOneBox) {
   SubBlockRanges ranges(samples.data(), store::ValueType::F32, kSubB, 2, kBrickOwned);
   std::vector<VoxelSpan> spans;
   SubBlockWalkStats stats;
-  subBlockBoxes(ranges, kBrickLo, 0, kBrickDims, kSpacing, lookingFrom({0, 0, 90}), [](float, float) { return true; },
-                spans, stats);
+  subBlockBoxes(
+      ranges, kBrickLo, 0, kBrickDims, kSpacing, lookingFrom({0, 0, 90}), [](float, float) { return true; }, spans,
+      stats);
   ASSERT_EQ(spans.size(), 1u);
   EXPECT_EQ(spans[0].lo, kBrickLo);
   EXPECT_EQ(spans[0].hi, (Vec3i{kBrickLo.x + 16, kBrickLo.y + 11, kBrickLo.z + 7}));
@@ -443,8 +448,7 @@ TEST(TraversalInput, MismatchedGridsAndMissingPredicatesThrow) {
   EXPECT_THROW(OctreeTraversal(grid.octree, kDims, kB, {1, 0, 1}), RenderInputError);
   OctreeTraversal traversal(grid.octree, kDims, kB, kSpacing);
   EXPECT_THROW(traversal.run(lookingFrom({0, 0, 50}), Frustum{}, {}, {true, false, {}}), RenderInputError);
-  EXPECT_THROW(traversal.run(lookingFrom({0, 0, 0}, false, {0, 0, 0}), Frustum{}, {}, kEverything),
-               RenderInputError);
+  EXPECT_THROW(traversal.run(lookingFrom({0, 0, 0}, false, {0, 0, 0}), Frustum{}, {}, kEverything), RenderInputError);
 }
 
 }  // namespace

@@ -47,8 +47,8 @@ class SparseDatasetSuite : public ::testing::Test {
   static void SetUpTestSuite() {
     sDir = new ScratchDir();
     std::filesystem::create_directories(*sDir / "datasets");
-    const auto r = runVoxbrick("prep synthetic:sparse,n=64 --brick 16 --no-vdb -q -o " +
-                               (*sDir / "datasets" / "sparse").string());
+    const auto r =
+        runVoxbrick("prep synthetic:sparse,n=64 --brick 16 --no-vdb -q -o " + (*sDir / "datasets" / "sparse").string());
     ASSERT_EQ(r.exitCode, 0) << r.output;
   }
   static void TearDownTestSuite() {

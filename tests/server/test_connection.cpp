@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "TestDatasets.h"
-#include "render/engine/RenderEngine.h"
 #include "render/core/TransferFunctionPresets.h"
+#include "render/engine/RenderEngine.h"
 #include "server/Connection.h"
 #include "server/Datasets.h"
 #include "server/ErrorReply.h"
@@ -25,10 +25,10 @@ class FakeTransport : public Transport,
                       public RenderScheduler::Sink,
                       public std::enable_shared_from_this<FakeTransport> {
  public:
-  int reads = 0;                               ///< readMessage calls
-  std::vector<std::vector<uint8_t>> writes;    ///< every message given to write, in order
-  bool writing = false;                        ///< the last write has not been reported yet
-  std::map<Deadline, double> armed;            ///< running deadlines and their seconds
+  int reads = 0;                             ///< readMessage calls
+  std::vector<std::vector<uint8_t>> writes;  ///< every message given to write, in order
+  bool writing = false;                      ///< the last write has not been reported yet
+  std::map<Deadline, double> armed;          ///< running deadlines and their seconds
   bool closed = false;
 
   void readMessage() override { ++reads; }

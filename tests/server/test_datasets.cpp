@@ -2,9 +2,9 @@
 #include <gtest/gtest.h>
 
 #include "TestDatasets.h"
+#include "render/volume/BrickStoreDataset.h"
 #include "server/Datasets.h"
 #include "support/TestSupport.h"
-#include "render/volume/BrickStoreDataset.h"
 
 namespace voxbrick::server {
 namespace {
@@ -18,8 +18,7 @@ class DatasetRegistryTest : public ::testing::Test {
   void SetUp() override {
     std::filesystem::create_directories(datasets);
     for (const std::filesystem::path& where : {datasets / "sparse", dir / "outside", datasets / "odd name",
-                                               datasets / "sp*rse", datasets / "sp\xC3\xA4rse",
-                                               datasets / "sparse\n"})
+                                               datasets / "sp*rse", datasets / "sp\xC3\xA4rse", datasets / "sparse\n"})
       copyStore(where);
     for (const auto& entry : std::filesystem::directory_iterator(test::testDatasets() / "sparse"))
       std::filesystem::copy(entry.path(), datasets / entry.path().filename());  // "." and "sparse/.." are stores
@@ -82,9 +81,9 @@ TEST_F(DatasetRegistryTest, TheNameCheckAllowsOnlyPlainNames) {
   for (const char* name : {"sparse", "a-b_c.1", "...", ".hidden", "CT.2024-01"})
     EXPECT_TRUE(DatasetRegistry::validName(name)) << name;
   EXPECT_TRUE(DatasetRegistry::validName(std::string(255, 'x')));
-  for (const std::string& name : {std::string(""), std::string("."), std::string(".."), std::string(256, 'x'),
-                                  std::string("a/b"), std::string("a\\b"), std::string("a b"), std::string("a:b"),
-                                  std::string("a\0b", 3), std::string("\xC3\xA4")})
+  for (const std::string& name :
+       {std::string(""), std::string("."), std::string(".."), std::string(256, 'x'), std::string("a/b"),
+        std::string("a\\b"), std::string("a b"), std::string("a:b"), std::string("a\0b", 3), std::string("\xC3\xA4")})
     EXPECT_FALSE(DatasetRegistry::validName(name)) << name;
 }
 

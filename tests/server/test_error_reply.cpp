@@ -67,9 +67,9 @@ TEST(ErrorReply, OnlyTheClosingCodesEndASession) {
   for (ErrorCode code : {ErrorCode::BadMagic, ErrorCode::UnsupportedVersion, ErrorCode::TooLarge, ErrorCode::Timeout,
                          ErrorCode::ShuttingDown})
     EXPECT_TRUE(closesSession(code)) << proto::errorCodeName(code);
-  for (ErrorCode code : {ErrorCode::UnknownType, ErrorCode::Malformed, ErrorCode::UnexpectedMessage,
-                         ErrorCode::UnknownDataset, ErrorCode::InvalidScene, ErrorCode::LimitExceeded,
-                         ErrorCode::Superseded, ErrorCode::Internal})
+  for (ErrorCode code :
+       {ErrorCode::UnknownType, ErrorCode::Malformed, ErrorCode::UnexpectedMessage, ErrorCode::UnknownDataset,
+        ErrorCode::InvalidScene, ErrorCode::LimitExceeded, ErrorCode::Superseded, ErrorCode::Internal})
     EXPECT_FALSE(closesSession(code)) << proto::errorCodeName(code);
 }
 

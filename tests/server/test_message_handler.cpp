@@ -31,8 +31,9 @@ class MessageHandlerTest : public ::testing::Test {
   DatasetRegistry datasets{test::testDatasets(), size_t(16) << 20};
   render::TransferFunctionPresets presets = render::TransferFunctionPresets::load(test::shippedPresets());
   ServerStats stats;
-  MessageHandler handler{config, datasets, presets, stats,
-                         [this] { return stats.toJson(ServerStats::Gauges{3, 1, datasets.opened(), 2, {}, 0}); }};
+  MessageHandler handler{config, datasets, presets, stats, [this] {
+                           return stats.toJson(ServerStats::Gauges{3, 1, datasets.opened(), 2, {}, 0});
+                         }};
   ConnectionState state;
 
   Outcome handle(const proto::Message& message, uint32_t id = 1) { return handler.handle(state, message, id); }
@@ -147,8 +148,7 @@ TEST_F(MessageHandlerTest, OpeningADatasetGivesItsInfo) {
 
 TEST_F(MessageHandlerTest, RenderBeforeOpenDatasetIsUnexpected) {
   greet();
-  EXPECT_EQ(errorCode(handle(proto::RenderRequest{proto::Encoding::Png, kScene}, 8), 8),
-            ErrorCode::UnexpectedMessage);
+  EXPECT_EQ(errorCode(handle(proto::RenderRequest{proto::Encoding::Png, kScene}, 8), 8), ErrorCode::UnexpectedMessage);
 }
 
 TEST_F(MessageHandlerTest, RenderWithABadSceneIsInvalidScene) {
@@ -218,9 +218,9 @@ TEST_F(MessageHandlerTest, GoodbyeClosesWithoutAReply) {
 
 TEST_F(MessageHandlerTest, ServerMessagesFromAClientAreUnexpected) {
   greet();
-  for (const proto::Message& m : std::vector<proto::Message>{proto::Frame{}, proto::Capabilities{},
-                                                             proto::DatasetList{}, proto::DatasetInfo{},
-                                                             proto::Error{}, proto::Stats{}}) {
+  for (const proto::Message& m :
+       std::vector<proto::Message>{proto::Frame{}, proto::Capabilities{}, proto::DatasetList{}, proto::DatasetInfo{},
+                                   proto::Error{}, proto::Stats{}}) {
     const Outcome o = handle(m, 15);
     EXPECT_EQ(errorCode(o, 15), ErrorCode::UnexpectedMessage);
     EXPECT_NE(onlyReply<proto::Error>(o, 15).message.find("sent by servers"), std::string::npos);
@@ -302,7 +302,8 @@ TEST_F(MessageHandlerTest, ARawFrameAboveTheMessageLimitIsRefusedBeforeItIsQueue
   ConnectionState session;
   tight.handle(session, proto::Hello{1, 1, "test"}, 1);
   tight.handle(session, proto::OpenDataset{"sparse"}, 2);
-  const Outcome o = tight.handle(session, proto::RenderRequest{proto::Encoding::RawRgba8, R"({"size": [100, 100]})"}, 3);
+  const Outcome o =
+      tight.handle(session, proto::RenderRequest{proto::Encoding::RawRgba8, R"({"size": [100, 100]})"}, 3);
   EXPECT_FALSE(o.render.has_value());
   const proto::Error e = onlyReply<proto::Error>(o, 3);
   EXPECT_EQ(e.code, proto::ErrorCode::LimitExceeded);

@@ -7,10 +7,10 @@
 #include <nlohmann/json.hpp>
 
 #include "TestDatasets.h"
+#include "image/FrameImage.h"
 #include "render/core/TransferFunction.h"
 #include "render/core/TransferFunctionPresets.h"
 #include "server/Datasets.h"
-#include "image/FrameImage.h"
 #include "server/RenderScheduler.h"
 #include "server/ServerConfig.h"
 
@@ -55,10 +55,10 @@ class RenderSchedulerTest : public ::testing::Test {
     j.requestId = id;
     j.encoding = proto::Encoding::RawRgba8;
     j.dataset = datasets.open("sparse");
-    j.scene = render::Scene::fromJson(
-        R"({"camera": {"orbit": [40, 25, 2.2]}, "transfer_function": "sparse", "size": [)" + std::to_string(width) +
-            ", 32]}",
-        "scene", presets);
+    j.scene =
+        render::Scene::fromJson(R"({"camera": {"orbit": [40, 25, 2.2]}, "transfer_function": "sparse", "size": [)" +
+                                    std::to_string(width) + ", 32]}",
+                                "scene", presets);
     j.received = std::chrono::steady_clock::now();
     return j;
   }

@@ -14,20 +14,20 @@
 
 #include "ServerProcess.h"
 #include "client/Client.h"
-#include "image/Image.h"
 #include "image/FrameImage.h"
-#include "support/TestSupport.h"
+#include "image/Image.h"
 #include "render/datasets/Datasets.h"
+#include "support/TestSupport.h"
 
 namespace voxbrick {
 namespace {
 
 using client::Client;
 using client::ServerError;
+using nlohmann::json;
 using proto::ErrorCode;
 using test::ScratchDir;
 using test::ServerProcess;
-using nlohmann::json;
 
 class ServerTest : public test::SparseDatasetSuite {
  protected:
@@ -117,15 +117,35 @@ TEST_F(ServerTest, AQualityTargetIsResolvedFromTheDatasetsTable) {
 
   // Step 2 is fast and coarse, step 0.5 slow and fine (made-up figures, as bench --calibrate would write them).
   const std::filesystem::path table = std::filesystem::path(datasets()) / "sparse" / "quality.json";
-  test::writeFile(table, json{{"format", "voxbrick-quality"}, {"version", 1}, {"device", "test"}, {"size", {80, 64}},
+  test::writeFile(table, json{{"format", "voxbrick-quality"},
+                              {"version", 1},
+                              {"device", "test"},
+                              {"size", {80, 64}},
                               {"views", 2},
-                              {"entries", {{{"transfer_function", "sparse"}, {"shading", false}, {"step", 2},
-                                            {"raycast", true}, {"slab", 0}, {"ert", 0.999}, {"pre_integration", false},
-                                            {"sub_block", 8}, {"lod", 0}, {"ms_median", 10}, {"psnr_min", 35}},
-                                           {{"transfer_function", "sparse"}, {"shading", false}, {"step", 0.5},
-                                            {"raycast", true}, {"slab", 0}, {"ert", 0.999}, {"pre_integration", false},
-                                            {"sub_block", 8}, {"lod", 0}, {"ms_median", 30}, {"psnr_min", 48}}}}}
-                                 .dump());
+                              {"entries",
+                               {{{"transfer_function", "sparse"},
+                                 {"shading", false},
+                                 {"step", 2},
+                                 {"raycast", true},
+                                 {"slab", 0},
+                                 {"ert", 0.999},
+                                 {"pre_integration", false},
+                                 {"sub_block", 8},
+                                 {"lod", 0},
+                                 {"ms_median", 10},
+                                 {"psnr_min", 35}},
+                                {{"transfer_function", "sparse"},
+                                 {"shading", false},
+                                 {"step", 0.5},
+                                 {"raycast", true},
+                                 {"slab", 0},
+                                 {"ert", 0.999},
+                                 {"pre_integration", false},
+                                 {"sub_block", 8},
+                                 {"lod", 0},
+                                 {"ms_median", 30},
+                                 {"psnr_min", 48}}}}}
+                             .dump());
   const proto::Frame frame = c->render(scene.dump());
   const json stats = json::parse(frame.statsJson);
   ASSERT_TRUE(stats.contains("quality")) << frame.statsJson;
@@ -449,7 +469,7 @@ TEST_F(ServerTest, AbandonedRendersAreCancelledAndCostlyOnesRefused) {
       auto gone = session(*server);
       gone->send(proto::RenderRequest{proto::Encoding::Png, heavy});
       std::this_thread::sleep_for(std::chrono::milliseconds(700));  // drawing now
-    }  // the client leaves without its frame
+    }                                                               // the client leaves without its frame
     auto c = session(*server);
     const proto::Frame frame = c->render(kScene, proto::Encoding::RawRgba8);
     EXPECT_EQ(frame.width, 80u);
@@ -572,8 +592,8 @@ TEST_F(ServerTest, AProgressiveRenderSendsAProvisionalFrameThenTheExactOne) {
   auto server = start();
   auto c = session(*server);
   std::vector<proto::Frame> provisional;
-  const proto::Frame exact =
-      c->render(progressiveScene(), proto::Encoding::RawRgba8, [&](const proto::Frame& f) { provisional.push_back(f); });
+  const proto::Frame exact = c->render(progressiveScene(), proto::Encoding::RawRgba8,
+                                       [&](const proto::Frame& f) { provisional.push_back(f); });
   ASSERT_EQ(provisional.size(), 1u) << "a cold cache must stand in";
   const json first = json::parse(provisional[0].statsJson), last = json::parse(exact.statsJson);
   EXPECT_TRUE(first["provisional"].get<bool>());
@@ -587,7 +607,8 @@ TEST_F(ServerTest, AProgressiveRenderSendsAProvisionalFrameThenTheExactOne) {
 
   // Everything is resident now: no provisional frame, and the same pixels as a plain Render.
   int more = 0;
-  const proto::Frame again = c->render(progressiveScene(), proto::Encoding::RawRgba8, [&](const proto::Frame&) { ++more; });
+  const proto::Frame again =
+      c->render(progressiveScene(), proto::Encoding::RawRgba8, [&](const proto::Frame&) { ++more; });
   EXPECT_EQ(more, 0);
   EXPECT_EQ(pixels(again), pixels(exact));
   EXPECT_EQ(pixels(c->render(kScene, proto::Encoding::RawRgba8)), pixels(exact));
@@ -625,7 +646,8 @@ TEST_F(ServerTest, ClientsWriteTheProvisionalFrameOfAProgressiveRender) {
     EXPECT_NE(r.output.find("bricks stood in"), std::string::npos) << r.output;
     EXPECT_TRUE(std::filesystem::exists(scratch() / "python-progressive.provisional.png"));
   }
-  EXPECT_EQ(image::readPng(scratch() / "progressive.png").rgba, image::readPng(scratch() / "python-progressive.png").rgba);
+  EXPECT_EQ(image::readPng(scratch() / "progressive.png").rgba,
+            image::readPng(scratch() / "python-progressive.png").rgba);
   EXPECT_NE(image::readPng(scratch() / "progressive.png").rgba,
             image::readPng(scratch() / "progressive.provisional.png").rgba);
 }
@@ -721,8 +743,7 @@ TEST_F(ServerTest, ACorruptDatasetIsQuarantinedAndEveryOtherKeepsRendering) {
     EXPECT_NE(second.find("is quarantined until it is replaced"), std::string::npos) << second;
   }
   const json stats = json::parse(good->stats());
-  for (const json& d : stats["datasets"])
-    EXPECT_EQ(d["quarantined"].is_string(), d["name"] == "bad") << d.dump();
+  for (const json& d : stats["datasets"]) EXPECT_EQ(d["quarantined"].is_string(), d["name"] == "bad") << d.dump();
 
   // Replaced on disk (as `prep --force` does: a new directory): the same session draws the new data.
   std::filesystem::remove_all(dir / "bad");
@@ -757,9 +778,9 @@ TEST_F(ServerTest, ShortLoadWithFaultsLeavesGoodClientsUnharmed) {
   auto server = start("--hello-timeout 1 --read-timeout 2");
   const std::string address = "127.0.0.1:" + std::to_string(server->port());
   const auto report = scratch() / "load.json";
-  const auto r = test::runVoxbrick("load " + address + " --dataset sparse --clients 16 --duration 10 --size 64x64 " +
-                                   "--tf sparse --fault-clients 4 --idle-sessions 8 --require-clean --json " +
-                                   report.string());
+  const auto r =
+      test::runVoxbrick("load " + address + " --dataset sparse --clients 16 --duration 10 --size 64x64 " +
+                        "--tf sparse --fault-clients 4 --idle-sessions 8 --require-clean --json " + report.string());
   ASSERT_EQ(r.exitCode, 0) << r.output << server->log();
   std::ifstream in(report);
   const json j = json::parse(in);

@@ -146,8 +146,7 @@ TEST_F(ServerConfigTest, AWrongTypeNamesTheFileAndTheKey) {
       {"memory", "gpu_budget_mb", "0.5", "must be an integer"},
   };
   for (const Case& c : cases) {
-    const std::string message =
-        loadError(std::string("[") + c.section + "]\n" + c.key + " = " + c.value + "\n");
+    const std::string message = loadError(std::string("[") + c.section + "]\n" + c.key + " = " + c.value + "\n");
     EXPECT_MENTIONS(message, (dir / "server.toml").string());
     EXPECT_MENTIONS(message, std::string(c.section) + "." + c.key);
     EXPECT_MENTIONS(message, c.expected);

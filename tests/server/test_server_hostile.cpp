@@ -12,19 +12,19 @@
 #include "RawSocket.h"
 #include "ServerProcess.h"
 #include "client/Client.h"
-#include "support/TestSupport.h"
 #include "render/datasets/Datasets.h"
+#include "support/TestSupport.h"
 
 namespace voxbrick {
 namespace {
 
 using client::Client;
 using client::ServerError;
+using nlohmann::json;
 using proto::ErrorCode;
 using test::RawSocket;
 using test::ScratchDir;
 using test::ServerProcess;
-using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 using namespace std::chrono_literals;
 
@@ -195,13 +195,13 @@ TEST_F(HostileClientTest, ClientsThatNeverReadStayBoundedAndGiveTheirMemoryBack)
     std::this_thread::sleep_for(100ms);
   }
   flooding.stop();
-  EXPECT_LT(double(peak), double(before) + 64e6)
-      << "resident memory went from " << before / 1e6 << " to " << peak / 1e6 << " MB (" << sentBytes / 1e6
-      << " MB of requests sent)";
+  EXPECT_LT(double(peak), double(before) + 64e6) << "resident memory went from " << before / 1e6 << " to " << peak / 1e6
+                                                 << " MB (" << sentBytes / 1e6 << " MB of requests sent)";
   EXPECT_LT(slowest, 2.0) << "good frames were delayed";
 
   // They never read: each is closed once a reply waits longer than the write timeout, and the memory is back.
-  const json stats = waitForStats(*server, [](const json& s) { return s["sessions"]["dropped_slow"] >= 8; }, 10s);
+  const json stats = waitForStats(
+      *server, [](const json& s) { return s["sessions"]["dropped_slow"] >= 8; }, 10s);
   EXPECT_GE(stats["sessions"]["dropped_slow"].get<int>(), 8);
   for (auto& f : flooders) EXPECT_TRUE(f->waitClosed(2s)) << "a session that never reads was kept";
   std::this_thread::sleep_for(200ms);
@@ -226,7 +226,8 @@ TEST_F(HostileClientTest, AFrameBeyondTheServersOutputBudgetIsRefusedUntilTheNon
   ASSERT_TRUE(hog.sendAll(proto::encode(proto::Hello{1, 1, "hog"}, 1)));
   ASSERT_TRUE(hog.sendAll(proto::encode(proto::OpenDataset{"sparse"}, 2)));
   ASSERT_TRUE(hog.sendAll(proto::encode(proto::RenderRequest{proto::Encoding::RawRgba8, bigScene}, 3)));
-  const json rendered = waitForStats(*server, [](const json& s) { return s["renders"]["frames"] >= 1; }, 30s);
+  const json rendered = waitForStats(
+      *server, [](const json& s) { return s["renders"]["frames"] >= 1; }, 30s);
   ASSERT_GE(rendered["renders"]["frames"].get<int>(), 1);
 
   auto good = session(*server);
@@ -239,7 +240,8 @@ TEST_F(HostileClientTest, AFrameBeyondTheServersOutputBudgetIsRefusedUntilTheNon
   EXPECT_EQ(good->listDatasets().size(), 1u) << "the session goes on, and replies other than frames still go";
   // The client that does not read is dropped once its frame waited the write timeout (3 s) (watched without
   // reading from it: that would take the frame).
-  const json dropped = waitForStats(*server, [](const json& s) { return s["sessions"]["dropped_slow"] >= 1; }, 10s);
+  const json dropped = waitForStats(
+      *server, [](const json& s) { return s["sessions"]["dropped_slow"] >= 1; }, 10s);
   EXPECT_EQ(dropped["sessions"]["dropped_slow"].get<int>(), 1);
   EXPECT_EQ(dropped.at("output").at("queued_bytes").get<uint64_t>(), 0u);
   EXPECT_EQ(good->render(bigScene, proto::Encoding::RawRgba8).height, 2048u);

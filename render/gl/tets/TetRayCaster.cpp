@@ -9,9 +9,9 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "render/core/RenderErrors.h"
 #include "render/gl/Bindings.h"
 #include "render/gl/Checkpoints.h"
-#include "render/core/RenderErrors.h"
 
 namespace voxbrick::render {
 namespace {
@@ -37,7 +37,6 @@ constexpr int kEntryDepthUnit = VB_UNIT_TET_ENTRY_DEPTH;
 /// Passes a frame takes at most: each pass's entries lie beyond the last pass's (the ray pass stores an exit beyond
 /// the entry pass's own t), so the passes end by themselves, after as many as a ray enters the mesh; a guard.
 constexpr int64_t kMaxPasses = 1024;
-
 
 /// Tets one pass of a ray walks at most: far beyond any real mesh's (a ray crosses about 200 tets of a million-tet
 /// ball); a guard against a cycle that round-off might make.
@@ -163,8 +162,9 @@ void TetRayCaster::uploadBoundary(const TetMeshData& data, const std::vector<std
   for (size_t f = 0; f < mBoundaryFaces; ++f) {
     const mesh::BoundaryFace& face = topology.boundary[f];
     const int k0 = face.face;
-    const std::array<int, 3> order = ((k0 & 1) == 0) != negative(m, face.tet) ? std::array<int, 3>{(k0 + 1) & 3, (k0 + 2) & 3, (k0 + 3) & 3}
-                                                   : std::array<int, 3>{(k0 + 1) & 3, (k0 + 3) & 3, (k0 + 2) & 3};
+    const std::array<int, 3> order = ((k0 & 1) == 0) != negative(m, face.tet)
+                                         ? std::array<int, 3>{(k0 + 1) & 3, (k0 + 2) & 3, (k0 + 3) & 3}
+                                         : std::array<int, 3>{(k0 + 1) & 3, (k0 + 3) & 3, (k0 + 2) & 3};
     for (int k = 0; k < 3; ++k) {
       const uint32_t point = m.tets[face.tet][order[k]];
       corners[3 * f + k] = glm::vec4(glm::vec3(glm::dvec3(m.points[point]) - centre), 1.0f);
@@ -261,8 +261,6 @@ void TetRayCaster::draw(const TetFrameUniforms& uniforms, double termination, bo
   checkGlError(mGl, "TetRayCaster: drawing");
 }
 
-void TetRayCaster::readCounters(FrameStats& stats) const {
-  mCounters.read(stats);
-}
+void TetRayCaster::readCounters(FrameStats& stats) const { mCounters.read(stats); }
 
 }  // namespace voxbrick::render

@@ -17,14 +17,14 @@
 #include <functional>
 #include <vector>
 
+#include "render/core/FrameStats.h"
+#include "render/core/PixelRays.h"
+#include "render/core/PreIntegration.h"
+#include "render/gl/Bands.h"
 #include "render/gl/Bindings.h"
 #include "render/gl/Compositor.h"
-#include "render/core/PixelRays.h"
-#include "render/core/FrameStats.h"
 #include "render/gl/GlObjects.h"
 #include "render/gl/SampleCounters.h"
-#include "render/gl/Bands.h"
-#include "render/core/PreIntegration.h"
 #include "render/tets/TetMeshDataset.h"
 
 namespace voxbrick::render {
@@ -35,8 +35,8 @@ struct TetFrameUniforms {
   glm::dmat4 viewProj{1.0};  ///< world, centred on the mesh's box, to clip
   PixelRays rays;
   int width = 0, height = 0;
-  double windowLo = 0, windowScale = 1;  ///< the value window as lo and 1 / (hi - lo)
-  double reference = 1;                  ///< the transfer function's reference length
+  double windowLo = 0, windowScale = 1;    ///< the value window as lo and 1 / (hi - lo)
+  double reference = 1;                    ///< the transfer function's reference length
   int tableUnit = VB_UNIT_PRE_INTEGRATED;  ///< the texture unit the pre-integrated table is bound on
   PreIntegrationSpec table;
 };
@@ -89,13 +89,13 @@ class TetRayCaster {
   size_t mTets = 0;
   size_t mBoundaryFaces = 0;
   size_t mBytes = 0;
-  Buffer mVertices;       // per tet four vec4 (position, raw scalar), in the order of their indices in the mesh
-  Buffer mNeighbours;     // per tet, across each face: the neighbour and its face, coded, or -1
-  Buffer mCorners;        // three vec4 per boundary face
-  Buffer mFaces;          // per boundary face its tet and face, coded
-  Buffer mExits;          // per pixel: where the last pass left the mesh
+  Buffer mVertices;    // per tet four vec4 (position, raw scalar), in the order of their indices in the mesh
+  Buffer mNeighbours;  // per tet, across each face: the neighbour and its face, coded, or -1
+  Buffer mCorners;     // three vec4 per boundary face
+  Buffer mFaces;       // per boundary face its tet and face, coded
+  Buffer mExits;       // per pixel: where the last pass left the mesh
   std::vector<float> mBeforeMesh;  // its contents at the start of a frame, kept with the target's size
-  Buffer mEntryCount;     // fragments the entry pass kept
+  Buffer mEntryCount;              // fragments the entry pass kept
   Program mEntryProgram, mRayProgram, mShadedRayProgram;
   Framebuffer mEntryTarget;
   Texture mEntryTexture, mEntryDepth;

@@ -8,9 +8,9 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "render/core/RenderErrors.h"
 #include "render/gl/Bindings.h"
 #include "render/gl/Checkpoints.h"
-#include "render/core/RenderErrors.h"
 
 namespace voxbrick::render {
 namespace {
@@ -29,9 +29,12 @@ Program tetProgram(const Gl& gl, bool nullFragment, bool shaded = false) {
   std::vector<std::string> defines;
   if (nullFragment) defines.push_back("NULL_FRAGMENT");
   if (shaded) defines.push_back("SHADING");
-  return Program(gl, ProgramSources::fromFiles(nullFragment ? "tet-null" : shaded ? "tet-shaded" : "tet",
-                                               {{GL_VERTEX_SHADER, "tet.vert.glsl"}, {GL_FRAGMENT_SHADER, "tet.frag.glsl"}},
-                                               std::move(defines), "tet.glsl"));
+  return Program(gl,
+                 ProgramSources::fromFiles(nullFragment ? "tet-null"
+                                           : shaded     ? "tet-shaded"
+                                                        : "tet",
+                                           {{GL_VERTEX_SHADER, "tet.vert.glsl"}, {GL_FRAGMENT_SHADER, "tet.frag.glsl"}},
+                                           std::move(defines), "tet.glsl"));
 }
 
 }  // namespace
@@ -143,7 +146,8 @@ image::ImageF TetRenderer::draw(const Scene& scene, const TetFramePlan& plan, bo
   const double reference = plan.reference;
   const double ratioMax = d.longestEdge / reference;
   const double ratioMin = ratioMax * kShortestRatioShare;
-  if (!nullFragment) stats.msPreIntegration = mTable.update(scene.transferFunction, ratioMin, ratioMax, VB_UNIT_PRE_INTEGRATED);
+  if (!nullFragment)
+    stats.msPreIntegration = mTable.update(scene.transferFunction, ratioMin, ratioMax, VB_UNIT_PRE_INTEGRATED);
   const PreIntegrationSpec& spec = mTable.spec();
 
   const auto drawStart = Clock::now();
@@ -162,8 +166,11 @@ image::ImageF TetRenderer::draw(const Scene& scene, const TetFramePlan& plan, bo
     if (rays)
       mResidency.rayCaster()->draw(uniforms, scene.ert, scene.shading, mCompositor, stats, options.cancelled);
     else
-      drawProjected(uniforms, nullFragment ? mNullProgram : scene.shading ? mShadedProgram : mProgram, stats,
-                    options.cancelled);
+      drawProjected(uniforms,
+                    nullFragment    ? mNullProgram
+                    : scene.shading ? mShadedProgram
+                                    : mProgram,
+                    stats, options.cancelled);
     checkGlError(mGl, "TetRenderer: drawing");
   } catch (...) {
     mCompositor.abort();

@@ -10,16 +10,16 @@
 #include <memory>
 #include <vector>
 
-#include "render/gl/Compositor.h"
 #include "render/core/FrameRenderer.h"
+#include "render/gl/Compositor.h"
 #include "render/gl/GlContext.h"
 #include "render/gl/GlObjects.h"
 #include "render/gl/PreIntegrationTexture.h"
-#include "render/tets/TetMeshDataset.h"
 #include "render/gl/tets/TetRayCaster.h"
 #include "render/gl/tets/TetResidency.h"
 #include "render/tets/TetFrameCost.h"
 #include "render/tets/TetFramePlan.h"
+#include "render/tets/TetMeshDataset.h"
 #include "render/tets/TetOrder.h"
 
 namespace voxbrick::render {
@@ -79,7 +79,7 @@ class TetRenderer final : public FrameRenderer {
   Program mProgram, mNullProgram, mShadedProgram;
   Compositor mCompositor;
   PreIntegrationTexture mTable;
-  TetOrder mOrder;                  // this frame's tets, front to back
+  TetOrder mOrder;  // this frame's tets, front to back
   TetFrameCost mCost;
   std::vector<glm::vec4> mStaging;  // a streamed batch on its way to mVertices
 };

@@ -9,11 +9,11 @@
 #include <glm/glm.hpp>
 
 #include "brickstore/BrickCache.h"
-#include "render/volume/AtlasFormat.h"
-#include "render/volume/AtlasSlots.h"
 #include "render/gl/GlContext.h"
 #include "render/gl/GlObjects.h"
 #include "render/gl/UploadRing.h"
+#include "render/volume/AtlasFormat.h"
+#include "render/volume/AtlasSlots.h"
 
 namespace voxbrick::render {
 
@@ -95,8 +95,8 @@ class BrickAtlas {
   glm::ivec3 mTexels{1};  // texture size
   Texture mTexture;
   AtlasSlots mSlots;
-  std::vector<uint8_t> mStaging;        // direct uploads converted to float or rotated
-  std::unique_ptr<UploadRing> mRing;    // staged uploads
+  std::vector<uint8_t> mStaging;      // direct uploads converted to float or rotated
+  std::unique_ptr<UploadRing> mRing;  // staged uploads
   /// Writes `brick` into `out` as the upload type (converted to float where the format needs it), rotated by
   /// `orientation`.
   void convert(const store::Brick& brick, void* out, int orientation) const;

@@ -6,9 +6,9 @@
 #include <vector>
 
 #include "render/gl/Checkpoints.h"
-#include "render/volume/FramePlan.h"
 #include "render/gl/volume/Residency.h"
 #include "render/gl/volume/SliceGeometry.h"
+#include "render/volume/FramePlan.h"
 #include "render/volume/SubBlocks.h"
 
 namespace voxbrick::render {

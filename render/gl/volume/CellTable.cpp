@@ -68,8 +68,7 @@ void CellTable::upload() {
   mTexture.bind(VB_UNIT_CELLS);
   mGl.glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
   mGl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-  mGl.glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, mCells.x, mCells.y, mCells.z, GL_RGBA_INTEGER, GL_SHORT,
-                      mHost.data());
+  mGl.glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, mCells.x, mCells.y, mCells.z, GL_RGBA_INTEGER, GL_SHORT, mHost.data());
   reset();
 }
 

@@ -1,6 +1,6 @@
-// The frame ray caster's cell table (render/gl/volume/RayCastPass.h): the volume cut into cells of C level-0 voxels (the
-// frame's sub-blocks, or its bricks), each holding the atlas payload of the brick that owns it in the current batch
-// and that brick's level, or "nothing to draw" (a cell of an empty sub-block, a skipped or culled brick), or "a
+// The frame ray caster's cell table (render/gl/volume/RayCastPass.h): the volume cut into cells of C level-0 voxels
+// (the frame's sub-blocks, or its bricks), each holding the atlas payload of the brick that owns it in the current
+// batch and that brick's level, or "nothing to draw" (a cell of an empty sub-block, a skipped or culled brick), or "a
 // brick of another batch". One RGBA16I texel per cell, on texture unit VB_UNIT_CELLS: for a drawn cell xyz is what
 // raycast.frag.glsl adds to a sample's voxel coordinate in the brick's level to find its atlas texel and w the
 // level; otherwise w is kNothing or kOtherBatch.

@@ -1,5 +1,5 @@
-// The frame ray caster: for each batch of bricks the atlas holds at once, the cell table (render/gl/volume/CellTable.h) is
-// filled with the batch's boxes and one fragment per pixel marches its ray through the whole batch, finding each
+// The frame ray caster: for each batch of bricks the atlas holds at once, the cell table (render/gl/volume/CellTable.h)
+// is filled with the batch's boxes and one fragment per pixel marches its ray through the whole batch, finding each
 // sample's brick in the table (raycast.frag.glsl). Where texture slabs draw a proxy per box and slab and
 // blend once per box, the ray caster draws one full-screen triangle and blends once per pixel and batch: no box
 // geometry, no fragment per box, a ray that stops at the termination threshold stops for the whole batch.
@@ -7,16 +7,16 @@
 // The samples are the global planes' points that slicing and slabs take, owned as slabs own them, so the image is
 // the same beyond round-off. Batches are taken front to back along the bricks' visibility order, which every ray
 // follows, so compositing batch after batch is compositing along each ray; between batches the silhouette map
-// (render/gl/volume/TerminationPass.h) keeps terminated pixels from being marched again. The frame is drawn in bands of rows, so
-// that a cancelled frame stops within a band (render/gl/Checkpoints.h).
+// (render/gl/volume/TerminationPass.h) keeps terminated pixels from being marched again. The frame is drawn in bands of
+// rows, so that a cancelled frame stops within a band (render/gl/Checkpoints.h).
 #pragma once
 
-#include "render/gl/volume/CellTable.h"
-#include "render/gl/Compositor.h"
 #include "render/gl/Bands.h"
+#include "render/gl/Compositor.h"
 #include "render/gl/SampleCounters.h"
-#include "render/gl/volume/TerminationPass.h"
+#include "render/gl/volume/CellTable.h"
 #include "render/gl/volume/SlicingPass.h"
+#include "render/gl/volume/TerminationPass.h"
 
 namespace voxbrick::render {
 

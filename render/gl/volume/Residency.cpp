@@ -20,9 +20,7 @@ Residency::Residency(const GlContext& context, std::shared_ptr<store::BrickCache
 }
 
 int64_t Residency::standIn(std::vector<BrickDraw>& bricks, int coarsest) {
-  const auto ready = [&](const store::BrickKey& key) {
-    return mAtlas.slots().resident(key) || mCache->ready(key);
-  };
+  const auto ready = [&](const store::BrickKey& key) { return mAtlas.slots().resident(key) || mCache->ready(key); };
   const store::StoreMeta& meta = mCache->store()->meta();
   std::vector<store::BrickKey> missing;
   std::vector<BrickDraw> out;

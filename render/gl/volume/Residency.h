@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "brickstore/BrickCache.h"
-#include "render/gl/volume/BrickAtlas.h"
 #include "render/core/FrameStats.h"
+#include "render/gl/volume/BrickAtlas.h"
 #include "render/volume/SubBlocks.h"
 #include "render/volume/Traversal.h"
 

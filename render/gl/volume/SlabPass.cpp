@@ -17,12 +17,11 @@ int64_t floorDiv(int64_t a, int64_t b) { return a / b - ((a % b != 0) && ((a < 0
 
 }  // namespace
 
-SlabPass::SlabPass(const Gl& gl)
-    : mGl(gl), mTermination(gl), mCounters(gl) {}
+SlabPass::SlabPass(const Gl& gl) : mGl(gl), mTermination(gl), mCounters(gl) {}
 
 void SlabPass::draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program,
-                    const VolumeProgram* emptyTest, SlabGeometry& geometry, Compositor& compositor,
-                    FrameStats& stats, Checkpoints& checkpoints) {
+                    const VolumeProgram* emptyTest, SlabGeometry& geometry, Compositor& compositor, FrameStats& stats,
+                    Checkpoints& checkpoints) {
   mSlabsDrawn = 0;
   mCounters.reset();
   mBoxes.clear();
@@ -35,8 +34,7 @@ void SlabPass::draw(const FramePlan& plan, Residency& residency, const VolumePro
 }
 
 void SlabPass::drawBatch(const FramePlan& plan, const VolumeProgram& program, const VolumeProgram* emptyTest,
-                         SlabGeometry& geometry, Compositor& compositor, FrameStats& stats,
-                         Checkpoints& checkpoints) {
+                         SlabGeometry& geometry, Compositor& compositor, FrameStats& stats, Checkpoints& checkpoints) {
   if (mBoxes.empty()) return;
   int64_t lo = std::numeric_limits<int64_t>::max(), hi = std::numeric_limits<int64_t>::min();
   for (const QueuedBox& b : mBoxes) lo = std::min(lo, b.planes.begin), hi = std::max(hi, b.planes.end);

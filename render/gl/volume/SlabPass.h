@@ -21,8 +21,8 @@
 
 #include "render/gl/Compositor.h"
 #include "render/gl/SampleCounters.h"
-#include "render/gl/volume/TerminationPass.h"
 #include "render/gl/volume/SlicingPass.h"
+#include "render/gl/volume/TerminationPass.h"
 
 namespace voxbrick::render {
 
@@ -34,9 +34,8 @@ class SlabPass {
   /// which begin() set up with a silhouette map iff plan.ert > 0. Fills the counters and times of `stats` that the
   /// GPU does not (see finish).
   /// With plan.ess, `emptyTest` is the EMPTY_TEST variant of `program`.
-  void draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program,
-            const VolumeProgram* emptyTest, SlabGeometry& geometry, Compositor& compositor, FrameStats& stats,
-            Checkpoints& checkpoints);
+  void draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program, const VolumeProgram* emptyTest,
+            SlabGeometry& geometry, Compositor& compositor, FrameStats& stats, Checkpoints& checkpoints);
   /// After the compositor's finish: the slab fragments' own counts (fragments started, samples taken and left by
   /// termination) into `stats`.
   void finish(FrameStats& stats) const;

@@ -7,8 +7,8 @@
 #include <memory>
 #include <vector>
 
-#include "render/volume/FramePlan.h"
 #include "render/gl/GlObjects.h"
+#include "render/volume/FramePlan.h"
 #include "render/volume/SliceTables.h"
 #include "render/volume/Slicing.h"
 

@@ -8,7 +8,7 @@ namespace voxbrick::render {
 TerminationPass::TerminationPass(const Gl& gl)
     : mGl(gl),
       mProgram(gl, ProgramSources::fromFiles("termination", {{GL_VERTEX_SHADER, "termination.vert.glsl"},
-                                                              {GL_FRAGMENT_SHADER, "termination.frag.glsl"}})),
+                                                             {GL_FRAGMENT_SHADER, "termination.frag.glsl"}})),
       mTerminationAt(mProgram.requireUniform("uTermination")),
       mNoAttributes(gl) {}
 

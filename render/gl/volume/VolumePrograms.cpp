@@ -49,8 +49,8 @@ Program build(const Gl& gl, const ProgramKey& key) {
     return Program(gl, sources(key));
   } catch (const RenderError& e) {
     if (!slices(key)) throw;
-    throw RenderError(std::string("the '") + slicerName(key.slicer) + "' slicer cannot be built on this context: " +
-                      e.what());
+    throw RenderError(std::string("the '") + slicerName(key.slicer) +
+                      "' slicer cannot be built on this context: " + e.what());
   }
 }
 
@@ -81,18 +81,38 @@ VolumeProgram::VolumeProgram(const Gl& gl, const ProgramKey& key) : mProgram(bui
       mProgram.set(mProgram.requireUniform(table.name), table.values);
   // The path table follows the view direction, set per frame (setFrame); the strip of the geometry program wants its
   // rows in strip order.
-  if (slices(key) && (key.slicer == Slicer::VertexLean || key.slicer == Slicer::Geometry ||
-                      key.slicer == Slicer::VertexGeometry)) {
+  if (slices(key) &&
+      (key.slicer == Slicer::VertexLean || key.slicer == Slicer::Geometry || key.slicer == Slicer::VertexGeometry)) {
     mPaths = mProgram.requireUniform(kSlicePathsUniform);
     mStripOrder = key.slicer == Slicer::Geometry;
   }
   auto at = [this](const char* name) { return mProgram.uniformLocation(name); };
-  mAt = {at(kSliceViewProjUniform), at(kSliceNormalUniform), at(kSlicePlaneIncrUniform), at("uInvAtlasSize"),
-         at("uInvSpacing"), at("uDims"), at("uHalfDims"), at("uWindowLo"), at("uWindowScale"),
-         at("uStepOverReference"), at("uEye"), at("uViewDir"), at("uOrthographic"), at("uRayOrigin"),
-         at("uRayOriginDx"), at("uRayOriginDy"), at("uRayDirection"), at("uRayDirectionDx"), at("uRayDirectionDy"),
-         at("uTermination"), at("uTableResolution"), at("uRatioMin"), at("uLayerScale"), at("uLayers"),
-         at("uCellShift"), at("uCellCount")};
+  mAt = {at(kSliceViewProjUniform),
+         at(kSliceNormalUniform),
+         at(kSlicePlaneIncrUniform),
+         at("uInvAtlasSize"),
+         at("uInvSpacing"),
+         at("uDims"),
+         at("uHalfDims"),
+         at("uWindowLo"),
+         at("uWindowScale"),
+         at("uStepOverReference"),
+         at("uEye"),
+         at("uViewDir"),
+         at("uOrthographic"),
+         at("uRayOrigin"),
+         at("uRayOriginDx"),
+         at("uRayOriginDy"),
+         at("uRayDirection"),
+         at("uRayDirectionDx"),
+         at("uRayDirectionDy"),
+         at("uTermination"),
+         at("uTableResolution"),
+         at("uRatioMin"),
+         at("uLayerScale"),
+         at("uLayers"),
+         at("uCellShift"),
+         at("uCellCount")};
 }
 
 void VolumeProgram::setFrame(const FramePlan& plan, const BrickAtlas& atlas, const store::StoreMeta& meta) const {

@@ -4,11 +4,11 @@
 
 #include <map>
 
-#include "render/gl/volume/BrickAtlas.h"
-#include "render/volume/FramePlan.h"
-#include "render/gl/GlObjects.h"
 #include "render/core/PreIntegration.h"
 #include "render/core/Scene.h"
+#include "render/gl/GlObjects.h"
+#include "render/gl/volume/BrickAtlas.h"
+#include "render/volume/FramePlan.h"
 
 namespace voxbrick::render {
 

@@ -4,9 +4,9 @@
 #include <chrono>
 #include <cmath>
 
-#include "render/volume/FramePlan.h"
 #include "render/core/RenderErrors.h"
 #include "render/gl/Bindings.h"
+#include "render/volume/FramePlan.h"
 
 namespace voxbrick::render {
 namespace {
@@ -62,10 +62,10 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
   mResidency.atlas().texture().bind(VB_UNIT_ATLAS);
 
   ProgramKey key{plan.slab > 0 || plan.raycast ? Slicer::Vertex : scene.slicer,
-                       mode == RenderMode::Roofline ? FragmentModel::Roofline
-                       : scene.shading             ? FragmentModel::Shaded
-                                                   : FragmentModel::Plain,
-                       plan.subBlock > 0 || plan.coarsestLevel > 0, plan.slab > 0, plan.preIntegration};
+                 mode == RenderMode::Roofline ? FragmentModel::Roofline
+                 : scene.shading              ? FragmentModel::Shaded
+                                              : FragmentModel::Plain,
+                 plan.subBlock > 0 || plan.coarsestLevel > 0, plan.slab > 0, plan.preIntegration};
   key.raycast = plan.raycast;
   key.multiOriented = mResidency.atlas().bricking() == AtlasBricking::MultiOriented;
   const VolumeProgram& program = mPrograms.get(key);
@@ -87,8 +87,8 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
   if (plan.raycast)
     mRayCast.draw(plan, mResidency, program, geometry(scene), mCompositor, stats, checkpoints);
   else if (plan.slab > 0)
-    mSlabs.draw(plan, mResidency, program, emptyTest, static_cast<SlabGeometry&>(geometry(scene)), mCompositor,
-                stats, checkpoints);
+    mSlabs.draw(plan, mResidency, program, emptyTest, static_cast<SlabGeometry&>(geometry(scene)), mCompositor, stats,
+                checkpoints);
   else if (mode == RenderMode::Points) {
     mGl.glPolygonMode(GL_FRONT_AND_BACK, GL_POINT);
     mSlicing.draw(plan, mResidency, program, geometry(scene), stats, checkpoints);
@@ -140,9 +140,9 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, c
     mResidency.abortFrame();
     mGl.glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);  // a points-mode frame given up while slicing
     for (auto& g : mGeometry)
-      if (g) g->clear();  // boxes queued for a batch that was never drawn
+      if (g) g->clear();                                               // boxes queued for a batch that was never drawn
     for (int i = 0; i < 16 && mGl.glGetError() != GL_NO_ERROR; ++i) {  // errors the failure left (bounded: a
-    }                                                                   // lost context reports one forever)
+    }                                                                  // lost context reports one forever)
     throw;
   }
   if (plan.raycast)

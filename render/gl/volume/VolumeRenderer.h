@@ -6,16 +6,16 @@
 #include <memory>
 
 #include "brickstore/BrickCache.h"
-#include "render/gl/volume/BrickAtlas.h"
-#include "render/gl/Compositor.h"
 #include "render/core/FrameRenderer.h"
+#include "render/gl/Compositor.h"
 #include "render/gl/GlContext.h"
 #include "render/gl/GlObjects.h"
 #include "render/gl/PreIntegrationTexture.h"
-#include "render/gl/volume/Residency.h"
-#include "render/gl/volume/SliceGeometry.h"
+#include "render/gl/volume/BrickAtlas.h"
 #include "render/gl/volume/RayCastPass.h"
+#include "render/gl/volume/Residency.h"
 #include "render/gl/volume/SlabPass.h"
+#include "render/gl/volume/SliceGeometry.h"
 #include "render/gl/volume/SlicingPass.h"
 #include "render/gl/volume/VolumePrograms.h"
 

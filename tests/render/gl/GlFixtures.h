@@ -18,8 +18,8 @@ inline render::GlContext& context() {
 
 /// A GPU frame with a fresh renderer and cache.
 inline image::ImageF renderStore(std::shared_ptr<const store::BrickStore> s, const render::Scene& scene,
-                                  render::FrameStats* stats = nullptr, size_t gpuBudget = size_t(256) << 20,
-                                  size_t hostBudget = size_t(256) << 20) {
+                                 render::FrameStats* stats = nullptr, size_t gpuBudget = size_t(256) << 20,
+                                 size_t hostBudget = size_t(256) << 20) {
   auto cache = std::make_shared<store::BrickCache>(std::move(s), hostBudget, 1);
   render::VolumeRenderer renderer(context(), cache, gpuBudget);
   return renderer.render(scene, stats);

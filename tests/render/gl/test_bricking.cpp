@@ -6,11 +6,11 @@
 
 #include <cmath>
 
-#include "render/volume/AtlasFormat.h"
-#include "render/gl/volume/BrickAtlas.h"
 #include "render/core/RenderErrors.h"
 #include "render/gl/Bindings.h"
 #include "render/gl/GlFixtures.h"
+#include "render/gl/volume/BrickAtlas.h"
+#include "render/volume/AtlasFormat.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {
@@ -61,7 +61,8 @@ std::shared_ptr<const store::BrickStore> rampStore(const std::filesystem::path& 
   std::vector<uint8_t> values(size_t(n) * n * n);
   for (int z = 0; z < n; ++z)
     for (int y = 0; y < n; ++y)
-      for (int x = 0; x < n; ++x) values[(size_t(z) * n + size_t(y)) * n + size_t(x)] = uint8_t((x + 17 * y + 289 * z) % 251);
+      for (int x = 0; x < n; ++x)
+        values[(size_t(z) * n + size_t(y)) * n + size_t(x)] = uint8_t((x + 17 * y + 289 * z) % 251);
   return test::prepArray<uint8_t>({n, n, n}, store::ValueType::U8, std::move(values), path, 16);
 }
 

@@ -8,9 +8,9 @@
 #include <type_traits>
 #include <vector>
 
+#include "render/core/RenderErrors.h"
 #include "render/gl/GlContext.h"
 #include "render/gl/GlObjects.h"
-#include "render/core/RenderErrors.h"
 #include "render/gl/Shaders.h"
 
 namespace voxbrick::render {

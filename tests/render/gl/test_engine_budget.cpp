@@ -2,11 +2,11 @@
 // it draws within one budget, releasing the renderer used least recently, with frames unchanged.
 #include <gtest/gtest.h>
 
-#include "render/gl/volume/BrickAtlas.h"
 #include "render/core/Dataset.h"
+#include "render/datasets/Datasets.h"
 #include "render/engine/RenderEngine.h"
 #include "render/gl/GlFixtures.h"
-#include "render/datasets/Datasets.h"
+#include "render/gl/volume/BrickAtlas.h"
 #include "render/volume/BrickStoreDataset.h"
 #include "support/TestSupport.h"
 
@@ -39,8 +39,8 @@ TEST(GpuBudget, AnEngineKeepsAllItsAtlasesWithinOneBudget) {
     datasets.push_back(openDataset("d" + std::to_string(n), path, size_t(64) << 20));
   }
   const auto& store = *static_cast<const BrickStoreDataset&>(*datasets[0]).store();
-  const size_t oneAtlas = size_t(store.level(0).bricksTotal()) *
-                          BrickAtlas::slotBytes(store.type(), store.brickEdge(), AtlasFormat::Float);
+  const size_t oneAtlas =
+      size_t(store.level(0).bricksTotal()) * BrickAtlas::slotBytes(store.type(), store.brickEdge(), AtlasFormat::Float);
   // Room for two whole atlases, not three.
   const size_t budget = oneAtlas * 5 / 2;
   RenderEngine engine({Backend::Auto, budget, AtlasFormat::Float});

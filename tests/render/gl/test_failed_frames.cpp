@@ -7,10 +7,10 @@
 
 #include "brickstore/Errors.h"
 #include "render/core/Dataset.h"
-#include "render/engine/RenderEngine.h"
 #include "render/core/RenderErrors.h"
-#include "render/gl/GlFixtures.h"
 #include "render/datasets/Datasets.h"
+#include "render/engine/RenderEngine.h"
+#include "render/gl/GlFixtures.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {
@@ -70,9 +70,16 @@ TEST(FailedFrames, LeaveTheContextAsTheyFoundIt) {
     Scene s = test::lodScene(0);
     RenderEngineOptions options{Backend::Auto, size_t(64) << 20, AtlasFormat::Float};
     switch (variant) {
-      case 0: s.slab = 0; s.raycast = false; break;
+      case 0:
+        s.slab = 0;
+        s.raycast = false;
+        break;
       case 1: break;
-      case 2: s.slicer = Slicer::Cpu; s.slab = 0; s.raycast = false; break;
+      case 2:
+        s.slicer = Slicer::Cpu;
+        s.slab = 0;
+        s.raycast = false;
+        break;
       case 3: options.gpuBudgetBytes = size_t(200) << 10; break;
       case 5: options.atlasUploads = AtlasUploads::Staged; break;
       case 6: s.raycast = false; break;

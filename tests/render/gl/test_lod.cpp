@@ -8,10 +8,10 @@
 #include <string>
 
 #include "image/Image.h"
-#include "render/volume/FramePlan.h"
-#include "render/reference/ReferenceRenderer.h"
 #include "render/core/RenderErrors.h"
 #include "render/gl/GlFixtures.h"
+#include "render/reference/ReferenceRenderer.h"
+#include "render/volume/FramePlan.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {

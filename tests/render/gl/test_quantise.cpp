@@ -19,7 +19,7 @@ using test::renderStore;
 using test::ScratchDir;
 
 std::shared_ptr<const store::BrickStore> prepQuantised(const std::string& spec, const std::filesystem::path& out,
-                                                        std::optional<store::ValueType> type) {
+                                                       std::optional<store::ValueType> type) {
   store::PrepOptions options;
   options.brickSize = 16;
   options.writeVdb = false;

@@ -6,11 +6,11 @@
 #include <string>
 
 #include "image/Image.h"
-#include "render/gl/volume/CellTable.h"
-#include "render/volume/FramePlan.h"
-#include "render/reference/ReferenceRenderer.h"
 #include "render/core/RenderErrors.h"
 #include "render/gl/GlFixtures.h"
+#include "render/gl/volume/CellTable.h"
+#include "render/reference/ReferenceRenderer.h"
+#include "render/volume/FramePlan.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {
@@ -45,7 +45,8 @@ TEST(RayCast, GivesSlicingsImageForEveryCameraAndCell) {
       Scene cast = rayCast(scene);
       cast.subBlock = subBlock;
       FrameStats stats;
-      expectClose(renderStore(s, cast, &stats), sliced, 1.0 / 255, "raycast-sub" + std::to_string(subBlock) + "-" + name);
+      expectClose(renderStore(s, cast, &stats), sliced, 1.0 / 255,
+                  "raycast-sub" + std::to_string(subBlock) + "-" + name);
       // One fragment per pixel whose ray meets the volume, at most.
       EXPECT_LE(stats.fragments, int64_t(scene.width) * scene.height) << name;
       EXPECT_GT(stats.samples, 10 * stats.fragments) << name << ": a whole ray per fragment";
@@ -131,8 +132,8 @@ TEST(RayCast, OutOfCoreEqualsInCoreAndTerminationStaysWithinItsBound) {
       }
       // Out of core the silhouette map keeps terminated pixels from later batches.
       FrameStats pagedCut;
-      expectClose(renderStore(s, scene, &pagedCut, size_t(10) * 10 * 10 * 4 * 6), reference,
-                  (1 - ert) + 1.0 / 255, "raycast-ert-out-of-core-" + name);
+      expectClose(renderStore(s, scene, &pagedCut, size_t(10) * 10 * 10 * 4 * 6), reference, (1 - ert) + 1.0 / 255,
+                  "raycast-ert-out-of-core-" + name);
       if (name == "oblique") {
         EXPECT_LT(pagedCut.fragments, tight.fragments) << ert;
       }
@@ -190,8 +191,8 @@ TEST(RayCast, EmptyCellsLeapOutOfTheLargestEmptyBlock) {
   const glm::ivec3 grid(8, 8, 8);
   std::vector<glm::i16vec4> cells(512, glm::i16vec4(0, 0, 0, CellTable::kNothing));
   auto at = [&](int x, int y, int z) -> glm::i16vec4& { return cells[size_t((z * 8 + y) * 8 + x)]; };
-  at(1, 1, 1) = glm::i16vec4(5, 6, 7, 0);                              // drawn
-  at(7, 7, 7) = glm::i16vec4(0, 0, 0, CellTable::kOtherBatch);         // another batch's: not empty
+  at(1, 1, 1) = glm::i16vec4(5, 6, 7, 0);                       // drawn
+  at(7, 7, 7) = glm::i16vec4(0, 0, 0, CellTable::kOtherBatch);  // another batch's: not empty
   std::vector<uint8_t> scratch;
   computeLeaps(cells, grid, scratch);
   EXPECT_EQ(at(1, 1, 1), glm::i16vec4(5, 6, 7, 0)) << "a drawn cell keeps its payload";

@@ -5,8 +5,8 @@
 #include <cmath>
 #include <cstdio>
 
-#include "render/gl/GlFixtures.h"
 #include "render/core/RenderErrors.h"
+#include "render/gl/GlFixtures.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {
@@ -133,9 +133,10 @@ TEST(ReferenceAnalytic, SeparatesReconstructionFromIntegrationError) {
   analytic.step = 0.0625;
   const image::ImageError integration = image::compareImages(exact, renderReference(s, scene, analytic));
   const image::ImageError reconstruction = image::compareImages(exact, renderReference(s, scene));
-  std::printf("Marschner-Lobb 32^3: reconstruction (trilinear vs analytic) %.1f dB, max %.3g; integration "
-              "(step 1/8 vs 1/16, analytic) max %.3g\n",
-              reconstruction.psnr, reconstruction.maxAbs, integration.maxAbs);
+  std::printf(
+      "Marschner-Lobb 32^3: reconstruction (trilinear vs analytic) %.1f dB, max %.3g; integration "
+      "(step 1/8 vs 1/16, analytic) max %.3g\n",
+      reconstruction.psnr, reconstruction.maxAbs, integration.maxAbs);
   EXPECT_LT(integration.maxAbs, kConvergenceBound);
   // Marschner-Lobb at 32^3 is under-sampled on purpose: trilinear reconstruction dominates the error by far.
   EXPECT_GT(reconstruction.maxAbs, 20 * integration.maxAbs);

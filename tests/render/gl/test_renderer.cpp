@@ -67,8 +67,8 @@ TEST(RendererSeams, BrickSizesGiveTheSameImage) {
         const image::ImageF bricked = renderStore(stores[i], scene, &stats);
         EXPECT_GT(stats.bricksDrawn, 1);
         expectClose(bricked, whole, 1.0 / 255 + terminationSlack(scene),
-                    "seams-" + std::to_string(stores[i]->brickSize()) + "-az" + std::to_string(int(view.x)) +
-                        "-slab" + std::to_string(scene.slab));
+                    "seams-" + std::to_string(stores[i]->brickSize()) + "-az" + std::to_string(int(view.x)) + "-slab" +
+                        std::to_string(scene.slab));
       }
     }
 }
@@ -319,8 +319,8 @@ TEST(RendererCli, WritesPngAndStats) {
   ScratchDir dir;
   auto r = test::runVoxbrick("prep synthetic:sparse,n=64 --brick 16 -q -o " + (dir / "s").string());
   ASSERT_EQ(r.exitCode, 0) << r.output;
-  r = test::runVoxbrick("render " + (dir / "s").string() + " -o " + (dir / "f.png").string() + " --size 64x48 --tf sparse" +
-                        " --stats " + (dir / "stats.json").string());
+  r = test::runVoxbrick("render " + (dir / "s").string() + " -o " + (dir / "f.png").string() +
+                        " --size 64x48 --tf sparse" + " --stats " + (dir / "stats.json").string());
   ASSERT_EQ(r.exitCode, 0) << r.output;
   EXPECT_NE(r.output.find("llvmpipe"), std::string::npos) << r.output;
   const image::Image8 png = image::readPng(dir / "f.png");

@@ -5,9 +5,9 @@
 #include <string>
 
 #include "image/Image.h"
-#include "render/reference/ReferenceRenderer.h"
 #include "render/core/RenderErrors.h"
 #include "render/gl/GlFixtures.h"
+#include "render/reference/ReferenceRenderer.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {
@@ -165,7 +165,8 @@ TEST(Slabs, PreIntegrationCatchesWhatSamplesStepOverAndConverges) {
   Scene scene = sceneFor("ct-bone");
   scene.transferFunction = TransferFunction::parse(
       R"({"points": [[0, 0, 0, 0, 0], [0.3, 0, 0, 0, 0], [0.31, 1, 0.8, 0.5, 0.8], [0.32, 0, 0, 0, 0],
-                     [1, 0, 0, 0, 0]]})", "shell");
+                     [1, 0, 0, 0, 0]]})",
+      "shell");
   const image::ImageF shell = test::renderReference(s, scene, options);
   ASSERT_GT(meanBrightness(shell), 0.005);
   scene.slab = 16;

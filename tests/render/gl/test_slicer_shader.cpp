@@ -16,14 +16,14 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "render/SliceCheck.h"
 #include "render/gl/GlContext.h"
 #include "render/gl/GlObjects.h"
 #include "render/gl/Shaders.h"
-#include "render/SliceCheck.h"
 #include "render/gl/volume/SliceGeometry.h"
+#include "render/gl/volume/VolumePrograms.h"
 #include "render/volume/SliceTables.h"
 #include "render/volume/Slicing.h"
-#include "render/gl/volume/VolumePrograms.h"
 
 namespace voxbrick::render {
 
@@ -207,11 +207,11 @@ class ShaderSlicer {
       // The path table follows the front corner of the normal, as VolumeProgram::setFrame sets it.
       const glm::vec3& n = normals[begin];
       if (mPaths >= 0) {
-        mProgram.set(mPaths, std::span<const int>(sliceCornerPaths(sliceFrontIndex(n.x, n.y, n.z),
-                                                                   mSlicer == Slicer::Geometry)));
+        mProgram.set(mPaths, std::span<const int>(
+                                 sliceCornerPaths(sliceFrontIndex(n.x, n.y, n.z), mSlicer == Slicer::Geometry)));
       }
-      gl.glDrawArraysInstancedBaseInstance(mDraw.primitive, 0, mDraw.verticesPerPlane * planes,
-                                           GLsizei(end - begin), GLuint(begin));
+      gl.glDrawArraysInstancedBaseInstance(mDraw.primitive, 0, mDraw.verticesPerPlane * planes, GLsizei(end - begin),
+                                           GLuint(begin));
       begin = end;
     }
     gl.glEndTransformFeedback();
@@ -336,9 +336,10 @@ TEST(SlicerShader, MatchesExactPolygonsOnRandomCases) {
     worst.conditioned = std::max(worst.conditioned, batchWorst.conditioned);
     worst.perBoxSize = std::max(worst.perBoxSize, batchWorst.perBoxSize);
   }
-  std::printf("[ info ] %s: worst shader error over 1e5 random cases: %.3g of scale x conditioning (tolerance "
-              "%.0e), %.3g of the box size\n",
-              slicer.context().describe().c_str(), worst.conditioned, kShaderTolerance, worst.perBoxSize);
+  std::printf(
+      "[ info ] %s: worst shader error over 1e5 random cases: %.3g of scale x conditioning (tolerance "
+      "%.0e), %.3g of the box size\n",
+      slicer.context().describe().c_str(), worst.conditioned, kShaderTolerance, worst.perBoxSize);
 }
 
 TEST(SlicerShader, MatchesExactPolygonsOnDegenerateCases) {
@@ -346,9 +347,10 @@ TEST(SlicerShader, MatchesExactPolygonsOnDegenerateCases) {
   for (Backend backend : {Backend::Egl, Backend::OsMesa}) {
     ShaderSlicer slicer(backend);
     const WorstError worst = expectMatches(cases, fanVertices(slicer.run(cases)), backendName(backend));
-    std::printf("[ info ] %s: worst shader error over %zu degenerate cases: %.3g of scale x conditioning, %.3g of "
-                "the box size\n",
-                slicer.context().describe().c_str(), cases.size(), worst.conditioned, worst.perBoxSize);
+    std::printf(
+        "[ info ] %s: worst shader error over %zu degenerate cases: %.3g of scale x conditioning, %.3g of "
+        "the box size\n",
+        slicer.context().describe().c_str(), cases.size(), worst.conditioned, worst.perBoxSize);
   }
 }
 
@@ -447,8 +449,8 @@ struct BrickRow {
   /// and float disagree about which side of a face a plane falls; along other axes; and random ones. As float.
   static std::vector<glm::dvec3> testNormals() {
     std::mt19937_64 rng(17);
-    std::vector<glm::dvec3> normals = {{-1, 0, -6.123233995736766e-17}, {1, 0, 6.1e-17}, {1, -1e-9, 0},
-                                       {-1, 0, 0}, {0.8, 0.6, 0}, {0, 0, 1}};
+    std::vector<glm::dvec3> normals = {
+        {-1, 0, -6.123233995736766e-17}, {1, 0, 6.1e-17}, {1, -1e-9, 0}, {-1, 0, 0}, {0.8, 0.6, 0}, {0, 0, 1}};
     for (int i = 0; i < 6; ++i) normals.push_back(test::randomNormal(rng));
     for (glm::dvec3& n : normals) n = toFloat({kMin, kMax, n, 0}).n;
     return normals;
@@ -537,8 +539,8 @@ void expectOutputs(Slicer slicer) {
         screenArea += area;
       }
     }
-    EXPECT_GT(screenArea, 0) << slicerName(slicer) << ": slice is not front-facing (counter-clockwise) on screen: "
-                             << test::caseText(c);
+    EXPECT_GT(screenArea, 0) << slicerName(slicer)
+                             << ": slice is not front-facing (counter-clockwise) on screen: " << test::caseText(c);
   }
 }
 
@@ -634,8 +636,8 @@ TEST_P(SlicerVariant, TilesTheVertexProgramsPolygonsOnRandomCases) {
     // The lean program draws the fan: its P0..P5 against the exact polygon and the CPU mirror of its path walk.
     if (slicer == Slicer::VertexLean) expectMatches(cases, fanVertices(variant.run(cases)), "random", slicer);
   }
-  std::printf("[ info ] %s: %zu triangles (degenerate ones included) for %zu planes\n", slicerName(slicer),
-              triangles, planes);
+  std::printf("[ info ] %s: %zu triangles (degenerate ones included) for %zu planes\n", slicerName(slicer), triangles,
+              planes);
 }
 
 TEST_P(SlicerVariant, TilesTheVertexProgramsPolygonsOnDegenerateCases) {

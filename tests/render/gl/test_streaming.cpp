@@ -9,9 +9,9 @@
 #include <thread>
 
 #include "image/Image.h"
-#include "render/volume/FramePlan.h"
-#include "render/reference/ReferenceRenderer.h"
 #include "render/gl/GlFixtures.h"
+#include "render/reference/ReferenceRenderer.h"
+#include "render/volume/FramePlan.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {

@@ -11,9 +11,9 @@
 
 #include <glm/gtc/packing.hpp>
 
-#include "render/reference/Compositing.h"
 #include "render/core/RenderErrors.h"
 #include "render/gl/GlFixtures.h"
+#include "render/reference/Compositing.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {
@@ -40,7 +40,7 @@ struct Bound {
 
 /// Renders `scene` both ways; expects finite images within `bound`; prints the measured error.
 image::ImageError checkCase(const std::string& name, std::shared_ptr<const store::BrickStore> s, const Scene& scene,
-                     Bound bound = {}, double minBrightness = 0.002) {
+                            Bound bound = {}, double minBrightness = 0.002) {
   const image::ImageF gpu = renderStore(s, scene);
   const image::ImageF reference = renderReference(s, scene);
   EXPECT_TRUE(allFinite(gpu)) << name << ": the GPU frame has a non-finite pixel";
@@ -195,7 +195,8 @@ TEST(StressOpacity, CpuCorrectionMatchesLongDoubleEverywhere) {
   for (double ratio : kRatios)
     for (double alpha : kAlphas) {
       const long double exact =
-          alpha >= 1 ? 1.0L : -std::expm1(static_cast<long double>(ratio) * std::log1p(-static_cast<long double>(alpha)));
+          alpha >= 1 ? 1.0L
+                     : -std::expm1(static_cast<long double>(ratio) * std::log1p(-static_cast<long double>(alpha)));
       const double got = TransferFunction::correctOpacity(alpha, ratio);
       ASSERT_TRUE(std::isfinite(got));
       EXPECT_LE(std::abs(got - double(exact)), 4 * std::numeric_limits<double>::epsilon() * double(exact))
@@ -215,7 +216,9 @@ TEST(StressOpacity, GpuSlabMatchesTheClosedFormForEveryRatioAndAlpha) {
       scene.step = step;
       const double depth = 64 * ratio / step;  // slab length in reference lengths
       const double expected =
-          alpha >= 1 ? 1.0 : double(-std::expm1(static_cast<long double>(depth) * std::log1p(-static_cast<long double>(alpha))));
+          alpha >= 1
+              ? 1.0
+              : double(-std::expm1(static_cast<long double>(depth) * std::log1p(-static_cast<long double>(alpha))));
       const image::ImageF gpu = renderStore(s, scene);
       const image::ImageF reference = renderReference(s, scene);
       ASSERT_TRUE(allFinite(gpu) && allFinite(reference)) << "ratio " << ratio << " alpha " << alpha;
@@ -266,17 +269,17 @@ TEST_F(StressCamera, EyeExactlyOnABrickFaceEdgeOrCorner) {
 
 TEST_F(StressCamera, ViewsAlongAxesAndDiagonals) {
   const double diagonal = glm::degrees(std::atan(1 / std::sqrt(2.0)));
-  for (glm::dvec2 view : {glm::dvec2(0, 0), glm::dvec2(90, 0), glm::dvec2(180, 0), glm::dvec2(270, 0),
-                          glm::dvec2(0, 90), glm::dvec2(0, -90), glm::dvec2(45, diagonal), glm::dvec2(225, -diagonal),
-                          glm::dvec2(45, 0)}) {
+  for (glm::dvec2 view :
+       {glm::dvec2(0, 0), glm::dvec2(90, 0), glm::dvec2(180, 0), glm::dvec2(270, 0), glm::dvec2(0, 90),
+        glm::dvec2(0, -90), glm::dvec2(45, diagonal), glm::dvec2(225, -diagonal), glm::dvec2(45, 0)}) {
     for (bool ortho : {false, true}) {
       Scene scene = sceneWith("hot");
       scene.camera.azimuth = view.x;
       scene.camera.elevation = view.y;
       scene.camera.orthographic = ortho;
-      checkCase("view az " + std::to_string(int(view.x)) + " el " + std::to_string(int(view.y)) +
-                    (ortho ? " ortho" : ""),
-                sStore, scene);
+      checkCase(
+          "view az " + std::to_string(int(view.x)) + " el " + std::to_string(int(view.y)) + (ortho ? " ortho" : ""),
+          sStore, scene);
     }
   }
 }
@@ -341,8 +344,8 @@ TEST(StressVolume, SpacingFromOneMillionthToOneMillionAndAnisotropic) {
     store::SourceOptions options;
     options.spacing = spacing;
     options.spacingGiven = true;
-    const std::string name = "spacing " + numberText(spacing.x) + ":" + numberText(spacing.y) + ":" +
-                             numberText(spacing.z);
+    const std::string name =
+        "spacing " + numberText(spacing.x) + ":" + numberText(spacing.y) + ":" + numberText(spacing.z);
     auto s = prep("synthetic:blobs,n=24", dir / "s", 8, options);
     Scene scene = sceneWith("hot");
     scene.camera.azimuth = 35;
@@ -429,8 +432,11 @@ TEST(StressTransferFunction, SpikeNarrowerThanOneVoxelsValueChange) {
   for (size_t i = 0; i < values.size(); ++i) values[i] = float(double(i % 16) / 15.0);
   auto s = prepArray(n, store::ValueType::F32, values, dir / "ramp", 8);
   const double peak = 0.9, width = 0.01, referenceLength = 0.1;
-  const TransferFunction spike({{0.0, {1, 1, 1, 0}}, {0.5 - width / 2, {1, 1, 1, 0}}, {0.5, {1, 1, 1, peak}},
-                                {0.5 + width / 2, {1, 1, 1, 0}}, {1.0, {1, 1, 1, 0}}},
+  const TransferFunction spike({{0.0, {1, 1, 1, 0}},
+                                {0.5 - width / 2, {1, 1, 1, 0}},
+                                {0.5, {1, 1, 1, peak}},
+                                {0.5 + width / 2, {1, 1, 1, 0}},
+                                {1.0, {1, 1, 1, 0}}},
                                referenceLength);
   // Along x the value is linear (15 voxels per unit of value), so the optical depth is closed-form:
   // 15 / L_ref * (width / peak) * ((1 - peak) ln(1 - peak) + peak).
@@ -480,14 +486,13 @@ TEST(StressRandom, SeededCases) {
                        scale * std::pow(10.0, pick(-0.5, 0.5))};
     options.spacingGiven = true;
     const int brick = 8 << int(pick(0, 2.99));
-    auto s = prep("synthetic:blobs,nx=" + std::to_string(nx) + ",ny=" + std::to_string(ny) + ",nz=" +
-                      std::to_string(nz) + ",seed=" + std::to_string(seed),
+    auto s = prep("synthetic:blobs,nx=" + std::to_string(nx) + ",ny=" + std::to_string(ny) +
+                      ",nz=" + std::to_string(nz) + ",seed=" + std::to_string(seed),
                   dir / ("r" + std::to_string(seed)), brick, options);
 
     std::vector<TransferFunction::Point> points;
     const int count = 2 + int(pick(0, 3.99));
-    for (int i = 0; i < count; ++i)
-      points.push_back({pick(0, 1), {pick(0, 1), pick(0, 1), pick(0, 1), pick(0, 0.6)}});
+    for (int i = 0; i < count; ++i) points.push_back({pick(0, 1), {pick(0, 1), pick(0, 1), pick(0, 1), pick(0, 0.6)}});
     std::sort(points.begin(), points.end(), [](const auto& a, const auto& b) { return a.x < b.x; });
     Scene scene;
     scene.width = 24;
@@ -514,15 +519,15 @@ TEST(StressRandom, SeededCases) {
       const double r = box.radius();
       scene.camera.eye = {pick(-2, 2) * r, pick(-2, 2) * r, pick(-2, 2) * r};
       scene.camera.center = {pick(-1, 1) * r, pick(-1, 1) * r, pick(-1, 1) * r};
-      scene.camera.up = u(rng) < 0.2 ? scene.camera.center - scene.camera.eye
-                                     : glm::dvec3(pick(-1, 1), pick(-1, 1), pick(-1, 1));
+      scene.camera.up =
+          u(rng) < 0.2 ? scene.camera.center - scene.camera.eye : glm::dvec3(pick(-1, 1), pick(-1, 1), pick(-1, 1));
     }
     const image::ImageF gpu = renderStore(s, scene);
     const image::ImageF reference = renderReference(s, scene);
     const std::string what = "random case " + std::to_string(seed) + " (" + std::to_string(nx) + "x" +
                              std::to_string(ny) + "x" + std::to_string(nz) + ", B=" + std::to_string(brick) +
-                             ", spacing " + numberText(options.spacing.x) + ", slab " +
-                             std::to_string(scene.slab) + ", ert " + numberText(scene.ert) + ")";
+                             ", spacing " + numberText(options.spacing.x) + ", slab " + std::to_string(scene.slab) +
+                             ", ert " + numberText(scene.ert) + ")";
     ASSERT_TRUE(allFinite(gpu) && allFinite(reference)) << what;
     const image::ImageError e = image::compareImages(gpu, reference);
     worstRmse = std::max(worstRmse, e.rmse);

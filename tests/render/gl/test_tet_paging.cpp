@@ -16,11 +16,11 @@
 #include "mesh/Topology.h"
 #include "render/core/Dataset.h"
 #include "render/core/RenderErrors.h"
-#include "render/gl/GlFixtures.h"
-#include "render/tets/TetMeshDataset.h"
-#include "render/reference/TetReference.h"
-#include "render/gl/tets/TetRenderer.h"
 #include "render/datasets/Datasets.h"
+#include "render/gl/GlFixtures.h"
+#include "render/gl/tets/TetRenderer.h"
+#include "render/reference/TetReference.h"
+#include "render/tets/TetMeshDataset.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {
@@ -42,7 +42,9 @@ size_t wholeBytes(const std::filesystem::path& path) {
 }
 
 /// A transfer function transparent below half the value window, the blobs' peaks shown above it.
-TransferFunction peaks() { return TransferFunction({{0, {1, 0.5, 0, 0}}, {0.5, {1, 0.5, 0, 0}}, {1, {1, 1, 0.6, 0.8}}}); }
+TransferFunction peaks() {
+  return TransferFunction({{0, {1, 0.5, 0, 0}}, {0.5, {1, 0.5, 0, 0}}, {1, {1, 1, 0.6, 0.8}}});
+}
 
 /// A 96x80 ray cast frame (ert off) of the orbit at `azimuth`; `narrow`: a 10-degree view along +y near the box's
 /// (+x, +z) edge, which sees about a quarter of its chunks.
@@ -133,7 +135,7 @@ TEST(TetPaging, AFrameReadsOnlyWhatItsViewNeedsAndEqualsTheWholeMeshsFrame) {
   const store::CacheStats cache = paged->cacheStats();
   EXPECT_EQ(cache.budgetBytes, budget);
   EXPECT_LE(cache.peakResidentBytes, budget) << "the host budget held";
-  EXPECT_EQ(cache.hits, 4u);    // the second frame of each view, and the peaks' second view
+  EXPECT_EQ(cache.hits, 4u);  // the second frame of each view, and the peaks' second view
   EXPECT_EQ(cache.misses, 2u);
   EXPECT_EQ(wholeSet->cacheStats().misses, 0u);
 }

@@ -18,11 +18,11 @@
 #include "mesh/Visibility.h"
 #include "render/core/Dataset.h"
 #include "render/core/RenderErrors.h"
+#include "render/datasets/Datasets.h"
 #include "render/gl/Bindings.h"
 #include "render/gl/GlFixtures.h"
-#include "render/reference/TetReference.h"
 #include "render/gl/tets/TetRenderer.h"
-#include "render/datasets/Datasets.h"
+#include "render/reference/TetReference.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {
@@ -424,7 +424,7 @@ TEST(TetRayCaster, FallsBackWhereItCannotStartAndCancelsPartWay) {
   EXPECT_GE(stats.tetRayPasses, 2);
   EXPECT_GE(stats.samplesEstimated, double(stats.samples));
   EXPECT_GT(renderer.gpuBytes(), TetRenderer::bytesFor(data->mesh.tets.size()));  // the ray caster's buffers
-  scene.camera.distance = 0.3;  // bounding radii: within the box
+  scene.camera.distance = 0.3;                                                    // bounding radii: within the box
   const image::ImageF inside = renderer.render(scene, &stats);
   EXPECT_EQ(stats.tetRayPasses, 0);
   EXPECT_GT(stats.tetsDrawn, 0);
@@ -454,7 +454,8 @@ TEST(TetRayCaster, FallsBackWhereItCannotStartAndCancelsPartWay) {
 
 /// The strip tet.vert.glsl makes for each tet, captured by transform feedback (rasterizer discarded): two triangles
 /// per tet, in normalised device coordinates.
-std::vector<std::array<glm::vec2, 6>> capturedStrips(const std::vector<glm::vec4>& vertices, const glm::mat4& viewProj) {
+std::vector<std::array<glm::vec2, 6>> capturedStrips(const std::vector<glm::vec4>& vertices,
+                                                     const glm::mat4& viewProj) {
   const Gl& gl = test::context().gl();
   ProgramSources sources = ProgramSources::fromFiles("capture tet", {{GL_VERTEX_SHADER, "tet.vert.glsl"}});
   sources.feedbackVaryings = {"gl_Position"};
@@ -491,7 +492,9 @@ std::vector<std::array<glm::vec2, 6>> capturedStrips(const std::vector<glm::vec4
   return strips;
 }
 
-double cross2(glm::dvec2 a, glm::dvec2 b, glm::dvec2 c) { return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x); }
+double cross2(glm::dvec2 a, glm::dvec2 b, glm::dvec2 c) {
+  return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+}
 
 /// The area of the convex hull of four points (the largest of the quadrilaterals' and triangles' areas would do,
 /// but the hull is computed directly: gift wrapping).
@@ -523,11 +526,20 @@ TEST(TetRenderer, StripsCoverExactlyTheProjection) {
   const glm::mat4 ortho = glm::mat4(1.0f);  // world x, y are the projection's
   std::vector<glm::vec4> v = {
       // a quadrilateral: two opposite edges cross in projection
-      {-0.5f, -0.5f, 0.0f, 0}, {0.5f, 0.5f, 0.2f, 0}, {0.5f, -0.5f, 0.6f, 0}, {-0.5f, 0.5f, 0.4f, 0},
+      {-0.5f, -0.5f, 0.0f, 0},
+      {0.5f, 0.5f, 0.2f, 0},
+      {0.5f, -0.5f, 0.6f, 0},
+      {-0.5f, 0.5f, 0.4f, 0},
       // a triangle, the fourth vertex projecting inside it
-      {-0.6f, -0.4f, 0.0f, 0}, {0.6f, -0.4f, 0.0f, 0}, {0.0f, 0.7f, 0.0f, 0}, {0.0f, 0.0f, 0.5f, 0},
+      {-0.6f, -0.4f, 0.0f, 0},
+      {0.6f, -0.4f, 0.0f, 0},
+      {0.0f, 0.7f, 0.0f, 0},
+      {0.0f, 0.0f, 0.5f, 0},
       // degenerate: four points in a plane
-      {0, 0, 0, 0}, {0.5f, 0, 0, 0}, {0, 0.5f, 0, 0}, {0.5f, 0.5f, 0, 0},
+      {0, 0, 0, 0},
+      {0.5f, 0, 0, 0},
+      {0, 0.5f, 0, 0},
+      {0.5f, 0.5f, 0, 0},
   };
   auto strips = capturedStrips(v, ortho);
   ASSERT_EQ(strips.size(), 3u);
@@ -565,7 +577,8 @@ TEST(TetRenderer, StripsCoverExactlyTheProjection) {
     EXPECT_NEAR(stripArea(strips[t]), hull, 1e-5 * std::max(1.0, hull)) << "tet " << t;
     for (const glm::vec2& corner : strips[t]) {
       bool isVertex = false;
-      for (const glm::dvec2& p : projected(t, perspective)) isVertex = isVertex || glm::length(glm::dvec2(corner) - p) < 1e-5;
+      for (const glm::dvec2& p : projected(t, perspective))
+        isVertex = isVertex || glm::length(glm::dvec2(corner) - p) < 1e-5;
       EXPECT_TRUE(isVertex) << "tet " << t << ": the strip's corners are the projected vertices";
     }
   }
@@ -594,7 +607,8 @@ TEST(TetCommands, PrepInfoRenderAndRefusals) {
     openDataset("ball", dir / "ball", 1000);
     ADD_FAILURE() << "a mesh above its host budget was opened";
   } catch (const RenderLimitError& e) {
-    EXPECT_NE(std::string(e.what()).find("above the host budget it may use, 1000 bytes"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("above the host budget it may use, 1000 bytes"), std::string::npos)
+        << e.what();
   }
   r = test::runVoxbrick("prep " + (dir / "ball.vtk").string() + " -q -o " + (dir / "ball").string());
   EXPECT_NE(r.exitCode, 0) << "an existing store is replaced only with --force";

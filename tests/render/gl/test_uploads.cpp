@@ -4,9 +4,9 @@
 
 #include <cmath>
 
-#include "render/gl/volume/BrickAtlas.h"
 #include "render/core/RenderErrors.h"
 #include "render/gl/GlFixtures.h"
+#include "render/gl/volume/BrickAtlas.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {
@@ -35,8 +35,7 @@ struct Frame {
   AtlasUploads uploads = AtlasUploads::Auto;
 };
 
-Frame draw(const std::shared_ptr<const store::BrickStore>& s, size_t budget, AtlasFormat format,
-           AtlasUploads uploads) {
+Frame draw(const std::shared_ptr<const store::BrickStore>& s, size_t budget, AtlasFormat format, AtlasUploads uploads) {
   auto cache = std::make_shared<store::BrickCache>(s, size_t(64) << 20, 1);
   VolumeRenderer renderer(test::context(), cache, budget, format, uploads);
   Frame f;
