@@ -63,41 +63,49 @@ void runMeshInfo(const InfoArgs& a) {
   std::printf("%s\n", j.dump(2).c_str());
 }
 
-void runInfo(const InfoArgs& a) {
-  if (mesh::looksLikeMeshStore(a.store)) return runMeshInfo(a);
-  auto s = store::BrickStore::openAny(a.store, {a.grid, a.brick});
-  const auto* live = dynamic_cast<const store::VdbStore*>(s.get());
-  const store::StoreMeta& m = s->meta();
-  int64_t total = 0, stored = 0;
-  for (const auto& l : m.levels) total += l.bricksTotal(), stored += l.bricksStored;
-  const double emptyFraction =
-      m.levels[0].bricksTotal() > 0 ? 1.0 - double(m.levels[0].bricksStored) / double(m.levels[0].bricksTotal()) : 0.0;
-  const double ratio = m.bytesStored > 0 ? double(m.bytesRaw) / double(m.bytesStored) : 0.0;
+/// What every view of a brick store reports beside its metadata.
+struct StoreSummary {
+  double emptyFraction = 0;  ///< level 0's bricks that hold only the background
+  double ratio = 0;          ///< raw bytes over stored bytes
+};
 
-  if (a.json) {
-    nlohmann::json j = nlohmann::json::parse(m.toJson());
-    j["path"] = a.store;
-    j["empty_fraction"] = emptyFraction;
-    j["compression_ratio"] = ratio;
-    j["octree_depth"] = s->octree().depth();
-    j["backing"] = store::storeBackingName(s->backing());
-    // Always present here (store.json omits the identity): the axes as letters too.
-    j["orientation"] = {{"space", "RAS"},
-                        {"axes", m.orientation.axes},
-                        {"origin", m.orientation.origin},
-                        {"patient", m.orientation.patient},
-                        {"letters", store::axesLetters(m.orientation)}};
-    if (live) {
-      const store::VdbOpenStats& o = live->openStats();
-      j["open"] = {{"read_s", o.readSeconds},
-                   {"scan_s", o.scanSeconds},
-                   {"leaf_nodes", o.leafNodes},
-                   {"tiles", o.tiles},
-                   {"bricks_scanned", o.bricksScanned}};
-    }
-    std::printf("%s\n", j.dump(2).c_str());
-    return;
+StoreSummary summarise(const store::StoreMeta& m) {
+  StoreSummary r;
+  if (m.levels[0].bricksTotal() > 0)
+    r.emptyFraction = 1.0 - double(m.levels[0].bricksStored) / double(m.levels[0].bricksTotal());
+  r.ratio = m.bytesStored > 0 ? double(m.bytesRaw) / double(m.bytesStored) : 0.0;
+  return r;
+}
+
+/// `info --json` of a brick store: its store.json with the summary, orientation and a live .vdb's open statistics.
+void printStoreJson(const InfoArgs& a, const store::BrickStore& s, const store::VdbStore* live) {
+  const store::StoreMeta& m = s.meta();
+  const StoreSummary summary = summarise(m);
+  nlohmann::json j = nlohmann::json::parse(m.toJson());
+  j["path"] = a.store;
+  j["empty_fraction"] = summary.emptyFraction;
+  j["compression_ratio"] = summary.ratio;
+  j["octree_depth"] = s.octree().depth();
+  j["backing"] = store::storeBackingName(s.backing());
+  // Always present here (store.json omits the identity): the axes as letters too.
+  j["orientation"] = {{"space", "RAS"},
+                      {"axes", m.orientation.axes},
+                      {"origin", m.orientation.origin},
+                      {"patient", m.orientation.patient},
+                      {"letters", store::axesLetters(m.orientation)}};
+  if (live) {
+    const store::VdbOpenStats& o = live->openStats();
+    j["open"] = {{"read_s", o.readSeconds},
+                 {"scan_s", o.scanSeconds},
+                 {"leaf_nodes", o.leafNodes},
+                 {"tiles", o.tiles},
+                 {"bricks_scanned", o.bricksScanned}};
   }
+  std::printf("%s\n", j.dump(2).c_str());
+}
+
+/// The first lines of `info` about a brick store: where it came from, dims, orientation, values, histogram.
+void printStoreHeader(const InfoArgs& a, const store::StoreMeta& m, bool live) {
   std::printf("store        %s%s\n", a.store.c_str(), live ? " (OpenVDB file, read live)" : "");
   std::printf("source       %s\n", m.source.c_str());
   std::printf("dims         %s voxels, spacing %g x %g x %g, type %s\n", dimsText(m.dims).c_str(), m.spacing.x,
@@ -117,8 +125,14 @@ void runInfo(const InfoArgs& a) {
     std::printf("non-finite   %lld NaN/Inf voxels replaced by the background at ingest\n",
                 static_cast<long long>(m.nonFiniteReplaced));
   std::printf("histogram    |%s|  (log counts, 256 bins over the value range)\n", sparkline(m.histogram).c_str());
+}
+
+/// The levels of a brick store (and, for a live .vdb, what opening it took), after its header.
+void printStoreLevels(const store::BrickStore& s, const store::VdbStore* live) {
+  const store::StoreMeta& m = s.meta();
+  const StoreSummary summary = summarise(m);
   std::printf("bricks       %d^3 + 1-voxel border, %zu levels, octree depth %d\n", m.brickSize, m.levels.size(),
-              s->octree().depth());
+              s.octree().depth());
   std::printf("  level  %-16s %-12s %10s %10s %8s %12s\n", "dims", "bricks", "total", "stored", "empty", "bytes");
   for (size_t l = 0; l < m.levels.size(); ++l) {
     const auto& lv = m.levels[l];
@@ -133,7 +147,7 @@ void runInfo(const InfoArgs& a) {
     std::printf(
         "empty        %.1f%% of level-0 bricks hold only the background; levels >= 1 count the bricks over "
         "data (from the topology)\n",
-        100 * emptyFraction);
+        100 * summary.emptyFraction);
     std::printf("size         %s raw, %s OpenVDB file, nothing stored: bricks are extracted from the tree on demand\n",
                 formatBytes(double(m.bytesRaw)).c_str(), formatBytes(double(m.bytesVdb)).c_str());
     std::printf(
@@ -143,10 +157,19 @@ void runInfo(const InfoArgs& a) {
         (long long)m.levels[0].bricksTotal());
     return;
   }
-  std::printf("empty        %.1f%% of level-0 bricks are empty (not stored)\n", 100 * emptyFraction);
+  std::printf("empty        %.1f%% of level-0 bricks are empty (not stored)\n", 100 * summary.emptyFraction);
   std::printf("size         %s raw, %s stored (all levels, %.2fx), %s OpenVDB grid in %zu file(s)\n",
-              formatBytes(double(m.bytesRaw)).c_str(), formatBytes(double(m.bytesStored)).c_str(), ratio,
+              formatBytes(double(m.bytesRaw)).c_str(), formatBytes(double(m.bytesStored)).c_str(), summary.ratio,
               formatBytes(double(m.bytesVdb)).c_str(), m.vdbFiles.size());
+}
+
+void runInfo(const InfoArgs& a) {
+  if (mesh::looksLikeMeshStore(a.store)) return runMeshInfo(a);
+  auto s = store::BrickStore::openAny(a.store, {a.grid, a.brick});
+  const auto* live = dynamic_cast<const store::VdbStore*>(s.get());
+  if (a.json) return printStoreJson(a, *s, live);
+  printStoreHeader(a, s->meta(), live != nullptr);
+  printStoreLevels(*s, live);
 }
 
 }  // namespace
