@@ -1,0 +1,122 @@
+#!/usr/bin/env bash
+# Packs a GPU kit: the built voxbrick, bench_render, test_render (and frame_golden) with every shared library they
+# need except glibc's own and the GL loaders, a stub libOSMesa, the configuration directory and the demo MRI, into
+# one zstd archive that bench/gpu/measure.sh unpacks on a GPU machine.
+#
+#   bash bench/gpu/pack.sh [--build build] [--out bench/gpu/kit] [--level 19]
+#
+# Writes OUT/voxbrick-gpukit.tar.zst and OUT/unzstd/ (a zstd binary and its libraries, for a machine without zstd).
+# Left out, and why:
+#   - glibc (libc, libm, libpthread, libdl, librt, libresolv, libutil, libmvec, ld-linux): the GPU machine's own;
+#   - the GL loaders (libEGL, libGL, libGLX, libOpenGL, libGLdispatch, libGLESv2): from the .gl debs there, which
+#     dispatch to NVIDIA's EGL driver;
+#   - libOSMesa (Mesa's, which pulls in LLVM, about 100 MB): replaced by bench/gpu/osmesa_stub.c, built here, whose
+#     entry points fail cleanly, so the OSMesa backend reports no context and EGL is used.
+# libstdc++ and libgcc_s go into lib/cxx/: measure.sh uses them only where the machine's own are older.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+
+build=build
+out=bench/gpu/kit
+level=19
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --build) build=$2; shift 2 ;;
+    --out) out=$2; shift 2 ;;
+    --level) level=$2; shift 2 ;;
+    -h | --help) sed -n '2,16p' "$0"; exit 0 ;;
+    *) echo "pack.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
+  esac
+done
+
+die() { echo "pack.sh: $*" >&2; exit 1; }
+for tool in ldd readelf cc tar zstd sha256sum; do
+  command -v "$tool" > /dev/null || die "needs '$tool' on the PATH"
+done
+mri=/usr/share/mricron/templates/ch2better.nii.gz
+[ -f "$mri" ] || die "the demo MRI $mri is missing (Debian's mricron-data)"
+[ -d config/tf ] && [ -f config/server.toml ] || die "config/ (tf/, scenes/, server.toml) is missing"
+
+binaries=("$build/voxbrick" "$build/bench/bench_render" "$build/tests/test_render")
+for b in "${binaries[@]}"; do
+  [ -x "$b" ] || die "$b is not built (cmake --build $build --target voxbrick bench_render test_render frame_golden)"
+done
+# frame_golden when it is built and small (its committed digests hold for llvmpipe only; on a GPU it writes and
+# checks its own frames).
+golden="$build/bench/frame_golden"
+if [ -x "$golden" ] && [ "$(stat -c %s "$golden")" -lt $((16 << 20)) ]; then binaries+=("$golden"); fi
+
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+kit=$tmp/voxbrick-gpukit
+mkdir -p "$kit/bin" "$kit/lib/cxx" "$kit/data"
+
+# The stub, with the soname the binaries ask for.
+soname=$(readelf -d "$build/voxbrick" | sed -n 's/.*NEEDED.*\[\(libOSMesa[^]]*\)\].*/\1/p')
+[ -n "$soname" ] || die "$build/voxbrick does not link libOSMesa: nothing to stub (check render/gl/CMakeLists.txt)"
+cc -shared -fPIC -O2 -Wall -Werror -Wl,-soname,"$soname" -o "$kit/lib/$soname" bench/gpu/osmesa_stub.c
+# Every OSMesa symbol the binaries need must be in the stub.
+for b in "${binaries[@]}"; do
+  for sym in $(readelf --dyn-syms -W "$b" | awk '$7 == "UND" && $8 ~ /^OSMesa/ {sub(/@.*/, "", $8); print $8}'); do
+    readelf --dyn-syms -W "$kit/lib/$soname" | awk '$7 != "UND" {print $8}' | grep -qx "$sym" ||
+      die "$b calls $sym, which bench/gpu/osmesa_stub.c does not define"
+  done
+done
+
+# Libraries: ldd with the stub first on the path, so the closure is the kit's (no LLVM).
+skip='^(libc|libm|libpthread|libdl|librt|libresolv|libutil|libmvec|libanl|ld-linux-x86-64|ld-linux|linux-vdso|libEGL|libGL|libGLX|libOpenGL|libGLdispatch|libGLESv2)\.so'
+packed=()
+for b in "${binaries[@]}"; do
+  cp "$b" "$kit/bin/"
+  while read -r name arrow path _; do
+    [ "$arrow" = "=>" ] || continue
+    [[ "$name" =~ $skip ]] && continue
+    [ "$name" = "$soname" ] && continue
+    [ "$path" != "not" ] || die "$b: $name not found"
+    dest=$kit/lib
+    case "$name" in libstdc++.so.* | libgcc_s.so.*) dest=$kit/lib/cxx ;; esac
+    if [ ! -e "$dest/$name" ]; then
+      cp "$(readlink -f "$path")" "$dest/$name"
+      packed+=("$name <- $(readlink -f "$path")")
+    fi
+  done < <(LD_LIBRARY_PATH="$kit/lib" ldd "$b")
+done
+
+cp -r config "$kit/config"
+cp "$mri" "$kit/data/"
+# test_render runs `voxbrick` through the absolute path compiled into it; measure.sh puts the kit's there.
+grep -a -o '/[A-Za-z0-9_./+-]*/voxbrick' "$build/tests/test_render" | grep '/build/voxbrick$' | sort -u \
+  > "$kit/TEST_VOXBRICK_PATH"
+[ "$(wc -l < "$kit/TEST_VOXBRICK_PATH")" = 1 ] ||
+  die "found no single voxbrick path compiled into test_render: $(tr '\n' ' ' < "$kit/TEST_VOXBRICK_PATH")"
+
+{
+  echo "voxbrick GPU kit"
+  echo "made: $(date -u +%Y-%m-%dT%H:%M:%SZ) on $(uname -srm)"
+  echo "commit: $(git rev-parse HEAD 2>/dev/null || echo unknown)$(git diff --quiet HEAD 2>/dev/null || echo ' (with local changes)')"
+  echo "glibc: $(ldd --version | head -1)"
+  echo "binaries: $(cd "$kit/bin" && ls | tr '\n' ' ')"
+  echo "stub: lib/$soname from bench/gpu/osmesa_stub.c"
+  echo "libraries:"
+  printf '  %s\n' "${packed[@]}"
+  echo "config: config/ ($(cd "$kit/config" && find . -type f | sort | tr '\n' ' '))"
+  echo "data: data/$(basename "$mri") (sha256 $(sha256sum "$mri" | cut -c1-16)…)"
+} > "$kit/MANIFEST.txt"
+
+mkdir -p "$out"
+rm -rf "$out/unzstd" "$out/voxbrick-gpukit.tar.zst"
+tar -C "$tmp" -cf - voxbrick-gpukit | zstd -q -T0 -"$level" $([ "$level" -gt 19 ] && echo --ultra) \
+  -o "$out/voxbrick-gpukit.tar.zst"
+
+# A zstd that runs without the machine's: the binary and its libraries (glibc aside).
+mkdir -p "$out/unzstd"
+cp "$(readlink -f "$(command -v zstd)")" "$out/unzstd/zstd"
+while read -r name arrow path _; do
+  [ "$arrow" = "=>" ] || continue
+  [[ "$name" =~ $skip ]] && continue
+  cp "$(readlink -f "$path")" "$out/unzstd/$name"
+done < <(ldd "$out/unzstd/zstd")
+
+echo "pack.sh: $out/voxbrick-gpukit.tar.zst, $(du -k "$out/voxbrick-gpukit.tar.zst" | cut -f1) KiB" \
+  "(unpacked $(du -sk "$kit" | cut -f1) KiB: ${#packed[@]} libraries, $(ls "$kit/bin" | wc -l) programs);" \
+  "$out/unzstd: $(du -sk "$out/unzstd" | cut -f1) KiB"
