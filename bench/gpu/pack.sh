@@ -84,11 +84,15 @@ done
 
 cp -r config "$kit/config"
 cp "$mri" "$kit/data/"
-# test_render runs `voxbrick` through the absolute path compiled into it; measure.sh puts the kit's there.
-grep -a -o '/[A-Za-z0-9_./+-]*/voxbrick' "$build/tests/test_render" | grep '/build/voxbrick$' | sort -u \
-  > "$kit/TEST_VOXBRICK_PATH"
+# test_render runs `voxbrick` through the absolute path compiled into it (VOXBRICK_EXE, from the build files: the
+# binary may hold it only in pieces); measure.sh puts the kit's voxbrick there.
+cat "$build/build.ninja" "$build/tests/CMakeFiles/test_render.dir/flags.make" 2> /dev/null |
+  sed -n 's/.*-DVOXBRICK_EXE=\\"\([^"\\]*\)\\".*/\1/p' | sort -u \
+  > "$kit/TEST_VOXBRICK_PATH" || true
 [ "$(wc -l < "$kit/TEST_VOXBRICK_PATH")" = 1 ] ||
-  die "found no single voxbrick path compiled into test_render: $(tr '\n' ' ' < "$kit/TEST_VOXBRICK_PATH")"
+  die "found no single VOXBRICK_EXE in $build/build.ninja: $(tr '\n' ' ' < "$kit/TEST_VOXBRICK_PATH")"
+[ "$(cat "$kit/TEST_VOXBRICK_PATH")" -ef "$build/voxbrick" ] ||
+  die "VOXBRICK_EXE in $build/build.ninja is $(cat "$kit/TEST_VOXBRICK_PATH"), not $build/voxbrick"
 
 {
   echo "voxbrick GPU kit"

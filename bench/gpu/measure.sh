@@ -1,0 +1,410 @@
+#!/usr/bin/env bash
+# The GPU figures in one go, on a machine lent for a few minutes: unpacks the kit (bench/gpu/pack.sh), then runs
+# the steps below in order of value, each under a hard time limit and all within MEASURE_BUDGET seconds, so that a
+# step cut short leaves every earlier step's files. Run from the repository root, after the GL loaders are
+# installed (bench/gpu/README.md has the exact call):
+#
+#   bash bench/gpu/measure.sh
+#
+# Results go to bench/results/gpu/ (one folder per step, summary.md, measure.log); with $OUT set (the device
+# machine), to $OUT as three files: summary.md, measure.log and gpu-results.tar.gz (everything, refreshed after each
+# step). Every step's markdown names the device, the date and the commands.
+#
+# Steps (seconds at most; each also stops at the overall budget):
+#   device          40  the GL renderer string (must be NVIDIA unless MEASURE_ALLOW_SOFTWARE=1), nvidia-smi, the MRI
+#                       store, one 512^2 frame
+#   mri-sweep-512   90  voxbrick bench on the MRI at 512^2, 8 views, steps 0.5/0.75/1: ray caster, slabs of 32,
+#                       slicing; frame times and PSNR against the CPU reference
+#   roofline        75  bench_render on the MRI at 512^2, 1024^2, 2048^2: the default settings beside the sampling
+#                       roofline (one trilinear fetch per sample)
+#   mri-sweep-1024  60  as mri-sweep-512 at 1024^2, 2 views, steps 0.75/1
+#   mri-sweep-2048  75  as mri-sweep-512 at 2048^2, 1 view, step 0.75
+#                       (the sweep's references, two transfer functions a view at step 0.125, are CPU renders:
+#                       about 1 s a view at 128^2 on 2 cores here, so the larger sizes take few views)
+#   test_render    120  the GL test program; pass/fail counts and the failed tests
+#   load-drag       30  voxbrick serve + voxbrick load on the MRI at 512^2: one client, then 4 dragging at 10 Hz
+#   tets-1m         60  synthetic-mesh:ball,n=70 (1 025 244 tets, made by prep: no Python needed), 512^2 and 1024^2,
+#                       each visibility; PSNR against the exact reference at 512^2 when time is left
+#   field-1024     150  prep synthetic:blobs,n=1024 (4.3 GB f32), frames at 1024^2 at lod 1 and 0; if the prep does
+#                       not finish in time, n=512 instead (said in the step's file)
+#
+# Environment: MEASURE_QUICK=1 (tiny sizes, a 240 s budget: proves every step on any machine), MEASURE_BUDGET
+# (seconds; default 500, quick 240), MEASURE_STEPS (names to run, default all), MEASURE_WORK (scratch, default
+# /tmp/voxbrick-gpu), MEASURE_KIT (default bench/gpu/kit), MEASURE_ALLOW_SOFTWARE=1 (go on without an NVIDIA renderer).
+set -euo pipefail
+repo=$(cd "$(dirname "$0")/../.." && pwd)
+cd "$repo"
+self=$repo/bench/gpu/measure.sh
+export PATH=$PATH:/usr/sbin:/sbin  # ldconfig
+
+die() { echo "measure.sh: $*" >&2; exit 1; }
+now() { date +%s; }
+
+# ---------------------------------------------------------------------------------------------------------------------
+# One step, run as `measure.sh --step NAME` under `timeout` by the driver below (its environment is set there).
+if [ "${1:-}" = "--step" ]; then
+  name=$2
+  dir=$RES/$name
+  mkdir -p "$dir"
+  q() { [ "$QUICK" = 1 ]; }
+  vb() { "$KIT/bin/voxbrick" "$@"; }
+  # The step's markdown: device, date, then each command as it is run.
+  md=$dir/$name.md
+  header() {
+    { echo "# $name"; echo; echo "- device: $(cat "$RES/device.txt" 2> /dev/null || echo unknown)";
+      echo "- date: $(date -u +%Y-%m-%dT%H:%M:%SZ)"; echo "- kit: $(sed -n 's/^commit: //p' "$KIT/MANIFEST.txt")";
+      [ "$QUICK" = 1 ] && echo "- MEASURE_QUICK=1: tiny sizes, not figures"; echo; } > "$md"
+  }
+  # Runs a command, logging it in the markdown (paths shortened).
+  cmd() {
+    local shown=() a
+    for a in "$@"; do
+      a=${a//$KIT\/bin\//}; a=${a//$KIT/\$KIT}; a=${a//$RES/\$RES}; a=${a//$WORK/\$WORK}; [ "$a" = vb ] && a=voxbrick
+      [[ "$a" =~ [\ \|] ]] && a="'$a'"
+      shown+=("$a")
+    done
+    echo "    ${shown[*]}" >> "$md"
+    "$@"
+  }
+  # PSNR (dB) of two PNGs by voxbrick compare; inf when identical.
+  psnr() {
+    vb compare "$1" "$2" --json | sed -n 's/.*"psnr": *\([-0-9][-0-9.e+]*\).*/\1/p; s/.*"identical": *true.*/inf/p' | head -1
+  }
+  # The time left to this step, less a margin for what follows the long command.
+  left() {  # at least 1: `timeout 0` would mean no limit
+    local l=$(($(cat "$WORK/step-deadline") - $(now) - ${1:-5}))
+    echo $((l < 1 ? 1 : l))
+  }
+  header
+  case "$name" in
+    device)
+      {
+        echo "commands:"; echo
+        renderer=$(cmd vb render "$WORK/mri.vbs" --size 512x512 --tf mri --warm-up 2 --stats "$dir/frame-512.json" \
+          -o "$dir/frame-512.png" 2>&1 | tee "$dir/render.log" | sed -n 's/^render: \(.*\)$/\1/p' | grep -v '^wrote' |
+          head -1) || true
+        echo; echo "- GL renderer: ${renderer:-none (see render.log)}"
+        echo "- frame: $(grep '^render: wrote' "$dir/render.log" || echo none)"
+        echo "- nvidia-smi: $(nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2> /dev/null ||
+          echo 'not available')"
+        echo "- CPU: $(nproc) cores, $(awk '/MemTotal/ {printf "%.0f GiB", $2 / 1048576}' /proc/meminfo)," \
+          "$(sed -n 's/^model name\s*: //p' /proc/cpuinfo | head -1)"
+        echo "- system: $(uname -srm), $(ldd --version | head -1)"
+        echo "- libstdc++: $LIBSTDCXX"
+        echo; echo '```'; cat "$KIT/MANIFEST.txt"; echo '```'
+      } >> "$md"
+      renderer=$(sed -n 's/^- GL renderer: //p' "$md")
+      echo "$renderer" > "$RES/device.txt"
+      [ -s "$dir/frame-512.png" ] || die "device: no frame rendered (render.log: $(tail -3 "$dir/render.log"))"
+      if ! grep -qi nvidia <<< "$renderer"; then
+        [ "${MEASURE_ALLOW_SOFTWARE:-0}" = 1 ] || [ "$QUICK" = 1 ] ||
+          die "device: the GL renderer is '$renderer', not NVIDIA (set MEASURE_ALLOW_SOFTWARE=1 to measure anyway)"
+        echo "- NOTE: not an NVIDIA renderer" >> "$md"
+      fi
+      ;;
+    mri-sweep-*)
+      size=${name#mri-sweep-}
+      case "$size" in
+        512) views=8 steps=0.5,0.75,1 ;;
+        1024) views=2 steps=0.75,1 ;;
+        *) views=1 steps=0.75 ;;
+      esac
+      if q; then views=1 steps=1; case "$size" in 512) size=64 views=2 ;; 1024) size=96 ;; *) size=128 ;; esac; fi
+      echo "voxbrick bench on the MRI at ${size}x${size}, $views views, steps $steps (the sweep's files:" \
+        "sweep.{csv,md,svg}); PSNR against the CPU reference (step 0.125)." >> "$md"; echo >> "$md"
+      cmd timeout "$(left 3)" "$KIT/bin/voxbrick" bench --datasets mri --mri "$KIT/data/ch2better.nii.gz" \
+        --work "$WORK/bench" --out "$dir" --size "$size" --views "$views" --steps "$steps" --alternatives none \
+        --no-shading --slabs 32 --ert-slab 32 --erts 0.999 --slab-sub-blocks 8 --no-best-slab --no-pre-integration \
+        --no-opaque 2>&1 | tee "$dir/bench.log"
+      echo >> "$md"; [ -f "$dir/sweep.md" ] && cat "$dir/sweep.md" >> "$md"
+      ;;
+    roofline)
+      sizes="512 1024 2048"; views=8
+      if q; then sizes="64 96"; views=2; fi
+      # bench_render preps its MRI stores from Debian's path unless they are in --work: made here from the kit's.
+      mkdir -p "$WORK/bench_render"
+      for brick in 16 32 64; do
+        [ -f "$WORK/bench_render/mri-ch2better-b$brick.vbs/store.json" ] ||
+          vb prep "$KIT/data/ch2better.nii.gz" --brick "$brick" --no-vdb -q -o "$WORK/bench_render/mri-ch2better-b$brick.vbs"
+      done
+      configs='vertex slicer, skip|vertex slicer, no skip|vertex slicer, skip, sub-block 8|roofline, no skip|slab 32, ert 0.999, skip, sub-block 8|slab 32, skip, sub-block 8|slab 32, skip, sub-block 8, roofline|raycast, ert 0.999, skip, sub-block 8|raycast, skip, sub-block 8|raycast, skip, sub-block 8, roofline'
+      echo "bench_render on the MRI, $views views, step 0.5: each setting beside its roofline (one trilinear fetch" \
+        "per sample, no classification, no blending). One CSV and markdown per size." >> "$md"; echo >> "$md"
+      for size in $sizes; do
+        cmd timeout "$(left 3)" "$KIT/bin/bench_render" --out "$dir" --work "$WORK/bench_render" --size "$size" \
+          --views "$views" --step 0.5 --datasets mri-ch2better --name "roofline-$size" --configs "$configs" 2>&1 |
+          tee -a "$dir/bench_render.log"
+        echo >> "$md"; cat "$dir/roofline-$size.md" >> "$md"; echo >> "$md"
+      done
+      ;;
+    test_render)
+      filter='*'
+      q && filter='Context.*:RendererCli.*:TetCommands.*'
+      echo "The GL test program (its expectations were set on llvmpipe). Log: test_render.log." >> "$md"; echo >> "$md"
+      set +e
+      cmd timeout "$(left 8)" "$KIT/bin/test_render" --gtest_filter="$filter" > "$dir/test_render.log" 2>&1
+      rc=$?
+      set -e
+      # Each test's result; a failure whose log names OSMesa comes from the kit's stub (by design: no Mesa there).
+      awk '/^\[ RUN      \]/ {osmesa = 0} /OSMesa/ {osmesa = 1}
+           /^\[       OK \]/ && /\([0-9]+ ms\)$/ {print $4 ",ok"}
+           /^\[  FAILED  \]/ && /\([0-9]+ ms\)$/ {sub(/,$/, "", $4); print $4 "," (osmesa ? "failed (OSMesa stub)" : "failed")}' \
+        "$dir/test_render.log" > "$dir/results.tmp"
+      { echo "test,result"; cat "$dir/results.tmp"; } > "$dir/test_render.csv"
+      rm -f "$dir/results.tmp"
+      total=$(sed -n 's/^\[==========\] Running \([0-9]*\) tests.*/\1/p' "$dir/test_render.log")
+      count() { grep -c ",$1\$" "$dir/test_render.csv" || true; }
+      {
+        echo; echo "- exit status: $rc$([ "$rc" = 124 ] && echo ' (stopped at its time limit)')"
+        echo "- tests: ${total:-?} to run, $(count ok) passed, $(count failed) failed," \
+          "$(count 'failed (OSMesa stub)') failed for want of OSMesa (the kit's stub: expected)"
+        if grep -q ',failed$' "$dir/test_render.csv"; then
+          echo "- failed:"; sed -n 's/^\(.*\),failed$/  - \1/p' "$dir/test_render.csv"
+        fi
+        echo "- last test started: $(grep '^\[ RUN      \]' "$dir/test_render.log" | tail -1 | sed 's/^\[ RUN      \] //')"
+      } >> "$md"
+      ;;
+    load-drag)
+      size=512x512 duration=10
+      q && size=64x64 duration=2
+      mkdir -p "$WORK/served"
+      [ -e "$WORK/served/mri" ] || cp -r "$WORK/mri.vbs" "$WORK/served/mri"
+      rm -f "$WORK/port"
+      echo "voxbrick serve (2 render threads) on the MRI store, driven by voxbrick load over loopback; tf mri," \
+        "$size." >> "$md"; echo >> "$md"
+      cmd "$KIT/bin/voxbrick" serve --datasets "$WORK/served" --port 0 --port-file "$WORK/port" --render-threads 2 \
+        > "$dir/server.log" 2>&1 &
+      server=$!
+      trap 'kill "$server" 2> /dev/null || true' EXIT
+      for _ in $(seq 300); do [ -s "$WORK/port" ] && break; sleep 0.1; done
+      [ -s "$WORK/port" ] || die "load-drag: the server wrote no port (server.log: $(tail -3 "$dir/server.log"))"
+      port=$(cat "$WORK/port")
+      cmd "$KIT/bin/voxbrick" load "127.0.0.1:$port" --dataset mri --tf mri --step 0.75 --clients 1 \
+        --duration "$duration" --size "$size" --json "$dir/load-one.json" 2>&1 | tee "$dir/load.log"
+      cmd "$KIT/bin/voxbrick" load "127.0.0.1:$port" --dataset mri --tf mri --step 0.75 --clients 4 \
+        --duration "$duration" --size "$size" --drag 10 --json "$dir/load-drag.json" 2>&1 | tee -a "$dir/load.log"
+      kill -TERM "$server"; wait "$server" || true
+      echo >> "$md"
+      if command -v python3 > /dev/null; then
+        python3 - "$dir" >> "$md" <<'PY'
+import json, os, sys
+d = sys.argv[1]
+rows = [("1 client, one frame at a time", "load-one.json"), ("4 clients dragging at 10 Hz, latest wins", "load-drag.json")]
+print("| run | frames | frames/s | p50 ms | p95 ms | p99 ms | max ms | errors | renderer p50 ms |")
+print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+with open(os.path.join(d, "load-drag.csv"), "w") as csv:
+    csv.write("run,frames,frames_per_s,p50_ms,p95_ms,p99_ms,max_ms,errors,render_ms_p50\n")
+    for label, f in rows:
+        j = json.load(open(os.path.join(d, f)))
+        lat = j["latency_ms"]
+        r = j.get("render_ms_p50", float("nan"))
+        print(f"| {label} | {j['frames']} | {j['frames_per_s']:.2f} | {lat['p50']:.1f} | {lat['p95']:.1f} | "
+              f"{lat['p99']:.1f} | {lat['max']:.1f} | {j['errors']} | {r:.1f} |")
+        csv.write(f"{label},{j['frames']},{j['frames_per_s']:.3f},{lat['p50']:.2f},{lat['p95']:.2f},{lat['p99']:.2f},"
+                  f"{lat['max']:.2f},{j['errors']},{r:.2f}\n")
+PY
+      else
+        echo "(no python3: the reports are load-one.json and load-drag.json)" >> "$md"
+      fi
+      ;;
+    tets-1m)
+      n=70 sizes="512 1024"
+      q && n=12 sizes="64"
+      echo "synthetic-mesh:ball,n=$n (the Kuhn-subdivided cube cut to the unit ball; made by voxbrick prep, so the" \
+        "machine needs neither gmsh nor numpy), tf hot, warm frames (--warm-up 2)." >> "$md"; echo >> "$md"
+      [ -f "$WORK/ball-$n/mesh.json" ] || [ -d "$WORK/ball-$n" ] ||
+        cmd vb prep "synthetic-mesh:ball,n=$n" -q -o "$WORK/ball-$n" | tee "$dir/prep.log"
+      vb info "$WORK/ball-$n" > "$dir/info.txt"
+      tets=$(awk '$1 == "tets" {print $2}' "$dir/info.txt")
+      echo "visibility,size,tets,ms_total,ms_drawing,ms_sorting,tets_drawn,tet_ray_passes,psnr_vs_reference_db" \
+        > "$dir/tets-1m.csv"
+      for size in $sizes; do
+        for vis in raycast mpvo centroid; do
+          cmd vb render "$WORK/ball-$n" --tf hot --visibility "$vis" --size "${size}x${size}" --warm-up 2 -q \
+            --stats "$dir/$vis-$size.json" -o "$WORK/tets-$vis-$size.png"
+        done
+      done
+      # The exact reference at the first size, if it fits in what is left (a CPU renderer: minutes on few cores).
+      first=${sizes%% *}
+      if [ "$(left 10)" -gt 20 ]; then
+        cmd timeout "$(left 10)" "$KIT/bin/voxbrick" render "$WORK/ball-$n" --tf hot --size "${first}x${first}" \
+          --backend reference -q -o "$WORK/tets-reference-$first.png" || echo "(the reference did not finish)" >> "$md"
+      fi
+      for size in $sizes; do
+        for vis in raycast mpvo centroid; do
+          psnr=
+          if [ "$size" = "$first" ] && [ -s "$WORK/tets-reference-$first.png" ]; then
+            psnr=$(psnr "$WORK/tets-$vis-$size.png" "$WORK/tets-reference-$first.png")
+          fi
+          s=$dir/$vis-$size.json
+          get() { sed -n "s/.*\"$1\": *\([-0-9.e]*\).*/\1/p" "$s" | head -1; }
+          echo "$vis,$size,$tets,$(get total),$(get drawing),$(get sorting),$(get tets_drawn),$(get tet_ray_passes),$psnr" \
+            >> "$dir/tets-1m.csv"
+        done
+      done
+      { echo; echo '```'; cat "$dir/tets-1m.csv"; echo '```'; } >> "$md"
+      ;;
+    field-1024)
+      n=1024 size=1024 fallback=512 budget=110
+      q && n=64 size=64 fallback=32 budget=60
+      echo "A synthetic field (blobs, f32) prepped here, frames at ${size}x${size}, tf hot, lod 1 (default) and 0," \
+        "GPU budget 16 GB, host budget 16 GB; the first frame (paging) and a warm one." >> "$md"; echo >> "$md"
+      prep_budget=$(($(left 60) < budget ? $(left 60) : budget))
+      set +e
+      start=$(now)
+      cmd timeout "$prep_budget" "$KIT/bin/voxbrick" prep "synthetic:blobs,n=$n" --no-vdb -q --force \
+        -o "$WORK/blobs-$n" 2>&1 | tee "$dir/prep.log"
+      rc=${PIPESTATUS[0]}
+      set -e
+      if [ "$rc" != 0 ]; then
+        echo "- prep of n=$n stopped after $(($(now) - start)) s (exit $rc, limit $prep_budget s): **scaled down to" \
+          "n=$fallback**" >> "$md"
+        n=$fallback
+        cmd vb prep "synthetic:blobs,n=$n" --no-vdb -q --force -o "$WORK/blobs-$n" 2>&1 | tee -a "$dir/prep.log"
+      fi
+      echo "- prep: $(grep -h 'MB/s' "$dir/prep.log" | tail -1)" >> "$md"
+      echo "n,size,lod,frame,ms_total,ms_paging,ms_drawing,bricks_drawn,bricks_paged_in,psnr_vs_lod0_db" \
+        > "$dir/field-1024.csv"
+      for lod in 1 0; do
+        cmd timeout "$(left 5)" "$KIT/bin/voxbrick" render "$WORK/blobs-$n" --tf hot --size "${size}x${size}" \
+          --lod "$lod" --gpu-budget 16384 --host-budget 16384 -q --stats "$dir/first-lod$lod.json" \
+          -o "$WORK/field-first-lod$lod.png"
+        cmd timeout "$(left 5)" "$KIT/bin/voxbrick" render "$WORK/blobs-$n" --tf hot --size "${size}x${size}" \
+          --lod "$lod" --gpu-budget 16384 --host-budget 16384 --warm-up 1 -q --stats "$dir/warm-lod$lod.json" \
+          -o "$WORK/field-lod$lod.png"
+      done
+      for lod in 1 0; do
+        for frame in first warm; do
+          s=$dir/$frame-lod$lod.json
+          [ "$frame" = warm ] && s=$dir/warm-lod$lod.json
+          get() { sed -n "s/.*\"$1\": *\([-0-9.e]*\).*/\1/p" "$s" | head -1; }
+          psnr=
+          if [ "$lod" = 1 ] && [ "$frame" = warm ]; then psnr=$(psnr "$WORK/field-lod1.png" "$WORK/field-lod0.png"); fi
+          echo "$n,$size,$lod,$frame,$(get total),$(get paging),$(get drawing),$(get bricks_drawn),$(get bricks_paged_in),$psnr" \
+            >> "$dir/field-1024.csv"
+        done
+      done
+      { echo; echo '```'; cat "$dir/field-1024.csv"; echo '```'; } >> "$md"
+      ;;
+    *) die "unknown step '$name'" ;;
+  esac
+  exit 0
+fi
+
+# ---------------------------------------------------------------------------------------------------------------------
+# The driver.
+export QUICK=${MEASURE_QUICK:-0}
+budget=${MEASURE_BUDGET:-$([ "$QUICK" = 1 ] && echo 240 || echo 500)}
+all="device mri-sweep-512 roofline mri-sweep-1024 mri-sweep-2048 test_render load-drag tets-1m field-1024"
+steps=${MEASURE_STEPS:-$all}
+for s in $steps; do grep -qw -- "$s" <<< "$all" || die "MEASURE_STEPS: unknown step '$s' (known: $all)"; done
+declare -A cap=([device]=40 [mri-sweep-512]=90 [roofline]=75 [mri-sweep-1024]=60 [mri-sweep-2048]=75
+  [test_render]=120 [load-drag]=30 [tets-1m]=60 [field-1024]=150)
+start=$(now)
+deadline=$((start + budget))
+export WORK=${MEASURE_WORK:-/tmp/voxbrick-gpu}
+kitdir=${MEASURE_KIT:-bench/gpu/kit}
+if [ -n "${OUT:-}" ]; then export RES=$WORK/results; else export RES=$repo/bench/results/gpu; fi
+mkdir -p "$WORK" "$RES"
+if grep -qw device <<< "$steps"; then rm -f "$RES/device.txt"; fi
+log=$RES/measure.log
+exec > >(tee -a "$log") 2>&1
+
+# Copies what exists so far to $OUT (when set): summary.md, measure.log, gpu-results.tar.gz.
+publish() {
+  [ -n "${OUT:-}" ] || return 0
+  mkdir -p "$OUT"
+  cp "$RES/summary.md" "$OUT/summary.md" 2> /dev/null || true
+  tar -C "$RES" -czf "$OUT/gpu-results.tar.gz.part" . 2> /dev/null &&
+    mv "$OUT/gpu-results.tar.gz.part" "$OUT/gpu-results.tar.gz"
+  cp "$log" "$OUT/measure.log" 2> /dev/null || true
+}
+
+echo "measure.sh: $(date -u +%Y-%m-%dT%H:%M:%SZ), budget ${budget} s, steps: $steps$([ "$QUICK" = 1 ] && echo ' (quick)')"
+
+# The kit, unpacked fresh, with the machine's zstd or the kit's own.
+[ -f "$kitdir/voxbrick-gpukit.tar.zst" ] ||
+  die "no kit at $kitdir/voxbrick-gpukit.tar.zst: run bench/gpu/pack.sh here, and name $kitdir in the call's carry"
+rm -rf "$WORK/voxbrick-gpukit"
+if command -v zstd > /dev/null; then
+  zstd -dcq "$kitdir/voxbrick-gpukit.tar.zst" | tar -C "$WORK" -xf -
+else
+  LD_LIBRARY_PATH="$kitdir/unzstd" "$kitdir/unzstd/zstd" -dcq "$kitdir/voxbrick-gpukit.tar.zst" | tar -C "$WORK" -xf -
+fi
+export KIT=$WORK/voxbrick-gpukit
+export VOXBRICK_CONFIG_DIR=$KIT/config
+
+# libstdc++: the machine's where it is at least as new as the kit's (GCC 12: GLIBCXX_3.4.30), else the kit's.
+sys_cxx=$(ldconfig -p 2> /dev/null | awk '/libstdc\+\+\.so\.6 .*x86-64/ {print $NF; exit}')
+if [ -n "$sys_cxx" ] && grep -qa 'GLIBCXX_3\.4\.30' "$sys_cxx"; then
+  export LIBSTDCXX="the machine's ($sys_cxx)"
+  export LD_LIBRARY_PATH=$KIT/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+else
+  export LIBSTDCXX="the kit's (the machine's ${sys_cxx:-none} is older)"
+  export LD_LIBRARY_PATH=$KIT/lib:$KIT/lib/cxx${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+fi
+# The GL loaders (the .gl debs) and NVIDIA's EGL vendor library.
+ldconfig -p 2> /dev/null | grep -q 'libEGL\.so\.1 ' || [ -n "$(find /usr/lib /lib -name 'libEGL.so.1' 2> /dev/null | head -1)" ] ||
+  die "no libEGL.so.1: unpack the GL loader debs first (for f in .gl/*.deb; do dpkg -x \$f /; done; ldconfig)"
+nvidia_json=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
+if [ -z "${__EGL_VENDOR_LIBRARY_FILENAMES:-}" ] && [ -f "$nvidia_json" ]; then
+  export __EGL_VENDOR_LIBRARY_FILENAMES=$nvidia_json
+fi
+"$KIT/bin/voxbrick" --version > /dev/null || die "the kit's voxbrick does not start (libraries? see above)"
+
+# test_render calls voxbrick by the absolute path it was built with: the kit's voxbrick goes there if nothing is.
+test_exe=$(cat "$KIT/TEST_VOXBRICK_PATH")
+if [ ! -e "$test_exe" ]; then
+  if mkdir -p "$(dirname "$test_exe")" 2> /dev/null; then
+    printf '#!/bin/sh\nexec "%s" "$@"\n' "$KIT/bin/voxbrick" > "$test_exe" && chmod +x "$test_exe"
+  else
+    echo "measure.sh: cannot create $test_exe: test_render's command-line tests will fail"
+  fi
+fi
+
+# The MRI store every step shares.
+[ -f "$WORK/mri.vbs/store.json" ] ||
+  "$KIT/bin/voxbrick" prep "$KIT/data/ch2better.nii.gz" --no-vdb -q --force -o "$WORK/mri.vbs"
+
+summary=$RES/summary.md
+{
+  echo "# voxbrick on a GPU: summary"; echo
+  echo "measure.sh, $(date -u +%Y-%m-%dT%H:%M:%SZ), budget $budget s$([ "$QUICK" = 1 ] && echo ', MEASURE_QUICK=1 (tiny sizes: not figures)')."
+  echo; echo "| step | status | seconds | limit |"; echo "|---|---|---:|---:|"
+} > "$summary"
+publish
+
+failed=0
+for s in $steps; do
+  left=$((deadline - $(now) - 5))
+  limit=$((cap[$s] < left ? cap[$s] : left))
+  if [ "$limit" -lt 10 ]; then
+    echo "| $s | skipped: ${left} s left of the budget | 0 | ${cap[$s]} |" >> "$summary"
+    echo "measure.sh: $s skipped (${left} s left)"
+    continue
+  fi
+  echo "measure.sh: --- $s (at most $limit s) ---"
+  echo $(($(now) + limit)) > "$WORK/step-deadline"
+  t0=$(now)
+  set +e
+  timeout -k 5 "$limit" bash "$self" --step "$s"
+  rc=$?
+  set -e
+  took=$(($(now) - t0))
+  case "$rc" in
+    0) status=ok ;;
+    124 | 137) status="stopped at its limit"; failed=1 ;;
+    *) status="failed (exit $rc)"; failed=1 ;;
+  esac
+  echo "| $s | $status | $took | $limit |" >> "$summary"
+  echo "measure.sh: $s: $status in $took s"
+  publish
+  if [ "$s" = device ] && [ "$rc" != 0 ]; then
+    echo "measure.sh: no usable device: the other steps are not run" | tee -a "$summary"
+    break
+  fi
+done
+{ echo; echo "Device: $(cat "$RES/device.txt" 2> /dev/null || echo unknown)"; echo "Total: $(($(now) - start)) s."; } >> "$summary"
+publish
+cat "$summary"
+exit "$failed"
