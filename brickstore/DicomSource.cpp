@@ -43,7 +43,8 @@ struct SliceHeader {
   Vec position{}, row{}, column{};
   double rowSpacing = 0, columnSpacing = 0;  // PixelSpacing: between rows (along j), between columns (along i)
   double slope = 1, intercept = 0;
-  double along = 0;  // position along the series' slice normal
+  double along = 0;    // position along the series' slice normal
+  DicomLayout layout;  // what the structure walk found of the pixel data
 };
 
 Vec sub(const Vec& a, const Vec& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
@@ -207,11 +208,16 @@ void checkSupported(const SliceHeader& h) {
   if (!(std::fabs(h.slope) > 0)) throw InputError(f + ": RescaleSlope is 0");
 }
 
+/// The header's pixel format, to check the pixel data's length and encoding against.
+DicomPixelFormat pixelFormat(const SliceHeader& h) {
+  return {h.rows, h.columns, h.frames, h.samples, h.bitsAllocated, h.syntax.IsEncapsulated(), syntaxName(h.syntax)};
+}
+
 /// Reads one file's header (not its pixels). Every failure of GDCM becomes an InputError naming the file.
 SliceHeader readHeader(const std::string& path) {
   SliceHeader h;
   h.file = path;
-  checkDicomStructure(path);
+  h.layout = checkDicomStructure(path);
   try {
     gdcm::Reader reader;
     reader.SetFileName(path.c_str());
@@ -370,7 +376,8 @@ class DicomSource final : public VolumeSource {
   void readSlice(const SliceHeader& h, unsigned char* dst) {
     const int64_t plane = mInfo.dims.x * mInfo.dims.y;
     const size_t bytes = size_t(plane) * size_t(h.bitsAllocated / 8);
-    checkDicomStructure(h.file);  // again: the file may have changed since the source opened
+    // Again: the file may have changed since the source opened.
+    checkPixelData(h.file, checkDicomStructure(h.file), pixelFormat(h));
     try {
       gdcm::ImageReader reader;
       reader.SetFileName(h.file.c_str());
@@ -453,7 +460,10 @@ std::unique_ptr<VolumeSource> openDicomSeries(const std::vector<std::string>& fi
   headers.reserve(files.size());
   for (const std::string& f : files) headers.push_back(readHeader(f));
   std::vector<SliceHeader> slices = selectSeries(std::move(headers), options.seriesUid, chosenFile, what);
-  for (const SliceHeader& s : slices) checkSupported(s);
+  for (const SliceHeader& s : slices) {
+    checkSupported(s);
+    checkPixelData(s.file, s.layout, pixelFormat(s));
+  }
   checkConsistent(slices);
   const std::array<Vec, 3> axes = directions(slices.front());
   const double step = sortAlongNormal(slices, axes[2], axes[0], axes[1]);

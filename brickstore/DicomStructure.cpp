@@ -4,6 +4,7 @@
 
 #include <cctype>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <iterator>
@@ -70,12 +71,16 @@ class Walker {
     if (untilDelimiter) need(pos, 8);  // an open sequence or item at the end of the file
   }
 
-  /// One element at pos: its header, then its value (by length, or item by item when undefined).
+  /// One element at pos: its header, then its value (by length, or item by item when undefined). PixelData at the
+  /// top level is recorded in `layout`.
   void skipElement(int depth) {
+    const bool isPixelData = depth == 0 && u16(pos) == 0x7FE0 && u16(pos + 2) == 0x0010;
+    const size_t start = pos;
     uint32_t length;
     bool unknownVr = false;
     if (explicitVr) {
       const std::string_view vr = text(pos + 4, 2);
+      checkVr(vr, start);
       static const char* const kLong[] = {"OB", "OD", "OF", "OL", "OV", "OW", "SQ", "SV", "UC", "UN", "UR", "UT", "UV"};
       bool isLong = false;
       for (const char* l : kLong) isLong = isLong || vr == l;
@@ -86,6 +91,11 @@ class Walker {
       length = u32(pos + 4);
       pos += 8;
     }
+    if (isPixelData) {
+      layout.hasPixelData = true;
+      layout.encapsulated = length == kUndefinedLength;
+      layout.pixelBytes = layout.encapsulated ? 0 : length;
+    }
     if (length != kUndefinedLength) return skipValue(length, depth);
     // Undefined length: items up to the sequence delimiter; an undefined-length UN holds implicit-VR items.
     const bool saved = explicitVr;
@@ -93,6 +103,23 @@ class Walker {
     walk(true, depth + 1);
     explicitVr = saved;
   }
+
+  /// Refuses a value representation that is none of DICOM's: GDCM would give up on explicit VR and reread the
+  /// data set as implicit VR, taking lengths from bytes that are not lengths.
+  void checkVr(std::string_view vr, size_t at) const {
+    static constexpr std::string_view kAll =
+        "AE AS AT CS DA DS DT FD FL IS LO LT OB OD OF OL OV OW PN SH SL SQ SS ST SV TM UC UI UL UN UR US UT UV";
+    for (size_t k = 0; k < kAll.size(); k += 3)
+      if (kAll.substr(k, 2) == vr) return;
+    char tag[16];
+    std::snprintf(tag, sizeof tag, "(%04X,%04X)", u16(at), u16(at + 2));
+    std::string shown;
+    for (char c : vr) shown += std::isprint(static_cast<unsigned char>(c)) ? c : '?';
+    fail(std::string("element ") + tag + " at byte " + std::to_string(at) + " has no valid value representation: '" +
+         shown + "'");
+  }
+
+  DicomLayout layout;
 
   void skipValue(uint32_t length, int depth) {
     if (length == kUndefinedLength) return walk(true, depth + 1);
@@ -131,14 +158,14 @@ std::string walkMetaHeader(Walker& w) {
 
 }  // namespace
 
-void checkDicomStructure(const std::string& path) {
+DicomLayout checkDicomStructure(const std::string& path) {
   const std::vector<char> bytes = readAll(path);
   Walker w(bytes, path);
   if (bytes.size() >= 132 && std::memcmp(bytes.data() + 128, "DICM", 4) == 0) {
     w.pos = 132;
     const std::string syntax = walkMetaHeader(w);
     if (syntax.empty()) throw InputError(path + ": malformed DICOM file (no TransferSyntaxUID in the meta header)");
-    if (syntax == "1.2.840.10008.1.2.1.99") return;  // deflated: GDCM inflates and parses it
+    if (syntax == "1.2.840.10008.1.2.1.99") return {};  // deflated: GDCM inflates and parses it
     w.explicitVr = syntax != "1.2.840.10008.1.2";
     w.bigEndian = syntax == "1.2.840.10008.1.2.2";
   } else {
@@ -148,6 +175,28 @@ void checkDicomStructure(const std::string& path) {
   }
   if (w.atEnd()) throw InputError(path + ": truncated DICOM file (no data set)");
   w.walk(false, 0);
+  w.layout.walked = true;
+  return w.layout;
+}
+
+void checkPixelData(const std::string& path, const DicomLayout& layout, const DicomPixelFormat& f) {
+  if (!layout.walked) return;
+  if (!layout.hasPixelData) throw InputError(path + ": no PixelData (7FE0,0010) in the DICOM file");
+  if (f.encapsulatedSyntax && !layout.encapsulated)
+    throw InputError(path + ": transfer syntax " + f.syntaxName + " needs encapsulated (compressed) pixel data, but " +
+                     "PixelData holds " + std::to_string(layout.pixelBytes) + " bytes of native pixels");
+  if (!f.encapsulatedSyntax && layout.encapsulated)
+    throw InputError(path + ": transfer syntax " + f.syntaxName +
+                     " needs native pixel data, but PixelData is encapsulated (compressed fragments)");
+  if (layout.encapsulated) return;
+  const uint64_t expected =
+      uint64_t(f.rows) * uint64_t(f.columns) * uint64_t(f.bitsAllocated / 8) * uint64_t(f.samples) * uint64_t(f.frames);
+  if (layout.pixelBytes == expected || (expected % 2 == 1 && layout.pixelBytes == expected + 1)) return;
+  throw InputError(path + ": PixelData holds " + std::to_string(layout.pixelBytes) + " bytes, but the header needs " +
+                   std::to_string(expected) + " (Rows " + std::to_string(f.rows) + " x Columns " +
+                   std::to_string(f.columns) + " x " + std::to_string(f.bitsAllocated / 8) + " bytes (BitsAllocated " +
+                   std::to_string(f.bitsAllocated) + ") x SamplesPerPixel " + std::to_string(f.samples) +
+                   " x NumberOfFrames " + std::to_string(f.frames) + ")");
 }
 
 }  // namespace voxbrick::store

@@ -2,14 +2,38 @@
 // assertions, which abort the process on a truncated file instead of returning false.
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 namespace voxbrick::store {
 
+/// What the structure walk found of a file's pixel data.
+struct DicomLayout {
+  bool walked = false;        ///< false for a deflated data set, whose elements are not walked
+  bool hasPixelData = false;  ///< the data set holds PixelData (7FE0,0010)
+  bool encapsulated = false;  ///< PixelData of undefined length: compressed fragments
+  uint64_t pixelBytes = 0;    ///< PixelData's length when not encapsulated
+};
+
+/// The pixel format as the header states it, to size the native pixel data.
+struct DicomPixelFormat {
+  int64_t rows = 0, columns = 0, frames = 1, samples = 1;
+  int bitsAllocated = 0;
+  bool encapsulatedSyntax = false;  ///< the transfer syntax is a compressed (encapsulated) one
+  std::string syntaxName;           ///< for messages: "UID (name)"
+};
+
 /// Walks the file's elements (the Part 10 meta header, then the data set in its transfer syntax; sequences and
 /// encapsulated pixel data item by item) and throws InputError naming the file when one runs past the end of the
-/// file or a sequence is not closed. A deflated data set is not walked (only its meta header). Throws IoError when
-/// the file cannot be read.
-void checkDicomStructure(const std::string& path);
+/// file, a sequence is not closed, or an explicit-VR element has no valid value representation (GDCM would reread
+/// the file as implicit VR, and size values from its bytes). A deflated data set is not walked (only its meta
+/// header). Throws IoError when the file cannot be read.
+DicomLayout checkDicomStructure(const std::string& path);
+
+/// Throws InputError naming the file when its pixel data does not match the header: no PixelData, encapsulated
+/// pixel data under a native transfer syntax or native pixel data under a compressed one, or a native length other
+/// than Rows x Columns x BitsAllocated/8 x SamplesPerPixel x NumberOfFrames (plus one padding byte when that is odd).
+/// Nothing is checked when the data set was not walked (deflated).
+void checkPixelData(const std::string& path, const DicomLayout& layout, const DicomPixelFormat& format);
 
 }  // namespace voxbrick::store

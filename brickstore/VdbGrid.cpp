@@ -10,6 +10,7 @@
 
 #include "brickstore/Errors.h"
 #include "brickstore/OpenVdbInit.h"
+#include "brickstore/VdbHeader.h"
 
 namespace voxbrick::store {
 namespace {
@@ -21,12 +22,13 @@ std::string printable(const char* what) {
   return out;
 }
 
-/// Every grid of the file, in file order. io::File does not check its reads, so a file cut inside its last
-/// grid loads without complaint; reading it as an io::Stream over an ifstream that throws on a short read
-/// catches every truncation, at the price of loading all grids (VDB files rarely hold more than a few).
+/// Every grid of the file, in file order, after a bounds check of its header. io::File does not check its reads, so a
+/// file cut inside its last grid loads without complaint; reading it as an io::Stream over an ifstream that throws on a
+/// short read catches every truncation, at the price of loading all grids (VDB files rarely hold more than a few).
 openvdb::GridPtrVec readAllGrids(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(errnoMessage(path));
+  checkVdbHeader(path);  // before OpenVDB sizes anything from the header's lengths and counts
   in.exceptions(std::ios::failbit | std::ios::badbit);
   try {
     openvdb::io::Stream stream(in, /*delayLoad=*/false);
