@@ -11,6 +11,7 @@
 #include "brickstore/Errors.h"
 #include "brickstore/Orientation.h"
 #include "brickstore/Sources.h"
+#include "brickstore/StoreMeta.h"
 
 namespace voxbrick::store {
 namespace {
@@ -99,10 +100,9 @@ std::optional<FileValueType> datatypeValue(int code) {
   }
 }
 
-// pixdim may be signed (qfac lives in pixdim[0], but writers also negate the others) or unset (0).
-double spacingOf(float pixdim) {
-  double v = std::fabs(static_cast<double>(pixdim));
-  return (v > 0.0 && std::isfinite(v)) ? v : 1.0;
+// pixdim[1..3], the voxel size along i, j, k (qfac lives in pixdim[0]).
+Vec3d pixdimSpacing(const HeaderView& h) {
+  return {h.f32(kPixdimOffset + 4), h.f32(kPixdimOffset + 8), h.f32(kPixdimOffset + 12)};
 }
 
 // sform: the affine rows srow_x, srow_y, srow_z; column a is the world step of index axis a, column 3 the origin.
@@ -132,8 +132,8 @@ Directions qformDirections(const HeaderView& h) {
                           {2 * (bn * cn + a * dn), a * a + cn * cn - bn * bn - dn * dn, 2 * (cn * dn - a * bn)},
                           {2 * (bn * dn - a * cn), 2 * (cn * dn + a * bn), a * a + dn * dn - cn * cn - bn * bn}};
   const double qfac = h.f32(kPixdimOffset) < 0 ? -1.0 : 1.0;
-  const double step[3] = {spacingOf(h.f32(kPixdimOffset + 4)), spacingOf(h.f32(kPixdimOffset + 8)),
-                          qfac * spacingOf(h.f32(kPixdimOffset + 12))};
+  const Vec3d pixdim = pixdimSpacing(h);  // checked by niftiSpacing
+  const double step[3] = {pixdim.x, pixdim.y, qfac * pixdim.z};
   Directions out;
   for (int row = 0; row < 3; ++row) {
     for (int col = 0; col < 3; ++col) out.columns[col][row] = r[row][col] * step[col];
@@ -154,6 +154,21 @@ Orientation niftiOrientation(const HeaderView& h, const std::string& path, Vec3d
     return Orientation{};
   }
   return fromDirections(d, path + (h.i16(kSformCodeOffset) > 0 ? ": sform" : ": qform"), spacing);
+}
+
+/// The spacing and the orientation: pixdim[1..3] where no sform is given (each in range, where --spacing does not
+/// replace it), or the sform's column lengths (in range too).
+Orientation niftiSpacing(const HeaderView& h, const std::string& path, const SourceOptions& options, Vec3d& spacing) {
+  const bool sform = h.i16(kSformCodeOffset) > 0, qform = h.i16(kQformCodeOffset) > 0;
+  spacing = pixdimSpacing(h);
+  if (!sform && (qform || !options.spacingGiven))
+    for (int a = 0; a < 3; ++a) checkSpacingInRange(spacing[a], path + ": pixdim[" + std::to_string(a + 1) + "]");
+  const Orientation orientation = niftiOrientation(h, path, spacing);
+  if (sform && !options.spacingGiven)
+    for (int a = 0; a < 3; ++a)
+      checkSpacingInRange(spacing[a], path + ": sform (srow_x, srow_y, srow_z) column " + std::to_string(a));
+  if (options.spacingGiven) spacing = options.spacing;
+  return orientation;
 }
 
 /// Checks sizeof_hdr (in either byte order), the header's length and the single-file magic; returns whether the
@@ -263,10 +278,8 @@ std::unique_ptr<VolumeSource> openNiftiSource(const std::string& path, const Sou
   const int64_t dataBytes = checkedVolumeBytes(dims, fileValueSize(fileType), path);
   const int64_t voxOffset = niftiVoxOffset(h, path);
 
-  Vec3d spacing{spacingOf(h.f32(kPixdimOffset + 4)), spacingOf(h.f32(kPixdimOffset + 8)),
-                spacingOf(h.f32(kPixdimOffset + 12))};
-  const Orientation orientation = niftiOrientation(h, path, spacing);
-  if (options.spacingGiven) spacing = options.spacing;
+  Vec3d spacing;
+  const Orientation orientation = niftiSpacing(h, path, options, spacing);
   checkSpacing(spacing, path);
 
   const Conversion conversion = niftiConversion(h, fileType, swap);

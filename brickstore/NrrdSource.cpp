@@ -15,6 +15,7 @@
 #include "brickstore/Errors.h"
 #include "brickstore/Orientation.h"
 #include "brickstore/Sources.h"
+#include "brickstore/StoreMeta.h"
 
 namespace voxbrick::store {
 namespace {
@@ -306,7 +307,9 @@ Orientation parseOrientation(const FieldReader& fields, int64_t dimension, Vec3d
   return fromDirections(d, fields.path() + ": space directions", spacing);
 }
 
-// Spacing of the three spatial axes (the last three), from "space directions" or else "spacings"; 1 where unknown.
+// Spacing of the three spatial axes (the last three), from "space directions" or else "spacings"; 1 where neither is
+// given. A spatial axis's spacing must be in range: "nan", a negative or absurd value, or a 'none' direction is
+// refused rather than guessed.
 Vec3d parseSpacing(const FieldReader& fields, int64_t dimension) {
   std::vector<double> perAxis;
   std::string name;
@@ -315,7 +318,7 @@ Vec3d parseSpacing(const FieldReader& fields, int64_t dimension) {
     perAxis = directionLengths(fields, *dirs);
   } else if (const std::string* spacings = fields.find("spacings")) {
     name = "spacings";
-    for (const std::string& t : tokens(*spacings)) perAxis.push_back(std::fabs(fields.real(name, t)));
+    for (const std::string& t : tokens(*spacings)) perAxis.push_back(fields.real(name, t));
   } else {
     return Vec3d{1, 1, 1};
   }
@@ -323,17 +326,11 @@ Vec3d parseSpacing(const FieldReader& fields, int64_t dimension) {
     throw InputError(fields.path() + ": header field '" + name + "' has " + std::to_string(perAxis.size()) +
                      " values, expected " + std::to_string(dimension));
   }
-  double s[3];
-  for (int a = 0; a < 3; ++a) {
-    double v = perAxis[static_cast<size_t>(dimension - 3 + a)];
-    if (std::isnan(v)) v = 1.0;  // "nan" / "none": the axis has no known spacing
-    if (!(v > 0.0) || !std::isfinite(v)) {
-      throw InputError(fields.path() + ": header field '" + name + "' gives spatial axis " + std::to_string(a) +
-                       " a zero or infinite spacing");
-    }
-    s[a] = v;
-  }
-  return Vec3d{s[0], s[1], s[2]};
+  const double* spatial = perAxis.data() + (dimension - 3);
+  for (int a = 0; a < 3; ++a)
+    checkSpacingInRange(spatial[a],
+                        fields.path() + ": header field '" + name + "' of spatial axis " + std::to_string(a));
+  return Vec3d{spatial[0], spatial[1], spatial[2]};
 }
 
 std::string resolveDataFile(const FieldReader& fields, const std::string& value) {
@@ -410,8 +407,17 @@ std::unique_ptr<ByteStream> openNrrdData(const FieldReader& fields, const NrrdHe
     dataPath = resolveDataFile(fields, *dataFile);
     start = 0;
   }
-  start = offsetAfterLines(dataPath, start, lineSkip);
-  return openVoxelData(dataPath, start, byteSkip, gzip, dataBytes);
+  // A detached data file's errors name it; the header that points at it is named too.
+  try {
+    start = offsetAfterLines(dataPath, start, lineSkip);
+    return openVoxelData(dataPath, start, byteSkip, gzip, dataBytes);
+  } catch (const InputError& e) {
+    if (dataPath == fields.path()) throw;
+    throw InputError(fields.path() + ": data file: " + e.what());
+  } catch (const IoError& e) {
+    if (dataPath == fields.path()) throw;
+    throw IoError(fields.path() + ": data file: " + e.what());
+  }
 }
 
 }  // namespace
@@ -433,7 +439,8 @@ std::unique_ptr<VolumeSource> openNrrdSource(const std::string& path, const Sour
   const bool gzip = nrrdGzip(fields);
   const bool bigEndian = nrrdBigEndian(fields, *fileType, typeText);
 
-  Vec3d spacing = parseSpacing(fields, dimension);
+  // The header's spacing is checked only where it is used: --spacing replaces it.
+  Vec3d spacing = options.spacingGiven ? options.spacing : parseSpacing(fields, dimension);
   const Orientation orientation = parseOrientation(fields, dimension, spacing);
   if (options.spacingGiven) spacing = options.spacing;
   checkSpacing(spacing, path);

@@ -2,9 +2,14 @@
 #include "brickstore/StoreMeta.h"
 
 #include <cmath>
+#include <cstdio>
+#include <limits>
+#include <type_traits>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 
+#include "brickstore/Convert.h"
 #include "brickstore/Errors.h"
 #include "brickstore/StoreFormat.h"
 
@@ -13,6 +18,13 @@ namespace {
 
 using nlohmann::json;
 
+/// `v` as printf's %g writes it ("1e+12", "nan").
+std::string numberText(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", v);
+  return text;
+}
+
 json toJson(const Vec3i& v) { return json::array({v.x, v.y, v.z}); }
 json toJson(const Vec3d& v) { return json::array({v.x, v.y, v.z}); }
 
@@ -20,6 +32,35 @@ const json& field(const json& j, const char* key, const std::string& what) {
   auto it = j.find(key);
   if (it == j.end()) throw CorruptStoreError(what + ": missing key '" + key + "'");
   return *it;
+}
+
+/// `v`, the value of `key`, as a T: an integer in T's range for an integral T, else a finite number. A value of another
+/// JSON type is refused naming the key rather than left to the JSON library's type error.
+template <typename T>
+T numberValue(const json& v, const std::string& key, const std::string& what) {
+  if constexpr (std::is_integral_v<T>) {
+    if (!v.is_number_integer()) throw CorruptStoreError(what + ": key '" + key + "' is not an integer");
+    const bool fits = v.is_number_unsigned() ? v.get<uint64_t>() <= uint64_t(std::numeric_limits<T>::max())
+                                             : v.get<int64_t>() >= int64_t(std::numeric_limits<T>::min()) &&
+                                                   v.get<int64_t>() <= int64_t(std::numeric_limits<T>::max());
+    if (!fits) throw CorruptStoreError(what + ": key '" + key + "' is out of range");
+    return v.get<T>();
+  } else {
+    if (!v.is_number() || !std::isfinite(v.get<double>()))
+      throw CorruptStoreError(what + ": key '" + key + "' is not a finite number");
+    return v.get<T>();
+  }
+}
+
+template <typename T>
+T number(const json& j, const char* key, const std::string& what) {
+  return numberValue<T>(field(j, key, what), key, what);
+}
+
+/// As number(), with `fallback` where the key is absent.
+template <typename T>
+T optionalNumber(const json& j, const char* key, const std::string& what, T fallback) {
+  return j.contains(key) ? number<T>(j, key, what) : fallback;
 }
 
 Vec3i vec3i(const json& j, const char* key, const std::string& what) {
@@ -36,14 +77,8 @@ Vec3d vec3d(const json& j, const char* key, const std::string& what) {
   const json& v = field(j, key, what);
   if (!v.is_array() || v.size() != 3 || !v[0].is_number() || !v[1].is_number() || !v[2].is_number())
     throw CorruptStoreError(what + ": key '" + key + "' is not three numbers");
-  return {v[0].get<double>(), v[1].get<double>(), v[2].get<double>()};
-}
-
-template <typename T>
-T number(const json& j, const char* key, const std::string& what) {
-  const json& v = field(j, key, what);
-  if (!v.is_number()) throw CorruptStoreError(what + ": key '" + key + "' is not a number");
-  return v.get<T>();
+  return {numberValue<double>(v[0], key, what), numberValue<double>(v[1], key, what),
+          numberValue<double>(v[2], key, what)};
 }
 
 Orientation orientationFromJson(const json& o, const std::string& what) {
@@ -144,8 +179,9 @@ Histogram histogramFromJson(const json& j, const std::string& what) {
   if (!hrange.is_array() || hrange.size() != 2 || !counts.is_array())
     throw CorruptStoreError(what + ": key 'histogram' is malformed");
   Histogram histogram;
-  histogram.lo = hrange[0].get<double>();
-  histogram.hi = hrange[1].get<double>();
+  histogram.lo = numberValue<double>(hrange[0], "histogram.range", what);
+  histogram.hi = numberValue<double>(hrange[1], "histogram.range", what);
+  if (histogram.lo > histogram.hi) throw CorruptStoreError(what + ": key 'histogram.range' has lo > hi");
   for (const json& c : counts) {
     if (!c.is_number_unsigned()) throw CorruptStoreError(what + ": histogram counts must be unsigned integers");
     histogram.counts.push_back(c.get<uint64_t>());
@@ -188,7 +224,71 @@ void quantisationFromJson(const json& q, StoreMeta& m, const std::string& what) 
     throw CorruptStoreError(what + ": quantised to " + qtype.get<std::string>() + " but the store type is " +
                             std::string(valueTypeName(m.type)));
   m.quantisation = quantisation;
-  m.quantisationClamped = q.value("clamped", int64_t{0});
+  m.quantisationClamped = optionalNumber<int64_t>(q, "clamped", what, 0);
+}
+
+/// The strings of the optional array `key`; none when it is absent.
+std::vector<std::string> stringsFromJson(const json& j, const char* key, const std::string& what) {
+  std::vector<std::string> out;
+  if (!j.contains(key)) return out;
+  const json& list = j[key];
+  if (!list.is_array()) throw CorruptStoreError(what + ": key '" + key + "' is not an array of strings");
+  for (const json& s : list) {
+    if (!s.is_string()) throw CorruptStoreError(what + ": key '" + key + "' is not an array of strings");
+    out.push_back(s.get<std::string>());
+  }
+  return out;
+}
+
+/// The levels against the pyramid that `m.dims` and `m.brickSize` make, and each level's counts against its bricks.
+void checkLevels(const StoreMeta& m, const std::string& what) {
+  const std::vector<Vec3i> pyramid = pyramidDims(m.dims, m.brickSize);
+  if (m.levels.size() != pyramid.size())
+    throw CorruptStoreError(what + ": key 'levels' has " + std::to_string(m.levels.size()) + " levels; dims " +
+                            dimsText(m.dims) + " in bricks of " + std::to_string(m.brickSize) + " make " +
+                            std::to_string(pyramid.size()));
+  const int64_t B = m.brickSize;
+  for (size_t l = 0; l < pyramid.size(); ++l) {
+    const LevelMeta& level = m.levels[l];
+    const std::string where = what + ": key 'levels' level " + std::to_string(l);
+    if (!(level.dims == pyramid[l]))
+      throw CorruptStoreError(where + " has dims " + dimsText(level.dims) + ", expected " + dimsText(pyramid[l]));
+    if (!(level.bricks == Vec3i{divUp(level.dims.x, B), divUp(level.dims.y, B), divUp(level.dims.z, B)}))
+      throw CorruptStoreError(where + " has bricks " + dimsText(level.bricks) + " that do not cover its dims");
+    if (level.bricksStored < 0 || level.bricksStored > level.bricksTotal() || level.bytesStored < 0)
+      throw CorruptStoreError(where + " has bricks_stored or bytes_stored out of range");
+  }
+}
+
+/// What readers size and scale from, each within its range: the spacing (as every input's), the value range, the
+/// brick size (as --brick's), the levels, and the counts against the volume.
+void checkMetaRanges(const StoreMeta& m, const std::string& what) {
+  auto bad = [&](const std::string& key, const std::string& why) {
+    return CorruptStoreError(what + ": key '" + key + "' " + why);
+  };
+  for (int a = 0; a < 3; ++a)
+    if (!spacingInRange(m.spacing[a]))
+      throw bad("spacing", "has " + numberText(m.spacing[a]) + " (each must be in [" + numberText(kMinSpacing) + ", " +
+                               numberText(kMaxSpacing) + "])");
+  if (m.valueMin > m.valueMax)
+    throw bad("value_range", "is [" + numberText(m.valueMin) + ", " + numberText(m.valueMax) + "]: lo > hi");
+  if (m.brickSize < 8 || m.brickSize > int(kMaxBrickSize) || (m.brickSize & (m.brickSize - 1)) != 0)
+    throw bad("brick_size", "is " + std::to_string(m.brickSize) + ", not a power of two in [8, " +
+                                std::to_string(kMaxBrickSize) + "]");
+  int64_t voxels = 0, bytesRaw = 0;
+  if (__builtin_mul_overflow(m.dims.x, m.dims.y, &voxels) || __builtin_mul_overflow(voxels, m.dims.z, &voxels) ||
+      __builtin_mul_overflow(voxels, int64_t(valueSize(m.type)), &bytesRaw))
+    throw bad("dims", "is " + dimsText(m.dims) + ", too large (the byte count overflows)");
+  checkLevels(m, what);
+  if (m.bytesRaw != bytesRaw)
+    throw bad("bytes_raw", "is " + std::to_string(m.bytesRaw) + ", expected " + std::to_string(bytesRaw));
+  if (m.bytesStored < 0 || m.bytesVdb < 0) throw bad("bytes_stored", "or 'bytes_vdb' is negative");
+  const std::pair<const char*, int64_t> voxelCounts[] = {{"active_voxels", m.activeVoxels},
+                                                         {"nonfinite_replaced", m.nonFiniteReplaced},
+                                                         {"quantisation.clamped", m.quantisationClamped}};
+  for (const auto& [key, count] : voxelCounts)
+    if (count < 0 || count > voxels)
+      throw bad(key, "is " + std::to_string(count) + ", outside [0, " + std::to_string(voxels) + "] (the voxels)");
 }
 
 }  // namespace
@@ -202,22 +302,24 @@ StoreMeta StoreMeta::fromJson(const std::string& text, const std::string& what) 
   m.type = typeFromJson(j, what);
   m.background = number<double>(j, "background", what);
   const json& range = field(j, "value_range", what);
-  if (!range.is_array() || range.size() != 2 || !range[0].is_number() || !range[1].is_number())
-    throw CorruptStoreError(what + ": key 'value_range' is not two numbers");
-  m.valueMin = range[0].get<double>();
-  m.valueMax = range[1].get<double>();
+  if (!range.is_array() || range.size() != 2) throw CorruptStoreError(what + ": key 'value_range' is not two numbers");
+  m.valueMin = numberValue<double>(range[0], "value_range", what);
+  m.valueMax = numberValue<double>(range[1], "value_range", what);
   m.histogram = histogramFromJson(j, what);
   m.brickSize = number<int>(j, "brick_size", what);
   m.levels = levelsFromJson(j, what);
   m.bytesRaw = number<int64_t>(j, "bytes_raw", what);
   m.bytesStored = number<int64_t>(j, "bytes_stored", what);
-  m.bytesVdb = j.value("bytes_vdb", int64_t{0});
-  m.activeVoxels = j.value("active_voxels", int64_t{0});
-  m.nonFiniteReplaced = j.value("nonfinite_replaced", int64_t{0});
-  if (j.contains("vdb_files") && j["vdb_files"].is_array())
-    for (const json& f : j["vdb_files"]) m.vdbFiles.push_back(f.get<std::string>());
-  m.source = j.value("source", std::string());
+  m.bytesVdb = optionalNumber<int64_t>(j, "bytes_vdb", what, 0);
+  m.activeVoxels = optionalNumber<int64_t>(j, "active_voxels", what, 0);
+  m.nonFiniteReplaced = optionalNumber<int64_t>(j, "nonfinite_replaced", what, 0);
+  m.vdbFiles = stringsFromJson(j, "vdb_files", what);
+  if (j.contains("source")) {
+    if (!j["source"].is_string()) throw CorruptStoreError(what + ": key 'source' is not a string");
+    m.source = j["source"].get<std::string>();
+  }
   if (j.contains("quantisation")) quantisationFromJson(j["quantisation"], m, what);
+  checkMetaRanges(m, what);
   return m;
 }
 
@@ -228,6 +330,12 @@ std::vector<Vec3i> pyramidDims(Vec3i dims, int brickSize) {
     levels.push_back(dims);
   }
   return levels;
+}
+
+void checkSpacingInRange(double s, const std::string& what) {
+  if (!spacingInRange(s))
+    throw InputError(what + " is " + numberText(s) + ", not a spacing in [" + numberText(kMinSpacing) + ", " +
+                     numberText(kMaxSpacing) + "] (--spacing overrides it)");
 }
 
 void checkBrickSize(int brickSize) {

@@ -65,6 +65,17 @@ struct StoreMeta {
 /// in one brick of `brickSize` along every axis.
 std::vector<Vec3i> pyramidDims(Vec3i dims, int brickSize);
 
+/// The voxel spacing any input or store may have: far enough from 0 and from the largest double that spacing times
+/// dims stays finite and the index-to-world transform (OpenVDB's included) stays invertible.
+inline constexpr double kMinSpacing = 1e-12, kMaxSpacing = 1e12;
+
+/// Whether `s` is in [kMinSpacing, kMaxSpacing] (false for NaN).
+inline bool spacingInRange(double s) { return s >= kMinSpacing && s <= kMaxSpacing; }
+
+/// Throws InputError "<what> is <s>, not a spacing in [1e-12, 1e12] ..." unless spacingInRange(s); `what` names the
+/// file and the field the spacing came from.
+void checkSpacingInRange(double s, const std::string& what);
+
 /// Throws InputError unless `brickSize` is a power of two in [8, kMaxBrickSize] (the rule for --brick).
 void checkBrickSize(int brickSize);
 

@@ -1,6 +1,7 @@
 // TIFF stack input through libtiff: the pages of one file, or single-page files in a given order, as z-slices.
 // Every page is checked (size, one channel, sample type) when the source opens; pixels are read a page at a time.
 #include <tiffio.h>
+#include <unistd.h>
 
 #include <cstdarg>
 #include <cstdio>
@@ -27,6 +28,7 @@ class TiffFile {
     mTiff = TIFFOpenExt(mPath.c_str(), "r", options);
     TIFFOpenOptionsFree(options);
     if (!mTiff) throw InputError(mPath + ": not a readable TIFF file" + detail());
+    mPageOffsets.push_back(TIFFCurrentDirOffset(mTiff));
   }
   ~TiffFile() {
     if (mTiff) TIFFClose(mTiff);
@@ -40,15 +42,53 @@ class TiffFile {
   std::string detail() const { return mError.empty() ? "" : " (libtiff: " + mError + ")"; }
 
   /// Moves to the next page: true if there is one, false at the last; throws InputError when the next page's
-  /// directory is damaged (libtiff returns 0 for both, and tells them apart only by reporting an error).
+  /// directory is damaged (libtiff returns 0 for both, and tells them apart only by reporting an error) and when the
+  /// page chain loops or repeats a page (libtiff only warns of a loop, then ends the chain early).
   bool nextPage(const std::string& where) {
     mError.clear();
-    if (TIFFReadDirectory(mTiff)) return true;
+    const uint64_t current = TIFFCurrentDirOffset(mTiff);
+    if (TIFFReadDirectory(mTiff)) {
+      const uint64_t offset = TIFFCurrentDirOffset(mTiff);
+      refuseRepeat(where, offset);
+      mPageOffsets.push_back(offset);
+      return true;
+    }
     if (!mError.empty()) throw InputError(where + ": cannot read the next page" + detail());
+    const uint64_t next = statedNextOffset(current);
+    if (next != 0) {
+      refuseRepeat(where, next);
+      throw InputError(where + ": its next-page (IFD) offset " + std::to_string(next) + " leads to no page");
+    }
     return false;
   }
 
  private:
+  /// Refuses a next-page offset `offset` of page `where` that is a page already read.
+  void refuseRepeat(const std::string& where, uint64_t offset) const {
+    for (size_t page = 0; page < mPageOffsets.size(); ++page)
+      if (mPageOffsets[page] == offset)
+        throw InputError(where + ": its next-page (IFD) offset " + std::to_string(offset) + " points back to page " +
+                         std::to_string(page + 1) + "; the page chain loops");
+  }
+
+  /// The next-page offset that the directory at `dir` states (0: the last page), read from the file itself.
+  uint64_t statedNextOffset(uint64_t dir) const {
+    if (TIFFIsBigTIFF(mTiff)) return readAt<uint64_t>(dir + 8 + 20 * readAt<uint64_t>(dir));
+    return readAt<uint32_t>(dir + 2 + 12 * uint64_t(readAt<uint16_t>(dir)));
+  }
+
+  /// The value of type T at `offset` in the file's byte order; 0 where the file ends first.
+  template <typename T>
+  T readAt(uint64_t offset) const {
+    T v = 0;
+    if (pread(TIFFFileno(mTiff), &v, sizeof v, off_t(offset)) != ssize_t(sizeof v)) return 0;
+    if (!TIFFIsByteSwapped(mTiff)) return v;
+    if constexpr (sizeof(T) == 2) TIFFSwabShort(&v);
+    if constexpr (sizeof(T) == 4) TIFFSwabLong(&v);
+    if constexpr (sizeof(T) == 8) TIFFSwabLong8(&v);
+    return v;
+  }
+
   static int onError(TIFF*, void* self, const char* module, const char* format, va_list args) {
     char text[512];
     std::vsnprintf(text, sizeof text, format, args);
@@ -60,6 +100,7 @@ class TiffFile {
   std::string mPath;
   std::string mError;
   TIFF* mTiff = nullptr;
+  std::vector<uint64_t> mPageOffsets;  // the directory offset of each page read so far
 };
 
 /// The layout of one page, as the store needs it.

@@ -11,6 +11,7 @@
 #include "brickstore/Errors.h"
 #include "brickstore/StoreWriter.h"
 #include "cli/Commands.h"
+#include "cli/InputErrors.h"
 #include "cli/Progress.h"
 #include "mesh/MeshReaders.h"
 #include "mesh/MeshStore.h"
@@ -55,6 +56,9 @@ void runMeshPrep(const PrepArgs& a) {
     std::fprintf(stderr, "prep: %s: %zu points, %zu tets, field '%s' -> %s\n", a.input.c_str(), m.points.size(),
                  m.tets.size(), m.field.c_str(), a.output.c_str());
   const mesh::MeshRepairs repairs = mesh::validateMesh(m);
+  if (!m.dropped.empty())
+    std::fprintf(stderr, "prep: %s: dropped %s: only tetrahedra are volume cells (points, lines, surfaces are not)\n",
+                 a.input.c_str(), m.dropped.c_str());
   const mesh::Topology topology = mesh::buildTopology(m);
   if (gInterrupted) throw store::StoreError("interrupted; nothing was written");
   mesh::MeshStoreOptions options;
@@ -96,7 +100,7 @@ store::SourceOptions sourceOptions(const PrepArgs& a) {
     so.spacing = {s[0], s[1], s[2]};
     so.spacingGiven = true;
     for (double v : s)
-      if (!(v > 0) || !std::isfinite(v)) throw store::InputError("--spacing values must be positive and finite");
+      if (!store::spacingInRange(v)) throw store::InputError("--spacing values must be in [1e-12, 1e12]");
   }
   so.type = a.type;
   so.bigEndian = a.endian == "big";
@@ -241,7 +245,12 @@ void addPrepCommand(CLI::App& app) {
   cmd->add_flag("--force", args->options.overwrite, "replace an existing store (once the new one is complete)");
   cmd->add_option("--threads", args->options.threads, "worker threads (0: all cores)")->check(between(0, 1024));
   cmd->add_flag("-q,--quiet", args->quiet, "no progress output");
-  cmd->callback([args, cmd] { runPrep(*args, *cmd); });
+  cmd->callback([args, cmd] {
+    // An error from reading the input names it, whatever raised it; the output's own errors name the output.
+    std::vector<std::string> named = args->inputs;
+    named.push_back(args->output);
+    namingInput(named, [&] { runPrep(*args, *cmd); });
+  });
 }
 
 }  // namespace voxbrick::cli

@@ -257,9 +257,10 @@ void GmshParser::readNodes4() {
 
 void GmshParser::addElement(const GmshKind& kind, int64_t type, const std::vector<uint64_t>& nodes, uint64_t tag,
                             size_t at) {
-  if (kind.dim < 3) return;  // points, lines and surface elements: boundary and region tags, not volume
   if (type != kTetrahedron) {
-    mCensus.refuse(std::string(kind.name) + " (gmsh type " + std::to_string(type) + ")");
+    // Points, lines and surface elements are boundary and region tags, not volume: dropped, and counted for a note.
+    const std::string name = std::string(kind.name) + " (gmsh type " + std::to_string(type) + ")";
+    kind.dim < 3 ? mCensus.drop(name) : mCensus.refuse(name);
     return;
   }
   Tet tet;
@@ -457,6 +458,7 @@ TetMesh GmshParser::parse() {
   mesh.tets = std::move(mTets);
   mesh.scalars = std::move(mScalars);
   mesh.field = mPicker.chosenName();
+  mesh.dropped = mCensus.dropped();
   return mesh;
 }
 

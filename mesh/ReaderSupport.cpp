@@ -16,11 +16,15 @@ std::string joined(const std::vector<std::string>& items) {
 
 }  // namespace
 
+std::string CellCensus::countedKinds(const std::map<std::string, size_t>& kinds) {
+  std::string out;
+  for (const auto& [kind, count] : kinds) out += (out.empty() ? "" : ", ") + std::to_string(count) + " x " + kind;
+  return out;
+}
+
 void CellCensus::throwIfRefused(const std::string& file) const {
   if (mRefused.empty()) return;
-  std::string kinds;
-  for (const auto& [kind, count] : mRefused)
-    kinds += (kinds.empty() ? "" : ", ") + std::to_string(count) + " x " + kind;
+  const std::string kinds = countedKinds(mRefused);
   // Splitting other cells into tets is possible but not faithful: a hexahedron's trilinear field (or a wedge's,
   // a pyramid's) is not piecewise linear, so any split changes the rendered field and depends on the diagonal
   // chosen. Refusing says so instead of rendering something else.

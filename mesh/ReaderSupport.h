@@ -13,12 +13,19 @@ class CellCensus {
  public:
   /// Counts one cell of `kind` (e.g. "hexahedron (VTK type 12)").
   void refuse(const std::string& kind) { ++mRefused[kind]; }
+  /// Counts one cell of `kind` left out on purpose (e.g. "triangle (VTK type 5)": a boundary, not a volume).
+  void drop(const std::string& kind) { ++mDropped[kind]; }
+  /// The dropped cells, "N x KIND, ..." ("" when none), for TetMesh::dropped.
+  std::string dropped() const { return countedKinds(mDropped); }
   bool anyRefused() const { return !mRefused.empty(); }
   /// Throws MeshError naming `file` and every refused kind with its count, if any was refused.
   void throwIfRefused(const std::string& file) const;
 
  private:
+  static std::string countedKinds(const std::map<std::string, size_t>& kinds);
+
   std::map<std::string, size_t> mRefused;
+  std::map<std::string, size_t> mDropped;
 };
 
 /// Chooses the point scalar to read: the one named `wanted`, or the first offered when `wanted` is empty.

@@ -28,6 +28,8 @@ struct TetMesh {
   std::vector<Tet> tets;
   std::vector<float> scalars;  ///< one per vertex
   std::string field;           ///< the scalar's name in the source file
+  /// The cells the reader left out on purpose, "N x KIND, ..." (points, lines and surfaces: no volume); empty if none.
+  std::string dropped;
 
   /// The axis-aligned bounds of the points ({+inf}, {-inf} when there are none).
   std::pair<glm::vec3, glm::vec3> bounds() const;

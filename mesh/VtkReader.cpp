@@ -478,14 +478,16 @@ TetMesh VtkParser::assemble() {
                           ", but there are " + std::to_string(mesh.points.size()) + " points");
       }
       mesh.tets.push_back(tet);
-    } else if (kind.dim == 3) {
-      census.refuse(std::string(kind.name) + " (VTK type " + std::to_string(type) + ")");
+    } else {
+      const std::string name = std::string(kind.name) + " (VTK type " + std::to_string(type) + ")";
+      kind.dim == 3 ? census.refuse(name) : census.drop(name);
     }
   }
   census.throwIfRefused(mIn.name());
   mPicker.requireChosen(mIn.name());
   mesh.scalars = std::move(mScalars);
   mesh.field = mPicker.chosenName();
+  mesh.dropped = census.dropped();
   return mesh;
 }
 

@@ -1,0 +1,26 @@
+// Errors of reading an input or opening a store, each naming the file whatever library raised it.
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace voxbrick::cli {
+
+/// Rethrows the exception in flight (call it from a catch block) so that it names a file: a message that names one of
+/// `named` already passes unchanged, and so do store::IoError and a plain store::StoreError (an interruption), which
+/// are about no input; any other, a library's own included (JSON, OpenVDB, std::bad_alloc, a mesh check), becomes
+/// "NAMED[0]: MESSAGE", a store::CorruptStoreError if it was one and a store::InputError otherwise.
+[[noreturn]] void rethrowNamingInput(const std::vector<std::string>& named);
+
+/// Runs `fn`, whose errors come from reading the file `named[0]`, through rethrowNamingInput.
+template <typename F>
+decltype(auto) namingInput(const std::vector<std::string>& named, F&& fn) {
+  try {
+    return std::forward<F>(fn)();
+  } catch (...) {
+    rethrowNamingInput(named);
+  }
+}
+
+}  // namespace voxbrick::cli
