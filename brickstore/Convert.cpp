@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "brickstore/Errors.h"
+#include "brickstore/StoreMeta.h"
 
 namespace voxbrick::store {
 namespace {
@@ -132,9 +133,9 @@ int64_t checkedVolumeBytes(const Vec3i& dims, size_t valueBytes, const std::stri
 
 void checkSpacing(const Vec3d& spacing, const std::string& file) {
   for (int a = 0; a < 3; ++a) {
-    if (!(spacing[a] > 0.0) || !std::isfinite(spacing[a])) {
+    if (!spacingInRange(spacing[a])) {
       throw InputError(file + ": spacing " + std::to_string(spacing.x) + "," + std::to_string(spacing.y) + "," +
-                       std::to_string(spacing.z) + " must be positive and finite");
+                       std::to_string(spacing.z) + " must be positive and finite, each in [1e-12, 1e12]");
     }
   }
 }

@@ -46,7 +46,8 @@ bool needsSwap(bool fileBigEndian);
 /// positive or the product overflows.
 int64_t checkedVolumeBytes(const Vec3i& dims, size_t valueBytes, const std::string& file);
 
-/// Throws InputError naming `file` unless every component is positive and finite.
+/// Throws InputError naming `file` unless every component is a spacing in [kMinSpacing, kMaxSpacing] (positive, finite,
+/// and within what a world transform can invert).
 void checkSpacing(const Vec3d& spacing, const std::string& file);
 
 /// "256x256x128".

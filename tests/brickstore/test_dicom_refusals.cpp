@@ -100,6 +100,15 @@ TEST(DicomRefusals, RowsChangedInEverySliceIsRefused) {
   expectRefused(openAndRead(dir / "ct"), {".dcm: PixelData holds 2048 bytes", "needs 1984", "Rows 31"});
 }
 
+TEST(DicomRefusals, AnAbsurdPixelSpacingIsRefusedBeforeItReachesTheWorldTransform) {
+  // 1e308 mm is finite but beyond what a world transform can invert (OpenVDB's words would be "singular matrix").
+  ScratchDir dir;
+  DicomSeriesSpec huge = spec();
+  huge.spacing = {1e308, 1, 1};
+  test::writeDicomSeries(dir / "huge", huge, phantom);
+  expectRefused(openAndRead(dir / "huge"), {"huge", "spacing", "[1e-12, 1e12]"});
+}
+
 TEST(DicomRefusals, TransferSyntaxNotMatchingThePixelDataIsRefused) {
   ScratchDir dir;
   DicomSeriesSpec rle = spec();
