@@ -102,7 +102,7 @@ TEST(Lod, OutOfCoreMixedLevelsEqualInCore) {
   ASSERT_EQ(whole.batches, 1);
   // Room for a handful of bricks: many batches, each mixing levels.
   const size_t brick = size_t(s->brickEdge()) * s->brickEdge() * s->brickEdge() * 4;
-  const image::ImageF outOfCore = renderStore(s, scene, &tight, 6 * brick);
+  const image::ImageF outOfCore = renderStore(s, scene, &tight, 6 * brick, size_t(256) << 20, test::batched());
   EXPECT_GT(tight.batches, 3);
   expectClose(outOfCore, inCore, 1.0 / 255, "lod out of core");
 }
