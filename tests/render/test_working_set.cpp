@@ -15,19 +15,6 @@ namespace {
 
 constexpr int kTexels = 4096;
 
-/// How many drawn bricks cover each level-0 brick (x fastest).
-std::vector<int> coverage(const FramePlan& plan, const store::Vec3i& grid) {
-  std::vector<int> cover(size_t(grid.volume()), 0);
-  for (const BrickDraw& d : plan.visible.bricks) {
-    const int m = int(d.key.level);
-    for (int64_t k = int64_t(d.key.k) << m; k < std::min((int64_t(d.key.k) + 1) << m, grid.z); ++k)
-      for (int64_t j = int64_t(d.key.j) << m; j < std::min((int64_t(d.key.j) + 1) << m, grid.y); ++j)
-        for (int64_t i = int64_t(d.key.i) << m; i < std::min((int64_t(d.key.i) + 1) << m, grid.x); ++i)
-          ++cover[size_t(i + grid.x * (j + grid.y * k))];
-  }
-  return cover;
-}
-
 std::vector<store::BrickKey> keys(const FramePlan& plan) {
   std::vector<store::BrickKey> out;
   for (const BrickDraw& d : plan.visible.bricks) out.push_back(d.key);
@@ -56,7 +43,7 @@ TEST(WorkingSetFit, ACoarsenedPlanFitsAndCoversEachBrickOnce) {
   const FramePlan wanted = planFrame(scene, *s, kTexels);
   const int64_t full = int64_t(wanted.visible.bricks.size());
   ASSERT_GT(full, 500);
-  const std::vector<int> wantedCover = coverage(wanted, grid);
+  const std::vector<int> wantedCover = test::levelZeroCoverage(wanted.visible.bricks, grid);
   for (int64_t capacity : {full - 1, full / 2, full / 5, int64_t(40)})
     for (bool atlas : {true, false}) {
       const std::string what = "capacity " + std::to_string(capacity) + (atlas ? " (atlas)" : " (host)");
@@ -69,7 +56,7 @@ TEST(WorkingSetFit, ACoarsenedPlanFitsAndCoversEachBrickOnce) {
       EXPECT_EQ((st.bricksDrawn - st.bricksCoarse) + st.bricksCoarsened + st.bricksSkippedEmpty + st.bricksCulled,
                 grid.volume())
           << what;
-      const std::vector<int> cover = coverage(fitted, grid);
+      const std::vector<int> cover = test::levelZeroCoverage(fitted.visible.bricks, grid);
       for (size_t b = 0; b < cover.size(); ++b) {
         ASSERT_LE(cover[b], 1) << what << ": brick " << b << " drawn twice";
         ASSERT_GE(cover[b], wantedCover[b]) << what << ": brick " << b << " left out";
