@@ -31,6 +31,10 @@ struct FrameOptions {
   /// The most samples the frame may cost (FramePlan::estimatedSamples, checked before anything is paged or drawn);
   /// above it the frame throws RenderLimitError. 0: no limit.
   double maxSamples = 0;
+  /// With level of detail on (Scene::lod > 0): bricks are coarsened until the frame's set fits the GPU atlas and the
+  /// host cache (planFrame's budget), so that it stays resident and the next frame of the same view pages nothing.
+  /// False: the levels the screen-space error chose, drawn batch by batch when the atlas cannot hold them.
+  bool fitBudget = true;
   /// Asked between batches and texture slabs: true gives the frame up (FrameCancelled), leaving the context clean.
   /// With it the renderer also keeps at most two checkpoints of GL work queued, so that giving up takes effect
   /// within about one slab's work rather than after the whole queued frame. Empty: never cancelled.

@@ -19,13 +19,18 @@ struct FrameStats {
   /// yet resident themselves (they are being paged for a later frame). 0: the frame is exactly the scene's.
   int64_t bricksStandIn = 0;
   std::vector<int64_t> bricksPerLevel;  ///< bricks drawn of each pyramid level
-  int64_t bricksPagedIn = 0;            ///< uploaded into the atlas this frame
-  int64_t bricksEvicted = 0;            ///< replaced in the atlas this frame
-  double samplesEstimated = 0;          ///< the frame's cost as estimated before drawing (FramePlan::estimatedSamples)
-  int64_t batches = 0;                  ///< draw batches (more than one when the atlas cannot hold the frame's bricks)
-  int64_t slices = 0;                   ///< brick-plane polygons submitted
-  int64_t fragments = 0;                ///< volume fragments started: slices (GL_SAMPLES_PASSED) or slab fragments
-  int64_t samples = 0;                  ///< volume samples taken: one per slice fragment, several per slab fragment
+  /// The fit of the frame's bricks to its budget (FrameOptions::fitBudget): the bytes the level choice by screen-space
+  /// error wanted in the atlas's format, the atlas's bytes, and the bricks the fit took away by drawing parents
+  /// instead of their children (0 when the set fitted as chosen).
+  int64_t bytesWanted = 0, bytesBudget = 0, bricksFitCoarsened = 0;
+  int levelFinest = 0, levelCoarsest = 0;  ///< the finest and coarsest pyramid levels drawn
+  int64_t bricksPagedIn = 0;               ///< uploaded into the atlas this frame
+  int64_t bricksEvicted = 0;               ///< replaced in the atlas this frame
+  double samplesEstimated = 0;  ///< the frame's cost as estimated before drawing (FramePlan::estimatedSamples)
+  int64_t batches = 0;          ///< draw batches (more than one when the atlas cannot hold the frame's bricks)
+  int64_t slices = 0;           ///< brick-plane polygons submitted
+  int64_t fragments = 0;        ///< volume fragments started: slices (GL_SAMPLES_PASSED) or slab fragments
+  int64_t samples = 0;          ///< volume samples taken: one per slice fragment, several per slab fragment
   /// Texture slabs: samples a fragment left when its own opacity reached the termination threshold (an upper bound:
   /// planes of its range, before the ownership test). Fragments the silhouette map rejected are not started at all.
   int64_t samplesTerminated = 0;

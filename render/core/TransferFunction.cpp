@@ -187,6 +187,16 @@ glm::dvec4 TransferFunction::evaluate(double x) const {
   return a.rgba + t * (b.rgba - a.rgba);
 }
 
+double TransferFunction::maxAlpha(double lo, double hi) const {
+  lo = std::isnan(lo) ? 0.0 : std::clamp(lo, 0.0, 1.0);
+  hi = std::isnan(hi) ? 0.0 : std::clamp(hi, 0.0, 1.0);
+  if (hi < lo) std::swap(lo, hi);
+  double alpha = std::max(evaluate(lo).a, evaluate(hi).a);
+  for (const Point& p : mPoints)
+    if (p.x >= lo && p.x <= hi) alpha = std::max(alpha, p.rgba.a);
+  return alpha;
+}
+
 std::vector<glm::vec4> TransferFunction::table(int n) const {
   if (n < 1) throw RenderInputError("TransferFunction::table: size " + std::to_string(n) + " < 1");
   std::vector<glm::vec4> texels(static_cast<size_t>(n));

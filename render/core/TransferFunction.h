@@ -69,6 +69,10 @@ class TransferFunction {
   /// when tf(0) is transparent). lo <= hi, normalised (clamped to [0, 1]); NaN gives true.
   bool tableContributes(double lo, double hi, int n) const;
 
+  /// The largest alpha of a value in [lo, hi] (normalised, clamped to [0, 1], either order; NaN reads as 0): the
+  /// larger end, or a control point between them. O(points).
+  double maxAlpha(double lo, double hi) const;
+
   /// Opacity for a step of stepOverReference reference lengths: 1 - (1 - alpha)^stepOverReference, accurate for
   /// alpha near 0 or 1. alpha is clamped to [0, 1]; alpha 0 gives 0, alpha 1 gives 1 for any step > 0; a step
   /// <= 0 (or NaN input) gives 0.

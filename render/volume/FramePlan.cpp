@@ -30,7 +30,32 @@ Box FramePlan::drawBox(const Box& b, const store::Vec3d& spacing) const {
   return out;
 }
 
-FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int transferTableTexels) {
+namespace {
+
+/// The traversal's bricks, coarsened to fit `budget` when level of detail is on and they need more.
+void traverse(FramePlan& plan, const Scene& scene, const store::BrickStore& store, const BrickBudget& budget) {
+  const store::StoreMeta& meta = store.meta();
+  const Frustum frustum = Frustum::fromMatrix(plan.viewProj);
+  const OctreeTraversal traversal(store.octree(), meta.dims, store.brickSize(), meta.spacing);
+  TraversalOptions options{scene.skipEmpty, scene.cullFrustum, {scene.lod, store.levelCount() - 1, scene.height}};
+  plan.visible = traversal.run(plan.camera, frustum, plan.contributes, options);
+  plan.bricksWanted = int64_t(plan.visible.bricks.size());
+  if (scene.lod <= 0 || budget.limit() <= 0) return;
+  plan.budget = budget;
+  const CoarseningCost cost{
+      traversal, plan.camera, scene.height, [tf = scene.transferFunction, w = plan.window](float mn, float mx) {
+        return tf.maxAlpha((double(mn) - w.lo) * w.inverseWidth, (double(mx) - w.lo) * w.inverseWidth);
+      }};
+  const std::vector<store::BrickKey> whole =
+      coarsenToFit(plan.visible.bricks, store.octree(), store.levelCount() - 1, cost, budget.limit());
+  if (whole.empty()) return;
+  plan.visible = traversal.run(plan.camera, frustum, plan.contributes, options, drawWholeTest(whole));
+}
+
+}  // namespace
+
+FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int transferTableTexels,
+                    const BrickBudget& budget) {
   scene.validate();
   const store::StoreMeta& meta = store.meta();
   const int B = store.brickSize();
@@ -41,16 +66,13 @@ FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int tran
   plan.camera.clipRange(plan.volume, plan.nearPlane, plan.farPlane);
   plan.viewProj = plan.camera.projection(double(scene.width) / double(scene.height), plan.nearPlane, plan.farPlane) *
                   plan.camera.view();
-  const Frustum frustum = Frustum::fromMatrix(plan.viewProj);
 
   plan.window = valueWindow(scene, meta);
   plan.contributes = [tf = scene.transferFunction, w = plan.window, transferTableTexels](float mn, float mx) {
     return tf.tableContributes((double(mn) - w.lo) * w.inverseWidth, (double(mx) - w.lo) * w.inverseWidth,
                                transferTableTexels);
   };
-  const OctreeTraversal traversal(store.octree(), meta.dims, B, meta.spacing);
-  TraversalOptions options{scene.skipEmpty, scene.cullFrustum, {scene.lod, store.levelCount() - 1, scene.height}};
-  plan.visible = traversal.run(plan.camera, frustum, plan.contributes, options);
+  traverse(plan, scene, store, budget);
   plan.coarsestLevel = int(plan.visible.stats.bricksPerLevel.size()) - 1;
   if (plan.coarsestLevel < 0) plan.coarsestLevel = 0;
 

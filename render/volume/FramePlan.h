@@ -15,6 +15,7 @@
 #include "render/core/Scene.h"
 #include "render/volume/Slicing.h"
 #include "render/volume/Traversal.h"
+#include "render/volume/WorkingSet.h"
 
 namespace voxbrick::render {
 
@@ -39,7 +40,10 @@ struct FramePlan {
   /// entries a filtered lookup in [min, max] reads (exact at the window's ends: background at the low end is skipped
   /// when the transfer function is transparent there).
   RangePredicate contributes;
-  TraversalResult visible;          ///< bricks to draw, front to back, and what the traversal skipped
+  TraversalResult visible;  ///< bricks to draw, front to back, and what the traversal skipped
+  /// With level of detail on, the budget the bricks were fitted to (coarsenToFit); {} when none was given.
+  BrickBudget budget;
+  int64_t bricksWanted = 0;         ///< bricks the level choice by screen-space error wanted, before the fit
   glm::dvec3 planeNormal{0, 0, 1};  ///< unit, from the eye into the scene
   double step = 1;                  ///< world distance between global slice planes
   double referenceLength = 1;       ///< the length transfer-function opacities are given for
@@ -103,7 +107,10 @@ int rayCastCellSize(const store::Vec3i& dims, int subBlock, int brickSize);
 inline constexpr int kTransferTableTexels = 4096;
 
 /// Plans a frame of `scene` over `store`. `transferTableTexels` is the size of the GPU's transfer-function table
-/// (the range test covers the entries a lookup reads). Throws RenderInputError for an invalid scene.
-FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int transferTableTexels);
+/// (the range test covers the entries a lookup reads). With level of detail on (Scene::lod > 0) and a `budget`, the
+/// bricks are coarsened until they fit it (coarsenToFit); lod 0 draws level 0 everywhere, in batches when it must.
+/// Throws RenderInputError for an invalid scene.
+FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int transferTableTexels,
+                    const BrickBudget& budget = {});
 
 }  // namespace voxbrick::render

@@ -16,6 +16,7 @@ struct OctreeTraversal::Walk {
   const Frustum& frustum;
   const RangePredicate& contributes;
   TraversalOptions options;
+  const DrawWhole& drawWhole;
   glm::dvec3 eye;
   glm::dvec3 direction;
   bool orthographic;
@@ -59,6 +60,10 @@ Box OctreeTraversal::nodeBox(int d, int64_t i, int64_t j, int64_t k) const {
 }
 
 bool OctreeTraversal::coarseEnough(const Camera& camera, const LevelOfDetail& lod, int level, const Box& box) const {
+  return voxelPixels(camera, lod.imageHeight, level, box) <= lod.pixels;
+}
+
+double OctreeTraversal::voxelPixels(const Camera& camera, int imageHeight, int level, const Box& box) const {
   const double voxel = std::ldexp(std::max({mSpacing.x, mSpacing.y, mSpacing.z}), level);
   const double tanHalf = std::tan(0.5 * camera.fovYDegrees * 3.14159265358979323846 / 180.0);
   double depth = camera.distance();  // orthographic: the view's height is taken in the plane through the centre
@@ -70,21 +75,21 @@ bool OctreeTraversal::coarseEnough(const Camera& camera, const LevelOfDetail& lo
                          (corner & 4) ? box.max.z : box.min.z);
       depth = std::min(depth, glm::dot(p - camera.eye, direction));
     }
-    if (!(depth > 0)) return false;
+    if (!(depth > 0)) return std::numeric_limits<double>::infinity();
   }
-  const double pixelsTall = voxel * double(lod.imageHeight) / (2.0 * depth * tanHalf);
-  return pixelsTall <= lod.pixels;
+  return voxel * double(imageHeight) / (2.0 * depth * tanHalf);
 }
 
 Box OctreeTraversal::brickBox(int64_t i, int64_t j, int64_t k) const { return nodeBox(mOctree->depth(), i, j, k); }
 
 TraversalResult OctreeTraversal::run(const Camera& camera, const Frustum& frustum, const RangePredicate& contributes,
-                                     const TraversalOptions& options) const {
+                                     const TraversalOptions& options, const DrawWhole& drawWhole) const {
   if (options.skipEmpty && !contributes)
     throw RenderInputError("OctreeTraversal::run: skipEmpty is set but the range predicate is empty");
   if (options.lod.pixels < 0 || !std::isfinite(options.lod.pixels) || options.lod.imageHeight <= 0)
     throw RenderInputError("OctreeTraversal::run: level of detail needs pixels >= 0 and an image height > 0");
-  Walk walk{camera, frustum, contributes, options, camera.eye, camera.viewDirection(), camera.orthographic, {}};
+  Walk walk{camera, frustum, contributes, options, drawWhole, camera.eye, camera.viewDirection(), camera.orthographic,
+            {}};
   visit(walk, 0, 0, 0, 0);
   return std::move(walk.result);
 }
@@ -108,11 +113,12 @@ void OctreeTraversal::visit(Walk& walk, int d, int64_t i, int64_t j, int64_t k) 
     return;
   }
   const int level = mOctree->depth() - d;
-  if (level == 0 || (walk.options.lod.pixels > 0 && level <= walk.options.lod.coarsest &&
-                     coarseEnough(walk.camera, walk.options.lod, level, box))) {
-    walk.result.bricks.push_back({store::BrickKey{static_cast<uint32_t>(level), static_cast<uint32_t>(i),
-                                                  static_cast<uint32_t>(j), static_cast<uint32_t>(k)},
-                                  box});
+  const store::BrickKey key{static_cast<uint32_t>(level), static_cast<uint32_t>(i), static_cast<uint32_t>(j),
+                            static_cast<uint32_t>(k)};
+  if (level == 0 || (walk.drawWhole && walk.drawWhole(key)) ||
+      (walk.options.lod.pixels > 0 && level <= walk.options.lod.coarsest &&
+       coarseEnough(walk.camera, walk.options.lod, level, box))) {
+    walk.result.bricks.push_back({key, box});
     ++stats.bricksDrawn;
     if (level > 0) {
       ++stats.bricksCoarse;

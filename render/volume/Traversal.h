@@ -64,6 +64,10 @@ struct TraversalOptions {
   LevelOfDetail lod;        ///< off by default
 };
 
+/// Brick key of a node's level -> whether to draw the node at that level whatever the level of detail says (the fit
+/// of a frame to its budget, WorkingSet.h).
+using DrawWhole = std::function<bool(const store::BrickKey&)>;
+
 /// Raw (not normalised) value range of a node -> whether the transfer function gives it any opacity. It must be
 /// monotonic (a range inside an accepted range may be rejected, never the reverse), as TransferFunction::contributes
 /// is, for skipping a node to be the same as skipping each of its bricks.
@@ -89,10 +93,11 @@ class OctreeTraversal {
                   const store::Vec3d& spacing);
 
   /// The bricks to draw for `camera` (its eye, view direction and projection kind), front to back. `contributes`
-  /// may be empty when options.skipEmpty is false; `frustum` is ignored when options.cullFrustum is false. Throws
-  /// RenderInputError for an invalid camera or a missing predicate.
+  /// may be empty when options.skipEmpty is false; `frustum` is ignored when options.cullFrustum is false. A node
+  /// `drawWhole` accepts is drawn at its level (empty: none). Throws RenderInputError for an invalid camera or a
+  /// missing predicate.
   TraversalResult run(const Camera& camera, const Frustum& frustum, const RangePredicate& contributes,
-                      const TraversalOptions& options = {}) const;
+                      const TraversalOptions& options = {}, const DrawWhole& drawWhole = {}) const;
 
   /// World box of brick (i, j, k), which must exist.
   Box brickBox(int64_t i, int64_t j, int64_t k) const;
@@ -100,6 +105,10 @@ class OctreeTraversal {
   Box nodeBox(int d, int64_t i, int64_t j, int64_t k) const;
   /// Whether a node of height `level` with world box `box` may be drawn at that level under `lod` for `camera`.
   bool coarseEnough(const Camera& camera, const LevelOfDetail& lod, int level, const Box& box) const;
+  /// How many pixels tall one voxel of level `level` is on an image `imageHeight` pixels high at the nearest depth of
+  /// `box` (the screen-space error of drawing the box at that level); infinite when the box reaches in front of the
+  /// eye.
+  double voxelPixels(const Camera& camera, int imageHeight, int level, const Box& box) const;
   /// The volume's world box (volumeBox(dims, spacing)).
   const Box& volume() const { return mVolume; }
 

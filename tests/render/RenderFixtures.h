@@ -20,6 +20,7 @@
 #include "render/core/TransferFunction.h"
 #include "render/reference/Compositing.h"
 #include "render/reference/ReferenceRenderer.h"
+#include "render/volume/Traversal.h"
 #include "support/ArraySource.h"
 
 namespace voxbrick::test {
@@ -176,6 +177,20 @@ inline bool allFinite(const image::ImageF& image) {
   for (float v : image.rgba)
     if (!std::isfinite(v)) return false;
   return true;
+}
+
+/// How many of `bricks` cover each level-0 brick of a `grid` of them (x fastest): a level-m brick covers the 2^m
+/// bricks per axis under its octree node, cut at the grid.
+inline std::vector<int> levelZeroCoverage(const std::vector<render::BrickDraw>& bricks, const store::Vec3i& grid) {
+  std::vector<int> cover(size_t(grid.volume()), 0);
+  for (const render::BrickDraw& d : bricks) {
+    const int m = int(d.key.level);
+    for (int64_t k = int64_t(d.key.k) << m; k < std::min((int64_t(d.key.k) + 1) << m, grid.z); ++k)
+      for (int64_t j = int64_t(d.key.j) << m; j < std::min((int64_t(d.key.j) + 1) << m, grid.y); ++j)
+        for (int64_t i = int64_t(d.key.i) << m; i < std::min((int64_t(d.key.i) + 1) << m, grid.x); ++i)
+          ++cover[size_t(i + grid.x * (j + grid.y * k))];
+  }
+  return cover;
 }
 
 }  // namespace voxbrick::test

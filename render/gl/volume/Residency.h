@@ -58,6 +58,7 @@ class Residency {
 
   const BrickAtlas& atlas() const { return mAtlas; }
   const store::BrickStore& store() const { return *mCache->store(); }
+  const store::BrickCache& cache() const { return *mCache; }
 
  private:
   void prefetchUpTo(size_t end);

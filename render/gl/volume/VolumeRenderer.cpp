@@ -1,6 +1,7 @@
 // A frame: plan -> residency -> geometry and drawing pass -> compositing and readback, each timed.
 #include "render/gl/volume/VolumeRenderer.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -34,6 +35,33 @@ VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickC
 }
 
 VolumeRenderer::~VolumeRenderer() = default;
+
+BrickBudget VolumeRenderer::budget() const {
+  const store::BrickCache& cache = mResidency.cache();
+  return {mResidency.atlas().capacity(),
+          int64_t(cache.budgetBytes() / std::max<size_t>(cache.store()->brickBytes(), 1))};
+}
+
+void VolumeRenderer::planStats(const FramePlan& plan, FrameStats& stats) const {
+  const TraversalStats& visible = plan.visible.stats;
+  stats.nodesVisited = visible.nodesVisited;
+  stats.bricksSkippedEmpty = visible.bricksSkippedEmpty;
+  stats.bricksCulled = visible.bricksCulled;
+  stats.bricksDrawn = visible.bricksDrawn;
+  stats.bricksCoarse = visible.bricksCoarse;
+  stats.bricksCoarsened = visible.bricksCoarsened;
+  stats.bricksPerLevel = visible.bricksPerLevel;
+  const BrickAtlas& atlas = mResidency.atlas();
+  const int64_t slot =
+      int64_t(BrickAtlas::slotBytes(mResidency.store().type(), mResidency.store().brickEdge(), atlas.format()));
+  stats.bytesWanted = plan.bricksWanted * slot;
+  stats.bytesBudget = int64_t(atlas.capacity()) * slot;
+  stats.bricksFitCoarsened = plan.bricksWanted - visible.bricksDrawn;
+  const auto first =
+      std::find_if(visible.bricksPerLevel.begin(), visible.bricksPerLevel.end(), [](int64_t n) { return n > 0; });
+  stats.levelFinest = int(first - visible.bricksPerLevel.begin());
+  stats.levelCoarsest = plan.coarsestLevel;
+}
 
 SliceGeometry& VolumeRenderer::geometry(const Scene& scene) {
   // Slabs and the ray caster draw box proxies whatever the slicer.
@@ -106,14 +134,8 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, c
   const store::BrickStore& store = mResidency.store();
 
   auto t = Clock::now();
-  FramePlan plan = planFrame(scene, store, kTransferTableTexels);
-  stats.nodesVisited = plan.visible.stats.nodesVisited;
-  stats.bricksSkippedEmpty = plan.visible.stats.bricksSkippedEmpty;
-  stats.bricksCulled = plan.visible.stats.bricksCulled;
-  stats.bricksDrawn = plan.visible.stats.bricksDrawn;
-  stats.bricksCoarse = plan.visible.stats.bricksCoarse;
-  stats.bricksCoarsened = plan.visible.stats.bricksCoarsened;
-  stats.bricksPerLevel = plan.visible.stats.bricksPerLevel;
+  FramePlan plan = planFrame(scene, store, kTransferTableTexels, options.fitBudget ? budget() : BrickBudget{});
+  planStats(plan, stats);
   stats.msTraversal = msSince(t);
   stats.samplesEstimated = plan.estimatedSamples();
   if (options.mode == RenderMode::Points && (plan.slab > 0 || plan.raycast))

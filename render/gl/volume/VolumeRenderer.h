@@ -41,6 +41,10 @@ class VolumeRenderer final : public FrameRenderer {
 
  private:
   SliceGeometry& geometry(const Scene& scene);
+  /// What a frame's bricks must fit: the atlas's slots, and the bricks the host cache's budget holds now.
+  BrickBudget budget() const;
+  /// The plan's part of the frame's statistics: the traversal's counts and the fit to the budget.
+  void planStats(const FramePlan& plan, FrameStats& stats) const;
   /// The GL part of a frame, from paging to readback; render() puts the context back in order if it throws.
   image::ImageF draw(const Scene& scene, const FramePlan& plan, const FrameOptions& options, FrameStats& stats);
 

@@ -69,7 +69,7 @@ TEST(GpuBudget, AnEngineKeepsAllItsAtlasesWithinOneBudget) {
   // A dataset larger than the budget draws out of core within it.
   RenderEngine tight({Backend::Auto, oneAtlas / 3, AtlasFormat::Float});
   FrameStats stats;
-  test::expectClose(tight.render(datasets[0], scene, &stats), first[0], 1.0 / 255, "out of core");
+  test::expectClose(tight.render(datasets[0], scene, &stats, test::batched()), first[0], 1.0 / 255, "out of core");
   EXPECT_GT(stats.batches, 1);
   EXPECT_LE(tight.gpuBytes(), oneAtlas / 3);
 }

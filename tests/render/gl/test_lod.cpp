@@ -102,7 +102,7 @@ TEST(Lod, OutOfCoreMixedLevelsEqualInCore) {
   ASSERT_EQ(whole.batches, 1);
   // Room for a handful of bricks: many batches, each mixing levels.
   const size_t brick = size_t(s->brickEdge()) * s->brickEdge() * s->brickEdge() * 4;
-  const image::ImageF outOfCore = renderStore(s, scene, &tight, 6 * brick);
+  const image::ImageF outOfCore = renderStore(s, scene, &tight, 6 * brick, size_t(256) << 20, test::batched());
   EXPECT_GT(tight.batches, 3);
   expectClose(outOfCore, inCore, 1.0 / 255, "lod out of core");
 }
@@ -122,14 +122,7 @@ TEST(Lod, TraversalCoversEachRegionOnceWithNeighboursOneLevelApart) {
       const TraversalStats& st = plan.visible.stats;
       EXPECT_EQ((st.bricksDrawn - st.bricksCoarse) + st.bricksCoarsened + st.bricksSkippedEmpty + st.bricksCulled,
                 grid.volume());
-      std::vector<int> cover(size_t(grid.volume()), 0);
-      for (const BrickDraw& d : plan.visible.bricks) {
-        const int m = int(d.key.level);
-        for (int64_t k = int64_t(d.key.k) << m; k < std::min((int64_t(d.key.k) + 1) << m, grid.z); ++k)
-          for (int64_t j = int64_t(d.key.j) << m; j < std::min((int64_t(d.key.j) + 1) << m, grid.y); ++j)
-            for (int64_t i = int64_t(d.key.i) << m; i < std::min((int64_t(d.key.i) + 1) << m, grid.x); ++i)
-              ++cover[size_t(i + grid.x * (j + grid.y * k))];
-      }
+      const std::vector<int> cover = test::levelZeroCoverage(plan.visible.bricks, grid);
       for (int c : cover) ASSERT_LE(c, 1);
       const std::vector<uint8_t> levels = brickLevels(plan.visible, s->meta());
       int worst = 0;

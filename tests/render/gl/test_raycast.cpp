@@ -118,8 +118,8 @@ TEST(RayCast, OutOfCoreEqualsInCoreAndTerminationStaysWithinItsBound) {
     EXPECT_EQ(full.samplesTerminated, 0) << name;
     FrameStats tight;
     // A budget of a few bricks: many batches, composited one after the other along every ray.
-    expectClose(renderStore(s, scene, &tight, size_t(10) * 10 * 10 * 4 * 6), reference, 1.0 / 255,
-                "raycast-out-of-core-" + name);
+    expectClose(renderStore(s, scene, &tight, size_t(10) * 10 * 10 * 4 * 6, size_t(256) << 20, test::batched()),
+                reference, 1.0 / 255, "raycast-out-of-core-" + name);
     EXPECT_GT(tight.batches, 5) << name;
     for (double ert : {0.95, 0.999}) {
       scene.ert = ert;
@@ -132,8 +132,8 @@ TEST(RayCast, OutOfCoreEqualsInCoreAndTerminationStaysWithinItsBound) {
       }
       // Out of core the silhouette map keeps terminated pixels from later batches.
       FrameStats pagedCut;
-      expectClose(renderStore(s, scene, &pagedCut, size_t(10) * 10 * 10 * 4 * 6), reference, (1 - ert) + 1.0 / 255,
-                  "raycast-ert-out-of-core-" + name);
+      expectClose(renderStore(s, scene, &pagedCut, size_t(10) * 10 * 10 * 4 * 6, size_t(256) << 20, test::batched()),
+                  reference, (1 - ert) + 1.0 / 255, "raycast-ert-out-of-core-" + name);
       if (name == "oblique") {
         EXPECT_LT(pagedCut.fragments, tight.fragments) << ert;
       }
@@ -159,7 +159,7 @@ TEST(RayCast, MixedLevelsGiveSlabsImage) {
     // Out of core, each batch mixing levels.
     const size_t brick = size_t(s->brickEdge()) * s->brickEdge() * s->brickEdge() * 4;
     FrameStats tight;
-    expectClose(renderStore(s, rayCast(scene), &tight, 6 * brick), slabs, 1.0 / 255,
+    expectClose(renderStore(s, rayCast(scene), &tight, 6 * brick, size_t(256) << 20, test::batched()), slabs, 1.0 / 255,
                 "raycast-lod-out-of-core-sub" + std::to_string(subBlock));
     EXPECT_GT(tight.batches, 3);
   }

@@ -82,7 +82,7 @@ TEST(RendererOutOfCore, TinyBudgetsGiveTheSameImage) {
   const image::ImageF reference = renderStore(s, scene, &roomy);
   const size_t brickBytes = s->brickBytes() * sizeof(float) / store::valueSize(s->type());
   // Three atlas slots and a host cache smaller than the volume's decoded bricks.
-  const image::ImageF small = renderStore(s, scene, &tight, 3 * brickBytes, s->brickBytes() * 5);
+  const image::ImageF small = renderStore(s, scene, &tight, 3 * brickBytes, s->brickBytes() * 5, test::batched());
   EXPECT_EQ(roomy.batches, 1);
   EXPECT_GT(tight.batches, 10);
   EXPECT_GT(tight.bricksEvicted, 0);
@@ -199,12 +199,12 @@ TEST(RendererSlicers, ZellmannVariantsDrawTheVertexProgramsFrame) {
     scene.camera.distance = view.distance;
     scene.camera.orthographic = view.orthographic;
     scene.subBlock = view.subBlock;
-    const image::ImageF vertex = renderStore(s, scene, nullptr, view.gpuBudget);
+    const image::ImageF vertex = renderStore(s, scene, nullptr, view.gpuBudget, size_t(256) << 20, test::batched());
     ASSERT_GT(meanBrightness(vertex), 0.005) << view.name;
     for (Slicer slicer : {Slicer::VertexLean, Slicer::Geometry, Slicer::VertexGeometry}) {
       scene.slicer = slicer;
       FrameStats stats;
-      const image::ImageF frame = renderStore(s, scene, &stats, view.gpuBudget);
+      const image::ImageF frame = renderStore(s, scene, &stats, view.gpuBudget, size_t(256) << 20, test::batched());
       const std::string what = std::string("slicer-") + slicerName(slicer) + "-" + view.name;
       expectClose(frame, vertex, 1.0 / 255, what);
       EXPECT_GT(stats.slices, 0) << what;

@@ -70,7 +70,8 @@ TEST(Slabs, OutOfCoreEqualsInCoreAndFewerFragmentsForLargerSlabs) {
   scene.raycast = false;
   const image::ImageF wholeBricks = renderStore(s, scene, &whole);
   // A budget of a few bricks: many batches, bricks evicted and paged again.
-  const image::ImageF paged = renderStore(s, scene, &tight, size_t(10) * 10 * 10 * 4 * 6);
+  const image::ImageF paged =
+      renderStore(s, scene, &tight, size_t(10) * 10 * 10 * 4 * 6, size_t(256) << 20, test::batched());
   EXPECT_GT(tight.batches, 5);
   expectClose(paged, wholeBricks, 1.0 / 255, "slab-out-of-core");
   expectClose(byFour, roomy, 1.0 / 255, "slab-4-vs-1");
@@ -132,7 +133,8 @@ TEST(Slabs, EarlyRayTerminationOutOfCoreAndInside) {
     scene.ert = ert;
     FrameStats tight;
     expectClose(renderStore(s, scene), reference, (1 - ert) + 1.0 / 255, "ert-in-core-" + name);
-    const image::ImageF paged = renderStore(s, scene, &tight, size_t(10) * 10 * 10 * 4 * 6);
+    const image::ImageF paged =
+        renderStore(s, scene, &tight, size_t(10) * 10 * 10 * 4 * 6, size_t(256) << 20, test::batched());
     EXPECT_GT(tight.batches, 5) << name;
     expectClose(paged, reference, (1 - ert) + 1.0 / 255, "ert-out-of-core-" + name);
   }
@@ -230,8 +232,8 @@ TEST(Slabs, EmptySpaceMapsSkipEmptyPixelsAndChangeNothing) {
       EXPECT_LT(mapped.samples, plain.samples) << what;
       // Out of core: the slab counter (and so the depths) carries on across batches.
       FrameStats tight;
-      expectClose(renderStore(s, scene, &tight, size_t(34) * 34 * 34 * 4 * 3), without, 1.0 / 255 + 2 * (1 - ert),
-                  what + "-out-of-core");
+      expectClose(renderStore(s, scene, &tight, size_t(34) * 34 * 34 * 4 * 3, size_t(256) << 20, test::batched()),
+                  without, 1.0 / 255 + 2 * (1 - ert), what + "-out-of-core");
       EXPECT_GT(tight.batches, 3) << what;
     }
   // With the eye inside the volume, and a thin shell that pre-integration finds between samples.

@@ -86,9 +86,9 @@ TEST_P(VdbFrames, EqualUnderTightBudgets) {
     image::ImageF a;
     {
       VolumeRenderer renderer(test::context(), cache, brickBytes * 3);
-      a = renderer.render(scene, &stats);
+      a = renderer.render(scene, &stats, test::batched());
     }
-    const image::ImageF b = renderStore(prepped, scene, nullptr, brickBytes * 3, brickBytes * 6);
+    const image::ImageF b = renderStore(prepped, scene, nullptr, brickBytes * 3, brickBytes * 6, test::batched());
     if (lod == 0) {
       EXPECT_GT(stats.batches, 1) << what;
     } else {
