@@ -6,10 +6,10 @@
 #include <nlohmann/json.hpp>
 
 #include "brickstore/BrickStore.h"
+#include "brickstore/InputErrors.h"
 #include "brickstore/Orientation.h"
 #include "brickstore/VdbStore.h"
 #include "cli/Commands.h"
-#include "cli/InputErrors.h"
 #include "mesh/MeshStore.h"
 
 namespace voxbrick::cli {
@@ -184,7 +184,7 @@ void addInfoCommand(CLI::App& app) {
       ->capture_default_str()
       ->check(between(8, 256, "voxels"));
   cmd->add_flag("--json", args->json, "print one JSON object");
-  cmd->callback([args] { namingInput({args->store}, [&] { runInfo(*args); }); });
+  cmd->callback([args] { store::namingInput({args->store}, [&] { runInfo(*args); }); });
 }
 
 }  // namespace voxbrick::cli

@@ -9,9 +9,9 @@
 #include <vector>
 
 #include "brickstore/Errors.h"
+#include "brickstore/InputErrors.h"
 #include "brickstore/StoreWriter.h"
 #include "cli/Commands.h"
-#include "cli/InputErrors.h"
 #include "cli/Progress.h"
 #include "mesh/MeshReaders.h"
 #include "mesh/MeshStore.h"
@@ -249,7 +249,7 @@ void addPrepCommand(CLI::App& app) {
     // An error from reading the input names it, whatever raised it; the output's own errors name the output.
     std::vector<std::string> named = args->inputs;
     named.push_back(args->output);
-    namingInput(named, [&] { runPrep(*args, *cmd); });
+    store::namingInput(named, [&] { runPrep(*args, *cmd); });
   });
 }
 

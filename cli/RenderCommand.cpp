@@ -3,8 +3,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "brickstore/InputErrors.h"
 #include "cli/Commands.h"
-#include "cli/InputErrors.h"
 #include "cli/Progress.h"
 #include "cli/SceneOptions.h"
 #include "image/ImageFile.h"
@@ -193,7 +193,7 @@ void printFrameSummary(const RenderArgs& a, const render::Scene& scene, const re
 void runRender(const RenderArgs& a, const CLI::App& cmd) {
   image::imageFormatFor(a.output);  // an output we cannot write is refused before the frame is drawn
   const render::Scene scene = buildScene(a.scene, cmd);
-  const auto dataset = namingInput({a.store}, [&] {
+  const auto dataset = store::namingInput({a.store}, [&] {
     return render::openDataset(a.store, a.store, size_t(a.hostBudgetMB) << 20,
                                store::StoreOpenOptions{a.grid, a.brick});
   });

@@ -30,10 +30,6 @@ bool negative(const mesh::TetMesh& m, size_t t) {
                   glm::dvec3(m.points[tet[3]]) - v0) < 0;
 }
 
-/// The texture units of the entry pass's result and its depth (the entry's t), read by the ray pass.
-constexpr int kEntryUnit = VB_UNIT_TET_ENTRY;
-constexpr int kEntryDepthUnit = VB_UNIT_TET_ENTRY_DEPTH;
-
 /// Passes a frame takes at most: each pass's entries lie beyond the last pass's (the ray pass stores an exit beyond
 /// the entry pass's own t), so the passes end by themselves, after as many as a ray enters the mesh; a guard.
 constexpr int64_t kMaxPasses = 1024;
@@ -64,7 +60,6 @@ void setTetUniforms(const Program& p, const TetFrameUniforms& u) {
   p.set(p.uniformLocation("uRayDirectionDx"), glm::vec3(u.rays.directionDx));
   p.set(p.uniformLocation("uRayDirectionDy"), glm::vec3(u.rays.directionDy));
   p.set(p.uniformLocation("uInvReference"), float(1.0 / u.reference));
-  p.set(p.uniformLocation("uPreIntegrated"), u.tableUnit);
   p.set(p.uniformLocation("uTableResolution"), float(u.table.resolution));
   p.set(p.uniformLocation("uRatioMin"), float(u.table.ratioMin));
   p.set(p.uniformLocation("uLayerScale"), float(u.table.layerScale()));
@@ -218,8 +213,6 @@ void TetRayCaster::draw(const TetFrameUniforms& uniforms, double termination, bo
   const Program& ray = shading ? mShadedRayProgram : mRayProgram;
   setTetUniforms(mEntryProgram, uniforms);
   setTetUniforms(ray, uniforms);
-  ray.set(ray.uniformLocation("uEntry"), kEntryUnit);
-  ray.set(ray.uniformLocation("uEntryDepth"), kEntryDepthUnit);
   ray.set(ray.uniformLocation("uTermination"), termination > 0 ? float(termination) : 2.0f);
   ray.set(ray.uniformLocation("uMaxSteps"), kMaxSteps);
   mEmpty.bind();
@@ -250,8 +243,8 @@ void TetRayCaster::draw(const TetFrameUniforms& uniforms, double termination, bo
     if (entries == 0 || stats.tetRayPasses > kMaxPasses) break;
     compositor.bindTarget();
     mGl.glEnable(GL_BLEND);
-    mEntryTexture.bind(kEntryUnit);
-    mEntryDepth.bind(kEntryDepthUnit);
+    mEntryTexture.bind(VB_UNIT_TET_ENTRY);
+    mEntryDepth.bind(VB_UNIT_TET_ENTRY_DEPTH);
     ray.use();
     drawInBands(mGl, mWidth, mHeight, checkpoints);
     mGl.glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);

@@ -21,7 +21,6 @@
 #include "render/core/PixelRays.h"
 #include "render/core/PreIntegration.h"
 #include "render/gl/Bands.h"
-#include "render/gl/Bindings.h"
 #include "render/gl/Compositor.h"
 #include "render/gl/GlObjects.h"
 #include "render/gl/SampleCounters.h"
@@ -35,9 +34,8 @@ struct TetFrameUniforms {
   glm::dmat4 viewProj{1.0};  ///< world, centred on the mesh's box, to clip
   PixelRays rays;
   int width = 0, height = 0;
-  double windowLo = 0, windowScale = 1;    ///< the value window as lo and 1 / (hi - lo)
-  double reference = 1;                    ///< the transfer function's reference length
-  int tableUnit = VB_UNIT_PRE_INTEGRATED;  ///< the texture unit the pre-integrated table is bound on
+  double windowLo = 0, windowScale = 1;  ///< the value window as lo and 1 / (hi - lo)
+  double reference = 1;                  ///< the transfer function's reference length
   PreIntegrationSpec table;
 };
 
@@ -61,9 +59,9 @@ class TetRayCaster {
   size_t gpuBytes() const { return mBytes; }
 
   /// Draws a frame into `compositor` (begun, blending front to back), the pre-integrated table bound on
-  /// uniforms.tableUnit. `termination`: the opacity where a ray stops (0: never). Counts the entry passes in
-  /// stats.tetRayPasses; `cancelled` is checked between passes and between bands of 64 rows of a ray pass (throwing
-  /// FrameCancelled). Leaves the compositor's target bound.
+  /// VB_UNIT_PRE_INTEGRATED (the unit tet.glsl declares). `termination`: the opacity where a ray stops (0: never).
+  /// Counts the entry passes in stats.tetRayPasses; `cancelled` is checked between passes and between bands of 64 rows
+  /// of a ray pass (throwing FrameCancelled). Leaves the compositor's target bound.
   void draw(const TetFrameUniforms& uniforms, double termination, bool shading, Compositor& compositor,
             FrameStats& stats, const std::function<bool()>& cancelled);
   /// After the compositor's finish: the frame's counts into stats.fragments (rays walked: one per pixel and pass

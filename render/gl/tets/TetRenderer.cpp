@@ -160,7 +160,6 @@ image::ImageF TetRenderer::draw(const Scene& scene, const TetFramePlan& plan, bo
   uniforms.windowLo = plan.view.windowLo;
   uniforms.windowScale = plan.windowScale();
   uniforms.reference = reference;
-  uniforms.tableUnit = VB_UNIT_PRE_INTEGRATED;
   uniforms.table = spec;
   try {
     if (rays)

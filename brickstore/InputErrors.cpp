@@ -1,4 +1,4 @@
-#include "cli/InputErrors.h"
+#include "brickstore/InputErrors.h"
 
 #include <exception>
 #include <new>
@@ -6,7 +6,7 @@
 
 #include "brickstore/Errors.h"
 
-namespace voxbrick::cli {
+namespace voxbrick::store {
 namespace {
 
 bool namesOne(const std::string& message, const std::vector<std::string>& named) {
@@ -21,17 +21,17 @@ void rethrowNamingInput(const std::vector<std::string>& named) {
   const std::string file = named.empty() ? std::string("input") : named.front();
   try {
     throw;
-  } catch (const store::IoError&) {
+  } catch (const IoError&) {
     throw;
-  } catch (const store::CorruptStoreError& e) {
+  } catch (const CorruptStoreError& e) {
     if (namesOne(e.what(), named)) throw;
-    throw store::CorruptStoreError(file + ": " + e.what());
+    throw CorruptStoreError(file + ": " + e.what());
   } catch (const std::bad_alloc&) {
-    throw store::InputError(file + ": out of memory while reading it (std::bad_alloc)");
+    throw InputError(file + ": out of memory while reading it (std::bad_alloc)");
   } catch (const std::exception& e) {
-    if (typeid(e) == typeid(store::StoreError) || namesOne(e.what(), named)) throw;
-    throw store::InputError(file + ": " + e.what());
+    if (typeid(e) == typeid(StoreError) || namesOne(e.what(), named)) throw;
+    throw InputError(file + ": " + e.what());
   }
 }
 
-}  // namespace voxbrick::cli
+}  // namespace voxbrick::store

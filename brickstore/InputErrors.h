@@ -1,16 +1,17 @@
-// Errors of reading an input or opening a store, each naming the file whatever library raised it.
+// Errors of reading an input or opening a store, each naming the file whatever library raised it: the one place that
+// puts the file's name on an ingest or open error (prep, info and render use it; so may any other opener).
 #pragma once
 
 #include <string>
 #include <utility>
 #include <vector>
 
-namespace voxbrick::cli {
+namespace voxbrick::store {
 
 /// Rethrows the exception in flight (call it from a catch block) so that it names a file: a message that names one of
-/// `named` already passes unchanged, and so do store::IoError and a plain store::StoreError (an interruption), which
+/// `named` already passes unchanged, and so do IoError and a plain StoreError (an interruption), which
 /// are about no input; any other, a library's own included (JSON, OpenVDB, std::bad_alloc, a mesh check), becomes
-/// "NAMED[0]: MESSAGE", a store::CorruptStoreError if it was one and a store::InputError otherwise.
+/// "NAMED[0]: MESSAGE", a CorruptStoreError if it was one and a InputError otherwise.
 [[noreturn]] void rethrowNamingInput(const std::vector<std::string>& named);
 
 /// Runs `fn`, whose errors come from reading the file `named[0]`, through rethrowNamingInput.
@@ -23,4 +24,4 @@ decltype(auto) namingInput(const std::vector<std::string>& named, F&& fn) {
   }
 }
 
-}  // namespace voxbrick::cli
+}  // namespace voxbrick::store
