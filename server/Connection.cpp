@@ -162,6 +162,11 @@ void Connection::readFailed() { close(); }
 std::optional<proto::Header> Connection::headerReceived(std::span<const uint8_t, proto::kHeaderBytes> bytes) {
   try {
     mHeader = proto::decodeHeader(bytes, mServices.limits);  // bodyBytes at most limits.maxBodyBytes
+    // After Hello every header carries the session's version (PROTOCOL.md section 5): its body is read in it.
+    if (mState.greeted && mHeader.version != mState.version)
+      throw proto::ProtocolError(proto::ErrorCode::UnsupportedVersion,
+                                 "header: version " + std::to_string(mHeader.version) + " in a session of version " +
+                                     std::to_string(mState.version));
   } catch (...) {
     refuseStream(std::current_exception());
     return std::nullopt;
@@ -236,9 +241,9 @@ void Connection::send(const proto::Message& message, uint32_t requestId) {
   if (mClosed) return;
   std::vector<uint8_t> bytes;
   try {
-    bytes = proto::encode(message, requestId);
+    bytes = proto::encode(message, requestId, mState.version);
   } catch (...) {  // a reply above 4 GiB, or no memory for it: the request is answered with the failure instead
-    bytes = proto::encode(errorReply(std::current_exception(), "reply cannot be encoded"), requestId);
+    bytes = proto::encode(errorReply(std::current_exception(), "reply cannot be encoded"), requestId, mState.version);
   }
   if (mOutboxBytes + bytes.size() > mServices.config.maxOutputBytes) {
     mServices.stats.add(ServerEvent::SlowClientDropped);
