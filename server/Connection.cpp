@@ -161,12 +161,9 @@ void Connection::readFailed() { close(); }
 
 std::optional<proto::Header> Connection::headerReceived(std::span<const uint8_t, proto::kHeaderBytes> bytes) {
   try {
+    // Any version the server speaks is read, its body in that version; what the session's version lacks (jpeg in
+    // version 1) is refused by the handler whatever the header says.
     mHeader = proto::decodeHeader(bytes, mServices.limits);  // bodyBytes at most limits.maxBodyBytes
-    // After Hello every header carries the session's version (PROTOCOL.md section 5): its body is read in it.
-    if (mState.greeted && mHeader.version != mState.version)
-      throw proto::ProtocolError(proto::ErrorCode::UnsupportedVersion,
-                                 "header: version " + std::to_string(mHeader.version) + " in a session of version " +
-                                     std::to_string(mState.version));
   } catch (...) {
     refuseStream(std::current_exception());
     return std::nullopt;

@@ -144,7 +144,8 @@ Outcome MessageHandler::render(ConnectionState& state, const proto::RenderReques
     throw DatasetUnavailable("dataset '" + state.dataset->name() + "' is quarantined until it is replaced: " + *why);
   RenderJob job;
   job.requestId = requestId;
-  // The decoder refuses an encoding the session's version lacks; this holds for messages handed in directly too.
+  // An encoding the session's version lacks is refused as the decoder refuses it in a header of that version, so a
+  // version-1 session never gets jpeg, whatever version its Render's header said.
   if (!proto::encodingInVersion(request.encoding, state.version))
     throw proto::ProtocolError(ErrorCode::Malformed, "Render.encoding: unknown value " +
                                                          std::to_string(int(request.encoding)) +
