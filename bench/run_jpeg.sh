@@ -47,8 +47,8 @@ rows = list(csv.DictReader(open(sys.argv[1])))
 out = ['# JPEG frames against lossless ones', '',
        'Produced by `bash bench/run_jpeg.sh` (the MRI `ch2better.nii.gz`, prepped; three views at each size rendered by',
        '`voxbrick render` on Mesa llvmpipe, 2 shared cores; then each frame encoded as the server encodes a jpeg frame).',
-       'Bytes and PSNR (RGB against the',
-       'lossless frame) do not depend on the machine; encode ms are indicative only (medians of 3, a shared machine).',
+       'Bytes and PSNR (RGB against the lossless frame) do not depend on the machine; encode ms are indicative only',
+       '(medians of 3, a shared machine).',
        'Each cell is the mean over the views of the size. Raw frames are 4 bytes a pixel.', '']
 by = defaultdict(list)
 for r in rows:
