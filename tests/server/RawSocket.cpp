@@ -73,6 +73,7 @@ std::optional<proto::Message> RawSocket::take() {
   const std::vector<uint8_t> body(mInput.begin() + proto::kHeaderBytes,
                                   mInput.begin() + long(proto::kHeaderBytes + header.bodyBytes));
   mInput.erase(mInput.begin(), mInput.begin() + long(proto::kHeaderBytes + header.bodyBytes));
+  mLastHeader = header;
   return proto::decodeBody(header, body, limits);
 }
 

@@ -32,6 +32,8 @@ class RawSocket {
   bool waitClosed(std::chrono::milliseconds timeout, std::vector<proto::ErrorCode>* codes = nullptr);
   /// Whether the server closed the connection (seen by a read).
   bool closed() const { return mClosed; }
+  /// The header of the last message receive() returned (its version, its request id).
+  const proto::Header& lastHeader() const { return mLastHeader; }
 
  private:
   /// Reads what arrives within `timeout` into mInput; false once the connection closed or failed.
@@ -42,6 +44,7 @@ class RawSocket {
   int mFd = -1;
   bool mClosed = false;
   std::vector<uint8_t> mInput;
+  proto::Header mLastHeader;
 };
 
 }  // namespace voxbrick::test
