@@ -83,6 +83,10 @@ std::vector<uint8_t> RawSocket::webSocketFrame(std::span<const uint8_t> payload,
   return out;
 }
 
+std::vector<uint8_t> RawSocket::frameStart(const std::vector<uint8_t>& first) const {
+  return mFraming == Framing::WebSocket ? webSocketFrame(first, 2, false) : first;
+}
+
 std::vector<uint8_t> RawSocket::frame(const std::vector<uint8_t>& message) const {
   return mFraming == Framing::WebSocket ? webSocketFrame(message, 2, true) : message;
 }

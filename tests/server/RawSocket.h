@@ -40,6 +40,9 @@ class RawSocket {
 
   /// The bytes that carry the protocol message `message` (as proto::encode makes it) on this socket's transport.
   std::vector<uint8_t> frame(const std::vector<uint8_t>& message) const;
+  /// The bytes that start a message whose first bytes are `first`, the rest to follow (over WebSocket, a first
+  /// fragment that is not final).
+  std::vector<uint8_t> frameStart(const std::vector<uint8_t>& first) const;
   /// Sends frame(message), blocking; false if the connection failed.
   bool sendMessage(const std::vector<uint8_t>& message) { return sendAll(frame(message)); }
   /// Sends all of `bytes` as they are, blocking; false if the connection failed (the server closed it).
