@@ -4,6 +4,8 @@
 // on output on both transports.
 #include <gtest/gtest.h>
 
+#include <signal.h>
+
 #include <fstream>
 #include <map>
 #include <memory>
@@ -125,6 +127,9 @@ TEST_F(WebTransportTest, AWebSocketSessionGetsTheTcpFramesByteForByte) {
     EXPECT_EQ(e.code(), ErrorCode::UnknownDataset);
   }
   EXPECT_EQ(json::parse(ws.stats())["sessions"]["active"].get<int>(), 2);
+  // Stopping: the WebSocket session is told, like the TCP one, and the server exits cleanly.
+  EXPECT_EQ(server->stop(SIGTERM), 0) << server->log();
+  EXPECT_EQ(ws.errorsUntilClosed(), std::vector<ErrorCode>{ErrorCode::ShuttingDown});
 }
 
 TEST_F(WebTransportTest, OnlyAllowedOriginsWithTheTokenMayOpenTheSocket) {
@@ -254,6 +259,25 @@ TEST_F(WebTransportTest, SlowHttpClientsHoldNothingForLong) {
   tcp.hello();
   EXPECT_EQ(tcp.listDatasets().size(), 1u);
   EXPECT_GE(json::parse(tcp.stats())["sessions"]["evicted"].get<int>(), 1);
+}
+
+TEST_F(WebTransportTest, HttpSettingProblemsAreNamed) {
+  auto server = start();
+  auto r =
+      test::runVoxbrick("serve --datasets " + datasets() + " --port 0 --http " + std::to_string(server->httpPort()));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.output.find("cannot listen on 127.0.0.1:" + std::to_string(server->httpPort()) + " (HTTP)"),
+            std::string::npos)
+      << r.output;
+  r = test::runVoxbrick("serve --datasets " + datasets() + " --port 0 --http 0 --http-token 'a b'");
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.output.find("http.token"), std::string::npos) << r.output;
+  r = test::runVoxbrick("serve --datasets " + datasets() + " --port 0 --http 0 --http-origin example.org");
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.output.find("'example.org' is not an origin"), std::string::npos) << r.output;
+  r = test::runVoxbrick("serve --datasets " + datasets() + " --port 0 --http-port-file x");
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.output.find("--http-port-file needs --http"), std::string::npos) << r.output;
 }
 
 class LatestWinsTest : public test::SparseDatasetSuite, public ::testing::WithParamInterface<Framing> {};
