@@ -1,8 +1,9 @@
 // The rules of one client connection that hold whatever carries its bytes: the Hello deadline and admission as a
 // session, the idle and read deadlines, decoding and handing each message to the MessageHandler, submitting renders,
-// the queue of replies with its per-session limit, back-pressure (pausing reading while too many replies wait) and
-// its share of the server's output budget, the write deadline, and closing after the queue is flushed. It owns no
-// socket and no timer: it drives a Transport (TcpSession over TCP) and is driven by it, one call at a time.
+// the queue of replies with its per-session limit and at most one unsent frame (latest wins), back-pressure (pausing
+// reading while too many replies wait) and its share of the server's output budget, the write deadline, and closing
+// after the queue is flushed. It owns no socket and no timer: it drives a Transport (TcpSession over TCP,
+// WebSocketSession over WebSocket) and is driven by it, one call at a time.
 #pragma once
 
 #include <atomic>
@@ -68,8 +69,12 @@ class Connection {
   std::optional<proto::Header> headerReceived(std::span<const uint8_t, proto::kHeaderBytes> bytes);
   /// The body of the message whose header was accepted last (exactly its bodyBytes long).
   void bodyReceived(std::span<const uint8_t> body);
-  /// A whole message, header and body, from a transport that delimits messages itself (one WebSocket message).
+  /// A whole message, header and body, from a transport that delimits messages itself (WebSocketSession uses it
+  /// for a message shorter than a header).
   void received(std::span<const uint8_t> message);
+  /// The transport found the stream unusable (a WebSocket text message, a message longer than its header
+  /// announces): answers an Error with `code` and request id 0, and closes.
+  void refuse(proto::ErrorCode code, const std::string& why);
   /// The stream ended or failed while reading.
   void readFailed();
   /// The message given to Transport::write was written (`ok`) or could not be.
@@ -108,7 +113,17 @@ class Connection {
   bool withinOutputBudget(const RenderJob& job, proto::Message& reply);
   /// Carries out what the handler decided: replies, the render job, closing.
   void apply(Outcome outcome);
+  /// One reply waiting to be written.
+  struct Outgoing {
+    std::vector<uint8_t> bytes;
+    uint32_t requestId = 0;
+    bool frame = false;  ///< a Frame (at most one is queued unsent: latest wins)
+  };
   void send(const proto::Message& message, uint32_t requestId);
+  void enqueue(Outgoing reply);
+  /// A Frame to `requestId` is about to be queued: the Frame queued and not yet being written, if any, is removed
+  /// (its request answered Superseded instead, unless it is `requestId`'s own provisional frame).
+  void replaceUnsentFrame(uint32_t requestId);
   void writeNext();
   /// Stops reading; closes once every queued reply is written.
   void closeAfterFlush();
@@ -121,7 +136,7 @@ class Connection {
   const std::string mPeer;
   ConnectionState mState;
   proto::Header mHeader;  ///< of the message being read
-  std::deque<std::vector<uint8_t>> mOutbox;
+  std::deque<Outgoing> mOutbox;
   uint64_t mOutboxBytes = 0, mPeakOutboxBytes = 0;
   /// Requests whose provisional Frame was refused (output budget): their exact frame is dropped, not sent.
   std::set<uint32_t> mRefusedProvisional;
