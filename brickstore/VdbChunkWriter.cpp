@@ -8,11 +8,12 @@
 
 #include "brickstore/Errors.h"
 #include "brickstore/OpenVdbInit.h"
+#include "brickstore/VdbParallelWrite.h"
 
 namespace voxbrick::store {
 
 struct VdbChunkWriter::Impl {
-  openvdb::FloatGrid::Ptr grid;
+  ParallelWriteFloatGrid::Ptr grid;
 };
 
 int64_t VdbChunkWriter::chunkBytes(const Vec3i& dims, int64_t slices) {
@@ -43,7 +44,7 @@ void VdbChunkWriter::addSlices(int64_t z0, int64_t count, const void* values) {
       mChunkStart += mChunkSlices;
     }
     const int64_t take = std::min(count, mChunkStart + mChunkSlices - z0);
-    if (!mImpl->grid) mImpl->grid = openvdb::FloatGrid::create(static_cast<float>(mBackground));
+    if (!mImpl->grid) mImpl->grid = std::make_shared<ParallelWriteFloatGrid>(static_cast<float>(mBackground));
     openvdb::CoordBBox box(
         openvdb::Coord(0, 0, static_cast<int>(z0)),
         openvdb::Coord(static_cast<int>(n.x - 1), static_cast<int>(n.y - 1), static_cast<int>(z0 + take - 1)));
@@ -51,7 +52,7 @@ void VdbChunkWriter::addSlices(int64_t z0, int64_t count, const void* values) {
       using T = decltype(tag);
       // Dense wants a mutable pointer; copyFromDense only reads through it.
       openvdb::tools::Dense<T, openvdb::tools::LayoutXYZ> dense(box, reinterpret_cast<T*>(const_cast<char*>(bytes)));
-      openvdb::tools::copyFromDense(dense, *mImpl->grid, 0.0f);
+      openvdb::tools::copyFromDense(dense, mImpl->grid->tree(), 0.0f);
     });
     bytes += static_cast<size_t>(take) * sliceBytes;
     z0 += take;
@@ -61,7 +62,7 @@ void VdbChunkWriter::addSlices(int64_t z0, int64_t count, const void* values) {
 
 void VdbChunkWriter::flush() {
   if (!mImpl->grid) return;
-  openvdb::FloatGrid::Ptr grid = std::move(mImpl->grid);
+  ParallelWriteFloatGrid::Ptr grid = std::move(mImpl->grid);
   mImpl->grid.reset();
   const Vec3i n = mInfo.dims;
   const Vec3d s = mInfo.spacing;
