@@ -11,6 +11,7 @@
 #include "brickstore/Level0Stats.h"
 #include "brickstore/PhaseClock.h"
 #include "brickstore/StoreMeta.h"
+#include "brickstore/VdbChunkWriter.h"
 #include "brickstore/VolumeSource.h"
 
 namespace voxbrick::store {
@@ -24,10 +25,10 @@ struct PrepOptions {
   NonFinitePolicy nonFinite = NonFinitePolicy::Background;
   bool writeVdb = true;        ///< write the canonical OpenVDB grid
   int64_t vdbChunkSlices = 0;  ///< z-slices per VDB file; 0: as many as the memory budget allows
-  /// Leaf values of the VDB files compressed with blosc (LZ4, OpenVDB's default) or stored as they are (inactive
-  /// values still left out): about 0.85 of the size on noisy float data, far less on smooth or sparse data, and
-  /// about a fifth of prep's CPU time when every voxel is active. Readers take either.
-  bool vdbBlosc = true;
+  /// How the VDB files store leaf values. Blosc gives about 0.85 of the size on noisy float data (a fifth of prep's
+  /// CPU when every voxel is active) and a third on a smooth MRI; Auto uses it per chunk where it halves the bytes.
+  /// Readers take any.
+  VdbCompression vdbCompression = VdbCompression::Auto;
   bool overwrite = false;  ///< replace an existing store (only once the new one is complete)
   int threads = 0;         ///< worker threads; 0 = hardware concurrency
   /// Store u8 or u16 values: the input mapped linearly from quantise->lo..hi (scanLevel0 gives the input's exact

@@ -31,8 +31,13 @@ int64_t VdbChunkWriter::residentBytes(const Vec3i& dims, int64_t slices) {
 }
 
 VdbChunkWriter::VdbChunkWriter(const std::filesystem::path& storeDir, const VolumeInfo& info, double background,
-                               int64_t chunkSlices, bool blosc)
-    : mDir(storeDir), mInfo(info), mBackground(background), mChunkSlices(chunkSlices), mBlosc(blosc), mImpl(new Impl) {
+                               int64_t chunkSlices, VdbCompression compression)
+    : mDir(storeDir),
+      mInfo(info),
+      mBackground(background),
+      mChunkSlices(chunkSlices),
+      mCompression(compression),
+      mImpl(new Impl) {
   initializeOpenVdb();
   std::error_code ec;
   std::filesystem::create_directories(mDir / "vdb", ec);
@@ -89,7 +94,11 @@ void VdbChunkWriter::flush() {
   const std::filesystem::path path = mDir / name;
   try {
     openvdb::io::File file(path.string());
-    if (!mBlosc) file.setCompression(openvdb::io::COMPRESS_ACTIVE_MASK);
+    // Blosc costs about 3 ns of CPU a byte of leaf values (a fifth of prep's CPU on noisy float data, where it saves
+    // 15 %); under Auto it is used where it at least halves the bytes written.
+    const bool blosc = mCompression == VdbCompression::Blosc ||
+                       (mCompression == VdbCompression::Auto && bloscShrinksTo(grid->tree(), 0.5));
+    if (!blosc) file.setCompression(openvdb::io::COMPRESS_ACTIVE_MASK);
     file.write({grid});
     file.close();
   } catch (const std::exception& e) {

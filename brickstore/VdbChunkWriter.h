@@ -11,16 +11,21 @@
 
 namespace voxbrick::store {
 
+/// How the VDB files store their leaf values (inactive values are left out whichever).
+enum class VdbCompression {
+  Auto,   ///< blosc for a chunk whose sampled leaves it shrinks to half or less, else none
+  Blosc,  ///< blosc (LZ4), OpenVDB's default
+  None,   ///< as they are
+};
+
 /// Receives level-0 slices in z order and writes them as OpenVDB FloatGrids named "density", one file per chunk of
 /// `chunkSlices` slices (vdb/level0-zNNNNN.vdb, NNNNN the chunk's first z). Voxels equal to the background are
 /// inactive. Index (i, j, k) of every chunk is voxel (i, j, k) of the volume; the transform places voxel centres
 /// as the optical model does ((i + 1/2 - n/2) * spacing), so the chunks together form one grid.
 class VdbChunkWriter {
  public:
-  /// `blosc`: leaf values compressed with blosc (OpenVDB's default); else stored as they are (inactive ones left
-  /// out either way).
   VdbChunkWriter(const std::filesystem::path& storeDir, const VolumeInfo& info, double background, int64_t chunkSlices,
-                 bool blosc = true);
+                 VdbCompression compression = VdbCompression::Auto);
   ~VdbChunkWriter();
 
   /// Adds `count` slices starting at z0 (the next ones in order) of the volume's type.
@@ -49,7 +54,7 @@ class VdbChunkWriter {
   VolumeInfo mInfo;
   double mBackground;
   int64_t mChunkSlices;
-  bool mBlosc;
+  VdbCompression mCompression;
   int64_t mChunkStart = 0;
   std::unique_ptr<Impl> mImpl;
   std::vector<std::string> mFiles;

@@ -2,12 +2,15 @@
 // appended to the stream in the tree's leaf order by a serial stage.
 #include "brickstore/VdbParallelWrite.h"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_pipeline.h>
+#include <tbb/parallel_reduce.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <streambuf>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace voxbrick::store {
@@ -29,14 +32,47 @@ class AppendBuffer : public std::streambuf {
   }
 };
 
-}  // namespace
-
-void writeLeafBuffersParallel(const openvdb::FloatTree& tree, std::ostream& os, bool toHalf) {
-  using Leaf = openvdb::FloatTree::LeafNodeType;
-  // Tree::writeBuffers visits the leaves depth first in coordinate order, as the leaf iterator does.
-  std::vector<const Leaf*> leaves;
+/// The leaves of `tree` in the order Tree::writeBuffers visits them (depth first, in coordinate order, as the leaf
+/// iterator does).
+std::vector<const openvdb::FloatTree::LeafNodeType*> leavesInOrder(const openvdb::FloatTree& tree) {
+  std::vector<const openvdb::FloatTree::LeafNodeType*> leaves;
   leaves.reserve(tree.leafCount());
   for (auto it = tree.cbeginLeaf(); it; ++it) leaves.push_back(it.getLeaf());
+  return leaves;
+}
+
+}  // namespace
+
+bool bloscShrinksTo(const openvdb::FloatTree& tree, double ratio) {
+  const auto leaves = leavesInOrder(tree);
+  constexpr size_t kEvery = 16;
+  const size_t samples = (leaves.size() + kEvery - 1) / kEvery;
+  if (samples == 0) return true;
+  const float background = tree.background();
+  // Bytes each sampled leaf writes {with blosc, without}; sums of integers, so the order does not matter.
+  using Sizes = std::pair<size_t, size_t>;
+  const Sizes sizes = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, samples, 8), Sizes{0, 0},
+      [&](const tbb::blocked_range<size_t>& r, Sizes sum) {
+        for (const uint32_t flags : {uint32_t(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK),
+                                     uint32_t(openvdb::io::COMPRESS_ACTIVE_MASK)}) {
+          AppendBuffer buffer;
+          std::ostream out(&buffer);
+          openvdb::io::setDataCompression(out, flags);
+          openvdb::io::setGridBackgroundValuePtr(out, &background);
+          for (size_t i = r.begin(); i != r.end(); ++i) leaves[i * kEvery]->writeBuffers(out, false);
+          (flags & openvdb::io::COMPRESS_BLOSC ? sum.first : sum.second) += buffer.bytes.size();
+        }
+        return sum;
+      },
+      [](Sizes a, const Sizes& b) {
+        return Sizes{a.first + b.first, a.second + b.second};
+      });
+  return double(sizes.first) <= ratio * double(sizes.second);
+}
+
+void writeLeafBuffersParallel(const openvdb::FloatTree& tree, std::ostream& os, bool toHalf) {
+  const auto leaves = leavesInOrder(tree);
   // 256 leaves (512 KiB of floats) a batch: enough work per task to hide its overhead, small enough that the
   // batches in flight (two per thread) stay a few MB.
   constexpr size_t kBatchLeaves = 256;

@@ -34,7 +34,7 @@ struct PrepArgs {
   double background = 0;
   bool quiet = false;
   bool timings = false;
-  std::string vdbCompression = "blosc";
+  std::string vdbCompression = "auto";
   store::PrepOptions options;
 };
 
@@ -178,7 +178,9 @@ void runPrep(PrepArgs& a, CLI::App& cmd) {
   if (isMeshInput(a.input)) return runMeshPrep(a);
   if (!a.field.empty()) throw store::InputError("--field names a mesh's scalar; '" + a.input + "' is not a mesh");
   a.options.haveBackground = cmd.count("--background") > 0;
-  a.options.vdbBlosc = a.vdbCompression == "blosc";
+  a.options.vdbCompression = a.vdbCompression == "blosc"  ? store::VdbCompression::Blosc
+                             : a.vdbCompression == "none" ? store::VdbCompression::None
+                                                          : store::VdbCompression::Auto;
   a.options.background = a.background;
   a.options.nonFinite = a.nonFinite == "error" ? store::NonFinitePolicy::Error : store::NonFinitePolicy::Background;
 
@@ -241,8 +243,9 @@ void addPrepCommand(CLI::App& app) {
   cmd->add_option("--vdb-chunk", args->options.vdbChunkSlices, "z-slices per OpenVDB file (0: as --memory allows)")
       ->check(between(0, 1 << 20, "slices"));
   cmd->add_option("--vdb-compression", args->vdbCompression,
-                  "OpenVDB leaf values: 'blosc' (LZ4, OpenVDB's default) or 'none' (larger files, less CPU)")
-      ->check(CLI::IsMember({"blosc", "none"}))
+                  "OpenVDB leaf values: 'blosc' (LZ4, OpenVDB's default), 'none' (larger files, far less CPU) or "
+                  "'auto' (blosc for a chunk where it halves the bytes)")
+      ->check(CLI::IsMember({"auto", "blosc", "none"}))
       ->capture_default_str();
   cmd->add_option("--quantise", args->quantise,
                   "store u8 or u16: the value range mapped linearly onto 0..255 or 0..65535");
