@@ -2,13 +2,13 @@
 #include "brickstore/VdbChunkWriter.h"
 
 #include <openvdb/openvdb.h>
-#include <openvdb/tools/Dense.h>
 
 #include <cstdio>
 
 #include "brickstore/Errors.h"
 #include "brickstore/OpenVdbInit.h"
 #include "brickstore/VdbParallelWrite.h"
+#include "brickstore/VdbSlices.h"
 
 namespace voxbrick::store {
 
@@ -57,14 +57,9 @@ void VdbChunkWriter::addSlices(int64_t z0, int64_t count, const void* values) {
     }
     const int64_t take = std::min(count, mChunkStart + mChunkSlices - z0);
     if (!mImpl->grid) mImpl->grid = std::make_shared<ParallelWriteFloatGrid>(static_cast<float>(mBackground));
-    openvdb::CoordBBox box(
-        openvdb::Coord(0, 0, static_cast<int>(z0)),
-        openvdb::Coord(static_cast<int>(n.x - 1), static_cast<int>(n.y - 1), static_cast<int>(z0 + take - 1)));
     dispatchType(mInfo.type, [&](auto tag) {
       using T = decltype(tag);
-      // Dense wants a mutable pointer; copyFromDense only reads through it.
-      openvdb::tools::Dense<T, openvdb::tools::LayoutXYZ> dense(box, reinterpret_cast<T*>(const_cast<char*>(bytes)));
-      openvdb::tools::copyFromDense(dense, mImpl->grid->tree(), 0.0f);
+      addSlicesToTree(mImpl->grid->tree(), reinterpret_cast<const T*>(bytes), n, z0, take);
     });
     bytes += static_cast<size_t>(take) * sliceBytes;
     z0 += take;
