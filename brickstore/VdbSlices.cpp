@@ -6,6 +6,7 @@
 #include <tbb/parallel_for.h>
 
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -31,22 +32,22 @@ template <typename T>
 void fillWholeLeaf(Leaf& leaf, const T* values, const Vec3i& dims, int64_t z0, const openvdb::Coord& origin,
                    float background) {
   float* buffer = leaf.buffer().data();
-  Leaf::NodeMaskType mask;  // all off
+  // Leaf offset n = x << 6 | y << 3 | z, so mask word x holds bit (y << 3 | z): gathered in registers, no branches.
+  uint64_t words[kDim] = {};
   for (int lz = 0; lz < kDim; ++lz)
     for (int ly = 0; ly < kDim; ++ly) {
       const T* row = values + ((int64_t(origin.z() + lz) - z0) * dims.y + origin.y() + ly) * dims.x + origin.x();
+      const int bit = (ly << 3) | lz;
       for (int lx = 0; lx < kDim; ++lx) {
         const float v = static_cast<float>(row[lx]);
-        const openvdb::Index n = openvdb::Index((lx << 6) | (ly << 3) | lz);
-        // math::isApproxEqual(background, v, 0): a NaN counts as equal, as in LeafNode::copyFromDense.
-        if (std::abs(background - v) > 0.0f) {
-          buffer[n] = v;
-          mask.setOn(n);
-        } else {
-          buffer[n] = background;
-        }
+        // !math::isApproxEqual(background, v, 0): a NaN counts as the background, as in LeafNode::copyFromDense.
+        const bool on = std::abs(background - v) > 0.0f;
+        buffer[(lx << 6) | bit] = on ? v : background;
+        words[lx] |= uint64_t(on) << bit;
       }
     }
+  Leaf::NodeMaskType mask;
+  for (int w = 0; w < kDim; ++w) mask.template getWord<uint64_t>(openvdb::Index(w)) = words[w];
   leaf.setValueMask(mask);
 }
 
