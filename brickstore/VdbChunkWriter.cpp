@@ -24,10 +24,10 @@ int64_t VdbChunkWriter::chunkBytes(const Vec3i& dims, int64_t slices) {
 }
 
 int64_t VdbChunkWriter::residentBytes(const Vec3i& dims, int64_t slices) {
-  // A leaf is 2 KiB of values, a 64-byte mask, its origin and the allocator's header (about 4.2 bytes a voxel,
-  // 4.4 measured as peak RSS on 512^3 with every voxel active); writing holds a few batches of compressed leaves
-  // (writeLeafBuffersParallel), a few MB.
-  return dims.x * dims.y * slices * 9 / 2 + (int64_t{16} << 20);
+  // A leaf is 2 KiB of values, a 64-byte mask, its origin and the allocator's header (4.2 bytes a voxel), but peak
+  // RSS says more: 4.4 bytes a voxel on 512^3 (one chunk of 416 slices), 6.4 on 1024^3 (chunks of 64 slices, freed
+  // and allocated again); writing holds a few batches of compressed leaves (writeLeafBuffersParallel), a few MB.
+  return dims.x * dims.y * slices * 13 / 2 + (int64_t{16} << 20);
 }
 
 VdbChunkWriter::VdbChunkWriter(const std::filesystem::path& storeDir, const VolumeInfo& info, double background,
