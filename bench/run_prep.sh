@@ -29,6 +29,7 @@ done
 new=build/voxbrick
 [ -x "$new" ] && [ -x build/bench/bench_store ] || { echo "run_prep.sh: build first (bash scripts/build.sh)" >&2; exit 2; }
 mkdir -p "$work" bench/results
+load_start=$(uptime | sed 's/.*load average: //')
 mri=/usr/share/mricron/templates/ch2better.nii.gz
 for n in $sizes; do
   [ -f "$work/blobs-$n.raw" ] || build/bench/bench_store --make-raw "$work/blobs-$n.raw" --spec "blobs,n=$n" > /dev/null
@@ -126,12 +127,13 @@ for ((r = 1; r <= repeats; ++r)); do
 done
 rm -rf "$work/out.vbs" "$work/out"
 
-python3 - "$csv" "$phases" "$identical" "$(nproc)" "$(uptime | sed 's/.*load average: //')" "$repeats" "$big" \
+python3 - "$csv" "$phases" "$identical" "$(nproc)" "$load_start" "$(uptime | sed 's/.*load average: //')" \
+  "$repeats" "$big" \
   > bench/results/prep.md <<'EOF'
 import collections, csv, statistics, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 phase_rows = list(csv.DictReader(open(sys.argv[2])))
-identical, cores, load, repeats, big = sys.argv[3:8]
+identical, cores, load_start, load, repeats, big = sys.argv[3:9]
 runs = collections.defaultdict(list)
 for r in rows: runs[(r["input"], r["tool"], r["threads"])].append(r)
 med = lambda key, field: statistics.median(float(r[field]) for r in runs[key])
@@ -139,12 +141,16 @@ inputs = list(dict.fromkeys(r["input"] for r in rows))
 tools = list(dict.fromkeys(r["tool"] for r in rows))
 threads = list(dict.fromkeys(r["threads"] for r in rows))
 print("# Prep throughput\n")
+loaded = max(float(x) for x in (load_start + ", " + load).replace(",", " ").split()) > 2
+if loaded:
+    print(f"**A loaded run** (load average {load_start} at the start, {load} at the end, on {cores} cores): wall "
+          f"times, and so MB/s, are inflated by other work, prep's more than zstd's; compare CPU seconds.\n")
 print(f"MB/s = raw input bytes / wall seconds, median of {repeats} runs ({big} for 1024³); CPU = user + system "
-      f"seconds, all threads; prep with `--threads T`, zstd with `-TT`. {cores} cores shared with other work (load "
-      f"average at the end: {load}). The raw files are the blobs field written once as raw f32, so no field is "
-      f"evaluated; each run starts after `sync`.\n")
-print("| input | tool | threads | MB/s | against `zstd -1` to /dev/null | wall s | CPU s | peak RSS MB |")
-print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
+      f"seconds, all threads; prep with `--threads T`, zstd with `-TT`. {cores} cores (load average {load_start} at "
+      f"the start, {load} at the end). The raw files are the blobs field written once as raw f32, so no field is "
+      f"evaluated; each run starts after `sync`. The ratios are against `zstd -1` to /dev/null.\n")
+print("| input | tool | threads | MB/s | MB/s ratio | wall s | CPU s | CPU ratio | peak RSS MiB |")
+print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
 for i in inputs:
     for th in threads:
         ref = (i, "zstd -1 to /dev/null", th)
@@ -152,8 +158,9 @@ for i in inputs:
             k = (i, t, th)
             if k not in runs: continue
             ratio = f"{med(k, 'mb_per_s') / med(ref, 'mb_per_s'):.2f}" if ref in runs else ""
+            cpu = f"{med(k, 'cpu_s') / med(ref, 'cpu_s'):.2f}" if ref in runs else ""
             print(f"| {i} | {t} | {th} | {med(k, 'mb_per_s'):.1f} | {ratio} | {med(k, 'wall_s'):.2f} | "
-                  f"{med(k, 'cpu_s'):.2f} | {med(k, 'peak_rss_mb'):.0f} |")
+                  f"{med(k, 'cpu_s'):.2f} | {cpu} | {med(k, 'peak_rss_mb'):.0f} |")
 prs = collections.defaultdict(list)
 for r in phase_rows: prs[(r["input"], r["tool"], r["threads"], r["phase"])].append(r)
 if prs:
