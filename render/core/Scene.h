@@ -157,6 +157,15 @@ struct Scene {
   /// a provisional Frame followed by the exact one (PROTOCOL.md); `voxbrick render` writes both. The final frame is
   /// the same as without it.
   bool progressive = false;
+  /// A camera in motion (a drag): the frame is drawn within `timeBudgetMs`, choosing a reduced drawing size (scaled
+  /// up bilinearly to width x height), a coarser level of detail and a longer step by the rate the device has shown
+  /// (render/core/Interactive.h); the server answers it as a provisional Frame and sends the exact one once the camera
+  /// rests (PROTOCOL.md, Session 8). No effect on the exact frame.
+  bool interactive = false;
+  /// The time an interactive frame may take, in ms (kMinTimeBudgetMs..kMaxTimeBudgetMs). The default, 100 ms, is
+  /// ten frames a second, what a drag needs to feel attached to the mouse (docs/interactive.md measures it).
+  double timeBudgetMs = 100;
+  static constexpr double kMinTimeBudgetMs = 10, kMaxTimeBudgetMs = 10000;
   /// How a tetrahedral mesh's cells are put in order (no effect on a grid). The default, the ray caster with `ert`
   /// 0.999, is the fastest setting of bench/results/mesh-sweep/mesh-sweep.md that keeps every mesh at 40 dB or more
   /// against the exact reference (4× MPVO's speed on the 1 M-tet ball; slower on the small Kuhn ball).
@@ -172,9 +181,9 @@ struct Scene {
   /// refused), size [w, h],
   /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b] or "none",
   /// window [lo, hi], skip_empty, cull, slicer (slicerName), shading, sub_block, slab, raycast, ert,
-  /// pre_integration, ess, lod, progressive, visibility (tetSortName), quality ("psnr:DB" or "ms:N"; not with
-  /// step, raycast, slab, ert, pre_integration, sub_block or lod).
-  /// `allowPaths` false (the server) accepts transfer functions by preset name or inline only, never a file path.
+  /// pre_integration, ess, lod, progressive, interactive, time_budget_ms, visibility (tetSortName), quality ("psnr:DB"
+  /// or "ms:N"; not with step, raycast, slab, ert, pre_integration, sub_block or lod). `allowPaths` false (the server)
+  /// accepts transfer functions by preset name or inline only, never a file path.
   static Scene fromJson(const std::string& text, const std::string& what, bool allowPaths = true);
   /// The same, resolving preset names from `presets` (no file is read) and accepting no paths: what a server does
   /// on its I/O threads.

@@ -35,6 +35,8 @@ class VolumeRenderer final : public FrameRenderer {
 
   const BrickAtlas& atlas() const { return mResidency.atlas(); }
   size_t gpuBytes() const override { return mResidency.atlas().bytes(); }
+  /// The plan's estimate (FramePlan::estimatedSamples) of `scene` under this renderer's budget.
+  double estimateSamples(const Scene& scene) override;
 
   /// Texels of the GPU's transfer-function table.
   static constexpr int kTransferTableTexels = render::kTransferTableTexels;

@@ -1,0 +1,106 @@
+// The time-budget planner of interactive frames and the bilinear scale-up.
+#include "render/core/Interactive.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace voxbrick::render {
+
+const std::vector<InteractiveRung>& interactiveLadder() {
+  // Each rung is cheaper than the one before in at least one factor and no dearer in any. The order (step, then
+  // size, then level of detail) is the one measured to lose the least PSNR per ms on the MRI (docs/interactive.md).
+  static const std::vector<InteractiveRung> kLadder = {
+      {1, 1, 1},    {1, 1.5, 1},  {1, 2, 1},     {0.75, 2, 1},   {0.75, 2, 2},
+      {0.5, 2, 2},  {0.5, 3, 2},  {0.5, 3, 4},   {0.35, 3, 4},   {0.35, 4, 4},
+      {0.25, 4, 8}, {0.25, 6, 8}, {0.18, 6, 16}, {0.125, 8, 16}, {0.125, 8, 32},
+  };
+  return kLadder;
+}
+
+nlohmann::json InteractiveChoice::toJson() const {
+  return {{"budget_ms", budgetMs},
+          {"predicted_ms", predictedMs},
+          {"rate_samples_per_ms", rate},
+          {"scale", scale},
+          {"width", width},
+          {"height", height},
+          {"lod", lod},
+          {"step", step},
+          {"rung", rung},
+          {"samples_estimated", samples}};
+}
+
+namespace {
+
+int reducedSide(int side, double scale) {
+  if (side <= kMinInteractiveSide) return side;
+  return std::clamp(int(std::lround(side * scale)), kMinInteractiveSide, side);
+}
+
+}  // namespace
+
+Scene interactiveScene(const Scene& scene, const InteractiveRung& rung) {
+  Scene s = scene;
+  s.interactive = false;
+  s.width = reducedSide(scene.width, rung.scale);
+  s.height = reducedSide(scene.height, rung.scale);
+  s.step = std::min(scene.step * rung.stepFactor, 64.0);
+  if (rung.lodFactor > 1)
+    s.lod = std::min(scene.lod > 0 ? scene.lod * rung.lodFactor : rung.lodFactor - 1, Scene::kMaxLod);
+  return s;
+}
+
+InteractiveChoice chooseInteractive(const Scene& scene, double rate, const SampleEstimate& estimate) {
+  const auto& ladder = interactiveLadder();
+  InteractiveChoice choice;
+  choice.budgetMs = scene.timeBudgetMs;
+  choice.rate = rate > 0 && std::isfinite(rate) ? rate : 0;
+  // Without a rate the cheapest rung is drawn: its time measures the device for the next frame.
+  size_t first = choice.rate > 0 ? 0 : ladder.size() - 1;
+  for (size_t i = first; i < ladder.size(); ++i) {
+    const Scene s = interactiveScene(scene, ladder[i]);
+    const double samples = std::max(estimate(s), 0.0);
+    choice.rung = int(i);
+    choice.samples = samples;
+    choice.predictedMs = choice.rate > 0 ? samples / choice.rate : 0;
+    choice.width = s.width;
+    choice.height = s.height;
+    choice.scale = double(s.width) / scene.width;
+    choice.lod = s.lod;
+    choice.step = s.step;
+    if (choice.rate > 0 && choice.predictedMs <= choice.budgetMs) break;
+  }
+  return choice;
+}
+
+void RateGauge::add(double samples, double ms) {
+  if (!(samples > 0 && ms > 0) || !std::isfinite(samples) || !std::isfinite(ms)) return;
+  const double r = samples / ms;
+  mRate = mRate > 0 ? (1 - kWeight) * mRate + kWeight * r : r;
+}
+
+image::ImageF scaleBilinear(const image::ImageF& image, int width, int height) {
+  if (image.width == width && image.height == height) return image;
+  image::ImageF out;
+  out.width = width;
+  out.height = height;
+  out.rgba.resize(size_t(width) * size_t(height) * 4);
+  const double sx = double(image.width) / width, sy = double(image.height) / height;
+  for (int y = 0; y < height; ++y) {
+    const double fy = std::clamp((y + 0.5) * sy - 0.5, 0.0, double(image.height - 1));
+    const int y0 = int(fy), y1 = std::min(y0 + 1, image.height - 1);
+    const float ty = float(fy - y0);
+    for (int x = 0; x < width; ++x) {
+      const double fx = std::clamp((x + 0.5) * sx - 0.5, 0.0, double(image.width - 1));
+      const int x0 = int(fx), x1 = std::min(x0 + 1, image.width - 1);
+      const float tx = float(fx - x0);
+      const float *a = image.pixel(x0, y0), *b = image.pixel(x1, y0), *c = image.pixel(x0, y1),
+                  *d = image.pixel(x1, y1);
+      float* o = out.pixel(x, y);
+      for (int k = 0; k < 4; ++k) o[k] = (1 - ty) * ((1 - tx) * a[k] + tx * b[k]) + ty * ((1 - tx) * c[k] + tx * d[k]);
+    }
+  }
+  return out;
+}
+
+}  // namespace voxbrick::render
