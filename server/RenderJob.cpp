@@ -36,7 +36,11 @@ RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int 
     options.standIns = job.scene.progressive && !job.refinement;
     options.maxSamples = job.maxSamples;
     options.cancelled = cancelled;
-    const image::ImageF image = engine.render(job.dataset, job.scene, &stats, options);
+    options.rateSamplesPerMs = job.rateSamplesPerMs;
+    options.fixedMs = job.fixedMs;
+    render::Scene scene = job.scene;
+    if (job.refinement) scene.interactive = false;  // the exact frame of an interactive request
+    const image::ImageF image = engine.render(job.dataset, scene, &stats, options);
     const auto encodeStart = Clock::now();
     proto::Frame frame;
     frame.width = uint32_t(image.width);
@@ -47,7 +51,7 @@ RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int 
     statsJson["queue_ms"] = msBetween(job.received, start);
     statsJson["encode_ms"] = msBetween(encodeStart, Clock::now());
     statsJson["render_thread"] = thread;
-    const bool provisional = stats.bricksStandIn > 0;
+    const bool provisional = stats.bricksStandIn > 0 || scene.interactive;
     statsJson["provisional"] = provisional;
     frame.statsJson = statsJson.dump();
     if (const uint64_t body = frameBodyBytes(frame.statsJson.size(), frame.payload.size()); body > job.maxBodyBytes)
@@ -56,7 +60,10 @@ RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int 
                                std::to_string(body) + " bytes, above this server's message limit of " +
                                std::to_string(job.maxBodyBytes) + "; ask for a smaller image or another encoding"),
               false};
-    return {std::move(frame), provisional};
+    RenderReply reply{std::move(frame), provisional};
+    reply.samples = stats.samplesEstimated;
+    reply.ms = stats.interactive.is_object() ? stats.interactive.value("actual_ms", stats.msTotal) : stats.msTotal;
+    return reply;
   } catch (const render::FrameCancelled&) {
     return {proto::Error{proto::ErrorCode::Internal, "cancelled"}, false, true};
   } catch (const store::CorruptStoreError& e) {

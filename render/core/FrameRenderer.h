@@ -46,6 +46,8 @@ struct FrameOptions {
   /// An interactive frame's rate (estimated samples per ms) to predict its cost with (render/core/Interactive.h);
   /// 0: the rate the engine has seen lately.
   double rateSamplesPerMs = 0;
+  /// With rateSamplesPerMs: the time a frame takes besides its samples (RateGauge::fixedMs).
+  double fixedMs = 0;
 };
 
 /// A renderer of one dataset on one GL context (so one render thread); it keeps its GPU state between frames.

@@ -23,8 +23,8 @@ struct InteractiveRung {
 };
 
 /// The rungs, from the exact drawing down, each cheaper than the one before, in the order that loses the least
-/// PSNR per ms saved on the MRI (docs/interactive.md has the measurement): the step first, then the drawing size,
-/// then the level of detail.
+/// PSNR per ms saved on the MRI (bench/results/interactive-order.md): the step first, then the drawing size, then
+/// the level of detail.
 const std::vector<InteractiveRung>& interactiveLadder();
 
 /// The shortest side a reduced drawing keeps, in pixels (a requested image smaller than this is never reduced).
@@ -34,15 +34,16 @@ inline constexpr int kMinInteractiveSide = 64;
 struct InteractiveChoice {
   double budgetMs = 0;        ///< Scene::timeBudgetMs
   double rate = 0;            ///< estimated samples per ms it was predicted with; 0: none known (the cheapest rung)
+  double fixedMs = 0;         ///< the time a frame takes whatever its samples, predicted with
   double samples = 0;         ///< the estimate of the chosen drawing
-  double predictedMs = 0;     ///< samples / rate (0 when no rate is known)
+  double predictedMs = 0;     ///< fixedMs + samples / rate (0 when no rate is known)
   int rung = 0;               ///< index into interactiveLadder()
   double scale = 1;           ///< drawn width / requested width
   int width = 0, height = 0;  ///< the drawing's size
   double lod = 0, step = 0;   ///< the drawing's Scene::lod and Scene::step
 
-  /// {"budget_ms", "predicted_ms", "rate_samples_per_ms", "scale", "width", "height", "lod", "step", "rung",
-  /// "samples_estimated"}.
+  /// {"budget_ms", "predicted_ms", "rate_samples_per_ms", "fixed_ms", "scale", "width", "height", "lod", "step",
+  /// "rung", "samples_estimated"}.
   nlohmann::json toJson() const;
 };
 
@@ -55,23 +56,28 @@ Scene interactiveScene(const Scene& scene, const InteractiveRung& rung);
 /// meshes).
 using SampleEstimate = std::function<double(const Scene&)>;
 
-/// The first rung of interactiveLadder() whose predicted time, estimate / rate, is within scene.timeBudgetMs; the
-/// last rung when none is, or when `rate` is 0 (no frame measured yet: the cheapest drawing measures the device).
-/// Deterministic: the same scene, rate and estimates give the same choice.
-InteractiveChoice chooseInteractive(const Scene& scene, double rate, const SampleEstimate& estimate);
+/// The first rung of interactiveLadder() whose predicted time, fixedMs + estimate / rate, is within
+/// scene.timeBudgetMs; the last rung when none is, or when `rate` is 0 (no frame measured yet: the cheapest drawing
+/// measures the device). Deterministic: the same scene, rate and estimates give the same choice.
+InteractiveChoice chooseInteractive(const Scene& scene, double rate, double fixedMs, const SampleEstimate& estimate);
 
-/// A rate this device has shown: estimated samples per ms of wall time over the frames added, smoothed (each new
-/// frame weighs kWeight). Not thread-safe.
+/// What this device has shown: a frame of s estimated samples takes fixedMs() + s / rate() ms, fitted by least
+/// squares to the last kFrames frames added (a line through their (samples, ms); with too little spread in samples,
+/// or a fit that is not a rising line above 0, the ratio of their sums and no fixed time). Not thread-safe.
 class RateGauge {
  public:
-  static constexpr double kWeight = 0.5;
+  static constexpr size_t kFrames = 8;
   /// Adds a frame of `samples` estimated samples that took `ms`; frames of no samples or no time are ignored.
   void add(double samples, double ms);
-  /// Samples per ms; 0 before any frame.
+  /// Samples per ms of the time that grows with the samples; 0 before any frame.
   double rate() const { return mRate; }
+  /// The time a frame takes besides its samples, ms.
+  double fixedMs() const { return mFixedMs; }
 
  private:
-  double mRate = 0;
+  void fit();
+  std::vector<std::pair<double, double>> mFrames;  // (samples, ms), oldest first
+  double mRate = 0, mFixedMs = 0;
 };
 
 /// `image` resampled bilinearly (pixel centres aligned, edges clamped) to width x height; the same image when the

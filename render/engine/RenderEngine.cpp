@@ -136,9 +136,10 @@ image::ImageF RenderEngine::render(const std::shared_ptr<const Dataset>& dataset
     // Chosen by the estimate at the given (the session's) rate, else this engine's; timed as a whole, planning and
     // scaling up included.
     const auto start = std::chrono::steady_clock::now();
-    const double rate = options.rateSamplesPerMs > 0 ? options.rateSamplesPerMs : recent;
-    const InteractiveChoice chosen =
-        chooseInteractive(resolved, rate, [&](const Scene& s) { return renderer.estimateSamples(s); });
+    const bool given = options.rateSamplesPerMs > 0;
+    const InteractiveChoice chosen = chooseInteractive(resolved, given ? options.rateSamplesPerMs : recent,
+                                                       given ? options.fixedMs : mImpl->rates[kind].fixedMs(),
+                                                       [&](const Scene& s) { return renderer.estimateSamples(s); });
     image = renderer.render(interactiveScene(resolved, interactiveLadder()[size_t(chosen.rung)]), &frameStats,
                             frameOptions);
     image = scaleBilinear(image, resolved.width, resolved.height);
@@ -148,7 +149,9 @@ image::ImageF RenderEngine::render(const std::shared_ptr<const Dataset>& dataset
   } else {
     image = renderer.render(resolved, &frameStats, frameOptions);
   }
-  mImpl->rates[kind].add(frameStats.samplesEstimated, frameStats.msTotal);
+  mImpl->rates[kind].add(frameStats.samplesEstimated, frameStats.interactive.is_object()
+                                                          ? frameStats.interactive["actual_ms"].get<double>()
+                                                          : frameStats.msTotal);
   mImpl->recentRates[kind] = mImpl->rates[kind].rate();
   finishImage(dataset->worldFrame(), image);  // the renderers draw in the local frame
   if (choice) frameStats.quality = choice->toJson();
