@@ -103,7 +103,7 @@ std::optional<render::CameraSpec> extrapolate(const render::CameraSpec& a, const
 
 }  // namespace
 
-void prefetchAhead(const RenderJob& job) {
+void prefetchAhead(const render::RenderEngine& engine, const RenderJob& job) {
   if (!job.previousCamera || !job.dataset || job.dataset->kind() != render::DatasetKind::BrickStore) return;
   const auto next = extrapolate(*job.previousCamera, job.scene.camera);
   if (!next) return;
@@ -111,7 +111,8 @@ void prefetchAhead(const RenderJob& job) {
     const auto& dataset = static_cast<const render::BrickStoreDataset&>(*job.dataset);
     render::Scene scene = job.scene;
     scene.camera = *next;
-    const render::FramePlan plan = render::planFrame(scene, *dataset.store(), render::kTransferTableTexels);
+    const render::FramePlan plan =
+        render::planFrame(scene, *dataset.store(), render::kTransferTableTexels, engine.brickBudget(job.dataset));
     std::vector<store::BrickKey> keys;
     for (const render::BrickDraw& d : plan.visible.bricks) {
       if (keys.size() >= dataset.cache()->prefetchQueueLimit()) break;

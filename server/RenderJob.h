@@ -76,8 +76,10 @@ RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int 
                         const std::function<bool()>& cancelled = {});
 
 /// Pages ahead of a drag: when `job` moved the camera from its previous one, queues on the dataset's host cache the
-/// bricks the next camera along the same motion would draw (the camera extrapolated one step). Advisory: does nothing
-/// for other dataset kinds or a camera that did not move, and never throws.
-void prefetchAhead(const RenderJob& job);
+/// bricks the next camera along the same motion would draw (the camera extrapolated one step), fitted to the budget
+/// the frame will be fitted to on `engine` (RenderEngine::brickBudget, the working set of render/volume/WorkingSet),
+/// so that it pages nothing the frame will not draw. Advisory: does nothing for other dataset kinds or a camera that
+/// did not move, and never throws.
+void prefetchAhead(const render::RenderEngine& engine, const RenderJob& job);
 
 }  // namespace voxbrick::server

@@ -236,7 +236,7 @@ void RenderScheduler::renderLoop(std::unique_ptr<render::RenderEngine> engine, i
       }
       sink->rendered(job, std::move(reply.message));
       if (reply.provisional) refine(sink, job);
-      if (!job.refinement) prefetchAhead(job);
+      if (!job.refinement) prefetchAhead(*engine, job);
     }
     sink.reset();
     job = {};

@@ -159,6 +159,13 @@ image::ImageF RenderEngine::render(const std::shared_ptr<const Dataset>& dataset
   return image;
 }
 
+BrickBudget RenderEngine::brickBudget(const std::shared_ptr<const Dataset>& dataset) const {
+  if (!dataset || dataset->kind() != DatasetKind::BrickStore) return {};
+  const auto it = mImpl->renderers.find(dataset);
+  if (it == mImpl->renderers.end()) return {};
+  return static_cast<const VolumeRenderer&>(*it->second.renderer).budget();
+}
+
 double RenderEngine::recentRate(DatasetKind kind) const {
   return mImpl->recentRates[kind == DatasetKind::TetMesh ? 1 : 0].load();
 }

@@ -12,6 +12,7 @@
 #include "render/core/FrameStats.h"
 #include "render/core/Scene.h"
 #include "render/volume/AtlasFormat.h"
+#include "render/volume/WorkingSet.h"
 
 namespace voxbrick::render {
 
@@ -60,6 +61,11 @@ class RenderEngine {
   static constexpr double kCheckpointMs = 30;
   /// The checkpoint interval in samples before a frame of that kind has been timed.
   static constexpr double kFirstCheckpointSamples = 1e6;
+
+  /// The budget a frame of `dataset` is fitted to on this engine (VolumeRenderer::budget: its atlas's slots and the
+  /// host cache's bricks), for planning away from the renderer (the server's paging ahead); {} (no limit) for a mesh
+  /// or a dataset this engine has not drawn yet. The context must be current.
+  BrickBudget brickBudget(const std::shared_ptr<const Dataset>& dataset) const;
 
   /// GPU memory its renderers hold now (their atlases); never above options.gpuBudgetBytes. Any thread may ask.
   size_t gpuBytes() const;
