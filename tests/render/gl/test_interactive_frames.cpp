@@ -59,8 +59,8 @@ TEST(InteractiveFrames, ASmallBudgetDrawsFewerSamplesScaledUpToTheRequestedSize)
   options.rateSamplesPerMs = exact.samplesEstimated;
   const image::ImageF same = engine.render(dataset, scene, &stats, options);
   EXPECT_EQ(stats.interactive["rung"].get<int>(), 0);
-  ASSERT_EQ(same.rgba.size(), full.rgba.size());
-  EXPECT_EQ(std::memcmp(same.rgba.data(), full.rgba.data(), full.rgba.size() * sizeof(float)), 0);
+  // The same frame within round-off (the coarser frame before moved bricks to other atlas slots).
+  test::expectClose(same, full, 1e-4, "an interactive frame at a rate that fits the exact one");
 }
 
 TEST(InteractiveFrames, FramesSplitForCancellationAreTheSameFrames) {
