@@ -93,8 +93,12 @@ void RateGauge::fit() {
   const double meanS = sumS / n, meanMs = sumMs / n;
   double cov = 0, var = 0;
   for (const auto& [s, ms] : mFrames) cov += (s - meanS) * (ms - meanMs), var += (s - meanS) * (s - meanS);
-  const double slope = cov / var, fixed = meanMs - slope * meanS;
-  if (slope > 0 && fixed >= 0) mRate = 1 / slope, mFixedMs = fixed;
+  // A noisy frame can tilt the line into a large fixed time that would make every drawing look too dear: the fixed
+  // time is held to half the quickest frame's, and the rate is then that of the rest of the time.
+  double quickest = mFrames.front().second;
+  for (const auto& frame : mFrames) quickest = std::min(quickest, frame.second);
+  const double slope = cov / var, fixed = std::min(meanMs - slope * meanS, 0.5 * quickest);
+  if (slope > 0 && fixed > 0) mRate = sumS / (sumMs - n * fixed), mFixedMs = fixed;
 }
 
 image::ImageF scaleBilinear(const image::ImageF& image, int width, int height) {

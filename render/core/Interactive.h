@@ -62,8 +62,9 @@ using SampleEstimate = std::function<double(const Scene&)>;
 InteractiveChoice chooseInteractive(const Scene& scene, double rate, double fixedMs, const SampleEstimate& estimate);
 
 /// What this device has shown: a frame of s estimated samples takes fixedMs() + s / rate() ms, fitted by least
-/// squares to the last kFrames frames added (a line through their (samples, ms); with too little spread in samples,
-/// or a fit that is not a rising line above 0, the ratio of their sums and no fixed time). Not thread-safe.
+/// squares to the last kFrames frames added (a line through their (samples, ms), its fixed time at most half the
+/// quickest frame's and the rate that of the rest; with too little spread in samples, or a fit that is not a rising
+/// line above 0, the ratio of their sums and no fixed time). Not thread-safe.
 class RateGauge {
  public:
   static constexpr size_t kFrames = 8;

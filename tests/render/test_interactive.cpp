@@ -104,10 +104,16 @@ TEST(Interactive, TheGaugeFitsAFixedTimeAndARate) {
   EXPECT_EQ(g.rate(), 0);
   g.add(1e6, 0);  // ignored
   EXPECT_EQ(g.rate(), 0);
-  // Frames that take 10 ms plus 1 ms per 1e5 samples.
-  for (double s : {1e5, 4e5, 2e6, 8e5, 3e6}) g.add(s, 10 + s / 1e5);
+  // Frames that take 4 ms plus 1 ms per 1e5 samples.
+  for (double s : {1e6, 4e6, 2e7, 8e6, 3e7}) g.add(s, 4 + s / 1e5);
   EXPECT_NEAR(g.rate(), 1e5, 1);
-  EXPECT_NEAR(g.fixedMs(), 10, 1e-6);
+  EXPECT_NEAR(g.fixedMs(), 4, 1e-6);
+  // A noisy frame cannot make the fixed time more than half the quickest frame's.
+  RateGauge noisy;
+  for (double s : {1e5, 2e5, 4e5}) noisy.add(s, 10);
+  noisy.add(8e5, 400);
+  EXPECT_LE(noisy.fixedMs(), 5);
+  EXPECT_GT(noisy.rate(), 0);
   // One size only: the ratio, no fixed time.
   RateGauge one;
   one.add(1e6, 20);
