@@ -52,9 +52,9 @@ render::Scene orbitScene(const OrbitArgs& a, const CLI::App& cmd) {
   return scene;
 }
 
-/// One view drawn as an interactive frame (at the rate of the orbit's earlier interactive frames, as a server session
-/// predicts), then exactly: the interactive frame is returned and the line reports its budget, predicted and actual
-/// ms, its choice and its PSNR against the exact frame.
+/// One view drawn as an interactive frame (at the rate of the orbit's earlier frames, interactive and exact, as a
+/// server session predicts from its own), then exactly: the interactive frame is returned and the line reports its
+/// budget, predicted and actual ms, its choice and its PSNR against the exact frame.
 struct InteractiveView {
   image::ImageF frame;
   double actualMs = 0, psnr = 0;
@@ -73,7 +73,9 @@ InteractiveView interactiveView(render::RenderEngine& engine, const std::shared_
   out.actualMs = chosen.value("actual_ms", 0.0);
   rate.add(stats.samplesEstimated, out.actualMs);
   scene.interactive = false;
-  const image::ImageF exact = engine.render(dataset, scene);
+  render::FrameStats exactStats;
+  const image::ImageF exact = engine.render(dataset, scene, &exactStats);
+  rate.add(exactStats.samplesEstimated, exactStats.msTotal);  // as a server session's exact frames do
   out.psnr = image::compareImages(out.frame, exact).psnr;
   std::printf("view %d: azimuth %g, budget %.0f ms, predicted %.1f ms, actual %.1f ms, %dx%d step %g lod %g, %.1f dB\n",
               index, scene.camera.azimuth, scene.timeBudgetMs, chosen.value("predicted_ms", 0.0), out.actualMs,
