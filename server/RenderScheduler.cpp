@@ -97,12 +97,6 @@ double RenderScheduler::restMs(const Sink& sink) const {
   return std::min(1.5 * it->second.intervalMs, kMaxRestMs);
 }
 
-double RenderScheduler::sessionRate(const Sink& sink, render::DatasetKind kind) const {
-  std::lock_guard lock(mMutex);
-  const auto it = mPaces.find(&sink);
-  return it == mPaces.end() ? 0 : it->second.rates[kind == render::DatasetKind::TetMesh ? 1 : 0].rate();
-}
-
 void RenderScheduler::refine(const std::shared_ptr<Sink>& sink, RenderJob job) {
   const bool rest = job.scene.interactive && !job.refinement;
   job.refinement = true;

@@ -54,8 +54,6 @@ class RenderScheduler {
   /// camera stops), and kMaxRestMs before the session has sent two Renders.
   double restMs(const Sink& sink) const;
   static constexpr double kMaxRestMs = 150;
-  /// The session's rate (estimated samples per ms of its frames of `kind`); 0 before its first such frame.
-  double sessionRate(const Sink& sink, render::DatasetKind kind) const;
   /// The atlases of all render threads' engines, as each thread last saw them after a job.
   struct GpuGauges {
     size_t bytes = 0, peakBytes = 0;  ///< peakBytes: the sum of each thread's peak

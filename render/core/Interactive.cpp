@@ -58,21 +58,32 @@ InteractiveChoice chooseInteractive(const Scene& scene, double rate, double fixe
   choice.budgetMs = scene.timeBudgetMs;
   choice.rate = rate > 0 && std::isfinite(rate) ? rate : 0;
   choice.fixedMs = choice.rate > 0 && fixedMs > 0 && std::isfinite(fixedMs) ? fixedMs : 0;
-  // Without a rate the cheapest rung is drawn: its time measures the device for the next frame.
-  size_t first = choice.rate > 0 ? 0 : ladder.size() - 1;
-  for (size_t i = first; i < ladder.size(); ++i) {
+  auto take = [&](size_t i) {
     const Scene s = interactiveScene(scene, ladder[i]);
-    const double samples = std::max(estimate(s), 0.0);
     choice.rung = int(i);
-    choice.samples = samples;
-    choice.predictedMs = choice.rate > 0 ? choice.fixedMs + samples / choice.rate : 0;
+    choice.samples = std::max(estimate(s), 0.0);
+    choice.predictedMs = choice.rate > 0 ? choice.fixedMs + choice.samples / choice.rate : 0;
     choice.width = s.width;
     choice.height = s.height;
     choice.scale = double(s.width) / scene.width;
     choice.lod = s.lod;
     choice.step = s.step;
-    if (choice.rate > 0 && choice.predictedMs <= choice.budgetMs) break;
+    return choice.rate > 0 && choice.predictedMs <= choice.budgetMs;
+  };
+  // Without a rate the cheapest rung is drawn: its time measures the device for the next frame.
+  if (choice.rate <= 0 || take(0)) {
+    if (choice.rate <= 0) take(ladder.size() - 1);
+    return choice;
   }
+  // Each rung costs no more than the one before: the first that fits, by bisection (a plan per step, a handful for
+  // the whole ladder, so that planning a large volume stays a small part of the budget). lo does not fit.
+  size_t lo = 0, hi = ladder.size() - 1;
+  if (!take(hi)) return choice;
+  while (hi - lo > 1) {
+    const size_t mid = (lo + hi) / 2;
+    (take(mid) ? hi : lo) = mid;
+  }
+  take(hi);
   return choice;
 }
 

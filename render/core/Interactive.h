@@ -58,7 +58,8 @@ using SampleEstimate = std::function<double(const Scene&)>;
 
 /// The first rung of interactiveLadder() whose predicted time, fixedMs + estimate / rate, is within
 /// scene.timeBudgetMs; the last rung when none is, or when `rate` is 0 (no frame measured yet: the cheapest drawing
-/// measures the device). Deterministic: the same scene, rate and estimates give the same choice.
+/// measures the device). Found by bisection, since every rung costs no more than the one before (about log2 of the
+/// ladder's length estimates). Deterministic: the same scene, rate and estimates give the same choice.
 InteractiveChoice chooseInteractive(const Scene& scene, double rate, double fixedMs, const SampleEstimate& estimate);
 
 /// What this device has shown: a frame of s estimated samples takes fixedMs() + s / rate() ms, fitted by least
