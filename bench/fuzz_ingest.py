@@ -48,7 +48,8 @@ def parse_args():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--formats", default="", help="comma-separated seed formats (default: all)")
-    ap.add_argument("--timeout", type=float, default=30, help="seconds a voxbrick run may take")
+    ap.add_argument("--timeout", type=float, default=120, help="wall seconds a voxbrick run may take")
+    ap.add_argument("--max-minutes", type=float, default=0, help="stop starting mutants after this long (0: never)")
     ap.add_argument("--rss-limit", type=float, default=1024, help="MB of peak RSS a voxbrick run may reach")
     ap.add_argument("--work", default=os.path.join(here, "work", "fuzz"))
     ap.add_argument("--report", default="", help="write PREFIX.md and PREFIX.csv")
@@ -130,15 +131,24 @@ def main():
         return 2
     start = time.monotonic()
     verdicts = []
+    idle = idle_rss(exe, env, work)
+    deadline = start + a.max_minutes * 60 if a.max_minutes > 0 else None
+
+    def timed(item):
+        return None if deadline and time.monotonic() > deadline else one(item)
+
     with concurrent.futures.ThreadPoolExecutor(a.jobs) as pool:
-        for k, v in enumerate(pool.map(one, plan)):
+        for k, v in enumerate(pool.map(timed, plan)):
+            if v is None:
+                continue
             verdicts.append(v)
             for f in v.failures:
                 print(f"FAIL {v.fmt} {v.label}: {f}", flush=True)
             if (k + 1) % 250 == 0:
                 print(f"fuzz_ingest: {k + 1}/{len(plan)} mutants, {time.monotonic() - start:.0f} s", flush=True)
+                if a.report:  # a partial report, in case the run is stopped
+                    write_report(a, verdicts, summarise(verdicts, idle), time.monotonic() - start, idle, exe)
     elapsed = time.monotonic() - start
-    idle = idle_rss(exe, env, work)
     summary = summarise(verdicts, idle)
     print(summary["text"])
     if a.report:
@@ -156,12 +166,15 @@ def summarise(verdicts, idle):
     top_rss = max(runs, key=lambda x: x[1].peak_mb)
     top_refused = max(refused, key=lambda x: x[1].peak_mb) if refused else None
     top_time = max(runs, key=lambda x: x[1].seconds)
+    top_cpu = max(runs, key=lambda x: x[1].cpu)
     failed = [v for v in verdicts if v.failures]
     text = (f"fuzz_ingest: {len(verdicts)} mutants, {len(runs)} voxbrick runs, {len(failed)} failed; peak RSS "
             f"{top_rss[1].peak_mb:.0f} MB ({top_rss[0].fmt} {top_rss[0].label}, {top_rss[1].command}); refused: "
             f"{top_refused[1].peak_mb if top_refused else 0:.0f} MB, idle {idle:.0f} MB; longest run "
-            f"{top_time[1].seconds:.2f} s ({top_time[0].fmt} {top_time[0].label}, {top_time[1].command})")
+            f"{top_time[1].seconds:.2f} s ({top_time[0].fmt} {top_time[0].label}, {top_time[1].command}); most CPU "
+            f"{top_cpu[1].cpu:.2f} s ({top_cpu[0].fmt} {top_cpu[0].label}, {top_cpu[1].command})")
     return {"per": per, "runs": runs, "top_rss": top_rss, "top_refused": top_refused, "top_time": top_time,
+            "top_cpu": top_cpu,
             "failed": failed, "text": text}
 
 
@@ -170,12 +183,12 @@ def write_report(a, verdicts, s, elapsed, idle, exe):
     os.makedirs(os.path.dirname(os.path.abspath(prefix)), exist_ok=True)
     with open(prefix + ".csv", "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["mutant", "format", "mutation", "must_refuse", "command", "status", "seconds", "peak_rss_mb",
+        w.writerow(["mutant", "format", "mutation", "must_refuse", "command", "status", "seconds", "cpu_s", "peak_rss_mb",
                     "outcome", "failures", "message"])
         for k, v in enumerate(verdicts):
             for r in v.runs:
                 msg = runner.message_lines(r.stderr)
-                w.writerow([k, v.fmt, v.label, int(v.must), r.command, r.rc, f"{r.seconds:.3f}", f"{r.peak_mb:.1f}",
+                w.writerow([k, v.fmt, v.label, int(v.must), r.command, r.rc, f"{r.seconds:.3f}", f"{r.cpu:.3f}", f"{r.peak_mb:.1f}",
                             v.outcome, "; ".join(v.failures), msg[0][:200] if msg else ""])
     outcomes = ["refused", "accepted", "partly refused", "crashed or killed"]
     lines = ["# Ingest fuzzer", "",
@@ -193,7 +206,9 @@ def write_report(a, verdicts, s, elapsed, idle, exe):
         lines.append(f"- largest peak RSS of a refusal: {r.peak_mb:.0f} MB, {r.peak_mb - idle:.0f} MB above an idle "
                      f"`voxbrick --version` ({idle:.0f} MB) ({v.fmt}, {v.label}, `{r.command}`)")
     v, r = s["top_time"]
-    lines += [f"- longest run: {r.seconds:.2f} s ({v.fmt}, {v.label}, `{r.command}`)", "",
+    vc, rc = s["top_cpu"]
+    lines += [f"- longest run: {r.seconds:.2f} s wall ({v.fmt}, {v.label}, `{r.command}`); most CPU: {rc.cpu:.2f} s "
+              f"({vc.fmt}, {vc.label}, `{rc.command}`); the wall time counts the machine's load", "",
               "| format | mutants | " + " | ".join(outcomes) + " | failed |",
               "| --- | ---: | " + " | ".join("---:" for _ in outcomes) + " | ---: |"]
     for fmt, c in s["per"].items():

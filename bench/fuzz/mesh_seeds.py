@@ -23,7 +23,7 @@ def _token_fields(text, lines):
         if words and (words[0] in lines or line in lines):
             for k, m in enumerate(re.finditer(r"\S+", line)):
                 if m.group() not in lines:
-                    must = not (words[0] == "SCALARS" and k == 1)
+                    must = not (words[0] == "SCALARS" and k in (1, 3))  # the name; the optional component count
                     fields.append(Field(f"{words[0]} token {k}", at + m.start(), len(m.group()), TEXT, must))
         at += len(line) + 1
     return fields
@@ -90,7 +90,8 @@ def _gmsh_token_must(fmt, section, prev, line, k):
     if v41 and section in ("$Nodes", "$Elements") and re.fullmatch(r"3 1 \d+ \d+", line):  # a block header
         return k >= 2
     if section == "$Elements" and re.fullmatch(r"\d+( \d+){4,}", line):
-        return k >= 1 if v41 else k in (1, 2) or k >= 5
+        # 2.2: the tag count may change with the tags (a line's extra numbers are not read).
+        return k >= 1 if v41 else k == 1 or k >= 5
     return None
 
 

@@ -20,6 +20,7 @@ class Run:
     command: str
     rc: int  # exit status; 128 + signal; -1 when killed for time or memory
     seconds: float
+    cpu: float  # user + system seconds: the work done, whatever else loads the machine
     peak_mb: float
     stderr: str
     killed: str = ""  # "time" or "memory" when the runner killed it
@@ -64,7 +65,9 @@ def run_child(argv, env, timeout, stderr_path):
     rc = 128 - rc if rc < 0 else rc
     with open(stderr_path, "rb") as f:
         text = f.read().decode(errors="replace")
-    return Run(" ".join(argv[1:2]), -1 if killed else rc, seconds, max(peak, usage.ru_maxrss / 1024.0), text, killed)
+    cpu = usage.ru_utime + usage.ru_stime
+    return Run(" ".join(argv[1:2]), -1 if killed else rc, seconds, cpu, max(peak, usage.ru_maxrss / 1024.0), text,
+               killed)
 
 
 def tree_hash(root):
