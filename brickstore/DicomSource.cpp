@@ -216,9 +216,11 @@ DicomPixelFormat pixelFormat(const SliceHeader& h) {
       uid ? uid : ""};
 }
 
-/// The most of a deflated data set inflated before it is refused: half of --memory, else 256 MB.
+/// The most of a deflated data set inflated before it is refused: 128 MB (a 16-bit slice of 8192 x 8192 with its
+/// header), less under a --memory below 512 MB.
 uint64_t maxInflatedBytes(const SourceOptions& options) {
-  return options.memoryBudgetMB > 0 ? uint64_t(options.memoryBudgetMB) << 19 : uint64_t{256} << 20;
+  constexpr uint64_t kMax = uint64_t{128} << 20;
+  return options.memoryBudgetMB > 0 ? std::min(kMax, uint64_t(options.memoryBudgetMB) << 18) : kMax;
 }
 
 /// Reads one file's header (not its pixels). Every failure of GDCM becomes an InputError naming the file.
@@ -473,7 +475,7 @@ std::unique_ptr<VolumeSource> openDicomSeries(const std::vector<std::string>& fi
   for (const SliceHeader& s : slices) {
     checkSupported(s);
     // Before any decoder sizes a buffer from Rows x Columns: the slice must fit --memory, and its pixel data hold it.
-    checkSliceFitsMemory(s.columns, s.rows, size_t(s.bitsAllocated / 8) * 2, options, s.file, "Rows x Columns");
+    checkSliceFitsMemory(s.columns, s.rows, size_t(s.bitsAllocated / 8), options, s.file, "Rows x Columns");
     checkPixelData(s.file, s.layout, pixelFormat(s));
   }
   checkConsistent(slices);

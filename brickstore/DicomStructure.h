@@ -34,7 +34,7 @@ struct DicomPixelFormat {
 /// the file as implicit VR, and size values from its bytes). A deflated data set is inflated here first, at most
 /// `maxInflatedBytes` of it (more is refused: GDCM would inflate it whole into memory), and walked as explicit VR
 /// little endian. Throws IoError when the file cannot be read.
-DicomLayout checkDicomStructure(const std::string& path, uint64_t maxInflatedBytes = uint64_t{256} << 20);
+DicomLayout checkDicomStructure(const std::string& path, uint64_t maxInflatedBytes = uint64_t{128} << 20);
 
 /// Throws InputError naming the file when its pixel data does not match the header: no PixelData, encapsulated
 /// pixel data under a native transfer syntax or native pixel data under a compressed one, or a native length other

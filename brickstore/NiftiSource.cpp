@@ -1,5 +1,4 @@
 // NIfTI-1 single-file input (.nii, .nii.gz): 348-byte header of either byte order, scl_slope/scl_inter scaling.
-#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -277,7 +276,7 @@ std::unique_ptr<VolumeSource> openNiftiSource(const std::string& path, const Sou
   const Vec3i dims = niftiDims(h, path);
   const FileValueType fileType = niftiValueType(h, path);
   const int64_t dataBytes = checkedVolumeBytes(dims, fileValueSize(fileType), path);
-  checkSliceFitsMemory(dims.x, dims.y, std::max<size_t>(fileValueSize(fileType), 4), options, path, "dim[1] x dim[2]");
+  checkSliceFitsMemory(dims.x, dims.y, fileValueSize(fileType), options, path, "dim[1] x dim[2]");
   const int64_t voxOffset = niftiVoxOffset(h, path);
 
   Vec3d spacing;

@@ -169,7 +169,10 @@ TEST(DamagedInputs, DeclaredSizeBeyondMemoryNamesTheFile) {
                   "NRRD0004\ntype: float\ndimension: 3\nsizes: 32767 32767 2\nencoding: gzip\n"
                   "endian: little\n\n" +
                       std::string(data.begin(), data.end()));
-  expectPrepRefused(dir, dir / "big.nrrd", {"--memory 1024 MB is too small"}, "--memory 1024");
+  // Refused when the header is read, naming the field, before a slice of it is allocated.
+  expectPrepRefused(dir, dir / "big.nrrd",
+                    {"'sizes' declares slices of 32767x32767 voxels of 4 bytes", "--memory 1024 MB is too small"},
+                    "--memory 1024");
 }
 
 /// A tetrahedron and a triangle in legacy ASCII VTK, with point scalars `scalars`.
