@@ -227,6 +227,14 @@ TEST(DamagedInputs, StoreMetadataOutOfRangeIsRefused) {
   expectInfoRefused("null", "bytes_vdb", nullptr, "key 'bytes_vdb' is not an integer");
   expectInfoRefused("active", "active_voxels", 1 << 20, "key 'active_voxels' is 1048576, outside [0, 4096]");
   expectInfoRefused("raw", "bytes_raw", 7, "key 'bytes_raw' is 7, expected 16384");
+  // A level's counts against its index records (the ingest fuzzer's find: they were read and never compared).
+  const fs::path meta = editedStore(dir, "level", "format", "voxbrick-store");
+  const std::vector<char> text = test::readFile(meta);
+  nlohmann::json j = nlohmann::json::parse(text.begin(), text.end());
+  j["levels"][1]["bytes_stored"] = 4294967295u;
+  test::writeFile(meta, j.dump(2));
+  expectRefusal(stderrOf("info " + (dir / "level").string()),
+                {meta.string(), "key 'levels' level 1 says 1 bricks and 4294967295 bytes stored; the index holds 1"});
 }
 
 }  // namespace
