@@ -84,8 +84,9 @@ def tree_hash(root):
 
 
 def message_lines(text):
-    """stderr's lines that count: not the GL driver's banner that render prints first."""
-    return [l for l in text.splitlines() if l.strip() and not l.startswith("render: EGL")]
+    """stderr's lines that count: not the GL driver's banner that render prints first. Lines end at '\n' only (a
+    file's control bytes quoted in a message, such as 0x1c, are not line ends)."""
+    return [l for l in text.split("\n") if l.strip() and not l.startswith("render: EGL")]
 
 
 class Slot:
