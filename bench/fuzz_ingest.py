@@ -179,7 +179,7 @@ def summarise(verdicts, idle):
 
 
 def write_report(a, verdicts, s, elapsed, idle, exe):
-    prefix = a.report
+    prefix, work = a.report, os.path.abspath(a.work)
     os.makedirs(os.path.dirname(os.path.abspath(prefix)), exist_ok=True)
     with open(prefix + ".csv", "w", newline="") as f:
         w = csv.writer(f)
@@ -188,8 +188,9 @@ def write_report(a, verdicts, s, elapsed, idle, exe):
         for k, v in enumerate(verdicts):
             for r in v.runs:
                 msg = runner.message_lines(r.stderr)
-                w.writerow([k, v.fmt, v.label, int(v.must), r.command, r.rc, f"{r.seconds:.3f}", f"{r.cpu:.3f}", f"{r.peak_mb:.1f}",
-                            v.outcome, "; ".join(v.failures), msg[0][:200] if msg else ""])
+                msg = msg[0].replace(work, "WORK")[:160] if msg else ""  # WORK: the --work directory
+                w.writerow([k, v.fmt, v.label, int(v.must), r.command, r.rc, f"{r.seconds:.3f}", f"{r.cpu:.3f}",
+                            f"{r.peak_mb:.1f}", v.outcome, "; ".join(v.failures), msg])
     outcomes = ["refused", "accepted", "partly refused", "crashed or killed"]
     lines = ["# Ingest fuzzer", "",
              "Damaged inputs of every kind voxbrick reads through `prep`, `info` and `render` "

@@ -154,7 +154,7 @@ def flip_mutant(seed, data, rng):
             value ^= 0x55
         b[at] = value
         label = f"set byte @{at}={value:#04x}"
-    return Mutant(seed.fmt, label, bytes(b), seed.guarded)
+    return Mutant(seed.fmt, label, bytes(b), seed.guarded and not seed.unguarded[0] <= at < seed.unguarded[1])
 
 
 def systematic_mutants(seed):

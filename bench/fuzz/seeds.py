@@ -38,6 +38,7 @@ class Seed:
     data: tuple = (0, 0)  # [start, end) of voxel or cell data: flips there may leave a valid input
     text_ws_ok: bool = False  # a text format: a truncation that removes only whitespace leaves it valid
     guarded: bool = False  # a checksum covers every byte: any change must be refused (by render, at least)
+    unguarded: tuple = (0, 0)  # [start, end) of bytes no checksum covers and no reader reads (reserved)
     extra: list = field(default_factory=list)  # command-line options for prep
 
 
@@ -171,9 +172,11 @@ def tiff_seed():
                        Field(f"page {p + 1} {name} count", entry + 4, 4, UINT, must=False),
                        Field(f"page {p + 1} {name}", entry + 8, 2 if typ == 3 else 4, UINT,
                              must=_TIFF_MUST.get(name, True))]
-            bounds.append(entry + 12)
+            if p < pages - 1 or tag != tags[-1][0]:  # cut before the last offset (0): libtiff reads the chain's end
+                bounds.append(entry + 12)
         ifd_link = len(out)
-        fields.append(Field(f"page {p + 1} next IFD offset", ifd_link, 4, UINT, must=p < pages - 1))
+        # 0 ends the chain: a shorter, valid file.
+        fields.append(Field(f"page {p + 1} next IFD offset", ifd_link, 4, UINT, must=("-1", "max", "min")))
         out += b"\0\0\0\0"
     return Seed("tiff", {"s.tif": bytes(out)}, "s.tif", "s.tif", "volume", fields, bounds, (8, 8 + nx * ny * 2))
 

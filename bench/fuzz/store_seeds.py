@@ -92,7 +92,8 @@ def store_seeds(exe, work, env):
     index_fields = [Field(f"index word {k}", k, 4, UINT, not 48 <= k < 64) for k in range(0, min(len(index), 160), 4)]
     seeds.append(Seed("store-json", sfiles, "store.json", "", "store", [], [], (0, 0), text_ws_ok=True))
     seeds.append(Seed("store-index", sfiles, "index.bin", "", "store", index_fields,
-                      list(range(0, 160, 4)) + [len(index) - 32, len(index) - 1], (0, len(index)), guarded=True))
+                      list(range(0, 160, 4)) + [len(index) - 32, len(index) - 1], (0, len(index)), guarded=True,
+                      unguarded=(48, 64)))
     bricks = sfiles["bricks.bin"]
     seeds.append(Seed("store-bricks", sfiles, "bricks.bin", "", "store", [], [0, 4, 8, 1000, len(bricks) // 2,
                                                                            len(bricks) - 1], (0, len(bricks))))
