@@ -32,6 +32,24 @@ std::string readText(const fs::path& path, size_t limit) {
   return text.str();
 }
 
+/// Each level's bricks_stored and bytes_stored in store.json against what its index records hold.
+void checkLevelCounts(const StoreMeta& meta, const std::vector<LevelEntry>& levels,
+                      const std::vector<BrickRecord>& records, const std::string& metaName) {
+  for (size_t l = 0; l < levels.size(); ++l) {
+    const uint64_t first = levels[l].firstRecord;
+    const uint64_t count = uint64_t(levels[l].bricks[0]) * levels[l].bricks[1] * levels[l].bricks[2];
+    int64_t stored = 0, bytes = 0;
+    for (uint64_t n = first; n < first + count; ++n)
+      if (records[n].compressedSize != 0) ++stored, bytes += records[n].compressedSize;
+    const LevelMeta& m = meta.levels[l];
+    if (m.bricksStored != stored || m.bytesStored != bytes)
+      throw CorruptStoreError(metaName + ": key 'levels' level " + std::to_string(l) + " says " +
+                              std::to_string(m.bricksStored) + " bricks and " + std::to_string(m.bytesStored) +
+                              " bytes stored; the index holds " + std::to_string(stored) + " and " +
+                              std::to_string(bytes));
+  }
+}
+
 /// A store directory written by `voxbrick prep`: bricks are zstd frames in bricks.bin, read with pread.
 class DirectoryStore final : public BrickStore {
  public:
@@ -119,6 +137,8 @@ std::shared_ptr<const BrickStore> DirectoryStore::open(const fs::path& dir) {
   for (const BrickRecord& r : store->mRecords)
     if (r.compressedSize != 0 && (r.offset > bricksSize || r.compressedSize > bricksSize - r.offset))
       throw CorruptStoreError(indexName + ": a brick record points past the end of bricks.bin");
+  checkLevelCounts(meta, store->mLevels, store->mRecords, metaPath.string());
+  checkLevelCounts(meta, store->mLevels, store->mRecords, metaPath.string());
 
   store->buildOctree();
   return store;

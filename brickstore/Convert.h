@@ -46,6 +46,13 @@ bool needsSwap(bool fileBigEndian);
 /// positive or the product overflows.
 int64_t checkedVolumeBytes(const Vec3i& dims, size_t valueBytes, const std::string& file);
 
+/// Throws InputError naming `file` and the header `field` that declares the slice size when one z-slice of nx x ny
+/// values of `valueBytes` bytes cannot fit twice (the file's and the store's copy) in options.memoryBudgetMB beside
+/// the process itself: a declared size beyond --memory is refused before anything is allocated from it. Nothing is
+/// checked when memoryBudgetMB is 0.
+void checkSliceFitsMemory(int64_t nx, int64_t ny, size_t valueBytes, const SourceOptions& options,
+                          const std::string& file, const std::string& field);
+
 /// Throws InputError naming `file` unless every component is a spacing in [kMinSpacing, kMaxSpacing] (positive, finite,
 /// and within what a world transform can invert).
 void checkSpacing(const Vec3d& spacing, const std::string& file);

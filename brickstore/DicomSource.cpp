@@ -210,14 +210,24 @@ void checkSupported(const SliceHeader& h) {
 
 /// The header's pixel format, to check the pixel data's length and encoding against.
 DicomPixelFormat pixelFormat(const SliceHeader& h) {
-  return {h.rows, h.columns, h.frames, h.samples, h.bitsAllocated, h.syntax.IsEncapsulated(), syntaxName(h.syntax)};
+  const char* uid = gdcm::TransferSyntax::GetTSString(h.syntax);
+  return {
+      h.rows,        h.columns, h.frames, h.samples, h.bitsAllocated, h.syntax.IsEncapsulated(), syntaxName(h.syntax),
+      uid ? uid : ""};
+}
+
+/// The most of a deflated data set inflated before it is refused: 128 MB (a 16-bit slice of 8192 x 8192 with its
+/// header), less under a --memory below 512 MB.
+uint64_t maxInflatedBytes(const SourceOptions& options) {
+  constexpr uint64_t kMax = uint64_t{128} << 20;
+  return options.memoryBudgetMB > 0 ? std::min(kMax, uint64_t(options.memoryBudgetMB) << 18) : kMax;
 }
 
 /// Reads one file's header (not its pixels). Every failure of GDCM becomes an InputError naming the file.
-SliceHeader readHeader(const std::string& path) {
+SliceHeader readHeader(const std::string& path, uint64_t maxInflated) {
   SliceHeader h;
   h.file = path;
-  h.layout = checkDicomStructure(path);
+  h.layout = checkDicomStructure(path, maxInflated);
   try {
     gdcm::Reader reader;
     reader.SetFileName(path.c_str());
@@ -358,7 +368,8 @@ inline int64_t storedValue(uint32_t bits, int bitsStored, bool isSigned) {
 
 class DicomSource final : public VolumeSource {
  public:
-  DicomSource(VolumeInfo info, std::vector<SliceHeader> slices) : mInfo(std::move(info)), mSlices(std::move(slices)) {}
+  DicomSource(VolumeInfo info, std::vector<SliceHeader> slices, uint64_t maxInflated)
+      : mInfo(std::move(info)), mSlices(std::move(slices)), mMaxInflated(maxInflated) {}
 
   const VolumeInfo& info() const override { return mInfo; }
 
@@ -377,7 +388,7 @@ class DicomSource final : public VolumeSource {
     const int64_t plane = mInfo.dims.x * mInfo.dims.y;
     const size_t bytes = size_t(plane) * size_t(h.bitsAllocated / 8);
     // Again: the file may have changed since the source opened.
-    checkPixelData(h.file, checkDicomStructure(h.file), pixelFormat(h));
+    checkPixelData(h.file, checkDicomStructure(h.file, mMaxInflated), pixelFormat(h));
     try {
       gdcm::ImageReader reader;
       reader.SetFileName(h.file.c_str());
@@ -423,6 +434,7 @@ class DicomSource final : public VolumeSource {
   VolumeInfo mInfo;
   std::vector<SliceHeader> mSlices;
   std::vector<char> mBuffer;
+  uint64_t mMaxInflated;
   int64_t mNextZ = 0;
 };
 
@@ -458,17 +470,19 @@ std::unique_ptr<VolumeSource> openDicomSeries(const std::vector<std::string>& fi
   gdcm::Trace::ErrorOff();
   std::vector<SliceHeader> headers;
   headers.reserve(files.size());
-  for (const std::string& f : files) headers.push_back(readHeader(f));
+  for (const std::string& f : files) headers.push_back(readHeader(f, maxInflatedBytes(options)));
   std::vector<SliceHeader> slices = selectSeries(std::move(headers), options.seriesUid, chosenFile, what);
   for (const SliceHeader& s : slices) {
     checkSupported(s);
+    // Before any decoder sizes a buffer from Rows x Columns: the slice must fit --memory, and its pixel data hold it.
+    checkSliceFitsMemory(s.columns, s.rows, size_t(s.bitsAllocated / 8), options, s.file, "Rows x Columns");
     checkPixelData(s.file, s.layout, pixelFormat(s));
   }
   checkConsistent(slices);
   const std::array<Vec, 3> axes = directions(slices.front());
   const double step = sortAlongNormal(slices, axes[2], axes[0], axes[1]);
   VolumeInfo info = volumeInfo(slices, axes, step, options);
-  return std::make_unique<DicomSource>(std::move(info), std::move(slices));
+  return std::make_unique<DicomSource>(std::move(info), std::move(slices), maxInflatedBytes(options));
 }
 
 std::unique_ptr<VolumeSource> openDicomSource(const std::vector<std::string>& files, const SourceOptions& options) {

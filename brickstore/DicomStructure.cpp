@@ -2,14 +2,19 @@
 // only; no value is interpreted except the transfer syntax.
 #include "brickstore/DicomStructure.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <iterator>
 #include <string_view>
+#include <utility>
 #include <vector>
+
+#include <zlib.h>
 
 #include "brickstore/Errors.h"
 
@@ -63,6 +68,10 @@ class Walker {
           if (untilDelimiter) return;
           fail("a delimiter outside a sequence");
         }
+        if (mInPixelData && depth == 1 && element == 0xE000 && mItems++ > 0 && length != kUndefinedLength) {
+          if (layout.fragmentBytes == 0) firstFragment = {pos, length};
+          layout.fragmentBytes += length;  // items after the basic offset table: the compressed frames
+        }
         skipValue(length, depth);
         continue;
       }
@@ -100,7 +109,9 @@ class Walker {
     // Undefined length: items up to the sequence delimiter; an undefined-length UN holds implicit-VR items.
     const bool saved = explicitVr;
     explicitVr = explicitVr && !unknownVr;
+    mInPixelData = isPixelData;
     walk(true, depth + 1);
+    mInPixelData = false;
     explicitVr = saved;
   }
 
@@ -120,6 +131,7 @@ class Walker {
   }
 
   DicomLayout layout;
+  std::pair<size_t, size_t> firstFragment{0, 0};  ///< offset and length of the first compressed frame's bytes
 
   void skipValue(uint32_t length, int depth) {
     if (length == kUndefinedLength) return walk(true, depth + 1);
@@ -130,6 +142,8 @@ class Walker {
  private:
   const std::vector<char>& mBytes;
   std::string mPath;
+  bool mInPixelData = false;  // walking the items of encapsulated PixelData
+  int mItems = 0;             // items of it seen: the basic offset table, then fragments
 };
 
 std::vector<char> readAll(const std::string& path) {
@@ -156,16 +170,101 @@ std::string walkMetaHeader(Walker& w) {
   return syntax;
 }
 
+uint32_t bigEndian(const unsigned char* b, int n) {
+  uint32_t v = 0;
+  for (int k = 0; k < n; ++k) v = v << 8 | b[k];
+  return v;
+}
+
+/// The frame size a JPEG (any process, JPEG-LS included) or JPEG 2000 codestream states in its header: the first
+/// SOF marker segment's X and Y, or the SIZ segment's Xsiz - XOsiz and Ysiz - YOsiz. {-1, -1} when the bytes hold
+/// neither (another codec, or a header past what it holds).
+std::pair<int64_t, int64_t> codestreamSize(const unsigned char* b, size_t n) {
+  if (n >= 4 + 38 && b[0] == 0xFF && b[1] == 0x4F && b[2] == 0xFF && b[3] == 0x51) {  // J2K: SOC, then SIZ
+    const unsigned char* siz = b + 4 + 2 + 2;                                         // marker, Lsiz, Rsiz
+    return {int64_t(bigEndian(siz, 4)) - int64_t(bigEndian(siz + 8, 4)),
+            int64_t(bigEndian(siz + 4, 4)) - int64_t(bigEndian(siz + 12, 4))};
+  }
+  if (n < 4 || b[0] != 0xFF || b[1] != 0xD8) return {-1, -1};
+  size_t at = 2;
+  while (at + 4 <= n) {
+    if (b[at] != 0xFF) return {-1, -1};
+    const unsigned marker = b[at + 1];
+    if (marker == 0xFF) {  // fill byte
+      ++at;
+      continue;
+    }
+    const size_t length = bigEndian(b + at + 2, 2);
+    const bool sof = (marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC) ||
+                     marker == 0xF7;  // SOF0..15 (not DHT, JPG, DAC), SOF55 (JPEG-LS)
+    if (sof) {
+      if (at + 4 + 5 > n || length < 7) return {-1, -1};
+      return {int64_t(bigEndian(b + at + 7, 2)), int64_t(bigEndian(b + at + 5, 2))};
+    }
+    if (marker == 0xDA || length < 2) return {-1, -1};  // scan data before any SOF
+    at += 2 + length;
+  }
+  return {-1, -1};
+}
+
+/// The raw-deflated data set after the meta header, inflated: at most `maxBytes`, else InputError.
+std::vector<char> inflateDataSet(const std::vector<char>& bytes, size_t from, uint64_t maxBytes,
+                                 const std::string& path) {
+  z_stream z{};
+  if (inflateInit2(&z, -MAX_WBITS) != Z_OK) throw InputError(path + ": cannot start inflating the data set");
+  std::vector<char> out;
+  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data() + from));
+  z.avail_in = uInt(bytes.size() - from);
+  int rc = Z_OK;
+  while (rc == Z_OK) {
+    if (out.size() >= maxBytes) break;
+    const size_t have = out.size(), chunk = size_t(std::min<uint64_t>(maxBytes - have, 1 << 20));
+    out.resize(have + chunk);
+    z.next_out = reinterpret_cast<Bytef*>(out.data() + have);
+    z.avail_out = uInt(chunk);
+    rc = inflate(&z, Z_NO_FLUSH);
+    out.resize(have + chunk - z.avail_out);
+    if (rc == Z_BUF_ERROR && z.avail_in == 0) break;  // the input ended before the stream did
+  }
+  inflateEnd(&z);
+  if (rc == Z_STREAM_END) return out;
+  if (out.size() >= maxBytes)
+    throw InputError(path + ": deflated data set inflates to more than " + std::to_string(maxBytes >> 20) +
+                     " MB (refused before GDCM inflates it into memory)");
+  throw InputError(path + ": deflated data set is " + (rc == Z_DATA_ERROR ? "corrupt" : "truncated") + " after " +
+                   std::to_string(out.size()) + " inflated bytes");
+}
+
+/// The largest decoded-to-compressed ratio a syntax's pixel data can reach; 0 where it has none worth stating
+/// (JPEG-LS and JPEG 2000 code runs of constant pixels in a few bits: their codestream's header is checked instead).
+uint64_t maxCompressionRatio(const std::string& uid) {
+  if (uid == "1.2.840.10008.1.2.5") return 64;  // RLE: a two-byte replicate run is at most 128 bytes
+  // Huffman JPEG: at least one bit per 8x8 block per scan (two bytes a sample): 1024 bytes a byte.
+  if (uid.rfind("1.2.840.10008.1.2.4.", 0) == 0) {
+    const int process = std::atoi(uid.c_str() + 20);
+    if (process >= 50 && process <= 70) return 1024;
+  }
+  return 0;
+}
+
 }  // namespace
 
-DicomLayout checkDicomStructure(const std::string& path) {
+DicomLayout checkDicomStructure(const std::string& path, uint64_t maxInflatedBytes) {
   const std::vector<char> bytes = readAll(path);
   Walker w(bytes, path);
   if (bytes.size() >= 132 && std::memcmp(bytes.data() + 128, "DICM", 4) == 0) {
     w.pos = 132;
     const std::string syntax = walkMetaHeader(w);
     if (syntax.empty()) throw InputError(path + ": malformed DICOM file (no TransferSyntaxUID in the meta header)");
-    if (syntax == "1.2.840.10008.1.2.1.99") return {};  // deflated: GDCM inflates and parses it
+    if (syntax == "1.2.840.10008.1.2.1.99") {  // deflated: inflated here (bounded), walked as explicit VR
+      const std::vector<char> inflated = inflateDataSet(bytes, w.pos, maxInflatedBytes, path);
+      Walker d(inflated, path);
+      if (d.atEnd()) throw InputError(path + ": truncated DICOM file (no data set)");
+      d.walk(false, 0);
+      d.layout.walked = true;
+      d.layout.inflatedBytes = inflated.size();
+      return d.layout;
+    }
     w.explicitVr = syntax != "1.2.840.10008.1.2";
     w.bigEndian = syntax == "1.2.840.10008.1.2.2";
   } else {
@@ -176,8 +275,36 @@ DicomLayout checkDicomStructure(const std::string& path) {
   if (w.atEnd()) throw InputError(path + ": truncated DICOM file (no data set)");
   w.walk(false, 0);
   w.layout.walked = true;
+  if (w.layout.encapsulated && w.firstFragment.second > 0) {
+    const auto [columns, rows] = codestreamSize(
+        reinterpret_cast<const unsigned char*>(bytes.data()) + w.firstFragment.first, w.firstFragment.second);
+    w.layout.streamColumns = columns;
+    w.layout.streamRows = rows;
+  }
   return w.layout;
 }
+
+namespace {
+
+/// Encapsulated pixel data against the header: the codestream's own size, and enough bytes for the slice.
+void checkEncapsulated(const std::string& path, const DicomLayout& layout, const DicomPixelFormat& f) {
+  const std::string size = "Rows " + std::to_string(f.rows) + " x Columns " + std::to_string(f.columns);
+  if (layout.fragmentBytes == 0)
+    throw InputError(path + ": PixelData is encapsulated but holds no compressed fragment");
+  if (layout.streamColumns >= 0 && (layout.streamColumns != f.columns || layout.streamRows != f.rows))
+    throw InputError(path + ": the compressed frame's header says " + std::to_string(layout.streamColumns) + "x" +
+                     std::to_string(layout.streamRows) + " pixels, but " + size + " in the DICOM header");
+  const uint64_t decoded =
+      uint64_t(f.rows) * uint64_t(f.columns) * uint64_t(f.bitsAllocated / 8) * uint64_t(f.samples) * uint64_t(f.frames);
+  const uint64_t ratio = maxCompressionRatio(f.syntaxUid);
+  if (ratio > 0 && decoded > ratio * layout.fragmentBytes + 64)
+    throw InputError(path + ": " + size + " x " + std::to_string(f.bitsAllocated / 8) + " bytes (BitsAllocated " +
+                     std::to_string(f.bitsAllocated) + ") is " + std::to_string(decoded) + " bytes, more than " +
+                     std::to_string(layout.fragmentBytes) + " bytes of " + f.syntaxName + " fragments can hold (at " +
+                     std::to_string(ratio) + ":1)");
+}
+
+}  // namespace
 
 void checkPixelData(const std::string& path, const DicomLayout& layout, const DicomPixelFormat& f) {
   if (!layout.walked) return;
@@ -188,7 +315,7 @@ void checkPixelData(const std::string& path, const DicomLayout& layout, const Di
   if (!f.encapsulatedSyntax && layout.encapsulated)
     throw InputError(path + ": transfer syntax " + f.syntaxName +
                      " needs native pixel data, but PixelData is encapsulated (compressed fragments)");
-  if (layout.encapsulated) return;
+  if (layout.encapsulated) return checkEncapsulated(path, layout, f);
   const uint64_t expected =
       uint64_t(f.rows) * uint64_t(f.columns) * uint64_t(f.bitsAllocated / 8) * uint64_t(f.samples) * uint64_t(f.frames);
   if (layout.pixelBytes == expected || (expected % 2 == 1 && layout.pixelBytes == expected + 1)) return;

@@ -9,10 +9,14 @@ namespace voxbrick::store {
 
 /// What the structure walk found of a file's pixel data.
 struct DicomLayout {
-  bool walked = false;        ///< false for a deflated data set, whose elements are not walked
-  bool hasPixelData = false;  ///< the data set holds PixelData (7FE0,0010)
-  bool encapsulated = false;  ///< PixelData of undefined length: compressed fragments
-  uint64_t pixelBytes = 0;    ///< PixelData's length when not encapsulated
+  bool walked = false;         ///< false when the data set was not walked (see checkDicomStructure)
+  bool hasPixelData = false;   ///< the data set holds PixelData (7FE0,0010)
+  bool encapsulated = false;   ///< PixelData of undefined length: compressed fragments
+  uint64_t pixelBytes = 0;     ///< PixelData's length when not encapsulated
+  uint64_t fragmentBytes = 0;  ///< encapsulated: the bytes of every fragment (the offset table not counted)
+  int64_t streamColumns = -1;  ///< encapsulated JPEG, JPEG-LS or JPEG 2000: the first frame's width as its
+  int64_t streamRows = -1;     ///< codestream header (SOF, SIZ) states it; -1 when not found
+  uint64_t inflatedBytes = 0;  ///< a deflated data set: its size once inflated
 };
 
 /// The pixel format as the header states it, to size the native pixel data.
@@ -21,19 +25,24 @@ struct DicomPixelFormat {
   int bitsAllocated = 0;
   bool encapsulatedSyntax = false;  ///< the transfer syntax is a compressed (encapsulated) one
   std::string syntaxName;           ///< for messages: "UID (name)"
+  std::string syntaxUid;            ///< bounds the compression ratio of encapsulated pixel data (RLE, JPEG)
 };
 
 /// Walks the file's elements (the Part 10 meta header, then the data set in its transfer syntax; sequences and
 /// encapsulated pixel data item by item) and throws InputError naming the file when one runs past the end of the
 /// file, a sequence is not closed, or an explicit-VR element has no valid value representation (GDCM would reread
-/// the file as implicit VR, and size values from its bytes). A deflated data set is not walked (only its meta
-/// header). Throws IoError when the file cannot be read.
-DicomLayout checkDicomStructure(const std::string& path);
+/// the file as implicit VR, and size values from its bytes). A deflated data set is inflated here first, at most
+/// `maxInflatedBytes` of it (more is refused: GDCM would inflate it whole into memory), and walked as explicit VR
+/// little endian. Throws IoError when the file cannot be read.
+DicomLayout checkDicomStructure(const std::string& path, uint64_t maxInflatedBytes = uint64_t{128} << 20);
 
 /// Throws InputError naming the file when its pixel data does not match the header: no PixelData, encapsulated
 /// pixel data under a native transfer syntax or native pixel data under a compressed one, or a native length other
 /// than Rows x Columns x BitsAllocated/8 x SamplesPerPixel x NumberOfFrames (plus one padding byte when that is odd).
-/// Nothing is checked when the data set was not walked (deflated).
+/// Encapsulated pixel data is bounded before any decoder sizes a buffer from the header: a codestream whose own
+/// header (JPEG SOF, JPEG-LS SOF55, JPEG 2000 SIZ) states another size than Rows x Columns, and fragments too few to
+/// hold the slice at the largest ratio the syntax can reach (RLE 64:1, Huffman JPEG 1024:1) are refused.
+/// Nothing is checked when the data set was not walked.
 void checkPixelData(const std::string& path, const DicomLayout& layout, const DicomPixelFormat& format);
 
 }  // namespace voxbrick::store

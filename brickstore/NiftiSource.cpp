@@ -276,6 +276,7 @@ std::unique_ptr<VolumeSource> openNiftiSource(const std::string& path, const Sou
   const Vec3i dims = niftiDims(h, path);
   const FileValueType fileType = niftiValueType(h, path);
   const int64_t dataBytes = checkedVolumeBytes(dims, fileValueSize(fileType), path);
+  checkSliceFitsMemory(dims.x, dims.y, fileValueSize(fileType), options, path, "dim[1] x dim[2]");
   const int64_t voxOffset = niftiVoxOffset(h, path);
 
   Vec3d spacing;

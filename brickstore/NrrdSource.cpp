@@ -436,6 +436,7 @@ std::unique_ptr<VolumeSource> openNrrdSource(const std::string& path, const Sour
   const int64_t dimension = fields.integer("dimension", fields.required("dimension"));
   const Vec3i dims = nrrdDims(fields, dimension);
   const int64_t dataBytes = checkedVolumeBytes(dims, fileValueSize(*fileType), path);
+  checkSliceFitsMemory(dims.x, dims.y, fileValueSize(*fileType), options, path, "'sizes'");
   const bool gzip = nrrdGzip(fields);
   const bool bigEndian = nrrdBigEndian(fields, *fileType, typeText);
 

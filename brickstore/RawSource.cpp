@@ -37,6 +37,7 @@ std::unique_ptr<VolumeSource> openRawSource(const std::string& path, const Sourc
     throw InputError(path + ": " + e.what());
   }
   const int64_t voxelBytes = checkedVolumeBytes(options.dims, valueSize(type), path);
+  checkSliceFitsMemory(options.dims.x, options.dims.y, valueSize(type), options, path, "--dims");
   if (options.headerBytes < 0) {
     throw InputError(path + ": negative --header-bytes " + std::to_string(options.headerBytes));
   }

@@ -258,6 +258,8 @@ std::unique_ptr<VolumeSource> openTiffSource(const std::vector<std::string>& fil
   VolumeInfo info;
   info.dims = {int64_t(format.width), int64_t(format.height), pages};
   checkedVolumeBytes(info.dims, valueSize(format.type), files.front());
+  checkSliceFitsMemory(info.dims.x, info.dims.y, valueSize(format.type), options, files.front(),
+                       "ImageWidth x ImageLength");
   // Resolution tags are rarely the voxel size of a microscope stack, and carry no z spacing: --spacing or 1,1,1.
   info.spacing = options.spacingGiven ? options.spacing : Vec3d{1, 1, 1};
   checkSpacing(info.spacing, files.front());

@@ -3,6 +3,7 @@
 // integers, strings as a uint32 length and that many bytes.
 #include "brickstore/VdbHeader.h"
 
+#include <openvdb/version.h>
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
@@ -176,6 +177,10 @@ FileHeader checkFileHeader(HeaderReader& r) {
   h.version = r.u32("file format version");
   if (h.version < kOldestVersion)
     r.fail("file format version " + std::to_string(h.version) + " is older than " + std::to_string(kOldestVersion));
+  // A newer format than this OpenVDB writes is one it cannot know the layout of (OpenVDB itself reads on).
+  if (h.version > openvdb::OPENVDB_FILE_VERSION)
+    r.fail("file format version " + std::to_string(h.version) + " is newer than this OpenVDB reads (" +
+           std::to_string(openvdb::OPENVDB_FILE_VERSION) + ")");
   r.skip(8, "library version");
   char flag = 0;
   r.read(&flag, 1, "grid offsets flag");

@@ -42,14 +42,15 @@ class VolumeSource {
 
 /// Options a user gives prep for inputs whose files do not describe themselves (raw) or to override them.
 struct SourceOptions {
-  Vec3i dims;                 ///< raw: required
-  std::string type;           ///< raw: required ("u8", "u16", "i16", "f32")
-  Vec3d spacing;              ///< raw: default 1,1,1
-  bool spacingGiven = false;  ///< true if spacing overrides the file's own
-  bool bigEndian = false;     ///< raw: byte order of the file
-  int64_t headerBytes = 0;    ///< raw: bytes to skip before the voxels
-  std::string gridName;       ///< vdb: grid to read (default: the first float grid)
-  std::string seriesUid;      ///< dicom: the SeriesInstanceUID to read when the input holds several
+  Vec3i dims;                  ///< raw: required
+  std::string type;            ///< raw: required ("u8", "u16", "i16", "f32")
+  Vec3d spacing;               ///< raw: default 1,1,1
+  bool spacingGiven = false;   ///< true if spacing overrides the file's own
+  bool bigEndian = false;      ///< raw: byte order of the file
+  int64_t headerBytes = 0;     ///< raw: bytes to skip before the voxels
+  std::string gridName;        ///< vdb: grid to read (default: the first float grid)
+  std::string seriesUid;       ///< dicom: the SeriesInstanceUID to read when the input holds several
+  int64_t memoryBudgetMB = 0;  ///< prep's --memory: a declared slice that cannot fit is refused at open (0: none)
 };
 
 /// Opens INPUT by its form: "synthetic:NAME[,k=v...]", *.vdb, *.nrrd / *.nhdr, *.nii / *.nii.gz, a DICOM file

@@ -109,6 +109,7 @@ store::SourceOptions sourceOptions(const PrepArgs& a) {
   so.headerBytes = a.headerBytes;
   so.gridName = a.grid;
   so.seriesUid = a.series;
+  so.memoryBudgetMB = a.options.memoryBudgetMB;
   return so;
 }
 

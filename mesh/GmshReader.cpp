@@ -1,4 +1,5 @@
 // The gmsh reader (readGmsh in mesh/MeshReaders.h): MSH 2.x and 4.1, ASCII and binary.
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -107,6 +108,7 @@ class GmshParser {
   void skipSection(const std::string& name);
   void endSection(const std::string& name) { mIn.expect("$End" + name); }
   void endHeaderLine();
+  void requireOneLine(size_t start, uint64_t tag);
   void addElement(const GmshKind& kind, int64_t type, const std::vector<uint64_t>& nodes, uint64_t tag, size_t at);
   void requireNodes(size_t at, const char* section) const {
     if (!mHaveNodes) mIn.failAt(at, std::string(section) + " before $Nodes");
@@ -255,6 +257,21 @@ void GmshParser::readNodes4() {
   endSection("Nodes");
 }
 
+/// An ASCII element is one line: its numbers may neither run onto the next line (a number missing: the next
+/// element's would be read as its node) nor leave some on this one.
+void GmshParser::requireOneLine(size_t start, uint64_t tag) {
+  if (mBinary) return;
+  std::string_view from = mIn.view(start);
+  const size_t lead = std::min(from.find_first_not_of(" \t\r\n"), mIn.offset() - start);  // the previous line's end
+  from.remove_prefix(lead);
+  start += lead;
+  const size_t used = mIn.offset() - start, end = std::min(from.find('\n'), from.size());
+  if (end < used)
+    mIn.failAt(start, "element " + std::to_string(tag) + " has fewer numbers than its type needs (its line ends)");
+  if (from.substr(used, end - used).find_first_not_of(" \t\r") != std::string_view::npos)
+    mIn.failAt(start, "element " + std::to_string(tag) + " has more numbers than its type needs");
+}
+
 void GmshParser::addElement(const GmshKind& kind, int64_t type, const std::vector<uint64_t>& nodes, uint64_t tag,
                             size_t at) {
   if (type != kTetrahedron) {
@@ -292,6 +309,7 @@ void GmshParser::readElements2() {
       for (int64_t t = 0; t < tags; ++t) mIn.token("an element tag");
       nodes.resize(static_cast<size_t>(kind->nodes));
       for (uint64_t& node : nodes) node = static_cast<uint64_t>(mIn.integer("node tag", 1, INT64_MAX));
+      requireOneLine(elementAt, tag);
       addElement(*kind, type, nodes, tag, elementAt);
     }
   } else {
@@ -352,6 +370,7 @@ void GmshParser::readElements4() {
       const size_t elementAt = mIn.offset();
       const uint64_t tag = sizeValue("element tag");
       for (uint64_t& node : nodes) node = sizeValue("node tag");
+      requireOneLine(elementAt, tag);
       addElement(*kind, type, nodes, tag, elementAt);
     }
     done += count;

@@ -169,7 +169,10 @@ TEST(DamagedInputs, DeclaredSizeBeyondMemoryNamesTheFile) {
                   "NRRD0004\ntype: float\ndimension: 3\nsizes: 32767 32767 2\nencoding: gzip\n"
                   "endian: little\n\n" +
                       std::string(data.begin(), data.end()));
-  expectPrepRefused(dir, dir / "big.nrrd", {"--memory 1024 MB is too small"}, "--memory 1024");
+  // Refused when the header is read, naming the field, before a slice of it is allocated.
+  expectPrepRefused(dir, dir / "big.nrrd",
+                    {"'sizes' declares slices of 32767x32767 voxels of 4 bytes", "--memory 1024 MB is too small"},
+                    "--memory 1024");
 }
 
 /// A tetrahedron and a triangle in legacy ASCII VTK, with point scalars `scalars`.
@@ -224,6 +227,14 @@ TEST(DamagedInputs, StoreMetadataOutOfRangeIsRefused) {
   expectInfoRefused("null", "bytes_vdb", nullptr, "key 'bytes_vdb' is not an integer");
   expectInfoRefused("active", "active_voxels", 1 << 20, "key 'active_voxels' is 1048576, outside [0, 4096]");
   expectInfoRefused("raw", "bytes_raw", 7, "key 'bytes_raw' is 7, expected 16384");
+  // A level's counts against its index records (the ingest fuzzer's find: they were read and never compared).
+  const fs::path meta = editedStore(dir, "level", "format", "voxbrick-store");
+  const std::vector<char> text = test::readFile(meta);
+  nlohmann::json j = nlohmann::json::parse(text.begin(), text.end());
+  j["levels"][1]["bytes_stored"] = 4294967295u;
+  test::writeFile(meta, j.dump(2));
+  expectRefusal(stderrOf("info " + (dir / "level").string()),
+                {meta.string(), "key 'levels' level 1 says 1 bricks and 4294967295 bytes stored; the index holds 1"});
 }
 
 }  // namespace

@@ -118,7 +118,7 @@ TEST(DicomRefusals, TransferSyntaxNotMatchingThePixelDataIsRefused) {
                                            "needs encapsulated (compressed) pixel data", "2048 bytes of native"});
   store::DicomLayout encapsulated;
   encapsulated.walked = encapsulated.hasPixelData = encapsulated.encapsulated = true;
-  const store::DicomPixelFormat native{32, 32, 1, 1, 16, false, "1.2.840.10008.1.2.1 (Explicit VR Little Endian)"};
+  const store::DicomPixelFormat native{32, 32, 1, 1, 16, false, "1.2.840.10008.1.2.1 (Explicit VR Little Endian)", ""};
   expectRefused([&] { store::checkPixelData("x.dcm", encapsulated, native); },
                 {"x.dcm: transfer syntax 1.2.840.10008.1.2.1", "needs native pixel data", "encapsulated"});
   store::DicomLayout none;
@@ -128,7 +128,7 @@ TEST(DicomRefusals, TransferSyntaxNotMatchingThePixelDataIsRefused) {
   store::DicomLayout padded;
   padded.walked = padded.hasPixelData = true;
   padded.pixelBytes = 10;
-  EXPECT_NO_THROW(store::checkPixelData("x.dcm", padded, {3, 3, 1, 1, 8, false, "native"}));
+  EXPECT_NO_THROW(store::checkPixelData("x.dcm", padded, {3, 3, 1, 1, 8, false, "native", ""}));
 }
 
 TEST(DicomRefusals, AnInvalidValueRepresentationIsRefusedCheaply) {

@@ -102,6 +102,17 @@ TEST(VdbRefusals, HeaderFieldsClaimingMoreThanTheFileAreRefusedByName) {
   EXPECT_NO_THROW(store::VdbStore::open(dir / "good.vdb"));
 }
 
+TEST(VdbRefusals, AFileFormatVersionFromTheFutureIsRefused) {
+  // The ingest fuzzer's find: version 0x80000000 was read as if it were this OpenVDB's own format.
+  ScratchDir dir;
+  std::vector<char> bytes = densityFile(dir);
+  const uint32_t version = 0x80000000u;
+  std::memcpy(bytes.data() + 8, &version, 4);
+  test::writeFile(dir / "future.vdb", bytes.data(), bytes.size());
+  test::expectRefused(opening(dir / "future.vdb"), {(dir / "future.vdb").string() + ": not a readable OpenVDB file",
+                                                    "file format version 2147483648 is newer than"});
+}
+
 TEST(VdbRefusals, RefusingADamagedHeaderCostsLittleMemoryAndTime) {
   ScratchDir dir;
   const std::vector<char> bytes = densityFile(dir);

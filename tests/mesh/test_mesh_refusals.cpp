@@ -176,6 +176,19 @@ TEST(MeshRefusals, GmshUndefinedNodeAndDuplicateTag) {
   EXPECT_CONTAINS(readError("d.msh", duplicate), "node tag 7 is defined twice");
 }
 
+TEST(MeshRefusals, GmshElementLineWithANumberMissingOrLeftOver) {
+  // The ingest fuzzer's find: a missing node made the next element's tag this one's node, and the rest of the
+  // section was read shifted (as a line and a triangle, dropped), the file accepted.
+  const std::string missing = readError("m.msh", gmshWith("2\n1 4 2 0 1 1 2 3\n2 4 2 0 1 2 3 5 8\n"));
+  EXPECT_CONTAINS(missing, "m.msh, line ");
+  EXPECT_CONTAINS(missing, "element 1 has fewer numbers than its type needs");
+  EXPECT_CONTAINS(readError("x.msh", gmshWith("1\n1 4 2 0 1 1 2 3 5 7\n")), "element 1 has more numbers");
+  EXPECT_CONTAINS(readError("v4.msh", std::string("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n") +
+                                          "$Nodes\n1 4 1 4\n3 1 0 4\n1\n2\n3\n4\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+                                          "$EndNodes\n$Elements\n1 1 1 1\n3 1 4 1\n1 1 2 3\n4\n$EndElements\n"),
+                  "element 1 has fewer numbers");
+}
+
 TEST(MeshRefusals, GmshTruncatedBinaryNamesTheByte) {
   voxbrick::test::ScratchDir dir;
   writeGmsh(syntheticMesh("box,n=1"), dir / "b.msh", 4, true);

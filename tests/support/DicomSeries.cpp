@@ -99,15 +99,15 @@ void fillDataSet(gdcm::DataSet& ds, const DicomSeriesSpec& s, int k, const std::
   ds.Replace(data);
 }
 
-/// Rewrites a written file with JPEG-LS lossless pixel data, as gdcmconv does.
-void compressJpegLs(const std::filesystem::path& file) {
+/// Rewrites a written file with compressed pixel data (JPEG-LS lossless or RLE), as gdcmconv does.
+void compress(const std::filesystem::path& file, gdcm::TransferSyntax::TSType syntax) {
   gdcm::ImageReader reader;
   reader.SetFileName(file.c_str());
   if (!reader.Read()) throw std::runtime_error("writeDicomSlice: cannot read back " + file.string());
   gdcm::ImageChangeTransferSyntax change;
-  change.SetTransferSyntax(gdcm::TransferSyntax::JPEGLSLossless);
+  change.SetTransferSyntax(syntax);
   change.SetInput(reader.GetImage());
-  if (!change.Change()) throw std::runtime_error("writeDicomSlice: GDCM cannot compress to JPEG-LS");
+  if (!change.Change()) throw std::runtime_error("writeDicomSlice: GDCM cannot compress " + file.string());
   gdcm::ImageWriter writer;
   writer.SetFileName(file.c_str());
   writer.SetFile(reader.GetFile());
@@ -127,12 +127,13 @@ void writeDicomSlice(const std::filesystem::path& file, const DicomSeriesSpec& s
   gdcm::Writer writer;
   writer.SetFileName(file.c_str());
   fillDataSet(writer.GetFile().GetDataSet(), spec, k, pixels(spec, k, value));
-  const bool special = !spec.transferSyntax.empty() && spec.transferSyntax != "jpegls";
+  const bool special = !spec.transferSyntax.empty() && spec.transferSyntax != "jpegls" && spec.transferSyntax != "rle";
   gdcm::TransferSyntax ts = gdcm::TransferSyntax::ExplicitVRLittleEndian;
   if (special) ts = gdcm::TransferSyntax::GetTSType(spec.transferSyntax.c_str());
   writer.GetFile().GetHeader().SetDataSetTransferSyntax(ts);
   if (!writer.Write()) throw std::runtime_error("writeDicomSlice: GDCM cannot write " + file.string());
-  if (spec.transferSyntax == "jpegls") compressJpegLs(file);
+  if (spec.transferSyntax == "jpegls") compress(file, gdcm::TransferSyntax::JPEGLSLossless);
+  if (spec.transferSyntax == "rle") compress(file, gdcm::TransferSyntax::RLELossless);
 }
 
 std::vector<std::filesystem::path> writeDicomSeries(const std::filesystem::path& dir, const DicomSeriesSpec& spec,

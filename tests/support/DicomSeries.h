@@ -28,8 +28,8 @@ struct DicomSeriesSpec {
   std::string description = "phantom";
   std::string prefix = "slice";  ///< files are PREFIXnnn.dcm
   uint32_t shuffleSeed = 1;      ///< file names number the slices in a shuffled order (0: in slice order)
-  /// "" writes explicit VR little endian; "jpegls" compresses losslessly (JPEG-LS); any other text is written as the
-  /// meta header's TransferSyntaxUID over an explicit little-endian data set (to test refusals).
+  /// "" writes explicit VR little endian; "jpegls" and "rle" compress losslessly (JPEG-LS, RLE); any other text is
+  /// written as the meta header's TransferSyntaxUID over an explicit little-endian data set (to test refusals).
   std::string transferSyntax;
 };
 

@@ -1,0 +1,1 @@
+"""The ingest fuzzer's parts (seeds, mutations, the checks); bench/fuzz_ingest.py runs them."""
