@@ -35,6 +35,7 @@ export class FrameLoop {
     this.exactAfterReleaseMs = null;
     this.lastFrame = null;
     this.lastStats = null;
+    this.lastPayload = null;
   }
 
   attach(connection) {
@@ -137,6 +138,7 @@ export class FrameLoop {
       this.exactAfterReleaseMs = now - this.releaseAt;
     this.lastFrame = frame;
     this.lastStats = stats;
+    this.lastPayload = f.payload;
     this.hooks.shown(frame, stats);
   }
 

@@ -261,6 +261,12 @@ if (fixedSize) canvas.classList.add("fixed");
 setInterval(drawOverlay, 500);
 window.addEventListener("beforeunload", () => app.connection && app.connection.close());
 
+function base64(bytes) {
+  let s = "";
+  for (let i = 0; i < bytes.length; i += 0x8000) s += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
+  return btoa(s);
+}
+
 // The test hook: what the page shows and asks, so tests and benchmarks need no guessing.
 window.voxbrickViewer = {
   state: () => ({
@@ -287,10 +293,10 @@ window.voxbrickViewer = {
   /// The canvas pixels as base64 of RGBA rows, top first.
   pixels: () => {
     const d = canvas.getContext("2d").getImageData(0, 0, canvas.width, canvas.height, { colorSpace: "srgb" });
-    let s = "";
-    for (let i = 0; i < d.data.length; i += 0x8000) s += String.fromCharCode(...d.data.subarray(i, i + 0x8000));
-    return { width: d.width, height: d.height, rgba: btoa(s) };
+    return { width: d.width, height: d.height, rgba: base64(d.data) };
   },
+  /// The last shown frame's payload as the server sent it (base64).
+  lastPayload: () => (loop.lastPayload ? base64(loop.lastPayload) : ""),
   setView: (changes) => {
     Object.assign(app.view, changes);
     panel.syncAll();
