@@ -2,6 +2,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
 
 #include <spdlog/spdlog.h>
 
@@ -15,6 +20,9 @@ namespace {
 
 struct ServeArgs {
   std::string config, host, datasets, backend, logLevel, portFile;
+  int http = -1;  ///< --http PORT; -1: as configured
+  std::string httpBind, httpToken, httpPortFile;
+  std::vector<std::string> httpOrigins;
   int port = -1, renderThreads = 0, ioThreads = 0, maxSessions = 0, maxImageSide = 0;
   double maxRenderMSamples = 0;
   int maxPending = 0, maxPerAddress = -1;
@@ -32,6 +40,26 @@ std::string configFile(const ServeArgs& a) {
   const std::filesystem::path found = render::TransferFunction::configDirectory() / "server.toml";
   std::error_code ec;
   return std::filesystem::is_regular_file(found, ec) ? found.string() : std::string();
+}
+
+/// Writes `port` to `file` whole under a temporary name, then renames it: a script polling for it never reads half
+/// a number.
+void writePortFile(const std::string& file, int port) {
+  const std::string tmp = file + ".tmp";
+  std::ofstream(tmp) << port << "\n";
+  std::rename(tmp.c_str(), file.c_str());
+}
+
+/// The address a person opens to reach the viewer (with the access token, which the page passes on to /ws).
+std::string viewerUrl(const server::ServerConfig& c, int port) {
+  std::string host = c.httpHost();
+  if (host == "0.0.0.0" || host == "::") {  // every interface: this machine's name
+    char name[256] = {};
+    host = ::gethostname(name, sizeof name - 1) == 0 && name[0] ? name : "localhost";
+  } else if (host.find(':') != std::string::npos) {
+    host = "[" + host + "]";
+  }
+  return "http://" + host + ":" + std::to_string(port) + "/" + (c.httpToken.empty() ? "" : "?token=" + c.httpToken);
 }
 
 void runServe(const ServeArgs& a) {
@@ -58,6 +86,13 @@ void runServe(const ServeArgs& a) {
   if (a.hostCacheMB > 0) c.hostCacheMB = a.hostCacheMB;
   if (a.noCoalesce) c.coalesce = false;
   if (a.gpuBudgetMB > 0) c.gpuBudgetMB = a.gpuBudgetMB;
+  if (a.http >= 0) {
+    c.http = true;
+    c.httpPort = a.http;
+  }
+  if (!a.httpBind.empty()) c.httpBind = a.httpBind;
+  if (!a.httpOrigins.empty()) c.httpOrigins = a.httpOrigins;
+  if (!a.httpToken.empty()) c.httpToken = a.httpToken;
   c.validate();
   spdlog::set_level(spdlog::level::from_str(c.logLevel));
   spdlog::set_pattern("[%Y-%m-%d %H:%M:%S.%e] [%l] %v");
@@ -67,12 +102,15 @@ void runServe(const ServeArgs& a) {
   spdlog::info("serving datasets from {} on {}:{}", c.datasets.string(), c.host, server.port());
   std::printf("listening on %s:%d\n", c.host.c_str(), server.port());
   std::fflush(stdout);
-  if (!a.portFile.empty()) {
-    // Written whole under a temporary name, then renamed: a script polling for it never reads half a number.
-    const std::string tmp = a.portFile + ".tmp";
-    std::ofstream(tmp) << server.port() << "\n";
-    std::rename(tmp.c_str(), a.portFile.c_str());
+  if (c.http) {
+    spdlog::info("viewer: open {}", viewerUrl(c, server.httpPort()));
+    std::printf("viewer at %s\n", viewerUrl(c, server.httpPort()).c_str());
+    std::fflush(stdout);
+  } else if (!a.httpPortFile.empty()) {
+    throw std::runtime_error("--http-port-file needs --http PORT (or http.port in the configuration)");
   }
+  if (!a.httpPortFile.empty()) writePortFile(a.httpPortFile, server.httpPort());
+  if (!a.portFile.empty()) writePortFile(a.portFile, server.port());
   server.run();
   spdlog::info("stopped");
 }
@@ -82,7 +120,9 @@ void runServe(const ServeArgs& a) {
 void addServeCommand(CLI::App& app) {
   auto a = std::make_shared<ServeArgs>();
   CLI::App* cmd =
-      app.add_subcommand("serve", "Serve frames of a directory of stores and .vdb files over TCP (proto/PROTOCOL.md)");
+      app.add_subcommand("serve",
+                         "Serve frames of a directory of stores and .vdb files over TCP, and to browsers over HTTP and "
+                         "WebSocket with --http (proto/PROTOCOL.md)");
   CLI::Option* config =
       cmd->add_option("--config", a->config,
                       "TOML configuration; options below override it (default: server.toml in the configuration "
@@ -94,6 +134,17 @@ void addServeCommand(CLI::App& app) {
   cmd->add_option("--host", a->host, "address to listen on (default 127.0.0.1)");
   cmd->add_option("--port", a->port, "TCP port; 0 picks a free one (default 7420)")->check(between(0, 65535));
   cmd->add_option("--port-file", a->portFile, "write the port actually bound to this file");
+  cmd->add_option("--http", a->http,
+                  "also serve the browser viewer on this HTTP port, with the protocol over a WebSocket on /ws "
+                  "(0 picks a free port; default: http.port of the configuration, else none)")
+      ->check(between(0, 65535));
+  cmd->add_option("--http-bind", a->httpBind, "address the HTTP port listens on (default: as --host)");
+  cmd->add_option("--http-origin", a->httpOrigins,
+                  "an origin (scheme://host[:port]) whose pages may open /ws besides the viewer's own; repeatable")
+      ->allow_extra_args(false);
+  cmd->add_option("--http-token", a->httpToken,
+                  "access token /ws must be opened with (?token=...); the viewer's URL, logged at start, carries it");
+  cmd->add_option("--http-port-file", a->httpPortFile, "write the HTTP port actually bound to this file");
   cmd->add_option("--datasets", a->datasets,
                   "directory whose subdirectories are stores and whose .vdb files are read live (first float grid, "
                   "bricks of 32; default demo)");

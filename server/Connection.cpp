@@ -178,6 +178,10 @@ void Connection::refuseStream(const std::exception_ptr& error) {
   apply(std::move(outcome));
 }
 
+void Connection::refuse(proto::ErrorCode code, const std::string& why) {
+  refuseStream(std::make_exception_ptr(proto::ProtocolError(code, why)));
+}
+
 void Connection::received(std::span<const uint8_t> message) {
   if (message.size() < proto::kHeaderBytes)
     return refuseStream(std::make_exception_ptr(proto::ProtocolError(

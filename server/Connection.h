@@ -70,6 +70,9 @@ class Connection {
   void bodyReceived(std::span<const uint8_t> body);
   /// A whole message, header and body, from a transport that delimits messages itself (one WebSocket message).
   void received(std::span<const uint8_t> message);
+  /// The transport found the stream unusable (a WebSocket text message, a message longer than its header
+  /// announces): answers an Error with `code` and request id 0, and closes.
+  void refuse(proto::ErrorCode code, const std::string& why);
   /// The stream ended or failed while reading.
   void readFailed();
   /// The message given to Transport::write was written (`ok`) or could not be.

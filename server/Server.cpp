@@ -27,6 +27,8 @@
 #include "server/ServerStats.h"
 #include "server/Session.h"
 #include "server/TcpSession.h"
+#include "server/WebGate.h"
+#include "server/WebSocketSession.h"
 
 namespace voxbrick::server {
 namespace {
@@ -47,11 +49,23 @@ ServerConfig checked(ServerConfig config) {
   return config;
 }
 
-tcp::endpoint listenEndpoint(const ServerConfig& config) {
+tcp::endpoint listenEndpoint(const std::string& host, int port) {
   boost::system::error_code ec;
-  const asio::ip::address address = asio::ip::make_address(config.host, ec);
-  if (ec) throw std::runtime_error("host '" + config.host + "' is not an IP address (e.g. 127.0.0.1, 0.0.0.0, ::1)");
-  return tcp::endpoint(address, uint16_t(config.port));
+  const asio::ip::address address = asio::ip::make_address(host, ec);
+  if (ec) throw std::runtime_error("host '" + host + "' is not an IP address (e.g. 127.0.0.1, 0.0.0.0, ::1)");
+  return tcp::endpoint(address, uint16_t(port));
+}
+
+/// Opens, binds and listens `acceptor` on `endpoint`; throws naming `what` and the address if it cannot.
+void listen(tcp::acceptor& acceptor, const tcp::endpoint& endpoint, const std::string& what) {
+  acceptor.open(endpoint.protocol());
+  acceptor.set_option(tcp::acceptor::reuse_address(true));
+  boost::system::error_code bindError;
+  acceptor.bind(endpoint, bindError);
+  if (bindError)
+    throw std::runtime_error("cannot listen for " + what + " on " + endpoint.address().to_string() + ":" +
+                             std::to_string(endpoint.port()) + ": " + bindError.message());
+  acceptor.listen();
 }
 
 /// The address a connection is counted against, and whether it is loopback. An IPv4 client of a dual-stack socket
@@ -104,8 +118,9 @@ struct Server::Impl {
   /// Render threads post to sessions' strands: they stop before the io_context goes.
   ~Impl() { scheduler.stop(); }
 
-  void accept();
-  void onAccepted(tcp::socket socket);
+  /// Accepts the next connection on `on` (the TCP or the HTTP acceptor), each on a strand of its own.
+  void accept(tcp::acceptor& on);
+  void onAccepted(const tcp::acceptor& on, tcp::socket socket);
   /// Registers a new connection from `address` made by `make` (given its ConnectionId), whatever its transport:
   /// admits or refuses it, evicts a pending one if the pool is full, and starts it.
   void adopt(const std::string& address, bool loopback,
@@ -123,6 +138,7 @@ struct Server::Impl {
 
   const ServerConfig config;
   const tcp::endpoint endpoint;
+  const WebGate webGate;  ///< what the HTTP port serves, and who may open its WebSocket
   // Read once here: a preset named in a request never makes an I/O thread read a file.
   const render::TransferFunctionPresets presets;
   DatasetRegistry datasets;
@@ -134,6 +150,7 @@ struct Server::Impl {
   /// The acceptor and the signals are used from this strand only.
   asio::strand<asio::io_context::executor_type> control;
   tcp::acceptor acceptor;
+  tcp::acceptor httpAcceptor;  ///< open only with config.http
   asio::signal_set signals;
   SessionServices sessionServices;
 
@@ -152,7 +169,8 @@ struct Server::Impl {
 
 Server::Impl::Impl(const ServerConfig& c)
     : config(checked(c)),
-      endpoint(listenEndpoint(config)),
+      endpoint(listenEndpoint(config.host, config.port)),
+      webGate(config.httpOrigins, config.httpToken),
       presets(render::TransferFunctionPresets::load(render::TransferFunction::configDirectory() / "tf")),
       datasets(config.datasets, size_t(config.hostCacheMB) << 20),
       output(config.maxTotalOutputBytes),
@@ -160,6 +178,7 @@ Server::Impl::Impl(const ServerConfig& c)
       handler(config, datasets, presets, stats, [this] { return statsJson(); }),
       control(asio::make_strand(io)),
       acceptor(control),
+      httpAcceptor(control),
       signals(control, SIGINT, SIGTERM),
       sessionServices{config,
                       proto::Limits{},
@@ -171,24 +190,18 @@ Server::Impl::Impl(const ServerConfig& c)
                       [this](ConnectionId id) { return greet(id); }},
       admission(admissionLimits(config)) {
   sessionServices.limits.maxBodyBytes = config.maxMessageBytes;
-  acceptor.open(endpoint.protocol());
-  acceptor.set_option(tcp::acceptor::reuse_address(true));
-  boost::system::error_code bindError;
-  acceptor.bind(endpoint, bindError);
-  if (bindError)
-    throw std::runtime_error("cannot listen on " + config.host + ":" + std::to_string(config.port) + ": " +
-                             bindError.message());
-  acceptor.listen();
+  listen(acceptor, endpoint, "TCP");
+  if (config.http) listen(httpAcceptor, listenEndpoint(config.httpHost(), config.httpPort), "HTTP");
   scheduler.start();
 }
 
-void Server::Impl::accept() {
-  acceptor.async_accept(asio::make_strand(io), [this](boost::system::error_code ec, tcp::socket socket) {
+void Server::Impl::accept(tcp::acceptor& on) {
+  on.async_accept(asio::make_strand(io), [this, &on](boost::system::error_code ec, tcp::socket socket) {
     if (ec) {
       if (ec != asio::error::operation_aborted) spdlog::warn("accept: {}", ec.message());
     } else {
       try {
-        onAccepted(std::move(socket));
+        onAccepted(on, std::move(socket));
       } catch (const std::exception& e) {  // that connection is lost; the server goes on without it
         spdlog::error("accept: {}", e.what());
       }
@@ -198,12 +211,18 @@ void Server::Impl::accept() {
       std::lock_guard lock(sessionsMutex);
       stopping = shuttingDown;
     }
-    if (!stopping) accept();
+    if (!stopping) accept(on);
   });
 }
 
-void Server::Impl::onAccepted(tcp::socket socket) {
+void Server::Impl::onAccepted(const tcp::acceptor& on, tcp::socket socket) {
   const auto [address, loopback] = clientAddress(socket);
+  // A browser's connection is pending (not a session) from its accept, through its HTTP requests and the upgrade,
+  // until its Hello: the same admission as a TCP connection.
+  if (&on == &httpAcceptor)
+    return adopt(address, loopback, [&](ConnectionId id) {
+      return std::make_shared<WebSocketSession>(std::move(socket), sessionServices, webGate, id);
+    });
   adopt(address, loopback,
         [&](ConnectionId id) { return std::make_shared<TcpSession>(std::move(socket), sessionServices, id); });
 }
@@ -293,6 +312,7 @@ void Server::Impl::shutdown() {
   asio::post(control, [this] {
     boost::system::error_code ignored;
     acceptor.close(ignored);
+    httpAcceptor.close(ignored);
     signals.cancel(ignored);
   });
   for (const auto& session : open) session->end(errorMessage(proto::ErrorCode::ShuttingDown, "server is stopping"));
@@ -330,13 +350,16 @@ Server::~Server() = default;
 
 int Server::port() const { return mImpl->acceptor.local_endpoint().port(); }
 
+int Server::httpPort() const { return mImpl->httpAcceptor.is_open() ? mImpl->httpAcceptor.local_endpoint().port() : 0; }
+
 void Server::run() {
   Impl& s = *mImpl;
   // No I/O thread runs yet, so the acceptor and the signals may be used from here before they belong to `control`.
   s.signals.async_wait([&s](boost::system::error_code ec, int) {
     if (!ec) s.requestStop();
   });
-  s.accept();
+  s.accept(s.acceptor);
+  if (s.httpAcceptor.is_open()) s.accept(s.httpAcceptor);
   std::vector<std::thread> ioThreads;
   for (int i = 0; i < s.config.ioThreads; ++i) ioThreads.emplace_back([&s] { s.io.run(); });
   // This thread runs the lifecycle, so that waiting for renders and sessions never blocks an I/O thread.

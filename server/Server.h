@@ -1,6 +1,7 @@
-// The render service: a Boost.Asio TCP server speaking proto/PROTOCOL.md. It accepts connections, wires the parts
-// (sessions, MessageHandler, RenderScheduler, ServerStats) together, and runs the lifecycle: signals, shutdown,
-// waiting for sessions to flush. It holds each connection as a Session, whatever its transport (TcpSession).
+// The render service: a Boost.Asio server speaking proto/PROTOCOL.md over TCP and, on an HTTP port of its own, over
+// WebSocket. It accepts connections, wires the parts (sessions, MessageHandler, RenderScheduler, ServerStats)
+// together, and runs the lifecycle: signals, shutdown, waiting for sessions to flush. It holds each connection as a
+// Session, whatever its transport (TcpSession, WebSocketSession).
 #pragma once
 
 #include <memory>
@@ -22,6 +23,8 @@ class Server {
 
   /// The port actually bound (the configured one, or the one the system picked for port 0).
   int port() const;
+  /// The HTTP port actually bound (config.http), or 0 when the server does not listen for HTTP.
+  int httpPort() const;
   /// Serves until stop() or SIGINT/SIGTERM; then closes every session (ShuttingDown), lets running renders finish
   /// and returns.
   void run();

@@ -8,6 +8,7 @@
 #include <toml++/toml.h>
 
 #include "render/core/RenderErrors.h"
+#include "server/WebGate.h"
 
 namespace voxbrick::server {
 namespace {
@@ -51,6 +52,21 @@ class Section {
       if (v < 0 || uint64_t(v) > uint64_t(std::numeric_limits<T>::max()))
         fail(name + " = " + std::to_string(v) + " is out of range");
       out = T(v);
+    }
+    return true;
+  }
+
+  /// Reads `key`, an array of strings, into `out` if present; returns whether it was.
+  bool readStrings(const char* key, std::vector<std::string>& out) {
+    mKnown.insert(key);
+    const toml::node* node = mTable ? mTable->get(key) : nullptr;
+    if (!node) return false;
+    const std::string name = mFile + ": " + mName + "." + key;
+    if (!node->is_array()) fail(name + " must be an array of strings");
+    out.clear();
+    for (const toml::node& item : *node->as_array()) {
+      if (!item.is_string()) fail(name + " must be an array of strings");
+      out.push_back(item.as_string()->get());
     }
     return true;
   }
@@ -107,10 +123,15 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   limits.read("loopback_exempt", c.loopbackExempt);
   limits.read("pause_reading_bytes", c.pauseReadingBytes);
   limits.read("max_total_output_bytes", c.maxTotalOutputBytes);
+  Section http = top.table("http");
+  if (http.read("port", c.httpPort)) c.http = c.httpPort > 0;  // 0: no HTTP listener
+  http.read("bind", c.httpBind);
+  http.readStrings("origins", c.httpOrigins);
+  http.read("token", c.httpToken);
   Section memory = top.table("memory");
   memory.read("host_cache_mb", c.hostCacheMB);
   memory.read("gpu_budget_mb", c.gpuBudgetMB);
-  for (const Section* section : {&top, &server, &limits, &memory}) section->rejectUnknown();
+  for (const Section* section : {&top, &server, &limits, &memory, &http}) section->rejectUnknown();
   try {
     c.validate();
   } catch (const std::exception& e) {
@@ -143,6 +164,13 @@ void ServerConfig::validate() const {
   // Below max_output_bytes, or a session would be dropped before it is ever paused.
   range("limits.pause_reading_bytes", double(pauseReadingBytes), 4096, double(maxOutputBytes));
   range("limits.max_total_output_bytes", double(maxTotalOutputBytes), 1 << 20, double(uint64_t(1) << 42));
+  range("http.port", httpPort, 0, 65535);
+  for (const std::string& origin : httpOrigins)
+    if (!WebGate::parseOrigin(origin))
+      fail("http.origins: '" + origin + "' is not an origin (scheme://host or scheme://host:port, e.g. " +
+           "http://viewer.example.org:8080)");
+  if (!httpToken.empty() && !WebGate::validToken(httpToken))
+    fail("http.token must be letters, digits and - . _ ~ only (it travels in a URL)");
   range("memory.host_cache_mb", double(hostCacheMB), 16, 1 << 22);
   range("memory.gpu_budget_mb", double(gpuBudgetMB), 16, 1 << 22);
   if (gpuBudgetMB < 4 * int64_t(renderThreads))

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "render/core/Backend.h"
 
@@ -43,6 +44,13 @@ struct ServerConfig {
   bool loopbackExempt = true;                 ///< loopback clients are not held to maxConnectionsPerAddress
   uint64_t pauseReadingBytes = 1ull << 20;    ///< a session with more replies queued is not read until they drain
   uint64_t maxTotalOutputBytes = 1ull << 30;  ///< replies queued for all sessions; a frame beyond it: LimitExceeded
+  // [http] The browser's transport (proto/PROTOCOL.md, "WebSocket transport"): the embedded viewer over HTTP and
+  // the protocol over a WebSocket on /ws, on a port of its own.
+  bool http = false;                     ///< whether to listen for HTTP (http.port > 0 in the file, or --http)
+  int httpPort = 0;                      ///< 0 picks a free port (printed, and written to --http-port-file)
+  std::string httpBind;                  ///< listen address; empty: the same as host
+  std::vector<std::string> httpOrigins;  ///< origins allowed to open /ws besides the page's own ("http://h:p")
+  std::string httpToken;                 ///< when set, /ws must be opened with ?token=<it>
   // [memory]
   int64_t hostCacheMB = 1024;  ///< decoded bricks of all open datasets together
   int64_t gpuBudgetMB = 1024;  ///< atlases of all render threads and datasets (equal shares per thread)
@@ -57,6 +65,8 @@ struct ServerConfig {
   static ServerConfig load(const std::filesystem::path& path);
   /// Throws std::runtime_error naming the first value out of range.
   void validate() const;
+  /// The address the HTTP listener binds: httpBind, else host.
+  const std::string& httpHost() const { return httpBind.empty() ? host : httpBind; }
   /// The backend named `text` ("auto", "egl" or "osmesa"); throws std::runtime_error naming `what` (the key or
   /// option it came from) and the bad value.
   static render::Backend parseBackend(const std::string& text, const std::string& what);

@@ -1,0 +1,22 @@
+# Writes OUTPUT: a C++ source defining voxbrick::server::embeddedWebFiles() over every file under WEB_DIR (any depth,
+# any type: bytes, not text), each named by its path relative to WEB_DIR, sorted by that path.
+file(GLOB_RECURSE files RELATIVE "${WEB_DIR}" "${WEB_DIR}/*")
+list(SORT files)
+set(arrays "")
+set(entries "")
+set(index 0)
+foreach(name IN LISTS files)
+  file(READ "${WEB_DIR}/${name}" hex HEX)
+  string(LENGTH "${hex}" digits)
+  math(EXPR size "${digits} / 2")
+  string(REGEX REPLACE "([0-9a-f][0-9a-f])" "0x\\1," bytes "${hex}")
+  # A trailing 0 keeps an empty file's array legal; the size excludes it.
+  string(APPEND arrays "const unsigned char kFile${index}[] = {${bytes}0};\n")
+  string(REPLACE "\\" "\\\\" quoted "${name}")
+  string(REPLACE "\"" "\\\"" quoted "${quoted}")
+  string(APPEND entries "      {\"${quoted}\", kFile${index}, ${size}},\n")
+  math(EXPR index "${index} + 1")
+endforeach()
+set(body "// Generated from web/ at build time. Do not edit.\n#include \"server/WebFiles.h\"\n\nnamespace voxbrick::server {\nnamespace {\n\n${arrays}\n}  // namespace\n\nstd::span<const EmbeddedWebFile> embeddedWebFiles() {\n  static const EmbeddedWebFile files[] = {\n${entries}      {nullptr, nullptr, 0},\n  };\n  return std::span<const EmbeddedWebFile>(files, ${index});\n}\n\n}  // namespace voxbrick::server\n")
+file(WRITE "${OUTPUT}.tmp" "${body}")
+execute_process(COMMAND ${CMAKE_COMMAND} -E copy_if_different "${OUTPUT}.tmp" "${OUTPUT}")

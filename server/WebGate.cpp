@@ -1,0 +1,157 @@
+// HTTP decisions of the browser transport: embedded files by name, Origin and token checks for /ws.
+#include "server/WebGate.h"
+
+#include <algorithm>
+#include <cctype>
+#include <stdexcept>
+
+#include "server/WebFiles.h"
+
+namespace voxbrick::server {
+namespace {
+
+std::string lower(std::string_view text) {
+  std::string out(text);
+  for (char& c : out) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return out;
+}
+
+int defaultPort(const std::string& scheme) { return scheme == "https" ? 443 : 80; }
+
+/// `text` ("host", "host:port", "[v6]:port") split into a lower-case host and a port (`fallback` when absent);
+/// nullopt if the port is not a number in range or the host is empty.
+std::optional<std::pair<std::string, int>> hostAndPort(std::string_view text, int fallback) {
+  std::string_view host = text;
+  int port = fallback;
+  const size_t bracket = text.rfind(']');
+  const size_t colon = text.rfind(':');
+  if (colon != std::string_view::npos && (bracket == std::string_view::npos || colon > bracket)) {
+    const std::string_view digits = text.substr(colon + 1);
+    if (digits.empty() || digits.size() > 5 ||
+        !std::all_of(digits.begin(), digits.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)); }))
+      return std::nullopt;
+    port = std::stoi(std::string(digits));
+    if (port < 1 || port > 65535) return std::nullopt;
+    host = text.substr(0, colon);
+  }
+  if (host.empty()) return std::nullopt;
+  return std::make_pair(lower(host), port);
+}
+
+/// The path of a request target (before '?'), and its query (after it; empty if none).
+std::pair<std::string_view, std::string_view> splitTarget(std::string_view target) {
+  const size_t q = target.find('?');
+  if (q == std::string_view::npos) return {target, {}};
+  return {target.substr(0, q), target.substr(q + 1)};
+}
+
+/// The value of `name` in a query string (a=b&c=d); nullopt if absent.
+std::optional<std::string_view> queryValue(std::string_view query, std::string_view name) {
+  while (!query.empty()) {
+    const size_t amp = query.find('&');
+    const std::string_view pair = query.substr(0, amp);
+    const size_t eq = pair.find('=');
+    if (pair.substr(0, eq) == name) return eq == std::string_view::npos ? std::string_view() : pair.substr(eq + 1);
+    if (amp == std::string_view::npos) break;
+    query.remove_prefix(amp + 1);
+  }
+  return std::nullopt;
+}
+
+/// Whether `a` equals `b`, in a time that depends on their lengths only.
+bool equalInConstantTime(std::string_view a, std::string_view b) {
+  unsigned char differ = a.size() == b.size() ? 0 : 1;
+  const size_t n = std::max(a.size(), b.size());
+  for (size_t i = 0; i < n; ++i) {
+    const unsigned char x = i < a.size() ? static_cast<unsigned char>(a[i]) : 0;
+    const unsigned char y = i < b.size() ? static_cast<unsigned char>(b[i]) : 0;
+    differ |= static_cast<unsigned char>(x ^ y);
+  }
+  return differ == 0;
+}
+
+WebGate::Response textResponse(int status, std::string text) {
+  WebGate::Response r;
+  r.status = status;
+  r.contentType = "text/plain; charset=utf-8";
+  r.text = std::move(text) + "\n";
+  return r;
+}
+
+}  // namespace
+
+std::optional<WebGate::Origin> WebGate::parseOrigin(std::string_view text) {
+  const size_t sep = text.find("://");
+  if (sep == std::string_view::npos) return std::nullopt;
+  Origin origin;
+  origin.scheme = lower(text.substr(0, sep));
+  if (origin.scheme != "http" && origin.scheme != "https") return std::nullopt;
+  std::string_view rest = text.substr(sep + 3);
+  if (!rest.empty() && rest.back() == '/') rest.remove_suffix(1);
+  if (rest.find_first_of("/?#@ ") != std::string_view::npos) return std::nullopt;
+  const auto hp = hostAndPort(rest, defaultPort(origin.scheme));
+  if (!hp) return std::nullopt;
+  origin.host = hp->first;
+  origin.port = hp->second;
+  return origin;
+}
+
+bool WebGate::validToken(std::string_view token) {
+  return !token.empty() && std::all_of(token.begin(), token.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '.' || c == '_' || c == '~';
+  });
+}
+
+WebGate::WebGate(const std::vector<std::string>& origins, std::string token) : mToken(std::move(token)) {
+  for (const std::string& text : origins) {
+    const auto origin = parseOrigin(text);
+    if (!origin) throw std::invalid_argument("'" + text + "' is not an origin (scheme://host[:port])");
+    mOrigins.push_back(*origin);
+  }
+}
+
+bool WebGate::isSocketPath(std::string_view target) { return splitTarget(target).first == "/ws"; }
+
+WebGate::Response WebGate::respond(std::string_view method, std::string_view target,
+                                   std::string_view ifNoneMatch) const {
+  if (method != "GET" && method != "HEAD") {
+    Response r = textResponse(405, "method not allowed: only GET and HEAD are served");
+    return r;
+  }
+  const std::string_view path = splitTarget(target).first;
+  if (path == "/ws") return textResponse(426, "/ws is the WebSocket endpoint: open it with a WebSocket upgrade");
+  // Only the embedded files' own names match: a path that climbs (..), is escaped (%2e) or absolute-form names none.
+  const WebFile* file = path == "/"                              ? findWebFile("index.html")
+                        : path.size() > 1 && path.front() == '/' ? findWebFile(path.substr(1))
+                                                                 : nullptr;
+  if (!file) return textResponse(404, "not found");
+  Response r;
+  r.contentType = file->contentType;
+  r.body = file->bytes;
+  r.etag = file->etag;
+  r.notModified = !ifNoneMatch.empty() && ifNoneMatch == file->etag;
+  if (r.notModified) r.status = 304;
+  return r;
+}
+
+std::optional<std::string> WebGate::refuseUpgrade(std::string_view target, std::optional<std::string_view> origin,
+                                                  std::string_view host) const {
+  if (!isSocketPath(target)) return "no WebSocket endpoint at this path (it is /ws)";
+  if (origin) {
+    const auto seen = parseOrigin(*origin);
+    if (!seen) return "Origin '" + std::string(*origin) + "' is not allowed";
+    const auto own = hostAndPort(host, defaultPort(seen->scheme));
+    const bool sameOrigin = own && own->first == seen->host && own->second == seen->port;
+    if (!sameOrigin && std::find(mOrigins.begin(), mOrigins.end(), *seen) == mOrigins.end())
+      return "Origin '" + std::string(*origin) + "' is not allowed (only this server's own pages, and the origins " +
+             "configured in http.origins, may open /ws)";
+  }
+  if (!mToken.empty()) {
+    const auto given = queryValue(splitTarget(target).second, "token");
+    if (!given) return "an access token is required (open the page with the URL the server logged: ?token=...)";
+    if (!equalInConstantTime(*given, mToken)) return "wrong access token";
+  }
+  return std::nullopt;
+}
+
+}  // namespace voxbrick::server

@@ -1,0 +1,59 @@
+// What the HTTP side of the browser transport decides, without sockets: which embedded file (or error) answers a
+// plain request, and whether a WebSocket upgrade of /ws may proceed (its Origin and its access token).
+#pragma once
+
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace voxbrick::server {
+
+class WebGate {
+ public:
+  /// An origin as browsers send it in the Origin header: scheme, host and port (the scheme's default port when the
+  /// text names none); compared case-insensitively on scheme and host.
+  struct Origin {
+    std::string scheme, host;
+    int port = 0;
+    friend bool operator==(const Origin&, const Origin&) = default;
+  };
+  /// The origin `text` names (scheme://host[:port], scheme http or https, nothing after it but an optional '/');
+  /// nullopt if it is not one.
+  static std::optional<Origin> parseOrigin(std::string_view text);
+  /// Whether `token` may be an access token: letters, digits and - . _ ~ (so it travels in a URL unescaped).
+  static bool validToken(std::string_view token);
+
+  /// `origins`: the configured origins allowed besides the page's own (each as parseOrigin reads it; throws
+  /// std::invalid_argument for one that is not); `token`: the access token /ws must carry, empty for none.
+  WebGate(const std::vector<std::string>& origins, std::string token);
+
+  /// The answer to a request that is not an upgrade.
+  struct Response {
+    int status = 200;
+    std::string_view contentType;
+    std::span<const uint8_t> body;  ///< an embedded file's bytes (status 200)
+    std::string text;               ///< the body of an error
+    std::string etag;               ///< of a file, empty otherwise
+    bool notModified = false;       ///< 304: the client holds the file with this etag already
+  };
+  /// The answer to `method` `target` (the request line's target) with `ifNoneMatch` (the header, possibly empty):
+  /// an embedded file for GET and HEAD ("/" is index.html; the query is ignored), 404 for any path that names none,
+  /// 405 for other methods, 426 for /ws without an upgrade.
+  Response respond(std::string_view method, std::string_view target, std::string_view ifNoneMatch) const;
+
+  /// Whether `target` names the WebSocket endpoint (/ws, with any query).
+  static bool isSocketPath(std::string_view target);
+  /// Why an upgrade of `target` from `origin` (nullopt: the request had no Origin header, as non-browser clients
+  /// send) with Host header `host` is refused, or nullopt if it may proceed: the Origin must be the page's own (its
+  /// host and port equal to Host) or a configured one, and with a token set the target must carry ?token=<it>.
+  std::optional<std::string> refuseUpgrade(std::string_view target, std::optional<std::string_view> origin,
+                                           std::string_view host) const;
+
+ private:
+  std::vector<Origin> mOrigins;
+  std::string mToken;
+};
+
+}  // namespace voxbrick::server

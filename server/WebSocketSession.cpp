@@ -1,0 +1,262 @@
+// HTTP, the upgrade of /ws, and one protocol message per WebSocket binary message, of one browser connection.
+#include "server/WebSocketSession.h"
+
+#include <chrono>
+#include <string>
+
+#include <spdlog/spdlog.h>
+#include <boost/asio/post.hpp>
+#include <boost/beast/http/read.hpp>
+#include <boost/beast/http/write.hpp>
+#include <boost/beast/websocket/rfc6455.hpp>
+
+namespace voxbrick::server {
+namespace {
+
+namespace asio = boost::asio;
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+using tcp = asio::ip::tcp;
+
+constexpr size_t kRequestHeaderLimit = 8 << 10;  ///< bytes of an HTTP request's header; more is refused (431)
+constexpr size_t kRequestBodyLimit = 4 << 10;    ///< bytes of an HTTP request's body (none is needed)
+constexpr size_t kReadChunk = 64 << 10;          ///< the most one read of a message takes
+constexpr size_t kKeptMessageBytes = 64 << 10;   ///< capacity of the read buffer kept between messages
+
+std::string_view view(beast::string_view text) { return {text.data(), text.size()}; }
+
+std::chrono::milliseconds milliseconds(double seconds) { return std::chrono::milliseconds(int64_t(seconds * 1000)); }
+
+std::string peerOf(const tcp::socket& socket) {
+  boost::system::error_code ec;
+  const auto endpoint = socket.remote_endpoint(ec);
+  return ec ? "?" : endpoint.address().to_string() + ":" + std::to_string(endpoint.port()) + " (ws)";
+}
+
+}  // namespace
+
+WebSocketSession::WebSocketSession(tcp::socket socket, const SessionServices& services, const WebGate& gate,
+                                   ConnectionId id)
+    : AsioSession(socket.get_executor(), services, id, peerOf(socket)),
+      mServices(services),
+      mGate(gate),
+      mWs(std::move(socket)),
+      mHttpBuffer(kRequestHeaderLimit + kRequestBodyLimit) {}
+
+void WebSocketSession::start() {
+  asio::post(mWs.get_executor(), guarded(this, [](WebSocketSession& s) { s.readRequest(); }));
+}
+
+void WebSocketSession::end(proto::Error error) {
+  asio::post(mWs.get_executor(), guarded(this, [error = std::move(error)](WebSocketSession& s) {
+               if (s.mUpgraded) return s.mCore.end(error);
+               spdlog::debug("{}: closing before the upgrade: {}", s.peer(), error.message);
+               s.mCore.close();
+             }));
+}
+
+void WebSocketSession::readRequest() {
+  if (mCore.closed()) return;
+  mParser.emplace();
+  mParser->header_limit(kRequestHeaderLimit);
+  mParser->body_limit(kRequestBodyLimit);
+  // The request must arrive whole within the Hello timeout: a client that trickles it is closed then.
+  beast::get_lowest_layer(mWs).expires_after(milliseconds(mServices.config.helloTimeoutS));
+  http::async_read(mWs.next_layer(), mHttpBuffer, *mParser,
+                   guarded(this, [](WebSocketSession& s, boost::system::error_code ec, size_t) { s.onRequest(ec); }));
+}
+
+void WebSocketSession::onRequest(boost::system::error_code ec) {
+  if (mCore.closed()) return;
+  if (ec == http::error::end_of_stream || ec == asio::error::eof || ec == asio::error::connection_reset)
+    return mCore.close();
+  if (ec == beast::error::timeout) {
+    mServices.stats.add(ServerEvent::Timeout);
+    spdlog::info("{}: closing: no whole HTTP request within {} s", peer(), mServices.config.helloTimeoutS);
+    return mCore.close();
+  }
+  if (ec) return refuseRequest(ec);
+  mRequest = mParser->release();
+  if (websocket::is_upgrade(mRequest)) return upgrade();
+
+  const WebGate::Response r = mGate.respond(view(mRequest.method_string()), view(mRequest.target()),
+                                            view(mRequest[http::field::if_none_match]));
+  Response response(http::status(r.status), mRequest.version());
+  response.set(http::field::server, "voxbrick");
+  response.set(http::field::content_type, std::string(r.contentType));
+  response.set("X-Content-Type-Options", "nosniff");
+  // The page's URL may carry the access token: it is not to be passed on to other sites.
+  response.set("Referrer-Policy", "no-referrer");
+  if (r.status == 405) response.set(http::field::allow, "GET, HEAD");
+  if (!r.etag.empty()) {
+    // The files change with the binary: a browser may keep them but asks each time (304 when unchanged).
+    response.set(http::field::cache_control, "no-cache");
+    response.set(http::field::etag, r.etag);
+  } else {
+    response.set(http::field::cache_control, "no-store");
+  }
+  const bool head = mRequest.method() == http::verb::head;
+  if (!r.text.empty()) response.body().assign(r.text.begin(), r.text.end());
+  if (!r.body.empty() && !r.notModified) response.body().assign(r.body.begin(), r.body.end());
+  response.content_length(response.body().size());
+  if (head || r.notModified) response.body().clear();
+  response.keep_alive(mRequest.keep_alive());
+  spdlog::debug("{}: {} {} -> {}", peer(), view(mRequest.method_string()), view(mRequest.target()), r.status);
+  respond(std::move(response));
+}
+
+void WebSocketSession::refuseRequest(boost::system::error_code ec) {
+  http::status status = http::status::bad_request;
+  if (ec == http::error::header_limit || ec == http::error::buffer_overflow)
+    status = http::status::request_header_fields_too_large;
+  else if (ec == http::error::body_limit)
+    status = http::status::payload_too_large;
+  spdlog::info("{}: bad HTTP request ({}), closing", peer(), ec.message());
+  Response response(status, 11);
+  response.set(http::field::server, "voxbrick");
+  response.set(http::field::content_type, "text/plain; charset=utf-8");
+  const std::string text = "bad request: " + ec.message() + "\n";
+  response.body().assign(text.begin(), text.end());
+  response.content_length(response.body().size());
+  response.keep_alive(false);
+  respond(std::move(response));
+}
+
+void WebSocketSession::respond(Response response) {
+  mResponse = std::move(response);
+  const bool keepAlive = mResponse.keep_alive();
+  beast::get_lowest_layer(mWs).expires_after(milliseconds(mServices.config.helloTimeoutS));
+  http::async_write(mWs.next_layer(), mResponse,
+                    guarded(this, [keepAlive](WebSocketSession& s, boost::system::error_code ec, size_t) {
+                      s.onResponded(ec, keepAlive);
+                    }));
+}
+
+void WebSocketSession::onResponded(boost::system::error_code ec, bool keepAlive) {
+  if (mCore.closed()) return;
+  if (ec || !keepAlive) return mCore.close();
+  readRequest();
+}
+
+void WebSocketSession::upgrade() {
+  const auto origin = mRequest.find(http::field::origin);
+  const std::optional<std::string> refusal = mGate.refuseUpgrade(
+      view(mRequest.target()),
+      origin == mRequest.end() ? std::nullopt : std::optional<std::string_view>(view(origin->value())),
+      view(mRequest[http::field::host]));
+  if (refusal) {
+    mServices.stats.add(ServerEvent::SessionRefused);
+    spdlog::info("{}: WebSocket upgrade refused: {}", peer(), *refusal);
+    Response response(http::status::forbidden, mRequest.version());
+    response.set(http::field::server, "voxbrick");
+    response.set(http::field::content_type, "text/plain; charset=utf-8");
+    response.set(http::field::cache_control, "no-store");
+    const std::string text = "forbidden: " + *refusal + "\n";
+    response.body().assign(text.begin(), text.end());
+    response.content_length(response.body().size());
+    response.keep_alive(false);
+    return respond(std::move(response));
+  }
+  // From here the Connection's deadlines rule: Beast's own run only for the opening and closing handshakes, and
+  // it sends no pings of its own (the idle timeout is the Connection's).
+  beast::get_lowest_layer(mWs).expires_never();
+  websocket::stream_base::timeout timeouts{};
+  timeouts.handshake_timeout = milliseconds(mServices.config.helloTimeoutS);
+  timeouts.idle_timeout = websocket::stream_base::none();
+  timeouts.keep_alive_pings = false;
+  mWs.set_option(timeouts);
+  mWs.set_option(websocket::stream_base::decorator(
+      [](websocket::response_type& response) { response.set(http::field::server, "voxbrick"); }));
+  // A frame announcing more than one whole protocol message may hold is refused before any of it is read.
+  mWs.read_message_max(proto::kHeaderBytes + mServices.limits.maxBodyBytes);
+  mWs.auto_fragment(false);
+  mWs.binary(true);
+  mWs.async_accept(mRequest,
+                   guarded(this, [](WebSocketSession& s, boost::system::error_code ec) { s.onUpgraded(ec); }));
+}
+
+void WebSocketSession::onUpgraded(boost::system::error_code ec) {
+  if (mCore.closed()) return;
+  if (ec) {
+    spdlog::info("{}: WebSocket handshake failed: {}", peer(), ec.message());
+    return mCore.close();
+  }
+  mUpgraded = true;
+  spdlog::debug("{}: WebSocket open", peer());
+  mCore.start();
+}
+
+void WebSocketSession::readMessage() {
+  // Requests are small: the buffer is reused across them, and given back only after a large one.
+  if (mMessage.capacity() > kKeptMessageBytes) mMessage = {};
+  mFill = 0;
+  mExpectedBytes.reset();
+  readSome();
+}
+
+void WebSocketSession::readSome() {
+  // The header first, alone, so that it is checked before any of the body is read; then the body it announces.
+  const size_t want = std::min(kReadChunk, (mExpectedBytes ? *mExpectedBytes : proto::kHeaderBytes) - mFill);
+  mMessage.resize(mFill + want);
+  mWs.async_read_some(
+      asio::buffer(mMessage.data() + mFill, want),
+      guarded(this, [](WebSocketSession& s, boost::system::error_code ec, size_t bytes) { s.onRead(ec, bytes); }));
+}
+
+void WebSocketSession::onRead(boost::system::error_code ec, size_t bytes) {
+  if (ec) return mCore.readFailed();
+  if (mCore.closed()) return;
+  mCore.messageStarted();
+  if (!mWs.got_binary())
+    return mCore.refuse(proto::ErrorCode::Malformed,
+                        "a text message: the protocol travels in binary messages, one protocol message each");
+  mFill += bytes;
+  if (!mExpectedBytes && mFill == proto::kHeaderBytes) {
+    const std::optional<proto::Header> header =
+        mCore.headerReceived(std::span<const uint8_t, proto::kHeaderBytes>(mMessage.data(), proto::kHeaderBytes));
+    if (!header) return;  // answered, and closing
+    mExpectedBytes = proto::kHeaderBytes + header->bodyBytes;
+  }
+  if (mWs.is_message_done()) {
+    // Shorter than a header: Malformed, closing. A body shorter than its header announces: Malformed for that
+    // request, and the session goes on (the next WebSocket message starts the next protocol message).
+    if (!mExpectedBytes) return mCore.received(std::span<const uint8_t>(mMessage.data(), mFill));
+    return mCore.bodyReceived(
+        std::span<const uint8_t>(mMessage.data() + proto::kHeaderBytes, mFill - proto::kHeaderBytes));
+  }
+  if (mExpectedBytes && mFill == *mExpectedBytes)
+    return mCore.refuse(proto::ErrorCode::Malformed,
+                        "a WebSocket message longer than the protocol message its header announces (" +
+                            std::to_string(*mExpectedBytes) + " bytes): each carries exactly one");
+  readSome();
+}
+
+void WebSocketSession::write(std::span<const uint8_t> message) {
+  mWriting = true;
+  mWs.async_write(asio::buffer(message.data(), message.size()),
+                  guarded(this, [](WebSocketSession& s, boost::system::error_code ec, size_t) {
+                    s.mWriting = false;
+                    s.mCore.written(!ec);
+                  }));
+}
+
+void WebSocketSession::close() {
+  if (mUpgraded && !mWriting && mWs.is_open()) {
+    // Every reply is written: the WebSocket closing handshake, bounded by Beast's handshake timeout, then the
+    // socket. A session closed with a write in flight (its client does not read) is cut at once instead.
+    mWs.async_close(websocket::close_code::normal,
+                    guarded(this, [](WebSocketSession& s, boost::system::error_code) { s.closeSocket(); }));
+    return;
+  }
+  closeSocket();
+}
+
+void WebSocketSession::closeSocket() {
+  boost::system::error_code ignored;
+  tcp::socket& socket = beast::get_lowest_layer(mWs).socket();
+  socket.shutdown(tcp::socket::shutdown_both, ignored);
+  socket.close(ignored);
+}
+
+}  // namespace voxbrick::server

@@ -1,0 +1,76 @@
+// The browser's transport of one client connection, on the HTTP port: first HTTP (the embedded viewer's files, and
+// the upgrade of /ws, checked by a WebGate), then a WebSocket whose every binary message carries exactly one
+// protocol message (header and body, as on TCP). Like TcpSession it adds only its stream to AsioSession: the rules
+// (deadlines, admission, the reply queue, back-pressure, the output budget) are its Connection's. Until it upgrades
+// it counts as a pending connection (one that has not said Hello), and each HTTP request must arrive and be
+// answered within hello_timeout_s, so a client that trickles a request (slowloris) holds nothing for long.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include <utility>  // before Asio: Boost 1.74's awaitable.hpp uses std::exchange without it
+
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/beast/core/flat_buffer.hpp>
+#include <boost/beast/core/tcp_stream.hpp>
+#include <boost/beast/http/message.hpp>
+#include <boost/beast/http/parser.hpp>
+#include <boost/beast/http/string_body.hpp>
+#include <boost/beast/http/vector_body.hpp>
+#include <boost/beast/websocket/stream.hpp>
+
+#include "server/AsioSession.h"
+#include "server/WebGate.h"
+
+namespace voxbrick::server {
+
+class WebSocketSession final : public AsioSession {
+ public:
+  /// `socket` must be connected and bound to a strand executor; `gate` is the server's and outlives the session.
+  WebSocketSession(boost::asio::ip::tcp::socket socket, const SessionServices& services, const WebGate& gate,
+                   ConnectionId id);
+
+  /// Starts serving HTTP; the Connection starts (its Hello deadline, reading messages) once /ws is upgraded.
+  void start() override;
+  /// After the upgrade as for TCP (the Error, then close); before it the connection is closed.
+  void end(proto::Error error) override;
+
+  void readMessage() override;
+  void write(std::span<const uint8_t> message) override;
+  void close() override;
+
+ private:
+  using Request = boost::beast::http::request<boost::beast::http::string_body>;
+  using Response = boost::beast::http::response<boost::beast::http::vector_body<uint8_t>>;
+
+  void readRequest();
+  void onRequest(boost::system::error_code ec);
+  /// Answers a request that failed to parse (too large a header, a body, garbage) and closes.
+  void refuseRequest(boost::system::error_code ec);
+  void respond(Response response);
+  void onResponded(boost::system::error_code ec, bool keepAlive);
+  void upgrade();
+  void onUpgraded(boost::system::error_code ec);
+
+  void readSome();
+  void onRead(boost::system::error_code ec, size_t bytes);
+  void closeSocket();
+
+  const SessionServices& mServices;
+  const WebGate& mGate;
+  boost::beast::websocket::stream<boost::beast::tcp_stream> mWs;
+  boost::beast::flat_buffer mHttpBuffer;
+  std::optional<boost::beast::http::request_parser<boost::beast::http::string_body>> mParser;
+  Request mRequest;
+  Response mResponse;
+  bool mUpgraded = false;         ///< the WebSocket is open: the Connection runs
+  bool mWriting = false;          ///< a message is being written
+  std::vector<uint8_t> mMessage;  ///< the message being read (its first mFill bytes so far)
+  size_t mFill = 0;
+  std::optional<size_t> mExpectedBytes;  ///< header plus the body its header announces, once the header is read
+};
+
+}  // namespace voxbrick::server
