@@ -65,27 +65,23 @@ export function httpGet(url, headers = {}) {
   });
 }
 
-/// The real server: `voxbrick serve --no-config --port 0 --http PORT --datasets DIR [extra]`, its log in `dir`.
+/// The real server: `voxbrick serve --no-config --port 0 --http PORT --datasets DIR [extra]` (PORT 0: a free one,
+/// kept for restarts), its log in `dir`.
 export class Server {
-  constructor({ dir, datasets, httpPort, extra = [] }) {
+  constructor({ dir, datasets, httpPort = 0, extra = [] }) {
     Object.assign(this, { dir, datasets, httpPort, extra, proc: null, serial: 0 });
   }
 
+  /// Starts the server; a restart listens on the HTTP port of the first start.
   async start() {
     const tag = `${process.pid}-${this.serial++}`;
     const portFile = path.join(this.dir, `port-${tag}`);
+    const httpPortFile = path.join(this.dir, `http-port-${tag}`);
     this.logFile = path.join(this.dir, `serve-${tag}.log`);
     const log = fs.openSync(this.logFile, "w");
     const args = ["serve", "--no-config", "--port", "0", "--port-file", portFile, "--datasets", this.datasets];
-    const bridge = process.env.VOXBRICK_DEV_BRIDGE; // development only, until serve speaks HTTP itself
-    if (!bridge) args.push("--http", String(this.httpPort), ...this.extra);
+    args.push("--http", String(this.httpPort || 0), "--http-port-file", httpPortFile, ...this.extra);
     this.proc = spawn(VOXBRICK, args, { stdio: ["ignore", log, log] });
-    if (bridge) {
-      while (!fs.existsSync(portFile)) await sleep(20);
-      const tcp = fs.readFileSync(portFile, "utf8").trim();
-      const b = spawn("node", [bridge, path.join(SOURCE_DIR, "web"), String(this.httpPort), tcp], { stdio: "ignore" });
-      this.proc.on("exit", () => b.kill());
-    }
     fs.closeSync(log);
     this.exited = new Promise((resolve) => this.proc.on("exit", (code, signal) => resolve(code ?? signal)));
     let gone = false;
@@ -93,14 +89,15 @@ export class Server {
     const deadline = Date.now() + 60000;
     while (Date.now() < deadline) {
       if (gone) throw new Error(`the server exited: ${this.log()}`);
-      if (fs.existsSync(portFile)) {
+      if (fs.existsSync(portFile) && fs.existsSync(httpPortFile)) {
         this.tcpPort = Number(fs.readFileSync(portFile, "utf8"));
+        this.httpPort = Number(fs.readFileSync(httpPortFile, "utf8"));
         const r = await httpGet(`${this.url}/`);
         if (r && r.status === 200) return this;
       }
       await sleep(50);
     }
-    this.kill();
+    await this.kill();
     throw new Error(`the server did not answer HTTP within 60 s: ${this.log()}`);
   }
 

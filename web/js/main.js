@@ -197,15 +197,22 @@ async function closed(info) {
   app.reconnectTimer = setTimeout(connect, delay);
 }
 
-/// Why the page's own server refused /ws, from a plain GET of it: its status and text, or that it is not there.
+/// Why the page's own server refused /ws. A browser does not show a refused upgrade's answer to the page, so the page
+/// asks for /ws again over plain HTTP: nothing answers (the server is gone), the server says why (a 4xx with its
+/// text), or it answers that /ws is for WebSockets only (426). As the page is the server's own, its origin is
+/// allowed, and the refusal is then the access token's.
 async function refusalReason() {
+  let r;
   try {
-    const r = await fetch(wsUrl().replace(/^ws/, "http"), { cache: "no-store" });
-    const text = (await r.text()).trim().slice(0, 200);
-    return `HTTP ${r.status}${text ? `: ${text}` : ""}`;
+    r = await fetch(wsUrl().replace(/^ws/, "http"), { cache: "no-store" });
   } catch {
     return "the server cannot be reached";
   }
+  const text = (await r.text().catch(() => "")).trim().slice(0, 200);
+  if (r.status !== 426) return `HTTP ${r.status}${text ? `: ${text}` : ""}`;
+  return params.get("token")
+    ? "the access token in this page's address (?token=...) is wrong"
+    : "the server wants an access token: open the address it printed, with ?token=...";
 }
 
 const panel = bindPanel({
