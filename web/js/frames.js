@@ -30,7 +30,8 @@ export class FrameLoop {
 
   resetFigures() {
     this.shownFrames = []; // {id, at, latencyMs, bytes, provisional, encoding, standin, renderMs}
-    this.counts = { shown: 0, provisional: 0, exact: 0, dropped: 0, errors: 0 };
+    // errors: Error replies to Renders, except InvalidScene naming an optional key the page then dropped (refused).
+    this.counts = { shown: 0, provisional: 0, exact: 0, dropped: 0, errors: 0, refused: 0 };
     this.releaseAt = null;
     this.exactAfterReleaseMs = null;
     this.lastFrame = null;
@@ -78,11 +79,12 @@ export class FrameLoop {
       if (answersNewest) this.show(m, this.newest);
       else this.counts.dropped++;
     } else if (m.typeName === "Error") {
-      this.counts.errors++;
       if (answersNewest && m.body.code === ErrorCode.InvalidScene && this.hooks.refused(m.body)) {
+        this.counts.refused++;
         this.wanted = this.wanted || { cameraAt: this.newest.cameraAt, phase: this.newest.phase };
-      } else if (m.body.code !== ErrorCode.Superseded && (answersNewest || m.requestId === 0)) {
-        this.hooks.failed(m.body);
+      } else {
+        this.counts.errors++;
+        if (m.body.code !== ErrorCode.Superseded && (answersNewest || m.requestId === 0)) this.hooks.failed(m.body);
       }
     }
     this.pump();

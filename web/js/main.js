@@ -231,7 +231,7 @@ const panel = bindPanel({
   }),
 });
 
-attachGestures(canvas, {
+const gestures = {
   begin: () => {
     app.dragging = loop.dragging = true;
     app.view.view = null;
@@ -261,7 +261,8 @@ attachGestures(canvas, {
     loop.released();
     viewChanged("still", false);
   },
-});
+};
+attachGestures(canvas, gestures);
 
 new ResizeObserver(() => fitCanvas()).observe(canvas);
 if (fixedSize) canvas.classList.add("fixed");
@@ -304,6 +305,24 @@ window.voxbrickViewer = {
   },
   /// The last shown frame's payload as the server sent it (base64).
   lastPayload: () => (loop.lastPayload ? base64(loop.lastPayload) : ""),
+  /// A scripted drag through the gestures' own handlers: `dAz`, `dEl` degrees per move, `hz` moves a second, for
+  /// `durationMs`; resolves with the moves made once released.
+  drag: ({ durationMs = 10000, hz = 30, dAz = 2, dEl = 0 } = {}) =>
+    new Promise((resolve) => {
+      gestures.begin();
+      const t0 = performance.now();
+      let moves = 0;
+      const move = () => {
+        if (performance.now() - t0 >= durationMs) {
+          gestures.end();
+          return resolve({ moves, ms: performance.now() - t0 });
+        }
+        gestures.orbit(dAz, dEl);
+        ++moves;
+        setTimeout(move, Math.max(0, t0 + (moves * 1000) / hz - performance.now()));
+      };
+      move();
+    }),
   setView: (changes) => {
     Object.assign(app.view, changes);
     panel.syncAll();
