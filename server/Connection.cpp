@@ -244,29 +244,56 @@ void Connection::send(const proto::Message& message, uint32_t requestId) {
   } catch (...) {  // a reply above 4 GiB, or no memory for it: the request is answered with the failure instead
     bytes = proto::encode(errorReply(std::current_exception(), "reply cannot be encoded"), requestId);
   }
+  const bool frame = std::holds_alternative<proto::Frame>(message);
+  if (frame) replaceUnsentFrame(requestId);
   if (mOutboxBytes + bytes.size() > mServices.config.maxOutputBytes) {
     mServices.stats.add(ServerEvent::SlowClientDropped);
     spdlog::warn("{}: {} bytes of replies not read, dropping the session", mPeer, mOutboxBytes);
     return close();
   }
-  mOutboxBytes += bytes.size();
-  mPeakOutboxBytes = std::max(mPeakOutboxBytes, mOutboxBytes);
-  mServices.output.add(bytes.size());
-  mOutbox.push_back(std::move(bytes));
+  enqueue(Outgoing{std::move(bytes), requestId, frame});
   if (!mWriting) writeNext();
+}
+
+void Connection::enqueue(Outgoing reply) {
+  mOutboxBytes += reply.bytes.size();
+  mPeakOutboxBytes = std::max(mPeakOutboxBytes, mOutboxBytes);
+  mServices.output.add(reply.bytes.size());
+  mOutbox.push_back(std::move(reply));
+}
+
+void Connection::replaceUnsentFrame(uint32_t requestId) {
+  // Latest wins on output (PROTOCOL.md, session rules): the one frame queued and not yet being written gives way
+  // to the newer one, so a client that reads slower than frames come gets the newest, never a growing queue.
+  const auto unsent = std::find_if(mOutbox.begin() + (mWriting ? 1 : 0), mOutbox.end(),
+                                   [](const Outgoing& reply) { return reply.frame; });
+  if (unsent == mOutbox.end()) return;
+  mOutboxBytes -= unsent->bytes.size();
+  mServices.output.release(unsent->bytes.size());
+  if (unsent->requestId == requestId) {  // a provisional frame, its request now answered by the exact one
+    mOutbox.erase(unsent);
+    return;
+  }
+  mServices.stats.add(ServerEvent::Superseded);
+  unsent->bytes = proto::encode(
+      errorMessage(proto::ErrorCode::Superseded, "a newer frame of this session was ready before this one was sent"),
+      unsent->requestId);
+  unsent->frame = false;
+  mOutboxBytes += unsent->bytes.size();
+  mServices.output.add(unsent->bytes.size());
 }
 
 void Connection::writeNext() {
   mWriting = true;
   mTransport.arm(Deadline::Write, mServices.config.writeTimeoutS);
-  mTransport.write(mOutbox.front());
+  mTransport.write(mOutbox.front().bytes);
 }
 
 void Connection::written(bool ok) {
   mTransport.cancel(Deadline::Write);
   if (!ok || mClosed) return close();  // close() has released the queue's bytes already
-  mOutboxBytes -= mOutbox.front().size();
-  mServices.output.release(mOutbox.front().size());
+  mOutboxBytes -= mOutbox.front().bytes.size();
+  mServices.output.release(mOutbox.front().bytes.size());
   mOutbox.pop_front();
   // Resumed once half the threshold is written, so a client reading at its own pace is not paused at every reply.
   if (mPaused && mOutboxBytes <= mServices.config.pauseReadingBytes / 2) {

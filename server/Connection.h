@@ -1,8 +1,9 @@
 // The rules of one client connection that hold whatever carries its bytes: the Hello deadline and admission as a
 // session, the idle and read deadlines, decoding and handing each message to the MessageHandler, submitting renders,
-// the queue of replies with its per-session limit, back-pressure (pausing reading while too many replies wait) and
-// its share of the server's output budget, the write deadline, and closing after the queue is flushed. It owns no
-// socket and no timer: it drives a Transport (TcpSession over TCP) and is driven by it, one call at a time.
+// the queue of replies with its per-session limit and at most one unsent frame (latest wins), back-pressure (pausing
+// reading while too many replies wait) and its share of the server's output budget, the write deadline, and closing
+// after the queue is flushed. It owns no socket and no timer: it drives a Transport (TcpSession over TCP,
+// WebSocketSession over WebSocket) and is driven by it, one call at a time.
 #pragma once
 
 #include <atomic>
@@ -111,7 +112,17 @@ class Connection {
   bool withinOutputBudget(const RenderJob& job, proto::Message& reply);
   /// Carries out what the handler decided: replies, the render job, closing.
   void apply(Outcome outcome);
+  /// One reply waiting to be written.
+  struct Outgoing {
+    std::vector<uint8_t> bytes;
+    uint32_t requestId = 0;
+    bool frame = false;  ///< a Frame (at most one is queued unsent: latest wins)
+  };
   void send(const proto::Message& message, uint32_t requestId);
+  void enqueue(Outgoing reply);
+  /// A Frame to `requestId` is about to be queued: the Frame queued and not yet being written, if any, is removed
+  /// (its request answered Superseded instead, unless it is `requestId`'s own provisional frame).
+  void replaceUnsentFrame(uint32_t requestId);
   void writeNext();
   /// Stops reading; closes once every queued reply is written.
   void closeAfterFlush();
@@ -124,7 +135,7 @@ class Connection {
   const std::string mPeer;
   ConnectionState mState;
   proto::Header mHeader;  ///< of the message being read
-  std::deque<std::vector<uint8_t>> mOutbox;
+  std::deque<Outgoing> mOutbox;
   uint64_t mOutboxBytes = 0, mPeakOutboxBytes = 0;
   /// Requests whose provisional Frame was refused (output budget): their exact frame is dropped, not sent.
   std::set<uint32_t> mRefusedProvisional;

@@ -238,6 +238,49 @@ TEST_F(ConnectionTest, ANewerRenderReplacesAWaitingOlderOne) {
   EXPECT_EQ(core.state().outstandingRenders, 0);
 }
 
+// Latest wins on output: at most one frame waits unsent; a newer one replaces it, and its request is answered
+// Superseded, unless it was the provisional frame of the same request, whose exact frame simply takes its place.
+TEST_F(ConnectionTest, ANewerFrameReplacesOneQueuedUnsent) {
+  greet();
+  auto frame = [](uint32_t side, const char* statsJson) {
+    return proto::Frame{side, side, proto::Encoding::RawRgba8, statsJson,
+                        std::vector<uint8_t>(size_t(side) * side * 4)};
+  };
+  auto render = [&](uint32_t requestId, bool refinement, proto::Frame f) {
+    RenderJob job;
+    job.requestId = requestId;
+    job.refinement = refinement;
+    core.rendered(job, std::move(f));
+  };
+  receive(proto::ListDatasets{}, 2);  // being written: nothing replaces it
+  render(3, false, frame(8, "{}"));   // queued
+  const uint64_t oneFrame = core.queuedBytes() - transport->writes.back().size();
+  render(4, false, frame(8, "{}"));                        // replaces 3's frame, which becomes Superseded
+  render(5, false, frame(8, R"({"provisional": true})"));  // replaces 4's
+  render(5, true, frame(8, "{}"));                         // the exact frame of 5 replaces its provisional one
+  EXPECT_LT(core.queuedBytes(), transport->writes.back().size() + oneFrame + 200) << "more than one frame waits unsent";
+  EXPECT_EQ(output.queued(), core.queuedBytes());
+  flush();
+  ASSERT_EQ(transport->writes.size(), 5u);  // Capabilities, DatasetList, two Superseded, one frame
+  EXPECT_EQ(errorIn(transport->writes[2], 3), ErrorCode::Superseded);
+  EXPECT_EQ(errorIn(transport->writes[3], 4), ErrorCode::Superseded);
+  const auto [last, id] = decoded(transport->writes[4]);
+  EXPECT_EQ(id, 5u);
+  ASSERT_TRUE(std::holds_alternative<proto::Frame>(last));
+  EXPECT_EQ(std::get<proto::Frame>(last).statsJson, "{}") << "the exact frame, not the provisional one";
+  EXPECT_EQ(stats.total(ServerEvent::Superseded), 2u);
+  EXPECT_EQ(output.queued(), 0u);
+
+  // A frame being written is never replaced: the next one waits behind it.
+  render(6, false, frame(8, "{}"));
+  render(7, false, frame(8, "{}"));
+  ASSERT_EQ(transport->writes.size(), 6u);
+  flush();
+  ASSERT_EQ(transport->writes.size(), 7u);
+  EXPECT_EQ(decoded(transport->writes[5]).second, 6u);
+  EXPECT_EQ(decoded(transport->writes[6]).second, 7u);
+}
+
 TEST_F(ConnectionTest, AFramePastTheOutputBudgetIsRefusedAndTheBudgetIsReleasedWhenTheSessionEnds) {
   greet();
   receive(proto::ListDatasets{}, 2);  // being written, and counted against the budget
