@@ -243,6 +243,33 @@ export function decodePng(buffer) {
   return { width, height, rgba };
 }
 
+/// A small NRRD in a patient frame (24 x 20 x 16 u8; index axes i, j, k along anterior, left and superior with
+/// spacing 1.5, 1 and 2; origin (10, -20, 30)): an off-centre ball and a slab, so a misplaced camera shows.
+export function orientedNrrd() {
+  const [nx, ny, nz] = [24, 20, 16];
+  const data = Buffer.alloc(nx * ny * nz);
+  for (let k = 0; k < nz; ++k)
+    for (let j = 0; j < ny; ++j)
+      for (let i = 0; i < nx; ++i) {
+        const ball = Math.max(0, Math.min(255, Math.round(255 - Math.hypot(i - 6, j - 12, k - 10) * 22)));
+        data[i + nx * (j + ny * k)] = Math.min(255, ball + (i > 18 ? 60 : 0));
+      }
+  const header = [
+    "NRRD0004",
+    "type: uint8",
+    "dimension: 3",
+    "space: right-anterior-superior",
+    `sizes: ${nx} ${ny} ${nz}`,
+    "space directions: (0,1.5,0) (-1,0,0) (0,0,2)",
+    "space origin: (10,-20,30)",
+    "encoding: raw",
+    "endian: little",
+    "",
+    "",
+  ].join("\n");
+  return Buffer.concat([Buffer.from(header), data]);
+}
+
 /// Pixels that differ between two RGBA images of one size (any channel), and the largest difference.
 export function compareImages(a, b) {
   if (a.width !== b.width || a.height !== b.height) return { differing: Infinity, maxDiff: Infinity };

@@ -36,7 +36,15 @@ describe("viewer", () => {
 
   before(async () => {
     scratch = H.scratchDir("browser");
-    datasets = H.prepDatasets(scratch.dir, { sparse: "synthetic:sparse,n=64", ml: "synthetic:marschner-lobb,n=48" });
+    // A NRRD with a patient frame (axes not the index axes, spacing not 1, an origin away from 0): the page's own
+    // camera (eye, centre, up once panned) must place it as the server does.
+    const nrrd = path.join(scratch.dir, "oriented.nrrd");
+    fs.writeFileSync(nrrd, H.orientedNrrd());
+    datasets = H.prepDatasets(scratch.dir, {
+      sparse: "synthetic:sparse,n=64",
+      ml: "synthetic:marschner-lobb,n=48",
+      oriented: nrrd,
+    });
     server = await new H.Server({ dir: scratch.dir, datasets }).start();
     browser = await H.launchBrowser();
   });
@@ -57,7 +65,7 @@ describe("viewer", () => {
   test("the page loads, lists the datasets and opens the first", async () => {
     const page = await H.openPage(browser, `${server.url}/?${SIZE_PARAM}`);
     const s = await waitExact(page);
-    assert.deepEqual([...s.datasets].sort(), ["ml", "sparse"]);
+    assert.deepEqual([...s.datasets].sort(), ["ml", "oriented", "sparse"]);
     const options = await page.$$eval("#dataset option", (o) => o.map((x) => x.value));
     assert.deepEqual(options, s.datasets);
     assert.equal(s.dataset, s.datasets[0]);
@@ -130,6 +138,40 @@ describe("viewer", () => {
     await page.close();
   });
 
+  test("wheel zooms, shift-drag pans, and a pan of nothing is the orbit's frame", async () => {
+    // The camera sent as eye, centre and up (a pan too small to move a pixel) gives the orbit's frame, for a volume
+    // centred on the origin and for one in a patient frame.
+    for (const dataset of ["oriented", "ml"]) {
+      const p = await H.openPage(browser, `${server.url}/?dataset=${dataset}&orbit=40,25,3&${SIZE_PARAM}`);
+      const orbitFrame = await waitExact(p);
+      const orbitPixels = await H.canvasPixels(p);
+      assert.ok(H.litPixels(orbitPixels) > 500, `${dataset} shows`);
+      await p.evaluate(() => window.voxbrickViewer.setView({ pan: [1e-7, 0] }));
+      const moved = await waitExact(p, orbitFrame.newestId);
+      assert.ok(moved.lastScene.camera.eye && moved.lastScene.camera.center && moved.lastScene.camera.up);
+      assertNearlyEqual(orbitPixels, await H.canvasPixels(p), `${dataset}: eye, centre and up against the orbit`);
+      await p.close();
+    }
+    const page = await H.openPage(browser, `${server.url}/?dataset=ml&orbit=40,25,3&pan=0.00001,0&${SIZE_PARAM}`);
+    const still = await waitExact(page);
+    const box = await (await page.$("#frame")).boundingBox();
+    const [x0, y0] = [box.x + box.width / 2, box.y + box.height / 2];
+    await page.mouse.move(x0, y0);
+    await page.mouse.wheel({ deltaY: -200 });
+    const zoomed = await H.waitForState(page, (st) => st.view.dist < 3 && st.lastScene.camera.eye !== undefined);
+    await waitExact(page, still.newestId);
+    await page.keyboard.down("Shift");
+    await page.mouse.down();
+    for (let i = 1; i <= 5; ++i) await page.mouse.move(x0 + 6 * i, y0);
+    await page.mouse.up();
+    await page.keyboard.up("Shift");
+    const panned = await waitExact(page, zoomed.newestId);
+    assert.ok(panned.view.pan[0] < -0.05, `pan ${panned.view.pan}`);
+    assert.equal(panned.view.az, 40, "a pan does not turn the camera");
+    assert.ok(page.url().includes("pan="), page.url());
+    await page.close();
+  });
+
   test("a transfer-function change draws again", async () => {
     const page = await H.openPage(browser, `${server.url}/?dataset=ml&tf=grayscale&${SIZE_PARAM}`);
     const before = await waitExact(page);
@@ -147,6 +189,18 @@ describe("viewer", () => {
     assert.equal(c.lastScene.transfer_function.points.length, 4);
     await H.screenshot(page, "curve");
     assert.ok(H.compareImages(hot, await H.canvasPixels(page)).differing > 500, "the curve's frame differs");
+    await page.close();
+  });
+
+  test("a quality target the dataset has no table for is dropped, and the page says why", async () => {
+    const page = await H.openPage(browser, `${server.url}/?dataset=sparse&quality=psnr:40&${SIZE_PARAM}`);
+    const s = await waitExact(page);
+    assert.equal(s.view.quality, "");
+    assert.equal(s.lastScene.quality, undefined);
+    assert.equal(s.counts.refused, 1);
+    const note = await page.$eval("#quality-note", (n) => (n.hidden ? "" : n.textContent));
+    assert.match(note, /no quality table/);
+    await page.waitForFunction(() => !location.search.includes("quality="));
     await page.close();
   });
 

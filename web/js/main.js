@@ -63,15 +63,18 @@ function fitCanvas() {
 }
 
 /// A scene key the server refused: a motion key it does not know is dropped for the session; a quality target the
-/// dataset has no table for is cleared with a note. True when the page changed what it asks.
+/// dataset has no table for is cleared with a note. True when the page changed what it asks. The server names an
+/// unknown key as "unknown key 'NAME'" and a bad value by its quoted key.
 function refusedScene(error) {
+  const unknown = /unknown key '([^']+)'/.exec(error.message);
+  const names = (key) => (unknown ? unknown[1] === key : error.message.includes(`'${key}'`));
   for (const key of V.MOTION_KEYS) {
-    if (app.features[key] && error.message.includes(key)) {
+    if (app.features[key] && names(key)) {
       app.features[key] = false;
       return true;
     }
   }
-  if (app.view.quality && error.message.includes("quality")) {
+  if (app.view.quality && (names("quality") || error.message.includes("quality table"))) {
     panel.qualityRefused(error.message);
     app.view.quality = "";
     viewChanged("still", false);

@@ -62,8 +62,17 @@ const scale = (a, s) => a.map((v) => v * s);
 const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
 const round = (v, digits = 4) => Number(v.toFixed(digits));
 
+const IDENTITY = [
+  [1, 0, 0],
+  [0, 1, 0],
+  [0, 0, 1],
+];
+const sameVectors = (a, b) => a.every((row, i) => row.every((v, j) => v === b[i][j]));
+
 /// The world centre and bounding-sphere radius of a dataset from its DatasetInfo meta_json (PROTOCOL.md section 4):
-/// a grid's box of dims x spacing placed by its orientation, or a mesh's bounds.
+/// a grid's box of dims x spacing placed by its orientation, or a mesh's bounds. A grid whose orientation is the
+/// default one (identity axes, origin 0, no patient frame: nothing was stated) lies centred on the origin, as the
+/// renderer's world frame (render/core/WorldFrame) places it.
 export function worldSphere(meta) {
   if (meta.kind === "tet-mesh" && Array.isArray(meta.bounds)) {
     const [lo, hi] = meta.bounds;
@@ -72,16 +81,14 @@ export function worldSphere(meta) {
   }
   const dims = meta.dims || [1, 1, 1];
   const spacing = meta.spacing || [1, 1, 1];
+  const radius = Math.hypot(...dims.map((n, i) => n * spacing[i])) / 2;
   const o = meta.orientation || {};
-  const axes = o.axes || [
-    [1, 0, 0],
-    [0, 1, 0],
-    [0, 0, 1],
-  ];
-  let center = o.origin || [0, 0, 0];
-  if (!o.origin) center = scale(dims.map((n, i) => (n - 1) * spacing[i]), -0.5); // centred on the origin
+  const axes = o.axes || IDENTITY;
+  const origin = o.origin || [0, 0, 0];
+  if (!o.patient && sameVectors(axes, IDENTITY) && sameVectors([origin], [[0, 0, 0]])) return { center: [0, 0, 0], radius };
+  let center = origin;
   for (let k = 0; k < 3; ++k) center = add(center, scale(axes[k], ((dims[k] - 1) / 2) * spacing[k]));
-  return { center, radius: Math.hypot(...dims.map((n, i) => n * spacing[i])) / 2 };
+  return { center, radius };
 }
 
 /// The scene's camera for `view`: a named view, an orbit (fitted or at a distance), or, once panned, eye, centre
