@@ -15,7 +15,9 @@ import path from "node:path";
 import * as H from "../tests/browser/harness.mjs";
 
 const args = Object.fromEntries(
-  process.argv.slice(2).reduce((pairs, a, i, all) => (a.startsWith("--") ? [...pairs, [a.slice(2), all[i + 1]]] : pairs), []),
+  process.argv
+    .slice(2)
+    .reduce((pairs, a, i, all) => (a.startsWith("--") ? [...pairs, [a.slice(2), all[i + 1]]] : pairs), []),
 );
 const opt = {
   datasets: args.datasets,
@@ -67,8 +69,16 @@ async function tabDrag(page, durationMs) {
 
 /// `voxbrick load --drag` (run beside the event loop, which the tabs need): its JSON report.
 function tcpDrag(server, size, clients, duration, json) {
-  const argv = ["load", `127.0.0.1:${server.tcpPort}`, "--dataset", opt.dataset, "--tf", opt.tf, "--clients", String(clients)]
-    .concat(["--duration", String(duration), "--size", `${size}x${size}`, "--drag", String(opt.hz), "--json", json]);
+  const argv = [
+    "load",
+    `127.0.0.1:${server.tcpPort}`,
+    "--dataset",
+    opt.dataset,
+    "--tf",
+    opt.tf,
+    "--clients",
+    String(clients),
+  ].concat(["--duration", String(duration), "--size", `${size}x${size}`, "--drag", String(opt.hz), "--json", json]);
   return new Promise((resolve, reject) => {
     const p = spawn(H.VOXBRICK, argv, { stdio: ["ignore", "pipe", "pipe"] });
     let out = "";
@@ -130,7 +140,10 @@ try {
     latency_p50_ms: mean(tabResults.map((r) => r.latency_p50_ms).filter((v) => v !== null)),
     latency_p99_ms: allLat.length ? Math.max(...allLat) : null,
     bytes_per_frame: mean(tabResults.map((r) => r.bytes_per_frame).filter((v) => v !== null)),
-    exact_after_release_ms: pct(tabResults.map((r) => r.exact_after_release_ms).filter((v) => v !== null), 0.5),
+    exact_after_release_ms: pct(
+      tabResults.map((r) => r.exact_after_release_ms).filter((v) => v !== null),
+      0.5,
+    ),
     errors: tabResults.reduce((a, r) => a + r.errors, 0),
   });
   rows.push({
@@ -159,8 +172,20 @@ const cpu = (os.cpus()[0] || {}).model || "unknown CPU";
 const machine = `${os.hostname()}: ${cpu}, ${os.cpus().length} cores, ${(os.totalmem() / 2 ** 30).toFixed(0)} GiB; ${chromium}`;
 const command = process.env.VOXBRICK_BENCH_COMMAND || `node ${process.argv.slice(1).join(" ")}`;
 const fmt = (v, d = 1) => (v === null || v === undefined ? "" : Number(v).toFixed(d));
-const cols = ["run", "size", "frames", "fps", "latency_p50_ms", "latency_p99_ms", "bytes_per_frame", "exact_after_release_ms", "errors"];
-const csv = [cols.join(",")].concat(rows.map((r) => cols.map((c) => (c === "run" ? `"${r[c]}"` : r[c] ?? "")).join(",")));
+const cols = [
+  "run",
+  "size",
+  "frames",
+  "fps",
+  "latency_p50_ms",
+  "latency_p99_ms",
+  "bytes_per_frame",
+  "exact_after_release_ms",
+  "errors",
+];
+const csv = [cols.join(",")].concat(
+  rows.map((r) => cols.map((c) => (c === "run" ? `"${r[c]}"` : (r[c] ?? ""))).join(",")),
+);
 fs.mkdirSync(path.dirname(opt.out), { recursive: true });
 fs.writeFileSync(`${opt.out}.csv`, csv.join("\n") + "\n");
 fs.writeFileSync(`${opt.out}.json`, JSON.stringify({ ...report, rows, machine, command }, null, 2) + "\n");
@@ -176,7 +201,9 @@ const md = [
   `- Dataset \`${opt.dataset}\`, transfer function \`${opt.tf}\`; a drag of ${opt.duration} s at ${opt.hz} Hz, ${DEG_PER_MOVE}° a move, ` +
     `orbit elevation ${ORBIT.el}, distance ${ORBIT.dist} radii. The browser's drag runs in the page through its own gesture handlers.`,
   `- Moving frames asked with: ${taken.join(", ") || "plain Renders"}` +
-    (features.interactive ? ` (time budget: ${features.time_budget_ms ? "yes" : "no"}, jpeg provisional frames: ${features.jpeg && features.provisional_encoding ? "yes" : "no"})` : "") +
+    (features.interactive
+      ? ` (time budget: ${features.time_budget_ms ? "yes" : "no"}, jpeg provisional frames: ${features.jpeg && features.provisional_encoding ? "yes" : "no"})`
+      : "") +
     (refused.length ? `; refused by this server: ${refused.join(", ")}.` : "."),
   "- Latency: the age of the camera each shown frame was drawn for (browser: from the camera change to the frame drawn " +
     "on the canvas; TCP: from the request sent to its frame received). Frames per second: frames shown (browser) or " +

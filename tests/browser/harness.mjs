@@ -207,7 +207,14 @@ export function decodePng(buffer) {
     const len = buffer.readUInt32BE(at);
     const type = buffer.toString("latin1", at + 4, at + 8);
     const data = buffer.subarray(at + 8, at + 8 + len);
-    if (type === "IHDR") [width, height, depth, colour, interlace] = [data.readUInt32BE(0), data.readUInt32BE(4), data[8], data[9], data[12]];
+    if (type === "IHDR")
+      [width, height, depth, colour, interlace] = [
+        data.readUInt32BE(0),
+        data.readUInt32BE(4),
+        data[8],
+        data[9],
+        data[12],
+      ];
     else if (type === "IDAT") idat.push(data);
     else if (type === "IEND") break;
     at += 12 + len;
@@ -237,7 +244,8 @@ export function decodePng(buffer) {
   const rgba = Buffer.alloc(width * height * 4);
   for (let i = 0; i < width * height; ++i) {
     const s = rows.subarray(i * channels, (i + 1) * channels);
-    const [r, g, b, al] = channels >= 3 ? [s[0], s[1], s[2], channels === 4 ? s[3] : 255] : [s[0], s[0], s[0], channels === 2 ? s[1] : 255];
+    const [r, g, b, al] =
+      channels >= 3 ? [s[0], s[1], s[2], channels === 4 ? s[3] : 255] : [s[0], s[0], s[0], channels === 2 ? s[1] : 255];
     rgba.set([r, g, b, al], i * 4);
   }
   return { width, height, rgba };

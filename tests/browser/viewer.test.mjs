@@ -14,7 +14,8 @@ const SIZE_PARAM = `size=${SIZE[0]}x${SIZE[1]}`;
 
 /// Waits for an exact frame of the newest Render, newer than `afterId`, and returns the page's state.
 /// The payload of the last frame shown, as the server sent it.
-const lastPayload = async (page) => Buffer.from(await page.evaluate(() => window.voxbrickViewer.lastPayload()), "base64");
+const lastPayload = async (page) =>
+  Buffer.from(await page.evaluate(() => window.voxbrickViewer.lastPayload()), "base64");
 
 /// Frames of one view from one server may differ by 1/255 with what its renderer drew before (see the still-frame
 /// test): the other comparisons with `voxbrick render` allow that, and no more.
@@ -101,7 +102,11 @@ describe("viewer", () => {
         assert.equal(s.lastScene.progressive, true);
         const ref = reference(s.dataset, [...c.flags, "--progressive"]);
         assert.ok(H.litPixels(ref) > 200, `the reference of ${c.url} shows the volume`);
-        assert.deepEqual(H.compareImages(shown, ref), { differing: 0, maxDiff: 0 }, `${c.url}: ${JSON.stringify(s.lastScene)}`);
+        assert.deepEqual(
+          H.compareImages(shown, ref),
+          { differing: 0, maxDiff: 0 },
+          `${c.url}: ${JSON.stringify(s.lastScene)}`,
+        );
         await page.close();
       } finally {
         await fresh.kill();
@@ -213,7 +218,10 @@ describe("viewer", () => {
     assert.equal(sa.dataset, "sparse");
     assert.equal(sb.dataset, "ml");
     // Both turn at once; each gets the frame of its own camera and dataset.
-    await Promise.all([a.evaluate(() => window.voxbrickViewer.setView({ az: 120 })), b.evaluate(() => window.voxbrickViewer.setView({ az: 200 }))]);
+    await Promise.all([
+      a.evaluate(() => window.voxbrickViewer.setView({ az: 120 })),
+      b.evaluate(() => window.voxbrickViewer.setView({ az: 200 })),
+    ]);
     const [ta, tb] = await Promise.all([waitExact(a, sa.newestId), waitExact(b, sb.newestId)]);
     assert.deepEqual(ta.lastScene.camera.orbit, [120, 20]);
     assert.deepEqual(tb.lastScene.camera.orbit, [200, 20]);
@@ -227,7 +235,10 @@ describe("viewer", () => {
     const port = await H.freePort();
     const other = await H.staticServer(port);
     try {
-      const page = await H.openPage(browser, `http://127.0.0.1:${port}/?server=127.0.0.1:${server.httpPort}&${SIZE_PARAM}`);
+      const page = await H.openPage(
+        browser,
+        `http://127.0.0.1:${port}/?server=127.0.0.1:${server.httpPort}&${SIZE_PARAM}`,
+      );
       const s = await H.waitForState(page, (st) => st.connection === "refused");
       assert.match(s.banner, /Refused/);
       assert.match(s.banner, /origin/);
@@ -264,10 +275,39 @@ describe("viewer", () => {
       await bad.close();
       const good = await H.openPage(browser, `${tokenServer.url}/?token=s3cret&${SIZE_PARAM}`);
       await waitExact(good);
-      await good.waitForFunction(() => location.search.includes("dataset=") && location.search.includes("token=s3cret"));
+      await good.waitForFunction(
+        () => location.search.includes("dataset=") && location.search.includes("token=s3cret"),
+      );
       await good.close();
     } finally {
       await tokenServer.kill();
+    }
+  });
+
+  test("a session the server closed as idle comes back when the person does", async () => {
+    const idleServer = await new H.Server({ dir: scratch.dir, datasets, extra: ["--idle-timeout", "1"] }).start();
+    try {
+      const page = await H.openPage(browser, `${idleServer.url}/?dataset=sparse&${SIZE_PARAM}`);
+      const first = await waitExact(page);
+      const idle = await H.waitForState(page, (st) => st.connection === "idle", 10000);
+      assert.match(idle.banner, /idle session/);
+      assert.match(idle.reason, /Timeout/);
+      // No reconnection loop while nobody is there.
+      await new Promise((r) => setTimeout(r, 1500));
+      assert.equal((await H.viewerState(page)).connection, "idle");
+      const box = await (await page.$("#frame")).boundingBox();
+      await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+      await page.mouse.wheel({ deltaY: 100 });
+      const back = await H.waitForState(
+        page,
+        (st, shown) => st.connection === "ready" && !st.lastFrame.provisional && st.counts.shown > shown,
+        10000,
+        first.counts.shown,
+      );
+      assert.ok(back.view.dist > 0, "the wheel that woke it zoomed");
+      await page.close();
+    } finally {
+      await idleServer.kill();
     }
   });
 
@@ -276,14 +316,20 @@ describe("viewer", () => {
     await waitExact(page);
     const before = await H.canvasPixels(page);
     await server.kill();
-    const down = await H.waitForState(page, (st) => st.connection === "disconnected" && st.banner.includes("Disconnected"));
+    const down = await H.waitForState(
+      page,
+      (st) => st.connection === "disconnected" && st.banner.includes("Disconnected"),
+    );
     assert.match(down.banner, /Retrying/);
     await H.screenshot(page, "server-gone");
     await server.start();
     const back = await H.waitForState(
       page,
       (st, shown) =>
-        st.connection === "ready" && !st.lastFrame.provisional && st.lastFrame.id === st.newestId && st.counts.shown > shown,
+        st.connection === "ready" &&
+        !st.lastFrame.provisional &&
+        st.lastFrame.id === st.newestId &&
+        st.counts.shown > shown,
       30000,
       down.counts.shown,
     );

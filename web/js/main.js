@@ -38,7 +38,8 @@ const app = {
 
 const canvas = $("frame");
 const loop = new FrameLoop(canvas, {
-  scene: (phase) => (app.state === "ready" && app.meta ? V.buildScene(app.view, app.meta, frameSize(), phase, app.features) : null),
+  scene: (phase) =>
+    app.state === "ready" && app.meta ? V.buildScene(app.view, app.meta, frameSize(), phase, app.features) : null,
   refused: refusedScene,
   shown: () => drawOverlay(),
   failed: (e) => note(`${e.name}: ${e.message}`),
@@ -96,9 +97,13 @@ function drawOverlay() {
   const lines = [];
   if (f.last) {
     const kind = f.last.provisional ? "provisional" : "exact";
-    lines.push(`${f.fps} fps   ${f.last.width}×${f.last.height} ${f.last.encoding === Encoding.jpeg ? "jpeg" : "png"} ${kind}`);
+    lines.push(
+      `${f.fps} fps   ${f.last.width}×${f.last.height} ${f.last.encoding === Encoding.jpeg ? "jpeg" : "png"} ${kind}`,
+    );
     lines.push(`latency ${ms(f.last.latencyMs)}  p50 ${ms(f.p50)}  p99 ${ms(f.p99)}`);
-    lines.push(`${(f.last.bytes / 1024).toFixed(1)} KiB/frame   render ${ms(f.last.renderMs)}   stand-ins ${f.last.standin}`);
+    lines.push(
+      `${(f.last.bytes / 1024).toFixed(1)} KiB/frame   render ${ms(f.last.renderMs)}   stand-ins ${f.last.standin}`,
+    );
   } else {
     lines.push("no frame yet");
   }
@@ -116,6 +121,7 @@ function banner(text, kind) {
 let urlTimer = 0;
 /// The view changed: ask for a frame and write the URL (at most every 250 ms).
 function viewChanged(phase = "still", ask = true) {
+  wake();
   if (ask) loop.want(phase);
   if (!urlTimer)
     urlTimer = setTimeout(() => {
@@ -180,6 +186,15 @@ async function openDataset(c, name) {
 async function closed(info) {
   app.meta = null;
   loop.attach(null);
+  canvas.style.opacity = "0.35";
+  const idle = info.opened && app.connection.lastError && app.connection.lastError.name === "Timeout";
+  if (idle) {
+    // The server closes sessions idle for its idle timeout: reconnect when the person comes back, not in a loop.
+    app.state = "idle";
+    app.reason = info.reason;
+    banner("The server closed this idle session. Drag, scroll or use a control to reconnect.", "connecting");
+    return;
+  }
   const cross = params.get("server") && params.get("server") !== location.host;
   let why = info.reason;
   if (!info.opened) {
@@ -188,7 +203,6 @@ async function closed(info) {
       ? `the server at ${params.get("server")} cannot be reached or refuses this page's origin (${location.origin})`
       : await refusalReason();
   }
-  if (app.connection !== null && app.connection.closed === false) return; // a newer connection took over
   const refused = !info.opened && !why.startsWith("the server cannot be reached");
   app.state = refused || /origin|token/i.test(why) ? "refused" : "disconnected";
   app.reason = why;
@@ -196,9 +210,14 @@ async function closed(info) {
   app.attempts++;
   const title = app.state === "refused" ? "Refused by the server" : "Disconnected from the server";
   banner(`${title}: ${why}. Retrying in ${(delay / 1000).toFixed(1)} s…`);
-  canvas.style.opacity = "0.35";
   app.reconnectTimer = setTimeout(connect, delay);
 }
+
+/// A person is back at a page whose idle session the server closed: connect again (the view is kept).
+function wake() {
+  if (app.state === "idle") connect();
+}
+document.addEventListener("visibilitychange", () => document.visibilityState === "visible" && wake());
 
 /// Why the page's own server refused /ws. A browser does not show a refused upgrade's answer to the page, so the page
 /// asks for /ws again over plain HTTP: nothing answers (the server is gone), the server says why (a 4xx with its
@@ -223,9 +242,16 @@ const panel = bindPanel({
   changed: viewChanged,
   openDataset: (name) => {
     if (app.state !== "ready") return;
+    const before = app.view.dataset;
     app.view.dataset = "";
     loop.attach(null);
-    openDataset(app.connection, name).catch((e) => note(`${e.name}: ${e.message}`));
+    openDataset(app.connection, name).catch((e) => {
+      // Still on the dataset open before (an unknown name leaves the session as it was).
+      note(`${e.name}: ${e.message}`);
+      app.view.dataset = before;
+      panel.opened(app.meta);
+      loop.attach(app.connection);
+    });
   },
   curve: new CurveEditor($("curve"), (points, done) => {
     Object.assign(app.view, { tf: "custom", points });
@@ -236,13 +262,14 @@ const panel = bindPanel({
 
 const gestures = {
   begin: () => {
+    wake();
     app.dragging = loop.dragging = true;
     app.view.view = null;
     panel.syncView();
   },
   orbit: (dAz, dEl) => {
     const v = app.view;
-    v.az = (((v.az + dAz) % 360) + 540) % 360 - 180;
+    v.az = ((((v.az + dAz) % 360) + 540) % 360) - 180;
     v.el = Math.max(-90, Math.min(90, v.el + dEl));
     viewChanged("drag");
   },

@@ -79,7 +79,8 @@ export function bindPanel(o) {
     syncView();
     $("shading").checked = view.shading;
     const q = $("quality");
-    if (view.quality && ![...q.options].some((x) => x.value === view.quality)) q.add(new Option(view.quality, view.quality));
+    if (view.quality && ![...q.options].some((x) => x.value === view.quality))
+      q.add(new Option(view.quality, view.quality));
     q.value = view.quality;
   }
 

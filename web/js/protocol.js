@@ -97,7 +97,8 @@ class Reader {
   }
   list(field, itemBytes, readItem) {
     const n = this.u32(field);
-    if (n > Limits.maxList) throw new ProtocolError(`${this.what}.${field}: count ${n} exceeds limit ${Limits.maxList}`);
+    if (n > Limits.maxList)
+      throw new ProtocolError(`${this.what}.${field}: count ${n} exceeds limit ${Limits.maxList}`);
     // Each item takes at least itemBytes: a count the rest of the body cannot hold is refused before any item.
     if (n * itemBytes > this.bytes.byteLength - this.at)
       throw new ProtocolError(`${this.what}.${field}: count ${n} exceeds what the body holds`);

@@ -42,7 +42,10 @@ export class CurveEditor {
 
   hit(e) {
     const r = this.canvas.getBoundingClientRect();
-    const [ex, ey] = [(e.clientX - r.left) * (this.canvas.width / r.width), (e.clientY - r.top) * (this.canvas.height / r.height)];
+    const [ex, ey] = [
+      (e.clientX - r.left) * (this.canvas.width / r.width),
+      (e.clientY - r.top) * (this.canvas.height / r.height),
+    ];
     return this.points.findIndex((p) => {
       const [x, y] = this.toCanvas(p);
       return Math.hypot(x - ex, y - ey) <= RADIUS + 3;
@@ -92,7 +95,10 @@ export class CurveEditor {
   changed(done) {
     this.active = true;
     this.draw();
-    this.onChange(this.points.map((p) => p.slice()), done);
+    this.onChange(
+      this.points.map((p) => p.slice()),
+      done,
+    );
   }
 
   draw() {

@@ -85,7 +85,8 @@ export function worldSphere(meta) {
   const o = meta.orientation || {};
   const axes = o.axes || IDENTITY;
   const origin = o.origin || [0, 0, 0];
-  if (!o.patient && sameVectors(axes, IDENTITY) && sameVectors([origin], [[0, 0, 0]])) return { center: [0, 0, 0], radius };
+  if (!o.patient && sameVectors(axes, IDENTITY) && sameVectors([origin], [[0, 0, 0]]))
+    return { center: [0, 0, 0], radius };
   let center = origin;
   for (let k = 0; k < 3; ++k) center = add(center, scale(axes[k], ((dims[k] - 1) / 2) * spacing[k]));
   return { center, radius };
