@@ -177,6 +177,41 @@ describe("viewer", () => {
     await page.close();
   });
 
+  test("touch: one finger orbits, two fingers pinch to zoom", async () => {
+    const page = await H.openPage(browser, `${server.url}/?dataset=sparse&orbit=30,20,3&${SIZE_PARAM}`, {
+      width: 720,
+      height: 420,
+      hasTouch: true,
+      isMobile: false,
+    });
+    const start = await waitExact(page);
+    const box = await (await page.$("#frame")).boundingBox();
+    const [x, y] = [box.x + box.width / 2, box.y + box.height / 2];
+    const cdp = await page.createCDPSession();
+    const touch = (type, points) =>
+      cdp.send("Input.dispatchTouchEvent", { type, touchPoints: points.map(([px, py], id) => ({ x: px, y: py, id })) });
+    await touch("touchStart", [[x, y]]);
+    for (let i = 1; i <= 5; ++i) await touch("touchMove", [[x + 10 * i, y]]);
+    await touch("touchEnd", []);
+    const turned = await waitExact(page, start.newestId);
+    assert.ok(Math.abs(turned.view.az - (30 - 50 * 0.4)) < 1e-6, `azimuth ${turned.view.az}`);
+    // Fingers 40 px apart, then 80: twice as close.
+    await touch("touchStart", [
+      [x - 20, y],
+      [x + 20, y],
+    ]);
+    for (let i = 1; i <= 4; ++i)
+      await touch("touchMove", [
+        [x - 20 - 5 * i, y],
+        [x + 20 + 5 * i, y],
+      ]);
+    await touch("touchEnd", []);
+    const zoomed = await waitExact(page, turned.newestId);
+    assert.ok(Math.abs(zoomed.view.dist - 1.5) < 1e-6, `distance ${zoomed.view.dist}`);
+    assert.equal(zoomed.view.az, turned.view.az, "a pinch does not turn");
+    await page.close();
+  });
+
   test("a transfer-function change draws again", async () => {
     const page = await H.openPage(browser, `${server.url}/?dataset=ml&tf=grayscale&${SIZE_PARAM}`);
     const before = await waitExact(page);
