@@ -97,6 +97,8 @@ void runServe(const ServeArgs& a) {
   spdlog::set_level(spdlog::level::from_str(c.logLevel));
   spdlog::set_pattern("[%Y-%m-%d %H:%M:%S.%e] [%l] %v");
 
+  if (!c.http && !a.httpPortFile.empty())
+    throw std::runtime_error("--http-port-file needs --http PORT (or http.port in the configuration)");
   spdlog::info("configuration: {}", file.empty() ? std::string("the built-in defaults") : file);
   server::Server server(c);
   spdlog::info("serving datasets from {} on {}:{}", c.datasets.string(), c.host, server.port());
@@ -106,8 +108,6 @@ void runServe(const ServeArgs& a) {
     spdlog::info("viewer: open {}", viewerUrl(c, server.httpPort()));
     std::printf("viewer at %s\n", viewerUrl(c, server.httpPort()).c_str());
     std::fflush(stdout);
-  } else if (!a.httpPortFile.empty()) {
-    throw std::runtime_error("--http-port-file needs --http PORT (or http.port in the configuration)");
   }
   if (!a.httpPortFile.empty()) writePortFile(a.httpPortFile, server.httpPort());
   if (!a.portFile.empty()) writePortFile(a.portFile, server.port());

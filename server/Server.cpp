@@ -63,8 +63,8 @@ void listen(tcp::acceptor& acceptor, const tcp::endpoint& endpoint, const std::s
   boost::system::error_code bindError;
   acceptor.bind(endpoint, bindError);
   if (bindError)
-    throw std::runtime_error("cannot listen for " + what + " on " + endpoint.address().to_string() + ":" +
-                             std::to_string(endpoint.port()) + ": " + bindError.message());
+    throw std::runtime_error("cannot listen on " + endpoint.address().to_string() + ":" +
+                             std::to_string(endpoint.port()) + " (" + what + "): " + bindError.message());
   acceptor.listen();
 }
 

@@ -51,9 +51,25 @@ void WebSocketSession::start() {
 void WebSocketSession::end(proto::Error error) {
   asio::post(mWs.get_executor(), guarded(this, [error = std::move(error)](WebSocketSession& s) {
                if (s.mUpgraded) return s.mCore.end(error);
-               spdlog::debug("{}: closing before the upgrade: {}", s.peer(), error.message);
-               s.mCore.close();
+               if (s.mCore.closed()) return;
+               if (s.mResponding || s.mUpgrading) return s.mCore.close();
+               // Refused before the upgrade (too many connections, the server stopping): HTTP says why.
+               spdlog::debug("{}: refused before the upgrade: {}", s.peer(), error.message);
+               s.mRefused = true;
+               s.respond(s.textResponse(503, "refused: " + error.message));
              }));
+}
+
+WebSocketSession::Response WebSocketSession::textResponse(int status, const std::string& text) const {
+  Response response(http::status(status), 11);
+  response.set(http::field::server, "voxbrick");
+  response.set(http::field::content_type, "text/plain; charset=utf-8");
+  response.set(http::field::cache_control, "no-store");
+  response.body().assign(text.begin(), text.end());
+  response.body().push_back('\n');
+  response.content_length(response.body().size());
+  response.keep_alive(false);
+  return response;
 }
 
 void WebSocketSession::readRequest() {
@@ -68,7 +84,7 @@ void WebSocketSession::readRequest() {
 }
 
 void WebSocketSession::onRequest(boost::system::error_code ec) {
-  if (mCore.closed()) return;
+  if (mCore.closed() || mRefused) return;
   if (ec == http::error::end_of_stream || ec == asio::error::eof || ec == asio::error::connection_reset)
     return mCore.close();
   if (ec == beast::error::timeout) {
@@ -107,23 +123,17 @@ void WebSocketSession::onRequest(boost::system::error_code ec) {
 }
 
 void WebSocketSession::refuseRequest(boost::system::error_code ec) {
-  http::status status = http::status::bad_request;
+  int status = 400;
   if (ec == http::error::header_limit || ec == http::error::buffer_overflow)
-    status = http::status::request_header_fields_too_large;
+    status = 431;
   else if (ec == http::error::body_limit)
-    status = http::status::payload_too_large;
+    status = 413;
   spdlog::info("{}: bad HTTP request ({}), closing", peer(), ec.message());
-  Response response(status, 11);
-  response.set(http::field::server, "voxbrick");
-  response.set(http::field::content_type, "text/plain; charset=utf-8");
-  const std::string text = "bad request: " + ec.message() + "\n";
-  response.body().assign(text.begin(), text.end());
-  response.content_length(response.body().size());
-  response.keep_alive(false);
-  respond(std::move(response));
+  respond(textResponse(status, "bad request: " + ec.message()));
 }
 
 void WebSocketSession::respond(Response response) {
+  mResponding = true;
   mResponse = std::move(response);
   const bool keepAlive = mResponse.keep_alive();
   beast::get_lowest_layer(mWs).expires_after(milliseconds(mServices.config.helloTimeoutS));
@@ -134,6 +144,7 @@ void WebSocketSession::respond(Response response) {
 }
 
 void WebSocketSession::onResponded(boost::system::error_code ec, bool keepAlive) {
+  mResponding = false;
   if (mCore.closed()) return;
   if (ec || !keepAlive) return mCore.close();
   readRequest();
@@ -148,15 +159,7 @@ void WebSocketSession::upgrade() {
   if (refusal) {
     mServices.stats.add(ServerEvent::SessionRefused);
     spdlog::info("{}: WebSocket upgrade refused: {}", peer(), *refusal);
-    Response response(http::status::forbidden, mRequest.version());
-    response.set(http::field::server, "voxbrick");
-    response.set(http::field::content_type, "text/plain; charset=utf-8");
-    response.set(http::field::cache_control, "no-store");
-    const std::string text = "forbidden: " + *refusal + "\n";
-    response.body().assign(text.begin(), text.end());
-    response.content_length(response.body().size());
-    response.keep_alive(false);
-    return respond(std::move(response));
+    return respond(textResponse(403, "forbidden: " + *refusal));
   }
   // From here the Connection's deadlines rule: Beast's own run only for the opening and closing handshakes, and
   // it sends no pings of its own (the idle timeout is the Connection's).
@@ -172,6 +175,7 @@ void WebSocketSession::upgrade() {
   mWs.read_message_max(proto::kHeaderBytes + mServices.limits.maxBodyBytes);
   mWs.auto_fragment(false);
   mWs.binary(true);
+  mUpgrading = true;
   mWs.async_accept(mRequest,
                    guarded(this, [](WebSocketSession& s, boost::system::error_code ec) { s.onUpgraded(ec); }));
 }

@@ -51,6 +51,8 @@ class WebSocketSession final : public AsioSession {
   /// Answers a request that failed to parse (too large a header, a body, garbage) and closes.
   void refuseRequest(boost::system::error_code ec);
   void respond(Response response);
+  /// A short text answer that closes the connection.
+  Response textResponse(int status, const std::string& text) const;
   void onResponded(boost::system::error_code ec, bool keepAlive);
   void upgrade();
   void onUpgraded(boost::system::error_code ec);
@@ -66,6 +68,9 @@ class WebSocketSession final : public AsioSession {
   std::optional<boost::beast::http::request_parser<boost::beast::http::string_body>> mParser;
   Request mRequest;
   Response mResponse;
+  bool mResponding = false;       ///< an HTTP response is being written
+  bool mRefused = false;          ///< refused before the upgrade: requests are no longer answered
+  bool mUpgrading = false;        ///< the WebSocket handshake is under way
   bool mUpgraded = false;         ///< the WebSocket is open: the Connection runs
   bool mWriting = false;          ///< a message is being written
   std::vector<uint8_t> mMessage;  ///< the message being read (its first mFill bytes so far)

@@ -20,15 +20,19 @@ ServerProcess::ServerProcess(const std::string& args, const std::filesystem::pat
   const std::string tag = std::to_string(::getpid()) + "-" + std::to_string(serial++);
   const std::filesystem::path portFile = scratch / ("port-" + tag);
   mLog = scratch / ("serve-" + tag + ".log");
+  const std::filesystem::path httpPortFile = scratch / ("http-port-" + tag);
+  const bool http = (" " + args + " ").find(" --http ") != std::string::npos;
   const std::string command = std::string("exec '") + VOXBRICK_EXE + "' serve --port 0 --port-file '" +
-                              portFile.string() + "' " + args + " > '" + mLog.string() + "' 2>&1";
+                              portFile.string() + "' " +
+                              (http ? "--http-port-file '" + httpPortFile.string() + "' " : std::string()) + args +
+                              " > '" + mLog.string() + "' 2>&1";
   const char* argv[] = {"/bin/sh", "-c", command.c_str(), nullptr};
   if (posix_spawn(&mPid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ) != 0)
     throw std::runtime_error("cannot start the server");
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   while (std::chrono::steady_clock::now() < deadline) {
-    std::ifstream in(portFile);
-    if (in >> mPort && mPort > 0) return;
+    std::ifstream in(portFile), httpIn(httpPortFile);
+    if (in >> mPort && mPort > 0 && (!http || (httpIn >> mHttpPort && mHttpPort > 0))) return;
     if (!running()) throw std::runtime_error("the server exited (status " + std::to_string(mStatus) + "): " + log());
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }

@@ -15,7 +15,8 @@ namespace voxbrick::test {
 
 class ServerProcess {
  public:
-  /// Starts `voxbrick serve --port 0 --port-file ... <args>` and waits (up to 60 s) until it listens.
+  /// Starts `voxbrick serve --port 0 --port-file ... <args>` and waits (up to 60 s) until it listens (on its HTTP
+  /// port too when `args` has --http PORT).
   /// Throws std::runtime_error with the log if it exits or does not listen in time.
   ServerProcess(const std::string& args, const std::filesystem::path& scratch);
   /// Kills the process if it still runs.
@@ -24,6 +25,8 @@ class ServerProcess {
   ServerProcess& operator=(const ServerProcess&) = delete;
 
   int port() const { return mPort; }
+  /// The HTTP port (args with --http), else 0.
+  int httpPort() const { return mHttpPort; }
   pid_t pid() const { return mPid; }
   bool running();
   /// Sends `signal` and waits up to `timeout` for the exit; returns the exit status, 128 + signal if killed by
@@ -35,7 +38,7 @@ class ServerProcess {
 
  private:
   pid_t mPid = -1;
-  int mPort = 0;
+  int mPort = 0, mHttpPort = 0;
   int mStatus = -1;
   std::filesystem::path mLog;
 };

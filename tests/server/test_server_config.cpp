@@ -218,6 +218,33 @@ TEST_F(ServerConfigTest, ABadBackendNameIsRefusedWithTheValue) {
   }
 }
 
+TEST_F(ServerConfigTest, TheHttpSectionIsReadAndChecked) {
+  EXPECT_FALSE(ServerConfig::load(write("")).http);
+  EXPECT_FALSE(ServerConfig::load(write("[http]\nport = 0\n")).http) << "port 0: no HTTP";
+  const ServerConfig c = ServerConfig::load(write(R"(
+[server]
+host = "127.0.0.1"
+[http]
+port = 8080
+bind = "0.0.0.0"
+origins = ["https://lab.example.org", "http://viewer.example.org:9000"]
+token = "a-b.c_d~9"
+)"));
+  EXPECT_TRUE(c.http);
+  EXPECT_EQ(c.httpPort, 8080);
+  EXPECT_EQ(c.httpHost(), "0.0.0.0");
+  EXPECT_EQ(c.httpOrigins, (std::vector<std::string>{"https://lab.example.org", "http://viewer.example.org:9000"}));
+  EXPECT_EQ(c.httpToken, "a-b.c_d~9");
+  EXPECT_EQ(ServerConfig::load(write("[http]\nport = 8080\n")).httpHost(), "127.0.0.1") << "bind: as server.host";
+
+  EXPECT_MENTIONS(loadError("[http]\nport = 70000\n"), "http.port");
+  EXPECT_MENTIONS(loadError("[http]\norigins = \"https://a.org\"\n"), "http.origins must be an array of strings");
+  EXPECT_MENTIONS(loadError("[http]\norigins = [\"a.org\"]\n"), "'a.org' is not an origin");
+  EXPECT_MENTIONS(loadError("[http]\norigins = [\"https://a.org/path\"]\n"), "is not an origin");
+  EXPECT_MENTIONS(loadError("[http]\ntoken = \"has space\"\n"), "http.token");
+  EXPECT_MENTIONS(loadError("[http]\nport = 8080\ncolor = 1\n"), "unknown key http.color");
+}
+
 TEST_F(ServerConfigTest, ASyntaxErrorNamesTheFileAndLine) {
   const std::string message = loadError("[server]\nport = 7420\nhost = \n");
   EXPECT_EQ(message.rfind((dir / "server.toml").string() + ":3:", 0), 0u) << message;

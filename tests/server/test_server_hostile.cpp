@@ -1,5 +1,7 @@
 // The render service against hostile clients: connections that never speak, bytes trickled to outlast the
-// deadlines, clients that flood requests and never read. The real `voxbrick serve` process on loopback.
+// deadlines, clients that flood requests and never read. The real `voxbrick serve` process on loopback. Every
+// scenario runs on both transports (the hostile clients speak TCP, or WebSocket on the HTTP port), with the same
+// guarantees, and good clients of both transports are served meanwhile.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -11,6 +13,7 @@
 
 #include "RawSocket.h"
 #include "ServerProcess.h"
+#include "WebClient.h"
 #include "client/Client.h"
 #include "render/datasets/Datasets.h"
 #include "support/TestSupport.h"
@@ -22,16 +25,33 @@ using client::Client;
 using client::ServerError;
 using nlohmann::json;
 using proto::ErrorCode;
+using test::Framing;
 using test::RawSocket;
 using test::ScratchDir;
 using test::ServerProcess;
 using Clock = std::chrono::steady_clock;
 using namespace std::chrono_literals;
 
-class HostileClientTest : public test::SparseDatasetSuite {
+class HostileClientTest : public test::SparseDatasetSuite, public ::testing::WithParamInterface<Framing> {
  protected:
   std::unique_ptr<ServerProcess> start(const std::string& extra) {
-    return std::make_unique<ServerProcess>("--datasets " + datasets() + " --render-threads 2 " + extra, scratch());
+    return std::make_unique<ServerProcess>("--datasets " + datasets() + " --render-threads 2 --http 0 " + extra,
+                                           scratch());
+  }
+  /// A hostile client's connection on the transport under test.
+  static std::unique_ptr<RawSocket> raw(const ServerProcess& server) {
+    return std::make_unique<RawSocket>(GetParam() == Framing::Tcp ? server.port() : server.httpPort(), GetParam());
+  }
+  /// Checks that `s` was refused with LimitExceeded naming `why`: an Error over TCP, HTTP 503 before the upgrade.
+  static void expectRefused(RawSocket& s, const std::string& why) {
+    if (GetParam() == Framing::WebSocket) {
+      EXPECT_EQ(s.refusedStatus(), 503);
+      EXPECT_NE(s.refusedBody().find(why), std::string::npos) << s.refusedBody();
+      return;
+    }
+    std::vector<ErrorCode> codes;
+    EXPECT_TRUE(s.waitClosed(5s, &codes));
+    EXPECT_EQ(codes, std::vector<ErrorCode>{ErrorCode::LimitExceeded});
   }
 };
 
@@ -39,6 +59,15 @@ const char* kScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [80, 64], "
 
 std::unique_ptr<Client> session(const ServerProcess& server, std::chrono::milliseconds timeout = 60s) {
   auto c = std::make_unique<Client>("127.0.0.1", server.port(), timeout);
+  c->hello("test");
+  c->openDataset("sparse");
+  return c;
+}
+
+/// A well-behaved browser's session.
+std::unique_ptr<test::WebSocketClient> webSession(const ServerProcess& server,
+                                                  std::chrono::milliseconds timeout = 60s) {
+  auto c = std::make_unique<test::WebSocketClient>(server.httpPort(), "/ws", "", timeout);
   c->hello("test");
   c->openDataset("sparse");
   return c;
@@ -85,13 +114,13 @@ json waitForStats(const ServerProcess& server, const std::function<bool(const js
 
 // Before: connections without Hello counted against max_sessions (64) and held their slot for the idle timeout,
 // so 64 silent sockets refused every good client.
-TEST_F(HostileClientTest, SilentAndTricklingConnectionsCannotLockOutAGoodClient) {
+TEST_P(HostileClientTest, SilentAndTricklingConnectionsCannotLockOutAGoodClient) {
   auto server = start("--hello-timeout 2");
   std::vector<std::unique_ptr<RawSocket>> silent, trickling;
-  for (int i = 0; i < 72; ++i) silent.push_back(std::make_unique<RawSocket>(server->port()));
-  for (int i = 0; i < 8; ++i) trickling.push_back(std::make_unique<RawSocket>(server->port()));
+  for (int i = 0; i < 72; ++i) silent.push_back(raw(*server));
+  for (int i = 0; i < 8; ++i) trickling.push_back(raw(*server));
   // The trickling ones send a Hello one byte every 300 ms: a whole one would take 9 s.
-  const std::vector<uint8_t> hello = proto::encode(proto::Hello{1, 1, "trickle"}, 1);
+  const std::vector<uint8_t> hello = trickling.front()->frame(proto::encode(proto::Hello{1, 1, "trickle"}, 1));
   Background trickle;
   trickle.run([&](const std::atomic<bool>& stopping) {
     for (size_t i = 0; i < hello.size() && !stopping; ++i) {
@@ -105,7 +134,10 @@ TEST_F(HostileClientTest, SilentAndTricklingConnectionsCannotLockOutAGoodClient)
   std::unique_ptr<Client> good;
   ASSERT_NO_THROW(good = session(*server, 10s)) << server->log();
   EXPECT_EQ(good->render(kScene).width, 80u);
-  EXPECT_LT(secondsSince(t0), 3.0) << "a good client must be served promptly";
+  std::unique_ptr<test::WebSocketClient> browser;
+  ASSERT_NO_THROW(browser = webSession(*server, 10s)) << server->log();
+  EXPECT_EQ(browser->render(kScene).width, 80u);
+  EXPECT_LT(secondsSince(t0), 3.0) << "good clients must be served promptly";
 
   // Every silent connection is closed: the oldest at once to make room (LimitExceeded), the rest when their Hello
   // deadline passes (Timeout). None stays past it.
@@ -122,23 +154,29 @@ TEST_F(HostileClientTest, SilentAndTricklingConnectionsCannotLockOutAGoodClient)
   EXPECT_GT(stats.at("sessions").at("evicted").get<int>(), 0);
   EXPECT_GE(stats["sessions"]["timed_out"].get<int>(), 8);
   EXPECT_EQ(good->render(kScene).width, 80u);
+  EXPECT_EQ(browser->render(kScene).width, 80u);
   EXPECT_TRUE(server->running());
 }
 
 // Before: the read timeout started only once a header was complete, so a header trickled a byte at a time kept
-// the connection for the idle timeout.
-TEST_F(HostileClientTest, ATrickledMessageIsClosedWithinTheReadTimeoutOfItsFirstByte) {
+// the connection for the idle timeout. Over WebSocket the message starts with its first payload byte (the frame
+// header before it is Beast's).
+TEST_P(HostileClientTest, ATrickledMessageIsClosedWithinTheReadTimeoutOfItsFirstByte) {
   auto server = start("--read-timeout 1 --idle-timeout 30");
-  RawSocket s(server->port());
-  ASSERT_TRUE(s.sendAll(proto::encode(proto::Hello{1, 1, "trickle"}, 1)));
+  auto socket = raw(*server);
+  RawSocket& s = *socket;
+  ASSERT_TRUE(s.sendMessage(proto::encode(proto::Hello{1, 1, "trickle"}, 1)));
   const auto capabilities = s.receive(10s);
   ASSERT_TRUE(capabilities && std::holds_alternative<proto::Capabilities>(*capabilities));
 
-  const std::vector<uint8_t> message = proto::encode(proto::OpenDataset{"sparse"}, 2);
-  const auto first = Clock::now();
+  const std::vector<uint8_t> bare = proto::encode(proto::OpenDataset{"sparse"}, 2);
+  const std::vector<uint8_t> message = s.frame(bare);
+  const size_t firstByte = message.size() - bare.size();
+  auto first = Clock::now();
   std::vector<ErrorCode> codes;
   bool closed = false;
   for (size_t i = 0; i < message.size() && !closed; ++i) {
+    if (i == firstByte) first = Clock::now();
     s.sendSome(std::span(message).subspan(i, 1));
     closed = s.waitClosed(250ms, &codes);
   }
@@ -150,25 +188,28 @@ TEST_F(HostileClientTest, ATrickledMessageIsClosedWithinTheReadTimeoutOfItsFirst
   // A message sent at an ordinary pace is untouched by it.
   auto good = session(*server);
   EXPECT_EQ(good->listDatasets().size(), 1u);
+  EXPECT_EQ(webSession(*server)->listDatasets().size(), 1u);
 }
 
 // Before: a session's replies were queued whatever the client read (up to 256 MiB each); eight sessions flooding
 // OpenDataset without reading took the server from 0.6 to 2.6 GB, and most of it stayed after they closed.
-TEST_F(HostileClientTest, ClientsThatNeverReadStayBoundedAndGiveTheirMemoryBack) {
+TEST_P(HostileClientTest, ClientsThatNeverReadStayBoundedAndGiveTheirMemoryBack) {
   auto server = start("--write-timeout 4");
   auto good = session(*server);
+  auto browser = webSession(*server);
   for (int i = 0; i < 3; ++i) good->render(kScene, proto::Encoding::RawRgba8);
+  for (int i = 0; i < 3; ++i) browser->render(kScene, proto::Encoding::RawRgba8);
   const uint64_t before = server->residentBytes();
 
-  std::vector<uint8_t> flood;  // 2000 OpenDataset requests: about 7 MB of replies
-  for (uint32_t id = 0; id < 2000; ++id) {
-    const std::vector<uint8_t> one = proto::encode(proto::OpenDataset{"sparse"}, id + 10);
-    flood.insert(flood.end(), one.begin(), one.end());
-  }
   std::vector<std::unique_ptr<RawSocket>> flooders;
   for (int i = 0; i < 8; ++i) {
-    flooders.push_back(std::make_unique<RawSocket>(server->port()));
-    ASSERT_TRUE(flooders.back()->sendAll(proto::encode(proto::Hello{1, 1, "flood"}, 1)));
+    flooders.push_back(raw(*server));
+    ASSERT_TRUE(flooders.back()->sendMessage(proto::encode(proto::Hello{1, 1, "flood"}, 1)));
+  }
+  std::vector<uint8_t> flood;  // 2000 OpenDataset requests: about 7 MB of replies
+  for (uint32_t id = 0; id < 2000; ++id) {
+    const std::vector<uint8_t> one = flooders.front()->frame(proto::encode(proto::OpenDataset{"sparse"}, id + 10));
+    flood.insert(flood.end(), one.begin(), one.end());
   }
   std::atomic<uint64_t> sentBytes{0};
   Background flooding;
@@ -190,6 +231,7 @@ TEST_F(HostileClientTest, ClientsThatNeverReadStayBoundedAndGiveTheirMemoryBack)
   while (secondsSince(t0) < 3) {
     const auto t = Clock::now();
     EXPECT_EQ(good->render(kScene, proto::Encoding::RawRgba8).width, 80u);
+    EXPECT_EQ(browser->render(kScene, proto::Encoding::RawRgba8).width, 80u);
     slowest = std::max(slowest, secondsSince(t));
     peak = std::max(peak, server->residentBytes());
     std::this_thread::sleep_for(100ms);
@@ -209,11 +251,12 @@ TEST_F(HostileClientTest, ClientsThatNeverReadStayBoundedAndGiveTheirMemoryBack)
   EXPECT_LT(double(after), std::max(double(before) * 1.1, double(before) + 32e6))
       << "resident memory " << before / 1e6 << " MB before the flood, " << after / 1e6 << " MB after";
   EXPECT_EQ(good->render(kScene, proto::Encoding::RawRgba8).width, 80u);
+  EXPECT_EQ(browser->render(kScene, proto::Encoding::RawRgba8).width, 80u);
 }
 
 // Replies waiting for all sessions together are bounded too: a frame that would take them past the server's
 // output budget is answered LimitExceeded instead, until the client that does not read is dropped.
-TEST_F(HostileClientTest, AFrameBeyondTheServersOutputBudgetIsRefusedUntilTheNonReaderLeaves) {
+TEST_P(HostileClientTest, AFrameBeyondTheServersOutputBudgetIsRefusedUntilTheNonReaderLeaves) {
   // Frames of 16 MiB: more than the kernel's socket buffers take from a client that does not read (and within a
   // message limit raised to let such a frame through at all).
   auto server = start("--write-timeout 3 --max-total-output-mb 16 --max-message-bytes 33554432");
@@ -222,10 +265,10 @@ TEST_F(HostileClientTest, AFrameBeyondTheServersOutputBudgetIsRefusedUntilTheNon
   // dropped, and went out).
   const char* bigScene = R"({"camera": {"orbit": [40, 25, 20]}, "size": [2048, 2048], "transfer_function": "sparse",
                              "step": 4})";
-  RawSocket hog(server->port());
-  ASSERT_TRUE(hog.sendAll(proto::encode(proto::Hello{1, 1, "hog"}, 1)));
-  ASSERT_TRUE(hog.sendAll(proto::encode(proto::OpenDataset{"sparse"}, 2)));
-  ASSERT_TRUE(hog.sendAll(proto::encode(proto::RenderRequest{proto::Encoding::RawRgba8, bigScene}, 3)));
+  auto hog = raw(*server);
+  ASSERT_TRUE(hog->sendMessage(proto::encode(proto::Hello{1, 1, "hog"}, 1)));
+  ASSERT_TRUE(hog->sendMessage(proto::encode(proto::OpenDataset{"sparse"}, 2)));
+  ASSERT_TRUE(hog->sendMessage(proto::encode(proto::RenderRequest{proto::Encoding::RawRgba8, bigScene}, 3)));
   const json rendered = waitForStats(
       *server, [](const json& s) { return s["renders"]["frames"] >= 1; }, 30s);
   ASSERT_GE(rendered["renders"]["frames"].get<int>(), 1);
@@ -247,28 +290,82 @@ TEST_F(HostileClientTest, AFrameBeyondTheServersOutputBudgetIsRefusedUntilTheNon
   EXPECT_EQ(good->render(bigScene, proto::Encoding::RawRgba8).height, 2048u);
 }
 
+// Bytes that are no protocol message, and a message announcing a body past the limit: answered (BadMagic,
+// TooLarge) and closed before anything more is read, while good clients go on.
+TEST_P(HostileClientTest, GarbageAndOversizedMessagesAreAnsweredAndClosed) {
+  auto server = start("--max-message-bytes 65536");
+  auto good = session(*server);
+  auto browser = webSession(*server);
+  auto closedWith = [&](const std::function<std::vector<uint8_t>(RawSocket&)>& wire) {
+    auto s = raw(*server);
+    s->sendAll(wire(*s));
+    std::vector<ErrorCode> codes;
+    EXPECT_TRUE(s->waitClosed(10s, &codes));
+    return codes;
+  };
+  // Garbage, before and after Hello.
+  EXPECT_EQ(closedWith([](RawSocket& s) { return s.frame(std::vector<uint8_t>(64, 'x')); }),
+            std::vector<ErrorCode>{ErrorCode::BadMagic});
+  EXPECT_EQ(closedWith([](RawSocket& s) {
+              std::vector<uint8_t> bytes = s.frame(proto::encode(proto::Hello{1, 1, "x"}, 1));
+              const std::vector<uint8_t> junk = s.frame(std::vector<uint8_t>(4096, 0xA5));
+              bytes.insert(bytes.end(), junk.begin(), junk.end());
+              return bytes;
+            }),
+            (std::vector<ErrorCode>{ErrorCode::BadMagic}));
+  // A header announcing almost 4 GiB: refused as soon as the header is read.
+  proto::Header huge;
+  huge.type = proto::MessageType::Render;
+  huge.bodyBytes = 0xFFFFFFF0u;
+  const auto header = proto::encodeHeader(huge);
+  const std::vector<uint8_t> headerBytes(header.begin(), header.end());
+  EXPECT_EQ(closedWith([&](RawSocket& s) { return s.frameStart(headerBytes); }),
+            std::vector<ErrorCode>{ErrorCode::TooLarge});
+  // One just past the limit, its body streamed: refused before the body is read. Over TCP at its header
+  // (TooLarge); over WebSocket a single frame that long is refused at the frame's own header, with the WebSocket
+  // close code 1009 (message too big), as no protocol message may be that long.
+  huge.bodyBytes = 65537;
+  const auto over = proto::encodeHeader(huge);
+  std::vector<uint8_t> overBytes(over.size() + 65537, 'b');
+  std::copy(over.begin(), over.end(), overBytes.begin());
+  auto s = raw(*server);
+  s->sendAll(s->frame(overBytes));
+  std::vector<ErrorCode> codes;
+  EXPECT_TRUE(s->waitClosed(10s, &codes));
+  if (GetParam() == Framing::Tcp) {
+    EXPECT_EQ(codes, std::vector<ErrorCode>{ErrorCode::TooLarge});
+  } else {
+    EXPECT_TRUE(codes.empty());
+    EXPECT_EQ(s->closeCode(), 1009);
+  }
+  EXPECT_EQ(good->render(kScene).width, 80u);
+  EXPECT_EQ(browser->render(kScene).width, 80u);
+  EXPECT_EQ(statsOf(*server)["sessions"]["pending"].get<int>(), 0);
+}
+
 // One address may hold only so many connections; loopback is exempt unless configured otherwise.
-TEST_F(HostileClientTest, ConnectionsFromOneAddressAreLimited) {
+TEST_P(HostileClientTest, ConnectionsFromOneAddressAreLimited) {
   test::writeFile(scratch() / "per-address.toml",
                   std::string("[limits]\nmax_connections_per_address = 3\nloopback_exempt = false\n"));
   auto server = start("--config " + (scratch() / "per-address.toml").string());
   auto a = session(*server);
-  RawSocket b(server->port()), c(server->port());
-  RawSocket d(server->port());
-  std::vector<ErrorCode> codes;
-  EXPECT_TRUE(d.waitClosed(5s, &codes));
-  EXPECT_EQ(codes, std::vector<ErrorCode>{ErrorCode::LimitExceeded});
+  auto b = raw(*server), c = raw(*server);
+  auto d = raw(*server);
+  expectRefused(*d, "too many connections from 127.0.0.1");
   a->goodbye();
   std::this_thread::sleep_for(200ms);
   auto e = session(*server);
   EXPECT_EQ(e->listDatasets().size(), 1u);
-  EXPECT_FALSE(b.waitClosed(100ms));
+  EXPECT_FALSE(b->waitClosed(100ms));
 
   // The default: loopback clients are held to max_sessions only.
   auto open = start("--max-connections-per-address 2");
   std::vector<std::unique_ptr<Client>> many;
   for (int i = 0; i < 6; ++i) EXPECT_NO_THROW(many.push_back(session(*open)));
 }
+
+INSTANTIATE_TEST_SUITE_P(Transports, HostileClientTest, ::testing::Values(Framing::Tcp, Framing::WebSocket),
+                         test::framingName<::testing::TestParamInfo<Framing>>);
 
 }  // namespace
 }  // namespace voxbrick
