@@ -27,7 +27,7 @@ struct Tally {
   std::vector<double> latencies;
   std::vector<double> renderMs;      ///< the renderer's own frame time (frame statistics), well-behaved clients
   std::vector<double> renderMsWarm;  ///< the same without each client's first frame (which pages its bricks in)
-  int64_t frames = 0, errors = 0, superseded = 0;
+  int64_t frames = 0, errors = 0, superseded = 0, payloadBytes = 0;
   std::vector<std::string> errorSamples;
   std::map<std::string, int64_t> faultsDone, faultsUnexpected;
 
@@ -62,7 +62,7 @@ void goodClient(const LoadArgs& a, const std::string& host, int port, int width,
     for (int n = 0; Clock::now() < deadline; ++n) {
       const auto start = Clock::now();
       const proto::Frame frame =
-          c.render(sceneJson(a, width, height, 10.0 * index + 7.0 * n), proto::Encoding::ZstdRgba8);
+          c.render(sceneJson(a, width, height, 10.0 * index + 7.0 * n), client::encodingNamed(a.encoding));
       const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
       const json stats = json::parse(frame.statsJson);
       std::lock_guard lock(tally.mutex);
@@ -70,6 +70,7 @@ void goodClient(const LoadArgs& a, const std::string& host, int port, int width,
       tally.renderMs.push_back(stats["ms"]["total"].get<double>());
       if (n > 0) tally.renderMsWarm.push_back(tally.renderMs.back());
       ++tally.frames;
+      tally.payloadBytes += int64_t(frame.payload.size());
     }
     c.goodbye();
   } catch (const std::exception& e) {
@@ -103,9 +104,10 @@ void dragClient(const LoadArgs& a, const std::string& host, int port, int width,
             sent.erase(id);
           }
           std::lock_guard lock(tally.mutex);
-          if (std::holds_alternative<proto::Frame>(m)) {
+          if (const auto* frame = std::get_if<proto::Frame>(&m)) {
             tally.latencies.push_back(std::chrono::duration<double, std::milli>(Clock::now() - at).count());
             ++tally.frames;
+            tally.payloadBytes += int64_t(frame->payload.size());
           } else if (std::holds_alternative<proto::DatasetList>(m)) {
             // the closing request
           } else if (auto* e = std::get_if<proto::Error>(&m); e && e->code == proto::ErrorCode::Superseded) {
@@ -123,8 +125,8 @@ void dragClient(const LoadArgs& a, const std::string& host, int port, int width,
     for (int n = 0; Clock::now() < deadline; ++n) {
       {
         std::lock_guard lock(mutex);
-        const uint32_t id = c.send(
-            proto::RenderRequest{proto::Encoding::ZstdRgba8, sceneJson(a, width, height, 10.0 * index + 2.0 * n)});
+        const uint32_t id = c.send(proto::RenderRequest{client::encodingNamed(a.encoding),
+                                                        sceneJson(a, width, height, 10.0 * index + 2.0 * n)});
         sent[id] = Clock::now();
       }
       next += std::chrono::duration_cast<Clock::duration>(period);
@@ -225,6 +227,8 @@ json loadReport(const LoadArgs& a, const Tally& tally, double seconds, int width
       {"size", {width, height}},
       {"frames", tally.frames},
       {"frames_per_s", double(tally.frames) / seconds},
+      {"encoding", a.encoding},
+      {"payload_bytes_per_frame", tally.frames > 0 ? double(tally.payloadBytes) / double(tally.frames) : 0.0},
       {"errors", tally.errors},
       {"superseded", tally.superseded},
       {"drag_hz", a.dragHz},
@@ -308,6 +312,10 @@ void addLoadCommand(CLI::App& app) {
   cmd->add_option("--step", a->step, "slice spacing in voxels")
       ->capture_default_str()
       ->check(between(0.001, 64, "voxels"));
+  cmd->add_option("--encoding", a->encoding,
+                  "how the clients' frames travel: raw, png, zstd or jpeg (lossy; protocol version 2)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"raw", "png", "zstd", "jpeg"}));
   cmd->add_option("--fault-clients", a->faultClients, "clients that misbehave in turn")->check(between(0, 4096));
   cmd->add_option("--faults", a->faults, "comma list of what faulty clients do (default all): " + faultUsage())
       ->delimiter(',')

@@ -18,6 +18,7 @@ struct ServerDeadlines {
 /// The options of `voxbrick load`.
 struct LoadArgs {
   std::string address, dataset, tf = "grayscale", jsonPath, size = "128x128", corruptDataset;
+  std::string encoding = "zstd";  ///< of the good and dragging clients' frames: raw, png, zstd or jpeg
   std::vector<std::string> faults;
   int clients = 4, faultClients = 0, idleSessions = 0;
   double duration = 10, step = 1, dragHz = 0;

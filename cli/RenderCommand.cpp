@@ -187,6 +187,12 @@ void printFrameSummary(const RenderArgs& a, const render::Scene& scene, const re
       (long long)stats.bricksSkippedEmpty, (long long)stats.bricksCulled, (long long)stats.bricksPagedIn,
       (long long)stats.bricksEvicted, (long long)stats.batches, stats.msTotal, stats.msPaging, stats.msSlicing,
       stats.msDrawing, stats.msReadback);
+  if (stats.bricksFitCoarsened > 0)
+    std::printf(
+        "render: the frame was coarsened to fit: its levels wanted %.1f MiB of bricks, the atlas holds %.1f MiB; "
+        "%lld bricks drawn as their parents, levels %d to %d\n",
+        double(stats.bytesWanted) / 1048576.0, double(stats.bytesBudget) / 1048576.0,
+        (long long)stats.bricksFitCoarsened, stats.levelFinest, stats.levelCoarsest);
 }
 
 /// A GPU frame through the same seam the server's render threads use: a dataset and a RenderEngine.

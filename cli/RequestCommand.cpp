@@ -23,6 +23,16 @@ struct RequestArgs {
   bool list = false;
 };
 
+/// Writes a frame as the output's extension asks: a jpeg frame to a .jpg file as its bytes (no second loss), any
+/// other decoded and encoded again.
+void writeFrame(const std::string& path, const proto::Frame& frame, int jpegQuality) {
+  const image::Image8 decoded = image::decodeFrameImage(frame);  // checks the payload whatever is written
+  if (frame.encoding == proto::Encoding::Jpeg && image::imageFormatFor(path) == image::ImageFormat::Jpeg)
+    image::writeFileAtomically(path, frame.payload);
+  else
+    image::writeImage(path, decoded, {jpegQuality});
+}
+
 void runRequest(const RequestArgs& a, const CLI::App& cmd) {
   if (!a.output.empty()) image::imageFormatFor(a.output);  // an output we cannot write is refused before connecting
   const auto [host, port] = client::parseAddress(a.address);
@@ -34,12 +44,13 @@ void runRequest(const RequestArgs& a, const CLI::App& cmd) {
     return;
   }
   if (a.output.empty()) throw render::RenderInputError("-o/--output is required to render");
-  const render::Scene scene = buildScene(a.scene, cmd);
+  render::Scene scene = buildScene(a.scene, cmd);
   checkOutputFormat(scene, a.output);
+  const proto::Encoding encoding = client::encodingNamed(a.encoding);
+  // A jpeg frame is encoded by the server, at --jpeg-quality if given (else the server's default).
+  if (encoding == proto::Encoding::Jpeg && cmd.get_option("--jpeg-quality")->count() > 0)
+    scene.jpegQuality = a.jpegQuality;
   c.openDataset(a.dataset);
-  const proto::Encoding encoding = a.encoding == "raw"    ? proto::Encoding::RawRgba8
-                                   : a.encoding == "zstd" ? proto::Encoding::ZstdRgba8
-                                                          : proto::Encoding::Png;
   const auto start = std::chrono::steady_clock::now();
   const auto msSinceStart = [&] {
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
@@ -48,14 +59,14 @@ void runRequest(const RequestArgs& a, const CLI::App& cmd) {
   // written beside the output, the last one wins.
   const std::string provisional = provisionalPath(a.output);
   const proto::Frame frame = c.render(scene.toJson(), encoding, [&](const proto::Frame& early) {
-    image::writeImage(provisional, image::decodeFrameImage(early), {a.jpegQuality});
+    writeFrame(provisional, early, a.jpegQuality);
     const nlohmann::json stats = nlohmann::json::parse(early.statsJson);
     std::printf("request: provisional frame (%lld bricks stood in) at %.1f ms, wrote %s\n",
                 static_cast<long long>(stats.value("bricks_standin", int64_t{0})), msSinceStart(), provisional.c_str());
   });
   const double ms = msSinceStart();
   c.goodbye();
-  image::writeImage(a.output, image::decodeFrameImage(frame), {a.jpegQuality});
+  writeFrame(a.output, frame, a.jpegQuality);
   if (!a.statsPath.empty()) writeText(a.statsPath, nlohmann::json::parse(frame.statsJson).dump(2) + "\n");
   std::printf("request: wrote %s (%ux%u, %zu bytes as %s) in %.1f ms\n", a.output.c_str(), frame.width, frame.height,
               frame.payload.size(), a.encoding.c_str(), ms);
@@ -70,12 +81,15 @@ void addRequestCommand(CLI::App& app) {
   cmd->add_option("--dataset", a->dataset, "dataset to render (without it: list the datasets)");
   cmd->add_flag("--list", a->list, "list the server's datasets");
   cmd->add_option("-o,--output", a->output, "image to write: .png, or .jpg/.jpeg (JPEG)");
-  cmd->add_option("--jpeg-quality", a->jpegQuality, "JPEG quality of a .jpg/.jpeg output")
+  cmd->add_option("--jpeg-quality", a->jpegQuality,
+                  "JPEG quality of a .jpg/.jpeg output; with --encoding jpeg, of the frame the server sends "
+                  "(default: the server's)")
       ->capture_default_str()
       ->check(between(1, 100));
   cmd->add_option("--stats", a->statsPath, "write the frame's statistics as JSON");
-  cmd->add_option("--encoding", a->encoding, "how the frame travels: png, raw or zstd")
-      ->check(CLI::IsMember({"png", "raw", "zstd"}))
+  cmd->add_option("--encoding", a->encoding,
+                  "how the frame travels: png, raw, zstd or jpeg (lossy; needs a server of protocol version 2)")
+      ->check(CLI::IsMember({"png", "raw", "zstd", "jpeg"}))
       ->capture_default_str();
   cmd->add_option("--timeout", a->timeout, "seconds to wait for the server")
       ->capture_default_str()

@@ -84,7 +84,7 @@ void Client::sendBytes(const std::vector<uint8_t>& bytes) {
 
 uint32_t Client::send(const proto::Message& message) {
   const uint32_t id = mNextId++;
-  sendBytes(proto::encode(message, id));
+  sendBytes(proto::encode(message, id, mVersion));
   return id;
 }
 
@@ -137,8 +137,17 @@ T expect(proto::Message reply, const char* what) {
                         proto::messageTypeName(proto::messageType(reply)));
 }
 
-proto::Capabilities Client::hello(const std::string& clientName) {
-  return expect<proto::Capabilities>(call(proto::Hello{proto::kVersion, proto::kVersion, clientName}), "Hello");
+proto::Capabilities Client::hello(const std::string& clientName, uint16_t maxVersion) {
+  // Hello is written in the lowest version offered (PROTOCOL.md section 5); the session speaks the server's pick.
+  mVersion = proto::kMinVersion;
+  proto::Capabilities caps =
+      expect<proto::Capabilities>(call(proto::Hello{proto::kMinVersion, maxVersion, clientName}), "Hello");
+  if (caps.version < proto::kMinVersion || caps.version > maxVersion)
+    throw ConnectionError(mImpl->where + " chose protocol version " + std::to_string(caps.version) +
+                          ", outside the offered " + std::to_string(proto::kMinVersion) + ".." +
+                          std::to_string(maxVersion));
+  mVersion = caps.version;
+  return caps;
 }
 
 std::vector<std::string> Client::listDatasets() {
@@ -151,6 +160,10 @@ proto::DatasetInfo Client::openDataset(const std::string& name) {
 
 proto::Frame Client::render(const std::string& sceneJson, proto::Encoding encoding,
                             const std::function<void(const proto::Frame&)>& onProvisional) {
+  if (!proto::encodingInVersion(encoding, mVersion))
+    throw std::invalid_argument(std::string("the ") + proto::encodingName(encoding) +
+                                " encoding needs protocol version 2; the server speaks version " +
+                                std::to_string(mVersion));
   const uint32_t id = send(proto::RenderRequest{encoding, sceneJson});
   for (proto::Frame frame = expect<proto::Frame>(awaitReply(id), "Render");;
        frame = expect<proto::Frame>(awaitReply(id), "Render")) {
@@ -178,6 +191,11 @@ void Client::close() {
   boost::system::error_code ignored;
   mImpl->socket.shutdown(tcp::socket::shutdown_both, ignored);
   mImpl->socket.close(ignored);
+}
+
+proto::Encoding encodingNamed(const std::string& name) {
+  if (const auto encoding = proto::encodingFromShortName(name)) return *encoding;
+  throw std::invalid_argument("'" + name + "' is not an encoding (raw, png, zstd or jpeg)");
 }
 
 std::pair<std::string, int> parseAddress(const std::string& text) {

@@ -41,13 +41,18 @@ class Client {
   Client(const Client&) = delete;
   Client& operator=(const Client&) = delete;
 
-  /// Hello -> Capabilities.
-  proto::Capabilities hello(const std::string& clientName = "voxbrick-client 0.1");
+  /// Hello -> Capabilities: offers protocol versions kMinVersion..`maxVersion` and speaks the one the server picks
+  /// from then on (version()).
+  proto::Capabilities hello(const std::string& clientName = "voxbrick-client 0.1",
+                            uint16_t maxVersion = proto::kMaxVersion);
+  /// The session's protocol version: what Capabilities said, kVersion before Hello.
+  uint16_t version() const { return mVersion; }
   std::vector<std::string> listDatasets();
   proto::DatasetInfo openDataset(const std::string& name);
   /// One frame of the open dataset: the exact one. For a progressive scene the server may send a provisional Frame
   /// first (isProvisional); it is handed to `onProvisional` if given, and the call waits for the exact Frame. Throws
-  /// ServerError (InvalidScene, LimitExceeded, Superseded, ...).
+  /// ServerError (InvalidScene, LimitExceeded, Superseded, ...), std::invalid_argument for an encoding the session's
+  /// version lacks (jpeg with a version-1 server).
   proto::Frame render(const std::string& sceneJson, proto::Encoding encoding = proto::Encoding::Png,
                       const std::function<void(const proto::Frame&)>& onProvisional = {});
   /// Server statistics (JSON text).
@@ -75,7 +80,11 @@ class Client {
   struct Impl;
   std::unique_ptr<Impl> mImpl;
   uint32_t mNextId = 1;
+  uint16_t mVersion = proto::kVersion;
 };
+
+/// The encoding a command-line name gives ("raw", "png", "zstd", "jpeg"); throws std::invalid_argument otherwise.
+proto::Encoding encodingNamed(const std::string& name);
 
 /// Whether `frame` is provisional: drawn with stand-ins for bricks not yet resident, the exact Frame of the same
 /// request to follow (its statistics' "provisional" key, PROTOCOL.md "Progressive frames").

@@ -1,4 +1,5 @@
-// Frame payloads: PNG through image/Image, zstd at level 1 (fast enough not to show beside a frame's render time).
+// Frame payloads: PNG through image/Image, zstd at level 1 (fast enough not to show beside a frame's render time),
+// JPEG through image/ImageFile.
 #include "image/FrameImage.h"
 
 #include <stdexcept>
@@ -22,7 +23,7 @@ std::pair<uint32_t, uint32_t> pngSize(const std::vector<uint8_t>& png) {
 
 }  // namespace
 
-std::vector<uint8_t> encodeFrameImage(const Image8& image, proto::Encoding encoding) {
+std::vector<uint8_t> encodeFrameImage(const Image8& image, proto::Encoding encoding, int jpegQuality) {
   switch (encoding) {
     case proto::Encoding::RawRgba8: return image.rgba;
     case proto::Encoding::Png: return encodePng(image);
@@ -33,6 +34,7 @@ std::vector<uint8_t> encodeFrameImage(const Image8& image, proto::Encoding encod
       out.resize(n);
       return out;
     }
+    case proto::Encoding::Jpeg: return encodeJpeg(image, jpegQuality, kFrameJpegChroma);
   }
   throw ImageFailure("encodeFrameImage: unknown encoding " + std::to_string(int(encoding)));
 }
@@ -52,6 +54,9 @@ Image8 decodeFrameImage(const proto::Frame& frame) {
       image = decodePng(frame.payload, "frame");
       break;
     case proto::Encoding::RawRgba8: image.rgba = frame.payload; break;
+    case proto::Encoding::Jpeg:
+      image = decodeJpeg(frame.payload, "frame", std::array{int(frame.width), int(frame.height)});
+      break;
     case proto::Encoding::ZstdRgba8: {
       image.rgba.resize(bytes);
       const size_t n = ZSTD_decompress(image.rgba.data(), bytes, frame.payload.data(), frame.payload.size());

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "image/Image.h"
+#include "image/ImageFile.h"
 #include "proto/Messages.h"
 
 namespace voxbrick::image {
@@ -12,10 +13,18 @@ namespace voxbrick::image {
 /// The largest frame side a client decodes (the renderer's own limit is 8192).
 inline constexpr uint32_t kMaxFrameSide = 1u << 16;
 
-/// The image as a Frame payload in `encoding`; throws ImageFailure for an unknown encoding.
-std::vector<uint8_t> encodeFrameImage(const Image8& image, proto::Encoding encoding);
-/// A Frame's payload as an image; throws ImageFailure naming the problem if its size is absurd or the payload does
-/// not decode to exactly that size.
+/// The JPEG quality of a jpeg frame whose scene gives no `jpeg_quality`: chosen by bytes against PSNR on the MRI
+/// (bench/results/jpeg.md).
+inline constexpr int kDefaultJpegQuality = 85;
+/// How a jpeg frame stores colour (bench/results/jpeg.md: the better PSNR per byte on the MRI).
+inline constexpr JpegChroma kFrameJpegChroma = JpegChroma::Half;
+
+/// The image as a Frame payload in `encoding`: jpeg frames at `jpegQuality` (1..100) with kFrameJpegChroma, alpha
+/// dropped. Throws ImageFailure for an unknown encoding or a quality out of range.
+std::vector<uint8_t> encodeFrameImage(const Image8& image, proto::Encoding encoding,
+                                      int jpegQuality = kDefaultJpegQuality);
+/// A Frame's payload as an image (a jpeg frame with alpha 255); throws ImageFailure naming the problem if its size is
+/// absurd or the payload does not decode to exactly that size.
 Image8 decodeFrameImage(const proto::Frame& frame);
 
 }  // namespace voxbrick::image

@@ -48,7 +48,7 @@ ImageFormat imageFormatFor(const std::filesystem::path& path) {
   throw ImageFailure(path.string() + ": cannot write images of extension '" + ext + "' (use .png, .jpg or .jpeg)");
 }
 
-std::vector<uint8_t> encodeJpeg(const Image8& image, int quality) {
+std::vector<uint8_t> encodeJpeg(const Image8& image, int quality, JpegChroma chroma) {
   if (quality < 1 || quality > 100)
     throw ImageFailure("encodeJpeg: quality " + std::to_string(quality) + " is outside [1, 100]");
   if (image.width <= 0 || image.height <= 0) throw ImageFailure("encodeJpeg: empty image");
@@ -74,7 +74,7 @@ std::vector<uint8_t> encodeJpeg(const Image8& image, int quality) {
   jpeg_set_defaults(&info);
   jpeg_set_quality(&info, quality, TRUE);
   // Full-resolution chroma at high quality: thin coloured features of a transfer function survive.
-  if (quality >= 90)
+  if (chroma == JpegChroma::Full || (chroma == JpegChroma::Auto && quality >= 90))
     for (int c = 0; c < info.num_components; ++c) info.comp_info[c].h_samp_factor = info.comp_info[c].v_samp_factor = 1;
   jpeg_start_compress(&info, TRUE);
   while (info.next_scanline < info.image_height) {
@@ -90,7 +90,8 @@ std::vector<uint8_t> encodeJpeg(const Image8& image, int quality) {
   return bytes;
 }
 
-Image8 decodeJpeg(std::span<const uint8_t> bytes, const std::string& what) {
+Image8 decodeJpeg(std::span<const uint8_t> bytes, const std::string& what,
+                  std::optional<std::array<int, 2>> expectedSize) {
   jpeg_decompress_struct info{};
   JpegErrors errors;
   info.err = jpeg_std_error(&errors.mgr);
@@ -105,6 +106,13 @@ Image8 decodeJpeg(std::span<const uint8_t> bytes, const std::string& what) {
   jpeg_create_decompress(&info);
   jpeg_mem_src(&info, bytes.data(), static_cast<unsigned long>(bytes.size()));
   jpeg_read_header(&info, TRUE);
+  if (expectedSize &&
+      (int64_t(info.image_width) != (*expectedSize)[0] || int64_t(info.image_height) != (*expectedSize)[1])) {
+    const std::string size = std::to_string(info.image_width) + "x" + std::to_string(info.image_height);
+    jpeg_destroy_decompress(&info);
+    throw ImageFailure(what + ": the JPEG is " + size + ", not the expected " + std::to_string((*expectedSize)[0]) +
+                       "x" + std::to_string((*expectedSize)[1]));
+  }
   info.out_color_space = JCS_RGB;
   jpeg_start_decompress(&info);
   image.width = int(info.output_width);

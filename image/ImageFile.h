@@ -2,8 +2,10 @@
 // atomically (a temporary beside it, then a rename), so that a failed write leaves the old file or none.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -23,11 +25,18 @@ struct ImageWriteOptions {
   int jpegQuality = 90;  ///< libjpeg quality in [1, 100]
 };
 
-/// A baseline JPEG (4:2:0 below quality 90, else 4:4:4) of the RGB channels; alpha is dropped. Throws ImageFailure if
-/// `quality` is outside [1, 100] or the image is empty.
-std::vector<uint8_t> encodeJpeg(const Image8& image, int quality);
-/// Decodes a JPEG (grey or colour) as 8-bit RGBA with alpha 255; throws ImageFailure naming `what`.
-Image8 decodeJpeg(std::span<const uint8_t> bytes, const std::string& what);
+/// How a JPEG stores colour: Auto is 4:2:0 below quality 90, else 4:4:4; Full is 4:4:4 (full-resolution chroma);
+/// Half is 4:2:0 (chroma at half resolution both ways).
+enum class JpegChroma { Auto, Full, Half };
+
+/// A baseline JPEG of the RGB channels; alpha is dropped. Throws ImageFailure if `quality` is outside [1, 100] or the
+/// image is empty.
+std::vector<uint8_t> encodeJpeg(const Image8& image, int quality, JpegChroma chroma = JpegChroma::Auto);
+/// Decodes a JPEG (grey or colour) as 8-bit RGBA with alpha 255; throws ImageFailure naming `what`. With
+/// `expectedSize` ({width, height}), a JPEG whose header names another size is refused before its pixels are
+/// allocated.
+Image8 decodeJpeg(std::span<const uint8_t> bytes, const std::string& what,
+                  std::optional<std::array<int, 2>> expectedSize = std::nullopt);
 
 /// Writes `bytes` to `path` through a temporary file in the same directory, renamed over `path` once complete and
 /// flushed: on any failure (a full disk, a file-size limit) the temporary is removed, an existing file at `path` is

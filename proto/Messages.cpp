@@ -21,8 +21,8 @@ static_assert(kAt<MessageType::Hello, Hello> && kAt<MessageType::Capabilities, C
               kAt<MessageType::Stats, Stats> && kAt<MessageType::Goodbye, Goodbye> &&
               std::variant_size_v<Message> == size_t(MessageType::Goodbye));
 
-bool known(Encoding e) { return e == Encoding::RawRgba8 || e == Encoding::Png || e == Encoding::ZstdRgba8; }
-bool known(ErrorCode e) { return e >= ErrorCode::BadMagic && e <= ErrorCode::Timeout; }
+bool known(Encoding e, uint16_t version) { return encodingInVersion(e, version); }
+bool known(ErrorCode e, uint16_t) { return e >= ErrorCode::BadMagic && e <= ErrorCode::Timeout; }
 
 /// Where a field is, for error messages: "names", or "names[3]" for a list item.
 struct Field {
@@ -46,10 +46,17 @@ T getLittleEndian(const uint8_t* in) {
 /// Counts the bytes a body will take, so that encode() can refuse an oversized body and allocate once.
 class Sizer {
  public:
+  explicit Sizer(MessageType type, uint16_t version) : mType(type), mVersion(version) {}
   size_t total() const { return mTotal; }
 
   template <class T>
-  void number(Field, T) {
+  void number([[maybe_unused]] Field field, T value) {
+    // The one pass before anything is written: a value the version lacks is the caller's mistake.
+    if constexpr (std::is_enum_v<T>)
+      if (!known(value, mVersion))
+        throw std::invalid_argument(std::string("proto::encode: ") + messageTypeName(mType) + "." + field.name +
+                                    ": value " + std::to_string(int(value)) + " does not exist in version " +
+                                    std::to_string(mVersion));
     mTotal += sizeof(T);
   }
   void string(Field, const std::string& text) { mTotal += sizeof(uint32_t) + text.size(); }
@@ -66,6 +73,8 @@ class Sizer {
   }
 
  private:
+  MessageType mType;
+  uint16_t mVersion;
   size_t mTotal = 0;
 };
 
@@ -107,8 +116,8 @@ class Writer {
 
 class Reader {
  public:
-  Reader(MessageType type, std::span<const uint8_t> body, const Limits& limits)
-      : mType(type), mBody(body), mLimits(limits) {}
+  Reader(const Header& header, std::span<const uint8_t> body, const Limits& limits)
+      : mType(header.type), mVersion(header.version), mBody(body), mLimits(limits) {}
 
   template <std::unsigned_integral T>
   void number(Field field, T& value) {
@@ -119,7 +128,8 @@ class Reader {
   void number(Field field, E& value) {
     std::underlying_type_t<E> raw;
     number(field, raw);
-    if (!known(E(raw))) fail(field, "unknown value " + std::to_string(raw));
+    if (!known(E(raw), mVersion))
+      fail(field, "unknown value " + std::to_string(raw) + " in protocol version " + std::to_string(mVersion));
     value = E(raw);
   }
   void string(Field field, std::string& text) {
@@ -189,6 +199,7 @@ class Reader {
   }
 
   MessageType mType;
+  uint16_t mVersion;
   std::span<const uint8_t> mBody;
   const Limits& mLimits;
   size_t mOffset = 0;
@@ -265,12 +276,13 @@ template <size_t I = 0>
 Message decodeAs(const Header& header, std::span<const uint8_t> body, const Limits& limits) {
   if constexpr (I == std::variant_size_v<Message>) {
     throw ProtocolError(ErrorCode::UnknownType, "message type " + std::to_string(uint16_t(header.type)) +
-                                                    " is not known in protocol version " + std::to_string(kVersion));
+                                                    " is not known in protocol version " +
+                                                    std::to_string(header.version));
   } else if (size_t(header.type) != I + 1) {
     return decodeAs<I + 1>(header, body, limits);
   } else {
     std::variant_alternative_t<I, Message> message;
-    Reader reader(header.type, body, limits);
+    Reader reader(header, body, limits);
     fields(reader, message);
     reader.finish();
     return message;
@@ -349,6 +361,41 @@ const char* messageTypeName(MessageType type) {
 
 MessageType messageType(const Message& message) { return MessageType(message.index() + 1); }
 
+bool encodingInVersion(Encoding encoding, uint16_t version) {
+  switch (encoding) {
+    case Encoding::RawRgba8:
+    case Encoding::Png:
+    case Encoding::ZstdRgba8: return version >= 1;
+    case Encoding::Jpeg: return version >= 2;
+  }
+  return false;
+}
+
+std::optional<Encoding> encodingFromShortName(std::string_view name) {
+  if (name == "raw") return Encoding::RawRgba8;
+  if (name == "png") return Encoding::Png;
+  if (name == "zstd") return Encoding::ZstdRgba8;
+  if (name == "jpeg") return Encoding::Jpeg;
+  return std::nullopt;
+}
+
+std::vector<Encoding> encodingsOf(uint16_t version) {
+  std::vector<Encoding> encodings;
+  for (const Encoding e : {Encoding::RawRgba8, Encoding::Png, Encoding::ZstdRgba8, Encoding::Jpeg})
+    if (encodingInVersion(e, version)) encodings.push_back(e);
+  return encodings;
+}
+
+const char* encodingName(Encoding encoding) {
+  switch (encoding) {
+    case Encoding::RawRgba8: return "raw_rgba8";
+    case Encoding::Png: return "png";
+    case Encoding::ZstdRgba8: return "zstd_rgba8";
+    case Encoding::Jpeg: return "jpeg";
+  }
+  return "unknown";
+}
+
 std::array<uint8_t, kHeaderBytes> encodeHeader(const Header& header) {
   std::array<uint8_t, kHeaderBytes> bytes;
   putLittleEndian(bytes.data() + 0, kMagic);
@@ -359,13 +406,16 @@ std::array<uint8_t, kHeaderBytes> encodeHeader(const Header& header) {
   return bytes;
 }
 
-std::vector<uint8_t> encode(const Message& message, uint32_t requestId) {
-  Sizer sizer;
+std::vector<uint8_t> encode(const Message& message, uint32_t requestId, uint16_t version) {
+  if (version < kMinVersion || version > kMaxVersion)
+    throw std::invalid_argument("proto::encode: version " + std::to_string(version) + " is not spoken (" +
+                                std::to_string(kMinVersion) + ".." + std::to_string(kMaxVersion) + ")");
+  Sizer sizer(messageType(message), version);
   std::visit([&](const auto& m) { fields(sizer, m); }, message);
   if (sizer.total() > std::numeric_limits<uint32_t>::max())
     throw std::length_error(std::string("proto::encode: ") + messageTypeName(messageType(message)) + " body of " +
                             std::to_string(sizer.total()) + " bytes does not fit the u32 body length");
-  const auto header = encodeHeader({kVersion, messageType(message), requestId, uint32_t(sizer.total())});
+  const auto header = encodeHeader({version, messageType(message), requestId, uint32_t(sizer.total())});
   std::vector<uint8_t> out(header.begin(), header.end());
   out.reserve(kHeaderBytes + sizer.total());
   Writer writer(out);
@@ -386,10 +436,11 @@ Header decodeHeader(std::span<const uint8_t, kHeaderBytes> bytes, const Limits& 
   header.type = MessageType(getLittleEndian<uint16_t>(bytes.data() + 6));
   header.requestId = getLittleEndian<uint32_t>(bytes.data() + 8);
   header.bodyBytes = getLittleEndian<uint32_t>(bytes.data() + 12);
-  if (header.version != kVersion)
+  if (header.version < kMinVersion || header.version > kMaxVersion)
     throw ProtocolError(ErrorCode::UnsupportedVersion, "header: version " + std::to_string(header.version) +
-                                                           " is not supported (this side speaks version " +
-                                                           std::to_string(kVersion) + ")");
+                                                           " is not supported (this side speaks versions " +
+                                                           std::to_string(kMinVersion) + ".." +
+                                                           std::to_string(kMaxVersion) + ")");
   if (header.bodyBytes > limits.maxBodyBytes)
     throw ProtocolError(ErrorCode::TooLarge, "header: body of " + std::to_string(header.bodyBytes) +
                                                  " bytes exceeds limit " + std::to_string(limits.maxBodyBytes));

@@ -5,9 +5,11 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <variant>
 #include <vector>
 
@@ -15,7 +17,12 @@ namespace voxbrick::proto {
 
 /// First four bytes of every message: 'V' 'X' 'B' 'K'.
 constexpr uint32_t kMagic = 0x4B425856;  // read as a little-endian uint32
-constexpr uint16_t kVersion = 1;
+/// The versions this code speaks (PROTOCOL.md section 9): version 2 is version 1 plus the jpeg encoding.
+constexpr uint16_t kMinVersion = 1;
+constexpr uint16_t kMaxVersion = 2;
+/// Version 1, which every peer speaks: what encode() and Header write unless told otherwise, and the version a
+/// Hello is written in by a client whose lowest version is 1.
+constexpr uint16_t kVersion = kMinVersion;
 /// Every message starts with a fixed header: magic u32, version u16, type u16, request id u32, body length u32.
 /// All integers on the wire are little-endian.
 constexpr size_t kHeaderBytes = 16;
@@ -63,7 +70,17 @@ enum class Encoding : uint8_t {
   RawRgba8 = 0,   ///< width*height*4 bytes, rows top to bottom
   Png = 1,        ///< an RGBA8 PNG file
   ZstdRgba8 = 2,  ///< one zstd frame that decompresses to RawRgba8
+  Jpeg = 3,       ///< a baseline JPEG file, 8-bit RGB (alpha dropped); protocol version 2 on
 };
+/// Whether `encoding` exists in protocol `version` (jpeg from version 2 on; nothing outside the enum).
+bool encodingInVersion(Encoding encoding, uint16_t version);
+/// The encodings of protocol `version`, in value order: what a server of that session offers.
+std::vector<Encoding> encodingsOf(uint16_t version);
+/// The encoding's name as PROTOCOL.md spells it ("raw_rgba8", "png", "zstd_rgba8", "jpeg"), or "unknown".
+const char* encodingName(Encoding encoding);
+/// The encoding a short name gives, as scenes (`provisional_encoding`) and the command line spell them: "raw",
+/// "png", "zstd", "jpeg"; nothing for another text.
+std::optional<Encoding> encodingFromShortName(std::string_view name);
 
 struct Hello {
   uint16_t minVersion = kVersion, maxVersion = kVersion;
@@ -169,15 +186,18 @@ class ProtocolError : public std::runtime_error {
   ErrorCode mCode;
 };
 
-/// The whole message (header and body) as bytes, in version kVersion. Strings are expected to be UTF-8 and are not
-/// checked here (the peer's decoder rejects them otherwise). Throws std::length_error for a body above 4 GiB - 1.
-std::vector<uint8_t> encode(const Message& message, uint32_t requestId);
+/// The whole message (header and body) as bytes, in `version` (kMinVersion..kMaxVersion). Strings are expected to be
+/// UTF-8 and are not checked here (the peer's decoder rejects them otherwise). Throws std::length_error for a body
+/// above 4 GiB - 1, std::invalid_argument for a version not spoken or a value the version lacks (jpeg in version 1).
+std::vector<uint8_t> encode(const Message& message, uint32_t requestId, uint16_t version = kVersion);
 /// The 16 header bytes: kMagic followed by the fields of `header`.
 std::array<uint8_t, kHeaderBytes> encodeHeader(const Header& header);
-/// Parses the fixed header. Throws ProtocolError: BadMagic, UnsupportedVersion, TooLarge (bodyBytes above
-/// limits.maxBodyBytes). An unknown type is not an error here (decodeBody reports it), so the body can be skipped.
+/// Parses the fixed header. Throws ProtocolError: BadMagic, UnsupportedVersion (a version outside
+/// kMinVersion..kMaxVersion), TooLarge (bodyBytes above limits.maxBodyBytes). An unknown type is not an error here
+/// (decodeBody reports it), so the body can be skipped.
 Header decodeHeader(std::span<const uint8_t, kHeaderBytes> bytes, const Limits& limits);
-/// Parses a body of `header.type`. Throws ProtocolError: UnknownType, Malformed (naming the field). `body` must be
+/// Parses a body of `header.type` in `header.version`. Throws ProtocolError: UnknownType, Malformed (naming the
+/// field; an encoding the version lacks is an unknown value). `body` must be
 /// exactly header.bodyBytes long (std::invalid_argument otherwise: a caller's mistake, not the peer's).
 Message decodeBody(const Header& header, std::span<const uint8_t> body, const Limits& limits);
 

@@ -161,6 +161,8 @@ void Connection::readFailed() { close(); }
 
 std::optional<proto::Header> Connection::headerReceived(std::span<const uint8_t, proto::kHeaderBytes> bytes) {
   try {
+    // Any version the server speaks is read, its body in that version; what the session's version lacks (jpeg in
+    // version 1) is refused by the handler whatever the header says.
     mHeader = proto::decodeHeader(bytes, mServices.limits);  // bodyBytes at most limits.maxBodyBytes
   } catch (...) {
     refuseStream(std::current_exception());
@@ -240,9 +242,9 @@ void Connection::send(const proto::Message& message, uint32_t requestId) {
   if (mClosed) return;
   std::vector<uint8_t> bytes;
   try {
-    bytes = proto::encode(message, requestId);
+    bytes = proto::encode(message, requestId, mState.version);
   } catch (...) {  // a reply above 4 GiB, or no memory for it: the request is answered with the failure instead
-    bytes = proto::encode(errorReply(std::current_exception(), "reply cannot be encoded"), requestId);
+    bytes = proto::encode(errorReply(std::current_exception(), "reply cannot be encoded"), requestId, mState.version);
   }
   const bool frame = std::holds_alternative<proto::Frame>(message);
   if (frame) replaceUnsentFrame(requestId);

@@ -1,12 +1,14 @@
 // The session state machine of PROTOCOL.md section 5: each client message in a state, to its replies.
 #include "server/MessageHandler.h"
 
+#include <algorithm>
 #include <string>
 #include <type_traits>
 #include <utility>
 
 #include <spdlog/spdlog.h>
 
+#include "render/core/RenderErrors.h"
 #include "render/core/Scene.h"
 #include "render/datasets/Datasets.h"
 #include "server/ErrorReply.h"
@@ -28,6 +30,31 @@ std::string failureContext(const proto::Message& message) {
   if (const auto* open = std::get_if<proto::OpenDataset>(&message))
     return "dataset '" + open->name + "' cannot be opened";
   return std::string(proto::messageTypeName(proto::messageType(message))) + " failed";
+}
+
+/// Sets job.provisionalEncoding from the scene and refuses what the session cannot be sent: jpeg in a version-1
+/// session, and jpeg (which has no alpha) for a transparent frame.
+void checkEncodings(RenderJob& job, uint16_t version) {
+  if (job.scene.provisionalEncoding) {
+    // Scene::fromJson accepted only render::Scene::kEncodingNames, the short names proto knows.
+    const auto named = proto::encodingFromShortName(*job.scene.provisionalEncoding);
+    if (!named) throw render::RenderInputError("scene: 'provisional_encoding' names no encoding");
+    const proto::Encoding provisional = *named;
+    if (!proto::encodingInVersion(provisional, version))
+      throw render::RenderInputError("scene: 'provisional_encoding' \"" + *job.scene.provisionalEncoding +
+                                     "\" needs protocol version 2; this session speaks version " +
+                                     std::to_string(version));
+    job.provisionalEncoding = provisional;
+  }
+  if (job.scene.transparent) {
+    if (job.encoding == proto::Encoding::Jpeg)
+      throw render::RenderInputError(
+          "scene: 'background': \"none\" asks for alpha, which a jpeg frame cannot carry; give a background colour or "
+          "ask for png or zstd_rgba8");
+    if (job.provisionalEncoding == proto::Encoding::Jpeg)
+      throw render::RenderInputError(
+          "scene: 'background': \"none\" asks for alpha, which 'provisional_encoding' \"jpeg\" cannot carry");
+  }
 }
 
 }  // namespace
@@ -80,19 +107,23 @@ Outcome MessageHandler::dispatch(ConnectionState& state, const proto::Message& m
 
 Outcome MessageHandler::hello(ConnectionState& state, const proto::Hello& hello, uint32_t requestId) {
   if (state.greeted) throw proto::ProtocolError(ErrorCode::UnexpectedMessage, "Hello was already received");
-  if (hello.minVersion > proto::kVersion || hello.maxVersion < proto::kVersion)
-    throw proto::ProtocolError(ErrorCode::UnsupportedVersion, "client speaks versions " +
-                                                                  std::to_string(hello.minVersion) + ".." +
-                                                                  std::to_string(hello.maxVersion) +
-                                                                  ", server speaks " + std::to_string(proto::kVersion));
+  // The highest version both speak.
+  const uint16_t version = std::min(hello.maxVersion, proto::kMaxVersion);
+  if (version < hello.minVersion || version < proto::kMinVersion)
+    throw proto::ProtocolError(ErrorCode::UnsupportedVersion,
+                               "client speaks versions " + std::to_string(hello.minVersion) + ".." +
+                                   std::to_string(hello.maxVersion) + ", server speaks " +
+                                   std::to_string(proto::kMinVersion) + ".." + std::to_string(proto::kMaxVersion));
   state.greeted = true;
+  state.version = version;
   spdlog::debug("hello from '{}'", hello.client);
   proto::Capabilities caps;
   caps.server = "voxbrick 0.1.0";
   caps.maxMessageBytes = mConfig.maxMessageBytes;
   caps.maxImageSide = uint32_t(mConfig.maxImageSide);
   caps.maxQueuedPerSession = uint32_t(mConfig.maxQueuedPerSession());
-  caps.encodings = {proto::Encoding::RawRgba8, proto::Encoding::Png, proto::Encoding::ZstdRgba8};
+  caps.version = version;
+  caps.encodings = proto::encodingsOf(version);
   return replyWith(std::move(caps), requestId);
 }
 
@@ -113,11 +144,18 @@ Outcome MessageHandler::render(ConnectionState& state, const proto::RenderReques
     throw DatasetUnavailable("dataset '" + state.dataset->name() + "' is quarantined until it is replaced: " + *why);
   RenderJob job;
   job.requestId = requestId;
+  // An encoding the session's version lacks is refused as the decoder refuses it in a header of that version, so a
+  // version-1 session never gets jpeg, whatever version its Render's header said.
+  if (!proto::encodingInVersion(request.encoding, state.version))
+    throw proto::ProtocolError(ErrorCode::Malformed, "Render.encoding: unknown value " +
+                                                         std::to_string(int(request.encoding)) +
+                                                         " in protocol version " + std::to_string(state.version));
   job.encoding = request.encoding;
   job.dataset = state.dataset;
   job.received = Clock::now();
   // Presets were read at start: parsing a scene reads no file on an I/O thread.
   job.scene = render::Scene::fromJson(request.sceneJson, "scene", mPresets);
+  checkEncodings(job, state.version);
   if (job.scene.width > mConfig.maxImageSide || job.scene.height > mConfig.maxImageSide)
     throw LimitExceededError("image " + std::to_string(job.scene.width) + "x" + std::to_string(job.scene.height) +
                              " exceeds this server's limit of " + std::to_string(mConfig.maxImageSide) + " per side");

@@ -27,6 +27,7 @@ namespace voxbrick::server {
 /// connection and hands it to every call; only the handler changes it.
 struct ConnectionState {
   bool greeted = false;                            ///< Hello was accepted
+  uint16_t version = proto::kVersion;              ///< the session's protocol version, negotiated by Hello
   std::shared_ptr<const render::Dataset> dataset;  ///< the open one; null before OpenDataset
   int outstandingRenders = 0;                      ///< renders queued or drawing, not answered yet
   std::optional<render::CameraSpec> lastCamera;    ///< of the last Render of the open dataset (paging ahead)

@@ -23,6 +23,10 @@ double msBetween(Clock::time_point a, Clock::time_point b) {
 
 }  // namespace
 
+proto::Encoding replyEncoding(const RenderJob& job, bool provisional) {
+  return provisional ? job.provisionalEncoding.value_or(job.encoding) : job.encoding;
+}
+
 uint64_t frameBodyBytes(size_t statsBytes, size_t payloadBytes) {
   return 4 + 4 + 1 + 4 + uint64_t(statsBytes) + 4 + uint64_t(payloadBytes);
 }
@@ -38,16 +42,17 @@ RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int 
     options.cancelled = cancelled;
     const image::ImageF image = engine.render(job.dataset, job.scene, &stats, options);
     const auto encodeStart = Clock::now();
+    const bool provisional = stats.bricksStandIn > 0;
     proto::Frame frame;
     frame.width = uint32_t(image.width);
     frame.height = uint32_t(image.height);
-    frame.encoding = job.encoding;
-    frame.payload = image::encodeFrameImage(image::toImage8(image), job.encoding);
+    frame.encoding = replyEncoding(job, provisional);
+    frame.payload = image::encodeFrameImage(image::toImage8(image), frame.encoding,
+                                            job.scene.jpegQuality.value_or(image::kDefaultJpegQuality));
     nlohmann::json statsJson = stats.toJson();
     statsJson["queue_ms"] = msBetween(job.received, start);
     statsJson["encode_ms"] = msBetween(encodeStart, Clock::now());
     statsJson["render_thread"] = thread;
-    const bool provisional = stats.bricksStandIn > 0;
     statsJson["provisional"] = provisional;
     frame.statsJson = statsJson.dump();
     if (const uint64_t body = frameBodyBytes(frame.statsJson.size(), frame.payload.size()); body > job.maxBodyBytes)

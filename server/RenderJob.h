@@ -18,7 +18,9 @@ namespace voxbrick::server {
 /// A Render request, checked and parsed, waiting for or on a render thread.
 struct RenderJob {
   uint32_t requestId = 0;
-  proto::Encoding encoding = proto::Encoding::Png;  ///< of the Frame's payload
+  proto::Encoding encoding = proto::Encoding::Png;  ///< of the exact Frame's payload
+  /// Of a provisional Frame's payload (the scene's `provisional_encoding`); none: `encoding`. See replyEncoding.
+  std::optional<proto::Encoding> provisionalEncoding;
   render::Scene scene;
   std::shared_ptr<const render::Dataset> dataset;  ///< the one open when the request came
   std::chrono::steady_clock::time_point received;  ///< for queue_ms and the latency statistics
@@ -34,6 +36,10 @@ struct RenderJob {
   /// The most samples the frame may cost (ServerConfig::maxRenderMSamples); 0: no limit.
   double maxSamples = 0;
 };
+
+/// The encoding of a Frame answering `job`: the provisional encoding for a provisional Frame (one the exact frame is
+/// to follow), the request's own for an exact one.
+proto::Encoding replyEncoding(const RenderJob& job, bool provisional);
 
 /// The body bytes of a Frame: width, height, encoding, and the two length-prefixed fields.
 uint64_t frameBodyBytes(size_t statsBytes, size_t payloadBytes);

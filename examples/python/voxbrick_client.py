@@ -3,7 +3,8 @@
 
     voxbrick_client.py HOST:PORT                                  lists the datasets
     voxbrick_client.py HOST:PORT --dataset NAME -o frame.png      renders one frame
-        [--scene scene.json] [--orbit AZ,EL,DIST] [--size WxH] [--encoding png|raw_rgba8|zstd_rgba8]
+        [--scene scene.json] [--orbit AZ,EL,DIST] [--size WxH] [--encoding png|raw_rgba8|zstd_rgba8|jpeg]
+        [--jpeg-quality Q]   (jpeg needs a server of protocol version 2; the JPEG file is written as it came)
 
 Offline, for tests without a server: --encode-hello FILE, --encode-render FILE --scene-json TEXT (write one
 message, request id 1) and --decode FILE (print one message as JSON).
@@ -16,12 +17,14 @@ import socket
 import struct
 import sys
 
-MAGIC, VERSION = 0x4B425856, 1  # MAGIC is "VXBK" read as a little-endian u32
+MAGIC = 0x4B425856  # "VXBK" read as a little-endian u32
+MIN_VERSION, MAX_VERSION = 1, 2  # the protocol versions this client speaks; version 2 adds the jpeg encoding
 HEADER = struct.Struct('<IHHII')  # magic, version, type, request id, body bytes
 CLIENT_NAME = 'voxbrick_client.py 1'
 TYPES = ['Hello', 'Capabilities', 'ListDatasets', 'DatasetList', 'OpenDataset', 'DatasetInfo', 'Render', 'Frame',
          'Error', 'GetStats', 'Stats', 'Goodbye']  # type value = index + 1
-ENCODINGS = dict(enumerate(['raw_rgba8', 'png', 'zstd_rgba8']))  # value: name
+ENCODINGS = dict(enumerate(['raw_rgba8', 'png', 'zstd_rgba8', 'jpeg']))  # value: name
+ENCODING_SINCE = {'jpeg': 2}  # the protocol version an encoding appeared in (others: 1)
 ERRORS = dict(enumerate(['BadMagic', 'UnsupportedVersion', 'UnknownType', 'TooLarge', 'Malformed', 'UnexpectedMessage',
                          'UnknownDataset', 'InvalidScene', 'LimitExceeded', 'Superseded', 'Internal', 'ShuttingDown',
                          'Timeout'], start=1))
@@ -53,6 +56,11 @@ class ProtocolError(Exception):
         self.code, self.message = code, message
 
 
+def known(kind, name, version):
+    """Whether an enum value's name exists in protocol `version`."""
+    return kind != 'encoding' or ENCODING_SINCE.get(name, 1) <= version
+
+
 def encode_value(kind, value):
     if kind.endswith(' list'):
         return INTS['u32'].pack(len(value)) + b''.join(encode_value(kind[:-5], item) for item in value)
@@ -62,24 +70,28 @@ def encode_value(kind, value):
     return INTS[kind].pack(ENUM_VALUES[kind][value] if kind in ENUMS else value)
 
 
-def encode(type_name, request_id, **fields):
+def encode(type_name, request_id, header_version=MIN_VERSION, **fields):
+    """A whole message in protocol `header_version`."""
+    for name, kind in FIELDS.get(type_name, []):
+        if kind == 'encoding' and not known(kind, fields[name], header_version):
+            raise ValueError(f'{type_name}.{name}: {fields[name]} needs protocol version {ENCODING_SINCE[fields[name]]}')
     body = b''.join(encode_value(kind, fields[name]) for name, kind in FIELDS.get(type_name, []))
-    return HEADER.pack(MAGIC, VERSION, TYPES.index(type_name) + 1, request_id, len(body)) + body
+    return HEADER.pack(MAGIC, header_version, TYPES.index(type_name) + 1, request_id, len(body)) + body
 
 
 def decode_header(data, max_body):
-    """(type name or None if unknown, request id, body length) of a 16-byte header."""
+    """(type name or None if unknown, request id, body length, version) of a 16-byte header."""
     magic, version, type_value, request_id, size = HEADER.unpack(data)
     if magic != MAGIC:
         raise ProtocolError('BadMagic', f'magic 0x{magic:08X}')
-    if version != VERSION:
+    if not MIN_VERSION <= version <= MAX_VERSION:
         raise ProtocolError('UnsupportedVersion', f'version {version}')
     if size > max_body:
         raise ProtocolError('TooLarge', f'body of {size} bytes exceeds {max_body}')
-    return (TYPES[type_value - 1] if 1 <= type_value <= len(TYPES) else None), request_id, size
+    return (TYPES[type_value - 1] if 1 <= type_value <= len(TYPES) else None), request_id, size, version
 
 
-def decode_body(type_name, body):
+def decode_body(type_name, body, version=MAX_VERSION):
     """The fields of a body as a dict; enums as names, strings as str, payloads as bytes."""
     offset = 0
 
@@ -101,8 +113,8 @@ def decode_body(type_name, body):
             except UnicodeDecodeError as e:
                 raise ProtocolError('Malformed', f'{type_name}.{field}: not valid UTF-8 ({e.reason})') from None
         number = INTS[kind].unpack(take(INTS[kind].size, field))[0]
-        if kind in ENUMS and number not in ENUMS[kind]:
-            raise ProtocolError('Malformed', f'{type_name}.{field}: unknown value {number}')
+        if kind in ENUMS and (number not in ENUMS[kind] or not known(kind, ENUMS[kind][number], version)):
+            raise ProtocolError('Malformed', f'{type_name}.{field}: unknown value {number} in version {version}')
         return ENUMS[kind][number] if kind in ENUMS else number
 
     message = {name: value(kind, name) for name, kind in FIELDS.get(type_name, [])}
@@ -118,9 +130,15 @@ class Client:
         self.sock = socket.create_connection((host, port), timeout=timeout)
         self.next_id = 1
         self.max_body = 64 << 20  # the largest body accepted: the default limit, or the server's if higher
+        self.version = MIN_VERSION  # the session's protocol version: Hello is written in the lowest one offered
 
-    def hello(self):
-        caps = self._call('Hello', 'Capabilities', min_version=VERSION, max_version=VERSION, client=CLIENT_NAME)
+    def hello(self, max_version=MAX_VERSION):
+        """Offers versions MIN_VERSION..max_version; the session speaks the one the server picks (self.version)."""
+        caps = self._call('Hello', 'Capabilities', min_version=MIN_VERSION, max_version=max_version,
+                          client=CLIENT_NAME)
+        if not MIN_VERSION <= caps['version'] <= max_version:
+            raise ProtocolError('UnsupportedVersion', f'the server chose version {caps["version"]}')
+        self.version = caps['version']
         self.max_body = max(self.max_body, caps['max_message_bytes'])
         return caps
 
@@ -163,16 +181,16 @@ class Client:
 
     def _send(self, type_name, **fields):
         request_id = self._new_id()
-        self.sock.sendall(encode(type_name, request_id, **fields))
+        self.sock.sendall(encode(type_name, request_id, self.version, **fields))
         return request_id
 
     def _await(self, request_id, reply_type):
         while True:
-            name, reply_id, size = decode_header(self._read(HEADER.size), self.max_body)
+            name, reply_id, size, version = decode_header(self._read(HEADER.size), self.max_body)
             body = self._read(size)
             if name is None or reply_id not in (request_id, 0):
                 continue  # a type this client does not know, or an answer to nothing it waits for
-            reply = decode_body(name, body)
+            reply = decode_body(name, body, version)
             if name == 'Error':
                 raise ProtocolError(reply['code'], reply['message'])
             if name == 'Goodbye':
@@ -194,10 +212,11 @@ def decode_file(path):
     """One message from a file as a JSON-ready dict; a payload shows as its length and CRC-32."""
     with open(path, 'rb') as f:
         data = f.read()
-    name, request_id, size = decode_header(data[:HEADER.size], 1 << 32)
+    name, request_id, size, version = decode_header(data[:HEADER.size], 1 << 32)
     if name is None or len(data) != HEADER.size + size:
         raise ProtocolError('Malformed', f'{path}: unknown type or a body that is not {size} bytes')
-    message = {'type': name, 'request_id': request_id, **decode_body(name, data[HEADER.size:])}
+    message = {'type': name, 'request_id': request_id, 'version': version,
+               **decode_body(name, data[HEADER.size:], version)}
     if 'payload' in message:
         payload = message.pop('payload')
         message.update(payload_bytes=len(payload), payload_crc32=binascii.crc32(payload))
@@ -226,6 +245,10 @@ def render_frame(args):
             scene['size'] = [int(v) for v in args.size.lower().split('x')]
         if args.progressive:
             scene['progressive'] = True
+        if args.jpeg_quality is not None:
+            scene['jpeg_quality'] = args.jpeg_quality
+        if args.encoding == 'jpeg' and client.version < 2:
+            raise ProtocolError('UnsupportedVersion', 'the server speaks protocol version 1, which has no jpeg')
 
         def provisional(width, height, encoding, stats, payload):
             root, ext = os.path.splitext(args.output)
@@ -250,6 +273,8 @@ def main():
     parser.add_argument('--orbit', help='AZ,EL[,DIST] camera orbit (degrees about the up axis, +z by default; bounding radii, default fitted)')
     parser.add_argument('--size', help='WxH image size')
     parser.add_argument('--encoding', choices=list(ENCODINGS.values()), default='png')
+    parser.add_argument('--jpeg-quality', type=int, choices=range(1, 101), metavar='1..100',
+                        help='quality of a jpeg frame (default: the server\'s)')
     parser.add_argument('--progressive', action='store_true',
                         help='coarse to fine: also write the provisional frame (beside the output) if one comes')
     parser.add_argument('-o', '--output', default='frame.png', help='where the payload is written')
@@ -261,12 +286,14 @@ def main():
     try:
         if args.encode_hello:
             with open(args.encode_hello, 'wb') as f:
-                f.write(encode('Hello', 1, min_version=VERSION, max_version=VERSION, client=CLIENT_NAME))
+                f.write(encode('Hello', 1, min_version=MIN_VERSION, max_version=MAX_VERSION, client=CLIENT_NAME))
         elif args.encode_render:
             if args.scene_json is None:
                 parser.error('--encode-render needs --scene-json')
             with open(args.encode_render, 'wb') as f:
-                f.write(encode('Render', 1, encoding=args.encoding, scene_json=args.scene_json))
+                # Written in the first version that has the encoding (jpeg: 2).
+                f.write(encode('Render', 1, ENCODING_SINCE.get(args.encoding, MIN_VERSION), encoding=args.encoding,
+                               scene_json=args.scene_json))
         elif args.decode:
             print(json.dumps(decode_file(args.decode), indent=2, ensure_ascii=False))
         elif args.address:

@@ -28,7 +28,7 @@ CheckResult checkStream(std::span<const uint8_t> bytes, const Limits& limits) {
       continue;
     }
     result.decoded.push_back(messageType(message));
-    const std::vector<uint8_t> again = encode(message, header.requestId);
+    const std::vector<uint8_t> again = encode(message, header.requestId, header.version);
     if (!std::equal(again.begin(), again.end(), wire.begin(), wire.end()))
       throw std::logic_error(std::string("checkStream: a decoded ") + messageTypeName(messageType(message)) +
                              " does not encode back to its " + std::to_string(wire.size()) + " bytes");

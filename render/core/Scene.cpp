@@ -196,10 +196,28 @@ json sceneObject(const std::string& text, const std::string& what) {
     throw RenderInputError(what + ": not valid JSON (" + e.what() + ")");
   }
   if (!j.is_object()) throw RenderInputError(what + ": a scene must be a JSON object");
-  static const char* kKeys[] = {
-      "camera", "size",        "transfer_function", "step",   "background", "window", "skip_empty",      "cull",
-      "slicer", "shading",     "sub_block",         "slab",   "raycast",    "ert",    "pre_integration", "ess",
-      "lod",    "progressive", "visibility",        "quality"};
+  static const char* kKeys[] = {"camera",
+                                "size",
+                                "transfer_function",
+                                "step",
+                                "background",
+                                "window",
+                                "skip_empty",
+                                "cull",
+                                "slicer",
+                                "shading",
+                                "sub_block",
+                                "slab",
+                                "raycast",
+                                "ert",
+                                "pre_integration",
+                                "ess",
+                                "lod",
+                                "progressive",
+                                "visibility",
+                                "quality",
+                                "jpeg_quality",
+                                "provisional_encoding"};
   for (auto it = j.begin(); it != j.end(); ++it)
     if (std::find(std::begin(kKeys), std::end(kKeys), it.key()) == std::end(kKeys))
       throw RenderInputError(what + ": unknown key '" + it.key() + "'");
@@ -254,6 +272,21 @@ QualityTarget qualityTarget(const json& j, const std::string& what) {
                              "' from the dataset's quality table; give "
                              "one or the other");
   return QualityTarget::parse(j["quality"].get<std::string>(), what + ": 'quality'");
+}
+
+/// 'jpeg_quality': an integer in [1, 100].
+int parseJpegQuality(const json& value, const std::string& what) {
+  if (!value.is_number_integer() || value.get<int64_t>() < 1 || value.get<int64_t>() > 100)
+    throw RenderInputError(what + ": 'jpeg_quality' must be an integer in [1, 100]");
+  return int(value.get<int64_t>());
+}
+
+/// 'provisional_encoding': one of Scene::kEncodingNames.
+std::string parseEncodingName(const json& value, const std::string& what) {
+  const auto& names = Scene::kEncodingNames;
+  if (value.is_string() && std::find(std::begin(names), std::end(names), value.get<std::string>()) != std::end(names))
+    return value.get<std::string>();
+  throw RenderInputError(what + ": 'provisional_encoding' must be one of \"raw\", \"png\", \"zstd\", \"jpeg\"");
 }
 
 }  // namespace
@@ -316,6 +349,8 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   if (j.contains("lod")) s.lod = number(j["lod"], "lod", what);
   if (j.contains("progressive")) s.progressive = boolean(j["progressive"], "progressive", what);
   if (j.contains("quality")) s.quality = qualityTarget(j, what);
+  if (j.contains("jpeg_quality")) s.jpegQuality = parseJpegQuality(j["jpeg_quality"], what);
+  if (j.contains("provisional_encoding")) s.provisionalEncoding = parseEncodingName(j["provisional_encoding"], what);
   s.validate();
   return s;
 }
@@ -389,6 +424,8 @@ std::string Scene::toJson() const {
             {"progressive", progressive},
             {"visibility", tetSortName(visibility)}};
   if (window) j["window"] = json::array({(*window)[0], (*window)[1]});
+  if (jpegQuality) j["jpeg_quality"] = *jpegQuality;
+  if (provisionalEncoding) j["provisional_encoding"] = *provisionalEncoding;
   if (quality) {
     // The target stands for the settings it chooses, so that the JSON reads back.
     for (const char* key : kQualityChosenKeys) j.erase(key);

@@ -165,6 +165,14 @@ struct Scene {
   /// sub_block, lod) are chosen from the dataset's quality table when the frame is drawn (render/core/Quality.h,
   /// resolveQuality in render/core/Dataset.h), replacing the scene's own; a scene with a target names none of them.
   std::optional<QualityTarget> quality;
+  /// The JPEG quality (libjpeg's scale, 1..100) of a frame sent as JPEG; absent: the server's default
+  /// (image::kDefaultJpegQuality, chosen in bench/results/jpeg.md). No effect on other encodings.
+  std::optional<int> jpegQuality;
+  /// The encoding of a request's provisional frames, by name ("raw", "png", "zstd", "jpeg"; kEncodingNames): the
+  /// server maps it to the protocol's encoding. Absent: the request's own encoding.
+  std::optional<std::string> provisionalEncoding;
+  /// The names `provisional_encoding` accepts.
+  static constexpr const char* kEncodingNames[4] = {"raw", "png", "zstd", "jpeg"};
 
   /// Parses a scene JSON object; absent keys keep their defaults. Throws RenderInputError naming `what` and the
   /// key. Keys: camera {orbit: [az, el] (fitted) or [az, el, dist], fit, up_axis, view (setView) | eye, center,
@@ -173,7 +181,8 @@ struct Scene {
   /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b] or "none",
   /// window [lo, hi], skip_empty, cull, slicer (slicerName), shading, sub_block, slab, raycast, ert,
   /// pre_integration, ess, lod, progressive, visibility (tetSortName), quality ("psnr:DB" or "ms:N"; not with
-  /// step, raycast, slab, ert, pre_integration, sub_block or lod).
+  /// step, raycast, slab, ert, pre_integration, sub_block or lod), jpeg_quality (integer 1..100),
+  /// provisional_encoding (one of kEncodingNames).
   /// `allowPaths` false (the server) accepts transfer functions by preset name or inline only, never a file path.
   static Scene fromJson(const std::string& text, const std::string& what, bool allowPaths = true);
   /// The same, resolving preset names from `presets` (no file is read) and accepting no paths: what a server does

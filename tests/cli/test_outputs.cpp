@@ -193,5 +193,19 @@ TEST(Transparency, TheServerSendsAlphaInEveryEncoding) {
   }
 }
 
+TEST(RenderSummary, SaysWhenTheFrameWasCoarsenedToFitTheAtlas) {
+  test::ScratchDir dir;
+  // 256³ f32 in 32³ bricks: the levels this view wants take about 19 MiB, more than a 16 MiB atlas holds.
+  const std::string store = test::preppedStore("synthetic:blobs,n=256", "");
+  const std::string common = "render " + store + " --size 256x256 -o " + (dir / "f.png").string();
+  const test::SplitResult small = runSplit(common + " --gpu-budget 16");
+  ASSERT_EQ(small.exitCode, 0) << small.err;
+  EXPECT_NE(small.out.find("the frame was coarsened to fit"), std::string::npos) << small.out;
+  EXPECT_NE(small.out.find("the atlas holds 15.9 MiB"), std::string::npos) << small.out;
+  const test::SplitResult roomy = runSplit(common);
+  ASSERT_EQ(roomy.exitCode, 0) << roomy.err;
+  EXPECT_EQ(roomy.out.find("coarsened to fit"), std::string::npos) << roomy.out;
+}
+
 }  // namespace
 }  // namespace voxbrick

@@ -103,3 +103,48 @@ TEST(FrameImage, AbsurdSizesAreRefusedBeforeAnythingIsAllocated) {
 
 }  // namespace
 }  // namespace voxbrick::image
+
+namespace voxbrick::image {
+namespace {
+
+/// A smooth w x h image with opaque alpha, as rendered frames are (a JPEG of noise would say little).
+Image8 gradient(int width, int height) {
+  Image8 image{width, height, std::vector<uint8_t>(size_t(width) * size_t(height) * 4, 255)};
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      uint8_t* p = &image.rgba[(size_t(y) * size_t(width) + size_t(x)) * 4];
+      p[0] = uint8_t(255 * x / width), p[1] = uint8_t(255 * y / height), p[2] = uint8_t((x + y) % 256);
+    }
+  return image;
+}
+
+TEST(FrameImage, JpegRoundTripsWithinItsLossAndDropsAlpha) {
+  Image8 image = gradient(96, 80);
+  image.rgba[3] = 7;  // an alpha that is not kept
+  const proto::Frame frame = frameOf(image, proto::Encoding::Jpeg);
+  EXPECT_EQ(frame.payload.at(0), 0xFF);
+  EXPECT_EQ(frame.payload.at(1), 0xD8);
+  const Image8 back = decodeFrameImage(frame);
+  ASSERT_EQ(back.width, 96);
+  ASSERT_EQ(back.height, 80);
+  EXPECT_EQ(back.rgba[3], 255);
+  EXPECT_GE(compareImages(toImageF(image), toImageF(back)).psnr, 30.0);
+  // Quality trades bytes for error.
+  const auto low = encodeFrameImage(image, proto::Encoding::Jpeg, 10);
+  const auto high = encodeFrameImage(image, proto::Encoding::Jpeg, 95);
+  EXPECT_LT(low.size(), high.size());
+  EXPECT_THROW(encodeFrameImage(image, proto::Encoding::Jpeg, 0), ImageFailure);
+  EXPECT_THROW(encodeFrameImage(image, proto::Encoding::Jpeg, 101), ImageFailure);
+}
+
+TEST(FrameImage, AJpegOfAnotherSizeOrCorruptIsRefused) {
+  proto::Frame frame = frameOf(gradient(40, 30), proto::Encoding::Jpeg);
+  frame.width = 41;  // the JPEG's header says 40x30
+  EXPECT_THROW(decodeFrameImage(frame), ImageFailure);
+  frame.width = 40;
+  frame.payload[1] = 0;  // no start-of-image marker: not a JPEG
+  EXPECT_THROW(decodeFrameImage(frame), ImageFailure);
+}
+
+}  // namespace
+}  // namespace voxbrick::image

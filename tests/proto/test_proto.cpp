@@ -108,6 +108,67 @@ TEST(Header, LayoutIsPinned) {
   EXPECT_EQ(hex(Bytes(bytes.begin(), bytes.end())), "56 58 42 4B 01 00 07 00 01 02 03 04 0A 0B 0C 0D");
 }
 
+TEST(Versions, JpegExistsFromVersionTwoOn) {
+  EXPECT_EQ(kMinVersion, 1u);
+  EXPECT_EQ(kMaxVersion, 2u);
+  EXPECT_EQ(uint8_t(Encoding::Jpeg), 3u);
+  EXPECT_EQ(encodingsOf(1), (std::vector<Encoding>{Encoding::RawRgba8, Encoding::Png, Encoding::ZstdRgba8}));
+  EXPECT_EQ(encodingsOf(2),
+            (std::vector<Encoding>{Encoding::RawRgba8, Encoding::Png, Encoding::ZstdRgba8, Encoding::Jpeg}));
+  EXPECT_FALSE(encodingInVersion(Encoding::Jpeg, 1));
+  EXPECT_TRUE(encodingInVersion(Encoding::Jpeg, 2));
+  EXPECT_FALSE(encodingInVersion(Encoding(4), 2));
+  EXPECT_STREQ(encodingName(Encoding::Jpeg), "jpeg");
+  EXPECT_EQ(encodingFromShortName("jpeg"), Encoding::Jpeg);
+  EXPECT_EQ(encodingFromShortName("zstd"), Encoding::ZstdRgba8);
+  EXPECT_EQ(encodingFromShortName("jpg"), std::nullopt);
+}
+
+TEST(Versions, HeadersOfEveryVersionSpokenDecode) {
+  for (uint16_t version = kMinVersion; version <= kMaxVersion; ++version) {
+    const Bytes wire = encode(ListDatasets{}, 3, version);
+    EXPECT_EQ(decodeHeaderOf(wire).version, version);
+  }
+  EXPECT_THROW(encode(ListDatasets{}, 3, 0), std::invalid_argument);
+  EXPECT_THROW(encode(ListDatasets{}, 3, kMaxVersion + 1), std::invalid_argument);
+}
+
+TEST(Versions, JpegRenderIsMalformedInVersionOneAndDecodesInVersionTwo) {
+  const Bytes body = concat({{3}, str("{}")});
+  // Version 1: refused exactly as any unknown encoding, naming the field.
+  ProtocolError e = thrown([&] { decodeBody({1, MessageType::Render, 1, uint32_t(body.size())}, body, Limits{}); });
+  EXPECT_EQ(e.code(), ErrorCode::Malformed);
+  EXPECT_STREQ(e.what(), "Render.encoding: unknown value 3 in protocol version 1");
+  // Version 2: a jpeg Render.
+  const Message decoded = decodeBody({2, MessageType::Render, 1, uint32_t(body.size())}, body, Limits{});
+  EXPECT_EQ(std::get<RenderRequest>(decoded), (RenderRequest{Encoding::Jpeg, "{}"}));
+  // And 4 is unknown in version 2.
+  const Bytes four = concat({{4}, str("{}")});
+  EXPECT_EQ(thrown([&] {
+              decodeBody({2, MessageType::Render, 1, uint32_t(four.size())}, four, Limits{});
+            }).code(),
+            ErrorCode::Malformed);
+}
+
+TEST(Versions, EncoderRefusesJpegInVersionOneAndRoundTripsItInVersionTwo) {
+  const Frame frame{4, 2, Encoding::Jpeg, "{}", {0xFF, 0xD8}};
+  EXPECT_THROW(encode(frame, 1), std::invalid_argument);
+  EXPECT_THROW(encode(RenderRequest{Encoding::Jpeg, "{}"}, 1, 1), std::invalid_argument);
+  EXPECT_THROW(encode(Capabilities{1, "s", 1, 1, 1, encodingsOf(2)}, 1, 1), std::invalid_argument);
+  const Bytes wire = encode(frame, 9, 2);
+  const Header header = decodeHeaderOf(wire);
+  EXPECT_EQ(header.version, 2u);
+  EXPECT_EQ(std::get<Frame>(decodeBody(header, std::span(wire).subspan(kHeaderBytes), Limits{})), frame);
+  // The same Capabilities, with jpeg in its encodings, decodes in a version-2 header only.
+  const Capabilities caps{2, "s", 1, 1, 1, encodingsOf(2)};
+  const Bytes capsWire = encode(caps, 1, 2);
+  Header v1 = decodeHeaderOf(capsWire);
+  EXPECT_EQ(std::get<Capabilities>(decodeBody(v1, std::span(capsWire).subspan(kHeaderBytes), Limits{})), caps);
+  v1.version = 1;
+  EXPECT_STREQ(thrown([&] { decodeBody(v1, std::span(capsWire).subspan(kHeaderBytes), Limits{}); }).what(),
+               "Capabilities.encodings[3]: unknown value 3 in protocol version 1");
+}
+
 TEST(Header, RoundTripsEveryField) {
   const Header header{kVersion, MessageType(0xBEEF), 0xFFFFFFFFu, 12345};
   const auto bytes = encodeHeader(header);
@@ -137,7 +198,7 @@ TEST(Header, BadMagicAnyByte) {
 }
 
 TEST(Header, UnsupportedVersion) {
-  for (uint16_t version : {uint16_t(0), uint16_t(2), uint16_t(0xFFFF)}) {
+  for (uint16_t version : {uint16_t(0), uint16_t(kMaxVersion + 1), uint16_t(0xFFFF)}) {
     const auto bytes = encodeHeader({version, MessageType::Hello, 1, 0});
     ProtocolError e = thrown([&] { decodeHeader(bytes, Limits{}); });
     EXPECT_EQ(e.code(), ErrorCode::UnsupportedVersion) << e.what();
@@ -296,16 +357,18 @@ TEST(Malformed, TrailingByteAfterTheLastField) {
 }
 
 TEST(Malformed, UnknownEnumValues) {
-  EXPECT_STREQ(malformed(MessageType::Render, concat({{3}, str("{}")})).what(), "Render.encoding: unknown value 3");
-  EXPECT_STREQ(malformed(MessageType::Render, concat({{255}, str("{}")})).what(), "Render.encoding: unknown value 255");
+  EXPECT_STREQ(malformed(MessageType::Render, concat({{3}, str("{}")})).what(),
+               "Render.encoding: unknown value 3 in protocol version 1");
+  EXPECT_STREQ(malformed(MessageType::Render, concat({{255}, str("{}")})).what(),
+               "Render.encoding: unknown value 255 in protocol version 1");
   EXPECT_STREQ(malformed(MessageType::Frame, concat({u32(1), u32(1), {7}, str(""), u32(0)})).what(),
-               "Frame.encoding: unknown value 7");
+               "Frame.encoding: unknown value 7 in protocol version 1");
   EXPECT_STREQ(
       malformed(MessageType::Capabilities, concat({u16(1), str(""), u32(0), u32(0), u32(0), u32(3), {1, 9, 0}})).what(),
-      "Capabilities.encodings[1]: unknown value 9");
+      "Capabilities.encodings[1]: unknown value 9 in protocol version 1");
   for (uint16_t code : {uint16_t(0), uint16_t(14), uint16_t(0xFFFF)})
     EXPECT_EQ(std::string(malformed(MessageType::Error, concat({u16(code), str("x")})).what()),
-              "Error.code: unknown value " + std::to_string(code));
+              "Error.code: unknown value " + std::to_string(code) + " in protocol version 1");
 }
 
 TEST(Malformed, StringOverTheLimit) {
@@ -424,6 +487,7 @@ TEST(FuzzCorpus, EveryFileReplaysThroughTheFuzzCheck) {
       {"bad-error-code", {ErrorCode::Malformed}},    {"bad-string-limit", {ErrorCode::Malformed}},
       {"bad-list-count", {ErrorCode::Malformed}},    {"bad-huge-length", {ErrorCode::Malformed}},
       {"bad-utf8", {ErrorCode::Malformed}},          {"bad-unknown-type-then-goodbye", {ErrorCode::UnknownType}},
+      {"bad-encoding-v2", {ErrorCode::Malformed}},
   };
   std::set<MessageType> decodedTypes;
   size_t files = 0;

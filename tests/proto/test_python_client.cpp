@@ -34,7 +34,7 @@ std::pair<Header, Message> decodeFile(const std::filesystem::path& path) {
   EXPECT_GE(wire.size(), kHeaderBytes);
   const Header header = decodeHeader(std::span<const uint8_t, kHeaderBytes>(wire.data(), kHeaderBytes), Limits{});
   const Message message = decodeBody(header, std::span(wire).subspan(kHeaderBytes), Limits{});
-  EXPECT_EQ(encode(message, header.requestId), wire);
+  EXPECT_EQ(encode(message, header.requestId, header.version), wire);
   return {header, message};
 }
 
@@ -56,9 +56,34 @@ TEST(PythonClient, CppDecodesThePythonHello) {
   EXPECT_EQ(header.version, kVersion);
   EXPECT_EQ(header.requestId, 1u);
   const Hello& hello = std::get<Hello>(message);
-  EXPECT_EQ(hello.minVersion, kVersion);
-  EXPECT_EQ(hello.maxVersion, kVersion);
+  EXPECT_EQ(hello.minVersion, kMinVersion);
+  EXPECT_EQ(hello.maxVersion, kMaxVersion);  // it speaks version 2 when the server offers it
   EXPECT_EQ(hello.client, "voxbrick_client.py 1");
+}
+
+// jpeg exists from version 2 on: the Python client writes a jpeg Render in a version-2 header, and refuses a jpeg
+// value in a version-1 message as the C++ decoder does.
+TEST(PythonClient, JpegTravelsInVersionTwoOnly) {
+  ScratchDir dir;
+  const auto result =
+      runShell(kClient + " --encode-render " + (dir / "render.bin").string() + " --encoding jpeg --scene-json '{}'");
+  ASSERT_EQ(result.exitCode, 0) << result.output;
+  const auto [header, message] = decodeFile(dir / "render.bin");
+  EXPECT_EQ(header.version, 2u);
+  EXPECT_EQ(std::get<RenderRequest>(message).encoding, Encoding::Jpeg);
+
+  const Frame frame{3, 2, Encoding::Jpeg, R"({"provisional": false})", {0xFF, 0xD8, 0xFF, 0xD9}};
+  const nlohmann::json decoded = pythonDecode(encode(frame, 5, 2));
+  EXPECT_EQ(decoded["encoding"], "jpeg");
+  EXPECT_EQ(decoded["version"], 2);
+  EXPECT_EQ(decoded["payload_bytes"], 4);
+  Bytes v1 = encode(frame, 5, 2);
+  v1[4] = 1;  // the same bytes in a version-1 header
+  ScratchDir bad;
+  voxbrick::test::writeFile(bad / "message.bin", v1.data(), v1.size());
+  const auto refused = runShell(kClient + " --decode " + (bad / "message.bin").string() + " 2>&1");
+  EXPECT_NE(refused.exitCode, 0);
+  EXPECT_NE(refused.output.find("Frame.encoding: unknown value 3"), std::string::npos) << refused.output;
 }
 
 TEST(PythonClient, CppDecodesThePythonRender) {

@@ -63,6 +63,25 @@ TEST(SceneJson, ErrorsNameTheKey) {
   expectError("{\"transfer_function\": {\"points\": []}}", "transfer_function");
   expectError("{\"transfer_function\": 7}", "transfer_function");
   expectError("not json", "not valid JSON");
+  expectError("{\"jpeg_quality\": 0}", "'jpeg_quality' must be an integer in [1, 100]");
+  expectError("{\"jpeg_quality\": 85.5}", "'jpeg_quality'");
+  expectError("{\"provisional_encoding\": \"webp\"}", "'provisional_encoding' must be one of");
+  expectError("{\"provisional_encoding\": 3}", "'provisional_encoding'");
+}
+
+TEST(SceneJson, FrameEncodingKeys) {
+  const Scene plain = Scene::fromJson("{}", "scene");
+  EXPECT_FALSE(plain.jpegQuality);
+  EXPECT_FALSE(plain.provisionalEncoding);
+  const Scene s = Scene::fromJson(R"({"jpeg_quality": 60, "provisional_encoding": "jpeg"})", "scene");
+  EXPECT_EQ(s.jpegQuality, 60);
+  EXPECT_EQ(s.provisionalEncoding, "jpeg");
+  const Scene back = Scene::fromJson(s.toJson(), "scene");
+  EXPECT_EQ(back.jpegQuality, 60);
+  EXPECT_EQ(back.provisionalEncoding, "jpeg");
+  for (const char* name : Scene::kEncodingNames)
+    EXPECT_EQ(Scene::fromJson(std::string(R"({"provisional_encoding": ")") + name + "\"}", "scene").provisionalEncoding,
+              name);
 }
 
 TEST(SceneJson, EverySlicerByName) {

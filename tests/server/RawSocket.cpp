@@ -183,6 +183,7 @@ std::optional<std::pair<uint32_t, proto::Message>> RawSocket::take() {
   const std::vector<uint8_t> body(mInput.begin() + proto::kHeaderBytes,
                                   mInput.begin() + long(proto::kHeaderBytes + header.bodyBytes));
   mInput.erase(mInput.begin(), mInput.begin() + long(proto::kHeaderBytes + header.bodyBytes));
+  mLastHeader = header;
   return std::make_pair(header.requestId, proto::decodeBody(header, body, limits));
 }
 

@@ -67,6 +67,8 @@ class RawSocket {
 
   /// One WebSocket frame from the client: masked, `opcode` (1 text, 2 binary, 0 continuation), final or not.
   static std::vector<uint8_t> webSocketFrame(std::span<const uint8_t> payload, int opcode, bool final);
+  /// The header of the last message receive() returned (its version, its request id).
+  const proto::Header& lastHeader() const { return mLastHeader; }
 
  private:
   /// Reads what arrives within `timeout` into mInput; false once the connection closed or failed.
@@ -84,6 +86,7 @@ class RawSocket {
   std::string mRefusedBody;
   std::vector<uint8_t> mInput;
   std::vector<uint8_t> mFragments;  ///< payload of a WebSocket message whose last frame has not arrived
+  proto::Header mLastHeader;
 };
 
 }  // namespace voxbrick::test

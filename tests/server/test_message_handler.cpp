@@ -73,13 +73,22 @@ ErrorCode errorCode(const Outcome& outcome, uint32_t id = 1) {
 TEST_F(MessageHandlerTest, HelloGetsCapabilities) {
   const Outcome o = handle(proto::Hello{1, 3, "test"}, 9);
   const auto caps = onlyReply<proto::Capabilities>(o, 9);
-  EXPECT_EQ(caps.version, proto::kVersion);
+  EXPECT_EQ(caps.version, proto::kMaxVersion);  // the highest both speak
+  EXPECT_EQ(state.version, proto::kMaxVersion);
   EXPECT_EQ(caps.maxImageSide, 100u);
   EXPECT_EQ(caps.maxMessageBytes, 65536u);
   EXPECT_EQ(caps.maxQueuedPerSession, 1u);
-  EXPECT_EQ(caps.encodings.size(), 3u);
+  EXPECT_EQ(caps.encodings, proto::encodingsOf(2));
   EXPECT_FALSE(o.close);
   EXPECT_TRUE(state.greeted);
+}
+
+TEST_F(MessageHandlerTest, AVersionOneHelloGetsAVersionOneSessionWithoutJpeg) {
+  const auto caps = onlyReply<proto::Capabilities>(handle(proto::Hello{1, 1, "old"}, 9), 9);
+  EXPECT_EQ(caps.version, 1u);
+  EXPECT_EQ(state.version, 1u);
+  EXPECT_EQ(caps.encodings, (std::vector<proto::Encoding>{proto::Encoding::RawRgba8, proto::Encoding::Png,
+                                                          proto::Encoding::ZstdRgba8}));
 }
 
 TEST_F(MessageHandlerTest, WithoutCoalescingCapabilitiesAllowMoreQueued) {
@@ -98,7 +107,7 @@ TEST_F(MessageHandlerTest, SecondHelloIsUnexpected) {
 }
 
 TEST_F(MessageHandlerTest, UnsupportedVersionIsRefusedAndCloses) {
-  for (const proto::Hello& hello : {proto::Hello{2, 3, "future"}, proto::Hello{0, 0, "past"}}) {
+  for (const proto::Hello& hello : {proto::Hello{3, 4, "future"}, proto::Hello{0, 0, "past"}}) {
     const Outcome o = handle(hello, 4);
     EXPECT_EQ(errorCode(o, 4), ErrorCode::UnsupportedVersion) << hello.client;
     EXPECT_TRUE(o.close) << hello.client;

@@ -361,7 +361,7 @@ TEST_F(ServerTest, MalformedMessagesGetTheirErrorsAndOtherSessionsGoOn) {
   }
   {
     Client c("127.0.0.1", server->port());
-    c.send(proto::Hello{2, 3, "future"});
+    c.send(proto::Hello{3, 4, "future"});  // this server speaks 1 and 2
     EXPECT_EQ(errorsUntilClosed(c), std::vector<ErrorCode>{ErrorCode::UnsupportedVersion});
   }
   {  // a client that leaves mid-frame
