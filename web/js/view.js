@@ -133,11 +133,12 @@ export function buildScene(view, meta, size, phase, features) {
     // A provisional frame within the time budget, then (when the camera rests) the exact frame of the same id.
     scene.interactive = true;
     if (features.time_budget_ms) scene.time_budget_ms = DRAG_TIME_BUDGET_MS;
-    if (features.provisional_encoding && features.jpeg) scene.provisional_encoding = "jpeg";
   } else if (features.progressive) {
     // Bricks not yet in memory stand in from a coarser level; the exact frame follows.
     scene.progressive = true;
   }
+  // While the camera moves, provisional frames travel as jpeg; the exact frame keeps the Render's encoding (png).
+  if (phase === "drag" && features.provisional_encoding && features.jpeg) scene.provisional_encoding = "jpeg";
   return scene;
 }
 
