@@ -140,6 +140,8 @@ try {
     latency_p50_ms: mean(tabResults.map((r) => r.latency_p50_ms).filter((v) => v !== null)),
     latency_p99_ms: allLat.length ? Math.max(...allLat) : null,
     bytes_per_frame: mean(tabResults.map((r) => r.bytes_per_frame).filter((v) => v !== null)),
+    provisional: tabResults.reduce((a, r) => a + r.provisional, 0),
+    jpeg_frames: tabResults.reduce((a, r) => a + r.jpeg_frames, 0),
     exact_after_release_ms: pct(
       tabResults.map((r) => r.exact_after_release_ms).filter((v) => v !== null),
       0.5,
@@ -180,6 +182,8 @@ const cols = [
   "latency_p50_ms",
   "latency_p99_ms",
   "bytes_per_frame",
+  "provisional",
+  "jpeg_frames",
   "exact_after_release_ms",
   "errors",
 ];
@@ -209,12 +213,14 @@ const md = [
     "on the canvas; TCP: from the request sent to its frame received). Frames per second: frames shown (browser) or " +
     "received (TCP, per client) a second while dragging.",
   "",
-  "| run | size | frames | frames/s | latency p50 ms | latency p99 ms | bytes/frame | exact after release ms | errors |",
-  "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+  "| run | size | frames | frames/s | latency p50 ms | latency p99 ms | bytes/frame | provisional (jpeg) | " +
+    "exact after release ms | errors |",
+  "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
   ...rows.map(
     (r) =>
       `| ${r.run} | ${r.size}² | ${r.frames} | ${fmt(r.fps)} | ${fmt(r.latency_p50_ms, 0)} | ${fmt(r.latency_p99_ms, 0)} | ` +
-      `${fmt(r.bytes_per_frame, 0)} | ${fmt(r.exact_after_release_ms, 0)} | ${r.errors} |`,
+      `${fmt(r.bytes_per_frame, 0)} | ${r.provisional === undefined ? "" : `${r.provisional} (${r.jpeg_frames})`} | ` +
+      `${fmt(r.exact_after_release_ms, 0)} | ${r.errors} |`,
   ),
   "",
   `The ${opt.tabs}-tab row gives the mean frames per second and p50 over the tabs, and the worst tab's p99.`,
