@@ -13,6 +13,7 @@ import fs from "node:fs";
 import os from "node:os";
 import path from "node:path";
 import * as H from "../tests/browser/harness.mjs";
+import { DRAG_TIME_BUDGET_MS } from "../web/js/view.js";
 
 const args = Object.fromEntries(
   process.argv
@@ -67,18 +68,15 @@ async function tabDrag(page, durationMs) {
   };
 }
 
-/// `voxbrick load --drag` (run beside the event loop, which the tabs need): its JSON report.
-function tcpDrag(server, size, clients, duration, json) {
-  const argv = [
-    "load",
-    `127.0.0.1:${server.tcpPort}`,
-    "--dataset",
-    opt.dataset,
-    "--tf",
-    opt.tf,
-    "--clients",
-    String(clients),
-  ].concat(["--duration", String(duration), "--size", `${size}x${size}`, "--drag", String(opt.hz), "--json", json]);
+/// `voxbrick load --drag` (run beside the event loop, which the tabs need): its JSON report. Its drag is the page's:
+/// the same orbit and step, png exact frames, and the page's keys for a moving camera where the server took them.
+function tcpDrag(server, size, clients, duration, json, features) {
+  const argv = ["load", `127.0.0.1:${server.tcpPort}`, "--dataset", opt.dataset, "--tf", opt.tf, "--step", "0.75"]
+    .concat(["--clients", String(clients), "--duration", String(duration), "--size", `${size}x${size}`])
+    .concat(["--drag", String(opt.hz), "--encoding", "png", "--json", json]);
+  if (features.interactive) argv.push("--interactive", String(DRAG_TIME_BUDGET_MS));
+  if (features.interactive && features.jpeg && features.provisional_encoding)
+    argv.push("--provisional-encoding", "jpeg");
   return new Promise((resolve, reject) => {
     const p = spawn(H.VOXBRICK, argv, { stdio: ["ignore", "pipe", "pipe"] });
     let out = "";
@@ -86,10 +84,24 @@ function tcpDrag(server, size, clients, duration, json) {
     p.stderr.on("data", (d) => (out += d));
     p.on("exit", (code) => {
       if (code !== 0) return reject(new Error(`voxbrick load failed (${code}): ${out}`));
-      resolve({ ...JSON.parse(fs.readFileSync(json, "utf8")), summary: out.trim() });
+      resolve({ ...JSON.parse(fs.readFileSync(json, "utf8")), summary: out.trim(), argv });
     });
   });
 }
+
+/// A row of the table from `voxbrick load`'s report; frames per second per client.
+const tcpRow = (run, size, t, clients) => ({
+  run,
+  size,
+  frames: t.frames,
+  fps: t.frames_per_s / Math.max(1, clients),
+  latency_p50_ms: t.latency_ms.p50,
+  latency_p99_ms: t.latency_ms.p99,
+  bytes_per_frame: t.payload_bytes_per_frame ?? null,
+  provisional: t.provisional,
+  exact_after_release_ms: null,
+  errors: t.errors,
+});
 
 async function openTab(browser, server, size) {
   const url = `${server.url}/?dataset=${opt.dataset}&tf=${opt.tf}&orbit=0,${ORBIT.el},${ORBIT.dist}&size=${size}x${size}`;
@@ -104,6 +116,7 @@ if (opt.renderThreads) extra.push("--render-threads", opt.renderThreads);
 const server = await new H.Server({ dir: scratch.dir, datasets: opt.datasets, extra }).start();
 const browser = await H.launchBrowser();
 const rows = [];
+let features = {}; // the keys for a moving camera the server took, as the first tab found
 const report = { options: opt, started: new Date().toISOString() };
 try {
   for (const size of opt.sizes) {
@@ -111,24 +124,18 @@ try {
     const b = await tabDrag(page, opt.duration * 1000);
     await page.close();
     rows.push({ run: "browser, 1 tab", size, ...b });
-    const t = await tcpDrag(server, size, 1, opt.duration, path.join(scratch.dir, `tcp-${size}.json`));
-    rows.push({
-      run: "TCP client (voxbrick load --drag)",
-      size,
-      frames: t.frames,
-      fps: t.frames_per_s,
-      latency_p50_ms: t.latency_ms.p50,
-      latency_p99_ms: t.latency_ms.p99,
-      bytes_per_frame: null,
-      exact_after_release_ms: null,
-      errors: t.errors,
-    });
+    features = b.features;
+    const t = await tcpDrag(server, size, 1, opt.duration, path.join(scratch.dir, `tcp-${size}.json`), features);
+    rows.push(tcpRow("TCP client (voxbrick load --drag)", size, t, 1));
+    report.tcp_command = `voxbrick ${t.argv.join(" ")}`
+      .replace(/127\.0\.0\.1:\d+/, "127.0.0.1:PORT")
+      .replace(/--json \S+/, "--json FILE");
   }
   // Tabs and TCP clients at once: every tab drags while the load tool's clients do.
   const tabs = [];
   for (let i = 0; i < opt.tabs; ++i) tabs.push(await openTab(browser, server, opt.multiSize));
   const tcpJson = path.join(scratch.dir, "tcp-multi.json");
-  const tcp = tcpDrag(server, opt.multiSize, opt.clients, opt.duration, tcpJson);
+  const tcp = tcpDrag(server, opt.multiSize, opt.clients, opt.duration, tcpJson, features);
   const tabResults = await Promise.all(tabs.map((p) => tabDrag(p, opt.duration * 1000)));
   const t = await tcp;
   const allLat = tabResults.flatMap((r) => [r.latency_p99_ms]).filter((v) => v !== null);
@@ -148,17 +155,7 @@ try {
     ),
     errors: tabResults.reduce((a, r) => a + r.errors, 0),
   });
-  rows.push({
-    run: `TCP, ${opt.clients} clients beside ${opt.tabs} tabs`,
-    size: opt.multiSize,
-    frames: t.frames,
-    fps: t.frames_per_s / Math.max(1, opt.clients),
-    latency_p50_ms: t.latency_ms.p50,
-    latency_p99_ms: t.latency_ms.p99,
-    bytes_per_frame: null,
-    exact_after_release_ms: null,
-    errors: t.errors,
-  });
+  rows.push(tcpRow(`TCP, ${opt.clients} clients beside ${opt.tabs} tabs`, opt.multiSize, t, opt.clients));
   report.tabs = tabResults;
   report.tcp_multi = t;
   await Promise.all(tabs.map((p) => p.close()));
@@ -193,9 +190,10 @@ const csv = [cols.join(",")].concat(
 fs.mkdirSync(path.dirname(opt.out), { recursive: true });
 fs.writeFileSync(`${opt.out}.csv`, csv.join("\n") + "\n");
 fs.writeFileSync(`${opt.out}.json`, JSON.stringify({ ...report, rows, machine, command }, null, 2) + "\n");
-const features = rows[0].features || {};
-const taken = ["interactive", "progressive"].filter((k) => features[k]);
-const refused = ["interactive", "progressive"].filter((k) => !features[k]);
+const moving = features.interactive
+  ? `interactive, time budget ${features.time_budget_ms ? `${DRAG_TIME_BUDGET_MS} ms` : "the server's"}, provisional ` +
+    `frames ${features.jpeg && features.provisional_encoding ? "jpeg" : "png"}`
+  : `${features.progressive ? "progressive" : "plain Renders"} (this server refused interactive)`;
 const md = [
   `# Camera drag: browser and TCP client side by side`,
   "",
@@ -204,11 +202,8 @@ const md = [
   `- Machine: ${machine}`,
   `- Dataset \`${opt.dataset}\`, transfer function \`${opt.tf}\`; a drag of ${opt.duration} s at ${opt.hz} Hz, ${DEG_PER_MOVE}° a move, ` +
     `orbit elevation ${ORBIT.el}, distance ${ORBIT.dist} radii. The browser's drag runs in the page through its own gesture handlers.`,
-  `- Moving frames asked with: ${taken.join(", ") || "plain Renders"}` +
-    (features.interactive
-      ? ` (time budget: ${features.time_budget_ms ? "yes" : "no"}, jpeg provisional frames: ${features.jpeg && features.provisional_encoding ? "yes" : "no"})`
-      : "") +
-    (refused.length ? `; refused by this server: ${refused.join(", ")}.` : "."),
+  `- TCP clients: \`${report.tcp_command || ""}\` (and the same with --clients ${opt.clients} at ${opt.multiSize}²).`,
+  `- Frames while the camera moves: ${moving}; exact frames png.`,
   "- Latency: the age of the camera each shown frame was drawn for (browser: from the camera change to the frame drawn " +
     "on the canvas; TCP: from the request sent to its frame received). Frames per second: frames shown (browser) or " +
     "received (TCP, per client) a second while dragging.",
@@ -219,7 +214,7 @@ const md = [
   ...rows.map(
     (r) =>
       `| ${r.run} | ${r.size}² | ${r.frames} | ${fmt(r.fps)} | ${fmt(r.latency_p50_ms, 0)} | ${fmt(r.latency_p99_ms, 0)} | ` +
-      `${fmt(r.bytes_per_frame, 0)} | ${r.provisional === undefined ? "" : `${r.provisional} (${r.jpeg_frames})`} | ` +
+      `${fmt(r.bytes_per_frame, 0)} | ${r.provisional ?? ""}${r.jpeg_frames === undefined ? "" : ` (${r.jpeg_frames})`} | ` +
       `${fmt(r.exact_after_release_ms, 0)} | ${r.errors} |`,
   ),
   "",
