@@ -1,6 +1,6 @@
 // The Asio half every transport of a connection shares: the strand its handlers run on, the three deadline timers,
 // the render sink that posts frames to the strand, and completion handlers that close the connection instead of
-// letting an exception out of Asio. A transport (TcpSession; a WebSocket session alike) derives from it and adds only
+// letting an exception out of Asio. A transport (TcpSession, WebSocketSession) derives from it and adds only
 // its stream: readMessage, write and close of Transport. No socket type here.
 #pragma once
 

@@ -69,7 +69,8 @@ class Connection {
   std::optional<proto::Header> headerReceived(std::span<const uint8_t, proto::kHeaderBytes> bytes);
   /// The body of the message whose header was accepted last (exactly its bodyBytes long).
   void bodyReceived(std::span<const uint8_t> body);
-  /// A whole message, header and body, from a transport that delimits messages itself (one WebSocket message).
+  /// A whole message, header and body, from a transport that delimits messages itself (WebSocketSession uses it
+  /// for a message shorter than a header).
   void received(std::span<const uint8_t> message);
   /// The transport found the stream unusable (a WebSocket text message, a message longer than its header
   /// announces): answers an Error with `code` and request id 0, and closes.

@@ -1,6 +1,6 @@
 // What a Connection (the transport-independent rules of one client connection) asks of the transport under it:
 // read one message, write one encoded message, run three deadlines, close. No Asio here: the TCP session
-// (TcpSession) implements it with framing and socket I/O, a WebSocket session would with one binary message per
+// (TcpSession) implements it with framing and socket I/O, WebSocketSession with one binary message per
 // protocol message, a test with a recording fake.
 #pragma once
 

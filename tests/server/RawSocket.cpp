@@ -173,6 +173,7 @@ std::optional<std::pair<uint32_t, proto::Message>> RawSocket::take() {
     if (!message || message->size() < proto::kHeaderBytes) return std::nullopt;
     const proto::Header header = proto::decodeHeader(
         std::span<const uint8_t, proto::kHeaderBytes>(message->data(), proto::kHeaderBytes), limits);
+    mLastHeader = header;
     return std::make_pair(header.requestId,
                           proto::decodeBody(header, std::span(*message).subspan(proto::kHeaderBytes), limits));
   }

@@ -59,6 +59,8 @@ class RawSocket {
   bool waitClosed(std::chrono::milliseconds timeout, std::vector<proto::ErrorCode>* codes = nullptr);
   /// Whether the server closed the connection (seen by a read; over WebSocket, a close frame counts).
   bool closed() const { return mClosed; }
+  /// The header of the last message receive() returned (its version, its request id).
+  const proto::Header& lastHeader() const { return mLastHeader; }
   /// The WebSocket close code the server sent (0: none seen).
   int closeCode() const { return mCloseCode; }
   /// The HTTP status that refused the upgrade (0: not refused, or closed without a reply).
@@ -67,8 +69,6 @@ class RawSocket {
 
   /// One WebSocket frame from the client: masked, `opcode` (1 text, 2 binary, 0 continuation), final or not.
   static std::vector<uint8_t> webSocketFrame(std::span<const uint8_t> payload, int opcode, bool final);
-  /// The header of the last message receive() returned (its version, its request id).
-  const proto::Header& lastHeader() const { return mLastHeader; }
 
  private:
   /// Reads what arrives within `timeout` into mInput; false once the connection closed or failed.
@@ -85,8 +85,8 @@ class RawSocket {
   int mCloseCode = 0, mRefusedStatus = 0;
   std::string mRefusedBody;
   std::vector<uint8_t> mInput;
-  std::vector<uint8_t> mFragments;  ///< payload of a WebSocket message whose last frame has not arrived
   proto::Header mLastHeader;
+  std::vector<uint8_t> mFragments;  ///< payload of a WebSocket message whose last frame has not arrived
 };
 
 }  // namespace voxbrick::test
