@@ -1,21 +1,27 @@
 #!/usr/bin/env bash
-# Prep throughput, side by side: MB/s of raw input (bytes / wall time) for threads 1 and 2, for this build and
-# (with --base) a previous voxbrick binary, on synthetic fields and on files; `zstd -1` alone on the same raw bytes;
-# the CPU time of field evaluation, of the brick path and of the OpenVDB grid apart; and a check that both binaries
-# write the same store (bench/store_digest.sh over every file). Writes bench/results/prep.{csv,md}.
+# Prep throughput against `zstd -1` on the same bytes, side by side in one run: raw f32 files of 512³ and 1024³ (the
+# blobs field written as raw once, so that field evaluation is not measured), each prepped with its OpenVDB grid
+# (the default, and --vdb-compression blosc as before), with --no-vdb, and compressed by `zstd -1` alone (to
+# /dev/null, and to a file beside the store). MB/s = raw bytes / wall seconds; CPU = user + system seconds; peak RSS.
+# Prep runs with --threads T and zstd with -TT, for each T of --threads. The phases prep reports (--timings) are kept
+# too. With --base, an older voxbrick binary runs beside this build, and both must write the same stores
+# (bench/store_digest.sh over every file). Writes bench/results/prep.{csv,md} and prep-phases.csv.
 #
-#   bash bench/run_prep.sh [--base OLD_VOXBRICK] [--repeats 3] [--big-repeats 1] [--work bench/work/prep]
+#   bash bench/run_prep.sh [--base OLD_VOXBRICK] [--threads "2"] [--repeats 3] [--big-repeats 1] [--sizes "512 1024"]
+#                          [--work bench/work/prep]
 #
-# Runs alternate between binaries and thread counts so that load from other work hits them alike; medians of
-# --repeats runs (--big-repeats for the 1024³ field, about a minute a run).
+# Runs alternate between tools so that load from other work hits them alike; medians of --repeats runs
+# (--big-repeats for 1024³, about half a minute a run). --sizes 256 makes a quick smoke run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-base="" repeats=3 big=1 work=bench/work/prep
+base="" repeats=3 big=1 work=bench/work/prep threads="2" sizes="512 1024"
 while [ $# -gt 0 ]; do
   case "$1" in
     --base) base=$(realpath "$2"); shift 2 ;;
+    --threads) threads=$2; shift 2 ;;
     --repeats) repeats=$2; shift 2 ;;
     --big-repeats) big=$2; shift 2 ;;
+    --sizes) sizes=$2; shift 2 ;;
     --work) work=$2; shift 2 ;;
     *) echo "run_prep.sh: unknown option $1" >&2; exit 2 ;;
   esac
@@ -23,21 +29,22 @@ done
 new=build/voxbrick
 [ -x "$new" ] && [ -x build/bench/bench_store ] || { echo "run_prep.sh: build first (bash scripts/build.sh)" >&2; exit 2; }
 mkdir -p "$work" bench/results
-bins=(new)
-[ -n "$base" ] && bins=(base new)
-binary() { if [ "$1" = base ]; then echo "$base"; else echo "$new"; fi; }
+load_start=$(uptime | sed 's/.*load average: //')
 mri=/usr/share/mricron/templates/ch2better.nii.gz
-raw=$work/blobs-512.raw
-[ -f "$raw" ] || build/bench/bench_store --make-raw "$raw" --spec blobs,n=512 > /dev/null
+for n in $sizes; do
+  [ -f "$work/blobs-$n.raw" ] || build/bench/bench_store --make-raw "$work/blobs-$n.raw" --spec "blobs,n=$n" > /dev/null
+done
 
-csv=bench/results/prep.csv
+csv=bench/results/prep.csv phases=bench/results/prep-phases.csv
 echo "tool,input,threads,run,wall_s,cpu_s,peak_rss_mb,raw_mb,mb_per_s" > "$csv"
-timed() {  # timed TOOL INPUT THREADS RUN RAW_BYTES COMMAND...: one run, one CSV row
-  local tool=$1 input=$2 threads=$3 run=$4 bytes=$5
+echo "tool,input,threads,run,phase,wall_s,cpu_s" > "$phases"
+timed() {  # timed TOOL INPUT THREADS RUN RAW_BYTES COMMAND...: one run, one CSV row; its stdout kept in $work/out
+  local tool=$1 input=$2 t=$3 run=$4 bytes=$5
   shift 5
-  /usr/bin/time -f "%e %U %S %M" -o "$work/time" "$@" > /dev/null
+  sync  # the previous run's dirty pages are not this run's to write
+  /usr/bin/time -f "%e %U %S %M" -o "$work/time" "$@" > "$work/out"
   read -r wall user sys rss < "$work/time"
-  python3 - "$tool" "$input" "$threads" "$run" "$wall" "$user" "$sys" "$rss" "$bytes" <<'EOF' | tee -a "$csv"
+  python3 - "$tool" "$input" "$t" "$run" "$wall" "$user" "$sys" "$rss" "$bytes" <<'EOF' | tee -a "$csv"
 import csv, sys
 tool, name, threads, run, wall, user, system, rss, size = sys.argv[1:]
 w, b = float(wall), float(size)
@@ -46,86 +53,127 @@ csv.writer(sys.stdout, lineterminator="\n").writerow(
      f"{b / 1e6 / w:.1f}"])
 EOF
 }
-prep() {  # prep BIN INPUT_NAME THREADS RUN RAW_BYTES ARGS...
-  local bin=$1 name=$2 threads=$3 run=$4 bytes=$5
-  shift 5
-  timed "prep-$bin" "$name" "$threads" "$run" "$bytes" "$(binary "$bin")" prep "$@" --threads "$threads" \
-    -o "$work/out.vbs" --force -q
+prep() {  # prep BINARY TOOL INPUT_NAME THREADS RUN RAW_BYTES ARGS...
+  local bin=$1 tool=$2 name=$3 t=$4 run=$5 bytes=$6
+  shift 6
+  local timings=()
+  [ "$bin" = "$new" ] && timings=(--timings)
+  timed "$tool" "$name" "$t" "$run" "$bytes" "$bin" prep "$@" --threads "$t" -o "$work/out.vbs" --force -q \
+    "${timings[@]}"
+  python3 - "$tool" "$name" "$t" "$run" "$work/out" >> "$phases" <<'EOF'
+import csv, re, sys
+tool, name, threads, run, out = sys.argv[1:]
+w = csv.writer(sys.stdout, lineterminator="\n")
+for line in open(out):
+    m = re.match(r"prep:   (.+?)\s+([\d.]+) s wall\s+([\d.]+) s CPU", line)
+    if m: w.writerow([tool, name, threads, run, m.group(1), m.group(2), m.group(3)])
+EOF
 }
 
-# 1. The same store from both binaries, threads 1 and 2 (with and without the grid, several chunks).
+# 1. The same store from both binaries, threads 1 and 2: the grid as before (--vdb-compression blosc), and with the
+#    default (auto: blosc only where it halves the bytes, so noisy chunks are written without it).
+identical=""
 if [ -n "$base" ]; then
-  identical=""
+  first=$(echo "$sizes" | cut -d' ' -f1)
   for input in "synthetic:blobs,n=256" "synthetic:sparse,n=256 --vdb-chunk 40" "$mri" \
-               "$raw --dims 512,512,512 --type f32 --no-vdb --brick 16"; do
-    for bin in base new; do
-      for t in 1 2; do
-        # shellcheck disable=SC2086
-        "$(binary $bin)" prep $input --threads $t -o "$work/id-$bin-$t.vbs" --force -q > /dev/null
-        bash bench/store_digest.sh "$work/id-$bin-$t.vbs" > "$work/id-$bin-$t.sha"
-      done
-    done
+               "$work/blobs-$first.raw --dims $first,$first,$first --type f32 --no-vdb --brick 16"; do
+    digest() {  # digest NAME BINARY ARGS...
+      local name=$1 bin=$2
+      shift 2
+      # shellcheck disable=SC2086
+      "$bin" prep $input "$@" -o "$work/id.vbs" --force -q > /dev/null
+      bash bench/store_digest.sh "$work/id.vbs" > "$work/id-$name.sha"
+    }
+    digest base-1 "$base" --threads 1
+    digest base-2 "$base" --threads 2
+    digest blosc-1 "$new" --threads 1 --vdb-compression blosc
+    digest blosc-2 "$new" --threads 2 --vdb-compression blosc
+    digest auto-1 "$new" --threads 1
+    digest auto-2 "$new" --threads 2
     same=yes
-    for f in base-2 new-1 new-2; do cmp -s "$work/id-base-1.sha" "$work/id-$f.sha" || same=no; done
-    identical+="| \`$input\` | $(wc -l < "$work/id-base-1.sha") | $same |"$'\n'
-    rm -rf "$work"/id-*.vbs
+    for f in base-2 blosc-1 blosc-2; do cmp -s "$work/id-base-1.sha" "$work/id-$f.sha" || same=no; done
+    auto=yes
+    cmp -s "$work/id-auto-1.sha" "$work/id-auto-2.sha" || auto="no (threads differ)"
+    if [ "$auto" = yes ] && ! cmp -s "$work/id-base-1.sha" "$work/id-auto-1.sha"; then
+      auto="no: $({ diff "$work/id-base-1.sha" "$work/id-auto-1.sha" || true; } | grep -c '^>') files (the .vdb files without blosc, store.json their size)"
+    fi
+    identical+="| \`$input\` | $(wc -l < "$work/id-base-1.sha") | $same | $auto |"$'\n'
   done
+  rm -rf "$work/id.vbs" "$work"/id-*.sha
 fi
 
-# 2. Throughput, alternating binaries and threads.
+# 2. Throughput, tools alternating within each repeat.
+for n in $sizes; do
+  raw=$work/blobs-$n.raw bytes=$((n ** 3 * 4)) name="raw f32 $n³ (blobs)"
+  reps=$repeats
+  [ "$n" -ge 1024 ] && reps=$big
+  for ((r = 1; r <= reps; ++r)); do
+    for t in $threads; do
+      prep "$new" prep "$name" "$t" "$r" "$bytes" "$raw" --dims "$n,$n,$n" --type f32
+      [ -n "$base" ] && prep "$base" prep-base "$name" "$t" "$r" "$bytes" "$raw" --dims "$n,$n,$n" --type f32
+      prep "$new" "prep --vdb-compression blosc" "$name" "$t" "$r" "$bytes" "$raw" --dims "$n,$n,$n" --type f32 \
+        --vdb-compression blosc
+      prep "$new" "prep --no-vdb" "$name" "$t" "$r" "$bytes" "$raw" --dims "$n,$n,$n" --type f32 --no-vdb
+      timed "zstd -1 to /dev/null" "$name" "$t" "$r" "$bytes" zstd -1 -T"$t" -c -f "$raw"
+      timed "zstd -1 to a file" "$name" "$t" "$r" "$bytes" zstd -1 -T"$t" -q -f "$raw" -o "$work/out.zst"
+      rm -f "$work/out.zst"
+    done
+  done
+done
 for ((r = 1; r <= repeats; ++r)); do
-  for bin in "${bins[@]}"; do
-    for t in 1 2; do
-      prep "$bin" "synthetic:blobs,n=512" "$t" "$r" $((512 ** 3 * 4)) "synthetic:blobs,n=512"
-      prep "$bin" "raw f32 512³ (blobs)" "$t" "$r" $((512 ** 3 * 4)) "$raw" --dims 512,512,512 --type f32
-      prep "$bin" "raw f32 512³ (blobs), --no-vdb" "$t" "$r" $((512 ** 3 * 4)) "$raw" --dims 512,512,512 \
-        --type f32 --no-vdb
-      prep "$bin" "MRI ch2better.nii.gz (u8, gzip)" "$t" "$r" $((301 * 370 * 316)) "$mri"
-    done
-  done
-  for t in 1 2; do
-    timed zstd "raw f32 512³ (blobs)" "$t" "$r" $((512 ** 3 * 4)) zstd -1 -T"$t" -c -f "$raw"
-  done
-  # CPU time of the parts, apart: the field alone (written to /dev/null) and the brick path alone.
-  timed "blobs field only" "synthetic:blobs,n=512" 2 "$r" $((512 ** 3 * 4)) \
-    build/bench/bench_store --make-raw /dev/null --spec blobs,n=512
-done
-for ((r = 1; r <= big; ++r)); do
-  for bin in "${bins[@]}"; do
-    for t in 1 2; do
-      prep "$bin" "synthetic:blobs,n=1024" "$t" "$r" $((1024 ** 3 * 4)) "synthetic:blobs,n=1024"
-    done
+  for t in $threads; do
+    prep "$new" prep "MRI ch2better.nii.gz (u8, gzip)" "$t" "$r" $((301 * 370 * 316)) "$mri"
   done
 done
-rm -rf "$work/out.vbs"
+rm -rf "$work/out.vbs" "$work/out"
 
-python3 - "$csv" "${identical:-}" "$(nproc)" "$(uptime | sed 's/.*load average: //')" "$repeats" "$big" \
+python3 - "$csv" "$phases" "$identical" "$(nproc)" "$load_start" "$(uptime | sed 's/.*load average: //')" \
+  "$repeats" "$big" \
   > bench/results/prep.md <<'EOF'
 import collections, csv, statistics, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
-identical, cores, load, repeats, big = sys.argv[2:7]
+phase_rows = list(csv.DictReader(open(sys.argv[2])))
+identical, cores, load_start, load, repeats, big = sys.argv[3:9]
 runs = collections.defaultdict(list)
 for r in rows: runs[(r["input"], r["tool"], r["threads"])].append(r)
-def med(key, field):
-    return statistics.median(float(r[field]) for r in runs[key]) if runs.get(key) else None
+med = lambda key, field: statistics.median(float(r[field]) for r in runs[key])
 inputs = list(dict.fromkeys(r["input"] for r in rows))
 tools = list(dict.fromkeys(r["tool"] for r in rows))
+threads = list(dict.fromkeys(r["threads"] for r in rows))
 print("# Prep throughput\n")
-print(f"MB/s = raw input bytes / wall time, median of {repeats} runs ({big} for the 1024³ field); CPU = user + "
-      f"system seconds. {cores} cores shared with other work (load average at the end: {load}).\n")
-print("| input | tool | MB/s, 1 thread | MB/s, 2 threads | wall s, 1 / 2 | CPU s, 1 / 2 | peak RSS MB |")
-print("| --- | --- | ---: | ---: | ---: | ---: | ---: |")
+loaded = max(float(x) for x in (load_start + ", " + load).replace(",", " ").split()) > 2
+if loaded:
+    print(f"**A loaded run** (load average {load_start} at the start, {load} at the end, on {cores} cores): wall "
+          f"times, and so MB/s, are inflated by other work, prep's more than zstd's; compare CPU seconds.\n")
+print(f"MB/s = raw input bytes / wall seconds, median of {repeats} runs ({big} for 1024³); CPU = user + system "
+      f"seconds, all threads; prep with `--threads T`, zstd with `-TT`. {cores} cores (load average {load_start} at "
+      f"the start, {load} at the end). The raw files are the blobs field written once as raw f32, so no field is "
+      f"evaluated; each run starts after `sync`. The ratios are against `zstd -1` to /dev/null.\n")
+print("| input | tool | threads | MB/s | MB/s ratio | wall s | CPU s | CPU ratio | peak RSS MiB |")
+print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
 for i in inputs:
-    for t in tools:
-        if not runs.get((i, t, "1")) and not runs.get((i, t, "2")): continue
-        f = lambda th, field, fmt: (fmt % med((i, t, th), field)) if runs.get((i, t, th)) else ""
-        print(f"| {i} | {t} | {f('1', 'mb_per_s', '%.1f')} | {f('2', 'mb_per_s', '%.1f')} | "
-              f"{f('1', 'wall_s', '%.1f')} / {f('2', 'wall_s', '%.1f')} | {f('1', 'cpu_s', '%.1f')} / "
-              f"{f('2', 'cpu_s', '%.1f')} | {f('2', 'peak_rss_mb', '%.0f') or f('1', 'peak_rss_mb', '%.0f')} |")
+    for th in threads:
+        ref = (i, "zstd -1 to /dev/null", th)
+        for t in tools:
+            k = (i, t, th)
+            if k not in runs: continue
+            ratio = f"{med(k, 'mb_per_s') / med(ref, 'mb_per_s'):.2f}" if ref in runs else ""
+            cpu = f"{med(k, 'cpu_s') / med(ref, 'cpu_s'):.2f}" if ref in runs else ""
+            print(f"| {i} | {t} | {th} | {med(k, 'mb_per_s'):.1f} | {ratio} | {med(k, 'wall_s'):.2f} | "
+                  f"{med(k, 'cpu_s'):.2f} | {cpu} | {med(k, 'peak_rss_mb'):.0f} |")
+prs = collections.defaultdict(list)
+for r in phase_rows: prs[(r["input"], r["tool"], r["threads"], r["phase"])].append(r)
+if prs:
+    print("\nWhere prep's time goes (`--timings`, medians; CPU is the whole process's while the phase ran):\n")
+    print("| input | tool | threads | phase | wall s | CPU s |\n| --- | --- | ---: | --- | ---: | ---: |")
+    for (i, t, th, p), rs in prs.items():
+        print(f"| {i} | {t} | {th} | {p} | {statistics.median(float(r['wall_s']) for r in rs):.2f} | "
+              f"{statistics.median(float(r['cpu_s']) for r in rs):.2f} |")
 if identical:
-    print("\nThe same store from both binaries and both thread counts (`bench/store_digest.sh`: SHA-256 of every "
-          "file, OpenVDB's random file UUID masked):\n")
-    print("| input and options | files | identical |\n| --- | ---: | --- |")
+    print("\nStores from the base binary and this build, threads 1 and 2 (`bench/store_digest.sh`: SHA-256 of every "
+          "file, OpenVDB's random file UUID masked). *identical*: this build with `--vdb-compression blosc` (the grid "
+          "as before) against the base; *default*: this build's default (`auto`) against the base:\n")
+    print("| input and options | files | identical | default |\n| --- | ---: | --- | --- |")
     print(identical.rstrip())
 EOF
 cat bench/results/prep.md

@@ -22,6 +22,7 @@
 #include "brickstore/HistogramBuilder.h"
 #include "brickstore/Level0Stats.h"
 #include "brickstore/LevelSources.h"
+#include "brickstore/PhaseClock.h"
 #include "brickstore/Quantise.h"
 #include "brickstore/SlabBricker.h"
 #include "brickstore/VdbChunkWriter.h"
@@ -179,7 +180,9 @@ MemoryPlan planMemory(const VolumeInfo& info, const PrepOptions& options, int64_
                      " MB");
   plan.maxInFlight =
       tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism) > 1 ? kMaxSlabsInFlight : 1;
-  const int64_t vdbBytes = options.writeVdb ? VdbChunkWriter::chunkBytes(info.dims, plan.chunkSlices) : 0;
+  // The chunk is sized by its planning estimate (so the files depend on the options alone), but holds less: what
+  // is left reads slabs ahead while others are cut and the chunk is written.
+  const int64_t vdbBytes = options.writeVdb ? VdbChunkWriter::residentBytes(info.dims, plan.chunkSlices) : 0;
   plan.level0InFlight = slabsInFlight(plan.budget - vdbBytes, slab, plan.maxInFlight);
   return plan;
 }
@@ -233,12 +236,14 @@ StoreMeta describeStore(const PrepPlan& plan) {
 /// Level 0 from the source into `bricks` (and the VDB grid into `dir`); its statistics, VDB files and quantisation
 /// go into `meta`.
 LevelBuild writeLevel0(const PrepPlan& plan, const fs::path& dir, OutputFile& bricks, StoreMeta& meta,
-                       ProgressReport& report) {
+                       ProgressReport& report, std::vector<PhaseTime>& phases) {
+  const PhaseClock clock;
   const PrepOptions& options = plan.options;
   const VolumeInfo& info = plan.info;
   Level0Stats stats(info, plan.background, options.nonFinite);
   std::unique_ptr<VdbChunkWriter> vdb;
-  if (options.writeVdb) vdb = std::make_unique<VdbChunkWriter>(dir, info, plan.background, plan.memory.chunkSlices);
+  if (options.writeVdb)
+    vdb = std::make_unique<VdbChunkWriter>(dir, info, plan.background, plan.memory.chunkSlices, options.vdbCompression);
   SlabBricker bricker(plan.level0Source, options.brickSize, plan.background, options.zstdLevel, bricks);
   bricker.setSlabsInFlight(plan.memory.level0InFlight);
   const int64_t sliceBytes = plan.input.dims.x * plan.input.dims.y * static_cast<int64_t>(valueSize(plan.input.type));
@@ -255,6 +260,13 @@ LevelBuild writeLevel0(const PrepPlan& plan, const fs::path& dir, OutputFile& br
     meta.vdbFiles = vdb->files();
     meta.bytesVdb = vdb->bytes();
   }
+  PhaseTime all = clock.elapsed(vdb ? "level 0: read, bricks, grid built" : "level 0: read, bricks");
+  if (vdb) {
+    all.wallSeconds -= vdb->writeTime().wallSeconds;
+    all.cpuSeconds -= vdb->writeTime().cpuSeconds;
+  }
+  phases.push_back(all);
+  if (vdb) phases.push_back(vdb->writeTime());
   meta.valueMin = stats.min;
   meta.valueMax = stats.max;
   meta.activeVoxels = stats.active;
@@ -302,12 +314,16 @@ Histogram writeCoarserLevels(const PrepPlan& plan, const fs::path& dir, OutputFi
 
 /// The whole store into the empty directory `dir`: the levels' bricks, the index and store.json; returns its
 /// metadata.
-StoreMeta writeStore(const PrepPlan& plan, const fs::path& dir, ProgressReport& report) {
+StoreMeta writeStore(const PrepPlan& plan, const fs::path& dir, ProgressReport& report,
+                     std::vector<PhaseTime>& phases) {
   StoreMeta meta = describeStore(plan);
   OutputFile bricks(dir / "bricks.bin");
   std::vector<LevelBuild> levels;
-  levels.push_back(writeLevel0(plan, dir, bricks, meta, report));
+  levels.push_back(writeLevel0(plan, dir, bricks, meta, report, phases));
+  PhaseClock clock;
   meta.histogram = writeCoarserLevels(plan, dir, bricks, levels, meta, report);
+  phases.push_back(clock.elapsed("levels 1+ (level 0 read back) and histogram"));
+  clock.restart();
   const uint64_t bricksSize = bricks.size();
   bricks.close();
   writeIndex(dir / "index.bin", levels, plan.options.brickSize, plan.info.type, bricksSize);
@@ -317,6 +333,7 @@ StoreMeta writeStore(const PrepPlan& plan, const fs::path& dir, ProgressReport& 
   const std::string text = meta.toJson();
   json.append(text.data(), text.size());
   json.close();
+  phases.push_back(clock.elapsed("bricks.bin fsync, index, store.json"));
   return meta;
 }
 
@@ -325,6 +342,7 @@ StoreMeta writeStore(const PrepPlan& plan, const fs::path& dir, ProgressReport& 
 PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOptions& options,
                       const std::function<void(const PrepProgress&)>& progress) {
   const auto start = std::chrono::steady_clock::now();
+  const double cpuStart = PhaseClock::processCpuSeconds();
   const VolumeInfo& input = source.info();
   const double inputBackground = options.haveBackground ? options.background : input.background;
   validate(input, options, inputBackground);
@@ -348,12 +366,14 @@ PrepSummary prepStore(VolumeSource& source, const fs::path& output, const PrepOp
   ProgressReport report(progress);
   PrepSummary summary;
   try {
-    common::replaceDirectory(output, [&](const fs::path& dir) { summary.meta = writeStore(plan, dir, report); });
+    common::replaceDirectory(
+        output, [&](const fs::path& dir) { summary.meta = writeStore(plan, dir, report, summary.phases); });
   } catch (const common::ReplaceError& e) {
     throw IoError(e.what());
   }
   summary.bytesIn = report.bytesIn();
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary.cpuSeconds = PhaseClock::processCpuSeconds() - cpuStart;
   summary.peakRssBytes = peakRssBytes();
   return summary;
 }

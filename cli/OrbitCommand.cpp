@@ -1,12 +1,17 @@
-// `voxbrick orbit STORE -o frames/f%03d.png --frames N`: a turntable, N frames about the volume from one warm process.
+// `voxbrick orbit STORE -o frames/f%03d.png --frames N`: a turntable, N frames about the volume from one warm process;
+// with --interactive MS each view is drawn as an interactive frame within MS (render/core/Interactive.h) and judged
+// against its exact frame.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <regex>
 
 #include "cli/Commands.h"
 #include "cli/SceneOptions.h"
 #include "image/ImageFile.h"
 #include "render/core/Dataset.h"
+#include "render/core/Interactive.h"
 #include "render/core/RenderErrors.h"
 #include "render/core/Scene.h"
 #include "render/datasets/Datasets.h"
@@ -21,6 +26,7 @@ struct OrbitArgs {
   int brick = 32, frames = 36, jpegQuality = 90;
   double elevation = 0;
   int64_t gpuBudgetMB = 1024, hostBudgetMB = 1024;
+  double interactiveMs = 0;  ///< --interactive: each view drawn as an interactive frame with this budget; 0: exact
   bool quiet = false;
 };
 
@@ -46,8 +52,41 @@ render::Scene orbitScene(const OrbitArgs& a, const CLI::App& cmd) {
   return scene;
 }
 
+/// One view drawn as an interactive frame (at the rate of the orbit's earlier frames, interactive and exact, as a
+/// server session predicts from its own), then exactly: the interactive frame is returned and the line reports its
+/// budget, predicted and actual ms, its choice and its PSNR against the exact frame.
+struct InteractiveView {
+  image::ImageF frame;
+  double actualMs = 0, psnr = 0;
+};
+
+InteractiveView interactiveView(render::RenderEngine& engine, const std::shared_ptr<const render::Dataset>& dataset,
+                                render::Scene scene, render::RateGauge& rate, int index) {
+  InteractiveView out;
+  render::FrameStats stats;
+  render::FrameOptions options;
+  options.rateSamplesPerMs = rate.rate();
+  options.fixedMs = rate.fixedMs();
+  scene.interactive = true;
+  out.frame = engine.render(dataset, scene, &stats, options);
+  const nlohmann::json& chosen = stats.interactive;
+  out.actualMs = chosen.value("actual_ms", 0.0);
+  rate.add(stats.samplesEstimated, out.actualMs);
+  scene.interactive = false;
+  render::FrameStats exactStats;
+  const image::ImageF exact = engine.render(dataset, scene, &exactStats);
+  rate.add(exactStats.samplesEstimated, exactStats.msTotal);  // as a server session's exact frames do
+  out.psnr = image::compareImages(out.frame, exact).psnr;
+  std::printf("view %d: azimuth %g, budget %.0f ms, predicted %.1f ms, actual %.1f ms, %dx%d step %g lod %g, %.1f dB\n",
+              index, scene.camera.azimuth, scene.timeBudgetMs, chosen.value("predicted_ms", 0.0), out.actualMs,
+              chosen.value("width", 0), chosen.value("height", 0), chosen.value("step", 0.0), chosen.value("lod", 0.0),
+              out.psnr);
+  return out;
+}
+
 void runOrbit(const OrbitArgs& a, const CLI::App& cmd) {
   render::Scene scene = orbitScene(a, cmd);
+  if (a.interactiveMs > 0) scene.timeBudgetMs = a.interactiveMs;
   const std::string first = framePath(a.pattern, 0);
   image::imageFormatFor(first);  // refused before anything is drawn
   checkOutputFormat(scene, first);
@@ -62,10 +101,22 @@ void runOrbit(const OrbitArgs& a, const CLI::App& cmd) {
   if (!a.quiet) std::fprintf(stderr, "orbit: %s\n", engine.describe().c_str());
   const double start = scene.camera.azimuth;
   double totalMs = 0;
+  render::RateGauge rate;
+  int within = 0;
+  double worstPsnr = std::numeric_limits<double>::infinity();
   for (int i = 0; i < a.frames; ++i) {
     scene.camera.azimuth = start + 360.0 * i / a.frames;
     render::FrameStats stats;
-    const image::ImageF frame = engine.render(dataset, scene, &stats);
+    image::ImageF frame;
+    if (a.interactiveMs > 0) {
+      InteractiveView view = interactiveView(engine, dataset, scene, rate, i);
+      frame = std::move(view.frame);
+      stats.msTotal = view.actualMs;
+      within += view.actualMs <= 1.5 * a.interactiveMs;
+      worstPsnr = std::min(worstPsnr, view.psnr);
+    } else {
+      frame = engine.render(dataset, scene, &stats);
+    }
     const std::string path = framePath(a.pattern, i);
     image::writeImage(path, image::toImage8(frame), {a.jpegQuality});
     totalMs += stats.msTotal;
@@ -75,6 +126,9 @@ void runOrbit(const OrbitArgs& a, const CLI::App& cmd) {
   }
   std::printf("orbit: wrote %d frames (%dx%d) to %s, %.1f ms a frame\n", a.frames, scene.width, scene.height,
               a.pattern.c_str(), totalMs / a.frames);
+  if (a.interactiveMs > 0)
+    std::printf("orbit: %d of %d interactive frames within 1.5x their %g ms budget, the worst %.1f dB\n", within,
+                a.frames, a.interactiveMs, worstPsnr);
 }
 
 }  // namespace
@@ -103,6 +157,10 @@ void addOrbitCommand(CLI::App& app) {
   cmd->add_option("--host-budget", a->hostBudgetMB, "MB of host memory for decoded bricks")
       ->capture_default_str()
       ->check(between(0, 1 << 22, "MB"));
+  cmd->add_option("--interactive", a->interactiveMs,
+                  "draw each view as an interactive frame within this many ms (a coarser drawing scaled up), and "
+                  "report its budget, predicted and actual ms and its PSNR against the exact frame of the view")
+      ->check(between(render::Scene::kMinTimeBudgetMs, render::Scene::kMaxTimeBudgetMs, "ms"));
   cmd->add_flag("-q,--quiet", a->quiet, "no progress lines");
   cmd->callback([a, cmd] {
     keepFreedMemoryForFrames();

@@ -33,6 +33,8 @@ struct PrepArgs {
   uint32_t tetsPerChunk = mesh::MeshStoreOptions{}.tetsPerChunk;
   double background = 0;
   bool quiet = false;
+  bool timings = false;
+  std::string vdbCompression = "auto";
   store::PrepOptions options;
 };
 
@@ -157,6 +159,10 @@ void printPrepSummary(const PrepArgs& a, const store::PrepSummary& summary) {
               formatBytes(double(m.bytesVdb)).c_str(), summary.seconds,
               summary.seconds > 0 ? summary.bytesIn / 1e6 / summary.seconds : 0.0,
               formatBytes(double(summary.peakRssBytes)).c_str());
+  if (!a.timings) return;
+  std::printf("prep: %.2f s wall, %.2f s CPU (user + system, all threads)\n", summary.seconds, summary.cpuSeconds);
+  for (const store::PhaseTime& p : summary.phases)
+    std::printf("prep:   %-45s %7.2f s wall %7.2f s CPU\n", p.name.c_str(), p.wallSeconds, p.cpuSeconds);
 }
 
 void runPrep(PrepArgs& a, CLI::App& cmd) {
@@ -172,6 +178,9 @@ void runPrep(PrepArgs& a, CLI::App& cmd) {
   if (isMeshInput(a.input)) return runMeshPrep(a);
   if (!a.field.empty()) throw store::InputError("--field names a mesh's scalar; '" + a.input + "' is not a mesh");
   a.options.haveBackground = cmd.count("--background") > 0;
+  a.options.vdbCompression = a.vdbCompression == "blosc"  ? store::VdbCompression::Blosc
+                             : a.vdbCompression == "none" ? store::VdbCompression::None
+                                                          : store::VdbCompression::Auto;
   a.options.background = a.background;
   a.options.nonFinite = a.nonFinite == "error" ? store::NonFinitePolicy::Error : store::NonFinitePolicy::Background;
 
@@ -233,6 +242,11 @@ void addPrepCommand(CLI::App& app) {
   cmd->add_flag("!--no-vdb", args->options.writeVdb, "do not write the canonical OpenVDB grid");
   cmd->add_option("--vdb-chunk", args->options.vdbChunkSlices, "z-slices per OpenVDB file (0: as --memory allows)")
       ->check(between(0, 1 << 20, "slices"));
+  cmd->add_option("--vdb-compression", args->vdbCompression,
+                  "OpenVDB leaf values: 'blosc' (LZ4, OpenVDB's default), 'none' (larger files, far less CPU) or "
+                  "'auto' (blosc for a chunk where it halves the bytes)")
+      ->check(CLI::IsMember({"auto", "blosc", "none"}))
+      ->capture_default_str();
   cmd->add_option("--quantise", args->quantise,
                   "store u8 or u16: the value range mapped linearly onto 0..255 or 0..65535");
   cmd->add_option("--quantise-range", args->quantiseRange,
@@ -245,6 +259,7 @@ void addPrepCommand(CLI::App& app) {
   cmd->add_flag("--force", args->options.overwrite, "replace an existing store (once the new one is complete)");
   cmd->add_option("--threads", args->options.threads, "worker threads (0: all cores)")->check(between(0, 1024));
   cmd->add_flag("-q,--quiet", args->quiet, "no progress output");
+  cmd->add_flag("--timings", args->timings, "print the wall and CPU time of each phase of the prep");
   cmd->callback([args, cmd] {
     // An error from reading the input names it, whatever raised it; the output's own errors name the output.
     std::vector<std::string> named = args->inputs;

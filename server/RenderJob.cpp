@@ -40,9 +40,14 @@ RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int 
     options.standIns = job.scene.progressive && !job.refinement;
     options.maxSamples = job.maxSamples;
     options.cancelled = cancelled;
-    const image::ImageF image = engine.render(job.dataset, job.scene, &stats, options);
+    options.rateSamplesPerMs = job.rateSamplesPerMs;
+    options.fixedMs = job.fixedMs;
+    render::Scene scene = job.scene;
+    if (job.refinement) scene.interactive = false;  // the exact frame of an interactive request
+    const image::ImageF image = engine.render(job.dataset, scene, &stats, options);
     const auto encodeStart = Clock::now();
-    const bool provisional = stats.bricksStandIn > 0;
+    // A frame with stand-ins, or an interactive frame: the exact one follows.
+    const bool provisional = stats.bricksStandIn > 0 || scene.interactive;
     proto::Frame frame;
     frame.width = uint32_t(image.width);
     frame.height = uint32_t(image.height);
@@ -61,7 +66,10 @@ RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int 
                                std::to_string(body) + " bytes, above this server's message limit of " +
                                std::to_string(job.maxBodyBytes) + "; ask for a smaller image or another encoding"),
               false};
-    return {std::move(frame), provisional};
+    RenderReply reply{std::move(frame), provisional};
+    reply.samples = stats.samplesEstimated;
+    reply.ms = stats.interactive.is_object() ? stats.interactive.value("actual_ms", stats.msTotal) : stats.msTotal;
+    return reply;
   } catch (const render::FrameCancelled&) {
     return {proto::Error{proto::ErrorCode::Internal, "cancelled"}, false, true};
   } catch (const store::CorruptStoreError& e) {
@@ -101,7 +109,7 @@ std::optional<render::CameraSpec> extrapolate(const render::CameraSpec& a, const
 
 }  // namespace
 
-void prefetchAhead(const RenderJob& job) {
+void prefetchAhead(const render::RenderEngine& engine, const RenderJob& job) {
   if (!job.previousCamera || !job.dataset || job.dataset->kind() != render::DatasetKind::BrickStore) return;
   const auto next = extrapolate(*job.previousCamera, job.scene.camera);
   if (!next) return;
@@ -109,7 +117,8 @@ void prefetchAhead(const RenderJob& job) {
     const auto& dataset = static_cast<const render::BrickStoreDataset&>(*job.dataset);
     render::Scene scene = job.scene;
     scene.camera = *next;
-    const render::FramePlan plan = render::planFrame(scene, *dataset.store(), render::kTransferTableTexels);
+    const render::FramePlan plan =
+        render::planFrame(scene, *dataset.store(), render::kTransferTableTexels, engine.brickBudget(job.dataset));
     std::vector<store::BrickKey> keys;
     for (const render::BrickDraw& d : plan.visible.bricks) {
       if (keys.size() >= dataset.cache()->prefetchQueueLimit()) break;

@@ -35,6 +35,12 @@ struct RenderJob {
   uint64_t maxBodyBytes = UINT64_MAX;
   /// The most samples the frame may cost (ServerConfig::maxRenderMSamples); 0: no limit.
   double maxSamples = 0;
+  /// An interactive frame's rate (estimated samples per ms), the session's as the scheduler measured its frames; 0:
+  /// the render thread's recent rate (a session's first frame).
+  double rateSamplesPerMs = 0;
+  double fixedMs = 0;  ///< with rateSamplesPerMs: the session's time a frame takes besides its samples
+  /// Not to be drawn before this time: the exact frame of an interactive request waits for the camera to rest.
+  std::chrono::steady_clock::time_point notBefore{};
 };
 
 /// The encoding of a Frame answering `job`: the provisional encoding for a provisional Frame (one the exact frame is
@@ -60,20 +66,26 @@ struct RenderReply {
   proto::Message message;    ///< a Frame or an Error
   bool provisional = false;  ///< a Frame drawn with stand-ins: the exact one is to follow (a refinement job)
   bool cancelled = false;    ///< given up part way (`cancelled` said so): nobody is to get `message`
+  /// The frame's estimated samples and the ms it took to draw (FrameStats samplesEstimated and msTotal), for the
+  /// session's rate; 0 when nothing was drawn.
+  double samples = 0, ms = 0;
 };
 
 /// Renders `job` on `engine` (its context current on this thread) and encodes it: a Frame whose statistics add
 /// queue_ms, encode_ms, render_thread (`thread`) and provisional to the renderer's, or the Error that errorReply
 /// makes of what the renderer threw. A progressive scene's first frame is drawn with stand-ins (provisional when
-/// any brick stood in); a refinement is drawn exactly. A frame above job.maxSamples is answered LimitExceeded
+/// any brick stood in); an interactive scene's frame is drawn within its time budget at job.rateSamplesPerMs and is
+/// provisional; a refinement is drawn exactly. A frame above job.maxSamples is answered LimitExceeded
 /// before anything is drawn; `cancelled` (may be empty) is asked between batches and slabs, and gives the frame up.
 /// Throws nothing but std::bad_alloc.
 RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int thread,
                         const std::function<bool()>& cancelled = {});
 
 /// Pages ahead of a drag: when `job` moved the camera from its previous one, queues on the dataset's host cache the
-/// bricks the next camera along the same motion would draw (the camera extrapolated one step). Advisory: does nothing
-/// for other dataset kinds or a camera that did not move, and never throws.
-void prefetchAhead(const RenderJob& job);
+/// bricks the next camera along the same motion would draw (the camera extrapolated one step), fitted to the budget
+/// the frame will be fitted to on `engine` (RenderEngine::brickBudget, the working set of render/volume/WorkingSet),
+/// so that it pages nothing the frame will not draw. Advisory: does nothing for other dataset kinds or a camera that
+/// did not move, and never throws.
+void prefetchAhead(const render::RenderEngine& engine, const RenderJob& job);
 
 }  // namespace voxbrick::server

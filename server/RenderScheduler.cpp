@@ -1,6 +1,7 @@
 // The latest-wins queue and the render threads.
 #include "server/RenderScheduler.h"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -42,8 +43,23 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
       out.result = Submission::Result::Stopped;
       return out;
     }
+    SessionPace& pace = paceLocked(sink);
+    if (!job.refinement) {
+      if (pace.lastReceived != std::chrono::steady_clock::time_point{})
+        pace.intervalMs = std::chrono::duration<double, std::milli>(job.received - pace.lastReceived).count();
+      pace.lastReceived = job.received;
+    }
     std::deque<RenderJob>& waiting = mWaiting[sink.get()];
-    if (mCoalesce && !waiting.empty()) {
+    if (!mCoalesce && !waiting.empty() && waiting.front().refinement) {
+      // An exact frame waiting for the camera to rest: the camera moved on, so it goes (silently, MessageHandler).
+      out.replaced = std::move(waiting.front());
+      waiting.pop_front();
+      if (waiting.empty()) {
+        mWaiting.erase(sink.get());
+        std::erase(mTurns, sink);
+      }
+      enqueueLocked(sink, std::move(job));
+    } else if (mCoalesce && !waiting.empty()) {
       // The one waiting job is replaced in place: the session keeps its turn.
       out.replaced = std::exchange(waiting.front(), std::move(job));
     } else if (waiting.size() >= ServerConfig::kMaxQueuedWithoutCoalescing) {
@@ -63,9 +79,30 @@ void RenderScheduler::enqueueLocked(const std::shared_ptr<Sink>& sink, RenderJob
   waiting.push_back(std::move(job));
 }
 
+RenderScheduler::SessionPace& RenderScheduler::paceLocked(const std::shared_ptr<Sink>& sink) {
+  auto it = mPaces.find(sink.get());
+  if (it != mPaces.end() && it->second.owner.expired()) mPaces.erase(it), it = mPaces.end();
+  if (it == mPaces.end()) {
+    std::erase_if(mPaces, [](const auto& entry) { return entry.second.owner.expired(); });
+    it = mPaces.emplace(sink.get(), SessionPace{}).first;
+    it->second.owner = sink;
+  }
+  return it->second;
+}
+
+double RenderScheduler::restMs(const Sink& sink) const {
+  std::lock_guard lock(mMutex);
+  const auto it = mPaces.find(&sink);
+  if (it == mPaces.end() || it->second.intervalMs <= 0) return kMaxRestMs;
+  return std::min(1.5 * it->second.intervalMs, kMaxRestMs);
+}
+
 void RenderScheduler::refine(const std::shared_ptr<Sink>& sink, RenderJob job) {
+  const bool rest = job.scene.interactive && !job.refinement;
   job.refinement = true;
   job.received = std::chrono::steady_clock::now();
+  job.notBefore = job.received;
+  if (rest) job.notBefore += std::chrono::microseconds(int64_t(restMs(*sink) * 1000));
   {
     std::lock_guard lock(mMutex);
     if (mStopping) return;
@@ -97,6 +134,7 @@ void RenderScheduler::stop() {
     mStopping = true;
     dropped.swap(mTurns);
     mWaiting.clear();
+    mPaces.clear();
   }
   mReady.notify_all();
   std::lock_guard joinLock(mJoinMutex);
@@ -109,15 +147,42 @@ bool RenderScheduler::waiting(const Sink& sink) const {
   return mWaiting.count(&sink) != 0;
 }
 
+std::shared_ptr<RenderScheduler::Sink> RenderScheduler::takeDueLocked(std::chrono::steady_clock::time_point& earliest) {
+  const auto now = std::chrono::steady_clock::now();
+  earliest = std::chrono::steady_clock::time_point::max();
+  for (auto it = mTurns.begin(); it != mTurns.end(); ++it) {
+    const auto due = mWaiting.at(it->get()).front().notBefore;
+    if (due <= now) {
+      std::shared_ptr<Sink> sink = std::move(*it);
+      mTurns.erase(it);
+      return sink;
+    }
+    earliest = std::min(earliest, due);
+  }
+  return nullptr;
+}
+
 bool RenderScheduler::next(std::shared_ptr<Sink>& sink, RenderJob& job) {
   std::unique_lock lock(mMutex);
-  mReady.wait(lock, [&] { return mStopping || !mTurns.empty(); });
-  if (mStopping) return false;
-  sink = std::move(mTurns.front());
-  mTurns.pop_front();
+  for (;;) {
+    if (mStopping) return false;
+    std::chrono::steady_clock::time_point earliest;
+    if ((sink = takeDueLocked(earliest))) break;
+    // Nothing due: wait for a submit, or for the first exact frame whose rest is over.
+    if (earliest == std::chrono::steady_clock::time_point::max())
+      mReady.wait(lock);
+    else
+      mReady.wait_until(lock, earliest);
+  }
+  const render::DatasetKind kind = mWaiting.at(sink.get()).front().dataset
+                                       ? mWaiting.at(sink.get()).front().dataset->kind()
+                                       : render::DatasetKind::BrickStore;
   auto waiting = mWaiting.find(sink.get());
   job = std::move(waiting->second.front());
   waiting->second.pop_front();
+  const render::RateGauge& rate = paceLocked(sink).rates[kind == render::DatasetKind::TetMesh ? 1 : 0];
+  job.rateSamplesPerMs = rate.rate();
+  job.fixedMs = rate.fixedMs();
   // Sessions take turns: one with more waiting goes to the back.
   if (waiting->second.empty())
     mWaiting.erase(waiting);
@@ -158,9 +223,14 @@ void RenderScheduler::renderLoop(std::unique_ptr<render::RenderEngine> engine, i
         job = {};
         continue;
       }
+      if (reply.samples > 0 && job.dataset) {
+        std::lock_guard lock(mMutex);
+        paceLocked(sink).rates[job.dataset->kind() == render::DatasetKind::TetMesh ? 1 : 0].add(reply.samples,
+                                                                                                reply.ms);
+      }
       sink->rendered(job, std::move(reply.message));
       if (reply.provisional) refine(sink, job);
-      if (!job.refinement) prefetchAhead(job);
+      if (!job.refinement) prefetchAhead(*engine, job);
     }
     sink.reset();
     job = {};

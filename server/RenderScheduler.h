@@ -11,6 +11,7 @@
 #include <thread>
 #include <vector>
 
+#include "render/core/Interactive.h"
 #include "render/engine/RenderEngine.h"
 #include "server/RenderJob.h"
 
@@ -42,10 +43,17 @@ class RenderScheduler {
   void start();
   /// Queues `job` for `sink`'s session; thread-safe. Only Submission::Result::Queued means a reply will come.
   Submission submit(const std::shared_ptr<Sink>& sink, RenderJob job);
-  /// Queues the exact frame of `job`, a progressive request just answered with a provisional frame, unless the
-  /// session has a newer job waiting (its camera moved on) or the server is stopping; a newer submit replaces it.
-  /// Thread-safe.
+  /// Queues the exact frame of `job`, a request just answered with a provisional frame, unless the session has a
+  /// newer job waiting (its camera moved on) or the server is stopping; a newer submit replaces it (or, without
+  /// coalescing, drops it). The exact frame of an interactive request waits restMs(sink) first, so that it does not
+  /// start while the camera still moves; a progressive one is queued at once. Thread-safe.
   void refine(const std::shared_ptr<Sink>& sink, RenderJob job);
+  /// How long the exact frame of an interactive request of `sink`'s session waits for the camera to rest: one and a
+  /// half times the interval between the session's last two Renders (a camera still moving sends its next one within
+  /// it), at most kMaxRestMs (so that the exact frame follows within about 200 ms of the last frame when the
+  /// camera stops), and kMaxRestMs before the session has sent two Renders.
+  double restMs(const Sink& sink) const;
+  static constexpr double kMaxRestMs = 150;
   /// The atlases of all render threads' engines, as each thread last saw them after a job.
   struct GpuGauges {
     size_t bytes = 0, peakBytes = 0;  ///< peakBytes: the sum of each thread's peak
@@ -68,6 +76,19 @@ class RenderScheduler {
   bool next(std::shared_ptr<Sink>& sink, RenderJob& job);
   /// Whether `sink`'s session has a job waiting.
   bool waiting(const Sink& sink) const;
+  /// The first session in turn whose first job is due (notBefore passed), taken out of mTurns; null if none, with
+  /// `earliest` the soonest time one becomes due (max if no job waits for a time). mMutex held.
+  std::shared_ptr<Sink> takeDueLocked(std::chrono::steady_clock::time_point& earliest);
+
+  /// What the scheduler knows of a session beyond its waiting jobs: its rates and the pace of its Renders.
+  struct SessionPace {
+    std::weak_ptr<Sink> owner;
+    render::RateGauge rates[2];  // by DatasetKind
+    std::chrono::steady_clock::time_point lastReceived{};
+    double intervalMs = 0;  // between its last two Renders; 0 before the second
+  };
+  /// The session's entry, made if need be (sessions gone are dropped on the way). mMutex held.
+  SessionPace& paceLocked(const std::shared_ptr<Sink>& sink);
 
   const bool mCoalesce;
   mutable std::mutex mMutex;
@@ -77,6 +98,7 @@ class RenderScheduler {
   std::deque<std::shared_ptr<Sink>> mTurns;
   /// Their waiting jobs, oldest first; a session has an entry exactly while it is in mTurns.
   std::map<const Sink*, std::deque<RenderJob>> mWaiting;
+  std::map<const Sink*, SessionPace> mPaces;
   std::vector<std::unique_ptr<render::RenderEngine>> mEngines;  ///< until start() hands them to their threads
   struct EngineGauge {
     std::atomic<size_t> bytes{0}, peakBytes{0};

@@ -39,6 +39,15 @@ struct FrameOptions {
   /// With it the renderer also keeps at most two checkpoints of GL work queued, so that giving up takes effect
   /// within about one slab's work rather than after the whole queued frame. Empty: never cancelled.
   std::function<bool()> cancelled = {};
+  /// The work between two checkpoints, in estimated samples (FramePlan::estimatedSamples' unit): full-screen passes
+  /// are drawn in bands or tiles of about this many samples, so that a cancelled frame stops promptly at any size and
+  /// step (render/gl/Bands.h). 0: the renderer's own bands. Only with `cancelled`.
+  double checkpointSamples = 0;
+  /// An interactive frame's rate (estimated samples per ms) to predict its cost with (render/core/Interactive.h);
+  /// 0: the rate the engine has seen lately.
+  double rateSamplesPerMs = 0;
+  /// With rateSamplesPerMs: the time a frame takes besides its samples (RateGauge::fixedMs).
+  double fixedMs = 0;
 };
 
 /// A renderer of one dataset on one GL context (so one render thread); it keeps its GPU state between frames.
@@ -49,6 +58,9 @@ class FrameRenderer {
   virtual image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) = 0;
   /// GPU memory it holds for its data (the brick atlas), which its GPU budget bounds.
   virtual size_t gpuBytes() const = 0;
+  /// The samples drawing `scene` would cost, as the frame's own estimate (FrameStats::samplesEstimated) would say,
+  /// without drawing: what an interactive frame chooses its drawing by (render/core/Interactive.h).
+  virtual double estimateSamples(const Scene& scene) = 0;
 };
 
 }  // namespace voxbrick::render

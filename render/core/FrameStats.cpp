@@ -44,6 +44,7 @@ nlohmann::json FrameStats::toJson() const {
                         {"pre_integration", msPreIntegration},
                         {"sorting", msSorting}}}};
   if (!quality.is_null()) j["quality"] = quality;
+  if (!interactive.is_null()) j["interactive"] = interactive;
   return j;
 }
 

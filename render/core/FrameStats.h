@@ -52,6 +52,9 @@ struct FrameStats {
   double msPreIntegration = 0;  ///< building the pre-integration table (0 when the last frame's was current)
   /// A scene with a quality target: what it chose (QualityChoice::toJson); null otherwise.
   nlohmann::json quality;
+  /// An interactive frame (Scene::interactive): what it chose to fit its time budget (InteractiveChoice::toJson,
+  /// plus "actual_ms"); null otherwise. msTotal and the other counts are those of the reduced drawing.
+  nlohmann::json interactive;
 
   /// The statistics as a JSON object (snake_case keys, times under "ms"), to which callers may add their own keys.
   nlohmann::json toJson() const;

@@ -196,28 +196,12 @@ json sceneObject(const std::string& text, const std::string& what) {
     throw RenderInputError(what + ": not valid JSON (" + e.what() + ")");
   }
   if (!j.is_object()) throw RenderInputError(what + ": a scene must be a JSON object");
-  static const char* kKeys[] = {"camera",
-                                "size",
-                                "transfer_function",
-                                "step",
-                                "background",
-                                "window",
-                                "skip_empty",
-                                "cull",
-                                "slicer",
-                                "shading",
-                                "sub_block",
-                                "slab",
-                                "raycast",
-                                "ert",
-                                "pre_integration",
-                                "ess",
-                                "lod",
-                                "progressive",
-                                "visibility",
-                                "quality",
-                                "jpeg_quality",
-                                "provisional_encoding"};
+  static const char* kKeys[] = {"camera",      "size",          "transfer_function", "step",
+                                "background",  "window",        "skip_empty",        "cull",
+                                "slicer",      "shading",       "sub_block",         "slab",
+                                "raycast",     "ert",           "pre_integration",   "ess",
+                                "lod",         "progressive",   "visibility",        "quality",
+                                "interactive", "time_budget_ms", "jpeg_quality", "provisional_encoding"};
   for (auto it = j.begin(); it != j.end(); ++it)
     if (std::find(std::begin(kKeys), std::end(kKeys), it.key()) == std::end(kKeys))
       throw RenderInputError(what + ": unknown key '" + it.key() + "'");
@@ -348,6 +332,8 @@ Scene Scene::parse(const std::string& text, const std::string& what, bool allowP
   if (j.contains("ess")) s.ess = boolean(j["ess"], "ess", what);
   if (j.contains("lod")) s.lod = number(j["lod"], "lod", what);
   if (j.contains("progressive")) s.progressive = boolean(j["progressive"], "progressive", what);
+  if (j.contains("interactive")) s.interactive = boolean(j["interactive"], "interactive", what);
+  if (j.contains("time_budget_ms")) s.timeBudgetMs = number(j["time_budget_ms"], "time_budget_ms", what);
   if (j.contains("quality")) s.quality = qualityTarget(j, what);
   if (j.contains("jpeg_quality")) s.jpegQuality = parseJpegQuality(j["jpeg_quality"], what);
   if (j.contains("provisional_encoding")) s.provisionalEncoding = parseEncodingName(j["provisional_encoding"], what);
@@ -376,6 +362,9 @@ void Scene::validate() const {
     throw RenderInputError("lod " + std::to_string(lod) +
                            " must be 0 (level 0 everywhere) or a number of pixels up to " +
                            std::to_string(int(kMaxLod)));
+  if (!(timeBudgetMs >= kMinTimeBudgetMs && timeBudgetMs <= kMaxTimeBudgetMs))
+    throw RenderInputError("time_budget_ms " + std::to_string(timeBudgetMs) + " is outside [" +
+                           numberText(kMinTimeBudgetMs) + ", " + numberText(kMaxTimeBudgetMs) + "] ms");
   if (subBlock != 0 && (subBlock < 2 || subBlock > kMaxSubBlock || (subBlock & (subBlock - 1)) != 0))
     throw RenderInputError("sub-block " + std::to_string(subBlock) +
                            " must be 0 (whole bricks) or a power of two in "
@@ -426,6 +415,7 @@ std::string Scene::toJson() const {
   if (window) j["window"] = json::array({(*window)[0], (*window)[1]});
   if (jpegQuality) j["jpeg_quality"] = *jpegQuality;
   if (provisionalEncoding) j["provisional_encoding"] = *provisionalEncoding;
+  if (interactive) j["interactive"] = true, j["time_budget_ms"] = timeBudgetMs;
   if (quality) {
     // The target stands for the settings it chooses, so that the JSON reads back.
     for (const char* key : kQualityChosenKeys) j.erase(key);

@@ -157,6 +157,17 @@ struct Scene {
   /// a provisional Frame followed by the exact one (PROTOCOL.md); `voxbrick render` writes both. The final frame is
   /// the same as without it.
   bool progressive = false;
+  /// A camera in motion (a drag): the frame is drawn within `timeBudgetMs`, choosing a reduced drawing size (scaled
+  /// up bilinearly to width x height), a coarser level of detail and a longer step by the rate the device has shown
+  /// (render/core/Interactive.h); the server answers it as a provisional Frame and sends the exact one once the camera
+  /// rests (PROTOCOL.md, Session 8). No effect on the exact frame.
+  bool interactive = false;
+  /// The time an interactive frame may take, in ms (kMinTimeBudgetMs..kMaxTimeBudgetMs). The default, 100 ms (ten
+  /// frames a second), is the smallest budget measured to keep the MRI at 512² at 40 dB or more against the exact
+  /// frame on llvmpipe with 2 cores (`voxbrick orbit --interactive`: 40 to 47 dB at 100 ms, 38 to 39 dB at 50 ms,
+  /// after the first view, which has no rate yet; docs/performance.md).
+  double timeBudgetMs = 100;
+  static constexpr double kMinTimeBudgetMs = 10, kMaxTimeBudgetMs = 10000;
   /// How a tetrahedral mesh's cells are put in order (no effect on a grid). The default, the ray caster with `ert`
   /// 0.999, is the fastest setting of bench/results/mesh-sweep/mesh-sweep.md that keeps every mesh at 40 dB or more
   /// against the exact reference (4× MPVO's speed on the 1 M-tet ball; slower on the small Kuhn ball).
@@ -180,10 +191,10 @@ struct Scene {
   /// refused), size [w, h],
   /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b] or "none",
   /// window [lo, hi], skip_empty, cull, slicer (slicerName), shading, sub_block, slab, raycast, ert,
-  /// pre_integration, ess, lod, progressive, visibility (tetSortName), quality ("psnr:DB" or "ms:N"; not with
-  /// step, raycast, slab, ert, pre_integration, sub_block or lod), jpeg_quality (integer 1..100),
-  /// provisional_encoding (one of kEncodingNames).
-  /// `allowPaths` false (the server) accepts transfer functions by preset name or inline only, never a file path.
+  /// pre_integration, ess, lod, progressive, interactive, time_budget_ms, visibility (tetSortName), quality ("psnr:DB"
+  /// or "ms:N"; not with step, raycast, slab, ert, pre_integration, sub_block or lod), jpeg_quality (integer 1..100),
+  /// provisional_encoding (one of kEncodingNames). `allowPaths` false (the server) accepts transfer functions by
+  /// preset name or inline only, never a file path.
   static Scene fromJson(const std::string& text, const std::string& what, bool allowPaths = true);
   /// The same, resolving preset names from `presets` (no file is read) and accepting no paths: what a server does
   /// on its I/O threads.

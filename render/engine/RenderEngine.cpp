@@ -3,8 +3,10 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <map>
 
+#include "render/core/Interactive.h"
 #include "render/core/RenderErrors.h"
 #include "render/core/WorldFrame.h"
 #include "render/gl/GlContext.h"
@@ -30,6 +32,8 @@ struct RenderEngine::Impl {
   uint64_t uses = 0;
   std::atomic<size_t> gpuBytes{0}, peakGpuBytes{0};
   std::atomic<uint64_t> released{0};
+  RateGauge rates[2];                               // by DatasetKind, on the render thread
+  std::atomic<double> recentRates[2] = {0.0, 0.0};  // their values, for any thread
 
   FrameRenderer& rendererFor(const std::shared_ptr<const Dataset>& dataset);
   /// The atlas bytes a new renderer of `dataset` would take under the whole budget.
@@ -120,10 +124,50 @@ image::ImageF RenderEngine::render(const std::shared_ptr<const Dataset>& dataset
   if (!dataset) throw RenderInputError("RenderEngine::render: no dataset");
   std::optional<QualityChoice> choice;
   const Scene resolved = resolveQuality(*dataset, scene, &choice);
-  image::ImageF image = mImpl->rendererFor(dataset).render(resolved, stats, options);
+  FrameRenderer& renderer = mImpl->rendererFor(dataset);
+  const size_t kind = dataset->kind() == DatasetKind::TetMesh ? 1 : 0;
+  const double recent = mImpl->rates[kind].rate();
+  FrameOptions frameOptions = options;
+  if (frameOptions.cancelled && frameOptions.checkpointSamples <= 0)
+    frameOptions.checkpointSamples = recent > 0 ? recent * kCheckpointMs : kFirstCheckpointSamples;
+  FrameStats frameStats;
+  image::ImageF image;
+  if (resolved.interactive) {
+    // Chosen by the estimate at the given (the session's) rate, else this engine's; timed as a whole, planning and
+    // scaling up included.
+    const auto start = std::chrono::steady_clock::now();
+    const bool given = options.rateSamplesPerMs > 0;
+    const InteractiveChoice chosen = chooseInteractive(resolved, given ? options.rateSamplesPerMs : recent,
+                                                       given ? options.fixedMs : mImpl->rates[kind].fixedMs(),
+                                                       [&](const Scene& s) { return renderer.estimateSamples(s); });
+    image = renderer.render(interactiveScene(resolved, interactiveLadder()[size_t(chosen.rung)]), &frameStats,
+                            frameOptions);
+    image = scaleBilinear(image, resolved.width, resolved.height);
+    frameStats.interactive = chosen.toJson();
+    frameStats.interactive["actual_ms"] =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  } else {
+    image = renderer.render(resolved, &frameStats, frameOptions);
+  }
+  mImpl->rates[kind].add(frameStats.samplesEstimated, frameStats.interactive.is_object()
+                                                          ? frameStats.interactive["actual_ms"].get<double>()
+                                                          : frameStats.msTotal);
+  mImpl->recentRates[kind] = mImpl->rates[kind].rate();
   finishImage(dataset->worldFrame(), image);  // the renderers draw in the local frame
-  if (stats && choice) stats->quality = choice->toJson();
+  if (choice) frameStats.quality = choice->toJson();
+  if (stats) *stats = std::move(frameStats);
   return image;
+}
+
+BrickBudget RenderEngine::brickBudget(const std::shared_ptr<const Dataset>& dataset) const {
+  if (!dataset || dataset->kind() != DatasetKind::BrickStore) return {};
+  const auto it = mImpl->renderers.find(dataset);
+  if (it == mImpl->renderers.end()) return {};
+  return static_cast<const VolumeRenderer&>(*it->second.renderer).budget();
+}
+
+double RenderEngine::recentRate(DatasetKind kind) const {
+  return mImpl->recentRates[kind == DatasetKind::TetMesh ? 1 : 0].load();
 }
 
 }  // namespace voxbrick::render

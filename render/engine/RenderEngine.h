@@ -12,6 +12,7 @@
 #include "render/core/FrameStats.h"
 #include "render/core/Scene.h"
 #include "render/volume/AtlasFormat.h"
+#include "render/volume/WorkingSet.h"
 
 namespace voxbrick::render {
 
@@ -43,10 +44,28 @@ class RenderEngine {
   std::string describe() const;
 
   /// One frame of `dataset` (the context must be current): the renderer for the dataset's kind, made on first use
-  /// and kept while the dataset lives. Throws RenderInputError for a scene the dataset cannot be drawn with and
-  /// RenderError for GL failures.
+  /// and kept while the dataset lives. An interactive scene (Scene::interactive) is drawn within its time budget:
+  /// chooseInteractive (render/core/Interactive.h) picks a reduced drawing by the renderer's sample estimate and
+  /// options.rateSamplesPerMs (else recentRate()), the drawing is scaled up to the scene's size, and
+  /// stats->interactive says what was chosen. A frame that may be cancelled has its checkpoint intervals sized to
+  /// kCheckpointMs of work at recentRate() (FrameOptions::checkpointSamples, unless given). Every frame drawn feeds
+  /// recentRate(). Throws RenderInputError for a scene the dataset cannot be drawn with and RenderError for GL
+  /// failures.
   image::ImageF render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats = nullptr,
                        const FrameOptions& options = {});
+
+  /// The estimated samples per ms (FrameStats::samplesEstimated over msTotal) of the frames of datasets of `kind`
+  /// this engine drew lately (RateGauge); 0 before the first. Any thread may ask.
+  double recentRate(DatasetKind kind) const;
+  /// The work between two cancellation checkpoints, in ms at the recent rate.
+  static constexpr double kCheckpointMs = 30;
+  /// The checkpoint interval in samples before a frame of that kind has been timed.
+  static constexpr double kFirstCheckpointSamples = 1e6;
+
+  /// The budget a frame of `dataset` is fitted to on this engine (VolumeRenderer::budget: its atlas's slots and the
+  /// host cache's bricks), for planning away from the renderer (the server's paging ahead); {} (no limit) for a mesh
+  /// or a dataset this engine has not drawn yet. The context must be current.
+  BrickBudget brickBudget(const std::shared_ptr<const Dataset>& dataset) const;
 
   /// GPU memory its renderers hold now (their atlases); never above options.gpuBudgetBytes. Any thread may ask.
   size_t gpuBytes() const;

@@ -1,18 +1,27 @@
-// Full-screen passes drawn in bands of rows, so that a cancelled frame stops within a band's work (the frame ray
-// caster and the mesh ray caster).
+// Full-screen passes drawn in bands of rows (or tiles of a row), sized by their predicted cost, so that a cancelled
+// frame stops within an interval's work (the frame ray caster and the mesh ray caster); and any draw split the same
+// way by the scissor (texture slabs).
 #pragma once
+
+#include <functional>
 
 #include "render/gl/Checkpoints.h"
 #include "render/gl/GlObjects.h"
 
 namespace voxbrick::render {
 
-/// Rows of a band of drawInBands.
+/// Rows of a band of drawInBands when the cost does not ask for fewer.
 inline constexpr int kBandRows = 64;
 
-/// Draws the bound program's full-screen triangle (three vertices, no attributes) over a width x height target in
-/// bands of kBandRows rows, scissored, pacing `checkpoints` after each band, so that a frame given up stops within
-/// a band's work. The scissor test is off afterwards, also when FrameCancelled is thrown.
-void drawInBands(const Gl& gl, int width, int height, Checkpoints& checkpoints);
+/// Calls `draw` once per scissor rectangle covering width x height, pacing `checkpoints` after each: bands of
+/// kBandRows rows, or, when the checkpoints have an interval (Checkpoints::intervalSamples) and `samplesPerPixel`
+/// (the most samples a pixel of the pass may take) is given, bands of as many rows as the interval holds, down to
+/// tiles of part of a row. The scissor test is off afterwards, also when FrameCancelled is thrown. Splitting never
+/// changes a pixel: each is drawn once, by the same draw.
+void drawTiled(const Gl& gl, int width, int height, Checkpoints& checkpoints, double samplesPerPixel,
+               const std::function<void()>& draw);
+
+/// drawTiled of the bound program's full-screen triangle (three vertices, no attributes).
+void drawInBands(const Gl& gl, int width, int height, Checkpoints& checkpoints, double samplesPerPixel = 0);
 
 }  // namespace voxbrick::render

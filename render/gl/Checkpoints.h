@@ -14,7 +14,10 @@ namespace voxbrick::render {
 /// both do nothing. The context must be current; the destructor deletes the fences.
 class Checkpoints {
  public:
-  Checkpoints(const Gl& gl, std::function<bool()> cancelled) : mGl(gl), mCancelled(std::move(cancelled)) {}
+  /// `intervalSamples`: the work one checkpoint interval should hold, in estimated samples (about 50 ms on this
+  /// device: FrameOptions::checkpointSamples); 0 leaves the passes' own bands.
+  Checkpoints(const Gl& gl, std::function<bool()> cancelled, double intervalSamples = 0)
+      : mGl(gl), mCancelled(std::move(cancelled)), mIntervalSamples(intervalSamples) {}
   ~Checkpoints();
   Checkpoints(const Checkpoints&) = delete;
   Checkpoints& operator=(const Checkpoints&) = delete;
@@ -23,10 +26,15 @@ class Checkpoints {
   void poll() const;
   /// After a batch or a slab is issued: poll(), then the pacing above.
   void pace();
+  /// Whether the frame may be given up (a `cancelled` function was given).
+  bool active() const { return bool(mCancelled); }
+  /// The samples one interval should hold; 0 when not active or not given.
+  double intervalSamples() const { return active() ? mIntervalSamples : 0; }
 
  private:
   const Gl& mGl;
   std::function<bool()> mCancelled;
+  double mIntervalSamples = 0;
   GLsync mFences[2] = {nullptr, nullptr};  // the older first
 };
 

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -38,6 +39,38 @@ TEST(Orbit, WritesDistinctFramesAndTheFirstIsRendersFrame) {
       runSplit("render -q " + store + scene + " --orbit 100,25,2.5 -o " + (dir / "turned.png").string());
   ASSERT_EQ(turned.exitCode, 0) << turned.err;
   EXPECT_EQ(image::compareImages(frames[1], image::toImageF(image::readPng(dir / "turned.png"))).maxAbs, 0.0);
+}
+
+// --interactive MS: every view drawn within a time budget, reported with its prediction and its PSNR against the exact
+// frame of the view; the frames written are the interactive ones, at the requested size.
+TEST(Orbit, InteractiveReportsEachViewsBudgetTimesAndPsnr) {
+  test::ScratchDir dir;
+  const std::string store = test::preppedStore("synthetic:blobs,n=64", "--brick 16");
+  const test::SplitResult r = runSplit(
+      "orbit -q " + store + " --size 160x120 --tf hot --frames 4 --interactive 20 -o " + (dir / "f%d.png").string());
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const std::regex view(R"(view (\d+): azimuth \S+, budget 20 ms, predicted ([0-9.]+) ms, actual ([0-9.]+) ms, )"
+                        R"((\d+)x(\d+) step \S+ lod \S+, ([0-9.]+|inf) dB)");
+  int views = 0;
+  for (auto it = std::sregex_iterator(r.out.begin(), r.out.end(), view); it != std::sregex_iterator(); ++it, ++views) {
+    const std::smatch& m = *it;
+    EXPECT_EQ(std::stoi(m[1]), views);
+    EXPECT_GT(std::stod(m[3]), 0) << m[0];
+    EXPECT_LE(std::stoi(m[4]), 160) << m[0];
+    if (views > 0) {
+      EXPECT_GT(std::stod(m[2]), 0) << "predicted from the earlier views: " << m[0];
+    }
+    if (m[6] != "inf") {
+      EXPECT_GT(std::stod(m[6]), 12) << "a coarse picture of the same view: " << m[0];
+    }
+  }
+  EXPECT_EQ(views, 4) << r.out;
+  EXPECT_NE(r.out.find("interactive frames within 1.5x their 20 ms budget"), std::string::npos) << r.out;
+  const image::Image8 first = image::readPng(dir / "f0.png");
+  EXPECT_EQ(first.width, 160);
+  EXPECT_EQ(first.height, 120);
+  EXPECT_EQ(runSplit("orbit -q " + store + " --frames 2 --interactive 5 -o " + (dir / "g%d.png").string()).exitCode, 1)
+      << "a budget below 10 ms is refused";
 }
 
 TEST(Orbit, PatternsWithoutOneFrameNumberAreRefused) {

@@ -198,7 +198,7 @@ void TetRayCaster::prepareTargets(int width, int height) {
 }
 
 void TetRayCaster::draw(const TetFrameUniforms& uniforms, double termination, bool shading, Compositor& compositor,
-                        FrameStats& stats, const std::function<bool()>& cancelled) {
+                        FrameStats& stats, const std::function<bool()>& cancelled, double checkpointSamples) {
   prepareTargets(uniforms.width, uniforms.height);
   // Every ray starts before the mesh (mBeforeMesh: -1 for each pixel, made with the target).
   mExits.bind(GL_SHADER_STORAGE_BUFFER);
@@ -218,7 +218,9 @@ void TetRayCaster::draw(const TetFrameUniforms& uniforms, double termination, bo
   mEmpty.bind();
   const uint32_t noEntry = 0xffffffffu;
   const float farthest = 1.0f;
-  Checkpoints checkpoints(mGl, cancelled);
+  Checkpoints checkpoints(mGl, cancelled, checkpointSamples);
+  // Pixels near the middle walk more tets than the frame's mean: bands sized for three times the mean.
+  const double samplesPerPixel = 3 * stats.samplesEstimated / std::max(1.0, double(mWidth) * mHeight);
   for (;;) {
     checkpoints.poll();
     stats.tetRayPasses += 1;
@@ -246,7 +248,7 @@ void TetRayCaster::draw(const TetFrameUniforms& uniforms, double termination, bo
     mEntryTexture.bind(VB_UNIT_TET_ENTRY);
     mEntryDepth.bind(VB_UNIT_TET_ENTRY_DEPTH);
     ray.use();
-    drawInBands(mGl, mWidth, mHeight, checkpoints);
+    drawInBands(mGl, mWidth, mHeight, checkpoints, samplesPerPixel);
     mGl.glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
   }
   compositor.bindTarget();

@@ -61,9 +61,10 @@ class TetRayCaster {
   /// Draws a frame into `compositor` (begun, blending front to back), the pre-integrated table bound on
   /// VB_UNIT_PRE_INTEGRATED (the unit tet.glsl declares). `termination`: the opacity where a ray stops (0: never).
   /// Counts the entry passes in stats.tetRayPasses; `cancelled` is checked between passes and between bands of 64 rows
-  /// of a ray pass (throwing FrameCancelled). Leaves the compositor's target bound.
+  /// of a ray pass (throwing FrameCancelled), bands sized by stats.samplesEstimated to about `checkpointSamples`
+  /// each (FrameOptions::checkpointSamples; 0: 64 rows). Leaves the compositor's target bound.
   void draw(const TetFrameUniforms& uniforms, double termination, bool shading, Compositor& compositor,
-            FrameStats& stats, const std::function<bool()>& cancelled);
+            FrameStats& stats, const std::function<bool()>& cancelled, double checkpointSamples = 0);
   /// After the compositor's finish: the frame's counts into stats.fragments (rays walked: one per pixel and pass
   /// that found an entry), samples (tets walked with a segment of positive length) and samplesTerminated (rays
   /// stopped by the threshold).

@@ -105,6 +105,12 @@ image::ImageF TetRenderer::background(const Scene& scene, FrameStats& stats, Tim
   return image;
 }
 
+double TetRenderer::estimateSamples(const Scene& scene) {
+  const double pixels = double(scene.width) * scene.height;
+  if (mLastPixels > 0) return mLastVertexCost + mLastFragmentCost * pixels / mLastPixels;
+  return TetFrameCost::kFragmentsPerTet * double(mResidency.source().constants().tetCount) + pixels;
+}
+
 image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, const FrameOptions& options) {
   const auto frameStart = Clock::now();
   FrameStats stats;
@@ -135,6 +141,9 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
   // The frame's cost before anything is drawn (TetFrameCost; the ray caster has no vertex stages to add).
   stats.samplesEstimated = mCost.estimate(d, plan, mOrder.drawn(), rays ? 0 : mOrder.size());
   plan.checkCost(stats.samplesEstimated, rays ? d.mesh.tets.size() : mOrder.size());
+  mLastVertexCost = rays ? 0 : TetFrameCost::kFragmentsPerTet * double(mOrder.size());
+  mLastFragmentCost = stats.samplesEstimated - mLastVertexCost;
+  mLastPixels = double(scene.width) * scene.height;
   return draw(scene, plan, rays, stats, options, frameStart, statsOut);
 }
 
@@ -163,7 +172,8 @@ image::ImageF TetRenderer::draw(const Scene& scene, const TetFramePlan& plan, bo
   uniforms.table = spec;
   try {
     if (rays)
-      mResidency.rayCaster()->draw(uniforms, scene.ert, scene.shading, mCompositor, stats, options.cancelled);
+      mResidency.rayCaster()->draw(uniforms, scene.ert, scene.shading, mCompositor, stats, options.cancelled,
+                                   options.checkpointSamples);
     else
       drawProjected(uniforms,
                     nullFragment    ? mNullProgram

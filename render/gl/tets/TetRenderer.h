@@ -47,6 +47,9 @@ class TetRenderer final : public FrameRenderer {
   /// failures, FrameCancelled when options.cancelled says so before drawing, and what frameData throws.
   image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) override;
   size_t gpuBytes() const override;
+  /// The cost model's estimate (TetFrameCost) of the last frame, its fragments scaled to `scene`'s size; before any
+  /// frame, the vertex stages of every tet and one fragment a pixel.
+  double estimateSamples(const Scene& scene) override;
 
   /// The GPU bytes a mesh of `tets` tetrahedra takes resident: its vertices, its order and the table.
   static size_t bytesFor(size_t tets);
@@ -78,6 +81,7 @@ class TetRenderer final : public FrameRenderer {
   VertexArray mEmpty;  // core profile draws need a vertex array, even one without attributes
   Program mProgram, mNullProgram, mShadedProgram;
   Compositor mCompositor;
+  double mLastVertexCost = 0, mLastFragmentCost = 0, mLastPixels = 0;  // the last frame's estimate, for estimateSamples
   PreIntegrationTexture mTable;
   TetOrder mOrder;  // this frame's tets, front to back
   TetFrameCost mCost;

@@ -12,6 +12,14 @@ double msSince(Clock::time_point t) { return std::chrono::duration<double, std::
 
 }  // namespace
 
+double RayCastPass::samplesPerPixel(const FramePlan& plan) {
+  // Pixels near the middle take more than the frame's mean: three times the mean, at most a ray through the whole
+  // volume's diagonal at every plane.
+  const double pixels = std::max(1.0, double(plan.width) * plan.height);
+  const double longest = glm::length(plan.volume.extent()) / std::max(plan.step, 1e-12) + 1;
+  return std::min(3 * plan.estimatedSamples() / pixels, longest);
+}
+
 RayCastPass::RayCastPass(const Gl& gl) : mGl(gl), mCells(gl), mTermination(gl), mCounters(gl), mNoAttributes(gl) {}
 
 void RayCastPass::draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program,
@@ -19,6 +27,7 @@ void RayCastPass::draw(const FramePlan& plan, Residency& residency, const Volume
                        Checkpoints& checkpoints) {
   mBatchesDrawn = 0;
   mCounters.reset();
+  mSamplesPerPixel = checkpoints.intervalSamples() > 0 ? samplesPerPixel(plan) : 0;
   const store::StoreMeta& meta = residency.store().meta();
   mCells.begin(glm::ivec3(meta.dims.x, meta.dims.y, meta.dims.z), plan.cellSize);
   // More bricks than slots: several batches (an upper bound: stand-ins may share a source).
@@ -40,7 +49,7 @@ void RayCastPass::drawBatch(const FramePlan& plan, const VolumeProgram& program,
   t = Clock::now();
   program.program().use();
   mNoAttributes.bind();
-  drawInBands(mGl, plan.width, plan.height, checkpoints);
+  drawInBands(mGl, plan.width, plan.height, checkpoints, mSamplesPerPixel);
   ++mBatchesDrawn;
   stats.batches += 1;
   stats.msDrawing += msSince(t);

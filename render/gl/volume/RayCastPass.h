@@ -32,6 +32,8 @@ class RayCastPass {
   void finish(FrameStats& stats) const { mCounters.read(stats); }
 
  private:
+  /// The most samples a pixel of one pass may take, for sizing bands by cost (drawInBands).
+  static double samplesPerPixel(const FramePlan& plan);
   void drawBatch(const FramePlan& plan, const VolumeProgram& program, Compositor& compositor, FrameStats& stats,
                  Checkpoints& checkpoints);
 
@@ -41,7 +43,8 @@ class RayCastPass {
   TerminationPass mTermination;
   SampleCounters mCounters;
   VertexArray mNoAttributes;
-  int mBatchesDrawn = 0;  // this frame's
+  int mBatchesDrawn = 0;        // this frame's
+  double mSamplesPerPixel = 0;  // this frame's, 0 when the bands are not sized by cost
 };
 
 }  // namespace voxbrick::render

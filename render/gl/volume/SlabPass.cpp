@@ -5,6 +5,8 @@
 #include <chrono>
 #include <limits>
 
+#include "render/gl/Bands.h"
+
 namespace voxbrick::render {
 namespace {
 
@@ -49,26 +51,34 @@ void SlabPass::drawBatch(const FramePlan& plan, const VolumeProgram& program, co
     stats.msSlicing += msSince(t);
     if (geometry.empty()) continue;
     t = Clock::now();
-    if (emptyTest && mSlabsDrawn + 1 < int64_t(1) << 22) {
-      // One depth for every fragment of the slab, exactly (slab.vert.glsl).
-      const double depth = 1.0 - double(++mSlabsDrawn) * kSlabDepthStep;
+    // One depth for every fragment of the slab, exactly (slab.vert.glsl).
+    const bool test = emptyTest && mSlabsDrawn + 1 < int64_t(1) << 22;
+    const double depth = test ? 1.0 - double(++mSlabsDrawn) * kSlabDepthStep : 0.5;
+    auto drawSlab = [&] {
       mGl.glDepthRange(depth, depth);
-      emptyTest->program().use();
-      mGl.glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
-      mGl.glDepthMask(GL_TRUE);
-      geometry.drawKeep();
-      mGl.glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-      mGl.glDepthMask(GL_FALSE);
-      mGl.glDepthFunc(GL_EQUAL);
-      program.program().use();
-      geometry.draw();
-      mGl.glDepthFunc(GL_LESS);
-    } else {
-      mGl.glDepthRange(0.5, 0.5);
-      program.program().use();
-      geometry.draw();
-    }
-    mGl.glDepthRange(0, 1);
+      if (test) {
+        emptyTest->program().use();
+        mGl.glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
+        mGl.glDepthMask(GL_TRUE);
+        geometry.drawKeep();
+        mGl.glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+        mGl.glDepthMask(GL_FALSE);
+        mGl.glDepthFunc(GL_EQUAL);
+        program.program().use();
+        geometry.drawKeep();
+        mGl.glDepthFunc(GL_LESS);
+      } else {
+        program.program().use();
+        geometry.drawKeep();
+      }
+      mGl.glDepthRange(0, 1);
+    };
+    // A slab takes at most n samples a pixel: one larger than a checkpoint interval is drawn in tiles of the screen.
+    if (checkpoints.intervalSamples() > 0 && double(n) * plan.width * plan.height > checkpoints.intervalSamples())
+      drawTiled(mGl, plan.width, plan.height, checkpoints, double(n), drawSlab);
+    else
+      drawSlab();
+    geometry.clear();
     stats.slabPasses += 1;
     if (plan.ert > 0 && first + n < hi) mTermination.run(plan.ert, compositor);
     checkpoints.pace();

@@ -100,7 +100,10 @@ class SlabGeometry final : public SliceGeometry {
            const glm::ivec3& ownHi, const FramePlan& plan) override;
   bool empty() const override { return mInstances.empty(); }
   void draw() override;
-  void clear() override { mInstances.clear(); }
+  void clear() override {
+    mInstances.clear();
+    mUploaded = false;
+  }
   /// Draws what is queued and keeps it queued (uploaded once), for a second pass over the same slab.
   void drawKeep();
 

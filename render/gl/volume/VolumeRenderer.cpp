@@ -63,6 +63,10 @@ void VolumeRenderer::planStats(const FramePlan& plan, FrameStats& stats) const {
   stats.levelCoarsest = plan.coarsestLevel;
 }
 
+double VolumeRenderer::estimateSamples(const Scene& scene) {
+  return planFrame(scene, mResidency.store(), kTransferTableTexels, budget()).estimatedSamples();
+}
+
 SliceGeometry& VolumeRenderer::geometry(const Scene& scene) {
   // Slabs and the ray caster draw box proxies whatever the slicer.
   const bool slabs = scene.slab > 0 || scene.raycast;
@@ -111,7 +115,7 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
     emptyTest->setFrame(plan, mResidency.atlas(), store.meta());
     if (plan.preIntegration) emptyTest->setTable(mPreIntegration.spec());
   }
-  Checkpoints checkpoints(mGl, options.cancelled);
+  Checkpoints checkpoints(mGl, options.cancelled, options.checkpointSamples);
   if (plan.raycast)
     mRayCast.draw(plan, mResidency, program, geometry(scene), mCompositor, stats, checkpoints);
   else if (plan.slab > 0)

@@ -35,14 +35,17 @@ class VolumeRenderer final : public FrameRenderer {
 
   const BrickAtlas& atlas() const { return mResidency.atlas(); }
   size_t gpuBytes() const override { return mResidency.atlas().bytes(); }
+  /// The plan's estimate (FramePlan::estimatedSamples) of `scene` under this renderer's budget.
+  double estimateSamples(const Scene& scene) override;
+
+  /// What a frame's bricks must fit: the atlas's slots, and the bricks the host cache's budget holds now.
+  BrickBudget budget() const;
 
   /// Texels of the GPU's transfer-function table.
   static constexpr int kTransferTableTexels = render::kTransferTableTexels;
 
  private:
   SliceGeometry& geometry(const Scene& scene);
-  /// What a frame's bricks must fit: the atlas's slots, and the bricks the host cache's budget holds now.
-  BrickBudget budget() const;
   /// The plan's part of the frame's statistics: the traversal's counts and the fit to the budget.
   void planStats(const FramePlan& plan, FrameStats& stats) const;
   /// The GL part of a frame, from paging to readback; render() puts the context back in order if it throws.

@@ -1,0 +1,139 @@
+// The time-budget planner of interactive frames and the bilinear scale-up.
+#include "render/core/Interactive.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace voxbrick::render {
+
+const std::vector<InteractiveRung>& interactiveLadder() {
+  // Each rung is cheaper than the one before in at least one factor and no dearer in any. The order is the one
+  // measured on the MRI at 512² (bench_interactive, bench/results/interactive-order.md): a step 1.5 and 2 times longer
+  // costs the fewest dB for the time it saves (44 dB at 0.7 of the time), then the drawing size (which also coarsens
+  // the level of detail, given in pixels of the smaller drawing); a coarser level of detail of its own saves little
+  // on a small volume and loses much, so it comes last.
+  static const std::vector<InteractiveRung> kLadder = {
+      {1, 1, 1},    {1, 1.5, 1}, {1, 2, 1},    {0.75, 2, 1}, {0.6, 2, 1},  {0.5, 2, 1},  {0.42, 2, 1},  {0.35, 2, 1},
+      {0.35, 3, 1}, {0.3, 3, 1}, {0.25, 3, 1}, {0.25, 4, 1}, {0.18, 4, 1}, {0.18, 4, 2}, {0.125, 4, 2}, {0.125, 6, 4},
+  };
+  return kLadder;
+}
+
+nlohmann::json InteractiveChoice::toJson() const {
+  return {{"budget_ms", budgetMs},
+          {"predicted_ms", predictedMs},
+          {"rate_samples_per_ms", rate},
+          {"scale", scale},
+          {"width", width},
+          {"height", height},
+          {"lod", lod},
+          {"step", step},
+          {"rung", rung},
+          {"samples_estimated", samples}};
+}
+
+namespace {
+
+int reducedSide(int side, double scale) {
+  if (side <= kMinInteractiveSide) return side;
+  return std::clamp(int(std::lround(side * scale)), kMinInteractiveSide, side);
+}
+
+}  // namespace
+
+Scene interactiveScene(const Scene& scene, const InteractiveRung& rung) {
+  Scene s = scene;
+  s.interactive = false;
+  s.width = reducedSide(scene.width, rung.scale);
+  s.height = reducedSide(scene.height, rung.scale);
+  s.step = std::min(scene.step * rung.stepFactor, 64.0);
+  if (rung.lodFactor > 1)
+    s.lod = std::min(scene.lod > 0 ? scene.lod * rung.lodFactor : rung.lodFactor - 1, Scene::kMaxLod);
+  return s;
+}
+
+InteractiveChoice chooseInteractive(const Scene& scene, double rate, double fixedMs, const SampleEstimate& estimate) {
+  const auto& ladder = interactiveLadder();
+  InteractiveChoice choice;
+  choice.budgetMs = scene.timeBudgetMs;
+  choice.rate = rate > 0 && std::isfinite(rate) ? rate : 0;
+  choice.fixedMs = choice.rate > 0 && fixedMs > 0 && std::isfinite(fixedMs) ? fixedMs : 0;
+  auto take = [&](size_t i) {
+    const Scene s = interactiveScene(scene, ladder[i]);
+    choice.rung = int(i);
+    choice.samples = std::max(estimate(s), 0.0);
+    choice.predictedMs = choice.rate > 0 ? choice.fixedMs + choice.samples / choice.rate : 0;
+    choice.width = s.width;
+    choice.height = s.height;
+    choice.scale = double(s.width) / scene.width;
+    choice.lod = s.lod;
+    choice.step = s.step;
+    return choice.rate > 0 && choice.predictedMs <= choice.budgetMs;
+  };
+  // Without a rate the cheapest rung is drawn: its time measures the device for the next frame.
+  if (choice.rate <= 0 || take(0)) {
+    if (choice.rate <= 0) take(ladder.size() - 1);
+    return choice;
+  }
+  // Each rung costs no more than the one before: the first that fits, by bisection (a plan per step, a handful for
+  // the whole ladder, so that planning a large volume stays a small part of the budget). lo does not fit.
+  size_t lo = 0, hi = ladder.size() - 1;
+  if (!take(hi)) return choice;
+  while (hi - lo > 1) {
+    const size_t mid = (lo + hi) / 2;
+    (take(mid) ? hi : lo) = mid;
+  }
+  take(hi);
+  return choice;
+}
+
+void RateGauge::add(double samples, double ms) {
+  if (!(samples > 0 && ms > 0) || !std::isfinite(samples) || !std::isfinite(ms)) return;
+  if (mFrames.size() == kFrames) mFrames.erase(mFrames.begin());
+  mFrames.emplace_back(samples, ms);
+  fit();
+}
+
+void RateGauge::fit() {
+  const double n = double(mFrames.size());
+  double sumS = 0, sumMs = 0, lo = mFrames.front().first, hi = lo;
+  for (const auto& [s, ms] : mFrames) sumS += s, sumMs += ms, lo = std::min(lo, s), hi = std::max(hi, s);
+  mRate = sumS / sumMs;
+  mFixedMs = 0;
+  if (mFrames.size() < 3 || hi < 1.5 * lo) return;
+  const double meanS = sumS / n, meanMs = sumMs / n;
+  double cov = 0, var = 0;
+  for (const auto& [s, ms] : mFrames) cov += (s - meanS) * (ms - meanMs), var += (s - meanS) * (s - meanS);
+  // A noisy frame can tilt the line into a large fixed time that would make every drawing look too dear: the fixed
+  // time is held to half the quickest frame's, and the rate is then that of the rest of the time.
+  double quickest = mFrames.front().second;
+  for (const auto& frame : mFrames) quickest = std::min(quickest, frame.second);
+  const double slope = cov / var, fixed = std::min(meanMs - slope * meanS, 0.5 * quickest);
+  if (slope > 0 && fixed > 0) mRate = sumS / (sumMs - n * fixed), mFixedMs = fixed;
+}
+
+image::ImageF scaleBilinear(const image::ImageF& image, int width, int height) {
+  if (image.width == width && image.height == height) return image;
+  image::ImageF out;
+  out.width = width;
+  out.height = height;
+  out.rgba.resize(size_t(width) * size_t(height) * 4);
+  const double sx = double(image.width) / width, sy = double(image.height) / height;
+  for (int y = 0; y < height; ++y) {
+    const double fy = std::clamp((y + 0.5) * sy - 0.5, 0.0, double(image.height - 1));
+    const int y0 = int(fy), y1 = std::min(y0 + 1, image.height - 1);
+    const float ty = float(fy - y0);
+    for (int x = 0; x < width; ++x) {
+      const double fx = std::clamp((x + 0.5) * sx - 0.5, 0.0, double(image.width - 1));
+      const int x0 = int(fx), x1 = std::min(x0 + 1, image.width - 1);
+      const float tx = float(fx - x0);
+      const float *a = image.pixel(x0, y0), *b = image.pixel(x1, y0), *c = image.pixel(x0, y1),
+                  *d = image.pixel(x1, y1);
+      float* o = out.pixel(x, y);
+      for (int k = 0; k < 4; ++k) o[k] = (1 - ty) * ((1 - tx) * a[k] + tx * b[k]) + ty * ((1 - tx) * c[k] + tx * d[k]);
+    }
+  }
+  return out;
+}
+
+}  // namespace voxbrick::render

@@ -1,0 +1,154 @@
+// Interactive sessions end to end on the real `voxbrick serve` process: an interactive Render is answered by a frame
+// within its time budget (provisional) and then, once the camera rests, by the exact frame; a newer Render drops that
+// refinement; and a heavy frame given up (its session gone, or its refinement overtaken) frees the render thread at
+// once, whatever its size and step.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "ServerProcess.h"
+#include "client/Client.h"
+#include "image/FrameImage.h"
+#include "support/TestSupport.h"
+
+namespace voxbrick {
+namespace {
+
+using client::Client;
+using nlohmann::json;
+using test::ServerProcess;
+using Clock = std::chrono::steady_clock;
+
+class InteractiveServerTest : public test::SparseDatasetSuite {
+ protected:
+  std::unique_ptr<ServerProcess> start() {
+    return std::make_unique<ServerProcess>("--datasets " + datasets() + " --render-threads 1", scratch());
+  }
+};
+
+std::unique_ptr<Client> session(const ServerProcess& server) {
+  auto c = std::make_unique<Client>("127.0.0.1", server.port(), std::chrono::seconds(60));
+  c->hello("test");
+  c->openDataset("sparse");
+  return c;
+}
+
+std::string scene(double azimuth, bool interactive, int side = 192, double step = 0.75) {
+  json s = {{"camera", {{"orbit", {azimuth, 25, 2.2}}}},
+            {"size", {side, side}},
+            {"transfer_function", "sparse"},
+            {"step", step}};
+  if (interactive) s["interactive"] = true, s["time_budget_ms"] = 10;
+  return s.dump();
+}
+
+double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+std::vector<uint8_t> pixels(const proto::Frame& frame) { return image::decodeFrameImage(frame).rgba; }
+
+TEST_F(InteractiveServerTest, AnInteractiveRenderGetsAProvisionalFrameThenTheExactOne) {
+  auto server = start();
+  auto c = session(*server);
+  std::vector<proto::Frame> provisional;
+  const auto sent = Clock::now();
+  double provisionalMs = 0;
+  const proto::Frame exact = c->render(scene(40, true), proto::Encoding::RawRgba8, [&](const proto::Frame& f) {
+    provisional.push_back(f);
+    provisionalMs = msSince(sent);
+  });
+  const double exactMs = msSince(sent);
+  ASSERT_EQ(provisional.size(), 1u);
+  const json first = json::parse(provisional[0].statsJson), last = json::parse(exact.statsJson);
+  EXPECT_TRUE(first["provisional"].get<bool>());
+  ASSERT_TRUE(first["interactive"].is_object()) << first.dump();
+  EXPECT_EQ(first["interactive"]["budget_ms"].get<double>(), 10);
+  EXPECT_LT(first["interactive"]["scale"].get<double>(), 1) << "a new session's first frame measures the device";
+  EXPECT_EQ(provisional[0].width, 192u) << "scaled up to the requested size";
+  EXPECT_EQ(provisional[0].height, 192u);
+  EXPECT_FALSE(last["provisional"].get<bool>());
+  EXPECT_FALSE(last.contains("interactive"));
+  // The exact frame waits for the camera to rest, and comes within the rest's cap of the provisional one (plus its
+  // own drawing).
+  EXPECT_GE(exactMs - provisionalMs, 100) << "the exact frame waited for the rest";
+  EXPECT_NE(pixels(provisional[0]), pixels(exact));
+  // The exact frame is a plain Render's.
+  EXPECT_EQ(pixels(c->render(scene(40, false), proto::Encoding::RawRgba8)), pixels(exact));
+  EXPECT_EQ(json::parse(c->stats())["renders"]["refined"].get<int>(), 1);
+
+  // The session's second interactive frame is predicted at its own rate.
+  const proto::Frame second = c->render(scene(50, true), proto::Encoding::RawRgba8, [&](const proto::Frame& f) {
+    const json s = json::parse(f.statsJson);
+    EXPECT_GT(s["interactive"]["rate_samples_per_ms"].get<double>(), 0) << s.dump();
+    EXPECT_GT(s["interactive"]["predicted_ms"].get<double>(), 0) << s.dump();
+  });
+  EXPECT_FALSE(json::parse(second.statsJson)["provisional"].get<bool>());
+}
+
+TEST_F(InteractiveServerTest, ANewerRenderDropsTheRefinementWithoutAReply) {
+  auto server = start();
+  auto c = session(*server);
+  const uint32_t dragged = c->send(proto::RenderRequest{proto::Encoding::RawRgba8, scene(40, true)});
+  auto [id, first] = c->receive();
+  ASSERT_EQ(id, dragged);
+  ASSERT_TRUE(std::holds_alternative<proto::Frame>(first));
+  ASSERT_TRUE(client::isProvisional(std::get<proto::Frame>(first)));
+  // The camera moves on before the rest is over: the newer Render's frame comes, and nothing more for the first.
+  const uint32_t next = c->send(proto::RenderRequest{proto::Encoding::RawRgba8, scene(60, false)});
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));  // past any rest
+  const uint32_t stats = c->send(proto::GetStats{});
+  int framesOfNext = 0;
+  for (;;) {
+    auto [rid, m] = c->receive();
+    EXPECT_NE(rid, dragged) << "the dropped refinement was answered";
+    if (rid == next) {
+      ASSERT_TRUE(std::holds_alternative<proto::Frame>(m));
+      ++framesOfNext;
+    }
+    if (rid == stats) break;
+  }
+  EXPECT_EQ(framesOfNext, 1);
+  EXPECT_EQ(json::parse(c->stats())["renders"]["refined"].get<int>(), 0);
+}
+
+/// A small frame of a fresh session, timed from its Render to its Frame.
+double smallFrameMs(const ServerProcess& server) {
+  auto c = session(server);
+  const auto t = Clock::now();
+  const proto::Frame f = c->render(scene(10, false, 64), proto::Encoding::RawRgba8);
+  EXPECT_EQ(f.width, 64u);
+  return msSince(t);
+}
+
+// A heavy frame (256², a step of 0.002 voxel: about 300 million samples, seconds on llvmpipe) given up: before, its
+// 64-row bands kept the render thread for seconds after the cancellation; now intervals sized by cost free it.
+TEST_F(InteractiveServerTest, AHeavyFrameGivenUpFreesTheRenderThreadAtOnce) {
+  auto server = start();
+  smallFrameMs(*server);  // warm: the device's rate is known
+  {
+    auto gone = session(*server);
+    gone->send(proto::RenderRequest{proto::Encoding::Png, scene(30, false, 256, 0.002)});
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));  // drawing now
+  }                                                               // the client leaves without its frame
+  EXPECT_LT(smallFrameMs(*server), 1000) << "the abandoned frame held the render thread";
+
+  // A refinement overtaken while it draws: an interactive heavy Render, whose exact frame starts after the rest, and
+  // a newer Render while it draws.
+  auto c = session(*server);
+  const uint32_t heavy = c->send(proto::RenderRequest{proto::Encoding::Png, scene(30, true, 256, 0.002)});
+  auto [id, m] = c->receive();
+  ASSERT_EQ(id, heavy);
+  ASSERT_TRUE(std::holds_alternative<proto::Frame>(m)) << "the provisional frame";
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));  // the rest is over: the exact frame draws
+  const auto t = Clock::now();
+  const proto::Frame small = c->render(scene(10, false, 64), proto::Encoding::RawRgba8);
+  EXPECT_LT(msSince(t), 1000) << "the overtaken refinement held the render thread";
+  EXPECT_EQ(small.width, 64u);
+  const json stats = json::parse(c->stats());
+  EXPECT_EQ(stats["renders"]["cancelled"].get<int>(), 2) << stats.dump();
+}
+
+}  // namespace
+}  // namespace voxbrick
