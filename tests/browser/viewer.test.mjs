@@ -142,6 +142,12 @@ describe("viewer", () => {
     assert.ok(done.features.jpeg, "the server offers jpeg");
     const frames = await page.evaluate(() => window.voxbrickViewer.frames());
     for (const f of frames) assert.equal(f.encoding, f.provisional && f.phase === "drag" ? 3 : 1, JSON.stringify(f));
+    // Interactive Renders while dragging: provisional frames drawn within the time budget.
+    assert.ok(done.features.interactive && done.features.time_budget_ms, JSON.stringify(done.features));
+    assert.ok(
+      frames.filter((f) => f.phase === "drag" && f.provisional).length >= 3,
+      "provisional frames while dragging",
+    );
     const ref = reference("sparse", ["--orbit", `${done.view.az},${done.view.el}`]);
     assertNearlyEqual(await H.canvasPixels(page), ref, "the exact frame after the release");
     assert.ok(page.url().includes(`orbit=${Number(done.view.az.toFixed(4))}`), page.url());
