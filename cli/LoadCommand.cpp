@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <thread>
 
@@ -28,6 +29,8 @@ struct Tally {
   std::vector<double> renderMs;      ///< the renderer's own frame time (frame statistics), well-behaved clients
   std::vector<double> renderMsWarm;  ///< the same without each client's first frame (which pages its bricks in)
   int64_t frames = 0, errors = 0, superseded = 0, payloadBytes = 0;
+  int64_t provisional = 0;     ///< dragging clients: first replies that were provisional frames
+  int64_t exactFollowUps = 0;  ///< dragging clients: exact frames of requests a provisional frame already answered
   std::vector<std::string> errorSamples;
   std::map<std::string, int64_t> faultsDone, faultsUnexpected;
 
@@ -78,8 +81,37 @@ void goodClient(const LoadArgs& a, const std::string& host, int port, int width,
   }
 }
 
+/// The scene of a dragging client: the load's scene and, with --interactive, the keys of a camera in motion.
+std::string dragSceneJson(const LoadArgs& a, int width, int height, double azimuth) {
+  json scene = json::parse(sceneJson(a, width, height, azimuth));
+  if (a.interactiveMs > 0) scene["interactive"] = true, scene["time_budget_ms"] = a.interactiveMs;
+  if (!a.provisionalEncoding.empty()) scene["provisional_encoding"] = a.provisionalEncoding;
+  return scene.dump();
+}
+
+/// Counts one reply of a dragging client. `sentAt`: when its request was sent, or nullopt when the request was
+/// already answered (the exact frame that follows a provisional one).
+void tallyDragReply(const proto::Message& m, std::optional<Clock::time_point> sentAt, Tally& tally) {
+  std::lock_guard lock(tally.mutex);
+  const auto* frame = std::get_if<proto::Frame>(&m);
+  const auto* error = std::get_if<proto::Error>(&m);
+  if (error && error->code == proto::ErrorCode::Superseded) {
+    ++tally.superseded;
+  } else if (frame && !sentAt) {
+    ++tally.exactFollowUps;
+  } else if (frame) {
+    tally.latencies.push_back(std::chrono::duration<double, std::milli>(Clock::now() - *sentAt).count());
+    ++tally.frames;
+    tally.payloadBytes += int64_t(frame->payload.size());
+    if (json::parse(frame->statsJson).value("provisional", false)) ++tally.provisional;
+  } else if (!std::holds_alternative<proto::DatasetList>(m)) {  // a DatasetList answers the closing request
+    ++tally.errors;
+  }
+}
+
 /// A client dragging the camera: sends a new camera `hz` times a second without waiting, and reads frames as they
-/// come. Each frame's latency is the age of the camera it shows. Superseded requests are counted, not errors.
+/// come. Each frame's latency is the age of the camera it shows (an interactive request's first frame, provisional
+/// or not; the exact frame that may follow is counted apart). Superseded requests are counted, not errors.
 void dragClient(const LoadArgs& a, const std::string& host, int port, int width, int height, int index,
                 Clock::time_point deadline, Tally& tally) {
   try {
@@ -97,24 +129,12 @@ void dragClient(const LoadArgs& a, const std::string& host, int port, int width,
             if (!sending && sent.empty()) return;
           }
           auto [id, m] = c.receive();
-          Clock::time_point at;
+          std::optional<Clock::time_point> sentAt;
           {
             std::lock_guard lock(mutex);
-            at = sent.at(id);
-            sent.erase(id);
+            if (const auto it = sent.find(id); it != sent.end()) sentAt = it->second, sent.erase(it);
           }
-          std::lock_guard lock(tally.mutex);
-          if (const auto* frame = std::get_if<proto::Frame>(&m)) {
-            tally.latencies.push_back(std::chrono::duration<double, std::milli>(Clock::now() - at).count());
-            ++tally.frames;
-            tally.payloadBytes += int64_t(frame->payload.size());
-          } else if (std::holds_alternative<proto::DatasetList>(m)) {
-            // the closing request
-          } else if (auto* e = std::get_if<proto::Error>(&m); e && e->code == proto::ErrorCode::Superseded) {
-            ++tally.superseded;
-          } else {
-            ++tally.errors;
-          }
+          tallyDragReply(m, sentAt, tally);
         }
       } catch (const std::exception& e) {
         tally.error(e.what());
@@ -126,7 +146,7 @@ void dragClient(const LoadArgs& a, const std::string& host, int port, int width,
       {
         std::lock_guard lock(mutex);
         const uint32_t id = c.send(proto::RenderRequest{client::encodingNamed(a.encoding),
-                                                        sceneJson(a, width, height, 10.0 * index + 2.0 * n)});
+                                                        dragSceneJson(a, width, height, 10.0 * index + 2.0 * n)});
         sent[id] = Clock::now();
       }
       next += std::chrono::duration_cast<Clock::duration>(period);
@@ -231,6 +251,8 @@ json loadReport(const LoadArgs& a, const Tally& tally, double seconds, int width
       {"payload_bytes_per_frame", tally.frames > 0 ? double(tally.payloadBytes) / double(tally.frames) : 0.0},
       {"errors", tally.errors},
       {"superseded", tally.superseded},
+      {"provisional", tally.provisional},
+      {"exact_followups", tally.exactFollowUps},
       {"drag_hz", a.dragHz},
       {"error_samples", tally.errorSamples},
       {"latency_ms",
@@ -324,10 +346,20 @@ void addLoadCommand(CLI::App& app) {
                   "a damaged dataset of the server for the 'corrupt' fault (its renders must be answered Internal, "
                   "quarantined)");
   cmd->add_option("--idle-sessions", a->idleSessions, "sessions opened and left silent")->check(between(0, 100000));
-  cmd->add_option("--drag", a->dragHz,
-                  "clients send a new camera this many times a second without waiting (a camera drag); latency "
-                  "is then the age of the camera each frame shows")
-      ->check(between(0.0, 1000.0));
+  CLI::Option* drag =
+      cmd->add_option("--drag", a->dragHz,
+                      "clients send a new camera this many times a second without waiting (a camera drag); latency "
+                      "is then the age of the camera each frame shows")
+          ->check(between(0.0, 1000.0));
+  cmd->add_option("--interactive", a->interactiveMs,
+                  "with --drag: Renders carry \"interactive\": true with this time budget in ms (a provisional frame "
+                  "within it, the exact frame once the camera rests)")
+      ->check(between(10.0, 10000.0, "ms"))
+      ->needs(drag);
+  cmd->add_option("--provisional-encoding", a->provisionalEncoding,
+                  "with --drag: how provisional frames travel (provisional_encoding): raw, png, zstd or jpeg")
+      ->check(CLI::IsMember({"raw", "png", "zstd", "jpeg"}))
+      ->needs(drag);
   cmd->add_option("--json", a->jsonPath, "write the report as JSON");
   cmd->add_flag("--require-clean", a->requireClean,
                 "exit non-zero unless every good request succeeded and every fault got its documented reply");

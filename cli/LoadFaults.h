@@ -22,6 +22,10 @@ struct LoadArgs {
   std::vector<std::string> faults;
   int clients = 4, faultClients = 0, idleSessions = 0;
   double duration = 10, step = 1, dragHz = 0;
+  /// Dragging clients: the time budget of `"interactive": true` Renders in ms (0: not interactive), and the encoding
+  /// of provisional frames (`provisional_encoding`; empty: the Render's own).
+  double interactiveMs = 0;
+  std::string provisionalEncoding;
   bool requireClean = false;
 };
 

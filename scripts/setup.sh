@@ -13,12 +13,17 @@ PACKAGES=(
   libgdcm-dev libtiff-dev zstd
   mricron-data
   python3
+  chromium nodejs
 )
 
 missing=()
 for p in "${PACKAGES[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
+
+# The browser tests' packages come from npm (tests/browser/package-lock.json); npm ships with some builds of nodejs and
+# is a package of its own in Debian's.
+command -v npm > /dev/null 2>&1 || missing+=(npm)
 
 if [ ${#missing[@]} -eq 0 ]; then
   echo "setup: all ${#PACKAGES[@]} packages already installed"

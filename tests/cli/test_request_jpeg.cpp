@@ -93,5 +93,22 @@ TEST_F(RequestJpegTest, LoadAndThePythonClientUseJpeg) {
   EXPECT_EQ(python.height, 80);
 }
 
+TEST_F(RequestJpegTest, DraggingClientsAskForJpegProvisionalFrames) {
+  auto server = start();
+  const auto report = scratch() / "drag.json";
+  auto r = test::runVoxbrick("load " + address(*server) +
+                             " --dataset sparse --clients 2 --duration 1 --size 64x64 --drag 20 --encoding png "
+                             "--provisional-encoding jpeg --json " +
+                             report.string() + " --require-clean");
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  const std::vector<char> text = test::readFile(report);
+  const json load = json::parse(std::string(text.begin(), text.end()));
+  EXPECT_GT(load["frames"].get<int>(), 0);
+  EXPECT_EQ(load["errors"].get<int>(), 0);
+  // Counted apart from the frames: first replies that were provisional, and the exact frames that followed them.
+  EXPECT_TRUE(load.contains("provisional")) << load.dump();
+  EXPECT_TRUE(load.contains("exact_followups")) << load.dump();
+}
+
 }  // namespace
 }  // namespace voxbrick

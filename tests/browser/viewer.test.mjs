@@ -1,0 +1,388 @@
+// The viewer in a real browser (Debian's Chromium, headless) against the real `voxbrick serve --http` process over
+// two small datasets: listing, a still frame identical to `voxbrick render`, dragging, the exact frame after the
+// release, a transfer-function change, two tabs, a foreign origin and a wrong token refused, and the server killed
+// and restarted. Screenshots go to build/browser-screenshots/ (VOXBRICK_SCREENSHOTS).
+
+import assert from "node:assert/strict";
+import fs from "node:fs";
+import path from "node:path";
+import { after, before, describe, test } from "node:test";
+import * as H from "./harness.mjs";
+
+const SIZE = [160, 128];
+const SIZE_PARAM = `size=${SIZE[0]}x${SIZE[1]}`;
+
+/// Waits for an exact frame of the newest Render, newer than `afterId`, and returns the page's state.
+/// The payload of the last frame shown, as the server sent it.
+const lastPayload = async (page) =>
+  Buffer.from(await page.evaluate(() => window.voxbrickViewer.lastPayload()), "base64");
+
+/// Frames of one view from one server may differ by 1/255 with what its renderer drew before (see the still-frame
+/// test): the other comparisons with `voxbrick render` allow that, and no more.
+const assertNearlyEqual = (a, b, what) => {
+  const d = H.compareImages(a, b);
+  assert.ok(d.maxDiff <= 1 && d.differing < a.width * a.height * 0.02, `${what}: ${JSON.stringify(d)}`);
+};
+
+const waitExact = (page, afterId = 0, timeout = 20000) =>
+  H.waitForState(
+    page,
+    (s, after) => s.lastFrame && !s.lastFrame.provisional && s.lastFrame.id === s.newestId && s.newestId > after,
+    timeout,
+    afterId,
+  );
+
+describe("viewer", () => {
+  let scratch, datasets, server, browser;
+
+  before(async () => {
+    scratch = H.scratchDir("browser");
+    // A NRRD with a patient frame (axes not the index axes, spacing not 1, an origin away from 0): the page's own
+    // camera (eye, centre, up once panned) must place it as the server does.
+    const nrrd = path.join(scratch.dir, "oriented.nrrd");
+    fs.writeFileSync(nrrd, H.orientedNrrd());
+    datasets = H.prepDatasets(scratch.dir, {
+      sparse: "synthetic:sparse,n=64",
+      ml: "synthetic:marschner-lobb,n=48",
+      oriented: nrrd,
+    });
+    server = await new H.Server({ dir: scratch.dir, datasets }).start();
+    browser = await H.launchBrowser();
+  });
+
+  after(async () => {
+    if (browser) await browser.close();
+    if (server) await server.kill();
+    if (scratch) scratch.remove();
+  });
+
+  /// `voxbrick render` of a dataset with the page's frame size and these flags, decoded.
+  const reference = (dataset, flags) => {
+    const out = path.join(scratch.dir, `ref-${Date.now()}.png`);
+    H.voxbrick(["render", path.join(datasets, dataset), "--size", `${SIZE[0]}x${SIZE[1]}`, ...flags, "-o", out]);
+    return H.decodePng(fs.readFileSync(out));
+  };
+
+  test("the page loads, lists the datasets and opens the first", async () => {
+    const page = await H.openPage(browser, `${server.url}/?${SIZE_PARAM}`);
+    const s = await waitExact(page);
+    assert.deepEqual([...s.datasets].sort(), ["ml", "oriented", "sparse"]);
+    const options = await page.$$eval("#dataset option", (o) => o.map((x) => x.value));
+    assert.deepEqual(options, s.datasets);
+    assert.equal(s.dataset, s.datasets[0]);
+    assert.deepEqual(s.canvas, SIZE);
+    assert.ok(H.litPixels(await H.canvasPixels(page)) > 500, "the frame shows the volume");
+    // The view is written to the URL, so the link opens the same dataset.
+    await page.waitForFunction((d) => location.search.includes(`dataset=${d}`), {}, s.dataset);
+    await H.screenshot(page, "load");
+    assert.deepEqual(page.errors, []);
+    await page.close();
+  });
+
+  test("a still frame is the frame voxbrick render draws, pixel for pixel", async () => {
+    const cases = [
+      { url: "dataset=sparse&orbit=30,20&tf=grayscale", flags: ["--orbit", "30,20", "--tf", "grayscale"] },
+      {
+        url: "dataset=ml&orbit=75,-30,3.5&tf=mri&window=0.1,0.9&shading=1",
+        flags: ["--orbit", "75,-30,3.5", "--tf", "mri", "--window", "0.1,0.9", "--shading"],
+      },
+      { url: "dataset=ml&view=superior&tf=hot", flags: ["--view", "superior", "--tf", "hot"] },
+    ];
+    // A renderer's frame can differ from a fresh one's by 1/255 after it drew other views (`voxbrick orbit` shows it
+    // too; so does `render --progressive` against `render`), so each case has a fresh server with one render thread,
+    // whose first frames are those of the page's progressive Render, and the reference is drawn the same way.
+    for (const c of cases) {
+      const fresh = await new H.Server({ dir: scratch.dir, datasets, extra: ["--render-threads", "1"] }).start();
+      try {
+        const page = await H.openPage(browser, `${fresh.url}/?${c.url}&${SIZE_PARAM}`);
+        const s = await waitExact(page);
+        const shown = await H.canvasPixels(page);
+        // The canvas holds the PNG the server sent, untouched: no scaling, no colour management.
+        assert.deepEqual(H.compareImages(shown, H.decodePng(await lastPayload(page))), { differing: 0, maxDiff: 0 });
+        assert.equal(s.lastScene.progressive, true);
+        const ref = reference(s.dataset, [...c.flags, "--progressive"]);
+        assert.ok(H.litPixels(ref) > 200, `the reference of ${c.url} shows the volume`);
+        assert.deepEqual(
+          H.compareImages(shown, ref),
+          { differing: 0, maxDiff: 0 },
+          `${c.url}: ${JSON.stringify(s.lastScene)}`,
+        );
+        await page.close();
+      } finally {
+        await fresh.kill();
+      }
+    }
+  });
+
+  test("a drag turns the camera, frames keep arriving, and the exact frame follows the release", async () => {
+    const page = await H.openPage(browser, `${server.url}/?dataset=sparse&${SIZE_PARAM}`);
+    const start = await waitExact(page);
+    const box = await (await page.$("#frame")).boundingBox();
+    const [x0, y0] = [box.x + box.width / 2, box.y + box.height / 2];
+    await page.mouse.move(x0, y0);
+    await page.mouse.down();
+    const steps = 30;
+    for (let i = 1; i <= steps; ++i) {
+      await page.mouse.move(x0 + i * 4, y0 + i * 1);
+      await new Promise((r) => setTimeout(r, 33));
+    }
+    const during = await H.viewerState(page);
+    await H.screenshot(page, "drag");
+    await page.mouse.up();
+    const shownDuring = during.counts.shown - start.counts.shown;
+    assert.ok(shownDuring >= 4, `frames shown while dragging: ${shownDuring}`);
+    assert.ok(Math.abs(during.view.az - (30 - steps * 4 * 0.4)) < 1e-6, `azimuth ${during.view.az}`);
+    assert.ok(during.view.el > 20, `elevation ${during.view.el}`);
+    const s = await H.waitForState(page, (st) => st.exactAfterReleaseMs !== null && !st.lastFrame.provisional);
+    const done = await waitExact(page, 0);
+    assert.deepEqual(done.lastScene.camera.orbit, [done.view.az, done.view.el], "the last frame is of the last camera");
+    assert.ok(s.exactAfterReleaseMs < 5000, `exact frame ${s.exactAfterReleaseMs} ms after the release`);
+    // Version 2 with jpeg: provisional frames of the drag travel as jpeg, every exact frame as png.
+    assert.equal(done.capabilities.version, 2);
+    assert.ok(done.features.jpeg, "the server offers jpeg");
+    const frames = await page.evaluate(() => window.voxbrickViewer.frames());
+    for (const f of frames) assert.equal(f.encoding, f.provisional && f.phase === "drag" ? 3 : 1, JSON.stringify(f));
+    // Interactive Renders while dragging: provisional frames drawn within the time budget.
+    assert.ok(done.features.interactive && done.features.time_budget_ms, JSON.stringify(done.features));
+    assert.ok(
+      frames.filter((f) => f.phase === "drag" && f.provisional).length >= 3,
+      "provisional frames while dragging",
+    );
+    const ref = reference("sparse", ["--orbit", `${done.view.az},${done.view.el}`]);
+    assertNearlyEqual(await H.canvasPixels(page), ref, "the exact frame after the release");
+    assert.ok(page.url().includes(`orbit=${Number(done.view.az.toFixed(4))}`), page.url());
+    await page.close();
+  });
+
+  test("wheel zooms, shift-drag pans, and a pan of nothing is the orbit's frame", async () => {
+    // The camera sent as eye, centre and up (a pan too small to move a pixel) gives the orbit's frame, for a volume
+    // centred on the origin and for one in a patient frame.
+    for (const dataset of ["oriented", "ml"]) {
+      const p = await H.openPage(browser, `${server.url}/?dataset=${dataset}&orbit=40,25,3&${SIZE_PARAM}`);
+      const orbitFrame = await waitExact(p);
+      const orbitPixels = await H.canvasPixels(p);
+      assert.ok(H.litPixels(orbitPixels) > 500, `${dataset} shows`);
+      await p.evaluate(() => window.voxbrickViewer.setView({ pan: [1e-7, 0] }));
+      const moved = await waitExact(p, orbitFrame.newestId);
+      assert.ok(moved.lastScene.camera.eye && moved.lastScene.camera.center && moved.lastScene.camera.up);
+      assertNearlyEqual(orbitPixels, await H.canvasPixels(p), `${dataset}: eye, centre and up against the orbit`);
+      await p.close();
+    }
+    const page = await H.openPage(browser, `${server.url}/?dataset=ml&orbit=40,25,3&pan=0.00001,0&${SIZE_PARAM}`);
+    const still = await waitExact(page);
+    const box = await (await page.$("#frame")).boundingBox();
+    const [x0, y0] = [box.x + box.width / 2, box.y + box.height / 2];
+    await page.mouse.move(x0, y0);
+    await page.mouse.wheel({ deltaY: -200 });
+    const zoomed = await H.waitForState(page, (st) => st.view.dist < 3 && st.lastScene.camera.eye !== undefined);
+    await waitExact(page, still.newestId);
+    await page.keyboard.down("Shift");
+    await page.mouse.down();
+    for (let i = 1; i <= 5; ++i) await page.mouse.move(x0 + 6 * i, y0);
+    await page.mouse.up();
+    await page.keyboard.up("Shift");
+    const panned = await waitExact(page, zoomed.newestId);
+    assert.ok(panned.view.pan[0] < -0.05, `pan ${panned.view.pan}`);
+    assert.equal(panned.view.az, 40, "a pan does not turn the camera");
+    assert.ok(page.url().includes("pan="), page.url());
+    await page.close();
+  });
+
+  test("touch: one finger orbits, two fingers pinch to zoom", async () => {
+    const page = await H.openPage(browser, `${server.url}/?dataset=sparse&orbit=30,20,3&${SIZE_PARAM}`, {
+      width: 720,
+      height: 420,
+      hasTouch: true,
+      isMobile: false,
+    });
+    const start = await waitExact(page);
+    const box = await (await page.$("#frame")).boundingBox();
+    const [x, y] = [box.x + box.width / 2, box.y + box.height / 2];
+    const cdp = await page.createCDPSession();
+    const touch = (type, points) =>
+      cdp.send("Input.dispatchTouchEvent", { type, touchPoints: points.map(([px, py], id) => ({ x: px, y: py, id })) });
+    await touch("touchStart", [[x, y]]);
+    for (let i = 1; i <= 5; ++i) await touch("touchMove", [[x + 10 * i, y]]);
+    await touch("touchEnd", []);
+    const turned = await waitExact(page, start.newestId);
+    assert.ok(Math.abs(turned.view.az - (30 - 50 * 0.4)) < 1e-6, `azimuth ${turned.view.az}`);
+    // Fingers 40 px apart, then 80: twice as close.
+    await touch("touchStart", [
+      [x - 20, y],
+      [x + 20, y],
+    ]);
+    for (let i = 1; i <= 4; ++i)
+      await touch("touchMove", [
+        [x - 20 - 5 * i, y],
+        [x + 20 + 5 * i, y],
+      ]);
+    await touch("touchEnd", []);
+    const zoomed = await waitExact(page, turned.newestId);
+    assert.ok(Math.abs(zoomed.view.dist - 1.5) < 1e-6, `distance ${zoomed.view.dist}`);
+    assert.equal(zoomed.view.az, turned.view.az, "a pinch does not turn");
+    await page.close();
+  });
+
+  test("a transfer-function change draws again", async () => {
+    const page = await H.openPage(browser, `${server.url}/?dataset=ml&tf=grayscale&${SIZE_PARAM}`);
+    const before = await waitExact(page);
+    const grey = await H.canvasPixels(page);
+    await page.select("#tf", "hot");
+    const s = await waitExact(page, before.newestId);
+    assert.equal(s.lastScene.transfer_function, "hot");
+    const hot = await H.canvasPixels(page);
+    assert.ok(H.compareImages(grey, hot).differing > 500, "the frame changed");
+    // The curve editor: a double-click adds a point and makes the transfer function an inline curve.
+    const curve = await (await page.$("#curve")).boundingBox();
+    await page.mouse.click(curve.x + curve.width * 0.6, curve.y + curve.height * 0.2, { count: 2 });
+    const c = await waitExact(page, s.newestId);
+    assert.equal(c.view.tf, "custom");
+    assert.equal(c.lastScene.transfer_function.points.length, 4);
+    await H.screenshot(page, "curve");
+    assert.ok(H.compareImages(hot, await H.canvasPixels(page)).differing > 500, "the curve's frame differs");
+    await page.close();
+  });
+
+  test("a quality target the dataset has no table for is dropped, and the page says why", async () => {
+    const page = await H.openPage(browser, `${server.url}/?dataset=sparse&quality=psnr:40&${SIZE_PARAM}`);
+    const s = await waitExact(page);
+    assert.equal(s.view.quality, "");
+    assert.equal(s.lastScene.quality, undefined);
+    assert.equal(s.counts.refused, 1);
+    const note = await page.$eval("#quality-note", (n) => (n.hidden ? "" : n.textContent));
+    assert.match(note, /no quality table/);
+    await page.waitForFunction(() => !location.search.includes("quality="));
+    await page.close();
+  });
+
+  test("two tabs on different datasets each get their own frames", async () => {
+    const [a, b] = await Promise.all([
+      H.openPage(browser, `${server.url}/?dataset=sparse&${SIZE_PARAM}`),
+      H.openPage(browser, `${server.url}/?dataset=ml&${SIZE_PARAM}`),
+    ]);
+    const [sa, sb] = await Promise.all([waitExact(a), waitExact(b)]);
+    assert.equal(sa.dataset, "sparse");
+    assert.equal(sb.dataset, "ml");
+    // Both turn at once; each gets the frame of its own camera and dataset.
+    await Promise.all([
+      a.evaluate(() => window.voxbrickViewer.setView({ az: 120 })),
+      b.evaluate(() => window.voxbrickViewer.setView({ az: 200 })),
+    ]);
+    const [ta, tb] = await Promise.all([waitExact(a, sa.newestId), waitExact(b, sb.newestId)]);
+    assert.deepEqual(ta.lastScene.camera.orbit, [120, 20]);
+    assert.deepEqual(tb.lastScene.camera.orbit, [200, 20]);
+    const [pa, pb] = [await H.canvasPixels(a), await H.canvasPixels(b)];
+    assertNearlyEqual(pa, reference("sparse", ["--orbit", "120,20"]), "tab a");
+    assertNearlyEqual(pb, reference("ml", ["--orbit", "200,20"]), "tab b");
+    await Promise.all([a.close(), b.close()]);
+  });
+
+  test("a page from another origin is refused and says why", async () => {
+    const port = await H.freePort();
+    const other = await H.staticServer(port);
+    try {
+      const page = await H.openPage(
+        browser,
+        `http://127.0.0.1:${port}/?server=127.0.0.1:${server.httpPort}&${SIZE_PARAM}`,
+      );
+      const s = await H.waitForState(page, (st) => st.connection === "refused");
+      assert.match(s.banner, /Refused/);
+      assert.match(s.banner, /origin/);
+      assert.equal(s.counts.shown, 0);
+      await H.screenshot(page, "other-origin");
+      await page.close();
+      // The server itself refuses the upgrade from that origin, and takes it from its own.
+      const upgrade = (origin) =>
+        H.httpGet(`${server.url}/ws`, {
+          Connection: "Upgrade",
+          Upgrade: "websocket",
+          "Sec-WebSocket-Version": "13",
+          "Sec-WebSocket-Key": "dGhlIHNhbXBsZSBub25jZQ==",
+          Origin: origin,
+        });
+      assert.equal((await upgrade(`http://127.0.0.1:${port}`)).status, 403);
+    } finally {
+      other.close();
+    }
+  });
+
+  test("a wrong token is refused and the right one is taken", async () => {
+    const tokenServer = await new H.Server({
+      dir: scratch.dir,
+      datasets,
+      extra: ["--http-token", "s3cret"],
+    }).start();
+    try {
+      const bad = await H.openPage(browser, `${tokenServer.url}/?token=wrong&${SIZE_PARAM}`);
+      const s = await H.waitForState(bad, (st) => st.connection === "refused");
+      assert.match(s.banner, /Refused by the server: .*token/);
+      assert.equal(s.counts.shown, 0);
+      await H.screenshot(bad, "wrong-token");
+      await bad.close();
+      const good = await H.openPage(browser, `${tokenServer.url}/?token=s3cret&${SIZE_PARAM}`);
+      await waitExact(good);
+      await good.waitForFunction(
+        () => location.search.includes("dataset=") && location.search.includes("token=s3cret"),
+      );
+      await good.close();
+    } finally {
+      await tokenServer.kill();
+    }
+  });
+
+  test("a session the server closed as idle comes back when the person does", async () => {
+    const idleServer = await new H.Server({ dir: scratch.dir, datasets, extra: ["--idle-timeout", "1"] }).start();
+    try {
+      const page = await H.openPage(browser, `${idleServer.url}/?dataset=sparse&${SIZE_PARAM}`);
+      const first = await waitExact(page);
+      const idle = await H.waitForState(page, (st) => st.connection === "idle", 10000);
+      assert.match(idle.banner, /idle session/);
+      assert.match(idle.reason, /Timeout/);
+      // No reconnection loop while nobody is there.
+      await new Promise((r) => setTimeout(r, 1500));
+      assert.equal((await H.viewerState(page)).connection, "idle");
+      const box = await (await page.$("#frame")).boundingBox();
+      await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+      await page.mouse.wheel({ deltaY: 100 });
+      const back = await H.waitForState(
+        page,
+        (st, shown) => st.connection === "ready" && !st.lastFrame.provisional && st.counts.shown > shown,
+        10000,
+        first.counts.shown,
+      );
+      assert.ok(back.view.dist > 0, "the wheel that woke it zoomed");
+      await page.close();
+    } finally {
+      await idleServer.kill();
+    }
+  });
+
+  test("the server killed shows the error state, and a restart reconnects to the same view", async () => {
+    const page = await H.openPage(browser, `${server.url}/?dataset=ml&orbit=100,10,3&tf=hot&${SIZE_PARAM}`);
+    await waitExact(page);
+    const before = await H.canvasPixels(page);
+    await server.kill();
+    const down = await H.waitForState(
+      page,
+      (st) => st.connection === "disconnected" && st.banner.includes("Disconnected"),
+    );
+    assert.match(down.banner, /Retrying/);
+    await H.screenshot(page, "server-gone");
+    await server.start();
+    const back = await H.waitForState(
+      page,
+      (st, shown) =>
+        st.connection === "ready" &&
+        !st.lastFrame.provisional &&
+        st.lastFrame.id === st.newestId &&
+        st.counts.shown > shown,
+      30000,
+      down.counts.shown,
+    );
+    assert.equal(back.dataset, "ml");
+    assert.deepEqual(back.lastScene.camera.orbit, [100, 10, 3]);
+    assert.equal(back.banner, "");
+    assertNearlyEqual(before, await H.canvasPixels(page), "the same view after reconnecting");
+    await page.close();
+  });
+});

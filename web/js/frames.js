@@ -1,0 +1,157 @@
+// Asking for frames and showing them: at most one Render outstanding plus the latest wanted camera (never a
+// backlog), only the newest Render's frames shown (its provisional frame, then its exact one), and the figures of
+// the overlay: frames per second, the age of the camera each shown frame was drawn for, bytes per frame, stand-ins.
+
+import { Encoding, ErrorCode } from "./protocol.js";
+
+const MIME = { [Encoding.png]: "image/png", [Encoding.jpeg]: "image/jpeg" };
+const KEEP = 2000; // shown frames kept for the figures
+
+export class FrameLoop {
+  /// `canvas`: where frames are drawn. `hooks`: scene(phase) -> the scene to ask for now, or null if none can be
+  /// asked yet; refused(error) -> true when the page changed what it asks (then the frame is asked again);
+  /// shown(frame) after each frame drawn; failed(error) for an Error that is not handled.
+  constructor(canvas, hooks) {
+    this.canvas = canvas;
+    this.ctx = canvas.getContext("2d", { alpha: false, colorSpace: "srgb" });
+    this.hooks = hooks;
+    this.connection = null;
+    this.reset();
+    this.resetFigures();
+  }
+
+  /// Forgets what was asked (a new connection or dataset): nothing is outstanding.
+  reset() {
+    this.outstanding = null; // {id, cameraAt, phase} of the Render waiting for its first reply
+    this.newest = null; // the newest Render sent: {id, cameraAt, phase}
+    this.wanted = null; // {cameraAt, phase}: a frame is wanted that was not asked for yet
+    this.decodeSerial = 0;
+  }
+
+  resetFigures() {
+    this.shownFrames = []; // {id, at, latencyMs, bytes, provisional, encoding, standin, renderMs}
+    // errors: Error replies to Renders, except InvalidScene naming an optional key the page then dropped (refused).
+    this.counts = { shown: 0, provisional: 0, exact: 0, dropped: 0, errors: 0, refused: 0 };
+    this.releaseAt = null;
+    this.exactAfterReleaseMs = null;
+    this.lastFrame = null;
+    this.lastStats = null;
+    this.lastPayload = null;
+  }
+
+  attach(connection) {
+    this.connection = connection;
+    this.reset();
+  }
+
+  /// The camera or anything else of the view changed at `cameraAt` (performance.now()); ask for a frame as soon as
+  /// the outstanding one is answered. `phase`: "drag" while the pointer moves the camera, "still" otherwise.
+  want(phase, cameraAt = performance.now()) {
+    this.wanted = { cameraAt, phase };
+    this.pump();
+  }
+
+  /// The drag ended: the exact frame of the last camera is what comes next.
+  released() {
+    this.releaseAt = performance.now();
+    this.exactAfterReleaseMs = null;
+    // A camera not yet asked for is asked as a still frame; otherwise the newest Render's exact frame follows it.
+    if (this.wanted) this.wanted.phase = "still";
+    else if (this.newest && this.newest.phase === "drag" && this.newest.exactShown) this.exactAfterReleaseMs = 0;
+    this.pump();
+  }
+
+  pump() {
+    if (!this.connection || this.outstanding || !this.wanted) return;
+    const scene = this.hooks.scene(this.wanted.phase);
+    if (!scene) return;
+    const id = this.connection.render(Encoding.png, scene);
+    this.outstanding = { id, ...this.wanted, scene, sentAt: performance.now() };
+    this.newest = this.outstanding;
+    this.wanted = null;
+  }
+
+  /// A Frame or Error answering a Render (or with id 0).
+  reply(m) {
+    const answersNewest = this.newest && m.requestId === this.newest.id;
+    if (this.outstanding && m.requestId === this.outstanding.id) this.outstanding = null;
+    if (m.typeName === "Frame") {
+      if (answersNewest) this.show(m, this.newest);
+      else this.counts.dropped++;
+    } else if (m.typeName === "Error") {
+      if (answersNewest && m.body.code === ErrorCode.InvalidScene && this.hooks.refused(m.body)) {
+        this.counts.refused++;
+        this.wanted = this.wanted || { cameraAt: this.newest.cameraAt, phase: this.newest.phase };
+      } else {
+        this.counts.errors++;
+        if (m.body.code !== ErrorCode.Superseded && (answersNewest || m.requestId === 0)) this.hooks.failed(m.body);
+      }
+    }
+    this.pump();
+  }
+
+  async show(m, request) {
+    const f = m.body;
+    let stats = {};
+    try {
+      stats = JSON.parse(f.statsJson);
+    } catch {
+      /* a frame without readable statistics is still shown */
+    }
+    const serial = ++this.decodeSerial;
+    let bitmap;
+    try {
+      const blob = new Blob([f.payload], { type: MIME[f.encoding] || "application/octet-stream" });
+      bitmap = await createImageBitmap(blob, { premultiplyAlpha: "none", colorSpaceConversion: "none" });
+    } catch (e) {
+      this.hooks.failed({ name: "Decode", message: `a frame could not be decoded: ${e.message || e}` });
+      return;
+    }
+    // A later frame whose decoding finished first wins; this one is dropped.
+    if (serial !== this.decodeSerial) return bitmap.close();
+    if (this.canvas.width !== f.width || this.canvas.height !== f.height) {
+      // The canvas was resized after this frame was asked: shown scaled until the next one.
+      this.ctx.drawImage(bitmap, 0, 0, this.canvas.width, this.canvas.height);
+    } else {
+      this.ctx.drawImage(bitmap, 0, 0);
+    }
+    bitmap.close();
+    const now = performance.now();
+    const provisional = stats.provisional === true;
+    const frame = {
+      id: m.requestId,
+      at: now,
+      latencyMs: now - request.cameraAt,
+      bytes: f.payload.byteLength,
+      width: f.width,
+      height: f.height,
+      encoding: f.encoding,
+      provisional,
+      standin: stats.bricks_standin || 0,
+      renderMs: stats.ms ? stats.ms.total : null,
+      phase: request.phase,
+    };
+    this.shownFrames.push(frame);
+    if (this.shownFrames.length > KEEP) this.shownFrames.shift();
+    this.counts.shown++;
+    this.counts[provisional ? "provisional" : "exact"]++;
+    if (!provisional) request.exactShown = true;
+    if (!provisional && this.releaseAt !== null && this.exactAfterReleaseMs === null && !this.dragging)
+      this.exactAfterReleaseMs = now - this.releaseAt;
+    this.lastFrame = frame;
+    this.lastStats = stats;
+    this.lastPayload = f.payload;
+    this.hooks.shown(frame, stats);
+  }
+
+  /// Frames per second over the last second, the median and 99th percentile camera-to-frame latency of the last
+  /// 100 frames, and bytes per frame.
+  figures() {
+    const now = performance.now();
+    const recent = this.shownFrames.filter((f) => now - f.at <= 1000);
+    const last = this.shownFrames.slice(-100).map((f) => f.latencyMs);
+    last.sort((a, b) => a - b);
+    const pick = (p) => (last.length ? last[Math.min(last.length - 1, Math.floor(p * last.length))] : null);
+    return { fps: recent.length, p50: pick(0.5), p99: pick(0.99), last: this.lastFrame };
+  }
+}

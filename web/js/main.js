@@ -1,0 +1,371 @@
+// The viewer page: connects to the server's /ws, lists and opens datasets, turns the controls and gestures into the
+// view, keeps the view in the URL, reconnects with backoff when the server goes away, and exposes a small hook for
+// tests (window.voxbrickViewer).
+
+import { Connection } from "./connection.js";
+import { FrameLoop } from "./frames.js";
+import { attachGestures } from "./input.js";
+import { Encoding } from "./protocol.js";
+import { CurveEditor } from "./tfeditor.js";
+import * as V from "./view.js";
+import { bindPanel } from "./panel.js";
+
+const $ = (id) => document.getElementById(id);
+const params = new URLSearchParams(location.search);
+const MAX_SIDE = 2048; // the largest frame side the page asks for, whatever the screen
+const BACKOFF_MS = [500, 1000, 2000, 4000, 8000];
+
+/// The fixed frame size of `?size=WxH`, or null: the canvas element's size times devicePixelRatio.
+const fixedSize = (() => {
+  const m = /^(\d+)x(\d+)$/.exec(params.get("size") || "");
+  return m ? [Math.max(1, Math.min(MAX_SIDE, +m[1])), Math.max(1, Math.min(MAX_SIDE, +m[2]))] : null;
+})();
+
+const app = {
+  view: V.readView(params),
+  meta: null, // the open dataset's meta_json
+  datasets: [],
+  capabilities: null,
+  connection: null,
+  state: "connecting", // connecting | ready | disconnected | refused
+  reason: "",
+  attempts: 0,
+  reconnectTimer: 0,
+  features: { interactive: true, time_budget_ms: true, provisional_encoding: true, progressive: true, jpeg: false },
+  dragging: false,
+  notes: [],
+};
+
+const canvas = $("frame");
+const loop = new FrameLoop(canvas, {
+  scene: (phase) =>
+    app.state === "ready" && app.meta ? V.buildScene(app.view, app.meta, frameSize(), phase, app.features) : null,
+  refused: refusedScene,
+  shown: () => drawOverlay(),
+  failed: (e) => note(`${e.name}: ${e.message}`),
+});
+
+function frameSize() {
+  if (fixedSize) return fixedSize.slice();
+  const cap = Math.min(MAX_SIDE, app.capabilities ? app.capabilities.maxImageSide : MAX_SIDE);
+  const dpr = Math.min(window.devicePixelRatio || 1, 2);
+  let [w, h] = [Math.round(canvas.clientWidth * dpr), Math.round(canvas.clientHeight * dpr)];
+  const over = Math.max(w, h) / cap;
+  if (over > 1) [w, h] = [Math.floor(w / over), Math.floor(h / over)];
+  return [Math.max(1, w), Math.max(1, h)];
+}
+
+function fitCanvas() {
+  const [w, h] = frameSize();
+  if (canvas.width !== w || canvas.height !== h) {
+    [canvas.width, canvas.height] = [w, h];
+    loop.want("still");
+  }
+}
+
+/// A scene key the server refused: a motion key it does not know is dropped for the session; a quality target the
+/// dataset has no table for is cleared with a note. True when the page changed what it asks. The server names an
+/// unknown key as "unknown key 'NAME'" and a bad value by its quoted key.
+function refusedScene(error) {
+  const unknown = /unknown key '([^']+)'/.exec(error.message);
+  const names = (key) => (unknown ? unknown[1] === key : error.message.includes(`'${key}'`));
+  for (const key of V.MOTION_KEYS) {
+    if (app.features[key] && names(key)) {
+      app.features[key] = false;
+      return true;
+    }
+  }
+  if (app.view.quality && (names("quality") || error.message.includes("quality table"))) {
+    panel.qualityRefused(error.message);
+    app.view.quality = "";
+    viewChanged("still", false);
+    return true;
+  }
+  note(`InvalidScene: ${error.message}`);
+  return false;
+}
+
+function note(text) {
+  app.notes.push(text);
+  if (app.notes.length > 20) app.notes.shift();
+  drawOverlay();
+}
+
+function drawOverlay() {
+  const f = loop.figures();
+  const ms = (v) => (v === null || v === undefined ? "–" : `${v.toFixed(0)} ms`);
+  const lines = [];
+  if (f.last) {
+    const kind = f.last.provisional ? "provisional" : "exact";
+    lines.push(
+      `${f.fps} fps   ${f.last.width}×${f.last.height} ${f.last.encoding === Encoding.jpeg ? "jpeg" : "png"} ${kind}`,
+    );
+    lines.push(`latency ${ms(f.last.latencyMs)}  p50 ${ms(f.p50)}  p99 ${ms(f.p99)}`);
+    lines.push(
+      `${(f.last.bytes / 1024).toFixed(1)} KiB/frame   render ${ms(f.last.renderMs)}   stand-ins ${f.last.standin}`,
+    );
+  } else {
+    lines.push("no frame yet");
+  }
+  if (app.notes.length) lines.push(app.notes[app.notes.length - 1]);
+  $("overlay").textContent = lines.join("\n");
+}
+
+function banner(text, kind) {
+  const b = $("banner");
+  b.hidden = !text;
+  b.textContent = text || "";
+  b.className = kind || "";
+}
+
+let urlTimer = 0;
+/// The view changed: ask for a frame and write the URL (at most every 250 ms).
+function viewChanged(phase = "still", ask = true) {
+  wake();
+  if (ask) loop.want(phase);
+  if (!urlTimer)
+    urlTimer = setTimeout(() => {
+      urlTimer = 0;
+      history.replaceState(null, "", `${location.pathname}?${V.writeView(app.view, params)}`);
+    }, 250);
+}
+
+function wsUrl() {
+  const host = params.get("server") || location.host;
+  const scheme = location.protocol === "https:" ? "wss" : "ws";
+  const token = params.get("token");
+  return `${scheme}://${host}/ws${token ? `?token=${encodeURIComponent(token)}` : ""}`;
+}
+
+function connect() {
+  clearTimeout(app.reconnectTimer);
+  app.state = "connecting";
+  banner(app.attempts ? `Reconnecting to the server (attempt ${app.attempts + 1})…` : "Connecting…", "connecting");
+  const c = new Connection(wsUrl(), {
+    onReady: (caps) => greeted(c, caps),
+    onReply: (m) => c === app.connection && loop.reply(m),
+    onClose: (info) => c === app.connection && closed(info),
+  });
+  app.connection = c;
+  loop.attach(null);
+}
+
+async function greeted(c, caps) {
+  app.capabilities = caps;
+  app.features.jpeg = caps.encodings.includes(Encoding.jpeg);
+  try {
+    app.datasets = await c.listDatasets();
+    panel.datasets(app.datasets);
+    if (!app.datasets.length) throw new Error("the server offers no dataset");
+    const name = app.datasets.includes(app.view.dataset) ? app.view.dataset : app.datasets[0];
+    await openDataset(c, name);
+    app.attempts = 0;
+  } catch (e) {
+    if (c === app.connection) banner(`${e.name || "Error"}: ${e.message}`);
+  }
+}
+
+async function openDataset(c, name) {
+  const info = await c.openDataset(name);
+  if (c !== app.connection) return;
+  app.meta = JSON.parse(info.metaJson);
+  if (app.view.dataset !== name) {
+    // Another dataset: its own camera and window; the transfer function and shading stay.
+    const fresh = V.defaultView(name);
+    Object.assign(app.view, { ...fresh, tf: app.view.tf, points: app.view.points, shading: app.view.shading });
+  }
+  app.state = "ready";
+  app.reason = "";
+  banner("");
+  panel.opened(app.meta);
+  loop.attach(c);
+  fitCanvas();
+  viewChanged("still");
+}
+
+async function closed(info) {
+  app.meta = null;
+  loop.attach(null);
+  canvas.style.opacity = "0.35";
+  const idle = info.opened && app.connection.lastError && app.connection.lastError.name === "Timeout";
+  if (idle) {
+    // The server closes sessions idle for its idle timeout: reconnect when the person comes back, not in a loop.
+    app.state = "idle";
+    app.reason = info.reason;
+    banner("The server closed this idle session. Drag, scroll or use a control to reconnect.", "connecting");
+    return;
+  }
+  const cross = params.get("server") && params.get("server") !== location.host;
+  let why = info.reason;
+  if (!info.opened) {
+    // The upgrade was refused or nobody listens. The page's own server says which over plain HTTP.
+    why = cross
+      ? `the server at ${params.get("server")} cannot be reached or refuses this page's origin (${location.origin})`
+      : await refusalReason();
+  }
+  const refused = !info.opened && !why.startsWith("the server cannot be reached");
+  app.state = refused || /origin|token/i.test(why) ? "refused" : "disconnected";
+  app.reason = why;
+  const delay = BACKOFF_MS[Math.min(app.attempts, BACKOFF_MS.length - 1)];
+  app.attempts++;
+  const title = app.state === "refused" ? "Refused by the server" : "Disconnected from the server";
+  banner(`${title}: ${why}. Retrying in ${(delay / 1000).toFixed(1)} s…`);
+  app.reconnectTimer = setTimeout(connect, delay);
+}
+
+/// A person is back at a page whose idle session the server closed: connect again (the view is kept).
+function wake() {
+  if (app.state === "idle") connect();
+}
+document.addEventListener("visibilitychange", () => document.visibilityState === "visible" && wake());
+
+/// Why the page's own server refused /ws. A browser does not show a refused upgrade's answer to the page, so the page
+/// asks for /ws again over plain HTTP: nothing answers (the server is gone), the server says why (a 4xx with its
+/// text), or it answers that /ws is for WebSockets only (426). As the page is the server's own, its origin is
+/// allowed, and the refusal is then the access token's.
+async function refusalReason() {
+  let r;
+  try {
+    r = await fetch(wsUrl().replace(/^ws/, "http"), { cache: "no-store" });
+  } catch {
+    return "the server cannot be reached";
+  }
+  const text = (await r.text().catch(() => "")).trim().slice(0, 200);
+  if (r.status !== 426) return `HTTP ${r.status}${text ? `: ${text}` : ""}`;
+  return params.get("token")
+    ? "the access token in this page's address (?token=...) is wrong"
+    : "the server wants an access token: open the address it printed, with ?token=...";
+}
+
+const panel = bindPanel({
+  view: app.view,
+  changed: viewChanged,
+  openDataset: (name) => {
+    if (app.state !== "ready") return;
+    const before = app.view.dataset;
+    app.view.dataset = "";
+    loop.attach(null);
+    openDataset(app.connection, name).catch((e) => {
+      // Still on the dataset open before (an unknown name leaves the session as it was).
+      note(`${e.name}: ${e.message}`);
+      app.view.dataset = before;
+      panel.opened(app.meta);
+      loop.attach(app.connection);
+    });
+  },
+  curve: new CurveEditor($("curve"), (points, done) => {
+    Object.assign(app.view, { tf: "custom", points });
+    panel.syncTf();
+    viewChanged(done ? "still" : "drag");
+  }),
+});
+
+const gestures = {
+  begin: () => {
+    wake();
+    app.dragging = loop.dragging = true;
+    app.view.view = null;
+    panel.syncView();
+  },
+  orbit: (dAz, dEl) => {
+    const v = app.view;
+    v.az = ((((v.az + dAz) % 360) + 540) % 360) - 180;
+    v.el = Math.max(-90, Math.min(90, v.el + dEl));
+    viewChanged("drag");
+  },
+  pan: (dx, dy) => {
+    const [w, h] = [canvas.width, canvas.height];
+    const per = V.radiiPerPixel(app.view, w / h, h) * (h / Math.max(1, canvas.clientHeight));
+    app.view.pan = [app.view.pan[0] - dx * per, app.view.pan[1] + dy * per];
+    viewChanged("drag");
+  },
+  zoom: (factor) => {
+    const v = app.view;
+    v.view = null;
+    v.dist = Math.max(V.MIN_DIST, Math.min(V.MAX_DIST, V.distanceOf(v, canvas.width / canvas.height) * factor));
+    viewChanged(app.dragging ? "drag" : "still");
+  },
+  wheel: () => {},
+  end: () => {
+    app.dragging = loop.dragging = false;
+    loop.released();
+    viewChanged("still", false);
+  },
+};
+attachGestures(canvas, gestures);
+
+new ResizeObserver(() => fitCanvas()).observe(canvas);
+if (fixedSize) canvas.classList.add("fixed");
+setInterval(drawOverlay, 500);
+window.addEventListener("beforeunload", () => app.connection && app.connection.close());
+
+function base64(bytes) {
+  let s = "";
+  for (let i = 0; i < bytes.length; i += 0x8000) s += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
+  return btoa(s);
+}
+
+// The test hook: what the page shows and asks, so tests and benchmarks need no guessing.
+window.voxbrickViewer = {
+  state: () => ({
+    connection: app.state,
+    reason: app.reason,
+    banner: $("banner").hidden ? "" : $("banner").textContent,
+    datasets: app.datasets.slice(),
+    dataset: app.meta ? app.view.dataset : "",
+    capabilities: app.capabilities,
+    features: { ...app.features },
+    view: JSON.parse(JSON.stringify(app.view)),
+    canvas: [canvas.width, canvas.height],
+    lastFrame: loop.lastFrame,
+    lastStats: loop.lastStats,
+    lastScene: loop.newest ? loop.newest.scene : null,
+    newestId: loop.newest ? loop.newest.id : 0,
+    counts: { ...loop.counts },
+    exactAfterReleaseMs: loop.exactAfterReleaseMs,
+    notes: app.notes.slice(),
+    url: location.href,
+  }),
+  frames: () => loop.shownFrames.slice(),
+  resetFigures: () => loop.resetFigures(),
+  /// The canvas pixels as base64 of RGBA rows, top first.
+  pixels: () => {
+    const d = canvas.getContext("2d").getImageData(0, 0, canvas.width, canvas.height, { colorSpace: "srgb" });
+    return { width: d.width, height: d.height, rgba: base64(d.data) };
+  },
+  /// The last shown frame's payload as the server sent it (base64).
+  lastPayload: () => (loop.lastPayload ? base64(loop.lastPayload) : ""),
+  /// A scripted drag through the gestures' own handlers: `dAz`, `dEl` degrees per move, `hz` moves a second, for
+  /// `durationMs`; resolves with the moves made once released.
+  drag: ({ durationMs = 10000, hz = 30, dAz = 2, dEl = 0 } = {}) =>
+    new Promise((resolve) => {
+      gestures.begin();
+      const t0 = performance.now();
+      let moves = 0;
+      const move = () => {
+        if (performance.now() - t0 >= durationMs) {
+          gestures.end();
+          return resolve({ moves, ms: performance.now() - t0 });
+        }
+        gestures.orbit(dAz, dEl);
+        ++moves;
+        setTimeout(move, Math.max(0, t0 + (moves * 1000) / hz - performance.now()));
+      };
+      move();
+    }),
+  setView: (changes) => {
+    Object.assign(app.view, changes);
+    panel.syncAll();
+    viewChanged("still");
+  },
+};
+
+// Shown frames make the canvas opaque again after a disconnection.
+const shown = loop.hooks.shown;
+loop.hooks.shown = (...a) => {
+  canvas.style.opacity = "";
+  shown(...a);
+};
+
+panel.syncAll();
+connect();

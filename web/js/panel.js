@@ -1,0 +1,107 @@
+// The control panel: dataset list, named views, transfer function (preset or the curve editor), value window,
+// shading and quality target. Controls write into the view and call `changed`; sync* write the view back into them.
+
+import * as V from "./view.js";
+
+const $ = (id) => document.getElementById(id);
+
+/// `o`: {view, changed(phase), openDataset(name), curve: CurveEditor}. Returns the panel's sync functions.
+export function bindPanel(o) {
+  const view = o.view;
+  let range = null; // the open dataset's value range
+
+  const tf = $("tf");
+  for (const name of [...V.PRESETS, "custom"]) tf.add(new Option(name === "custom" ? "custom curve" : name, name));
+
+  $("dataset").addEventListener("change", (e) => o.openDataset(e.target.value));
+  for (const b of document.querySelectorAll("#views button")) {
+    b.addEventListener("click", () => {
+      const name = b.dataset.view;
+      [view.az, view.el] = V.NAMED_VIEWS[name];
+      Object.assign(view, { view: name, dist: null, pan: [0, 0] });
+      o.changed("still");
+    });
+  }
+  $("reset").addEventListener("click", () => {
+    const d = V.defaultView(view.dataset);
+    Object.assign(view, { view: null, az: d.az, el: d.el, dist: null, pan: [0, 0] });
+    o.changed("still");
+  });
+  tf.addEventListener("change", () => {
+    view.tf = tf.value;
+    o.curve.set(view.points, view.tf === "custom");
+    o.changed("still");
+  });
+  const windowInput = () => {
+    const [lo, hi] = [Number($("window-lo").value), Number($("window-hi").value)];
+    if (Number.isFinite(lo) && Number.isFinite(hi) && hi > lo) {
+      view.window = [lo, hi];
+      o.changed("still");
+    }
+  };
+  $("window-lo").addEventListener("change", windowInput);
+  $("window-hi").addEventListener("change", windowInput);
+  $("window-reset").addEventListener("click", () => {
+    view.window = null;
+    syncWindow();
+    o.changed("still");
+  });
+  $("shading").addEventListener("change", (e) => {
+    view.shading = e.target.checked;
+    o.changed("still");
+  });
+  $("quality").addEventListener("change", (e) => {
+    view.quality = e.target.value;
+    $("quality-note").hidden = true;
+    o.changed("still");
+  });
+
+  function syncWindow() {
+    const w = view.window || range;
+    $("window-lo").value = w ? String(Number(w[0].toPrecision(6))) : "";
+    $("window-hi").value = w ? String(Number(w[1].toPrecision(6))) : "";
+    if (range) {
+      const step = (range[1] - range[0]) / 100 || 1;
+      $("window-lo").step = $("window-hi").step = String(Number(step.toPrecision(2)));
+    }
+  }
+  function syncTf() {
+    if (![...tf.options].some((x) => x.value === view.tf)) tf.add(new Option(view.tf, view.tf));
+    tf.value = view.tf;
+    o.curve.set(view.points, view.tf === "custom");
+  }
+  function syncView() {
+    for (const b of document.querySelectorAll("#views button")) b.classList.toggle("on", b.dataset.view === view.view);
+  }
+  function syncAll() {
+    syncTf();
+    syncWindow();
+    syncView();
+    $("shading").checked = view.shading;
+    const q = $("quality");
+    if (view.quality && ![...q.options].some((x) => x.value === view.quality))
+      q.add(new Option(view.quality, view.quality));
+    q.value = view.quality;
+  }
+
+  return {
+    syncAll,
+    syncTf,
+    syncView,
+    datasets(names) {
+      const sel = $("dataset");
+      sel.replaceChildren(...names.map((n) => new Option(n, n)));
+    },
+    opened(meta) {
+      range = meta.value_range || null;
+      $("dataset").value = view.dataset;
+      syncAll();
+    },
+    qualityRefused(message) {
+      const n = $("quality-note");
+      n.textContent = `No quality target here: ${message}`;
+      n.hidden = false;
+      $("quality").value = "";
+    },
+  };
+}
