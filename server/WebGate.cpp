@@ -119,7 +119,11 @@ WebGate::Response WebGate::respond(std::string_view method, std::string_view tar
     return r;
   }
   const std::string_view path = splitTarget(target).first;
-  if (path == "/ws") return textResponse(426, "/ws is the WebSocket endpoint: open it with a WebSocket upgrade");
+  if (path == "/ws") {
+    // The token is checked here too, so a page that probes /ws learns why it would be refused.
+    if (const auto refusal = tokenRefusal(target)) return textResponse(403, "forbidden: " + *refusal);
+    return textResponse(426, "/ws is the WebSocket endpoint: open it with a WebSocket upgrade");
+  }
   // Only the embedded files' own names match: a path that climbs (..), is escaped (%2e) or absolute-form names none.
   const WebFile* file = path == "/"                              ? findWebFile("index.html")
                         : path.size() > 1 && path.front() == '/' ? findWebFile(path.substr(1))
@@ -146,11 +150,14 @@ std::optional<std::string> WebGate::refuseUpgrade(std::string_view target, std::
       return "Origin '" + std::string(*origin) + "' is not allowed (only this server's own pages, and the origins " +
              "configured in http.origins, may open /ws)";
   }
-  if (!mToken.empty()) {
-    const auto given = queryValue(splitTarget(target).second, "token");
-    if (!given) return "an access token is required (open the page with the URL the server logged: ?token=...)";
-    if (!equalInConstantTime(*given, mToken)) return "wrong access token";
-  }
+  return tokenRefusal(target);
+}
+
+std::optional<std::string> WebGate::tokenRefusal(std::string_view target) const {
+  if (mToken.empty()) return std::nullopt;
+  const auto given = queryValue(splitTarget(target).second, "token");
+  if (!given) return "an access token is required (open the page with the URL the server logged: ?token=...)";
+  if (!equalInConstantTime(*given, mToken)) return "wrong access token";
   return std::nullopt;
 }
 

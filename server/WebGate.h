@@ -40,7 +40,7 @@ class WebGate {
   };
   /// The answer to `method` `target` (the request line's target) with `ifNoneMatch` (the header, possibly empty):
   /// an embedded file for GET and HEAD ("/" is index.html; the query is ignored), 404 for any path that names none,
-  /// 405 for other methods, 426 for /ws without an upgrade.
+  /// 405 for other methods, 426 for /ws without an upgrade (403 naming why when its token is missing or wrong).
   Response respond(std::string_view method, std::string_view target, std::string_view ifNoneMatch) const;
 
   /// Whether `target` names the WebSocket endpoint (/ws, with any query).
@@ -52,6 +52,9 @@ class WebGate {
                                            std::string_view host) const;
 
  private:
+  /// Why `target` fails the access token (missing, wrong), or nullopt when none is set or it matches.
+  std::optional<std::string> tokenRefusal(std::string_view target) const;
+
   std::vector<Origin> mOrigins;
   std::string mToken;
 };

@@ -31,6 +31,17 @@ TEST(WebGate, ServesTheEmbeddedFilesByNameOnly) {
   EXPECT_EQ(gate.respond("GET", "/ws?token=x", "").status, 426);
 }
 
+TEST(WebGate, APlainRequestForTheSocketPathSaysWhenItsTokenIsWrong) {
+  const WebGate gate({}, "secret-1");
+  EXPECT_EQ(gate.respond("GET", "/ws?token=secret-1", "").status, 426);
+  const WebGate::Response wrong = gate.respond("GET", "/ws?token=x", "");
+  EXPECT_EQ(wrong.status, 403);
+  EXPECT_NE(wrong.text.find("wrong access token"), std::string::npos);
+  const WebGate::Response missing = gate.respond("GET", "/ws", "");
+  EXPECT_EQ(missing.status, 403);
+  EXPECT_NE(missing.text.find("token is required"), std::string::npos);
+}
+
 TEST(WebGate, ContentTypesFollowTheExtension) {
   EXPECT_EQ(contentTypeOf("a/b.js"), "text/javascript; charset=utf-8");
   EXPECT_EQ(contentTypeOf("style.css"), "text/css; charset=utf-8");
