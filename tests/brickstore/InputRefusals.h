@@ -1,13 +1,17 @@
-// A check shared by the ingest tests: a call is refused with a store::InputError whose message names the problem.
+// Checks shared by the ingest tests: a call is refused with a store::InputError whose message names the problem;
+// opening and reading a whole input; finding a DICOM element to damage.
 #pragma once
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <filesystem>
 #include <functional>
 #include <string>
 #include <vector>
 
 #include "brickstore/Errors.h"
+#include "brickstore/Sources.h"
 
 namespace voxbrick::test {
 
@@ -20,6 +24,24 @@ inline void expectRefused(const std::function<void()>& fn, const std::vector<std
     const std::string m = e.what();
     for (const std::string& w : words) EXPECT_NE(m.find(w), std::string::npos) << "missing '" << w << "' in: " << m;
   }
+}
+
+/// Opens `input` as a volume source and reads every slice: what prep does before writing anything.
+inline std::function<void()> openAndRead(const std::filesystem::path& input) {
+  return [input] {
+    auto source = store::openSource(input.string(), {});
+    const store::VolumeInfo& info = source->info();
+    std::vector<char> slab(size_t(info.dims.x * info.dims.y) * store::valueSize(info.type));
+    for (int64_t z = 0; z < info.dims.z; ++z) source->readSlices(1, slab.data());
+  };
+}
+
+/// The offset of an explicit-VR element's header (tag and VR, little endian) in `bytes`.
+inline size_t elementAt(const std::vector<char>& bytes, uint16_t group, uint16_t element, const char* vr) {
+  const char header[6] = {char(group & 0xFF), char(group >> 8), char(element & 0xFF), char(element >> 8), vr[0], vr[1]};
+  const auto it = std::search(bytes.begin(), bytes.end(), header, header + 6);
+  EXPECT_NE(it, bytes.end()) << "no element " << group << "," << element;
+  return size_t(it - bytes.begin());
 }
 
 }  // namespace voxbrick::test

@@ -22,7 +22,9 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::DicomSeriesSpec;
+using test::elementAt;
 using test::expectRefused;
+using test::openAndRead;
 using test::ScratchDir;
 
 double phantom(const test::Vec3& ras) { return 100 + 3 * ras[0] + 5 * ras[1] + 7 * ras[2]; }
@@ -34,23 +36,6 @@ std::vector<fs::path> series(const fs::path& dir, const std::string& syntax) {
   s.shuffleSeed = 0;
   s.transferSyntax = syntax;
   return test::writeDicomSeries(dir, s, phantom);
-}
-
-std::function<void()> openAndRead(const fs::path& input) {
-  return [input] {
-    auto source = store::openSource(input.string(), {});
-    const store::VolumeInfo& info = source->info();
-    std::vector<char> slab(size_t(info.dims.x * info.dims.y) * store::valueSize(info.type));
-    for (int64_t z = 0; z < info.dims.z; ++z) source->readSlices(1, slab.data());
-  };
-}
-
-/// The offset of an explicit-VR little-endian element's header in `bytes`.
-size_t elementAt(const std::vector<char>& bytes, uint16_t group, uint16_t element, const char* vr) {
-  const char header[6] = {char(group & 0xFF), char(group >> 8), char(element & 0xFF), char(element >> 8), vr[0], vr[1]};
-  const auto it = std::search(bytes.begin(), bytes.end(), header, header + 6);
-  EXPECT_NE(it, bytes.end()) << "no element " << group << "," << element;
-  return size_t(it - bytes.begin());
 }
 
 /// Sets Rows and Columns (US) of every file to `size`, the compressed pixel data left as it is.

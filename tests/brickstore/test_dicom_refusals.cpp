@@ -22,7 +22,9 @@ namespace voxbrick {
 namespace {
 
 using test::DicomSeriesSpec;
+using test::elementAt;
 using test::expectRefused;
+using test::openAndRead;
 using test::ScratchDir;
 
 double phantom(const test::Vec3& ras) { return 100 + 3 * ras[0] + 5 * ras[1] + 7 * ras[2]; }
@@ -33,23 +35,6 @@ DicomSeriesSpec spec() {
   s.dims = {32, 32, 6};
   s.shuffleSeed = 0;
   return s;
-}
-
-std::function<void()> openAndRead(const std::filesystem::path& input) {
-  return [input] {
-    auto source = store::openSource(input.string(), {});
-    const store::VolumeInfo& info = source->info();
-    std::vector<char> slab(size_t(info.dims.x * info.dims.y) * store::valueSize(info.type));
-    for (int64_t z = 0; z < info.dims.z; ++z) source->readSlices(1, slab.data());
-  };
-}
-
-/// The offset of an explicit-VR element's header (tag and VR, little endian) in `bytes`.
-size_t elementAt(const std::vector<char>& bytes, uint16_t group, uint16_t element, const char* vr) {
-  const char header[6] = {char(group & 0xFF), char(group >> 8), char(element & 0xFF), char(element >> 8), vr[0], vr[1]};
-  const auto it = std::search(bytes.begin(), bytes.end(), header, header + 6);
-  EXPECT_NE(it, bytes.end()) << "no element " << group << "," << element;
-  return size_t(it - bytes.begin());
 }
 
 /// Rewrites `file` with its PixelData holding `length` bytes (the first bytes of the old value, then zeros).
