@@ -99,6 +99,7 @@ double RenderScheduler::restMs(const Sink& sink) const {
 
 void RenderScheduler::refine(const std::shared_ptr<Sink>& sink, RenderJob job) {
   const bool rest = job.scene.interactive && !job.refinement;
+  const auto asked = job.received;
   job.refinement = true;
   job.received = std::chrono::steady_clock::now();
   job.notBefore = job.received;
@@ -107,6 +108,9 @@ void RenderScheduler::refine(const std::shared_ptr<Sink>& sink, RenderJob job) {
     std::lock_guard lock(mMutex);
     if (mStopping) return;
     if (auto it = mWaiting.find(sink.get()); it != mWaiting.end() && !it->second.empty()) return;
+    // A newer Render of the session came meanwhile, already taken by another render thread: the camera moved on,
+    // and this exact frame, queued now, would overtake (and give up) the newer request's own exact frame.
+    if (asked < paceLocked(sink).lastReceived) return;
     enqueueLocked(sink, std::move(job));
   }
   mReady.notify_one();

@@ -44,9 +44,9 @@ class RenderScheduler {
   /// Queues `job` for `sink`'s session; thread-safe. Only Submission::Result::Queued means a reply will come.
   Submission submit(const std::shared_ptr<Sink>& sink, RenderJob job);
   /// Queues the exact frame of `job`, a request just answered with a provisional frame, unless the session has a
-  /// newer job waiting (its camera moved on) or the server is stopping; a newer submit replaces it (or, without
-  /// coalescing, drops it). The exact frame of an interactive request waits restMs(sink) first, so that it does not
-  /// start while the camera still moves; a progressive one is queued at once. Thread-safe.
+  /// newer job waiting, or received one after `job` (its camera moved on), or the server is stopping; a newer submit
+  /// replaces it (or, without coalescing, drops it). The exact frame of an interactive request waits restMs(sink)
+  /// first, so that it does not start while the camera still moves; a progressive one is queued at once. Thread-safe.
   void refine(const std::shared_ptr<Sink>& sink, RenderJob job);
   /// How long the exact frame of an interactive request of `sink`'s session waits for the camera to rest: one and a
   /// half times the interval between the session's last two Renders (a camera still moving sends its next one within

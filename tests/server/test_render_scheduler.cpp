@@ -3,6 +3,7 @@
 
 #include <condition_variable>
 #include <mutex>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -140,6 +141,26 @@ TEST_F(RenderSchedulerTest, ARefinementYieldsToANewerJob) {
   EXPECT_EQ(replies[0].first, 1u);
   EXPECT_EQ(replies[1].first, 3u);
   s->stop();
+}
+
+// The exact frame of a request older than one the session sent since (already taken by a render thread, so not
+// waiting) is dropped: queued, it would overtake the newer request's own exact frame and give it up.
+TEST_F(RenderSchedulerTest, ARefinementOfAnOlderRequestIsDroppedOnceANewerOneCame) {
+  auto s = scheduler(1, true);
+  auto a = std::make_shared<RecordingSink>();
+  RenderJob older = job(1);
+  RenderJob newer = job(2);
+  older.received = std::chrono::steady_clock::now();
+  newer.received = older.received + std::chrono::milliseconds(5);
+  s->submit(a, std::move(newer));
+  s->start();
+  ASSERT_EQ(a->await(1).size(), 1u);                            // the newer one is drawn: nothing waits now
+  s->refine(a, std::move(older));                               // its exact frame: dropped
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // a 40x32 frame takes a few ms
+  s->stop();
+  const auto replies = a->await(1);
+  ASSERT_EQ(replies.size(), 1u) << "no reply to the older request's exact frame";
+  EXPECT_EQ(replies[0].first, 2u);
 }
 
 TEST_F(RenderSchedulerTest, WithoutCoalescingASessionMayQueueSixtyFour) {

@@ -1,11 +1,18 @@
-// Asking for frames and showing them: at most one Render outstanding plus the latest wanted camera (never a
-// backlog), only the newest Render's frames shown (its provisional frame, then its exact one), and the figures of
-// the overlay: frames per second, the age of the camera each shown frame was drawn for, bytes per frame, stand-ins.
+// Asking for frames and showing them: every new camera is asked for at once, up to MAX_OUTSTANDING Renders
+// unanswered (one drawing, one waiting: the server's latest-wins replaces a waiting one with the newer and answers it
+// Superseded, so a camera never waits for the frame before it, and there is never a backlog); frames are shown only
+// going forward (a Frame of an older Render than the one shown is dropped; a Render's exact frame follows its
+// provisional one); and the figures of the overlay: frames per second, the age of the camera each shown frame was
+// drawn for, bytes per frame, stand-ins.
 
 import { Encoding, ErrorCode } from "./protocol.js";
 
 const MIME = { [Encoding.png]: "image/png", [Encoding.jpeg]: "image/jpeg" };
 const KEEP = 2000; // shown frames kept for the figures
+// Renders sent and not yet answered at most: one being drawn, one waiting (replaced by each newer camera), and one
+// more while a render thread of the server takes the waiting one.
+const MAX_OUTSTANDING = 3;
+const REMEMBERED = 16; // recent Renders kept, so that a late exact frame finds its camera
 
 export class FrameLoop {
   /// `canvas`: where frames are drawn. `hooks`: scene(phase) -> the scene to ask for now, or null if none can be
@@ -22,16 +29,20 @@ export class FrameLoop {
 
   /// Forgets what was asked (a new connection or dataset): nothing is outstanding.
   reset() {
-    this.outstanding = null; // {id, cameraAt, phase} of the Render waiting for its first reply
-    this.newest = null; // the newest Render sent: {id, cameraAt, phase}
+    this.outstanding = new Set(); // ids of the Renders waiting for their first reply
+    this.sent = new Map(); // id -> {id, cameraAt, phase, scene} of recent Renders
+    this.newest = null; // the newest Render sent: {id, cameraAt, phase, scene}
+    this.shownId = 0; // id of the Render whose frame is on the canvas
+    this.shownExact = false; // and whether that frame was its exact one
     this.wanted = null; // {cameraAt, phase}: a frame is wanted that was not asked for yet
     this.decodeSerial = 0;
   }
 
   resetFigures() {
     this.shownFrames = []; // {id, at, latencyMs, bytes, provisional, encoding, standin, renderMs}
-    // errors: Error replies to Renders, except InvalidScene naming an optional key the page then dropped (refused).
-    this.counts = { shown: 0, provisional: 0, exact: 0, dropped: 0, errors: 0, refused: 0 };
+    // errors: Error replies to Renders, except InvalidScene naming an optional key the page then dropped (refused)
+    // and Superseded (a waiting camera replaced by a newer one).
+    this.counts = { shown: 0, provisional: 0, exact: 0, dropped: 0, superseded: 0, errors: 0, refused: 0 };
     this.releaseAt = null;
     this.exactAfterReleaseMs = null;
     this.lastFrame = null;
@@ -44,8 +55,8 @@ export class FrameLoop {
     this.reset();
   }
 
-  /// The camera or anything else of the view changed at `cameraAt` (performance.now()); ask for a frame as soon as
-  /// the outstanding one is answered. `phase`: "drag" while the pointer moves the camera, "still" otherwise.
+  /// The camera or anything else of the view changed at `cameraAt` (performance.now()); ask for a frame now, or as
+  /// soon as fewer than MAX_OUTSTANDING Renders are unanswered. `phase`: "drag" while the pointer moves the camera, "still" otherwise.
   want(phase, cameraAt = performance.now()) {
     this.wanted = { cameraAt, phase };
     this.pump();
@@ -62,32 +73,54 @@ export class FrameLoop {
   }
 
   pump() {
-    if (!this.connection || this.outstanding || !this.wanted) return;
+    if (!this.connection || this.outstanding.size >= MAX_OUTSTANDING || !this.wanted) return;
     const scene = this.hooks.scene(this.wanted.phase);
     if (!scene) return;
     const id = this.connection.render(Encoding.png, scene);
-    this.outstanding = { id, ...this.wanted, scene, sentAt: performance.now() };
-    this.newest = this.outstanding;
+    this.newest = { id, ...this.wanted, scene, sentAt: performance.now() };
+    this.outstanding.add(id);
+    this.sent.set(id, this.newest);
+    if (this.sent.size > REMEMBERED) this.sent.delete(this.sent.keys().next().value);
     this.wanted = null;
   }
 
   /// A Frame or Error answering a Render (or with id 0).
   reply(m) {
     const answersNewest = this.newest && m.requestId === this.newest.id;
-    if (this.outstanding && m.requestId === this.outstanding.id) this.outstanding = null;
+    this.outstanding.delete(m.requestId);
     if (m.typeName === "Frame") {
-      if (answersNewest) this.show(m, this.newest);
+      const request = this.sent.get(m.requestId);
+      if (request && this.advance(m)) this.show(m, request);
       else this.counts.dropped++;
     } else if (m.typeName === "Error") {
       if (answersNewest && m.body.code === ErrorCode.InvalidScene && this.hooks.refused(m.body)) {
         this.counts.refused++;
         this.wanted = this.wanted || { cameraAt: this.newest.cameraAt, phase: this.newest.phase };
+      } else if (m.body.code === ErrorCode.Superseded) {
+        this.counts.superseded++; // a waiting camera replaced by a newer one: no error
       } else {
         this.counts.errors++;
-        if (m.body.code !== ErrorCode.Superseded && (answersNewest || m.requestId === 0)) this.hooks.failed(m.body);
+        if (answersNewest || m.requestId === 0) this.hooks.failed(m.body);
       }
     }
     this.pump();
+  }
+
+  /// Whether Frame `m` moves the canvas forward (a later Render's frame, or the exact frame of the Render shown);
+  /// if so it becomes the one shown. A frame whose statistics cannot be read counts as exact.
+  advance(m) {
+    let provisional = false;
+    try {
+      provisional = JSON.parse(m.body.statsJson).provisional === true;
+    } catch {
+      /* shown as an exact frame */
+    }
+    const forward = m.requestId > this.shownId || (m.requestId === this.shownId && !this.shownExact && !provisional);
+    if (forward) {
+      this.shownId = m.requestId;
+      this.shownExact = !provisional;
+    }
+    return forward;
   }
 
   async show(m, request) {

@@ -113,7 +113,7 @@ export function sceneCamera(view, meta, aspect) {
 /// The keys a scene may carry for a moving camera, tried in this order of preference: the server refuses keys it
 /// does not know (InvalidScene naming the key), and the viewer then drops that key for the session.
 export const MOTION_KEYS = ["interactive", "time_budget_ms", "provisional_encoding", "progressive"];
-/// The time budget of a provisional frame while dragging, in milliseconds: with one Render outstanding, at best about
+/// The time budget of a provisional frame while dragging, in milliseconds: with one frame drawn at a time, at best about
 /// twenty frames a second (the server's own default, 100 ms, is ten).
 export const DRAG_TIME_BUDGET_MS = 50;
 
