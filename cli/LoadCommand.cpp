@@ -337,7 +337,7 @@ void addLoadCommand(CLI::App& app) {
   cmd->add_option("--encoding", a->encoding,
                   "how the clients' frames travel: raw, png, zstd or jpeg (lossy; protocol version 2)")
       ->capture_default_str()
-      ->check(CLI::IsMember({"raw", "png", "zstd", "jpeg"}));
+      ->check(CLI::IsMember(proto::encodingShortNames()));
   cmd->add_option("--fault-clients", a->faultClients, "clients that misbehave in turn")->check(between(0, 4096));
   cmd->add_option("--faults", a->faults, "comma list of what faulty clients do (default all): " + faultUsage())
       ->delimiter(',')
@@ -358,7 +358,7 @@ void addLoadCommand(CLI::App& app) {
       ->needs(drag);
   cmd->add_option("--provisional-encoding", a->provisionalEncoding,
                   "with --drag: how provisional frames travel (provisional_encoding): raw, png, zstd or jpeg")
-      ->check(CLI::IsMember({"raw", "png", "zstd", "jpeg"}))
+      ->check(CLI::IsMember(proto::encodingShortNames()))
       ->needs(drag);
   cmd->add_option("--json", a->jsonPath, "write the report as JSON");
   cmd->add_flag("--require-clean", a->requireClean,

@@ -89,7 +89,7 @@ void addRequestCommand(CLI::App& app) {
   cmd->add_option("--stats", a->statsPath, "write the frame's statistics as JSON");
   cmd->add_option("--encoding", a->encoding,
                   "how the frame travels: png, raw, zstd or jpeg (lossy; needs a server of protocol version 2)")
-      ->check(CLI::IsMember({"png", "raw", "zstd", "jpeg"}))
+      ->check(CLI::IsMember(proto::encodingShortNames()))
       ->capture_default_str();
   cmd->add_option("--timeout", a->timeout, "seconds to wait for the server")
       ->capture_default_str()

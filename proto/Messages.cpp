@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <limits>
 #include <type_traits>
+#include <utility>
 
 namespace voxbrick::proto {
 namespace {
@@ -371,12 +372,24 @@ bool encodingInVersion(Encoding encoding, uint16_t version) {
   return false;
 }
 
+namespace {
+
+/// Every encoding by its short name, in the order of their values.
+constexpr std::pair<std::string_view, Encoding> kShortNames[] = {
+    {"raw", Encoding::RawRgba8}, {"png", Encoding::Png}, {"zstd", Encoding::ZstdRgba8}, {"jpeg", Encoding::Jpeg}};
+
+}  // namespace
+
 std::optional<Encoding> encodingFromShortName(std::string_view name) {
-  if (name == "raw") return Encoding::RawRgba8;
-  if (name == "png") return Encoding::Png;
-  if (name == "zstd") return Encoding::ZstdRgba8;
-  if (name == "jpeg") return Encoding::Jpeg;
+  for (const auto& [shortName, encoding] : kShortNames)
+    if (name == shortName) return encoding;
   return std::nullopt;
+}
+
+std::vector<std::string> encodingShortNames() {
+  std::vector<std::string> names;
+  for (const auto& entry : kShortNames) names.emplace_back(entry.first);
+  return names;
 }
 
 std::vector<Encoding> encodingsOf(uint16_t version) {

@@ -81,6 +81,8 @@ const char* encodingName(Encoding encoding);
 /// The encoding a short name gives, as scenes (`provisional_encoding`) and the command line spell them: "raw",
 /// "png", "zstd", "jpeg"; nothing for another text.
 std::optional<Encoding> encodingFromShortName(std::string_view name);
+/// Those short names, in the order of the encodings' values (for a command line's list of choices).
+std::vector<std::string> encodingShortNames();
 
 struct Hello {
   uint16_t minVersion = kVersion, maxVersion = kVersion;

@@ -279,7 +279,7 @@ void Connection::replaceUnsentFrame(uint32_t requestId) {
   mServices.stats.add(ServerEvent::Superseded);
   unsent->bytes = proto::encode(
       errorMessage(proto::ErrorCode::Superseded, "a newer frame of this session was ready before this one was sent"),
-      unsent->requestId);
+      unsent->requestId, mState.version);
   unsent->frame = false;
   mOutboxBytes += unsent->bytes.size();
   mServices.output.add(unsent->bytes.size());
