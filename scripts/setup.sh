@@ -12,7 +12,8 @@ PACKAGES=(
   nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libtomlplusplus-dev libpng-dev libjpeg62-turbo-dev
   libgdcm-dev libtiff-dev zstd
   mricron-data
-  python3
+  python3 python3-numpy python3-zarr python3-numcodecs python3-pydicom
+  openmpi-bin libopenmpi-dev
   chromium nodejs
 )
 
