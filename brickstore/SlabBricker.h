@@ -53,8 +53,8 @@ class SlabBricker {
   /// Called with each batch of real slices right after it is read (z of the first, count, the values); it may
   /// modify them (the non-finite policy does) before they are bricked. Runs in z order, one batch at a time.
   using SliceHook = std::function<void(int64_t z0, int64_t count, void* values)>;
-  /// Called with each batch of real slices while their slab is being cut (so it must only read them); runs in z
-  /// order, one batch at a time.
+  /// Called with each slab's slices (z0 = kz * B, B of them, fewer in the last) while the slab is being cut (so it
+  /// must only read them), after the slice hook has seen them; runs in z order, one slab at a time.
   using SliceConsumer = std::function<void(int64_t z0, int64_t count, const void* values)>;
   /// Called after each slab of bricks with (slabs done, slabs in all).
   using ProgressHook = std::function<void(int64_t done, int64_t total)>;
