@@ -10,6 +10,7 @@
 #   bash bench/run_prep.sh [--base OLD_VOXBRICK] [--threads "2"] [--repeats 3] [--big-repeats 1] [--sizes "512 1024"]
 #                          [--work bench/work/prep]
 #
+# Each prep writes a fresh store (the previous one is removed before the timing starts, as zstd's output file is).
 # Runs alternate between tools so that load from other work hits them alike; medians of --repeats runs
 # (--big-repeats for 1024³, about half a minute a run). --sizes 256 makes a quick smoke run.
 set -euo pipefail
@@ -58,6 +59,9 @@ prep() {  # prep BINARY TOOL INPUT_NAME THREADS RUN RAW_BYTES ARGS...
   shift 6
   local timings=()
   [ "$bin" = "$new" ] && timings=(--timings)
+  # The previous run's store is removed first, untimed, as zstd's output is: with --force prep would otherwise
+  # unlink it inside the timing (GBs of page cache truncated, up to a sixth of a 512^3 prep's CPU).
+  rm -rf "$work/out.vbs"
   timed "$tool" "$name" "$t" "$run" "$bytes" "$bin" prep "$@" --threads "$t" -o "$work/out.vbs" --force -q \
     "${timings[@]}"
   python3 - "$tool" "$name" "$t" "$run" "$work/out" >> "$phases" <<'EOF'
@@ -154,7 +158,8 @@ if loaded:
 print(f"MB/s = raw input bytes / wall seconds, median of {repeats} runs ({big} for 1024³); CPU = user + system "
       f"seconds, all threads; prep with `--threads T`, zstd with `-TT`. {cores} cores (load average {load_start} at "
       f"the start, {load} at the end). The raw files are the blobs field written once as raw f32, so no field is "
-      f"evaluated; each run starts after `sync`. The ratios are against `zstd -1` to /dev/null.\n")
+      f"evaluated; each run starts after `sync`, prep's with the previous store removed (untimed, as zstd's output "
+      f"file is). The ratios are against `zstd -1` to /dev/null.\n")
 print("| input | tool | threads | MB/s | MB/s ratio | wall s | CPU s | CPU ratio | peak RSS MiB |")
 print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
 for i in inputs:
