@@ -77,7 +77,7 @@ std::vector<std::string> directoryFiles(const std::string& dir) {
   return files;
 }
 
-/// A directory: its DICOM series, or its TIFF files as a stack.
+/// A directory: its DICOMDIR's series, its DICOM series, or its TIFF files as a stack.
 std::unique_ptr<VolumeSource> openDirectory(const std::string& dir, const SourceOptions& options) {
   std::vector<std::string> dicom, tiff;
   for (const std::string& f : directoryFiles(dir)) {
@@ -90,6 +90,7 @@ std::unique_ptr<VolumeSource> openDirectory(const std::string& dir, const Source
     throw InputError(dir + ": holds both DICOM (" + std::to_string(dicom.size()) + ") and TIFF (" +
                      std::to_string(tiff.size()) + ") files; name the ones to read with a pattern such as '" + dir +
                      "/*.tif'");
+  if (std::filesystem::is_regular_file(dir + "/DICOMDIR")) return openDicomDir(dir + "/DICOMDIR", options);
   if (!dicom.empty()) return openDicomSeries(dicom, options, "", dir);
   if (!tiff.empty()) return openTiffSource(tiff, options);
   throw InputError(dir +
@@ -125,6 +126,7 @@ std::unique_ptr<VolumeSource> openSource(const std::string& input, const SourceO
   if (endsWith(input, ".nrrd") || endsWith(input, ".nhdr")) return openNrrdSource(input, options);
   if (endsWith(input, ".nii") || endsWith(input, ".nii.gz")) return openNiftiSource(input, options);
   if (isTiffName(input)) return openTiffSource({input}, options);
+  if (std::filesystem::path(input).filename() == "DICOMDIR") return openDicomDir(input, options);
   // One file of a series stands for the series: the files of its directory that share its SeriesInstanceUID.
   if (isDicomFile(input)) return openDicomSeries(dicomSiblings(input), options, input, input);
   return openRawSource(input, options);
