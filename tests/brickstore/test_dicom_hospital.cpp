@@ -31,7 +31,7 @@ const std::string kCtSeries = "1.2.826.0.1.3680043.8.498.7001";  // the study's 
 
 /// Writes one case of dicom_cases.py into `dir` with Debian's python3 (pydicom 2.3, numpy).
 void writeCase(const std::string& kind, const fs::path& dir) {
-  const fs::path script = fs::path(__FILE__).parent_path() / "dicom_cases.py";
+  const fs::path script = fs::path(VOXBRICK_SOURCE_DIR) / "tests" / "brickstore" / "dicom_cases.py";
   const auto r = test::runShell("/usr/bin/python3 '" + script.string() + "' " + kind + " '" + dir.string() + "' 2>&1");
   ASSERT_EQ(r.exitCode, 0) << "dicom_cases.py " << kind << " (needs Debian's python3-pydicom and numpy):\n" << r.output;
 }
