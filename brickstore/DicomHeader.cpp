@@ -186,6 +186,7 @@ DicomFileEntry identifyDicomFile(const std::string& path, uint64_t maxInflated) 
   const Tags meta(file, file.GetHeader(), path);
   e.seriesUid = t.text(0x0020, 0x000E);
   e.sopClass = t.text(0x0008, 0x0016);
+  e.sopInstance = t.text(0x0008, 0x0018);
   e.modality = t.text(0x0008, 0x0060);
   e.description = t.text(0x0008, 0x103E);
   e.rows = t.lenient(0x0028, 0x0010);

@@ -14,7 +14,7 @@ namespace voxbrick::store {
 
 /// What one file says of itself, read before any file is validated as an image.
 struct DicomFileEntry {
-  std::string file, seriesUid, sopClass, modality, description;
+  std::string file, seriesUid, sopClass, sopInstance, modality, description;
   std::string notImage;  ///< "" for an image; else what the file is ("RT plan", "structured report", "DICOMDIR")
   int64_t rows = 0, columns = 0, frames = 1;  ///< as stated (0 when absent), for listings only
   DicomLayout layout;                         ///< what the structure walk found of the pixel data

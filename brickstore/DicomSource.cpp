@@ -149,6 +149,32 @@ std::vector<DicomFileEntry> selectSeries(std::vector<DicomFileEntry> all, const 
                    (series.empty() ? std::string("none") : seriesList(series)));
 }
 
+/// A multi-frame image or an RT dose grid is a volume of its own: the named file alone when it is one; a series
+/// holding one beside other files is refused, asking for a file. Other copies of the named file's instance (its
+/// SOPInstanceUID, as another transfer syntax or a second export leaves them) are left out; other duplicates are
+/// refused later, by position.
+std::vector<DicomFileEntry> oneVolume(std::vector<DicomFileEntry> all, const std::string& chosenFile) {
+  std::string chosenInstance;
+  for (const DicomFileEntry& e : all)
+    if (e.file == chosenFile) chosenInstance = e.sopInstance;
+  std::vector<DicomFileEntry> series;
+  for (DicomFileEntry& e : all)
+    if (chosenInstance.empty() || e.sopInstance != chosenInstance || e.file == chosenFile)
+      series.push_back(std::move(e));
+  auto own = [](const DicomFileEntry& e) { return e.frames > 1 || e.sopClass == "1.2.840.10008.5.1.4.1.1.481.2"; };
+  for (DicomFileEntry& e : series)
+    if (e.file == chosenFile && own(e)) return {std::move(e)};
+  if (series.size() < 2) return series;
+  for (const DicomFileEntry& e : series)
+    if (own(e))
+      throw InputError(e.file + ": a " +
+                       (e.frames > 1 ? "multi-frame image (NumberOfFrames " + std::to_string(e.frames) + ")"
+                                     : std::string("dose grid")) +
+                       ", a volume of its own, beside " + std::to_string(series.size() - 1) +
+                       " other file(s) of DICOM series " + e.seriesUid + ": name the file to read");
+  return series;
+}
+
 bool sameDirection(const Vec& a, const Vec& b) {
   return std::fabs(a[0] - b[0]) <= kDirectionTolerance && std::fabs(a[1] - b[1]) <= kDirectionTolerance &&
          std::fabs(a[2] - b[2]) <= kDirectionTolerance;
@@ -378,7 +404,8 @@ std::unique_ptr<VolumeSource> openDicomSeries(const std::vector<std::string>& fi
     }
   }
   std::vector<SliceHeader> slices;
-  for (const DicomFileEntry& e : selectSeries(std::move(entries), options.seriesUid, chosenFile, what)) {
+  for (const DicomFileEntry& e :
+       oneVolume(selectSeries(std::move(entries), options.seriesUid, chosenFile, what), chosenFile)) {
     std::vector<SliceHeader> frames = readSliceHeaders(e);
     for (const SliceHeader& f : frames) checkSupported(f);
     const SliceHeader& s = frames.front();

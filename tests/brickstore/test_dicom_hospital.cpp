@@ -103,6 +103,19 @@ TEST(DicomHospital, StudyFolderSkipsNonImagesAndListsItsImageSeries) {
   ASSERT_EQ(r.exitCode, 0) << r.output;
   EXPECT_EQ(infoJson(dir / "s")["dims"], nlohmann::json({64, 64, 1}));
 
+  // A damaged file beside the one named (pydicom's truncated RT plan) is skipped and named in the store's source;
+  // the folder alone, where it could be of any series, is refused naming it.
+  fs::copy_file("/usr/lib/python3/dist-packages/pydicom/data/test_files/rtplan_truncated.dcm",
+                dir / "study" / "rtplan_truncated.dcm");
+  r = runVoxbrick("prep '" + study + "/ct002.dcm' --brick 8 --force" + out);
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  const std::string source = infoJson(dir / "s")["source"];
+  EXPECT_NE(source.find("skipped 1 damaged file(s) beside it: rtplan_truncated.dcm"), std::string::npos) << source;
+  r = runVoxbrick("prep '" + study + "' --force" + out);
+  EXPECT_EQ(r.exitCode, 1) << r.output;
+  EXPECT_NE(r.output.find("rtplan_truncated.dcm: truncated DICOM file"), std::string::npos) << r.output;
+  fs::remove(dir / "study" / "rtplan_truncated.dcm");
+
   r = runVoxbrick("prep '" + study + "/rtplan.dcm' --force" + out);
   EXPECT_EQ(r.exitCode, 1) << r.output;
   EXPECT_NE(r.output.find("rtplan.dcm: is a DICOM RT plan, not an image"), std::string::npos) << r.output;
@@ -152,7 +165,8 @@ TEST(DicomHospital, EnhancedMultiFrameIsTheSameVolumeAsItsSingleSlices) {
   r = runVoxbrick("prep '" + (dir / "slices").string() + "' -q -o '" + (dir / "b").string() + "'");
   ASSERT_EQ(r.exitCode, 0) << r.output;
   const auto a = infoJson(dir / "a"), b = infoJson(dir / "b");
-  for (const char* key : {"dims", "spacing", "type", "orientation", "value_range", "histogram", "bytes_raw"}) EXPECT_EQ(a[key], b[key]) << key;
+  for (const char* key : {"dims", "spacing", "type", "orientation", "value_range", "histogram", "bytes_raw"})
+    EXPECT_EQ(a[key], b[key]) << key;
 }
 
 TEST(DicomHospital, MultiFrameFilesThatAreNotOneVolumeAreRefusedSayingWhy) {
