@@ -28,7 +28,8 @@ namespace {
 
 using Vec = Orientation::Vec;
 
-constexpr double kSpacingTolerance = 0.01;    // slice steps may differ from the series' step by 1 %
+constexpr const char* kRtDose = "1.2.840.10008.5.1.4.1.1.481.2";  // RT Dose Storage
+constexpr double kSpacingTolerance = 0.01;                        // slice steps may differ from the series' step by 1 %
 constexpr double kDirectionTolerance = 1e-4;  // direction cosines of two slices count as equal within this
 
 Vec sub(const Vec& a, const Vec& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
@@ -161,17 +162,16 @@ std::vector<DicomFileEntry> oneVolume(std::vector<DicomFileEntry> all, const std
   for (DicomFileEntry& e : all)
     if (chosenInstance.empty() || e.sopInstance != chosenInstance || e.file == chosenFile)
       series.push_back(std::move(e));
-  auto own = [](const DicomFileEntry& e) { return e.frames > 1 || e.sopClass == "1.2.840.10008.5.1.4.1.1.481.2"; };
+  auto own = [](const DicomFileEntry& e) { return e.frames > 1 || e.sopClass == kRtDose; };
   for (DicomFileEntry& e : series)
     if (e.file == chosenFile && own(e)) return {std::move(e)};
   if (series.size() < 2) return series;
   for (const DicomFileEntry& e : series)
     if (own(e))
-      throw InputError(e.file + ": a " +
-                       (e.frames > 1 ? "multi-frame image (NumberOfFrames " + std::to_string(e.frames) + ")"
-                                     : std::string("dose grid")) +
-                       ", a volume of its own, beside " + std::to_string(series.size() - 1) +
-                       " other file(s) of DICOM series " + e.seriesUid + ": name the file to read");
+      throw InputError(e.file + ": " + (e.sopClass == kRtDose ? "an RT dose grid" : "a multi-frame image") +
+                       " (NumberOfFrames " + std::to_string(e.frames) + "), a volume of its own, beside " +
+                       std::to_string(series.size() - 1) + " other file(s) of DICOM series " + e.seriesUid +
+                       ": name the file to read");
   return series;
 }
 

@@ -5,7 +5,8 @@ computes for them, for tests/brickstore/test_dicom_hospital.cpp. Nothing it writ
                                 second series), an RT plan, an RT structure set (no meta header), structured reports,
                                 a waveform and a presentation state; DIR/medium/DICOMDIR indexes a copy of its images
   dicom_cases.py enhanced DIR   one volume as single-slice CT files (DIR/slices) and as one Enhanced CT file with its
-                                frames shuffled (DIR/enhanced.dcm); refusal variants beside it (DIR/bad/*.dcm)
+                                frames shuffled (DIR/enhanced.dcm); the same as MR (DIR/mr, DIR/enhanced_mr.dcm);
+                                refusal variants beside it (DIR/bad/*.dcm)
   dicom_cases.py dose DIR       RT dose grids (32-bit relative offsets, 16-bit absolute descending offsets, and
                                 pydicom's rtdose.dcm), each with NAME.f64 (values in Gy, as the reader must order
                                 them: along the slice normal) and NAME.json (dims, spacing, origin in RAS)
@@ -28,6 +29,8 @@ from pydicom.uid import ExplicitVRLittleEndian, ImplicitVRLittleEndian, generate
 TEST_FILES = os.path.join(os.path.dirname(pydicom.__file__), "data", "test_files")
 CT_IMAGE = "1.2.840.10008.5.1.4.1.1.2"
 ENHANCED_CT = "1.2.840.10008.5.1.4.1.1.2.1"
+MR_IMAGE = "1.2.840.10008.5.1.4.1.1.4"
+ENHANCED_MR = "1.2.840.10008.5.1.4.1.1.4.1"
 RT_DOSE = "1.2.840.10008.5.1.4.1.1.481.2"
 GSPS = "1.2.840.10008.5.1.4.1.1.11.1"
 
@@ -80,35 +83,41 @@ def position(k):
     return [float(v) for v in ORIGIN + k * STEP * np.array(NORMAL)]
 
 
-def write_slices(vol, directory, series_uid, study_uid):
+def write_slices(vol, directory, series_uid, study_uid, modality="CT"):
     for k in range(vol.shape[0]):
-        ds = base(CT_IMAGE, series_uid, study_uid, "CT")
+        ds = base(CT_IMAGE if modality == "CT" else MR_IMAGE, series_uid, study_uid, modality)
         ds.InstanceNumber = k + 1
-        pixel_module(ds, vol.shape[1], vol.shape[2], 16, True)
+        pixel_module(ds, vol.shape[1], vol.shape[2], 16, vol.dtype == np.int16)
         ds.ImagePositionPatient, ds.ImageOrientationPatient = position(k), ROW + COLUMN
         ds.PixelSpacing, ds.SliceThickness = SPACING, STEP
-        ds.RescaleIntercept, ds.RescaleSlope = -1024, 1
+        if modality == "CT":
+            ds.RescaleIntercept, ds.RescaleSlope = -1024, 1
         ds.PixelData = vol[k].tobytes()
-        save(ds, os.path.join(directory, "ct%03d.dcm" % k))
+        save(ds, os.path.join(directory, "%s%03d.dcm" % (modality.lower(), k)))
 
 
-def enhanced_file(vol, path, order, frames=None, stack=None, temporal=None, positions=None, groups=True):
-    """An Enhanced CT file whose frame i is slice order[i] of `vol`."""
-    ds = base(ENHANCED_CT, generate_uid(), generate_uid(), "CT")
-    pixel_module(ds, vol.shape[1], vol.shape[2], 16, True, frames if frames is not None else len(order))
+def enhanced_file(vol, path, order, frames=None, stack=None, temporal=None, positions=None, groups=True, mr=False):
+    """An Enhanced CT file whose frame i is slice order[i] of `vol`; an Enhanced MR one (no rescale, pixel measures
+    and plane orientation in each frame's item rather than shared) when `mr`."""
+    ds = base(ENHANCED_MR if mr else ENHANCED_CT, generate_uid(), generate_uid(), "MR" if mr else "CT")
+    pixel_module(ds, vol.shape[1], vol.shape[2], 16, vol.dtype == np.int16,
+                 frames if frames is not None else len(order))
     if groups:
         shared = Dataset()
         measures, orientation, rescale = Dataset(), Dataset(), Dataset()
         measures.PixelSpacing, measures.SliceThickness = SPACING, STEP
         orientation.ImageOrientationPatient = ROW + COLUMN
         rescale.RescaleIntercept, rescale.RescaleSlope, rescale.RescaleType = -1024, 1, "HU"
-        shared.PixelMeasuresSequence = [measures]
-        shared.PlaneOrientationSequence = [orientation]
-        shared.PixelValueTransformationSequence = [rescale]
+        if not mr:
+            shared.PixelMeasuresSequence = [measures]
+            shared.PlaneOrientationSequence = [orientation]
+            shared.PixelValueTransformationSequence = [rescale]
         ds.SharedFunctionalGroupsSequence = [shared]
         per = []
         for i, k in enumerate(order):
             item, plane, content = Dataset(), Dataset(), Dataset()
+            if mr:
+                item.PixelMeasuresSequence, item.PlaneOrientationSequence = [measures], [orientation]
             plane.ImagePositionPatient = positions[i] if positions else position(k)
             content.StackID = stack[i] if stack else "1"
             content.InStackPositionNumber = k + 1
@@ -126,6 +135,9 @@ def case_enhanced(out):
     order = list(range(6))
     random.Random(7).shuffle(order)
     enhanced_file(vol, os.path.join(out, "enhanced.dcm"), order)
+    mr = (vol.astype(np.int32) + 3000).astype(np.uint16)
+    write_slices(mr, os.path.join(out, "mr"), generate_uid(), generate_uid(), modality="MR")
+    enhanced_file(mr, os.path.join(out, "enhanced_mr.dcm"), order[::-1], mr=True)
     bad = os.path.join(out, "bad")
     enhanced_file(vol, os.path.join(bad, "timeseries.dcm"), [0, 1, 2, 0, 1, 2], temporal=[1, 1, 1, 2, 2, 2])
     enhanced_file(vol, os.path.join(bad, "stacks.dcm"), [0, 1, 2, 3, 4, 5], stack=["1", "1", "1", "2", "2", "2"])

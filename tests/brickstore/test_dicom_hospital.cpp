@@ -155,6 +155,8 @@ TEST(DicomHospital, EnhancedMultiFrameIsTheSameVolumeAsItsSingleSlices) {
   ScratchDir dir;
   writeCase("enhanced", dir.path());
   expectSameVolume((dir / "enhanced.dcm").string(), (dir / "slices").string());
+  expectSameVolume((dir / "enhanced_mr.dcm").string(), (dir / "mr").string());
+  EXPECT_EQ(store::openSource((dir / "enhanced_mr.dcm").string(), {})->info().type, store::ValueType::U16);
   auto source = store::openSource((dir / "enhanced.dcm").string(), {});
   EXPECT_EQ(source->info().dims, (store::Vec3i{7, 5, 6}));
   EXPECT_NE(source->info().description.find("multi-frame"), std::string::npos) << source->info().description;
@@ -223,6 +225,18 @@ TEST(DicomHospital, DoseGridsHoldPydicomsValuesInGy) {
       runVoxbrick("prep '" + (dir / "real" / "rtdose.dcm").string() + "' -q -o '" + (dir / "s").string() + "'");
   ASSERT_EQ(r.exitCode, 0) << r.output;
   EXPECT_EQ(infoJson(dir / "s")["dims"], nlohmann::json({10, 10, 15}));
+  // Two dose grids of one series in a folder: each is a volume of its own, so the file is named.
+  fs::create_directories(dir / "two");
+  fs::copy_file(dir / "real" / "rtdose.dcm", dir / "two" / "rtdose.dcm");
+  fs::copy_file(dir / "dose16.dcm", dir / "two" / "dose16.dcm");
+  const auto py = test::runShell("/usr/bin/python3 -c \"import pydicom; d = pydicom.dcmread('" +
+                                 (dir / "two" / "dose16.dcm").string() +
+                                 "'); d.SeriesInstanceUID = '1.2.777.777.77.7.7777.7777'; d.save_as('" +
+                                 (dir / "two" / "dose16.dcm").string() + "')\" 2>&1");
+  ASSERT_EQ(py.exitCode, 0) << py.output;
+  expectRefused(test::openAndRead(dir / "two"),
+                {"dose16.dcm: an RT dose grid (NumberOfFrames 5), a volume of its own", "name the file to read"});
+  EXPECT_NO_THROW(test::openAndRead(dir / "two" / "dose16.dcm")());
   expectRefused(test::openAndRead(dir / "bad" / "offsets.dcm"),
                 {"offsets.dcm", "GridFrameOffsetVector (3004,000C) holds 2 offsets for NumberOfFrames 3"});
 }
