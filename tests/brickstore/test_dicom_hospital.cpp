@@ -262,6 +262,17 @@ TEST(DicomHospital, PydicomsNonImageFilesAreToldApartWithoutMetaHeaders) {
   }
   expectRefused(test::openAndRead(dir.path()), {"holds no DICOM image series", "rtstruct.dcm (RT structure set)",
                                                 "ExplVR_BigEndNoMeta.dcm (RT plan)"});
+  // A CT slice beside them and a structured report: the folder, the slice, and the slice's series all read it.
+  fs::copy_file(files + "CT_small.dcm", dir / "CT_small.dcm");
+  fs::copy_file(files + "test-SR.dcm", dir / "test-SR.dcm");
+  store::SourceOptions ct;
+  ct.seriesUid = "1.3.6.1.4.1.5962.1.3.1.1.20040119072730.12322";
+  for (const auto& [input, options] : std::vector<std::pair<fs::path, store::SourceOptions>>{
+           {dir.path(), {}}, {dir / "CT_small.dcm", {}}, {dir.path(), ct}, {dir / "CT_small.dcm", ct}}) {
+    auto source = store::openSource(input.string(), options);
+    EXPECT_EQ(source->info().dims, (store::Vec3i{128, 128, 1})) << input;
+    EXPECT_EQ(readAll(*source).size(), 128u * 128u);
+  }
 }
 
 }  // namespace
