@@ -329,6 +329,30 @@ uint64_t maxCompressionRatio(const std::string& uid) {
 
 }  // namespace
 
+bool looksLikeDicomDataSet(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::vector<char> head(4096);
+  if (!in.read(head.data(), std::streamsize(head.size())) && in.gcount() <= 0) return false;
+  head.resize(size_t(in.gcount()));
+  if (head.size() < 16) return false;
+  const bool meta = head[0] == 2 && head[1] == 0 && isValidVr(head, 4);
+  const Encoding e = meta ? Encoding::ExplicitLittle : guessEncoding(head, 0);
+  if (e == Encoding::None) return false;
+  Walker w(head, path);
+  w.explicitVr = e != Encoding::ImplicitLittle;
+  w.bigEndian = e == Encoding::ExplicitBig;
+  try {
+    // Two elements in order, of the meta header or the identifying group: raw voxels hardly look like that.
+    const uint32_t group = w.u16(0), element = w.u16(2);
+    if (group != 0x0002 && group != 0x0008) return false;
+    w.skipElement(0);
+    const uint32_t nextGroup = w.u16(w.pos), nextElement = w.u16(w.pos + 2);
+    return (nextGroup == group && nextElement > element) || (group == 0x0002 && nextGroup == 0x0008);
+  } catch (const InputError&) {
+    return false;
+  }
+}
+
 DicomLayout checkDicomStructure(const std::string& path, uint64_t maxInflatedBytes) {
   const std::vector<char> bytes = readAll(path);
   Walker w(bytes, path);

@@ -39,6 +39,10 @@ struct DicomPixelFormat {
 /// are no element in any of them are refused as not DICOM. Throws IoError when the file cannot be read.
 DicomLayout checkDicomStructure(const std::string& path, uint64_t maxInflatedBytes = uint64_t{128} << 20);
 
+/// True when the file, without the preamble and "DICM", opens with two DICOM elements in order (of the meta header,
+/// or of the identifying group 0008) in implicit VR little endian or explicit VR: a bare DICOM data set.
+bool looksLikeDicomDataSet(const std::string& path);
+
 /// Throws InputError naming the file when its pixel data does not match the header: no PixelData, encapsulated
 /// pixel data under a native transfer syntax or native pixel data under a compressed one, or a native length other
 /// than Rows x Columns x BitsAllocated/8 x SamplesPerPixel x NumberOfFrames (plus one padding byte when that is odd).

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "brickstore/DicomStructure.h"
 #include "brickstore/Errors.h"
 #include "brickstore/Sources.h"
 
@@ -20,13 +21,14 @@ bool endsWith(std::string s, std::string_view suffix) {
 
 bool isTiffName(const std::string& path) { return endsWith(path, ".tif") || endsWith(path, ".tiff"); }
 
-/// A DICOM file: named *.dcm, or a Part 10 file (the "DICM" magic after its 128-byte preamble), whatever its name.
+/// A DICOM file: named *.dcm, a Part 10 file (the "DICM" magic after its 128-byte preamble), or a bare data set
+/// (no preamble or meta header), whatever its name.
 bool isDicomFile(const std::string& path) {
   if (endsWith(path, ".dcm")) return true;
   if (std::filesystem::path(path).filename() == "DICOMDIR") return false;  // an index of a medium, not an image
   char head[132] = {};
   std::ifstream in(path, std::ios::binary);
-  return in.read(head, sizeof head) && std::memcmp(head + 128, "DICM", 4) == 0;
+  return (in.read(head, sizeof head) && std::memcmp(head + 128, "DICM", 4) == 0) || looksLikeDicomDataSet(path);
 }
 
 /// Natural order: runs of digits compare as numbers, so "slice2" sorts before "slice10".

@@ -247,6 +247,11 @@ TEST(DicomHospital, FilesWithoutPreambleOrMetaHeaderAreReadAsTheyAre) {
   const std::string original = (dir / "ct_small.dcm").string();
   expectSameVolume((dir / "bare" / "ct_small.dcm").string(), original);
   expectSameVolume((dir / "nopreamble" / "ct_small.dcm").string(), original);
+  // Named as archives name them, without ".dcm": told by their first elements, in a folder or alone.
+  fs::create_directories(dir / "archive");
+  fs::copy_file(dir / "bare" / "ct_small.dcm", dir / "archive" / "IM000001");
+  expectSameVolume((dir / "archive").string(), original);
+  expectSameVolume((dir / "archive" / "IM000001").string(), original);
   // pydicom's no_meta.dcm is really damaged: a stray byte before the first element.
   expectRefused(test::openAndRead(dir / "damaged" / "no_meta.dcm"),
                 {"no_meta.dcm", "not a DICOM file", "no 128-byte preamble", "20 08 00 05"});
