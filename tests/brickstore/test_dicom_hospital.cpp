@@ -189,6 +189,26 @@ TEST(DicomHospital, MultiFrameFilesThatAreNotOneVolumeAreRefusedSayingWhy) {
   refused("shortpixels.dcm", {"PixelData holds 420 bytes", "needs 490", "NumberOfFrames 7"});
 }
 
+TEST(DicomHospital, EveryTruncationOfAMultiFrameFileIsAnInputError) {
+  ScratchDir dir;
+  writeCase("enhanced", dir / "enhanced");
+  writeCase("dose", dir / "dose");
+  for (const fs::path& file : {dir / "enhanced" / "enhanced.dcm", dir / "dose" / "real" / "rtdose.dcm"}) {
+    const std::vector<char> bytes = test::readFile(file);
+    const fs::path victim = dir / "cut" / file.filename();
+    fs::create_directories(victim.parent_path());
+    // Every byte of the headers and sequences (the first 2100 bytes hold them), then every 61st of the pixels.
+    for (size_t cut = 0; cut < bytes.size(); cut += cut < 2100 ? 1 : 61) {
+      test::writeFile(victim, bytes.data(), cut);
+      SCOPED_TRACE("cut at " + std::to_string(cut) + " of " + std::to_string(bytes.size()));
+      expectRefused(test::openAndRead(victim), {victim.filename().string()});
+    }
+    test::writeFile(victim, bytes.data(), bytes.size());
+    EXPECT_NO_THROW(test::openAndRead(victim)());
+    fs::remove(victim);
+  }
+}
+
 TEST(DicomHospital, DoseGridsHoldPydicomsValuesInGy) {
   ScratchDir dir;
   writeCase("dose", dir.path());
