@@ -12,6 +12,8 @@ computes for them, for tests/brickstore/test_dicom_hospital.cpp. Nothing it writ
                                 them: along the slice normal) and NAME.json (dims, spacing, origin in RAS)
   dicom_cases.py nometa DIR     pydicom's CT_small.dcm as is, without preamble and meta header (implicit VR), and
                                 with a meta header but no preamble; pydicom's damaged no_meta.dcm
+  dicom_cases.py pixels DIR     pydicom's MR_small.dcm in every transfer syntax pydicom ships it in, one folder each
+                                (DIR/NAME/NAME.dcm), and DIR/MR_small.f64: pixel_array rescaled, as pydicom reads it
 Prints one line per written case.
 """
 import copy
@@ -257,8 +259,20 @@ def case_nometa(out):
         print(os.path.join(out, d))
 
 
+def case_pixels(out):
+    for name in ["MR_small", "MR_small_RLE", "MR_small_bigendian", "MR_small_expb", "MR_small_implicit",
+                 "MR_small_jp2klossless", "MR_small_jpeg_ls_lossless"]:
+        os.makedirs(os.path.join(out, name), exist_ok=True)
+        shutil.copy(os.path.join(TEST_FILES, name + ".dcm"), os.path.join(out, name, name + ".dcm"))
+        print(os.path.join(out, name, name + ".dcm"))
+    ds = pydicom.dcmread(os.path.join(TEST_FILES, "MR_small.dcm"))
+    values = ds.pixel_array.astype(np.float64) * float(ds.get("RescaleSlope", 1)) + float(ds.get("RescaleIntercept", 0))
+    values.astype("<f8").tofile(os.path.join(out, "MR_small.f64"))
+
+
 if __name__ == "__main__":
-    cases = {"study": case_study, "enhanced": case_enhanced, "dose": case_dose, "nometa": case_nometa}
+    cases = {"study": case_study, "enhanced": case_enhanced, "dose": case_dose, "nometa": case_nometa,
+             "pixels": case_pixels}
     if len(sys.argv) != 3 or sys.argv[1] not in cases:
-        sys.exit("usage: dicom_cases.py {study|enhanced|dose|nometa} DIR")
+        sys.exit("usage: dicom_cases.py {study|enhanced|dose|nometa|pixels} DIR")
     cases[sys.argv[1]](sys.argv[2])

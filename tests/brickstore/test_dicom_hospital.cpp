@@ -261,6 +261,25 @@ TEST(DicomHospital, DoseGridsHoldPydicomsValuesInGy) {
                 {"offsets.dcm", "GridFrameOffsetVector (3004,000C) holds 2 offsets for NumberOfFrames 3"});
 }
 
+TEST(DicomHospital, MrSmallInEveryTransferSyntaxHoldsPydicomsPixels) {
+  ScratchDir dir;
+  writeCase("pixels", dir.path());
+  const std::vector<char> raw = test::readFile(dir / "MR_small.f64");
+  std::vector<double> expected(raw.size() / sizeof(double));
+  std::memcpy(expected.data(), raw.data(), raw.size());
+  auto source = store::openSource((dir / "MR_small").string(), {});
+  EXPECT_EQ(readAll(*source), expected);
+  for (const char* name : {"MR_small_RLE", "MR_small_bigendian", "MR_small_expb", "MR_small_implicit",
+                           "MR_small_jp2klossless", "MR_small_jpeg_ls_lossless"})
+    expectSameVolume((dir / name).string(), (dir / "MR_small").string());
+  // In pydicom's own folder, beside its copies in other syntaxes and its damaged files: the file named.
+  const std::string inPlace = "/usr/lib/python3/dist-packages/pydicom/data/test_files/MR_small_RLE.dcm";
+  source = store::openSource(inPlace, {});
+  EXPECT_EQ(readAll(*source), expected);
+  EXPECT_NE(source->info().description.find("damaged file(s) beside it"), std::string::npos)
+      << source->info().description;
+}
+
 TEST(DicomHospital, FilesWithoutPreambleOrMetaHeaderAreReadAsTheyAre) {
   ScratchDir dir;
   writeCase("nometa", dir.path());
