@@ -116,7 +116,17 @@ class Tags {
     return numbers(group, element, name, 1, std::isnan(fallback) ? std::vector<double>{} : std::vector{fallback})[0];
   }
   /// A number for listings: 0 when absent or not a number.
-  int64_t lenient(uint16_t group, uint16_t element) const { return std::atoll(text(group, element).c_str()); }
+  int64_t lenient(uint16_t group, uint16_t element) const {
+    return std::strtoll(text(group, element).c_str(), nullptr, 10);  // saturates on overflow
+  }
+  /// A count (NumberOfFrames, Rows, ...): an integer in [0, 2^31), else InputError naming the tag.
+  int64_t count(uint16_t group, uint16_t element, const char* name, double fallback = std::nan("")) const {
+    const double v = one(group, element, name, fallback);
+    if (!(v >= 0 && v < 2147483648.0) || v != std::floor(v))
+      throw InputError(mWhere + ": DICOM tag " + name + " " + tagText(group, element) + " is not a count: '" +
+                       text(group, element) + "'");
+    return int64_t(v);
+  }
 
   /// The first item of a sequence in this data set, or nullptr when there is none.
   const gdcm::DataSet* item(uint16_t group, uint16_t element) const {
@@ -203,13 +213,13 @@ namespace {
 /// Fills the pixel format of `h` from the file's tags.
 void readPixelFormat(const Tags& t, SliceHeader& h) {
   h.photometric = t.text(0x0028, 0x0004);
-  h.samples = int64_t(t.one(0x0028, 0x0002, "SamplesPerPixel", 1));
-  h.frames = int64_t(t.one(0x0028, 0x0008, "NumberOfFrames", 1));
-  h.rows = int64_t(t.one(0x0028, 0x0010, "Rows"));
-  h.columns = int64_t(t.one(0x0028, 0x0011, "Columns"));
-  h.bitsAllocated = int(t.one(0x0028, 0x0100, "BitsAllocated"));
-  h.bitsStored = int(t.one(0x0028, 0x0101, "BitsStored", h.bitsAllocated));
-  h.highBit = int(t.one(0x0028, 0x0102, "HighBit", h.bitsStored - 1));
+  h.samples = t.count(0x0028, 0x0002, "SamplesPerPixel", 1);
+  h.frames = t.count(0x0028, 0x0008, "NumberOfFrames", 1);
+  h.rows = t.count(0x0028, 0x0010, "Rows");
+  h.columns = t.count(0x0028, 0x0011, "Columns");
+  h.bitsAllocated = int(t.count(0x0028, 0x0100, "BitsAllocated"));
+  h.bitsStored = int(t.count(0x0028, 0x0101, "BitsStored", h.bitsAllocated));
+  h.highBit = int(t.count(0x0028, 0x0102, "HighBit", h.bitsStored - 1));
   h.isSigned = t.one(0x0028, 0x0103, "PixelRepresentation") == 1;
 }
 

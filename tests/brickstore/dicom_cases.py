@@ -152,6 +152,11 @@ def case_enhanced(out):
     ds = pydicom.dcmread(os.path.join(bad, "shortpixels.dcm"))
     ds.PixelData = np.stack([vol[k] for k in order]).tobytes()
     save(ds, os.path.join(bad, "shortpixels.dcm"))
+    # NumberOfFrames far beyond the per-frame items, and beyond any count.
+    for name, frames in [("manyframes.dcm", 1000000), ("hugeframes.dcm", "999999999999")]:
+        ds = pydicom.dcmread(os.path.join(out, "enhanced.dcm"))
+        ds.NumberOfFrames = frames
+        save(ds, os.path.join(bad, name))
 
 
 def dose_expectation(path, name, out):

@@ -187,6 +187,8 @@ TEST(DicomHospital, MultiFrameFilesThatAreNotOneVolumeAreRefusedSayingWhy) {
   refused("nogroups.dcm", {"multi-frame image without per-frame positions", "NumberOfFrames 6"});
   // Frame count x frame size against the pixel data, before anything is allocated from NumberOfFrames.
   refused("shortpixels.dcm", {"PixelData holds 420 bytes", "needs 490", "NumberOfFrames 7"});
+  refused("manyframes.dcm", {"PerFrameFunctionalGroupsSequence (5200,9230) holds 6 items for NumberOfFrames 1000000"});
+  refused("hugeframes.dcm", {"NumberOfFrames (0028,0008) is not a count: '999999999999'"});
 }
 
 TEST(DicomHospital, EveryTruncationOfAMultiFrameFileIsAnInputError) {
