@@ -5,6 +5,8 @@
 #include <gdcmSequenceOfItems.h>
 #include <gdcmTrace.h>
 
+#include <algorithm>
+#include <cctype>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -28,9 +30,10 @@ std::string itemText(const gdcm::DataSet& item, uint16_t group, uint16_t element
 }
 
 /// ReferencedFileID's components (backslash-separated) as a path under `root`; refuses components that leave it.
+/// The medium's upper-case names are tried in lower case too (as a copy to a case-sensitive disk may leave them).
 std::filesystem::path referencedFile(const std::filesystem::path& root, const std::string& id,
                                      const std::string& dicomdir) {
-  std::filesystem::path p = root;
+  std::filesystem::path p = root, lower = root;
   size_t start = 0;
   while (start <= id.size()) {
     const size_t end = std::min(id.find('\\', start), id.size());
@@ -38,9 +41,13 @@ std::filesystem::path referencedFile(const std::filesystem::path& root, const st
     if (part.empty() || part == "." || part == ".." || part.find('/') != std::string::npos)
       throw InputError(dicomdir + ": ReferencedFileID (0004,1500) '" + id + "' is not a path inside the medium");
     p /= part;
+    std::string low = part;
+    std::transform(low.begin(), low.end(), low.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    lower /= low;
     start = end + 1;
   }
-  return p;
+  std::error_code ec;
+  return !std::filesystem::exists(p, ec) && std::filesystem::exists(lower, ec) ? lower : p;
 }
 
 /// The files the DICOMDIR's directory records reference, in record order.

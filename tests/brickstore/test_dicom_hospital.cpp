@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -140,6 +141,19 @@ TEST(DicomHospital, DicomDirListsAndOpensItsSeries) {
   // The same volume as the folder's files.
   store::SourceOptions ct;
   ct.seriesUid = kCtSeries;
+  expectSameVolume((dir / "study" / "ct000.dcm").string(), (medium / "DICOMDIR").string(), ct);
+
+  // Copied to a case-sensitive disk with its names in lower case: the records' upper-case IDs still find them.
+  std::vector<fs::path> entries;
+  for (const auto& e : fs::recursive_directory_iterator(medium)) entries.push_back(e.path());
+  std::sort(entries.rbegin(), entries.rend());  // children before their directories
+  for (const fs::path& e : entries) {
+    std::string name = e.filename().string();
+    if (name == "DICOMDIR") continue;
+    std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    fs::rename(e, e.parent_path() / name);
+  }
+  ASSERT_FALSE(fs::exists(medium / "PT000000"));
   expectSameVolume((dir / "study" / "ct000.dcm").string(), (medium / "DICOMDIR").string(), ct);
 
   // pydicom's DICOMDIR written by DCMTK (three patients, CR, CT and MR series): its 5-slice CT series.
