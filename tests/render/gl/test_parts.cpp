@@ -10,8 +10,11 @@
 #include "image/Image.h"
 #include "mesh/MeshStoreFixtures.h"
 #include "render/core/RenderErrors.h"
+#include "render/datasets/Datasets.h"
+#include "render/engine/RenderEngine.h"
 #include "render/gl/GlFixtures.h"
 #include "render/gl/tets/TetRenderer.h"
+#include "render/volume/BrickStoreDataset.h"
 #include "render/volume/Partition.h"
 #include "support/TestSupport.h"
 
@@ -94,6 +97,74 @@ TEST(Parts, RayCasterPartsCompositeToTheWholeFrame) { expectEveryCase(Technique:
 TEST(Parts, SlicingPartsCompositeToTheWholeFrame) { expectEveryCase(Technique::Slicing); }
 TEST(Parts, SlabPartsCompositeToTheWholeFrame) { expectEveryCase(Technique::Slabs); }
 
+TEST(Parts, ACoarseBrickCutByThePartsIsDrawnClippedByEach) {
+  // Two parts split through level-1 bricks (at brick 1 and 3 of 4 along an axis): with a coarse level of detail both
+  // parts draw the coarse bricks across the split, each clipped to its box.
+  ScratchDir dir;
+  const auto s = prep("synthetic:blobs,n=64", dir / "b", 16);
+  for (Technique technique : {Technique::RayCast, Technique::Slicing, Technique::Slabs}) {
+    Scene scene = sceneFor(technique, "mri");
+    scene.lod = 4;
+    auto cache = std::make_shared<store::BrickCache>(s, size_t(256) << 20, 1);
+    VolumeRenderer renderer(test::context(), cache, size_t(256) << 20);
+    FrameStats wholeStats;
+    const image::ImageF whole = renderer.render(scene, &wholeStats);
+    ASSERT_GT(wholeStats.bricksCoarse, 0);
+    for (int axis = 0; axis < 3; ++axis)
+      for (int position : {16, 48}) {
+        Partition partition;
+        partition.nodes = {{axis, position, 1, 2, -1}, {-1, 0, -1, -1, 0}, {-1, 0, -1, -1, 1}};
+        partition.boxes = {PartBox{{0, 0, 0}, {64, 64, 64}}, PartBox{{0, 0, 0}, {64, 64, 64}}};
+        partition.boxes[0].hi[size_t(axis)] = position;
+        partition.boxes[1].lo[size_t(axis)] = position;
+        std::vector<image::ImageF> parts;
+        int64_t drawn = 0;
+        for (const PartBox& box : partition.boxes) {
+          FrameOptions options;
+          options.part = box;
+          FrameStats stats;
+          parts.push_back(renderer.render(scene, &stats, options));
+          drawn += stats.bricksDrawn;
+        }
+        const std::string what =
+            "cut-" + std::to_string(int(technique)) + "-axis" + std::to_string(axis) + "-at" + std::to_string(position);
+        EXPECT_GT(drawn, wholeStats.bricksDrawn) << what << ": a coarse brick across the split is drawn by both";
+        const std::vector<int> order = partsFrontToBack(partition, partView(s->meta(), scene));
+        expectClose(finishPartial(compositeSerial(parts, order), scene), whole, 1.0 / 255, what);
+      }
+  }
+}
+
+TEST(Parts, PartsDrawnInSeveralBatchesStillComposite) {
+  // An atlas of 6 bricks: the whole frame and each part are drawn batch by batch (levels fixed).
+  ScratchDir dir;
+  const auto s = prep("synthetic:blobs,n=64", dir / "b", 16);
+  const size_t gpuBudget = 6 * size_t(18 * 18 * 18) * sizeof(float);
+  for (Technique technique : {Technique::RayCast, Technique::Slabs}) {
+    Scene scene = sceneFor(technique, "mri");
+    scene.lod = 0;
+    auto cache = std::make_shared<store::BrickCache>(s, size_t(256) << 20, 1);
+    VolumeRenderer renderer(test::context(), cache, gpuBudget);
+    FrameStats wholeStats;
+    const image::ImageF whole = renderer.render(scene, &wholeStats, test::batched());
+    ASSERT_GT(wholeStats.batches, 1);
+    const Partition partition = partitionBricks(*s, 3);
+    std::vector<image::ImageF> parts;
+    int batched = 0;
+    for (const PartBox& box : partition.boxes) {
+      FrameOptions options = test::batched();
+      options.part = box;
+      FrameStats stats;
+      parts.push_back(renderer.render(scene, &stats, options));
+      batched += stats.batches > 1;
+    }
+    EXPECT_GT(batched, 0) << "a part drawn in several batches";
+    const std::vector<int> order = partsFrontToBack(partition, partView(s->meta(), scene));
+    expectClose(finishPartial(compositeSerial(parts, order), scene), whole, 1.0 / 255,
+                "batches-" + std::to_string(int(technique)));
+  }
+}
+
 TEST(Parts, APartPagesOnlyItsOwnBricksAndKeepsNoBackground) {
   ScratchDir dir;
   const auto s = prep("synthetic:blobs,n=64", dir / "b", 16);
@@ -122,6 +193,27 @@ TEST(Parts, APartPagesOnlyItsOwnBricksAndKeepsNoBackground) {
       for (int c = 0; c < 3; ++c)
         ASSERT_LE(partial.rgba[i + size_t(c)], partial.rgba[i + 3] + 1e-5f) << "premultiplied";
   }
+}
+
+TEST(Parts, TheEnginePassesThePartThrough) {
+  ScratchDir dir;
+  test::prep("synthetic:sparse,n=64", dir / "s", 16);
+  const auto dataset = openDataset("s", dir / "s", size_t(64) << 20);
+  const auto& grid = static_cast<const BrickStoreDataset&>(*dataset);
+  RenderEngine engine({Backend::Auto, size_t(256) << 20, AtlasFormat::Float});
+  const Scene scene = sceneFor(Technique::RayCast, "sparse");
+  const image::ImageF whole = engine.render(dataset, scene);
+  const Partition partition = partitionBricks(*grid.store(), 4);
+  std::vector<image::ImageF> parts;
+  for (const PartBox& box : partition.boxes) {
+    FrameOptions options;
+    options.part = box;
+    FrameStats stats;
+    parts.push_back(engine.render(dataset, scene, &stats, options));
+    EXPECT_LT(stats.bricksDrawn, int64_t(grid.store()->level(0).bricksTotal()));
+  }
+  expectClose(finishPartial(compositeSerial(parts, partsFrontToBack(partition, grid, scene)), scene), whole, 1.0 / 255,
+              "engine-4parts");
 }
 
 TEST(Parts, BadBoxesAndMeshesAreRefused) {
