@@ -73,7 +73,8 @@ void expectPartsGiveTheWholeFrame(const std::shared_ptr<const store::BrickStore>
 }
 
 /// The fields and cameras of the comparison: a smooth field with the MRI preset, a sparse field, the camera inside
-/// the volume, an orthographic view and a coarse level of detail.
+/// the volume, an orthographic view, a coarse level of detail, and shading with pre-integration (where the technique
+/// marches) over a transparent background.
 void expectEveryCase(Technique technique) {
   ScratchDir dir;
   const auto blobs = prep("synthetic:blobs,n=64", dir / "b", 16);
@@ -91,6 +92,9 @@ void expectEveryCase(Technique technique) {
   Scene lod = mri;
   lod.lod = 4;
   expectPartsGiveTheWholeFrame(blobs, lod, "lod", 1);
+  Scene shaded = mri;
+  shaded.shading = true, shaded.preIntegration = true, shaded.transparent = true;
+  expectPartsGiveTheWholeFrame(blobs, shaded, "shaded");
 }
 
 TEST(Parts, RayCasterPartsCompositeToTheWholeFrame) { expectEveryCase(Technique::RayCast); }
