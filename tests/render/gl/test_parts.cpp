@@ -5,7 +5,9 @@
 // own bricks; a part on a mesh is refused.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <string>
+#include <thread>
 
 #include "image/Image.h"
 #include "mesh/MeshStoreFixtures.h"
@@ -197,6 +199,47 @@ TEST(Parts, APartPagesOnlyItsOwnBricksAndKeepsNoBackground) {
       for (int c = 0; c < 3; ++c)
         ASSERT_LE(partial.rgba[i + size_t(c)], partial.rgba[i + 3] + 1e-5f) << "premultiplied";
   }
+}
+
+TEST(Parts, StandInsFillInToThePartsExactFrame) {
+  // From a cold cache each part stands in for what it lacks, pages only its own bricks (and their ancestors), and
+  // once they are paged draws its exact frame; the refined parts composite to the whole frame.
+  ScratchDir dir;
+  const auto s = prep("synthetic:blobs,n=64", dir / "b", 16);
+  Scene scene = sceneFor(Technique::RayCast, "mri");
+  scene.lod = 0;
+  const Partition partition = partitionBricks(*s, 3);
+  std::vector<image::ImageF> parts;
+  FrameOptions streamed;
+  streamed.standIns = true;
+  for (const PartBox& box : partition.boxes) {
+    auto cache = std::make_shared<store::BrickCache>(s, size_t(256) << 20, 2);
+    VolumeRenderer renderer(test::context(), cache, size_t(256) << 20);
+    streamed.part = box;
+    FrameStats first, refined, exact;
+    renderer.render(scene, &first, streamed);
+    EXPECT_GT(first.bricksStandIn, 0);
+    for (int wait = 0; wait < 12000; ++wait) {
+      const store::CacheStats st = cache->stats();
+      if (st.prefetchQueued == 0 && st.inFlight == 0) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    const image::ImageF frame = renderer.render(scene, &refined, streamed);
+    EXPECT_EQ(refined.bricksStandIn, 0);
+    const int64_t inside =
+        (box.hi[0] - box.lo[0]) / 16 * ((box.hi[1] - box.lo[1]) / 16) * ((box.hi[2] - box.lo[2]) / 16);
+    int64_t coarse = 0;  // every brick above level 0: the most ancestors a stand-in may read
+    for (int m = 1; m < s->levelCount(); ++m) coarse += s->level(m).bricksTotal();
+    ASSERT_LT(inside + coarse, s->level(0).bricksTotal());
+    EXPECT_LE(first.bricksPagedIn + refined.bricksPagedIn, inside + coarse) << "its own bricks and their ancestors";
+    FrameOptions options;
+    options.part = box;
+    expectClose(frame, renderer.render(scene, &exact, options), 0.0, "standins-refined-vs-exact");
+    parts.push_back(frame);
+  }
+  const image::ImageF whole = test::renderStore(s, scene);
+  expectClose(finishPartial(compositeSerial(parts, partsFrontToBack(partition, partView(s->meta(), scene))), scene),
+              whole, 1.0 / 255, "standins-3parts");
 }
 
 TEST(Parts, TheEnginePassesThePartThrough) {
