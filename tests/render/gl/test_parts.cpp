@@ -70,7 +70,7 @@ void expectPartsGiveTheWholeFrame(const std::shared_ptr<const store::BrickStore>
     }
     EXPECT_GE(drawn, wholeStats.bricksDrawn) << what << ", " << n << " parts: every brick in some part";
     const image::ImageF joined = finishPartial(compositeSerial(parts, order), scene);
-    expectClose(joined, whole, 1.0 / 255, what + "-" + std::to_string(n) + "parts");
+    test::expectSameDrawing(joined, whole, 1.0 / 255, *s, scene, what + "-" + std::to_string(n) + "parts");
   }
 }
 
@@ -136,7 +136,7 @@ TEST(Parts, ACoarseBrickCutByThePartsIsDrawnClippedByEach) {
             "cut-" + std::to_string(int(technique)) + "-axis" + std::to_string(axis) + "-at" + std::to_string(position);
         EXPECT_GT(drawn, wholeStats.bricksDrawn) << what << ": a coarse brick across the split is drawn by both";
         const std::vector<int> order = partsFrontToBack(partition, partView(s->meta(), scene));
-        expectClose(finishPartial(compositeSerial(parts, order), scene), whole, 1.0 / 255, what);
+        test::expectSameDrawing(finishPartial(compositeSerial(parts, order), scene), whole, 1.0 / 255, *s, scene, what);
       }
   }
 }
@@ -166,8 +166,8 @@ TEST(Parts, PartsDrawnInSeveralBatchesStillComposite) {
     }
     EXPECT_GT(batched, 0) << "a part drawn in several batches";
     const std::vector<int> order = partsFrontToBack(partition, partView(s->meta(), scene));
-    expectClose(finishPartial(compositeSerial(parts, order), scene), whole, 1.0 / 255,
-                "batches-" + std::to_string(int(technique)));
+    test::expectSameDrawing(finishPartial(compositeSerial(parts, order), scene), whole, 1.0 / 255, *s, scene,
+                            "batches-" + std::to_string(int(technique)));
   }
 }
 
@@ -238,8 +238,9 @@ TEST(Parts, StandInsFillInToThePartsExactFrame) {
     parts.push_back(frame);
   }
   const image::ImageF whole = test::renderStore(s, scene);
-  expectClose(finishPartial(compositeSerial(parts, partsFrontToBack(partition, partView(s->meta(), scene))), scene),
-              whole, 1.0 / 255, "standins-3parts");
+  test::expectSameDrawing(
+      finishPartial(compositeSerial(parts, partsFrontToBack(partition, partView(s->meta(), scene))), scene), whole,
+      1.0 / 255, *s, scene, "standins-3parts");
 }
 
 TEST(Parts, TheEnginePassesThePartThrough) {
@@ -259,8 +260,8 @@ TEST(Parts, TheEnginePassesThePartThrough) {
     parts.push_back(engine.render(dataset, scene, &stats, options));
     EXPECT_LT(stats.bricksDrawn, int64_t(grid.store()->level(0).bricksTotal()));
   }
-  expectClose(finishPartial(compositeSerial(parts, partsFrontToBack(partition, grid, scene)), scene), whole, 1.0 / 255,
-              "engine-4parts");
+  test::expectSameDrawing(finishPartial(compositeSerial(parts, partsFrontToBack(partition, grid, scene)), scene), whole,
+                          1.0 / 255, *grid.store(), scene, "engine-4parts");
 }
 
 TEST(Parts, BadBoxesAndMeshesAreRefused) {
