@@ -5,6 +5,8 @@
 
 #include <vector>
 
+#include <glm/glm.hpp>
+
 #include "brickstore/BrickStore.h"
 #include "render/core/PartialFrame.h"
 #include "render/core/Scene.h"
@@ -27,9 +29,27 @@ struct Partition {
   std::vector<uint64_t> bytes;  ///< each part's stored bytes at level 0
 };
 
-/// Splits the store's level-0 bricks into `parts` boxes (1 <= parts <= the number of bricks along the volume),
-/// balanced by stored bytes; the same store and count give the same partition on every process.
+/// Splits the store's level-0 bricks into `parts` boxes (1 <= parts <= the number of level-0 bricks; throws
+/// std::invalid_argument otherwise), balanced by stored bytes; the same store and count give the same partition on
+/// every process. Each split halves the parts (the lower side gets parts / 2) across the region's longest axis in
+/// bricks (ties: the lowest axis), at the brick boundary whose stored bytes come nearest the parts' share (ties: the
+/// nearest share of bricks, then the lowest position).
 Partition partitionBricks(const store::BrickStore& store, int parts);
+
+/// A view of the volume in its level-0 voxel coordinates (voxel v's centre at v + 0.5), which is what the splits'
+/// sides are decided in.
+struct PartView {
+  bool orthographic = false;
+  glm::dvec3 eye{0.0};        ///< perspective: the eye
+  glm::dvec3 direction{0.0};  ///< orthographic: the view direction (only its signs matter)
+};
+
+/// `scene`'s camera resolved over a volume of `meta` as the renderer resolves it (FramePlan), in level-0 voxels.
+PartView partView(const store::StoreMeta& meta, const Scene& scene);
+
+/// The parts' indices nearest first for `view`: at each split the side holding the eye (perspective; an eye on the
+/// plane takes the lower side first) or the side the view comes from (orthographic, by the direction's sign).
+std::vector<int> partsFrontToBack(const Partition& partition, const PartView& view);
 
 /// The parts' indices nearest first for `scene`'s camera over `dataset` (perspective: the eye's side of each split;
 /// orthographic: the view direction's sign on the split's axis; a camera inside the volume works).

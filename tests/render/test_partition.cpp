@@ -1,0 +1,225 @@
+// Sort-last rendering's partition, without GL: the parts' boxes tile the volume on brick boundaries, balanced by
+// stored bytes (empty bricks cost nothing), the same on every call, and their front-to-back order agrees with a
+// brute-force test of every pair of parts for random cameras, inside the volume and orthographic ones included.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "render/RenderFixtures.h"
+#include "render/volume/FramePlan.h"
+#include "render/volume/Partition.h"
+#include "support/TestSupport.h"
+
+namespace voxbrick::render {
+namespace {
+
+uint64_t storedBytes(const store::BrickStore& s, const PartBox& box) {
+  const int B = s.brickSize();
+  uint64_t bytes = 0;
+  for (int k = box.lo[2] / B; k * B < box.hi[2]; ++k)
+    for (int j = box.lo[1] / B; j * B < box.hi[1]; ++j)
+      for (int i = box.lo[0] / B; i * B < box.hi[0]; ++i)
+        bytes += s.record({0, uint32_t(i), uint32_t(j), uint32_t(k)}).compressedSize;
+  return bytes;
+}
+
+/// Every level-0 voxel of the store in exactly one box, each box's faces on brick boundaries (or the volume's).
+void expectTiles(const store::BrickStore& s, const Partition& p, int parts) {
+  ASSERT_EQ(p.boxes.size(), size_t(parts));
+  ASSERT_EQ(p.bytes.size(), size_t(parts));
+  const store::Vec3i dims = s.meta().dims;
+  const int B = s.brickSize();
+  int64_t voxels = 0;
+  for (size_t a = 0; a < p.boxes.size(); ++a) {
+    const PartBox& box = p.boxes[a];
+    int64_t v = 1;
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_GE(box.lo[size_t(c)], 0);
+      EXPECT_LT(box.lo[size_t(c)], box.hi[size_t(c)]) << "part " << a << " is empty";
+      EXPECT_LE(box.hi[size_t(c)], dims[c]);
+      EXPECT_EQ(box.lo[size_t(c)] % B, 0) << "part " << a << " starts off a brick boundary";
+      EXPECT_TRUE(box.hi[size_t(c)] % B == 0 || box.hi[size_t(c)] == dims[c]) << "part " << a;
+      v *= box.hi[size_t(c)] - box.lo[size_t(c)];
+    }
+    voxels += v;
+    EXPECT_EQ(p.bytes[a], storedBytes(s, box)) << "part " << a << ": its bytes are its bricks' stored bytes";
+    for (size_t b = a + 1; b < p.boxes.size(); ++b) {
+      bool overlap = true;
+      for (size_t c = 0; c < 3; ++c)
+        overlap = overlap && p.boxes[a].lo[c] < p.boxes[b].hi[c] && p.boxes[b].lo[c] < p.boxes[a].hi[c];
+      EXPECT_FALSE(overlap) << "parts " << a << " and " << b << " overlap";
+    }
+  }
+  EXPECT_EQ(voxels, dims.volume()) << "the boxes, disjoint, cover every voxel";
+}
+
+/// Whether `a` must be drawn before `b` for `view`: some axis plane separates them with `a` on the eye's side (for
+/// an orthographic view: the side the view comes from), none with `b` on it, and the eye is not between them on an
+/// axis (in either case no ray meets both).
+bool mustPrecede(const PartBox& a, const PartBox& b, const PartView& view) {
+  auto before = [&](const PartBox& x, const PartBox& y) {
+    for (size_t c = 0; c < 3; ++c) {
+      if (x.hi[c] <= y.lo[c] && (view.orthographic ? view.direction[c] > 0 : view.eye[c] < x.hi[c])) return true;
+      if (y.hi[c] <= x.lo[c] && (view.orthographic ? view.direction[c] < 0 : view.eye[c] > x.lo[c])) return true;
+    }
+    return false;
+  };
+  bool between = false;
+  for (size_t c = 0; c < 3 && !view.orthographic; ++c)
+    between =
+        between || (a.hi[c] < view.eye[c] && view.eye[c] < b.lo[c]) || (b.hi[c] < view.eye[c] && view.eye[c] < a.lo[c]);
+  return before(a, b) && !before(b, a) && !between;
+}
+
+void expectVisibilityOrder(const Partition& p, const PartView& view, const std::string& what) {
+  const std::vector<int> order = partsFrontToBack(p, view);
+  ASSERT_EQ(order.size(), p.boxes.size()) << what;
+  std::vector<int> sorted = order;
+  std::sort(sorted.begin(), sorted.end());
+  for (size_t i = 0; i < sorted.size(); ++i) ASSERT_EQ(sorted[i], int(i)) << what << ": each part once";
+  for (size_t i = 0; i < order.size(); ++i)
+    for (size_t j = i + 1; j < order.size(); ++j)
+      EXPECT_FALSE(mustPrecede(p.boxes[size_t(order[j])], p.boxes[size_t(order[i])], view))
+          << what << ": part " << order[j] << " hides part " << order[i] << " but comes after it";
+}
+
+TEST(Partition, BoxesTileTheVolumeOnBrickBoundaries) {
+  test::ScratchDir dir;
+  // 100 x 70 x 40 voxels in bricks of 16: the far bricks are partial.
+  const auto s = test::prep("synthetic:blobs,nx=100,ny=70,nz=40", dir / "b", 16);
+  const int64_t bricks = s->level(0).bricks.volume();
+  for (int parts : {1, 2, 3, 4, 5, 7, 8, 13, int(bricks)}) {
+    SCOPED_TRACE("parts " + std::to_string(parts));
+    expectTiles(*s, partitionBricks(*s, parts), parts);
+  }
+  EXPECT_THROW(partitionBricks(*s, 0), std::invalid_argument);
+  EXPECT_THROW(partitionBricks(*s, int(bricks) + 1), std::invalid_argument);
+}
+
+TEST(Partition, ManyPartsOnFewBricksStillTile) {
+  test::ScratchDir dir;
+  // 3 x 3 x 1 bricks into 8 parts: halving the parts fits no axis, so the parts follow the bricks.
+  const auto s = test::prep("synthetic:blobs,nx=48,ny=48,nz=16", dir / "b", 16);
+  for (int parts = 1; parts <= 9; ++parts) {
+    SCOPED_TRACE("parts " + std::to_string(parts));
+    expectTiles(*s, partitionBricks(*s, parts), parts);
+  }
+}
+
+TEST(Partition, BalancedByStoredBytesAndEmptyBricksCostNothing) {
+  test::ScratchDir dir;
+  const auto s = test::prep("synthetic:sparse,n=128", dir / "s", 16);
+  const store::Vec3i grid = s->level(0).bricks;
+  uint64_t total = 0, largestSlab = 0;
+  int64_t empty = 0;
+  for (int axis = 0; axis < 3; ++axis)
+    for (int64_t at = 0; at < grid[axis]; ++at) {
+      uint64_t slab = 0;
+      for (int64_t k = 0; k < grid.z; ++k)
+        for (int64_t j = 0; j < grid.y; ++j)
+          for (int64_t i = 0; i < grid.x; ++i)
+            if ((axis == 0 ? i : axis == 1 ? j : k) == at) {
+              const uint64_t b = s->record({0, uint32_t(i), uint32_t(j), uint32_t(k)}).compressedSize;
+              slab += b;
+              if (axis == 0) total += b, empty += b == 0;
+            }
+      largestSlab = std::max(largestSlab, slab);
+    }
+  ASSERT_GT(empty, 0) << "a sparse field has empty bricks";
+  ASSERT_GT(total, 0u);
+
+  // Two parts: the split is the best brick boundary on its axis, by bytes.
+  const Partition two = partitionBricks(*s, 2);
+  const Partition::Node& root = two.nodes.at(0);
+  ASSERT_GE(root.axis, 0);
+  const int B = s->brickSize();
+  for (int64_t at = 1; at < grid[root.axis]; ++at) {
+    PartBox lower{{0, 0, 0}, {int(s->meta().dims.x), int(s->meta().dims.y), int(s->meta().dims.z)}};
+    lower.hi[size_t(root.axis)] = int(at * B);
+    const double error = std::abs(double(storedBytes(*s, lower)) - 0.5 * double(total));
+    EXPECT_LE(std::abs(double(two.bytes[0]) - 0.5 * double(total)), error) << "a split at brick " << at << " is better";
+  }
+  // More parts: each within one slab of bricks of its share per level of the tree.
+  for (int parts : {2, 3, 4, 5, 8}) {
+    const Partition p = partitionBricks(*s, parts);
+    uint64_t sum = 0;
+    for (uint64_t b : p.bytes) sum += b;
+    EXPECT_EQ(sum, total) << parts << " parts: the bytes of every brick, once";
+    const int depth = int(std::ceil(std::log2(double(parts))));
+    for (size_t a = 0; a < p.bytes.size(); ++a)
+      EXPECT_LE(std::abs(double(p.bytes[a]) - double(total) / parts), depth * double(largestSlab))
+          << parts << " parts: part " << a;
+  }
+  // The empty half of a volume costs nothing: a field with bytes only at low x puts most parts' boxes there.
+  const store::Vec3i n{64, 16, 16};
+  std::vector<float> values(size_t(n.volume()), 0.0f);
+  for (int64_t z = 0; z < n.z; ++z)
+    for (int64_t y = 0; y < n.y; ++y)
+      for (int64_t x = 0; x < 16; ++x) values[size_t(x + n.x * (y + n.y * z))] = float((x * 7 + y * 3 + z) % 11);
+  const auto lopsided = test::prepArray(n, store::ValueType::F32, values, dir / "l", 8);
+  const Partition p = partitionBricks(*lopsided, 2);
+  EXPECT_EQ(p.boxes[0].hi[0], 8) << "half the stored bytes lie in the first 8 voxels along x";
+  EXPECT_EQ(p.bytes[0] + p.bytes[1], storedBytes(*lopsided, p.boxes[0]) + storedBytes(*lopsided, p.boxes[1]));
+}
+
+TEST(Partition, Deterministic) {
+  test::ScratchDir dir;
+  const auto s = test::prep("synthetic:sparse,n=96", dir / "s", 16);
+  const auto again = store::BrickStore::open(dir / "s");
+  for (int parts = 1; parts <= 6; ++parts) {
+    const Partition a = partitionBricks(*s, parts), b = partitionBricks(*again, parts);
+    EXPECT_EQ(a.boxes, b.boxes);
+    EXPECT_EQ(a.bytes, b.bytes);
+    ASSERT_EQ(a.nodes.size(), b.nodes.size());
+    for (size_t i = 0; i < a.nodes.size(); ++i) {
+      EXPECT_EQ(a.nodes[i].axis, b.nodes[i].axis);
+      EXPECT_EQ(a.nodes[i].position, b.nodes[i].position);
+      EXPECT_EQ(a.nodes[i].part, b.nodes[i].part);
+    }
+  }
+}
+
+TEST(Partition, FrontToBackAgreesWithEveryPairOfParts) {
+  test::ScratchDir dir;
+  const auto s = test::prep("synthetic:blobs,nx=96,ny=80,nz=64", dir / "b", 16);
+  const store::Vec3i dims = s->meta().dims;
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> unit(0, 1);
+  for (int parts : {2, 3, 5, 8, 16}) {
+    const Partition p = partitionBricks(*s, parts);
+    for (int c = 0; c < 40; ++c) {
+      PartView view;
+      view.orthographic = c % 4 == 3;
+      // Eyes outside (up to twice the volume away) and inside the volume.
+      const double reach = c % 4 == 2 ? 1.0 : 3.0, offset = c % 4 == 2 ? 0.0 : -1.0;
+      for (int a = 0; a < 3; ++a) view.eye[a] = (offset + reach * unit(random)) * double(dims[a]);
+      view.direction = glm::dvec3(unit(random), unit(random), unit(random)) - 0.5;
+      expectVisibilityOrder(p, view, std::to_string(parts) + " parts, camera " + std::to_string(c));
+    }
+  }
+}
+
+TEST(Partition, ViewFollowsTheRenderersCamera) {
+  test::ScratchDir dir;
+  const auto s = test::prep("synthetic:blobs,nx=64,ny=32,nz=32", dir / "b", 16, {});
+  const store::StoreMeta& meta = s->meta();
+  for (const auto& [name, camera] : test::marchCameras(true)) {
+    Scene scene;
+    scene.camera = camera;
+    const FramePlan plan = planFrame(scene, *s, kTransferTableTexels);
+    const PartView view = partView(meta, scene);
+    EXPECT_EQ(view.orthographic, plan.camera.orthographic) << name;
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_NEAR(view.eye[a], (plan.camera.eye[a] - plan.volume.min[a]) / meta.spacing[a], 1e-9) << name;
+      EXPECT_GT(view.direction[a] * plan.camera.viewDirection()[a], -1e-12) << name << ": the same signs";
+    }
+    if (name == "inside")
+      for (int a = 0; a < 3; ++a) {
+        EXPECT_GT(view.eye[a], 0.0) << name;
+        EXPECT_LT(view.eye[a], double(meta.dims[a])) << name;
+      }
+  }
+}
+
+}  // namespace
+}  // namespace voxbrick::render
