@@ -4,7 +4,10 @@
 #include <cstring>
 #include <exception>
 #include <fstream>
+#include <optional>
 #include <sstream>
+
+#include <nlohmann/json.hpp>
 #include <stdexcept>
 
 #include "common/Checksum.h"
@@ -38,20 +41,44 @@ MpiSession::~MpiSession() {
 
 namespace {
 
-// Polls a started collective; without a deadline (timeout < 0) until `stop` says to give up.
-bool waitCollective(MPI_Request& request, double timeoutSeconds, const std::function<bool()>& stop,
-                    const char* what) {
-  if (timeoutSeconds >= 0) {
-    if (!testUntil(request, timeoutSeconds, 0, what)) {
-      throw PeerError(-1, std::string(what) + ": some rank did not answer within " +
-                              std::to_string(int(timeoutSeconds * 1000)) + " ms");
+constexpr int kTagLength = 7200, kTagText = 7201, kTagRecord = 7202;
+
+// Rank 0 sends `text` to every other rank (its length, then its bytes), waiting for all with the deadline, so that a
+// rank that does not take it is named.
+void sendToAll(MPI_Comm comm, const std::string& text, double timeoutSeconds) {
+  int size = 1;
+  MPI_Comm_size(comm, &size);
+  auto length = std::make_shared<uint64_t>(text.size());
+  auto bytes = std::make_shared<std::string>(text);
+  Transfers transfers(comm, timeoutSeconds);
+  for (int r = 1; r < size; ++r) {
+    transfers.send(r, kTagLength, length.get(), sizeof(uint64_t), length, "a command");
+    transfers.send(r, kTagText, bytes->data(), bytes->size(), bytes, "a command");
+  }
+  transfers.wait();
+}
+
+// A rank other than 0 takes what sendToAll sent: the length (for ever when timeout < 0, polling `stop`), then the text.
+std::optional<std::string> receiveFromRoot(MPI_Comm comm, double timeoutSeconds, const std::function<bool()>& stop) {
+  auto length = std::make_shared<uint64_t>(0);
+  {
+    Transfers transfers(comm, timeoutSeconds < 0 ? 0.2 : timeoutSeconds);
+    transfers.receive(0, kTagLength, length.get(), sizeof(uint64_t), length, "a command");
+    while (true) {
+      try {
+        transfers.wait();
+        break;
+      } catch (const PeerError&) {
+        if (timeoutSeconds >= 0) throw;
+        if (stop && stop()) return std::nullopt;  // the pending receive is abandoned with its buffer
+      }
     }
-    return true;
   }
-  while (!testUntil(request, 0.1, 0, what)) {
-    if (stop && stop()) return false;
-  }
-  return true;
+  auto text = std::make_shared<std::string>(*length, '\0');
+  Transfers transfers(comm, std::max(timeoutSeconds, 10.0));
+  transfers.receive(0, kTagText, text->data(), text->size(), text, "a command");
+  transfers.wait();
+  return *text;
 }
 
 }  // namespace
@@ -60,33 +87,39 @@ std::string broadcastText(MPI_Comm comm, const std::string& text, double timeout
                           const std::function<bool()>& stop) {
   int rank = 0;
   MPI_Comm_rank(comm, &rank);
-  // On the heap: when the wait is given up, the request is abandoned and MPI may still write into it (leaked then).
-  auto* lengthSlot = new uint64_t(rank == 0 ? text.size() : 0);
-  MPI_Request request;
-  MPI_Ibcast(lengthSlot, 1, MPI_UINT64_T, 0, comm, &request);
-  if (!waitCollective(request, rank == 0 ? std::max(timeoutSeconds, 0.0) : timeoutSeconds, stop, "a command")) {
-    return {};
+  if (rank == 0) {
+    sendToAll(comm, text, std::max(timeoutSeconds, 0.0));
+    return text;
   }
-  const uint64_t length = *lengthSlot;
-  delete lengthSlot;
-  std::string out = rank == 0 ? text : std::string(length, '\0');
-  MPI_Ibcast(out.data(), int(length), MPI_CHAR, 0, comm, &request);
-  waitCollective(request, std::max(timeoutSeconds, 10.0), {}, "a command's text");
-  return out;
+  return receiveFromRoot(comm, timeoutSeconds, stop).value_or(std::string());
 }
 
 std::vector<std::string> allGather(MPI_Comm comm, const std::string& record, double timeoutSeconds) {
-  constexpr size_t kRecord = 1024;
-  int size = 1;
+  int size = 1, rank = 0;
   MPI_Comm_size(comm, &size);
-  auto mine = std::make_shared<std::vector<char>>(kRecord, '\0');
-  std::memcpy(mine->data(), record.data(), std::min(record.size(), kRecord - 1));
-  auto all = std::make_shared<std::vector<char>>(kRecord * size_t(size), '\0');
-  MPI_Request request;
-  MPI_Iallgather(mine->data(), int(kRecord), MPI_CHAR, all->data(), int(kRecord), MPI_CHAR, comm, &request);
-  waitCollective(request, timeoutSeconds, {}, "gathering every rank's answer");
-  std::vector<std::string> out;
-  for (int r = 0; r < size; ++r) out.emplace_back(all->data() + size_t(r) * kRecord);
+  MPI_Comm_rank(comm, &rank);
+  constexpr size_t kRecord = 1024;
+  std::vector<std::string> out(static_cast<size_t>(size));
+  if (rank != 0) {
+    auto mine = std::make_shared<std::vector<char>>(kRecord, '\0');
+    std::memcpy(mine->data(), record.data(), std::min(record.size(), kRecord - 1));
+    Transfers transfers(comm, timeoutSeconds);
+    transfers.send(0, kTagRecord, mine->data(), kRecord, mine, "an answer");
+    transfers.wait();
+    nlohmann::json all = nlohmann::json::parse(receiveFromRoot(comm, timeoutSeconds, {}).value_or("[]"));
+    for (size_t r = 0; r < out.size() && r < all.size(); ++r) out[r] = all[r].get<std::string>();
+    return out;
+  }
+  out[0] = record.substr(0, kRecord - 1);
+  std::vector<std::shared_ptr<std::vector<char>>> records;
+  Transfers transfers(comm, timeoutSeconds);
+  for (int r = 1; r < size; ++r) {
+    records.push_back(std::make_shared<std::vector<char>>(kRecord, '\0'));
+    transfers.receive(r, kTagRecord, records.back()->data(), kRecord, records.back(), "an answer");
+  }
+  transfers.wait();
+  for (int r = 1; r < size; ++r) out[size_t(r)] = std::string(records[size_t(r - 1)]->data());
+  sendToAll(comm, nlohmann::json(out).dump(), timeoutSeconds);
   return out;
 }
 

@@ -37,13 +37,15 @@ class MpiSession {
   bool mFinalize = false;
 };
 
-/// Broadcasts `text` from rank 0 to every rank (its length, then its bytes, MPI_Ibcast polled). Rank 0 passes the
-/// text; the others receive it. A non-root waits up to `timeoutSeconds` (< 0: for ever, polling `stop` if given,
-/// which returns true to give up: then the result is empty). Throws PeerError when the deadline passes.
+/// Sends `text` from rank 0 to every rank (its length, then its bytes, point to point so that a rank that does not
+/// take it is named). Rank 0 passes the text; the others receive it. A rank other than 0 waits up to
+/// `timeoutSeconds` (< 0: for ever, polling `stop` if given, which returns true to give up: then the result is
+/// empty). Throws PeerError naming the rank when the deadline passes.
 std::string broadcastText(MPI_Comm comm, const std::string& text, double timeoutSeconds,
                           const std::function<bool()>& stop = {});
 
-/// Every rank's `record` (up to 1024 bytes, cut beyond) on every rank, index = rank (MPI_Iallgather polled).
+/// Every rank's `record` (up to 1023 bytes, cut beyond) on every rank, index = rank: each sends it to rank 0, which
+/// sends them all back, every transfer with the deadline (PeerError names the rank).
 std::vector<std::string> allGather(MPI_Comm comm, const std::string& record, double timeoutSeconds);
 
 /// What identifies a dataset's files on disk: the CRC-32 of its small description file (store.json, mesh.json) and

@@ -43,7 +43,18 @@ image::ImageF RankRenderer::render(const std::shared_ptr<const render::Dataset>&
   partOptions.part = parts.boxes[size_t(mRank)];
   render::FrameStats own;
   auto drawStart = std::chrono::steady_clock::now();
-  const image::ImageF partial = mEngine.render(dataset, scene, &own, partOptions);
+  // A rank whose drawing fails still takes its part in compositing (with nothing drawn), so that every rank stays in
+  // step; rank 0 reports the failure, naming the rank, once the frame's exchanges are over.
+  image::ImageF partial;
+  std::string failure;
+  std::exception_ptr failed;
+  try {
+    partial = mEngine.render(dataset, scene, &own, partOptions);
+  } catch (const std::exception& error) {
+    failure = error.what();
+    failed = std::current_exception();
+    partial = {scene.width, scene.height, std::vector<float>(size_t(scene.width) * size_t(scene.height) * 4, 0.0f)};
+  }
   const double drawMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - drawStart).count();
   CompositeStats composited;
   image::ImageF whole = composite(mComm, partial, order, mOptions.composite, &composited);
@@ -52,8 +63,9 @@ image::ImageF RankRenderer::render(const std::shared_ptr<const render::Dataset>&
   std::ostringstream record;
   record << drawMs << " " << own.msPaging << " " << composited.ms << " " << composited.bytesSent << " "
          << composited.bytesReceived << " " << cache.peakResidentBytes << " " << cache.budgetBytes << " "
-         << own.bricksDrawn << " " << mEngine.peakGpuBytes();
+         << own.bricksDrawn << " " << mEngine.peakGpuBytes() << " " << failure;
   const auto records = allGather(mComm, record.str(), mOptions.composite.timeoutSeconds);
+  if (failed) std::rethrow_exception(failed);
   if (mRank != 0) return {};
   nlohmann::json perRank = nlohmann::json::array();
   uint64_t totalBytes = 0;
@@ -63,6 +75,9 @@ image::ImageF RankRenderer::render(const std::shared_ptr<const render::Dataset>&
     uint64_t sent = 0, received = 0, peakHost = 0, budget = 0, peakGpu = 0;
     int64_t bricks = 0;
     in >> draw >> paging >> compositeMs >> sent >> received >> peakHost >> budget >> bricks >> peakGpu;
+    std::string error;
+    std::getline(in >> std::ws, error);
+    if (!error.empty()) throw render::RenderError("rank " + std::to_string(r) + " could not draw its part: " + error);
     totalBytes += sent;
     perRank.push_back({{"rank", r},
                        {"drawing_ms", draw},
