@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "render/core/Backend.h"
+#include "render/engine/RenderEngine.h"
 
 namespace voxbrick::server {
 
@@ -54,6 +55,9 @@ struct ServerConfig {
   // [memory]
   int64_t hostCacheMB = 1024;  ///< decoded bricks of all open datasets together
   int64_t gpuBudgetMB = 1024;  ///< atlases of all render threads and datasets (equal shares per thread)
+  /// Not in the file: given to every render thread's engine (RenderEngineOptions::gridFrames); `serve --mpi` sets it
+  /// to draw grid frames across the MPI ranks (distributed/). Empty: each engine draws its frames.
+  render::GridFrames gridFrames = {};
 
   /// Without coalescing (a benchmark setting), how many renders one session may have waiting.
   static constexpr size_t kMaxQueuedWithoutCoalescing = 64;
