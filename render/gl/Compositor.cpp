@@ -76,7 +76,7 @@ void Compositor::bindSilhouette() const {
   mGl.glViewport(0, 0, mTarget.width(), mTarget.height());
 }
 
-image::ImageF Compositor::finish(const Scene& scene, FrameStats& stats) {
+image::ImageF Compositor::finish(const Scene& scene, FrameStats& stats, bool premultiplied) {
   mGl.glEndQuery(GL_SAMPLES_PASSED);
   mCounting = false;
   mGl.glDisable(GL_DEPTH_TEST);
@@ -92,6 +92,10 @@ image::ImageF Compositor::finish(const Scene& scene, FrameStats& stats) {
   for (int y = 0; y < height; ++y) {
     const float* src = raw.data() + size_t(height - 1 - y) * size_t(width) * 4;
     float* dst = image.pixel(0, y);
+    if (premultiplied) {
+      std::copy_n(src, size_t(width) * 4, dst);
+      continue;
+    }
     for (int x = 0; x < width; ++x, src += 4, dst += 4) {
       if (scene.transparent) {
         const glm::dvec4 out = scene.output({src[0], src[1], src[2]}, src[3]);

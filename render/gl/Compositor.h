@@ -28,8 +28,9 @@ class Compositor {
   void bindTarget() const { mTarget.bind(); }
   /// Waits for the passes, reads the target back and composites it over the scene's background, out = C + (1 - A)
   /// * bg, or keeps the opacity as alpha when the background is transparent (Scene::output). Fills fragments,
-  /// msDrawing (the wait) and msReadback.
-  image::ImageF finish(const Scene& scene, FrameStats& stats);
+  /// msDrawing (the wait) and msReadback. With `premultiplied` (a part's frame in sort-last rendering) the target is
+  /// returned as it is, premultiplied colour and opacity with no background (render/core/PartialFrame.h).
+  image::ImageF finish(const Scene& scene, FrameStats& stats, bool premultiplied = false);
   /// After a frame failed between begin() and finish(): ends the fragment count and puts back the state every
   /// pass expects at the start of a frame (colour and depth writes, depth range), so the next frame starts clean.
   void abort();

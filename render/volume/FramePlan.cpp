@@ -32,6 +32,34 @@ Box FramePlan::drawBox(const Box& b, const store::Vec3d& spacing) const {
 
 namespace {
 
+/// Keeps the bricks of `visible` that own level-0 voxels inside `part`, and recounts the bricks drawn. The counts per
+/// level keep their length, so that the frame's coarsest level is the whole frame's (the pre-integration table's
+/// range follows it).
+void keepPart(TraversalResult& visible, const PartBox& part, int brickSize) {
+  std::erase_if(visible.bricks, [&](const BrickDraw& d) {
+    const int64_t side = int64_t(brickSize) << d.key.level;
+    const int64_t lo[3] = {int64_t(d.key.i) * side, int64_t(d.key.j) * side, int64_t(d.key.k) * side};
+    for (size_t a = 0; a < 3; ++a)
+      if (lo[a] >= part.hi[a] || lo[a] + side <= part.lo[a]) return true;
+    return false;
+  });
+  TraversalStats& stats = visible.stats;
+  std::fill(stats.bricksPerLevel.begin(), stats.bricksPerLevel.end(), 0);
+  for (const BrickDraw& d : visible.bricks) stats.bricksPerLevel.at(d.key.level) += 1;
+  stats.bricksDrawn = int64_t(visible.bricks.size());
+  stats.bricksCoarse = stats.bricksDrawn - (stats.bricksPerLevel.empty() ? 0 : stats.bricksPerLevel[0]);
+}
+
+void checkPart(const PartBox& part, const store::Vec3i& dims) {
+  for (size_t a = 0; a < 3; ++a)
+    if (part.lo[a] < 0 || part.lo[a] >= part.hi[a] || part.hi[a] > dims[int(a)])
+      throw RenderInputError("part [" + std::to_string(part.lo[0]) + " " + std::to_string(part.lo[1]) + " " +
+                             std::to_string(part.lo[2]) + ", " + std::to_string(part.hi[0]) + " " +
+                             std::to_string(part.hi[1]) + " " + std::to_string(part.hi[2]) +
+                             ") is not a non-empty box of voxels inside the volume of " + std::to_string(dims.x) +
+                             " x " + std::to_string(dims.y) + " x " + std::to_string(dims.z));
+}
+
 /// The traversal's bricks, coarsened to fit `budget` when level of detail is on and they need more.
 void traverse(FramePlan& plan, const Scene& scene, const store::BrickStore& store, const BrickBudget& budget) {
   const store::StoreMeta& meta = store.meta();
@@ -39,6 +67,7 @@ void traverse(FramePlan& plan, const Scene& scene, const store::BrickStore& stor
   const OctreeTraversal traversal(store.octree(), meta.dims, store.brickSize(), meta.spacing);
   TraversalOptions options{scene.skipEmpty, scene.cullFrustum, {scene.lod, store.levelCount() - 1, scene.height}};
   plan.visible = traversal.run(plan.camera, frustum, plan.contributes, options);
+  if (plan.part) keepPart(plan.visible, *plan.part, store.brickSize());
   plan.bricksWanted = int64_t(plan.visible.bricks.size());
   if (scene.lod <= 0 || budget.limit() <= 0) return;
   plan.budget = budget;
@@ -50,16 +79,19 @@ void traverse(FramePlan& plan, const Scene& scene, const store::BrickStore& stor
       coarsenToFit(plan.visible.bricks, store.octree(), store.levelCount() - 1, cost, budget.limit());
   if (whole.empty()) return;
   plan.visible = traversal.run(plan.camera, frustum, plan.contributes, options, drawWholeTest(whole));
+  if (plan.part) keepPart(plan.visible, *plan.part, store.brickSize());
 }
 
 }  // namespace
 
 FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int transferTableTexels,
-                    const BrickBudget& budget) {
+                    const BrickBudget& budget, const std::optional<PartBox>& part) {
   scene.validate();
   const store::StoreMeta& meta = store.meta();
   const int B = store.brickSize();
   FramePlan plan;
+  if (part) checkPart(*part, meta.dims);
+  plan.part = part;
   plan.volume = volumeBox(meta.dims, meta.spacing);
   plan.camera = scene.camera.resolve(plan.volume, WorldFrame::of(meta.orientation, meta.dims, meta.spacing),
                                      double(scene.width) / double(scene.height));

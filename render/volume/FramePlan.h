@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -11,6 +12,7 @@
 
 #include "brickstore/BrickStore.h"
 #include "render/core/Camera.h"
+#include "render/core/PartialFrame.h"
 #include "render/core/PixelRays.h"
 #include "render/core/Scene.h"
 #include "render/volume/Slicing.h"
@@ -57,11 +59,15 @@ struct FramePlan {
   int coarsestLevel = 0;        ///< the coarsest pyramid level drawn: of plan.visible's bricks' sources
   int width = 0, height = 0;    ///< image size in pixels
   PixelRays rays;
+  /// Sort-last rendering (FrameOptions::part): the level-0 voxels this frame draws. plan.visible then holds only the
+  /// bricks owning voxels in it, at the levels the whole frame chose, and each is cut to the box (BrickWalk).
+  std::optional<PartBox> part;
 
   /// Whether every box owns exactly its voxels, tested on the pixel's ray (sub-blocks and bricks of different levels,
   /// whose boxes meet at T-junctions, and slabs, which march rays); else whole bricks share their rasterised faces
   /// and only the volume's outline is tested.
-  bool exactOwnership() const { return subBlock > 0 || marches() || coarsestLevel > 0; }
+  /// A part's frame owns exactly too, so that its boxes stop at the part's faces.
+  bool exactOwnership() const { return subBlock > 0 || marches() || coarsestLevel > 0 || part.has_value(); }
   /// Whether fragments march rays through several planes (slabs or the frame ray caster), rather than slice.
   bool marches() const { return slab > 0 || raycast; }
   /// Planes a box of pyramid level `level` samples: every one when slicing, every 2^level-th when marching.
@@ -109,8 +115,9 @@ inline constexpr int kTransferTableTexels = 4096;
 /// Plans a frame of `scene` over `store`. `transferTableTexels` is the size of the GPU's transfer-function table
 /// (the range test covers the entries a lookup reads). With level of detail on (Scene::lod > 0) and a `budget`, the
 /// bricks are coarsened until they fit it (coarsenToFit); lod 0 draws level 0 everywhere, in batches when it must.
-/// Throws RenderInputError for an invalid scene.
+/// With `part` (sort-last rendering), only the bricks owning level-0 voxels inside it are kept, and the budget is
+/// theirs. Throws RenderInputError for an invalid scene or a part that is not a non-empty box inside the volume.
 FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int transferTableTexels,
-                    const BrickBudget& budget = {});
+                    const BrickBudget& budget = {}, const std::optional<PartBox>& part = std::nullopt);
 
 }  // namespace voxbrick::render

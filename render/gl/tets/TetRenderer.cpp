@@ -113,6 +113,10 @@ double TetRenderer::estimateSamples(const Scene& scene) {
 
 image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, const FrameOptions& options) {
   const auto frameStart = Clock::now();
+  if (options.part)
+    throw RenderInputError(
+        "a part (sort-last rendering) is a box of a grid's voxels: a tetrahedral mesh cannot be "
+        "drawn in parts");
   FrameStats stats;
   // The plan: view, window, matrices, whether the view allows ray casting (GL-free).
   const TetFramePlan plan = planTetFrame(scene, mResidency.source().constants(), options);

@@ -64,9 +64,18 @@ void BrickWalk::cutBrick(const FramePlan& plan, const BrickDraw& draw, const Res
   const int keyLevel = int(key.level);
   const store::Vec3i ownedLo{int64_t(key.i) * brickSize << keyLevel, int64_t(key.j) * brickSize << keyLevel,
                              int64_t(key.k) * brickSize << keyLevel};
-  const store::Vec3i ownedHi{std::min<int64_t>(ownedLo.x + (int64_t(brickSize) << keyLevel), meta.dims.x),
-                             std::min<int64_t>(ownedLo.y + (int64_t(brickSize) << keyLevel), meta.dims.y),
-                             std::min<int64_t>(ownedLo.z + (int64_t(brickSize) << keyLevel), meta.dims.z)};
+  store::Vec3i ownedHi{std::min<int64_t>(ownedLo.x + (int64_t(brickSize) << keyLevel), meta.dims.x),
+                       std::min<int64_t>(ownedLo.y + (int64_t(brickSize) << keyLevel), meta.dims.y),
+                       std::min<int64_t>(ownedLo.z + (int64_t(brickSize) << keyLevel), meta.dims.z)};
+  // A part's frame (sort-last rendering) draws only the voxels inside the part: the brick is cut to it.
+  VoxelSpan owned{ownedLo, ownedHi};
+  bool cut = false;
+  if (plan.part) {
+    const PartBox& part = *plan.part;
+    const VoxelSpan whole = owned;
+    if (!clipSpan(owned, {part.lo[0], part.lo[1], part.lo[2]}, {part.hi[0], part.hi[1], part.hi[2]})) return;
+    cut = !(owned.lo == whole.lo && owned.hi == whole.hi);
+  }
   const store::BrickKey source = draw.source();
   const int level = int(source.level);
   const store::Vec3i brickLo{int64_t(source.i) * brickSize, int64_t(source.j) * brickSize,
@@ -77,9 +86,10 @@ void BrickWalk::cutBrick(const FramePlan& plan, const BrickDraw& draw, const Res
                   mSubStats);
     // A stand-in's sub-blocks cover its whole brick: keep their parts inside the voxels this draw owns. Clipping
     // to a box keeps the spans' front-to-back order.
-    if (draw.standIn > 0) std::erase_if(mSpans, [&](VoxelSpan& span) { return !clipSpan(span, ownedLo, ownedHi); });
+    if (draw.standIn > 0 || cut)
+      std::erase_if(mSpans, [&](VoxelSpan& span) { return !clipSpan(span, owned.lo, owned.hi); });
   } else {
-    mSpans.push_back({ownedLo, ownedHi});
+    mSpans.push_back(owned);
   }
   // xyz: added to a sample's voxel coordinate in the brick's level (rotated as the brick is in its slot), gives
   // its atlas texel: slot origin + 1 + rotated(v - brickLo); w: the level and the rotation (payloadLevel).
@@ -93,7 +103,7 @@ void BrickWalk::cutBrick(const FramePlan& plan, const BrickDraw& draw, const Res
   for (const VoxelSpan& span : mSpans) {
     QueuedBox queued;
     queued.box = plan.drawBox(voxelSpanBox(span.lo, span.hi, meta.dims, meta.spacing), meta.spacing);
-    queued.planes = plan.subBlock ? geometry.planes(queued.box, plan) : brickPlanes;
+    queued.planes = plan.subBlock || cut ? geometry.planes(queued.box, plan) : brickPlanes;
     if (queued.planes.count() == 0) continue;
     queued.payload = payload;
     queued.ownLo = exact ? glm::ivec3(span.lo.x, span.lo.y, span.lo.z) : glm::ivec3(0);

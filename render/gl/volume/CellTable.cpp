@@ -50,6 +50,17 @@ void CellTable::deferAll(const TraversalResult& visible, int brickSize) {
   reset();
 }
 
+void CellTable::deferOutside(const glm::ivec3& lo, const glm::ivec3& hi) {
+  if (mDeferred.empty()) mDeferred.assign(mHost.size(), 0);
+  const glm::ivec3 c0 = lo >> mShift, c1 = glm::min((hi + ((1 << mShift) - 1)) >> mShift, mCells);
+  const glm::ivec3 r0 = glm::max(c0 - 1, glm::ivec3(0)), r1 = glm::min(c1 + 1, mCells);
+  for (int z = r0.z; z < r1.z; ++z)
+    for (int y = r0.y; y < r1.y; ++y)
+      for (int x = r0.x; x < r1.x; ++x)
+        if (x < c0.x || x >= c1.x || y < c0.y || y >= c1.y || z < c0.z || z >= c1.z) mDeferred[index(x, y, z)] = 1;
+  reset();
+}
+
 void CellTable::add(const QueuedBox& box) {
   constexpr int lo16 = std::numeric_limits<int16_t>::min(), hi16 = std::numeric_limits<int16_t>::max();
   for (int a = 0; a < 3; ++a)

@@ -40,6 +40,11 @@ class CellTable {
   /// For a frame of several batches, after begin(): marks the cells of every brick of `visible` (bricks of
   /// `brickSize` level-0 voxels at level 0) as drawn in another batch, what they return to after each batch.
   void deferAll(const TraversalResult& visible, int brickSize);
+  /// For a part's frame (sort-last rendering), after begin() and deferAll(): marks the cells just outside the part
+  /// [lo, hi) (level-0 voxels on cell boundaries, or the volume's far faces), one cell deep, as drawn in another
+  /// batch, which they are (by another part), so that rays step through them plane by plane near the part's faces
+  /// and never leap over a point the part owns. Cells further out have nothing to draw.
+  void deferOutside(const glm::ivec3& lo, const glm::ivec3& hi);
   /// Marks the cells of `box` (its owned voxels, aligned to the cell size except at the volume's far faces) as drawn
   /// from its payload. Throws RenderError if the payload does not fit 16 bits (an atlas beyond 32767 texels).
   void add(const QueuedBox& box);

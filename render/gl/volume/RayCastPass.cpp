@@ -33,6 +33,9 @@ void RayCastPass::draw(const FramePlan& plan, Residency& residency, const Volume
   // More bricks than slots: several batches (an upper bound: stand-ins may share a source).
   if (plan.visible.bricks.size() > size_t(residency.atlas().capacity()))
     mCells.deferAll(plan.visible, residency.store().brickSize());
+  if (plan.part)
+    mCells.deferOutside(glm::ivec3(plan.part->lo[0], plan.part->lo[1], plan.part->lo[2]),
+                        glm::ivec3(plan.part->hi[0], plan.part->hi[1], plan.part->hi[2]));
   program.setCells(mCells.cells(), mCells.shift());
   auto add = [&](const QueuedBox& b) { mCells.add(b); };
   auto flush = [&] { drawBatch(plan, program, compositor, stats, checkpoints); };

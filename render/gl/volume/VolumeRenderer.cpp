@@ -97,7 +97,8 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
                  mode == RenderMode::Roofline ? FragmentModel::Roofline
                  : scene.shading              ? FragmentModel::Shaded
                                               : FragmentModel::Plain,
-                 plan.subBlock > 0 || plan.coarsestLevel > 0, plan.slab > 0, plan.preIntegration};
+                 plan.subBlock > 0 || plan.coarsestLevel > 0 || plan.part.has_value(), plan.slab > 0,
+                 plan.preIntegration};
   key.raycast = plan.raycast;
   key.multiOriented = mResidency.atlas().bricking() == AtlasBricking::MultiOriented;
   const VolumeProgram& program = mPrograms.get(key);
@@ -129,7 +130,7 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
     mSlicing.draw(plan, mResidency, program, geometry(scene), stats, checkpoints);
   }
 
-  return mCompositor.finish(scene, stats);
+  return mCompositor.finish(scene, stats, plan.part.has_value());
 }
 
 image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, const FrameOptions& options) {
@@ -138,7 +139,8 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, c
   const store::BrickStore& store = mResidency.store();
 
   auto t = Clock::now();
-  FramePlan plan = planFrame(scene, store, kTransferTableTexels, options.fitBudget ? budget() : BrickBudget{});
+  FramePlan plan =
+      planFrame(scene, store, kTransferTableTexels, options.fitBudget ? budget() : BrickBudget{}, options.part);
   planStats(plan, stats);
   stats.msTraversal = msSince(t);
   stats.samplesEstimated = plan.estimatedSamples();
