@@ -33,8 +33,8 @@ struct RenderArgs {
   int warmUp = 0;
   int jpegQuality = 90;
   int64_t gpuBudgetMB = 1024, hostBudgetMB = 1024;
-  bool mpi = false;                 ///< sort-last across the ranks of mpirun (distributed/)
-  double mpiTimeout = 10;           ///< seconds any one MPI transfer may wait for its peer
+  bool mpi = false;                  ///< sort-last across the ranks of mpirun (distributed/)
+  double mpiTimeout = 10;            ///< seconds any one MPI transfer may wait for its peer
   std::string mpiEncoding = "half";  ///< how pixels travel between ranks
 };
 

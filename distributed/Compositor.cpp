@@ -1,6 +1,8 @@
 // Binary swap in visibility order with a fold, then a gather to rank 0 (Compositor.h).
 #include "distributed/Compositor.h"
 
+#include <immintrin.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstring>
@@ -34,6 +36,35 @@ std::pair<PixelRect, PixelRect> halves(const PixelRect& region) {
 
 constexpr size_t kHeaderBytes = 4 * sizeof(int32_t);
 
+// Half-float rows with the F16C instructions where the processor has them (8 values at a time, round to nearest
+// even as floatToHalf), else value by value.
+__attribute__((target("avx,f16c"))) void toHalfF16c(const float* in, uint16_t* out, int count) {
+  int i = 0;
+  for (; i + 8 <= count; i += 8) {
+    __m128i packed = _mm256_cvtps_ph(_mm256_loadu_ps(in + i), _MM_FROUND_TO_NEAREST_INT);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out + i), packed);
+  }
+  for (; i < count; ++i) out[i] = floatToHalf(in[i]);
+}
+__attribute__((target("avx,f16c"))) void fromHalfF16c(const uint16_t* in, float* out, int count) {
+  int i = 0;
+  for (; i + 8 <= count; i += 8) {
+    __m128i packed = _mm_loadu_si128(reinterpret_cast<const __m128i*>(in + i));
+    _mm256_storeu_ps(out + i, _mm256_cvtph_ps(packed));
+  }
+  for (; i < count; ++i) out[i] = halfToFloat(in[i]);
+}
+const bool kF16c = __builtin_cpu_supports("f16c") && __builtin_cpu_supports("avx");
+
+void toHalf(const float* in, uint16_t* out, int count) {
+  if (kF16c) return toHalfF16c(in, out, count);
+  for (int i = 0; i < count; ++i) out[i] = floatToHalf(in[i]);
+}
+void fromHalf(const uint16_t* in, float* out, int count) {
+  if (kF16c) return fromHalfF16c(in, out, count);
+  for (int i = 0; i < count; ++i) out[i] = halfToFloat(in[i]);
+}
+
 size_t channelBytes(PixelEncoding encoding) { return encoding == PixelEncoding::Half ? 2 : 4; }
 
 size_t messageBytes(const PixelRect& rect, PixelEncoding encoding) {
@@ -55,8 +86,7 @@ std::shared_ptr<Buffer> pack(const image::ImageF& image, const PixelRect& rect, 
       std::memcpy(out, row, size_t(rowFloats) * 4);
       out += size_t(rowFloats) * 4;
     } else {
-      auto* halfOut = reinterpret_cast<uint16_t*>(out);
-      for (int i = 0; i < rowFloats; ++i) halfOut[i] = floatToHalf(row[i]);
+      toHalf(row, reinterpret_cast<uint16_t*>(out), rowFloats);
       out += size_t(rowFloats) * 2;
     }
   }
@@ -86,8 +116,7 @@ void blend(image::ImageF& image, const Buffer& buffer, const PixelRect& rect, Pi
       std::memcpy(row.data(), in, row.size() * 4);
       in += row.size() * 4;
     } else {
-      const auto* halfIn = reinterpret_cast<const uint16_t*>(in);
-      for (size_t i = 0; i < row.size(); ++i) row[i] = halfToFloat(halfIn[i]);
+      fromHalf(reinterpret_cast<const uint16_t*>(in), row.data(), rowFloats);
       in += row.size() * 2;
     }
     float* pixels = image.pixel(rect.x0, y);
@@ -152,6 +181,11 @@ image::ImageF composite(MPI_Comm comm, const image::ImageF& partial, const std::
     throw std::invalid_argument("partial frame's pixels do not match its size");
   }
   CompositeStats stats;
+  if (size == 1) {  // nothing to exchange: the frame is the part
+    stats.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    if (statsOut) *statsOut = stats;
+    return partial;
+  }
   Exchange ex{comm, options, stats};
   const PixelRect whole{0, 0, partial.width, partial.height};
   const int pos = int(std::find(frontToBack.begin(), frontToBack.end(), rank) - frontToBack.begin());

@@ -4,8 +4,8 @@
 #include <chrono>
 #include <map>
 
-#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
+#include <nlohmann/json.hpp>
 
 #include "distributed/Cluster.h"
 #include "render/core/RenderErrors.h"
@@ -52,8 +52,8 @@ void agreeOnDataset(MPI_Comm comm, const std::string& name, const std::string& r
   for (size_t r = 1; r < records.size(); ++r) {
     if (records[r] != records[0]) {
       throw render::RenderInputError("dataset '" + name + "' differs on rank " + std::to_string(r) +
-                                     " from rank 0's (" + records[r].substr(3) + "against " +
-                                     records[0].substr(3) + ")");
+                                     " from rank 0's (" + records[r].substr(3) + "against " + records[0].substr(3) +
+                                     ")");
     }
   }
 }
@@ -73,9 +73,8 @@ FrameLeader::FrameLeader(MPI_Comm comm, ServeRankOptions options) : mComm(comm),
 
 render::GridFrames FrameLeader::hook() {
   return [this](render::RenderEngine& engine, const std::shared_ptr<const render::Dataset>& dataset,
-                const render::Scene& scene, render::FrameStats* stats, const render::FrameOptions& options) {
-    return frame(engine, dataset, scene, stats, options);
-  };
+                const render::Scene& scene, render::FrameStats* stats,
+                const render::FrameOptions& options) { return frame(engine, dataset, scene, stats, options); };
 }
 
 image::ImageF FrameLeader::frame(render::RenderEngine& engine, const std::shared_ptr<const render::Dataset>& dataset,
