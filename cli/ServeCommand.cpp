@@ -155,6 +155,7 @@ void serveMpi(const ServeArgs& a, server::ServerConfig c) {
   c.renderThreads = 1;  // one frame across the ranks at a time
   auto leader = std::make_shared<distributed::FrameLeader>(MPI_COMM_WORLD, options);
   c.gridFrames = leader->hook();
+  c.datasetCheck = [leader](const std::string& name) { leader->checkDataset(name); };
   spdlog::info("distributed mode: {} ranks, rank 0 serves", mpi.size());
   try {
     serveWith(a, c);

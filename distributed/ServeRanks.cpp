@@ -99,13 +99,7 @@ image::ImageF FrameLeader::frame(render::RenderEngine& engine, const std::shared
                             {"fixed_ms", options.rateSamplesPerMs > 0 ? options.fixedMs : 0.0}};
   try {
     broadcastText(mComm, command.dump(), timeout);
-    std::string record;
-    try {
-      record = "ok " + datasetIdentity(mOptions.datasets / dataset->name());
-    } catch (const std::exception& error) {
-      record = std::string("error ") + error.what();
-    }
-    agreeOnDataset(mComm, dataset->name(), record, timeout);
+    agreeOnDataset(mComm, dataset->name(), ownRecord(dataset->name()), timeout);
     nlohmann::json distributed;
     image::ImageF image = mRenderer->render(dataset, scene, stats, &distributed, frameOptionsOf(command));
     spdlog::debug("distributed frame: {}", distributed.dump());
@@ -114,6 +108,28 @@ image::ImageF FrameLeader::frame(render::RenderEngine& engine, const std::shared
     mLost = error.what();
     spdlog::error("distributed mode: {}", error.what());
     throw render::RenderError(std::string("distributed frame failed: ") + error.what());
+  }
+}
+
+std::string FrameLeader::ownRecord(const std::string& name) const {
+  try {
+    return "ok " + datasetIdentity(mOptions.datasets / name);
+  } catch (const std::exception& error) {
+    return std::string("error ") + error.what();
+  }
+}
+
+void FrameLeader::checkDataset(const std::string& name) {
+  std::lock_guard lock(mMutex);
+  if (mLost) throw render::RenderError("the distributed mode stopped earlier: " + *mLost + "; restart the server");
+  const double timeout = mOptions.frames.composite.timeoutSeconds;
+  try {
+    broadcastText(mComm, nlohmann::json{{"op", "open"}, {"name", name}}.dump(), timeout);
+    agreeOnDataset(mComm, name, ownRecord(name), timeout);
+  } catch (const PeerError& error) {
+    mLost = error.what();
+    spdlog::error("distributed mode: {}", error.what());
+    throw render::RenderError(std::string("distributed open failed: ") + error.what());
   }
 }
 
@@ -156,6 +172,7 @@ void runWorker(MPI_Comm comm, const ServeRankOptions& options, const std::atomic
     }
     try {
       agreeOnDataset(comm, name, record, timeout);
+      if (command.value("op", "") == "open") continue;
       const render::Scene scene = render::Scene::fromJson(command["scene"].get<std::string>(), "the frame's scene");
       renderer.render(dataset, scene, nullptr, nullptr, frameOptionsOf(command));
     } catch (const PeerError& error) {

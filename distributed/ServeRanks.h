@@ -34,11 +34,16 @@ class FrameLeader {
   FrameLeader(MPI_Comm comm, ServeRankOptions options);
   /// The hook for RenderEngineOptions::gridFrames (it keeps this object alive).
   render::GridFrames hook();
+  /// The check for ServerConfig::datasetCheck: every rank opens `name` from its datasets directory and they compare
+  /// it with rank 0's; throws RenderInputError naming a rank where it is missing or different (RenderError after a
+  /// lost rank). Waits for a frame in progress.
+  void checkDataset(const std::string& name);
   /// Tells every worker to leave (after the server has stopped and no frame is being drawn); a worker that does not
   /// take it within a second is left behind. Returns whether every rank was told.
   bool quit();
 
  private:
+  std::string ownRecord(const std::string& name) const;
   image::ImageF frame(render::RenderEngine& engine, const std::shared_ptr<const render::Dataset>& dataset,
                       const render::Scene& scene, render::FrameStats* stats, const render::FrameOptions& options);
   MPI_Comm mComm;

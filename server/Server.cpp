@@ -174,7 +174,7 @@ Server::Impl::Impl(const ServerConfig& c)
       endpoint(listenEndpoint(config.host, config.port)),
       webGate(config.httpOrigins, config.httpToken),
       presets(render::TransferFunctionPresets::load(render::TransferFunction::configDirectory() / "tf")),
-      datasets(config.datasets, size_t(config.hostCacheMB) << 20),
+      datasets(config.datasets, size_t(config.hostCacheMB) << 20, config.datasetCheck),
       output(config.maxTotalOutputBytes),
       scheduler(makeEngines(config), config.coalesce),
       handler(config, datasets, presets, stats, [this] { return statsJson(); }),

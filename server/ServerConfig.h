@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -58,6 +59,10 @@ struct ServerConfig {
   /// Not in the file: given to every render thread's engine (RenderEngineOptions::gridFrames); `serve --mpi` sets it
   /// to draw grid frames across the MPI ranks (distributed/). Empty: each engine draws its frames.
   render::GridFrames gridFrames = {};
+  /// Not in the file: called with a dataset's name whenever the server opens it (first use, or its files replaced),
+  /// before it is offered; what it throws refuses the open (DatasetUnavailable with its message). `serve --mpi` sets
+  /// it to check that every rank has the same dataset. Empty: no check.
+  std::function<void(const std::string&)> datasetCheck = {};
 
   /// Without coalescing (a benchmark setting), how many renders one session may have waiting.
   static constexpr size_t kMaxQueuedWithoutCoalescing = 64;
