@@ -49,6 +49,12 @@ maxAbs=$(sed -n 's/.*max_abs \([0-9.e+-]*\).*/\1/p' <<< "$line")
 out=$(request gone "$work/gone.png"); status=$?
 [ $status -ne 0 ] && grep -q "rank 2" <<< "$out"; check "a dataset missing on rank 2 is refused naming it: $out" $?
 out=$(request blobs "$work/again.png"); check "still serving after the refusal" $?
+# An interactive request: every rank draws the rung rank 0 chose (the provisional frame), then the exact frame.
+echo '{"interactive": true, "time_budget_ms": 30}' > "$work/interactive.json"
+# shellcheck disable=SC2086
+out=$("$exe" request "127.0.0.1:$port" --dataset blobs -o "$work/interactive.png" --scene "$work/interactive.json" \
+  --timeout 30 $scene 2>&1); status=$?
+[ $status -eq 0 ] && grep -q "provisional frame" <<< "$out"; check "an interactive frame, then the exact one: $out" $?
 kill -STOP "$(cat "$work/r2/pid")"
 begin=$(date +%s.%N)
 out=$(request blobs "$work/stopped.png"); status=$?
