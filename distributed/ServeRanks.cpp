@@ -162,9 +162,12 @@ void runWorker(MPI_Comm comm, const ServeRankOptions& options, const std::atomic
     const nlohmann::json command = nlohmann::json::parse(text, nullptr, false);
     if (command.is_discarded() || command.value("op", "") == "quit") return;
     const std::string name = command.value("name", "");
+    const bool framing = command.value("op", "") == "frame";
     std::shared_ptr<const render::Dataset> dataset;
+    std::optional<render::Scene> scene;
     std::string record;
-    try {
+    try {  // a scene this rank cannot read fails the agreement on every rank, so no rank is left out of step
+      if (framing) scene = render::Scene::fromJson(command.value("scene", ""), "the frame's scene");
       dataset = datasets.open(name);
       record = "ok " + datasetIdentity(options.datasets / name);
     } catch (const std::exception& error) {
@@ -172,9 +175,7 @@ void runWorker(MPI_Comm comm, const ServeRankOptions& options, const std::atomic
     }
     try {
       agreeOnDataset(comm, name, record, timeout);
-      if (command.value("op", "") == "open") continue;
-      const render::Scene scene = render::Scene::fromJson(command["scene"].get<std::string>(), "the frame's scene");
-      renderer.render(dataset, scene, nullptr, nullptr, frameOptionsOf(command));
+      if (framing) renderer.render(dataset, *scene, nullptr, nullptr, frameOptionsOf(command));
     } catch (const PeerError& error) {
       spdlog::error("distributed mode: {}", error.what());
       return;  // out of step with rank 0: leave
