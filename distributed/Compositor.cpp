@@ -170,6 +170,101 @@ void checkOrder(const std::vector<int>& frontToBack, int size) {
 
 }  // namespace
 
+namespace {
+
+// Where each rank stands: its position in visibility order, and the ranks of the power of two left after the fold.
+struct Layout {
+  const std::vector<int>& frontToBack;
+  int size = 1, pos = 0, powerOfTwo = 1, extra = 0;
+  Layout(const std::vector<int>& order, int rank) : frontToBack(order), size(int(order.size())) {
+    pos = int(std::find(order.begin(), order.end(), rank) - order.begin());
+    while (powerOfTwo * 2 <= size) powerOfTwo *= 2;
+    extra = size - powerOfTwo;
+  }
+  bool foldedAway() const { return pos < 2 * extra && pos % 2 == 1; }
+  int virtualPos() const { return pos < 2 * extra ? pos / 2 : pos - extra; }
+  int rankAt(int v) const { return v < extra ? frontToBack[size_t(2 * v)] : frontToBack[size_t(v + extra)]; }
+};
+
+// What a rank holds while compositing: its frame, the rectangle of it that carries anything, and its region.
+struct Piece {
+  image::ImageF image;
+  PixelRect active, region;
+};
+
+// Receives a piece lying in `region` from `from` and joins it into `piece` (received in front or behind).
+void joinReceived(Exchange& ex, Piece& piece, const Buffer& buffer, const PixelRect& region, int from,
+                  bool receivedInFront) {
+  PixelRect rect = messageRect(buffer, region, ex.options.encoding, from);
+  ex.stats.bytesReceived += messageBytes(rect, ex.options.encoding);
+  blend(piece.image, buffer, rect, ex.options.encoding, receivedInFront);
+  piece.active = unite(piece.active, rect);
+}
+
+// The fold: of each of the first `extra` pairs of neighbours in visibility order, the back one hands its frame to
+// the front one.
+void fold(Exchange& ex, const Layout& layout, Piece& piece) {
+  if (layout.pos >= 2 * layout.extra) return;
+  const int tag = ex.options.tag;
+  if (layout.foldedAway()) {
+    exchange(ex, piece.image, layout.frontToBack[size_t(layout.pos - 1)], piece.active, -1, {}, tag,
+             "the folded frame");
+    return;
+  }
+  int from = layout.frontToBack[size_t(layout.pos + 1)];
+  auto buffer = exchange(ex, piece.image, -1, {}, from, piece.region, tag, "the folded frame");
+  joinReceived(ex, piece, *buffer, piece.region, from, false);
+}
+
+// Binary swap: in the round of `bit`, groups of `bit` neighbours pair up; the nearer group keeps the first half.
+void swap(Exchange& ex, const Layout& layout, Piece& piece) {
+  const int virtualPos = layout.virtualPos();
+  for (int bit = 1; bit < layout.powerOfTwo; bit <<= 1) {
+    int partnerPos = virtualPos ^ bit;
+    int partner = layout.rankAt(partnerPos);
+    bool nearer = virtualPos < partnerPos;
+    auto [first, second] = halves(piece.region);
+    PixelRect kept = nearer ? first : second;
+    PixelRect given = nearer ? second : first;
+    auto buffer = exchange(ex, piece.image, partner, intersect(piece.active, given), partner, kept, ex.options.tag + 1,
+                           "a swapped half");
+    piece.active = intersect(piece.active, kept);
+    piece.region = kept;
+    joinReceived(ex, piece, *buffer, kept, partner, !nearer);
+  }
+}
+
+// The gather on rank 0: its own region (if it kept one) and every other region of the finished frame.
+image::ImageF gather(Exchange& ex, const Layout& layout, const Piece* own, int width, int height) {
+  image::ImageF result{width, height, std::vector<float>(size_t(width) * size_t(height) * 4, 0.0f)};
+  const PixelRect whole{0, 0, width, height};
+  if (own) {
+    PixelRect rect = intersect(own->active, own->region);
+    for (int y = rect.y0; y < rect.y1; ++y) {
+      std::memcpy(result.pixel(rect.x0, y), own->image.pixel(rect.x0, y), size_t(rect.x1 - rect.x0) * 16);
+    }
+  }
+  Transfers transfers(ex.comm, ex.options.timeoutSeconds);
+  std::vector<std::pair<int, std::shared_ptr<Buffer>>> pieces;
+  for (int v = 0; v < layout.powerOfTwo; ++v) {
+    int from = layout.rankAt(v);
+    if (from == 0) continue;
+    auto buffer = std::make_shared<Buffer>(messageBytes(whole, ex.options.encoding));
+    transfers.receive(from, ex.options.tag + 2, buffer->data(), buffer->size(), buffer, "a finished region");
+    pieces.emplace_back(from, buffer);
+  }
+  transfers.wait();
+  if (!pieces.empty()) ++ex.stats.rounds;
+  for (auto& [from, buffer] : pieces) {
+    PixelRect rect = messageRect(*buffer, whole, ex.options.encoding, from);
+    ex.stats.bytesReceived += messageBytes(rect, ex.options.encoding);
+    blend(result, *buffer, rect, ex.options.encoding, true);  // over zeros: a copy
+  }
+  return result;
+}
+
+}  // namespace
+
 image::ImageF composite(MPI_Comm comm, const image::ImageF& partial, const std::vector<int>& frontToBack,
                         const CompositeOptions& options, CompositeStats* statsOut) {
   auto start = std::chrono::steady_clock::now();
@@ -181,88 +276,20 @@ image::ImageF composite(MPI_Comm comm, const image::ImageF& partial, const std::
     throw std::invalid_argument("partial frame's pixels do not match its size");
   }
   CompositeStats stats;
-  if (size == 1) {  // nothing to exchange: the frame is the part
-    stats.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    if (statsOut) *statsOut = stats;
-    return partial;
-  }
-  Exchange ex{comm, options, stats};
-  const PixelRect whole{0, 0, partial.width, partial.height};
-  const int pos = int(std::find(frontToBack.begin(), frontToBack.end(), rank) - frontToBack.begin());
-  int powerOfTwo = 1;
-  while (powerOfTwo * 2 <= size) powerOfTwo *= 2;
-  const int extra = size - powerOfTwo;
-
-  image::ImageF image = partial;
-  PixelRect active = render::activeRect(partial);
-  PixelRect region = whole;
-  bool inSwap = true;
-  int virtualPos = pos < 2 * extra ? pos / 2 : pos - extra;
-  auto rankAt = [&](int v) { return v < extra ? frontToBack[size_t(2 * v)] : frontToBack[size_t(v + extra)]; };
-
-  // The fold: of each of the first `extra` pairs of neighbours in visibility order, the back one hands its piece on.
-  if (pos < 2 * extra) {
-    if (pos % 2 == 1) {
-      exchange(ex, image, frontToBack[size_t(pos - 1)], active, -1, {}, options.tag, "the folded frame");
-      inSwap = false;
-    } else {
-      int from = frontToBack[size_t(pos + 1)];
-      auto buffer = exchange(ex, image, -1, {}, from, whole, options.tag, "the folded frame");
-      PixelRect rect = messageRect(*buffer, whole, options.encoding, from);
-      stats.bytesReceived += messageBytes(rect, options.encoding);
-      blend(image, *buffer, rect, options.encoding, false);
-      active = unite(active, rect);
-    }
-  }
-  // Binary swap: in the round of `bit`, groups of `bit` neighbours pair up; the nearer group keeps the first half.
-  for (int bit = 1; inSwap && bit < powerOfTwo; bit <<= 1) {
-    int partnerPos = virtualPos ^ bit;
-    int partner = rankAt(partnerPos);
-    bool nearer = virtualPos < partnerPos;
-    auto [first, second] = halves(region);
-    PixelRect kept = nearer ? first : second;
-    PixelRect given = nearer ? second : first;
-    auto buffer =
-        exchange(ex, image, partner, intersect(active, given), partner, kept, options.tag + 1, "a swapped half");
-    PixelRect rect = messageRect(*buffer, kept, options.encoding, partner);
-    stats.bytesReceived += messageBytes(rect, options.encoding);
-    blend(image, *buffer, rect, options.encoding, !nearer);
-    active = unite(intersect(active, kept), rect);
-    region = kept;
-  }
-  // The gather: each rank left holds one region of the finished frame.
   image::ImageF result;
-  if (rank == 0) {
-    result.width = partial.width;
-    result.height = partial.height;
-    result.rgba.assign(partial.rgba.size(), 0.0f);
-  }
-  if (inSwap && rank != 0) {
-    exchange(ex, image, 0, intersect(active, region), -1, {}, options.tag + 2, "a finished region");
-  }
-  if (rank == 0) {
-    if (inSwap) {
-      PixelRect own = intersect(active, region);
-      for (int y = own.y0; y < own.y1; ++y) {
-        std::memcpy(result.pixel(own.x0, y), image.pixel(own.x0, y), size_t(own.x1 - own.x0) * 16);
-      }
+  if (size == 1) {
+    result = partial;  // nothing to exchange: the frame is the part
+  } else {
+    Exchange ex{comm, options, stats};
+    const Layout layout(frontToBack, rank);
+    Piece piece{partial, render::activeRect(partial), {0, 0, partial.width, partial.height}};
+    fold(ex, layout, piece);
+    const bool inSwap = !layout.foldedAway();
+    if (inSwap) swap(ex, layout, piece);
+    if (inSwap && rank != 0) {
+      exchange(ex, piece.image, 0, intersect(piece.active, piece.region), -1, {}, options.tag + 2, "a finished region");
     }
-    Transfers transfers(comm, options.timeoutSeconds);
-    std::vector<std::pair<int, std::shared_ptr<Buffer>>> pieces;
-    for (int v = 0; v < powerOfTwo; ++v) {
-      int from = rankAt(v);
-      if (from == 0) continue;
-      auto buffer = std::make_shared<Buffer>(messageBytes(whole, options.encoding));
-      transfers.receive(from, options.tag + 2, buffer->data(), buffer->size(), buffer, "a finished region");
-      pieces.emplace_back(from, buffer);
-    }
-    transfers.wait();
-    if (!pieces.empty()) ++stats.rounds;
-    for (auto& [from, buffer] : pieces) {
-      PixelRect rect = messageRect(*buffer, whole, options.encoding, from);
-      stats.bytesReceived += messageBytes(rect, options.encoding);
-      blend(result, *buffer, rect, options.encoding, true);  // over zeros: a copy
-    }
+    if (rank == 0) result = gather(ex, layout, inSwap ? &piece : nullptr, partial.width, partial.height);
   }
   stats.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   if (statsOut) *statsOut = stats;
