@@ -60,7 +60,8 @@ struct FramePlan {
   int width = 0, height = 0;    ///< image size in pixels
   PixelRays rays;
   /// Sort-last rendering (FrameOptions::part): the level-0 voxels this frame draws. plan.visible then holds only the
-  /// bricks owning voxels in it, at the levels the whole frame chose, and each is cut to the box (BrickWalk).
+  /// bricks owning voxels in it, at the levels the whole frame chose, and each is cut to the box (BrickWalk); its
+  /// counts of bricks drawn (per level, coarse) are the part's, those skipped and culled the whole volume's.
   std::optional<PartBox> part;
 
   /// Whether every box owns exactly its voxels, tested on the pixel's ray (sub-blocks and bricks of different levels,

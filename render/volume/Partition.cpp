@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdlib>
 #include <stdexcept>
@@ -27,6 +28,8 @@ struct BrickRegion {
 struct BrickCosts {
   store::Vec3i grid;
   std::vector<uint64_t> bytes;
+  uint64_t largest = 0;  ///< the largest brick's bytes: how far from the best balance a split may be to align
+  int coarsest = 0;      ///< the store's coarsest level: no alignment counts beyond its bricks
 
   uint64_t at(int64_t i, int64_t j, int64_t k) const { return bytes[size_t(i + grid.x * (j + grid.y * k))]; }
   /// The bytes of each slab of `region` across `axis`, one per brick along it.
@@ -50,27 +53,42 @@ struct Split {
 };
 
 /// The best split of `region` into `parts` (>= 2) along `axis` with `lowerParts` parts below, or axis -1 if no
-/// position leaves each side at least one brick per part.
+/// position leaves each side at least one brick per part. Best: among the positions within one brick's bytes of the
+/// best balance, the one on the coarsest level's brick boundary (so that fewer coarse bricks are cut between parts
+/// and drawn by both), then the best balanced, then the nearest share of bricks, then the lowest.
 Split bestSplit(const BrickCosts& costs, const BrickRegion& region, int parts, int axis, int lowerParts) {
   const int64_t extent = region.extent(axis), area = region.count() / std::max<int64_t>(extent, 1);
   const std::vector<uint64_t> slabs = costs.slabs(region, axis);
   uint64_t total = 0;
   for (uint64_t b : slabs) total += b;
-  Split best;
-  double bestBytes = 0, bestBricks = 0;
+  struct Candidate {
+    int64_t at;
+    double bytes, bricks;  // how far the lower side's share is from its parts' share, in bytes and in bricks
+    int aligned;           // the coarsest level whose brick boundary it lies on
+  };
+  std::vector<Candidate> candidates;
+  const double share = double(lowerParts) / parts;
   uint64_t lower = 0;
+  double bestBytes = 0;
   for (int64_t p = 1; p < extent; ++p) {
     lower += slabs[size_t(p - 1)];
     if (p * area < lowerParts || (extent - p) * area < parts - lowerParts) continue;
-    // How far the lower side's share is from its parts' share, in bytes and in bricks.
-    const double share = double(lowerParts) / parts;
-    const double bytes = std::abs(double(lower) - share * double(total));
-    const double bricks = std::abs(double(p) - share * double(extent));
-    if (best.axis < 0 || bytes < bestBytes || (bytes == bestBytes && bricks < bestBricks)) {
-      best = {axis, region.lo[size_t(axis)] + p, lowerParts};
-      bestBytes = bytes, bestBricks = bricks;
-    }
+    const int64_t at = region.lo[size_t(axis)] + p;
+    const Candidate c{at, std::abs(double(lower) - share * double(total)), std::abs(double(p) - share * double(extent)),
+                      std::min(std::countr_zero(uint64_t(at)), costs.coarsest)};
+    bestBytes = candidates.empty() ? c.bytes : std::min(bestBytes, c.bytes);
+    candidates.push_back(c);
   }
+  Split best;
+  const Candidate* chosen = nullptr;
+  for (const Candidate& c : candidates) {
+    if (c.bytes > bestBytes + double(costs.largest)) continue;
+    if (!chosen || c.aligned > chosen->aligned ||
+        (c.aligned == chosen->aligned &&
+         (c.bytes < chosen->bytes || (c.bytes == chosen->bytes && c.bricks < chosen->bricks))))
+      chosen = &c;
+  }
+  if (chosen) best = {axis, chosen->at, lowerParts};
   return best;
 }
 
@@ -148,12 +166,13 @@ Partition partitionBricks(const store::BrickStore& store, int parts) {
   if (parts < 1 || parts > grid.volume())
     throw std::invalid_argument("a partition into " + std::to_string(parts) + " parts needs between 1 and " +
                                 std::to_string(grid.volume()) + " (the level-0 bricks)");
-  BrickCosts costs{grid, std::vector<uint64_t>(size_t(grid.volume()), 0)};
+  BrickCosts costs{grid, std::vector<uint64_t>(size_t(grid.volume()), 0), 0, store.levelCount() - 1};
   for (int64_t k = 0; k < grid.z; ++k)
     for (int64_t j = 0; j < grid.y; ++j)
       for (int64_t i = 0; i < grid.x; ++i)
         costs.bytes[size_t(i + grid.x * (j + grid.y * k))] =
             store.record({0, uint32_t(i), uint32_t(j), uint32_t(k)}).compressedSize;
+  for (uint64_t b : costs.bytes) costs.largest = std::max(costs.largest, b);
   Partition partition;
   partition.boxes.resize(size_t(parts));
   partition.bytes.resize(size_t(parts));

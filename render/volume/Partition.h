@@ -32,8 +32,10 @@ struct Partition {
 /// Splits the store's level-0 bricks into `parts` boxes (1 <= parts <= the number of level-0 bricks; throws
 /// std::invalid_argument otherwise), balanced by stored bytes; the same store and count give the same partition on
 /// every process. Each split halves the parts (the lower side gets parts / 2) across the region's longest axis in
-/// bricks (ties: the lowest axis), at the brick boundary whose stored bytes come nearest the parts' share (ties: the
-/// nearest share of bricks, then the lowest position).
+/// bricks (ties: the lowest axis), at a brick boundary whose stored bytes come within one brick's bytes (the largest
+/// brick's) of the best balance of the parts' shares: of those the one on the coarsest level's brick boundary, so
+/// that fewer coarse bricks are cut between parts (a cut one is drawn by each part, clipped to its box), then the
+/// best balanced (ties: the nearest share of bricks, then the lowest position).
 Partition partitionBricks(const store::BrickStore& store, int parts);
 
 /// A view of the volume in its level-0 voxel coordinates (voxel v's centre at v + 0.5), which is what the splits'

@@ -5,13 +5,18 @@
 // own bricks; a part on a mesh is refused.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <string>
+#include <thread>
 
 #include "image/Image.h"
 #include "mesh/MeshStoreFixtures.h"
 #include "render/core/RenderErrors.h"
+#include "render/datasets/Datasets.h"
+#include "render/engine/RenderEngine.h"
 #include "render/gl/GlFixtures.h"
 #include "render/gl/tets/TetRenderer.h"
+#include "render/volume/BrickStoreDataset.h"
 #include "render/volume/Partition.h"
 #include "support/TestSupport.h"
 
@@ -65,12 +70,13 @@ void expectPartsGiveTheWholeFrame(const std::shared_ptr<const store::BrickStore>
     }
     EXPECT_GE(drawn, wholeStats.bricksDrawn) << what << ", " << n << " parts: every brick in some part";
     const image::ImageF joined = finishPartial(compositeSerial(parts, order), scene);
-    expectClose(joined, whole, 1.0 / 255, what + "-" + std::to_string(n) + "parts");
+    test::expectSameDrawing(joined, whole, 1.0 / 255, *s, scene, what + "-" + std::to_string(n) + "parts");
   }
 }
 
 /// The fields and cameras of the comparison: a smooth field with the MRI preset, a sparse field, the camera inside
-/// the volume, an orthographic view and a coarse level of detail.
+/// the volume, an orthographic view, a coarse level of detail, and shading with pre-integration (where the technique
+/// marches) over a transparent background.
 void expectEveryCase(Technique technique) {
   ScratchDir dir;
   const auto blobs = prep("synthetic:blobs,n=64", dir / "b", 16);
@@ -88,11 +94,82 @@ void expectEveryCase(Technique technique) {
   Scene lod = mri;
   lod.lod = 4;
   expectPartsGiveTheWholeFrame(blobs, lod, "lod", 1);
+  Scene shaded = mri;
+  shaded.shading = true, shaded.preIntegration = true, shaded.transparent = true;
+  expectPartsGiveTheWholeFrame(blobs, shaded, "shaded");
 }
 
 TEST(Parts, RayCasterPartsCompositeToTheWholeFrame) { expectEveryCase(Technique::RayCast); }
 TEST(Parts, SlicingPartsCompositeToTheWholeFrame) { expectEveryCase(Technique::Slicing); }
 TEST(Parts, SlabPartsCompositeToTheWholeFrame) { expectEveryCase(Technique::Slabs); }
+
+TEST(Parts, ACoarseBrickCutByThePartsIsDrawnClippedByEach) {
+  // Two parts split through level-1 bricks (at brick 1 and 3 of 4 along an axis): with a coarse level of detail both
+  // parts draw the coarse bricks across the split, each clipped to its box.
+  ScratchDir dir;
+  const auto s = prep("synthetic:blobs,n=64", dir / "b", 16);
+  for (Technique technique : {Technique::RayCast, Technique::Slicing, Technique::Slabs}) {
+    Scene scene = sceneFor(technique, "mri");
+    scene.lod = 4;
+    auto cache = std::make_shared<store::BrickCache>(s, size_t(256) << 20, 1);
+    VolumeRenderer renderer(test::context(), cache, size_t(256) << 20);
+    FrameStats wholeStats;
+    const image::ImageF whole = renderer.render(scene, &wholeStats);
+    ASSERT_GT(wholeStats.bricksCoarse, 0);
+    for (int axis = 0; axis < 3; ++axis)
+      for (int position : {16, 48}) {
+        Partition partition;
+        partition.nodes = {{axis, position, 1, 2, -1}, {-1, 0, -1, -1, 0}, {-1, 0, -1, -1, 1}};
+        partition.boxes = {PartBox{{0, 0, 0}, {64, 64, 64}}, PartBox{{0, 0, 0}, {64, 64, 64}}};
+        partition.boxes[0].hi[size_t(axis)] = position;
+        partition.boxes[1].lo[size_t(axis)] = position;
+        std::vector<image::ImageF> parts;
+        int64_t drawn = 0;
+        for (const PartBox& box : partition.boxes) {
+          FrameOptions options;
+          options.part = box;
+          FrameStats stats;
+          parts.push_back(renderer.render(scene, &stats, options));
+          drawn += stats.bricksDrawn;
+        }
+        const std::string what =
+            "cut-" + std::to_string(int(technique)) + "-axis" + std::to_string(axis) + "-at" + std::to_string(position);
+        EXPECT_GT(drawn, wholeStats.bricksDrawn) << what << ": a coarse brick across the split is drawn by both";
+        const std::vector<int> order = partsFrontToBack(partition, partView(s->meta(), scene));
+        test::expectSameDrawing(finishPartial(compositeSerial(parts, order), scene), whole, 1.0 / 255, *s, scene, what);
+      }
+  }
+}
+
+TEST(Parts, PartsDrawnInSeveralBatchesStillComposite) {
+  // An atlas of 6 bricks: the whole frame and each part are drawn batch by batch (levels fixed).
+  ScratchDir dir;
+  const auto s = prep("synthetic:blobs,n=64", dir / "b", 16);
+  const size_t gpuBudget = 6 * size_t(18 * 18 * 18) * sizeof(float);
+  for (Technique technique : {Technique::RayCast, Technique::Slabs}) {
+    Scene scene = sceneFor(technique, "mri");
+    scene.lod = 0;
+    auto cache = std::make_shared<store::BrickCache>(s, size_t(256) << 20, 1);
+    VolumeRenderer renderer(test::context(), cache, gpuBudget);
+    FrameStats wholeStats;
+    const image::ImageF whole = renderer.render(scene, &wholeStats, test::batched());
+    ASSERT_GT(wholeStats.batches, 1);
+    const Partition partition = partitionBricks(*s, 3);
+    std::vector<image::ImageF> parts;
+    int batched = 0;
+    for (const PartBox& box : partition.boxes) {
+      FrameOptions options = test::batched();
+      options.part = box;
+      FrameStats stats;
+      parts.push_back(renderer.render(scene, &stats, options));
+      batched += stats.batches > 1;
+    }
+    EXPECT_GT(batched, 0) << "a part drawn in several batches";
+    const std::vector<int> order = partsFrontToBack(partition, partView(s->meta(), scene));
+    test::expectSameDrawing(finishPartial(compositeSerial(parts, order), scene), whole, 1.0 / 255, *s, scene,
+                            "batches-" + std::to_string(int(technique)));
+  }
+}
 
 TEST(Parts, APartPagesOnlyItsOwnBricksAndKeepsNoBackground) {
   ScratchDir dir;
@@ -122,6 +199,69 @@ TEST(Parts, APartPagesOnlyItsOwnBricksAndKeepsNoBackground) {
       for (int c = 0; c < 3; ++c)
         ASSERT_LE(partial.rgba[i + size_t(c)], partial.rgba[i + 3] + 1e-5f) << "premultiplied";
   }
+}
+
+TEST(Parts, StandInsFillInToThePartsExactFrame) {
+  // From a cold cache each part stands in for what it lacks, pages only its own bricks (and their ancestors), and
+  // once they are paged draws its exact frame; the refined parts composite to the whole frame.
+  ScratchDir dir;
+  const auto s = prep("synthetic:blobs,n=64", dir / "b", 16);
+  Scene scene = sceneFor(Technique::RayCast, "mri");
+  scene.lod = 0;
+  const Partition partition = partitionBricks(*s, 3);
+  std::vector<image::ImageF> parts;
+  FrameOptions streamed;
+  streamed.standIns = true;
+  for (const PartBox& box : partition.boxes) {
+    auto cache = std::make_shared<store::BrickCache>(s, size_t(256) << 20, 2);
+    VolumeRenderer renderer(test::context(), cache, size_t(256) << 20);
+    streamed.part = box;
+    FrameStats first, refined, exact;
+    renderer.render(scene, &first, streamed);
+    EXPECT_GT(first.bricksStandIn, 0);
+    for (int wait = 0; wait < 12000; ++wait) {
+      const store::CacheStats st = cache->stats();
+      if (st.prefetchQueued == 0 && st.inFlight == 0) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    const image::ImageF frame = renderer.render(scene, &refined, streamed);
+    EXPECT_EQ(refined.bricksStandIn, 0);
+    const int64_t inside =
+        (box.hi[0] - box.lo[0]) / 16 * ((box.hi[1] - box.lo[1]) / 16) * ((box.hi[2] - box.lo[2]) / 16);
+    int64_t coarse = 0;  // every brick above level 0: the most ancestors a stand-in may read
+    for (int m = 1; m < s->levelCount(); ++m) coarse += s->level(m).bricksTotal();
+    ASSERT_LT(inside + coarse, s->level(0).bricksTotal());
+    EXPECT_LE(first.bricksPagedIn + refined.bricksPagedIn, inside + coarse) << "its own bricks and their ancestors";
+    FrameOptions options;
+    options.part = box;
+    expectClose(frame, renderer.render(scene, &exact, options), 0.0, "standins-refined-vs-exact");
+    parts.push_back(frame);
+  }
+  const image::ImageF whole = test::renderStore(s, scene);
+  test::expectSameDrawing(
+      finishPartial(compositeSerial(parts, partsFrontToBack(partition, partView(s->meta(), scene))), scene), whole,
+      1.0 / 255, *s, scene, "standins-3parts");
+}
+
+TEST(Parts, TheEnginePassesThePartThrough) {
+  ScratchDir dir;
+  test::prep("synthetic:sparse,n=64", dir / "s", 16);
+  const auto dataset = openDataset("s", dir / "s", size_t(64) << 20);
+  const auto& grid = static_cast<const BrickStoreDataset&>(*dataset);
+  RenderEngine engine({Backend::Auto, size_t(256) << 20, AtlasFormat::Float});
+  const Scene scene = sceneFor(Technique::RayCast, "sparse");
+  const image::ImageF whole = engine.render(dataset, scene);
+  const Partition partition = partitionBricks(*grid.store(), 4);
+  std::vector<image::ImageF> parts;
+  for (const PartBox& box : partition.boxes) {
+    FrameOptions options;
+    options.part = box;
+    FrameStats stats;
+    parts.push_back(engine.render(dataset, scene, &stats, options));
+    EXPECT_LT(stats.bricksDrawn, int64_t(grid.store()->level(0).bricksTotal()));
+  }
+  test::expectSameDrawing(finishPartial(compositeSerial(parts, partsFrontToBack(partition, grid, scene)), scene), whole,
+                          1.0 / 255, *grid.store(), scene, "engine-4parts");
 }
 
 TEST(Parts, BadBoxesAndMeshesAreRefused) {
