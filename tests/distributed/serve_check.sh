@@ -2,7 +2,7 @@
 # `mpirun -n 3 voxbrick serve --mpi` with `voxbrick request` as the client, each rank with a datasets directory of its
 # own (as on separate machines): a served frame equals the one-process frame within 1/255; a dataset missing on one
 # rank is refused naming the rank and the server keeps serving; a rank stopped (SIGSTOP) or killed (SIGKILL) makes
-# the next Render an error naming it within seconds, and later Renders a clear error; SIGTERM to rank 0 ends every
+# the next Render an error naming it within the deadline (5 s here), and later Renders a clear error; SIGTERM to rank 0 ends every
 # rank with status 0, and SIGTERM to mpirun ends every rank. Usage: serve_check.sh VOXBRICK MPIRUN WORK
 set -uo pipefail
 exe=$(realpath "$1") mpirun=$2 work=$3
@@ -24,7 +24,7 @@ check() {  # check WHAT CONDITION-STATUS
 start() {
   rm -f "$work/port" "$work"/r*/pid
   "$mpirun" --oversubscribe --allow-run-as-root --enable-recovery -n 3 "$work/rank.sh" "$exe" serve --mpi --no-config \
-    --datasets ds --port 0 --port-file "$work/port" --mpi-timeout 2 > "$work/serve.log" 2>&1 &
+    --datasets ds --port 0 --port-file "$work/port" --mpi-timeout 5 > "$work/serve.log" 2>&1 &
   mpirunPid=$!
   for _ in $(seq 1 100); do [ -f "$work/port" ] && [ -f "$work/r2/pid" ] && break; sleep 0.2; done
   port=$(cat "$work/port" 2> /dev/null) || { echo "FAIL: the server did not start; its log:"; cat "$work/serve.log"; exit 1; }
@@ -59,7 +59,7 @@ kill -STOP "$(cat "$work/r2/pid")"
 begin=$(date +%s.%N)
 out=$(request blobs "$work/stopped.png"); status=$?
 took=$(awk -v a="$begin" -v b="$(date +%s.%N)" 'BEGIN { print b - a }')
-[ $status -ne 0 ] && grep -q "rank 2" <<< "$out" && awk -v t="$took" 'BEGIN { exit !(t < 10) }'
+[ $status -ne 0 ] && grep -q "rank 2" <<< "$out" && awk -v t="$took" 'BEGIN { exit !(t < 15) }'
 check "a stopped rank 2 is named within ${took} s: $out" $?
 out=$(request blobs "$work/later.png"); status=$?
 [ $status -ne 0 ] && grep -q "stopped earlier" <<< "$out"; check "a later Render gets a clear error: $out" $?
