@@ -149,7 +149,7 @@ void serveMpi(const ServeArgs& a, server::ServerConfig c) {
   if (mpi.rank() != 0) {
     std::signal(SIGTERM, onWorkerSignal);
     std::signal(SIGINT, onWorkerSignal);
-    distributed::runWorker(MPI_COMM_WORLD, options, gWorkerStop);
+    if (!distributed::runWorker(MPI_COMM_WORLD, options, gWorkerStop)) mpi.abandon();
     return;
   }
   c.renderThreads = 1;  // one frame across the ranks at a time

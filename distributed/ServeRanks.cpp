@@ -136,7 +136,8 @@ void FrameLeader::checkDataset(const std::string& name) {
 bool FrameLeader::quit() {
   std::lock_guard lock(mMutex);
   try {
-    broadcastText(mComm, nlohmann::json{{"op", "quit"}}.dump(), 1.0);
+    // A lost rank would never reach MPI_Finalize: then no rank calls it.
+    broadcastText(mComm, nlohmann::json{{"op", "quit"}, {"in_step", !mLost}}.dump(), 1.0);
     return !mLost;
   } catch (const PeerError& error) {
     spdlog::warn("distributed mode: quitting: {}", error.what());
@@ -144,7 +145,7 @@ bool FrameLeader::quit() {
   }
 }
 
-void runWorker(MPI_Comm comm, const ServeRankOptions& options, const std::atomic<bool>& stopRequested,
+bool runWorker(MPI_Comm comm, const ServeRankOptions& options, const std::atomic<bool>& stopRequested,
                double graceSeconds) {
   render::RenderEngine engine(options.engine);
   RankRenderer renderer(comm, engine, options.frames);
@@ -158,9 +159,10 @@ void runWorker(MPI_Comm comm, const ServeRankOptions& options, const std::atomic
   const double timeout = options.frames.composite.timeoutSeconds;
   while (true) {
     const std::string text = broadcastText(comm, {}, -1, giveUp);
-    if (text.empty()) return;  // stopped without rank 0's word
+    if (text.empty()) return false;  // stopped without rank 0's word
     const nlohmann::json command = nlohmann::json::parse(text, nullptr, false);
-    if (command.is_discarded() || command.value("op", "") == "quit") return;
+    if (command.is_discarded()) return false;
+    if (command.value("op", "") == "quit") return command.value("in_step", false);
     const std::string name = command.value("name", "");
     const bool framing = command.value("op", "") == "frame";
     std::shared_ptr<const render::Dataset> dataset;
@@ -178,7 +180,7 @@ void runWorker(MPI_Comm comm, const ServeRankOptions& options, const std::atomic
       if (framing) renderer.render(dataset, *scene, nullptr, nullptr, frameOptionsOf(command));
     } catch (const PeerError& error) {
       spdlog::error("distributed mode: {}", error.what());
-      return;  // out of step with rank 0: leave
+      return false;  // out of step with rank 0: leave
     } catch (const std::exception& error) {
       spdlog::debug("distributed frame refused: {}", error.what());
     }

@@ -55,8 +55,10 @@ class FrameLeader {
 };
 
 /// A worker's loop (ranks > 0): frames until rank 0 says to quit, or until `stopRequested` has been true for
-/// `graceSeconds` without rank 0 saying so (SIGTERM reaches every rank; rank 0 should send quit first).
-void runWorker(MPI_Comm comm, const ServeRankOptions& options, const std::atomic<bool>& stopRequested,
+/// `graceSeconds` without rank 0 saying so (SIGTERM reaches every rank; rank 0 should send quit first). Returns
+/// whether every rank is still in step, so that MPI_Finalize (which waits for every rank) may be called: false after
+/// a lost rank, a failed transfer, or leaving without rank 0's word.
+bool runWorker(MPI_Comm comm, const ServeRankOptions& options, const std::atomic<bool>& stopRequested,
                double graceSeconds = 5);
 
 }  // namespace voxbrick::distributed
