@@ -7,6 +7,8 @@
 #include "cli/Commands.h"
 #include "cli/Progress.h"
 #include "cli/SceneOptions.h"
+#include "distributed/Cluster.h"
+#include "distributed/RankRenderer.h"
 #include "image/ImageFile.h"
 #include "render/core/Dataset.h"
 #include "render/core/RenderErrors.h"
@@ -31,6 +33,9 @@ struct RenderArgs {
   int warmUp = 0;
   int jpegQuality = 90;
   int64_t gpuBudgetMB = 1024, hostBudgetMB = 1024;
+  bool mpi = false;                  ///< sort-last across the ranks of mpirun (distributed/)
+  double mpiTimeout = 10;            ///< seconds any one MPI transfer may wait for its peer
+  std::string mpiEncoding = "half";  ///< how pixels travel between ranks
 };
 
 /// Writes a frame in the format the path's extension names (PNG or JPEG), atomically.
@@ -195,9 +200,58 @@ void printFrameSummary(const RenderArgs& a, const render::Scene& scene, const re
         (long long)stats.bricksFitCoarsened, stats.levelFinest, stats.levelCoarsest);
 }
 
+/// `render --mpi` under mpirun: every rank opens the dataset (the same on every rank, or refused naming the rank),
+/// draws its part with its own engine and budgets, the parts are composited, and rank 0 writes the frame and stats.
+void runRenderMpi(const RenderArgs& a, const CLI::App& cmd) {
+  distributed::MpiSession mpi;
+  const render::Scene scene = buildScene(a.scene, cmd);
+  const auto dataset = distributed::openOnEveryRank(
+      MPI_COMM_WORLD, a.store, a.store,
+      [&] {
+        return store::namingInput({a.store}, [&] {
+          return render::openDataset(a.store, a.store, size_t(a.hostBudgetMB) << 20,
+                                     store::StoreOpenOptions{a.grid, a.brick});
+        });
+      },
+      a.mpiTimeout);
+  checkSubBlock(a, cmd, *dataset);
+  if (a.backend == "reference") throw render::RenderInputError("--backend reference does not run with --mpi");
+  render::RenderEngine engine({render::parseBackend(a.backend), size_t(a.gpuBudgetMB) << 20,
+                               render::parseAtlasFormat(a.atlasFormat), render::parseAtlasUploads(a.uploads),
+                               render::parseAtlasBricking(a.bricking)});
+  distributed::RankRendererOptions options;
+  options.composite.encoding =
+      a.mpiEncoding == "float" ? distributed::PixelEncoding::Float : distributed::PixelEncoding::Half;
+  options.composite.timeoutSeconds = a.mpiTimeout;
+  distributed::RankRenderer renderer(MPI_COMM_WORLD, engine, options);
+  // An interactive frame is chosen by rank 0's rate on every rank (the same reduced drawing everywhere).
+  auto frameOptions = [&] {
+    render::FrameOptions o;
+    double rate = engine.recentRate(render::DatasetKind::BrickStore);
+    MPI_Bcast(&rate, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    o.rateSamplesPerMs = rate > 0 ? rate : 1e-9;  // none known yet: the cheapest drawing, as one process would
+    return o;
+  };
+  for (int i = 0; i < a.warmUp; ++i) renderer.render(dataset, scene, nullptr, nullptr, frameOptions());
+  render::FrameStats stats;
+  nlohmann::json distributedJson;
+  const image::ImageF image = renderer.render(dataset, scene, &stats, &distributedJson, frameOptions());
+  if (mpi.rank() != 0) return;
+  writeFrame(a, a.output, image);
+  if (!a.statsPath.empty()) {
+    nlohmann::json json = stats.toJson();
+    json["distributed"] = distributedJson;
+    writeText(a.statsPath, json.dump(2) + "\n");
+  }
+  std::printf("render: wrote %s (%dx%d) on %d ranks: compositing %.1f ms, %llu bytes exchanged\n", a.output.c_str(),
+              scene.width, scene.height, mpi.size(), distributedJson["compositing_ms"].get<double>(),
+              (unsigned long long)distributedJson["bytes_exchanged"].get<uint64_t>());
+}
+
 /// A GPU frame through the same seam the server's render threads use: a dataset and a RenderEngine.
 void runRender(const RenderArgs& a, const CLI::App& cmd) {
   image::imageFormatFor(a.output);  // an output we cannot write is refused before the frame is drawn
+  if (a.mpi) return runRenderMpi(a, cmd);
   const render::Scene scene = buildScene(a.scene, cmd);
   const auto dataset = store::namingInput({a.store}, [&] {
     return render::openDataset(a.store, a.store, size_t(a.hostBudgetMB) << 20,
@@ -273,6 +327,14 @@ void addRenderCommand(CLI::App& app) {
                   "rotated from brick to brick, for texture caches that favour one direction; the same image)")
       ->capture_default_str()
       ->check(CLI::IsMember({"single", "multi-oriented"}));
+  cmd->add_flag("--mpi", args->mpi,
+                "sort-last across the ranks of mpirun: each rank draws a part, rank 0 writes (docs/distributed.md)");
+  cmd->add_option("--mpi-timeout", args->mpiTimeout, "--mpi: seconds a transfer may wait for a peer")
+      ->capture_default_str()
+      ->check(between(0.1, 3600, "s"));
+  cmd->add_option("--mpi-encoding", args->mpiEncoding, "--mpi: pixels between ranks as half or float")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"half", "float"}));
   cmd->add_flag("-q,--quiet", args->quiet, "do not print the renderer's name, nor progress of a frame past a second");
   cmd->callback([args, cmd] {
     keepFreedMemoryForFrames();

@@ -6,11 +6,16 @@
 #include <string>
 #include <vector>
 
+#include <atomic>
+#include <csignal>
+
 #include <unistd.h>
 
 #include <spdlog/spdlog.h>
 
 #include "cli/Commands.h"
+#include "distributed/Cluster.h"
+#include "distributed/ServeRanks.h"
 #include "render/core/TransferFunction.h"
 #include "server/Server.h"
 #include "server/ServerConfig.h"
@@ -30,7 +35,14 @@ struct ServeArgs {
   int64_t maxTotalOutputMB = 0;
   bool noCoalesce = false, noConfig = false;
   int64_t hostCacheMB = 0, gpuBudgetMB = 0, maxMessageBytes = 0;
+  bool mpi = false;  ///< sort-last across the ranks of mpirun: rank 0 serves, the others draw parts
+  double mpiTimeout = 10;
+  std::string mpiEncoding = "half";
 };
+
+/// Set by SIGTERM or SIGINT on a worker rank of `serve --mpi` (rank 0's server handles its own signals).
+std::atomic<bool> gWorkerStop{false};
+extern "C" void onWorkerSignal(int) { gWorkerStop = true; }
 
 /// The configuration file serve reads: --config, else server.toml in the configuration directory (the source tree's
 /// config/ beside build/, an installed PREFIX/share/voxbrick, or $VOXBRICK_CONFIG_DIR) if there is one and
@@ -61,6 +73,9 @@ std::string viewerUrl(const server::ServerConfig& c, int port) {
   }
   return "http://" + host + ":" + std::to_string(port) + "/" + (c.httpToken.empty() ? "" : "?token=" + c.httpToken);
 }
+
+void serveWith(const ServeArgs& a, const server::ServerConfig& c);
+void serveMpi(const ServeArgs& a, server::ServerConfig c);
 
 void runServe(const ServeArgs& a) {
   const std::string file = configFile(a);
@@ -100,6 +115,11 @@ void runServe(const ServeArgs& a) {
   if (!c.http && !a.httpPortFile.empty())
     throw std::runtime_error("--http-port-file needs --http PORT (or http.port in the configuration)");
   spdlog::info("configuration: {}", file.empty() ? std::string("the built-in defaults") : file);
+  if (a.mpi) return serveMpi(a, c);
+  serveWith(a, c);
+}
+
+void serveWith(const ServeArgs& a, const server::ServerConfig& c) {
   server::Server server(c);
   spdlog::info("serving datasets from {} on {}:{}", c.datasets.string(), c.host, server.port());
   std::printf("listening on %s:%d\n", c.host.c_str(), server.port());
@@ -113,6 +133,37 @@ void runServe(const ServeArgs& a) {
   if (!a.portFile.empty()) writePortFile(a.portFile, server.port());
   server.run();
   spdlog::info("stopped");
+}
+
+/// `serve --mpi`: rank 0 serves with one render thread whose grid frames go across every rank; the other ranks draw
+/// their parts until rank 0 tells them to quit (docs/distributed.md).
+void serveMpi(const ServeArgs& a, server::ServerConfig c) {
+  distributed::MpiSession mpi;
+  distributed::ServeRankOptions options;
+  options.datasets = c.datasets;
+  options.frames.composite.timeoutSeconds = a.mpiTimeout;
+  options.frames.composite.encoding =
+      a.mpiEncoding == "float" ? distributed::PixelEncoding::Float : distributed::PixelEncoding::Half;
+  options.hostCacheBytes = size_t(c.hostCacheMB) << 20;
+  options.engine = render::RenderEngineOptions{c.backend, size_t(c.gpuBudgetMB) << 20};
+  if (mpi.rank() != 0) {
+    std::signal(SIGTERM, onWorkerSignal);
+    std::signal(SIGINT, onWorkerSignal);
+    if (!distributed::runWorker(MPI_COMM_WORLD, options, gWorkerStop)) mpi.abandon();
+    return;
+  }
+  c.renderThreads = 1;  // one frame across the ranks at a time
+  auto leader = std::make_shared<distributed::FrameLeader>(MPI_COMM_WORLD, options);
+  c.gridFrames = leader->hook();
+  c.datasetCheck = [leader](const std::string& name) { leader->checkDataset(name); };
+  spdlog::info("distributed mode: {} ranks, rank 0 serves", mpi.size());
+  try {
+    serveWith(a, c);
+  } catch (...) {
+    leader->quit();
+    throw;
+  }
+  if (!leader->quit()) mpi.abandon();  // a rank was lost: MPI_Finalize could wait for it for ever
 }
 
 }  // namespace
@@ -150,6 +201,14 @@ void addServeCommand(CLI::App& app) {
                   "bricks of 32; default demo)");
   cmd->add_option("--backend", a->backend, "auto, egl or osmesa");
   cmd->add_option("--log-level", a->logLevel, "trace, debug, info, warn, error or off");
+  cmd->add_flag("--mpi", a->mpi,
+                "under mpirun: rank 0 serves, every rank draws a part of each grid frame (docs/distributed.md)");
+  cmd->add_option("--mpi-timeout", a->mpiTimeout, "--mpi: seconds a transfer may wait for a peer before it is named")
+      ->capture_default_str()
+      ->check(between(0.1, 3600, "s"));
+  cmd->add_option("--mpi-encoding", a->mpiEncoding, "--mpi: pixels between ranks as half or float")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"half", "float"}));
   cmd->add_option("--render-threads", a->renderThreads, "render threads, each with its own GL context")
       ->check(between(1, 64));
   cmd->add_option("--io-threads", a->ioThreads, "network I/O threads")->check(between(1, 64));

@@ -16,8 +16,9 @@ bool DatasetRegistry::validName(const std::string& name) {
   });
 }
 
-DatasetRegistry::DatasetRegistry(std::filesystem::path directory, size_t cacheBytes)
-    : mDirectory(std::move(directory)), mCacheBytes(cacheBytes) {}
+DatasetRegistry::DatasetRegistry(std::filesystem::path directory, size_t cacheBytes,
+                                 std::function<void(const std::string&)> check)
+    : mDirectory(std::move(directory)), mCacheBytes(cacheBytes), mCheck(std::move(check)) {}
 
 std::vector<std::string> DatasetRegistry::names() const {
   std::vector<std::string> out;
@@ -55,6 +56,13 @@ std::shared_ptr<const render::Dataset> DatasetRegistry::open(const std::string& 
   // One host budget for the server: the datasets open share it equally, so one more shrinks the others' caches.
   const size_t share = mCacheBytes / (mOpen.size() + 1);
   auto dataset = render::openDataset(name, path, share);
+  if (mCheck) {
+    try {
+      mCheck(name);
+    } catch (const std::exception& e) {
+      throw DatasetUnavailable(e.what());
+    }
+  }
   for (const auto& [other, open] : mOpen) open.dataset->setCacheBudget(share);
   mOpen[name] = {dataset, identity};
   return dataset;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -21,8 +22,10 @@ namespace voxbrick::server {
 class DatasetRegistry {
  public:
   /// `cacheBytes` is the host budget of all the datasets open together: each of the n open has a cache of
-  /// cacheBytes / n (a dataset opened shrinks the others').
-  DatasetRegistry(std::filesystem::path directory, size_t cacheBytes);
+  /// cacheBytes / n (a dataset opened shrinks the others'). `check`, if set, is called with the name of each dataset
+  /// opened (or reopened) before it is kept; what it throws is rethrown as DatasetUnavailable and nothing is kept.
+  DatasetRegistry(std::filesystem::path directory, size_t cacheBytes,
+                  std::function<void(const std::string&)> check = {});
 
   /// The datasets present now, sorted (the directory is scanned on every call, so datasets added later appear).
   std::vector<std::string> names() const;
@@ -42,6 +45,7 @@ class DatasetRegistry {
  private:
   std::filesystem::path mDirectory;
   size_t mCacheBytes;
+  std::function<void(const std::string&)> mCheck;
   mutable std::mutex mMutex;
   struct Open {
     std::shared_ptr<const render::Dataset> dataset;

@@ -105,7 +105,9 @@ std::vector<std::unique_ptr<render::RenderEngine>> makeEngines(const ServerConfi
   // The GPU budget is the server's: each thread's atlases, whichever datasets they hold, stay within its share.
   const size_t share = (size_t(config.gpuBudgetMB) << 20) / size_t(config.renderThreads);
   for (int i = 0; i < config.renderThreads; ++i) {
-    engines.push_back(std::make_unique<render::RenderEngine>(render::RenderEngineOptions{config.backend, share}));
+    render::RenderEngineOptions options{config.backend, share};
+    options.gridFrames = config.gridFrames;
+    engines.push_back(std::make_unique<render::RenderEngine>(options));
     engines.back()->releaseCurrent();
   }
   return engines;
@@ -172,7 +174,7 @@ Server::Impl::Impl(const ServerConfig& c)
       endpoint(listenEndpoint(config.host, config.port)),
       webGate(config.httpOrigins, config.httpToken),
       presets(render::TransferFunctionPresets::load(render::TransferFunction::configDirectory() / "tf")),
-      datasets(config.datasets, size_t(config.hostCacheMB) << 20),
+      datasets(config.datasets, size_t(config.hostCacheMB) << 20, config.datasetCheck),
       output(config.maxTotalOutputBytes),
       scheduler(makeEngines(config), config.coalesce),
       handler(config, datasets, presets, stats, [this] { return statsJson(); }),

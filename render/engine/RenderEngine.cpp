@@ -122,6 +122,8 @@ uint64_t RenderEngine::renderersReleased() const { return mImpl->released; }
 image::ImageF RenderEngine::render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats,
                                    const FrameOptions& options) {
   if (!dataset) throw RenderInputError("RenderEngine::render: no dataset");
+  if (mImpl->options.gridFrames && dataset->kind() == DatasetKind::BrickStore && !options.part)
+    return mImpl->options.gridFrames(*this, dataset, scene, stats, options);
   std::optional<QualityChoice> choice;
   const Scene resolved = resolveQuality(*dataset, scene, &choice);
   FrameRenderer& renderer = mImpl->rendererFor(dataset);

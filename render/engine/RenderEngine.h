@@ -2,6 +2,7 @@
 // This header is the renderer's whole interface for the server: it shows no GL.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -16,6 +17,13 @@
 
 namespace voxbrick::render {
 
+class RenderEngine;
+
+/// Draws a frame of a grid dataset some other way, given the engine that was asked for it: sort-last rendering
+/// across MPI ranks (distributed/) draws this rank's part with the same engine (FrameOptions::part) and composites.
+using GridFrames = std::function<image::ImageF(RenderEngine&, const std::shared_ptr<const Dataset>&, const Scene&,
+                                               FrameStats*, const FrameOptions&)>;
+
 /// How a RenderEngine makes its context and its renderers.
 struct RenderEngineOptions {
   Backend backend = Backend::Auto;
@@ -25,6 +33,9 @@ struct RenderEngineOptions {
   AtlasFormat atlasFormat = AtlasFormat::Float;         ///< how atlases store samples
   AtlasUploads atlasUploads = AtlasUploads::Auto;       ///< how bricks reach the atlases
   AtlasBricking atlasBricking = AtlasBricking::Single;  ///< how bricks lie in the atlases
+  /// Set: render() hands every frame of a brick store without FrameOptions::part to it (which may call render()
+  /// again with a part). Empty: the engine draws every frame itself.
+  GridFrames gridFrames = {};
 };
 
 class RenderEngine {

@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# `mpirun -n N voxbrick render --mpi` against the one-process `voxbrick render`, within 1/255 per channel, for the
+# cases of the sort-last comparison: a smooth field with the MRI preset, a sparse field, the camera inside the
+# volume, an orthographic view and a coarse level of detail. Usage: frames_check.sh VOXBRICK MPIRUN WORK N
+# (WORK holds the datasets and the one-process frames, made once: `frames_check.sh VOXBRICK MPIRUN WORK setup`).
+set -euo pipefail
+exe=$1 mpirun=$2 work=$3 ranks=$4
+cases=(
+  "mri|blobs|--tf mri --orbit 35,25,2.2"
+  "sparse|sparse|--tf sparse --orbit 35,25,2.2"
+  "inside|blobs|--tf mri --orbit 35,25,0.25 --fov 75"
+  "ortho|blobs|--tf mri --orbit 200,-40,2.2 --ortho"
+  "lod|blobs|--tf mri --orbit 35,25,2.2 --lod 4"
+)
+common="--size 72x64 --step 0.5 -q"
+if [ "$ranks" = setup ]; then
+  rm -rf "$work" && mkdir -p "$work"
+  "$exe" prep synthetic:blobs,n=64 --brick 16 --no-vdb -q -o "$work/blobs" > /dev/null
+  "$exe" prep synthetic:sparse,n=64 --brick 16 --no-vdb -q -o "$work/sparse" > /dev/null
+  for c in "${cases[@]}"; do
+    IFS='|' read -r name data options <<< "$c"
+    # shellcheck disable=SC2086
+    "$exe" render "$work/$data" -o "$work/$name.single.png" $common $options
+  done
+  exit 0
+fi
+failed=0
+for c in "${cases[@]}"; do
+  IFS='|' read -r name data options <<< "$c"
+  out="$work/$name.$ranks.png"
+  # shellcheck disable=SC2086
+  "$mpirun" --oversubscribe --allow-run-as-root -n "$ranks" "$exe" render "$work/$data" --mpi -o "$out" \
+    --stats "$work/$name.$ranks.json" $common $options > /dev/null
+  line=$("$exe" compare "$work/$name.single.png" "$out")
+  maxAbs=$(sed -n 's/.*max_abs \([0-9.e+-]*\).*/\1/p' <<< "$line")
+  if [ -n "$maxAbs" ] && awk -v m="$maxAbs" 'BEGIN { exit !(m <= 1.0 / 255 + 1e-6) }'; then
+    echo "$name, $ranks ranks: $line"
+  else
+    echo "FAIL $name, $ranks ranks: $line (more than 1/255)"
+    failed=1
+  fi
+  grep -q '"ranks": '"$ranks" "$work/$name.$ranks.json" || { echo "FAIL $name: stats without the ranks"; failed=1; }
+done
+exit $failed

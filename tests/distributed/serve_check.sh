@@ -1,0 +1,90 @@
+#!/usr/bin/env bash
+# `mpirun -n 3 voxbrick serve --mpi` with `voxbrick request` as the client, each rank with a datasets directory of its
+# own (as on separate machines): a served frame equals the one-process frame within 1/255; a dataset missing on one
+# rank is refused naming the rank and the server keeps serving; a rank stopped (SIGSTOP) or killed (SIGKILL) makes
+# the next Render an error naming it within the deadline (5 s here), and later Renders a clear error; SIGTERM to rank 0 ends every
+# rank with status 0, and SIGTERM to mpirun ends every rank. Usage: serve_check.sh VOXBRICK MPIRUN WORK
+set -uo pipefail
+exe=$(realpath "$1") mpirun=$2 work=$3
+rm -rf "$work" && mkdir -p "$work"
+"$exe" prep synthetic:blobs,n=64 --brick 16 --no-vdb -q -o "$work/blobs" > /dev/null || exit 1
+for r in 0 1 2; do mkdir -p "$work/r$r/ds" && cp -r "$work/blobs" "$work/r$r/ds/blobs"; done
+cp -r "$work/blobs" "$work/r0/ds/gone" && cp -r "$work/blobs" "$work/r1/ds/gone"  # not on rank 2
+cat > "$work/rank.sh" << 'WRAP'
+#!/bin/sh
+# Each rank in its own directory (its own datasets), its process id beside them.
+cd "$(dirname "$0")/r$OMPI_COMM_WORLD_RANK" && echo $$ > pid && exec "$@"
+WRAP
+chmod +x "$work/rank.sh"
+scene="--tf mri --orbit 35,25,2.2 --size 72x64 --step 0.5"
+failed=0
+check() {  # check WHAT CONDITION-STATUS
+  if [ "$2" -eq 0 ]; then echo "ok: $1"; else echo "FAIL: $1"; failed=1; fi
+}
+start() {
+  rm -f "$work/port" "$work"/r*/pid
+  "$mpirun" --oversubscribe --allow-run-as-root --enable-recovery -n 3 "$work/rank.sh" "$exe" serve --mpi --no-config \
+    --datasets ds --port 0 --port-file "$work/port" --mpi-timeout 5 > "$work/serve.log" 2>&1 &
+  mpirunPid=$!
+  for _ in $(seq 1 100); do [ -f "$work/port" ] && [ -f "$work/r2/pid" ] && break; sleep 0.2; done
+  port=$(cat "$work/port" 2> /dev/null) || { echo "FAIL: the server did not start; its log:"; cat "$work/serve.log"; exit 1; }
+}
+request() {  # request DATASET OUTPUT: prints the client's output, returns its status
+  # shellcheck disable=SC2086
+  "$exe" request "127.0.0.1:$port" --dataset "$1" -o "$2" --timeout 30 $scene 2>&1
+}
+finish() {  # finish SECONDS: waits for mpirun; returns its status, or 124 if it had to be killed
+  for _ in $(seq 1 $(($1 * 10))); do kill -0 "$mpirunPid" 2> /dev/null || { wait "$mpirunPid"; return $?; }; sleep 0.1; done
+  echo "mpirun did not end in $1 s: killing it; its log:"; cat "$work/serve.log"
+  kill -KILL "$mpirunPid"; wait "$mpirunPid" 2> /dev/null; return 124
+}
+
+# shellcheck disable=SC2086
+"$exe" render "$work/blobs" -o "$work/single.png" -q $scene || exit 1
+start
+out=$(request blobs "$work/served.png"); check "a frame served through rank 0 ($out)" $?
+line=$("$exe" compare "$work/single.png" "$work/served.png")
+maxAbs=$(sed -n 's/.*max_abs \([0-9.e+-]*\).*/\1/p' <<< "$line")
+[ -n "$maxAbs" ] && awk -v m="$maxAbs" 'BEGIN { exit !(m <= 1.0 / 255 + 1e-6) }'; check "served frame equals one process's: $line" $?
+out=$(request gone "$work/gone.png"); status=$?
+[ $status -ne 0 ] && grep -q "rank 2" <<< "$out"; check "a dataset missing on rank 2 is refused naming it: $out" $?
+out=$(request blobs "$work/again.png"); check "still serving after the refusal" $?
+# An interactive request: every rank draws the rung rank 0 chose (the provisional frame), then the exact frame.
+echo '{"interactive": true, "time_budget_ms": 30}' > "$work/interactive.json"
+# shellcheck disable=SC2086
+out=$("$exe" request "127.0.0.1:$port" --dataset blobs -o "$work/interactive.png" --scene "$work/interactive.json" \
+  --timeout 30 $scene 2>&1); status=$?
+[ $status -eq 0 ] && grep -q "provisional frame" <<< "$out"; check "an interactive frame, then the exact one: $out" $?
+kill -STOP "$(cat "$work/r2/pid")"
+begin=$(date +%s.%N)
+out=$(request blobs "$work/stopped.png"); status=$?
+took=$(awk -v a="$begin" -v b="$(date +%s.%N)" 'BEGIN { print b - a }')
+[ $status -ne 0 ] && grep -q "rank 2" <<< "$out" && awk -v t="$took" 'BEGIN { exit !(t < 15) }'
+check "a stopped rank 2 is named within ${took} s: $out" $?
+out=$(request blobs "$work/later.png"); status=$?
+[ $status -ne 0 ] && grep -q "stopped earlier" <<< "$out"; check "a later Render gets a clear error: $out" $?
+kill -KILL "$(cat "$work/r2/pid")"
+kill -TERM "$(cat "$work/r0/pid")"
+finish 20; status=$?
+[ $status -ne 124 ]; check "SIGTERM to rank 0 ends the job after a fault (mpirun status $status)" $?
+
+start
+out=$(request blobs "$work/before.png"); check "a frame before rank 1 is killed" $?
+kill -KILL "$(cat "$work/r1/pid")"
+out=$(request blobs "$work/killed.png"); status=$?
+[ $status -ne 0 ] && grep -q "rank 1" <<< "$out"; check "a killed rank 1 is named: $out" $?
+kill -TERM "$(cat "$work/r0/pid")"
+finish 20; status=$?
+[ $status -ne 124 ]; check "SIGTERM to rank 0 ends the job after a rank was killed (mpirun status $status)" $?
+
+start
+out=$(request blobs "$work/clean.png"); check "frame before a clean stop" $?
+kill -TERM "$(cat "$work/r0/pid")"
+finish 20; status=$?
+[ $status -eq 0 ]; check "SIGTERM to rank 0: every rank leaves, mpirun status $status" $?
+
+start
+kill -TERM "$mpirunPid"
+finish 20; status=$?
+[ $status -ne 124 ]; check "SIGTERM to mpirun: the job ends (mpirun status $status)" $?
+exit $failed
