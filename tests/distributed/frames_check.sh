@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # `mpirun -n N voxbrick render --mpi` against the one-process `voxbrick render`, within 1/255 per channel, for the
-# cases of the sort-last comparison: a smooth field with the MRI preset, a sparse field, the camera inside the
+# cases of the sort-last comparison: the MRI (ch2better), a smooth field with the MRI preset, a sparse field, the camera inside the
 # volume, an orthographic view and a coarse level of detail. Usage: frames_check.sh VOXBRICK MPIRUN WORK N
 # (WORK holds the datasets and the one-process frames, made once: `frames_check.sh VOXBRICK MPIRUN WORK setup`).
 set -euo pipefail
 exe=$1 mpirun=$2 work=$3 ranks=$4
 cases=(
+  "brain|brain|--tf mri --orbit 35,25,2.2"
   "mri|blobs|--tf mri --orbit 35,25,2.2"
   "sparse|sparse|--tf sparse --orbit 35,25,2.2"
   "inside|blobs|--tf mri --orbit 35,25,0.25 --fov 75"
@@ -17,6 +18,8 @@ if [ "$ranks" = setup ]; then
   rm -rf "$work" && mkdir -p "$work"
   "$exe" prep synthetic:blobs,n=64 --brick 16 --no-vdb -q -o "$work/blobs" > /dev/null
   "$exe" prep synthetic:sparse,n=64 --brick 16 --no-vdb -q -o "$work/sparse" > /dev/null
+  # The MRI itself (Debian's mricron-data, installed by scripts/setup.sh).
+  "$exe" prep /usr/share/mricron/templates/ch2better.nii.gz --brick 32 --no-vdb -q -o "$work/brain" > /dev/null
   for c in "${cases[@]}"; do
     IFS='|' read -r name data options <<< "$c"
     # shellcheck disable=SC2086
