@@ -2,6 +2,8 @@
 // libblosc), a byte-bounded LRU of decoded chunks, and boxes of voxels cut out of them in the store's type.
 #include "brickstore/ZarrChunks.h"
 
+#include "brickstore/Convert.h"
+
 #include <blosc.h>
 #include <zlib.h>
 #include <zstd.h>

@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "brickstore/Convert.h"
 #include "brickstore/Errors.h"
 #include "brickstore/StoreMeta.h"
 
@@ -238,9 +239,9 @@ fs::path ZarrArrayMeta::chunkFile(const Vec3i& chunk, const std::vector<int64_t>
   return dir / key;
 }
 
+ValueType ZarrMeta::storeType() const { return storeTypeFor(levels.front().fileType); }
+
 double ZarrMeta::background() const {
-  Conversion c;
-  c.from = levels.front().fileType;
   const double v = levels.front().fillValue;
   switch (storeType()) {
     case ValueType::U8: return std::clamp(std::round(v), 0.0, 255.0);

@@ -9,11 +9,12 @@
 #include <string>
 #include <vector>
 
-#include "brickstore/Convert.h"
 #include "brickstore/Orientation.h"
 #include "brickstore/Types.h"
 
 namespace voxbrick::store {
+
+enum class FileValueType : uint8_t;  // brickstore/Convert.h
 
 /// Which 3D volume of a 4D/5D OME-Zarr to read (--time, --channel): indices along its t and c axes.
 struct ZarrSelection {
@@ -30,7 +31,7 @@ struct ZarrArrayMeta {
   std::string path;             ///< the dataset's "path" in the group ("0", "1", ...)
   std::vector<int64_t> shape;   ///< per axis, in the file's axis order (t, c, z, y, x or a suffix of it)
   std::vector<int64_t> chunks;  ///< chunk shape per axis
-  FileValueType fileType = FileValueType::U8;
+  FileValueType fileType{};     ///< "dtype" (Convert.h)
   bool bigEndian = false;
   bool fortranOrder = false;  ///< "order": "F"
   char separator = '.';       ///< "dimension_separator"
@@ -60,7 +61,7 @@ struct ZarrMeta {
   std::string version;                ///< the multiscales "version" ("0.4", ...)
 
   /// The store type the levels are read as (u8, u16, i16 as themselves; int8 as i16; the rest f32).
-  ValueType storeType() const { return storeTypeFor(levels.front().fileType); }
+  ValueType storeType() const;
   /// The background: level 0's fill value in the store type.
   double background() const;
   /// Per axis of the file, the chunk index of the chosen time and channel (0 for spatial axes).

@@ -140,7 +140,7 @@ std::shared_ptr<const ZarrStore> ZarrStore::open(const std::filesystem::path& di
   for (bool o : store->mOwn) own += o;
   meta.source =
       zm.description() + "; store levels 0-" + std::to_string(own - 1) + " are its own" +
-      (own < int(store->mOwn.size()) ? ", the coarser averaged (its levels do not halve each axis further)" : "");
+      (own < int(store->mOwn.size()) ? ", the coarser averaged from the level below (the Zarr has no level of their dims)" : "");
   uint64_t first = 0;
   for (const Vec3i& dims : pyramidDims(meta.dims, meta.brickSize)) {
     const Vec3i bricks{divUp(dims.x, meta.brickSize), divUp(dims.y, meta.brickSize), divUp(dims.z, meta.brickSize)};

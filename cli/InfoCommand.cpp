@@ -131,7 +131,7 @@ void printStoreHeader(const InfoArgs& a, const store::StoreMeta& m, const char* 
 }
 
 /// The levels of a brick store (and, for a live .vdb, what opening it took), after its header.
-void printStoreLevels(const store::BrickStore& s, const store::VdbStore* live) {
+void printStoreLevels(const store::BrickStore& s, const store::VdbStore* live, bool zarr = false) {
   const store::StoreMeta& m = s.meta();
   const StoreSummary summary = summarise(m);
   std::printf("bricks       %d^3 + 1-voxel border, %zu levels, octree depth %d\n", m.brickSize, m.levels.size(),
@@ -161,6 +161,7 @@ void printStoreLevels(const store::BrickStore& s, const store::VdbStore* live) {
     return;
   }
   std::printf("empty        %.1f%% of level-0 bricks are empty (not stored)\n", 100 * summary.emptyFraction);
+  if (zarr) return;
   std::printf("size         %s raw, %s stored (all levels, %.2fx), %s OpenVDB grid in %zu file(s)\n",
               formatBytes(double(m.bytesRaw)).c_str(), formatBytes(double(m.bytesStored)).c_str(), summary.ratio,
               formatBytes(double(m.bytesVdb)).c_str(), m.vdbFiles.size());
@@ -185,7 +186,7 @@ void runInfo(const InfoArgs& a) {
   if (a.json) return printStoreJson(a, *s, live);
   const auto* zarr = dynamic_cast<const store::ZarrStore*>(s.get());
   printStoreHeader(a, s->meta(), live ? " (OpenVDB file, read live)" : zarr ? " (OME-Zarr, read live)" : "");
-  printStoreLevels(*s, live);
+  printStoreLevels(*s, live, zarr != nullptr);
   if (zarr) printZarrOpen(*zarr);
 }
 

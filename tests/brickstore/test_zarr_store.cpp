@@ -111,54 +111,56 @@ TEST_P(ZarrMatchesPrep, EveryBrickOfEveryLevel) {
           ASSERT_EQ(a->bytes(), b->bytes());
           ASSERT_EQ(std::memcmp(a->data(), b->data(), a->bytes()), 0) << toString(key) << " differs from prep's";
           ++compared;
-          if (prepped->isStored(key)) EXPECT_TRUE(live->isStored(key)) << toString(key);
+          if (prepped->isStored(key)) {
+            EXPECT_TRUE(live->isStored(key)) << toString(key);
+          }
         }
   }
-  EXPECT_GT(compared, 100);
+  EXPECT_GT(compared, 30);
 }
 
-// Every compressor, order and separator, and the dtypes: u8, u16, i16, f32 kept; int8 widened; the rest f32. Four
-// levels written, so with B = 8 store levels 0-3 are the file's and level 4 is averaged.
+// Every compressor, order and separator, and the dtypes: u8, u16, i16, f32 kept; int8 widened; the rest f32. Three
+// levels written, so with B = 8 store levels 0-2 are the file's and level 3 is averaged; RawU16 has four, all used.
 
 INSTANTIATE_TEST_SUITE_P(
     Codecs, ZarrMatchesPrep,
     ::testing::Values(
         Case{"RawU16", R"({"levels": 4, "chunks": [16, 12, 16], "compressor": {"id": "none"}})", 8, ValueType::U16},
-        Case{"ZlibU8", R"({"levels": 4, "chunks": [16, 12, 16], "dtype": "|u1", "compressor": {"id": "zlib"}})", 8,
+        Case{"ZlibU8", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "|u1", "compressor": {"id": "zlib"}})", 8,
              ValueType::U8},
-        Case{"GzipI16F", R"({"levels": 4, "chunks": [16, 12, 16], "dtype": "<i2", "order": "F",
+        Case{"GzipI16F", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "<i2", "order": "F",
                              "compressor": {"id": "gzip"}})",
              8, ValueType::I16},
-        Case{"ZstdF32Slash", R"({"levels": 4, "chunks": [16, 12, 16], "dtype": "<f4", "separator": "/",
+        Case{"ZstdF32Slash", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "<f4", "separator": "/",
                                  "compressor": {"id": "zstd"}})",
              8, ValueType::F32},
-        Case{"BloscLz4ShuffleU16", R"({"levels": 4, "chunks": [16, 12, 16],
+        Case{"BloscLz4ShuffleU16", R"({"levels": 3, "chunks": [16, 12, 16],
                                        "compressor": {"id": "blosc", "cname": "lz4", "shuffle": 1}})",
              8, ValueType::U16},
-        Case{"BloscZstdBitshuffleF32F", R"({"levels": 4, "chunks": [16, 12, 16], "dtype": "<f4", "order": "F",
+        Case{"BloscZstdBitshuffleF32F", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "<f4", "order": "F",
                                             "compressor": {"id": "blosc", "cname": "zstd", "shuffle": 2}})",
              8, ValueType::F32},
-        Case{"BloscZlibNoShuffleBigEndianU16", R"({"levels": 4, "chunks": [16, 12, 16], "dtype": ">u2",
+        Case{"BloscZlibNoShuffleBigEndianU16", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": ">u2",
                  "compressor": {"id": "blosc", "cname": "zlib", "shuffle": 0}})",
              8, ValueType::U16},
-        Case{"BlosclzI8", R"({"levels": 4, "chunks": [16, 12, 16], "dtype": "|i1",
+        Case{"BlosclzI8", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "|i1",
                              "compressor": {"id": "blosc", "cname": "blosclz", "shuffle": 1}})",
              8, ValueType::I16},
-        Case{"ZstdI32", R"({"levels": 4, "chunks": [16, 12, 16], "dtype": "<i4", "compressor": {"id": "zstd"}})", 16,
+        Case{"ZstdI32", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "<i4", "compressor": {"id": "zstd"}})", 16,
              ValueType::F32},
-        Case{"BloscLz4F64", R"({"levels": 4, "chunks": [16, 12, 16], "dtype": "<f8",
+        Case{"BloscLz4F64", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "<f8",
                                "compressor": {"id": "blosc", "cname": "lz4", "shuffle": 1}})",
              16, ValueType::F32}),
     caseName);
 
 TEST(ZarrStore, OwnLevelsAreTheFilesAndMissingChunksAreNeverRead) {
   ScratchDir dir;
-  const auto zarr = test::writeZarr(dir / "v.ome.zarr", json::parse(R"({"levels": 4, "chunks": [16, 12, 16],
+  const auto zarr = test::writeZarr(dir / "v.ome.zarr", json::parse(R"({"levels": 3, "chunks": [16, 12, 16],
       "compressor": {"id": "blosc", "cname": "lz4", "shuffle": 1}})"));
   const auto live = ZarrStore::open(zarr, {"", 8});
-  ASSERT_EQ(live->levelCount(), 5);
-  EXPECT_EQ(live->ownLevels(), (std::vector<bool>{true, true, true, true, false}));
-  EXPECT_EQ(live->openStats().ownLevels, 4);
+  ASSERT_EQ(live->levelCount(), 4);
+  EXPECT_EQ(live->ownLevels(), (std::vector<bool>{true, true, true, false}));
+  EXPECT_EQ(live->openStats().ownLevels, 3);
   EXPECT_NE(live->meta().source.find("averaged"), std::string::npos) << live->meta().source;
   // The fixture's level 1 is level 0 every other voxel (not its average): the store's level 1 must be that.
   BrickCache cache(live, size_t(64) << 20, 0);
@@ -181,8 +183,8 @@ TEST(ZarrStore, OwnLevelsAreTheFilesAndMissingChunksAreNeverRead) {
   // The ball leaves corner chunks unwritten: bricks over them alone are known empty without reading.
   const ZarrOpenStats& o = live->openStats();
   EXPECT_LT(o.chunksPresent, o.chunksTotal);
-  EXPECT_LT(o.bricksScanned, live->level(0).bricksTotal() + live->level(1).bricksTotal() +
-                                 live->level(2).bricksTotal() + live->level(3).bricksTotal());
+  EXPECT_LT(o.bricksScanned,
+            live->level(0).bricksTotal() + live->level(1).bricksTotal() + live->level(2).bricksTotal());
   EXPECT_FALSE(live->isStored({0, 0, 0, 0}));
   EXPECT_TRUE(live->meta().levels[0].bricksStored < live->level(0).bricksTotal());
 }

@@ -11,15 +11,16 @@ import numpy as np
 import zarr
 
 
-def volume(shape, dtype, t, c, pattern):
-    z, y, x = np.meshgrid(*[np.linspace(-1, 1, n) for n in shape], indexing="ij")
+def volume(shape, dtype, t, c, pattern, zs, step):
+    """Level-0 voxels at z indices `zs` and every `step` voxel along y and x."""
+    lin = [np.linspace(-1, 1, n) for n in shape]
+    z, y, x = np.meshgrid(lin[0][zs], lin[1][::step], lin[2][::step], indexing="ij")
     if pattern == "noise":
-        rng = np.random.default_rng(1 + t * 7 + c)
-        v = rng.random(shape) * 200
+        rng = np.random.default_rng([1 + t * 7 + c, int(zs[0]), step])
+        v = rng.random(z.shape) * 200
     else:  # a ball off centre, with ripples, zero outside: the corners' chunks are empty
         r2 = (x - 0.2) ** 2 + (y + 0.1) ** 2 + (z - 0.15) ** 2
-        v = np.where(r2 < 0.5, (1.0 - r2) * 900 + 60 * np.sin(9 * x) * np.cos(7 * y) + 50, 0.0)
-        v = np.where(r2 < 0.5, v + 100 * t + 30 * c, 0.0)
+        v = np.where(r2 < 0.5, (1.0 - r2) * 900 + 60 * np.sin(9 * x) * np.cos(7 * y) + 50 + 100 * t + 30 * c, 0.0)
     if np.dtype(dtype).kind in "ui":
         info = np.iinfo(dtype)
         v = np.clip(np.rint(v), max(info.min, -30000), min(info.max, 60000))
@@ -63,11 +64,14 @@ def main():
         arr = root.create_dataset(str(m), shape=lead + level_shape, chunks=[1] * len(lead) + chunks, dtype=dtype,
                                   compressor=compressor(spec.get("compressor")), order=spec.get("order", "C"),
                                   fill_value=fill, write_empty_chunks=False, overwrite=True)
+        zs = np.arange(0, shape[0], step)
+        slab = chunks[0] * max(1, 16 // chunks[0])  # whole chunks along z, a bounded slab in memory
         for t in range(times):
             for c in range(channels):
-                v = volume(shape, dtype, t, c, spec.get("pattern", "ball"))[::step, ::step, ::step]
                 index = tuple(t if a == "t" else c for a in axes[:-3])
-                arr[index] = v
+                for z0 in range(0, len(zs), slab):
+                    v = volume(shape, dtype, t, c, spec.get("pattern", "ball"), zs[z0:z0 + slab], step)
+                    arr[index + (slice(z0, z0 + len(v)),)] = v
         s = [1.0] * len(lead) + [f * step for f in scale]
         tr = [0.0] * len(lead) + translation
         datasets.append({"path": str(m), "coordinateTransformations": [{"type": "scale", "scale": s},
