@@ -34,8 +34,8 @@ csv=bench/results/$label.csv
 md=bench/results/$label.md
 scene=(--size "$size" --tf hot -q)
 
-seconds() { local s; s=$(date +%s.%N); "$@" > /dev/null; echo "$(date +%s.%N) - $s" | bc; }
-frame_ms() { /usr/bin/python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['ms']['total'])" "$1"; }
+seconds() { local s; s=$(date +%s.%N); "$@" > /dev/null; printf '%.2f' "$(echo "$(date +%s.%N) - $s" | bc)"; }
+frame_ms() { /usr/bin/python3 -c "import json,sys; print('%.1f' % json.load(open(sys.argv[1]))['ms']['total'])" "$1"; }
 
 echo "codec,n,chunk,write_s,prep_s,first_live_s,first_prepped_s,warm_live_ms,warm_prepped_ms,frames_equal,voxbrick_decode_mbps,library_decode_mbps,level0_read_mbps" > "$csv"
 decode_rows=()

@@ -20,15 +20,14 @@ namespace voxbrick::store {
 namespace fs = std::filesystem;
 namespace {
 
-std::vector<unsigned char> inflateAll(const std::vector<unsigned char>& in, size_t expected, bool gzip,
-                                      const std::string& name) {
-  std::vector<unsigned char> out(expected);
+void inflateAll(const std::vector<unsigned char>& in, unsigned char* out, size_t expected, bool gzip,
+                const std::string& name) {
   z_stream z{};
   if (inflateInit2(&z, gzip ? 15 + 16 : 15) != Z_OK) throw CorruptStoreError(name + ": zlib cannot start");
   z.next_in = const_cast<unsigned char*>(in.data());
   z.avail_in = uInt(in.size());
-  z.next_out = out.data();
-  z.avail_out = uInt(out.size());
+  z.next_out = out;
+  z.avail_out = uInt(expected);
   const int rc = inflate(&z, Z_FINISH);
   const size_t produced = z.total_out;
   inflateEnd(&z);
@@ -38,21 +37,18 @@ std::vector<unsigned char> inflateAll(const std::vector<unsigned char>& in, size
                                  ? std::to_string(produced) + " bytes decoded, expected " + std::to_string(expected)
                                  : std::string(z.msg ? z.msg : "ends early")) +
                             ")");
-  return out;
 }
 
-std::vector<unsigned char> zstdAll(const std::vector<unsigned char>& in, size_t expected, const std::string& name) {
-  std::vector<unsigned char> out(expected);
-  const size_t n = ZSTD_decompress(out.data(), out.size(), in.data(), in.size());
+void zstdAll(const std::vector<unsigned char>& in, unsigned char* out, size_t expected, const std::string& name) {
+  const size_t n = ZSTD_decompress(out, expected, in.data(), in.size());
   if (ZSTD_isError(n))
     throw CorruptStoreError(name + ": zstd frame is truncated or corrupt (" + ZSTD_getErrorName(n) + ")");
   if (n != expected)
     throw CorruptStoreError(name + ": zstd frame holds " + std::to_string(n) + " bytes, expected " +
                             std::to_string(expected));
-  return out;
 }
 
-std::vector<unsigned char> bloscAll(const std::vector<unsigned char>& in, size_t expected, const std::string& name) {
+void bloscAll(const std::vector<unsigned char>& in, unsigned char* out, size_t expected, const std::string& name) {
   size_t nbytes = 0;
   if (in.size() < BLOSC_MIN_HEADER_LENGTH || blosc_cbuffer_validate(in.data(), in.size(), &nbytes) != 0)
     throw CorruptStoreError(name + ": blosc header is truncated or corrupt (" + std::to_string(in.size()) + " bytes)");
@@ -64,11 +60,9 @@ std::vector<unsigned char> bloscAll(const std::vector<unsigned char>& in, size_t
   if (cbytes != in.size())
     throw CorruptStoreError(name + ": blosc frame says " + std::to_string(cbytes) + " bytes, the file has " +
                             std::to_string(in.size()) + " (truncated)");
-  std::vector<unsigned char> out(expected);
-  const int n = blosc_decompress_ctx(in.data(), out.data(), out.size(), 1);
+  const int n = blosc_decompress_ctx(in.data(), out, expected, 1);
   if (n < 0 || size_t(n) != expected)
     throw CorruptStoreError(name + ": blosc frame is corrupt (decoder returned " + std::to_string(n) + ")");
-  return out;
 }
 
 std::vector<unsigned char> readWhole(const fs::path& file, int64_t limit) {
@@ -86,19 +80,20 @@ std::vector<unsigned char> readWhole(const fs::path& file, int64_t limit) {
 
 }  // namespace
 
-std::vector<unsigned char> decodeZarrChunk(const ZarrArrayMeta& a, const std::vector<unsigned char>& file,
-                                           const std::string& name) {
+void decodeZarrChunk(const ZarrArrayMeta& a, const std::vector<unsigned char>& file, const std::string& name,
+                     unsigned char* out) {
   const size_t expected = size_t(a.chunkBytes());
   switch (a.compressor) {
     case ZarrCompressor::None:
       if (file.size() != expected)
         throw CorruptStoreError(name + ": " + std::to_string(file.size()) + " bytes, an uncompressed chunk has " +
                                 std::to_string(expected) + " (truncated)");
-      return file;
-    case ZarrCompressor::Zlib: return inflateAll(file, expected, false, name);
-    case ZarrCompressor::Gzip: return inflateAll(file, expected, true, name);
-    case ZarrCompressor::Zstd: return zstdAll(file, expected, name);
-    case ZarrCompressor::Blosc: return bloscAll(file, expected, name);
+      std::memcpy(out, file.data(), expected);
+      return;
+    case ZarrCompressor::Zlib: return inflateAll(file, out, expected, false, name);
+    case ZarrCompressor::Gzip: return inflateAll(file, out, expected, true, name);
+    case ZarrCompressor::Zstd: return zstdAll(file, out, expected, name);
+    case ZarrCompressor::Blosc: return bloscAll(file, out, expected, name);
   }
   throw CorruptStoreError(name + ": unknown compressor");
 }
@@ -150,16 +145,19 @@ ZarrChunks::Chunk ZarrChunks::chunk(int level, const Vec3i& c) const {
   const fs::path file = a.chunkFile(c, mFixedChunk);
   const std::string name = file.string() + " (chunk " + std::to_string(c.x) + "," + std::to_string(c.y) + "," +
                            std::to_string(c.z) + " of level " + a.path + ")";
-  auto data = std::make_shared<const std::vector<unsigned char>>(
-      decodeZarrChunk(a, readWhole(file, kMaxZarrChunkBytes + (int64_t{1} << 20)), name));
+  auto decoded = std::make_shared<DecodedChunk>();
+  decoded->size = size_t(a.chunkBytes());
+  decoded->bytes = std::make_unique_for_overwrite<unsigned char[]>(decoded->size);
+  decodeZarrChunk(a, readWhole(file, kMaxZarrChunkBytes + (int64_t{1} << 20)), name, decoded->bytes.get());
+  Chunk data = std::move(decoded);
   mDecoded.fetch_add(1, std::memory_order_relaxed);
   std::lock_guard lock(mMutex);
   if (mIndex.count(key)) return data;
   mLru.emplace_front(key, data);
   mIndex[key] = mLru.begin();
-  mHeld += data->size();
+  mHeld += data->size;
   while (mHeld > mCacheBytes && mLru.size() > 1) {
-    mHeld -= mLru.back().second->size();
+    mHeld -= mLru.back().second->size;
     mIndex.erase(mLru.back().first);
     mLru.pop_back();
   }
@@ -188,7 +186,7 @@ void ZarrChunks::copyFromChunk(int level, const Vec3i& c, const Chunk& data, con
   for (int64_t z = rlo.z; z <= rhi.z; ++z)
     for (int64_t y = rlo.y; y <= rhi.y; ++y) {
       const int64_t e0 = base + (rlo.x - origin.x) * sx + (y - origin.y) * sy + (z - origin.z) * sz;
-      const unsigned char* src = data->data() + size_t(e0) * in;
+      const unsigned char* src = data->bytes.get() + size_t(e0) * in;
       if (sx != 1) {
         for (int64_t x = 0; x < run; ++x) std::memcpy(&gathered[size_t(x) * in], src + size_t(x * sx) * in, in);
         src = gathered.data();

@@ -16,11 +16,11 @@
 
 namespace voxbrick::store {
 
-/// Decodes the bytes of one chunk file of array `a` into exactly a.chunkBytes() bytes (the file's dtype and order).
-/// Throws CorruptStoreError naming `name` when the data is truncated, corrupt or of another decoded size. Used by
-/// ZarrChunks and by the decode benchmark.
-std::vector<unsigned char> decodeZarrChunk(const ZarrArrayMeta& a, const std::vector<unsigned char>& file,
-                                           const std::string& name);
+/// Decodes the bytes of one chunk file of array `a` into `out`, exactly a.chunkBytes() bytes (the file's dtype and
+/// order). Throws CorruptStoreError naming `name` when the data is truncated, corrupt or of another decoded size.
+/// Used by ZarrChunks and by the decode benchmark.
+void decodeZarrChunk(const ZarrArrayMeta& a, const std::vector<unsigned char>& file, const std::string& name,
+                     unsigned char* out);
 
 /// The chunks of every level of one OME-Zarr (one time point and channel), read on demand. Thread-safe.
 class ZarrChunks {
@@ -49,7 +49,11 @@ class ZarrChunks {
   int64_t chunksDecoded() const { return mDecoded.load(std::memory_order_relaxed); }
 
  private:
-  using Chunk = std::shared_ptr<const std::vector<unsigned char>>;
+  struct DecodedChunk {
+    std::unique_ptr<unsigned char[]> bytes;  // not zeroed before decoding
+    size_t size = 0;
+  };
+  using Chunk = std::shared_ptr<const DecodedChunk>;
   Chunk chunk(int level, const Vec3i& c) const;
   void copyFromChunk(int level, const Vec3i& c, const Chunk& data, const Vec3i& lo, const Vec3i& hi, const Vec3i& rlo,
                      const Vec3i& rhi, unsigned char* dst) const;

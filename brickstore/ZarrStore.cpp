@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstring>
 #include <limits>
+#include <type_traits>
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -138,9 +139,10 @@ std::shared_ptr<const ZarrStore> ZarrStore::open(const std::filesystem::path& di
   meta.bytesRaw = meta.dims.volume() * int64_t(valueSize(meta.type));
   int own = 0;
   for (bool o : store->mOwn) own += o;
-  meta.source =
-      zm.description() + "; store levels 0-" + std::to_string(own - 1) + " are its own" +
-      (own < int(store->mOwn.size()) ? ", the coarser averaged from the level below (the Zarr has no level of their dims)" : "");
+  meta.source = zm.description() + "; store levels 0-" + std::to_string(own - 1) + " are its own" +
+                (own < int(store->mOwn.size())
+                     ? ", the coarser averaged from the level below (the Zarr has no level of their dims)"
+                     : "");
   uint64_t first = 0;
   for (const Vec3i& dims : pyramidDims(meta.dims, meta.brickSize)) {
     const Vec3i bricks{divUp(dims.x, meta.brickSize), divUp(dims.y, meta.brickSize), divUp(dims.z, meta.brickSize)};
@@ -178,9 +180,15 @@ void ZarrStore::scanOwnLevel(int level) {
   const Vec3i n = mMeta.levels[size_t(level)].dims, nb = mMeta.levels[size_t(level)].bricks;
   const uint32_t storedSize = uint32_t(brickBytes());
   const double bg = mMeta.background;
+  // Level 0 of an integer type: the owned voxels' values are counted here, so that the statistics need no second
+  // pass (values offset by 32768 for i16).
+  const bool count = level == 0 && mMeta.type != ValueType::F32;
+  tbb::enumerable_thread_specific<std::vector<uint64_t>> counts(
+      [&] { return std::vector<uint64_t>(count ? 65536 : 0); });
   std::atomic<int64_t> scanned{0};
   dispatchType(mMeta.type, [&](auto zero) {
     using T = decltype(zero);
+    const int64_t offset = std::is_same_v<T, int16_t> ? 32768 : 0;
     tbb::parallel_for(tbb::blocked_range<int64_t>(0, nb.volume()), [&](const tbb::blocked_range<int64_t>& r) {
       std::vector<T> block, samples(size_t(E * E * E));
       for (int64_t b = r.begin(); b != r.end(); ++b) {
@@ -199,9 +207,20 @@ void ZarrStore::scanOwnLevel(int level) {
         const MinMaxPair range = sampleRange(samples.data(), samples.size(), T(bg), empty);
         rec = BrickRecord{0, empty ? 0 : storedSize, 0, range.min, range.max, 0};
         scanned.fetch_add(1, std::memory_order_relaxed);
+        if (!count || empty) continue;
+        std::vector<uint64_t>& c = counts.local();
+        const Vec3i own{std::min(B, n.x - idx.x * B), std::min(B, n.y - idx.y * B), std::min(B, n.z - idx.z * B)};
+        for (int64_t z = 1; z <= own.z; ++z)
+          for (int64_t y = 1; y <= own.y; ++y)
+            for (int64_t x = 1; x <= own.x; ++x) ++c[size_t(int64_t(samples[size_t(x + E * (y + E * z))]) + offset)];
       }
     });
   });
+  if (count) {
+    mLevel0Counts.assign(65536, 0);
+    for (const std::vector<uint64_t>& c : counts)
+      for (size_t v = 0; v < c.size(); ++v) mLevel0Counts[v] += c[v];
+  }
   mOpenStats.bricksScanned += scanned.load();
   LevelMeta& lm = mMeta.levels[size_t(level)];
   for (int64_t b = 0; b < nb.volume(); ++b)
@@ -212,7 +231,7 @@ void ZarrStore::level0Statistics() {
   const int64_t B = mMeta.brickSize;
   const Vec3i n = mMeta.dims, nb = mMeta.levels[0].bricks;
   const double bg = mMeta.background;
-  // The owned voxels of stored bricks are read (their chunks again); the others hold only the background.
+  // f32: the owned voxels of stored bricks are read again (their chunks too); the others hold only the background.
   std::vector<int64_t> stored;
   int64_t emptyVoxels = 0;
   auto owned = [&](const Vec3i& idx, Vec3i& lo, Vec3i& hi) {
@@ -228,6 +247,7 @@ void ZarrStore::level0Statistics() {
       emptyVoxels += (hi.x - lo.x + 1) * (hi.y - lo.y + 1) * (hi.z - lo.z + 1);
     }
   }
+  if (!mLevel0Counts.empty()) return statisticsFromCounts(emptyVoxels);
   dispatchType(mMeta.type, [&](auto zero) {
     using T = decltype(zero);
     std::vector<OwnedStats> stats(stored.size());
@@ -267,6 +287,28 @@ void ZarrStore::level0Statistics() {
     all.addRepeated(bg, uint64_t(emptyVoxels));
     mMeta.histogram = all.finish();
   });
+}
+
+void ZarrStore::statisticsFromCounts(int64_t emptyVoxels) {
+  const double bg = mMeta.background;
+  const int64_t offset = mMeta.type == ValueType::I16 ? 32768 : 0;
+  std::vector<uint64_t> counts = std::move(mLevel0Counts);
+  counts[size_t(int64_t(bg) + offset)] += uint64_t(emptyVoxels);
+  double lo = std::numeric_limits<double>::max(), hi = std::numeric_limits<double>::lowest();
+  int64_t active = 0;
+  for (size_t v = 0; v < counts.size(); ++v) {
+    if (!counts[v]) continue;
+    const double value = double(int64_t(v) - offset);
+    lo = std::min(lo, value), hi = std::max(hi, value);
+    if (value != bg) active += int64_t(counts[v]);
+  }
+  mMeta.valueMin = lo;
+  mMeta.valueMax = hi;
+  mMeta.activeVoxels = active;
+  HistogramBuilder histogram(mMeta.type, lo, hi);
+  for (size_t v = 0; v < counts.size(); ++v)
+    if (counts[v]) histogram.addRepeated(double(int64_t(v) - offset), counts[v]);
+  mMeta.histogram = histogram.finish();
 }
 
 void ZarrStore::deriveCoarseRecords(int m) {

@@ -34,7 +34,8 @@ struct ZarrOpenStats {
 /// value, known from a scan of which files exist, so bricks that touch only missing chunks are never read.
 ///
 /// Opening makes one pass over the bricks of the own levels that touch a present chunk, for their exact [min, max]
-/// and emptiness (exactly the prepped store's records, and so its octree), and the level-0 statistics and histogram.
+/// and emptiness (exactly the prepped store's records, and so its octree), and the level-0 statistics and histogram
+/// (counted in the same pass for u8, u16 and i16; a second pass over level 0 for f32).
 /// Coarse levels that are not the Zarr's own are averaged from the finer bricks through the `finer` fetch, with
 /// records bounded from the finer records (as VdbStore does).
 class ZarrStore final : public BrickStore, public std::enable_shared_from_this<ZarrStore> {
@@ -61,10 +62,12 @@ class ZarrStore final : public BrickStore, public std::enable_shared_from_this<Z
   ZarrStore() = default;
   void scanOwnLevel(int level);
   void level0Statistics();
+  void statisticsFromCounts(int64_t emptyVoxels);
   void deriveCoarseRecords(int level);
 
   std::unique_ptr<ZarrChunks> mChunks;
   std::vector<bool> mOwn;
+  std::vector<uint64_t> mLevel0Counts;  // u8, u16, i16: level 0's owned voxels by value, from the scan
   ZarrOpenStats mOpenStats;
 };
 
