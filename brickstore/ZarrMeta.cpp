@@ -288,7 +288,7 @@ bool isZarrDirectory(const fs::path& dir) {
   if (fs::is_regular_file(dir / "zarr.json", ec)) return true;
   if (!fs::is_regular_file(dir / ".zattrs", ec) || !fs::is_regular_file(dir / ".zgroup", ec)) return false;
   std::ifstream in(dir / ".zattrs", std::ios::binary);
-  std::string head(4096, '\0');
+  std::string head(size_t{1} << 20, '\0');  // "multiscales" may follow a long "omero" block
   in.read(head.data(), std::streamsize(head.size()));
   head.resize(size_t(in.gcount()));
   return head.find("\"multiscales\"") != std::string::npos;

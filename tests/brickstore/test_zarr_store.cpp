@@ -260,6 +260,14 @@ TEST(ZarrStore, TimeAndChannelPickOneVolume) {
                   0);
   EXPECT_THROW(ZarrStore::open(zarr, {"", 8, 2, 0}), InputError);
   EXPECT_THROW(ZarrStore::open(zarr, {"", 8, 0, 3}), InputError);
+  // Chunks spanning several time points and channels, in F order: the same voxels.
+  const auto wide = test::writeZarr(dir / "w.ome.zarr", json::parse(R"({"levels": 2, "axes": "tczyx", "t": 2,
+      "c": 3, "lead_chunks": [2, 2], "order": "F", "compressor": {"id": "zstd"}})"));
+  const auto wideLast = ZarrStore::open(wide, {"", 8, 1, 2});
+  uint16_t c = 0;
+  wideLast->chunks().readRegion(0, {24, 16, 22}, {24, 16, 22}, &c);
+  EXPECT_EQ(c, b);
+  EXPECT_EQ(wideLast->meta().histogram.counts, last->meta().histogram.counts);
 }
 
 TEST(ZarrStore, CommandsTakeTheDirectory) {

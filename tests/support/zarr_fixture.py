@@ -61,7 +61,7 @@ def main():
         step = 2 ** m
         level_shape = [(n + step - 1) // step for n in shape]
         lead = [times if a == "t" else channels for a in axes[:-3]]
-        arr = root.create_dataset(str(m), shape=lead + level_shape, chunks=[1] * len(lead) + chunks, dtype=dtype,
+        arr = root.create_dataset(str(m), shape=lead + level_shape, chunks=spec.get("lead_chunks", [1] * len(lead)) + chunks, dtype=dtype,
                                   compressor=compressor(spec.get("compressor")), order=spec.get("order", "C"),
                                   fill_value=fill, write_empty_chunks=False, overwrite=True)
         zs = np.arange(0, shape[0], step)
