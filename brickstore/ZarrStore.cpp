@@ -118,12 +118,13 @@ std::vector<bool> zarrOwnLevels(const ZarrMeta& meta, int brickSize) {
 
 ZarrStore::~ZarrStore() = default;
 
-std::shared_ptr<const ZarrStore> ZarrStore::open(const std::filesystem::path& dir, const StoreOpenOptions& options) {
+std::shared_ptr<const ZarrStore> ZarrStore::open(const std::filesystem::path& dir, const StoreOpenOptions& options,
+                                                 size_t chunkCacheBytes) {
   checkBrickSize(options.brickSize);
   if (!options.gridName.empty()) throw InputError(dir.string() + ": --grid applies to a .vdb file only");
   std::shared_ptr<ZarrStore> store(new ZarrStore());
   const auto start = Clock::now();
-  store->mChunks = std::make_unique<ZarrChunks>(readZarrMeta(dir, {options.time, options.channel}), kChunkCacheBytes);
+  store->mChunks = std::make_unique<ZarrChunks>(readZarrMeta(dir, {options.time, options.channel}), chunkCacheBytes);
   const ZarrMeta& zm = store->mChunks->meta();
   const ZarrArrayMeta& l0 = zm.levels.front();
   store->mPath = dir;

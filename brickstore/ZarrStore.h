@@ -40,9 +40,14 @@ struct ZarrOpenStats {
 /// records bounded from the finer records (as VdbStore does).
 class ZarrStore final : public BrickStore, public std::enable_shared_from_this<ZarrStore> {
  public:
-  /// Opens `dir` (an OME-Zarr group) with options.time, options.channel and options.brickSize. Throws InputError
-  /// naming the file and the field, CorruptStoreError naming a chunk that cannot be decoded, and IoError.
-  static std::shared_ptr<const ZarrStore> open(const std::filesystem::path& dir, const StoreOpenOptions& options = {});
+  /// Decoded chunks kept by default.
+  static constexpr size_t kChunkCacheBytes = size_t{256} << 20;
+
+  /// Opens `dir` (an OME-Zarr group) with options.time, options.channel and options.brickSize, keeping up to
+  /// `chunkCacheBytes` of decoded chunks (at least one). Throws InputError naming the file and the field,
+  /// CorruptStoreError naming a chunk that cannot be decoded, and IoError.
+  static std::shared_ptr<const ZarrStore> open(const std::filesystem::path& dir, const StoreOpenOptions& options = {},
+                                               size_t chunkCacheBytes = kChunkCacheBytes);
 
   ~ZarrStore() override;
 
@@ -56,7 +61,6 @@ class ZarrStore final : public BrickStore, public std::enable_shared_from_this<Z
   void readStored(const BrickKey& key, void* dst, const BrickSamplesFetch& finer) const override;
 
  private:
-  static constexpr size_t kChunkCacheBytes = size_t{256} << 20;
   static constexpr size_t kFallbackCacheBytes = size_t{256} << 20;
 
   ZarrStore() = default;

@@ -7,6 +7,7 @@
 #include <functional>
 #include <string>
 
+#include "brickstore/BrickStore.h"
 #include "brickstore/Errors.h"
 #include "brickstore/ZarrStore.h"
 #include "support/TestSupport.h"
@@ -144,6 +145,26 @@ TEST_F(ZarrRefusals, CorruptAndTruncatedChunksNameTheChunk) {
   editArray("0", [](json& a) { a["compressor"] = nullptr; });
   // Every chunk of level 0 is still blosc: the first one read is named.
   expectRefused<CorruptStoreError>(zarr, {"(chunk ", "of level 0)", "an uncompressed chunk has 8192", "truncated"});
+}
+
+TEST_F(ZarrRefusals, AChunkDamagedAfterOpenIsNamedWhenABrickNeedsIt) {
+  // A cache of one decoded chunk: reading the bricks again decodes the chunks again, the damaged one included.
+  const auto live = ZarrStore::open(zarr, {"", 8}, 1);
+  const std::vector<char> bytes = test::readFile(zarr / "0" / "1.1.1");
+  test::writeFile(zarr / "0" / "1.1.1", bytes.data(), bytes.size() / 2);
+  std::vector<char> samples(live->brickBytes());
+  std::string error;
+  const Vec3i nb = live->level(0).bricks;
+  for (uint32_t k = 0; k < nb.z && error.empty(); ++k)
+    for (uint32_t j = 0; j < nb.y && error.empty(); ++j)
+      for (uint32_t i = 0; i < nb.x && error.empty(); ++i) {
+        try {
+          live->readBrick({0, i, j, k}, samples.data());
+        } catch (const CorruptStoreError& e) {
+          error = e.what();
+        }
+      }
+  EXPECT_NE(error.find("0/1.1.1 (chunk 1,1,1 of level 0)"), std::string::npos) << error;
 }
 
 TEST_F(ZarrRefusals, CorruptZlibAndZstdChunks) {
