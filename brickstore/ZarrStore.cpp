@@ -14,6 +14,7 @@
 #include <tbb/parallel_for.h>
 
 #include "brickstore/BrickCache.h"
+#include "brickstore/Convert.h"
 #include "brickstore/Errors.h"
 #include "brickstore/HistogramBuilder.h"
 #include "brickstore/InputErrors.h"
@@ -124,7 +125,16 @@ std::shared_ptr<const ZarrStore> ZarrStore::open(const std::filesystem::path& di
   if (!options.gridName.empty()) throw InputError(dir.string() + ": --grid applies to a .vdb file only");
   std::shared_ptr<ZarrStore> store(new ZarrStore());
   const auto start = Clock::now();
-  store->mChunks = std::make_unique<ZarrChunks>(readZarrMeta(dir, {options.time, options.channel}), chunkCacheBytes);
+  ZarrMeta zarrMeta = readZarrMeta(dir, {options.time, options.channel});
+  // The records are sized from the bricks: refused here, before the chunk files are looked for or anything sized.
+  const Vec3i d = zarrMeta.levels.front().dims;
+  const int64_t B = options.brickSize;
+  const double level0Bricks = double(divUp(d.x, B)) * double(divUp(d.y, B)) * double(divUp(d.z, B));
+  if (level0Bricks > double(kMaxBricks))
+    throw InputError((dir / zarrMeta.levels.front().path / ".zarray").string() + ": field 'shape' " + dimsText(d) +
+                     " in bricks of " + std::to_string(B) + " makes " + std::to_string(int64_t(level0Bricks)) +
+                     " bricks, more than 2^26 (use a larger --brick, or prep it)");
+  store->mChunks = std::make_unique<ZarrChunks>(std::move(zarrMeta), chunkCacheBytes);
   const ZarrMeta& zm = store->mChunks->meta();
   const ZarrArrayMeta& l0 = zm.levels.front();
   store->mPath = dir;

@@ -42,6 +42,8 @@ class ZarrStore final : public BrickStore, public std::enable_shared_from_this<Z
  public:
   /// Decoded chunks kept by default.
   static constexpr size_t kChunkCacheBytes = size_t{256} << 20;
+  /// The most level-0 bricks read live (their records are held in memory).
+  static constexpr int64_t kMaxBricks = int64_t{1} << 26;
 
   /// Opens `dir` (an OME-Zarr group) with options.time, options.channel and options.brickSize, keeping up to
   /// `chunkCacheBytes` of decoded chunks (at least one). Throws InputError naming the file and the field,

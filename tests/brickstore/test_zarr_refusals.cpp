@@ -122,6 +122,20 @@ TEST_F(ZarrRefusals, SizesBeyondTheLimitsBeforeAllocating) {
   expectRefused<InputError>(zarr, {"0/.zarray", "larger than 1 GiB"});
   editArray("0", [](json& a) { a["chunks"] = {16, 0, 16}; });
   expectRefused<InputError>(zarr, {"0/.zarray", "'chunks'", "not an integer in [1, 2^30]"});
+  // 2^50 voxels in chunks of 512 MiB: within the chunk limits, refused for its 2^41 bricks.
+  editArray("0", [](json& a) {
+    a["shape"] = {int64_t{1} << 20, int64_t{1} << 20, 1024};
+    a["chunks"] = {512, 512, 1024};
+  });
+  editArray("1", [](json& a) {
+    a["shape"] = {int64_t{1} << 19, int64_t{1} << 19, 512};
+    a["chunks"] = {512, 512, 512};
+  });
+  expectRefused<InputError>(zarr, {"0/.zarray", "bricks of 8 makes", "more than 2^26"});
+  editArray("1", [](json& a) {
+    a["shape"] = {20, 18, 22};
+    a["chunks"] = {16, 16, 16};
+  });
   editArray("0", [](json& a) {
     a["chunks"] = {16, 16, 16};
     a["shape"] = {40, int64_t{1} << 31, 44};
