@@ -102,7 +102,7 @@ void parseCompressor(const json& j, ZarrArrayMeta& a, const std::string& file) {
   }
 }
 
-double parseFill(const json& j, const ZarrArrayMeta& a, const std::string& file) {
+double parseFill(const json& j, const std::string& file) {
   if (!j.contains("fill_value") || j["fill_value"].is_null()) return 0;
   const json& f = j["fill_value"];
   double v = 0;
@@ -113,7 +113,6 @@ double parseFill(const json& j, const ZarrArrayMeta& a, const std::string& file)
   else
     throw InputError(file + ": field 'fill_value' is " + f.dump() + ", not a number");
   if (!std::isfinite(v)) throw InputError(file + ": field 'fill_value' is not finite");
-  (void)a;
   return v;
 }
 
@@ -147,7 +146,7 @@ ZarrArrayMeta readArray(const fs::path& dir, const std::string& path, size_t ran
     throw InputError(name + ": field 'dimension_separator' is \"" + sep + "\", not \".\" or \"/\"");
   a.separator = sep[0];
   parseCompressor(j, a, name);
-  a.fillValue = parseFill(j, a, name);
+  a.fillValue = parseFill(j, name);
   int64_t chunkBytes = int64_t(fileValueSize(a.fileType));
   for (int64_t c : a.chunks) chunkBytes = c > kMaxZarrChunkBytes / chunkBytes ? kMaxZarrChunkBytes + 1 : chunkBytes * c;
   if (chunkBytes > kMaxZarrChunkBytes)
@@ -219,6 +218,25 @@ void readAxes(const json& ms, ZarrMeta& m, size_t rankHint, const std::string& w
       throw InputError(what + " 'axes' has \"" + n + "\" before z, y, x; only one t and one c are read");
     slot = int(d);
   }
+}
+
+/// A pyramid level against the level before it: smaller (not larger along any axis, and not the same shape), the
+/// same lengths along t and c, the same dtype.
+void checkAgainstFiner(const ZarrArrayMeta& a, const ZarrArrayMeta& prev, const std::vector<std::string>& axisNames,
+                       const std::string& where) {
+  const std::string& path = a.path;
+  const size_t rank = axisNames.size();
+  for (int d = 0; d < 3; ++d)
+    if (a.dims[d] > prev.dims[d])
+      throw InputError(where + " (" + path + ") has shape " + dimsText(a.dims) + ", larger than the level before (" +
+                       dimsText(prev.dims) + "): pyramid levels must shrink");
+  if (a.dims == prev.dims)
+    throw InputError(where + " (" + path + ") has the same shape as the level before: pyramid levels must shrink");
+  for (size_t d = 0; d + 3 < rank; ++d)
+    if (a.shape[d] != prev.shape[d])
+      throw InputError(where + " (" + path + ") has " + std::to_string(a.shape[d]) + " along '" + axisNames[d] +
+                       "', the level before " + std::to_string(prev.shape[d]));
+  if (a.fileType != prev.fileType) throw InputError(where + " (" + path + ") has another dtype than the level before");
 }
 
 }  // namespace
@@ -294,6 +312,22 @@ bool isZarrDirectory(const fs::path& dir) {
   return head.find("\"multiscales\"") != std::string::npos;
 }
 
+/// The chosen time point and channel against the t and c axes (0 where there is no such axis).
+static void checkSelection(const ZarrMeta& m, const std::string& attrsName) {
+  const ZarrSelection& selection = m.selection;
+  const ZarrArrayMeta& l0 = m.levels.front();
+  if (selection.time < 0 || (m.timeAxis < 0 ? selection.time != 0 : selection.time >= l0.shape[size_t(m.timeAxis)]))
+    throw InputError(attrsName + ": --time " + std::to_string(selection.time) + " is outside the 't' axis (" +
+                     (m.timeAxis < 0 ? std::string("none") : std::to_string(l0.shape[size_t(m.timeAxis)]) + " points") +
+                     ")");
+  if (selection.channel < 0 ||
+      (m.channelAxis < 0 ? selection.channel != 0 : selection.channel >= l0.shape[size_t(m.channelAxis)]))
+    throw InputError(
+        attrsName + ": --channel " + std::to_string(selection.channel) + " is outside the 'c' axis (" +
+        (m.channelAxis < 0 ? std::string("none") : std::to_string(l0.shape[size_t(m.channelAxis)]) + " channels") +
+        ")");
+}
+
 ZarrMeta readZarrMeta(const fs::path& root, const ZarrSelection& selection) {
   std::error_code ec;
   if (fs::is_regular_file(root / "zarr.json", ec))
@@ -338,34 +372,10 @@ ZarrMeta readZarrMeta(const fs::path& root, const ZarrSelection& selection) {
     if (ds.contains("coordinateTransformations")) readTransforms(ds["coordinateTransformations"], rank, a, where);
     if (ms.contains("coordinateTransformations"))
       throw InputError(what + " has multiscales-level 'coordinateTransformations', which are not read");
-    if (!m.levels.empty()) {
-      const ZarrArrayMeta& prev = m.levels.back();
-      for (int d = 0; d < 3; ++d)
-        if (a.dims[d] > prev.dims[d])
-          throw InputError(where + " (" + path + ") has shape " + dimsText(a.dims) +
-                           ", larger than the level before (" + dimsText(prev.dims) + "): pyramid levels must shrink");
-      if (a.dims == prev.dims)
-        throw InputError(where + " (" + path + ") has the same shape as the level before: pyramid levels must shrink");
-      for (size_t d = 0; d + 3 < rank; ++d)
-        if (a.shape[d] != prev.shape[d])
-          throw InputError(where + " (" + path + ") has " + std::to_string(a.shape[d]) + " along '" + m.axisNames[d] +
-                           "', the level before " + std::to_string(prev.shape[d]));
-      if (a.fileType != prev.fileType)
-        throw InputError(where + " (" + path + ") has another dtype than the level before");
-    }
+    if (!m.levels.empty()) checkAgainstFiner(a, m.levels.back(), m.axisNames, where);
     m.levels.push_back(std::move(a));
   }
-  const ZarrArrayMeta& l0 = m.levels.front();
-  if (selection.time < 0 || (m.timeAxis < 0 ? selection.time != 0 : selection.time >= l0.shape[size_t(m.timeAxis)]))
-    throw InputError(attrsName + ": --time " + std::to_string(selection.time) + " is outside the 't' axis (" +
-                     (m.timeAxis < 0 ? std::string("none") : std::to_string(l0.shape[size_t(m.timeAxis)]) + " points") +
-                     ")");
-  if (selection.channel < 0 ||
-      (m.channelAxis < 0 ? selection.channel != 0 : selection.channel >= l0.shape[size_t(m.channelAxis)]))
-    throw InputError(
-        attrsName + ": --channel " + std::to_string(selection.channel) + " is outside the 'c' axis (" +
-        (m.channelAxis < 0 ? std::string("none") : std::to_string(l0.shape[size_t(m.channelAxis)]) + " channels") +
-        ")");
+  checkSelection(m, attrsName);
   return m;
 }
 
