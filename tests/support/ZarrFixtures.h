@@ -15,9 +15,9 @@
 
 namespace voxbrick::test {
 
-/// The fixture writer beside this header.
+/// The fixture writer beside this header (the test binary defines VOXBRICK_SOURCE_DIR).
 inline std::filesystem::path zarrFixtureScript() {
-  return std::filesystem::path(__FILE__).parent_path() / "zarr_fixture.py";
+  return std::filesystem::path(VOXBRICK_SOURCE_DIR) / "tests" / "support" / "zarr_fixture.py";
 }
 
 /// Writes an OME-Zarr at `out` from `spec` (zarr_fixture.py's JSON; "out" is set here) with /usr/bin/python3.
