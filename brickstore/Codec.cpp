@@ -1,6 +1,7 @@
 // zstd frames for bricks. Contexts are thread-local: creating one per brick costs more than decoding a sparse brick.
 #include "brickstore/Codec.h"
 
+#define ZSTD_STATIC_LINKING_ONLY  // ZSTD_c_literalCompressionMode
 #include <zstd.h>
 
 #include <memory>
@@ -68,6 +69,10 @@ void compressFrame(const void* src, size_t size, size_t elementSize, int level, 
   ZSTD_CCtx_reset(cctx, ZSTD_reset_session_and_parameters);
   ZSTD_CCtx_setParameter(cctx, ZSTD_c_compressionLevel, level);
   ZSTD_CCtx_setParameter(cctx, ZSTD_c_checksumFlag, 1);
+  // 32-bit values at the default level store their literals as they are, as zstd's own negative levels do: on float
+  // bricks (planes of mantissa noise) Huffman coding them costs a third of the compression time for 0.3 % of the
+  // bytes. Not for 8- and 16-bit values, where it saves a quarter of the bytes of an MRI.
+  if (level == 1 && elementSize == 4) ZSTD_CCtx_setParameter(cctx, ZSTD_c_literalCompressionMode, ZSTD_ps_disable);
   dst.resize(ZSTD_compressBound(size));
   size_t n = ZSTD_compress2(cctx, dst.data(), dst.size(), src, size);
   if (ZSTD_isError(n)) throw StoreError(std::string("compressFrame: zstd: ") + ZSTD_getErrorName(n));

@@ -1,12 +1,9 @@
-// DICOM series input through GDCM: headers of every file read first (series, geometry, pixel format), the chosen
-// series sorted along its slice normal and checked, then one file decoded per z-slice as prep streams.
+// DICOM series input through GDCM: every file identified first (series, SOP class; what is not an image is skipped),
+// then the chosen series' slices (single-frame files, or the frames of an enhanced multi-frame image or an RT dose
+// grid) read, sorted along the slice normal and checked; pixels are decoded a file at a time as prep streams.
 #include <gdcmImage.h>
 #include <gdcmImageReader.h>
-#include <gdcmReader.h>
-#include <gdcmStringFilter.h>
 #include <gdcmTrace.h>
-#include <gdcmTransferSyntax.h>
-#include <gdcmUIDs.h>
 
 #include <algorithm>
 #include <array>
@@ -21,6 +18,7 @@
 #include <vector>
 
 #include "brickstore/Convert.h"
+#include "brickstore/DicomHeader.h"
 #include "brickstore/DicomStructure.h"
 #include "brickstore/Errors.h"
 #include "brickstore/Sources.h"
@@ -30,22 +28,9 @@ namespace {
 
 using Vec = Orientation::Vec;
 
-constexpr double kSpacingTolerance = 0.01;    // slice steps may differ from the series' step by 1 %
+constexpr const char* kRtDose = "1.2.840.10008.5.1.4.1.1.481.2";  // RT Dose Storage
+constexpr double kSpacingTolerance = 0.01;                        // slice steps may differ from the series' step by 1 %
 constexpr double kDirectionTolerance = 1e-4;  // direction cosines of two slices count as equal within this
-
-/// What one file's header says, before any pixel is decoded.
-struct SliceHeader {
-  std::string file, seriesUid, description, photometric;
-  gdcm::TransferSyntax syntax;
-  int64_t rows = 0, columns = 0, frames = 1, samples = 1;
-  int bitsAllocated = 0, bitsStored = 0, highBit = 0;
-  bool isSigned = false;
-  Vec position{}, row{}, column{};
-  double rowSpacing = 0, columnSpacing = 0;  // PixelSpacing: between rows (along j), between columns (along i)
-  double slope = 1, intercept = 0;
-  double along = 0;    // position along the series' slice normal
-  DicomLayout layout;  // what the structure walk found of the pixel data
-};
 
 Vec sub(const Vec& a, const Vec& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
 double dot(const Vec& a, const Vec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
@@ -66,154 +51,31 @@ std::string number(double v) {
 
 std::string vecText(const Vec& v) { return number(v[0]) + "\\" + number(v[1]) + "\\" + number(v[2]); }
 
-/// "1.2.840.10008.1.2.4.100 (MPEG2 Main Profile / Main Level)".
-std::string syntaxName(const gdcm::TransferSyntax& ts) {
-  const char* uid = gdcm::TransferSyntax::GetTSString(ts);
-  if (!uid) return "an unknown transfer syntax";
-  gdcm::UIDs u;
-  std::string text = uid;
-  if (u.SetFromUID(uid) && u.GetName()) text += std::string(" (") + u.GetName() + ")";
-  return text;
-}
-
-/// The syntaxes GDCM decodes here: native (implicit/explicit, either byte order, deflated), JPEG, JPEG-LS,
-/// JPEG 2000 and RLE. Video (MPEG, H.264), JPIP references and vendor oddities are refused by name.
-bool decodable(const gdcm::TransferSyntax& ts) {
-  using T = gdcm::TransferSyntax;
-  switch (T::TSType(ts)) {
-    case T::ImplicitVRLittleEndian:
-    case T::ExplicitVRLittleEndian:
-    case T::DeflatedExplicitVRLittleEndian:
-    case T::ExplicitVRBigEndian:
-    case T::JPEGBaselineProcess1:
-    case T::JPEGExtendedProcess2_4:
-    case T::JPEGExtendedProcess3_5:
-    case T::JPEGSpectralSelectionProcess6_8:
-    case T::JPEGFullProgressionProcess10_12:
-    case T::JPEGLosslessProcess14:
-    case T::JPEGLosslessProcess14_1:
-    case T::JPEGLSLossless:
-    case T::JPEGLSNearLossless:
-    case T::JPEG2000Lossless:
-    case T::JPEG2000:
-    case T::JPEG2000Part2Lossless:
-    case T::JPEG2000Part2:
-    case T::RLELossless: return true;
-    default: return false;
-  }
-}
-
-/// Reads tags of one file's data set as text (numbers of binary VRs in decimal), and checks what is required.
-class TagReader {
- public:
-  TagReader(const gdcm::File& file, std::string path) : mDataSet(file.GetDataSet()), mPath(std::move(path)) {
-    mFilter.SetFile(file);
-  }
-
-  bool has(uint16_t group, uint16_t element) const {
-    const gdcm::Tag tag(group, element);
-    return mDataSet.FindDataElement(tag) && !mDataSet.GetDataElement(tag).IsEmpty();
-  }
-  /// The value with surrounding spaces and NULs removed; "" when absent.
-  std::string text(uint16_t group, uint16_t element) const {
-    if (!has(group, element)) return "";
-    std::string s = mFilter.ToString(gdcm::Tag(group, element));
-    const auto first = s.find_first_not_of(" \0"), last = s.find_last_not_of(std::string(" \0", 2));
-    return first == std::string::npos ? "" : s.substr(first, last - first + 1);
-  }
-  /// Backslash-separated numbers; throws InputError naming the tag when absent (and required) or not `count` numbers.
-  std::vector<double> numbers(uint16_t group, uint16_t element, const char* name, size_t count,
-                              const std::vector<double>& fallback = {}) const {
-    if (!has(group, element)) {
-      if (!fallback.empty()) return fallback;
-      throw InputError(mPath + ": missing DICOM tag " + name + " " + tagText(group, element));
-    }
-    const std::string s = text(group, element);
-    std::vector<double> v;
-    std::stringstream in(s);
-    for (std::string item; std::getline(in, item, '\\');) {
-      char* end = nullptr;
-      const double d = std::strtod(item.c_str(), &end);
-      while (end && *end == ' ') ++end;
-      if (item.empty() || !end || *end != '\0' || !std::isfinite(d))
-        throw InputError(mPath + ": DICOM tag " + name + " is not numeric: '" + s + "'");
-      v.push_back(d);
-    }
-    if (v.size() != count)
-      throw InputError(mPath + ": DICOM tag " + name + " has " + std::to_string(v.size()) + " values, expected " +
-                       std::to_string(count) + ": '" + s + "'");
-    return v;
-  }
-  double one(uint16_t group, uint16_t element, const char* name, double fallback = std::nan("")) const {
-    return numbers(group, element, name, 1, std::isnan(fallback) ? std::vector<double>{} : std::vector{fallback})[0];
-  }
-
- private:
-  static std::string tagText(uint16_t group, uint16_t element) {
-    char b[16];
-    std::snprintf(b, sizeof b, "(%04X,%04X)", group, element);
-    return b;
-  }
-  const gdcm::DataSet& mDataSet;
-  gdcm::StringFilter mFilter;
-  std::string mPath;
-};
-
-/// Fills the geometry and pixel format of `h` from its tags.
-void readTags(const TagReader& t, SliceHeader& h) {
-  h.seriesUid = t.text(0x0020, 0x000E);
-  if (h.seriesUid.empty()) throw InputError(h.file + ": missing DICOM tag SeriesInstanceUID (0020,000E)");
-  h.description = t.text(0x0008, 0x103E);
-  h.photometric = t.text(0x0028, 0x0004);
-  h.samples = int64_t(t.one(0x0028, 0x0002, "SamplesPerPixel", 1));
-  h.frames = int64_t(t.one(0x0028, 0x0008, "NumberOfFrames", 1));
-  h.rows = int64_t(t.one(0x0028, 0x0010, "Rows"));
-  h.columns = int64_t(t.one(0x0028, 0x0011, "Columns"));
-  h.bitsAllocated = int(t.one(0x0028, 0x0100, "BitsAllocated"));
-  h.bitsStored = int(t.one(0x0028, 0x0101, "BitsStored", h.bitsAllocated));
-  h.highBit = int(t.one(0x0028, 0x0102, "HighBit", h.bitsStored - 1));
-  h.isSigned = t.one(0x0028, 0x0103, "PixelRepresentation") == 1;
-  const auto p = t.numbers(0x0020, 0x0032, "ImagePositionPatient", 3);
-  const auto o = t.numbers(0x0020, 0x0037, "ImageOrientationPatient", 6);
-  const auto s = t.numbers(0x0028, 0x0030, "PixelSpacing", 2);
-  h.position = {p[0], p[1], p[2]};
-  h.row = {o[0], o[1], o[2]};
-  h.column = {o[3], o[4], o[5]};
-  h.rowSpacing = s[0];
-  h.columnSpacing = s[1];
-  h.slope = t.one(0x0028, 0x1053, "RescaleSlope", 1);
-  h.intercept = t.one(0x0028, 0x1052, "RescaleIntercept", 0);
-}
-
 /// Refuses what this reader cannot turn into one scalar slice, by name.
 void checkSupported(const SliceHeader& h) {
   const std::string& f = h.file;
-  if (!decodable(h.syntax)) throw InputError(f + ": unsupported transfer syntax " + syntaxName(h.syntax));
+  if (!h.decodable) throw InputError(f + ": unsupported transfer syntax " + h.syntaxText);
   if (h.samples != 1 || (h.photometric != "" && h.photometric != "MONOCHROME1" && h.photometric != "MONOCHROME2"))
     throw InputError(f + ": colour images are not supported (SamplesPerPixel " + std::to_string(h.samples) +
                      ", PhotometricInterpretation '" + h.photometric + "'); only greyscale (MONOCHROME1/2)");
-  if (h.frames != 1)
-    throw InputError(f + ": multi-frame images are not supported (NumberOfFrames " + std::to_string(h.frames) +
-                     "); give a series of one slice a file");
-  if (h.bitsAllocated != 8 && h.bitsAllocated != 16)
-    throw InputError(f + ": BitsAllocated " + std::to_string(h.bitsAllocated) + " is not supported (8 or 16)");
+  if (h.frames < 1) throw InputError(f + ": NumberOfFrames " + std::to_string(h.frames) + " is not positive");
+  if (h.bitsAllocated != 8 && h.bitsAllocated != 16 && h.bitsAllocated != 32)
+    throw InputError(f + ": BitsAllocated " + std::to_string(h.bitsAllocated) + " is not supported (8, 16 or 32)");
   if (h.bitsStored < 1 || h.bitsStored > h.bitsAllocated || h.highBit != h.bitsStored - 1)
     throw InputError(f + ": unsupported bit layout (BitsAllocated " + std::to_string(h.bitsAllocated) +
                      ", BitsStored " + std::to_string(h.bitsStored) + ", HighBit " + std::to_string(h.highBit) + ")");
   if (h.rows < 1 || h.columns < 1 || h.rows > 65535 || h.columns > 65535)
     throw InputError(f + ": bad image size " + std::to_string(h.columns) + "x" + std::to_string(h.rows));
   if (!(h.rowSpacing > 0) || !(h.columnSpacing > 0))
-    throw InputError(f + ": PixelSpacing must be positive (" + number(h.rowSpacing) + "\\" + number(h.columnSpacing) +
-                     ")");
-  if (!(std::fabs(h.slope) > 0)) throw InputError(f + ": RescaleSlope is 0");
+    throw InputError(h.name() + ": PixelSpacing must be positive (" + number(h.rowSpacing) + "\\" +
+                     number(h.columnSpacing) + ")");
+  if (!(std::fabs(h.slope) > 0))
+    throw InputError(h.name() + (h.dose ? ": DoseGridScaling is 0" : ": RescaleSlope is 0"));
 }
 
 /// The header's pixel format, to check the pixel data's length and encoding against.
 DicomPixelFormat pixelFormat(const SliceHeader& h) {
-  const char* uid = gdcm::TransferSyntax::GetTSString(h.syntax);
-  return {
-      h.rows,        h.columns, h.frames, h.samples, h.bitsAllocated, h.syntax.IsEncapsulated(), syntaxName(h.syntax),
-      uid ? uid : ""};
+  return {h.rows, h.columns, h.frames, h.samples, h.bitsAllocated, h.encapsulatedSyntax, h.syntaxText, h.syntaxUid};
 }
 
 /// The most of a deflated data set inflated before it is refused: 128 MB (a 16-bit slice of 8192 x 8192 with its
@@ -223,51 +85,94 @@ uint64_t maxInflatedBytes(const SourceOptions& options) {
   return options.memoryBudgetMB > 0 ? std::min(kMax, uint64_t(options.memoryBudgetMB) << 18) : kMax;
 }
 
-/// Reads one file's header (not its pixels). Every failure of GDCM becomes an InputError naming the file.
-SliceHeader readHeader(const std::string& path, uint64_t maxInflated) {
-  SliceHeader h;
-  h.file = path;
-  h.layout = checkDicomStructure(path, maxInflated);
-  try {
-    gdcm::Reader reader;
-    reader.SetFileName(path.c_str());
-    if (!reader.ReadUpToTag(gdcm::Tag(0x7FE0, 0x0010)))
-      throw InputError(path + ": not a readable DICOM file (GDCM could not parse it)");
-    h.syntax = reader.GetFile().GetHeader().GetDataSetTransferSyntax();
-    readTags(TagReader(reader.GetFile(), path), h);
-  } catch (const InputError&) {
-    throw;
-  } catch (const std::exception& e) {
-    throw InputError(path + ": not a readable DICOM file (" + e.what() + ")");
-  }
-  return h;
-}
-
-/// "UID (12 files, 'desc')" per series, for the error that asks for --series.
-std::string seriesList(const std::map<std::string, std::vector<SliceHeader>>& series) {
+/// "UID (3 files, CT 'desc', 512x512, 120 slices)" per image series, for the listing that asks for --series.
+std::string seriesList(const std::map<std::string, std::vector<DicomFileEntry>>& series) {
   std::string text;
-  for (const auto& [uid, slices] : series)
-    text += (text.empty() ? "" : "; ") + uid + " (" + std::to_string(slices.size()) + " files, '" +
-            slices.front().description + "')";
+  for (const auto& [uid, files] : series) {
+    const DicomFileEntry& a = files.front();
+    int64_t slices = 0;
+    for (const DicomFileEntry& f : files) slices += f.frames;
+    text += (text.empty() ? "" : "; ") + uid + " (" + std::to_string(files.size()) + " file" +
+            (files.size() == 1 ? "" : "s") + ", " + (a.modality.empty() ? "" : a.modality + ", ") +
+            (a.description.empty() ? "" : "'" + a.description + "', ") + std::to_string(a.columns) + "x" +
+            std::to_string(a.rows) + ", " + std::to_string(slices) + " slice" + (slices == 1 ? "" : "s") + ")";
+  }
   return text;
 }
 
-/// The slices of one series: options.seriesUid, else the series of `chosenFile`, else the only one.
-std::vector<SliceHeader> selectSeries(std::vector<SliceHeader> all, const std::string& uid,
-                                      const std::string& chosenFile, const std::string& what) {
-  std::map<std::string, std::vector<SliceHeader>> series;
+/// " (skipped, not images: rtplan.dcm (RT plan), ...)" for the files that are not images; "" when none.
+std::string skippedList(const std::vector<DicomFileEntry>& skipped) {
+  if (skipped.empty()) return "";
+  std::string text;
+  for (size_t k = 0; k < skipped.size() && k < 6; ++k)
+    text += (k ? ", " : "") + baseName(skipped[k].file) + " (" + skipped[k].notImage + ")";
+  if (skipped.size() > 6) text += " and " + std::to_string(skipped.size() - 6) + " more";
+  return " (skipped, not images: " + text + ")";
+}
+
+/// The files of one image series: options.seriesUid, else the series of `chosenFile`, else the only image series
+/// with pixel data. Files that are not images (reports, plans, structure sets, ...) and other series are skipped
+/// before any file is validated as an image; several image series and none chosen list them.
+std::vector<DicomFileEntry> selectSeries(std::vector<DicomFileEntry> all, const std::string& uid,
+                                         const std::string& chosenFile, const std::string& what) {
+  std::map<std::string, std::vector<DicomFileEntry>> series;
+  std::vector<DicomFileEntry> skipped;
   std::string chosenUid = uid;
-  for (SliceHeader& h : all) {
-    if (uid.empty() && h.file == chosenFile) chosenUid = h.seriesUid;
-    series[h.seriesUid].push_back(std::move(h));
+  for (DicomFileEntry& e : all) {
+    if (uid.empty() && e.file == chosenFile) {
+      if (!e.notImage.empty())
+        throw InputError(e.file + ": is a DICOM " + e.notImage + ", not an image (give an image file, or the folder)");
+      chosenUid = e.seriesUid;
+    }
+    if (!e.notImage.empty())
+      skipped.push_back(std::move(e));
+    else
+      series[e.seriesUid].push_back(std::move(e));
   }
-  if (chosenUid.empty() && series.size() == 1) chosenUid = series.begin()->first;
-  if (chosenUid.empty())
-    throw InputError(what + ": holds " + std::to_string(series.size()) +
-                     " DICOM series; pick one with --series UID: " + seriesList(series));
+  if (chosenUid.empty()) {
+    std::vector<std::string> withPixels;
+    for (const auto& [id, files] : series)
+      if (std::any_of(files.begin(), files.end(), [](const DicomFileEntry& f) { return f.layout.hasPixelData; }))
+        withPixels.push_back(id);
+    if (withPixels.empty()) throw InputError(what + ": holds no DICOM image series" + skippedList(skipped));
+    if (withPixels.size() > 1)
+      throw InputError(what + ": holds " + std::to_string(withPixels.size()) +
+                       " DICOM image series; pick one with --series UID: " + seriesList(series) + skippedList(skipped));
+    chosenUid = withPixels.front();
+  }
   auto it = series.find(chosenUid);
-  if (it == series.end()) throw InputError(what + ": no DICOM series " + chosenUid + "; found " + seriesList(series));
-  return std::move(it->second);
+  if (it != series.end()) return std::move(it->second);
+  for (const DicomFileEntry& e : skipped)
+    if (e.seriesUid == chosenUid)
+      throw InputError(what + ": DICOM series " + chosenUid + " holds no image (" + baseName(e.file) + " is a " +
+                       e.notImage + ")");
+  throw InputError(what + ": no DICOM image series " + chosenUid + "; found " +
+                   (series.empty() ? std::string("none") : seriesList(series)));
+}
+
+/// A multi-frame image or an RT dose grid is a volume of its own: the named file alone when it is one; a series
+/// holding one beside other files is refused, asking for a file. Other copies of the named file's instance (its
+/// SOPInstanceUID, as another transfer syntax or a second export leaves them) are left out; other duplicates are
+/// refused later, by position.
+std::vector<DicomFileEntry> oneVolume(std::vector<DicomFileEntry> all, const std::string& chosenFile) {
+  std::string chosenInstance;
+  for (const DicomFileEntry& e : all)
+    if (e.file == chosenFile) chosenInstance = e.sopInstance;
+  std::vector<DicomFileEntry> series;
+  for (DicomFileEntry& e : all)
+    if (chosenInstance.empty() || e.sopInstance != chosenInstance || e.file == chosenFile)
+      series.push_back(std::move(e));
+  auto own = [](const DicomFileEntry& e) { return e.frames > 1 || e.sopClass == kRtDose; };
+  for (DicomFileEntry& e : series)
+    if (e.file == chosenFile && own(e)) return {std::move(e)};
+  if (series.size() < 2) return series;
+  for (const DicomFileEntry& e : series)
+    if (own(e))
+      throw InputError(e.file + ": " + (e.sopClass == kRtDose ? "an RT dose grid" : "a multi-frame image") +
+                       " (NumberOfFrames " + std::to_string(e.frames) + "), a volume of its own, beside " +
+                       std::to_string(series.size() - 1) + " other file(s) of DICOM series " + e.seriesUid +
+                       ": name the file to read");
+  return series;
 }
 
 bool sameDirection(const Vec& a, const Vec& b) {
@@ -280,7 +185,7 @@ void checkConsistent(const std::vector<SliceHeader>& slices) {
   const SliceHeader& a = slices.front();
   for (const SliceHeader& b : slices) {
     auto differ = [&](const std::string& what, const std::string& x, const std::string& y) {
-      return InputError(b.file + ": " + what + " " + y + " differs from " + x + " in " + a.file);
+      return InputError(b.name() + ": " + what + " " + y + " differs from " + x + " in " + a.name());
     };
     if (b.rows != a.rows || b.columns != a.columns)
       throw differ("size", std::to_string(a.columns) + "x" + std::to_string(a.rows),
@@ -316,7 +221,7 @@ std::array<Vec, 3> directions(const SliceHeader& h) {
 double sortAlongNormal(std::vector<SliceHeader>& slices, const Vec& normal, const Vec& row, const Vec& column) {
   for (SliceHeader& s : slices) s.along = dot(s.position, normal);
   std::sort(slices.begin(), slices.end(), [](const SliceHeader& a, const SliceHeader& b) {
-    return a.along != b.along ? a.along < b.along : a.file < b.file;
+    return a.along != b.along ? a.along < b.along : a.file != b.file ? a.file < b.file : a.frame < b.frame;
   });
   if (slices.size() < 2) return 1.0;
   std::vector<double> steps;
@@ -328,14 +233,14 @@ double sortAlongNormal(std::vector<SliceHeader>& slices, const Vec& normal, cons
   for (size_t k = 1; k < slices.size(); ++k) {
     const SliceHeader &a = slices[k - 1], &b = slices[k];
     if (steps[k - 1] <= 1e-3 * std::max(step, 1e-3))
-      throw InputError("duplicate slice position: " + a.file + " and " + b.file + " both lie at " + number(a.along) +
-                       " mm along the slice normal");
+      throw InputError("duplicate slice position: " + a.name() + " and " + b.name() + " both lie at " +
+                       number(a.along) + " mm along the slice normal");
     if (std::fabs(steps[k - 1] - step) > kSpacingTolerance * step)
-      throw InputError("uneven slice spacing: " + a.file + " to " + b.file + " is " + number(steps[k - 1]) +
+      throw InputError("uneven slice spacing: " + a.name() + " to " + b.name() + " is " + number(steps[k - 1]) +
                        " mm along the slice normal, the series' step is " + number(step) + " mm (a missing slice?)");
     const Vec d = sub(b.position, slices[0].position);
     if (std::fabs(dot(d, row)) > inPlaneTolerance || std::fabs(dot(d, column)) > inPlaneTolerance)
-      throw InputError(b.file + ": slice is shifted in-plane from " + slices[0].file +
+      throw InputError(b.name() + ": slice is shifted in-plane from " + slices[0].name() +
                        " (ImagePositionPatient not along the slice normal: a tilted gantry?); not supported");
   }
   if (!(step > 0)) throw InputError(slices[0].file + ": zero slice step");
@@ -343,9 +248,10 @@ double sortAlongNormal(std::vector<SliceHeader>& slices, const Vec& normal, cons
 }
 
 /// The store type: the stored integers when every slice shares an integral rescale whose range fits u8, u16 or i16;
-/// else f32.
+/// else f32 (always for an RT dose grid: Gy).
 ValueType outputType(const std::vector<SliceHeader>& slices) {
   const SliceHeader& a = slices.front();
+  if (a.dose) return ValueType::F32;
   for (const SliceHeader& s : slices)
     if (s.slope != a.slope || s.intercept != a.intercept) return ValueType::F32;
   if (a.slope != std::round(a.slope) || a.intercept != std::round(a.intercept)) return ValueType::F32;
@@ -383,44 +289,53 @@ class DicomSource final : public VolumeSource {
   }
 
  private:
-  /// Decodes one file (GDCM: native or compressed) and writes its rescaled values as the store type.
+  /// Decodes the slice's file (GDCM: native or compressed) unless it is the one decoded last (the frames of a
+  /// multi-frame file), and writes the slice's rescaled values as the store type.
   void readSlice(const SliceHeader& h, unsigned char* dst) {
-    const int64_t plane = mInfo.dims.x * mInfo.dims.y;
-    const size_t bytes = size_t(plane) * size_t(h.bitsAllocated / 8);
+    const size_t frameBytes = size_t(mInfo.dims.x * mInfo.dims.y) * size_t(h.bitsAllocated / 8);
+    if (mDecoded != h.file) decode(h, frameBytes * size_t(h.frames));
+    convert(h, mInfo.dims.x * mInfo.dims.y, mBuffer.data() + frameBytes * size_t(std::max<int64_t>(h.frame, 0)), dst);
+  }
+
+  void decode(const SliceHeader& h, size_t bytes) {
+    mDecoded.clear();
     // Again: the file may have changed since the source opened.
     checkPixelData(h.file, checkDicomStructure(h.file, mMaxInflated), pixelFormat(h));
     try {
       gdcm::ImageReader reader;
       reader.SetFileName(h.file.c_str());
-      if (!reader.Read()) throw InputError(h.file + ": GDCM could not read the image (" + syntaxName(h.syntax) + ")");
+      if (!reader.Read()) throw InputError(h.file + ": GDCM could not read the image (" + h.syntaxText + ")");
       const gdcm::Image& image = reader.GetImage();
       if (image.GetBufferLength() != bytes)
         throw InputError(h.file + ": decoded pixel data is " + std::to_string(image.GetBufferLength()) +
-                         " bytes, expected " + std::to_string(bytes) + " for " + std::to_string(h.columns) + "x" +
-                         std::to_string(h.rows) + " " + std::to_string(h.bitsAllocated) + "-bit pixels");
+                         " bytes, expected " + std::to_string(bytes) + " for " + std::to_string(h.frames) + " x " +
+                         std::to_string(h.columns) + "x" + std::to_string(h.rows) + " " +
+                         std::to_string(h.bitsAllocated) + "-bit pixels");
       mBuffer.resize(bytes);
       if (!image.GetBuffer(mBuffer.data()))
-        throw InputError(h.file + ": GDCM could not decode the pixel data (" + syntaxName(h.syntax) + ")");
+        throw InputError(h.file + ": GDCM could not decode the pixel data (" + h.syntaxText + ")");
     } catch (const InputError&) {
       throw;
     } catch (const std::exception& e) {
       throw InputError(h.file + ": GDCM could not decode the pixel data (" + e.what() + ")");
     }
-    convert(h, plane, dst);
+    mDecoded = h.file;
   }
 
-  void convert(const SliceHeader& h, int64_t count, unsigned char* dst) const {
+  void convert(const SliceHeader& h, int64_t count, const char* src, unsigned char* dst) const {
     dispatchType(mInfo.type, [&](auto zero) {
       using T = decltype(zero);
       T* out = reinterpret_cast<T*>(dst);
       for (int64_t i = 0; i < count; ++i) {
         uint32_t bits;
         if (h.bitsAllocated == 8) {
-          bits = uint8_t(mBuffer[size_t(i)]);
-        } else {
+          bits = uint8_t(src[i]);
+        } else if (h.bitsAllocated == 16) {
           uint16_t b;
-          std::memcpy(&b, mBuffer.data() + 2 * i, 2);
+          std::memcpy(&b, src + 2 * i, 2);
           bits = b;
+        } else {
+          std::memcpy(&bits, src + 4 * i, 4);
         }
         const double v = h.slope * double(storedValue(bits, h.bitsStored, h.isSigned)) + h.intercept;
         if constexpr (std::is_floating_point_v<T>)
@@ -433,7 +348,8 @@ class DicomSource final : public VolumeSource {
 
   VolumeInfo mInfo;
   std::vector<SliceHeader> mSlices;
-  std::vector<char> mBuffer;
+  std::vector<char> mBuffer;  // the decoded pixels of file mDecoded: every frame of it
+  std::string mDecoded;
   uint64_t mMaxInflated;
   int64_t mNextZ = 0;
 };
@@ -452,10 +368,15 @@ VolumeInfo volumeInfo(const std::vector<SliceHeader>& slices, const std::array<V
   info.orientation.origin = lpsToRas(a.position);
   info.orientation.patient = true;
   const bool rescaled = a.slope != 1 || a.intercept != 0;
-  info.description = "DICOM series " + a.seriesUid + (a.description.empty() ? "" : " '" + a.description + "'") + " " +
-                     std::to_string(a.bitsStored) + "-bit " + (a.isSigned ? "signed " : "") + dimsText(info.dims) +
-                     " " + std::string(valueTypeName(info.type)) + (rescaled ? " (rescaled)" : "") + ", " +
-                     syntaxName(a.syntax) + " (" + baseName(a.file) + ", ...)";
+  const std::string what = a.dose ? "RT dose grid" : a.frames > 1 ? "multi-frame image" : "series";
+  const std::string files = a.frames > 1 ? std::to_string(a.frames) + " frames" : "...";
+  info.description = "DICOM " + what + " " + a.seriesUid + (a.description.empty() ? "" : " '" + a.description + "'") +
+                     " " + std::to_string(a.bitsStored) + "-bit " + (a.isSigned ? "signed " : "") +
+                     dimsText(info.dims) + " " + std::string(valueTypeName(info.type)) +
+                     (a.dose     ? " (Gy: DoseGridScaling " + number(a.slope) + ")"
+                      : rescaled ? " (rescaled)"
+                                 : "") +
+                     ", " + a.syntaxText + " (" + baseName(a.file) + ", " + files + ")";
   return info;
 }
 
@@ -468,20 +389,40 @@ std::unique_ptr<VolumeSource> openDicomSeries(const std::vector<std::string>& fi
   gdcm::Trace::DebugOff();
   gdcm::Trace::WarningOff();
   gdcm::Trace::ErrorOff();
-  std::vector<SliceHeader> headers;
-  headers.reserve(files.size());
-  for (const std::string& f : files) headers.push_back(readHeader(f, maxInflatedBytes(options)));
-  std::vector<SliceHeader> slices = selectSeries(std::move(headers), options.seriesUid, chosenFile, what);
-  for (const SliceHeader& s : slices) {
-    checkSupported(s);
-    // Before any decoder sizes a buffer from Rows x Columns: the slice must fit --memory, and its pixel data hold it.
-    checkSliceFitsMemory(s.columns, s.rows, size_t(s.bitsAllocated / 8), options, s.file, "Rows x Columns");
+  std::vector<DicomFileEntry> entries;
+  entries.reserve(files.size());
+  // With a file or --series named, a damaged file beside them is skipped (and named in the description): it may be
+  // of any series. Otherwise, and for the named file itself, it is refused.
+  const bool lenient = !chosenFile.empty() || !options.seriesUid.empty();
+  std::vector<std::string> unreadable;
+  for (const std::string& f : files) {
+    try {
+      entries.push_back(identifyDicomFile(f, maxInflatedBytes(options)));
+    } catch (const InputError&) {
+      if (!lenient || f == chosenFile) throw;
+      unreadable.push_back(baseName(f));
+    }
+  }
+  std::vector<SliceHeader> slices;
+  for (const DicomFileEntry& e :
+       oneVolume(selectSeries(std::move(entries), options.seriesUid, chosenFile, what), chosenFile)) {
+    std::vector<SliceHeader> frames = readSliceHeaders(e);
+    for (const SliceHeader& f : frames) checkSupported(f);
+    const SliceHeader& s = frames.front();
+    // Before any decoder sizes a buffer from Rows x Columns (x NumberOfFrames): the file's frames must fit --memory,
+    // and its pixel data hold them.
+    checkSliceFitsMemory(s.columns, s.rows * s.frames, size_t(s.bitsAllocated / 8), options, s.file,
+                         s.frames > 1 ? "Rows x Columns x NumberOfFrames" : "Rows x Columns");
     checkPixelData(s.file, s.layout, pixelFormat(s));
+    for (SliceHeader& f : frames) slices.push_back(std::move(f));
   }
   checkConsistent(slices);
   const std::array<Vec, 3> axes = directions(slices.front());
   const double step = sortAlongNormal(slices, axes[2], axes[0], axes[1]);
   VolumeInfo info = volumeInfo(slices, axes, step, options);
+  if (!unreadable.empty())
+    info.description += "; skipped " + std::to_string(unreadable.size()) +
+                        " damaged file(s) beside it: " + unreadable.front() + (unreadable.size() > 1 ? ", ..." : "");
   return std::make_unique<DicomSource>(std::move(info), std::move(slices), maxInflatedBytes(options));
 }
 

@@ -26,13 +26,14 @@ constexpr uint32_t kUndefinedLength = 0xFFFFFFFF;
 /// A cursor over the file's bytes in one encoding (VR explicit or implicit, byte order).
 class Walker {
  public:
-  Walker(const std::vector<char>& bytes, std::string path) : mBytes(bytes), mPath(std::move(path)) {}
+  Walker(const std::vector<char>& bytes, std::string path)
+      : mBytes(bytes), mPath(std::move(path)), mLimit(bytes.size()) {}
 
   size_t pos = 0;
   bool explicitVr = true;
   bool bigEndian = false;
 
-  bool atEnd() const { return pos >= mBytes.size(); }
+  bool atEnd() const { return pos >= mLimit; }
   uint16_t u16(size_t at) const {
     need(at, 2);
     const auto* b = reinterpret_cast<const unsigned char*>(mBytes.data() + at);
@@ -72,7 +73,10 @@ class Walker {
           if (layout.fragmentBytes == 0) firstFragment = {pos, length};
           layout.fragmentBytes += length;  // items after the basic offset table: the compressed frames
         }
-        skipValue(length, depth);
+        if (element == 0xE000 && !mInPixelData && length != kUndefinedLength)
+          walkBounded(length, depth, "item");
+        else
+          skipValue(length, depth);
         continue;
       }
       skipElement(depth);
@@ -105,6 +109,8 @@ class Walker {
       layout.encapsulated = length == kUndefinedLength;
       layout.pixelBytes = layout.encapsulated ? 0 : length;
     }
+    if (length != kUndefinedLength && explicitVr && text(start + 4, 2) == "SQ")
+      return walkBounded(length, depth, "sequence");
     if (length != kUndefinedLength) return skipValue(length, depth);
     // Undefined length: items up to the sequence delimiter; an undefined-length UN holds implicit-VR items.
     const bool saved = explicitVr;
@@ -133,6 +139,20 @@ class Walker {
   DicomLayout layout;
   std::pair<size_t, size_t> firstFragment{0, 0};  ///< offset and length of the first compressed frame's bytes
 
+  /// Walks [pos, pos + length) as elements (a defined-length item's or sequence's content, which GDCM parses):
+  /// fails when one of them runs past that end.
+  void walkBounded(uint32_t length, int depth, const char* what) {
+    if (depth > 64) fail("sequences nested too deep");
+    need(pos, length);
+    const size_t end = pos + length, saved = mLimit;
+    mLimit = end;
+    walk(false, depth + 1);
+    mLimit = saved;
+    if (pos != end)
+      fail(std::string("an element runs past the end of its ") + what + " (" + std::to_string(length) +
+           " bytes, ending at byte " + std::to_string(end) + ")");
+  }
+
   void skipValue(uint32_t length, int depth) {
     if (length == kUndefinedLength) return walk(true, depth + 1);
     need(pos, length);
@@ -142,6 +162,7 @@ class Walker {
  private:
   const std::vector<char>& mBytes;
   std::string mPath;
+  size_t mLimit;              // the end of what is walked now: the file, or a defined-length item or sequence
   bool mInPixelData = false;  // walking the items of encapsulated PixelData
   int mItems = 0;             // items of it seen: the basic offset table, then fragments
 };
@@ -155,19 +176,78 @@ std::vector<char> readAll(const std::string& path) {
 }
 
 /// The meta header (group 0002, explicit VR little endian) from pos; returns the transfer syntax UID.
+/// Its FileMetaInformationGroupLength (0002,0000), when stated, must be the length of the elements after it: GDCM
+/// reads the meta header by that length (and aborts on an assertion when it ends inside an element).
 std::string walkMetaHeader(Walker& w) {
   std::string syntax;
+  int64_t groupLength = -1;
+  size_t afterGroupLength = 0;
   while (!w.atEnd() && w.u16(w.pos) == 0x0002) {
     const size_t start = w.pos;
-    const bool isSyntax = w.u16(start + 2) == 0x0010;
+    const uint16_t element = w.u16(start + 2);
     w.skipElement(0);
-    if (isSyntax) {
+    if (element == 0x0010) {
       const size_t header = 8;
       syntax.assign(w.text(start + header, w.pos - start - header));
       while (!syntax.empty() && (syntax.back() == '\0' || syntax.back() == ' ')) syntax.pop_back();
     }
+    if (element == 0x0000 && w.pos - start == 12) {
+      groupLength = w.u32(start + 8);
+      afterGroupLength = w.pos;
+    }
   }
+  if (groupLength >= 0 && uint64_t(groupLength) != w.pos - afterGroupLength)
+    w.fail("the meta header's FileMetaInformationGroupLength (0002,0000) is " + std::to_string(groupLength) +
+           " bytes, but its elements after it take " + std::to_string(w.pos - afterGroupLength));
   return syntax;
+}
+
+/// A data set's encoding, guessed from its first element when no transfer syntax is stated.
+enum class Encoding { ImplicitLittle, ExplicitLittle, ExplicitBig, None };
+
+bool isValidVr(const std::vector<char>& bytes, size_t at) {
+  static constexpr std::string_view kAll =
+      "AE AS AT CS DA DS DT FD FL IS LO LT OB OD OF OL OV OW PN SH SL SQ SS ST SV TM UC UI UL UN UR US UT UV";
+  if (at + 2 > bytes.size()) return false;
+  const std::string_view vr(bytes.data() + at, 2);
+  for (size_t k = 0; k < kAll.size(); k += 3)
+    if (kAll.substr(k, 2) == vr) return true;
+  return false;
+}
+
+/// A group a data set can open with: an even (standard) group of the data set, or 0x0008..0x0009 (identifying).
+bool plausibleFirstGroup(uint32_t group) {
+  return group >= 0x0008 && group <= 0x7FE0 && (group % 2 == 0 || group == 9);
+}
+
+/// The encoding whose reading of the first element makes sense: a valid VR after a plausible group (explicit, in
+/// the byte order that gives the smaller plausible group), else a plausible group with a length that fits the file
+/// (implicit VR little endian, the default transfer syntax).
+Encoding guessEncoding(const std::vector<char>& bytes, size_t at) {
+  if (at + 8 > bytes.size()) return Encoding::None;
+  const auto* b = reinterpret_cast<const unsigned char*>(bytes.data() + at);
+  const uint32_t little = b[0] | b[1] << 8, big = b[0] << 8 | b[1];
+  if (isValidVr(bytes, at + 4)) {  // both byte orders may give a plausible group: the smaller is the data set's
+    if (plausibleFirstGroup(little) && (!plausibleFirstGroup(big) || little < big)) return Encoding::ExplicitLittle;
+    if (plausibleFirstGroup(big)) return Encoding::ExplicitBig;
+  }
+  const uint64_t length = uint64_t(b[4]) | uint64_t(b[5]) << 8 | uint64_t(b[6]) << 16 | uint64_t(b[7]) << 24;
+  if (plausibleFirstGroup(little) && (length == kUndefinedLength || length <= bytes.size() - at - 8))
+    return Encoding::ImplicitLittle;
+  return Encoding::None;
+}
+
+/// Why a file whose first data set bytes are no element is not read as DICOM: what it lacks and what it holds.
+std::string notAnElement(const std::vector<char>& bytes, size_t at, bool part10, bool meta) {
+  char hex[64] = {};
+  for (size_t k = 0; k < 8 && at + k < bytes.size(); ++k)
+    std::snprintf(hex + 3 * k, 4, "%02x ", unsigned(static_cast<unsigned char>(bytes[at + k])));
+  std::string shown(hex);
+  if (!shown.empty()) shown.pop_back();
+  const std::string lacks = part10 || meta ? "its meta header states no TransferSyntaxUID"
+                                           : "no 128-byte preamble with 'DICM' and no meta header";
+  return "not a DICOM file (" + lacks + ", and the bytes at " + std::to_string(at) + " (" + shown +
+         ") are not a DICOM element in implicit or explicit VR)";
 }
 
 uint32_t bigEndian(const unsigned char* b, int n) {
@@ -249,28 +329,59 @@ uint64_t maxCompressionRatio(const std::string& uid) {
 
 }  // namespace
 
+bool looksLikeDicomDataSet(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::vector<char> head(4096);
+  if (!in.read(head.data(), std::streamsize(head.size())) && in.gcount() <= 0) return false;
+  head.resize(size_t(in.gcount()));
+  if (head.size() < 16) return false;
+  const bool meta = head[0] == 2 && head[1] == 0 && isValidVr(head, 4);
+  const Encoding e = meta ? Encoding::ExplicitLittle : guessEncoding(head, 0);
+  if (e == Encoding::None) return false;
+  Walker w(head, path);
+  w.explicitVr = e != Encoding::ImplicitLittle;
+  w.bigEndian = e == Encoding::ExplicitBig;
+  try {
+    // Two elements in order, of the meta header or the identifying group: raw voxels hardly look like that.
+    const uint32_t group = w.u16(0), element = w.u16(2);
+    if (group != 0x0002 && group != 0x0008) return false;
+    w.skipElement(0);
+    const uint32_t nextGroup = w.u16(w.pos), nextElement = w.u16(w.pos + 2);
+    return (nextGroup == group && nextElement > element) || (group == 0x0002 && nextGroup == 0x0008);
+  } catch (const InputError&) {
+    return false;
+  }
+}
+
 DicomLayout checkDicomStructure(const std::string& path, uint64_t maxInflatedBytes) {
   const std::vector<char> bytes = readAll(path);
   Walker w(bytes, path);
-  if (bytes.size() >= 132 && std::memcmp(bytes.data() + 128, "DICM", 4) == 0) {
-    w.pos = 132;
-    const std::string syntax = walkMetaHeader(w);
-    if (syntax.empty()) throw InputError(path + ": malformed DICOM file (no TransferSyntaxUID in the meta header)");
-    if (syntax == "1.2.840.10008.1.2.1.99") {  // deflated: inflated here (bounded), walked as explicit VR
-      const std::vector<char> inflated = inflateDataSet(bytes, w.pos, maxInflatedBytes, path);
-      Walker d(inflated, path);
-      if (d.atEnd()) throw InputError(path + ": truncated DICOM file (no data set)");
-      d.walk(false, 0);
-      d.layout.walked = true;
-      d.layout.inflatedBytes = inflated.size();
-      return d.layout;
-    }
+  const bool part10 = bytes.size() >= 132 && std::memcmp(bytes.data() + 128, "DICM", 4) == 0;
+  w.pos = part10 ? 132 : 0;
+  // A meta header (group 0002, explicit VR little endian) after the preamble, or first in a file without one.
+  const bool meta = part10 || (bytes.size() >= 8 && isValidVr(bytes, 4) && bytes[0] == 2 && bytes[1] == 0);
+  const std::string syntax = meta ? walkMetaHeader(w) : "";
+  if (syntax == "1.2.840.10008.1.2.1.99") {  // deflated: inflated here (bounded), walked as explicit VR
+    const std::vector<char> inflated = inflateDataSet(bytes, w.pos, maxInflatedBytes, path);
+    Walker d(inflated, path);
+    if (d.atEnd()) throw InputError(path + ": truncated DICOM file (no data set)");
+    d.walk(false, 0);
+    d.layout.walked = true;
+    d.layout.inflatedBytes = inflated.size();
+    return d.layout;
+  }
+  if (!syntax.empty()) {
     w.explicitVr = syntax != "1.2.840.10008.1.2";
     w.bigEndian = syntax == "1.2.840.10008.1.2.2";
   } else {
-    // No preamble: a bare data set, explicit VR when a VR's two capital letters follow the first tag.
-    if (bytes.size() < 8) throw InputError(path + ": not a DICOM file (" + std::to_string(bytes.size()) + " bytes)");
-    w.explicitVr = std::isupper((unsigned char)bytes[4]) && std::isupper((unsigned char)bytes[5]);
+    // No transfer syntax stated (no meta header, or one without TransferSyntaxUID): the data set's first element
+    // tells its encoding, as GDCM guesses it.
+    if (w.atEnd()) throw InputError(path + ": truncated DICOM file (no data set)");
+    const Encoding e = guessEncoding(bytes, w.pos);
+    if (e == Encoding::None) throw InputError(path + ": " + notAnElement(bytes, w.pos, part10, meta));
+    w.explicitVr = e != Encoding::ImplicitLittle;
+    w.bigEndian = e == Encoding::ExplicitBig;
+    w.layout.guessed = true;
   }
   if (w.atEnd()) throw InputError(path + ": truncated DICOM file (no data set)");
   w.walk(false, 0);

@@ -17,6 +17,7 @@ struct DicomLayout {
   int64_t streamColumns = -1;  ///< encapsulated JPEG, JPEG-LS or JPEG 2000: the first frame's width as its
   int64_t streamRows = -1;     ///< codestream header (SOF, SIZ) states it; -1 when not found
   uint64_t inflatedBytes = 0;  ///< a deflated data set: its size once inflated
+  bool guessed = false;        ///< no transfer syntax stated: the encoding was told from the first element
 };
 
 /// The pixel format as the header states it, to size the native pixel data.
@@ -33,8 +34,14 @@ struct DicomPixelFormat {
 /// file, a sequence is not closed, or an explicit-VR element has no valid value representation (GDCM would reread
 /// the file as implicit VR, and size values from its bytes). A deflated data set is inflated here first, at most
 /// `maxInflatedBytes` of it (more is refused: GDCM would inflate it whole into memory), and walked as explicit VR
-/// little endian. Throws IoError when the file cannot be read.
+/// little endian. A file without the preamble or meta header (or a meta header without TransferSyntaxUID) is walked
+/// in the encoding its first element shows (implicit VR little endian, explicit VR in either byte order); bytes that
+/// are no element in any of them are refused as not DICOM. Throws IoError when the file cannot be read.
 DicomLayout checkDicomStructure(const std::string& path, uint64_t maxInflatedBytes = uint64_t{128} << 20);
+
+/// True when the file, without the preamble and "DICM", opens with two DICOM elements in order (of the meta header,
+/// or of the identifying group 0008) in implicit VR little endian or explicit VR: a bare DICOM data set.
+bool looksLikeDicomDataSet(const std::string& path);
 
 /// Throws InputError naming the file when its pixel data does not match the header: no PixelData, encapsulated
 /// pixel data under a native transfer syntax or native pixel data under a compressed one, or a native length other

@@ -18,12 +18,33 @@ void HistogramBuilder::add(const void* values, int64_t count) {
     using T = decltype(tag);
     const T* v = static_cast<const T*>(values);
     if constexpr (std::is_same_v<T, float>) {
-      for (int64_t n = 0; n < count; ++n) mHistogram.counts[bin(v[n])] += 1;
+      addFloats(v, count);
     } else {
       constexpr int kOffset = std::is_signed_v<T> ? 32768 : 0;
       for (int64_t n = 0; n < count; ++n) mValueCounts[size_t(int(v[n]) + kOffset)] += 1;
     }
   });
+}
+
+void HistogramBuilder::addFloats(const float* v, int64_t count) {
+  // bin()'s arithmetic, clamped before the conversion (the same bin for every finite value, and for values far out
+  // of range): bins of 64 values at a time in a loop the compiler vectorises, then counted in four tables so that
+  // runs of one bin do not wait on each other's increments.
+  const double lo = mHistogram.lo, span = mHistogram.hi - mHistogram.lo, scale = span > 0 ? kBins / span : 0.0;
+  constexpr int64_t kBatch = 64;
+  int32_t bins[kBatch];
+  uint64_t tables[4][kBins] = {};
+  for (int64_t n0 = 0; n0 < count; n0 += kBatch) {
+    const int64_t m = std::min(kBatch, count - n0);
+    for (int64_t i = 0; i < m; ++i)
+      bins[i] = static_cast<int32_t>(std::clamp((double(v[n0 + i]) - lo) * scale, 0.0, double(kBins - 1)));
+    int64_t i = 0;
+    for (; i + 4 <= m; i += 4)
+      for (int t = 0; t < 4; ++t) tables[t][bins[i + t]] += 1;
+    for (; i < m; ++i) tables[0][bins[i]] += 1;
+  }
+  for (int b = 0; b < kBins; ++b)
+    mHistogram.counts[size_t(b)] += tables[0][b] + tables[1][b] + tables[2][b] + tables[3][b];
 }
 
 void HistogramBuilder::addRepeated(double value, uint64_t count) {

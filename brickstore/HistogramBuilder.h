@@ -28,6 +28,7 @@ class HistogramBuilder {
 
  private:
   size_t bin(double v) const;
+  void addFloats(const float* values, int64_t count);
 
   ValueType mType;
   Histogram mHistogram;

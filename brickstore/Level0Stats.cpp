@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -22,6 +23,50 @@ struct Partial {
   int64_t firstBad = -1;  // index of the first non-finite value under the error policy
 };
 
+/// Rows of floats with no NaN or Inf: range and active count in eight lanes that the compiler vectorises, the same
+/// result as the scalar loop (which keeps the first of equal extremes: the sign of the first zero when 0 is one).
+/// Returns false, changing nothing, if a value is not finite.
+bool observeFinite(const float* v, int64_t count, float bg, Partial<float>& p) {
+  if (count <= 0) return true;
+  constexpr int kLanes = 8;
+  float lo[kLanes], hi[kLanes];
+  int64_t active[kLanes] = {};
+  uint32_t bad[kLanes] = {};
+  for (int k = 0; k < kLanes; ++k) lo[k] = hi[k] = v[0];
+  int64_t n = 0;
+  for (; n + kLanes <= count; n += kLanes)
+    for (int k = 0; k < kLanes; ++k) {
+      const float x = v[n + k];
+      uint32_t bits;
+      std::memcpy(&bits, &x, sizeof bits);
+      bad[k] |= uint32_t((bits & 0x7f800000u) == 0x7f800000u);
+      lo[k] = x < lo[k] ? x : lo[k];
+      hi[k] = hi[k] < x ? x : hi[k];
+      active[k] += x != bg;
+    }
+  for (; n < count; ++n) {
+    const float x = v[n];
+    bad[0] |= uint32_t(!std::isfinite(x));
+    lo[0] = x < lo[0] ? x : lo[0];
+    hi[0] = hi[0] < x ? x : hi[0];
+    active[0] += x != bg;
+  }
+  Partial<float> q = p;
+  for (int k = 0; k < kLanes; ++k) {
+    if (bad[k]) return false;
+    q.lo = std::min(q.lo, lo[k]);
+    q.hi = std::max(q.hi, hi[k]);
+    q.active += active[k];
+  }
+  if (q.lo == 0.0f || q.hi == 0.0f) {
+    const float* zero = std::find(v, v + count, 0.0f);  // the scalar loop keeps the first zero it meets
+    if (q.lo == 0.0f && !(p.lo <= 0.0f)) q.lo = *zero;
+    if (q.hi == 0.0f && !(p.hi >= 0.0f)) q.hi = *zero;
+  }
+  p = q;
+  return true;
+}
+
 }  // namespace
 
 void Level0Stats::observe(int64_t z0, int64_t count, void* values) {
@@ -36,6 +81,8 @@ void Level0Stats::observeTyped(int64_t z0, int64_t count, T* v) {
   const Partial<T> total = tbb::parallel_reduce(
       tbb::blocked_range<int64_t>(0, count * mInfo.dims.y), Partial<T>{},
       [&](const tbb::blocked_range<int64_t>& rows, Partial<T> p) {
+        if constexpr (std::is_same_v<T, float>)
+          if (observeFinite(v + rows.begin() * rowValues, (rows.end() - rows.begin()) * rowValues, bg, p)) return p;
         for (int64_t n = rows.begin() * rowValues; n != rows.end() * rowValues; ++n) {
           if constexpr (std::is_floating_point_v<T>) {
             if (!std::isfinite(v[n])) {

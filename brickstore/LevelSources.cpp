@@ -60,7 +60,18 @@ void StoredLevelSource::readSlices(int64_t count, void* dst) {
   if (mHook) mHook(z0, count, dst);
 }
 
-DownsampleSource::DownsampleSource(VolumeSource& fine) : mFine(fine) {
+const void* StoredLevelSource::nextSlicesInPlace(int64_t count) {
+  const int64_t kz = mNextZ / mBrickSize;
+  if (count <= 0 || mNextZ + count > mLevel.dims.z || (mNextZ + count - 1) / mBrickSize != kz) return nullptr;
+  if (kz != mSlabLoaded) loadSlab(kz);
+  const size_t sliceBytes = static_cast<size_t>(mLevel.dims.x * mLevel.dims.y) * valueSize(mInfo.type);
+  const char* first = mSlab.data() + static_cast<size_t>(mNextZ - kz * mBrickSize) * sliceBytes;
+  if (mHook) mHook(mNextZ, count, first);
+  mNextZ += count;
+  return first;
+}
+
+DownsampleSource::DownsampleSource(VolumeSource& fine) : mFine(fine), mStored(dynamic_cast<StoredLevelSource*>(&fine)) {
   const VolumeInfo& f = fine.info();
   mInfo = f;
   mInfo.dims = {divUp(f.dims.x, 2), divUp(f.dims.y, 2), divUp(f.dims.z, 2)};
@@ -81,14 +92,20 @@ void DownsampleSource::readTyped(int64_t count, T* dst) {
   T* pair = reinterpret_cast<T*>(mPair.data());
   for (int64_t s = 0; s < count; ++s, ++mNextZ) {
     const bool two = 2 * mNextZ + 1 < f.z;
-    mFine.readSlices(two ? 2 : 1, pair);
-    if (!two) std::memcpy(pair + sliceValues, pair, sizeof(T) * static_cast<size_t>(sliceValues));
+    // The finer pair read where it lies when the finer level is stored (a pair never straddles two slabs of an even
+    // brick size), else copied.
+    const T* p0 = mStored ? static_cast<const T*>(mStored->nextSlicesInPlace(two ? 2 : 1)) : nullptr;
+    if (!p0) {
+      mFine.readSlices(two ? 2 : 1, pair);
+      p0 = pair;
+    }
+    const T* p1 = two ? p0 + sliceValues : p0;
     T* out = dst + s * n.x * n.y;
     tbb::parallel_for(int64_t{0}, n.y, [&](int64_t y) {
       const int64_t y0 = 2 * y, y1 = std::min(2 * y + 1, f.y - 1);
       for (int64_t x = 0; x < n.x; ++x) {
         const int64_t x0 = 2 * x, x1 = std::min(2 * x + 1, f.x - 1);
-        out[x + n.x * y] = downsample(pair, pair + sliceValues, f.x, x0, x1, y0, y1);
+        out[x + n.x * y] = downsample(p0, p1, f.x, x0, x1, y0, y1);
       }
     });
   }

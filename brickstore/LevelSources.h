@@ -24,6 +24,9 @@ class StoredLevelSource : public VolumeSource {
 
   const VolumeInfo& info() const override { return mInfo; }
   void readSlices(int64_t count, void* dst) override;
+  /// The next `count` slices in place, as readSlices would copy them (the hook sees them likewise), if they lie in
+  /// one slab of bricks (valid until the next call); else null, and nothing is read.
+  const void* nextSlicesInPlace(int64_t count);
   void setSliceHook(std::function<void(int64_t z0, int64_t count, const void* values)> hook) {
     mHook = std::move(hook);
   }
@@ -72,6 +75,7 @@ class DownsampleSource : public VolumeSource {
   void readTyped(int64_t count, T* dst);
 
   VolumeSource& mFine;
+  StoredLevelSource* mStored;  // mFine, when it is a stored level: its slices are read in place
   VolumeInfo mInfo;
   std::vector<char> mPair;  // two finer slices
   int64_t mNextZ = 0;

@@ -171,9 +171,12 @@ LevelBuild SlabBricker::runTyped() {
   // Stage 2, in order (for the consumer): the consumer beside the bricks, which are cut and compressed in parallel.
   auto cut = [&](Slab<T>* slab) -> Slab<T>* {
     auto bricks = [&] { cutBricks(*slab, n, B, level.bricks, background, mZstdLevel); };
-    if (mSliceConsumer && slab->count > 0) {
-      const T* first = slab->window.data() + slab->firstSlot * sliceValues;
-      tbb::parallel_invoke([&] { mSliceConsumer(slab->z0, slab->count, first); }, bricks);
+    // The consumer gets the slab's own slices, kz*B .. kz*B+B-1 (window slots 1 .. B, all read and through the
+    // hook by now), not the batch read: batches aligned to B keep OpenVDB's 8^3 leaves whole.
+    const int64_t z0 = slab->kz * B, count = std::min(B, n.z - z0);
+    if (mSliceConsumer && count > 0) {
+      const T* first = slab->window.data() + sliceValues;
+      tbb::parallel_invoke([&] { mSliceConsumer(z0, count, first); }, bricks);
     } else {
       bricks();
     }

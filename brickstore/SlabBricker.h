@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <functional>
+#include <type_traits>
 #include <vector>
 
 #include "brickstore/BrickFile.h"
@@ -17,10 +18,56 @@ struct MinMaxPair {
   float min = 0, max = 0;
 };
 
+/// sampleRange of floats in eight lanes the compiler vectorises (the scalar loop's chain of dependent min and max
+/// took three quarters of cutting a brick): the same result, the sign of a zero extreme being that of the first
+/// zero, as the scalar loop keeps the first of equal values. False, with nothing set, if a sample is NaN.
+inline bool sampleRangeLanes(const float* samples, size_t count, float background, MinMaxPair& range,
+                             bool& allBackground) {
+  constexpr size_t kLanes = 8;
+  float lo[kLanes], hi[kLanes];
+  bool nan[kLanes] = {}, other[kLanes] = {};
+  for (size_t k = 0; k < kLanes; ++k) lo[k] = hi[k] = samples[0];
+  size_t n = 0;
+  for (; n + kLanes <= count; n += kLanes)
+    for (size_t k = 0; k < kLanes; ++k) {
+      const float x = samples[n + k];
+      lo[k] = x < lo[k] ? x : lo[k];
+      hi[k] = hi[k] < x ? x : hi[k];
+      nan[k] |= x != x;
+      other[k] |= x != background;
+    }
+  for (; n < count; ++n) {
+    const float x = samples[n];
+    lo[0] = x < lo[0] ? x : lo[0];
+    hi[0] = hi[0] < x ? x : hi[0];
+    nan[0] |= x != x;
+    other[0] |= x != background;
+  }
+  range = {lo[0], hi[0]};
+  bool anyOther = false;
+  for (size_t k = 0; k < kLanes; ++k) {
+    if (nan[k]) return false;
+    range.min = std::min(range.min, lo[k]);
+    range.max = std::max(range.max, hi[k]);
+    anyOther |= other[k];
+  }
+  if (range.min == 0.0f || range.max == 0.0f) {
+    const float zero = *std::find(samples, samples + count, 0.0f);
+    if (range.min == 0.0f) range.min = zero;
+    if (range.max == 0.0f) range.max = zero;
+  }
+  allBackground = !anyOther;
+  return true;
+}
+
 /// The [min, max] of a brick's samples (border included) and whether every one equals the background: what its
 /// record holds, and whether it is stored.
 template <typename T>
 MinMaxPair sampleRange(const T* samples, size_t count, T background, bool& allBackground) {
+  if constexpr (std::is_same_v<T, float>) {
+    MinMaxPair range;
+    if (count > 0 && sampleRangeLanes(samples, count, background, range, allBackground)) return range;
+  }
   T lo = samples[0], hi = samples[0];
   bool empty = true;
   for (size_t n = 0; n < count; ++n) {
@@ -53,8 +100,8 @@ class SlabBricker {
   /// Called with each batch of real slices right after it is read (z of the first, count, the values); it may
   /// modify them (the non-finite policy does) before they are bricked. Runs in z order, one batch at a time.
   using SliceHook = std::function<void(int64_t z0, int64_t count, void* values)>;
-  /// Called with each batch of real slices while their slab is being cut (so it must only read them); runs in z
-  /// order, one batch at a time.
+  /// Called with each slab's slices (z0 = kz * B, B of them, fewer in the last) while the slab is being cut (so it
+  /// must only read them), after the slice hook has seen them; runs in z order, one slab at a time.
   using SliceConsumer = std::function<void(int64_t z0, int64_t count, const void* values)>;
   /// Called after each slab of bricks with (slabs done, slabs in all).
   using ProgressHook = std::function<void(int64_t done, int64_t total)>;

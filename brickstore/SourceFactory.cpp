@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "brickstore/DicomStructure.h"
 #include "brickstore/Errors.h"
 #include "brickstore/Sources.h"
 #include "brickstore/ZarrMeta.h"
@@ -21,13 +22,14 @@ bool endsWith(std::string s, std::string_view suffix) {
 
 bool isTiffName(const std::string& path) { return endsWith(path, ".tif") || endsWith(path, ".tiff"); }
 
-/// A DICOM file: named *.dcm, or a Part 10 file (the "DICM" magic after its 128-byte preamble), whatever its name.
+/// A DICOM file: named *.dcm, a Part 10 file (the "DICM" magic after its 128-byte preamble), or a bare data set
+/// (no preamble or meta header), whatever its name.
 bool isDicomFile(const std::string& path) {
   if (endsWith(path, ".dcm")) return true;
   if (std::filesystem::path(path).filename() == "DICOMDIR") return false;  // an index of a medium, not an image
   char head[132] = {};
   std::ifstream in(path, std::ios::binary);
-  return in.read(head, sizeof head) && std::memcmp(head + 128, "DICM", 4) == 0;
+  return (in.read(head, sizeof head) && std::memcmp(head + 128, "DICM", 4) == 0) || looksLikeDicomDataSet(path);
 }
 
 /// Natural order: runs of digits compare as numbers, so "slice2" sorts before "slice10".
@@ -78,7 +80,7 @@ std::vector<std::string> directoryFiles(const std::string& dir) {
   return files;
 }
 
-/// A directory: its DICOM series, or its TIFF files as a stack.
+/// A directory: its DICOMDIR's series, its DICOM series, or its TIFF files as a stack.
 std::unique_ptr<VolumeSource> openDirectory(const std::string& dir, const SourceOptions& options) {
   std::vector<std::string> dicom, tiff;
   for (const std::string& f : directoryFiles(dir)) {
@@ -91,6 +93,7 @@ std::unique_ptr<VolumeSource> openDirectory(const std::string& dir, const Source
     throw InputError(dir + ": holds both DICOM (" + std::to_string(dicom.size()) + ") and TIFF (" +
                      std::to_string(tiff.size()) + ") files; name the ones to read with a pattern such as '" + dir +
                      "/*.tif'");
+  if (std::filesystem::is_regular_file(dir + "/DICOMDIR")) return openDicomDir(dir + "/DICOMDIR", options);
   if (!dicom.empty()) return openDicomSeries(dicom, options, "", dir);
   if (!tiff.empty()) return openTiffSource(tiff, options);
   throw InputError(dir +
@@ -129,6 +132,7 @@ std::unique_ptr<VolumeSource> openSource(const std::string& input, const SourceO
   if (endsWith(input, ".nrrd") || endsWith(input, ".nhdr")) return openNrrdSource(input, options);
   if (endsWith(input, ".nii") || endsWith(input, ".nii.gz")) return openNiftiSource(input, options);
   if (isTiffName(input)) return openTiffSource({input}, options);
+  if (std::filesystem::path(input).filename() == "DICOMDIR") return openDicomDir(input, options);
   // One file of a series stands for the series: the files of its directory that share its SeriesInstanceUID.
   if (isDicomFile(input)) return openDicomSeries(dicomSiblings(input), options, input, input);
   return openRawSource(input, options);

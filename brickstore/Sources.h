@@ -22,15 +22,21 @@ std::unique_ptr<VolumeSource> openNiftiSource(const std::string& path, const Sou
 /// An OpenVDB float grid (by name, or the first float grid), over its active voxels' bounding box.
 std::unique_ptr<VolumeSource> openVdbSource(const std::string& path, const SourceOptions& options);
 
-/// A DICOM series, one slice a file, in any order: files are grouped by SeriesInstanceUID (options.seriesUid picks
-/// one when there are several), sorted along the slice normal, checked for gaps, duplicates and mismatched slices,
-/// and rescaled (RescaleSlope/Intercept). Slices are decoded one at a time as readSlices() asks for them.
+/// A DICOM series, one slice a file in any order, or an enhanced multi-frame image or RT dose grid: files are grouped
+/// by SeriesInstanceUID, files that are not images (reports, plans, structure sets, ...) skipped (options.seriesUid
+/// picks one image series when there are several), slices (or frames) sorted along the slice normal, checked for
+/// gaps, duplicates and mismatched slices, and rescaled (RescaleSlope/Intercept, DoseGridScaling). Slices are decoded
+/// one at a time as readSlices() asks for them.
 std::unique_ptr<VolumeSource> openDicomSource(const std::vector<std::string>& files, const SourceOptions& options);
 
 /// As openDicomSource, for the DICOM files of a directory: the series `chosenFile` (one of `files`, or "") belongs
 /// to unless options.seriesUid names one; `what` names the input in errors.
 std::unique_ptr<VolumeSource> openDicomSeries(const std::vector<std::string>& files, const SourceOptions& options,
                                               const std::string& chosenFile, const std::string& what);
+
+/// The DICOM files a DICOMDIR references (its directory records' ReferencedFileID, under its directory), opened as
+/// openDicomSeries opens a folder's.
+std::unique_ptr<VolumeSource> openDicomDir(const std::string& path, const SourceOptions& options);
 
 /// A TIFF stack: one multi-page file (`files` of size one) or single-page files in the given order; single channel
 /// u8, u16, i16 or f32 pages of one size. Spacing is options.spacing (1,1,1 unless given).

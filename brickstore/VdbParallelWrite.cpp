@@ -8,6 +8,8 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <cstring>
+#include <memory>
 #include <streambuf>
 #include <string>
 #include <utility>
@@ -16,10 +18,32 @@
 namespace voxbrick::store {
 namespace {
 
+/// An allocator whose resize leaves new chars uninitialised: leaves are copied over them at once.
+template <typename T>
+struct UninitialisedAllocator : std::allocator<T> {
+  template <typename U>
+  struct rebind {
+    using other = UninitialisedAllocator<U>;
+  };
+  UninitialisedAllocator() = default;
+  template <typename U>
+  explicit UninitialisedAllocator(const UninitialisedAllocator<U>&) {}
+  template <typename U>
+  void construct(U* p) noexcept {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <typename U, typename... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+};
+
+using Bytes = std::vector<char, UninitialisedAllocator<char>>;
+
 /// A stream buffer appending to a vector that keeps its capacity from batch to batch.
 class AppendBuffer : public std::streambuf {
  public:
-  std::vector<char> bytes;
+  Bytes bytes;
 
  protected:
   std::streamsize xsputn(const char* s, std::streamsize n) override {
@@ -39,6 +63,40 @@ std::vector<const openvdb::FloatTree::LeafNodeType*> leavesInOrder(const openvdb
   leaves.reserve(tree.leafCount());
   for (auto it = tree.cbeginLeaf(); it; ++it) leaves.push_back(it.getLeaf());
   return leaves;
+}
+
+using Leaf = openvdb::FloatTree::LeafNodeType;
+
+/// Appends `leaf` to `out` as LeafNode::writeBuffers does for a stream with mask compression alone (no blosc or zip,
+/// not half floats), when every inactive value equals the background, which is how prep's leaves are: the value mask,
+/// metadata byte NO_MASK_OR_INACTIVE_VALS and the active values in offset order, copied straight from the leaf
+/// without OpenVDB's temporary buffer and stream calls. Returns false (appending nothing) for any other leaf.
+bool appendMaskCompressedLeaf(const Leaf& leaf, float background, Bytes& out) {
+  constexpr size_t kWords = Leaf::NodeMaskType::WORD_COUNT;
+  const Leaf::NodeMaskType& mask = leaf.getValueMask();
+  const float* values = leaf.buffer().data();
+  uint64_t words[kWords];
+  for (size_t w = 0; w < kWords; ++w) words[w] = mask.template getWord<uint64_t>(openvdb::Index(w));
+  const bool full = mask.isOn();
+  if (!full)  // every inactive value must be the background (math::isExactlyEqual, as MaskCompress compares)
+    for (size_t w = 0; w < kWords; ++w)
+      for (uint64_t off = ~words[w]; off != 0; off &= off - 1)
+        if (!(values[w * 64 + size_t(__builtin_ctzll(off))] == background)) return false;
+  const size_t at = out.size();
+  out.resize(at + sizeof words + 1 + Leaf::SIZE * sizeof(float));
+  char* dst = out.data() + at;
+  std::memcpy(dst, words, sizeof words);
+  dst[sizeof words] = char(openvdb::io::NO_MASK_OR_INACTIVE_VALS);
+  float* active = reinterpret_cast<float*>(dst + sizeof words + 1);
+  if (full) {
+    std::memcpy(active, values, Leaf::SIZE * sizeof(float));
+    return true;
+  }
+  size_t count = 0;
+  for (size_t w = 0; w < kWords; ++w)
+    for (uint64_t on = words[w]; on != 0; on &= on - 1) active[count++] = values[w * 64 + size_t(__builtin_ctzll(on))];
+  out.resize(at + sizeof words + 1 + count * sizeof(float));
+  return true;
 }
 
 }  // namespace
@@ -81,6 +139,10 @@ void writeLeafBuffersParallel(const openvdb::FloatTree& tree, std::ostream& os, 
   // Batch b uses buffer b % tokens: the pipeline admits no more than `tokens` batches and retires them in order, so
   // the batch that used it before has been written.
   std::vector<AppendBuffer> buffers(std::min(tokens, std::max<size_t>(batches, 1)));
+  // Values stored as they are (mask compression alone): most leaves are appended without OpenVDB's writer.
+  const bool fast = openvdb::io::getDataCompression(os) == openvdb::io::COMPRESS_ACTIVE_MASK && !toHalf;
+  const void* backgroundPtr = openvdb::io::getGridBackgroundValuePtr(os);
+  const float background = backgroundPtr ? *static_cast<const float*>(backgroundPtr) : 0.0f;
   size_t next = 0;
   tbb::parallel_pipeline(
       tokens, tbb::make_filter<void, size_t>(tbb::filter_mode::serial_in_order, [&](tbb::flow_control& fc) -> size_t {
@@ -94,7 +156,9 @@ void writeLeafBuffersParallel(const openvdb::FloatTree& tree, std::ostream& os, 
                 std::ostream out(buffer);
                 out.copyfmt(os);
                 const size_t end = std::min(leaves.size(), (batch + 1) * kBatchLeaves);
-                for (size_t i = batch * kBatchLeaves; i < end; ++i) leaves[i]->writeBuffers(out, toHalf);
+                for (size_t i = batch * kBatchLeaves; i < end; ++i)
+                  if (!fast || !appendMaskCompressedLeaf(*leaves[i], background, buffer->bytes))
+                    leaves[i]->writeBuffers(out, toHalf);
                 return buffer;
               }) & tbb::make_filter<AppendBuffer*, void>(tbb::filter_mode::serial_in_order, [&](AppendBuffer* buffer) {
                 os.write(buffer->bytes.data(), static_cast<std::streamsize>(buffer->bytes.size()));

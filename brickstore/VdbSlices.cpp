@@ -5,6 +5,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <memory>
@@ -58,22 +59,28 @@ void addSlicesToTree(openvdb::FloatTree& tree, const T* values, const Vec3i& dim
   if (count <= 0) return;
   const openvdb::CoordBBox box(openvdb::Coord(0, 0, int(z0)),
                                openvdb::Coord(int(dims.x - 1), int(dims.y - 1), int(z0 + count - 1)));
-  std::vector<Block> blocks;  // x, then y, then z: CopyFromDense's order
+  std::vector<Block> blocks;     // x, then y, then z: CopyFromDense's order
+  int64_t rowsY = 0, rowsZ = 0;  // blocks along y and z
   for (openvdb::CoordBBox sub = box; sub.min()[0] <= box.max()[0]; sub.min()[0] = sub.max()[0] + 1)
-    for (sub.min()[1] = box.min()[1]; sub.min()[1] <= box.max()[1]; sub.min()[1] = sub.max()[1] + 1)
-      for (sub.min()[2] = box.min()[2]; sub.min()[2] <= box.max()[2]; sub.min()[2] = sub.max()[2] + 1) {
+    for (sub.min()[1] = box.min()[1], rowsY = 0; sub.min()[1] <= box.max()[1]; sub.min()[1] = sub.max()[1] + 1, ++rowsY)
+      for (sub.min()[2] = box.min()[2], rowsZ = 0; sub.min()[2] <= box.max()[2];
+           sub.min()[2] = sub.max()[2] + 1, ++rowsZ) {
         sub.max() = openvdb::Coord::minComponent(box.max(), (sub.min() & ~(kDim - 1)).offsetBy(kDim - 1));
         blocks.push_back({sub});
       }
+  const int64_t rowsX = int64_t(blocks.size()) / std::max<int64_t>(1, rowsY * rowsZ);
   const float background = tree.background();
   const bool treeEmpty = tree.empty();
   // Dense wants a mutable pointer; LeafNode::copyFromDense only reads through it.
   const openvdb::tools::Dense<T, openvdb::tools::LayoutXYZ> dense(box, const_cast<T*>(values));
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks.size()), [&](const tbb::blocked_range<size_t>& r) {
+  // Filled a row of blocks along x at a time (the order of the slices' memory: each of the 64 rows of 8 values a
+  // leaf reads continues the one its neighbour read), not in the blocks' order, which jumps 8 slices every block.
+  tbb::parallel_for(tbb::blocked_range<int64_t>(0, rowsY * rowsZ), [&](const tbb::blocked_range<int64_t>& rows) {
     openvdb::tree::ValueAccessor<const openvdb::FloatTree> acc(tree);
     std::unique_ptr<Leaf> spare;
-    for (size_t b = r.begin(); b != r.end(); ++b) {
-      Block& block = blocks[b];
+    for (int64_t b = rows.begin() * rowsX; b != rows.end() * rowsX; ++b) {
+      const int64_t row = b / rowsX, bz = row / rowsY, by = row % rowsY, bx = b % rowsX;
+      Block& block = blocks[size_t((bx * rowsY + by) * rowsZ + bz)];
       const openvdb::Coord origin = block.bbox.min() & ~(kDim - 1);
       if (!spare) spare = std::make_unique<Leaf>(openvdb::PartialCreate(), origin, background, false);
       spare->allocate();

@@ -53,4 +53,8 @@ std::string formatBytes(double bytes);
 /// process for the next frame instead of returning it to the system (cli/Allocator.cpp says why).
 void keepFreedMemoryForFrames();
 
+/// For `prep`: one heap for every thread, grown (and trimmed) 64 MB at a time, so that building the OpenVDB grid
+/// leaf by leaf does not make a system call and page faults per page (cli/Allocator.cpp).
+void growHeapInLargeSteps();
+
 }  // namespace voxbrick::cli

@@ -169,6 +169,7 @@ void printPrepSummary(const PrepArgs& a, const store::PrepSummary& summary) {
 }
 
 void runPrep(PrepArgs& a, CLI::App& cmd) {
+  growHeapInLargeSteps();
   // Installed first, so that an early Ctrl-C also ends in the clean-up path rather than a killed process.
   std::signal(SIGINT, onInterrupt);
   std::signal(SIGTERM, onInterrupt);

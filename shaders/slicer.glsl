@@ -39,7 +39,10 @@ float cornerDistance(vec3 n, vec3 boxMin, vec3 boxMax, int corner) {
 bool crossEdge(float di, float dj, float d, out float lambda) {
   lambda = 0.0;
   if (!(di < dj && di <= d && d <= dj)) return false;
-  precise float t = clamp((d - di) / (dj - di), 0.0, 1.0);
+  // A plane through the edge's far corner meets it at t = 1 exactly: (dj - di) / (dj - di) is 1 under IEEE division,
+  // but GLSL's division need not be correctly rounded (NVIDIA's gave 0.99999994, and the corner came out twice, one
+  // ulp apart), so that case is not left to it. (d - di) is 0 at the near corner, and 0 / x is 0 either way.
+  precise float t = d == dj ? 1.0 : clamp((d - di) / (dj - di), 0.0, 1.0);
   lambda = t;
   return true;
 }

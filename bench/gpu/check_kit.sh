@@ -86,4 +86,14 @@ if run "$kit/bin/voxbrick" render "$dir/sparse" --size 32x32 --backend osmesa -o
 fi
 grep -q "OSMesa" "$dir/osmesa.log" || die "--backend osmesa failed without naming OSMesa: $(cat "$dir/osmesa.log")"
 echo "check_kit.sh: --backend osmesa reports: $(grep -m1 'OSMesa' "$dir/osmesa.log" | sed 's/^ *//')"
+grep -q "stand-in" "$dir/osmesa.log" || die "--backend osmesa did not name the kit's stand-in: $(cat "$dir/osmesa.log")"
+
+# The GL tests that loop over backends: their EGL cases run, their OSMesa cases skip naming the stand-in, none fails.
+filter='Context.*:SlicerShader.MatchesExactPolygonsOnDegenerateCases:Zellmann/SlicerVariant.TilesTheVertexProgramsPolygonsOnDegenerateCases/*:FilterProbe.*'
+run "$kit/bin/test_render" --gtest_filter="$filter" > "$dir/test_render.log" 2>&1 ||
+  die "test_render ($filter) failed: $(grep -E 'FAILED|Failure' "$dir/test_render.log" | head -5)"
+skipped=$(grep -c '^\[  SKIPPED \].*([0-9]* ms)$' "$dir/test_render.log" || true)
+[ "$skipped" -gt 0 ] && grep -q "did not run: libOSMesa here is the GPU kit's stand-in" "$dir/test_render.log" ||
+  die "test_render skipped no OSMesa case naming the stand-in: $(tail -5 "$dir/test_render.log")"
+echo "check_kit.sh: test_render: $(sed -n 's/^\[  PASSED  \] \(.*\)\.$/\1/p' "$dir/test_render.log") passed, $skipped skipped (OSMesa cases: the stand-in)"
 echo "check_kit.sh: ok ($(du -k "$dir/voxbrick-gpukit.tar.zst" | cut -f1) KiB archive, $(du -sk "$kit" | cut -f1) KiB unpacked)"

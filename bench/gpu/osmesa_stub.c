@@ -30,3 +30,9 @@ OSMESAproc OSMesaGetProcAddress(const char *funcName) {
   (void)funcName;
   return NULL;
 }
+
+/* Names this library as the stand-in: voxbrick's osMesaStandIn (render/gl/OsMesaContext.cpp) looks it up, so that
+ * the GL tests skip their OSMesa cases with this reason (there is no OSMesa backend here) instead of failing. */
+const char *voxbrick_osmesa_stand_in(void) {
+  return "the GPU kit's stand-in for libOSMesa (bench/gpu/osmesa_stub.c): no OSMesa backend";
+}

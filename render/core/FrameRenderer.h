@@ -3,9 +3,11 @@
 
 #include <cstddef>
 #include <functional>
+#include <optional>
 
 #include "image/Image.h"
 #include "render/core/FrameStats.h"
+#include "render/core/PartialFrame.h"
 #include "render/core/Scene.h"
 
 namespace voxbrick::render {
@@ -48,6 +50,10 @@ struct FrameOptions {
   double rateSamplesPerMs = 0;
   /// With rateSamplesPerMs: the time a frame takes besides its samples (RateGauge::fixedMs).
   double fixedMs = 0;
+  /// Sort-last rendering (grids only): draw only the samples owned inside this box of level-0 voxels, and return the
+  /// frame premultiplied (colour times opacity, and opacity) with no background, for compositing in visibility order
+  /// (render/core/PartialFrame.h). Empty: the whole dataset, finished over the scene's background.
+  std::optional<PartBox> part = std::nullopt;
 };
 
 /// A renderer of one dataset on one GL context (so one render thread); it keeps its GPU state between frames.

@@ -81,4 +81,8 @@ std::unique_ptr<GlContext> createEglContext(std::string& failures);
 /// OSMesa only: as createEglContext.
 std::unique_ptr<GlContext> createOsMesaContext(std::string& failures);
 
+/// Empty where the libOSMesa this process runs with is Mesa's; where it is the GPU kit's stand-in (bench/gpu/
+/// osmesa_stub.c: every entry point fails, so there is no OSMesa backend at all), what that library says it is.
+std::string osMesaStandIn();
+
 }  // namespace voxbrick::render

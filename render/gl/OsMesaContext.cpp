@@ -5,6 +5,7 @@
 #include "render/gl/GlContext.h"
 
 #include <GL/osmesa.h>
+#include <dlfcn.h>
 
 #include <array>
 #include <cstdint>
@@ -63,7 +64,9 @@ std::unique_ptr<GlContext> createOsMesaContext(std::string& failures) {
                          0};
   OSMesaContext handle = OSMesaCreateContextAttribs(attribs, nullptr);
   if (handle == nullptr) {
-    failures += "\n  OSMesa: OSMesaCreateContextAttribs(OpenGL 4.3 core) returned no context";
+    const std::string standIn = osMesaStandIn();
+    failures += "\n  OSMesa: OSMesaCreateContextAttribs(OpenGL 4.3 core) returned no context" +
+                (standIn.empty() ? std::string() : " (the library is " + standIn + ")");
     return nullptr;
   }
   auto context = std::make_unique<OsMesaContext>(handle);
@@ -75,6 +78,13 @@ std::unique_ptr<GlContext> createOsMesaContext(std::string& failures) {
     return nullptr;
   }
   return context;
+}
+
+std::string osMesaStandIn() {
+  // The stand-in defines this function; Mesa's libOSMesa does not.
+  using Describe = const char* (*)();
+  const auto describe = reinterpret_cast<Describe>(dlsym(RTLD_DEFAULT, "voxbrick_osmesa_stand_in"));
+  return describe != nullptr ? std::string(describe()) : std::string();
 }
 
 }  // namespace voxbrick::render

@@ -248,18 +248,18 @@ TEST(Dicom, MixedSeriesAreListedAndSeriesPicksOne) {
   test::writeDicomSeries(dir.path(), a, phantom);
   const auto bFiles = test::writeDicomSeries(dir.path(), b, phantom);
   expectRefused(openAndRead(dir.path().string()),
-                {dir.path().string(), "2 DICOM series", "--series", "1.2.3.4.100", "3 files", "first series",
+                {dir.path().string(), "2 DICOM image series", "--series", "1.2.3.4.100", "3 files", "first series",
                  "1.2.3.4.200", "5 files", "second series"});
   store::SourceOptions pick;
   pick.seriesUid = "1.2.3.4.200";
   auto picked = store::openSource(dir.path().string(), pick);
   expectSeries(*picked, b, phantom);
   pick.seriesUid = "9.9.9";
-  expectRefused(openAndRead(dir.path().string(), pick), {"no DICOM series 9.9.9", "1.2.3.4.100", "1.2.3.4.200"});
+  expectRefused(openAndRead(dir.path().string(), pick), {"no DICOM image series 9.9.9", "1.2.3.4.100", "1.2.3.4.200"});
   // One file stands for its own series.
   auto one = store::openSource(bFiles[0].string(), {});
   EXPECT_EQ(one->info().dims.z, 5);
-  expectRefused(openAndRead(dir.path().string() + "/*.dcm"), {"2 DICOM series"});
+  expectRefused(openAndRead(dir.path().string() + "/*.dcm"), {"2 DICOM image series"});
   auto listed = store::openSource(strings(bFiles), {});
   EXPECT_EQ(listed->info().dims.z, 5);
 }

@@ -40,7 +40,7 @@ class BrickAtlas {
 
   /// Bytes of texture one slot takes.
   static size_t slotBytes(store::ValueType type, int brickEdge, AtlasFormat format);
-  /// Bytes one brick takes on its way to a slot (floats for the Float and Half formats, else the texel).
+  /// Bytes one brick takes on its way to a slot (floats for the Float format, else the texel).
   static size_t uploadBytes(store::ValueType type, int brickEdge, AtlasFormat format);
   /// The staging bytes an atlas under `budgetBytes` keeps when its uploads are staged: whole regions of
   /// uploadBytes, at most kStagingBytes and an eighth of the budget, and 0 when that is fewer than two.
@@ -86,6 +86,8 @@ class BrickAtlas {
     double valueScale;
   };
   static TexelFormat texelFormat(store::ValueType type, AtlasFormat format);
+  /// Whether a brick of `type` is converted on the CPU on its way to a slot (into floats or halves).
+  bool converts(store::ValueType type) const;
 
   AtlasFormat mFormat;
   AtlasBricking mBricking;

@@ -27,7 +27,8 @@ TEST(LodBudget, ASetCoarsenedToTheAtlasPagesNothingOnTheNextFrame) {
   const size_t slot = BrickAtlas::slotBytes(s->type(), s->brickEdge(), AtlasFormat::Float);
   const int64_t capacity = full.bricksDrawn / 4;
   auto cache = std::make_shared<store::BrickCache>(s, size_t(256) << 20, 1);
-  VolumeRenderer renderer(test::context(), cache, size_t(capacity) * slot);
+  // Direct uploads: the whole budget is slots (staged, as Auto is on a GPU, an eighth of it would be the upload ring).
+  VolumeRenderer renderer(test::context(), cache, size_t(capacity) * slot, AtlasFormat::Float, AtlasUploads::Direct);
   ASSERT_EQ(renderer.atlas().capacity(), capacity);
   FrameStats first, second, dragged;
   const image::ImageF fitted = renderer.render(scene, &first);

@@ -45,8 +45,8 @@ TEST(RayCast, GivesSlicingsImageForEveryCameraAndCell) {
       Scene cast = rayCast(scene);
       cast.subBlock = subBlock;
       FrameStats stats;
-      expectClose(renderStore(s, cast, &stats), sliced, 1.0 / 255,
-                  "raycast-sub" + std::to_string(subBlock) + "-" + name);
+      test::expectSameDrawing(renderStore(s, cast, &stats), sliced, 1.0 / 255, *s, scene,
+                              "raycast-sub" + std::to_string(subBlock) + "-" + name);
       // One fragment per pixel whose ray meets the volume, at most.
       EXPECT_LE(stats.fragments, int64_t(scene.width) * scene.height) << name;
       EXPECT_GT(stats.samples, 10 * stats.fragments) << name << ": a whole ray per fragment";
@@ -86,7 +86,8 @@ TEST(RayCast, ShadingAndPreIntegration) {
   for (int subBlock : {0, 4}) {
     Scene cast = rayCast(scene);
     cast.subBlock = subBlock;
-    expectClose(renderStore(s, cast), sliced, 1.0 / 255, "raycast-shaded-sub" + std::to_string(subBlock));
+    test::expectSameDrawing(renderStore(s, cast), sliced, 1.0 / 255, *s, scene,
+                            "raycast-shaded-sub" + std::to_string(subBlock));
   }
   // Pre-integrated: a whole-brick cell is the slab's box, so the back samples are read alike.
   scene.shading = false;
@@ -96,7 +97,7 @@ TEST(RayCast, ShadingAndPreIntegration) {
   const image::ImageF slabs = renderStore(s, scene);
   ASSERT_GT(meanBrightness(slabs), 0.001);
   const image::ImageF cast = renderStore(s, rayCast(scene));
-  expectClose(cast, slabs, 1.0 / 255, "raycast-pre-integrated");
+  test::expectSameDrawing(cast, slabs, 1.0 / 255, *s, scene, "raycast-pre-integrated");
   scene.preIntegration = false;
   EXPECT_GT(image::compareImages(renderStore(s, rayCast(scene)), cast).maxAbs, 4.0 / 255)
       << "the table is used: post-classification at this step differs";

@@ -35,7 +35,8 @@ TEST(Slabs, EverySlabSizeGivesSlicingsImage) {
     for (int slab : {1, 3, 16, Scene::kMaxSlab}) {
       scene.slab = slab;
       scene.raycast = false;
-      expectClose(renderStore(s, scene), sliced, 1.0 / 255, "slab-" + std::to_string(slab) + "-" + name);
+      test::expectSameDrawing(renderStore(s, scene), sliced, 1.0 / 255, *s, scene,
+                              "slab-" + std::to_string(slab) + "-" + name);
     }
   }
 }
@@ -51,7 +52,8 @@ TEST(Slabs, ShadingSubBlocksAndSparseData) {
     scene.subBlock = subBlock;
     scene.slab = 8;
     scene.raycast = false;
-    expectClose(renderStore(s, scene), sliced, 1.0 / 255, "slab-8-shaded-sub" + std::to_string(subBlock));
+    test::expectSameDrawing(renderStore(s, scene), sliced, 1.0 / 255, *s, scene,
+                            "slab-8-shaded-sub" + std::to_string(subBlock));
   }
 }
 
@@ -227,13 +229,14 @@ TEST(Slabs, EmptySpaceMapsSkipEmptyPixelsAndChangeNothing) {
       ASSERT_GT(meanBrightness(without), 0.001);
       scene.ess = true;
       const std::string what = "ess-ert" + std::to_string(ert) + (preIntegration ? "-pre-int" : "");
-      expectClose(renderStore(s, scene, &mapped), without, 1.0 / 255, what);
+      test::expectSameDrawing(renderStore(s, scene, &mapped), without, 1.0 / 255, *s, scene, what);
       EXPECT_LT(mapped.fragments * 2, plain.fragments) << what << ": empty pixels are not marched";
       EXPECT_LT(mapped.samples, plain.samples) << what;
       // Out of core: the slab counter (and so the depths) carries on across batches.
       FrameStats tight;
-      expectClose(renderStore(s, scene, &tight, size_t(34) * 34 * 34 * 4 * 3, size_t(256) << 20, test::batched()),
-                  without, 1.0 / 255 + 2 * (1 - ert), what + "-out-of-core");
+      test::expectSameDrawing(
+          renderStore(s, scene, &tight, size_t(34) * 34 * 34 * 4 * 3, size_t(256) << 20, test::batched()), without,
+          1.0 / 255 + 2 * (1 - ert), *s, scene, what + "-out-of-core");
       EXPECT_GT(tight.batches, 3) << what;
     }
   // With the eye inside the volume, and a thin shell that pre-integration finds between samples.

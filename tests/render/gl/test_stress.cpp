@@ -363,7 +363,10 @@ TEST(StressVolume, DegenerateShapes) {
   {
     auto s = prep("synthetic:marschner-lobb,nx=1,ny=1,nz=64", dir / "line", 8);
     checkCase("1x1x64 end-on", s, orthoScene(red, 2));
-    checkCase("1x1x64 side-on", s, orthoScene(red, 80, {200, 0, 0}, 25), {}, 0.0005);
+    // Side-on, the line's ends (z = +-32) must not fall on pixel centres: at 3.2 voxels a pixel (height 80 over 25)
+    // they did, exactly, and whether such a pixel is covered is up to the last bit of the projection (the H200 drew
+    // one that the reference did not: max |diff| 0.3). At 3.12 they lie a quarter pixel from the nearest centres.
+    checkCase("1x1x64 side-on", s, orthoScene(red, 78, {200, 0, 0}, 25), {}, 0.0005);
   }
   // Where a ray's path is a voxel or two, one slice more or less is much of it: the bound at step 1/4 is one slice's
   // opacity, 1 - (1 - 0.6)^(1/4) = 0.21 for the largest alpha here, and a finer step brings the GPU close.
