@@ -12,6 +12,7 @@
 #include "brickstore/BrickFile.h"
 #include "brickstore/Errors.h"
 #include "brickstore/VdbStore.h"
+#include "brickstore/ZarrStore.h"
 #include "common/Checksum.h"
 
 namespace voxbrick::store {
@@ -150,6 +151,7 @@ const char* storeBackingName(StoreBacking backing) {
   switch (backing) {
     case StoreBacking::Directory: return "directory";
     case StoreBacking::VdbFile: return "vdb-file";
+    case StoreBacking::ZarrDirectory: return "ome-zarr";
   }
   return "unknown";
 }
@@ -166,11 +168,16 @@ bool BrickStore::isVdbFile(const fs::path& path) {
 }
 
 std::shared_ptr<const BrickStore> BrickStore::openAny(const fs::path& path, const StoreOpenOptions& options) {
+  if (options.time != 0 || options.channel != 0) {
+    if (!isZarrDirectory(path)) throw InputError(path.string() + ": --time and --channel apply to an OME-Zarr only");
+  }
+  if (isZarrDirectory(path)) return ZarrStore::open(path, options);
   if (isVdbFile(path)) return VdbStore::open(path, options);
   if (!options.gridName.empty() || options.brickSize != StoreOpenOptions{}.brickSize)
-    throw InputError(path.string() +
-                     ": --grid and --brick apply to a .vdb file only (a store directory has its "
-                     "own brick size)");
+    throw InputError(
+        path.string() +
+        ": --grid and --brick apply to a .vdb file only (--brick also to an OME-Zarr; a store directory has its "
+        "own brick size)");
   return open(path);
 }
 

@@ -1,6 +1,6 @@
 // The read side of a store, as the host cache and the renderer see it: metadata, per-brick records, bricks with
 // their borders and the min/max octree. Two backings: a prepped store directory (BrickStore::open) and an OpenVDB
-// file read live (VdbStore, brickstore/VdbStore.h).
+// file read live (VdbStore, brickstore/VdbStore.h), and an OME-Zarr directory read live (ZarrStore).
 #pragma once
 
 #include <filesystem>
@@ -17,11 +17,12 @@ namespace voxbrick::store {
 
 /// What a store is read from.
 enum class StoreBacking {
-  Directory,  ///< a store directory written by `voxbrick prep`: compressed bricks on disk
-  VdbFile,    ///< an OpenVDB file read live: bricks extracted from the grid's tree on demand
+  Directory,      ///< a store directory written by `voxbrick prep`: compressed bricks on disk
+  VdbFile,        ///< an OpenVDB file read live: bricks extracted from the grid's tree on demand
+  ZarrDirectory,  ///< an OME-Zarr directory read live: bricks cut from its chunks on demand
 };
 
-/// "directory" or "vdb-file".
+/// "directory", "vdb-file" or "ome-zarr".
 const char* storeBackingName(StoreBacking backing);
 
 /// The samples of a brick ((B+2)^3 values of the store's type, as BrickStore::readBrick writes them), kept alive
@@ -32,7 +33,9 @@ using BrickSamplesFetch = std::function<std::shared_ptr<const void>(const BrickK
 /// Options for opening a dataset file by its form (BrickStore::openAny).
 struct StoreOpenOptions {
   std::string gridName;  ///< .vdb: the float grid to read (default: the first float grid, as prep chooses)
-  int brickSize = 32;    ///< .vdb: B, a power of two in [8, 256] (prep's default)
+  int brickSize = 32;    ///< .vdb and OME-Zarr: B, a power of two in [8, 256] (prep's default)
+  int64_t time = 0;      ///< OME-Zarr: the index along its 't' axis
+  int64_t channel = 0;   ///< OME-Zarr: the index along its 'c' axis
 };
 
 /// An open store. Immutable after opening; every method is safe to call from many threads at once.
@@ -46,8 +49,9 @@ class BrickStore {
   /// Opens and validates a store directory (index checksums, sizes, metadata). Throws CorruptStoreError or
   /// IoError naming the file and the problem; never returns a half-valid store.
   static std::shared_ptr<const BrickStore> open(const std::filesystem::path& dir);
-  /// Opens `path` by its form: a file ending in .vdb is read live (VdbStore::open with `options`), anything else
-  /// is opened as a store directory (then `options` must be the defaults). Throws what those throw, and InputError
+  /// Opens `path` by its form: a file ending in .vdb is read live (VdbStore::open with `options`), an OME-Zarr
+  /// directory too (ZarrStore::open, isZarrDirectory), anything else is opened as a store directory (then `options`
+  /// must be the defaults). Throws what those throw, and InputError
   /// for options given to a directory.
   static std::shared_ptr<const BrickStore> openAny(const std::filesystem::path& path,
                                                    const StoreOpenOptions& options = {});

@@ -10,6 +10,7 @@
 #include "brickstore/DicomStructure.h"
 #include "brickstore/Errors.h"
 #include "brickstore/Sources.h"
+#include "brickstore/ZarrMeta.h"
 
 namespace voxbrick::store {
 namespace {
@@ -122,6 +123,9 @@ std::unique_ptr<VolumeSource> openSource(const std::string& input, const SourceO
     if (input.find_first_of("*?[") != std::string::npos) return openSource(expandGlob(input), options);
     throw InputError(input + ": no such file");
   }
+  if (isZarrDirectory(input)) return openZarrSource(input, options);
+  if (options.time != 0 || options.channel != 0)
+    throw InputError(input + ": --time and --channel apply to an OME-Zarr directory only");
   if (std::filesystem::is_directory(input, ec)) return openDirectory(input, options);
 
   if (endsWith(input, ".vdb")) return openVdbSource(input, options);

@@ -42,6 +42,10 @@ std::unique_ptr<VolumeSource> openDicomDir(const std::string& path, const Source
 /// u8, u16, i16 or f32 pages of one size. Spacing is options.spacing (1,1,1 unless given).
 std::unique_ptr<VolumeSource> openTiffSource(const std::vector<std::string>& files, const SourceOptions& options);
 
+/// One time point and channel (options.time, options.channel) of an OME-Zarr directory (ZarrSource.cpp): level 0,
+/// with the Zarr's own coarser levels offered through ownLevel() where they halve each axis.
+std::unique_ptr<VolumeSource> openZarrSource(const std::string& dir, const SourceOptions& options);
+
 /// A synthetic field; `spec` is what follows "synthetic:", e.g. "marschner-lobb,n=64".
 std::unique_ptr<VolumeSource> openSyntheticSource(const std::string& spec, const SourceOptions& options);
 

@@ -294,7 +294,15 @@ Histogram writeCoarserLevels(const PrepPlan& plan, const fs::path& dir, OutputFi
     StoredLevelSource finer(reader, levels[l - 1], uint32_t(l - 1), B, info.type, plan.background, info.spacing);
     if (l == 1) finer.setSliceHook(histogramHook);
     DownsampleSource coarse(finer);
-    SlabBricker bricker(coarse, B, plan.background, plan.options.zstdLevel, bricks);
+    // The input's own level (an OME-Zarr's), where it has one of these dims; never for a quantised input.
+    std::unique_ptr<VolumeSource> own =
+        plan.quantised ? nullptr : plan.level0Source.ownLevel(static_cast<int>(l), pyramid[l]);
+    if (own && l == 1) {  // level 0 is still read back once, for the histogram
+      std::vector<char> slice(static_cast<size_t>(info.dims.x * info.dims.y) * valueSize(info.type));
+      for (int64_t z = 0; z < info.dims.z; ++z) finer.readSlices(1, slice.data());
+    }
+    SlabBricker bricker(own ? *own : static_cast<VolumeSource&>(coarse), B, plan.background, plan.options.zstdLevel,
+                        bricks);
     // The finer level's slab of B slices and the downsampler's two are held beside the slabs in flight.
     const int64_t finerSlices = (B + 2) * pyramid[l - 1].x * pyramid[l - 1].y * int64_t(valueSize(info.type));
     bricker.setSlabsInFlight(slabsInFlight(plan.memory.budget - finerSlices,

@@ -38,6 +38,15 @@ class VolumeSource {
 
   /// The analytic definition of a synthetic source (so tests can compare with the true function); else null.
   virtual const SyntheticField* analytic() const { return nullptr; }
+
+  /// The input's own pyramid level `level` (1 = the first coarser), read as a source of `dims` voxels, when the
+  /// input holds one of exactly those dims (an OME-Zarr's multiscales); prep then stores it as that LOD level
+  /// instead of averaging the level below. Null (the default): the level is averaged.
+  virtual std::unique_ptr<VolumeSource> ownLevel(int level, const Vec3i& dims) {
+    (void)level;
+    (void)dims;
+    return nullptr;
+  }
 };
 
 /// Options a user gives prep for inputs whose files do not describe themselves (raw) or to override them.
@@ -51,11 +60,14 @@ struct SourceOptions {
   std::string gridName;        ///< vdb: grid to read (default: the first float grid)
   std::string seriesUid;       ///< dicom: the SeriesInstanceUID to read when the input holds several
   int64_t memoryBudgetMB = 0;  ///< prep's --memory: a declared slice that cannot fit is refused at open (0: none)
+  int64_t time = 0;            ///< OME-Zarr: the index along its 't' axis
+  int64_t channel = 0;         ///< OME-Zarr: the index along its 'c' axis
 };
 
 /// Opens INPUT by its form: "synthetic:NAME[,k=v...]", *.vdb, *.nrrd / *.nhdr, *.nii / *.nii.gz, a DICOM file
 /// (*.dcm or a file with the DICM preamble: the series it belongs to, from its directory), *.tif / *.tiff (a stack of
-/// pages), a directory (its DICOM series or its TIFF files), a glob pattern ("dir/*.tif"), else raw.
+/// pages), an OME-Zarr directory (its levels too, VolumeSource::ownLevel), a directory (its DICOM series or its TIFF
+/// files), a glob pattern ("dir/*.tif"), else raw.
 /// Throws InputError naming the file and the problem.
 std::unique_ptr<VolumeSource> openSource(const std::string& input, const SourceOptions& options);
 

@@ -9,6 +9,7 @@
 #include "brickstore/InputErrors.h"
 #include "brickstore/Orientation.h"
 #include "brickstore/VdbStore.h"
+#include "brickstore/ZarrStore.h"
 #include "cli/Commands.h"
 #include "mesh/MeshStore.h"
 
@@ -18,6 +19,7 @@ namespace {
 struct InfoArgs {
   std::string store, grid;
   int brick = 32;
+  int64_t time = 0, channel = 0;
   bool json = false;
 };
 
@@ -106,8 +108,8 @@ void printStoreJson(const InfoArgs& a, const store::BrickStore& s, const store::
 }
 
 /// The first lines of `info` about a brick store: where it came from, dims, orientation, values, histogram.
-void printStoreHeader(const InfoArgs& a, const store::StoreMeta& m, bool live) {
-  std::printf("store        %s%s\n", a.store.c_str(), live ? " (OpenVDB file, read live)" : "");
+void printStoreHeader(const InfoArgs& a, const store::StoreMeta& m, const char* live) {
+  std::printf("store        %s%s\n", a.store.c_str(), live);
   std::printf("source       %s\n", m.source.c_str());
   std::printf("dims         %s voxels, spacing %g x %g x %g, type %s\n", dimsText(m.dims).c_str(), m.spacing.x,
               m.spacing.y, m.spacing.z, std::string(store::valueTypeName(m.type)).c_str());
@@ -129,7 +131,7 @@ void printStoreHeader(const InfoArgs& a, const store::StoreMeta& m, bool live) {
 }
 
 /// The levels of a brick store (and, for a live .vdb, what opening it took), after its header.
-void printStoreLevels(const store::BrickStore& s, const store::VdbStore* live) {
+void printStoreLevels(const store::BrickStore& s, const store::VdbStore* live, bool zarr = false) {
   const store::StoreMeta& m = s.meta();
   const StoreSummary summary = summarise(m);
   std::printf("bricks       %d^3 + 1-voxel border, %zu levels, octree depth %d\n", m.brickSize, m.levels.size(),
@@ -159,18 +161,33 @@ void printStoreLevels(const store::BrickStore& s, const store::VdbStore* live) {
     return;
   }
   std::printf("empty        %.1f%% of level-0 bricks are empty (not stored)\n", 100 * summary.emptyFraction);
+  if (zarr) return;
   std::printf("size         %s raw, %s stored (all levels, %.2fx), %s OpenVDB grid in %zu file(s)\n",
               formatBytes(double(m.bytesRaw)).c_str(), formatBytes(double(m.bytesStored)).c_str(), summary.ratio,
               formatBytes(double(m.bytesVdb)).c_str(), m.vdbFiles.size());
 }
 
+/// What opening an OME-Zarr live found: its chunks, which levels are its own, what the pass over them cost.
+void printZarrOpen(const store::ZarrStore& z) {
+  const store::ZarrOpenStats& o = z.openStats();
+  std::printf(
+      "live         OME-Zarr read live: %lld of %lld level-0 chunk files present; store levels 0-%d are its own "
+      "datasets%s\n",
+      (long long)o.chunksPresent, (long long)o.chunksTotal, o.ownLevels - 1,
+      o.ownLevels < z.levelCount() ? ", the coarser averaged from the level below" : "");
+  std::printf("open         %.3f s (%lld bricks read for their ranges, %lld chunk decodes)\n", o.scanSeconds,
+              (long long)o.bricksScanned, (long long)o.chunksDecoded);
+}
+
 void runInfo(const InfoArgs& a) {
   if (mesh::looksLikeMeshStore(a.store)) return runMeshInfo(a);
-  auto s = store::BrickStore::openAny(a.store, {a.grid, a.brick});
+  auto s = store::BrickStore::openAny(a.store, {a.grid, a.brick, a.time, a.channel});
   const auto* live = dynamic_cast<const store::VdbStore*>(s.get());
   if (a.json) return printStoreJson(a, *s, live);
-  printStoreHeader(a, s->meta(), live != nullptr);
-  printStoreLevels(*s, live);
+  const auto* zarr = dynamic_cast<const store::ZarrStore*>(s.get());
+  printStoreHeader(a, s->meta(), live ? " (OpenVDB file, read live)" : zarr ? " (OME-Zarr, read live)" : "");
+  printStoreLevels(*s, live, zarr != nullptr);
+  if (zarr) printZarrOpen(*zarr);
 }
 
 }  // namespace
@@ -178,11 +195,13 @@ void runInfo(const InfoArgs& a) {
 void addInfoCommand(CLI::App& app) {
   auto args = std::make_shared<InfoArgs>();
   CLI::App* cmd = app.add_subcommand("info", "Describe a brick store (or a .vdb, as it would be read live)");
-  cmd->add_option("store", args->store, "store directory, or a .vdb file")->required();
+  cmd->add_option("store", args->store, "store directory, a .vdb file or an OME-Zarr directory")->required();
   cmd->add_option("--grid", args->grid, ".vdb: the float grid to read (default: the first float grid)");
   cmd->add_option("--brick", args->brick, ".vdb: brick size B, a power of two in [8, 256]")
       ->capture_default_str()
       ->check(between(8, 256, "voxels"));
+  cmd->add_option("--time", args->time, "OME-Zarr: the index along its 't' axis")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--channel", args->channel, "OME-Zarr: the index along its 'c' axis")->check(CLI::NonNegativeNumber);
   cmd->add_flag("--json", args->json, "print one JSON object");
   cmd->callback([args] { store::namingInput({args->store}, [&] { runInfo(*args); }); });
 }

@@ -24,6 +24,7 @@ struct OrbitArgs {
   SceneArgs scene;
   std::string store, pattern, grid, backend = "auto";
   int brick = 32, frames = 36, jpegQuality = 90;
+  int64_t time = 0, channel = 0;
   double elevation = 0;
   int64_t gpuBudgetMB = 1024, hostBudgetMB = 1024;
   double interactiveMs = 0;  ///< --interactive: each view drawn as an interactive frame with this budget; 0: exact
@@ -92,8 +93,8 @@ void runOrbit(const OrbitArgs& a, const CLI::App& cmd) {
   checkOutputFormat(scene, first);
   const std::filesystem::path dir = std::filesystem::path(first).parent_path();
   if (!dir.empty()) std::filesystem::create_directories(dir);
-  const auto dataset =
-      render::openDataset(a.store, a.store, size_t(a.hostBudgetMB) << 20, store::StoreOpenOptions{a.grid, a.brick});
+  const auto dataset = render::openDataset(a.store, a.store, size_t(a.hostBudgetMB) << 20,
+                                           store::StoreOpenOptions{a.grid, a.brick, a.time, a.channel});
   render::RenderEngineOptions options;
   options.backend = render::parseBackend(a.backend);
   options.gpuBudgetBytes = size_t(a.gpuBudgetMB) << 20;
@@ -142,6 +143,8 @@ void addOrbitCommand(CLI::App& app) {
   cmd->add_option("--frames", a->frames, "frames in the full turn")->capture_default_str()->check(between(1, 100000));
   cmd->add_option("--elevation", a->elevation, "degrees above the equator (default: the --orbit camera's, 20)")
       ->check(between(-90, 90, "degrees"));
+  cmd->add_option("--time", a->time, "OME-Zarr: the index along its 't' axis")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--channel", a->channel, "OME-Zarr: the index along its 'c' axis")->check(CLI::NonNegativeNumber);
   cmd->add_option("--grid", a->grid, ".vdb: the float grid to read (default: the first float grid)");
   cmd->add_option("--brick", a->brick, ".vdb: brick size B, a power of two in [8, 256]")
       ->capture_default_str()

@@ -29,7 +29,7 @@ struct PrepArgs {
   std::string input, output, dims, type, spacing, endian = "little", grid, nonFinite = "background";
   std::string quantise, quantiseRange, field, series;
   std::vector<std::string> inputs;  ///< the input; several for the files of a DICOM series or a TIFF stack
-  int64_t headerBytes = 0;
+  int64_t headerBytes = 0, time = 0, channel = 0;
   uint32_t tetsPerChunk = mesh::MeshStoreOptions{}.tetsPerChunk;
   double background = 0;
   bool quiet = false;
@@ -108,6 +108,8 @@ store::SourceOptions sourceOptions(const PrepArgs& a) {
   so.bigEndian = a.endian == "big";
   so.headerBytes = a.headerBytes;
   so.gridName = a.grid;
+  so.time = a.time;
+  so.channel = a.channel;
   so.seriesUid = a.series;
   so.memoryBudgetMB = a.options.memoryBudgetMB;
   return so;
@@ -224,6 +226,8 @@ void addPrepCommand(CLI::App& app) {
   cmd->add_option("--endian", args->endian, "raw: byte order")->check(CLI::IsMember({"little", "big"}));
   cmd->add_option("--header-bytes", args->headerBytes, "raw: bytes to skip before the voxels")
       ->check(between(0, 1e15, "bytes"));
+  cmd->add_option("--time", args->time, "OME-Zarr: the index along its 't' axis")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--channel", args->channel, "OME-Zarr: the index along its 'c' axis")->check(CLI::NonNegativeNumber);
   cmd->add_option("--grid", args->grid, "vdb: name of the float grid (default: the first)");
   cmd->add_option("--series", args->series, "dicom: the SeriesInstanceUID to read when the input holds several series");
   cmd->add_option("--brick", args->options.brickSize, "brick size B (power of two, 8..256)")

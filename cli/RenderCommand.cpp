@@ -27,6 +27,7 @@ struct RenderArgs {
   SceneArgs scene;
   std::string store, output, statsPath, grid;
   int brick = 32;
+  int64_t time = 0, channel = 0;
   std::string backend = "auto", atlasFormat = "float", uploads = "auto", bricking = "single", analytic;
   double referenceStep = 0.125;
   bool quiet = false;
@@ -255,7 +256,7 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
   const render::Scene scene = buildScene(a.scene, cmd);
   const auto dataset = store::namingInput({a.store}, [&] {
     return render::openDataset(a.store, a.store, size_t(a.hostBudgetMB) << 20,
-                               store::StoreOpenOptions{a.grid, a.brick});
+                               store::StoreOpenOptions{a.grid, a.brick, a.time, a.channel});
   });
   checkSubBlock(a, cmd, *dataset);
   checkOutputFormat(scene, a.output);
@@ -288,7 +289,10 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
 void addRenderCommand(CLI::App& app) {
   auto args = std::make_shared<RenderArgs>();
   CLI::App* cmd = app.add_subcommand("render", "Render one frame of a store (or a .vdb, read live) to a PNG, headless");
-  cmd->add_option("store", args->store, "store directory, or a .vdb file to read live (no prep)")->required();
+  cmd->add_option("store", args->store, "store directory, or a .vdb file or OME-Zarr directory to read live (no prep)")
+      ->required();
+  cmd->add_option("--time", args->time, "OME-Zarr: the index along its 't' axis")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--channel", args->channel, "OME-Zarr: the index along its 'c' axis")->check(CLI::NonNegativeNumber);
   cmd->add_option("--grid", args->grid, ".vdb: the float grid to read (default: the first float grid)");
   cmd->add_option("--brick", args->brick, ".vdb: brick size B, a power of two in [8, 256]")
       ->capture_default_str()

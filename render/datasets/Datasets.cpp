@@ -3,6 +3,7 @@
 
 #include <stdexcept>
 
+#include "brickstore/ZarrMeta.h"
 #include "mesh/MeshStore.h"
 #include "render/tets/TetMeshDataset.h"
 #include "render/volume/BrickStoreDataset.h"
@@ -12,12 +13,14 @@ namespace voxbrick::render {
 bool isDataset(const std::filesystem::path& path) {
   std::error_code ec;
   return std::filesystem::is_regular_file(path / "store.json", ec) || store::BrickStore::isVdbFile(path) ||
-         mesh::looksLikeMeshStore(path);
+         store::isZarrDirectory(path) || mesh::looksLikeMeshStore(path);
 }
 
 std::vector<std::filesystem::path> datasetFiles(const std::filesystem::path& path) {
   if (mesh::looksLikeMeshStore(path))
     return {path / mesh::kMeshMetaFile, path / mesh::kMeshIndexFile, path / mesh::kMeshDataFile};
+  // An OME-Zarr's identity is its metadata (a rewrite of the chunks alone is not seen; reopen it by name).
+  if (store::isZarrDirectory(path)) return {path / ".zattrs", path / ".zgroup"};
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) return {path / "store.json", path / "bricks.bin"};
   return {path};
@@ -40,7 +43,7 @@ std::shared_ptr<const Dataset> openDataset(std::string name, const std::filesyst
   }
   if (!isDataset(path))
     throw std::runtime_error("openDataset: '" + path.string() +
-                             "' is not a dataset (no store.json, not a .vdb file, not a mesh store)");
+                             "' is not a dataset (no store.json, not a .vdb file, not an OME-Zarr, not a mesh store)");
   return std::make_shared<BrickStoreDataset>(std::move(name), path, cacheBytes, 2, options);
 }
 

@@ -1,0 +1,40 @@
+// OME-Zarr test volumes written at test time by Debian's python3-zarr (tests/support/zarr_fixture.py), and small
+// edits of their metadata for the refusal tests.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "support/TestSupport.h"
+
+namespace voxbrick::test {
+
+/// The fixture writer beside this header (the test binary defines VOXBRICK_SOURCE_DIR).
+inline std::filesystem::path zarrFixtureScript() {
+  return std::filesystem::path(VOXBRICK_SOURCE_DIR) / "tests" / "support" / "zarr_fixture.py";
+}
+
+/// Writes an OME-Zarr at `out` from `spec` (zarr_fixture.py's JSON; "out" is set here) with /usr/bin/python3.
+inline std::filesystem::path writeZarr(const std::filesystem::path& out, nlohmann::json spec) {
+  spec["out"] = out.string();
+  const CommandResult r = runShell("/usr/bin/python3 " + zarrFixtureScript().string() + " '" + spec.dump() + "' 2>&1");
+  EXPECT_EQ(r.exitCode, 0) << r.output;
+  return out;
+}
+
+inline nlohmann::json readJsonFile(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  std::stringstream text;
+  text << in.rdbuf();
+  return nlohmann::json::parse(text.str());
+}
+
+inline void writeJsonFile(const std::filesystem::path& file, const nlohmann::json& j) { writeFile(file, j.dump(2)); }
+
+}  // namespace voxbrick::test
