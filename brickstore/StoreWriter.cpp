@@ -8,6 +8,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
@@ -85,8 +86,10 @@ class ParallelHistogram {
     });
   }
 
-  Histogram finish() {
-    HistogramBuilder all(mType, mLo, mHi);
+  /// The histogram over [lo, hi]: the range given at construction for floats (binned as they come); integer types,
+  /// counted by value, may be given their range only now.
+  Histogram finish(double lo, double hi) {
+    HistogramBuilder all(mType, lo, hi);
     for (const HistogramBuilder& b : mBuilders) all.merge(b);
     return all.finish();
   }
@@ -236,7 +239,7 @@ StoreMeta describeStore(const PrepPlan& plan) {
 /// Level 0 from the source into `bricks` (and the VDB grid into `dir`); its statistics, VDB files and quantisation
 /// go into `meta`.
 LevelBuild writeLevel0(const PrepPlan& plan, const fs::path& dir, OutputFile& bricks, StoreMeta& meta,
-                       ProgressReport& report, std::vector<PhaseTime>& phases) {
+                       ProgressReport& report, std::vector<PhaseTime>& phases, const SlabBricker::SliceConsumer& tap) {
   const PhaseClock clock;
   const PrepOptions& options = plan.options;
   const VolumeInfo& info = plan.info;
@@ -251,8 +254,14 @@ LevelBuild writeLevel0(const PrepPlan& plan, const fs::path& dir, OutputFile& br
     stats.observe(z0, count, values);
     report.addBytesIn(count * sliceBytes);
   });
-  if (vdb)
+  if (vdb && tap)
+    bricker.setSliceConsumer([&](int64_t z0, int64_t count, const void* values) {
+      tbb::parallel_invoke([&] { vdb->addSlices(z0, count, values); }, [&] { tap(z0, count, values); });
+    });
+  else if (vdb)
     bricker.setSliceConsumer([&](int64_t z0, int64_t count, const void* values) { vdb->addSlices(z0, count, values); });
+  else if (tap)
+    bricker.setSliceConsumer(tap);
   bricker.setProgressHook([&](int64_t done, int64_t total) { report("level 0", done, total); });
   LevelBuild level = bricker.run();
   if (vdb) {
@@ -278,23 +287,65 @@ LevelBuild writeLevel0(const PrepPlan& plan, const fs::path& dir, OutputFile& br
   return level;
 }
 
-/// Coarser levels, each read back from the one before (in `dir`/bricks.bin) and appended to `bricks` and `levels`;
-/// the pass over level 0 also counts the histogram of `meta`'s value range, which it returns.
+/// What level 0's pass also makes, when it can, so that level 0 is not read back: the histogram and level 1 (spilled
+/// to a scratch file). It can when the histogram's range is known before the pass: for integer types (counted by
+/// value, binned at the end) and for a float input that can be read again cheaply (scanned for its range first).
+struct FirstPass {
+  std::optional<Level0Stats> scanned;  ///< the range scan's statistics (floats)
+  std::optional<ParallelHistogram> histogram;
+  std::unique_ptr<Level1Spill> level1;  ///< null when level 0 is the only level
+};
+
+/// Sets up `pass` when level 0's pass can count the histogram and make level 1; false when it cannot.
+bool planFirstPass(const PrepPlan& plan, const fs::path& dir, FirstPass& pass, std::vector<PhaseTime>& phases) {
+  const VolumeInfo& info = plan.info;
+  double lo = 0, hi = 0;
+  if (info.type == ValueType::F32) {
+    std::unique_ptr<VolumeSource> again = plan.quantised ? nullptr : plan.level0Source.reopen();
+    if (!again) return false;
+    const PhaseClock clock;
+    // Within the budget: nothing else is held yet, and a slab of B + 2 slices fits it (planMemory).
+    const int64_t sliceBytes = info.dims.x * info.dims.y * int64_t(valueSize(info.type));
+    const int64_t batch = std::max(sliceBytes, std::min(plan.memory.budget / 4, int64_t{16} << 20));
+    pass.scanned = scanLevel0(*again, plan.background, plan.options.nonFinite, {}, batch);
+    lo = pass.scanned->min, hi = pass.scanned->max;
+    phases.push_back(clock.elapsed("value range (input read again)"));
+  }
+  pass.histogram.emplace(info.type, lo, hi);
+  if (pyramidDims(info.dims, plan.options.brickSize).size() > 1)
+    pass.level1 = std::make_unique<Level1Spill>(info, dir / "level1.scratch");
+  return true;
+}
+
+/// Coarser levels appended to `bricks` and `levels`: level 1 from `pass`'s scratch file if it was made, else from
+/// level 0 read back (in `dir`/bricks.bin), whose pass also counts the histogram of `meta`'s value range; each
+/// level after from the one before, read back. Returns the histogram.
 Histogram writeCoarserLevels(const PrepPlan& plan, const fs::path& dir, OutputFile& bricks,
-                             std::vector<LevelBuild>& levels, const StoreMeta& meta, ProgressReport& report) {
+                             std::vector<LevelBuild>& levels, const StoreMeta& meta, ProgressReport& report,
+                             FirstPass* pass) {
   const VolumeInfo& info = plan.info;
   const int B = plan.options.brickSize;
   const std::vector<Vec3i> pyramid = pyramidDims(info.dims, B);
-  ParallelHistogram histogram(info.type, meta.valueMin, meta.valueMax);
+  std::optional<ParallelHistogram> readBack;
+  if (!pass) readBack.emplace(info.type, meta.valueMin, meta.valueMax);
   BrickFileReader reader(dir / "bricks.bin", info.type);
   auto histogramHook = [&](int64_t, int64_t count, const void* values) {
-    histogram.add(values, count * info.dims.x * info.dims.y);
+    readBack->add(values, count * info.dims.x * info.dims.y);
   };
   for (size_t l = 1; l < pyramid.size(); ++l) {
-    StoredLevelSource finer(reader, levels[l - 1], uint32_t(l - 1), B, info.type, plan.background, info.spacing);
-    if (l == 1) finer.setSliceHook(histogramHook);
-    DownsampleSource coarse(finer);
-    SlabBricker bricker(coarse, B, plan.background, plan.options.zstdLevel, bricks);
+    std::optional<StoredLevelSource> finer;
+    std::optional<DownsampleSource> downsampled;
+    std::unique_ptr<VolumeSource> spilled;
+    VolumeSource* coarse = nullptr;
+    if (l == 1 && pass) {
+      spilled = pass->level1->spilled();
+      coarse = spilled.get();
+    } else {
+      finer.emplace(reader, levels[l - 1], uint32_t(l - 1), B, info.type, plan.background, info.spacing);
+      if (l == 1) finer->setSliceHook(histogramHook);
+      coarse = &downsampled.emplace(*finer);
+    }
+    SlabBricker bricker(*coarse, B, plan.background, plan.options.zstdLevel, bricks);
     // The finer level's slab of B slices and the downsampler's two are held beside the slabs in flight.
     const int64_t finerSlices = (B + 2) * pyramid[l - 1].x * pyramid[l - 1].y * int64_t(valueSize(info.type));
     bricker.setSlabsInFlight(slabsInFlight(plan.memory.budget - finerSlices,
@@ -302,14 +353,19 @@ Histogram writeCoarserLevels(const PrepPlan& plan, const fs::path& dir, OutputFi
     const std::string stage = "level " + std::to_string(l);
     bricker.setProgressHook([&](int64_t done, int64_t total) { report(stage, done, total); });
     levels.push_back(bricker.run());
+    if (spilled) {
+      spilled.reset();
+      fs::remove(pass->level1->path());
+    }
   }
+  if (pass) return pass->histogram->finish(meta.valueMin, meta.valueMax);
   if (pyramid.size() == 1) {
     StoredLevelSource only(reader, levels[0], 0, B, info.type, plan.background, info.spacing);
     only.setSliceHook(histogramHook);
     std::vector<char> slice(static_cast<size_t>(info.dims.x * info.dims.y) * valueSize(info.type));
     for (int64_t z = 0; z < info.dims.z; ++z) only.readSlices(1, slice.data());
   }
-  return histogram.finish();
+  return readBack->finish(meta.valueMin, meta.valueMax);
 }
 
 /// The whole store into the empty directory `dir`: the levels' bricks, the index and store.json; returns its
@@ -317,12 +373,25 @@ Histogram writeCoarserLevels(const PrepPlan& plan, const fs::path& dir, OutputFi
 StoreMeta writeStore(const PrepPlan& plan, const fs::path& dir, ProgressReport& report,
                      std::vector<PhaseTime>& phases) {
   StoreMeta meta = describeStore(plan);
+  FirstPass pass;
+  const bool firstPass = planFirstPass(plan, dir, pass, phases);
+  SlabBricker::SliceConsumer tap;
+  if (firstPass)
+    tap = [&](int64_t z0, int64_t count, const void* values) {
+      tbb::parallel_invoke([&] { pass.histogram->add(values, count * plan.info.dims.x * plan.info.dims.y); },
+                           [&] {
+                             if (pass.level1) pass.level1->addSlices(z0, count, values);
+                           });
+    };
   OutputFile bricks(dir / "bricks.bin");
   std::vector<LevelBuild> levels;
-  levels.push_back(writeLevel0(plan, dir, bricks, meta, report, phases));
+  levels.push_back(writeLevel0(plan, dir, bricks, meta, report, phases, tap));
+  if (pass.scanned && (pass.scanned->min != meta.valueMin || pass.scanned->max != meta.valueMax))
+    throw InputError(plan.info.description + ": the input changed while prep read it");
   PhaseClock clock;
-  meta.histogram = writeCoarserLevels(plan, dir, bricks, levels, meta, report);
-  phases.push_back(clock.elapsed("levels 1+ (level 0 read back) and histogram"));
+  meta.histogram = writeCoarserLevels(plan, dir, bricks, levels, meta, report, firstPass ? &pass : nullptr);
+  phases.push_back(clock.elapsed(firstPass ? "levels 1+ (level 1 made in level 0's pass), histogram"
+                                           : "levels 1+ (level 0 read back) and histogram"));
   clock.restart();
   const uint64_t bricksSize = bricks.size();
   bricks.close();
