@@ -297,7 +297,8 @@ struct FirstPass {
 };
 
 /// Sets up `pass` when level 0's pass can count the histogram and make level 1; false when it cannot.
-bool planFirstPass(const PrepPlan& plan, const fs::path& dir, FirstPass& pass, std::vector<PhaseTime>& phases) {
+bool planFirstPass(const PrepPlan& plan, const fs::path& dir, FirstPass& pass, ProgressReport& report,
+                   std::vector<PhaseTime>& phases) {
   const VolumeInfo& info = plan.info;
   double lo = 0, hi = 0;
   if (info.type == ValueType::F32) {
@@ -307,7 +308,9 @@ bool planFirstPass(const PrepPlan& plan, const fs::path& dir, FirstPass& pass, s
     // Within the budget: nothing else is held yet, and a slab of B + 2 slices fits it (planMemory).
     const int64_t sliceBytes = info.dims.x * info.dims.y * int64_t(valueSize(info.type));
     const int64_t batch = std::max(sliceBytes, std::min(plan.memory.budget / 4, int64_t{16} << 20));
-    pass.scanned = scanLevel0(*again, plan.background, plan.options.nonFinite, {}, batch);
+    pass.scanned = scanLevel0(
+        *again, plan.background, plan.options.nonFinite,
+        [&](int64_t done, int64_t total) { report("value range", done, total); }, batch);
     lo = pass.scanned->min, hi = pass.scanned->max;
     phases.push_back(clock.elapsed("value range (input read again)"));
   }
@@ -374,7 +377,7 @@ StoreMeta writeStore(const PrepPlan& plan, const fs::path& dir, ProgressReport& 
                      std::vector<PhaseTime>& phases) {
   StoreMeta meta = describeStore(plan);
   FirstPass pass;
-  const bool firstPass = planFirstPass(plan, dir, pass, phases);
+  const bool firstPass = planFirstPass(plan, dir, pass, report, phases);
   SlabBricker::SliceConsumer tap;
   if (firstPass)
     tap = [&](int64_t z0, int64_t count, const void* values) {
@@ -390,7 +393,7 @@ StoreMeta writeStore(const PrepPlan& plan, const fs::path& dir, ProgressReport& 
     throw InputError(plan.info.description + ": the input changed while prep read it");
   PhaseClock clock;
   meta.histogram = writeCoarserLevels(plan, dir, bricks, levels, meta, report, firstPass ? &pass : nullptr);
-  phases.push_back(clock.elapsed(firstPass ? "levels 1+ (level 1 made in level 0's pass), histogram"
+  phases.push_back(clock.elapsed(firstPass ? "levels 1+ (level 1 from level 0's pass)"
                                            : "levels 1+ (level 0 read back) and histogram"));
   clock.restart();
   const uint64_t bricksSize = bricks.size();
