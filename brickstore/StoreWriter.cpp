@@ -305,9 +305,9 @@ bool planFirstPass(const PrepPlan& plan, const fs::path& dir, FirstPass& pass, P
     std::unique_ptr<VolumeSource> again = plan.quantised ? nullptr : plan.level0Source.reopen();
     if (!again) return false;
     const PhaseClock clock;
-    // Within the budget: nothing else is held yet, and a slab of B + 2 slices fits it (planMemory).
+    // Batches of a few MB (at least a slice: a slab of B + 2 fits the budget) that stay in cache to be scanned.
     const int64_t sliceBytes = info.dims.x * info.dims.y * int64_t(valueSize(info.type));
-    const int64_t batch = std::max(sliceBytes, std::min(plan.memory.budget / 4, int64_t{16} << 20));
+    const int64_t batch = std::max(sliceBytes, std::min(plan.memory.budget / 8, int64_t{2} << 20));
     pass.scanned = scanLevel0(
         *again, plan.background, plan.options.nonFinite,
         [&](int64_t done, int64_t total) { report("value range", done, total); }, batch);
