@@ -34,6 +34,9 @@ namespace voxbrick::store {
 namespace fs = std::filesystem;
 namespace {
 
+/// Level 1's scratch file in the store being built, while level 0's pass makes it (see FirstPass).
+constexpr const char* kLevel1Scratch = "level1.scratch";
+
 /// Slabs in flight at most: one being read while one is cut and one written is all two cores can overlap.
 constexpr int kMaxSlabsInFlight = 3;
 
@@ -316,7 +319,7 @@ bool planFirstPass(const PrepPlan& plan, const fs::path& dir, FirstPass& pass, P
   }
   pass.histogram.emplace(info.type, lo, hi);
   if (pyramidDims(info.dims, plan.options.brickSize).size() > 1)
-    pass.level1 = std::make_unique<Level1Spill>(info, dir / "level1.scratch");
+    pass.level1 = std::make_unique<Level1Spill>(info, dir / kLevel1Scratch);
   return true;
 }
 
@@ -358,7 +361,8 @@ Histogram writeCoarserLevels(const PrepPlan& plan, const fs::path& dir, OutputFi
     levels.push_back(bricker.run());
     if (spilled) {
       spilled.reset();
-      fs::remove(pass->level1->path());
+      pass->level1.reset();
+      fs::remove(dir / kLevel1Scratch);
     }
   }
   if (pass) return pass->histogram->finish(meta.valueMin, meta.valueMax);
