@@ -290,37 +290,49 @@ LevelBuild writeLevel0(const PrepPlan& plan, const fs::path& dir, OutputFile& br
   return level;
 }
 
-/// What level 0's pass also makes, when it can, so that level 0 is not read back: the histogram and level 1 (spilled
-/// to a scratch file). It can when the histogram's range is known before the pass: for integer types (counted by
-/// value, binned at the end) and for a float input that can be read again cheaply (scanned for its range first).
+/// What level 0's pass also makes, when it can, so that level 0 is not read back: level 1 (spilled to a scratch file)
+/// and the histogram. It can for integer types (counted by value, binned at the end) and for a float input that can
+/// be read again cheaply: its histogram, which needs level 0's range, is counted from the input read again after.
 struct FirstPass {
-  std::optional<Level0Stats> scanned;  ///< the range scan's statistics (floats)
-  std::optional<ParallelHistogram> histogram;
-  std::unique_ptr<Level1Spill> level1;  ///< null when level 0 is the only level
+  std::unique_ptr<VolumeSource> again;         ///< the float input, to be read again for the histogram
+  std::optional<ParallelHistogram> histogram;  ///< counted in level 0's pass (integer types) or after it (floats)
+  std::unique_ptr<Level1Spill> level1;         ///< null when level 0 is the only level
 };
 
-/// Sets up `pass` when level 0's pass can count the histogram and make level 1; false when it cannot.
-bool planFirstPass(const PrepPlan& plan, const fs::path& dir, FirstPass& pass, ProgressReport& report,
-                   std::vector<PhaseTime>& phases) {
+/// Sets up `pass` when level 0's pass can make level 1 and the histogram can be counted without reading level 0
+/// back; false when it cannot.
+bool planFirstPass(const PrepPlan& plan, const fs::path& dir, FirstPass& pass) {
   const VolumeInfo& info = plan.info;
-  double lo = 0, hi = 0;
   if (info.type == ValueType::F32) {
-    std::unique_ptr<VolumeSource> again = plan.quantised ? nullptr : plan.level0Source.reopen();
-    if (!again) return false;
-    const PhaseClock clock;
-    // Batches of a few MB (at least a slice: a slab of B + 2 fits the budget) that stay in cache to be scanned.
-    const int64_t sliceBytes = info.dims.x * info.dims.y * int64_t(valueSize(info.type));
-    const int64_t batch = std::max(sliceBytes, std::min(plan.memory.budget / 8, int64_t{2} << 20));
-    pass.scanned = scanLevel0(
-        *again, plan.background, plan.options.nonFinite,
-        [&](int64_t done, int64_t total) { report("value range", done, total); }, batch);
-    lo = pass.scanned->min, hi = pass.scanned->max;
-    phases.push_back(clock.elapsed("value range (input read again)"));
+    pass.again = plan.quantised ? nullptr : plan.level0Source.reopen();
+    if (!pass.again) return false;
+  } else {
+    pass.histogram.emplace(info.type, 0.0, 0.0);
   }
-  pass.histogram.emplace(info.type, lo, hi);
   if (pyramidDims(info.dims, plan.options.brickSize).size() > 1)
     pass.level1 = std::make_unique<Level1Spill>(info, dir / kLevel1Scratch);
   return true;
+}
+
+/// The float histogram of `meta`'s range counted from the input read again, with the non-finite policy applied as
+/// level 0's pass applied it.
+void countHistogramAgain(const PrepPlan& plan, FirstPass& pass, const StoreMeta& meta, ProgressReport& report) {
+  const VolumeInfo& info = plan.info;
+  ParallelHistogram& histogram = pass.histogram.emplace(info.type, meta.valueMin, meta.valueMax);
+  // Batches of a few MB (at least a slice: a slab of B + 2 fits the budget) that stay in cache to be counted.
+  const int64_t sliceValues = info.dims.x * info.dims.y;
+  const int64_t batch =
+      std::clamp<int64_t>(std::min(plan.memory.budget / 8, int64_t{2} << 20) / (sliceValues * 4), 1, info.dims.z);
+  std::vector<float> values(static_cast<size_t>(batch * sliceValues));
+  const float background = static_cast<float>(plan.background);
+  for (int64_t z = 0; z < info.dims.z; z += batch) {
+    const int64_t count = std::min(batch, info.dims.z - z);
+    pass.again->readSlices(count, values.data());
+    if (meta.nonFiniteReplaced > 0)
+      for (float& v : values) v = std::isfinite(v) ? v : background;
+    histogram.add(values.data(), count * sliceValues);
+    report("histogram", z + count, info.dims.z);
+  }
 }
 
 /// Coarser levels appended to `bricks` and `levels`: level 1 from `pass`'s scratch file if it was made, else from
@@ -381,20 +393,26 @@ StoreMeta writeStore(const PrepPlan& plan, const fs::path& dir, ProgressReport& 
                      std::vector<PhaseTime>& phases) {
   StoreMeta meta = describeStore(plan);
   FirstPass pass;
-  const bool firstPass = planFirstPass(plan, dir, pass, report, phases);
+  const bool firstPass = planFirstPass(plan, dir, pass);
   SlabBricker::SliceConsumer tap;
   if (firstPass)
     tap = [&](int64_t z0, int64_t count, const void* values) {
-      tbb::parallel_invoke([&] { pass.histogram->add(values, count * plan.info.dims.x * plan.info.dims.y); },
-                           [&] {
-                             if (pass.level1) pass.level1->addSlices(z0, count, values);
-                           });
+      tbb::parallel_invoke(
+          [&] {
+            if (pass.histogram) pass.histogram->add(values, count * plan.info.dims.x * plan.info.dims.y);
+          },
+          [&] {
+            if (pass.level1) pass.level1->addSlices(z0, count, values);
+          });
     };
   OutputFile bricks(dir / "bricks.bin");
   std::vector<LevelBuild> levels;
   levels.push_back(writeLevel0(plan, dir, bricks, meta, report, phases, tap));
-  if (pass.scanned && (pass.scanned->min != meta.valueMin || pass.scanned->max != meta.valueMax))
-    throw InputError(plan.info.description + ": the input changed while prep read it");
+  if (pass.again) {
+    const PhaseClock histogramClock;
+    countHistogramAgain(plan, pass, meta, report);
+    phases.push_back(histogramClock.elapsed("histogram (input read again)"));
+  }
   PhaseClock clock;
   meta.histogram = writeCoarserLevels(plan, dir, bricks, levels, meta, report, firstPass ? &pass : nullptr);
   phases.push_back(clock.elapsed(firstPass ? "levels 1+ (level 1 from level 0's pass)"

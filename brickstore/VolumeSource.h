@@ -37,7 +37,8 @@ class VolumeSource {
   virtual void readSlices(int64_t count, void* dst) = 0;
 
   /// A fresh source over the same data, from z = 0, when reading it again costs little more than copying the bytes
-  /// (an uncompressed file): prep then scans it for the value range first. Null (the default) otherwise.
+  /// (an uncompressed file): prep then counts a float histogram from it instead of reading its level 0 back. Null
+  /// (the default) otherwise.
   virtual std::unique_ptr<VolumeSource> reopen() const { return nullptr; }
 
   /// The analytic definition of a synthetic source (so tests can compare with the true function); else null.

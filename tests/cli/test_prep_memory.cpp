@@ -48,7 +48,7 @@ TEST(PrepMemory, PeakResidentMemoryStaysWithinTheBudget) {
   }
 }
 
-// A raw float file is scanned for its range first and level 1 made in level 0's pass (spilled to a scratch file in
+// A raw float file is read again for its histogram and level 1 made in level 0's pass (spilled to a scratch file in
 // the page cache): the bound holds for that path too.
 TEST(PrepMemory, RawFloatInputStaysWithinTheBudget) {
   test::ScratchDir dir;
