@@ -3,6 +3,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -71,8 +72,12 @@ class DenseSource final : public VolumeSource {
 
   const VolumeInfo& info() const override { return mInfo; }
   void readSlices(int64_t count, void* dst) override;
+  std::unique_ptr<VolumeSource> reopen() const override { return mReopen ? mReopen() : nullptr; }
+  /// How reopen() opens the data again (left unset for compressed data).
+  void setReopen(std::function<std::unique_ptr<VolumeSource>()> reopen) { mReopen = std::move(reopen); }
 
  private:
+  std::function<std::unique_ptr<VolumeSource>()> mReopen;
   VolumeInfo mInfo;
   std::unique_ptr<ByteStream> mStream;
   Conversion mConversion;

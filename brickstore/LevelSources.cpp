@@ -111,4 +111,63 @@ void DownsampleSource::readTyped(int64_t count, T* dst) {
   }
 }
 
+namespace {
+
+/// A level stored as raw slices in host order (Level1Spill's scratch file), read in z order.
+class SpilledLevelSource final : public VolumeSource {
+ public:
+  SpilledLevelSource(VolumeInfo info, const std::filesystem::path& path)
+      : mInfo(std::move(info)), mStream(path.string(), 0, ByteStream::Compression::None) {}
+  const VolumeInfo& info() const override { return mInfo; }
+  void readSlices(int64_t count, void* dst) override {
+    mStream.readExact(dst, static_cast<size_t>(count * mInfo.dims.x * mInfo.dims.y) * valueSize(mInfo.type));
+  }
+
+ private:
+  VolumeInfo mInfo;
+  ByteStream mStream;
+};
+
+}  // namespace
+
+Level1Spill::Level1Spill(const VolumeInfo& fine, std::filesystem::path path)
+    : mFine(fine), mPath(std::move(path)), mFile(mPath) {
+  mCoarse = fine;
+  mCoarse.dims = {divUp(fine.dims.x, 2), divUp(fine.dims.y, 2), divUp(fine.dims.z, 2)};
+  mCoarse.spacing = {fine.spacing.x * 2, fine.spacing.y * 2, fine.spacing.z * 2};
+  mCoarse.description = "level 1 of the store being written";
+  mSlice.resize(static_cast<size_t>(mCoarse.dims.x * mCoarse.dims.y) * valueSize(fine.type));
+}
+
+void Level1Spill::addSlices(int64_t z0, int64_t count, const void* values) {
+  if (z0 != mNextZ || z0 % 2 != 0 || (count % 2 != 0 && z0 + count != mFine.dims.z))
+    throw StoreError("Level1Spill: slices " + std::to_string(z0) + "+" + std::to_string(count) + " out of order");
+  dispatchType(mFine.type, [&](auto tag) { addTyped(z0, count, static_cast<const decltype(tag)*>(values)); });
+  mNextZ += count;
+}
+
+template <typename T>
+void Level1Spill::addTyped(int64_t z0, int64_t count, const T* values) {
+  const Vec3i f = mFine.dims, n = mCoarse.dims;
+  const int64_t sliceValues = f.x * f.y;
+  T* out = reinterpret_cast<T*>(mSlice.data());
+  for (int64_t s = 0; s < count; s += 2) {
+    const T* p0 = values + s * sliceValues;
+    const T* p1 = z0 + s + 1 < f.z ? p0 + sliceValues : p0;
+    tbb::parallel_for(int64_t{0}, n.y, [&](int64_t y) {
+      const int64_t y0 = 2 * y, y1 = std::min(2 * y + 1, f.y - 1);
+      for (int64_t x = 0; x < n.x; ++x) {
+        const int64_t x0 = 2 * x, x1 = std::min(2 * x + 1, f.x - 1);
+        out[x + n.x * y] = DownsampleSource::downsample(p0, p1, f.x, x0, x1, y0, y1);
+      }
+    });
+    mFile.append(mSlice.data(), mSlice.size());
+  }
+}
+
+std::unique_ptr<VolumeSource> Level1Spill::spilled() const {
+  if (mNextZ != mFine.dims.z) throw StoreError("Level1Spill: level 0 not complete");
+  return std::make_unique<SpilledLevelSource>(mCoarse, mPath);
+}
+
 }  // namespace voxbrick::store

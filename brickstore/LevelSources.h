@@ -3,12 +3,15 @@
 
 #include <cmath>
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <initializer_list>
+#include <memory>
 #include <type_traits>
 #include <vector>
 
 #include "brickstore/BrickFile.h"
+#include "brickstore/ByteStream.h"
 #include "brickstore/SlabBricker.h"
 #include "brickstore/VolumeSource.h"
 
@@ -79,6 +82,31 @@ class DownsampleSource : public VolumeSource {
   VolumeInfo mInfo;
   std::vector<char> mPair;  // two finer slices
   int64_t mNextZ = 0;
+};
+
+/// Level 1 made while level 0 streams past (so level 0 need not be read back): each batch of level-0 slices is
+/// downsampled exactly as DownsampleSource would (DownsampleSource::downsample) and its level-1 slices appended, in
+/// host order, to a scratch file that spilled() then reads back in z order. Holds one level-1 slice in memory.
+class Level1Spill {
+ public:
+  /// Level 0 of `fine` (its dims, type and background); the scratch file at `path` is created (and truncated).
+  Level1Spill(const VolumeInfo& fine, std::filesystem::path path);
+
+  /// The next `count` slices of level 0 from z0, in z order: z0 even, count even unless they end level 0.
+  void addSlices(int64_t z0, int64_t count, const void* values);
+  /// Level 1 as a source, once every slice of level 0 was added; it reads the scratch file (remove() it after).
+  std::unique_ptr<VolumeSource> spilled() const;
+  const std::filesystem::path& path() const { return mPath; }
+
+ private:
+  template <typename T>
+  void addTyped(int64_t z0, int64_t count, const T* values);
+
+  VolumeInfo mFine, mCoarse;
+  std::filesystem::path mPath;
+  OutputFile mFile;
+  std::vector<char> mSlice;  // one level-1 slice
+  int64_t mNextZ = 0;        // next level-0 slice expected
 };
 
 template <typename T>

@@ -64,7 +64,9 @@ std::unique_ptr<VolumeSource> openRawSource(const std::string& path, const Sourc
   conversion.from = fileTypeOf(type);
   conversion.swapBytes = needsSwap(options.bigEndian);
   auto stream = std::make_unique<ByteStream>(path, options.headerBytes, ByteStream::Compression::None);
-  return std::make_unique<DenseSource>(std::move(info), std::move(stream), conversion, path);
+  auto source = std::make_unique<DenseSource>(std::move(info), std::move(stream), conversion, path);
+  source->setReopen([path, options] { return openRawSource(path, options); });
+  return source;
 }
 
 }  // namespace voxbrick::store

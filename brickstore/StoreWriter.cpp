@@ -8,6 +8,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
@@ -32,6 +33,9 @@
 namespace voxbrick::store {
 namespace fs = std::filesystem;
 namespace {
+
+/// Level 1's scratch file in the store being built, while level 0's pass makes it (see FirstPass).
+constexpr const char* kLevel1Scratch = "level1.scratch";
 
 /// Slabs in flight at most: one being read while one is cut and one written is all two cores can overlap.
 constexpr int kMaxSlabsInFlight = 3;
@@ -85,8 +89,10 @@ class ParallelHistogram {
     });
   }
 
-  Histogram finish() {
-    HistogramBuilder all(mType, mLo, mHi);
+  /// The histogram over [lo, hi]: the range given at construction for floats (binned as they come); integer types,
+  /// counted by value, may be given their range only now.
+  Histogram finish(double lo, double hi) {
+    HistogramBuilder all(mType, lo, hi);
     for (const HistogramBuilder& b : mBuilders) all.merge(b);
     return all.finish();
   }
@@ -236,7 +242,7 @@ StoreMeta describeStore(const PrepPlan& plan) {
 /// Level 0 from the source into `bricks` (and the VDB grid into `dir`); its statistics, VDB files and quantisation
 /// go into `meta`.
 LevelBuild writeLevel0(const PrepPlan& plan, const fs::path& dir, OutputFile& bricks, StoreMeta& meta,
-                       ProgressReport& report, std::vector<PhaseTime>& phases) {
+                       ProgressReport& report, std::vector<PhaseTime>& phases, const SlabBricker::SliceConsumer& tap) {
   const PhaseClock clock;
   const PrepOptions& options = plan.options;
   const VolumeInfo& info = plan.info;
@@ -251,8 +257,14 @@ LevelBuild writeLevel0(const PrepPlan& plan, const fs::path& dir, OutputFile& br
     stats.observe(z0, count, values);
     report.addBytesIn(count * sliceBytes);
   });
-  if (vdb)
+  if (vdb && tap)
+    bricker.setSliceConsumer([&](int64_t z0, int64_t count, const void* values) {
+      tbb::parallel_invoke([&] { vdb->addSlices(z0, count, values); }, [&] { tap(z0, count, values); });
+    });
+  else if (vdb)
     bricker.setSliceConsumer([&](int64_t z0, int64_t count, const void* values) { vdb->addSlices(z0, count, values); });
+  else if (tap)
+    bricker.setSliceConsumer(tap);
   bricker.setProgressHook([&](int64_t done, int64_t total) { report("level 0", done, total); });
   LevelBuild level = bricker.run();
   if (vdb) {
@@ -278,31 +290,93 @@ LevelBuild writeLevel0(const PrepPlan& plan, const fs::path& dir, OutputFile& br
   return level;
 }
 
-/// Coarser levels, each read back from the one before (in `dir`/bricks.bin) and appended to `bricks` and `levels`;
-/// the pass over level 0 also counts the histogram of `meta`'s value range, which it returns.
+/// What level 0's pass also makes, when it can, so that level 0 is not read back: level 1 (spilled to a scratch file)
+/// and the histogram. It can for integer types (counted by value, binned at the end) and for a float input that can
+/// be read again cheaply: its histogram, which needs level 0's range, is counted from the input read again after.
+struct FirstPass {
+  std::unique_ptr<VolumeSource> again;         ///< the float input, to be read again for the histogram
+  std::optional<ParallelHistogram> histogram;  ///< counted in level 0's pass (integer types) or after it (floats)
+  std::unique_ptr<Level1Spill> level1;         ///< null when level 0 is the only level
+};
+
+/// Sets up `pass` when level 0's pass can make level 1 and the histogram can be counted without reading level 0
+/// back; false when it cannot.
+bool planFirstPass(const PrepPlan& plan, const fs::path& dir, FirstPass& pass) {
+  const VolumeInfo& info = plan.info;
+  if (info.type == ValueType::F32) {
+    pass.again = plan.quantised ? nullptr : plan.level0Source.reopen();
+    if (!pass.again) return false;
+  } else {
+    pass.histogram.emplace(info.type, 0.0, 0.0);
+  }
+  const std::vector<Vec3i> pyramid = pyramidDims(info.dims, plan.options.brickSize);
+  // Level 1 from level 0's pass, unless the input brings its own (an OME-Zarr's pyramid).
+  if (pyramid.size() > 1 && (plan.quantised || !plan.level0Source.ownLevel(1, pyramid[1])))
+    pass.level1 = std::make_unique<Level1Spill>(info, dir / kLevel1Scratch);
+  return true;
+}
+
+/// The float histogram of `meta`'s range counted from the input read again, with the non-finite policy applied as
+/// level 0's pass applied it.
+void countHistogramAgain(const PrepPlan& plan, FirstPass& pass, const StoreMeta& meta, ProgressReport& report) {
+  const VolumeInfo& info = plan.info;
+  ParallelHistogram& histogram = pass.histogram.emplace(info.type, meta.valueMin, meta.valueMax);
+  // Batches of a few MB (at least a slice: a slab of B + 2 fits the budget) that stay in cache to be counted.
+  const int64_t sliceValues = info.dims.x * info.dims.y;
+  const int64_t batch =
+      std::clamp<int64_t>(std::min(plan.memory.budget / 8, int64_t{2} << 20) / (sliceValues * 4), 1, info.dims.z);
+  std::vector<float> values(static_cast<size_t>(batch * sliceValues));
+  const float background = static_cast<float>(plan.background);
+  for (int64_t z = 0; z < info.dims.z; z += batch) {
+    const int64_t count = std::min(batch, info.dims.z - z);
+    pass.again->readSlices(count, values.data());
+    if (meta.nonFiniteReplaced > 0)
+      for (float& v : values) v = std::isfinite(v) ? v : background;
+    histogram.add(values.data(), count * sliceValues);
+    report("histogram", z + count, info.dims.z);
+  }
+}
+
+/// Coarser levels appended to `bricks` and `levels`: level 1 from `pass`'s scratch file if it was made, else from
+/// level 0 read back (in `dir`/bricks.bin), whose pass also counts the histogram of `meta`'s value range; each
+/// level after from the one before, read back. Returns the histogram.
 Histogram writeCoarserLevels(const PrepPlan& plan, const fs::path& dir, OutputFile& bricks,
-                             std::vector<LevelBuild>& levels, const StoreMeta& meta, ProgressReport& report) {
+                             std::vector<LevelBuild>& levels, const StoreMeta& meta, ProgressReport& report,
+                             FirstPass* pass) {
   const VolumeInfo& info = plan.info;
   const int B = plan.options.brickSize;
   const std::vector<Vec3i> pyramid = pyramidDims(info.dims, B);
-  ParallelHistogram histogram(info.type, meta.valueMin, meta.valueMax);
+  std::optional<ParallelHistogram> readBack;
+  if (!pass) readBack.emplace(info.type, meta.valueMin, meta.valueMax);
   BrickFileReader reader(dir / "bricks.bin", info.type);
   auto histogramHook = [&](int64_t, int64_t count, const void* values) {
-    histogram.add(values, count * info.dims.x * info.dims.y);
+    readBack->add(values, count * info.dims.x * info.dims.y);
   };
   for (size_t l = 1; l < pyramid.size(); ++l) {
-    StoredLevelSource finer(reader, levels[l - 1], uint32_t(l - 1), B, info.type, plan.background, info.spacing);
-    if (l == 1) finer.setSliceHook(histogramHook);
-    DownsampleSource coarse(finer);
     // The input's own level (an OME-Zarr's), where it has one of these dims; never for a quantised input.
     std::unique_ptr<VolumeSource> own =
         plan.quantised ? nullptr : plan.level0Source.ownLevel(static_cast<int>(l), pyramid[l]);
-    if (own && l == 1) {  // level 0 is still read back once, for the histogram
-      std::vector<char> slice(static_cast<size_t>(info.dims.x * info.dims.y) * valueSize(info.type));
-      for (int64_t z = 0; z < info.dims.z; ++z) finer.readSlices(1, slice.data());
+    std::optional<StoredLevelSource> finer;
+    std::optional<DownsampleSource> downsampled;
+    std::unique_ptr<VolumeSource> spilled;
+    VolumeSource* coarse = nullptr;
+    if (own) {
+      coarse = own.get();
+      if (l == 1 && readBack) {  // level 0 is still read back once, for the histogram
+        StoredLevelSource level0(reader, levels[0], 0, B, info.type, plan.background, info.spacing);
+        level0.setSliceHook(histogramHook);
+        std::vector<char> slice(static_cast<size_t>(info.dims.x * info.dims.y) * valueSize(info.type));
+        for (int64_t z = 0; z < info.dims.z; ++z) level0.readSlices(1, slice.data());
+      }
+    } else if (l == 1 && pass && pass->level1) {
+      spilled = pass->level1->spilled();
+      coarse = spilled.get();
+    } else {
+      finer.emplace(reader, levels[l - 1], uint32_t(l - 1), B, info.type, plan.background, info.spacing);
+      if (l == 1 && readBack) finer->setSliceHook(histogramHook);
+      coarse = &downsampled.emplace(*finer);
     }
-    SlabBricker bricker(own ? *own : static_cast<VolumeSource&>(coarse), B, plan.background, plan.options.zstdLevel,
-                        bricks);
+    SlabBricker bricker(*coarse, B, plan.background, plan.options.zstdLevel, bricks);
     // The finer level's slab of B slices and the downsampler's two are held beside the slabs in flight.
     const int64_t finerSlices = (B + 2) * pyramid[l - 1].x * pyramid[l - 1].y * int64_t(valueSize(info.type));
     bricker.setSlabsInFlight(slabsInFlight(plan.memory.budget - finerSlices,
@@ -310,14 +384,20 @@ Histogram writeCoarserLevels(const PrepPlan& plan, const fs::path& dir, OutputFi
     const std::string stage = "level " + std::to_string(l);
     bricker.setProgressHook([&](int64_t done, int64_t total) { report(stage, done, total); });
     levels.push_back(bricker.run());
+    if (spilled) {
+      spilled.reset();
+      pass->level1.reset();
+      fs::remove(dir / kLevel1Scratch);
+    }
   }
+  if (pass) return pass->histogram->finish(meta.valueMin, meta.valueMax);
   if (pyramid.size() == 1) {
     StoredLevelSource only(reader, levels[0], 0, B, info.type, plan.background, info.spacing);
     only.setSliceHook(histogramHook);
     std::vector<char> slice(static_cast<size_t>(info.dims.x * info.dims.y) * valueSize(info.type));
     for (int64_t z = 0; z < info.dims.z; ++z) only.readSlices(1, slice.data());
   }
-  return histogram.finish();
+  return readBack->finish(meta.valueMin, meta.valueMax);
 }
 
 /// The whole store into the empty directory `dir`: the levels' bricks, the index and store.json; returns its
@@ -325,12 +405,31 @@ Histogram writeCoarserLevels(const PrepPlan& plan, const fs::path& dir, OutputFi
 StoreMeta writeStore(const PrepPlan& plan, const fs::path& dir, ProgressReport& report,
                      std::vector<PhaseTime>& phases) {
   StoreMeta meta = describeStore(plan);
+  FirstPass pass;
+  const bool firstPass = planFirstPass(plan, dir, pass);
+  SlabBricker::SliceConsumer tap;
+  if (firstPass)
+    tap = [&](int64_t z0, int64_t count, const void* values) {
+      tbb::parallel_invoke(
+          [&] {
+            if (pass.histogram) pass.histogram->add(values, count * plan.info.dims.x * plan.info.dims.y);
+          },
+          [&] {
+            if (pass.level1) pass.level1->addSlices(z0, count, values);
+          });
+    };
   OutputFile bricks(dir / "bricks.bin");
   std::vector<LevelBuild> levels;
-  levels.push_back(writeLevel0(plan, dir, bricks, meta, report, phases));
+  levels.push_back(writeLevel0(plan, dir, bricks, meta, report, phases, tap));
+  if (pass.again) {
+    const PhaseClock histogramClock;
+    countHistogramAgain(plan, pass, meta, report);
+    phases.push_back(histogramClock.elapsed("histogram (input read again)"));
+  }
   PhaseClock clock;
-  meta.histogram = writeCoarserLevels(plan, dir, bricks, levels, meta, report);
-  phases.push_back(clock.elapsed("levels 1+ (level 0 read back) and histogram"));
+  meta.histogram = writeCoarserLevels(plan, dir, bricks, levels, meta, report, firstPass ? &pass : nullptr);
+  phases.push_back(clock.elapsed(firstPass ? "levels 1+ (level 1 from level 0's pass)"
+                                           : "levels 1+ (level 0 read back) and histogram"));
   clock.restart();
   const uint64_t bricksSize = bricks.size();
   bricks.close();

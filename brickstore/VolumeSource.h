@@ -36,6 +36,11 @@ class VolumeSource {
   /// data is truncated or malformed, or when reading past dims.z.
   virtual void readSlices(int64_t count, void* dst) = 0;
 
+  /// A fresh source over the same data, from z = 0, when reading it again costs little more than copying the bytes
+  /// (an uncompressed file): prep then counts a float histogram from it instead of reading its level 0 back. Null
+  /// (the default) otherwise.
+  virtual std::unique_ptr<VolumeSource> reopen() const { return nullptr; }
+
   /// The analytic definition of a synthetic source (so tests can compare with the true function); else null.
   virtual const SyntheticField* analytic() const { return nullptr; }
 
