@@ -1,5 +1,5 @@
 // Checks shared by the ingest tests: a call is refused with a store::InputError whose message names the problem;
-// opening and reading a whole input; finding a DICOM element to damage.
+// opening and reading a whole input, or its values; finding a DICOM element to damage.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -34,6 +34,24 @@ inline std::function<void()> openAndRead(const std::filesystem::path& input) {
     std::vector<char> slab(size_t(info.dims.x * info.dims.y) * store::valueSize(info.type));
     for (int64_t z = 0; z < info.dims.z; ++z) source->readSlices(1, slab.data());
   };
+}
+
+/// The whole volume of `source` as doubles, read `batch` slices at a time.
+inline std::vector<double> readValues(store::VolumeSource& source, int64_t batch = 1) {
+  const store::VolumeInfo& info = source.info();
+  const int64_t plane = info.dims.x * info.dims.y;
+  std::vector<double> out;
+  std::vector<unsigned char> bytes(size_t(plane * batch) * store::valueSize(info.type));
+  for (int64_t z = 0; z < info.dims.z; z += batch) {
+    const int64_t n = std::min(batch, info.dims.z - z);
+    source.readSlices(n, bytes.data());
+    store::dispatchType(info.type, [&](auto zero) {
+      using T = decltype(zero);
+      const T* v = reinterpret_cast<const T*>(bytes.data());
+      for (int64_t i = 0; i < n * plane; ++i) out.push_back(double(v[i]));
+    });
+  }
+  return out;
 }
 
 /// The offset of an explicit-VR element's header (tag and VR, little endian) in `bytes`.

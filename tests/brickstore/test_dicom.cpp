@@ -32,24 +32,6 @@ using test::Vec3;
 /// A smooth phantom of the world position (RAS, mm), distinct at every voxel of the small volumes used here.
 double phantom(const Vec3& ras) { return 100 + 3 * ras[0] + 5 * ras[1] + 7 * ras[2]; }
 
-/// The whole volume as doubles, read `batch` slices at a time.
-std::vector<double> readVolume(VolumeSource& source, int64_t batch) {
-  const store::VolumeInfo& info = source.info();
-  const int64_t plane = info.dims.x * info.dims.y;
-  std::vector<double> out;
-  std::vector<unsigned char> bytes(size_t(plane * batch) * store::valueSize(info.type));
-  for (int64_t z = 0; z < info.dims.z; z += batch) {
-    const int64_t n = std::min(batch, info.dims.z - z);
-    source.readSlices(n, bytes.data());
-    store::dispatchType(info.type, [&](auto zero) {
-      using T = decltype(zero);
-      const T* v = reinterpret_cast<const T*>(bytes.data());
-      for (int64_t i = 0; i < n * plane; ++i) out.push_back(double(v[i]));
-    });
-  }
-  return out;
-}
-
 /// The voxel values the reader must deliver: the written stored values, rescaled.
 std::vector<double> expectedVolume(const DicomSeriesSpec& s, const std::function<double(const Vec3&)>& f) {
   std::vector<double> out;
@@ -79,7 +61,7 @@ void expectSeries(VolumeSource& source, const DicomSeriesSpec& s, const std::fun
           EXPECT_NEAR(got, want[a], 1e-5) << "voxel " << i << "," << j << "," << k << " axis " << a;
         }
       }
-  EXPECT_EQ(readVolume(source, 1), expectedVolume(s, f));
+  EXPECT_EQ(test::readValues(source, 1), expectedVolume(s, f));
 }
 
 std::vector<std::string> strings(const std::vector<std::filesystem::path>& paths) {
@@ -92,7 +74,7 @@ std::vector<std::string> strings(const std::vector<std::filesystem::path>& paths
 std::function<void()> openAndRead(const std::string& input, store::SourceOptions options = {}) {
   return [input, options] {
     auto source = store::openSource(input, options);
-    readVolume(*source, 2);
+    test::readValues(*source, 2);
   };
 }
 
@@ -145,7 +127,7 @@ TEST(Dicom, ShuffledAxialSeriesReadsInPositionOrder) {
   expectSeries(*source, s, phantom);
   // Read in batches, the same voxels.
   auto again = store::openSource((dir / "ct").string(), {});
-  EXPECT_EQ(readVolume(*again, 3), expectedVolume(s, phantom));
+  EXPECT_EQ(test::readValues(*again, 3), expectedVolume(s, phantom));
 }
 
 TEST(Dicom, ObliqueOrientationGivesRasAxesAndOrigin) {
@@ -230,7 +212,7 @@ TEST(Dicom, SlicesWithTheirOwnRescaleAreF32) {
   auto source = store::openSource(dir.path().string(), {});
   EXPECT_EQ(source->info().type, ValueType::F32);
   EXPECT_EQ(source->info().dims.z, 4);
-  const std::vector<double> v = readVolume(*source, 4);
+  const std::vector<double> v = test::readValues(*source, 4);
   EXPECT_EQ(v.back(), std::round(phantom(test::dicomVoxelRas(s, 2, 2, 3)) / 2) * 2);
 }
 

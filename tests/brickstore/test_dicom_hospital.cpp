@@ -37,23 +37,6 @@ void writeCase(const std::string& kind, const fs::path& dir) {
   ASSERT_EQ(r.exitCode, 0) << "dicom_cases.py " << kind << " (needs Debian's python3-pydicom and numpy):\n" << r.output;
 }
 
-/// The whole volume as doubles.
-std::vector<double> readAll(store::VolumeSource& source) {
-  const store::VolumeInfo& info = source.info();
-  const int64_t plane = info.dims.x * info.dims.y;
-  std::vector<unsigned char> bytes(size_t(plane) * store::valueSize(info.type));
-  std::vector<double> out;
-  for (int64_t z = 0; z < info.dims.z; ++z) {
-    source.readSlices(1, bytes.data());
-    store::dispatchType(info.type, [&](auto zero) {
-      using T = decltype(zero);
-      const T* v = reinterpret_cast<const T*>(bytes.data());
-      for (int64_t i = 0; i < plane; ++i) out.push_back(double(v[i]));
-    });
-  }
-  return out;
-}
-
 /// The same volume: dims, spacing, type, orientation and every voxel.
 void expectSameVolume(const std::string& a, const std::string& b, const store::SourceOptions& options = {}) {
   auto x = store::openSource(a, options), y = store::openSource(b, options);
@@ -67,7 +50,7 @@ void expectSameVolume(const std::string& a, const std::string& b, const store::S
       EXPECT_NEAR(p.orientation.axes[size_t(i)][k], q.orientation.axes[size_t(i)][k], 1e-9);
   }
   EXPECT_EQ(p.orientation.patient, q.orientation.patient);
-  const std::vector<double> u = readAll(*x), v = readAll(*y);
+  const std::vector<double> u = test::readValues(*x), v = test::readValues(*y);
   ASSERT_EQ(u.size(), v.size());
   size_t differ = 0;
   for (size_t i = 0; i < u.size(); ++i) differ += u[i] != v[i];
@@ -245,7 +228,7 @@ TEST(DicomHospital, DoseGridsHoldPydicomsValuesInGy) {
       EXPECT_NEAR((&info.spacing.x)[i], want["spacing"][size_t(i)].get<double>(), 1e-9) << "spacing " << i;
       EXPECT_NEAR(info.orientation.origin[size_t(i)], want["origin"][size_t(i)].get<double>(), 1e-6) << "origin " << i;
     }
-    const std::vector<double> got = readAll(*source);
+    const std::vector<double> got = test::readValues(*source);
     ASSERT_EQ(got.size(), expected.size());
     size_t bad = 0;
     double top = 0;
@@ -284,14 +267,14 @@ TEST(DicomHospital, MrSmallInEveryTransferSyntaxHoldsPydicomsPixels) {
   std::vector<double> expected(raw.size() / sizeof(double));
   std::memcpy(expected.data(), raw.data(), raw.size());
   auto source = store::openSource((dir / "MR_small").string(), {});
-  EXPECT_EQ(readAll(*source), expected);
+  EXPECT_EQ(test::readValues(*source), expected);
   for (const char* name : {"MR_small_RLE", "MR_small_bigendian", "MR_small_expb", "MR_small_implicit",
                            "MR_small_jp2klossless", "MR_small_jpeg_ls_lossless"})
     expectSameVolume((dir / name).string(), (dir / "MR_small").string());
   // In pydicom's own folder, beside its copies in other syntaxes and its damaged files: the file named.
   const std::string inPlace = "/usr/lib/python3/dist-packages/pydicom/data/test_files/MR_small_RLE.dcm";
   source = store::openSource(inPlace, {});
-  EXPECT_EQ(readAll(*source), expected);
+  EXPECT_EQ(test::readValues(*source), expected);
   EXPECT_NE(source->info().description.find("damaged file(s) beside it"), std::string::npos)
       << source->info().description;
 }
@@ -331,7 +314,7 @@ TEST(DicomHospital, PydicomsNonImageFilesAreToldApartWithoutMetaHeaders) {
            {dir.path(), {}}, {dir / "CT_small.dcm", {}}, {dir.path(), ct}, {dir / "CT_small.dcm", ct}}) {
     auto source = store::openSource(input.string(), options);
     EXPECT_EQ(source->info().dims, (store::Vec3i{128, 128, 1})) << input;
-    EXPECT_EQ(readAll(*source).size(), 128u * 128u);
+    EXPECT_EQ(test::readValues(*source).size(), 128u * 128u);
   }
 }
 

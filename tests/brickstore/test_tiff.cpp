@@ -72,26 +72,10 @@ void writeTiff(const std::filesystem::path& path, const std::vector<Page>& pages
   TIFFClose(t);
 }
 
-/// The whole volume as doubles, one slice at a time.
-std::vector<double> readVolume(store::VolumeSource& source) {
-  const store::VolumeInfo& info = source.info();
-  const int64_t plane = info.dims.x * info.dims.y;
-  std::vector<unsigned char> bytes(size_t(plane) * store::valueSize(info.type));
-  std::vector<double> out;
-  for (int64_t z = 0; z < info.dims.z; ++z) {
-    source.readSlices(1, bytes.data());
-    store::dispatchType(info.type, [&](auto zero) {
-      using T = decltype(zero);
-      for (int64_t i = 0; i < plane; ++i) out.push_back(double(reinterpret_cast<const T*>(bytes.data())[i]));
-    });
-  }
-  return out;
-}
-
 std::function<void()> openAndRead(const std::string& input) {
   return [input] {
     auto source = store::openSource(input, {});
-    readVolume(*source);
+    test::readValues(*source);
   };
 }
 
@@ -119,7 +103,7 @@ TEST(Tiff, MultiPageFileIsAStackOfSlices) {
   for (int z = 0; z < 3; ++z)
     for (uint32_t y = 0; y < 4; ++y)
       for (uint32_t x = 0; x < 5; ++x) expected.push_back(ramp(x, y, z));
-  EXPECT_EQ(readVolume(*source), expected);
+  EXPECT_EQ(test::readValues(*source), expected);
 
   store::SourceOptions options;
   options.spacing = {0.2, 0.2, 1.5};
@@ -135,13 +119,13 @@ TEST(Tiff, SampleTypes) {
   writeTiff(dir / "f32.tif", {page<float>(3, 2, [](uint32_t x, uint32_t y) { return x * 0.25 - y * 1.5; })});
   auto u8 = store::openSource((dir / "u8.tif").string(), {});
   EXPECT_EQ(u8->info().type, ValueType::U8);
-  EXPECT_EQ(readVolume(*u8), (std::vector<double>{0, 1, 2, 7, 8, 9}));
+  EXPECT_EQ(test::readValues(*u8), (std::vector<double>{0, 1, 2, 7, 8, 9}));
   auto i16 = store::openSource((dir / "i16.tif").string(), {});
   EXPECT_EQ(i16->info().type, ValueType::I16);
-  EXPECT_EQ(readVolume(*i16), (std::vector<double>{0, 1, 2, -2, -1, 0, 0, 1, 2, -2, -1, 0}));
+  EXPECT_EQ(test::readValues(*i16), (std::vector<double>{0, 1, 2, -2, -1, 0, 0, 1, 2, -2, -1, 0}));
   auto f32 = store::openSource((dir / "f32.tif").string(), {});
   EXPECT_EQ(f32->info().type, ValueType::F32);
-  EXPECT_EQ(readVolume(*f32), (std::vector<double>{0, 0.25, 0.5, -1.5, -1.25, -1}));
+  EXPECT_EQ(test::readValues(*f32), (std::vector<double>{0, 0.25, 0.5, -1.5, -1.25, -1}));
 }
 
 TEST(Tiff, SinglePageFilesStackInNaturalOrder) {
@@ -163,7 +147,7 @@ TEST(Tiff, SinglePageFilesStackInNaturalOrder) {
            [&] { return store::openSource(lexical, {}); }}) {
     auto source = open();
     EXPECT_EQ(source->info().dims, (store::Vec3i{2, 2, 12}));
-    EXPECT_EQ(readVolume(*source), expected);
+    EXPECT_EQ(test::readValues(*source), expected);
   }
 }
 
