@@ -18,11 +18,16 @@
 #include "brickstore/Errors.h"
 #include "brickstore/HistogramBuilder.h"
 #include "brickstore/LevelSources.h"
+#include "brickstore/LiveBricks.h"
 #include "brickstore/SlabBricker.h"
 #include "brickstore/VdbGrid.h"
 
 namespace voxbrick::store {
 namespace {
+
+using live::averageFromFiner;
+using live::brickVoxels;
+using live::gatherSamples;
 
 using Clock = std::chrono::steady_clock;
 using Tree = openvdb::FloatTree;
@@ -35,38 +40,12 @@ double secondsSince(Clock::time_point start) { return std::chrono::duration<doub
 /// A voxel value as prep ingests it: NaN and Inf become the background (prep's default non-finite policy).
 float sanitize(float v, float background) { return std::isfinite(v) ? v : background; }
 
-/// The voxels brick `idx` of a level of `dims` reads: [i*B - 1, i*B + B] along each axis, clamped to the level.
-void brickVoxels(const Vec3i& idx, int64_t B, const Vec3i& dims, Vec3i& lo, Vec3i& hi) {
-  for (int a = 0; a < 3; ++a) {
-    lo[a] = std::max<int64_t>(idx[a] * B - 1, 0);
-    hi[a] = std::min<int64_t>(idx[a] * B + B, dims[a] - 1);
-  }
-}
-
 /// The level-0 bricks whose voxels (border included) meet the voxels [lo, hi]: brick i reads [i*B - 1, i*B + B].
 void bricksReading(const Vec3i& lo, const Vec3i& hi, int64_t B, const Vec3i& bricks, Vec3i& first, Vec3i& last) {
   for (int a = 0; a < 3; ++a) {
     first[a] = std::max<int64_t>(0, (lo[a] + B - 1) / B - 1);
     last[a] = std::min<int64_t>(bricks[a] - 1, (hi[a] + 1) / B);
   }
-}
-
-/// The brick's (B+2)^3 samples from a block holding its voxels [lo, hi] (x fastest): sample a along x is voxel
-/// clamp(i*B + a - 1, 0, dims.x - 1), likewise y and z, as BrickStore promises.
-void gatherSamples(const float* block, const Vec3i& lo, const Vec3i& hi, const Vec3i& idx, int64_t B, const Vec3i& dims,
-                   float* dst) {
-  const int64_t E = B + 2, sx = hi.x - lo.x + 1, sy = hi.y - lo.y + 1;
-  std::array<int64_t, kMaxBrickSize + 2> ox{}, oy{}, oz{};
-  for (int64_t a = 0; a < E; ++a) {
-    ox[size_t(a)] = std::clamp<int64_t>(idx.x * B + a - 1, 0, dims.x - 1) - lo.x;
-    oy[size_t(a)] = (std::clamp<int64_t>(idx.y * B + a - 1, 0, dims.y - 1) - lo.y) * sx;
-    oz[size_t(a)] = (std::clamp<int64_t>(idx.z * B + a - 1, 0, dims.z - 1) - lo.z) * sx * sy;
-  }
-  for (int64_t c = 0; c < E; ++c)
-    for (int64_t b = 0; b < E; ++b) {
-      const float* row = block + oz[size_t(c)] + oy[size_t(b)];
-      for (int64_t a = 0; a < E; ++a) *dst++ = row[ox[size_t(a)]];
-    }
 }
 
 /// Level-0 voxels [lo, hi] (volume coordinates; voxel 0 is grid coordinate `origin`) into `block`, x fastest: one
@@ -396,7 +375,7 @@ int64_t VdbStore::bricksBuilt(int level) const {
 }
 
 void VdbStore::readStored(const BrickKey& key, void* dst, const BrickSamplesFetch& finer) const {
-  const int64_t B = mMeta.brickSize, E = B + 2;
+  const int64_t B = mMeta.brickSize;
   const int level = int(key.level);
   const Vec3i idx{key.i, key.j, key.k};
   const Vec3i n = mMeta.levels[size_t(level)].dims;
@@ -417,50 +396,7 @@ void VdbStore::readStored(const BrickKey& key, void* dst, const BrickSamplesFetc
       });
       return;
     }
-    // The finer voxels the coarse ones average: [2 lo, 2 hi + 1], clamped to the finer level, gathered from the
-    // interiors of the finer bricks that hold them.
-    const Vec3i nf = mMeta.levels[size_t(level) - 1].dims;
-    Vec3i flo, fhi;
-    for (int a = 0; a < 3; ++a) {
-      flo[a] = 2 * lo[a];
-      fhi[a] = std::min(2 * hi[a] + 1, nf[a] - 1);
-    }
-    const int64_t wx = fhi.x - flo.x + 1, wy = fhi.y - flo.y + 1, wz = fhi.z - flo.z + 1;
-    std::vector<float> window(size_t(wx * wy * wz));
-    const float background = float(mMeta.background);
-    for (int64_t fk = flo.z / B; fk <= fhi.z / B; ++fk)
-      for (int64_t fj = flo.y / B; fj <= fhi.y / B; ++fj)
-        for (int64_t fi = flo.x / B; fi <= fhi.x / B; ++fi) {
-          const BrickKey fineKey{key.level - 1, uint32_t(fi), uint32_t(fj), uint32_t(fk)};
-          const Vec3i blo{std::max(fi * B, flo.x), std::max(fj * B, flo.y), std::max(fk * B, flo.z)};
-          const Vec3i bhi{std::min(fi * B + B - 1, fhi.x), std::min(fj * B + B - 1, fhi.y),
-                          std::min(fk * B + B - 1, fhi.z)};
-          const int64_t run = bhi.x - blo.x + 1;
-          std::shared_ptr<const void> samples;
-          if (isStored(fineKey)) samples = finer(fineKey);
-          const float* s = static_cast<const float*>(samples.get());
-          for (int64_t z = blo.z; z <= bhi.z; ++z)
-            for (int64_t y = blo.y; y <= bhi.y; ++y) {
-              float* out = window.data() + (blo.x - flo.x) + wx * ((y - flo.y) + wy * (z - flo.z));
-              if (s)
-                std::memcpy(out, s + (blo.x - fi * B + 1) + E * ((y - fj * B + 1) + E * (z - fk * B + 1)),
-                            sizeof(float) * size_t(run));
-              else
-                std::fill_n(out, run, background);
-            }
-        }
-    const int64_t sx = hi.x - lo.x + 1, sy = hi.y - lo.y + 1;
-    for (int64_t z = lo.z; z <= hi.z; ++z) {
-      const float* p0 = window.data() + (2 * z - flo.z) * wx * wy;
-      const float* p1 = window.data() + (std::min(2 * z + 1, nf.z - 1) - flo.z) * wx * wy;
-      for (int64_t y = lo.y; y <= hi.y; ++y) {
-        const int64_t y0 = 2 * y - flo.y, y1 = std::min(2 * y + 1, nf.y - 1) - flo.y;
-        float* out = block.data() + sx * ((y - lo.y) + sy * (z - lo.z));
-        for (int64_t x = lo.x; x <= hi.x; ++x)
-          *out++ =
-              DownsampleSource::downsample(p0, p1, wx, 2 * x - flo.x, std::min(2 * x + 1, nf.x - 1) - flo.x, y0, y1);
-      }
-    }
+    averageFromFiner<float>(*this, key.level - 1, lo, hi, mMeta.levels[size_t(level) - 1].dims, finer, block.data());
   }
   gatherSamples(block.data(), lo, hi, idx, B, n, static_cast<float*>(dst));
   mBuilt[size_t(level)].fetch_add(1, std::memory_order_relaxed);

@@ -19,86 +19,17 @@
 #include "brickstore/HistogramBuilder.h"
 #include "brickstore/InputErrors.h"
 #include "brickstore/LevelSources.h"
+#include "brickstore/LiveBricks.h"
 #include "brickstore/SlabBricker.h"
 
 namespace voxbrick::store {
 namespace {
 
+using live::averageFromFiner;
+using live::brickVoxels;
+using live::gatherSamples;
+
 using Clock = std::chrono::steady_clock;
-
-/// The voxels brick `idx` of a level of `dims` reads: [i*B - 1, i*B + B] along each axis, clamped to the level.
-void brickVoxels(const Vec3i& idx, int64_t B, const Vec3i& dims, Vec3i& lo, Vec3i& hi) {
-  for (int a = 0; a < 3; ++a) {
-    lo[a] = std::max<int64_t>(idx[a] * B - 1, 0);
-    hi[a] = std::min<int64_t>(idx[a] * B + B, dims[a] - 1);
-  }
-}
-
-/// The brick's (B+2)^3 samples from a block holding its voxels [lo, hi] (x fastest), borders clamped.
-template <typename T>
-void gatherSamples(const T* block, const Vec3i& lo, const Vec3i& hi, const Vec3i& idx, int64_t B, const Vec3i& dims,
-                   T* dst) {
-  const int64_t E = B + 2, sx = hi.x - lo.x + 1, sy = hi.y - lo.y + 1;
-  std::array<int64_t, kMaxBrickSize + 2> ox{}, oy{}, oz{};
-  for (int64_t a = 0; a < E; ++a) {
-    ox[size_t(a)] = std::clamp<int64_t>(idx.x * B + a - 1, 0, dims.x - 1) - lo.x;
-    oy[size_t(a)] = (std::clamp<int64_t>(idx.y * B + a - 1, 0, dims.y - 1) - lo.y) * sx;
-    oz[size_t(a)] = (std::clamp<int64_t>(idx.z * B + a - 1, 0, dims.z - 1) - lo.z) * sx * sy;
-  }
-  for (int64_t c = 0; c < E; ++c)
-    for (int64_t b = 0; b < E; ++b) {
-      const T* row = block + oz[size_t(c)] + oy[size_t(b)];
-      for (int64_t a = 0; a < E; ++a) *dst++ = row[ox[size_t(a)]];
-    }
-}
-
-/// Coarse voxels [lo, hi] of a level from the finer level `nf` (the interiors of its bricks, got through `finer`):
-/// the pyramid's 2x2x2 average (DownsampleSource::downsample), into `block` (x fastest).
-template <typename T>
-void averageFromFiner(const BrickStore& store, uint32_t fineLevel, const Vec3i& lo, const Vec3i& hi, const Vec3i& nf,
-                      const BrickSamplesFetch& finer, T* block) {
-  const int64_t B = store.brickSize(), E = B + 2;
-  Vec3i flo, fhi;
-  for (int a = 0; a < 3; ++a) {
-    flo[a] = 2 * lo[a];
-    fhi[a] = std::min(2 * hi[a] + 1, nf[a] - 1);
-  }
-  const int64_t wx = fhi.x - flo.x + 1, wy = fhi.y - flo.y + 1, wz = fhi.z - flo.z + 1;
-  std::vector<T> window(size_t(wx * wy * wz));
-  const T background = T(store.meta().background);
-  for (int64_t fk = flo.z / B; fk <= fhi.z / B; ++fk)
-    for (int64_t fj = flo.y / B; fj <= fhi.y / B; ++fj)
-      for (int64_t fi = flo.x / B; fi <= fhi.x / B; ++fi) {
-        const BrickKey fineKey{fineLevel, uint32_t(fi), uint32_t(fj), uint32_t(fk)};
-        const Vec3i blo{std::max(fi * B, flo.x), std::max(fj * B, flo.y), std::max(fk * B, flo.z)};
-        const Vec3i bhi{std::min(fi * B + B - 1, fhi.x), std::min(fj * B + B - 1, fhi.y),
-                        std::min(fk * B + B - 1, fhi.z)};
-        const int64_t run = bhi.x - blo.x + 1;
-        std::shared_ptr<const void> samples;
-        if (store.isStored(fineKey)) samples = finer(fineKey);
-        const T* s = static_cast<const T*>(samples.get());
-        for (int64_t z = blo.z; z <= bhi.z; ++z)
-          for (int64_t y = blo.y; y <= bhi.y; ++y) {
-            T* out = window.data() + (blo.x - flo.x) + wx * ((y - flo.y) + wy * (z - flo.z));
-            if (s)
-              std::memcpy(out, s + (blo.x - fi * B + 1) + E * ((y - fj * B + 1) + E * (z - fk * B + 1)),
-                          sizeof(T) * size_t(run));
-            else
-              std::fill_n(out, run, background);
-          }
-      }
-  const int64_t sx = hi.x - lo.x + 1, sy = hi.y - lo.y + 1;
-  for (int64_t z = lo.z; z <= hi.z; ++z) {
-    const T* p0 = window.data() + (2 * z - flo.z) * wx * wy;
-    const T* p1 = window.data() + (std::min(2 * z + 1, nf.z - 1) - flo.z) * wx * wy;
-    for (int64_t y = lo.y; y <= hi.y; ++y) {
-      const int64_t y0 = 2 * y - flo.y, y1 = std::min(2 * y + 1, nf.y - 1) - flo.y;
-      T* out = block + sx * ((y - lo.y) + sy * (z - lo.z));
-      for (int64_t x = lo.x; x <= hi.x; ++x)
-        *out++ = DownsampleSource::downsample(p0, p1, wx, 2 * x - flo.x, std::min(2 * x + 1, nf.x - 1) - flo.x, y0, y1);
-    }
-  }
-}
 
 /// The statistics of the voxels a level-0 brick owns (no border), so that every voxel is counted once.
 struct OwnedStats {
