@@ -11,6 +11,7 @@
 
 #include "brickstore/BrickFile.h"
 #include "brickstore/Errors.h"
+#include "brickstore/LiveBricks.h"
 #include "brickstore/VdbStore.h"
 #include "brickstore/ZarrStore.h"
 #include "common/Checksum.h"
@@ -207,6 +208,52 @@ const BrickRecord& BrickStore::record(const BrickKey& key) const {
 size_t BrickStore::recordIndex(const BrickKey& key) const {
   const LevelEntry& e = mLevels[key.level];
   return size_t(e.firstRecord + key.i + uint64_t(e.bricks[0]) * (key.j + uint64_t(e.bricks[1]) * key.k));
+}
+
+void BrickStore::layOutLevels() {
+  uint64_t first = 0;
+  for (const Vec3i& dims : pyramidDims(mMeta.dims, mMeta.brickSize)) {
+    const Vec3i bricks{divUp(dims.x, mMeta.brickSize), divUp(dims.y, mMeta.brickSize), divUp(dims.z, mMeta.brickSize)};
+    LevelEntry e{};
+    for (int a = 0; a < 3; ++a) {
+      e.dims[a] = dims[a];
+      e.bricks[a] = uint32_t(bricks[a]);
+    }
+    e.firstRecord = first;
+    first += uint64_t(bricks.volume());
+    mLevels.push_back(e);
+    mMeta.levels.push_back({dims, bricks, 0, 0});
+  }
+  mRecords.assign(first, BrickRecord{});
+}
+
+void BrickStore::deriveCoarseRecords(int m) {
+  const int64_t B = mMeta.brickSize;
+  const float background = float(mMeta.background);
+  const uint32_t storedSize = uint32_t(brickBytes());
+  const Vec3i nm = mMeta.levels[size_t(m)].dims, nf = mMeta.levels[size_t(m) - 1].dims;
+  const Vec3i nb = mMeta.levels[size_t(m)].bricks;
+  for (int64_t k = 0; k < nb.z; ++k)
+    for (int64_t j = 0; j < nb.y; ++j)
+      for (int64_t i = 0; i < nb.x; ++i) {
+        Vec3i lo, hi;
+        live::brickVoxels({i, j, k}, B, nm, lo, hi);
+        bool stored = false, someEmpty = false;
+        float mn = std::numeric_limits<float>::max(), mx = std::numeric_limits<float>::lowest();
+        for (int64_t fk = 2 * lo.z / B; fk <= std::min(2 * hi.z + 1, nf.z - 1) / B; ++fk)
+          for (int64_t fj = 2 * lo.y / B; fj <= std::min(2 * hi.y + 1, nf.y - 1) / B; ++fj)
+            for (int64_t fi = 2 * lo.x / B; fi <= std::min(2 * hi.x + 1, nf.x - 1) / B; ++fi) {
+              const BrickRecord& f = mRecords[recordIndex({uint32_t(m - 1), uint32_t(fi), uint32_t(fj), uint32_t(fk)})];
+              stored = stored || f.compressedSize != 0;
+              someEmpty = someEmpty || f.compressedSize == 0;
+              mn = std::min(mn, f.min);
+              mx = std::max(mx, f.max);
+            }
+        BrickRecord& rec = mRecords[recordIndex({uint32_t(m), uint32_t(i), uint32_t(j), uint32_t(k)})];
+        if (someEmpty) mn = std::min(mn, background), mx = std::max(mx, background);
+        rec = stored ? BrickRecord{0, storedSize, 0, mn, mx, 0} : BrickRecord{0, 0, 0, background, background, 0};
+        mMeta.levels[size_t(m)].bricksStored += stored;
+      }
 }
 
 void BrickStore::readBrick(const BrickKey& key, void* dst, const BrickSamplesFetch& finer) const {

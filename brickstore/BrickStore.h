@@ -102,6 +102,12 @@ class BrickStore {
   size_t recordIndex(const BrickKey& key) const;
   /// Builds mOctree from the level-0 records (so it can never disagree with them).
   void buildOctree();
+  /// For a store read live: the pyramid's levels from mMeta.dims and mMeta.brickSize (mLevels, mMeta.levels) and a
+  /// record per brick, all empty until the backing fills them.
+  void layOutLevels();
+  /// For a store read live: level m's records (m >= 1) from level m - 1's, as prep's pyramid would have them: a brick
+  /// is stored if any finer brick under it is, its range the finer ones' (and the background where one is empty).
+  void deriveCoarseRecords(int m);
 
   // Filled by the backing when it opens; immutable after.
   std::filesystem::path mPath;

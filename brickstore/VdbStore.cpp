@@ -266,27 +266,14 @@ std::shared_ptr<const VdbStore> VdbStore::open(const std::filesystem::path& file
   meta.bytesVdb = int64_t(std::filesystem::file_size(file, ec));
   if (ec) throw IoError("cannot stat " + file.string() + ": " + ec.message());
 
-  uint64_t first = 0;
-  for (const Vec3i& dims : pyramidDims(meta.dims, meta.brickSize)) {
-    const Vec3i bricks{divUp(dims.x, meta.brickSize), divUp(dims.y, meta.brickSize), divUp(dims.z, meta.brickSize)};
-    LevelEntry e{};
-    for (int a = 0; a < 3; ++a) {
-      e.dims[a] = dims[a];
-      e.bricks[a] = uint32_t(bricks[a]);
-    }
-    e.firstRecord = first;
-    first += uint64_t(bricks.volume());
-    store->mLevels.push_back(e);
-    meta.levels.push_back({dims, bricks, 0, 0});
-  }
-  store->mRecords.assign(first, BrickRecord{});
+  store->layOutLevels();
   store->mBuilt = std::make_unique<std::atomic<int64_t>[]>(meta.levels.size());
   for (size_t l = 0; l < meta.levels.size(); ++l) store->mBuilt[l] = 0;
 
   const auto scanStart = Clock::now();
   store->scan();
   store->buildOctree();
-  store->deriveCoarseRecords();
+  for (int m = 1; m < store->levelCount(); ++m) store->deriveCoarseRecords(m);
   store->mOpenStats.scanSeconds = secondsSince(scanStart);
   return store;
 }
@@ -336,37 +323,6 @@ void VdbStore::scan() {
   for (int64_t b = 0; b < nb.volume(); ++b) mMeta.levels[0].bricksStored += mRecords[size_t(b)].compressedSize != 0;
 
   mMeta.histogram = voxelHistogram(topology, n, background, lo, hi, mMeta.nonFiniteReplaced);
-}
-
-void VdbStore::deriveCoarseRecords() {
-  const int64_t B = mMeta.brickSize;
-  const float background = float(mMeta.background);
-  const uint32_t storedSize = uint32_t(brickBytes());
-  for (size_t m = 1; m < mMeta.levels.size(); ++m) {
-    const Vec3i nm = mMeta.levels[m].dims, nf = mMeta.levels[m - 1].dims, nb = mMeta.levels[m].bricks;
-    for (int64_t k = 0; k < nb.z; ++k)
-      for (int64_t j = 0; j < nb.y; ++j)
-        for (int64_t i = 0; i < nb.x; ++i) {
-          Vec3i lo, hi;
-          brickVoxels({i, j, k}, B, nm, lo, hi);
-          bool stored = false, someEmpty = false;
-          float mn = std::numeric_limits<float>::max(), mx = std::numeric_limits<float>::lowest();
-          for (int64_t fk = 2 * lo.z / B; fk <= std::min(2 * hi.z + 1, nf.z - 1) / B; ++fk)
-            for (int64_t fj = 2 * lo.y / B; fj <= std::min(2 * hi.y + 1, nf.y - 1) / B; ++fj)
-              for (int64_t fi = 2 * lo.x / B; fi <= std::min(2 * hi.x + 1, nf.x - 1) / B; ++fi) {
-                const BrickKey fineKey{uint32_t(m - 1), uint32_t(fi), uint32_t(fj), uint32_t(fk)};
-                const BrickRecord& f = mRecords[recordIndex(fineKey)];
-                stored = stored || f.compressedSize != 0;
-                someEmpty = someEmpty || f.compressedSize == 0;
-                mn = std::min(mn, f.min);
-                mx = std::max(mx, f.max);
-              }
-          BrickRecord& rec = mRecords[recordIndex({uint32_t(m), uint32_t(i), uint32_t(j), uint32_t(k)})];
-          if (someEmpty) mn = std::min(mn, background), mx = std::max(mx, background);
-          rec = stored ? BrickRecord{0, storedSize, 0, mn, mx, 0} : BrickRecord{0, 0, 0, background, background, 0};
-          mMeta.levels[m].bricksStored += stored;
-        }
-  }
 }
 
 int64_t VdbStore::bricksBuilt(int level) const {

@@ -63,7 +63,6 @@ class VdbStore final : public BrickStore, public std::enable_shared_from_this<Vd
 
   VdbStore();
   void scan();
-  void deriveCoarseRecords();
 
   std::unique_ptr<Grid> mGrid;
   VdbOpenStats mOpenStats;

@@ -69,7 +69,6 @@ class ZarrStore final : public BrickStore, public std::enable_shared_from_this<Z
   void scanOwnLevel(int level);
   void level0Statistics();
   void statisticsFromCounts(int64_t emptyVoxels);
-  void deriveCoarseRecords(int level);
 
   std::unique_ptr<ZarrChunks> mChunks;
   std::vector<bool> mOwn;

@@ -140,18 +140,8 @@ std::string datasetIdentity(const std::filesystem::path& path) {
   return identity.str();
 }
 
-std::shared_ptr<const render::Dataset> openOnEveryRank(
-    MPI_Comm comm, const std::string& name, const std::filesystem::path& path,
-    const std::function<std::shared_ptr<const render::Dataset>()>& open, double timeoutSeconds) {
-  std::shared_ptr<const render::Dataset> dataset;
-  std::string record;
-  try {
-    dataset = open();
-    record = "ok " + datasetIdentity(path);
-  } catch (const std::exception& error) {
-    record = std::string("error ") + error.what();
-  }
-  auto records = allGather(comm, record, timeoutSeconds);
+void agreeOnDataset(MPI_Comm comm, const std::string& name, const std::string& record, double timeoutSeconds) {
+  const auto records = allGather(comm, record, timeoutSeconds);
   for (size_t r = 0; r < records.size(); ++r) {
     if (records[r].rfind("error ", 0) == 0) {
       throw render::RenderInputError("dataset '" + name + "' cannot be opened on rank " + std::to_string(r) + ": " +
@@ -164,6 +154,20 @@ std::shared_ptr<const render::Dataset> openOnEveryRank(
                                      records[r].substr(3) + "against " + records[0].substr(3) + ")");
     }
   }
+}
+
+std::shared_ptr<const render::Dataset> openOnEveryRank(
+    MPI_Comm comm, const std::string& name, const std::filesystem::path& path,
+    const std::function<std::shared_ptr<const render::Dataset>()>& open, double timeoutSeconds) {
+  std::shared_ptr<const render::Dataset> dataset;
+  std::string record;
+  try {
+    dataset = open();
+    record = "ok " + datasetIdentity(path);
+  } catch (const std::exception& error) {
+    record = std::string("error ") + error.what();
+  }
+  agreeOnDataset(comm, name, record, timeoutSeconds);
   return dataset;
 }
 

@@ -52,6 +52,11 @@ std::vector<std::string> allGather(MPI_Comm comm, const std::string& record, dou
 /// every file's size (render::datasetFiles). Throws std::runtime_error when a file is missing.
 std::string datasetIdentity(const std::filesystem::path& path);
 
+/// Collective: every rank's `record` for dataset `name` ("ok IDENTITY" or "error MESSAGE") compared. Throws
+/// render::RenderInputError on every rank naming the first rank that failed ("dataset 'NAME' cannot be opened on
+/// rank R: ...") or whose identity differs from rank 0's ("... differs on rank R ..."); PeerError as allGather.
+void agreeOnDataset(MPI_Comm comm, const std::string& name, const std::string& record, double timeoutSeconds);
+
 /// Opens a dataset on every rank (collective): each rank calls `open`, then the ranks compare what they opened by
 /// datasetIdentity. Throws render::RenderInputError on every rank when the dataset failed to open on some rank
 /// ("dataset 'NAME' cannot be opened on rank R: ...") or differs from rank 0's ("... differs on rank R ...").

@@ -19,9 +19,11 @@ class WorkerDatasets {
  public:
   WorkerDatasets(std::filesystem::path directory, size_t cacheBytes)
       : mDirectory(std::move(directory)), mCacheBytes(cacheBytes) {}
-  std::shared_ptr<const render::Dataset> open(const std::string& name) {
+  /// The dataset `name`, and in `identity` its datasetIdentity (computed once, for the reopen check and the
+  /// agreement with rank 0).
+  std::shared_ptr<const render::Dataset> open(const std::string& name, std::string& identity) {
     const auto path = mDirectory / name;
-    const std::string identity = datasetIdentity(path);
+    identity = datasetIdentity(path);
     if (auto it = mOpen.find(name); it != mOpen.end()) {
       if (it->second.second == identity) return it->second.first;
       mOpen.erase(it);
@@ -38,25 +40,6 @@ class WorkerDatasets {
   size_t mCacheBytes;
   std::map<std::string, std::pair<std::shared_ptr<const render::Dataset>, std::string>> mOpen;
 };
-
-// Every rank's answer to "is this dataset the one rank 0 has": "ok IDENTITY" or "error MESSAGE"; throws
-// RenderInputError on every rank, naming the first rank that failed or differs.
-void agreeOnDataset(MPI_Comm comm, const std::string& name, const std::string& record, double timeoutSeconds) {
-  const auto records = allGather(comm, record, timeoutSeconds);
-  for (size_t r = 0; r < records.size(); ++r) {
-    if (records[r].rfind("error ", 0) == 0) {
-      throw render::RenderInputError("dataset '" + name + "' cannot be opened on rank " + std::to_string(r) + ": " +
-                                     records[r].substr(6));
-    }
-  }
-  for (size_t r = 1; r < records.size(); ++r) {
-    if (records[r] != records[0]) {
-      throw render::RenderInputError("dataset '" + name + "' differs on rank " + std::to_string(r) +
-                                     " from rank 0's (" + records[r].substr(3) + "against " + records[0].substr(3) +
-                                     ")");
-    }
-  }
-}
 
 render::FrameOptions frameOptionsOf(const nlohmann::json& command) {
   render::FrameOptions options;
@@ -170,8 +153,9 @@ bool runWorker(MPI_Comm comm, const ServeRankOptions& options, const std::atomic
     std::string record;
     try {  // a scene this rank cannot read fails the agreement on every rank, so no rank is left out of step
       if (framing) scene = render::Scene::fromJson(command.value("scene", ""), "the frame's scene");
-      dataset = datasets.open(name);
-      record = "ok " + datasetIdentity(options.datasets / name);
+      std::string identity;
+      dataset = datasets.open(name, identity);
+      record = "ok " + identity;
     } catch (const std::exception& error) {
       record = std::string("error ") + error.what();
     }
