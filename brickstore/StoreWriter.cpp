@@ -242,12 +242,12 @@ StoreMeta describeStore(const PrepPlan& plan) {
 /// Level 0 from the source into `bricks` (and the VDB grid into `dir`); its statistics, VDB files and quantisation
 /// go into `meta`.
 LevelBuild writeLevel0(const PrepPlan& plan, const fs::path& dir, OutputFile& bricks, StoreMeta& meta,
-                       ProgressReport& report, std::vector<PhaseTime>& phases, const SlabBricker::SliceConsumer& tap) {
+                       ProgressReport& report, std::vector<PhaseTime>& phases, const SlabBricker::SliceConsumer& tap,
+                       std::unique_ptr<VdbChunkWriter>& vdb) {
   const PhaseClock clock;
   const PrepOptions& options = plan.options;
   const VolumeInfo& info = plan.info;
   Level0Stats stats(info, plan.background, options.nonFinite);
-  std::unique_ptr<VdbChunkWriter> vdb;
   if (options.writeVdb)
     vdb = std::make_unique<VdbChunkWriter>(dir, info, plan.background, plan.memory.chunkSlices, options.vdbCompression);
   SlabBricker bricker(plan.level0Source, options.brickSize, plan.background, options.zstdLevel, bricks);
@@ -267,18 +267,13 @@ LevelBuild writeLevel0(const PrepPlan& plan, const fs::path& dir, OutputFile& br
     bricker.setSliceConsumer(tap);
   bricker.setProgressHook([&](int64_t done, int64_t total) { report("level 0", done, total); });
   LevelBuild level = bricker.run();
-  if (vdb) {
-    vdb->finish();
-    meta.vdbFiles = vdb->files();
-    meta.bytesVdb = vdb->bytes();
-  }
-  PhaseTime all = clock.elapsed(vdb ? "level 0: read, bricks, grid built" : "level 0: read, bricks");
-  if (vdb) {
+  if (vdb) vdb->finish();  // the last file is written while the steps after level 0 run
+  PhaseTime all = clock.elapsed(vdb ? "level 0: read, bricks, grid cut" : "level 0: read, bricks");
+  if (vdb) {  // the time the slices waited for a chunk's file is the writer's, and said so at the end
     all.wallSeconds -= vdb->writeTime().wallSeconds;
     all.cpuSeconds -= vdb->writeTime().cpuSeconds;
   }
   phases.push_back(all);
-  if (vdb) phases.push_back(vdb->writeTime());
   meta.valueMin = stats.min;
   meta.valueMax = stats.max;
   meta.activeVoxels = stats.active;
@@ -420,7 +415,8 @@ StoreMeta writeStore(const PrepPlan& plan, const fs::path& dir, ProgressReport& 
     };
   OutputFile bricks(dir / "bricks.bin");
   std::vector<LevelBuild> levels;
-  levels.push_back(writeLevel0(plan, dir, bricks, meta, report, phases, tap));
+  std::unique_ptr<VdbChunkWriter> vdb;
+  levels.push_back(writeLevel0(plan, dir, bricks, meta, report, phases, tap, vdb));
   if (pass.again) {
     const PhaseClock histogramClock;
     countHistogramAgain(plan, pass, meta, report);
@@ -434,13 +430,24 @@ StoreMeta writeStore(const PrepPlan& plan, const fs::path& dir, ProgressReport& 
   const uint64_t bricksSize = bricks.size();
   bricks.close();
   writeIndex(dir / "index.bin", levels, plan.options.brickSize, plan.info.type, bricksSize);
+  PhaseTime end = clock.elapsed("");
+  if (vdb) {
+    vdb->wait();
+    meta.vdbFiles = vdb->files();
+    meta.bytesVdb = vdb->bytes();
+    phases.push_back(vdb->writeTime());
+    vdb.reset();
+  }
+  clock.restart();
   meta.bytesStored = int64_t(bricksSize) + int64_t(fs::file_size(dir / "index.bin"));
   for (const LevelBuild& l : levels) meta.levels.push_back({l.dims, l.bricks, l.bricksStored, l.bytesStored});
   OutputFile json(dir / "store.json");
   const std::string text = meta.toJson();
   json.append(text.data(), text.size());
   json.close();
-  phases.push_back(clock.elapsed("bricks.bin fsync, index, store.json"));
+  const PhaseTime described = clock.elapsed("");
+  phases.push_back({"bricks.bin fsync, index, store.json", end.wallSeconds + described.wallSeconds,
+                    end.cpuSeconds + described.cpuSeconds});
   return meta;
 }
 

@@ -50,8 +50,9 @@ struct PrepSummary {
   int64_t bytesIn = 0;       ///< input voxel bytes read
   int64_t peakRssBytes = 0;  ///< the process's peak resident set size when prep finished
   double cpuSeconds = 0;     ///< the process's CPU time (user + system, all threads) during prep
-  /// Where the time went, in order: level 0 (less writing grid files), writing grid files (when written), the
-  /// coarser levels with the histogram, and the end (fsync, index, metadata). The swap into place is not counted.
+  /// Where the time went, in order: level 0 (less the time it waited for grid files), the histogram where the input
+  /// is read again, the coarser levels, the time spent waiting for grid files not written behind other work (when
+  /// written), and the end (fsync, index, metadata). The swap into place is not counted.
   std::vector<PhaseTime> phases;
 };
 
