@@ -28,9 +28,9 @@ int64_t VdbChunkWriter::chunkBytes(const Vec3i& dims, int64_t slices) {
 }
 
 int64_t VdbChunkWriter::residentBytes(const Vec3i& dims, int64_t slices) {
-  // The topology a file is written with: a leaf's 64-byte mask of 2 KiB of values, the nodes above it, the
-  // delayed-load record; a few MB.
-  return chunkBytes(dims, slices) + chunkBytes(dims, slices) / 32 + (int64_t{16} << 20);
+  // The topology a file is written with (a leaf's 64-byte mask of its 2 KiB of values, the nodes above it, the
+  // delayed-load record), the 2 MB it is written through, and a few more.
+  return chunkBytes(dims, slices) + chunkBytes(dims, slices) / 32 + (int64_t{4} << 20);
 }
 
 VdbChunkWriter::VdbChunkWriter(const std::filesystem::path& storeDir, const VolumeInfo& info, double background,

@@ -124,6 +124,20 @@ TEST(VdbLeafChunk, SameBytesAsOpenVdbWithPartialLeavesAndTiles) {
     }
 }
 
+// Blocks without a background voxel are cut by a faster path (copied, then transposed): noise in [1, 2) and a
+// ramp of 16-bit values, every voxel active.
+TEST(VdbLeafChunk, SameBytesWhereEveryVoxelIsActive) {
+  const Vec3i dims{48, 40, 24};
+  std::vector<float> noise(size_t(dims.volume()));
+  std::vector<uint16_t> ramp(noise.size());
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> u(1.0f, 2.0f);
+  for (size_t i = 0; i < noise.size(); ++i) noise[i] = u(rng), ramp[i] = uint16_t(1 + i % 4099);
+  EXPECT_EQ(expectSameFile(noise, {dims, 0, 24, 0.0f, {}}, false, "noise").at(0), 6u * 5u * 3u);
+  EXPECT_EQ(expectSameFile(noise, {dims, 8, 24, 0.0f, {8}}, true, "noise, blosc").at(0), 6u * 5u * 2u);
+  EXPECT_EQ(expectSameFile(ramp, {dims, 0, 24, 0.0f, {16}}, false, "ramp").at(0), 6u * 5u * 3u);
+}
+
 TEST(VdbLeafChunk, SameBytesForChunksInsideLeavesGivenInCallsOfAnySize) {
   const Vec3i dims{41, 33, 61};
   const std::vector<float> v = mixed(dims, 0.0f);
