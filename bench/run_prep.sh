@@ -15,6 +15,7 @@
 # (--big-repeats for 1024³, about half a minute a run). --sizes 256 makes a quick smoke run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+command="bash bench/run_prep.sh $*"
 base="" repeats=3 big=1 work=bench/work/prep threads="2" sizes="512 1024"
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -40,10 +41,11 @@ csv=bench/results/prep.csv phases=bench/results/prep-phases.csv
 echo "tool,input,threads,run,wall_s,cpu_s,peak_rss_mb,raw_mb,mb_per_s" > "$csv"
 echo "tool,input,threads,run,phase,wall_s,cpu_s" > "$phases"
 timed() {  # timed TOOL INPUT THREADS RUN RAW_BYTES COMMAND...: one run, one CSV row; its stdout kept in $work/out
+  # (or sent to $stdout_to when set)
   local tool=$1 input=$2 t=$3 run=$4 bytes=$5
   shift 5
   sync  # the previous run's dirty pages are not this run's to write
-  /usr/bin/time -f "%e %U %S %M" -o "$work/time" "$@" > "$work/out"
+  /usr/bin/time -f "%e %U %S %M" -o "$work/time" "$@" > "${stdout_to:-$work/out}"
   read -r wall user sys rss < "$work/time"
   python3 - "$tool" "$input" "$t" "$run" "$wall" "$user" "$sys" "$rss" "$bytes" <<'EOF' | tee -a "$csv"
 import csv, sys
@@ -113,13 +115,16 @@ for n in $sizes; do
   [ "$n" -ge 1024 ] && reps=$big
   for ((r = 1; r <= reps; ++r)); do
     for t in $threads; do
-      prep "$new" prep "$name" "$t" "$r" "$bytes" "$raw" --dims "$n,$n,$n" --type f32
-      [ -n "$base" ] && prep "$base" prep-base "$name" "$t" "$r" "$bytes" "$raw" --dims "$n,$n,$n" --type f32
-      prep "$new" "prep --vdb-compression blosc" "$name" "$t" "$r" "$bytes" "$raw" --dims "$n,$n,$n" --type f32 \
+      # Every tool starts with the input in the page cache (read once more, untimed): none of them pays for reading
+      # it from the disk after another's writes pushed it out.
+      warm() { cat "$raw" > /dev/null; }
+      warm; prep "$new" prep "$name" "$t" "$r" "$bytes" "$raw" --dims "$n,$n,$n" --type f32
+      [ -n "$base" ] && { warm; prep "$base" prep-base "$name" "$t" "$r" "$bytes" "$raw" --dims "$n,$n,$n" --type f32; }
+      warm; prep "$new" "prep --vdb-compression blosc" "$name" "$t" "$r" "$bytes" "$raw" --dims "$n,$n,$n" --type f32 \
         --vdb-compression blosc
-      prep "$new" "prep --no-vdb" "$name" "$t" "$r" "$bytes" "$raw" --dims "$n,$n,$n" --type f32 --no-vdb
-      timed "zstd -1 to /dev/null" "$name" "$t" "$r" "$bytes" zstd -1 -T"$t" -c -f "$raw"
-      timed "zstd -1 to a file" "$name" "$t" "$r" "$bytes" zstd -1 -T"$t" -q -f "$raw" -o "$work/out.zst"
+      warm; prep "$new" "prep --no-vdb" "$name" "$t" "$r" "$bytes" "$raw" --dims "$n,$n,$n" --type f32 --no-vdb
+      warm; stdout_to=/dev/null timed "zstd -1 to /dev/null" "$name" "$t" "$r" "$bytes" zstd -1 -T"$t" -c -f "$raw"
+      warm; timed "zstd -1 to a file" "$name" "$t" "$r" "$bytes" zstd -1 -T"$t" -q -f "$raw" -o "$work/out.zst"
       rm -f "$work/out.zst"
     done
   done
@@ -132,12 +137,12 @@ done
 rm -rf "$work/out.vbs" "$work/out"
 
 python3 - "$csv" "$phases" "$identical" "$(nproc)" "$load_start" "$(uptime | sed 's/.*load average: //')" \
-  "$repeats" "$big" \
+  "$repeats" "$big" "$command" "$(date -u +%Y-%m-%dT%H:%MZ)" "$(uname -r)" \
   > bench/results/prep.md <<'EOF'
 import collections, csv, statistics, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 phase_rows = list(csv.DictReader(open(sys.argv[2])))
-identical, cores, load_start, load, repeats, big = sys.argv[3:9]
+identical, cores, load_start, load, repeats, big, command, date, kernel = sys.argv[3:12]
 runs = collections.defaultdict(list)
 for r in rows: runs[(r["input"], r["tool"], r["threads"])].append(r)
 med = lambda key, field: statistics.median(float(r[field]) for r in runs[key])
@@ -145,6 +150,8 @@ inputs = list(dict.fromkeys(r["input"] for r in rows))
 tools = list(dict.fromkeys(r["tool"] for r in rows))
 threads = list(dict.fromkeys(r["threads"] for r in rows))
 print("# Prep throughput\n")
+print(f"`{command}`, finished {date}, on the {cores}-core development machine (Linux {kernel}, a virtual machine; "
+      f"llvmpipe plays no part here).\n")
 loaded = max(float(x) for x in (load_start + ", " + load).replace(",", " ").split()) > 2
 if loaded:
     print(f"**A loaded run** (load average {load_start} at the start, {load} at the end, on {cores} cores): wall "
