@@ -455,12 +455,14 @@ int64_t VdbLeafChunk::leafCount() {
   return int64_t(layout().leaves.size());
 }
 
-/// The bytes LeafNode::writeBuffers writes for a kept leaf to a stream tagged with `compression`.
-static void leafBuffers(const float* values, const char* maskBytes, std::ostream& os) {
+void VdbLeafChunk::writeLeafBuffers(const Cell& cell, std::ostream& os) const {
+  // LeafNode::writeBuffers: the value mask, then the values as the stream's compression has them.
+  float values[kLeafValues];
+  expand(cell, values);
   LeafMask mask;
-  std::memcpy(&mask.template getWord<uint64_t>(0), maskBytes, kMaskBytes);
+  std::memcpy(&mask.template getWord<uint64_t>(0), mPool.get() + cell.offset, kMaskBytes);
   mask.save(os);
-  openvdb::io::writeCompressedValues(os, const_cast<float*>(values), Leaf::SIZE, mask, LeafMask(), false);
+  openvdb::io::writeCompressedValues(os, values, Leaf::SIZE, mask, LeafMask(), false);
 }
 
 bool VdbLeafChunk::bloscShrinksTo(double ratio) {
@@ -474,12 +476,10 @@ bool VdbLeafChunk::bloscShrinksTo(double ratio) {
       tbb::blocked_range<size_t>(0, samples, 8), Sizes{0, 0},
       [&](const tbb::blocked_range<size_t>& r, Sizes sum) {
         TaggedStream out(blosc, &mBackground);
-        float values[kLeafValues];
         for (size_t i = r.begin(); i != r.end(); ++i) {
           const Cell& cell = mCells[L.leaves[i * kEvery]];
-          expand(cell, values);
           out.buffer.bytes.clear();
-          leafBuffers(values, mPool.get() + cell.offset, out.os);
+          writeLeafBuffers(cell, out.os);
           sum.first += out.buffer.bytes.size();
           sum.second += cell.size;
         }
@@ -491,35 +491,45 @@ bool VdbLeafChunk::bloscShrinksTo(double ratio) {
   return double(sizes.first) <= ratio * double(sizes.second);
 }
 
-int64_t VdbLeafChunk::write(const std::filesystem::path& path, const openvdb::FloatGrid& grid, bool blosc) {
+void VdbLeafChunk::compressLeaves(uint32_t compression) {
+  const Layout& L = layout();
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, L.leaves.size(), 64), [&](const tbb::blocked_range<size_t>& r) {
+    TaggedStream out(compression, &mBackground);
+    for (size_t i = r.begin(); i != r.end(); ++i) {
+      Cell& cell = mCells[L.leaves[i]];
+      out.buffer.bytes.clear();
+      writeLeafBuffers(cell, out.os);
+      if (out.buffer.bytes.size() > cell.size + kBloscRoom) throw std::logic_error("VdbLeafChunk: blosc overflow");
+      std::memcpy(mPool.get() + cell.offset, out.buffer.bytes.data(), out.buffer.bytes.size());
+      cell.size = uint32_t(out.buffer.bytes.size());
+    }
+  });
+}
+
+/// The bounding box of a leaf's active voxels, from its value mask (word x holds bit y << 3 | z).
+static openvdb::CoordBBox activeBox(const char* maskBytes, const openvdb::Coord& origin) {
+  uint64_t words[8];
+  std::memcpy(words, maskBytes, kMaskBytes);
+  int xlo = 8, xhi = -1;
+  uint64_t any = 0;
+  for (int w = 0; w < 8; ++w)
+    if (words[w] != 0) xlo = std::min(xlo, w), xhi = w, any |= words[w];
+  int ylo = 8, yhi = -1;
+  uint8_t zs = 0;
+  for (int y = 0; y < 8; ++y)
+    if (const uint8_t b = uint8_t(any >> (8 * y)); b != 0) ylo = std::min(ylo, y), yhi = y, zs |= b;
+  const int zlo = std::countr_zero(zs), zhi = 7 - std::countl_zero(zs);
+  return {origin.offsetBy(xlo, ylo, zlo), origin.offsetBy(xhi, yhi, zhi)};
+}
+
+openvdb::MetaMap VdbLeafChunk::fileMetadata(const openvdb::FloatGrid& grid, uint32_t archiveCompression,
+                                            uint32_t compression) {
   namespace io = openvdb::io;
   const Layout& L = layout();
-  const uint32_t archiveCompression = blosc ? io::COMPRESS_BLOSC | io::COMPRESS_ACTIVE_MASK : io::COMPRESS_ACTIVE_MASK;
-  // Archive::setGridCompression: no zip for level sets and fog volumes.
-  uint32_t compression = archiveCompression;
-  if (grid.getGridClass() == openvdb::GRID_LEVEL_SET || grid.getGridClass() == openvdb::GRID_FOG_VOLUME)
-    compression &= ~uint32_t(io::COMPRESS_ZIP);
-
-  if (compression & io::COMPRESS_BLOSC) {  // each kept leaf replaced by its blosc form, in place
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, L.leaves.size(), 64), [&](const tbb::blocked_range<size_t>& r) {
-      TaggedStream out(compression, &mBackground);
-      float values[kLeafValues];
-      for (size_t i = r.begin(); i != r.end(); ++i) {
-        Cell& cell = mCells[L.leaves[i]];
-        expand(cell, values);
-        out.buffer.bytes.clear();
-        leafBuffers(values, mPool.get() + cell.offset, out.os);
-        if (out.buffer.bytes.size() > cell.size + kBloscRoom) throw std::logic_error("VdbLeafChunk: blosc overflow");
-        std::memcpy(mPool.get() + cell.offset, out.buffer.bytes.data(), out.buffer.bytes.size());
-        cell.size = uint32_t(out.buffer.bytes.size());
-      }
-    });
-  }
-
-  // Statistics (GridBase::addStatsMetadata): active voxels, their bounding box, the tree's memory.
+  // GridBase::addStatsMetadata: active voxels and their bounding box (pruning keeps every voxel's state, so the
+  // cells count it all: a tile its 8^3 voxels, a leaf its active ones), and the tree's memory.
   int64_t active = 0;
   openvdb::CoordBBox bbox;  // empty: what an empty tree reports
-  // Pruning keeps every voxel's state, so the cells count it all: a tile its 8^3 voxels, a leaf its active ones.
   for (int64_t layer = 0; layer < mLayers; ++layer)
     for (int64_t ly = 0; ly < mLeavesY; ++ly)
       for (int64_t lx = 0; lx < mLeavesX; ++lx) {
@@ -527,22 +537,9 @@ int64_t VdbLeafChunk::write(const std::filesystem::path& path, const openvdb::Fl
         if (cell.kind == Kind::Empty) continue;
         const openvdb::Coord origin(int(lx * 8), int(ly * 8), int((mFirstLayer + layer) * 8));
         active += cell.count;
-        if (cell.kind == Kind::Tile) {
-          bbox.expand(openvdb::CoordBBox::createCube(origin, 8));
-          continue;
-        }
-        uint64_t words[8];
-        std::memcpy(words, mPool.get() + cell.offset, kMaskBytes);  // the mask leads the leaf, blosc or not
-        int xlo = 8, xhi = -1;
-        uint64_t any = 0;
-        for (int w = 0; w < 8; ++w)
-          if (words[w] != 0) xlo = std::min(xlo, w), xhi = w, any |= words[w];
-        int ylo = 8, yhi = -1;
-        uint8_t zs = 0;
-        for (int y = 0; y < 8; ++y)
-          if (const uint8_t b = uint8_t(any >> (8 * y)); b != 0) ylo = std::min(ylo, y), yhi = y, zs |= b;
-        const int zlo = std::countr_zero(zs), zhi = 7 - std::countl_zero(zs);
-        bbox.expand(openvdb::CoordBBox(origin.offsetBy(xlo, ylo, zlo), origin.offsetBy(xhi, yhi, zhi)));
+        // the mask leads a kept leaf, blosc or not
+        bbox.expand(cell.kind == Kind::Tile ? openvdb::CoordBBox::createCube(origin, 8)
+                                            : activeBox(mPool.get() + cell.offset, origin));
       }
   // tools::memUsage: the tree and its root, every internal node, every leaf (its buffer allocated).
   const Leaf sample(openvdb::Coord(0), 0.0f);
@@ -551,7 +548,7 @@ int64_t VdbLeafChunk::write(const std::filesystem::path& path, const openvdb::Fl
                              internalNodeBytes<Node5>() +
                          L.nodes4 * internalNodeBytes<Node4>() + int64_t(L.leaves.size()) * int64_t(sample.memUsage());
 
-  // The grid's metadata as writeGrid writes it: a copy with the delayed-load record and the statistics.
+  // Archive::writeGrid writes a copy of the grid's metadata with the delayed-load record and the statistics.
   openvdb::MetaMap meta(static_cast<const openvdb::MetaMap&>(grid));
   io::DelayedLoadMetadata delayed;
   if (!L.leaves.empty()) {
@@ -562,18 +559,78 @@ int64_t VdbLeafChunk::write(const std::filesystem::path& path, const openvdb::Fl
         delayed.setCompressedSize(i, io::DelayedLoadMetadata::CompressedSizeType(mCells[L.leaves[i]].size - kLeafHeader));
     }
   }
-  meta.removeMeta(openvdb::GridBase::META_FILE_DELAYED_LOAD);
-  meta.insertMeta(openvdb::GridBase::META_FILE_DELAYED_LOAD, delayed);
-  for (const char* name : {openvdb::GridBase::META_FILE_BBOX_MIN, openvdb::GridBase::META_FILE_BBOX_MAX,
-                           openvdb::GridBase::META_FILE_MEM_BYTES, openvdb::GridBase::META_FILE_VOXEL_COUNT,
-                           openvdb::GridBase::META_FILE_COMPRESSION})
+  for (const char* name : {openvdb::GridBase::META_FILE_DELAYED_LOAD, openvdb::GridBase::META_FILE_BBOX_MIN,
+                           openvdb::GridBase::META_FILE_BBOX_MAX, openvdb::GridBase::META_FILE_MEM_BYTES,
+                           openvdb::GridBase::META_FILE_VOXEL_COUNT, openvdb::GridBase::META_FILE_COMPRESSION})
     meta.removeMeta(name);
+  meta.insertMeta(openvdb::GridBase::META_FILE_DELAYED_LOAD, delayed);
   meta.insertMeta(openvdb::GridBase::META_FILE_BBOX_MIN, openvdb::Vec3IMetadata(bbox.min().asVec3i()));
   meta.insertMeta(openvdb::GridBase::META_FILE_BBOX_MAX, openvdb::Vec3IMetadata(bbox.max().asVec3i()));
   meta.insertMeta(openvdb::GridBase::META_FILE_MEM_BYTES, openvdb::Int64Metadata(memory));
   meta.insertMeta(openvdb::GridBase::META_FILE_VOXEL_COUNT, openvdb::Int64Metadata(active));
   meta.insertMeta(openvdb::GridBase::META_FILE_COMPRESSION,
                   openvdb::StringMetadata(io::compressionToString(compression)));
+  return meta;
+}
+
+void VdbLeafChunk::writeTopology(std::ostream& os) {
+  namespace io = openvdb::io;
+  const Layout& L = layout();
+  // TreeBase, RootNode, InternalNode and LeafNode::writeTopology.
+  const int32_t bufferCount = 1;
+  os.write(reinterpret_cast<const char*>(&bufferCount), sizeof bufferCount);
+  os.write(reinterpret_cast<const char*>(&mBackground), sizeof mBackground);
+  const auto tiles = openvdb::Index(std::count_if(L.nodes.begin(), L.nodes.end(), [](auto& n) { return n.tile; }));
+  const auto children = openvdb::Index(L.nodes.size()) - tiles;
+  os.write(reinterpret_cast<const char*>(&tiles), sizeof tiles);
+  os.write(reinterpret_cast<const char*>(&children), sizeof children);
+  for (const Layout::Child5& node : L.nodes)
+    if (node.tile) {
+      os.write(reinterpret_cast<const char*>(node.origin.asPointer()), 3 * sizeof(openvdb::Int32));
+      os.write(reinterpret_cast<const char*>(&node.value), sizeof(float));
+      const bool on = true;
+      os.write(reinterpret_cast<const char*>(&on), sizeof on);
+    }
+  std::vector<float> values5(Node5::NUM_VALUES), values4(Node4::NUM_VALUES);
+  for (const Layout::Child5& node : L.nodes) {
+    if (node.tile) continue;
+    os.write(reinterpret_cast<const char*>(node.origin.asPointer()), 3 * sizeof(openvdb::Int32));
+    Node5::NodeMaskType childMask5, valueMask5;
+    std::fill(values5.begin(), values5.end(), mBackground);
+    for (const Layout::Child4& child : node.children) {
+      (child.tile ? valueMask5 : childMask5).setOn(child.pos);
+      values5[child.pos] = child.tile ? child.value : 0.0f;
+    }
+    childMask5.save(os);
+    valueMask5.save(os);
+    io::writeCompressedValues(os, values5.data(), Node5::NUM_VALUES, valueMask5, childMask5, false);
+    for (const Layout::Child4& child : node.children) {
+      if (child.tile) continue;
+      Node4::NodeMaskType childMask4, valueMask4;
+      std::fill(values4.begin(), values4.end(), mBackground);
+      for (const auto& [pos, index] : child.cells) {
+        const bool tile = mCells[index].kind == Kind::Tile;
+        (tile ? valueMask4 : childMask4).setOn(pos);
+        values4[pos] = tile ? mCells[index].tile : 0.0f;
+      }
+      childMask4.save(os);
+      valueMask4.save(os);
+      io::writeCompressedValues(os, values4.data(), Node4::NUM_VALUES, valueMask4, childMask4, false);
+      for (const auto& [pos, index] : child.cells)
+        if (mCells[index].kind == Kind::Leaf) os.write(mPool.get() + mCells[index].offset, kMaskBytes);
+    }
+  }
+}
+
+int64_t VdbLeafChunk::write(const std::filesystem::path& path, const openvdb::FloatGrid& grid, bool blosc) {
+  namespace io = openvdb::io;
+  const Layout& L = layout();
+  const uint32_t archiveCompression = blosc ? io::COMPRESS_BLOSC | io::COMPRESS_ACTIVE_MASK : io::COMPRESS_ACTIVE_MASK;
+  // Archive::setGridCompression: no zip for level sets and fog volumes.
+  uint32_t compression = archiveCompression;
+  if (grid.getGridClass() == openvdb::GRID_LEVEL_SET || grid.getGridClass() == openvdb::GRID_FOG_VOLUME)
+    compression &= ~uint32_t(io::COMPRESS_ZIP);
+  if (compression & io::COMPRESS_BLOSC) compressLeaves(compression);
 
   // Before the grid: Archive::writeHeader (seekable), the file's (empty) metadata, the grid count, the descriptor.
   TaggedStream head(archiveCompression, &mBackground);
@@ -595,57 +652,12 @@ int64_t VdbLeafChunk::write(const std::filesystem::path& path, const openvdb::Fl
   io::GridDescriptor descriptor(name, grid.type(), false);
   descriptor.writeHeader(head.os);
 
-  // The grid: its compression, metadata, transform and topology (Tree::writeTopology down to the leaves' masks).
+  // The grid: its compression, metadata, transform and topology.
   TaggedStream body(compression, &mBackground);
-  {
-    std::ostream& os = body.os;
-    os.write(reinterpret_cast<const char*>(&compression), sizeof compression);
-    meta.writeMeta(os);
-    grid.transform().write(os);
-    const int32_t bufferCount = 1;
-    os.write(reinterpret_cast<const char*>(&bufferCount), sizeof bufferCount);
-    os.write(reinterpret_cast<const char*>(&mBackground), sizeof mBackground);
-    const auto tiles = openvdb::Index(std::count_if(L.nodes.begin(), L.nodes.end(), [](auto& n) { return n.tile; }));
-    const auto children = openvdb::Index(L.nodes.size()) - tiles;
-    os.write(reinterpret_cast<const char*>(&tiles), sizeof tiles);
-    os.write(reinterpret_cast<const char*>(&children), sizeof children);
-    for (const Layout::Child5& node : L.nodes)
-      if (node.tile) {
-        os.write(reinterpret_cast<const char*>(node.origin.asPointer()), 3 * sizeof(openvdb::Int32));
-        os.write(reinterpret_cast<const char*>(&node.value), sizeof(float));
-        const bool on = true;
-        os.write(reinterpret_cast<const char*>(&on), sizeof on);
-      }
-    std::vector<float> values5(Node5::NUM_VALUES), values4(Node4::NUM_VALUES);
-    for (const Layout::Child5& node : L.nodes) {
-      if (node.tile) continue;
-      os.write(reinterpret_cast<const char*>(node.origin.asPointer()), 3 * sizeof(openvdb::Int32));
-      Node5::NodeMaskType childMask5, valueMask5;
-      std::fill(values5.begin(), values5.end(), mBackground);
-      for (const Layout::Child4& child : node.children) {
-        (child.tile ? valueMask5 : childMask5).setOn(child.pos);
-        values5[child.pos] = child.tile ? child.value : 0.0f;
-      }
-      childMask5.save(os);
-      valueMask5.save(os);
-      io::writeCompressedValues(os, values5.data(), Node5::NUM_VALUES, valueMask5, childMask5, false);
-      for (const Layout::Child4& child : node.children) {
-        if (child.tile) continue;
-        Node4::NodeMaskType childMask4, valueMask4;
-        std::fill(values4.begin(), values4.end(), mBackground);
-        for (const auto& [pos, index] : child.cells) {
-          const bool tile = mCells[index].kind == Kind::Tile;
-          (tile ? valueMask4 : childMask4).setOn(pos);
-          values4[pos] = tile ? mCells[index].tile : 0.0f;
-        }
-        childMask4.save(os);
-        valueMask4.save(os);
-        io::writeCompressedValues(os, values4.data(), Node4::NUM_VALUES, valueMask4, childMask4, false);
-        for (const auto& [pos, index] : child.cells)
-          if (mCells[index].kind == Kind::Leaf) os.write(mPool.get() + mCells[index].offset, kMaskBytes);
-      }
-    }
-  }
+  body.os.write(reinterpret_cast<const char*>(&compression), sizeof compression);
+  fileMetadata(grid, archiveCompression, compression).writeMeta(body.os);
+  grid.transform().write(body.os);
+  writeTopology(body.os);
 
   // Stream positions, known before anything is written: the grid after the descriptor, the leaves after the
   // topology, the end after the leaves.

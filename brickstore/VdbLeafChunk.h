@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <ostream>
 #include <vector>
 
 #include <openvdb/openvdb.h>
@@ -71,6 +72,14 @@ class VdbLeafChunk {
 
   template <typename T>
   void cutLayer(const T* values, int64_t zs, int64_t slices);
+  /// LeafNode::writeBuffers of a kept leaf, to a stream tagged as OpenVDB tags it.
+  void writeLeafBuffers(const Cell& cell, std::ostream& os) const;
+  /// Each kept leaf replaced by its form under `compression` (blosc), in place.
+  void compressLeaves(uint32_t compression);
+  /// The grid's metadata as Archive::writeGrid writes it: statistics and the delayed-load record added.
+  openvdb::MetaMap fileMetadata(const openvdb::FloatGrid& grid, uint32_t archiveCompression, uint32_t compression);
+  /// Tree::writeTopology of the chunk's tree, made from its layout.
+  void writeTopology(std::ostream& os);
   size_t cellIndex(int64_t lx, int64_t ly, int64_t layer) const {
     return size_t((layer * mLeavesY + ly) * mLeavesX + lx);
   }
