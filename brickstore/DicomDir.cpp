@@ -3,7 +3,6 @@
 #include <gdcmDataSet.h>
 #include <gdcmReader.h>
 #include <gdcmSequenceOfItems.h>
-#include <gdcmTrace.h>
 
 #include <algorithm>
 #include <cctype>
@@ -11,8 +10,10 @@
 #include <string>
 #include <vector>
 
+#include "brickstore/DicomHeader.h"
 #include "brickstore/DicomStructure.h"
 #include "brickstore/Errors.h"
+#include "brickstore/InputErrors.h"
 #include "brickstore/Sources.h"
 
 namespace voxbrick::store {
@@ -55,13 +56,8 @@ std::vector<std::string> referencedFiles(const std::string& path) {
   checkDicomStructure(path);  // before GDCM parses it
   gdcm::Reader reader;
   reader.SetFileName(path.c_str());
-  try {
-    if (!reader.Read()) throw InputError(path + ": not a readable DICOMDIR (GDCM could not parse it)");
-  } catch (const InputError&) {
-    throw;
-  } catch (const std::exception& e) {
-    throw InputError(path + ": not a readable DICOMDIR (" + e.what() + ")");
-  }
+  if (!namingInput({path}, [&] { return reader.Read(); }))
+    throw InputError(path + ": not a readable DICOMDIR (GDCM could not parse it)");
   const gdcm::DataSet& ds = reader.GetFile().GetDataSet();
   const gdcm::Tag records(0x0004, 0x1220);
   if (!ds.FindDataElement(records))
@@ -85,9 +81,7 @@ std::vector<std::string> referencedFiles(const std::string& path) {
 }  // namespace
 
 std::unique_ptr<VolumeSource> openDicomDir(const std::string& path, const SourceOptions& options) {
-  gdcm::Trace::DebugOff();
-  gdcm::Trace::WarningOff();
-  gdcm::Trace::ErrorOff();
+  quietGdcm();
   return openDicomSeries(referencedFiles(path), options, "", path);
 }
 

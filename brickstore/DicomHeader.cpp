@@ -6,6 +6,7 @@
 #include <gdcmReader.h>
 #include <gdcmSequenceOfItems.h>
 #include <gdcmStringFilter.h>
+#include <gdcmTrace.h>
 #include <gdcmTransferSyntax.h>
 #include <gdcmUIDs.h>
 
@@ -19,11 +20,14 @@
 #include <string_view>
 
 #include "brickstore/Errors.h"
+#include "brickstore/InputErrors.h"
 
 namespace voxbrick::store {
 namespace {
 
 using Vec = SliceHeader::Vec;
+
+constexpr const char* kRtDose = "1.2.840.10008.5.1.4.1.1.481.2";  // RT Dose Storage
 
 /// "1.2.840.10008.1.2.4.100 (MPEG2 Main Profile / Main Level)".
 std::string syntaxName(const gdcm::TransferSyntax& ts) {
@@ -88,8 +92,8 @@ class Tags {
     const auto first = s.find_first_not_of(std::string(" \0", 2)), last = s.find_last_not_of(std::string(" \0", 2));
     return first == std::string::npos ? "" : s.substr(first, last - first + 1);
   }
-  /// Backslash-separated numbers; throws InputError naming the tag when absent (and required) or not `count`
-  /// numbers (any count when `count` is 0).
+  /// Backslash-separated numbers; throws InputError naming the tag when absent (and required), not numeric (a value
+  /// of only spaces included) or not `count` numbers (any count, at least one, when `count` is 0).
   std::vector<double> numbers(uint16_t group, uint16_t element, const char* name, size_t count,
                               const std::vector<double>& fallback = {}) const {
     if (!has(group, element)) {
@@ -107,6 +111,8 @@ class Tags {
         throw InputError(mWhere + ": DICOM tag " + name + " is not numeric: '" + s + "'");
       v.push_back(d);
     }
+    if (v.empty())  // a value of only spaces
+      throw InputError(mWhere + ": DICOM tag " + name + " " + tagText(group, element) + " is not numeric: '" + s + "'");
     if (count > 0 && v.size() != count)
       throw InputError(mWhere + ": DICOM tag " + name + " has " + std::to_string(v.size()) + " values, expected " +
                        std::to_string(count) + ": '" + s.substr(0, 200) + "'");
@@ -172,15 +178,9 @@ std::string nonImageKind(const std::string& sop, const std::string& mediaSop, co
 
 /// The file read through GDCM up to its pixel data, after the structure walk; GDCM's failures become InputErrors.
 gdcm::Reader& readUpToPixels(gdcm::Reader& reader, const std::string& path) {
-  try {
-    reader.SetFileName(path.c_str());
-    if (!reader.ReadUpToTag(gdcm::Tag(0x7FE0, 0x0010)))
-      throw InputError(path + ": not a readable DICOM file (GDCM could not parse it)");
-  } catch (const InputError&) {
-    throw;
-  } catch (const std::exception& e) {
-    throw InputError(path + ": not a readable DICOM file (" + e.what() + ")");
-  }
+  reader.SetFileName(path.c_str());
+  if (!namingInput({path}, [&] { return reader.ReadUpToTag(gdcm::Tag(0x7FE0, 0x0010)); }))
+    throw InputError(path + ": not a readable DICOM file (GDCM could not parse it)");
   return reader;
 }
 
@@ -203,6 +203,7 @@ DicomFileEntry identifyDicomFile(const std::string& path, uint64_t maxInflated) 
   e.columns = t.lenient(0x0028, 0x0011);
   e.frames = std::max<int64_t>(1, t.lenient(0x0028, 0x0008));
   e.notImage = nonImageKind(e.sopClass, meta.text(0x0002, 0x0002), path);
+  e.dose = e.sopClass == kRtDose;
   if (e.notImage.empty() && e.seriesUid.empty())
     throw InputError(path + ": missing DICOM tag SeriesInstanceUID (0020,000E)");
   return e;
@@ -235,15 +236,6 @@ void readPlane(const Tags& t, SliceHeader& h) {
   h.columnSpacing = s[1];
 }
 
-Vec unitNormal(const SliceHeader& h) {
-  const Vec& r = h.row;
-  const Vec& c = h.column;
-  Vec n{r[1] * c[2] - r[2] * c[1], r[2] * c[0] - r[0] * c[2], r[0] * c[1] - r[1] * c[0]};
-  const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-  if (!(len > 0.5)) throw InputError(h.file + ": ImageOrientationPatient holds a zero or parallel vector");
-  return {n[0] / len, n[1] / len, n[2] / len};
-}
-
 /// An RT dose grid: one slice a frame, GridFrameOffsetVector along the normal from ImagePositionPatient (relative
 /// when its first value is 0, else absolute: the frames' coordinates along the normal), DoseGridScaling the slope.
 std::vector<SliceHeader> doseFrames(const Tags& t, SliceHeader h) {
@@ -257,8 +249,8 @@ std::vector<SliceHeader> doseFrames(const Tags& t, SliceHeader h) {
   if (int64_t(offsets.size()) != h.frames)
     throw InputError(h.file + ": GridFrameOffsetVector (3004,000C) holds " + std::to_string(offsets.size()) +
                      " offsets for NumberOfFrames " + std::to_string(h.frames));
-  const Vec n = unitNormal(h), origin = h.position;
-  const double along0 = n[0] * origin[0] + n[1] * origin[1] + n[2] * origin[2];
+  const Vec n = directions(h)[2], origin = h.position;
+  const double along0 = dot(n, origin);
   const double base = offsets[0] == 0 ? 0 : along0;  // absolute offsets are coordinates along the normal
   std::vector<SliceHeader> slices;
   for (int64_t k = 0; k < h.frames; ++k) {
@@ -309,8 +301,9 @@ void readFrame(const gdcm::File& file, const Tags* perFrame, const Tags* shared,
   }
 }
 
-/// Refuses the frames of one file that are not one volume, saying why: several stacks, temporal positions or
-/// orientations. (Frames at one position are refused later as duplicates.)
+/// Refuses the frames of one file that are not one volume, saying why: several stacks or temporal positions. (Frames
+/// of another orientation are refused later as slices are, by the series' consistency check; frames at one position
+/// as duplicates.)
 void checkOneVolume(const std::vector<SliceHeader>& frames, const std::vector<std::string>& stacks,
                     const std::vector<std::string>& temporal) {
   const SliceHeader& a = frames.front();
@@ -324,11 +317,6 @@ void checkOneVolume(const std::vector<SliceHeader>& frames, const std::vector<st
   if (const auto n = distinct(temporal); n > 1)
     throw InputError(why + "a time series: " + std::to_string(n) +
                      " temporal positions by TemporalPositionIndex (0020,9128)); not supported");
-  for (const SliceHeader& f : frames)
-    for (size_t i = 0; i < 3; ++i)
-      if (std::fabs(f.row[i] - a.row[i]) > 1e-4 || std::fabs(f.column[i] - a.column[i]) > 1e-4)
-        throw InputError(why + "several orientations: " + f.name() +
-                         " has another ImageOrientationPatient than frame 1); not supported");
 }
 
 /// An enhanced multi-frame image: one slice a frame, from the functional groups.
@@ -372,7 +360,7 @@ std::vector<SliceHeader> readSliceHeaders(const DicomFileEntry& entry) {
   h.modality = entry.modality;
   gdcm::Reader reader;
   const gdcm::File& file = readUpToPixels(reader, entry.file).GetFile();
-  try {
+  return namingInput({entry.file}, [&]() -> std::vector<SliceHeader> {
     const gdcm::TransferSyntax ts = file.GetHeader().GetDataSetTransferSyntax();
     const char* uid = gdcm::TransferSyntax::GetTSString(ts);
     h.syntaxUid = uid ? uid : "";
@@ -383,17 +371,36 @@ std::vector<SliceHeader> readSliceHeaders(const DicomFileEntry& entry) {
     readPixelFormat(t, h);
     if (t.has(0x0028, 0x0009) && !t.has(0x0028, 0x0008))  // GDCM's image reader aborts on an assertion
       throw InputError(entry.file + ": FrameIncrementPointer (0028,0009) without NumberOfFrames (0028,0008)");
-    if (entry.sopClass == "1.2.840.10008.5.1.4.1.1.481.2") return doseFrames(t, h);
+    if (entry.dose) return doseFrames(t, h);
     if (h.frames > 1) return enhancedFrames(file, t, h);
     readPlane(t, h);
     h.slope = t.one(0x0028, 0x1053, "RescaleSlope", 1);
     h.intercept = t.one(0x0028, 0x1052, "RescaleIntercept", 0);
     return {h};
-  } catch (const InputError&) {
-    throw;
-  } catch (const std::exception& e) {
-    throw InputError(entry.file + ": not a readable DICOM file (" + e.what() + ")");
-  }
+  });
+}
+
+void quietGdcm() {
+  gdcm::Trace::DebugOff();
+  gdcm::Trace::WarningOff();
+  gdcm::Trace::ErrorOff();
+}
+
+double dot(const Vec& a, const Vec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+Vec cross(const Vec& a, const Vec& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+std::array<Vec, 3> directions(const SliceHeader& h) {
+  auto scaled = [](const Vec& a, double s) { return Vec{a[0] * s, a[1] * s, a[2] * s}; };
+  const double r = std::sqrt(dot(h.row, h.row)), c = std::sqrt(dot(h.column, h.column));
+  if (!(r > 0.5 && c > 0.5)) throw InputError(h.file + ": ImageOrientationPatient holds a zero vector");
+  const Vec row = scaled(h.row, 1 / r), column = scaled(h.column, 1 / c);
+  if (std::fabs(dot(row, column)) > 1e-3)
+    throw InputError(h.file + ": ImageOrientationPatient row and column directions are not orthogonal");
+  const Vec n = cross(row, column);
+  return {row, column, scaled(n, 1 / std::sqrt(dot(n, n)))};
 }
 
 }  // namespace voxbrick::store

@@ -3,6 +3,7 @@
 // format of each slice (a single-frame file, or each frame of an enhanced multi-frame image or RT dose grid).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -16,6 +17,7 @@ namespace voxbrick::store {
 struct DicomFileEntry {
   std::string file, seriesUid, sopClass, sopInstance, modality, description;
   std::string notImage;  ///< "" for an image; else what the file is ("RT plan", "structured report", "DICOMDIR")
+  bool dose = false;     ///< an RT dose grid (RT Dose Storage): a volume of its own, read as doses
   int64_t rows = 0, columns = 0, frames = 1;  ///< as stated (0 when absent), for listings only
   DicomLayout layout;                         ///< what the structure walk found of the pixel data
 };
@@ -51,7 +53,19 @@ DicomFileEntry identifyDicomFile(const std::string& path, uint64_t maxInflated);
 /// (positions, orientation, spacing and rescale from the per-frame and shared functional groups) or an RT dose grid
 /// (GridFrameOffsetVector from ImagePositionPatient along the normal, DoseGridScaling as the slope). Throws
 /// InputError naming the file and the tag for missing or malformed geometry, and for a multi-frame file whose frames
-/// are not one volume (several stacks, temporal positions or orientations).
+/// are not one volume (several stacks or temporal positions; other orientations are refused with the series' checks).
 std::vector<SliceHeader> readSliceHeaders(const DicomFileEntry& entry);
+
+/// Silences GDCM's own reports on stderr (debug, warnings, errors): it says what fails by its return values as well,
+/// and the reader's messages, naming the file and the tag, are the ones that count.
+void quietGdcm();
+
+/// The dot and cross products of two vectors.
+double dot(const Orientation::Vec& a, const Orientation::Vec& b);
+Orientation::Vec cross(const Orientation::Vec& a, const Orientation::Vec& b);
+
+/// The unit row, column and normal directions (LPS) of a slice's ImageOrientationPatient; throws InputError naming
+/// the file for a zero vector, or row and column directions that are not orthogonal.
+std::array<Orientation::Vec, 3> directions(const SliceHeader& h);
 
 }  // namespace voxbrick::store

@@ -3,7 +3,6 @@
 // grid) read, sorted along the slice normal and checked; pixels are decoded a file at a time as prep streams.
 #include <gdcmImage.h>
 #include <gdcmImageReader.h>
-#include <gdcmTrace.h>
 
 #include <algorithm>
 #include <array>
@@ -21,6 +20,7 @@
 #include "brickstore/DicomHeader.h"
 #include "brickstore/DicomStructure.h"
 #include "brickstore/Errors.h"
+#include "brickstore/InputErrors.h"
 #include "brickstore/Sources.h"
 
 namespace voxbrick::store {
@@ -28,17 +28,10 @@ namespace {
 
 using Vec = Orientation::Vec;
 
-constexpr const char* kRtDose = "1.2.840.10008.5.1.4.1.1.481.2";  // RT Dose Storage
-constexpr double kSpacingTolerance = 0.01;                        // slice steps may differ from the series' step by 1 %
+constexpr double kSpacingTolerance = 0.01;    // slice steps may differ from the series' step by 1 %
 constexpr double kDirectionTolerance = 1e-4;  // direction cosines of two slices count as equal within this
 
 Vec sub(const Vec& a, const Vec& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-double dot(const Vec& a, const Vec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-double norm(const Vec& a) { return std::sqrt(dot(a, a)); }
-Vec cross(const Vec& a, const Vec& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-Vec scaled(const Vec& a, double s) { return {a[0] * s, a[1] * s, a[2] * s}; }
 /// DICOM's patient frame is LPS; the store's is RAS.
 Vec lpsToRas(const Vec& a) { return {-a[0], -a[1], a[2]}; }
 
@@ -162,14 +155,14 @@ std::vector<DicomFileEntry> oneVolume(std::vector<DicomFileEntry> all, const std
   for (DicomFileEntry& e : all)
     if (chosenInstance.empty() || e.sopInstance != chosenInstance || e.file == chosenFile)
       series.push_back(std::move(e));
-  auto own = [](const DicomFileEntry& e) { return e.frames > 1 || e.sopClass == kRtDose; };
+  auto own = [](const DicomFileEntry& e) { return e.frames > 1 || e.dose; };
   for (DicomFileEntry& e : series)
     if (e.file == chosenFile && own(e)) return {std::move(e)};
   if (series.size() < 2) return series;
   for (const DicomFileEntry& e : series)
     if (own(e))
-      throw InputError(e.file + ": " + (e.sopClass == kRtDose ? "an RT dose grid" : "a multi-frame image") +
-                       " (NumberOfFrames " + std::to_string(e.frames) + "), a volume of its own, beside " +
+      throw InputError(e.file + ": " + (e.dose ? "an RT dose grid" : "a multi-frame image") + " (NumberOfFrames " +
+                       std::to_string(e.frames) + "), a volume of its own, beside " +
                        std::to_string(series.size() - 1) + " other file(s) of DICOM series " + e.seriesUid +
                        ": name the file to read");
   return series;
@@ -203,17 +196,6 @@ void checkConsistent(const std::vector<SliceHeader>& slices) {
       throw differ("PixelSpacing", number(a.rowSpacing) + "\\" + number(a.columnSpacing),
                    number(b.rowSpacing) + "\\" + number(b.columnSpacing));
   }
-}
-
-/// The unit row, column and normal directions (LPS) of the series; refuses non-orthogonal or zero vectors.
-std::array<Vec, 3> directions(const SliceHeader& h) {
-  const double r = norm(h.row), c = norm(h.column);
-  if (!(r > 0.5 && c > 0.5)) throw InputError(h.file + ": ImageOrientationPatient holds a zero vector");
-  const Vec row = scaled(h.row, 1 / r), column = scaled(h.column, 1 / c);
-  if (std::fabs(dot(row, column)) > 1e-3)
-    throw InputError(h.file + ": ImageOrientationPatient row and column directions are not orthogonal");
-  const Vec n = cross(row, column);
-  return {row, column, scaled(n, 1 / norm(n))};
 }
 
 /// Sorts the slices along the normal and returns the slice step; refuses duplicates, gaps, uneven steps and
@@ -301,7 +283,7 @@ class DicomSource final : public VolumeSource {
     mDecoded.clear();
     // Again: the file may have changed since the source opened.
     checkPixelData(h.file, checkDicomStructure(h.file, mMaxInflated), pixelFormat(h));
-    try {
+    namingInput({h.file}, [&] {
       gdcm::ImageReader reader;
       reader.SetFileName(h.file.c_str());
       if (!reader.Read()) throw InputError(h.file + ": GDCM could not read the image (" + h.syntaxText + ")");
@@ -314,11 +296,7 @@ class DicomSource final : public VolumeSource {
       mBuffer.resize(bytes);
       if (!image.GetBuffer(mBuffer.data()))
         throw InputError(h.file + ": GDCM could not decode the pixel data (" + h.syntaxText + ")");
-    } catch (const InputError&) {
-      throw;
-    } catch (const std::exception& e) {
-      throw InputError(h.file + ": GDCM could not decode the pixel data (" + e.what() + ")");
-    }
+    });
     mDecoded = h.file;
   }
 
@@ -385,10 +363,7 @@ VolumeInfo volumeInfo(const std::vector<SliceHeader>& slices, const std::array<V
 std::unique_ptr<VolumeSource> openDicomSeries(const std::vector<std::string>& files, const SourceOptions& options,
                                               const std::string& chosenFile, const std::string& what) {
   if (files.empty()) throw InputError(what + ": no DICOM files");
-  // GDCM reports problems on stderr as well as by its return values; ours are the messages that count.
-  gdcm::Trace::DebugOff();
-  gdcm::Trace::WarningOff();
-  gdcm::Trace::ErrorOff();
+  quietGdcm();
   std::vector<DicomFileEntry> entries;
   entries.reserve(files.size());
   // With a file or --series named, a damaged file beside them is skipped (and named in the description): it may be

@@ -23,6 +23,15 @@ namespace {
 
 constexpr uint32_t kUndefinedLength = 0xFFFFFFFF;
 
+/// Whether `vr` is one of DICOM's value representations.
+bool isDicomVr(std::string_view vr) {
+  static constexpr std::string_view kAll =
+      "AE AS AT CS DA DS DT FD FL IS LO LT OB OD OF OL OV OW PN SH SL SQ SS ST SV TM UC UI UL UN UR US UT UV";
+  for (size_t k = 0; k < kAll.size(); k += 3)
+    if (kAll.substr(k, 2) == vr) return true;
+  return false;
+}
+
 /// A cursor over the file's bytes in one encoding (VR explicit or implicit, byte order).
 class Walker {
  public:
@@ -124,10 +133,7 @@ class Walker {
   /// Refuses a value representation that is none of DICOM's: GDCM would give up on explicit VR and reread the
   /// data set as implicit VR, taking lengths from bytes that are not lengths.
   void checkVr(std::string_view vr, size_t at) const {
-    static constexpr std::string_view kAll =
-        "AE AS AT CS DA DS DT FD FL IS LO LT OB OD OF OL OV OW PN SH SL SQ SS ST SV TM UC UI UL UN UR US UT UV";
-    for (size_t k = 0; k < kAll.size(); k += 3)
-      if (kAll.substr(k, 2) == vr) return;
+    if (isDicomVr(vr)) return;
     char tag[16];
     std::snprintf(tag, sizeof tag, "(%04X,%04X)", u16(at), u16(at + 2));
     std::string shown;
@@ -205,14 +211,21 @@ std::string walkMetaHeader(Walker& w) {
 /// A data set's encoding, guessed from its first element when no transfer syntax is stated.
 enum class Encoding { ImplicitLittle, ExplicitLittle, ExplicitBig, None };
 
+/// Whether the two bytes at `at` are a value representation.
 bool isValidVr(const std::vector<char>& bytes, size_t at) {
-  static constexpr std::string_view kAll =
-      "AE AS AT CS DA DS DT FD FL IS LO LT OB OD OF OL OV OW PN SH SL SQ SS ST SV TM UC UI UL UN UR US UT UV";
-  if (at + 2 > bytes.size()) return false;
-  const std::string_view vr(bytes.data() + at, 2);
-  for (size_t k = 0; k < kAll.size(); k += 3)
-    if (kAll.substr(k, 2) == vr) return true;
-  return false;
+  return at + 2 <= bytes.size() && isDicomVr(std::string_view(bytes.data() + at, 2));
+}
+
+/// Whether the bytes open with a meta header element (group 0002, explicit VR little endian), as they do after the
+/// preamble, or first in a file without one.
+bool opensWithMetaHeader(const std::vector<char>& bytes) {
+  return bytes.size() >= 8 && bytes[0] == 2 && bytes[1] == 0 && isValidVr(bytes, 4);
+}
+
+/// Sets the walker to read the data set in encoding `e` (not None).
+void setEncoding(Walker& w, Encoding e) {
+  w.explicitVr = e != Encoding::ImplicitLittle;
+  w.bigEndian = e == Encoding::ExplicitBig;
 }
 
 /// A group a data set can open with: an even (standard) group of the data set, or 0x0008..0x0009 (identifying).
@@ -335,12 +348,11 @@ bool looksLikeDicomDataSet(const std::string& path) {
   if (!in.read(head.data(), std::streamsize(head.size())) && in.gcount() <= 0) return false;
   head.resize(size_t(in.gcount()));
   if (head.size() < 16) return false;
-  const bool meta = head[0] == 2 && head[1] == 0 && isValidVr(head, 4);
+  const bool meta = opensWithMetaHeader(head);
   const Encoding e = meta ? Encoding::ExplicitLittle : guessEncoding(head, 0);
   if (e == Encoding::None) return false;
   Walker w(head, path);
-  w.explicitVr = e != Encoding::ImplicitLittle;
-  w.bigEndian = e == Encoding::ExplicitBig;
+  setEncoding(w, e);
   try {
     // Two elements in order, of the meta header or the identifying group: raw voxels hardly look like that.
     const uint32_t group = w.u16(0), element = w.u16(2);
@@ -359,7 +371,7 @@ DicomLayout checkDicomStructure(const std::string& path, uint64_t maxInflatedByt
   const bool part10 = bytes.size() >= 132 && std::memcmp(bytes.data() + 128, "DICM", 4) == 0;
   w.pos = part10 ? 132 : 0;
   // A meta header (group 0002, explicit VR little endian) after the preamble, or first in a file without one.
-  const bool meta = part10 || (bytes.size() >= 8 && isValidVr(bytes, 4) && bytes[0] == 2 && bytes[1] == 0);
+  const bool meta = part10 || opensWithMetaHeader(bytes);
   const std::string syntax = meta ? walkMetaHeader(w) : "";
   if (syntax == "1.2.840.10008.1.2.1.99") {  // deflated: inflated here (bounded), walked as explicit VR
     const std::vector<char> inflated = inflateDataSet(bytes, w.pos, maxInflatedBytes, path);
@@ -379,8 +391,7 @@ DicomLayout checkDicomStructure(const std::string& path, uint64_t maxInflatedByt
     if (w.atEnd()) throw InputError(path + ": truncated DICOM file (no data set)");
     const Encoding e = guessEncoding(bytes, w.pos);
     if (e == Encoding::None) throw InputError(path + ": " + notAnElement(bytes, w.pos, part10, meta));
-    w.explicitVr = e != Encoding::ImplicitLittle;
-    w.bigEndian = e == Encoding::ExplicitBig;
+    setEncoding(w, e);
     w.layout.guessed = true;
   }
   if (w.atEnd()) throw InputError(path + ": truncated DICOM file (no data set)");

@@ -22,8 +22,8 @@ bool endsWith(std::string s, std::string_view suffix) {
 
 bool isTiffName(const std::string& path) { return endsWith(path, ".tif") || endsWith(path, ".tiff"); }
 
-/// A DICOM file: named *.dcm, a Part 10 file (the "DICM" magic after its 128-byte preamble), or a bare data set
-/// (no preamble or meta header), whatever its name.
+/// A DICOM file: named *.dcm, a Part 10 file (the "DICM" magic after its 128-byte preamble), or one without the
+/// preamble (a meta header first, or a bare data set without one), whatever its name.
 bool isDicomFile(const std::string& path) {
   if (endsWith(path, ".dcm")) return true;
   if (std::filesystem::path(path).filename() == "DICOMDIR") return false;  // an index of a medium, not an image

@@ -9,7 +9,8 @@ computes for them, for tests/brickstore/test_dicom_hospital.cpp. Nothing it writ
                                 refusal variants beside it (DIR/bad/*.dcm)
   dicom_cases.py dose DIR       RT dose grids (32-bit relative offsets, 16-bit absolute descending offsets, and
                                 pydicom's rtdose.dcm), each with NAME.f64 (values in Gy, as the reader must order
-                                them: along the slice normal) and NAME.json (dims, spacing, origin in RAS)
+                                them: along the slice normal) and NAME.json (dims, spacing, origin in RAS); refusal
+                                variants beside them (DIR/bad/*.dcm)
   dicom_cases.py nometa DIR     pydicom's CT_small.dcm as is, without preamble and meta header (implicit VR), and
                                 with a meta header but no preamble; pydicom's damaged no_meta.dcm
   dicom_cases.py pixels DIR     pydicom's MR_small.dcm in every transfer syntax pydicom ships it in, one folder each
@@ -213,6 +214,11 @@ def case_dose(out):
     ds = pydicom.dcmread(os.path.join(out, "bad", "offsets.dcm"))
     ds.GridFrameOffsetVector = [0, 3]
     save(ds, os.path.join(out, "bad", "offsets.dcm"))
+    # A one-frame dose grid whose GridFrameOffsetVector is only a space: no offset at all.
+    dose_file(os.path.join(out, "bad", "blankoffsets.dcm"), 16, [0], 1e-3, [0.0, 0.0, 0.0])
+    ds = pydicom.dcmread(os.path.join(out, "bad", "blankoffsets.dcm"))
+    ds.GridFrameOffsetVector = " "
+    save(ds, os.path.join(out, "bad", "blankoffsets.dcm"))
 
 
 def presentation_state(series_uid, study_uid):

@@ -63,9 +63,34 @@ nlohmann::json infoJson(const fs::path& store) {
   return nlohmann::json::parse(r.output);
 }
 
-TEST(DicomHospital, StudyFolderSkipsNonImagesAndListsItsImageSeries) {
+/// The suite's cases of dicom_cases.py, each written once (on first use) into a scratch folder the suite's tests
+/// share and only read: what a test writes (stores, copies it changes) goes to its own ScratchDir.
+class DicomHospital : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { sCases = new ScratchDir; }
+  static void TearDownTestSuite() {
+    delete sCases;
+    sCases = nullptr;
+  }
+
+  /// The folder case `kind` is written to.
+  static fs::path caseDir(const std::string& kind) {
+    const fs::path dir = *sCases / kind;
+    if (fs::exists(dir)) return dir;
+    writeCase(kind, dir);
+    if (HasFatalFailure()) fs::remove_all(dir);  // the next test tries again, and says why it fails
+    return dir;
+  }
+
+ private:
+  static ScratchDir* sCases;
+};
+
+ScratchDir* DicomHospital::sCases = nullptr;
+
+TEST_F(DicomHospital, StudyFolderSkipsNonImagesAndListsItsImageSeries) {
   ScratchDir dir;
-  writeCase("study", dir / "study");
+  fs::copy(caseDir("study"), dir / "study", fs::copy_options::recursive);  // a copy: the test changes its files
   const std::string study = (dir / "study").string(), out = " -q -o '" + (dir / "s").string() + "'";
   auto r = runVoxbrick("prep '" + study + "'" + out);
   EXPECT_EQ(r.exitCode, 1) << r.output;
@@ -108,9 +133,9 @@ TEST(DicomHospital, StudyFolderSkipsNonImagesAndListsItsImageSeries) {
   EXPECT_NE(r.output.find("holds no image (rtplan.dcm is a RT plan)"), std::string::npos) << r.output;
 }
 
-TEST(DicomHospital, DicomDirListsAndOpensItsSeries) {
+TEST_F(DicomHospital, DicomDirListsAndOpensItsSeries) {
   ScratchDir dir;
-  writeCase("study", dir / "study");
+  fs::copy(caseDir("study"), dir / "study", fs::copy_options::recursive);  // a copy: the test changes its files
   const fs::path medium = dir / "study" / "medium";
   const std::string out = " -q --brick 8 -o '" + (dir / "s").string() + "'";
   for (const fs::path& input : {medium / "DICOMDIR", medium}) {
@@ -148,9 +173,9 @@ TEST(DicomHospital, DicomDirListsAndOpensItsSeries) {
   EXPECT_NEAR(j["spacing"][2].get<double>(), 2.5, 1e-6);
 }
 
-TEST(DicomHospital, EnhancedMultiFrameIsTheSameVolumeAsItsSingleSlices) {
-  ScratchDir dir;
-  writeCase("enhanced", dir.path());
+TEST_F(DicomHospital, EnhancedMultiFrameIsTheSameVolumeAsItsSingleSlices) {
+  ScratchDir out;
+  const fs::path dir = caseDir("enhanced");
   expectSameVolume((dir / "enhanced.dcm").string(), (dir / "slices").string());
   expectSameVolume((dir / "enhanced_mr.dcm").string(), (dir / "mr").string());
   EXPECT_EQ(store::openSource((dir / "enhanced_mr.dcm").string(), {})->info().type, store::ValueType::U16);
@@ -159,18 +184,17 @@ TEST(DicomHospital, EnhancedMultiFrameIsTheSameVolumeAsItsSingleSlices) {
   EXPECT_NE(source->info().description.find("multi-frame"), std::string::npos) << source->info().description;
 
   // From one command, the same store geometry as the slices'.
-  auto r = runVoxbrick("prep '" + (dir / "enhanced.dcm").string() + "' -q -o '" + (dir / "a").string() + "'");
+  auto r = runVoxbrick("prep '" + (dir / "enhanced.dcm").string() + "' -q -o '" + (out / "a").string() + "'");
   ASSERT_EQ(r.exitCode, 0) << r.output;
-  r = runVoxbrick("prep '" + (dir / "slices").string() + "' -q -o '" + (dir / "b").string() + "'");
+  r = runVoxbrick("prep '" + (dir / "slices").string() + "' -q -o '" + (out / "b").string() + "'");
   ASSERT_EQ(r.exitCode, 0) << r.output;
-  const auto a = infoJson(dir / "a"), b = infoJson(dir / "b");
+  const auto a = infoJson(out / "a"), b = infoJson(out / "b");
   for (const char* key : {"dims", "spacing", "type", "orientation", "value_range", "histogram", "bytes_raw"})
     EXPECT_EQ(a[key], b[key]) << key;
 }
 
-TEST(DicomHospital, MultiFrameFilesThatAreNotOneVolumeAreRefusedSayingWhy) {
-  ScratchDir dir;
-  writeCase("enhanced", dir.path());
+TEST_F(DicomHospital, MultiFrameFilesThatAreNotOneVolumeAreRefusedSayingWhy) {
+  const fs::path dir = caseDir("enhanced");
   auto refused = [&](const std::string& file, const std::vector<std::string>& words) {
     SCOPED_TRACE(file);
     std::vector<std::string> all = words;
@@ -188,11 +212,9 @@ TEST(DicomHospital, MultiFrameFilesThatAreNotOneVolumeAreRefusedSayingWhy) {
   refused("hugeframes.dcm", {"NumberOfFrames (0028,0008) is not a count: '999999999999'"});
 }
 
-TEST(DicomHospital, EveryTruncationOfAMultiFrameFileIsAnInputError) {
+TEST_F(DicomHospital, EveryTruncationOfAMultiFrameFileIsAnInputError) {
   ScratchDir dir;
-  writeCase("enhanced", dir / "enhanced");
-  writeCase("dose", dir / "dose");
-  for (const fs::path& file : {dir / "enhanced" / "enhanced.dcm", dir / "dose" / "real" / "rtdose.dcm"}) {
+  for (const fs::path& file : {caseDir("enhanced") / "enhanced.dcm", caseDir("dose") / "real" / "rtdose.dcm"}) {
     const std::vector<char> bytes = test::readFile(file);
     const fs::path victim = dir / "cut" / file.filename();
     fs::create_directories(victim.parent_path());
@@ -208,9 +230,9 @@ TEST(DicomHospital, EveryTruncationOfAMultiFrameFileIsAnInputError) {
   }
 }
 
-TEST(DicomHospital, DoseGridsHoldPydicomsValuesInGy) {
-  ScratchDir dir;
-  writeCase("dose", dir.path());
+TEST_F(DicomHospital, DoseGridsHoldPydicomsValuesInGy) {
+  ScratchDir out;
+  const fs::path dir = caseDir("dose");
   for (const std::string& name : std::vector<std::string>{"dose32", "dose16", "rtdose"}) {
     SCOPED_TRACE(name);
     const fs::path file = name == "rtdose" ? dir / "real" / "rtdose.dcm" : dir / (name + ".dcm");
@@ -241,28 +263,30 @@ TEST(DicomHospital, DoseGridsHoldPydicomsValuesInGy) {
   }
   // The real file from one command.
   const auto r =
-      runVoxbrick("prep '" + (dir / "real" / "rtdose.dcm").string() + "' -q -o '" + (dir / "s").string() + "'");
+      runVoxbrick("prep '" + (dir / "real" / "rtdose.dcm").string() + "' -q -o '" + (out / "s").string() + "'");
   ASSERT_EQ(r.exitCode, 0) << r.output;
-  EXPECT_EQ(infoJson(dir / "s")["dims"], nlohmann::json({10, 10, 15}));
+  EXPECT_EQ(infoJson(out / "s")["dims"], nlohmann::json({10, 10, 15}));
   // Two dose grids of one series in a folder: each is a volume of its own, so the file is named.
-  fs::create_directories(dir / "two");
-  fs::copy_file(dir / "real" / "rtdose.dcm", dir / "two" / "rtdose.dcm");
-  fs::copy_file(dir / "dose16.dcm", dir / "two" / "dose16.dcm");
+  fs::create_directories(out / "two");
+  fs::copy_file(dir / "real" / "rtdose.dcm", out / "two" / "rtdose.dcm");
+  fs::copy_file(dir / "dose16.dcm", out / "two" / "dose16.dcm");
   const auto py = test::runShell("/usr/bin/python3 -c \"import pydicom; d = pydicom.dcmread('" +
-                                 (dir / "two" / "dose16.dcm").string() +
+                                 (out / "two" / "dose16.dcm").string() +
                                  "'); d.SeriesInstanceUID = '1.2.777.777.77.7.7777.7777'; d.save_as('" +
-                                 (dir / "two" / "dose16.dcm").string() + "')\" 2>&1");
+                                 (out / "two" / "dose16.dcm").string() + "')\" 2>&1");
   ASSERT_EQ(py.exitCode, 0) << py.output;
-  expectRefused(test::openAndRead(dir / "two"),
+  expectRefused(test::openAndRead(out / "two"),
                 {"dose16.dcm: an RT dose grid (NumberOfFrames 5), a volume of its own", "name the file to read"});
-  EXPECT_NO_THROW(test::openAndRead(dir / "two" / "dose16.dcm")());
+  EXPECT_NO_THROW(test::openAndRead(out / "two" / "dose16.dcm")());
   expectRefused(test::openAndRead(dir / "bad" / "offsets.dcm"),
                 {"offsets.dcm", "GridFrameOffsetVector (3004,000C) holds 2 offsets for NumberOfFrames 3"});
+  // One frame and an offset vector of only spaces: refused by name, not read past its (empty) end.
+  expectRefused(test::openAndRead(dir / "bad" / "blankoffsets.dcm"),
+                {"blankoffsets.dcm", "GridFrameOffsetVector (3004,000C) is not numeric"});
 }
 
-TEST(DicomHospital, MrSmallInEveryTransferSyntaxHoldsPydicomsPixels) {
-  ScratchDir dir;
-  writeCase("pixels", dir.path());
+TEST_F(DicomHospital, MrSmallInEveryTransferSyntaxHoldsPydicomsPixels) {
+  const fs::path dir = caseDir("pixels");
   const std::vector<char> raw = test::readFile(dir / "MR_small.f64");
   std::vector<double> expected(raw.size() / sizeof(double));
   std::memcpy(expected.data(), raw.data(), raw.size());
@@ -279,23 +303,23 @@ TEST(DicomHospital, MrSmallInEveryTransferSyntaxHoldsPydicomsPixels) {
       << source->info().description;
 }
 
-TEST(DicomHospital, FilesWithoutPreambleOrMetaHeaderAreReadAsTheyAre) {
-  ScratchDir dir;
-  writeCase("nometa", dir.path());
+TEST_F(DicomHospital, FilesWithoutPreambleOrMetaHeaderAreReadAsTheyAre) {
+  ScratchDir out;
+  const fs::path dir = caseDir("nometa");
   const std::string original = (dir / "ct_small.dcm").string();
   expectSameVolume((dir / "bare" / "ct_small.dcm").string(), original);
   expectSameVolume((dir / "nopreamble" / "ct_small.dcm").string(), original);
   // Named as archives name them, without ".dcm": told by their first elements, in a folder or alone.
-  fs::create_directories(dir / "archive");
-  fs::copy_file(dir / "bare" / "ct_small.dcm", dir / "archive" / "IM000001");
-  expectSameVolume((dir / "archive").string(), original);
-  expectSameVolume((dir / "archive" / "IM000001").string(), original);
+  fs::create_directories(out / "archive");
+  fs::copy_file(dir / "bare" / "ct_small.dcm", out / "archive" / "IM000001");
+  expectSameVolume((out / "archive").string(), original);
+  expectSameVolume((out / "archive" / "IM000001").string(), original);
   // pydicom's no_meta.dcm is really damaged: a stray byte before the first element.
   expectRefused(test::openAndRead(dir / "damaged" / "no_meta.dcm"),
                 {"no_meta.dcm", "not a DICOM file", "no 128-byte preamble", "20 08 00 05"});
 }
 
-TEST(DicomHospital, PydicomsNonImageFilesAreToldApartWithoutMetaHeaders) {
+TEST_F(DicomHospital, PydicomsNonImageFilesAreToldApartWithoutMetaHeaders) {
   // rtstruct.dcm has no preamble or meta header, ExplVR_BigEndNoMeta.dcm is explicit VR big endian without one.
   const std::string files = "/usr/lib/python3/dist-packages/pydicom/data/test_files/";
   ScratchDir dir;
