@@ -13,6 +13,7 @@
 #include <random>
 #include <vector>
 
+#include "distributed/Cluster.h"
 #include "distributed/Compositor.h"
 
 using namespace voxbrick;
@@ -40,11 +41,8 @@ image::ImageF partFrame(int size, int rank, int ranks) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  MPI_Init(&argc, &argv);
-  MPI_Comm_set_errhandler(MPI_COMM_WORLD, MPI_ERRORS_RETURN);
-  int rank = 0, ranks = 1;
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-  MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+  distributed::MpiSession mpi;  // MPI_Finalize when main returns
+  const int rank = mpi.rank(), ranks = mpi.size();
   CLI::App app{"the MPI compositor's time and bytes per frame"};
   std::vector<int> sizes{512, 1024, 2048};
   int repeat = 10;
@@ -53,9 +51,7 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    int code = rank == 0 ? app.exit(e) : 1;
-    MPI_Finalize();
-    return code;
+    return rank == 0 ? app.exit(e) : 1;
   }
   std::vector<int> order(static_cast<size_t>(ranks));
   std::iota(order.begin(), order.end(), 0);
@@ -83,12 +79,10 @@ int main(int argc, char** argv) {
       }
       if (rank != 0) continue;
       std::sort(times.begin(), times.end());
-      std::printf("%d,%d,%s,%.3f,%.3f,%.0f,%.0f\n", ranks, size,
-                  encoding == distributed::PixelEncoding::Half ? "half" : "float", times[times.size() / 2],
-                  times.back(), bytes, maxBytes);
+      std::printf("%d,%d,%s,%.3f,%.3f,%.0f,%.0f\n", ranks, size, distributed::pixelEncodingName(encoding),
+                  times[times.size() / 2], times.back(), bytes, maxBytes);
       std::fflush(stdout);
     }
   }
-  MPI_Finalize();
   return 0;
 }

@@ -5,6 +5,7 @@
 
 #include "brickstore/InputErrors.h"
 #include "cli/Commands.h"
+#include "cli/MpiOptions.h"
 #include "cli/Progress.h"
 #include "cli/SceneOptions.h"
 #include "distributed/Cluster.h"
@@ -34,10 +35,23 @@ struct RenderArgs {
   int warmUp = 0;
   int jpegQuality = 90;
   int64_t gpuBudgetMB = 1024, hostBudgetMB = 1024;
-  bool mpi = false;                  ///< sort-last across the ranks of mpirun (distributed/)
-  double mpiTimeout = 10;            ///< seconds any one MPI transfer may wait for its peer
-  std::string mpiEncoding = "half";  ///< how pixels travel between ranks
+  MpiArgs mpi;  ///< --mpi: sort-last across the ranks of mpirun (distributed/)
 };
+
+/// The dataset the arguments name: a store, a .vdb (--grid, --brick) or an OME-Zarr (--time, --channel), read
+/// within --host-budget; an error names the input.
+std::shared_ptr<const render::Dataset> openInput(const RenderArgs& a) {
+  return store::namingInput({a.store}, [&] {
+    return render::openDataset(a.store, a.store, size_t(a.hostBudgetMB) << 20,
+                               store::StoreOpenOptions{a.grid, a.brick, a.time, a.channel});
+  });
+}
+
+/// The GPU engine the arguments ask for (backend, atlas budget, format, uploads and bricking).
+render::RenderEngineOptions engineOptions(const RenderArgs& a) {
+  return {render::parseBackend(a.backend), size_t(a.gpuBudgetMB) << 20, render::parseAtlasFormat(a.atlasFormat),
+          render::parseAtlasUploads(a.uploads), render::parseAtlasBricking(a.bricking)};
+}
 
 /// Writes a frame in the format the path's extension names (PNG or JPEG), atomically.
 void writeFrame(const RenderArgs& a, const std::string& path, const image::ImageF& frame) {
@@ -201,36 +215,35 @@ void printFrameSummary(const RenderArgs& a, const render::Scene& scene, const re
         (long long)stats.bricksFitCoarsened, stats.levelFinest, stats.levelCoarsest);
 }
 
+/// The checks of the arguments against the scene and the opened dataset, the same with and without --mpi:
+/// --sub-block against its bricks, the output's format against the scene, --analytic only with the reference.
+void checkInput(const RenderArgs& a, const CLI::App& cmd, const render::Scene& scene, const render::Dataset& dataset) {
+  checkSubBlock(a, cmd, dataset);
+  checkOutputFormat(scene, a.output);
+  if (a.mpi.mpi && a.backend == "reference")
+    throw render::RenderInputError("--backend reference does not run with --mpi");
+  if (a.backend != "reference" && !a.analytic.empty())
+    throw render::RenderInputError(a.mpi.mpi ? "--analytic needs --backend reference, which does not run with --mpi"
+                                             : "--analytic needs --backend reference");
+}
+
 /// `render --mpi` under mpirun: every rank opens the dataset (the same on every rank, or refused naming the rank),
 /// draws its part with its own engine and budgets, the parts are composited, and rank 0 writes the frame and stats.
 void runRenderMpi(const RenderArgs& a, const CLI::App& cmd) {
   distributed::MpiSession mpi;
   const render::Scene scene = buildScene(a.scene, cmd);
   const auto dataset = distributed::openOnEveryRank(
-      MPI_COMM_WORLD, a.store, a.store,
-      [&] {
-        return store::namingInput({a.store}, [&] {
-          return render::openDataset(a.store, a.store, size_t(a.hostBudgetMB) << 20,
-                                     store::StoreOpenOptions{a.grid, a.brick});
-        });
-      },
-      a.mpiTimeout);
-  checkSubBlock(a, cmd, *dataset);
-  if (a.backend == "reference") throw render::RenderInputError("--backend reference does not run with --mpi");
-  render::RenderEngine engine({render::parseBackend(a.backend), size_t(a.gpuBudgetMB) << 20,
-                               render::parseAtlasFormat(a.atlasFormat), render::parseAtlasUploads(a.uploads),
-                               render::parseAtlasBricking(a.bricking)});
+      MPI_COMM_WORLD, a.store, a.store, [&] { return openInput(a); }, a.mpi.timeout);
+  checkInput(a, cmd, scene, *dataset);
+  render::RenderEngine engine(engineOptions(a));
   distributed::RankRendererOptions options;
-  options.composite.encoding =
-      a.mpiEncoding == "float" ? distributed::PixelEncoding::Float : distributed::PixelEncoding::Half;
-  options.composite.timeoutSeconds = a.mpiTimeout;
+  options.composite = compositeOptions(a.mpi);
   distributed::RankRenderer renderer(MPI_COMM_WORLD, engine, options);
   // An interactive frame is chosen by rank 0's rate on every rank (the same reduced drawing everywhere).
   auto frameOptions = [&] {
     render::FrameOptions o;
-    double rate = engine.recentRate(render::DatasetKind::BrickStore);
-    MPI_Bcast(&rate, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
-    o.rateSamplesPerMs = rate > 0 ? rate : 1e-9;  // none known yet: the cheapest drawing, as one process would
+    o.rateSamplesPerMs =
+        distributed::agreedRate(MPI_COMM_WORLD, engine.recentRate(render::DatasetKind::BrickStore), a.mpi.timeout);
     return o;
   };
   for (int i = 0; i < a.warmUp; ++i) renderer.render(dataset, scene, nullptr, nullptr, frameOptions());
@@ -252,19 +265,12 @@ void runRenderMpi(const RenderArgs& a, const CLI::App& cmd) {
 /// A GPU frame through the same seam the server's render threads use: a dataset and a RenderEngine.
 void runRender(const RenderArgs& a, const CLI::App& cmd) {
   image::imageFormatFor(a.output);  // an output we cannot write is refused before the frame is drawn
-  if (a.mpi) return runRenderMpi(a, cmd);
+  if (a.mpi.mpi) return runRenderMpi(a, cmd);
   const render::Scene scene = buildScene(a.scene, cmd);
-  const auto dataset = store::namingInput({a.store}, [&] {
-    return render::openDataset(a.store, a.store, size_t(a.hostBudgetMB) << 20,
-                               store::StoreOpenOptions{a.grid, a.brick, a.time, a.channel});
-  });
-  checkSubBlock(a, cmd, *dataset);
-  checkOutputFormat(scene, a.output);
+  const auto dataset = openInput(a);
+  checkInput(a, cmd, scene, *dataset);
   if (a.backend == "reference") return runReference(a, scene, *dataset);
-  if (!a.analytic.empty()) throw render::RenderInputError("--analytic needs --backend reference");
-  render::RenderEngine engine({render::parseBackend(a.backend), size_t(a.gpuBudgetMB) << 20,
-                               render::parseAtlasFormat(a.atlasFormat), render::parseAtlasUploads(a.uploads),
-                               render::parseAtlasBricking(a.bricking)});
+  render::RenderEngine engine(engineOptions(a));
   if (!a.quiet) std::fprintf(stderr, "render: %s\n", engine.describe().c_str());
   // Warm-up frames page the bricks in and build the programs, so that the frame reported is a warm one, as a
   // server's next frame of the same dataset would be.
@@ -331,14 +337,7 @@ void addRenderCommand(CLI::App& app) {
                   "rotated from brick to brick, for texture caches that favour one direction; the same image)")
       ->capture_default_str()
       ->check(CLI::IsMember({"single", "multi-oriented"}));
-  cmd->add_flag("--mpi", args->mpi,
-                "sort-last across the ranks of mpirun: each rank draws a part, rank 0 writes (docs/distributed.md)");
-  cmd->add_option("--mpi-timeout", args->mpiTimeout, "--mpi: seconds a transfer may wait for a peer")
-      ->capture_default_str()
-      ->check(between(0.1, 3600, "s"));
-  cmd->add_option("--mpi-encoding", args->mpiEncoding, "--mpi: pixels between ranks as half or float")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"half", "float"}));
+  addMpiOptions(cmd, args->mpi, "sort-last across the ranks of mpirun: each rank draws a part, rank 0 writes");
   cmd->add_flag("-q,--quiet", args->quiet, "do not print the renderer's name, nor progress of a frame past a second");
   cmd->callback([args, cmd] {
     keepFreedMemoryForFrames();

@@ -14,6 +14,7 @@
 #include <spdlog/spdlog.h>
 
 #include "cli/Commands.h"
+#include "cli/MpiOptions.h"
 #include "distributed/Cluster.h"
 #include "distributed/ServeRanks.h"
 #include "render/core/TransferFunction.h"
@@ -35,9 +36,7 @@ struct ServeArgs {
   int64_t maxTotalOutputMB = 0;
   bool noCoalesce = false, noConfig = false;
   int64_t hostCacheMB = 0, gpuBudgetMB = 0, maxMessageBytes = 0;
-  bool mpi = false;  ///< sort-last across the ranks of mpirun: rank 0 serves, the others draw parts
-  double mpiTimeout = 10;
-  std::string mpiEncoding = "half";
+  MpiArgs mpi;  ///< --mpi: sort-last across the ranks of mpirun: rank 0 serves, the others draw parts
 };
 
 /// Set by SIGTERM or SIGINT on a worker rank of `serve --mpi` (rank 0's server handles its own signals).
@@ -115,7 +114,7 @@ void runServe(const ServeArgs& a) {
   if (!c.http && !a.httpPortFile.empty())
     throw std::runtime_error("--http-port-file needs --http PORT (or http.port in the configuration)");
   spdlog::info("configuration: {}", file.empty() ? std::string("the built-in defaults") : file);
-  if (a.mpi) return serveMpi(a, c);
+  if (a.mpi.mpi) return serveMpi(a, c);
   serveWith(a, c);
 }
 
@@ -141,9 +140,7 @@ void serveMpi(const ServeArgs& a, server::ServerConfig c) {
   distributed::MpiSession mpi;
   distributed::ServeRankOptions options;
   options.datasets = c.datasets;
-  options.frames.composite.timeoutSeconds = a.mpiTimeout;
-  options.frames.composite.encoding =
-      a.mpiEncoding == "float" ? distributed::PixelEncoding::Float : distributed::PixelEncoding::Half;
+  options.frames.composite = compositeOptions(a.mpi);
   options.hostCacheBytes = size_t(c.hostCacheMB) << 20;
   options.engine = render::RenderEngineOptions{c.backend, size_t(c.gpuBudgetMB) << 20};
   if (mpi.rank() != 0) {
@@ -201,14 +198,7 @@ void addServeCommand(CLI::App& app) {
                   "bricks of 32; default demo)");
   cmd->add_option("--backend", a->backend, "auto, egl or osmesa");
   cmd->add_option("--log-level", a->logLevel, "trace, debug, info, warn, error or off");
-  cmd->add_flag("--mpi", a->mpi,
-                "under mpirun: rank 0 serves, every rank draws a part of each grid frame (docs/distributed.md)");
-  cmd->add_option("--mpi-timeout", a->mpiTimeout, "--mpi: seconds a transfer may wait for a peer before it is named")
-      ->capture_default_str()
-      ->check(between(0.1, 3600, "s"));
-  cmd->add_option("--mpi-encoding", a->mpiEncoding, "--mpi: pixels between ranks as half or float")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"half", "float"}));
+  addMpiOptions(cmd, a->mpi, "under mpirun: rank 0 serves, every rank draws a part of each grid frame");
   cmd->add_option("--render-threads", a->renderThreads, "render threads, each with its own GL context")
       ->check(between(1, 64));
   cmd->add_option("--io-threads", a->ioThreads, "network I/O threads")->check(between(1, 64));

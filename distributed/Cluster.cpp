@@ -1,6 +1,8 @@
 // MPI session, broadcasts, gathers and the dataset check across ranks (Cluster.h).
 #include "distributed/Cluster.h"
 
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <fstream>
@@ -92,6 +94,14 @@ std::string broadcastText(MPI_Comm comm, const std::string& text, double timeout
     return text;
   }
   return receiveFromRoot(comm, timeoutSeconds, stop).value_or(std::string());
+}
+
+double rateOrCheapest(double rate) { return rate > 0 ? rate : 1e-9; }
+
+double agreedRate(MPI_Comm comm, double rate, double timeoutSeconds) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.17g", rateOrCheapest(rate));  // 17 digits: the same double on every rank
+  return rateOrCheapest(std::strtod(broadcastText(comm, text, timeoutSeconds).c_str(), nullptr));
 }
 
 std::vector<std::string> allGather(MPI_Comm comm, const std::string& record, double timeoutSeconds) {

@@ -1,7 +1,8 @@
 // The MPI world of `voxbrick render --mpi` and `serve --mpi`: MPI started for threads that take turns
 // (MPI_THREAD_SERIALIZED) with errors returned rather than fatal, and the collective steps every rank takes together
 // with a deadline: broadcasting a command from rank 0, gathering one record per rank, and agreeing that every rank
-// opened the same dataset (refused naming the rank where it is missing or different).
+// opened the same dataset (refused naming the rank where it is missing or different), and the interactive rate every
+// rank draws a reduced frame with.
 #pragma once
 
 #include <mpi.h>
@@ -43,6 +44,14 @@ class MpiSession {
 /// empty). Throws PeerError naming the rank when the deadline passes.
 std::string broadcastText(MPI_Comm comm, const std::string& text, double timeoutSeconds,
                           const std::function<bool()>& stop = {});
+
+/// The interactive rate (samples per ms) a reduced frame is chosen by: `rate` when one is known (> 0), else a rate so
+/// low that the cheapest drawing is chosen, as one process does before it has measured one.
+double rateOrCheapest(double rate);
+
+/// Collective: rank 0's interactive `rate` (rateOrCheapest) on every rank, so that every rank draws the same reduced
+/// frame; sent with broadcastText and its deadline (PeerError names a rank that does not take it).
+double agreedRate(MPI_Comm comm, double rate, double timeoutSeconds);
 
 /// Every rank's `record` (up to 1023 bytes, cut beyond) on every rank, index = rank: each sends it to rank 0, which
 /// sends them all back, every transfer with the deadline (PeerError names the rank).

@@ -265,7 +265,7 @@ image::ImageF gather(Exchange& ex, const Layout& layout, const Piece* own, int w
 
 }  // namespace
 
-image::ImageF composite(MPI_Comm comm, const image::ImageF& partial, const std::vector<int>& frontToBack,
+image::ImageF composite(MPI_Comm comm, image::ImageF partial, const std::vector<int>& frontToBack,
                         const CompositeOptions& options, CompositeStats* statsOut) {
   auto start = std::chrono::steady_clock::now();
   int size = 0, rank = 0;
@@ -278,23 +278,33 @@ image::ImageF composite(MPI_Comm comm, const image::ImageF& partial, const std::
   CompositeStats stats;
   image::ImageF result;
   if (size == 1) {
-    result = partial;  // nothing to exchange: the frame is the part
+    result = std::move(partial);  // nothing to exchange: the frame is the part
   } else {
     Exchange ex{comm, options, stats};
     const Layout layout(frontToBack, rank);
-    Piece piece{partial, render::activeRect(partial), {0, 0, partial.width, partial.height}};
+    const int width = partial.width, height = partial.height;
+    const PixelRect active = render::activeRect(partial);
+    Piece piece{std::move(partial), active, {0, 0, width, height}};
     fold(ex, layout, piece);
     const bool inSwap = !layout.foldedAway();
     if (inSwap) swap(ex, layout, piece);
     if (inSwap && rank != 0) {
       exchange(ex, piece.image, 0, intersect(piece.active, piece.region), -1, {}, options.tag + 2, "a finished region");
     }
-    if (rank == 0) result = gather(ex, layout, inSwap ? &piece : nullptr, partial.width, partial.height);
+    if (rank == 0) result = gather(ex, layout, inSwap ? &piece : nullptr, width, height);
   }
   stats.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   if (statsOut) *statsOut = stats;
   return result;
 }
+
+PixelEncoding parsePixelEncoding(const std::string& name) {
+  if (name == "half") return PixelEncoding::Half;
+  if (name == "float") return PixelEncoding::Float;
+  throw std::invalid_argument("pixel encoding '" + name + "' is not half or float");
+}
+
+const char* pixelEncodingName(PixelEncoding encoding) { return encoding == PixelEncoding::Half ? "half" : "float"; }
 
 uint16_t floatToHalf(float value) {
   uint32_t bits;

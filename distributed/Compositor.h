@@ -7,6 +7,7 @@
 #include <mpi.h>
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "distributed/Deadline.h"
@@ -20,6 +21,11 @@ enum class PixelEncoding {
   Half,   ///< 16-bit IEEE half floats per channel (round to nearest even): half the bytes, error below 1/2048
   Float,  ///< 32-bit floats per channel, exact
 };
+
+/// The encoding named "half" or "float" (the --mpi-encoding values); throws std::invalid_argument for another name.
+PixelEncoding parsePixelEncoding(const std::string& name);
+/// "half" or "float".
+const char* pixelEncodingName(PixelEncoding encoding);
 
 /// What one compositing cost the calling rank.
 struct CompositeStats {
@@ -38,10 +44,10 @@ struct CompositeOptions {
 /// Joins every rank's premultiplied partial frame (all the same size) in visibility order: `frontToBack[i]` is the
 /// rank whose part is i-th nearest (a permutation of 0..size-1, the same on every rank). Rank 0 returns the whole
 /// premultiplied frame (compositeSerial of the parts in that order, within the encoding's rounding); the other ranks
-/// return an empty image. Collective over `comm`: every rank must call it with the same order, size and options.
-/// Throws PeerError naming the rank when a transfer fails or passes its deadline, and std::invalid_argument for
-/// inconsistent arguments on this rank.
-image::ImageF composite(MPI_Comm comm, const image::ImageF& partial, const std::vector<int>& frontToBack,
+/// return an empty image. `partial` is taken by value: move a frame in that is not needed after. Collective over
+/// `comm`: every rank must call it with the same order, size and options. Throws PeerError naming the rank when a
+/// transfer fails or passes its deadline, and std::invalid_argument for inconsistent arguments on this rank.
+image::ImageF composite(MPI_Comm comm, image::ImageF partial, const std::vector<int>& frontToBack,
                         const CompositeOptions& options = {}, CompositeStats* stats = nullptr);
 
 /// Half-float conversions, exposed for tests: round to nearest even, infinities and NaN kept, overflow to infinity.

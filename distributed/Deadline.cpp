@@ -111,19 +111,4 @@ void Transfers::wait() {
   mPending.clear();
 }
 
-bool testUntil(MPI_Request& request, double timeoutSeconds, int rank, const char* what) {
-  auto deadline = Clock::now() + std::chrono::duration<double>(timeoutSeconds);
-  int idle = 0;
-  while (true) {
-    int done = 0;
-    int code = MPI_Test(&request, &done, MPI_STATUS_IGNORE);
-    if (code != MPI_SUCCESS) {
-      throw PeerError(rank, std::string(what) + " failed: " + mpiErrorText(code));
-    }
-    if (done) return true;
-    if (Clock::now() > deadline) return false;
-    pause(idle);
-  }
-}
-
 }  // namespace voxbrick::distributed

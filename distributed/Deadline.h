@@ -56,8 +56,4 @@ class Transfers {
 /// Describes an MPI error code (MPI_Error_string).
 std::string mpiErrorText(int code);
 
-/// Polls `request` against a deadline of `timeoutSeconds`; returns false if it did not complete in time, throws
-/// PeerError(rank) if MPI reports an error. For collectives started non-blocking (MPI_Ibcast, MPI_Iallreduce).
-bool testUntil(MPI_Request& request, double timeoutSeconds, int rank, const char* what);
-
 }  // namespace voxbrick::distributed

@@ -57,7 +57,7 @@ image::ImageF RankRenderer::render(const std::shared_ptr<const render::Dataset>&
   }
   const double drawMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - drawStart).count();
   CompositeStats composited;
-  image::ImageF whole = composite(mComm, partial, order, mOptions.composite, &composited);
+  image::ImageF whole = composite(mComm, std::move(partial), order, mOptions.composite, &composited);
   // Every rank's figures to rank 0 (and to all: one small gather).
   const store::CacheStats cache = dataset->cacheStats();
   std::ostringstream record;
@@ -92,7 +92,7 @@ image::ImageF RankRenderer::render(const std::shared_ptr<const render::Dataset>&
   }
   if (distributedJson) {
     *distributedJson = {{"ranks", mSize},
-                        {"encoding", mOptions.composite.encoding == PixelEncoding::Half ? "half" : "float"},
+                        {"encoding", pixelEncodingName(mOptions.composite.encoding)},
                         {"front_to_back", order},
                         {"compositing_ms", composited.ms},
                         {"bytes_exchanged", totalBytes},

@@ -45,7 +45,7 @@ render::FrameOptions frameOptionsOf(const nlohmann::json& command) {
   render::FrameOptions options;
   options.standIns = command.value("stand_ins", false);
   options.maxSamples = command.value("max_samples", 0.0);
-  options.rateSamplesPerMs = command.value("rate", 1e-9);
+  options.rateSamplesPerMs = rateOrCheapest(command.value("rate", 0.0));
   options.fixedMs = command.value("fixed_ms", 0.0);
   return options;
 }
@@ -70,15 +70,16 @@ image::ImageF FrameLeader::frame(render::RenderEngine& engine, const std::shared
     mEngine = &engine;
   }
   const double timeout = mOptions.frames.composite.timeoutSeconds;
-  // Every rank draws the same interactive rung: chosen by rank 0's rate (none known yet: the cheapest).
-  const double rate =
-      options.rateSamplesPerMs > 0 ? options.rateSamplesPerMs : engine.recentRate(render::DatasetKind::BrickStore);
+  // Every rank draws the same interactive rung: chosen by rank 0's rate (none known yet: the cheapest), sent in the
+  // frame's command with its deadline.
+  const double rate = rateOrCheapest(options.rateSamplesPerMs > 0 ? options.rateSamplesPerMs
+                                                                  : engine.recentRate(render::DatasetKind::BrickStore));
   nlohmann::json command = {{"op", "frame"},
                             {"name", dataset->name()},
                             {"scene", scene.toJson()},
                             {"stand_ins", options.standIns},
                             {"max_samples", options.maxSamples},
-                            {"rate", rate > 0 ? rate : 1e-9},
+                            {"rate", rate},
                             {"fixed_ms", options.rateSamplesPerMs > 0 ? options.fixedMs : 0.0}};
   try {
     broadcastText(mComm, command.dump(), timeout);

@@ -16,6 +16,7 @@
 #include <random>
 #include <string>
 
+#include "distributed/Cluster.h"
 #include "distributed/Compositor.h"
 
 using namespace voxbrick;
@@ -68,7 +69,7 @@ int runCases(int rank, int size) {
       double difference = maxDifference(result, render::compositeSerial(parts, order));
       if (difference > tolerance) {
         std::fprintf(stderr, "case %d (%dx%d, %s): max difference %g\n", seed, width, height,
-                     encoding == distributed::PixelEncoding::Float ? "float" : "half", difference);
+                     distributed::pixelEncodingName(encoding), difference);
         ++failures;
       }
     }
@@ -116,14 +117,10 @@ int runFault(int rank, int size, const std::string& kind, int victim) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  MPI_Init(&argc, &argv);
-  MPI_Comm_set_errhandler(MPI_COMM_WORLD, MPI_ERRORS_RETURN);
-  int rank = 0, size = 1;
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  distributed::MpiSession mpi;  // MPI_Finalize when main returns; the fault paths leave by _exit without it
+  const int rank = mpi.rank(), size = mpi.size();
   if (argc == 4 && std::strcmp(argv[1], "--fault") == 0) return runFault(rank, size, argv[2], std::atoi(argv[3]));
   int failures = runCases(rank, size);
   if (rank == 0) std::printf("%d ranks: %d failing cases\n", size, failures);
-  MPI_Finalize();
   return failures == 0 ? 0 : 1;
 }

@@ -3,6 +3,8 @@
 # cases of the sort-last comparison: the MRI (ch2better), a smooth field with the MRI preset, a sparse field, the camera inside the
 # volume, an orthographic view and a coarse level of detail. Usage: frames_check.sh VOXBRICK MPIRUN WORK N
 # (WORK holds the datasets and the one-process frames, made once: `frames_check.sh VOXBRICK MPIRUN WORK setup`).
+# `frames_check.sh VOXBRICK MPIRUN WORK refusals`: on 2 ranks, `render --mpi` refuses what the one-process render
+# refuses (--channel on a store that is no OME-Zarr, a transparent frame to JPEG, --analytic without the reference).
 set -euo pipefail
 exe=$1 mpirun=$2 work=$3 ranks=$4
 cases=(
@@ -28,6 +30,28 @@ if [ "$ranks" = setup ]; then
   exit 0
 fi
 failed=0
+if [ "$ranks" = refusals ]; then
+  refusals=(
+    "--channel 1 -o $work/refused.png|--time and --channel apply to an OME-Zarr only"
+    "--background none -o $work/refused.jpg|--background none needs a .png output"
+    "--analytic blobs -o $work/refused.png|--analytic needs --backend reference, which does not run with --mpi"
+  )
+  for r in "${refusals[@]}"; do
+    IFS='|' read -r options expected <<< "$r"
+    # shellcheck disable=SC2086
+    if out=$("$mpirun" --oversubscribe --allow-run-as-root -n 2 "$exe" render "$work/blobs" --mpi $common \
+      $options 2>&1); then
+      echo "FAIL render --mpi $options: accepted"
+      failed=1
+    elif ! grep -qF -- "$expected" <<< "$out"; then
+      echo "FAIL render --mpi $options: no '$expected' in: $out"
+      failed=1
+    else
+      echo "render --mpi $options: refused ($expected)"
+    fi
+  done
+  exit $failed
+fi
 for c in "${cases[@]}"; do
   IFS='|' read -r name data options <<< "$c"
   out="$work/$name.$ranks.png"
