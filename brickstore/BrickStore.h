@@ -96,12 +96,19 @@ class BrickStore {
  protected:
   BrickStore() = default;
 
+  /// The most level-0 bricks a store read live takes (its records, of every level, are held in memory).
+  static constexpr int64_t kMaxLiveBricks = int64_t{1} << 26;
+
   /// Fills dst with brick `key`, which is stored (isStored) and inside the store.
   virtual void readStored(const BrickKey& key, void* dst, const BrickSamplesFetch& finer) const = 0;
   /// The index of `key`'s record in mRecords; the key must be inside the store.
   size_t recordIndex(const BrickKey& key) const;
   /// Builds mOctree from the level-0 records (so it can never disagree with them).
   void buildOctree();
+  /// For a store read live: throws InputError where a level 0 of `dims` in bricks of `B` has more than
+  /// kMaxLiveBricks bricks, before anything is sized from them (layOutLevels). `where` names the file and what gave
+  /// the dims (as "dir/0/.zarray: field 'shape'").
+  static void checkLiveBrickCount(const Vec3i& dims, int64_t B, const std::string& where);
   /// For a store read live: the pyramid's levels from mMeta.dims and mMeta.brickSize (mLevels, mMeta.levels) and a
   /// record per brick, all empty until the backing fills them.
   void layOutLevels();
