@@ -1,6 +1,6 @@
 // The read side of a store, as the host cache and the renderer see it: metadata, per-brick records, bricks with
-// their borders and the min/max octree. Two backings: a prepped store directory (BrickStore::open) and an OpenVDB
-// file read live (VdbStore, brickstore/VdbStore.h), and an OME-Zarr directory read live (ZarrStore).
+// their borders and the min/max octree. Three backings: a prepped store directory (BrickStore::open), an OpenVDB
+// file read live (VdbStore, brickstore/VdbStore.h) and an OME-Zarr directory read live (ZarrStore).
 #pragma once
 
 #include <filesystem>
@@ -42,8 +42,8 @@ struct StoreOpenOptions {
 ///
 /// Brick (i, j, k) of a level holds (B+2)^3 samples, x fastest: sample (a, b, c) is the level's voxel
 /// (i*B + a - 1, j*B + b - 1, k*B + c - 1) with each coordinate clamped to [0, dims - 1] (the duplicated border).
-/// Both backings give the same samples for the same volume and brick size: a .vdb read live equals the store that
-/// `voxbrick prep` makes of it, level by level.
+/// Every backing gives the same samples for the same volume and brick size: a .vdb or an OME-Zarr read live equals
+/// the store that `voxbrick prep` makes of it, level by level.
 class BrickStore {
  public:
   /// Opens and validates a store directory (index checksums, sizes, metadata). Throws CorruptStoreError or
