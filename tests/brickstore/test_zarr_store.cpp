@@ -250,6 +250,20 @@ TEST(ZarrStore, TimeAndChannelPickOneVolume) {
   EXPECT_EQ(wideLast->meta().histogram.counts, last->meta().histogram.counts);
 }
 
+TEST(ZarrStore, IsZarrDirectoryFindsMultiscalesAfterALongBlockAndNotInAnEmptyFile) {
+  ScratchDir dir;
+  const std::filesystem::path group = dir / "g.zarr";
+  std::filesystem::create_directories(group);
+  test::writeFile(group / ".zgroup", std::string(R"({"zarr_format": 2})"));
+  test::writeFile(group / ".zattrs", std::string());
+  EXPECT_FALSE(isZarrDirectory(group)) << "an empty .zattrs names no multiscales";
+  test::writeFile(group / ".zattrs",
+                  R"({"omero": {"name": ")" + std::string(300000, 'x') + R"("}, "multiscales": []})");
+  EXPECT_TRUE(isZarrDirectory(group)) << "\"multiscales\" 300 kB into .zattrs";
+  test::writeFile(group / ".zattrs", R"({"omero": {"name": ")" + std::string(size_t{2} << 20, 'x') + R"("}})");
+  EXPECT_FALSE(isZarrDirectory(group));
+}
+
 TEST(ZarrStore, CommandsTakeTheDirectory) {
   ScratchDir dir;
   const auto zarr = test::writeZarr(dir / "v.ome.zarr", json::parse(R"({"levels": 3, "axes": "czyx", "c": 2,
