@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "brickstore/BrickFile.h"
+#include "brickstore/Convert.h"
 #include "brickstore/Errors.h"
 #include "brickstore/LiveBricks.h"
 #include "brickstore/VdbStore.h"
@@ -169,10 +170,10 @@ bool BrickStore::isVdbFile(const fs::path& path) {
 }
 
 std::shared_ptr<const BrickStore> BrickStore::openAny(const fs::path& path, const StoreOpenOptions& options) {
-  if (options.time != 0 || options.channel != 0) {
-    if (!isZarrDirectory(path)) throw InputError(path.string() + ": --time and --channel apply to an OME-Zarr only");
-  }
-  if (isZarrDirectory(path)) return ZarrStore::open(path, options);
+  const bool zarr = isZarrDirectory(path);
+  if ((options.time != 0 || options.channel != 0) && !zarr)
+    throw InputError(path.string() + ": --time and --channel apply to an OME-Zarr only");
+  if (zarr) return ZarrStore::open(path, options);
   if (isVdbFile(path)) return VdbStore::open(path, options);
   if (!options.gridName.empty() || options.brickSize != StoreOpenOptions{}.brickSize)
     throw InputError(
@@ -208,6 +209,13 @@ const BrickRecord& BrickStore::record(const BrickKey& key) const {
 size_t BrickStore::recordIndex(const BrickKey& key) const {
   const LevelEntry& e = mLevels[key.level];
   return size_t(e.firstRecord + key.i + uint64_t(e.bricks[0]) * (key.j + uint64_t(e.bricks[1]) * key.k));
+}
+
+void BrickStore::checkLiveBrickCount(const Vec3i& dims, int64_t B, const std::string& where) {
+  const double bricks = double(divUp(dims.x, B)) * double(divUp(dims.y, B)) * double(divUp(dims.z, B));
+  if (bricks > double(kMaxLiveBricks))
+    throw InputError(where + " " + dimsText(dims) + " in bricks of " + std::to_string(B) + " makes " +
+                     std::to_string(int64_t(bricks)) + " bricks, more than 2^26 (use a larger --brick, or prep it)");
 }
 
 void BrickStore::layOutLevels() {

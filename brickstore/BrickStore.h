@@ -1,6 +1,6 @@
 // The read side of a store, as the host cache and the renderer see it: metadata, per-brick records, bricks with
-// their borders and the min/max octree. Two backings: a prepped store directory (BrickStore::open) and an OpenVDB
-// file read live (VdbStore, brickstore/VdbStore.h), and an OME-Zarr directory read live (ZarrStore).
+// their borders and the min/max octree. Three backings: a prepped store directory (BrickStore::open), an OpenVDB
+// file read live (VdbStore, brickstore/VdbStore.h) and an OME-Zarr directory read live (ZarrStore).
 #pragma once
 
 #include <filesystem>
@@ -42,8 +42,8 @@ struct StoreOpenOptions {
 ///
 /// Brick (i, j, k) of a level holds (B+2)^3 samples, x fastest: sample (a, b, c) is the level's voxel
 /// (i*B + a - 1, j*B + b - 1, k*B + c - 1) with each coordinate clamped to [0, dims - 1] (the duplicated border).
-/// Both backings give the same samples for the same volume and brick size: a .vdb read live equals the store that
-/// `voxbrick prep` makes of it, level by level.
+/// Every backing gives the same samples for the same volume and brick size: a .vdb or an OME-Zarr read live equals
+/// the store that `voxbrick prep` makes of it, level by level.
 class BrickStore {
  public:
   /// Opens and validates a store directory (index checksums, sizes, metadata). Throws CorruptStoreError or
@@ -96,12 +96,19 @@ class BrickStore {
  protected:
   BrickStore() = default;
 
+  /// The most level-0 bricks a store read live takes (its records, of every level, are held in memory).
+  static constexpr int64_t kMaxLiveBricks = int64_t{1} << 26;
+
   /// Fills dst with brick `key`, which is stored (isStored) and inside the store.
   virtual void readStored(const BrickKey& key, void* dst, const BrickSamplesFetch& finer) const = 0;
   /// The index of `key`'s record in mRecords; the key must be inside the store.
   size_t recordIndex(const BrickKey& key) const;
   /// Builds mOctree from the level-0 records (so it can never disagree with them).
   void buildOctree();
+  /// For a store read live: throws InputError where a level 0 of `dims` in bricks of `B` has more than
+  /// kMaxLiveBricks bricks, before anything is sized from them (layOutLevels). `where` names the file and what gave
+  /// the dims (as "dir/0/.zarray: field 'shape'").
+  static void checkLiveBrickCount(const Vec3i& dims, int64_t B, const std::string& where);
   /// For a store read live: the pyramid's levels from mMeta.dims and mMeta.brickSize (mLevels, mMeta.levels) and a
   /// record per brick, all empty until the backing fills them.
   void layOutLevels();

@@ -1,18 +1,25 @@
 // What the two live backings of a store (a .vdb read live, an OME-Zarr) share to cut bricks as prep would: the
-// voxels a brick reads, its (B+2)^3 samples with clamped borders from a block of voxels, and a coarse level's
-// voxels as the pyramid's 2x2x2 average of the finer level's bricks (DownsampleSource::downsample), so that both
-// give prep's bytes.
+// voxels a brick reads, its (B+2)^3 samples with clamped borders from a block of voxels, a coarse level's voxels as
+// the pyramid's 2x2x2 average of the finer level's bricks (DownsampleSource::downsample), so that both give prep's
+// bytes; the statistics of the voxels a level-0 brick owns; and a coarse brick read without the host cache.
 #pragma once
 
 #include <algorithm>
 #include <array>
 #include <cstring>
+#include <functional>
+#include <limits>
+#include <memory>
 #include <vector>
 
+#include "brickstore/BrickCache.h"
 #include "brickstore/BrickStore.h"
 #include "brickstore/LevelSources.h"
 
 namespace voxbrick::store::live {
+
+/// The decoded bricks a coarse brick read without a `finer` fetch may keep while it is built (readWithoutFetch).
+inline constexpr size_t kFallbackCacheBytes = size_t{256} << 20;
 
 /// The voxels brick `idx` of a level of `dims` reads: [i*B - 1, i*B + B] along each axis, clamped to the level.
 inline void brickVoxels(const Vec3i& idx, int64_t B, const Vec3i& dims, Vec3i& lo, Vec3i& hi) {
@@ -86,6 +93,47 @@ void averageFromFiner(const BrickStore& store, uint32_t fineLevel, const Vec3i& 
         *out++ = DownsampleSource::downsample(p0, p1, wx, 2 * x - flo.x, std::min(2 * x + 1, nf.x - 1) - flo.x, y0, y1);
     }
   }
+}
+
+/// The statistics of the voxels level-0 bricks own (no border), so that every voxel is counted once.
+struct OwnedStats {
+  double min = std::numeric_limits<double>::max(), max = std::numeric_limits<double>::lowest();
+  int64_t active = 0;  ///< voxels other than the background
+
+  /// Adds another brick's (or set of bricks') statistics.
+  void merge(const OwnedStats& o) {
+    min = std::min(min, o.min);
+    max = std::max(max, o.max);
+    active += o.active;
+  }
+};
+
+/// The statistics of the voxels brick `idx` of level 0 (of `dims` voxels) owns, from its (B+2)^3 `samples`.
+template <typename T>
+OwnedStats ownedStats(const T* samples, const Vec3i& idx, int64_t B, const Vec3i& dims, double background) {
+  const int64_t E = B + 2;
+  const Vec3i own{std::min(B, dims.x - idx.x * B), std::min(B, dims.y - idx.y * B), std::min(B, dims.z - idx.z * B)};
+  OwnedStats o;
+  for (int64_t z = 1; z <= own.z; ++z)
+    for (int64_t y = 1; y <= own.y; ++y)
+      for (int64_t x = 1; x <= own.x; ++x) {
+        const double v = double(samples[size_t(x + E * (y + E * z))]);
+        o.min = std::min(o.min, v);
+        o.max = std::max(o.max, v);
+        o.active += v != background;
+      }
+  return o;
+}
+
+/// readStored for a caller that gave no `finer` fetch: `read` runs with a fetch through a temporary cache of
+/// kFallbackCacheBytes over `store`. Correct, but it rebuilds the finer levels on every call.
+inline void readWithoutFetch(const std::shared_ptr<const BrickStore>& store,
+                             const std::function<void(const BrickSamplesFetch& finer)>& read) {
+  BrickCache cache(store, kFallbackCacheBytes, 0);
+  read([&cache](const BrickKey& k) {
+    BrickHandle brick = cache.get(k);
+    return std::shared_ptr<const void>(brick, brick->data());
+  });
 }
 
 }  // namespace voxbrick::store::live

@@ -6,7 +6,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
-#include <limits>
 #include <vector>
 
 #include <openvdb/openvdb.h>
@@ -14,7 +13,6 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
-#include "brickstore/BrickCache.h"
 #include "brickstore/Errors.h"
 #include "brickstore/HistogramBuilder.h"
 #include "brickstore/LevelSources.h"
@@ -28,6 +26,7 @@ namespace {
 using live::averageFromFiner;
 using live::brickVoxels;
 using live::gatherSamples;
+using live::OwnedStats;
 
 using Clock = std::chrono::steady_clock;
 using Tree = openvdb::FloatTree;
@@ -195,18 +194,11 @@ std::vector<uint8_t> bricksNearData(const Topology& topology, int64_t B, const V
   return near;
 }
 
-/// The statistics of the voxels a brick owns (no border), so that every voxel is counted once.
-struct OwnedStats {
-  float min = std::numeric_limits<float>::max(), max = std::numeric_limits<float>::lowest();
-  int64_t active = 0;
-};
-
 /// Extracts level-0 brick `idx` of a volume of `n` voxels once: its record (exact range and emptiness, border
 /// included; a brick that is not empty is stored at `storedSize` bytes) into `rec`, and the statistics of the voxels
 /// it owns. `block` and `samples` (of (B + 2)^3 values) are scratch.
 OwnedStats scanBrick(const Tree& tree, const openvdb::Coord& origin, const Vec3i& idx, int64_t B, const Vec3i& n,
                      uint32_t storedSize, BrickRecord& rec, std::vector<float>& block, std::vector<float>& samples) {
-  const int64_t E = B + 2;
   const float background = tree.background();
   Vec3i lo, hi;
   brickVoxels(idx, B, n, lo, hi);
@@ -218,17 +210,7 @@ OwnedStats scanBrick(const Tree& tree, const openvdb::Coord& origin, const Vec3i
   rec.min = range.min;
   rec.max = range.max;
   rec.compressedSize = empty ? 0 : storedSize;
-  const Vec3i own{std::min(B, n.x - idx.x * B), std::min(B, n.y - idx.y * B), std::min(B, n.z - idx.z * B)};
-  OwnedStats o;
-  for (int64_t z = 1; z <= own.z; ++z)
-    for (int64_t y = 1; y <= own.y; ++y)
-      for (int64_t x = 1; x <= own.x; ++x) {
-        const float v = samples[size_t(x + E * (y + E * z))];
-        o.min = std::min(o.min, v);
-        o.max = std::max(o.max, v);
-        o.active += v != background;
-      }
-  return o;
+  return live::ownedStats(samples.data(), idx, B, n, double(background));
 }
 
 }  // namespace
@@ -247,6 +229,8 @@ std::shared_ptr<const VdbStore> VdbStore::open(const std::filesystem::path& file
   SourceOptions sourceOptions;
   sourceOptions.gridName = options.gridName;
   VdbFloatGrid chosen = readVdbFloatGrid(file.string(), sourceOptions);
+  // The records are sized from the bricks of the active voxels' bounding box, however sparse: refused before that.
+  checkLiveBrickCount(chosen.dims, options.brickSize, file.string() + ": the active voxels' bounding box");
 
   std::shared_ptr<VdbStore> store(new VdbStore());
   store->mOpenStats.readSeconds = secondsSince(start);
@@ -306,20 +290,14 @@ void VdbStore::scan() {
   for (int64_t b = 0; b < nb.volume(); ++b)
     if (!near[size_t(b)]) mRecords[size_t(b)] = BrickRecord{0, 0, 0, background, background, 0};
 
-  double lo = std::numeric_limits<double>::max(), hi = std::numeric_limits<double>::lowest();
-  int64_t active = 0;
-  for (const OwnedStats& o : owned) {
-    lo = std::min(lo, double(o.min));
-    hi = std::max(hi, double(o.max));
-    active += o.active;
-  }
-  if (int64_t(candidates.size()) < nb.volume()) {
-    lo = std::min(lo, double(background));
-    hi = std::max(hi, double(background));
-  }
+  OwnedStats all;
+  for (const OwnedStats& o : owned) all.merge(o);
+  if (int64_t(candidates.size()) < nb.volume())
+    all.min = std::min(all.min, double(background)), all.max = std::max(all.max, double(background));
+  const double lo = all.min, hi = all.max;
   mMeta.valueMin = lo;
   mMeta.valueMax = hi;
-  mMeta.activeVoxels = active;
+  mMeta.activeVoxels = all.active;
   for (int64_t b = 0; b < nb.volume(); ++b) mMeta.levels[0].bricksStored += mRecords[size_t(b)].compressedSize != 0;
 
   mMeta.histogram = voxelHistogram(topology, n, background, lo, hi, mMeta.nonFiniteReplaced);
@@ -344,14 +322,8 @@ void VdbStore::readStored(const BrickKey& key, void* dst, const BrickSamplesFetc
   if (level == 0) {
     fillFromTree(mGrid->grid->tree(), mGrid->origin, lo, hi, block.data());
   } else {
-    if (!finer) {
-      BrickCache cache(shared_from_this(), kFallbackCacheBytes, 0);
-      readStored(key, dst, [&cache](const BrickKey& k) {
-        BrickHandle brick = cache.get(k);
-        return std::shared_ptr<const void>(brick, brick->data());
-      });
-      return;
-    }
+    if (!finer)
+      return live::readWithoutFetch(shared_from_this(), [&](const BrickSamplesFetch& f) { readStored(key, dst, f); });
     averageFromFiner<float>(*this, key.level - 1, lo, hi, mMeta.levels[size_t(level) - 1].dims, finer, block.data());
   }
   gatherSamples(block.data(), lo, hi, idx, B, n, static_cast<float*>(dst));

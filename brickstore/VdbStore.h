@@ -42,7 +42,8 @@ class VdbStore final : public BrickStore, public std::enable_shared_from_this<Vd
  public:
   /// Opens the float grid options.gridName (default: the first float grid) of `file` with bricks of
   /// options.brickSize. Throws InputError naming the file and the problem (unreadable or malformed file, no such
-  /// grid, a grid that is not float, a non-uniform transform, no active voxels, a bad brick size) and IoError.
+  /// grid, a grid that is not float, a non-uniform transform, no active voxels, a bad brick size, an active bounding
+  /// box of more than kMaxLiveBricks bricks) and IoError.
   static std::shared_ptr<const VdbStore> open(const std::filesystem::path& file, const StoreOpenOptions& options = {});
 
   ~VdbStore() override;
@@ -54,12 +55,11 @@ class VdbStore final : public BrickStore, public std::enable_shared_from_this<Vd
 
  protected:
   /// Level 0 from the tree; level m >= 1 from level m - 1 through `finer` (without one, through a temporary cache
-  /// of kFallbackCacheBytes: correct, but it rebuilds the finer levels on every call).
+  /// of live::kFallbackCacheBytes: correct, but it rebuilds the finer levels on every call).
   void readStored(const BrickKey& key, void* dst, const BrickSamplesFetch& finer) const override;
 
  private:
   struct Grid;
-  static constexpr size_t kFallbackCacheBytes = size_t{256} << 20;
 
   VdbStore();
   void scan();

@@ -1,6 +1,7 @@
 // Reading and checking OME-Zarr metadata: the multiscales of .zattrs, each level's .zarray, axes and transforms.
 #include "brickstore/ZarrMeta.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -305,8 +306,11 @@ bool isZarrDirectory(const fs::path& dir) {
   if (!fs::is_directory(dir, ec)) return false;
   if (fs::is_regular_file(dir / "zarr.json", ec)) return true;
   if (!fs::is_regular_file(dir / ".zattrs", ec) || !fs::is_regular_file(dir / ".zgroup", ec)) return false;
+  // "multiscales" may follow a long "omero" block: up to 1 MiB is read, no more than the file holds.
+  const uintmax_t size = fs::file_size(dir / ".zattrs", ec);
+  if (ec) return false;
   std::ifstream in(dir / ".zattrs", std::ios::binary);
-  std::string head(size_t{1} << 20, '\0');  // "multiscales" may follow a long "omero" block
+  std::string head(size_t(std::min<uintmax_t>(size, uintmax_t{1} << 20)), '\0');
   in.read(head.data(), std::streamsize(head.size()));
   head.resize(size_t(in.gcount()));
   return head.find("\"multiscales\"") != std::string::npos;

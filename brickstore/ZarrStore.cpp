@@ -13,7 +13,6 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
-#include "brickstore/BrickCache.h"
 #include "brickstore/Convert.h"
 #include "brickstore/Errors.h"
 #include "brickstore/HistogramBuilder.h"
@@ -28,16 +27,17 @@ namespace {
 using live::averageFromFiner;
 using live::brickVoxels;
 using live::gatherSamples;
+using live::OwnedStats;
 
 using Clock = std::chrono::steady_clock;
 
-/// The statistics of the voxels a level-0 brick owns (no border), so that every voxel is counted once.
-struct OwnedStats {
-  double min = std::numeric_limits<double>::max(), max = std::numeric_limits<double>::lowest();
-  int64_t active = 0;
-};
-
 }  // namespace
+
+/// What the scan of level 0 found of the voxels its non-empty bricks own.
+struct ZarrStore::Level0Scan {
+  OwnedStats stats;              ///< their range and voxels other than the background
+  std::vector<uint64_t> counts;  ///< u8, u16, i16: their voxels by value (offset by 32768 for i16); f32: empty
+};
 
 std::vector<bool> zarrOwnLevels(const ZarrMeta& meta, int brickSize) {
   const std::vector<Vec3i> pyramid = pyramidDims(meta.levels.front().dims, brickSize);
@@ -58,13 +58,8 @@ std::shared_ptr<const ZarrStore> ZarrStore::open(const std::filesystem::path& di
   const auto start = Clock::now();
   ZarrMeta zarrMeta = readZarrMeta(dir, {options.time, options.channel});
   // The records are sized from the bricks: refused here, before the chunk files are looked for or anything sized.
-  const Vec3i d = zarrMeta.levels.front().dims;
-  const int64_t B = options.brickSize;
-  const double level0Bricks = double(divUp(d.x, B)) * double(divUp(d.y, B)) * double(divUp(d.z, B));
-  if (level0Bricks > double(kMaxBricks))
-    throw InputError((dir / zarrMeta.levels.front().path / ".zarray").string() + ": field 'shape' " + dimsText(d) +
-                     " in bricks of " + std::to_string(B) + " makes " + std::to_string(int64_t(level0Bricks)) +
-                     " bricks, more than 2^26 (use a larger --brick, or prep it)");
+  checkLiveBrickCount(zarrMeta.levels.front().dims, options.brickSize,
+                      (dir / zarrMeta.levels.front().path / ".zarray").string() + ": field 'shape'");
   store->mChunks = std::make_unique<ZarrChunks>(std::move(zarrMeta), chunkCacheBytes);
   const ZarrMeta& zm = store->mChunks->meta();
   const ZarrArrayMeta& l0 = zm.levels.front();
@@ -87,14 +82,17 @@ std::shared_ptr<const ZarrStore> ZarrStore::open(const std::filesystem::path& di
                      : "");
   store->layOutLevels();
   namingInput({dir.string()}, [&] {
+    Level0Scan level0;
     for (int m = 0; m < store->levelCount(); ++m) {
-      if (store->mOwn[size_t(m)])
-        store->scanOwnLevel(m);
-      else
+      if (!store->mOwn[size_t(m)])
         store->deriveCoarseRecords(m);
+      else if (m == 0)
+        level0 = store->scanOwnLevel(m);
+      else
+        store->scanOwnLevel(m);
     }
     store->buildOctree();
-    store->level0Statistics();
+    store->level0Statistics(std::move(level0));
   });
   store->mOpenStats.scanSeconds = std::chrono::duration<double>(Clock::now() - start).count();
   store->mOpenStats.chunksPresent = store->mChunks->chunksPresent(0);
@@ -104,16 +102,17 @@ std::shared_ptr<const ZarrStore> ZarrStore::open(const std::filesystem::path& di
   return store;
 }
 
-void ZarrStore::scanOwnLevel(int level) {
+ZarrStore::Level0Scan ZarrStore::scanOwnLevel(int level) {
   const int64_t B = mMeta.brickSize, E = B + 2;
   const Vec3i n = mMeta.levels[size_t(level)].dims, nb = mMeta.levels[size_t(level)].bricks;
   const uint32_t storedSize = uint32_t(brickBytes());
   const double bg = mMeta.background;
-  // Level 0 of an integer type: the owned voxels' values are counted here, so that the statistics need no second
-  // pass (values offset by 32768 for i16).
-  const bool count = level == 0 && mMeta.type != ValueType::F32;
+  // Level 0: the owned voxels' range and active count are taken here, and for an integer type their values counted
+  // (offset by 32768 for i16), so that the statistics need no second pass (f32 needs one, for the histogram).
+  const bool stats = level == 0, count = stats && mMeta.type != ValueType::F32;
   tbb::enumerable_thread_specific<std::vector<uint64_t>> counts(
       [&] { return std::vector<uint64_t>(count ? 65536 : 0); });
+  tbb::enumerable_thread_specific<OwnedStats> owned;
   std::atomic<int64_t> scanned{0};
   dispatchType(mMeta.type, [&](auto zero) {
     using T = decltype(zero);
@@ -136,7 +135,9 @@ void ZarrStore::scanOwnLevel(int level) {
         const MinMaxPair range = sampleRange(samples.data(), samples.size(), T(bg), empty);
         rec = BrickRecord{0, empty ? 0 : storedSize, 0, range.min, range.max, 0};
         scanned.fetch_add(1, std::memory_order_relaxed);
-        if (!count || empty) continue;
+        if (!stats || empty) continue;
+        owned.local().merge(live::ownedStats(samples.data(), idx, B, n, bg));
+        if (!count) continue;
         std::vector<uint64_t>& c = counts.local();
         const Vec3i own{std::min(B, n.x - idx.x * B), std::min(B, n.y - idx.y * B), std::min(B, n.z - idx.z * B)};
         for (int64_t z = 1; z <= own.z; ++z)
@@ -145,22 +146,24 @@ void ZarrStore::scanOwnLevel(int level) {
       }
     });
   });
+  Level0Scan found;
+  for (const OwnedStats& o : owned) found.stats.merge(o);
   if (count) {
-    mLevel0Counts.assign(65536, 0);
+    found.counts.assign(65536, 0);
     for (const std::vector<uint64_t>& c : counts)
-      for (size_t v = 0; v < c.size(); ++v) mLevel0Counts[v] += c[v];
+      for (size_t v = 0; v < c.size(); ++v) found.counts[v] += c[v];
   }
   mOpenStats.bricksScanned += scanned.load();
   LevelMeta& lm = mMeta.levels[size_t(level)];
   for (int64_t b = 0; b < nb.volume(); ++b)
     lm.bricksStored += mRecords[mLevels[size_t(level)].firstRecord + size_t(b)].compressedSize != 0;
+  return found;
 }
 
-void ZarrStore::level0Statistics() {
+void ZarrStore::level0Statistics(Level0Scan level0) {
   const int64_t B = mMeta.brickSize;
   const Vec3i n = mMeta.dims, nb = mMeta.levels[0].bricks;
   const double bg = mMeta.background;
-  // f32: the owned voxels of stored bricks are read again (their chunks too); the others hold only the background.
   std::vector<int64_t> stored;
   int64_t emptyVoxels = 0;
   auto owned = [&](const Vec3i& idx, Vec3i& lo, Vec3i& hi) {
@@ -176,52 +179,40 @@ void ZarrStore::level0Statistics() {
       emptyVoxels += (hi.x - lo.x + 1) * (hi.y - lo.y + 1) * (hi.z - lo.z + 1);
     }
   }
-  if (!mLevel0Counts.empty()) return statisticsFromCounts(emptyVoxels);
+  if (!level0.counts.empty()) return statisticsFromCounts(std::move(level0.counts), emptyVoxels);
+  // f32: the range and active voxels came from the scan; the histogram, binned over that range, needs the owned
+  // voxels of the stored bricks read again (their chunks too). The other bricks hold only the background.
+  OwnedStats& all = level0.stats;
+  if (emptyVoxels > 0) all.min = std::min(all.min, bg), all.max = std::max(all.max, bg);
+  const double lo = all.min, hi = all.max;
+  mMeta.valueMin = lo;
+  mMeta.valueMax = hi;
+  mMeta.activeVoxels = all.active;
   dispatchType(mMeta.type, [&](auto zero) {
     using T = decltype(zero);
-    std::vector<OwnedStats> stats(stored.size());
-    auto forStored = [&](auto&& fn) {
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, stored.size()), [&](const tbb::blocked_range<size_t>& r) {
-        std::vector<T> block;
-        for (size_t s = r.begin(); s != r.end(); ++s) {
-          const int64_t b = stored[s];
-          Vec3i lo, hi;
-          owned({b % nb.x, (b / nb.x) % nb.y, b / (nb.x * nb.y)}, lo, hi);
-          block.resize(size_t((hi.x - lo.x + 1) * (hi.y - lo.y + 1) * (hi.z - lo.z + 1)));
-          mChunks->readRegion(0, lo, hi, block.data());
-          fn(s, block);
-        }
-      });
-    };
-    forStored([&](size_t s, const std::vector<T>& block) {
-      OwnedStats& o = stats[s];
-      for (T v : block) {
-        o.min = std::min(o.min, double(v));
-        o.max = std::max(o.max, double(v));
-        o.active += double(v) != bg;
-      }
-    });
-    double lo = std::numeric_limits<double>::max(), hi = std::numeric_limits<double>::lowest();
-    int64_t active = 0;
-    for (const OwnedStats& o : stats) lo = std::min(lo, o.min), hi = std::max(hi, o.max), active += o.active;
-    if (emptyVoxels > 0) lo = std::min(lo, bg), hi = std::max(hi, bg);
-    mMeta.valueMin = lo;
-    mMeta.valueMax = hi;
-    mMeta.activeVoxels = active;
     const HistogramBuilder empty(mMeta.type, lo, hi);
     tbb::enumerable_thread_specific<HistogramBuilder> perThread([&] { return empty; });
-    forStored([&](size_t, const std::vector<T>& block) { perThread.local().add(block.data(), int64_t(block.size())); });
-    HistogramBuilder all(mMeta.type, lo, hi);
-    for (const HistogramBuilder& h : perThread) all.merge(h);
-    all.addRepeated(bg, uint64_t(emptyVoxels));
-    mMeta.histogram = all.finish();
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, stored.size()), [&](const tbb::blocked_range<size_t>& r) {
+      std::vector<T> block;
+      for (size_t s = r.begin(); s != r.end(); ++s) {
+        const int64_t b = stored[s];
+        Vec3i blo, bhi;
+        owned({b % nb.x, (b / nb.x) % nb.y, b / (nb.x * nb.y)}, blo, bhi);
+        block.resize(size_t((bhi.x - blo.x + 1) * (bhi.y - blo.y + 1) * (bhi.z - blo.z + 1)));
+        mChunks->readRegion(0, blo, bhi, block.data());
+        perThread.local().add(block.data(), int64_t(block.size()));
+      }
+    });
+    HistogramBuilder histogram(mMeta.type, lo, hi);
+    for (const HistogramBuilder& h : perThread) histogram.merge(h);
+    histogram.addRepeated(bg, uint64_t(emptyVoxels));
+    mMeta.histogram = histogram.finish();
   });
 }
 
-void ZarrStore::statisticsFromCounts(int64_t emptyVoxels) {
+void ZarrStore::statisticsFromCounts(std::vector<uint64_t> counts, int64_t emptyVoxels) {
   const double bg = mMeta.background;
   const int64_t offset = mMeta.type == ValueType::I16 ? 32768 : 0;
-  std::vector<uint64_t> counts = std::move(mLevel0Counts);
   counts[size_t(int64_t(bg) + offset)] += uint64_t(emptyVoxels);
   double lo = std::numeric_limits<double>::max(), hi = std::numeric_limits<double>::lowest();
   int64_t active = 0;
@@ -247,14 +238,8 @@ void ZarrStore::readStored(const BrickKey& key, void* dst, const BrickSamplesFet
   const Vec3i n = mMeta.levels[size_t(level)].dims;
   Vec3i lo, hi;
   brickVoxels(idx, B, n, lo, hi);
-  if (!mOwn[size_t(level)] && !finer) {
-    BrickCache cache(shared_from_this(), kFallbackCacheBytes, 0);
-    readStored(key, dst, [&cache](const BrickKey& k) {
-      BrickHandle brick = cache.get(k);
-      return std::shared_ptr<const void>(brick, brick->data());
-    });
-    return;
-  }
+  if (!mOwn[size_t(level)] && !finer)
+    return live::readWithoutFetch(shared_from_this(), [&](const BrickSamplesFetch& f) { readStored(key, dst, f); });
   namingInput({mPath.string()}, [&] {
     dispatchType(mMeta.type, [&](auto zero) {
       using T = decltype(zero);

@@ -34,16 +34,15 @@ struct ZarrOpenStats {
 /// value, known from a scan of which files exist, so bricks that touch only missing chunks are never read.
 ///
 /// Opening makes one pass over the bricks of the own levels that touch a present chunk, for their exact [min, max]
-/// and emptiness (exactly the prepped store's records, and so its octree), and the level-0 statistics and histogram
-/// (counted in the same pass for u8, u16 and i16; a second pass over level 0 for f32).
+/// and emptiness (exactly the prepped store's records, and so its octree), and the level-0 value range and active
+/// voxels. For u8, u16 and i16 the same pass counts level 0's voxels by value, which gives the histogram; for f32
+/// the histogram, binned over the range, takes a second pass over level 0's stored bricks.
 /// Coarse levels that are not the Zarr's own are averaged from the finer bricks through the `finer` fetch, with
 /// records bounded from the finer records (as VdbStore does).
 class ZarrStore final : public BrickStore, public std::enable_shared_from_this<ZarrStore> {
  public:
   /// Decoded chunks kept by default.
   static constexpr size_t kChunkCacheBytes = size_t{256} << 20;
-  /// The most level-0 bricks read live (their records are held in memory).
-  static constexpr int64_t kMaxBricks = int64_t{1} << 26;
 
   /// Opens `dir` (an OME-Zarr group) with options.time, options.channel and options.brickSize, keeping up to
   /// `chunkCacheBytes` of decoded chunks (at least one). Throws InputError naming the file and the field,
@@ -63,16 +62,17 @@ class ZarrStore final : public BrickStore, public std::enable_shared_from_this<Z
   void readStored(const BrickKey& key, void* dst, const BrickSamplesFetch& finer) const override;
 
  private:
-  static constexpr size_t kFallbackCacheBytes = size_t{256} << 20;
+  struct Level0Scan;
 
   ZarrStore() = default;
-  void scanOwnLevel(int level);
-  void level0Statistics();
-  void statisticsFromCounts(int64_t emptyVoxels);
+  /// Reads the records of own level `level`; for level 0 also returns the statistics of the owned voxels.
+  Level0Scan scanOwnLevel(int level);
+  /// Level 0's value range, active voxels and histogram from the scan (and, for f32, a pass for the histogram).
+  void level0Statistics(Level0Scan level0);
+  void statisticsFromCounts(std::vector<uint64_t> counts, int64_t emptyVoxels);
 
   std::unique_ptr<ZarrChunks> mChunks;
   std::vector<bool> mOwn;
-  std::vector<uint64_t> mLevel0Counts;  // u8, u16, i16: level 0's owned voxels by value, from the scan
   ZarrOpenStats mOpenStats;
 };
 

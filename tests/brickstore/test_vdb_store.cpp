@@ -11,26 +11,17 @@
 
 #include "brickstore/BrickCache.h"
 #include "brickstore/Errors.h"
-#include "brickstore/StoreWriter.h"
 #include "brickstore/VdbStore.h"
+#include "support/LiveStores.h"
 #include "support/TestSupport.h"
 #include "support/VdbGrids.h"
 
 namespace voxbrick::store {
 namespace {
 
+using test::brickKeys;
+using test::prepOf;
 using test::ScratchDir;
-
-/// The store prep makes of `vdb` with bricks of `brick` (no VDB copy).
-std::shared_ptr<const BrickStore> prepOf(const std::filesystem::path& vdb, const std::filesystem::path& out,
-                                         int brick) {
-  auto source = openSource(vdb.string(), SourceOptions{});
-  PrepOptions options;
-  options.brickSize = brick;
-  options.writeVdb = false;
-  prepStore(*source, out, options);
-  return BrickStore::open(out);
-}
 
 struct Case {
   const char* name;
@@ -66,15 +57,11 @@ TEST_P(VdbStoreMatchesPrep, Metadata) {
   EXPECT_EQ(l.spacing, p.spacing);
   EXPECT_EQ(l.type, ValueType::F32);
   EXPECT_EQ(l.background, p.background);
-  EXPECT_EQ(l.valueMin, p.valueMin);
-  EXPECT_EQ(l.valueMax, p.valueMax);
-  EXPECT_LT(l.valueMin, l.valueMax);
-  EXPECT_EQ(l.activeVoxels, p.activeVoxels);
+  test::expectSameStats(l, p);
   EXPECT_EQ(l.nonFiniteReplaced, p.nonFiniteReplaced);
   EXPECT_EQ(l.nonFiniteReplaced, GetParam().sparse ? 1 : 0);
   EXPECT_EQ(l.histogram.lo, p.histogram.lo);
   EXPECT_EQ(l.histogram.hi, p.histogram.hi);
-  EXPECT_EQ(l.histogram.counts, p.histogram.counts);
   EXPECT_EQ(l.brickSize, GetParam().brick);
   EXPECT_EQ(l.source, p.source);
   EXPECT_EQ(l.bytesRaw, p.bytesRaw);
@@ -100,15 +87,7 @@ TEST_P(VdbStoreMatchesPrep, Metadata) {
 }
 
 TEST_P(VdbStoreMatchesPrep, RecordsAndOctree) {
-  const Vec3i nb = live->level(0).bricks;
-  for (uint32_t k = 0; k < nb.z; ++k)
-    for (uint32_t j = 0; j < nb.y; ++j)
-      for (uint32_t i = 0; i < nb.x; ++i) {
-        const BrickKey key{0, i, j, k};
-        EXPECT_EQ(live->isStored(key), prepped->isStored(key)) << toString(key);
-        EXPECT_EQ(live->record(key).min, prepped->record(key).min) << toString(key);
-        EXPECT_EQ(live->record(key).max, prepped->record(key).max) << toString(key);
-      }
+  test::expectSameRecords(*live, *prepped, 0);
   const MinMaxOctree& a = live->octree();
   const MinMaxOctree& b = prepped->octree();
   ASSERT_EQ(a.depth(), b.depth());
@@ -128,11 +107,7 @@ TEST_P(VdbStoreMatchesPrep, EveryBrickOfEveryLevel) {
   BrickCache preppedCache(prepped, size_t(256) << 20, 0);
   int64_t compared = 0, coarseWithData = 0;
   for (int level = 0; level < live->levelCount(); ++level) {
-    const Vec3i nb = live->level(level).bricks;
-    std::vector<BrickKey> keys;
-    for (uint32_t k = 0; k < nb.z; ++k)
-      for (uint32_t j = 0; j < nb.y; ++j)
-        for (uint32_t i = 0; i < nb.x; ++i) keys.push_back({uint32_t(level), i, j, k});
+    const std::vector<BrickKey> keys = brickKeys(*live, level);
     // Coarse bricks built on the prefetch workers and on this thread at once share the finer bricks.
     liveCache.prefetch(keys);
     for (const BrickKey& key : keys) {
@@ -166,10 +141,7 @@ TEST_P(VdbStoreMatchesPrep, ThroughTheCacheEachBrickIsBuiltOnce) {
       for (uint32_t i = 0; i < nbTop.x; ++i) cache.get({uint32_t(top), i, j, k});
   for (int level = 0; level <= top; ++level) {
     int64_t stored = 0;
-    const Vec3i nb = live->level(level).bricks;
-    for (uint32_t k = 0; k < nb.z; ++k)
-      for (uint32_t j = 0; j < nb.y; ++j)
-        for (uint32_t i = 0; i < nb.x; ++i) stored += live->isStored({uint32_t(level), i, j, k});
+    for (const BrickKey& key : brickKeys(*live, level)) stored += live->isStored(key);
     EXPECT_LE(live->bricksBuilt(level), stored) << "level " << level;
     EXPECT_GT(live->bricksBuilt(level), 0) << "level " << level;
   }
@@ -223,13 +195,11 @@ TEST(VdbStore, EmptyBricksAreKnownFromTheTopologyAndNeverRead) {
   // background, never decoded.
   BrickCache cache(live, size_t(64) << 20, 0);
   int64_t stored = 0;
-  for (uint32_t k = 0; k < nb.z; ++k)
-    for (uint32_t j = 0; j < nb.y; ++j)
-      for (uint32_t i = 0; i < nb.x; ++i) {
-        const BrickHandle brick = cache.get({0, i, j, k});
-        stored += live->isStored({0, i, j, k});
-        EXPECT_EQ(brick->isEmpty(), !live->isStored({0, i, j, k}));
-      }
+  for (const BrickKey& key : brickKeys(*live, 0)) {
+    const BrickHandle brick = cache.get(key);
+    stored += live->isStored(key);
+    EXPECT_EQ(brick->isEmpty(), !live->isStored(key));
+  }
   EXPECT_GT(stored, 0);
   EXPECT_EQ(live->bricksBuilt(0), stored);
   EXPECT_EQ(int64_t(cache.stats().emptyGets), nb.volume() - stored);
@@ -292,6 +262,22 @@ TEST(VdbStore, BadFilesAndOptionsAreNamed) {
   EXPECT_NE(openError(dir / "grids.vdb", {"", 12}).find("--brick 12 is not a power of two"), std::string::npos);
   EXPECT_NE(openError(dir / "grids.vdb", {"", 512}).find("--brick 512"), std::string::npos);
   EXPECT_THROW(VdbStore::open(dir / "missing.vdb"), InputError);
+}
+
+TEST(VdbStore, AHugeSparseBoundingBoxIsRefusedBeforeItsRecordsAreSized) {
+  // Two active voxels 200000 apart: a few bytes of file, a bounding box of 6251^3 bricks of 32 to hold records for.
+  ScratchDir dir;
+  openvdb::initialize();
+  openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(0.0f);
+  grid->setName("density");
+  grid->tree().setValue(openvdb::Coord(0, 0, 0), 1.0f);
+  grid->tree().setValue(openvdb::Coord(200000, 200000, 200000), 2.0f);
+  test::writeVdb(dir / "far.vdb", {grid});
+  const std::string error = openError(dir / "far.vdb", {"", 32});
+  EXPECT_NE(error.find((dir / "far.vdb").string() + ": the active voxels' bounding box 200001x200001x200001 in "
+                                                    "bricks of 32 makes 244257831251 bricks, more than 2^26"),
+            std::string::npos)
+      << error;
 }
 
 TEST(VdbStore, InfoCommandDescribesAVdbAsItsPreppedStore) {

@@ -9,8 +9,8 @@
 
 #include "brickstore/BrickCache.h"
 #include "brickstore/Errors.h"
-#include "brickstore/StoreWriter.h"
 #include "brickstore/ZarrStore.h"
+#include "support/LiveStores.h"
 #include "support/TestSupport.h"
 #include "support/ZarrFixtures.h"
 
@@ -18,17 +18,10 @@ namespace voxbrick::store {
 namespace {
 
 using nlohmann::json;
+using test::brickKeys;
+using test::expectSameBricks;
+using test::prepOf;
 using test::ScratchDir;
-
-std::shared_ptr<const BrickStore> prepOf(const std::filesystem::path& zarr, const std::filesystem::path& out, int brick,
-                                         const SourceOptions& so = {}) {
-  auto source = openSource(zarr.string(), so);
-  PrepOptions options;
-  options.brickSize = brick;
-  options.writeVdb = false;
-  prepStore(*source, out, options);
-  return BrickStore::open(out);
-}
 
 struct Case {
   const char* name;
@@ -64,26 +57,14 @@ TEST_P(ZarrMatchesPrep, MetadataAndRecords) {
   EXPECT_EQ(l.orientation, p.orientation);
   EXPECT_EQ(l.type, p.type);
   EXPECT_EQ(l.background, p.background);
-  EXPECT_EQ(l.valueMin, p.valueMin);
-  EXPECT_EQ(l.valueMax, p.valueMax);
-  EXPECT_LT(l.valueMin, l.valueMax);
-  EXPECT_EQ(l.activeVoxels, p.activeVoxels);
-  EXPECT_EQ(l.histogram.counts, p.histogram.counts);
+  test::expectSameStats(l, p);
   ASSERT_EQ(l.levels.size(), p.levels.size());
   for (int m = 0; m < live->levelCount(); ++m) {
     EXPECT_EQ(l.levels[size_t(m)].dims, p.levels[size_t(m)].dims);
     if (!live->ownLevels()[size_t(m)]) continue;
     // Own levels were read at open: exactly prep's records.
     EXPECT_EQ(l.levels[size_t(m)].bricksStored, p.levels[size_t(m)].bricksStored) << m;
-    const Vec3i nb = live->level(m).bricks;
-    for (uint32_t k = 0; k < nb.z; ++k)
-      for (uint32_t j = 0; j < nb.y; ++j)
-        for (uint32_t i = 0; i < nb.x; ++i) {
-          const BrickKey key{uint32_t(m), i, j, k};
-          EXPECT_EQ(live->isStored(key), prepped->isStored(key)) << toString(key);
-          EXPECT_EQ(live->record(key).min, prepped->record(key).min) << toString(key);
-          EXPECT_EQ(live->record(key).max, prepped->record(key).max) << toString(key);
-        }
+    test::expectSameRecords(*live, *prepped, m);
   }
   const MinMaxOctree& a = live->octree();
   const MinMaxOctree& b = prepped->octree();
@@ -102,19 +83,12 @@ TEST_P(ZarrMatchesPrep, EveryBrickOfEveryLevel) {
   BrickCache preppedCache(prepped, size_t(64) << 20, 0);
   int64_t compared = 0;
   for (int level = 0; level < live->levelCount(); ++level) {
-    const Vec3i nb = live->level(level).bricks;
-    for (uint32_t k = 0; k < nb.z; ++k)
-      for (uint32_t j = 0; j < nb.y; ++j)
-        for (uint32_t i = 0; i < nb.x; ++i) {
-          const BrickKey key{uint32_t(level), i, j, k};
-          const BrickHandle a = liveCache.get(key), b = preppedCache.get(key);
-          ASSERT_EQ(a->bytes(), b->bytes());
-          ASSERT_EQ(std::memcmp(a->data(), b->data(), a->bytes()), 0) << toString(key) << " differs from prep's";
-          ++compared;
-          if (prepped->isStored(key)) {
-            EXPECT_TRUE(live->isStored(key)) << toString(key);
-          }
-        }
+    const std::vector<BrickKey> keys = brickKeys(*live, level);
+    compared += expectSameBricks(liveCache, preppedCache, keys);
+    for (const BrickKey& key : keys)
+      if (prepped->isStored(key)) {
+        EXPECT_TRUE(live->isStored(key)) << toString(key);
+      }
   }
   EXPECT_GT(compared, 30);
 }
@@ -201,14 +175,25 @@ TEST(ZarrStore, PyramidThatDoesNotHalveIsAveraged) {
   const auto prepped = prepOf(zarr, dir / "prepped", 8);
   BrickCache liveCache(live, size_t(64) << 20, 0), preppedCache(prepped, size_t(64) << 20, 0);
   for (int level = 0; level < live->levelCount(); ++level) {
-    const Vec3i nb = live->level(level).bricks;
-    for (uint32_t k = 0; k < nb.z; ++k)
-      for (uint32_t j = 0; j < nb.y; ++j)
-        for (uint32_t i = 0; i < nb.x; ++i) {
-          const BrickKey key{uint32_t(level), i, j, k};
-          ASSERT_EQ(std::memcmp(liveCache.get(key)->data(), preppedCache.get(key)->data(), live->brickBytes()), 0)
-              << toString(key);
-        }
+    const std::vector<BrickKey> keys = brickKeys(*live, level);
+    EXPECT_EQ(expectSameBricks(liveCache, preppedCache, keys), int64_t(keys.size())) << "level " << level;
+  }
+}
+
+TEST(ZarrStore, CoarseBricksWithoutACache) {
+  // readBrick of an averaged level without a fetch builds the finer levels through a temporary cache: same bytes.
+  ScratchDir dir;
+  const auto zarr = test::writeZarr(dir / "v.ome.zarr", json::parse(R"({"levels": 2, "chunks": [16, 12, 16],
+      "dtype": "<f4", "compressor": {"id": "zstd"}})"));
+  const auto live = ZarrStore::open(zarr, {"", 8});
+  const auto prepped = prepOf(zarr, dir / "prepped", 8);
+  const int top = live->levelCount() - 1;
+  ASSERT_FALSE(live->ownLevels()[size_t(top)]) << "the coarsest level must be averaged";
+  BrickCache preppedCache(prepped, size_t(64) << 20, 0);
+  for (const BrickKey& key : brickKeys(*live, top)) {
+    std::vector<char> samples(live->brickBytes());
+    live->readBrick(key, samples.data());
+    EXPECT_EQ(std::memcmp(samples.data(), preppedCache.get(key)->data(), samples.size()), 0) << toString(key);
   }
 }
 
@@ -251,13 +236,8 @@ TEST(ZarrStore, TimeAndChannelPickOneVolume) {
   so.channel = 2;
   const auto prepped = prepOf(zarr, dir / "prepped", 8, so);
   BrickCache liveCache(last, size_t(64) << 20, 0), preppedCache(prepped, size_t(64) << 20, 0);
-  const Vec3i nb = last->level(0).bricks;
-  for (uint32_t k = 0; k < nb.z; ++k)
-    for (uint32_t j = 0; j < nb.y; ++j)
-      for (uint32_t i = 0; i < nb.x; ++i)
-        ASSERT_EQ(std::memcmp(liveCache.get({0, i, j, k})->data(), preppedCache.get({0, i, j, k})->data(),
-                              last->brickBytes()),
-                  0);
+  const std::vector<BrickKey> keys = brickKeys(*last, 0);
+  EXPECT_EQ(expectSameBricks(liveCache, preppedCache, keys), int64_t(keys.size()));
   EXPECT_THROW(ZarrStore::open(zarr, {"", 8, 2, 0}), InputError);
   EXPECT_THROW(ZarrStore::open(zarr, {"", 8, 0, 3}), InputError);
   // Chunks spanning several time points and channels, in F order: the same voxels.
@@ -268,6 +248,20 @@ TEST(ZarrStore, TimeAndChannelPickOneVolume) {
   wideLast->chunks().readRegion(0, {24, 16, 22}, {24, 16, 22}, &c);
   EXPECT_EQ(c, b);
   EXPECT_EQ(wideLast->meta().histogram.counts, last->meta().histogram.counts);
+}
+
+TEST(ZarrStore, IsZarrDirectoryFindsMultiscalesAfterALongBlockAndNotInAnEmptyFile) {
+  ScratchDir dir;
+  const std::filesystem::path group = dir / "g.zarr";
+  std::filesystem::create_directories(group);
+  test::writeFile(group / ".zgroup", std::string(R"({"zarr_format": 2})"));
+  test::writeFile(group / ".zattrs", std::string());
+  EXPECT_FALSE(isZarrDirectory(group)) << "an empty .zattrs names no multiscales";
+  test::writeFile(group / ".zattrs",
+                  R"({"omero": {"name": ")" + std::string(300000, 'x') + R"("}, "multiscales": []})");
+  EXPECT_TRUE(isZarrDirectory(group)) << "\"multiscales\" 300 kB into .zattrs";
+  test::writeFile(group / ".zattrs", R"({"omero": {"name": ")" + std::string(size_t{2} << 20, 'x') + R"("}})");
+  EXPECT_FALSE(isZarrDirectory(group));
 }
 
 TEST(ZarrStore, CommandsTakeTheDirectory) {

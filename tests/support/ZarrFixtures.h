@@ -5,9 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -28,11 +27,10 @@ inline std::filesystem::path writeZarr(const std::filesystem::path& out, nlohman
   return out;
 }
 
+/// The JSON file `file`, parsed.
 inline nlohmann::json readJsonFile(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  std::stringstream text;
-  text << in.rdbuf();
-  return nlohmann::json::parse(text.str());
+  const std::vector<char> text = readFile(file);
+  return nlohmann::json::parse(text.begin(), text.end());
 }
 
 inline void writeJsonFile(const std::filesystem::path& file, const nlohmann::json& j) { writeFile(file, j.dump(2)); }
