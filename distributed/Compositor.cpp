@@ -1,12 +1,12 @@
 // Binary swap in visibility order with a fold, then a gather to rank 0 (Compositor.h).
 #include "distributed/Compositor.h"
 
-#include <immintrin.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <stdexcept>
+
+#include "common/Half.h"
 
 namespace voxbrick::distributed {
 namespace {
@@ -36,35 +36,6 @@ std::pair<PixelRect, PixelRect> halves(const PixelRect& region) {
 
 constexpr size_t kHeaderBytes = 4 * sizeof(int32_t);
 
-// Half-float rows with the F16C instructions where the processor has them (8 values at a time, round to nearest
-// even as floatToHalf), else value by value.
-__attribute__((target("avx,f16c"))) void toHalfF16c(const float* in, uint16_t* out, int count) {
-  int i = 0;
-  for (; i + 8 <= count; i += 8) {
-    __m128i packed = _mm256_cvtps_ph(_mm256_loadu_ps(in + i), _MM_FROUND_TO_NEAREST_INT);
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(out + i), packed);
-  }
-  for (; i < count; ++i) out[i] = floatToHalf(in[i]);
-}
-__attribute__((target("avx,f16c"))) void fromHalfF16c(const uint16_t* in, float* out, int count) {
-  int i = 0;
-  for (; i + 8 <= count; i += 8) {
-    __m128i packed = _mm_loadu_si128(reinterpret_cast<const __m128i*>(in + i));
-    _mm256_storeu_ps(out + i, _mm256_cvtph_ps(packed));
-  }
-  for (; i < count; ++i) out[i] = halfToFloat(in[i]);
-}
-const bool kF16c = __builtin_cpu_supports("f16c") && __builtin_cpu_supports("avx");
-
-void toHalf(const float* in, uint16_t* out, int count) {
-  if (kF16c) return toHalfF16c(in, out, count);
-  for (int i = 0; i < count; ++i) out[i] = floatToHalf(in[i]);
-}
-void fromHalf(const uint16_t* in, float* out, int count) {
-  if (kF16c) return fromHalfF16c(in, out, count);
-  for (int i = 0; i < count; ++i) out[i] = halfToFloat(in[i]);
-}
-
 size_t channelBytes(PixelEncoding encoding) { return encoding == PixelEncoding::Half ? 2 : 4; }
 
 size_t messageBytes(const PixelRect& rect, PixelEncoding encoding) {
@@ -86,7 +57,7 @@ std::shared_ptr<Buffer> pack(const image::ImageF& image, const PixelRect& rect, 
       std::memcpy(out, row, size_t(rowFloats) * 4);
       out += size_t(rowFloats) * 4;
     } else {
-      toHalf(row, reinterpret_cast<uint16_t*>(out), rowFloats);
+      common::floatsToHalves(row, reinterpret_cast<uint16_t*>(out), size_t(rowFloats));
       out += size_t(rowFloats) * 2;
     }
   }
@@ -116,7 +87,7 @@ void blend(image::ImageF& image, const Buffer& buffer, const PixelRect& rect, Pi
       std::memcpy(row.data(), in, row.size() * 4);
       in += row.size() * 4;
     } else {
-      fromHalf(reinterpret_cast<const uint16_t*>(in), row.data(), rowFloats);
+      common::halvesToFloats(reinterpret_cast<const uint16_t*>(in), row.data(), row.size());
       in += row.size() * 2;
     }
     float* pixels = image.pixel(rect.x0, y);
@@ -305,56 +276,5 @@ PixelEncoding parsePixelEncoding(const std::string& name) {
 }
 
 const char* pixelEncodingName(PixelEncoding encoding) { return encoding == PixelEncoding::Half ? "half" : "float"; }
-
-uint16_t floatToHalf(float value) {
-  uint32_t bits;
-  std::memcpy(&bits, &value, 4);
-  uint32_t sign = (bits >> 16) & 0x8000u;
-  uint32_t magnitude = bits & 0x7fffffffu;
-  if (magnitude >= 0x7f800000u) {  // infinity or NaN
-    return uint16_t(sign | 0x7c00u | (magnitude > 0x7f800000u ? 0x200u : 0u));
-  }
-  if (magnitude >= 0x477ff000u) return uint16_t(sign | 0x7c00u);  // rounds past the largest half: infinity
-  if (magnitude < 0x38800000u) {                                  // a subnormal half (or zero)
-    if (magnitude < 0x33000000u) return uint16_t(sign);           // below half the smallest subnormal
-    uint32_t mantissa = (magnitude & 0x7fffffu) | 0x800000u;
-    int shift = 126 - int(magnitude >> 23);  // 14..24
-    uint32_t halfValue = mantissa >> shift;
-    uint32_t rest = mantissa & ((1u << shift) - 1u);
-    uint32_t halfway = 1u << (shift - 1);
-    if (rest > halfway || (rest == halfway && (halfValue & 1u))) ++halfValue;
-    return uint16_t(sign | halfValue);
-  }
-  uint32_t halfValue = ((magnitude - 0x38000000u) >> 13);
-  uint32_t rest = magnitude & 0x1fffu;
-  if (rest > 0x1000u || (rest == 0x1000u && (halfValue & 1u))) ++halfValue;
-  return uint16_t(sign | halfValue);
-}
-
-float halfToFloat(uint16_t half) {
-  uint32_t sign = uint32_t(half & 0x8000u) << 16;
-  uint32_t exponent = (half >> 10) & 0x1fu;
-  uint32_t mantissa = half & 0x3ffu;
-  uint32_t bits;
-  if (exponent == 0) {
-    if (mantissa == 0) {
-      bits = sign;
-    } else {  // subnormal: normalise
-      int e = -1;
-      do {
-        ++e;
-        mantissa <<= 1;
-      } while ((mantissa & 0x400u) == 0);
-      bits = sign | uint32_t(127 - 15 - e) << 23 | (mantissa & 0x3ffu) << 13;
-    }
-  } else if (exponent == 31) {
-    bits = sign | 0x7f800000u | mantissa << 13;
-  } else {
-    bits = sign | (exponent + 112u) << 23 | mantissa << 13;
-  }
-  float value;
-  std::memcpy(&value, &bits, 4);
-  return value;
-}
 
 }  // namespace voxbrick::distributed

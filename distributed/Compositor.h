@@ -50,8 +50,4 @@ struct CompositeOptions {
 image::ImageF composite(MPI_Comm comm, image::ImageF partial, const std::vector<int>& frontToBack,
                         const CompositeOptions& options = {}, CompositeStats* stats = nullptr);
 
-/// Half-float conversions, exposed for tests: round to nearest even, infinities and NaN kept, overflow to infinity.
-uint16_t floatToHalf(float value);
-float halfToFloat(uint16_t half);
-
 }  // namespace voxbrick::distributed

@@ -3,7 +3,6 @@
 
 #include <algorithm>
 
-#include "render/core/WorldFrame.h"
 #include "render/volume/FramePlan.h"
 
 namespace voxbrick::render::reference {
@@ -21,7 +20,7 @@ Frame makeFrame(const Scene& scene, const ReferenceOptions& options, const store
   f.halfDims = 0.5 * f.dims;
 
   const double aspect = double(scene.width) / double(scene.height);
-  const Camera camera = scene.camera.resolve(box, WorldFrame::of(meta.orientation, meta.dims, meta.spacing), aspect);
+  const Camera camera = gridCamera(scene, meta);
   double nearPlane = 0, farPlane = 0;
   camera.clipRange(box, nearPlane, farPlane);
   f.basis = RayBasis::of(camera, aspect, nearPlane);

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "render/core/RenderErrors.h"
+#include "render/core/WorldFrame.h"
 
 namespace voxbrick::render {
 
@@ -18,6 +19,12 @@ ValueWindow valueWindow(const Scene& scene, const store::StoreMeta& meta) {
   if (!(w.hi > w.lo)) w.hi = w.lo + 1;  // a constant volume: everything maps to 0
   w.inverseWidth = 1.0 / (w.hi - w.lo);
   return w;
+}
+
+Camera gridCamera(const Scene& scene, const store::StoreMeta& meta) {
+  return scene.camera.resolve(volumeBox(meta.dims, meta.spacing),
+                              WorldFrame::of(meta.orientation, meta.dims, meta.spacing),
+                              double(scene.width) / double(scene.height));
 }
 
 Box FramePlan::drawBox(const Box& b, const store::Vec3d& spacing) const {
@@ -93,8 +100,7 @@ FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int tran
   if (part) checkPart(*part, meta.dims);
   plan.part = part;
   plan.volume = volumeBox(meta.dims, meta.spacing);
-  plan.camera = scene.camera.resolve(plan.volume, WorldFrame::of(meta.orientation, meta.dims, meta.spacing),
-                                     double(scene.width) / double(scene.height));
+  plan.camera = gridCamera(scene, meta);
   plan.camera.clipRange(plan.volume, plan.nearPlane, plan.farPlane);
   plan.viewProj = plan.camera.projection(double(scene.width) / double(scene.height), plan.nearPlane, plan.farPlane) *
                   plan.camera.view();

@@ -32,6 +32,11 @@ struct ValueWindow {
 /// The GPU renderer and the reference take it from here, so that they normalise alike.
 ValueWindow valueWindow(const Scene& scene, const store::StoreMeta& meta);
 
+/// The scene's camera resolved on `meta`'s grid: around the world box volumeBox(dims, spacing) (the voxels' box
+/// centred on the origin, a voxel coordinate is world / spacing + dims / 2), in the store's world frame, at the
+/// image's aspect. planFrame, the parts' visibility order (partView) and the reference all take it from here.
+Camera gridCamera(const Scene& scene, const store::StoreMeta& meta);
+
 struct FramePlan {
   Box volume;  ///< the volume's world box
   Camera camera;

@@ -11,8 +11,8 @@
 #include <string>
 
 #include "render/core/Camera.h"
-#include "render/core/WorldFrame.h"
 #include "render/volume/BrickStoreDataset.h"
+#include "render/volume/FramePlan.h"
 
 namespace voxbrick::render {
 namespace {
@@ -183,11 +183,8 @@ Partition partitionBricks(const store::BrickStore& store, int parts) {
 }
 
 PartView partView(const store::StoreMeta& meta, const Scene& scene) {
-  // As planFrame resolves the camera: the world box is the voxels' box centred on the origin, a voxel coordinate is
-  // world / spacing + dims / 2.
-  const Box volume = volumeBox(meta.dims, meta.spacing);
-  const Camera camera = scene.camera.resolve(volume, WorldFrame::of(meta.orientation, meta.dims, meta.spacing),
-                                             double(scene.width) / double(scene.height));
+  // The camera as planFrame resolves it; a voxel coordinate is world / spacing + dims / 2.
+  const Camera camera = gridCamera(scene, meta);
   const glm::dvec3 spacing(meta.spacing.x, meta.spacing.y, meta.spacing.z);
   const glm::dvec3 dims(double(meta.dims.x), double(meta.dims.y), double(meta.dims.z));
   PartView view;

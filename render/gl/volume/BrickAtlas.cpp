@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstring>
 
+#include "common/Half.h"
 #include "render/core/RenderErrors.h"
 #include "render/gl/Bindings.h"
 
@@ -11,8 +12,9 @@ namespace voxbrick::render {
 
 BrickAtlas::TexelFormat BrickAtlas::texelFormat(store::ValueType type, AtlasFormat format) {
   if (format == AtlasFormat::Float) return {GL_R32F, GL_FLOAT, 4, 1.0};
-  // Half: converted here (halfOf), so the driver copies texels on every upload path; converting floats itself, one
-  // path may round differently from another (NVIDIA's did: staged frames differed from direct ones by 5e-4).
+  // Half: converted here (common::Half, round to nearest even as Mesa's conversion), so the driver copies texels on
+  // every upload path; converting floats itself, one path may round differently from another (NVIDIA's did: staged
+  // frames differed from direct ones by 5e-4).
   if (format == AtlasFormat::Half) return {GL_R16F, GL_HALF_FLOAT, 2, 1.0};
   switch (type) {
     case store::ValueType::U8: return {GL_R8, GL_UNSIGNED_BYTE, 1, 1.0 / 255};
@@ -37,8 +39,7 @@ int slotCapacity(int edge, size_t texelBytes, size_t budgetBytes, int maxUsefulS
 }  // namespace
 
 size_t BrickAtlas::uploadBytes(store::ValueType type, int brickEdge, AtlasFormat format) {
-  const TexelFormat texel = texelFormat(type, format);
-  return size_t(brickEdge) * size_t(brickEdge) * size_t(brickEdge) * (texel.type == GL_FLOAT ? 4 : texel.bytes);
+  return slotBytes(type, brickEdge, format);
 }
 
 bool BrickAtlas::converts(store::ValueType type) const {
@@ -120,35 +121,8 @@ glm::ivec3 BrickAtlas::slotOrigin(AtlasSlot slot) const {
 
 namespace {
 
-/// A half float made from a value by rounding to the nearest, ties to even (as IEEE 754 and Mesa's conversion do),
-/// so that frames on llvmpipe stay what its own conversion gave: overflow to infinity, NaN stays NaN, subnormals.
-struct Half {
-  uint16_t bits = 0;
-  Half() = default;
-  template <typename T>
-  explicit Half(T value) : bits(fromFloat(float(value))) {}
-  static uint16_t fromFloat(float f) {
-    uint32_t x;
-    std::memcpy(&x, &f, 4);
-    const uint16_t sign = uint16_t((x >> 16) & 0x8000u);
-    const uint32_t magnitude = x & 0x7fffffffu;
-    if (magnitude >= 0x7f800000u) return uint16_t(sign | (magnitude > 0x7f800000u ? 0x7e00u : 0x7c00u));
-    if (magnitude >= 0x477ff000u) return uint16_t(sign | 0x7c00u);  // rounds to 65536 or more: infinity
-    if (magnitude < 0x38800000u) {                                  // below 2^-14: a subnormal half (or zero)
-      if (magnitude < 0x33000000u) return sign;                     // below 2^-25: rounds to zero
-      const uint32_t mantissa = (magnitude & 0x7fffffu) | 0x800000u;
-      const int shift = 126 - int(magnitude >> 23);  // 14 .. 24 places right of the half's ulp
-      const uint32_t half = mantissa >> shift, rest = mantissa & ((1u << shift) - 1), mid = 1u << (shift - 1);
-      return uint16_t(sign | (half + ((rest > mid || (rest == mid && (half & 1u))) ? 1u : 0u)));
-    }
-    const uint32_t rebiased = magnitude - 0x38000000u;  // exponent 127 -> 15
-    const uint32_t half = rebiased >> 13, rest = rebiased & 0x1fffu;
-    return uint16_t(sign | (half + ((rest > 0x1000u || (rest == 0x1000u && (half & 1u))) ? 1u : 0u)));
-  }
-};
-
 /// Copies an edge^3 brick `in` to `out` with its axes rotated by r (orientVoxel): out's texel a holds in's voxel v
-/// with a = orientVoxel(v, r); each value passes through `cast`.
+/// with a = orientVoxel(v, r); each value converted by Out(value) (common::Half: to the nearest half).
 template <typename In, typename Out>
 void rotateBrick(const In* in, Out* out, int edge, int r) {
   const size_t e = size_t(edge);
@@ -173,7 +147,7 @@ void BrickAtlas::convert(const store::Brick& brick, void* out, int orientation) 
   const size_t n = size_t(mEdge) * size_t(mEdge) * size_t(mEdge);
   if (mTexel.type == GL_HALF_FLOAT) {
     store::dispatchType(brick.type(), [&](auto tag) {
-      rotateBrick(static_cast<const decltype(tag)*>(brick.data()), static_cast<Half*>(out), mEdge, orientation);
+      rotateBrick(static_cast<const decltype(tag)*>(brick.data()), static_cast<common::Half*>(out), mEdge, orientation);
     });
   } else if (brick.type() != store::ValueType::F32 && mTexel.type == GL_FLOAT) {
     store::dispatchType(brick.type(), [&](auto tag) {

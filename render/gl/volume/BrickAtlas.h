@@ -40,7 +40,7 @@ class BrickAtlas {
 
   /// Bytes of texture one slot takes.
   static size_t slotBytes(store::ValueType type, int brickEdge, AtlasFormat format);
-  /// Bytes one brick takes on its way to a slot (floats for the Float format, else the texel).
+  /// Bytes one brick takes on its way to a slot: slotBytes, as every upload converts to the slot's texel first.
   static size_t uploadBytes(store::ValueType type, int brickEdge, AtlasFormat format);
   /// The staging bytes an atlas under `budgetBytes` keeps when its uploads are staged: whole regions of
   /// uploadBytes, at most kStagingBytes and an eighth of the budget, and 0 when that is fewer than two.
@@ -49,8 +49,8 @@ class BrickAtlas {
   static AtlasUploads resolveUploads(const GlContext& context, AtlasUploads uploads);
 
   AtlasSlots& slots() { return mSlots; }
-  /// Copies a decoded brick into `slot` (converting it to float first for the Float and Half formats), its axes
-  /// rotated by orientation() (orientVoxel).
+  /// Copies a decoded brick into `slot` (converted to floats for the Float format and to halves, round to nearest
+  /// even by common::Half, for the Half format), its axes rotated by orientation() (orientVoxel).
   void upload(AtlasSlot slot, const store::Brick& brick);
   /// The axis rotation brick `key` has in its slot: brickOrientation(bricking(), key).
   int orientation(const store::BrickKey& key) const { return brickOrientation(mBricking, key); }

@@ -10,7 +10,8 @@
 // cell, and further: such a cell's x holds j, the largest (up to kMaxLeapLevel) such that the aligned block of 2^j
 // cells around it has nothing to draw, and the ray leaps out of that block. A cell of a brick drawn in another batch
 // must be stepped through plane by plane near its faces, where a point may belong to a neighbour of this batch.
-// Frames of one batch have no such cells.
+// A whole frame drawn in one batch has no such cells; a part's frame (sort-last rendering) has them just outside
+// its box (deferOutside), however many batches it takes.
 #pragma once
 
 #include <cstdint>

@@ -24,7 +24,8 @@ enum class FragmentModel {
 struct ProgramKey {
   Slicer slicer = Slicer::Vertex;  ///< the stages that slice (Vertex where the key does not slice)
   FragmentModel model = FragmentModel::Plain;
-  bool exactOwnership = false;  ///< EXACT_OWNERSHIP: samples from the pixel ray, owned per box (sub-blocks)
+  bool exactOwnership = false;  ///< EXACT_OWNERSHIP (slicing): samples from the pixel ray, owned per box (sub-blocks,
+                                ///< levels, parts: FramePlan::exactOwnership); slabs and the ray caster need no define
   bool slab = false;            ///< texture slabs: box proxies (slab.vert.glsl, slab.frag.glsl), several samples
                                 ///< per fragment
   bool preIntegration = false;  ///< PRE_INTEGRATION (slabs, the ray caster): segments classified from a table

@@ -97,8 +97,7 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
                  mode == RenderMode::Roofline ? FragmentModel::Roofline
                  : scene.shading              ? FragmentModel::Shaded
                                               : FragmentModel::Plain,
-                 plan.subBlock > 0 || plan.coarsestLevel > 0 || plan.part.has_value(), plan.slab > 0,
-                 plan.preIntegration};
+                 plan.exactOwnership() && !plan.marches(), plan.slab > 0, plan.preIntegration};
   key.raycast = plan.raycast;
   key.multiOriented = mResidency.atlas().bricking() == AtlasBricking::MultiOriented;
   const VolumeProgram& program = mPrograms.get(key);

@@ -2,11 +2,16 @@
 #pragma once
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <map>
 #include <memory>
+#include <sstream>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "render/RenderFixtures.h"
 #include "render/gl/FilterProbe.h"
@@ -41,17 +46,15 @@ inline const render::FilterPrecision& filterPrecision() {
   static const render::FilterPrecision precision = [] {
     const render::FilterPrecision p = render::measureFilterPrecision(context());
     std::printf("[ info ] %s: linear filter weight step %.3g (%d sub-texel bits; 0: float), worst weight error %.3g\n",
-                context().describe().c_str(), p.weightStep, p.subTexelBits, p.maxWeightError);
+                context().describe().c_str(), p.weightStep, p.subTexelBits(), p.maxWeightError);
     return p;
   }();
   return precision;
 }
 
 /// The largest difference between neighbouring voxels (along any axis, in any brick of any level, borders
-/// included) of `s`, in units of `scene`'s value window (the store's value range by default).
-inline double largestVoxelStep(const store::BrickStore& s, const render::Scene& scene) {
-  const double lo = scene.window ? (*scene.window)[0] : s.meta().valueMin;
-  const double hi = scene.window ? (*scene.window)[1] : s.meta().valueMax;
+/// included) of `s`, in its raw values. Reads every brick: use largestVoxelStep, which keeps it per store.
+inline double largestRawVoxelStep(const store::BrickStore& s) {
   const size_t e = size_t(s.brickEdge());
   std::vector<float> values(e * e * e);
   std::vector<unsigned char> raw(s.brickBytes());
@@ -78,7 +81,23 @@ inline double largestVoxelStep(const store::BrickStore& s, const render::Scene& 
               }
         }
   }
-  return hi > lo ? step / (hi - lo) : 0.0;
+  return step;
+}
+
+/// largestRawVoxelStep of `s` in units of `scene`'s value window (the store's value range by default). The raw step
+/// is computed once per store (its object, path, size and value range) for the whole binary.
+inline double largestVoxelStep(const store::BrickStore& s, const render::Scene& scene) {
+  static std::map<std::string, double> steps;
+  const store::StoreMeta& m = s.meta();
+  std::ostringstream id;
+  id.precision(17);
+  id << static_cast<const void*>(&s) << ' ' << m.dims.x << ' ' << m.dims.y << ' ' << m.dims.z << ' ' << m.valueMin
+     << ' ' << m.valueMax << ' ' << s.path().string();
+  auto it = steps.find(id.str());
+  if (it == steps.end()) it = steps.emplace(id.str(), largestRawVoxelStep(s)).first;
+  const double lo = scene.window ? (*scene.window)[0] : m.valueMin;
+  const double hi = scene.window ? (*scene.window)[1] : m.valueMax;
+  return hi > lo ? it->second / (hi - lo) : 0.0;
 }
 
 /// How far a classified sample can move when its fetch moves by `valueChange` of the window: the largest change of
@@ -126,6 +145,17 @@ inline void expectSameDrawing(const image::ImageF& a, const image::ImageF& b, do
                 e.rmse, maxAbs, slack);
   }
   expectClose(a, b, maxAbs + slack, what);
+}
+
+/// Waits until the cache's workers have nothing queued or running (at most 60 s; fails the test if they do not).
+inline void waitForPaging(const store::BrickCache& cache) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (std::chrono::steady_clock::now() < deadline) {
+    const store::CacheStats st = cache.stats();
+    if (st.prefetchQueued == 0 && st.inFlight == 0) return;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  FAIL() << "the cache's workers did not finish";
 }
 
 /// A GPU frame with a fresh renderer and cache.

@@ -24,7 +24,7 @@ TEST(FilterProbe, MeasuresTheWeightStepOfEachFormat) {
   if (test::context().software()) {
     EXPECT_EQ(f32.weightStep, 0.0) << "llvmpipe filters floats in float";
     EXPECT_LT(f32.maxWeightError, 1e-6);
-    EXPECT_EQ(r8.subTexelBits, 8) << "and 8-bit textures with 8-bit weights";
+    EXPECT_EQ(r8.subTexelBits(), 8) << "and 8-bit textures with 8-bit weights";
   }
   // The fixture's value is the float atlas's.
   EXPECT_EQ(test::filterPrecision().weightStep, f32.weightStep);

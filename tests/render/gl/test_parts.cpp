@@ -5,9 +5,8 @@
 // own bricks; a part on a mesh is refused.
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <string>
-#include <thread>
+#include <vector>
 
 #include "image/Image.h"
 #include "mesh/MeshStoreFixtures.h"
@@ -30,20 +29,46 @@ using test::ScratchDir;
 
 enum class Technique { RayCast, Slicing, Slabs };
 
-/// A small frame of `tf` with `technique`: the ray caster (the default), slicing of whole bricks (whose whole frame
-/// shares rasterised faces where a part's owns exactly) or texture slabs.
+/// A small frame (72x64) of lodScene's camera with `tf` and `technique`: the ray caster (the default), slicing of
+/// whole bricks (slicingScene, whose whole frame shares rasterised faces where a part's owns exactly) or texture
+/// slabs.
 Scene sceneFor(Technique technique, const std::string& tf) {
-  Scene scene;
+  Scene scene = technique == Technique::Slicing ? test::slicingScene(tf) : test::lodScene(Scene{}.lod);
   scene.width = 72;
   scene.height = 64;
-  scene.camera.azimuth = 35;
-  scene.camera.elevation = 25;
-  scene.camera.distance = 2.2;
   scene.transferFunction = TransferFunction::load(tf);
-  scene.step = 0.5;
-  if (technique != Technique::RayCast) scene.raycast = false;
-  if (technique == Technique::Slicing) scene.slab = 0, scene.ert = 0, scene.subBlock = 0;
+  if (technique == Technique::Slabs) scene.raycast = false;
   return scene;
+}
+
+/// The parts `boxes` drawn one by one by `renderer` with `options` (and each box as FrameOptions::part), and the
+/// stats of each.
+struct DrawnParts {
+  std::vector<image::ImageF> frames;
+  std::vector<FrameStats> stats;
+  int64_t bricksDrawn() const {
+    int64_t n = 0;
+    for (const FrameStats& s : stats) n += s.bricksDrawn;
+    return n;
+  }
+};
+DrawnParts drawParts(VolumeRenderer& renderer, const Scene& scene, const std::vector<PartBox>& boxes,
+                     FrameOptions options = {}) {
+  DrawnParts out;
+  for (const PartBox& box : boxes) {
+    options.part = box;
+    out.stats.emplace_back();
+    out.frames.push_back(renderer.render(scene, &out.stats.back(), options));
+  }
+  return out;
+}
+
+/// Expects the parts, composited in `order` (compositeSerial) and finished over the background, to be the drawing
+/// `whole` of `scene` from `s` within 1/255 (expectSameDrawing).
+void expectJoinedIsWhole(const std::vector<image::ImageF>& parts, const std::vector<int>& order,
+                         const image::ImageF& whole, const store::BrickStore& s, const Scene& scene,
+                         const std::string& what) {
+  test::expectSameDrawing(finishPartial(compositeSerial(parts, order), scene), whole, 1.0 / 255, s, scene, what);
 }
 
 /// The whole frame, and the parts of an N-part partition drawn one by one, composited and finished.
@@ -57,20 +82,12 @@ void expectPartsGiveTheWholeFrame(const std::shared_ptr<const store::BrickStore>
   ASSERT_GE(wholeStats.levelCoarsest, minCoarsest) << what;
   for (int n = 1; n <= 5; ++n) {
     const Partition partition = partitionBricks(*s, n);
-    const std::vector<int> order = partsFrontToBack(partition, partView(s->meta(), scene));
-    std::vector<image::ImageF> parts;
-    int64_t drawn = 0;
-    for (int p = 0; p < n; ++p) {
-      FrameOptions options;
-      options.part = partition.boxes[size_t(p)];
-      FrameStats stats;
-      parts.push_back(renderer.render(scene, &stats, options));
-      drawn += stats.bricksDrawn;
-      EXPECT_LE(stats.bricksDrawn, wholeStats.bricksDrawn) << what << ", part " << p << " of " << n;
-    }
-    EXPECT_GE(drawn, wholeStats.bricksDrawn) << what << ", " << n << " parts: every brick in some part";
-    const image::ImageF joined = finishPartial(compositeSerial(parts, order), scene);
-    test::expectSameDrawing(joined, whole, 1.0 / 255, *s, scene, what + "-" + std::to_string(n) + "parts");
+    const DrawnParts parts = drawParts(renderer, scene, partition.boxes);
+    for (int p = 0; p < n; ++p)
+      EXPECT_LE(parts.stats[size_t(p)].bricksDrawn, wholeStats.bricksDrawn) << what << ", part " << p << " of " << n;
+    EXPECT_GE(parts.bricksDrawn(), wholeStats.bricksDrawn) << what << ", " << n << " parts: every brick in some part";
+    expectJoinedIsWhole(parts.frames, partsFrontToBack(partition, partView(s->meta(), scene)), whole, *s, scene,
+                        what + "-" + std::to_string(n) + "parts");
   }
 }
 
@@ -84,13 +101,12 @@ void expectEveryCase(Technique technique) {
   const Scene mri = sceneFor(technique, "mri");
   expectPartsGiveTheWholeFrame(blobs, mri, "mri");
   expectPartsGiveTheWholeFrame(sparse, sceneFor(technique, "sparse"), "sparse");
-  Scene inside = mri;
-  inside.camera.distance = 0.25, inside.camera.fovY = 75;
-  expectPartsGiveTheWholeFrame(blobs, inside, "inside");
-  Scene ortho = mri;
-  ortho.camera.orthographic = true;
-  ortho.camera.azimuth = 200, ortho.camera.elevation = -40;
-  expectPartsGiveTheWholeFrame(blobs, ortho, "ortho");
+  for (const auto& [name, camera] : test::marchCameras(false)) {
+    if (name != "inside" && name != "ortho") continue;  // the other two are mri's own camera and an axis view
+    Scene view = mri;
+    view.camera = camera;
+    expectPartsGiveTheWholeFrame(blobs, view, name);
+  }
   Scene lod = mri;
   lod.lod = 4;
   expectPartsGiveTheWholeFrame(blobs, lod, "lod", 1);
@@ -123,20 +139,13 @@ TEST(Parts, ACoarseBrickCutByThePartsIsDrawnClippedByEach) {
         partition.boxes = {PartBox{{0, 0, 0}, {64, 64, 64}}, PartBox{{0, 0, 0}, {64, 64, 64}}};
         partition.boxes[0].hi[size_t(axis)] = position;
         partition.boxes[1].lo[size_t(axis)] = position;
-        std::vector<image::ImageF> parts;
-        int64_t drawn = 0;
-        for (const PartBox& box : partition.boxes) {
-          FrameOptions options;
-          options.part = box;
-          FrameStats stats;
-          parts.push_back(renderer.render(scene, &stats, options));
-          drawn += stats.bricksDrawn;
-        }
+        const DrawnParts parts = drawParts(renderer, scene, partition.boxes);
         const std::string what =
             "cut-" + std::to_string(int(technique)) + "-axis" + std::to_string(axis) + "-at" + std::to_string(position);
-        EXPECT_GT(drawn, wholeStats.bricksDrawn) << what << ": a coarse brick across the split is drawn by both";
-        const std::vector<int> order = partsFrontToBack(partition, partView(s->meta(), scene));
-        test::expectSameDrawing(finishPartial(compositeSerial(parts, order), scene), whole, 1.0 / 255, *s, scene, what);
+        EXPECT_GT(parts.bricksDrawn(), wholeStats.bricksDrawn)
+            << what << ": a coarse brick across the split is drawn by both";
+        expectJoinedIsWhole(parts.frames, partsFrontToBack(partition, partView(s->meta(), scene)), whole, *s, scene,
+                            what);
       }
   }
 }
@@ -155,19 +164,12 @@ TEST(Parts, PartsDrawnInSeveralBatchesStillComposite) {
     const image::ImageF whole = renderer.render(scene, &wholeStats, test::batched());
     ASSERT_GT(wholeStats.batches, 1);
     const Partition partition = partitionBricks(*s, 3);
-    std::vector<image::ImageF> parts;
+    const DrawnParts parts = drawParts(renderer, scene, partition.boxes, test::batched());
     int batched = 0;
-    for (const PartBox& box : partition.boxes) {
-      FrameOptions options = test::batched();
-      options.part = box;
-      FrameStats stats;
-      parts.push_back(renderer.render(scene, &stats, options));
-      batched += stats.batches > 1;
-    }
+    for (const FrameStats& stats : parts.stats) batched += stats.batches > 1;
     EXPECT_GT(batched, 0) << "a part drawn in several batches";
-    const std::vector<int> order = partsFrontToBack(partition, partView(s->meta(), scene));
-    test::expectSameDrawing(finishPartial(compositeSerial(parts, order), scene), whole, 1.0 / 255, *s, scene,
-                            "batches-" + std::to_string(int(technique)));
+    expectJoinedIsWhole(parts.frames, partsFrontToBack(partition, partView(s->meta(), scene)), whole, *s, scene,
+                        "batches-" + std::to_string(int(technique)));
   }
 }
 
@@ -219,11 +221,7 @@ TEST(Parts, StandInsFillInToThePartsExactFrame) {
     FrameStats first, refined, exact;
     renderer.render(scene, &first, streamed);
     EXPECT_GT(first.bricksStandIn, 0);
-    for (int wait = 0; wait < 12000; ++wait) {
-      const store::CacheStats st = cache->stats();
-      if (st.prefetchQueued == 0 && st.inFlight == 0) break;
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    }
+    test::waitForPaging(*cache);
     const image::ImageF frame = renderer.render(scene, &refined, streamed);
     EXPECT_EQ(refined.bricksStandIn, 0);
     const int64_t inside =
@@ -238,9 +236,8 @@ TEST(Parts, StandInsFillInToThePartsExactFrame) {
     parts.push_back(frame);
   }
   const image::ImageF whole = test::renderStore(s, scene);
-  test::expectSameDrawing(
-      finishPartial(compositeSerial(parts, partsFrontToBack(partition, partView(s->meta(), scene))), scene), whole,
-      1.0 / 255, *s, scene, "standins-3parts");
+  expectJoinedIsWhole(parts, partsFrontToBack(partition, partView(s->meta(), scene)), whole, *s, scene,
+                      "standins-3parts");
 }
 
 TEST(Parts, TheEnginePassesThePartThrough) {
@@ -260,8 +257,7 @@ TEST(Parts, TheEnginePassesThePartThrough) {
     parts.push_back(engine.render(dataset, scene, &stats, options));
     EXPECT_LT(stats.bricksDrawn, int64_t(grid.store()->level(0).bricksTotal()));
   }
-  test::expectSameDrawing(finishPartial(compositeSerial(parts, partsFrontToBack(partition, grid, scene)), scene), whole,
-                          1.0 / 255, *grid.store(), scene, "engine-4parts");
+  expectJoinedIsWhole(parts, partsFrontToBack(partition, grid, scene), whole, *grid.store(), scene, "engine-4parts");
 }
 
 TEST(Parts, BadBoxesAndMeshesAreRefused) {

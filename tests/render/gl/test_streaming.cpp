@@ -3,10 +3,8 @@
 // no double samples), and fill in to exactly the frame drawn without stand-ins once the bricks have arrived.
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <map>
 #include <set>
-#include <thread>
 
 #include "image/Image.h"
 #include "render/gl/GlFixtures.h"
@@ -22,22 +20,15 @@ using test::meanBrightness;
 using test::prep;
 using test::renderReference;
 using test::ScratchDir;
+using test::waitForPaging;
 
 constexpr int kTexels = VolumeRenderer::kTransferTableTexels;
 
+/// slicingScene's frame of "hot" at level 0, with slabs of `slab` planes and sub-blocks of `subBlock` (0: none).
 Scene streamScene(int slab, int subBlock) {
-  Scene scene;
-  scene.width = 96;
-  scene.height = 80;
-  scene.camera.azimuth = 35;
-  scene.camera.elevation = 25;
-  scene.camera.distance = 2.2;
-  scene.transferFunction = TransferFunction::load("hot");
-  scene.step = 0.5;
+  Scene scene = test::slicingScene("hot");
   scene.lod = 0;
   scene.slab = slab;
-  scene.raycast = false;
-  scene.ert = 0;
   scene.subBlock = subBlock;
   return scene;
 }
@@ -47,17 +38,6 @@ store::BrickKey ancestor(const store::BrickKey& key, uint32_t up) {
 }
 
 double psnr(const image::ImageF& a, const image::ImageF& b) { return image::compareImages(a, b).psnr; }
-
-/// Waits until the cache's workers have nothing queued or running (at most 60 s).
-void waitForPaging(const store::BrickCache& cache) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-  while (std::chrono::steady_clock::now() < deadline) {
-    const store::CacheStats st = cache.stats();
-    if (st.prefetchQueued == 0 && st.inFlight == 0) return;
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  FAIL() << "the cache's workers did not finish";
-}
 
 // Every other level-0 brick resident, the level-1 parents of the others in one half of the volume, and the
 // coarsest level: each brick must be drawn from its nearest resident ancestor, and the frame must equal the reference
