@@ -18,7 +18,7 @@
 #include "image/Image.h"
 #include "render/core/Interactive.h"
 #include "render/core/TransferFunction.h"
-#include "render/datasets/Datasets.h"
+#include "render/engine/Datasets.h"
 #include "render/engine/RenderEngine.h"
 
 using namespace voxbrick;

@@ -15,7 +15,7 @@
 #include "cli/Commands.h"
 #include "cli/LoadFaults.h"
 #include "client/Client.h"
-#include "render/datasets/Datasets.h"
+#include "render/engine/Datasets.h"
 
 namespace voxbrick::cli {
 namespace {

@@ -1,6 +1,6 @@
 // The faults of `voxbrick load`: each misbehaves in one way and checks the server's documented answer.
 #include "cli/LoadFaults.h"
-#include "render/datasets/Datasets.h"
+#include "render/engine/Datasets.h"
 
 #include <algorithm>
 #include <chrono>

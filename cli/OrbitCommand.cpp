@@ -14,7 +14,7 @@
 #include "render/core/Interactive.h"
 #include "render/core/RenderErrors.h"
 #include "render/core/Scene.h"
-#include "render/datasets/Datasets.h"
+#include "render/engine/Datasets.h"
 #include "render/engine/RenderEngine.h"
 
 namespace voxbrick::cli {

@@ -14,12 +14,9 @@
 #include "render/core/Dataset.h"
 #include "render/core/RenderErrors.h"
 #include "render/core/Scene.h"
-#include "render/datasets/Datasets.h"
+#include "render/engine/DatasetDriver.h"
+#include "render/engine/Datasets.h"
 #include "render/engine/RenderEngine.h"
-#include "render/reference/ReferenceRenderer.h"
-#include "render/reference/TetReference.h"
-#include "render/tets/TetMeshDataset.h"
-#include "render/volume/BrickStoreDataset.h"
 
 namespace voxbrick::cli {
 namespace {
@@ -60,81 +57,34 @@ void writeFrame(const RenderArgs& a, const std::string& path, const image::Image
 
 /// Runs `draw`, showing how long it has been drawing once that passes a second (Progress::elapsed) unless --quiet.
 template <typename Draw>
-image::ImageF withProgress(const RenderArgs& a, const render::Scene& scene, Draw&& draw) {
+auto withProgress(const RenderArgs& a, const render::Scene& scene, Draw&& draw) {
   Progress progress(a.quiet);
-  image::ImageF image;
+  decltype(draw()) result;
   {
     ElapsedTicker ticker(progress,
                          "render: drawing " + std::to_string(scene.width) + "x" + std::to_string(scene.height));
-    image = draw();
+    result = draw();
   }
   progress.finish();
-  return image;
+  return result;
 }
 
-/// The CPU reference: slow on purpose, double precision, the same store and scene.
-/// The exact reference of a tetrahedral mesh (render/reference/TetReference.h): every ray's segments through the tets,
-/// integrated in closed form.
-void runTetReference(const RenderArgs& a, const render::Scene& scene, const render::TetMeshDataset& dataset) {
-  if (!a.analytic.empty()) throw render::RenderInputError("--analytic samples a grid's field; a mesh has none");
-  // A paged mesh gives the reference the chunks the frame needs (those in view that the transfer function does not
-  // make transparent: the rest adds nothing to any ray), as it gives the GPU renderer.
-  const render::TetMeshSource& source = *dataset.source();
-  const std::shared_ptr<const render::TetMeshData> d =
-      source.frameData(scene, render::TetView::of(scene, source.constants()), nullptr);
-  const render::TetReference reference(d ? d->mesh : mesh::TetMesh{});
-  render::TetReferenceStats stats;
-  const image::ImageF image = withProgress(a, scene, [&] {
-    return reference.render(render::TetReferenceParams::fromScene(scene, source.constants()), &stats);
-  });
-  writeFrame(a, a.output, image);
-  if (!a.statsPath.empty())
-    writeText(a.statsPath, nlohmann::json{{"rays", stats.rays},
-                                          {"segments", stats.segments},
-                                          {"tet_tests", stats.tetTests},
-                                          {"ambiguous", stats.ambiguous},
-                                          {"ms", stats.ms}}
-                                   .dump(2) +
-                               "\n");
-  std::printf("render: wrote %s (%dx%d) with the exact tet reference: %lld rays, %lld segments, %.1f ms\n",
-              a.output.c_str(), scene.width, scene.height, (long long)stats.rays, (long long)stats.segments, stats.ms);
-}
-
+/// The CPU reference of the dataset's kind (a grid's: double precision, trilinear or an analytic field; a mesh's:
+/// every ray's segments integrated in closed form): slow on purpose, the same dataset and scene.
 void runReference(const RenderArgs& a, const render::Scene& scene, const render::Dataset& dataset) {
-  if (const auto* tets = dynamic_cast<const render::TetMeshDataset*>(&dataset)) return runTetReference(a, scene, *tets);
-  const auto* grid = dynamic_cast<const render::BrickStoreDataset*>(&dataset);
-  if (!grid)
-    throw render::RenderInputError("--backend reference renders brick stores; '" + a.store + "' is a " +
-                                   render::datasetKindName(dataset.kind()));
-  render::ReferenceOptions options;
-  options.step = a.referenceStep;
-  if (!a.analytic.empty()) options.analytic = render::analyticFieldFor(grid->store()->meta(), a.analytic);
-  render::ReferenceRenderer renderer(grid->cache());
-  render::ReferenceStats stats;
-  const image::ImageF image = withProgress(a, scene, [&] { return renderer.render(scene, options, &stats); });
-  writeFrame(a, a.output, image);
-  if (!a.statsPath.empty())
-    writeText(
-        a.statsPath,
-        nlohmann::json{
-            {"rays", stats.rays}, {"samples", stats.samples}, {"bricks_skipped", stats.bricksSkipped}, {"ms", stats.ms}}
-                .dump(2) +
-            "\n");
-  std::printf("render: wrote %s (%dx%d) with the reference (%s, step %g voxels): %lld rays, %lld samples, %.1f ms\n",
-              a.output.c_str(), scene.width, scene.height, options.analytic ? "analytic field" : "trilinear grid",
-              options.step, (long long)stats.rays, (long long)stats.samples, stats.ms);
+  const render::DatasetDriver& driver = render::driverFor(dataset);
+  const render::ReferenceFrame frame =
+      withProgress(a, scene, [&] { return driver.reference(dataset, scene, {a.referenceStep, a.analytic}); });
+  writeFrame(a, a.output, frame.image);
+  if (!a.statsPath.empty()) writeText(a.statsPath, frame.stats.dump(2) + "\n");
+  std::printf("render: wrote %s (%dx%d) %s\n", a.output.c_str(), scene.width, scene.height, frame.summary.c_str());
 }
 
-/// A --sub-block typed on the command line must cut the dataset's bricks: a power of two below the brick size (the
-/// renderer alone takes one equal to it as whole bricks, since the scene's default of 8 meets bricks of 8).
+/// A --sub-block typed on the command line must suit the dataset (a grid's must cut its bricks; the renderer alone
+/// takes one equal to the brick size as whole bricks, since the scene's default of 8 meets bricks of 8).
 void checkSubBlock(const RenderArgs& a, const CLI::App& cmd, const render::Dataset& dataset) {
-  const auto* grid = dynamic_cast<const render::BrickStoreDataset*>(&dataset);
-  if (!grid || !cmd.count("--sub-block") || a.scene.subBlock == 0) return;
-  const int B = grid->store()->brickSize();
-  if (a.scene.subBlock >= B)
-    throw render::RenderInputError("--sub-block " + std::to_string(a.scene.subBlock) +
-                                   " must be 0 (whole bricks) or a power of two below the brick size " +
-                                   std::to_string(B) + " of '" + a.store + "'");
+  if (!cmd.count("--sub-block")) return;
+  render::driverFor(dataset).checkSubBlock(dataset, a.scene.subBlock);
 }
 
 /// Progressive: the frame that waits for no disk read (stand-ins for what is not resident), written beside the
@@ -162,57 +112,13 @@ void printQualityChoice(const render::FrameStats& stats) {
               q["met"].get<bool>() ? "" : "; NO setting meets the target: the closest");
 }
 
-/// The line (or lines) about the frame written: a paged mesh's paging, then the mesh's or the grid's counts and times.
+/// The lines about the frame written, as the dataset's kind tells them.
 void printFrameSummary(const RenderArgs& a, const render::Scene& scene, const render::Dataset& dataset,
                        const render::FrameStats& stats) {
-  std::string levels;
-  if (stats.bricksCoarse > 0) {
-    levels = " (per level:";
-    for (int64_t n : stats.bricksPerLevel) levels += " " + std::to_string(n);
-    levels += ")";
-  }
-  if (const auto* tets = dynamic_cast<const render::TetMeshDataset*>(&dataset); tets && tets->source()->paged()) {
-    const store::CacheStats c = tets->cacheStats();
-    std::printf(
-        "render: mesh paged within %.1f MiB: %lld of %zu chunks in view, %lld of those left out as "
-        "transparent; %lld chunk reads in all, paging %.1f ms this frame; %.1f MiB held at most\n",
-        double(c.budgetBytes) / 1048576.0, (long long)(int64_t(tets->source()->chunkCount()) - stats.tetChunksCulled),
-        tets->source()->chunkCount(), (long long)stats.tetChunksSkippedEmpty, (long long)c.bricksDecoded,
-        stats.msPaging, double(c.peakResidentBytes) / 1048576.0);
-  }
-  if (dataset.kind() == render::DatasetKind::TetMesh && stats.tetRayPasses > 0) {
-    std::printf(
-        "render: wrote %s (%dx%d): %lld tet segments ray cast (%lld rays, %lld terminated early, %lld "
-        "pass%s), %.1f ms (pre-integration %.1f, drawing %.1f, readback %.1f)\n",
-        a.output.c_str(), scene.width, scene.height, (long long)stats.samples, (long long)stats.fragments,
-        (long long)stats.samplesTerminated, (long long)stats.tetRayPasses, stats.tetRayPasses == 1 ? "" : "es",
-        stats.msTotal, stats.msPreIntegration, stats.msDrawing, stats.msReadback);
-    return;
-  }
-  if (dataset.kind() == render::DatasetKind::TetMesh) {
-    std::printf(
-        "render: wrote %s (%dx%d): %lld tets drawn in %s order, %lld fragments, %.1f ms (sorting %.1f, "
-        "pre-integration %.1f, drawing %.1f, readback %.1f)\n",
-        a.output.c_str(), scene.width, scene.height, (long long)stats.tetsDrawn,
-        render::tetSortName(scene.visibility == render::TetSort::Centroid ? render::TetSort::Centroid
-                                                                          : render::TetSort::Mpvo),
-        (long long)stats.fragments, stats.msTotal, stats.msSorting, stats.msPreIntegration, stats.msDrawing,
-        stats.msReadback);
-    return;
-  }
-  std::printf(
-      "render: wrote %s (%dx%d): %lld bricks drawn%s, %lld skipped empty, %lld culled, %lld paged in, "
-      "%lld evicted, %lld batches, %.1f ms (paging %.1f, slicing %.1f, drawing %.1f, readback %.1f)\n",
-      a.output.c_str(), scene.width, scene.height, (long long)stats.bricksDrawn, levels.c_str(),
-      (long long)stats.bricksSkippedEmpty, (long long)stats.bricksCulled, (long long)stats.bricksPagedIn,
-      (long long)stats.bricksEvicted, (long long)stats.batches, stats.msTotal, stats.msPaging, stats.msSlicing,
-      stats.msDrawing, stats.msReadback);
-  if (stats.bricksFitCoarsened > 0)
-    std::printf(
-        "render: the frame was coarsened to fit: its levels wanted %.1f MiB of bricks, the atlas holds %.1f MiB; "
-        "%lld bricks drawn as their parents, levels %d to %d\n",
-        double(stats.bytesWanted) / 1048576.0, double(stats.bytesBudget) / 1048576.0,
-        (long long)stats.bricksFitCoarsened, stats.levelFinest, stats.levelCoarsest);
+  const std::string written =
+      "wrote " + a.output + " (" + std::to_string(scene.width) + "x" + std::to_string(scene.height) + ")";
+  for (const std::string& line : render::driverFor(dataset).summary(dataset, scene, stats, written))
+    std::printf("render: %s\n", line.c_str());
 }
 
 /// The checks of the arguments against the scene and the opened dataset, the same with and without --mpi:
@@ -243,7 +149,7 @@ void runRenderMpi(const RenderArgs& a, const CLI::App& cmd) {
   auto frameOptions = [&] {
     render::FrameOptions o;
     o.rateSamplesPerMs =
-        distributed::agreedRate(MPI_COMM_WORLD, engine.recentRate(render::DatasetKind::BrickStore), a.mpi.timeout);
+        distributed::agreedRate(MPI_COMM_WORLD, engine.recentRate(*dataset), a.mpi.timeout);
     return o;
   };
   for (int i = 0; i < a.warmUp; ++i) renderer.render(dataset, scene, nullptr, nullptr, frameOptions());

@@ -10,7 +10,7 @@
 #include "image/Image.h"
 #include "image/ImageFile.h"
 #include "render/core/RenderErrors.h"
-#include "render/datasets/Datasets.h"
+#include "render/engine/Datasets.h"
 
 namespace voxbrick::cli {
 namespace {

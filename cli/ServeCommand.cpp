@@ -73,7 +73,8 @@ std::string viewerUrl(const server::ServerConfig& c, int port) {
   return "http://" + host + ":" + std::to_string(port) + "/" + (c.httpToken.empty() ? "" : "?token=" + c.httpToken);
 }
 
-void serveWith(const ServeArgs& a, const server::ServerConfig& c);
+void serveWith(const ServeArgs& a, const server::ServerConfig& c,
+               std::vector<std::unique_ptr<render::FrameSource>> sources);
 void serveMpi(const ServeArgs& a, server::ServerConfig c);
 
 void runServe(const ServeArgs& a) {
@@ -115,11 +116,12 @@ void runServe(const ServeArgs& a) {
     throw std::runtime_error("--http-port-file needs --http PORT (or http.port in the configuration)");
   spdlog::info("configuration: {}", file.empty() ? std::string("the built-in defaults") : file);
   if (a.mpi.mpi) return serveMpi(a, c);
-  serveWith(a, c);
+  serveWith(a, c, server::makeLocalSources(c));
 }
 
-void serveWith(const ServeArgs& a, const server::ServerConfig& c) {
-  server::Server server(c);
+void serveWith(const ServeArgs& a, const server::ServerConfig& c,
+               std::vector<std::unique_ptr<render::FrameSource>> sources) {
+  server::Server server(c, std::move(sources));
   spdlog::info("serving datasets from {} on {}:{}", c.datasets.string(), c.host, server.port());
   std::printf("listening on %s:%d\n", c.host.c_str(), server.port());
   std::fflush(stdout);
@@ -151,11 +153,12 @@ void serveMpi(const ServeArgs& a, server::ServerConfig c) {
   }
   c.renderThreads = 1;  // one frame across the ranks at a time
   auto leader = std::make_shared<distributed::FrameLeader>(MPI_COMM_WORLD, options);
-  c.gridFrames = leader->hook();
-  c.datasetCheck = [leader](const std::string& name) { leader->checkDataset(name); };
   spdlog::info("distributed mode: {} ranks, rank 0 serves", mpi.size());
   try {
-    serveWith(a, c);
+    std::vector<std::unique_ptr<render::FrameSource>> sources;
+    sources.push_back(std::make_unique<distributed::SortLastSource>(leader, MPI_COMM_WORLD, options));
+    sources.back()->releaseCurrent();
+    serveWith(a, c, std::move(sources));
   } catch (...) {
     leader->quit();
     throw;

@@ -14,7 +14,7 @@
 
 #include "common/Checksum.h"
 #include "render/core/RenderErrors.h"
-#include "render/datasets/Datasets.h"
+#include "render/engine/Datasets.h"
 
 namespace voxbrick::distributed {
 

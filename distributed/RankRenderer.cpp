@@ -7,7 +7,6 @@
 #include "distributed/Cluster.h"
 #include "render/core/PartialFrame.h"
 #include "render/core/RenderErrors.h"
-#include "render/volume/BrickStoreDataset.h"
 
 namespace voxbrick::distributed {
 
@@ -17,30 +16,28 @@ RankRenderer::RankRenderer(MPI_Comm comm, render::RenderEngine& engine, RankRend
   MPI_Comm_size(comm, &mSize);
 }
 
-const render::Partition& RankRenderer::partition(const std::shared_ptr<const render::Dataset>& dataset) {
+const render::SortLastParts& RankRenderer::partition(const std::shared_ptr<const render::Dataset>& dataset) {
   for (auto it = mPartitions.begin(); it != mPartitions.end();) {
     it = it->second.first.expired() ? mPartitions.erase(it) : std::next(it);
   }
   auto found = mPartitions.find(dataset.get());
-  if (found != mPartitions.end()) return found->second.second;
-  const auto& grid = static_cast<const render::BrickStoreDataset&>(*dataset);
+  if (found != mPartitions.end()) return *found->second.second;
   auto& entry = mPartitions[dataset.get()];
-  entry = {dataset, render::partitionBricks(*grid.store(), mSize)};
-  return entry.second;
+  entry = {dataset, render::driverFor(*dataset).partition(*dataset, mSize)};
+  return *entry.second;
 }
 
 image::ImageF RankRenderer::render(const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene,
                                    render::FrameStats* stats, nlohmann::json* distributedJson,
                                    const render::FrameOptions& options) {
-  const auto* grid = dynamic_cast<const render::BrickStoreDataset*>(dataset.get());
-  if (!grid) {
+  if (!dataset) throw render::RenderInputError("no dataset");
+  if (!render::driverFor(*dataset).sortsLast())
     throw render::RenderInputError("the distributed mode draws grids (brick stores) only; '" + dataset->name() +
-                                   "' is a " + render::datasetKindName(dataset->kind()));
-  }
-  const render::Partition& parts = partition(dataset);
-  const std::vector<int> order = render::partsFrontToBack(parts, *grid, scene);
+                                   "' is a " + std::string(dataset->kind()));
+  const render::SortLastParts& parts = partition(dataset);
+  const std::vector<int> order = parts.frontToBack(scene);
   render::FrameOptions partOptions = options;
-  partOptions.part = parts.boxes[size_t(mRank)];
+  partOptions.part = parts.boxes()[size_t(mRank)];
   render::FrameStats own;
   auto drawStart = std::chrono::steady_clock::now();
   // A rank whose drawing fails still takes its part in compositing (with nothing drawn), so that every rank stays in

@@ -1,4 +1,4 @@
-// Rank 0's frame hook and the workers' loop of `serve --mpi` (ServeRanks.h).
+// Rank 0's frame leader and frame source, and the workers' loop of `serve --mpi` (ServeRanks.h).
 #include "distributed/ServeRanks.h"
 
 #include <chrono>
@@ -9,7 +9,8 @@
 
 #include "distributed/Cluster.h"
 #include "render/core/RenderErrors.h"
-#include "render/datasets/Datasets.h"
+#include "render/engine/DatasetDriver.h"
+#include "render/engine/Datasets.h"
 
 namespace voxbrick::distributed {
 namespace {
@@ -54,26 +55,15 @@ render::FrameOptions frameOptionsOf(const nlohmann::json& command) {
 
 FrameLeader::FrameLeader(MPI_Comm comm, ServeRankOptions options) : mComm(comm), mOptions(std::move(options)) {}
 
-render::GridFrames FrameLeader::hook() {
-  return [this](render::RenderEngine& engine, const std::shared_ptr<const render::Dataset>& dataset,
-                const render::Scene& scene, render::FrameStats* stats,
-                const render::FrameOptions& options) { return frame(engine, dataset, scene, stats, options); };
-}
-
-image::ImageF FrameLeader::frame(render::RenderEngine& engine, const std::shared_ptr<const render::Dataset>& dataset,
-                                 const render::Scene& scene, render::FrameStats* stats,
-                                 const render::FrameOptions& options) {
+image::ImageF FrameLeader::frame(RankRenderer& renderer, double recentRate,
+                                 const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene,
+                                 render::FrameStats* stats, const render::FrameOptions& options) {
   std::lock_guard lock(mMutex);
   if (mLost) throw render::RenderError("the distributed mode stopped earlier: " + *mLost + "; restart the server");
-  if (mEngine != &engine) {
-    mRenderer = std::make_unique<RankRenderer>(mComm, engine, mOptions.frames);
-    mEngine = &engine;
-  }
   const double timeout = mOptions.frames.composite.timeoutSeconds;
   // Every rank draws the same interactive rung: chosen by rank 0's rate (none known yet: the cheapest), sent in the
   // frame's command with its deadline.
-  const double rate = rateOrCheapest(options.rateSamplesPerMs > 0 ? options.rateSamplesPerMs
-                                                                  : engine.recentRate(render::DatasetKind::BrickStore));
+  const double rate = rateOrCheapest(options.rateSamplesPerMs > 0 ? options.rateSamplesPerMs : recentRate);
   nlohmann::json command = {{"op", "frame"},
                             {"name", dataset->name()},
                             {"scene", scene.toJson()},
@@ -85,13 +75,38 @@ image::ImageF FrameLeader::frame(render::RenderEngine& engine, const std::shared
     broadcastText(mComm, command.dump(), timeout);
     agreeOnDataset(mComm, dataset->name(), ownRecord(dataset->name()), timeout);
     nlohmann::json distributed;
-    image::ImageF image = mRenderer->render(dataset, scene, stats, &distributed, frameOptionsOf(command));
+    image::ImageF image = renderer.render(dataset, scene, stats, &distributed, frameOptionsOf(command));
     spdlog::debug("distributed frame: {}", distributed.dump());
     return image;
   } catch (const PeerError& error) {
     mLost = error.what();
     spdlog::error("distributed mode: {}", error.what());
     throw render::RenderError(std::string("distributed frame failed: ") + error.what());
+  }
+}
+
+SortLastSource::SortLastSource(std::shared_ptr<FrameLeader> leader, MPI_Comm comm, const ServeRankOptions& options)
+    : mLeader(std::move(leader)), mEngine(options.engine), mRenderer(comm, mEngine, options.frames) {
+  MPI_Comm_size(comm, &mRanks);
+}
+
+std::string SortLastSource::describe() const {
+  return mEngine.describe() + ", sort-last across " + std::to_string(mRanks) + " MPI ranks";
+}
+
+image::ImageF SortLastSource::render(const std::shared_ptr<const render::Dataset>& dataset,
+                                     const render::Scene& scene, render::FrameStats* stats,
+                                     const render::FrameOptions& options) {
+  if (!dataset || options.part || !render::driverFor(*dataset).sortsLast())
+    return mEngine.render(dataset, scene, stats, options);
+  return mLeader->frame(mRenderer, mEngine.recentRate(*dataset), dataset, scene, stats, options);
+}
+
+void SortLastSource::prefetch(const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene) {
+  try {
+    if (dataset && !render::driverFor(*dataset).sortsLast()) mEngine.prefetch(dataset, scene);
+  } catch (...) {
+    // Advisory.
   }
 }
 

@@ -1,6 +1,6 @@
 // Dataset discovery and lazy opening.
 #include "server/Datasets.h"
-#include "render/datasets/Datasets.h"
+#include "render/engine/Datasets.h"
 
 #include <algorithm>
 

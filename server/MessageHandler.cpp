@@ -10,7 +10,7 @@
 
 #include "render/core/RenderErrors.h"
 #include "render/core/Scene.h"
-#include "render/datasets/Datasets.h"
+#include "render/engine/Datasets.h"
 #include "server/ErrorReply.h"
 
 namespace voxbrick::server {

@@ -15,7 +15,7 @@
 #include "proto/Messages.h"
 #include "render/core/Dataset.h"
 #include "render/core/TransferFunctionPresets.h"
-#include "render/datasets/Datasets.h"
+#include "render/engine/Datasets.h"
 #include "server/Datasets.h"
 #include "server/RenderJob.h"
 #include "server/ServerConfig.h"

@@ -8,8 +8,6 @@
 #include "brickstore/Errors.h"
 #include "image/FrameImage.h"
 #include "render/core/RenderErrors.h"
-#include "render/volume/BrickStoreDataset.h"
-#include "render/volume/FramePlan.h"
 #include "server/ErrorReply.h"
 
 namespace voxbrick::server {
@@ -31,7 +29,7 @@ uint64_t frameBodyBytes(size_t statsBytes, size_t payloadBytes) {
   return 4 + 4 + 1 + 4 + uint64_t(statsBytes) + 4 + uint64_t(payloadBytes);
 }
 
-RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int thread,
+RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int thread,
                         const std::function<bool()>& cancelled) {
   const auto start = Clock::now();
   try {
@@ -44,7 +42,7 @@ RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int 
     options.fixedMs = job.fixedMs;
     render::Scene scene = job.scene;
     if (job.refinement) scene.interactive = false;  // the exact frame of an interactive request
-    const image::ImageF image = engine.render(job.dataset, scene, &stats, options);
+    const image::ImageF image = source.render(job.dataset, scene, &stats, options);
     const auto encodeStart = Clock::now();
     // A frame with stand-ins, or an interactive frame: the exact one follows.
     const bool provisional = stats.bricksStandIn > 0 || scene.interactive;
@@ -109,24 +107,16 @@ std::optional<render::CameraSpec> extrapolate(const render::CameraSpec& a, const
 
 }  // namespace
 
-void prefetchAhead(const render::RenderEngine& engine, const RenderJob& job) {
-  if (!job.previousCamera || !job.dataset || job.dataset->kind() != render::DatasetKind::BrickStore) return;
+void prefetchAhead(render::FrameSource& source, const RenderJob& job) {
+  if (!job.previousCamera || !job.dataset) return;
   const auto next = extrapolate(*job.previousCamera, job.scene.camera);
   if (!next) return;
+  render::Scene scene = job.scene;
+  scene.camera = *next;
   try {
-    const auto& dataset = static_cast<const render::BrickStoreDataset&>(*job.dataset);
-    render::Scene scene = job.scene;
-    scene.camera = *next;
-    const render::FramePlan plan =
-        render::planFrame(scene, *dataset.store(), render::kTransferTableTexels, engine.brickBudget(job.dataset));
-    std::vector<store::BrickKey> keys;
-    for (const render::BrickDraw& d : plan.visible.bricks) {
-      if (keys.size() >= dataset.cache()->prefetchQueueLimit()) break;
-      keys.push_back(d.key);
-    }
-    dataset.cache()->prefetch(keys);
+    source.prefetch(job.dataset, scene);
   } catch (...) {
-    // An extrapolated camera can be invalid (inside out, degenerate): then there is nothing to page ahead for.
+    // Advisory: an extrapolated camera can be invalid (inside out, degenerate), and then nothing is paged ahead.
   }
 }
 

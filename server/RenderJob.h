@@ -11,7 +11,7 @@
 #include "proto/Messages.h"
 #include "render/core/Dataset.h"
 #include "render/core/Scene.h"
-#include "render/engine/RenderEngine.h"
+#include "render/engine/FrameSource.h"
 
 namespace voxbrick::server {
 
@@ -71,21 +71,20 @@ struct RenderReply {
   double samples = 0, ms = 0;
 };
 
-/// Renders `job` on `engine` (its context current on this thread) and encodes it: a Frame whose statistics add
+/// Renders `job` with `source` (current on this thread) and encodes it: a Frame whose statistics add
 /// queue_ms, encode_ms, render_thread (`thread`) and provisional to the renderer's, or the Error that errorReply
 /// makes of what the renderer threw. A progressive scene's first frame is drawn with stand-ins (provisional when
 /// any brick stood in); an interactive scene's frame is drawn within its time budget at job.rateSamplesPerMs and is
 /// provisional; a refinement is drawn exactly. A frame above job.maxSamples is answered LimitExceeded
 /// before anything is drawn; `cancelled` (may be empty) is asked between batches and slabs, and gives the frame up.
 /// Throws nothing but std::bad_alloc.
-RenderReply renderReply(render::RenderEngine& engine, const RenderJob& job, int thread,
+RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int thread,
                         const std::function<bool()>& cancelled = {});
 
-/// Pages ahead of a drag: when `job` moved the camera from its previous one, queues on the dataset's host cache the
-/// bricks the next camera along the same motion would draw (the camera extrapolated one step), fitted to the budget
-/// the frame will be fitted to on `engine` (RenderEngine::brickBudget, the working set of render/volume/WorkingSet),
-/// so that it pages nothing the frame will not draw. Advisory: does nothing for other dataset kinds or a camera that
-/// did not move, and never throws.
-void prefetchAhead(const render::RenderEngine& engine, const RenderJob& job);
+/// Pages ahead of a drag: when `job` moved the camera from its previous one, asks `source` to page ahead for the next
+/// camera along the same motion (the camera extrapolated one step; FrameSource::prefetch, which for a grid queues on
+/// its host cache the bricks that frame would draw, fitted to the budget it will be fitted to). Advisory: does
+/// nothing for a camera that did not move, and never throws.
+void prefetchAhead(render::FrameSource& source, const RenderJob& job);
 
 }  // namespace voxbrick::server

@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <functional>
+#include <string_view>
 
 #include <spdlog/spdlog.h>
 
@@ -13,27 +15,41 @@
 
 namespace voxbrick::server {
 
-RenderScheduler::RenderScheduler(std::vector<std::unique_ptr<render::RenderEngine>> engines, bool coalesce)
-    : mCoalesce(coalesce), mEngines(std::move(engines)) {
-  if (mEngines.empty()) throw std::invalid_argument("RenderScheduler: no render engine");
-  mGaugeCount = mEngines.size();
+RenderScheduler::RenderScheduler(std::vector<std::unique_ptr<render::FrameSource>> sources, bool coalesce)
+    : mCoalesce(coalesce), mSources(std::move(sources)) {
+  if (mSources.empty() || !mSources.front()) throw std::invalid_argument("RenderScheduler: no frame source");
+  mGaugeCount = mSources.size();
   mGauges = std::make_unique<EngineGauge[]>(mGaugeCount);
-  spdlog::info("render threads: {} x {}", mEngines.size(), mEngines.front()->describe());
+  spdlog::info("render threads: {} x {}", mSources.size(), mSources.front()->describe());
 }
 
 void RenderScheduler::start() {
   try {
     std::lock_guard joinLock(mJoinMutex);
-    for (size_t i = 0; i < mEngines.size(); ++i)
-      mThreads.emplace_back(&RenderScheduler::renderLoop, this, std::move(mEngines[i]), int(i));
-    mEngines.clear();
+    for (size_t i = 0; i < mSources.size(); ++i)
+      mThreads.emplace_back(&RenderScheduler::renderLoop, this, std::ref(*mSources[i]), int(i));
   } catch (...) {
     stop();  // the threads already started must not outlive a failed start
     throw;
   }
 }
 
-RenderScheduler::~RenderScheduler() { stop(); }
+RenderScheduler::~RenderScheduler() {
+  stop();
+  // A source holds GL objects: each is made current here, on the one thread left, while it is destroyed.
+  for (auto& source : mSources) {
+    try {
+      source->makeCurrent();
+    } catch (...) {
+      // A context that cannot be made current is destroyed as it is.
+    }
+    source.reset();
+  }
+}
+
+void RenderScheduler::checkDataset(const std::string& name) {
+  for (const auto& source : mSources) source->checkDataset(name);
+}
 
 Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob job) {
   Submission out;
@@ -178,13 +194,12 @@ bool RenderScheduler::next(std::shared_ptr<Sink>& sink, RenderJob& job) {
     else
       mReady.wait_until(lock, earliest);
   }
-  const render::DatasetKind kind = mWaiting.at(sink.get()).front().dataset
-                                       ? mWaiting.at(sink.get()).front().dataset->kind()
-                                       : render::DatasetKind::BrickStore;
+  const std::string kind(mWaiting.at(sink.get()).front().dataset ? mWaiting.at(sink.get()).front().dataset->kind()
+                                                                  : std::string_view{});
   auto waiting = mWaiting.find(sink.get());
   job = std::move(waiting->second.front());
   waiting->second.pop_front();
-  const render::RateGauge& rate = paceLocked(sink).rates[kind == render::DatasetKind::TetMesh ? 1 : 0];
+  const render::RateGauge& rate = paceLocked(sink).rates[kind];
   job.rateSamplesPerMs = rate.rate();
   job.fixedMs = rate.fixedMs();
   // Sessions take turns: one with more waiting goes to the back.
@@ -195,12 +210,12 @@ bool RenderScheduler::next(std::shared_ptr<Sink>& sink, RenderJob& job) {
   return true;
 }
 
-void RenderScheduler::renderLoop(std::unique_ptr<render::RenderEngine> engine, int index) {
+void RenderScheduler::renderLoop(render::FrameSource& source, int index) {
   // A context that cannot be made current here leaves the thread answering its jobs with the error, rather than
   // ending the process from a thread or leaving requests unanswered.
   std::exception_ptr broken;
   try {
-    engine->makeCurrent();
+    source.makeCurrent();
   } catch (...) {
     broken = std::current_exception();
   }
@@ -214,13 +229,13 @@ void RenderScheduler::renderLoop(std::unique_ptr<render::RenderEngine> engine, i
       // provisional frame) is overtaken by a newer Render of the session.
       const auto cancelled = [&] { return !sink->wantsReplies() || (job.refinement && waiting(*sink)); };
       RenderReply reply =
-          broken ? RenderReply{errorReply(broken, brokenContext), false} : renderReply(*engine, job, index, cancelled);
+          broken ? RenderReply{errorReply(broken, brokenContext), false} : renderReply(source, job, index, cancelled);
       // The session gets its frame first; then the exact frame of a provisional one is queued, and the bricks of
       // the camera a drag would reach next are paged ahead.
       EngineGauge& gauge = mGauges[size_t(index)];
-      gauge.bytes = engine->gpuBytes();
-      gauge.peakBytes = engine->peakGpuBytes();
-      gauge.released = engine->renderersReleased();
+      gauge.bytes = source.gpuBytes();
+      gauge.peakBytes = source.peakGpuBytes();
+      gauge.released = source.renderersReleased();
       if (reply.cancelled) {
         mCancelled.fetch_add(1);
         sink.reset();
@@ -229,17 +244,23 @@ void RenderScheduler::renderLoop(std::unique_ptr<render::RenderEngine> engine, i
       }
       if (reply.samples > 0 && job.dataset) {
         std::lock_guard lock(mMutex);
-        paceLocked(sink).rates[job.dataset->kind() == render::DatasetKind::TetMesh ? 1 : 0].add(reply.samples,
-                                                                                                reply.ms);
+        paceLocked(sink).rates[std::string(job.dataset->kind())].add(reply.samples, reply.ms);
       }
       sink->rendered(job, std::move(reply.message));
       if (reply.provisional) refine(sink, job);
-      if (!job.refinement) prefetchAhead(*engine, job);
+      if (!job.refinement) prefetchAhead(source, job);
     }
     sink.reset();
     job = {};
   }
-  // The engine's renderers hold GL objects: they are destroyed here, on the thread whose context is current.
+  // The source stays with the scheduler (its destructor destroys it): released here, so that it may be taken there.
+  if (!broken) {
+    try {
+      source.releaseCurrent();
+    } catch (...) {
+      // Nothing more to draw with it.
+    }
+  }
 }
 
 }  // namespace voxbrick::server

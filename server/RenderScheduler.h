@@ -1,5 +1,6 @@
 // The render queue and the render threads. Sessions with a job waiting are served in turn; when coalescing, each
-// holds at most one waiting job and a newer one replaces it (latest wins). Each thread owns a RenderEngine.
+// holds at most one waiting job and a newer one replaces it (latest wins). Each thread draws with a FrameSource of
+// its own: the local engine, the distributed mode's, or the null source of the tests (render/engine/FrameSource.h).
 #pragma once
 
 #include <atomic>
@@ -8,11 +9,12 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <string>
 #include <thread>
 #include <vector>
 
 #include "render/core/Interactive.h"
-#include "render/engine/RenderEngine.h"
+#include "render/engine/FrameSource.h"
 #include "server/RenderJob.h"
 
 namespace voxbrick::server {
@@ -29,18 +31,20 @@ class RenderScheduler {
     virtual void rendered(RenderJob job, proto::Message reply) = 0;
   };
 
-  /// Takes the engines (made, and released from the calling thread, by the caller: a machine without GL fails
-  /// there, before any thread exists). `coalesce` false keeps up to ServerConfig::kMaxQueuedWithoutCoalescing jobs
-  /// per session instead of one.
-  RenderScheduler(std::vector<std::unique_ptr<render::RenderEngine>> engines, bool coalesce);
-  /// stop().
+  /// Takes the frame sources, one per render thread (made, and released from the calling thread, by the caller: a
+  /// machine without GL fails there, before any thread exists). `coalesce` false keeps up to
+  /// ServerConfig::kMaxQueuedWithoutCoalescing jobs per session instead of one.
+  RenderScheduler(std::vector<std::unique_ptr<render::FrameSource>> sources, bool coalesce);
+  /// stop(), then the sources are destroyed (each made current on this thread first, as RenderEngine does).
   ~RenderScheduler();
   RenderScheduler(const RenderScheduler&) = delete;
   RenderScheduler& operator=(const RenderScheduler&) = delete;
 
-  /// Starts one render thread per engine; each engine moves to its thread, which makes it current there and
-  /// destroys it there. Once.
+  /// Starts one render thread per source, which makes it current there and releases it when the thread ends. Once.
   void start();
+  /// FrameSource::checkDataset of every source: whether the dataset `name` may be served (the distributed mode:
+  /// every rank opens it and they agree). Throws what a source throws. Thread-safe.
+  void checkDataset(const std::string& name);
   /// Queues `job` for `sink`'s session; thread-safe. Only Submission::Result::Queued means a reply will come.
   Submission submit(const std::shared_ptr<Sink>& sink, RenderJob job);
   /// Queues the exact frame of `job`, a request just answered with a provisional frame, unless the session has a
@@ -54,7 +58,7 @@ class RenderScheduler {
   /// camera stops), and kMaxRestMs before the session has sent two Renders.
   double restMs(const Sink& sink) const;
   static constexpr double kMaxRestMs = 150;
-  /// The atlases of all render threads' engines, as each thread last saw them after a job.
+  /// The atlases of all render threads' sources, as each thread last saw them after a job.
   struct GpuGauges {
     size_t bytes = 0, peakBytes = 0;  ///< peakBytes: the sum of each thread's peak
     uint64_t renderersReleased = 0;
@@ -69,7 +73,7 @@ class RenderScheduler {
   void stop();
 
  private:
-  void renderLoop(std::unique_ptr<render::RenderEngine> engine, int index);
+  void renderLoop(render::FrameSource& source, int index);
   /// Appends `job` to the session's waiting jobs, giving the session a turn if it had none. mMutex held.
   void enqueueLocked(const std::shared_ptr<Sink>& sink, RenderJob job);
   /// Blocks for the next job; false once stopping.
@@ -83,7 +87,7 @@ class RenderScheduler {
   /// What the scheduler knows of a session beyond its waiting jobs: its rates and the pace of its Renders.
   struct SessionPace {
     std::weak_ptr<Sink> owner;
-    render::RateGauge rates[2];  // by DatasetKind
+    std::map<std::string, render::RateGauge, std::less<>> rates;  // by the dataset's kind
     std::chrono::steady_clock::time_point lastReceived{};
     double intervalMs = 0;  // between its last two Renders; 0 before the second
   };
@@ -99,12 +103,13 @@ class RenderScheduler {
   /// Their waiting jobs, oldest first; a session has an entry exactly while it is in mTurns.
   std::map<const Sink*, std::deque<RenderJob>> mWaiting;
   std::map<const Sink*, SessionPace> mPaces;
-  std::vector<std::unique_ptr<render::RenderEngine>> mEngines;  ///< until start() hands them to their threads
+  /// One per render thread, for the scheduler's whole life (a thread releases its own when it ends).
+  std::vector<std::unique_ptr<render::FrameSource>> mSources;
   struct EngineGauge {
     std::atomic<size_t> bytes{0}, peakBytes{0};
     std::atomic<uint64_t> released{0};
   };
-  std::unique_ptr<EngineGauge[]> mGauges;  ///< one per engine, written by its thread
+  std::unique_ptr<EngineGauge[]> mGauges;  ///< one per source, written by its thread
   size_t mGaugeCount = 0;
   std::atomic<uint64_t> mCancelled{0};
   std::mutex mJoinMutex;

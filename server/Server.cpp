@@ -98,25 +98,10 @@ json limitsJson(const ServerConfig& config) {
           {"max_total_output_bytes", config.maxTotalOutputBytes}};
 }
 
-/// One engine per render thread, made here on the calling thread and released, so that a machine without GL fails
-/// at startup with an error, not with threads left running.
-std::vector<std::unique_ptr<render::RenderEngine>> makeEngines(const ServerConfig& config) {
-  std::vector<std::unique_ptr<render::RenderEngine>> engines;
-  // The GPU budget is the server's: each thread's atlases, whichever datasets they hold, stay within its share.
-  const size_t share = (size_t(config.gpuBudgetMB) << 20) / size_t(config.renderThreads);
-  for (int i = 0; i < config.renderThreads; ++i) {
-    render::RenderEngineOptions options{config.backend, share};
-    options.gridFrames = config.gridFrames;
-    engines.push_back(std::make_unique<render::RenderEngine>(options));
-    engines.back()->releaseCurrent();
-  }
-  return engines;
-}
-
 }  // namespace
 
 struct Server::Impl {
-  explicit Impl(const ServerConfig& c);
+  Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::FrameSource>> sources);
   /// Render threads post to sessions' strands: they stop before the io_context goes.
   ~Impl() { scheduler.stop(); }
 
@@ -169,14 +154,17 @@ struct Server::Impl {
   bool stopAsked = false;
 };
 
-Server::Impl::Impl(const ServerConfig& c)
+Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::FrameSource>> sources)
     : config(checked(c)),
       endpoint(listenEndpoint(config.host, config.port)),
       webGate(config.httpOrigins, config.httpToken),
       presets(render::TransferFunctionPresets::load(render::TransferFunction::configDirectory() / "tf")),
-      datasets(config.datasets, size_t(config.hostCacheMB) << 20, config.datasetCheck),
+      // Opened datasets are checked by the frame sources (the distributed mode: on every rank); the scheduler is
+      // made before any dataset is opened.
+      datasets(config.datasets, size_t(config.hostCacheMB) << 20,
+               [this](const std::string& name) { scheduler.checkDataset(name); }),
       output(config.maxTotalOutputBytes),
-      scheduler(makeEngines(config), config.coalesce),
+      scheduler(std::move(sources), config.coalesce),
       handler(config, datasets, presets, stats, [this] { return statsJson(); }),
       control(asio::make_strand(io)),
       acceptor(control),
@@ -346,7 +334,21 @@ json Server::Impl::statsJson() const {
   return stats.toJson(gauges);
 }
 
-Server::Server(const ServerConfig& config) : mImpl(std::make_unique<Impl>(config)) {}
+std::vector<std::unique_ptr<render::FrameSource>> makeLocalSources(const ServerConfig& config) {
+  std::vector<std::unique_ptr<render::FrameSource>> sources;
+  // The GPU budget is the server's: each thread's atlases, whichever datasets they hold, stay within its share.
+  const size_t share = (size_t(config.gpuBudgetMB) << 20) / size_t(config.renderThreads);
+  for (int i = 0; i < config.renderThreads; ++i) {
+    sources.push_back(std::make_unique<render::RenderEngine>(render::RenderEngineOptions{config.backend, share}));
+    sources.back()->releaseCurrent();
+  }
+  return sources;
+}
+
+Server::Server(const ServerConfig& config) : Server(config, makeLocalSources(checked(config))) {}
+
+Server::Server(const ServerConfig& config, std::vector<std::unique_ptr<render::FrameSource>> sources)
+    : mImpl(std::make_unique<Impl>(config, std::move(sources))) {}
 
 Server::~Server() = default;
 

@@ -6,17 +6,27 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
+#include "render/engine/FrameSource.h"
 #include "server/ServerConfig.h"
 
 namespace voxbrick::server {
 
+/// One local engine per render thread (config.renderThreads), each with an equal share of the GPU budget, made on
+/// the calling thread and released there, so that a machine without GL fails at startup with an error, not with
+/// threads left running.
+std::vector<std::unique_ptr<render::FrameSource>> makeLocalSources(const ServerConfig& config);
+
 class Server {
  public:
-  /// Reads the transfer-function presets, makes the render threads' engines (GL contexts) and binds the listening
-  /// socket, all before any thread starts; throws std::runtime_error naming the problem (no GL, address in use,
-  /// unreadable datasets directory).
+  /// Reads the transfer-function presets, makes the render threads' engines (GL contexts; makeLocalSources) and
+  /// binds the listening socket, all before any thread starts; throws std::runtime_error naming the problem (no GL,
+  /// address in use, unreadable datasets directory).
   explicit Server(const ServerConfig& config);
+  /// The same with the given frame sources, one per render thread (config.renderThreads is not used): the
+  /// distributed mode's, or the null source of tests without GL. Each is released from the calling thread.
+  Server(const ServerConfig& config, std::vector<std::unique_ptr<render::FrameSource>> sources);
   ~Server();
   Server(const Server&) = delete;
   Server& operator=(const Server&) = delete;

@@ -10,7 +10,6 @@
 #include <vector>
 
 #include "render/core/Backend.h"
-#include "render/engine/RenderEngine.h"
 
 namespace voxbrick::server {
 
@@ -56,14 +55,6 @@ struct ServerConfig {
   // [memory]
   int64_t hostCacheMB = 1024;  ///< decoded bricks of all open datasets together
   int64_t gpuBudgetMB = 1024;  ///< atlases of all render threads and datasets (equal shares per thread)
-  /// Not in the file: given to every render thread's engine (RenderEngineOptions::gridFrames); `serve --mpi` sets it
-  /// to draw grid frames across the MPI ranks (distributed/). Empty: each engine draws its frames.
-  render::GridFrames gridFrames = {};
-  /// Not in the file: called with a dataset's name whenever the server opens it (first use, or its files replaced),
-  /// before it is offered; what it throws refuses the open (DatasetUnavailable with its message). `serve --mpi` sets
-  /// it to check that every rank has the same dataset. Empty: no check.
-  std::function<void(const std::string&)> datasetCheck = {};
-
   /// Without coalescing (a benchmark setting), how many renders one session may have waiting.
   static constexpr size_t kMaxQueuedWithoutCoalescing = 64;
   /// How many renders of one session may wait for a render thread (Capabilities.max_queued_per_session).

@@ -1,4 +1,4 @@
-// The dataset base: kind names, the quality table, resolving a quality target.
+// The dataset base: the quality table, resolving a quality target.
 #include "render/core/Dataset.h"
 
 #include <stdexcept>
@@ -8,14 +8,6 @@
 #include "render/core/RenderErrors.h"
 
 namespace voxbrick::render {
-
-const char* datasetKindName(DatasetKind kind) {
-  switch (kind) {
-    case DatasetKind::BrickStore: return "brick-store";
-    case DatasetKind::TetMesh: return "tet-mesh";
-  }
-  return "unknown";
-}
 
 std::optional<QualityTable> Dataset::qualityTable() const {
   const std::filesystem::path file = QualityTable::pathFor(mPath);

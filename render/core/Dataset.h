@@ -1,6 +1,7 @@
 // What the server opens and a renderer draws: a dataset. The base of every kind (render/volume/BrickStoreDataset.h: a
 // brick store with its host cache; render/tets/TetMeshDataset.h: a tetrahedral mesh), its quality table and its
-// quarantine. Opening one by path is render/datasets/Datasets.h. GL-free.
+// quarantine. Whatever depends on a dataset's kind (opening one by path, its renderer, its reference, ...) is its
+// kind's driver (render/engine/DatasetDriver.h). GL-free.
 #pragma once
 
 #include <filesystem>
@@ -8,6 +9,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "brickstore/BrickCache.h"
@@ -17,12 +19,6 @@
 
 namespace voxbrick::render {
 
-/// The kinds of dataset; RenderEngine picks the renderer by kind.
-enum class DatasetKind { BrickStore, TetMesh };
-
-/// "brick-store", "tet-mesh".
-const char* datasetKindName(DatasetKind kind);
-
 /// An opened dataset, shared (read-only) by every session and render thread.
 class Dataset {
  public:
@@ -30,7 +26,9 @@ class Dataset {
   Dataset(const Dataset&) = delete;
   Dataset& operator=(const Dataset&) = delete;
 
-  virtual DatasetKind kind() const = 0;
+  /// Its kind's name ("brick-store", "tet-mesh", ...): what RenderEngine finds the kind's driver by
+  /// (render/engine/DatasetDriver.h), and what a client is told. Nothing else decides by it.
+  virtual std::string_view kind() const = 0;
   /// Its name (in the server: the directory name under the datasets directory).
   const std::string& name() const { return mName; }
   const std::filesystem::path& path() const { return mPath; }

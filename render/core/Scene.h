@@ -39,7 +39,7 @@ Slicer parseSlicer(const std::string& name, const std::string& what);
 /// The valid names, "vertex", "cpu", ... quoted and separated by commas, for messages and help texts.
 std::string slicerNames();
 
-/// How a tetrahedral mesh's cells are put in visibility order (seed 002). Mpvo: the meshed-polyhedra visibility
+/// How a tetrahedral mesh's cells are put in visibility order. Mpvo: the meshed-polyhedra visibility
 /// order, a breadth-first walk of the face-adjacency graph from the cells nothing hides (exact for a convex mesh
 /// without cycles). Centroid: cells by the distance of their centroids from the eye (cheaper, approximate where
 /// cells of different sizes meet). Ray: no sort; each pixel's ray walks the face-adjacency graph from the boundary
@@ -104,9 +104,9 @@ struct Scene {
   TransferFunction transferFunction{{{0.0, {0, 0, 0, 0}}, {0.05, {0.05, 0.05, 0.05, 0}}, {1.0, {1, 1, 1, 0.5}}}};
   std::string transferFunctionName = "grayscale";  ///< preset name or path, or "inline"
   /// Slice spacing in voxels of level 0 (of the smallest spacing). The default drawing, step 0.75 through the frame
-  /// ray caster with termination at 0.999 and cells of sub-blocks of 8, is the fastest setting of
-  /// bench/results/raycast-sweep/sweep.md that keeps every dataset at 40 dB or more against the reference
-  /// (unshaded; shading needs finer).
+  /// ray caster with termination at 0.999 and cells of sub-blocks of 8, is the fastest setting of the time-against-
+  /// error sweep (`voxbrick bench`) that keeps every dataset at 40 dB or more against the reference (unshaded;
+  /// shading needs finer).
   double step = 0.75;
   glm::dvec3 background{0, 0, 0};  ///< opaque background colour, RGB in [0, 1]
   /// No background ("background": "none"): frames carry alpha, the accumulated opacity, with straight (not
@@ -149,8 +149,8 @@ struct Scene {
   /// Level of detail: where a coarser level of the pyramid has voxels no taller than this many pixels on the image
   /// (at their nearest depth), draw that level instead of the finer ones; 0 draws level 0 everywhere. On texture
   /// slabs a level-m brick takes every 2^m-th global plane (fewer, longer segments, opacity corrected for their
-  /// length); slicing takes every plane at every level. Default 1 (a voxel no larger than a pixel), chosen by the
-  /// sweep (bench/results/lod.md).
+  /// length); slicing takes every plane at every level. Default 1 (a voxel no larger than a pixel): in the level-of-
+  /// detail sweep it changes no sample of the sweep's datasets at 256², where 2 costs the MRI 20 dB.
   double lod = 1;
   /// Coarse-to-fine: the frame may be drawn first with stand-ins (bricks not yet resident drawn from a coarser
   /// resident level while they are paged), then again once they are resident. The server then answers a Render with
@@ -169,7 +169,7 @@ struct Scene {
   double timeBudgetMs = 100;
   static constexpr double kMinTimeBudgetMs = 10, kMaxTimeBudgetMs = 10000;
   /// How a tetrahedral mesh's cells are put in order (no effect on a grid). The default, the ray caster with `ert`
-  /// 0.999, is the fastest setting of bench/results/mesh-sweep/mesh-sweep.md that keeps every mesh at 40 dB or more
+  /// 0.999, is the fastest setting of the mesh sweep (`voxbrick bench --mesh`) that keeps every mesh at 40 dB or more
   /// against the exact reference (4× MPVO's speed on the 1 M-tet ball; slower on the small Kuhn ball).
   TetSort visibility = TetSort::Ray;
   /// Quality by target ("psnr:40", "ms:200"): the drawing settings (step, raycast, slab, ert, pre_integration,
@@ -177,7 +177,7 @@ struct Scene {
   /// resolveQuality in render/core/Dataset.h), replacing the scene's own; a scene with a target names none of them.
   std::optional<QualityTarget> quality;
   /// The JPEG quality (libjpeg's scale, 1..100) of a frame sent as JPEG; absent: the server's default
-  /// (image::kDefaultJpegQuality, chosen in bench/results/jpeg.md). No effect on other encodings.
+  /// (image::kDefaultJpegQuality, chosen where bytes against PSNR bend over). No effect on other encodings.
   std::optional<int> jpegQuality;
   /// The encoding of a request's provisional frames, by name ("raw", "png", "zstd", "jpeg"; kEncodingNames): the
   /// server maps it to the protocol's encoding. Absent: the request's own encoding.

@@ -5,16 +5,13 @@
 #include <atomic>
 #include <chrono>
 #include <map>
+#include <mutex>
 
 #include "render/core/Interactive.h"
 #include "render/core/RenderErrors.h"
 #include "render/core/WorldFrame.h"
+#include "render/engine/DatasetDriver.h"
 #include "render/gl/GlContext.h"
-#include "render/gl/tets/TetRenderer.h"
-#include "render/gl/volume/BrickAtlas.h"
-#include "render/gl/volume/Residency.h"
-#include "render/gl/volume/VolumeRenderer.h"
-#include "render/volume/BrickStoreDataset.h"
 
 namespace voxbrick::render {
 
@@ -32,23 +29,19 @@ struct RenderEngine::Impl {
   uint64_t uses = 0;
   std::atomic<size_t> gpuBytes{0}, peakGpuBytes{0};
   std::atomic<uint64_t> released{0};
-  RateGauge rates[2];                               // by DatasetKind, on the render thread
-  std::atomic<double> recentRates[2] = {0.0, 0.0};  // their values, for any thread
+  std::map<std::string, RateGauge, std::less<>> rates;  // by kind, on the render thread
+  mutable std::mutex recentMutex;
+  std::map<std::string, double, std::less<>> recentRates;  // their values, for any thread
 
-  FrameRenderer& rendererFor(const std::shared_ptr<const Dataset>& dataset);
-  /// The atlas bytes a new renderer of `dataset` would take under the whole budget.
-  size_t wanted(const Dataset& dataset) const;
+  FrameRenderer& rendererFor(const std::shared_ptr<const Dataset>& dataset, const DatasetDriver& driver);
+  RendererSetup setup(size_t left) { return {*context, options, left}; }
+  RateGauge& rateOf(std::string_view kind) {
+    auto it = rates.find(kind);
+    if (it == rates.end()) it = rates.emplace(std::string(kind), RateGauge{}).first;
+    return it->second;
+  }
   void account();
 };
-
-size_t RenderEngine::Impl::wanted(const Dataset& dataset) const {
-  // A mesh takes its resident size, at most the whole budget (a larger one is streamed).
-  if (dataset.kind() == DatasetKind::TetMesh)
-    return std::min(options.gpuBudgetBytes,
-                    TetRenderer::bytesFor(static_cast<const TetMeshDataset&>(dataset).source()->constants().tetCount));
-  return Residency::atlasBytes(*static_cast<const BrickStoreDataset&>(dataset).store(), options.gpuBudgetBytes,
-                               options.atlasFormat, BrickAtlas::resolveUploads(*context, options.atlasUploads));
-}
 
 void RenderEngine::Impl::account() {
   size_t bytes = 0;
@@ -57,7 +50,8 @@ void RenderEngine::Impl::account() {
   if (bytes > peakGpuBytes) peakGpuBytes = bytes;
 }
 
-FrameRenderer& RenderEngine::Impl::rendererFor(const std::shared_ptr<const Dataset>& dataset) {
+FrameRenderer& RenderEngine::Impl::rendererFor(const std::shared_ptr<const Dataset>& dataset,
+                                               const DatasetDriver& driver) {
   // Renderers of datasets closed, or quarantined (they will draw nothing more), give their atlases back.
   if (std::erase_if(renderers, [](const auto& entry) {
         const auto d = entry.first.lock();
@@ -69,7 +63,7 @@ FrameRenderer& RenderEngine::Impl::rendererFor(const std::shared_ptr<const Datas
     return *it->second.renderer;
   }
   // Room for the new atlas: release the renderers used least recently until the budget holds it whole.
-  const size_t want = wanted(*dataset);
+  const size_t want = driver.gpuBytesWanted(*dataset, setup(options.gpuBudgetBytes));
   account();
   while (!renderers.empty() && gpuBytes + want > options.gpuBudgetBytes) {
     auto oldest = std::min_element(renderers.begin(), renderers.end(),
@@ -78,21 +72,9 @@ FrameRenderer& RenderEngine::Impl::rendererFor(const std::shared_ptr<const Datas
     ++released;
     account();
   }
-  std::unique_ptr<FrameRenderer> renderer;
-  switch (dataset->kind()) {
-    case DatasetKind::BrickStore:
-      renderer = std::make_unique<VolumeRenderer>(*context, static_cast<const BrickStoreDataset&>(*dataset).cache(),
-                                                  options.gpuBudgetBytes - gpuBytes, options.atlasFormat,
-                                                  options.atlasUploads, options.atlasBricking);
-      break;
-    case DatasetKind::TetMesh:
-      renderer = std::make_unique<TetRenderer>(*context, static_cast<const TetMeshDataset&>(*dataset).source(),
-                                               options.gpuBudgetBytes - gpuBytes);
-      break;
-  }
+  std::unique_ptr<FrameRenderer> renderer = driver.makeRenderer(*dataset, setup(options.gpuBudgetBytes - gpuBytes));
   if (!renderer)
-    throw RenderError("RenderEngine: no renderer for datasets of kind " +
-                      std::string(datasetKindName(dataset->kind())));
+    throw RenderError("RenderEngine: the driver of kind " + std::string(dataset->kind()) + " made no renderer");
   Entry& entry = renderers[dataset];
   entry.renderer = std::move(renderer);
   entry.lastUse = ++uses;
@@ -122,13 +104,12 @@ uint64_t RenderEngine::renderersReleased() const { return mImpl->released; }
 image::ImageF RenderEngine::render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats,
                                    const FrameOptions& options) {
   if (!dataset) throw RenderInputError("RenderEngine::render: no dataset");
-  if (mImpl->options.gridFrames && dataset->kind() == DatasetKind::BrickStore && !options.part)
-    return mImpl->options.gridFrames(*this, dataset, scene, stats, options);
+  const DatasetDriver& driver = driverFor(*dataset);
   std::optional<QualityChoice> choice;
   const Scene resolved = resolveQuality(*dataset, scene, &choice);
-  FrameRenderer& renderer = mImpl->rendererFor(dataset);
-  const size_t kind = dataset->kind() == DatasetKind::TetMesh ? 1 : 0;
-  const double recent = mImpl->rates[kind].rate();
+  FrameRenderer& renderer = mImpl->rendererFor(dataset, driver);
+  RateGauge& rate = mImpl->rateOf(dataset->kind());
+  const double recent = rate.rate();
   FrameOptions frameOptions = options;
   if (frameOptions.cancelled && frameOptions.checkpointSamples <= 0)
     frameOptions.checkpointSamples = recent > 0 ? recent * kCheckpointMs : kFirstCheckpointSamples;
@@ -140,7 +121,7 @@ image::ImageF RenderEngine::render(const std::shared_ptr<const Dataset>& dataset
     const auto start = std::chrono::steady_clock::now();
     const bool given = options.rateSamplesPerMs > 0;
     const InteractiveChoice chosen = chooseInteractive(resolved, given ? options.rateSamplesPerMs : recent,
-                                                       given ? options.fixedMs : mImpl->rates[kind].fixedMs(),
+                                                       given ? options.fixedMs : rate.fixedMs(),
                                                        [&](const Scene& s) { return renderer.estimateSamples(s); });
     image = renderer.render(interactiveScene(resolved, interactiveLadder()[size_t(chosen.rung)]), &frameStats,
                             frameOptions);
@@ -151,25 +132,34 @@ image::ImageF RenderEngine::render(const std::shared_ptr<const Dataset>& dataset
   } else {
     image = renderer.render(resolved, &frameStats, frameOptions);
   }
-  mImpl->rates[kind].add(frameStats.samplesEstimated, frameStats.interactive.is_object()
-                                                          ? frameStats.interactive["actual_ms"].get<double>()
-                                                          : frameStats.msTotal);
-  mImpl->recentRates[kind] = mImpl->rates[kind].rate();
+  rate.add(frameStats.samplesEstimated, frameStats.interactive.is_object()
+                                            ? frameStats.interactive["actual_ms"].get<double>()
+                                            : frameStats.msTotal);
+  {
+    std::lock_guard lock(mImpl->recentMutex);
+    mImpl->recentRates[std::string(dataset->kind())] = rate.rate();
+  }
   finishImage(dataset->worldFrame(), image);  // the renderers draw in the local frame
   if (choice) frameStats.quality = choice->toJson();
   if (stats) *stats = std::move(frameStats);
   return image;
 }
 
-BrickBudget RenderEngine::brickBudget(const std::shared_ptr<const Dataset>& dataset) const {
-  if (!dataset || dataset->kind() != DatasetKind::BrickStore) return {};
-  const auto it = mImpl->renderers.find(dataset);
-  if (it == mImpl->renderers.end()) return {};
-  return static_cast<const VolumeRenderer&>(*it->second.renderer).budget();
+void RenderEngine::prefetch(const std::shared_ptr<const Dataset>& dataset, const Scene& scene) {
+  if (!dataset) return;
+  try {
+    const DatasetDriver& driver = driverFor(*dataset);
+    const auto it = mImpl->renderers.find(dataset);
+    driver.prefetch(*dataset, scene, it == mImpl->renderers.end() ? nullptr : it->second.renderer.get());
+  } catch (...) {
+    // Advisory: a kind without a driver, or a camera that cannot be planned, pages nothing ahead.
+  }
 }
 
-double RenderEngine::recentRate(DatasetKind kind) const {
-  return mImpl->recentRates[kind == DatasetKind::TetMesh ? 1 : 0].load();
+double RenderEngine::recentRate(const Dataset& dataset) const {
+  std::lock_guard lock(mImpl->recentMutex);
+  const auto it = mImpl->recentRates.find(dataset.kind());
+  return it == mImpl->recentRates.end() ? 0.0 : it->second;
 }
 
 }  // namespace voxbrick::render

@@ -12,7 +12,7 @@ TetMeshDataset::TetMeshDataset(std::string name, const std::filesystem::path& pa
 std::string TetMeshDataset::infoJson() const {
   const TetMeshConstants& d = mSource->constants();
   nlohmann::json j = {
-      {"kind", datasetKindName(kind())},
+      {"kind", std::string(kind())},
       {"tets", d.tetCount},
       {"points", d.pointCount},
       {"field", d.field},

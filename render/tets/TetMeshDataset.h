@@ -1,4 +1,4 @@
-// A tetrahedral mesh as a dataset (seed 002): its source of tets and the metadata a client is given. GL-free.
+// A tetrahedral mesh as a dataset: its source of tets and the metadata a client is given. GL-free.
 #pragma once
 
 #include <filesystem>
@@ -16,7 +16,8 @@ class TetMeshDataset final : public Dataset {
   /// A dataset of `source` under `name`, read from `path`.
   TetMeshDataset(std::string name, const std::filesystem::path& path, std::shared_ptr<const TetMeshSource> source);
 
-  DatasetKind kind() const override { return DatasetKind::TetMesh; }
+  static constexpr std::string_view kKind = "tet-mesh";
+  std::string_view kind() const override { return kKind; }
   /// {"kind": "tet-mesh", "tets", "points", "field", "bounds", "value_range", "reference_length", "paged",
   /// "chunks"}.
   std::string infoJson() const override;

@@ -13,7 +13,7 @@ BrickStoreDataset::BrickStoreDataset(std::string name, const std::filesystem::pa
 
 std::string BrickStoreDataset::infoJson() const {
   nlohmann::json j = nlohmann::json::parse(mStore->meta().toJson());
-  j["kind"] = datasetKindName(kind());
+  j["kind"] = std::string(kind());
   const store::Orientation& o = mStore->meta().orientation;
   j["orientation"] = {{"space", "RAS"}, {"axes", o.axes}, {"origin", o.origin}, {"patient", o.patient}};
   return j.dump();

@@ -22,7 +22,8 @@ class BrickStoreDataset final : public Dataset {
   BrickStoreDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes, int decodeThreads = 2,
                     const store::StoreOpenOptions& options = {});
 
-  DatasetKind kind() const override { return DatasetKind::BrickStore; }
+  static constexpr std::string_view kKind = "brick-store";
+  std::string_view kind() const override { return kKind; }
   /// The store's metadata with "kind" and "orientation" (always present; the identity when the input had none).
   std::string infoJson() const override;
   /// The store's orientation placed around its local box.

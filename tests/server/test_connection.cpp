@@ -63,11 +63,9 @@ ErrorCode errorIn(const std::vector<uint8_t>& bytes, uint32_t requestId) {
 }
 
 std::unique_ptr<RenderScheduler> idleScheduler() {
-  std::vector<std::unique_ptr<render::RenderEngine>> engines;
-  engines.push_back(
-      std::make_unique<render::RenderEngine>(render::RenderEngineOptions{render::Backend::Auto, size_t(64) << 20}));
-  engines.back()->releaseCurrent();
-  return std::make_unique<RenderScheduler>(std::move(engines), true);  // never started: jobs only wait
+  std::vector<std::unique_ptr<render::FrameSource>> sources;
+  sources.push_back(std::make_unique<render::NullFrameSource>());
+  return std::make_unique<RenderScheduler>(std::move(sources), true);  // never started: jobs only wait
 }
 
 const char* kScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [40, 32], "transfer_function": "sparse"})";

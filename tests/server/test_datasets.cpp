@@ -48,7 +48,7 @@ TEST_F(DatasetRegistryTest, OpensAValidNameOnceAndSharesIt) {
   const auto a = registry.open("sparse");
   ASSERT_TRUE(a);
   EXPECT_EQ(a->name(), "sparse");
-  EXPECT_EQ(a->kind(), render::DatasetKind::BrickStore);
+  EXPECT_EQ(a->kind(), "brick-store");
   EXPECT_EQ(registry.open("sparse"), a);
   ASSERT_EQ(registry.opened().size(), 1u);
   EXPECT_EQ(registry.opened()[0], a);
@@ -119,7 +119,7 @@ TEST(DatasetRegistryVdb, ListsAndOpensVdbFiles) {
   EXPECT_EQ(registry.names(), (std::vector<std::string>{"broken.vdb", "sparse.vdb"}));
 
   const auto live = registry.open("sparse.vdb");
-  EXPECT_EQ(live->kind(), render::DatasetKind::BrickStore);
+  EXPECT_EQ(live->kind(), "brick-store");
   const auto* grid = dynamic_cast<const render::BrickStoreDataset*>(live.get());
   ASSERT_NE(grid, nullptr);
   EXPECT_EQ(grid->store()->backing(), store::StoreBacking::VdbFile);

@@ -16,7 +16,7 @@
 #include "client/Client.h"
 #include "image/FrameImage.h"
 #include "image/Image.h"
-#include "render/datasets/Datasets.h"
+#include "render/engine/Datasets.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick {

@@ -15,7 +15,7 @@
 #include "ServerProcess.h"
 #include "WebClient.h"
 #include "client/Client.h"
-#include "render/datasets/Datasets.h"
+#include "render/engine/Datasets.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick {

@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "render/core/Dataset.h"
-#include "render/datasets/Datasets.h"
+#include "render/engine/Datasets.h"
 #include "render/engine/RenderEngine.h"
 #include "render/gl/GlFixtures.h"
 #include "render/gl/volume/BrickAtlas.h"

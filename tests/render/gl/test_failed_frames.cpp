@@ -8,7 +8,7 @@
 #include "brickstore/Errors.h"
 #include "render/core/Dataset.h"
 #include "render/core/RenderErrors.h"
-#include "render/datasets/Datasets.h"
+#include "render/engine/Datasets.h"
 #include "render/engine/RenderEngine.h"
 #include "render/gl/GlFixtures.h"
 #include "support/TestSupport.h"

@@ -11,7 +11,7 @@
 #include "image/Image.h"
 #include "mesh/MeshStoreFixtures.h"
 #include "render/core/RenderErrors.h"
-#include "render/datasets/Datasets.h"
+#include "render/engine/Datasets.h"
 #include "render/engine/RenderEngine.h"
 #include "render/gl/GlFixtures.h"
 #include "render/gl/tets/TetRenderer.h"

@@ -16,7 +16,7 @@
 #include "mesh/Topology.h"
 #include "render/core/Dataset.h"
 #include "render/core/RenderErrors.h"
-#include "render/datasets/Datasets.h"
+#include "render/engine/Datasets.h"
 #include "render/gl/GlFixtures.h"
 #include "render/gl/tets/TetRenderer.h"
 #include "render/reference/TetReference.h"

@@ -18,7 +18,7 @@
 #include "mesh/Visibility.h"
 #include "render/core/Dataset.h"
 #include "render/core/RenderErrors.h"
-#include "render/datasets/Datasets.h"
+#include "render/engine/Datasets.h"
 #include "render/gl/Bindings.h"
 #include "render/gl/GlFixtures.h"
 #include "render/gl/tets/TetRenderer.h"
@@ -602,7 +602,7 @@ TEST(TetCommands, PrepInfoRenderAndRefusals) {
   EXPECT_EQ(info["field"], ball.field);
   // A mesh that fits its host budget is held whole (a larger one is paged: test_tet_paging.cpp); one whose points
   // alone exceed it is refused, naming both sizes.
-  EXPECT_EQ(openDataset("ball", dir / "ball", size_t(1) << 30)->kind(), DatasetKind::TetMesh);
+  EXPECT_EQ(openDataset("ball", dir / "ball", size_t(1) << 30)->kind(), "tet-mesh");
   try {
     openDataset("ball", dir / "ball", 1000);
     ADD_FAILURE() << "a mesh above its host budget was opened";

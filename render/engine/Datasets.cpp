@@ -1,0 +1,26 @@
+// Opening a dataset by path, through the driver of the kind that recognises it.
+#include "render/engine/Datasets.h"
+
+#include <stdexcept>
+
+#include "render/engine/DatasetDriver.h"
+
+namespace voxbrick::render {
+
+bool isDataset(const std::filesystem::path& path) { return driverOfPath(path) != nullptr; }
+
+std::vector<std::filesystem::path> datasetFiles(const std::filesystem::path& path) {
+  if (const DatasetDriver* driver = driverOfPath(path)) return driver->files(path);
+  return {path};
+}
+
+std::shared_ptr<const Dataset> openDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes,
+                                           const store::StoreOpenOptions& options) {
+  const DatasetDriver* driver = driverOfPath(path);
+  if (!driver)
+    throw std::runtime_error("'" + path.string() +
+                             "' is not a dataset (no store.json, not a .vdb file, not an OME-Zarr, not a mesh store)");
+  return driver->open(std::move(name), path, cacheBytes, options);
+}
+
+}  // namespace voxbrick::render

@@ -1,0 +1,51 @@
+// What draws a server's frames, one per render thread: the local engine (RenderEngine), sort-last rendering across
+// MPI ranks (distributed/SortLastSource.h, which wraps an engine), or nothing at all (NullFrameSource, so that the
+// scheduler and everything above it run without GL). The server's scheduler sees only this. GL-free.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "image/Image.h"
+#include "render/core/Dataset.h"
+#include "render/core/FrameRenderer.h"
+#include "render/core/FrameStats.h"
+#include "render/core/Scene.h"
+
+namespace voxbrick::render {
+
+class FrameSource {
+ public:
+  virtual ~FrameSource() = default;
+
+  /// Binds what it draws with to the calling thread (a render thread, before its first frame); one thread at a time.
+  virtual void makeCurrent() {}
+  /// Unbinds it, so that another thread may take it (or destroy it).
+  virtual void releaseCurrent() {}
+  /// What draws: the context and what runs it, or the ranks.
+  virtual std::string describe() const = 0;
+
+  /// One frame of `dataset` (see RenderEngine::render). Throws RenderInputError for a scene the dataset cannot be
+  /// drawn with, RenderLimitError above options.maxSamples, FrameCancelled when options.cancelled says so, and
+  /// RenderError for failures of what draws.
+  virtual image::ImageF render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene,
+                               FrameStats* stats = nullptr, const FrameOptions& options = {}) = 0;
+  /// Pages ahead for `scene`, a frame of `dataset` likely to come next (a drag's next camera). Advisory; never
+  /// throws. Default: nothing.
+  virtual void prefetch(const std::shared_ptr<const Dataset>& dataset, const Scene& scene) {
+    (void)dataset, (void)scene;
+  }
+  /// Checks that the dataset named `name` may be served by this source, when the server opens it (sort-last: every
+  /// rank opens it and they agree). Throws RenderInputError naming what is wrong. Called on any thread, also
+  /// while a frame is drawn. Default: nothing to check.
+  virtual void checkDataset(const std::string& name) { (void)name; }
+
+  /// GPU memory it holds now, its peak, and the renderers it released to stay within its budget.
+  virtual size_t gpuBytes() const { return 0; }
+  virtual size_t peakGpuBytes() const { return 0; }
+  virtual uint64_t renderersReleased() const { return 0; }
+};
+
+}  // namespace voxbrick::render

@@ -1,0 +1,51 @@
+// The frame source that draws nothing.
+#include "render/engine/NullFrameSource.h"
+
+#include <algorithm>
+#include <thread>
+
+#include "render/core/RenderErrors.h"
+
+namespace voxbrick::render {
+
+image::ImageF NullFrameSource::render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene,
+                                      FrameStats* stats, const FrameOptions& options) {
+  if (!dataset) throw RenderInputError("no dataset");
+  const double samples = double(scene.width) * double(scene.height);
+  if (options.maxSamples > 0 && samples > options.maxSamples)
+    throw RenderLimitError("the frame would take " + std::to_string(samples) + " samples, above the limit of " +
+                           std::to_string(options.maxSamples));
+  const auto start = std::chrono::steady_clock::now();
+  const auto end = start + mDrawTime;
+  for (;;) {
+    if (options.cancelled && options.cancelled()) throw FrameCancelled("the frame was given up");
+    const auto now = std::chrono::steady_clock::now();
+    if (now >= end) break;
+    std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(end - now, std::chrono::milliseconds(1)));
+  }
+  image::ImageF image{scene.width, scene.height,
+                      std::vector<float>(size_t(scene.width) * size_t(scene.height) * 4, 0.0f)};
+  const float alpha = scene.transparent ? 0.0f : 1.0f;
+  for (size_t i = 0; i < image.rgba.size(); i += 4) {
+    image.rgba[i] = scene.transparent ? 0.0f : float(scene.background.r);
+    image.rgba[i + 1] = scene.transparent ? 0.0f : float(scene.background.g);
+    image.rgba[i + 2] = scene.transparent ? 0.0f : float(scene.background.b);
+    image.rgba[i + 3] = alpha;
+  }
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  if (stats) {
+    *stats = {};
+    stats->samplesEstimated = std::max(ms, 1e-3) * mSamplesPerMs;
+    stats->msTotal = ms;
+  }
+  {
+    std::lock_guard lock(mMutex);
+    mWidths.push_back(scene.width);
+  }
+  ++mDrawn;
+  return image;
+}
+
+void NullFrameSource::prefetch(const std::shared_ptr<const Dataset>&, const Scene&) { ++mPrefetches; }
+
+}  // namespace voxbrick::render
