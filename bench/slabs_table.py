@@ -7,7 +7,7 @@ frame ray caster (column `raycast`, absent from sweeps made before it) likewise:
 and samples taken, the share of fragments and samples processed against the same slab size (or the ray caster)
 without termination, the speed-up over slicing and the worst-view PSNR against the reference.
 
-    python3 bench/slabs_table.py bench/results/slabs-sweep/sweep.csv [--steps 0.75,1] > table.md
+    python3 bench/slabs_table.py bench/results/sweep/slabs/sweep.csv [--steps 0.75,1] > table.md
 """
 import argparse
 import csv
