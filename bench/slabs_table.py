@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The texture-slab table in the shape of the seed's (Yalim 2005, chapter 5), from sweep.csv files of `voxbrick bench`.
+"""The texture-slab table in the shape of Yalim 2005's (chapter 5), from sweep.csv files of `voxbrick bench`.
 
 For each dataset and transfer function, at the given steps: slicing (one blended sample per fragment), slabs without
 silhouette maps, slabs with the early-ray-termination silhouette map (and with sub-blocks), pre-integration, and the
