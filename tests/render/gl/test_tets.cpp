@@ -1,5 +1,5 @@
-// The tet mesh renderer (Carrard & Juliachs): frames against analytic opacities, MPVO against the centroid order, and the
-// visibility orders themselves.
+// The tet mesh renderer (Carrard & Juliachs): frames against analytic opacities, MPVO against the centroid order,
+// and the visibility orders themselves.
 #include <gtest/gtest.h>
 
 #include <algorithm>
