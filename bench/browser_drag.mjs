@@ -23,7 +23,7 @@ const args = Object.fromEntries(
 const opt = {
   datasets: args.datasets,
   dataset: args.dataset || "mri",
-  out: args.out || "bench/results/browser-drag",
+  out: args.out || "bench/results/browser/browser-drag",
   sizes: (args.sizes || "512,1024").split(",").map(Number),
   duration: Number(args.duration || 10),
   hz: Number(args.hz || 30),

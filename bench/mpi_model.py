@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The distributed mode's report (bench/results/mpi.md) from run_mpi.sh's figures: the compositor's measured ms and
+"""The distributed mode's report (bench/results/mpi/mpi.md) from run_mpi.sh's figures: the compositor's measured ms and
 bytes, each rank's host cache against its budget, and a cost model fitted to the compositing figures,
     T(N, P) = alpha * steps(N) + bytes_max(N, P) / beta + gamma * P * (1 - 1/N) * max(1, N / cores)
 (steps: the swap rounds, the fold and the gather; bytes_max: the most bytes any rank sent; P pixels), projected to 8,

@@ -2,7 +2,7 @@
 """Quality by target, measured: each bench dataset is calibrated (`voxbrick bench --calibrate`), then frames asked
 for with `--quality psnr:X` are judged against the reference renderer, and frames asked for with `--quality ms:N` are
 timed (warm, the median of --repeats frames), at views that are not the calibration's as well as one that is.
-Writes bench/results/quality.csv and quality.md. Run through bench/run_quality.sh."""
+Writes bench/results/quality/quality.csv and quality.md. Run through bench/run_quality.sh."""
 import argparse
 import csv
 import json
@@ -41,7 +41,7 @@ def main():
     global BIN
     p = argparse.ArgumentParser(description=__doc__)
     p.add_argument("--work", default=os.path.join(ROOT, "bench/work/quality"))
-    p.add_argument("--out", default=os.path.join(ROOT, "bench/results"))
+    p.add_argument("--out", default=os.path.join(ROOT, "bench/results/quality"))
     p.add_argument("--datasets", default="ml,sparse,mri")
     p.add_argument("--size", default="512x512", help="size of the judged and timed frames")
     p.add_argument("--calibration-size", type=int, default=256)

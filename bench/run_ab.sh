@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Before/after timing of two renderer builds, alternated so that drift of a shared machine falls on both:
 #   bash bench/run_ab.sh BEFORE/bench_render AFTER/bench_render OUT_DIR ROUNDS [bench_render options...]
-# e.g. bash bench/run_ab.sh /tmp/old/bench_render build/bench/bench_render bench/results/ab 3 \
+# e.g. bash bench/run_ab.sh /tmp/old/bench_render build/bench/bench_render bench/work/ab 3 \
 #        --work bench/work --size 512 --views 12 --step 1 --datasets sparse-256,mri-ch2better \
 #        --configs 'vertex slicer, skip|cpu slicer, skip'
 # Writes OUT_DIR/{before,after}-ROUND.{csv,md,log} and OUT_DIR/summary.md: per dataset and setting, the median over

@@ -3,7 +3,7 @@
 # seconds alone, then again beside 64 never-speaking sockets, 16 trickling ones, 8 never-reading sessions, clients
 # that abandon heavy renders and clients rendering a corrupt dataset (each a `voxbrick load --faults` process).
 # Reports the good clients' errors and latencies in both runs, the faults' outcomes, and the server's RSS before,
-# at its peak and after. Results: bench/results/hostile-{alone,faults}.json and bench/results/hostile.md.
+# at its peak and after. Results: bench/results/server/hostile-{alone,faults}.json and bench/results/server/hostile.md.
 #
 #   bash bench/run_hostile.sh [--duration 60]
 set -euo pipefail
@@ -15,7 +15,7 @@ while [ $# -gt 0 ]; do
     *) echo "run_hostile.sh: unknown option $1" >&2; exit 2 ;;
   esac
 done
-out=bench/results
+out=bench/results/server
 work=bench/work/hostile
 mkdir -p "$out" "$work"
 export VOXBRICK_CONFIG_DIR=$PWD/config

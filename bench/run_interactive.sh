@@ -3,7 +3,7 @@
 # with "interactive": true and a time budget, on the MRI and on the 1024³ field, at --size. For every interactive
 # frame drawn: its time against its budget (within 1.5x passes), its PSNR against the exact frame of its view (drawn
 # after the drag), and the time from the last camera to the exact frame the server sends once the camera rests
-# (bench_drag). Writes bench/results/interactive-DATASET.csv and bench/results/interactive.md.
+# (bench_drag). Writes bench/results/interactive/interactive-DATASET.csv and bench/results/interactive/interactive.md.
 #
 #   bash bench/run_interactive.sh [--size 512] [--views 36] [--hz 20] [--budget 100] [--field-n 1024]
 #                                 [--gpu-budget MB] [--host-cache MB]
@@ -30,7 +30,7 @@ bin=build/voxbrick drag=build/bench/bench_drag
 [ -x "$bin" ] && [ -x "$drag" ] || { echo "run_interactive.sh: build with -DVOXBRICK_BUILD_BENCH=ON first" >&2; exit 2; }
 mri=/usr/share/mricron/templates/ch2better.nii.gz
 datasets=bench/work/interactive
-mkdir -p "$datasets" bench/results
+mkdir -p "$datasets" bench/results/interactive
 [ -f bench/work/mri.vbs/store.json ] || "$bin" prep "$mri" -o bench/work/mri.vbs -q
 field=bench/work/blobs-$fieldN.vbs
 [ -f "$field/store.json" ] || "$bin" prep "synthetic:blobs,n=$fieldN" -o "$field" --no-vdb -q
@@ -49,10 +49,10 @@ rows=""
 status=0
 for dataset in mri "blobs$fieldN"; do
   out=$("$drag" --address "$address" --dataset "$dataset" --size "$size" --views "$views" --hz "$hz" \
-    --budget "$budget" --out bench/results --name "interactive-$dataset") || status=1
+    --budget "$budget" --out bench/results/interactive --name "interactive-$dataset") || status=1
   echo "$out"
   rows+="$out"$'\n'
-  rm -f "bench/results/interactive-$dataset.md"
+  rm -f "bench/results/interactive/interactive-$dataset.md"
 done
 {
   echo "# Interactive frames through the server: a scripted drag"
@@ -67,11 +67,11 @@ done
   echo "when the server's time for it (\`interactive.actual_ms\`: planning, drawing, scaling up) is at most 1.5x the"
   echo "budget. PSNR against the exact frame of the same view, drawn after the drag. The last column is the time from"
   echo "the last camera to the exact frame the server sends once the camera rests (PROTOCOL.md, Session 8). Per frame:"
-  echo "\`bench/results/interactive-DATASET.csv\`."
+  echo "\`bench/results/interactive/interactive-DATASET.csv\`."
   echo
   echo "| dataset | cameras | interactive frames | within 1.5x budget | superseded | worst PSNR dB | median PSNR dB | last camera to exact frame ms |"
   echo "| --- | --- | --- | --- | --- | --- | --- | --- |"
   printf "%s" "$rows"
-} > bench/results/interactive.md
-cat bench/results/interactive.md
+} > bench/results/interactive/interactive.md
+cat bench/results/interactive/interactive.md
 exit $status

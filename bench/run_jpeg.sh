@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # JPEG frames against lossless ones on the MRI: renders a few views at 512² and 1024² (the lossless frames the
 # server would send as png), then bench_jpeg encodes each as the server's jpeg frame at several qualities, with
-# 4:4:4 and 4:2:0 chroma, and measures bytes and PSNR against the lossless frame. Writes bench/results/jpeg.{csv,md}.
+# 4:4:4 and 4:2:0 chroma, and measures bytes and PSNR against the lossless frame. Writes bench/results/jpeg/jpeg.{csv,md}.
 # Bytes and PSNR do not depend on the machine; encode times are indicative only.
 #
 #   bash bench/run_jpeg.sh [--nifti FILE] [--sizes 512,1024] [--qualities 50,60,70,75,80,85,90,95]
@@ -23,7 +23,7 @@ tool=build/bench/bench_jpeg
 [ -x "$bin" ] && [ -x "$tool" ] || { echo "run_jpeg.sh: build voxbrick and bench_jpeg first" >&2; exit 2; }
 work=bench/work/jpeg
 store=$work/mri.vbs
-mkdir -p "$work" bench/results
+mkdir -p "$work" bench/results/jpeg
 [ -f "$store/store.json" ] || "$bin" prep "$nifti" -o "$store" -q
 # Views a viewer shows: the MRI preset shaded from the front-left, the grayscale preset from the side, and the
 # MRI preset from above (each frame fitted, opaque black background as the server sends it).
@@ -38,9 +38,9 @@ for size in ${sizes//,/ }; do
     frames+=("$work/$name-$size.png")
   done
 done
-csv=bench/results/jpeg.csv
+csv=bench/results/jpeg/jpeg.csv
 "$tool" --csv "$csv" --qualities "$qualities" -- "${frames[@]}"
-python3 - "$csv" bench/results/jpeg.md <<'PY'
+python3 - "$csv" bench/results/jpeg/jpeg.md <<'PY'
 import csv, sys
 from collections import defaultdict
 rows = list(csv.DictReader(open(sys.argv[1])))
@@ -86,4 +86,4 @@ for chroma in ('420', '444'):
 out.append('')
 open(sys.argv[2], 'w').write('\n'.join(out) + '\n')
 PY
-echo "wrote $csv and bench/results/jpeg.md"
+echo "wrote $csv and bench/results/jpeg/jpeg.md"

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Level of detail on a large volume: warm frames at level 0 and at each --lod, their time and bricks per level, and
 # each LOD frame's PSNR against the level-0 frame of the same view (what a user sees change). Writes
-# bench/results/lod-large.{csv,md}.
+# bench/results/lod/lod-large.{csv,md}.
 #
 #   bash bench/run_lod.sh [--store DIR] [--spec synthetic:blobs,n=1024] [--lods 1,2,4,8] [--tfs grayscale,hot]
 #                         [--size 512x512] [--orbit 30,20,2.5]
@@ -33,8 +33,8 @@ if [ ! -f "$store/store.json" ]; then
   /usr/bin/time -f "prep: %e s wall, %M KB peak RSS" "$bin" prep "$spec" -o "$store" --no-vdb -q
 fi
 work=bench/work/lod-large
-mkdir -p "$work" bench/results
-csv=bench/results/lod-large.csv
+mkdir -p "$work" bench/results/lod
+csv=bench/results/lod/lod-large.csv
 echo "tf,lod,ms_total,ms_paging,ms_drawing,bricks_drawn,bricks_per_level,samples,psnr_vs_level0_db,max_abs_vs_level0,speedup" > "$csv"
 for tf in ${tfs//,/ }; do
   for lod in 0 ${lods//,/ }; do
@@ -68,5 +68,5 @@ done
   tail -n +2 "$csv" | while IFS=, read -r tf lod ms paging drawing drawn levels samples psnr maxabs speedup; do
     echo "| $tf | $lod | $ms | $paging | $drawing | $drawn | $levels | $(python3 -c "print(f'{$samples/1e6:.1f}')") | $psnr | $maxabs | ${speedup}× |"
   done
-} > bench/results/lod-large.md
-echo "wrote $csv and bench/results/lod-large.md"
+} > bench/results/lod/lod-large.md
+echo "wrote $csv and bench/results/lod/lod-large.md"

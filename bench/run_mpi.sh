@@ -2,7 +2,7 @@
 # The distributed mode measured (docs/distributed.md): the MPI compositor's ms and bytes per frame at 512², 1024² and
 # 2048² for 1 to 4 ranks (oversubscribed on one machine: the cost of compositing, not a speed-up), a volume 4x one
 # rank's host budget drawn by 4 ranks with each rank's peak host cache, and the cost model fitted to the compositing
-# figures and projected (mpi_model.py). Writes bench/results/mpi.csv, mpi-budget.json and mpi.md.
+# figures and projected (mpi_model.py). Writes bench/results/mpi/mpi.csv, mpi-budget.json and mpi.md.
 #   bash bench/run_mpi.sh [--build build] [--smoke]     (--smoke: small sizes, few repeats, labelled as such)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -17,7 +17,7 @@ done
 mpirun=(mpirun --oversubscribe --allow-run-as-root)
 sizes=512,1024,2048 repeat=10 volume=256 budget=16
 if [ $smoke -eq 1 ]; then sizes=256,512 repeat=3 volume=128 budget=2; fi
-out=bench/results
+out=bench/results/mpi
 mkdir -p "$out"
 export VOXBRICK_CONFIG_DIR=$PWD/config
 

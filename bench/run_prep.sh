@@ -5,7 +5,7 @@
 # /dev/null, and to a file beside the store). MB/s = raw bytes / wall seconds; CPU = user + system seconds; peak RSS.
 # Prep runs with --threads T and zstd with -TT, for each T of --threads. The phases prep reports (--timings) are kept
 # too. With --base, an older voxbrick binary runs beside this build, and their stores are compared file by file
-# (bench/store_digest.sh over every file). Writes bench/results/prep.{csv,md} and prep-phases.csv.
+# (bench/store_digest.sh over every file). Writes bench/results/prep/prep.{csv,md} and prep-phases.csv.
 #
 #   bash bench/run_prep.sh [--base OLD_VOXBRICK] [--threads "2"] [--repeats 3] [--big-repeats 1] [--sizes "512 1024"]
 #                          [--work bench/work/prep]
@@ -30,14 +30,14 @@ while [ $# -gt 0 ]; do
 done
 new=build/voxbrick
 [ -x "$new" ] && [ -x build/bench/bench_store ] || { echo "run_prep.sh: build first (bash scripts/build.sh)" >&2; exit 2; }
-mkdir -p "$work" bench/results
+mkdir -p "$work" bench/results/prep
 load_start=$(uptime | sed 's/.*load average: //')
 mri=/usr/share/mricron/templates/ch2better.nii.gz
 for n in $sizes; do
   [ -f "$work/blobs-$n.raw" ] || build/bench/bench_store --make-raw "$work/blobs-$n.raw" --spec "blobs,n=$n" > /dev/null
 done
 
-csv=bench/results/prep.csv phases=bench/results/prep-phases.csv
+csv=bench/results/prep/prep.csv phases=bench/results/prep/prep-phases.csv
 echo "tool,input,threads,run,wall_s,cpu_s,peak_rss_mb,raw_mb,mb_per_s" > "$csv"
 echo "tool,input,threads,run,phase,wall_s,cpu_s" > "$phases"
 timed() {  # timed TOOL INPUT THREADS RUN RAW_BYTES COMMAND...: one run, one CSV row; its stdout kept in $work/out
@@ -138,7 +138,7 @@ rm -rf "$work/out.vbs" "$work/out"
 
 python3 - "$csv" "$phases" "$identical" "$(nproc)" "$load_start" "$(uptime | sed 's/.*load average: //')" \
   "$repeats" "$big" "$command" "$(date -u +%Y-%m-%dT%H:%MZ)" "$(uname -r)" \
-  > bench/results/prep.md <<'EOF'
+  > bench/results/prep/prep.md <<'EOF'
 import collections, csv, statistics, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 phase_rows = list(csv.DictReader(open(sys.argv[2])))
@@ -189,4 +189,4 @@ if identical:
     print("| input and options | files | threads 1 and 2 alike | same as the base |\n| --- | ---: | --- | --- |")
     print(identical.rstrip())
 EOF
-cat bench/results/prep.md
+cat bench/results/prep/prep.md

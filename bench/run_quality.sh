@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Quality by target, measured: calibrates each bench dataset (ml, sparse, mri) with `voxbrick bench --calibrate`,
 # then judges `--quality psnr:X` frames against the reference and times `--quality ms:N` frames, at the default camera
-# and orbit views other than the calibration's. Writes bench/results/quality.{csv,md}.
+# and orbit views other than the calibration's. Writes bench/results/quality/quality.{csv,md}.
 #
 #   bash bench/run_quality.sh [--datasets ml,sparse,mri] [--size 512x512] [--psnr 30,40,50] [--ms 100,200,500,1000]
 #

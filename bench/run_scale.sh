@@ -3,7 +3,7 @@
 # 512 MB GPU atlas: prep throughput and peak RSS, a cold first frame (coarse to fine: the provisional frame and its
 # stand-ins, then the exact one), a warm orbit at a level of detail, bricks per level, the PSNR of a LOD frame
 # against the level-0 frame of the same view, and the cold first frame from the real server under the same budgets
-# (provisional and exact, as the client receives them). Writes bench/results/scale.{csv,md}.
+# (provisional and exact, as the client receives them). Writes bench/results/lod/scale.{csv,md}.
 #
 #   bash bench/run_scale.sh [--n 2048] [--views 36] [--lod 1] [--size 512x512] [--work bench/work/scale]
 #                           [--keep] [--level0-frames 1] [--reuse-prep]
@@ -33,7 +33,7 @@ done
 bin=${VOXBRICK_BIN:-build/voxbrick}  # a copy, to keep rebuilding while it runs
 [ -x "$bin" ] || { echo "run_scale.sh: build first (bash scripts/build.sh)" >&2; exit 2; }
 export VOXBRICK_CONFIG_DIR=${VOXBRICK_CONFIG_DIR:-$PWD/config}
-mkdir -p "$work" bench/results
+mkdir -p "$work" bench/results/lod
 store=$work/blobs-$n-u8.vbs
 spec=synthetic:blobs,n=$n
 raw_mb=$(( n * n * n * 4 / 1000000 ))
@@ -79,7 +79,7 @@ print(f"{sys.argv[2]},{sys.argv[3]},{sys.argv[4]},{s['ms']['total']:.0f},{s['ms'
 EOF
 }
 
-csv=bench/results/scale.csv
+csv=bench/results/lod/scale.csv
 frames=$work/frames.csv
 echo "frame,lod,azimuth,ms_total,ms_paging,ms_drawing,bricks_drawn,bricks_paged_in,bricks_evicted,bricks_per_level,provisional_ms,bricks_standin,peak_rss_mb,psnr_vs_level0_db" > "$frames"
 sync && echo 3 > /proc/sys/vm/drop_caches 2>/dev/null || true  # cold: from the disk, where the system allows it
@@ -132,7 +132,7 @@ server_exact_ms=$(sed -nE 's/.*bytes as [a-z]+\) in ([0-9.]+) ms.*/\1/p' "$work/
   echo "${server_provisional_ms:-},${server_standins:-},${server_exact_ms:-},$server_rss_mb"
 } > "$csv"
 
-python3 - "$csv" "$work/info.txt" "${prep_cmd[*]}" "$host" "$gpu" "$size" "$views" "$lod" > bench/results/scale.md <<'EOF'
+python3 - "$csv" "$work/info.txt" "${prep_cmd[*]}" "$host" "$gpu" "$size" "$views" "$lod" > bench/results/lod/scale.md <<'EOF'
 import csv, statistics, sys
 lines = open(sys.argv[1]).read().splitlines()
 prep = dict(zip(lines[1].split(","), lines[2].split(",")))
@@ -176,5 +176,5 @@ print("| ---: | ---: | ---: | ---: |")
 print(f"| {server['provisional_ms'] or 'none'} ms | {server['bricks_standin'] or '—'} | {server['exact_ms']} ms | "
       f"{server['server_peak_rss_mb']} MB |")
 EOF
-cat bench/results/scale.md
+cat bench/results/lod/scale.md
 [ "$keep" = 1 ] || rm -rf "$store"

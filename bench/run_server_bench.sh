@@ -4,10 +4,10 @@
 #      time (from the frame statistics) of the same frames;
 #   2. a long load run: 64 clients for 60 s, with faulty and idle clients mixed in;
 #   3. a camera drag: clients sending 10 cameras a second without waiting, with latest-wins coalescing and without.
-# Results: bench/results/server-*.json and bench/results/server.md.
+# Results: bench/results/server/server-*.json and bench/results/server/server.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-out=bench/results
+out=bench/results/server
 work=bench/work/served
 mkdir -p "$out" "$work"
 export VOXBRICK_CONFIG_DIR=$PWD/config

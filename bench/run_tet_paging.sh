@@ -5,7 +5,7 @@
 #
 #   bash bench/run_tet_paging.sh [--mesh FILE] [--repeats N] [--size WxH] [--chunks "4096 16384"]
 #
-# Writes bench/results/tet-paging.csv (one row a run) and prints the medians. Needs build/voxbrick and the mesh
+# Writes bench/results/tets/tet-paging.csv (one row a run) and prints the medians. Needs build/voxbrick and the mesh
 # (bench/make_tet_meshes.py makes the gmsh balls).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -24,8 +24,8 @@ while [[ $# -gt 0 ]]; do
 done
 voxbrick=build/voxbrick
 work=bench/work/tets/paging
-out=bench/results/tet-paging.csv
-mkdir -p "$work"
+out=bench/results/tets/tet-paging.csv
+mkdir -p "$work" "$(dirname "$out")"
 for chunk in $chunks; do
   "$voxbrick" prep "$mesh" --tets-per-chunk "$chunk" --force -q -o "$work/mesh-$chunk" > /dev/null
 done

@@ -24,7 +24,7 @@ command_line="bash bench/run_tet_peer.sh$(printf ' %q' "$@")"
 
 work=bench/work/peer-tets
 meshes=bench/work/tets
-out=bench/results
+out=bench/results/peers
 bin=build/voxbrick
 tets=50000,1000000
 shape=ball

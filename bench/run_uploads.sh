@@ -3,7 +3,7 @@
 # every time (the atlas budget far below the frame's bricks): warm frames (`--warm-up 1`), the two alternated
 # --reps times in one run so that both see the same background load. The staged run gets 8 MB more budget, its
 # ring's (BrickAtlas::kStagingBytes), so that both atlases have the same slots and the frames must be equal. Writes
-# bench/results/uploads.{csv,md}.
+# bench/results/render/uploads.{csv,md}.
 #
 #   bash bench/run_uploads.sh [--store bench/work/blobs-1024.vbs] [--lod 2] [--gpu-budget 64] [--reps 5]
 #                             [--size 512x512] [--tf hot]
@@ -27,8 +27,8 @@ bin=build/voxbrick
 [ -f "$store/store.json" ] || { echo "run_uploads.sh: no store $store (bench/run_lod.sh preps the 1024³ blobs)" >&2; exit 2; }
 export VOXBRICK_CONFIG_DIR=${VOXBRICK_CONFIG_DIR:-$PWD/config}
 work=bench/work/uploads
-mkdir -p "$work" bench/results
-csv=bench/results/uploads.csv
+mkdir -p "$work" bench/results/render
+csv=bench/results/render/uploads.csv
 echo "rep,uploads,ms_total,ms_paging,ms_drawing,bricks_paged_in,batches" > "$csv"
 device=""
 for ((r = 0; r < reps; ++r)); do
@@ -49,7 +49,7 @@ PY
   "$bin" compare "$work/direct.png" "$work/staged.png" | grep -q "max_abs 0$" \
     || { echo "run_uploads.sh: staged and direct frames differ" >&2; exit 1; }
 done
-python3 - "$csv" "$device" "$store" "$lod" "$gpu" "$size" "$tf" "$reps" > bench/results/uploads.md <<'PY'
+python3 - "$csv" "$device" "$store" "$lod" "$gpu" "$size" "$tf" "$reps" > bench/results/render/uploads.md <<'PY'
 import csv, statistics, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 device, store, lod, gpu, size, tf, reps = sys.argv[2:9]
@@ -68,4 +68,4 @@ for u in ("direct", "staged"):
           f"{statistics.median(float(x['ms_drawing']) for x in r):.0f} | {r[0]['bricks_paged_in']} | {r[0]['batches']} |")
 print(f"\nStaged / direct: {med['staged'] / med['direct']:.2f}× the time.")
 PY
-cat bench/results/uploads.md
+cat bench/results/render/uploads.md

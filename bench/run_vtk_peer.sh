@@ -21,7 +21,7 @@ cd "$(dirname "$0")/.."
 command_line="bash bench/run_vtk_peer.sh$(printf ' %q' "$@")"
 
 work=bench/work/peer-vtk
-out=bench/results
+out=bench/results/peers
 volume=/usr/share/mricron/templates/ch2better.nii.gz
 bin=build/voxbrick
 pass=()

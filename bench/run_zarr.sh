@@ -4,7 +4,7 @@
 # with zstd chunks. For each: the first frame live (a fresh process: open, the pass over the chunks, the frame) and
 # prepped (a fresh process), the warm frame of each (after --warm-up 2), prep's time, and chunk decode MB/s through
 # voxbrick (decodeZarrChunk) against the codec library called directly on the same bytes (bench_zarr_decode).
-# Writes bench/results/zarr.{csv,md} (headed SMOKE RUN with --smoke).
+# Writes bench/results/zarr/zarr.{csv,md} (headed SMOKE RUN with --smoke).
 #
 #   bash bench/run_zarr.sh [--n 1024] [--chunk 64] [--size 512x512] [--smoke]
 #
@@ -30,9 +30,9 @@ bin=build/voxbrick
 tool=build/bench/bench_zarr_decode
 [ -x "$bin" ] && [ -x "$tool" ] || { echo "run_zarr.sh: build voxbrick and bench_zarr_decode first" >&2; exit 2; }
 work=bench/work/zarr-$n
-mkdir -p "$work" bench/results
-csv=bench/results/$label.csv
-md=bench/results/$label.md
+mkdir -p "$work" bench/results/zarr
+csv=bench/results/zarr/$label.csv
+md=bench/results/zarr/$label.md
 scene=(--size "$size" --tf hot -q)
 
 seconds() { local s; s=$(date +%s.%N); "$@" > /dev/null; printf '%.2f' "$(echo "$(date +%s.%N) - $s" | bc)"; }

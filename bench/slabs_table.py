@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The texture-slab table in the shape of the seed's (Yalim 2005, chapter 5), from sweep.csv files of `voxbrick bench`.
+"""The texture-slab table in the shape of Yalim 2005's (chapter 5), from sweep.csv files of `voxbrick bench`.
 
 For each dataset and transfer function, at the given steps: slicing (one blended sample per fragment), slabs without
 silhouette maps, slabs with the early-ray-termination silhouette map (and with sub-blocks), pre-integration, and the
@@ -7,7 +7,7 @@ frame ray caster (column `raycast`, absent from sweeps made before it) likewise:
 and samples taken, the share of fragments and samples processed against the same slab size (or the ray caster)
 without termination, the speed-up over slicing and the worst-view PSNR against the reference.
 
-    python3 bench/slabs_table.py bench/results/slabs-sweep/sweep.csv [--steps 0.75,1] > table.md
+    python3 bench/slabs_table.py bench/results/sweep/slabs/sweep.csv [--steps 0.75,1] > table.md
 """
 import argparse
 import csv

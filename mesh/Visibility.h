@@ -1,4 +1,4 @@
-// Visibility order of a tetrahedral mesh's cells for front-to-back compositing (seed 002): MPVO over the
+// Visibility order of a tetrahedral mesh's cells for front-to-back compositing (Carrard & Juliachs): MPVO over the
 // face-adjacency graph, and a centroid sort to compare it with. No GL.
 #pragma once
 

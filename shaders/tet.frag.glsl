@@ -17,8 +17,8 @@ out vec4 fragColor;
 
 void main() {
 #ifdef NULL_FRAGMENT
-  // The seed's null fragment program (its Table 3): no computation, a constant colour, so that what remains is the
-  // vertex stage, rasterisation and blending.
+  // Carrard & Juliachs' null fragment program (their Table 3): no computation, a constant colour, so that what
+  // remains is the vertex stage, rasterisation and blending.
   fragColor = vec4(1.0);
   return;
 #endif

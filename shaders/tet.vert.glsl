@@ -1,4 +1,4 @@
-// Projected tetrahedra (seed 002, Carrard & Juliachs), by vertex pulling: one instance per tetrahedron, a strip of
+// Projected tetrahedra (Carrard & Juliachs), by vertex pulling: one instance per tetrahedron, a strip of
 // four vertices covering its projection exactly (so no sprite-size limit), drawn in the visibility order the CPU gave
 // (render/gl/tets/TetRenderer.h). The tet's 64 bytes (four vec4: position xyz, scalar w) are read once per quad corner from
 // a storage buffer, the same bytes a point sprite would carry.

@@ -76,8 +76,8 @@ Camera Camera::orbitAt(double azimuthDeg, double elevationDeg, double distance, 
   Camera camera;
   camera.center = box.center();
   camera.eye = camera.center + distance * (std::cos(el) * around + std::sin(el) * axes.up);
-  // Away from the pole the pole axis itself (negated past it) projects to exactly this derivative, and gives the
-  // same floats as the orbit of earlier versions; near it (and at it, where the projection vanishes) the derivative.
+  // Away from the pole the pole axis itself (negated past it) projects to exactly this derivative, so it is taken
+  // as it is; near it (and at it, where the projection vanishes) the derivative.
   const double c = std::cos(el);
   camera.up = std::abs(c) > 1e-6 ? (c > 0 ? axes.up : -axes.up) : -std::sin(el) * around + c * axes.up;
   return camera;

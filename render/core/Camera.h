@@ -39,7 +39,7 @@ UpAxis parseUpAxis(const std::string& name, const std::string& what);
 /// | ------- | ------------ | ------------ | ----------------------------------------------------------------- |
 /// | +z      | +y           | -x           | superior up; az 0 anterior view, az 90 the patient's left, 180 posterior |
 /// | -z      | +y           | +x           |                                                                   |
-/// | +y      | +z           | +x           | the Y-up orbit of earlier versions                                |
+/// | +y      | +z           | +x           | the Y-up orbit, Camera::orbit's default                           |
 /// | -y      | +z           | -x           |                                                                   |
 /// | +x      | +z           | -y           |                                                                   |
 /// | -x      | +z           | +y           |                                                                   |

@@ -8,7 +8,7 @@ namespace voxbrick::render {
 
 const std::vector<InteractiveRung>& interactiveLadder() {
   // Each rung is cheaper than the one before in at least one factor and no dearer in any. The order is the one
-  // measured on the MRI at 512² (bench_interactive, bench/results/interactive-order.md): a step 1.5 and 2 times longer
+  // measured on the MRI at 512² (bench_interactive): a step 1.5 and 2 times longer
   // costs the fewest dB for the time it saves (44 dB at 0.7 of the time), then the drawing size (which also coarsens
   // the level of detail, given in pixels of the smaller drawing); a coarser level of detail of its own saves little
   // on a small volume and loses much, so it comes last.

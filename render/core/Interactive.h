@@ -23,7 +23,7 @@ struct InteractiveRung {
 };
 
 /// The rungs, from the exact drawing down, each cheaper than the one before, in the order that loses the least
-/// PSNR per ms saved on the MRI (bench/results/interactive-order.md): the step first, then the drawing size, then
+/// PSNR per ms saved on the MRI (as bench_interactive measures it): the step first, then the drawing size, then
 /// the level of detail.
 const std::vector<InteractiveRung>& interactiveLadder();
 

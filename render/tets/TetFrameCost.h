@@ -16,7 +16,7 @@ namespace voxbrick::render {
 class TetFrameCost {
  public:
   /// A tet's vertex stage (its strip's hull and planes, for each of four strip vertices) in fragments' work: about
-  /// 0.7 s for a million tets on llvmpipe against about 45 ns a fragment (bench/results/tets.md).
+  /// 0.7 s for a million tets on llvmpipe against about 45 ns a fragment, both measured.
   static constexpr double kFragmentsPerTet = 16;
 
   /// The cost of drawing the tets of `data` that `drawn` marks (per tet in mesh order) as `plan` sees them: a

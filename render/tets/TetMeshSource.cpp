@@ -207,7 +207,7 @@ std::shared_ptr<const TetMeshData> TetMeshSource::frameData(const Scene& scene, 
   const double inverse = 1.0 / (view.windowHi - view.windowLo);
   // The chunks in view, and of those the ones the transfer function does not make transparent. A frame reads every
   // chunk in view when they fit: the ray caster walks through transparent tets faster than it takes a pass to find
-  // where each ray enters again beyond them (bench/results/tets.md). Only when they do not fit are the transparent
+  // where each ray enters again beyond them (a pass per re-entry). Only when they do not fit are the transparent
   // ones left out, which changes nothing in the image (they add nothing to any ray).
   std::vector<uint32_t> visible, needed;
   int64_t culled = 0;

@@ -21,7 +21,7 @@ AtlasFormat parseAtlasFormat(const std::string& text);
 /// returns). Staged: the brick is written into a ring of pixel-unpack buffer regions and the texture copy is queued
 /// from there, fenced, so the CPU goes on to the next brick while the GPU copies and draws (a region is reused
 /// once its fence has passed). Auto: Staged on a GPU, Direct on a software rasteriser, whose texture is host memory
-/// and where staging only adds a copy (bench/results/uploads.md).
+/// and where staging only adds a copy (nothing to overlap it with).
 enum class AtlasUploads { Auto, Direct, Staged };
 
 /// "auto", "direct", "staged"; throws RenderInputError for anything else.

@@ -135,7 +135,7 @@ TEST(CameraOrbit, UpAxesFollowTheTable) {
   const Camera general = Camera::orbit(30, 20, 2, box, z);
   const glm::dvec3 d = general.viewDirection(), up{0, 0, 1};
   expectNear(general.upVector(), glm::normalize(up - glm::dot(up, d) * d), 1e-12);
-  // +y is the orbit of earlier versions, and the default of Camera::orbit.
+  // +y is the default of Camera::orbit.
   const OrbitAxes y = OrbitAxes::ofUpAxis("y", "test");
   expectNear(Camera::orbit(30, 40, 1.5, box, y).eye, Camera::orbit(30, 40, 1.5, box).eye, 0);
   for (const char* name : {"+x", "-x", "+y", "-y", "+z", "-z"}) {

@@ -1,8 +1,8 @@
 // The adjacency ray caster of tetrahedral meshes: instead of sorting the tets and drawing each one's projection
-// (render/gl/tets/TetRenderer.h, seed 002), each pixel's ray is walked through the mesh tet to tet across the faces it
-// leaves through (the face-adjacency graph of mesh/Topology.h), from the boundary face where it enters (Garrity
-// 1990; Weiler et al. 2003 on the GPU). The segments are those of the projected tets, classified the same way from
-// the pre-integrated table, so the image is the same model; what changes is the work: no sort, no vertex stage per
+// (render/gl/tets/TetRenderer.h, Carrard & Juliachs), each pixel's ray is walked through the mesh tet to tet across the
+// faces it leaves through (the face-adjacency graph of mesh/Topology.h), from the boundary face where it enters
+// (Garrity 1990; Weiler et al. 2003 on the GPU). The segments are those of the projected tets, classified the same way
+// from the pre-integrated table, so the image is the same model; what changes is the work: no sort, no vertex stage per
 // tet and no blending per segment, and a ray stops where its opacity reaches the termination threshold.
 //
 // A frame is a few passes. An entry pass rasterises the boundary faces; each fragment where the ray enters the

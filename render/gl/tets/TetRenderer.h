@@ -1,4 +1,4 @@
-// Renders a tetrahedral mesh (seed 002, Carrard & Juliachs) in stages: the plan (TetFramePlan, GL-free), the frame's
+// Renders a tetrahedral mesh (Carrard & Juliachs) in stages: the plan (TetFramePlan, GL-free), the frame's
 // tets on the GPU (TetResidency), the visibility order on the CPU (TetOrder: MPVO or by centroid, mesh/Visibility.h,
 // less the empty tets), the cost check (TetFrameCost), then a pass: the ray caster (TetRayCaster) or the projected
 // tets drawn here, one instance per tet in visibility order, its quad covering the tet's projection, its fragments
@@ -40,7 +40,7 @@ class TetRenderer final : public FrameRenderer {
   ~TetRenderer() override;
 
   /// Renders `scene` (camera, size, transfer function, window, background, visibility, shading, ert for the ray
-  /// caster; RenderMode::Roofline draws projected tets with the seed's null fragment program). Visibility
+  /// caster; RenderMode::Roofline draws projected tets with Carrard & Juliachs' null fragment program). Visibility
   /// TetSort::Ray draws with the ray caster where rayCastable, otherwise projected in MPVO order
   /// (FrameStats::tetRayPasses says which). A paged mesh draws the chunks the frame needs (TetMeshSource::frameData);
   /// a frame that needs none is the background. Throws RenderInputError for an invalid scene, RenderError for GL

@@ -1,4 +1,4 @@
-// Texture slabs (Yalım 2005, seed 003, chapter 4), drawn slab by slab. A slab is N consecutive global planes; for
+// Texture slabs (Yalım 2005, chapter 4), drawn slab by slab. A slab is N consecutive global planes; for
 // each slab, front to back, every box of the batch that the slab crosses is drawn once (its back faces,
 // slab.vert.glsl) and the fragment program marches its pixel's ray through the slab's planes inside the box,
 // compositing in registers and blending once (slab.frag.glsl). The samples are the global planes' points
@@ -10,7 +10,7 @@
 // slab. Within one batch of the atlas the order is slab-major, across batches brick order: both are visibility
 // orders along every ray (bricks are convex and drawn front to back; a ray crosses the planes in order).
 //
-// Empty-space silhouette maps (Scene::ess, the seed's CSSM pass): each slab's fragments get their own depth,
+// Empty-space silhouette maps (Scene::ess, Yalım's CSSM pass): each slab's fragments get their own depth,
 // 1 - k * 2^-22 for the frame's k-th slab, decreasing. Before slab k is marched, the same boxes are drawn with the
 // EMPTY_TEST program, colour off, depth written (GL_LESS) only where some sample (or pre-integrated segment) of the
 // slab has opacity; the march then tests GL_EQUAL, so it runs only on those pixels. Terminated pixels hold 0 and

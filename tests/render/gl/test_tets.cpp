@@ -1,5 +1,5 @@
-// The tet mesh renderer (seed 002): frames against analytic opacities, MPVO against the centroid order, and the
-// visibility orders themselves.
+// The tet mesh renderer (Carrard & Juliachs): frames against analytic opacities, MPVO against the centroid order,
+// and the visibility orders themselves.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -433,7 +433,7 @@ TEST(TetRayCaster, FallsBackWhereItCannotStartAndCancelsPartWay) {
   scene.visibility = TetSort::Ray;
   scene.camera.distance.reset();
   FrameOptions roofline;
-  roofline.mode = RenderMode::Roofline;  // the seed's null fragment program: projected tets only
+  roofline.mode = RenderMode::Roofline;  // Carrard & Juliachs' null fragment program: projected tets only
   renderer.render(scene, &stats, roofline);
   EXPECT_EQ(stats.tetRayPasses, 0);
   EXPECT_GT(stats.tetsDrawn + stats.tetsSkippedEmpty, 0);
