@@ -1,6 +1,8 @@
 // Transfer functions: validation, JSON and preset loading, evaluation, the per-bin opacity index.
 #include "render/core/TransferFunction.h"
 
+#include "common/Names.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -150,7 +152,7 @@ TransferFunction TransferFunction::load(const std::string& nameOrPath) {
     path = nameOrPath;
   } else {
     if (!isPresetName(nameOrPath))
-      throw RenderInputError("TransferFunction::load: '" + nameOrPath +
+      throw RenderInputError("transfer function '" + nameOrPath +
                              "' is neither a path (with '/' or ending in .json) nor a preset name (letters, digits, "
                              "'-', '_')");
     path = configDirectory() / "tf" / (nameOrPath + ".json");
@@ -159,19 +161,24 @@ TransferFunction TransferFunction::load(const std::string& nameOrPath) {
     if (!std::filesystem::is_regular_file(path, ec)) {
       if (const BuiltInPreset* builtIn = findBuiltInPreset(nameOrPath))
         return parse(std::string(builtIn->json), "built-in preset '" + nameOrPath + "'");
+      // A preset named but for case is the preset (names differ by more than case, or the name stays unsafe).
+      const std::vector<std::string> names = presetNames();
+      if (const auto same = common::sameButForCase(nameOrPath, names)) return load(*same);
+      std::string message = "no preset '" + nameOrPath + "' built in or in " + (configDirectory() / "tf").string();
+      if (const auto closest = common::closestName(nameOrPath, names)) message += "; did you mean '" + *closest + "'?";
       std::string known;
-      for (const std::string& name : presetNames()) known += (known.empty() ? "" : ", ") + name;
-      throw RenderInputError("TransferFunction::load: no preset '" + nameOrPath + "' built in or in " +
-                             (configDirectory() / "tf").string() + " (presets: " + (known.empty() ? "none" : known) +
-                             "; set VOXBRICK_CONFIG_DIR to choose the directory)");
+      for (const std::string& name : names) known += (known.empty() ? "" : ", ") + name;
+      throw RenderInputError(message + " (presets: " + (known.empty() ? "none" : known) +
+                             "; a file NAME.json in that directory adds one, and VOXBRICK_CONFIG_DIR chooses the "
+                             "directory)");
     }
   }
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec))
-    throw RenderInputError("TransferFunction::load: '" + path.string() + "' is not a readable file");
+    throw RenderInputError("transfer function file '" + path.string() + "': no such readable file");
   std::ifstream in(path, std::ios::binary);
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (!in.is_open() || in.bad()) throw RenderInputError("TransferFunction::load: cannot read '" + path.string() + "'");
+  if (!in.is_open() || in.bad()) throw RenderInputError("transfer function file '" + path.string() + "': cannot be read");
   return parse(text, path.string());
 }
 
