@@ -1,1 +1,1 @@
-"""The ingest fuzzer's parts (seeds, mutations, the checks); bench/fuzz_ingest.py runs them."""
+"""The ingest fuzzer's parts (seeds, mutations, the checks); fuzz_ingest.py beside them runs them."""
