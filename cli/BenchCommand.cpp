@@ -1,4 +1,4 @@
-// `voxbrick bench`: the time-versus-error sweep (quality/SweepRun.h) with its files (bench/SweepReport.h) and the
+// `voxbrick bench`: the time-versus-error sweep (quality/SweepRun.h) with its files (quality/SweepReport.h) and the
 // default it picks; `--calibrate` writes a store's quality table (quality/Calibration.h).
 #include <algorithm>
 #include <cmath>
@@ -9,13 +9,13 @@
 
 #include <unistd.h>
 
-#include "bench/MeshSweep.h"
-#include "bench/SweepReport.h"
 #include "brickstore/BrickStore.h"
 #include "brickstore/Errors.h"
 #include "cli/Commands.h"
 #include "quality/Calibration.h"
+#include "quality/MeshSweep.h"
 #include "quality/SettingChoice.h"
+#include "quality/SweepReport.h"
 #include "quality/SweepRun.h"
 #include "render/core/Quality.h"
 #include "render/core/Scene.h"
@@ -93,14 +93,14 @@ quality::SweepSpec baseSpec(const BenchArgs& a) {
   return quality::SweepSpec::calibrate(a.calibrate, tfs);
 }
 
-/// `bench --mesh INPUT...`: the mesh sweep (bench/MeshSweep.h) with its files and the default it picks.
+/// `bench --mesh INPUT...`: the mesh sweep (quality/MeshSweep.h) with its files and the default it picks.
 void runMeshBench(const BenchArgs& a, const CLI::App& cmd) {
   if (a.quick || !a.calibrate.empty() || !a.datasets.empty())
     throw store::InputError("--mesh sweeps the meshes it names: not with --quick, --calibrate or --datasets");
   for (const std::string& m : a.meshes)
     if (m.rfind("synthetic-mesh:", 0) != 0 && !fs::exists(m))
       throw store::InputError("--mesh: '" + m + "' does not exist");
-  bench::MeshSweepSpec spec;
+  quality::MeshSweepSpec spec;
   spec.meshes = a.meshes;
   if (cmd.count("--tf") > 0) spec.transferFunctions = splitList(a.tfs);
   if (spec.transferFunctions.empty()) throw store::InputError("--tf: an empty list");
@@ -109,10 +109,10 @@ void runMeshBench(const BenchArgs& a, const CLI::App& cmd) {
   spec.psnrThreshold = a.threshold;
   auto context = render::createContext(render::parseBackend(a.backend));
   if (!a.quiet) std::fprintf(stderr, "bench: %s\n", context->describe().c_str());
-  const bench::MeshSweepResult result = bench::runMeshSweep(spec, *context, [&](const std::string& line) {
+  const quality::MeshSweepResult result = quality::runMeshSweep(spec, *context, [&](const std::string& line) {
     if (!a.quiet) std::fprintf(stderr, "bench: %s\n", line.c_str());
   });
-  bench::writeMeshResults(result, a.out);
+  quality::writeMeshResults(result, a.out);
   std::printf("bench: wrote %s/mesh-sweep.{csv,md,svg} (%zu points)\n", a.out.c_str(), result.points.size());
   std::printf("bench: default at >= %g dB: %s\n", spec.psnrThreshold,
               result.chosen ? result.chosen->label().c_str() : "none");
@@ -247,7 +247,7 @@ void runGridSweep(const BenchArgs& a, const CLI::App& cmd, const quality::SweepS
     writeQualityTable(result, work, a.calibrate);
     if (!cmd.count("--out")) return;
   }
-  bench::writeResults(result, a.out);
+  quality::writeResults(result, a.out);
   std::printf("bench: %zu points; wrote %s/sweep.csv, sweep.md, sweep.svg\n", result.points.size(), a.out.c_str());
   printChoices(spec, result);
   if (a.calibrate.empty())

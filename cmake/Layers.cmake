@@ -18,13 +18,43 @@ function(voxbrick_expose target scope folder)
   target_include_directories(${target} ${scope} ${root})
 endfunction()
 
-# voxbrick_layer_probe(NAME TARGET HEADER): a test that compiles one line, #include "HEADER", with TARGET's include
-# path and passes only if the compiler cannot find the header: the rule "TARGET does not see HEADER", checked.
+# voxbrick_layer_probe(NAME TARGET HEADER [IN DIR...]): a test that compiles one line, #include "HEADER", with
+# TARGET's include path and passes only if the compiler cannot find the header: the rule "TARGET does not see HEADER",
+# checked. HEADER must exist, as DIR/HEADER for one of the DIRs (default: the source tree, for the project's own
+# headers; a library's include directories for its headers): configuring stops otherwise, since a probe of a header
+# that was renamed or removed would pass without checking anything.
 function(voxbrick_layer_probe name target header)
+  cmake_parse_arguments(PARSE_ARGV 3 probe "" "" "IN")
+  if(NOT probe_IN)
+    set(probe_IN ${PROJECT_SOURCE_DIR})
+  endif()
+  set(found FALSE)
+  foreach(dir IN LISTS probe_IN)
+    if(EXISTS ${dir}/${header} AND NOT IS_DIRECTORY ${dir}/${header})
+      set(found TRUE)
+    endif()
+  endforeach()
+  if(NOT found)
+    message(FATAL_ERROR "layer probe ${name}: ${header} is not in ${probe_IN}; the probe would check nothing. "
+                        "Name a header that exists (was it renamed or moved?)")
+  endif()
   set(source ${PROJECT_BINARY_DIR}/layer_probes/${name}.cpp)
   file(WRITE ${source} "#include \"${header}\"\n")
   add_library(layer_probe_${name} OBJECT EXCLUDE_FROM_ALL ${source})
-  target_link_libraries(layer_probe_${name} PRIVATE ${target})
+  get_target_property(type ${target} TYPE)
+  if(type STREQUAL "EXECUTABLE")
+    # A program cannot be linked: the probe gets what it compiles with, its own include path and its libraries'.
+    get_target_property(dirs ${target} INCLUDE_DIRECTORIES)
+    get_target_property(libraries ${target} LINK_LIBRARIES)
+    if(dirs)
+      target_include_directories(layer_probe_${name} PRIVATE ${dirs})
+    endif()
+    if(libraries)
+      target_link_libraries(layer_probe_${name} PRIVATE ${libraries})
+    endif()
+  else()
+    target_link_libraries(layer_probe_${name} PRIVATE ${target})
+  endif()
   add_test(NAME layers.${name}
            COMMAND ${CMAKE_COMMAND} --build ${PROJECT_BINARY_DIR} --target layer_probe_${name})
   string(REPLACE "." "\\." pattern "${header}")

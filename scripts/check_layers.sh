@@ -2,7 +2,8 @@
 # The folder rules that include paths cannot enforce (tests/CMakeLists.txt probes the rest with the compiler):
 # system GL/EGL/OSMesa headers and GL calls only in render/gl/ (the folder alone decides: no build file is read),
 # Asio only in server/, client/ and cli/, OpenVDB, GDCM and libtiff only in brickstore/ (tests may use them to write
-# files), MPI only in distributed/, cli/, bench/ and tests, and no include that climbs out of the folders by a relative path.
+# files), MPI only in distributed/, cli/, bench/ and tests, nothing of bench/ (tools only, no library) included from
+# outside it, and no include that climbs out of the folders by a relative path.
 # Prints every violation as FILE:LINE: text and exits 1 if there is any. Run from the repository root.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -30,6 +31,7 @@ mapfile -t notAsio < <(sources common brickstore mesh proto image render quality
 mapfile -t notVdb < <(sources common mesh proto image render quality server client cli bench)
 mapfile -t notMpi < <(sources common brickstore mesh proto image render quality server client)
 mapfile -t everything < <(sources .)
+mapfile -t notBench < <(sources . | grep -v '^bench/')
 
 forbid "GL, EGL or OSMesa headers outside render/gl/" '#include <(GL|EGL|KHR)/' "${notGl[@]}"
 forbid "GL, EGL or OSMesa calls outside render/gl/" '\b(gl|egl)[A-Z][A-Za-z0-9]*\s*\(|\bOSMesa[A-Z][A-Za-z]*\s*\(' \
@@ -38,6 +40,7 @@ forbid "Asio outside server/, client/ and cli/" '#include <boost/asio' "${notAsi
 forbid "OpenVDB outside brickstore/" '#include <(openvdb|nanovdb)/' "${notVdb[@]}"
 forbid "GDCM or libtiff outside brickstore/" '#include <(gdcm[A-Za-z0-9]*\.h|tiff[a-z]*\.h)>' "${notVdb[@]}"
 forbid "MPI outside distributed/, cli/, bench/ and tests" '#include <mpi\.h>' "${notMpi[@]}"
+forbid "bench/ included outside bench/ (its tools are programs, not a library)" '#include "bench/' "${notBench[@]}"
 forbid "relative includes that leave a folder" '#include "\.\./' "${everything[@]}"
 
 [ $status -eq 0 ] && echo "check_layers: every rule holds (${#everything[@]} files)"

@@ -1,7 +1,7 @@
 // What a DICOM header can make the reader allocate, bounded before any decoder runs: compressed (RLE, JPEG-LS)
 // slices whose Rows x Columns claim gigabytes, a deflated data set that is truncated or inflates without end, and a
 // declared slice beyond prep's --memory. Each is refused naming the file and the field, at the memory of an idle
-// process; the ingest fuzzer (bench/fuzz_ingest.py) found the deflated ones.
+// process; the ingest fuzzer (brickstore/fuzz/fuzz_ingest.py) found the deflated ones.
 #include <gtest/gtest.h>
 #include <zlib.h>
 

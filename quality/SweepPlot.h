@@ -5,11 +5,11 @@
 
 #include "quality/SweepResult.h"
 
-namespace voxbrick::bench {
+namespace voxbrick::quality {
 
 /// A self-contained SVG document: per dataset a panel with log-scaled time (x) and PSNR (y), points coloured by
 /// variant and shaped by renderer alternative, filled where on the Pareto front, each variant's front as a line,
 /// the PSNR threshold dashed and the chosen default ringed.
-std::string sweepSvg(const quality::SweepResult& result);
+std::string sweepSvg(const SweepResult& result);
 
-}  // namespace voxbrick::bench
+}  // namespace voxbrick::quality

@@ -1,5 +1,5 @@
 // The mesh sweep: exact reference frames, GPU frames of each setting, the front, the default and the files.
-#include "bench/MeshSweep.h"
+#include "quality/MeshSweep.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,23 +8,20 @@
 #include <memory>
 #include <stdexcept>
 
-#include "bench/SweepReport.h"
 #include "mesh/MeshReaders.h"
 #include "mesh/MeshStore.h"
 #include "mesh/SyntheticMesh.h"
 #include "mesh/Topology.h"
 #include "mesh/Validate.h"
 #include "quality/Statistics.h"
+#include "quality/SweepReport.h"
 #include "render/core/TransferFunction.h"
 #include "render/gl/tets/TetRenderer.h"
 #include "render/reference/TetReference.h"
 #include "render/tets/TetMeshDataset.h"
 
-namespace voxbrick::bench {
+namespace voxbrick::quality {
 namespace {
-
-using quality::ErrorTally;
-using quality::median;
 
 namespace fs = std::filesystem;
 
@@ -280,4 +277,4 @@ void writeMeshResults(const MeshSweepResult& result, const fs::path& out) {
   writeTextFile(out / "mesh-sweep.svg", svg(result));
 }
 
-}  // namespace voxbrick::bench
+}  // namespace voxbrick::quality

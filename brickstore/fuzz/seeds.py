@@ -1,8 +1,8 @@
-"""Seed inputs for the ingest fuzzer (bench/fuzz_ingest.py), written here with the Python standard library: small
-volume files (NIfTI-1 plain and gzip, NRRD attached raw and gzip, NRRD detached, a multi-page TIFF, DICOM series in
-explicit VR little endian, RLE and deflated transfer syntaxes) and tetrahedral meshes (VTK legacy ASCII and binary,
-gmsh 2.2 and 4.1 ASCII). Each seed lists its header fields (offset, size, encoding) and its structure boundaries, so
-mutations can aim at them; stores and OpenVDB files come from `voxbrick prep` (bench/fuzz/store_seeds.py)."""
+"""Seed inputs for the ingest fuzzer (brickstore/fuzz/fuzz_ingest.py), written here with the Python standard library:
+small volume files (NIfTI-1 plain and gzip, NRRD attached raw and gzip, NRRD detached, a multi-page TIFF, DICOM
+series in explicit VR little endian, RLE and deflated transfer syntaxes) and tetrahedral meshes (VTK legacy ASCII and
+binary, gmsh 2.2 and 4.1 ASCII). Each seed lists its header fields (offset, size, encoding) and its structure
+boundaries, so mutations can aim at them; stores and OpenVDB files come from `voxbrick prep` (store_seeds.py)."""
 
 import gzip
 import struct

@@ -12,7 +12,7 @@
 #include "render/core/Scene.h"
 #include "render/gl/GlContext.h"
 
-namespace voxbrick::bench {
+namespace voxbrick::quality {
 
 /// The mesh renderer's own choices (render::Scene::visibility, skipEmpty and, for the ray caster, ert): what a default
 /// can fix.
@@ -80,4 +80,4 @@ void markMeshPareto(std::vector<MeshPoint>& points);
 /// cannot write.
 void writeMeshResults(const MeshSweepResult& result, const std::filesystem::path& out);
 
-}  // namespace voxbrick::bench
+}  // namespace voxbrick::quality

@@ -6,21 +6,12 @@
 #include <stdexcept>
 #include <tuple>
 
-#include "bench/SweepPlot.h"
-#include "bench/SweepReport.h"
 #include "quality/SettingChoice.h"
+#include "quality/SweepPlot.h"
+#include "quality/SweepReport.h"
 
-namespace voxbrick::bench {
+namespace voxbrick::quality {
 namespace {
-
-using quality::Dataset;
-using quality::Point;
-using quality::ReferenceReport;
-using quality::Setting;
-using quality::slabLabel;
-using quality::SweepResult;
-using quality::SweepSpec;
-using quality::Variant;
 
 std::string number(const char* format, double value) { return formatNumber(format, value); }
 
@@ -305,7 +296,7 @@ std::string markdown(const SweepResult& r) {
 
 }  // namespace
 
-void writeResults(const quality::SweepResult& result, const std::filesystem::path& out) {
+void writeResults(const SweepResult& result, const std::filesystem::path& out) {
   std::filesystem::create_directories(out);
   writeTextFile(out / "sweep.csv", csv(result));
   writeTextFile(out / "sweep.md", markdown(result));
@@ -325,4 +316,4 @@ void writeTextFile(const std::filesystem::path& path, const std::string& text) {
   if (!out) throw std::runtime_error("cannot write " + path.string());
 }
 
-}  // namespace voxbrick::bench
+}  // namespace voxbrick::quality

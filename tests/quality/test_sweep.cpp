@@ -1,4 +1,4 @@
-// The time-versus-error sweep (quality/) and its files (bench/): Pareto front and default choice on made-up points,
+// The time-versus-error sweep and its files (quality/): Pareto front and default choice on made-up points,
 // the SVG's well-formedness, and a quick `voxbrick bench` run whose files are checked field by field.
 #include <gtest/gtest.h>
 
@@ -9,16 +9,13 @@
 #include <map>
 #include <sstream>
 
-#include "bench/SweepPlot.h"
-#include "bench/SweepReport.h"
 #include "quality/SettingChoice.h"
+#include "quality/SweepPlot.h"
+#include "quality/SweepReport.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::quality {
 namespace {
-
-using bench::sweepSvg;
-using bench::writeResults;
 
 Point point(const std::string& dataset, Variant variant, Setting setting, double ms, double psnr) {
   Point p{dataset, std::move(variant), setting};

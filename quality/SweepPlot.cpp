@@ -1,5 +1,5 @@
 // SVG written directly: a small, fixed layout that a browser or an image viewer shows and a test can parse.
-#include "bench/SweepPlot.h"
+#include "quality/SweepPlot.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,14 +9,8 @@
 #include <numbers>
 #include <sstream>
 
-namespace voxbrick::bench {
+namespace voxbrick::quality {
 namespace {
-
-using quality::Dataset;
-using quality::Point;
-using quality::Setting;
-using quality::SweepResult;
-using quality::Variant;
 
 constexpr double kPanelWidth = 430, kPanelHeight = 360;
 constexpr double kLeft = 58, kRight = 14, kTop = 34, kBottom = 46;  // margins of a panel's plot area
@@ -323,4 +317,4 @@ std::string sweepSvg(const SweepResult& result) {
   return svg.str();
 }
 
-}  // namespace voxbrick::bench
+}  // namespace voxbrick::quality

@@ -1,15 +1,16 @@
 #!/usr/bin/python3
 """The ingest fuzzer: damaged inputs of every kind voxbrick reads, run through `voxbrick prep`, `info` and `render`.
 
-    python3 bench/fuzz_ingest.py [--exe build/voxbrick] [--count 5000] [--seed 1] [--jobs 2] [--formats a,b]
-                                 [--timeout 30] [--rss-limit 1024] [--work bench/work/fuzz] [--report PREFIX]
+    python3 brickstore/fuzz/fuzz_ingest.py [--exe build/voxbrick] [--count 5000] [--seed 1] [--jobs 2]
+                                           [--formats a,b] [--timeout 30] [--rss-limit 1024] [--work build/fuzz-work]
+                                           [--report PREFIX]
 
-Seeds are written by bench/fuzz/ (NIfTI plain and gzip, NRRD attached raw and gzip, detached NRRD header and data,
-a multi-page TIFF, DICOM series native, RLE and deflated, VTK legacy ASCII and binary, gmsh 2.2 and 4.1, an
-OpenVDB file, a brick store's store.json, index.bin and bricks.bin, a mesh store's mesh.json, index and data).
+Seeds are written by the modules beside this one (NIfTI plain and gzip, NRRD attached raw and gzip, detached NRRD
+header and data, a multi-page TIFF, DICOM series native, RLE and deflated, VTK legacy ASCII and binary, gmsh 2.2 and
+4.1, an OpenVDB file, a brick store's store.json, index.bin and bricks.bin, a mesh store's mesh.json, index and data).
 Mutants are taken round robin over the seeds, each seed's systematic ones first (a truncation at every structure
 boundary, absurd values in every known header field, wrong JSON values) in an order shuffled by --seed, then random
-bit and byte flips; the same --seed and --count give the same mutants. What is checked is in bench/fuzz/runner.py;
+bit and byte flips; the same --seed and --count give the same mutants. What is checked is in runner.py beside it;
 docs/inputs.md says how to read the result. Every seed unchanged must be accepted first (exit status 2 if
 one is not); exit status 1 when any mutant failed a check.
 
@@ -31,7 +32,8 @@ import shutil
 import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+# The modules beside this script are the package `fuzz` (brickstore/fuzz/): its parent goes on the path.
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from fuzz import runner  # noqa: E402
 from fuzz.mesh_seeds import mesh_seeds  # noqa: E402
@@ -42,8 +44,8 @@ from fuzz.store_seeds import store_seeds  # noqa: E402
 
 def parse_args():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    here = os.path.dirname(os.path.abspath(__file__))
-    ap.add_argument("--exe", default=os.path.join(here, "..", "build", "voxbrick"))
+    root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
+    ap.add_argument("--exe", default=os.path.join(root, "build", "voxbrick"))
     ap.add_argument("--count", type=int, default=5000, help="mutants to run")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--jobs", type=int, default=2)
@@ -51,7 +53,7 @@ def parse_args():
     ap.add_argument("--timeout", type=float, default=120, help="wall seconds a voxbrick run may take")
     ap.add_argument("--max-minutes", type=float, default=0, help="stop starting mutants after this long (0: never)")
     ap.add_argument("--rss-limit", type=float, default=1024, help="MB of peak RSS a voxbrick run may reach")
-    ap.add_argument("--work", default=os.path.join(here, "work", "fuzz"))
+    ap.add_argument("--work", default=os.path.join(root, "build", "fuzz-work"))
     ap.add_argument("--report", default="", help="write PREFIX.md and PREFIX.csv")
     ap.add_argument("--list", action="store_true", help="list the seed formats and their systematic mutants")
     ap.add_argument("--match", default="", help="run only the systematic mutants whose 'FORMAT MUTATION' holds this")
@@ -178,6 +180,12 @@ def summarise(verdicts, idle):
             "failed": failed, "text": text}
 
 
+def docs_link(prefix):
+    """docs/inputs.md relative to the report's folder, wherever the report is written."""
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    return os.path.relpath(os.path.join(root, "docs", "inputs.md"), os.path.dirname(os.path.abspath(prefix)))
+
+
 def write_report(a, verdicts, s, elapsed, idle, exe):
     prefix, work = a.report, os.path.abspath(a.work)
     os.makedirs(os.path.dirname(os.path.abspath(prefix)), exist_ok=True)
@@ -194,7 +202,7 @@ def write_report(a, verdicts, s, elapsed, idle, exe):
     outcomes = ["refused", "accepted", "partly refused", "crashed or killed"]
     lines = ["# Ingest fuzzer", "",
              "Damaged inputs of every kind voxbrick reads through `prep`, `info` and `render` "
-             "([docs/inputs.md](../../docs/inputs.md#the-ingest-fuzzer) says what is checked).", "",
+             "([docs/inputs.md](" + docs_link(prefix) + "#the-ingest-fuzzer) says what is checked).", "",
              "```sh", "nice -n 19 python3 " + " ".join(shlex.quote(x) for x in sys.argv), "```", "",
              f"- date: {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC; machine: "
              f"{platform.node()}, {os.cpu_count()} CPUs (shared), {platform.platform()}; binary: {exe}",

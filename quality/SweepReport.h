@@ -7,10 +7,10 @@
 
 #include "quality/SweepResult.h"
 
-namespace voxbrick::bench {
+namespace voxbrick::quality {
 
 /// Writes sweep.csv, sweep.md and sweep.svg into `out`; throws std::runtime_error naming a file it cannot write.
-void writeResults(const quality::SweepResult& result, const std::filesystem::path& out);
+void writeResults(const SweepResult& result, const std::filesystem::path& out);
 
 /// `value` printed with `format` (one double), "inf" for an infinite one (a PSNR of identical images).
 std::string formatNumber(const char* format, double value);
@@ -18,4 +18,4 @@ std::string formatNumber(const char* format, double value);
 /// Writes `text` to `path` (replacing it); throws std::runtime_error naming the file if it cannot.
 void writeTextFile(const std::filesystem::path& path, const std::string& text);
 
-}  // namespace voxbrick::bench
+}  // namespace voxbrick::quality
