@@ -5,7 +5,7 @@
 // to the exact frame the server sends once the camera rests. Writes NAME.csv and NAME.md.
 //
 //   bench_drag --address HOST:PORT --dataset NAME [--size 512] [--views 36] [--hz 20] [--budget 100]
-//              [--elevation 20] [--out bench/results] [--name interactive] [--label TEXT]
+//              [--elevation 20] [--out bench/results/interactive] [--name interactive] [--label TEXT]
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -31,7 +31,7 @@ using nlohmann::json;
 namespace {
 
 struct Options {
-  std::string address, dataset, out = "bench/results", name = "interactive", label;
+  std::string address, dataset, out = "bench/results/interactive", name = "interactive", label;
   int size = 512, views = 36;
   double hz = 20, budget = 100, elevation = 20;
 };

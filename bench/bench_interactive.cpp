@@ -3,7 +3,7 @@
 // strengths, the time a frame takes and its PSNR against the exact frame of the same view, over a few views of an
 // orbit. The way that loses the fewest dB per ms saved goes first on the ladder (interactiveLadder).
 //
-//   bench_interactive --store DIR [--size 512] [--views 4] [--tf grayscale] [--out bench/results]
+//   bench_interactive --store DIR [--size 512] [--views 4] [--tf grayscale] [--out bench/results/interactive]
 //                     [--name interactive-order]
 #include <algorithm>
 #include <chrono>
@@ -26,7 +26,7 @@ using namespace voxbrick;
 namespace {
 
 struct Options {
-  std::string storePath, tf = "grayscale", out = "bench/results", name = "interactive-order";
+  std::string storePath, tf = "grayscale", out = "bench/results/interactive", name = "interactive-order";
   int size = 512, views = 4, repeats = 3;
 };
 

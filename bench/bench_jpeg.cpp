@@ -1,7 +1,7 @@
 // JPEG frames against lossless ones: for each lossless frame (PNG) and each JPEG quality and chroma layout, the
 // bytes of the JPEG frame the server would send and its PSNR against the lossless frame, beside the PNG and zstd
 // payloads of the same frame. The table behind image::kDefaultJpegQuality and image::kFrameJpegChroma
-// (bench/run_jpeg.sh renders the frames and writes bench/results/jpeg.{csv,md}).
+// (bench/run_jpeg.sh renders the frames and writes bench/results/jpeg/jpeg.{csv,md}).
 //
 //   bench_jpeg --csv OUT.csv FRAME.png... [--qualities 50,60,...] [--repeats 3]
 #include <algorithm>

@@ -11,7 +11,7 @@
 //
 //   bench_orbit --store DIR [--lods 1,2,4,8] [--views 36] [--degrees 360] [--start 30] [--elevation 20]
 //               [--distance 2.5] [--size 512] [--tf hot] [--host-budget 8192] [--gpu-budget 1024]
-//               [--out bench/results] [--name orbit-lod] [--frames DIR]
+//               [--out bench/results/lod] [--name orbit-lod] [--frames DIR]
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -39,7 +39,7 @@ using voxbrick::quality::median;
 namespace {
 
 struct Options {
-  std::string storePath, lods = "1,2,4,8", tf = "hot", name = "orbit-lod", framesDir, out = "bench/results";
+  std::string storePath, lods = "1,2,4,8", tf = "hot", name = "orbit-lod", framesDir, out = "bench/results/lod";
   int views = 36, size = 512;
   double degrees = 360, start = 30, elevation = 20, distance = 2.5;
   size_t hostMb = 8192, gpuMb = 1024;

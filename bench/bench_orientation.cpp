@@ -15,7 +15,7 @@
 //   bench_orientation --stores A.vbs,B.vbs [--labels a,b] [--brickings single,multi-oriented]
 //                     [--drawings raycast,slab,slicing] [--axes x,y,z]
 //                     [--degrees-per-step 5] [--runs 3] [--size 256] [--tf hot] [--ert 0] [--distance 2.5]
-//                     [--out bench/results] [--name orientation]
+//                     [--out bench/results/orientation] [--name orientation]
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -45,7 +45,7 @@ namespace {
 
 struct Options {
   std::string stores, labels, brickings, drawings = "raycast,slab,slicing", axes = "x,y,z", tf = "hot",
-                                         name = "orientation", out = "bench/results";
+                                         name = "orientation", out = "bench/results/orientation";
   double step = 5, ert = 0, distance = 2.5;
   int runs = 3, size = 256;
 };

@@ -1,7 +1,7 @@
 // Renderer benchmark: median frame time over an orbit of views for each setting, beside the sampling roofline
 // (one trilinear fetch per fragment, no classification, no blending) of the same geometry. Writes CSV and markdown.
 //
-//   bench_render [--out bench/results] [--work bench/work] [--size 512] [--views 36] [--step 0.5]
+//   bench_render [--out bench/results/render] [--work bench/work] [--size 512] [--views 36] [--step 0.5]
 //                [--datasets NAME,NAME]   (a subset of dense-blobs-256, sparse-256, mri-ch2better)
 //                [--configs 'NAME|NAME']  (only these settings, by exact name; the first of them in the built-in
 //                                          order is the baseline for max|diff|)
@@ -32,7 +32,7 @@ using voxbrick::quality::median;
 namespace {
 
 struct Options {
-  std::string out = "bench/results", work = "bench/work";
+  std::string out = "bench/results/render", work = "bench/work";
   int size = 512, views = 36;
   std::string datasets;  ///< names to run: each dataset whose name is in this text
   std::string configs;   ///< 'NAME|NAME': only these settings; empty: all

@@ -8,7 +8,7 @@
 // run goes through all settings in turn, so that a drift of the machine's load reaches all of them alike. The volume
 // is drawn in bricks with empty-space skipping (and sub-blocks, if asked), so that a frame has many boxes.
 //
-//   bench_slicers [--out bench/results] [--work bench/work] [--name slicers]
+//   bench_slicers [--out bench/results/render] [--work bench/work] [--name slicers]
 //                 [--input synthetic:blobs,n=256] [--brick 16] [--sub-block 0] [--tf hot] [--step 1]
 //                 [--size 512] [--rotations 90] [--degrees 2] [--runs 10] [--passes 10]
 //                 [--slicers vertex,vertex-lean,geometry,vertex-geometry,cpu] [--modes blending,points]
@@ -42,7 +42,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 struct Options {
-  std::string out = "bench/results", work = "bench/work", name = "slicers", input = "synthetic:blobs,n=256";
+  std::string out = "bench/results/render", work = "bench/work", name = "slicers", input = "synthetic:blobs,n=256";
   std::string tf = "hot", slicers = "vertex,vertex-lean,geometry,vertex-geometry,cpu", modes = "blending,points";
   int brick = 16, subBlock = 0, size = 512, rotations = 90, runs = 10, passes = 10;
   double step = 1, degrees = 2;

@@ -1,7 +1,7 @@
 // Brick-store benchmark: prep throughput and brick fetch throughput (cold and warm), beside a plain sequential
 // read of the same raw bytes, on a synthetic 512^3 volume and the real MRI. Writes CSV and a markdown table.
 //
-//   bench_store --work DIR --out bench/results [--size 512] [--repeats 3]
+//   bench_store --work DIR --out bench/results/store [--size 512] [--repeats 3]
 //   bench_store --make-raw FILE --spec SYNTHETIC_SPEC      (writes a synthetic field as a raw f32 file)
 #include <fcntl.h>
 #include <unistd.h>
@@ -79,7 +79,7 @@ struct Row {
 };
 
 struct Options {
-  std::string work = "bench/work", out = "bench/results", makeRaw, spec;
+  std::string work = "bench/work", out = "bench/results/store", makeRaw, spec;
   int size = 512, repeats = 3;
 };
 

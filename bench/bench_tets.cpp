@@ -1,4 +1,4 @@
-// The tables of Carrard & Juliachs (seed 002) for this machine: a tetrahedral mesh rendered while the view turns
+// The tables of Carrard & Juliachs' projected tetrahedra for this machine: a tetrahedral mesh rendered while the view turns
 // about it, per image size: the visibility sort's time, the rendering time, the frame's total and the tets drawn
 // per second (their Table 2); the same with a null fragment program, and the ratio of the two rendering times
 // (Table 3); the bytes a tet costs on the GPU and in the store (their 64 bytes a tet, Table 4's basis).
@@ -8,7 +8,7 @@
 // reported. Every run goes through all sizes and both fragment programs in turn, so that a drift of the machine's
 // load reaches all alike.
 //
-//   bench_tets --store MESH.vms [--out bench/results] [--name tets] [--sizes 256,512,768,1024] [--views 10]
+//   bench_tets --store MESH.vms [--out bench/results/tets] [--name tets] [--sizes 256,512,768,1024] [--views 10]
 //              [--runs 3] [--tf hot] [--visibility mpvo|centroid|raycast]
 #include <algorithm>
 #include <cstdio>
@@ -33,7 +33,7 @@ using namespace voxbrick;
 namespace {
 
 struct Options {
-  std::string storePath, out = "bench/results", name = "tets", sizes = "256,512,768,1024", tf = "hot",
+  std::string storePath, out = "bench/results/tets", name = "tets", sizes = "256,512,768,1024", tf = "hot",
                          visibility = "mpvo";
   int views = 10, runs = 3;
 };
@@ -167,7 +167,7 @@ void writeMarkdown(const fs::path& path, const std::string& device, size_t tets,
        {"tets/s rendered (10⁶)", [&](int s) { return fmt("%.2f", n / p.median(s, true, &Pass::drawMs) / 1000); }},
        {"rendering time ratio",
         [&](int s) { return fmt("%.1f", p.median(s, false, &Pass::drawMs) / p.median(s, true, &Pass::drawMs)); }}});
-  md << "\n\nBytes a tet: 64 on the GPU (four vertices, position and scalar, read by vertex pulling: the seed's point "
+  md << "\n\nBytes a tet: 64 on the GPU (four vertices, position and scalar, read by vertex pulling: the paper's point "
         "sprite) + 4 of visibility order uploaded each frame; "
      << fmt("%.1f", double(info.bytesStored) / double(info.tetCount)) << " in the store (zstd, "
      << fmt("%.1f", double(info.bytesRaw) / double(info.tetCount)) << " raw with the adjacency).\n";
@@ -177,7 +177,7 @@ void writeMarkdown(const fs::path& path, const std::string& device, size_t tets,
 
 int main(int argc, char** argv) {
   Options o;
-  CLI::App app("The seed's projected-tetrahedra tables for this machine");
+  CLI::App app("Carrard & Juliachs' projected-tetrahedra tables for this machine");
   addOptions(app, o);
   CLI11_PARSE(app, argc, argv);
   const std::vector<int> sizes = parseSizes(o.sizes);

@@ -12,6 +12,7 @@
 #include "brickstore/BrickFile.h"
 #include "brickstore/Convert.h"
 #include "brickstore/Errors.h"
+#include "brickstore/InputErrors.h"
 #include "brickstore/LiveBricks.h"
 #include "brickstore/VdbStore.h"
 #include "brickstore/ZarrStore.h"
@@ -170,6 +171,7 @@ bool BrickStore::isVdbFile(const fs::path& path) {
 }
 
 std::shared_ptr<const BrickStore> BrickStore::openAny(const fs::path& path, const StoreOpenOptions& options) {
+  requirePath(path);
   const bool zarr = isZarrDirectory(path);
   if ((options.time != 0 || options.channel != 0) && !zarr)
     throw InputError(path.string() + ": --time and --channel apply to an OME-Zarr only");

@@ -78,17 +78,32 @@ uint64_t maxInflatedBytes(const SourceOptions& options) {
   return options.memoryBudgetMB > 0 ? std::min(kMax, uint64_t(options.memoryBudgetMB) << 18) : kMax;
 }
 
-/// "UID (3 files, CT 'desc', 512x512, 120 slices)" per image series, for the listing that asks for --series.
+/// The image series as a table, one per line under a header: UID, modality, description, image size, slices and
+/// files; for the listing that asks for --series (each line starts with a newline).
 std::string seriesList(const std::map<std::string, std::vector<DicomFileEntry>>& series) {
-  std::string text;
+  std::vector<std::array<std::string, 6>> rows = {{"UID", "modality", "description", "size", "slices", "files"}};
   for (const auto& [uid, files] : series) {
     const DicomFileEntry& a = files.front();
     int64_t slices = 0;
     for (const DicomFileEntry& f : files) slices += f.frames;
-    text += (text.empty() ? "" : "; ") + uid + " (" + std::to_string(files.size()) + " file" +
-            (files.size() == 1 ? "" : "s") + ", " + (a.modality.empty() ? "" : a.modality + ", ") +
-            (a.description.empty() ? "" : "'" + a.description + "', ") + std::to_string(a.columns) + "x" +
-            std::to_string(a.rows) + ", " + std::to_string(slices) + " slice" + (slices == 1 ? "" : "s") + ")";
+    std::string description = a.description.empty() ? "-" : a.description;
+    if (description.size() > 40) description = description.substr(0, 37) + "...";
+    rows.push_back({uid, a.modality.empty() ? "-" : a.modality, description,
+                    std::to_string(a.columns) + "x" + std::to_string(a.rows), std::to_string(slices),
+                    std::to_string(files.size())});
+  }
+  std::array<size_t, 6> width{};
+  for (const auto& row : rows)
+    for (size_t c = 0; c < row.size(); ++c) width[c] = std::max(width[c], row[c].size());
+  std::string text;
+  for (const auto& row : rows) {
+    std::string line;
+    for (size_t c = 0; c < row.size(); ++c) {
+      const bool number = c >= 4;  // slices and files right-aligned
+      const std::string pad(width[c] - row[c].size(), ' ');
+      line += (c ? "  " : "") + (number ? pad + row[c] : row[c] + (c + 1 < row.size() ? pad : ""));
+    }
+    text += "\n" + line;
   }
   return text;
 }
@@ -130,7 +145,8 @@ std::vector<DicomFileEntry> selectSeries(std::vector<DicomFileEntry> all, const 
     if (withPixels.empty()) throw InputError(what + ": holds no DICOM image series" + skippedList(skipped));
     if (withPixels.size() > 1)
       throw InputError(what + ": holds " + std::to_string(withPixels.size()) +
-                       " DICOM image series; pick one with --series UID: " + seriesList(series) + skippedList(skipped));
+                       " DICOM image series; pick one with --series UID" + skippedList(skipped) + ":" +
+                       seriesList(series));
     chosenUid = withPixels.front();
   }
   auto it = series.find(chosenUid);
@@ -140,7 +156,7 @@ std::vector<DicomFileEntry> selectSeries(std::vector<DicomFileEntry> all, const 
       throw InputError(what + ": DICOM series " + chosenUid + " holds no image (" + baseName(e.file) + " is a " +
                        e.notImage + ")");
   throw InputError(what + ": no DICOM image series " + chosenUid + "; found " +
-                   (series.empty() ? std::string("none") : seriesList(series)));
+                   (series.empty() ? std::string("none") : std::to_string(series.size()) + ":" + seriesList(series)));
 }
 
 /// A multi-frame image or an RT dose grid is a volume of its own: the named file alone when it is one; a series

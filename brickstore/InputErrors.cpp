@@ -34,4 +34,9 @@ void rethrowNamingInput(const std::vector<std::string>& named) {
   }
 }
 
+void requirePath(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw InputError(path.string() + ": no such file or directory");
+}
+
 }  // namespace voxbrick::store

@@ -2,6 +2,7 @@
 // puts the file's name on an ingest or open error (prep, info and render use it; so may any other opener).
 #pragma once
 
+#include <filesystem>
 #include <string>
 #include <utility>
 #include <vector>
@@ -13,6 +14,10 @@ namespace voxbrick::store {
 /// are about no input; any other, a library's own included (JSON, OpenVDB, std::bad_alloc, a mesh check), becomes
 /// "NAMED[0]: MESSAGE", a CorruptStoreError if it was one and a InputError otherwise.
 [[noreturn]] void rethrowNamingInput(const std::vector<std::string>& named);
+
+/// Throws InputError "PATH: no such file or directory" when nothing is at `path`: the one way every command (prep,
+/// info, render, a server opening a dataset) says that an input is missing.
+void requirePath(const std::filesystem::path& path);
 
 /// Runs `fn`, whose errors come from reading the file `named[0]`, through rethrowNamingInput.
 template <typename F>

@@ -9,6 +9,7 @@
 
 #include "brickstore/DicomStructure.h"
 #include "brickstore/Errors.h"
+#include "brickstore/InputErrors.h"
 #include "brickstore/Sources.h"
 #include "brickstore/ZarrMeta.h"
 
@@ -121,7 +122,7 @@ std::unique_ptr<VolumeSource> openSource(const std::string& input, const SourceO
   std::error_code ec;
   if (!std::filesystem::exists(input, ec)) {
     if (input.find_first_of("*?[") != std::string::npos) return openSource(expandGlob(input), options);
-    throw InputError(input + ": no such file");
+    requirePath(input);
   }
   if (isZarrDirectory(input)) return openZarrSource(input, options);
   if (options.time != 0 || options.channel != 0)

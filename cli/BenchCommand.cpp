@@ -28,7 +28,7 @@ namespace {
 namespace fs = std::filesystem;
 
 struct BenchArgs {
-  std::string out = "bench/results", work = "bench/work", datasets, steps, backend = "auto";
+  std::string out = "bench/results/sweep/raycast", work = "bench/work", datasets, steps, backend = "auto";
   std::string mri = "/usr/share/mricron/templates/ch2better.nii.gz";
   std::string slabs, erts, slabSteps, alternatives, slabSubBlocks, lods, calibrate, tfs = "grayscale";
   bool quick = false, quiet = false, dryRun = false, noBestSlab = false, noPreIntegration = false, noOpaque = false,

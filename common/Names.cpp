@@ -38,6 +38,18 @@ std::optional<std::string> sameButForCase(std::string_view name, const std::vect
 
 std::optional<std::string> closestName(std::string_view name, const std::vector<std::string>& choices) {
   if (auto same = sameButForCase(name, choices)) return same;
+  // The name without the extension its choice has ("mri" for "mri.vbs"), if only one choice has it so.
+  std::optional<std::string> stem;
+  for (const std::string& choice : choices)
+    if (choice.size() > name.size() && choice[name.size()] == '.' &&
+        editDistance(std::string_view(choice).substr(0, name.size()), name) == 0) {
+      if (stem) {
+        stem.reset();
+        break;
+      }
+      stem = choice;
+    }
+  if (stem) return stem;
   const size_t limit = std::max<size_t>(2, name.size() / 3);
   std::optional<std::string> best;
   size_t bestDistance = limit + 1;

@@ -9,7 +9,8 @@
 
 namespace voxbrick::common {
 
-/// The choice a mistyped `name` most likely meant: one equal to it but for case, else the one fewest edits away
+/// The choice a mistyped `name` most likely meant: one equal to it but for case, else the one that is `name` and an
+/// extension ("mri" for "mri.vbs", case ignored) if only one is, else the one fewest edits away
 /// (Levenshtein, case ignored) if that is at most max(2, |name| / 3) edits; none when nothing is that close or two
 /// choices are equally close.
 std::optional<std::string> closestName(std::string_view name, const std::vector<std::string>& choices);

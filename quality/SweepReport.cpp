@@ -45,7 +45,7 @@ std::optional<double> slabTableStep(const SweepSpec& s) {
 }
 
 /// Per dataset and slab variant, at one step: slicing, the slab sizes without ERT, with ERT and with
-/// pre-integration, as the seed paper tabulates them, then the ray caster's settings.
+/// pre-integration side by side, then the ray caster's settings.
 std::string slabTables(const SweepResult& r) {
   const SweepSpec& s = r.spec;
   const std::optional<double> step = slabTableStep(s);

@@ -1,5 +1,7 @@
 // Dataset discovery and lazy opening.
 #include "server/Datasets.h"
+
+#include "common/Names.h"
 #include "render/engine/Datasets.h"
 
 #include <algorithm>
@@ -45,14 +47,14 @@ std::string datasetIdentity(const std::filesystem::path& path) {
 std::shared_ptr<const render::Dataset> DatasetRegistry::open(const std::string& name) {
   std::lock_guard lock(mMutex);
   // The name is checked before it touches a path: "..", "/etc" and the like must never reach the file system.
-  if (!validName(name)) throw DatasetNotFound("no dataset '" + name + "' (see ListDatasets)");
+  if (!validName(name)) throw DatasetNotFound(common::unknownName("dataset", name, names()));
   const std::filesystem::path path = mDirectory / name;
   const std::string identity = datasetIdentity(path);
   if (auto it = mOpen.find(name); it != mOpen.end()) {
     if (it->second.identity == identity) return it->second.dataset;
     mOpen.erase(it);  // replaced on disk (or gone): sessions holding the old one keep it until they open again
   }
-  if (!render::isDataset(path)) throw DatasetNotFound("no dataset '" + name + "' (see ListDatasets)");
+  if (!render::isDataset(path)) throw DatasetNotFound(common::unknownName("dataset", name, names()));
   // One host budget for the server: the datasets open share it equally, so one more shrinks the others' caches.
   const size_t share = mCacheBytes / (mOpen.size() + 1);
   auto dataset = render::openDataset(name, path, share);

@@ -84,9 +84,12 @@ def tree_hash(root):
 
 
 def message_lines(text):
-    """stderr's lines that count: not the GL driver's banner that render prints first. Lines end at '\n' only (a
-    file's control bytes quoted in a message, such as 0x1c, are not line ends)."""
-    return [l for l in text.split("\n") if l.strip() and not l.startswith("render: EGL")]
+    """stderr's lines that count: not the GL driver's banner that render prints first, and not the rows of a table
+    that follows an error line (indented two spaces: the image series a DICOM folder holds, for --series). Lines end
+    at '\n' only (a file's control bytes quoted in a message, such as 0x1c, are not line ends)."""
+    lines = [l for l in text.split("\n") if l.strip() and not l.startswith("render: EGL")]
+    table = bool(lines) and "--series UID" in lines[0] and lines[0].rstrip().endswith(":")
+    return [l for k, l in enumerate(lines) if not (table and k > 0 and l.startswith("  "))]
 
 
 class Slot:

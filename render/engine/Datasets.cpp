@@ -3,6 +3,8 @@
 
 #include <stdexcept>
 
+#include "brickstore/Errors.h"
+#include "brickstore/InputErrors.h"
 #include "render/engine/DatasetDriver.h"
 
 namespace voxbrick::render {
@@ -16,10 +18,11 @@ std::vector<std::filesystem::path> datasetFiles(const std::filesystem::path& pat
 
 std::shared_ptr<const Dataset> openDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes,
                                            const store::StoreOpenOptions& options) {
+  store::requirePath(path);
   const DatasetDriver* driver = driverOfPath(path);
   if (!driver)
-    throw std::runtime_error("'" + path.string() +
-                             "' is not a dataset (no store.json, not a .vdb file, not an OME-Zarr, not a mesh store)");
+    throw store::InputError(path.string() +
+                            ": not a dataset (no store.json, not a .vdb file, not an OME-Zarr, not a mesh store)");
   return driver->open(std::move(name), path, cacheBytes, options);
 }
 

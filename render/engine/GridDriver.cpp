@@ -19,13 +19,6 @@ namespace {
 
 const BrickStoreDataset& grid(const Dataset& dataset) { return static_cast<const BrickStoreDataset&>(dataset); }
 
-std::string format(const char* pattern, auto... values) {
-  const int n = std::snprintf(nullptr, 0, pattern, values...);
-  std::string out(size_t(std::max(n, 0)), '\0');
-  std::snprintf(out.data(), out.size() + 1, pattern, values...);
-  return out;
-}
-
 /// A k-d partition of the store's level-0 bricks, and the order of its parts for a camera.
 class GridParts final : public SortLastParts {
  public:
@@ -97,7 +90,7 @@ class GridDriver final : public DatasetDriver {
     out.image = renderer.render(scene, options, &stats);
     out.stats = {{"rays", stats.rays}, {"samples", stats.samples}, {"bricks_skipped", stats.bricksSkipped},
                  {"ms", stats.ms}};
-    out.summary = format("with the reference (%s, step %g voxels): %lld rays, %lld samples, %.1f ms",
+    out.summary = printed("with the reference (%s, step %g voxels): %lld rays, %lld samples, %.1f ms",
                          options.analytic ? "analytic field" : "trilinear grid", options.step, (long long)stats.rays,
                          (long long)stats.samples, stats.ms);
     return out;
@@ -111,14 +104,14 @@ class GridDriver final : public DatasetDriver {
       for (int64_t n : stats.bricksPerLevel) levels += " " + std::to_string(n);
       levels += ")";
     }
-    std::vector<std::string> lines{format(
+    std::vector<std::string> lines{printed(
         "%s: %lld bricks drawn%s, %lld skipped empty, %lld culled, %lld paged in, %lld evicted, %lld batches, %.1f ms "
         "(paging %.1f, slicing %.1f, drawing %.1f, readback %.1f)",
         written.c_str(), (long long)stats.bricksDrawn, levels.c_str(), (long long)stats.bricksSkippedEmpty,
         (long long)stats.bricksCulled, (long long)stats.bricksPagedIn, (long long)stats.bricksEvicted,
         (long long)stats.batches, stats.msTotal, stats.msPaging, stats.msSlicing, stats.msDrawing, stats.msReadback)};
     if (stats.bricksFitCoarsened > 0)
-      lines.push_back(format(
+      lines.push_back(printed(
           "the frame was coarsened to fit: its levels wanted %.1f MiB of bricks, the atlas holds %.1f MiB; %lld "
           "bricks drawn as their parents, levels %d to %d",
           double(stats.bytesWanted) / 1048576.0, double(stats.bytesBudget) / 1048576.0,

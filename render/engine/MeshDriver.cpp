@@ -15,13 +15,6 @@ namespace {
 
 const TetMeshDataset& meshOf(const Dataset& dataset) { return static_cast<const TetMeshDataset&>(dataset); }
 
-std::string format(const char* pattern, auto... values) {
-  const int n = std::snprintf(nullptr, 0, pattern, values...);
-  std::string out(size_t(std::max(n, 0)), '\0');
-  std::snprintf(out.data(), out.size() + 1, pattern, values...);
-  return out;
-}
-
 class MeshDriver final : public DatasetDriver {
  public:
   std::string_view kind() const override { return TetMeshDataset::kKind; }
@@ -71,7 +64,7 @@ class MeshDriver final : public DatasetDriver {
                  {"tet_tests", stats.tetTests},
                  {"ambiguous", stats.ambiguous},
                  {"ms", stats.ms}};
-    out.summary = format("with the exact tet reference: %lld rays, %lld segments, %.1f ms", (long long)stats.rays,
+    out.summary = printed("with the exact tet reference: %lld rays, %lld segments, %.1f ms", (long long)stats.rays,
                          (long long)stats.segments, stats.ms);
     return out;
   }
@@ -82,7 +75,7 @@ class MeshDriver final : public DatasetDriver {
     const TetMeshDataset& m = meshOf(dataset);
     if (m.source()->paged()) {
       const store::CacheStats c = m.cacheStats();
-      lines.push_back(format(
+      lines.push_back(printed(
           "mesh paged within %.1f MiB: %lld of %zu chunks in view, %lld of those left out as transparent; %lld chunk "
           "reads in all, paging %.1f ms this frame; %.1f MiB held at most",
           double(c.budgetBytes) / 1048576.0, (long long)(int64_t(m.source()->chunkCount()) - stats.tetChunksCulled),
@@ -90,7 +83,7 @@ class MeshDriver final : public DatasetDriver {
           stats.msPaging, double(c.peakResidentBytes) / 1048576.0));
     }
     if (stats.tetRayPasses > 0) {
-      lines.push_back(format(
+      lines.push_back(printed(
           "%s: %lld tet segments ray cast (%lld rays, %lld terminated early, %lld pass%s), %.1f ms (pre-integration "
           "%.1f, drawing %.1f, readback %.1f)",
           written.c_str(), (long long)stats.samples, (long long)stats.fragments, (long long)stats.samplesTerminated,
@@ -98,7 +91,7 @@ class MeshDriver final : public DatasetDriver {
           stats.msDrawing, stats.msReadback));
       return lines;
     }
-    lines.push_back(format(
+    lines.push_back(printed(
         "%s: %lld tets drawn in %s order, %lld fragments, %.1f ms (sorting %.1f, pre-integration %.1f, drawing %.1f, "
         "readback %.1f)",
         written.c_str(), (long long)stats.tetsDrawn,

@@ -66,8 +66,11 @@ TEST(CliDicom, MixedSeriesNeedSeriesAndBadInputsGiveOneLine) {
   auto r = runVoxbrick("prep " + (dir / "in").string() + out);
   EXPECT_EQ(r.exitCode, 1) << r.output;
   EXPECT_NE(r.output.find("--series"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("1.2.3.7.2 (4 files"), std::string::npos) << r.output;
-  EXPECT_LE(std::count(r.output.begin(), r.output.end(), '\n'), 2) << r.output;
+  // The series follow the error line as a table, one a line: UID, modality, description, size, slices, files.
+  EXPECT_NE(r.output.find("\n  UID "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\n  1.2.3.7.1 "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\n  1.2.3.7.2 "), std::string::npos) << r.output;
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 4) << r.output;
 
   r = runVoxbrick("prep " + (dir / "in").string() + " --series 1.2.3.7.2 --brick 8" + out);
   ASSERT_EQ(r.exitCode, 0) << r.output;

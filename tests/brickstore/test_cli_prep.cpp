@@ -170,7 +170,9 @@ TEST(CliInfo, CorruptStoreFailsCleanly) {
   ASSERT_EQ(r.exitCode, 0) << r.output;
   std::filesystem::resize_file(dir / "s" / "bricks.bin", 10);
   expectError(runVoxbrick("info " + (dir / "s").string()), {"bricks.bin", "truncated"});
-  expectError(runVoxbrick("info " + (dir / "nothing").string()), {"not a store"});
+  expectError(runVoxbrick("info " + (dir / "nothing").string()), {"nothing: no such file or directory"});
+  std::filesystem::create_directories(dir / "empty");
+  expectError(runVoxbrick("info " + (dir / "empty").string()), {"store.json: missing", "not a complete store"});
 }
 
 }  // namespace

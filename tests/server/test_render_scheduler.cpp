@@ -236,7 +236,7 @@ TEST_F(RenderSchedulerTest, WithoutCoalescingASessionMayQueueSixtyFour) {
 }
 
 TEST_F(RenderSchedulerTest, StopDropsWaitingJobsAndRefusesNewOnes) {
-  auto s = scheduler(1, true);
+  auto s = scheduler(1, true, std::chrono::milliseconds(200));  // a frame takes long enough for the others to wait
   std::vector<std::shared_ptr<RecordingSink>> sinks;
   s->start();
   for (uint32_t i = 1; i <= 4; ++i) {

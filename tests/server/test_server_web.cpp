@@ -132,6 +132,28 @@ TEST_F(WebTransportTest, AWebSocketSessionGetsTheTcpFramesByteForByte) {
   EXPECT_EQ(ws.errorsUntilClosed(), std::vector<ErrorCode>{ErrorCode::ShuttingDown});
 }
 
+// SIGTERM ends the server within a second whatever is open on its HTTP port, as a browser leaves it: a WebSocket
+// session that has drawn a frame and does not read, a keep-alive connection after a page, a connection opened ahead
+// with no request yet, and half a request.
+TEST_F(WebTransportTest, SigtermEndsTheServerWithinASecondWhateverIsOpen) {
+  auto server = start();
+  WebSocketClient ws(server->httpPort());
+  ws.hello();
+  ws.openDataset("sparse");
+  ASSERT_EQ(ws.render(kScene).width, 80u);
+  RawSocket keepAlive(server->httpPort(), Framing::None);
+  const std::string page = "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: keep-alive\r\n\r\n";
+  ASSERT_TRUE(keepAlive.sendAll(std::vector<uint8_t>(page.begin(), page.end())));
+  RawSocket ahead(server->httpPort(), Framing::None);
+  RawSocket half(server->httpPort(), Framing::None);
+  const std::string start = "GET /viewer.css HTTP/1.1\r\nHost: 127.0.0.1\r\n";
+  ASSERT_TRUE(half.sendAll(std::vector<uint8_t>(start.begin(), start.end())));
+  std::this_thread::sleep_for(300ms);  // the page's reply written, the connections idle
+  const auto sent = Clock::now();
+  EXPECT_EQ(server->stop(SIGTERM, 1000ms), 0) << "not ended within a second of SIGTERM: " << server->log();
+  EXPECT_LT(Clock::now() - sent, 1000ms);
+}
+
 TEST_F(WebTransportTest, OnlyAllowedOriginsWithTheTokenMayOpenTheSocket) {
   auto server = start(
       "--http-origin http://viewer.example.org:9000 --http-origin https://lab.example.org "
