@@ -27,6 +27,8 @@ void addCompareCommand(CLI::App& app);
 void addBenchCommand(CLI::App& app);
 /// Adds `presets` (the transfer-function presets) to the app.
 void addPresetsCommand(CLI::App& app);
+/// Adds `scene` (the scene the scene options make, or the scene's schema) to the app.
+void addSceneCommand(CLI::App& app);
 
 /// Parses "a,b,c" into three numbers; throws CLI::ValidationError naming the option.
 template <typename T>

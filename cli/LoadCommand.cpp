@@ -15,6 +15,7 @@
 #include "cli/Commands.h"
 #include "cli/LoadFaults.h"
 #include "client/Client.h"
+#include "render/core/Scene.h"
 #include "render/engine/Datasets.h"
 
 namespace voxbrick::cli {
@@ -354,7 +355,7 @@ void addLoadCommand(CLI::App& app) {
   cmd->add_option("--interactive", a->interactiveMs,
                   "with --drag: Renders carry \"interactive\": true with this time budget in ms (a provisional frame "
                   "within it, the exact frame once the camera rests)")
-      ->check(between(10.0, 10000.0, "ms"))
+      ->check(between(render::Scene::kMinTimeBudgetMs, render::Scene::kMaxTimeBudgetMs, "ms"))
       ->needs(drag);
   cmd->add_option("--provisional-encoding", a->provisionalEncoding,
                   "with --drag: how provisional frames travel (provisional_encoding): raw, png, zstd or jpeg")

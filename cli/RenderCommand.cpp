@@ -82,9 +82,9 @@ void runReference(const RenderArgs& a, const render::Scene& scene, const render:
 
 /// A --sub-block typed on the command line must suit the dataset (a grid's must cut its bricks; the renderer alone
 /// takes one equal to the brick size as whole bricks, since the scene's default of 8 meets bricks of 8).
-void checkSubBlock(const RenderArgs& a, const CLI::App& cmd, const render::Dataset& dataset) {
+void checkSubBlock(const CLI::App& cmd, const render::GridTechnique& technique, const render::Dataset& dataset) {
   if (!cmd.count("--sub-block")) return;
-  render::driverFor(dataset).checkSubBlock(dataset, a.scene.subBlock);
+  render::driverFor(dataset).checkSubBlock(dataset, technique.subBlock);
 }
 
 /// Progressive: the frame that waits for no disk read (stand-ins for what is not resident), written beside the
@@ -124,7 +124,7 @@ void printFrameSummary(const RenderArgs& a, const render::Scene& scene, const re
 /// The checks of the arguments against the scene and the opened dataset, the same with and without --mpi:
 /// --sub-block against its bricks, the output's format against the scene, --analytic only with the reference.
 void checkInput(const RenderArgs& a, const CLI::App& cmd, const render::Scene& scene, const render::Dataset& dataset) {
-  checkSubBlock(a, cmd, dataset);
+  checkSubBlock(cmd, scene, dataset);
   checkOutputFormat(scene, a.output);
   if (a.mpi.mpi && a.backend == "reference")
     throw render::RenderInputError("--backend reference does not run with --mpi");

@@ -96,6 +96,7 @@ int main(int argc, char** argv) {
   voxbrick::cli::addCompareCommand(app);
   voxbrick::cli::addBenchCommand(app);
   voxbrick::cli::addPresetsCommand(app);
+  voxbrick::cli::addSceneCommand(app);
 
   try {
     app.parse(argc, argv);

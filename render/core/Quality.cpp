@@ -77,14 +77,14 @@ QualityTarget QualityTarget::parse(const std::string& text, const std::string& w
 
 std::string QualityTarget::text() const { return (kind == Kind::Psnr ? "psnr:" : "ms:") + format(value); }
 
-void QualitySetting::applyTo(Scene& scene) const {
-  scene.step = step;
-  scene.raycast = raycast;
-  scene.slab = slab;
-  scene.ert = ert;
-  scene.preIntegration = preIntegration;
-  scene.subBlock = subBlock;
-  scene.lod = lod;
+void QualitySetting::applyTo(GridTechnique& technique) const {
+  technique.step = step;
+  technique.raycast = raycast;
+  technique.slab = slab;
+  technique.ert = ert;
+  technique.preIntegration = preIntegration;
+  technique.subBlock = subBlock;
+  technique.lod = lod;
 }
 
 std::string QualitySetting::label() const {

@@ -14,6 +14,7 @@
 namespace voxbrick::render {
 
 struct Scene;
+struct GridTechnique;
 
 /// A target a user asks for instead of drawing settings.
 struct QualityTarget {
@@ -41,8 +42,8 @@ struct QualitySetting {
   int subBlock = 0;
   double lod = 0;
 
-  /// Sets the scene's fields of the same names.
-  void applyTo(Scene& scene) const;
+  /// Sets the scene's fields of the same names (all of them a grid technique's).
+  void applyTo(GridTechnique& technique) const;
   /// E.g. "step 0.75, raycast, ert 0.999, sub-block 8, lod 1".
   std::string label() const;
   bool operator==(const QualitySetting&) const = default;

@@ -1,10 +1,12 @@
-// A render request's scene: camera, transfer function, image size, step, background and options. The same JSON
-// schema is read by `voxbrick render --scene` and (later) by the server.
+// A render request's scene: camera, transfer function, image size, step, background and options, one struct per
+// concern. Its JSON schema (render/core/SceneSchema.h) is read by `voxbrick render --scene`, the command line's
+// scene options and the server.
 #pragma once
 
 #include <array>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <glm/glm.hpp>
 
@@ -50,7 +52,8 @@ const char* tetSortName(TetSort sort);
 /// The order named `name`; throws RenderInputError naming `what` and the valid names otherwise.
 TetSort parseTetSort(const std::string& name, const std::string& what);
 
-/// The scene keys a quality target chooses (QualitySetting's fields): a scene with "quality" names none of them.
+/// The scene keys a quality target chooses (QualitySetting's fields): a scene with "quality" names none of them
+/// (SceneSchema's rules).
 extern const char* const kQualityChosenKeys[7];
 
 /// The camera as a user gives it, in world coordinates (RAS for patient data; a volume without a patient frame has
@@ -83,41 +86,56 @@ struct CameraSpec {
 
 /// The named views' names, "anterior", "posterior", "left", "right", "superior", "inferior", comma separated.
 std::string viewNames();
+/// The same names, one each.
+std::vector<std::string> viewNameList();
 
 /// A pixel's output from premultiplied colour `c` and opacity `a` (ARCHITECTURE.md, optical model: output):
 /// c + (1 - a)·background with alpha 1; with a transparent background, straight colour c / a and alpha a (all 0
 /// where nothing was drawn). Clamped to [0, 1].
 glm::dvec4 outputPixel(const glm::dvec3& c, double a, const glm::dvec3& background, bool transparent);
 
-/// Everything a frame depends on besides the store.
-struct Scene {
+/// The view: where the camera is, the image's size and what lies behind the volume (SceneSchema's concern "view").
+struct SceneView {
   static constexpr int kMaxImageSide = 8192;
-  static constexpr int kMaxSubBlock = 256;
-  static constexpr int kMaxSlab = 4096;
-  static constexpr double kMaxLod = 1024;  ///< pixels; beyond it every node is coarse enough anyway
 
   CameraSpec camera;
   int width = 512, height = 512;
+  glm::dvec3 background{0, 0, 0};  ///< opaque background colour, RGB in [0, 1]
+  /// No background ("background": "none"): frames carry alpha, the accumulated opacity, with straight (not
+  /// premultiplied) colour, as PNG stores it; `background` is then unused.
+  bool transparent = false;
+
+  /// A pixel's output from its premultiplied colour and opacity: outputPixel with this view's background.
+  glm::dvec4 output(const glm::dvec3& c, double a) const;
+};
+
+/// Classification: how values become colour and opacity (concern "classification").
+struct SceneClassification {
   /// Default: the grayscale ramp (as config/tf/grayscale.json), built in so a scene never needs the config files.
   /// Transparent up to 0.05 of the window, so that empty space (a background at the window's low end, and its
   /// noise) is skipped; then grey rising to white and opacity rising to 0.5.
   TransferFunction transferFunction{{{0.0, {0, 0, 0, 0}}, {0.05, {0.05, 0.05, 0.05, 0}}, {1.0, {1, 1, 1, 0.5}}}};
   std::string transferFunctionName = "grayscale";  ///< preset name or path, or "inline"
+  std::optional<std::array<double, 2>> window;     ///< value window [lo, hi]; default the store's value range
+  bool shading = false;
+};
+
+/// How a grid is drawn (concern "grid"); `skipEmpty` and `ert` apply to meshes as well, `quality` chooses the
+/// drawing settings of either kind from the dataset's table.
+struct GridTechnique {
+  static constexpr int kMaxSubBlock = 256;
+  static constexpr int kMaxSlab = 4096;
+  static constexpr double kMaxLod = 1024;  ///< pixels; beyond it every node is coarse enough anyway
+
   /// Slice spacing in voxels of level 0 (of the smallest spacing). The default drawing, step 0.75 through the frame
   /// ray caster with termination at 0.999 and cells of sub-blocks of 8, is the fastest setting of the time-against-
   /// error sweep (`voxbrick bench`) that keeps every dataset at 40 dB or more against the reference (unshaded;
   /// shading needs finer).
   double step = 0.75;
-  glm::dvec3 background{0, 0, 0};  ///< opaque background colour, RGB in [0, 1]
-  /// No background ("background": "none"): frames carry alpha, the accumulated opacity, with straight (not
-  /// premultiplied) colour, as PNG stores it; `background` is then unused.
-  bool transparent = false;
-  std::optional<std::array<double, 2>> window;  ///< value window [lo, hi]; default the store's value range
   bool skipEmpty = true;
   bool cullFrustum = true;
   /// Where slice polygons are computed when slicing (slab 0, no raycast); no effect on slabs or the ray caster.
   Slicer slicer = Slicer::Vertex;
-  bool shading = false;
   /// Empty-space skipping inside bricks: bricks are drawn as boxes of sub-blocks of this many voxels per edge whose
   /// value range the transfer function does not reject. 0 (or anything not below the store's brick size) draws
   /// whole bricks. A power of two.
@@ -152,6 +170,26 @@ struct Scene {
   /// length); slicing takes every plane at every level. Default 1 (a voxel no larger than a pixel): in the level-of-
   /// detail sweep it changes no sample of the sweep's datasets at 256², where 2 costs the MRI 20 dB.
   double lod = 1;
+  /// Quality by target ("psnr:40", "ms:200"): the drawing settings (step, raycast, slab, ert, pre_integration,
+  /// sub_block, lod) are chosen from the dataset's quality table when the frame is drawn (render/core/Quality.h,
+  /// resolveQuality in render/core/Dataset.h), replacing the scene's own; a scene with a target names none of them.
+  std::optional<QualityTarget> quality;
+};
+
+/// How a tetrahedral mesh is drawn (concern "mesh").
+struct MeshTechnique {
+  /// How a tetrahedral mesh's cells are put in order (no effect on a grid). The default, the ray caster with `ert`
+  /// 0.999, is the fastest setting of the mesh sweep (`voxbrick bench --mesh`) that keeps every mesh at 40 dB or more
+  /// against the exact reference (4× MPVO's speed on the 1 M-tet ball; slower on the small Kuhn ball).
+  TetSort visibility = TetSort::Ray;
+};
+
+/// How and when frames reach the client (concern "delivery"): coarse-to-fine, frames on a time budget, encodings.
+struct SceneDelivery {
+  static constexpr double kMinTimeBudgetMs = 10, kMaxTimeBudgetMs = 10000;
+  /// The names `provisional_encoding` accepts.
+  static constexpr const char* kEncodingNames[4] = {"raw", "png", "zstd", "jpeg"};
+
   /// Coarse-to-fine: the frame may be drawn first with stand-ins (bricks not yet resident drawn from a coarser
   /// resident level while they are paged), then again once they are resident. The server then answers a Render with
   /// a provisional Frame followed by the exact one (PROTOCOL.md); `voxbrick render` writes both. The final frame is
@@ -167,48 +205,35 @@ struct Scene {
   /// frame on llvmpipe with 2 cores (`voxbrick orbit --interactive`: 40 to 47 dB at 100 ms, 38 to 39 dB at 50 ms,
   /// after the first view, which has no rate yet; docs/performance.md).
   double timeBudgetMs = 100;
-  static constexpr double kMinTimeBudgetMs = 10, kMaxTimeBudgetMs = 10000;
-  /// How a tetrahedral mesh's cells are put in order (no effect on a grid). The default, the ray caster with `ert`
-  /// 0.999, is the fastest setting of the mesh sweep (`voxbrick bench --mesh`) that keeps every mesh at 40 dB or more
-  /// against the exact reference (4× MPVO's speed on the 1 M-tet ball; slower on the small Kuhn ball).
-  TetSort visibility = TetSort::Ray;
-  /// Quality by target ("psnr:40", "ms:200"): the drawing settings (step, raycast, slab, ert, pre_integration,
-  /// sub_block, lod) are chosen from the dataset's quality table when the frame is drawn (render/core/Quality.h,
-  /// resolveQuality in render/core/Dataset.h), replacing the scene's own; a scene with a target names none of them.
-  std::optional<QualityTarget> quality;
   /// The JPEG quality (libjpeg's scale, 1..100) of a frame sent as JPEG; absent: the server's default
   /// (image::kDefaultJpegQuality, chosen where bytes against PSNR bend over). No effect on other encodings.
   std::optional<int> jpegQuality;
   /// The encoding of a request's provisional frames, by name ("raw", "png", "zstd", "jpeg"; kEncodingNames): the
   /// server maps it to the protocol's encoding. Absent: the request's own encoding.
   std::optional<std::string> provisionalEncoding;
-  /// The names `provisional_encoding` accepts.
-  static constexpr const char* kEncodingNames[4] = {"raw", "png", "zstd", "jpeg"};
+};
 
-  /// Parses a scene JSON object; absent keys keep their defaults. Throws RenderInputError naming `what` and the
-  /// key. Keys: camera {orbit: [az, el] (fitted) or [az, el, dist], fit, up_axis, view (setView) | eye, center,
-  /// up; fov; orthographic} (an unknown key, center or up without eye, or a view beside orbit, eye or up_axis is
-  /// refused), size [w, h],
-  /// transfer_function (preset name, path, or {points, reference_length}), step, background [r, g, b] or "none",
-  /// window [lo, hi], skip_empty, cull, slicer (slicerName), shading, sub_block, slab, raycast, ert,
-  /// pre_integration, ess, lod, progressive, interactive, time_budget_ms, visibility (tetSortName), quality ("psnr:DB"
-  /// or "ms:N"; not with step, raycast, slab, ert, pre_integration, sub_block or lod), jpeg_quality (integer 1..100),
-  /// provisional_encoding (one of kEncodingNames). `allowPaths` false (the server) accepts transfer functions by
-  /// preset name or inline only, never a file path.
+/// Everything a frame depends on besides the store: one struct per concern, so that `scene.step` reads as before
+/// and a function that needs one concern takes that struct. Its JSON keys, their types, ranges, defaults (these
+/// fields' initial values), help texts, command-line options and the rules between keys are one table,
+/// render/core/SceneSchema.h; parsing, validation, toJson and the command line's scene options all read it.
+struct Scene : SceneView, SceneClassification, GridTechnique, MeshTechnique, SceneDelivery {
+  /// Parses a scene JSON object; absent keys keep their defaults. Throws RenderInputError naming `what`, the key,
+  /// the value and what it may be: an unknown key (`camera.zoom` too), a value of the wrong type or out of range
+  /// (sceneSchema()), or keys the schema's rules (sceneRules()) refuse together: a quality target beside a setting
+  /// it chooses, two camera placements (orbit, view, eye), center or up without eye, fit or up_axis with eye, an up
+  /// axis with a view. `allowPaths` false (the server) accepts transfer functions by preset name or inline only,
+  /// never a file path.
   static Scene fromJson(const std::string& text, const std::string& what, bool allowPaths = true);
   /// The same, resolving preset names from `presets` (no file is read) and accepting no paths: what a server does
   /// on its I/O threads.
   static Scene fromJson(const std::string& text, const std::string& what, const TransferFunctionPresets& presets);
-  /// Throws RenderInputError for values out of range (size, step, background, window).
+  /// Throws RenderInputError naming the key for a value outside its schema range (size, step, background, window,
+  /// fov, slab, ert, lod, sub_block, time budget, ...).
   void validate() const;
-  /// The scene as JSON (the transfer function inline), so a frame can be reproduced.
+  /// The scene as JSON (the transfer function inline), so a frame can be reproduced: every key the schema writes
+  /// (SceneKey::written), a quality target standing for the settings it chooses.
   std::string toJson() const;
-  /// A pixel's output from its premultiplied colour and opacity: outputPixel with this scene's background.
-  glm::dvec4 output(const glm::dvec3& c, double a) const;
-
- private:
-  static Scene parse(const std::string& text, const std::string& what, bool allowPaths,
-                     const TransferFunctionPresets* presets);
 };
 
 }  // namespace voxbrick::render

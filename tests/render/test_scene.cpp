@@ -46,24 +46,26 @@ TEST(SceneJson, ErrorsNameTheKey) {
   expectError("{\"camera\": {\"orbit\": [0, 0, 2], \"zoom\": 2}}", "unknown key 'camera.zoom'");
   expectError(std::string("{\"size\": [32, 32]}") + '\0' + "garbage", "NUL byte at offset 18");
   expectError("{\"size\": [32, 32]} {}", "not valid JSON");
-  expectError("{\"size\": [0, 10]}", "image size");
-  expectError("{\"size\": [100000, 10]}", "image size");
+  expectError("{\"size\": [0, 10]}", "'size' must be [width, height], integers between 1 and 8192 pixels, not [0, 10]");
+  expectError("{\"size\": [100000, 10]}", "not [100000, 10]");
   expectError("{\"size\": [10]}", "size");
   expectError("{\"step\": 0}", "step");
   expectError("{\"step\": \"fine\"}", "'step'");
   expectError("{\"background\": [2, 0, 0]}", "background");
   expectError("{\"window\": [5, 1]}", "window");
-  expectError("{\"camera\": {\"orbit\": [0, 0, 2], \"eye\": [1, 2, 3]}}", "both");
+  expectError("{\"camera\": {\"orbit\": [0, 0, 2], \"eye\": [1, 2, 3]}}",
+              "'camera.orbit' cannot be combined with 'camera.eye'");
   expectError("{\"camera\": {\"fov\": 200}}", "fov");
   expectError("{\"slicer\": \"gpu\"}", "slicer");
   // An unknown slicer is refused with the valid names.
   expectError("{\"slicer\": \"gpu\"}",
-              "unknown slicer 'gpu' (one of \"vertex\", \"cpu\", \"vertex-lean\", \"geometry\", \"vertex-geometry\")");
+              "'slicer' must be one of \"vertex\", \"cpu\", \"vertex-lean\", \"geometry\", \"vertex-geometry\", "
+              "not \"gpu\"");
   expectError("{\"slicer\": 2}", "'slicer' must be one of \"vertex\"");
   expectError("{\"transfer_function\": {\"points\": []}}", "transfer_function");
   expectError("{\"transfer_function\": 7}", "transfer_function");
   expectError("not json", "not valid JSON");
-  expectError("{\"jpeg_quality\": 0}", "'jpeg_quality' must be an integer in [1, 100]");
+  expectError("{\"jpeg_quality\": 0}", "'jpeg_quality' must be an integer between 1 and 100, not 0");
   expectError("{\"jpeg_quality\": 85.5}", "'jpeg_quality'");
   expectError("{\"provisional_encoding\": \"webp\"}", "'provisional_encoding' must be one of");
   expectError("{\"provisional_encoding\": 3}", "'provisional_encoding'");
@@ -130,9 +132,12 @@ TEST(SceneJson, CameraKeysAndWhatIsRefused) {
   expectError("{\"camera\": {\"orbit\": [0, 0, 2], \"center\": [1, 2, 3]}}", "'camera.center' needs 'camera.eye'");
   expectError("{\"camera\": {\"up\": [0, 0, 1]}}", "'camera.up' needs 'camera.eye'");
   expectError("{\"camera\": {\"view\": \"anterior\", \"orbit\": [0, 0]}}", "'camera.view' cannot be combined");
-  expectError("{\"camera\": {\"view\": \"front\"}}", "unknown view 'front' (one of anterior, posterior, left");
-  expectError("{\"camera\": {\"up_axis\": \"z+\"}}", "unknown up axis 'z+'");
-  expectError("{\"camera\": {\"eye\": [0, 0, 5], \"fit\": true}}", "apply to an orbit");
+  expectError("{\"camera\": {\"view\": \"front\"}}",
+              "'camera.view' must be one of \"anterior\", \"posterior\", \"left\", \"right\", \"superior\", "
+              "\"inferior\", not \"front\"");
+  expectError("{\"camera\": {\"up_axis\": \"z+\"}}", "'camera.up_axis' must be one of \"+x\", \"-x\"");
+  expectError("{\"camera\": {\"eye\": [0, 0, 5], \"fit\": true}}",
+              "'camera.fit' cannot be combined with 'camera.eye': the fitted distance is an orbit's");
   expectError("{\"camera\": {\"orbit\": [0]}}", "[az, el] or [az, el, dist]");
   expectError("{\"camera\": {\"orbit\": [0, 0], \"fit\": false}}", "'camera.fit' false needs a distance");
   expectError("{\"camera\": {\"orbit\": [0, 0, 2], \"zoom\": 2}}", "(one of orbit, fit, up_axis, view, eye");

@@ -22,7 +22,7 @@ export const DEFAULT_POINTS = [
   [1, 1, 1, 1, 0.6],
 ];
 
-const FOV_DEG = 30; // the scene's default camera.fov, which the page never changes
+export const FOV_DEG = 30; // the scene's default camera.fov, which the page never changes
 const FIT_MARGIN = 1.05; // render/core Camera::kFitMargin
 export const MIN_DIST = 0.2;
 export const MAX_DIST = 50;
@@ -113,6 +113,21 @@ export function sceneCamera(view, meta, aspect) {
 /// The keys a scene may carry for a moving camera, tried in this order of preference: the server refuses keys it
 /// does not know (InvalidScene naming the key), and the viewer then drops that key for the session.
 export const MOTION_KEYS = ["interactive", "time_budget_ms", "provisional_encoding", "progressive"];
+/// Every scene key buildScene may send, a camera's as "camera.KEY". tests/browser/scene_keys.test.mjs holds each to
+/// the scene's schema (`voxbrick scene --schema`) and every scene buildScene makes to this list.
+export const SCENE_KEYS = [
+  "camera.view",
+  "camera.orbit",
+  "camera.eye",
+  "camera.center",
+  "camera.up",
+  "size",
+  "transfer_function",
+  "shading",
+  "window",
+  "quality",
+  ...MOTION_KEYS,
+];
 /// The time budget of a provisional frame while dragging, in milliseconds: with one frame drawn at a time, at best about
 /// twenty frames a second (the server's own default, 100 ms, is ten).
 export const DRAG_TIME_BUDGET_MS = 50;

@@ -333,7 +333,7 @@ TEST(RendererCli, WritesPngAndStats) {
 
   r = test::runVoxbrick("render " + (dir / "s").string() + " -o " + (dir / "g.png").string() + " --size 0x10");
   EXPECT_EQ(r.exitCode, 1) << r.output;
-  EXPECT_NE(r.output.find("image size"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("--size: must be WxH, integers between 1 and 8192 pixels"), std::string::npos) << r.output;
   r = test::runVoxbrick("render " + (dir / "s").string() + " -o " + (dir / "g.png").string() + " --tf nosuch");
   EXPECT_EQ(r.exitCode, 1) << r.output;
   EXPECT_NE(r.output.find("nosuch"), std::string::npos) << r.output;
