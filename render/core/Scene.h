@@ -159,10 +159,10 @@ struct GridTechnique {
   /// classified as a whole from its front and back values and length through a table rebuilt whenever the transfer
   /// function or the step changes, instead of one post-classified sample per segment. No effect when slab is 0.
   bool preIntegration = false;
-  /// Empty-space silhouette maps on texture slabs (a conservative silhouette pass): before each slab, a pass marches the
-  /// slab's samples of every pixel not yet terminated and marks in the depth buffer the pixels with any sample the
-  /// transfer function does not make transparent; the slab is then drawn for those pixels only. The image is the
-  /// same. No effect when slab is 0.
+  /// Empty-space silhouette maps on texture slabs (a conservative silhouette pass): before each slab, a pass
+  /// marches the slab's samples of every pixel not yet terminated and marks in the depth buffer the pixels with any
+  /// sample the transfer function does not make transparent; the slab is then drawn for those pixels only. The image
+  /// is the same. No effect when slab is 0.
   bool ess = false;
   /// Level of detail: where a coarser level of the pyramid has voxels no taller than this many pixels on the image
   /// (at their nearest depth), draw that level instead of the finer ones; 0 draws level 0 everywhere. On texture

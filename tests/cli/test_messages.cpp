@@ -82,7 +82,8 @@ TEST(Messages, AnUnknownDatasetGetsTheServersListAndTheClosest) {
   EXPECT_NE(r.exitCode, 0);
   EXPECT_TRUE(has(r.err, "no dataset 'blobs'; did you mean 'blobs.vbs'? (one of: blobs.vbs)")) << r.err;
   expectPlain(r.err);
-  const auto ok = runSplit("request " + address + " --dataset blobs.vbs --size 32x32 -o " + (dir / "y.png").string(), 60);
+  const auto ok =
+      runSplit("request " + address + " --dataset blobs.vbs --size 32x32 -o " + (dir / "y.png").string(), 60);
   EXPECT_EQ(ok.exitCode, 0) << ok.err;
 }
 
