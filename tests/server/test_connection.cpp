@@ -9,6 +9,7 @@
 
 #include "TestDatasets.h"
 #include "render/core/TransferFunctionPresets.h"
+#include "render/engine/NullFrameSource.h"
 #include "render/engine/RenderEngine.h"
 #include "server/Connection.h"
 #include "server/Datasets.h"
