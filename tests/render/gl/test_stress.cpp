@@ -264,8 +264,7 @@ class StressCamera : public ::testing::Test {
 
 TEST_F(StressCamera, InsideTheVolumeWithTheNearPlaneThroughBricks) {
   checkCase("inside, oblique", sStore, eyeScene("hot", {3.3, -2.1, 5.7}, {13, 4, -9}), kInside);
-  checkCase("inside, near the centre", sStore, eyeScene("hot", {0.4, 0.3, 0.2}, {-5, 1, -3}, {0, 1, 0}, 100),
-            kInside);
+  checkCase("inside, near the centre", sStore, eyeScene("hot", {0.4, 0.3, 0.2}, {-5, 1, -3}, {0, 1, 0}, 100), kInside);
   Scene ortho = eyeScene("hot", {2.5, 1.5, 4.5}, {2.5, 1.5, -10});
   ortho.camera.orthographic = true;
   checkCase("inside, orthographic", sStore, ortho, kInside);
@@ -562,8 +561,8 @@ TEST(StressRandom, SeededCases) {
               break;
             }
     }
-    ASSERT_GE(shown, scene.width * scene.height / 16) << "random case " << seed << ": no camera of " << cameras
-                                                      << " drawn shows the volume";
+    ASSERT_GE(shown, scene.width * scene.height / 16)
+        << "random case " << seed << ": no camera of " << cameras << " drawn shows the volume";
     const image::ImageF gpu = renderStore(s, scene);
     const std::string what = "random case " + std::to_string(seed) + " (" + std::to_string(nx) + "x" +
                              std::to_string(ny) + "x" + std::to_string(nz) + ", B=" + std::to_string(brick) +
