@@ -24,6 +24,22 @@ const assertNearlyEqual = (a, b, what) => {
   assert.ok(d.maxDiff <= 1 && d.differing < a.width * a.height * 0.02, `${what}: ${JSON.stringify(d)}`);
 };
 
+/// Where a frame shows the volume: how many pixels are brighter than black, and their centroid.
+const footprint = (img) => {
+  let lit = 0;
+  let sx = 0;
+  let sy = 0;
+  for (let y = 0; y < img.height; ++y)
+    for (let x = 0; x < img.width; ++x) {
+      const i = 4 * (y * img.width + x);
+      if (img.rgba[i] + img.rgba[i + 1] + img.rgba[i + 2] === 0) continue;
+      ++lit;
+      sx += x;
+      sy += y;
+    }
+  return { lit, x: lit ? sx / lit : NaN, y: lit ? sy / lit : NaN };
+};
+
 const waitExact = (page, afterId = 0, timeout = 20000) =>
   H.waitForState(
     page,
@@ -173,12 +189,20 @@ describe("viewer", () => {
     }
     const page = await H.openPage(browser, `${server.url}/?dataset=ml&orbit=40,25,3&pan=0.00001,0&${SIZE_PARAM}`);
     const still = await waitExact(page);
+    const stillPixels = await H.canvasPixels(page);
     const box = await (await page.$("#frame")).boundingBox();
     const [x0, y0] = [box.x + box.width / 2, box.y + box.height / 2];
     await page.mouse.move(x0, y0);
     await page.mouse.wheel({ deltaY: -200 });
     const zoomed = await H.waitForState(page, (st) => st.view.dist < 3 && st.lastScene.camera.eye !== undefined);
     await waitExact(page, still.newestId);
+    // The frame too: the volume nearer (3 radii to 2.46), so larger. Measured: 18673 of the 20480 pixels differ, and
+    // 1.37 times as many are lit (the frame's edges cut the volume, or it would be 1.49).
+    const zoomedPixels = await H.canvasPixels(page);
+    const [a, b] = [footprint(stillPixels), footprint(zoomedPixels)];
+    const zoomDiff = H.compareImages(stillPixels, zoomedPixels);
+    assert.ok(zoomDiff.differing > (SIZE[0] * SIZE[1]) / 2, `the zoomed frame differs: ${JSON.stringify(zoomDiff)}`);
+    assert.ok(b.lit > a.lit * 1.2, `lit pixels ${a.lit} before the wheel, ${b.lit} after`);
     await page.keyboard.down("Shift");
     await page.mouse.down();
     for (let i = 1; i <= 5; ++i) await page.mouse.move(x0 + 6 * i, y0);
@@ -187,6 +211,11 @@ describe("viewer", () => {
     const panned = await waitExact(page, zoomed.newestId);
     assert.ok(panned.view.pan[0] < -0.05, `pan ${panned.view.pan}`);
     assert.equal(panned.view.az, 40, "a pan does not turn the camera");
+    // The frame too: the volume follows the pointer, 30 pixels to the right, and stays at its height. Measured: the
+    // lit pixels' centre moved 17.6 pixels right (the frame's right edge cuts off what moved past it) and 1.1 down.
+    const c = footprint(await H.canvasPixels(page));
+    assert.ok(c.x - b.x > 10 && c.x - b.x < 30, `the volume's centre moved from column ${b.x} to ${c.x}`);
+    assert.ok(Math.abs(c.y - b.y) < 4, `the volume's centre moved from row ${b.y} to ${c.y}`);
     await page.waitForFunction(() => location.search.includes("pan="), { timeout: 5000 }).catch(() => {});
     assert.ok(page.url().includes("pan="), page.url());
     await page.close();
@@ -200,6 +229,7 @@ describe("viewer", () => {
       isMobile: false,
     });
     const start = await waitExact(page);
+    const startPixels = await H.canvasPixels(page);
     const box = await (await page.$("#frame")).boundingBox();
     const [x, y] = [box.x + box.width / 2, box.y + box.height / 2];
     const cdp = await page.createCDPSession();
@@ -210,6 +240,10 @@ describe("viewer", () => {
     await touch("touchEnd", []);
     const turned = await waitExact(page, start.newestId);
     assert.ok(Math.abs(turned.view.az - (30 - 50 * 0.4)) < 1e-6, `azimuth ${turned.view.az}`);
+    // The frame too: the volume turned 20 degrees (measured: 2151 pixels differ).
+    const turnedPixels = await H.canvasPixels(page);
+    const turnDiff = H.compareImages(startPixels, turnedPixels);
+    assert.ok(turnDiff.differing > 1000, `the turned frame differs: ${JSON.stringify(turnDiff)}`);
     // Fingers 40 px apart, then 80: twice as close.
     await touch("touchStart", [
       [x - 20, y],
@@ -224,6 +258,9 @@ describe("viewer", () => {
     const zoomed = await waitExact(page, turned.newestId);
     assert.ok(Math.abs(zoomed.view.dist - 1.5) < 1e-6, `distance ${zoomed.view.dist}`);
     assert.equal(zoomed.view.az, turned.view.az, "a pinch does not turn");
+    // The frame too: the volume twice as near (measured: 3.9 times as many pixels lit).
+    const [t, z] = [footprint(turnedPixels), footprint(await H.canvasPixels(page))];
+    assert.ok(z.lit > t.lit * 2, `lit pixels ${t.lit} before the pinch, ${z.lit} after`);
     await page.close();
   });
 

@@ -454,7 +454,8 @@ TEST(BenchCli, QuickSweepWritesWellFormedFilesAndReusesItsReferences) {
           << header[c] << " = '" << f[c] << "' in " << line;
     }
     EXPECT_GT(std::stod(f[9]), 0) << line;
-    EXPECT_GT(std::stod(f[13]), 15) << "an error this large means the sweep compared the wrong frames: " << line;
+    // Measured: 25.4 dB at worst (ml), 28.4 (mri), 34.0 (sparse); a black frame in one view scores at most 15.1.
+    EXPECT_GT(std::stod(f[13]), 23) << "an error this large means the sweep compared the wrong frames: " << line;
     EXPECT_GT(std::stod(f[21]), 0) << "samples taken: " << line;
     EXPECT_GT(std::stod(f[22]), 0) << "fragments started: " << line;
     if (f[27] == "1") {

@@ -3,6 +3,7 @@
 
 #include <signal.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -652,8 +653,16 @@ TEST_F(ServerTest, ClientsWriteTheProvisionalFrameOfAProgressiveRender) {
             image::readPng(scratch() / "progressive.provisional.png").rgba);
 }
 
+/// The largest difference of one channel of two frames' pixels (8-bit RGBA of the same size), in 1/255.
+int largestDifference(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b) {
+  EXPECT_EQ(a.size(), b.size());
+  int worst = a.size() == b.size() ? 0 : 255;
+  for (size_t i = 0; i < std::min(a.size(), b.size()); ++i) worst = std::max(worst, std::abs(int(a[i]) - int(b[i])));
+  return worst;
+}
+
 // The GPU budget is the server's: whatever datasets two render threads draw, their atlases stay within it, the
-// least recently used renderers giving way, and frames do not change.
+// least recently used renderers giving way, and frames do not change: they are the frame drawn without the budget.
 TEST_F(ServerTest, TheGpuBudgetHoldsAcrossDatasetsAndThreads) {
   ScratchDir many;
   const auto dir = many / "datasets";
@@ -663,6 +672,14 @@ TEST_F(ServerTest, TheGpuBudgetHoldsAcrossDatasetsAndThreads) {
   ASSERT_EQ(r.exitCode, 0) << r.output;
   for (const char* name : {"b", "c"})
     std::filesystem::copy(dir / "a", dir / name, std::filesystem::copy_options::recursive);
+  std::vector<uint8_t> unbudgeted;  // the three datasets are one volume: its frame with the whole atlas resident
+  {
+    ServerProcess whole("--datasets " + dir.string() + " --render-threads 1", many.path());
+    unbudgeted = pixels(session(whole, "a")->render(kScene, proto::Encoding::RawRgba8));
+    size_t lit = 0;
+    for (size_t i = 0; i < unbudgeted.size(); i += 4) lit += unbudgeted[i] + unbudgeted[i + 1] + unbudgeted[i + 2] > 0;
+    ASSERT_GT(lit, 100u) << "the frame shows the volume";
+  }
   ServerProcess server("--datasets " + dir.string() + " --render-threads 2 --gpu-budget 16", many.path());
   std::map<std::string, std::vector<uint8_t>> first;
   for (int round = 0; round < 3; ++round)
@@ -673,6 +690,11 @@ TEST_F(ServerTest, TheGpuBudgetHoldsAcrossDatasetsAndThreads) {
         first[name] = frame;
       else
         EXPECT_EQ(frame, first[name]) << name << ", round " << round;
+      // Drawn in batches of what the budget holds, front to back as one batch would: the same pixels, or one
+      // rounded the other way.
+      EXPECT_LE(largestDifference(frame, unbudgeted), 1) << name << ", round " << round
+                                                         << ": against the frame "
+                                                            "drawn without the budget";
       const json gpu = json::parse(c->stats())["gpu"];
       EXPECT_EQ(gpu["budget_bytes"].get<uint64_t>(), uint64_t(16) << 20);
       EXPECT_LE(gpu["atlas_bytes"].get<uint64_t>(), uint64_t(16) << 20) << name << ", round " << round;

@@ -4,9 +4,12 @@
 // guarantees, and good clients of both transports are served meanwhile.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cstdlib>
 #include <functional>
 #include <memory>
+#include <string>
 #include <thread>
 
 #include <nlohmann/json.hpp>
@@ -15,6 +18,7 @@
 #include "ServerProcess.h"
 #include "WebClient.h"
 #include "client/Client.h"
+#include "image/FrameImage.h"
 #include "render/engine/Datasets.h"
 #include "support/TestSupport.h"
 
@@ -64,6 +68,16 @@ std::unique_ptr<Client> session(const ServerProcess& server, std::chrono::millis
   return c;
 }
 
+/// The scene's frame from a session of its own, drawn before any hostile client connects: what good clients must
+/// get under attack.
+image::Image8 frameBefore(const ServerProcess& server, const std::string& scene, proto::Encoding encoding) {
+  const image::Image8 frame = image::decodeFrameImage(session(server)->render(scene, encoding));
+  size_t lit = 0;
+  for (size_t i = 0; i < frame.rgba.size(); i += 4) lit += frame.rgba[i] + frame.rgba[i + 1] + frame.rgba[i + 2] > 0;
+  EXPECT_GT(lit, 100u) << "the frame before the attack shows the volume";
+  return frame;
+}
+
 /// A well-behaved browser's session.
 std::unique_ptr<test::WebSocketClient> webSession(const ServerProcess& server,
                                                   std::chrono::milliseconds timeout = 60s) {
@@ -92,6 +106,22 @@ class Background {
   std::vector<std::thread> mThreads;
 };
 
+/// Expects `frame` to show what `before` showed, the same view drawn before the attack: every channel of every pixel
+/// equal or within 1/255 (a render thread that drew other frames in between may round a pixel the other way).
+void expectSameFrame(const proto::Frame& frame, const image::Image8& before, const std::string& what) {
+  const image::Image8 now = image::decodeFrameImage(frame);
+  ASSERT_EQ(now.width, before.width) << what;
+  ASSERT_EQ(now.height, before.height) << what;
+  int worst = 0;
+  size_t differing = 0;
+  for (size_t i = 0; i < now.rgba.size(); ++i) {
+    const int d = std::abs(int(now.rgba[i]) - int(before.rgba[i]));
+    worst = std::max(worst, d);
+    differing += d != 0;
+  }
+  EXPECT_LE(worst, 1) << what << ": " << differing << " channels differ from the frame drawn before the attack";
+}
+
 double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 json statsOf(const ServerProcess& server) {
@@ -116,6 +146,7 @@ json waitForStats(const ServerProcess& server, const std::function<bool(const js
 // so 64 silent sockets refused every good client.
 TEST_P(HostileClientTest, SilentAndTricklingConnectionsCannotLockOutAGoodClient) {
   auto server = start("--hello-timeout 2");
+  const image::Image8 beforeAttack = frameBefore(*server, kScene, proto::Encoding::Png);
   std::vector<std::unique_ptr<RawSocket>> silent, trickling;
   for (int i = 0; i < 72; ++i) silent.push_back(raw(*server));
   for (int i = 0; i < 8; ++i) trickling.push_back(raw(*server));
@@ -133,10 +164,12 @@ TEST_P(HostileClientTest, SilentAndTricklingConnectionsCannotLockOutAGoodClient)
   const auto t0 = Clock::now();
   std::unique_ptr<Client> good;
   ASSERT_NO_THROW(good = session(*server, 10s)) << server->log();
-  EXPECT_EQ(good->render(kScene).width, 80u);
+  expectSameFrame(good->render(kScene), beforeAttack, "a good client under attack");
   std::unique_ptr<test::WebSocketClient> browser;
   ASSERT_NO_THROW(browser = webSession(*server, 10s)) << server->log();
-  EXPECT_EQ(browser->render(kScene).width, 80u);
+  expectSameFrame(browser->render(kScene), beforeAttack, "a browser under attack");
+  // Measured 0.05 to 0.08 s (the renderer warm: the frame before the attack took its first frame, 0.1 to 0.2 s, out
+  // of this) on the 2-core machine at a load average of 8.
   EXPECT_LT(secondsSince(t0), 3.0) << "good clients must be served promptly";
 
   // Every silent connection is closed: the oldest at once to make room (LimitExceeded), the rest when their Hello
@@ -153,8 +186,8 @@ TEST_P(HostileClientTest, SilentAndTricklingConnectionsCannotLockOutAGoodClient)
   EXPECT_EQ(stats.at("sessions").at("pending").get<int>(), 0);
   EXPECT_GT(stats.at("sessions").at("evicted").get<int>(), 0);
   EXPECT_GE(stats["sessions"]["timed_out"].get<int>(), 8);
-  EXPECT_EQ(good->render(kScene).width, 80u);
-  EXPECT_EQ(browser->render(kScene).width, 80u);
+  expectSameFrame(good->render(kScene), beforeAttack, "a good client after the attack");
+  expectSameFrame(browser->render(kScene), beforeAttack, "a browser after the attack");
   EXPECT_TRUE(server->running());
 }
 
@@ -182,7 +215,9 @@ TEST_P(HostileClientTest, ATrickledMessageIsClosedWithinTheReadTimeoutOfItsFirst
   }
   const double elapsed = secondsSince(first);
   EXPECT_TRUE(closed) << "a message trickled over " << elapsed << " s was not closed";
-  EXPECT_LT(elapsed, 2.0) << "the read timeout (1 s) counts from the message's first byte";
+  // Measured 1.00 to 1.02 s. Counted from the end of the 16-byte header instead, the close would come 5 s after the
+  // first byte (a byte every 250 ms).
+  EXPECT_LT(elapsed, 3.5) << "the read timeout (1 s) counts from the message's first byte";
   EXPECT_EQ(codes, std::vector<ErrorCode>{ErrorCode::Timeout});
 
   // A message sent at an ordinary pace is untouched by it.
@@ -195,6 +230,7 @@ TEST_P(HostileClientTest, ATrickledMessageIsClosedWithinTheReadTimeoutOfItsFirst
 // OpenDataset without reading took the server from 0.6 to 2.6 GB, and most of it stayed after they closed.
 TEST_P(HostileClientTest, ClientsThatNeverReadStayBoundedAndGiveTheirMemoryBack) {
   auto server = start("--write-timeout 4");
+  const image::Image8 beforeAttack = frameBefore(*server, kScene, proto::Encoding::RawRgba8);
   auto good = session(*server);
   auto browser = webSession(*server);
   for (int i = 0; i < 3; ++i) good->render(kScene, proto::Encoding::RawRgba8);
@@ -230,8 +266,8 @@ TEST_P(HostileClientTest, ClientsThatNeverReadStayBoundedAndGiveTheirMemoryBack)
   const auto t0 = Clock::now();
   while (secondsSince(t0) < 3) {
     const auto t = Clock::now();
-    EXPECT_EQ(good->render(kScene, proto::Encoding::RawRgba8).width, 80u);
-    EXPECT_EQ(browser->render(kScene, proto::Encoding::RawRgba8).width, 80u);
+    expectSameFrame(good->render(kScene, proto::Encoding::RawRgba8), beforeAttack, "a good client during the flood");
+    expectSameFrame(browser->render(kScene, proto::Encoding::RawRgba8), beforeAttack, "a browser during the flood");
     slowest = std::max(slowest, secondsSince(t));
     peak = std::max(peak, server->residentBytes());
     std::this_thread::sleep_for(100ms);
@@ -239,7 +275,7 @@ TEST_P(HostileClientTest, ClientsThatNeverReadStayBoundedAndGiveTheirMemoryBack)
   flooding.stop();
   EXPECT_LT(double(peak), double(before) + 64e6) << "resident memory went from " << before / 1e6 << " to " << peak / 1e6
                                                  << " MB (" << sentBytes / 1e6 << " MB of requests sent)";
-  EXPECT_LT(slowest, 2.0) << "good frames were delayed";
+  EXPECT_LT(slowest, 2.0) << "good frames were delayed";  // measured 0.03 to 0.05 s
 
   // They never read: each is closed once a reply waits longer than the write timeout, and the memory is back.
   const json stats = waitForStats(
@@ -250,8 +286,8 @@ TEST_P(HostileClientTest, ClientsThatNeverReadStayBoundedAndGiveTheirMemoryBack)
   const uint64_t after = server->residentBytes();
   EXPECT_LT(double(after), std::max(double(before) * 1.1, double(before) + 32e6))
       << "resident memory " << before / 1e6 << " MB before the flood, " << after / 1e6 << " MB after";
-  EXPECT_EQ(good->render(kScene, proto::Encoding::RawRgba8).width, 80u);
-  EXPECT_EQ(browser->render(kScene, proto::Encoding::RawRgba8).width, 80u);
+  expectSameFrame(good->render(kScene, proto::Encoding::RawRgba8), beforeAttack, "a good client after the flood");
+  expectSameFrame(browser->render(kScene, proto::Encoding::RawRgba8), beforeAttack, "a browser after the flood");
 }
 
 // Replies waiting for all sessions together are bounded too: a frame that would take them past the server's
@@ -265,13 +301,14 @@ TEST_P(HostileClientTest, AFrameBeyondTheServersOutputBudgetIsRefusedUntilTheNon
   // dropped, and went out).
   const char* bigScene = R"({"camera": {"orbit": [40, 25, 20]}, "size": [2048, 2048], "transfer_function": "sparse",
                              "step": 4})";
+  const image::Image8 beforeAttack = frameBefore(*server, bigScene, proto::Encoding::RawRgba8);
   auto hog = raw(*server);
   ASSERT_TRUE(hog->sendMessage(proto::encode(proto::Hello{1, 1, "hog"}, 1)));
   ASSERT_TRUE(hog->sendMessage(proto::encode(proto::OpenDataset{"sparse"}, 2)));
   ASSERT_TRUE(hog->sendMessage(proto::encode(proto::RenderRequest{proto::Encoding::RawRgba8, bigScene}, 3)));
   const json rendered = waitForStats(
-      *server, [](const json& s) { return s["renders"]["frames"] >= 1; }, 30s);
-  ASSERT_GE(rendered["renders"]["frames"].get<int>(), 1);
+      *server, [](const json& s) { return s["renders"]["frames"] >= 2; }, 30s);
+  ASSERT_GE(rendered["renders"]["frames"].get<int>(), 2) << "the frame before, then the hog's";
 
   auto good = session(*server);
   try {
@@ -287,13 +324,15 @@ TEST_P(HostileClientTest, AFrameBeyondTheServersOutputBudgetIsRefusedUntilTheNon
       *server, [](const json& s) { return s["sessions"]["dropped_slow"] >= 1; }, 10s);
   EXPECT_EQ(dropped["sessions"]["dropped_slow"].get<int>(), 1);
   EXPECT_EQ(dropped.at("output").at("queued_bytes").get<uint64_t>(), 0u);
-  EXPECT_EQ(good->render(bigScene, proto::Encoding::RawRgba8).height, 2048u);
+  expectSameFrame(good->render(bigScene, proto::Encoding::RawRgba8), beforeAttack,
+                  "the frame once the non-reader left");
 }
 
 // Bytes that are no protocol message, and a message announcing a body past the limit: answered (BadMagic,
 // TooLarge) and closed before anything more is read, while good clients go on.
 TEST_P(HostileClientTest, GarbageAndOversizedMessagesAreAnsweredAndClosed) {
   auto server = start("--max-message-bytes 65536");
+  const image::Image8 beforeAttack = frameBefore(*server, kScene, proto::Encoding::Png);
   auto good = session(*server);
   auto browser = webSession(*server);
   auto closedWith = [&](const std::function<std::vector<uint8_t>(RawSocket&)>& wire) {
@@ -338,8 +377,8 @@ TEST_P(HostileClientTest, GarbageAndOversizedMessagesAreAnsweredAndClosed) {
     EXPECT_TRUE(codes.empty());
     EXPECT_EQ(s->closeCode(), 1009);
   }
-  EXPECT_EQ(good->render(kScene).width, 80u);
-  EXPECT_EQ(browser->render(kScene).width, 80u);
+  expectSameFrame(good->render(kScene), beforeAttack, "a good client after the garbage");
+  expectSameFrame(browser->render(kScene), beforeAttack, "a browser after the garbage");
   EXPECT_EQ(statsOf(*server)["sessions"]["pending"].get<int>(), 0);
 }
 

@@ -132,6 +132,8 @@ TEST_F(InteractiveServerTest, AHeavyFrameGivenUpFreesTheRenderThreadAtOnce) {
     gone->send(proto::RenderRequest{proto::Encoding::Png, scene(30, false, 256, 0.002)});
     std::this_thread::sleep_for(std::chrono::milliseconds(500));  // drawing now
   }                                                               // the client leaves without its frame
+  // Measured 10 to 12 ms, and 3.7 s with the renderer's passes in their own 64-row bands (checkpointSamples ignored);
+  // test_server's tests run one at a time (RUN_SERIAL), so nothing else of the suite loads the machine meanwhile.
   EXPECT_LT(smallFrameMs(*server), 1000) << "the abandoned frame held the render thread";
 
   // A refinement overtaken while it draws: an interactive heavy Render, whose exact frame starts after the rest, and
@@ -144,7 +146,7 @@ TEST_F(InteractiveServerTest, AHeavyFrameGivenUpFreesTheRenderThreadAtOnce) {
   std::this_thread::sleep_for(std::chrono::milliseconds(600));  // the rest is over: the exact frame draws
   const auto t = Clock::now();
   const proto::Frame small = c->render(scene(10, false, 64), proto::Encoding::RawRgba8);
-  EXPECT_LT(msSince(t), 1000) << "the overtaken refinement held the render thread";
+  EXPECT_LT(msSince(t), 1000) << "the overtaken refinement held the render thread";  // 6 to 45 ms; 3.7 s in bands
   EXPECT_EQ(small.width, 64u);
   const json stats = json::parse(c->stats());
   EXPECT_EQ(stats["renders"]["cancelled"].get<int>(), 2) << stats.dump();

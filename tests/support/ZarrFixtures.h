@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -25,6 +26,14 @@ inline std::filesystem::path writeZarr(const std::filesystem::path& out, nlohman
   const CommandResult r = runShell("/usr/bin/python3 " + zarrFixtureScript().string() + " '" + spec.dump() + "' 2>&1");
   EXPECT_EQ(r.exitCode, 0) << r.output;
   return out;
+}
+
+/// What zarr_fixture.py wrote with "dump": level 0's voxels at time 0 and channel 0 as float64, x fastest.
+inline std::vector<double> readZarrDump(const std::filesystem::path& file) {
+  const std::vector<char> bytes = readFile(file);
+  std::vector<double> voxels(bytes.size() / sizeof(double));
+  std::memcpy(voxels.data(), bytes.data(), voxels.size() * sizeof(double));
+  return voxels;
 }
 
 /// The JSON file `file`, parsed.

@@ -2,7 +2,9 @@
 """Writes an OME-Zarr (OME-NGFF 0.4 multiscales over Zarr v2) with Debian's python3-zarr, for the Zarr tests and
 bench/run_zarr.sh. One argument: a JSON object (see `spec` below). Level m is level 0 taken every 2^m voxels (not
 averaged, so a reader that uses the file's own levels can be told from one that averages); chunks that hold only the
-fill value are not written (write_empty_chunks=False), so the volume has missing chunks."""
+fill value are not written (write_empty_chunks=False), so the volume has missing chunks. With "dump": PATH, also writes
+level 0's voxels at time 0 and channel 0, as written, to PATH: little-endian float64 (exact for every dtype here),
+x fastest, then y, then z, so that a test can compare what a reader decodes with the array itself."""
 import json
 import sys
 
@@ -57,6 +59,7 @@ def main():
     store = zarr.DirectoryStore(spec["out"], dimension_separator=spec.get("separator", "."))
     root = zarr.group(store=store, overwrite=True)
     datasets = []
+    dump = []  # level 0's slabs at time 0 and channel 0
     for m in range(levels):
         step = 2 ** m
         level_shape = [(n + step - 1) // step for n in shape]
@@ -72,10 +75,14 @@ def main():
                 for z0 in range(0, len(zs), slab):
                     v = volume(shape, dtype, t, c, spec.get("pattern", "ball"), zs[z0:z0 + slab], step)
                     arr[index + (slice(z0, z0 + len(v)),)] = v
+                    if m == 0 and t == 0 and c == 0:
+                        dump.append(v)
         s = [1.0] * len(lead) + [f * step for f in scale]
         tr = [0.0] * len(lead) + translation
         datasets.append({"path": str(m), "coordinateTransformations": [{"type": "scale", "scale": s},
                                                                        {"type": "translation", "translation": tr}]})
+    if "dump" in spec:
+        np.concatenate(dump).astype("<f8").tofile(spec["dump"])
     kinds = {"t": "time", "c": "channel", "z": "space", "y": "space", "x": "space"}
     root.attrs["multiscales"] = [{"version": "0.4", "name": "fixture", "datasets": datasets,
                                   "axes": [{"name": a, "type": kinds[a], **({"unit": "micrometer"}

@@ -32,15 +32,25 @@ bool fullSuite() {
   return env && *env && std::string(env) != "0";
 }
 
-/// The largest RMSE and max |diff| a case may show against the reference.
+/// The largest RMSE and max |diff| a case may show against the reference: about twice what the case measured on
+/// llvmpipe (a float filter). A fixed-point filter adds its slack (test::filterSlack) to max |diff|, and 1e-3 (60 dB)
+/// to the RMSE, as test::expectSameDrawing allows. A brick left out of the frame moves max |diff| by 0.1 or more.
 struct Bound {
-  double rmse = 1e-2;  // 40 dB
-  double maxAbs = 0.1;
+  double rmse;
+  double maxAbs;
 };
+
+/// The eye outside the volume or on its boundary, every view and field of view, every shape and spacing seen from
+/// outside: measured RMSE 1.9e-8 to 4.1e-4 (the 179-degree field of view; the rest 1.2e-4 or less), max |diff|
+/// 3.6e-7 to 4.4e-3.
+constexpr Bound kOutside{8e-4, 9e-3};
+/// The eye inside the volume, the near plane cutting bricks: measured RMSE 4.6e-5 to 4.0e-3, max |diff| 5.5e-4 to
+/// 2.1e-2.
+constexpr Bound kInside{8e-3, 4e-2};
 
 /// Renders `scene` both ways; expects finite images within `bound`; prints the measured error.
 image::ImageError checkCase(const std::string& name, std::shared_ptr<const store::BrickStore> s, const Scene& scene,
-                            Bound bound = {}, double minBrightness = 0.002) {
+                            Bound bound, double minBrightness = 0.002) {
   const image::ImageF gpu = renderStore(s, scene);
   const image::ImageF reference = renderReference(s, scene);
   EXPECT_TRUE(allFinite(gpu)) << name << ": the GPU frame has a non-finite pixel";
@@ -48,8 +58,9 @@ image::ImageError checkCase(const std::string& name, std::shared_ptr<const store
   EXPECT_GE(meanBrightness(reference), minBrightness) << name << ": an empty frame proves nothing";
   const image::ImageError e = image::compareImages(gpu, reference);
   std::printf("stress %-40s rmse %.2e  max %.2e  psnr %5.1f dB\n", name.c_str(), e.rmse, e.maxAbs, e.psnr);
-  EXPECT_LE(e.rmse, bound.rmse) << name;
-  test::expectClose(gpu, reference, bound.maxAbs, "stress-" + name);
+  const double slack = test::filterSlack(*s, scene);
+  EXPECT_LE(e.rmse, bound.rmse + (slack > 0 ? 1e-3 : 0)) << name;
+  test::expectClose(gpu, reference, bound.maxAbs + slack, "stress-" + name);
   return e;
 }
 
@@ -252,19 +263,19 @@ class StressCamera : public ::testing::Test {
 };
 
 TEST_F(StressCamera, InsideTheVolumeWithTheNearPlaneThroughBricks) {
-  checkCase("inside, oblique", sStore, eyeScene("hot", {3.3, -2.1, 5.7}, {13, 4, -9}));
-  checkCase("inside, near the centre", sStore, eyeScene("hot", {0.4, 0.3, 0.2}, {-5, 1, -3}, {0, 1, 0}, 100));
+  checkCase("inside, oblique", sStore, eyeScene("hot", {3.3, -2.1, 5.7}, {13, 4, -9}), kInside);
+  checkCase("inside, near the centre", sStore, eyeScene("hot", {0.4, 0.3, 0.2}, {-5, 1, -3}, {0, 1, 0}, 100), kInside);
   Scene ortho = eyeScene("hot", {2.5, 1.5, 4.5}, {2.5, 1.5, -10});
   ortho.camera.orthographic = true;
-  checkCase("inside, orthographic", sStore, ortho);
+  checkCase("inside, orthographic", sStore, ortho, kInside);
 }
 
 TEST_F(StressCamera, EyeExactlyOnABrickFaceEdgeOrCorner) {
-  checkCase("eye on a brick face", sStore, eyeScene("hot", {0, 3.3, 5.1}, {10, 2, -7}));
-  checkCase("eye on a brick edge", sStore, eyeScene("hot", {0, 8, 5.1}, {10, 2, -7}));
-  checkCase("eye on a brick corner", sStore, eyeScene("hot", {0, 8, -8}, {10, 2, 7}));
-  checkCase("eye on a volume face", sStore, eyeScene("hot", {16, 3, 2}, {-5, 1, 1}));
-  checkCase("eye outside, in a face plane", sStore, eyeScene("hot", {8, 0, 40}, {8, 0, 0}, {0, 1, 0}, 40));
+  checkCase("eye on a brick face", sStore, eyeScene("hot", {0, 3.3, 5.1}, {10, 2, -7}), kInside);
+  checkCase("eye on a brick edge", sStore, eyeScene("hot", {0, 8, 5.1}, {10, 2, -7}), kInside);
+  checkCase("eye on a brick corner", sStore, eyeScene("hot", {0, 8, -8}, {10, 2, 7}), kInside);
+  checkCase("eye on a volume face", sStore, eyeScene("hot", {16, 3, 2}, {-5, 1, 1}), kOutside);
+  checkCase("eye outside, in a face plane", sStore, eyeScene("hot", {8, 0, 40}, {8, 0, 0}, {0, 1, 0}, 40), kOutside);
 }
 
 TEST_F(StressCamera, ViewsAlongAxesAndDiagonals) {
@@ -279,15 +290,15 @@ TEST_F(StressCamera, ViewsAlongAxesAndDiagonals) {
       scene.camera.orthographic = ortho;
       checkCase(
           "view az " + std::to_string(int(view.x)) + " el " + std::to_string(int(view.y)) + (ortho ? " ortho" : ""),
-          sStore, scene);
+          sStore, scene, kOutside);
     }
   }
 }
 
 TEST_F(StressCamera, UpParallelToTheViewDirection) {
-  checkCase("up along the view", sStore, eyeScene("hot", {0, 0, 60}, {0, 0, 0}, {0, 0, -1}, 40));
-  checkCase("up against the view", sStore, eyeScene("hot", {0, 60, 0}, {0, 0, 0}, {0, 1, 0}, 40));
-  checkCase("up zero", sStore, eyeScene("hot", {30, 20, 40}, {0, 0, 0}, {0, 0, 0}, 40));
+  checkCase("up along the view", sStore, eyeScene("hot", {0, 0, 60}, {0, 0, 0}, {0, 0, -1}, 40), kOutside);
+  checkCase("up against the view", sStore, eyeScene("hot", {0, 60, 0}, {0, 0, 0}, {0, 1, 0}, 40), kOutside);
+  checkCase("up zero", sStore, eyeScene("hot", {30, 20, 40}, {0, 0, 0}, {0, 0, 0}, 40), kOutside);
 }
 
 TEST_F(StressCamera, SoFarAwayTheVolumeCoversAboutOnePixel) {
@@ -308,7 +319,8 @@ TEST_F(StressCamera, SoFarAwayTheVolumeCoversAboutOnePixel) {
     std::printf("stress distance %-8g R: centre pixel GPU %.4f, reference %.4f; max |diff| %.2e\n", distance,
                 gpu.pixel(16, 16)[0], centre, e.maxAbs);
     EXPECT_GT(centre, 0.02) << "the ray through the centre pixel crosses the volume";
-    EXPECT_LE(e.maxAbs, distance < 1e4 ? 0.1 : centre + 1e-6) << distance;
+    // Measured at 126 and 1000 R: max |diff| 9.4e-5 and 5.3e-4.
+    EXPECT_LE(e.maxAbs, distance < 1e4 ? 1e-3 : centre + 1e-6) << distance;
     EXPECT_EQ(reference.pixel(0, 0)[0], 0.0f) << "a corner pixel sees nothing";
   }
 }
@@ -316,7 +328,7 @@ TEST_F(StressCamera, SoFarAwayTheVolumeCoversAboutOnePixel) {
 TEST_F(StressCamera, ExtremeFieldsOfView) {
   Scene narrow = sceneWith("hot");
   narrow.camera.fovY = 0.01;  // a few thousandths of a voxel per pixel
-  checkCase("fov 0.01", sStore, narrow);
+  checkCase("fov 0.01", sStore, narrow, kOutside);
   // View-aligned planes meet a ray at angle θ to the view axis every Δs / cos θ: at 179° the border pixels' rays
   // (θ up to 89.5°) are sampled 115 times more coarsely than the centre's, and a step of 1/4 voxel leaves them with
   // one sample or none. The bound holds once Δs / cos θ is below half a voxel at the border.
@@ -326,7 +338,7 @@ TEST_F(StressCamera, ExtremeFieldsOfView) {
     // Outside, the border rays graze the front face, where the blobs are transparent under "hot".
     if (outside) wide.transferFunction = kRed;
     wide.step = 0.002;
-    checkCase(std::string("fov 179, ") + (outside ? "outside" : "inside"), sStore, wide);
+    checkCase(std::string("fov 179, ") + (outside ? "outside" : "inside"), sStore, wide, outside ? kOutside : kInside);
     wide.step = 0.25;
     const image::ImageError coarse = image::compareImages(renderStore(sStore, wide), renderReference(sStore, wide));
     std::printf("stress fov 179 at step 1/4: rmse %.2e (the border rays' planes are 29 voxels apart)\n", coarse.rmse);
@@ -350,9 +362,9 @@ TEST(StressVolume, SpacingFromOneMillionthToOneMillionAndAnisotropic) {
     Scene scene = sceneWith("hot");
     scene.camera.azimuth = 35;
     scene.camera.elevation = 25;
-    checkCase(name, s, scene);
+    checkCase(name, s, scene, kOutside);
     scene.camera.distance = 0.3;  // inside
-    checkCase(name + ", inside", s, scene);
+    checkCase(name + ", inside", s, scene, kInside);
     std::filesystem::remove_all(dir / "s");
   }
 }
@@ -362,15 +374,17 @@ TEST(StressVolume, DegenerateShapes) {
   const TransferFunction& red = kRed;
   {
     auto s = prep("synthetic:marschner-lobb,nx=1,ny=1,nz=64", dir / "line", 8);
-    checkCase("1x1x64 end-on", s, orthoScene(red, 2));
+    checkCase("1x1x64 end-on", s, orthoScene(red, 2), kOutside);
     // Side-on, the line's ends (z = +-32) must not fall on pixel centres: at 3.2 voxels a pixel (height 80 over 25)
     // they did, exactly, and whether such a pixel is covered is up to the last bit of the projection (the H200 drew
     // one that the reference did not: max |diff| 0.3). At 3.12 they lie a quarter pixel from the nearest centres.
-    checkCase("1x1x64 side-on", s, orthoScene(red, 78, {200, 0, 0}, 25), {}, 0.0005);
+    checkCase("1x1x64 side-on", s, orthoScene(red, 78, {200, 0, 0}, 25), kOutside, 0.0005);
   }
-  // Where a ray's path is a voxel or two, one slice more or less is much of it: the bound at step 1/4 is one slice's
-  // opacity, 1 - (1 - 0.6)^(1/4) = 0.21 for the largest alpha here, and a finer step brings the GPU close.
-  const Bound oneSlice{0.03, 0.21}, fine{2e-3, 0.03};
+  // Where a ray's path is a voxel or two, one slice more or less is much of it: at step 1/4 it can be one slice's
+  // opacity, 1 - (1 - 0.6)^(1/4) = 0.21 for the largest alpha here (measured: RMSE 1.4e-2 to 1.5e-2, max |diff|
+  // 6.4e-2 to 6.6e-2), and a finer step brings the GPU close (measured: RMSE 5.7e-4 to 5.8e-4, max |diff| 2.6e-3 to
+  // 2.8e-3).
+  const Bound oneSlice{0.025, 0.1}, fine{1.2e-3, 6e-3};
   {
     auto s = prepArray<float>({2, 2, 2}, store::ValueType::F32, {0, 1, 0.5f, 0.25f, 1, 0, 0.75f, 0.1f}, dir / "two", 8);
     Scene scene = sceneWith("hot");
@@ -382,14 +396,15 @@ TEST(StressVolume, DegenerateShapes) {
   }
   {
     auto s = prep("synthetic:blobs,nx=37,ny=23,nz=11", dir / "odd", 8);
-    checkCase("37x23x11 in 8^3 bricks", s, sceneWith("hot"));
+    checkCase("37x23x11 in 8^3 bricks", s, sceneWith("hot"), kOutside);
   }
   {
     const store::Vec3i n{16, 16, 16};
     auto s = prepArray(n, store::ValueType::F32, std::vector<float>(size_t(n.volume()), 5.0f), dir / "const", 8);
     Scene scene = sceneWith("hot");
     scene.transferFunction = red;
-    checkCase("constant volume", s, scene);
+    // Measured: RMSE 4.6e-3, max |diff| 7.3e-2, where the silhouette cuts a pixel.
+    checkCase("constant volume", s, scene, {9e-3, 0.11});
   }
   {
     auto s = prepArray<float>({1, 1, 1}, store::ValueType::F32, {3.0f}, dir / "one", 8);
@@ -420,8 +435,9 @@ TEST(StressVolume, NanAndInfVoxelsBecomeBackground) {
   auto s = prepArray(n, store::ValueType::F32, values, dir / "nan", 8);
   EXPECT_EQ(s->meta().nonFiniteReplaced, bad);
   EXPECT_TRUE(std::isfinite(s->meta().valueMin) && std::isfinite(s->meta().valueMax));
-  // Random values vary from voxel to voxel, so the sampling error of step 1/4 is larger than for smooth fields.
-  checkCase("NaN/Inf voxels", s, sceneWith("grayscale"), {2e-2, 0.15});
+  // Random values vary from voxel to voxel, so the sampling error of step 1/4 is larger than for smooth fields
+  // (measured: RMSE 5.3e-3, max |diff| 8.1e-2).
+  checkCase("NaN/Inf voxels", s, sceneWith("grayscale"), {1e-2, 0.12});
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -510,23 +526,44 @@ TEST(StressRandom, SeededCases) {
     scene.transferFunction = TransferFunction(points);
     scene.shading = u(rng) < 0.3;
     scene.background = {pick(0, 1), pick(0, 1), pick(0, 1)};
-    scene.camera.fovY = pick(5, 150);
-    scene.camera.orthographic = u(rng) < 0.25;
     const Box box = volumeBox(s->meta().dims, s->meta().spacing);
-    if (u(rng) < 0.5) {
-      scene.camera.azimuth = pick(0, 360);
-      scene.camera.elevation = pick(-90, 90);
-      scene.camera.distance = std::pow(10.0, pick(-0.5, 1.2));
-    } else {
-      scene.camera.orbit = false;
-      const double r = box.radius();
-      scene.camera.eye = {pick(-2, 2) * r, pick(-2, 2) * r, pick(-2, 2) * r};
-      scene.camera.center = {pick(-1, 1) * r, pick(-1, 1) * r, pick(-1, 1) * r};
-      scene.camera.up =
-          u(rng) < 0.2 ? scene.camera.center - scene.camera.eye : glm::dvec3(pick(-1, 1), pick(-1, 1), pick(-1, 1));
+    const auto drawCamera = [&] {
+      scene.camera = CameraSpec{};
+      scene.camera.fovY = pick(5, 150);
+      scene.camera.orthographic = u(rng) < 0.25;
+      if (u(rng) < 0.5) {
+        scene.camera.azimuth = pick(0, 360);
+        scene.camera.elevation = pick(-90, 90);
+        scene.camera.distance = std::pow(10.0, pick(-0.5, 1.2));
+      } else {
+        scene.camera.orbit = false;
+        const double r = box.radius();
+        scene.camera.eye = {pick(-2, 2) * r, pick(-2, 2) * r, pick(-2, 2) * r};
+        scene.camera.center = {pick(-1, 1) * r, pick(-1, 1) * r, pick(-1, 1) * r};
+        scene.camera.up =
+            u(rng) < 0.2 ? scene.camera.center - scene.camera.eye : glm::dvec3(pick(-1, 1), pick(-1, 1), pick(-1, 1));
+      }
+    };
+    // A random camera may look away from the volume, or see it in a pixel or two, and a frame of background
+    // proves nothing: such a camera is drawn again (from the same generator, so the case stays reproducible)
+    // until the volume shows in a sixteenth of the frame.
+    image::ImageF reference;
+    int shown = 0, cameras = 0;
+    for (; shown < scene.width * scene.height / 16 && cameras < 50; ++cameras) {
+      drawCamera();
+      reference = renderReference(s, scene);
+      shown = 0;
+      for (int y = 0; y < reference.height; ++y)
+        for (int x = 0; x < reference.width; ++x)
+          for (int c = 0; c < 3; ++c)
+            if (std::abs(reference.pixel(x, y)[c] - float(scene.background[c])) > 1.0f / 255) {
+              ++shown;
+              break;
+            }
     }
+    ASSERT_GE(shown, scene.width * scene.height / 16)
+        << "random case " << seed << ": no camera of " << cameras << " drawn shows the volume";
     const image::ImageF gpu = renderStore(s, scene);
-    const image::ImageF reference = renderReference(s, scene);
     const std::string what = "random case " + std::to_string(seed) + " (" + std::to_string(nx) + "x" +
                              std::to_string(ny) + "x" + std::to_string(nz) + ", B=" + std::to_string(brick) +
                              ", spacing " + numberText(options.spacing.x) + ", slab " + std::to_string(scene.slab) +
@@ -535,9 +572,10 @@ TEST(StressRandom, SeededCases) {
     const image::ImageError e = image::compareImages(gpu, reference);
     worstRmse = std::max(worstRmse, e.rmse);
     // Random transfer functions are steeper than the presets and random cameras graze the volume's edges, where one
-    // slice more or less weighs most: a looser bound than the listed cases.
+    // slice more or less weighs most: a looser bound than the listed cases. Measured over the 200 cases: RMSE 2.6e-2
+    // at worst (the 12 of CI: 6.4e-3), max |diff| 0.13 (CI: 0.083).
     EXPECT_LE(e.rmse, 0.03) << what;
-    test::expectClose(gpu, reference, 0.3, "stress-random-" + std::to_string(seed));
+    test::expectClose(gpu, reference, 0.2, "stress-random-" + std::to_string(seed));
     std::filesystem::remove_all(dir / ("r" + std::to_string(seed)));
   }
   std::printf("random: %d cases, worst rmse %.2e\n", cases, worstRmse);
