@@ -3,7 +3,7 @@
 set -euo pipefail
 
 PACKAGES=(
-  build-essential cmake ninja-build pkg-config git
+  build-essential cmake ninja-build pkg-config git clang
   libopenvdb-dev libtbb-dev libblosc-dev libzstd-dev zlib1g-dev
   libboost-dev libboost-system-dev libboost-iostreams-dev
   libglm-dev libgl-dev

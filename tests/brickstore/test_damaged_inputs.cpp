@@ -24,7 +24,7 @@ using test::ScratchDir;
 
 /// `voxbrick ARGS` with its standard output discarded: the exit status and standard error alone.
 test::CommandResult stderrOf(const std::string& args) {
-  return test::runShell("{ " + std::string(VOXBRICK_EXE) + " " + args + " 2>&1 >/dev/null; }");
+  return test::runShell("{ " + test::voxbrickExe() + " " + args + " 2>&1 >/dev/null; }");
 }
 
 /// Lines in `text`, a last one without its newline counted.

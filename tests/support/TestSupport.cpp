@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <random>
 #include <stdexcept>
@@ -46,7 +47,12 @@ CommandResult runShell(const std::string& command) {
   return result;
 }
 
-CommandResult runVoxbrick(const std::string& args) { return runShell(std::string(VOXBRICK_EXE) + " " + args); }
+std::string voxbrickExe() {
+  const char* exe = std::getenv("VOXBRICK_TEST_EXE");
+  return exe && *exe ? exe : VOXBRICK_EXE;
+}
+
+CommandResult runVoxbrick(const std::string& args) { return runShell(voxbrickExe() + " " + args); }
 
 void writeFile(const std::filesystem::path& path, const void* data, size_t size) {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);

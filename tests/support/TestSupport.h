@@ -31,7 +31,11 @@ struct CommandResult {
 /// Runs `command` through /bin/sh -c and waits for it.
 CommandResult runShell(const std::string& command);
 
-/// Runs the built `voxbrick` binary with `args` (already shell-quoted where needed).
+/// The `voxbrick` binary runVoxbrick runs: the build's (VOXBRICK_EXE), or VOXBRICK_TEST_EXE where that is set (the
+/// sanitizer run sets it to voxbrick_asan: tests/sanitize).
+std::string voxbrickExe();
+
+/// Runs that `voxbrick` binary with `args` (already shell-quoted where needed).
 CommandResult runVoxbrick(const std::string& args);
 
 /// Writes bytes to a file, replacing it.
