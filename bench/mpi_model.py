@@ -48,7 +48,7 @@ def main():
     budget = d["per_rank"][0]["host_cache_budget_bytes"]
     out.append(f"A {a.volume_bytes / 2**20:.0f} MiB f32 volume ({a.volume_bytes / max(budget, 1):.1f}x one rank's "
                f"host budget of {budget / 2**20:.1f} MiB) drawn by {d['ranks']} ranks at 512² "
-               f"(`render --mpi --host-budget`): each rank's peak host cache.\n")
+               f"(`render --mpi --host-cache`): each rank's peak host cache.\n")
     out.append("| rank | bricks drawn | host cache peak | budget | within | drawing ms | compositing ms | bytes sent |")
     out.append("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for p in d["per_rank"]:

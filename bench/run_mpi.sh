@@ -30,7 +30,7 @@ done
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 "$build/voxbrick" prep "synthetic:blobs,n=$volume" --brick 32 --no-vdb -q -o "$work/big" > /dev/null
-"${mpirun[@]}" -n 4 "$build/voxbrick" render "$work/big" --mpi --host-budget $budget --size 512x512 --tf mri -q \
+"${mpirun[@]}" -n 4 "$build/voxbrick" render "$work/big" --mpi --host-cache $budget --size 512x512 --tf mri -q \
   -o "$work/big.png" --stats "$out/mpi-budget.json" > /dev/null
 /usr/bin/python3 bench/mpi_model.py --csv "$out/mpi.csv" --budget "$out/mpi-budget.json" \
   --volume-bytes $((volume * volume * volume * 4)) --smoke $smoke --cores "$(nproc)" > "$out/mpi.md"

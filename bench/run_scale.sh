@@ -60,7 +60,7 @@ render() {  # render NAME LOD WARMUP AZIMUTH [OPTION...]: one frame in a fresh p
   local name=$1 level=$2 warm=$3 az=$4
   shift 4
   /usr/bin/time -f "%M" -o "$work/$name.rss" "$bin" render "$store" --size "$size" --orbit "$az,20,2.5" \
-    --lod "$level" --warm-up "$warm" --host-budget "$host" --gpu-budget "$gpu" --stats "$work/$name.json" \
+    --lod "$level" --warm-up "$warm" --host-cache "$host" --gpu-budget "$gpu" --stats "$work/$name.json" \
     -o "$work/$name.png" -q "$@"
 }
 row() {  # row NAME KIND LOD AZIMUTH [REFERENCE_PNG]
@@ -125,7 +125,7 @@ server_exact_ms=$(sed -nE 's/.*bytes as [a-z]+\) in ([0-9.]+) ms.*/\1/p' "$work/
   echo "# prep: $spec quantised to u8, --no-vdb, $(nproc) cores, $(date -u +%Y-%m-%d)"
   echo "n,raw_f32_mb,prep_s,prep_cpu_s,prep_mb_per_s,peak_rss_mb,stored_mb"
   echo "$n,$raw_mb,$prep_s,$prep_cpu,$(python3 -c "print(round($raw_mb / $prep_s, 1))"),$prep_rss_mb,$stored_mb"
-  echo "# frames: ${size}, --host-budget $host --gpu-budget $gpu, each in a fresh process"
+  echo "# frames: ${size}, --host-cache $host --gpu-budget $gpu, each in a fresh process"
   cat "$frames"
   echo "# server: voxbrick serve --render-threads 1 --host-cache $host --gpu-budget $gpu; request --progressive, cold"
   echo "provisional_ms,bricks_standin,exact_ms,server_peak_rss_mb"

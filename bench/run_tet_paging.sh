@@ -40,7 +40,7 @@ for repeat in $(seq 1 "$repeats"); do
         for budget in 1024 24 16; do
           store="$work/mesh-$chunk"
           name="$work/frame-$chunk-$tf-$view-$budget"
-          args=(--size "$size" --tf "$tf" ${views[$view]} --host-budget "$budget" -q)
+          args=(--size "$size" --tf "$tf" ${views[$view]} --host-cache "$budget" -q)
           # The first frame of a process, then a warm one (after a frame of the same view).
           if ! "$voxbrick" render "$store" "${args[@]}" --stats "$name-first.json" -o "$name.png" > "$name.log" 2>&1; then
             echo "$chunk,$tf,$view,$budget,$repeat,refused,,,,,,," >> "$out"

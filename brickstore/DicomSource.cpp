@@ -417,6 +417,12 @@ std::unique_ptr<VolumeSource> openDicomSeries(const std::vector<std::string>& fi
   return std::make_unique<DicomSource>(std::move(info), std::move(slices), maxInflatedBytes(options));
 }
 
+bool isDicomVolumeFile(const std::string& file, const SourceOptions& options) {
+  quietGdcm();
+  const DicomFileEntry e = identifyDicomFile(file, maxInflatedBytes(options));
+  return e.frames > 1 || e.dose;
+}
+
 std::unique_ptr<VolumeSource> openDicomSource(const std::vector<std::string>& files, const SourceOptions& options) {
   return openDicomSeries(files, options, "", files.size() == 1 ? files.front() : "the DICOM input");
 }

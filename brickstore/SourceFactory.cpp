@@ -134,8 +134,12 @@ std::unique_ptr<VolumeSource> openSource(const std::string& input, const SourceO
   if (endsWith(input, ".nii") || endsWith(input, ".nii.gz")) return openNiftiSource(input, options);
   if (isTiffName(input)) return openTiffSource({input}, options);
   if (std::filesystem::path(input).filename() == "DICOMDIR") return openDicomDir(input, options);
-  // One file of a series stands for the series: the files of its directory that share its SeriesInstanceUID.
-  if (isDicomFile(input)) return openDicomSeries(dicomSiblings(input), options, input, input);
+  // One slice of a series stands for the series: the files of its directory that share its SeriesInstanceUID. A file
+  // that is a volume of its own (a multi-frame image, an RT dose grid) is read alone: the files beside it are not.
+  if (isDicomFile(input)) {
+    if (isDicomVolumeFile(input, options)) return openDicomSeries({input}, options, input, input);
+    return openDicomSeries(dicomSiblings(input), options, input, input);
+  }
   return openRawSource(input, options);
 }
 

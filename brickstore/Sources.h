@@ -34,6 +34,11 @@ std::unique_ptr<VolumeSource> openDicomSource(const std::vector<std::string>& fi
 std::unique_ptr<VolumeSource> openDicomSeries(const std::vector<std::string>& files, const SourceOptions& options,
                                               const std::string& chosenFile, const std::string& what);
 
+/// Whether the DICOM file `file` is a volume of its own (an enhanced multi-frame image, an RT dose grid), which is read
+/// alone, without the files beside it; false for one slice of a series. Throws InputError for a file that cannot be
+/// identified.
+bool isDicomVolumeFile(const std::string& file, const SourceOptions& options);
+
 /// The DICOM files a DICOMDIR references (its directory records' ReferencedFileID, under its directory), opened as
 /// openDicomSeries opens a folder's.
 std::unique_ptr<VolumeSource> openDicomDir(const std::string& path, const SourceOptions& options);

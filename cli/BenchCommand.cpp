@@ -303,7 +303,7 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_flag("--no-shading", args->noShading, "no shaded variants");
   cmd->add_option("--slabs", args->slabs,
                   "texture-slab sizes swept at every step without ERT, comma-separated, 4096 = whole brick; none: no "
-                  "slab settings at all (the ray caster's stay; default 1,4,16,32,4096)");
+                  "slab settings at all, the ray caster's stay (default 1,4,16,32,4096)");
   cmd->add_option("--ert-slab", args->ertSlab,
                   "the slab size of the ERT thresholds and of pre-integration (default 32)")
       ->check(between(1, render::Scene::kMaxSlab));

@@ -30,13 +30,19 @@ void addPresetsCommand(CLI::App& app);
 /// Adds `scene` (the scene the scene options make, or the scene's schema) to the app.
 void addSceneCommand(CLI::App& app);
 
-/// Parses "a,b,c" into three numbers; throws CLI::ValidationError naming the option.
+/// Parses "a,b,c" into three numbers; throws store::InputError naming the option, the text and `example`, a valid
+/// value.
 template <typename T>
-void parseTriple(const std::string& text, const std::string& option, T out[3]);
+void parseTriple(const std::string& text, const std::string& option, T out[3], const std::string& example);
 
 /// A check for a numeric option: accepts numbers in [lo, hi] (inclusive); its error reads "must be between LO and HI
 /// UNIT, not 'VALUE'", which CLI11 prefixes with the option's name.
 CLI::Validator between(double lo, double hi, const std::string& unit = "");
+/// Every option of `app` and its subcommands whose default the parser holds (capture_default_str) says it in one
+/// form, at the end of its help text: "(default VALUE)", in place of CLI11's "=VALUE" after the type. A help text
+/// that already says "(default ...)" must name the same value: otherwise throws std::logic_error, so a help text
+/// that disagrees with its parser fails every run (and every test) at once.
+void defaultsInText(CLI::App& app);
 
 /// Writes `text` to the file at `path`, replacing it atomically (a temporary renamed over it); throws
 /// image::ImageFailure naming the file on failure.

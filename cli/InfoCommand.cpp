@@ -195,13 +195,17 @@ void runInfo(const InfoArgs& a) {
 void addInfoCommand(CLI::App& app) {
   auto args = std::make_shared<InfoArgs>();
   CLI::App* cmd = app.add_subcommand("info", "Describe a brick store (or a .vdb, as it would be read live)");
-  cmd->add_option("store", args->store, "store directory, a .vdb file or an OME-Zarr directory")->required();
+  cmd->add_option("dataset", args->store, "store directory, a .vdb file or an OME-Zarr directory")->required();
   cmd->add_option("--grid", args->grid, ".vdb: the float grid to read (default: the first float grid)");
   cmd->add_option("--brick", args->brick, ".vdb: brick size B, a power of two in [8, 256]")
       ->capture_default_str()
       ->check(between(8, 256, "voxels"));
-  cmd->add_option("--time", args->time, "OME-Zarr: the index along its 't' axis")->check(CLI::NonNegativeNumber);
-  cmd->add_option("--channel", args->channel, "OME-Zarr: the index along its 'c' axis")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--time", args->time, "OME-Zarr: the index along its 't' axis")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--channel", args->channel, "OME-Zarr: the index along its 'c' axis")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--json", args->json, "print one JSON object");
   cmd->callback([args] { store::namingInput({args->store}, [&] { runInfo(*args); }); });
 }

@@ -332,25 +332,31 @@ void addLoadCommand(CLI::App& app) {
   cmd->add_option("--duration", a->duration, "seconds")->capture_default_str()->check(between(0.1, 86400.0));
   cmd->add_option("--size", a->size, "frame size WIDTHxHEIGHT")->capture_default_str();
   cmd->add_option("--tf", a->tf, "transfer function preset")->capture_default_str();
-  cmd->add_option("--step", a->step, "slice spacing in voxels")
+  cmd->add_option("--step", a->step, "sampling step in voxels (the scene's step)")
       ->capture_default_str()
       ->check(between(0.001, 64, "voxels"));
   cmd->add_option("--encoding", a->encoding,
                   "how the clients' frames travel: raw, png, zstd or jpeg (lossy; protocol version 2)")
       ->capture_default_str()
       ->check(CLI::IsMember(proto::encodingShortNames()));
-  cmd->add_option("--fault-clients", a->faultClients, "clients that misbehave in turn")->check(between(0, 4096));
+  cmd->add_option("--fault-clients", a->faultClients, "clients that misbehave in turn")
+      ->capture_default_str()
+      ->check(between(0, 4096));
   cmd->add_option("--faults", a->faults, "comma list of what faulty clients do (default all): " + faultUsage())
       ->delimiter(',')
       ->check(CLI::IsMember(faultNames()));
   cmd->add_option("--corrupt-dataset", a->corruptDataset,
                   "a damaged dataset of the server for the 'corrupt' fault (its renders must be answered Internal, "
                   "quarantined)");
-  cmd->add_option("--idle-sessions", a->idleSessions, "sessions opened and left silent")->check(between(0, 100000));
+  cmd->add_option("--idle-sessions", a->idleSessions, "sessions opened and left silent")
+      ->capture_default_str()
+      ->check(between(0, 100000));
   CLI::Option* drag =
-      cmd->add_option("--drag", a->dragHz,
-                      "clients send a new camera this many times a second without waiting (a camera drag); latency "
-                      "is then the age of the camera each frame shows")
+      cmd->add_option(
+             "--drag", a->dragHz,
+             "clients send a new camera this many times a second without waiting (a camera drag); latency "
+             "is then the age of the camera each frame shows (0: each client waits for its frame before the next)")
+          ->capture_default_str()
           ->check(between(0.0, 1000.0));
   cmd->add_option("--interactive", a->interactiveMs,
                   "with --drag: Renders carry \"interactive\": true with this time budget in ms (a provisional frame "

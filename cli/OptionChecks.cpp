@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <stdexcept>
 #include <string>
 
 #include "cli/Commands.h"
@@ -34,6 +35,27 @@ CLI::Validator between(double lo, double hi, const std::string& unit) {
       },
       "in [" + formatBound(lo) + ", " + formatBound(hi) + "]" + (unit.empty() ? "" : " " + unit));
   return check;
+}
+
+void defaultsInText(CLI::App& app) {
+  for (CLI::App* sub : app.get_subcommands({})) defaultsInText(*sub);
+  for (CLI::Option* option : app.get_options()) {
+    const std::string value = option->get_default_str();
+    if (value.empty() || option->get_type_size() == 0) continue;  // no captured default, or a flag
+    const std::string text = option->get_description();
+    const size_t said = text.find("(default ");
+    if (said != std::string::npos) {
+      // A default written by hand must be the one the parser holds.
+      const std::string written = text.substr(said + 9);
+      if (written.compare(0, value.size(), value) != 0 ||
+          (written.size() > value.size() && std::string(");, ").find(written[value.size()]) == std::string::npos))
+        throw std::logic_error("voxbrick " + app.get_name() + " " + option->get_name() + ": its help says '" +
+                               text.substr(said) + "' but its default is " + value);
+    } else {
+      option->description(text + " (default " + value + ")");
+    }
+    option->default_str("");
+  }
 }
 
 }  // namespace voxbrick::cli

@@ -137,14 +137,19 @@ void runOrbit(const OrbitArgs& a, const CLI::App& cmd) {
 void addOrbitCommand(CLI::App& app) {
   auto a = std::make_shared<OrbitArgs>();
   CLI::App* cmd = app.add_subcommand("orbit", "Render a turntable: N frames about the volume, from one warm renderer");
-  cmd->add_option("store", a->store, "store directory, or a .vdb file to read live")->required();
+  cmd->add_option("dataset", a->store, "store directory, or a .vdb file or OME-Zarr directory to read live")
+      ->required();
   cmd->add_option("-o,--output", a->pattern, "frame files, a pattern with one frame number: frames/f%03d.png (or .jpg)")
       ->required();
   cmd->add_option("--frames", a->frames, "frames in the full turn")->capture_default_str()->check(between(1, 100000));
   cmd->add_option("--elevation", a->elevation, "degrees above the equator (default: the --orbit camera's, 20)")
       ->check(between(-90, 90, "degrees"));
-  cmd->add_option("--time", a->time, "OME-Zarr: the index along its 't' axis")->check(CLI::NonNegativeNumber);
-  cmd->add_option("--channel", a->channel, "OME-Zarr: the index along its 'c' axis")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--time", a->time, "OME-Zarr: the index along its 't' axis")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--channel", a->channel, "OME-Zarr: the index along its 'c' axis")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--grid", a->grid, ".vdb: the float grid to read (default: the first float grid)");
   cmd->add_option("--brick", a->brick, ".vdb: brick size B, a power of two in [8, 256]")
       ->capture_default_str()
@@ -157,7 +162,7 @@ void addOrbitCommand(CLI::App& app) {
   cmd->add_option("--gpu-budget", a->gpuBudgetMB, "MB of GPU memory for the brick atlas")
       ->capture_default_str()
       ->check(between(16, 1 << 22, "MB"));
-  cmd->add_option("--host-budget", a->hostBudgetMB, "MB of host memory for decoded bricks")
+  cmd->add_option("--host-cache", a->hostBudgetMB, "MB of host memory for decoded bricks (serve's --host-cache)")
       ->capture_default_str()
       ->check(between(0, 1 << 22, "MB"));
   cmd->add_option("--interactive", a->interactiveMs,

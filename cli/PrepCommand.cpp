@@ -93,12 +93,12 @@ store::SourceOptions sourceOptions(const PrepArgs& a) {
   store::SourceOptions so;
   if (!a.dims.empty()) {
     int64_t d[3];
-    parseTriple(a.dims, "--dims", d);
+    parseTriple(a.dims, "--dims", d, "256,256,128");
     so.dims = {d[0], d[1], d[2]};
   }
   if (!a.spacing.empty()) {
     double s[3];
-    parseTriple(a.spacing, "--spacing", s);
+    parseTriple(a.spacing, "--spacing", s, "0.5,0.5,1.25");
     so.spacing = {s[0], s[1], s[2]};
     so.spacingGiven = true;
     for (double v : s)
@@ -222,12 +222,19 @@ void addPrepCommand(CLI::App& app) {
   cmd->add_option("-o,--output", args->output, "store directory to create")->required();
   cmd->add_option("--dims", args->dims, "raw: X,Y,Z voxels");
   cmd->add_option("--type", args->type, "raw: u8, u16, i16 or f32");
-  cmd->add_option("--spacing", args->spacing, "voxel spacing a,b,c (overrides the file's)");
-  cmd->add_option("--endian", args->endian, "raw: byte order")->check(CLI::IsMember({"little", "big"}));
+  cmd->add_option("--spacing", args->spacing, "voxel spacing a,b,c (default: the file's own; 1,1,1 for raw)");
+  cmd->add_option("--endian", args->endian, "raw: byte order")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"little", "big"}));
   cmd->add_option("--header-bytes", args->headerBytes, "raw: bytes to skip before the voxels")
+      ->capture_default_str()
       ->check(between(0, 1e15, "bytes"));
-  cmd->add_option("--time", args->time, "OME-Zarr: the index along its 't' axis")->check(CLI::NonNegativeNumber);
-  cmd->add_option("--channel", args->channel, "OME-Zarr: the index along its 'c' axis")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--time", args->time, "OME-Zarr: the index along its 't' axis")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--channel", args->channel, "OME-Zarr: the index along its 'c' axis")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--grid", args->grid, "vdb: name of the float grid (default: the first)");
   cmd->add_option("--series", args->series, "dicom: the SeriesInstanceUID to read when the input holds several series");
   cmd->add_option("--brick", args->options.brickSize, "brick size B (power of two, 8..256)")
@@ -247,6 +254,7 @@ void addPrepCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("!--no-vdb", args->options.writeVdb, "do not write the canonical OpenVDB grid");
   cmd->add_option("--vdb-chunk", args->options.vdbChunkSlices, "z-slices per OpenVDB file (0: as --memory allows)")
+      ->capture_default_str()
       ->check(between(0, 1 << 20, "slices"));
   cmd->add_option("--vdb-compression", args->vdbCompression,
                   "OpenVDB leaf values: 'blosc' (LZ4, OpenVDB's default), 'none' (larger files, far less CPU) or "
@@ -263,7 +271,9 @@ void addPrepCommand(CLI::App& app) {
       ->capture_default_str()
       ->check(between(1, mesh::kMaxTetsPerChunk, "tets"));
   cmd->add_flag("--force", args->options.overwrite, "replace an existing store (once the new one is complete)");
-  cmd->add_option("--threads", args->options.threads, "worker threads (0: all cores)")->check(between(0, 1024));
+  cmd->add_option("--threads", args->options.threads, "worker threads (0: all cores)")
+      ->capture_default_str()
+      ->check(between(0, 1024));
   cmd->add_flag("-q,--quiet", args->quiet, "no progress output");
   cmd->add_flag("--timings", args->timings, "print the wall and CPU time of each phase of the prep");
   cmd->callback([args, cmd] {

@@ -6,8 +6,6 @@
 #include <cstdio>
 #include <string>
 
-#include <nlohmann/json.hpp>
-
 #include "cli/Commands.h"
 #include "render/core/TransferFunction.h"
 #include "render/core/TransferFunctionPresets.h"
@@ -49,27 +47,10 @@ std::string source(const render::TransferFunctionPresets& presets, const std::st
   return file ? file->string() : "built in";
 }
 
-void printJson(const render::TransferFunctionPresets& presets) {
-  nlohmann::json list = nlohmann::json::array();
-  for (const std::string& name : presets.names()) {
-    const render::TransferFunction& tf = presets.get(name);
-    nlohmann::json points = nlohmann::json::array();
-    for (const auto& p : tf.points()) points.push_back({p.x, p.rgba.r, p.rgba.g, p.rgba.b, p.rgba.a});
-    const auto& file = presets.file(name);
-    list.push_back(
-        {{"name", name},
-         {"built_in", !file},
-         {"file", file ? nlohmann::json(file->string()) : nlohmann::json(nullptr)},
-         {"reference_length", tf.referenceLength() ? nlohmann::json(*tf.referenceLength()) : nlohmann::json(nullptr)},
-         {"points", points}});
-  }
-  std::printf("%s\n", list.dump(2).c_str());
-}
-
 void runPresets(const PresetsArgs& args) {
   const std::filesystem::path dir = render::TransferFunction::configDirectory() / "tf";
   const render::TransferFunctionPresets presets = render::TransferFunctionPresets::load(dir);
-  if (args.json) return printJson(presets);
+  if (args.json) return (void)std::printf("%s\n", presets.json(true, 2).c_str());
   // Colour only for a person at a terminal: a pipe or a file gets plain text.
   const bool colour = !args.noColor && isatty(STDOUT_FILENO);
   size_t nameWidth = 4;

@@ -36,7 +36,7 @@ struct RenderArgs {
 };
 
 /// The dataset the arguments name: a store, a .vdb (--grid, --brick) or an OME-Zarr (--time, --channel), read
-/// within --host-budget; an error names the input.
+/// within --host-cache; an error names the input.
 std::shared_ptr<const render::Dataset> openInput(const RenderArgs& a) {
   return store::namingInput({a.store}, [&] {
     return render::openDataset(a.store, a.store, size_t(a.hostBudgetMB) << 20,
@@ -73,8 +73,9 @@ auto withProgress(const RenderArgs& a, const render::Scene& scene, Draw&& draw) 
 /// every ray's segments integrated in closed form): slow on purpose, the same dataset and scene.
 void runReference(const RenderArgs& a, const render::Scene& scene, const render::Dataset& dataset) {
   const render::DatasetDriver& driver = render::driverFor(dataset);
-  const render::ReferenceFrame frame =
-      withProgress(a, scene, [&] { return driver.reference(dataset, scene, {a.referenceStep, a.analytic}); });
+  const render::ReferenceFrame frame = withProgress(a, scene, [&] {
+    return driver.reference(dataset, scene, {a.referenceStep, a.analytic});
+  });
   writeFrame(a, a.output, frame.image);
   if (!a.statsPath.empty()) writeText(a.statsPath, frame.stats.dump(2) + "\n");
   std::printf("render: wrote %s (%dx%d) %s\n", a.output.c_str(), scene.width, scene.height, frame.summary.c_str());
@@ -148,8 +149,7 @@ void runRenderMpi(const RenderArgs& a, const CLI::App& cmd) {
   // An interactive frame is chosen by rank 0's rate on every rank (the same reduced drawing everywhere).
   auto frameOptions = [&] {
     render::FrameOptions o;
-    o.rateSamplesPerMs =
-        distributed::agreedRate(MPI_COMM_WORLD, engine.recentRate(*dataset), a.mpi.timeout);
+    o.rateSamplesPerMs = distributed::agreedRate(MPI_COMM_WORLD, engine.recentRate(*dataset), a.mpi.timeout);
     return o;
   };
   for (int i = 0; i < a.warmUp; ++i) renderer.render(dataset, scene, nullptr, nullptr, frameOptions());
@@ -201,10 +201,15 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
 void addRenderCommand(CLI::App& app) {
   auto args = std::make_shared<RenderArgs>();
   CLI::App* cmd = app.add_subcommand("render", "Render one frame of a store (or a .vdb, read live) to a PNG, headless");
-  cmd->add_option("store", args->store, "store directory, or a .vdb file or OME-Zarr directory to read live (no prep)")
+  cmd->add_option("dataset", args->store,
+                  "store directory, or a .vdb file or OME-Zarr directory to read live (no prep)")
       ->required();
-  cmd->add_option("--time", args->time, "OME-Zarr: the index along its 't' axis")->check(CLI::NonNegativeNumber);
-  cmd->add_option("--channel", args->channel, "OME-Zarr: the index along its 'c' axis")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--time", args->time, "OME-Zarr: the index along its 't' axis")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--channel", args->channel, "OME-Zarr: the index along its 'c' axis")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--grid", args->grid, ".vdb: the float grid to read (default: the first float grid)");
   cmd->add_option("--brick", args->brick, ".vdb: brick size B, a power of two in [8, 256]")
       ->capture_default_str()
@@ -215,6 +220,7 @@ void addRenderCommand(CLI::App& app) {
       ->check(between(1, 100));
   cmd->add_option("--stats", args->statsPath, "write the frame statistics as JSON");
   cmd->add_option("--warm-up", args->warmUp, "render the frame this many times before the one written and timed")
+      ->capture_default_str()
       ->check(between(0, 100));
   addSceneOptions(cmd, args->scene);
   cmd->add_option("--backend", args->backend,
@@ -228,7 +234,7 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("--gpu-budget", args->gpuBudgetMB, "MB of GPU memory for the brick atlas")
       ->capture_default_str()
       ->check(between(16, 1 << 22, "MB"));
-  cmd->add_option("--host-budget", args->hostBudgetMB, "MB of host memory for decoded bricks")
+  cmd->add_option("--host-cache", args->hostBudgetMB, "MB of host memory for decoded bricks (serve's --host-cache)")
       ->capture_default_str()
       ->check(between(0, 1 << 22, "MB"));
   cmd->add_option("--atlas-format", args->atlasFormat,
@@ -237,6 +243,7 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("--uploads", args->uploads,
                   "how bricks reach the atlas: staged (a fenced ring of pixel buffers, overlapping the GPU's work), "
                   "direct, or auto (staged on a GPU, direct on a software rasteriser)")
+      ->capture_default_str()
       ->check(CLI::IsMember({"auto", "direct", "staged"}));
   cmd->add_option("--bricking", args->bricking,
                   "how bricks lie in the atlas: single (the volume's axis order) or multi-oriented (axis order "

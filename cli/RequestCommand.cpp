@@ -82,8 +82,8 @@ void addRequestCommand(CLI::App& app) {
   cmd->add_flag("--list", a->list, "list the server's datasets");
   cmd->add_option("-o,--output", a->output, "image to write: .png, or .jpg/.jpeg (JPEG)");
   cmd->add_option("--jpeg-quality", a->jpegQuality,
-                  "JPEG quality of a .jpg/.jpeg output; with --encoding jpeg, of the frame the server sends "
-                  "(default: the server's)")
+                  "JPEG quality of a .jpg/.jpeg output, and with --encoding jpeg of the frame the server sends "
+                  "(default 90; for the frame, the server's)")
       ->capture_default_str()
       ->check(between(1, 100));
   cmd->add_option("--stats", a->statsPath, "write the frame's statistics as JSON");

@@ -68,8 +68,9 @@ std::string helpOf(const render::SceneKey& k) {
 CLI::Validator schemaCheck(const render::SceneKey& k) {
   return CLI::Validator(
       [&k](std::string& input) -> std::string {
-        const std::string problem = k.problem(optionValue(k, input), true);
-        return problem.empty() ? std::string() : problem + ", not '" + input + "'";
+        const json value = optionValue(k, input);
+        const std::string problem = k.problem(value, true);
+        return problem.empty() ? std::string() : problem + ", not '" + input + "'" + k.hint(value, true);
       },
       "");
 }

@@ -1,4 +1,5 @@
 // `voxbrick serve [--config config/server.toml | --no-config] [overrides]`: the render service.
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -166,10 +167,27 @@ void serveMpi(const ServeArgs& a, server::ServerConfig c) {
   if (!leader->quit()) mpi.abandon();  // a rank was lost: MPI_Finalize could wait for it for ever
 }
 
+/// A number as a person writes it: integers without a fraction, others to six digits.
+std::string number(double v) {
+  char text[64];
+  std::snprintf(text, sizeof text, v == std::floor(v) && std::fabs(v) < 1e15 ? "%.0f" : "%.6g", v);
+  return text;
+}
+std::string number(const std::string& v) { return v; }
+
+/// The end of a help text for an option that overrides key `key` of the configuration file: "(default VALUE, or
+/// KEY of the configuration)", VALUE the built-in default, ServerConfig's own (the shipped server.toml says the
+/// same: a test holds them equal).
+template <typename T>
+std::string configured(const T& value, const char* key) {
+  return " (default " + number(value) + ", or " + key + " of the configuration)";
+}
+
 }  // namespace
 
 void addServeCommand(CLI::App& app) {
   auto a = std::make_shared<ServeArgs>();
+  const server::ServerConfig d;  // the built-in defaults
   CLI::App* cmd =
       app.add_subcommand("serve",
                          "Serve frames of a directory of stores and .vdb files over TCP, and to browsers over HTTP and "
@@ -182,61 +200,87 @@ void addServeCommand(CLI::App& app) {
           ->check(CLI::ExistingFile);
   cmd->add_flag("--no-config", a->noConfig, "read no configuration file: the built-in defaults and the options below")
       ->excludes(config);
-  cmd->add_option("--host", a->host, "address to listen on (default 127.0.0.1)");
-  cmd->add_option("--port", a->port, "TCP port; 0 picks a free one (default 7420)")->check(between(0, 65535));
+  cmd->add_option("--host", a->host, "address to listen on" + configured(d.host, "server.host"));
+  cmd->add_option("--port", a->port, "TCP port; 0 picks a free one" + configured(d.port, "server.port"))
+      ->check(between(0, 65535));
   cmd->add_option("--port-file", a->portFile, "write the port actually bound to this file");
   cmd->add_option("--http", a->http,
                   "also serve the browser viewer on this HTTP port, with the protocol over a WebSocket on /ws "
                   "(0 picks a free port; default: http.port of the configuration, else none)")
       ->check(between(0, 65535));
-  cmd->add_option("--http-bind", a->httpBind, "address the HTTP port listens on (default: as --host)");
+  cmd->add_option("--http-bind", a->httpBind,
+                  "address the HTTP port listens on (default: as --host, or http.bind of the configuration)");
   cmd->add_option("--http-origin", a->httpOrigins,
-                  "an origin (scheme://host[:port]) whose pages may open /ws besides the viewer's own; repeatable")
+                  "an origin (scheme://host[:port]) whose pages may open /ws besides the viewer's own; repeatable "
+                  "(default none, or http.origins of the configuration)")
       ->allow_extra_args(false);
   cmd->add_option("--http-token", a->httpToken,
-                  "access token /ws must be opened with (?token=...); the viewer's URL, logged at start, carries it");
+                  "access token /ws must be opened with (?token=...); the viewer's URL, logged at start, carries it "
+                  "(default none, or http.token of the configuration)");
   cmd->add_option("--http-port-file", a->httpPortFile, "write the HTTP port actually bound to this file");
   cmd->add_option("--datasets", a->datasets,
                   "directory whose subdirectories are stores and whose .vdb files are read live (first float grid, "
-                  "bricks of 32; default demo)");
-  cmd->add_option("--backend", a->backend, "auto, egl or osmesa");
-  cmd->add_option("--log-level", a->logLevel, "trace, debug, info, warn, error or off");
+                  "bricks of 32)" +
+                      configured(d.datasets.string(), "server.datasets"));
+  cmd->add_option("--backend", a->backend,
+                  "auto, egl or osmesa" + configured(std::string(render::backendName(d.backend)), "server.backend"));
+  cmd->add_option("--log-level", a->logLevel,
+                  "trace, debug, info, warn, error or off" + configured(d.logLevel, "server.log_level"));
   addMpiOptions(cmd, a->mpi, "under mpirun: rank 0 serves, every rank draws a part of each grid frame");
-  cmd->add_option("--render-threads", a->renderThreads, "render threads, each with its own GL context")
+  cmd->add_option("--render-threads", a->renderThreads,
+                  "render threads, each with its own GL context" + configured(d.renderThreads, "server.render_threads"))
       ->check(between(1, 64));
-  cmd->add_option("--io-threads", a->ioThreads, "network I/O threads")->check(between(1, 64));
-  cmd->add_option("--max-sessions", a->maxSessions, "concurrent sessions")->check(between(1, 100000));
-  cmd->add_option("--max-image-side", a->maxImageSide, "largest frame side in pixels")
+  cmd->add_option("--io-threads", a->ioThreads, "network I/O threads" + configured(d.ioThreads, "server.io_threads"))
+      ->check(between(1, 64));
+  cmd->add_option("--max-sessions", a->maxSessions,
+                  "concurrent sessions" + configured(d.maxSessions, "limits.max_sessions"))
+      ->check(between(1, 100000));
+  cmd->add_option("--max-image-side", a->maxImageSide,
+                  "largest frame side in pixels" + configured(d.maxImageSide, "limits.max_image_side"))
       ->check(between(1, 8192, "pixels"));
   cmd->add_option("--max-render-msamples", a->maxRenderMSamples,
-                  "most a Render may cost, in millions of samples (an upper estimate made before drawing)")
+                  "most a Render may cost, in millions of samples (an upper estimate made before drawing)" +
+                      configured(d.maxRenderMSamples, "limits.max_render_msamples"))
       ->check(between(1, 1e9, "million samples"));
-  cmd->add_option("--max-message-bytes", a->maxMessageBytes, "largest client message body")
+  cmd->add_option("--max-message-bytes", a->maxMessageBytes,
+                  "largest client message body" + configured(d.maxMessageBytes, "limits.max_message_bytes"))
       ->check(between(1024, 64 << 20, "bytes"));
-  cmd->add_option("--idle-timeout", a->idleTimeout, "seconds without a message before a session is closed")
+  cmd->add_option(
+         "--idle-timeout", a->idleTimeout,
+         "seconds without a message before a session is closed" + configured(d.idleTimeoutS, "limits.idle_timeout_s"))
       ->check(between(0.1, 86400, "seconds"));
-  cmd->add_option("--read-timeout", a->readTimeout, "seconds to complete a message from its first byte")
+  cmd->add_option(
+         "--read-timeout", a->readTimeout,
+         "seconds to complete a message from its first byte" + configured(d.readTimeoutS, "limits.read_timeout_s"))
       ->check(between(0.1, 3600, "seconds"));
   cmd->add_option("--write-timeout", a->writeTimeout,
-                  "seconds a client may take to accept a reply (a client that never reads is closed after it)")
+                  "seconds a client may take to accept a reply (a client that never reads is closed after it)" +
+                      configured(d.writeTimeoutS, "limits.write_timeout_s"))
       ->check(between(0.1, 3600, "seconds"));
-  cmd->add_option("--hello-timeout", a->helloTimeout, "seconds a new connection has to complete its Hello")
+  cmd->add_option(
+         "--hello-timeout", a->helloTimeout,
+         "seconds a new connection has to complete its Hello" + configured(d.helloTimeoutS, "limits.hello_timeout_s"))
       ->check(between(0.1, 3600, "seconds"));
   cmd->add_option("--max-pending-connections", a->maxPending,
-                  "connections not yet past Hello; one more closes the oldest of them")
+                  "connections not yet past Hello; one more closes the oldest of them" +
+                      configured(d.maxPendingConnections, "limits.max_pending_connections"))
       ->check(between(1, 100000));
   cmd->add_option("--max-connections-per-address", a->maxPerAddress,
                   "connections of one client address (0: no limit; loopback is exempt unless the configuration "
-                  "says loopback_exempt = false)")
+                  "says loopback_exempt = false)" +
+                      configured(d.maxConnectionsPerAddress, "limits.max_connections_per_address"))
       ->check(between(0, 100000));
   cmd->add_option("--max-total-output-mb", a->maxTotalOutputMB,
-                  "MB of replies not yet read by all clients together; a frame beyond it is answered LimitExceeded")
+                  "MB of replies not yet read by all clients together; a frame beyond it is answered LimitExceeded" +
+                      configured(double(d.maxTotalOutputBytes >> 20), "limits.max_total_output_bytes (in bytes)"))
       ->check(between(1, 1 << 22, "MB"));
   cmd->add_option("--host-cache", a->hostCacheMB,
-                  "MB of decoded bricks for all open datasets together (an equal share each)")
+                  "MB of decoded bricks for all open datasets together (an equal share each)" +
+                      configured(d.hostCacheMB, "memory.host_cache_mb"))
       ->check(between(16, 1 << 22, "MB"));
   cmd->add_option("--gpu-budget", a->gpuBudgetMB,
-                  "MB of GPU brick atlas for all render threads and datasets together (an equal share per thread)")
+                  "MB of GPU brick atlas for all render threads and datasets together (an equal share per thread)" +
+                      configured(d.gpuBudgetMB, "memory.gpu_budget_mb"))
       ->check(between(16, 1 << 22, "MB"));
   cmd->add_flag("--no-coalesce", a->noCoalesce,
                 "render every request in order instead of only a session's newest (to measure what latest-wins saves)");

@@ -1,7 +1,9 @@
 // Entry point of the `voxbrick` command: dispatches to the subcommands and turns errors into one line each.
+#include <algorithm>
 #include <csignal>
 #include <cstdio>
 #include <exception>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -54,17 +56,25 @@ std::string leftOver(const CLI::App& app) {
   if (app.get_subcommands().empty()) {
     const std::string word = app.remaining().front();
     if (word.size() > 1 && word[0] == '-')
-      return "unknown option '" + word + "' before a subcommand (voxbrick takes --help, --version or a subcommand; "
+      return "unknown option '" + word +
+             "' before a subcommand (voxbrick takes --help, --version or a subcommand; "
              "voxbrick --help lists them)";
     return voxbrick::common::unknownName("subcommand", word, subcommandNames(app)) +
            "; voxbrick --help says what each does";
   }
   const CLI::App& sub = *app.get_subcommands()[0];
   const std::vector<std::string> words = sub.remaining();
+  // Options renamed so that one idea has one name in every command: the old name says the new one.
+  static const std::map<std::string, std::string> renamed = {{"--host-budget", "--host-cache"}};
   for (const std::string& word : words)
     if (word.size() > 1 && word[0] == '-') {
+      const std::vector<std::string> names = optionNames(sub);
+      const auto old = renamed.find(word.substr(0, word.find('=')));
+      if (old != renamed.end() && std::find(names.begin(), names.end(), old->second) != names.end())
+        return "unknown option '" + word + "': it is now '" + old->second + "' (voxbrick " + sub.get_name() +
+               " --help lists the options)";
       std::string message = "unknown option '" + word + "'";
-      if (const auto closest = voxbrick::common::closestName(word, optionNames(sub)))
+      if (const auto closest = voxbrick::common::closestName(word, names))
         message += "; did you mean '" + *closest + "'?";
       return message + " (voxbrick " + sub.get_name() + " --help lists the options)";
     }
@@ -97,6 +107,7 @@ int main(int argc, char** argv) {
   voxbrick::cli::addBenchCommand(app);
   voxbrick::cli::addPresetsCommand(app);
   voxbrick::cli::addSceneCommand(app);
+  voxbrick::cli::defaultsInText(app);
 
   try {
     app.parse(argc, argv);

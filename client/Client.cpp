@@ -201,7 +201,7 @@ proto::Encoding encodingNamed(const std::string& name) {
 std::pair<std::string, int> parseAddress(const std::string& text) {
   const size_t colon = text.rfind(':');
   if (colon == std::string::npos || colon == 0 || colon + 1 == text.size())
-    throw std::invalid_argument("'" + text + "' is not HOST:PORT");
+    throw std::invalid_argument("'" + text + "' is not HOST:PORT; e.g. 127.0.0.1:7420");
   int port = 0;
   try {
     size_t used = 0;

@@ -125,9 +125,9 @@ struct Server::Impl {
 
   const ServerConfig config;
   const tcp::endpoint endpoint;
-  const WebGate webGate;  ///< what the HTTP port serves, and who may open its WebSocket
   // Read once here: a preset named in a request never makes an I/O thread read a file.
   const render::TransferFunctionPresets presets;
+  const WebGate webGate;  ///< what the HTTP port serves, and who may open its WebSocket
   DatasetRegistry datasets;
   ServerStats stats;
   OutputBudget output;
@@ -157,8 +157,8 @@ struct Server::Impl {
 Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::FrameSource>> sources)
     : config(checked(c)),
       endpoint(listenEndpoint(config.host, config.port)),
-      webGate(config.httpOrigins, config.httpToken),
       presets(render::TransferFunctionPresets::load(render::TransferFunction::configDirectory() / "tf")),
+      webGate(config.httpOrigins, config.httpToken, presets.json(false)),
       // Opened datasets are checked by the frame sources (the distributed mode: on every rank); the scheduler is
       // made before any dataset is opened.
       datasets(config.datasets, size_t(config.hostCacheMB) << 20,

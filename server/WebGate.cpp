@@ -102,7 +102,8 @@ bool WebGate::validToken(std::string_view token) {
   });
 }
 
-WebGate::WebGate(const std::vector<std::string>& origins, std::string token) : mToken(std::move(token)) {
+WebGate::WebGate(const std::vector<std::string>& origins, std::string token, std::string presetsJson)
+    : mToken(std::move(token)), mPresetsJson(std::move(presetsJson)) {
   for (const std::string& text : origins) {
     const auto origin = parseOrigin(text);
     if (!origin) throw std::invalid_argument("'" + text + "' is not an origin (scheme://host[:port])");
@@ -112,8 +113,8 @@ WebGate::WebGate(const std::vector<std::string>& origins, std::string token) : m
 
 bool WebGate::isSocketPath(std::string_view target) { return splitTarget(target).first == "/ws"; }
 
-WebGate::Response WebGate::respond(std::string_view method, std::string_view target,
-                                   std::string_view ifNoneMatch) const {
+WebGate::Response WebGate::respond(std::string_view method, std::string_view target, std::string_view ifNoneMatch,
+                                   std::string_view origin) const {
   if (method != "GET" && method != "HEAD") {
     Response r = textResponse(405, "method not allowed: only GET and HEAD are served");
     return r;
@@ -123,6 +124,18 @@ WebGate::Response WebGate::respond(std::string_view method, std::string_view tar
     // The token is checked here too, so a page that probes /ws learns why it would be refused.
     if (const auto refusal = tokenRefusal(target)) return textResponse(403, "forbidden: " + *refusal);
     return textResponse(426, "/ws is the WebSocket endpoint: open it with a WebSocket upgrade");
+  }
+  if (path == "/presets.json") {
+    if (const auto refusal = tokenRefusal(target)) return textResponse(403, "forbidden: " + *refusal);
+    Response r;
+    r.contentType = "application/json";
+    r.body = {reinterpret_cast<const uint8_t*>(mPresetsJson.data()), mPresetsJson.size()};
+    // A page of a configured origin (a copy of the viewer served elsewhere) may read it; the page's own origin
+    // needs no header.
+    if (const auto seen = parseOrigin(origin);
+        seen && std::find(mOrigins.begin(), mOrigins.end(), *seen) != mOrigins.end())
+      r.allowOrigin = std::string(origin);
+    return r;
   }
   // Only the embedded files' own names match: a path that climbs (..), is escaped (%2e) or absolute-form names none.
   const WebFile* file = path == "/"                              ? findWebFile("index.html")

@@ -26,8 +26,10 @@ class WebGate {
   static bool validToken(std::string_view token);
 
   /// `origins`: the configured origins allowed besides the page's own (each as parseOrigin reads it; throws
-  /// std::invalid_argument for one that is not); `token`: the access token /ws must carry, empty for none.
-  WebGate(const std::vector<std::string>& origins, std::string token);
+  /// std::invalid_argument for one that is not); `token`: the access token /ws and /presets.json must carry, empty
+  /// for none; `presetsJson`: the body of /presets.json, the server's transfer-function presets with their curves
+  /// (TransferFunctionPresets::json without files), which the page draws in its curve editor.
+  WebGate(const std::vector<std::string>& origins, std::string token, std::string presetsJson = "[]");
 
   /// The answer to a request that is not an upgrade.
   struct Response {
@@ -37,11 +39,15 @@ class WebGate {
     std::string text;               ///< the body of an error
     std::string etag;               ///< of a file, empty otherwise
     bool notModified = false;       ///< 304: the client holds the file with this etag already
+    std::string allowOrigin;        ///< Access-Control-Allow-Origin to send (a configured origin), empty for none
   };
   /// The answer to `method` `target` (the request line's target) with `ifNoneMatch` (the header, possibly empty):
   /// an embedded file for GET and HEAD ("/" is index.html; the query is ignored), 404 for any path that names none,
   /// 405 for other methods, 426 for /ws without an upgrade (403 naming why when its token is missing or wrong).
-  Response respond(std::string_view method, std::string_view target, std::string_view ifNoneMatch) const;
+  /// /presets.json is the presets' JSON, behind the same token as /ws; for a request whose `origin` (the Origin
+  /// header, empty when absent) is a configured one, it may be read by that origin's pages (allowOrigin).
+  Response respond(std::string_view method, std::string_view target, std::string_view ifNoneMatch,
+                   std::string_view origin = {}) const;
 
   /// Whether `target` names the WebSocket endpoint (/ws, with any query).
   static bool isSocketPath(std::string_view target);
@@ -57,6 +63,7 @@ class WebGate {
 
   std::vector<Origin> mOrigins;
   std::string mToken;
+  std::string mPresetsJson;
 };
 
 }  // namespace voxbrick::server

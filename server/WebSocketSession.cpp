@@ -96,8 +96,9 @@ void WebSocketSession::onRequest(boost::system::error_code ec) {
   mRequest = mParser->release();
   if (websocket::is_upgrade(mRequest)) return upgrade();
 
-  const WebGate::Response r = mGate.respond(view(mRequest.method_string()), view(mRequest.target()),
-                                            view(mRequest[http::field::if_none_match]));
+  const WebGate::Response r =
+      mGate.respond(view(mRequest.method_string()), view(mRequest.target()), view(mRequest[http::field::if_none_match]),
+                    view(mRequest[http::field::origin]));
   Response response(http::status(r.status), mRequest.version());
   response.set(http::field::server, "voxbrick");
   response.set(http::field::content_type, std::string(r.contentType));
@@ -105,6 +106,10 @@ void WebSocketSession::onRequest(boost::system::error_code ec) {
   // The page's URL may carry the access token: it is not to be passed on to other sites.
   response.set("Referrer-Policy", "no-referrer");
   if (r.status == 405) response.set(http::field::allow, "GET, HEAD");
+  if (!r.allowOrigin.empty()) {
+    response.set(http::field::access_control_allow_origin, r.allowOrigin);
+    response.set(http::field::vary, "Origin");
+  }
   if (!r.etag.empty()) {
     // The files change with the binary: a browser may keep them but asks each time (304 when unchanged).
     response.set(http::field::cache_control, "no-cache");

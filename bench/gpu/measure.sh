@@ -284,10 +284,10 @@ PY
         > "$dir/field-1024.csv"
       for lod in 1 0; do
         cmd timeout "$(left 5)" "$KIT/bin/voxbrick" render "$WORK/blobs-$n" --tf hot --size "${size}x${size}" \
-          --lod "$lod" --gpu-budget 16384 --host-budget 16384 -q --stats "$dir/first-lod$lod.json" \
+          --lod "$lod" --gpu-budget 16384 --host-cache 16384 -q --stats "$dir/first-lod$lod.json" \
           -o "$WORK/field-first-lod$lod.png"
         cmd timeout "$(left 5)" "$KIT/bin/voxbrick" render "$WORK/blobs-$n" --tf hot --size "${size}x${size}" \
-          --lod "$lod" --gpu-budget 16384 --host-budget 16384 --warm-up 1 -q --stats "$dir/warm-lod$lod.json" \
+          --lod "$lod" --gpu-budget 16384 --host-cache 16384 --warm-up 1 -q --stats "$dir/warm-lod$lod.json" \
           -o "$WORK/field-lod$lod.png"
       done
       for lod in 1 0; do

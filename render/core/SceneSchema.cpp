@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <type_traits>
 
+#include "common/Names.h"
 #include "render/core/RenderErrors.h"
 #include "render/core/TransferFunctionPresets.h"
 
@@ -614,6 +615,18 @@ std::string SceneKey::problem(const json& v, bool asOption) const {
   return ok ? std::string() : "must be " + allowed(asOption);
 }
 
+std::string SceneKey::hint(const json& v, bool asOption) const {
+  if (!names.empty() && v.is_string()) {
+    const auto closest = common::closestName(v.get<std::string>(), names);
+    if (closest && *closest != v.get<std::string>())
+      return "; did you mean " + (asOption ? "'" + *closest + "'" : json(*closest).dump()) + "?";
+  }
+  // A value of a shape (numbers, a target) gets an example of one; a number's range needs none.
+  if ((type == SceneType::Numbers || type == SceneType::Text) && !example.is_null())
+    return "; e.g. " + (asOption ? optionText(example) : example.dump());
+  return "";
+}
+
 json SceneKey::defaultValue() const { return value(defaultScene()); }
 
 std::string SceneKey::optionText(const json& v) const {
@@ -698,7 +711,8 @@ Scene sceneFromKeys(const SceneKeys& keys, const SceneNames& names, bool allowPa
     const SceneKey* k = findSceneKey(key);
     if (!k) throw RenderInputError(names.prefix + "unknown key '" + key + "'");
     if (const std::string problem = k->problem(value); !problem.empty())
-      throw RenderInputError(names.prefix + names.name(key) + " " + problem + ", not " + valueText(value));
+      throw RenderInputError(names.prefix + names.name(key) + " " + problem + ", not " + valueText(value) +
+                             k->hint(value));
   }
   for (const SceneRule& r : sceneRules()) {
     const bool a = keys.count(r.a), b = keys.count(r.b);
@@ -750,7 +764,7 @@ void checkSceneValues(const Scene& scene) {
     const json v = k.value(scene);
     if (v.is_null()) continue;
     if (const std::string problem = k.problem(v); !problem.empty())
-      throw RenderInputError("'" + k.key + "' " + problem + ", not " + valueText(v));
+      throw RenderInputError("'" + k.key + "' " + problem + ", not " + valueText(v) + k.hint(v));
   }
 }
 

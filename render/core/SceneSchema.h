@@ -89,7 +89,7 @@ struct SceneKey {
   std::optional<bool> flagValue;   ///< a flag: the value it gives the key (--no-skip: false)
   SceneWritten written = SceneWritten::Always;
   std::string absent;      ///< the default in words where the default scene has no value ("the dataset's value range")
-  nlohmann::json example;  ///< a valid value other than the default, for help and tests
+  nlohmann::json example;  ///< a valid value other than the default, for help, tests and errors of Numbers and Text
   /// The key's value in `scene`, null where it has none (window unset; eye for an orbit camera).
   std::function<nlohmann::json(const Scene&)> value;
   /// Sets the key from `v`, which passes checkValue; throws RenderInputError naming `setting.name` for what only
@@ -101,6 +101,10 @@ struct SceneKey {
   /// What is wrong with `v` as this key's value: empty when it is valid, else "must be ..." (what it may be,
   /// without the value), the words that follow the key's name in an error. `asOption`: in the option's syntax.
   std::string problem(const nlohmann::json& v, bool asOption = false) const;
+  /// What follows an error's value `v`: for a name that is not one of `names`, "; did you mean 'NAME'?" with the
+  /// closest (common/Names.h); for numbers or a target, "; e.g. EXAMPLE" (in the option's syntax when `asOption`);
+  /// else "".
+  std::string hint(const nlohmann::json& v, bool asOption = false) const;
   /// What the key may be: "between 0.001 and 64 voxels", "one of \"vertex\", \"cpu\"", "[lo, hi] with hi > lo".
   std::string allowed(bool asOption = false) const;
   /// The value of a default-constructed Scene, or null.
@@ -171,8 +175,8 @@ nlohmann::json sceneJson(const Scene& scene);
 /// The schema as JSON, for `voxbrick scene --schema` and the viewer's test: {"keys": [{"key", "type", "concern",
 /// "applies", "help", "option", "option_form", "flag_value" (a flag) or "option_allowed" and "option_example",
 /// "default", "default_text", "allowed", "min", "max", "min_open", "zero_too", "power_of_two", "names", "count",
-/// "integers", "increasing", "unit", "example", "written"}...], "rules": [{"kind", "keys", "a_replaces_b", "b_replaces_a", "value",
-/// "reason"}...]}.
+/// "integers", "increasing", "unit", "example", "written"}...], "rules": [{"kind", "keys", "a_replaces_b",
+/// "b_replaces_a", "value", "reason"}...]}.
 nlohmann::json sceneSchemaJson();
 
 }  // namespace voxbrick::render

@@ -1,6 +1,8 @@
 // Reading the built-in presets and a directory of presets once.
 #include "render/core/TransferFunctionPresets.h"
 
+#include <nlohmann/json.hpp>
+
 #include "render/core/BuiltInPresets.h"
 #include "render/core/RenderErrors.h"
 
@@ -40,6 +42,22 @@ std::vector<std::string> TransferFunctionPresets::names() const {
   std::vector<std::string> out;
   for (const auto& [n, e] : mPresets) out.push_back(n);
   return out;
+}
+
+std::string TransferFunctionPresets::json(bool withFiles, int indent) const {
+  nlohmann::json list = nlohmann::json::array();
+  for (const auto& [name, e] : mPresets) {
+    nlohmann::json points = nlohmann::json::array();
+    for (const auto& p : e.tf.points()) points.push_back({p.x, p.rgba.r, p.rgba.g, p.rgba.b, p.rgba.a});
+    nlohmann::json preset = {
+        {"name", name},
+        {"built_in", !e.file},
+        {"reference_length", e.tf.referenceLength() ? nlohmann::json(*e.tf.referenceLength()) : nlohmann::json()},
+        {"points", points}};
+    if (withFiles) preset["file"] = e.file ? nlohmann::json(e.file->string()) : nlohmann::json();
+    list.push_back(std::move(preset));
+  }
+  return list.dump(indent);
 }
 
 }  // namespace voxbrick::render

@@ -26,6 +26,10 @@ class TransferFunctionPresets {
   const std::optional<std::filesystem::path>& file(const std::string& name) const;
   /// The names, sorted.
   std::vector<std::string> names() const;
+  /// Every preset as a JSON array, by name: {"name", "built_in", "reference_length" (null when unset), "points":
+  /// [[x, r, g, b, a], ...]}, and "file" (the path, null for a built-in one) when `withFiles` (the server's copy for
+  /// its pages leaves paths out). `indent` as nlohmann::json::dump takes it (-1: one line).
+  std::string json(bool withFiles, int indent = -1) const;
 
  private:
   struct Entry {

@@ -81,7 +81,7 @@ struct TetMeshSource::Paged {
           mebibytes(budget) + " leaves beside its points" +
           (held > 0 ? " and the " + mebibytes(held) + " other frames hold" : std::string()) +
           "; narrow the view, make more of the transfer function transparent, or raise the budget (render's "
-          "--host-budget; a server's host_cache_mb)");
+          "--host-cache; a server's host_cache_mb)");
     makeRoom(bytes);
   }
   /// Reads `chunks` into a working set and keeps it (or throws as reserve() does, or CorruptStoreError).
@@ -175,7 +175,7 @@ TetMeshSource::TetMeshSource(std::shared_ptr<const mesh::MeshStore> store, size_
     throw RenderLimitError("tet mesh '" + store->path().filename().string() + "': even paged, its " +
                            std::to_string(info.vertexCount) + " points take " + mebibytes(mPaged->resident) +
                            " in memory, above the host budget it may use, " + mebibytes(hostBudget) +
-                           " (render's --host-budget; a server's host_cache_mb, shared among its open datasets)");
+                           " (render's --host-cache; a server's host_cache_mb, shared among its open datasets)");
   mConstants.bounds = {glm::dvec3(info.boundsMin), glm::dvec3(info.boundsMax)};
   mConstants.scalarMin = info.scalarMin;
   mConstants.scalarMax = info.scalarMax;

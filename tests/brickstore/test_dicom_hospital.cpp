@@ -330,6 +330,17 @@ TEST_F(DicomHospital, MrSmallInEveryTransferSyntaxHoldsPydicomsPixels) {
       << source->info().description;
 }
 
+// A named file that is a volume of its own (an RT dose grid) is read alone: in pydicom's folder, beside damaged
+// files of other series, none of them is read, so none is skipped or named.
+TEST_F(DicomHospital, AFileThatIsAVolumeOfItsOwnIsReadWithoutTheFilesBesideIt) {
+  const std::string rtdose = "/usr/lib/python3/dist-packages/pydicom/data/test_files/rtdose.dcm";
+  auto source = store::openSource(rtdose, {});
+  const std::string description = source->info().description;
+  EXPECT_NE(description.find("RT dose grid"), std::string::npos) << description;
+  EXPECT_EQ(description.find("beside"), std::string::npos) << description;
+  EXPECT_EQ(description.find("skipped"), std::string::npos) << description;
+}
+
 TEST_F(DicomHospital, FilesWithoutPreambleOrMetaHeaderAreReadAsTheyAre) {
   ScratchDir out;
   const fs::path dir = caseDir("nometa");

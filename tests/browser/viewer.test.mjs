@@ -264,23 +264,85 @@ describe("viewer", () => {
     await page.close();
   });
 
-  test("a transfer-function change draws again", async () => {
+  test("a transfer-function change draws again, and the curve editor shows the chosen preset", async () => {
     const page = await H.openPage(browser, `${server.url}/?dataset=ml&tf=grayscale&${SIZE_PARAM}`);
-    const before = await waitExact(page);
+    await waitExact(page);
+    const before = await H.waitForState(page, (st) => st.presets !== null);
+    // The page lists the server's presets and draws each one's own curve: those `voxbrick presets --json` prints.
+    const presets = JSON.parse(H.voxbrick(["presets", "--json"]));
+    const byName = Object.fromEntries(presets.map((p) => [p.name, p.points]));
+    assert.deepEqual(before.presets, byName);
+    const options = await page.$$eval("#tf option", (o) => o.map((x) => x.value));
+    assert.deepEqual(options, [...presets.map((p) => p.name), "custom"]);
+    assert.deepEqual(before.curve, { points: byName.grayscale, active: false });
     const grey = await H.canvasPixels(page);
     await page.select("#tf", "hot");
     const s = await waitExact(page, before.newestId);
     assert.equal(s.lastScene.transfer_function, "hot");
+    assert.deepEqual(s.curve, { points: byName.hot, active: false }, "the curve is hot's, not the grey ramp");
+    assert.notDeepEqual(byName.hot, byName.mri);
+    await page.select("#tf", "mri");
+    assert.deepEqual((await H.viewerState(page)).curve.points, byName.mri);
+    await page.select("#tf", "hot");
     const hot = await H.canvasPixels(page);
     assert.ok(H.compareImages(grey, hot).differing > 500, "the frame changed");
-    // The curve editor: a double-click adds a point and makes the transfer function an inline curve.
+    // The curve editor: a double-click adds a point to the preset's curve and makes the transfer function that
+    // inline curve.
     const curve = await (await page.$("#curve")).boundingBox();
+    const hotNow = await waitExact(page, s.newestId);
     await page.mouse.click(curve.x + curve.width * 0.6, curve.y + curve.height * 0.2, { count: 2 });
-    const c = await waitExact(page, s.newestId);
+    const c = await waitExact(page, hotNow.newestId);
     assert.equal(c.view.tf, "custom");
-    assert.equal(c.lastScene.transfer_function.points.length, 4);
+    assert.equal(c.lastScene.transfer_function.points.length, byName.hot.length + 1);
+    assert.deepEqual(c.curve.active, true);
     await H.screenshot(page, "curve");
     assert.ok(H.compareImages(hot, await H.canvasPixels(page)).differing > 500, "the curve's frame differs");
+    await page.close();
+  });
+
+  test("an unknown dataset in the address gets a note, and the rest of the address is kept", async () => {
+    const rest = "orbit=75,-30,3.5&tf=mri&shading=1";
+    const cases = [
+      // Case aside, it names one: that one opens.
+      { name: "SPARSE", opens: "sparse", note: /No dataset “SPARSE” on this server; showing “sparse”/ },
+      // A few edits away: suggested, the first opens.
+      { name: "sprase", opens: "ml", note: /showing “ml”\. Did you mean “sparse”\?/ },
+      // Nothing near: the first, with the list.
+      { name: "no-such", opens: "ml", note: /showing “ml”\. It has: “ml”, “oriented”, “sparse”\./ },
+    ];
+    for (const c of cases) {
+      const page = await H.openPage(browser, `${server.url}/?dataset=${c.name}&${rest}&${SIZE_PARAM}`);
+      const s = await waitExact(page);
+      assert.equal(s.dataset, c.opens, c.name);
+      assert.match(s.datasetNote, c.note, c.name);
+      assert.deepEqual(s.lastScene.camera.orbit, [75, -30, 3.5], `${c.name}: the orbit is kept`);
+      assert.equal(s.lastScene.transfer_function, "mri", `${c.name}: the transfer function is kept`);
+      assert.equal(s.lastScene.shading, true, `${c.name}: shading is kept`);
+      await page.waitForFunction((d) => location.search.includes(`dataset=${d}`), {}, c.opens);
+      // Choosing a dataset clears the note.
+      await page.select("#dataset", "oriented");
+      await H.waitForState(page, (st) => st.dataset === "oriented" && st.datasetNote === "");
+      await page.close();
+    }
+  });
+
+  test("Save frame saves the server's exact frame as a PNG", async () => {
+    const page = await H.openPage(browser, `${server.url}/?dataset=ml&view=left&tf=hot&${SIZE_PARAM}`);
+    await waitExact(page);
+    const downloads = fs.mkdtempSync(path.join(scratch.dir, "downloads-"));
+    const cdp = await browser.target().createCDPSession();
+    await cdp.send("Browser.setDownloadBehavior", { behavior: "allow", downloadPath: downloads });
+    await page.click("#save");
+    const file = path.join(downloads, "voxbrick-ml-left.png");
+    const t0 = Date.now();
+    while (!fs.existsSync(file) && Date.now() - t0 < 10000) await new Promise((r) => setTimeout(r, 50));
+    assert.ok(fs.existsSync(file), `saved ${fs.readdirSync(downloads)}`);
+    assert.deepEqual(fs.readFileSync(file), await lastPayload(page));
+    assert.deepEqual(
+      H.compareImages(H.decodePng(fs.readFileSync(file)), await H.canvasPixels(page)),
+      { differing: 0, maxDiff: 0 },
+    );
+    await cdp.detach();
     await page.close();
   });
 

@@ -182,6 +182,12 @@ TEST(SceneOptions, OptionsLieOverASceneFileByTheSchemasRules) {
       {"--ert 0.3", "--ert: must be 0 or between 0.5 and 1, not '0.3'"},
       {"--size 0x10", "--size: must be WxH, integers between 1 and 8192 pixels, not '0x10'"},
       {"--view front", "--view: must be one of anterior, posterior, left, right, superior, inferior, not 'front'"},
+      {"--view Anterior",
+       "--view: must be one of anterior, posterior, left, right, superior, inferior, not 'Anterior'; did you mean "
+       "'anterior'?"},
+      {"--view superio", "not 'superio'; did you mean 'superior'?"},
+      {"--size 512", "--size: must be WxH, integers between 1 and 8192 pixels, not '512'; e.g. "},
+      {"--orbit 1", "--orbit: must be AZ,EL[,DIST], not '1'; e.g. 10,20,3"},
   };
   for (const Refused& r : refused) {
     const test::SplitResult result = runSplit("scene " + r.args);

@@ -143,7 +143,9 @@ TEST(SceneSchema, ErrorsNameTheKeyTheValueAndWhatItMayBe) {
   EXPECT_EQ(readError({{"step", "fine"}}), "scene.json: 'step' must be between 0.001 and 64 voxels, not \"fine\"");
   EXPECT_EQ(readError({{"slicer", "gpu"}}),
             "scene.json: 'slicer' must be one of \"vertex\", \"cpu\", \"vertex-lean\", \"geometry\", "
-            "\"vertex-geometry\", not \"gpu\"");
+            "\"vertex-geometry\", not \"gpu\"; did you mean \"cpu\"?");
+  EXPECT_EQ(readError({{"size", {512}}}),
+            "scene.json: 'size' must be [width, height], integers between 1 and 8192 pixels, not [512]; e.g. [320,200]");
 }
 
 TEST(SceneSchema, ValidateHoldsEveryNumberToItsRange) {

@@ -260,7 +260,7 @@ TEST_F(ServerTest, ServesAMeshLargerThanItsHostBudgetPagedByView) {
   EXPECT_GT(stats["tet_chunks_skipped_empty"].get<int>(), 0) << frame.statsJson;
   EXPECT_GT(stats["tet_chunks_read"].get<int>(), 0) << frame.statsJson;
   test::writeFile(work / "scene.json", scene);
-  r = test::runVoxbrick("render " + (datasets / "box").string() + " --host-budget 16 --scene " +
+  r = test::runVoxbrick("render " + (datasets / "box").string() + " --host-cache 16 --scene " +
                         (work / "scene.json").string() + " -o " + (work / "rendered.png").string());
   ASSERT_EQ(r.exitCode, 0) << r.output;
   EXPECT_NE(r.output.find("mesh paged within 16.0 MiB"), std::string::npos) << r.output;

@@ -1,6 +1,14 @@
 // The server configuration parser: ServerConfig::load and validate.
 #include <gtest/gtest.h>
 
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "render/core/Backend.h"
 #include "server/ServerConfig.h"
 #include "support/TestSupport.h"
 
@@ -249,6 +257,78 @@ TEST_F(ServerConfigTest, ASyntaxErrorNamesTheFileAndLine) {
   const std::string message = loadError("[server]\nport = 7420\nhost = \n");
   EXPECT_EQ(message.rfind((dir / "server.toml").string() + ":3:", 0), 0u) << message;
   EXPECT_MENTIONS(loadError("[server\n"), (dir / "server.toml").string());
+}
+
+/// A number as `serve --help` writes a default: integers without a fraction, others to six digits.
+std::string written(double v) {
+  char text[64];
+  std::snprintf(text, sizeof text, v == std::floor(v) ? "%.0f" : "%.6g", v);
+  return text;
+}
+
+/// The help entry of `option` in `help` (from its line to the next option's), with runs of white space as one space.
+std::string entryOf(const std::string& help, const std::string& option) {
+  const size_t at = help.find("\n  " + option + " ");
+  if (at == std::string::npos) return "";
+  const size_t end = help.find("\n  -", at + 1);
+  std::string entry;
+  for (char c : help.substr(at + 1, end == std::string::npos ? std::string::npos : end - at - 1))
+    if (!std::isspace(static_cast<unsigned char>(c)) || (!entry.empty() && entry.back() != ' '))
+      entry += std::isspace(static_cast<unsigned char>(c)) ? ' ' : c;
+  return entry;
+}
+
+// Each option of `serve` that overrides a key of the configuration says the default the server uses without it, and
+// the key: the built-in default, which the shipped config/server.toml (what `serve` reads from a build) holds too.
+TEST(ServeHelp, EachOverrideShowsTheDefaultTheServerUsesAndItsKey) {
+  const ServerConfig d;
+  const ServerConfig shipped = ServerConfig::load(std::filesystem::path(VOXBRICK_SOURCE_DIR) / "config/server.toml");
+  const test::CommandResult r = test::runVoxbrick("serve --help");
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  struct Row {
+    const char* option;
+    const char* key;
+    std::function<std::string(const ServerConfig&)> value;
+  };
+  const std::vector<Row> rows = {
+      {"--host", "server.host", [](const ServerConfig& c) { return c.host; }},
+      {"--port", "server.port", [](const ServerConfig& c) { return written(c.port); }},
+      {"--backend", "server.backend",
+       [](const ServerConfig& c) { return std::string(render::backendName(c.backend)); }},
+      {"--log-level", "server.log_level", [](const ServerConfig& c) { return c.logLevel; }},
+      {"--render-threads", "server.render_threads", [](const ServerConfig& c) { return written(c.renderThreads); }},
+      {"--io-threads", "server.io_threads", [](const ServerConfig& c) { return written(c.ioThreads); }},
+      {"--max-sessions", "limits.max_sessions", [](const ServerConfig& c) { return written(c.maxSessions); }},
+      {"--max-image-side", "limits.max_image_side", [](const ServerConfig& c) { return written(c.maxImageSide); }},
+      {"--max-render-msamples", "limits.max_render_msamples",
+       [](const ServerConfig& c) { return written(c.maxRenderMSamples); }},
+      {"--max-message-bytes", "limits.max_message_bytes",
+       [](const ServerConfig& c) { return written(c.maxMessageBytes); }},
+      {"--idle-timeout", "limits.idle_timeout_s", [](const ServerConfig& c) { return written(c.idleTimeoutS); }},
+      {"--read-timeout", "limits.read_timeout_s", [](const ServerConfig& c) { return written(c.readTimeoutS); }},
+      {"--write-timeout", "limits.write_timeout_s", [](const ServerConfig& c) { return written(c.writeTimeoutS); }},
+      {"--hello-timeout", "limits.hello_timeout_s", [](const ServerConfig& c) { return written(c.helloTimeoutS); }},
+      {"--max-pending-connections", "limits.max_pending_connections",
+       [](const ServerConfig& c) { return written(c.maxPendingConnections); }},
+      {"--max-connections-per-address", "limits.max_connections_per_address",
+       [](const ServerConfig& c) { return written(c.maxConnectionsPerAddress); }},
+      {"--max-total-output-mb", "limits.max_total_output_bytes (in bytes)",
+       [](const ServerConfig& c) { return written(double(c.maxTotalOutputBytes >> 20)); }},
+      {"--host-cache", "memory.host_cache_mb", [](const ServerConfig& c) { return written(double(c.hostCacheMB)); }},
+      {"--gpu-budget", "memory.gpu_budget_mb", [](const ServerConfig& c) { return written(double(c.gpuBudgetMB)); }},
+  };
+  for (const Row& row : rows) {
+    const std::string entry = entryOf(r.output, row.option);
+    ASSERT_FALSE(entry.empty()) << row.option << " is not in serve --help";
+    EXPECT_NE(entry.find("(default " + row.value(d) + ", or " + row.key + " of the configuration)"), std::string::npos)
+        << entry;
+    EXPECT_EQ(row.value(shipped), row.value(d)) << row.key << " in config/server.toml";
+  }
+  // The datasets directory: the built-in "demo", the shipped file's "../demo" beside config/ (the source tree's).
+  EXPECT_NE(entryOf(r.output, "--datasets").find("(default " + d.datasets.string() + ", or server.datasets"),
+            std::string::npos);
+  EXPECT_EQ(std::filesystem::weakly_canonical(shipped.datasets),
+            std::filesystem::weakly_canonical(std::filesystem::path(VOXBRICK_SOURCE_DIR) / d.datasets));
 }
 
 }  // namespace

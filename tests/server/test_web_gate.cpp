@@ -42,6 +42,25 @@ TEST(WebGate, APlainRequestForTheSocketPathSaysWhenItsTokenIsWrong) {
   EXPECT_NE(missing.text.find("token is required"), std::string::npos);
 }
 
+TEST(WebGate, ThePresetsAreServedBehindTheTokenAndReadableByConfiguredOriginsOnly) {
+  const std::string presets = R"([{"name":"mri","points":[[0,0,0,0,0],[1,1,1,1,0.5]]}])";
+  const WebGate gate({"https://lab.example.org"}, "secret-1", presets);
+  const WebGate::Response ok = gate.respond("GET", "/presets.json?token=secret-1", "");
+  EXPECT_EQ(ok.status, 200);
+  EXPECT_EQ(ok.contentType, "application/json");
+  EXPECT_EQ(bodyOf(ok), presets);
+  EXPECT_EQ(ok.allowOrigin, "") << "the page's own origin needs no header";
+  EXPECT_EQ(gate.respond("GET", "/presets.json?token=secret-1", "", "https://lab.example.org").allowOrigin,
+            "https://lab.example.org");
+  EXPECT_EQ(gate.respond("GET", "/presets.json?token=secret-1", "", "https://elsewhere.example").allowOrigin, "");
+  const WebGate::Response wrong = gate.respond("GET", "/presets.json?token=x", "", "https://lab.example.org");
+  EXPECT_EQ(wrong.status, 403);
+  EXPECT_NE(wrong.text.find("wrong access token"), std::string::npos);
+  EXPECT_EQ(wrong.allowOrigin, "");
+  EXPECT_EQ(gate.respond("GET", "/presets.json", "").status, 403);
+  EXPECT_EQ(WebGate({}, "").respond("GET", "/presets.json", "").status, 200);
+}
+
 TEST(WebGate, ContentTypesFollowTheExtension) {
   EXPECT_EQ(contentTypeOf("a/b.js"), "text/javascript; charset=utf-8");
   EXPECT_EQ(contentTypeOf("style.css"), "text/css; charset=utf-8");

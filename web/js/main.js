@@ -25,6 +25,7 @@ const app = {
   view: V.readView(params),
   meta: null, // the open dataset's meta_json
   datasets: [],
+  presets: null, // the server's presets: {name: points}
   capabilities: null,
   connection: null,
   state: "connecting", // connecting | ready | disconnected | refused
@@ -130,6 +131,43 @@ function viewChanged(phase = "still", ask = true) {
     }, 250);
 }
 
+/// The server's transfer-function presets with their curves (GET /presets.json, behind the same token as /ws); the
+/// page keeps its built-in list of names if the server cannot say.
+async function loadPresets() {
+  try {
+    const url = wsUrl().replace(/^ws/, "http").replace(/\/ws(\?|$)/, "/presets.json$1");
+    const r = await fetch(url, { cache: "no-store" });
+    if (!r.ok) throw new Error(`HTTP ${r.status}`);
+    const list = await r.json();
+    app.presets = Object.fromEntries(list.map((p) => [p.name, p.points]));
+    panel.presets(app.presets);
+  } catch (e) {
+    note(`The server's presets could not be read (${e.message}): the curve shows custom curves only`);
+  }
+}
+
+/// Saves the frame on the canvas as a PNG: the server's own bytes when the frame shown is its exact PNG, else the
+/// canvas (a provisional JPEG frame, decoded).
+function saveFrame() {
+  const f = loop.lastFrame;
+  const v = app.view;
+  const where = v.view || `${Math.round(v.az)}_${Math.round(v.el)}`;
+  const name = `voxbrick-${(v.dataset || "frame").replace(/[^\w.-]+/g, "_")}-${where}.png`;
+  const download = (blob) => {
+    const a = document.createElement("a");
+    a.href = URL.createObjectURL(blob);
+    a.download = name;
+    document.body.append(a);
+    a.click();
+    a.remove();
+    setTimeout(() => URL.revokeObjectURL(a.href), 10000);
+  };
+  if (f && !f.provisional && f.encoding === Encoding.png && loop.lastPayload)
+    download(new Blob([loop.lastPayload], { type: "image/png" }));
+  else canvas.toBlob((blob) => blob && download(blob), "image/png");
+  return name;
+}
+
 function wsUrl() {
   const host = params.get("server") || location.host;
   const scheme = location.protocol === "https:" ? "wss" : "ws";
@@ -153,11 +191,25 @@ function connect() {
 async function greeted(c, caps) {
   app.capabilities = caps;
   app.features.jpeg = caps.encodings.includes(Encoding.jpeg);
+  loadPresets();
   try {
     app.datasets = await c.listDatasets();
     panel.datasets(app.datasets);
     if (!app.datasets.length) throw new Error("the server offers no dataset");
-    const name = app.datasets.includes(app.view.dataset) ? app.view.dataset : app.datasets[0];
+    const wanted = app.view.dataset;
+    if (wanted && !app.datasets.includes(wanted)) {
+      // The address names a dataset this server does not have: say so, open the likeliest or the first, and keep
+      // the rest of the address's view (orbit, transfer function, window, shading).
+      const guess = V.closestDataset(wanted, app.datasets);
+      const opened = guess && guess.open ? guess.name : app.datasets[0];
+      const suggest = guess && !guess.open ? ` Did you mean “${guess.name}”?` : "";
+      panel.datasetNote(
+        `No dataset “${wanted}” on this server; showing “${opened}”.${suggest} ` +
+          `It has: ${app.datasets.map((n) => `“${n}”`).join(", ")}.`,
+      );
+      app.view.dataset = opened;
+    }
+    const name = app.view.dataset || app.datasets[0];
     await openDataset(c, name);
     app.attempts = 0;
   } catch (e) {
@@ -237,6 +289,12 @@ async function refusalReason() {
     : "the server wants an access token: open the address it printed, with ?token=...";
 }
 
+const curve = new CurveEditor($("curve"), (points, done) => {
+  Object.assign(app.view, { tf: "custom", points });
+  panel.syncTf();
+  viewChanged(done ? "still" : "drag");
+});
+
 const panel = bindPanel({
   view: app.view,
   changed: viewChanged,
@@ -253,11 +311,8 @@ const panel = bindPanel({
       loop.attach(app.connection);
     });
   },
-  curve: new CurveEditor($("curve"), (points, done) => {
-    Object.assign(app.view, { tf: "custom", points });
-    panel.syncTf();
-    viewChanged(done ? "still" : "drag");
-  }),
+  save: saveFrame,
+  curve,
 });
 
 const gestures = {
@@ -324,8 +379,13 @@ window.voxbrickViewer = {
     counts: { ...loop.counts },
     exactAfterReleaseMs: loop.exactAfterReleaseMs,
     notes: app.notes.slice(),
+    datasetNote: $("dataset-note").hidden ? "" : $("dataset-note").textContent,
+    curve: { points: curve.points.map((p) => p.slice()), active: curve.active },
+    presets: app.presets,
     url: location.href,
   }),
+  /// Saves the frame as the Save frame button does; returns the file's name.
+  saveFrame,
   frames: () => loop.shownFrames.slice(),
   resetFigures: () => loop.resetFigures(),
   /// The canvas pixels as base64 of RGBA rows, top first.

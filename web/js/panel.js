@@ -5,15 +5,29 @@ import * as V from "./view.js";
 
 const $ = (id) => document.getElementById(id);
 
-/// `o`: {view, changed(phase), openDataset(name), curve: CurveEditor}. Returns the panel's sync functions.
+/// `o`: {view, changed(phase), openDataset(name), curve: CurveEditor, save()}. Returns the panel's sync functions.
 export function bindPanel(o) {
   const view = o.view;
   let range = null; // the open dataset's value range
+  let presets = {}; // the server's presets by name: their points, drawn in the curve editor
 
   const tf = $("tf");
-  for (const name of [...V.PRESETS, "custom"]) tf.add(new Option(name === "custom" ? "custom curve" : name, name));
+  const listPresets = (names) => {
+    tf.replaceChildren(...[...names, "custom"].map((n) => new Option(n === "custom" ? "custom curve" : n, n)));
+  };
+  listPresets(V.PRESETS);
+  /// The curve editor shows the chosen preset's own curve (dimmed: editing it starts a custom curve from it), or
+  /// the custom curve.
+  const showCurve = () => {
+    const preset = view.tf !== "custom" && presets[view.tf];
+    o.curve.set(preset ? preset : view.points, view.tf === "custom");
+  };
 
-  $("dataset").addEventListener("change", (e) => o.openDataset(e.target.value));
+  $("dataset").addEventListener("change", (e) => {
+    $("dataset-note").hidden = true;
+    o.openDataset(e.target.value);
+  });
+  $("save").addEventListener("click", () => o.save());
   for (const b of document.querySelectorAll("#views button")) {
     b.addEventListener("click", () => {
       const name = b.dataset.view;
@@ -29,7 +43,7 @@ export function bindPanel(o) {
   });
   tf.addEventListener("change", () => {
     view.tf = tf.value;
-    o.curve.set(view.points, view.tf === "custom");
+    showCurve();
     o.changed("still");
   });
   const windowInput = () => {
@@ -68,7 +82,7 @@ export function bindPanel(o) {
   function syncTf() {
     if (![...tf.options].some((x) => x.value === view.tf)) tf.add(new Option(view.tf, view.tf));
     tf.value = view.tf;
-    o.curve.set(view.points, view.tf === "custom");
+    showCurve();
   }
   function syncView() {
     for (const b of document.querySelectorAll("#views button")) b.classList.toggle("on", b.dataset.view === view.view);
@@ -91,6 +105,17 @@ export function bindPanel(o) {
     datasets(names) {
       const sel = $("dataset");
       sel.replaceChildren(...names.map((n) => new Option(n, n)));
+    },
+    /// The server's presets ({name: points}): the list and the curves.
+    presets(byName) {
+      presets = byName;
+      listPresets(Object.keys(byName));
+      syncTf();
+    },
+    /// A note under the dataset list (empty: none).
+    datasetNote(text) {
+      $("dataset-note").textContent = text;
+      $("dataset-note").hidden = !text;
     },
     opened(meta) {
       range = meta.value_range || null;

@@ -12,8 +12,42 @@ export const NAMED_VIEWS = {
   inferior: [0, -90],
 };
 
-/// The transfer-function presets every server has built in.
+/// The transfer-function presets every server has built in (the page lists the server's own, from /presets.json,
+/// once it has them: a server's configuration may add or retune presets).
 export const PRESETS = ["grayscale", "ct-bone", "hot", "mri", "sparse"];
+
+/// The dataset the address's `dataset=` most likely means among `names`, and whether it is safe to open it in its
+/// place: the same name but for case, or the one name that is it plus an extension ("mri" for "mri.vbs"), is
+/// opened; a name a few edits away is only suggested. null when nothing is close.
+export function closestDataset(wanted, names) {
+  const w = wanted.toLowerCase();
+  const same = names.filter((n) => n.toLowerCase() === w || n.toLowerCase().startsWith(`${w}.`));
+  if (same.length === 1) return { name: same[0], open: true };
+  // As the server's own suggestions (common/Names): at most max(2, a third of the name) edits, and no tie.
+  let best = null;
+  let bestDistance = Math.max(2, Math.floor(w.length / 3)) + 1;
+  let tie = false;
+  for (const n of names) {
+    const l = n.toLowerCase();
+    const d = Math.min(editDistance(w, l), editDistance(w, l.replace(/\.[^.]*$/, "")));
+    if (d < bestDistance) [best, bestDistance, tie] = [n, d, false];
+    else if (d === bestDistance) tie = true;
+  }
+  if (tie) best = null;
+  return best ? { name: best, open: false } : null;
+}
+
+/// Levenshtein distance.
+function editDistance(a, b) {
+  let row = Array.from({ length: b.length + 1 }, (_, j) => j);
+  for (let i = 1; i <= a.length; ++i) {
+    const next = [i];
+    for (let j = 1; j <= b.length; ++j)
+      next[j] = Math.min(row[j] + 1, next[j - 1] + 1, row[j - 1] + (a[i - 1] === b[j - 1] ? 0 : 1));
+    row = next;
+  }
+  return row[b.length];
+}
 
 /// The curve a custom transfer function starts from: a grey ramp with opacity rising over the upper window.
 export const DEFAULT_POINTS = [
