@@ -168,19 +168,19 @@ void serveMpi(const ServeArgs& a, server::ServerConfig c) {
 }
 
 /// A number as a person writes it: integers without a fraction, others to six digits.
-std::string number(double v) {
+std::string shown(double v) {
   char text[64];
   std::snprintf(text, sizeof text, v == std::floor(v) && std::fabs(v) < 1e15 ? "%.0f" : "%.6g", v);
   return text;
 }
-std::string number(const std::string& v) { return v; }
+std::string shown(const std::string& v) { return v; }
 
 /// The end of a help text for an option that overrides key `key` of the configuration file: "(default VALUE, or
 /// KEY of the configuration)", VALUE the built-in default, ServerConfig's own (the shipped server.toml says the
 /// same: a test holds them equal).
 template <typename T>
 std::string configured(const T& value, const char* key) {
-  return " (default " + number(value) + ", or " + key + " of the configuration)";
+  return " (default " + shown(value) + ", or " + key + " of the configuration)";
 }
 
 }  // namespace
