@@ -229,9 +229,8 @@ TEST(Dicom, MixedSeriesAreListedAndSeriesPicksOne) {
   b.prefix = "b";
   test::writeDicomSeries(dir.path(), a, phantom);
   const auto bFiles = test::writeDicomSeries(dir.path(), b, phantom);
-  expectRefused(openAndRead(dir.path().string()),
-                {dir.path().string(), "2 DICOM image series", "--series", "\nUID", "\n1.2.3.4.100", "first series",
-                 "\n1.2.3.4.200", "second series"});
+  expectRefused(openAndRead(dir.path().string()), {dir.path().string(), "2 DICOM image series", "--series", "\nUID",
+                                                   "\n1.2.3.4.100", "first series", "\n1.2.3.4.200", "second series"});
   store::SourceOptions pick;
   pick.seriesUid = "1.2.3.4.200";
   auto picked = store::openSource(dir.path().string(), pick);

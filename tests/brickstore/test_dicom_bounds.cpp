@@ -27,7 +27,7 @@ using test::expectRefused;
 using test::openAndRead;
 using test::ScratchDir;
 
-double phantom(const test::Vec3& ras) { return 100 + 3 * ras[0] + 5 * ras[1] + 7 * ras[2]; }
+double boundsPhantom(const test::Vec3& ras) { return 100 + 3 * ras[0] + 5 * ras[1] + 7 * ras[2]; }
 
 /// 32 x 32 x 4 slices of 16 bits in `syntax` ("", "rle", "jpegls"), files in slice order.
 std::vector<fs::path> series(const fs::path& dir, const std::string& syntax) {
@@ -35,7 +35,7 @@ std::vector<fs::path> series(const fs::path& dir, const std::string& syntax) {
   s.dims = {32, 32, 4};
   s.shuffleSeed = 0;
   s.transferSyntax = syntax;
-  return test::writeDicomSeries(dir, s, phantom);
+  return test::writeDicomSeries(dir, s, boundsPhantom);
 }
 
 /// Sets Rows and Columns (US) of every file to `size`, the compressed pixel data left as it is.

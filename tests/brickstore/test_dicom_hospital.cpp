@@ -121,8 +121,8 @@ TEST_F(DicomHospital, StudyFolderSkipsNonImagesAndListsItsImageSeries) {
   ASSERT_GE(mr.size(), 6u) << r.output;
   EXPECT_EQ(std::vector<std::string>(mr.end() - 3, mr.end()), (std::vector<std::string>{"64x64", "1", "1"}))
       << "64x64, 1 slice in 1 file: " << r.output;
-  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 4) << "the error line, the header, two series: "
-                                                                     << r.output;
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 4)
+      << "the error line, the header, two series: " << r.output;
 
   // One CT file stands for its series; the plan, structure set and reports beside it are not read as images.
   r = runVoxbrick("prep '" + study + "/ct002.dcm' --brick 8" + out);

@@ -27,7 +27,7 @@ using test::expectRefused;
 using test::openAndRead;
 using test::ScratchDir;
 
-double phantom(const test::Vec3& ras) { return 100 + 3 * ras[0] + 5 * ras[1] + 7 * ras[2]; }
+double refusalPhantom(const test::Vec3& ras) { return 100 + 3 * ras[0] + 5 * ras[1] + 7 * ras[2]; }
 
 /// 32 x 32 x 6 slices of 16 bits (2048 bytes of pixels a file), files named in slice order.
 DicomSeriesSpec spec() {
@@ -64,7 +64,7 @@ TEST(DicomRefusals, PixelDataNotMatchingTheHeaderIsRefusedNamingTheFile) {
   auto refuse = [](const std::function<void(const std::vector<std::filesystem::path>&)>& damage,
                    const std::vector<std::string>& words) {
     ScratchDir dir;
-    const auto files = test::writeDicomSeries(dir / "ct", spec(), phantom);
+    const auto files = test::writeDicomSeries(dir / "ct", spec(), refusalPhantom);
     damage(files);
     std::vector<std::string> all = words;
     all.push_back(files[3].string() + ": ");
@@ -80,7 +80,7 @@ TEST(DicomRefusals, PixelDataNotMatchingTheHeaderIsRefusedNamingTheFile) {
 
 TEST(DicomRefusals, RowsChangedInEverySliceIsRefused) {
   ScratchDir dir;
-  const auto files = test::writeDicomSeries(dir / "ct", spec(), phantom);
+  const auto files = test::writeDicomSeries(dir / "ct", spec(), refusalPhantom);
   for (const auto& f : files) setRows(f, 31);
   expectRefused(openAndRead(dir / "ct"), {".dcm: PixelData holds 2048 bytes", "needs 1984", "Rows 31"});
 }
@@ -90,7 +90,7 @@ TEST(DicomRefusals, AnAbsurdPixelSpacingIsRefusedBeforeItReachesTheWorldTransfor
   ScratchDir dir;
   DicomSeriesSpec huge = spec();
   huge.spacing = {1e308, 1, 1};
-  test::writeDicomSeries(dir / "huge", huge, phantom);
+  test::writeDicomSeries(dir / "huge", huge, refusalPhantom);
   expectRefused(openAndRead(dir / "huge"), {"huge", "spacing", "[1e-12, 1e12]"});
 }
 
@@ -98,7 +98,7 @@ TEST(DicomRefusals, TransferSyntaxNotMatchingThePixelDataIsRefused) {
   ScratchDir dir;
   DicomSeriesSpec rle = spec();
   rle.transferSyntax = "1.2.840.10008.1.2.5";  // RLE Lossless over native pixels
-  const auto files = test::writeDicomSeries(dir / "rle", rle, phantom);
+  const auto files = test::writeDicomSeries(dir / "rle", rle, refusalPhantom);
   expectRefused(openAndRead(dir / "rle"), {".dcm: transfer syntax 1.2.840.10008.1.2.5 (RLE Lossless)",
                                            "needs encapsulated (compressed) pixel data", "2048 bytes of native"});
   store::DicomLayout encapsulated;
@@ -118,7 +118,7 @@ TEST(DicomRefusals, TransferSyntaxNotMatchingThePixelDataIsRefused) {
 
 TEST(DicomRefusals, AnInvalidValueRepresentationIsRefusedCheaply) {
   ScratchDir dir;
-  const auto files = test::writeDicomSeries(dir / "ct", spec(), phantom);
+  const auto files = test::writeDicomSeries(dir / "ct", spec(), refusalPhantom);
   setVr(files[3], 0x0028, 0x1053, "DS", "XX");
   expectRefused(openAndRead(dir / "ct"),
                 {files[3].string() + ": malformed DICOM file", "(0028,1053)", "no valid value representation", "'XX'"});
@@ -141,7 +141,7 @@ std::map<std::string, std::vector<char>> filesUnder(const std::filesystem::path&
 
 TEST(DicomRefusals, ForcedPrepOfADamagedSeriesLeavesTheStoreUntouched) {
   ScratchDir dir;
-  const auto files = test::writeDicomSeries(dir / "ct", spec(), phantom);
+  const auto files = test::writeDicomSeries(dir / "ct", spec(), refusalPhantom);
   const std::string store = (dir / "store").string();
   auto r = test::runVoxbrick("prep " + (dir / "ct").string() + " --brick 8 -q -o " + store);
   ASSERT_EQ(r.exitCode, 0) << r.output;

@@ -82,7 +82,7 @@ Bytes textBytes(const std::string& text) { return Bytes(text.begin(), text.end()
 
 void writeBytes(const fs::path& path, const Bytes& bytes) { writeFile(path, bytes.data(), bytes.size()); }
 
-Bytes readAll(VolumeSource& source, int64_t batch) {
+Bytes readAllValues(VolumeSource& source, int64_t batch) {
   const VolumeInfo& info = source.info();
   const size_t slice = static_cast<size_t>(info.dims.x * info.dims.y) * valueSize(info.type);
   Bytes out(slice * static_cast<size_t>(info.dims.z));
@@ -104,7 +104,7 @@ void expectVolume(const Opener& open, const Bytes& expected, const std::string& 
   const int64_t dimsZ = open()->info().dims.z;
   for (int64_t batch : {int64_t(1), int64_t(2), int64_t(4), dimsZ}) {
     auto source = open();
-    expectSameBytes(readAll(*source, batch), expected, what + ", batch " + std::to_string(batch));
+    expectSameBytes(readAllValues(*source, batch), expected, what + ", batch " + std::to_string(batch));
     Bytes extra(static_cast<size_t>(source->info().dims.x * source->info().dims.y) * valueSize(source->info().type));
     EXPECT_THROW(source->readSlices(1, extra.data()), InputError) << what;
   }
@@ -112,7 +112,7 @@ void expectVolume(const Opener& open, const Bytes& expected, const std::string& 
 
 // Runs fn and checks it throws E with a one-line message naming `file` and containing `keyword`.
 template <typename E = InputError>
-void expectError(const std::function<void()>& fn, const std::string& file, const std::string& keyword) {
+void expectReadError(const std::function<void()>& fn, const std::string& file, const std::string& keyword) {
   try {
     fn();
     ADD_FAILURE() << "no exception; expected one naming " << file << " with '" << keyword << "'";
@@ -128,7 +128,7 @@ void expectError(const std::function<void()>& fn, const std::string& file, const
 std::function<void()> openAndRead(const Opener& open) {
   return [open] {
     auto source = open();
-    readAll(*source, 2);
+    readAllValues(*source, 2);
   };
 }
 
@@ -181,44 +181,44 @@ TEST(RawSource, SkipsHeaderBytesAndTakesGivenSpacing) {
   auto source = openRawSource(path, options);
   EXPECT_EQ(source->info().spacing, (Vec3d{0.5, 2, 3}));
   EXPECT_NE(source->info().description.find("7x5x3"), std::string::npos) << source->info().description;
-  expectSameBytes(readAll(*source, 3), storeBytes<uint16_t>(values), "header bytes");
+  expectSameBytes(readAllValues(*source, 3), storeBytes<uint16_t>(values), "header bytes");
 }
 
 TEST(RawSource, SizeMismatchNamesBothNumbers) {
   ScratchDir dir;
   const std::string path = (dir / "vol.raw").string();
   writeBytes(path, Bytes(1000));
-  expectError(
+  expectReadError(
       [&] {
         openRawSource(path, rawOptions({10, 10, 11}, "u8"));
       },
       "vol.raw", "size 1000 bytes does not match --dims 10,10,11 --type u8 (expected 1100 bytes)");
   SourceOptions withHeader = rawOptions({10, 10, 10}, "u8");
   withHeader.headerBytes = 8;
-  expectError([&] { openRawSource(path, withHeader); }, "vol.raw", "expected 1008 bytes");
+  expectReadError([&] { openRawSource(path, withHeader); }, "vol.raw", "expected 1008 bytes");
 }
 
 TEST(RawSource, RejectsBadOptions) {
   ScratchDir dir;
   const std::string path = (dir / "vol.raw").string();
   writeBytes(path, Bytes(105));
-  expectError([&] { openRawSource(path, rawOptions({7, 0, 3}, "u8")); }, "vol.raw", "zero or negative dims");
-  expectError([&] { openRawSource(path, rawOptions({7, 5, -3}, "u8")); }, "vol.raw", "zero or negative dims");
-  expectError([&] { openRawSource(path, rawOptions(kSmall, "f64")); }, "vol.raw", "unsupported voxel type 'f64'");
-  expectError([&] { openRawSource(path, rawOptions(kSmall, "")); }, "vol.raw", "--type");
+  expectReadError([&] { openRawSource(path, rawOptions({7, 0, 3}, "u8")); }, "vol.raw", "zero or negative dims");
+  expectReadError([&] { openRawSource(path, rawOptions({7, 5, -3}, "u8")); }, "vol.raw", "zero or negative dims");
+  expectReadError([&] { openRawSource(path, rawOptions(kSmall, "f64")); }, "vol.raw", "unsupported voxel type 'f64'");
+  expectReadError([&] { openRawSource(path, rawOptions(kSmall, "")); }, "vol.raw", "--type");
   const int64_t huge = int64_t(1) << 40;
-  expectError([&] { openRawSource(path, rawOptions({huge, huge, huge}, "u8")); }, "vol.raw", "too large");
+  expectReadError([&] { openRawSource(path, rawOptions({huge, huge, huge}, "u8")); }, "vol.raw", "too large");
   SourceOptions negativeHeader = rawOptions(kSmall, "u8");
   negativeHeader.headerBytes = -1;
-  expectError([&] { openRawSource(path, negativeHeader); }, "vol.raw", "--header-bytes");
+  expectReadError([&] { openRawSource(path, negativeHeader); }, "vol.raw", "--header-bytes");
   for (double bad : {0.0, -1.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
     SourceOptions badSpacing = rawOptions(kSmall, "u8");
     badSpacing.spacing = Vec3d{1, bad, 1};
     badSpacing.spacingGiven = true;
-    expectError([&] { openRawSource(path, badSpacing); }, "vol.raw", "positive and finite");
+    expectReadError([&] { openRawSource(path, badSpacing); }, "vol.raw", "positive and finite");
   }
-  expectError<IoError>([&] { openRawSource((dir / "absent.raw").string(), rawOptions(kSmall, "u8")); }, "absent.raw",
-                       "No such file");
+  expectReadError<IoError>([&] { openRawSource((dir / "absent.raw").string(), rawOptions(kSmall, "u8")); },
+                           "absent.raw", "No such file");
 }
 
 TEST(RawSource, ReadingPastTheLastSliceThrows) {
@@ -227,9 +227,9 @@ TEST(RawSource, ReadingPastTheLastSliceThrows) {
   writeBytes(path, Bytes(105, 1));
   auto source = openRawSource(path, rawOptions(kSmall, "u8"));
   Bytes buffer(35 * 4);
-  expectError([&] { source->readSlices(4, buffer.data()); }, "vol.raw", "read past the end");
+  expectReadError([&] { source->readSlices(4, buffer.data()); }, "vol.raw", "read past the end");
   source->readSlices(2, buffer.data());
-  expectError([&] { source->readSlices(2, buffer.data()); }, "vol.raw", "read past the end");
+  expectReadError([&] { source->readSlices(2, buffer.data()); }, "vol.raw", "read past the end");
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -340,7 +340,7 @@ TEST(NrrdSource, ReadsSpacingFromSpacingsAndSpaceDirections) {
   override.spacing = Vec3d{7, 8, 9};
   override.spacingGiven = true;
   EXPECT_EQ(openNrrdSource(path, override)->info().spacing, (Vec3d{7, 8, 9}));
-  expectSameBytes(readAll(*openNrrdSource(path, {}), 1), data, "4D with a first axis of size 1");
+  expectSameBytes(readAllValues(*openNrrdSource(path, {}), 1), data, "4D with a first axis of size 1");
 }
 
 TEST(NrrdSource, HonoursByteSkipAndLineSkip) {
@@ -388,7 +388,7 @@ TEST(NrrdErrors, RejectsMalformedHeaders) {
   const Bytes data(105, 1);
   auto check = [&](const std::string& header, const std::string& keyword) {
     writeBytes(path, concat(textBytes(header + "\n"), data));
-    expectError([&] { openNrrdSource(path, {}); }, "bad.nrrd", keyword);
+    expectReadError([&] { openNrrdSource(path, {}); }, "bad.nrrd", keyword);
   };
   const std::string base = "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 7 5 3\nencoding: raw\n";
   check("P5 7 5\n255", "not a NRRD file");
@@ -424,7 +424,7 @@ TEST(NrrdErrors, RejectsNon3DAndUnsupportedTypesAndEncodings) {
   const std::string path = (dir / "bad.nrrd").string();
   auto check = [&](const std::string& header, const std::string& keyword) {
     writeBytes(path, concat(textBytes(header + "\n"), Bytes(1000, 1)));
-    expectError([&] { openNrrdSource(path, {}); }, "bad.nrrd", keyword);
+    expectReadError([&] { openNrrdSource(path, {}); }, "bad.nrrd", keyword);
   };
   check("NRRD0004\ntype: uchar\ndimension: 2\nsizes: 7 5\nencoding: raw\n", "only 3D scalar volumes are supported");
   check("NRRD0004\ntype: uchar\ndimension: 4\nsizes: 3 7 5 3\nencoding: raw\n", "only 3D scalar volumes are supported");
@@ -443,17 +443,17 @@ TEST(NrrdErrors, RejectsTruncatedOrOverlongHeaders) {
   ScratchDir dir;
   const std::string path = (dir / "cut.nrrd").string();
   writeFile(path, "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 7 5");
-  expectError([&] { openNrrdSource(path, {}); }, "cut.nrrd", "truncated or corrupt header");
+  expectReadError([&] { openNrrdSource(path, {}); }, "cut.nrrd", "truncated or corrupt header");
   writeFile(path, "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 7 5 3\nencoding: raw\n");
-  expectError([&] { openNrrdSource(path, {}); }, "cut.nrrd", "truncated or corrupt header");
+  expectReadError([&] { openNrrdSource(path, {}); }, "cut.nrrd", "truncated or corrupt header");
   writeFile(path, "NRRD0004");
-  expectError([&] { openNrrdSource(path, {}); }, "cut.nrrd", "truncated or corrupt header");
+  expectReadError([&] { openNrrdSource(path, {}); }, "cut.nrrd", "truncated or corrupt header");
   std::string longHeader = "NRRD0004\n";
   while (longHeader.size() < (size_t(1) << 20) + 100) longHeader += "# a long comment line to make the header huge\n";
   writeFile(path, longHeader + "type: uchar\ndimension: 3\nsizes: 7 5 3\nencoding: raw\n\n" + std::string(105, 'x'));
-  expectError([&] { openNrrdSource(path, {}); }, "cut.nrrd", "truncated or corrupt header");
+  expectReadError([&] { openNrrdSource(path, {}); }, "cut.nrrd", "truncated or corrupt header");
   writeFile(path, "");
-  expectError([&] { openNrrdSource(path, {}); }, "cut.nrrd", "not a NRRD file");
+  expectReadError([&] { openNrrdSource(path, {}); }, "cut.nrrd", "not a NRRD file");
 }
 
 TEST(NrrdErrors, RejectsTruncatedAndCorruptData) {
@@ -465,52 +465,52 @@ TEST(NrrdErrors, RejectsTruncatedAndCorruptData) {
 
   const std::string raw = (dir / "short.nrrd").string();
   writeBytes(raw, concat(textBytes(header), Bytes(data.begin(), data.end() - 10)));
-  expectError([&] { openNrrdSource(raw, {}); }, "short.nrrd", "truncated");
+  expectReadError([&] { openNrrdSource(raw, {}); }, "short.nrrd", "truncated");
 
   // A complete gzip stream that holds too few bytes.
   const std::string gzShort = (dir / "gzshort.nrrd").string();
   writeBytes(gzShort, concat(textBytes(gzHeader), gzip(Bytes(data.begin(), data.end() - 100))));
-  expectError(openAndRead([&] { return openNrrdSource(gzShort, {}); }), "gzshort.nrrd", "truncated: expected");
+  expectReadError(openAndRead([&] { return openNrrdSource(gzShort, {}); }), "gzshort.nrrd", "truncated: expected");
 
   // A gzip stream cut in the middle.
   const Bytes compressed = gzip(data);
   const std::string gzCut = (dir / "gzcut.nrrd").string();
   writeBytes(gzCut, concat(textBytes(gzHeader), Bytes(compressed.begin(), compressed.begin() + compressed.size() / 2)));
-  expectError(openAndRead([&] { return openNrrdSource(gzCut, {}); }), "gzcut.nrrd", "truncated");
+  expectReadError(openAndRead([&] { return openNrrdSource(gzCut, {}); }), "gzcut.nrrd", "truncated");
 
   // Only the trailer's checksum is missing: the voxels are all there, but the stream is incomplete.
   const std::string gzNoTrailer = (dir / "gznotrailer.nrrd").string();
   writeBytes(gzNoTrailer, concat(textBytes(gzHeader), Bytes(compressed.begin(), compressed.end() - 8)));
-  expectError(openAndRead([&] { return openNrrdSource(gzNoTrailer, {}); }), "gznotrailer.nrrd", "truncated");
+  expectReadError(openAndRead([&] { return openNrrdSource(gzNoTrailer, {}); }), "gznotrailer.nrrd", "truncated");
 
   // Damaged deflate data, and a damaged checksum (found after the last voxel).
   Bytes damaged = compressed;
   for (size_t i = damaged.size() / 3; i < damaged.size() / 3 + 64; ++i) damaged[i] = static_cast<char>(0xff);
   const std::string gzBad = (dir / "gzbad.nrrd").string();
   writeBytes(gzBad, concat(textBytes(gzHeader), damaged));
-  expectError(openAndRead([&] { return openNrrdSource(gzBad, {}); }), "gzbad.nrrd", "corrupt gzip data");
+  expectReadError(openAndRead([&] { return openNrrdSource(gzBad, {}); }), "gzbad.nrrd", "corrupt gzip data");
   Bytes badCrc = compressed;
   badCrc[badCrc.size() - 8] = static_cast<char>(badCrc[badCrc.size() - 8] ^ 0x55);
   const std::string gzCrc = (dir / "gzcrc.nrrd").string();
   writeBytes(gzCrc, concat(textBytes(gzHeader), badCrc));
-  expectError(openAndRead([&] { return openNrrdSource(gzCrc, {}); }), "gzcrc.nrrd", "corrupt gzip data");
+  expectReadError(openAndRead([&] { return openNrrdSource(gzCrc, {}); }), "gzcrc.nrrd", "corrupt gzip data");
   const std::string notGzip = (dir / "notgz.nrrd").string();
   writeBytes(notGzip, concat(textBytes(gzHeader), data));
-  expectError(openAndRead([&] { return openNrrdSource(notGzip, {}); }), "notgz.nrrd", "corrupt gzip data");
+  expectReadError(openAndRead([&] { return openNrrdSource(notGzip, {}); }), "notgz.nrrd", "corrupt gzip data");
 }
 
 TEST(NrrdErrors, RejectsMissingOrMultipleDataFiles) {
   ScratchDir dir;
   const std::string path = (dir / "det.nhdr").string();
   writeFile(path, nrrdHeader("uchar", kSmall, "raw", false, "data file: nothere.raw\n"));
-  expectError([&] { openNrrdSource(path, {}); }, "det.nhdr", "data file 'nothere.raw' not found");
+  expectReadError([&] { openNrrdSource(path, {}); }, "det.nhdr", "data file 'nothere.raw' not found");
   writeFile(path, nrrdHeader("uchar", kSmall, "raw", false, "data file: LIST\nslice0.raw\nslice1.raw\n"));
-  expectError([&] { openNrrdSource(path, {}); }, "det.nhdr", "only a single data file is supported");
+  expectReadError([&] { openNrrdSource(path, {}); }, "det.nhdr", "only a single data file is supported");
   writeFile(path, nrrdHeader("uchar", kSmall, "raw", false, "data file: slice%03d.raw 0 2 1\n"));
-  expectError([&] { openNrrdSource(path, {}); }, "det.nhdr", "only a single data file is supported");
+  expectReadError([&] { openNrrdSource(path, {}); }, "det.nhdr", "only a single data file is supported");
   writeBytes(dir / "small.raw", Bytes(50));
   writeFile(path, nrrdHeader("uchar", kSmall, "raw", false, "data file: small.raw\n"));
-  expectError([&] { openNrrdSource(path, {}); }, "small.raw", "truncated");
+  expectReadError([&] { openNrrdSource(path, {}); }, "small.raw", "truncated");
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -618,14 +618,15 @@ TEST(NiftiSource, AppliesSclSlopeAndInter) {
   EXPECT_EQ(openWith(NAN, 5.0f)->info().type, ValueType::I16);
   auto offsetOnly = openWith(1.0f, 100.0f);
   EXPECT_EQ(offsetOnly->info().type, ValueType::F32);
-  expectSameBytes(readAll(*offsetOnly, 5), storeBytes<float>(values, 1.0, 100.0, true), "inter only");
+  expectSameBytes(readAllValues(*offsetOnly, 5), storeBytes<float>(values, 1.0, 100.0, true), "inter only");
 
   // Big-endian scale factors are swapped too.
   spec.bigEndian = true;
   spec.slope = 2.0f;
   spec.inter = 1.0f;
   writeBytes(path, niftiFile(spec, kLarge, fileBytes(values, true)));
-  expectSameBytes(readAll(*openNiftiSource(path, {}), 3), storeBytes<float>(values, 2.0, 1.0, true), "big scaled");
+  expectSameBytes(readAllValues(*openNiftiSource(path, {}), 3), storeBytes<float>(values, 2.0, 1.0, true),
+                  "big scaled");
 }
 
 TEST(NiftiSource, ReadsSpacingDimsAndOffsets) {
@@ -641,7 +642,7 @@ TEST(NiftiSource, ReadsSpacingDimsAndOffsets) {
   EXPECT_EQ(source->info().dims, kSmall);
   EXPECT_EQ(source->info().spacing, (Vec3d{0.5, 2.0, 1.0}));
   EXPECT_EQ(source->info().description, "NIfTI-1 uint8 7x5x3 (geom.nii)");
-  expectSameBytes(readAll(*source, 3), storeBytes<uint8_t>(values), "vox_offset 416");
+  expectSameBytes(readAllValues(*source, 3), storeBytes<uint8_t>(values), "vox_offset 416");
 
   SourceOptions override;
   override.spacing = Vec3d{3, 3, 3};
@@ -654,7 +655,7 @@ TEST(NiftiSource, ReadsSpacingDimsAndOffsets) {
   writeBytes(disguised, gzip(niftiFile(spec, kSmall, fileBytes(values, false))));
   auto fromGzip = openNiftiSource(disguised, {});
   EXPECT_NE(fromGzip->info().description.find("gzip"), std::string::npos) << fromGzip->info().description;
-  expectSameBytes(readAll(*fromGzip, 2), storeBytes<uint8_t>(values), "gzip named .nii");
+  expectSameBytes(readAllValues(*fromGzip, 2), storeBytes<uint8_t>(values), "gzip named .nii");
 }
 
 TEST(NiftiErrors, RejectsBadHeaders) {
@@ -663,15 +664,15 @@ TEST(NiftiErrors, RejectsBadHeaders) {
   const Bytes data(7 * 5 * 3 * 8, 0);
   auto check = [&](const NiftiSpec& spec, const std::string& keyword) {
     writeBytes(path, niftiFile(spec, kSmall, data));
-    expectError([&] { openNiftiSource(path, {}); }, "bad.nii", keyword);
+    expectReadError([&] { openNiftiSource(path, {}); }, "bad.nii", keyword);
   };
   writeFile(path, std::string(400, 'x'));
-  expectError([&] { openNiftiSource(path, {}); }, "bad.nii", "not a NIfTI-1 file");
+  expectReadError([&] { openNiftiSource(path, {}); }, "bad.nii", "not a NIfTI-1 file");
   writeFile(path, "ab");
-  expectError([&] { openNiftiSource(path, {}); }, "bad.nii", "not a NIfTI-1 file");
+  expectReadError([&] { openNiftiSource(path, {}); }, "bad.nii", "not a NIfTI-1 file");
   const Bytes headerOnly = niftiFile({}, kSmall, {});
   writeBytes(path, Bytes(headerOnly.begin(), headerOnly.begin() + 200));
-  expectError([&] { openNiftiSource(path, {}); }, "bad.nii", "truncated header (200 of 348 bytes)");
+  expectReadError([&] { openNiftiSource(path, {}); }, "bad.nii", "truncated header (200 of 348 bytes)");
 
   NiftiSpec spec;
   spec.magic = std::string("ni1\0", 4);
@@ -713,9 +714,9 @@ TEST(NiftiErrors, RejectsBadHeaders) {
   check(spec, "bad dim[0]");
   spec = {};
   writeBytes(path, niftiFile(spec, {7, 0, 3}, data));
-  expectError([&] { openNiftiSource(path, {}); }, "bad.nii", "zero or negative dims");
+  expectReadError([&] { openNiftiSource(path, {}); }, "bad.nii", "zero or negative dims");
   writeBytes(path, niftiFile(spec, {7, -5, 3}, data));
-  expectError([&] { openNiftiSource(path, {}); }, "bad.nii", "zero or negative dims");
+  expectReadError([&] { openNiftiSource(path, {}); }, "bad.nii", "zero or negative dims");
 }
 
 TEST(NiftiErrors, RejectsTruncatedAndCorruptData) {
@@ -728,29 +729,29 @@ TEST(NiftiErrors, RejectsTruncatedAndCorruptData) {
 
   const std::string plain = (dir / "cut.nii").string();
   writeBytes(plain, Bytes(file.begin(), file.end() - 4));
-  expectError([&] { openNiftiSource(plain, {}); }, "cut.nii", "truncated");
+  expectReadError([&] { openNiftiSource(plain, {}); }, "cut.nii", "truncated");
 
   const std::string gzShort = (dir / "short.nii.gz").string();
   writeBytes(gzShort, gzip(Bytes(file.begin(), file.end() - 1000)));
-  expectError(openAndRead([&] { return openNiftiSource(gzShort, {}); }), "short.nii.gz", "truncated: expected");
+  expectReadError(openAndRead([&] { return openNiftiSource(gzShort, {}); }), "short.nii.gz", "truncated: expected");
 
   const Bytes compressed = gzip(file);
   const std::string gzCut = (dir / "gzcut.nii.gz").string();
   writeBytes(gzCut, Bytes(compressed.begin(), compressed.begin() + compressed.size() * 2 / 3));
-  expectError(openAndRead([&] { return openNiftiSource(gzCut, {}); }), "gzcut.nii.gz", "truncated");
+  expectReadError(openAndRead([&] { return openNiftiSource(gzCut, {}); }), "gzcut.nii.gz", "truncated");
 
   Bytes damaged = compressed;
   for (size_t i = damaged.size() / 2; i < damaged.size() / 2 + 64; ++i) damaged[i] = static_cast<char>(0xff);
   const std::string gzBad = (dir / "gzbad.nii.gz").string();
   writeBytes(gzBad, damaged);
-  expectError(openAndRead([&] { return openNiftiSource(gzBad, {}); }), "gzbad.nii.gz", "corrupt gzip data");
+  expectReadError(openAndRead([&] { return openNiftiSource(gzBad, {}); }), "gzbad.nii.gz", "corrupt gzip data");
 
   // A gzip stream corrupt from its first bytes fails while reading the header.
   Bytes badHeader = compressed;
   badHeader[2] = 9;  // compression method other than deflate
   const std::string gzHdr = (dir / "gzhdr.nii.gz").string();
   writeBytes(gzHdr, badHeader);
-  expectError([&] { openNiftiSource(gzHdr, {}); }, "gzhdr.nii.gz", "corrupt gzip data");
+  expectReadError([&] { openNiftiSource(gzHdr, {}); }, "gzhdr.nii.gz", "corrupt gzip data");
 }
 
 TEST(NiftiSource, ReadsTheRealMriTemplate) {
@@ -763,7 +764,7 @@ TEST(NiftiSource, ReadsTheRealMriTemplate) {
   EXPECT_EQ(info.type, ValueType::U8);
   EXPECT_EQ(info.background, 0.0);
   EXPECT_EQ(info.description, "NIfTI-1 uint8 gzip 301x370x316 (ch2better.nii.gz)");
-  const Bytes voxels = readAll(*source, 40);
+  const Bytes voxels = readAllValues(*source, 40);
   const auto nonZero = std::count_if(voxels.begin(), voxels.end(), [](char v) { return v != 0; });
   EXPECT_GT(nonZero, static_cast<std::ptrdiff_t>(voxels.size() / 10)) << "the brain should fill much of the volume";
   EXPECT_LT(nonZero, static_cast<std::ptrdiff_t>(voxels.size())) << "the background should be zero";
@@ -844,7 +845,7 @@ TEST(NiftiOrientation, ShearIsRefusedAndRoundOffCorrected) {
   const Orientation o = openNifti(dir, spec)->info().orientation;
   EXPECT_NEAR(o.axes[0][0] * o.axes[1][0] + o.axes[0][1] * o.axes[1][1] + o.axes[0][2] * o.axes[1][2], 0, 1e-15);
   spec.srow = {0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};  // i has no direction
-  expectError([&] { openNifti(dir, spec); }, "o.nii", "index axis i (0, 0, 0) is not a finite non-zero vector");
+  expectReadError([&] { openNifti(dir, spec); }, "o.nii", "index axis i (0, 0, 0) is not a finite non-zero vector");
 }
 
 TEST(NrrdOrientation, SpacesDirectionsAndOriginBecomeRas) {
@@ -868,11 +869,11 @@ TEST(NrrdOrientation, SpacesDirectionsAndOriginBecomeRas) {
   EXPECT_FALSE(scanner->info().orientation.patient);
   auto none = open("spacings: 1 2 3\n");
   EXPECT_EQ(none->info().orientation, Orientation{});
-  expectError([&] { open("space: right-anterior-superior-time\nspace directions: (1,0,0) (0,1,0) (0,0,1)\n"); },
-              "o.nrrd", "header field 'space' has a bad value");
-  expectError([&] { open("space: RAS\nspace directions: (1,0,0) (0,1,0) (0,0,1)\nspace origin: (1,2)\n"); }, "o.nrrd",
-              "'space origin'");
-  expectError([&] { open("space: RAS\nspace directions: (1,0,0) (1,1,0) (0,0,1)\n"); }, "o.nrrd", "sheared");
+  expectReadError([&] { open("space: right-anterior-superior-time\nspace directions: (1,0,0) (0,1,0) (0,0,1)\n"); },
+                  "o.nrrd", "header field 'space' has a bad value");
+  expectReadError([&] { open("space: RAS\nspace directions: (1,0,0) (0,1,0) (0,0,1)\nspace origin: (1,2)\n"); },
+                  "o.nrrd", "'space origin'");
+  expectReadError([&] { open("space: RAS\nspace directions: (1,0,0) (1,1,0) (0,0,1)\n"); }, "o.nrrd", "sheared");
 }
 
 }  // namespace

@@ -27,14 +27,14 @@ Scalar scalarRange(const std::vector<float>& v, float background) {
   return s;
 }
 
-bool sameBits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+bool sameFloatBits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
 void expectScalar(const std::vector<float>& v, float background) {
   bool empty = false;
   const MinMaxPair r = sampleRange(v.data(), v.size(), background, empty);
   const Scalar s = scalarRange(v, background);
-  EXPECT_TRUE(sameBits(r.min, s.lo)) << r.min << " vs " << s.lo;
-  EXPECT_TRUE(sameBits(r.max, s.hi)) << r.max << " vs " << s.hi;
+  EXPECT_TRUE(sameFloatBits(r.min, s.lo)) << r.min << " vs " << s.lo;
+  EXPECT_TRUE(sameFloatBits(r.max, s.hi)) << r.max << " vs " << s.hi;
   EXPECT_EQ(empty, s.empty);
 }
 

@@ -49,7 +49,8 @@ struct Case {
 /// Writes slices [z0, z1) of `values` both ways and expects the same file. Returns the reference tree's node
 /// counts (leaves first).
 template <typename T>
-std::vector<openvdb::Index32> expectSameFile(const std::vector<T>& values, const Case& c, bool blosc, const std::string& what) {
+std::vector<openvdb::Index32> expectSameFile(const std::vector<T>& values, const Case& c, bool blosc,
+                                             const std::string& what) {
   openvdb::initialize();
   const test::ScratchDir dir;
   const int64_t slice = c.dims.x * c.dims.y;
@@ -104,12 +105,18 @@ std::vector<float> mixed(const Vec3i& dims, float background) {
       for (int64_t x = 0; x < dims.x; ++x) {
         float& out = v[size_t(x + dims.x * (y + dims.y * z))];
         const float r = u(rng);
-        if (x >= 16 && x < 24 && y < 16) out = 0.75f;  // whole blocks of one value: tiles
-        else if (x >= 24 && x < 32 && y < 8) out = (x + y + z) % 2 ? 0.0f : -0.0f;  // tiles of +-0
-        else if (r < -0.33f) out = background;
-        else if (r < -0.32f) out = std::numeric_limits<float>::quiet_NaN();
-        else if (r < -0.30f) out = -background;
-        else out = r;
+        if (x >= 16 && x < 24 && y < 16)
+          out = 0.75f;  // whole blocks of one value: tiles
+        else if (x >= 24 && x < 32 && y < 8)
+          out = (x + y + z) % 2 ? 0.0f : -0.0f;  // tiles of +-0
+        else if (r < -0.33f)
+          out = background;
+        else if (r < -0.32f)
+          out = std::numeric_limits<float>::quiet_NaN();
+        else if (r < -0.30f)
+          out = -background;
+        else
+          out = r;
       }
   return v;
 }

@@ -23,17 +23,17 @@ using test::brickKeys;
 using test::prepOf;
 using test::ScratchDir;
 
-struct Case {
+struct VdbStoreCase {
   const char* name;
   bool sparse;
   int brick;
 };
 
-std::string caseName(const ::testing::TestParamInfo<Case>& info) {
+std::string vdbStoreCaseName(const ::testing::TestParamInfo<VdbStoreCase>& info) {
   return std::string(info.param.name) + "B" + std::to_string(info.param.brick);
 }
 
-class VdbStoreMatchesPrep : public ::testing::TestWithParam<Case> {
+class VdbStoreMatchesPrep : public ::testing::TestWithParam<VdbStoreCase> {
  protected:
   void SetUp() override {
     vdb = dir / (std::string(GetParam().name) + ".vdb");
@@ -159,9 +159,9 @@ TEST_P(VdbStoreMatchesPrep, CoarseBricksWithoutACache) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Grids, VdbStoreMatchesPrep,
-                         ::testing::Values(Case{"Sparse", true, 16}, Case{"Sparse", true, 8}, Case{"Dense", false, 16},
-                                           Case{"Dense", false, 32}),
-                         caseName);
+                         ::testing::Values(VdbStoreCase{"Sparse", true, 16}, VdbStoreCase{"Sparse", true, 8},
+                                           VdbStoreCase{"Dense", false, 16}, VdbStoreCase{"Dense", false, 32}),
+                         vdbStoreCaseName);
 
 TEST(VdbStore, EmptyBricksAreKnownFromTheTopologyAndNeverRead) {
   ScratchDir dir;

@@ -24,14 +24,14 @@ using test::expectSameBricks;
 using test::prepOf;
 using test::ScratchDir;
 
-struct Case {
+struct ZarrCase {
   const char* name;
   const char* spec;  // zarr_fixture.py's JSON, less "out"
   int brick;
   ValueType type;
 };
 
-std::string caseName(const ::testing::TestParamInfo<Case>& info) { return info.param.name; }
+std::string zarrCaseName(const ::testing::TestParamInfo<ZarrCase>& info) { return info.param.name; }
 
 /// How many samples of the level-0 bricks of `cache`'s store (borders included: the voxel clamped to the volume)
 /// differ from `voxels`, level 0 as the fixture wrote it (float64, x fastest), converted to the store's type; the
@@ -65,7 +65,7 @@ int64_t samplesUnlikeTheArray(BrickCache& cache, const std::vector<double>& voxe
   return differ;
 }
 
-class ZarrMatchesPrep : public ::testing::TestWithParam<Case> {
+class ZarrMatchesPrep : public ::testing::TestWithParam<ZarrCase> {
  protected:
   void SetUp() override {
     json spec = json::parse(GetParam().spec);
@@ -141,33 +141,33 @@ TEST_P(ZarrMatchesPrep, EveryBrickOfEveryLevel) {
 INSTANTIATE_TEST_SUITE_P(
     Codecs, ZarrMatchesPrep,
     ::testing::Values(
-        Case{"RawU16", R"({"levels": 4, "chunks": [16, 12, 16], "compressor": {"id": "none"}})", 8, ValueType::U16},
-        Case{"ZlibU8", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "|u1", "compressor": {"id": "zlib"}})", 8,
-             ValueType::U8},
-        Case{"GzipI16F", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "<i2", "order": "F",
+        ZarrCase{"RawU16", R"({"levels": 4, "chunks": [16, 12, 16], "compressor": {"id": "none"}})", 8, ValueType::U16},
+        ZarrCase{"ZlibU8", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "|u1", "compressor": {"id": "zlib"}})", 8,
+                 ValueType::U8},
+        ZarrCase{"GzipI16F", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "<i2", "order": "F",
                              "compressor": {"id": "gzip"}})",
-             8, ValueType::I16},
-        Case{"ZstdF32Slash", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "<f4", "separator": "/",
+                 8, ValueType::I16},
+        ZarrCase{"ZstdF32Slash", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "<f4", "separator": "/",
                                  "compressor": {"id": "zstd"}})",
-             8, ValueType::F32},
-        Case{"BloscLz4ShuffleU16", R"({"levels": 3, "chunks": [16, 12, 16],
+                 8, ValueType::F32},
+        ZarrCase{"BloscLz4ShuffleU16", R"({"levels": 3, "chunks": [16, 12, 16],
                                        "compressor": {"id": "blosc", "cname": "lz4", "shuffle": 1}})",
-             8, ValueType::U16},
-        Case{"BloscZstdBitshuffleF32F", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "<f4", "order": "F",
+                 8, ValueType::U16},
+        ZarrCase{"BloscZstdBitshuffleF32F", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "<f4", "order": "F",
                                             "compressor": {"id": "blosc", "cname": "zstd", "shuffle": 2}})",
-             8, ValueType::F32},
-        Case{"BloscZlibNoShuffleBigEndianU16", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": ">u2",
+                 8, ValueType::F32},
+        ZarrCase{"BloscZlibNoShuffleBigEndianU16", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": ">u2",
                  "compressor": {"id": "blosc", "cname": "zlib", "shuffle": 0}})",
-             8, ValueType::U16},
-        Case{"BlosclzI8", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "|i1",
+                 8, ValueType::U16},
+        ZarrCase{"BlosclzI8", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "|i1",
                              "compressor": {"id": "blosc", "cname": "blosclz", "shuffle": 1}})",
-             8, ValueType::I16},
-        Case{"ZstdI32", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "<i4", "compressor": {"id": "zstd"}})", 16,
-             ValueType::F32},
-        Case{"BloscLz4F64", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "<f8",
+                 8, ValueType::I16},
+        ZarrCase{"ZstdI32", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "<i4", "compressor": {"id": "zstd"}})",
+                 16, ValueType::F32},
+        ZarrCase{"BloscLz4F64", R"({"levels": 3, "chunks": [16, 12, 16], "dtype": "<f8",
                                "compressor": {"id": "blosc", "cname": "lz4", "shuffle": 1}})",
-             16, ValueType::F32}),
-    caseName);
+                 16, ValueType::F32}),
+    zarrCaseName);
 
 TEST(ZarrStore, OwnLevelsAreTheFilesAndMissingChunksAreNeverRead) {
   ScratchDir dir;

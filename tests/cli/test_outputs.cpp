@@ -20,7 +20,7 @@ namespace fs = std::filesystem;
 using test::lineCount;
 using test::runSplit;
 
-std::string blobs() { return test::preppedStore("synthetic:blobs,n=64", "--brick 16"); }
+std::string outputsBlobs() { return test::preppedStore("synthetic:blobs,n=64", "--brick 16"); }
 
 /// The spread of a channel over the image: a frame with a volume in it is far from uniform.
 int channelSpread(const image::Image8& img, int channel) {
@@ -39,7 +39,7 @@ std::vector<std::string> entries(const fs::path& dir) {
 
 TEST(ImageOutput, JpegFollowsTheExtensionAndKeepsTheContent) {
   test::ScratchDir dir;
-  const std::string common = "render -q " + blobs() + " --size 96x96 --tf hot -o ";
+  const std::string common = "render -q " + outputsBlobs() + " --size 96x96 --tf hot -o ";
   ASSERT_EQ(runSplit(common + (dir / "f.png").string()).exitCode, 0);
   ASSERT_EQ(runSplit(common + (dir / "f.jpg").string() + " --jpeg-quality 95").exitCode, 0);
   ASSERT_EQ(runSplit(common + (dir / "f.JPEG").string() + " --jpeg-quality 10").exitCode, 0);
@@ -64,7 +64,7 @@ TEST(ImageOutput, JpegFollowsTheExtensionAndKeepsTheContent) {
 TEST(ImageOutput, OtherExtensionsAreRefusedBeforeRendering) {
   test::ScratchDir dir;
   for (const std::string name : {"f.gif", "f.tiff", "f"}) {
-    const test::SplitResult r = runSplit("render -q " + blobs() + " --size 32x32 -o " + (dir / name).string());
+    const test::SplitResult r = runSplit("render -q " + outputsBlobs() + " --size 32x32 -o " + (dir / name).string());
     EXPECT_EQ(r.exitCode, 1) << name;
     EXPECT_EQ(lineCount(r.err), 1) << r.err;
     EXPECT_NE(r.err.find("extension '" + fs::path(name).extension().string() + "'"), std::string::npos) << r.err;
@@ -99,7 +99,7 @@ TEST(AtomicOutput, AFileSizeLimitLeavesTheOldFileAndNoPartialOne) {
     test::writeFile(out, std::string("the old frame"));
     // 2 blocks of 512 bytes (dash's ulimit unit): far less than the frame.
     const test::SplitResult r =
-        runSplit("render -q " + blobs() + " --size 256x256 --tf hot -o " + out.string(), 120, "ulimit -f 2;");
+        runSplit("render -q " + outputsBlobs() + " --size 256x256 --tf hot -o " + out.string(), 120, "ulimit -f 2;");
     EXPECT_EQ(r.exitCode, 1) << r.err;
     EXPECT_EQ(lineCount(r.err), 1) << r.err;
     EXPECT_NE(r.err.find(out.string()), std::string::npos) << r.err;
@@ -110,7 +110,7 @@ TEST(AtomicOutput, AFileSizeLimitLeavesTheOldFileAndNoPartialOne) {
   }
   // Without a file there before, none is left behind either.
   const test::SplitResult r =
-      runSplit("render -q " + blobs() + " --size 256x256 -o " + (dir / "new.png").string(), 120, "ulimit -f 2;");
+      runSplit("render -q " + outputsBlobs() + " --size 256x256 -o " + (dir / "new.png").string(), 120, "ulimit -f 2;");
   EXPECT_EQ(r.exitCode, 1) << r.err;
   EXPECT_TRUE(entries(dir.path()).empty());
 }
@@ -118,12 +118,12 @@ TEST(AtomicOutput, AFileSizeLimitLeavesTheOldFileAndNoPartialOne) {
 TEST(AtomicOutput, StatsAndUnwritableDirectoriesNameTheFile) {
   test::ScratchDir dir;
   const std::string missing = (dir / "no-such-dir" / "f.png").string();
-  const test::SplitResult r = runSplit("render -q " + blobs() + " --size 32x32 -o " + missing);
+  const test::SplitResult r = runSplit("render -q " + outputsBlobs() + " --size 32x32 -o " + missing);
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_NE(r.err.find(missing), std::string::npos) << r.err;
   // The statistics file is written the same way: under a limit the frame is small enough, the JSON not.
   test::writeFile(dir / "stats.json", std::string("{}"));
-  const test::SplitResult s = runSplit("render -q " + blobs() + " --size 8x8 -o " + (dir / "f.png").string() +
+  const test::SplitResult s = runSplit("render -q " + outputsBlobs() + " --size 8x8 -o " + (dir / "f.png").string() +
                                            " --stats " + (dir / "stats.json").string(),
                                        120, "ulimit -f 1;");
   EXPECT_EQ(s.exitCode, 1) << s.err;
@@ -153,7 +153,7 @@ void expectTransparency(const image::Image8& img, const std::string& what) {
 TEST(Transparency, BackgroundNoneGivesAlphaFromOpacity) {
   test::ScratchDir dir;
   const std::string tf = translucentTf(dir);
-  const std::string common = "render -q " + blobs() + " --size 48x48 --tf " + tf + " --background none -o ";
+  const std::string common = "render -q " + outputsBlobs() + " --size 48x48 --tf " + tf + " --background none -o ";
   ASSERT_EQ(runSplit(common + (dir / "gpu.png").string()).exitCode, 0);
   ASSERT_EQ(runSplit(common + (dir / "ref.png").string() + " --backend reference --reference-step 0.5").exitCode, 0);
   const image::Image8 gpu = image::readPng(dir / "gpu.png"), ref = image::readPng(dir / "ref.png");
@@ -165,7 +165,8 @@ TEST(Transparency, BackgroundNoneGivesAlphaFromOpacity) {
   EXPECT_LE(worst, 3) << "the GPU's alpha is the reference's";
   // Opaque by default; and JPEG, which has no alpha, is refused.
   ASSERT_EQ(
-      runSplit("render -q " + blobs() + " --size 48x48 --tf " + tf + " -o " + (dir / "opaque.png").string()).exitCode,
+      runSplit("render -q " + outputsBlobs() + " --size 48x48 --tf " + tf + " -o " + (dir / "opaque.png").string())
+          .exitCode,
       0);
   const image::Image8 opaque = image::readPng(dir / "opaque.png");
   EXPECT_EQ(channelSpread(opaque, 3), 0);

@@ -25,7 +25,7 @@ using test::runSplit;
 
 const std::vector<std::string> kBuiltIn = {"ct-bone", "grayscale", "hot", "mri", "sparse"};
 
-std::string blobs() { return test::preppedStore("synthetic:blobs,n=64", "--brick 16"); }
+std::string presetsBlobs() { return test::preppedStore("synthetic:blobs,n=64", "--brick 16"); }
 
 /// A copy of the binary in `dir`/bin, far from the source tree's config/.
 std::string movedBinary(const test::ScratchDir& dir) {
@@ -60,7 +60,7 @@ int maxDifference(const image::Image8& a, const image::Image8& b) {
 TEST(Presets, AMovedBinaryRendersABuiltInPresetAndAConfigFileOverridesIt) {
   test::ScratchDir dir;
   const std::string exe = movedBinary(dir);
-  const std::string frame = "render -q " + blobs() + " --size 48x48 --tf mri -o ";
+  const std::string frame = "render -q " + presetsBlobs() + " --size 48x48 --tf mri -o ";
   const test::SplitResult builtIn = runExe(exe, frame + (dir / "built-in.png").string(), 120, nowhere(dir));
   ASSERT_EQ(builtIn.exitCode, 0) << builtIn.err;
   const fs::path config = overridingConfig(dir);
@@ -72,7 +72,7 @@ TEST(Presets, AMovedBinaryRendersABuiltInPresetAndAConfigFileOverridesIt) {
   EXPECT_GT(maxDifference(a, b), 50) << "the file mri.json replaces the built-in mri";
   // A name neither built in nor in the directory is refused, naming both places.
   const test::SplitResult unknown =
-      runExe(exe, "render -q " + blobs() + " --tf nosuch -o " + (dir / "x.png").string(), 120, nowhere(dir));
+      runExe(exe, "render -q " + presetsBlobs() + " --tf nosuch -o " + (dir / "x.png").string(), 120, nowhere(dir));
   EXPECT_EQ(unknown.exitCode, 1);
   EXPECT_NE(unknown.err.find("no preset 'nosuch' built in or in"), std::string::npos) << unknown.err;
   EXPECT_NE(unknown.err.find("mri"), std::string::npos) << unknown.err;
@@ -130,7 +130,7 @@ TEST(Presets, AnInstalledBinaryFindsItsShareDirectory) {
   ASSERT_EQ(list.exitCode, 0) << list.err;
   EXPECT_NE(list.out.find((share / "tf" / "mri.json").string()), std::string::npos) << list.out;
   const test::SplitResult frame =
-      runExe(exe, "render -q " + blobs() + " --size 32x32 --tf hot -o " + (dir / "f.png").string(), 120, unset);
+      runExe(exe, "render -q " + presetsBlobs() + " --size 32x32 --tf hot -o " + (dir / "f.png").string(), 120, unset);
   EXPECT_EQ(frame.exitCode, 0) << frame.err;
   EXPECT_TRUE(fs::is_regular_file(dir / "f.png"));
 }
@@ -140,8 +140,8 @@ TEST(Presets, TheDefaultTransferFunctionSkipsEmptySpace) {
   // draws every brick. The default's transparent band at the bottom of the window makes the corners empty.
   test::ScratchDir dir;
   // Level 0, so that every brick is either drawn or skipped (coarser levels would stand in for the corners).
-  const test::SplitResult r = runSplit("render -q " + blobs() + " --size 48x48 --lod 0 -o " + (dir / "f.png").string() +
-                                       " --stats " + (dir / "stats.json").string());
+  const test::SplitResult r = runSplit("render -q " + presetsBlobs() + " --size 48x48 --lod 0 -o " +
+                                       (dir / "f.png").string() + " --stats " + (dir / "stats.json").string());
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const std::vector<char> bytes = test::readFile(dir / "stats.json");
   const nlohmann::json stats = nlohmann::json::parse(std::string(bytes.begin(), bytes.end()));

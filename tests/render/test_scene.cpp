@@ -30,11 +30,11 @@ TEST(SceneJson, ShippedExamplesParse) {
   EXPECT_EQ(mri.transferFunctionName, "mri");
 }
 
-/// Expects the scene `json` to be refused with `words` in the message.
-void expectError(const std::string& json, const std::string& words) {
+/// Expects the scene `text` to be refused with `words` in the message.
+void expectError(const std::string& text, const std::string& words) {
   try {
-    Scene::fromJson(json, "scene.json");
-    ADD_FAILURE() << "accepted " << json;
+    Scene::fromJson(text, "scene.json");
+    ADD_FAILURE() << "accepted " << text;
   } catch (const RenderInputError& e) {
     EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
   }

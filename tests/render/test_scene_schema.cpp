@@ -22,7 +22,7 @@ namespace {
 using nlohmann::json;
 
 /// `key` ("camera.fov") at its place in a scene object.
-void put(json& scene, const std::string& key, const json& value) {
+void putKey(json& scene, const std::string& key, const json& value) {
   std::string pointer = "/" + key;
   std::replace(pointer.begin(), pointer.end(), '.', '/');
   scene[json::json_pointer(pointer)] = value;
@@ -33,10 +33,10 @@ void put(json& scene, const std::string& key, const json& value) {
 json sceneWith(const SceneKey& k, const json& value) {
   json scene = json::object();
   for (const SceneRule& r : sceneRules()) {
-    if (r.kind == SceneRuleKind::Needs && r.a == k.key) put(scene, r.b, findSceneKey(r.b)->example);
-    if (r.kind == SceneRuleKind::Resets && r.a == k.key) put(scene, r.b, findSceneKey(r.b)->defaultValue());
+    if (r.kind == SceneRuleKind::Needs && r.a == k.key) putKey(scene, r.b, findSceneKey(r.b)->example);
+    if (r.kind == SceneRuleKind::Resets && r.a == k.key) putKey(scene, r.b, findSceneKey(r.b)->defaultValue());
   }
-  put(scene, k.key, value);
+  putKey(scene, k.key, value);
   return scene;
 }
 
@@ -144,8 +144,9 @@ TEST(SceneSchema, ErrorsNameTheKeyTheValueAndWhatItMayBe) {
   EXPECT_EQ(readError({{"slicer", "gpu"}}),
             "scene.json: 'slicer' must be one of \"vertex\", \"cpu\", \"vertex-lean\", \"geometry\", "
             "\"vertex-geometry\", not \"gpu\"; did you mean \"cpu\"?");
-  EXPECT_EQ(readError({{"size", {512}}}),
-            "scene.json: 'size' must be [width, height], integers between 1 and 8192 pixels, not [512]; e.g. [320,200]");
+  EXPECT_EQ(
+      readError({{"size", {512}}}),
+      "scene.json: 'size' must be [width, height], integers between 1 and 8192 pixels, not [512]; e.g. [320,200]");
 }
 
 TEST(SceneSchema, ValidateHoldsEveryNumberToItsRange) {
@@ -215,12 +216,12 @@ TEST(SceneSchema, RulesRefuseKeysTogetherAndResetOthers) {
     SCOPED_TRACE(r.a + " " + r.b);
     if (r.kind == SceneRuleKind::Excludes) {
       json scene = json::object();
-      put(scene, r.a, va);
-      put(scene, r.b, vb);
+      putKey(scene, r.a, va);
+      putKey(scene, r.b, vb);
       EXPECT_EQ(readError(scene), "scene.json: '" + r.a + "' cannot be combined with '" + r.b + "': " + r.reason);
     } else if (r.kind == SceneRuleKind::Needs) {
       json scene = json::object();
-      put(scene, r.a, va);
+      putKey(scene, r.a, va);
       EXPECT_EQ(readError(scene), "scene.json: '" + r.a + "' needs '" + r.b + "': " + r.reason);
     }
   }

@@ -26,7 +26,7 @@ using store::Vec3i;
 constexpr int kB = 8;
 // 5 x 4 x 3 bricks of 8 voxels, the last brick along x and z partial; anisotropic spacing.
 const Vec3i kDims{37, 32, 17};
-const store::Vec3d kSpacing{1.0, 0.5, 2.0};
+const store::Vec3d kTraversalSpacing{1.0, 0.5, 2.0};
 
 struct Grid {
   Vec3i bricks{5, 4, 3};
@@ -112,7 +112,7 @@ void expectStatsAddUp(const TraversalResult& r, const Grid& grid) {
 
 TEST(TraversalBricks, WithNothingSkippedEveryBrickAppearsOnceWithItsBox) {
   Grid grid(1);
-  OctreeTraversal traversal(grid.octree, kDims, kB, kSpacing);
+  OctreeTraversal traversal(grid.octree, kDims, kB, kTraversalSpacing);
   TraversalResult r = traversal.run(lookingFrom({100, 50, -80}), Frustum{}, {}, kEverything);
   auto seen = countKeys(r.bricks);
   EXPECT_EQ(static_cast<int64_t>(seen.size()), grid.bricks.volume());
@@ -137,7 +137,7 @@ TEST(TraversalBricks, WithNothingSkippedEveryBrickAppearsOnceWithItsBox) {
 
 TEST(TraversalBricks, NodeBoxesAreTheUnionOfTheirBricks) {
   Grid grid(2);
-  OctreeTraversal traversal(grid.octree, kDims, kB, kSpacing);
+  OctreeTraversal traversal(grid.octree, kDims, kB, kTraversalSpacing);
   for (int d = 0; d <= grid.octree.depth(); ++d) {
     Vec3i n = grid.octree.nodesAt(d);
     for (int64_t k = 0; k < n.z; ++k)
@@ -163,7 +163,7 @@ TEST(TraversalBricks, NodeBoxesAreTheUnionOfTheirBricks) {
 
 TEST(TraversalOrder, PerspectiveIsFrontToBackForRandomEyes) {
   Grid grid(3);
-  OctreeTraversal traversal(grid.octree, kDims, kB, kSpacing);
+  OctreeTraversal traversal(grid.octree, kDims, kB, kTraversalSpacing);
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> coord(-40, 40);
   int constrained = 0;
@@ -184,7 +184,7 @@ TEST(TraversalOrder, PerspectiveIsFrontToBackForRandomEyes) {
 
 TEST(TraversalOrder, OrthographicFollowsTheViewDirection) {
   Grid grid(4);
-  OctreeTraversal traversal(grid.octree, kDims, kB, kSpacing);
+  OctreeTraversal traversal(grid.octree, kDims, kB, kTraversalSpacing);
   std::mt19937 rng(12);
   std::normal_distribution<double> gauss;
   std::vector<glm::dvec3> directions = {{1, 0, 0}, {0, -1, 0}, {0, 0, 1}, {1, 1, 0}, {-1, 0, -1}};
@@ -202,7 +202,7 @@ TEST(TraversalOrder, OrthographicFollowsTheViewDirection) {
 
 TEST(TraversalSkip, SkipsExactlyTheRejectedBricksAndCountsThem) {
   Grid grid(5);
-  OctreeTraversal traversal(grid.octree, kDims, kB, kSpacing);
+  OctreeTraversal traversal(grid.octree, kDims, kB, kTraversalSpacing);
   for (float threshold : {0.0f, 0.3f, 0.6f, 0.9f, 1.1f}) {
     auto contributes = [threshold](float, float max) { return max > threshold; };
     TraversalResult r = traversal.run(lookingFrom({-60, 10, 70}), Frustum{}, contributes, {true, false, {}});
@@ -247,7 +247,7 @@ TEST(TraversalSkip, AnEmptyRootSkipsTheWholeGridInOneVisit) {
 
 TEST(TraversalCull, RemovesExactlyTheBricksOutsideTheFrustumAndNoVisibleOne) {
   Grid grid(6);
-  OctreeTraversal traversal(grid.octree, kDims, kB, kSpacing);
+  OctreeTraversal traversal(grid.octree, kDims, kB, kTraversalSpacing);
   const Box& volume = traversal.volume();
   struct View {
     Camera camera;
@@ -296,7 +296,7 @@ TEST(TraversalCull, RemovesExactlyTheBricksOutsideTheFrustumAndNoVisibleOne) {
 
 TEST(TraversalCull, SkippingAndCullingTogetherAddUp) {
   Grid grid(7);
-  OctreeTraversal traversal(grid.octree, kDims, kB, kSpacing);
+  OctreeTraversal traversal(grid.octree, kDims, kB, kTraversalSpacing);
   Camera camera = Camera::orbit(-50, -20, 1.3, traversal.volume());
   camera.fovYDegrees = 20;
   double near = 0, far = 0;
@@ -433,8 +433,8 @@ TEST(SubBlocks, ABrickWhoseBlocksAllContributeIsOneBox) {
   std::vector<VoxelSpan> spans;
   SubBlockWalkStats stats;
   subBlockBoxes(
-      ranges, kBrickLo, 0, kBrickDims, kSpacing, lookingFrom({0, 0, 90}), [](float, float) { return true; }, spans,
-      stats);
+      ranges, kBrickLo, 0, kBrickDims, kTraversalSpacing, lookingFrom({0, 0, 90}), [](float, float) { return true; },
+      spans, stats);
   ASSERT_EQ(spans.size(), 1u);
   EXPECT_EQ(spans[0].lo, kBrickLo);
   EXPECT_EQ(spans[0].hi, (Vec3i{kBrickLo.x + 16, kBrickLo.y + 11, kBrickLo.z + 7}));
@@ -443,10 +443,10 @@ TEST(SubBlocks, ABrickWhoseBlocksAllContributeIsOneBox) {
 
 TEST(TraversalInput, MismatchedGridsAndMissingPredicatesThrow) {
   Grid grid(8);
-  EXPECT_THROW(OctreeTraversal(grid.octree, {41, 32, 17}, kB, kSpacing), RenderInputError);
-  EXPECT_THROW(OctreeTraversal(grid.octree, kDims, 0, kSpacing), RenderInputError);
+  EXPECT_THROW(OctreeTraversal(grid.octree, {41, 32, 17}, kB, kTraversalSpacing), RenderInputError);
+  EXPECT_THROW(OctreeTraversal(grid.octree, kDims, 0, kTraversalSpacing), RenderInputError);
   EXPECT_THROW(OctreeTraversal(grid.octree, kDims, kB, {1, 0, 1}), RenderInputError);
-  OctreeTraversal traversal(grid.octree, kDims, kB, kSpacing);
+  OctreeTraversal traversal(grid.octree, kDims, kB, kTraversalSpacing);
   EXPECT_THROW(traversal.run(lookingFrom({0, 0, 50}), Frustum{}, {}, {true, false, {}}), RenderInputError);
   EXPECT_THROW(traversal.run(lookingFrom({0, 0, 0}, false, {0, 0, 0}), Frustum{}, {}, kEverything), RenderInputError);
 }

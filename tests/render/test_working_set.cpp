@@ -13,7 +13,7 @@
 namespace voxbrick::render {
 namespace {
 
-constexpr int kTexels = 4096;
+constexpr int kWorkingSetTexels = 4096;
 
 std::vector<store::BrickKey> keys(const FramePlan& plan) {
   std::vector<store::BrickKey> out;
@@ -40,7 +40,7 @@ TEST(WorkingSetFit, ACoarsenedPlanFitsAndCoversEachBrickOnce) {
   const store::Vec3i grid = s->meta().levels[0].bricks;
   Scene scene = test::lodScene(0.5);
   scene.width = scene.height = 256;
-  const FramePlan wanted = planFrame(scene, *s, kTexels);
+  const FramePlan wanted = planFrame(scene, *s, kWorkingSetTexels);
   const int64_t full = int64_t(wanted.visible.bricks.size());
   ASSERT_GT(full, 500);
   const std::vector<int> wantedCover = test::levelZeroCoverage(wanted.visible.bricks, grid);
@@ -48,7 +48,7 @@ TEST(WorkingSetFit, ACoarsenedPlanFitsAndCoversEachBrickOnce) {
     for (bool atlas : {true, false}) {
       const std::string what = "capacity " + std::to_string(capacity) + (atlas ? " (atlas)" : " (host)");
       const BrickBudget budget = atlas ? BrickBudget{capacity, 0} : BrickBudget{0, capacity};
-      const FramePlan fitted = planFrame(scene, *s, kTexels, budget);
+      const FramePlan fitted = planFrame(scene, *s, kWorkingSetTexels, budget);
       EXPECT_EQ(fitted.bricksWanted, full) << what;
       EXPECT_LE(int64_t(fitted.visible.bricks.size()), capacity) << what;
       EXPECT_GT(int64_t(fitted.visible.bricks.size()), capacity - 8) << what << ": coarsened more than it needed";
@@ -61,7 +61,7 @@ TEST(WorkingSetFit, ACoarsenedPlanFitsAndCoversEachBrickOnce) {
         ASSERT_LE(cover[b], 1) << what << ": brick " << b << " drawn twice";
         ASSERT_GE(cover[b], wantedCover[b]) << what << ": brick " << b << " left out";
       }
-      EXPECT_EQ(keys(planFrame(scene, *s, kTexels, budget)), keys(fitted)) << what << ": not deterministic";
+      EXPECT_EQ(keys(planFrame(scene, *s, kWorkingSetTexels, budget)), keys(fitted)) << what << ": not deterministic";
     }
 }
 
@@ -69,16 +69,16 @@ TEST(WorkingSetFit, WithRoomEnoughThePlanIsUnchanged) {
   test::ScratchDir dir;
   const auto s = test::prep("synthetic:blobs,n=64", dir / "b", 8);
   Scene scene = test::lodScene(0.5);
-  const FramePlan wanted = planFrame(scene, *s, kTexels);
+  const FramePlan wanted = planFrame(scene, *s, kWorkingSetTexels);
   const int64_t full = int64_t(wanted.visible.bricks.size());
   for (const BrickBudget& budget : {BrickBudget{full, 0}, BrickBudget{0, full}, BrickBudget{full * 4, full}}) {
-    const FramePlan fitted = planFrame(scene, *s, kTexels, budget);
+    const FramePlan fitted = planFrame(scene, *s, kWorkingSetTexels, budget);
     EXPECT_EQ(keys(fitted), keys(wanted));
     EXPECT_EQ(fitted.visible.stats.bricksCoarse, wanted.visible.stats.bricksCoarse);
   }
   // lod 0 asks for level 0 everywhere: never coarsened, drawn in batches instead.
   scene.lod = 0;
-  EXPECT_EQ(keys(planFrame(scene, *s, kTexels, {8, 8})), keys(planFrame(scene, *s, kTexels)));
+  EXPECT_EQ(keys(planFrame(scene, *s, kWorkingSetTexels, {8, 8})), keys(planFrame(scene, *s, kWorkingSetTexels)));
 }
 
 TEST(WorkingSetFit, TheFarSideIsCoarsenedFirst) {
@@ -88,8 +88,8 @@ TEST(WorkingSetFit, TheFarSideIsCoarsenedFirst) {
   scene.width = scene.height = 256;
   scene.camera.distance = 1.1;  // close: the near and far halves differ in size on screen
   scene.transferFunction = TransferFunction({{0.0, {1, 1, 1, 0.3}}, {1.0, {1, 1, 1, 0.3}}});
-  const FramePlan wanted = planFrame(scene, *s, kTexels);
-  const FramePlan fitted = planFrame(scene, *s, kTexels, {int64_t(wanted.visible.bricks.size()) * 3 / 4, 0});
+  const FramePlan wanted = planFrame(scene, *s, kWorkingSetTexels);
+  const FramePlan fitted = planFrame(scene, *s, kWorkingSetTexels, {int64_t(wanted.visible.bricks.size()) * 3 / 4, 0});
   std::vector<Box> coarsened, kept;
   splitByLevel(fitted, wanted, s->meta(), coarsened, kept);
   ASSERT_FALSE(coarsened.empty());
@@ -115,10 +115,10 @@ TEST(WorkingSetFit, TheTransparentSideIsCoarsenedFirst) {
   scene.cullFrustum = false;
   scene.transferFunction =
       TransferFunction({{0.0, {1, 1, 1, 0.02}}, {0.5, {1, 1, 1, 0.02}}, {0.5, {1, 1, 1, 0.8}}, {1.0, {1, 1, 1, 0.8}}});
-  const FramePlan wanted = planFrame(scene, *s, kTexels);
+  const FramePlan wanted = planFrame(scene, *s, kWorkingSetTexels);
   ASSERT_EQ(wanted.visible.bricks.size(), 512u);
   // 7 bricks go per merge of eight: 16 merges, and the nearly transparent level-1 nodes (x < 16) number 32.
-  const FramePlan fitted = planFrame(scene, *s, kTexels, {512 - 16 * 7, 0});
+  const FramePlan fitted = planFrame(scene, *s, kWorkingSetTexels, {512 - 16 * 7, 0});
   std::vector<Box> coarsened, kept;
   splitByLevel(fitted, wanted, s->meta(), coarsened, kept);
   ASSERT_EQ(coarsened.size(), 16u);

@@ -68,7 +68,8 @@ std::unique_ptr<RenderScheduler> idleScheduler() {
   return std::make_unique<RenderScheduler>(std::move(sources), true);  // never started: jobs only wait
 }
 
-const char* kScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [40, 32], "transfer_function": "sparse"})";
+const char* kConnectionScene =
+    R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [40, 32], "transfer_function": "sparse"})";
 
 class ConnectionTest : public ::testing::Test {
  protected:
@@ -183,7 +184,7 @@ TEST_F(ConnectionTest, AMessageMustCompleteWithinTheReadTimeoutOfItsFirstByte) {
 TEST_F(ConnectionTest, AClientWaitingForAFrameIsNotIdle) {
   greet();
   receive(proto::OpenDataset{"sparse"}, 2);
-  receive(proto::RenderRequest{proto::Encoding::RawRgba8, kScene}, 3);
+  receive(proto::RenderRequest{proto::Encoding::RawRgba8, kConnectionScene}, 3);
   flush();
   ASSERT_TRUE(core.state().awaitingFrames());
   transport->armed.erase(Deadline::Read);
@@ -218,8 +219,8 @@ TEST_F(ConnectionTest, BackPressurePausesReadingAboveTheLimitAndResumesBelowHalf
 TEST_F(ConnectionTest, ANewerRenderReplacesAWaitingOlderOne) {
   greet();
   receive(proto::OpenDataset{"sparse"}, 2);
-  receive(proto::RenderRequest{proto::Encoding::RawRgba8, kScene}, 3);
-  receive(proto::RenderRequest{proto::Encoding::RawRgba8, kScene}, 4);
+  receive(proto::RenderRequest{proto::Encoding::RawRgba8, kConnectionScene}, 3);
+  receive(proto::RenderRequest{proto::Encoding::RawRgba8, kConnectionScene}, 4);
   flush();
   ASSERT_EQ(transport->writes.size(), 3u);  // Capabilities, DatasetInfo, Superseded
   EXPECT_EQ(errorIn(transport->writes[2], 3), ErrorCode::Superseded);

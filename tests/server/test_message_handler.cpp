@@ -23,7 +23,7 @@ ServerConfig handlerConfig() {
   return config;
 }
 
-const char* kScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [80, 64], "transfer_function": "sparse"})";
+const char* kHandlerScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [80, 64], "transfer_function": "sparse"})";
 
 class MessageHandlerTest : public ::testing::Test {
  protected:
@@ -44,7 +44,7 @@ class MessageHandlerTest : public ::testing::Test {
     ASSERT_TRUE(state.dataset);
   }
   /// The render job of a Render that must be accepted.
-  RenderJob job(uint32_t id, const std::string& scene = kScene) {
+  RenderJob job(uint32_t id, const std::string& scene = kHandlerScene) {
     Outcome o = handle(proto::RenderRequest{proto::Encoding::RawRgba8, scene}, id);
     EXPECT_TRUE(o.replies.empty());
     EXPECT_TRUE(o.render.has_value());
@@ -117,7 +117,7 @@ TEST_F(MessageHandlerTest, UnsupportedVersionIsRefusedAndCloses) {
 
 TEST_F(MessageHandlerTest, AnythingBeforeHelloIsUnexpectedAndTheSessionGoesOn) {
   for (const proto::Message& m : std::vector<proto::Message>{proto::ListDatasets{}, proto::OpenDataset{"sparse"},
-                                                             proto::RenderRequest{proto::Encoding::Png, kScene},
+                                                             proto::RenderRequest{proto::Encoding::Png, kHandlerScene},
                                                              proto::GetStats{}, proto::Frame{}}) {
     const Outcome o = handle(m, 3);
     EXPECT_EQ(errorCode(o, 3), ErrorCode::UnexpectedMessage) << proto::messageTypeName(proto::messageType(m));
@@ -157,7 +157,8 @@ TEST_F(MessageHandlerTest, OpeningADatasetGivesItsInfo) {
 
 TEST_F(MessageHandlerTest, RenderBeforeOpenDatasetIsUnexpected) {
   greet();
-  EXPECT_EQ(errorCode(handle(proto::RenderRequest{proto::Encoding::Png, kScene}, 8), 8), ErrorCode::UnexpectedMessage);
+  EXPECT_EQ(errorCode(handle(proto::RenderRequest{proto::Encoding::Png, kHandlerScene}, 8), 8),
+            ErrorCode::UnexpectedMessage);
 }
 
 TEST_F(MessageHandlerTest, RenderWithABadSceneIsInvalidScene) {

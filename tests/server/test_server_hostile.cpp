@@ -59,9 +59,9 @@ class HostileClientTest : public test::SparseDatasetSuite, public ::testing::Wit
   }
 };
 
-const char* kScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [80, 64], "transfer_function": "sparse"})";
+const char* kHostileScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [80, 64], "transfer_function": "sparse"})";
 
-std::unique_ptr<Client> session(const ServerProcess& server, std::chrono::milliseconds timeout = 60s) {
+std::unique_ptr<Client> hostileSession(const ServerProcess& server, std::chrono::milliseconds timeout = 60s) {
   auto c = std::make_unique<Client>("127.0.0.1", server.port(), timeout);
   c->hello("test");
   c->openDataset("sparse");
@@ -71,7 +71,7 @@ std::unique_ptr<Client> session(const ServerProcess& server, std::chrono::millis
 /// The scene's frame from a session of its own, drawn before any hostile client connects: what good clients must
 /// get under attack.
 image::Image8 frameBefore(const ServerProcess& server, const std::string& scene, proto::Encoding encoding) {
-  const image::Image8 frame = image::decodeFrameImage(session(server)->render(scene, encoding));
+  const image::Image8 frame = image::decodeFrameImage(hostileSession(server)->render(scene, encoding));
   size_t lit = 0;
   for (size_t i = 0; i < frame.rgba.size(); i += 4) lit += frame.rgba[i] + frame.rgba[i + 1] + frame.rgba[i + 2] > 0;
   EXPECT_GT(lit, 100u) << "the frame before the attack shows the volume";
@@ -146,7 +146,7 @@ json waitForStats(const ServerProcess& server, const std::function<bool(const js
 // so 64 silent sockets refused every good client.
 TEST_P(HostileClientTest, SilentAndTricklingConnectionsCannotLockOutAGoodClient) {
   auto server = start("--hello-timeout 2");
-  const image::Image8 beforeAttack = frameBefore(*server, kScene, proto::Encoding::Png);
+  const image::Image8 beforeAttack = frameBefore(*server, kHostileScene, proto::Encoding::Png);
   std::vector<std::unique_ptr<RawSocket>> silent, trickling;
   for (int i = 0; i < 72; ++i) silent.push_back(raw(*server));
   for (int i = 0; i < 8; ++i) trickling.push_back(raw(*server));
@@ -163,11 +163,11 @@ TEST_P(HostileClientTest, SilentAndTricklingConnectionsCannotLockOutAGoodClient)
 
   const auto t0 = Clock::now();
   std::unique_ptr<Client> good;
-  ASSERT_NO_THROW(good = session(*server, 10s)) << server->log();
-  expectSameFrame(good->render(kScene), beforeAttack, "a good client under attack");
+  ASSERT_NO_THROW(good = hostileSession(*server, 10s)) << server->log();
+  expectSameFrame(good->render(kHostileScene), beforeAttack, "a good client under attack");
   std::unique_ptr<test::WebSocketClient> browser;
   ASSERT_NO_THROW(browser = webSession(*server, 10s)) << server->log();
-  expectSameFrame(browser->render(kScene), beforeAttack, "a browser under attack");
+  expectSameFrame(browser->render(kHostileScene), beforeAttack, "a browser under attack");
   // Measured 0.05 to 0.08 s (the renderer warm: the frame before the attack took its first frame, 0.1 to 0.2 s, out
   // of this) on the 2-core machine at a load average of 8.
   EXPECT_LT(secondsSince(t0), 3.0) << "good clients must be served promptly";
@@ -186,8 +186,8 @@ TEST_P(HostileClientTest, SilentAndTricklingConnectionsCannotLockOutAGoodClient)
   EXPECT_EQ(stats.at("sessions").at("pending").get<int>(), 0);
   EXPECT_GT(stats.at("sessions").at("evicted").get<int>(), 0);
   EXPECT_GE(stats["sessions"]["timed_out"].get<int>(), 8);
-  expectSameFrame(good->render(kScene), beforeAttack, "a good client after the attack");
-  expectSameFrame(browser->render(kScene), beforeAttack, "a browser after the attack");
+  expectSameFrame(good->render(kHostileScene), beforeAttack, "a good client after the attack");
+  expectSameFrame(browser->render(kHostileScene), beforeAttack, "a browser after the attack");
   EXPECT_TRUE(server->running());
 }
 
@@ -221,7 +221,7 @@ TEST_P(HostileClientTest, ATrickledMessageIsClosedWithinTheReadTimeoutOfItsFirst
   EXPECT_EQ(codes, std::vector<ErrorCode>{ErrorCode::Timeout});
 
   // A message sent at an ordinary pace is untouched by it.
-  auto good = session(*server);
+  auto good = hostileSession(*server);
   EXPECT_EQ(good->listDatasets().size(), 1u);
   EXPECT_EQ(webSession(*server)->listDatasets().size(), 1u);
 }
@@ -230,11 +230,11 @@ TEST_P(HostileClientTest, ATrickledMessageIsClosedWithinTheReadTimeoutOfItsFirst
 // OpenDataset without reading took the server from 0.6 to 2.6 GB, and most of it stayed after they closed.
 TEST_P(HostileClientTest, ClientsThatNeverReadStayBoundedAndGiveTheirMemoryBack) {
   auto server = start("--write-timeout 4");
-  const image::Image8 beforeAttack = frameBefore(*server, kScene, proto::Encoding::RawRgba8);
-  auto good = session(*server);
+  const image::Image8 beforeAttack = frameBefore(*server, kHostileScene, proto::Encoding::RawRgba8);
+  auto good = hostileSession(*server);
   auto browser = webSession(*server);
-  for (int i = 0; i < 3; ++i) good->render(kScene, proto::Encoding::RawRgba8);
-  for (int i = 0; i < 3; ++i) browser->render(kScene, proto::Encoding::RawRgba8);
+  for (int i = 0; i < 3; ++i) good->render(kHostileScene, proto::Encoding::RawRgba8);
+  for (int i = 0; i < 3; ++i) browser->render(kHostileScene, proto::Encoding::RawRgba8);
   const uint64_t before = server->residentBytes();
 
   std::vector<std::unique_ptr<RawSocket>> flooders;
@@ -266,8 +266,10 @@ TEST_P(HostileClientTest, ClientsThatNeverReadStayBoundedAndGiveTheirMemoryBack)
   const auto t0 = Clock::now();
   while (secondsSince(t0) < 3) {
     const auto t = Clock::now();
-    expectSameFrame(good->render(kScene, proto::Encoding::RawRgba8), beforeAttack, "a good client during the flood");
-    expectSameFrame(browser->render(kScene, proto::Encoding::RawRgba8), beforeAttack, "a browser during the flood");
+    expectSameFrame(good->render(kHostileScene, proto::Encoding::RawRgba8), beforeAttack,
+                    "a good client during the flood");
+    expectSameFrame(browser->render(kHostileScene, proto::Encoding::RawRgba8), beforeAttack,
+                    "a browser during the flood");
     slowest = std::max(slowest, secondsSince(t));
     peak = std::max(peak, server->residentBytes());
     std::this_thread::sleep_for(100ms);
@@ -286,8 +288,9 @@ TEST_P(HostileClientTest, ClientsThatNeverReadStayBoundedAndGiveTheirMemoryBack)
   const uint64_t after = server->residentBytes();
   EXPECT_LT(double(after), std::max(double(before) * 1.1, double(before) + 32e6))
       << "resident memory " << before / 1e6 << " MB before the flood, " << after / 1e6 << " MB after";
-  expectSameFrame(good->render(kScene, proto::Encoding::RawRgba8), beforeAttack, "a good client after the flood");
-  expectSameFrame(browser->render(kScene, proto::Encoding::RawRgba8), beforeAttack, "a browser after the flood");
+  expectSameFrame(good->render(kHostileScene, proto::Encoding::RawRgba8), beforeAttack,
+                  "a good client after the flood");
+  expectSameFrame(browser->render(kHostileScene, proto::Encoding::RawRgba8), beforeAttack, "a browser after the flood");
 }
 
 // Replies waiting for all sessions together are bounded too: a frame that would take them past the server's
@@ -310,7 +313,7 @@ TEST_P(HostileClientTest, AFrameBeyondTheServersOutputBudgetIsRefusedUntilTheNon
       *server, [](const json& s) { return s["renders"]["frames"] >= 2; }, 30s);
   ASSERT_GE(rendered["renders"]["frames"].get<int>(), 2) << "the frame before, then the hog's";
 
-  auto good = session(*server);
+  auto good = hostileSession(*server);
   try {
     good->render(bigScene, proto::Encoding::RawRgba8);
     ADD_FAILURE() << "a 16 MiB frame went out while another waited unread";
@@ -332,8 +335,8 @@ TEST_P(HostileClientTest, AFrameBeyondTheServersOutputBudgetIsRefusedUntilTheNon
 // TooLarge) and closed before anything more is read, while good clients go on.
 TEST_P(HostileClientTest, GarbageAndOversizedMessagesAreAnsweredAndClosed) {
   auto server = start("--max-message-bytes 65536");
-  const image::Image8 beforeAttack = frameBefore(*server, kScene, proto::Encoding::Png);
-  auto good = session(*server);
+  const image::Image8 beforeAttack = frameBefore(*server, kHostileScene, proto::Encoding::Png);
+  auto good = hostileSession(*server);
   auto browser = webSession(*server);
   auto closedWith = [&](const std::function<std::vector<uint8_t>(RawSocket&)>& wire) {
     auto s = raw(*server);
@@ -377,8 +380,8 @@ TEST_P(HostileClientTest, GarbageAndOversizedMessagesAreAnsweredAndClosed) {
     EXPECT_TRUE(codes.empty());
     EXPECT_EQ(s->closeCode(), 1009);
   }
-  expectSameFrame(good->render(kScene), beforeAttack, "a good client after the garbage");
-  expectSameFrame(browser->render(kScene), beforeAttack, "a browser after the garbage");
+  expectSameFrame(good->render(kHostileScene), beforeAttack, "a good client after the garbage");
+  expectSameFrame(browser->render(kHostileScene), beforeAttack, "a browser after the garbage");
   EXPECT_EQ(statsOf(*server)["sessions"]["pending"].get<int>(), 0);
 }
 
@@ -387,20 +390,20 @@ TEST_P(HostileClientTest, ConnectionsFromOneAddressAreLimited) {
   test::writeFile(scratch() / "per-address.toml",
                   std::string("[limits]\nmax_connections_per_address = 3\nloopback_exempt = false\n"));
   auto server = start("--config " + (scratch() / "per-address.toml").string());
-  auto a = session(*server);
+  auto a = hostileSession(*server);
   auto b = raw(*server), c = raw(*server);
   auto d = raw(*server);
   expectRefused(*d, "too many connections from 127.0.0.1");
   a->goodbye();
   std::this_thread::sleep_for(200ms);
-  auto e = session(*server);
+  auto e = hostileSession(*server);
   EXPECT_EQ(e->listDatasets().size(), 1u);
   EXPECT_FALSE(b->waitClosed(100ms));
 
   // The default: loopback clients are held to max_sessions only.
   auto open = start("--max-connections-per-address 2");
   std::vector<std::unique_ptr<Client>> many;
-  for (int i = 0; i < 6; ++i) EXPECT_NO_THROW(many.push_back(session(*open)));
+  for (int i = 0; i < 6; ++i) EXPECT_NO_THROW(many.push_back(hostileSession(*open)));
 }
 
 INSTANTIATE_TEST_SUITE_P(Transports, HostileClientTest, ::testing::Values(Framing::Tcp, Framing::WebSocket),

@@ -29,7 +29,7 @@ class InteractiveServerTest : public test::SparseDatasetSuite {
   }
 };
 
-std::unique_ptr<Client> session(const ServerProcess& server) {
+std::unique_ptr<Client> interactiveSession(const ServerProcess& server) {
   auto c = std::make_unique<Client>("127.0.0.1", server.port(), std::chrono::seconds(60));
   c->hello("test");
   c->openDataset("sparse");
@@ -47,11 +47,11 @@ std::string scene(double azimuth, bool interactive, int side = 192, double step 
 
 double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
-std::vector<uint8_t> pixels(const proto::Frame& frame) { return image::decodeFrameImage(frame).rgba; }
+std::vector<uint8_t> interactivePixels(const proto::Frame& frame) { return image::decodeFrameImage(frame).rgba; }
 
 TEST_F(InteractiveServerTest, AnInteractiveRenderGetsAProvisionalFrameThenTheExactOne) {
   auto server = start();
-  auto c = session(*server);
+  auto c = interactiveSession(*server);
   std::vector<proto::Frame> provisional;
   const auto sent = Clock::now();
   double provisionalMs = 0;
@@ -73,9 +73,9 @@ TEST_F(InteractiveServerTest, AnInteractiveRenderGetsAProvisionalFrameThenTheExa
   // The exact frame waits for the camera to rest, and comes within the rest's cap of the provisional one (plus its
   // own drawing).
   EXPECT_GE(exactMs - provisionalMs, 100) << "the exact frame waited for the rest";
-  EXPECT_NE(pixels(provisional[0]), pixels(exact));
+  EXPECT_NE(interactivePixels(provisional[0]), interactivePixels(exact));
   // The exact frame is a plain Render's.
-  EXPECT_EQ(pixels(c->render(scene(40, false), proto::Encoding::RawRgba8)), pixels(exact));
+  EXPECT_EQ(interactivePixels(c->render(scene(40, false), proto::Encoding::RawRgba8)), interactivePixels(exact));
   EXPECT_EQ(json::parse(c->stats())["renders"]["refined"].get<int>(), 1);
 
   // The session's second interactive frame is predicted at its own rate.
@@ -89,7 +89,7 @@ TEST_F(InteractiveServerTest, AnInteractiveRenderGetsAProvisionalFrameThenTheExa
 
 TEST_F(InteractiveServerTest, ANewerRenderDropsTheRefinementWithoutAReply) {
   auto server = start();
-  auto c = session(*server);
+  auto c = interactiveSession(*server);
   const uint32_t dragged = c->send(proto::RenderRequest{proto::Encoding::RawRgba8, scene(40, true)});
   auto [id, first] = c->receive();
   ASSERT_EQ(id, dragged);
@@ -115,7 +115,7 @@ TEST_F(InteractiveServerTest, ANewerRenderDropsTheRefinementWithoutAReply) {
 
 /// A small frame of a fresh session, timed from its Render to its Frame.
 double smallFrameMs(const ServerProcess& server) {
-  auto c = session(server);
+  auto c = interactiveSession(server);
   const auto t = Clock::now();
   const proto::Frame f = c->render(scene(10, false, 64), proto::Encoding::RawRgba8);
   EXPECT_EQ(f.width, 64u);
@@ -128,7 +128,7 @@ TEST_F(InteractiveServerTest, AHeavyFrameGivenUpFreesTheRenderThreadAtOnce) {
   auto server = start();
   smallFrameMs(*server);  // warm: the device's rate is known
   {
-    auto gone = session(*server);
+    auto gone = interactiveSession(*server);
     gone->send(proto::RenderRequest{proto::Encoding::Png, scene(30, false, 256, 0.002)});
     std::this_thread::sleep_for(std::chrono::milliseconds(500));  // drawing now
   }                                                               // the client leaves without its frame
@@ -138,7 +138,7 @@ TEST_F(InteractiveServerTest, AHeavyFrameGivenUpFreesTheRenderThreadAtOnce) {
 
   // A refinement overtaken while it draws: an interactive heavy Render, whose exact frame starts after the rest, and
   // a newer Render while it draws.
-  auto c = session(*server);
+  auto c = interactiveSession(*server);
   const uint32_t heavy = c->send(proto::RenderRequest{proto::Encoding::Png, scene(30, true, 256, 0.002)});
   auto [id, m] = c->receive();
   ASSERT_EQ(id, heavy);

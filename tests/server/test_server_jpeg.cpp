@@ -30,16 +30,16 @@ class JpegServerTest : public test::SparseDatasetSuite {
   }
 };
 
-const char* kScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [96, 80], "transfer_function": "sparse",
+const char* kJpegScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [96, 80], "transfer_function": "sparse",
                          "background": [0.2, 0.3, 0.4]})";
 
 std::string sceneWith(const json& extra) {
-  json scene = json::parse(kScene);
+  json scene = json::parse(kJpegScene);
   scene.update(extra);
   return scene.dump();
 }
 
-std::unique_ptr<Client> session(const ServerProcess& server, uint16_t maxVersion) {
+std::unique_ptr<Client> jpegSession(const ServerProcess& server, uint16_t maxVersion) {
   auto c = std::make_unique<Client>("127.0.0.1", server.port(), std::chrono::seconds(60));
   const proto::Capabilities caps = c->hello("test", maxVersion);
   EXPECT_EQ(caps.version, maxVersion);
@@ -63,7 +63,7 @@ proto::Message next(test::RawSocket& s) {
 }
 
 /// The error of a request, with its message; fails the test if it succeeds.
-ServerError errorOf(const std::function<void()>& request) {
+ServerError jpegErrorOf(const std::function<void()>& request) {
   try {
     request();
   } catch (const ServerError& e) {
@@ -85,14 +85,14 @@ TEST_F(JpegServerTest, AVersionOneSessionHasNoJpeg) {
   ASSERT_TRUE(s.sendAll(proto::encode(proto::OpenDataset{"sparse"}, 2)));
   ASSERT_TRUE(std::holds_alternative<proto::DatasetInfo>(next(s)));
   // The encoder refuses to write jpeg in version 1, so the bytes are written by hand: encoding 3, then the scene.
-  std::vector<uint8_t> render = proto::encode(proto::RenderRequest{Encoding::Png, kScene}, 3);
+  std::vector<uint8_t> render = proto::encode(proto::RenderRequest{Encoding::Png, kJpegScene}, 3);
   render[proto::kHeaderBytes] = 3;
   ASSERT_TRUE(s.sendAll(render));
   const proto::Error error = std::get<proto::Error>(next(s));
   EXPECT_EQ(error.code, ErrorCode::Malformed);
   EXPECT_EQ(error.message, "Render.encoding: unknown value 3 in protocol version 1");
   // Nor in a version-2 header: the session is version 1.
-  ASSERT_TRUE(s.sendAll(proto::encode(proto::RenderRequest{Encoding::Jpeg, kScene}, 6, 2)));
+  ASSERT_TRUE(s.sendAll(proto::encode(proto::RenderRequest{Encoding::Jpeg, kJpegScene}, 6, 2)));
   const proto::Error v2 = std::get<proto::Error>(next(s));
   EXPECT_EQ(v2.code, ErrorCode::Malformed);
   EXPECT_EQ(v2.message, "Render.encoding: unknown value 3 in protocol version 1");
@@ -102,7 +102,7 @@ TEST_F(JpegServerTest, AVersionOneSessionHasNoJpeg) {
   const proto::Error scene = std::get<proto::Error>(next(s));
   EXPECT_EQ(scene.code, ErrorCode::InvalidScene);
   EXPECT_NE(scene.message.find("provisional_encoding"), std::string::npos) << scene.message;
-  ASSERT_TRUE(s.sendAll(proto::encode(proto::RenderRequest{Encoding::Png, kScene}, 5)));
+  ASSERT_TRUE(s.sendAll(proto::encode(proto::RenderRequest{Encoding::Png, kJpegScene}, 5)));
   const proto::Frame frame = std::get<proto::Frame>(next(s));
   EXPECT_EQ(frame.encoding, Encoding::Png);
 
@@ -110,17 +110,17 @@ TEST_F(JpegServerTest, AVersionOneSessionHasNoJpeg) {
   Client c("127.0.0.1", server->port());
   EXPECT_EQ(c.hello("v1", 1).version, 1u);
   c.openDataset("sparse");
-  EXPECT_THROW(c.render(kScene, Encoding::Jpeg), std::invalid_argument);
+  EXPECT_THROW(c.render(kJpegScene, Encoding::Jpeg), std::invalid_argument);
 }
 
 // A version-2 client gets jpeg frames: the size asked for, close to the lossless frame, smaller than it, and at the
 // quality the scene asks; headers carry version 2.
 TEST_F(JpegServerTest, AVersionTwoSessionGetsJpegFrames) {
   auto server = start();
-  auto c = session(*server, 2);
+  auto c = jpegSession(*server, 2);
   EXPECT_EQ(c->version(), 2u);
-  const proto::Frame png = c->render(kScene, Encoding::Png);
-  const proto::Frame jpeg = c->render(kScene, Encoding::Jpeg);
+  const proto::Frame png = c->render(kJpegScene, Encoding::Png);
+  const proto::Frame jpeg = c->render(kJpegScene, Encoding::Jpeg);
   EXPECT_EQ(jpeg.encoding, Encoding::Jpeg);
   ASSERT_GE(jpeg.payload.size(), 4u);
   EXPECT_EQ(jpeg.payload[0], 0xFF);  // a JPEG file: SOI marker
@@ -134,7 +134,7 @@ TEST_F(JpegServerTest, AVersionTwoSessionGetsJpegFrames) {
   const proto::Frame low = c->render(sceneWith({{"jpeg_quality", 20}}), Encoding::Jpeg);
   EXPECT_LT(low.payload.size(), jpeg.payload.size());
   EXPECT_LT(psnr(low, png), psnr(jpeg, png));
-  EXPECT_EQ(errorOf([&] {
+  EXPECT_EQ(jpegErrorOf([&] {
               c->render(sceneWith({{"jpeg_quality", 101}}), Encoding::Jpeg);
             }).code(),
             ErrorCode::InvalidScene);
@@ -158,17 +158,17 @@ TEST_F(JpegServerTest, AVersionTwoSessionGetsJpegFrames) {
 // JPEG has no alpha: a transparent frame cannot be sent as jpeg, whether exact or provisional.
 TEST_F(JpegServerTest, ATransparentJpegFrameIsRefusedNamingTheKey) {
   auto server = start();
-  auto c = session(*server, 2);
-  const ServerError e = errorOf([&] { c->render(sceneWith({{"background", "none"}}), Encoding::Jpeg); });
+  auto c = jpegSession(*server, 2);
+  const ServerError e = jpegErrorOf([&] { c->render(sceneWith({{"background", "none"}}), Encoding::Jpeg); });
   EXPECT_EQ(e.code(), ErrorCode::InvalidScene);
   EXPECT_NE(std::string(e.what()).find("'background'"), std::string::npos) << e.what();
-  const ServerError p = errorOf([&] {
+  const ServerError p = jpegErrorOf([&] {
     c->render(sceneWith({{"background", "none"}, {"progressive", true}, {"provisional_encoding", "jpeg"}}),
               Encoding::Png);
   });
   EXPECT_EQ(p.code(), ErrorCode::InvalidScene);
   EXPECT_NE(std::string(p.what()).find("'background'"), std::string::npos) << p.what();
-  EXPECT_EQ(errorOf([&] {
+  EXPECT_EQ(jpegErrorOf([&] {
               c->render(sceneWith({{"provisional_encoding", "webp"}}), Encoding::Png);
             }).code(),
             ErrorCode::InvalidScene);
@@ -180,7 +180,7 @@ TEST_F(JpegServerTest, ATransparentJpegFrameIsRefusedNamingTheKey) {
 // as png, equal to a plain png Render of the same scene.
 TEST_F(JpegServerTest, AProvisionalFrameTakesTheProvisionalEncoding) {
   auto server = start();
-  auto c = session(*server, 2);
+  auto c = jpegSession(*server, 2);
   std::vector<proto::Frame> provisional;
   const proto::Frame exact = c->render(sceneWith({{"progressive", true}, {"provisional_encoding", "jpeg"}}),
                                        Encoding::Png, [&](const proto::Frame& f) { provisional.push_back(f); });
@@ -192,7 +192,7 @@ TEST_F(JpegServerTest, AProvisionalFrameTakesTheProvisionalEncoding) {
   EXPECT_EQ(early.height, 80);
   EXPECT_EQ(exact.encoding, Encoding::Png);
   EXPECT_FALSE(json::parse(exact.statsJson)["provisional"].get<bool>());
-  const proto::Frame plain = c->render(kScene, Encoding::Png);
+  const proto::Frame plain = c->render(kJpegScene, Encoding::Png);
   EXPECT_EQ(image::decodeFrameImage(exact).rgba, image::decodeFrameImage(plain).rgba);
 }
 

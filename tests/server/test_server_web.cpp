@@ -35,7 +35,7 @@ using test::WebSocketClient;
 using Clock = std::chrono::steady_clock;
 using namespace std::chrono_literals;
 
-const char* kScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [80, 64], "transfer_function": "sparse",
+const char* kWebScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [80, 64], "transfer_function": "sparse",
                          "step": 0.75})";
 
 class WebTransportTest : public test::SparseDatasetSuite {
@@ -108,12 +108,12 @@ TEST_F(WebTransportTest, AWebSocketSessionGetsTheTcpFramesByteForByte) {
   EXPECT_EQ(ws.listDatasets(), std::vector<std::string>{"sparse"});
   const proto::DatasetInfo info = ws.openDataset("sparse");
   EXPECT_EQ(info.name, "sparse");
-  const proto::Frame overWs = ws.render(kScene, proto::Encoding::Png);
+  const proto::Frame overWs = ws.render(kWebScene, proto::Encoding::Png);
 
   Client tcp("127.0.0.1", server->port());
   tcp.hello();
   tcp.openDataset("sparse");
-  const proto::Frame overTcp = tcp.render(kScene, proto::Encoding::Png);
+  const proto::Frame overTcp = tcp.render(kWebScene, proto::Encoding::Png);
   ASSERT_EQ(overWs.width, 80u);
   ASSERT_EQ(overWs.height, 64u);
   EXPECT_EQ(overWs.payload, overTcp.payload) << "the same scene gives the same PNG on both transports";
@@ -140,7 +140,7 @@ TEST_F(WebTransportTest, SigtermEndsTheServerWithinASecondWhateverIsOpen) {
   WebSocketClient ws(server->httpPort());
   ws.hello();
   ws.openDataset("sparse");
-  ASSERT_EQ(ws.render(kScene).width, 80u);
+  ASSERT_EQ(ws.render(kWebScene).width, 80u);
   RawSocket keepAlive(server->httpPort(), Framing::None);
   const std::string page = "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: keep-alive\r\n\r\n";
   ASSERT_TRUE(keepAlive.sendAll(std::vector<uint8_t>(page.begin(), page.end())));
@@ -248,7 +248,7 @@ TEST_F(WebTransportTest, WebSocketMessagesThatAreNotOneProtocolMessageAreAnswere
     EXPECT_EQ(names->first, 3u);
     EXPECT_TRUE(std::holds_alternative<proto::DatasetList>(names->second));
   }
-  EXPECT_EQ(good.render(kScene).width, 80u) << "the other sessions go on";
+  EXPECT_EQ(good.render(kWebScene).width, 80u) << "the other sessions go on";
 }
 
 // An HTTP client that never upgrades is pending like a TCP connection before its Hello: a silent one, or one that

@@ -54,8 +54,8 @@ class ToyRenderer final : public FrameRenderer {
       *stats = {};
       stats->samplesEstimated = estimateSamples(scene);
       // At least a microsecond: a frame timed at zero feeds no rate.
-      stats->msTotal = std::max(
-          1e-3, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+      stats->msTotal =
+          std::max(1e-3, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
     }
     return image;
   }
@@ -86,7 +86,8 @@ class ToyDriver final : public DatasetDriver {
     return std::make_unique<ToyRenderer>(static_cast<const ToyDataset&>(dataset).colour());
   }
   ReferenceFrame reference(const Dataset& dataset, const Scene& scene, const ReferenceSettings&) const override {
-    return {paint(scene, static_cast<const ToyDataset&>(dataset).colour()), {{"pixels", scene.width * scene.height}},
+    return {paint(scene, static_cast<const ToyDataset&>(dataset).colour()),
+            {{"pixels", scene.width * scene.height}},
             "with the toy's reference"};
   }
   std::vector<std::string> summary(const Dataset&, const Scene&, const FrameStats&,

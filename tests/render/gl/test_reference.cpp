@@ -19,7 +19,7 @@ using test::renderReference;
 using test::renderStore;
 using test::ScratchDir;
 
-Scene smallScene(const std::string& tf, int size = 64) {
+Scene smallReferenceScene(const std::string& tf, int size = 64) {
   Scene scene;
   scene.width = scene.height = size;
   scene.camera.azimuth = 35;
@@ -47,7 +47,7 @@ TEST(ReferenceConvergence, HalvingTheDefaultStepMovesNoPixelByMoreThanTheBound) 
   ScratchDir dir;
   auto s = prep("synthetic:marschner-lobb,n=32", dir / "ml", 16);
   for (bool shading : {false, true}) {
-    Scene scene = smallScene("hot");
+    Scene scene = smallReferenceScene("hot");
     scene.shading = shading;
     const image::ImageF coarse = renderReference(s, scene, withStep(0.125));
     const image::ImageF fine = renderReference(s, scene, withStep(0.0625));
@@ -70,7 +70,7 @@ TEST(ReferenceConvergence, AStepInTheTransferFunctionConvergesToo) {
   // pixels, hence a looser max than for smooth transfer functions but the same RMSE bound.
   ScratchDir dir;
   auto s = prep("synthetic:sparse,n=40", dir / "sparse", 16);
-  const Scene scene = smallScene("sparse");
+  const Scene scene = smallReferenceScene("sparse");
   const image::ImageF fine = renderReference(s, scene, withStep(0.0625));
   ASSERT_GT(meanBrightness(fine), 0.005);
   const image::ImageError e = image::compareImages(renderReference(s, scene, withStep(0.125)), fine);
@@ -106,7 +106,7 @@ TEST(ReferenceExact, ConstantSlabMatchesTheClosedFormForAnyStep) {
 
 TEST(ReferenceStore, BrickSizeAndSkippingDoNotChangeTheImage) {
   ScratchDir dir;
-  Scene scene = smallScene("sparse");
+  Scene scene = smallReferenceScene("sparse");
   scene.shading = true;
   ReferenceStats skipping, full;
   const image::ImageF base = renderReference(prep("synthetic:sparse,n=40", dir / "s32", 32), scene);
@@ -126,7 +126,7 @@ TEST(ReferenceStore, BrickSizeAndSkippingDoNotChangeTheImage) {
 TEST(ReferenceAnalytic, SeparatesReconstructionFromIntegrationError) {
   ScratchDir dir;
   auto s = prep("synthetic:marschner-lobb,n=32", dir / "ml", 16);
-  const Scene scene = smallScene("hot");
+  const Scene scene = smallReferenceScene("hot");
   ReferenceOptions analytic;
   analytic.analytic = analyticFieldFor(s->meta(), "marschner-lobb");
   const image::ImageF exact = renderReference(s, scene, analytic);
@@ -150,7 +150,7 @@ TEST(ReferenceAnalytic, SeparatesReconstructionFromIntegrationError) {
 TEST(ReferenceVsGpu, GpuConvergesTowardsTheReference) {
   ScratchDir dir;
   auto s = prep("synthetic:marschner-lobb,n=32", dir / "ml", 16);
-  Scene scene = smallScene("hot");
+  Scene scene = smallReferenceScene("hot");
   const image::ImageF reference = renderReference(s, scene);
   double previous = 0;
   for (double step : {1.0, 0.5, 0.25}) {

@@ -20,15 +20,15 @@ using test::renderStore;
 using test::ScratchDir;
 
 /// Slicing, the baseline slabs are held to.
-Scene sceneFor(const std::string& tf) { return test::slicingScene(tf); }
+Scene slabSceneFor(const std::string& tf) { return test::slicingScene(tf); }
 
-std::vector<std::pair<std::string, CameraSpec>> cameras() { return test::marchCameras(false); }
+std::vector<std::pair<std::string, CameraSpec>> slabCameras() { return test::marchCameras(false); }
 
 TEST(Slabs, EverySlabSizeGivesSlicingsImage) {
   ScratchDir dir;
   const auto s = prep("synthetic:marschner-lobb,n=40", dir / "ml", 16);
-  for (const auto& [name, camera] : cameras()) {
-    Scene scene = sceneFor("hot");
+  for (const auto& [name, camera] : slabCameras()) {
+    Scene scene = slabSceneFor("hot");
     scene.camera = camera;
     const image::ImageF sliced = renderStore(s, scene);
     ASSERT_GT(meanBrightness(sliced), 0.005) << name;
@@ -44,7 +44,7 @@ TEST(Slabs, EverySlabSizeGivesSlicingsImage) {
 TEST(Slabs, ShadingSubBlocksAndSparseData) {
   ScratchDir dir;
   const auto s = prep("synthetic:sparse,n=96", dir / "s", 16);
-  Scene scene = sceneFor("sparse");
+  Scene scene = slabSceneFor("sparse");
   scene.shading = true;
   const image::ImageF sliced = renderStore(s, scene);
   ASSERT_GT(meanBrightness(sliced), 0.001);
@@ -60,7 +60,7 @@ TEST(Slabs, ShadingSubBlocksAndSparseData) {
 TEST(Slabs, OutOfCoreEqualsInCoreAndFewerFragmentsForLargerSlabs) {
   ScratchDir dir;
   const auto s = prep("synthetic:blobs,n=48", dir / "b", 8);
-  Scene scene = sceneFor("hot");
+  Scene scene = slabSceneFor("hot");
   FrameStats one, four, whole, tight;
   scene.slab = 1;
   scene.raycast = false;
@@ -86,7 +86,7 @@ TEST(Slabs, OutOfCoreEqualsInCoreAndFewerFragmentsForLargerSlabs) {
 
 /// An opaque scene: most rays reach full opacity within a few voxels.
 Scene opaqueScene() {
-  Scene scene = sceneFor("hot");
+  Scene scene = slabSceneFor("hot");
   scene.transferFunction = TransferFunction::parse(
       R"({"points": [[0, 0, 0, 0, 0], [0.04, 0, 0, 0, 0], [0.08, 1, 0.6, 0.3, 0.9], [1, 1, 1, 1, 1]]})", "opaque");
   scene.width = 128;
@@ -128,7 +128,7 @@ TEST(Slabs, EarlyRayTerminationOutOfCoreAndInside) {
   scene.slab = 2;
   scene.raycast = false;
   const double ert = 0.95;
-  for (const auto& [name, camera] : cameras()) {
+  for (const auto& [name, camera] : slabCameras()) {
     scene.camera = camera;
     scene.ert = 0;
     const image::ImageF reference = renderStore(s, scene);
@@ -145,7 +145,7 @@ TEST(Slabs, EarlyRayTerminationOutOfCoreAndInside) {
 TEST(Slabs, SlabsTakeSlicingsSamples) {
   ScratchDir dir;
   const auto s = prep("synthetic:marschner-lobb,n=40", dir / "ml", 16);
-  Scene scene = sceneFor("hot");
+  Scene scene = slabSceneFor("hot");
   FrameStats sliced, slabbed;
   renderStore(s, scene, &sliced);
   scene.slab = 5;
@@ -166,7 +166,7 @@ TEST(Slabs, PreIntegrationCatchesWhatSamplesStepOverAndConverges) {
   const auto s = prep("synthetic:blobs,n=48", dir / "b", 16);
   ReferenceOptions options;
   options.step = 0.125;
-  Scene scene = sceneFor("ct-bone");
+  Scene scene = slabSceneFor("ct-bone");
   scene.transferFunction = TransferFunction::parse(
       R"({"points": [[0, 0, 0, 0, 0], [0.3, 0, 0, 0, 0], [0.31, 1, 0.8, 0.5, 0.8], [0.32, 0, 0, 0, 0],
                      [1, 0, 0, 0, 0]]})",
@@ -185,7 +185,7 @@ TEST(Slabs, PreIntegrationCatchesWhatSamplesStepOverAndConverges) {
     EXPECT_GT(pre.psnr, post.psnr + 8) << "step " << step;
   }
 
-  scene = sceneFor("ct-bone");
+  scene = slabSceneFor("ct-bone");
   const image::ImageF bone = test::renderReference(s, scene, options);
   scene.slab = 16;
   scene.raycast = false;
@@ -219,7 +219,7 @@ TEST(Slabs, EmptySpaceMapsSkipEmptyPixelsAndChangeNothing) {
   const auto s = prep("synthetic:sparse,n=96", dir / "s", 32);
   for (bool preIntegration : {false, true})
     for (double ert : {0.0, 0.999}) {
-      Scene scene = sceneFor("sparse");
+      Scene scene = slabSceneFor("sparse");
       scene.slab = 8;
       scene.raycast = false;
       scene.ert = ert;
@@ -240,7 +240,7 @@ TEST(Slabs, EmptySpaceMapsSkipEmptyPixelsAndChangeNothing) {
       EXPECT_GT(tight.batches, 3) << what;
     }
   // With the eye inside the volume, and a thin shell that pre-integration finds between samples.
-  Scene scene = sceneFor("sparse");
+  Scene scene = slabSceneFor("sparse");
   scene.camera.distance = 0.25;
   scene.camera.fovY = 75;
   scene.slab = 4;

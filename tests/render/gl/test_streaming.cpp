@@ -22,7 +22,7 @@ using test::renderReference;
 using test::ScratchDir;
 using test::waitForPaging;
 
-constexpr int kTexels = VolumeRenderer::kTransferTableTexels;
+constexpr int kStreamingTexels = VolumeRenderer::kTransferTableTexels;
 
 /// slicingScene's frame of "hot" at level 0, with slabs of `slab` planes and sub-blocks of `subBlock` (0: none).
 Scene streamScene(int slab, int subBlock) {
@@ -37,7 +37,7 @@ store::BrickKey ancestor(const store::BrickKey& key, uint32_t up) {
   return {key.level + up, key.i >> up, key.j >> up, key.k >> up};
 }
 
-double psnr(const image::ImageF& a, const image::ImageF& b) { return image::compareImages(a, b).psnr; }
+double streamingPsnr(const image::ImageF& a, const image::ImageF& b) { return image::compareImages(a, b).psnr; }
 
 /// The largest difference of the mean R, G or B of one tile (kTile x kTile pixels, those at the edges smaller)
 /// between two frames, and the tile where it is: a region drawn from a coarser level keeps about its brightness, a
@@ -79,7 +79,7 @@ TEST(Streaming, StandInsLeaveNoHoles) {
   };
   for (const Case& c : {Case{0, 0, "slicing"}, Case{32, 8, "slabs with sub-blocks"}}) {
     const Scene scene = streamScene(c.slab, c.subBlock);
-    const FramePlan plan = planFrame(scene, *s, kTexels);
+    const FramePlan plan = planFrame(scene, *s, kStreamingTexels);
     ASSERT_GT(plan.visible.bricks.size(), 30u);
 
     // No workers: nothing arrives while the test looks, so which bricks are resident is exactly what it made so.
@@ -128,11 +128,11 @@ TEST(Streaming, StandInsLeaveNoHoles) {
     const image::ImageF reference = renderReference(s, scene, options);
     const image::ImageF level0Reference = renderReference(s, scene);
     const image::ImageF level0 = test::renderStore(s, scene);
-    const double sameLevels = psnr(streamed, reference), whole = psnr(level0, level0Reference);
+    const double sameLevels = streamingPsnr(streamed, reference), whole = streamingPsnr(level0, level0Reference);
     const double maxAbs = image::compareImages(streamed, reference).maxAbs;
     std::cout << c.what << ": stand-ins against the same levels' reference " << sameLevels << " dB (max |diff| "
               << maxAbs << "), level 0 against its own " << whole << " dB, stand-ins against level 0 "
-              << psnr(streamed, level0) << " dB\n";
+              << streamingPsnr(streamed, level0) << " dB\n";
     // A hole (a region not drawn) or a double sample would cost tens of dB against the same levels' reference, and
     // move pixels by a tenth or more. Slicing samples every plane at every level; on slabs the coarsest level here
     // takes every 8th plane (a 4-voxel step, which the reference does not take), so it is held less tightly.
@@ -144,7 +144,7 @@ TEST(Streaming, StandInsLeaveNoHoles) {
       EXPECT_LT(maxAbs, 0.06) << c.what;
     }
     // And the stand-ins really are coarser than level 0.
-    EXPECT_LT(psnr(streamed, level0), sameLevels) << c.what;
+    EXPECT_LT(streamingPsnr(streamed, level0), sameLevels) << c.what;
   }
 }
 
@@ -200,9 +200,9 @@ TEST(Streaming, AColdStartDrawsWholeNodes) {
   EXPECT_EQ(coarseStats.bricksPerLevel.back(), coarseStats.bricksDrawn) << "the coarsest level alone";
   test::expectSameDrawing(streamed, coarse, 5e-7, *rig.s, scene, "cold-start-vs-coarsest-level");
   const TileDifference tile = worstTileDifference(streamed, level0);
-  std::cout << "cold start against level 0: " << psnr(streamed, level0) << " dB, worst tile " << tile.worst << " at "
-            << tile.x << "," << tile.y << "\n";
-  EXPECT_GT(psnr(streamed, level0), 25.0);
+  std::cout << "cold start against level 0: " << streamingPsnr(streamed, level0) << " dB, worst tile " << tile.worst
+            << " at " << tile.x << "," << tile.y << "\n";
+  EXPECT_GT(streamingPsnr(streamed, level0), 25.0);
   EXPECT_LT(tile.worst, kTileBound) << "tile at " << tile.x << "," << tile.y;
 }
 
@@ -220,9 +220,9 @@ TEST(Streaming, AStarvedCacheStillDrawsEveryRegion) {
     const image::ImageF streamed = renderer.render(scene, &stats, {RenderMode::Normal, true});
     EXPECT_GT(stats.bricksStandIn, 0) << "frame " << frame;
     // Coarser, never empty: the coarsest level alone is within 25 dB of level 0 on this field.
-    EXPECT_GT(psnr(streamed, level0), 25.0) << "frame " << frame;
+    EXPECT_GT(streamingPsnr(streamed, level0), 25.0) << "frame " << frame;
     const TileDifference tile = worstTileDifference(streamed, level0);
-    std::cout << "starved cache, frame " << frame << " against level 0: " << psnr(streamed, level0)
+    std::cout << "starved cache, frame " << frame << " against level 0: " << streamingPsnr(streamed, level0)
               << " dB, worst tile " << tile.worst << " at " << tile.x << "," << tile.y << "\n";
     EXPECT_LT(tile.worst, kTileBound) << "frame " << frame << ", tile at " << tile.x << "," << tile.y;
     waitForPaging(*cache);

@@ -70,7 +70,7 @@ const TransferFunction kRed({{0.0, {1, 0.2, 0.1, 0.3}}, {1.0, {1, 0.9, 0.2, 0.6}
 /// Slicing of level 0 (the cases below were written for it; the GPU cases that stress slabs say so). Level of
 /// detail would draw a far volume from the pyramid's coarse levels, which the level-0 reference does not sample
 /// (tests/render/test_lod.cpp holds mixed levels to a reference of the same levels).
-Scene slicing() {
+Scene stressSlicing() {
   Scene scene;
   scene.slab = 0;
   scene.raycast = false;
@@ -81,7 +81,7 @@ Scene slicing() {
 }
 
 Scene sceneWith(const std::string& tf, int width = 32, int height = 32) {
-  Scene scene = slicing();
+  Scene scene = stressSlicing();
   scene.width = width;
   scene.height = height;
   scene.transferFunction = TransferFunction::load(tf);
@@ -102,7 +102,7 @@ Scene eyeScene(const std::string& tf, glm::dvec3 eye, glm::dvec3 center, glm::dv
 
 /// An orthographic camera on +z (or `eye`) whose view is `height` world units high.
 Scene orthoScene(const TransferFunction& tf, double height, glm::dvec3 eye = {0, 0, 200}, int size = 16) {
-  Scene scene = slicing();
+  Scene scene = stressSlicing();
   scene.width = scene.height = size;
   scene.transferFunction = tf;
   scene.camera.orbit = false;
