@@ -3,6 +3,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <cstdint>
 #include <string>
 
 namespace voxbrick::cli {
@@ -43,6 +44,8 @@ CLI::Validator between(double lo, double hi, const std::string& unit = "");
 /// that already says "(default ...)" must name the same value: otherwise throws std::logic_error, so a help text
 /// that disagrees with its parser fails every run (and every test) at once.
 void defaultsInText(CLI::App& app);
+/// --time and --channel: the index along an OME-Zarr array's 't' and 'c' axes (default 0 each).
+void addZarrIndexOptions(CLI::App* cmd, int64_t& time, int64_t& channel);
 
 /// Writes `text` to the file at `path`, replacing it atomically (a temporary renamed over it); throws
 /// image::ImageFailure naming the file on failure.

@@ -200,12 +200,7 @@ void addInfoCommand(CLI::App& app) {
   cmd->add_option("--brick", args->brick, ".vdb: brick size B, a power of two in [8, 256]")
       ->capture_default_str()
       ->check(between(8, 256, "voxels"));
-  cmd->add_option("--time", args->time, "OME-Zarr: the index along its 't' axis")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
-  cmd->add_option("--channel", args->channel, "OME-Zarr: the index along its 'c' axis")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+  addZarrIndexOptions(cmd, args->time, args->channel);
   cmd->add_flag("--json", args->json, "print one JSON object");
   cmd->callback([args] { store::namingInput({args->store}, [&] { runInfo(*args); }); });
 }

@@ -37,6 +37,15 @@ CLI::Validator between(double lo, double hi, const std::string& unit) {
   return check;
 }
 
+void addZarrIndexOptions(CLI::App* cmd, int64_t& time, int64_t& channel) {
+  cmd->add_option("--time", time, "OME-Zarr: the index along its 't' axis")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--channel", channel, "OME-Zarr: the index along its 'c' axis")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+}
+
 void defaultsInText(CLI::App& app) {
   for (CLI::App* sub : app.get_subcommands({})) defaultsInText(*sub);
   for (CLI::Option* option : app.get_options()) {

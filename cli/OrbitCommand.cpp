@@ -144,12 +144,7 @@ void addOrbitCommand(CLI::App& app) {
   cmd->add_option("--frames", a->frames, "frames in the full turn")->capture_default_str()->check(between(1, 100000));
   cmd->add_option("--elevation", a->elevation, "degrees above the equator (default: the --orbit camera's, 20)")
       ->check(between(-90, 90, "degrees"));
-  cmd->add_option("--time", a->time, "OME-Zarr: the index along its 't' axis")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
-  cmd->add_option("--channel", a->channel, "OME-Zarr: the index along its 'c' axis")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+  addZarrIndexOptions(cmd, a->time, a->channel);
   cmd->add_option("--grid", a->grid, ".vdb: the float grid to read (default: the first float grid)");
   cmd->add_option("--brick", a->brick, ".vdb: brick size B, a power of two in [8, 256]")
       ->capture_default_str()

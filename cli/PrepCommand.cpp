@@ -229,12 +229,7 @@ void addPrepCommand(CLI::App& app) {
   cmd->add_option("--header-bytes", args->headerBytes, "raw: bytes to skip before the voxels")
       ->capture_default_str()
       ->check(between(0, 1e15, "bytes"));
-  cmd->add_option("--time", args->time, "OME-Zarr: the index along its 't' axis")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
-  cmd->add_option("--channel", args->channel, "OME-Zarr: the index along its 'c' axis")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+  addZarrIndexOptions(cmd, args->time, args->channel);
   cmd->add_option("--grid", args->grid, "vdb: name of the float grid (default: the first)");
   cmd->add_option("--series", args->series, "dicom: the SeriesInstanceUID to read when the input holds several series");
   cmd->add_option("--brick", args->options.brickSize, "brick size B (power of two, 8..256)")

@@ -204,12 +204,7 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("dataset", args->store,
                   "store directory, or a .vdb file or OME-Zarr directory to read live (no prep)")
       ->required();
-  cmd->add_option("--time", args->time, "OME-Zarr: the index along its 't' axis")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
-  cmd->add_option("--channel", args->channel, "OME-Zarr: the index along its 'c' axis")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+  addZarrIndexOptions(cmd, args->time, args->channel);
   cmd->add_option("--grid", args->grid, ".vdb: the float grid to read (default: the first float grid)");
   cmd->add_option("--brick", args->brick, ".vdb: brick size B, a power of two in [8, 256]")
       ->capture_default_str()
