@@ -36,6 +36,9 @@ void addSceneCommand(CLI::App& app);
 template <typename T>
 void parseTriple(const std::string& text, const std::string& option, T out[3], const std::string& example);
 
+/// A number as a person writes it in help and errors: integers without a fraction or an exponent, others to six
+/// digits.
+std::string formatNumber(double v);
 /// A check for a numeric option: accepts numbers in [lo, hi] (inclusive); its error reads "must be between LO and HI
 /// UNIT, not 'VALUE'", which CLI11 prefixes with the option's name.
 CLI::Validator between(double lo, double hi, const std::string& unit = "");

@@ -9,10 +9,7 @@
 #include "cli/Commands.h"
 
 namespace voxbrick::cli {
-namespace {
-
-/// A bound as a person writes it: integers without a fraction or an exponent, others to six digits.
-std::string formatBound(double v) {
+std::string formatNumber(double v) {
   char text[64];
   if (v == std::floor(v) && std::fabs(v) < 1e15)
     std::snprintf(text, sizeof text, "%.0f", v);
@@ -21,10 +18,8 @@ std::string formatBound(double v) {
   return text;
 }
 
-}  // namespace
-
 CLI::Validator between(double lo, double hi, const std::string& unit) {
-  const std::string range = formatBound(lo) + " and " + formatBound(hi) + (unit.empty() ? "" : " " + unit);
+  const std::string range = formatNumber(lo) + " and " + formatNumber(hi) + (unit.empty() ? "" : " " + unit);
   CLI::Validator check(
       [lo, hi, range](std::string& input) -> std::string {
         char* end = nullptr;
@@ -33,7 +28,7 @@ CLI::Validator between(double lo, double hi, const std::string& unit) {
           return "must be between " + range + ", not '" + input + "'";
         return {};
       },
-      "in [" + formatBound(lo) + ", " + formatBound(hi) + "]" + (unit.empty() ? "" : " " + unit));
+      "in [" + formatNumber(lo) + ", " + formatNumber(hi) + "]" + (unit.empty() ? "" : " " + unit));
   return check;
 }
 

@@ -1,5 +1,4 @@
 // `voxbrick serve [--config config/server.toml | --no-config] [overrides]`: the render service.
-#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -167,12 +166,7 @@ void serveMpi(const ServeArgs& a, server::ServerConfig c) {
   if (!leader->quit()) mpi.abandon();  // a rank was lost: MPI_Finalize could wait for it for ever
 }
 
-/// A number as a person writes it: integers without a fraction, others to six digits.
-std::string shown(double v) {
-  char text[64];
-  std::snprintf(text, sizeof text, v == std::floor(v) && std::fabs(v) < 1e15 ? "%.0f" : "%.6g", v);
-  return text;
-}
+std::string shown(double v) { return formatNumber(v); }
 std::string shown(const std::string& v) { return v; }
 
 /// The end of a help text for an option that overrides key `key` of the configuration file: "(default VALUE, or
