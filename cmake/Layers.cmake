@@ -41,6 +41,7 @@ function(voxbrick_layer_probe name target header)
   set(source ${PROJECT_BINARY_DIR}/layer_probes/${name}.cpp)
   file(WRITE ${source} "#include \"${header}\"\n")
   add_library(layer_probe_${name} OBJECT EXCLUDE_FROM_ALL ${source})
+  set_target_properties(layer_probe_${name} PROPERTIES UNITY_BUILD OFF)
   get_target_property(type ${target} TYPE)
   if(type STREQUAL "EXECUTABLE")
     # A program cannot be linked: the probe gets what it compiles with, its own include path and its libraries'.

@@ -55,7 +55,6 @@ render::Scene viewScene(const MeshSweepSpec& spec, const std::string& tf, int vi
   return scene;
 }
 
-std::string number(const char* format, double value) { return formatNumber(format, value); }
 
 /// A CSV field: quoted (quotes doubled) where it holds a comma or a quote, as a synthetic spec does.
 std::string csvField(const std::string& text) {
@@ -72,11 +71,11 @@ std::string csv(const MeshSweepResult& r) {
   for (const MeshPoint& p : r.points)
     out += csvField(p.mesh) + "," + std::to_string(p.tets) + "," + csvField(p.transferFunction) + "," +
            render::tetSortName(p.setting.visibility) + "," + (p.setting.skipEmpty ? "1" : "0") + "," +
-           number("%g", p.setting.visibility == render::TetSort::Ray ? p.setting.ert : 0) + "," +
-           std::to_string(r.spec.views) + "," + std::to_string(r.spec.size) + "," + number("%.2f", p.msMedian) + "," +
-           number("%.2f", p.msMin) + "," + number("%.2f", p.msMax) + "," + number("%.2f", p.sortMsMedian) + "," +
-           number("%.0f", p.fragmentsMedian) + "," + number("%.0f", p.tetsDrawnMedian) + "," +
-           number("%.2f", p.psnrMin) + "," + number("%.2f", p.psnrPooled) + "," + number("%.6f", p.maxAbs) + "," +
+           formatNumber("%g", p.setting.visibility == render::TetSort::Ray ? p.setting.ert : 0) + "," +
+           std::to_string(r.spec.views) + "," + std::to_string(r.spec.size) + "," + formatNumber("%.2f", p.msMedian) + "," +
+           formatNumber("%.2f", p.msMin) + "," + formatNumber("%.2f", p.msMax) + "," + formatNumber("%.2f", p.sortMsMedian) + "," +
+           formatNumber("%.0f", p.fragmentsMedian) + "," + formatNumber("%.0f", p.tetsDrawnMedian) + "," +
+           formatNumber("%.2f", p.psnrMin) + "," + formatNumber("%.2f", p.psnrPooled) + "," + formatNumber("%.6f", p.maxAbs) + "," +
            (p.pareto ? "1" : "0") + "\n";
   return out;
 }
@@ -84,21 +83,21 @@ std::string csv(const MeshSweepResult& r) {
 std::string markdown(const MeshSweepResult& r) {
   const MeshSweepSpec& s = r.spec;
   std::string out = "# Mesh sweep: time against error\n\nDevice: " + r.device + ". " + std::to_string(s.views) +
-                    " views (azimuth 0…" + number("%g", 360.0 * (s.views - 1) / s.views) + "°, elevation " +
-                    number("%g", s.elevation) + "°, " + number("%g", s.distance) + " R), " + std::to_string(s.size) +
+                    " views (azimuth 0…" + formatNumber("%g", 360.0 * (s.views - 1) / s.views) + "°, elevation " +
+                    formatNumber("%g", s.elevation) + "°, " + formatNumber("%g", s.distance) + " R), " + std::to_string(s.size) +
                     "², after a warm-up frame; PSNR against the exact reference (render/reference/TetReference.h).\n\n";
   for (const auto& [what, ms] : r.referenceMs)
-    out += "- Reference, " + what + ": " + number("%.0f", ms) + " ms a view\n";
+    out += "- Reference, " + what + ": " + formatNumber("%.0f", ms) + " ms a view\n";
   out +=
       "\n| mesh | tets | transfer function | setting | median ms | sort ms | fragments (M) | tets drawn | worst "
       "view dB | pooled dB | front |\n|---|---:|---|---|---:|---:|---:|---:|---:|---:|:-:|\n";
   for (const MeshPoint& p : r.points)
     out += "| " + p.mesh + " | " + std::to_string(p.tets) + " | " + p.transferFunction + " | " + p.setting.label() +
-           " | " + number("%.1f", p.msMedian) + " | " + number("%.1f", p.sortMsMedian) + " | " +
-           number("%.2f", p.fragmentsMedian / 1e6) + " | " + number("%.0f", p.tetsDrawnMedian) + " | " +
-           number("%.1f", p.psnrMin) + " | " + number("%.1f", p.psnrPooled) + " | " + (p.pareto ? "●" : "") + " |\n";
+           " | " + formatNumber("%.1f", p.msMedian) + " | " + formatNumber("%.1f", p.sortMsMedian) + " | " +
+           formatNumber("%.2f", p.fragmentsMedian / 1e6) + " | " + formatNumber("%.0f", p.tetsDrawnMedian) + " | " +
+           formatNumber("%.1f", p.psnrMin) + " | " + formatNumber("%.1f", p.psnrPooled) + " | " + (p.pareto ? "●" : "") + " |\n";
   out += "\n**Default** (the fastest setting, summed over meshes and transfer functions, whose worst view reaches " +
-         number("%g", s.psnrThreshold) + " dB everywhere): " + (r.chosen ? r.chosen->label() : "none reaches it") +
+         formatNumber("%g", s.psnrThreshold) + " dB everywhere): " + (r.chosen ? r.chosen->label() : "none reaches it") +
          ".\n";
   return out;
 }
@@ -113,8 +112,8 @@ std::string svg(const MeshSweepResult& r) {
   constexpr double kW = 420, kH = 320, kL = 56, kR = 14, kT = 32, kB = 44;
   constexpr const char* kColors[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b"};
   const double width = kW * double(std::max<size_t>(panels.size(), 1)), height = kH;
-  std::string out = "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + number("%.0f", width) + "\" height=\"" +
-                    number("%.0f", height) + "\" font-family=\"sans-serif\" font-size=\"11\">\n";
+  std::string out = "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + formatNumber("%.0f", width) + "\" height=\"" +
+                    formatNumber("%.0f", height) + "\" font-family=\"sans-serif\" font-size=\"11\">\n";
   out += "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
   for (size_t i = 0; i < panels.size(); ++i) {
     std::vector<const MeshPoint*> pts;
@@ -131,19 +130,19 @@ std::string svg(const MeshSweepResult& r) {
     const double ox = kW * double(i);
     auto X = [&](double ms) { return ox + kL + (std::log10(ms) - lx0) / (lx1 - lx0) * (kW - kL - kR); };
     auto Y = [&](double db) { return kT + (q1 - std::min(db, 100.0)) / (q1 - q0) * (kH - kT - kB); };
-    out += "<text x=\"" + number("%.1f", ox + kL) + "\" y=\"20\" font-weight=\"bold\">" + panels[i].first + ", " +
+    out += "<text x=\"" + formatNumber("%.1f", ox + kL) + "\" y=\"20\" font-weight=\"bold\">" + panels[i].first + ", " +
            panels[i].second + "</text>\n";
-    out += "<rect x=\"" + number("%.1f", ox + kL) + "\" y=\"" + number("%.1f", kT) + "\" width=\"" +
-           number("%.1f", kW - kL - kR) + "\" height=\"" + number("%.1f", kH - kT - kB) +
+    out += "<rect x=\"" + formatNumber("%.1f", ox + kL) + "\" y=\"" + formatNumber("%.1f", kT) + "\" width=\"" +
+           formatNumber("%.1f", kW - kL - kR) + "\" height=\"" + formatNumber("%.1f", kH - kT - kB) +
            "\" fill=\"none\" stroke=\"#888\"/>\n";
-    out += "<text x=\"" + number("%.1f", ox + kW / 2) + "\" y=\"" + number("%.1f", kH - 10) +
-           "\" text-anchor=\"middle\">median ms (log) " + number("%.1f", t0) + " … " + number("%.1f", t1) +
-           "</text>\n<text x=\"" + number("%.1f", ox + 14) + "\" y=\"" + number("%.1f", kH / 2) +
-           "\" transform=\"rotate(-90 " + number("%.1f", ox + 14) + " " + number("%.1f", kH / 2) +
-           ")\" text-anchor=\"middle\">worst view PSNR (dB) " + number("%.0f", q0) + " … " + number("%.0f", q1) +
+    out += "<text x=\"" + formatNumber("%.1f", ox + kW / 2) + "\" y=\"" + formatNumber("%.1f", kH - 10) +
+           "\" text-anchor=\"middle\">median ms (log) " + formatNumber("%.1f", t0) + " … " + formatNumber("%.1f", t1) +
+           "</text>\n<text x=\"" + formatNumber("%.1f", ox + 14) + "\" y=\"" + formatNumber("%.1f", kH / 2) +
+           "\" transform=\"rotate(-90 " + formatNumber("%.1f", ox + 14) + " " + formatNumber("%.1f", kH / 2) +
+           ")\" text-anchor=\"middle\">worst view PSNR (dB) " + formatNumber("%.0f", q0) + " … " + formatNumber("%.0f", q1) +
            "</text>\n";
-    out += "<line x1=\"" + number("%.1f", ox + kL) + "\" x2=\"" + number("%.1f", ox + kW - kR) + "\" y1=\"" +
-           number("%.1f", Y(r.spec.psnrThreshold)) + "\" y2=\"" + number("%.1f", Y(r.spec.psnrThreshold)) +
+    out += "<line x1=\"" + formatNumber("%.1f", ox + kL) + "\" x2=\"" + formatNumber("%.1f", ox + kW - kR) + "\" y1=\"" +
+           formatNumber("%.1f", Y(r.spec.psnrThreshold)) + "\" y2=\"" + formatNumber("%.1f", Y(r.spec.psnrThreshold)) +
            "\" stroke=\"#aaa\" stroke-dasharray=\"4 3\"/>\n";
     std::vector<const MeshPoint*> front;
     for (const MeshPoint* p : pts)
@@ -153,7 +152,7 @@ std::string svg(const MeshSweepResult& r) {
     if (front.size() > 1) {
       out += "<polyline fill=\"none\" stroke=\"#444\" points=\"";
       for (const MeshPoint* p : front)
-        out += number("%.1f", X(p->msMedian)) + "," + number("%.1f", Y(p->psnrMin)) + " ";
+        out += formatNumber("%.1f", X(p->msMedian)) + "," + formatNumber("%.1f", Y(p->psnrMin)) + " ";
       out += "\"/>\n";
     }
     for (size_t k = 0; k < pts.size(); ++k) {
@@ -161,13 +160,13 @@ std::string svg(const MeshSweepResult& r) {
       const size_t c =
           size_t(std::find(r.spec.settings.begin(), r.spec.settings.end(), p.setting) - r.spec.settings.begin()) %
           std::size(kColors);
-      out += "<circle cx=\"" + number("%.1f", X(p.msMedian)) + "\" cy=\"" + number("%.1f", Y(p.psnrMin)) +
+      out += "<circle cx=\"" + formatNumber("%.1f", X(p.msMedian)) + "\" cy=\"" + formatNumber("%.1f", Y(p.psnrMin)) +
              "\" r=\"5\" stroke=\"" + kColors[c] + "\" fill=\"" + (p.pareto ? kColors[c] : "none") + "\"><title>" +
-             p.setting.label() + ": " + number("%.1f", p.msMedian) + " ms, " + number("%.1f", p.psnrMin) +
+             p.setting.label() + ": " + formatNumber("%.1f", p.msMedian) + " ms, " + formatNumber("%.1f", p.psnrMin) +
              " dB</title></circle>\n";
     }
     for (size_t k = 0; k < r.spec.settings.size() && i == 0; ++k)
-      out += "<text x=\"" + number("%.1f", kL + 4) + "\" y=\"" + number("%.1f", kT + 14 + 13.0 * double(k)) +
+      out += "<text x=\"" + formatNumber("%.1f", kL + 4) + "\" y=\"" + formatNumber("%.1f", kT + 14 + 13.0 * double(k)) +
              "\" fill=\"" + kColors[k % std::size(kColors)] + "\">● " + r.spec.settings[k].label() + "</text>\n";
   }
   out += "</svg>\n";
@@ -178,7 +177,7 @@ std::string svg(const MeshSweepResult& r) {
 
 std::string MeshSetting::label() const {
   if (visibility == render::TetSort::Ray)
-    return std::string(render::tetSortName(visibility)) + (ert > 0 ? ", ert " + number("%g", ert) : ", no ert");
+    return std::string(render::tetSortName(visibility)) + (ert > 0 ? ", ert " + formatNumber("%g", ert) : ", no ert");
   return std::string(render::tetSortName(visibility)) + (skipEmpty ? ", skip" : ", no skip");
 }
 
@@ -207,7 +206,7 @@ MeshSweepResult runMeshSweep(const MeshSweepSpec& spec, render::GlContext& conte
         referenceMs.push_back(stats.ms);
       }
       result.referenceMs.emplace_back(name + ", " + tf, median(referenceMs));
-      log("mesh " + name + ", " + tf + ": reference " + number("%.0f", median(referenceMs)) + " ms a view");
+      log("mesh " + name + ", " + tf + ": reference " + formatNumber("%.0f", median(referenceMs)) + " ms a view");
       for (const MeshSetting& setting : spec.settings) {
         auto sceneOf = [&](int v) {
           render::Scene scene = viewScene(spec, tf, v);
@@ -241,8 +240,8 @@ MeshSweepResult runMeshSweep(const MeshSweepSpec& spec, render::GlContext& conte
         p.sortMsMedian = median(sort);
         p.fragmentsMedian = median(fragments);
         p.tetsDrawnMedian = median(drawn);
-        log("mesh " + name + ", " + tf + ", " + setting.label() + ": " + number("%.1f", p.msMedian) + " ms, " +
-            number("%.1f", p.psnrMin) + " dB worst view");
+        log("mesh " + name + ", " + tf + ", " + setting.label() + ": " + formatNumber("%.1f", p.msMedian) + " ms, " +
+            formatNumber("%.1f", p.psnrMin) + " dB worst view");
         result.points.push_back(p);
       }
     }

@@ -13,7 +13,6 @@
 namespace voxbrick::quality {
 namespace {
 
-std::string number(const char* format, double value) { return formatNumber(format, value); }
 
 std::string csv(const SweepResult& r) {
   std::string out =
@@ -22,16 +21,16 @@ std::string csv(const SweepResult& r) {
       "fragments_median,samples_terminated_median,slab_passes_median,sub_block,lod,raycast\n";
   for (const Point& p : r.points) {
     out += p.dataset + "," + p.variant.transferFunction + "," + (p.variant.shading ? "1" : "0") + "," +
-           number("%g", p.setting.step) + "," + std::to_string(p.setting.brick) + "," + (p.setting.skip ? "1" : "0") +
+           formatNumber("%g", p.setting.step) + "," + std::to_string(p.setting.brick) + "," + (p.setting.skip ? "1" : "0") +
            "," + render::slicerName(p.setting.slicer) + "," + std::to_string(r.spec.views) + "," +
-           std::to_string(r.spec.size) + "," + number("%.2f", p.msMedian) + "," + number("%.2f", p.msMin) + "," +
-           number("%.2f", p.msMax) + "," + number("%.0f", p.samplesMedian) + "," + number("%.2f", p.psnrMin) + "," +
-           number("%.2f", p.psnrPooled) + "," + number("%.6f", p.rmsePooled) + "," + number("%.6f", p.maxAbs) + "," +
-           (p.pareto ? "1" : "0") + "," + std::to_string(p.setting.slab) + "," + number("%g", p.setting.ert) + "," +
-           (p.setting.preIntegration ? "1" : "0") + "," + number("%.0f", p.samplesMedian) + "," +
-           number("%.0f", p.fragmentsMedian) + "," + number("%.0f", p.samplesTerminatedMedian) + "," +
-           number("%.0f", p.slabPassesMedian) + "," + std::to_string(p.setting.subBlock) + "," +
-           number("%g", p.setting.lod) + "," + (p.setting.raycast ? "1" : "0") + "\n";
+           std::to_string(r.spec.size) + "," + formatNumber("%.2f", p.msMedian) + "," + formatNumber("%.2f", p.msMin) + "," +
+           formatNumber("%.2f", p.msMax) + "," + formatNumber("%.0f", p.samplesMedian) + "," + formatNumber("%.2f", p.psnrMin) + "," +
+           formatNumber("%.2f", p.psnrPooled) + "," + formatNumber("%.6f", p.rmsePooled) + "," + formatNumber("%.6f", p.maxAbs) + "," +
+           (p.pareto ? "1" : "0") + "," + std::to_string(p.setting.slab) + "," + formatNumber("%g", p.setting.ert) + "," +
+           (p.setting.preIntegration ? "1" : "0") + "," + formatNumber("%.0f", p.samplesMedian) + "," +
+           formatNumber("%.0f", p.fragmentsMedian) + "," + formatNumber("%.0f", p.samplesTerminatedMedian) + "," +
+           formatNumber("%.0f", p.slabPassesMedian) + "," + std::to_string(p.setting.subBlock) + "," +
+           formatNumber("%g", p.setting.lod) + "," + (p.setting.raycast ? "1" : "0") + "\n";
   }
   return out;
 }
@@ -54,7 +53,7 @@ std::string slabTables(const SweepResult& r) {
   const char* title = !slabs      ? "The frame ray caster"
                       : s.rayCast ? "Texture slabs and the frame ray caster"
                                   : "Texture slabs";
-  std::string md = "\n## " + std::string(title) + " at step " + number("%g", *step) + "\n\n";
+  std::string md = "\n## " + std::string(title) + " at step " + formatNumber("%g", *step) + "\n\n";
   if (slabs)
     md +=
         "Slicing (one blended sample per fragment) against texture slabs of N planes (a fragment marches its ray "
@@ -77,12 +76,12 @@ std::string slabTables(const SweepResult& r) {
           ", least total time without "
           "ERT).";
   if (r.bestErt)
-    md += " Pre-integration ran with ERT off and at " + number("%g", *r.bestErt) +
+    md += " Pre-integration ran with ERT off and at " + formatNumber("%g", *r.bestErt) +
           " (the lowest threshold costing "
           "no more than " +
-          number("%g", s.ertToleranceDb) + " dB of worst view below " + number("%g", s.psnrHighThreshold) + " dB).";
+          formatNumber("%g", s.ertToleranceDb) + " dB of worst view below " + formatNumber("%g", s.psnrHighThreshold) + " dB).";
   if (r.bestRayCastErt)
-    md += " The ray caster's pre-integration ran with ERT off and at " + number("%g", *r.bestRayCastErt) +
+    md += " The ray caster's pre-integration ran with ERT off and at " + formatNumber("%g", *r.bestRayCastErt) +
           " (the same rule over its own points).";
   md += "\n";
   for (const Dataset& d : s.datasets)
@@ -117,12 +116,12 @@ std::string slabTables(const SweepResult& r) {
             return q.dataset == p->dataset && q.variant == p->variant && q.setting == same;
           });
           if (off != r.points.end() && off->samplesMedian > 0)
-            share = number("%.0f", 100 * p->samplesMedian / off->samplesMedian) + " %";
+            share = formatNumber("%.0f", 100 * p->samplesMedian / off->samplesMedian) + " %";
         }
-        md += "| " + marchingLabel(t) + " | " + number("%.1f", p->msMedian) + " | " +
-              (slicing && p->msMedian > 0 ? number("%.2f", slicing->msMedian / p->msMedian) + "×" : "—") + " | " +
-              number("%.3g", p->fragmentsMedian / 1e6) + " | " + number("%.3g", p->samplesMedian / 1e6) + " | " +
-              share + " | " + number("%.1f", p->psnrMin) + " | " + number("%.4f", p->maxAbs) + " |\n";
+        md += "| " + marchingLabel(t) + " | " + formatNumber("%.1f", p->msMedian) + " | " +
+              (slicing && p->msMedian > 0 ? formatNumber("%.2f", slicing->msMedian / p->msMedian) + "×" : "—") + " | " +
+              formatNumber("%.3g", p->fragmentsMedian / 1e6) + " | " + formatNumber("%.3g", p->samplesMedian / 1e6) + " | " +
+              share + " | " + formatNumber("%.1f", p->psnrMin) + " | " + formatNumber("%.4f", p->maxAbs) + " |\n";
       }
     }
   return md;
@@ -137,7 +136,7 @@ std::string introduction(const SweepResult& r) {
         " views (azimuth 0…360°, elevation 20°, 2.2 bounding radii). Each point: the median "
         "frame time over the views (after a warm-up frame) and the error of the same views against the reference "
         "renderer (step " +
-        number("%g", s.referenceStep) +
+        formatNumber("%g", s.referenceStep) +
         " voxel): the worst view's PSNR, the PSNR of all views' "
         "pixels together, and the largest pixel difference. Pareto: no other point of the same dataset and variant is "
         "both faster and at least as accurate.\n\n![time against error](sweep.svg)\n\n";
@@ -152,7 +151,7 @@ std::string chosenDefault(const SweepResult& r) {
     md += "**" + r.chosen->label() +
           "**: the fastest setting (sum of the median times over the datasets) that "
           "keeps the worst view at or above " +
-          number("%g", s.psnrThreshold) +
+          formatNumber("%g", s.psnrThreshold) +
           " dB against the reference on every "
           "dataset, each with its default transfer function, unshaded. At this setting:\n\n";
     md +=
@@ -160,14 +159,14 @@ std::string chosenDefault(const SweepResult& r) {
         "|---|---|---:|---:|---:|---:|---:|\n";
     for (const Point& p : r.points)
       if (p.setting == *r.chosen)
-        md += "| " + p.dataset + " | " + p.variant.label() + " | " + number("%.1f", p.msMedian) + " | " +
-              number("%.1f", p.msMax) + " | " + (p.msMin > 0 ? "1:" + number("%.2f", p.msMax / p.msMin) : "—") + " | " +
-              number("%.1f", p.psnrMin) + " | " + number("%.1f", p.psnrPooled) + " |\n";
+        md += "| " + p.dataset + " | " + p.variant.label() + " | " + formatNumber("%.1f", p.msMedian) + " | " +
+              formatNumber("%.1f", p.msMax) + " | " + (p.msMin > 0 ? "1:" + formatNumber("%.2f", p.msMax / p.msMin) : "—") + " | " +
+              formatNumber("%.1f", p.psnrMin) + " | " + formatNumber("%.1f", p.psnrPooled) + " |\n";
     md +=
         "\n*Slowest view* and *min/max frame rate* (the fastest view's frame time over the slowest's, as 1:x) are "
         "over the orbit's views: what a user turning the volume sees at worst.\n";
   } else {
-    md += "No setting keeps " + number("%g", s.psnrThreshold) + " dB on every dataset.\n";
+    md += "No setting keeps " + formatNumber("%g", s.psnrThreshold) + " dB on every dataset.\n";
   }
   return md;
 }
@@ -176,7 +175,7 @@ std::string chosenDefault(const SweepResult& r) {
 std::string bothThresholds(const SweepResult& r) {
   const SweepSpec& s = r.spec;
   std::string md;
-  md += "\nThe same rule at " + number("%g", s.psnrThreshold) + " dB and at " + number("%g", s.psnrHighThreshold) +
+  md += "\nThe same rule at " + formatNumber("%g", s.psnrThreshold) + " dB and at " + formatNumber("%g", s.psnrHighThreshold) +
         " dB (each dataset's default transfer function, unshaded; median ms / worst view dB):\n\n| worst view ≥ | "
         "setting |";
   for (const Dataset& d : s.datasets) md += " " + d.name + " |";
@@ -186,7 +185,7 @@ std::string bothThresholds(const SweepResult& r) {
   for (const auto& row : {std::pair{s.psnrThreshold, r.chosen}, std::pair{s.psnrHighThreshold, r.chosenHigh}}) {
     const double threshold = row.first;
     const std::optional<Setting>& chosen = row.second;
-    md += "| " + number("%g", threshold) + " dB | " + (chosen ? "**" + chosen->label() + "**" : "none") + " |";
+    md += "| " + formatNumber("%g", threshold) + " dB | " + (chosen ? "**" + chosen->label() + "**" : "none") + " |";
     double sum = 0;
     for (const Dataset& d : s.datasets) {
       const auto p = std::find_if(r.points.begin(), r.points.end(), [&](const Point& q) {
@@ -196,10 +195,10 @@ std::string bothThresholds(const SweepResult& r) {
         md += " — |";
         continue;
       }
-      md += " " + number("%.1f", p->msMedian) + " / " + number("%.1f", p->psnrMin) + " |";
+      md += " " + formatNumber("%.1f", p->msMedian) + " / " + formatNumber("%.1f", p->psnrMin) + " |";
       sum += p->msMedian;
     }
-    md += " " + (chosen ? number("%.1f", sum) : std::string("—")) + " |\n";
+    md += " " + (chosen ? formatNumber("%.1f", sum) : std::string("—")) + " |\n";
   }
   return md;
 }
@@ -211,14 +210,14 @@ std::string fastestPerDataset(const SweepResult& r) {
   md +=
       "\nThe fastest setting per dataset and variant (its default transfer function, and the opaque one of the "
       "slab settings) at each threshold: median ms / worst view dB.\n\n| dataset | variant | fastest ≥ " +
-      number("%g", s.psnrThreshold) + " dB | ms / dB | fastest ≥ " + number("%g", s.psnrHighThreshold) +
+      formatNumber("%g", s.psnrThreshold) + " dB | ms / dB | fastest ≥ " + formatNumber("%g", s.psnrHighThreshold) +
       " dB | ms / dB |\n|---|---|---|---:|---|---:|\n";
   for (const Dataset& d : s.datasets)
     for (const Variant& v : slabVariants(d, s.opaqueVariants && s.marches())) {
       md += "| " + d.name + " | " + v.label() + " |";
       for (double threshold : {s.psnrThreshold, s.psnrHighThreshold}) {
         const std::optional<Point> p = fastestPoint(r.points, d.name, v, threshold);
-        md += p ? " " + p->setting.label() + " | " + number("%.1f", p->msMedian) + " / " + number("%.1f", p->psnrMin) +
+        md += p ? " " + p->setting.label() + " | " + formatNumber("%.1f", p->msMedian) + " / " + formatNumber("%.1f", p->psnrMin) +
                       " |"
                 : std::string(" none | — |");
       }
@@ -234,7 +233,7 @@ std::string coarsestSteps(const SweepResult& r) {
   md +=
       "\nWhat the other variants need: the coarsest swept step at which the baseline renderer keeps the worst "
       "view at or above " +
-      number("%g", s.psnrThreshold) +
+      formatNumber("%g", s.psnrThreshold) +
       " dB.\n\n| dataset | variant | coarsest step |\n"
       "|---|---|---:|\n";
   for (const Dataset& d : s.datasets) {
@@ -247,7 +246,7 @@ std::string coarsestSteps(const SweepResult& r) {
         const Variant v{tf, shading};
         if (std::none_of(r.points.begin(), r.points.end(), [&](const Point& p) { return p.variant == v; })) continue;
         const std::optional<double> step = coarsestStep(r.points, d.name, v, s.psnrThreshold);
-        md += "| " + d.name + " | " + v.label() + " | " + (step ? number("%g", *step) : "none swept") + " |\n";
+        md += "| " + d.name + " | " + v.label() + " | " + (step ? formatNumber("%g", *step) : "none swept") + " |\n";
       }
   }
   return md;
@@ -262,9 +261,9 @@ std::string referenceTable(const SweepResult& r) {
       "| dataset | variant | ms per view | step vs step/2: PSNR | max abs |\n|---|---|---:|---:|---:|\n";
   for (const ReferenceReport& ref : r.references)
     md += "| " + ref.dataset + " | " + ref.variant.label() + " | " +
-          (ref.msPerView > 0 ? number("%.0f", ref.msPerView) : "cached") + " | " +
+          (ref.msPerView > 0 ? formatNumber("%.0f", ref.msPerView) : "cached") + " | " +
           (ref.halvingMaxAbs > 0 || ref.halvingPsnr > 0
-               ? number("%.1f", ref.halvingPsnr) + " | " + number("%.2g", ref.halvingMaxAbs)
+               ? formatNumber("%.1f", ref.halvingPsnr) + " | " + formatNumber("%.2g", ref.halvingMaxAbs)
                : "— | —") +
           " |\n";
   return md;
@@ -281,10 +280,10 @@ std::string datasetTables(const SweepResult& r) {
           "|---|---|---:|---:|---:|---:|---:|---:|---:|:-:|\n";
     for (const Point& p : r.points)
       if (p.dataset == d.name)
-        md += "| " + p.variant.label() + " | " + p.setting.label() + " | " + number("%.1f", p.msMedian) + " | " +
-              number("%.1f", p.msMin) + "…" + number("%.1f", p.msMax) + " | " + number("%.2f", p.samplesMedian / 1e6) +
-              " | " + number("%.2f", p.fragmentsMedian / 1e6) + " | " + number("%.1f", p.psnrMin) + " | " +
-              number("%.1f", p.psnrPooled) + " | " + number("%.4f", p.maxAbs) + " | " + (p.pareto ? "✓" : "") + " |\n";
+        md += "| " + p.variant.label() + " | " + p.setting.label() + " | " + formatNumber("%.1f", p.msMedian) + " | " +
+              formatNumber("%.1f", p.msMin) + "…" + formatNumber("%.1f", p.msMax) + " | " + formatNumber("%.2f", p.samplesMedian / 1e6) +
+              " | " + formatNumber("%.2f", p.fragmentsMedian / 1e6) + " | " + formatNumber("%.1f", p.psnrMin) + " | " +
+              formatNumber("%.1f", p.psnrPooled) + " | " + formatNumber("%.4f", p.maxAbs) + " | " + (p.pareto ? "✓" : "") + " |\n";
   }
   return md;
 }

@@ -13,7 +13,7 @@ using tcp = asio::ip::tcp;
 /// Capacity of a session's read buffer kept between messages.
 constexpr size_t kKeptBodyBytes = 64 << 10;
 
-std::string peerOf(const tcp::socket& socket) {
+std::string tcpPeerOf(const tcp::socket& socket) {
   boost::system::error_code ec;
   const auto endpoint = socket.remote_endpoint(ec);
   return ec ? "?" : endpoint.address().to_string() + ":" + std::to_string(endpoint.port());
@@ -22,7 +22,7 @@ std::string peerOf(const tcp::socket& socket) {
 }  // namespace
 
 TcpSession::TcpSession(tcp::socket socket, const SessionServices& services, ConnectionId id)
-    : AsioSession(socket.get_executor(), services, id, peerOf(socket)), mSocket(std::move(socket)) {}
+    : AsioSession(socket.get_executor(), services, id, tcpPeerOf(socket)), mSocket(std::move(socket)) {}
 
 void TcpSession::readMessage() {
   mHeaderFill = 0;

@@ -28,7 +28,7 @@ std::string_view view(beast::string_view text) { return {text.data(), text.size(
 
 std::chrono::milliseconds milliseconds(double seconds) { return std::chrono::milliseconds(int64_t(seconds * 1000)); }
 
-std::string peerOf(const tcp::socket& socket) {
+std::string webSocketPeerOf(const tcp::socket& socket) {
   boost::system::error_code ec;
   const auto endpoint = socket.remote_endpoint(ec);
   return ec ? "?" : endpoint.address().to_string() + ":" + std::to_string(endpoint.port()) + " (ws)";
@@ -38,7 +38,7 @@ std::string peerOf(const tcp::socket& socket) {
 
 WebSocketSession::WebSocketSession(tcp::socket socket, const SessionServices& services, const WebGate& gate,
                                    ConnectionId id)
-    : AsioSession(socket.get_executor(), services, id, peerOf(socket)),
+    : AsioSession(socket.get_executor(), services, id, webSocketPeerOf(socket)),
       mServices(services),
       mGate(gate),
       mWs(std::move(socket)),

@@ -51,16 +51,16 @@ trap 'rm -rf "$tmp"' EXIT
 kit=$tmp/voxbrick-gpukit
 mkdir -p "$kit/bin" "$kit/lib/cxx" "$kit/data"
 
-# The stub, with the soname the binaries ask for.
-soname=$(readelf -d "$build/voxbrick" | sed -n 's/.*NEEDED.*\[\(libOSMesa[^]]*\)\].*/\1/p')
-[ -n "$soname" ] || die "$build/voxbrick does not link libOSMesa: nothing to stub (check render/gl/CMakeLists.txt)"
+# The stub, with the soname voxbrick opens (render/gl/OsMesaContext.cpp loads libOSMesa when an OSMesa context is first
+# made, rather than linking it), and every entry point it looks up there.
+osmesa_source=render/gl/OsMesaContext.cpp
+soname=$(sed -n 's/.*kOsMesaLibrary = "\(libOSMesa[^"]*\)".*/\1/p' "$osmesa_source")
+[ -n "$soname" ] || die "$osmesa_source names no kOsMesaLibrary: nothing to stub"
+grep -aq "$soname" "$build/voxbrick" || die "$build/voxbrick does not open $soname (is it built from this tree?)"
 cc -shared -fPIC -O2 -Wall -Werror -Wl,-soname,"$soname" -o "$kit/lib/$soname" bench/gpu/osmesa_stub.c
-# Every OSMesa symbol the binaries need must be in the stub.
-for b in "${binaries[@]}"; do
-  for sym in $(readelf --dyn-syms -W "$b" | awk '$7 == "UND" && $8 ~ /^OSMesa/ {sub(/@.*/, "", $8); print $8}'); do
-    readelf --dyn-syms -W "$kit/lib/$soname" | awk '$7 != "UND" {print $8}' | grep -qx "$sym" ||
-      die "$b calls $sym, which bench/gpu/osmesa_stub.c does not define"
-  done
+for sym in $(grep -o 'resolve(handle, "OSMesa[A-Za-z]*"' "$osmesa_source" | grep -o 'OSMesa[A-Za-z]*'); do
+  readelf --dyn-syms -W "$kit/lib/$soname" | awk '$7 != "UND" {print $8}' | grep -qx "$sym" ||
+    die "$osmesa_source looks up $sym, which bench/gpu/osmesa_stub.c does not define"
 done
 
 # Libraries: ldd with the stub first on the path, so the closure is the kit's (no LLVM).

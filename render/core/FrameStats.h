@@ -1,12 +1,18 @@
 // What one frame did (every frame reports it), whichever renderer drew it. GL-free.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 namespace voxbrick::render {
+
+/// Milliseconds from `start` to now on the steady clock: the unit of every time in FrameStats.
+inline double msSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
 
 struct FrameStats {
   int64_t nodesVisited = 0;

@@ -13,7 +13,7 @@
 namespace voxbrick::render {
 namespace {
 
-constexpr double kInfinity = std::numeric_limits<double>::infinity();
+constexpr double kInfiniteDepth = std::numeric_limits<double>::infinity();
 
 /// A part of a value cell on which the transfer function is linear. Depths are optical depths per reference length
 /// of the segment's share of the whole cell (width of the piece in cells times mean extinction); the table scales
@@ -79,7 +79,7 @@ inline double quadraticMoment(double tau, double t) {
 /// constant), to first order in c: m = (1 - t) / tau - c J(tau). The error is O(c^2), c itself O(tau / R).
 inline RaySpan crossPiece(const glm::dvec3& entry, const glm::dvec3& exit, double tau, double half) {
   if (!(tau > 1e-300)) return {};
-  if (tau == kInfinity) return {entry, 0.0};
+  if (tau == kInfiniteDepth) return {entry, 0.0};
   const double absorbed = -std::expm1(-tau);
   const double t = 1 - absorbed;
   const double mean = std::clamp(absorbed / tau - (2 * tau - 4 * half) * quadraticMoment(tau, t), t, 1.0);

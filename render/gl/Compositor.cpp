@@ -4,11 +4,12 @@
 #include <algorithm>
 #include <chrono>
 
+#include "render/core/FrameStats.h"
+
 namespace voxbrick::render {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 }  // namespace
 

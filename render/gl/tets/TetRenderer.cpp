@@ -8,6 +8,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "render/core/FrameStats.h"
 #include "render/core/RenderErrors.h"
 #include "render/gl/Bindings.h"
 #include "render/gl/Checkpoints.h"
@@ -16,7 +17,6 @@ namespace voxbrick::render {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 /// The shortest segment the table holds, as a share of the longest: shorter ones scale its first layer
 /// (tet.frag.glsl), exact to first order in the length.

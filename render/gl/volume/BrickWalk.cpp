@@ -4,11 +4,12 @@
 #include <algorithm>
 #include <chrono>
 
+#include "render/core/FrameStats.h"
+
 namespace voxbrick::render {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 // Cuts `span` to [lo, hi); false when nothing is left.
 bool clipSpan(VoxelSpan& span, const store::Vec3i& lo, const store::Vec3i& hi) {

@@ -5,13 +5,13 @@
 #include <chrono>
 #include <limits>
 
+#include "render/core/FrameStats.h"
 #include "render/gl/Bands.h"
 
 namespace voxbrick::render {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 constexpr double kSlabDepthStep = 1.0 / (1 << 22);  // depths 1 - k * step are exact in float for k < 2^22
 

@@ -5,11 +5,12 @@
 #include <chrono>
 #include <cmath>
 
+#include "render/core/FrameStats.h"
+
 namespace voxbrick::render {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 /// The pixels of the screen rectangle around `box`'s projection: at most a slice's fragments in it (the whole
 /// image when the box reaches behind the eye).

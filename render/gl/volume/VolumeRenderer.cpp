@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "render/core/FrameStats.h"
 #include "render/core/RenderErrors.h"
 #include "render/gl/Bindings.h"
 #include "render/volume/FramePlan.h"
@@ -13,7 +14,6 @@ namespace voxbrick::render {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 }  // namespace
 
