@@ -5,11 +5,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include "brickstore/BrickStore.h"
-#include "brickstore/InputErrors.h"
-#include "brickstore/Orientation.h"
-#include "brickstore/VdbStore.h"
-#include "brickstore/ZarrStore.h"
+#include "brickstore/format/InputErrors.h"
+#include "brickstore/format/Orientation.h"
+#include "brickstore/read/BrickStore.h"
+#include "brickstore/read/OpenAnyStore.h"
+#include "brickstore/read/VdbStore.h"
+#include "brickstore/read/ZarrStore.h"
 #include "cli/Commands.h"
 #include "mesh/MeshStore.h"
 
@@ -22,10 +23,6 @@ struct InfoArgs {
   int64_t time = 0, channel = 0;
   bool json = false;
 };
-
-std::string dimsText(const store::Vec3i& d) {
-  return std::to_string(d.x) + "x" + std::to_string(d.y) + "x" + std::to_string(d.z);
-}
 
 /// The 256-bin histogram as a 32-character line, log-scaled so that a large background peak does not flatten it.
 std::string sparkline(const store::Histogram& h) {
@@ -181,7 +178,7 @@ void printZarrOpen(const store::ZarrStore& z) {
 
 void runInfo(const InfoArgs& a) {
   if (mesh::looksLikeMeshStore(a.store)) return runMeshInfo(a);
-  auto s = store::BrickStore::openAny(a.store, {a.grid, a.brick, a.time, a.channel});
+  auto s = store::openAnyStore(a.store, {a.grid, a.brick, a.time, a.channel});
   const auto* live = dynamic_cast<const store::VdbStore*>(s.get());
   if (a.json) return printStoreJson(a, *s, live);
   const auto* zarr = dynamic_cast<const store::ZarrStore*>(s.get());

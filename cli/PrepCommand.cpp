@@ -8,9 +8,10 @@
 #include <string>
 #include <vector>
 
-#include "brickstore/Errors.h"
-#include "brickstore/InputErrors.h"
-#include "brickstore/StoreWriter.h"
+#include "brickstore/format/Errors.h"
+#include "brickstore/format/InputErrors.h"
+#include "brickstore/ingest/Sources.h"
+#include "brickstore/prep/StoreWriter.h"
 #include "cli/Commands.h"
 #include "cli/Progress.h"
 #include "mesh/MeshReaders.h"

@@ -3,7 +3,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "brickstore/InputErrors.h"
+#include "brickstore/format/InputErrors.h"
 #include "cli/Commands.h"
 #include "cli/MpiOptions.h"
 #include "cli/Progress.h"

@@ -5,7 +5,7 @@
 
 #include <glm/glm.hpp>
 
-#include "brickstore/Types.h"
+#include "brickstore/format/Types.h"
 
 namespace voxbrick::render {
 
