@@ -12,6 +12,7 @@
 #include "brickstore/read/VdbStore.h"
 #include "brickstore/read/ZarrStore.h"
 #include "cli/Commands.h"
+#include "common/EnumNames.h"
 #include "mesh/MeshStore.h"
 
 namespace voxbrick::cli {
@@ -86,7 +87,7 @@ void printStoreJson(const InfoArgs& a, const store::BrickStore& s, const store::
   j["empty_fraction"] = summary.emptyFraction;
   j["compression_ratio"] = summary.ratio;
   j["octree_depth"] = s.octree().depth();
-  j["backing"] = store::storeBackingName(s.backing());
+  j["backing"] = common::nameOf(s.backing());
   // Always present here (store.json omits the identity): the axes as letters too.
   j["orientation"] = {{"space", "RAS"},
                       {"axes", m.orientation.axes},

@@ -1,4 +1,4 @@
-// bricks.bin I/O. Writes go straight to the descriptor so that ENOSPC/EFBIG surface at the brick that hit them.
+// bricks.bin's frames and their reading.
 #include "brickstore/format/BrickFile.h"
 
 #include <fcntl.h>
@@ -10,48 +10,34 @@
 #include <cstring>
 #include <utility>
 
-#include "brickstore/format/Codec.h"
 #include "brickstore/format/Errors.h"
+#include "common/BlockCodec.h"
 
 namespace voxbrick::store {
 
-OutputFile::OutputFile(const std::filesystem::path& path) : mPath(path) {
-  mFd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (mFd < 0) throw IoError(errnoMessage("cannot create " + path.string()));
-}
-
-OutputFile::~OutputFile() {
-  if (mFd >= 0) ::close(mFd);
-}
-
-uint64_t OutputFile::append(const void* data, size_t size) {
-  uint64_t start = mSize;
-  const char* p = static_cast<const char*>(data);
-  size_t left = size;
-  while (left > 0) {
-    ssize_t n = ::write(mFd, p, left);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      throw IoError(errnoMessage("write to " + mPath.string() + " failed"));
-    }
-    p += n;
-    left -= static_cast<size_t>(n);
+void compressFrame(const void* src, size_t size, size_t elementSize, int level, std::vector<char>& dst) {
+  try {
+    common::encodeBlock(src, size, {elementSize, level, true, level == 1 && elementSize == 4}, dst);
+  } catch (const common::CodecError& e) {
+    throw StoreError(std::string("compressFrame: zstd: ") + e.what());
   }
-  mSize += size;
-  return start;
 }
 
-void OutputFile::close() {
-  if (mFd < 0) return;
-  int fd = mFd;
-  mFd = -1;
-  if (::fsync(fd) != 0) {
-    int saved = errno;
-    ::close(fd);
-    errno = saved;
-    throw IoError(errnoMessage("fsync of " + mPath.string() + " failed"));
+void decompressFrame(const void* src, size_t size, size_t elementSize, void* dst, size_t expectedSize,
+                     const std::string& what) {
+  const common::BlockDecoding d = common::decodeBlock(src, size, elementSize, dst, expectedSize, false);
+  switch (d.fault) {
+    case common::BlockFault::None:
+    case common::BlockFault::SizeUnknown: return;
+    case common::BlockFault::NotAFrame: throw CorruptStoreError(what + ": not a zstd frame");
+    case common::BlockFault::SizeDiffers:
+      throw CorruptStoreError(what + ": frame holds " + std::to_string(d.size) + " bytes, expected " +
+                              std::to_string(expectedSize));
+    case common::BlockFault::Corrupt: throw CorruptStoreError(what + ": corrupt zstd frame (" + d.zstdError + ")");
+    case common::BlockFault::WrongLength:
+      throw CorruptStoreError(what + ": decoded " + std::to_string(d.size) + " bytes, expected " +
+                              std::to_string(expectedSize));
   }
-  if (::close(fd) != 0) throw IoError(errnoMessage("close of " + mPath.string() + " failed"));
 }
 
 BrickFileReader::BrickFileReader(const std::filesystem::path& path, ValueType type)

@@ -70,20 +70,6 @@ size_t fileValueSize(FileValueType t) {
   return 0;
 }
 
-std::string_view fileValueTypeName(FileValueType t) {
-  switch (t) {
-    case FileValueType::I8: return "int8";
-    case FileValueType::U8: return "uint8";
-    case FileValueType::I16: return "int16";
-    case FileValueType::U16: return "uint16";
-    case FileValueType::I32: return "int32";
-    case FileValueType::U32: return "uint32";
-    case FileValueType::F32: return "float";
-    case FileValueType::F64: return "double";
-  }
-  return "?";
-}
-
 ValueType storeTypeFor(FileValueType t) {
   switch (t) {
     case FileValueType::U8: return ValueType::U8;

@@ -4,20 +4,28 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <string_view>
 
 #include "brickstore/format/Types.h"
+#include "common/EnumNames.h"
 
 namespace voxbrick::store {
 
 /// The scalar voxel types that dense input files may hold.
 enum class FileValueType : uint8_t { I8, U8, I16, U16, I32, U32, F32, F64 };
 
+inline constexpr common::EnumName<FileValueType> kFileValueTypeNames[] = {
+    {FileValueType::I8, "int8"},    {FileValueType::U8, "uint8"},  {FileValueType::I16, "int16"},
+    {FileValueType::U16, "uint16"}, {FileValueType::I32, "int32"}, {FileValueType::U32, "uint32"},
+    {FileValueType::F32, "float"},  {FileValueType::F64, "double"}};
+constexpr std::span<const common::EnumName<FileValueType>> enumNames(FileValueType) { return kFileValueTypeNames; }
+
 /// Bytes per voxel of a file value type.
 size_t fileValueSize(FileValueType t);
 /// "int8", "uint8", "int16", "uint16", "int32", "uint32", "float", "double".
-std::string_view fileValueTypeName(FileValueType t);
+inline std::string_view fileValueTypeName(FileValueType t) { return common::nameOf(t); }
 /// The store type a file type is kept as: u8, u16 and i16 as themselves, int8 widened to i16, the rest f32.
 ValueType storeTypeFor(FileValueType t);
 

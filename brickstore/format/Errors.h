@@ -33,4 +33,7 @@ class IoError : public StoreError {
 /// Formats "<what>: <strerror(errno)>" for the current errno.
 std::string errnoMessage(const std::string& what);
 
+/// Throws IoError(message): how the store's output files (common::OutputFile) report a failed write.
+[[noreturn]] void throwIoError(const std::string& message);
+
 }  // namespace voxbrick::store

@@ -3,6 +3,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <optional>
 
 #include "brickstore/format/Errors.h"
 
@@ -18,22 +19,10 @@ size_t valueSize(ValueType t) {
   return 0;
 }
 
-std::string_view valueTypeName(ValueType t) {
-  switch (t) {
-    case ValueType::U8: return "u8";
-    case ValueType::U16: return "u16";
-    case ValueType::I16: return "i16";
-    case ValueType::F32: return "f32";
-  }
-  return "?";
-}
-
 ValueType parseValueType(std::string_view name) {
-  if (name == "u8" || name == "uint8") return ValueType::U8;
-  if (name == "u16" || name == "uint16") return ValueType::U16;
-  if (name == "i16" || name == "int16") return ValueType::I16;
-  if (name == "f32" || name == "float" || name == "float32") return ValueType::F32;
-  throw InputError("unsupported voxel type '" + std::string(name) + "' (expected u8, u16, i16 or f32)");
+  if (const std::optional<ValueType> type = common::valueOf<ValueType>(name)) return *type;
+  throw InputError("unsupported voxel type '" + std::string(name) + "' (expected " +
+                   common::enumNamesText<ValueType>() + ")");
 }
 
 std::string toString(const BrickKey& key) {
@@ -46,5 +35,7 @@ std::string dimsText(const Vec3i& dims) {
 }
 
 std::string errnoMessage(const std::string& what) { return what + ": " + std::strerror(errno); }
+
+void throwIoError(const std::string& message) { throw IoError(message); }
 
 }  // namespace voxbrick::store

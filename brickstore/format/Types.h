@@ -4,18 +4,28 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <span>
 #include <string>
 #include <string_view>
+
+#include "common/EnumNames.h"
 
 namespace voxbrick::store {
 
 /// The storage types a store can hold. Other input types are converted at ingest (see prep's README).
 enum class ValueType : uint8_t { U8 = 0, U16 = 1, I16 = 2, F32 = 3 };
 
+/// The value types' names: "u8", "u16", "i16", "f32", and the longer ones parseValueType also takes.
+inline constexpr common::EnumName<ValueType> kValueTypeNames[] = {
+    {ValueType::U8, "u8"},     {ValueType::U16, "u16"},   {ValueType::I16, "i16"},
+    {ValueType::F32, "f32"},   {ValueType::U8, "uint8"},  {ValueType::U16, "uint16"},
+    {ValueType::I16, "int16"}, {ValueType::F32, "float"}, {ValueType::F32, "float32"}};
+constexpr std::span<const common::EnumName<ValueType>> enumNames(ValueType) { return kValueTypeNames; }
+
 /// Bytes per voxel of a value type.
 size_t valueSize(ValueType t);
 /// "u8", "u16", "i16", "f32".
-std::string_view valueTypeName(ValueType t);
+inline std::string_view valueTypeName(ValueType t) { return common::nameOf(t); }
 /// Parses "u8"/"uint8"/..., throws InputError naming the bad text.
 ValueType parseValueType(std::string_view name);
 

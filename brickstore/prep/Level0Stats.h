@@ -4,8 +4,10 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <span>
 
 #include "brickstore/source/VolumeSource.h"
+#include "common/EnumNames.h"
 
 namespace voxbrick::store {
 
@@ -14,6 +16,13 @@ enum class NonFinitePolicy {
   Background,  ///< replace with the background value (so they are empty space), count and report them
   Error,       ///< refuse the input, naming the first bad voxel
 };
+
+/// --nonfinite's names.
+inline constexpr common::EnumName<NonFinitePolicy> kNonFinitePolicyNames[] = {
+    {NonFinitePolicy::Background, "background"}, {NonFinitePolicy::Error, "error"}};
+constexpr std::span<const common::EnumName<NonFinitePolicy>> enumNames(NonFinitePolicy) {
+  return kNonFinitePolicyNames;
+}
 
 /// Level-0 statistics gathered while slices stream past, with the non-finite policy applied first. Each batch is
 /// reduced in parallel over its rows, left to right, so ties (0 and -0) resolve as a pass in z order would.

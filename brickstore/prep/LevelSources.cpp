@@ -131,7 +131,7 @@ class SpilledLevelSource final : public VolumeSource {
 }  // namespace
 
 Level1Spill::Level1Spill(const VolumeInfo& fine, std::filesystem::path path)
-    : mFine(fine), mPath(std::move(path)), mFile(mPath) {
+    : mFine(fine), mPath(std::move(path)), mFile(mPath, throwIoError) {
   mCoarse = fine;
   mCoarse.dims = {divUp(fine.dims.x, 2), divUp(fine.dims.y, 2), divUp(fine.dims.z, 2)};
   mCoarse.spacing = {fine.spacing.x * 2, fine.spacing.y * 2, fine.spacing.z * 2};

@@ -14,6 +14,7 @@
 #include "brickstore/prep/SlabBricker.h"
 #include "brickstore/source/ByteStream.h"
 #include "brickstore/source/VolumeSource.h"
+#include "common/OutputFile.h"
 
 namespace voxbrick::store {
 
@@ -89,7 +90,7 @@ class Level1Spill {
 
   VolumeInfo mFine, mCoarse;
   std::filesystem::path mPath;
-  OutputFile mFile;
+  common::OutputFile mFile;
   std::vector<char> mSlice;  // one level-1 slice
   int64_t mNextZ = 0;        // next level-0 slice expected
 };

@@ -9,8 +9,6 @@
 #include <algorithm>
 #include <cstring>
 
-#include "brickstore/format/Codec.h"
-
 namespace voxbrick::store {
 
 int64_t SlabBricker::windowBytes(const Vec3i& dims, int brickSize, ValueType type) {
@@ -112,7 +110,7 @@ void cutBricks(Slab<T>& slab, const Vec3i& n, int64_t B, const Vec3i& bricks, T 
 /// Appends a slab's frames to `out` in brick order, so that the same input always gives the same file, and fills
 /// their records in `level`.
 template <typename T>
-void writeSlab(const Slab<T>& slab, LevelBuild& level, OutputFile& out) {
+void writeSlab(const Slab<T>& slab, LevelBuild& level, common::OutputFile& out) {
   const int64_t slabBricks = level.bricks.x * level.bricks.y;
   for (int64_t b = 0; b < slabBricks; ++b) {
     BrickRecord& rec = level.records[static_cast<size_t>(b + slabBricks * slab.kz)];

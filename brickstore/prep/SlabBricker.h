@@ -9,6 +9,7 @@
 #include "brickstore/format/BrickMath.h"
 #include "brickstore/format/StoreFormat.h"
 #include "brickstore/source/VolumeSource.h"
+#include "common/OutputFile.h"
 
 namespace voxbrick::store {
 
@@ -39,7 +40,7 @@ class SlabBricker {
   /// Called after each slab of bricks with (slabs done, slabs in all).
   using ProgressHook = std::function<void(int64_t done, int64_t total)>;
 
-  SlabBricker(VolumeSource& source, int brickSize, double background, int zstdLevel, OutputFile& out)
+  SlabBricker(VolumeSource& source, int brickSize, double background, int zstdLevel, common::OutputFile& out)
       : mSource(source), mBrickSize(brickSize), mBackground(background), mZstdLevel(zstdLevel), mOut(out) {}
 
   void setSliceHook(SliceHook hook) { mSliceHook = std::move(hook); }
@@ -65,7 +66,7 @@ class SlabBricker {
   int mBrickSize;
   double mBackground;
   int mZstdLevel;
-  OutputFile& mOut;
+  common::OutputFile& mOut;
   SliceHook mSliceHook;
   SliceConsumer mSliceConsumer;
   ProgressHook mProgressHook;

@@ -29,6 +29,7 @@
 #include "brickstore/prep/VdbChunkWriter.h"
 #include "common/AtomicReplace.h"
 #include "common/Checksum.h"
+#include "common/OutputFile.h"
 
 namespace voxbrick::store {
 namespace fs = std::filesystem;
@@ -129,7 +130,7 @@ void writeIndex(const fs::path& path, const std::vector<LevelBuild>& levels, int
   h.recordCount = first;
   h.bodyCrc32 = common::crc32Of(body.data(), body.size());
   h.headerCrc32 = common::crc32Of(&h, offsetof(IndexHeader, headerCrc32));
-  OutputFile out(path);
+  common::OutputFile out(path, throwIoError);
   out.append(&h, sizeof h);
   out.append(body.data(), body.size());
   out.close();
@@ -241,7 +242,7 @@ StoreMeta describeStore(const PrepPlan& plan) {
 
 /// Level 0 from the source into `bricks` (and the VDB grid into `dir`); its statistics, VDB files and quantisation
 /// go into `meta`.
-LevelBuild writeLevel0(const PrepPlan& plan, const fs::path& dir, OutputFile& bricks, StoreMeta& meta,
+LevelBuild writeLevel0(const PrepPlan& plan, const fs::path& dir, common::OutputFile& bricks, StoreMeta& meta,
                        ProgressReport& report, std::vector<PhaseTime>& phases, const SlabBricker::SliceConsumer& tap,
                        std::unique_ptr<VdbChunkWriter>& vdb) {
   const PhaseClock clock;
@@ -335,7 +336,7 @@ void countHistogramAgain(const PrepPlan& plan, FirstPass& pass, const StoreMeta&
 /// Coarser levels appended to `bricks` and `levels`: level 1 from `pass`'s scratch file if it was made, else from
 /// level 0 read back (in `dir`/bricks.bin), whose pass also counts the histogram of `meta`'s value range; each
 /// level after from the one before, read back. Returns the histogram.
-Histogram writeCoarserLevels(const PrepPlan& plan, const fs::path& dir, OutputFile& bricks,
+Histogram writeCoarserLevels(const PrepPlan& plan, const fs::path& dir, common::OutputFile& bricks,
                              std::vector<LevelBuild>& levels, const StoreMeta& meta, ProgressReport& report,
                              FirstPass* pass) {
   const VolumeInfo& info = plan.info;
@@ -413,7 +414,7 @@ StoreMeta writeStore(const PrepPlan& plan, const fs::path& dir, ProgressReport& 
             if (pass.level1) pass.level1->addSlices(z0, count, values);
           });
     };
-  OutputFile bricks(dir / "bricks.bin");
+  common::OutputFile bricks(dir / "bricks.bin", throwIoError);
   std::vector<LevelBuild> levels;
   std::unique_ptr<VdbChunkWriter> vdb;
   levels.push_back(writeLevel0(plan, dir, bricks, meta, report, phases, tap, vdb));
@@ -441,7 +442,7 @@ StoreMeta writeStore(const PrepPlan& plan, const fs::path& dir, ProgressReport& 
   clock.restart();
   meta.bytesStored = int64_t(bricksSize) + int64_t(fs::file_size(dir / "index.bin"));
   for (const LevelBuild& l : levels) meta.levels.push_back({l.dims, l.bricks, l.bricksStored, l.bytesStored});
-  OutputFile json(dir / "store.json");
+  common::OutputFile json(dir / "store.json", throwIoError);
   const std::string text = meta.toJson();
   json.append(text.data(), text.size());
   json.close();

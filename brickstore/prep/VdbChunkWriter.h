@@ -3,11 +3,13 @@
 
 #include <filesystem>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "brickstore/prep/PhaseClock.h"
 #include "brickstore/source/VolumeSource.h"
+#include "common/EnumNames.h"
 
 namespace voxbrick::store {
 
@@ -17,6 +19,11 @@ enum class VdbCompression {
   Blosc,  ///< blosc (LZ4), OpenVDB's default
   None,   ///< as they are
 };
+
+/// --vdb-compression's names.
+inline constexpr common::EnumName<VdbCompression> kVdbCompressionNames[] = {
+    {VdbCompression::Auto, "auto"}, {VdbCompression::Blosc, "blosc"}, {VdbCompression::None, "none"}};
+constexpr std::span<const common::EnumName<VdbCompression>> enumNames(VdbCompression) { return kVdbCompressionNames; }
 
 /// Receives level-0 slices in z order and writes them as OpenVDB FloatGrids named "density", one file per chunk of
 /// `chunkSlices` slices (vdb/level0-zNNNNN.vdb, NNNNN the chunk's first z). Voxels equal to the background are

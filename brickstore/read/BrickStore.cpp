@@ -145,15 +145,6 @@ std::shared_ptr<const BrickStore> DirectoryStore::open(const fs::path& dir) {
 
 }  // namespace
 
-const char* storeBackingName(StoreBacking backing) {
-  switch (backing) {
-    case StoreBacking::Directory: return "directory";
-    case StoreBacking::VdbFile: return "vdb-file";
-    case StoreBacking::ZarrDirectory: return "ome-zarr";
-  }
-  return "unknown";
-}
-
 BrickStore::~BrickStore() = default;
 
 std::shared_ptr<const BrickStore> BrickStore::open(const fs::path& dir) { return DirectoryStore::open(dir); }

@@ -7,12 +7,14 @@
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "brickstore/format/StoreFormat.h"
 #include "brickstore/format/StoreMeta.h"
 #include "brickstore/read/MinMaxOctree.h"
+#include "common/EnumNames.h"
 
 namespace voxbrick::store {
 
@@ -23,8 +25,11 @@ enum class StoreBacking {
   ZarrDirectory,  ///< an OME-Zarr directory read live: bricks cut from its chunks on demand
 };
 
-/// "directory", "vdb-file" or "ome-zarr".
-const char* storeBackingName(StoreBacking backing);
+/// "directory", "vdb-file" or "ome-zarr" (common::nameOf).
+inline constexpr common::EnumName<StoreBacking> kStoreBackingNames[] = {{StoreBacking::Directory, "directory"},
+                                                                        {StoreBacking::VdbFile, "vdb-file"},
+                                                                        {StoreBacking::ZarrDirectory, "ome-zarr"}};
+constexpr std::span<const common::EnumName<StoreBacking>> enumNames(StoreBacking) { return kStoreBackingNames; }
 
 /// The samples of a brick ((B+2)^3 values of the store's type, as BrickStore::readBrick writes them), kept alive
 /// by the pointer. A store whose coarse levels are derived from finer bricks asks for those through this; the host

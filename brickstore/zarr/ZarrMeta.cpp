@@ -5,6 +5,7 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -81,17 +82,11 @@ void parseCompressor(const json& j, ZarrArrayMeta& a, const std::string& file) {
   }
   const json& c = j["compressor"];
   const std::string id = c.is_object() ? c.value("id", std::string()) : std::string();
-  if (id == "zlib")
-    a.compressor = ZarrCompressor::Zlib;
-  else if (id == "gzip")
-    a.compressor = ZarrCompressor::Gzip;
-  else if (id == "zstd")
-    a.compressor = ZarrCompressor::Zstd;
-  else if (id == "blosc")
-    a.compressor = ZarrCompressor::Blosc;
-  else
-    throw InputError(file + ": field 'compressor' id \"" + id +
-                     "\" is not read (none, zlib, gzip, zstd and blosc are)");
+  const std::optional<ZarrCompressor> compressor = common::valueOf<ZarrCompressor>(id);
+  if (!compressor)
+    throw InputError(file + ": field 'compressor' id \"" + id + "\" is not read (none, " +
+                     common::enumNamesText<ZarrCompressor>(", ", " and ") + " are)");
+  a.compressor = *compressor;
   a.compressorText = id;
   if (a.compressor == ZarrCompressor::Blosc) {
     const std::string cname = c.value("cname", std::string());

@@ -6,11 +6,13 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "brickstore/format/Orientation.h"
 #include "brickstore/format/Types.h"
+#include "common/EnumNames.h"
 
 namespace voxbrick::store {
 
@@ -24,6 +26,13 @@ struct ZarrSelection {
 
 /// How a chunk file is compressed (the .zarray's "compressor").
 enum class ZarrCompressor { None, Zlib, Gzip, Zstd, Blosc };
+
+/// The compressor ids a .zarray may name ("compressor": null is None, which has no id).
+inline constexpr common::EnumName<ZarrCompressor> kZarrCompressorNames[] = {{ZarrCompressor::Zlib, "zlib"},
+                                                                            {ZarrCompressor::Gzip, "gzip"},
+                                                                            {ZarrCompressor::Zstd, "zstd"},
+                                                                            {ZarrCompressor::Blosc, "blosc"}};
+constexpr std::span<const common::EnumName<ZarrCompressor>> enumNames(ZarrCompressor) { return kZarrCompressorNames; }
 
 /// One array of the pyramid (a multiscales dataset), as its .zarray declares it.
 struct ZarrArrayMeta {
