@@ -25,8 +25,9 @@
 
 #include <CLI/CLI.hpp>
 
-#include "brickstore/BrickCache.h"
-#include "brickstore/BrickStore.h"
+#include "brickstore/read/BrickCache.h"
+#include "brickstore/read/BrickStore.h"
+#include "brickstore/read/OpenAnyStore.h"
 #include "image/Image.h"
 #include "quality/Statistics.h"
 #include "render/gl/GlContext.h"
@@ -222,7 +223,7 @@ int main(int argc, char** argv) {
 
   auto context = render::createContext(render::Backend::Auto);
   const std::string device = context->describe();
-  auto cache = std::make_shared<store::BrickCache>(store::BrickStore::openAny(o.storePath), o.hostMb << 20, 2);
+  auto cache = std::make_shared<store::BrickCache>(store::openAnyStore(o.storePath), o.hostMb << 20, 2);
   std::printf("bench_orbit on %s: %s, %dx%d, %d views over %.1f degrees\n", device.c_str(), o.storePath.c_str(), o.size,
               o.size, o.views, o.degrees);
   if (!o.framesDir.empty()) fs::create_directories(o.framesDir);

@@ -30,8 +30,9 @@
 
 #include <CLI/CLI.hpp>
 
-#include "brickstore/BrickCache.h"
-#include "brickstore/BrickStore.h"
+#include "brickstore/read/BrickCache.h"
+#include "brickstore/read/BrickStore.h"
+#include "brickstore/read/OpenAnyStore.h"
 #include "quality/Statistics.h"
 #include "render/core/Camera.h"
 #include "render/gl/GlContext.h"
@@ -343,8 +344,7 @@ int main(int argc, char** argv) {
   std::vector<Series> series;
   std::vector<std::pair<std::string, std::string>> panels;
   for (size_t si = 0; si < plan.stores.size(); ++si) {
-    auto cache =
-        std::make_shared<store::BrickCache>(store::BrickStore::openAny(plan.stores[si]), size_t(4096) << 20, 2);
+    auto cache = std::make_shared<store::BrickCache>(store::openAnyStore(plan.stores[si]), size_t(4096) << 20, 2);
     for (const std::string& drawing : plan.drawings) {
       panels.push_back({plan.labels[si], drawing});
       measureDrawing(*context, cache, plan, si, drawing, o, series);

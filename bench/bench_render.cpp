@@ -18,9 +18,10 @@
 
 #include <CLI/CLI.hpp>
 
-#include "brickstore/BrickCache.h"
-#include "brickstore/BrickStore.h"
-#include "brickstore/StoreWriter.h"
+#include "brickstore/ingest/Sources.h"
+#include "brickstore/prep/StoreWriter.h"
+#include "brickstore/read/BrickCache.h"
+#include "brickstore/read/BrickStore.h"
 #include "quality/Statistics.h"
 #include "render/gl/GlContext.h"
 #include "render/gl/volume/VolumeRenderer.h"

@@ -18,10 +18,11 @@
 
 #include <CLI/CLI.hpp>
 
-#include "brickstore/BrickCache.h"
-#include "brickstore/BrickStore.h"
-#include "brickstore/StoreWriter.h"
-#include "brickstore/VolumeSource.h"
+#include "brickstore/ingest/Sources.h"
+#include "brickstore/prep/StoreWriter.h"
+#include "brickstore/read/BrickCache.h"
+#include "brickstore/read/BrickStore.h"
+#include "brickstore/source/VolumeSource.h"
 
 namespace fs = std::filesystem;
 using namespace voxbrick::store;

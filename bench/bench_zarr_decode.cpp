@@ -17,8 +17,8 @@
 
 #include <CLI/CLI.hpp>
 
-#include "brickstore/Convert.h"
-#include "brickstore/ZarrChunks.h"
+#include "brickstore/format/Convert.h"
+#include "brickstore/zarr/ZarrChunks.h"
 
 namespace {
 

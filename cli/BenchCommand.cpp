@@ -9,8 +9,9 @@
 
 #include <unistd.h>
 
-#include "brickstore/BrickStore.h"
-#include "brickstore/Errors.h"
+#include "brickstore/format/Errors.h"
+#include "brickstore/read/BrickStore.h"
+#include "brickstore/read/OpenAnyStore.h"
 #include "cli/Commands.h"
 #include "quality/Calibration.h"
 #include "quality/MeshSweep.h"
@@ -84,7 +85,7 @@ quality::SweepSpec baseSpec(const BenchArgs& a) {
   if (a.quick || !a.datasets.empty())
     throw store::InputError("--calibrate measures the dataset it names: not with --quick or --datasets");
   if (!fs::exists(a.calibrate)) throw store::InputError("--calibrate: '" + a.calibrate + "' does not exist");
-  if (!fs::exists(fs::path(a.calibrate) / "store.json") && !store::BrickStore::isVdbFile(a.calibrate))
+  if (!fs::exists(fs::path(a.calibrate) / "store.json") && !store::isVdbFile(a.calibrate))
     throw store::InputError("--calibrate: '" + a.calibrate +
                             "' is not a brick store or a .vdb file (quality tables are measured on grids)");
   const std::vector<std::string> tfs = splitList(a.tfs);

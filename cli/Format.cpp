@@ -5,7 +5,7 @@
 #include <string>
 #include <type_traits>
 
-#include "brickstore/Errors.h"
+#include "brickstore/format/Errors.h"
 #include "cli/Commands.h"
 #include "image/ImageFile.h"
 

@@ -5,12 +5,14 @@
 
 #include <nlohmann/json.hpp>
 
-#include "brickstore/BrickStore.h"
-#include "brickstore/InputErrors.h"
-#include "brickstore/Orientation.h"
-#include "brickstore/VdbStore.h"
-#include "brickstore/ZarrStore.h"
+#include "brickstore/format/InputErrors.h"
+#include "brickstore/format/Orientation.h"
+#include "brickstore/read/BrickStore.h"
+#include "brickstore/read/OpenAnyStore.h"
+#include "brickstore/read/VdbStore.h"
+#include "brickstore/read/ZarrStore.h"
 #include "cli/Commands.h"
+#include "common/EnumNames.h"
 #include "mesh/MeshStore.h"
 
 namespace voxbrick::cli {
@@ -22,10 +24,6 @@ struct InfoArgs {
   int64_t time = 0, channel = 0;
   bool json = false;
 };
-
-std::string dimsText(const store::Vec3i& d) {
-  return std::to_string(d.x) + "x" + std::to_string(d.y) + "x" + std::to_string(d.z);
-}
 
 /// The 256-bin histogram as a 32-character line, log-scaled so that a large background peak does not flatten it.
 std::string sparkline(const store::Histogram& h) {
@@ -89,7 +87,7 @@ void printStoreJson(const InfoArgs& a, const store::BrickStore& s, const store::
   j["empty_fraction"] = summary.emptyFraction;
   j["compression_ratio"] = summary.ratio;
   j["octree_depth"] = s.octree().depth();
-  j["backing"] = store::storeBackingName(s.backing());
+  j["backing"] = common::nameOf(s.backing());
   // Always present here (store.json omits the identity): the axes as letters too.
   j["orientation"] = {{"space", "RAS"},
                       {"axes", m.orientation.axes},
@@ -181,7 +179,7 @@ void printZarrOpen(const store::ZarrStore& z) {
 
 void runInfo(const InfoArgs& a) {
   if (mesh::looksLikeMeshStore(a.store)) return runMeshInfo(a);
-  auto s = store::BrickStore::openAny(a.store, {a.grid, a.brick, a.time, a.channel});
+  auto s = store::openAnyStore(a.store, {a.grid, a.brick, a.time, a.channel});
   const auto* live = dynamic_cast<const store::VdbStore*>(s.get());
   if (a.json) return printStoreJson(a, *s, live);
   const auto* zarr = dynamic_cast<const store::ZarrStore*>(s.get());

@@ -1,23 +1,19 @@
 // `voxbrick prep INPUT -o STORE`: ingest any supported volume into a brick store.
-#include <algorithm>
 #include <atomic>
-#include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <string>
 #include <vector>
 
-#include "brickstore/Errors.h"
-#include "brickstore/InputErrors.h"
-#include "brickstore/StoreWriter.h"
+#include "brickstore/format/Errors.h"
+#include "brickstore/format/InputErrors.h"
+#include "brickstore/ingest/Sources.h"
+#include "brickstore/prep/StoreWriter.h"
 #include "cli/Commands.h"
 #include "cli/Progress.h"
-#include "mesh/MeshReaders.h"
-#include "mesh/MeshStore.h"
-#include "mesh/SyntheticMesh.h"
-#include "mesh/Topology.h"
-#include "mesh/Validate.h"
+#include "common/EnumNames.h"
+#include "mesh/MeshPrep.h"
 
 namespace voxbrick::cli {
 namespace {
@@ -38,41 +34,26 @@ struct PrepArgs {
   store::PrepOptions options;
 };
 
-/// A tetrahedral mesh rather than a volume: a .vtk or .msh file, or "synthetic-mesh:SPEC".
-bool isMeshInput(const std::string& input) {
-  std::string lower = input;
-  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  auto endsWith = [&](const std::string& tail) {
-    return lower.size() >= tail.size() && lower.compare(lower.size() - tail.size(), tail.size(), tail) == 0;
-  };
-  return endsWith(".vtk") || endsWith(".msh") || lower.rfind("synthetic-mesh:", 0) == 0;
-}
-
-/// `prep MESH -o STORE`: read, validate (repairs counted), build the face adjacency, write the mesh store.
+/// `prep MESH -o STORE` (mesh::prepMeshStore): what was read, dropped and repaired, and what the store holds.
 void runMeshPrep(const PrepArgs& a) {
-  const auto start = std::chrono::steady_clock::now();
-  const std::string synthetic = "synthetic-mesh:";
-  mesh::TetMesh m = a.input.rfind(synthetic, 0) == 0 ? mesh::syntheticMesh(a.input.substr(synthetic.size()))
-                                                     : mesh::readMesh(a.input, a.field);
-  if (!a.quiet)
-    std::fprintf(stderr, "prep: %s: %zu points, %zu tets, field '%s' -> %s\n", a.input.c_str(), m.points.size(),
-                 m.tets.size(), m.field.c_str(), a.output.c_str());
-  const mesh::MeshRepairs repairs = mesh::validateMesh(m);
-  if (!m.dropped.empty())
-    std::fprintf(stderr, "prep: %s: dropped %s: only tetrahedra are volume cells (points, lines, surfaces are not)\n",
-                 a.input.c_str(), m.dropped.c_str());
-  const mesh::Topology topology = mesh::buildTopology(m);
-  if (gInterrupted) throw store::StoreError("interrupted; nothing was written");
-  mesh::MeshStoreOptions options;
-  options.tetsPerChunk = a.tetsPerChunk;
-  options.zstdLevel = a.options.zstdLevel;
-  options.overwrite = a.options.overwrite;
-  options.source = a.input;
-  options.progress = [](const mesh::MeshWriteProgress&) {
-    if (gInterrupted) throw store::StoreError("interrupted; nothing was written");
-  };
-  const mesh::MeshStoreInfo info = mesh::writeMeshStore(m, topology, a.output, options);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  mesh::MeshPrepOptions options;
+  options.field = a.field;
+  options.store.tetsPerChunk = a.tetsPerChunk;
+  options.store.zstdLevel = a.options.zstdLevel;
+  options.store.overwrite = a.options.overwrite;
+  const mesh::MeshPrepSummary summary =
+      mesh::prepMeshStore(a.input, a.output, options, [&](const mesh::MeshPrepProgress& p) {
+        if (p.stage == "read" && !a.quiet)
+          std::fprintf(stderr, "prep: %s: %zu points, %zu tets, field '%s' -> %s\n", a.input.c_str(),
+                       p.mesh->points.size(), p.mesh->tets.size(), p.mesh->field.c_str(), a.output.c_str());
+        if (p.stage == "validated" && !p.mesh->dropped.empty())
+          std::fprintf(stderr,
+                       "prep: %s: dropped %s: only tetrahedra are volume cells (points, lines, surfaces are not)\n",
+                       a.input.c_str(), p.mesh->dropped.c_str());
+        if (gInterrupted) throw store::StoreError("interrupted; nothing was written");
+      });
+  const mesh::MeshRepairs& repairs = summary.repairs;
+  const mesh::MeshStoreInfo& info = summary.info;
   if (repairs.flipped + repairs.removedDegenerate + repairs.unreferencedVertices > 0)
     std::fprintf(stderr,
                  "prep: repaired: %zu inverted tets flipped, %zu degenerate tets removed, %zu points no tet uses\n",
@@ -85,7 +66,7 @@ void runMeshPrep(const PrepArgs& a) {
   std::printf("prep: %s raw, %s stored (%.2fx, %.1f bytes a tet), %.2f s\n", formatBytes(double(info.bytesRaw)).c_str(),
               formatBytes(double(info.bytesStored)).c_str(),
               info.bytesStored > 0 ? double(info.bytesRaw) / double(info.bytesStored) : 0.0,
-              info.tetCount > 0 ? double(info.bytesStored) / double(info.tetCount) : 0.0, seconds);
+              info.tetCount > 0 ? double(info.bytesStored) / double(info.tetCount) : 0.0, summary.seconds);
 }
 
 /// How to read a volume input: --dims and --spacing (checked), the raw file's layout, the grid and the series.
@@ -177,16 +158,16 @@ void runPrep(PrepArgs& a, CLI::App& cmd) {
   a.input = a.inputs.front();
   if (a.inputs.size() > 1) {
     for (const std::string& in : a.inputs)
-      if (isMeshInput(in)) throw store::InputError(in + ": a mesh is prepped on its own (one input)");
+      if (mesh::isMeshInput(in)) throw store::InputError(in + ": a mesh is prepped on its own (one input)");
   }
-  if (isMeshInput(a.input)) return runMeshPrep(a);
+  if (mesh::isMeshInput(a.input)) return runMeshPrep(a);
   if (!a.field.empty()) throw store::InputError("--field names a mesh's scalar; '" + a.input + "' is not a mesh");
   a.options.haveBackground = cmd.count("--background") > 0;
-  a.options.vdbCompression = a.vdbCompression == "blosc"  ? store::VdbCompression::Blosc
-                             : a.vdbCompression == "none" ? store::VdbCompression::None
-                                                          : store::VdbCompression::Auto;
+  a.options.vdbCompression =
+      common::parseName<store::VdbCompression, store::InputError>(a.vdbCompression, "compression", "--vdb-compression");
   a.options.background = a.background;
-  a.options.nonFinite = a.nonFinite == "error" ? store::NonFinitePolicy::Error : store::NonFinitePolicy::Background;
+  a.options.nonFinite =
+      common::parseName<store::NonFinitePolicy, store::InputError>(a.nonFinite, "policy", "--nonfinite");
 
   auto source = store::openSource(a.inputs, so);
   const store::VolumeInfo& info = source->info();
@@ -245,7 +226,7 @@ void addPrepCommand(CLI::App& app) {
       ->check(between(-3.4e38, 3.4e38));
   cmd->add_option("--nonfinite", args->nonFinite,
                   "NaN/Inf voxels: 'background' replaces and counts them, 'error' refuses the input")
-      ->check(CLI::IsMember({"background", "error"}))
+      ->check(CLI::IsMember(common::enumNameList<store::NonFinitePolicy>()))
       ->capture_default_str();
   cmd->add_flag("!--no-vdb", args->options.writeVdb, "do not write the canonical OpenVDB grid");
   cmd->add_option("--vdb-chunk", args->options.vdbChunkSlices, "z-slices per OpenVDB file (0: as --memory allows)")
@@ -254,7 +235,7 @@ void addPrepCommand(CLI::App& app) {
   cmd->add_option("--vdb-compression", args->vdbCompression,
                   "OpenVDB leaf values: 'blosc' (LZ4, OpenVDB's default), 'none' (larger files, far less CPU) or "
                   "'auto' (blosc for a chunk where it halves the bytes)")
-      ->check(CLI::IsMember({"auto", "blosc", "none"}))
+      ->check(CLI::IsMember(common::enumNameList<store::VdbCompression>()))
       ->capture_default_str();
   cmd->add_option("--quantise", args->quantise,
                   "store u8 or u16: the value range mapped linearly onto 0..255 or 0..65535");

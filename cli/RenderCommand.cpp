@@ -3,11 +3,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include "brickstore/InputErrors.h"
+#include "brickstore/format/InputErrors.h"
 #include "cli/Commands.h"
 #include "cli/MpiOptions.h"
 #include "cli/Progress.h"
 #include "cli/SceneOptions.h"
+#include "common/EnumNames.h"
 #include "distributed/Cluster.h"
 #include "distributed/RankRenderer.h"
 #include "image/ImageFile.h"
@@ -17,6 +18,7 @@
 #include "render/engine/DatasetDriver.h"
 #include "render/engine/Datasets.h"
 #include "render/engine/RenderEngine.h"
+#include "render/volume/AtlasFormat.h"
 
 namespace voxbrick::cli {
 namespace {
@@ -234,17 +236,17 @@ void addRenderCommand(CLI::App& app) {
       ->check(between(0, 1 << 22, "MB"));
   cmd->add_option("--atlas-format", args->atlasFormat,
                   "float (default: full-precision filtering), native (the store's type: less memory) or half")
-      ->check(CLI::IsMember({"float", "native", "half"}));
+      ->check(CLI::IsMember(common::enumNameList<render::AtlasFormat>()));
   cmd->add_option("--uploads", args->uploads,
                   "how bricks reach the atlas: staged (a fenced ring of pixel buffers, overlapping the GPU's work), "
                   "direct, or auto (staged on a GPU, direct on a software rasteriser)")
       ->capture_default_str()
-      ->check(CLI::IsMember({"auto", "direct", "staged"}));
+      ->check(CLI::IsMember(common::enumNameList<render::AtlasUploads>()));
   cmd->add_option("--bricking", args->bricking,
                   "how bricks lie in the atlas: single (the volume's axis order) or multi-oriented (axis order "
                   "rotated from brick to brick, for texture caches that favour one direction; the same image)")
       ->capture_default_str()
-      ->check(CLI::IsMember({"single", "multi-oriented"}));
+      ->check(CLI::IsMember(common::enumNameList<render::AtlasBricking>()));
   addMpiOptions(cmd, args->mpi, "sort-last across the ranks of mpirun: each rank draws a part, rank 0 writes");
   cmd->add_flag("-q,--quiet", args->quiet, "do not print the renderer's name, nor progress of a frame past a second");
   cmd->callback([args, cmd] {

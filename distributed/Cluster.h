@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "brickstore/BrickStore.h"
+#include "brickstore/read/BrickStore.h"
 #include "distributed/Deadline.h"
 #include "render/core/Dataset.h"
 

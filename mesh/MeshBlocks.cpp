@@ -1,17 +1,16 @@
-// Blocks and files of the mesh store. Writes go straight to the descriptor so that ENOSPC/EFBIG surface at the block
-// that hit them; reads are pread so that chunks can be paged from several threads.
+// Blocks and files of the mesh store. Reads are pread so that chunks can be paged from several threads.
 #include "mesh/MeshBlocks.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
-#include <zstd.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <utility>
 
+#include "common/BlockCodec.h"
 #include "common/Checksum.h"
 #include "mesh/TetMesh.h"
 
@@ -20,77 +19,29 @@ namespace {
 
 std::string errnoText(const std::string& what) { return what + ": " + std::strerror(errno); }
 
-/// Byte planes: the sign/exponent bytes of floats and the high bytes of indices repeat, so they compress far better
-/// apart from the noisy low bytes.
-void shuffle4(const char* src, char* dst, size_t count) {
-  for (size_t i = 0; i < count; ++i)
-    for (size_t b = 0; b < 4; ++b) dst[b * count + i] = src[i * 4 + b];
-}
-
-void unshuffle4(const char* src, char* dst, size_t count) {
-  for (size_t i = 0; i < count; ++i)
-    for (size_t b = 0; b < 4; ++b) dst[i * 4 + b] = src[b * count + i];
-}
-
 }  // namespace
 
 std::vector<char> encodeBlock(const void* values, size_t bytes, int level) {
   if (bytes % 4 != 0)
     throw MeshError("encodeBlock: " + std::to_string(bytes) + " bytes is not a whole number of values");
-  std::vector<char> planes(bytes);
-  shuffle4(static_cast<const char*>(values), planes.data(), bytes / 4);
-  std::vector<char> out(ZSTD_compressBound(bytes));
-  const size_t n = ZSTD_compress(out.data(), out.size(), planes.data(), planes.size(), level);
-  if (ZSTD_isError(n)) throw MeshError(std::string("encodeBlock: zstd failed: ") + ZSTD_getErrorName(n));
-  out.resize(n);
+  std::vector<char> out;
+  try {
+    common::encodeBlock(values, bytes, {4, level, false, false}, out);
+  } catch (const common::CodecError& e) {
+    throw MeshError(std::string("encodeBlock: zstd failed: ") + e.what());
+  }
   return out;
 }
 
-MeshOutputFile::MeshOutputFile(const std::filesystem::path& path) : mPath(path) {
-  mFd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (mFd < 0) throw MeshError(errnoText("cannot create " + path.string()));
-}
+void throwMeshError(const std::string& message) { throw MeshError(message); }
 
-MeshOutputFile::~MeshOutputFile() {
-  if (mFd >= 0) ::close(mFd);
-}
-
-uint64_t MeshOutputFile::append(const void* data, size_t size) {
-  const uint64_t start = mSize;
-  const char* p = static_cast<const char*>(data);
-  size_t left = size;
-  while (left > 0) {
-    const ssize_t n = ::write(mFd, p, left);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      throw MeshError(errnoText("write to " + mPath.string() + " failed"));
-    }
-    p += n;
-    left -= static_cast<size_t>(n);
-  }
-  mSize += size;
-  return start;
-}
-
-BlockRef MeshOutputFile::appendBlock(const std::vector<char>& encoded, uint64_t rawSize) {
+BlockRef appendBlock(common::OutputFile& file, const std::vector<char>& encoded, uint64_t rawSize) {
   BlockRef ref{};
   ref.compressedSize = encoded.size();
   ref.rawSize = rawSize;
   ref.crc32 = common::crc32Of(encoded.data(), encoded.size());
-  ref.offset = append(encoded.data(), encoded.size());
+  ref.offset = file.append(encoded.data(), encoded.size());
   return ref;
-}
-
-void MeshOutputFile::close() {
-  if (mFd < 0) return;
-  const int fd = std::exchange(mFd, -1);
-  if (::fsync(fd) != 0) {
-    const int saved = errno;
-    ::close(fd);
-    errno = saved;
-    throw MeshError(errnoText("fsync of " + mPath.string() + " failed"));
-  }
-  if (::close(fd) != 0) throw MeshError(errnoText("close of " + mPath.string() + " failed"));
 }
 
 MeshInputFile::MeshInputFile(const std::filesystem::path& path) : mPath(path) {
@@ -146,16 +97,17 @@ void MeshInputFile::readBlock(const BlockRef& ref, void* dst, uint64_t rawSize, 
   readAt(ref.offset, compressed.data(), compressed.size());
   if (common::crc32Of(compressed.data(), compressed.size()) != ref.crc32)
     throw MeshError(mPath.string() + ": " + what + ": checksum mismatch (corrupt data)");
-  const unsigned long long declared = ZSTD_getFrameContentSize(compressed.data(), compressed.size());
-  if (declared != rawSize)
-    throw MeshError(mPath.string() + ": " + what + ": not a zstd frame of " + std::to_string(rawSize) + " bytes");
-  std::vector<char> planes(rawSize);
-  const size_t n = ZSTD_decompress(planes.data(), planes.size(), compressed.data(), compressed.size());
-  if (ZSTD_isError(n) || n != rawSize) {
-    const std::string fault = ZSTD_isError(n) ? ZSTD_getErrorName(n) : "decodes to " + std::to_string(n) + " bytes";
-    throw MeshError(mPath.string() + ": " + what + ": " + fault);
+  const common::BlockDecoding d = common::decodeBlock(compressed.data(), compressed.size(), 4, dst, rawSize, true);
+  switch (d.fault) {
+    case common::BlockFault::None: return;
+    case common::BlockFault::NotAFrame:
+    case common::BlockFault::SizeUnknown:
+    case common::BlockFault::SizeDiffers:
+      throw MeshError(mPath.string() + ": " + what + ": not a zstd frame of " + std::to_string(rawSize) + " bytes");
+    case common::BlockFault::Corrupt: throw MeshError(mPath.string() + ": " + what + ": " + d.zstdError);
+    case common::BlockFault::WrongLength:
+      throw MeshError(mPath.string() + ": " + what + ": decodes to " + std::to_string(d.size) + " bytes");
   }
-  unshuffle4(planes.data(), static_cast<char*>(dst), rawSize / 4);
 }
 
 void checkBlockRef(const BlockRef& ref, uint64_t dataFileSize, uint64_t expectedRawSize, const std::string& where,

@@ -1,5 +1,6 @@
-// The mesh store's blocks and files: byte-shuffled zstd frames with a CRC-32 of the compressed bytes, a file written
-// by appending and fsynced, and a file read with pread. Every error is a MeshError naming the file and the block.
+// The mesh store's blocks and files: byte-shuffled zstd frames (common/BlockCodec.h, the brick store's codec) with a
+// CRC-32 of the compressed bytes, appended to a common::OutputFile, and a file read with pread. Every error is a
+// MeshError naming the file and the block.
 #pragma once
 
 #include <cstddef>
@@ -8,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "common/OutputFile.h"
 #include "mesh/MeshFormat.h"
 
 namespace voxbrick::mesh {
@@ -16,27 +18,12 @@ namespace voxbrick::mesh {
 /// `bytes` must be a multiple of 4.
 std::vector<char> encodeBlock(const void* values, size_t bytes, int level);
 
-/// A file created (or truncated) for writing whose every failed write throws MeshError naming it.
-class MeshOutputFile {
- public:
-  explicit MeshOutputFile(const std::filesystem::path& path);
-  ~MeshOutputFile();
-  MeshOutputFile(const MeshOutputFile&) = delete;
-  MeshOutputFile& operator=(const MeshOutputFile&) = delete;
+/// Throws MeshError(message): how the mesh store's output files (common::OutputFile) report a failed write.
+[[noreturn]] void throwMeshError(const std::string& message);
 
-  /// Appends `size` bytes; returns the offset they start at.
-  uint64_t append(const void* data, size_t size);
-  /// Appends an encoded block and returns its BlockRef (offset, sizes, checksum); `rawSize` is its size decoded.
-  BlockRef appendBlock(const std::vector<char>& encoded, uint64_t rawSize);
-  uint64_t size() const { return mSize; }
-  /// Flushes to disk (fsync) and closes; throws MeshError on failure.
-  void close();
-
- private:
-  std::filesystem::path mPath;
-  int mFd = -1;
-  uint64_t mSize = 0;
-};
+/// Appends an encoded block to `file` and returns its BlockRef (offset, sizes, checksum); `rawSize` is its size
+/// decoded.
+BlockRef appendBlock(common::OutputFile& file, const std::vector<char>& encoded, uint64_t rawSize);
 
 /// A file opened read-only; reads are pread on one descriptor, so a const reader is safe to share between threads.
 class MeshInputFile {

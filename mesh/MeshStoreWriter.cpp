@@ -184,7 +184,7 @@ MeshStoreInfo describeStore(const TetMesh& mesh, const std::vector<uint32_t>& or
 /// boundary faces to `boundary`.
 std::vector<MeshChunkRecord> appendChunks(const TetMesh& mesh, const Topology& topology,
                                           const std::vector<uint32_t>& order, uint64_t chunkCount,
-                                          const MeshStoreOptions& options, MeshOutputFile& data,
+                                          const MeshStoreOptions& options, common::OutputFile& data,
                                           std::vector<std::pair<uint32_t, uint32_t>>& boundary) {
   std::vector<uint32_t> newIndex(order.size());
   for (size_t i = 0; i < order.size(); ++i) newIndex[order[i]] = uint32_t(i);
@@ -203,8 +203,8 @@ std::vector<MeshChunkRecord> appendChunks(const TetMesh& mesh, const Topology& t
     for (uint64_t c = batch; c < end; ++c) {
       EncodedChunk& e = encoded[c - batch];
       const uint64_t rawBytes = uint64_t(e.record.tetCount) * 16;
-      e.record.tets = data.appendBlock(e.tets, rawBytes);
-      e.record.neighbours = data.appendBlock(e.neighbours, rawBytes);
+      e.record.tets = appendBlock(data, e.tets, rawBytes);
+      e.record.neighbours = appendBlock(data, e.neighbours, rawBytes);
       records[c] = e.record;
       boundary.insert(boundary.end(), e.boundary.begin(), e.boundary.end());
       report(options, "chunks", c + 1, chunkCount);
@@ -218,20 +218,20 @@ std::vector<MeshChunkRecord> appendChunks(const TetMesh& mesh, const Topology& t
 std::vector<MeshChunkRecord> writeData(const TetMesh& mesh, const Topology& topology,
                                        const std::vector<uint32_t>& order, const fs::path& path,
                                        const MeshStoreOptions& options, MeshIndexHeader& header, MeshStoreInfo& info) {
-  MeshOutputFile data(path);
+  common::OutputFile data(path, throwMeshError);
   const size_t pointBytes = mesh.points.size() * sizeof(glm::vec3);
   static_assert(sizeof(glm::vec3) == 12);
-  header.points = data.appendBlock(encodeBlock(mesh.points.data(), pointBytes, options.zstdLevel), pointBytes);
+  header.points = appendBlock(data, encodeBlock(mesh.points.data(), pointBytes, options.zstdLevel), pointBytes);
   report(options, "points");
   const size_t scalarBytes = mesh.scalars.size() * sizeof(float);
-  header.scalars = data.appendBlock(encodeBlock(mesh.scalars.data(), scalarBytes, options.zstdLevel), scalarBytes);
+  header.scalars = appendBlock(data, encodeBlock(mesh.scalars.data(), scalarBytes, options.zstdLevel), scalarBytes);
   report(options, "scalars");
   std::vector<std::pair<uint32_t, uint32_t>> boundary;
   std::vector<MeshChunkRecord> records = appendChunks(mesh, topology, order, info.chunkCount, options, data, boundary);
   info.boundaryFaceCount = boundary.size();
   const size_t boundaryBytes = boundary.size() * 8;
   static_assert(sizeof(boundary[0]) == 8);
-  header.boundary = data.appendBlock(encodeBlock(boundary.data(), boundaryBytes, options.zstdLevel), boundaryBytes);
+  header.boundary = appendBlock(data, encodeBlock(boundary.data(), boundaryBytes, options.zstdLevel), boundaryBytes);
   report(options, "boundary");
   header.dataFileSize = data.size();
   data.close();
@@ -252,7 +252,7 @@ uint64_t writeIndex(const fs::path& path, MeshIndexHeader header, const MeshStor
   header.tetsPerChunk = info.tetsPerChunk;
   header.bodyCrc32 = common::crc32Of(records.data(), records.size() * sizeof(MeshChunkRecord));
   header.headerCrc32 = common::crc32Of(&header, offsetof(MeshIndexHeader, headerCrc32));
-  MeshOutputFile index(path);
+  common::OutputFile index(path, throwMeshError);
   index.append(&header, sizeof header);
   index.append(records.data(), records.size() * sizeof(MeshChunkRecord));
   index.close();
@@ -270,7 +270,7 @@ void writeStoreFiles(const TetMesh& mesh, const Topology& topology, const std::v
   info.bytesStored = header.dataFileSize + writeIndex(dir / kMeshIndexFile, header, info, records);
   report(options, "index");
   info.bytesRaw = info.vertexCount * 16 + info.tetCount * 32 + info.boundaryFaceCount * 8;
-  MeshOutputFile meta(dir / kMeshMetaFile);
+  common::OutputFile meta(dir / kMeshMetaFile, throwMeshError);
   const std::string text = meshInfoToJson(info);
   meta.append(text.data(), text.size());
   meta.close();

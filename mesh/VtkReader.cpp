@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <optional>
 
+#include "common/EnumNames.h"
 #include "mesh/MeshReaders.h"
 #include "mesh/ReaderSupport.h"
 #include "mesh/VtkTypes.h"
@@ -38,14 +39,14 @@ class VtkParser {
   void skipMetadataIfPresent();
   TetMesh assemble();
 
-  const VtkTypeInfo& readType(const char* what);
+  VtkType readType(const char* what);
   void endHeader();
   std::vector<std::string> restOfLine();
-  void guard(const VtkTypeInfo& type, uint64_t count, const char* what);
-  int64_t integerValue(const VtkTypeInfo& type, const char* what);
+  void guard(VtkType type, uint64_t count, const char* what);
+  int64_t integerValue(VtkType type, const char* what);
   template <class Sink>
-  void readReals(const VtkTypeInfo& type, uint64_t count, const char* what, Sink&& sink);
-  void skipValues(const VtkTypeInfo& type, uint64_t count, const char* what);
+  void readReals(VtkType type, uint64_t count, const char* what, Sink&& sink);
+  void skipValues(VtkType type, uint64_t count, const char* what);
   [[noreturn]] void suspect(size_t offset, const std::string& what) const;
 
   FileCursor& mIn;
@@ -64,10 +65,10 @@ void VtkParser::suspect(size_t offset, const std::string& what) const {
   mIn.failAt(offset, what);
 }
 
-const VtkTypeInfo& VtkParser::readType(const char* what) {
+VtkType VtkParser::readType(const char* what) {
   const size_t at = (mIn.skipWhitespace(), mIn.offset());
   const std::string name = lowerCase(mIn.token(what));
-  if (const VtkTypeInfo* info = findVtkType(name)) return *info;
+  if (const std::optional<VtkType> type = common::valueOf<VtkType>(name)) return *type;
   mIn.failAt(at, "unknown data type '" + name + "' for " + what);
 }
 
@@ -89,16 +90,16 @@ std::vector<std::string> VtkParser::restOfLine() {
   return words;
 }
 
-void VtkParser::guard(const VtkTypeInfo& type, uint64_t count, const char* what) {
-  if (type.type == VtkType::String) mIn.fail(std::string("string arrays are not supported (") + what + ")");
+void VtkParser::guard(VtkType type, uint64_t count, const char* what) {
+  if (type == VtkType::String) mIn.fail(std::string("string arrays are not supported (") + what + ")");
   if (!mBinary) return mIn.requireFits(count, 2, what, 1);  // a digit and a separator, none after the last
-  if (type.type == VtkType::Bit) return mIn.requireFits((count + 7) / 8, 1, what);
-  mIn.requireFits(count, type.bytes, what);
+  if (type == VtkType::Bit) return mIn.requireFits((count + 7) / 8, 1, what);
+  mIn.requireFits(count, vtkTypeBytes(type), what);
 }
 
-int64_t VtkParser::integerValue(const VtkTypeInfo& type, const char* what) {
+int64_t VtkParser::integerValue(VtkType type, const char* what) {
   if (!mBinary) return mIn.integer(what);
-  switch (type.type) {
+  switch (type) {
     case VtkType::Int8: return mIn.binary<int8_t>(mSwap, what);
     case VtkType::UInt8: return mIn.binary<uint8_t>(mSwap, what);
     case VtkType::Int16: return mIn.binary<int16_t>(mSwap, what);
@@ -115,10 +116,10 @@ int64_t VtkParser::integerValue(const VtkTypeInfo& type, const char* what) {
 }
 
 template <class Sink>
-void VtkParser::readReals(const VtkTypeInfo& type, uint64_t count, const char* what, Sink&& sink) {
+void VtkParser::readReals(VtkType type, uint64_t count, const char* what, Sink&& sink) {
   guard(type, count, what);
   if (!mBinary) {
-    if (type.type == VtkType::Float32) {
+    if (type == VtkType::Float32) {
       for (uint64_t i = 0; i < count; ++i) sink(i, static_cast<double>(mIn.realFloat(what)));
     } else {
       for (uint64_t i = 0; i < count; ++i) sink(i, mIn.real(what));
@@ -128,7 +129,7 @@ void VtkParser::readReals(const VtkTypeInfo& type, uint64_t count, const char* w
   auto loop = [&]<class T>() {
     for (uint64_t i = 0; i < count; ++i) sink(i, static_cast<double>(mIn.binary<T>(mSwap, what)));
   };
-  switch (type.type) {
+  switch (type) {
     case VtkType::Int8: return loop.template operator()<int8_t>();
     case VtkType::UInt8: return loop.template operator()<uint8_t>();
     case VtkType::Int16: return loop.template operator()<int16_t>();
@@ -143,13 +144,13 @@ void VtkParser::readReals(const VtkTypeInfo& type, uint64_t count, const char* w
   }
 }
 
-void VtkParser::skipValues(const VtkTypeInfo& type, uint64_t count, const char* what) {
+void VtkParser::skipValues(VtkType type, uint64_t count, const char* what) {
   guard(type, count, what);
   if (!mBinary) {
     for (uint64_t i = 0; i < count; ++i) mIn.token(what);
     return;
   }
-  mIn.take(type.type == VtkType::Bit ? (count + 7) / 8 : count * type.bytes, what);
+  mIn.take(type == VtkType::Bit ? (count + 7) / 8 : count * vtkTypeBytes(type), what);
 }
 
 void VtkParser::readHeader() {
@@ -176,7 +177,7 @@ void VtkParser::readPoints() {
   const size_t at = mIn.offset();
   if (mPoints) mIn.failAt(at, "a second POINTS section");
   const uint64_t n = static_cast<uint64_t>(mIn.integer("point count", 0, UINT32_MAX));
-  const VtkTypeInfo& type = readType("POINTS");
+  VtkType type = readType("POINTS");
   endHeader();
   guard(type, 3 * n, "POINTS");
   mPoints.emplace(n);
@@ -189,12 +190,12 @@ void VtkParser::readCells() {
   const uint64_t first = static_cast<uint64_t>(mIn.integer("CELLS count", 0, UINT32_MAX));
   const uint64_t size = static_cast<uint64_t>(mIn.integer("CELLS size", 0, INT64_MAX));
   const size_t afterCounts = mIn.offset();
-  const VtkTypeInfo int32Type{"int", VtkType::Int32, 4};
+  const VtkType int32Type = VtkType::Int32;
   std::vector<uint64_t>& starts = mCellStart.emplace();
   if (lowerCase(mIn.peekToken()) == "offsets") {
     // VTK >= 5.1: "CELLS nOffsets nConnectivity", then the offsets (one more than the cells) and connectivity.
     mIn.expect("OFFSETS");
-    const VtkTypeInfo& offsetType = readType("OFFSETS");
+    const VtkType offsetType = readType("OFFSETS");
     endHeader();
     guard(offsetType, first, "OFFSETS");
     starts.reserve(first);
@@ -213,7 +214,7 @@ void VtkParser::readCells() {
                                 std::to_string(size) + " entries");
     if (starts.empty()) starts.push_back(0);
     mIn.expect("CONNECTIVITY");
-    const VtkTypeInfo& indexType = readType("CONNECTIVITY");
+    const VtkType indexType = readType("CONNECTIVITY");
     endHeader();
     guard(indexType, size, "CONNECTIVITY");
     mConnectivity.reserve(size);
@@ -264,7 +265,7 @@ void VtkParser::readCellTypes() {
   if (n != cells)
     mIn.failAt(at, "CELL_TYPES has " + std::to_string(n) + " entries for " + std::to_string(cells) + " cells");
   endHeader();
-  const VtkTypeInfo int32Type{"int", VtkType::Int32, 4};
+  const VtkType int32Type = VtkType::Int32;
   guard(int32Type, n, "CELL_TYPES");
   std::vector<int32_t>& types = mCellTypes.emplace();
   types.reserve(n);
@@ -300,11 +301,11 @@ void VtkParser::readFieldArrays(uint64_t count, bool pointData, bool datasetLeve
     }
     const int64_t components = mIn.integer("FIELD array components", 1, 1 << 20);
     const uint64_t tuples = static_cast<uint64_t>(mIn.integer("FIELD array tuples", 0, UINT32_MAX));
-    const VtkTypeInfo& type = readType("FIELD array");
+    VtkType type = readType("FIELD array");
     endHeader();
     const uint64_t values = tuples * static_cast<uint64_t>(components);
     const bool scalar = !datasetLevel && pointData && components == 1 && tuples == count;
-    if (scalar && type.type != VtkType::Bit && type.type != VtkType::String && mPicker.offer(name)) {
+    if (scalar && type != VtkType::Bit && type != VtkType::String && mPicker.offer(name)) {
       mScalars.resize(count);
       readReals(type, values, "FIELD array", [&](uint64_t i, double v) { mScalars[i] = static_cast<float>(v); });
     } else {
@@ -325,7 +326,7 @@ void VtkParser::readScalars(size_t at, uint64_t count, bool pointData) {
   if (words.size() < 2 || words.size() > 3) mIn.failAt(at, "expected SCALARS name type [components]");
   const std::string name = decodeVtkName(words[0]);
   const std::string typeName = lowerCase(words[1]);
-  const VtkTypeInfo* type = findVtkType(typeName);
+  const std::optional<VtkType> type = common::valueOf<VtkType>(typeName);
   if (!type) mIn.failAt(at, "unknown data type '" + typeName + "' for SCALARS " + name);
   int components = 1;
   if (words.size() == 3) {
@@ -345,7 +346,7 @@ void VtkParser::readScalars(size_t at, uint64_t count, bool pointData) {
     mIn.seek(beforeTable);  // the table line is optional here; what follows is data
   }
   const uint64_t values = count * static_cast<uint64_t>(components);
-  if (pointData && components == 1 && type->type != VtkType::Bit && mPicker.offer(name)) {
+  if (pointData && components == 1 && *type != VtkType::Bit && mPicker.offer(name)) {
     mScalars.resize(count);
     readReals(*type, values, "SCALARS", [&](uint64_t i, double v) { mScalars[i] = static_cast<float>(v); });
   } else {
@@ -358,7 +359,7 @@ void VtkParser::readScalars(size_t at, uint64_t count, bool pointData) {
 /// After an attribute's keyword: "name type", then `perTuple` values a tuple, skipped (not a field one can choose).
 void VtkParser::skipArray(const std::string& keyword, uint64_t count, uint64_t perTuple, bool pointData) {
   const std::string name = decodeVtkName(mIn.token("an array name"));
-  const VtkTypeInfo& type = readType(keyword.c_str());
+  VtkType type = readType(keyword.c_str());
   endHeader();
   mPicker.noteUnusable(name, pointData ? std::to_string(perTuple) + " components" : "cell data");
   skipValues(type, count * perTuple, keyword.c_str());
@@ -371,7 +372,7 @@ void VtkParser::skipColours(const std::string& keyword, uint64_t count) {
   const int64_t perTuple = mIn.integer(keyword == "lookup_table" ? "table size" : "colour components", 0,
                                        keyword == "lookup_table" ? INT32_MAX : 4);
   endHeader();
-  const VtkTypeInfo bytes{"unsigned_char", VtkType::UInt8, 1};
+  const VtkType bytes = VtkType::UInt8;
   skipValues(bytes,
              keyword == "lookup_table" ? 4 * static_cast<uint64_t>(perTuple) : count * static_cast<uint64_t>(perTuple),
              "colours");
@@ -400,7 +401,7 @@ void VtkParser::readAttributes(uint64_t count, bool pointData) {
       mIn.token();
       const std::string name = decodeVtkName(mIn.token("an array name"));
       const int64_t dim = mIn.integer("texture coordinate dimension", 1, 3);
-      const VtkTypeInfo& type = readType("TEXTURE_COORDINATES");
+      VtkType type = readType("TEXTURE_COORDINATES");
       endHeader();
       mPicker.noteUnusable(name, pointData ? "texture coordinates" : "cell data");
       skipValues(type, count * static_cast<uint64_t>(dim), "TEXTURE_COORDINATES");

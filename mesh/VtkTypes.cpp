@@ -5,37 +5,22 @@
 
 namespace voxbrick::mesh {
 
-const VtkTypeInfo* findVtkType(std::string_view lowerCaseName) {
-  static constexpr VtkTypeInfo kTypes[] = {
-      {"bit", VtkType::Bit, 0},
-      {"char", VtkType::Int8, 1},
-      {"signed_char", VtkType::Int8, 1},
-      {"unsigned_char", VtkType::UInt8, 1},
-      {"short", VtkType::Int16, 2},
-      {"unsigned_short", VtkType::UInt16, 2},
-      {"int", VtkType::Int32, 4},
-      {"unsigned_int", VtkType::UInt32, 4},
-      // "long" has the writer's sizeof(long): 8 on the LP64 systems that write nearly all such files.
-      {"long", VtkType::Int64, 8},
-      {"unsigned_long", VtkType::UInt64, 8},
-      {"vtkidtype", VtkType::Int64, 8},
-      {"vtktypeint8", VtkType::Int8, 1},
-      {"vtktypeuint8", VtkType::UInt8, 1},
-      {"vtktypeint16", VtkType::Int16, 2},
-      {"vtktypeuint16", VtkType::UInt16, 2},
-      {"vtktypeint32", VtkType::Int32, 4},
-      {"vtktypeuint32", VtkType::UInt32, 4},
-      {"vtktypeint64", VtkType::Int64, 8},
-      {"vtktypeuint64", VtkType::UInt64, 8},
-      {"float", VtkType::Float32, 4},
-      {"double", VtkType::Float64, 8},
-      {"vtktypefloat32", VtkType::Float32, 4},
-      {"vtktypefloat64", VtkType::Float64, 8},
-      {"string", VtkType::String, 0},
-      {"utf8_string", VtkType::String, 0}};
-  for (const VtkTypeInfo& info : kTypes)
-    if (lowerCaseName == info.name) return &info;
-  return nullptr;
+uint32_t vtkTypeBytes(VtkType type) {
+  switch (type) {
+    case VtkType::Int8:
+    case VtkType::UInt8: return 1;
+    case VtkType::Int16:
+    case VtkType::UInt16: return 2;
+    case VtkType::Int32:
+    case VtkType::UInt32:
+    case VtkType::Float32: return 4;
+    case VtkType::Int64:
+    case VtkType::UInt64:
+    case VtkType::Float64: return 8;
+    case VtkType::Bit:
+    case VtkType::String: break;
+  }
+  return 0;
 }
 
 std::optional<VtkCellKind> vtkCellKind(int64_t type) {

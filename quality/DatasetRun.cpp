@@ -3,8 +3,10 @@
 
 #include <algorithm>
 
-#include "brickstore/BrickCache.h"
-#include "brickstore/StoreWriter.h"
+#include "brickstore/ingest/Sources.h"
+#include "brickstore/prep/StoreWriter.h"
+#include "brickstore/read/BrickCache.h"
+#include "brickstore/read/OpenAnyStore.h"
 #include "quality/ReferenceCache.h"
 #include "quality/Statistics.h"
 
@@ -17,7 +19,7 @@ namespace {
 /// one `d.store` names, as it is.
 std::shared_ptr<const store::BrickStore> datasetStore(const Dataset& d, int brick, const fs::path& work) {
   const fs::path path = datasetStorePath(d, brick, work);
-  if (!d.store.empty()) return store::BrickStore::openAny(path);
+  if (!d.store.empty()) return store::openAnyStore(path);
   auto source = store::openSource(d.input, {});
   if (fs::exists(path / "store.json")) {
     auto existing = store::BrickStore::open(path);

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "brickstore/BrickStore.h"
+#include "brickstore/read/BrickStore.h"
 #include "quality/SweepResult.h"
 #include "render/gl/GlContext.h"
 #include "render/gl/volume/VolumeRenderer.h"

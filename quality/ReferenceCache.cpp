@@ -8,7 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "brickstore/BrickCache.h"
+#include "brickstore/read/BrickCache.h"
 #include "quality/SweepSpec.h"
 
 namespace voxbrick::quality {

@@ -4,7 +4,7 @@
 #include <filesystem>
 #include <memory>
 
-#include "brickstore/BrickStore.h"
+#include "brickstore/read/BrickStore.h"
 #include "image/Image.h"
 #include "render/core/Scene.h"
 #include "render/reference/ReferenceRenderer.h"

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The folder rules that include paths cannot enforce (tests/CMakeLists.txt probes the rest with the compiler):
 # system GL/EGL/OSMesa headers and GL calls only in render/gl/ (the folder alone decides: no build file is read),
-# Asio only in server/, client/ and cli/, OpenVDB, GDCM and libtiff only in brickstore/ (tests may use them to write
-# files), MPI only in distributed/, cli/, bench/ and tests, nothing of bench/ (tools only, no library) included from
-# outside it, and no include that climbs out of the folders by a relative path.
+# Asio only in server/, client/ and cli/, OpenVDB only in brickstore/'s vdb, ingest/vdb, prep and read folders, GDCM
+# only in brickstore/ingest/dicom/ and libtiff only in brickstore/ingest/tiff/ (tests may use them to write files),
+# MPI only in distributed/, cli/, bench/ and tests, nothing of bench/ (tools only, no library) included from outside
+# it, and no include that climbs out of the folders by a relative path.
 # Prints every violation as FILE:LINE: text and exits 1 if there is any. Run from the repository root.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -28,7 +29,12 @@ forbid() {
 mapfile -t notGl < <(sources common brickstore mesh proto image server client cli bench quality;
                      sources render | grep -v '^render/gl/')
 mapfile -t notAsio < <(sources common brickstore mesh proto image render quality bench)
-mapfile -t notVdb < <(sources common mesh proto image render quality server client cli bench)
+mapfile -t notVdb < <(sources common mesh proto image render quality server client cli bench;
+                       sources brickstore | grep -vE '^brickstore/(vdb|ingest/vdb|prep|read)/')
+mapfile -t notGdcm < <(sources common brickstore mesh proto image render quality server client cli bench |
+                       grep -v '^brickstore/ingest/dicom/')
+mapfile -t notTiff < <(sources common brickstore mesh proto image render quality server client cli bench |
+                       grep -v '^brickstore/ingest/tiff/')
 mapfile -t notMpi < <(sources common brickstore mesh proto image render quality server client)
 mapfile -t everything < <(sources .)
 mapfile -t notBench < <(sources . | grep -v '^bench/')
@@ -37,8 +43,9 @@ forbid "GL, EGL or OSMesa headers outside render/gl/" '#include <(GL|EGL|KHR)/' 
 forbid "GL, EGL or OSMesa calls outside render/gl/" '\b(gl|egl)[A-Z][A-Za-z0-9]*\s*\(|\bOSMesa[A-Z][A-Za-z]*\s*\(' \
   "${notGl[@]}"
 forbid "Asio outside server/, client/ and cli/" '#include <boost/asio' "${notAsio[@]}"
-forbid "OpenVDB outside brickstore/" '#include <(openvdb|nanovdb)/' "${notVdb[@]}"
-forbid "GDCM or libtiff outside brickstore/" '#include <(gdcm[A-Za-z0-9]*\.h|tiff[a-z]*\.h)>' "${notVdb[@]}"
+forbid "OpenVDB outside brickstore/vdb/, ingest/vdb/, prep/ and read/" '#include <(openvdb|nanovdb)/' "${notVdb[@]}"
+forbid "GDCM outside brickstore/ingest/dicom/" '#include <gdcm[A-Za-z0-9]*\.h>' "${notGdcm[@]}"
+forbid "libtiff outside brickstore/ingest/tiff/" '#include <tiff[a-z]*\.h>' "${notTiff[@]}"
 forbid "MPI outside distributed/, cli/, bench/ and tests" '#include <mpi\.h>' "${notMpi[@]}"
 forbid "bench/ included outside bench/ (its tools are programs, not a library)" '#include "bench/' "${notBench[@]}"
 forbid "relative includes that leave a folder" '#include "\.\./' "${everything[@]}"

@@ -5,7 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "brickstore/Errors.h"
+#include "brickstore/format/Errors.h"
 #include "image/FrameImage.h"
 #include "render/core/RenderErrors.h"
 #include "server/ErrorReply.h"

@@ -7,6 +7,7 @@
 
 #include <toml++/toml.h>
 
+#include "common/EnumNames.h"
 #include "render/core/RenderErrors.h"
 #include "server/WebGate.h"
 
@@ -182,7 +183,7 @@ render::Backend ServerConfig::parseBackend(const std::string& text, const std::s
   try {
     return render::parseBackend(text);
   } catch (const render::RenderInputError&) {
-    fail(what + " = '" + text + "' must be auto, egl or osmesa");
+    fail(what + " = '" + text + "' must be " + common::enumNamesText<render::Backend>());
   }
 }
 

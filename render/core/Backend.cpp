@@ -5,20 +5,8 @@
 
 namespace voxbrick::render {
 
-const char* backendName(Backend backend) {
-  switch (backend) {
-    case Backend::Auto: return "auto";
-    case Backend::Egl: return "egl";
-    case Backend::OsMesa: return "osmesa";
-  }
-  return "unknown";
-}
-
 Backend parseBackend(const std::string& text) {
-  if (text == "auto") return Backend::Auto;
-  if (text == "egl") return Backend::Egl;
-  if (text == "osmesa") return Backend::OsMesa;
-  throw RenderInputError("parseBackend: unknown GL backend \"" + text + "\" (expected auto, egl or osmesa)");
+  return common::parseName<Backend, RenderInputError>(text, "GL backend");
 }
 
 }  // namespace voxbrick::render

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <string>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -42,16 +43,10 @@ Box volumeBox(const store::Vec3i& dims, const store::Vec3d& spacing) {
   return Box{-half, half};
 }
 
-const char* upAxisName(UpAxis axis) {
-  static const char* kNames[] = {"+x", "-x", "+y", "-y", "+z", "-z"};
-  return kNames[int(axis)];
-}
-
 UpAxis parseUpAxis(const std::string& name, const std::string& what) {
-  const std::string full = name.size() == 1 ? "+" + name : name;
-  for (int a = 0; a < 6; ++a)
-    if (full == upAxisName(UpAxis(a))) return UpAxis(a);
-  throw RenderInputError(what + ": unknown up axis '" + name + "' (one of +x, -x, +y, -y, +z, -z)");
+  if (const std::optional<UpAxis> axis = common::valueOf<UpAxis>(name)) return *axis;
+  throw RenderInputError(what + ": unknown up axis '" + name + "' (one of " +
+                         common::enumNamesText<UpAxis>(", ", ", ") + ")");
 }
 
 OrbitAxes OrbitAxes::of(UpAxis axis) {

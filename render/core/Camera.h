@@ -1,11 +1,13 @@
 // The camera of the optical model: world boxes, the orbit shorthand, view/projection matrices, clip range, frustum.
 #pragma once
 
+#include <span>
 #include <string>
 
 #include <glm/glm.hpp>
 
-#include "brickstore/Types.h"
+#include "brickstore/format/Types.h"
+#include "common/EnumNames.h"
 
 namespace voxbrick::render {
 
@@ -26,8 +28,12 @@ Box volumeBox(const store::Vec3i& dims, const store::Vec3d& spacing);
 /// The pole of an orbit (CameraSpec::upAxis, `--up-axis`): a world axis.
 enum class UpAxis { PosX, NegX, PosY, NegY, PosZ, NegZ };
 
-/// "+x", "-x", "+y", "-y", "+z", "-z".
-const char* upAxisName(UpAxis axis);
+/// "+x", "-x", "+y", "-y", "+z", "-z"; and "x", "y", "z" for the positive ones, which parseUpAxis takes too.
+inline constexpr common::EnumName<UpAxis> kUpAxisNames[] = {
+    {UpAxis::PosX, "+x"}, {UpAxis::NegX, "-x"}, {UpAxis::PosY, "+y"}, {UpAxis::NegY, "-y"}, {UpAxis::PosZ, "+z"},
+    {UpAxis::NegZ, "-z"}, {UpAxis::PosX, "x"},  {UpAxis::PosY, "y"},  {UpAxis::PosZ, "z"}};
+constexpr std::span<const common::EnumName<UpAxis>> enumNames(UpAxis) { return kUpAxisNames; }
+inline const char* upAxisName(UpAxis axis) { return common::nameOf(axis); }
 /// The up axis named "+x", "-x", "+y", "-y", "+z" or "-z" ("x" = "+x"); throws RenderInputError naming `what` and
 /// the valid names otherwise.
 UpAxis parseUpAxis(const std::string& name, const std::string& what);

@@ -12,7 +12,7 @@
 #include <string_view>
 #include <vector>
 
-#include "brickstore/BrickCache.h"
+#include "brickstore/read/BrickCache.h"
 #include "render/core/Quality.h"
 #include "render/core/Scene.h"
 #include "render/core/WorldFrame.h"

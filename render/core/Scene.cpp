@@ -11,42 +11,12 @@ namespace voxbrick::render {
 
 const char* const kQualityChosenKeys[7] = {"step", "raycast", "slab", "ert", "pre_integration", "sub_block", "lod"};
 
-const char* slicerName(Slicer slicer) {
-  switch (slicer) {
-    case Slicer::Vertex: return "vertex";
-    case Slicer::Cpu: return "cpu";
-    case Slicer::VertexLean: return "vertex-lean";
-    case Slicer::Geometry: return "geometry";
-    case Slicer::VertexGeometry: return "vertex-geometry";
-  }
-  return "?";
-}
-
-const char* tetSortName(TetSort sort) {
-  switch (sort) {
-    case TetSort::Mpvo: return "mpvo";
-    case TetSort::Centroid: return "centroid";
-    case TetSort::Ray: return "raycast";
-  }
-  return "?";
-}
-
 TetSort parseTetSort(const std::string& name, const std::string& what) {
-  for (TetSort sort : {TetSort::Mpvo, TetSort::Centroid, TetSort::Ray})
-    if (name == tetSortName(sort)) return sort;
-  throw RenderInputError(what + " must be \"mpvo\", \"centroid\" or \"raycast\"");
-}
-
-std::string slicerNames() {
-  std::string names;
-  for (Slicer slicer : kSlicers) names += std::string(names.empty() ? "" : ", ") + "\"" + slicerName(slicer) + "\"";
-  return names;
+  return common::parseName<TetSort, RenderInputError>(name, "visibility order", what);
 }
 
 Slicer parseSlicer(const std::string& name, const std::string& what) {
-  for (Slicer slicer : kSlicers)
-    if (name == slicerName(slicer)) return slicer;
-  throw RenderInputError(what + ": unknown slicer '" + name + "' (one of " + slicerNames() + ")");
+  return common::parseName<Slicer, RenderInputError>(name, "slicer", what);
 }
 
 namespace {

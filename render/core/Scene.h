@@ -5,11 +5,13 @@
 
 #include <array>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
 #include <glm/glm.hpp>
 
+#include "common/EnumNames.h"
 #include "render/core/Camera.h"
 #include "render/core/Quality.h"
 #include "render/core/TransferFunction.h"
@@ -33,13 +35,18 @@ enum class Slicer {
 inline constexpr std::array<Slicer, 5> kSlicers = {Slicer::Vertex, Slicer::Cpu, Slicer::VertexLean, Slicer::Geometry,
                                                    Slicer::VertexGeometry};
 
-/// The slicer's name in scenes and on the command line ("vertex", "cpu", "vertex-lean", "geometry",
-/// "vertex-geometry").
-const char* slicerName(Slicer slicer);
-/// The slicer named `name`; throws RenderInputError naming `what` and listing the valid names otherwise.
+/// The slicers' names in scenes and on the command line.
+inline constexpr common::EnumName<Slicer> kSlicerNames[] = {{Slicer::Vertex, "vertex"},
+                                                            {Slicer::Cpu, "cpu"},
+                                                            {Slicer::VertexLean, "vertex-lean"},
+                                                            {Slicer::Geometry, "geometry"},
+                                                            {Slicer::VertexGeometry, "vertex-geometry"}};
+constexpr std::span<const common::EnumName<Slicer>> enumNames(Slicer) { return kSlicerNames; }
+
+/// The slicer's name ("vertex", "cpu", "vertex-lean", "geometry", "vertex-geometry").
+inline const char* slicerName(Slicer slicer) { return common::nameOf(slicer); }
+/// The slicer named `name`; throws RenderInputError naming `what`, the closest name and the valid ones otherwise.
 Slicer parseSlicer(const std::string& name, const std::string& what);
-/// The valid names, "vertex", "cpu", ... quoted and separated by commas, for messages and help texts.
-std::string slicerNames();
 
 /// How a tetrahedral mesh's cells are put in visibility order. Mpvo: the meshed-polyhedra visibility
 /// order, a breadth-first walk of the face-adjacency graph from the cells nothing hides (exact for a convex mesh
@@ -47,8 +54,11 @@ std::string slicerNames();
 /// cells of different sizes meet). Ray: no sort; each pixel's ray walks the face-adjacency graph from the boundary
 /// face where it enters (render/gl/tets/TetRayCaster.h): exact for any mesh, with early ray termination (Scene::ert).
 enum class TetSort { Mpvo, Centroid, Ray };
+inline constexpr common::EnumName<TetSort> kTetSortNames[] = {
+    {TetSort::Mpvo, "mpvo"}, {TetSort::Centroid, "centroid"}, {TetSort::Ray, "raycast"}};
+constexpr std::span<const common::EnumName<TetSort>> enumNames(TetSort) { return kTetSortNames; }
 /// "mpvo", "centroid", "raycast".
-const char* tetSortName(TetSort sort);
+inline const char* tetSortName(TetSort sort) { return common::nameOf(sort); }
 /// The order named `name`; throws RenderInputError naming `what` and the valid names otherwise.
 TetSort parseTetSort(const std::string& name, const std::string& what);
 

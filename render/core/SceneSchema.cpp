@@ -174,7 +174,7 @@ std::vector<SceneKey> buildSchema() {
   {
     SceneKey& k = add(keys, "camera.up_axis", T::Name, C::View, A::Both,
                       "the orbit's pole (+z: superior for patient data; x, y, z mean +x, +y, +z)");
-    for (int a = 0; a < 6; ++a) k.names.emplace_back(upAxisName(UpAxis(a)));
+    k.names = common::enumNameList<UpAxis>();
     k.names.insert(k.names.end(), {"x", "y", "z"});
     k.option = "--up-axis", k.optionForm = "AXIS";
     k.example = "-y";
@@ -341,7 +341,7 @@ std::vector<SceneKey> buildSchema() {
   {
     SceneKey& k = add(keys, "slicer", T::Name, C::Grid, A::Grids,
                       "where slice polygons are computed when slicing (slab 0, no raycast); the same polygons");
-    for (Slicer slicer : kSlicers) k.names.emplace_back(slicerName(slicer));
+    k.names = common::enumNameList<Slicer>();
     k.option = "--slicer", k.optionForm = "NAME";
     k.example = "cpu";
     k.value = [](const Scene& s) { return json(slicerName(s.slicer)); };
@@ -426,7 +426,7 @@ std::vector<SceneKey> buildSchema() {
     SceneKey& k = add(keys, "visibility", T::Name, C::Mesh, A::Meshes,
                       "how a mesh's cells are put in order: raycast (each pixel's ray walks the adjacency; ert "
                       "applies), or projected tets sorted by mpvo or centroid");
-    for (TetSort sort : {TetSort::Mpvo, TetSort::Centroid, TetSort::Ray}) k.names.emplace_back(tetSortName(sort));
+    k.names = common::enumNameList<TetSort>();
     k.option = "--visibility", k.optionForm = "NAME";
     k.example = "mpvo";
     k.value = [](const Scene& s) { return json(tetSortName(s.visibility)); };
@@ -515,40 +515,6 @@ void drop(SceneKeys& keys, const std::string& key, const SceneKeys& top) {
 }
 
 }  // namespace
-
-const char* sceneConcernName(SceneConcern concern) {
-  switch (concern) {
-    case SceneConcern::View: return "view";
-    case SceneConcern::Classification: return "classification";
-    case SceneConcern::Grid: return "grid";
-    case SceneConcern::Mesh: return "mesh";
-    case SceneConcern::Delivery: return "delivery";
-  }
-  return "?";
-}
-
-const char* sceneAppliesName(SceneApplies applies) {
-  switch (applies) {
-    case SceneApplies::Both: return "grids and meshes";
-    case SceneApplies::Grids: return "grids";
-    case SceneApplies::Meshes: return "meshes";
-  }
-  return "?";
-}
-
-const char* sceneTypeName(SceneType type) {
-  switch (type) {
-    case SceneType::Object: return "object";
-    case SceneType::Bool: return "bool";
-    case SceneType::Number: return "number";
-    case SceneType::Integer: return "integer";
-    case SceneType::Name: return "name";
-    case SceneType::Text: return "text";
-    case SceneType::Numbers: return "numbers";
-    case SceneType::TransferFunction: return "transfer_function";
-  }
-  return "?";
-}
 
 bool SceneRange::contains(double v) const {
   if (!std::isfinite(v)) return false;

@@ -8,6 +8,7 @@
 #include <limits>
 #include <map>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -21,13 +22,23 @@ class TransferFunctionPresets;
 
 /// The struct of Scene a key's field lives in.
 enum class SceneConcern { View, Classification, Grid, Mesh, Delivery };
+inline constexpr common::EnumName<SceneConcern> kSceneConcernNames[] = {
+    {SceneConcern::View, "view"},
+    {SceneConcern::Classification, "classification"},
+    {SceneConcern::Grid, "grid"},
+    {SceneConcern::Mesh, "mesh"},
+    {SceneConcern::Delivery, "delivery"}};
+constexpr std::span<const common::EnumName<SceneConcern>> enumNames(SceneConcern) { return kSceneConcernNames; }
 /// "view", "classification", "grid", "mesh", "delivery".
-const char* sceneConcernName(SceneConcern concern);
+inline const char* sceneConcernName(SceneConcern concern) { return common::nameOf(concern); }
 
 /// The kinds of dataset a key has an effect on.
 enum class SceneApplies { Both, Grids, Meshes };
+inline constexpr common::EnumName<SceneApplies> kSceneAppliesNames[] = {
+    {SceneApplies::Both, "grids and meshes"}, {SceneApplies::Grids, "grids"}, {SceneApplies::Meshes, "meshes"}};
+constexpr std::span<const common::EnumName<SceneApplies>> enumNames(SceneApplies) { return kSceneAppliesNames; }
 /// "grids and meshes", "grids", "meshes".
-const char* sceneAppliesName(SceneApplies applies);
+inline const char* sceneAppliesName(SceneApplies applies) { return common::nameOf(applies); }
 
 /// A key's JSON type.
 enum class SceneType {
@@ -41,7 +52,13 @@ enum class SceneType {
   TransferFunction,  ///< "transfer_function": a preset name, a file path (command line only) or an inline object
 };
 /// The names above in quotes.
-const char* sceneTypeName(SceneType type);
+inline constexpr common::EnumName<SceneType> kSceneTypeNames[] = {
+    {SceneType::Object, "object"},   {SceneType::Bool, "bool"},
+    {SceneType::Number, "number"},   {SceneType::Integer, "integer"},
+    {SceneType::Name, "name"},       {SceneType::Text, "text"},
+    {SceneType::Numbers, "numbers"}, {SceneType::TransferFunction, "transfer_function"}};
+constexpr std::span<const common::EnumName<SceneType>> enumNames(SceneType) { return kSceneTypeNames; }
+inline const char* sceneTypeName(SceneType type) { return common::nameOf(type); }
 
 /// A number's allowed values: [lo, hi] (lo excluded when loOpen), 0 besides when zeroToo, powers of two only when
 /// powerOfTwo. Infinite bounds: any finite number.

@@ -4,8 +4,8 @@
 
 #include <glm/glm.hpp>
 
-#include "brickstore/Orientation.h"
-#include "brickstore/Types.h"
+#include "brickstore/format/Orientation.h"
+#include "brickstore/format/Types.h"
 #include "image/Image.h"
 
 namespace voxbrick::render {

@@ -14,7 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "brickstore/BrickStore.h"
+#include "brickstore/read/BrickStore.h"
 #include "image/Image.h"
 #include "render/core/Dataset.h"
 #include "render/core/FrameRenderer.h"

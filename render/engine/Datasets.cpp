@@ -3,8 +3,8 @@
 
 #include <stdexcept>
 
-#include "brickstore/Errors.h"
-#include "brickstore/InputErrors.h"
+#include "brickstore/format/Errors.h"
+#include "brickstore/format/InputErrors.h"
 #include "render/engine/DatasetDriver.h"
 
 namespace voxbrick::render {

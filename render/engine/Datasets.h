@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "brickstore/BrickStore.h"
+#include "brickstore/read/BrickStore.h"
 #include "render/core/Dataset.h"
 
 namespace voxbrick::render {

@@ -2,7 +2,8 @@
 #include <algorithm>
 #include <cstdio>
 
-#include "brickstore/ZarrMeta.h"
+#include "brickstore/read/OpenAnyStore.h"
+#include "brickstore/zarr/ZarrMeta.h"
 #include "render/core/RenderErrors.h"
 #include "render/engine/BuiltInDrivers.h"
 #include "render/gl/GlContext.h"
@@ -40,7 +41,7 @@ class GridDriver final : public DatasetDriver {
 
   bool recognises(const std::filesystem::path& path) const override {
     std::error_code ec;
-    return std::filesystem::is_regular_file(path / "store.json", ec) || store::BrickStore::isVdbFile(path) ||
+    return std::filesystem::is_regular_file(path / "store.json", ec) || store::isVdbFile(path) ||
            store::isZarrDirectory(path);
   }
   std::vector<std::filesystem::path> files(const std::filesystem::path& path) const override {

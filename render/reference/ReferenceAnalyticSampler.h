@@ -5,8 +5,8 @@
 
 #include <glm/glm.hpp>
 
-#include "brickstore/StoreMeta.h"
-#include "brickstore/SyntheticField.h"
+#include "brickstore/format/StoreMeta.h"
+#include "brickstore/ingest/synthetic/SyntheticField.h"
 
 namespace voxbrick::render::reference {
 

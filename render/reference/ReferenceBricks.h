@@ -7,7 +7,7 @@
 #include <mutex>
 #include <vector>
 
-#include "brickstore/BrickCache.h"
+#include "brickstore/read/BrickCache.h"
 
 namespace voxbrick::render {
 

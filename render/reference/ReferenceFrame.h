@@ -7,8 +7,8 @@
 
 #include <glm/glm.hpp>
 
-#include "brickstore/BrickStore.h"
-#include "brickstore/StoreMeta.h"
+#include "brickstore/format/StoreMeta.h"
+#include "brickstore/read/BrickStore.h"
 #include "render/core/Camera.h"
 #include "render/core/Scene.h"
 #include "render/reference/ReferenceRay.h"

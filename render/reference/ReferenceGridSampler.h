@@ -8,7 +8,7 @@
 
 #include <glm/glm.hpp>
 
-#include "brickstore/StoreMeta.h"
+#include "brickstore/format/StoreMeta.h"
 #include "render/reference/ReferenceBricks.h"
 
 namespace voxbrick::render::reference {

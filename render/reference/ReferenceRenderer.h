@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "brickstore/BrickCache.h"
-#include "brickstore/StoreMeta.h"
-#include "brickstore/SyntheticField.h"
+#include "brickstore/format/StoreMeta.h"
+#include "brickstore/ingest/synthetic/SyntheticField.h"
+#include "brickstore/read/BrickCache.h"
 #include "image/Image.h"
 #include "render/core/Scene.h"
 

@@ -11,7 +11,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "brickstore/Errors.h"
+#include "brickstore/format/Errors.h"
 #include "render/core/RenderErrors.h"
 
 namespace voxbrick::render {

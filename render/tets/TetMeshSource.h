@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <memory>
 
-#include "brickstore/BrickCache.h"
+#include "brickstore/read/BrickCache.h"
 #include "mesh/MeshStore.h"
 #include "render/core/FrameStats.h"
 #include "render/core/Scene.h"

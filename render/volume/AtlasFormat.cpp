@@ -6,36 +6,15 @@
 namespace voxbrick::render {
 
 AtlasFormat parseAtlasFormat(const std::string& text) {
-  if (text == "float") return AtlasFormat::Float;
-  if (text == "native") return AtlasFormat::Native;
-  if (text == "half") return AtlasFormat::Half;
-  throw RenderInputError("atlas format '" + text + "' is not float, native or half");
+  return common::parseName<AtlasFormat, RenderInputError>(text, "atlas format");
 }
 
 AtlasUploads parseAtlasUploads(const std::string& text) {
-  if (text == "auto") return AtlasUploads::Auto;
-  if (text == "direct") return AtlasUploads::Direct;
-  if (text == "staged") return AtlasUploads::Staged;
-  throw RenderInputError("atlas uploads '" + text + "' is not auto, direct or staged");
-}
-
-const char* atlasUploadsName(AtlasUploads uploads) {
-  switch (uploads) {
-    case AtlasUploads::Auto: return "auto";
-    case AtlasUploads::Direct: return "direct";
-    case AtlasUploads::Staged: return "staged";
-  }
-  return "auto";
+  return common::parseName<AtlasUploads, RenderInputError>(text, "atlas uploads");
 }
 
 AtlasBricking parseAtlasBricking(const std::string& text) {
-  if (text == "single") return AtlasBricking::Single;
-  if (text == "multi-oriented") return AtlasBricking::MultiOriented;
-  throw RenderInputError("atlas bricking '" + text + "' is not single or multi-oriented");
-}
-
-const char* atlasBrickingName(AtlasBricking bricking) {
-  return bricking == AtlasBricking::MultiOriented ? "multi-oriented" : "single";
+  return common::parseName<AtlasBricking, RenderInputError>(text, "atlas bricking");
 }
 
 int brickOrientation(AtlasBricking bricking, const store::BrickKey& key) {

@@ -1,11 +1,13 @@
 // How the GPU atlas stores samples: a choice made by users and configuration, so GL-free.
 #pragma once
 
+#include <span>
 #include <string>
 
 #include <glm/glm.hpp>
 
-#include "brickstore/Types.h"
+#include "brickstore/format/Types.h"
+#include "common/EnumNames.h"
 
 namespace voxbrick::render {
 
@@ -13,6 +15,9 @@ namespace voxbrick::render {
 /// keeps the store's type (8/16-bit normalised, 32-bit float), a quarter or half the memory for integer stores,
 /// but llvmpipe filters 8-bit textures in 8-bit fixed point; Half is 16-bit float for any store.
 enum class AtlasFormat { Float, Native, Half };
+inline constexpr common::EnumName<AtlasFormat> kAtlasFormatNames[] = {
+    {AtlasFormat::Float, "float"}, {AtlasFormat::Native, "native"}, {AtlasFormat::Half, "half"}};
+constexpr std::span<const common::EnumName<AtlasFormat>> enumNames(AtlasFormat) { return kAtlasFormatNames; }
 
 /// "float", "native", "half"; throws RenderInputError for anything else.
 AtlasFormat parseAtlasFormat(const std::string& text);
@@ -23,11 +28,14 @@ AtlasFormat parseAtlasFormat(const std::string& text);
 /// once its fence has passed). Auto: Staged on a GPU, Direct on a software rasteriser, whose texture is host memory
 /// and where staging only adds a copy (nothing to overlap it with).
 enum class AtlasUploads { Auto, Direct, Staged };
+inline constexpr common::EnumName<AtlasUploads> kAtlasUploadsNames[] = {
+    {AtlasUploads::Auto, "auto"}, {AtlasUploads::Direct, "direct"}, {AtlasUploads::Staged, "staged"}};
+constexpr std::span<const common::EnumName<AtlasUploads>> enumNames(AtlasUploads) { return kAtlasUploadsNames; }
 
 /// "auto", "direct", "staged"; throws RenderInputError for anything else.
 AtlasUploads parseAtlasUploads(const std::string& text);
 /// The name parseAtlasUploads reads.
-const char* atlasUploadsName(AtlasUploads uploads);
+inline const char* atlasUploadsName(AtlasUploads uploads) { return common::nameOf(uploads); }
 
 /// How bricks lie in the atlas (Weiskopf, Weiler & Ertl: multi-oriented bricking). Single: every brick in the
 /// volume's axis order (x fastest). MultiOriented: brick (i, j, k) is stored with its axes rotated by
@@ -35,11 +43,14 @@ const char* atlasUploadsName(AtlasUploads uploads);
 /// texture cache that favours one walking direction sees all three in any view. Sampling accounts for each
 /// brick's rotation (volume_sample.glsl, MULTI_ORIENTED); the images are the same.
 enum class AtlasBricking { Single, MultiOriented };
+inline constexpr common::EnumName<AtlasBricking> kAtlasBrickingNames[] = {
+    {AtlasBricking::Single, "single"}, {AtlasBricking::MultiOriented, "multi-oriented"}};
+constexpr std::span<const common::EnumName<AtlasBricking>> enumNames(AtlasBricking) { return kAtlasBrickingNames; }
 
 /// "single", "multi-oriented"; throws RenderInputError for anything else.
 AtlasBricking parseAtlasBricking(const std::string& text);
 /// The name parseAtlasBricking reads.
-const char* atlasBrickingName(AtlasBricking bricking);
+inline const char* atlasBrickingName(AtlasBricking bricking) { return common::nameOf(bricking); }
 
 /// The axis rotation brick `key` is stored with: 0 under Single; (i + j + k) mod 3 under MultiOriented, so that
 /// neighbours along every axis differ.

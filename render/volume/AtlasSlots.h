@@ -6,7 +6,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "brickstore/Types.h"
+#include "brickstore/format/Types.h"
 
 namespace voxbrick::render {
 

@@ -3,12 +3,14 @@
 
 #include <nlohmann/json.hpp>
 
+#include "brickstore/read/OpenAnyStore.h"
+
 namespace voxbrick::render {
 
 BrickStoreDataset::BrickStoreDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes,
                                      int decodeThreads, const store::StoreOpenOptions& options)
     : Dataset(std::move(name), path),
-      mStore(store::BrickStore::openAny(path, options)),
+      mStore(store::openAnyStore(path, options)),
       mCache(std::make_shared<store::BrickCache>(mStore, cacheBytes, decodeThreads)) {}
 
 std::string BrickStoreDataset::infoJson() const {

@@ -6,8 +6,8 @@
 #include <memory>
 #include <string>
 
-#include "brickstore/BrickCache.h"
-#include "brickstore/BrickStore.h"
+#include "brickstore/read/BrickCache.h"
+#include "brickstore/read/BrickStore.h"
 #include "render/core/Dataset.h"
 #include "render/core/WorldFrame.h"
 
@@ -16,7 +16,7 @@ namespace voxbrick::render {
 /// A brick store (a prepped directory, or a .vdb read live) and its bounded host cache.
 class BrickStoreDataset final : public Dataset {
  public:
-  /// Opens the store at `path` (store::BrickStore::openAny: a .vdb file is read live with `options`) with a host
+  /// Opens the store at `path` (store::openAnyStore: a .vdb file is read live with `options`) with a host
   /// cache of `cacheBytes` and `decodeThreads` prefetch workers; throws the store's errors (InputError,
   /// CorruptStoreError, IoError) naming the problem.
   BrickStoreDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes, int decodeThreads = 2,

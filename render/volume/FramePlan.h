@@ -10,7 +10,7 @@
 
 #include <glm/glm.hpp>
 
-#include "brickstore/BrickStore.h"
+#include "brickstore/read/BrickStore.h"
 #include "render/core/Camera.h"
 #include "render/core/PartialFrame.h"
 #include "render/core/PixelRays.h"

@@ -7,7 +7,7 @@
 
 #include <glm/glm.hpp>
 
-#include "brickstore/BrickStore.h"
+#include "brickstore/read/BrickStore.h"
 #include "render/core/PartialFrame.h"
 #include "render/core/Scene.h"
 

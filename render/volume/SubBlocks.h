@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "brickstore/BrickCache.h"
-#include "brickstore/Types.h"
+#include "brickstore/format/Types.h"
+#include "brickstore/read/BrickCache.h"
 #include "render/core/Camera.h"
 #include "render/volume/Traversal.h"
 

@@ -5,8 +5,8 @@
 #include <functional>
 #include <vector>
 
-#include "brickstore/MinMaxOctree.h"
-#include "brickstore/Types.h"
+#include "brickstore/format/Types.h"
+#include "brickstore/read/MinMaxOctree.h"
 #include "render/core/Camera.h"
 
 namespace voxbrick::render {

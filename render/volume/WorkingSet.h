@@ -7,7 +7,7 @@
 #include <functional>
 #include <vector>
 
-#include "brickstore/MinMaxOctree.h"
+#include "brickstore/read/MinMaxOctree.h"
 #include "render/volume/Traversal.h"
 
 namespace voxbrick::render {

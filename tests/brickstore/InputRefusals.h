@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "brickstore/Errors.h"
-#include "brickstore/Sources.h"
+#include "brickstore/format/Errors.h"
+#include "brickstore/ingest/Sources.h"
 
 namespace voxbrick::test {
 

@@ -14,11 +14,11 @@
 #include <unordered_map>
 #include <vector>
 
-#include "brickstore/BrickCache.h"
-#include "brickstore/BrickStore.h"
-#include "brickstore/Errors.h"
-#include "brickstore/StoreWriter.h"
-#include "brickstore/VolumeSource.h"
+#include "brickstore/format/Errors.h"
+#include "brickstore/prep/StoreWriter.h"
+#include "brickstore/read/BrickCache.h"
+#include "brickstore/read/BrickStore.h"
+#include "brickstore/source/VolumeSource.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::store {

@@ -13,7 +13,7 @@
 
 #include "InputRefusals.h"
 #include "MeasuredRun.h"
-#include "brickstore/Sources.h"
+#include "brickstore/ingest/Sources.h"
 #include "support/DicomSeries.h"
 #include "support/TestSupport.h"
 

@@ -17,8 +17,8 @@
 #include <vector>
 
 #include "InputRefusals.h"
-#include "brickstore/Errors.h"
-#include "brickstore/Sources.h"
+#include "brickstore/format/Errors.h"
+#include "brickstore/ingest/Sources.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick {

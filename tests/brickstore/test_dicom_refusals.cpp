@@ -12,9 +12,9 @@
 
 #include "InputRefusals.h"
 #include "MeasuredRun.h"
-#include "brickstore/DicomStructure.h"
-#include "brickstore/Errors.h"
-#include "brickstore/Sources.h"
+#include "brickstore/format/Errors.h"
+#include "brickstore/ingest/Sources.h"
+#include "brickstore/ingest/dicom/DicomStructure.h"
 #include "support/DicomSeries.h"
 #include "support/TestSupport.h"
 

@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
-#include "brickstore/LevelSources.h"
-#include "brickstore/Sources.h"
-#include "brickstore/StoreWriter.h"
+#include "brickstore/ingest/Sources.h"
+#include "brickstore/prep/LevelSources.h"
+#include "brickstore/prep/StoreWriter.h"
 #include "support/ArraySource.h"
 #include "support/TestSupport.h"
 

@@ -4,7 +4,7 @@
 #include <cstddef>
 #include <cstring>
 
-#include "brickstore/StoreFormat.h"
+#include "brickstore/format/StoreFormat.h"
 
 namespace voxbrick::store {
 namespace {

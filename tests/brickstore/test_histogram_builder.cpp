@@ -6,7 +6,7 @@
 #include <random>
 #include <vector>
 
-#include "brickstore/HistogramBuilder.h"
+#include "brickstore/format/HistogramBuilder.h"
 
 namespace voxbrick::store {
 namespace {

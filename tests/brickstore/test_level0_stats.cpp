@@ -9,8 +9,8 @@
 #include <random>
 #include <vector>
 
-#include "brickstore/Errors.h"
-#include "brickstore/Level0Stats.h"
+#include "brickstore/format/Errors.h"
+#include "brickstore/prep/Level0Stats.h"
 
 namespace voxbrick::store {
 namespace {

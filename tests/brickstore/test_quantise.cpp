@@ -6,11 +6,11 @@
 #include <limits>
 #include <vector>
 
-#include "brickstore/BrickStore.h"
-#include "brickstore/Errors.h"
-#include "brickstore/Quantise.h"
-#include "brickstore/Sources.h"
-#include "brickstore/StoreWriter.h"
+#include "brickstore/format/Errors.h"
+#include "brickstore/format/Quantise.h"
+#include "brickstore/ingest/Sources.h"
+#include "brickstore/prep/StoreWriter.h"
+#include "brickstore/read/BrickStore.h"
 #include "support/ArraySource.h"
 #include "support/TestSupport.h"
 

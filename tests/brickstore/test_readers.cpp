@@ -15,9 +15,9 @@
 #include <type_traits>
 #include <vector>
 
-#include "brickstore/Errors.h"
-#include "brickstore/Orientation.h"
-#include "brickstore/Sources.h"
+#include "brickstore/format/Errors.h"
+#include "brickstore/format/Orientation.h"
+#include "brickstore/ingest/Sources.h"
 #include "support/TestSupport.h"
 
 namespace {

@@ -7,7 +7,7 @@
 #include <random>
 #include <vector>
 
-#include "brickstore/SlabBricker.h"
+#include "brickstore/prep/SlabBricker.h"
 
 namespace voxbrick::store {
 namespace {

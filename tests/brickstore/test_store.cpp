@@ -10,10 +10,10 @@
 #include <fstream>
 #include <thread>
 
-#include "brickstore/BrickStore.h"
-#include "brickstore/Errors.h"
-#include "brickstore/LevelSources.h"
-#include "brickstore/StoreWriter.h"
+#include "brickstore/format/Errors.h"
+#include "brickstore/prep/LevelSources.h"
+#include "brickstore/prep/StoreWriter.h"
+#include "brickstore/read/BrickStore.h"
 #include "support/ArraySource.h"
 #include "support/TestSupport.h"
 
@@ -44,7 +44,7 @@ struct Dense {
           for (int dz = 0; dz < 2; ++dz)
             for (int dy = 0; dy < 2; ++dy)
               for (int dx = 0; dx < 2; ++dx) sum += double(at(2 * x + dx, 2 * y + dy, 2 * z + dz));
-          d.v[size_t(x + d.n.x * (y + d.n.y * z))] = DownsampleSource::average<T>(sum);
+          d.v[size_t(x + d.n.x * (y + d.n.y * z))] = downsampleAverage<T>(sum);
         }
     return d;
   }

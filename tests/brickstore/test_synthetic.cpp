@@ -6,9 +6,9 @@
 #include <cmath>
 #include <vector>
 
-#include "brickstore/Errors.h"
-#include "brickstore/Sources.h"
-#include "brickstore/SyntheticField.h"
+#include "brickstore/format/Errors.h"
+#include "brickstore/ingest/Sources.h"
+#include "brickstore/ingest/synthetic/SyntheticField.h"
 
 namespace voxbrick::store {
 namespace {

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "brickstore/BrickStore.h"
-#include "brickstore/StoreWriter.h"
-#include "brickstore/VdbStore.h"
+#include "brickstore/prep/StoreWriter.h"
+#include "brickstore/read/BrickStore.h"
+#include "brickstore/read/VdbStore.h"
 #include "support/ArraySource.h"
 #include "support/TestSupport.h"
 

@@ -15,7 +15,7 @@
 #include <openvdb/tools/Dense.h>
 #include <openvdb/tools/Prune.h>
 
-#include "brickstore/VdbLeafChunk.h"
+#include "brickstore/vdb/VdbLeafChunk.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::store {

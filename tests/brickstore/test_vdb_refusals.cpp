@@ -11,8 +11,8 @@
 
 #include "InputRefusals.h"
 #include "MeasuredRun.h"
-#include "brickstore/Errors.h"
-#include "brickstore/VdbStore.h"
+#include "brickstore/format/Errors.h"
+#include "brickstore/read/VdbStore.h"
 #include "support/TestSupport.h"
 #include "support/VdbGrids.h"
 

@@ -9,8 +9,8 @@
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
 
-#include "brickstore/Errors.h"
-#include "brickstore/Sources.h"
+#include "brickstore/format/Errors.h"
+#include "brickstore/ingest/Sources.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::store {

@@ -9,9 +9,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "brickstore/BrickCache.h"
-#include "brickstore/Errors.h"
-#include "brickstore/VdbStore.h"
+#include "brickstore/format/Errors.h"
+#include "brickstore/read/BrickCache.h"
+#include "brickstore/read/OpenAnyStore.h"
+#include "brickstore/read/VdbStore.h"
 #include "support/LiveStores.h"
 #include "support/TestSupport.h"
 #include "support/VdbGrids.h"
@@ -209,19 +210,19 @@ TEST(VdbStore, EmptyBricksAreKnownFromTheTopologyAndNeverRead) {
 TEST(VdbStore, OpensByFormWithGridAndBrickOptions) {
   ScratchDir dir;
   test::writeVdb(dir / "two.vdb", {test::denseGrid("first"), test::sparseGrid("second")});
-  const auto byDefault = BrickStore::openAny(dir / "two.vdb");
+  const auto byDefault = openAnyStore(dir / "two.vdb");
   EXPECT_EQ(byDefault->backing(), StoreBacking::VdbFile);
   EXPECT_NE(byDefault->meta().source.find("'first'"), std::string::npos);
   EXPECT_EQ(byDefault->brickSize(), 32);
-  const auto named = BrickStore::openAny(dir / "two.vdb", {"second", 8});
+  const auto named = openAnyStore(dir / "two.vdb", {"second", 8});
   EXPECT_NE(named->meta().source.find("'second'"), std::string::npos);
   EXPECT_EQ(named->brickSize(), 8);
   EXPECT_EQ(named->meta().background, 0.25);
 
   auto prepped = prepOf(dir / "two.vdb", dir / "store", 16);
-  EXPECT_EQ(BrickStore::openAny(dir / "store")->backing(), StoreBacking::Directory);
-  EXPECT_THROW(BrickStore::openAny(dir / "store", {"second", 32}), InputError);
-  EXPECT_THROW(BrickStore::openAny(dir / "store", {"", 16}), InputError);
+  EXPECT_EQ(openAnyStore(dir / "store")->backing(), StoreBacking::Directory);
+  EXPECT_THROW(openAnyStore(dir / "store", {"second", 32}), InputError);
+  EXPECT_THROW(openAnyStore(dir / "store", {"", 16}), InputError);
 }
 
 /// The message of the InputError opening `path` throws.

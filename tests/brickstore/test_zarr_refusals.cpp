@@ -7,9 +7,9 @@
 #include <functional>
 #include <string>
 
-#include "brickstore/BrickStore.h"
-#include "brickstore/Errors.h"
-#include "brickstore/ZarrStore.h"
+#include "brickstore/format/Errors.h"
+#include "brickstore/read/BrickStore.h"
+#include "brickstore/read/ZarrStore.h"
 #include "support/TestSupport.h"
 #include "support/ZarrFixtures.h"
 

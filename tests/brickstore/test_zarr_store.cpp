@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "brickstore/BrickCache.h"
-#include "brickstore/Errors.h"
-#include "brickstore/ZarrStore.h"
+#include "brickstore/format/Errors.h"
+#include "brickstore/read/BrickCache.h"
+#include "brickstore/read/ZarrStore.h"
 #include "support/LiveStores.h"
 #include "support/TestSupport.h"
 #include "support/ZarrFixtures.h"

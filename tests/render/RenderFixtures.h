@@ -13,9 +13,10 @@
 #include <string>
 #include <vector>
 
-#include "brickstore/BrickCache.h"
-#include "brickstore/BrickStore.h"
-#include "brickstore/StoreWriter.h"
+#include "brickstore/ingest/Sources.h"
+#include "brickstore/prep/StoreWriter.h"
+#include "brickstore/read/BrickCache.h"
+#include "brickstore/read/BrickStore.h"
 #include "image/Image.h"
 #include "render/core/TransferFunction.h"
 #include "render/reference/Compositing.h"

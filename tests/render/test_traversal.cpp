@@ -10,7 +10,7 @@
 #include <tuple>
 #include <vector>
 
-#include "brickstore/MinMaxOctree.h"
+#include "brickstore/read/MinMaxOctree.h"
 #include "render/core/Camera.h"
 #include "render/core/RenderErrors.h"
 #include "render/core/TransferFunction.h"

@@ -6,8 +6,8 @@
 #include <stdexcept>
 #include <vector>
 
-#include "brickstore/Errors.h"
-#include "brickstore/VolumeSource.h"
+#include "brickstore/format/Errors.h"
+#include "brickstore/source/VolumeSource.h"
 
 namespace voxbrick::test {
 

@@ -10,9 +10,10 @@
 #include <memory>
 #include <vector>
 
-#include "brickstore/BrickCache.h"
-#include "brickstore/BrickStore.h"
-#include "brickstore/StoreWriter.h"
+#include "brickstore/ingest/Sources.h"
+#include "brickstore/prep/StoreWriter.h"
+#include "brickstore/read/BrickCache.h"
+#include "brickstore/read/BrickStore.h"
 
 namespace voxbrick::test {
 

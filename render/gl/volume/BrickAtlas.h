@@ -8,7 +8,7 @@
 
 #include <glm/glm.hpp>
 
-#include "brickstore/BrickCache.h"
+#include "brickstore/read/BrickCache.h"
 #include "render/gl/GlContext.h"
 #include "render/gl/GlObjects.h"
 #include "render/gl/UploadRing.h"

@@ -6,7 +6,7 @@
 #include <optional>
 #include <vector>
 
-#include "brickstore/BrickCache.h"
+#include "brickstore/read/BrickCache.h"
 #include "render/core/FrameStats.h"
 #include "render/gl/volume/BrickAtlas.h"
 #include "render/volume/SubBlocks.h"

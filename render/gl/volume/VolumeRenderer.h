@@ -5,7 +5,7 @@
 
 #include <memory>
 
-#include "brickstore/BrickCache.h"
+#include "brickstore/read/BrickCache.h"
 #include "render/core/FrameRenderer.h"
 #include "render/gl/Compositor.h"
 #include "render/gl/GlContext.h"

@@ -5,7 +5,7 @@
 
 #include <fstream>
 
-#include "brickstore/Errors.h"
+#include "brickstore/format/Errors.h"
 #include "render/core/Dataset.h"
 #include "render/core/RenderErrors.h"
 #include "render/engine/Datasets.h"

@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <string>
 
-#include "brickstore/Sources.h"
+#include "brickstore/ingest/Sources.h"
 #include "image/Image.h"
 #include "render/gl/GlFixtures.h"
 #include "support/TestSupport.h"

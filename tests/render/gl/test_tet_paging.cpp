@@ -8,7 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "brickstore/Errors.h"
+#include "brickstore/format/Errors.h"
 #include "image/Image.h"
 #include "mesh/MeshFormat.h"
 #include "mesh/MeshStore.h"

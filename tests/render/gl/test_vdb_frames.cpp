@@ -5,7 +5,7 @@
 #include <set>
 #include <string>
 
-#include "brickstore/VdbStore.h"
+#include "brickstore/read/VdbStore.h"
 #include "image/Image.h"
 #include "render/gl/GlFixtures.h"
 #include "support/TestSupport.h"

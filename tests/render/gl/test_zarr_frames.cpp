@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "brickstore/ZarrStore.h"
+#include "brickstore/read/ZarrStore.h"
 #include "image/Image.h"
 #include "render/gl/GlFixtures.h"
 #include "support/TestSupport.h"
