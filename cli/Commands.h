@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <string>
 
+#include "common/Units.h"
+
 namespace voxbrick::cli {
 
 /// Adds `prep` to the app.
@@ -60,8 +62,7 @@ std::string provisionalPath(const std::string& output);
 /// Parses "WIDTHxHEIGHT" into two integers; throws store::InputError naming the option.
 void parseSize(const std::string& text, const std::string& option, int& width, int& height);
 
-/// Formats a byte count as "12.3 MB".
-std::string formatBytes(double bytes);
+using common::formatBytes;  ///< "12.3 MB"
 
 /// For `render`, `serve` and `bench`: keeps freed memory of up to 32 MB a block (frames, read-backs, bricks) in the
 /// process for the next frame instead of returning it to the system (cli/Allocator.cpp says why).

@@ -36,15 +36,6 @@ void parseTriple(const std::string& text, const std::string& option, T out[3], c
 template void parseTriple<int64_t>(const std::string&, const std::string&, int64_t[3], const std::string&);
 template void parseTriple<double>(const std::string&, const std::string&, double[3], const std::string&);
 
-std::string formatBytes(double bytes) {
-  const char* units[] = {"B", "KB", "MB", "GB", "TB"};
-  int u = 0;
-  while (bytes >= 1000 && u < 4) bytes /= 1000, ++u;
-  char text[32];
-  std::snprintf(text, sizeof text, u == 0 ? "%.0f %s" : "%.1f %s", bytes, units[u]);
-  return text;
-}
-
 void parseSize(const std::string& text, const std::string& option, int& width, int& height) {
   char extra = 0;
   if (std::sscanf(text.c_str(), "%dx%d%c", &width, &height, &extra) != 2)

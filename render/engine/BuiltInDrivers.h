@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -14,6 +15,9 @@ namespace voxbrick::render {
 std::shared_ptr<const DatasetDriver> gridDriver();
 /// Tetrahedral mesh stores (TetMeshDataset).
 std::shared_ptr<const DatasetDriver> meshDriver();
+
+/// `voxbrick info` of a brick store (GridInfo.cpp).
+DatasetReport describeGrid(const std::filesystem::path& path, const store::StoreOpenOptions& options);
 
 /// printf into a string, for the drivers' summary lines.
 template <typename... Values>

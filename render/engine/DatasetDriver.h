@@ -57,6 +57,12 @@ class SortLastParts {
   virtual std::vector<int> frontToBack(const Scene& scene) const = 0;
 };
 
+/// `voxbrick info` of a dataset: what it holds, for people and as JSON.
+struct DatasetReport {
+  std::string text;     ///< lines, each ending in a newline
+  nlohmann::json json;  ///< one object, with at least "path" and "kind"
+};
+
 class DatasetDriver {
  public:
   virtual ~DatasetDriver() = default;
@@ -72,6 +78,10 @@ class DatasetDriver {
   /// store's opening options (a .vdb's grid and brick size, an OME-Zarr's time point and channel).
   virtual std::shared_ptr<const Dataset> open(std::string name, const std::filesystem::path& path, size_t cacheBytes,
                                               const store::StoreOpenOptions& options) const = 0;
+
+  /// What the dataset at `path` (recognised, or for the brick store kind any path no kind recognises: its errors say
+  /// what a store directory lacks) holds, opened with `options` as by open. Default: its path and kind.
+  virtual DatasetReport describe(const std::filesystem::path& path, const store::StoreOpenOptions& options) const;
 
   /// The GPU bytes a new renderer of `dataset` would hold under the engine's whole budget (what the engine makes
   /// room for by releasing others).

@@ -6,6 +6,7 @@
 #include "brickstore/format/Errors.h"
 #include "brickstore/format/InputErrors.h"
 #include "render/engine/DatasetDriver.h"
+#include "render/volume/BrickStoreDataset.h"
 
 namespace voxbrick::render {
 
@@ -24,6 +25,13 @@ std::shared_ptr<const Dataset> openDataset(std::string name, const std::filesyst
     throw store::InputError(path.string() +
                             ": not a dataset (no store.json, not a .vdb file, not an OME-Zarr, not a mesh store)");
   return driver->open(std::move(name), path, cacheBytes, options);
+}
+
+DatasetReport describeDataset(const std::filesystem::path& path, const store::StoreOpenOptions& options) {
+  store::requirePath(path);
+  const DatasetDriver* driver = driverOfPath(path);
+  if (!driver) driver = findDriver(BrickStoreDataset::kKind);
+  return driver->describe(path, options);
 }
 
 }  // namespace voxbrick::render

@@ -9,6 +9,7 @@
 
 #include "brickstore/read/BrickStore.h"
 #include "render/core/Dataset.h"
+#include "render/engine/DatasetDriver.h"
 
 namespace voxbrick::render {
 
@@ -30,5 +31,9 @@ std::vector<std::filesystem::path> datasetFiles(const std::filesystem::path& pat
 /// own errors (mesh::MeshError for a corrupt mesh store) when it cannot be opened.
 std::shared_ptr<const Dataset> openDataset(std::string name, const std::filesystem::path& path, size_t cacheBytes,
                                            const store::StoreOpenOptions& options = {});
+
+/// `voxbrick info` of the dataset at `path` (DatasetDriver::describe of the kind that recognises it; a path none
+/// recognises is described as a brick store, whose errors name what a store directory lacks).
+DatasetReport describeDataset(const std::filesystem::path& path, const store::StoreOpenOptions& options = {});
 
 }  // namespace voxbrick::render

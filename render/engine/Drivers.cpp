@@ -31,6 +31,11 @@ void DatasetDriver::prefetch(const Dataset&, const Scene&, const FrameRenderer*)
 
 void DatasetDriver::checkSubBlock(const Dataset&, int) const {}
 
+DatasetReport DatasetDriver::describe(const std::filesystem::path& path, const store::StoreOpenOptions&) const {
+  return {path.string() + ": a dataset of kind " + std::string(kind()) + "\n",
+          {{"path", path.string()}, {"kind", std::string(kind())}}};
+}
+
 std::shared_ptr<const SortLastParts> DatasetDriver::partition(const Dataset& dataset, int) const {
   throw RenderInputError("the distributed mode cannot split '" + dataset.name() + "', a " + std::string(kind()) +
                          ", into parts");

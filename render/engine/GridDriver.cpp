@@ -44,6 +44,11 @@ class GridDriver final : public DatasetDriver {
     return std::filesystem::is_regular_file(path / "store.json", ec) || store::isVdbFile(path) ||
            store::isZarrDirectory(path);
   }
+  DatasetReport describe(const std::filesystem::path& path, const store::StoreOpenOptions& options) const override {
+    DatasetReport report = describeGrid(path, options);
+    report.json["kind"] = std::string(BrickStoreDataset::kKind);
+    return report;
+  }
   std::vector<std::filesystem::path> files(const std::filesystem::path& path) const override {
     // An OME-Zarr's identity is its metadata (a rewrite of the chunks alone is not seen; reopen it by name).
     if (store::isZarrDirectory(path)) return {path / ".zattrs", path / ".zgroup"};

@@ -23,6 +23,25 @@ class MeshDriver final : public DatasetDriver {
   std::vector<std::filesystem::path> files(const std::filesystem::path& path) const override {
     return {path / mesh::kMeshMetaFile, path / mesh::kMeshIndexFile, path / mesh::kMeshDataFile};
   }
+  DatasetReport describe(const std::filesystem::path& path, const store::StoreOpenOptions&) const override {
+    const mesh::MeshStore s = mesh::MeshStore::open(path);
+    const mesh::MeshStoreInfo& i = s.info();
+    return {mesh::describeMeshStore(s),
+            {{"path", path.string()},
+             {"kind", std::string(TetMeshDataset::kKind)},
+             {"source", i.source},
+             {"field", i.field},
+             {"points", i.vertexCount},
+             {"tets", i.tetCount},
+             {"boundary_faces", i.boundaryFaceCount},
+             {"chunks", i.chunkCount},
+             {"tets_per_chunk", i.tetsPerChunk},
+             {"bounds",
+              {{i.boundsMin.x, i.boundsMin.y, i.boundsMin.z}, {i.boundsMax.x, i.boundsMax.y, i.boundsMax.z}}},
+             {"value_range", {i.scalarMin, i.scalarMax}},
+             {"bytes_raw", i.bytesRaw},
+             {"bytes_stored", i.bytesStored}}};
+  }
   std::shared_ptr<const Dataset> open(std::string name, const std::filesystem::path& path, size_t cacheBytes,
                                       const store::StoreOpenOptions&) const override {
     // A mesh that fits the host budget whole is read and checked once, here; a larger one is paged by view: its

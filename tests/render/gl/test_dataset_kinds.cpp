@@ -118,6 +118,11 @@ TEST(DatasetKinds, AKindAddedAtRunTimeIsOpenedDrawnJudgedAndSummarised) {
   EXPECT_EQ(datasetFiles(dir / "t"), std::vector<std::filesystem::path>{dir / "t" / "toy.txt"});
   const auto dataset = openDataset("t", dir / "t", size_t(1) << 20);
   EXPECT_EQ(dataset->kind(), "toy");
+  // `voxbrick info` of it: the default report names its path and kind.
+  const DatasetReport report = describeDataset(dir / "t");
+  EXPECT_EQ(report.json["kind"], "toy");
+  EXPECT_EQ(report.json["path"], (dir / "t").string());
+  EXPECT_NE(report.text.find("toy"), std::string::npos) << report.text;
 
   RenderEngine engine(RenderEngineOptions{});
   FrameStats stats;
@@ -171,6 +176,19 @@ TEST(DatasetKinds, TheBuiltInKindsAnswerThroughTheirDrivers) {
   const auto tets = openDataset("mesh", dir / "mesh", size_t(64) << 20);
   EXPECT_EQ(grid->kind(), "brick-store");
   EXPECT_EQ(tets->kind(), "tet-mesh");
+  // `voxbrick info`: each kind's own report, and a path no kind recognises described as a store that lacks its files.
+  EXPECT_EQ(describeDataset(dir / "grid.vbs").json["kind"], "brick-store");
+  EXPECT_EQ(describeDataset(dir / "grid.vbs").json["dims"], (nlohmann::json{32, 32, 32}));
+  EXPECT_EQ(describeDataset(dir / "mesh").json["kind"], "tet-mesh");
+  EXPECT_EQ(describeDataset(dir / "mesh").json["tets"], 3 * 3 * 3 * 6);
+  EXPECT_NE(describeDataset(dir / "mesh").text.find("mesh store"), std::string::npos);
+  std::filesystem::create_directories(dir / "half");
+  try {
+    describeDataset(dir / "half");
+    FAIL() << "an empty directory was described";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("store.json"), std::string::npos) << e.what();
+  }
   EXPECT_EQ(datasetFiles(dir / "grid.vbs"),
             (std::vector<std::filesystem::path>{dir / "grid.vbs" / "store.json", dir / "grid.vbs" / "bricks.bin"}));
 
