@@ -60,7 +60,7 @@ class SortLastParts {
 /// `voxbrick info` of a dataset: what it holds, for people and as JSON.
 struct DatasetReport {
   std::string text;     ///< lines, each ending in a newline
-  nlohmann::json json;  ///< one object, with at least "path" and "kind"
+  nlohmann::json json;  ///< one object; describeDataset adds "path" and "kind"
 };
 
 class DatasetDriver {
@@ -80,7 +80,7 @@ class DatasetDriver {
                                               const store::StoreOpenOptions& options) const = 0;
 
   /// What the dataset at `path` (recognised, or for the brick store kind any path no kind recognises: its errors say
-  /// what a store directory lacks) holds, opened with `options` as by open. Default: its path and kind.
+  /// what a store directory lacks) holds, opened with `options` as by open. Default: a line naming its path and kind.
   virtual DatasetReport describe(const std::filesystem::path& path, const store::StoreOpenOptions& options) const;
 
   /// The GPU bytes a new renderer of `dataset` would hold under the engine's whole budget (what the engine makes

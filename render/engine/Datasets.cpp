@@ -31,7 +31,10 @@ DatasetReport describeDataset(const std::filesystem::path& path, const store::St
   store::requirePath(path);
   const DatasetDriver* driver = driverOfPath(path);
   if (!driver) driver = findDriver(BrickStoreDataset::kKind);
-  return driver->describe(path, options);
+  DatasetReport report = driver->describe(path, options);
+  report.json["path"] = path.string();
+  report.json["kind"] = std::string(driver->kind());
+  return report;
 }
 
 }  // namespace voxbrick::render

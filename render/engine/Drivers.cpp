@@ -32,8 +32,7 @@ void DatasetDriver::prefetch(const Dataset&, const Scene&, const FrameRenderer*)
 void DatasetDriver::checkSubBlock(const Dataset&, int) const {}
 
 DatasetReport DatasetDriver::describe(const std::filesystem::path& path, const store::StoreOpenOptions&) const {
-  return {path.string() + ": a dataset of kind " + std::string(kind()) + "\n",
-          {{"path", path.string()}, {"kind", std::string(kind())}}};
+  return {path.string() + ": a dataset of kind " + std::string(kind()) + "\n", nlohmann::json::object()};
 }
 
 std::shared_ptr<const SortLastParts> DatasetDriver::partition(const Dataset& dataset, int) const {

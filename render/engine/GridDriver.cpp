@@ -45,9 +45,7 @@ class GridDriver final : public DatasetDriver {
            store::isZarrDirectory(path);
   }
   DatasetReport describe(const std::filesystem::path& path, const store::StoreOpenOptions& options) const override {
-    DatasetReport report = describeGrid(path, options);
-    report.json["kind"] = std::string(BrickStoreDataset::kKind);
-    return report;
+    return describeGrid(path, options);
   }
   std::vector<std::filesystem::path> files(const std::filesystem::path& path) const override {
     // An OME-Zarr's identity is its metadata (a rewrite of the chunks alone is not seen; reopen it by name).

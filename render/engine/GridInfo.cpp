@@ -47,11 +47,10 @@ StoreSummary summarise(const store::StoreMeta& m) {
 }
 
 /// The JSON of a brick store: its store.json with the summary, orientation and a live .vdb's open statistics.
-nlohmann::json storeJson(const std::string& path, const store::BrickStore& s, const store::VdbStore* live) {
+nlohmann::json storeJson(const store::BrickStore& s, const store::VdbStore* live) {
   const store::StoreMeta& m = s.meta();
   const StoreSummary summary = summarise(m);
   nlohmann::json j = nlohmann::json::parse(m.toJson());
-  j["path"] = path;
   j["empty_fraction"] = summary.emptyFraction;
   j["compression_ratio"] = summary.ratio;
   j["octree_depth"] = s.octree().depth();
@@ -159,7 +158,7 @@ DatasetReport describeGrid(const std::filesystem::path& path, const store::Store
   const auto* live = dynamic_cast<const store::VdbStore*>(s.get());
   const auto* zarr = dynamic_cast<const store::ZarrStore*>(s.get());
   DatasetReport report;
-  report.json = storeJson(path.string(), *s, live);
+  report.json = storeJson(*s, live);
   report.text = storeHeader(path.string(), s->meta(),
                             live ? " (OpenVDB file, read live)" : zarr ? " (OME-Zarr, read live)" : "") +
                 storeLevels(*s, live, zarr != nullptr) + (zarr ? zarrOpen(*zarr) : std::string());

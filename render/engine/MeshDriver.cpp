@@ -27,9 +27,7 @@ class MeshDriver final : public DatasetDriver {
     const mesh::MeshStore s = mesh::MeshStore::open(path);
     const mesh::MeshStoreInfo& i = s.info();
     return {mesh::describeMeshStore(s),
-            {{"path", path.string()},
-             {"kind", std::string(TetMeshDataset::kKind)},
-             {"source", i.source},
+            {{"source", i.source},
              {"field", i.field},
              {"points", i.vertexCount},
              {"tets", i.tetCount},
