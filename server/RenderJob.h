@@ -12,6 +12,7 @@
 #include "render/core/Dataset.h"
 #include "render/core/Scene.h"
 #include "render/engine/FrameSource.h"
+#include "server/FrameClass.h"
 
 namespace voxbrick::server {
 
@@ -42,6 +43,13 @@ struct RenderJob {
   /// Not to be drawn before this time: the exact frame of an interactive request waits for the camera to rest.
   std::chrono::steady_clock::time_point notBefore{};
 };
+
+/// The class the scheduler serves `job` in: batch for a scene with "batch", else interactive for a moving camera's
+/// frame (an interactive scene's first drawing), else still (a plain Render, or the exact frame of a resting camera).
+inline FrameClass frameClassOf(const RenderJob& job) {
+  if (job.scene.batch) return FrameClass::Batch;
+  return job.scene.interactive && !job.refinement ? FrameClass::Interactive : FrameClass::Still;
+}
 
 /// The encoding of a Frame answering `job`: the provisional encoding for a provisional Frame (one the exact frame is
 /// to follow), the request's own for an exact one.

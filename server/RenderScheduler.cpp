@@ -147,6 +147,20 @@ size_t RenderScheduler::queuedSessions() const {
   return mTurns.size();
 }
 
+std::array<size_t, kFrameClasses> RenderScheduler::queuedByClass() const {
+  std::array<size_t, kFrameClasses> out{};
+  std::lock_guard lock(mMutex);
+  for (const auto& [sink, jobs] : mWaiting)
+    for (const RenderJob& job : jobs) ++out[size_t(frameClassOf(job))];
+  return out;
+}
+
+std::vector<double> RenderScheduler::deviceBusyMs() const {
+  std::vector<double> out(mGaugeCount);
+  for (size_t i = 0; i < mGaugeCount; ++i) out[i] = mGauges[i].busyMs.load();
+  return out;
+}
+
 void RenderScheduler::stop() {
   std::deque<std::shared_ptr<Sink>> dropped;  // released outside the lock: a session may end with it
   {
@@ -228,11 +242,14 @@ void RenderScheduler::renderLoop(render::FrameSource& source, int index) {
       // Given up between batches when the session has gone, or when a refinement (whose request was answered by its
       // provisional frame) is overtaken by a newer Render of the session.
       const auto cancelled = [&] { return !sink->wantsReplies() || (job.refinement && waiting(*sink)); };
+      const auto started = std::chrono::steady_clock::now();
       RenderReply reply =
           broken ? RenderReply{errorReply(broken, brokenContext), false} : renderReply(source, job, index, cancelled);
       // The session gets its frame first; then the exact frame of a provisional one is queued, and the bricks of
       // the camera a drag would reach next are paged ahead.
       EngineGauge& gauge = mGauges[size_t(index)];
+      gauge.busyMs = gauge.busyMs.load() +
+                     std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count();
       gauge.bytes = source.gpuBytes();
       gauge.peakBytes = source.peakGpuBytes();
       gauge.released = source.renderersReleased();

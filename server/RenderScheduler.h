@@ -3,6 +3,7 @@
 // its own: the local engine, the distributed mode's, or the null source of the tests (render/engine/FrameSource.h).
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <condition_variable>
 #include <deque>
@@ -66,6 +67,10 @@ class RenderScheduler {
   GpuGauges gpu() const;
   /// How many sessions have a job waiting.
   size_t queuedSessions() const;
+  /// Jobs waiting, by the class of each (frameClassOf), indexed by FrameClass.
+  std::array<size_t, kFrameClasses> queuedByClass() const;
+  /// Milliseconds each render thread has spent drawing and encoding since it started, in thread order.
+  std::vector<double> deviceBusyMs() const;
   /// Frames given up part way: their session had gone, or a refinement was overtaken by a newer Render.
   uint64_t cancelled() const { return mCancelled.load(); }
   /// Drops every waiting job, lets each thread finish the frame it is drawing (its reply is still delivered) and
@@ -108,6 +113,7 @@ class RenderScheduler {
   struct EngineGauge {
     std::atomic<size_t> bytes{0}, peakBytes{0};
     std::atomic<uint64_t> released{0};
+    std::atomic<double> busyMs{0};  ///< drawing and encoding, since the thread started
   };
   std::unique_ptr<EngineGauge[]> mGauges;  ///< one per source, written by its thread
   size_t mGaugeCount = 0;

@@ -221,6 +221,10 @@ struct SceneDelivery {
   /// The encoding of a request's provisional frames, by name ("raw", "png", "zstd", "jpeg"; kEncodingNames): the
   /// server maps it to the protocol's encoding. Absent: the request's own encoding.
   std::optional<std::string> provisionalEncoding;
+  /// Work nobody watches as it happens (a script's frames, `voxbrick load --batch`): a server serves it after every
+  /// moving camera's frame and every resting camera's exact frame, from a smaller share of its render time, and
+  /// refuses it with `Busy` first when it is over capacity. No effect on the image.
+  bool batch = false;
 };
 
 /// Everything a frame depends on besides the store: one struct per concern, so that `scene.step` reads as before

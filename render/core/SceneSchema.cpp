@@ -478,6 +478,14 @@ std::vector<SceneKey> buildSchema() {
     k.value = [](const Scene& s) { return s.provisionalEncoding ? json(*s.provisionalEncoding) : json(); };
     k.set = [](Scene& s, const json& v, const SceneSetting&) { s.provisionalEncoding = v.get<std::string>(); };
   }
+  {
+    SceneKey& k = add(keys, "batch", T::Bool, C::Delivery, A::Both,
+                      "work nobody watches as it happens (a script): served after viewers' frames, refused with Busy "
+                      "first");
+    k.option = "--batch", k.flagValue = true;
+    k.example = true;
+    field<&Scene::batch>(k);
+  }
   return keys;
 }
 
