@@ -2,6 +2,7 @@
 // so the encoder and the decoder cannot disagree on the order or the width of a field.
 #include "proto/Messages.h"
 
+#include <algorithm>
 #include <concepts>
 #include <cstdio>
 #include <limits>
@@ -23,7 +24,7 @@ static_assert(kAt<MessageType::Hello, Hello> && kAt<MessageType::Capabilities, C
               std::variant_size_v<Message> == size_t(MessageType::Goodbye));
 
 bool known(Encoding e, uint16_t version) { return encodingInVersion(e, version); }
-bool known(ErrorCode e, uint16_t) { return e >= ErrorCode::BadMagic && e <= ErrorCode::Timeout; }
+bool known(ErrorCode e, uint16_t version) { return errorCodeInVersion(e, version); }
 
 /// Where a field is, for error messages: "names", or "names[3]" for a list item.
 struct Field {
@@ -323,6 +324,35 @@ size_t invalidUtf8At(const uint8_t* p, size_t size) {
   return size;
 }
 
+bool errorCodeInVersion(ErrorCode code, uint16_t version) {
+  if (code == ErrorCode::Busy) return version >= 3;
+  return code >= ErrorCode::BadMagic && code <= ErrorCode::Timeout;
+}
+
+namespace {
+constexpr std::string_view kRetryPrefix = "; retry after ", kRetrySuffix = " ms";
+}  // namespace
+
+std::string busyMessage(std::string_view what, uint32_t retryAfterMs) {
+  return std::string(what) + std::string(kRetryPrefix) + std::to_string(std::max<uint32_t>(retryAfterMs, 1)) +
+         std::string(kRetrySuffix);
+}
+
+std::optional<uint32_t> retryAfterMs(std::string_view message) {
+  if (!message.ends_with(kRetrySuffix)) return std::nullopt;
+  message.remove_suffix(kRetrySuffix.size());
+  const size_t at = message.rfind(kRetryPrefix);
+  if (at == std::string_view::npos) return std::nullopt;
+  const std::string_view digits = message.substr(at + kRetryPrefix.size());
+  if (digits.empty() || digits.size() > 9) return std::nullopt;
+  uint32_t value = 0;
+  for (char c : digits) {
+    if (c < '0' || c > '9') return std::nullopt;
+    value = value * 10 + uint32_t(c - '0');
+  }
+  return value;
+}
+
 const char* errorCodeName(ErrorCode code) {
   switch (code) {
     case ErrorCode::BadMagic: return "BadMagic";
@@ -338,6 +368,7 @@ const char* errorCodeName(ErrorCode code) {
     case ErrorCode::Internal: return "Internal";
     case ErrorCode::ShuttingDown: return "ShuttingDown";
     case ErrorCode::Timeout: return "Timeout";
+    case ErrorCode::Busy: return "Busy";
   }
   return "unknown";
 }

@@ -17,9 +17,10 @@ namespace voxbrick::proto {
 
 /// First four bytes of every message: 'V' 'X' 'B' 'K'.
 constexpr uint32_t kMagic = 0x4B425856;  // read as a little-endian uint32
-/// The versions this code speaks (PROTOCOL.md section 9): version 2 is version 1 plus the jpeg encoding.
+/// The versions this code speaks (PROTOCOL.md section 9): version 2 is version 1 plus the jpeg encoding; version 3
+/// is version 2 plus the error code Busy.
 constexpr uint16_t kMinVersion = 1;
-constexpr uint16_t kMaxVersion = 2;
+constexpr uint16_t kMaxVersion = 3;
 /// Version 1, which every peer speaks: what encode() and Header write unless told otherwise, and the version a
 /// Hello is written in by a client whose lowest version is 1.
 constexpr uint16_t kVersion = kMinVersion;
@@ -57,7 +58,16 @@ enum class ErrorCode : uint16_t {
   Internal = 11,           ///< the server failed (render or store error); other sessions are unaffected
   ShuttingDown = 12,       ///< the server is stopping
   Timeout = 13,            ///< idle or read timeout (the server closes)
+  /// Version 3 on: the server is over capacity for this request or session; the message ends with "; retry after N
+  /// ms" (busyMessage, retryAfterMs). An older session gets LimitExceeded with the same message.
+  Busy = 14,
 };
+/// Whether `code` exists in protocol `version` (Busy from version 3 on).
+bool errorCodeInVersion(ErrorCode code, uint16_t version);
+/// The message of a Busy reply: `what`, then "; retry after N ms" (N = `retryAfterMs`, at least 1).
+std::string busyMessage(std::string_view what, uint32_t retryAfterMs);
+/// The retry hint of a Busy (or LimitExceeded) message: N of its "; retry after N ms" ending; none without one.
+std::optional<uint32_t> retryAfterMs(std::string_view message);
 /// Offset of the first byte of `p` that does not start a well-formed UTF-8 sequence (Unicode Table 3-7: no overlong
 /// forms, no surrogates, nothing above U+10FFFF), or `size` if all are well formed.
 size_t invalidUtf8At(const uint8_t* p, size_t size);

@@ -242,7 +242,12 @@ void Connection::send(const proto::Message& message, uint32_t requestId) {
   if (mClosed) return;
   std::vector<uint8_t> bytes;
   try {
-    bytes = proto::encode(message, requestId, mState.version);
+    // Busy exists from version 3 on: an older session gets LimitExceeded with the same message (and retry hint).
+    if (const auto* error = std::get_if<proto::Error>(&message);
+        error && !proto::errorCodeInVersion(error->code, mState.version))
+      bytes = proto::encode(proto::Error{proto::ErrorCode::LimitExceeded, error->message}, requestId, mState.version);
+    else
+      bytes = proto::encode(message, requestId, mState.version);
   } catch (...) {  // a reply above 4 GiB, or no memory for it: the request is answered with the failure instead
     bytes = proto::encode(errorReply(std::current_exception(), "reply cannot be encoded"), requestId, mState.version);
   }

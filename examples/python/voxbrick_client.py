@@ -18,7 +18,7 @@ import struct
 import sys
 
 MAGIC = 0x4B425856  # "VXBK" read as a little-endian u32
-MIN_VERSION, MAX_VERSION = 1, 2  # the protocol versions this client speaks; version 2 adds the jpeg encoding
+MIN_VERSION, MAX_VERSION = 1, 3  # the protocol versions this client speaks; 2 adds the jpeg encoding, 3 the Busy error
 HEADER = struct.Struct('<IHHII')  # magic, version, type, request id, body bytes
 CLIENT_NAME = 'voxbrick_client.py 1'
 TYPES = ['Hello', 'Capabilities', 'ListDatasets', 'DatasetList', 'OpenDataset', 'DatasetInfo', 'Render', 'Frame',
@@ -27,7 +27,7 @@ ENCODINGS = dict(enumerate(['raw_rgba8', 'png', 'zstd_rgba8', 'jpeg']))  # value
 ENCODING_SINCE = {'jpeg': 2}  # the protocol version an encoding appeared in (others: 1)
 ERRORS = dict(enumerate(['BadMagic', 'UnsupportedVersion', 'UnknownType', 'TooLarge', 'Malformed', 'UnexpectedMessage',
                          'UnknownDataset', 'InvalidScene', 'LimitExceeded', 'Superseded', 'Internal', 'ShuttingDown',
-                         'Timeout'], start=1))
+                         'Timeout', 'Busy'], start=1))
 ENUMS = {'encoding': ENCODINGS, 'code': ERRORS}
 ENUM_VALUES = {kind: {name: value for value, name in names.items()} for kind, names in ENUMS.items()}
 INTS = {'u16': struct.Struct('<H'), 'u32': struct.Struct('<I'), 'encoding': struct.Struct('<B'),

@@ -110,7 +110,7 @@ TEST(Header, LayoutIsPinned) {
 
 TEST(Versions, JpegExistsFromVersionTwoOn) {
   EXPECT_EQ(kMinVersion, 1u);
-  EXPECT_EQ(kMaxVersion, 2u);
+  EXPECT_EQ(kMaxVersion, 3u);
   EXPECT_EQ(uint8_t(Encoding::Jpeg), 3u);
   EXPECT_EQ(encodingsOf(1), (std::vector<Encoding>{Encoding::RawRgba8, Encoding::Png, Encoding::ZstdRgba8}));
   EXPECT_EQ(encodingsOf(2),
@@ -118,6 +118,7 @@ TEST(Versions, JpegExistsFromVersionTwoOn) {
   EXPECT_FALSE(encodingInVersion(Encoding::Jpeg, 1));
   EXPECT_TRUE(encodingInVersion(Encoding::Jpeg, 2));
   EXPECT_FALSE(encodingInVersion(Encoding(4), 2));
+  EXPECT_EQ(encodingsOf(3), encodingsOf(2));
   EXPECT_STREQ(encodingName(Encoding::Jpeg), "jpeg");
   EXPECT_EQ(encodingFromShortName("jpeg"), Encoding::Jpeg);
   EXPECT_EQ(encodingFromShortName("zstd"), Encoding::ZstdRgba8);
@@ -310,14 +311,41 @@ TEST(Messages, TypeValuesAndNames) {
 TEST(Messages, ErrorCodeNames) {
   const char* names[] = {"BadMagic",          "UnsupportedVersion", "UnknownType",  "TooLarge",      "Malformed",
                          "UnexpectedMessage", "UnknownDataset",     "InvalidScene", "LimitExceeded", "Superseded",
-                         "Internal",          "ShuttingDown",       "Timeout"};
-  for (uint16_t code = 1; code <= 13; ++code) {
+                         "Internal",          "ShuttingDown",       "Timeout",      "Busy"};
+  for (uint16_t code = 1; code <= 14; ++code) {
     EXPECT_STREQ(errorCodeName(ErrorCode(code)), names[code - 1]);
-    // every code decodes
-    EXPECT_TRUE(decodeRaw(MessageType::Error, concat({u16(code), str("")})) == Message(Error{ErrorCode(code), ""}));
+    // every code decodes in the latest version
+    const Bytes body = concat({u16(code), str("")});
+    EXPECT_TRUE(decodeBody({kMaxVersion, MessageType::Error, 1, uint32_t(body.size())}, body, Limits{}) ==
+                Message(Error{ErrorCode(code), ""}));
   }
   EXPECT_STREQ(errorCodeName(ErrorCode(0)), "unknown");
-  EXPECT_STREQ(errorCodeName(ErrorCode(14)), "unknown");
+  EXPECT_STREQ(errorCodeName(ErrorCode(15)), "unknown");
+}
+
+TEST(Versions, BusyExistsFromVersionThreeOn) {
+  EXPECT_FALSE(errorCodeInVersion(ErrorCode::Busy, 1));
+  EXPECT_FALSE(errorCodeInVersion(ErrorCode::Busy, 2));
+  EXPECT_TRUE(errorCodeInVersion(ErrorCode::Busy, 3));
+  EXPECT_TRUE(errorCodeInVersion(ErrorCode::Timeout, 1));
+  const Bytes body = concat({u16(14), str("x")});
+  // Version 2: an unknown code, refused as any unknown enum value; version 3 decodes it.
+  ProtocolError e = thrown([&] { decodeBody({2, MessageType::Error, 1, uint32_t(body.size())}, body, Limits{}); });
+  EXPECT_EQ(e.code(), ErrorCode::Malformed);
+  EXPECT_TRUE(decodeBody({3, MessageType::Error, 1, uint32_t(body.size())}, body, Limits{}) ==
+              Message(Error{ErrorCode::Busy, "x"}));
+  EXPECT_THROW(encode(Error{ErrorCode::Busy, "x"}, 1, 2), std::invalid_argument);
+}
+
+TEST(Versions, BusyMessagesCarryTheirRetryHint) {
+  const std::string text = busyMessage("4 batch frames are queued", 1500);
+  EXPECT_EQ(text, "4 batch frames are queued; retry after 1500 ms");
+  EXPECT_EQ(retryAfterMs(text), 1500u);
+  EXPECT_EQ(retryAfterMs(busyMessage("x", 0)), 1u);  // a hint is never 0
+  EXPECT_EQ(retryAfterMs("no hint"), std::nullopt);
+  EXPECT_EQ(retryAfterMs("; retry after  ms"), std::nullopt);
+  EXPECT_EQ(retryAfterMs("; retry after 12x ms"), std::nullopt);
+  EXPECT_EQ(retryAfterMs("; retry after 1234567890 ms"), std::nullopt);  // more than 9 digits
 }
 
 TEST(Malformed, TruncatedAtEveryCutPoint) {

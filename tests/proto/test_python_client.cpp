@@ -57,7 +57,7 @@ TEST(PythonClient, CppDecodesThePythonHello) {
   EXPECT_EQ(header.requestId, 1u);
   const Hello& hello = std::get<Hello>(message);
   EXPECT_EQ(hello.minVersion, kMinVersion);
-  EXPECT_EQ(hello.maxVersion, kMaxVersion);  // it speaks version 2 when the server offers it
+  EXPECT_EQ(hello.maxVersion, kMaxVersion);  // it speaks the latest version when the server offers it
   EXPECT_EQ(hello.client, "voxbrick_client.py 1");
 }
 

@@ -6,7 +6,7 @@
 export const MAGIC = 0x4b425856; // "VXBK" read as a little-endian u32
 export const HEADER_BYTES = 16;
 export const MIN_VERSION = 1;
-export const MAX_VERSION = 2;
+export const MAX_VERSION = 3;
 
 export const Type = Object.freeze({
   Hello: 1,
@@ -25,7 +25,7 @@ export const Type = Object.freeze({
 
 export const Encoding = Object.freeze({ raw_rgba8: 0, png: 1, zstd_rgba8: 2, jpeg: 3 });
 /// Encodings each version may carry (a version-1 session never sees jpeg).
-const ENCODINGS_BY_VERSION = { 1: [0, 1, 2], 2: [0, 1, 2, 3] };
+const ENCODINGS_BY_VERSION = { 1: [0, 1, 2], 2: [0, 1, 2, 3], 3: [0, 1, 2, 3] };
 
 export const ErrorCode = Object.freeze({
   BadMagic: 1,
@@ -41,7 +41,13 @@ export const ErrorCode = Object.freeze({
   Internal: 11,
   ShuttingDown: 12,
   Timeout: 13,
+  Busy: 14, // version 3 on: the message ends with "; retry after N ms"
 });
+/// The retry hint of a Busy (or LimitExceeded) message, in ms: N of its "; retry after N ms" ending; null without.
+export const retryAfterMs = (message) => {
+  const m = /; retry after (\d{1,9}) ms$/.exec(message || "");
+  return m ? Number(m[1]) : null;
+};
 export const errorName = (code) => Object.keys(ErrorCode).find((k) => ErrorCode[k] === code) || `code ${code}`;
 
 export const Limits = Object.freeze({ maxString: 1 << 20, maxList: 4096, maxBody: 64 << 20 });
@@ -185,7 +191,7 @@ export const encode = {
 
 function readEncoding(r, field, version) {
   const e = r.u8(field);
-  if (!(ENCODINGS_BY_VERSION[version] || ENCODINGS_BY_VERSION[2]).includes(e))
+  if (!(ENCODINGS_BY_VERSION[version] || ENCODINGS_BY_VERSION[MAX_VERSION]).includes(e))
     throw new ProtocolError(`${r.what}.${field}: unknown encoding ${e}`);
   return e;
 }
