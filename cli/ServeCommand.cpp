@@ -99,7 +99,7 @@ void runServe(const ServeArgs& a) {
   if (a.maxPerAddress >= 0) c.maxConnectionsPerAddress = a.maxPerAddress;
   if (a.maxTotalOutputMB > 0) c.maxTotalOutputBytes = uint64_t(a.maxTotalOutputMB) << 20;
   if (a.hostCacheMB > 0) c.hostCacheMB = a.hostCacheMB;
-  if (a.noCoalesce) c.coalesce = false;
+  if (a.noCoalesce) c.scheduler.coalesce = false;
   if (a.gpuBudgetMB > 0) c.gpuBudgetMB = a.gpuBudgetMB;
   if (a.http >= 0) {
     c.http = true;

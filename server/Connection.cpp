@@ -217,14 +217,14 @@ void Connection::bodyReceived(std::span<const uint8_t> body) {
 
 void Connection::admit(Outcome& outcome) {
   mTransport.cancel(Deadline::Hello);
-  if (mServices.greeted(mId)) return;
-  // Sessions filled up while this connection waited for its Hello (or it was evicted): refused as on connect.
+  std::optional<proto::Error> refusal = mServices.greeted(mId);
+  if (!refusal) return;
+  // Sessions filled up while this connection waited for its Hello (or it was evicted), its quota is full, or the
+  // render threads are over capacity: refused as on connect, with the reason.
   mServices.stats.add(ServerEvent::SessionRefused);
+  spdlog::info("{}: refused at Hello: {}", mPeer, refusal->message);
   outcome = Outcome{};
-  outcome.replies.push_back(
-      {errorMessage(proto::ErrorCode::LimitExceeded,
-                    "too many sessions (limit " + std::to_string(mServices.config.maxSessions) + ")"),
-       0});
+  outcome.replies.push_back({std::move(*refusal), 0});
   outcome.close = true;
 }
 
@@ -232,7 +232,9 @@ void Connection::apply(Outcome outcome) {
   for (const Reply& reply : outcome.replies) send(reply.message, reply.requestId);
   if (outcome.render && !mClosed && !mClosing) {
     const uint32_t requestId = outcome.render->requestId;
-    Submission submission = mServices.scheduler.submit(mTransport.renderSink(), std::move(*outcome.render));
+    std::optional<Submission> refused = mServices.renderQuota ? mServices.renderQuota(mId) : std::nullopt;
+    Submission submission = refused ? std::move(*refused)
+                                    : mServices.scheduler.submit(mTransport.renderSink(), std::move(*outcome.render));
     apply(mServices.handler.submitted(mState, requestId, std::move(submission)));
   }
   if (outcome.close) closeAfterFlush();

@@ -38,9 +38,12 @@ struct SessionServices {
   OutputBudget& output;  ///< replies queued for every session together
   /// Called once when a connection has closed (on its serial context), so the server can forget it.
   std::function<void(ConnectionId)> ended;
-  /// Called once the connection's Hello was accepted: whether it may become a session (false when max_sessions are
-  /// open, or it was evicted meanwhile; it is then refused with LimitExceeded).
-  std::function<bool(ConnectionId)> greeted;
+  /// Called once the connection's Hello was accepted: none when it may become a session, else the Error it is
+  /// refused with (LimitExceeded when max_sessions are open, it was evicted meanwhile or its quota is full; Busy
+  /// when the render threads are over capacity).
+  std::function<std::optional<proto::Error>(ConnectionId)> greeted;
+  /// Called for each Render before it is queued: none when the session's quotas have room, else the Busy refusal.
+  std::function<std::optional<Submission>(ConnectionId)> renderQuota;
 };
 
 /// One client connection's state machine. Not thread-safe: every call but alive() is made on the connection's

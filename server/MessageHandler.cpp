@@ -187,6 +187,9 @@ Outcome MessageHandler::submitted(ConnectionState& state, uint32_t requestId, Su
           errorMessage(ErrorCode::LimitExceeded,
                        "more than " + std::to_string(ServerConfig::kMaxQueuedWithoutCoalescing) + " renders queued"),
           requestId);
+    case Submission::Result::Busy:
+      return replyWith(errorMessage(ErrorCode::Busy, proto::busyMessage(submission.why, submission.retryAfterMs)),
+                       requestId);
     case Submission::Result::Queued: break;
   }
   ++state.outstandingRenders;

@@ -50,13 +50,22 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
     frame.width = uint32_t(image.width);
     frame.height = uint32_t(image.height);
     frame.encoding = replyEncoding(job, provisional);
-    frame.payload = image::encodeFrameImage(image::toImage8(image), frame.encoding,
-                                            job.scene.jpegQuality.value_or(image::kDefaultJpegQuality));
+    // Under a crowd a provisional frame may travel at a lower JPEG quality (RenderScheduler: quality yields first).
+    const int jpegQuality = provisional && job.provisionalJpegQuality
+                                ? *job.provisionalJpegQuality
+                                : job.scene.jpegQuality.value_or(image::kDefaultJpegQuality);
+    frame.payload = image::encodeFrameImage(image::toImage8(image), frame.encoding, jpegQuality);
     nlohmann::json statsJson = stats.toJson();
     statsJson["queue_ms"] = msBetween(job.received, start);
     statsJson["encode_ms"] = msBetween(encodeStart, Clock::now());
     statsJson["render_thread"] = thread;
     statsJson["provisional"] = provisional;
+    if (job.requestedBudgetMs > 0) {
+      // The crowd cut this interactive frame's budget (its scene's is `requested`).
+      statsJson["load"] = {{"time_budget_ms", scene.timeBudgetMs},
+                           {"requested_budget_ms", job.requestedBudgetMs},
+                           {"jpeg_quality", jpegQuality}};
+    }
     frame.statsJson = statsJson.dump();
     if (const uint64_t body = frameBodyBytes(frame.statsJson.size(), frame.payload.size()); body > job.maxBodyBytes)
       return {errorMessage(proto::ErrorCode::LimitExceeded,

@@ -7,6 +7,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <string>
 
 #include "proto/Messages.h"
 #include "render/core/Dataset.h"
@@ -42,6 +43,12 @@ struct RenderJob {
   double fixedMs = 0;  ///< with rateSamplesPerMs: the session's time a frame takes besides its samples
   /// Not to be drawn before this time: the exact frame of an interactive request waits for the camera to rest.
   std::chrono::steady_clock::time_point notBefore{};
+  /// Set by the scheduler for an interactive frame under a crowd: the scene's own time budget (the scene then
+  /// carries the smaller one the load leaves), and the JPEG quality of its provisional frame.
+  double requestedBudgetMs = 0;
+  std::optional<int> provisionalJpegQuality;
+  /// Sessions this frame answers besides the job's own (one render shared by sessions asking the same frame).
+  int sharedWith = 0;
 };
 
 /// The class the scheduler serves `job` in: batch for a scene with "batch", else interactive for a moving camera's
@@ -64,8 +71,11 @@ struct Submission {
     Queued,   ///< it waits for a render thread
     Full,     ///< the session has ServerConfig::kMaxQueuedWithoutCoalescing jobs waiting (only without coalescing)
     Stopped,  ///< the server is stopping: it will never be rendered
+    Busy,     ///< a batch job over capacity (SchedulerConfig::batchMaxWaitMs): retry after retryAfterMs
   };
   Result result = Result::Queued;
+  uint32_t retryAfterMs = 0;  ///< with Busy
+  std::string why;            ///< with Busy: what is over capacity
   std::optional<RenderJob> replaced;  ///< the session's waiting job this one replaced (latest wins)
 };
 

@@ -1,27 +1,66 @@
-// The latest-wins queue and the render threads.
+// The render queue: fair queueing on measured render time, by class, with shared frames; and the render threads.
 #include "server/RenderScheduler.h"
 
 #include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
 #include <stdexcept>
 #include <string>
-#include <utility>
-#include <functional>
 #include <string_view>
+#include <utility>
 
 #include <spdlog/spdlog.h>
 
 #include "server/ErrorReply.h"
-#include "server/ServerConfig.h"
 
 namespace voxbrick::server {
+namespace {
 
-RenderScheduler::RenderScheduler(std::vector<std::unique_ptr<render::FrameSource>> sources, bool coalesce)
-    : mCoalesce(coalesce), mSources(std::move(sources)) {
+using Clock = RenderScheduler::Clock;
+
+double elapsedMs(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::milli>(b - a).count();
+}
+
+/// The mean a class's frames are predicted by: an exponential average, quick to follow a change of load.
+constexpr double kMeanWeight = 0.2;
+constexpr double kDefaultPredictedMs = 50;
+
+/// `statsJson` (a JSON object's text) with `"key": value` added at its end; unchanged if it is not an object.
+std::string withKey(std::string statsJson, std::string_view key, std::string_view value) {
+  if (statsJson.size() < 2 || statsJson.back() != '}') return statsJson;
+  statsJson.pop_back();
+  statsJson += statsJson.size() > 1 ? "," : "";
+  statsJson.append("\"").append(key).append("\":").append(value).append("}");
+  return statsJson;
+}
+
+}  // namespace
+
+std::string shareKeyOf(const RenderJob& job) {
+  if (!job.dataset || (job.scene.progressive && !job.refinement)) return {};
+  std::string key = std::to_string(reinterpret_cast<uintptr_t>(job.dataset.get()));
+  key += '|' + std::to_string(int(job.encoding)) + '|' +
+         (job.provisionalEncoding ? std::to_string(int(*job.provisionalEncoding)) : std::string("-")) + '|' +
+         (job.refinement ? "r" : "f") + '|' + std::to_string(job.maxBodyBytes) + '|' + std::to_string(job.maxSamples) +
+         '|' + job.scene.toJson();
+  return key;
+}
+
+RenderScheduler::RenderScheduler(std::vector<std::unique_ptr<render::FrameSource>> sources,
+                                 const SchedulerConfig& config)
+    : mConfig(config),
+      mWeights{config.interactiveWeight, config.stillWeight, config.batchWeight},
+      mSources(std::move(sources)) {
   if (mSources.empty() || !mSources.front()) throw std::invalid_argument("RenderScheduler: no frame source");
   mGaugeCount = mSources.size();
   mGauges = std::make_unique<EngineGauge[]>(mGaugeCount);
   spdlog::info("render threads: {} x {}", mSources.size(), mSources.front()->describe());
 }
+
+RenderScheduler::RenderScheduler(std::vector<std::unique_ptr<render::FrameSource>> sources, bool coalesce)
+    : RenderScheduler(std::move(sources), SchedulerConfig{.coalesce = coalesce}) {}
 
 void RenderScheduler::start() {
   try {
@@ -51,6 +90,11 @@ void RenderScheduler::checkDataset(const std::string& name) {
   for (const auto& source : mSources) source->checkDataset(name);
 }
 
+double RenderScheduler::predictedMsLocked(FrameClass cls) const {
+  const double mean = mClassMs[size_t(cls)];
+  return mean > 0 ? mean : kDefaultPredictedMs;
+}
+
 Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob job) {
   Submission out;
   {
@@ -59,24 +103,54 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
       out.result = Submission::Result::Stopped;
       return out;
     }
-    SessionPace& pace = paceLocked(sink);
+    SessionState& state = stateLocked(sink);
     if (!job.refinement) {
-      if (pace.lastReceived != std::chrono::steady_clock::time_point{})
-        pace.intervalMs = std::chrono::duration<double, std::milli>(job.received - pace.lastReceived).count();
-      pace.lastReceived = job.received;
+      if (state.lastReceived != Clock::time_point{}) state.intervalMs = elapsedMs(state.lastReceived, job.received);
+      state.lastReceived = job.received;
+      if (job.scene.interactive) state.lastInteractive = job.received;
     }
-    std::deque<RenderJob>& waiting = mWaiting[sink.get()];
-    if (!mCoalesce && !waiting.empty() && waiting.front().refinement) {
+    std::deque<RenderJob>& waiting = state.waiting;
+    const FrameClass cls = frameClassOf(job);
+    if (cls == FrameClass::Batch && (waiting.empty() || !mConfig.coalesce)) {
+      // Admission: a batch job that would wait beyond the bound is refused now rather than queued without end. Its
+      // expected wait: the predicted time of the batch work ahead of it, over the threads' share for batch (the
+      // whole of them when no other class waits).
+      const double weights = mWeights[size_t(FrameClass::Batch)] +
+                             (mWaitingByClass[0] + mRunningByClass[0] ? mWeights[0] : 0) +
+                             (mWaitingByClass[1] + mRunningByClass[1] ? mWeights[1] : 0);
+      const double share = mWeights[size_t(FrameClass::Batch)] / weights;
+      const double ahead = double(mWaitingByClass[size_t(FrameClass::Batch)] + 1) * predictedMsLocked(cls);
+      const double waitMs = ahead / (double(mSources.size()) * share);
+      if (waitMs > mConfig.batchMaxWaitMs) {
+        mBusyRenders.fetch_add(1);
+        out.result = Submission::Result::Busy;
+        out.retryAfterMs = uint32_t(std::min(waitMs, 3600e3));
+        out.why = "the server is over capacity for batch work: " +
+                  std::to_string(mWaitingByClass[size_t(FrameClass::Batch)]) + " batch frames wait, about " +
+                  std::to_string(int64_t(waitMs)) + " ms of render time at batch's share (limit " +
+                  std::to_string(int64_t(mConfig.batchMaxWaitMs)) + " ms)";
+        return out;
+      }
+    }
+    if (mConfig.shareFrames && waiting.empty() && !mInFlight.empty()) {
+      // The identical frame is being drawn for another session: this one rides along.
+      if (const std::string key = shareKeyOf(job); !key.empty())
+        if (auto it = mInFlight.find(key); it != mInFlight.end()) {
+          it->second.push_back({sink, std::move(job)});
+          return out;
+        }
+    }
+    if (!mConfig.coalesce && !waiting.empty() && waiting.front().refinement) {
       // An exact frame waiting for the camera to rest: the camera moved on, so it goes (silently, MessageHandler).
+      --mWaitingByClass[size_t(frameClassOf(waiting.front()))];
       out.replaced = std::move(waiting.front());
       waiting.pop_front();
-      if (waiting.empty()) {
-        mWaiting.erase(sink.get());
-        std::erase(mTurns, sink);
-      }
+      if (waiting.empty()) mBacklog.erase(sink.get());
       enqueueLocked(sink, std::move(job));
-    } else if (mCoalesce && !waiting.empty()) {
-      // The one waiting job is replaced in place: the session keeps its turn.
+    } else if (mConfig.coalesce && !waiting.empty()) {
+      // The one waiting job is replaced in place: the session keeps its place.
+      --mWaitingByClass[size_t(frameClassOf(waiting.front()))];
+      ++mWaitingByClass[size_t(cls)];
       out.replaced = std::exchange(waiting.front(), std::move(job));
     } else if (waiting.size() >= ServerConfig::kMaxQueuedWithoutCoalescing) {
       out.result = Submission::Result::Full;
@@ -90,17 +164,27 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
 }
 
 void RenderScheduler::enqueueLocked(const std::shared_ptr<Sink>& sink, RenderJob job) {
-  std::deque<RenderJob>& waiting = mWaiting[sink.get()];
-  if (waiting.empty()) mTurns.push_back(sink);
-  waiting.push_back(std::move(job));
+  SessionState& state = stateLocked(sink);
+  const FrameClass cls = frameClassOf(job);
+  const size_t c = size_t(cls);
+  // Start-time fair queueing: a class, or a session, that had nothing waiting starts at the tag last served, so
+  // time it did not use is not saved up for a burst later.
+  if (mWaitingByClass[c] == 0 && mRunningByClass[c] == 0) mClassTag[c] = std::max(mClassTag[c], mGlobalClock);
+  if (state.waiting.empty()) {
+    state.tag[c] = std::max(state.tag[c], mClassClock[c]);
+    state.backloggedSince = ++mBacklogOrder;
+    mBacklog[sink.get()] = sink;
+  }
+  ++mWaitingByClass[c];
+  state.waiting.push_back(std::move(job));
 }
 
-RenderScheduler::SessionPace& RenderScheduler::paceLocked(const std::shared_ptr<Sink>& sink) {
-  auto it = mPaces.find(sink.get());
-  if (it != mPaces.end() && it->second.owner.expired()) mPaces.erase(it), it = mPaces.end();
-  if (it == mPaces.end()) {
-    std::erase_if(mPaces, [](const auto& entry) { return entry.second.owner.expired(); });
-    it = mPaces.emplace(sink.get(), SessionPace{}).first;
+RenderScheduler::SessionState& RenderScheduler::stateLocked(const std::shared_ptr<Sink>& sink) {
+  auto it = mSessions.find(sink.get());
+  if (it != mSessions.end() && it->second.owner.expired()) mSessions.erase(it), it = mSessions.end();
+  if (it == mSessions.end()) {
+    std::erase_if(mSessions, [](const auto& entry) { return entry.second.owner.expired(); });
+    it = mSessions.emplace(sink.get(), SessionState{}).first;
     it->second.owner = sink;
   }
   return it->second;
@@ -108,8 +192,8 @@ RenderScheduler::SessionPace& RenderScheduler::paceLocked(const std::shared_ptr<
 
 double RenderScheduler::restMs(const Sink& sink) const {
   std::lock_guard lock(mMutex);
-  const auto it = mPaces.find(&sink);
-  if (it == mPaces.end() || it->second.intervalMs <= 0) return kMaxRestMs;
+  const auto it = mSessions.find(&sink);
+  if (it == mSessions.end() || it->second.intervalMs <= 0) return kMaxRestMs;
   return std::min(1.5 * it->second.intervalMs, kMaxRestMs);
 }
 
@@ -117,19 +201,131 @@ void RenderScheduler::refine(const std::shared_ptr<Sink>& sink, RenderJob job) {
   const bool rest = job.scene.interactive && !job.refinement;
   const auto asked = job.received;
   job.refinement = true;
-  job.received = std::chrono::steady_clock::now();
+  job.received = Clock::now();
   job.notBefore = job.received;
+  // The exact frame is drawn for the scene as asked: the crowd's cuts were the provisional frame's.
+  if (job.requestedBudgetMs > 0) job.scene.timeBudgetMs = job.requestedBudgetMs;
+  job.requestedBudgetMs = 0;
+  job.provisionalJpegQuality.reset();
+  job.sharedWith = 0;
   if (rest) job.notBefore += std::chrono::microseconds(int64_t(restMs(*sink) * 1000));
   {
     std::lock_guard lock(mMutex);
     if (mStopping) return;
-    if (auto it = mWaiting.find(sink.get()); it != mWaiting.end() && !it->second.empty()) return;
+    if (auto it = mSessions.find(sink.get()); it != mSessions.end() && !it->second.waiting.empty()) return;
     // A newer Render of the session came meanwhile, already taken by another render thread: the camera moved on,
     // and this exact frame, queued now, would overtake (and give up) the newer request's own exact frame.
-    if (asked < paceLocked(sink).lastReceived) return;
+    if (asked < stateLocked(sink).lastReceived) return;
     enqueueLocked(sink, std::move(job));
   }
   mReady.notify_one();
+}
+
+size_t RenderScheduler::interactiveSessionsLocked(Clock::time_point now) const {
+  size_t count = 0;
+  for (const auto& [key, state] : mSessions)
+    if (state.lastInteractive != Clock::time_point{} && now - state.lastInteractive <= kInteractiveWindow &&
+        !state.owner.expired())
+      ++count;
+  return count;
+}
+
+size_t RenderScheduler::interactiveSessions() const {
+  std::lock_guard lock(mMutex);
+  return interactiveSessionsLocked(Clock::now());
+}
+
+size_t RenderScheduler::interactiveCapacityLocked() const {
+  if (mConfig.maxInteractiveSessions > 0) return size_t(mConfig.maxInteractiveSessions);
+  // Measured: what the threads can draw at min_interactive_fps for each session, at the recent interactive cost.
+  const size_t c = size_t(FrameClass::Interactive);
+  if (mClassFrames[c] < 16 || mClassMs[c] <= 0) return 0;
+  return std::max<size_t>(1, size_t(double(mSources.size()) * 1000 / (mConfig.minInteractiveFps * mClassMs[c])));
+}
+
+size_t RenderScheduler::interactiveCapacity() const {
+  std::lock_guard lock(mMutex);
+  return interactiveCapacityLocked();
+}
+
+std::optional<uint32_t> RenderScheduler::refuseNewSession() const {
+  std::lock_guard lock(mMutex);
+  const size_t capacity = interactiveCapacityLocked();
+  if (capacity == 0 || interactiveSessionsLocked(Clock::now()) < capacity) return std::nullopt;
+  mBusySessions.fetch_add(1);
+  // Dragging sessions count for kInteractiveWindow after their last move: a retry after it sees who still drags.
+  return uint32_t(kInteractiveWindow.count() * 2);
+}
+
+void RenderScheduler::fitToLoadLocked(RenderJob& job, Clock::time_point now) const {
+  // Quality yields before latency: with N sessions dragging on T threads, each gets T / N of the render time, so
+  // a frame may take T * 1000 / (fps * N) ms for every session to see `fps` frames a second.
+  const double sessions = double(std::max<size_t>(1, interactiveSessionsLocked(now)));
+  const double share = double(mSources.size()) * 1000 / (mConfig.interactiveFps * sessions);
+  const double asked = job.scene.timeBudgetMs;
+  const double budget = std::clamp(share, render::SceneDelivery::kMinTimeBudgetMs, asked);
+  if (budget >= asked) return;
+  job.requestedBudgetMs = asked;
+  job.scene.timeBudgetMs = budget;
+  if (!job.scene.jpegQuality) job.provisionalJpegQuality = mConfig.loadedJpegQuality;
+}
+
+std::shared_ptr<RenderScheduler::Sink> RenderScheduler::pickLocked(Clock::time_point now,
+                                                                   Clock::time_point& earliest) {
+  earliest = Clock::time_point::max();
+  // Still and batch frames leave reserved threads to the sessions that drag, when some do.
+  const size_t threads = mSources.size();
+  const size_t reserved = std::min(size_t(mConfig.reservedInteractiveThreads), threads - 1);
+  const bool dragging = reserved > 0 && interactiveSessionsLocked(now) > 0;
+  const size_t otherRunning = mRunningByClass[1] + mRunningByClass[2];
+  const bool othersMayRun = !dragging || otherRunning < threads - reserved;
+  // The best due session of each class: the smallest tag, then the longest waiting.
+  std::array<const Sink*, kFrameClasses> best{};
+  std::array<std::pair<double, uint64_t>, kFrameClasses> bestRank{};
+  for (const auto& [key, sink] : mBacklog) {
+    const SessionState& state = mSessions.at(key);
+    const RenderJob& front = state.waiting.front();
+    if (front.notBefore > now) {
+      earliest = std::min(earliest, front.notBefore);
+      continue;
+    }
+    const size_t c = size_t(frameClassOf(front));
+    if (c != size_t(FrameClass::Interactive) && !othersMayRun) continue;
+    const std::pair<double, uint64_t> rank{state.tag[c], state.backloggedSince};
+    if (!best[c] || rank < bestRank[c]) best[c] = key, bestRank[c] = rank;
+  }
+  // Between classes: the smallest class tag (time charged over weight); ties to the earlier class.
+  int chosen = -1;
+  for (size_t c = 0; c < kFrameClasses; ++c)
+    if (best[c] && (chosen < 0 || mClassTag[c] < mClassTag[size_t(chosen)])) chosen = int(c);
+  if (chosen < 0) {
+    // Something may wait only for a thread its class may not take: the next finished frame wakes a thread.
+    return nullptr;
+  }
+  mGlobalClock = mClassTag[size_t(chosen)];
+  return mBacklog.at(best[size_t(chosen)]);
+}
+
+void RenderScheduler::chargeLocked(const Sink* sink, FrameClass cls, double ms) {
+  const size_t c = size_t(cls);
+  mClassTag[c] += ms / mWeights[c];
+  if (auto it = mSessions.find(sink); it != mSessions.end()) it->second.tag[c] += ms;
+}
+
+std::array<size_t, kFrameClasses> RenderScheduler::queuedByClass() const {
+  std::lock_guard lock(mMutex);
+  return mWaitingByClass;
+}
+
+std::array<double, kFrameClasses> RenderScheduler::classBusyMs() const {
+  std::lock_guard lock(mMutex);
+  return mClassBusyMs;
+}
+
+std::vector<double> RenderScheduler::deviceBusyMs() const {
+  std::vector<double> out(mGaugeCount);
+  for (size_t i = 0; i < mGaugeCount; ++i) out[i] = mGauges[i].busyMs.load();
+  return out;
 }
 
 RenderScheduler::GpuGauges RenderScheduler::gpu() const {
@@ -144,31 +340,18 @@ RenderScheduler::GpuGauges RenderScheduler::gpu() const {
 
 size_t RenderScheduler::queuedSessions() const {
   std::lock_guard lock(mMutex);
-  return mTurns.size();
-}
-
-std::array<size_t, kFrameClasses> RenderScheduler::queuedByClass() const {
-  std::array<size_t, kFrameClasses> out{};
-  std::lock_guard lock(mMutex);
-  for (const auto& [sink, jobs] : mWaiting)
-    for (const RenderJob& job : jobs) ++out[size_t(frameClassOf(job))];
-  return out;
-}
-
-std::vector<double> RenderScheduler::deviceBusyMs() const {
-  std::vector<double> out(mGaugeCount);
-  for (size_t i = 0; i < mGaugeCount; ++i) out[i] = mGauges[i].busyMs.load();
-  return out;
+  return mBacklog.size();
 }
 
 void RenderScheduler::stop() {
-  std::deque<std::shared_ptr<Sink>> dropped;  // released outside the lock: a session may end with it
+  std::map<const Sink*, std::shared_ptr<Sink>> dropped;  // released outside the lock: a session may end with it
   {
     std::lock_guard lock(mMutex);
     mStopping = true;
-    dropped.swap(mTurns);
-    mWaiting.clear();
-    mPaces.clear();
+    dropped.swap(mBacklog);
+    for (auto& [key, state] : mSessions) state.waiting.clear();
+    mSessions.clear();
+    mWaitingByClass = {};
   }
   mReady.notify_all();
   std::lock_guard joinLock(mJoinMutex);
@@ -178,50 +361,81 @@ void RenderScheduler::stop() {
 
 bool RenderScheduler::waiting(const Sink& sink) const {
   std::lock_guard lock(mMutex);
-  return mWaiting.count(&sink) != 0;
+  return mBacklog.count(&sink) != 0;
 }
 
-std::shared_ptr<RenderScheduler::Sink> RenderScheduler::takeDueLocked(std::chrono::steady_clock::time_point& earliest) {
-  const auto now = std::chrono::steady_clock::now();
-  earliest = std::chrono::steady_clock::time_point::max();
-  for (auto it = mTurns.begin(); it != mTurns.end(); ++it) {
-    const auto due = mWaiting.at(it->get()).front().notBefore;
-    if (due <= now) {
-      std::shared_ptr<Sink> sink = std::move(*it);
-      mTurns.erase(it);
-      return sink;
-    }
-    earliest = std::min(earliest, due);
-  }
-  return nullptr;
-}
-
-bool RenderScheduler::next(std::shared_ptr<Sink>& sink, RenderJob& job) {
+bool RenderScheduler::next(Taken& taken) {
   std::unique_lock lock(mMutex);
+  std::shared_ptr<Sink> sink;
   for (;;) {
     if (mStopping) return false;
-    std::chrono::steady_clock::time_point earliest;
-    if ((sink = takeDueLocked(earliest))) break;
-    // Nothing due: wait for a submit, or for the first exact frame whose rest is over.
-    if (earliest == std::chrono::steady_clock::time_point::max())
+    Clock::time_point earliest;
+    if ((sink = pickLocked(Clock::now(), earliest))) break;
+    // Nothing due: wait for a submit, a finished frame, or the first exact frame whose rest is over.
+    if (earliest == Clock::time_point::max())
       mReady.wait(lock);
     else
       mReady.wait_until(lock, earliest);
   }
-  const std::string kind(mWaiting.at(sink.get()).front().dataset ? mWaiting.at(sink.get()).front().dataset->kind()
-                                                                  : std::string_view{});
-  auto waiting = mWaiting.find(sink.get());
-  job = std::move(waiting->second.front());
-  waiting->second.pop_front();
-  const render::RateGauge& rate = paceLocked(sink).rates[kind];
+  SessionState& state = mSessions.at(sink.get());
+  RenderJob job = std::move(state.waiting.front());
+  state.waiting.pop_front();
+  if (state.waiting.empty()) mBacklog.erase(sink.get());
+  const FrameClass cls = frameClassOf(job);
+  const size_t c = size_t(cls);
+  --mWaitingByClass[c];
+  ++mRunningByClass[c];
+  mClassClock[c] = state.tag[c];
+  const std::string kind(job.dataset ? job.dataset->kind() : std::string_view{});
+  const render::RateGauge& rate = state.rates[kind];
   job.rateSamplesPerMs = rate.rate();
   job.fixedMs = rate.fixedMs();
-  // Sessions take turns: one with more waiting goes to the back.
-  if (waiting->second.empty())
-    mWaiting.erase(waiting);
-  else
-    mTurns.push_back(sink);
+  const auto now = Clock::now();
+  // The key of the frame as asked, before the crowd's cuts, which are the same for every session it answers.
+  taken.shareKey = mConfig.shareFrames ? shareKeyOf(job) : std::string();
+  if (cls == FrameClass::Interactive) fitToLoadLocked(job, now);
+  taken.frameClass = cls;
+  taken.charged = predictedMsLocked(cls);
+  chargeLocked(sink.get(), cls, taken.charged);
+  if (!taken.shareKey.empty()) {
+    // Sessions waiting for the identical frame ride along: one render answers them all. A later one joins while
+    // it is drawn (submit).
+    std::vector<Recipient>& riders = mInFlight[taken.shareKey];
+    for (auto it = mBacklog.begin(); it != mBacklog.end();) {
+      SessionState& other = mSessions.at(it->first);
+      if (it->first != sink.get() && other.waiting.front().notBefore <= now && shareKeyOf(other.waiting.front()) == taken.shareKey) {
+        --mWaitingByClass[size_t(frameClassOf(other.waiting.front()))];
+        riders.push_back({it->second, std::move(other.waiting.front())});
+        other.waiting.pop_front();
+        if (other.waiting.empty()) {
+          it = mBacklog.erase(it);
+          continue;
+        }
+      }
+      ++it;
+    }
+  }
+  taken.sink = std::move(sink);
+  taken.job = std::move(job);
   return true;
+}
+
+void RenderScheduler::deliver(const Taken& taken, const RenderReply& reply, std::vector<Recipient>& followers) {
+  // Each follower gets the same reply under its own request id (the job carries it), marked as shared.
+  for (Recipient& follower : followers) {
+    if (!follower.sink->wantsReplies()) continue;
+    proto::Message message = reply.message;
+    if (auto* frame = std::get_if<proto::Frame>(&message)) frame->statsJson = withKey(frame->statsJson, "shared", "true");
+    mShared.fetch_add(1);
+    follower.job.sharedWith = int(followers.size());
+    follower.sink->rendered(follower.job, std::move(message));
+    if (reply.provisional) refine(follower.sink, follower.job);
+  }
+  if (!taken.sink->wantsReplies()) return;
+  RenderJob job = taken.job;
+  job.sharedWith = int(followers.size());
+  taken.sink->rendered(job, reply.message);
+  if (reply.provisional) refine(taken.sink, taken.job);
 }
 
 void RenderScheduler::renderLoop(render::FrameSource& source, int index) {
@@ -235,40 +449,68 @@ void RenderScheduler::renderLoop(render::FrameSource& source, int index) {
   }
   const std::string brokenContext = "render thread " + std::to_string(index) + " cannot use its GL context";
   if (broken) errorReply(broken, brokenContext);  // logs it once now
-  std::shared_ptr<Sink> sink;
-  RenderJob job;
-  while (next(sink, job)) {
-    if (sink->wantsReplies()) {
-      // Given up between batches when the session has gone, or when a refinement (whose request was answered by its
-      // provisional frame) is overtaken by a newer Render of the session.
-      const auto cancelled = [&] { return !sink->wantsReplies() || (job.refinement && waiting(*sink)); };
-      const auto started = std::chrono::steady_clock::now();
-      RenderReply reply =
-          broken ? RenderReply{errorReply(broken, brokenContext), false} : renderReply(source, job, index, cancelled);
-      // The session gets its frame first; then the exact frame of a provisional one is queued, and the bricks of
+  Taken taken;
+  while (next(taken)) {
+    const std::shared_ptr<Sink>& sink = taken.sink;
+    const RenderJob& job = taken.job;
+    const auto started = Clock::now();
+    RenderReply reply;
+    bool drawn = false;
+    // Whether anyone who asked for this frame still wants it (the job's own session, or one riding along).
+    const auto anyoneWants = [&] {
+      if (sink->wantsReplies()) return true;
+      if (taken.shareKey.empty()) return false;
+      std::lock_guard lock(mMutex);
+      const auto it = mInFlight.find(taken.shareKey);
+      return it != mInFlight.end() && std::any_of(it->second.begin(), it->second.end(),
+                                                  [](const Recipient& r) { return r.sink->wantsReplies(); });
+    };
+    if (anyoneWants()) {
+      // Given up between batches when everyone who asked has gone, or when a refinement (whose request was answered
+      // by its provisional frame) is overtaken by a newer Render of the session.
+      const auto cancelled = [&] { return !anyoneWants() || (job.refinement && waiting(*sink)); };
+      reply = broken ? RenderReply{errorReply(broken, brokenContext), false}
+                     : renderReply(source, job, index, cancelled);
+      drawn = true;
+      if (auto* frame = std::get_if<proto::Frame>(&reply.message))
+        frame->statsJson = withKey(frame->statsJson, "class", std::string("\"") + common::nameOf(taken.frameClass) + "\"");
+    }
+    const double ms = elapsedMs(started, Clock::now());
+    EngineGauge& gauge = mGauges[size_t(index)];
+    gauge.busyMs = gauge.busyMs.load() + ms;
+    gauge.bytes = source.gpuBytes();
+    gauge.peakBytes = source.peakGpuBytes();
+    gauge.released = source.renderersReleased();
+    std::vector<Recipient> followers;
+    {
+      std::lock_guard lock(mMutex);
+      const size_t c = size_t(taken.frameClass);
+      --mRunningByClass[c];
+      if (!taken.shareKey.empty()) {
+        if (auto it = mInFlight.find(taken.shareKey); it != mInFlight.end()) {
+          followers = std::move(it->second);
+          mInFlight.erase(it);
+        }
+      }
+      if (drawn && !reply.cancelled) {
+        // Charged what it took, not what was predicted; the class's mean follows.
+        chargeLocked(sink.get(), taken.frameClass, ms - taken.charged);
+        mClassMs[c] = mClassMs[c] > 0 ? (1 - kMeanWeight) * mClassMs[c] + kMeanWeight * ms : ms;
+        ++mClassFrames[c];
+        mClassBusyMs[c] += ms;
+        if (reply.samples > 0 && job.dataset)
+          stateLocked(sink).rates[std::string(job.dataset->kind())].add(reply.samples, reply.ms);
+      }
+    }
+    mReady.notify_all();  // a thread waiting for its class's turn may take one now
+    if (drawn && reply.cancelled) mCancelled.fetch_add(1);
+    if (drawn && !reply.cancelled) {
+      // The sessions get their frame first; then the exact frame of a provisional one is queued, and the bricks of
       // the camera a drag would reach next are paged ahead.
-      EngineGauge& gauge = mGauges[size_t(index)];
-      gauge.busyMs = gauge.busyMs.load() +
-                     std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count();
-      gauge.bytes = source.gpuBytes();
-      gauge.peakBytes = source.peakGpuBytes();
-      gauge.released = source.renderersReleased();
-      if (reply.cancelled) {
-        mCancelled.fetch_add(1);
-        sink.reset();
-        job = {};
-        continue;
-      }
-      if (reply.samples > 0 && job.dataset) {
-        std::lock_guard lock(mMutex);
-        paceLocked(sink).rates[std::string(job.dataset->kind())].add(reply.samples, reply.ms);
-      }
-      sink->rendered(job, std::move(reply.message));
-      if (reply.provisional) refine(sink, job);
+      deliver(taken, reply, followers);
       if (!job.refinement) prefetchAhead(source, job);
     }
-    sink.reset();
-    job = {};
+    taken = Taken{};
   }
   // The source stays with the scheduler (its destructor destroys it): released here, so that it may be taken there.
   if (!broken) {

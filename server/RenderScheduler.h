@@ -1,27 +1,36 @@
-// The render queue and the render threads. Sessions with a job waiting are served in turn; when coalescing, each
-// holds at most one waiting job and a newer one replaces it (latest wins). Each thread draws with a FrameSource of
-// its own: the local engine, the distributed mode's, or the null source of the tests (render/engine/FrameSource.h).
+// The render queue and the render threads. Sessions with a job waiting are served by fair queueing on measured
+// render time, in classes (FrameClass: interactive, then still, then batch, by weight); when coalescing, each session
+// holds at most one waiting job and a newer one replaces it (latest wins). Sessions asking the identical frame at
+// once get one render. Each thread draws with a FrameSource of its own: the local engine, the distributed mode's, or
+// the null source of the tests (render/engine/FrameSource.h). docs/design/server.md, "Fair under a crowd".
 #pragma once
 
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
+#include <cstdint>
 #include <deque>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "render/core/Interactive.h"
 #include "render/engine/FrameSource.h"
+#include "server/FrameClass.h"
 #include "server/RenderJob.h"
+#include "server/ServerConfig.h"
 
 namespace voxbrick::server {
 
 class RenderScheduler {
  public:
+  using Clock = std::chrono::steady_clock;
+
   /// Where the replies to one session's jobs go.
   class Sink {
    public:
@@ -33,8 +42,10 @@ class RenderScheduler {
   };
 
   /// Takes the frame sources, one per render thread (made, and released from the calling thread, by the caller: a
-  /// machine without GL fails there, before any thread exists). `coalesce` false keeps up to
+  /// machine without GL fails there, before any thread exists). `config.coalesce` false keeps up to
   /// ServerConfig::kMaxQueuedWithoutCoalescing jobs per session instead of one.
+  RenderScheduler(std::vector<std::unique_ptr<render::FrameSource>> sources, const SchedulerConfig& config);
+  /// The default configuration but `coalesce`.
   RenderScheduler(std::vector<std::unique_ptr<render::FrameSource>> sources, bool coalesce);
   /// stop(), then the sources are destroyed (each made current on this thread first, as RenderEngine does).
   ~RenderScheduler();
@@ -46,7 +57,8 @@ class RenderScheduler {
   /// FrameSource::checkDataset of every source: whether the dataset `name` may be served (the distributed mode:
   /// every rank opens it and they agree). Throws what a source throws. Thread-safe.
   void checkDataset(const std::string& name);
-  /// Queues `job` for `sink`'s session; thread-safe. Only Submission::Result::Queued means a reply will come.
+  /// Queues `job` for `sink`'s session; thread-safe. Only Submission::Result::Queued means a reply will come. A
+  /// batch job expected to wait more than batch_max_wait_ms is refused (Result::Busy, with the wait as the hint).
   Submission submit(const std::shared_ptr<Sink>& sink, RenderJob job);
   /// Queues the exact frame of `job`, a request just answered with a provisional frame, unless the session has a
   /// newer job waiting, or received one after `job` (its camera moved on), or the server is stopping; a newer submit
@@ -59,6 +71,17 @@ class RenderScheduler {
   /// camera stops), and kMaxRestMs before the session has sent two Renders.
   double restMs(const Sink& sink) const;
   static constexpr double kMaxRestMs = 150;
+  /// How long a session counts as dragging after its last interactive Render.
+  static constexpr std::chrono::milliseconds kInteractiveWindow{1000};
+
+  /// Whether a new session may be taken now: none when it may, else the retry hint in ms. Beyond capacity
+  /// (max_interactive_sessions, or measured: the render threads' time over min_interactive_fps frames of the
+  /// measured interactive frame cost) while that many sessions drag. Thread-safe.
+  std::optional<uint32_t> refuseNewSession() const;
+  /// The dragging sessions the render threads can keep at min_interactive_fps: max_interactive_sessions, else
+  /// measured; 0 before any interactive frame was measured (no limit yet).
+  size_t interactiveCapacity() const;
+
   /// The atlases of all render threads' sources, as each thread last saw them after a job.
   struct GpuGauges {
     size_t bytes = 0, peakBytes = 0;  ///< peakBytes: the sum of each thread's peak
@@ -71,43 +94,90 @@ class RenderScheduler {
   std::array<size_t, kFrameClasses> queuedByClass() const;
   /// Milliseconds each render thread has spent drawing and encoding since it started, in thread order.
   std::vector<double> deviceBusyMs() const;
+  /// Render time (ms) spent on each class since the start, indexed by FrameClass.
+  std::array<double, kFrameClasses> classBusyMs() const;
+  /// Sessions that sent an interactive Render within kInteractiveWindow.
+  size_t interactiveSessions() const;
   /// Frames given up part way: their session had gone, or a refinement was overtaken by a newer Render.
   uint64_t cancelled() const { return mCancelled.load(); }
+  /// Replies delivered from another session's render of the identical frame.
+  uint64_t sharedFrames() const { return mShared.load(); }
+  /// Batch Renders refused Busy, and new sessions refused Busy (refuseNewSession said so).
+  uint64_t busyRenders() const { return mBusyRenders.load(); }
+  uint64_t busySessions() const { return mBusySessions.load(); }
   /// Drops every waiting job, lets each thread finish the frame it is drawing (its reply is still delivered) and
   /// joins the threads. Idempotent; call it from any thread but a render thread.
   void stop();
 
  private:
+  /// A job with the sessions it answers: its own, and those that asked the identical frame meanwhile.
+  struct Recipient {
+    std::shared_ptr<Sink> sink;
+    RenderJob job;
+  };
+  struct Taken {
+    std::shared_ptr<Sink> sink;
+    RenderJob job;
+    FrameClass frameClass = FrameClass::Still;
+    double charged = 0;  ///< the predicted ms charged at dispatch, corrected once the frame is drawn
+    std::string shareKey;
+  };
+
   void renderLoop(render::FrameSource& source, int index);
-  /// Appends `job` to the session's waiting jobs, giving the session a turn if it had none. mMutex held.
+  /// Appends `job` to the session's waiting jobs, catching up its fair-queueing tags if it had none. mMutex held.
   void enqueueLocked(const std::shared_ptr<Sink>& sink, RenderJob job);
   /// Blocks for the next job; false once stopping.
-  bool next(std::shared_ptr<Sink>& sink, RenderJob& job);
+  bool next(Taken& taken);
   /// Whether `sink`'s session has a job waiting.
   bool waiting(const Sink& sink) const;
-  /// The first session in turn whose first job is due (notBefore passed), taken out of mTurns; null if none, with
-  /// `earliest` the soonest time one becomes due (max if no job waits for a time). mMutex held.
-  std::shared_ptr<Sink> takeDueLocked(std::chrono::steady_clock::time_point& earliest);
+  /// The session to serve next by class weight, then by fair-queueing tag within the class, among those whose first
+  /// job is due (notBefore passed) and whose class may take a thread now; null if none, with `earliest` the soonest
+  /// time one becomes due (max if no job waits for a time). mMutex held.
+  std::shared_ptr<Sink> pickLocked(Clock::time_point now, Clock::time_point& earliest);
+  /// Charges `ms` of render time to `sink`'s session and `cls` (negative: a correction). mMutex held.
+  void chargeLocked(const Sink* sink, FrameClass cls, double ms);
+  /// The predicted render time of a job of `cls`: the class's recent mean, 50 ms before any. mMutex held.
+  double predictedMsLocked(FrameClass cls) const;
+  /// The time budget and JPEG quality the crowd leaves an interactive job. mMutex held.
+  void fitToLoadLocked(RenderJob& job, Clock::time_point now) const;
+  size_t interactiveSessionsLocked(Clock::time_point now) const;
+  size_t interactiveCapacityLocked() const;
+  /// Delivers `reply` to the job's own session and to every session that rode along (followers).
+  void deliver(const Taken& taken, const RenderReply& reply, std::vector<Recipient>& followers);
 
-  /// What the scheduler knows of a session beyond its waiting jobs: its rates and the pace of its Renders.
-  struct SessionPace {
+  /// What the scheduler knows of a session: its waiting jobs, rates, the pace of its Renders, its fair share.
+  struct SessionState {
     std::weak_ptr<Sink> owner;
+    std::deque<RenderJob> waiting;  ///< oldest first
     std::map<std::string, render::RateGauge, std::less<>> rates;  // by the dataset's kind
-    std::chrono::steady_clock::time_point lastReceived{};
+    Clock::time_point lastReceived{};
     double intervalMs = 0;  // between its last two Renders; 0 before the second
+    Clock::time_point lastInteractive{};
+    /// Fair-queueing tags, per class: the render time charged to the session, over its weight (virtual ms).
+    std::array<double, kFrameClasses> tag{};
+    uint64_t backloggedSince = 0;  ///< the order it last got a job waiting in: ties go to the longest waiting
   };
   /// The session's entry, made if need be (sessions gone are dropped on the way). mMutex held.
-  SessionPace& paceLocked(const std::shared_ptr<Sink>& sink);
+  SessionState& stateLocked(const std::shared_ptr<Sink>& sink);
 
-  const bool mCoalesce;
+  const SchedulerConfig mConfig;
+  const std::array<double, kFrameClasses> mWeights;
   mutable std::mutex mMutex;
   std::condition_variable mReady;
   bool mStopping = false;
-  /// Sessions with a job waiting, each once, in the order they are served.
-  std::deque<std::shared_ptr<Sink>> mTurns;
-  /// Their waiting jobs, oldest first; a session has an entry exactly while it is in mTurns.
-  std::map<const Sink*, std::deque<RenderJob>> mWaiting;
-  std::map<const Sink*, SessionPace> mPaces;
+  std::map<const Sink*, SessionState> mSessions;
+  /// Sessions with a job waiting, each once (the owners are kept alive while their jobs wait).
+  std::map<const Sink*, std::shared_ptr<Sink>> mBacklog;
+  uint64_t mBacklogOrder = 0;
+  /// Per class: its fair-queueing tag (render time charged over its weight), the tag of the last session served in it
+  /// (where a session that had nothing waiting starts again), jobs waiting and frames being drawn.
+  std::array<double, kFrameClasses> mClassTag{}, mClassClock{};
+  double mGlobalClock = 0;  ///< the class tag last served: where a class that had nothing waiting starts again
+  std::array<size_t, kFrameClasses> mWaitingByClass{}, mRunningByClass{};
+  std::array<double, kFrameClasses> mClassMs{}, mClassBusyMs{};  ///< recent mean ms per frame; total ms
+  std::array<uint64_t, kFrameClasses> mClassFrames{};
+  /// Frames being drawn, by their share key, with the sessions that asked the same frame since it started.
+  std::map<std::string, std::vector<Recipient>> mInFlight;
   /// One per render thread, for the scheduler's whole life (a thread releases its own when it ends).
   std::vector<std::unique_ptr<render::FrameSource>> mSources;
   struct EngineGauge {
@@ -117,9 +187,15 @@ class RenderScheduler {
   };
   std::unique_ptr<EngineGauge[]> mGauges;  ///< one per source, written by its thread
   size_t mGaugeCount = 0;
-  std::atomic<uint64_t> mCancelled{0};
+  std::atomic<uint64_t> mCancelled{0}, mShared{0}, mBusyRenders{0};
+  mutable std::atomic<uint64_t> mBusySessions{0};
   std::mutex mJoinMutex;
   std::vector<std::thread> mThreads;
 };
+
+/// The key under which two jobs ask the identical frame: the same dataset, scene, encodings, limits and kind of
+/// drawing (exact or not). Empty for a job that is never shared (a progressive first frame, whose stand-ins
+/// depend on what the thread's atlas holds).
+std::string shareKeyOf(const RenderJob& job);
 
 }  // namespace voxbrick::server

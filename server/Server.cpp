@@ -23,6 +23,7 @@
 #include "server/ErrorReply.h"
 #include "server/MessageHandler.h"
 #include "server/OutputBudget.h"
+#include "server/Quotas.h"
 #include "server/RenderScheduler.h"
 #include "server/ServerStats.h"
 #include "server/Session.h"
@@ -119,8 +120,9 @@ struct Server::Impl {
   /// for the sessions to flush and close, then stops the I/O threads.
   void shutdown();
   void removeSession(ConnectionId id);
-  /// A connection's Hello was accepted: whether it becomes a session (Admission::greet).
-  bool greet(ConnectionId id);
+  /// A connection's Hello was accepted: none when it becomes a session (Admission::greet, its quotas, the render
+  /// threads' capacity), else the Error that refuses it.
+  std::optional<proto::Error> greet(ConnectionId id);
   json statsJson() const;
 
   const ServerConfig config;
@@ -146,6 +148,9 @@ struct Server::Impl {
   /// Every open connection: sessions, connections waiting for Hello, refused ones until their error is written.
   std::map<ConnectionId, std::shared_ptr<Session>> sessions;
   Admission admission;        ///< guarded by sessionsMutex
+  /// Each connection's address and whether it is loopback, for the quotas. Guarded by sessionsMutex.
+  std::map<ConnectionId, std::pair<std::string, bool>> clients;
+  Quotas quotas;
   uint64_t accepted = 0;      ///< connections so far: the next ConnectionId
   bool shuttingDown = false;  ///< guarded by sessionsMutex, so no session joins after the ShuttingDown round
 
@@ -164,7 +169,7 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
       datasets(config.datasets, size_t(config.hostCacheMB) << 20,
                [this](const std::string& name) { scheduler.checkDataset(name); }),
       output(config.maxTotalOutputBytes),
-      scheduler(std::move(sources), config.coalesce),
+      scheduler(std::move(sources), config.scheduler),
       handler(config, datasets, presets, stats, [this] { return statsJson(); }),
       control(asio::make_strand(io)),
       acceptor(control),
@@ -177,8 +182,18 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
                       stats,
                       output,
                       [this](ConnectionId id) { removeSession(id); },
-                      [this](ConnectionId id) { return greet(id); }},
-      admission(admissionLimits(config)) {
+                      [this](ConnectionId id) { return greet(id); },
+                      [this](ConnectionId id) -> std::optional<Submission> {
+                        const auto refusal = quotas.takeFrame(id);
+                        if (!refusal) return std::nullopt;
+                        Submission busy;
+                        busy.result = Submission::Result::Busy;
+                        busy.retryAfterMs = refusal->retryAfterMs;
+                        busy.why = refusal->why;
+                        return busy;
+                      }},
+      admission(admissionLimits(config)),
+      quotas(config.quotas) {
   sessionServices.limits.maxBodyBytes = config.maxMessageBytes;
   listen(acceptor, endpoint, "TCP");
   if (config.http) listen(httpAcceptor, listenEndpoint(config.httpHost(), config.httpPort), "HTTP");
@@ -226,6 +241,7 @@ void Server::Impl::adopt(const std::string& address, bool loopback,
     const ConnectionId id{++accepted};
     session = make(id);
     sessions.emplace(id, session);  // refused ones too, until their error is written
+    clients[id] = {address, loopback};
     if (shuttingDown) {
       refusal = errorMessage(proto::ErrorCode::ShuttingDown, "server is stopping");
     } else {
@@ -261,18 +277,40 @@ void Server::Impl::adopt(const std::string& address, bool loopback,
   session->start();
 }
 
-bool Server::Impl::greet(ConnectionId id) {
+std::optional<proto::Error> Server::Impl::greet(ConnectionId id) {
   std::lock_guard lock(sessionsMutex);
-  if (!admission.greet(id)) return false;
+  const auto tooMany = [&] {
+    return errorMessage(proto::ErrorCode::LimitExceeded,
+                        "too many sessions (limit " + std::to_string(config.maxSessions) + ")");
+  };
+  const auto client = clients.find(id);
+  const auto session = sessions.find(id);
+  if (client == clients.end() || session == sessions.end()) return tooMany();
+  // Over capacity: more sessions drag than the render threads can keep at their minimum rate.
+  if (const std::optional<uint32_t> retry = scheduler.refuseNewSession())
+    return errorMessage(proto::ErrorCode::Busy,
+                        proto::busyMessage("the server is over capacity: " +
+                                               std::to_string(scheduler.interactiveSessions()) +
+                                               " sessions are dragging, as many as its render threads keep at " +
+                                               "their minimum rate",
+                                           *retry));
+  if (auto refusal = quotas.admit(id, client->second.first, client->second.second, session->second->accessToken()))
+    return errorMessage(proto::ErrorCode::LimitExceeded, *refusal);
+  if (!admission.greet(id)) {
+    quotas.remove(id);
+    return tooMany();
+  }
   stats.add(ServerEvent::SessionAccepted);
-  return true;
+  return std::nullopt;
 }
 
 void Server::Impl::removeSession(ConnectionId id) {
   {
     std::lock_guard lock(sessionsMutex);
     sessions.erase(id);
+    clients.erase(id);
     admission.remove(id);
+    quotas.remove(id);
   }
   sessionsChanged.notify_all();
 }

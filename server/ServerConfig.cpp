@@ -108,7 +108,7 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   if (std::string backend; server.read("backend", backend))
     c.backend = parseBackend(backend, file + ": server.backend");
   server.read("log_level", c.logLevel);
-  server.read("coalesce", c.coalesce);
+  server.read("coalesce", c.scheduler.coalesce);
   Section limits = top.table("limits");
   limits.read("max_sessions", c.maxSessions);
   limits.read("max_message_bytes", c.maxMessageBytes);
@@ -132,7 +132,25 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   Section memory = top.table("memory");
   memory.read("host_cache_mb", c.hostCacheMB);
   memory.read("gpu_budget_mb", c.gpuBudgetMB);
-  for (const Section* section : {&top, &server, &limits, &memory, &http}) section->rejectUnknown();
+  Section scheduler = top.table("scheduler");
+  SchedulerConfig& sc = c.scheduler;
+  scheduler.read("interactive_weight", sc.interactiveWeight);
+  scheduler.read("still_weight", sc.stillWeight);
+  scheduler.read("batch_weight", sc.batchWeight);
+  scheduler.read("interactive_fps", sc.interactiveFps);
+  scheduler.read("reserved_interactive_threads", sc.reservedInteractiveThreads);
+  scheduler.read("batch_max_wait_ms", sc.batchMaxWaitMs);
+  scheduler.read("max_interactive_sessions", sc.maxInteractiveSessions);
+  scheduler.read("min_interactive_fps", sc.minInteractiveFps);
+  scheduler.read("share_frames", sc.shareFrames);
+  scheduler.read("loaded_jpeg_quality", sc.loadedJpegQuality);
+  Section quotas = top.table("quotas");
+  quotas.read("sessions_per_address", c.quotas.sessionsPerAddress);
+  quotas.read("frames_per_s_per_address", c.quotas.framesPerSecondPerAddress);
+  quotas.read("sessions_per_token", c.quotas.sessionsPerToken);
+  quotas.read("frames_per_s_per_token", c.quotas.framesPerSecondPerToken);
+  quotas.read("loopback_exempt", c.quotas.loopbackExempt);
+  for (const Section* section : {&top, &server, &limits, &memory, &http, &scheduler, &quotas}) section->rejectUnknown();
   try {
     c.validate();
   } catch (const std::exception& e) {
@@ -172,6 +190,19 @@ void ServerConfig::validate() const {
            "http://viewer.example.org:8080)");
   if (!httpToken.empty() && !WebGate::validToken(httpToken))
     fail("http.token must be letters, digits and - . _ ~ only (it travels in a URL)");
+  range("scheduler.interactive_weight", scheduler.interactiveWeight, 0.01, 1e6);
+  range("scheduler.still_weight", scheduler.stillWeight, 0.01, 1e6);
+  range("scheduler.batch_weight", scheduler.batchWeight, 0.01, 1e6);
+  range("scheduler.interactive_fps", scheduler.interactiveFps, 0.1, 1000);
+  range("scheduler.reserved_interactive_threads", scheduler.reservedInteractiveThreads, 0, 64);
+  range("scheduler.batch_max_wait_ms", scheduler.batchMaxWaitMs, 1, 86400e3);
+  range("scheduler.max_interactive_sessions", scheduler.maxInteractiveSessions, 0, 100000);
+  range("scheduler.min_interactive_fps", scheduler.minInteractiveFps, 0.1, 1000);
+  range("scheduler.loaded_jpeg_quality", scheduler.loadedJpegQuality, 1, 100);
+  range("quotas.sessions_per_address", quotas.sessionsPerAddress, 0, 100000);
+  range("quotas.frames_per_s_per_address", quotas.framesPerSecondPerAddress, 0, 1e6);
+  range("quotas.sessions_per_token", quotas.sessionsPerToken, 0, 100000);
+  range("quotas.frames_per_s_per_token", quotas.framesPerSecondPerToken, 0, 1e6);
   range("memory.host_cache_mb", double(hostCacheMB), 16, 1 << 22);
   range("memory.gpu_budget_mb", double(gpuBudgetMB), 16, 1 << 22);
   if (gpuBudgetMB < 4 * int64_t(renderThreads))

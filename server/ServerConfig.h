@@ -13,6 +13,44 @@
 
 namespace voxbrick::server {
 
+/// How the render queue shares the render threads ([scheduler] in the file): fair queueing by measured device time,
+/// classes, the interactive budget that follows the load, admission. docs/server.md says how each is used.
+struct SchedulerConfig {
+  bool coalesce = true;  ///< latest wins; off only to measure what it saves
+  /// Each class's weight in the share of render time while several classes have work waiting (interactive, still,
+  /// batch): 16, 3 and 1 give a moving camera 80 % of the time, a resting camera's exact frame 15 %, batch 5 %, and
+  /// any class the whole of it when it is alone.
+  double interactiveWeight = 16, stillWeight = 3, batchWeight = 1;
+  /// The frame rate each interactive session's time budget is sized for: with N interactive sessions and T render
+  /// threads, a moving camera's frame gets at most T * 1000 / (fps * N) ms (never more than its scene asks, never
+  /// less than the scene's minimum, 10 ms), so quality yields to the crowd instead of latency.
+  double interactiveFps = 10;
+  /// Render threads kept for interactive frames while any session drags (with two threads or more): still and batch
+  /// frames take at most the others, so a long still frame never holds every thread a viewer waits for.
+  int reservedInteractiveThreads = 1;
+  /// A batch Render whose expected wait (the measured cost of the work queued before it, over the threads' share for
+  /// its class) exceeds this is answered Busy with that wait as its retry hint.
+  double batchMaxWaitMs = 2000;
+  /// Sessions dragging at once beyond which a new session is answered Busy at Hello; 0: measured, as the render
+  /// threads' time over min_interactive_fps frames of the measured interactive frame cost per session.
+  int maxInteractiveSessions = 0;
+  double minInteractiveFps = 5;  ///< the rate the measured capacity keeps for every dragging session
+  bool shareFrames = true;       ///< sessions asking the identical frame at once get one render
+  /// The JPEG quality of a provisional frame while the crowd cuts its budget (a scene's own jpeg_quality is kept).
+  int loadedJpegQuality = 70;
+};
+
+/// Per-address and per-token quotas ([quotas]): 0 is no limit. A session past its sessions quota is refused at
+/// Hello with LimitExceeded; a Render past its frames-per-second quota is answered Busy with the time until the
+/// quota has room again. The token is the one a WebSocket session opened /ws with; TCP sessions carry none.
+struct QuotaConfig {
+  int sessionsPerAddress = 0;
+  double framesPerSecondPerAddress = 0;
+  int sessionsPerToken = 0;
+  double framesPerSecondPerToken = 0;
+  bool loopbackExempt = false;  ///< loopback clients are held to no quota
+};
+
 struct ServerConfig {
   // [server]
   std::string host = "127.0.0.1";
@@ -22,7 +60,8 @@ struct ServerConfig {
   int renderThreads = 2;                            ///< each with its own GL context
   render::Backend backend = render::Backend::Auto;  ///< "auto" | "egl" | "osmesa" in the file
   std::string logLevel = "info";                    ///< trace | debug | info | warn | error | off
-  bool coalesce = true;                             ///< latest wins; off only to measure what it saves
+  SchedulerConfig scheduler;  ///< [scheduler]; coalesce is also [server] coalesce
+  QuotaConfig quotas;         ///< [quotas]
   // [limits]
   int maxSessions = 64;                    ///< connections beyond this are refused with LimitExceeded
   uint32_t maxMessageBytes = 1u << 20;     ///< body of a client message
@@ -58,7 +97,7 @@ struct ServerConfig {
   /// Without coalescing (a benchmark setting), how many renders one session may have waiting.
   static constexpr size_t kMaxQueuedWithoutCoalescing = 64;
   /// How many renders of one session may wait for a render thread (Capabilities.max_queued_per_session).
-  size_t maxQueuedPerSession() const { return coalesce ? 1 : kMaxQueuedWithoutCoalescing; }
+  size_t maxQueuedPerSession() const { return scheduler.coalesce ? 1 : kMaxQueuedWithoutCoalescing; }
 
   /// Reads `path` (TOML) over the defaults. Throws std::runtime_error naming the file, key and problem for a
   /// syntax error, an unknown key, a wrong type, a value out of range or an unknown backend name.

@@ -21,6 +21,9 @@ class Session {
   virtual const std::string& peer() const = 0;
   /// The server's number for the connection.
   virtual ConnectionId id() const = 0;
+  /// The access token the client was admitted with (a browser's /ws ?token=), for the per-token quotas; empty for
+  /// none (a TCP session). Read on the connection's own serial context.
+  virtual std::string accessToken() const { return {}; }
 };
 
 }  // namespace voxbrick::server

@@ -57,6 +57,10 @@ class WebGate {
   std::optional<std::string> refuseUpgrade(std::string_view target, std::optional<std::string_view> origin,
                                            std::string_view host) const;
 
+  /// The access token `target` carries when it is the one set (what the per-token quotas count); empty otherwise.
+  std::string acceptedToken(std::string_view target) const {
+    return mToken.empty() || tokenRefusal(target) ? std::string() : mToken;
+  }
  private:
   /// Why `target` fails the access token (missing, wrong), or nullopt when none is set or it matches.
   std::optional<std::string> tokenRefusal(std::string_view target) const;

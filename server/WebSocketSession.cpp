@@ -166,6 +166,7 @@ void WebSocketSession::upgrade() {
     spdlog::info("{}: WebSocket upgrade refused: {}", peer(), *refusal);
     return respond(textResponse(403, "forbidden: " + *refusal));
   }
+  mToken = mGate.acceptedToken(view(mRequest.target()));
   // From here the Connection's deadlines rule: Beast's own run only for the opening and closing handshakes, and
   // it sends no pings of its own (the idle timeout is the Connection's).
   beast::get_lowest_layer(mWs).expires_never();

@@ -41,6 +41,8 @@ class WebSocketSession final : public AsioSession {
   void readMessage() override;
   void write(std::span<const uint8_t> message) override;
   void close() override;
+  /// The token /ws was opened with, once the gate accepted it (empty when the server sets none).
+  std::string accessToken() const override { return mToken; }
 
  private:
   using Request = boost::beast::http::request<boost::beast::http::string_body>;
@@ -68,6 +70,7 @@ class WebSocketSession final : public AsioSession {
   std::optional<boost::beast::http::request_parser<boost::beast::http::string_body>> mParser;
   Request mRequest;
   Response mResponse;
+  std::string mToken;             ///< the accepted access token (accessToken)
   bool mResponding = false;       ///< an HTTP response is being written
   bool mRefused = false;          ///< refused before the upgrade: requests are no longer answered
   bool mUpgrading = false;        ///< the WebSocket handshake is under way

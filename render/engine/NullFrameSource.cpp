@@ -16,7 +16,7 @@ image::ImageF NullFrameSource::render(const std::shared_ptr<const Dataset>& data
     throw RenderLimitError("the frame would take " + std::to_string(samples) + " samples, above the limit of " +
                            std::to_string(options.maxSamples));
   const auto start = std::chrono::steady_clock::now();
-  const auto end = start + mDrawTime;
+  const auto end = start + mDrawTime + mPerPixel * (int64_t(scene.width) * int64_t(scene.height));
   for (;;) {
     if (options.cancelled && options.cancelled()) throw FrameCancelled("the frame was given up");
     const auto now = std::chrono::steady_clock::now();

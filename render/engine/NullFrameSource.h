@@ -16,11 +16,12 @@ namespace voxbrick::render {
 
 class NullFrameSource final : public FrameSource {
  public:
-  /// Every frame takes `drawTime` (slept in steps of at most 1 ms, asking FrameOptions::cancelled between them) and
-  /// is reported as `samplesPerMs` times its time in estimated samples.
+  /// Every frame takes `drawTime` plus `perPixel` times its width times height (slept in steps of at most 1 ms,
+  /// asking FrameOptions::cancelled between them) and is reported as `samplesPerMs` times its time in estimated
+  /// samples.
   explicit NullFrameSource(std::chrono::microseconds drawTime = std::chrono::microseconds(0),
-                           double samplesPerMs = 1000)
-      : mDrawTime(drawTime), mSamplesPerMs(samplesPerMs) {}
+                           double samplesPerMs = 1000, std::chrono::nanoseconds perPixel = std::chrono::nanoseconds(0))
+      : mDrawTime(drawTime), mSamplesPerMs(samplesPerMs), mPerPixel(perPixel) {}
 
   std::string describe() const override { return "null frame source (draws nothing)"; }
   /// The scene's background, opaque (or transparent with a transparent background), at its size. Throws
@@ -42,6 +43,7 @@ class NullFrameSource final : public FrameSource {
  private:
   std::chrono::microseconds mDrawTime;
   double mSamplesPerMs;
+  std::chrono::nanoseconds mPerPixel;
   std::atomic<uint64_t> mDrawn{0}, mPrefetches{0};
   mutable std::mutex mMutex;
   std::vector<int> mWidths;

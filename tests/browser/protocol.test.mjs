@@ -3,7 +3,15 @@
 
 import assert from "node:assert/strict";
 import { describe, test } from "node:test";
-import { decodeMessage, encode, Encoding, ErrorCode, ProtocolError, Type } from "../../web/js/protocol.js";
+import {
+  decodeMessage,
+  encode,
+  Encoding,
+  ErrorCode,
+  ProtocolError,
+  retryAfterMs,
+  Type,
+} from "../../web/js/protocol.js";
 
 const hex = (bytes) => Buffer.from(bytes).toString("hex");
 
@@ -26,8 +34,8 @@ const u32 = (v) => {
 const str = (s) => [...u32(Buffer.byteLength(s)), ...Buffer.from(s)];
 
 describe("protocol.js", () => {
-  test("Hello is the bytes of PROTOCOL.md's example, with versions 1 to 2", () => {
-    // The document's example says max_version 1; the page speaks up to 2 (the fourth body byte).
+  test("Hello is the bytes of PROTOCOL.md's example, with versions 1 to 3", () => {
+    // The document's example says max_version 1; the page speaks up to 3 (the fourth body byte).
     assert.equal(
       hex(encode.hello(1, "example")),
       "5658424b" +
@@ -36,7 +44,7 @@ describe("protocol.js", () => {
         "01000000" +
         "0f000000" +
         "0100" +
-        "0200" +
+        "0300" +
         "07000000" +
         hex(Buffer.from("example")),
     );
@@ -70,6 +78,13 @@ describe("protocol.js", () => {
     assert.equal(frame.requestId, 7);
     const err = decodeMessage(message(Type.Error, [ErrorCode.Superseded, 0, ...str("replaced")]), 1);
     assert.equal(err.body.name, "Superseded");
+    const busy = decodeMessage(
+      message(Type.Error, [ErrorCode.Busy, 0, ...str("batch work waits; retry after 1500 ms")], { version: 3 }),
+      3,
+    );
+    assert.equal(busy.body.name, "Busy");
+    assert.equal(retryAfterMs(busy.body.message), 1500);
+    assert.equal(retryAfterMs("no hint"), null);
   });
 
   test("the decoder refuses what the C++ decoder refuses, naming the field", () => {

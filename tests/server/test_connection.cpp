@@ -89,7 +89,11 @@ class ConnectionTest : public ::testing::Test {
                            stats,
                            output,
                            [this](ConnectionId id) { ended.push_back(id); },
-                           [this](ConnectionId) { return sessionsFree; }};
+                           [this](ConnectionId) -> std::optional<proto::Error> {
+                             if (sessionsFree) return std::nullopt;
+                             return errorMessage(proto::ErrorCode::LimitExceeded, "too many sessions (limit 64)");
+                           },
+                           {}};
   std::shared_ptr<FakeTransport> transport = std::make_shared<FakeTransport>();
   Connection core{*transport, services, ConnectionId{7}, "test:1"};
 

@@ -92,7 +92,7 @@ TEST_F(MessageHandlerTest, AVersionOneHelloGetsAVersionOneSessionWithoutJpeg) {
 }
 
 TEST_F(MessageHandlerTest, WithoutCoalescingCapabilitiesAllowMoreQueued) {
-  config.coalesce = false;
+  config.scheduler.coalesce = false;
   MessageHandler uncoalesced(config, datasets, presets, stats, [] { return json::object(); });
   const auto caps = onlyReply<proto::Capabilities>(uncoalesced.handle(state, proto::Hello{}, 1), 1);
   EXPECT_EQ(caps.maxQueuedPerSession, ServerConfig::kMaxQueuedWithoutCoalescing);
@@ -107,7 +107,8 @@ TEST_F(MessageHandlerTest, SecondHelloIsUnexpected) {
 }
 
 TEST_F(MessageHandlerTest, UnsupportedVersionIsRefusedAndCloses) {
-  for (const proto::Hello& hello : {proto::Hello{3, 4, "future"}, proto::Hello{0, 0, "past"}}) {
+  for (const proto::Hello& hello : {proto::Hello{uint16_t(proto::kMaxVersion + 1), uint16_t(proto::kMaxVersion + 2), "future"},
+                                    proto::Hello{0, 0, "past"}}) {
     const Outcome o = handle(hello, 4);
     EXPECT_EQ(errorCode(o, 4), ErrorCode::UnsupportedVersion) << hello.client;
     EXPECT_TRUE(o.close) << hello.client;

@@ -362,7 +362,7 @@ TEST_F(ServerTest, MalformedMessagesGetTheirErrorsAndOtherSessionsGoOn) {
   }
   {
     Client c("127.0.0.1", server->port());
-    c.send(proto::Hello{3, 4, "future"});  // this server speaks 1 and 2
+    c.send(proto::Hello{uint16_t(proto::kMaxVersion + 1), uint16_t(proto::kMaxVersion + 2), "future"});  // above ours
     EXPECT_EQ(errorsUntilClosed(c), std::vector<ErrorCode>{ErrorCode::UnsupportedVersion});
   }
   {  // a client that leaves mid-frame

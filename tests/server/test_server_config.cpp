@@ -49,7 +49,7 @@ TEST_F(ServerConfigTest, AnEmptyFileGivesTheDefaults) {
   EXPECT_EQ(c.maxSessions, 64);
   EXPECT_EQ(c.maxMessageBytes, 1u << 20);
   EXPECT_EQ(c.maxImageSide, 4096);
-  EXPECT_TRUE(c.coalesce);
+  EXPECT_TRUE(c.scheduler.coalesce);
   EXPECT_EQ(c.maxQueuedPerSession(), 1u);
   EXPECT_EQ(c.maxPendingConnections, 16);
   EXPECT_DOUBLE_EQ(c.helloTimeoutS, 5);
@@ -96,7 +96,7 @@ gpu_budget_mb = 64
   EXPECT_EQ(c.renderThreads, 4);
   EXPECT_EQ(c.backend, render::Backend::OsMesa);
   EXPECT_EQ(c.logLevel, "debug");
-  EXPECT_FALSE(c.coalesce);
+  EXPECT_FALSE(c.scheduler.coalesce);
   EXPECT_EQ(c.maxQueuedPerSession(), ServerConfig::kMaxQueuedWithoutCoalescing);
   EXPECT_EQ(c.maxSessions, 5);
   EXPECT_EQ(c.maxMessageBytes, 2048u);

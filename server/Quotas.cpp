@@ -1,0 +1,88 @@
+// Sessions counted per address and token; frame rates as token buckets.
+#include "server/Quotas.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace voxbrick::server {
+namespace {
+
+std::string rateText(double rate) {
+  std::ostringstream out;
+  out << rate;
+  return out.str();
+}
+
+}  // namespace
+
+std::optional<std::string> Quotas::admit(ConnectionId id, const std::string& address, bool loopback,
+                                          const std::string& token) {
+  if (loopback && mConfig.loopbackExempt) return std::nullopt;
+  std::lock_guard lock(mMutex);
+  if (mConfig.sessionsPerAddress > 0 && mAddresses[address].sessions >= size_t(mConfig.sessionsPerAddress))
+    return "quota: address " + address + " holds " + std::to_string(mAddresses[address].sessions) +
+           " sessions (quotas.sessions_per_address = " + std::to_string(mConfig.sessionsPerAddress) + ")";
+  if (!token.empty() && mConfig.sessionsPerToken > 0 && mTokens[token].sessions >= size_t(mConfig.sessionsPerToken))
+    return "quota: this access token holds " + std::to_string(mTokens[token].sessions) +
+           " sessions (quotas.sessions_per_token = " + std::to_string(mConfig.sessionsPerToken) + ")";
+  ++mAddresses[address].sessions;
+  if (!token.empty()) ++mTokens[token].sessions;
+  mSessions[id] = Entry{address, token};
+  return std::nullopt;
+}
+
+void Quotas::remove(ConnectionId id) {
+  std::lock_guard lock(mMutex);
+  const auto it = mSessions.find(id);
+  if (it == mSessions.end()) return;
+  const auto release = [](std::map<std::string, Holder>& holders, const std::string& key) {
+    auto h = holders.find(key);
+    if (h == holders.end()) return;
+    if (h->second.sessions > 0) --h->second.sessions;
+    if (h->second.sessions == 0) holders.erase(h);  // a returning client starts with a full bucket
+  };
+  release(mAddresses, it->second.address);
+  if (!it->second.token.empty()) release(mTokens, it->second.token);
+  mSessions.erase(it);
+}
+
+double Quotas::refill(Bucket& bucket, double rate, Clock::time_point now) {
+  const double capacity = std::max(1.0, rate);
+  if (bucket.frames < 0) {
+    bucket.frames = capacity;
+  } else {
+    const double seconds = std::chrono::duration<double>(now - bucket.updated).count();
+    bucket.frames = std::min(capacity, bucket.frames + std::max(0.0, seconds) * rate);
+  }
+  bucket.updated = now;
+  return bucket.frames >= 1 ? 0 : (1 - bucket.frames) / rate * 1000;
+}
+
+std::optional<Quotas::Refusal> Quotas::takeFrame(ConnectionId id, Clock::time_point now) {
+  std::lock_guard lock(mMutex);
+  const auto it = mSessions.find(id);
+  if (it == mSessions.end()) return std::nullopt;
+  Bucket* address = mConfig.framesPerSecondPerAddress > 0 ? &mAddresses[it->second.address].bucket : nullptr;
+  Bucket* token = mConfig.framesPerSecondPerToken > 0 && !it->second.token.empty()
+                      ? &mTokens[it->second.token].bucket
+                      : nullptr;
+  const double addressWait = address ? refill(*address, mConfig.framesPerSecondPerAddress, now) : 0;
+  const double tokenWait = token ? refill(*token, mConfig.framesPerSecondPerToken, now) : 0;
+  if (addressWait > 0 || tokenWait > 0) {
+    Refusal refusal;
+    refusal.retryAfterMs = uint32_t(std::ceil(std::max(addressWait, tokenWait)));
+    refusal.why = addressWait >= tokenWait
+                      ? "quota: address " + it->second.address + " may send " +
+                            rateText(mConfig.framesPerSecondPerAddress) + " Renders a second " +
+                            "(quotas.frames_per_s_per_address)"
+                      : "quota: this access token may send " + rateText(mConfig.framesPerSecondPerToken) +
+                            " Renders a second (quotas.frames_per_s_per_token)";
+    return refusal;
+  }
+  if (address) address->frames -= 1;
+  if (token) token->frames -= 1;
+  return std::nullopt;
+}
+
+}  // namespace voxbrick::server

@@ -1,0 +1,345 @@
+// Fair under a crowd: the render queue's shares by measured time and by class, the budget that follows the load,
+// the threads kept for dragging sessions, Busy for batch work over capacity and one render for identical frames
+// (the null frame source: what is tested is the queue); the quotas on their own; and admission against the real
+// `voxbrick serve` process (Busy at Hello beyond capacity, the quotas of server.toml).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <condition_variable>
+#include <fstream>
+#include <mutex>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "ServerProcess.h"
+#include "TestDatasets.h"
+#include "client/Client.h"
+#include "render/core/TransferFunctionPresets.h"
+#include "render/engine/NullFrameSource.h"
+#include "server/Datasets.h"
+#include "server/Quotas.h"
+#include "server/RenderScheduler.h"
+
+namespace voxbrick::server {
+namespace {
+
+using namespace std::chrono_literals;
+using nlohmann::json;
+
+/// Collects the replies a scheduler delivers to one session, with the width of each frame.
+class CountingSink : public RenderScheduler::Sink {
+ public:
+  bool wantsReplies() const override { return true; }
+  void rendered(RenderJob job, proto::Message reply) override {
+    {
+      std::lock_guard lock(mMutex);
+      mReplies.emplace_back(job.requestId, std::move(reply));
+    }
+    mChanged.notify_all();
+  }
+  std::vector<std::pair<uint32_t, proto::Message>> await(size_t count, std::chrono::seconds limit = 60s) {
+    std::unique_lock lock(mMutex);
+    mChanged.wait_for(lock, limit, [&] { return mReplies.size() >= count; });
+    return mReplies;
+  }
+  size_t count() {
+    std::lock_guard lock(mMutex);
+    return mReplies.size();
+  }
+
+ private:
+  std::mutex mMutex;
+  std::condition_variable mChanged;
+  std::vector<std::pair<uint32_t, proto::Message>> mReplies;
+};
+
+json statsOf(const proto::Message& m) {
+  const auto* frame = std::get_if<proto::Frame>(&m);
+  return frame ? json::parse(frame->statsJson) : json();
+}
+
+class FairSchedulerTest : public ::testing::Test {
+ protected:
+  DatasetRegistry datasets{test::testDatasets(), size_t(16) << 20};
+  render::TransferFunctionPresets presets = render::TransferFunctionPresets::load(test::shippedPresets());
+
+  RenderJob job(uint32_t id, int width, const std::string& extra = "") {
+    RenderJob j;
+    j.requestId = id;
+    j.encoding = proto::Encoding::RawRgba8;
+    j.dataset = datasets.open("sparse");
+    j.scene = render::Scene::fromJson(R"({"camera": {"orbit": [40, 25, 2.2]}, "transfer_function": "sparse", )" +
+                                          extra + R"("size": [)" + std::to_string(width) + ", 8]}",
+                                      "scene", presets);
+    j.received = std::chrono::steady_clock::now();
+    return j;
+  }
+  /// A scheduler of `threads` null sources; a frame takes `drawTime` plus `perPixel` for each pixel.
+  static std::unique_ptr<RenderScheduler> scheduler(int threads, SchedulerConfig config,
+                                                    std::chrono::microseconds drawTime,
+                                                    std::chrono::nanoseconds perPixel,
+                                                    std::vector<render::NullFrameSource*>* sources = nullptr) {
+    std::vector<std::unique_ptr<render::FrameSource>> made;
+    for (int i = 0; i < threads; ++i) {
+      auto source = std::make_unique<render::NullFrameSource>(drawTime, 1000, perPixel);
+      if (sources) sources->push_back(source.get());
+      made.push_back(std::move(source));
+    }
+    return std::make_unique<RenderScheduler>(std::move(made), config);
+  }
+};
+
+// A session that floods (64 jobs waiting, each four times as costly) gets no more render time than one asking
+// cheap frames: shares are of measured milliseconds, not of frames. Turn-taking by frames would draw them 1:1.
+TEST_F(FairSchedulerTest, ASessionThatFloodsGetsNoMoreThanItsShareOfTime) {
+  std::vector<render::NullFrameSource*> sources;
+  auto s = scheduler(1, {.coalesce = false}, 0us, 25us, &sources);  // width 32: 6.4 ms, width 8: 1.6 ms
+  auto heavy = std::make_shared<CountingSink>(), light = std::make_shared<CountingSink>();
+  for (uint32_t i = 0; i < 64; ++i) s->submit(heavy, job(i, 32));
+  for (uint32_t i = 0; i < 64; ++i) s->submit(light, job(100 + i, 8));
+  s->start();
+  light->await(40);
+  s->stop();
+  const std::vector<int> widths = sources[0]->widthsDrawn();
+  ASSERT_GE(widths.size(), 40u);
+  const auto first = std::vector<int>(widths.begin(), widths.begin() + 40);
+  const auto heavyFrames = std::count(first.begin(), first.end(), 32), lightFrames = std::count(first.begin(), first.end(), 8);
+  EXPECT_GE(lightFrames, 3 * heavyFrames) << heavyFrames << " heavy and " << lightFrames << " light of the first 40";
+  EXPECT_GE(heavyFrames, 4) << "the heavy session still gets its share";
+}
+
+// With every class waiting, a moving camera's frames take most of the thread, a resting camera's exact frames
+// their share after them, and batch work the least, never nothing.
+TEST_F(FairSchedulerTest, ClassesAreServedInteractiveThenStillThenBatchByWeight) {
+  std::vector<render::NullFrameSource*> sources;
+  auto s = scheduler(1, {.coalesce = false}, 2ms, 0ns, &sources);
+  auto batch = std::make_shared<CountingSink>(), still = std::make_shared<CountingSink>(),
+       moving = std::make_shared<CountingSink>();
+  for (uint32_t i = 0; i < 60; ++i) s->submit(batch, job(i, 30, R"("batch": true, )"));
+  for (uint32_t i = 0; i < 60; ++i) s->submit(still, job(100 + i, 20));
+  for (uint32_t i = 0; i < 60; ++i) s->submit(moving, job(200 + i, 10, R"("interactive": true, )"));
+  s->start();
+  moving->await(38);
+  s->stop();
+  const std::vector<int> widths = sources[0]->widthsDrawn();
+  ASSERT_GE(widths.size(), 40u);
+  const auto first = std::vector<int>(widths.begin(), widths.begin() + 40);
+  const auto interactive = std::count(first.begin(), first.end(), 10), exact = std::count(first.begin(), first.end(), 20),
+             batchFrames = std::count(first.begin(), first.end(), 30);
+  // Weights 16, 3, 1 of equal frames: 32, 6 and 2 of 40.
+  EXPECT_GE(interactive, 28) << interactive << " interactive, " << exact << " still, " << batchFrames << " batch";
+  EXPECT_GE(exact, 3);
+  EXPECT_GE(batchFrames, 1) << "batch work is served last, not never";
+  EXPECT_LT(batchFrames, exact);
+  EXPECT_EQ(first.front(), 10) << "the first frame drawn is the moving camera's";
+}
+
+// Quality yields before latency: with eight sessions dragging on two threads at 10 frames a second each, a frame's
+// budget is 2 * 1000 / (10 * 8) = 25 ms, not the 100 ms its scene asks; alone, a session keeps its own.
+TEST_F(FairSchedulerTest, TheInteractiveBudgetFollowsTheNumberOfSessionsDragging) {
+  auto s = scheduler(2, {}, 0us, 0ns);
+  std::vector<std::shared_ptr<CountingSink>> sinks;
+  for (int i = 0; i < 8; ++i) sinks.push_back(std::make_shared<CountingSink>());
+  for (int i = 0; i < 8; ++i) s->submit(sinks[size_t(i)], job(uint32_t(i), 16, R"("interactive": true, "time_budget_ms": 100, )"));
+  s->start();
+  const auto replies = sinks[0]->await(1);
+  ASSERT_FALSE(replies.empty());
+  const json stats = statsOf(replies[0].second);
+  ASSERT_TRUE(stats.contains("load")) << stats.dump();
+  EXPECT_DOUBLE_EQ(stats["load"]["time_budget_ms"].get<double>(), 25);
+  EXPECT_DOUBLE_EQ(stats["load"]["requested_budget_ms"].get<double>(), 100);
+  EXPECT_EQ(stats["load"]["jpeg_quality"].get<int>(), 70);
+  EXPECT_EQ(stats["class"], "interactive");
+  s->stop();
+
+  auto alone = scheduler(2, {}, 0us, 0ns);
+  auto one = std::make_shared<CountingSink>();
+  alone->submit(one, job(1, 16, R"("interactive": true, "time_budget_ms": 100, )"));
+  alone->start();
+  const json own = statsOf(one->await(1).at(0).second);
+  EXPECT_FALSE(own.contains("load")) << "alone, nothing is cut: " << own.dump();
+  alone->stop();
+}
+
+// Long still frames never hold every thread while a session drags: its next frame starts at once on the thread
+// kept for it, instead of waiting for a still frame to finish.
+TEST_F(FairSchedulerTest, StillFramesLeaveAThreadToADraggingSession) {
+  auto s = scheduler(2, {}, 0us, 50us);  // width 60: 24 ms a frame, width 1000: 400 ms
+  auto moving = std::make_shared<CountingSink>();
+  s->submit(moving, job(1, 60, R"("interactive": true, )"));
+  std::vector<std::shared_ptr<CountingSink>> stills;
+  for (int i = 0; i < 4; ++i) {
+    stills.push_back(std::make_shared<CountingSink>());
+    s->submit(stills.back(), job(uint32_t(10 + i), 1000));
+  }
+  s->start();
+  moving->await(1);
+  std::this_thread::sleep_for(60ms);  // both threads would now be drawing still frames without the reservation
+  const auto asked = std::chrono::steady_clock::now();
+  s->submit(moving, job(2, 60, R"("interactive": true, )"));
+  const auto replies = moving->await(2);
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - asked).count();
+  ASSERT_GE(replies.size(), 2u);
+  EXPECT_LT(ms, 250) << "the dragging session's frame waited for a still frame (400 ms)";
+  EXPECT_LT(statsOf(replies[1].second)["queue_ms"].get<double>(), 100);
+  s->stop();
+}
+
+// A batch Render expected to wait beyond batch_max_wait_ms is refused Busy, with that wait as its retry hint.
+TEST_F(FairSchedulerTest, BatchWorkOverCapacityIsBusyWithARetryHint) {
+  auto s = scheduler(1, {.batchMaxWaitMs = 120}, 0us, 0ns);  // not started: everything waits
+  std::vector<std::shared_ptr<CountingSink>> sinks;
+  std::vector<Submission> results;
+  for (int i = 0; i < 4; ++i) {
+    sinks.push_back(std::make_shared<CountingSink>());
+    results.push_back(s->submit(sinks.back(), job(uint32_t(i), 16, R"("batch": true, )")));
+  }
+  // Before any frame is measured a frame is predicted at 50 ms: 50 and 100 ms fit, 150 does not.
+  EXPECT_EQ(results[0].result, Submission::Result::Queued);
+  EXPECT_EQ(results[1].result, Submission::Result::Queued);
+  ASSERT_EQ(results[2].result, Submission::Result::Busy);
+  EXPECT_EQ(results[2].retryAfterMs, 150u);
+  EXPECT_NE(results[2].why.find("batch"), std::string::npos) << results[2].why;
+  EXPECT_EQ(s->busyRenders(), 2u);
+  // A viewer's still frame is never refused for the batch queue.
+  auto viewer = std::make_shared<CountingSink>();
+  EXPECT_EQ(s->submit(viewer, job(9, 16)).result, Submission::Result::Queued);
+  s->stop();
+}
+
+// Sessions asking the identical frame get one render: those waiting when it starts, and one asking while it is
+// drawn; each gets it under its own request id, marked shared.
+TEST_F(FairSchedulerTest, SessionsAskingTheSameFrameShareOneRender) {
+  std::vector<render::NullFrameSource*> sources;
+  auto s = scheduler(1, {}, 200ms, 0ns, &sources);
+  auto a = std::make_shared<CountingSink>(), b = std::make_shared<CountingSink>(), c = std::make_shared<CountingSink>(),
+       d = std::make_shared<CountingSink>();
+  s->submit(a, job(1, 24));
+  s->submit(b, job(2, 24));
+  s->submit(d, job(4, 25));  // another frame: drawn on its own
+  s->start();
+  std::this_thread::sleep_for(50ms);
+  s->submit(c, job(3, 24));  // while it is drawn
+  ASSERT_EQ(a->await(1).size(), 1u);
+  ASSERT_EQ(b->await(1).size(), 1u);
+  ASSERT_EQ(c->await(1).size(), 1u);
+  ASSERT_EQ(d->await(1).size(), 1u);
+  s->stop();
+  EXPECT_EQ(sources[0]->framesDrawn(), 2u);
+  EXPECT_EQ(s->sharedFrames(), 2u);
+  EXPECT_EQ(b->await(1)[0].first, 2u);
+  EXPECT_EQ(c->await(1)[0].first, 3u);
+  EXPECT_TRUE(statsOf(b->await(1)[0].second).value("shared", false));
+  EXPECT_FALSE(statsOf(a->await(1)[0].second).value("shared", false)) << "the session it was drawn for";
+}
+
+TEST(Quotas, SessionsPerAddressAndTokenHold) {
+  Quotas q({.sessionsPerAddress = 2, .sessionsPerToken = 1});
+  EXPECT_FALSE(q.admit({1}, "10.0.0.1", false, ""));
+  EXPECT_FALSE(q.admit({2}, "10.0.0.1", false, ""));
+  const auto third = q.admit({3}, "10.0.0.1", false, "");
+  ASSERT_TRUE(third);
+  EXPECT_NE(third->find("sessions_per_address = 2"), std::string::npos) << *third;
+  EXPECT_FALSE(q.admit({4}, "10.0.0.2", false, "tok"));
+  const auto sameToken = q.admit({5}, "10.0.0.3", false, "tok");
+  ASSERT_TRUE(sameToken);
+  EXPECT_NE(sameToken->find("sessions_per_token"), std::string::npos) << *sameToken;
+  q.remove({1});
+  EXPECT_FALSE(q.admit({6}, "10.0.0.1", false, "")) << "a closed session frees its place";
+}
+
+TEST(Quotas, FramesPerSecondAreABucketOfOneSecond) {
+  Quotas q({.framesPerSecondPerAddress = 4});
+  ASSERT_FALSE(q.admit({1}, "10.0.0.1", false, ""));
+  ASSERT_FALSE(q.admit({2}, "10.0.0.1", false, ""));
+  const auto t0 = Quotas::Clock::now();
+  for (int i = 0; i < 4; ++i) EXPECT_FALSE(q.takeFrame({uint64_t(1 + i % 2)}, t0)) << i;
+  const auto refused = q.takeFrame({1}, t0);
+  ASSERT_TRUE(refused) << "the address' two sessions share its 4 a second";
+  EXPECT_EQ(refused->retryAfterMs, 250u);
+  EXPECT_NE(refused->why.find("frames_per_s_per_address"), std::string::npos) << refused->why;
+  EXPECT_FALSE(q.takeFrame({2}, t0 + 260ms));
+  EXPECT_FALSE(q.takeFrame({7}, t0)) << "a session the quotas never admitted is held to nothing";
+}
+
+TEST(Quotas, LoopbackMayBeExempt) {
+  Quotas q({.sessionsPerAddress = 1, .loopbackExempt = true});
+  EXPECT_FALSE(q.admit({1}, "127.0.0.1", true, ""));
+  EXPECT_FALSE(q.admit({2}, "127.0.0.1", true, ""));
+}
+
+/// The real server with a server.toml holding `toml`, over the sparse store.
+class CrowdServerTest : public test::SparseDatasetSuite {
+ protected:
+  std::unique_ptr<test::ServerProcess> start(const std::string& toml) {
+    const auto config = scratch() / "crowd.toml";
+    std::ofstream(config) << toml;
+    return std::make_unique<test::ServerProcess>(
+        "--datasets " + datasets() + " --render-threads 1 --config " + config.string(), scratch());
+  }
+};
+
+constexpr const char* kCrowdScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [32, 32], "transfer_function": "sparse")";
+
+/// The code and message of the Error `request` gets; fails the test if it succeeds.
+client::ServerError crowdErrorOf(const std::function<void()>& request) {
+  try {
+    request();
+  } catch (const client::ServerError& e) {
+    return e;
+  }
+  ADD_FAILURE() << "the request succeeded";
+  return client::ServerError(proto::ErrorCode::Internal, "none");
+}
+
+// Quotas from server.toml hold: a third session of one address is refused at Hello, naming the quota; a Render past
+// the address' frame rate is Busy with a retry hint, and LimitExceeded with the same hint in a version-2 session.
+TEST_F(CrowdServerTest, QuotasFromServerTomlHold) {
+  auto server = start("[quotas]\nsessions_per_address = 2\nframes_per_s_per_address = 2\n");
+  client::Client a("127.0.0.1", server->port()), b("127.0.0.1", server->port());
+  EXPECT_EQ(a.hello("test").version, proto::kMaxVersion);
+  b.hello("test", 2);
+  client::Client c("127.0.0.1", server->port());
+  const client::ServerError third = crowdErrorOf([&] { c.hello("test"); });
+  EXPECT_EQ(third.code(), proto::ErrorCode::LimitExceeded);
+  EXPECT_NE(std::string(third.what()).find("sessions_per_address"), std::string::npos) << third.what();
+  a.openDataset("sparse");
+  b.openDataset("sparse");
+  a.render(kCrowdScene + std::string("}"));
+  a.render(kCrowdScene + std::string("}"));  // the bucket holds 2
+  const client::ServerError busy = crowdErrorOf([&] { a.render(kCrowdScene + std::string("}")); });
+  EXPECT_EQ(busy.code(), proto::ErrorCode::Busy);
+  const auto hint = proto::retryAfterMs(busy.what());
+  ASSERT_TRUE(hint) << busy.what();
+  EXPECT_GT(*hint, 0u);
+  EXPECT_LE(*hint, 500u);
+  const client::ServerError old = crowdErrorOf([&] { b.render(kCrowdScene + std::string("}")); });
+  EXPECT_EQ(old.code(), proto::ErrorCode::LimitExceeded) << "version 2 has no Busy";
+  EXPECT_TRUE(proto::retryAfterMs(old.what())) << old.what();
+  std::this_thread::sleep_for(std::chrono::milliseconds(*hint + 50));
+  EXPECT_NO_THROW(a.render(kCrowdScene + std::string("}"))) << "the quota has room again after the hint";
+}
+
+// Beyond capacity (max_interactive_sessions sessions dragging) a new session gets Busy at Hello with a retry hint
+// and is closed; the session already dragging is served on.
+TEST_F(CrowdServerTest, ANewSessionBeyondCapacityIsBusy) {
+  auto server = start("[scheduler]\nmax_interactive_sessions = 1\n");
+  client::Client viewer("127.0.0.1", server->port());
+  viewer.hello("test");
+  viewer.openDataset("sparse");
+  viewer.render(kCrowdScene + std::string(R"(, "interactive": true})"));
+  client::Client late("127.0.0.1", server->port());
+  const client::ServerError busy = crowdErrorOf([&] { late.hello("test"); });
+  EXPECT_EQ(busy.code(), proto::ErrorCode::Busy) << busy.what();
+  EXPECT_TRUE(proto::retryAfterMs(busy.what())) << busy.what();
+  EXPECT_NE(std::string(busy.what()).find("over capacity"), std::string::npos) << busy.what();
+  EXPECT_NO_THROW(viewer.render(kCrowdScene + std::string(R"(, "interactive": true})")));
+  // Once nobody drags (the window is a second), sessions are taken again.
+  std::this_thread::sleep_for(std::chrono::milliseconds(1200));
+  client::Client later("127.0.0.1", server->port());
+  EXPECT_NO_THROW(later.hello("test"));
+}
+
+}  // namespace
+}  // namespace voxbrick::server
