@@ -88,6 +88,23 @@ max_total_output_bytes = 8388608
 [memory]
 host_cache_mb = 32
 gpu_budget_mb = 64
+[scheduler]
+interactive_weight = 8
+still_weight = 2
+batch_weight = 0.5
+interactive_fps = 12
+reserved_interactive_threads = 2
+batch_max_wait_ms = 500
+max_interactive_sessions = 7
+min_interactive_fps = 4
+share_frames = false
+loaded_jpeg_quality = 60
+[quotas]
+sessions_per_address = 3
+frames_per_s_per_address = 20
+sessions_per_token = 5
+frames_per_s_per_token = 40
+loopback_exempt = true
 )"));
   EXPECT_EQ(c.host, "0.0.0.0");
   EXPECT_EQ(c.port, 0);
@@ -113,6 +130,38 @@ gpu_budget_mb = 64
   EXPECT_EQ(c.maxTotalOutputBytes, 8388608u);
   EXPECT_EQ(c.hostCacheMB, 32);
   EXPECT_EQ(c.gpuBudgetMB, 64);
+  EXPECT_DOUBLE_EQ(c.scheduler.interactiveWeight, 8);
+  EXPECT_DOUBLE_EQ(c.scheduler.stillWeight, 2);
+  EXPECT_DOUBLE_EQ(c.scheduler.batchWeight, 0.5);
+  EXPECT_DOUBLE_EQ(c.scheduler.interactiveFps, 12);
+  EXPECT_EQ(c.scheduler.reservedInteractiveThreads, 2);
+  EXPECT_DOUBLE_EQ(c.scheduler.batchMaxWaitMs, 500);
+  EXPECT_EQ(c.scheduler.maxInteractiveSessions, 7);
+  EXPECT_DOUBLE_EQ(c.scheduler.minInteractiveFps, 4);
+  EXPECT_FALSE(c.scheduler.shareFrames);
+  EXPECT_EQ(c.scheduler.loadedJpegQuality, 60);
+  EXPECT_EQ(c.quotas.sessionsPerAddress, 3);
+  EXPECT_DOUBLE_EQ(c.quotas.framesPerSecondPerAddress, 20);
+  EXPECT_EQ(c.quotas.sessionsPerToken, 5);
+  EXPECT_DOUBLE_EQ(c.quotas.framesPerSecondPerToken, 40);
+  EXPECT_TRUE(c.quotas.loopbackExempt);
+}
+
+TEST_F(ServerConfigTest, SchedulerAndQuotaValuesOutOfRangeOrUnknownAreNamed) {
+  const auto error = [&](const std::string& text) {
+    try {
+      ServerConfig::load(write(text));
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(error("[scheduler]\nbatch_weight = 0\n").find("scheduler.batch_weight"), std::string::npos);
+  EXPECT_NE(error("[scheduler]\nloaded_jpeg_quality = 101\n").find("scheduler.loaded_jpeg_quality"),
+            std::string::npos);
+  EXPECT_NE(error("[quotas]\nframes_per_s_per_token = -1\n").find("quotas.frames_per_s_per_token"),
+            std::string::npos);
+  EXPECT_NE(error("[quotas]\nsessions = 3\n").find("unknown key quotas.sessions"), std::string::npos);
 }
 
 TEST_F(ServerConfigTest, TheShippedFileIsValid) {
