@@ -136,9 +136,16 @@ export function glRenderer(server) {
 /// The command that ran this benchmark: the run script's (VOXBRICK_BENCH_COMMAND), else node's.
 export const benchCommand = () => process.env.VOXBRICK_BENCH_COMMAND || `node ${process.argv.slice(1).join(" ")}`;
 
-/// Writes `rows` as CSV with the columns `cols` (text quoted).
+/// Writes `rows` as CSV with the columns `cols` (text quoted, fractions to 3 decimals).
 export function writeCsv(file, cols, rows) {
-  const cell = (v) => (v === null || v === undefined ? "" : typeof v === "string" ? `"${v.replace(/"/g, '""')}"` : v);
+  const cell = (v) =>
+    v === null || v === undefined
+      ? ""
+      : typeof v === "string"
+        ? `"${v.replace(/"/g, '""')}"`
+        : typeof v === "number" && !Number.isInteger(v)
+          ? Number(v.toFixed(3))
+          : v;
   const lines = [cols.join(",")].concat(rows.map((r) => cols.map((c) => cell(r[c])).join(",")));
   fs.mkdirSync(path.dirname(file), { recursive: true });
   fs.writeFileSync(file, lines.join("\n") + "\n");
