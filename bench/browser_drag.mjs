@@ -8,18 +8,13 @@
 //        [--hz 30] [--tabs 16] [--clients 64] [--multi-size 512] [--tf mri]
 // Writes PREFIX.csv, PREFIX.md and PREFIX.json.
 
-import { spawn, spawnSync } from "node:child_process";
 import fs from "node:fs";
-import os from "node:os";
 import path from "node:path";
 import * as H from "../tests/browser/harness.mjs";
-import { DRAG_TIME_BUDGET_MS } from "../web/js/view.js";
+import * as D from "./drag_common.mjs";
 
-const args = Object.fromEntries(
-  process.argv
-    .slice(2)
-    .reduce((pairs, a, i, all) => (a.startsWith("--") ? [...pairs, [a.slice(2), all[i + 1]]] : pairs), []),
-);
+const { pct, mean, fmt, DEG_PER_MOVE, ORBIT, DRAG_TIME_BUDGET_MS } = D;
+const args = D.parseArgs(process.argv.slice(2));
 const opt = {
   datasets: args.datasets,
   dataset: args.dataset || "mri",
@@ -34,60 +29,20 @@ const opt = {
   renderThreads: args["render-threads"],
 };
 if (!opt.datasets) throw new Error("--datasets DIR is required");
-const DEG_PER_MOVE = 2; // `voxbrick load --drag` turns 2 degrees a request
-const ORBIT = { el: 20, dist: 2.5 }; // the load tool's orbit
-
-const pct = (v, p) => {
-  if (!v.length) return null;
-  const s = [...v].sort((a, b) => a - b);
-  return s[Math.min(s.length - 1, Math.floor(p * s.length))];
-};
-const mean = (v) => (v.length ? v.reduce((a, b) => a + b, 0) / v.length : null);
 
 /// One tab's drag: figures from the frames it showed while the camera moved, and the exact frame after release.
-async function tabDrag(page, durationMs) {
-  await page.evaluate(() => window.voxbrickViewer.resetFigures());
-  const done = await page.evaluate((o) => window.voxbrickViewer.drag(o), { durationMs, hz: opt.hz, dAz: DEG_PER_MOVE });
-  const s = await H.waitForState(page, (st) => st.exactAfterReleaseMs !== null, 30000).catch(() => null);
-  const frames = await page.evaluate(() => window.voxbrickViewer.frames());
-  const state = await H.viewerState(page);
-  const moving = frames.filter((f) => f.phase === "drag");
-  const lat = moving.map((f) => f.latencyMs);
-  return {
-    moves: done.moves,
-    frames: moving.length,
-    fps: moving.length / (done.ms / 1000),
-    provisional: moving.filter((f) => f.provisional).length,
-    latency_p50_ms: pct(lat, 0.5),
-    latency_p99_ms: pct(lat, 0.99),
-    bytes_per_frame: mean(moving.map((f) => f.bytes)),
-    jpeg_frames: moving.filter((f) => f.encoding === 3).length,
-    exact_after_release_ms: s ? s.exactAfterReleaseMs : null,
-    errors: state.counts.errors,
-    features: state.features,
-  };
-}
+const tabDrag = async (page, durationMs) => D.tabFigures(await D.tabDrag(page, { durationMs, hz: opt.hz }));
 
-/// `voxbrick load --drag` (run beside the event loop, which the tabs need): its JSON report. Its drag is the page's:
-/// the same orbit and step, png exact frames, and the page's keys for a moving camera where the server took them.
-function tcpDrag(server, size, clients, duration, json, features) {
-  const argv = ["load", `127.0.0.1:${server.tcpPort}`, "--dataset", opt.dataset, "--tf", opt.tf, "--step", "0.75"]
-    .concat(["--clients", String(clients), "--duration", String(duration), "--size", `${size}x${size}`])
-    .concat(["--drag", String(opt.hz), "--encoding", "png", "--json", json]);
-  if (features.interactive) argv.push("--interactive", String(DRAG_TIME_BUDGET_MS));
-  if (features.interactive && features.jpeg && features.provisional_encoding)
-    argv.push("--provisional-encoding", "jpeg");
-  return new Promise((resolve, reject) => {
-    const p = spawn(H.VOXBRICK, argv, { stdio: ["ignore", "pipe", "pipe"] });
-    let out = "";
-    p.stdout.on("data", (d) => (out += d));
-    p.stderr.on("data", (d) => (out += d));
-    p.on("exit", (code) => {
-      if (code !== 0) return reject(new Error(`voxbrick load failed (${code}): ${out}`));
-      resolve({ ...JSON.parse(fs.readFileSync(json, "utf8")), summary: out.trim(), argv });
-    });
+/// `voxbrick load --drag` with `clients` clients: the page's drag (D.dragLoadOptions) at `size`².
+const tcpDrag = (server, size, clients, duration, json, features) =>
+  D.runLoad(server, {
+    dataset: opt.dataset,
+    tf: opt.tf,
+    json,
+    options: ["--clients", String(clients), "--duration", String(duration), "--size", `${size}x${size}`].concat(
+      D.dragLoadOptions(features, opt.hz),
+    ),
   });
-}
 
 /// A row of the table from `voxbrick load`'s report; frames per second per client.
 const tcpRow = (run, size, t, clients) => ({
@@ -103,12 +58,7 @@ const tcpRow = (run, size, t, clients) => ({
   errors: t.errors,
 });
 
-async function openTab(browser, server, size) {
-  const url = `${server.url}/?dataset=${opt.dataset}&tf=${opt.tf}&orbit=0,${ORBIT.el},${ORBIT.dist}&size=${size}x${size}`;
-  const page = await H.openPage(browser, url, { width: Math.min(1400, size + 300), height: Math.min(1100, size + 40) });
-  await H.waitForState(page, (s) => s.lastFrame && !s.lastFrame.provisional, 60000);
-  return page;
-}
+const openTab = (browser, server, size) => D.openTab(browser, server, { dataset: opt.dataset, tf: opt.tf, size });
 
 const scratch = H.scratchDir("browser-drag");
 const extra = ["--max-sessions", "256"];
@@ -127,9 +77,7 @@ try {
     features = b.features;
     const t = await tcpDrag(server, size, 1, opt.duration, path.join(scratch.dir, `tcp-${size}.json`), features);
     rows.push(tcpRow("TCP client (voxbrick load --drag)", size, t, 1));
-    report.tcp_command = `voxbrick ${t.argv.join(" ")}`
-      .replace(/127\.0\.0\.1:\d+/, "127.0.0.1:PORT")
-      .replace(/--json \S+/, "--json FILE");
+    report.tcp_command = D.loadCommand(t.argv);
   }
   // Tabs and TCP clients at once: every tab drags while the load tool's clients do.
   const tabs = [];
@@ -166,11 +114,8 @@ try {
 }
 
 // Reports: CSV, markdown (with the command, machine and date) and the raw JSON.
-const chromium = spawnSync(H.CHROMIUM, ["--version"], { encoding: "utf8" }).stdout.trim();
-const cpu = (os.cpus()[0] || {}).model || "unknown CPU";
-const machine = `${os.hostname()}: ${cpu}, ${os.cpus().length} cores, ${(os.totalmem() / 2 ** 30).toFixed(0)} GiB; ${chromium}`;
-const command = process.env.VOXBRICK_BENCH_COMMAND || `node ${process.argv.slice(1).join(" ")}`;
-const fmt = (v, d = 1) => (v === null || v === undefined ? "" : Number(v).toFixed(d));
+const machine = D.describeMachine().line;
+const command = D.benchCommand();
 const cols = [
   "run",
   "size",
@@ -184,11 +129,7 @@ const cols = [
   "exact_after_release_ms",
   "errors",
 ];
-const csv = [cols.join(",")].concat(
-  rows.map((r) => cols.map((c) => (c === "run" ? `"${r[c]}"` : (r[c] ?? ""))).join(",")),
-);
-fs.mkdirSync(path.dirname(opt.out), { recursive: true });
-fs.writeFileSync(`${opt.out}.csv`, csv.join("\n") + "\n");
+D.writeCsv(`${opt.out}.csv`, cols, rows);
 fs.writeFileSync(`${opt.out}.json`, JSON.stringify({ ...report, rows, machine, command }, null, 2) + "\n");
 const moving = features.interactive
   ? `interactive, time budget ${features.time_budget_ms ? `${DRAG_TIME_BUDGET_MS} ms` : "the server's"}, provisional ` +

@@ -1,7 +1,6 @@
 // `voxbrick load HOST:PORT --clients N --duration S`: concurrent well-behaved clients, optionally mixed with faulty
 // ones, reporting throughput, latency percentiles and errors.
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <map>
@@ -14,6 +13,7 @@
 
 #include "cli/Commands.h"
 #include "cli/LoadFaults.h"
+#include "cli/LoadTally.h"
 #include "client/Client.h"
 #include "render/core/Scene.h"
 #include "render/engine/Datasets.h"
@@ -24,145 +24,208 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using nlohmann::json;
 
-struct Tally {
-  std::mutex mutex;
-  std::vector<double> latencies;
-  std::vector<double> renderMs;      ///< the renderer's own frame time (frame statistics), well-behaved clients
-  std::vector<double> renderMsWarm;  ///< the same without each client's first frame (which pages its bricks in)
-  int64_t frames = 0, errors = 0, superseded = 0, payloadBytes = 0;
-  int64_t provisional = 0;     ///< dragging clients: first replies that were provisional frames
-  int64_t exactFollowUps = 0;  ///< dragging clients: exact frames of requests a provisional frame already answered
-  std::vector<std::string> errorSamples;
-  std::map<std::string, int64_t> faultsDone, faultsUnexpected;
+/// The longest a client waits out one Busy reply's retry hint, and the wait of a Busy reply without one.
+constexpr std::chrono::milliseconds kMaxBusyWait{5000}, kBusyWaitWithoutHint{100};
 
-  void error(const std::string& what) {
-    std::lock_guard lock(mutex);
-    ++errors;
-    if (errorSamples.size() < 10) errorSamples.push_back(what);
+/// How long to wait before the next request after an Error `code` with `message`: the retry hint of a Busy, or of a
+/// LimitExceeded that has one (what a session of protocol version 1 or 2 gets in place of Busy), at most
+/// kMaxBusyWait; none for any other error.
+std::optional<std::chrono::milliseconds> busyWait(proto::ErrorCode code, const std::string& message) {
+  const std::optional<uint32_t> hint = proto::retryAfterMs(message);
+  if (code != proto::ErrorCode::Busy && !(code == proto::ErrorCode::LimitExceeded && hint)) return std::nullopt;
+  return hint ? std::min(std::chrono::milliseconds(*hint), kMaxBusyWait) : kBusyWaitWithoutHint;
+}
+
+/// Whether an Error refuses the scene key batch: a server older than the key names it unknown (InvalidScene).
+bool refusesBatch(proto::ErrorCode code, const std::string& message) {
+  return code == proto::ErrorCode::InvalidScene && message.find("'batch'") != std::string::npos;
+}
+
+/// Sleeps `wait`, or until `deadline` if that comes first.
+void waitOut(std::chrono::milliseconds wait, Clock::time_point deadline) {
+  std::this_thread::sleep_until(std::min(Clock::now() + wait, deadline));
+}
+
+/// The scene of a well-behaved client: the load's scene, with `"batch": true` while `batch`.
+std::string clientSceneJson(const LoadArgs& a, bool batch, int width, int height, double azimuth) {
+  if (!batch) return sceneJson(a, width, height, azimuth);
+  json scene = json::parse(sceneJson(a, width, height, azimuth));
+  scene["batch"] = true;
+  return scene.dump();
+}
+
+/// A well-behaved client's session: connected, greeted (the highest protocol version both sides speak) and with
+/// --dataset open. A session refused Busy (in place of Capabilities; the server closes it) is counted, waited out
+/// and asked again; none if `deadline` passes first.
+std::unique_ptr<client::Client> openSession(const LoadArgs& a, const std::string& host, int port, const char* name,
+                                            int index, Clock::time_point deadline, Tally& tally) {
+  while (Clock::now() < deadline) {
+    auto c = std::make_unique<client::Client>(host, port, std::chrono::seconds(120));
+    try {
+      const proto::Capabilities caps = c->hello(name);
+      c->openDataset(a.dataset);
+      std::lock_guard lock(tally.mutex);
+      if (tally.protocolVersion == 0 || caps.version < tally.protocolVersion) tally.protocolVersion = caps.version;
+      return c;
+    } catch (const client::ServerError& e) {
+      const auto wait = busyWait(e.code(), e.what());
+      if (!wait) throw;
+      {
+        std::lock_guard lock(tally.mutex);
+        tally.countBusy(index);
+      }
+      waitOut(*wait, deadline);
+    }
   }
-};
-
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, size_t(p * double(v.size())))];
+  return nullptr;
 }
 
-/// The slowest frame's rate over the fastest's (the fastest frame's time over the slowest's), in (0, 1]; 0 when
-/// there are no frames.
-double frameRateRatio(const std::vector<double>& ms) {
-  if (ms.empty()) return 0;
-  const auto [lo, hi] = std::minmax_element(ms.begin(), ms.end());
-  return *hi > 0 ? *lo / *hi : 0;
+/// The time budget an interactive frame was drawn to (its statistics' "interactive"), if it says one.
+std::optional<double> frameBudgetMs(const json& stats) {
+  const json interactive = stats.value("interactive", json());
+  if (!interactive.is_object() || !interactive.contains("budget_ms")) return std::nullopt;
+  return interactive["budget_ms"].get<double>();
 }
 
-/// A well-behaved client: one request at a time until the deadline, every latency recorded.
+/// A well-behaved client: one request at a time until the deadline, every latency recorded. A Render answered Busy
+/// is counted and its retry hint waited out before the next request.
 void goodClient(const LoadArgs& a, const std::string& host, int port, int width, int height, int index,
                 Clock::time_point deadline, Tally& tally) {
   try {
-    client::Client c(host, port, std::chrono::seconds(60));
-    c.hello("voxbrick-load");
-    c.openDataset(a.dataset);
+    const std::unique_ptr<client::Client> c = openSession(a, host, port, "voxbrick-load", index, deadline, tally);
+    if (!c) return;
+    bool batch = a.batch;
     for (int n = 0; Clock::now() < deadline; ++n) {
       const auto start = Clock::now();
-      const proto::Frame frame =
-          c.render(sceneJson(a, width, height, 10.0 * index + 7.0 * n), client::encodingNamed(a.encoding));
+      proto::Frame frame;
+      try {
+        frame = c->render(clientSceneJson(a, batch, width, height, 10.0 * index + 7.0 * n),
+                          client::encodingNamed(a.encoding));
+      } catch (const client::ServerError& e) {
+        if (const auto wait = busyWait(e.code(), e.what())) {
+          {
+            std::lock_guard lock(tally.mutex);
+            tally.countBusy(index);
+          }
+          waitOut(*wait, deadline);
+          continue;
+        }
+        if (!batch || !refusesBatch(e.code(), e.what())) throw;
+        batch = false;  // a server older than the key: the same frames without it
+        std::lock_guard lock(tally.mutex);
+        ++tally.batchRefused;
+        continue;
+      }
       const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
       const json stats = json::parse(frame.statsJson);
       std::lock_guard lock(tally.mutex);
       tally.latencies.push_back(ms);
+      tally.clients[size_t(index)].latencies.push_back(ms);
+      ++tally.clients[size_t(index)].frames;
       tally.renderMs.push_back(stats["ms"]["total"].get<double>());
       if (n > 0) tally.renderMsWarm.push_back(tally.renderMs.back());
+      if (const auto budget = frameBudgetMs(stats)) tally.budgetMs.push_back(*budget);
       ++tally.frames;
       tally.payloadBytes += int64_t(frame.payload.size());
     }
-    c.goodbye();
+    c->goodbye();
   } catch (const std::exception& e) {
-    tally.error(e.what());
+    tally.error(e.what(), index);
   }
 }
 
 /// The scene of a dragging client: the load's scene and, with --interactive, the keys of a camera in motion.
-std::string dragSceneJson(const LoadArgs& a, int width, int height, double azimuth) {
-  json scene = json::parse(sceneJson(a, width, height, azimuth));
+std::string dragSceneJson(const LoadArgs& a, bool batch, int width, int height, double azimuth) {
+  json scene = json::parse(clientSceneJson(a, batch, width, height, azimuth));
   if (a.interactiveMs > 0) scene["interactive"] = true, scene["time_budget_ms"] = a.interactiveMs;
   if (!a.provisionalEncoding.empty()) scene["provisional_encoding"] = a.provisionalEncoding;
   return scene.dump();
 }
 
-/// Counts one reply of a dragging client. `sentAt`: when its request was sent, or nullopt when the request was
-/// already answered (the exact frame that follows a provisional one).
-void tallyDragReply(const proto::Message& m, std::optional<Clock::time_point> sentAt, Tally& tally) {
+/// Counts one reply of dragging client `index`. `sentAt`: when its request was sent, or nullopt when the request was
+/// already answered (the exact frame that follows a provisional one). Returns how long to hold the next request
+/// when the reply was Busy. A refusal of the scene key batch clears `batch` (the later Renders go without it).
+std::optional<std::chrono::milliseconds> tallyDragReply(const proto::Message& m,
+                                                        std::optional<Clock::time_point> sentAt, int index, bool& batch,
+                                                        Tally& tally) {
   std::lock_guard lock(tally.mutex);
+  ClientFigures& mine = tally.clients[size_t(index)];
   const auto* frame = std::get_if<proto::Frame>(&m);
   const auto* error = std::get_if<proto::Error>(&m);
   if (error && error->code == proto::ErrorCode::Superseded) {
     ++tally.superseded;
+  } else if (error) {
+    if (const auto wait = busyWait(error->code, error->message)) {
+      tally.countBusy(index);
+      return wait;
+    }
+    if (batch && refusesBatch(error->code, error->message)) {
+      batch = false;
+      ++tally.batchRefused;
+      return std::nullopt;
+    }
+    ++tally.errors, ++mine.errors;
+    if (tally.errorSamples.size() < 10)
+      tally.errorSamples.push_back(std::string(proto::errorCodeName(error->code)) + ": " + error->message);
   } else if (frame && !sentAt) {
     ++tally.exactFollowUps;
   } else if (frame) {
-    tally.latencies.push_back(std::chrono::duration<double, std::milli>(Clock::now() - *sentAt).count());
-    ++tally.frames;
+    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - *sentAt).count();
+    tally.latencies.push_back(ms);
+    mine.latencies.push_back(ms);
+    ++tally.frames, ++mine.frames;
     tally.payloadBytes += int64_t(frame->payload.size());
-    if (json::parse(frame->statsJson).value("provisional", false)) ++tally.provisional;
+    const json stats = json::parse(frame->statsJson);
+    if (stats.value("provisional", false)) ++tally.provisional;
+    if (stats.contains("ms")) tally.renderMs.push_back(stats["ms"].value("total", 0.0));
+    if (const auto budget = frameBudgetMs(stats)) tally.budgetMs.push_back(*budget);
   } else if (!std::holds_alternative<proto::DatasetList>(m)) {  // a DatasetList answers the closing request
-    ++tally.errors;
+    ++tally.errors, ++mine.errors;
   }
+  return std::nullopt;
 }
 
 /// A client dragging the camera: sends a new camera `hz` times a second without waiting, and reads frames as they
-/// come. Each frame's latency is the age of the camera it shows (an interactive request's first frame, provisional
-/// or not; the exact frame that may follow is counted apart). Superseded requests are counted, not errors.
+/// come, both from one thread (the client is not thread-safe). Each frame's latency is the age of the camera it shows
+/// (an interactive request's first frame, provisional or not; the exact frame that may follow is counted apart).
+/// Superseded requests are counted, not errors; a Busy reply is counted and holds the next camera for its retry hint.
 void dragClient(const LoadArgs& a, const std::string& host, int port, int width, int height, int index,
                 Clock::time_point deadline, Tally& tally) {
   try {
-    client::Client c(host, port, std::chrono::seconds(120));
-    c.hello("voxbrick-load-drag");
-    c.openDataset(a.dataset);
-    std::mutex mutex;
-    std::map<uint32_t, Clock::time_point> sent;
-    std::atomic<bool> sending{true};
-    std::thread reader([&] {
-      try {
-        for (;;) {
-          {
-            std::lock_guard lock(mutex);
-            if (!sending && sent.empty()) return;
-          }
-          auto [id, m] = c.receive();
-          std::optional<Clock::time_point> sentAt;
-          {
-            std::lock_guard lock(mutex);
-            if (const auto it = sent.find(id); it != sent.end()) sentAt = it->second, sent.erase(it);
-          }
-          tallyDragReply(m, sentAt, tally);
-        }
-      } catch (const std::exception& e) {
-        tally.error(e.what());
-      }
-    });
-    const auto period = std::chrono::duration<double>(1.0 / a.dragHz);
+    const std::unique_ptr<client::Client> session =
+        openSession(a, host, port, "voxbrick-load-drag", index, deadline, tally);
+    if (!session) return;
+    client::Client& c = *session;
+    std::map<uint32_t, Clock::time_point> sent;  // requests not yet answered, and when each was sent
+    bool batch = a.batch;
+    Clock::time_point hold;  // no request before this: a Busy reply's retry hint
+    const auto readReply = [&] {
+      auto [id, m] = c.receive();
+      std::optional<Clock::time_point> sentAt;
+      if (const auto it = sent.find(id); it != sent.end()) sentAt = it->second, sent.erase(it);
+      if (const auto wait = tallyDragReply(m, sentAt, index, batch, tally)) hold = Clock::now() + *wait;
+    };
+    const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / a.dragHz));
     auto next = Clock::now();
-    for (int n = 0; Clock::now() < deadline; ++n) {
-      {
-        std::lock_guard lock(mutex);
-        const uint32_t id = c.send(proto::RenderRequest{client::encodingNamed(a.encoding),
-                                                        dragSceneJson(a, width, height, 10.0 * index + 2.0 * n)});
-        sent[id] = Clock::now();
+    for (int n = 0;;) {
+      const auto now = Clock::now();
+      if (now >= deadline) break;
+      if (now >= next && now >= hold) {
+        const std::string scene = dragSceneJson(a, batch, width, height, 10.0 * index + 2.0 * n++);
+        sent[c.send(proto::RenderRequest{client::encodingNamed(a.encoding), scene})] = now;
+        next = std::max(next + period, hold);
+        continue;
       }
-      next += std::chrono::duration_cast<Clock::duration>(period);
-      std::this_thread::sleep_until(next);
+      // Until the next camera is due, the replies as they come.
+      const auto until = std::min(std::max(next, hold), deadline);
+      if (c.waitReadable(std::chrono::ceil<std::chrono::milliseconds>(until - now))) readReply();
     }
-    {
-      // A last cheap request: its reply wakes the reader even when every frame has already arrived.
-      std::lock_guard lock(mutex);
-      sending = false;
-      sent[c.send(proto::ListDatasets{})] = Clock::now();
-    }
-    reader.join();
+    // A last cheap request, so that the replies are read until every request has its first one.
+    sent[c.send(proto::ListDatasets{})] = Clock::now();
+    while (!sent.empty()) readReply();
     c.goodbye();
   } catch (const std::exception& e) {
-    tally.error(e.what());
+    tally.error(e.what(), index);
   }
 }
 
@@ -226,64 +289,10 @@ json serverStatsAfter(const std::string& host, int port, Tally& tally) {
   return json();
 }
 
-/// Per fault, how often it ran and how many replies were not as documented; `unexpected` gets the total of those.
-json faultCounts(const Tally& tally, int64_t& unexpected) {
-  json faults = json::object();
-  unexpected = 0;
-  for (const auto& [kind, n] : tally.faultsDone) {
-    const int64_t bad = tally.faultsUnexpected.count(kind) ? tally.faultsUnexpected.at(kind) : 0;
-    faults[kind] = {{"done", n}, {"unexpected", bad}};
-    unexpected += bad;
-  }
-  return faults;
-}
-
-json loadReport(const LoadArgs& a, const Tally& tally, double seconds, int width, int height, const json& faults,
-                const json& server) {
-  return {
-      {"clients", a.clients},
-      {"fault_clients", a.faultClients},
-      {"idle_sessions", a.idleSessions},
-      {"duration_s", seconds},
-      {"size", {width, height}},
-      {"frames", tally.frames},
-      {"frames_per_s", double(tally.frames) / seconds},
-      {"encoding", a.encoding},
-      {"payload_bytes_per_frame", tally.frames > 0 ? double(tally.payloadBytes) / double(tally.frames) : 0.0},
-      {"errors", tally.errors},
-      {"superseded", tally.superseded},
-      {"provisional", tally.provisional},
-      {"exact_followups", tally.exactFollowUps},
-      {"drag_hz", a.dragHz},
-      {"error_samples", tally.errorSamples},
-      {"latency_ms",
-       {{"p50", percentile(tally.latencies, 0.5)},
-        {"p95", percentile(tally.latencies, 0.95)},
-        {"p99", percentile(tally.latencies, 0.99)},
-        {"max", percentile(tally.latencies, 1.0)}}},
-      {"render_ms_p50", percentile(tally.renderMs, 0.5)},
-      // Over the orbit the clients turn through (warm frames): the slowest frame against the fastest.
-      {"warm_render_ms", {{"min", percentile(tally.renderMsWarm, 0.0)}, {"max", percentile(tally.renderMsWarm, 1.0)}}},
-      {"frame_rate_min_over_max", frameRateRatio(tally.renderMsWarm)},
-      {"faults", faults},
-      {"server", server}};
-}
-
-void printSummary(const LoadArgs& a, const Tally& tally, double seconds, int64_t unexpected, const json& server) {
-  std::printf(
-      "load: %d clients (+%d faulty, %d idle) for %.1f s: %lld frames, %.1f frames/s, latency p50 %.1f "
-      "p95 %.1f p99 %.1f max %.1f ms, %lld superseded, %lld errors, %lld unexpected fault replies",
-      a.clients, a.faultClients, a.idleSessions, seconds, (long long)tally.frames, double(tally.frames) / seconds,
-      percentile(tally.latencies, 0.5), percentile(tally.latencies, 0.95), percentile(tally.latencies, 0.99),
-      percentile(tally.latencies, 1.0), (long long)tally.superseded, (long long)tally.errors, (long long)unexpected);
-  if (!tally.renderMsWarm.empty())
-    std::printf(", warm frames %.1f-%.1f ms (min/max frame rate 1:%.2f)", percentile(tally.renderMsWarm, 0.0),
-                percentile(tally.renderMsWarm, 1.0), 1 / frameRateRatio(tally.renderMsWarm));
-  if (server.contains("memory"))
-    std::printf(", server RSS %.0f MB (peak %.0f MB)", double(server["memory"]["rss_bytes"]) / 1e6,
-                double(server["memory"]["peak_rss_bytes"]) / 1e6);
-  std::printf("\n");
-  for (const std::string& e : tally.errorSamples) std::printf("  error: %s\n", e.c_str());
+/// The first scene the first well-behaved client sends (the report shows it).
+json firstScene(const LoadArgs& a, int width, int height) {
+  return json::parse(a.dragHz > 0 ? dragSceneJson(a, a.batch, width, height, 0)
+                                  : clientSceneJson(a, a.batch, width, height, 0));
 }
 
 void runLoad(const LoadArgs& a) {
@@ -295,7 +304,7 @@ void runLoad(const LoadArgs& a) {
   std::vector<std::unique_ptr<client::Client>> idle = openIdleSessions(host, port, a.idleSessions);
 
   const ServerDeadlines deadlines = a.faultClients > 0 ? serverDeadlines(host, port) : ServerDeadlines{};
-  Tally tally;
+  Tally tally(a.clients);
   const auto start = Clock::now();
   const auto deadline = start + std::chrono::milliseconds(int64_t(a.duration * 1000));
   std::vector<std::thread> threads;
@@ -314,7 +323,9 @@ void runLoad(const LoadArgs& a) {
   const json faultsDone = faultCounts(tally, unexpected);
   printSummary(a, tally, seconds, unexpected, server);
   if (!a.jsonPath.empty())
-    writeText(a.jsonPath, loadReport(a, tally, seconds, width, height, faultsDone, server).dump(2) + "\n");
+    writeText(
+        a.jsonPath,
+        loadReport(a, tally, seconds, width, height, faultsDone, server, firstScene(a, width, height)).dump(2) + "\n");
   if (a.requireClean && (tally.errors > 0 || unexpected > 0 || tally.frames == 0))
     throw std::runtime_error("the run was not clean: " + std::to_string(tally.errors) + " errors, " +
                              std::to_string(unexpected) + " unexpected fault replies, " + std::to_string(tally.frames) +
@@ -367,6 +378,9 @@ void addLoadCommand(CLI::App& app) {
                   "with --drag: how provisional frames travel (provisional_encoding): raw, png, zstd or jpeg")
       ->check(CLI::IsMember(proto::encodingShortNames()))
       ->needs(drag);
+  cmd->add_flag("--batch", a->batch,
+                "the clients' scenes say \"batch\": true: work nobody watches as it happens, served after viewers' "
+                "frames (a server that does not know the key gets the same scenes without it)");
   cmd->add_option("--json", a->jsonPath, "write the report as JSON");
   cmd->add_flag("--require-clean", a->requireClean,
                 "exit non-zero unless every good request succeeded and every fault got its documented reply");

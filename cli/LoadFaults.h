@@ -26,6 +26,8 @@ struct LoadArgs {
   /// of provisional frames (`provisional_encoding`; empty: the Render's own).
   double interactiveMs = 0;
   std::string provisionalEncoding;
+  /// The good and dragging clients' scenes carry `"batch": true` (work nobody watches as it happens).
+  bool batch = false;
   bool requireClean = false;
 };
 

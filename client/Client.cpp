@@ -117,6 +117,23 @@ std::pair<uint32_t, proto::Message> Client::receive() {
   }
 }
 
+bool Client::waitReadable(std::chrono::milliseconds wait) {
+  boost::system::error_code ignored;
+  if (mImpl->socket.available(ignored) > 0) return true;
+  bool readable = false;
+  asio::steady_timer timer(mImpl->io, wait);
+  mImpl->socket.async_wait(tcp::socket::wait_read, [&](const boost::system::error_code& ec) {
+    readable = !ec;
+    timer.cancel();
+  });
+  timer.async_wait([&](const boost::system::error_code& ec) {
+    if (!ec) mImpl->socket.cancel();  // nothing came in time: the wait ends, no byte read
+  });
+  mImpl->io.restart();
+  mImpl->io.run();
+  return readable;
+}
+
 proto::Message Client::call(const proto::Message& message) { return awaitReply(send(message)); }
 
 proto::Message Client::awaitReply(uint32_t id) {

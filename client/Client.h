@@ -68,6 +68,10 @@ class Client {
   std::vector<uint8_t> receiveBytes(size_t max);
   /// Low level: the next message from the server, with the request id it answers.
   std::pair<uint32_t, proto::Message> receive();
+  /// Low level: waits up to `wait` for bytes from the server (or its closing the connection) without reading any;
+  /// whether they came. With it one thread can both send on a schedule and read replies as they come (this class is
+  /// not thread-safe: a second thread's receive() would run this thread's send()s).
+  bool waitReadable(std::chrono::milliseconds wait);
   /// Closes the socket without a Goodbye.
   void close();
 

@@ -66,10 +66,10 @@ export function httpGet(url, headers = {}) {
 }
 
 /// The real server: `voxbrick serve --no-config --port 0 --http PORT --datasets DIR [extra]` (PORT 0: a free one,
-/// kept for restarts), its log in `dir`.
+/// kept for restarts), its log in `dir`; `exe`: another build's binary (a benchmark's baseline), else VOXBRICK.
 export class Server {
-  constructor({ dir, datasets, httpPort = 0, extra = [] }) {
-    Object.assign(this, { dir, datasets, httpPort, extra, proc: null, serial: 0 });
+  constructor({ dir, datasets, httpPort = 0, extra = [], exe = VOXBRICK }) {
+    Object.assign(this, { dir, datasets, httpPort, extra, exe, proc: null, serial: 0 });
   }
 
   /// Starts the server; a restart listens on the HTTP port of the first start.
@@ -81,7 +81,7 @@ export class Server {
     const log = fs.openSync(this.logFile, "w");
     const args = ["serve", "--no-config", "--port", "0", "--port-file", portFile, "--datasets", this.datasets];
     args.push("--http", String(this.httpPort || 0), "--http-port-file", httpPortFile, ...this.extra);
-    this.proc = spawn(VOXBRICK, args, { stdio: ["ignore", log, log] });
+    this.proc = spawn(this.exe, args, { stdio: ["ignore", log, log] });
     fs.closeSync(log);
     this.exited = new Promise((resolve) => this.proc.on("exit", (code, signal) => resolve(code ?? signal)));
     let gone = false;

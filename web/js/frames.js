@@ -39,7 +39,7 @@ export class FrameLoop {
   }
 
   resetFigures() {
-    this.shownFrames = []; // {id, at, latencyMs, bytes, provisional, encoding, standin, renderMs}
+    this.shownFrames = []; // {id, at, latencyMs, bytes, provisional, encoding, standin, renderMs, budgetMs, phase}
     // errors: Error replies to Renders, except InvalidScene naming an optional key the page then dropped (refused)
     // and Superseded (a waiting camera replaced by a newer one).
     this.counts = { shown: 0, provisional: 0, exact: 0, dropped: 0, superseded: 0, errors: 0, refused: 0 };
@@ -162,6 +162,8 @@ export class FrameLoop {
       provisional,
       standin: stats.bricks_standin || 0,
       renderMs: stats.ms ? stats.ms.total : null,
+      // An interactive frame's time budget as the server drew it (which may differ from the one asked for).
+      budgetMs: stats.interactive ? stats.interactive.budget_ms : null,
       phase: request.phase,
     };
     this.shownFrames.push(frame);

@@ -1,0 +1,84 @@
+// `voxbrick load` against the real server: the scene key batch, each well-behaved client's figures with Jain's index
+// over them, and the dragging clients' camera-to-frame latency.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "cli/CliRun.h"
+#include "server/ServerProcess.h"
+#include "support/TestSupport.h"
+
+namespace voxbrick {
+namespace {
+
+using nlohmann::json;
+using test::ServerProcess;
+
+class LoadTest : public test::SparseDatasetSuite {
+ protected:
+  void SetUp() override {
+    mServer = std::make_unique<ServerProcess>("--datasets " + datasets() + " --render-threads 1", scratch());
+  }
+
+  /// Runs `voxbrick load` on the suite's server with `options`; its JSON report.
+  json load(const std::string& options) {
+    const auto report = scratch() / "load.json";
+    const auto r = test::runVoxbrick("load 127.0.0.1:" + std::to_string(mServer->port()) +
+                                     " --dataset sparse --size 64x64 --json " + report.string() + " " + options);
+    EXPECT_EQ(r.exitCode, 0) << r.output;
+    const std::vector<char> text = test::readFile(report);
+    return json::parse(std::string(text.begin(), text.end()));
+  }
+
+  std::unique_ptr<ServerProcess> mServer;
+};
+
+TEST_F(LoadTest, BatchClientsSendTheKeyAndEachClientIsReported) {
+  const json r = load("--clients 3 --duration 1 --batch --require-clean");
+  EXPECT_EQ(r["batch"], true);
+  EXPECT_EQ(r["scene"]["batch"], true) << r["scene"];
+  // The server knows the key: no client had to drop it, and every client got frames with it.
+  EXPECT_EQ(r["batch_refused"], 0);
+  EXPECT_EQ(r["protocol_version"], 3) << "the load's sessions speak the newest version";
+  EXPECT_EQ(r["errors"], 0);
+
+  ASSERT_EQ(r["per_client"].size(), 3u) << r.dump();
+  int64_t frames = 0, busy = 0;
+  double sum = 0, squares = 0;
+  for (const json& c : r["per_client"]) {
+    EXPECT_GT(c["frames"].get<int64_t>(), 0) << c;
+    EXPECT_NEAR(c["frames_per_s"].get<double>(), c["frames"].get<double>() / r["duration_s"].get<double>(), 1e-6);
+    EXPECT_GT(c["latency_ms"]["p50"].get<double>(), 0) << c;
+    EXPECT_LE(c["latency_ms"]["p50"].get<double>(), c["latency_ms"]["p99"].get<double>()) << c;
+    frames += c["frames"].get<int64_t>();
+    busy += c["busy"].get<int64_t>();
+    const double rate = c["frames_per_s"].get<double>();
+    sum += rate, squares += rate * rate;
+  }
+  EXPECT_EQ(frames, r["frames"].get<int64_t>());
+  EXPECT_EQ(busy, r["busy"].get<int64_t>());
+  EXPECT_NEAR(r["jain_index"].get<double>(), sum * sum / (3 * squares), 1e-9);
+  EXPECT_GE(r["jain_index"].get<double>(), 1.0 / 3);
+  EXPECT_LE(r["jain_index"].get<double>(), 1.0 + 1e-9);
+
+  // Without --batch the scene has no such key.
+  const json plain = load("--clients 1 --duration 0.3 --require-clean");
+  EXPECT_EQ(plain["batch"], false);
+  EXPECT_FALSE(plain["scene"].contains("batch")) << plain["scene"];
+}
+
+TEST_F(LoadTest, DraggingClientsTimeEachFrameFromItsCamera) {
+  const json r = load("--clients 2 --duration 1 --drag 20 --encoding png --require-clean");
+  ASSERT_GT(r["frames"].get<int64_t>(), 0) << r.dump();
+  ASSERT_EQ(r["per_client"].size(), 2u);
+  for (const json& c : r["per_client"]) EXPECT_GT(c["frames"].get<int64_t>(), 0) << c;
+  // A frame cannot arrive before it was drawn: its camera's age is at least the server's render time, at every rank.
+  EXPECT_GE(r["latency_ms"]["p50"].get<double>(), r["render_ms_p50"].get<double>()) << r["latency_ms"];
+  EXPECT_GT(r["render_ms_p50"].get<double>(), 0);
+  EXPECT_TRUE(r["jain_index"].is_number()) << r.dump();
+}
+
+}  // namespace
+}  // namespace voxbrick
