@@ -173,6 +173,7 @@ Outcome MessageHandler::render(ConnectionState& state, const proto::RenderReques
   }
   job.previousCamera = state.lastCamera;
   state.lastCamera = job.scene.camera;
+  mStats.renderAccepted(frameClassOf(job));
   Outcome outcome;
   outcome.render = std::move(job);
   return outcome;
@@ -207,10 +208,12 @@ Outcome MessageHandler::rendered(ConnectionState& state, const RenderJob& job, p
     mStats.add(ServerEvent::Refined);
   else
     --state.outstandingRenders;
-  if (!std::holds_alternative<proto::Frame>(reply))
+  if (const auto* frame = std::get_if<proto::Frame>(&reply); !frame)
     mStats.add(ServerEvent::RenderError);
   else if (!job.refinement)
-    mStats.frameDelivered(std::chrono::duration<double, std::milli>(Clock::now() - job.received).count());
+    mStats.frameDelivered(frameClassOf(job), frame->encoding,
+                          proto::kHeaderBytes + frameBodyBytes(frame->statsJson.size(), frame->payload.size()),
+                          std::chrono::duration<double, std::milli>(Clock::now() - job.received).count());
   return replyWith(std::move(reply), job.requestId);
 }
 

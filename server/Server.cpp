@@ -1,12 +1,14 @@
 // The render service's acceptor and lifecycle, and the wiring of its parts.
 #include "server/Server.h"
 
+#include <algorithm>
 #include <chrono>
 #include <condition_variable>
 #include <functional>
 #include <map>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <thread>
 #include <vector>
 
@@ -121,7 +123,11 @@ struct Server::Impl {
   void removeSession(ConnectionId id);
   /// A connection's Hello was accepted: whether it becomes a session (Admission::greet).
   bool greet(ConnectionId id);
+  /// What the server knows now besides its counters (for statsJson and metricsText).
+  ServerStats::Gauges gauges() const;
   json statsJson() const;
+  /// The Prometheus text of /metrics.
+  std::string metricsText() const;
 
   const ServerConfig config;
   const tcp::endpoint endpoint;
@@ -148,6 +154,9 @@ struct Server::Impl {
   Admission admission;        ///< guarded by sessionsMutex
   uint64_t accepted = 0;      ///< connections so far: the next ConnectionId
   bool shuttingDown = false;  ///< guarded by sessionsMutex, so no session joins after the ShuttingDown round
+  /// The HTTP port's open connections, and those of them that are sessions (the others are TCP); guarded by
+  /// sessionsMutex.
+  std::set<ConnectionId> webConnections, webSessions;
 
   std::mutex stopMutex;
   std::condition_variable stopRequested;
@@ -211,6 +220,7 @@ void Server::Impl::onAccepted(const tcp::acceptor& on, tcp::socket socket) {
   // until its Hello: the same admission as a TCP connection.
   if (&on == &httpAcceptor)
     return adopt(address, loopback, [&](ConnectionId id) {
+      webConnections.insert(id);  // adopt() holds sessionsMutex
       return std::make_shared<WebSocketSession>(std::move(socket), sessionServices, webGate, id);
     });
   adopt(address, loopback,
@@ -221,6 +231,7 @@ void Server::Impl::adopt(const std::string& address, bool loopback,
                          const std::function<std::shared_ptr<Session>(ConnectionId)>& make) {
   std::shared_ptr<Session> session, evicted;
   std::optional<proto::Error> refusal;
+  Refusal reason = Refusal::Stopping;
   {
     std::lock_guard lock(sessionsMutex);
     const ConnectionId id{++accepted};
@@ -231,18 +242,21 @@ void Server::Impl::adopt(const std::string& address, bool loopback,
     } else {
       const Admission::Verdict verdict = admission.admit(id, address, !(loopback && config.loopbackExempt));
       using Result = Admission::Verdict::Result;
-      if (verdict.result == Result::TooManySessions)
+      if (verdict.result == Result::TooManySessions) {
+        reason = Refusal::Sessions;
         refusal = errorMessage(proto::ErrorCode::LimitExceeded,
                                "too many sessions (limit " + std::to_string(config.maxSessions) + ")");
-      else if (verdict.result == Result::TooManyFromAddress)
+      } else if (verdict.result == Result::TooManyFromAddress) {
+        reason = Refusal::Address;
         refusal =
             errorMessage(proto::ErrorCode::LimitExceeded, "too many connections from " + address + " (limit " +
                                                               std::to_string(config.maxConnectionsPerAddress) + ")");
+      }
       if (verdict.evicted) evicted = sessions.at(*verdict.evicted);
     }
   }
   if (refusal) {
-    stats.add(ServerEvent::SessionRefused);
+    stats.refused(reason);
     spdlog::debug("{}: refused: {}", session->peer(), refusal->message);
     session->end(std::move(*refusal));
     return;
@@ -250,7 +264,7 @@ void Server::Impl::adopt(const std::string& address, bool loopback,
   if (evicted) {
     // The pending connections are full of clients that have not said Hello: the one waiting longest (of the
     // address with the most) gives way, so a client that says Hello at once always gets in.
-    stats.add(ServerEvent::PendingEvicted);
+    stats.refused(Refusal::PendingEvicted);
     spdlog::info("{}: closing: no Hello yet and {} connections wait for theirs", evicted->peer(),
                  config.maxPendingConnections);
     evicted->end(errorMessage(proto::ErrorCode::LimitExceeded, "too many connections waiting for Hello (limit " +
@@ -264,6 +278,7 @@ void Server::Impl::adopt(const std::string& address, bool loopback,
 bool Server::Impl::greet(ConnectionId id) {
   std::lock_guard lock(sessionsMutex);
   if (!admission.greet(id)) return false;
+  if (webConnections.count(id)) webSessions.insert(id);
   stats.add(ServerEvent::SessionAccepted);
   return true;
 }
@@ -273,6 +288,8 @@ void Server::Impl::removeSession(ConnectionId id) {
     std::lock_guard lock(sessionsMutex);
     sessions.erase(id);
     admission.remove(id);
+    webConnections.erase(id);
+    webSessions.erase(id);
   }
   sessionsChanged.notify_all();
 }
@@ -314,12 +331,14 @@ void Server::Impl::shutdown() {
   io.stop();
 }
 
-json Server::Impl::statsJson() const {
+ServerStats::Gauges Server::Impl::gauges() const {
   ServerStats::Gauges gauges;
   {
     std::lock_guard lock(sessionsMutex);
     gauges.activeSessions = admission.sessions();
     gauges.pendingConnections = admission.pending();
+    gauges.webSocketSessions = webSessions.size();
+    gauges.tcpSessions = gauges.activeSessions - std::min(gauges.activeSessions, gauges.webSocketSessions);
   }
   gauges.outputQueuedBytes = output.queued();
   gauges.outputPeakBytes = output.peak();
@@ -331,8 +350,14 @@ json Server::Impl::statsJson() const {
   gauges.renderThreads = config.renderThreads;
   gauges.gpu = scheduler.gpu();
   gauges.gpuBudgetBytes = size_t(config.gpuBudgetMB) << 20;
-  return stats.toJson(gauges);
+  gauges.queuedByClass = scheduler.queuedByClass();
+  gauges.deviceBusyMs = scheduler.deviceBusyMs();
+  return gauges;
 }
+
+json Server::Impl::statsJson() const { return stats.toJson(gauges()); }
+
+std::string Server::Impl::metricsText() const { return stats.metricsText(gauges()); }
 
 std::vector<std::unique_ptr<render::FrameSource>> makeLocalSources(const ServerConfig& config) {
   std::vector<std::unique_ptr<render::FrameSource>> sources;
