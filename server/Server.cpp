@@ -167,7 +167,7 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
     : config(checked(c)),
       endpoint(listenEndpoint(config.host, config.port)),
       presets(render::TransferFunctionPresets::load(render::TransferFunction::configDirectory() / "tf")),
-      webGate(config.httpOrigins, config.httpToken, presets.json(false)),
+      webGate(config.httpOrigins, config.httpToken, presets.json(false), [this] { return metricsText(); }),
       // Opened datasets are checked by the frame sources (the distributed mode: on every rank); the scheduler is
       // made before any dataset is opened.
       datasets(config.datasets, size_t(config.hostCacheMB) << 20,

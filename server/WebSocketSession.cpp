@@ -98,7 +98,7 @@ void WebSocketSession::onRequest(boost::system::error_code ec) {
 
   const WebGate::Response r =
       mGate.respond(view(mRequest.method_string()), view(mRequest.target()), view(mRequest[http::field::if_none_match]),
-                    view(mRequest[http::field::origin]));
+                    view(mRequest[http::field::origin]), view(mRequest[http::field::authorization]));
   Response response(http::status(r.status), mRequest.version());
   response.set(http::field::server, "voxbrick");
   response.set(http::field::content_type, std::string(r.contentType));
@@ -162,7 +162,7 @@ void WebSocketSession::upgrade() {
       origin == mRequest.end() ? std::nullopt : std::optional<std::string_view>(view(origin->value())),
       view(mRequest[http::field::host]));
   if (refusal) {
-    mServices.stats.add(ServerEvent::SessionRefused);
+    mServices.stats.refused(Refusal::Forbidden);
     spdlog::info("{}: WebSocket upgrade refused: {}", peer(), *refusal);
     return respond(textResponse(403, "forbidden: " + *refusal));
   }
@@ -244,8 +244,9 @@ void WebSocketSession::onRead(boost::system::error_code ec, size_t bytes) {
 void WebSocketSession::write(std::span<const uint8_t> message) {
   mWriting = true;
   mWs.async_write(asio::buffer(message.data(), message.size()),
-                  guarded(this, [](WebSocketSession& s, boost::system::error_code ec, size_t) {
+                  guarded(this, [](WebSocketSession& s, boost::system::error_code ec, size_t bytes) {
                     s.mWriting = false;
+                    s.mStats.bytesWritten(bytes);
                     s.mCore.written(!ec);
                   }));
 }
