@@ -348,7 +348,8 @@ ServerStats::Gauges Server::Impl::gauges() const {
   gauges.rendersCancelled = scheduler.cancelled();
   gauges.datasets = datasets.opened();
   gauges.renderThreads = config.renderThreads;
-  gauges.gpu = scheduler.gpu();
+  const RenderScheduler::GpuGauges gpu = scheduler.gpu();
+  gauges.gpu = {gpu.bytes, gpu.peakBytes, gpu.renderersReleased};
   gauges.gpuBudgetBytes = size_t(config.gpuBudgetMB) << 20;
   gauges.queuedByClass = scheduler.queuedByClass();
   gauges.deviceBusyMs = scheduler.deviceBusyMs();

@@ -19,7 +19,6 @@
 #include "server/FrameClass.h"
 #include "server/LatencyWindow.h"
 #include "server/Metrics.h"
-#include "server/RenderScheduler.h"
 
 namespace voxbrick::server {
 
@@ -71,7 +70,12 @@ class ServerStats {
     size_t queuedSessions = 0;                                     ///< sessions with a render waiting for a thread
     std::vector<std::shared_ptr<const render::Dataset>> datasets;  ///< the opened ones
     int renderThreads = 0;
-    RenderScheduler::GpuGauges gpu;  ///< the render threads' atlases
+    /// The render threads' atlases (RenderScheduler::gpu(): this header does not include the scheduler's, so that
+    /// the scheduler may include this one).
+    struct Gpu {
+      size_t bytes = 0, peakBytes = 0;  ///< peakBytes: the sum of each thread's peak
+      uint64_t renderersReleased = 0;
+    } gpu;
     size_t gpuBudgetBytes = 0;
     size_t pendingConnections = 0;                                              ///< accepted, no Hello yet
     uint64_t outputQueuedBytes = 0, outputPeakBytes = 0, outputLimitBytes = 0;  ///< replies not yet written
