@@ -88,6 +88,12 @@ void WebSocketSession::onRequest(boost::system::error_code ec) {
   if (ec == http::error::end_of_stream || ec == asio::error::eof || ec == asio::error::connection_reset)
     return mCore.close();
   if (ec == beast::error::timeout) {
+    // A kept-alive connection that asks nothing more (a browser's, a Prometheus scrape's between scrapes) is closed
+    // as idle, not counted as a request that failed to arrive in time.
+    if (mAnswered && !mParser->got_some()) {
+      spdlog::debug("{}: closing: kept alive, no further request within {} s", peer(), mServices.config.helloTimeoutS);
+      return mCore.close();
+    }
     mServices.stats.add(ServerEvent::Timeout);
     spdlog::info("{}: closing: no whole HTTP request within {} s", peer(), mServices.config.helloTimeoutS);
     return mCore.close();
@@ -152,6 +158,7 @@ void WebSocketSession::onResponded(boost::system::error_code ec, bool keepAlive)
   mResponding = false;
   if (mCore.closed()) return;
   if (ec || !keepAlive) return mCore.close();
+  mAnswered = true;
   readRequest();
 }
 

@@ -69,6 +69,7 @@ class WebSocketSession final : public AsioSession {
   Request mRequest;
   Response mResponse;
   bool mResponding = false;       ///< an HTTP response is being written
+  bool mAnswered = false;         ///< an HTTP response was written: the connection is kept alive for the next
   bool mRefused = false;          ///< refused before the upgrade: requests are no longer answered
   bool mUpgrading = false;        ///< the WebSocket handshake is under way
   bool mUpgraded = false;         ///< the WebSocket is open: the Connection runs

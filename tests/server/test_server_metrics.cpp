@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "PrometheusText.h"
+#include "RawSocket.h"
 #include "ServerProcess.h"
 #include "WebClient.h"
 #include "client/Client.h"
@@ -19,6 +20,7 @@ namespace {
 
 using test::ParsedMetrics;
 using test::ServerProcess;
+using namespace std::chrono_literals;
 
 constexpr const char* kMetricsToken = "metrics-Token_1";
 
@@ -30,9 +32,13 @@ std::string metricsScene(const std::string& extra = "") {
 
 class MetricsEndpointTest : public test::SparseDatasetSuite {
  protected:
-  void SetUp() override {
+  void SetUp() override { start(); }
+  /// (Re)starts the server, with `extra` options.
+  void start(const std::string& extra = "") {
+    server.reset();
     server = std::make_unique<ServerProcess>(
-        "--datasets " + datasets() + " --render-threads 1 --http 0 --http-token " + kMetricsToken, scratch());
+        "--datasets " + datasets() + " --render-threads 1 --http 0 --http-token " + kMetricsToken + " " + extra,
+        scratch());
   }
 
   /// GET /metrics with the token as a Bearer header, parsed; fails the test unless it is a 200 of the text format.
@@ -136,6 +142,24 @@ TEST_F(MetricsEndpointTest, FiguresFollowWhatClientsDoOnBothTransports) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   EXPECT_EQ(after.sum("voxbrick_sessions"), 0);
+}
+
+// Prometheus keeps its connection alive between scrapes: closed when the next request does not come within the Hello
+// timeout, it is idle, not a timeout (which counts connections that never sent a whole request in time).
+TEST_F(MetricsEndpointTest, AKeptAliveConnectionClosedIdleIsNoTimeout) {
+  start("--hello-timeout 1");
+  const std::string request =
+      std::string("GET /metrics HTTP/1.1\r\nHost: 127.0.0.1\r\nAuthorization: Bearer ") + kMetricsToken + "\r\n\r\n";
+  test::RawSocket kept(server->httpPort(), test::Framing::None);
+  ASSERT_TRUE(kept.sendAll(std::vector<uint8_t>(request.begin(), request.end())));
+  EXPECT_TRUE(kept.waitClosed(5s)) << "closed once no further request came";
+  test::RawSocket silent(server->httpPort(), test::Framing::None);
+  EXPECT_TRUE(silent.waitClosed(5s));
+  test::RawSocket partial(server->httpPort(), test::Framing::None);
+  const std::string half = "GET /metrics HTTP/1.1\r\nHo";
+  ASSERT_TRUE(partial.sendAll(std::vector<uint8_t>(half.begin(), half.end())));
+  EXPECT_TRUE(partial.waitClosed(5s));
+  EXPECT_EQ(scrape().value("voxbrick_timeouts_total"), 2) << "the silent connection and the half request";
 }
 
 }  // namespace
