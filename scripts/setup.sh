@@ -15,6 +15,7 @@ PACKAGES=(
   python3 python3-numpy python3-zarr python3-numcodecs python3-pydicom
   openmpi-bin libopenmpi-dev
   chromium nodejs
+  prometheus
 )
 
 missing=()
@@ -35,5 +36,26 @@ SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 echo "setup: installing ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
+
+# prometheus: tests/prometheus needs its binary, not its Debian service. Where nothing forbids starting services at
+# install (container images have a policy-rc.d that does), one is in place for the install, so that a service that
+# cannot start (no init system, port 9090 taken) does not fail it; a systemd service it enabled is stopped and
+# disabled again.
+newPrometheus=0
+[[ " ${missing[*]} " == *" prometheus "* ]] && newPrometheus=1
+policy=/usr/sbin/policy-rc.d
+addedPolicy=0
+if [ $newPrometheus -eq 1 ] && [ ! -e "$policy" ]; then
+  printf '#!/bin/sh\n# scripts/setup.sh: no service starts while it installs packages\nexit 101\n' |
+    $SUDO tee "$policy" > /dev/null
+  $SUDO chmod 755 "$policy"
+  addedPolicy=1
+fi
+removePolicy() { if [ $addedPolicy -eq 1 ]; then $SUDO rm -f "$policy"; fi; }
+trap removePolicy EXIT
+
 $SUDO apt-get update -q
 $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+if [ $newPrometheus -eq 1 ] && [ -d /run/systemd/system ]; then
+  $SUDO systemctl disable --now prometheus.service > /dev/null 2>&1 || true
+fi

@@ -16,6 +16,7 @@ std::chrono::milliseconds milliseconds(double seconds) { return std::chrono::mil
 AsioSession::AsioSession(const boost::asio::any_io_executor& executor, const SessionServices& services, ConnectionId id,
                          std::string peer)
     : mCore(*this, services, id, std::move(peer)),
+      mStats(services.stats),
       mExecutor(executor),
       mHelloTimer(executor),
       mReadTimer(executor),

@@ -62,6 +62,8 @@ class AsioSession : public Session,
 
   /// The rules this transport carries bytes for; the transport reports its reads and writes here.
   Connection mCore;
+  /// The server's statistics: a transport counts the bytes it writes (ServerStats::bytesWritten).
+  ServerStats& mStats;
 
  private:
   boost::asio::steady_timer& timer(Deadline deadline);

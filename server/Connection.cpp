@@ -220,8 +220,7 @@ void Connection::admit(Outcome& outcome) {
   std::optional<proto::Error> refusal = mServices.greeted(mId);
   if (!refusal) return;
   // Sessions filled up while this connection waited for its Hello (or it was evicted), its quota is full, or the
-  // render threads are over capacity: refused as on connect, with the reason.
-  mServices.stats.add(ServerEvent::SessionRefused);
+  // render threads are over capacity: refused as on connect, with the reason (counted by `greeted`).
   spdlog::info("{}: refused at Hello: {}", mPeer, refusal->message);
   outcome = Outcome{};
   outcome.replies.push_back({std::move(*refusal), 0});

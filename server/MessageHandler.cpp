@@ -173,6 +173,7 @@ Outcome MessageHandler::render(ConnectionState& state, const proto::RenderReques
   }
   job.previousCamera = state.lastCamera;
   state.lastCamera = job.scene.camera;
+  mStats.renderAccepted(frameClassOf(job));
   Outcome outcome;
   outcome.render = std::move(job);
   return outcome;
@@ -188,6 +189,7 @@ Outcome MessageHandler::submitted(ConnectionState& state, uint32_t requestId, Su
                        "more than " + std::to_string(ServerConfig::kMaxQueuedWithoutCoalescing) + " renders queued"),
           requestId);
     case Submission::Result::Busy:
+      mStats.refused(submission.quota ? Refusal::Quota : Refusal::Busy);
       return replyWith(errorMessage(ErrorCode::Busy, proto::busyMessage(submission.why, submission.retryAfterMs)),
                        requestId);
     case Submission::Result::Queued: break;
@@ -210,10 +212,13 @@ Outcome MessageHandler::rendered(ConnectionState& state, const RenderJob& job, p
     mStats.add(ServerEvent::Refined);
   else
     --state.outstandingRenders;
-  if (!std::holds_alternative<proto::Frame>(reply))
+  if (job.shared && std::holds_alternative<proto::Frame>(reply)) mStats.frameShared();
+  if (const auto* frame = std::get_if<proto::Frame>(&reply); !frame)
     mStats.add(ServerEvent::RenderError);
   else if (!job.refinement)
-    mStats.frameDelivered(std::chrono::duration<double, std::milli>(Clock::now() - job.received).count());
+    mStats.frameDelivered(frameClassOf(job), frame->encoding,
+                          proto::kHeaderBytes + frameBodyBytes(frame->statsJson.size(), frame->payload.size()),
+                          std::chrono::duration<double, std::milli>(Clock::now() - job.received).count());
   return replyWith(std::move(reply), job.requestId);
 }
 

@@ -49,6 +49,8 @@ struct RenderJob {
   std::optional<int> provisionalJpegQuality;
   /// Sessions this frame answers besides the job's own (one render shared by sessions asking the same frame).
   int sharedWith = 0;
+  /// Answered from the render of another session's identical frame.
+  bool shared = false;
 };
 
 /// The class the scheduler serves `job` in: batch for a scene with "batch", else interactive for a moving camera's
@@ -76,6 +78,7 @@ struct Submission {
   Result result = Result::Queued;
   uint32_t retryAfterMs = 0;  ///< with Busy
   std::string why;            ///< with Busy: what is over capacity
+  bool quota = false;         ///< with Busy: a quota of its address or token, not the scheduler's capacity
   std::optional<RenderJob> replaced;  ///< the session's waiting job this one replaced (latest wins)
 };
 

@@ -428,6 +428,7 @@ void RenderScheduler::deliver(const Taken& taken, const RenderReply& reply, std:
     if (auto* frame = std::get_if<proto::Frame>(&message)) frame->statsJson = withKey(frame->statsJson, "shared", "true");
     mShared.fetch_add(1);
     follower.job.sharedWith = int(followers.size());
+    follower.job.shared = true;
     follower.sink->rendered(follower.job, std::move(message));
     if (reply.provisional) refine(follower.sink, follower.job);
   }

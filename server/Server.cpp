@@ -1,12 +1,14 @@
 // The render service's acceptor and lifecycle, and the wiring of its parts.
 #include "server/Server.h"
 
+#include <algorithm>
 #include <chrono>
 #include <condition_variable>
 #include <functional>
 #include <map>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <thread>
 #include <vector>
 
@@ -123,7 +125,11 @@ struct Server::Impl {
   /// A connection's Hello was accepted: none when it becomes a session (Admission::greet, its quotas, the render
   /// threads' capacity), else the Error that refuses it.
   std::optional<proto::Error> greet(ConnectionId id);
+  /// What the server knows now besides its counters (for statsJson and metricsText).
+  ServerStats::Gauges gauges() const;
   json statsJson() const;
+  /// The Prometheus text of /metrics.
+  std::string metricsText() const;
 
   const ServerConfig config;
   const tcp::endpoint endpoint;
@@ -153,6 +159,9 @@ struct Server::Impl {
   Quotas quotas;
   uint64_t accepted = 0;      ///< connections so far: the next ConnectionId
   bool shuttingDown = false;  ///< guarded by sessionsMutex, so no session joins after the ShuttingDown round
+  /// The HTTP port's open connections, and those of them that are sessions (the others are TCP); guarded by
+  /// sessionsMutex.
+  std::set<ConnectionId> webConnections, webSessions;
 
   std::mutex stopMutex;
   std::condition_variable stopRequested;
@@ -163,7 +172,7 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
     : config(checked(c)),
       endpoint(listenEndpoint(config.host, config.port)),
       presets(render::TransferFunctionPresets::load(render::TransferFunction::configDirectory() / "tf")),
-      webGate(config.httpOrigins, config.httpToken, presets.json(false)),
+      webGate(config.httpOrigins, config.httpToken, presets.json(false), [this] { return metricsText(); }),
       // Opened datasets are checked by the frame sources (the distributed mode: on every rank); the scheduler is
       // made before any dataset is opened.
       datasets(config.datasets, size_t(config.hostCacheMB) << 20,
@@ -190,6 +199,7 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
                         busy.result = Submission::Result::Busy;
                         busy.retryAfterMs = refusal->retryAfterMs;
                         busy.why = refusal->why;
+                        busy.quota = true;
                         return busy;
                       }},
       admission(admissionLimits(config)),
@@ -226,6 +236,7 @@ void Server::Impl::onAccepted(const tcp::acceptor& on, tcp::socket socket) {
   // until its Hello: the same admission as a TCP connection.
   if (&on == &httpAcceptor)
     return adopt(address, loopback, [&](ConnectionId id) {
+      webConnections.insert(id);  // adopt() holds sessionsMutex
       return std::make_shared<WebSocketSession>(std::move(socket), sessionServices, webGate, id);
     });
   adopt(address, loopback,
@@ -236,6 +247,7 @@ void Server::Impl::adopt(const std::string& address, bool loopback,
                          const std::function<std::shared_ptr<Session>(ConnectionId)>& make) {
   std::shared_ptr<Session> session, evicted;
   std::optional<proto::Error> refusal;
+  Refusal reason = Refusal::Stopping;
   {
     std::lock_guard lock(sessionsMutex);
     const ConnectionId id{++accepted};
@@ -247,18 +259,21 @@ void Server::Impl::adopt(const std::string& address, bool loopback,
     } else {
       const Admission::Verdict verdict = admission.admit(id, address, !(loopback && config.loopbackExempt));
       using Result = Admission::Verdict::Result;
-      if (verdict.result == Result::TooManySessions)
+      if (verdict.result == Result::TooManySessions) {
+        reason = Refusal::Sessions;
         refusal = errorMessage(proto::ErrorCode::LimitExceeded,
                                "too many sessions (limit " + std::to_string(config.maxSessions) + ")");
-      else if (verdict.result == Result::TooManyFromAddress)
+      } else if (verdict.result == Result::TooManyFromAddress) {
+        reason = Refusal::Address;
         refusal =
             errorMessage(proto::ErrorCode::LimitExceeded, "too many connections from " + address + " (limit " +
                                                               std::to_string(config.maxConnectionsPerAddress) + ")");
+      }
       if (verdict.evicted) evicted = sessions.at(*verdict.evicted);
     }
   }
   if (refusal) {
-    stats.add(ServerEvent::SessionRefused);
+    stats.refused(reason);
     spdlog::debug("{}: refused: {}", session->peer(), refusal->message);
     session->end(std::move(*refusal));
     return;
@@ -266,7 +281,7 @@ void Server::Impl::adopt(const std::string& address, bool loopback,
   if (evicted) {
     // The pending connections are full of clients that have not said Hello: the one waiting longest (of the
     // address with the most) gives way, so a client that says Hello at once always gets in.
-    stats.add(ServerEvent::PendingEvicted);
+    stats.refused(Refusal::PendingEvicted);
     spdlog::info("{}: closing: no Hello yet and {} connections wait for theirs", evicted->peer(),
                  config.maxPendingConnections);
     evicted->end(errorMessage(proto::ErrorCode::LimitExceeded, "too many connections waiting for Hello (limit " +
@@ -285,21 +300,30 @@ std::optional<proto::Error> Server::Impl::greet(ConnectionId id) {
   };
   const auto client = clients.find(id);
   const auto session = sessions.find(id);
-  if (client == clients.end() || session == sessions.end()) return tooMany();
+  if (client == clients.end() || session == sessions.end()) {
+    stats.refused(Refusal::Sessions);
+    return tooMany();
+  }
   // Over capacity: more sessions drag than the render threads can keep at their minimum rate.
-  if (const std::optional<uint32_t> retry = scheduler.refuseNewSession())
+  if (const std::optional<uint32_t> retry = scheduler.refuseNewSession()) {
+    stats.refused(Refusal::Busy);
     return errorMessage(proto::ErrorCode::Busy,
                         proto::busyMessage("the server is over capacity: " +
                                                std::to_string(scheduler.interactiveSessions()) +
                                                " sessions are dragging, as many as its render threads keep at " +
                                                "their minimum rate",
                                            *retry));
-  if (auto refusal = quotas.admit(id, client->second.first, client->second.second, session->second->accessToken()))
+  }
+  if (auto refusal = quotas.admit(id, client->second.first, client->second.second, session->second->accessToken())) {
+    stats.refused(Refusal::Quota);
     return errorMessage(proto::ErrorCode::LimitExceeded, *refusal);
+  }
   if (!admission.greet(id)) {
     quotas.remove(id);
+    stats.refused(Refusal::Sessions);
     return tooMany();
   }
+  if (webConnections.count(id)) webSessions.insert(id);
   stats.add(ServerEvent::SessionAccepted);
   return std::nullopt;
 }
@@ -311,6 +335,8 @@ void Server::Impl::removeSession(ConnectionId id) {
     clients.erase(id);
     admission.remove(id);
     quotas.remove(id);
+    webConnections.erase(id);
+    webSessions.erase(id);
   }
   sessionsChanged.notify_all();
 }
@@ -352,12 +378,14 @@ void Server::Impl::shutdown() {
   io.stop();
 }
 
-json Server::Impl::statsJson() const {
+ServerStats::Gauges Server::Impl::gauges() const {
   ServerStats::Gauges gauges;
   {
     std::lock_guard lock(sessionsMutex);
     gauges.activeSessions = admission.sessions();
     gauges.pendingConnections = admission.pending();
+    gauges.webSocketSessions = webSessions.size();
+    gauges.tcpSessions = gauges.activeSessions - std::min(gauges.activeSessions, gauges.webSocketSessions);
   }
   gauges.outputQueuedBytes = output.queued();
   gauges.outputPeakBytes = output.peak();
@@ -367,10 +395,17 @@ json Server::Impl::statsJson() const {
   gauges.rendersCancelled = scheduler.cancelled();
   gauges.datasets = datasets.opened();
   gauges.renderThreads = config.renderThreads;
-  gauges.gpu = scheduler.gpu();
+  const RenderScheduler::GpuGauges gpu = scheduler.gpu();
+  gauges.gpu = {gpu.bytes, gpu.peakBytes, gpu.renderersReleased};
   gauges.gpuBudgetBytes = size_t(config.gpuBudgetMB) << 20;
-  return stats.toJson(gauges);
+  gauges.queuedByClass = scheduler.queuedByClass();
+  gauges.deviceBusyMs = scheduler.deviceBusyMs();
+  return gauges;
 }
+
+json Server::Impl::statsJson() const { return stats.toJson(gauges()); }
+
+std::string Server::Impl::metricsText() const { return stats.metricsText(gauges()); }
 
 std::vector<std::unique_ptr<render::FrameSource>> makeLocalSources(const ServerConfig& config) {
   std::vector<std::unique_ptr<render::FrameSource>> sources;

@@ -58,7 +58,10 @@ void TcpSession::onBody(boost::system::error_code ec) {
 
 void TcpSession::write(std::span<const uint8_t> message) {
   asio::async_write(mSocket, asio::buffer(message.data(), message.size()),
-                    guarded(this, [](TcpSession& s, boost::system::error_code ec, size_t) { s.mCore.written(!ec); }));
+                    guarded(this, [](TcpSession& s, boost::system::error_code ec, size_t bytes) {
+                      s.mStats.bytesWritten(bytes);
+                      s.mCore.written(!ec);
+                    }));
 }
 
 void TcpSession::close() {

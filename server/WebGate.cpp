@@ -1,10 +1,12 @@
-// HTTP decisions of the browser transport: embedded files by name, Origin and token checks for /ws.
+// HTTP decisions of the browser transport: embedded files by name, the presets and the metrics, Origin and token
+// checks.
 #include "server/WebGate.h"
 
 #include <algorithm>
 #include <cctype>
 #include <stdexcept>
 
+#include "server/Metrics.h"
 #include "server/WebFiles.h"
 
 namespace voxbrick::server {
@@ -58,6 +60,18 @@ std::optional<std::string_view> queryValue(std::string_view query, std::string_v
   return std::nullopt;
 }
 
+/// The credentials of an Authorization header of the Bearer scheme (RFC 6750; the scheme's name in any case), or
+/// nullopt for another scheme or none.
+std::optional<std::string_view> bearerToken(std::string_view authorization) {
+  constexpr std::string_view kScheme = "bearer ";
+  if (authorization.size() <= kScheme.size() || lower(authorization.substr(0, kScheme.size())) != kScheme)
+    return std::nullopt;
+  std::string_view token = authorization.substr(kScheme.size());
+  while (!token.empty() && token.front() == ' ') token.remove_prefix(1);
+  while (!token.empty() && token.back() == ' ') token.remove_suffix(1);
+  return token;
+}
+
 /// Whether `a` equals `b`, in a time that depends on their lengths only.
 bool equalInConstantTime(std::string_view a, std::string_view b) {
   unsigned char differ = a.size() == b.size() ? 0 : 1;
@@ -102,8 +116,9 @@ bool WebGate::validToken(std::string_view token) {
   });
 }
 
-WebGate::WebGate(const std::vector<std::string>& origins, std::string token, std::string presetsJson)
-    : mToken(std::move(token)), mPresetsJson(std::move(presetsJson)) {
+WebGate::WebGate(const std::vector<std::string>& origins, std::string token, std::string presetsJson,
+                 std::function<std::string()> metrics)
+    : mToken(std::move(token)), mPresetsJson(std::move(presetsJson)), mMetrics(std::move(metrics)) {
   for (const std::string& text : origins) {
     const auto origin = parseOrigin(text);
     if (!origin) throw std::invalid_argument("'" + text + "' is not an origin (scheme://host[:port])");
@@ -114,7 +129,7 @@ WebGate::WebGate(const std::vector<std::string>& origins, std::string token, std
 bool WebGate::isSocketPath(std::string_view target) { return splitTarget(target).first == "/ws"; }
 
 WebGate::Response WebGate::respond(std::string_view method, std::string_view target, std::string_view ifNoneMatch,
-                                   std::string_view origin) const {
+                                   std::string_view origin, std::string_view authorization) const {
   if (method != "GET" && method != "HEAD") {
     Response r = textResponse(405, "method not allowed: only GET and HEAD are served");
     return r;
@@ -126,15 +141,19 @@ WebGate::Response WebGate::respond(std::string_view method, std::string_view tar
     return textResponse(426, "/ws is the WebSocket endpoint: open it with a WebSocket upgrade");
   }
   if (path == "/presets.json") {
-    if (const auto refusal = tokenRefusal(target)) return textResponse(403, "forbidden: " + *refusal);
+    if (const auto refusal = tokenRefusal(target, authorization)) return textResponse(403, "forbidden: " + *refusal);
     Response r;
     r.contentType = "application/json";
     r.body = {reinterpret_cast<const uint8_t*>(mPresetsJson.data()), mPresetsJson.size()};
-    // A page of a configured origin (a copy of the viewer served elsewhere) may read it; the page's own origin
-    // needs no header.
-    if (const auto seen = parseOrigin(origin);
-        seen && std::find(mOrigins.begin(), mOrigins.end(), *seen) != mOrigins.end())
-      r.allowOrigin = std::string(origin);
+    r.allowOrigin = allowedOrigin(origin);
+    return r;
+  }
+  if (path == "/metrics" && mMetrics) {
+    if (const auto refusal = tokenRefusal(target, authorization)) return textResponse(403, "forbidden: " + *refusal);
+    Response r;
+    r.contentType = kMetricsContentType;
+    r.text = mMetrics();
+    r.allowOrigin = allowedOrigin(origin);
     return r;
   }
   // Only the embedded files' own names match: a path that climbs (..), is escaped (%2e) or absolute-form names none.
@@ -166,12 +185,22 @@ std::optional<std::string> WebGate::refuseUpgrade(std::string_view target, std::
   return tokenRefusal(target);
 }
 
-std::optional<std::string> WebGate::tokenRefusal(std::string_view target) const {
+std::optional<std::string> WebGate::tokenRefusal(std::string_view target, std::string_view authorization) const {
   if (mToken.empty()) return std::nullopt;
-  const auto given = queryValue(splitTarget(target).second, "token");
-  if (!given) return "an access token is required (open the page with the URL the server logged: ?token=...)";
+  auto given = queryValue(splitTarget(target).second, "token");
+  if (!given) given = bearerToken(authorization);
+  if (!given)
+    return "an access token is required (open the page with the URL the server logged: ?token=..., or send "
+           "Authorization: Bearer TOKEN)";
   if (!equalInConstantTime(*given, mToken)) return "wrong access token";
   return std::nullopt;
+}
+
+std::string WebGate::allowedOrigin(std::string_view origin) const {
+  // A page of a configured origin (a copy of the viewer served elsewhere) may read the answer; the page's own origin
+  // needs no header.
+  const auto seen = parseOrigin(origin);
+  return seen && std::find(mOrigins.begin(), mOrigins.end(), *seen) != mOrigins.end() ? std::string(origin) : "";
 }
 
 }  // namespace voxbrick::server

@@ -1,7 +1,9 @@
 // What the HTTP side of the browser transport decides, without sockets: which embedded file (or error) answers a
-// plain request, and whether a WebSocket upgrade of /ws may proceed (its Origin and its access token).
+// plain request, the presets and the metrics behind the access token, and whether a WebSocket upgrade of /ws may
+// proceed (its Origin and its access token).
 #pragma once
 
+#include <functional>
 #include <optional>
 #include <span>
 #include <string>
@@ -26,10 +28,13 @@ class WebGate {
   static bool validToken(std::string_view token);
 
   /// `origins`: the configured origins allowed besides the page's own (each as parseOrigin reads it; throws
-  /// std::invalid_argument for one that is not); `token`: the access token /ws and /presets.json must carry, empty
-  /// for none; `presetsJson`: the body of /presets.json, the server's transfer-function presets with their curves
-  /// (TransferFunctionPresets::json without files), which the page draws in its curve editor.
-  WebGate(const std::vector<std::string>& origins, std::string token, std::string presetsJson = "[]");
+  /// std::invalid_argument for one that is not); `token`: the access token /ws, /presets.json and /metrics must
+  /// carry, empty for none; `presetsJson`: the body of /presets.json, the server's transfer-function presets with
+  /// their curves (TransferFunctionPresets::json without files), which the page draws in its curve editor;
+  /// `metrics`: makes the body of /metrics, the server's statistics in Prometheus' text format (none: /metrics is
+  /// 404). It is called on the I/O thread that answers the request and must be thread-safe.
+  WebGate(const std::vector<std::string>& origins, std::string token, std::string presetsJson = "[]",
+          std::function<std::string()> metrics = {});
 
   /// The answer to a request that is not an upgrade.
   struct Response {
@@ -44,10 +49,12 @@ class WebGate {
   /// The answer to `method` `target` (the request line's target) with `ifNoneMatch` (the header, possibly empty):
   /// an embedded file for GET and HEAD ("/" is index.html; the query is ignored), 404 for any path that names none,
   /// 405 for other methods, 426 for /ws without an upgrade (403 naming why when its token is missing or wrong).
-  /// /presets.json is the presets' JSON, behind the same token as /ws; for a request whose `origin` (the Origin
-  /// header, empty when absent) is a configured one, it may be read by that origin's pages (allowOrigin).
+  /// /presets.json is the presets' JSON and /metrics the metrics' text, both behind the same token as /ws, given in
+  /// the query (?token=) or as `authorization` (the Authorization header, "Bearer TOKEN", as Prometheus sends it);
+  /// for a request whose `origin` (the Origin header, empty when absent) is a configured one, they may be read by
+  /// that origin's pages (allowOrigin).
   Response respond(std::string_view method, std::string_view target, std::string_view ifNoneMatch,
-                   std::string_view origin = {}) const;
+                   std::string_view origin = {}, std::string_view authorization = {}) const;
 
   /// Whether `target` names the WebSocket endpoint (/ws, with any query).
   static bool isSocketPath(std::string_view target);
@@ -62,12 +69,16 @@ class WebGate {
     return mToken.empty() || tokenRefusal(target) ? std::string() : mToken;
   }
  private:
-  /// Why `target` fails the access token (missing, wrong), or nullopt when none is set or it matches.
-  std::optional<std::string> tokenRefusal(std::string_view target) const;
+  /// Why `target` fails the access token (missing, wrong), or nullopt when none is set or it matches: the query's
+  /// token, else the Bearer token of `authorization` (the Authorization header; empty when absent).
+  std::optional<std::string> tokenRefusal(std::string_view target, std::string_view authorization = {}) const;
+  /// Access-Control-Allow-Origin for a request from `origin`: itself when it is a configured origin, else empty.
+  std::string allowedOrigin(std::string_view origin) const;
 
   std::vector<Origin> mOrigins;
   std::string mToken;
   std::string mPresetsJson;
+  std::function<std::string()> mMetrics;
 };
 
 }  // namespace voxbrick::server

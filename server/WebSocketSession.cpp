@@ -88,6 +88,12 @@ void WebSocketSession::onRequest(boost::system::error_code ec) {
   if (ec == http::error::end_of_stream || ec == asio::error::eof || ec == asio::error::connection_reset)
     return mCore.close();
   if (ec == beast::error::timeout) {
+    // A kept-alive connection that asks nothing more (a browser's, a Prometheus scrape's between scrapes) is closed
+    // as idle, not counted as a request that failed to arrive in time.
+    if (mAnswered && !mParser->got_some()) {
+      spdlog::debug("{}: closing: kept alive, no further request within {} s", peer(), mServices.config.helloTimeoutS);
+      return mCore.close();
+    }
     mServices.stats.add(ServerEvent::Timeout);
     spdlog::info("{}: closing: no whole HTTP request within {} s", peer(), mServices.config.helloTimeoutS);
     return mCore.close();
@@ -98,7 +104,7 @@ void WebSocketSession::onRequest(boost::system::error_code ec) {
 
   const WebGate::Response r =
       mGate.respond(view(mRequest.method_string()), view(mRequest.target()), view(mRequest[http::field::if_none_match]),
-                    view(mRequest[http::field::origin]));
+                    view(mRequest[http::field::origin]), view(mRequest[http::field::authorization]));
   Response response(http::status(r.status), mRequest.version());
   response.set(http::field::server, "voxbrick");
   response.set(http::field::content_type, std::string(r.contentType));
@@ -152,6 +158,7 @@ void WebSocketSession::onResponded(boost::system::error_code ec, bool keepAlive)
   mResponding = false;
   if (mCore.closed()) return;
   if (ec || !keepAlive) return mCore.close();
+  mAnswered = true;
   readRequest();
 }
 
@@ -162,7 +169,7 @@ void WebSocketSession::upgrade() {
       origin == mRequest.end() ? std::nullopt : std::optional<std::string_view>(view(origin->value())),
       view(mRequest[http::field::host]));
   if (refusal) {
-    mServices.stats.add(ServerEvent::SessionRefused);
+    mServices.stats.refused(Refusal::Forbidden);
     spdlog::info("{}: WebSocket upgrade refused: {}", peer(), *refusal);
     return respond(textResponse(403, "forbidden: " + *refusal));
   }
@@ -245,8 +252,9 @@ void WebSocketSession::onRead(boost::system::error_code ec, size_t bytes) {
 void WebSocketSession::write(std::span<const uint8_t> message) {
   mWriting = true;
   mWs.async_write(asio::buffer(message.data(), message.size()),
-                  guarded(this, [](WebSocketSession& s, boost::system::error_code ec, size_t) {
+                  guarded(this, [](WebSocketSession& s, boost::system::error_code ec, size_t bytes) {
                     s.mWriting = false;
+                    s.mStats.bytesWritten(bytes);
                     s.mCore.written(!ec);
                   }));
 }

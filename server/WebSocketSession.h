@@ -72,6 +72,7 @@ class WebSocketSession final : public AsioSession {
   Response mResponse;
   std::string mToken;             ///< the accepted access token (accessToken)
   bool mResponding = false;       ///< an HTTP response is being written
+  bool mAnswered = false;         ///< an HTTP response was written: the connection is kept alive for the next
   bool mRefused = false;          ///< refused before the upgrade: requests are no longer answered
   bool mUpgrading = false;        ///< the WebSocket handshake is under way
   bool mUpgraded = false;         ///< the WebSocket is open: the Connection runs

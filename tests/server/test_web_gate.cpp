@@ -61,6 +61,38 @@ TEST(WebGate, ThePresetsAreServedBehindTheTokenAndReadableByConfiguredOriginsOnl
   EXPECT_EQ(WebGate({}, "").respond("GET", "/presets.json", "").status, 200);
 }
 
+TEST(WebGate, TheMetricsAreServedBehindTheTokenInTheQueryOrABearerHeader) {
+  int calls = 0;
+  const WebGate gate({"https://lab.example.org"}, "secret-1", "[]", [&calls] {
+    ++calls;
+    return std::string("# HELP demo_total Demo.\n# TYPE demo_total counter\ndemo_total 1\n");
+  });
+  const WebGate::Response query = gate.respond("GET", "/metrics?token=secret-1", "");
+  EXPECT_EQ(query.status, 200);
+  EXPECT_EQ(query.contentType, "text/plain; version=0.0.4; charset=utf-8");
+  EXPECT_EQ(query.text, "# HELP demo_total Demo.\n# TYPE demo_total counter\ndemo_total 1\n");
+  EXPECT_TRUE(query.etag.empty()) << "never cached";
+  EXPECT_EQ(calls, 1) << "made for each request";
+  for (const char* header : {"Bearer secret-1", "bearer secret-1", "BEARER  secret-1 "})
+    EXPECT_EQ(gate.respond("GET", "/metrics", "", "", header).status, 200) << header;
+  for (const char* header : {"", "Bearer secret-2", "Basic c2VjcmV0LTE=", "secret-1", "Bearer", "Bearer "}) {
+    const WebGate::Response r = gate.respond("GET", "/metrics", "", "", header);
+    EXPECT_EQ(r.status, 403) << header;
+    EXPECT_TRUE(r.text.starts_with("forbidden:")) << r.text;
+  }
+  EXPECT_EQ(calls, 4) << "nothing is made for a refused request";
+  EXPECT_NE(gate.respond("GET", "/metrics", "", "", "Bearer nope").text.find("wrong access token"), std::string::npos);
+  EXPECT_EQ(gate.respond("GET", "/metrics?token=wrong", "", "", "Bearer secret-1").status, 403)
+      << "the query's token is the one checked when both are given";
+  EXPECT_EQ(gate.respond("GET", "/presets.json", "", "", "Bearer secret-1").status, 200) << "the presets too";
+  EXPECT_EQ(gate.respond("GET", "/metrics?token=secret-1", "", "https://lab.example.org").allowOrigin,
+            "https://lab.example.org");
+  EXPECT_EQ(gate.respond("POST", "/metrics?token=secret-1", "").status, 405);
+  EXPECT_EQ(WebGate({}, "").respond("GET", "/metrics", "").status, 404) << "no metrics given: no such path";
+  EXPECT_EQ(WebGate({}, "", "[]", [] { return std::string("x 1\n"); }).respond("GET", "/metrics", "").status, 200)
+      << "no token set: open";
+}
+
 TEST(WebGate, ContentTypesFollowTheExtension) {
   EXPECT_EQ(contentTypeOf("a/b.js"), "text/javascript; charset=utf-8");
   EXPECT_EQ(contentTypeOf("style.css"), "text/css; charset=utf-8");

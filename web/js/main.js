@@ -37,6 +37,11 @@ const app = {
   notes: [],
 };
 
+// The server's status page carries the page's token (and server) on, as /ws does.
+const statusLink = new URL("status.html", location.href);
+for (const key of ["token", "server"]) if (params.get(key)) statusLink.searchParams.set(key, params.get(key));
+$("status-link").href = statusLink.pathname + statusLink.search;
+
 const canvas = $("frame");
 const loop = new FrameLoop(canvas, {
   scene: (phase) =>
