@@ -241,7 +241,7 @@ TEST_F(RenderSchedulerTest, StopDropsWaitingJobsAndRefusesNewOnes) {
   s->start();
   for (uint32_t i = 1; i <= 4; ++i) {
     sinks.push_back(std::make_shared<RecordingSink>());
-    s->submit(sinks.back(), job(i));
+    s->submit(sinks.back(), job(i, 40 + int(i)));  // four different frames: none rides along another's render
   }
   s->stop();
   // One thread finishes at most the frame it was drawing; the others waiting are dropped.
