@@ -12,6 +12,7 @@
 // Writes PREFIX.csv, PREFIX.md and PREFIX.json.
 
 import fs from "node:fs";
+import os from "node:os";
 import path from "node:path";
 import { spawnSync } from "node:child_process";
 import * as H from "../tests/browser/harness.mjs";
@@ -186,6 +187,9 @@ try {
   scratch.remove();
 }
 
+// The load average once the crowds are gone: over the last minute it still holds the run's own work, so a figure well
+// above the start's over 5 and 15 minutes says something else ran beside it.
+const loadAtEnd = os.loadavg().map((v) => v.toFixed(2));
 const rows = runs.map(row);
 const cols = [
   "scenario",
@@ -234,6 +238,7 @@ fs.writeFileSync(
       command,
       started,
       machine,
+      load_average_at_end: loadAtEnd,
       gl_renderer: gl,
       options: opt,
       targets: TARGET,
@@ -263,7 +268,8 @@ const md = [
   `- Command: \`${command}\``,
   `- Date: ${started}`,
   `- Machine: ${machine.cpu}, ${machine.cores} cores, ${machine.memory}; load average at the start ` +
-    `${machine.load_average.join(", ")}; ${machine.chromium}; GL: ${gl}`,
+    `${machine.load_average.join(", ")}, at the end ${loadAtEnd.join(", ")} (1, 5, 15 min); ${machine.chromium}; ` +
+    `GL: ${gl}`,
   `- Servers: ${servers()
     .map((s) => `${s.name} \`${s.exe}\` (${s.version})`)
     .join("; ")}. Each scenario runs on a fresh server of each, \`--max-sessions 256\`` +
