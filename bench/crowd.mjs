@@ -258,13 +258,16 @@ fs.writeFileSync(
 );
 
 // A run smaller than the benchmark's says so at its head.
-const full = { tabs: 16, dragClients: 64, batchClients: 64, size: 512, batchSize: 1024, duration: 10 };
-const smaller = Object.keys(full).filter((k) => opt[k] < full[k]);
+const full = { tabs: 16, "drag-clients": 64, "batch-clients": 64, size: 512, "batch-size": 1024, duration: 10 };
+const optionOf = (flag) => flag.replace(/-(.)/g, (_, c) => c.toUpperCase()); // "drag-clients" -> "dragClients"
+const smaller = Object.keys(full)
+  .filter((flag) => opt[optionOf(flag)] < full[flag])
+  .map((flag) => `--${flag} ${opt[optionOf(flag)]}, not ${full[flag]}`);
 const mark = (v) => (v === "pass" ? "pass" : v === "fail" ? "**fail**" : v);
 const md = [
   "# A crowd on one server: viewer tabs beside many TCP clients",
   "",
-  ...(smaller.length ? [`**A smoke run**: smaller than the benchmark (${smaller.join(", ")}).`, ""] : []),
+  ...(smaller.length ? [`**A smoke run**, smaller than the benchmark: ${smaller.join("; ")}.`, ""] : []),
   `- Command: \`${command}\``,
   `- Date: ${started}`,
   `- Machine: ${machine.cpu}, ${machine.cores} cores, ${machine.memory}; load average at the start ` +
