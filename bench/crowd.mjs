@@ -12,6 +12,7 @@
 // Writes PREFIX.csv, PREFIX.md and PREFIX.json.
 
 import fs from "node:fs";
+import os from "node:os";
 import path from "node:path";
 import { spawnSync } from "node:child_process";
 import * as H from "../tests/browser/harness.mjs";
@@ -186,6 +187,9 @@ try {
   scratch.remove();
 }
 
+// The load average once the crowds are gone: over the last minute it still holds the run's own work, so a figure well
+// above the start's over 5 and 15 minutes says something else ran beside it.
+const loadAtEnd = os.loadavg().map((v) => v.toFixed(2));
 const rows = runs.map(row);
 const cols = [
   "scenario",
@@ -234,6 +238,7 @@ fs.writeFileSync(
       command,
       started,
       machine,
+      load_average_at_end: loadAtEnd,
       gl_renderer: gl,
       options: opt,
       targets: TARGET,
@@ -253,17 +258,21 @@ fs.writeFileSync(
 );
 
 // A run smaller than the benchmark's says so at its head.
-const full = { tabs: 16, dragClients: 64, batchClients: 64, size: 512, batchSize: 1024, duration: 10 };
-const smaller = Object.keys(full).filter((k) => opt[k] < full[k]);
+const full = { tabs: 16, "drag-clients": 64, "batch-clients": 64, size: 512, "batch-size": 1024, duration: 10 };
+const optionOf = (flag) => flag.replace(/-(.)/g, (_, c) => c.toUpperCase()); // "drag-clients" -> "dragClients"
+const smaller = Object.keys(full)
+  .filter((flag) => opt[optionOf(flag)] < full[flag])
+  .map((flag) => `--${flag} ${opt[optionOf(flag)]}, not ${full[flag]}`);
 const mark = (v) => (v === "pass" ? "pass" : v === "fail" ? "**fail**" : v);
 const md = [
   "# A crowd on one server: viewer tabs beside many TCP clients",
   "",
-  ...(smaller.length ? [`**A smoke run**: smaller than the benchmark (${smaller.join(", ")}).`, ""] : []),
+  ...(smaller.length ? [`**A smoke run**, smaller than the benchmark: ${smaller.join("; ")}.`, ""] : []),
   `- Command: \`${command}\``,
   `- Date: ${started}`,
   `- Machine: ${machine.cpu}, ${machine.cores} cores, ${machine.memory}; load average at the start ` +
-    `${machine.load_average.join(", ")}; ${machine.chromium}; GL: ${gl}`,
+    `${machine.load_average.join(", ")}, at the end ${loadAtEnd.join(", ")} (1, 5, 15 min); ${machine.chromium}; ` +
+    `GL: ${gl}`,
   `- Servers: ${servers()
     .map((s) => `${s.name} \`${s.exe}\` (${s.version})`)
     .join("; ")}. Each scenario runs on a fresh server of each, \`--max-sessions 256\`` +
