@@ -469,7 +469,16 @@ void RenderScheduler::renderLoop(render::FrameSource& source, int index) {
     if (anyoneWants()) {
       // Given up between batches when everyone who asked has gone, or when a refinement (whose request was answered
       // by its provisional frame) is overtaken by a newer Render of the session.
-      const auto cancelled = [&] { return !anyoneWants() || (job.refinement && waiting(*sink)); };
+      // A refinement others ride along is drawn for them even when its own session moved on.
+      const auto othersRide = [&] {
+        if (taken.shareKey.empty()) return false;
+        std::lock_guard lock(mMutex);
+        const auto it = mInFlight.find(taken.shareKey);
+        return it != mInFlight.end() && !it->second.empty();
+      };
+      const auto cancelled = [&] {
+        return !anyoneWants() || (job.refinement && waiting(*sink) && !othersRide());
+      };
       reply = broken ? RenderReply{errorReply(broken, brokenContext), false}
                      : renderReply(source, job, index, cancelled);
       drawn = true;

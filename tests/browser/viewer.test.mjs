@@ -153,8 +153,8 @@ describe("viewer", () => {
     const done = await waitExact(page, 0);
     assert.deepEqual(done.lastScene.camera.orbit, [done.view.az, done.view.el], "the last frame is of the last camera");
     assert.ok(s.exactAfterReleaseMs < 5000, `exact frame ${s.exactAfterReleaseMs} ms after the release`);
-    // Version 2 with jpeg: provisional frames of the drag travel as jpeg, every exact frame as png.
-    assert.equal(done.capabilities.version, 2);
+    // Version 3 (jpeg from version 2 on): provisional frames of the drag travel as jpeg, every exact frame as png.
+    assert.equal(done.capabilities.version, 3);
     assert.ok(done.features.jpeg, "the server offers jpeg");
     const frames = await page.evaluate(() => window.voxbrickViewer.frames());
     for (const f of frames) assert.equal(f.encoding, f.provisional && f.phase === "drag" ? 3 : 1, JSON.stringify(f));
