@@ -60,6 +60,7 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
     statsJson["encode_ms"] = msBetween(encodeStart, Clock::now());
     statsJson["render_thread"] = thread;
     statsJson["provisional"] = provisional;
+    statsJson["class"] = common::nameOf(frameClassOf(job));
     if (job.requestedBudgetMs > 0) {
       // The crowd cut this interactive frame's budget (its scene's is `requested`).
       statsJson["load"] = {{"time_budget_ms", scene.timeBudgetMs},

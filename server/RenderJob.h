@@ -47,8 +47,8 @@ struct RenderJob {
   /// carries the smaller one the load leaves), and the JPEG quality of its provisional frame.
   double requestedBudgetMs = 0;
   std::optional<int> provisionalJpegQuality;
-  /// Sessions this frame answers besides the job's own (one render shared by sessions asking the same frame).
-  int sharedWith = 0;
+  /// The key of the frame it asks for (shareKeyOf), made once when it is queued; empty when it is never shared.
+  std::string shareKey;
   /// Answered from the render of another session's identical frame.
   bool shared = false;
 };

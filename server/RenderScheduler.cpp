@@ -104,6 +104,8 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
       return out;
     }
     SessionState& state = stateLocked(sink);
+    // The key is made once here; dispatch compares it with every waiting job's.
+    job.shareKey = mConfig.shareFrames ? shareKeyOf(job) : std::string();
     if (!job.refinement) {
       if (state.lastReceived != Clock::time_point{}) state.intervalMs = elapsedMs(state.lastReceived, job.received);
       state.lastReceived = job.received;
@@ -132,13 +134,12 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
         return out;
       }
     }
-    if (mConfig.shareFrames && waiting.empty() && !mInFlight.empty()) {
+    if (!job.shareKey.empty() && waiting.empty()) {
       // The identical frame is being drawn for another session: this one rides along.
-      if (const std::string key = shareKeyOf(job); !key.empty())
-        if (auto it = mInFlight.find(key); it != mInFlight.end()) {
-          it->second.push_back({sink, std::move(job)});
-          return out;
-        }
+      if (auto it = mInFlight.find(job.shareKey); it != mInFlight.end()) {
+        it->second.push_back({sink, std::move(job)});
+        return out;
+      }
     }
     if (!mConfig.coalesce && !waiting.empty() && waiting.front().refinement) {
       // An exact frame waiting for the camera to rest: the camera moved on, so it goes (silently, MessageHandler).
@@ -207,7 +208,8 @@ void RenderScheduler::refine(const std::shared_ptr<Sink>& sink, RenderJob job) {
   if (job.requestedBudgetMs > 0) job.scene.timeBudgetMs = job.requestedBudgetMs;
   job.requestedBudgetMs = 0;
   job.provisionalJpegQuality.reset();
-  job.sharedWith = 0;
+  job.shared = false;
+  job.shareKey = mConfig.shareFrames ? shareKeyOf(job) : std::string();
   if (rest) job.notBefore += std::chrono::microseconds(int64_t(restMs(*sink) * 1000));
   {
     std::lock_guard lock(mMutex);
@@ -243,16 +245,10 @@ size_t RenderScheduler::interactiveCapacityLocked() const {
   return std::max<size_t>(1, size_t(double(mSources.size()) * 1000 / (mConfig.minInteractiveFps * mClassMs[c])));
 }
 
-size_t RenderScheduler::interactiveCapacity() const {
-  std::lock_guard lock(mMutex);
-  return interactiveCapacityLocked();
-}
-
 std::optional<uint32_t> RenderScheduler::refuseNewSession() const {
   std::lock_guard lock(mMutex);
   const size_t capacity = interactiveCapacityLocked();
   if (capacity == 0 || interactiveSessionsLocked(Clock::now()) < capacity) return std::nullopt;
-  mBusySessions.fetch_add(1);
   // Dragging sessions count for kInteractiveWindow after their last move: a retry after it sees who still drags.
   return uint32_t(kInteractiveWindow.count() * 2);
 }
@@ -315,11 +311,6 @@ void RenderScheduler::chargeLocked(const Sink* sink, FrameClass cls, double ms) 
 std::array<size_t, kFrameClasses> RenderScheduler::queuedByClass() const {
   std::lock_guard lock(mMutex);
   return mWaitingByClass;
-}
-
-std::array<double, kFrameClasses> RenderScheduler::classBusyMs() const {
-  std::lock_guard lock(mMutex);
-  return mClassBusyMs;
 }
 
 std::vector<double> RenderScheduler::deviceBusyMs() const {
@@ -391,8 +382,8 @@ bool RenderScheduler::next(Taken& taken) {
   job.rateSamplesPerMs = rate.rate();
   job.fixedMs = rate.fixedMs();
   const auto now = Clock::now();
-  // The key of the frame as asked, before the crowd's cuts, which are the same for every session it answers.
-  taken.shareKey = mConfig.shareFrames ? shareKeyOf(job) : std::string();
+  // The key of the frame as asked (made when queued), before the crowd's cuts.
+  taken.shareKey = job.shareKey;
   if (cls == FrameClass::Interactive) fitToLoadLocked(job, now);
   taken.frameClass = cls;
   taken.charged = predictedMsLocked(cls);
@@ -403,7 +394,8 @@ bool RenderScheduler::next(Taken& taken) {
     std::vector<Recipient>& riders = mInFlight[taken.shareKey];
     for (auto it = mBacklog.begin(); it != mBacklog.end();) {
       SessionState& other = mSessions.at(it->first);
-      if (it->first != sink.get() && other.waiting.front().notBefore <= now && shareKeyOf(other.waiting.front()) == taken.shareKey) {
+      if (it->first != sink.get() && other.waiting.front().notBefore <= now &&
+          other.waiting.front().shareKey == taken.shareKey) {
         --mWaitingByClass[size_t(frameClassOf(other.waiting.front()))];
         riders.push_back({it->second, std::move(other.waiting.front())});
         other.waiting.pop_front();
@@ -427,15 +419,12 @@ void RenderScheduler::deliver(const Taken& taken, const RenderReply& reply, std:
     proto::Message message = reply.message;
     if (auto* frame = std::get_if<proto::Frame>(&message)) frame->statsJson = withKey(frame->statsJson, "shared", "true");
     mShared.fetch_add(1);
-    follower.job.sharedWith = int(followers.size());
     follower.job.shared = true;
     follower.sink->rendered(follower.job, std::move(message));
     if (reply.provisional) refine(follower.sink, follower.job);
   }
   if (!taken.sink->wantsReplies()) return;
-  RenderJob job = taken.job;
-  job.sharedWith = int(followers.size());
-  taken.sink->rendered(job, reply.message);
+  taken.sink->rendered(taken.job, reply.message);
   if (reply.provisional) refine(taken.sink, taken.job);
 }
 
@@ -482,8 +471,6 @@ void RenderScheduler::renderLoop(render::FrameSource& source, int index) {
       reply = broken ? RenderReply{errorReply(broken, brokenContext), false}
                      : renderReply(source, job, index, cancelled);
       drawn = true;
-      if (auto* frame = std::get_if<proto::Frame>(&reply.message))
-        frame->statsJson = withKey(frame->statsJson, "class", std::string("\"") + common::nameOf(taken.frameClass) + "\"");
     }
     const double ms = elapsedMs(started, Clock::now());
     EngineGauge& gauge = mGauges[size_t(index)];
@@ -507,7 +494,6 @@ void RenderScheduler::renderLoop(render::FrameSource& source, int index) {
         chargeLocked(sink.get(), taken.frameClass, ms - taken.charged);
         mClassMs[c] = mClassMs[c] > 0 ? (1 - kMeanWeight) * mClassMs[c] + kMeanWeight * ms : ms;
         ++mClassFrames[c];
-        mClassBusyMs[c] += ms;
         if (reply.samples > 0 && job.dataset)
           stateLocked(sink).rates[std::string(job.dataset->kind())].add(reply.samples, reply.ms);
       }

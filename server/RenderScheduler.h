@@ -78,9 +78,6 @@ class RenderScheduler {
   /// (max_interactive_sessions, or measured: the render threads' time over min_interactive_fps frames of the
   /// measured interactive frame cost) while that many sessions drag. Thread-safe.
   std::optional<uint32_t> refuseNewSession() const;
-  /// The dragging sessions the render threads can keep at min_interactive_fps: max_interactive_sessions, else
-  /// measured; 0 before any interactive frame was measured (no limit yet).
-  size_t interactiveCapacity() const;
 
   /// The atlases of all render threads' sources, as each thread last saw them after a job.
   struct GpuGauges {
@@ -94,17 +91,14 @@ class RenderScheduler {
   std::array<size_t, kFrameClasses> queuedByClass() const;
   /// Milliseconds each render thread has spent drawing and encoding since it started, in thread order.
   std::vector<double> deviceBusyMs() const;
-  /// Render time (ms) spent on each class since the start, indexed by FrameClass.
-  std::array<double, kFrameClasses> classBusyMs() const;
   /// Sessions that sent an interactive Render within kInteractiveWindow.
   size_t interactiveSessions() const;
   /// Frames given up part way: their session had gone, or a refinement was overtaken by a newer Render.
   uint64_t cancelled() const { return mCancelled.load(); }
   /// Replies delivered from another session's render of the identical frame.
   uint64_t sharedFrames() const { return mShared.load(); }
-  /// Batch Renders refused Busy, and new sessions refused Busy (refuseNewSession said so).
+  /// Batch Renders refused Busy.
   uint64_t busyRenders() const { return mBusyRenders.load(); }
-  uint64_t busySessions() const { return mBusySessions.load(); }
   /// Drops every waiting job, lets each thread finish the frame it is drawing (its reply is still delivered) and
   /// joins the threads. Idempotent; call it from any thread but a render thread.
   void stop();
@@ -141,6 +135,8 @@ class RenderScheduler {
   /// The time budget and JPEG quality the crowd leaves an interactive job. mMutex held.
   void fitToLoadLocked(RenderJob& job, Clock::time_point now) const;
   size_t interactiveSessionsLocked(Clock::time_point now) const;
+  /// The dragging sessions the render threads can keep at min_interactive_fps: max_interactive_sessions, else
+  /// measured; 0 before any interactive frame was measured (no limit yet). mMutex held.
   size_t interactiveCapacityLocked() const;
   /// Delivers `reply` to the job's own session and to every session that rode along (followers).
   void deliver(const Taken& taken, const RenderReply& reply, std::vector<Recipient>& followers);
@@ -174,7 +170,7 @@ class RenderScheduler {
   std::array<double, kFrameClasses> mClassTag{}, mClassClock{};
   double mGlobalClock = 0;  ///< the class tag last served: where a class that had nothing waiting starts again
   std::array<size_t, kFrameClasses> mWaitingByClass{}, mRunningByClass{};
-  std::array<double, kFrameClasses> mClassMs{}, mClassBusyMs{};  ///< recent mean ms per frame; total ms
+  std::array<double, kFrameClasses> mClassMs{};  ///< recent mean ms per frame
   std::array<uint64_t, kFrameClasses> mClassFrames{};
   /// Frames being drawn, by their share key, with the sessions that asked the same frame since it started.
   std::map<std::string, std::vector<Recipient>> mInFlight;
@@ -188,7 +184,6 @@ class RenderScheduler {
   std::unique_ptr<EngineGauge[]> mGauges;  ///< one per source, written by its thread
   size_t mGaugeCount = 0;
   std::atomic<uint64_t> mCancelled{0}, mShared{0}, mBusyRenders{0};
-  mutable std::atomic<uint64_t> mBusySessions{0};
   std::mutex mJoinMutex;
   std::vector<std::thread> mThreads;
 };
