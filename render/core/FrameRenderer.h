@@ -54,6 +54,10 @@ struct FrameOptions {
   /// frame premultiplied (colour times opacity, and opacity) with no background, for compositing in visibility order
   /// (render/core/PartialFrame.h). Empty: the whole dataset, finished over the scene's background.
   std::optional<PartBox> part = std::nullopt;
+  /// Grids, ray casting a frame of one batch: the cell table kept from the last frame and changed where the bricks
+  /// changed (render/gl/volume/KeptCells.h). False fills it anew, as each batch of a larger frame does: the same
+  /// image, the path it replaced, kept for measuring the two side by side.
+  bool keepCellTable = true;
 };
 
 /// A renderer of one dataset on one GL context (so one render thread); it keeps its GPU state between frames.

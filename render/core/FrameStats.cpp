@@ -19,6 +19,8 @@ nlohmann::json FrameStats::toJson() const {
                       {"slab_passes", slabPasses},
                       {"sub_blocks_skipped", subBlocksSkipped},
                       {"boxes_drawn", boxesDrawn},
+                      {"cell_bricks_changed", cellBricksChanged},
+                      {"cells_sent", cellsSent},
                       {"bricks_coarse", bricksCoarse},
                       {"bricks_coarsened", bricksCoarsened},
                       {"bricks_per_level", bricksPerLevel},

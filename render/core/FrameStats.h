@@ -34,7 +34,7 @@ struct FrameStats {
   int64_t bricksEvicted = 0;               ///< replaced in the atlas this frame
   double samplesEstimated = 0;  ///< the frame's cost as estimated before drawing (FramePlan::estimatedSamples)
   int64_t batches = 0;          ///< draw batches (more than one when the atlas cannot hold the frame's bricks)
-  int64_t slices = 0;           ///< brick-plane polygons submitted
+  int64_t slices = 0;           ///< brick-plane polygons submitted (slicing and slabs; the ray caster has none)
   int64_t fragments = 0;        ///< volume fragments started: slices (GL_SAMPLES_PASSED) or slab fragments
   int64_t samples = 0;          ///< volume samples taken: one per slice fragment, several per slab fragment
   /// Texture slabs: samples a fragment left when its own opacity reached the termination threshold (an upper bound:
@@ -43,6 +43,10 @@ struct FrameStats {
   int64_t slabPasses = 0;        ///< texture slabs: draws of one slab each
   int64_t subBlocksSkipped = 0;  ///< sub-blocks of drawn bricks left out as empty (Scene::subBlock)
   int64_t boxesDrawn = 0;        ///< boxes sliced: bricks (stand-ins merged), or with sub-blocks the boxes drawn
+  /// The frame ray caster's cell table when it is kept between frames (render/gl/volume/KeptCells.h): the bricks
+  /// whose cells this frame changed (every brick when it was built anew, 0 when it was drawn as it stood) and the
+  /// cells sent to the GPU. A frame of batches fills each batch's table anew: -1 and every cell of each batch.
+  int64_t cellBricksChanged = 0, cellsSent = 0;
   /// Wall time of each phase on the calling thread. Drawing ends with a glFinish, but with several batches a
   /// batch's GPU work may instead be waited for by the next batch's uploads and show up as paging.
   double msTraversal = 0, msPaging = 0, msSlicing = 0, msDrawing = 0, msReadback = 0, msTotal = 0;

@@ -31,6 +31,7 @@ std::optional<AtlasSlots::Acquired> AtlasSlots::acquire(const store::BrickKey& k
     }
     slot.key = key;
     mWhere[key] = index;
+    ++mGeneration;
   }
   Slot& slot = mSlots[size_t(index)];
   mLru.splice(mLru.end(), mLru, slot.lru);
@@ -54,12 +55,14 @@ void AtlasSlots::forget(const store::BrickKey& key) {
   slot.key.reset();
   mLru.splice(mLru.begin(), mLru, slot.lru);  // the first to be reused
   mWhere.erase(it);
+  ++mGeneration;
 }
 
 void AtlasSlots::clear() {
   for (Slot& s : mSlots) s.key.reset(), s.pinned = false;
   mWhere.clear();
   mPinnedCount = 0;
+  ++mGeneration;
 }
 
 }  // namespace voxbrick::render

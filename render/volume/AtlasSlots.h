@@ -1,6 +1,7 @@
 // Which brick occupies which slot of the GPU brick atlas: LRU replacement with per-batch pinning. No GL.
 #pragma once
 
+#include <cstdint>
 #include <list>
 #include <optional>
 #include <unordered_map>
@@ -43,6 +44,9 @@ class AtlasSlots {
   int pinned() const { return mPinnedCount; }
   /// True if `key` is in some slot.
   bool resident(const store::BrickKey& key) const { return mWhere.count(key) != 0; }
+  /// Counts changes of which brick is in which slot (a brick given a slot, forgotten, or every brick cleared): while
+  /// it stays the same, every resident brick is where it was.
+  uint64_t generation() const { return mGeneration; }
 
  private:
   struct Slot {
@@ -54,6 +58,7 @@ class AtlasSlots {
   std::list<int> mLru;  // least recently used first
   std::unordered_map<store::BrickKey, int> mWhere;
   int mPinnedCount = 0;
+  uint64_t mGeneration = 0;
 };
 
 }  // namespace voxbrick::render

@@ -110,6 +110,9 @@ FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int tran
     return tf.tableContributes((double(mn) - w.lo) * w.inverseWidth, (double(mx) - w.lo) * w.inverseWidth,
                                transferTableTexels);
   };
+  plan.classification = {plan.window.lo, plan.window.hi, transferTableTexels, {}};
+  for (const TransferFunction::Point& p : scene.transferFunction.points())
+    plan.classification.opacity.emplace_back(p.x, p.rgba.a);
   traverse(plan, scene, store, budget);
   plan.coarsestLevel = int(plan.visible.stats.bricksPerLevel.size()) - 1;
   if (plan.coarsestLevel < 0) plan.coarsestLevel = 0;

@@ -37,6 +37,16 @@ ValueWindow valueWindow(const Scene& scene, const store::StoreMeta& meta);
 /// image's aspect. planFrame, the parts' visibility order (partView) and the reference all take it from here.
 Camera gridCamera(const Scene& scene, const store::StoreMeta& meta);
 
+/// What a plan's range test (FramePlan::contributes) depends on: the value window, the transfer table's size and the
+/// transfer function's opacity points. Two plans with equal keys classify every value range alike, so what one
+/// skipped as empty (bricks, sub-blocks) the other skips too.
+struct ClassificationKey {
+  double lo = 0, hi = 0;
+  int tableTexels = 0;
+  std::vector<std::pair<double, double>> opacity;  ///< (x, alpha) of each point
+  bool operator==(const ClassificationKey&) const = default;
+};
+
 struct FramePlan {
   Box volume;  ///< the volume's world box
   Camera camera;
@@ -47,6 +57,7 @@ struct FramePlan {
   /// entries a filtered lookup in [min, max] reads (exact at the window's ends: background at the low end is skipped
   /// when the transfer function is transparent there).
   RangePredicate contributes;
+  ClassificationKey classification;  ///< what `contributes` depends on
   TraversalResult visible;  ///< bricks to draw, front to back, and what the traversal skipped
   /// With level of detail on, the budget the bricks were fitted to (coarsenToFit); {} when none was given.
   BrickBudget budget;

@@ -55,12 +55,20 @@ void BrickWalk::run(const FramePlan& plan, Residency& residency, const SliceGeom
   residency.endBatch();
 }
 
-void BrickWalk::cutBrick(const FramePlan& plan, const BrickDraw& draw, const Residency::Resident& resident,
-                         const PlaneIndexRange& brickPlanes, const store::StoreMeta& meta, int brickSize,
-                         const SliceGeometry& geometry, FrameStats& stats,
-                         const std::function<void(const QueuedBox&)>& add) {
+glm::ivec4 brickPayload(const BrickDraw& draw, const Residency::Resident& resident, int brickSize) {
+  // xyz: added to a sample's voxel coordinate in the brick's level (rotated as the brick is in its slot), gives
+  // its atlas texel: slot origin + 1 + rotated(v - brickLo); w: the level and the rotation (payloadLevel).
+  const store::BrickKey source = draw.source();
+  const glm::ivec3 brickLo = glm::ivec3(int(source.i), int(source.j), int(source.k)) * brickSize;
+  return {resident.origin + 1 - orientVoxel(brickLo, resident.orientation),
+          payloadLevel(int(source.level), resident.orientation)};
+}
+
+bool brickSpans(const FramePlan& plan, const BrickDraw& draw, const Residency::Resident& resident,
+                const store::StoreMeta& meta, int brickSize, std::vector<VoxelSpan>& spans, SubBlockWalkStats& stats) {
   // The voxels the brick owns, in level 0's (a level-m voxel is 2^m across); the first voxel of the brick its
   // samples come from (itself, or a stand-in ancestor), in that brick's level.
+  spans.clear();
   const store::BrickKey& key = draw.key;
   const int keyLevel = int(key.level);
   const store::Vec3i ownedLo{int64_t(key.i) * brickSize << keyLevel, int64_t(key.j) * brickSize << keyLevel,
@@ -74,29 +82,31 @@ void BrickWalk::cutBrick(const FramePlan& plan, const BrickDraw& draw, const Res
   if (plan.part) {
     const PartBox& part = *plan.part;
     const VoxelSpan whole = owned;
-    if (!clipSpan(owned, {part.lo[0], part.lo[1], part.lo[2]}, {part.hi[0], part.hi[1], part.hi[2]})) return;
+    if (!clipSpan(owned, {part.lo[0], part.lo[1], part.lo[2]}, {part.hi[0], part.hi[1], part.hi[2]})) return false;
     cut = !(owned.lo == whole.lo && owned.hi == whole.hi);
   }
+  if (!plan.subBlock) {
+    spans.push_back(owned);
+    return cut;
+  }
   const store::BrickKey source = draw.source();
-  const int level = int(source.level);
   const store::Vec3i brickLo{int64_t(source.i) * brickSize, int64_t(source.j) * brickSize,
                              int64_t(source.k) * brickSize};
-  mSpans.clear();
-  if (plan.subBlock) {
-    subBlockBoxes(*resident.ranges, brickLo, level, meta.dims, meta.spacing, plan.camera, plan.contributes, mSpans,
-                  mSubStats);
-    // A stand-in's sub-blocks cover its whole brick: keep their parts inside the voxels this draw owns. Clipping
-    // to a box keeps the spans' front-to-back order.
-    if (draw.standIn > 0 || cut)
-      std::erase_if(mSpans, [&](VoxelSpan& span) { return !clipSpan(span, owned.lo, owned.hi); });
-  } else {
-    mSpans.push_back(owned);
-  }
-  // xyz: added to a sample's voxel coordinate in the brick's level (rotated as the brick is in its slot), gives
-  // its atlas texel: slot origin + 1 + rotated(v - brickLo); w: the level and the rotation (payloadLevel).
-  const glm::ivec3 rotatedLo =
-      orientVoxel(glm::ivec3(int32_t(brickLo.x), int32_t(brickLo.y), int32_t(brickLo.z)), resident.orientation);
-  const glm::ivec4 payload(resident.origin + 1 - rotatedLo, payloadLevel(level, resident.orientation));
+  subBlockBoxes(*resident.ranges, brickLo, int(source.level), meta.dims, meta.spacing, plan.camera, plan.contributes,
+                spans, stats);
+  // A stand-in's sub-blocks cover its whole brick: keep their parts inside the voxels this draw owns. Clipping
+  // to a box keeps the spans' front-to-back order.
+  if (draw.standIn > 0 || cut)
+    std::erase_if(spans, [&](VoxelSpan& span) { return !clipSpan(span, owned.lo, owned.hi); });
+  return cut;
+}
+
+void BrickWalk::cutBrick(const FramePlan& plan, const BrickDraw& draw, const Residency::Resident& resident,
+                         const PlaneIndexRange& brickPlanes, const store::StoreMeta& meta, int brickSize,
+                         const SliceGeometry& geometry, FrameStats& stats,
+                         const std::function<void(const QueuedBox&)>& add) {
+  const bool cut = brickSpans(plan, draw, resident, meta, brickSize, mSpans, mSubStats);
+  const glm::ivec4 payload = brickPayload(draw, resident, brickSize);
   // Whole bricks own the whole volume (only the outline is cut, the same for every bricking); with exact ownership
   // (sub-blocks, slabs) each box owns just its voxels (volume_ownership.glsl).
   const glm::ivec3 volumeHi(meta.dims.x, meta.dims.y, meta.dims.z);

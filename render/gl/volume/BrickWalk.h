@@ -22,6 +22,16 @@ struct QueuedBox {
   glm::ivec3 ownLo, ownHi;
 };
 
+/// The atlas payload of `draw`'s boxes, `resident` its source in the atlas: xyz added to a sample's voxel coordinate
+/// in the source's level gives its atlas texel, w the level and the rotation (payloadLevel).
+glm::ivec4 brickPayload(const BrickDraw& draw, const Residency::Resident& resident, int brickSize);
+
+/// The level-0 voxels each box of `draw` owns, front to back, into `spans` (cleared first): the voxels the brick
+/// owns, or with sub-blocks those of its sub-blocks the transfer function keeps (counted into `stats`), cut to the
+/// plan's part if it has one (nothing left when the part misses the brick). Returns whether the part cut it.
+bool brickSpans(const FramePlan& plan, const BrickDraw& draw, const Residency::Resident& resident,
+                const store::StoreMeta& meta, int brickSize, std::vector<VoxelSpan>& spans, SubBlockWalkStats& stats);
+
 /// Pages plan.visible front to back and cuts each brick into its boxes (whole bricks, or with sub-blocks the boxes
 /// of its non-empty sub-blocks), in visibility order.
 class BrickWalk {

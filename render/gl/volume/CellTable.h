@@ -34,9 +34,12 @@ class CellTable {
   static constexpr int16_t kNothing = -1, kOtherBatch = -2;
   /// The largest block a ray leaps over at once: 2^kMaxLeapLevel cells a side.
   static constexpr int kMaxLeapLevel = 3;
+  /// Cells a side of a block whose leaps depend on its own cells only (the largest leap's block).
+  static constexpr int kLeapBlock = 1 << kMaxLeapLevel;
 
-  /// Starts a frame: a table of `cellSize` (a power of two) voxel cells over `dims` voxels, every cell with nothing
-  /// to draw. The texture is (re)made when the cell grid changes.
+  /// Starts a frame of batches: a table of `cellSize` (a power of two) voxel cells over `dims` voxels, every cell
+  /// with nothing to draw, filled for each batch by add() and sent by upload(). The texture is (re)made when the
+  /// cell grid changes.
   void begin(const glm::ivec3& dims, int cellSize);
   /// For a frame of several batches, after begin(): marks the cells of every brick of `visible` (bricks of
   /// `brickSize` level-0 voxels at level 0) as drawn in another batch, what they return to after each batch.
@@ -55,6 +58,20 @@ class CellTable {
   /// (the texture keeps this batch's cells until the next upload).
   void upload();
 
+  /// A kept table, for frames of one batch: the host copy and the texture stay from frame to frame and change only
+  /// where told, by clear() and add(); uploadChanges() recomputes the leaps of the changed blocks and sends only
+  /// them. Starts such a frame over `dims` voxels in cells of `cellSize`; returns false when the table was not kept
+  /// (the first such frame, another grid, or a frame of batches since): every cell then has nothing to draw.
+  bool resume(const glm::ivec3& dims, int cellSize);
+  /// The next resume() starts a new table.
+  void drop() { mKept = false; }
+  /// In a kept table: the cells of level-0 voxels [lo, hi) (on cell boundaries) back to nothing to draw.
+  void clear(const glm::ivec3& lo, const glm::ivec3& hi);
+  /// In a kept table: the leaps of the blocks clear() and add() changed, those blocks sent to the texture (in each row
+  /// of blocks, the run from its first changed block to its last), and the texture bound to texture unit 4. Returns
+  /// the cells sent.
+  int64_t uploadChanges();
+
   glm::ivec3 cells() const { return mCells; }
   /// log2 of the cell size.
   int shift() const { return mShift; }
@@ -63,6 +80,10 @@ class CellTable {
   size_t index(int x, int y, int z) const {
     return (size_t(z) * size_t(mCells.y) + size_t(y)) * size_t(mCells.x) + size_t(x);
   }
+  /// Cells [c0, c1) were changed: their blocks' leaps must be recomputed and sent (a kept table).
+  void touch(const glm::ivec3& c0, const glm::ivec3& c1);
+  void makeTexture(const glm::ivec3& cells, int cellSize);  // when the grid changes
+  void send(const glm::ivec3& lo, const glm::ivec3& hi);     // host cells [lo, hi) to the texture
   void reset();  // every cell back to kNothing, or kOtherBatch where deferred
 
   const Gl& mGl;
@@ -71,13 +92,22 @@ class CellTable {
   int mShift = 0;
   std::vector<glm::i16vec4> mHost;
   std::vector<uint8_t> mDeferred;  // per cell: 1 where a brick of another batch of this frame owns it
-  std::vector<uint8_t> mScratch;   // for computeLeaps
   bool mMarked = false;
+  // A kept table: whether the host copy and the texture hold it, the blocks changed since it was last sent (one
+  // flag per kLeapBlock^3 cells) and the box around them, in blocks.
+  bool mKept = false;
+  glm::ivec3 mBlocks{0};
+  std::vector<uint8_t> mChanged;
+  glm::ivec3 mChangedLo{0}, mChangedHi{0};
 };
 
 /// Sets x of every cell of `cells` (a grid of `grid` cells, x fastest) whose w is CellTable::kNothing to the
 /// largest j <= CellTable::kMaxLeapLevel such that the aligned block of 2^j cells a side around it has nothing to
-/// draw (cells past the grid count as nothing: no ray samples there). `scratch` is reused between calls.
-void computeLeaps(std::vector<glm::i16vec4>& cells, const glm::ivec3& grid, std::vector<uint8_t>& scratch);
+/// draw (cells past the grid count as nothing: no ray samples there), 0 when none.
+void computeLeaps(std::vector<glm::i16vec4>& cells, const glm::ivec3& grid);
+
+/// computeLeaps for the cells of one aligned block of CellTable::kLeapBlock cells a side, `block` (in blocks): a
+/// cell's leap depends on the cells of its block alone.
+void computeBlockLeaps(std::vector<glm::i16vec4>& cells, const glm::ivec3& grid, const glm::ivec3& block);
 
 }  // namespace voxbrick::render

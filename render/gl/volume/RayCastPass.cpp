@@ -25,10 +25,20 @@ RayCastPass::RayCastPass(const Gl& gl) : mGl(gl), mCells(gl), mTermination(gl), 
 
 void RayCastPass::draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program,
                        const SliceGeometry& planes, Compositor& compositor, FrameStats& stats,
-                       Checkpoints& checkpoints) {
+                       Checkpoints& checkpoints, bool keepTable) {
   mBatchesDrawn = 0;
   mCounters.reset();
   mSamplesPerPixel = checkpoints.intervalSamples() > 0 ? samplesPerPixel(plan) : 0;
+  if (keepTable && KeptCells::fits(plan, residency)) {
+    // One batch: the table kept from the last frame, changed where the bricks changed.
+    const bool any = mKept.update(plan, residency, mCells, stats, checkpoints);
+    program.setCells(mCells.cells(), mCells.shift());
+    if (any) march(plan, program, compositor, stats, checkpoints);
+    residency.endBatch();
+    return;
+  }
+  mKept.forget();
+  stats.cellBricksChanged = -1;
   const store::StoreMeta& meta = residency.store().meta();
   mCells.begin(glm::ivec3(meta.dims.x, meta.dims.y, meta.dims.z), plan.cellSize);
   // More bricks than slots: several batches (an upper bound: stand-ins may share a source).
@@ -39,16 +49,23 @@ void RayCastPass::draw(const FramePlan& plan, Residency& residency, const Volume
                         glm::ivec3(plan.part->hi[0], plan.part->hi[1], plan.part->hi[2]));
   program.setCells(mCells.cells(), mCells.shift());
   auto add = [&](const QueuedBox& b) { mCells.add(b); };
-  auto flush = [&] { drawBatch(plan, program, compositor, stats, checkpoints); };
+  auto flush = [&] {
+    if (mCells.empty()) return;
+    const auto t = Clock::now();
+    mCells.upload();
+    const glm::ivec3 n = mCells.cells();
+    stats.cellsSent += int64_t(n.x) * n.y * n.z;
+    stats.msSlicing += msSince(t);
+    march(plan, program, compositor, stats, checkpoints);
+  };
   mWalk.run(plan, residency, planes, stats, checkpoints, add, flush);
+  stats.slices = 0;  // the walk counts planes through boxes for slicing and slabs; rays take no slices
 }
 
-void RayCastPass::drawBatch(const FramePlan& plan, const VolumeProgram& program, Compositor& compositor,
-                            FrameStats& stats, Checkpoints& checkpoints) {
-  if (mCells.empty()) return;
+void RayCastPass::march(const FramePlan& plan, const VolumeProgram& program, Compositor& compositor,
+                        FrameStats& stats, Checkpoints& checkpoints) {
   auto t = Clock::now();
   if (plan.ert > 0 && mBatchesDrawn > 0) mTermination.run(plan.ert, compositor);
-  mCells.upload();
   stats.msSlicing += msSince(t);
   t = Clock::now();
   program.program().use();

@@ -8,13 +8,15 @@
 // the same beyond round-off. Batches are taken front to back along the bricks' visibility order, which every ray
 // follows, so compositing batch after batch is compositing along each ray; between batches the silhouette map
 // (render/gl/volume/TerminationPass.h) keeps terminated pixels from being marched again. The frame is drawn in bands of
-// rows, so that a cancelled frame stops within a band (render/gl/Checkpoints.h).
+// rows, so that a cancelled frame stops within a band (render/gl/Checkpoints.h). A frame of one batch keeps its table
+// from the last frame and changes it where the bricks changed (render/gl/volume/KeptCells.h).
 #pragma once
 
 #include "render/gl/Bands.h"
 #include "render/gl/Compositor.h"
 #include "render/gl/SampleCounters.h"
 #include "render/gl/volume/CellTable.h"
+#include "render/gl/volume/KeptCells.h"
 #include "render/gl/volume/SlicingPass.h"
 #include "render/gl/volume/TerminationPass.h"
 
@@ -26,20 +28,25 @@ class RayCastPass {
 
   /// Draws plan.visible with `program` (a ray caster variant) into `compositor`'s target, which begin() set up with a
   /// silhouette map iff plan.ert > 0. `planes` gives the planes through a box (boxes with none are left out).
+  /// `keepTable`: a frame of one batch draws from the table kept from the last frame (KeptCells), else every
+  /// batch's table is filled anew.
   void draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program, const SliceGeometry& planes,
-            Compositor& compositor, FrameStats& stats, Checkpoints& checkpoints);
+            Compositor& compositor, FrameStats& stats, Checkpoints& checkpoints, bool keepTable = true);
   /// After the compositor's finish: fragments started, samples taken and left by termination into `stats`.
   void finish(FrameStats& stats) const { mCounters.read(stats); }
 
  private:
   /// The most samples a pixel of one pass may take, for sizing bands by cost (drawInBands).
   static double samplesPerPixel(const FramePlan& plan);
-  void drawBatch(const FramePlan& plan, const VolumeProgram& program, Compositor& compositor, FrameStats& stats,
-                 Checkpoints& checkpoints);
+  /// Marches every pixel's ray through the batch whose cell table is bound (after marking terminated pixels in the
+  /// silhouette map when an earlier batch was drawn).
+  void march(const FramePlan& plan, const VolumeProgram& program, Compositor& compositor, FrameStats& stats,
+             Checkpoints& checkpoints);
 
   const Gl& mGl;
   BrickWalk mWalk;
   CellTable mCells;
+  KeptCells mKept;
   TerminationPass mTermination;
   SampleCounters mCounters;
   VertexArray mNoAttributes;

@@ -79,13 +79,37 @@ size_t Residency::atlasBytes(const store::BrickStore& store, size_t gpuBudgetByt
 }
 
 void Residency::beginFrame(const std::vector<BrickDraw>& bricks) {
+  mToPage.clear();
+  mPrefetched = mPaged = 0;
+  // The same set of draws as the last frame: as many, each drawn by the last frame with the same stand-in (a frame
+  // draws a key once). An array per level, not a hash: a few nanoseconds a brick.
+  const store::StoreMeta& meta = mCache->store()->meta();
+  if (mDrawn.empty())
+    for (const store::LevelMeta& level : meta.levels) mDrawn.emplace_back(size_t(level.bricksTotal()));
+  const uint32_t last = mFrame++;
+  bool same = mEnded && mAtlas.slots().generation() == mEndGeneration && bricks.size() == mLastDraws;
+  for (const BrickDraw& d : bricks) {
+    const store::Vec3i& grid = meta.levels[d.key.level].bricks;
+    Drawn& drawn = mDrawn[d.key.level][size_t((int64_t(d.key.k) * grid.y + d.key.j) * grid.x + d.key.i)];
+    same = same && drawn.frame == last && drawn.standIn == d.standIn;
+    drawn = {mFrame, d.standIn};
+  }
+  mLastDraws = bricks.size();
+  mUnchanged = same;
+  mEnded = false;
+  if (mUnchanged) return;
   // Decoding runs ahead on the cache's workers, in the order the bricks will be drawn, a window at a time: the
   // cache's queue drops its oldest requests when full, and those would be the ones needed first.
-  mToPage.clear();
   for (const BrickDraw& d : bricks)
     if (!mAtlas.slots().resident(d.source())) mToPage.push_back(d.source());
-  mPrefetched = mPaged = 0;
   prefetchUpTo(kPrefetchWindow);
+}
+
+void Residency::endFrame() {
+  mEndGeneration = mAtlas.slots().generation();
+  // A frame of no more bricks than slots was one batch: every brick it drew is still in the atlas. A frame of
+  // several batches evicted its first bricks for its last.
+  mEnded = mLastDraws <= size_t(mAtlas.capacity());
 }
 
 void Residency::prefetchUpTo(size_t end) {

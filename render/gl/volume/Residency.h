@@ -38,8 +38,15 @@ class Residency {
   int64_t standIn(std::vector<BrickDraw>& bricks, int coarsest);
 
   /// Starts a frame that will acquire the sources of `bricks` in this order: decoding of the ones not resident
-  /// starts now.
+  /// starts now. When the last frame ended (endFrame) with the same draws (keys and stand-ins, in any order) and no
+  /// slot has changed hands since, nothing is looked up: unchanged() says so, and every brick of the frame is
+  /// resident where it was.
   void beginFrame(const std::vector<BrickDraw>& bricks);
+  /// Whether this frame draws what the last frame drew, every brick in the slot it had then (beginFrame).
+  bool unchanged() const { return mUnchanged; }
+  /// Ends a frame that was drawn: what unchanged() compares the next frame with (only a frame of one batch: one that
+  /// needed no more slots than the atlas has).
+  void endFrame();
 
   /// A brick in the atlas, pinned until endBatch().
   struct Resident {
@@ -53,8 +60,12 @@ class Residency {
   std::optional<Resident> acquire(const store::BrickKey& key, int subBlock, FrameStats& stats);
   /// Ends a batch: its slots may be replaced again.
   void endBatch() { mAtlas.slots().unpinAll(); }
-  /// After a frame failed: unpins every slot (a slot whose brick failed to arrive already holds none).
-  void abortFrame() { endBatch(); }
+  /// After a frame failed: unpins every slot (a slot whose brick failed to arrive already holds none); the next
+  /// frame is not unchanged().
+  void abortFrame() {
+    endBatch();
+    mEnded = false;
+  }
 
   const BrickAtlas& atlas() const { return mAtlas; }
   const store::BrickStore& store() const { return *mCache->store(); }
@@ -68,6 +79,16 @@ class Residency {
   std::vector<SubBlockRanges> mSlotRanges;  // per atlas slot: sub-block ranges of the brick it holds
   std::vector<store::BrickKey> mToPage;     // this frame's bricks that were not resident, in draw order
   size_t mPrefetched = 0, mPaged = 0;
+  // What unchanged() compares: per level and brick (x fastest), the last frame that drew it and its stand-in then;
+  // how many bricks the last frame drew, and the slots' generation when it ended.
+  struct Drawn {
+    uint32_t frame = 0, standIn = 0;
+  };
+  std::vector<std::vector<Drawn>> mDrawn;
+  uint32_t mFrame = 0;
+  size_t mLastDraws = 0;
+  uint64_t mEndGeneration = 0;
+  bool mEnded = false, mUnchanged = false;
 };
 
 }  // namespace voxbrick::render

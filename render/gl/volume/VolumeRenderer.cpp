@@ -117,7 +117,7 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
   }
   Checkpoints checkpoints(mGl, options.cancelled, options.checkpointSamples);
   if (plan.raycast)
-    mRayCast.draw(plan, mResidency, program, geometry(scene), mCompositor, stats, checkpoints);
+    mRayCast.draw(plan, mResidency, program, geometry(scene), mCompositor, stats, checkpoints, options.keepCellTable);
   else if (plan.slab > 0)
     mSlabs.draw(plan, mResidency, program, emptyTest, static_cast<SlabGeometry&>(geometry(scene)), mCompositor, stats,
                 checkpoints);
@@ -172,6 +172,7 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, c
     }                                                                  // lost context reports one forever)
     throw;
   }
+  mResidency.endFrame();
   if (plan.raycast)
     mRayCast.finish(stats);
   else if (plan.slab > 0)

@@ -194,8 +194,7 @@ TEST(RayCast, EmptyCellsLeapOutOfTheLargestEmptyBlock) {
   auto at = [&](int x, int y, int z) -> glm::i16vec4& { return cells[size_t((z * 8 + y) * 8 + x)]; };
   at(1, 1, 1) = glm::i16vec4(5, 6, 7, 0);                       // drawn
   at(7, 7, 7) = glm::i16vec4(0, 0, 0, CellTable::kOtherBatch);  // another batch's: not empty
-  std::vector<uint8_t> scratch;
-  computeLeaps(cells, grid, scratch);
+  computeLeaps(cells, grid);
   EXPECT_EQ(at(1, 1, 1), glm::i16vec4(5, 6, 7, 0)) << "a drawn cell keeps its payload";
   EXPECT_EQ(at(0, 0, 0).x, 0) << "its 2-block holds the drawn cell";
   EXPECT_EQ(at(2, 0, 0).x, 1) << "an empty 2-block inside a 4-block that is not";
@@ -205,7 +204,7 @@ TEST(RayCast, EmptyCellsLeapOutOfTheLargestEmptyBlock) {
   EXPECT_EQ(at(7, 7, 7).w, CellTable::kOtherBatch);
   // Past the grid counts as nothing: an all-empty grid of odd size leaps in blocks of 8.
   std::vector<glm::i16vec4> odd(5 * 3 * 3, glm::i16vec4(0, 0, 0, CellTable::kNothing));
-  computeLeaps(odd, {5, 3, 3}, scratch);
+  computeLeaps(odd, {5, 3, 3});
   for (const glm::i16vec4& c : odd) EXPECT_EQ(c.x, CellTable::kMaxLeapLevel);
 }
 
