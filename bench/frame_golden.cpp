@@ -4,6 +4,7 @@
 //   frame_golden --work DIR --write GOLDEN_DIR   # before a change: one .f32 file per frame
 //   frame_golden --work DIR --check GOLDEN_DIR   # after it: every frame must be byte-identical
 //   frame_golden --work DIR --hashes FILE        # against committed digests (bench/results/golden/golden-frames.txt)
+//   ... --fill-cell-tables                       # the ray caster's tables filled anew each frame: the same frames
 //
 // Bit-identical is the bar for a change that only moves code: any difference in a float means the GPU did other
 // arithmetic, which is a behaviour change. The matrix stays in this one file so that the same source builds against
@@ -43,6 +44,7 @@ struct Options {
   std::string write;   ///< write each frame into this directory
   std::string check;   ///< check each frame against this directory
   std::string hashes;  ///< check each frame against this digest file
+  bool fillCellTables = false;
 };
 
 struct Case {
@@ -132,6 +134,18 @@ std::vector<Case> cases() {
                    render::AtlasFormat::Float, render::RenderMode::Roofline});
     out.push_back({store + "-roofline-cpu", store, scene(v0, tf + R"(, "slicer": "cpu")"), 256,
                    render::AtlasFormat::Float, render::RenderMode::Roofline});
+    // The frame ray caster (the default drawing) at level 0, view after view with the same renderer: its cell table
+    // kept from frame to frame, changed by a level cut, a window, stand-ins of another level, and a frame of batches.
+    auto cast = [](const std::string& camera, const std::string& rest) {
+      return "{\"camera\": {" + camera + "}, \"size\": [96, 80], \"lod\": 0, " + rest + "}";
+    };
+    for (size_t v = 0; v < views.size(); ++v)
+      out.push_back({store + "-v" + std::to_string(v) + "-raycast", store, cast(views[v], tf)});
+    out.push_back({store + "-raycast-lod", store, cast(views[3], tf + R"(, "lod": 2)")});
+    out.push_back({store + "-raycast-window", store, cast(v0, tf + R"(, "window": [0.1, 0.6])")});
+    out.push_back({store + "-raycast-sub4-pre", store, cast(v0, tf + R"(, "sub_block": 4, "pre_integration": true)")});
+    out.push_back({store + "-raycast-shaded", store, cast(views[1], tf + R"(, "shading": true)")});
+    out.push_back({store + "-raycast-tight-budget", store, cast(v0, tf), 1});
   }
   // The CPU reference renderer: small, since it is slow on purpose.
   auto reference = [&](const std::string& name, const std::string& store, const std::string& json,
@@ -188,13 +202,15 @@ image::ImageF referenceFrame(const Stores& stores, const Case& c, const render::
 /// keeps them, so residency is exercised.
 class Renderers {
  public:
-  Renderers(render::GlContext& context, Stores stores) : mContext(context), mStores(std::move(stores)) {}
+  /// `fillCellTables`: the ray caster fills its cell table anew every frame (FrameOptions::keepCellTable false).
+  Renderers(render::GlContext& context, Stores stores, bool fillCellTables)
+      : mContext(context), mStores(std::move(stores)), mFillCellTables(fillCellTables) {}
 
   Frame render(const Case& c) {
     render::FrameStats stats;
     const render::Scene scene = render::Scene::fromJson(c.sceneJson, c.name);
     const image::ImageF image =
-        c.reference ? referenceFrame(mStores, c, scene, stats) : renderer(c).render(scene, &stats, {c.mode});
+        c.reference ? referenceFrame(mStores, c, scene, stats) : renderer(c).render(scene, &stats, options(c));
     Frame f;
     f.bytes.assign(reinterpret_cast<const char*>(image.rgba.data()), image.rgba.size() * sizeof(float));
     f.statsLine = std::to_string(stats.fragments) + " " + std::to_string(stats.slices) + " " +
@@ -214,8 +230,16 @@ class Renderers {
     return *slot;
   }
 
+  render::FrameOptions options(const Case& c) const {
+    render::FrameOptions o;
+    o.mode = c.mode;
+    o.keepCellTable = !mFillCellTables;
+    return o;
+  }
+
   render::GlContext& mContext;
   Stores mStores;
+  bool mFillCellTables = false;
   std::map<std::string, std::unique_ptr<render::VolumeRenderer>> mRenderers;
 };
 
@@ -261,6 +285,9 @@ int main(int argc, char** argv) {
       ->excludes(write)
       ->excludes(check);
   write->excludes(check);
+  app.add_flag("--fill-cell-tables", o.fillCellTables,
+               "the ray caster fills its cell table anew every frame instead of keeping it (the path the kept table "
+               "replaced: both must draw the same frames)");
   CLI11_PARSE(app, argc, argv);
   const fs::path golden = o.write.empty() ? o.check : o.write;
   if (golden.empty() == o.hashes.empty()) {
@@ -283,7 +310,7 @@ int main(int argc, char** argv) {
     std::cout << "frame_golden: the digests are a software rasteriser's; this context is a GPU's: not compared\n";
     return kNotCompared;
   }
-  Renderers renderers(*context, std::move(stores));
+  Renderers renderers(*context, std::move(stores), o.fillCellTables);
   int failures = 0, frames = 0;
   for (const Case& c : cases()) {
     const Frame f = renderers.render(c);

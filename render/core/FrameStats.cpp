@@ -45,6 +45,7 @@ nlohmann::json FrameStats::toJson() const {
                         {"total", msTotal},
                         {"pre_integration", msPreIntegration},
                         {"sorting", msSorting}}}};
+  if (!fallback.empty()) j["fallback"] = fallback;
   if (!quality.is_null()) j["quality"] = quality;
   if (!interactive.is_null()) j["interactive"] = interactive;
   return j;

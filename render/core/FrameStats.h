@@ -60,6 +60,9 @@ struct FrameStats {
   /// which found no entry: 2 for a convex mesh. 0 when the frame was projected.
   int64_t tetRayPasses = 0;
   double msPreIntegration = 0;  ///< building the pre-integration table (0 when the last frame's was current)
+  /// Why the frame was not drawn as the scene asked (the ray caster's cell table too large for the volume: texture
+  /// slabs instead); empty when it was. The CLI prints it and the JSON has it as "fallback".
+  std::string fallback;
   /// A scene with a quality target: what it chose (QualityChoice::toJson); null otherwise.
   nlohmann::json quality;
   /// An interactive frame (Scene::interactive): what it chose to fit its time budget (InteractiveChoice::toJson,

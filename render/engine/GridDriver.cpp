@@ -114,6 +114,7 @@ class GridDriver final : public DatasetDriver {
         written.c_str(), (long long)stats.bricksDrawn, levels.c_str(), (long long)stats.bricksSkippedEmpty,
         (long long)stats.bricksCulled, (long long)stats.bricksPagedIn, (long long)stats.bricksEvicted,
         (long long)stats.batches, stats.msTotal, stats.msPaging, stats.msSlicing, stats.msDrawing, stats.msReadback)};
+    if (!stats.fallback.empty()) lines.push_back(stats.fallback);
     if (stats.bricksFitCoarsened > 0)
       lines.push_back(printed(
           "the frame was coarsened to fit: its levels wanted %.1f MiB of bricks, the atlas holds %.1f MiB; %lld "

@@ -132,6 +132,11 @@ FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int tran
   if (plan.raycast) {
     plan.cellSize = rayCastCellSize(meta.dims, plan.subBlock, B);
     plan.raycast = plan.cellSize > 0;  // else texture slabs, of the scene's size or the default
+    if (!plan.raycast)
+      plan.fallback = "drawn with texture slabs, not the ray caster: its cell table would exceed " +
+                      std::to_string(kMaxRayCastCells) + " cells of a brick or a side of 32767 voxels (" +
+                      std::to_string(meta.dims.x) + "x" + std::to_string(meta.dims.y) + "x" +
+                      std::to_string(meta.dims.z) + " voxels in bricks of " + std::to_string(B) + ")";
   }
   plan.slab = plan.raycast ? 0 : scene.slab > 0 || !scene.raycast ? scene.slab : Scene{}.slab;
   plan.ert = plan.marches() ? scene.ert : 0;

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -75,6 +76,8 @@ struct FramePlan {
   int coarsestLevel = 0;        ///< the coarsest pyramid level drawn: of plan.visible's bricks' sources
   int width = 0, height = 0;    ///< image size in pixels
   PixelRays rays;
+  /// Why the frame is not drawn as the scene asked (FrameStats::fallback); empty when it is.
+  std::string fallback;
   /// Sort-last rendering (FrameOptions::part): the level-0 voxels this frame draws. plan.visible then holds only the
   /// bricks owning voxels in it, at the levels the whole frame chose, and each is cut to the box (BrickWalk); its
   /// counts of bricks drawn (per level, coarse) are the part's, those skipped and culled the whole volume's.

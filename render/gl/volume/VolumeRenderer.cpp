@@ -141,6 +141,7 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, c
   FramePlan plan =
       planFrame(scene, store, kTransferTableTexels, options.fitBudget ? budget() : BrickBudget{}, options.part);
   planStats(plan, stats);
+  stats.fallback = plan.fallback;
   stats.msTraversal = msSince(t);
   stats.samplesEstimated = plan.estimatedSamples();
   if (options.mode == RenderMode::Points && (plan.slab > 0 || plan.raycast))

@@ -186,6 +186,21 @@ TEST(RayCast, CellTableSizeAndFallback) {
   EXPECT_EQ(plan.slab, 0);
   EXPECT_TRUE(plan.marches());
   EXPECT_EQ(plan.planeStride(2), 4) << "coarse levels take every 2^m-th plane, as slabs";
+  EXPECT_TRUE(plan.fallback.empty());
+
+  // A volume the table cannot hold is drawn with slabs, and the frame says so (no silent fallback).
+  const store::Vec3i rod{40000, 8, 8};
+  std::vector<uint8_t> values(size_t(rod.volume()));
+  for (size_t i = 0; i < values.size(); ++i) values[i] = uint8_t((i % 40000) * 255 / 39999);
+  const auto long_ = test::prepArray<uint8_t>(rod, store::ValueType::U8, std::move(values), dir / "rod", 8);
+  Scene rodScene = rayCast(slicing("hot"));
+  rodScene.width = rodScene.height = 32;
+  FrameStats stats;
+  renderStore(long_, rodScene, &stats);
+  EXPECT_GT(stats.slabPasses, 0) << "drawn with slabs";
+  EXPECT_NE(stats.fallback.find("texture slabs"), std::string::npos) << stats.fallback;
+  EXPECT_NE(stats.fallback.find("40000x8x8"), std::string::npos) << stats.fallback;
+  EXPECT_EQ(stats.toJson().value("fallback", ""), stats.fallback);
 }
 
 TEST(RayCast, EmptyCellsLeapOutOfTheLargestEmptyBlock) {
