@@ -7,9 +7,12 @@
 // 2^m, each standing for a segment 2^m planes long. Cells with nothing to draw, and planes a coarse cell does not
 // take, are stepped over to the cell's exit. With PRE_INTEGRATION each segment between two samples is classified from
 // the pre-integrated table.
-layout(binding = VB_UNIT_CELLS) uniform isampler3D uCells;  // per cell: its brick's atlas payload (xyz) and level
-                            // (w); w = -1: nothing to draw there (x: log2 of the block to leap), -2: a brick of
-                            // another batch (render/gl/volume/CellTable.h)
+// The cell table (render/gl/volume/CellTable.h), paged: per block of 8^3 cells the directory holds its page, or -1
+// (every cell has nothing to draw) or -2 (every cell is another batch's); a page holds 512 cells, x fastest. Per
+// cell: its brick's atlas payload (xyz) and level (w); w = -1: nothing to draw there (x: log2 of the block to leap),
+// -2: a brick of another batch.
+layout(binding = VB_UNIT_CELL_DIRECTORY) uniform isampler3D uCellDirectory;
+layout(binding = VB_UNIT_CELLS) uniform isamplerBuffer uCells;
 uniform int uCellShift;     // a cell is 2^uCellShift level-0 voxels across
 uniform vec3 uCellCount;   // cells along x, y, z
 uniform float uPlaneIncr;    // distance between consecutive global planes
@@ -25,6 +28,13 @@ out vec4 fragColor;
 // read.
 ivec4 gPayload = ivec4(0);
 ivec4 brickPayload() { return gPayload; }
+
+ivec4 cellEntry(ivec3 cell) {
+  const int page = texelFetch(uCellDirectory, cell >> 3, 0).x;
+  if (page < 0) return page == -1 ? ivec4(3, 0, 0, -1) : ivec4(0, 0, 0, -2);
+  const ivec3 local = cell & 7;
+  return texelFetch(uCells, page * 512 + (local.z * 8 + local.y) * 8 + local.x);
+}
 
 void main() {
   const PixelRay ray = pixelRay();
@@ -72,7 +82,7 @@ void main() {
     }
     const vec3 scaled = snapped * cellScale;
     const ivec3 cell = clamp(ivec3(mix(floor(scaled), ceil(scaled) - 1.0, eyeAtHi)), ivec3(0), ivec3(uCellCount) - 1);
-    const ivec4 entry = texelFetch(uCells, cell, 0);
+    const ivec4 entry = cellEntry(cell);
     const int level = levelOf(entry.w);
     const int stride = 1 << max(level, 0);
     if (level < 0 || (k & (stride - 1)) != 0) {

@@ -13,9 +13,10 @@
 #define VB_UNIT_TRANSFER 1        // the transfer function's table (sampler1D uTransfer)
 #define VB_UNIT_ACCUMULATED 2     // the compositor's accumulated colour, read by termination.frag.glsl
 #define VB_UNIT_PRE_INTEGRATED 3  // the pre-integrated segment table (sampler3D uPreIntegrated), grids and meshes
-#define VB_UNIT_CELLS 4           // the frame ray caster's cell table (isampler3D uCells), render/gl/volume/CellTable.h
+#define VB_UNIT_CELLS 4           // the frame ray caster's cell pages (isamplerBuffer uCells), gl/volume/CellTable.h
 #define VB_UNIT_TET_ENTRY 4       // the mesh ray caster's entry pass: its tet and face (usampler2D uEntry)
 #define VB_UNIT_TET_ENTRY_DEPTH 5  // and its depth (sampler2D uEntryDepth)
+#define VB_UNIT_CELL_DIRECTORY 6  // the cell table's directory of pages (isampler3D uCellDirectory), CellTable.h
 
 // Shader storage buffer binding points.
 #define VB_BINDING_SAMPLE_COUNTERS 0   // SlabCounters: the marching fragments' counters, render/gl/SampleCounters.h

@@ -87,6 +87,7 @@ namespace voxbrick::render {
   X(PFNGLTEXSTORAGE1DPROC, glTexStorage1D)                                       \
   X(PFNGLTEXSTORAGE2DPROC, glTexStorage2D)                                       \
   X(PFNGLTEXSTORAGE3DPROC, glTexStorage3D)                                       \
+  X(PFNGLTEXBUFFERPROC, glTexBuffer)                                             \
   X(PFNGLGETTEXIMAGEPROC, glGetTexImage)                                         \
   /* framebuffers and renderbuffers */                                           \
   X(PFNGLGENFRAMEBUFFERSPROC, glGenFramebuffers)                                 \

@@ -134,7 +134,7 @@ FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int tran
     plan.raycast = plan.cellSize > 0;  // else texture slabs, of the scene's size or the default
     if (!plan.raycast)
       plan.fallback = "drawn with texture slabs, not the ray caster: its cell table would exceed " +
-                      std::to_string(kMaxRayCastCells) + " cells of a brick or a side of 32767 voxels (" +
+                      std::to_string(kMaxRayCastBlocks * 512) + " cells of a brick or a side of 32767 voxels (" +
                       std::to_string(meta.dims.x) + "x" + std::to_string(meta.dims.y) + "x" +
                       std::to_string(meta.dims.z) + " voxels in bricks of " + std::to_string(B) + ")";
   }
@@ -149,10 +149,12 @@ FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int tran
 }
 
 int rayCastCellSize(const store::Vec3i& dims, int subBlock, int brickSize) {
-  auto cells = [&](int64_t c) { return ((dims.x + c - 1) / c) * ((dims.y + c - 1) / c) * ((dims.z + c - 1) / c); };
   int size = subBlock > 0 ? subBlock : brickSize;
-  while (cells(size) > kMaxRayCastCells && size < brickSize) size *= 2;
-  if (cells(size) > kMaxRayCastCells || std::max({dims.x, dims.y, dims.z}) > 32767) return 0;
+  // Blocks of the directory: 8^3 cells each.
+  auto blocks = [&](int64_t c) { return ((dims.x + 8 * c - 1) / (8 * c)) * ((dims.y + 8 * c - 1) / (8 * c)) *
+                                        ((dims.z + 8 * c - 1) / (8 * c)); };
+  while (blocks(size) > kMaxRayCastBlocks && size < brickSize) size *= 2;
+  if (blocks(size) > kMaxRayCastBlocks || std::max({dims.x, dims.y, dims.z}) > 32767) return 0;
   return size;
 }
 

@@ -119,13 +119,16 @@ struct FramePlan {
 /// reference samples the same level as the GPU everywhere.
 std::vector<uint8_t> brickLevels(const TraversalResult& visible, const store::StoreMeta& meta);
 
-/// The most cells a ray-casting frame's cell table may have (8 bytes each): cells are the sub-blocks, doubled until
-/// the table fits, at most bricks; a volume whose bricks need more cells (or with a side beyond 32767 voxels, past
-/// the table's 16-bit offsets) is drawn with texture slabs instead.
-inline constexpr int64_t kMaxRayCastCells = int64_t{1} << 22;
+/// The most blocks of 8^3 cells a ray-casting frame's cell table may span: the table is paged (its pages hold the
+/// blocks with something to draw, render/gl/volume/CellTable.h), but its directory has an entry per block (4 bytes).
+/// Cells are the sub-blocks, doubled until the directory fits, at most bricks: 16 MiB of directory covers a volume
+/// of 16384^3 voxels in sub-blocks of 8. Only a side beyond 32767 voxels (past the table's 16-bit offsets) is drawn
+/// with texture slabs instead.
+inline constexpr int64_t kMaxRayCastBlocks = int64_t{1} << 22;
 
 /// The cell edge of a ray-casting frame's cell table over `dims` voxels: the sub-block (or with none the brick),
-/// doubled while the table would exceed kMaxRayCastCells; 0 when even bricks would, or a side exceeds 32767 voxels.
+/// doubled while the directory would exceed kMaxRayCastBlocks; 0 when even bricks would, or a side exceeds 32767
+/// voxels.
 int rayCastCellSize(const store::Vec3i& dims, int subBlock, int brickSize);
 
 /// Texels of the GPU renderer's transfer-function table (VolumeRenderer), so that a plan made away from the GL

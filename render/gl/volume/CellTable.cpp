@@ -15,71 +15,126 @@ namespace {
 
 const glm::i16vec4 kEmpty(0, 0, 0, CellTable::kNothing);
 const glm::i16vec4 kDeferred(0, 0, 0, CellTable::kOtherBatch);
+constexpr int N = CellTable::kLeapBlock;
 
 int cellsAlong(int voxels, int cellSize) { return (voxels + cellSize - 1) / cellSize; }
 
 }  // namespace
 
-void CellTable::makeTexture(const glm::ivec3& cells, int cellSize) {
+CellTable::CellTable(const Gl& gl) : mGl(gl) {}
+
+void CellTable::setGrid(const glm::ivec3& dims, int cellSize) {
   mShift = std::countr_zero(unsigned(cellSize));
-  if (cells == mCells && mTexture) return;
-  mCells = cells;
-  mTexture = Texture(mGl, GL_TEXTURE_3D);
-  mTexture.bind(VB_UNIT_CELLS);
-  mGl.glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGBA16I, cells.x, cells.y, cells.z);
-  mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-  mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-  mKept = false;
+  const glm::ivec3 cells(cellsAlong(dims.x, cellSize), cellsAlong(dims.y, cellSize), cellsAlong(dims.z, cellSize));
+  const glm::ivec3 blocks = (cells + (N - 1)) / N;
+  if (blocks != mBlocks || !mDirectoryTexture) {
+    mDirectoryTexture = Texture(mGl, GL_TEXTURE_3D);
+    mDirectoryTexture.bind(VB_UNIT_CELL_DIRECTORY);
+    mGl.glTexStorage3D(GL_TEXTURE_3D, 1, GL_R32I, blocks.x, blocks.y, blocks.z);
+    mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    mKept = false;
+  }
+  mCells = cells, mBlocks = blocks;
+  mDirectory.assign(size_t(blocks.x) * size_t(blocks.y) * size_t(blocks.z), kBlockNothing);
+  mPool.clear();
+  mFreePages.clear();
+  mPageCount = 0;
+  mBaseDirectory.clear();
+  mMarked = false;
 }
 
 void CellTable::begin(const glm::ivec3& dims, int cellSize) {
-  const glm::ivec3 cells(cellsAlong(dims.x, cellSize), cellsAlong(dims.y, cellSize), cellsAlong(dims.z, cellSize));
-  makeTexture(cells, cellSize);
+  setGrid(dims, cellSize);
   mKept = false;
-  mDeferred.clear();
-  mHost.assign(size_t(cells.x) * size_t(cells.y) * size_t(cells.z), kEmpty);
-  mMarked = false;
 }
 
 bool CellTable::resume(const glm::ivec3& dims, int cellSize) {
   const glm::ivec3 cells(cellsAlong(dims.x, cellSize), cellsAlong(dims.y, cellSize), cellsAlong(dims.z, cellSize));
-  const bool sameGrid = cells == mCells && std::countr_zero(unsigned(cellSize)) == mShift;
-  makeTexture(cells, cellSize);
   mMarked = false;
-  if (mKept && sameGrid) return true;
-  mDeferred.clear();
-  mHost.assign(size_t(cells.x) * size_t(cells.y) * size_t(cells.z), kEmpty);
-  mBlocks = (cells + (kLeapBlock - 1)) / kLeapBlock;
-  mChanged.assign(size_t(mBlocks.x) * size_t(mBlocks.y) * size_t(mBlocks.z), 0);
+  if (mKept && cells == mCells && std::countr_zero(unsigned(cellSize)) == mShift) return true;
+  setGrid(dims, cellSize);
+  mChanged.assign(mDirectory.size(), 0);
   mChangedLo = mBlocks, mChangedHi = glm::ivec3(0);
-  touch(glm::ivec3(0), cells);  // every cell is sent: the texture holds another table
+  touch(glm::ivec3(0), mBlocks);  // every block is sent: the GPU holds another table
   mKept = true;
   return false;
 }
 
+int32_t CellTable::newPage(const glm::i16vec4& entry) {
+  int32_t page;
+  if (!mFreePages.empty()) {
+    page = mFreePages.back();
+    mFreePages.pop_back();
+  } else {
+    if (int64_t(mPageCount + 1) * kPageCells > std::numeric_limits<int32_t>::max())
+      throw RenderError("ray casting: the cell table needs more than " + std::to_string(mPageCount) + " pages");
+    page = mPageCount++;
+    mPool.resize(size_t(mPageCount) * kPageCells);
+  }
+  std::fill_n(mPool.begin() + ptrdiff_t(page) * kPageCells, kPageCells, entry);
+  return page;
+}
+
+void CellTable::fill(const glm::ivec3& c0, const glm::ivec3& c1, const glm::i16vec4& entry) {
+  if (c0.x >= c1.x || c0.y >= c1.y || c0.z >= c1.z) return;
+  // Nothing to draw and another batch's are whole blocks without a page when a fill covers the block; a drawn entry
+  // always has a page (a block holds several bricks' payloads).
+  const int32_t uniform = entry == kEmpty ? kBlockNothing : entry == kDeferred ? kBlockOtherBatch : 0;
+  const glm::ivec3 b0 = c0 / N, b1 = (c1 + (N - 1)) / N;
+  for (int bz = b0.z; bz < b1.z; ++bz)
+    for (int by = b0.y; by < b1.y; ++by)
+      for (int bx = b0.x; bx < b1.x; ++bx) {
+        const glm::ivec3 b(bx, by, bz);
+        int32_t& page = mDirectory[blockIndex(b)];
+        if (page < 0 && page == uniform) continue;
+        // The part of [c0, c1) in this block, in its page's cells (cells past the grid count as covered).
+        const glm::ivec3 lo = glm::max(c0, b * N) - b * N;
+        const glm::ivec3 hi = glm::min(c1, b * N + N) - b * N;
+        const glm::ivec3 end = glm::min(mCells - b * N, glm::ivec3(N));  // the block's cells inside the grid
+        if (uniform < 0 && lo == glm::ivec3(0) && glm::all(glm::greaterThanEqual(hi, end))) {
+          if (page >= 0) mFreePages.push_back(page);
+          page = uniform;
+          continue;
+        }
+        if (page < 0) page = newPage(page == kBlockOtherBatch ? kDeferred : kEmpty);
+        glm::i16vec4* cells = mPool.data() + size_t(page) * kPageCells;
+        for (int z = lo.z; z < hi.z; ++z)
+          for (int y = lo.y; y < hi.y; ++y) std::fill_n(cells + (z * N + y) * N + lo.x, hi.x - lo.x, entry);
+      }
+  if (mKept) touch(b0, b1);
+}
+
 void CellTable::deferAll(const TraversalResult& visible, int brickSize) {
-  mDeferred.assign(mHost.size(), 0);
   const glm::ivec3 dims = mCells << mShift;
   for (const BrickDraw& d : visible.bricks) {
     const int m = int(d.key.level);
     const glm::ivec3 lo = glm::ivec3(int(d.key.i), int(d.key.j), int(d.key.k)) * (brickSize << m);
     const glm::ivec3 hi = glm::min(lo + (brickSize << m), dims);
-    const glm::ivec3 c0 = lo >> mShift, c1 = (hi + ((1 << mShift) - 1)) >> mShift;
-    for (int z = c0.z; z < c1.z; ++z)
-      for (int y = c0.y; y < c1.y; ++y) std::fill_n(mDeferred.begin() + ptrdiff_t(index(c0.x, y, z)), c1.x - c0.x, 1);
+    fill(lo >> mShift, (hi + ((1 << mShift) - 1)) >> mShift, kDeferred);
   }
-  reset();
+  mBaseDirectory = mDirectory, mBasePool = mPool, mBaseFree = mFreePages, mBasePageCount = mPageCount;
 }
 
 void CellTable::deferOutside(const glm::ivec3& lo, const glm::ivec3& hi) {
-  if (mDeferred.empty()) mDeferred.assign(mHost.size(), 0);
   const glm::ivec3 c0 = lo >> mShift, c1 = glm::min((hi + ((1 << mShift) - 1)) >> mShift, mCells);
   const glm::ivec3 r0 = glm::max(c0 - 1, glm::ivec3(0)), r1 = glm::min(c1 + 1, mCells);
-  for (int z = r0.z; z < r1.z; ++z)
-    for (int y = r0.y; y < r1.y; ++y)
-      for (int x = r0.x; x < r1.x; ++x)
-        if (x < c0.x || x >= c1.x || y < c0.y || y >= c1.y || z < c0.z || z >= c1.z) mDeferred[index(x, y, z)] = 1;
-  reset();
+  // The shell between [r0, r1) and [c0, c1), as six slabs.
+  for (int a = 0; a < 3; ++a) {
+    glm::ivec3 s0 = r0, s1 = r1;
+    for (int b = 0; b < a; ++b) s0[b] = c0[b], s1[b] = c1[b];  // earlier axes' slabs took their outside parts
+    if (r0[a] < c0[a]) {
+      glm::ivec3 t1 = s1;
+      t1[a] = c0[a];
+      fill(s0, t1, kDeferred);
+    }
+    if (c1[a] < r1[a]) {
+      glm::ivec3 t0 = s0;
+      t0[a] = c1[a];
+      fill(t0, s1, kDeferred);
+    }
+  }
+  mBaseDirectory = mDirectory, mBasePool = mPool, mBaseFree = mFreePages, mBasePageCount = mPageCount;
 }
 
 void CellTable::add(const QueuedBox& box) {
@@ -87,111 +142,161 @@ void CellTable::add(const QueuedBox& box) {
   for (int a = 0; a < 3; ++a)
     if (box.payload[a] < lo16 || box.payload[a] > hi16)
       throw RenderError("ray casting: atlas offset " + std::to_string(box.payload[a]) + " does not fit the cell table");
-  const glm::i16vec4 entry(box.payload);
   const glm::ivec3 lo = box.ownLo >> mShift;
   const glm::ivec3 hi = glm::min((box.ownHi + ((1 << mShift) - 1)) >> mShift, mCells);
-  for (int z = lo.z; z < hi.z; ++z)
-    for (int y = lo.y; y < hi.y; ++y) std::fill_n(mHost.begin() + ptrdiff_t(index(lo.x, y, z)), hi.x - lo.x, entry);
-  const bool any = lo.x < hi.x && lo.y < hi.y && lo.z < hi.z;
-  mMarked = mMarked || any;
-  if (mKept && any) touch(lo, hi);
+  fill(lo, hi, glm::i16vec4(box.payload));
+  mMarked = mMarked || (lo.x < hi.x && lo.y < hi.y && lo.z < hi.z);
 }
 
 void CellTable::clear(const glm::ivec3& lo, const glm::ivec3& hi) {
-  const glm::ivec3 c0 = glm::max(lo >> mShift, glm::ivec3(0));
-  const glm::ivec3 c1 = glm::min((hi + ((1 << mShift) - 1)) >> mShift, mCells);
-  if (c0.x >= c1.x || c0.y >= c1.y || c0.z >= c1.z) return;
-  for (int z = c0.z; z < c1.z; ++z)
-    for (int y = c0.y; y < c1.y; ++y) std::fill_n(mHost.begin() + ptrdiff_t(index(c0.x, y, z)), c1.x - c0.x, kEmpty);
-  touch(c0, c1);
+  fill(glm::max(lo >> mShift, glm::ivec3(0)), glm::min((hi + ((1 << mShift) - 1)) >> mShift, mCells), kEmpty);
 }
 
-void CellTable::touch(const glm::ivec3& c0, const glm::ivec3& c1) {
-  const glm::ivec3 b0 = c0 / kLeapBlock, b1 = (c1 + (kLeapBlock - 1)) / kLeapBlock;
+void CellTable::touch(const glm::ivec3& b0, const glm::ivec3& b1) {
   for (int z = b0.z; z < b1.z; ++z)
-    for (int y = b0.y; y < b1.y; ++y)
-      std::fill_n(mChanged.begin() + ptrdiff_t((size_t(z) * size_t(mBlocks.y) + size_t(y)) * size_t(mBlocks.x) + size_t(b0.x)),
-                  b1.x - b0.x, 1);
+    for (int y = b0.y; y < b1.y; ++y) std::fill_n(mChanged.begin() + ptrdiff_t(blockIndex({b0.x, y, z})), b1.x - b0.x, 1);
   mChangedLo = glm::min(mChangedLo, b0), mChangedHi = glm::max(mChangedHi, b1);
 }
 
-void CellTable::send(const glm::ivec3& lo, const glm::ivec3& hi) {
-  mTexture.bind(VB_UNIT_CELLS);
-  mGl.glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
-  mGl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-  const bool whole = lo == glm::ivec3(0) && hi == mCells;
-  if (!whole) {
-    mGl.glPixelStorei(GL_UNPACK_ROW_LENGTH, mCells.x);
-    mGl.glPixelStorei(GL_UNPACK_IMAGE_HEIGHT, mCells.y);
-  }
-  const glm::ivec3 size = hi - lo;
-  mGl.glTexSubImage3D(GL_TEXTURE_3D, 0, lo.x, lo.y, lo.z, size.x, size.y, size.z, GL_RGBA_INTEGER, GL_SHORT,
-                      mHost.data() + index(lo.x, lo.y, lo.z));
-  if (!whole) {
-    mGl.glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
-    mGl.glPixelStorei(GL_UNPACK_IMAGE_HEIGHT, 0);
+void CellTable::settle(const glm::ivec3& b) {
+  int32_t& page = mDirectory[blockIndex(b)];
+  if (page < 0) return;
+  if (computePageLeaps(mPool.data() + size_t(page) * kPageCells)) {
+    mFreePages.push_back(page);
+    page = kBlockNothing;
   }
 }
 
-void CellTable::upload() {
-  computeLeaps(mHost, mCells);
-  send(glm::ivec3(0), mCells);
+void CellTable::reservePool() {
+  if (size_t(mPageCount) <= mPoolCapacity && mPoolBuffer) return;
+  // Grown by half again, so that a table growing page by page is copied a few times, not every frame.
+  size_t capacity = std::max<size_t>({size_t(mPageCount), mPoolCapacity + mPoolCapacity / 2, 64});
+  GLint limit = 0;
+  mGl.glGetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &limit);
+  capacity = std::min(capacity, size_t(limit) / kPageCells);
+  if (capacity < size_t(mPageCount))
+    throw RenderError("ray casting: the cell table needs " + std::to_string(mPageCount) + " pages of " +
+                      std::to_string(kPageCells) + " cells, above this device's buffer texture limit of " +
+                      std::to_string(limit) + " texels");
+  mPoolBuffer = Buffer(mGl);
+  mPoolBuffer.allocate(GL_TEXTURE_BUFFER, capacity * kPageCells * sizeof(glm::i16vec4), nullptr, GL_DYNAMIC_DRAW);
+  mPoolCapacity = capacity;
+  mPoolTexture = Texture(mGl, GL_TEXTURE_BUFFER);
+  mPoolTexture.bind(VB_UNIT_CELLS);
+  mGl.glTexBuffer(GL_TEXTURE_BUFFER, GL_RGBA16I, mPoolBuffer.id());
+}
+
+int64_t CellTable::sendPages(std::vector<int32_t>& pages) {
+  std::sort(pages.begin(), pages.end());
+  mPoolBuffer.bind(GL_TEXTURE_BUFFER);
+  constexpr size_t pageBytes = kPageCells * sizeof(glm::i16vec4);
+  for (size_t i = 0; i < pages.size();) {
+    size_t j = i + 1;
+    while (j < pages.size() && pages[j] == pages[j - 1] + 1) ++j;
+    mGl.glBufferSubData(GL_TEXTURE_BUFFER, GLintptr(size_t(pages[i]) * pageBytes), GLsizeiptr((j - i) * pageBytes),
+                        mPool.data() + size_t(pages[i]) * kPageCells);
+    i = j;
+  }
+  return int64_t(pages.size()) * kPageCells;
+}
+
+void CellTable::sendDirectoryRun(const glm::ivec3& b, int n) {
+  mDirectoryTexture.bind(VB_UNIT_CELL_DIRECTORY);
+  mGl.glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
+  mGl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  mGl.glTexSubImage3D(GL_TEXTURE_3D, 0, b.x, b.y, b.z, n, 1, 1, GL_RED_INTEGER, GL_INT, &mDirectory[blockIndex(b)]);
+}
+
+void CellTable::bind() const {
+  mDirectoryTexture.bind(VB_UNIT_CELL_DIRECTORY);
+  mPoolTexture.bind(VB_UNIT_CELLS);
+}
+
+int64_t CellTable::upload() {
+  for (int z = 0; z < mBlocks.z; ++z)
+    for (int y = 0; y < mBlocks.y; ++y)
+      for (int x = 0; x < mBlocks.x; ++x) settle({x, y, z});
+  reservePool();
+  std::vector<int32_t> pages;
+  for (int32_t page : mDirectory)
+    if (page >= 0) pages.push_back(page);
+  int64_t sent = sendPages(pages);
+  mDirectoryTexture.bind(VB_UNIT_CELL_DIRECTORY);
+  mGl.glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
+  mGl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  mGl.glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, mBlocks.x, mBlocks.y, mBlocks.z, GL_RED_INTEGER, GL_INT,
+                      mDirectory.data());
+  sent += int64_t(mDirectory.size());
+  bind();
   reset();
+  return sent;
 }
 
 int64_t CellTable::uploadChanges() {
-  mTexture.bind(VB_UNIT_CELLS);
-  if (mChangedLo.x >= mChangedHi.x || mChangedLo.y >= mChangedHi.y || mChangedLo.z >= mChangedHi.z) return 0;
+  std::vector<int32_t> pages;
   for (int z = mChangedLo.z; z < mChangedHi.z; ++z)
     for (int y = mChangedLo.y; y < mChangedHi.y; ++y)
-      for (int x = mChangedLo.x; x < mChangedHi.x; ++x) {
-        if (mChanged[(size_t(z) * size_t(mBlocks.y) + size_t(y)) * size_t(mBlocks.x) + size_t(x)])
-          computeBlockLeaps(mHost, mCells, {x, y, z});
-      }
-  // Each row of blocks (along x) sends the run from its first changed block to its last: a change here and there
-  // sends its own rows, not the box around them all.
-  int64_t sent = 0;
+      for (int x = mChangedLo.x; x < mChangedHi.x; ++x)
+        if (mChanged[blockIndex({x, y, z})]) {
+          settle({x, y, z});
+          if (const int32_t page = mDirectory[blockIndex({x, y, z})]; page >= 0) pages.push_back(page);
+        }
+  reservePool();
+  int64_t sent = sendPages(pages);
+  // Each row of blocks (along x) sends the directory entries from its first changed block to its last.
   for (int z = mChangedLo.z; z < mChangedHi.z; ++z)
     for (int y = mChangedLo.y; y < mChangedHi.y; ++y) {
-      const uint8_t* row = &mChanged[(size_t(z) * size_t(mBlocks.y) + size_t(y)) * size_t(mBlocks.x)];
+      const uint8_t* row = &mChanged[blockIndex({0, y, z})];
       int first = mChangedLo.x, last = mChangedHi.x - 1;
       while (first <= last && !row[first]) ++first;
       while (last >= first && !row[last]) --last;
       if (first > last) continue;
-      const glm::ivec3 lo = glm::ivec3(first, y, z) * kLeapBlock;
-      const glm::ivec3 hi = glm::min(glm::ivec3(last + 1, y + 1, z + 1) * kLeapBlock, mCells);
-      send(lo, hi);
-      sent += int64_t(hi.x - lo.x) * (hi.y - lo.y) * (hi.z - lo.z);
+      sendDirectoryRun({first, y, z}, last + 1 - first);
+      sent += last + 1 - first;
     }
   std::fill(mChanged.begin(), mChanged.end(), 0);
   mChangedLo = mBlocks, mChangedHi = glm::ivec3(0);
+  bind();
   return sent;
 }
 
 void CellTable::reset() {
-  if (mDeferred.empty())
-    std::fill(mHost.begin(), mHost.end(), kEmpty);
-  else
-    for (size_t i = 0; i < mHost.size(); ++i) mHost[i] = mDeferred[i] ? kDeferred : kEmpty;
+  if (mBaseDirectory.empty()) {
+    std::fill(mDirectory.begin(), mDirectory.end(), kBlockNothing);
+    mPool.clear();
+    mFreePages.clear();
+    mPageCount = 0;
+  } else {
+    mDirectory = mBaseDirectory, mPool = mBasePool, mFreePages = mBaseFree, mPageCount = mBasePageCount;
+  }
   mMarked = false;
 }
 
-void computeBlockLeaps(std::vector<glm::i16vec4>& cells, const glm::ivec3& grid, const glm::ivec3& block) {
-  // Which aligned sub-blocks of 2^j cells have nothing to draw, level by level inside the block (cells past the grid
-  // count as nothing): empty[j] holds (8 >> j)^3 flags, x fastest.
-  constexpr int N = CellTable::kLeapBlock;
-  bool empty[CellTable::kMaxLeapLevel + 1][N * N * N];
-  const glm::ivec3 base = block * N;
-  const auto cellIndex = [&](int x, int y, int z) {
-    return (size_t(z) * size_t(grid.y) + size_t(y)) * size_t(grid.x) + size_t(x);
-  };
-  for (int z = 0; z < N; ++z)
-    for (int y = 0; y < N; ++y)
-      for (int x = 0; x < N; ++x) {
-        const glm::ivec3 c = base + glm::ivec3(x, y, z);
-        empty[0][(z * N + y) * N + x] = c.x >= grid.x || c.y >= grid.y || c.z >= grid.z ||
-                                        cells[cellIndex(c.x, c.y, c.z)].w == CellTable::kNothing;
+std::vector<glm::i16vec4> CellTable::readBack() const {
+  std::vector<int32_t> directory(mDirectory.size());
+  mDirectoryTexture.bind(VB_UNIT_CELL_DIRECTORY);
+  mGl.glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  mGl.glGetTexImage(GL_TEXTURE_3D, 0, GL_RED_INTEGER, GL_INT, directory.data());
+  std::vector<glm::i16vec4> pool(mPoolCapacity * kPageCells);
+  if (!pool.empty()) mPoolBuffer.read(0, pool.size() * sizeof(glm::i16vec4), pool.data());
+  std::vector<glm::i16vec4> cells(size_t(mCells.x) * size_t(mCells.y) * size_t(mCells.z));
+  for (int z = 0; z < mCells.z; ++z)
+    for (int y = 0; y < mCells.y; ++y)
+      for (int x = 0; x < mCells.x; ++x) {
+        const glm::ivec3 c(x, y, z), b = c / N, l = c - b * N;
+        const int32_t page = directory[blockIndex(b)];
+        cells[(size_t(z) * size_t(mCells.y) + size_t(y)) * size_t(mCells.x) + size_t(x)] =
+            page == kBlockNothing      ? glm::i16vec4(kMaxLeapLevel, 0, 0, kNothing)
+            : page == kBlockOtherBatch ? kDeferred
+                                       : pool[size_t(page) * kPageCells + size_t((l.z * N + l.y) * N + l.x)];
       }
+  return cells;
+}
+
+bool computePageLeaps(glm::i16vec4* page) {
+  // Which aligned sub-blocks of 2^j cells have nothing to draw, level by level: empty[j] holds (N >> j)^3 flags.
+  bool empty[CellTable::kMaxLeapLevel + 1][CellTable::kPageCells];
+  for (int i = 0; i < CellTable::kPageCells; ++i) empty[0][i] = page[i].w == CellTable::kNothing;
   for (int j = 1; j <= CellTable::kMaxLeapLevel; ++j) {
     const int n = N >> j, finer = n * 2;
     for (int z = 0; z < n; ++z)
@@ -203,29 +308,20 @@ void computeBlockLeaps(std::vector<glm::i16vec4>& cells, const glm::ivec3& grid,
           empty[j][(z * n + y) * n + x] = e;
         }
   }
-  const glm::ivec3 end = glm::min(base + N, grid);
-  for (int z = base.z; z < end.z; ++z)
-    for (int y = base.y; y < end.y; ++y)
-      for (int x = base.x; x < end.x; ++x) {
-        glm::i16vec4& cell = cells[cellIndex(x, y, z)];
+  for (int z = 0; z < N; ++z)
+    for (int y = 0; y < N; ++y)
+      for (int x = 0; x < N; ++x) {
+        glm::i16vec4& cell = page[(z * N + y) * N + x];
         if (cell.w != CellTable::kNothing) continue;
         // The largest empty block around it: the blocks nest, so the coarsest empty level is the one.
         int leap = 0;
-        const glm::ivec3 local(x - base.x, y - base.y, z - base.z);
         for (int j = CellTable::kMaxLeapLevel; j > 0 && leap == 0; --j) {
           const int n = N >> j;
-          const glm::ivec3 b = local >> j;
-          if (empty[j][(b.z * n + b.y) * n + b.x]) leap = j;
+          if (empty[j][((z >> j) * n + (y >> j)) * n + (x >> j)]) leap = j;
         }
         cell.x = int16_t(leap);
       }
-}
-
-void computeLeaps(std::vector<glm::i16vec4>& cells, const glm::ivec3& grid) {
-  const glm::ivec3 blocks = (grid + (CellTable::kLeapBlock - 1)) / CellTable::kLeapBlock;
-  for (int z = 0; z < blocks.z; ++z)
-    for (int y = 0; y < blocks.y; ++y)
-      for (int x = 0; x < blocks.x; ++x) computeBlockLeaps(cells, grid, {x, y, z});
+  return empty[CellTable::kMaxLeapLevel][0];
 }
 
 }  // namespace voxbrick::render

@@ -52,9 +52,7 @@ void RayCastPass::draw(const FramePlan& plan, Residency& residency, const Volume
   auto flush = [&] {
     if (mCells.empty()) return;
     const auto t = Clock::now();
-    mCells.upload();
-    const glm::ivec3 n = mCells.cells();
-    stats.cellsSent += int64_t(n.x) * n.y * n.z;
+    stats.cellsSent += mCells.upload();
     stats.msSlicing += msSince(t);
     march(plan, program, compositor, stats, checkpoints);
   };

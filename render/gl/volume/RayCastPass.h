@@ -34,6 +34,8 @@ class RayCastPass {
             Compositor& compositor, FrameStats& stats, Checkpoints& checkpoints, bool keepTable = true);
   /// After the compositor's finish: fragments started, samples taken and left by termination into `stats`.
   void finish(FrameStats& stats) const { mCounters.read(stats); }
+  /// The cell table the last batch was drawn with (for tests: CellTable::readBack).
+  const CellTable& cells() const { return mCells; }
 
  private:
   /// The most samples a pixel of one pass may take, for sizing bands by cost (drawInBands).

@@ -34,6 +34,8 @@ class VolumeRenderer final : public FrameRenderer {
   image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) override;
 
   const BrickAtlas& atlas() const { return mResidency.atlas(); }
+  /// The ray caster's cell table as the last ray-cast frame left it.
+  const CellTable& cellTable() const { return mRayCast.cells(); }
   size_t gpuBytes() const override { return mResidency.atlas().bytes(); }
   /// The plan's estimate (FramePlan::estimatedSamples) of `scene` under this renderer's budget.
   double estimateSamples(const Scene& scene) override;

@@ -10,7 +10,6 @@
 
 #include "image/Image.h"
 #include "render/core/RenderErrors.h"
-#include "render/gl/Bindings.h"
 #include "render/gl/GlFixtures.h"
 #include "render/gl/volume/VolumeRenderer.h"
 #include "support/TestSupport.h"
@@ -36,12 +35,11 @@ class KeptAndFilled {
   FrameStats frame(const Scene& scene, const std::string& what, FrameOptions options = {}) {
     FrameStats kept, filled;
     options.keepCellTable = true;
-    mCellSize = scene.subBlock;
     const image::ImageF a = mKept.render(scene, &kept, options);
-    const std::vector<glm::i16vec4> keptTable = boundCellTable();
+    const std::vector<glm::i16vec4> keptTable = mKept.cellTable().readBack();
     options.keepCellTable = false;
     const image::ImageF b = mFilled.render(scene, &filled, options);
-    const std::vector<glm::i16vec4> filledTable = boundCellTable();
+    const std::vector<glm::i16vec4> filledTable = mFilled.cellTable().readBack();
     EXPECT_EQ(keptTable.size(), filledTable.size()) << what;
     size_t differ = 0;
     for (size_t i = 0; i < std::min(keptTable.size(), filledTable.size()); ++i) differ += keptTable[i] != filledTable[i];
@@ -56,28 +54,18 @@ class KeptAndFilled {
     return kept;
   }
 
-  /// The cell table the last frame drew with: the texture on VB_UNIT_CELLS (cells of the scene's sub-block).
-  std::vector<glm::i16vec4> boundCellTable() const {
-    const Gl& gl = test::context().gl();
-    gl.glActiveTexture(GL_TEXTURE0 + VB_UNIT_CELLS);
-    std::vector<glm::i16vec4> table(size_t(cells(mCellSize)));
-    gl.glPixelStorei(GL_PACK_ALIGNMENT, 4);
-    gl.glGetTexImage(GL_TEXTURE_3D, 0, GL_RGBA_INTEGER, GL_SHORT, table.data());
-    return table;
-  }
-
   VolumeRenderer& kept() { return mKept; }
-  /// Cells of the table over the store at cell size `cell`.
-  int64_t cells(int cell) const {
+  /// What sending a whole table of `pages` pages at cell size `cell` sends: the pages' cells and the directory.
+  int64_t pagesSent(int64_t pages, int cell) const {
     const store::Vec3i& d = mStore->meta().dims;
-    return ((d.x + cell - 1) / cell) * ((d.y + cell - 1) / cell) * ((d.z + cell - 1) / cell);
+    auto blocks = [&](int64_t n) { return ((n + cell - 1) / cell + CellTable::kLeapBlock - 1) / CellTable::kLeapBlock; };
+    return pages * CellTable::kPageCells + blocks(d.x) * blocks(d.y) * blocks(d.z);
   }
 
  private:
   std::shared_ptr<const store::BrickStore> mStore;
   std::shared_ptr<store::BrickCache> mCache;
   VolumeRenderer mKept, mFilled;
-  int mCellSize = 0;
 };
 
 Scene blobsScene() {
@@ -94,7 +82,8 @@ TEST(KeptCells, AFrameOfTheSameBricksSendsNothing) {
   Scene scene = blobsScene();
   const FrameStats first = r.frame(scene, "first");
   EXPECT_EQ(first.cellBricksChanged, first.bricksDrawn) << "the first frame marks every brick";
-  EXPECT_EQ(first.cellsSent, r.cells(4)) << "and sends the whole table";
+  EXPECT_EQ(first.cellsSent, r.pagesSent(first.bricksDrawn > 0 ? r.kept().cellTable().pages() : 0, 4))
+      << "and sends the whole table: every page and the directory";
   const FrameStats again = r.frame(scene, "again");
   EXPECT_EQ(again.cellBricksChanged, 0);
   EXPECT_EQ(again.cellsSent, 0);
@@ -122,10 +111,10 @@ TEST(KeptCells, ANewLevelCutChangesOnlyItsBricks) {
     const std::string what = "distance " + std::to_string(distance);
     const FrameStats s = r.frame(scene, what);
     EXPECT_LE(s.cellBricksChanged, s.bricksDrawn + 0) << what;
-    EXPECT_LE(s.cellsSent, r.cells(4)) << what;
+    EXPECT_LE(s.cellsSent, r.pagesSent(r.kept().cellTable().pages(), 4)) << what;
     if (s.cellBricksChanged > 0 && s.cellBricksChanged < s.bricksDrawn) {
       ++partial;
-      EXPECT_LT(s.cellsSent, r.cells(4)) << what << ": only the changed blocks are sent";
+      EXPECT_LT(s.cellsSent, r.pagesSent(r.kept().cellTable().pages(), 4)) << what << ": only the changed blocks are sent";
     }
   }
   EXPECT_GE(partial, 2) << "the level cut never changed in part: the test no longer tests it";
@@ -142,7 +131,7 @@ TEST(KeptCells, ClassificationAndSubBlocksBuildItAnew) {
   scene.subBlock = 8;
   const FrameStats coarser = r.frame(scene, "sub-block 8");
   EXPECT_EQ(coarser.cellBricksChanged, coarser.bricksDrawn);
-  EXPECT_EQ(coarser.cellsSent, r.cells(8));
+  EXPECT_EQ(coarser.cellsSent, r.pagesSent(r.kept().cellTable().pages(), 8));
   scene.transferFunction = TransferFunction::load("grayscale");
   const FrameStats tf = r.frame(scene, "grayscale");
   EXPECT_EQ(tf.cellBricksChanged, tf.bricksDrawn);

@@ -167,13 +167,14 @@ TEST(RayCast, MixedLevelsGiveSlabsImage) {
 }
 
 TEST(RayCast, CellTableSizeAndFallback) {
-  // Sub-blocks are the cells while the table stays small; coarser cells, up to bricks, beyond.
+  // Sub-blocks are the cells while the paged table's directory stays small (an entry per 8^3 cells); coarser
+  // cells, up to bricks, beyond.
   EXPECT_EQ(rayCastCellSize({301, 370, 316}, 8, 32), 8);
   EXPECT_EQ(rayCastCellSize({301, 370, 316}, 0, 32), 32);
-  EXPECT_EQ(rayCastCellSize({2048, 2048, 2048}, 8, 32), 16);
-  EXPECT_EQ(rayCastCellSize({4096, 4096, 4096}, 8, 32), 32);
-  // Beyond what bricks can hold, or past 16-bit atlas offsets: texture slabs instead.
-  EXPECT_EQ(rayCastCellSize({8192, 8192, 8192}, 8, 32), 0);
+  EXPECT_EQ(rayCastCellSize({2048, 2048, 2048}, 8, 32), 8);
+  EXPECT_EQ(rayCastCellSize({8192, 8192, 8192}, 8, 32), 8);
+  EXPECT_EQ(rayCastCellSize({16384, 16384, 32767}, 8, 32), 16);
+  // Past 16-bit atlas offsets: texture slabs instead.
   EXPECT_EQ(rayCastCellSize({40000, 16, 16}, 8, 32), 0);
 
   ScratchDir dir;
@@ -204,12 +205,11 @@ TEST(RayCast, CellTableSizeAndFallback) {
 }
 
 TEST(RayCast, EmptyCellsLeapOutOfTheLargestEmptyBlock) {
-  const glm::ivec3 grid(8, 8, 8);
-  std::vector<glm::i16vec4> cells(512, glm::i16vec4(0, 0, 0, CellTable::kNothing));
+  std::vector<glm::i16vec4> cells(CellTable::kPageCells, glm::i16vec4(0, 0, 0, CellTable::kNothing));
   auto at = [&](int x, int y, int z) -> glm::i16vec4& { return cells[size_t((z * 8 + y) * 8 + x)]; };
   at(1, 1, 1) = glm::i16vec4(5, 6, 7, 0);                       // drawn
   at(7, 7, 7) = glm::i16vec4(0, 0, 0, CellTable::kOtherBatch);  // another batch's: not empty
-  computeLeaps(cells, grid);
+  EXPECT_FALSE(computePageLeaps(cells.data()));
   EXPECT_EQ(at(1, 1, 1), glm::i16vec4(5, 6, 7, 0)) << "a drawn cell keeps its payload";
   EXPECT_EQ(at(0, 0, 0).x, 0) << "its 2-block holds the drawn cell";
   EXPECT_EQ(at(2, 0, 0).x, 1) << "an empty 2-block inside a 4-block that is not";
@@ -217,10 +217,10 @@ TEST(RayCast, EmptyCellsLeapOutOfTheLargestEmptyBlock) {
   EXPECT_EQ(at(6, 6, 6).x, 0) << "a brick of another batch is not nothing";
   EXPECT_EQ(at(4, 4, 4).x, 1) << "its 4-block holds the other batch's cell";
   EXPECT_EQ(at(7, 7, 7).w, CellTable::kOtherBatch);
-  // Past the grid counts as nothing: an all-empty grid of odd size leaps in blocks of 8.
-  std::vector<glm::i16vec4> odd(5 * 3 * 3, glm::i16vec4(0, 0, 0, CellTable::kNothing));
-  computeLeaps(odd, {5, 3, 3});
-  for (const glm::i16vec4& c : odd) EXPECT_EQ(c.x, CellTable::kMaxLeapLevel);
+  // A page with nothing to draw at all leaps its whole block (and is given up: the directory says so).
+  std::vector<glm::i16vec4> empty(CellTable::kPageCells, glm::i16vec4(0, 0, 0, CellTable::kNothing));
+  EXPECT_TRUE(computePageLeaps(empty.data()));
+  for (const glm::i16vec4& c : empty) EXPECT_EQ(c.x, CellTable::kMaxLeapLevel);
 }
 
 TEST(RayCast, IsTheDefaultDrawing) {

@@ -8,6 +8,7 @@
 #include "brickstore/read/VdbStore.h"
 #include "image/Image.h"
 #include "render/gl/GlFixtures.h"
+#include "render/volume/FramePlan.h"
 #include "support/TestSupport.h"
 #include "support/VdbGrids.h"
 
@@ -126,6 +127,47 @@ TEST(VdbFramesCommand, RenderOfAVdbEqualsRenderOfItsPreppedStore) {
                                          (dir / "x.png").string());
   EXPECT_EQ(badGrid.exitCode, 1);
   EXPECT_NE(badGrid.output.find("has no grid named 'missing'"), std::string::npos) << badGrid.output;
+}
+
+// A sparse volume far larger than a dense cell table could hold (5 400³ voxels: 169³ bricks of 32, past the 2²²
+// brick cells where the ray caster once gave way to slabs) ray-casts through the paged table: a page for each block
+// of 8³ cells something is drawn in, and the frame is the slabs' frame of the same bricks.
+TEST(VdbFrames, ASparseVolumeOfAnySizeRayCasts) {
+  ScratchDir dir;
+  openvdb::initialize();
+  openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(0.0f);
+  grid->setName("density");
+  openvdb::FloatGrid::Accessor acc = grid->getAccessor();
+  // Three balls: at both corners of the box, and in the middle.
+  for (const int c : {6, 2700, 5393})
+    for (int z = -6; z <= 6; ++z)
+      for (int y = -6; y <= 6; ++y)
+        for (int x = -6; x <= 6; ++x)
+          if (x * x + y * y + z * z <= 36) acc.setValue(openvdb::Coord(c + x, c + y, c + z), float(1.0 - 0.02 * (x * x + y * y + z * z)));
+  test::writeVdb(dir / "sparse.vdb", {grid});
+  const auto live = store::VdbStore::open(dir / "sparse.vdb", {"", 32});
+  ASSERT_EQ(live->meta().dims.x, 5400);
+  Scene scene = test::lodScene(0);
+  scene.width = scene.height = 48;
+  scene.raycast = true;
+  // Close to the middle ball (the box is centred on the origin), looking along the diagonal through all three.
+  scene.camera = CameraSpec{};
+  scene.camera.orbit = false;
+  scene.camera.eye = {40, 40, 40};
+  scene.camera.up = {0, 0, 1};
+  FrameStats stats;
+  const image::ImageF cast = renderStore(live, scene, &stats, size_t(64) << 20, size_t(64) << 20);
+  const FramePlan plan = planFrame(scene, *live, kTransferTableTexels);
+  EXPECT_TRUE(plan.raycast);
+  EXPECT_EQ(plan.cellSize, 8) << "the sub-blocks are the cells";
+  EXPECT_TRUE(stats.fallback.empty()) << stats.fallback;
+  EXPECT_EQ(stats.slabPasses, 0);
+  EXPECT_GT(stats.samples, 0);
+  EXPECT_GT(meanBrightness(cast), 0.0);
+  scene.raycast = false;
+  scene.slab = 32;
+  const image::ImageF slabs = renderStore(live, scene, nullptr, size_t(64) << 20, size_t(64) << 20);
+  test::expectSameDrawing(cast, slabs, 1.0 / 255, *live, scene, "sparse-5400");
 }
 
 }  // namespace
