@@ -167,8 +167,8 @@ void CellTable::settle(const glm::ivec3& b) {
   }
 }
 
-void CellTable::reservePool() {
-  if (size_t(mPageCount) <= mPoolCapacity && mPoolBuffer) return;
+bool CellTable::reservePool() {
+  if (size_t(mPageCount) <= mPoolCapacity && mPoolBuffer) return false;
   // Grown by half again, so that a table growing page by page is copied a few times, not every frame.
   size_t capacity = std::max<size_t>({size_t(mPageCount), mPoolCapacity + mPoolCapacity / 2, 64});
   GLint limit = 0;
@@ -184,6 +184,7 @@ void CellTable::reservePool() {
   mPoolTexture = Texture(mGl, GL_TEXTURE_BUFFER);
   mPoolTexture.bind(VB_UNIT_CELLS);
   mGl.glTexBuffer(GL_TEXTURE_BUFFER, GL_RGBA16I, mPoolBuffer.id());
+  return true;
 }
 
 int64_t CellTable::sendPages(std::vector<int32_t>& pages) {
@@ -241,7 +242,11 @@ int64_t CellTable::uploadChanges() {
           settle({x, y, z});
           if (const int32_t page = mDirectory[blockIndex({x, y, z})]; page >= 0) pages.push_back(page);
         }
-  reservePool();
+  if (reservePool()) {  // a new buffer holds none of the pages yet: all of them
+    pages.clear();
+    for (int32_t page : mDirectory)
+      if (page >= 0) pages.push_back(page);
+  }
   int64_t sent = sendPages(pages);
   // Each row of blocks (along x) sends the directory entries from its first changed block to its last.
   for (int z = mChangedLo.z; z < mChangedHi.z; ++z)

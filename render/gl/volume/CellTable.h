@@ -102,7 +102,7 @@ class CellTable {
   void touch(const glm::ivec3& b0, const glm::ivec3& b1);  // blocks [b0, b1) changed
   /// Leaps of block `b`'s page; a page with nothing to draw at all is freed (the block's directory entry says so).
   void settle(const glm::ivec3& b);
-  void reservePool();                                  // the pool buffer holds every page
+  bool reservePool();  // the pool buffer holds every page; true when it is a new buffer (holding none yet)
   int64_t sendPages(std::vector<int32_t>& pages);      // those pages (sorted, in runs)
   void sendDirectoryRun(const glm::ivec3& b, int n);  // n directory entries from block b along x
   void bind() const;

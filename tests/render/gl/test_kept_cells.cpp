@@ -120,6 +120,25 @@ TEST(KeptCells, ANewLevelCutChangesOnlyItsBricks) {
   EXPECT_GE(partial, 2) << "the level cut never changed in part: the test no longer tests it";
 }
 
+TEST(KeptCells, TheTableGrowsAsMoreIsDrawn) {
+  ScratchDir dir;
+  KeptAndFilled r(prep("synthetic:blobs,n=192", dir / "b", 16));
+  Scene scene = blobsScene();
+  scene.width = scene.height = 40;
+  // From inside, most bricks culled and few pages; then the whole volume, many more pages than the first frame's
+  // table had room for (its buffer grows, and must hold the pages it had too).
+  scene.camera.distance = 0.3;
+  r.frame(scene, "inside");
+  const int64_t few = r.kept().cellTable().pages();
+  scene.camera.distance = 2.5;
+  const FrameStats all = r.frame(scene, "outside");
+  const int64_t many = r.kept().cellTable().pages();
+  EXPECT_GT(many, 2 * few + 64) << "the table did not grow past its first buffer: the test no longer tests it";
+  EXPECT_GT(all.cellBricksChanged, 0);
+  scene.camera.distance = 0.3;
+  r.frame(scene, "inside again");
+}
+
 TEST(KeptCells, ClassificationAndSubBlocksBuildItAnew) {
   ScratchDir dir;
   KeptAndFilled r(prep("synthetic:blobs,n=64", dir / "b", 16));
