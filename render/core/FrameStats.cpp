@@ -43,6 +43,7 @@ nlohmann::json FrameStats::toJson() const {
                         {"total", msTotal},
                         {"pre_integration", msPreIntegration},
                         {"sorting", msSorting}}}};
+  if (!raycaster.empty()) j["raycaster"] = raycaster;
   if (!quality.is_null()) j["quality"] = quality;
   if (!interactive.is_null()) j["interactive"] = interactive;
   return j;

@@ -5,6 +5,7 @@
 #include <chrono>
 
 #include "render/core/FrameStats.h"
+#include "render/gl/volume/ComputeRayCast.h"
 
 namespace voxbrick::render {
 namespace {
@@ -47,13 +48,17 @@ void RayCastPass::drawBatch(const FramePlan& plan, const VolumeProgram& program,
                             FrameStats& stats, Checkpoints& checkpoints) {
   if (mCells.empty()) return;
   auto t = Clock::now();
-  if (plan.ert > 0 && mBatchesDrawn > 0) mTermination.run(plan.ert, compositor);
+  if (plan.ert > 0 && mBatchesDrawn > 0 && !program.compute()) mTermination.run(plan.ert, compositor);
   mCells.upload();
   stats.msSlicing += msSince(t);
   t = Clock::now();
-  program.program().use();
-  mNoAttributes.bind();
-  drawInBands(mGl, plan.width, plan.height, checkpoints, mSamplesPerPixel);
+  if (program.compute()) {
+    dispatchRayCast(mGl, program, compositor, plan.width, plan.height, checkpoints, mSamplesPerPixel);
+  } else {
+    program.program().use();
+    mNoAttributes.bind();
+    drawInBands(mGl, plan.width, plan.height, checkpoints, mSamplesPerPixel);
+  }
   ++mBatchesDrawn;
   stats.batches += 1;
   stats.msDrawing += msSince(t);
