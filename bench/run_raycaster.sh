@@ -39,8 +39,8 @@ for c in "${cases[@]}"; do
   for ((r = 0; r < reps; ++r)); do
     for k in fragment compute; do
       # shellcheck disable=SC2086 # $extra is options
-      out=$("$bin" render "$store" --size "$size" $extra --raycaster "$k" --warm-up 2 --stats "$work/$k.json" \
-        -o "$work/$k.png" 2>&1)
+      out=$("$bin" render "$store" --size "${size}x$size" $extra --raycaster "$k" --warm-up 2 \
+        --stats "$work/$k.json" -o "$work/$k.png" 2>&1) || { echo "$out" >&2; exit 1; }
       [ -n "$device" ] || device=$(grep -m1 '^render: [^w]' <<< "$out" | sed 's/^render: //')
       diff=0
       [ "$k" = compute ] && diff=$("$bin" compare "$work/fragment.png" "$work/compute.png" | sed 's/.*max_abs //')

@@ -38,8 +38,9 @@
 #define VB_COUNTERS 3
 
 // The compute ray caster's workgroup (raycast.comp.glsl, render/gl/volume/ComputeRayCast.h): a tile of pixels, so
-// that neighbouring rays, which read neighbouring texels, run together. 8 x 8 was the fastest measured on llvmpipe
-// (docs/performance.md); NVIDIA's warps of 32 fill two of them a group.
+// that neighbouring rays, which read neighbouring texels, run together. On llvmpipe groups of 64 invocations or more
+// (8 x 8, 16 x 8, 16 x 16, 32 x 1, 64 x 1) ran alike and smaller ones (4 x 4, 8 x 4) up to twice as long
+// (bench/results/render/raycaster-groups.md); 8 x 8 is two of NVIDIA's warps of 32.
 #define VB_RAYCAST_GROUP_X 8
 #define VB_RAYCAST_GROUP_Y 8
 
