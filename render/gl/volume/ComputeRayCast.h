@@ -16,9 +16,9 @@
 namespace voxbrick::render {
 
 /// Whether RayCaster::Auto takes the compute kernel on `context`'s device: on NVIDIA, where the graphics pipeline
-/// reaches only part of a data-centre chip (the roofline argument; not yet measured there), and not on a software
-/// rasteriser, where the fragment kernel measured faster (docs/performance.md) or any other device, where it is the
-/// long-tested path.
+/// reaches only part of a data-centre chip (the roofline argument; not yet measured there). Not on a software
+/// rasteriser, where the compute kernel was never clearly the faster and up to 1.85x the slower on the MRI
+/// (docs/performance.md), nor on any other device, where the fragment kernel is the long-tested path.
 bool computeRayCasterByDefault(const GlContext& context);
 
 /// Dispatches `program` (a compute ray caster variant, its frame and cells set) over width x height pixels of
