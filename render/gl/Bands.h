@@ -21,11 +21,9 @@ inline constexpr int kBandRows = 64;
 void forEachTile(int width, int height, Checkpoints& checkpoints, double samplesPerPixel,
                  const std::function<void(int x, int y, int w, int h)>& tile);
 
-/// Calls `draw` once per scissor rectangle covering width x height, pacing `checkpoints` after each: bands of
-/// kBandRows rows, or, when the checkpoints have an interval (Checkpoints::intervalSamples) and `samplesPerPixel`
-/// (the most samples a pixel of the pass may take) is given, bands of as many rows as the interval holds, down to
-/// tiles of part of a row. The scissor test is off afterwards, also when FrameCancelled is thrown. Splitting never
-/// changes a pixel: each is drawn once, by the same draw.
+/// Calls `draw` once per rectangle of forEachTile, with the scissor set to it, pacing `checkpoints` after each. The
+/// scissor test is off afterwards, also when FrameCancelled is thrown. Splitting never changes a pixel: each is
+/// drawn once, by the same draw.
 void drawTiled(const Gl& gl, int width, int height, Checkpoints& checkpoints, double samplesPerPixel,
                const std::function<void()>& draw);
 

@@ -74,7 +74,7 @@ class VolumeProgram {
   } mAt;
   GLint mPaths = -1;         // uPaths of the vertex-lean, geometry and vertex-geometry slicers
   GLint mTile = -1;          // uTile of the compute ray caster
-  bool mCompute = false;
+  bool mCompute = false;     // a compute ray caster variant
   bool mStripOrder = false;  // its rows in strip order (the geometry slicer)
 };
 
