@@ -36,6 +36,7 @@ struct Options {
   int views = 24, size = 32;
   double degrees = 24, start = 30, elevation = 20, lod = 0;
   size_t hostMb = 3000, gpuMb = 2000;
+  bool filledFirst = false;
 
   double azimuth(int v) const { return start + degrees * v / views; }
 };
@@ -68,6 +69,7 @@ int main(int argc, char** argv) {
   app.add_option("--gpu-budget", o.gpuMb, "GPU budget in MB, each renderer")->capture_default_str();
   app.add_option("--out", o.out, "output directory")->capture_default_str();
   app.add_option("--name", o.name, "output files NAME.csv and NAME.md")->capture_default_str();
+  app.add_flag("--filled-first", o.filledFirst, "each view drawn by the filled path first (the kept path by default)");
   CLI11_PARSE(app, argc, argv);
 
   auto context = render::createContext(render::Backend::Auto);
@@ -107,7 +109,8 @@ int main(int argc, char** argv) {
     scene.camera.azimuth = o.azimuth(v);
     image::ImageF images[2];
     render::FrameStats stats[2];
-    for (int i = 0; i < 2; ++i) {
+    for (int turn = 0; turn < 2; ++turn) {
+      const int i = o.filledFirst ? 1 - turn : turn;
       render::FrameOptions options;
       options.keepCellTable = paths[i].keep;
       images[i] = paths[i].renderer->render(scene, &stats[i], options);

@@ -59,6 +59,9 @@ struct Config {
   bool preIntegration = false;  ///< named in the setting
   bool ess = false;             ///< empty-space silhouette maps; named in the setting
   bool raycast = false;         ///< the frame ray caster (render::Scene::raycast); named in the setting
+  /// Its kernel (render::Scene::raycaster): "raycast" settings name the fragment kernel, "raycast compute" the
+  /// compute kernel, so that both are measured on every device whatever auto would choose there.
+  render::RayCaster raycaster = render::RayCaster::Fragment;
 };
 
 struct Result {
@@ -160,6 +163,12 @@ const std::vector<Config> kConfigs = {
      render::AtlasFormat::Float, 8, 0, 0, false, false, true},
     {"raycast, skip, sub-block 8, roofline", 32, render::Slicer::Vertex, true, render::RenderMode::Roofline,
      render::AtlasFormat::Float, 8, 0, 0, false, false, true},
+    {"raycast compute, ert 0.999, skip, sub-block 8", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
+     render::AtlasFormat::Float, 8, 0, 0.999, false, false, true, render::RayCaster::Compute},
+    {"raycast compute, skip, sub-block 8", 32, render::Slicer::Vertex, true, render::RenderMode::Normal,
+     render::AtlasFormat::Float, 8, 0, 0, false, false, true, render::RayCaster::Compute},
+    {"raycast compute, skip, sub-block 8, roofline", 32, render::Slicer::Vertex, true, render::RenderMode::Roofline,
+     render::AtlasFormat::Float, 8, 0, 0, false, false, true, render::RayCaster::Compute},
     {"raycast, ert 0.999, skip, sub-block 8, native atlas", 32, render::Slicer::Vertex, true,
      render::RenderMode::Normal, render::AtlasFormat::Native, 8, 0, 0.999, false, false, true},
     {"slab 16, pre-int, skip", 32, render::Slicer::Vertex, true, render::RenderMode::Normal, render::AtlasFormat::Float,
@@ -234,6 +243,7 @@ Run startRun(render::GlContext& context, std::shared_ptr<const store::BrickStore
   scene.preIntegration = c.preIntegration;
   scene.ess = c.ess;
   scene.raycast = c.raycast;
+  scene.raycaster = c.raycaster;
   scene.camera.elevation = 20;
   scene.camera.distance = 2.2;
   run.renderer->render(scene, nullptr, {c.mode});

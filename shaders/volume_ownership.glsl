@@ -3,7 +3,7 @@
 // boxes that meet sample their shared faces once. Where boxes of different sizes meet, two boxes must see exactly the
 // same point: it is computed from the pixel's ray and the plane alone, and faces between boxes are tested on a grid
 // of 1/256 voxel (ownershipGrid).
-#ifdef FRAGMENT_STAGE
+#if defined(FRAGMENT_STAGE) || defined(COMPUTE_STAGE)
 
 // Whether voxel coordinates `lo` and `hi` (the same point, or two roundings of it) lie in the voxels [ownLo, ownHi):
 // half-open, the face towards the eye included.

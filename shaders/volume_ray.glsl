@@ -1,6 +1,7 @@
 // The pixel's ray of the grid programs that compute their samples from it (slabs, the frame ray caster, and slices
-// with EXACT_OWNERSHIP): its origin and direction are affine in window coordinates.
-#ifdef FRAGMENT_STAGE
+// with EXACT_OWNERSHIP): its origin and direction are affine in window coordinates. A fragment's window coordinates
+// are gl_FragCoord's; the compute ray caster gives its pixel's centre, the same numbers.
+#if defined(FRAGMENT_STAGE) || defined(COMPUTE_STAGE)
 
 uniform vec3 uRayOrigin, uRayOriginDx, uRayOriginDy;           // ray origin (on the near plane) at window (x, y)
 uniform vec3 uRayDirection, uRayDirectionDx, uRayDirectionDy;  // near plane to far plane at window (x, y)
@@ -14,10 +15,10 @@ struct PixelRay {
   vec3 o, inv;
 };
 
-PixelRay pixelRay() {
+PixelRay pixelRayAt(vec2 window) {
   PixelRay r;
-  r.origin = uRayOrigin + gl_FragCoord.x * uRayOriginDx + gl_FragCoord.y * uRayOriginDy;
-  r.direction = uRayDirection + gl_FragCoord.x * uRayDirectionDx + gl_FragCoord.y * uRayDirectionDy;
+  r.origin = uRayOrigin + window.x * uRayOriginDx + window.y * uRayOriginDy;
+  r.direction = uRayDirection + window.x * uRayDirectionDx + window.y * uRayDirectionDy;
   r.along = dot(uViewDir, r.direction);
   r.start = dot(uViewDir, r.origin);
   r.o = r.origin * uInvSpacing + uHalfDims;
@@ -25,6 +26,11 @@ PixelRay pixelRay() {
   r.inv = 1.0 / mix(dv, vec3(1e-20), lessThan(abs(dv), vec3(1e-20)));
   return r;
 }
+
+#ifdef FRAGMENT_STAGE
+// This fragment's ray: at its pixel's centre.
+PixelRay pixelRay() { return pixelRayAt(gl_FragCoord.xy); }
+#endif
 
 // The parameter range (in, out) of the ray o + t·d (voxel coordinates, inv = 1 / d) inside the box [lo, hi], from
 // t = 0 on: empty when in > out.

@@ -13,7 +13,7 @@
 // the same number at level 0). Positions, ownership and planes stay in level-0 voxels. Voxel coordinates are clamped
 // to [0, n] before a fetch: within half a voxel of the surface the value is the edge voxel's (clamp-to-edge) either
 // way, and the fetch stays in the slot.
-#ifdef FRAGMENT_STAGE
+#if defined(FRAGMENT_STAGE) || defined(COMPUTE_STAGE)
 
 layout(binding = VB_UNIT_ATLAS) uniform sampler3D uAtlas;
 layout(binding = VB_UNIT_TRANSFER) uniform sampler1D uTransfer;

@@ -18,7 +18,7 @@
 #   mri-sweep-512   90  voxbrick bench on the MRI at 512^2, 8 views, steps 0.5/0.75/1: ray caster, slabs of 32,
 #                       slicing; frame times and PSNR against the CPU reference
 #   roofline        90  bench_render on the MRI at 512^2, 1024^2 (8 views), 2048^2 (2): the default settings beside the
-#                       sampling roofline (one trilinear fetch per sample)
+#                       sampling roofline (one trilinear fetch per sample); the ray caster's fragment and compute kernels
 #   mri-sweep-1024  60  as mri-sweep-512 at 1024^2, 2 views, steps 0.75/1
 #   mri-sweep-2048 110  as mri-sweep-512 at 2048^2, 1 view, step 0.75, the reference at step 0.25
 #                       (the sweep's references, two transfer functions a view at step 0.125, are CPU renders:
@@ -132,9 +132,11 @@ if [ "${1:-}" = "--step" ]; then
         [ -f "$WORK/bench_render/mri-ch2better-b$brick.vbs/store.json" ] ||
           vb prep "$KIT/data/ch2better.nii.gz" --brick "$brick" --no-vdb -q -o "$WORK/bench_render/mri-ch2better-b$brick.vbs"
       done
-      configs='vertex slicer, skip|vertex slicer, no skip|vertex slicer, skip, sub-block 8|roofline, no skip|slab 32, ert 0.999, skip, sub-block 8|slab 32, skip, sub-block 8|slab 32, skip, sub-block 8, roofline|raycast, ert 0.999, skip, sub-block 8|raycast, skip, sub-block 8|raycast, skip, sub-block 8, roofline'
+      # The ray caster with each kernel ("raycast": fragment, "raycast compute": compute), each beside its roofline.
+      configs='vertex slicer, skip|vertex slicer, no skip|vertex slicer, skip, sub-block 8|roofline, no skip|slab 32, ert 0.999, skip, sub-block 8|slab 32, skip, sub-block 8|slab 32, skip, sub-block 8, roofline|raycast, ert 0.999, skip, sub-block 8|raycast, skip, sub-block 8|raycast, skip, sub-block 8, roofline|raycast compute, ert 0.999, skip, sub-block 8|raycast compute, skip, sub-block 8|raycast compute, skip, sub-block 8, roofline'
       echo "bench_render on the MRI ($sizes: size:views), step 0.5: each setting beside its roofline (one trilinear fetch" \
-        "per sample, no classification, no blending). One CSV and markdown per size." >> "$md"; echo >> "$md"
+        "per sample, no classification, no blending); the ray caster's fragment kernel (raycast) and compute kernel" \
+        "(raycast compute). One CSV and markdown per size." >> "$md"; echo >> "$md"
       for sv in $sizes; do
         size=${sv%:*} views=${sv#*:}
         cmd timeout "$(left 3)" "$KIT/bin/bench_render" --out "$dir" --work "$WORK/bench_render" --size "$size" \

@@ -46,6 +46,7 @@ nlohmann::json FrameStats::toJson() const {
                         {"pre_integration", msPreIntegration},
                         {"sorting", msSorting}}}};
   if (!fallback.empty()) j["fallback"] = fallback;
+  if (!raycaster.empty()) j["raycaster"] = raycaster;
   if (!quality.is_null()) j["quality"] = quality;
   if (!interactive.is_null()) j["interactive"] = interactive;
   return j;

@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -34,6 +35,9 @@ struct FrameStats {
   int64_t bricksEvicted = 0;               ///< replaced in the atlas this frame
   double samplesEstimated = 0;  ///< the frame's cost as estimated before drawing (FramePlan::estimatedSamples)
   int64_t batches = 0;          ///< draw batches (more than one when the atlas cannot hold the frame's bricks)
+  /// A ray-cast grid frame: the kernel that drew it, "fragment" or "compute" (Scene::raycaster, auto resolved); empty
+  /// otherwise.
+  std::string raycaster;
   int64_t slices = 0;           ///< brick-plane polygons submitted (slicing and slabs; the ray caster has none)
   int64_t fragments = 0;        ///< volume fragments started: slices (GL_SAMPLES_PASSED) or slab fragments
   int64_t samples = 0;          ///< volume samples taken: one per slice fragment, several per slab fragment

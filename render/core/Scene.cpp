@@ -1,4 +1,4 @@
-// The scene: names of slicers, orders and views, the camera as a user gives it, and the scene's reading, checking
+// The scene: names of slicers, ray casters, orders and views, the camera as a user gives it, and the scene's reading, checking
 // and writing through its schema (SceneSchema.cpp).
 #include "render/core/Scene.h"
 
@@ -17,6 +17,10 @@ TetSort parseTetSort(const std::string& name, const std::string& what) {
 
 Slicer parseSlicer(const std::string& name, const std::string& what) {
   return common::parseName<Slicer, RenderInputError>(name, "slicer", what);
+}
+
+RayCaster parseRayCaster(const std::string& name, const std::string& what) {
+  return common::parseName<RayCaster, RenderInputError>(name, "ray caster", what);
 }
 
 namespace {

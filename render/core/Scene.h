@@ -48,6 +48,23 @@ inline const char* slicerName(Slicer slicer) { return common::nameOf(slicer); }
 /// The slicer named `name`; throws RenderInputError naming `what`, the closest name and the valid ones otherwise.
 Slicer parseSlicer(const std::string& name, const std::string& what);
 
+/// Which kernel of the frame ray caster draws a ray-cast frame (render/gl/volume/RayCastPass.h). Both march the same
+/// samples through the same code (shaders/volume_march.glsl); they differ in how the GPU runs it: a fragment per pixel
+/// blended into the target, or a compute invocation per pixel that composites into it itself, in workgroups that
+/// reach every core of a data-centre GPU where its graphics pipeline reaches only a few.
+enum class RayCaster {
+  Auto,      ///< "auto": the faster on the device (render/gl/volume/ComputeRayCast.h: computeRayCasterByDefault)
+  Fragment,  ///< "fragment": a full-screen triangle per batch, blended
+  Compute,   ///< "compute": a compute dispatch per batch and band
+};
+inline constexpr common::EnumName<RayCaster> kRayCasterNames[] = {
+    {RayCaster::Auto, "auto"}, {RayCaster::Fragment, "fragment"}, {RayCaster::Compute, "compute"}};
+constexpr std::span<const common::EnumName<RayCaster>> enumNames(RayCaster) { return kRayCasterNames; }
+/// "auto", "fragment", "compute".
+inline const char* rayCasterName(RayCaster kernel) { return common::nameOf(kernel); }
+/// The kernel named `name`; throws RenderInputError naming `what`, the closest name and the valid ones otherwise.
+RayCaster parseRayCaster(const std::string& name, const std::string& what);
+
 /// How a tetrahedral mesh's cells are put in visibility order. Mpvo: the meshed-polyhedra visibility
 /// order, a breadth-first walk of the face-adjacency graph from the cells nothing hides (exact for a convex mesh
 /// without cycles). Centroid: cells by the distance of their centroids from the eye (cheaper, approximate where
@@ -160,6 +177,8 @@ struct GridTechnique {
   /// take, so the image is the same beyond round-off; `slab` and `ess` then have no effect, ert and pre_integration
   /// apply. The default; a volume too large for the cell table (render/volume/FramePlan.h) is drawn with slabs instead.
   bool raycast = true;
+  /// The ray caster's kernel: the fragment program or the compute program, the same samples; auto chooses by device.
+  RayCaster raycaster = RayCaster::Auto;
   /// Early ray termination on texture slabs: 0 (off) or a threshold in [0.5, 1]. Between slabs a pass marks the
   /// pixels whose accumulated opacity reached it in the depth buffer (a slab silhouette map), and the early depth
   /// test skips their fragments in every later slab; a fragment also stops marching when its own opacity reaches

@@ -376,6 +376,18 @@ std::vector<SceneKey> buildSchema() {
     field<&Scene::raycast>(k);
   }
   {
+    SceneKey& k = add(keys, "raycaster", T::Name, C::Grid, A::Grids,
+                      "the ray caster's kernel: fragment (a pixel per fragment, blended) or compute (a pixel per "
+                      "invocation); the same samples; auto: the faster on the device");
+    k.names = common::enumNameList<RayCaster>();
+    k.option = "--raycaster", k.optionForm = "NAME";
+    k.example = "compute";
+    k.value = [](const Scene& s) { return json(rayCasterName(s.raycaster)); };
+    k.set = [](Scene& s, const json& v, const SceneSetting& setting) {
+      s.raycaster = parseRayCaster(v.get<std::string>(), setting.name);
+    };
+  }
+  {
     SceneKey& k = add(keys, "ert", T::Number, C::Grid, A::Both,
                       "early ray termination: a ray stops at this opacity (0: off), moving a pixel by at most 1 - ert");
     k.range = {.lo = 0.5, .hi = 1, .zeroToo = true};

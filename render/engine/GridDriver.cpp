@@ -108,12 +108,14 @@ class GridDriver final : public DatasetDriver {
       for (int64_t n : stats.bricksPerLevel) levels += " " + std::to_string(n);
       levels += ")";
     }
+    const std::string kernel = stats.raycaster.empty() ? "" : " (" + stats.raycaster + " ray caster)";
     std::vector<std::string> lines{printed(
-        "%s: %lld bricks drawn%s, %lld skipped empty, %lld culled, %lld paged in, %lld evicted, %lld batches, %.1f ms "
-        "(paging %.1f, slicing %.1f, drawing %.1f, readback %.1f)",
+        "%s: %lld bricks drawn%s, %lld skipped empty, %lld culled, %lld paged in, %lld evicted, %lld batches%s, %.1f "
+        "ms (paging %.1f, slicing %.1f, drawing %.1f, readback %.1f)",
         written.c_str(), (long long)stats.bricksDrawn, levels.c_str(), (long long)stats.bricksSkippedEmpty,
         (long long)stats.bricksCulled, (long long)stats.bricksPagedIn, (long long)stats.bricksEvicted,
-        (long long)stats.batches, stats.msTotal, stats.msPaging, stats.msSlicing, stats.msDrawing, stats.msReadback)};
+        (long long)stats.batches, kernel.c_str(), stats.msTotal, stats.msPaging, stats.msSlicing, stats.msDrawing,
+        stats.msReadback)};
     if (!stats.fallback.empty()) lines.push_back(stats.fallback);
     if (stats.bricksFitCoarsened > 0)
       lines.push_back(printed(

@@ -6,8 +6,8 @@
 
 namespace voxbrick::render {
 
-void drawTiled(const Gl& gl, int width, int height, Checkpoints& checkpoints, double samplesPerPixel,
-               const std::function<void()>& draw) {
+void forEachTile(int width, int height, Checkpoints& checkpoints, double samplesPerPixel,
+                 const std::function<void(int x, int y, int w, int h)>& tile) {
   int rows = kBandRows, columns = width;
   if (const double interval = checkpoints.intervalSamples(); interval > 0 && samplesPerPixel > 0) {
     const double pixels = std::max(1.0, std::floor(interval / samplesPerPixel));
@@ -16,14 +16,21 @@ void drawTiled(const Gl& gl, int width, int height, Checkpoints& checkpoints, do
     else
       rows = 1, columns = std::max(1, int(pixels));
   }
+  for (int y = 0; y < height; y += rows)
+    for (int x = 0; x < width; x += columns) {
+      tile(x, y, std::min(columns, width - x), std::min(rows, height - y));
+      checkpoints.pace();
+    }
+}
+
+void drawTiled(const Gl& gl, int width, int height, Checkpoints& checkpoints, double samplesPerPixel,
+               const std::function<void()>& draw) {
   gl.glEnable(GL_SCISSOR_TEST);
   try {
-    for (int y = 0; y < height; y += rows)
-      for (int x = 0; x < width; x += columns) {
-        gl.glScissor(x, y, std::min(columns, width - x), std::min(rows, height - y));
-        draw();
-        checkpoints.pace();
-      }
+    forEachTile(width, height, checkpoints, samplesPerPixel, [&](int x, int y, int w, int h) {
+      gl.glScissor(x, y, w, h);
+      draw();
+    });
   } catch (...) {
     gl.glDisable(GL_SCISSOR_TEST);  // a cancelled frame leaves the state every pass expects
     throw;

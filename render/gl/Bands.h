@@ -13,11 +13,17 @@ namespace voxbrick::render {
 /// Rows of a band of drawInBands when the cost does not ask for fewer.
 inline constexpr int kBandRows = 64;
 
-/// Calls `draw` once per scissor rectangle covering width x height, pacing `checkpoints` after each: bands of
+/// Calls `tile(x, y, w, h)` once per rectangle covering width x height, pacing `checkpoints` after each: bands of
 /// kBandRows rows, or, when the checkpoints have an interval (Checkpoints::intervalSamples) and `samplesPerPixel`
 /// (the most samples a pixel of the pass may take) is given, bands of as many rows as the interval holds, down to
-/// tiles of part of a row. The scissor test is off afterwards, also when FrameCancelled is thrown. Splitting never
-/// changes a pixel: each is drawn once, by the same draw.
+/// tiles of part of a row. Each pixel is in exactly one rectangle. What drawTiled and the compute ray caster's
+/// dispatches (render/gl/volume/ComputeRayCast.h) split their passes by.
+void forEachTile(int width, int height, Checkpoints& checkpoints, double samplesPerPixel,
+                 const std::function<void(int x, int y, int w, int h)>& tile);
+
+/// Calls `draw` once per rectangle of forEachTile, with the scissor set to it, pacing `checkpoints` after each. The
+/// scissor test is off afterwards, also when FrameCancelled is thrown. Splitting never changes a pixel: each is
+/// drawn once, by the same draw.
 void drawTiled(const Gl& gl, int width, int height, Checkpoints& checkpoints, double samplesPerPixel,
                const std::function<void()>& draw);
 

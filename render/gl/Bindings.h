@@ -1,6 +1,7 @@
 // The binding points that the C++ passes and the GLSL programs share, defined once: texture units (samplers are
-// declared layout(binding = VB_UNIT_...)), shader storage binding points (layout(std430, binding = VB_BINDING_...)),
-// and the layout of the storage buffers both sides read.
+// declared layout(binding = VB_UNIT_...)), image units (layout(binding = VB_IMAGE_...)), shader storage binding points
+// (layout(std430, binding = VB_BINDING_...)), the layout of the storage buffers both sides read, and the workgroup
+// of the compute programs.
 //
 // Written in the common subset of C++ and GLSL (include guard, #define, // comments only): C++ includes it, and
 // ProgramSources::fromFiles appends it to every program's preamble (embedded as "Bindings.h" by
@@ -18,6 +19,9 @@
 #define VB_UNIT_TET_ENTRY_DEPTH 5  // and its depth (sampler2D uEntryDepth)
 #define VB_UNIT_CELL_DIRECTORY 6  // the cell table's directory of pages (isampler3D uCellDirectory), CellTable.h
 
+// Image units.
+#define VB_IMAGE_ACCUMULATED 0  // the compositor's target, read and written by raycast.comp.glsl (Compositor::bindImage)
+
 // Shader storage buffer binding points.
 #define VB_BINDING_SAMPLE_COUNTERS 0   // SlabCounters: the marching fragments' counters, render/gl/SampleCounters.h
 #define VB_BINDING_TET_VERTICES 1      // TetVertices: four vec4 a tet (position xyz, scalar w)
@@ -33,5 +37,12 @@
 #define VB_COUNTER_SAMPLES 1             // samples taken
 #define VB_COUNTER_SAMPLES_TERMINATED 2  // samples left untaken when a fragment's opacity reached the threshold
 #define VB_COUNTERS 3
+
+// The compute ray caster's workgroup (raycast.comp.glsl, render/gl/volume/ComputeRayCast.h): a tile of pixels, so
+// that neighbouring rays, which read neighbouring texels, run together. On llvmpipe groups of 64 invocations or more
+// (8 x 8, 16 x 8, 16 x 16, 32 x 1, 64 x 1) ran alike and smaller ones (4 x 4, 8 x 4) up to twice as long
+// (bench/results/render/raycaster-groups.md); 8 x 8 is two of NVIDIA's warps of 32.
+#define VB_RAYCAST_GROUP_X 8
+#define VB_RAYCAST_GROUP_Y 8
 
 #endif

@@ -77,6 +77,10 @@ void Compositor::bindSilhouette() const {
   mGl.glViewport(0, 0, mTarget.width(), mTarget.height());
 }
 
+void Compositor::bindImage(GLuint unit) const {
+  mGl.glBindImageTexture(unit, mTarget.color().id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_RGBA32F);
+}
+
 image::ImageF Compositor::finish(const Scene& scene, FrameStats& stats, bool premultiplied) {
   mGl.glEndQuery(GL_SAMPLES_PASSED);
   mCounting = false;

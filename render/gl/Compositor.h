@@ -26,6 +26,10 @@ class Compositor {
   /// the silhouette map while it reads accumulated(); target() binds the whole target again.
   void bindSilhouette() const;
   void bindTarget() const { mTarget.bind(); }
+  /// Binds the target's colour to image unit `unit` (GL_RGBA32F, read and write), for a compute pass that composites
+  /// into it itself (render/gl/volume/ComputeRayCast.h): blending, the silhouette map and the fragment count do not
+  /// apply to it, and it must issue its own memory barriers before the target is read or drawn to again.
+  void bindImage(GLuint unit) const;
   /// Waits for the passes, reads the target back and composites it over the scene's background, out = C + (1 - A)
   /// * bg, or keeps the opacity as alpha when the background is transparent (Scene::output). Fills fragments,
   /// msDrawing (the wait) and msReadback. With `premultiplied` (a part's frame in sort-last rendering) the target is

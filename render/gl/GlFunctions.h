@@ -59,7 +59,7 @@ namespace voxbrick::render {
   X(PFNGLGETBUFFERSUBDATAPROC, glGetBufferSubData)                               \
   X(PFNGLMAPBUFFERRANGEPROC, glMapBufferRange)                                   \
   X(PFNGLUNMAPBUFFERPROC, glUnmapBuffer)                                         \
-  /* vertex arrays and drawing */                                                \
+  /* vertex arrays, drawing, compute */                                          \
   X(PFNGLGENVERTEXARRAYSPROC, glGenVertexArrays)                                 \
   X(PFNGLDELETEVERTEXARRAYSPROC, glDeleteVertexArrays)                           \
   X(PFNGLBINDVERTEXARRAYPROC, glBindVertexArray)                                 \
@@ -71,6 +71,7 @@ namespace voxbrick::render {
   X(PFNGLDRAWARRAYSPROC, glDrawArrays)                                           \
   X(PFNGLDRAWARRAYSINSTANCEDPROC, glDrawArraysInstanced)                         \
   X(PFNGLDRAWARRAYSINSTANCEDBASEINSTANCEPROC, glDrawArraysInstancedBaseInstance) \
+  X(PFNGLDISPATCHCOMPUTEPROC, glDispatchCompute)                                 \
   /* textures */                                                                 \
   X(PFNGLGENTEXTURESPROC, glGenTextures)                                         \
   X(PFNGLDELETETEXTURESPROC, glDeleteTextures)                                   \
@@ -89,6 +90,7 @@ namespace voxbrick::render {
   X(PFNGLTEXSTORAGE3DPROC, glTexStorage3D)                                       \
   X(PFNGLTEXBUFFERPROC, glTexBuffer)                                             \
   X(PFNGLGETTEXIMAGEPROC, glGetTexImage)                                         \
+  X(PFNGLBINDIMAGETEXTUREPROC, glBindImageTexture)                               \
   /* framebuffers and renderbuffers */                                           \
   X(PFNGLGENFRAMEBUFFERSPROC, glGenFramebuffers)                                 \
   X(PFNGLDELETEFRAMEBUFFERSPROC, glDeleteFramebuffers)                           \
@@ -136,6 +138,7 @@ namespace voxbrick::render {
   X(PFNGLPROGRAMUNIFORM2FPROC, glProgramUniform2f)                               \
   X(PFNGLPROGRAMUNIFORM3FPROC, glProgramUniform3f)                               \
   X(PFNGLPROGRAMUNIFORM4FPROC, glProgramUniform4f)                               \
+  X(PFNGLPROGRAMUNIFORM4IPROC, glProgramUniform4i)                               \
   X(PFNGLPROGRAMUNIFORMMATRIX4FVPROC, glProgramUniformMatrix4fv)                 \
   X(PFNGLGETUNIFORMBLOCKINDEXPROC, glGetUniformBlockIndex)                       \
   X(PFNGLUNIFORMBLOCKBINDINGPROC, glUniformBlockBinding)                         \

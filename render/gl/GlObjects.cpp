@@ -252,6 +252,9 @@ void Program::set(GLint location, const glm::vec3& value) const {
 void Program::set(GLint location, const glm::vec4& value) const {
   gl()->glProgramUniform4f(id(), location, value.x, value.y, value.z, value.w);
 }
+void Program::set(GLint location, const glm::ivec4& value) const {
+  gl()->glProgramUniform4i(id(), location, value.x, value.y, value.z, value.w);
+}
 void Program::set(GLint location, const glm::mat4& value) const {
   gl()->glProgramUniformMatrix4fv(id(), location, 1, GL_FALSE, glm::value_ptr(value));
 }

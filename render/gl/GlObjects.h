@@ -181,6 +181,7 @@ class Program : public detail::GlName<detail::deleteProgram> {
   void set(GLint location, const glm::vec2& value) const;
   void set(GLint location, const glm::vec3& value) const;
   void set(GLint location, const glm::vec4& value) const;
+  void set(GLint location, const glm::ivec4& value) const;
   void set(GLint location, const glm::mat4& value) const;
   void set(GLint location, std::span<const int> values) const;
   void set(GLint location, std::span<const float> values) const;

@@ -5,6 +5,7 @@
 #include <chrono>
 
 #include "render/core/FrameStats.h"
+#include "render/gl/volume/ComputeRayCast.h"
 
 namespace voxbrick::render {
 namespace {
@@ -63,12 +64,16 @@ void RayCastPass::draw(const FramePlan& plan, Residency& residency, const Volume
 void RayCastPass::march(const FramePlan& plan, const VolumeProgram& program, Compositor& compositor,
                         FrameStats& stats, Checkpoints& checkpoints) {
   auto t = Clock::now();
-  if (plan.ert > 0 && mBatchesDrawn > 0) mTermination.run(plan.ert, compositor);
+  if (plan.ert > 0 && mBatchesDrawn > 0 && !program.compute()) mTermination.run(plan.ert, compositor);
   stats.msSlicing += msSince(t);
   t = Clock::now();
-  program.program().use();
-  mNoAttributes.bind();
-  drawInBands(mGl, plan.width, plan.height, checkpoints, mSamplesPerPixel);
+  if (program.compute()) {
+    dispatchRayCast(mGl, program, compositor, plan.width, plan.height, checkpoints, mSamplesPerPixel);
+  } else {
+    program.program().use();
+    mNoAttributes.bind();
+    drawInBands(mGl, plan.width, plan.height, checkpoints, mSamplesPerPixel);
+  }
   ++mBatchesDrawn;
   stats.batches += 1;
   stats.msDrawing += msSince(t);

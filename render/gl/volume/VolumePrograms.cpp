@@ -1,4 +1,4 @@
-// Building slicing programs from the embedded shaders and setting their per-frame uniforms.
+// Building the grid programs (slicing, slabs, the ray caster's two kernels) from the embedded shaders and setting their per-frame uniforms.
 #include "render/gl/volume/VolumePrograms.h"
 
 #include <string>
@@ -25,14 +25,20 @@ ProgramSources sources(const ProgramKey& key) {
   if (key.preIntegration) defines.push_back("PRE_INTEGRATION");
   if (key.emptyTest) defines.push_back("EMPTY_TEST");
   if (key.multiOriented) defines.push_back("MULTI_ORIENTED");
+  // The grid programs' libraries (after the slicer's, if any); the ray caster's kernels share their march.
+  std::vector<std::string> libraries{"volume_sample.glsl", "volume_ownership.glsl", "volume_ray.glsl"};
+  if (!slices(key)) libraries.push_back("volume_counters.glsl");
+  if (key.raycast) libraries.push_back("volume_march.glsl");
+  // The compute ray caster is one stage.
+  if (key.raycast && key.compute)
+    return ProgramSources::fromFiles("volume/raycast.comp.glsl", {{GL_COMPUTE_SHADER, "raycast.comp.glsl"}},
+                                     std::move(defines), libraries);
   // The stages before the fragment program: the proxy of slabs or the ray caster, or the slicer's.
   ProgramSources program = key.raycast ? ProgramSources::fromFiles({}, {{GL_VERTEX_SHADER, "raycast.vert.glsl"}})
                            : key.slab  ? ProgramSources::fromFiles({}, {{GL_VERTEX_SHADER, "slab.vert.glsl"}})
                                        : slicerSources(key.slicer, {});
-  // The technique's fragment program and the grid programs' libraries it uses (after the slicer's, if any).
+  // The technique's fragment program.
   const char* fragment = key.raycast ? "raycast.frag.glsl" : key.slab ? "slab.frag.glsl" : "slice.frag.glsl";
-  std::vector<std::string> libraries{"volume_sample.glsl", "volume_ownership.glsl", "volume_ray.glsl"};
-  if (!slices(key)) libraries.push_back("volume_counters.glsl");
   for (const std::string& file : libraries) program.libraries.push_back({file, std::string(shaderSource(file))});
   program.name = "volume/";
   for (const ShaderStage& stage : program.stages) program.name += stage.name + "+";
@@ -75,7 +81,9 @@ ProgramSources slicerSources(Slicer slicer, std::string name) {
   throw RenderInputError("slicerSources: unknown slicer " + std::to_string(int(slicer)));
 }
 
-VolumeProgram::VolumeProgram(const Gl& gl, const ProgramKey& key) : mProgram(build(gl, key)) {
+VolumeProgram::VolumeProgram(const Gl& gl, const ProgramKey& key)
+    : mProgram(build(gl, key)), mCompute(key.raycast && key.compute) {
+  if (mCompute) mTile = mProgram.requireUniform("uTile");
   if (key.slicer == Slicer::Vertex && slices(key))
     for (const SliceTableUniform& table : kSliceTableUniforms)
       mProgram.set(mProgram.requireUniform(table.name), table.values);

@@ -32,6 +32,8 @@ struct ProgramKey {
   bool emptyTest = false;       ///< EMPTY_TEST (slabs): the empty-space silhouette pass, no colour
   bool raycast = false;         ///< the frame ray caster: a full-screen proxy (raycast.vert.glsl, raycast.frag.glsl), a
                                 ///< pixel's whole ray per fragment
+  bool compute = false;         ///< with raycast: its compute kernel instead (raycast.comp.glsl), a pixel's whole ray
+                                ///< per invocation (render/gl/volume/ComputeRayCast.h)
   bool multiOriented = false;   ///< MULTI_ORIENTED: bricks lie in the atlas with rotated axes (AtlasBricking)
   auto operator<=>(const ProgramKey&) const = default;
 };
@@ -57,6 +59,10 @@ class VolumeProgram {
   /// Sets the cell table's grid (ray caster variants): `cells` cells of 2^`shift` voxels; the table is on
   /// VB_UNIT_CELLS.
   void setCells(const glm::ivec3& cells, int shift) const;
+  /// The compute ray caster's tile (compute variants): the pixels [xy, zw) of the next dispatch.
+  void setTile(const glm::ivec4& tile) const { mProgram.set(mTile, tile); }
+  /// Whether it is a compute program (ProgramKey::compute), dispatched rather than drawn.
+  bool compute() const { return mCompute; }
 
  private:
   Program mProgram;
@@ -67,6 +73,8 @@ class VolumeProgram {
         cellCount;
   } mAt;
   GLint mPaths = -1;         // uPaths of the vertex-lean, geometry and vertex-geometry slicers
+  GLint mTile = -1;          // uTile of the compute ray caster
+  bool mCompute = false;     // a compute ray caster variant
   bool mStripOrder = false;  // its rows in strip order (the geometry slicer)
 };
 

@@ -8,6 +8,7 @@
 #include "render/core/FrameStats.h"
 #include "render/core/RenderErrors.h"
 #include "render/gl/Bindings.h"
+#include "render/gl/volume/ComputeRayCast.h"
 #include "render/volume/FramePlan.h"
 
 namespace voxbrick::render {
@@ -26,7 +27,8 @@ VolumeRenderer::VolumeRenderer(GlContext& context, std::shared_ptr<store::BrickC
       mCompositor(mGl),
       mSlabs(mGl),
       mRayCast(mGl),
-      mPreIntegration(mGl) {
+      mPreIntegration(mGl),
+      mComputeByDefault(computeRayCasterByDefault(context)) {
   mTransfer.bind(VB_UNIT_TRANSFER);
   mGl.glTexStorage1D(GL_TEXTURE_1D, 1, GL_RGBA32F, kTransferTableTexels);
   mGl.glTexParameteri(GL_TEXTURE_1D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
@@ -99,6 +101,9 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
                                               : FragmentModel::Plain,
                  plan.exactOwnership() && !plan.marches(), plan.slab > 0, plan.preIntegration};
   key.raycast = plan.raycast;
+  key.compute = plan.raycast && (scene.raycaster == RayCaster::Compute ||
+                                 (scene.raycaster == RayCaster::Auto && mComputeByDefault));
+  if (plan.raycast) stats.raycaster = key.compute ? "compute" : "fragment";
   key.multiOriented = mResidency.atlas().bricking() == AtlasBricking::MultiOriented;
   const VolumeProgram& program = mPrograms.get(key);
   program.setFrame(plan, mResidency.atlas(), store.meta());

@@ -64,6 +64,7 @@ class VolumeRenderer final : public FrameRenderer {
   SlabPass mSlabs;
   RayCastPass mRayCast;
   PreIntegrationTexture mPreIntegration;
+  bool mComputeByDefault;  // RayCaster::Auto's kernel on this context's device
 };
 
 }  // namespace voxbrick::render

@@ -27,17 +27,18 @@ using test::meanBrightness;
 using test::prep;
 using test::ScratchDir;
 
-enum class Technique { RayCast, Slicing, Slabs };
+enum class Technique { RayCast, Slicing, Slabs, RayCastCompute };
 
-/// A small frame (72x64) of lodScene's camera with `tf` and `technique`: the ray caster (the default), slicing of
-/// whole bricks (slicingScene, whose whole frame shares rasterised faces where a part's owns exactly) or texture
-/// slabs.
+/// A small frame (72x64) of lodScene's camera with `tf` and `technique`: the ray caster (the default; its fragment
+/// kernel, or its compute kernel), slicing of whole bricks (slicingScene, whose whole frame shares rasterised faces
+/// where a part's owns exactly) or texture slabs.
 Scene sceneFor(Technique technique, const std::string& tf) {
   Scene scene = technique == Technique::Slicing ? test::slicingScene(tf) : test::lodScene(Scene{}.lod);
   scene.width = 72;
   scene.height = 64;
   scene.transferFunction = TransferFunction::load(tf);
   if (technique == Technique::Slabs) scene.raycast = false;
+  scene.raycaster = technique == Technique::RayCastCompute ? RayCaster::Compute : RayCaster::Fragment;
   return scene;
 }
 
@@ -116,6 +117,7 @@ void expectEveryCase(Technique technique) {
 }
 
 TEST(Parts, RayCasterPartsCompositeToTheWholeFrame) { expectEveryCase(Technique::RayCast); }
+TEST(Parts, ComputeRayCasterPartsCompositeToTheWholeFrame) { expectEveryCase(Technique::RayCastCompute); }
 TEST(Parts, SlicingPartsCompositeToTheWholeFrame) { expectEveryCase(Technique::Slicing); }
 TEST(Parts, SlabPartsCompositeToTheWholeFrame) { expectEveryCase(Technique::Slabs); }
 
@@ -155,7 +157,7 @@ TEST(Parts, PartsDrawnInSeveralBatchesStillComposite) {
   ScratchDir dir;
   const auto s = prep("synthetic:blobs,n=64", dir / "b", 16);
   const size_t gpuBudget = 6 * size_t(18 * 18 * 18) * sizeof(float);
-  for (Technique technique : {Technique::RayCast, Technique::Slabs}) {
+  for (Technique technique : {Technique::RayCast, Technique::RayCastCompute, Technique::Slabs}) {
     Scene scene = sceneFor(technique, "mri");
     scene.lod = 0;
     auto cache = std::make_shared<store::BrickCache>(s, size_t(256) << 20, 1);

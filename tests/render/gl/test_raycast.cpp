@@ -1,9 +1,12 @@
 // The frame ray caster against slicing and slabs: the same samples on the same global planes, found through the
 // cell table instead of a proxy per box, must give their image (within 1/255) for any camera, bricking, sub-block,
-// budget and level of detail; termination stays within its bound; the cell table's limits fall back to slabs.
+// budget and level of detail, with either kernel (fragment or compute); the two kernels take the same samples and
+// draw the same frames; termination stays within its bound; the cell table's limits fall back to slabs.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <string>
+#include <vector>
 
 #include "image/Image.h"
 #include "render/core/RenderErrors.h"
@@ -11,6 +14,7 @@
 #include "render/gl/volume/CellTable.h"
 #include "render/reference/ReferenceRenderer.h"
 #include "render/volume/FramePlan.h"
+#include "render/volume/Partition.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {
@@ -25,15 +29,32 @@ using test::ScratchDir;
 /// Slicing, the baseline.
 Scene slicing(const std::string& tf) { return test::slicingScene(tf); }
 
-Scene rayCast(Scene scene) {
+Scene rayCast(Scene scene, RayCaster kernel = RayCaster::Auto) {
   scene.raycast = true;
+  scene.raycaster = kernel;
   return scene;
 }
+
+/// The tests of the ray caster's frames, run with each kernel.
+class RayCastKernel : public testing::TestWithParam<RayCaster> {
+ protected:
+  Scene rayCast(Scene scene) const { return render::rayCast(std::move(scene), GetParam()); }
+  /// Renders with the kernel, and checks that the frame says so.
+  image::ImageF render(const std::shared_ptr<const store::BrickStore>& s, const Scene& scene,
+                       FrameStats* stats = nullptr, size_t gpuBudget = size_t(256) << 20,
+                       const FrameOptions& options = {}) const {
+    FrameStats own;
+    image::ImageF frame = renderStore(s, scene, &own, gpuBudget, size_t(256) << 20, options);
+    EXPECT_EQ(own.raycaster, rayCasterName(GetParam()));
+    if (stats) *stats = own;
+    return frame;
+  }
+};
 
 /// The march's cameras, with the axis view from the far side as well.
 std::vector<std::pair<std::string, CameraSpec>> cameras() { return test::marchCameras(true); }
 
-TEST(RayCast, GivesSlicingsImageForEveryCameraAndCell) {
+TEST_P(RayCastKernel, GivesSlicingsImageForEveryCameraAndCell) {
   ScratchDir dir;
   const auto s = prep("synthetic:marschner-lobb,n=40", dir / "ml", 16);
   for (const auto& [name, camera] : cameras()) {
@@ -45,7 +66,7 @@ TEST(RayCast, GivesSlicingsImageForEveryCameraAndCell) {
       Scene cast = rayCast(scene);
       cast.subBlock = subBlock;
       FrameStats stats;
-      test::expectSameDrawing(renderStore(s, cast, &stats), sliced, 1.0 / 255, *s, scene,
+      test::expectSameDrawing(render(s, cast, &stats), sliced, 1.0 / 255, *s, scene,
                               "raycast-sub" + std::to_string(subBlock) + "-" + name);
       // One fragment per pixel whose ray meets the volume, at most.
       EXPECT_LE(stats.fragments, int64_t(scene.width) * scene.height) << name;
@@ -55,7 +76,7 @@ TEST(RayCast, GivesSlicingsImageForEveryCameraAndCell) {
   }
 }
 
-TEST(RayCast, TakesTheSamplesSlabsTake) {
+TEST_P(RayCastKernel, TakesTheSamplesSlabsTake) {
   ScratchDir dir;
   const auto s = prep("synthetic:sparse,n=96", dir / "s", 16);
   Scene scene = slicing("sparse");
@@ -64,7 +85,7 @@ TEST(RayCast, TakesTheSamplesSlabsTake) {
   FrameStats slabbed, cast;
   const image::ImageF slabs = renderStore(s, scene, &slabbed);
   ASSERT_GT(meanBrightness(slabs), 0.001);
-  expectClose(renderStore(s, rayCast(scene), &cast), slabs, 1.0 / 255, "raycast-vs-slabs");
+  expectClose(render(s, rayCast(scene), &cast), slabs, 1.0 / 255, "raycast-vs-slabs");
   // Every sample a slab takes in a box, the ray caster takes in the box's cells (samples exactly on a face between
   // an empty cell and a drawn one may go either way; they add nothing).
   EXPECT_NEAR(double(cast.samples), double(slabbed.samples), 0.01 * double(slabbed.samples));
@@ -72,11 +93,11 @@ TEST(RayCast, TakesTheSamplesSlabsTake) {
   // Sub-blocks skip empty space inside bricks here too: fewer samples than whole bricks would take.
   FrameStats whole;
   scene.subBlock = 0;
-  renderStore(s, rayCast(scene), &whole);
+  render(s, rayCast(scene), &whole);
   EXPECT_LT(cast.samples * 10, whole.samples * 9);
 }
 
-TEST(RayCast, ShadingAndPreIntegration) {
+TEST_P(RayCastKernel, ShadingAndPreIntegration) {
   ScratchDir dir;
   const auto s = prep("synthetic:sparse,n=96", dir / "s", 16);
   Scene scene = slicing("sparse");
@@ -86,7 +107,7 @@ TEST(RayCast, ShadingAndPreIntegration) {
   for (int subBlock : {0, 4}) {
     Scene cast = rayCast(scene);
     cast.subBlock = subBlock;
-    test::expectSameDrawing(renderStore(s, cast), sliced, 1.0 / 255, *s, scene,
+    test::expectSameDrawing(render(s, cast), sliced, 1.0 / 255, *s, scene,
                             "raycast-shaded-sub" + std::to_string(subBlock));
   }
   // Pre-integrated: a whole-brick cell is the slab's box, so the back samples are read alike.
@@ -96,14 +117,14 @@ TEST(RayCast, ShadingAndPreIntegration) {
   scene.step = 1;
   const image::ImageF slabs = renderStore(s, scene);
   ASSERT_GT(meanBrightness(slabs), 0.001);
-  const image::ImageF cast = renderStore(s, rayCast(scene));
+  const image::ImageF cast = render(s, rayCast(scene));
   test::expectSameDrawing(cast, slabs, 1.0 / 255, *s, scene, "raycast-pre-integrated");
   scene.preIntegration = false;
-  EXPECT_GT(image::compareImages(renderStore(s, rayCast(scene)), cast).maxAbs, 4.0 / 255)
+  EXPECT_GT(image::compareImages(render(s, rayCast(scene)), cast).maxAbs, 4.0 / 255)
       << "the table is used: post-classification at this step differs";
 }
 
-TEST(RayCast, OutOfCoreEqualsInCoreAndTerminationStaysWithinItsBound) {
+TEST_P(RayCastKernel, OutOfCoreEqualsInCoreAndTerminationStaysWithinItsBound) {
   ScratchDir dir;
   const auto s = prep("synthetic:blobs,n=48", dir / "b", 8);
   Scene scene = rayCast(slicing("hot"));
@@ -114,26 +135,27 @@ TEST(RayCast, OutOfCoreEqualsInCoreAndTerminationStaysWithinItsBound) {
     scene.camera = camera;
     scene.ert = 0;
     FrameStats full;
-    const image::ImageF reference = renderStore(s, scene, &full);
+    const image::ImageF reference = render(s, scene, &full);
     ASSERT_GT(meanBrightness(reference), 0.005) << name;
     EXPECT_EQ(full.samplesTerminated, 0) << name;
     FrameStats tight;
     // A budget of a few bricks: many batches, composited one after the other along every ray.
-    expectClose(renderStore(s, scene, &tight, size_t(10) * 10 * 10 * 4 * 6, size_t(256) << 20, test::batched()),
+    expectClose(render(s, scene, &tight, size_t(10) * 10 * 10 * 4 * 6, test::batched()),
                 reference, 1.0 / 255, "raycast-out-of-core-" + name);
     EXPECT_GT(tight.batches, 5) << name;
     for (double ert : {0.95, 0.999}) {
       scene.ert = ert;
       FrameStats cut;
       // What a terminated ray leaves out is at most its remaining transmittance, 1 - ert, in every channel.
-      expectClose(renderStore(s, scene, &cut), reference, (1 - ert) + 1.0 / 255, "raycast-ert-" + name);
+      expectClose(render(s, scene, &cut), reference, (1 - ert) + 1.0 / 255, "raycast-ert-" + name);
       if (name == "oblique") {
         EXPECT_LT(cut.samples * (ert < 0.99 ? 2 : 1), full.samples) << ert;
         EXPECT_GT(cut.samplesTerminated, 0) << ert;
       }
-      // Out of core the silhouette map keeps terminated pixels from later batches.
+      // Out of core terminated pixels are not marched again in later batches: the silhouette map rejects their
+      // fragments, the compute kernel leaves them.
       FrameStats pagedCut;
-      expectClose(renderStore(s, scene, &pagedCut, size_t(10) * 10 * 10 * 4 * 6, size_t(256) << 20, test::batched()),
+      expectClose(render(s, scene, &pagedCut, size_t(10) * 10 * 10 * 4 * 6, test::batched()),
                   reference, (1 - ert) + 1.0 / 255, "raycast-ert-out-of-core-" + name);
       if (name == "oblique") {
         EXPECT_LT(pagedCut.fragments, tight.fragments) << ert;
@@ -142,7 +164,7 @@ TEST(RayCast, OutOfCoreEqualsInCoreAndTerminationStaysWithinItsBound) {
   }
 }
 
-TEST(RayCast, MixedLevelsGiveSlabsImage) {
+TEST_P(RayCastKernel, MixedLevelsGiveSlabsImage) {
   ScratchDir dir;
   const auto s = prep("synthetic:blobs,n=128", dir / "b", 16);
   for (int subBlock : {0, 8}) {
@@ -155,15 +177,113 @@ TEST(RayCast, MixedLevelsGiveSlabsImage) {
     const image::ImageF slabs = renderStore(s, scene, &slabbed);
     ASSERT_GT(meanBrightness(slabs), 0.01);
     ASSERT_GT(slabbed.bricksCoarse, 0) << "the camera must mix levels for this test to mean anything";
-    expectClose(renderStore(s, rayCast(scene), &cast), slabs, 1.0 / 255, "raycast-lod-sub" + std::to_string(subBlock));
+    expectClose(render(s, rayCast(scene), &cast), slabs, 1.0 / 255, "raycast-lod-sub" + std::to_string(subBlock));
     EXPECT_NEAR(double(cast.samples), double(slabbed.samples), 0.01 * double(slabbed.samples));
     // Out of core, each batch mixing levels.
     const size_t brick = size_t(s->brickEdge()) * s->brickEdge() * s->brickEdge() * 4;
     FrameStats tight;
-    expectClose(renderStore(s, rayCast(scene), &tight, 6 * brick, size_t(256) << 20, test::batched()), slabs, 1.0 / 255,
+    expectClose(render(s, rayCast(scene), &tight, 6 * brick, test::batched()), slabs, 1.0 / 255,
                 "raycast-lod-out-of-core-sub" + std::to_string(subBlock));
     EXPECT_GT(tight.batches, 3);
   }
+}
+
+INSTANTIATE_TEST_SUITE_P(Kernels, RayCastKernel, testing::Values(RayCaster::Fragment, RayCaster::Compute),
+                         [](const testing::TestParamInfo<RayCaster>& p) { return rayCasterName(p.param); });
+
+TEST(RayCastKernels, TheComputeKernelDrawsTheFragmentKernelsFrames) {
+  // The two kernels march the same code through the same cells and composite with the same formula, the compute
+  // kernel in the program where the fragment kernel blends, and the compute kernel skips what the silhouette map
+  // rejects: the same frames and the same counts in every case a frame can meet. (A stand-in is a cell of a coarser
+  // level, as "levels" draws; which bricks stand in depends on the cache's workers, so no two frames compare.)
+  ScratchDir dir;
+  const auto s = prep("synthetic:blobs,n=64", dir / "b", 16);
+  const size_t brick = size_t(18 * 18 * 18) * sizeof(float);
+  struct Case {
+    std::string name;
+    Scene scene = test::lodScene(Scene{}.lod);
+    FrameOptions options;
+    size_t gpuBudget = size_t(256) << 20;
+  };
+  std::vector<Case> cases;
+  auto add = [&](const std::string& name) -> Case& {
+    Case& c = cases.emplace_back();
+    c.name = name;
+    return c;
+  };
+  add("whole");
+  add("no-termination").scene.ert = 0;
+  for (const auto& [name, camera] : cameras()) add("camera-" + name).scene.camera = camera;
+  {
+    Case& c = add("batches");  // an atlas of 6 bricks, levels fixed
+    c.scene.lod = 0, c.gpuBudget = 6 * brick, c.options = test::batched();
+  }
+  {
+    Case& c = add("batches-terminated");  // a pixel terminated in one batch is left by the next
+    c.scene.lod = 0, c.scene.ert = 0.9, c.gpuBudget = 6 * brick, c.options = test::batched();
+    c.scene.transferFunction = TransferFunction::parse(
+        R"({"points": [[0, 0, 0, 0, 0], [0.04, 0, 0, 0, 0], [0.08, 1, 0.6, 0.3, 0.9], [1, 1, 1, 1, 1]]})", "opaque");
+  }
+  add("pre-integration").scene.preIntegration = true;
+  add("shading").scene.shading = true;
+  add("levels").scene.lod = 4;
+  add("part").options.part = partitionBricks(*s, 3).boxes[1];  // premultiplied, no background
+  add("transparent").scene.transparent = true;
+  add("roofline").options.mode = RenderMode::Roofline;
+  {
+    Case& c = add("tiles");  // checkpoints every few workgroups: tiles of part of a row
+    c.options.cancelled = [] { return false; };
+    c.options.checkpointSamples = 5000;
+  }
+  for (Case& c : cases) {
+    FrameStats fragment, compute;
+    const image::ImageF f = renderStore(s, rayCast(c.scene, RayCaster::Fragment), &fragment, c.gpuBudget,
+                                        size_t(256) << 20, c.options);
+    const image::ImageF g = renderStore(s, rayCast(c.scene, RayCaster::Compute), &compute, c.gpuBudget,
+                                        size_t(256) << 20, c.options);
+    EXPECT_EQ(fragment.raycaster, "fragment") << c.name;
+    EXPECT_EQ(compute.raycaster, "compute") << c.name;
+    if (c.options.mode != RenderMode::Roofline) {
+      EXPECT_GT(meanBrightness(f), 0.005) << c.name;
+    }
+    test::expectSameDrawing(g, f, 1.0 / 255, *s, c.scene, "compute-vs-fragment-" + c.name);
+    const image::ImageError e = image::compareImages(g, f);
+    std::printf("[ info ] %s: compute vs fragment max |diff| %.3g\n", c.name.c_str(), e.maxAbs);
+    EXPECT_EQ(compute.samples, fragment.samples) << c.name;
+    EXPECT_EQ(compute.fragments, fragment.fragments) << c.name << ": one invocation per pixel the fragment kernel starts";
+    EXPECT_EQ(compute.samplesTerminated, fragment.samplesTerminated) << c.name;
+    EXPECT_EQ(compute.batches, fragment.batches) << c.name;
+    if (c.name == "batches" || c.name == "batches-terminated") {
+      EXPECT_GT(compute.batches, 2) << c.name;
+    }
+    if (c.name == "batches-terminated") {
+      EXPECT_GT(compute.samplesTerminated, 0);
+    }
+    if (c.name == "levels") {
+      EXPECT_GT(compute.bricksCoarse, 0);
+    }
+  }
+}
+
+TEST(RayCastKernels, AutoChoosesByDevice) {
+  // auto: the compute kernel on NVIDIA, the fragment kernel on a software rasteriser (where the compute kernel was
+  // never clearly the faster) and elsewhere; the scene may still ask for either.
+  const GlContext& context = test::context();
+  const bool nvidia = !context.software() && context.renderer().find("NVIDIA") != std::string::npos;
+  const char* autoKernel = nvidia ? "compute" : "fragment";
+  ScratchDir dir;
+  const auto s = prep("synthetic:blobs,n=48", dir / "b", 16);
+  for (const auto& [kernel, want] : {std::pair{RayCaster::Auto, autoKernel}, std::pair{RayCaster::Fragment, "fragment"},
+                                     std::pair{RayCaster::Compute, "compute"}}) {
+    FrameStats stats;
+    renderStore(s, rayCast(test::lodScene(1), kernel), &stats);
+    EXPECT_EQ(stats.raycaster, want) << rayCasterName(kernel);
+    EXPECT_EQ(stats.toJson().value("raycaster", ""), want);
+  }
+  FrameStats sliced;
+  renderStore(s, slicing("hot"), &sliced);
+  EXPECT_TRUE(sliced.raycaster.empty()) << "a frame not ray cast names no kernel";
+  EXPECT_FALSE(sliced.toJson().contains("raycaster"));
 }
 
 TEST(RayCast, CellTableSizeAndFallback) {
@@ -251,6 +371,14 @@ TEST(RayCast, TheSceneKeyIsChecked) {
   EXPECT_TRUE(Scene::fromJson(def.toJson(), "t").raycast) << "toJson keeps it";
   def.raycast = false;
   EXPECT_FALSE(Scene::fromJson(def.toJson(), "t").raycast);
+  // The kernel: by name, auto by default, kept by toJson; another name is refused.
+  EXPECT_EQ(Scene().raycaster, RayCaster::Auto);
+  EXPECT_EQ(Scene::fromJson(R"({"raycaster": "compute"})", "t").raycaster, RayCaster::Compute);
+  EXPECT_EQ(Scene::fromJson(R"({"raycaster": "fragment"})", "t").raycaster, RayCaster::Fragment);
+  def.raycaster = RayCaster::Compute;
+  EXPECT_EQ(Scene::fromJson(def.toJson(), "t").raycaster, RayCaster::Compute);
+  EXPECT_THROW(Scene::fromJson(R"({"raycaster": "vertex"})", "t"), RenderInputError);
+  EXPECT_THROW(Scene::fromJson(R"({"raycaster": true})", "t"), RenderInputError);
 }
 
 }  // namespace

@@ -152,15 +152,22 @@ TEST(ReferenceVsGpu, GpuConvergesTowardsTheReference) {
   auto s = prep("synthetic:marschner-lobb,n=32", dir / "ml", 16);
   Scene scene = smallReferenceScene("hot");
   const image::ImageF reference = renderReference(s, scene);
-  double previous = 0;
-  for (double step : {1.0, 0.5, 0.25}) {
-    scene.step = step;
-    const image::ImageError e = image::compareImages(renderStore(s, scene), reference);
-    std::printf("GPU step %.2f vs reference: PSNR %.1f dB, max |diff| %.3g\n", step, e.psnr, e.maxAbs);
-    EXPECT_GT(e.psnr, previous) << "a finer GPU step should come closer to the reference";
-    previous = e.psnr;
+  // The default drawing, the ray caster, with each of its kernels.
+  for (RayCaster kernel : {RayCaster::Fragment, RayCaster::Compute}) {
+    scene.raycaster = kernel;
+    double previous = 0;
+    for (double step : {1.0, 0.5, 0.25}) {
+      scene.step = step;
+      FrameStats stats;
+      const image::ImageError e = image::compareImages(renderStore(s, scene, &stats), reference);
+      std::printf("GPU (%s ray caster) step %.2f vs reference: PSNR %.1f dB, max |diff| %.3g\n",
+                  rayCasterName(kernel), step, e.psnr, e.maxAbs);
+      EXPECT_EQ(stats.raycaster, rayCasterName(kernel));
+      EXPECT_GT(e.psnr, previous) << rayCasterName(kernel) << ": a finer GPU step should come closer to the reference";
+      previous = e.psnr;
+    }
+    EXPECT_GT(previous, 45.0) << rayCasterName(kernel);
   }
-  EXPECT_GT(previous, 45.0);
 }
 
 TEST(ReferenceCli, RendersWithTheReferenceBackend) {
