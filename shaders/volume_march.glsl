@@ -10,12 +10,16 @@
 // the pre-integrated table.
 #if defined(FRAGMENT_STAGE) || defined(COMPUTE_STAGE)
 
-// The cell table (render/gl/volume/CellTable.h), paged: per block of 8^3 cells the directory holds its page, or -1
-// (every cell has nothing to draw) or -2 (every cell is another batch's); a page holds 512 cells, x fastest. Per
-// cell: its brick's atlas payload (xyz) and level (w); w = -1: nothing to draw there (x: log2 of the block to leap),
-// -2: a brick of another batch.
+// The cell table (render/gl/volume/CellTable.h). Per cell: its brick's atlas payload (xyz) and level (w); w = -1:
+// nothing to draw there (x: log2 of the block to leap), -2: a brick of another batch. One grid of cells, or with
+// PAGED_CELLS a directory holding per block of 8^3 cells its page, or -1 (every cell has nothing to draw) or -2
+// (every cell is another batch's), over pages of 512 cells, x fastest.
+#ifdef PAGED_CELLS
 layout(binding = VB_UNIT_CELL_DIRECTORY) uniform isampler3D uCellDirectory;
 layout(binding = VB_UNIT_CELLS) uniform isamplerBuffer uCells;
+#else
+layout(binding = VB_UNIT_CELLS) uniform isampler3D uCells;
+#endif
 uniform int uCellShift;     // a cell is 2^uCellShift level-0 voxels across
 uniform vec3 uCellCount;   // cells along x, y, z
 uniform float uPlaneIncr;    // distance between consecutive global planes
@@ -27,10 +31,14 @@ ivec4 gPayload = ivec4(0);
 ivec4 brickPayload() { return gPayload; }
 
 ivec4 cellEntry(ivec3 cell) {
+#ifdef PAGED_CELLS
   const int page = texelFetch(uCellDirectory, cell >> 3, 0).x;
   if (page < 0) return page == -1 ? ivec4(3, 0, 0, -1) : ivec4(0, 0, 0, -2);
   const ivec3 local = cell & 7;
   return texelFetch(uCells, page * 512 + (local.z * 8 + local.y) * 8 + local.x);
+#else
+  return texelFetch(uCells, cell, 0);
+#endif
 }
 
 // The ray of the pixel at window coordinates `window` (its centre) through the batch: premultiplied colour and

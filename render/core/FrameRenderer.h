@@ -58,6 +58,9 @@ struct FrameOptions {
   /// changed (render/gl/volume/KeptCells.h). False fills it anew, as each batch of a larger frame does: the same
   /// image, the path it replaced, kept for measuring the two side by side.
   bool keepCellTable = true;
+  /// Grids, ray casting: the cell table paged on the GPU whatever its size (by default only a table of more than
+  /// kMaxDenseCells cells is: render/volume/FramePlan.h); the same image, for tests and measurement.
+  bool pagedCellTable = false;
 };
 
 /// A renderer of one dataset on one GL context (so one render thread); it keeps its GPU state between frames.

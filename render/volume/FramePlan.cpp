@@ -132,6 +132,9 @@ FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int tran
   if (plan.raycast) {
     plan.cellSize = rayCastCellSize(meta.dims, plan.subBlock, B);
     plan.raycast = plan.cellSize > 0;  // else texture slabs, of the scene's size or the default
+    const int64_t c = plan.cellSize;
+    plan.pagedCells = plan.raycast && ((meta.dims.x + c - 1) / c) * ((meta.dims.y + c - 1) / c) *
+                                              ((meta.dims.z + c - 1) / c) > kMaxDenseCells;
     if (!plan.raycast)
       plan.fallback = "drawn with texture slabs, not the ray caster: its cell table would exceed " +
                       std::to_string(kMaxRayCastBlocks * 512) + " cells of a brick or a side of 32767 voxels (" +

@@ -23,16 +23,28 @@ int cellsAlong(int voxels, int cellSize) { return (voxels + cellSize - 1) / cell
 
 CellTable::CellTable(const Gl& gl) : mGl(gl) {}
 
-void CellTable::setGrid(const glm::ivec3& dims, int cellSize) {
+void CellTable::setGrid(const glm::ivec3& dims, int cellSize, bool paged) {
   mShift = std::countr_zero(unsigned(cellSize));
   const glm::ivec3 cells(cellsAlong(dims.x, cellSize), cellsAlong(dims.y, cellSize), cellsAlong(dims.z, cellSize));
   const glm::ivec3 blocks = (cells + (N - 1)) / N;
-  if (blocks != mBlocks || !mDirectoryTexture) {
+  if (paged != mPaged) mKept = false;
+  mPaged = paged;
+  if (!paged && (cells != mDenseCells || !mDenseTexture)) {
+    mDenseTexture = Texture(mGl, GL_TEXTURE_3D);
+    mDenseTexture.bind(VB_UNIT_CELLS);
+    mGl.glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGBA16I, cells.x, cells.y, cells.z);
+    mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    mDenseCells = cells;
+    mKept = false;
+  }
+  if (paged && (blocks != mDirectoryBlocks || !mDirectoryTexture)) {
     mDirectoryTexture = Texture(mGl, GL_TEXTURE_3D);
     mDirectoryTexture.bind(VB_UNIT_CELL_DIRECTORY);
     mGl.glTexStorage3D(GL_TEXTURE_3D, 1, GL_R32I, blocks.x, blocks.y, blocks.z);
     mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
     mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    mDirectoryBlocks = blocks;
     mKept = false;
   }
   mCells = cells, mBlocks = blocks;
@@ -44,16 +56,16 @@ void CellTable::setGrid(const glm::ivec3& dims, int cellSize) {
   mMarked = false;
 }
 
-void CellTable::begin(const glm::ivec3& dims, int cellSize) {
-  setGrid(dims, cellSize);
+void CellTable::begin(const glm::ivec3& dims, int cellSize, bool paged) {
+  setGrid(dims, cellSize, paged);
   mKept = false;
 }
 
-bool CellTable::resume(const glm::ivec3& dims, int cellSize) {
+bool CellTable::resume(const glm::ivec3& dims, int cellSize, bool paged) {
   const glm::ivec3 cells(cellsAlong(dims.x, cellSize), cellsAlong(dims.y, cellSize), cellsAlong(dims.z, cellSize));
   mMarked = false;
-  if (mKept && cells == mCells && std::countr_zero(unsigned(cellSize)) == mShift) return true;
-  setGrid(dims, cellSize);
+  if (mKept && cells == mCells && std::countr_zero(unsigned(cellSize)) == mShift && paged == mPaged) return true;
+  setGrid(dims, cellSize, paged);
   mChanged.assign(mDirectory.size(), 0);
   mChangedLo = mBlocks, mChangedHi = glm::ivec3(0);
   touch(glm::ivec3(0), mBlocks);  // every block is sent: the GPU holds another table
@@ -209,14 +221,67 @@ void CellTable::sendDirectoryRun(const glm::ivec3& b, int n) {
 }
 
 void CellTable::bind() const {
+  if (!mPaged) {
+    mDenseTexture.bind(VB_UNIT_CELLS);
+    return;
+  }
   mDirectoryTexture.bind(VB_UNIT_CELL_DIRECTORY);
   mPoolTexture.bind(VB_UNIT_CELLS);
+}
+
+const glm::i16vec4* CellTable::blockCells(const glm::ivec3& b) const {
+  static const std::vector<glm::i16vec4> nothing(kPageCells, glm::i16vec4(kMaxLeapLevel, 0, 0, kNothing));
+  static const std::vector<glm::i16vec4> other(kPageCells, kDeferred);
+  const int32_t page = mDirectory[blockIndex(b)];
+  return page >= 0 ? mPool.data() + size_t(page) * kPageCells : page == kBlockNothing ? nothing.data() : other.data();
+}
+
+int64_t CellTable::sendDense() {
+  mDense.resize(size_t(mCells.x) * size_t(mCells.y) * size_t(mCells.z));
+  for (int bz = 0; bz < mBlocks.z; ++bz)
+    for (int by = 0; by < mBlocks.y; ++by)
+      for (int bx = 0; bx < mBlocks.x; ++bx) {
+        const glm::ivec3 b(bx, by, bz), end = glm::min(mCells - b * N, glm::ivec3(N));
+        const glm::i16vec4* cells = blockCells(b);
+        for (int z = 0; z < end.z; ++z)
+          for (int y = 0; y < end.y; ++y)
+            std::copy_n(cells + (z * N + y) * N, end.x,
+                        mDense.begin() + ptrdiff_t((size_t(b.z * N + z) * size_t(mCells.y) + size_t(b.y * N + y)) *
+                                                       size_t(mCells.x) +
+                                                   size_t(b.x * N)));
+      }
+  mDenseTexture.bind(VB_UNIT_CELLS);
+  mGl.glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
+  mGl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  mGl.glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, mCells.x, mCells.y, mCells.z, GL_RGBA_INTEGER, GL_SHORT,
+                      mDense.data());
+  return int64_t(mDense.size());
+}
+
+int64_t CellTable::sendDenseBlock(const glm::ivec3& b) {
+  const glm::ivec3 end = glm::min(mCells - b * N, glm::ivec3(N));
+  mDenseTexture.bind(VB_UNIT_CELLS);
+  mGl.glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
+  mGl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  mGl.glPixelStorei(GL_UNPACK_ROW_LENGTH, N);
+  mGl.glPixelStorei(GL_UNPACK_IMAGE_HEIGHT, N);
+  mGl.glTexSubImage3D(GL_TEXTURE_3D, 0, b.x * N, b.y * N, b.z * N, end.x, end.y, end.z, GL_RGBA_INTEGER, GL_SHORT,
+                      blockCells(b));
+  mGl.glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+  mGl.glPixelStorei(GL_UNPACK_IMAGE_HEIGHT, 0);
+  return int64_t(end.x) * end.y * end.z;
 }
 
 int64_t CellTable::upload() {
   for (int z = 0; z < mBlocks.z; ++z)
     for (int y = 0; y < mBlocks.y; ++y)
       for (int x = 0; x < mBlocks.x; ++x) settle({x, y, z});
+  if (!mPaged) {
+    const int64_t sent = sendDense();
+    bind();
+    reset();
+    return sent;
+  }
   reservePool();
   std::vector<int32_t> pages;
   for (int32_t page : mDirectory)
@@ -235,13 +300,27 @@ int64_t CellTable::upload() {
 
 int64_t CellTable::uploadChanges() {
   std::vector<int32_t> pages;
+  std::vector<glm::ivec3> blocks;
   for (int z = mChangedLo.z; z < mChangedHi.z; ++z)
     for (int y = mChangedLo.y; y < mChangedHi.y; ++y)
       for (int x = mChangedLo.x; x < mChangedHi.x; ++x)
         if (mChanged[blockIndex({x, y, z})]) {
           settle({x, y, z});
+          blocks.push_back({x, y, z});
           if (const int32_t page = mDirectory[blockIndex({x, y, z})]; page >= 0) pages.push_back(page);
         }
+  if (!mPaged) {
+    // One grid: the changed blocks, or every cell at once when most changed.
+    int64_t sent = 0;
+    if (blocks.size() * 4 > mDirectory.size())
+      sent = sendDense();
+    else
+      for (const glm::ivec3& b : blocks) sent += sendDenseBlock(b);
+    std::fill(mChanged.begin(), mChanged.end(), 0);
+    mChangedLo = mBlocks, mChangedHi = glm::ivec3(0);
+    bind();
+    return sent;
+  }
   if (reservePool()) {  // a new buffer holds none of the pages yet: all of them
     pages.clear();
     for (int32_t page : mDirectory)
@@ -278,6 +357,13 @@ void CellTable::reset() {
 }
 
 std::vector<glm::i16vec4> CellTable::readBack() const {
+  if (!mPaged) {
+    std::vector<glm::i16vec4> cells(size_t(mCells.x) * size_t(mCells.y) * size_t(mCells.z));
+    mDenseTexture.bind(VB_UNIT_CELLS);
+    mGl.glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    mGl.glGetTexImage(GL_TEXTURE_3D, 0, GL_RGBA_INTEGER, GL_SHORT, cells.data());
+    return cells;
+  }
   std::vector<int32_t> directory(mDirectory.size());
   mDirectoryTexture.bind(VB_UNIT_CELL_DIRECTORY);
   mGl.glPixelStorei(GL_PACK_ALIGNMENT, 4);

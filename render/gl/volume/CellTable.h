@@ -5,12 +5,14 @@
 // sample's voxel coordinate in the brick's level to find its atlas texel and w the level; otherwise w is kNothing
 // or kOtherBatch.
 //
-// The table is paged, so that its size follows what is drawn rather than the volume: cells are grouped in blocks of
-// kLeapBlock^3, a directory (an R32I 3D texture of blocks, texture unit VB_UNIT_CELL_DIRECTORY) holds each block's
+// The host keeps the table paged, so that its size follows what is drawn rather than the volume: cells are grouped in
+// blocks of kLeapBlock^3, a directory (an R32I 3D texture of blocks, texture unit VB_UNIT_CELL_DIRECTORY) holds each block's
 // page, or kBlockNothing (every cell has nothing to draw) or kBlockOtherBatch (every cell is another batch's), and
 // the pages (kPageCells entries each, x fastest)
 // lie in a buffer texture (VB_UNIT_CELLS) that grows as pages are needed. A sparse volume of any size needs pages for
-// its drawn blocks only; a block with nothing to draw costs one directory entry.
+// its drawn blocks only; a block with nothing to draw costs one directory entry. A table of at most kMaxDenseCells
+// cells goes to the GPU as one RGBA16I 3D texture of cells instead (FramePlan::pagedCells false): a sample then reads
+// one entry, not a directory entry and then a page's.
 //
 // The two kinds of "nothing" differ for the ray. A cell with nothing to draw adds nothing even at points on its
 // faces, since its value range covers every sample that reads its voxels, so a ray may leap to where it leaves the
@@ -49,8 +51,8 @@ class CellTable {
   static constexpr int32_t kBlockNothing = -1, kBlockOtherBatch = -2;
 
   /// Starts a frame of batches: a table of `cellSize` (a power of two) voxel cells over `dims` voxels, every cell
-  /// with nothing to draw, filled for each batch by add() and sent by upload().
-  void begin(const glm::ivec3& dims, int cellSize);
+  /// with nothing to draw, filled for each batch by add() and sent by upload(); on the GPU paged or one grid.
+  void begin(const glm::ivec3& dims, int cellSize, bool paged);
   /// For a frame of several batches, after begin(): marks the cells of every brick of `visible` (bricks of
   /// `brickSize` level-0 voxels at level 0) as drawn in another batch, what they return to after each batch.
   void deferAll(const TraversalResult& visible, int brickSize);
@@ -64,7 +66,7 @@ class CellTable {
   void add(const QueuedBox& box);
   /// Whether no cell has been marked since begin() or the last upload().
   bool empty() const { return !mMarked; }
-  /// Computes the leaps, uploads the table, binds it (texture units VB_UNIT_CELLS and VB_UNIT_CELL_DIRECTORY) and
+  /// Computes the leaps, uploads the table, binds it (texture unit VB_UNIT_CELLS, and VB_UNIT_CELL_DIRECTORY) and
   /// resets the host copy for the next batch (the GPU keeps this batch's cells until the next upload). Returns the
   /// cells sent (pages and directory).
   int64_t upload();
@@ -73,7 +75,7 @@ class CellTable {
   /// where told, by clear() and add(); uploadChanges() recomputes the leaps of the changed blocks and sends only
   /// them. Starts such a frame over `dims` voxels in cells of `cellSize`; returns false when the table was not kept
   /// (the first such frame, another grid, or a frame of batches since): every cell then has nothing to draw.
-  bool resume(const glm::ivec3& dims, int cellSize);
+  bool resume(const glm::ivec3& dims, int cellSize, bool paged);
   /// The next resume() starts a new table.
   void drop() { mKept = false; }
   /// In a kept table: the cells of level-0 voxels [lo, hi) (on cell boundaries) back to nothing to draw.
@@ -95,7 +97,7 @@ class CellTable {
   size_t blockIndex(const glm::ivec3& b) const {
     return (size_t(b.z) * size_t(mBlocks.y) + size_t(b.y)) * size_t(mBlocks.x) + size_t(b.x);
   }
-  void setGrid(const glm::ivec3& dims, int cellSize);  // an empty table: every block without a page
+  void setGrid(const glm::ivec3& dims, int cellSize, bool paged);  // an empty table: every block without a page
   /// Sets cells [c0, c1) to `entry`; blocks without a page get one unless `entry` is nothing to draw.
   void fill(const glm::ivec3& c0, const glm::ivec3& c1, const glm::i16vec4& entry);
   int32_t newPage(const glm::i16vec4& entry);  // a page of `entry` everywhere
@@ -106,11 +108,19 @@ class CellTable {
   int64_t sendPages(std::vector<int32_t>& pages);      // those pages (sorted, in runs)
   void sendDirectoryRun(const glm::ivec3& b, int n);  // n directory entries from block b along x
   void bind() const;
+  /// The cells of block `b` (a page, or the block's one entry everywhere), kPageCells of them, x fastest.
+  const glm::i16vec4* blockCells(const glm::ivec3& b) const;
+  int64_t sendDense();                                 // one grid: every cell
+  int64_t sendDenseBlock(const glm::ivec3& b);         // one grid: block b's cells
   void reset();  // back to the frame's base: every cell nothing to draw, or drawn in another batch where deferred
 
   const Gl& mGl;
   Texture mDirectoryTexture, mPoolTexture;  // R32I 3D; RGBA16I buffer texture over mPoolBuffer
   Buffer mPoolBuffer;
+  Texture mDenseTexture;  // one grid: RGBA16I 3D, a texel a cell
+  glm::ivec3 mDenseCells{0}, mDirectoryBlocks{0};  // the sizes the textures were made for
+  std::vector<glm::i16vec4> mDense;  // one grid: the host copy sendDense() assembles
+  bool mPaged = true;
   size_t mPoolCapacity = 0;  // pages the buffer holds
   glm::ivec3 mCells{0}, mBlocks{0};
   int mShift = 0;

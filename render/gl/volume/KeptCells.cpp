@@ -30,7 +30,7 @@ bool KeptCells::update(const FramePlan& plan, Residency& residency, CellTable& c
   const int B = residency.store().brickSize();
   const glm::ivec3 dims(meta.dims.x, meta.dims.y, meta.dims.z);
   if (!mValid || plan.subBlock != mSubBlock || plan.classification != mClassification) cells.drop();
-  const bool same = cells.resume(dims, plan.cellSize);
+  const bool same = cells.resume(dims, plan.cellSize, plan.pagedCells);
   if (!same) {
     clearRecords();
     mSubBlock = plan.subBlock;

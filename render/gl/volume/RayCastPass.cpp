@@ -41,7 +41,7 @@ void RayCastPass::draw(const FramePlan& plan, Residency& residency, const Volume
   mKept.forget();
   stats.cellBricksChanged = -1;
   const store::StoreMeta& meta = residency.store().meta();
-  mCells.begin(glm::ivec3(meta.dims.x, meta.dims.y, meta.dims.z), plan.cellSize);
+  mCells.begin(glm::ivec3(meta.dims.x, meta.dims.y, meta.dims.z), plan.cellSize, plan.pagedCells);
   // More bricks than slots: several batches (an upper bound: stand-ins may share a source).
   if (plan.visible.bricks.size() > size_t(residency.atlas().capacity()))
     mCells.deferAll(plan.visible, residency.store().brickSize());

@@ -25,6 +25,7 @@ ProgramSources sources(const ProgramKey& key) {
   if (key.preIntegration) defines.push_back("PRE_INTEGRATION");
   if (key.emptyTest) defines.push_back("EMPTY_TEST");
   if (key.multiOriented) defines.push_back("MULTI_ORIENTED");
+  if (key.pagedCells) defines.push_back("PAGED_CELLS");
   // The grid programs' libraries (after the slicer's, if any); the ray caster's kernels share their march.
   std::vector<std::string> libraries{"volume_sample.glsl", "volume_ownership.glsl", "volume_ray.glsl"};
   if (!slices(key)) libraries.push_back("volume_counters.glsl");

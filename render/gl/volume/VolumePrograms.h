@@ -34,6 +34,8 @@ struct ProgramKey {
                                 ///< pixel's whole ray per fragment
   bool compute = false;         ///< with raycast: its compute kernel instead (raycast.comp.glsl), a pixel's whole ray
                                 ///< per invocation (render/gl/volume/ComputeRayCast.h)
+  bool pagedCells = false;      ///< PAGED_CELLS (the ray caster): the cell table as a directory over pages, not one
+                                ///< cell grid (FramePlan::pagedCells, render/gl/volume/CellTable.h)
   bool multiOriented = false;   ///< MULTI_ORIENTED: bricks lie in the atlas with rotated axes (AtlasBricking)
   auto operator<=>(const ProgramKey&) const = default;
 };

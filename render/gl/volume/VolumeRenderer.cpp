@@ -104,6 +104,7 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
   key.compute = plan.raycast && (scene.raycaster == RayCaster::Compute ||
                                  (scene.raycaster == RayCaster::Auto && mComputeByDefault));
   if (plan.raycast) stats.raycaster = key.compute ? "compute" : "fragment";
+  key.pagedCells = plan.pagedCells;
   key.multiOriented = mResidency.atlas().bricking() == AtlasBricking::MultiOriented;
   const VolumeProgram& program = mPrograms.get(key);
   program.setFrame(plan, mResidency.atlas(), store.meta());
@@ -146,6 +147,7 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, c
   FramePlan plan =
       planFrame(scene, store, kTransferTableTexels, options.fitBudget ? budget() : BrickBudget{}, options.part);
   planStats(plan, stats);
+  plan.pagedCells = plan.pagedCells || (plan.raycast && options.pagedCellTable);
   stats.fallback = plan.fallback;
   stats.msTraversal = msSince(t);
   stats.samplesEstimated = plan.estimatedSamples();

@@ -23,8 +23,10 @@ using test::ScratchDir;
 /// A renderer that keeps its table, and the reference: every frame drawn by a renderer filling it anew.
 class KeptAndFilled {
  public:
-  explicit KeptAndFilled(std::shared_ptr<const store::BrickStore> s, size_t gpuBudget = size_t(256) << 20)
-      : mStore(std::move(s)),
+  /// `paged`: the table paged on the GPU (FrameOptions::pagedCellTable), else one grid of cells.
+  explicit KeptAndFilled(std::shared_ptr<const store::BrickStore> s, bool paged, size_t gpuBudget = size_t(256) << 20)
+      : mPaged(paged),
+        mStore(std::move(s)),
         mCache(std::make_shared<store::BrickCache>(mStore, size_t(256) << 20, 1)),
         mKept(test::context(), mCache, gpuBudget),
         mFilled(test::context(), mCache, gpuBudget) {}
@@ -34,6 +36,7 @@ class KeptAndFilled {
   /// statistics.
   FrameStats frame(const Scene& scene, const std::string& what, FrameOptions options = {}) {
     FrameStats kept, filled;
+    options.pagedCellTable = mPaged;
     options.keepCellTable = true;
     const image::ImageF a = mKept.render(scene, &kept, options);
     const std::vector<glm::i16vec4> keptTable = mKept.cellTable().readBack();
@@ -55,18 +58,29 @@ class KeptAndFilled {
   }
 
   VolumeRenderer& kept() { return mKept; }
-  /// What sending a whole table of `pages` pages at cell size `cell` sends: the pages' cells and the directory.
+  /// Options of the kept renderer's frames drawn outside frame().
+  FrameOptions options() const {
+    FrameOptions o;
+    o.pagedCellTable = mPaged;
+    return o;
+  }
+  /// What sending a whole table of `pages` pages at cell size `cell` sends: the pages' cells and the directory, or
+  /// one grid's every cell.
   int64_t pagesSent(int64_t pages, int cell) const {
     const store::Vec3i& d = mStore->meta().dims;
     auto blocks = [&](int64_t n) { return ((n + cell - 1) / cell + CellTable::kLeapBlock - 1) / CellTable::kLeapBlock; };
+    if (!mPaged) return ((d.x + cell - 1) / cell) * ((d.y + cell - 1) / cell) * ((d.z + cell - 1) / cell);
     return pages * CellTable::kPageCells + blocks(d.x) * blocks(d.y) * blocks(d.z);
   }
 
  private:
+  bool mPaged;
   std::shared_ptr<const store::BrickStore> mStore;
   std::shared_ptr<store::BrickCache> mCache;
   VolumeRenderer mKept, mFilled;
 };
+
+class KeptCells : public ::testing::TestWithParam<bool> {};
 
 Scene blobsScene() {
   Scene scene = test::slicingScene("hot");
@@ -76,13 +90,13 @@ Scene blobsScene() {
   return scene;
 }
 
-TEST(KeptCells, AFrameOfTheSameBricksSendsNothing) {
+TEST_P(KeptCells, AFrameOfTheSameBricksSendsNothing) {
   ScratchDir dir;
-  KeptAndFilled r(prep("synthetic:blobs,n=64", dir / "b", 16));
+  KeptAndFilled r(prep("synthetic:blobs,n=64", dir / "b", 16), GetParam());
   Scene scene = blobsScene();
   const FrameStats first = r.frame(scene, "first");
   EXPECT_EQ(first.cellBricksChanged, first.bricksDrawn) << "the first frame marks every brick";
-  EXPECT_EQ(first.cellsSent, r.pagesSent(first.bricksDrawn > 0 ? r.kept().cellTable().pages() : 0, 4))
+  EXPECT_EQ(first.cellsSent, r.pagesSent(r.kept().cellTable().pages(), 4))
       << "and sends the whole table: every page and the directory";
   const FrameStats again = r.frame(scene, "again");
   EXPECT_EQ(again.cellBricksChanged, 0);
@@ -98,9 +112,9 @@ TEST(KeptCells, AFrameOfTheSameBricksSendsNothing) {
   }
 }
 
-TEST(KeptCells, ANewLevelCutChangesOnlyItsBricks) {
+TEST_P(KeptCells, ANewLevelCutChangesOnlyItsBricks) {
   ScratchDir dir;
-  KeptAndFilled r(prep("synthetic:blobs,n=96", dir / "b", 16));
+  KeptAndFilled r(prep("synthetic:blobs,n=96", dir / "b", 16), GetParam());
   Scene scene = blobsScene();
   scene.lod = 2;
   scene.width = scene.height = 48;
@@ -114,15 +128,18 @@ TEST(KeptCells, ANewLevelCutChangesOnlyItsBricks) {
     EXPECT_LE(s.cellsSent, r.pagesSent(r.kept().cellTable().pages(), 4)) << what;
     if (s.cellBricksChanged > 0 && s.cellBricksChanged < s.bricksDrawn) {
       ++partial;
-      EXPECT_LT(s.cellsSent, r.pagesSent(r.kept().cellTable().pages(), 4)) << what << ": only the changed blocks are sent";
+      // Pages: only the changed blocks' (one grid sends every cell once a quarter of its blocks changed, as here).
+      if (GetParam()) {
+        EXPECT_LT(s.cellsSent, r.pagesSent(r.kept().cellTable().pages(), 4)) << what;
+      }
     }
   }
   EXPECT_GE(partial, 2) << "the level cut never changed in part: the test no longer tests it";
 }
 
-TEST(KeptCells, TheTableGrowsAsMoreIsDrawn) {
+TEST_P(KeptCells, TheTableGrowsAsMoreIsDrawn) {
   ScratchDir dir;
-  KeptAndFilled r(prep("synthetic:blobs,n=192", dir / "b", 16));
+  KeptAndFilled r(prep("synthetic:blobs,n=192", dir / "b", 16), GetParam());
   Scene scene = blobsScene();
   scene.width = scene.height = 40;
   // From inside, most bricks culled and few pages; then the whole volume, many more pages than the first frame's
@@ -139,9 +156,9 @@ TEST(KeptCells, TheTableGrowsAsMoreIsDrawn) {
   r.frame(scene, "inside again");
 }
 
-TEST(KeptCells, ClassificationAndSubBlocksBuildItAnew) {
+TEST_P(KeptCells, ClassificationAndSubBlocksBuildItAnew) {
   ScratchDir dir;
-  KeptAndFilled r(prep("synthetic:blobs,n=64", dir / "b", 16));
+  KeptAndFilled r(prep("synthetic:blobs,n=64", dir / "b", 16), GetParam());
   Scene scene = blobsScene();
   r.frame(scene, "first");
   scene.window = std::array<double, 2>{0.2, 1.0};  // other sub-blocks empty
@@ -163,14 +180,14 @@ TEST(KeptCells, ClassificationAndSubBlocksBuildItAnew) {
   EXPECT_EQ(colour.cellBricksChanged, 0);
 }
 
-TEST(KeptCells, FramesOfBatchesPartsAndGivenUpFramesBetweenLeaveItRight) {
+TEST_P(KeptCells, FramesOfBatchesPartsAndGivenUpFramesBetweenLeaveItRight) {
   ScratchDir dir;
   const auto s = prep("synthetic:blobs,n=64", dir / "b", 16);
-  KeptAndFilled r(s);
+  KeptAndFilled r(s, GetParam());
   Scene scene = blobsScene();
   const FrameStats first = r.frame(scene, "first");
   // A part's frame (sort-last) fills its batches' tables: the next whole frame builds the kept table anew.
-  FrameOptions part;
+  FrameOptions part = r.options();
   part.part = PartBox{{0, 0, 0}, {32, 64, 64}};
   r.kept().render(scene, nullptr, part);
   const FrameStats after = r.frame(scene, "after a part");
@@ -181,7 +198,7 @@ TEST(KeptCells, FramesOfBatchesPartsAndGivenUpFramesBetweenLeaveItRight) {
       Scene other = scene;
       other.lod = lod;
       other.camera.distance = 1.6;
-      FrameOptions cancelled;
+      FrameOptions cancelled = r.options();
       int asked = 0;
       cancelled.cancelled = [&] { return ++asked >= giveUpAt; };
       try {
@@ -193,13 +210,14 @@ TEST(KeptCells, FramesOfBatchesPartsAndGivenUpFramesBetweenLeaveItRight) {
   }
 }
 
-TEST(KeptCells, StandInsAreReplacedAsTheirBricksArrive) {
+TEST_P(KeptCells, StandInsAreReplacedAsTheirBricksArrive) {
   ScratchDir dir;
   const auto s = prep("synthetic:blobs,n=64", dir / "b", 16);
   auto cache = std::make_shared<store::BrickCache>(s, size_t(256) << 20, 1);
   VolumeRenderer kept(test::context(), cache, size_t(256) << 20);
   Scene scene = blobsScene();
   FrameOptions streaming;
+  streaming.pagedCellTable = GetParam();
   streaming.standIns = true;
   FrameStats stats;
   const image::ImageF cold = kept.render(scene, &stats, streaming);
@@ -218,6 +236,9 @@ TEST(KeptCells, StandInsAreReplacedAsTheirBricksArrive) {
   streaming.keepCellTable = false;
   EXPECT_EQ(image::compareImages(exact, kept.render(scene, nullptr, streaming)).maxAbs, 0.0);
 }
+
+INSTANTIATE_TEST_SUITE_P(Tables, KeptCells, ::testing::Values(false, true),
+                         [](const ::testing::TestParamInfo<bool>& p) { return p.param ? "Paged" : "OneGrid"; });
 
 }  // namespace
 }  // namespace voxbrick::render
