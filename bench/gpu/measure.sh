@@ -282,7 +282,7 @@ PY
         cmd vb prep "synthetic:blobs,n=$n" --no-vdb -q --force -o "$WORK/blobs-$n" 2>&1 | tee -a "$dir/prep.log"
       fi
       echo "- prep: $(grep -h 'MB/s' "$dir/prep.log" | tail -1)" >> "$md"
-      echo "n,size,lod,frame,ms_total,ms_paging,ms_drawing,bricks_drawn,bricks_paged_in,psnr_vs_lod0_db" \
+      echo "n,size,lod,frame,ms_total,ms_paging,ms_drawing,bricks_drawn,bricks_paged_in,psnr_vs_lod0_db,raycaster,cells_sent" \
         > "$dir/field-1024.csv"
       for lod in 1 0; do
         cmd timeout "$(left 5)" "$KIT/bin/voxbrick" render "$WORK/blobs-$n" --tf hot --size "${size}x${size}" \
@@ -292,14 +292,20 @@ PY
           --lod "$lod" --gpu-budget 16384 --host-cache 16384 --warm-up 1 -q --stats "$dir/warm-lod$lod.json" \
           -o "$WORK/field-lod$lod.png"
       done
+      # The warm frame again with the fragment kernel (auto takes the compute kernel on NVIDIA): side by side.
+      cmd timeout "$(left 5)" "$KIT/bin/voxbrick" render "$WORK/blobs-$n" --tf hot --size "${size}x${size}" \
+        --lod 1 --gpu-budget 16384 --host-cache 16384 --warm-up 1 --raycaster fragment -q \
+        --stats "$dir/warm-fragment-lod1.json" -o "$WORK/field-fragment-lod1.png" || true
       for lod in 1 0; do
-        for frame in first warm; do
+        frames="first warm"
+        [ "$lod" = 1 ] && [ -f "$dir/warm-fragment-lod1.json" ] && frames="first warm warm-fragment"
+        for frame in $frames; do
           s=$dir/$frame-lod$lod.json
-          [ "$frame" = warm ] && s=$dir/warm-lod$lod.json
           get() { sed -n "s/.*\"$1\": *\([-0-9.e]*\).*/\1/p" "$s" | head -1; }
           psnr=
           if [ "$lod" = 1 ] && [ "$frame" = warm ]; then psnr=$(psnr "$WORK/field-lod1.png" "$WORK/field-lod0.png"); fi
-          echo "$n,$size,$lod,$frame,$(get total),$(get paging),$(get drawing),$(get bricks_drawn),$(get bricks_paged_in),$psnr" \
+          kernel=$(sed -n 's/.*"raycaster": *"\([a-z]*\)".*/\1/p' "$s" | head -1)
+          echo "$n,$size,$lod,$frame,$(get total),$(get paging),$(get drawing),$(get bricks_drawn),$(get bricks_paged_in),$psnr,$kernel,$(get cells_sent)" \
             >> "$dir/field-1024.csv"
         done
       done
