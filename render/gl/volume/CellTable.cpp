@@ -19,6 +19,16 @@ constexpr int N = CellTable::kLeapBlock;
 
 int cellsAlong(int voxels, int cellSize) { return (voxels + cellSize - 1) / cellSize; }
 
+/// An integer 3D texture of `size` texels in `format`, read texel by texel, bound to `unit`.
+Texture integerTexture(const Gl& gl, int unit, GLenum format, const glm::ivec3& size) {
+  Texture t(gl, GL_TEXTURE_3D);
+  t.bind(unit);
+  gl.glTexStorage3D(GL_TEXTURE_3D, 1, format, size.x, size.y, size.z);
+  gl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  gl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  return t;
+}
+
 }  // namespace
 
 CellTable::CellTable(const Gl& gl) : mGl(gl) {}
@@ -30,20 +40,12 @@ void CellTable::setGrid(const glm::ivec3& dims, int cellSize, bool paged) {
   if (paged != mPaged) mKept = false;
   mPaged = paged;
   if (!paged && (cells != mDenseCells || !mDenseTexture)) {
-    mDenseTexture = Texture(mGl, GL_TEXTURE_3D);
-    mDenseTexture.bind(VB_UNIT_CELLS);
-    mGl.glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGBA16I, cells.x, cells.y, cells.z);
-    mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    mDenseTexture = integerTexture(mGl, VB_UNIT_CELLS, GL_RGBA16I, cells);
     mDenseCells = cells;
     mKept = false;
   }
   if (paged && (blocks != mDirectoryBlocks || !mDirectoryTexture)) {
-    mDirectoryTexture = Texture(mGl, GL_TEXTURE_3D);
-    mDirectoryTexture.bind(VB_UNIT_CELL_DIRECTORY);
-    mGl.glTexStorage3D(GL_TEXTURE_3D, 1, GL_R32I, blocks.x, blocks.y, blocks.z);
-    mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    mGl.glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    mDirectoryTexture = integerTexture(mGl, VB_UNIT_CELL_DIRECTORY, GL_R32I, blocks);
     mDirectoryBlocks = blocks;
     mKept = false;
   }

@@ -164,6 +164,15 @@ TEST(VdbFrames, ASparseVolumeOfAnySizeRayCasts) {
   EXPECT_EQ(stats.slabPasses, 0);
   EXPECT_GT(stats.samples, 0);
   EXPECT_GT(meanBrightness(cast), 0.0);
+  EXPECT_TRUE(plan.pagedCells) << "a table this large is paged";
+  // The compute kernel reads the same paged table.
+  Scene compute = scene;
+  compute.raycaster = RayCaster::Compute;
+  FrameStats computeStats;
+  test::expectSameDrawing(renderStore(live, compute, &computeStats, size_t(64) << 20, size_t(64) << 20), cast, 0.0,
+                          *live, scene, "sparse-5400-compute");
+  EXPECT_EQ(computeStats.raycaster, "compute");
+  EXPECT_EQ(computeStats.samples, stats.samples);
   scene.raycast = false;
   scene.slab = 32;
   const image::ImageF slabs = renderStore(live, scene, nullptr, size_t(64) << 20, size_t(64) << 20);
