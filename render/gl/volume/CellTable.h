@@ -5,14 +5,14 @@
 // sample's voxel coordinate in the brick's level to find its atlas texel and w the level; otherwise w is kNothing
 // or kOtherBatch.
 //
-// The host keeps the table paged, so that its size follows what is drawn rather than the volume: cells are grouped in
-// blocks of kLeapBlock^3, a directory (an R32I 3D texture of blocks, texture unit VB_UNIT_CELL_DIRECTORY) holds each block's
-// page, or kBlockNothing (every cell has nothing to draw) or kBlockOtherBatch (every cell is another batch's), and
-// the pages (kPageCells entries each, x fastest)
-// lie in a buffer texture (VB_UNIT_CELLS) that grows as pages are needed. A sparse volume of any size needs pages for
-// its drawn blocks only; a block with nothing to draw costs one directory entry. A table of at most kMaxDenseCells
-// cells goes to the GPU as one RGBA16I 3D texture of cells instead (FramePlan::pagedCells false): a sample then reads
-// one entry, not a directory entry and then a page's.
+// The host keeps the table paged, so that its size follows what is drawn rather than the volume: cells are grouped
+// in blocks of kLeapBlock^3, a directory holds each block's page, or kBlockNothing (every cell has nothing to draw)
+// or kBlockOtherBatch (every cell is another batch's), and pages hold kPageCells entries each, x fastest. A sparse
+// volume of any size needs pages for its drawn blocks only; a block with nothing to draw costs one directory entry.
+// On the GPU a table of at most kMaxDenseCells cells is one RGBA16I 3D texture of cells (texture unit VB_UNIT_CELLS;
+// a sample reads one entry); a larger one (FramePlan::pagedCells, PAGED_CELLS in the shaders) is the directory, an
+// R32I 3D texture of blocks (VB_UNIT_CELL_DIRECTORY), over the pages in a buffer texture (VB_UNIT_CELLS) that grows
+// as pages are needed (a sample reads a directory entry, then a page's).
 //
 // The two kinds of "nothing" differ for the ray. A cell with nothing to draw adds nothing even at points on its
 // faces, since its value range covers every sample that reads its voxels, so a ray may leap to where it leaves the
