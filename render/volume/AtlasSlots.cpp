@@ -44,6 +44,7 @@ std::optional<AtlasSlots::Acquired> AtlasSlots::acquire(const store::BrickKey& k
 }
 
 void AtlasSlots::unpinAll() {
+  if (mPinnedCount == 0) return;  // a frame drawn from a kept table pins nothing: no walk over every slot
   for (Slot& s : mSlots) s.pinned = false;
   mPinnedCount = 0;
 }

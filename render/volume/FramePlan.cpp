@@ -132,9 +132,7 @@ FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int tran
   if (plan.raycast) {
     plan.cellSize = rayCastCellSize(meta.dims, plan.subBlock, B);
     plan.raycast = plan.cellSize > 0;  // else texture slabs, of the scene's size or the default
-    const int64_t c = plan.cellSize;
-    plan.pagedCells = plan.raycast && ((meta.dims.x + c - 1) / c) * ((meta.dims.y + c - 1) / c) *
-                                              ((meta.dims.z + c - 1) / c) > kMaxDenseCells;
+    plan.pagedCells = plan.raycast && rayCastCells(meta.dims, plan.cellSize) > kMaxDenseCells;
     if (!plan.raycast)
       plan.fallback = "drawn with texture slabs, not the ray caster: its cell table would exceed " +
                       std::to_string(kMaxRayCastBlocks * 512) + " cells of a brick or a side of 32767 voxels (" +
@@ -151,11 +149,15 @@ FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int tran
   return plan;
 }
 
+int64_t rayCastCells(const store::Vec3i& dims, int64_t cellSize) {
+  const int64_t c = cellSize;
+  return ((dims.x + c - 1) / c) * ((dims.y + c - 1) / c) * ((dims.z + c - 1) / c);
+}
+
 int rayCastCellSize(const store::Vec3i& dims, int subBlock, int brickSize) {
   int size = subBlock > 0 ? subBlock : brickSize;
-  // Blocks of the directory: 8^3 cells each.
-  auto blocks = [&](int64_t c) { return ((dims.x + 8 * c - 1) / (8 * c)) * ((dims.y + 8 * c - 1) / (8 * c)) *
-                                        ((dims.z + 8 * c - 1) / (8 * c)); };
+  // Blocks of the directory: 8^3 cells each, so cells of 8c voxels.
+  auto blocks = [&](int64_t c) { return rayCastCells(dims, 8 * c); };
   while (blocks(size) > kMaxRayCastBlocks && size < brickSize) size *= 2;
   if (blocks(size) > kMaxRayCastBlocks || std::max({dims.x, dims.y, dims.z}) > 32767) return 0;
   return size;

@@ -133,6 +133,9 @@ inline constexpr int64_t kMaxRayCastBlocks = int64_t{1} << 22;
 /// One grid takes one fetch a sample where pages take two (llvmpipe: the MRI's frames 5-10 % faster).
 inline constexpr int64_t kMaxDenseCells = int64_t{1} << 22;
 
+/// Cells of `cellSize` voxels a side over `dims` voxels (the last along each axis partial).
+int64_t rayCastCells(const store::Vec3i& dims, int64_t cellSize);
+
 /// The cell edge of a ray-casting frame's cell table over `dims` voxels: the sub-block (or with none the brick),
 /// doubled while the directory would exceed kMaxRayCastBlocks; 0 when even bricks would, or a side exceeds 32767
 /// voxels.

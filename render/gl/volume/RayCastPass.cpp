@@ -14,12 +14,12 @@ using Clock = std::chrono::steady_clock;
 
 }  // namespace
 
-double RayCastPass::samplesPerPixel(const FramePlan& plan) {
+double RayCastPass::samplesPerPixel(const FramePlan& plan, double samplesEstimated) {
   // Pixels near the middle take more than the frame's mean: three times the mean, at most a ray through the whole
   // volume's diagonal at every plane.
   const double pixels = std::max(1.0, double(plan.width) * plan.height);
   const double longest = glm::length(plan.volume.extent()) / std::max(plan.step, 1e-12) + 1;
-  return std::min(3 * plan.estimatedSamples() / pixels, longest);
+  return std::min(3 * samplesEstimated / pixels, longest);
 }
 
 RayCastPass::RayCastPass(const Gl& gl) : mGl(gl), mCells(gl), mTermination(gl), mCounters(gl), mNoAttributes(gl) {}
@@ -29,7 +29,7 @@ void RayCastPass::draw(const FramePlan& plan, Residency& residency, const Volume
                        Checkpoints& checkpoints, bool keepTable) {
   mBatchesDrawn = 0;
   mCounters.reset();
-  mSamplesPerPixel = checkpoints.intervalSamples() > 0 ? samplesPerPixel(plan) : 0;
+  mSamplesPerPixel = checkpoints.intervalSamples() > 0 ? samplesPerPixel(plan, stats.samplesEstimated) : 0;
   if (keepTable && KeptCells::fits(plan, residency)) {
     // One batch: the table kept from the last frame, changed where the bricks changed.
     const bool any = mKept.update(plan, residency, mCells, stats, checkpoints);

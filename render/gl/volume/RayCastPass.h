@@ -1,14 +1,16 @@
 // The frame ray caster: for each batch of bricks the atlas holds at once, the cell table (render/gl/volume/CellTable.h)
 // is filled with the batch's boxes and one fragment per pixel marches its ray through the whole batch, finding each
-// sample's brick in the table (raycast.frag.glsl). Where texture slabs draw a proxy per box and slab and
+// sample's brick in the table (volume_march.glsl; raycast.frag.glsl, or the compute kernel raycast.comp.glsl
+// dispatched by render/gl/volume/ComputeRayCast.h, Scene::raycaster). Where texture slabs draw a proxy per box and slab and
 // blend once per box, the ray caster draws one full-screen triangle and blends once per pixel and batch: no box
 // geometry, no fragment per box, a ray that stops at the termination threshold stops for the whole batch.
 //
 // The samples are the global planes' points that slicing and slabs take, owned as slabs own them, so the image is
 // the same beyond round-off. Batches are taken front to back along the bricks' visibility order, which every ray
 // follows, so compositing batch after batch is compositing along each ray; between batches the silhouette map
-// (render/gl/volume/TerminationPass.h) keeps terminated pixels from being marched again. The frame is drawn in bands of
-// rows, so that a cancelled frame stops within a band (render/gl/Checkpoints.h). A frame of one batch keeps its table
+// (render/gl/volume/TerminationPass.h) keeps terminated pixels from being marched again (the compute kernel reads
+// each pixel's opacity itself and needs none). The frame is drawn in bands of rows, so that a cancelled frame stops
+// within a band (render/gl/Checkpoints.h). A frame of one batch keeps its table
 // from the last frame and changes it where the bricks changed (render/gl/volume/KeptCells.h).
 #pragma once
 
@@ -38,8 +40,9 @@ class RayCastPass {
   const CellTable& cells() const { return mCells; }
 
  private:
-  /// The most samples a pixel of one pass may take, for sizing bands by cost (drawInBands).
-  static double samplesPerPixel(const FramePlan& plan);
+  /// The most samples a pixel of one pass may take, for sizing bands by cost (drawInBands), from the frame's
+  /// estimate (FramePlan::estimatedSamples, already in FrameStats::samplesEstimated).
+  static double samplesPerPixel(const FramePlan& plan, double samplesEstimated);
   /// Marches every pixel's ray through the batch whose cell table is bound (after marking terminated pixels in the
   /// silhouette map when an earlier batch was drawn).
   void march(const FramePlan& plan, const VolumeProgram& program, Compositor& compositor, FrameStats& stats,
