@@ -316,11 +316,12 @@ TEST_F(StressCamera, SoFarAwayTheVolumeCoversAboutOnePixel) {
     ASSERT_TRUE(allFinite(gpu) && allFinite(reference));
     const image::ImageError e = image::compareImages(gpu, reference);
     const double centre = reference.pixel(16, 16)[0];
-    std::printf("stress distance %-8g R: centre pixel GPU %.4f, reference %.4f; max |diff| %.2e\n", distance,
-                gpu.pixel(16, 16)[0], centre, e.maxAbs);
+    std::printf("stress distance %-8g R: centre pixel GPU %.4f, reference %.4f; max |diff| %.2e (filter slack %.2e)\n",
+                distance, gpu.pixel(16, 16)[0], centre, e.maxAbs, test::filterSlack(*sStore, scene));
     EXPECT_GT(centre, 0.02) << "the ray through the centre pixel crosses the volume";
-    // Measured at 126 and 1000 R: max |diff| 9.4e-5 and 5.3e-4.
-    EXPECT_LE(e.maxAbs, distance < 1e4 ? 1e-3 : centre + 1e-6) << distance;
+    // Measured at 126 and 1000 R: max |diff| 9.4e-5 and 5.3e-4 on llvmpipe (a float filter); 5.7e-5 and 5.4e-3 on
+    // the H200 (8-bit filter weights), whose slack test::filterSlack adds, as checkCase does.
+    EXPECT_LE(e.maxAbs, distance < 1e4 ? 1e-3 + test::filterSlack(*sStore, scene) : centre + 1e-6) << distance;
     EXPECT_EQ(reference.pixel(0, 0)[0], 0.0f) << "a corner pixel sees nothing";
   }
 }
