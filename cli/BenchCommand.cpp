@@ -33,7 +33,7 @@ struct BenchArgs {
   std::string mri = "/usr/share/mricron/templates/ch2better.nii.gz";
   std::string slabs, erts, slabSteps, alternatives, slabSubBlocks, lods, calibrate, tfs = "grayscale";
   bool quick = false, quiet = false, dryRun = false, noBestSlab = false, noPreIntegration = false, noOpaque = false,
-       noShading = false, rayCast = false, noRayCast = false;
+       noShading = false, rayCast = false, noRayCast = false, frames8 = false;
   std::vector<std::string> meshes;
   int views = 0, size = 0, ertSlab = 0;
   double referenceStep = 0, threshold = 40, thresholdHigh = 50, slabTableStep = 0, smallSlabMinStep = -1;
@@ -197,6 +197,7 @@ void applySettings(const BenchArgs& a, quality::SweepSpec& spec) {
   if (a.noShading) spec.shadingVariants = false;
   if (a.rayCast) spec.rayCast = true;
   if (a.noRayCast) spec.rayCast = false;
+  spec.frames8 = a.frames8;
   if (!a.alternatives.empty()) applyAlternatives(a.alternatives, spec);
   if (a.views > 0) spec.views = a.views;
   if (a.size > 0) spec.size = a.size;
@@ -337,6 +338,9 @@ void addBenchCommand(CLI::App& app) {
       ->check(between(0.0, 64.0));
   cmd->add_option("--slab-table-step", args->slabTableStep, "the step of sweep.md's slab table (default 1)")
       ->check(between(1e-3, 64.0));
+  cmd->add_flag("--frames8", args->frames8,
+                "time each grid frame as a server sends it, finished on the GPU as 8 bits; its error is measured on "
+                "the float frame of the same view drawn again");
   cmd->add_option("--views", args->views, "views of the orbit (default 8)")->check(between(1, 360));
   cmd->add_option("--size", args->size, "image side in pixels (default 256)")->check(between(8, 4096));
   cmd->add_option("--reference-step", args->referenceStep, "reference step in voxels (default 0.125)")

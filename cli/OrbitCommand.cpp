@@ -108,18 +108,18 @@ void runOrbit(const OrbitArgs& a, const CLI::App& cmd) {
   for (int i = 0; i < a.frames; ++i) {
     scene.camera.azimuth = start + 360.0 * i / a.frames;
     render::FrameStats stats;
-    image::ImageF frame;
+    image::Image8 frame;
     if (a.interactiveMs > 0) {
       InteractiveView view = interactiveView(engine, dataset, scene, rate, i);
-      frame = std::move(view.frame);
+      frame = image::toImage8(view.frame);
       stats.msTotal = view.actualMs;
       within += view.actualMs <= 1.5 * a.interactiveMs;
       worstPsnr = std::min(worstPsnr, view.psnr);
     } else {
-      frame = engine.render(dataset, scene, &stats);
+      frame = engine.render8(dataset, scene, &stats);  // finished on the GPU, as the server's frames are
     }
     const std::string path = framePath(a.pattern, i);
-    image::writeImage(path, image::toImage8(frame), {a.jpegQuality});
+    image::writeImage(path, frame, {a.jpegQuality});
     totalMs += stats.msTotal;
     if (!a.quiet)
       std::fprintf(stderr, "orbit: frame %d/%d, azimuth %g, %.1f ms\n", i + 1, a.frames, scene.camera.azimuth,

@@ -53,8 +53,11 @@ render::RenderEngineOptions engineOptions(const RenderArgs& a) {
 }
 
 /// Writes a frame in the format the path's extension names (PNG or JPEG), atomically.
+void writeFrame(const RenderArgs& a, const std::string& path, const image::Image8& frame) {
+  image::writeImage(path, frame, {a.jpegQuality});
+}
 void writeFrame(const RenderArgs& a, const std::string& path, const image::ImageF& frame) {
-  image::writeImage(path, image::toImage8(frame), {a.jpegQuality});
+  writeFrame(a, path, image::toImage8(frame));
 }
 
 /// Runs `draw`, showing how long it has been drawing once that passes a second (Progress::elapsed) unless --quiet.
@@ -95,7 +98,7 @@ void checkSubBlock(const CLI::App& cmd, const render::GridTechnique& technique, 
 nlohmann::json renderProvisional(const RenderArgs& a, render::RenderEngine& engine,
                                  const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene) {
   render::FrameStats first;
-  const image::ImageF provisional = engine.render(dataset, scene, &first, {render::RenderMode::Normal, true});
+  const image::Image8 provisional = engine.render8(dataset, scene, &first, {render::RenderMode::Normal, true});
   if (first.bricksStandIn > 0) {
     const std::string path = provisionalPath(a.output);
     writeFrame(a, path, provisional);
@@ -182,12 +185,13 @@ void runRender(const RenderArgs& a, const CLI::App& cmd) {
   if (!a.quiet) std::fprintf(stderr, "render: %s\n", engine.describe().c_str());
   // Warm-up frames page the bricks in and build the programs, so that the frame reported is a warm one, as a
   // server's next frame of the same dataset would be.
-  for (int i = 0; i < a.warmUp; ++i) engine.render(dataset, scene, nullptr);
+  // Frames are drawn as the server draws them, finished on the GPU as 8 bits (RenderEngine::render8).
+  for (int i = 0; i < a.warmUp; ++i) engine.render8(dataset, scene, nullptr);
   // Progressive: first the frame that waits for no disk read, then the exact one.
   const nlohmann::json provisionalJson =
       scene.progressive ? renderProvisional(a, engine, dataset, scene) : nlohmann::json();
   render::FrameStats stats;
-  const image::ImageF image = withProgress(a, scene, [&] { return engine.render(dataset, scene, &stats); });
+  const image::Image8 image = withProgress(a, scene, [&] { return engine.render8(dataset, scene, &stats); });
   writeFrame(a, a.output, image);
   if (!a.statsPath.empty()) {
     nlohmann::json json = stats.toJson();

@@ -133,13 +133,19 @@ render::Scene DatasetRun::settingScene(const Setting& setting, const Variant& va
 Point DatasetRun::measure(const Setting& setting, size_t variantIndex) {
   const Variant& variant = mVariants[variantIndex];
   render::VolumeRenderer& r = renderer(setting.brick);
-  r.render(settingScene(setting, variant, 0));  // warm-up: pages what this setting draws, builds its program
+  // Warm-up: pages what this setting draws, builds its programs.
+  if (mSpec.frames8)
+    r.render8(settingScene(setting, variant, 0));
+  else
+    r.render(settingScene(setting, variant, 0));
   Point p{mDataset.name, variant, setting};
   ViewTimes times;
   ErrorTally errors;
   for (int v = 0; v < mSpec.views; ++v) {
     render::FrameStats stats;
-    const image::ImageF image = r.render(settingScene(setting, variant, v), &stats);
+    const render::Scene scene = settingScene(setting, variant, v);
+    if (mSpec.frames8) r.render8(scene, &stats);
+    const image::ImageF image = mSpec.frames8 ? r.render(scene) : r.render(scene, &stats);
     times.add(stats);
     errors.add(image::compareImages(image, mTruth[variantIndex][size_t(v)]));
   }

@@ -99,6 +99,10 @@ struct SweepSpec {
   /// each of `slabSubBlocks`; each of `lods` as for slabs; pre-integration if `preIntegration`. Independent of
   /// `slabs`, on the slab variants.
   bool rayCast = false;
+  /// Each view's frame timed as a server sends it, finished on the GPU as 8 bits (render::FrameRenderer::render8),
+  /// and its error measured on the float frame of the same view drawn again (the same samples: the 8 bits are
+  /// image::toImage8 of those floats). False: the float frame is timed and judged.
+  bool frames8 = false;
   std::vector<double> slabSteps;  ///< the steps of the slab settings (each one of `steps`); empty: every step
   /// Slab sizes below `ertSlab` (a fragment per plane or few: the slowest settings) run only at steps at least this.
   double smallSlabMinStep = 0;

@@ -42,7 +42,7 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
     options.fixedMs = job.fixedMs;
     render::Scene scene = job.scene;
     if (job.refinement) scene.interactive = false;  // the exact frame of an interactive request
-    const image::ImageF image = source.render(job.dataset, scene, &stats, options);
+    const image::Image8 image = source.render8(job.dataset, scene, &stats, options);
     const auto encodeStart = Clock::now();
     // A frame with stand-ins, or an interactive frame: the exact one follows.
     const bool provisional = stats.bricksStandIn > 0 || scene.interactive;
@@ -54,7 +54,7 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
     const int jpegQuality = provisional && job.provisionalJpegQuality
                                 ? *job.provisionalJpegQuality
                                 : job.scene.jpegQuality.value_or(image::kDefaultJpegQuality);
-    frame.payload = image::encodeFrameImage(image::toImage8(image), frame.encoding, jpegQuality);
+    frame.payload = image::encodeFrameImage(image, frame.encoding, jpegQuality);
     nlohmann::json statsJson = stats.toJson();
     statsJson["queue_ms"] = msBetween(job.received, start);
     statsJson["encode_ms"] = msBetween(encodeStart, Clock::now());

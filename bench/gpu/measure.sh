@@ -26,7 +26,8 @@
 #   load-drag       30  voxbrick serve + voxbrick load on the MRI at 512^2: one client, then 4 dragging at 10 Hz
 #   tets-1m         60  synthetic-mesh:ball,n=70 (1 025 244 tets, made by prep: no Python needed), 512^2 and 1024^2,
 #                       each visibility; PSNR against the exact reference at 512^2 when time is left
-#   field-1024     150  prep synthetic:blobs,n=1024 (4.3 GB f32), frames at 1024^2 at lod 1 and 0; if the prep does
+#   field-1024     150  prep synthetic:blobs,n=1024 (4.3 GB f32), frames at 1024^2 at lod 1 and 0 (and warm at 2048^2,
+#                       lod 1; and with the fragment kernel); if the prep does
 #                       not finish in time, n=512 instead (said in the step's file)
 #
 # Environment: MEASURE_QUICK=1 (tiny sizes, a 240 s budget: proves every step on any machine), MEASURE_BUDGET
@@ -115,11 +116,12 @@ if [ "${1:-}" = "--step" ]; then
       esac
       if q; then views=1 steps=1; case "$size" in 512) size=64 views=2 ;; 1024) size=96 ;; *) size=128 ;; esac; fi
       echo "voxbrick bench on the MRI at ${size}x${size}, $views views, steps $steps (the sweep's files:" \
-        "sweep.{csv,md,svg}); PSNR against the CPU reference (step $refstep)." >> "$md"; echo >> "$md"
+        "sweep.{csv,md,svg}); frames timed as a server sends them (\`--frames8\`: finished on the GPU as 8 bits)," \
+        "PSNR of the same views' float frames against the CPU reference (step $refstep)." >> "$md"; echo >> "$md"
       cmd timeout "$(left 3)" "$KIT/bin/voxbrick" bench --datasets mri --mri "$KIT/data/ch2better.nii.gz" \
         --work "$WORK/bench" --out "$dir" --size "$size" --views "$views" --steps "$steps" --reference-step "$refstep" --alternatives none \
         --no-shading --slabs 32 --ert-slab 32 --erts 0.999 --slab-sub-blocks 8 --no-best-slab --no-pre-integration \
-        --no-opaque 2>&1 | tee "$dir/bench.log"
+        --no-opaque --frames8 2>&1 | tee "$dir/bench.log"
       echo >> "$md"; [ -f "$dir/sweep.md" ] && cat "$dir/sweep.md" >> "$md"
       ;;
     roofline)
@@ -282,7 +284,7 @@ PY
         cmd vb prep "synthetic:blobs,n=$n" --no-vdb -q --force -o "$WORK/blobs-$n" 2>&1 | tee -a "$dir/prep.log"
       fi
       echo "- prep: $(grep -h 'MB/s' "$dir/prep.log" | tail -1)" >> "$md"
-      echo "n,size,lod,frame,ms_total,ms_paging,ms_drawing,bricks_drawn,bricks_paged_in,psnr_vs_lod0_db,raycaster,cells_sent" \
+      echo "n,size,lod,frame,ms_total,ms_paging,ms_traversal,ms_drawing,ms_readback,bricks_drawn,bricks_paged_in,psnr_vs_lod0_db,raycaster,cells_sent" \
         > "$dir/field-1024.csv"
       for lod in 1 0; do
         cmd timeout "$(left 5)" "$KIT/bin/voxbrick" render "$WORK/blobs-$n" --tf hot --size "${size}x${size}" \
@@ -296,16 +298,22 @@ PY
       cmd timeout "$(left 5)" "$KIT/bin/voxbrick" render "$WORK/blobs-$n" --tf hot --size "${size}x${size}" \
         --lod 1 --gpu-budget 16384 --host-cache 16384 --warm-up 1 --raycaster fragment -q \
         --stats "$dir/warm-fragment-lod1.json" -o "$WORK/field-fragment-lod1.png" || true
+      # And at twice the size (four times the pixels).
+      cmd timeout "$(left 5)" "$KIT/bin/voxbrick" render "$WORK/blobs-$n" --tf hot --size "$((2 * size))x$((2 * size))" \
+        --lod 1 --gpu-budget 16384 --host-cache 16384 --warm-up 1 -q \
+        --stats "$dir/warm-double-lod1.json" -o "$WORK/field-double-lod1.png" || true
       for lod in 1 0; do
         frames="first warm"
-        [ "$lod" = 1 ] && [ -f "$dir/warm-fragment-lod1.json" ] && frames="first warm warm-fragment"
+        [ "$lod" = 1 ] && frames="first warm warm-fragment warm-double"
         for frame in $frames; do
           s=$dir/$frame-lod$lod.json
+          [ -f "$s" ] || continue
           get() { sed -n "s/.*\"$1\": *\([-0-9.e]*\).*/\1/p" "$s" | head -1; }
           psnr=
           if [ "$lod" = 1 ] && [ "$frame" = warm ]; then psnr=$(psnr "$WORK/field-lod1.png" "$WORK/field-lod0.png"); fi
           kernel=$(sed -n 's/.*"raycaster": *"\([a-z]*\)".*/\1/p' "$s" | head -1)
-          echo "$n,$size,$lod,$frame,$(get total),$(get paging),$(get drawing),$(get bricks_drawn),$(get bricks_paged_in),$psnr,$kernel,$(get cells_sent)" \
+          side=$size; [ "$frame" = warm-double ] && side=$((2 * size))
+          echo "$n,$side,$lod,$frame,$(get total),$(get paging),$(get traversal),$(get drawing),$(get readback),$(get bricks_drawn),$(get bricks_paged_in),$psnr,$kernel,$(get cells_sent)" \
             >> "$dir/field-1024.csv"
         done
       done

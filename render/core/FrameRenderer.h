@@ -69,6 +69,12 @@ class FrameRenderer {
   virtual ~FrameRenderer() = default;
   /// Renders `scene`; throws RenderInputError for an invalid scene and RenderError for GL failures.
   virtual image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) = 0;
+  /// The frame as 8-bit RGBA, what servers send and files hold: the bytes image::toImage8(render(...)) gives. A
+  /// renderer that can finish its frames on the GPU (the background composited and the channels rounded there)
+  /// does, and reads back a quarter of the bytes; this default converts on the CPU.
+  virtual image::Image8 render8(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) {
+    return image::toImage8(render(scene, stats, options));
+  }
   /// GPU memory it holds for its data (the brick atlas), which its GPU budget bounds.
   virtual size_t gpuBytes() const = 0;
   /// The samples drawing `scene` would cost, as the frame's own estimate (FrameStats::samplesEstimated) would say,

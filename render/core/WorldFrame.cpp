@@ -39,7 +39,18 @@ void flipHorizontally(image::ImageF& image) {
       std::swap_ranges(image.pixel(x, y), image.pixel(x, y) + 4, image.pixel(image.width - 1 - x, y));
 }
 
+void flipHorizontally(image::Image8& image) {
+  uint8_t* rows = image.rgba.data();
+  for (int y = 0; y < image.height; ++y, rows += size_t(image.width) * 4)
+    for (int x = 0; x < image.width / 2; ++x)
+      std::swap_ranges(rows + 4 * x, rows + 4 * x + 4, rows + 4 * (image.width - 1 - x));
+}
+
 void finishImage(const WorldFrame& frame, image::ImageF& image) {
+  if (frame.mirrored()) flipHorizontally(image);
+}
+
+void finishImage(const WorldFrame& frame, image::Image8& image) {
   if (frame.mirrored()) flipHorizontally(image);
 }
 

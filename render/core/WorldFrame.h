@@ -36,8 +36,10 @@ struct WorldFrame {
 /// mirrored (the GPU renderers through RenderEngine and ReferenceRenderer both call it, so the reference judges the
 /// same image); otherwise leaves it alone.
 void finishImage(const WorldFrame& frame, image::ImageF& image);
+void finishImage(const WorldFrame& frame, image::Image8& image);
 
 /// Flips `image` left to right in place.
 void flipHorizontally(image::ImageF& image);
+void flipHorizontally(image::Image8& image);
 
 }  // namespace voxbrick::render

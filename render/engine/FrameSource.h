@@ -32,6 +32,12 @@ class FrameSource {
   /// RenderError for failures of what draws.
   virtual image::ImageF render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene,
                                FrameStats* stats = nullptr, const FrameOptions& options = {}) = 0;
+  /// The same frame as 8-bit RGBA, the bytes image::toImage8(render(...)) gives (what a reply carries). Default:
+  /// render and convert; the local engine finishes on the GPU where its renderer can (FrameRenderer::render8).
+  virtual image::Image8 render8(const std::shared_ptr<const Dataset>& dataset, const Scene& scene,
+                                FrameStats* stats = nullptr, const FrameOptions& options = {}) {
+    return image::toImage8(render(dataset, scene, stats, options));
+  }
   /// Pages ahead for `scene`, a frame of `dataset` likely to come next (a drag's next camera). Advisory; never
   /// throws. Default: nothing.
   virtual void prefetch(const std::shared_ptr<const Dataset>& dataset, const Scene& scene) {

@@ -103,6 +103,18 @@ uint64_t RenderEngine::renderersReleased() const { return mImpl->released; }
 
 image::ImageF RenderEngine::render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats,
                                    const FrameOptions& options) {
+  return renderAny(dataset, scene, stats, options, nullptr);
+}
+
+image::Image8 RenderEngine::render8(const std::shared_ptr<const Dataset>& dataset, const Scene& scene,
+                                    FrameStats* stats, const FrameOptions& options) {
+  image::Image8 image8;
+  const image::ImageF image = renderAny(dataset, scene, stats, options, &image8);
+  return image8.rgba.empty() ? image::toImage8(image) : std::move(image8);
+}
+
+image::ImageF RenderEngine::renderAny(const std::shared_ptr<const Dataset>& dataset, const Scene& scene,
+                                      FrameStats* stats, const FrameOptions& options, image::Image8* image8) {
   if (!dataset) throw RenderInputError("RenderEngine::render: no dataset");
   const DatasetDriver& driver = driverFor(*dataset);
   std::optional<QualityChoice> choice;
@@ -129,6 +141,8 @@ image::ImageF RenderEngine::render(const std::shared_ptr<const Dataset>& dataset
     frameStats.interactive = chosen.toJson();
     frameStats.interactive["actual_ms"] =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  } else if (image8) {
+    *image8 = renderer.render8(resolved, &frameStats, frameOptions);
   } else {
     image = renderer.render(resolved, &frameStats, frameOptions);
   }
@@ -139,7 +153,11 @@ image::ImageF RenderEngine::render(const std::shared_ptr<const Dataset>& dataset
     std::lock_guard lock(mImpl->recentMutex);
     mImpl->recentRates[std::string(dataset->kind())] = rate.rate();
   }
-  finishImage(dataset->worldFrame(), image);  // the renderers draw in the local frame
+  // The renderers draw in the local frame.
+  if (image8 && !image8->rgba.empty())
+    finishImage(dataset->worldFrame(), *image8);
+  else
+    finishImage(dataset->worldFrame(), image);
   if (choice) frameStats.quality = choice->toJson();
   if (stats) *stats = std::move(frameStats);
   return image;

@@ -41,6 +41,10 @@ class RenderEngine final : public FrameSource {
   /// failures.
   image::ImageF render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats = nullptr,
                        const FrameOptions& options = {}) override;
+  /// The same frame as 8-bit RGBA, finished on the GPU by the renderer (FrameRenderer::render8) when the frame is
+  /// drawn at the scene's size; an interactive frame, drawn smaller and scaled up in float, is converted after.
+  image::Image8 render8(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats = nullptr,
+                        const FrameOptions& options = {}) override;
   /// Pages ahead through the driver of the dataset's kind (DatasetDriver::prefetch), fitted to what this engine's
   /// renderer of it holds. The context must be current. Never throws.
   void prefetch(const std::shared_ptr<const Dataset>& dataset, const Scene& scene) override;
@@ -61,6 +65,11 @@ class RenderEngine final : public FrameSource {
   uint64_t renderersReleased() const override;
 
  private:
+  /// render and render8: the frame as floats, or with `eightBit` as 8 bits in `*image8` where the renderer draws it
+  /// at the scene's size (an interactive frame is returned as floats, to be converted).
+  image::ImageF renderAny(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats,
+                          const FrameOptions& options, image::Image8* image8);
+
   struct Impl;
   std::unique_ptr<Impl> mImpl;
 };

@@ -31,6 +31,7 @@
 #define VB_BINDING_BOUNDARY_FACES 5    // BoundaryFaces: a boundary face's tet and face (uint)
 #define VB_BINDING_RAY_EXITS 6         // RayExits: per pixel, where the last pass left the mesh (float)
 #define VB_BINDING_ENTRY_COUNT 7       // EntryCount: the entry pass's kept fragments (uint)
+#define VB_BINDING_FRAME8 8            // Frame8: the finished 8-bit frame, a uint a pixel (finish.comp.glsl)
 
 // SlabCounters: VB_COUNTERS 64-bit counters, each as two uint words (low, high), indexed by these.
 #define VB_COUNTER_FRAGMENTS 0           // marching fragments started
@@ -44,5 +45,9 @@
 // (bench/results/render/raycaster-groups.md); 8 x 8 is two of NVIDIA's warps of 32.
 #define VB_RAYCAST_GROUP_X 8
 #define VB_RAYCAST_GROUP_Y 8
+
+// The workgroup of the 8-bit finish (finish.comp.glsl, Compositor::finish8): a pixel an invocation, nothing shared.
+#define VB_FINISH_GROUP_X 8
+#define VB_FINISH_GROUP_Y 8
 
 #endif

@@ -2,9 +2,11 @@
 #include "render/gl/Compositor.h"
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 
 #include "render/core/FrameStats.h"
+#include "render/gl/Bindings.h"
 
 namespace voxbrick::render {
 namespace {
@@ -81,15 +83,54 @@ void Compositor::bindImage(GLuint unit) const {
   mGl.glBindImageTexture(unit, mTarget.color().id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_RGBA32F);
 }
 
-image::ImageF Compositor::finish(const Scene& scene, FrameStats& stats, bool premultiplied) {
+void Compositor::endPasses(FrameStats& stats) {
   mGl.glEndQuery(GL_SAMPLES_PASSED);
   mCounting = false;
   mGl.glDisable(GL_DEPTH_TEST);
-  auto t = Clock::now();
+  const auto t = Clock::now();
   mGl.glFinish();
   stats.msDrawing += msSince(t);
   stats.fragments = int64_t(mFragments.result());
-  t = Clock::now();
+}
+
+image::Image8 Compositor::finish8(const Scene& scene, FrameStats& stats) {
+  static_assert(std::endian::native == std::endian::little, "finish.comp.glsl packs R in a uint's low byte");
+  if (scene.transparent) {
+    image::ImageF image = finish(scene, stats);
+    const auto t = Clock::now();
+    image::Image8 out = image::toImage8(image);
+    stats.msReadback += msSince(t);
+    return out;
+  }
+  endPasses(stats);
+  const auto t = Clock::now();
+  const int width = mTarget.width(), height = mTarget.height();
+  if (!mFinish8) {
+    mFinish8 = Program(mGl, ProgramSources::fromFiles("finish.comp.glsl", {{GL_COMPUTE_SHADER, "finish.comp.glsl"}}));
+    mFrame8 = Buffer(mGl);
+  }
+  const size_t bytes = size_t(width) * size_t(height) * 4;
+  if (bytes != mFrame8Bytes) {
+    mFrame8.allocate(GL_SHADER_STORAGE_BUFFER, bytes, nullptr, GL_STREAM_READ);
+    mFrame8Bytes = bytes;
+  }
+  mFinish8.use();
+  mFinish8.set(mFinish8.uniformLocation("uSize"), glm::ivec4(width, height, 0, 0));
+  mFinish8.set(mFinish8.uniformLocation("uBackground"), glm::vec3(scene.background));
+  mTarget.color().bind(VB_UNIT_ACCUMULATED);
+  mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_FRAME8, mFrame8.id());
+  mGl.glDispatchCompute(GLuint((width + VB_FINISH_GROUP_X - 1) / VB_FINISH_GROUP_X),
+                        GLuint((height + VB_FINISH_GROUP_Y - 1) / VB_FINISH_GROUP_Y), 1);
+  mGl.glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+  image::Image8 out{width, height, std::vector<uint8_t>(bytes)};
+  mFrame8.read(0, bytes, out.rgba.data());
+  stats.msReadback = msSince(t);
+  return out;
+}
+
+image::ImageF Compositor::finish(const Scene& scene, FrameStats& stats, bool premultiplied) {
+  endPasses(stats);
+  const auto t = Clock::now();
   mTarget.readRgba(mRaw);
   const std::vector<float>& raw = mRaw;
   const int width = mTarget.width(), height = mTarget.height();

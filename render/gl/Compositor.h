@@ -35,11 +35,19 @@ class Compositor {
   /// msDrawing (the wait) and msReadback. With `premultiplied` (a part's frame in sort-last rendering) the target is
   /// returned as it is, premultiplied colour and opacity with no background (render/core/PartialFrame.h).
   image::ImageF finish(const Scene& scene, FrameStats& stats, bool premultiplied = false);
+  /// As finish, as 8-bit RGBA: the frame image::toImage8(finish(scene, stats)) gives, the same bytes, but finished
+  /// on the GPU (finish.comp.glsl: the background composited and each channel rounded there) and read back as a
+  /// quarter of the float target's bytes, with no pass over the pixels on the CPU. A transparent background's
+  /// straight colour (c / a, in double on the CPU) is finished by finish and rounded after.
+  image::Image8 finish8(const Scene& scene, FrameStats& stats);
   /// After a frame failed between begin() and finish(): ends the fragment count and puts back the state every
   /// pass expects at the start of a frame (colour and depth writes, depth range), so the next frame starts clean.
   void abort();
 
  private:
+  /// Ends the fragment count and waits for the passes (msDrawing, fragments).
+  void endPasses(FrameStats& stats);
+
   const Gl& mGl;
   Framebuffer mTarget;
   Texture mDepth;  // GL_DEPTH_COMPONENT32F, attached to mTarget and mDepthOnly when silhouettes are used
@@ -47,6 +55,9 @@ class Compositor {
   Query mFragments;
   bool mCounting = false;   // between begin() and finish()/abort(): the fragment query is active
   std::vector<float> mRaw;  // the readback, kept: faulting in 4 MB of fresh pages costs 13 ms on a VM
+  Program mFinish8;         // finish.comp.glsl, made on the first finish8
+  Buffer mFrame8;           // its output, a uint a pixel
+  size_t mFrame8Bytes = 0;  // mFrame8's size
 };
 
 }  // namespace voxbrick::render

@@ -524,6 +524,33 @@ TEST(BenchCli, QuickSweepWritesWellFormedFilesAndReusesItsReferences) {
   EXPECT_NE(r.output.find("nosuch"), std::string::npos) << r.output;
 }
 
+// `bench --frames8`: each frame timed as a server sends it (8 bits finished on the GPU), its error measured on the
+// float frame of the same view: the same samples, so every point's error is the float sweep's to the last digit.
+TEST(BenchCli, Frames8TimesTheServedFrameAndJudgesTheSameSamples) {
+  test::ScratchDir dir;
+  const std::string common = "bench --quick -q --datasets ml --work " + (dir / "work").string();
+  auto floats = test::runVoxbrick(common + " --out " + (dir / "f").string());
+  ASSERT_EQ(floats.exitCode, 0) << floats.output;
+  auto bytes = test::runVoxbrick(common + " --frames8 --out " + (dir / "b").string());
+  ASSERT_EQ(bytes.exitCode, 0) << bytes.output;
+  std::ifstream a(dir / "f" / "sweep.csv"), b(dir / "b" / "sweep.csv");
+  std::string la, lb;
+  ASSERT_TRUE(std::getline(a, la) && std::getline(b, lb));
+  EXPECT_EQ(la, lb) << "the same columns";
+  int rows = 0;
+  while (std::getline(a, la)) {
+    ASSERT_TRUE(std::getline(b, lb)) << "a point missing with --frames8";
+    const std::vector<std::string> fa = fields(la), fb = fields(lb);
+    ASSERT_EQ(fa.size(), fb.size());
+    for (size_t c : {size_t(0), size_t(1), size_t(3), size_t(13), size_t(21), size_t(22)})
+      EXPECT_EQ(fa[c], fb[c]) << "column " << c << ": " << la << " / " << lb;
+    EXPECT_GT(std::stod(fb[9]), 0) << "timed: " << lb;
+    ++rows;
+  }
+  EXPECT_GT(rows, 10);
+  EXPECT_FALSE(std::getline(b, lb)) << "a point only with --frames8";
+}
+
 // `bench --mesh`: a synthetic mesh (non-convex: the staircase ball) and a mesh store, two transfer functions, every
 // setting against the exact reference, the files written with one row per point, the front and the default, and
 // bad input refused by name.

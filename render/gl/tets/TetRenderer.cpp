@@ -98,11 +98,28 @@ size_t TetRenderer::gpuBytes() const { return mResidency.gpuBytes(); }
 image::ImageF TetRenderer::background(const Scene& scene, FrameStats& stats, TimePoint frameStart,
                                       FrameStats* statsOut) {
   mCompositor.begin(scene.width, scene.height, true);
-  image::ImageF image = mCompositor.finish(scene, stats);
+  image::ImageF image = finishFrame(scene, stats);
   mGl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
   stats.msTotal = msSince(frameStart);
   if (statsOut) *statsOut = stats;
   return image;
+}
+
+image::ImageF TetRenderer::finishFrame(const Scene& scene, FrameStats& stats) {
+  if (!mFrame8) return mCompositor.finish(scene, stats);
+  *mFrame8 = mCompositor.finish8(scene, stats);
+  return {};
+}
+
+image::Image8 TetRenderer::render8(const Scene& scene, FrameStats* stats, const FrameOptions& options) {
+  image::Image8 frame;
+  mFrame8 = &frame;
+  struct Reset {
+    image::Image8*& target;
+    ~Reset() { target = nullptr; }
+  } reset{mFrame8};
+  render(scene, stats, options);
+  return frame;
 }
 
 double TetRenderer::estimateSamples(const Scene& scene) {
@@ -191,7 +208,7 @@ image::ImageF TetRenderer::draw(const Scene& scene, const TetFramePlan& plan, bo
   }
   stats.msDrawing = msSince(drawStart);
   stats.tetsDrawn = int64_t(mOrder.size());
-  image::ImageF image = mCompositor.finish(scene, stats);
+  image::ImageF image = finishFrame(scene, stats);
   if (rays) mResidency.rayCaster()->readCounters(stats);
   mGl.glDisable(GL_BLEND);
   mGl.glBindFramebuffer(GL_FRAMEBUFFER, 0);

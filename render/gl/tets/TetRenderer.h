@@ -46,6 +46,8 @@ class TetRenderer final : public FrameRenderer {
   /// a frame that needs none is the background. Throws RenderInputError for an invalid scene, RenderError for GL
   /// failures, FrameCancelled when options.cancelled says so before drawing, and what frameData throws.
   image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) override;
+  /// The same frame finished on the GPU as 8 bits (Compositor::finish8).
+  image::Image8 render8(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) override;
   size_t gpuBytes() const override;
   /// The cost model's estimate (TetFrameCost) of the last frame, its fragments scaled to `scene`'s size; before any
   /// frame, the vertex stages of every tet and one fragment a pixel.
@@ -65,6 +67,8 @@ class TetRenderer final : public FrameRenderer {
   void upload();
   /// Tet `tet`'s four vertices as the shader reads them.
   void writeTet(uint32_t tet, glm::vec4* out) const;
+  /// The compositor's readback: as floats, or during render8 as 8 bits into *mFrame8 (the floats returned empty).
+  image::ImageF finishFrame(const Scene& scene, FrameStats& stats);
   /// A frame with nothing to draw.
   image::ImageF background(const Scene& scene, FrameStats& stats, TimePoint frameStart, FrameStats* statsOut);
   /// The table, the pass (the ray caster when `rays`, else the projected tets of mOrder) and the readback.
@@ -75,6 +79,7 @@ class TetRenderer final : public FrameRenderer {
                      const std::function<bool()>& cancelled);
 
   const Gl& mGl;
+  image::Image8* mFrame8 = nullptr;  // during render8: where the frame's 8 bits go
   TetResidency mResidency;
   Buffer mVertices;  // 4 vec4 per tet: position (centred on the mesh's box) and raw scalar
   Buffer mOrderBuffer;

@@ -84,8 +84,8 @@ SliceGeometry& VolumeRenderer::geometry(const Scene& scene) {
   return *g;
 }
 
-image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, const FrameOptions& options,
-                                   FrameStats& stats) {
+void VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, const FrameOptions& options,
+                          FrameStats& stats) {
   const RenderMode mode = options.mode;
   const store::BrickStore& store = mResidency.store();
   mResidency.beginFrame(plan.visible.bricks);
@@ -134,11 +134,26 @@ image::ImageF VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, co
   } else {
     mSlicing.draw(plan, mResidency, program, geometry(scene), stats, checkpoints);
   }
-
-  return mCompositor.finish(scene, stats, plan.part.has_value());
 }
 
-image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, const FrameOptions& options) {
+image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* stats, const FrameOptions& options) {
+  image::ImageF image;
+  frame(scene, stats, options, [&](const FramePlan& plan, FrameStats& s) {
+    image = mCompositor.finish(scene, s, plan.part.has_value());
+  });
+  return image;
+}
+
+image::Image8 VolumeRenderer::render8(const Scene& scene, FrameStats* stats, const FrameOptions& options) {
+  // A part's frame is premultiplied floats for compositing, never 8 bits.
+  if (options.part) return FrameRenderer::render8(scene, stats, options);
+  image::Image8 image;
+  frame(scene, stats, options, [&](const FramePlan&, FrameStats& s) { image = mCompositor.finish8(scene, s); });
+  return image;
+}
+
+void VolumeRenderer::frame(const Scene& scene, FrameStats* statsOut, const FrameOptions& options,
+                           const std::function<void(const FramePlan&, FrameStats&)>& finish) {
   const auto frameStart = Clock::now();
   FrameStats stats;
   const store::BrickStore& store = mResidency.store();
@@ -165,9 +180,9 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, c
       plan.coarsestLevel = std::max(plan.coarsestLevel, int(d.key.level + d.standIn));
     stats.msPaging += msSince(t);
   }
-  image::ImageF image;
   try {
-    image = draw(scene, plan, options, stats);
+    draw(scene, plan, options, stats);
+    finish(plan, stats);
   } catch (...) {
     // A brick that fails its checks (or any other failure mid-frame) must not leave the context half way through
     // a frame: the next frame, of any dataset, starts from the state every pass expects.
@@ -189,7 +204,6 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, c
     stats.samples = stats.fragments;
   stats.msTotal = msSince(frameStart);
   if (statsOut) *statsOut = stats;
-  return image;
 }
 
 }  // namespace voxbrick::render

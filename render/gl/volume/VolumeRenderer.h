@@ -3,6 +3,7 @@
 // (VolumePrograms), and compositing with readback (Compositor).
 #pragma once
 
+#include <functional>
 #include <memory>
 
 #include "brickstore/read/BrickCache.h"
@@ -32,6 +33,9 @@ class VolumeRenderer final : public FrameRenderer {
 
   /// Renders `scene`; throws RenderInputError for an invalid scene and RenderError for GL failures.
   image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) override;
+  /// The frame finished on the GPU as 8-bit RGBA (Compositor::finish8); a part's frame (options.part) is converted
+  /// on the CPU as FrameRenderer's default does.
+  image::Image8 render8(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) override;
 
   const BrickAtlas& atlas() const { return mResidency.atlas(); }
   /// The ray caster's cell table as the last ray-cast frame left it.
@@ -50,8 +54,12 @@ class VolumeRenderer final : public FrameRenderer {
   SliceGeometry& geometry(const Scene& scene);
   /// The plan's part of the frame's statistics: the traversal's counts and the fit to the budget.
   void planStats(const FramePlan& plan, FrameStats& stats) const;
-  /// The GL part of a frame, from paging to readback; render() puts the context back in order if it throws.
-  image::ImageF draw(const Scene& scene, const FramePlan& plan, const FrameOptions& options, FrameStats& stats);
+  /// A frame from planning to statistics, `finish` reading it back (Compositor::finish or finish8); puts the context
+  /// back in order if drawing or finishing throws.
+  void frame(const Scene& scene, FrameStats* stats, const FrameOptions& options,
+             const std::function<void(const FramePlan&, FrameStats&)>& finish);
+  /// The GL part of a frame, from paging to the last pass.
+  void draw(const Scene& scene, const FramePlan& plan, const FrameOptions& options, FrameStats& stats);
 
   const Gl& mGl;
   Residency mResidency;

@@ -1,0 +1,142 @@
+// Frames finished on the GPU as 8 bits (Compositor::finish8, FrameRenderer::render8, RenderEngine::render8): the
+// bytes must be exactly image::toImage8 of the float frame the same renderer draws, for every pass and kernel, any
+// background and size, and the engine's 8-bit frames (what the server sends) those of its float frames.
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <string>
+
+#include "image/Image.h"
+#include "render/engine/Datasets.h"
+#include "render/engine/RenderEngine.h"
+#include "render/gl/GlFixtures.h"
+#include "render/gl/volume/VolumeRenderer.h"
+#include "support/TestSupport.h"
+
+namespace voxbrick::render {
+namespace {
+
+using test::prep;
+using test::ScratchDir;
+
+/// Channels of `a` and `b` that differ (every channel when the sizes differ).
+size_t bytesThatDiffer(const image::Image8& a, const image::Image8& b) {
+  if (a.width != b.width || a.height != b.height || a.rgba.size() != b.rgba.size())
+    return std::max(a.rgba.size(), b.rgba.size());
+  size_t n = 0;
+  for (size_t i = 0; i < a.rgba.size(); ++i) n += a.rgba[i] != b.rgba[i];
+  return n;
+}
+
+/// Pixels neither black nor the background: the frame shows the volume.
+size_t pixelsDrawn(const image::Image8& image, const glm::dvec3& background) {
+  size_t n = 0;
+  for (size_t i = 0; i < image.rgba.size(); i += 4) {
+    int far = 0;
+    for (int c = 0; c < 3; ++c)
+      far = std::max(far, std::abs(int(image.rgba[i + c]) - int(std::lround(background[c] * 255))));
+    n += far > 8;
+  }
+  return n;
+}
+
+struct Case {
+  std::string name;
+  Scene scene;
+};
+
+std::vector<Case> frameCases() {
+  Scene base = test::slicingScene("hot");
+  base.lod = 0;
+  base.width = 37;  // neither side a multiple of the finish's 8 x 8 workgroups
+  base.height = 23;
+  base.background = {0.2, 0.35, 0.9};
+  std::vector<Case> cases;
+  Scene s = base;
+  cases.push_back({"slicing", s});
+  s.slab = 16;
+  s.ert = 0.99;
+  cases.push_back({"slabs", s});
+  s = base;
+  s.raycast = true;
+  s.raycaster = RayCaster::Fragment;
+  cases.push_back({"ray caster, fragment", s});
+  s.raycaster = RayCaster::Compute;
+  s.subBlock = 4;
+  cases.push_back({"ray caster, compute", s});
+  s.background = {0, 0, 0};
+  s.width = s.height = 64;
+  cases.push_back({"ray caster, black background", s});
+  s.background = {1, 1, 1};
+  s.camera.azimuth = 200;
+  s.camera.elevation = -35;
+  cases.push_back({"ray caster, white background, from below", s});
+  s.transparent = true;
+  cases.push_back({"no background (straight colour and alpha)", s});
+  return cases;
+}
+
+TEST(Frame8, IsTheFloatFrameRoundedForEveryPassAndBackground) {
+  ScratchDir dir;
+  const auto store = prep("synthetic:blobs,n=48", dir / "b", 16);
+  auto cache = std::make_shared<store::BrickCache>(store, size_t(256) << 20, 1);
+  VolumeRenderer renderer(test::context(), cache, size_t(256) << 20);
+  for (const Case& c : frameCases()) {
+    FrameStats floatStats, stats8;
+    const image::ImageF floats = renderer.render(c.scene, &floatStats);
+    const image::Image8 expected = image::toImage8(floats);
+    const image::Image8 bytes = renderer.render8(c.scene, &stats8);
+    ASSERT_EQ(bytes.width, c.scene.width) << c.name;
+    ASSERT_EQ(bytes.height, c.scene.height) << c.name;
+    EXPECT_EQ(bytesThatDiffer(bytes, expected), 0u) << c.name << ": the GPU's 8 bits are not toImage8's";
+    EXPECT_GT(pixelsDrawn(bytes, c.scene.background), size_t(c.scene.width * c.scene.height / 8))
+        << c.name << ": too little drawn to prove anything";
+    EXPECT_EQ(stats8.samples, floatStats.samples) << c.name << ": the same drawing";
+    EXPECT_EQ(stats8.bricksDrawn, floatStats.bricksDrawn) << c.name;
+    EXPECT_GT(stats8.msReadback, 0.0) << c.name;
+    if (c.scene.raycast) {
+      EXPECT_EQ(stats8.raycaster, floatStats.raycaster) << c.name;
+    }
+  }
+  // A flip of the rows (the finish writes them top first) or a swap of channels would differ above: the views are
+  // not symmetric top to bottom, and the background is not grey.
+}
+
+TEST(Frame8, TheEnginesBytesAreItsFloatFramesRoundedForGridsMeshesAndInteractiveFrames) {
+  ScratchDir dir;
+  prep("synthetic:blobs,n=40", dir / "g", 8);
+  const test::CommandResult mesh = test::runVoxbrick("prep synthetic-mesh:ball,n=6 -q -o " + (dir / "m").string());
+  ASSERT_EQ(mesh.exitCode, 0) << mesh.output;
+  RenderEngine engine(RenderEngineOptions{});
+  for (const char* name : {"g", "m", "m projected"}) {
+    const std::string path(name, 1);
+    const auto dataset = openDataset(path, dir / path, size_t(64) << 20);
+    Scene scene = test::slicingScene("hot");
+    scene.raycast = true;
+    if (std::string(name) == "m projected") scene.visibility = TetSort::Mpvo;
+    scene.width = 40;
+    scene.height = 30;
+    scene.background = {0.1, 0.1, 0.1};
+    engine.render(dataset, scene);  // paged in: the frames below are drawn alike
+    const image::Image8 bytes = engine.render8(dataset, scene);
+    EXPECT_EQ(bytesThatDiffer(bytes, image::toImage8(engine.render(dataset, scene))), 0u) << name;
+    EXPECT_GT(pixelsDrawn(bytes, scene.background), 40u) << name;
+  }
+  // An interactive frame is drawn smaller and scaled up in float, then rounded: still the float frame's bytes.
+  const auto grid = openDataset("g", dir / "g", size_t(64) << 20);
+  Scene scene = test::slicingScene("hot");
+  scene.raycast = true;
+  scene.interactive = true;
+  scene.timeBudgetMs = 10;  // at one sample a ms: the smallest drawing the ladder has
+  FrameStats stats;
+  FrameOptions options;
+  options.rateSamplesPerMs = 1;
+  const image::Image8 bytes = engine.render8(grid, scene, &stats, options);
+  ASSERT_TRUE(stats.interactive.is_object());
+  EXPECT_LT(stats.interactive.value("width", scene.width), scene.width) << "drawn smaller";
+  EXPECT_EQ(bytes.width, scene.width);
+  EXPECT_EQ(bytesThatDiffer(bytes, image::toImage8(engine.render(grid, scene, nullptr, options))), 0u);
+}
+
+}  // namespace
+}  // namespace voxbrick::render
