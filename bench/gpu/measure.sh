@@ -284,7 +284,7 @@ PY
         cmd vb prep "synthetic:blobs,n=$n" --no-vdb -q --force -o "$WORK/blobs-$n" 2>&1 | tee -a "$dir/prep.log"
       fi
       echo "- prep: $(grep -h 'MB/s' "$dir/prep.log" | tail -1)" >> "$md"
-      echo "n,size,lod,frame,ms_total,ms_paging,ms_traversal,ms_drawing,ms_readback,bricks_drawn,bricks_paged_in,psnr_vs_lod0_db,raycaster,cells_sent" \
+      echo "n,size,lod,frame,ms_total,ms_paging,ms_traversal,ms_planning,ms_setup,ms_drawing,ms_readback,ms_ending,bricks_drawn,bricks_paged_in,psnr_vs_lod0_db,raycaster,cells_sent" \
         > "$dir/field-1024.csv"
       for lod in 1 0; do
         cmd timeout "$(left 5)" "$KIT/bin/voxbrick" render "$WORK/blobs-$n" --tf hot --size "${size}x${size}" \
@@ -298,13 +298,17 @@ PY
       cmd timeout "$(left 5)" "$KIT/bin/voxbrick" render "$WORK/blobs-$n" --tf hot --size "${size}x${size}" \
         --lod 1 --gpu-budget 16384 --host-cache 16384 --warm-up 1 --raycaster fragment -q \
         --stats "$dir/warm-fragment-lod1.json" -o "$WORK/field-fragment-lod1.png" || true
+      # The warm lod-1 frame after five frames of the same view (steady state: nothing lazily made any more).
+      cmd timeout "$(left 5)" "$KIT/bin/voxbrick" render "$WORK/blobs-$n" --tf hot --size "${size}x${size}" \
+        --lod 1 --gpu-budget 16384 --host-cache 16384 --warm-up 5 -q \
+        --stats "$dir/warm-steady-lod1.json" -o "$WORK/field-steady-lod1.png" || true
       # And at twice the size (four times the pixels).
       cmd timeout "$(left 5)" "$KIT/bin/voxbrick" render "$WORK/blobs-$n" --tf hot --size "$((2 * size))x$((2 * size))" \
         --lod 1 --gpu-budget 16384 --host-cache 16384 --warm-up 1 -q \
         --stats "$dir/warm-double-lod1.json" -o "$WORK/field-double-lod1.png" || true
       for lod in 1 0; do
         frames="first warm"
-        [ "$lod" = 1 ] && frames="first warm warm-fragment warm-double"
+        [ "$lod" = 1 ] && frames="first warm warm-steady warm-fragment warm-double"
         for frame in $frames; do
           s=$dir/$frame-lod$lod.json
           [ -f "$s" ] || continue
@@ -313,7 +317,7 @@ PY
           if [ "$lod" = 1 ] && [ "$frame" = warm ]; then psnr=$(psnr "$WORK/field-lod1.png" "$WORK/field-lod0.png"); fi
           kernel=$(sed -n 's/.*"raycaster": *"\([a-z]*\)".*/\1/p' "$s" | head -1)
           side=$size; [ "$frame" = warm-double ] && side=$((2 * size))
-          echo "$n,$side,$lod,$frame,$(get total),$(get paging),$(get traversal),$(get drawing),$(get readback),$(get bricks_drawn),$(get bricks_paged_in),$psnr,$kernel,$(get cells_sent)" \
+          echo "$n,$side,$lod,$frame,$(get total),$(get paging),$(get traversal),$(get planning),$(get setup),$(get drawing),$(get readback),$(get ending),$(get bricks_drawn),$(get bricks_paged_in),$psnr,$kernel,$(get cells_sent)" \
             >> "$dir/field-1024.csv"
         done
       done

@@ -44,7 +44,10 @@ nlohmann::json FrameStats::toJson() const {
                         {"readback", msReadback},
                         {"total", msTotal},
                         {"pre_integration", msPreIntegration},
-                        {"sorting", msSorting}}}};
+                        {"sorting", msSorting},
+                        {"planning", msPlanning},
+                        {"setup", msSetup},
+                        {"ending", msEnding}}}};
   if (!fallback.empty()) j["fallback"] = fallback;
   if (!raycaster.empty()) j["raycaster"] = raycaster;
   if (!quality.is_null()) j["quality"] = quality;

@@ -54,6 +54,10 @@ struct FrameStats {
   /// Wall time of each phase on the calling thread. Drawing ends with a glFinish, but with several batches a
   /// batch's GPU work may instead be waited for by the next batch's uploads and show up as paging.
   double msTraversal = 0, msPaging = 0, msSlicing = 0, msDrawing = 0, msReadback = 0, msTotal = 0;
+  /// A grid frame's CPU time besides those phases: planning after the walk (the estimate, the plan's counts), setting
+  /// up before the pass (the frame's residency stamps, the target cleared, the tables and programs set), and
+  /// ending after the readback (residency and counters), so that where a warm frame's time goes adds up.
+  double msPlanning = 0, msSetup = 0, msEnding = 0;
   int64_t tetsDrawn = 0;         ///< tetrahedra drawn (a mesh frame)
   int64_t tetsSkippedEmpty = 0;  ///< tetrahedra the transfer function makes transparent over their value range
   /// A paged mesh (TetMeshSource): chunks outside the view frustum, chunks the transfer function makes transparent

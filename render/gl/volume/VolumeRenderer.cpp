@@ -86,6 +86,7 @@ SliceGeometry& VolumeRenderer::geometry(const Scene& scene) {
 
 void VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, const FrameOptions& options,
                           FrameStats& stats) {
+  const auto setupStart = Clock::now();
   const RenderMode mode = options.mode;
   const store::BrickStore& store = mResidency.store();
   mResidency.beginFrame(plan.visible.bricks);
@@ -122,6 +123,7 @@ void VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, const Frame
     if (plan.preIntegration) emptyTest->setTable(mPreIntegration.spec());
   }
   Checkpoints checkpoints(mGl, options.cancelled, options.checkpointSamples);
+  stats.msSetup = msSince(setupStart) - stats.msPreIntegration;
   if (plan.raycast)
     mRayCast.draw(plan, mResidency, program, geometry(scene), mCompositor, stats, checkpoints, options.keepCellTable);
   else if (plan.slab > 0)
@@ -161,11 +163,13 @@ void VolumeRenderer::frame(const Scene& scene, FrameStats* statsOut, const Frame
   auto t = Clock::now();
   FramePlan plan =
       planFrame(scene, store, kTransferTableTexels, options.fitBudget ? budget() : BrickBudget{}, options.part);
+  stats.msTraversal = msSince(t);
+  t = Clock::now();
   planStats(plan, stats);
   plan.pagedCells = plan.pagedCells || (plan.raycast && options.pagedCellTable);
   stats.fallback = plan.fallback;
-  stats.msTraversal = msSince(t);
   stats.samplesEstimated = plan.estimatedSamples();
+  stats.msPlanning = msSince(t);
   if (options.mode == RenderMode::Points && (plan.slab > 0 || plan.raycast))
     throw RenderInputError("the points mode draws the corners of slices: it needs slicing (slab 0, no raycast)");
   if (options.maxSamples > 0 && stats.samplesEstimated > options.maxSamples)
@@ -195,6 +199,7 @@ void VolumeRenderer::frame(const Scene& scene, FrameStats* statsOut, const Frame
     }                                                                  // lost context reports one forever)
     throw;
   }
+  t = Clock::now();
   mResidency.endFrame();
   if (plan.raycast)
     mRayCast.finish(stats);
@@ -202,6 +207,7 @@ void VolumeRenderer::frame(const Scene& scene, FrameStats* statsOut, const Frame
     mSlabs.finish(stats);
   else
     stats.samples = stats.fragments;
+  stats.msEnding = msSince(t);
   stats.msTotal = msSince(frameStart);
   if (statsOut) *statsOut = stats;
 }
