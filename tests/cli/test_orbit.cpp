@@ -92,6 +92,22 @@ TEST(Orbit, InteractiveReportsEachViewsBudgetTimesAndPsnr) {
       << "a budget below 10 ms is refused";
 }
 
+// Files are encoded and written beside the drawing: a write that fails still ends the command with an error naming
+// the file, and the frames before it are written whole.
+TEST(Orbit, AFrameThatCannotBeWrittenIsAnErrorNamingItsFile) {
+  test::ScratchDir dir;
+  const std::string store = test::preppedStore("synthetic:blobs,n=64", "--brick 16");
+  std::filesystem::create_directories(dir / "f002.png" / "in-the-way");
+  const test::SplitResult r =
+      runSplit("orbit -q " + store + " --size 32x32 --tf hot --frames 6 -o " + (dir / "f%03d.png").string());
+  EXPECT_EQ(r.exitCode, 1) << r.out << r.err;
+  EXPECT_NE(r.err.find("f002.png"), std::string::npos) << r.err;
+  for (const char* name : {"f000.png", "f001.png"}) {
+    const image::Image8 frame = image::readPng(dir / name);
+    EXPECT_EQ(frame.width, 32) << name;
+  }
+}
+
 TEST(Orbit, PatternsWithoutOneFrameNumberAreRefused) {
   test::ScratchDir dir;
   const std::string store = test::preppedStore("synthetic:blobs,n=64", "--brick 16");
