@@ -1,5 +1,5 @@
-// The classes of render work the scheduler tells apart, in the order it serves them: a moving camera's frame
-// (interactive), the exact frame of a resting camera or any plain Render (still), and work nobody watches as it
+// The classes of render work the scheduler tells apart, in the order it serves them: a moving camera's frame and the
+// frame that ends a drag (interactive), any other plain Render (still), and work nobody watches as it
 // happens (batch: a scene with "batch": true, as `voxbrick load --batch`, `orbit` and scripts send).
 #pragma once
 

@@ -32,6 +32,11 @@ struct RenderJob {
   /// The exact frame of a progressive request already answered with a provisional one: queued by the render
   /// thread, not by the client, so it is dropped silently when a newer Render of the session arrives.
   bool refinement = false;
+  /// The exact frame that ends a drag: a still Render of a session that dragged within the last
+  /// RenderScheduler::kInteractiveWindow (a page asks one on release), or the exact frame of its last interactive
+  /// frame once the camera rested. Served in the interactive class, so that a viewer who lets go sees the exact
+  /// frame at once rather than after a still crowd's share (the scheduler sets it).
+  bool endsDrag = false;
   /// The body limit of the session (Capabilities' max_message_bytes): a Frame whose body would exceed it is
   /// answered LimitExceeded instead.
   uint64_t maxBodyBytes = UINT64_MAX;
@@ -54,10 +59,11 @@ struct RenderJob {
 };
 
 /// The class the scheduler serves `job` in: batch for a scene with "batch", else interactive for a moving camera's
-/// frame (an interactive scene's first drawing), else still (a plain Render, or the exact frame of a resting camera).
+/// frame (an interactive scene's first drawing) and for the frame that ends a drag (endsDrag), else still (another
+/// plain Render, or the exact frame of a progressive one).
 inline FrameClass frameClassOf(const RenderJob& job) {
   if (job.scene.batch) return FrameClass::Batch;
-  return job.scene.interactive && !job.refinement ? FrameClass::Interactive : FrameClass::Still;
+  return (job.scene.interactive && !job.refinement) || job.endsDrag ? FrameClass::Interactive : FrameClass::Still;
 }
 
 /// The encoding of a Frame answering `job`: the provisional encoding for a provisional Frame (one the exact frame is

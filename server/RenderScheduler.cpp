@@ -109,6 +109,9 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
     if (!job.refinement) {
       if (state.lastReceived != Clock::time_point{}) state.intervalMs = elapsedMs(state.lastReceived, job.received);
       state.lastReceived = job.received;
+      // A still frame right after a drag is the drag's last: a viewer waits for it.
+      job.endsDrag = !job.scene.interactive && !job.scene.batch && state.lastInteractive != Clock::time_point{} &&
+                     job.received - state.lastInteractive <= kInteractiveWindow;
       if (job.scene.interactive) state.lastInteractive = job.received;
     }
     std::deque<RenderJob>& waiting = state.waiting;
@@ -202,6 +205,8 @@ void RenderScheduler::refine(const std::shared_ptr<Sink>& sink, RenderJob job) {
   const bool rest = job.scene.interactive && !job.refinement;
   const auto asked = job.received;
   job.refinement = true;
+  // The exact frame of an interactive frame is drawn once the camera rested: then it ends the drag.
+  job.endsDrag = job.endsDrag || rest;
   job.received = Clock::now();
   job.notBefore = job.received;
   // The exact frame is drawn for the scene as asked: the crowd's cuts were the provisional frame's.
@@ -384,7 +389,8 @@ bool RenderScheduler::next(Taken& taken) {
   const auto now = Clock::now();
   // The key of the frame as asked (made when queued), before the crowd's cuts.
   taken.shareKey = job.shareKey;
-  if (cls == FrameClass::Interactive) fitToLoadLocked(job, now);
+  // The crowd's cuts are for moving cameras' frames, not for the exact frame that ends a drag.
+  if (cls == FrameClass::Interactive && !job.endsDrag) fitToLoadLocked(job, now);
   taken.frameClass = cls;
   taken.charged = predictedMsLocked(cls);
   chargeLocked(sink.get(), cls, taken.charged);
@@ -489,11 +495,17 @@ void RenderScheduler::renderLoop(render::FrameSource& source, int index) {
           mInFlight.erase(it);
         }
       }
+      // Charged what it took, not what was predicted, also when it was given up part way or not drawn at all: a
+      // session whose exact frames are given up as it drags on would otherwise keep the class's predicted mean (a
+      // crowd's 1024² still frames) for each, and wait behind the whole crowd for its next still frame.
+      chargeLocked(sink.get(), taken.frameClass, ms - taken.charged);
       if (drawn && !reply.cancelled) {
-        // Charged what it took, not what was predicted; the class's mean follows.
-        chargeLocked(sink.get(), taken.frameClass, ms - taken.charged);
-        mClassMs[c] = mClassMs[c] > 0 ? (1 - kMeanWeight) * mClassMs[c] + kMeanWeight * ms : ms;
-        ++mClassFrames[c];
+        // The class's mean follows what frames drawn to the end took: the moving cameras' frames, for the
+        // interactive class (its capacity is counted in them), not the exact frames ending drags.
+        if (!job.endsDrag) {
+          mClassMs[c] = mClassMs[c] > 0 ? (1 - kMeanWeight) * mClassMs[c] + kMeanWeight * ms : ms;
+          ++mClassFrames[c];
+        }
         if (reply.samples > 0 && job.dataset)
           stateLocked(sink).rates[std::string(job.dataset->kind())].add(reply.samples, reply.ms);
       }

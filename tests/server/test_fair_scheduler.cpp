@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <condition_variable>
 #include <fstream>
+#include <atomic>
+#include <functional>
 #include <mutex>
 #include <thread>
 
@@ -28,7 +30,7 @@ using namespace std::chrono_literals;
 using nlohmann::json;
 
 /// Collects the replies a scheduler delivers to one session, with the width of each frame.
-class CountingSink : public RenderScheduler::Sink {
+class CountingSink : public RenderScheduler::Sink, public std::enable_shared_from_this<CountingSink> {
  public:
   bool wantsReplies() const override { return true; }
   void rendered(RenderJob job, proto::Message reply) override {
@@ -184,6 +186,74 @@ TEST_F(FairSchedulerTest, StillFramesLeaveAThreadToADraggingSession) {
   EXPECT_LT(ms, 250) << "the dragging session's frame waited for a still frame (400 ms)";
   EXPECT_LT(statsOf(replies[1].second)["queue_ms"].get<double>(), 100);
   s->stop();
+}
+
+/// A session that asks its next frame as soon as the last arrives, as `voxbrick load`'s clients do.
+class AskingAgainSink : public CountingSink {
+ public:
+  AskingAgainSink(RenderScheduler& s, std::function<RenderJob()> next) : mScheduler(s), mNext(std::move(next)) {}
+  void rendered(RenderJob job, proto::Message reply) override {
+    CountingSink::rendered(job, std::move(reply));
+    if (!mStopped) mScheduler.submit(std::static_pointer_cast<Sink>(shared_from_this()), mNext());
+  }
+  void stopAsking() { mStopped = true; }
+
+ private:
+  RenderScheduler& mScheduler;
+  std::function<RenderJob()> mNext;
+  std::atomic<bool> mStopped{false};
+};
+
+// A session that stops dragging gets its exact frame soon, however many sessions keep asking still frames: the frame
+// that ends a drag (a still Render right after it, as the viewer page asks on release, or the exact frame of the last
+// moving frame once the camera rests, as a TCP client waits for) is served in the interactive class, not behind the
+// still crowd's share.
+TEST_F(FairSchedulerTest, TheExactFrameEndingADragIsServedAsInteractiveBesideAStillCrowd) {
+  auto s = scheduler(2, {}, 0us, 20us);  // width 1000: 160 ms (8 rows), width 60: 10 ms
+  std::vector<std::shared_ptr<AskingAgainSink>> crowd;
+  std::atomic<uint32_t> id{1000};
+  for (int i = 0; i < 12; ++i) {
+    crowd.push_back(std::make_shared<AskingAgainSink>(*s, [&] { return job(id++, 1000); }));
+    s->submit(crowd.back(), job(id++, 1000));
+  }
+  s->start();
+  auto page = std::make_shared<CountingSink>(), tcp = std::make_shared<CountingSink>();
+  // Both had still frames of their own before: their share of still time is spent like the crowd's.
+  for (uint32_t i = 0; i < 3; ++i) {
+    s->submit(page, job(100 + i, 1000));
+    s->submit(tcp, job(200 + i, 1000));
+    page->await(i + 1);
+    tcp->await(i + 1);
+  }
+  for (uint32_t i = 0; i < 20; ++i) {
+    s->submit(page, job(i, 60 + int(i), R"("interactive": true, )"));
+    s->submit(tcp, job(300 + i, 90 + int(i), R"("interactive": true, )"));
+    std::this_thread::sleep_for(30ms);
+  }
+  // Released: the page asks the last camera as a still frame; the TCP client waits for the exact frame of its last.
+  const auto released = std::chrono::steady_clock::now();
+  s->submit(page, job(20, 79));
+  auto exactAfter = [&](CountingSink& sink, uint32_t rid) {
+    json found;
+    for (int tries = 0; tries < 20 && found.is_null(); ++tries)
+      for (const auto& [r, reply] : sink.await(sink.count() + 1, 1s)) {
+        const json stats = statsOf(reply);
+        if (r == rid && !stats.value("provisional", true)) found = stats;
+      }
+    if (!found.is_null())
+      found["after_ms"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - released).count();
+    return found;
+  };
+  const json pageExact = exactAfter(*page, 20), tcpExact = exactAfter(*tcp, 319);
+  for (auto& c : crowd) c->stopAsking();
+  s->stop();
+  for (const json& exact : {pageExact, tcpExact}) {
+    ASSERT_FALSE(exact.is_null()) << "no exact frame after the drag";
+    EXPECT_EQ(exact.value("class", ""), "interactive") << exact.dump();
+    EXPECT_FALSE(exact.contains("load")) << "the crowd's cuts are for moving frames: " << exact.dump();
+    // The crowd's round is 12 frames of 160 ms on the one thread still frames may take: about 2 s.
+    EXPECT_LT(exact["after_ms"].get<double>(), 1000) << exact.dump();
+  }
 }
 
 // A batch Render expected to wait beyond batch_max_wait_ms is refused Busy, with that wait as its retry hint.
