@@ -214,6 +214,15 @@ TEST(CameraSpecWorld, FlipHorizontallyMirrorsRows) {
   EXPECT_EQ(image.pixel(0, 1)[0], 20.0f);
   EXPECT_EQ(image.pixel(2, 1)[3], 15.0f);
   EXPECT_EQ(image.pixel(1, 0)[1], 5.0f);
+  // The 8-bit frame (what render8 returns) the same way, at an odd width (the middle column stays).
+  image::Image8 bytes{3, 2, std::vector<uint8_t>(24)};
+  for (size_t i = 0; i < bytes.rgba.size(); ++i) bytes.rgba[i] = uint8_t(i);
+  finishImage(WorldFrame{}, bytes);
+  EXPECT_EQ(bytes.rgba[12], 12);
+  finishImage(frame, bytes);
+  const std::vector<uint8_t> expected = {8,  9,  10, 11, 4,  5,  6,  7,  0,  1,  2,  3,
+                                         20, 21, 22, 23, 16, 17, 18, 19, 12, 13, 14, 15};
+  EXPECT_EQ(bytes.rgba, expected);
 }
 
 }  // namespace
