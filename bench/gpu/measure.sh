@@ -26,6 +26,8 @@
 #   load-drag       30  voxbrick serve + voxbrick load on the MRI at 512^2: one client, then 4 dragging at 10 Hz
 #   tets-1m         60  synthetic-mesh:ball,n=70 (1 025 244 tets, made by prep: no Python needed), 512^2 and 1024^2,
 #                       each visibility; PSNR against the exact reference at 512^2 when time is left
+#   orbit           30  voxbrick orbit on the MRI at 1024^2, 36 frames, PNG and JPEG: the next frame planned while the
+#                       GPU draws, files encoded beside the drawing
 #   field-1024     150  prep synthetic:blobs,n=1024 (4.3 GB f32), frames at 1024^2 at lod 1 and 0 (and warm at 2048^2,
 #                       lod 1; and with the fragment kernel); if the prep does
 #                       not finish in time, n=512 instead (said in the step's file)
@@ -185,6 +187,19 @@ if [ "${1:-}" = "--step" ]; then
         echo "- last test started: $(grep '^\[ RUN      \]' "$dir/test_render.log" | tail -1 | sed 's/^\[ RUN      \] //')"
       } >> "$md"
       ;;
+    orbit)
+      size=1024 frames=36
+      q && size=64 frames=6
+      echo "voxbrick orbit on the MRI store, tf mri, ${size}x${size}, $frames frames: each next frame planned while the" \
+        "GPU draws the last, files encoded beside the drawing; as PNG and as JPEG. The summary line gives the mean" \
+        "frame (its planning and drawing to its readback) and the wall time a frame after the first." >> "$md"; echo >> "$md"
+      for ext in png jpg; do
+        rm -rf "$WORK/orbit-$ext"
+        cmd timeout "$(left 3)" "$KIT/bin/voxbrick" orbit "$WORK/mri.vbs" --tf mri --size "${size}x${size}" \
+          --frames "$frames" -q -o "$WORK/orbit-$ext/f%03d.$ext" 2>&1 | tee "$dir/orbit-$ext.log"
+        echo "- $ext: $(grep 'orbit: wrote' "$dir/orbit-$ext.log" | tail -1)" >> "$md"
+      done
+      ;;
     load-drag)
       size=512x512 duration=10
       q && size=64x64 duration=2
@@ -332,11 +347,11 @@ fi
 # The driver.
 export QUICK=${MEASURE_QUICK:-0}
 budget=${MEASURE_BUDGET:-$([ "$QUICK" = 1 ] && echo 240 || echo 500)}
-all="device test_render mri-sweep-512 roofline mri-sweep-1024 mri-sweep-2048 load-drag tets-1m field-1024"
+all="device test_render mri-sweep-512 roofline mri-sweep-1024 mri-sweep-2048 load-drag tets-1m field-1024 orbit"
 steps=${MEASURE_STEPS:-$all}
 for s in $steps; do grep -qw -- "$s" <<< "$all" || die "MEASURE_STEPS: unknown step '$s' (known: $all)"; done
 declare -A cap=([device]=40 [test_render]=150 [mri-sweep-512]=90 [roofline]=90 [mri-sweep-1024]=60
-  [mri-sweep-2048]=110 [load-drag]=30 [tets-1m]=60 [field-1024]=150)
+  [mri-sweep-2048]=110 [load-drag]=30 [tets-1m]=60 [field-1024]=150 [orbit]=30)
 start=$(now)
 deadline=$((start + budget))
 export WORK=${MEASURE_WORK:-/tmp/voxbrick-gpu}

@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <functional>
 #include <optional>
+#include <span>
 
 #include "image/Image.h"
 #include "render/core/FrameStats.h"
@@ -63,6 +64,9 @@ struct FrameOptions {
   bool pagedCellTable = false;
 };
 
+/// Where renderSequence8 hands each frame: its index in the sequence, its image and its statistics.
+using FrameDelivery = std::function<void(size_t index, image::Image8&& image, const FrameStats& stats)>;
+
 /// A renderer of one dataset on one GL context (so one render thread); it keeps its GPU state between frames.
 class FrameRenderer {
  public:
@@ -74,6 +78,17 @@ class FrameRenderer {
   /// does, and reads back a quarter of the bytes; this default converts on the CPU.
   virtual image::Image8 render8(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) {
     return image::toImage8(render(scene, stats, options));
+  }
+  /// Each frame of a sequence (`orbit`'s turntable) as render8 draws it, handed to `deliver` (its index, image and
+  /// statistics) as soon as it is read back, in order. A renderer that can overlaps the next frame's planning with
+  /// the GPU's drawing of this one; this default draws them one after the other.
+  virtual void renderSequence8(std::span<const Scene> scenes, const FrameOptions& options,
+                               const FrameDelivery& deliver) {
+    for (size_t i = 0; i < scenes.size(); ++i) {
+      FrameStats stats;
+      image::Image8 image = render8(scenes[i], &stats, options);
+      deliver(i, std::move(image), stats);
+    }
   }
   /// GPU memory it holds for its data (the brick atlas), which its GPU budget bounds.
   virtual size_t gpuBytes() const = 0;

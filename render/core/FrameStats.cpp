@@ -49,6 +49,7 @@ nlohmann::json FrameStats::toJson() const {
                         {"setup", msSetup},
                         {"ending", msEnding}}}};
   if (!fallback.empty()) j["fallback"] = fallback;
+  if (plannedAhead) j["planned_ahead"] = true;
   if (!raycaster.empty()) j["raycaster"] = raycaster;
   if (!quality.is_null()) j["quality"] = quality;
   if (!interactive.is_null()) j["interactive"] = interactive;

@@ -58,6 +58,8 @@ struct FrameStats {
   /// up before the pass (the frame's residency stamps, the target cleared, the tables and programs set), and
   /// ending after the readback (residency and counters), so that where a warm frame's time goes adds up.
   double msPlanning = 0, msSetup = 0, msEnding = 0;
+  /// Planned while the GPU drew the frame before it (FrameRenderer::renderSequence8); JSON "planned_ahead" when true.
+  bool plannedAhead = false;
   int64_t tetsDrawn = 0;         ///< tetrahedra drawn (a mesh frame)
   int64_t tetsSkippedEmpty = 0;  ///< tetrahedra the transfer function makes transparent over their value range
   /// A paged mesh (TetMeshSource): chunks outside the view frustum, chunks the transfer function makes transparent

@@ -163,6 +163,33 @@ image::ImageF RenderEngine::renderAny(const std::shared_ptr<const Dataset>& data
   return image;
 }
 
+void RenderEngine::renderSequence8(const std::shared_ptr<const Dataset>& dataset, std::span<const Scene> scenes,
+                                   const FrameOptions& options, const FrameDelivery& deliver) {
+  if (!dataset) throw RenderInputError("RenderEngine::renderSequence8: no dataset");
+  const bool oneByOne = options.cancelled || std::any_of(scenes.begin(), scenes.end(), [](const Scene& s) {
+                          return s.interactive || s.quality.has_value();
+                        });
+  if (oneByOne) {
+    for (size_t i = 0; i < scenes.size(); ++i) {
+      FrameStats stats;
+      image::Image8 image = render8(dataset, scenes[i], &stats, options);
+      deliver(i, std::move(image), stats);
+    }
+    return;
+  }
+  FrameRenderer& renderer = mImpl->rendererFor(dataset, driverFor(*dataset));
+  RateGauge& rate = mImpl->rateOf(dataset->kind());
+  renderer.renderSequence8(scenes, options, [&](size_t i, image::Image8&& image, const FrameStats& stats) {
+    rate.add(stats.samplesEstimated, stats.msTotal);
+    {
+      std::lock_guard lock(mImpl->recentMutex);
+      mImpl->recentRates[std::string(dataset->kind())] = rate.rate();
+    }
+    finishImage(dataset->worldFrame(), image);  // the renderers draw in the local frame
+    deliver(i, std::move(image), stats);
+  });
+}
+
 void RenderEngine::prefetch(const std::shared_ptr<const Dataset>& dataset, const Scene& scene) {
   if (!dataset) return;
   try {

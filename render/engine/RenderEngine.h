@@ -3,6 +3,7 @@
 #pragma once
 
 #include <memory>
+#include <span>
 #include <string>
 
 #include "image/Image.h"
@@ -45,6 +46,11 @@ class RenderEngine final : public FrameSource {
   /// drawn at the scene's size; an interactive frame, drawn smaller and scaled up in float, is converted after.
   image::Image8 render8(const std::shared_ptr<const Dataset>& dataset, const Scene& scene, FrameStats* stats = nullptr,
                         const FrameOptions& options = {}) override;
+  /// Each scene's frame as render8 gives it, handed to `deliver` in order as soon as it is read back: a grid's next
+  /// frame is planned while the GPU draws the last (FrameRenderer::renderSequence8). Scenes with a quality target
+  /// or drawn interactively, and cancellable frames, are drawn one by one through render8.
+  void renderSequence8(const std::shared_ptr<const Dataset>& dataset, std::span<const Scene> scenes,
+                       const FrameOptions& options, const FrameDelivery& deliver);
   /// Pages ahead through the driver of the dataset's kind (DatasetDriver::prefetch), fitted to what this engine's
   /// renderer of it holds. The context must be current. Never throws.
   void prefetch(const std::shared_ptr<const Dataset>& dataset, const Scene& scene) override;

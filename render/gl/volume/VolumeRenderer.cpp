@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <exception>
+#include <optional>
 
 #include "render/core/FrameStats.h"
 #include "render/core/RenderErrors.h"
@@ -154,15 +156,14 @@ image::Image8 VolumeRenderer::render8(const Scene& scene, FrameStats* stats, con
   return image;
 }
 
-void VolumeRenderer::frame(const Scene& scene, FrameStats* statsOut, const FrameOptions& options,
-                           const std::function<void(const FramePlan&, FrameStats&)>& finish) {
-  const auto frameStart = Clock::now();
-  FrameStats stats;
+VolumeRenderer::PlannedFrame VolumeRenderer::plan(const Scene& scene, const FrameOptions& options) {
+  PlannedFrame p{{}, {}, Clock::now()};
+  FrameStats& stats = p.stats;
   const store::BrickStore& store = mResidency.store();
 
   auto t = Clock::now();
-  FramePlan plan =
-      planFrame(scene, store, kTransferTableTexels, options.fitBudget ? budget() : BrickBudget{}, options.part);
+  p.plan = planFrame(scene, store, kTransferTableTexels, options.fitBudget ? budget() : BrickBudget{}, options.part);
+  FramePlan& plan = p.plan;
   stats.msTraversal = msSince(t);
   t = Clock::now();
   planStats(plan, stats);
@@ -184,8 +185,19 @@ void VolumeRenderer::frame(const Scene& scene, FrameStats* statsOut, const Frame
       plan.coarsestLevel = std::max(plan.coarsestLevel, int(d.key.level + d.standIn));
     stats.msPaging += msSince(t);
   }
+  p.planningMs = msSince(p.start);
+  return p;
+}
+
+void VolumeRenderer::run(const Scene& scene, PlannedFrame& p, const FrameOptions& options,
+                         const std::function<void()>& whileDrawing,
+                         const std::function<void(const FramePlan&, FrameStats&)>& finish) {
+  const auto runStart = Clock::now();
+  const FramePlan& plan = p.plan;
+  FrameStats& stats = p.stats;
   try {
     draw(scene, plan, options, stats);
+    if (whileDrawing) whileDrawing();
     finish(plan, stats);
   } catch (...) {
     // A brick that fails its checks (or any other failure mid-frame) must not leave the context half way through
@@ -199,7 +211,7 @@ void VolumeRenderer::frame(const Scene& scene, FrameStats* statsOut, const Frame
     }                                                                  // lost context reports one forever)
     throw;
   }
-  t = Clock::now();
+  const auto t = Clock::now();
   mResidency.endFrame();
   if (plan.raycast)
     mRayCast.finish(stats);
@@ -208,8 +220,44 @@ void VolumeRenderer::frame(const Scene& scene, FrameStats* statsOut, const Frame
   else
     stats.samples = stats.fragments;
   stats.msEnding = msSince(t);
-  stats.msTotal = msSince(frameStart);
-  if (statsOut) *statsOut = stats;
+  // Its own time: planned ahead, a frame does not count the wait for the frame before it.
+  stats.msTotal = p.planningMs + msSince(runStart);
+}
+
+void VolumeRenderer::frame(const Scene& scene, FrameStats* statsOut, const FrameOptions& options,
+                           const std::function<void(const FramePlan&, FrameStats&)>& finish) {
+  PlannedFrame p = plan(scene, options);
+  run(scene, p, options, {}, finish);
+  if (statsOut) *statsOut = p.stats;
+}
+
+void VolumeRenderer::renderSequence8(std::span<const Scene> scenes, const FrameOptions& options,
+                                     const FrameDelivery& deliver) {
+  // Stand-ins change residency while planning, a part's frame is floats, a cancellable frame stops between
+  // checkpoints: those are drawn one after the other.
+  if (options.standIns || options.part || options.cancelled) return FrameRenderer::renderSequence8(scenes, options, deliver);
+  if (scenes.empty()) return;
+  std::optional<PlannedFrame> next = plan(scenes[0], options);
+  std::exception_ptr nextFailed;
+  for (size_t i = 0; i < scenes.size(); ++i) {
+    if (nextFailed) std::rethrow_exception(nextFailed);
+    PlannedFrame current = std::move(*next);
+    next.reset();
+    image::Image8 image;
+    // The next frame is planned (on the CPU alone) while the GPU draws this one; its failure is its own frame's.
+    auto planNext = [&] {
+      if (i + 1 >= scenes.size()) return;
+      try {
+        next = plan(scenes[i + 1], options);
+        next->stats.plannedAhead = true;
+      } catch (...) {
+        nextFailed = std::current_exception();
+      }
+    };
+    run(scenes[i], current, options, planNext,
+        [&](const FramePlan&, FrameStats& s) { image = mCompositor.finish8(scenes[i], s); });
+    deliver(i, std::move(image), current.stats);
+  }
 }
 
 }  // namespace voxbrick::render

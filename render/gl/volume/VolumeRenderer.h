@@ -3,8 +3,10 @@
 // (VolumePrograms), and compositing with readback (Compositor).
 #pragma once
 
+#include <chrono>
 #include <functional>
 #include <memory>
+#include <span>
 
 #include "brickstore/read/BrickCache.h"
 #include "render/core/FrameRenderer.h"
@@ -19,6 +21,7 @@
 #include "render/gl/volume/SliceGeometry.h"
 #include "render/gl/volume/SlicingPass.h"
 #include "render/gl/volume/VolumePrograms.h"
+#include "render/volume/FramePlan.h"
 
 namespace voxbrick::render {
 
@@ -36,6 +39,11 @@ class VolumeRenderer final : public FrameRenderer {
   /// The frame finished on the GPU as 8-bit RGBA (Compositor::finish8); a part's frame (options.part) is converted
   /// on the CPU as FrameRenderer's default does.
   image::Image8 render8(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) override;
+  /// Each scene's frame as render8 draws it, the next frame planned on the CPU while the GPU draws this one (a
+  /// frame's msTotal is its planning and its drawing to its readback, not the wait for the frame before it). Frames
+  /// with stand-ins, parts or cancellation are drawn one after the other.
+  void renderSequence8(std::span<const Scene> scenes, const FrameOptions& options,
+                       const FrameDelivery& deliver) override;
 
   const BrickAtlas& atlas() const { return mResidency.atlas(); }
   /// The ray caster's cell table as the last ray-cast frame left it.
@@ -54,8 +62,20 @@ class VolumeRenderer final : public FrameRenderer {
   SliceGeometry& geometry(const Scene& scene);
   /// The plan's part of the frame's statistics: the traversal's counts and the fit to the budget.
   void planStats(const FramePlan& plan, FrameStats& stats) const;
-  /// A frame from planning to statistics, `finish` reading it back (Compositor::finish or finish8); puts the context
-  /// back in order if drawing or finishing throws.
+  /// A frame planned (GL-free: the octree walk, the estimate and its limits) and not yet drawn.
+  struct PlannedFrame {
+    FramePlan plan;
+    FrameStats stats;
+    std::chrono::steady_clock::time_point start;  // when its planning began
+    double planningMs = 0;                         // how long it took
+  };
+  PlannedFrame plan(const Scene& scene, const FrameOptions& options);
+  /// Draws a planned frame, calls `whileDrawing` (if any) once its GL work is queued, and `finish` to read it back
+  /// (Compositor::finish or finish8); the frame's statistics end in p.stats. Puts the context back in order if
+  /// drawing or finishing throws.
+  void run(const Scene& scene, PlannedFrame& p, const FrameOptions& options, const std::function<void()>& whileDrawing,
+           const std::function<void(const FramePlan&, FrameStats&)>& finish);
+  /// plan and run.
   void frame(const Scene& scene, FrameStats* stats, const FrameOptions& options,
              const std::function<void(const FramePlan&, FrameStats&)>& finish);
   /// The GL part of a frame, from paging to the last pass.

@@ -4,9 +4,11 @@
 #include <gtest/gtest.h>
 
 #include <memory>
+#include <set>
 #include <string>
 
 #include "image/Image.h"
+#include "render/core/RenderErrors.h"
 #include "render/engine/Datasets.h"
 #include "render/engine/RenderEngine.h"
 #include "render/gl/GlFixtures.h"
@@ -100,6 +102,54 @@ TEST(Frame8, IsTheFloatFrameRoundedForEveryPassAndBackground) {
   }
   // A flip of the rows (the finish writes them top first) or a swap of channels would differ above: the views are
   // not symmetric top to bottom, and the background is not grey.
+}
+
+// A sequence (orbit's turntable) plans each next frame while the GPU draws the last: every frame must be the one
+// render8 draws alone, delivered in order, whatever moved between them (the view, the level cut, the kernel); a
+// frame that cannot be planned fails as its own frame, after the frames before it were delivered.
+TEST(Frame8, ASequencePlannedAheadDrawsEachFrameAsAlone) {
+  ScratchDir dir;
+  const auto store = prep("synthetic:blobs,n=64", dir / "b", 16);
+  std::vector<Scene> scenes;
+  Scene s = test::slicingScene("hot");
+  s.raycast = true;
+  s.width = 40;
+  s.height = 32;
+  s.lod = 2;
+  for (int i = 0; i < 6; ++i) {
+    s.camera.azimuth = 60.0 * i;
+    s.camera.distance = 4.0 - 0.45 * i;  // closer and closer: the level cut moves
+    s.raycaster = i % 2 ? RayCaster::Compute : RayCaster::Fragment;
+    scenes.push_back(s);
+  }
+  auto cache = std::make_shared<store::BrickCache>(store, size_t(256) << 20, 1);
+  VolumeRenderer alone(test::context(), cache, size_t(256) << 20), ahead(test::context(), cache, size_t(256) << 20);
+  std::vector<size_t> order;
+  std::set<int64_t> cuts;
+  ahead.renderSequence8(scenes, {}, [&](size_t i, image::Image8&& image, const FrameStats& stats) {
+    order.push_back(i);
+    FrameStats own;
+    const image::Image8 expected = alone.render8(scenes[i], &own);
+    EXPECT_EQ(bytesThatDiffer(image, expected), 0u) << "frame " << i;
+    EXPECT_GT(pixelsDrawn(image, scenes[i].background), 40u) << "frame " << i;
+    EXPECT_EQ(stats.samples, own.samples) << "frame " << i;
+    EXPECT_EQ(stats.bricksDrawn, own.bricksDrawn) << "frame " << i;
+    EXPECT_GT(stats.msTotal, 0.0);
+    EXPECT_EQ(stats.plannedAhead, i > 0) << "planned while the frame before was drawn: frame " << i;
+    EXPECT_FALSE(own.plannedAhead);
+    cuts.insert(stats.bricksDrawn);
+  });
+  EXPECT_EQ(order, (std::vector<size_t>{0, 1, 2, 3, 4, 5}));
+  EXPECT_GE(cuts.size(), 3u) << "the level cut never moved: the test no longer tests it";
+
+  std::vector<Scene> failing = {scenes[0], scenes[1], scenes[2]};
+  failing[2].subBlock = 3;  // cuts no brick of 16: refused when planned
+  order.clear();
+  EXPECT_THROW(ahead.renderSequence8(failing, {}, [&](size_t i, image::Image8&&, const FrameStats&) { order.push_back(i); }),
+               RenderInputError);
+  EXPECT_EQ(order, (std::vector<size_t>{0, 1})) << "the frames before the one that failed";
+  // And the renderer draws on as before.
+  EXPECT_EQ(bytesThatDiffer(ahead.render8(scenes[3]), alone.render8(scenes[3])), 0u);
 }
 
 TEST(Frame8, TheEnginesBytesAreItsFloatFramesRoundedForGridsMeshesAndInteractiveFrames) {
