@@ -16,10 +16,10 @@
 #include <vector>
 
 #include <CLI/CLI.hpp>
-#include <openvdb/openvdb.h>
 
 #include "brickstore/read/BrickCache.h"
 #include "brickstore/read/VdbStore.h"
+#include "brickstore/vdb/VdbBalls.h"
 #include "image/Image.h"
 #include "render/gl/GlContext.h"
 #include "render/gl/volume/VolumeRenderer.h"
@@ -28,45 +28,14 @@ namespace {
 
 using namespace voxbrick;
 
-struct Ball {
-  openvdb::Vec3d centre;
-  double radius;
-};
-
-/// The inner balls, about the box's centre c, in voxels.
-std::vector<Ball> innerBalls(double c) {
-  return {{{c - 150, c, c}, 70}, {{c + 150, c + 40, c}, 60}, {{c, c - 160, c + 60}, 55}, {{c, c + 150, c - 50}, 65}};
-}
-
-void fillBall(openvdb::FloatGrid::Accessor& acc, const Ball& b, double lo, double hi, float value) {
-  const int r = int(std::ceil(hi));
-  const openvdb::Coord c(int(b.centre.x()), int(b.centre.y()), int(b.centre.z()));
-  for (int z = -r; z <= r; ++z)
-    for (int y = -r; y <= r; ++y)
-      for (int x = -r; x <= r; ++x) {
-        const double d = std::sqrt(double(x * x + y * y + z * z));
-        if (d >= lo && d <= hi) acc.setValue(c.offsetBy(x, y, z), value);
-      }
-}
-
-void writeVolume(const std::filesystem::path& path, int n) {
-  openvdb::initialize();
-  openvdb::GridPtrVec grids;
-  for (const char* name : {"shell", "balls"}) {
-    openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(0.0f);
-    grid->setName(name);
-    openvdb::FloatGrid::Accessor acc = grid->getAccessor();
-    const double c = n / 2;
-    for (const Ball& b : innerBalls(c)) fillBall(acc, b, 0, b.radius, 0.5f);
-    if (std::string(name) == "shell") fillBall(acc, {{c, c, c}, 0}, 280, 286, 1.0f);
-    // The box's corners make its extent N^3.
-    acc.setValue(openvdb::Coord(0, 0, 0), 0.01f);
-    acc.setValue(openvdb::Coord(n - 1, n - 1, n - 1), 0.01f);
-    grids.push_back(grid);
-  }
-  openvdb::io::File file(path.string());
-  file.write(grids);
-  file.close();
+/// The inner balls, about the box's centre c, in voxels; with `shell`, the opaque shell around them.
+std::vector<store::VdbBall> balls(double c, bool shell) {
+  std::vector<store::VdbBall> out{{c - 150, c, c, 0, 70, 0.5f},
+                                  {c + 150, c + 40, c, 0, 60, 0.5f},
+                                  {c, c - 160, c + 60, 0, 55, 0.5f},
+                                  {c, c + 150, c - 50, 0, 65, 0.5f}};
+  if (shell) out.push_back({c, c, c, 280, 286, 1.0f});
+  return out;
 }
 
 render::Scene scene(int size, render::ResidencyMode mode, double azimuth) {
@@ -120,7 +89,7 @@ int main(int argc, char** argv) {
 
   std::filesystem::create_directories(dir);
   const std::filesystem::path vdb = dir / "residency.vdb";
-  writeVolume(vdb, n);
+  store::writeBallsVdb(vdb, n, {{"shell", balls(n / 2, true)}, {"balls", balls(n / 2, false)}});
   auto context = render::createContext(render::Backend::Auto);
   std::ofstream csv(csvPath), md(mdPath);
   csv << "case,frame,camera,octree_wanted,octree_paged,octree_ms,rays_paged,rays_requested,rays_untouched,"

@@ -40,8 +40,8 @@ bool KeptCells::update(const FramePlan& plan, Residency& residency, CellTable& c
   mValid = false;  // until the table is the frame's: a frame given up part way leaves it to be built anew
   ++mFrame;
   int64_t changed = 0;
-  // Ray-driven residency: the table changes whenever the last frame's rays requested bricks (they are paged now).
-  // and whenever the residency mode changed (the octree mode draws the bricks the rays left to stand-ins).
+  // With ray-driven residency the table changes whenever the last frame's rays requested bricks (they are paged
+  // now), and whenever the residency mode changed (the octree mode draws the bricks the rays left to stand-ins).
   const bool rays = requests != nullptr;
   if (!same || !residency.unchanged() || (requests && requests->any()) || rays != mRays) {
     mRays = rays;
