@@ -39,8 +39,8 @@ Scene shellsScene(RayCaster kernel, ResidencyMode mode) {
 // within 32 to 53.
 const store::BrickKey kHidden{0, 3, 3, 3};
 
-struct Renderer {
-  explicit Renderer(std::shared_ptr<const store::BrickStore> s)
+struct ResidencyRenderer {
+  explicit ResidencyRenderer(std::shared_ptr<const store::BrickStore> s)
       : cache(std::make_shared<store::BrickCache>(std::move(s), size_t(256) << 20, 1)),
         renderer(test::context(), cache, size_t(256) << 20) {}
   std::shared_ptr<store::BrickCache> cache;
@@ -52,7 +52,7 @@ class RayResidency : public ::testing::TestWithParam<RayCaster> {};
 TEST_P(RayResidency, ConvergesToTheOctreeImageAndNeverPagesTheHiddenBrick) {
   ScratchDir dir;
   const auto store = prep("synthetic:shells,n=128,count=2", dir / "s", 16);
-  Renderer rays(store);
+  ResidencyRenderer rays(store);
   const Scene scene = shellsScene(GetParam(), ResidencyMode::Rays);
 
   FrameStats stats;
@@ -92,7 +92,7 @@ TEST_P(RayResidency, ConvergesToTheOctreeImageAndNeverPagesTheHiddenBrick) {
 
   // A renderer of the octree mode alone pages more than the rays did in all their frames; its slots differ, so its
   // image may differ by the atlas coordinates' round-off only.
-  Renderer alone(store);
+  ResidencyRenderer alone(store);
   FrameStats aloneStats;
   const image::ImageF fresh = alone.renderer.render(octree, &aloneStats);
   EXPECT_LT(paged, aloneStats.bricksPagedIn) << "the rays paged no fewer bricks than the octree";
@@ -101,7 +101,7 @@ TEST_P(RayResidency, ConvergesToTheOctreeImageAndNeverPagesTheHiddenBrick) {
 
 TEST_P(RayResidency, StatsKeysExistAndMove) {
   ScratchDir dir;
-  Renderer rays(prep("synthetic:shells,n=128,count=2", dir / "s", 16));
+  ResidencyRenderer rays(prep("synthetic:shells,n=128,count=2", dir / "s", 16));
   const Scene scene = shellsScene(GetParam(), ResidencyMode::Rays);
   FrameStats first, second;
   rays.renderer.render(scene, &first);
