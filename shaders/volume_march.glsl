@@ -26,9 +26,10 @@ uniform float uPlaneIncr;    // distance between consecutive global planes
 uniform float uTermination;  // early ray termination: stop once the ray's own opacity reaches it (> 1: never)
 
 #ifdef RAY_REQUESTS
-// Ray-driven residency (render/gl/volume/RayRequests.h): a bit per level-0 brick (x fastest), set by a ray that
-// reaches a cell marked VB_REQUEST_FLAG (its brick drawn from a stand-in while it is not resident). A ray that stops
-// at the termination threshold sets no bit for what lies behind.
+// Ray-driven residency (render/gl/volume/RayRequests.h): a bit per level-0 brick (x fastest, from word 1), set by a
+// ray that reaches a cell marked VB_REQUEST_FLAG (its brick drawn from a stand-in while it is not resident), and in
+// word 0 the number of bits set, so that a frame that requested nothing is read back as one word. A ray that stops at
+// the termination threshold sets no bit for what lies behind.
 layout(std430, binding = VB_BINDING_RAY_REQUESTS) buffer RayRequests { uint uRequests[]; };
 uniform ivec4 uRequestGrid;  // level-0 bricks along x, y, z; w: level-0 voxels a brick
 #endif
@@ -104,7 +105,8 @@ vec4 marchPixel(vec2 window) {
       const ivec3 brick = (cell << uCellShift) / uRequestGrid.w;
       const int index = (brick.z * uRequestGrid.y + brick.y) * uRequestGrid.x + brick.x;
       if (index != requested) {
-        atomicOr(uRequests[index >> 5], 1u << uint(index & 31));
+        const uint bit = 1u << uint(index & 31);
+        if ((atomicOr(uRequests[1 + (index >> 5)], bit) & bit) == 0u) atomicAdd(uRequests[0], 1u);
         requested = index;
       }
     }

@@ -2,7 +2,6 @@
 #include "render/gl/volume/RayRequests.h"
 
 #include <algorithm>
-#include <bit>
 
 #include "render/gl/Bindings.h"
 #include "render/gl/volume/VolumePrograms.h"
@@ -30,9 +29,16 @@ void RayRequests::begin(const store::BrickStore& store, const VolumeProgram& pro
     mGrid = grid;
     mBrickSize = store.brickSize();
   }
-  const size_t words = (size_t(store.level(0).bricksTotal()) + 31) / 32;
-  mZero.assign(words, 0);
-  mBuffer.allocate(GL_SHADER_STORAGE_BUFFER, words * sizeof(uint32_t), mZero.data(), GL_DYNAMIC_COPY);
+  // The count, then the bits. A buffer whose last frame requested nothing is still all zeros.
+  const size_t words = 1 + (size_t(store.level(0).bricksTotal()) + 31) / 32;
+  if (mZero.size() != words) {
+    mZero.assign(words, 0);
+    mBuffer.allocate(GL_SHADER_STORAGE_BUFFER, words * sizeof(uint32_t), mZero.data(), GL_DYNAMIC_COPY);
+  } else if (mDirty) {
+    mBuffer.bind(GL_SHADER_STORAGE_BUFFER);
+    mGl.glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, GLsizeiptr(words * sizeof(uint32_t)), mZero.data());
+  }
+  mDirty = true;  // until read() finds the frame requested nothing (a frame given up is never read)
   mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_RAY_REQUESTS, mBuffer.id());
   program.setRequestGrid(glm::ivec4(mGrid, mBrickSize));
 }
@@ -47,7 +53,7 @@ bool RayRequests::requested(const store::BrickKey& key) const {
     for (int y = lo.y; y < hi.y; ++y)
       for (int x = lo.x; x < hi.x; ++x) {
         const size_t index = (size_t(z) * size_t(mGrid.y) + size_t(y)) * size_t(mGrid.x) + size_t(x);
-        if (index / 32 < mBits.size() && (mBits[index / 32] >> (index % 32) & 1u)) return true;
+        if (1 + index / 32 < mBits.size() && (mBits[1 + index / 32] >> (index % 32) & 1u)) return true;
       }
   return false;
 }
@@ -55,10 +61,16 @@ bool RayRequests::requested(const store::BrickKey& key) const {
 void RayRequests::read(FrameStats& stats) {
   // The fragment kernel's buffer writes are made visible to the copy; the compute kernel's barriers already do.
   mGl.glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
-  mBits.resize(mZero.size());
-  if (!mBits.empty()) mBuffer.read(0, mBits.size() * sizeof(uint32_t), mBits.data());
-  mRequestedCount = 0;
-  for (const uint32_t word : mBits) mRequestedCount += std::popcount(word);
+  // The count first: the bits only when there are any.
+  uint32_t count = 0;
+  if (!mZero.empty()) mBuffer.read(0, sizeof(count), &count);
+  mRequestedCount = count;
+  mDirty = count > 0;
+  mBits.clear();
+  if (count > 0) {
+    mBits.resize(mZero.size());
+    mBuffer.read(0, mBits.size() * sizeof(uint32_t), mBits.data());
+  }
   stats.bricksRequested = mRequestedCount;
   stats.bricksUntouched = std::count_if(mStandIns.begin(), mStandIns.end(),
                                         [&](const store::BrickKey& key) { return !requested(key); });

@@ -52,8 +52,8 @@ class RayRequests {
   /// This frame's draws whose cells carry the request flag (KeptCells), replaced as a whole each frame the table
   /// changes.
   std::vector<store::BrickKey>& standIns() { return mStandIns; }
-  /// After the frame: reads the bits back (the frame has finished on the GPU: a copy of a bit per brick), and counts
-  /// the requested bricks and the stand-ins no ray reached into `stats`.
+  /// After the frame: reads the count back, and the bits when it is not 0 (the frame has finished on the GPU: a copy
+  /// of a word, or of a bit per brick), and counts the requested bricks and the stand-ins no ray reached into `stats`.
   void read(FrameStats& stats);
   /// Forgets the requests (a frame that failed, another store).
   void forget();
@@ -63,8 +63,9 @@ class RayRequests {
   Buffer mBuffer;
   glm::ivec3 mGrid{0};
   int mBrickSize = 0;
-  std::vector<uint32_t> mBits, mZero;  // the last frame's, read back; zeros to clear the buffer with
+  std::vector<uint32_t> mBits, mZero;  // the last frame's count and bits, read back; zeros to clear the buffer with
   int64_t mRequestedCount = 0;
+  bool mDirty = false;  // the buffer may hold requests: cleared before the next frame
   std::vector<store::BrickKey> mStandIns;
 };
 
