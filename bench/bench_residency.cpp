@@ -113,8 +113,9 @@ int main(int argc, char** argv) {
                     (long long)r.bricksPagedIn, (long long)r.bricksRequested, (long long)r.bricksUntouched,
                     (long long)r.bricksStandIn, r.msTotal, std::isinf(psnr) ? 999.0 : psnr);
       csv << line;
-      std::snprintf(line, sizeof(line), "| %s | %d | %s | %lld | %lld | %.1f | %lld | %lld | %lld | %lld | %.1f | %s |\n",
-                    grid, f, camera.c_str(), (long long)o.bricksDrawn, (long long)o.bricksPagedIn, o.msTotal,
+      std::snprintf(line, sizeof(line),
+                    "| %s | %d | %s | %lld | %lld | %.1f | %lld | %lld | %lld | %lld | %.1f | %s |\n", grid, f,
+                    camera.c_str(), (long long)o.bricksDrawn, (long long)o.bricksPagedIn, o.msTotal,
                     (long long)r.bricksPagedIn, (long long)r.bricksRequested, (long long)r.bricksUntouched,
                     (long long)r.bricksStandIn, r.msTotal,
                     std::isinf(psnr) ? "identical" : std::to_string(std::round(psnr * 100) / 100).substr(0, 6).c_str());

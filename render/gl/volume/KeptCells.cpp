@@ -114,9 +114,9 @@ bool KeptCells::update(const FramePlan& plan, Residency& residency, CellTable& c
         const store::BrickKey& key = draw.key;
         const int64_t side = int64_t(B) << key.level;
         const store::Vec3i lo{int64_t(key.i) * side, int64_t(key.j) * side, int64_t(key.k) * side};
-        mSpans.assign(1, VoxelSpan{lo, store::Vec3i{std::min(lo.x + side, meta.dims.x),
-                                                    std::min(lo.y + side, meta.dims.y),
-                                                    std::min(lo.z + side, meta.dims.z)}});
+        mSpans.assign(1,
+                      VoxelSpan{lo, store::Vec3i{std::min(lo.x + side, meta.dims.x), std::min(lo.y + side, meta.dims.y),
+                                                 std::min(lo.z + side, meta.dims.z)}});
         sub.boxes = 1;
       } else {
         brickSpans(plan, draw, p.resident, meta, B, mSpans, sub);

@@ -72,8 +72,8 @@ void RayRequests::read(FrameStats& stats) {
     mBuffer.read(0, mBits.size() * sizeof(uint32_t), mBits.data());
   }
   stats.bricksRequested = mRequestedCount;
-  stats.bricksUntouched = std::count_if(mStandIns.begin(), mStandIns.end(),
-                                        [&](const store::BrickKey& key) { return !requested(key); });
+  stats.bricksUntouched =
+      std::count_if(mStandIns.begin(), mStandIns.end(), [&](const store::BrickKey& key) { return !requested(key); });
 }
 
 void RayRequests::forget() {

@@ -162,8 +162,9 @@ image::ImageF VolumeRenderer::render(const Scene& scene, FrameStats* statsOut, c
   if (plan.rayResidency && !(options.keepCellTable && KeptCells::fits(plan, mResidency) && RayRequests::fits(store))) {
     // The rays decide residency on a frame of one batch, whose cell table is kept from frame to frame.
     plan.rayResidency = false;
-    stats.fallback = "paged by the octree, not the rays: the frame's bricks need more than one atlas batch, or its "
-                     "cell table is not kept";
+    stats.fallback =
+        "paged by the octree, not the rays: the frame's bricks need more than one atlas batch, or its "
+        "cell table is not kept";
   }
   if (options.standIns && !plan.rayResidency) {
     t = Clock::now();

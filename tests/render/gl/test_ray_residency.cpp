@@ -27,10 +27,8 @@ Scene shellsScene(RayCaster kernel, ResidencyMode mode) {
   scene.lod = 0;
   scene.ert = 0.99;
   scene.width = scene.height = 40;
-  scene.transferFunction = TransferFunction({{0.0, {0, 0, 0, 0}},
-                                             {0.2, {0.9, 0.3, 0.1, 0.0}},
-                                             {0.6, {1.0, 0.7, 0.3, 1.0}},
-                                             {1.0, {1.0, 1.0, 1.0, 1.0}}});
+  scene.transferFunction = TransferFunction(
+      {{0.0, {0, 0, 0, 0}}, {0.2, {0.9, 0.3, 0.1, 0.0}}, {0.6, {1.0, 0.7, 0.3, 1.0}}, {1.0, {1.0, 1.0, 1.0, 1.0}}});
   scene.residency = mode;
   return scene;
 }
