@@ -25,6 +25,15 @@ uniform vec3 uCellCount;   // cells along x, y, z
 uniform float uPlaneIncr;    // distance between consecutive global planes
 uniform float uTermination;  // early ray termination: stop once the ray's own opacity reaches it (> 1: never)
 
+#ifdef RAY_REQUESTS
+// Ray-driven residency (render/gl/volume/RayRequests.h): a bit per level-0 brick (x fastest, from word 1), set by a
+// ray that reaches a cell marked VB_REQUEST_FLAG (its brick drawn from a stand-in while it is not resident), and in
+// word 0 the number of bits set, so that a frame that requested nothing is read back as one word. A ray that stops at
+// the termination threshold sets no bit for what lies behind.
+layout(std430, binding = VB_BINDING_RAY_REQUESTS) buffer RayRequests { uint uRequests[]; };
+uniform ivec4 uRequestGrid;  // level-0 bricks along x, y, z; w: level-0 voxels a brick
+#endif
+
 // The ray caster has no box: each sample's brick comes from the cell table, and is set here before the sample is
 // read.
 ivec4 gPayload = ivec4(0);
@@ -67,6 +76,9 @@ vec4 marchPixel(vec2 window) {
 #endif
   vec4 sum = vec4(0.0);
   uint taken = 0u, untaken = 0u;
+#ifdef RAY_REQUESTS
+  int requested = -1;  // the brick this ray last requested: one atomic per brick crossed, not per sample
+#endif
   while (k < last) {
     if (sum.a >= uTermination) {
       untaken = uint(last - k);  // planes, an upper bound of the samples left
@@ -86,7 +98,19 @@ vec4 marchPixel(vec2 window) {
     }
     const vec3 scaled = snapped * cellScale;
     const ivec3 cell = clamp(ivec3(mix(floor(scaled), ceil(scaled) - 1.0, eyeAtHi)), ivec3(0), ivec3(uCellCount) - 1);
-    const ivec4 entry = cellEntry(cell);
+    ivec4 entry = cellEntry(cell);
+#ifdef RAY_REQUESTS
+    if (entry.w >= VB_REQUEST_FLAG) {
+      entry.w -= VB_REQUEST_FLAG;
+      const ivec3 brick = (cell << uCellShift) / uRequestGrid.w;
+      const int index = (brick.z * uRequestGrid.y + brick.y) * uRequestGrid.x + brick.x;
+      if (index != requested) {
+        const uint bit = 1u << uint(index & 31);
+        if ((atomicOr(uRequests[1 + (index >> 5)], bit) & bit) == 0u) atomicAdd(uRequests[0], 1u);
+        requested = index;
+      }
+    }
+#endif
     const int level = levelOf(entry.w);
     const int stride = 1 << max(level, 0);
     if (level < 0 || (k & (stride - 1)) != 0) {

@@ -10,6 +10,8 @@ nlohmann::json FrameStats::toJson() const {
                       {"bricks_drawn", bricksDrawn},
                       {"bricks_paged_in", bricksPagedIn},
                       {"bricks_evicted", bricksEvicted},
+                      {"bricks_requested", bricksRequested},
+                      {"bricks_untouched", bricksUntouched},
                       {"batches", batches},
                       {"slices", slices},
                       {"fragments", fragments},

@@ -33,6 +33,11 @@ struct FrameStats {
   int levelFinest = 0, levelCoarsest = 0;  ///< the finest and coarsest pyramid levels drawn
   int64_t bricksPagedIn = 0;               ///< uploaded into the atlas this frame
   int64_t bricksEvicted = 0;               ///< replaced in the atlas this frame
+  /// Ray-driven residency (Scene::residency rays): bricks the rays reached this frame and did not find resident (read
+  /// back from the march's feedback buffer), and bricks the octree walk found visible that are still drawn from a
+  /// stand-in because no ray has reached them (what the octree mode would have paged and this mode has not). 0 in
+  /// the octree mode.
+  int64_t bricksRequested = 0, bricksUntouched = 0;
   double samplesEstimated = 0;  ///< the frame's cost as estimated before drawing (FramePlan::estimatedSamples)
   int64_t batches = 0;          ///< draw batches (more than one when the atlas cannot hold the frame's bricks)
   /// A ray-cast grid frame: the kernel that drew it, "fragment" or "compute" (Scene::raycaster, auto resolved); empty

@@ -23,6 +23,10 @@ RayCaster parseRayCaster(const std::string& name, const std::string& what) {
   return common::parseName<RayCaster, RenderInputError>(name, "ray caster", what);
 }
 
+ResidencyMode parseResidencyMode(const std::string& name, const std::string& what) {
+  return common::parseName<ResidencyMode, RenderInputError>(name, "residency mode", what);
+}
+
 namespace {
 
 struct NamedView {

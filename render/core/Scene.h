@@ -65,6 +65,22 @@ inline const char* rayCasterName(RayCaster kernel) { return common::nameOf(kerne
 /// The kernel named `name`; throws RenderInputError naming `what`, the closest name and the valid ones otherwise.
 RayCaster parseRayCaster(const std::string& name, const std::string& what);
 
+/// What decides which bricks of a ray-cast frame are paged into the atlas (render/gl/volume/RayRequests.h). Octree:
+/// every brick the octree walk finds visible and not empty, before the frame draws. Rays: the bricks the rays reached
+/// and did not find resident (a feedback buffer the march writes), a few frames later; meanwhile they are drawn from
+/// a coarser resident ancestor. Bricks behind an opaque front are then never paged. Both converge to the same image.
+enum class ResidencyMode {
+  Octree,  ///< "octree": the octree walk pages every visible brick
+  Rays,    ///< "rays": the rays request the bricks they reach
+};
+inline constexpr common::EnumName<ResidencyMode> kResidencyModeNames[] = {{ResidencyMode::Octree, "octree"},
+                                                                          {ResidencyMode::Rays, "rays"}};
+constexpr std::span<const common::EnumName<ResidencyMode>> enumNames(ResidencyMode) { return kResidencyModeNames; }
+/// "octree", "rays".
+inline const char* residencyModeName(ResidencyMode mode) { return common::nameOf(mode); }
+/// The mode named `name`; throws RenderInputError naming `what`, the closest name and the valid ones otherwise.
+ResidencyMode parseResidencyMode(const std::string& name, const std::string& what);
+
 /// How a tetrahedral mesh's cells are put in visibility order. Mpvo: the meshed-polyhedra visibility
 /// order, a breadth-first walk of the face-adjacency graph from the cells nothing hides (exact for a convex mesh
 /// without cycles). Centroid: cells by the distance of their centroids from the eye (cheaper, approximate where
@@ -179,6 +195,10 @@ struct GridTechnique {
   bool raycast = true;
   /// The ray caster's kernel: the fragment program or the compute program, the same samples; auto chooses by device.
   RayCaster raycaster = RayCaster::Auto;
+  /// What pages a ray-cast frame's bricks: the octree walk (every visible brick) or the rays' requests (the bricks
+  /// rays reached; the others drawn from a resident ancestor until requested). Frames of one batch only; a frame of
+  /// batches or a part's frame is paged by the octree.
+  ResidencyMode residency = ResidencyMode::Octree;
   /// Early ray termination on texture slabs: 0 (off) or a threshold in [0.5, 1]. Between slabs a pass marks the
   /// pixels whose accumulated opacity reached it in the depth buffer (a slab silhouette map), and the early depth
   /// test skips their fragments in every later slab; a fragment also stops marching when its own opacity reaches

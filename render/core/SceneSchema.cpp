@@ -388,6 +388,19 @@ std::vector<SceneKey> buildSchema() {
     };
   }
   {
+    SceneKey& k = add(keys, "residency", T::Name, C::Grid, A::Grids,
+                      "what pages a ray-cast frame's bricks: octree (every visible brick, before the frame) or rays "
+                      "(the bricks the rays reach, drawn from a resident ancestor until paged); the same image once "
+                      "converged");
+    k.names = common::enumNameList<ResidencyMode>();
+    k.option = "--residency", k.optionForm = "NAME";
+    k.example = "rays";
+    k.value = [](const Scene& s) { return json(residencyModeName(s.residency)); };
+    k.set = [](Scene& s, const json& v, const SceneSetting& setting) {
+      s.residency = parseResidencyMode(v.get<std::string>(), setting.name);
+    };
+  }
+  {
     SceneKey& k = add(keys, "ert", T::Number, C::Grid, A::Both,
                       "early ray termination: a ray stops at this opacity (0: off), moving a pixel by at most 1 - ert");
     k.range = {.lo = 0.5, .hi = 1, .zeroToo = true};

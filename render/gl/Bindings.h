@@ -31,7 +31,13 @@
 #define VB_BINDING_BOUNDARY_FACES 5    // BoundaryFaces: a boundary face's tet and face (uint)
 #define VB_BINDING_RAY_EXITS 6         // RayExits: per pixel, where the last pass left the mesh (float)
 #define VB_BINDING_ENTRY_COUNT 7       // EntryCount: the entry pass's kept fragments (uint)
-#define VB_BINDING_FRAME8 8            // Frame8: the finished 8-bit frame, a uint a pixel (finish.comp.glsl)
+#define VB_BINDING_RAY_REQUESTS 8      // RayRequests: a bit per level-0 brick a ray reached and did not find resident
+                                       // (ray-driven residency, render/gl/volume/RayRequests.h)
+#define VB_BINDING_FRAME8 9            // Frame8: the finished 8-bit frame, a uint a pixel (finish.comp.glsl)
+
+// Added to a cell table entry's w (a level and rotation, below 4096) where the cell's brick is drawn from a stand-in
+// and a ray reaching it records a request (RAY_REQUESTS).
+#define VB_REQUEST_FLAG 4096
 
 // SlabCounters: VB_COUNTERS 64-bit counters, each as two uint words (low, high), indexed by these.
 #define VB_COUNTER_FRAGMENTS 0           // marching fragments started

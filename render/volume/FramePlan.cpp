@@ -139,6 +139,7 @@ FramePlan planFrame(const Scene& scene, const store::BrickStore& store, int tran
                       std::to_string(meta.dims.x) + "x" + std::to_string(meta.dims.y) + "x" +
                       std::to_string(meta.dims.z) + " voxels in bricks of " + std::to_string(B) + ")";
   }
+  plan.rayResidency = plan.raycast && scene.residency == ResidencyMode::Rays && !part;
   plan.slab = plan.raycast ? 0 : scene.slab > 0 || !scene.raycast ? scene.slab : Scene{}.slab;
   plan.ert = plan.marches() ? scene.ert : 0;
   plan.preIntegration = plan.marches() && scene.preIntegration;

@@ -73,6 +73,9 @@ struct FramePlan {
   /// Ray casting: the cell table paged (a directory over pages of the blocks something is drawn in) rather than one
   /// grid of cells, for tables of more than kMaxDenseCells cells.
   bool pagedCells = false;
+  /// Ray casting with ray-driven residency (Scene::residency rays, a whole frame): the bricks are paged as the rays
+  /// request them (render/gl/volume/RayRequests.h), when the frame is one batch.
+  bool rayResidency = false;
   double ert = 0;    ///< early ray termination threshold when marching; 0 off (always 0 when slicing)
   bool preIntegration = false;  ///< pre-integrated classification (when marching)
   bool ess = false;             ///< empty-space silhouette maps (slabs only)

@@ -49,6 +49,7 @@ class BrickAtlas {
   static AtlasUploads resolveUploads(const GlContext& context, AtlasUploads uploads);
 
   AtlasSlots& slots() { return mSlots; }
+  const AtlasSlots& slots() const { return mSlots; }
   /// Copies a decoded brick into `slot` (converted to floats for the Float format and to halves, round to nearest
   /// even by common::Half, for the Half format), its axes rotated by orientation() (orientVoxel).
   void upload(AtlasSlot slot, const store::Brick& brick);

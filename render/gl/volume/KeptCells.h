@@ -18,6 +18,7 @@
 #include "render/core/FrameStats.h"
 #include "render/gl/Checkpoints.h"
 #include "render/gl/volume/CellTable.h"
+#include "render/gl/volume/RayRequests.h"
 #include "render/gl/volume/Residency.h"
 #include "render/volume/FramePlan.h"
 #include "render/volume/SubBlocks.h"
@@ -32,8 +33,12 @@ class KeptCells {
   /// Brings `cells` up to `plan` (which fits()), paging the bricks that are not resident, and binds the table.
   /// Fills the paging counters of `stats`, boxesDrawn, subBlocksSkipped and cellsSent. Returns whether any cell has
   /// something to draw. Polls `checkpoints` between bricks.
+  /// With `requests` (ray-driven residency, render/gl/volume/RayRequests.h), only the bricks that are resident or
+  /// that the last frame's rays requested (at most RayRequests::kPagesPerFrame of them, front to back) are drawn as
+  /// themselves; the others are drawn from a resident ancestor, whole, their cells flagged for the rays to request
+  /// them.
   bool update(const FramePlan& plan, Residency& residency, CellTable& cells, FrameStats& stats,
-              const Checkpoints& checkpoints);
+              const Checkpoints& checkpoints, RayRequests* requests = nullptr);
   /// Forgets the table: the next update() builds it anew (after a frame of batches, or a frame that failed).
   void forget() { mValid = false; }
 
@@ -45,7 +50,8 @@ class KeptCells {
     uint64_t frame = 0;  // the last frame that drew it
   };
   struct Pending {
-    size_t draw;
+    BrickDraw draw;  // with the stand-in this frame draws it from
+    bool flagged;    // drawn from a stand-in for the rays to request (whole: no sub-block left out)
     Residency::Resident resident;
     glm::ivec4 payload;
   };
@@ -57,8 +63,10 @@ class KeptCells {
   uint64_t mFrame = 0;
   int64_t mBoxes = 0, mSubBlocksSkipped = 0, mDrawing = 0;  // over the records; mDrawing: those with boxes
   bool mValid = false;
+  bool mRays = false;  // whether the table was last brought up to date with ray-driven residency
   std::vector<Pending> mPending;
   std::vector<VoxelSpan> mSpans;
+  std::vector<store::BrickKey> mWanted;  // ray-driven residency: the requested bricks this frame pages
 };
 
 }  // namespace voxbrick::render

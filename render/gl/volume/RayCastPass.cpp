@@ -22,7 +22,17 @@ double RayCastPass::samplesPerPixel(const FramePlan& plan, double samplesEstimat
   return std::min(3 * samplesEstimated / pixels, longest);
 }
 
-RayCastPass::RayCastPass(const Gl& gl) : mGl(gl), mCells(gl), mTermination(gl), mCounters(gl), mNoAttributes(gl) {}
+RayCastPass::RayCastPass(const Gl& gl)
+    : mGl(gl), mCells(gl), mRequests(gl), mTermination(gl), mCounters(gl), mNoAttributes(gl) {}
+
+void RayCastPass::finish(FrameStats& stats) {
+  mCounters.read(stats);
+  if (!mRequesting) return;
+  mRequests.read(stats);
+  // Stand-ins a ray reached: what makes the frame differ from the octree mode's (FrameStats::bricksStandIn 0 means
+  // exact). Those no ray reached change no pixel.
+  stats.bricksStandIn = int64_t(mRequests.standIns().size()) - stats.bricksUntouched;
+}
 
 void RayCastPass::draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program,
                        const SliceGeometry& planes, Compositor& compositor, FrameStats& stats,
@@ -30,15 +40,18 @@ void RayCastPass::draw(const FramePlan& plan, Residency& residency, const Volume
   mBatchesDrawn = 0;
   mCounters.reset();
   mSamplesPerPixel = checkpoints.intervalSamples() > 0 ? samplesPerPixel(plan, stats.samplesEstimated) : 0;
+  mRequesting = plan.rayResidency && keepTable && KeptCells::fits(plan, residency);
+  if (mRequesting) mRequests.begin(residency.store(), program);
   if (keepTable && KeptCells::fits(plan, residency)) {
     // One batch: the table kept from the last frame, changed where the bricks changed.
-    const bool any = mKept.update(plan, residency, mCells, stats, checkpoints);
+    const bool any = mKept.update(plan, residency, mCells, stats, checkpoints, mRequesting ? &mRequests : nullptr);
     program.setCells(mCells.cells(), mCells.shift());
     if (any) march(plan, program, compositor, stats, checkpoints);
     residency.endBatch();
     return;
   }
   mKept.forget();
+  mRequests.forget();
   stats.cellBricksChanged = -1;
   const store::StoreMeta& meta = residency.store().meta();
   mCells.begin(glm::ivec3(meta.dims.x, meta.dims.y, meta.dims.z), plan.cellSize, plan.pagedCells);

@@ -19,6 +19,7 @@
 #include "render/gl/SampleCounters.h"
 #include "render/gl/volume/CellTable.h"
 #include "render/gl/volume/KeptCells.h"
+#include "render/gl/volume/RayRequests.h"
 #include "render/gl/volume/SlicingPass.h"
 #include "render/gl/volume/TerminationPass.h"
 
@@ -31,11 +32,13 @@ class RayCastPass {
   /// Draws plan.visible with `program` (a ray caster variant) into `compositor`'s target, which begin() set up with a
   /// silhouette map iff plan.ert > 0. `planes` gives the planes through a box (boxes with none are left out).
   /// `keepTable`: a frame of one batch draws from the table kept from the last frame (KeptCells), else every
-  /// batch's table is filled anew.
+  /// batch's table is filled anew. plan.rayResidency (which needs the kept table; VolumeRenderer ensures it): the rays
+  /// decide what is paged (RayRequests), and `program` is a RAY_REQUESTS variant.
   void draw(const FramePlan& plan, Residency& residency, const VolumeProgram& program, const SliceGeometry& planes,
             Compositor& compositor, FrameStats& stats, Checkpoints& checkpoints, bool keepTable = true);
   /// After the compositor's finish: fragments started, samples taken and left by termination into `stats`.
-  void finish(FrameStats& stats) const { mCounters.read(stats); }
+  /// With ray-driven residency (plan.rayResidency), also reads back the rays' requests (RayRequests::read).
+  void finish(FrameStats& stats);
   /// The cell table the last batch was drawn with (for tests: CellTable::readBack).
   const CellTable& cells() const { return mCells; }
 
@@ -52,6 +55,8 @@ class RayCastPass {
   BrickWalk mWalk;
   CellTable mCells;
   KeptCells mKept;
+  RayRequests mRequests;
+  bool mRequesting = false;  // this frame's rays record requests
   TerminationPass mTermination;
   SampleCounters mCounters;
   VertexArray mNoAttributes;

@@ -78,7 +78,7 @@ size_t Residency::atlasBytes(const store::BrickStore& store, size_t gpuBudgetByt
   return std::min((gpuBudgetBytes - staging) / slot, size_t(usefulSlots(store))) * slot + staging;
 }
 
-void Residency::beginFrame(const std::vector<BrickDraw>& bricks) {
+void Residency::beginFrame(const std::vector<BrickDraw>& bricks, bool prefetch) {
   mToPage.clear();
   mPrefetched = mPaged = 0;
   // The same set of draws as the last frame: as many, each drawn by the last frame with the same stand-in (a frame
@@ -97,7 +97,7 @@ void Residency::beginFrame(const std::vector<BrickDraw>& bricks) {
   mLastDraws = bricks.size();
   mUnchanged = same;
   mEnded = false;
-  if (mUnchanged) return;
+  if (mUnchanged || !prefetch) return;
   // Decoding runs ahead on the cache's workers, in the order the bricks will be drawn, a window at a time: the
   // cache's queue drops its oldest requests when full, and those would be the ones needed first.
   for (const BrickDraw& d : bricks)

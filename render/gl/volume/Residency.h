@@ -4,6 +4,7 @@
 
 #include <memory>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include "brickstore/read/BrickCache.h"
@@ -41,7 +42,13 @@ class Residency {
   /// starts now. When the last frame ended (endFrame) with the same draws (keys and stand-ins, in any order) and no
   /// slot has changed hands since, nothing is looked up: unchanged() says so, and every brick of the frame is
   /// resident where it was.
-  void beginFrame(const std::vector<BrickDraw>& bricks);
+  /// `prefetch` false (ray-driven residency, render/gl/volume/RayRequests.h): no brick is decoded ahead, since not
+  /// every brick drawn is to be paged; prefetch() names those that are.
+  void beginFrame(const std::vector<BrickDraw>& bricks, bool prefetch = true);
+  /// Hands `keys` to the cache's workers to decode, in this order, for acquire() to page soon.
+  void prefetch(std::span<const store::BrickKey> keys) { mCache->prefetch(keys); }
+  /// Whether brick `key` is in the atlas now.
+  bool resident(const store::BrickKey& key) const { return mAtlas.slots().resident(key); }
   /// Whether this frame draws what the last frame drew, every brick in the slot it had then (beginFrame).
   bool unchanged() const { return mUnchanged; }
   /// Ends a frame that was drawn: what unchanged() compares the next frame with (only a frame of one batch: one that

@@ -26,6 +26,7 @@ ProgramSources sources(const ProgramKey& key) {
   if (key.emptyTest) defines.push_back("EMPTY_TEST");
   if (key.multiOriented) defines.push_back("MULTI_ORIENTED");
   if (key.pagedCells) defines.push_back("PAGED_CELLS");
+  if (key.rayRequests) defines.push_back("RAY_REQUESTS");
   // The grid programs' libraries (after the slicer's, if any); the ray caster's kernels share their march.
   std::vector<std::string> libraries{"volume_sample.glsl", "volume_ownership.glsl", "volume_ray.glsl"};
   if (!slices(key)) libraries.push_back("volume_counters.glsl");
@@ -85,6 +86,7 @@ ProgramSources slicerSources(Slicer slicer, std::string name) {
 VolumeProgram::VolumeProgram(const Gl& gl, const ProgramKey& key)
     : mProgram(build(gl, key)), mCompute(key.raycast && key.compute) {
   if (mCompute) mTile = mProgram.requireUniform("uTile");
+  if (key.rayRequests) mRequestGrid = mProgram.requireUniform("uRequestGrid");
   if (key.slicer == Slicer::Vertex && slices(key))
     for (const SliceTableUniform& table : kSliceTableUniforms)
       mProgram.set(mProgram.requireUniform(table.name), table.values);

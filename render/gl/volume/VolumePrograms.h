@@ -37,6 +37,7 @@ struct ProgramKey {
   bool pagedCells = false;      ///< PAGED_CELLS (the ray caster): the cell table as a directory over pages, not one
                                 ///< cell grid (FramePlan::pagedCells, render/gl/volume/CellTable.h)
   bool multiOriented = false;   ///< MULTI_ORIENTED: bricks lie in the atlas with rotated axes (AtlasBricking)
+  bool rayRequests = false;     ///< RAY_REQUESTS (the ray caster): rays record the bricks they need (RayRequests.h)
   auto operator<=>(const ProgramKey&) const = default;
 };
 
@@ -61,6 +62,8 @@ class VolumeProgram {
   /// Sets the cell table's grid (ray caster variants): `cells` cells of 2^`shift` voxels; the table is on
   /// VB_UNIT_CELLS.
   void setCells(const glm::ivec3& cells, int shift) const;
+  /// Sets the ray-request grid (RAY_REQUESTS variants): level-0 bricks along xyz, w the brick's voxels.
+  void setRequestGrid(const glm::ivec4& grid) const { mProgram.set(mRequestGrid, grid); }
   /// The compute ray caster's tile (compute variants): the pixels [xy, zw) of the next dispatch.
   void setTile(const glm::ivec4& tile) const { mProgram.set(mTile, tile); }
   /// Whether it is a compute program (ProgramKey::compute), dispatched rather than drawn.
@@ -76,6 +79,7 @@ class VolumeProgram {
   } mAt;
   GLint mPaths = -1;         // uPaths of the vertex-lean, geometry and vertex-geometry slicers
   GLint mTile = -1;          // uTile of the compute ray caster
+  GLint mRequestGrid = -1;   // uRequestGrid of the RAY_REQUESTS variants
   bool mCompute = false;     // a compute ray caster variant
   bool mStripOrder = false;  // its rows in strip order (the geometry slicer)
 };

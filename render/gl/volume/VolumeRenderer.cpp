@@ -91,7 +91,7 @@ void VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, const Frame
   const auto setupStart = Clock::now();
   const RenderMode mode = options.mode;
   const store::BrickStore& store = mResidency.store();
-  mResidency.beginFrame(plan.visible.bricks);
+  mResidency.beginFrame(plan.visible.bricks, !plan.rayResidency);
   mCompositor.begin(scene.width, scene.height, mode != RenderMode::Roofline, plan.ert > 0 || plan.ess);
   const std::vector<glm::vec4> table = scene.transferFunction.table(kTransferTableTexels);
   mTransfer.bind(VB_UNIT_TRANSFER);
@@ -108,6 +108,7 @@ void VolumeRenderer::draw(const Scene& scene, const FramePlan& plan, const Frame
                                  (scene.raycaster == RayCaster::Auto && mComputeByDefault));
   if (plan.raycast) stats.raycaster = key.compute ? "compute" : "fragment";
   key.pagedCells = plan.pagedCells;
+  key.rayRequests = plan.rayResidency;
   key.multiOriented = mResidency.atlas().bricking() == AtlasBricking::MultiOriented;
   const VolumeProgram& program = mPrograms.get(key);
   program.setFrame(plan, mResidency.atlas(), store.meta());
@@ -178,7 +179,14 @@ VolumeRenderer::PlannedFrame VolumeRenderer::plan(const Scene& scene, const Fram
                            " million samples, above the limit of " + numberText(options.maxSamples / 1e6) +
                            " million; ask for a smaller image, a coarser step or a level of detail");
 
-  if (options.standIns) {
+  if (plan.rayResidency && !(options.keepCellTable && KeptCells::fits(plan, mResidency) && RayRequests::fits(store))) {
+    // The rays decide residency on a frame of one batch, whose cell table is kept from frame to frame.
+    plan.rayResidency = false;
+    stats.fallback =
+        "paged by the octree, not the rays: the frame's bricks need more than one atlas batch, or its "
+        "cell table is not kept";
+  }
+  if (options.standIns && !plan.rayResidency) {
     t = Clock::now();
     stats.bricksStandIn = mResidency.standIn(plan.visible.bricks, store.levelCount() - 1);
     for (const BrickDraw& d : plan.visible.bricks)
