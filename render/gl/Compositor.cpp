@@ -107,6 +107,8 @@ image::Image8 Compositor::finish8(const Scene& scene, FrameStats& stats) {
   const int width = mTarget.width(), height = mTarget.height();
   if (!mFinish8) {
     mFinish8 = Program(mGl, ProgramSources::fromFiles("finish.comp.glsl", {{GL_COMPUTE_SHADER, "finish.comp.glsl"}}));
+    mFinish8Size = mFinish8.requireUniform("uSize");
+    mFinish8Background = mFinish8.requireUniform("uBackground");
     mFrame8 = Buffer(mGl);
   }
   const size_t bytes = size_t(width) * size_t(height) * 4;
@@ -115,8 +117,8 @@ image::Image8 Compositor::finish8(const Scene& scene, FrameStats& stats) {
     mFrame8Bytes = bytes;
   }
   mFinish8.use();
-  mFinish8.set(mFinish8.uniformLocation("uSize"), glm::ivec4(width, height, 0, 0));
-  mFinish8.set(mFinish8.uniformLocation("uBackground"), glm::vec3(scene.background));
+  mFinish8.set(mFinish8Size, glm::ivec4(width, height, 0, 0));
+  mFinish8.set(mFinish8Background, glm::vec3(scene.background));
   mTarget.color().bind(VB_UNIT_ACCUMULATED);
   mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_FRAME8, mFrame8.id());
   mGl.glDispatchCompute(GLuint((width + VB_FINISH_GROUP_X - 1) / VB_FINISH_GROUP_X),

@@ -56,6 +56,7 @@ class Compositor {
   bool mCounting = false;   // between begin() and finish()/abort(): the fragment query is active
   std::vector<float> mRaw;  // the readback, kept: faulting in 4 MB of fresh pages costs 13 ms on a VM
   Program mFinish8;         // finish.comp.glsl, made on the first finish8
+  GLint mFinish8Size = -1, mFinish8Background = -1;  // its uniforms' locations
   Buffer mFrame8;           // its output, a uint a pixel
   size_t mFrame8Bytes = 0;  // mFrame8's size
 };
