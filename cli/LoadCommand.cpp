@@ -15,6 +15,7 @@
 #include "cli/LoadFaults.h"
 #include "cli/LoadTally.h"
 #include "client/Client.h"
+#include "image/Video.h"
 #include "render/core/Scene.h"
 #include "render/engine/Datasets.h"
 
@@ -177,12 +178,32 @@ std::optional<std::chrono::milliseconds> tallyDragReply(const proto::Message& m,
     tally.payloadBytes += int64_t(frame->payload.size());
     const json stats = json::parse(frame->statsJson);
     if (stats.value("provisional", false)) ++tally.provisional;
+    if (stats.contains("encode_ms")) tally.encodeMs.push_back(stats["encode_ms"].get<double>());
     if (stats.contains("ms")) tally.renderMs.push_back(stats["ms"].value("total", 0.0));
     if (const auto budget = frameBudgetMs(stats)) tally.budgetMs.push_back(*budget);
   } else if (!std::holds_alternative<proto::DatasetList>(m)) {  // a DatasetList answers the closing request
     ++tally.errors, ++mine.errors;
   }
   return std::nullopt;
+}
+
+/// Decodes a video frame of dragging client `index` in its stream, timing it. A frame that does not decode is an error
+/// of the run, and sets `wantKey` (the client's next Render asks for a key frame).
+void decodeVideo(image::FrameDecoder& decoder, const proto::Frame& frame, int index, bool& wantKey, Tally& tally) {
+  const auto start = Clock::now();
+  try {
+    decoder.decode(frame);
+  } catch (const std::exception& e) {
+    wantKey = true;
+    tally.error(std::string("video frame: ") + e.what(), index);
+    return;
+  }
+  const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  const json stats = json::parse(frame.statsJson, nullptr, false);
+  std::lock_guard lock(tally.mutex);
+  tally.decodeMs.push_back(ms);
+  ++tally.videoFrames;
+  if (stats.is_object() && stats.contains("video") && stats["video"].value("key", false)) ++tally.keyFrames;
 }
 
 /// A client dragging the camera: sends a new camera `hz` times a second without waiting, and reads frames as they
@@ -199,8 +220,14 @@ void dragClient(const LoadArgs& a, const std::string& host, int port, int width,
     std::map<uint32_t, Clock::time_point> sent;  // requests not yet answered, and when each was sent
     bool batch = a.batch;
     Clock::time_point hold;  // no request before this: a Busy reply's retry hint
+    image::FrameDecoder decoder;
+    bool wantKey = false;  // a video frame failed to decode: the next Render asks for a key frame
     const auto readReply = [&] {
       auto [id, m] = c.receive();
+      if (const auto* frame = std::get_if<proto::Frame>(&m)) {
+        c.frameReceived(id, *frame);  // so the server paces this session to what arrives (version 4 on)
+        if (image::isVideoEncoding(frame->encoding)) decodeVideo(decoder, *frame, index, wantKey, tally);
+      }
       std::optional<Clock::time_point> sentAt;
       if (const auto it = sent.find(id); it != sent.end()) sentAt = it->second, sent.erase(it);
       if (const auto wait = tallyDragReply(m, sentAt, index, batch, tally)) hold = Clock::now() + *wait;
@@ -211,7 +238,13 @@ void dragClient(const LoadArgs& a, const std::string& host, int port, int width,
       const auto now = Clock::now();
       if (now >= deadline) break;
       if (now >= next && now >= hold) {
-        const std::string scene = dragSceneJson(a, batch, width, height, 10.0 * index + 2.0 * n++);
+        std::string scene = dragSceneJson(a, batch, width, height, 10.0 * index + 2.0 * n++);
+        if (wantKey) {
+          json withKey = json::parse(scene);
+          withKey["keyframe"] = true;
+          scene = withKey.dump();
+          wantKey = false;
+        }
         sent[c.send(proto::RenderRequest{client::encodingNamed(a.encoding), scene})] = now;
         next = std::max(next + period, hold);
         continue;
@@ -375,7 +408,8 @@ void addLoadCommand(CLI::App& app) {
       ->check(between(render::Scene::kMinTimeBudgetMs, render::Scene::kMaxTimeBudgetMs, "ms"))
       ->needs(drag);
   cmd->add_option("--provisional-encoding", a->provisionalEncoding,
-                  "with --drag: how provisional frames travel (provisional_encoding): raw, png, zstd or jpeg")
+                  "with --drag: how provisional frames travel (provisional_encoding): raw, png, zstd, jpeg, or a video "
+                  "stream, vp8 or vp9 (decoded by each client in order)")
       ->check(CLI::IsMember(proto::encodingShortNames()))
       ->needs(drag);
   cmd->add_flag("--batch", a->batch,

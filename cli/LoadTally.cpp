@@ -112,6 +112,14 @@ json loadReport(const LoadArgs& a, const Tally& tally, double seconds, int width
         {"p99", percentile(tally.latencies, 0.99)},
         {"max", percentile(tally.latencies, 1.0)}}},
       {"time_budget_ms", budget},
+      {"provisional_encoding", a.provisionalEncoding.empty() ? json() : json(a.provisionalEncoding)},
+      {"encode_ms_p50", tally.encodeMs.empty() ? json() : json(percentile(tally.encodeMs, 0.5))},
+      {"video",
+       tally.videoFrames == 0 ? json()
+                              : json{{"frames", tally.videoFrames},
+                                     {"key_frames", tally.keyFrames},
+                                     {"decode_ms", {{"p50", percentile(tally.decodeMs, 0.5)},
+                                                    {"p99", percentile(tally.decodeMs, 0.99)}}}}},
       {"render_ms_p50", percentile(tally.renderMs, 0.5)},
       // Over the orbit the clients turn through (warm frames): the slowest frame against the fastest.
       {"warm_render_ms", {{"min", percentile(tally.renderMsWarm, 0.0)}, {"max", percentile(tally.renderMsWarm, 1.0)}}},
@@ -138,6 +146,9 @@ void printSummary(const LoadArgs& a, const Tally& tally, double seconds, int64_t
   if (server.contains("memory"))
     std::printf(", server RSS %.0f MB (peak %.0f MB)", double(server["memory"]["rss_bytes"]) / 1e6,
                 double(server["memory"]["peak_rss_bytes"]) / 1e6);
+  if (tally.videoFrames > 0)
+    std::printf(", %lld video frames (%lld key), decoded in %.2f ms (p50)", (long long)tally.videoFrames,
+                (long long)tally.keyFrames, percentile(tally.decodeMs, 0.5));
   if (tally.batchRefused > 0)
     std::printf(", %lld clients sent no batch key (the server does not know it)", (long long)tally.batchRefused);
   std::printf("\n");

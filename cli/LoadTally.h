@@ -32,6 +32,9 @@ struct Tally {
   std::vector<double> renderMs;      ///< the renderer's own frame time (frame statistics), well-behaved clients
   std::vector<double> renderMsWarm;  ///< the same without each client's first frame (which pages its bricks in)
   std::vector<double> budgetMs;      ///< interactive frames: the time budget each was drawn to (its statistics)
+  std::vector<double> decodeMs;      ///< dragging clients: each video frame's decoding time
+  std::vector<double> encodeMs;      ///< dragging clients: each frame's encoding time on the server (its statistics)
+  int64_t videoFrames = 0, keyFrames = 0;  ///< video frames received (first replies and not), key frames among them
   int64_t frames = 0, errors = 0, superseded = 0, payloadBytes = 0;
   int64_t provisional = 0;       ///< dragging clients: first replies that were provisional frames
   int64_t exactFollowUps = 0;    ///< dragging clients: exact frames of requests a provisional frame already answered

@@ -9,6 +9,7 @@
 #include "image/FrameImage.h"
 #include "image/Image.h"
 #include "image/ImageFile.h"
+#include "image/Video.h"
 #include "render/core/RenderErrors.h"
 #include "render/engine/Datasets.h"
 
@@ -24,9 +25,9 @@ struct RequestArgs {
 };
 
 /// Writes a frame as the output's extension asks: a jpeg frame to a .jpg file as its bytes (no second loss), any
-/// other decoded and encoded again.
-void writeFrame(const std::string& path, const proto::Frame& frame, int jpegQuality) {
-  const image::Image8 decoded = image::decodeFrameImage(frame);  // checks the payload whatever is written
+/// other decoded (a video frame in the session's stream, by `decoder`) and encoded again.
+void writeFrame(const std::string& path, const proto::Frame& frame, int jpegQuality, image::FrameDecoder& decoder) {
+  const image::Image8 decoded = decoder.decode(frame);  // checks the payload whatever is written
   if (frame.encoding == proto::Encoding::Jpeg && image::imageFormatFor(path) == image::ImageFormat::Jpeg)
     image::writeFileAtomically(path, frame.payload);
   else
@@ -58,15 +59,16 @@ void runRequest(const RequestArgs& a, const CLI::App& cmd) {
   // A progressive scene may first bring provisional frames (bricks still on their way drawn coarser): each is
   // written beside the output, the last one wins.
   const std::string provisional = provisionalPath(a.output);
+  image::FrameDecoder decoder;
   const proto::Frame frame = c.render(scene.toJson(), encoding, [&](const proto::Frame& early) {
-    writeFrame(provisional, early, a.jpegQuality);
+    writeFrame(provisional, early, a.jpegQuality, decoder);
     const nlohmann::json stats = nlohmann::json::parse(early.statsJson);
     std::printf("request: provisional frame (%lld bricks stood in) at %.1f ms, wrote %s\n",
                 static_cast<long long>(stats.value("bricks_standin", int64_t{0})), msSinceStart(), provisional.c_str());
   });
   const double ms = msSinceStart();
   c.goodbye();
-  writeFrame(a.output, frame, a.jpegQuality);
+  writeFrame(a.output, frame, a.jpegQuality, decoder);
   if (!a.statsPath.empty()) writeText(a.statsPath, nlohmann::json::parse(frame.statsJson).dump(2) + "\n");
   std::printf("request: wrote %s (%ux%u, %zu bytes as %s) in %.1f ms\n", a.output.c_str(), frame.width, frame.height,
               frame.payload.size(), a.encoding.c_str(), ms);

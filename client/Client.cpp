@@ -1,6 +1,7 @@
 // Blocking client over Boost.Asio; the connect and every read and write are bounded by the session's timeout.
 #include "client/Client.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <type_traits>
 #include <utility>  // before Asio: Boost 1.74's awaitable.hpp uses std::exchange without it
@@ -212,7 +213,17 @@ void Client::close() {
 
 proto::Encoding encodingNamed(const std::string& name) {
   if (const auto encoding = proto::encodingFromShortName(name)) return *encoding;
-  throw std::invalid_argument("'" + name + "' is not an encoding (raw, png, zstd or jpeg)");
+  throw std::invalid_argument("'" + name + "' is not an encoding (raw, png, zstd, jpeg, vp8 or vp9)");
+}
+
+uint32_t frameMessageBytes(const proto::Frame& frame) {
+  const uint64_t bytes = proto::kHeaderBytes + 4 + 4 + 1 + 4 + frame.statsJson.size() + 4 + frame.payload.size();
+  return uint32_t(std::min<uint64_t>(bytes, UINT32_MAX));
+}
+
+void Client::frameReceived(uint32_t requestId, const proto::Frame& frame) {
+  if (!proto::messageTypeInVersion(proto::MessageType::FrameReceived, mVersion)) return;
+  sendBytes(proto::encode(proto::FrameReceived{frameMessageBytes(frame)}, requestId, mVersion));
 }
 
 std::pair<std::string, int> parseAddress(const std::string& text) {

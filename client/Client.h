@@ -55,6 +55,10 @@ class Client {
   /// version lacks (jpeg with a version-1 server).
   proto::Frame render(const std::string& sceneJson, proto::Encoding encoding = proto::Encoding::Png,
                       const std::function<void(const proto::Frame&)>& onProvisional = {});
+  /// Version 4 on: tells the server that `frame`, a reply to request `requestId`, arrived (FrameReceived), so that it
+  /// keeps this session's frames from queueing on a slow link and sets its video bitrate by what arrives. Call it for
+  /// every Frame, in the order they arrive, or never; nothing is sent in an older session.
+  void frameReceived(uint32_t requestId, const proto::Frame& frame);
   /// Server statistics (JSON text).
   std::string stats();
   /// Sends Goodbye and closes.
@@ -87,8 +91,12 @@ class Client {
   uint16_t mVersion = proto::kVersion;
 };
 
-/// The encoding a command-line name gives ("raw", "png", "zstd", "jpeg"); throws std::invalid_argument otherwise.
+/// The encoding a command-line name gives ("raw", "png", "zstd", "jpeg", "vp8", "vp9"); throws std::invalid_argument
+/// otherwise.
 proto::Encoding encodingNamed(const std::string& name);
+
+/// The bytes of the Frame message that carried `frame`, header included (FrameReceived's frame_bytes).
+uint32_t frameMessageBytes(const proto::Frame& frame);
 
 /// Whether `frame` is provisional: drawn with stand-ins for bricks not yet resident, the exact Frame of the same
 /// request to follow (its statistics' "provisional" key, PROTOCOL.md "Progressive frames").

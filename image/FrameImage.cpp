@@ -35,6 +35,10 @@ std::vector<uint8_t> encodeFrameImage(const Image8& image, proto::Encoding encod
       return out;
     }
     case proto::Encoding::Jpeg: return encodeJpeg(image, jpegQuality, kFrameJpegChroma);
+    case proto::Encoding::Vp8:
+    case proto::Encoding::Vp9:
+      throw ImageFailure(std::string("encodeFrameImage: a ") + proto::encodingName(encoding) +
+                         " frame belongs to a stream: encode it with image::VideoEncoder");
   }
   throw ImageFailure("encodeFrameImage: unknown encoding " + std::to_string(int(encoding)));
 }
@@ -57,6 +61,10 @@ Image8 decodeFrameImage(const proto::Frame& frame) {
     case proto::Encoding::Jpeg:
       image = decodeJpeg(frame.payload, "frame", std::array{int(frame.width), int(frame.height)});
       break;
+    case proto::Encoding::Vp8:
+    case proto::Encoding::Vp9:
+      throw ImageFailure(std::string("frame: a ") + proto::encodingName(frame.encoding) +
+                         " frame decodes only in its stream, with the frames before it (image::VideoDecoder)");
     case proto::Encoding::ZstdRgba8: {
       image.rgba.resize(bytes);
       const size_t n = ZSTD_decompress(image.rgba.data(), bytes, frame.payload.data(), frame.payload.size());

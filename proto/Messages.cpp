@@ -21,7 +21,8 @@ static_assert(kAt<MessageType::Hello, Hello> && kAt<MessageType::Capabilities, C
               kAt<MessageType::Render, RenderRequest> && kAt<MessageType::Frame, Frame> &&
               kAt<MessageType::Error, Error> && kAt<MessageType::GetStats, GetStats> &&
               kAt<MessageType::Stats, Stats> && kAt<MessageType::Goodbye, Goodbye> &&
-              std::variant_size_v<Message> == size_t(MessageType::Goodbye));
+              kAt<MessageType::FrameReceived, FrameReceived> &&
+              std::variant_size_v<Message> == size_t(MessageType::FrameReceived));
 
 bool known(Encoding e, uint16_t version) { return encodingInVersion(e, version); }
 bool known(ErrorCode e, uint16_t version) { return errorCodeInVersion(e, version); }
@@ -274,6 +275,11 @@ void fields(Io& io, M& m) {
   io.string({"json"}, m.json);
 }
 
+template <class Io, Is<FrameReceived> M>
+void fields(Io& io, M& m) {
+  io.number({"frame_bytes"}, m.frameBytes);
+}
+
 template <size_t I = 0>
 Message decodeAs(const Header& header, std::span<const uint8_t> body, const Limits& limits) {
   if constexpr (I == std::variant_size_v<Message>) {
@@ -322,6 +328,11 @@ size_t invalidUtf8At(const uint8_t* p, size_t size) {
     i += length;
   }
   return size;
+}
+
+bool messageTypeInVersion(MessageType type, uint16_t version) {
+  if (type == MessageType::FrameReceived) return version >= 4;
+  return type >= MessageType::Hello && type <= MessageType::Goodbye;
 }
 
 bool errorCodeInVersion(ErrorCode code, uint16_t version) {
@@ -387,6 +398,7 @@ const char* messageTypeName(MessageType type) {
     case MessageType::GetStats: return "GetStats";
     case MessageType::Stats: return "Stats";
     case MessageType::Goodbye: return "Goodbye";
+    case MessageType::FrameReceived: return "FrameReceived";
   }
   return "unknown";
 }
@@ -399,6 +411,8 @@ bool encodingInVersion(Encoding encoding, uint16_t version) {
     case Encoding::Png:
     case Encoding::ZstdRgba8: return version >= 1;
     case Encoding::Jpeg: return version >= 2;
+    case Encoding::Vp8:
+    case Encoding::Vp9: return version >= 4;
   }
   return false;
 }
@@ -407,7 +421,8 @@ namespace {
 
 /// Every encoding by its short name, in the order of their values.
 constexpr std::pair<std::string_view, Encoding> kShortNames[] = {
-    {"raw", Encoding::RawRgba8}, {"png", Encoding::Png}, {"zstd", Encoding::ZstdRgba8}, {"jpeg", Encoding::Jpeg}};
+    {"raw", Encoding::RawRgba8}, {"png", Encoding::Png}, {"zstd", Encoding::ZstdRgba8}, {"jpeg", Encoding::Jpeg},
+    {"vp8", Encoding::Vp8},      {"vp9", Encoding::Vp9}};
 
 }  // namespace
 
@@ -425,7 +440,8 @@ std::vector<std::string> encodingShortNames() {
 
 std::vector<Encoding> encodingsOf(uint16_t version) {
   std::vector<Encoding> encodings;
-  for (const Encoding e : {Encoding::RawRgba8, Encoding::Png, Encoding::ZstdRgba8, Encoding::Jpeg})
+  for (const Encoding e :
+       {Encoding::RawRgba8, Encoding::Png, Encoding::ZstdRgba8, Encoding::Jpeg, Encoding::Vp8, Encoding::Vp9})
     if (encodingInVersion(e, version)) encodings.push_back(e);
   return encodings;
 }
@@ -436,6 +452,8 @@ const char* encodingName(Encoding encoding) {
     case Encoding::Png: return "png";
     case Encoding::ZstdRgba8: return "zstd_rgba8";
     case Encoding::Jpeg: return "jpeg";
+    case Encoding::Vp8: return "vp8";
+    case Encoding::Vp9: return "vp9";
   }
   return "unknown";
 }
@@ -454,6 +472,9 @@ std::vector<uint8_t> encode(const Message& message, uint32_t requestId, uint16_t
   if (version < kMinVersion || version > kMaxVersion)
     throw std::invalid_argument("proto::encode: version " + std::to_string(version) + " is not spoken (" +
                                 std::to_string(kMinVersion) + ".." + std::to_string(kMaxVersion) + ")");
+  if (!messageTypeInVersion(messageType(message), version))
+    throw std::invalid_argument(std::string("proto::encode: ") + messageTypeName(messageType(message)) +
+                                " does not exist in version " + std::to_string(version));
   Sizer sizer(messageType(message), version);
   std::visit([&](const auto& m) { fields(sizer, m); }, message);
   if (sizer.total() > std::numeric_limits<uint32_t>::max())
@@ -495,6 +516,10 @@ Message decodeBody(const Header& header, std::span<const uint8_t> body, const Li
   if (body.size() != header.bodyBytes)
     throw std::invalid_argument("proto::decodeBody: body of " + std::to_string(body.size()) +
                                 " bytes, the header says " + std::to_string(header.bodyBytes));
+  if (!messageTypeInVersion(header.type, header.version))
+    throw ProtocolError(ErrorCode::UnknownType, "message type " + std::to_string(uint16_t(header.type)) +
+                                                    " is not known in protocol version " +
+                                                    std::to_string(header.version));
   return decodeAs(header, body, limits);
 }
 

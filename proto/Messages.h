@@ -18,9 +18,10 @@ namespace voxbrick::proto {
 /// First four bytes of every message: 'V' 'X' 'B' 'K'.
 constexpr uint32_t kMagic = 0x4B425856;  // read as a little-endian uint32
 /// The versions this code speaks (PROTOCOL.md section 9): version 2 is version 1 plus the jpeg encoding; version 3
-/// is version 2 plus the error code Busy.
+/// is version 2 plus the error code Busy; version 4 is version 3 plus the video encodings (vp8, vp9) and the message
+/// FrameReceived.
 constexpr uint16_t kMinVersion = 1;
-constexpr uint16_t kMaxVersion = 3;
+constexpr uint16_t kMaxVersion = 4;
 /// Version 1, which every peer speaks: what encode() and Header write unless told otherwise, and the version a
 /// Hello is written in by a client whose lowest version is 1.
 constexpr uint16_t kVersion = kMinVersion;
@@ -41,7 +42,12 @@ enum class MessageType : uint16_t {
   GetStats = 10,     ///< client -> server
   Stats = 11,        ///< server -> client
   Goodbye = 12,      ///< either way: the sender closes the session
+  /// Version 4 on, client -> server: a Frame has arrived (one per Frame, in order; nothing answers it). The server
+  /// paces a session's frames and sets its video bitrate by them.
+  FrameReceived = 13,
 };
+/// Whether message `type` exists in protocol `version` (FrameReceived from version 4 on).
+bool messageTypeInVersion(MessageType type, uint16_t version);
 
 /// Error codes carried by an Error message. Values are stable across versions.
 enum class ErrorCode : uint16_t {
@@ -81,15 +87,19 @@ enum class Encoding : uint8_t {
   Png = 1,        ///< an RGBA8 PNG file
   ZstdRgba8 = 2,  ///< one zstd frame that decompresses to RawRgba8
   Jpeg = 3,       ///< a baseline JPEG file, 8-bit RGB (alpha dropped); protocol version 2 on
+  Vp8 = 4,        ///< one VP8 frame of the session's video stream (image/Video.h); protocol version 4 on
+  Vp9 = 5,        ///< one VP9 frame of the session's video stream; protocol version 4 on
 };
-/// Whether `encoding` exists in protocol `version` (jpeg from version 2 on; nothing outside the enum).
+/// Whether `encoding` exists in protocol `version` (jpeg from version 2 on, vp8 and vp9 from 4; nothing outside the
+/// enum).
 bool encodingInVersion(Encoding encoding, uint16_t version);
 /// The encodings of protocol `version`, in value order: what a server of that session offers.
 std::vector<Encoding> encodingsOf(uint16_t version);
-/// The encoding's name as PROTOCOL.md spells it ("raw_rgba8", "png", "zstd_rgba8", "jpeg"), or "unknown".
+/// The encoding's name as PROTOCOL.md spells it ("raw_rgba8", "png", "zstd_rgba8", "jpeg", "vp8", "vp9"), or
+/// "unknown".
 const char* encodingName(Encoding encoding);
 /// The encoding a short name gives, as scenes (`provisional_encoding`) and the command line spell them: "raw",
-/// "png", "zstd", "jpeg"; nothing for another text.
+/// "png", "zstd", "jpeg", "vp8", "vp9"; nothing for another text.
 std::optional<Encoding> encodingFromShortName(std::string_view name);
 /// Those short names, in the order of the encodings' values (for a command line's list of choices).
 std::vector<std::string> encodingShortNames();
@@ -160,9 +170,14 @@ struct Stats {
 struct Goodbye {
   bool operator==(const Goodbye&) const = default;
 };
+struct FrameReceived {
+  uint32_t frameBytes = 0;  ///< the bytes of the Frame message that arrived, header included
+
+  bool operator==(const FrameReceived&) const = default;
+};
 
 using Message = std::variant<Hello, Capabilities, ListDatasets, DatasetList, OpenDataset, DatasetInfo, RenderRequest,
-                             Frame, Error, GetStats, Stats, Goodbye>;
+                             Frame, Error, GetStats, Stats, Goodbye, FrameReceived>;
 MessageType messageType(const Message& message);
 /// The type's name as PROTOCOL.md spells it ("Hello", "Render", ...), or "unknown" for a value outside the enum.
 const char* messageTypeName(MessageType type);
@@ -200,7 +215,8 @@ class ProtocolError : public std::runtime_error {
 
 /// The whole message (header and body) as bytes, in `version` (kMinVersion..kMaxVersion). Strings are expected to be
 /// UTF-8 and are not checked here (the peer's decoder rejects them otherwise). Throws std::length_error for a body
-/// above 4 GiB - 1, std::invalid_argument for a version not spoken or a value the version lacks (jpeg in version 1).
+/// above 4 GiB - 1, std::invalid_argument for a version not spoken or a value or message the version lacks (jpeg in
+/// version 1, FrameReceived before version 4).
 std::vector<uint8_t> encode(const Message& message, uint32_t requestId, uint16_t version = kVersion);
 /// The 16 header bytes: kMagic followed by the fields of `header`.
 std::array<uint8_t, kHeaderBytes> encodeHeader(const Header& header);

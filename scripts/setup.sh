@@ -10,6 +10,7 @@ PACKAGES=(
   libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libosmesa6-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libtomlplusplus-dev libpng-dev libjpeg62-turbo-dev
+  libvpx-dev libyuv-dev
   libgdcm-dev libtiff-dev zstd
   mricron-data
   python3 python3-numpy python3-zarr python3-numcodecs python3-pydicom

@@ -20,7 +20,9 @@ AsioSession::AsioSession(const boost::asio::any_io_executor& executor, const Ses
       mExecutor(executor),
       mHelloTimer(executor),
       mReadTimer(executor),
-      mWriteTimer(executor) {}
+      mWriteTimer(executor),
+      mPaceTimer(executor),
+      mAside(services.aside) {}
 
 void AsioSession::start() {
   boost::asio::post(mExecutor, guarded(this, [](AsioSession& s) { s.mCore.start(); }));
@@ -40,6 +42,7 @@ boost::asio::steady_timer& AsioSession::timer(Deadline deadline) {
   switch (deadline) {
     case Deadline::Hello: return mHelloTimer;
     case Deadline::Read: return mReadTimer;
+    case Deadline::Pace: return mPaceTimer;
     case Deadline::Write: break;
   }
   return mWriteTimer;
@@ -54,6 +57,18 @@ void AsioSession::arm(Deadline deadline, double seconds) {
 }
 
 void AsioSession::cancel(Deadline deadline) { timer(deadline).cancel(); }
+
+void AsioSession::runAside(std::function<void()> work, std::function<void()> then) {
+  auto task = [keep = shared_from_this(), work = std::move(work), then = std::move(then)]() mutable {
+    work();
+    boost::asio::post(keep->mExecutor,
+                      keep->guarded(keep.get(), [then = std::move(then)](AsioSession&) mutable { then(); }));
+  };
+  if (mAside)
+    mAside(std::move(task));
+  else
+    task();
+}
 
 void AsioSession::failed(const std::exception_ptr& error) noexcept {
   try {

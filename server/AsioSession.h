@@ -37,6 +37,7 @@ class AsioSession : public Session,
 
   void arm(Deadline deadline, double seconds) override;
   void cancel(Deadline deadline) override;
+  void runAside(std::function<void()> work, std::function<void()> then) override;
   std::shared_ptr<RenderScheduler::Sink> renderSink() override { return shared_from_this(); }
 
  protected:
@@ -69,7 +70,8 @@ class AsioSession : public Session,
   boost::asio::steady_timer& timer(Deadline deadline);
 
   boost::asio::any_io_executor mExecutor;
-  boost::asio::steady_timer mHelloTimer, mReadTimer, mWriteTimer;
+  boost::asio::steady_timer mHelloTimer, mReadTimer, mWriteTimer, mPaceTimer;
+  const std::function<void(std::function<void()>)>& mAside;
 };
 
 }  // namespace voxbrick::server

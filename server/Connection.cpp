@@ -12,10 +12,13 @@
 #include <spdlog/spdlog.h>
 #include <nlohmann/json.hpp>
 
+#include "image/Video.h"
 #include "server/ErrorReply.h"
 
 namespace voxbrick::server {
 namespace {
+
+using Clock = std::chrono::steady_clock;
 
 /// Bytes a Frame takes encoded, near enough to weigh it against the output budget before encoding it.
 uint64_t encodedBytes(const proto::Frame& frame) {
@@ -68,6 +71,10 @@ void Connection::expired(Deadline deadline) {
     case Deadline::Hello: return onHelloTimeout();
     case Deadline::Read: return onReadTimeout();
     case Deadline::Write: return onWriteTimeout();
+    case Deadline::Pace:
+      if (mClosed) return;
+      if (!mWriting && !mOutbox.empty()) writeNext();
+      return pumpVideo();
   }
 }
 
@@ -104,8 +111,93 @@ void Connection::timedOut(const std::string& what) {
 
 void Connection::rendered(const RenderJob& job, proto::Message reply) {
   if (mClosing || mClosed) return;  // PROTOCOL.md: a session's end drops its renders unanswered
+  auto* frame = std::get_if<proto::Frame>(&reply);
+  if (frame && image::isVideoEncoding(frame->encoding)) return videoRendered(job, std::move(*frame));
+  if (frame && mVideoEncoding) {  // after the video frame being encoded: a request's frames keep their order
+    mAfterVideo.emplace_back(job, std::move(reply));
+    return;
+  }
+  if (frame && mVideoPending) dropPendingVideo(job.requestId);  // latest wins
   if (!withinOutputBudget(job, reply)) return;
   apply(mServices.handler.rendered(mState, job, std::move(reply)));
+}
+
+void Connection::videoRendered(const RenderJob& job, proto::Frame frame) {
+  if (mVideoPending) dropPendingVideo(job.requestId);
+  mVideoPending = PendingVideo{job, std::move(frame), Clock::now()};
+  pumpVideo();
+}
+
+void Connection::dropPendingVideo(uint32_t by) {
+  PendingVideo dropped = std::move(*mVideoPending);
+  mVideoPending.reset();
+  apply(mServices.handler.dropped(mState, dropped.job, dropped.job.requestId == by));
+}
+
+bool Connection::unsentVideoQueued() const {
+  return std::any_of(mOutbox.begin() + (mWriting ? 1 : 0), mOutbox.end(),
+                     [](const Outgoing& reply) { return reply.video; });
+}
+
+void Connection::pumpVideo() {
+  if (mVideoEncoding || !mVideoPending || mClosing || mClosed || unsentVideoQueued()) return;
+  const auto now = Clock::now();
+  if (!mPacer.mayWrite(now)) return armPace();
+  auto task = std::make_shared<EncodingVideo>();
+  task->job = std::move(mVideoPending->job);
+  task->frame = std::move(mVideoPending->frame);
+  task->input.drawn = mVideoPending->drawn;
+  mVideoPending.reset();
+  task->input.dataset = task->job.dataset.get();
+  task->input.keyframe = task->job.scene.keyframe || mVideoNeedsKey;
+  const int width = int(task->frame.width), height = int(task->frame.height);
+  task->input.bitrateKbps =
+      mPacer.videoKbps(VideoStream::startKbps(width, height), VideoStream::capKbps(width, height), now);
+  mVideoNeedsKey = false;
+  mVideoEncoding = true;
+  mTransport.runAside(
+      [stream = mVideo.get(), task] {
+        try {
+          stream->encode(task->frame, task->input);
+        } catch (...) {
+          task->error = std::current_exception();
+        }
+      },
+      [this, task] { videoEncoded(*task); });
+}
+
+void Connection::videoEncoded(EncodingVideo& done) {
+  mVideoEncoding = false;
+  if (mClosing || mClosed) return;
+  proto::Message reply = done.error ? proto::Message(errorReply(done.error, "video frame of request " +
+                                                                               std::to_string(done.job.requestId) +
+                                                                               " could not be encoded"))
+                                    : proto::Message(std::move(done.frame));
+  if (const auto* frame = std::get_if<proto::Frame>(&reply);
+      frame && frameBodyBytes(frame->statsJson.size(), frame->payload.size()) > done.job.maxBodyBytes)
+    reply = errorMessage(proto::ErrorCode::LimitExceeded,
+                         "the " + std::to_string(frame->width) + "x" + std::to_string(frame->height) +
+                             " video frame is above this server's message limit of " +
+                             std::to_string(done.job.maxBodyBytes) + " bytes");
+  // A frame the stream encoded but the client will not get: the decoder cannot go on past it.
+  const bool sent = withinOutputBudget(done.job, reply);
+  if (!sent || !std::holds_alternative<proto::Frame>(reply)) mVideoNeedsKey = true;
+  if (sent) apply(mServices.handler.rendered(mState, done.job, std::move(reply)));
+  std::vector<std::pair<RenderJob, proto::Message>> after;
+  after.swap(mAfterVideo);
+  for (auto& [job, message] : after) rendered(job, std::move(message));
+  pumpVideo();
+}
+
+void Connection::armPace() {
+  const double seconds = std::chrono::duration<double>(mPacer.releaseAt() - Clock::now()).count();
+  mTransport.arm(Deadline::Pace, std::max(0.001, seconds));
+}
+
+void Connection::frameReceived(const proto::FrameReceived& report) {
+  if (!mPacer.received(report.frameBytes, Clock::now())) return;
+  if (!mWriting && !mOutbox.empty()) writeNext();
+  pumpVideo();
 }
 
 bool Connection::withinOutputBudget(const RenderJob& job, proto::Message& reply) {
@@ -212,6 +304,10 @@ void Connection::bodyReceived(std::span<const uint8_t> body) {
   if (message) outcome = mServices.handler.handle(mState, *message, mHeader.requestId);
   if (!wasGreeted && mState.greeted) admit(outcome);
   apply(std::move(outcome));
+  // A report the handler accepted (no Error in reply) is the link's news.
+  if (const auto* report = message ? std::get_if<proto::FrameReceived>(&*message) : nullptr;
+      report && mState.greeted && outcome.replies.empty())
+    frameReceived(*report);
   readNext();
 }
 
@@ -252,14 +348,16 @@ void Connection::send(const proto::Message& message, uint32_t requestId) {
   } catch (...) {  // a reply above 4 GiB, or no memory for it: the request is answered with the failure instead
     bytes = proto::encode(errorReply(std::current_exception(), "reply cannot be encoded"), requestId, mState.version);
   }
-  const bool frame = std::holds_alternative<proto::Frame>(message);
-  if (frame) replaceUnsentFrame(requestId);
+  const auto* sentFrame = std::get_if<proto::Frame>(&message);
+  const bool video = sentFrame && image::isVideoEncoding(sentFrame->encoding);
+  const bool frame = sentFrame && !video;
+  if (sentFrame) replaceUnsentFrame(requestId);
   if (mOutboxBytes + bytes.size() > mServices.config.maxOutputBytes) {
     mServices.stats.add(ServerEvent::SlowClientDropped);
     spdlog::warn("{}: {} bytes of replies not read, dropping the session", mPeer, mOutboxBytes);
     return close();
   }
-  enqueue(Outgoing{std::move(bytes), requestId, frame});
+  enqueue(Outgoing{std::move(bytes), requestId, frame, video});
   if (!mWriting) writeNext();
 }
 
@@ -292,9 +390,20 @@ void Connection::replaceUnsentFrame(uint32_t requestId) {
 }
 
 void Connection::writeNext() {
+  const Outgoing& next = mOutbox.front();
+  const auto now = Clock::now();
+  if ((next.frame || next.video) && !mClosing) {
+    // A client that reports its frames keeps at most LinkPacer::kFramesInFlight on the link: this one waits here,
+    // where a newer frame still replaces it, not in the network's buffers.
+    if (!mPacer.mayWrite(now)) {
+      mWriting = false;
+      return armPace();
+    }
+    mPacer.sent(next.bytes.size(), now);
+  }
   mWriting = true;
   mTransport.arm(Deadline::Write, mServices.config.writeTimeoutS);
-  mTransport.write(mOutbox.front().bytes);
+  mTransport.write(next.bytes);
 }
 
 void Connection::written(bool ok) {
@@ -308,22 +417,28 @@ void Connection::written(bool ok) {
     mPaused = false;
     readMessage();
   }
-  if (!mOutbox.empty()) return writeNext();
   mWriting = false;
-  if (mClosing) close();
+  if (!mOutbox.empty())
+    writeNext();
+  else if (mClosing)
+    return close();
+  pumpVideo();  // the stream's frame just written makes room for its next
 }
 
 void Connection::closeAfterFlush() {
   mClosing = true;
   mAlive = false;  // its waiting renders are dropped unrendered
-  if (!mWriting) close();
+  if (mWriting) return;
+  if (mOutbox.empty()) return close();
+  writeNext();  // replies held back for the link go now
 }
 
 void Connection::close() {
   if (mClosed) return;
   mClosed = true;
   mAlive = false;
-  for (const Deadline deadline : {Deadline::Hello, Deadline::Read, Deadline::Write}) mTransport.cancel(deadline);
+  for (const Deadline deadline : {Deadline::Hello, Deadline::Read, Deadline::Write, Deadline::Pace})
+    mTransport.cancel(deadline);
   mServices.output.release(mOutboxBytes);
   mOutboxBytes = 0;
   mTransport.close();

@@ -19,12 +19,14 @@
 
 #include "proto/Messages.h"
 #include "server/Admission.h"
+#include "server/LinkPacer.h"
 #include "server/MessageHandler.h"
 #include "server/OutputBudget.h"
 #include "server/RenderScheduler.h"
 #include "server/ServerConfig.h"
 #include "server/ServerStats.h"
 #include "server/Transport.h"
+#include "server/VideoStream.h"
 
 namespace voxbrick::server {
 
@@ -44,6 +46,9 @@ struct SessionServices {
   std::function<std::optional<proto::Error>(ConnectionId)> greeted;
   /// Called for each Render before it is queued: none when the session's quotas have room, else the Busy refusal.
   std::function<std::optional<Submission>(ConnectionId)> renderQuota;
+  /// Runs a task on the server's encoder threads (video frames are encoded there; Transport::runAside). Empty: on
+  /// the calling thread.
+  std::function<void(std::function<void()>)> aside;
 };
 
 /// One client connection's state machine. Not thread-safe: every call but alive() is made on the connection's
@@ -84,7 +89,10 @@ class Connection {
   void written(bool ok);
   /// `deadline` passed.
   void expired(Deadline deadline);
-  /// A render thread's `reply` to `job`, as the render sink received it.
+  /// A render thread's `reply` to `job`, as the render sink received it. A Frame in a video encoding (its payload
+  /// still its pixels) waits for the session's video stream: it is encoded aside (Transport::runAside) when the link
+  /// has room, the newest such frame first (older ones are Superseded), and frames of the stream are never dropped
+  /// once encoded (a decoder needs every one).
   void rendered(const RenderJob& job, proto::Message reply);
   /// Closes at once, dropping what is queued (also after an unexpected failure). Idempotent.
   void close();
@@ -96,6 +104,8 @@ class Connection {
   const ConnectionState& state() const { return mState; }
   /// Bytes of replies queued and not written yet.
   uint64_t queuedBytes() const { return mOutboxBytes; }
+  /// The session's link as its FrameReceived reports show it.
+  const LinkPacer& link() const { return mPacer; }
   /// Whether reading waits for the client to take its replies.
   bool readingPaused() const { return mPaused; }
   bool closed() const { return mClosed; }
@@ -120,8 +130,35 @@ class Connection {
   struct Outgoing {
     std::vector<uint8_t> bytes;
     uint32_t requestId = 0;
-    bool frame = false;  ///< a Frame (at most one is queued unsent: latest wins)
+    bool frame = false;  ///< a Frame not of the video stream (at most one is queued unsent: latest wins)
+    bool video = false;  ///< a Frame of the video stream: never dropped, at most one queued unsent
   };
+  /// A video Frame rendered, waiting to be encoded.
+  struct PendingVideo {
+    RenderJob job;
+    proto::Frame frame;
+    std::chrono::steady_clock::time_point drawn;
+  };
+  /// A video Frame being encoded aside, and what came of it.
+  struct EncodingVideo {
+    RenderJob job;
+    proto::Frame frame;
+    VideoFrameInput input;
+    std::exception_ptr error;
+  };
+  void videoRendered(const RenderJob& job, proto::Frame frame);
+  /// Encodes the pending video frame if nothing holds it back: no encoding in flight, no encoded frame unsent, room
+  /// on the link.
+  void pumpVideo();
+  void videoEncoded(EncodingVideo& done);
+  /// The pending video frame gives way to a newer frame of request `by`: its request is answered Superseded, unless
+  /// `by` is its own request (whose exact frame then answers it).
+  void dropPendingVideo(uint32_t by);
+  bool unsentVideoQueued() const;
+  /// Wakes the connection when frames held back for the link may go at the latest (LinkPacer::releaseAt).
+  void armPace();
+  /// A FrameReceived report: the link has room again.
+  void frameReceived(const proto::FrameReceived& report);
   void send(const proto::Message& message, uint32_t requestId);
   void enqueue(Outgoing reply);
   /// A Frame to `requestId` is about to be queued: the Frame queued and not yet being written, if any, is removed
@@ -143,6 +180,14 @@ class Connection {
   uint64_t mOutboxBytes = 0, mPeakOutboxBytes = 0;
   /// Requests whose provisional Frame was refused (output budget): their exact frame is dropped, not sent.
   std::set<uint32_t> mRefusedProvisional;
+  LinkPacer mPacer;
+  /// The session's video stream; used by the encoding aside only while mVideoEncoding.
+  std::unique_ptr<VideoStream> mVideo = std::make_unique<VideoStream>();
+  std::optional<PendingVideo> mVideoPending;
+  bool mVideoEncoding = false;
+  bool mVideoNeedsKey = false;  ///< a frame of the stream was encoded but not sent: the next must be a key frame
+  /// Frames rendered while a video frame was being encoded, applied after it so that a request's frames stay in order.
+  std::vector<std::pair<RenderJob, proto::Message>> mAfterVideo;
   bool mWriting = false, mClosing = false, mClosed = false;
   bool mReadingMessage = false;    ///< a message's first byte has arrived (its read deadline runs)
   bool mPaused = false;            ///< not reading until the client takes its replies

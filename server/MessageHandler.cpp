@@ -11,6 +11,7 @@
 #include "render/core/RenderErrors.h"
 #include "render/core/Scene.h"
 #include "render/engine/Datasets.h"
+#include "image/Video.h"
 #include "server/ErrorReply.h"
 
 namespace voxbrick::server {
@@ -32,9 +33,22 @@ std::string failureContext(const proto::Message& message) {
   return std::string(proto::messageTypeName(proto::messageType(message))) + " failed";
 }
 
-/// Sets job.provisionalEncoding from the scene and refuses what the session cannot be sent: jpeg in a version-1
-/// session, and jpeg (which has no alpha) for a transparent frame.
+/// The first protocol version that has `encoding`.
+uint16_t firstVersionOf(proto::Encoding encoding) {
+  uint16_t version = proto::kMinVersion;
+  while (version < proto::kMaxVersion && !proto::encodingInVersion(encoding, version)) ++version;
+  return version;
+}
+
+/// Sets job.provisionalEncoding from the scene and refuses what the session cannot be sent: an encoding its version
+/// lacks, a video encoding for anything but provisional frames (a video frame belongs to the session's stream of
+/// moving frames; the exact frame is a still), and jpeg or video (which have no alpha) for a transparent frame.
 void checkEncodings(RenderJob& job, uint16_t version) {
+  if (image::isVideoEncoding(job.encoding))
+    throw render::RenderInputError(std::string("Render.encoding ") + proto::encodingName(job.encoding) +
+                                   " is a video stream of moving frames: ask for it as the scene's "
+                                   "'provisional_encoding' (with 'interactive' or 'progressive'), and for the exact "
+                                   "frame as png, jpeg, zstd_rgba8 or raw_rgba8");
   if (job.scene.provisionalEncoding) {
     // Scene::fromJson accepted only render::Scene::kEncodingNames, the short names proto knows.
     const auto named = proto::encodingFromShortName(*job.scene.provisionalEncoding);
@@ -42,8 +56,8 @@ void checkEncodings(RenderJob& job, uint16_t version) {
     const proto::Encoding provisional = *named;
     if (!proto::encodingInVersion(provisional, version))
       throw render::RenderInputError("scene: 'provisional_encoding' \"" + *job.scene.provisionalEncoding +
-                                     "\" needs protocol version 2; this session speaks version " +
-                                     std::to_string(version));
+                                     "\" needs protocol version " + std::to_string(firstVersionOf(provisional)) +
+                                     "; this session speaks version " + std::to_string(version));
     job.provisionalEncoding = provisional;
   }
   if (job.scene.transparent) {
@@ -51,9 +65,10 @@ void checkEncodings(RenderJob& job, uint16_t version) {
       throw render::RenderInputError(
           "scene: 'background': \"none\" asks for alpha, which a jpeg frame cannot carry; give a background colour or "
           "ask for png or zstd_rgba8");
-    if (job.provisionalEncoding == proto::Encoding::Jpeg)
-      throw render::RenderInputError(
-          "scene: 'background': \"none\" asks for alpha, which 'provisional_encoding' \"jpeg\" cannot carry");
+    if (job.provisionalEncoding == proto::Encoding::Jpeg ||
+        (job.provisionalEncoding && image::isVideoEncoding(*job.provisionalEncoding)))
+      throw render::RenderInputError("scene: 'background': \"none\" asks for alpha, which 'provisional_encoding' \"" +
+                                     *job.scene.provisionalEncoding + "\" cannot carry");
   }
 }
 
@@ -96,6 +111,13 @@ Outcome MessageHandler::dispatch(ConnectionState& state, const proto::Message& m
           return render(state, m, requestId);
         } else if constexpr (std::is_same_v<M, proto::GetStats>) {
           return replyWith(proto::Stats{mStatsJson().dump(2)}, requestId);
+        } else if constexpr (std::is_same_v<M, proto::FrameReceived>) {
+          // Read by the Connection (its link's pace); nothing answers it. A session of an older version has no such
+          // message, whatever version the header said.
+          if (!proto::messageTypeInVersion(proto::MessageType::FrameReceived, state.version))
+            throw proto::ProtocolError(ErrorCode::UnknownType, "FrameReceived is not known in protocol version " +
+                                                                   std::to_string(state.version));
+          return Outcome{};
         } else {
           throw proto::ProtocolError(
               ErrorCode::UnexpectedMessage,
@@ -204,6 +226,15 @@ Outcome MessageHandler::submitted(ConnectionState& state, uint32_t requestId, Su
       errorMessage(ErrorCode::Superseded, "request " + std::to_string(replaced) + " was replaced by request " +
                                               std::to_string(requestId) + " before it started"),
       replaced);
+}
+
+Outcome MessageHandler::dropped(ConnectionState& state, const RenderJob& job, bool answered) {
+  if (!job.refinement) --state.outstandingRenders;
+  if (answered) return {};
+  mStats.add(ServerEvent::Superseded);
+  return replyWith(errorMessage(ErrorCode::Superseded, "a newer frame of this session was ready before this one was "
+                                                       "encoded"),
+                   job.requestId);
 }
 
 Outcome MessageHandler::rendered(ConnectionState& state, const RenderJob& job, proto::Message reply) {

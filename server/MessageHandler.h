@@ -64,6 +64,9 @@ class MessageHandler {
   Outcome submitted(ConnectionState& state, uint32_t requestId, Submission submission);
   /// The answer once a render thread made `reply` (renderReply) for `job`: the reply itself, counted.
   Outcome rendered(ConnectionState& state, const RenderJob& job, proto::Message reply);
+  /// The answer for `job`'s frame when it was dropped before it was sent (a video frame a newer frame replaced
+  /// before it was encoded): Superseded, or nothing when `answered` (its request gets its exact frame instead).
+  Outcome dropped(ConnectionState& state, const RenderJob& job, bool answered);
   /// The answer to a message that could not be decoded (or any failure outside handle): the Error of
   /// errorReply(error, context), closing the session when its code says so (closesSession).
   static Outcome failed(const std::exception_ptr& error, uint32_t requestId,

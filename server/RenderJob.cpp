@@ -7,6 +7,7 @@
 
 #include "brickstore/format/Errors.h"
 #include "image/FrameImage.h"
+#include "image/Video.h"
 #include "render/core/RenderErrors.h"
 #include "server/ErrorReply.h"
 
@@ -54,10 +55,12 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
     const int jpegQuality = provisional && job.provisionalJpegQuality
                                 ? *job.provisionalJpegQuality
                                 : job.scene.jpegQuality.value_or(image::kDefaultJpegQuality);
-    frame.payload = image::encodeFrameImage(image, frame.encoding, jpegQuality);
+    // A video frame leaves as its pixels: the session's stream encodes it off this thread (server/VideoStream.h).
+    const bool video = image::isVideoEncoding(frame.encoding);
+    frame.payload = video ? image.rgba : image::encodeFrameImage(image, frame.encoding, jpegQuality);
     nlohmann::json statsJson = stats.toJson();
     statsJson["queue_ms"] = msBetween(job.received, start);
-    statsJson["encode_ms"] = msBetween(encodeStart, Clock::now());
+    if (!video) statsJson["encode_ms"] = msBetween(encodeStart, Clock::now());
     statsJson["render_thread"] = thread;
     statsJson["provisional"] = provisional;
     statsJson["class"] = common::nameOf(frameClassOf(job));
@@ -68,7 +71,8 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
                            {"jpeg_quality", jpegQuality}};
     }
     frame.statsJson = statsJson.dump();
-    if (const uint64_t body = frameBodyBytes(frame.statsJson.size(), frame.payload.size()); body > job.maxBodyBytes)
+    if (const uint64_t body = frameBodyBytes(frame.statsJson.size(), frame.payload.size());
+        !video && body > job.maxBodyBytes)
       return {errorMessage(proto::ErrorCode::LimitExceeded,
                            "the " + std::to_string(image.width) + "x" + std::to_string(image.height) + " frame takes " +
                                std::to_string(body) + " bytes, above this server's message limit of " +

@@ -98,7 +98,9 @@ struct RenderReply {
   double samples = 0, ms = 0;
 };
 
-/// Renders `job` with `source` (current on this thread) and encodes it: a Frame whose statistics add
+/// Renders `job` with `source` (current on this thread) and encodes it (a frame in a video encoding, vp8 or vp9, keeps
+/// its raw RGBA8 pixels as its payload: the session's VideoStream encodes it in order and checks its size; its stats
+/// then lack encode_ms): a Frame whose statistics add
 /// queue_ms, encode_ms, render_thread (`thread`) and provisional to the renderer's, or the Error that errorReply
 /// makes of what the renderer threw. A progressive scene's first frame is drawn with stand-ins (provisional when
 /// any brick stood in); an interactive scene's frame is drawn within its time budget at job.rateSamplesPerMs and is

@@ -142,6 +142,8 @@ struct Server::Impl {
   RenderScheduler scheduler;
   MessageHandler handler;
   asio::io_context io;
+  /// Encodes sessions' video frames (SessionServices::aside); its tasks post back to `io`, so it goes first.
+  asio::thread_pool encoders;
   /// The acceptor and the signals are used from this strand only.
   asio::strand<asio::io_context::executor_type> control;
   tcp::acceptor acceptor;
@@ -180,6 +182,7 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
       output(config.maxTotalOutputBytes),
       scheduler(std::move(sources), config.scheduler),
       handler(config, datasets, presets, stats, [this] { return statsJson(); }),
+      encoders(size_t(config.encodeThreads)),
       control(asio::make_strand(io)),
       acceptor(control),
       httpAcceptor(control),
@@ -201,7 +204,8 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
                         busy.why = refusal->why;
                         busy.quota = true;
                         return busy;
-                      }},
+                      },
+                      [this](std::function<void()> task) { asio::post(encoders, std::move(task)); }},
       admission(admissionLimits(config)),
       quotas(config.quotas) {
   sessionServices.limits.maxBodyBytes = config.maxMessageBytes;
@@ -375,6 +379,7 @@ void Server::Impl::shutdown() {
     std::unique_lock lock(sessionsMutex);
     sessionsChanged.wait_until(lock, deadline, [&] { return sessions.empty(); });
   }
+  encoders.join();  // frames being encoded post their end to the I/O threads, which still run
   io.stop();
 }
 

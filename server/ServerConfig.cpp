@@ -104,6 +104,7 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   // A relative dataset directory is relative to the configuration file.
   if (server.read("datasets", c.datasets) && c.datasets.is_relative()) c.datasets = path.parent_path() / c.datasets;
   server.read("io_threads", c.ioThreads);
+  server.read("encode_threads", c.encodeThreads);
   server.read("render_threads", c.renderThreads);
   if (std::string backend; server.read("backend", backend))
     c.backend = parseBackend(backend, file + ": server.backend");
@@ -166,6 +167,7 @@ void ServerConfig::validate() const {
   };
   range("server.port", port, 0, 65535);
   range("server.io_threads", ioThreads, 1, 64);
+  range("server.encode_threads", encodeThreads, 1, 64);
   range("server.render_threads", renderThreads, 1, 64);
   static const std::set<std::string> levels = {"trace", "debug", "info", "warn", "error", "off"};
   if (!levels.count(logLevel)) fail("server.log_level = '" + logLevel + "' is not a log level");

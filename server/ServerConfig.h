@@ -57,6 +57,8 @@ struct ServerConfig {
   int port = 7420;                          ///< 0 picks a free port (printed, and written to --port-file)
   std::filesystem::path datasets = "demo";  ///< directory whose subdirectories are stores (and .vdb files)
   int ioThreads = 2;
+  /// Threads that encode sessions' video frames (off the render and I/O threads).
+  int encodeThreads = 2;
   int renderThreads = 2;                            ///< each with its own GL context
   render::Backend backend = render::Backend::Auto;  ///< "auto" | "egl" | "osmesa" in the file
   std::string logLevel = "info";                    ///< trace | debug | info | warn | error | off

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 
@@ -18,6 +19,7 @@ enum class Deadline {
   Hello,  ///< the connection's Hello must arrive (hello_timeout_s)
   Read,   ///< between messages the idle timeout, once a message has started the read timeout
   Write,  ///< the reply being written must be taken (write_timeout_s)
+  Pace,   ///< a Frame held back for the client's reports may go (LinkPacer::releaseAt)
 };
 
 /// Every call is made on the connection's serial context (its strand), and every report back to the Connection
@@ -39,6 +41,9 @@ class Transport {
   virtual void cancel(Deadline deadline) = 0;
   /// Closes the stream at once. A read or write in flight may still report its failure afterwards.
   virtual void close() = 0;
+  /// Runs `work` on a thread aside (the server's encoder threads, never the serial context), then `then` on the
+  /// serial context, keeping the connection alive in between. `work` must not touch the Connection.
+  virtual void runAside(std::function<void()> work, std::function<void()> then) = 0;
   /// The object render threads hand this connection's frames to (RenderScheduler::submit keeps it while a job of
   /// the connection waits); it must pass them to Connection::rendered on the serial context.
   virtual std::shared_ptr<RenderScheduler::Sink> renderSink() = 0;

@@ -504,6 +504,13 @@ std::vector<SceneKey> buildSchema() {
     k.set = [](Scene& s, const json& v, const SceneSetting&) { s.provisionalEncoding = v.get<std::string>(); };
   }
   {
+    SceneKey& k = add(keys, "keyframe", T::Bool, C::Delivery, A::Both,
+                      "the session's video stream starts again: its next video frame is a key frame");
+    k.written = SceneWritten::Changed;
+    k.example = true;
+    field<&Scene::keyframe>(k);
+  }
+  {
     SceneKey& k = add(keys, "batch", T::Bool, C::Delivery, A::Both,
                       "work nobody watches as it happens (a script): served after viewers' frames, refused with Busy "
                       "first");

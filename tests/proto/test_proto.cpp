@@ -97,6 +97,9 @@ std::vector<Message> sampleMessages() {
       GetStats{},
       Stats{R"({"sessions": 3})"},
       Goodbye{},
+      Frame{320, 200, Encoding::Vp8, R"({"video": {"key": true}})", pattern(999)},
+      FrameReceived{123456},
+      FrameReceived{0},
   };
 }
 
@@ -110,7 +113,7 @@ TEST(Header, LayoutIsPinned) {
 
 TEST(Versions, JpegExistsFromVersionTwoOn) {
   EXPECT_EQ(kMinVersion, 1u);
-  EXPECT_EQ(kMaxVersion, 3u);
+  EXPECT_EQ(kMaxVersion, 4u);
   EXPECT_EQ(uint8_t(Encoding::Jpeg), 3u);
   EXPECT_EQ(encodingsOf(1), (std::vector<Encoding>{Encoding::RawRgba8, Encoding::Png, Encoding::ZstdRgba8}));
   EXPECT_EQ(encodingsOf(2),
@@ -123,6 +126,38 @@ TEST(Versions, JpegExistsFromVersionTwoOn) {
   EXPECT_EQ(encodingFromShortName("jpeg"), Encoding::Jpeg);
   EXPECT_EQ(encodingFromShortName("zstd"), Encoding::ZstdRgba8);
   EXPECT_EQ(encodingFromShortName("jpg"), std::nullopt);
+}
+
+TEST(Versions, VideoAndFrameReceivedExistFromVersionFourOn) {
+  EXPECT_EQ(uint8_t(Encoding::Vp8), 4u);
+  EXPECT_EQ(uint8_t(Encoding::Vp9), 5u);
+  for (uint16_t version = 1; version <= 3; ++version) {
+    EXPECT_FALSE(encodingInVersion(Encoding::Vp8, version));
+    EXPECT_FALSE(messageTypeInVersion(MessageType::FrameReceived, version));
+  }
+  EXPECT_TRUE(encodingInVersion(Encoding::Vp9, 4));
+  EXPECT_TRUE(messageTypeInVersion(MessageType::FrameReceived, 4));
+  EXPECT_EQ(encodingsOf(4), (std::vector<Encoding>{Encoding::RawRgba8, Encoding::Png, Encoding::ZstdRgba8,
+                                                   Encoding::Jpeg, Encoding::Vp8, Encoding::Vp9}));
+  EXPECT_EQ(encodingFromShortName("vp8"), Encoding::Vp8);
+  EXPECT_STREQ(encodingName(Encoding::Vp9), "vp9");
+  // FrameReceived: one u32, frame_bytes; refused by the encoder and the decoder before version 4.
+  EXPECT_EQ(hex(encode(FrameReceived{0x01020304}, 9, 4)), hex(concat({[] {
+                                                              const auto h = encodeHeader(
+                                                                  {4, MessageType::FrameReceived, 9, 4});
+                                                              return Bytes(h.begin(), h.end());
+                                                            }(),
+                                                            u32(0x01020304)})));
+  EXPECT_THROW(encode(FrameReceived{1}, 9, 3), std::invalid_argument);
+  const Bytes body = u32(7);
+  ProtocolError e = thrown([&] { decodeBody({3, MessageType::FrameReceived, 1, 4}, body, Limits{}); });
+  EXPECT_EQ(e.code(), ErrorCode::UnknownType) << e.what();
+  EXPECT_TRUE(decodeBody({4, MessageType::FrameReceived, 1, 4}, body, Limits{}) == Message(FrameReceived{7}));
+  // A video Frame in version 3 is an unknown encoding, as jpeg is in version 1.
+  const Bytes frame = concat({u32(1), u32(1), {4}, str(""), u32(0)});
+  e = thrown([&] { decodeBody({3, MessageType::Frame, 1, uint32_t(frame.size())}, frame, Limits{}); });
+  EXPECT_EQ(e.code(), ErrorCode::Malformed);
+  EXPECT_STREQ(e.what(), "Frame.encoding: unknown value 4 in protocol version 3");
 }
 
 TEST(Versions, HeadersOfEveryVersionSpokenDecode) {
@@ -247,15 +282,22 @@ TEST(Messages, EveryMessageRoundTrips) {
   uint32_t requestId = 1000;
   for (const Message& message : sampleMessages()) {
     SCOPED_TRACE(messageTypeName(messageType(message)));
-    const Bytes wire = encode(message, ++requestId);
+    // Version 1 where the message exists in it, else the latest (a video Frame, FrameReceived).
+    uint16_t version = kVersion;
+    try {
+      encode(message, 1, version);
+    } catch (const std::invalid_argument&) {
+      version = kMaxVersion;
+    }
+    const Bytes wire = encode(message, ++requestId, version);
     const Header header = decodeHeaderOf(wire);
-    EXPECT_EQ(header.version, kVersion);
+    EXPECT_EQ(header.version, version);
     EXPECT_EQ(header.type, messageType(message));
     EXPECT_EQ(header.requestId, requestId);
     EXPECT_EQ(header.bodyBytes, wire.size() - kHeaderBytes);
     const Message decoded = decodeBody(header, std::span(wire).subspan(kHeaderBytes), Limits{});
     EXPECT_TRUE(decoded == message);
-    EXPECT_EQ(encode(decoded, requestId), wire);
+    EXPECT_EQ(encode(decoded, requestId, version), wire);
     types.insert(messageType(message));
   }
   EXPECT_EQ(types.size(), std::variant_size_v<Message>);
@@ -305,7 +347,9 @@ TEST(Messages, TypeValuesAndNames) {
     EXPECT_EQ(messageTypeName(messageType(cases[i].first)), cases[i].second);
   }
   EXPECT_STREQ(messageTypeName(MessageType(0)), "unknown");
-  EXPECT_STREQ(messageTypeName(MessageType(13)), "unknown");
+  EXPECT_STREQ(messageTypeName(MessageType::FrameReceived), "FrameReceived");
+  EXPECT_EQ(uint16_t(MessageType::FrameReceived), 13u);
+  EXPECT_STREQ(messageTypeName(MessageType(14)), "unknown");
 }
 
 TEST(Messages, ErrorCodeNames) {

@@ -7,7 +7,10 @@
 #include <optional>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "TestDatasets.h"
+#include "image/Video.h"
 #include "render/core/TransferFunctionPresets.h"
 #include "render/engine/NullFrameSource.h"
 #include "server/Connection.h"
@@ -41,6 +44,19 @@ class FakeTransport : public Transport,
   void cancel(Deadline deadline) override { armed.erase(deadline); }
   void close() override { closed = true; }
   std::shared_ptr<RenderScheduler::Sink> renderSink() override { return shared_from_this(); }
+  /// Tasks run aside, in order; runAsides() runs them (each `work`, then its `then`).
+  std::vector<std::pair<std::function<void()>, std::function<void()>>> asides;
+  void runAside(std::function<void()> work, std::function<void()> then) override {
+    asides.emplace_back(std::move(work), std::move(then));
+  }
+  void runAsides() {
+    while (!asides.empty()) {
+      auto [work, then] = std::move(asides.front());
+      asides.erase(asides.begin());
+      work();
+      then();
+    }
+  }
 
   bool wantsReplies() const override { return true; }
   void rendered(RenderJob, proto::Message) override {}
@@ -93,6 +109,7 @@ class ConnectionTest : public ::testing::Test {
                              if (sessionsFree) return std::nullopt;
                              return errorMessage(proto::ErrorCode::LimitExceeded, "too many sessions (limit 64)");
                            },
+                           {},
                            {}};
   std::shared_ptr<FakeTransport> transport = std::make_shared<FakeTransport>();
   Connection core{*transport, services, ConnectionId{7}, "test:1"};
@@ -108,11 +125,29 @@ class ConnectionTest : public ::testing::Test {
   void flush() {
     while (transport->writing) writeOne();
   }
-  void greet() {
+  void greet(uint16_t version = 1) {
     core.start();
-    receive(proto::Hello{1, 1, "test"}, 1);
+    receive(proto::Hello{1, version, "test"}, 1);
     flush();
     ASSERT_TRUE(core.state().greeted);
+    ASSERT_EQ(core.state().version, version);
+  }
+  /// The render thread's reply to request `requestId`: a frame of `side` x `side` in `encoding` (raw pixels of a
+  /// moving gradient, as renderReply leaves a video frame), provisional unless `refinement`.
+  void render(uint32_t requestId, proto::Encoding encoding, uint32_t side = 32, bool refinement = false) {
+    RenderJob job;
+    job.requestId = requestId;
+    job.refinement = refinement;
+    std::vector<uint8_t> pixels(size_t(side) * side * 4, 255);
+    for (size_t i = 0; i < pixels.size(); i += 4) pixels[i] = uint8_t(i / 4 + requestId * 3), pixels[i + 1] = 90;
+    core.rendered(job, proto::Frame{side, side, encoding, refinement ? "{}" : R"({"provisional": true})", pixels});
+  }
+  /// Runs what was set aside and writes what that queued, until neither is left.
+  void settle() {
+    while (!transport->asides.empty() || transport->writing) {
+      transport->runAsides();
+      flush();
+    }
   }
   /// Reports that `deadline` passed, and checks that the connection answers Timeout and closes once it is written.
   void expectTimedOut(Deadline deadline) {
@@ -349,6 +384,114 @@ TEST_F(ConnectionTest, WholeMessagesAreDecodedOrAnswered) {
   flush();
   EXPECT_TRUE(transport->closed);
   EXPECT_EQ(stats.total(ServerEvent::ProtocolError), 2u);
+}
+
+// The video stream: frames are encoded aside, one at a time and in order; a newer rendered frame replaces one still
+// waiting for the encoder (its request answered Superseded), but a frame once encoded is always sent, so that the
+// client's decoder sees every frame of the stream.
+TEST_F(ConnectionTest, VideoFramesAreEncodedAsideInOrderAndNeverDroppedOnceEncoded) {
+  greet(4);
+  render(3, proto::Encoding::Vp8);
+  EXPECT_EQ(transport->asides.size(), 1u) << "encoded aside, not on the connection's context";
+  EXPECT_EQ(transport->writes.size(), 1u);
+  render(4, proto::Encoding::Vp8);  // waits for the encoder
+  render(5, proto::Encoding::Vp8);  // replaces 4, which is answered Superseded
+  EXPECT_EQ(transport->asides.size(), 1u) << "one frame is encoded at a time";
+  settle();
+  ASSERT_EQ(transport->writes.size(), 4u);  // Capabilities, Superseded 4, the frames of 3 and 5
+  EXPECT_EQ(errorIn(transport->writes[1], 4), ErrorCode::Superseded);
+  image::VideoDecoder decoder(proto::Encoding::Vp8);
+  for (size_t i : {size_t(2), size_t(3)}) {
+    const auto [message, id] = decoded(transport->writes[i]);
+    EXPECT_EQ(id, i == 2 ? 3u : 5u);
+    const auto& frame = std::get<proto::Frame>(message);
+    EXPECT_EQ(frame.encoding, proto::Encoding::Vp8);
+    const nlohmann::json frameStats = nlohmann::json::parse(frame.statsJson);
+    EXPECT_EQ(frameStats["video"]["key"].get<bool>(), i == 2);
+    EXPECT_TRUE(frameStats["provisional"].get<bool>());
+    EXPECT_TRUE(frameStats.contains("encode_ms"));
+    EXPECT_EQ(decoder.decode(frame.payload).width, 32) << "each decodes, in order";
+  }
+  EXPECT_EQ(stats.total(ServerEvent::Superseded), 1u);
+
+  // An encoded frame queued unsent is never replaced: the next one is encoded only once it is written.
+  render(6, proto::Encoding::Vp8);
+  transport->runAsides();  // 6 encoded and being written
+  render(7, proto::Encoding::Vp8);
+  transport->runAsides();  // 7 encoded, queued behind 6
+  render(8, proto::Encoding::Vp8);
+  EXPECT_TRUE(transport->asides.empty()) << "8 waits: an encoded frame is queued unsent";
+  render(9, proto::Encoding::Vp8);  // replaces 8
+  settle();
+  std::vector<uint32_t> ids;
+  for (size_t i = 4; i < transport->writes.size(); ++i) ids.push_back(decoded(transport->writes[i]).second);
+  EXPECT_EQ(ids, (std::vector<uint32_t>{6, 7, 8, 9}));  // 8 as Superseded
+  EXPECT_EQ(errorIn(transport->writes[6], 8), ErrorCode::Superseded);
+}
+
+// The exact frame of a request replaces its own provisional video frame still waiting for the encoder, without a
+// Superseded: the request is answered by its exact frame.
+TEST_F(ConnectionTest, AnExactFrameTakesThePlaceOfItsOwnVideoFrameWaitingToBeEncoded) {
+  greet(4);
+  render(3, proto::Encoding::Vp9);
+  render(4, proto::Encoding::Vp9);           // waits
+  render(4, proto::Encoding::Png, 32, true);  // its exact frame: held behind 3's encoding, then replaces 4's
+  settle();
+  ASSERT_EQ(transport->writes.size(), 3u);
+  EXPECT_EQ(std::get<proto::Frame>(decoded(transport->writes[1]).first).encoding, proto::Encoding::Vp9);
+  const auto [exact, id] = decoded(transport->writes[2]);
+  EXPECT_EQ(id, 4u);
+  EXPECT_EQ(std::get<proto::Frame>(exact).encoding, proto::Encoding::Png);
+  EXPECT_EQ(stats.total(ServerEvent::Superseded), 0u);
+  // A new size starts the stream again with a key frame.
+  render(5, proto::Encoding::Vp9, 48);
+  settle();
+  const auto& frame = std::get<proto::Frame>(decoded(transport->writes.back()).first);
+  EXPECT_EQ(frame.width, 48u);
+  const nlohmann::json video = nlohmann::json::parse(frame.statsJson)["video"];
+  EXPECT_TRUE(video["key"].get<bool>());
+  EXPECT_EQ(video["key_reason"], "size");
+}
+
+// A client that reports its frames (FrameReceived) keeps at most two on their way; a third waits at the server, where
+// a newer frame still replaces it, until a report makes room.
+TEST_F(ConnectionTest, FramesWaitForTheClientsReportsOnceItReports) {
+  greet(4);
+  const auto report = [&](uint32_t id) { receive(proto::FrameReceived{1000}, id); };
+  report(90);  // nothing on its way: ignored, unanswered
+  EXPECT_EQ(transport->writes.size(), 1u);
+  render(3, proto::Encoding::RawRgba8);
+  flush();
+  report(3);
+  EXPECT_TRUE(core.link().reporting());
+  render(4, proto::Encoding::RawRgba8);
+  render(5, proto::Encoding::RawRgba8, 32, true);
+  flush();
+  ASSERT_EQ(transport->writes.size(), 4u) << "two frames on their way";
+  render(6, proto::Encoding::RawRgba8);
+  EXPECT_EQ(transport->writes.size(), 4u) << "a third waits";
+  EXPECT_TRUE(transport->armed.count(Deadline::Pace)) << "released when the oldest goes stale at the latest";
+  render(7, proto::Encoding::RawRgba8);  // replaces 6 (Superseded) and waits in its place
+  flush();
+  ASSERT_EQ(transport->writes.size(), 5u);
+  EXPECT_EQ(errorIn(transport->writes[4], 6), ErrorCode::Superseded);
+  core.expired(Deadline::Pace);  // not stale yet: still waiting
+  EXPECT_EQ(transport->writes.size(), 5u);
+  report(4);
+  ASSERT_EQ(transport->writes.size(), 6u);
+  EXPECT_EQ(decoded(transport->writes[5]).second, 7u);
+  EXPECT_EQ(core.link().inFlight(), 2);
+}
+
+// FrameReceived exists from version 4 on: an older session that sends it is told so and goes on.
+TEST_F(ConnectionTest, FrameReceivedInAnOlderSessionIsAnUnknownType) {
+  greet(3);
+  core.received(proto::encode(proto::FrameReceived{10}, 9, 4));
+  flush();
+  ASSERT_EQ(transport->writes.size(), 2u);
+  EXPECT_EQ(errorIn(transport->writes[1], 9), ErrorCode::UnknownType);
+  EXPECT_FALSE(core.link().reporting());
+  EXPECT_FALSE(transport->closed);
 }
 
 }  // namespace

@@ -1,0 +1,107 @@
+// Video frames: a stream of 8-bit RGBA images as VP8 or VP9 (libvpx), one compressed frame each, with no frame held
+// back (no lag, no B-frames: each image put in comes out at once), and back. The protocol's vp8 and vp9 encodings
+// (proto::Encoding) carry these frames; RGBA to I420 and back is libyuv's (BT.601, limited range, as browsers
+// decode VP8 and VP9 that say nothing else).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "image/FrameImage.h"
+#include "image/Image.h"
+#include "proto/Messages.h"
+
+namespace voxbrick::image {
+
+/// Whether `encoding` is a video codec of this module (vp8, vp9).
+bool isVideoEncoding(proto::Encoding encoding);
+
+/// How a stream is encoded. The defaults are the realtime settings measured in bench/results/video.
+struct VideoSettings {
+  int width = 0, height = 0;  ///< the coded size, each in 1 .. 16383
+  int bitrateKbps = 2000;     ///< the rate control's target (constant bitrate), >= 1
+  int speed = 8;              ///< libvpx's realtime speed (VP8: 4..16, VP9: 5..9; higher is faster and coarser)
+  int threads = 1;            ///< encoder threads
+};
+
+/// One compressed frame: what a decoder of the codec takes as one chunk (WebCodecs' EncodedVideoChunk).
+struct VideoChunk {
+  std::vector<uint8_t> bytes;
+  bool key = false;  ///< decodable on its own: a stream's first frame, and any forced one
+};
+
+/// A VP8 or VP9 encoder for one stream of frames of one size. Not thread-safe: one caller at a time.
+class VideoEncoder {
+ public:
+  /// Throws ImageFailure naming the problem (an encoding that is no video codec, a size or bitrate out of range,
+  /// libvpx refusing its configuration).
+  VideoEncoder(proto::Encoding codec, const VideoSettings& settings);
+  ~VideoEncoder();
+  VideoEncoder(const VideoEncoder&) = delete;
+  VideoEncoder& operator=(const VideoEncoder&) = delete;
+
+  /// Encodes `image` (the stream's size; throws ImageFailure otherwise) shown at `timeMs` after the stream began
+  /// (non-decreasing: the rate control spreads its bits over real time). The first frame, and any with `key`, is a
+  /// key frame; the others refer to the frames before them, so each chunk must reach the decoder, in order.
+  VideoChunk encode(const Image8& image, double timeMs, bool key = false);
+  /// Changes the target bitrate from the next frame on (no key frame).
+  void setBitrate(int kbps);
+
+  proto::Encoding codec() const { return mCodec; }
+  int width() const { return mSettings.width; }
+  int height() const { return mSettings.height; }
+  int bitrateKbps() const { return mSettings.bitrateKbps; }
+  /// Frames encoded so far.
+  uint64_t frames() const { return mFrames; }
+
+ private:
+  struct Codec;
+  proto::Encoding mCodec;
+  VideoSettings mSettings;
+  std::unique_ptr<Codec> mCodecState;
+  int64_t mLastPts = -1;
+  uint64_t mFrames = 0;
+};
+
+/// A VP8 or VP9 decoder for one stream: chunks in the order they were encoded, the first a key frame.
+class VideoDecoder {
+ public:
+  /// Throws ImageFailure for an encoding that is no video codec.
+  explicit VideoDecoder(proto::Encoding codec);
+  ~VideoDecoder();
+  VideoDecoder(const VideoDecoder&) = delete;
+  VideoDecoder& operator=(const VideoDecoder&) = delete;
+
+  /// The image of the next chunk (alpha 255). Throws ImageFailure naming the problem when the chunk does not decode
+  /// (damaged, or a delta frame with no key frame before it), or decodes to a size above kMaxSide a side; the
+  /// decoder then wants a key frame.
+  Image8 decode(std::span<const uint8_t> chunk);
+  proto::Encoding codec() const { return mCodec; }
+
+  static constexpr int kMaxSide = 16383;
+
+ private:
+  struct Codec;
+  proto::Encoding mCodec;
+  std::unique_ptr<Codec> mCodecState;
+};
+
+/// Decodes one session's Frames, whatever their encoding: a still alone (decodeFrameImage), a video frame in its
+/// stream (a VideoDecoder kept from frame to frame; the Frames must be given in the order they arrived, every one).
+class FrameDecoder {
+ public:
+  /// The frame's image (alpha 255 for jpeg and video). Throws ImageFailure naming the problem, as decodeFrameImage and
+  /// VideoDecoder::decode do, and when a video frame decodes to another size than the Frame says; after a video
+  /// frame fails, the stream goes on only from a key frame (a client asks one with the scene's `keyframe`).
+  Image8 decode(const proto::Frame& frame);
+  /// Video frames decoded so far.
+  uint64_t videoFrames() const { return mVideoFrames; }
+
+ private:
+  std::unique_ptr<VideoDecoder> mVideo;
+  uint64_t mVideoFrames = 0;
+};
+
+}  // namespace voxbrick::image

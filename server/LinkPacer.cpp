@@ -1,0 +1,84 @@
+// Pacing by the client's reports, and the link's rate from frames that queued behind one another.
+#include "server/LinkPacer.h"
+
+#include <algorithm>
+
+namespace voxbrick::server {
+namespace {
+
+/// Frames remembered while the client does not report (a client that never reports must not grow the list).
+constexpr size_t kMaxRemembered = 64;
+/// A link measurement older than this no longer holds the bitrate down.
+constexpr double kLinkFreshMs = 2000;
+/// Smoothing of the link's rate samples (the weight of a new one).
+constexpr double kLinkWeight = 0.25;
+
+double msBetween(LinkPacer::Clock::time_point a, LinkPacer::Clock::time_point b) {
+  return std::chrono::duration<double, std::milli>(b - a).count();
+}
+
+}  // namespace
+
+void LinkPacer::sent(uint64_t bytes, Clock::time_point at) {
+  mOnTheWay.push_back({bytes, at});
+  if (mOnTheWay.size() > kMaxRemembered) mOnTheWay.pop_front();
+}
+
+bool LinkPacer::received(uint64_t frameBytes, Clock::time_point at) {
+  (void)frameBytes;  // reports pair with frames in order; the size is the client's word, kept for its logs
+  if (mOnTheWay.empty()) return false;
+  const OnTheWay frame = mOnTheWay.front();
+  mOnTheWay.pop_front();
+  const double delivery = std::max(0.0, msBetween(frame.at, at));
+  mLastDeliveryMs = delivery;
+  mMinDeliveryMs = mMinDeliveryMs ? std::min(*mMinDeliveryMs, delivery) : delivery;
+  // A frame written before the one ahead of it had arrived followed it on the link: the time between the two reports
+  // is its own transfer, and its bytes over it the link's rate. (A frame written onto an idle link says nothing of
+  // the rate: it measures the round trip.)
+  if (mReporting && frame.at < mLastReport) {
+    const double gapMs = msBetween(mLastReport, at);
+    if (gapMs > 0.5) {
+      const double sample = double(frame.bytes) * 8 / gapMs;  // bits per ms = kbit/s
+      const bool fresh = mLinkKbps > 0 && msBetween(mLinkAt, at) < kLinkFreshMs;
+      mLinkKbps = fresh ? (1 - kLinkWeight) * mLinkKbps + kLinkWeight * sample : sample;
+      mLinkAt = at;
+    }
+  }
+  mReporting = true;
+  mLastReport = at;
+  return true;
+}
+
+bool LinkPacer::mayWrite(Clock::time_point now) const {
+  if (!mReporting || mOnTheWay.size() < size_t(kFramesInFlight)) return true;
+  return msBetween(mOnTheWay.front().at, now) >= kStaleMs;
+}
+
+LinkPacer::Clock::time_point LinkPacer::releaseAt() const {
+  if (mOnTheWay.empty()) return Clock::time_point{};
+  return mOnTheWay.front().at + std::chrono::microseconds(int64_t(kStaleMs * 1000));
+}
+
+std::optional<double> LinkPacer::minDeliveryMs() const { return mMinDeliveryMs; }
+
+std::optional<double> LinkPacer::linkKbps(Clock::time_point now) const {
+  if (mLinkKbps <= 0 || msBetween(mLinkAt, now) >= kLinkFreshMs) return std::nullopt;
+  return mLinkKbps;
+}
+
+double LinkPacer::videoKbps(double startKbps, double capKbps, Clock::time_point now) {
+  capKbps = std::max(capKbps, kMinKbps);
+  if (const auto link = linkKbps(now)) {
+    mTargetKbps = std::clamp(kLinkShare * *link, kMinKbps, capKbps);
+  } else if (mTargetKbps <= 0) {
+    mTargetKbps = std::clamp(startKbps, kMinKbps, capKbps);
+  } else {
+    // Nothing queued on the link lately: it keeps up, so the stream may take more (half as much again a second).
+    const double seconds = std::clamp(msBetween(mTargetAt, now) / 1000, 0.0, 1.0);
+    mTargetKbps = std::clamp(mTargetKbps * (1 + 0.5 * seconds), kMinKbps, capKbps);
+  }
+  mTargetAt = now;
+  return mTargetKbps;
+}
+
+}  // namespace voxbrick::server

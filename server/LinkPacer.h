@@ -1,0 +1,73 @@
+// One session's link, as its client's FrameReceived reports show it: frames on their way (written, not yet
+// reported), the time a frame takes to arrive, the link's rate when frames follow one another, and from these when
+// the next Frame may be written and at what bitrate a video stream should run. A client that reports keeps at most
+// kFramesInFlight Frames on the link, so frames never queue in the network's buffers: a newer frame waits at the
+// server, where latest-wins replaces it, instead of behind older ones on a slow link. No sockets, no clock of its own:
+// every call is given the time (tests drive it with made-up times).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <optional>
+
+namespace voxbrick::server {
+
+class LinkPacer {
+ public:
+  using Clock = std::chrono::steady_clock;
+  /// Frames written and not yet reported that hold back the next one: two keep the link busy across a round trip
+  /// while a frame travels, and bound the wait a frame adds to one frame's transfer.
+  static constexpr int kFramesInFlight = 2;
+  /// A frame not reported this long after it was written: the client is taken to have stopped reporting, and frames
+  /// go out unpaced until its next report.
+  static constexpr double kStaleMs = 1000;
+  /// Video bitrates: never below this (kbit/s).
+  static constexpr double kMinKbps = 150;
+  /// The share of the link's measured rate a video stream is given, so that its frames do not fill the link.
+  static constexpr double kLinkShare = 0.7;
+
+  /// A Frame of `bytes` (whole message) started to be written at `at`.
+  void sent(uint64_t bytes, Clock::time_point at);
+  /// The client's FrameReceived of a Frame of `frameBytes`, arriving at `at`. Returns false (and changes nothing)
+  /// when no written frame was waiting for a report.
+  bool received(uint64_t frameBytes, Clock::time_point at);
+
+  /// Whether the next Frame may be written now: the client does not report, fewer than kFramesInFlight frames are on
+  /// their way, or the oldest has gone unreported for kStaleMs.
+  bool mayWrite(Clock::time_point now) const;
+  /// When a Frame held back now may be written at the latest (the oldest frame on its way going stale).
+  Clock::time_point releaseAt() const;
+  /// Whether the client has reported a frame and has not gone stale since.
+  bool reporting() const { return mReporting; }
+  int inFlight() const { return int(mReporting ? mOnTheWay.size() : 0); }
+
+  /// The shortest time from a frame's write to its report over the session (a round trip plus the smallest frame's
+  /// transfer); none before the first report.
+  std::optional<double> minDeliveryMs() const;
+  /// The last frame's time from write to report.
+  std::optional<double> lastDeliveryMs() const { return mLastDeliveryMs; }
+  /// The link's rate measured from frames that followed one another on it (kbit/s), if any was measured within the
+  /// last two seconds.
+  std::optional<double> linkKbps(Clock::time_point now) const;
+
+  /// The bitrate a video stream should run at now, at most `capKbps`: kLinkShare of the link's measured rate, else
+  /// (no recent measurement: the link kept up) the last target raised by half a second, starting from `startKbps`.
+  double videoKbps(double startKbps, double capKbps, Clock::time_point now);
+
+ private:
+  struct OnTheWay {
+    uint64_t bytes = 0;
+    Clock::time_point at;
+  };
+  std::deque<OnTheWay> mOnTheWay;
+  bool mReporting = false;
+  Clock::time_point mLastReport{};
+  std::optional<double> mMinDeliveryMs, mLastDeliveryMs;
+  double mLinkKbps = 0;  ///< smoothed rate of back-to-back frames
+  Clock::time_point mLinkAt{};
+  double mTargetKbps = 0;
+  Clock::time_point mTargetAt{};
+};
+
+}  // namespace voxbrick::server

@@ -1,0 +1,71 @@
+// A session's video stream: key frame rules, the encoder's bitrate, the frame's statistics.
+#include "server/VideoStream.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <nlohmann/json.hpp>
+
+namespace voxbrick::server {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double msBetween(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::milli>(b - a).count();
+}
+
+double kbpsAt(int width, int height, double bitsPerPixel) { return double(width) * height * bitsPerPixel * 30 / 1000; }
+
+}  // namespace
+
+double VideoStream::startKbps(int width, int height) { return kbpsAt(width, height, 0.05); }
+double VideoStream::capKbps(int width, int height) { return kbpsAt(width, height, 0.15); }
+
+void VideoStream::encode(proto::Frame& frame, const VideoFrameInput& input) {
+  const auto start = Clock::now();
+  const int width = int(frame.width), height = int(frame.height);
+  const int kbps = int(std::lround(std::max(1.0, input.bitrateKbps)));
+  std::string why;
+  if (!mEncoder || mEncoder->codec() != frame.encoding || mEncoder->width() != width || mEncoder->height() != height) {
+    why = !mEncoder ? "start" : mEncoder->codec() != frame.encoding ? "codec" : "size";
+    mBroken = false;
+    mEncoder.reset();  // a failed construction leaves none
+    image::VideoSettings settings;
+    settings.width = width, settings.height = height, settings.bitrateKbps = kbps;
+    mEncoder = std::make_unique<image::VideoEncoder>(frame.encoding, settings);
+    mStart = input.drawn;
+  } else if (mBroken) {
+    why = "recovery";
+  } else if (input.dataset != mDataset) {
+    why = "dataset";
+  } else if (input.keyframe) {
+    why = "asked";
+  }
+  mDataset = input.dataset;
+  mEncoder->setBitrate(kbps);
+  const image::Image8 pixels{width, height, std::move(frame.payload)};
+  image::VideoChunk chunk;
+  try {
+    chunk = mEncoder->encode(pixels, std::max(0.0, msBetween(mStart, input.drawn)), !why.empty());
+  } catch (...) {
+    mBroken = true;
+    throw;
+  }
+  mBroken = false;
+  ++mFrames;
+  if (chunk.key) ++mKeyFrames;
+  frame.payload = std::move(chunk.bytes);
+  nlohmann::json stats = nlohmann::json::parse(frame.statsJson, nullptr, false);
+  if (!stats.is_object()) stats = nlohmann::json::object();
+  stats["encode_ms"] = msBetween(start, Clock::now());
+  nlohmann::json video = {{"codec", proto::encodingName(frame.encoding)},
+                          {"key", chunk.key},
+                          {"stream_frame", mEncoder->frames() - 1},
+                          {"bitrate_kbps", kbps}};
+  if (chunk.key) video["key_reason"] = why.empty() ? "encoder" : why;
+  stats["video"] = std::move(video);
+  frame.statsJson = stats.dump();
+}
+
+}  // namespace voxbrick::server

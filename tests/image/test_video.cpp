@@ -1,0 +1,119 @@
+// VP8 and VP9 streams through libvpx: what goes in comes out at once and near enough, key frames where asked, and a
+// decoder given a broken stream says so instead of showing garbage.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "image/Video.h"
+
+namespace voxbrick::image {
+namespace {
+
+using proto::Encoding;
+
+/// A smooth moving picture, like a volume rendering under a turning camera: a lit ball over a gradient.
+Image8 picture(int width, int height, double t) {
+  Image8 image{width, height, std::vector<uint8_t>(size_t(width) * size_t(height) * 4)};
+  const double cx = width * (0.45 + 0.1 * std::sin(t)), cy = height * (0.5 + 0.1 * std::cos(t));
+  const double r = 0.3 * std::min(width, height);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      uint8_t* p = image.rgba.data() + 4 * (size_t(y) * size_t(width) + size_t(x));
+      const double d = std::hypot(x - cx, y - cy) / r;
+      const double ball = d < 1 ? std::sqrt(1 - d * d) : 0;
+      p[0] = uint8_t(std::lround(40 + 200 * ball));
+      p[1] = uint8_t(std::lround(30 + 120 * ball + 40.0 * y / height));
+      p[2] = uint8_t(std::lround(60 + 60.0 * x / width));
+      p[3] = 255;
+    }
+  return image;
+}
+
+double psnr(const Image8& a, const Image8& b) { return compareImages(toImageF(a), toImageF(b)).psnr; }
+
+class VideoCodecs : public ::testing::TestWithParam<Encoding> {};
+
+TEST_P(VideoCodecs, AStreamRoundTripsFrameByFrameWithKeyFramesOnlyWhereAsked) {
+  VideoSettings settings;
+  settings.width = 161, settings.height = 97;  // odd sides: chroma planes round up
+  settings.bitrateKbps = 1500;
+  VideoEncoder encoder(GetParam(), settings);
+  VideoDecoder decoder(GetParam());
+  for (int i = 0; i < 12; ++i) {
+    const Image8 in = picture(161, 97, 0.1 * i);
+    const VideoChunk chunk = encoder.encode(in, 33.0 * i, i == 8);
+    ASSERT_FALSE(chunk.bytes.empty());
+    EXPECT_EQ(chunk.key, i == 0 || i == 8) << "frame " << i;
+    const Image8 out = decoder.decode(chunk.bytes);  // each chunk decodes at once: nothing is held back
+    ASSERT_EQ(out.width, 161);
+    ASSERT_EQ(out.height, 97);
+    EXPECT_EQ(out.rgba[3], 255);
+    EXPECT_GT(psnr(in, out), 30.0) << "frame " << i;
+  }
+  EXPECT_EQ(encoder.frames(), 12u);
+}
+
+TEST_P(VideoCodecs, ALowerBitrateTakesFewerBytes) {
+  VideoSettings settings;
+  settings.width = 256, settings.height = 256;
+  settings.bitrateKbps = 4000;
+  VideoEncoder encoder(GetParam(), settings);
+  size_t high = 0, low = 0;
+  for (int i = 0; i < 40; ++i) {
+    if (i == 20) encoder.setBitrate(300);
+    const size_t bytes = encoder.encode(picture(256, 256, 0.2 * i), 33.0 * i).bytes.size();
+    if (i >= 10 && i < 20) high += bytes;
+    if (i >= 30) low += bytes;
+  }
+  EXPECT_EQ(encoder.bitrateKbps(), 300);
+  EXPECT_LT(low * 3, high) << "4000 against 300 kbit/s";
+}
+
+TEST_P(VideoCodecs, ADecoderRefusesWhatItCannotShow) {
+  VideoSettings settings;
+  settings.width = 64, settings.height = 48;
+  VideoEncoder encoder(GetParam(), settings);
+  const VideoChunk key = encoder.encode(picture(64, 48, 0), 0);
+  const VideoChunk delta = encoder.encode(picture(64, 48, 0.3), 33);
+  ASSERT_TRUE(key.key);
+  ASSERT_FALSE(delta.key);
+  {
+    VideoDecoder decoder(GetParam());
+    EXPECT_THROW(decoder.decode(delta.bytes), ImageFailure) << "a delta frame with no key frame before it";
+  }
+  {
+    VideoDecoder decoder(GetParam());
+    EXPECT_THROW(decoder.decode({}), ImageFailure);
+    const std::vector<uint8_t> garbage(200, 0xA5);
+    EXPECT_THROW(decoder.decode(garbage), ImageFailure);
+    std::vector<uint8_t> cut(key.bytes.begin(), key.bytes.begin() + long(key.bytes.size() / 3));
+    EXPECT_THROW(decoder.decode(cut), ImageFailure);
+    // Then a whole key frame starts the stream again.
+    EXPECT_EQ(decoder.decode(key.bytes).width, 64);
+    EXPECT_EQ(decoder.decode(delta.bytes).height, 48);
+  }
+  EXPECT_THROW(encoder.encode(picture(32, 48, 0), 66), ImageFailure) << "a frame of another size";
+}
+
+INSTANTIATE_TEST_SUITE_P(Codecs, VideoCodecs, ::testing::Values(Encoding::Vp8, Encoding::Vp9),
+                         [](const auto& info) { return std::string(proto::encodingName(info.param)); });
+
+TEST(Video, OnlyVideoEncodingsAndSaneSettingsMakeAStream) {
+  EXPECT_TRUE(isVideoEncoding(Encoding::Vp8));
+  EXPECT_TRUE(isVideoEncoding(Encoding::Vp9));
+  EXPECT_FALSE(isVideoEncoding(Encoding::Jpeg));
+  VideoSettings settings;
+  settings.width = 64, settings.height = 64;
+  EXPECT_THROW(VideoEncoder(Encoding::Png, settings), ImageFailure);
+  EXPECT_THROW(VideoDecoder(Encoding::Jpeg), ImageFailure);
+  settings.width = 0;
+  EXPECT_THROW(VideoEncoder(Encoding::Vp8, settings), ImageFailure);
+  settings.width = 20000;
+  EXPECT_THROW(VideoEncoder(Encoding::Vp8, settings), ImageFailure);
+  settings.width = 64, settings.bitrateKbps = 0;
+  EXPECT_THROW(VideoEncoder(Encoding::Vp8, settings), ImageFailure);
+}
+
+}  // namespace
+}  // namespace voxbrick::image

@@ -1,0 +1,90 @@
+// A session's link from its client's FrameReceived reports, driven with made-up times: the window of frames on their
+// way, the stale client, the link's rate from frames that queued behind one another, and the video bitrate.
+#include <gtest/gtest.h>
+
+#include "server/LinkPacer.h"
+
+namespace voxbrick::server {
+namespace {
+
+using Clock = LinkPacer::Clock;
+using std::chrono::milliseconds;
+
+const Clock::time_point t0 = Clock::now();
+Clock::time_point at(double ms) { return t0 + std::chrono::microseconds(int64_t(ms * 1000)); }
+
+TEST(LinkPacer, AClientThatNeverReportsIsNotPaced) {
+  LinkPacer pacer;
+  for (int i = 0; i < 200; ++i) {
+    EXPECT_TRUE(pacer.mayWrite(at(i)));
+    pacer.sent(1000, at(i));
+  }
+  EXPECT_FALSE(pacer.reporting());
+  EXPECT_EQ(pacer.inFlight(), 0);
+}
+
+TEST(LinkPacer, AReportingClientHasAtMostTwoFramesOnTheirWay) {
+  LinkPacer pacer;
+  pacer.sent(1000, at(0));
+  ASSERT_TRUE(pacer.received(1000, at(50)));
+  EXPECT_TRUE(pacer.reporting());
+  pacer.sent(1000, at(60));
+  EXPECT_TRUE(pacer.mayWrite(at(61)));
+  pacer.sent(1000, at(61));
+  EXPECT_EQ(pacer.inFlight(), LinkPacer::kFramesInFlight);
+  EXPECT_FALSE(pacer.mayWrite(at(62))) << "a third frame waits at the server";
+  EXPECT_EQ(pacer.releaseAt(), at(60 + LinkPacer::kStaleMs));
+  ASSERT_TRUE(pacer.received(1000, at(110)));
+  EXPECT_TRUE(pacer.mayWrite(at(111)));
+  EXPECT_EQ(*pacer.minDeliveryMs(), 50);
+  EXPECT_EQ(*pacer.lastDeliveryMs(), 50);
+  EXPECT_TRUE(pacer.received(1000, at(120)));
+  EXPECT_FALSE(pacer.received(1000, at(121))) << "more reports than frames written";
+}
+
+TEST(LinkPacer, AClientThatStopsReportingIsReleasedAfterASecond) {
+  LinkPacer pacer;
+  pacer.sent(1000, at(0));
+  pacer.received(1000, at(10));
+  pacer.sent(1000, at(20));
+  pacer.sent(1000, at(21));
+  EXPECT_FALSE(pacer.mayWrite(at(500)));
+  EXPECT_TRUE(pacer.mayWrite(at(20 + LinkPacer::kStaleMs)));
+}
+
+TEST(LinkPacer, FramesThatQueuedBehindOneAnotherMeasureTheLink) {
+  LinkPacer pacer;
+  // A 10 Mbit/s link (10 kbit a ms) with 40 ms of round trip: a 25 000-byte frame takes 20 ms to pass.
+  double linkFree = 0;
+  for (int i = 0; i < 20; ++i) {
+    const double sentAt = 10.0 * i;  // written faster than the link takes them
+    pacer.sent(25000, at(sentAt));
+    linkFree = std::max(linkFree, sentAt) + 20;
+    if (i >= 1) pacer.received(25000, at(linkFree - 20 + 40));  // the previous frame's report
+  }
+  const auto link = pacer.linkKbps(at(450));
+  ASSERT_TRUE(link);
+  EXPECT_NEAR(*link, 10000, 500);
+  EXPECT_NEAR(pacer.videoKbps(2000, 50000, at(450)), LinkPacer::kLinkShare * 10000, 500);
+  EXPECT_FALSE(pacer.linkKbps(at(5000))) << "an old measurement no longer holds";
+}
+
+TEST(LinkPacer, FramesOnAnIdleLinkMeasureNoRateAndTheBitrateClimbsToItsCap) {
+  LinkPacer pacer;
+  // Each frame is reported before the next is written: the link keeps up.
+  for (int i = 0; i < 10; ++i) {
+    pacer.sent(5000, at(100.0 * i));
+    pacer.received(5000, at(100.0 * i + 45));
+  }
+  EXPECT_FALSE(pacer.linkKbps(at(1000)));
+  EXPECT_EQ(pacer.videoKbps(1000, 8000, at(1000)), 1000) << "the start";
+  const double later = pacer.videoKbps(1000, 8000, at(2000));
+  EXPECT_NEAR(later, 1500, 1) << "half as much again after a second";
+  double kbps = later;
+  for (int s = 3; s < 12; ++s) kbps = pacer.videoKbps(1000, 8000, at(1000.0 * s));
+  EXPECT_EQ(kbps, 8000) << "never above the cap";
+  EXPECT_EQ(pacer.videoKbps(1, 1, at(13000)), LinkPacer::kMinKbps) << "nor below the floor";
+}
+
+}  // namespace
+}  // namespace voxbrick::server

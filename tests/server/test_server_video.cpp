@@ -1,0 +1,166 @@
+// Protocol version 4's video stream against the real `voxbrick serve` process: the codecs offered, a drag's moving
+// frames as one VP8 (or VP9) stream that a client decodes frame by frame in order, key frames where PROTOCOL.md puts
+// them, the exact frame after it as png, FrameReceived reports, and the refusals (an older session, a video exact
+// frame, a transparent video frame).
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "ServerProcess.h"
+#include "client/Client.h"
+#include "image/FrameImage.h"
+#include "image/Image.h"
+#include "image/Video.h"
+
+namespace voxbrick {
+namespace {
+
+using client::Client;
+using client::ServerError;
+using nlohmann::json;
+using proto::Encoding;
+using proto::ErrorCode;
+using test::ServerProcess;
+
+class VideoServerTest : public test::SparseDatasetSuite {
+ protected:
+  std::unique_ptr<ServerProcess> start() {
+    return std::make_unique<ServerProcess>("--datasets " + datasets() + " --render-threads 1", scratch());
+  }
+};
+
+std::string dragScene(double azimuth, const std::string& codec, int side = 96, const json& extra = {}) {
+  json s = {{"camera", {{"orbit", {azimuth, 25, 2.2}}}},
+            {"size", {side, side}},
+            {"transfer_function", "sparse"},
+            {"background", {0.1, 0.1, 0.2}},
+            {"interactive", true},
+            {"time_budget_ms", 50},
+            {"provisional_encoding", codec}};
+  if (extra.is_object()) s.update(extra);
+  return s.dump();
+}
+
+std::unique_ptr<Client> videoSession(const ServerProcess& server, uint16_t maxVersion = proto::kMaxVersion) {
+  auto c = std::make_unique<Client>("127.0.0.1", server.port(), std::chrono::seconds(60));
+  c->hello("test", maxVersion);
+  c->openDataset("sparse");
+  return c;
+}
+
+ServerError videoErrorOf(const std::function<void()>& request) {
+  try {
+    request();
+  } catch (const ServerError& e) {
+    return e;
+  }
+  ADD_FAILURE() << "the request succeeded";
+  return ServerError(ErrorCode::Internal, "none");
+}
+
+TEST_F(VideoServerTest, VersionFourOffersVp8AndVp9AndOlderSessionsDoNot) {
+  auto server = start();
+  Client c("127.0.0.1", server->port(), std::chrono::seconds(60));
+  const proto::Capabilities caps = c.hello("test");
+  EXPECT_EQ(caps.version, 4);
+  EXPECT_EQ(caps.encodings, proto::encodingsOf(4));
+  Client old("127.0.0.1", server->port(), std::chrono::seconds(60));
+  EXPECT_EQ(old.hello("test", 3).encodings, proto::encodingsOf(3));
+  old.openDataset("sparse");
+  const ServerError e = videoErrorOf([&] { old.render(dragScene(10, "vp8"), Encoding::Png); });
+  EXPECT_EQ(e.code(), ErrorCode::InvalidScene);
+  EXPECT_NE(std::string(e.what()).find("needs protocol version 4"), std::string::npos) << e.what();
+}
+
+// A drag: each Render's provisional frame is the next frame of one stream, decoded in order; the first is a key frame
+// and the others are not; the exact frame that follows the last one is a png equal to a plain Render's. Every Frame is
+// reported (FrameReceived), as the viewer does.
+TEST_F(VideoServerTest, ADragIsOneVideoStreamAndTheExactFrameIsLossless) {
+  for (const char* codec : {"vp8", "vp9"}) {
+    SCOPED_TRACE(codec);
+    auto server = start();
+    auto c = videoSession(*server);
+    image::FrameDecoder decoder;
+    int keys = 0, frames = 0;
+    proto::Frame exact;
+    for (int i = 0; i < 6; ++i) {
+      std::vector<proto::Frame> provisional;
+      const uint32_t id = c->send(proto::RenderRequest{Encoding::Png, dragScene(20 + 3 * i, codec)});
+      // One Render at a time: its provisional frame, then its exact one once the camera rests.
+      for (;;) {
+        auto [replyId, message] = c->receive();
+        ASSERT_EQ(replyId, id);
+        const auto* frame = std::get_if<proto::Frame>(&message);
+        ASSERT_NE(frame, nullptr) << proto::messageTypeName(proto::messageType(message));
+        c->frameReceived(replyId, *frame);
+        const json stats = json::parse(frame->statsJson);
+        if (stats["provisional"].get<bool>()) {
+          ASSERT_EQ(frame->encoding, proto::encodingFromShortName(codec));
+          ASSERT_EQ(frame->width, 96u);
+          const image::Image8 shown = decoder.decode(*frame);
+          EXPECT_EQ(shown.width, 96);
+          EXPECT_EQ(stats["video"]["stream_frame"].get<int>(), frames);
+          keys += stats["video"]["key"].get<bool>() ? 1 : 0;
+          if (frames == 0) EXPECT_EQ(stats["video"]["key_reason"], "start");
+          ++frames;
+          continue;
+        }
+        exact = *frame;
+        break;
+      }
+    }
+    EXPECT_EQ(frames, 6);
+    EXPECT_EQ(keys, 1) << "one key frame: the stream's first";
+    EXPECT_EQ(exact.encoding, Encoding::Png);
+    json still = json::parse(dragScene(35, codec));
+    still.erase("interactive");
+    still.erase("time_budget_ms");
+    still.erase("provisional_encoding");
+    const proto::Frame plain = c->render(still.dump(), Encoding::Png);
+    EXPECT_EQ(image::decodeFrameImage(exact).rgba, image::decodeFrameImage(plain).rgba);
+  }
+}
+
+// Key frames: on a new size, when the scene asks for one, and not otherwise; the stream goes on across them.
+TEST_F(VideoServerTest, KeyFramesComeOnANewSizeAndWhenAsked) {
+  auto server = start();
+  auto c = videoSession(*server);
+  image::FrameDecoder decoder;
+  std::vector<std::string> reasons;
+  const auto drag = [&](const std::string& scene) {
+    c->render(scene, Encoding::Png, [&](const proto::Frame& f) {
+      decoder.decode(f);
+      const json video = json::parse(f.statsJson)["video"];
+      reasons.push_back(video["key"].get<bool>() ? video["key_reason"].get<std::string>() : "-");
+    });
+  };
+  drag(dragScene(10, "vp8"));
+  drag(dragScene(12, "vp8"));
+  drag(dragScene(14, "vp8", 128));
+  drag(dragScene(16, "vp8", 128));
+  drag(dragScene(18, "vp8", 128, {{"keyframe", true}}));
+  drag(dragScene(20, "vp8", 128));
+  EXPECT_EQ(reasons, (std::vector<std::string>{"start", "-", "size", "-", "asked", "-"}));
+  EXPECT_EQ(decoder.videoFrames(), 6u);
+}
+
+TEST_F(VideoServerTest, VideoIsRefusedWhereItCannotServe) {
+  auto server = start();
+  auto c = videoSession(*server);
+  json still = json::parse(dragScene(10, "vp8"));
+  still.erase("provisional_encoding");
+  ServerError e = videoErrorOf([&] { c->render(still.dump(), Encoding::Vp8); });
+  EXPECT_EQ(e.code(), ErrorCode::InvalidScene);
+  EXPECT_NE(std::string(e.what()).find("provisional_encoding"), std::string::npos) << e.what();
+  e = videoErrorOf([&] { c->render(dragScene(10, "vp9", 96, {{"background", "none"}}), Encoding::Png); });
+  EXPECT_EQ(e.code(), ErrorCode::InvalidScene);
+  EXPECT_NE(std::string(e.what()).find("'background'"), std::string::npos) << e.what();
+  // The session goes on.
+  EXPECT_EQ(c->render(dragScene(10, "vp9"), Encoding::Png).encoding, Encoding::Png);
+}
+
+}  // namespace
+}  // namespace voxbrick
