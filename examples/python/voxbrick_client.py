@@ -18,13 +18,15 @@ import struct
 import sys
 
 MAGIC = 0x4B425856  # "VXBK" read as a little-endian u32
-MIN_VERSION, MAX_VERSION = 1, 3  # the protocol versions this client speaks; 2 adds the jpeg encoding, 3 the Busy error
+# The protocol versions this client speaks; 2 adds the jpeg encoding, 3 the Busy error, 4 the video encodings (vp8,
+# vp9: a session's moving frames as one stream, which this client never asks for: it takes stills) and FrameReceived.
+MIN_VERSION, MAX_VERSION = 1, 4
 HEADER = struct.Struct('<IHHII')  # magic, version, type, request id, body bytes
 CLIENT_NAME = 'voxbrick_client.py 1'
 TYPES = ['Hello', 'Capabilities', 'ListDatasets', 'DatasetList', 'OpenDataset', 'DatasetInfo', 'Render', 'Frame',
-         'Error', 'GetStats', 'Stats', 'Goodbye']  # type value = index + 1
-ENCODINGS = dict(enumerate(['raw_rgba8', 'png', 'zstd_rgba8', 'jpeg']))  # value: name
-ENCODING_SINCE = {'jpeg': 2}  # the protocol version an encoding appeared in (others: 1)
+         'Error', 'GetStats', 'Stats', 'Goodbye', 'FrameReceived']  # type value = index + 1
+ENCODINGS = dict(enumerate(['raw_rgba8', 'png', 'zstd_rgba8', 'jpeg', 'vp8', 'vp9']))  # value: name
+ENCODING_SINCE = {'jpeg': 2, 'vp8': 4, 'vp9': 4}  # the protocol version an encoding appeared in (others: 1)
 ERRORS = dict(enumerate(['BadMagic', 'UnsupportedVersion', 'UnknownType', 'TooLarge', 'Malformed', 'UnexpectedMessage',
                          'UnknownDataset', 'InvalidScene', 'LimitExceeded', 'Superseded', 'Internal', 'ShuttingDown',
                          'Timeout', 'Busy'], start=1))
@@ -45,6 +47,7 @@ FIELDS = {
               ('payload', 'bytes')],
     'Error': [('code', 'code'), ('message', 'str')],
     'Stats': [('json', 'str')],
+    'FrameReceived': [('frame_bytes', 'u32')],
 }
 
 

@@ -2,6 +2,7 @@
 // decoder given a broken stream says so instead of showing garbage.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -54,20 +55,34 @@ TEST_P(VideoCodecs, AStreamRoundTripsFrameByFrameWithKeyFramesOnlyWhereAsked) {
   EXPECT_EQ(encoder.frames(), 12u);
 }
 
-TEST_P(VideoCodecs, ALowerBitrateTakesFewerBytes) {
+/// `picture` with fine noise over it: detail that takes every bit a rate control gives.
+Image8 detailed(int width, int height, double t) {
+  Image8 image = picture(width, height, t);
+  uint32_t state = 12345u + uint32_t(t * 1000);
+  for (size_t i = 0; i < image.rgba.size(); ++i) {
+    if (i % 4 == 3) continue;
+    state = state * 1664525u + 1013904223u;
+    image.rgba[i] = uint8_t(std::clamp(int(image.rgba[i]) + int(state >> 27) - 16, 0, 255));
+  }
+  return image;
+}
+
+TEST_P(VideoCodecs, TheBitrateSetsTheBytesAndCanChangeMidStream) {
   VideoSettings settings;
   settings.width = 256, settings.height = 256;
   settings.bitrateKbps = 4000;
-  VideoEncoder encoder(GetParam(), settings);
-  size_t high = 0, low = 0;
+  VideoEncoder steady(GetParam(), settings), lowered(GetParam(), settings);
+  size_t steadyBytes = 0, loweredBytes = 0;
   for (int i = 0; i < 40; ++i) {
-    if (i == 20) encoder.setBitrate(300);
-    const size_t bytes = encoder.encode(picture(256, 256, 0.2 * i), 33.0 * i).bytes.size();
-    if (i >= 10 && i < 20) high += bytes;
-    if (i >= 30) low += bytes;
+    if (i == 10) lowered.setBitrate(400);
+    const Image8 frame = detailed(256, 256, 0.2 * i);
+    const size_t a = steady.encode(frame, 33.0 * i).bytes.size(), b = lowered.encode(frame, 33.0 * i).bytes.size();
+    if (i >= 25) steadyBytes += a, loweredBytes += b;
   }
-  EXPECT_EQ(encoder.bitrateKbps(), 300);
-  EXPECT_LT(low * 3, high) << "4000 against 300 kbit/s";
+  EXPECT_EQ(lowered.bitrateKbps(), 400);
+  // 4000 kbit/s at 30 frames a second is about 16.7 kB a frame, 400 about 1.7 kB.
+  EXPECT_GT(steadyBytes, 15u * 8000) << "the steady stream uses its bitrate";
+  EXPECT_LT(loweredBytes * 4, steadyBytes) << "a tenth of the bitrate";
 }
 
 TEST_P(VideoCodecs, ADecoderRefusesWhatItCannotShow) {
@@ -97,7 +112,7 @@ TEST_P(VideoCodecs, ADecoderRefusesWhatItCannotShow) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Codecs, VideoCodecs, ::testing::Values(Encoding::Vp8, Encoding::Vp9),
-                         [](const auto& info) { return std::string(proto::encodingName(info.param)); });
+                         [](const auto& codec) { return std::string(proto::encodingName(codec.param)); });
 
 TEST(Video, OnlyVideoEncodingsAndSaneSettingsMakeAStream) {
   EXPECT_TRUE(isVideoEncoding(Encoding::Vp8));

@@ -114,7 +114,10 @@ class ConnectionTest : public ::testing::Test {
   std::shared_ptr<FakeTransport> transport = std::make_shared<FakeTransport>();
   Connection core{*transport, services, ConnectionId{7}, "test:1"};
 
-  void receive(const proto::Message& message, uint32_t requestId) { core.received(proto::encode(message, requestId)); }
+  /// A client message, written in the session's version (version 1 before Hello).
+  void receive(const proto::Message& message, uint32_t requestId) {
+    core.received(proto::encode(message, requestId, core.state().greeted ? core.state().version : proto::kVersion));
+  }
   /// Reports the write in flight as written.
   void writeOne() {
     ASSERT_TRUE(transport->writing);
@@ -446,7 +449,7 @@ TEST_F(ConnectionTest, AnExactFrameTakesThePlaceOfItsOwnVideoFrameWaitingToBeEnc
   // A new size starts the stream again with a key frame.
   render(5, proto::Encoding::Vp9, 48);
   settle();
-  const auto& frame = std::get<proto::Frame>(decoded(transport->writes.back()).first);
+  const proto::Frame frame = std::get<proto::Frame>(decoded(transport->writes.back()).first);
   EXPECT_EQ(frame.width, 48u);
   const nlohmann::json video = nlohmann::json::parse(frame.statsJson)["video"];
   EXPECT_TRUE(video["key"].get<bool>());

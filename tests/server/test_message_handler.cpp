@@ -71,14 +71,14 @@ ErrorCode errorCode(const Outcome& outcome, uint32_t id = 1) {
 }
 
 TEST_F(MessageHandlerTest, HelloGetsCapabilities) {
-  const Outcome o = handle(proto::Hello{1, 3, "test"}, 9);
+  const Outcome o = handle(proto::Hello{1, proto::kMaxVersion, "test"}, 9);
   const auto caps = onlyReply<proto::Capabilities>(o, 9);
   EXPECT_EQ(caps.version, proto::kMaxVersion);  // the highest both speak
   EXPECT_EQ(state.version, proto::kMaxVersion);
   EXPECT_EQ(caps.maxImageSide, 100u);
   EXPECT_EQ(caps.maxMessageBytes, 65536u);
   EXPECT_EQ(caps.maxQueuedPerSession, 1u);
-  EXPECT_EQ(caps.encodings, proto::encodingsOf(2));
+  EXPECT_EQ(caps.encodings, proto::encodingsOf(proto::kMaxVersion));
   EXPECT_FALSE(o.close);
   EXPECT_TRUE(state.greeted);
 }

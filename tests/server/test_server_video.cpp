@@ -104,7 +104,9 @@ TEST_F(VideoServerTest, ADragIsOneVideoStreamAndTheExactFrameIsLossless) {
           EXPECT_EQ(shown.width, 96);
           EXPECT_EQ(stats["video"]["stream_frame"].get<int>(), frames);
           keys += stats["video"]["key"].get<bool>() ? 1 : 0;
-          if (frames == 0) EXPECT_EQ(stats["video"]["key_reason"], "start");
+          if (frames == 0) {
+            EXPECT_EQ(stats["video"]["key_reason"], "start");
+          }
           ++frames;
           continue;
         }

@@ -1,0 +1,126 @@
+// A drag's frames as the server could send them: the frames of a camera turning (lossless PNGs, in order, as
+// `voxbrick orbit` writes them) sent as JPEG at several qualities, and as one VP8 or VP9 stream at several bitrates
+// (the server's encoder settings, image/Video.h), each frame's bytes and its PSNR against the lossless frame, with
+// encode and decode times. The table behind the video encodings' defaults (bench/run_video.sh writes
+// bench/results/video/video.{csv,md}).
+//
+//   bench_video --csv OUT.csv --fps 30 FRAME.png... [--qualities 50,70,85] [--kbps 1000,2000,4000]
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "image/FrameImage.h"
+#include "image/Image.h"
+#include "image/Video.h"
+
+namespace {
+
+using namespace voxbrick;
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+struct Row {
+  std::string encoding, setting;
+  double bytes = 0, psnr = 0, psnrMin = 1e9, encodeMs = 0, decodeMs = 0, keyBytes = 0;
+};
+
+void accumulate(Row& row, size_t bytes, double psnr, double encodeMs, double decodeMs) {
+  row.bytes += double(bytes);
+  row.psnr += psnr;
+  row.psnrMin = std::min(row.psnrMin, psnr);
+  row.encodeMs += encodeMs;
+  row.decodeMs += decodeMs;
+}
+
+void finish(Row& row, size_t frames) {
+  const double n = double(frames);
+  row.bytes /= n, row.psnr /= n, row.encodeMs /= n, row.decodeMs /= n;
+}
+
+double psnr(const image::Image8& a, const image::Image8& b) {
+  return image::compareImages(image::toImageF(a), image::toImageF(b)).psnr;
+}
+
+Row jpegRow(const std::vector<image::Image8>& frames, int quality) {
+  Row row{"jpeg", "q" + std::to_string(quality)};
+  for (const image::Image8& frame : frames) {
+    auto start = Clock::now();
+    proto::Frame sent{uint32_t(frame.width), uint32_t(frame.height), proto::Encoding::Jpeg, "{}",
+                      image::encodeFrameImage(frame, proto::Encoding::Jpeg, quality)};
+    const double encodeMs = msSince(start);
+    start = Clock::now();
+    const image::Image8 shown = image::decodeFrameImage(sent);
+    accumulate(row, sent.payload.size(), psnr(frame, shown), encodeMs, msSince(start));
+  }
+  finish(row, frames.size());
+  return row;
+}
+
+Row videoRow(const std::vector<image::Image8>& frames, proto::Encoding codec, int kbps, double fps) {
+  Row row{proto::encodingName(codec), std::to_string(kbps) + " kbit/s"};
+  image::VideoSettings settings;
+  settings.width = frames[0].width, settings.height = frames[0].height, settings.bitrateKbps = kbps;
+  image::VideoEncoder encoder(codec, settings);
+  image::VideoDecoder decoder(codec);
+  for (size_t i = 0; i < frames.size(); ++i) {
+    auto start = Clock::now();
+    const image::VideoChunk chunk = encoder.encode(frames[i], 1000.0 * double(i) / fps);
+    const double encodeMs = msSince(start);
+    start = Clock::now();
+    const image::Image8 shown = decoder.decode(chunk.bytes);
+    accumulate(row, chunk.bytes.size(), psnr(frames[i], shown), encodeMs, msSince(start));
+    if (chunk.key) row.keyBytes = double(chunk.bytes.size());
+  }
+  finish(row, frames.size());
+  return row;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"bench_video: a drag's frames as JPEG and as a VP8/VP9 stream, bytes against PSNR"};
+  std::string csvPath;
+  std::vector<std::string> paths;
+  std::vector<int> qualities{50, 70, 85, 95}, kbps{500, 1000, 2000, 4000, 8000};
+  double fps = 30;
+  app.add_option("--csv", csvPath, "the CSV to write")->required();
+  app.add_option("--qualities", qualities, "JPEG qualities")->delimiter(',');
+  app.add_option("--kbps", kbps, "video bitrates, kbit/s")->delimiter(',');
+  app.add_option("--fps", fps, "the frames' rate (the stream's timestamps)")->check(CLI::PositiveNumber);
+  app.add_option("frames", paths, "the drag's lossless frames, in order")->required();
+  CLI11_PARSE(app, argc, argv);
+  try {
+    std::vector<image::Image8> frames;
+    for (const std::string& path : paths) frames.push_back(image::readPng(path));
+    for (const image::Image8& f : frames)
+      if (f.width != frames[0].width || f.height != frames[0].height)
+        throw image::ImageFailure("bench_video: the frames differ in size");
+    std::vector<Row> rows;
+    for (int q : qualities) rows.push_back(jpegRow(frames, q));
+    for (const proto::Encoding codec : {proto::Encoding::Vp8, proto::Encoding::Vp9})
+      for (int k : kbps) rows.push_back(videoRow(frames, codec, k, fps));
+    std::ofstream csv(csvPath);
+    csv << "size,frames,fps,encoding,setting,bytes_per_frame,psnr_mean_db,psnr_min_db,encode_ms,decode_ms,key_bytes\n";
+    for (const Row& r : rows) {
+      char line[512];
+      std::snprintf(line, sizeof line, "%dx%d,%zu,%g,%s,%s,%.0f,%.2f,%.2f,%.2f,%.2f,%.0f\n", frames[0].width,
+                    frames[0].height, frames.size(), fps, r.encoding.c_str(), r.setting.c_str(), r.bytes, r.psnr,
+                    r.psnrMin, r.encodeMs, r.decodeMs, r.keyBytes);
+      csv << line;
+      std::fputs(line, stdout);
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_video: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
