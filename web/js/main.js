@@ -178,7 +178,7 @@ async function loadPresets() {
 }
 
 /// Saves the frame on the canvas as a PNG: the server's own bytes when the frame shown is its exact PNG, else the
-/// canvas (a provisional JPEG frame, decoded).
+/// canvas (a provisional jpeg or video frame, decoded).
 function saveFrame() {
   const f = loop.lastFrame;
   const v = app.view;
