@@ -65,16 +65,20 @@ export function httpGet(url, headers = {}) {
   });
 }
 
+let starts = 0; // servers started by this process, for their files' names
+
 /// The real server: `voxbrick serve --no-config --port 0 --http PORT --datasets DIR [extra]` (PORT 0: a free one,
 /// kept for restarts), its log in `dir`; `exe`: another build's binary (a benchmark's baseline), else VOXBRICK.
 export class Server {
   constructor({ dir, datasets, httpPort = 0, extra = [], exe = VOXBRICK }) {
-    Object.assign(this, { dir, datasets, httpPort, extra, exe, proc: null, serial: 0 });
+    Object.assign(this, { dir, datasets, httpPort, extra, exe, proc: null });
   }
 
   /// Starts the server; a restart listens on the HTTP port of the first start.
   async start() {
-    const tag = `${process.pid}-${this.serial++}`;
+    // Unique among all servers of the process: a second server in the same directory must not read the first one's
+    // port files.
+    const tag = `${process.pid}-${starts++}`;
     const portFile = path.join(this.dir, `port-${tag}`);
     const httpPortFile = path.join(this.dir, `http-port-${tag}`);
     this.logFile = path.join(this.dir, `serve-${tag}.log`);

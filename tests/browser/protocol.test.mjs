@@ -34,8 +34,8 @@ const u32 = (v) => {
 const str = (s) => [...u32(Buffer.byteLength(s)), ...Buffer.from(s)];
 
 describe("protocol.js", () => {
-  test("Hello is the bytes of PROTOCOL.md's example, with versions 1 to 3", () => {
-    // The document's example says max_version 1; the page speaks up to 3 (the fourth body byte).
+  test("Hello is the bytes of PROTOCOL.md's example, with versions 1 to 4", () => {
+    // The document's example says max_version 1; the page speaks up to 4 (the fourth body byte).
     assert.equal(
       hex(encode.hello(1, "example")),
       "5658424b" +
@@ -44,7 +44,7 @@ describe("protocol.js", () => {
         "01000000" +
         "0f000000" +
         "0100" +
-        "0300" +
+        "0400" +
         "07000000" +
         hex(Buffer.from("example")),
     );
@@ -87,6 +87,22 @@ describe("protocol.js", () => {
     assert.equal(retryAfterMs("no hint"), null);
   });
 
+  test("version 4: video Frames decode, FrameReceived carries the Frame's id and bytes", () => {
+    const frame = (encoding) => [...u32(2), ...u32(1), encoding, ...str("{}"), ...u32(1), 5];
+    assert.equal(decodeMessage(message(Type.Frame, frame(4), { version: 4 }), 4).body.encoding, Encoding.vp8);
+    assert.equal(decodeMessage(message(Type.Frame, frame(5), { version: 4 }), 4).body.encoding, Encoding.vp9);
+    const limits = [...u32(1 << 20), ...u32(4096), ...u32(1)];
+    const caps = decodeMessage(
+      message(Type.Capabilities, [4, 0, ...str("v"), ...limits, ...u32(6), 0, 1, 2, 3, 4, 5], { version: 4 }),
+    );
+    assert.deepEqual(caps.body.encodings, [0, 1, 2, 3, 4, 5]);
+    // Header (version 4, type 13, the Frame's request id, a 4-byte body), then frame_bytes.
+    assert.equal(
+      hex(encode.frameReceived(4, 0x01020304, 70000)),
+      "5658424b" + "0400" + "0d00" + "04030201" + "04000000" + "70110100",
+    );
+  });
+
   test("the decoder refuses what the C++ decoder refuses, naming the field", () => {
     const refused = (bytes, pattern, version = 1) =>
       assert.throws(
@@ -106,6 +122,17 @@ describe("protocol.js", () => {
     refused(
       message(Type.Frame, [...u32(1), ...u32(1), 3, ...str(""), ...u32(0)]),
       /Frame\.encoding: unknown encoding 3/,
+    );
+    // A video encoding in a version-3 session, and an encoding no version has.
+    refused(
+      message(Type.Frame, [...u32(1), ...u32(1), 4, ...str(""), ...u32(0)], { version: 3 }),
+      /Frame\.encoding: unknown encoding 4/,
+      3,
+    );
+    refused(
+      message(Type.Frame, [...u32(1), ...u32(1), 6, ...str(""), ...u32(0)], { version: 4 }),
+      /Frame\.encoding: unknown encoding 6/,
+      4,
     );
     refused(message(Type.Error, [99, 0, ...str("")]), /unknown error code 99/);
     refused(message(Type.DatasetList, [...u32(0)], { version: 3 }), /header\.version: 3/);

@@ -111,13 +111,25 @@ const VIEWS = {
   shading: { shading: true },
   quality: { quality: "psnr:40" },
 };
-const ALL = { interactive: true, time_budget_ms: true, provisional_encoding: true, progressive: true, jpeg: true };
+const ALL = {
+  interactive: true,
+  time_budget_ms: true,
+  provisional_encoding: true,
+  progressive: true,
+  keyframe: true,
+  jpeg: true,
+  video: "vp8",
+};
 const FEATURES = [
   ALL,
-  { ...ALL, jpeg: false },
+  { ...ALL, video: "vp9" },
+  { ...ALL, video: null },
+  { ...ALL, video: null, jpeg: false },
   ...MOTION_KEYS.map((k) => ({ ...ALL, [k]: false })),
   Object.fromEntries(Object.keys(ALL).map((k) => [k, false])),
 ];
+// What a Render asks besides: nothing, or a key frame of the video stream (its decoder waits for one).
+const ASKS = [{}, { keyframe: true }];
 const SIZES = [
   [640, 480],
   [1, 1],
@@ -131,11 +143,12 @@ function scenes() {
     for (const [viewName, change] of Object.entries(VIEWS))
       for (const phase of ["still", "drag"])
         for (const features of FEATURES)
-          for (const size of SIZES) {
-            const view = { ...defaultView("d"), ...change };
-            const scene = buildScene(view, meta, size, phase, features);
-            out.push({ scene, how: { metaName, viewName, phase, features, size } });
-          }
+          for (const size of SIZES)
+            for (const ask of ASKS) {
+              const view = { ...defaultView("d"), ...change };
+              const scene = buildScene(view, meta, size, phase, features, ask);
+              out.push({ scene, how: { metaName, viewName, phase, features, size, ask } });
+            }
   return out;
 }
 
@@ -148,6 +161,9 @@ describe("the viewer's scenes and the scene's schema", () => {
   test("every scene buildScene makes carries only those keys, each with a value the schema allows", () => {
     const sent = new Set();
     for (const { scene, how } of scenes()) {
+      // A key frame is asked of a video stream only (the server ignores it otherwise).
+      if (scene.keyframe)
+        assert.ok(["vp8", "vp9"].includes(scene.provisional_encoding), `keyframe without video: ${JSON.stringify(how)}`);
       for (const [key, value] of keysOf(scene)) {
         const entry = byKey.get(key);
         assert.ok(entry, `buildScene sent '${key}', which the schema lacks (${JSON.stringify(how)})`);
@@ -185,6 +201,7 @@ describe("the viewer's scenes and the scene's schema", () => {
         if (sent.camera.eye) assert.deepEqual(read.camera.eye, sent.camera.eye);
         if (sent.time_budget_ms) assert.equal(read.time_budget_ms, sent.time_budget_ms);
         if (sent.provisional_encoding) assert.equal(read.provisional_encoding, sent.provisional_encoding);
+        if (sent.keyframe) assert.equal(read.keyframe, true);
       }
     } finally {
       fs.rmSync(dir, { recursive: true, force: true });

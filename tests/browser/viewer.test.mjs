@@ -153,11 +153,13 @@ describe("viewer", () => {
     const done = await waitExact(page, 0);
     assert.deepEqual(done.lastScene.camera.orbit, [done.view.az, done.view.el], "the last frame is of the last camera");
     assert.ok(s.exactAfterReleaseMs < 5000, `exact frame ${s.exactAfterReleaseMs} ms after the release`);
-    // Version 3 (jpeg from version 2 on): provisional frames of the drag travel as jpeg, every exact frame as png.
-    assert.equal(done.capabilities.version, 3);
-    assert.ok(done.features.jpeg, "the server offers jpeg");
+    // Version 4: provisional frames of the drag travel as the vp8 stream (Chromium decodes it; video.test.mjs has the
+    // rest), every exact frame as png.
+    assert.equal(done.capabilities.version, 4);
+    assert.equal(done.features.video, "vp8");
     const frames = await page.evaluate(() => window.voxbrickViewer.frames());
-    for (const f of frames) assert.equal(f.encoding, f.provisional && f.phase === "drag" ? 3 : 1, JSON.stringify(f));
+    for (const f of frames) assert.equal(f.encoding, f.provisional && f.phase === "drag" ? 4 : 1, JSON.stringify(f));
+    assert.equal(done.video.errors, 0);
     // Interactive Renders while dragging: provisional frames drawn within the time budget.
     assert.ok(done.features.interactive && done.features.time_budget_ms, JSON.stringify(done.features));
     assert.ok(

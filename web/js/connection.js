@@ -40,6 +40,10 @@ export class Connection {
     } catch (e) {
       return this.fail(e instanceof ProtocolError ? `cannot decode a reply: ${e.message}` : String(e));
     }
+    // Version 4: every Frame is reported as it arrives, before the page decodes it, so that the server keeps at most
+    // two Frames on their way and measures the link (its video stream's bitrate follows it).
+    if (m.type === Type.Frame && this.version >= 4)
+      this.send(encode.frameReceived(this.version, m.requestId, data.byteLength));
     if (m.type === Type.Capabilities) {
       this.version = m.body.version;
       this.waiting.delete(m.requestId);

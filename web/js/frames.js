@@ -2,10 +2,12 @@
 // unanswered (one drawing, one waiting: the server's latest-wins replaces a waiting one with the newer and answers it
 // Superseded, so a camera never waits for the frame before it, and there is never a backlog); frames are shown only
 // going forward (a Frame of an older Render than the one shown is dropped; a Render's exact frame follows its
-// provisional one); and the figures of the overlay: frames per second, the age of the camera each shown frame was
-// drawn for, bytes per frame, stand-ins.
+// provisional one); video Frames (a moving camera's, protocol version 4) all go to the session's decoder, shown or
+// not; and the figures of the overlay: frames per second, the age of the camera each shown frame was drawn for, bytes
+// per frame, stand-ins, the video's bitrate and decode time.
 
-import { Encoding, ErrorCode } from "./protocol.js";
+import { Encoding, ErrorCode, isVideo } from "./protocol.js";
+import { VideoStream } from "./video.js";
 
 const MIME = { [Encoding.png]: "image/png", [Encoding.jpeg]: "image/jpeg" };
 const KEEP = 2000; // shown frames kept for the figures
@@ -15,14 +17,18 @@ const MAX_OUTSTANDING = 3;
 const REMEMBERED = 16; // recent Renders kept, so that a late exact frame finds its camera
 
 export class FrameLoop {
-  /// `canvas`: where frames are drawn. `hooks`: scene(phase) -> the scene to ask for now, or null if none can be
-  /// asked yet; refused(error) -> true when the page changed what it asks (then the frame is asked again);
+  /// `canvas`: where frames are drawn. `hooks`: scene(phase, {keyframe}) -> the scene to ask for now (asking the
+  /// video stream for a key frame when `keyframe`), or null if none can be asked yet; refused(error) -> true when the page changed what it asks (then the frame is asked again);
   /// shown(frame) after each frame drawn; failed(error) for an Error that is not handled.
   constructor(canvas, hooks) {
     this.canvas = canvas;
     this.ctx = canvas.getContext("2d", { alpha: false, colorSpace: "srgb" });
     this.hooks = hooks;
     this.connection = null;
+    this.video = new VideoStream({
+      output: (frame, meta, decodeMs) => this.videoOutput(frame, meta, decodeMs),
+      failed: (e) => hooks.failed({ name: "Decode", message: `the video decoder failed: ${e.message || e}` }),
+    });
     this.reset();
     this.resetFigures();
   }
@@ -36,6 +42,9 @@ export class FrameLoop {
     this.shownExact = false; // and whether that frame was its exact one
     this.wanted = null; // {cameraAt, phase}: a frame is wanted that was not asked for yet
     this.decodeSerial = 0;
+    this.keyAskId = 0; // the Render that asked for a key frame last
+    // A new connection is a new video stream, and a new dataset starts one with a key frame: the decoder starts over.
+    this.video.reset();
   }
 
   resetFigures() {
@@ -48,6 +57,7 @@ export class FrameLoop {
     this.lastFrame = null;
     this.lastStats = null;
     this.lastPayload = null;
+    this.video.resetFigures();
   }
 
   attach(connection) {
@@ -74,11 +84,16 @@ export class FrameLoop {
 
   pump() {
     if (!this.connection || this.outstanding.size >= MAX_OUTSTANDING || !this.wanted) return;
-    const scene = this.hooks.scene(this.wanted.phase);
+    // While the decoder waits for a key frame, a Render asks for one, until one comes. The ask is that Render's own:
+    // if its frame is replaced before it is encoded (latest wins: it is answered Superseded), the next Render asks
+    // again. One ask at a time, or each Render in flight would cost a key frame.
+    const keyframe = this.video.askKey && !this.outstanding.has(this.keyAskId);
+    const scene = this.hooks.scene(this.wanted.phase, { keyframe });
     if (!scene) return;
     const id = this.connection.render(Encoding.png, scene);
     this.newest = { id, ...this.wanted, scene, sentAt: performance.now() };
     this.outstanding.add(id);
+    if (scene.keyframe) this.keyAskId = id;
     this.sent.set(id, this.newest);
     if (this.sent.size > REMEMBERED) this.sent.delete(this.sent.keys().next().value);
     this.wanted = null;
@@ -90,8 +105,11 @@ export class FrameLoop {
     this.outstanding.delete(m.requestId);
     if (m.typeName === "Frame") {
       const request = this.sent.get(m.requestId);
-      if (request && this.advance(m)) this.show(m, request);
-      else this.counts.dropped++;
+      const stats = statsOf(m.body);
+      const forward = request && this.advance(m, stats);
+      if (isVideo(m.body.encoding)) this.decodeVideo(m, stats, request, forward);
+      else if (forward) this.show(m, stats, request);
+      if (!forward) this.counts.dropped++;
     } else if (m.typeName === "Error") {
       if (answersNewest && m.body.code === ErrorCode.InvalidScene && this.hooks.refused(m.body)) {
         this.counts.refused++;
@@ -106,15 +124,10 @@ export class FrameLoop {
     this.pump();
   }
 
-  /// Whether Frame `m` moves the canvas forward (a later Render's frame, or the exact frame of the Render shown);
-  /// if so it becomes the one shown. A frame whose statistics cannot be read counts as exact.
-  advance(m) {
-    let provisional = false;
-    try {
-      provisional = JSON.parse(m.body.statsJson).provisional === true;
-    } catch {
-      /* shown as an exact frame */
-    }
+  /// Whether Frame `m` (its statistics `stats`) moves the canvas forward (a later Render's frame, or the exact frame
+  /// of the Render shown); if so it becomes the one shown. A frame whose statistics cannot be read counts as exact.
+  advance(m, stats) {
+    const provisional = stats.provisional === true;
     const forward = m.requestId > this.shownId || (m.requestId === this.shownId && !this.shownExact && !provisional);
     if (forward) {
       this.shownId = m.requestId;
@@ -123,15 +136,37 @@ export class FrameLoop {
     return forward;
   }
 
-  async show(m, request) {
-    const f = m.body;
-    let stats = {};
+  /// A video Frame: decoded whether shown or not (the stream's next frames are drawn from it), and drawn once
+  /// decoded if it moved the canvas forward and no later frame was shown meanwhile.
+  decodeVideo(m, stats, request, forward) {
+    const meta = { m, request, stats, serial: 0 };
+    if (!this.video.decode(m.requestId, m.body, meta.stats, meta)) return;
+    if (forward) meta.serial = ++this.decodeSerial;
+  }
+
+  videoOutput(frame, meta, decodeMs) {
+    // Not to be shown, or a later frame was shown first: only decoded, for the frames after it.
+    if (!meta.serial || meta.serial !== this.decodeSerial) return frame.close();
     try {
-      stats = JSON.parse(f.statsJson);
-    } catch {
-      /* a frame without readable statistics is still shown */
+      this.draw(frame, meta.m.body);
+    } finally {
+      frame.close();
     }
+    this.present(meta.m, meta.request, meta.stats, decodeMs);
+  }
+
+  /// Draws a decoded image at the frame's size; a canvas resized after the frame was asked shows it scaled until the
+  /// next one.
+  draw(image, f) {
+    if (this.canvas.width !== f.width || this.canvas.height !== f.height)
+      this.ctx.drawImage(image, 0, 0, this.canvas.width, this.canvas.height);
+    else this.ctx.drawImage(image, 0, 0, f.width, f.height);
+  }
+
+  async show(m, stats, request) {
+    const f = m.body;
     const serial = ++this.decodeSerial;
+    const decodeStart = performance.now();
     let bitmap;
     try {
       const blob = new Blob([f.payload], { type: MIME[f.encoding] || "application/octet-stream" });
@@ -142,13 +177,15 @@ export class FrameLoop {
     }
     // A later frame whose decoding finished first wins; this one is dropped.
     if (serial !== this.decodeSerial) return bitmap.close();
-    if (this.canvas.width !== f.width || this.canvas.height !== f.height) {
-      // The canvas was resized after this frame was asked: shown scaled until the next one.
-      this.ctx.drawImage(bitmap, 0, 0, this.canvas.width, this.canvas.height);
-    } else {
-      this.ctx.drawImage(bitmap, 0, 0);
-    }
+    const decodeMs = performance.now() - decodeStart;
+    this.draw(bitmap, f);
     bitmap.close();
+    this.present(m, request, stats, decodeMs);
+  }
+
+  /// Records frame `m`, just drawn, in the figures and tells the page.
+  present(m, request, stats, decodeMs) {
+    const f = m.body;
     const now = performance.now();
     const provisional = stats.provisional === true;
     const frame = {
@@ -165,6 +202,10 @@ export class FrameLoop {
       // An interactive frame's time budget as the server drew it (which may differ from the one asked for).
       budgetMs: stats.interactive ? stats.interactive.budget_ms : null,
       phase: request.phase,
+      decodeMs,
+      // A video frame: whether it was a key frame, and the stream's bitrate when it was encoded.
+      key: stats.video ? stats.video.key === true : null,
+      bitrateKbps: stats.video ? stats.video.bitrate_kbps : null,
     };
     this.shownFrames.push(frame);
     if (this.shownFrames.length > KEEP) this.shownFrames.shift();
@@ -187,6 +228,15 @@ export class FrameLoop {
     const last = this.shownFrames.slice(-100).map((f) => f.latencyMs);
     last.sort((a, b) => a - b);
     const pick = (p) => (last.length ? last[Math.min(last.length - 1, Math.floor(p * last.length))] : null);
-    return { fps: recent.length, p50: pick(0.5), p99: pick(0.99), last: this.lastFrame };
+    return { fps: recent.length, p50: pick(0.5), p99: pick(0.99), last: this.lastFrame, video: this.video.figures() };
+  }
+}
+
+/// A Frame's statistics; a frame without readable statistics is still shown, as an exact frame.
+function statsOf(f) {
+  try {
+    return JSON.parse(f.statsJson);
+  } catch {
+    return {};
   }
 }

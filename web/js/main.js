@@ -5,8 +5,9 @@
 import { Connection } from "./connection.js";
 import { FrameLoop } from "./frames.js";
 import { attachGestures } from "./input.js";
-import { Encoding } from "./protocol.js";
+import { Encoding, encodingName } from "./protocol.js";
 import { CurveEditor } from "./tfeditor.js";
+import { pickVideoCodec } from "./video.js";
 import * as V from "./view.js";
 import { bindPanel } from "./panel.js";
 
@@ -32,7 +33,15 @@ const app = {
   reason: "",
   attempts: 0,
   reconnectTimer: 0,
-  features: { interactive: true, time_budget_ms: true, provisional_encoding: true, progressive: true, jpeg: false },
+  features: {
+    interactive: true,
+    time_budget_ms: true,
+    provisional_encoding: true,
+    progressive: true,
+    keyframe: true,
+    jpeg: false,
+    video: null, // "vp8" or "vp9": the video codec the server offers and this browser decodes (checked at connect)
+  },
   dragging: false,
   notes: [],
 };
@@ -44,8 +53,8 @@ $("status-link").href = statusLink.pathname + statusLink.search;
 
 const canvas = $("frame");
 const loop = new FrameLoop(canvas, {
-  scene: (phase) =>
-    app.state === "ready" && app.meta ? V.buildScene(app.view, app.meta, frameSize(), phase, app.features) : null,
+  scene: (phase, ask) =>
+    app.state === "ready" && app.meta ? V.buildScene(app.view, app.meta, frameSize(), phase, app.features, ask) : null,
   refused: refusedScene,
   shown: () => drawOverlay(),
   failed: (e) => note(`${e.name}: ${e.message}`),
@@ -65,7 +74,8 @@ function fitCanvas() {
   const [w, h] = frameSize();
   if (canvas.width !== w || canvas.height !== h) {
     [canvas.width, canvas.height] = [w, h];
-    loop.want("still");
+    // Mid-drag, the frames of the new size keep moving (a video stream goes on with a key frame of the new size).
+    loop.want(app.dragging ? "drag" : "still");
   }
 }
 
@@ -75,6 +85,12 @@ function fitCanvas() {
 function refusedScene(error) {
   const unknown = /unknown key '([^']+)'/.exec(error.message);
   const names = (key) => (unknown ? unknown[1] === key : error.message.includes(`'${key}'`));
+  if (app.features.video && !unknown && names("provisional_encoding")) {
+    // The server would not send this scene as video: moving frames go back to jpeg.
+    note(`${app.features.video} refused (${error.message}): moving frames as jpeg`);
+    app.features.video = null;
+    return true;
+  }
   for (const key of V.MOTION_KEYS) {
     if (app.features[key] && names(key)) {
       app.features[key] = false;
@@ -100,19 +116,29 @@ function note(text) {
 function drawOverlay() {
   const f = loop.figures();
   const ms = (v) => (v === null || v === undefined ? "–" : `${v.toFixed(0)} ms`);
+  const ms1 = (v) => (v === null || v === undefined ? "–" : `${v.toFixed(1)} ms`);
   const lines = [];
   if (f.last) {
     const kind = f.last.provisional ? "provisional" : "exact";
-    lines.push(
-      `${f.fps} fps   ${f.last.width}×${f.last.height} ${f.last.encoding === Encoding.jpeg ? "jpeg" : "png"} ${kind}`,
-    );
+    lines.push(`${f.fps} fps   ${f.last.width}×${f.last.height} ${encodingName(f.last.encoding)} ${kind}`);
     lines.push(`latency ${ms(f.last.latencyMs)}  p50 ${ms(f.p50)}  p99 ${ms(f.p99)}`);
     lines.push(
-      `${(f.last.bytes / 1024).toFixed(1)} KiB/frame   render ${ms(f.last.renderMs)}   stand-ins ${f.last.standin}`,
+      `${(f.last.bytes / 1024).toFixed(1)} KiB/frame   decode ${ms1(f.last.decodeMs)}   render ${ms(f.last.renderMs)}` +
+        `   stand-ins ${f.last.standin}`,
     );
   } else {
     lines.push("no frame yet");
   }
+  // How moving frames travel: the video stream (its bitrate, set by the server from the link) or jpeg.
+  const v = f.video;
+  if (app.features.video)
+    lines.push(
+      `moving: ${app.features.video}` +
+        (v.bitrateKbps ? `  ${v.bitrateKbps} kbit/s` : "") +
+        `  decode ${ms1(v.lastDecodeMs)}  key frames ${v.keyFrames}` +
+        (v.skipped || v.errors ? `  skipped ${v.skipped}  errors ${v.errors}` : ""),
+    );
+  else if (app.capabilities) lines.push(`moving: ${app.features.jpeg ? "jpeg" : "png"}`);
   if (app.notes.length) lines.push(app.notes[app.notes.length - 1]);
   $("overlay").textContent = lines.join("\n");
 }
@@ -152,7 +178,7 @@ async function loadPresets() {
 }
 
 /// Saves the frame on the canvas as a PNG: the server's own bytes when the frame shown is its exact PNG, else the
-/// canvas (a provisional JPEG frame, decoded).
+/// canvas (a provisional jpeg or video frame, decoded).
 function saveFrame() {
   const f = loop.lastFrame;
   const v = app.view;
@@ -196,6 +222,8 @@ function connect() {
 async function greeted(c, caps) {
   app.capabilities = caps;
   app.features.jpeg = caps.encodings.includes(Encoding.jpeg);
+  // Which video codec this browser decodes is asked while the datasets are listed; known before the first drag.
+  const video = pickVideoCodec(caps.encodings);
   loadPresets();
   try {
     app.datasets = await c.listDatasets();
@@ -215,6 +243,7 @@ async function greeted(c, caps) {
       app.view.dataset = opened;
     }
     const name = app.view.dataset || app.datasets[0];
+    app.features.video = await video;
     await openDataset(c, name);
     app.attempts = 0;
   } catch (e) {
@@ -375,6 +404,9 @@ window.voxbrickViewer = {
     dataset: app.meta ? app.view.dataset : "",
     capabilities: app.capabilities,
     features: { ...app.features },
+    // How moving frames travel now: "vp8", "vp9", "jpeg" or "png"; and the video stream's figures.
+    moving: app.features.video || (app.features.jpeg && app.features.provisional_encoding ? "jpeg" : "png"),
+    video: loop.video.figures(),
     view: JSON.parse(JSON.stringify(app.view)),
     canvas: [canvas.width, canvas.height],
     lastFrame: loop.lastFrame,
@@ -392,6 +424,8 @@ window.voxbrickViewer = {
   /// Saves the frame as the Save frame button does; returns the file's name.
   saveFrame,
   frames: () => loop.shownFrames.slice(),
+  /// Every video Frame that arrived, shown or not: {id, streamFrame, key, keyReason, width, height, bytes, decoded}.
+  videoFrames: () => loop.video.log.slice(),
   resetFigures: () => loop.resetFigures(),
   /// The canvas pixels as base64 of RGBA rows, top first.
   pixels: () => {

@@ -6,7 +6,7 @@
 export const MAGIC = 0x4b425856; // "VXBK" read as a little-endian u32
 export const HEADER_BYTES = 16;
 export const MIN_VERSION = 1;
-export const MAX_VERSION = 3;
+export const MAX_VERSION = 4;
 
 export const Type = Object.freeze({
   Hello: 1,
@@ -21,11 +21,15 @@ export const Type = Object.freeze({
   GetStats: 10,
   Stats: 11,
   Goodbye: 12,
+  FrameReceived: 13, // version 4 on, client to server: a Frame arrived (the server paces frames to the link)
 });
 
-export const Encoding = Object.freeze({ raw_rgba8: 0, png: 1, zstd_rgba8: 2, jpeg: 3 });
-/// Encodings each version may carry (a version-1 session never sees jpeg).
-const ENCODINGS_BY_VERSION = { 1: [0, 1, 2], 2: [0, 1, 2, 3], 3: [0, 1, 2, 3] };
+export const Encoding = Object.freeze({ raw_rgba8: 0, png: 1, zstd_rgba8: 2, jpeg: 3, vp8: 4, vp9: 5 });
+/// Encodings each version may carry (a version-1 session never sees jpeg, a version-3 one no video).
+const ENCODINGS_BY_VERSION = { 1: [0, 1, 2], 2: [0, 1, 2, 3], 3: [0, 1, 2, 3], 4: [0, 1, 2, 3, 4, 5] };
+/// The names the scene's `provisional_encoding` and the overlay give each encoding.
+export const encodingName = (e) => ["raw", "png", "zstd", "jpeg", "vp8", "vp9"][e] || `encoding ${e}`;
+export const isVideo = (e) => e === Encoding.vp8 || e === Encoding.vp9;
 
 export const ErrorCode = Object.freeze({
   BadMagic: 1,
@@ -186,6 +190,12 @@ export const encode = {
     return w.finish(version, Type.Render, id);
   },
   getStats: (version, id) => new Writer().finish(version, Type.GetStats, id),
+  /// Reports the Frame of request `id` that arrived, `frameBytes` long with its header (version 4 on).
+  frameReceived: (version, id, frameBytes) => {
+    const w = new Writer();
+    w.u32(frameBytes);
+    return w.finish(version, Type.FrameReceived, id);
+  },
   goodbye: (version, id) => new Writer().finish(version, Type.Goodbye, id),
 };
 

@@ -146,7 +146,7 @@ export function sceneCamera(view, meta, aspect) {
 
 /// The keys a scene may carry for a moving camera, tried in this order of preference: the server refuses keys it
 /// does not know (InvalidScene naming the key), and the viewer then drops that key for the session.
-export const MOTION_KEYS = ["interactive", "time_budget_ms", "provisional_encoding", "progressive"];
+export const MOTION_KEYS = ["interactive", "time_budget_ms", "provisional_encoding", "progressive", "keyframe"];
 /// Every scene key buildScene may send, a camera's as "camera.KEY". tests/browser/scene_keys.test.mjs holds each to
 /// the scene's schema (`voxbrick scene --schema`) and every scene buildScene makes to this list.
 export const SCENE_KEYS = [
@@ -167,9 +167,11 @@ export const SCENE_KEYS = [
 export const DRAG_TIME_BUDGET_MS = 50;
 
 /// The scene of a Render: `phase` "drag" while the camera moves, "still" otherwise. `features` says which optional
-/// keys the server took (`interactive`, `time_budget_ms`, `provisional_encoding`, `progressive`: true until refused)
-/// and whether it offers jpeg. This is the one place that picks how moving frames are made.
-export function buildScene(view, meta, size, phase, features) {
+/// keys the server took (`interactive`, `time_budget_ms`, `provisional_encoding`, `progressive`, `keyframe`: true
+/// until refused), whether it offers jpeg, and `video`: the video codec ("vp8" or "vp9") the server offers and the
+/// browser decodes, or null. `ask.keyframe`: the video decoder waits for a key frame. This is the one place that
+/// picks how moving frames are made.
+export function buildScene(view, meta, size, phase, features, ask = {}) {
   const scene = {
     camera: sceneCamera(view, meta, size[0] / size[1]),
     size,
@@ -186,8 +188,17 @@ export function buildScene(view, meta, size, phase, features) {
     // Bricks not yet in memory stand in from a coarser level; the exact frame follows.
     scene.progressive = true;
   }
-  // While the camera moves, provisional frames travel as jpeg; the exact frame keeps the Render's encoding (png).
-  if (phase === "drag" && features.provisional_encoding && features.jpeg) scene.provisional_encoding = "jpeg";
+  // While the camera moves, provisional frames travel as the session's video stream (protocol version 4: inter frames
+  // carry what changed, a fraction of a jpeg's bytes), or as jpeg where the browser decodes none of the server's
+  // codecs; the exact frame keeps the Render's encoding (png).
+  if (phase === "drag" && features.provisional_encoding) {
+    if (features.video) {
+      scene.provisional_encoding = features.video;
+      if (ask.keyframe && features.keyframe) scene.keyframe = true;
+    } else if (features.jpeg) {
+      scene.provisional_encoding = "jpeg";
+    }
+  }
   return scene;
 }
 

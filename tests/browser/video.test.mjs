@@ -1,0 +1,268 @@
+// The viewer's video stream (protocol version 4) in a real browser (Debian's Chromium, headless, whose WebCodecs
+// decode VP8 and VP9) against the real `voxbrick serve --http`: a drag gets vp8 frames, every one decoded in the
+// stream's order and those shown close to the exact frame; a browser that decodes no codec (or has no WebCodecs) gets
+// jpeg; a resize mid-drag, a reconnection and a failed decoder each get a key frame.
+
+import assert from "node:assert/strict";
+import { after, before, describe, test } from "node:test";
+import * as H from "./harness.mjs";
+
+const SIZE = [160, 128];
+const SIZE_PARAM = `size=${SIZE[0]}x${SIZE[1]}`;
+
+const waitExact = (page, afterId = 0, timeout = 20000) =>
+  H.waitForState(
+    page,
+    (s, after) => s.lastFrame && !s.lastFrame.provisional && s.lastFrame.id === s.newestId && s.newestId > after,
+    timeout,
+    afterId,
+  );
+
+/// A scripted drag through the page's own gesture handlers (voxbrickViewer.drag); resolves once released.
+const drag = (page, options) => page.evaluate((o) => window.voxbrickViewer.drag(o), options);
+/// The viewer at `url` in a new page that runs `script` before the page's own scripts (what a browser without
+/// a codec, or with a failing decoder, would do).
+async function openPageWith(browser, url, script) {
+  const page = await browser.newPage();
+  page.errors = [];
+  page.on("pageerror", (e) => page.errors.push(e.message));
+  await page.setViewport({ width: 720, height: 420, deviceScaleFactor: 1 });
+  await page.evaluateOnNewDocument(script);
+  await page.goto(url, { waitUntil: "load" });
+  await page.waitForFunction(() => window.voxbrickViewer !== undefined, { timeout: 10000 });
+  return page;
+}
+const videoFrames = (page) => page.evaluate(() => window.voxbrickViewer.videoFrames());
+const shownFrames = (page) => page.evaluate(() => window.voxbrickViewer.frames());
+
+/// PSNR in dB of the RGB of two images of one size.
+function psnr(a, b) {
+  let sum = 0;
+  let n = 0;
+  for (let i = 0; i < a.rgba.length; i += 4)
+    for (let c = 0; c < 3; ++c) {
+      const d = a.rgba[i + c] - b.rgba[i + c];
+      sum += d * d;
+      ++n;
+    }
+  return sum ? 10 * Math.log10((255 * 255 * n) / sum) : Infinity;
+}
+
+/// The stream's frames as they arrived: each was given to the decoder, and stream_frame counts up by one, from 0 at
+/// each key frame that starts an encoder (the first, or one of a new size or codec).
+function assertWholeStream(frames) {
+  assert.ok(frames.length > 0, "video frames arrived");
+  frames.forEach((f, i) => {
+    const restart = f.key && ["start", "size", "codec"].includes(f.keyReason);
+    const expected = restart ? 0 : frames[i - 1].streamFrame + 1;
+    assert.equal(f.streamFrame, expected, `frame ${i} of the stream: ${JSON.stringify(frames.slice(0, i + 1))}`);
+    assert.ok(f.decoded, `frame ${i} was decoded: ${JSON.stringify(f)}`);
+  });
+}
+
+describe("viewer video stream", () => {
+  let scratch, datasets, server, browser;
+
+  before(async () => {
+    scratch = H.scratchDir("video");
+    datasets = H.prepDatasets(scratch.dir, { sparse: "synthetic:sparse,n=64", ml: "synthetic:marschner-lobb,n=48" });
+    server = await new H.Server({ dir: scratch.dir, datasets }).start();
+    browser = await H.launchBrowser();
+  });
+
+  after(async () => {
+    if (browser) await browser.close();
+    if (server) await server.kill();
+    if (scratch) scratch.remove();
+  });
+
+  test("a drag in a browser that decodes vp8 gets the vp8 stream, every frame decoded in order", async () => {
+    const page = await H.openPage(browser, `${server.url}/?dataset=ml&${SIZE_PARAM}`);
+    const start = await waitExact(page);
+    assert.equal(start.capabilities.version, 4);
+    assert.ok(start.capabilities.encodings.includes(4) && start.capabilities.encodings.includes(5));
+    assert.equal(start.features.video, "vp8", "vp8 is the first codec asked, and Chromium decodes it");
+    assert.equal(start.moving, "vp8");
+    await page.evaluate(() => window.voxbrickViewer.resetFigures());
+    await drag(page, { durationMs: 2500, hz: 30, dAz: 2 });
+    const done = await waitExact(page, start.newestId);
+    // The frames shown while dragging were vp8 frames, decoded and drawn; the exact frame after the release is png.
+    const shown = await shownFrames(page);
+    const moving = shown.filter((f) => f.provisional && f.phase === "drag");
+    assert.ok(moving.length >= 5, `vp8 frames shown while dragging: ${moving.length}`);
+    for (const f of moving) {
+      assert.equal(f.encoding, 4, JSON.stringify(f));
+      assert.ok(f.decodeMs >= 0 && f.decodeMs < 2000, `decode ms ${f.decodeMs}`);
+      assert.ok(f.bitrateKbps > 0, `bitrate ${f.bitrateKbps}`);
+    }
+    assert.equal(done.lastFrame.encoding, 1, "the exact frame is png");
+    const v = done.video;
+    assert.equal(v.codec, "vp8");
+    assert.equal(v.errors, 0);
+    assert.equal(v.skipped, 0);
+    assert.ok(v.decoded > 0 && v.decoded === v.frames, `decoded ${v.decoded} of ${v.frames}`);
+    assert.ok(v.bitrateKbps > 0 && v.lastDecodeMs !== null, JSON.stringify(v));
+    // Every frame of the stream came, in order (those not shown too), the first a key frame.
+    const frames = await videoFrames(page);
+    assertWholeStream(frames);
+    assert.deepEqual([frames[0].key, frames[0].keyReason], [true, "start"]);
+    assert.equal(frames.filter((f) => f.key).length, 1, "one key frame: the size and the dataset stayed");
+    // The overlay names the codec, its bitrate and decode time.
+    const overlay = await page.$eval("#overlay", (e) => e.textContent);
+    assert.match(overlay, /moving: vp8 {2}\d+ kbit\/s {2}decode \d+\.\d ms {2}key frames 1/);
+    assert.deepEqual(page.errors, []);
+    await page.close();
+  });
+
+  test("a vp8 frame shows the image the server drew, within the codec's loss", async () => {
+    // A drag that does not move (0 degrees a move): each provisional frame is of the camera of the exact frame that
+    // follows the release; on this small frame the server draws it exactly (rung 0), so only the codec differs.
+    const page = await H.openPage(browser, `${server.url}/?dataset=ml&orbit=40,25&tf=hot&${SIZE_PARAM}`);
+    const start = await waitExact(page);
+    const dragging = drag(page, { durationMs: 4000, hz: 20, dAz: 0 });
+    const s = await H.waitForState(
+      page,
+      (st) =>
+        st.lastFrame.encoding === 4 && st.lastStats.interactive && st.lastStats.interactive.rung === 0 && st.video.decoded > 3,
+    );
+    const vp8Pixels = await H.canvasPixels(page);
+    await dragging;
+    const exact = await waitExact(page, start.newestId);
+    assert.equal(exact.lastFrame.encoding, 1);
+    const pngPixels = await H.canvasPixels(page);
+    assert.ok(H.litPixels(pngPixels) > 500, "the frame shows the volume");
+    const db = psnr(vp8Pixels, pngPixels);
+    // Measured: 37.5 dB; decoded as BT.709 full range in place of the stream's BT.601 limited range, 24.1 dB.
+    assert.ok(db > 28, `vp8 frame against the exact png: ${db.toFixed(1)} dB (${JSON.stringify(s.lastFrame)})`);
+    await page.close();
+  });
+
+  test("a browser that decodes no video codec gets jpeg, as one without WebCodecs does", async () => {
+    const cases = {
+      "isConfigSupported says no": () => {
+        VideoDecoder.isConfigSupported = async (config) => ({ supported: false, config });
+      },
+      "no VideoDecoder": () => {
+        delete window.VideoDecoder;
+      },
+    };
+    for (const [name, script] of Object.entries(cases)) {
+      const page = await openPageWith(browser, `${server.url}/?dataset=sparse&${SIZE_PARAM}`, script);
+      const start = await waitExact(page);
+      assert.equal(start.capabilities.version, 4, name);
+      assert.equal(start.features.video, null, name);
+      assert.equal(start.moving, "jpeg", name);
+      await drag(page, { durationMs: 1500, hz: 30, dAz: 3 });
+      const done = await waitExact(page, start.newestId);
+      const moving = (await shownFrames(page)).filter((f) => f.provisional && f.phase === "drag");
+      assert.ok(moving.length >= 3, `${name}: jpeg frames while dragging: ${moving.length}`);
+      for (const f of moving) assert.equal(f.encoding, 3, `${name}: ${JSON.stringify(f)}`);
+      assert.equal(done.video.frames, 0, `${name}: no video frame came`);
+      assert.match(await page.$eval("#overlay", (e) => e.textContent), /moving: jpeg/);
+      assert.deepEqual(page.errors, [], name);
+      await page.close();
+    }
+  });
+
+  test("a resize mid-drag gets a key frame of the new size", async () => {
+    // No fixed size: the frame is the canvas's, which follows the window.
+    const page = await H.openPage(browser, `${server.url}/?dataset=sparse`, { width: 560, height: 300 });
+    const start = await waitExact(page);
+    const before = start.canvas;
+    const dragging = drag(page, { durationMs: 4000, hz: 30, dAz: 2 });
+    await H.waitForState(page, (st) => st.video.decoded >= 5);
+    await page.setViewport({ width: 500, height: 260, deviceScaleFactor: 1 });
+    const resized = await H.waitForState(page, (st, b) => st.canvas[0] !== b[0], 5000, before);
+    await dragging;
+    await waitExact(page, start.newestId);
+    const frames = await videoFrames(page);
+    assertWholeStream(frames);
+    const at = frames.findIndex((f) => f.width === resized.canvas[0] && f.height === resized.canvas[1]);
+    assert.ok(at > 0, `frames of the new size ${resized.canvas}: ${JSON.stringify(frames.map((f) => f.width))}`);
+    assert.deepEqual([frames[at].key, frames[at].keyReason], [true, "size"], JSON.stringify(frames[at]));
+    assert.ok(frames.slice(0, at).every((f) => f.width === before[0] && f.height === before[1]));
+    assert.ok(frames.slice(at + 1).every((f) => !f.key), "one key frame for the resize");
+    assert.ok(frames.length - at >= 3, `frames after the resize: ${frames.length - at}`);
+    // Frames of the new size were shown, drawn at their own size.
+    const shown = (await shownFrames(page)).filter((f) => f.encoding === 4 && f.width === resized.canvas[0]);
+    assert.ok(shown.length >= 1, "a vp8 frame of the new size was shown");
+    const v = (await H.viewerState(page)).video;
+    assert.equal(v.errors, 0);
+    assert.equal(v.skipped, 0);
+    assert.equal(v.keyFrames, 2);
+    assert.deepEqual(page.errors, []);
+    await page.close();
+  });
+
+  test("a new connection starts a new stream with a key frame", async () => {
+    const own = await new H.Server({ dir: scratch.dir, datasets }).start();
+    try {
+      const page = await H.openPage(browser, `${own.url}/?dataset=sparse&${SIZE_PARAM}`);
+      const start = await waitExact(page);
+      await drag(page, { durationMs: 1000, hz: 30, dAz: 2 });
+      await waitExact(page, start.newestId);
+      const first = await videoFrames(page);
+      assertWholeStream(first);
+      // The server goes away and comes back: the page reconnects, and its next drag is a new stream.
+      await own.kill();
+      const down = await H.waitForState(page, (st) => st.connection === "disconnected");
+      await own.start();
+      const back = await H.waitForState(
+        page,
+        (st, shown) => st.connection === "ready" && !st.lastFrame.provisional && st.counts.shown > shown,
+        30000,
+        down.counts.shown,
+      );
+      await page.evaluate(() => window.voxbrickViewer.resetFigures());
+      await drag(page, { durationMs: 1000, hz: 30, dAz: 2 });
+      await waitExact(page, back.newestId);
+      const frames = await videoFrames(page);
+      assertWholeStream(frames);
+      assert.deepEqual([frames[0].key, frames[0].keyReason], [true, "start"]);
+      const v = (await H.viewerState(page)).video;
+      assert.equal(v.errors, 0);
+      assert.equal(v.skipped, 0);
+      assert.ok(v.decoded === frames.length, `decoded ${v.decoded} of ${frames.length}`);
+      await page.close();
+    } finally {
+      await own.kill();
+    }
+  });
+
+  test("a decoder that fails asks for a key frame and goes on from it", async () => {
+    // The browser's decoder refuses the stream's 6th chunk, as a decoder that fails on a frame would.
+    const page = await openPageWith(browser, `${server.url}/?dataset=ml&${SIZE_PARAM}`, () => {
+      const decode = VideoDecoder.prototype.decode;
+      let chunks = 0;
+      VideoDecoder.prototype.decode = function (chunk) {
+        if (++chunks === 6) throw new DOMException("refused by the test", "EncodingError");
+        return decode.call(this, chunk);
+      };
+    });
+    const start = await waitExact(page);
+    await drag(page, { durationMs: 3000, hz: 30, dAz: 2 });
+    const done = await waitExact(page, start.newestId);
+    const frames = await videoFrames(page);
+    const v = done.video;
+    assert.equal(v.errors, 1, JSON.stringify(v));
+    assert.match(done.notes.join("\n"), /the video decoder failed: refused by the test/);
+    // The failed frame, and the inter frames encoded before the server heard the ask, were skipped; then the key
+    // frame the next Render asked for, and the stream decoded on.
+    const failed = frames[5];
+    assert.equal(failed.decoded, false, JSON.stringify(failed));
+    const key = frames.findIndex((f, i) => i > 5 && f.key);
+    assert.ok(key > 5, `a key frame after the failure: ${JSON.stringify(frames.slice(5, 12))}`);
+    assert.equal(frames[key].keyReason, "asked");
+    assert.ok(frames.slice(6, key).every((f) => !f.decoded), "deltas before the key frame are skipped");
+    assert.ok(frames.slice(key).every((f) => f.decoded), "every frame from the key frame on is decoded");
+    assert.ok(frames.length - key >= 3, `frames after the key frame: ${frames.length - key}`);
+    assert.equal(v.skipped, key - 6);
+    assert.equal(v.needKey, false);
+    assert.equal(v.askKey, false, "no more key frames asked once one came");
+    assert.equal(frames.slice(key + 1).filter((f) => f.key).length, 0, "one key frame answers the ask");
+    const shownAfter = (await shownFrames(page)).filter((f) => f.encoding === 4 && f.id > frames[key].id);
+    assert.ok(shownAfter.length >= 1, "vp8 frames shown after the recovery");
+    assert.deepEqual(page.errors, []);
+    await page.close();
+  });
+});
