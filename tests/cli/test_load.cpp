@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/CliRun.h"
+#include "proto/Messages.h"
 #include "server/ServerProcess.h"
 #include "support/TestSupport.h"
 
@@ -41,7 +42,7 @@ TEST_F(LoadTest, BatchClientsSendTheKeyAndEachClientIsReported) {
   EXPECT_EQ(r["scene"]["batch"], true) << r["scene"];
   // The server knows the key: no client had to drop it, and every client got frames with it.
   EXPECT_EQ(r["batch_refused"], 0);
-  EXPECT_EQ(r["protocol_version"], 3) << "the load's sessions speak the newest version";
+  EXPECT_EQ(r["protocol_version"], proto::kMaxVersion) << "the load's sessions speak the newest version";
   EXPECT_EQ(r["errors"], 0);
 
   ASSERT_EQ(r["per_client"].size(), 3u) << r.dump();
@@ -78,6 +79,19 @@ TEST_F(LoadTest, DraggingClientsTimeEachFrameFromItsCamera) {
   EXPECT_GE(r["latency_ms"]["p50"].get<double>(), r["render_ms_p50"].get<double>()) << r["latency_ms"];
   EXPECT_GT(r["render_ms_p50"].get<double>(), 0);
   EXPECT_TRUE(r["jain_index"].is_number()) << r.dump();
+}
+
+// Dragging clients asking their moving frames as a vp8 stream decode every video frame in order, each client's
+// stream starting with one key frame; the report says so beside bytes and latency.
+TEST_F(LoadTest, DraggingClientsDecodeTheirVideoStreams) {
+  const json r = load("--clients 2 --duration 1.5 --drag 20 --interactive 30 --encoding png "
+                      "--provisional-encoding vp8 --require-clean");
+  EXPECT_EQ(r["provisional_encoding"], "vp8");
+  ASSERT_TRUE(r["video"].is_object()) << r.dump();
+  EXPECT_GT(r["video"]["frames"].get<int64_t>(), 4);
+  EXPECT_EQ(r["video"]["key_frames"].get<int64_t>(), 2) << "one key frame a client: its stream's first";
+  EXPECT_GT(r["video"]["decode_ms"]["p50"].get<double>(), 0);
+  EXPECT_EQ(r["errors"], 0);
 }
 
 }  // namespace

@@ -22,9 +22,10 @@ using test::runSplit;
 
 /// The scene keys with no command-line option, each for a reason: the group itself; the keys of a moving camera,
 /// which the viewer sets per frame and `orbit --interactive MS` per view; the encodings of a server's frames, which
-/// `request` sets from its own --jpeg-quality and --encoding.
+/// `request` sets from its own --jpeg-quality and --encoding; and the restart of a video stream, which a client asks
+/// for when its decoder lost the stream.
 const std::set<std::string> kSceneOnly = {"camera", "interactive", "time_budget_ms", "jpeg_quality",
-                                          "provisional_encoding"};
+                                          "provisional_encoding", "keyframe"};
 
 /// The commands with the scene options.
 const std::vector<std::string> kCommands = {"render", "orbit", "request", "scene"};
