@@ -194,8 +194,8 @@ void Connection::armPace() {
   mTransport.arm(Deadline::Pace, std::max(0.001, seconds));
 }
 
-void Connection::frameReceived(const proto::FrameReceived& report) {
-  if (!mPacer.received(report.frameBytes, Clock::now())) return;
+void Connection::frameReceived() {
+  if (!mPacer.received(Clock::now())) return;
   if (!mWriting && !mOutbox.empty()) writeNext();
   pumpVideo();
 }
@@ -305,9 +305,8 @@ void Connection::bodyReceived(std::span<const uint8_t> body) {
   if (!wasGreeted && mState.greeted) admit(outcome);
   apply(std::move(outcome));
   // A report the handler accepted (no Error in reply) is the link's news.
-  if (const auto* report = message ? std::get_if<proto::FrameReceived>(&*message) : nullptr;
-      report && mState.greeted && outcome.replies.empty())
-    frameReceived(*report);
+  if (message && std::holds_alternative<proto::FrameReceived>(*message) && mState.greeted && outcome.replies.empty())
+    frameReceived();
   readNext();
 }
 

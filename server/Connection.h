@@ -157,8 +157,9 @@ class Connection {
   bool unsentVideoQueued() const;
   /// Wakes the connection when frames held back for the link may go at the latest (LinkPacer::releaseAt).
   void armPace();
-  /// A FrameReceived report: the link has room again.
-  void frameReceived(const proto::FrameReceived& report);
+  /// A FrameReceived report (frames are reported in order; its frame_bytes is the client's word, unchecked): the link
+  /// has room again.
+  void frameReceived();
   void send(const proto::Message& message, uint32_t requestId);
   void enqueue(Outgoing reply);
   /// A Frame to `requestId` is about to be queued: the Frame queued and not yet being written, if any, is removed

@@ -24,8 +24,7 @@ void LinkPacer::sent(uint64_t bytes, Clock::time_point at) {
   if (mOnTheWay.size() > kMaxRemembered) mOnTheWay.pop_front();
 }
 
-bool LinkPacer::received(uint64_t frameBytes, Clock::time_point at) {
-  (void)frameBytes;  // reports pair with frames in order; the size is the client's word, kept for its logs
+bool LinkPacer::received(Clock::time_point at) {
   if (mOnTheWay.empty()) return false;
   const OnTheWay frame = mOnTheWay.front();
   mOnTheWay.pop_front();

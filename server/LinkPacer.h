@@ -29,9 +29,9 @@ class LinkPacer {
 
   /// A Frame of `bytes` (whole message) started to be written at `at`.
   void sent(uint64_t bytes, Clock::time_point at);
-  /// The client's FrameReceived of a Frame of `frameBytes`, arriving at `at`. Returns false (and changes nothing)
-  /// when no written frame was waiting for a report.
-  bool received(uint64_t frameBytes, Clock::time_point at);
+  /// A FrameReceived arriving at `at`: it reports the oldest frame on its way (reports pair with frames in order).
+  /// Returns false (and changes nothing) when no written frame was waiting for a report.
+  bool received(Clock::time_point at);
 
   /// Whether the next Frame may be written now: the client does not report, fewer than kFramesInFlight frames are on
   /// their way, or the oldest has gone unreported for kStaleMs.

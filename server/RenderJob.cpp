@@ -2,6 +2,7 @@
 #include "server/RenderJob.h"
 
 #include <string>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 
@@ -43,7 +44,7 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
     options.fixedMs = job.fixedMs;
     render::Scene scene = job.scene;
     if (job.refinement) scene.interactive = false;  // the exact frame of an interactive request
-    const image::Image8 image = source.render8(job.dataset, scene, &stats, options);
+    image::Image8 image = source.render8(job.dataset, scene, &stats, options);
     const auto encodeStart = Clock::now();
     // A frame with stand-ins, or an interactive frame: the exact one follows.
     const bool provisional = stats.bricksStandIn > 0 || scene.interactive;
@@ -57,7 +58,7 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
                                 : job.scene.jpegQuality.value_or(image::kDefaultJpegQuality);
     // A video frame leaves as its pixels: the session's stream encodes it off this thread (server/VideoStream.h).
     const bool video = image::isVideoEncoding(frame.encoding);
-    frame.payload = video ? image.rgba : image::encodeFrameImage(image, frame.encoding, jpegQuality);
+    frame.payload = video ? std::move(image.rgba) : image::encodeFrameImage(image, frame.encoding, jpegQuality);
     nlohmann::json statsJson = stats.toJson();
     statsJson["queue_ms"] = msBetween(job.received, start);
     if (!video) statsJson["encode_ms"] = msBetween(encodeStart, Clock::now());

@@ -21,7 +21,7 @@ using test::ServerProcess;
 class RequestJpegTest : public test::SparseDatasetSuite {
  protected:
   std::unique_ptr<ServerProcess> start() {
-    return std::make_unique<ServerProcess>("--datasets " + datasets() + " --render-threads 1", scratch());
+    return serve("--render-threads 1");
   }
   static std::string address(const ServerProcess& server) { return "127.0.0.1:" + std::to_string(server.port()); }
   static std::string scene() {

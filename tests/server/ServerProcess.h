@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <memory>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -60,6 +61,10 @@ class SparseDatasetSuite : public ::testing::Test {
   }
   static std::string datasets() { return (*sDir / "datasets").string(); }
   static std::filesystem::path scratch() { return sDir->path(); }
+  /// `voxbrick serve` of the suite's stores, with `args` besides (e.g. "--render-threads 1").
+  static std::unique_ptr<ServerProcess> serve(const std::string& args) {
+    return std::make_unique<ServerProcess>("--datasets " + datasets() + " " + args, scratch());
+  }
 
   static inline ScratchDir* sDir = nullptr;
 };

@@ -14,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "ServerErrorOf.h"
 #include "ServerProcess.h"
 #include "TestDatasets.h"
 #include "client/Client.h"
@@ -352,17 +353,6 @@ class CrowdServerTest : public test::SparseDatasetSuite {
 
 constexpr const char* kCrowdScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [32, 32], "transfer_function": "sparse")";
 
-/// The code and message of the Error `request` gets; fails the test if it succeeds.
-client::ServerError crowdErrorOf(const std::function<void()>& request) {
-  try {
-    request();
-  } catch (const client::ServerError& e) {
-    return e;
-  }
-  ADD_FAILURE() << "the request succeeded";
-  return client::ServerError(proto::ErrorCode::Internal, "none");
-}
-
 // Quotas from server.toml hold: a third session of one address is refused at Hello, naming the quota; a Render past
 // the address' frame rate is Busy with a retry hint, and LimitExceeded with the same hint in a version-2 session.
 TEST_F(CrowdServerTest, QuotasFromServerTomlHold) {
@@ -371,20 +361,20 @@ TEST_F(CrowdServerTest, QuotasFromServerTomlHold) {
   EXPECT_EQ(a.hello("test").version, proto::kMaxVersion);
   b.hello("test", 2);
   client::Client c("127.0.0.1", server->port());
-  const client::ServerError third = crowdErrorOf([&] { c.hello("test"); });
+  const client::ServerError third = test::serverErrorOf([&] { c.hello("test"); });
   EXPECT_EQ(third.code(), proto::ErrorCode::LimitExceeded);
   EXPECT_NE(std::string(third.what()).find("sessions_per_address"), std::string::npos) << third.what();
   a.openDataset("sparse");
   b.openDataset("sparse");
   a.render(kCrowdScene + std::string("}"));
   a.render(kCrowdScene + std::string("}"));  // the bucket holds 2
-  const client::ServerError busy = crowdErrorOf([&] { a.render(kCrowdScene + std::string("}")); });
+  const client::ServerError busy = test::serverErrorOf([&] { a.render(kCrowdScene + std::string("}")); });
   EXPECT_EQ(busy.code(), proto::ErrorCode::Busy);
   const auto hint = proto::retryAfterMs(busy.what());
   ASSERT_TRUE(hint) << busy.what();
   EXPECT_GT(*hint, 0u);
   EXPECT_LE(*hint, 500u);
-  const client::ServerError old = crowdErrorOf([&] { b.render(kCrowdScene + std::string("}")); });
+  const client::ServerError old = test::serverErrorOf([&] { b.render(kCrowdScene + std::string("}")); });
   EXPECT_EQ(old.code(), proto::ErrorCode::LimitExceeded) << "version 2 has no Busy";
   EXPECT_TRUE(proto::retryAfterMs(old.what())) << old.what();
   std::this_thread::sleep_for(std::chrono::milliseconds(*hint + 50));
@@ -400,7 +390,7 @@ TEST_F(CrowdServerTest, ANewSessionBeyondCapacityIsBusy) {
   viewer.openDataset("sparse");
   viewer.render(kCrowdScene + std::string(R"(, "interactive": true})"));
   client::Client late("127.0.0.1", server->port());
-  const client::ServerError busy = crowdErrorOf([&] { late.hello("test"); });
+  const client::ServerError busy = test::serverErrorOf([&] { late.hello("test"); });
   EXPECT_EQ(busy.code(), proto::ErrorCode::Busy) << busy.what();
   EXPECT_TRUE(proto::retryAfterMs(busy.what())) << busy.what();
   EXPECT_NE(std::string(busy.what()).find("over capacity"), std::string::npos) << busy.what();

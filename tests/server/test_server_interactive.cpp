@@ -25,7 +25,7 @@ using Clock = std::chrono::steady_clock;
 class InteractiveServerTest : public test::SparseDatasetSuite {
  protected:
   std::unique_ptr<ServerProcess> start() {
-    return std::make_unique<ServerProcess>("--datasets " + datasets() + " --render-threads 1", scratch());
+    return serve("--render-threads 1");
   }
 };
 

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "RawSocket.h"
+#include "ServerErrorOf.h"
 #include "ServerProcess.h"
 #include "client/Client.h"
 #include "image/FrameImage.h"
@@ -26,7 +27,7 @@ using test::ServerProcess;
 class JpegServerTest : public test::SparseDatasetSuite {
  protected:
   std::unique_ptr<ServerProcess> start() {
-    return std::make_unique<ServerProcess>("--datasets " + datasets() + " --render-threads 2", scratch());
+    return serve("--render-threads 2");
   }
 };
 
@@ -60,17 +61,6 @@ proto::Message next(test::RawSocket& s) {
     return proto::Goodbye{};
   }
   return std::move(*m);
-}
-
-/// The error of a request, with its message; fails the test if it succeeds.
-ServerError jpegErrorOf(const std::function<void()>& request) {
-  try {
-    request();
-  } catch (const ServerError& e) {
-    return e;
-  }
-  ADD_FAILURE() << "the request succeeded";
-  return ServerError(ErrorCode::Internal, "none");
 }
 
 // A version-1 client (offering only version 1, as the clients before version 2 do) never sees jpeg: not in
@@ -134,7 +124,7 @@ TEST_F(JpegServerTest, AVersionTwoSessionGetsJpegFrames) {
   const proto::Frame low = c->render(sceneWith({{"jpeg_quality", 20}}), Encoding::Jpeg);
   EXPECT_LT(low.payload.size(), jpeg.payload.size());
   EXPECT_LT(psnr(low, png), psnr(jpeg, png));
-  EXPECT_EQ(jpegErrorOf([&] {
+  EXPECT_EQ(test::serverErrorOf([&] {
               c->render(sceneWith({{"jpeg_quality", 101}}), Encoding::Jpeg);
             }).code(),
             ErrorCode::InvalidScene);
@@ -159,16 +149,16 @@ TEST_F(JpegServerTest, AVersionTwoSessionGetsJpegFrames) {
 TEST_F(JpegServerTest, ATransparentJpegFrameIsRefusedNamingTheKey) {
   auto server = start();
   auto c = jpegSession(*server, 2);
-  const ServerError e = jpegErrorOf([&] { c->render(sceneWith({{"background", "none"}}), Encoding::Jpeg); });
+  const ServerError e = test::serverErrorOf([&] { c->render(sceneWith({{"background", "none"}}), Encoding::Jpeg); });
   EXPECT_EQ(e.code(), ErrorCode::InvalidScene);
   EXPECT_NE(std::string(e.what()).find("'background'"), std::string::npos) << e.what();
-  const ServerError p = jpegErrorOf([&] {
+  const ServerError p = test::serverErrorOf([&] {
     c->render(sceneWith({{"background", "none"}, {"progressive", true}, {"provisional_encoding", "jpeg"}}),
               Encoding::Png);
   });
   EXPECT_EQ(p.code(), ErrorCode::InvalidScene);
   EXPECT_NE(std::string(p.what()).find("'background'"), std::string::npos) << p.what();
-  EXPECT_EQ(jpegErrorOf([&] {
+  EXPECT_EQ(test::serverErrorOf([&] {
               c->render(sceneWith({{"provisional_encoding", "webp"}}), Encoding::Png);
             }).code(),
             ErrorCode::InvalidScene);

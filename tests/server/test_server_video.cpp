@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "ServerErrorOf.h"
 #include "ServerProcess.h"
 #include "client/Client.h"
 #include "image/FrameImage.h"
@@ -28,7 +29,7 @@ using test::ServerProcess;
 class VideoServerTest : public test::SparseDatasetSuite {
  protected:
   std::unique_ptr<ServerProcess> start() {
-    return std::make_unique<ServerProcess>("--datasets " + datasets() + " --render-threads 1", scratch());
+    return serve("--render-threads 1");
   }
 };
 
@@ -51,16 +52,6 @@ std::unique_ptr<Client> videoSession(const ServerProcess& server, uint16_t maxVe
   return c;
 }
 
-ServerError videoErrorOf(const std::function<void()>& request) {
-  try {
-    request();
-  } catch (const ServerError& e) {
-    return e;
-  }
-  ADD_FAILURE() << "the request succeeded";
-  return ServerError(ErrorCode::Internal, "none");
-}
-
 TEST_F(VideoServerTest, VersionFourOffersVp8AndVp9AndOlderSessionsDoNot) {
   auto server = start();
   Client c("127.0.0.1", server->port(), std::chrono::seconds(60));
@@ -70,7 +61,7 @@ TEST_F(VideoServerTest, VersionFourOffersVp8AndVp9AndOlderSessionsDoNot) {
   Client old("127.0.0.1", server->port(), std::chrono::seconds(60));
   EXPECT_EQ(old.hello("test", 3).encodings, proto::encodingsOf(3));
   old.openDataset("sparse");
-  const ServerError e = videoErrorOf([&] { old.render(dragScene(10, "vp8"), Encoding::Png); });
+  const ServerError e = test::serverErrorOf([&] { old.render(dragScene(10, "vp8"), Encoding::Png); });
   EXPECT_EQ(e.code(), ErrorCode::InvalidScene);
   EXPECT_NE(std::string(e.what()).find("needs protocol version 4"), std::string::npos) << e.what();
 }
@@ -154,10 +145,10 @@ TEST_F(VideoServerTest, VideoIsRefusedWhereItCannotServe) {
   auto c = videoSession(*server);
   json still = json::parse(dragScene(10, "vp8"));
   still.erase("provisional_encoding");
-  ServerError e = videoErrorOf([&] { c->render(still.dump(), Encoding::Vp8); });
+  ServerError e = test::serverErrorOf([&] { c->render(still.dump(), Encoding::Vp8); });
   EXPECT_EQ(e.code(), ErrorCode::InvalidScene);
   EXPECT_NE(std::string(e.what()).find("provisional_encoding"), std::string::npos) << e.what();
-  e = videoErrorOf([&] { c->render(dragScene(10, "vp9", 96, {{"background", "none"}}), Encoding::Png); });
+  e = test::serverErrorOf([&] { c->render(dragScene(10, "vp9", 96, {{"background", "none"}}), Encoding::Png); });
   EXPECT_EQ(e.code(), ErrorCode::InvalidScene);
   EXPECT_NE(std::string(e.what()).find("'background'"), std::string::npos) << e.what();
   // The session goes on.

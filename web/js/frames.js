@@ -18,7 +18,8 @@ const REMEMBERED = 16; // recent Renders kept, so that a late exact frame finds 
 
 export class FrameLoop {
   /// `canvas`: where frames are drawn. `hooks`: scene(phase, {keyframe}) -> the scene to ask for now (asking the
-  /// video stream for a key frame when `keyframe`), or null if none can be asked yet; refused(error) -> true when the page changed what it asks (then the frame is asked again);
+  /// video stream for a key frame when `keyframe`), or null if none can be asked yet; refused(error) -> true when the
+  /// page changed what it asks (then the frame is asked again);
   /// shown(frame) after each frame drawn; failed(error) for an Error that is not handled.
   constructor(canvas, hooks) {
     this.canvas = canvas;
