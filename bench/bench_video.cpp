@@ -4,7 +4,7 @@
 // encode and decode times. The table behind the video encodings' defaults (bench/run_video.sh writes
 // bench/results/video/video.{csv,md}).
 //
-//   bench_video --csv OUT.csv --fps 30 FRAME.png... [--qualities 50,70,85] [--kbps 1000,2000,4000]
+//   bench_video --csv OUT.csv --fps 30 FRAME.png... [--qualities 50,70,85] [--kbps 1000,2000,4000] [--threads 1,4]
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -65,10 +65,12 @@ Row jpegRow(const std::vector<image::Image8>& frames, int quality) {
   return row;
 }
 
-Row videoRow(const std::vector<image::Image8>& frames, proto::Encoding codec, int kbps, double fps) {
-  Row row{proto::encodingName(codec), std::to_string(kbps) + " kbit/s"};
+Row videoRow(const std::vector<image::Image8>& frames, proto::Encoding codec, int kbps, double fps, int threads) {
+  Row row{proto::encodingName(codec), std::to_string(kbps) + " kbit/s" +
+                                          (threads > 1 ? "; " + std::to_string(threads) + " threads" : "")};
   image::VideoSettings settings;
   settings.width = frames[0].width, settings.height = frames[0].height, settings.bitrateKbps = kbps;
+  settings.threads = threads;
   image::VideoEncoder encoder(codec, settings);
   image::VideoDecoder decoder(codec);
   for (size_t i = 0; i < frames.size(); ++i) {
@@ -92,10 +94,13 @@ int main(int argc, char** argv) {
   std::vector<std::string> paths;
   std::vector<int> qualities{50, 70, 85, 95}, kbps{500, 1000, 2000, 4000, 8000};
   double fps = 30;
+  std::vector<int> threads{1};
   app.add_option("--csv", csvPath, "the CSV to write")->required();
   app.add_option("--qualities", qualities, "JPEG qualities")->delimiter(',');
   app.add_option("--kbps", kbps, "video bitrates, kbit/s")->delimiter(',');
   app.add_option("--fps", fps, "the frames' rate (the stream's timestamps)")->check(CLI::PositiveNumber);
+  app.add_option("--threads", threads, "encoder threads (each a row of every bitrate; the server's choice is "
+                                       "image::videoThreadsFor)")->delimiter(',');
   app.add_option("frames", paths, "the drag's lossless frames, in order")->required();
   CLI11_PARSE(app, argc, argv);
   try {
@@ -107,7 +112,8 @@ int main(int argc, char** argv) {
     std::vector<Row> rows;
     for (int q : qualities) rows.push_back(jpegRow(frames, q));
     for (const proto::Encoding codec : {proto::Encoding::Vp8, proto::Encoding::Vp9})
-      for (int k : kbps) rows.push_back(videoRow(frames, codec, k, fps));
+      for (int t : threads)
+        for (int k : kbps) rows.push_back(videoRow(frames, codec, k, fps, t));
     std::ofstream csv(csvPath);
     csv << "size,frames,fps,encoding,setting,bytes_per_frame,psnr_mean_db,psnr_min_db,encode_ms,decode_ms,key_bytes\n";
     for (const Row& r : rows) {

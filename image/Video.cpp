@@ -47,6 +47,12 @@ struct VideoEncoder::Codec {
   }
 };
 
+int videoThreadsFor(int width, int height, int available) {
+  const int64_t pixels = int64_t(std::max(1, width)) * std::max(1, height);
+  const int wanted = int((pixels + 512 * 512 - 1) / (512 * 512));
+  return std::clamp(wanted, 1, std::clamp(available, 1, 8));
+}
+
 VideoEncoder::VideoEncoder(proto::Encoding codec, const VideoSettings& settings)
     : mCodec(codec), mSettings(settings), mCodecState(std::make_unique<Codec>()) {
   if (!isVideoEncoding(codec))
@@ -85,10 +91,15 @@ VideoEncoder::VideoEncoder(proto::Encoding codec, const VideoSettings& settings)
     check(vpx_codec_control(&c.ctx, VP8E_SET_CPUUSED, std::clamp(settings.speed, 5, 9)), &c.ctx, what);
     check(vpx_codec_control(&c.ctx, VP9E_SET_AQ_MODE, 3), &c.ctx, what);  // cyclic refresh, as WebRTC's
     check(vpx_codec_control(&c.ctx, VP9E_SET_ROW_MT, 1), &c.ctx, what);
-    check(vpx_codec_control(&c.ctx, VP9E_SET_TILE_COLUMNS, settings.threads > 1 ? 2 : 0), &c.ctx, what);
+    // Tile columns (log2; libvpx keeps each at least 256 pixels wide), one a thread.
+    const int tiles = settings.threads >= 4 ? 2 : settings.threads >= 2 ? 1 : 0;
+    check(vpx_codec_control(&c.ctx, VP9E_SET_TILE_COLUMNS, tiles), &c.ctx, what);
   } else {
     check(vpx_codec_control(&c.ctx, VP8E_SET_CPUUSED, std::clamp(settings.speed, 4, 16)), &c.ctx, what);
     check(vpx_codec_control(&c.ctx, VP8E_SET_NOISE_SENSITIVITY, 0), &c.ctx, what);
+    // Token partitions (1, 2, 4 or 8; log2 here) let the threads pack a frame's rows side by side.
+    const int partitions = settings.threads >= 8 ? 3 : settings.threads >= 4 ? 2 : settings.threads >= 2 ? 1 : 0;
+    check(vpx_codec_control(&c.ctx, VP8E_SET_TOKEN_PARTITIONS, partitions), &c.ctx, what);
   }
   // A key frame may take at most three frames' worth of bits, so it does not stall the link.
   check(vpx_codec_control(&c.ctx, VP8E_SET_MAX_INTRA_BITRATE_PCT, 300), &c.ctx, what);

@@ -23,8 +23,13 @@ struct VideoSettings {
   int width = 0, height = 0;  ///< the coded size, each in 1 .. 16383
   int bitrateKbps = 2000;     ///< the rate control's target (constant bitrate), >= 1
   int speed = 8;              ///< libvpx's realtime speed (VP8: 4..16, VP9: 5..9; higher is faster and coarser)
-  int threads = 1;            ///< encoder threads
+  int threads = 1;            ///< encoder threads (VP8 splits a frame into token partitions, VP9 into tile columns)
 };
+
+/// The encoder threads a frame of this size is worth: one for each 512x512 pixels or part of them (a quarter of a
+/// 1024x1024 frame each), at most `available` and at most 8. Fewer threads would leave a large frame's encoding the
+/// longest step of a dragged frame; more share too little work to pay for their start.
+int videoThreadsFor(int width, int height, int available);
 
 /// One compressed frame: what a decoder of the codec takes as one chunk (WebCodecs' EncodedVideoChunk).
 struct VideoChunk {

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -33,6 +34,7 @@ void VideoStream::encode(proto::Frame& frame, const VideoFrameInput& input) {
     mEncoder.reset();  // a failed construction leaves none
     image::VideoSettings settings;
     settings.width = width, settings.height = height, settings.bitrateKbps = kbps;
+    settings.threads = image::videoThreadsFor(width, height, int(std::thread::hardware_concurrency()));
     mEncoder = std::make_unique<image::VideoEncoder>(frame.encoding, settings);
     mStart = input.drawn;
   } else if (mBroken) {

@@ -24,6 +24,8 @@
 #                       (the sweep's references, two transfer functions a view at step 0.125, are CPU renders:
 #                       about 1.6 s a view at 512^2 and 23 s at 2048^2 on the H200 machine's 16 cores)
 #   load-drag       30  voxbrick serve + voxbrick load on the MRI at 512^2: one client, then 4 dragging at 10 Hz
+#   load-video      45  as load-drag at 1024^2: 4 clients dragging at 15 Hz with a 50 ms interactive budget, their
+#                       provisional frames as JPEG, then as a vp8 and a vp9 video stream (encoded on the server's CPU)
 #   tets-1m         60  synthetic-mesh:ball,n=70 (1 025 244 tets, made by prep: no Python needed), 512^2 and 1024^2,
 #                       each visibility; PSNR against the exact reference at 512^2 when time is left
 #   orbit           30  voxbrick orbit on the MRI at 1024^2, 36 frames, PNG and JPEG: the next frame planned while the
@@ -243,6 +245,56 @@ PY
         echo "(no python3: the reports are load-one.json and load-drag.json)" >> "$md"
       fi
       ;;
+    load-video)
+      size=1024x1024 duration=8
+      q && size=128x128 duration=2
+      mkdir -p "$WORK/served"
+      [ -e "$WORK/served/mri" ] || cp -r "$WORK/mri.vbs" "$WORK/served/mri"
+      rm -f "$WORK/port"
+      echo "voxbrick serve (2 render threads, 2 encode threads) on the MRI store; voxbrick load over loopback: 4" \
+        "clients dragging at 15 Hz, interactive 50 ms, tf mri, $size; provisional frames as JPEG, vp8, vp9." >> "$md"
+      echo >> "$md"
+      cmd "$KIT/bin/voxbrick" serve --datasets "$WORK/served" --port 0 --port-file "$WORK/port" --render-threads 2 \
+        > "$dir/server.log" 2>&1 &
+      server=$!
+      trap 'kill "$server" 2> /dev/null || true' EXIT
+      for _ in $(seq 300); do [ -s "$WORK/port" ] && break; sleep 0.1; done
+      [ -s "$WORK/port" ] || die "load-video: the server wrote no port (server.log: $(tail -3 "$dir/server.log"))"
+      port=$(cat "$WORK/port")
+      for enc in jpeg vp8 vp9; do
+        cmd "$KIT/bin/voxbrick" load "127.0.0.1:$port" --dataset mri --tf mri --step 0.75 --clients 4 \
+          --duration "$duration" --size "$size" --drag 15 --interactive 50 --provisional-encoding "$enc" \
+          --json "$dir/load-$enc.json" 2>&1 | tee -a "$dir/load.log"
+      done
+      kill -TERM "$server"; wait "$server" || true
+      echo >> "$md"
+      if command -v python3 > /dev/null; then
+        python3 - "$dir" >> "$md" <<'PY'
+import json, os, sys
+d = sys.argv[1]
+print("| provisional | frames | frames/s | p50 ms | p95 ms | p99 ms | KB a frame | encode p50 ms | decode p50 ms | key frames | errors |")
+print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+with open(os.path.join(d, "load-video.csv"), "w") as csv:
+    csv.write("provisional,frames,frames_per_s,p50_ms,p95_ms,p99_ms,kb_per_frame,encode_ms_p50,decode_ms_p50,key_frames,errors\n")
+    for enc in ("jpeg", "vp8", "vp9"):
+        f = os.path.join(d, f"load-{enc}.json")
+        if not os.path.exists(f):
+            continue
+        j = json.load(open(f))
+        lat = j["latency_ms"]
+        num = lambda x: float("nan") if x is None else float(x)
+        kb = num(j.get("payload_bytes_per_frame")) / 1024
+        v = j.get("video") or {}
+        dec = num((v.get("decode_ms") or {}).get("p50"))
+        row = (enc, j["frames"], j["frames_per_s"], lat["p50"], lat["p95"], lat["p99"], kb,
+               num(j.get("encode_ms_p50")), dec, v.get("key_frames", 0), j["errors"])
+        print("| %s | %d | %.2f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %s | %d |" % row)
+        csv.write("%s,%d,%.3f,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,%s,%d\n" % row)
+PY
+      else
+        echo "(no python3: the reports are load-jpeg.json, load-vp8.json, load-vp9.json)" >> "$md"
+      fi
+      ;;
     tets-1m)
       n=70 sizes="512 1024"
       q && n=12 sizes="64"
@@ -347,11 +399,11 @@ fi
 # The driver.
 export QUICK=${MEASURE_QUICK:-0}
 budget=${MEASURE_BUDGET:-$([ "$QUICK" = 1 ] && echo 240 || echo 500)}
-all="device test_render mri-sweep-512 roofline mri-sweep-1024 mri-sweep-2048 load-drag tets-1m field-1024 orbit"
+all="device test_render mri-sweep-512 roofline mri-sweep-1024 mri-sweep-2048 load-drag load-video tets-1m field-1024 orbit"
 steps=${MEASURE_STEPS:-$all}
 for s in $steps; do grep -qw -- "$s" <<< "$all" || die "MEASURE_STEPS: unknown step '$s' (known: $all)"; done
 declare -A cap=([device]=40 [test_render]=150 [mri-sweep-512]=90 [roofline]=90 [mri-sweep-1024]=60
-  [mri-sweep-2048]=110 [load-drag]=30 [tets-1m]=60 [field-1024]=150 [orbit]=30)
+  [mri-sweep-2048]=110 [load-drag]=30 [load-video]=45 [tets-1m]=60 [field-1024]=150 [orbit]=30)
 start=$(now)
 deadline=$((start + budget))
 export WORK=${MEASURE_WORK:-/tmp/voxbrick-gpu}

@@ -55,6 +55,24 @@ TEST_P(VideoCodecs, AStreamRoundTripsFrameByFrameWithKeyFramesOnlyWhereAsked) {
   EXPECT_EQ(encoder.frames(), 12u);
 }
 
+TEST_P(VideoCodecs, AThreadedStreamDecodesAsTheOneThreadStreamDoes) {
+  // Four threads split a 1024x600 frame into token partitions (VP8) or tile columns (VP9); the decoder needs nothing
+  // else, and the pictures are as near as one thread's.
+  VideoSettings settings;
+  settings.width = 1024, settings.height = 600, settings.bitrateKbps = 3000;
+  VideoSettings threaded = settings;
+  threaded.threads = 4;
+  VideoEncoder one(GetParam(), settings), four(GetParam(), threaded);
+  VideoDecoder fromOne(GetParam()), fromFour(GetParam());
+  for (int i = 0; i < 6; ++i) {
+    const Image8 in = picture(1024, 600, 0.1 * i);
+    const Image8 a = fromOne.decode(one.encode(in, 33.0 * i).bytes);
+    const Image8 b = fromFour.decode(four.encode(in, 33.0 * i).bytes);
+    EXPECT_GT(psnr(in, a), 30.0) << "frame " << i;
+    EXPECT_GT(psnr(in, b), psnr(in, a) - 1.5) << "frame " << i;
+  }
+}
+
 /// `picture` with fine noise over it: detail that takes every bit a rate control gives.
 Image8 detailed(int width, int height, double t) {
   Image8 image = picture(width, height, t);
@@ -113,6 +131,17 @@ TEST_P(VideoCodecs, ADecoderRefusesWhatItCannotShow) {
 
 INSTANTIATE_TEST_SUITE_P(Codecs, VideoCodecs, ::testing::Values(Encoding::Vp8, Encoding::Vp9),
                          [](const auto& codec) { return std::string(proto::encodingName(codec.param)); });
+
+TEST(Video, ALargeFrameGetsAThreadForEachQuarterMegapixel) {
+  EXPECT_EQ(videoThreadsFor(256, 256, 16), 1);
+  EXPECT_EQ(videoThreadsFor(512, 512, 16), 1);
+  EXPECT_EQ(videoThreadsFor(513, 512, 16), 2);
+  EXPECT_EQ(videoThreadsFor(1024, 1024, 16), 4);
+  EXPECT_EQ(videoThreadsFor(1920, 1080, 16), 8);
+  EXPECT_EQ(videoThreadsFor(4096, 4096, 64), 8);  // never more than 8
+  EXPECT_EQ(videoThreadsFor(1024, 1024, 2), 2);   // never more than the machine has
+  EXPECT_EQ(videoThreadsFor(1024, 1024, 0), 1);   // an unknown machine: one
+}
 
 TEST(Video, OnlyVideoEncodingsAndSaneSettingsMakeAStream) {
   EXPECT_TRUE(isVideoEncoding(Encoding::Vp8));
