@@ -137,6 +137,24 @@ describe("viewer video stream", () => {
     await page.close();
   });
 
+  test("the address's video parameter picks vp9, or turns video off", async () => {
+    for (const [param, moving, encoding] of [
+      ["video=vp9", "vp9", 5],
+      ["video=off", "jpeg", 3],
+    ]) {
+      const page = await H.openPage(browser, `${server.url}/?dataset=ml&${SIZE_PARAM}&${param}`);
+      const start = await waitExact(page);
+      assert.equal(start.features.video, moving === "jpeg" ? null : moving, param);
+      assert.equal(start.moving, moving, param);
+      await drag(page, { durationMs: 1200, hz: 30, dAz: 3 });
+      await waitExact(page, start.newestId);
+      const shown = (await shownFrames(page)).filter((f) => f.provisional && f.phase === "drag");
+      assert.ok(shown.length >= 3, `${param}: frames shown while dragging: ${shown.length}`);
+      for (const f of shown) assert.equal(f.encoding, encoding, `${param}: ${JSON.stringify(f)}`);
+      await page.close();
+    }
+  });
+
   test("a browser that decodes no video codec gets jpeg, as one without WebCodecs does", async () => {
     const cases = {
       "isConfigSupported says no": () => {

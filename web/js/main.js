@@ -223,7 +223,7 @@ async function greeted(c, caps) {
   app.capabilities = caps;
   app.features.jpeg = caps.encodings.includes(Encoding.jpeg);
   // Which video codec this browser decodes is asked while the datasets are listed; known before the first drag.
-  const video = pickVideoCodec(caps.encodings);
+  const video = pickVideoCodec(caps.encodings, params.get("video"));
   loadPresets();
   try {
     app.datasets = await c.listDatasets();

@@ -19,11 +19,14 @@ const TIMESTAMP_STEP_US = 33333;
 const KEEP = 200; // video frames kept in the log the tests read
 
 /// The name ("vp8" or "vp9") of the first video encoding of `offered` (Capabilities' encodings) this browser decodes,
-/// or null: no WebCodecs (an insecure context, an old browser) or no codec in common.
-export async function pickVideoCodec(offered) {
-  if (typeof VideoDecoder === "undefined") return null;
+/// or null: no WebCodecs (an insecure context, an old browser) or no codec in common. `wanted` (the address's `video`
+/// parameter) narrows the choice: "off" asks for none (moving frames as jpeg), "vp8" or "vp9" for that codec alone;
+/// anything else, or nothing, leaves the page's own order.
+export async function pickVideoCodec(offered, wanted = null) {
+  if (wanted === "off" || typeof VideoDecoder === "undefined") return null;
+  const named = VIDEO_CODECS.some((c) => c.name === wanted);
   for (const c of VIDEO_CODECS) {
-    if (!offered.includes(c.encoding)) continue;
+    if (!offered.includes(c.encoding) || (named && c.name !== wanted)) continue;
     try {
       if ((await VideoDecoder.isConfigSupported({ codec: c.codec })).supported) return c.name;
     } catch {
