@@ -158,7 +158,7 @@ void Connection::pumpVideo() {
   mTransport.runAside(
       [stream = mVideo.get(), task] {
         try {
-          stream->encode(task->frame, task->input);
+          task->encoded = stream->encode(task->frame, task->input);
         } catch (...) {
           task->error = std::current_exception();
         }
@@ -168,6 +168,8 @@ void Connection::pumpVideo() {
 
 void Connection::videoEncoded(EncodingVideo& done) {
   mVideoEncoding = false;
+  if (!done.error)
+    mServices.stats.videoEncoded(done.frame.encoding, done.encoded.encodeMs, done.encoded.key ? done.encoded.keyReason : "");
   if (mClosing || mClosed) return;
   proto::Message reply = done.error ? proto::Message(errorReply(done.error, "video frame of request " +
                                                                                std::to_string(done.job.requestId) +

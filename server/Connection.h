@@ -144,6 +144,7 @@ class Connection {
     RenderJob job;
     proto::Frame frame;
     VideoFrameInput input;
+    VideoEncoded encoded;
     std::exception_ptr error;
   };
   void videoRendered(const RenderJob& job, proto::Frame frame);

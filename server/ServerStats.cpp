@@ -87,6 +87,13 @@ void ServerStats::frameDelivered(FrameClass frameClass, proto::Encoding encoding
   mLatency.record(latencyMs);
 }
 
+void ServerStats::videoEncoded(proto::Encoding codec, double encodeMs, std::string_view keyReason) {
+  mVideoEncode[codec == proto::Encoding::Vp9 ? 1 : 0].observe(encodeMs / 1000);
+  if (keyReason.empty()) return;
+  const auto* at = std::find(kVideoKeyReasons.begin(), kVideoKeyReasons.end(), keyReason);
+  mVideoKeyFrames[at == kVideoKeyReasons.end() ? kVideoKeyReasons.size() - 1 : size_t(at - kVideoKeyReasons.begin())]++;
+}
+
 json ServerStats::toJson(const Gauges& gauges) const {
   const auto [rss, peak] = residentMemory();
   json sets = json::array();
@@ -143,8 +150,19 @@ json ServerStats::toJson(const Gauges& gauges) const {
             {"atlas_bytes", gauges.gpu.bytes},
             {"peak_atlas_bytes", gauges.gpu.peakBytes},
             {"renderers_released", gauges.gpu.renderersReleased}}},
+          {"video", videoJson()},
           {"limits", gauges.limits},
           {"render_threads", gauges.renderThreads}};
+}
+
+json ServerStats::videoJson() const {
+  json keys = json::object(), encoded = json::object();
+  for (size_t i = 0; i < kVideoKeyReasons.size(); ++i) keys[std::string(kVideoKeyReasons[i])] = mVideoKeyFrames[i].load();
+  for (const auto& [i, codec] : {std::pair{0, "vp8"}, std::pair{1, "vp9"}}) {
+    const HistogramCounts c = mVideoEncode[size_t(i)].counts();
+    encoded[codec] = {{"frames", c.count()}, {"encode_ms_mean", c.count() ? 1000 * c.sum / double(c.count()) : 0.0}};
+  }
+  return {{"encoded", encoded}, {"key_frames", keys}};
 }
 
 std::string ServerStats::metricsText(const Gauges& gauges) const {
@@ -208,6 +226,15 @@ std::string ServerStats::metricsText(const Gauges& gauges) const {
   byClassAndEncoding("voxbrick_frame_bytes_total",
                      "Bytes of the Frame messages counted in voxbrick_frames_total, by class and encoding.",
                      mFrameBytes);
+  m.family("voxbrick_video_encode_seconds", Type::Histogram,
+           "Seconds to encode a video frame (a provisional frame of a session's vp8 or vp9 stream), by codec.");
+  m.histogram(mVideoEncode[0].counts(), {{"codec", "vp8"}});
+  m.histogram(mVideoEncode[1].counts(), {{"codec", "vp9"}});
+  m.family("voxbrick_video_key_frames_total", Type::Counter,
+           "Key frames of video streams, by reason: start, codec, size, dataset, asked (the client), recovery (after "
+           "a failed or undelivered frame), encoder (the encoder's own).");
+  for (size_t i = 0; i < kVideoKeyReasons.size(); ++i)
+    m.sample(double(mVideoKeyFrames[i].load()), {{"reason", std::string(kVideoKeyReasons[i])}});
   one("voxbrick_bytes_written_total", Type::Counter,
       "Bytes of protocol messages written to clients, every message and transport.", double(mBytesOut.load()));
   event("voxbrick_render_errors_total", "Renders answered with an Error instead of a Frame.", ServerEvent::RenderError);

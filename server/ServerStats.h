@@ -9,6 +9,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -107,6 +108,15 @@ class ServerStats {
   void frameDelivered(FrameClass frameClass, proto::Encoding encoding, uint64_t bytes, double latencyMs);
   /// Counts one render delivered to a further session that asked for the same frame.
   void frameShared() { mFramesShared++; }
+  /// Counts a video frame encoded in `codec` (vp8 or vp9) in `encodeMs`; a key frame names its reason
+  /// (kVideoKeyReasons; an inter frame: empty).
+  void videoEncoded(proto::Encoding codec, double encodeMs, std::string_view keyReason);
+  /// Why a video stream's key frames were sent (PROTOCOL.md, Session 11), as /metrics labels them.
+  static constexpr std::array<std::string_view, 7> kVideoKeyReasons = {"start", "codec",    "size",   "dataset",
+                                                                       "asked", "recovery", "encoder"};
+  /// The upper bounds of the video encode time histogram, in seconds.
+  static constexpr std::array<double, 9> kEncodeBoundsS = {0.001, 0.0025, 0.005, 0.01, 0.02, 0.035, 0.05, 0.1, 0.25};
+
   /// Counts `bytes` of protocol messages written to a client, whatever the transport.
   void bytesWritten(uint64_t bytes) { mBytesOut += bytes; }
 
@@ -117,6 +127,9 @@ class ServerStats {
   std::string metricsText(const Gauges& gauges) const;
 
  private:
+  /// The Stats JSON's `video`: frames encoded and their mean encode ms by codec, key frames by reason.
+  nlohmann::json videoJson() const;
+
   static constexpr size_t kEvents = size_t(ServerEvent::OutputRefused) + 1;
   using Counter = std::atomic<uint64_t>;
   std::array<Counter, kEvents> mCounts{};
@@ -127,6 +140,8 @@ class ServerStats {
   std::array<Histogram, kFrameClasses> mLatencyByClass = {Histogram(kLatencyBoundsS), Histogram(kLatencyBoundsS),
                                                           Histogram(kLatencyBoundsS)};
   Counter mFramesShared{0}, mBytesOut{0};
+  std::array<Counter, kVideoKeyReasons.size()> mVideoKeyFrames{};
+  std::array<Histogram, 2> mVideoEncode = {Histogram(kEncodeBoundsS), Histogram(kEncodeBoundsS)};  ///< vp8, vp9
   LatencyWindow mLatency;
   std::chrono::steady_clock::time_point mStarted = std::chrono::steady_clock::now();
 };

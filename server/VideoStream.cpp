@@ -23,7 +23,7 @@ double kbpsAt(int width, int height, double bitsPerPixel) { return double(width)
 double VideoStream::startKbps(int width, int height) { return kbpsAt(width, height, 0.05); }
 double VideoStream::capKbps(int width, int height) { return kbpsAt(width, height, 0.15); }
 
-void VideoStream::encode(proto::Frame& frame, const VideoFrameInput& input) {
+VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& input) {
   const auto start = Clock::now();
   const int width = int(frame.width), height = int(frame.height);
   const int kbps = int(std::lround(std::max(1.0, input.bitrateKbps)));
@@ -60,14 +60,16 @@ void VideoStream::encode(proto::Frame& frame, const VideoFrameInput& input) {
   frame.payload = std::move(chunk.bytes);
   nlohmann::json stats = nlohmann::json::parse(frame.statsJson, nullptr, false);
   if (!stats.is_object()) stats = nlohmann::json::object();
-  stats["encode_ms"] = msBetween(start, Clock::now());
+  VideoEncoded done{msBetween(start, Clock::now()), chunk.key, chunk.key ? (why.empty() ? "encoder" : why) : ""};
+  stats["encode_ms"] = done.encodeMs;
   nlohmann::json video = {{"codec", proto::encodingName(frame.encoding)},
                           {"key", chunk.key},
                           {"stream_frame", mEncoder->frames() - 1},
                           {"bitrate_kbps", kbps}};
-  if (chunk.key) video["key_reason"] = why.empty() ? "encoder" : why;
+  if (chunk.key) video["key_reason"] = done.keyReason;
   stats["video"] = std::move(video);
   frame.statsJson = stats.dump();
+  return done;
 }
 
 }  // namespace voxbrick::server

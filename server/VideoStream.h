@@ -22,6 +22,13 @@ struct VideoFrameInput {
   std::chrono::steady_clock::time_point drawn;  ///< when its pixels were ready (the stream's timestamps)
 };
 
+/// What one encode did, for the server's counters.
+struct VideoEncoded {
+  double encodeMs = 0;    ///< the encoding alone (the frame's `encode_ms`)
+  bool key = false;       ///< a key frame
+  std::string keyReason;  ///< a key frame's reason (PROTOCOL.md: start, codec, size, dataset, asked, recovery, encoder)
+};
+
 class VideoStream {
  public:
   /// The bitrate a stream of `width` x `height` starts at, and the most it is given (kbit/s): about 0.05 and 0.15
@@ -32,7 +39,7 @@ class VideoStream {
   /// Encodes `frame` (a Frame in vp8 or vp9 whose payload is its RGBA8 pixels, as renderReply leaves it) as the
   /// stream's next frame: the payload becomes the compressed frame and its statistics gain `encode_ms` and `video`
   /// (PROTOCOL.md, Frame statistics). Throws image::ImageFailure; the next frame is then a key frame.
-  void encode(proto::Frame& frame, const VideoFrameInput& input);
+  VideoEncoded encode(proto::Frame& frame, const VideoFrameInput& input);
 
   /// Frames encoded, and streams begun (key frames).
   uint64_t frames() const { return mFrames; }

@@ -194,6 +194,20 @@ export async function canvasPixels(page) {
   return { width: p.width, height: p.height, rgba: Buffer.from(p.rgba, "base64") };
 }
 
+/// PSNR in dB of the RGB of two images of one size ({rgba} rows of 4 bytes a pixel); Infinity when they are equal.
+export function psnrRgb(a, b) {
+  if (a.rgba.length !== b.rgba.length) throw new Error(`psnrRgb: ${a.width}x${a.height} against ${b.width}x${b.height}`);
+  let sum = 0;
+  let n = 0;
+  for (let i = 0; i < a.rgba.length; i += 4)
+    for (let c = 0; c < 3; ++c) {
+      const d = a.rgba[i + c] - b.rgba[i + c];
+      sum += d * d;
+      ++n;
+    }
+  return sum ? 10 * Math.log10((255 * 255 * n) / sum) : Infinity;
+}
+
 export async function screenshot(page, name) {
   fs.mkdirSync(SCREENSHOTS, { recursive: true });
   const file = path.join(SCREENSHOTS, `${name}.png`);

@@ -35,18 +35,7 @@ async function openPageWith(browser, url, script) {
 const videoFrames = (page) => page.evaluate(() => window.voxbrickViewer.videoFrames());
 const shownFrames = (page) => page.evaluate(() => window.voxbrickViewer.frames());
 
-/// PSNR in dB of the RGB of two images of one size.
-function psnr(a, b) {
-  let sum = 0;
-  let n = 0;
-  for (let i = 0; i < a.rgba.length; i += 4)
-    for (let c = 0; c < 3; ++c) {
-      const d = a.rgba[i + c] - b.rgba[i + c];
-      sum += d * d;
-      ++n;
-    }
-  return sum ? 10 * Math.log10((255 * 255 * n) / sum) : Infinity;
-}
+const psnr = H.psnrRgb;
 
 /// The stream's frames as they arrived: each was given to the decoder, and stream_frame counts up by one, from 0 at
 /// each key frame that starts an encoder (the first, or one of a new size or codec).

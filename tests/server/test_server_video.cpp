@@ -138,6 +138,13 @@ TEST_F(VideoServerTest, KeyFramesComeOnANewSizeAndWhenAsked) {
   drag(dragScene(20, "vp8", 128));
   EXPECT_EQ(reasons, (std::vector<std::string>{"start", "-", "size", "-", "asked", "-"}));
   EXPECT_EQ(decoder.videoFrames(), 6u);
+  // The server's statistics (and /metrics' voxbrick_video_* families) count them.
+  const json video = json::parse(c->stats())["video"];
+  EXPECT_EQ(video["encoded"]["vp8"]["frames"], 6) << video.dump();
+  EXPECT_GT(video["encoded"]["vp8"]["encode_ms_mean"].get<double>(), 0.0);
+  EXPECT_EQ(video["encoded"]["vp9"]["frames"], 0);
+  EXPECT_EQ(video["key_frames"], (json{{"start", 1}, {"codec", 0}, {"size", 1}, {"dataset", 0}, {"asked", 1},
+                                       {"recovery", 0}, {"encoder", 0}}));
 }
 
 TEST_F(VideoServerTest, VideoIsRefusedWhereItCannotServe) {

@@ -200,13 +200,18 @@ export class FrameLoop {
       provisional,
       standin: stats.bricks_standin || 0,
       renderMs: stats.ms ? stats.ms.total : null,
+      encodeMs: typeof stats.encode_ms === "number" ? stats.encode_ms : null,
       // An interactive frame's time budget as the server drew it (which may differ from the one asked for).
       budgetMs: stats.interactive ? stats.interactive.budget_ms : null,
+      // Its rung: 0 drawn at the full size, each rung up a coarser frame (fewer pixels) scaled up on the canvas.
+      rung: stats.interactive ? stats.interactive.rung : null,
       phase: request.phase,
       decodeMs,
       // A video frame: whether it was a key frame, and the stream's bitrate when it was encoded.
       key: stats.video ? stats.video.key === true : null,
       bitrateKbps: stats.video ? stats.video.bitrate_kbps : null,
+      // The scene the frame was asked with (its camera), so a benchmark can ask for the exact frame of what it shows.
+      scene: request.scene,
     };
     this.shownFrames.push(frame);
     if (this.shownFrames.length > KEEP) this.shownFrames.shift();

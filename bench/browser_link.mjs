@@ -1,0 +1,189 @@
+// A drag in real Chromium, JPEG against the video stream, on loopback and over a slow link, side by side in one run
+// against one server: for each link, frame size and encoding, a fresh tab on the viewer (its `video` parameter picks
+// the encoding: off for jpeg, vp8, vp9) drags the MRI for DURATION seconds at HZ moves a second through its own
+// gesture handlers. Figures of the frames shown while the camera moved: frames a second, camera-to-frame latency
+// p50/p99, bytes a frame, the server's encode ms and the browser's decode ms; the PSNR of what the canvas showed against
+// the exact frame of the same camera (SAMPLES canvases taken mid-drag, each exact frame asked of the server by
+// `voxbrick request`); and the time from the release to the exact frame. The slow link is bench/link_relay.mjs (RATE
+// Mbit/s, RTT ms round trip, a 200 ms queue) between the browser and the server's HTTP port: the page, its WebSocket
+// and every frame pass through it.
+//
+// Usage: node bench/browser_link.mjs --datasets DIR [--dataset mri] [--tf mri] [--out PREFIX]
+//        [--sizes 512x512,1024x1024,1920x1080] [--encodings jpeg,vp8,vp9] [--links loopback,relay] [--duration 10]
+//        [--hz 30] [--mbit 10] [--rtt-ms 40] [--samples 4]
+// Writes PREFIX.csv, PREFIX.md and PREFIX.json (default PREFIX bench/results/video/browser-link).
+
+import { spawn, spawnSync } from "node:child_process";
+import fs from "node:fs";
+import path from "node:path";
+import * as H from "../tests/browser/harness.mjs";
+import * as D from "./drag_common.mjs";
+
+const { pct, mean, fmt, DEG_PER_MOVE, ORBIT, sleep } = D;
+const args = D.parseArgs(process.argv.slice(2));
+const opt = {
+  datasets: args.datasets,
+  dataset: args.dataset || "mri",
+  tf: args.tf || "mri",
+  out: args.out || "bench/results/video/browser-link",
+  sizes: (args.sizes || "512x512,1024x1024,1920x1080").split(",").map((s) => s.split("x").map(Number)),
+  encodings: (args.encodings || "jpeg,vp8,vp9").split(","),
+  links: (args.links || "loopback,relay").split(","),
+  duration: Number(args.duration || 10),
+  hz: Number(args.hz || 30),
+  mbit: Number(args.mbit || 10),
+  rttMs: Number(args["rtt-ms"] || 40),
+  samples: Number(args.samples || 4),
+};
+if (!opt.datasets) throw new Error("--datasets DIR is required");
+for (const e of opt.encodings) if (!["jpeg", "vp8", "vp9"].includes(e)) throw new Error(`--encodings: '${e}' is none of jpeg, vp8, vp9`);
+for (const l of opt.links) if (!["loopback", "relay"].includes(l)) throw new Error(`--links: '${l}' is none of loopback, relay`);
+
+/// The relay (bench/link_relay.mjs) in front of `port`; resolves with its process and port once it listens.
+function startRelay(port) {
+  const relay = spawn(process.execPath, [
+    path.join(path.dirname(new URL(import.meta.url).pathname), "link_relay.mjs"),
+    "--listen", "0", "--target", String(port), "--mbit", String(opt.mbit), "--delay-ms", String(opt.rttMs / 2),
+  ], { stdio: ["ignore", "pipe", "inherit"] });
+  return new Promise((resolve, reject) => {
+    let out = "";
+    relay.stdout.on("data", (d) => {
+      out += d;
+      const m = /listening on (\d+)/.exec(out);
+      if (m) resolve({ proc: relay, port: Number(m[1]) });
+    });
+    relay.on("exit", (code) => reject(new Error(`the link relay exited (${code}) before it listened: ${out}`)));
+  });
+}
+
+/// The exact frame of `scene` (a shown frame's, its motion keys removed) from the server itself, decoded.
+function exactFrame(server, scene, file) {
+  const exact = { ...scene };
+  for (const k of ["interactive", "time_budget_ms", "provisional_encoding", "keyframe", "progressive"]) delete exact[k];
+  fs.writeFileSync(`${file}.json`, JSON.stringify(exact));
+  const r = spawnSync(H.VOXBRICK, ["request", `127.0.0.1:${server.tcpPort}`, "--dataset", opt.dataset, "--scene",
+    `${file}.json`, "-o", file], { encoding: "utf8" });
+  if (r.status !== 0) throw new Error(`voxbrick request failed: ${r.stderr}`);
+  return D.decodePng(fs.readFileSync(file));
+}
+
+/// One tab's drag at `size` with `encoding`, the page loaded from `base`.
+async function dragRun(browser, server, base, size, encoding, scratch) {
+  const video = encoding === "jpeg" ? "off" : encoding;
+  const url = `${base}/?dataset=${opt.dataset}&tf=${opt.tf}&orbit=0,${ORBIT.el},${ORBIT.dist}&size=${size[0]}x${size[1]}` +
+    `&video=${video}`;
+  const page = await H.openPage(browser, url, { width: size[0] + 300, height: size[1] + 40 });
+  try {
+    await H.waitForState(page, (s) => s.lastFrame && !s.lastFrame.provisional, 120000);
+    const start = await H.viewerState(page);
+    if (start.moving !== encoding) throw new Error(`the page moves frames as ${start.moving}, not ${encoding}`);
+    await page.evaluate(() => window.voxbrickViewer.resetFigures());
+    const durationMs = opt.duration * 1000;
+    const dragging = page.evaluate((o) => window.voxbrickViewer.drag(o), { durationMs, hz: opt.hz, dAz: DEG_PER_MOVE });
+    // Canvases mid-drag, each with the frame it shows (read in one turn of the page's loop, so they agree).
+    const shots = [];
+    for (let i = 1; i <= opt.samples; ++i) {
+      await sleep(durationMs / (opt.samples + 1) - (i === 1 ? 0 : 50));
+      const shot = await page.evaluate(() => ({
+        pixels: window.voxbrickViewer.pixels(),
+        frame: window.voxbrickViewer.state().lastFrame,
+      }));
+      if (shot.frame && shot.frame.provisional) shots.push(shot);
+    }
+    const done = await dragging;
+    const s = await H.waitForState(page, (st) => st.exactAfterReleaseMs !== null, 30000).catch(() => null);
+    const frames = await page.evaluate(() => window.voxbrickViewer.frames());
+    const state = await H.viewerState(page);
+    const moving = frames.filter((f) => f.phase === "drag" && f.provisional);
+    const lat = moving.map((f) => f.latencyMs);
+    const psnrs = shots.map((shot, i) => {
+      const exact = exactFrame(server, shot.frame.scene, path.join(scratch, `exact-${i}.png`));
+      const shown = { width: shot.pixels.width, height: shot.pixels.height, rgba: Buffer.from(shot.pixels.rgba, "base64") };
+      return H.psnrRgb(shown, exact);
+    });
+    return {
+      frames: moving.length,
+      fps: moving.length / (done.ms / 1000),
+      latency_p50_ms: pct(lat, 0.5),
+      latency_p99_ms: pct(lat, 0.99),
+      bytes_per_frame: mean(moving.map((f) => f.bytes)),
+      decode_ms_p50: pct(moving.map((f) => f.decodeMs), 0.5),
+      encode_ms_p50: pct(moving.map((f) => f.encodeMs).filter((v) => typeof v === "number"), 0.5),
+      psnr_db_mean: mean(psnrs.filter(Number.isFinite)),
+      psnr_db_min: psnrs.length ? Math.min(...psnrs) : null,
+      psnr_samples: psnrs.length,
+      rung_p50: pct(moving.map((f) => f.rung).filter((v) => typeof v === "number"), 0.5),
+      key_frames: moving.filter((f) => f.key).length,
+      bitrate_kbps_p50: pct(moving.map((f) => f.bitrateKbps).filter((v) => typeof v === "number"), 0.5),
+      exact_after_release_ms: s ? s.exactAfterReleaseMs : null,
+      errors: state.counts.errors + page.errors.length,
+      wrong_encoding: moving.filter((f) => f.encoding !== { jpeg: 3, vp8: 4, vp9: 5 }[encoding]).length,
+    };
+  } finally {
+    await page.close();
+  }
+}
+
+const scratch = H.scratchDir("browser-link");
+const server = await new H.Server({ dir: scratch.dir, datasets: opt.datasets }).start();
+const relay = opt.links.includes("relay") ? await startRelay(server.httpPort) : null;
+const browser = await H.launchBrowser();
+const rows = [];
+const report = { options: opt, started: new Date().toISOString(), machine: D.describeMachine() };
+try {
+  for (const link of opt.links) {
+    const base = link === "relay" ? `http://127.0.0.1:${relay.port}` : server.url;
+    for (const size of opt.sizes)
+      for (const encoding of opt.encodings) {
+        const r = await dragRun(browser, server, base, size, encoding, scratch.dir);
+        const row = { link, size: `${size[0]}x${size[1]}`, encoding, ...r };
+        rows.push(row);
+        console.log(JSON.stringify(row));
+      }
+  }
+} finally {
+  await browser.close();
+  if (relay) relay.proc.kill();
+  report.gl = D.glRenderer(server);
+  await server.kill("SIGTERM");
+  scratch.remove();
+}
+
+const cols = ["link", "size", "encoding", "frames", "fps", "latency_p50_ms", "latency_p99_ms", "bytes_per_frame",
+  "encode_ms_p50", "decode_ms_p50", "psnr_db_mean", "psnr_db_min", "psnr_samples", "rung_p50", "key_frames", "bitrate_kbps_p50",
+  "exact_after_release_ms", "errors", "wrong_encoding"];
+D.writeCsv(`${opt.out}.csv`, cols, rows);
+fs.writeFileSync(`${opt.out}.json`, JSON.stringify({ ...report, rows, command: D.benchCommand() }, null, 2) + "\n");
+const jpegOf = (r) => rows.find((j) => j.link === r.link && j.size === r.size && j.encoding === "jpeg");
+const md = [
+  "# A drag in Chromium: JPEG against the video stream, on loopback and over a slow link",
+  "",
+  `- Command: \`${D.benchCommand()}\``,
+  `- Date: ${report.started}`,
+  `- Machine: ${report.machine.line}; load average at the start ${report.machine.load_average.join(", ")}`,
+  `- Server: \`voxbrick serve\` (its defaults), GL: ${report.gl || "unknown"}`,
+  `- Dataset \`${opt.dataset}\`, transfer function \`${opt.tf}\`; a drag of ${opt.duration} s at ${opt.hz} Hz, ` +
+    `${DEG_PER_MOVE}° a move, through the page's own gesture handlers; a fresh tab for each row, its \`video\` ` +
+    "parameter picking the encoding of the moving frames (off: jpeg); exact frames png.",
+  `- relay: bench/link_relay.mjs between the browser and the server, ${opt.mbit} Mbit/s each way, ${opt.rttMs} ms ` +
+    "round trip, a 200 ms queue; the page, its WebSocket and every frame pass through it.",
+  "- Latency: from the camera change to the frame drawn on the canvas. Frames/s: frames shown a second while " +
+    "dragging. PSNR: the canvas mid-drag against the exact frame of the camera it shows (from the server, lossless), " +
+    `${opt.samples} samples a row; rung: the median moving frame's (0: drawn at full size, each rung coarser, scaled up); ` +
+    "bytes ratio: against JPEG's on the same link and size.",
+  "",
+  "| link | size | encoding | frames/s | latency p50 ms | p99 ms | bytes/frame | ratio | PSNR dB mean (min) | " +
+    "encode ms | decode ms | kbit/s | exact after release ms | errors |",
+  "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+  ...rows.map((r) => {
+    const j = jpegOf(r);
+    const ratio = j && j.bytes_per_frame ? r.bytes_per_frame / j.bytes_per_frame : null;
+    return `| ${r.link} | ${r.size} | ${r.encoding} | ${fmt(r.fps)} | ${fmt(r.latency_p50_ms, 0)} | ` +
+      `${fmt(r.latency_p99_ms, 0)} | ${fmt(r.bytes_per_frame, 0)} | ${fmt(ratio, 2)} | ${fmt(r.psnr_db_mean)} ` +
+      `(${fmt(r.psnr_db_min)}) | ${fmt(r.rung_p50, 0)} | ${fmt(r.encode_ms_p50)} | ${fmt(r.decode_ms_p50)} | ${fmt(r.bitrate_kbps_p50, 0)} | ` +
+      `${fmt(r.exact_after_release_ms, 0)} | ${r.errors + r.wrong_encoding} |`;
+  }),
+  "",
+];
+fs.writeFileSync(`${opt.out}.md`, md.join("\n"));
+console.log(md.join("\n"));
