@@ -5,8 +5,10 @@
 // bench/results/video/video.{csv,md}).
 //
 //   bench_video --csv OUT.csv --fps 30 FRAME.png... [--qualities 50,70,85] [--kbps 1000,2000,4000] [--threads 1,4]
+//               [--scales 1,0.5]
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -65,20 +67,28 @@ Row jpegRow(const std::vector<image::Image8>& frames, int quality) {
   return row;
 }
 
-Row videoRow(const std::vector<image::Image8>& frames, proto::Encoding codec, int kbps, double fps, int threads) {
+/// A stream at `kbps` of the frames scaled by `scale` (1: as they are), each decoded frame scaled back to the frame's
+/// size before its PSNR is taken (as a viewer shows a smaller stream).
+Row videoRow(const std::vector<image::Image8>& frames, proto::Encoding codec, int kbps, double fps, int threads,
+             double scale) {
+  char scaled[32];
+  std::snprintf(scaled, sizeof scaled, "; scale %g", scale);
   Row row{proto::encodingName(codec), std::to_string(kbps) + " kbit/s" +
-                                          (threads > 1 ? "; " + std::to_string(threads) + " threads" : "")};
+                                          (threads > 1 ? "; " + std::to_string(threads) + " threads" : "") +
+                                          (scale != 1 ? scaled : "")};
+  const int width = std::max(16, int(std::lround(frames[0].width * scale)));
+  const int height = std::max(16, int(std::lround(frames[0].height * scale)));
   image::VideoSettings settings;
-  settings.width = frames[0].width, settings.height = frames[0].height, settings.bitrateKbps = kbps;
+  settings.width = width, settings.height = height, settings.bitrateKbps = kbps;
   settings.threads = threads;
   image::VideoEncoder encoder(codec, settings);
   image::VideoDecoder decoder(codec);
   for (size_t i = 0; i < frames.size(); ++i) {
     auto start = Clock::now();
-    const image::VideoChunk chunk = encoder.encode(frames[i], 1000.0 * double(i) / fps);
+    const image::VideoChunk chunk = encoder.encode(image::scaleImage(frames[i], width, height), 1000.0 * double(i) / fps);
     const double encodeMs = msSince(start);
     start = Clock::now();
-    const image::Image8 shown = decoder.decode(chunk.bytes);
+    const image::Image8 shown = image::scaleImage(decoder.decode(chunk.bytes), frames[i].width, frames[i].height);
     accumulate(row, chunk.bytes.size(), psnr(frames[i], shown), encodeMs, msSince(start));
     if (chunk.key) row.keyBytes = double(chunk.bytes.size());
   }
@@ -95,12 +105,17 @@ int main(int argc, char** argv) {
   std::vector<int> qualities{50, 70, 85, 95}, kbps{500, 1000, 2000, 4000, 8000};
   double fps = 30;
   std::vector<int> threads{1};
+  std::vector<double> scales{1};
   app.add_option("--csv", csvPath, "the CSV to write")->required();
   app.add_option("--qualities", qualities, "JPEG qualities")->delimiter(',');
   app.add_option("--kbps", kbps, "video bitrates, kbit/s")->delimiter(',');
   app.add_option("--fps", fps, "the frames' rate (the stream's timestamps)")->check(CLI::PositiveNumber);
   app.add_option("--threads", threads, "encoder threads (each a row of every bitrate; the server's choice is "
                                        "image::videoThreadsFor)")->delimiter(',');
+  app.add_option("--scales", scales, "stream sizes as fractions of the frames' (each a row of every bitrate; the "
+                                     "decoded frame is scaled back up for its PSNR)")
+      ->delimiter(',')
+      ->check(CLI::Range(0.05, 1.0));
   app.add_option("frames", paths, "the drag's lossless frames, in order")->required();
   CLI11_PARSE(app, argc, argv);
   try {
@@ -113,7 +128,8 @@ int main(int argc, char** argv) {
     for (int q : qualities) rows.push_back(jpegRow(frames, q));
     for (const proto::Encoding codec : {proto::Encoding::Vp8, proto::Encoding::Vp9})
       for (int t : threads)
-        for (int k : kbps) rows.push_back(videoRow(frames, codec, k, fps, t));
+        for (double scale : scales)
+          for (int k : kbps) rows.push_back(videoRow(frames, codec, k, fps, t, scale));
     std::ofstream csv(csvPath);
     csv << "size,frames,fps,encoding,setting,bytes_per_frame,psnr_mean_db,psnr_min_db,encode_ms,decode_ms,key_bytes\n";
     for (const Row& r : rows) {

@@ -31,6 +31,10 @@ struct VideoSettings {
 /// longest step of a dragged frame; more share too little work to pay for their start.
 int videoThreadsFor(int width, int height, int available);
 
+/// `image` scaled to `width` x `height` (each at least 1): box filtered when it shrinks, bilinear when it grows
+/// (libyuv). The same image when the size is its own.
+Image8 scaleImage(const Image8& image, int width, int height);
+
 /// One compressed frame: what a decoder of the codec takes as one chunk (WebCodecs' EncodedVideoChunk).
 struct VideoChunk {
   std::vector<uint8_t> bytes;

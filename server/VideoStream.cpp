@@ -23,10 +23,30 @@ double kbpsAt(int width, int height, double bitsPerPixel) { return double(width)
 double VideoStream::startKbps(int width, int height) { return kbpsAt(width, height, 0.05); }
 double VideoStream::capKbps(int width, int height) { return kbpsAt(width, height, 0.15); }
 
+double VideoStream::scaleFor(double kbps, int width, int height) {
+  const double pixels = std::max(1.0, double(width) * height);
+  for (const double scale : kScales)
+    if (kbps * 1000 / (30 * pixels * scale * scale) >= kMinBitsPerPixel) return scale;
+  return kScales[std::size(kScales) - 1];
+}
+
+double VideoStream::settledScale(double wanted, Clock::time_point now) {
+  if (wanted != mWanted) mWanted = wanted, mWantedSince = now;
+  if (!mEncoder) return mScale = wanted;  // a stream's first frame starts at the link's scale
+  if (mWanted == mScale) return mScale;
+  const double waited = msBetween(mWantedSince, now);
+  if (waited >= (mWanted < mScale ? kShrinkAfterMs : kGrowAfterMs)) mScale = mWanted;
+  return mScale;
+}
+
 VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& input) {
   const auto start = Clock::now();
-  const int width = int(frame.width), height = int(frame.height);
   const int kbps = int(std::lround(std::max(1.0, input.bitrateKbps)));
+  const int fullWidth = int(frame.width), fullHeight = int(frame.height);
+  const double scale = settledScale(scaleFor(kbps, fullWidth, fullHeight), input.drawn);
+  // (At the bitrate's floor of 1 kbit/s a side is only scaled to a quarter beyond 146 pixels: never below 36.)
+  const int width = std::max(1, int(std::lround(fullWidth * scale)));
+  const int height = std::max(1, int(std::lround(fullHeight * scale)));
   std::string why;
   if (!mEncoder || mEncoder->codec() != frame.encoding || mEncoder->width() != width || mEncoder->height() != height) {
     why = !mEncoder ? "start" : mEncoder->codec() != frame.encoding ? "codec" : "size";
@@ -46,7 +66,11 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
   }
   mDataset = input.dataset;
   mEncoder->setBitrate(kbps);
-  const image::Image8 pixels{width, height, std::move(frame.payload)};
+  image::Image8 pixels{fullWidth, fullHeight, std::move(frame.payload)};
+  if (width != fullWidth || height != fullHeight) {
+    pixels = image::scaleImage(pixels, width, height);
+    frame.width = uint32_t(width), frame.height = uint32_t(height);
+  }
   image::VideoChunk chunk;
   try {
     chunk = mEncoder->encode(pixels, std::max(0.0, msBetween(mStart, input.drawn)), !why.empty());
@@ -65,7 +89,8 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
   nlohmann::json video = {{"codec", proto::encodingName(frame.encoding)},
                           {"key", chunk.key},
                           {"stream_frame", mEncoder->frames() - 1},
-                          {"bitrate_kbps", kbps}};
+                          {"bitrate_kbps", kbps},
+                          {"scale", scale}};
   if (chunk.key) video["key_reason"] = done.keyReason;
   stats["video"] = std::move(video);
   frame.statsJson = stats.dump();

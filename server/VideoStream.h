@@ -36,9 +36,22 @@ class VideoStream {
   static double startKbps(int width, int height);
   static double capKbps(int width, int height);
 
+  /// The stream sizes a frame may be sent at, as fractions of its side, largest first.
+  static constexpr double kScales[] = {1, 0.75, 0.5, 0.375, 0.25};
+  /// The fewest bits a pixel (at 30 frames a second) a stream is given before it is made smaller: below about 0.02
+  /// libvpx cannot hold the rate at all (its coarsest quantiser still spends more), and at equal bytes a smaller
+  /// stream scaled back up loses to the full one above it (bench/results/video/video-scale.md).
+  static constexpr double kMinBitsPerPixel = 0.025;
+  /// The largest of kScales at which `kbps` gives a `width` x `height` frame kMinBitsPerPixel; the smallest if none.
+  static double scaleFor(double kbps, int width, int height);
+  /// How long the link must call for another scale before the stream changes to it (each change is a key frame):
+  /// a smaller one soon, a larger one only once the link has held up a while.
+  static constexpr double kShrinkAfterMs = 300, kGrowAfterMs = 2000;
+
   /// Encodes `frame` (a Frame in vp8 or vp9 whose payload is its RGBA8 pixels, as renderReply leaves it) as the
   /// stream's next frame: the payload becomes the compressed frame and its statistics gain `encode_ms` and `video`
-  /// (PROTOCOL.md, Frame statistics). Throws image::ImageFailure; the next frame is then a key frame.
+  /// (PROTOCOL.md, Frame statistics). Where the bitrate is too low for the frame's size (scaleFor), the frame is
+  /// scaled down first and its width and height become the stream's (the client shows it at the scene's size). Throws image::ImageFailure; the next frame is then a key frame.
   VideoEncoded encode(proto::Frame& frame, const VideoFrameInput& input);
 
   /// Frames encoded, and streams begun (key frames).
@@ -46,7 +59,12 @@ class VideoStream {
   uint64_t keyFrames() const { return mKeyFrames; }
 
  private:
+  /// The scale the stream is sent at, given the one the link calls for now (the hysteresis above).
+  double settledScale(double wanted, std::chrono::steady_clock::time_point now);
+
   std::unique_ptr<image::VideoEncoder> mEncoder;
+  double mScale = 1, mWanted = 1;
+  std::chrono::steady_clock::time_point mWantedSince;
   const void* mDataset = nullptr;
   std::chrono::steady_clock::time_point mStart;
   uint64_t mFrames = 0, mKeyFrames = 0;
