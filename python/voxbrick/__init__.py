@@ -1,4 +1,4 @@
-"""voxbrick from Python: frames of a voxbrick server as NumPy arrays.
+"""voxbrick from Python: frames of a voxbrick server as NumPy arrays, and stores prepped from arrays.
 
     import voxbrick
     with voxbrick.connect("127.0.0.1:7420") as client:
@@ -20,6 +20,7 @@ __version__ = '1.0'
 _LAZY = {
     'connect': 'client', 'Client': 'client', 'Frame': 'client',
     'decode_png': 'images', 'encode_png': 'images', 'save_png': 'images', 'read_png': 'images',
+    'prep': 'arrays', 'find_voxbrick': 'arrays',
 }
 
 __all__ = ['ConnectionClosed', 'ConnectionRefused', 'DecodeError', 'ErrorCode', 'ProtocolError', 'ServerError',
