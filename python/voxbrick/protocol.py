@@ -128,7 +128,7 @@ def _encode_value(kind: str, value: Any) -> bytes:
     return _INTS[kind].pack(int(value))
 
 
-def encode(message_type: MessageType, request_id: int, version: int = MIN_VERSION, **fields: Any) -> bytes:
+def encode(message_type: MessageType, request_id: int, version: int = MIN_VERSION, /, **fields: Any) -> bytes:
     """A whole message (header and body) written in protocol `version`; ValueError for a field the version lacks."""
     message_type = MessageType(message_type)
     if MESSAGE_SINCE.get(message_type, 1) > version:

@@ -80,15 +80,39 @@ def work(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope='session')
 def datasets(work: Path) -> Path:
-    """mri.vbs (the MRI template, u8, 301x370x316), sparse (a synthetic field, 32^3) and cold (sparse again, opened
-    by one test only, so its bricks are not in the server's memory)."""
+    """mri.vbs (the MRI template, u8, 301x370x316), sparse (a synthetic field, 32^3), cold (sparse again, opened
+    by one test only, so its bricks are not in the server's memory) and fresh-0 ... fresh-3 (mri.vbs again, each
+    drawn once, see fresh())."""
     assert MRI.exists(), f'{MRI} is missing: install the mricron-data package (scripts/setup.sh)'
     directory = work / 'datasets'
     directory.mkdir()
     run_voxbrick('prep', str(MRI), '--no-vdb', '-q', '-o', str(directory / 'mri.vbs'))
     run_voxbrick('prep', 'synthetic:sparse,n=32', '--brick', '16', '--no-vdb', '-q', '-o', str(directory / 'sparse'))
     shutil.copytree(directory / 'sparse', directory / 'cold')
+    for i in range(FRESH):
+        shutil.copytree(directory / 'mri.vbs', directory / f'fresh-{i}', copy_function=os.link)
     return directory
+
+
+FRESH = 4
+_fresh_taken = []
+
+
+def fresh() -> str:
+    """The name of a copy of mri.vbs no frame has been drawn of yet. Byte-equal frames need one: the server draws a
+    frame as `voxbrick render` does, but where a brick lies in the GPU's atlas depends on the frames drawn before,
+    and its filtering on that by round-off, within 1/255 (PROTOCOL.md, Session 8); a dataset's first frame on a
+    render thread has the atlas of a fresh `voxbrick render`."""
+    assert len(_fresh_taken) < FRESH, 'more fresh datasets are needed: raise FRESH'
+    _fresh_taken.append(f'fresh-{len(_fresh_taken)}')
+    return _fresh_taken[-1]
+
+
+def largest_difference(a, b) -> int:
+    """The largest difference of one channel of two images of the same shape."""
+    import numpy as np
+    assert a.shape == b.shape
+    return int(np.abs(a.astype(int) - b.astype(int)).max())
 
 
 @pytest.fixture(scope='session')
