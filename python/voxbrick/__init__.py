@@ -1,4 +1,5 @@
-"""voxbrick from Python: frames of a voxbrick server as NumPy arrays, and stores prepped from arrays.
+"""voxbrick from Python: frames of a voxbrick server as NumPy arrays, stores prepped from arrays, and the viewer in a
+Jupyter notebook.
 
     import voxbrick
     with voxbrick.connect("127.0.0.1:7420") as client:
@@ -21,6 +22,7 @@ _LAZY = {
     'connect': 'client', 'Client': 'client', 'Frame': 'client',
     'decode_png': 'images', 'encode_png': 'images', 'save_png': 'images', 'read_png': 'images',
     'prep': 'arrays', 'find_voxbrick': 'arrays',
+    'view': 'notebook', 'View': 'notebook',
 }
 
 __all__ = ['ConnectionClosed', 'ConnectionRefused', 'DecodeError', 'ErrorCode', 'ProtocolError', 'ServerError',
