@@ -14,6 +14,9 @@ from .protocol import (ENCODING_SINCE, HEADER_BYTES, MAX_BODY_BYTES, MAX_VERSION
 from .transport import Address, open_transport, parse_address
 
 CLIENT_NAME = 'voxbrick-python 1'
+#: Errors with request id 0 after which the server closes the connection (PROTOCOL.md, section 8).
+_CLOSING = (ErrorCode.BadMagic, ErrorCode.UnsupportedVersion, ErrorCode.TooLarge, ErrorCode.LimitExceeded,
+            ErrorCode.ShuttingDown, ErrorCode.Timeout, ErrorCode.Busy)
 
 
 class Capabilities(NamedTuple):
@@ -65,6 +68,7 @@ class Session:
         self.dataset: Optional[str] = None  # the dataset open in this session
         self.meta: Optional[Dict[str, Any]] = None  # its DatasetInfo meta_json
         self.capabilities: Optional[Capabilities] = None
+        self._broken = ''  # why the session ended, once it has
         try:
             self._hello(client_name, min_version, max_version)
         except BaseException:
@@ -130,16 +134,18 @@ class Session:
     def frame_received(self, frame: RawFrame) -> None:
         """Reports a Frame as arrived (FrameReceived, version 4): the server then paces its frames by the reports.
         A client sends one for every Frame, in order, or none at all."""
-        if self.version >= 4:
+        if self.version >= 4 and not self._broken:
             self._transport.send(encode(MessageType.FrameReceived, frame.request_id, self.version,
                                         frame_bytes=frame.message_bytes))
 
     def close(self) -> None:
         """Says Goodbye and closes the connection (also when the server has gone already)."""
-        try:
-            self._transport.send(encode(MessageType.Goodbye, self._new_id(), self.version))
-        except OSError:
-            pass
+        if not self._broken:
+            try:
+                self._transport.send(encode(MessageType.Goodbye, self._new_id(), self.version))
+            except OSError:
+                pass
+            self._broken = 'closed by this client'
         self._transport.close()
 
     def __enter__(self) -> 'Session':
@@ -155,9 +161,20 @@ class Session:
         return self._next_id - 1
 
     def _send(self, message_type: MessageType, **fields: Any) -> int:
+        if self._broken:
+            raise ConnectionClosed(f'the session ended: {self._broken}')
         request_id = self._new_id()
-        self._transport.send(encode(message_type, request_id, self.version, **fields))
+        try:
+            self._transport.send(encode(message_type, request_id, self.version, **fields))
+        except OSError as e:
+            raise self._end(f'the connection failed: {e}') from e
         return request_id
+
+    def _end(self, why: str) -> ConnectionClosed:
+        # A stream cut part way through a message cannot be read on: every later call says why it ended.
+        self._broken = why
+        self._transport.close()
+        return ConnectionClosed(why)
 
     def _call(self, message_type: MessageType, reply_type: MessageType, **fields: Any) -> Dict[str, Any]:
         return self._await(self._send(message_type, **fields), (reply_type,))[1]
@@ -171,18 +188,25 @@ class Session:
         while True:
             try:
                 header, body = self._transport.receive(self._max_body)
-            except ConnectionClosed:
-                raise
+            except ConnectionClosed as e:
+                raise self._end(str(e)) from None
             except socket.timeout:
-                raise ConnectionClosed(f'no reply within {self._timeout:g} s') from None
+                raise self._end(f'no reply within {self._timeout:g} s') from None
             except OSError as e:
-                raise ConnectionClosed(f'the connection failed: {e}') from e
+                raise self._end(f'the connection failed: {e}') from e
+            except ProtocolError as e:
+                if e.code in (ErrorCode.BadMagic, ErrorCode.UnsupportedVersion, ErrorCode.TooLarge):
+                    self._end(f'a reply that does not decode: {e}')  # the header is wrong: nothing after it reads
+                raise
             if header.type is None or header.request_id not in (request_id, 0):
                 continue  # a type this client does not know, or an answer to an earlier request (superseded)
             reply = decode_body(header.type, body, header.version)
             if header.type == MessageType.Error:
-                raise ServerError(reply['code'], reply['message'], header.request_id)
+                error = ServerError(reply['code'], reply['message'], header.request_id)
+                if header.request_id == 0 and error.code in _CLOSING:
+                    self._end(f'the server closed the session: {error}')
+                raise error
             if header.type == MessageType.Goodbye:
-                raise ConnectionClosed('the server ended the session (Goodbye)')
+                raise self._end('the server ended the session (Goodbye)')
             if header.type in reply_types and header.request_id == request_id:
                 return header, reply

@@ -202,6 +202,9 @@ def test_a_server_that_goes_away(datasets, work):
     with pytest.raises(ServerError) as e:  # a clean stop says so first
         c.datasets()
     assert e.value.code == ErrorCode.ShuttingDown and e.value.request_id == 0
+    with pytest.raises(voxbrick.ConnectionClosed, match='the session ended: the server closed the session: '
+                                                        'ShuttingDown'):
+        c.datasets()
     c.close()  # closing a closed session is harmless
     with pytest.raises(ConnectionRefusedError):
         voxbrick.connect(s.address)

@@ -127,6 +127,7 @@ def test_the_png_decoder_reads_every_filter_as_pillow_does():
         data = buffer.getvalue()
         expected = np.asarray(Image.open(io.BytesIO(data)).convert('RGBA'))
         assert np.array_equal(decode_png(data), expected)
+        assert np.array_equal(decode_png(data, pillow=True), expected)
         assert np.array_equal(decode_png(encode_png(image)), expected)
     # Each filter type alone, rows written by hand.
     height, width = 6, 5
@@ -163,14 +164,16 @@ def test_damaged_payloads_are_refused_naming_the_problem():
     cases = [
         (b'GIF89a', 'not a PNG'),
         (png[:40], 'cut short'),
+        (png[:-20], 'cut short in chunk'),
         (png[:20] + bytes([png[20] ^ 1]) + png[21:], 'CRC mismatch'),
         (_png(2, 2, b'\0' * 17), 'image data is 17 bytes, expected 18'),
         (_png(1, 1, b'\x07' + b'\0' * 4), 'unknown filter type 7'),
         (_png(1, 1, b'\0' * 5, colour=3), 'colour type 3'),
     ]
     for data, words in cases:
-        with pytest.raises(voxbrick.DecodeError, match=words):
-            decode_png(data)
+        for pillow in (False, True):
+            with pytest.raises(voxbrick.DecodeError, match=words):
+                decode_png(data, pillow=pillow)
     with pytest.raises(voxbrick.DecodeError, match='raw_rgba8 payload of 7 bytes, expected 2x1x4 = 8'):
         decode_frame(b'\0' * 7, 'raw', 2, 1)
     with pytest.raises(voxbrick.DecodeError, match='png payload is 5x4, the Frame says 4x5'):
