@@ -41,8 +41,9 @@ class Frame:
     def height(self) -> int:
         return self.image.shape[0]
 
-    def __array__(self, dtype: Any = None) -> np.ndarray:
-        return self.image if dtype is None else self.image.astype(dtype)
+    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
+        image = self.image if dtype is None else self.image.astype(dtype)
+        return image.copy() if copy else image
 
 
 def connect(address: str, token: Optional[str] = None, *, timeout: float = 120,
@@ -136,7 +137,8 @@ class Client:
         """The frames of one Render as they arrive, as render() takes it: with `progressive=True` (bricks not yet in
         the server's memory drawn from a coarser level) or `interactive=True` (drawn within `time_budget_ms`, a
         camera in motion), a provisional frame first, then the exact one, which ends the iteration; otherwise the
-        exact frame alone. `provisional_encoding` may be "png", "raw", "zstd" or "jpeg"."""
+        exact frame alone. `provisional_encoding` may be "png", "raw", "zstd" or "jpeg". Take every frame before the
+        session's next call: a newer Render makes the server drop an exact frame not yet started."""
         request = self._request(dataset, camera, tf, window, size, encoding, scene,
                                 dict(keys, progressive=progressive, interactive=interactive))
         for raw in self.session.frames(self.session.send_render(*request)):
