@@ -121,11 +121,18 @@ TEST(Presets, AnInstalledBinaryFindsItsShareDirectory) {
   ASSERT_EQ(install.exitCode, 0) << install.output;
   const fs::path share = prefix / "share" / "voxbrick";
   for (const fs::path& p : {share / "server.toml", share / "tf" / "mri.json", share / "scenes" / "orbit-default.json",
-                            share / "examples" / "python" / "voxbrick_client.py"})
+                            share / "examples" / "python" / "voxbrick_client.py",
+                            share / "python" / "voxbrick" / "__init__.py", share / "python" / "voxbrick" / "session.py"})
     EXPECT_TRUE(fs::is_regular_file(p)) << p;
   const std::string exe = (prefix / "bin" / "voxbrick").string();
   fs::create_directories(dir / "elsewhere");
   const std::string unset = "cd " + (dir / "elsewhere").string() + " && unset VOXBRICK_CONFIG_DIR &&";
+  // The installed command-line client finds the installed package beside it, from any directory.
+  const test::CommandResult hello =
+      test::runShell(unset + " unset PYTHONPATH && python3 " +
+                     (share / "examples" / "python" / "voxbrick_client.py").string() + " --encode-hello hello.bin 2>&1");
+  EXPECT_EQ(hello.exitCode, 0) << hello.output;
+  EXPECT_TRUE(fs::is_regular_file(dir / "elsewhere" / "hello.bin"));
   const test::SplitResult list = runExe(exe, "presets", 60, unset);
   ASSERT_EQ(list.exitCode, 0) << list.err;
   EXPECT_NE(list.out.find((share / "tf" / "mri.json").string()), std::string::npos) << list.out;

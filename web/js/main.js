@@ -159,7 +159,27 @@ function viewChanged(phase = "still", ask = true) {
     urlTimer = setTimeout(() => {
       urlTimer = 0;
       history.replaceState(null, "", `${location.pathname}?${V.writeView(app.view, params)}`);
+      tellEmbedder();
     }, 250);
+}
+
+// Embedded in another page (a notebook's output cell, docs/python.md): the page holding the frame may ask for the view
+// by posting {type: "voxbrick-hello"}; from then on the viewer posts {type: "voxbrick-view", view, query, size} to that
+// page's origin alone, at once and whenever the view changes (as often as the URL is written). `query` is the view as
+// URL parameters (writeView's, without the token). A page that did not ask, or one of an opaque origin, gets nothing.
+let embedder = null;
+window.addEventListener("message", (e) => {
+  if (window.parent === window || e.source !== window.parent || e.origin === "null") return;
+  if (!e.data || e.data.type !== "voxbrick-hello") return;
+  embedder = e.origin;
+  tellEmbedder();
+});
+
+function tellEmbedder() {
+  if (!embedder) return;
+  const view = JSON.parse(JSON.stringify(app.view));
+  const query = V.writeView(app.view, new URLSearchParams()).toString();
+  window.parent.postMessage({ type: "voxbrick-view", view, query, size: frameSize() }, embedder);
 }
 
 /// The server's transfer-function presets with their curves (GET /presets.json, behind the same token as /ws); the

@@ -1,0 +1,183 @@
+"""Stores from arrays: a NumPy array, a memory map, a Zarr array (or anything sliced like one: h5py, dask) written
+slab by slab as a raw file with a detached NRRD header, then `voxbrick prep` on it, the command line's own reader
+and prep. Memory stays within about two slabs whatever the array's size.
+"""
+from __future__ import annotations
+
+import math
+import mmap
+import numbers
+import os
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+from typing import Any, Optional, Sequence, Union
+
+import numpy as np
+
+from .errors import VoxbrickError
+
+#: NRRD type names of the dtypes prep reads as they are (little- or big-endian).
+_NRRD_TYPES = {'u1': 'uint8', 'i1': 'int8', 'u2': 'uint16', 'i2': 'int16', 'u4': 'uint32', 'i4': 'int32',
+               'f4': 'float', 'f8': 'double'}
+#: dtypes written converted: what they become.
+_CONVERTED = {'b1': np.dtype('u1'), 'f2': np.dtype('f4'), 'i8': np.dtype('f8'), 'u8': np.dtype('f8')}
+
+
+def find_voxbrick(exe: Union[str, os.PathLike, None] = None) -> str:
+    """The voxbrick command to run: `exe` if given, else $VOXBRICK, else `voxbrick` on PATH. VoxbrickError saying
+    where it looked when there is none."""
+    for candidate, where in ((exe, 'the exe argument'), (os.environ.get('VOXBRICK'), '$VOXBRICK')):
+        if candidate:
+            path = shutil.which(os.fspath(candidate))
+            if path is None:
+                raise VoxbrickError(f'{where} names {os.fspath(candidate)!r}, which is not an executable file')
+            return path
+    path = shutil.which('voxbrick')
+    if path is None:
+        raise VoxbrickError('voxbrick not found: pass exe="path/to/voxbrick", set $VOXBRICK, or put it on PATH '
+                            '(a build makes build/voxbrick)')
+    return path
+
+
+def _vector(value: Any, what: str, positive: bool) -> list:
+    if isinstance(value, (str, bytes)) or not hasattr(value, '__len__') or len(value) != 3:
+        raise ValueError(f'{what} {value!r}: expected three numbers (x, y, z)')
+    out = []
+    for v in value:
+        if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v) or (positive and v <= 0):
+            raise ValueError(f'{what} {value!r}: each must be a finite{" positive" if positive else ""} number')
+        out.append(float(v))
+    return out
+
+
+def _memmap_file_offset(array: np.ndarray) -> Optional[int]:
+    """Where a C-contiguous np.memmap (or a view of one) starts in its file, or None if it is not one."""
+    if not isinstance(array, np.memmap) or getattr(array, 'filename', None) is None:
+        return None
+    buffer = getattr(array, '_mmap', None)
+    if buffer is None or not array.flags.c_contiguous:
+        return None
+    start = np.frombuffer(buffer, dtype=np.uint8).__array_interface__['data'][0]
+    # np.memmap maps from the offset rounded down to the allocation granularity.
+    mapped_from = array.offset - array.offset % mmap.ALLOCATIONGRANULARITY
+    return array.__array_interface__['data'][0] - start + mapped_from
+
+
+def prep(array: Any, out: Union[str, os.PathLike], *, spacing: Sequence[float] = (1, 1, 1),
+         origin: Optional[Sequence[float]] = None, axes: str = 'zyx', patient: bool = False,
+         exe: Union[str, os.PathLike, None] = None, brick: Optional[int] = None, quantise: Optional[str] = None,
+         vdb: bool = True, force: bool = False, extra_args: Sequence[str] = (),
+         work: Union[str, os.PathLike, None] = None, slab_bytes: int = 64 << 20, quiet: bool = True) -> Path:
+    """Writes the brick store `out` from a 3-D array, with `voxbrick prep` (the command line's prep); returns `out`.
+
+    `array`: a NumPy array or memory map, a Zarr array, or anything with `shape`, `dtype` and NumPy slicing.
+    `axes`: which array axis is x, y and z: "zyx" (the default: the last axis varies fastest, as NumPy, scikit-image
+    and OME-Zarr lay out volumes) or any order of the three letters ("xyz" for arrays indexed [x, y, z], as
+    nibabel's). `spacing` and `origin` are in x, y, z order: the voxel size and the world position of voxel
+    (0, 0, 0); without `origin` the volume is centred on the origin. `patient=True`: x, y, z are RAS millimetres
+    (right, anterior, superior), so named views mean the patient's.
+
+    Values: uint8, uint16 and int16 are stored as they are; int8 as int16; int32, uint32, float32 and float64 as
+    float32 (int64 and uint64 too, through float64; float16 through float32); bool as uint8. NaN and Inf become the
+    background (prep's default). `quantise`: "u8" or "u16" stores fewer bits. `brick`, `vdb`, `force` are prep's
+    --brick, --no-vdb (vdb=False) and --force; `extra_args` more of its options. `exe`: the voxbrick command
+    (default $VOXBRICK, else PATH).
+
+    The array is written to a raw file in `work` (default: a temporary directory beside `out`, removed after) a slab
+    of at most `slab_bytes` at a time, whole chunks of a Zarr array along z where they fit; a C-contiguous memory map
+    whose axes are "zyx" is read in place, not copied. VoxbrickError with prep's own message when it refuses."""
+    command = find_voxbrick(exe)
+    if not hasattr(array, 'shape') or not hasattr(array, 'dtype'):
+        array = np.asarray(array)
+    shape = tuple(int(n) for n in array.shape)
+    dtype = np.dtype(array.dtype)
+    if len(shape) != 3:
+        raise ValueError(f'array of shape {shape}: prep takes a 3-D volume; pick one first (e.g. array[0, 0] of a '
+                         't, c, z, y, x image)')
+    if 0 in shape:
+        raise ValueError(f'array of shape {shape}: empty')
+    if not isinstance(axes, str) or sorted(axes) != ['x', 'y', 'z']:
+        raise ValueError(f'axes {axes!r}: the letters x, y and z in the order of the array\'s axes, e.g. "zyx"')
+    spacing = _vector(spacing, 'spacing', positive=True)
+    origin = None if origin is None else _vector(origin, 'origin', positive=False)
+    if not isinstance(slab_bytes, int) or slab_bytes < 1:
+        raise ValueError(f'slab_bytes {slab_bytes!r}: a positive number of bytes')
+    kind = dtype.kind + str(dtype.itemsize)
+    if kind not in _NRRD_TYPES and kind not in _CONVERTED:
+        raise ValueError(f'array of dtype {dtype}: prep reads integers, floats and bools (convert it first, e.g. '
+                         'array.astype(np.float32))')
+    stored = _CONVERTED.get(kind, dtype)
+    out = Path(out)
+    if out.exists() and not force:
+        raise VoxbrickError(f'{out} exists: pass force=True to replace it (once the new store is complete)')
+    out.parent.mkdir(parents=True, exist_ok=True)
+    # Array axis of x, y and z; the file's order is x fastest, then y, then z.
+    axis = {letter: axes.index(letter) for letter in 'xyz'}
+    nx, ny, nz = shape[axis['x']], shape[axis['y']], shape[axis['z']]
+
+    if work is not None:
+        Path(work).mkdir(parents=True, exist_ok=True)
+    scratch = Path(tempfile.mkdtemp(prefix='.voxbrick-prep-', dir=work or out.parent))
+    try:
+        name = out.name.split('.')[0] or 'array'
+        header = scratch / f'{name}.nhdr'
+        in_place = _memmap_file_offset(array) if axes == 'zyx' and stored == dtype else None
+        if in_place is not None:
+            data_file, byte_skip = os.path.abspath(array.filename), in_place
+        else:
+            data_file, byte_skip = str(scratch / f'{name}.raw'), 0
+            _write_slabs(array, data_file, axis, (nx, ny, nz), stored, slab_bytes)
+        byte_order = stored.byteorder if stored.byteorder in '<>' else ('<' if np.little_endian else '>')
+        lines = ['NRRD0004', '# written by voxbrick.prep from an array',
+                 f'type: {_NRRD_TYPES[stored.kind + str(stored.itemsize)]}', 'dimension: 3', f'sizes: {nx} {ny} {nz}',
+                 'encoding: raw', f'endian: {"big" if byte_order == ">" else "little"}', f'data file: {data_file}']
+        if byte_skip:
+            lines.append(f'byte skip: {byte_skip}')
+        if origin is not None or patient:
+            o = origin or [0.0, 0.0, 0.0]
+            lines += [f'space: {"RAS" if patient else "3D-right-handed"}',
+                      f'space directions: ({spacing[0]!r},0,0) (0,{spacing[1]!r},0) (0,0,{spacing[2]!r})',
+                      f'space origin: ({o[0]!r},{o[1]!r},{o[2]!r})']
+        else:
+            lines.append(f'spacings: {spacing[0]!r} {spacing[1]!r} {spacing[2]!r}')
+        header.write_text('\n'.join(lines) + '\n')
+        args = [command, 'prep', str(header), '-o', str(out)]
+        args += ['-q'] if quiet else []
+        args += ['--force'] if force else []
+        args += ['--no-vdb'] if not vdb else []
+        args += ['--brick', str(int(brick))] if brick is not None else []
+        args += ['--quantise', str(quantise)] if quantise is not None else []
+        args += [str(a) for a in extra_args]
+        result = subprocess.run(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        if result.returncode != 0:
+            said = (result.stderr.strip() or result.stdout.strip()).splitlines()
+            raise VoxbrickError(f'voxbrick prep refused the array (exit {result.returncode}): '
+                                f'{said[-1] if said else "no message"}')
+        if not quiet and result.stdout:
+            print(result.stdout, end='')
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    return out
+
+
+def _write_slabs(array: Any, path: str, axis: dict, dims: tuple, stored: np.dtype, slab_bytes: int) -> None:
+    """The array's voxels to `path`, x fastest then y then z, as `stored`, a slab of z-slices at a time."""
+    nx, ny, nz = dims
+    slice_bytes = nx * ny * max(stored.itemsize, np.dtype(array.dtype).itemsize)
+    thickness = max(1, slab_bytes // slice_bytes)
+    chunks = getattr(array, 'chunks', None)  # a Zarr (or dask) array's chunk shape: read whole chunks along z
+    if isinstance(chunks, tuple) and len(chunks) == 3 and all(isinstance(c, int) for c in chunks):
+        along = chunks[axis['z']]
+        if along <= thickness:
+            thickness = thickness // along * along
+    # The array's axes in the file's order, slowest first: z, y, x.
+    order = (axis['z'], axis['y'], axis['x'])
+    with open(path, 'wb') as f:
+        for z0 in range(0, nz, thickness):
+            index = [slice(None)] * 3
+            index[axis['z']] = slice(z0, min(nz, z0 + thickness))
+            slab = np.asarray(array[tuple(index)])
+            slab = np.ascontiguousarray(slab.transpose(order), dtype=stored)
+            f.write(memoryview(slab).cast('B'))

@@ -1,0 +1,231 @@
+"""The client a notebook uses: datasets, their metadata and frames as NumPy arrays, from one session with a server."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Dict, Iterable, Iterator, List, Optional, Sequence, Union
+
+import numpy as np
+
+from .images import decode_frame
+from .protocol import MAX_VERSION, MIN_VERSION, Encoding, encoding_of
+from .scene import Camera, TransferFunction, build_scene
+from .session import CLIENT_NAME, Capabilities, RawFrame, Session
+
+_STILL_ENCODINGS = (Encoding.raw_rgba8, Encoding.png, Encoding.zstd_rgba8, Encoding.jpeg)
+
+
+@dataclass
+class Frame:
+    """One frame the server sent: its pixels and what it said about them.
+
+    `image` is (height, width, 4) uint8 RGBA, row 0 at the top; `np.asarray(frame)` gives it too. `provisional` is
+    True for a progressive or interactive Render's first frame (the exact one follows). `stats` is the frame's
+    statistics (PROTOCOL.md, section 7), `scene` the scene it was asked with, `payload` the bytes as they came."""
+
+    image: np.ndarray
+    stats: Dict[str, Any]
+    scene: Dict[str, Any]
+    encoding: str
+    request_id: int
+    payload: bytes = field(repr=False)
+
+    @property
+    def provisional(self) -> bool:
+        return bool(self.stats.get('provisional', False))
+
+    @property
+    def width(self) -> int:
+        return self.image.shape[1]
+
+    @property
+    def height(self) -> int:
+        return self.image.shape[0]
+
+    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
+        image = self.image if dtype is None else self.image.astype(dtype)
+        return image.copy() if copy else image
+
+
+def connect(address: str, token: Optional[str] = None, *, timeout: float = 120,
+            max_version: int = MAX_VERSION) -> 'Client':
+    """A session with the server at `address`.
+
+    "HOST:PORT" is its TCP port (`voxbrick serve --port`); "ws://HOST:PORT" (or the viewer's address,
+    "http://HOST:PORT/?token=T") its HTTP port (`--http`), a WebSocket, which is where an access token (`token=`,
+    `--http-token`) is given. `timeout`: seconds any reply may take. `max_version`: the highest protocol version
+    offered (1 to 4; the session speaks the highest both sides do). Raises ConnectionRefused (HTTP status and the
+    server's words) for a refused upgrade, ServerError for a refused Hello, OSError when nothing listens."""
+    return Client(address, token=token, timeout=timeout, max_version=max_version)
+
+
+class Client:
+    """A session with a voxbrick server (see connect). Use it in a `with` block, or call close().
+
+    Each call waits for its reply. An Error reply raises ServerError, whose `code` is the ErrorCode and `message` the
+    server's words. The session has one open dataset at a time; the calls that take a dataset open it when it is not
+    the open one. Not for use from several threads at once."""
+
+    def __init__(self, address: str, token: Optional[str] = None, *, timeout: float = 120,
+                 min_version: int = MIN_VERSION, max_version: int = MAX_VERSION, client_name: str = CLIENT_NAME):
+        self.session = Session(address, token, timeout=timeout, client_name=client_name, min_version=min_version,
+                               max_version=max_version)
+
+    @property
+    def version(self) -> int:
+        """The protocol version of the session."""
+        return self.session.version
+
+    @property
+    def capabilities(self) -> Capabilities:
+        """What the server said at Hello: version, its name, limits and the encodings it produces."""
+        assert self.session.capabilities is not None
+        return self.session.capabilities
+
+    @property
+    def dataset(self) -> Optional[str]:
+        """The dataset open in the session, or None."""
+        return self.session.dataset
+
+    def datasets(self) -> List[str]:
+        """The names of the datasets the server offers."""
+        return self.session.list_datasets()
+
+    def info(self, dataset: Optional[str] = None) -> Dict[str, Any]:
+        """The metadata of `dataset` (opening it), or of the open one: for a grid its `dims`, `spacing`,
+        `value_range`, `orientation` ...; for a mesh its `tets`, `bounds` ... (PROTOCOL.md, DatasetInfo)."""
+        if dataset is None and self.session.meta is not None:
+            return dict(self.session.meta)
+        return dict(self._open(dataset))
+
+    def stats(self) -> Dict[str, Any]:
+        """The server's statistics."""
+        return self.session.stats()
+
+    def render(self, dataset: Optional[str] = None, *, camera: Camera = None, tf: TransferFunction = None,
+               window: Optional[Sequence[float]] = None, size: Optional[Sequence[int]] = None,
+               encoding: Union[str, Encoding] = 'png', scene: Union[Dict[str, Any], str, None] = None,
+               **keys: Any) -> np.ndarray:
+        """The exact frame of one scene as an array, (height, width, 4) uint8 RGBA.
+
+        `camera`: a named view ("left"), an orbit (az, el[, dist]) or a camera dict (eye, center, up, fov, ...).
+        `tf`: a preset name ("mri"), a list of [x, r, g, b, a] points, or a transfer-function dict. `window`:
+        (lo, hi) raw values. `size`: (width, height). `encoding`: how the frame travels: "png" (lossless, the
+        default), "raw" (lossless, large: within the server's message limit), "zstd" (lossless; needs the
+        zstandard module) or "jpeg" (lossy, opaque; needs Pillow). `scene`: a whole scene dict or JSON text to start
+        from. Other keywords are scene keys (PROTOCOL.md, section 6): step=0.5, quality="psnr:40", shading=True,
+        background=[1, 1, 1] or "none", lod=0, ..."""
+        return self.render_frame(dataset, camera=camera, tf=tf, window=window, size=size, encoding=encoding,
+                                 scene=scene, **keys).image
+
+    def render_frame(self, dataset: Optional[str] = None, *, camera: Camera = None, tf: TransferFunction = None,
+                     window: Optional[Sequence[float]] = None, size: Optional[Sequence[int]] = None,
+                     encoding: Union[str, Encoding] = 'png', scene: Union[Dict[str, Any], str, None] = None,
+                     **keys: Any) -> Frame:
+        """As render(), the exact Frame with its statistics."""
+        frame = None
+        for frame in self.frames(dataset, camera=camera, tf=tf, window=window, size=size, encoding=encoding,
+                                 scene=scene, **keys):
+            pass
+        assert frame is not None and not frame.provisional
+        return frame
+
+    def frames(self, dataset: Optional[str] = None, *, camera: Camera = None, tf: TransferFunction = None,
+               window: Optional[Sequence[float]] = None, size: Optional[Sequence[int]] = None,
+               encoding: Union[str, Encoding] = 'png', scene: Union[Dict[str, Any], str, None] = None,
+               progressive: Optional[bool] = None, interactive: Optional[bool] = None,
+               **keys: Any) -> Iterator[Frame]:
+        """The frames of one Render as they arrive, as render() takes it: with `progressive=True` (bricks not yet in
+        the server's memory drawn from a coarser level) or `interactive=True` (drawn within `time_budget_ms`, a
+        camera in motion), a provisional frame first, then the exact one, which ends the iteration; otherwise the
+        exact frame alone. `provisional_encoding` may be "png", "raw", "zstd" or "jpeg". Take every frame before the
+        session's next call: a newer Render makes the server drop an exact frame not yet started."""
+        request = self._request(dataset, camera, tf, window, size, encoding, scene,
+                                dict(keys, progressive=progressive, interactive=interactive))
+        for raw in self.session.frames(self.session.send_render(*request)):
+            yield self._frame(raw, request[0])
+
+    def orbit(self, dataset: Optional[str] = None, *, steps: int = 36, azimuths: Optional[Iterable[float]] = None,
+              elevation: float = 20, distance: Optional[float] = None, interactive: bool = False,
+              tf: TransferFunction = None, window: Optional[Sequence[float]] = None,
+              size: Optional[Sequence[int]] = None, encoding: Union[str, Encoding] = 'png',
+              scene: Union[Dict[str, Any], str, None] = None, **keys: Any) -> Iterator[Frame]:
+        """Frames of a camera turning about the volume: an orbit at `elevation` degrees (and `distance` radii, or
+        fitted) through `azimuths`, by default `steps` evenly from 0 to 360.
+
+        Still (the default): one exact frame per azimuth. `interactive=True`: the turn as a drag, each frame drawn
+        within the scene's `time_budget_ms` (the server's default 100 ms, or time_budget_ms=...), one provisional
+        frame per azimuth, then the exact frame of the last one once the camera rests."""
+        if azimuths is None:
+            if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
+                raise ValueError(f'steps {steps!r}: expected a positive integer')
+            azimuths = [360.0 * i / steps for i in range(steps)]
+        azimuths = [float(a) for a in azimuths]
+        if not azimuths:
+            raise ValueError('azimuths: empty')
+        orbit = [elevation] if distance is None else [elevation, distance]
+        for i, azimuth in enumerate(azimuths):
+            request = self._request(dataset, [azimuth, *orbit], tf, window, size, encoding, scene,
+                                    dict(keys, interactive=True if interactive else None))
+            replies = self.session.frames(self.session.send_render(*request))
+            if not interactive:
+                for raw in replies:  # a still Render's exact frame (after a provisional one with progressive=True)
+                    frame = self._frame(raw, request[0])
+                    if not frame.provisional:
+                        yield frame
+                continue
+            first = self._frame(next(replies), request[0])
+            yield first
+            if first.provisional and i == len(azimuths) - 1:
+                for raw in replies:  # the camera rests: the exact frame of the last azimuth
+                    yield self._frame(raw, request[0])
+
+    def close(self) -> None:
+        """Says Goodbye and closes the connection."""
+        self.session.close()
+
+    def __enter__(self) -> 'Client':
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        a = self.session.address
+        return f'<voxbrick.Client {a.scheme}://{a.host}:{a.port} version {self.version} dataset {self.dataset!r}>'
+
+    # Helpers.
+
+    def _open(self, dataset: Optional[str]) -> Dict[str, Any]:
+        if dataset is None:
+            if self.session.dataset is None:
+                raise ValueError('no dataset is open: pass the dataset\'s name (this server offers: '
+                                 f'{", ".join(self.datasets()) or "none"})')
+            assert self.session.meta is not None
+            return self.session.meta
+        if not isinstance(dataset, str):
+            raise ValueError(f'dataset {dataset!r}: expected its name, a str')
+        if dataset != self.session.dataset:
+            self.session.open_dataset(dataset)
+        assert self.session.meta is not None
+        return self.session.meta
+
+    def _request(self, dataset: Optional[str], camera: Camera, tf: TransferFunction,
+                 window: Optional[Sequence[float]], size: Optional[Sequence[int]], encoding: Union[str, Encoding],
+                 scene: Union[Dict[str, Any], str, None], keys: Dict[str, Any]) -> tuple:
+        """(scene, encoding) of a Render, the dataset opened; ValueError for what this client cannot take."""
+        encoding = encoding_of(encoding)
+        if encoding not in _STILL_ENCODINGS:
+            raise ValueError(f'encoding {encoding.name}: a video frame is one of a stream for a moving camera, '
+                             'refused as a Render\'s encoding; this client takes png, raw, zstd or jpeg')
+        built = build_scene(scene, camera=camera, tf=tf, window=window, size=size, **keys)
+        provisional = built.get('provisional_encoding')
+        if provisional is not None and encoding_of(provisional) not in _STILL_ENCODINGS:
+            raise ValueError(f'provisional_encoding {provisional!r}: this client does not decode video streams; '
+                             'use png, raw, zstd or jpeg')
+        self._open(dataset)
+        return built, encoding
+
+    @staticmethod
+    def _frame(raw: RawFrame, scene: Dict[str, Any]) -> Frame:
+        image = decode_frame(raw.payload, raw.encoding, raw.width, raw.height)
+        return Frame(image, raw.stats, scene, raw.encoding.name, raw.request_id, raw.payload)

@@ -1,0 +1,212 @@
+"""One session with a voxbrick server (PROTOCOL.md, section 5), in protocol terms: Hello, datasets, Render requests
+and their Frame replies, statistics, Goodbye. The standard library only; `voxbrick.Client` builds scenes and images on
+top of it.
+"""
+from __future__ import annotations
+
+import json
+import socket
+from typing import Any, Callable, Dict, Iterator, List, NamedTuple, Optional, Union
+
+from .errors import ConnectionClosed, ErrorCode, ProtocolError, ServerError
+from .protocol import (ENCODING_SINCE, HEADER_BYTES, MAX_BODY_BYTES, MAX_VERSION, MIN_VERSION, Encoding, MessageType,
+                       decode_body, encode, encoding_of)
+from .transport import Address, open_transport, parse_address
+
+CLIENT_NAME = 'voxbrick-python 1'
+#: Errors with request id 0 after which the server closes the connection (PROTOCOL.md, section 8).
+_CLOSING = (ErrorCode.BadMagic, ErrorCode.UnsupportedVersion, ErrorCode.TooLarge, ErrorCode.LimitExceeded,
+            ErrorCode.ShuttingDown, ErrorCode.Timeout, ErrorCode.Busy)
+
+
+class Capabilities(NamedTuple):
+    """The server's Capabilities: the session's protocol version, its limits and the encodings it produces."""
+
+    version: int
+    server: str
+    max_message_bytes: int
+    max_image_side: int
+    max_queued_per_session: int
+    encodings: List[Encoding]
+
+
+class RawFrame(NamedTuple):
+    """A Frame reply as it came: the payload still encoded. `stats` is the parsed stats_json; `message_bytes` the
+    whole message's size (header included), as FrameReceived reports it."""
+
+    request_id: int
+    width: int
+    height: int
+    encoding: Encoding
+    stats: Dict[str, Any]
+    payload: bytes
+    message_bytes: int
+
+    @property
+    def provisional(self) -> bool:
+        """True for a provisional frame (a progressive or interactive Render's first answer; the exact one follows)."""
+        return bool(self.stats.get('provisional', False))
+
+
+class Session:
+    """A connected session: opens the connection and says Hello at once (the server closes connections that wait).
+
+    Requests wait for their reply; an Error reply raises ServerError with the server's code and words. Not for use from
+    several threads at once. `address`: "HOST:PORT" (TCP), or "ws://HOST:HTTP_PORT" / the viewer's "http://..." URL
+    (a WebSocket, which takes `token`)."""
+
+    def __init__(self, address: Union[str, Address], token: Optional[str] = None, timeout: float = 120,
+                 client_name: str = CLIENT_NAME, min_version: int = MIN_VERSION, max_version: int = MAX_VERSION):
+        if not MIN_VERSION <= min_version <= max_version <= MAX_VERSION:
+            raise ValueError(f'versions {min_version}..{max_version}: this client speaks {MIN_VERSION}..{MAX_VERSION}')
+        self.address = address if isinstance(address, Address) else parse_address(address, token)
+        self._timeout = timeout
+        self._transport = open_transport(self.address, timeout)
+        self._next_id = 1
+        self._max_body = MAX_BODY_BYTES  # the largest body accepted: the default limit, or the server's if higher
+        self.version = min_version  # Hello is written in the lowest version offered
+        self.dataset: Optional[str] = None  # the dataset open in this session
+        self.meta: Optional[Dict[str, Any]] = None  # its DatasetInfo meta_json
+        self.capabilities: Optional[Capabilities] = None
+        self._broken = ''  # why the session ended, once it has
+        try:
+            self._hello(client_name, min_version, max_version)
+        except BaseException:
+            self._transport.close()
+            raise
+
+    def _hello(self, client_name: str, min_version: int, max_version: int) -> None:
+        caps = self._call(MessageType.Hello, MessageType.Capabilities, min_version=min_version,
+                          max_version=max_version, client=client_name)
+        if not min_version <= caps['version'] <= max_version:
+            raise ProtocolError(ErrorCode.UnsupportedVersion,
+                                f'the server chose version {caps["version"]}, not one of {min_version}..{max_version}')
+        self.version = caps['version']
+        self._max_body = max(self._max_body, caps['max_message_bytes'])
+        self.capabilities = Capabilities(**caps)
+
+    # Requests.
+
+    def list_datasets(self) -> List[str]:
+        """The names of the datasets the server offers."""
+        return self._call(MessageType.ListDatasets, MessageType.DatasetList)['names']
+
+    def open_dataset(self, name: str) -> Dict[str, Any]:
+        """Makes `name` the session's dataset; its metadata (meta_json). ServerError UnknownDataset if there is none."""
+        info = self._call(MessageType.OpenDataset, MessageType.DatasetInfo, name=name)
+        self.dataset, self.meta = info['name'], json.loads(info['meta_json'])
+        return self.meta
+
+    def stats(self) -> Dict[str, Any]:
+        """The server's statistics (GetStats); its keys are informative and may change."""
+        return json.loads(self._call(MessageType.GetStats, MessageType.Stats)['json'])
+
+    def send_render(self, scene: Union[Dict[str, Any], str], encoding: Union[Encoding, str] = Encoding.png) -> int:
+        """Sends a Render of `scene` (a dict or JSON text) for the open dataset; its request id. Replies are read with
+        frames(). ValueError for an encoding the session's version lacks."""
+        encoding = encoding_of(encoding)
+        if ENCODING_SINCE.get(encoding, 1) > self.version:
+            raise ValueError(f'{encoding.name} needs protocol version {ENCODING_SINCE[encoding]}; this session '
+                             f'speaks version {self.version}')
+        text = scene if isinstance(scene, str) else json.dumps(scene)
+        return self._send(MessageType.Render, encoding=encoding, scene_json=text)
+
+    def frames(self, request_id: int) -> Iterator[RawFrame]:
+        """The Frames answering Render `request_id` as they arrive: provisional ones, then the exact one, which ends
+        the iteration. An Error reply raises ServerError."""
+        while True:
+            frame = self._frame(request_id)
+            yield frame
+            if not frame.provisional:
+                return
+
+    def render(self, scene: Union[Dict[str, Any], str], encoding: Union[Encoding, str] = Encoding.png,
+               on_provisional: Optional[Callable[[RawFrame], None]] = None) -> RawFrame:
+        """The exact Frame of one Render; provisional Frames before it (progressive or interactive scenes) go to
+        `on_provisional`, if given."""
+        for frame in self.frames(self.send_render(scene, encoding)):
+            if not frame.provisional:
+                return frame
+            if on_provisional:
+                on_provisional(frame)
+        raise AssertionError('unreachable: frames() ends with an exact frame')
+
+    def frame_received(self, frame: RawFrame) -> None:
+        """Reports a Frame as arrived (FrameReceived, version 4): the server then paces its frames by the reports.
+        A client sends one for every Frame, in order, or none at all."""
+        if self.version >= 4 and not self._broken:
+            self._transport.send(encode(MessageType.FrameReceived, frame.request_id, self.version,
+                                        frame_bytes=frame.message_bytes))
+
+    def close(self) -> None:
+        """Says Goodbye and closes the connection (also when the server has gone already)."""
+        if not self._broken:
+            try:
+                self._transport.send(encode(MessageType.Goodbye, self._new_id(), self.version))
+            except OSError:
+                pass
+            self._broken = 'closed by this client'
+        self._transport.close()
+
+    def __enter__(self) -> 'Session':
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    # Messages.
+
+    def _new_id(self) -> int:
+        self._next_id += 1
+        return self._next_id - 1
+
+    def _send(self, message_type: MessageType, **fields: Any) -> int:
+        if self._broken:
+            raise ConnectionClosed(f'the session ended: {self._broken}')
+        request_id = self._new_id()
+        try:
+            self._transport.send(encode(message_type, request_id, self.version, **fields))
+        except OSError as e:
+            raise self._end(f'the connection failed: {e}') from e
+        return request_id
+
+    def _end(self, why: str) -> ConnectionClosed:
+        # A stream cut part way through a message cannot be read on: every later call says why it ended.
+        self._broken = why
+        self._transport.close()
+        return ConnectionClosed(why)
+
+    def _call(self, message_type: MessageType, reply_type: MessageType, **fields: Any) -> Dict[str, Any]:
+        return self._await(self._send(message_type, **fields), (reply_type,))[1]
+
+    def _frame(self, request_id: int) -> RawFrame:
+        header, frame = self._await(request_id, (MessageType.Frame,))
+        return RawFrame(request_id, frame['width'], frame['height'], frame['encoding'],
+                        json.loads(frame['stats_json']), frame['payload'], HEADER_BYTES + header.body_bytes)
+
+    def _await(self, request_id: int, reply_types: tuple) -> tuple:
+        while True:
+            try:
+                header, body = self._transport.receive(self._max_body)
+            except ConnectionClosed as e:
+                raise self._end(str(e)) from None
+            except socket.timeout:
+                raise self._end(f'no reply within {self._timeout:g} s') from None
+            except OSError as e:
+                raise self._end(f'the connection failed: {e}') from e
+            except ProtocolError as e:
+                if e.code in (ErrorCode.BadMagic, ErrorCode.UnsupportedVersion, ErrorCode.TooLarge):
+                    self._end(f'a reply that does not decode: {e}')  # the header is wrong: nothing after it reads
+                raise
+            if header.type is None or header.request_id not in (request_id, 0):
+                continue  # a type this client does not know, or an answer to an earlier request (superseded)
+            reply = decode_body(header.type, body, header.version)
+            if header.type == MessageType.Error:
+                error = ServerError(reply['code'], reply['message'], header.request_id)
+                if header.request_id == 0 and error.code in _CLOSING:
+                    self._end(f'the server closed the session: {error}')
+                raise error
+            if header.type == MessageType.Goodbye:
+                raise self._end('the server ended the session (Goodbye)')
+            if header.type in reply_types and header.request_id == request_id:
+                return header, reply

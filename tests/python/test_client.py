@@ -1,0 +1,210 @@
+"""voxbrick.connect and the Client against the real server: every call, frames equal to `voxbrick render`'s, the
+server's own words in errors, versions, the WebSocket and its token."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import voxbrick
+from voxbrick import ErrorCode, ServerError
+from conftest import TOKEN, fresh, largest_difference, render_cli
+
+MRI_SCENE = dict(camera='left', tf='mri', size=(96, 80), shading=True)
+
+
+@pytest.fixture
+def client(server):
+    with voxbrick.connect(server.address) as c:
+        yield c
+
+
+def psnr(a, b):
+    error = np.mean((a[..., :3].astype(float) - b[..., :3].astype(float)) ** 2)
+    return 10 * np.log10(255 ** 2 / error) if error else float('inf')
+
+
+def test_datasets_info_and_stats(client):
+    assert client.version == 4
+    caps = client.capabilities
+    assert caps.max_message_bytes == 1 << 20 and caps.max_image_side == 4096
+    assert [e.name for e in caps.encodings] == ['raw_rgba8', 'png', 'zstd_rgba8', 'jpeg', 'vp8', 'vp9']
+    assert client.datasets() == ['cold', *[f'fresh-{i}' for i in range(4)], 'mri.vbs', 'sparse']
+    assert client.dataset is None
+    meta = client.info('mri.vbs')
+    assert client.dataset == 'mri.vbs'
+    assert meta['kind'] == 'brick-store'
+    assert meta['dims'] == [301, 370, 316] and meta['spacing'] == [0.5, 0.5, 0.5] and meta['type'] == 'u8'
+    assert meta['orientation']['patient'] is True
+    assert client.info() == meta  # the open dataset's
+    client.render(size=(16, 16))
+    stats = client.stats()
+    assert stats['renders']['frames'] >= 1, stats
+
+
+def test_a_frame_is_the_frame_voxbrick_render_draws(client, datasets, tmp_path):
+    name = fresh()
+    frame = client.render_frame(name, **MRI_SCENE)
+    assert frame.encoding == 'png'
+    assert frame.image.shape == (80, 96, 4) and frame.image.dtype == np.uint8
+    assert not frame.provisional and frame.stats['bricks_drawn'] > 0
+    assert frame.scene == {'camera': {'view': 'left'}, 'transfer_function': 'mri', 'size': [96, 80], 'shading': True}
+    expected = voxbrick.read_png(str(render_cli(datasets / name, frame.scene, tmp_path / 'cli.png')))
+    assert np.array_equal(frame.image, expected)  # byte for byte, every channel
+    assert frame.image[..., :3].max() > 100  # the head is there, not a black frame
+    assert np.array_equal(np.asarray(frame), frame.image)
+    # The same scene again, in the other lossless encodings: the same bytes.
+    for encoding, wire in [('raw', 'raw_rgba8'), ('zstd', 'zstd_rgba8'), ('png', 'png')]:
+        again = client.render_frame(name, encoding=encoding, **MRI_SCENE)
+        assert again.encoding == wire
+        assert np.array_equal(again.image, expected), encoding
+
+
+def test_cameras_transfer_functions_windows_and_scene_keys(client, datasets, tmp_path):
+    # Every form of each argument, as the scene the server gets.
+    points = [[0, 0, 0, 0, 0], [0.3, 1, 0.5, 0, 0.1], [1, 1, 1, 1, 0.8]]
+    eye = {'eye': [0, 300, 0], 'center': [0, 0, 0], 'up': [0, 0, 1], 'fov': 40}
+    forms = [
+        (dict(camera='superior'), {'camera': {'view': 'superior'}}),
+        (dict(camera=(90, 0)), {'camera': {'orbit': [90, 0]}}),
+        (dict(camera=np.array([90, 0, 3.5])), {'camera': {'orbit': [90, 0, 3.5]}}),
+        (dict(camera=eye), {'camera': eye}),
+        (dict(tf='hot'), {'transfer_function': 'hot'}),
+        (dict(tf=np.array(points)), {'transfer_function': {'points': points}}),
+        (dict(tf={'points': points, 'reference_length': 2}), {'transfer_function': {'points': points,
+                                                                                     'reference_length': 2}}),
+        (dict(window=(np.uint8(20), 200)), {'window': [20, 200]}),
+        (dict(scene='{"lod": 0, "camera": {"view": "left"}}', camera=(1, 2)), {'lod': 0, 'camera': {'orbit': [1, 2]}}),
+        (dict(step=np.float32(1.5), shading=None, background='none'), {'step': 1.5, 'background': 'none'}),
+    ]
+    for kwargs, scene in forms:
+        frame = client.render_frame('sparse', size=(16, 16), **kwargs)
+        assert frame.scene == dict(scene, size=[16, 16]), kwargs
+    # One scene of many keys, byte for byte the command line's frame.
+    name = fresh()
+    frame = client.render_frame(name, camera=(120, 15, 3.5), tf=np.array(points), window=(20, 200), step=1.5,
+                                background='none', size=(64, 48))
+    expected = voxbrick.read_png(str(render_cli(datasets / name, frame.scene, tmp_path / 'f.png')))
+    assert np.array_equal(frame.image, expected)
+    assert frame.image[..., 3].min() == 0 and frame.image[..., 3].max() > 100  # transparent around the head
+
+
+def test_jpeg_is_close_to_the_lossless_frame(client):
+    exact = client.render('mri.vbs', **MRI_SCENE)
+    jpeg = client.render_frame('mri.vbs', encoding='jpeg', jpeg_quality=90, **MRI_SCENE)
+    assert jpeg.encoding == 'jpeg' and jpeg.payload[:2] == b'\xff\xd8'
+    assert (jpeg.image[..., 3] == 255).all()
+    assert 30 < psnr(jpeg.image, exact) < float('inf')
+
+
+def test_progressive_frames_arrive_coarse_then_exact(client):
+    scene = dict(camera=(30, 20), size=(64, 64), tf='hot')
+    frames = list(client.frames('cold', progressive=True, **scene))  # no brick of it in the server's memory yet
+    assert [f.provisional for f in frames] == [True, False]
+    assert frames[0].stats['bricks_standin'] > 0 and frames[1].stats['bricks_standin'] == 0
+    assert not np.array_equal(frames[0].image, frames[1].image)
+    assert largest_difference(frames[1].image, client.render(**scene)) <= 1  # PROTOCOL.md: within 1/255
+
+
+def test_an_interactive_frame_then_the_exact_one(client):
+    scene = dict(camera=(120, 10), size=(64, 64), tf='mri')
+    frames = list(client.frames('mri.vbs', interactive=True, time_budget_ms=20, **scene))
+    assert [f.provisional for f in frames] == [True, False]
+    assert frames[0].stats['interactive']['budget_ms'] == 20
+    assert largest_difference(frames[1].image, client.render(**scene)) <= 1  # PROTOCOL.md: within 1/255
+
+
+def test_orbits(client):
+    still = list(client.orbit('sparse', steps=4, elevation=10, size=(32, 32), tf='hot'))
+    assert [f.scene['camera'] for f in still] == [{'orbit': [a, 10]} for a in (0.0, 90.0, 180.0, 270.0)]
+    assert not any(f.provisional for f in still)
+    assert largest_difference(still[1].image, client.render(camera=(90, 10), size=(32, 32), tf='hot')) <= 1
+    assert len({f.image.tobytes() for f in still}) == 4
+    drag = list(client.orbit(azimuths=[0, 5, 10], elevation=10, distance=3, interactive=True, size=(32, 32), tf='hot'))
+    assert [f.provisional for f in drag] == [True, True, True, False]
+    assert [f.scene['camera']['orbit'] for f in drag] == [[0, 10, 3], [5, 10, 3], [10, 10, 3], [10, 10, 3]]
+    assert all(f.scene['interactive'] is True for f in drag)
+
+
+def test_errors_carry_the_servers_code_and_words(client):
+    with pytest.raises(ServerError) as e:
+        client.info('nope')
+    assert e.value.code == ErrorCode.UnknownDataset
+    assert e.value.message.startswith("no dataset 'nope' (one of: cold, fresh-0, ")
+    assert str(e.value) == f'UnknownDataset: {e.value.message}'
+    assert e.value.request_id > 0
+    assert client.dataset is None  # the session is as it was
+    with pytest.raises(ValueError, match=r'no dataset is open: pass the dataset\'s name \(this server offers: cold'):
+        client.render()
+    with pytest.raises(ServerError, match=r"InvalidScene: scene: 'window' must be \[lo, hi\] in increasing order"):
+        client.render('sparse', window=(5, 1))
+    with pytest.raises(ServerError, match="InvalidScene: .*unknown key 'camera.zoom'"):
+        client.render(camera={'zoom': 2})
+    with pytest.raises(ServerError, match="InvalidScene: .*unknown key 'colour'"):
+        client.render(colour='red')
+    with pytest.raises(ServerError) as e:
+        client.render(size=(1024, 1024), encoding='raw')  # 4 MiB: past the server's 1 MiB message limit
+    assert e.value.code == ErrorCode.LimitExceeded and '1048576' in e.value.message
+    assert client.render(size=(8, 8)).shape == (8, 8, 4)  # the session goes on
+    # What this client declines, before anything is sent.
+    with pytest.raises(ValueError, match='encoding vp8: a video frame'):
+        client.render(encoding='vp8')
+    with pytest.raises(ValueError, match="provisional_encoding 'vp9': this client does not decode video"):
+        client.render(interactive=True, provisional_encoding='vp9')
+    with pytest.raises(ValueError, match=r'size \(0, 4\): expected \(width, height\), two positive integers'):
+        client.render(size=(0, 4))
+    with pytest.raises(ValueError, match="camera 'front': a named view is one of anterior"):
+        client.render(camera='front')
+    with pytest.raises(ValueError, match=r'window \(lo, hi\): 1; expected 2 numbers'):
+        client.render(window=1)
+
+
+def test_versions_are_negotiated(server):
+    with voxbrick.connect(server.address, max_version=1) as old:
+        assert old.version == 1
+        assert [e.name for e in old.capabilities.encodings] == ['raw_rgba8', 'png', 'zstd_rgba8']
+        with pytest.raises(ValueError, match='jpeg needs protocol version 2; this session speaks version 1'):
+            old.render('sparse', encoding='jpeg')
+        assert old.render('sparse', size=(16, 16)).shape == (16, 16, 4)
+    with voxbrick.connect(server.address, max_version=2) as two:
+        assert two.version == 2
+        assert two.render_frame('sparse', size=(16, 16), encoding='jpeg').encoding == 'jpeg'
+    with pytest.raises(ValueError, match=r'versions 1..5: this client speaks 1..4'):
+        voxbrick.connect(server.address, max_version=5)
+
+
+def test_the_websocket_and_its_token(server):
+    with voxbrick.connect(server.address) as tcp:
+        expected = tcp.render('mri.vbs', **MRI_SCENE)
+    for address, token in [(server.ws, TOKEN), (f'{server.viewer}/?token={TOKEN}', None)]:
+        with voxbrick.connect(address, token=token) as ws:
+            assert 'mri.vbs' in ws.datasets()
+            assert largest_difference(ws.render('mri.vbs', **MRI_SCENE), expected) <= 1
+            # A frame larger than a WebSocket frame's 16-bit length, in one message.
+            assert ws.render(size=(200, 150), encoding='zstd').shape == (150, 200, 4)
+    with pytest.raises(voxbrick.ConnectionRefused) as e:
+        voxbrick.connect(server.ws, token='wrong-token')
+    assert e.value.status == 403 and 'wrong access token' in e.value.reason
+    with pytest.raises(voxbrick.ConnectionRefused) as e:
+        voxbrick.connect(server.ws)
+    assert e.value.status == 403 and 'an access token is required' in e.value.reason
+    with pytest.raises(ValueError, match="a token is for the server's HTTP port, not TCP"):
+        voxbrick.connect(server.address, token=TOKEN)
+
+
+def test_a_server_that_goes_away(datasets, work):
+    from conftest import Server
+    own = work / 'own'
+    own.mkdir()
+    s = Server(datasets, own)
+    c = voxbrick.connect(s.address)
+    assert c.datasets()
+    s.stop()
+    with pytest.raises(ServerError) as e:  # a clean stop says so first
+        c.datasets()
+    assert e.value.code == ErrorCode.ShuttingDown and e.value.request_id == 0
+    with pytest.raises(voxbrick.ConnectionClosed, match='the session ended: the server closed the session: '
+                                                        'ShuttingDown'):
+        c.datasets()
+    c.close()  # closing a closed session is harmless
+    with pytest.raises(ConnectionRefusedError):
+        voxbrick.connect(s.address)

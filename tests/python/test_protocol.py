@@ -1,0 +1,184 @@
+"""The package's wire codec and image decoders on buffers, no server: PROTOCOL.md's example bytes, round trips,
+every refusal naming its field, and PNG decoding against Pillow."""
+from __future__ import annotations
+
+import io
+import struct
+import zlib
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import voxbrick
+from voxbrick.errors import ErrorCode, ProtocolError
+from voxbrick.images import decode_frame, decode_png, encode_png
+from voxbrick.protocol import (HEADER, MAGIC, Encoding, MessageType, decode, decode_body, decode_header, encode,
+                               encoding_of)
+from voxbrick.transport import parse_address
+
+
+def test_the_hello_of_the_protocol_document():
+    # PROTOCOL.md, section 10: Hello 1..1, client "example", request id 1: 31 bytes.
+    wire = encode(MessageType.Hello, 1, 1, min_version=1, max_version=1, client='example')
+    assert wire == bytes.fromhex('5658424B 0100 0100 01000000 0F000000 0100 0100 07000000 6578616D706C65')
+    header, fields = decode(wire)
+    assert header == (1, MessageType.Hello, 1, 15)
+    assert fields == {'min_version': 1, 'max_version': 1, 'client': 'example'}
+
+
+def test_every_message_round_trips():
+    messages = {
+        MessageType.Capabilities: dict(version=4, server='voxbrick ü', max_message_bytes=1 << 20,
+                                       max_image_side=4096, max_queued_per_session=2,
+                                       encodings=[Encoding.png, Encoding.vp9]),
+        MessageType.ListDatasets: {},
+        MessageType.DatasetList: dict(names=['mri.vbs', 'sparse', '体']),
+        MessageType.OpenDataset: dict(name='mri.vbs'),
+        MessageType.DatasetInfo: dict(name='mri.vbs', meta_json='{"dims": [1, 2, 3]}'),
+        MessageType.Render: dict(encoding=Encoding.jpeg, scene_json='{}'),
+        MessageType.Frame: dict(width=3, height=2, encoding=Encoding.zstd_rgba8, stats_json='{"a": 1}',
+                                payload=bytes(range(256))),
+        MessageType.Error: dict(code=ErrorCode.Busy, message='full; retry after 250 ms'),
+        MessageType.GetStats: {},
+        MessageType.Stats: dict(json='{}'),
+        MessageType.Goodbye: {},
+        MessageType.FrameReceived: dict(frame_bytes=12345),
+    }
+    for kind, fields in messages.items():
+        wire = encode(kind, 77, 4, **fields)
+        assert encode(kind, 77, 4, **fields) == wire  # twice, the same bytes
+        header, decoded = decode(wire)
+        assert (header.type, header.request_id, header.version) == (kind, 77, 4)
+        assert decoded == fields, kind
+
+
+def test_what_a_version_lacks_is_refused_both_ways():
+    with pytest.raises(ValueError, match='jpeg needs protocol version 2'):
+        encode(MessageType.Render, 1, 1, encoding=Encoding.jpeg, scene_json='{}')
+    with pytest.raises(ValueError, match='FrameReceived needs protocol version 4'):
+        encode(MessageType.FrameReceived, 1, 3, frame_bytes=1)
+    frame = encode(MessageType.Frame, 5, 4, width=1, height=1, encoding=Encoding.vp8, stats_json='{}', payload=b'')
+    with pytest.raises(ProtocolError, match='Frame.encoding: unknown value 4 in protocol version 3'):
+        decode(frame[:4] + struct.pack('<H', 3) + frame[6:])
+    busy = encode(MessageType.Error, 5, 3, code=ErrorCode.Busy, message='')
+    with pytest.raises(ProtocolError, match='Error.code: unknown value 14 in protocol version 2'):
+        decode(busy[:4] + struct.pack('<H', 2) + busy[6:])
+
+
+def test_malformed_bodies_name_the_field():
+    good = encode(MessageType.DatasetInfo, 1, 1, name='mri', meta_json='{}')
+    body = good[HEADER.size:]
+    cases = {
+        body[:-1]: 'DatasetInfo.meta_json: truncated',
+        body + b'\0': 'DatasetInfo: 1 trailing byte(s)',
+        struct.pack('<I', 2) + b'\xff\xfe' + body[7:]: 'DatasetInfo.name: not valid UTF-8',
+        struct.pack('<I', (1 << 20) + 1) + body[4:]: 'DatasetInfo.name: length 1048577 exceeds limit 1048576',
+    }
+    for bad, words in cases.items():
+        with pytest.raises(ProtocolError) as e:
+            decode_body(MessageType.DatasetInfo, bad)
+        assert e.value.code == ErrorCode.Malformed and words in str(e.value), bad
+    with pytest.raises(ProtocolError, match='DatasetList.names: count 4097 exceeds limit 4096'):
+        decode_body(MessageType.DatasetList, struct.pack('<I', 4097))
+
+
+def test_headers_that_do_not_check():
+    header = HEADER.pack(MAGIC, 1, 1, 1, 0)
+    with pytest.raises(ProtocolError, match='BadMagic'):
+        decode_header(b'XXXX' + header[4:])
+    with pytest.raises(ProtocolError, match='UnsupportedVersion: version 5'):
+        decode_header(HEADER.pack(MAGIC, 5, 1, 1, 0))
+    with pytest.raises(ProtocolError, match='TooLarge: body of 2000 bytes exceeds 1000'):
+        decode_header(HEADER.pack(MAGIC, 1, 8, 1, 2000), max_body=1000)
+    assert decode_header(HEADER.pack(MAGIC, 1, 99, 7, 3)).type is None  # unknown: skipped, not fatal
+    assert decode_header(HEADER.pack(MAGIC, 3, 13, 7, 4)).type is None  # FrameReceived is version 4's
+
+
+def test_encodings_by_name():
+    assert encoding_of('raw') == encoding_of('raw_rgba8') == encoding_of(0) == Encoding.raw_rgba8
+    assert encoding_of('ZSTD') == Encoding.zstd_rgba8
+    with pytest.raises(ValueError, match="encoding 'gif': expected one of raw, png, zstd, jpeg"):
+        encoding_of('gif')
+
+
+def test_addresses():
+    assert parse_address('127.0.0.1:7420') == ('tcp', '127.0.0.1', 7420, None)
+    assert parse_address('[::1]:7420') == ('tcp', '::1', 7420, None)
+    assert parse_address('ws://host:8080', token='a-b.c_~') == ('ws', 'host', 8080, 'a-b.c_~')
+    assert parse_address('http://host:8080/?token=T0k&dataset=x') == ('ws', 'host', 8080, 'T0k')
+    for bad, words in [('host', 'expected "HOST:PORT"'), ('host:0', 'port in 1..65535'),
+                       ('https://host:8080', "scheme 'https'"), ('ws://host:8080/other', "path '/other'")]:
+        with pytest.raises(ValueError, match=words):
+            parse_address(bad)
+    with pytest.raises(ValueError, match="a token is for the server's HTTP port, not TCP"):
+        parse_address('host:7420', token='t')
+    with pytest.raises(ValueError, match='token: letters, digits'):
+        parse_address('ws://host:8080', token='a b')
+
+
+def test_the_png_decoder_reads_every_filter_as_pillow_does():
+    rng = np.random.default_rng(3)
+    smooth = (np.add.outer(np.arange(37), np.arange(53))[:, :, None] * [1, 3, 5, 7] % 256).astype(np.uint8)
+    noisy = rng.integers(0, 256, (29, 41, 4), dtype=np.uint8)
+    for image in (smooth, noisy, smooth[:, :, :3], smooth[:, :, 0]):
+        buffer = io.BytesIO()
+        Image.fromarray(image).save(buffer, format='PNG', optimize=True)  # libpng's adaptive filters
+        data = buffer.getvalue()
+        expected = np.asarray(Image.open(io.BytesIO(data)).convert('RGBA'))
+        assert np.array_equal(decode_png(data), expected)
+        assert np.array_equal(decode_png(data, pillow=True), expected)
+        assert np.array_equal(decode_png(encode_png(image)), expected)
+    # Each filter type alone, rows written by hand.
+    height, width = 6, 5
+    pixels = rng.integers(0, 256, (height, width, 4), dtype=np.uint8)
+    for kind in range(5):
+        rows = [bytes([kind]) + _filtered(pixels, r, kind) for r in range(height)]
+        png = _png(width, height, b''.join(rows))
+        assert np.array_equal(decode_png(png), pixels), kind
+
+
+def _filtered(pixels, r, kind):
+    row = pixels[r].astype(int).reshape(-1)
+    above = pixels[r - 1].astype(int).reshape(-1) if r else np.zeros_like(row)
+    out = []
+    for i, x in enumerate(row):
+        a = row[i - 4] if i >= 4 else 0
+        b = above[i]
+        c = above[i - 4] if i >= 4 else 0
+        p = a + b - c
+        paeth = min((abs(p - a), 0, a), (abs(p - b), 1, b), (abs(p - c), 2, c))[2]
+        out.append((x - [0, a, b, (a + b) // 2, paeth][kind]) % 256)
+    return bytes(out)
+
+
+def _png(width, height, raw, colour=6):
+    def chunk(kind, body):
+        return struct.pack('>I', len(body)) + kind + body + struct.pack('>I', zlib.crc32(kind + body))
+    return (b'\x89PNG\r\n\x1a\n' + chunk(b'IHDR', struct.pack('>IIBBBBB', width, height, 8, colour, 0, 0, 0)) +
+            chunk(b'IDAT', zlib.compress(raw)) + chunk(b'IEND', b''))
+
+
+def test_damaged_payloads_are_refused_naming_the_problem():
+    png = encode_png(np.zeros((4, 5, 4), np.uint8))
+    cases = [
+        (b'GIF89a', 'not a PNG'),
+        (png[:40], 'cut short'),
+        (png[:-20], 'cut short in chunk'),
+        (png[:20] + bytes([png[20] ^ 1]) + png[21:], 'CRC mismatch'),
+        (_png(2, 2, b'\0' * 17), 'image data is 17 bytes, expected 18'),
+        (_png(1, 1, b'\x07' + b'\0' * 4), 'unknown filter type 7'),
+        (_png(1, 1, b'\0' * 5, colour=3), 'colour type 3'),
+    ]
+    for data, words in cases:
+        for pillow in (False, True):
+            with pytest.raises(voxbrick.DecodeError, match=words):
+                decode_png(data, pillow=pillow)
+    with pytest.raises(voxbrick.DecodeError, match='raw_rgba8 payload of 7 bytes, expected 2x1x4 = 8'):
+        decode_frame(b'\0' * 7, 'raw', 2, 1)
+    with pytest.raises(voxbrick.DecodeError, match='png payload is 5x4, the Frame says 4x5'):
+        decode_frame(png, 'png', 4, 5)
+    with pytest.raises(voxbrick.DecodeError, match='zstd_rgba8 payload does not decompress'):
+        decode_frame(b'not zstd', 'zstd', 2, 2)
+    with pytest.raises(voxbrick.DecodeError, match='vp8 frames decode only within their video stream'):
+        decode_frame(b'', 'vp8', 2, 2)
