@@ -26,6 +26,8 @@
 #   load-drag       30  voxbrick serve + voxbrick load on the MRI at 512^2: one client, then 4 dragging at 10 Hz
 #   load-video      45  as load-drag at 1024^2: 4 clients dragging at 15 Hz with a 50 ms interactive budget, their
 #                       provisional frames as JPEG, then as a vp8 and a vp9 video stream (encoded on the server's CPU)
+#   crowd-load      40  the MRI served at 512²: 48 clients asking still frames as a batch script (--batch) beside 4
+#                       clients dragging at 10 Hz (interactive 50 ms): the draggers' frames/s and latency
 #   tets-1m         60  synthetic-mesh:ball,n=70 (1 025 244 tets, made by prep: no Python needed), 512^2 and 1024^2,
 #                       each visibility; PSNR against the exact reference at 512^2 when time is left
 #   orbit           30  voxbrick orbit on the MRI at 1024^2, 36 frames, PNG and JPEG: the next frame planned while the
@@ -295,6 +297,50 @@ PY
         echo "(no python3: the reports are load-jpeg.json, load-vp8.json, load-vp9.json)" >> "$md"
       fi
       ;;
+    crowd-load)
+      size=512x512 duration=12
+      q && size=64x64 duration=3
+      mkdir -p "$WORK/served"
+      [ -e "$WORK/served/mri" ] || cp -r "$WORK/mri.vbs" "$WORK/served/mri"
+      rm -f "$WORK/port"
+      echo "voxbrick serve (2 render threads) on the MRI store; at once: 48 clients of a batch script (--batch, still" \
+        "frames one after another) and 4 clients dragging at 10 Hz (interactive 50 ms, provisional jpeg), $size." >> "$md"
+      echo >> "$md"
+      cmd "$KIT/bin/voxbrick" serve --datasets "$WORK/served" --port 0 --port-file "$WORK/port" --render-threads 2 \
+        --max-sessions 256 > "$dir/server.log" 2>&1 &
+      server=$!
+      trap 'kill "$server" 2> /dev/null || true' EXIT
+      for _ in $(seq 300); do [ -s "$WORK/port" ] && break; sleep 0.1; done
+      [ -s "$WORK/port" ] || die "crowd-load: the server wrote no port (server.log: $(tail -3 "$dir/server.log"))"
+      port=$(cat "$WORK/port")
+      cmd "$KIT/bin/voxbrick" load "127.0.0.1:$port" --dataset mri --tf mri --step 0.75 --clients 48 --batch \
+        --duration "$duration" --size "$size" --json "$dir/load-batch.json" > "$dir/load-batch.log" 2>&1 &
+      batch=$!
+      sleep 1
+      cmd "$KIT/bin/voxbrick" load "127.0.0.1:$port" --dataset mri --tf mri --step 0.75 --clients 4 --drag 10 \
+        --interactive 50 --provisional-encoding jpeg --duration $((duration - 2)) --size "$size" \
+        --json "$dir/load-drag.json" 2>&1 | tee "$dir/load-drag.log"
+      wait "$batch" || true
+      cat "$dir/load-batch.log"
+      kill -TERM "$server"; wait "$server" || true
+      echo >> "$md"
+      if command -v python3 > /dev/null; then
+        python3 - "$dir" >> "$md" <<'PY'
+import json, os, sys
+d = sys.argv[1]
+print("| clients | frames | frames/s a client | p50 ms | p95 ms | p99 ms | errors |")
+print("|---|---:|---:|---:|---:|---:|---:|")
+with open(os.path.join(d, "crowd-load.csv"), "w") as csv:
+    csv.write("clients,frames,frames_per_s_per_client,p50_ms,p95_ms,p99_ms,errors\n")
+    for label, f, n in (("4 dragging", "load-drag.json", 4), ("48 batch", "load-batch.json", 48)):
+        j = json.load(open(os.path.join(d, f)))
+        lat = j["latency_ms"]
+        row = (label, j["frames"], j["frames_per_s"] / n, lat["p50"], lat["p95"], lat["p99"], j["errors"])
+        print("| %s | %d | %.2f | %.1f | %.1f | %.1f | %d |" % row)
+        csv.write("%s,%d,%.3f,%.2f,%.2f,%.2f,%d\n" % row)
+PY
+      fi
+      ;;
     tets-1m)
       n=70 sizes="512 1024"
       q && n=12 sizes="64"
@@ -399,11 +445,11 @@ fi
 # The driver.
 export QUICK=${MEASURE_QUICK:-0}
 budget=${MEASURE_BUDGET:-$([ "$QUICK" = 1 ] && echo 240 || echo 500)}
-all="device test_render mri-sweep-512 roofline mri-sweep-1024 mri-sweep-2048 load-drag load-video tets-1m field-1024 orbit"
+all="device test_render mri-sweep-512 roofline mri-sweep-1024 mri-sweep-2048 load-drag load-video crowd-load tets-1m field-1024 orbit"
 steps=${MEASURE_STEPS:-$all}
 for s in $steps; do grep -qw -- "$s" <<< "$all" || die "MEASURE_STEPS: unknown step '$s' (known: $all)"; done
 declare -A cap=([device]=40 [test_render]=150 [mri-sweep-512]=90 [roofline]=90 [mri-sweep-1024]=60
-  [mri-sweep-2048]=110 [load-drag]=30 [load-video]=45 [tets-1m]=60 [field-1024]=150 [orbit]=30)
+  [mri-sweep-2048]=110 [load-drag]=30 [load-video]=45 [crowd-load]=40 [tets-1m]=60 [field-1024]=150 [orbit]=30)
 start=$(now)
 deadline=$((start + budget))
 export WORK=${MEASURE_WORK:-/tmp/voxbrick-gpu}
