@@ -15,6 +15,7 @@
 
 import { spawn, spawnSync } from "node:child_process";
 import fs from "node:fs";
+import os from "node:os";
 import path from "node:path";
 import * as H from "../tests/browser/harness.mjs";
 import * as D from "./drag_common.mjs";
@@ -142,6 +143,7 @@ try {
       }
   }
 } finally {
+  report.load_average_end = os.loadavg().map((v) => v.toFixed(2));
   await browser.close();
   if (relay) relay.proc.kill();
   report.gl = D.glRenderer(server);
@@ -160,7 +162,8 @@ const md = [
   "",
   `- Command: \`${D.benchCommand()}\``,
   `- Date: ${report.started}`,
-  `- Machine: ${report.machine.line}; load average at the start ${report.machine.load_average.join(", ")}`,
+  `- Machine: ${report.machine.line}; load average at the start ${report.machine.load_average.join(", ")}, at the ` +
+    `end ${report.load_average_end.join(", ")} (above the cores' count, other work shared the machine)`,
   `- Server: \`voxbrick serve\` (its defaults), GL: ${report.gl || "unknown"}`,
   `- Dataset \`${opt.dataset}\`, transfer function \`${opt.tf}\`; a drag of ${opt.duration} s at ${opt.hz} Hz, ` +
     `${DEG_PER_MOVE}° a move, through the page's own gesture handlers; a fresh tab for each row, its \`video\` ` +

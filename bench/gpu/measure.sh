@@ -26,6 +26,8 @@
 #   load-drag       30  voxbrick serve + voxbrick load on the MRI at 512^2: one client, then 4 dragging at 10 Hz
 #   load-video      45  as load-drag at 1024^2: 4 clients dragging at 15 Hz with a 50 ms interactive budget, their
 #                       provisional frames as JPEG, then as a vp8 and a vp9 video stream (encoded on the server's CPU)
+#   video-link      80  one client dragging the MRI at 1024² at 30 Hz (interactive 50 ms) through bench_link_relay (10
+#                       Mbit/s, 40 ms round trip, a 200 ms queue) and on loopback: JPEG, vp8, vp9 moving frames
 #   crowd-load      40  the MRI served at 512²: 48 clients asking still frames as a batch script (--batch) beside 4
 #                       clients dragging at 10 Hz (interactive 50 ms): the draggers' frames/s and latency
 #   tets-1m         60  synthetic-mesh:ball,n=70 (1 025 244 tets, made by prep: no Python needed), 512^2 and 1024^2,
@@ -297,6 +299,65 @@ PY
         echo "(no python3: the reports are load-jpeg.json, load-vp8.json, load-vp9.json)" >> "$md"
       fi
       ;;
+    video-link)
+      size=1024x1024 duration=10
+      q && size=128x128 duration=2
+      [ -x "$KIT/bin/bench_link_relay" ] || die "video-link: the kit has no bench_link_relay (build it before pack.sh)"
+      mkdir -p "$WORK/served"
+      [ -e "$WORK/served/mri" ] || cp -r "$WORK/mri.vbs" "$WORK/served/mri"
+      rm -f "$WORK/port" "$WORK/relay-port"
+      echo "voxbrick serve (2 render threads) on the MRI store; one client (voxbrick load --drag 30, interactive 50 ms," \
+        "tf mri, $size, ${duration} s, each Frame reported as the viewer does) on loopback and through" \
+        "bench_link_relay: 10 Mbit/s each way, 20 ms each way (40 ms round trip), a 200 ms queue." >> "$md"
+      echo >> "$md"
+      cmd "$KIT/bin/voxbrick" serve --datasets "$WORK/served" --port 0 --port-file "$WORK/port" --render-threads 2 \
+        > "$dir/server.log" 2>&1 &
+      server=$!
+      for _ in $(seq 300); do [ -s "$WORK/port" ] && break; sleep 0.1; done
+      [ -s "$WORK/port" ] || die "video-link: the server wrote no port (server.log: $(tail -3 "$dir/server.log"))"
+      port=$(cat "$WORK/port")
+      cmd "$KIT/bin/bench_link_relay" --target "$port" --port-file "$WORK/relay-port" --mbit 10 --delay-ms 20 \
+        --queue-ms 200 > "$dir/relay.log" 2>&1 &
+      relay=$!
+      trap 'kill "$server" "$relay" 2> /dev/null || true' EXIT
+      for _ in $(seq 100); do [ -s "$WORK/relay-port" ] && break; sleep 0.1; done
+      relayPort=$(cat "$WORK/relay-port")
+      for link in relay loopback; do
+        p=$port; [ "$link" = relay ] && p=$relayPort
+        for enc in jpeg vp8 vp9; do
+          [ "$link" = loopback ] && [ "$enc" = vp9 ] && continue
+          cmd "$KIT/bin/voxbrick" load "127.0.0.1:$p" --dataset mri --tf mri --step 0.75 --clients 1 --drag 30 \
+            --interactive 50 --provisional-encoding "$enc" --duration "$duration" --size "$size" \
+            --json "$dir/$link-$enc.json" 2>&1 | tee -a "$dir/load.log"
+        done
+      done
+      kill -TERM "$server" "$relay"; wait "$server" || true
+      echo >> "$md"
+      if command -v python3 > /dev/null; then
+        python3 - "$dir" >> "$md" <<'PY'
+import json, os, sys
+d = sys.argv[1]
+num = lambda x: float("nan") if x is None else float(x)
+print("| link | moving frames | frames/s | p50 ms | p95 ms | p99 ms | KB a frame | encode p50 ms | decode p50 ms | key frames | errors |")
+print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+with open(os.path.join(d, "video-link.csv"), "w") as csv:
+    csv.write("link,provisional,frames_per_s,p50_ms,p95_ms,p99_ms,kb_per_frame,encode_ms_p50,decode_ms_p50,key_frames,errors\n")
+    for link in ("relay", "loopback"):
+        for enc in ("jpeg", "vp8", "vp9"):
+            f = os.path.join(d, f"{link}-{enc}.json")
+            if not os.path.exists(f):
+                continue
+            j = json.load(open(f))
+            lat = j["latency_ms"]
+            v = j.get("video") or {}
+            row = (link, enc, j["frames_per_s"], lat["p50"], lat["p95"], lat["p99"],
+                   num(j.get("payload_bytes_per_frame")) / 1024, num(j.get("encode_ms_p50")),
+                   num((v.get("decode_ms") or {}).get("p50")), v.get("key_frames", 0), j["errors"])
+            print("| %s | %s | %.2f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %s | %d |" % row)
+            csv.write("%s,%s,%.3f,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,%s,%d\n" % row)
+PY
+      fi
+      ;;
     crowd-load)
       size=512x512 duration=12
       q && size=64x64 duration=3
@@ -445,11 +506,11 @@ fi
 # The driver.
 export QUICK=${MEASURE_QUICK:-0}
 budget=${MEASURE_BUDGET:-$([ "$QUICK" = 1 ] && echo 240 || echo 500)}
-all="device test_render mri-sweep-512 roofline mri-sweep-1024 mri-sweep-2048 load-drag load-video crowd-load tets-1m field-1024 orbit"
+all="device test_render mri-sweep-512 roofline mri-sweep-1024 mri-sweep-2048 load-drag load-video video-link crowd-load tets-1m field-1024 orbit"
 steps=${MEASURE_STEPS:-$all}
 for s in $steps; do grep -qw -- "$s" <<< "$all" || die "MEASURE_STEPS: unknown step '$s' (known: $all)"; done
 declare -A cap=([device]=40 [test_render]=150 [mri-sweep-512]=90 [roofline]=90 [mri-sweep-1024]=60
-  [mri-sweep-2048]=110 [load-drag]=30 [load-video]=45 [crowd-load]=40 [tets-1m]=60 [field-1024]=150 [orbit]=30)
+  [mri-sweep-2048]=110 [load-drag]=30 [load-video]=45 [video-link]=80 [crowd-load]=40 [tets-1m]=60 [field-1024]=150 [orbit]=30)
 start=$(now)
 deadline=$((start + budget))
 export WORK=${MEASURE_WORK:-/tmp/voxbrick-gpu}

@@ -45,6 +45,8 @@ done
 # checks its own frames).
 golden="$build/bench/frame_golden"
 if [ -x "$golden" ] && [ "$(stat -c %s "$golden")" -lt $((16 << 20)) ]; then binaries+=("$golden"); fi
+# The link relay when it is built (the video-link step).
+if [ -x "$build/bench/bench_link_relay" ]; then binaries+=("$build/bench/bench_link_relay"); fi
 
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
