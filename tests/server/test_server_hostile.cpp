@@ -19,6 +19,7 @@
 #include "WebClient.h"
 #include "client/Client.h"
 #include "image/FrameImage.h"
+#include "image/Video.h"
 #include "render/engine/Datasets.h"
 #include "support/TestSupport.h"
 
@@ -404,6 +405,70 @@ TEST_P(HostileClientTest, ConnectionsFromOneAddressAreLimited) {
   auto open = start("--max-connections-per-address 2");
   std::vector<std::unique_ptr<Client>> many;
   for (int i = 0; i < 6; ++i) EXPECT_NO_THROW(many.push_back(hostileSession(*open)));
+}
+
+// Video sessions that misbehave (version 4): one drags in vp8 asking a key frame every time and never reads; one
+// floods FrameReceived reports, of absurd sizes, for frames it never got and for request ids that name nothing. A
+// good session's vp8 drag beside them keeps its stream: every frame decodes in order, the exact frames are png; the
+// server's memory stays bounded, and afterwards a good client gets the frame drawn before the attack. (The
+// non-reader's small frames fit the socket's buffers: that it is dropped once they fill is the test above's.)
+TEST_P(HostileClientTest, MisbehavingVideoSessionsLeaveAGoodStreamIntact) {
+  auto server = start("");
+  const std::string drag = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [80, 64], "transfer_function": "sparse",
+      "interactive": true, "time_budget_ms": 50, "provisional_encoding": "vp8", "keyframe": true})";
+  const image::Image8 beforeAttack = frameBefore(*server, kHostileScene, proto::Encoding::Png);
+  const uint64_t before = server->residentBytes();
+  uint64_t peak = before;
+  const auto videoHello = [](RawSocket& s) {
+    EXPECT_TRUE(s.sendMessage(proto::encode(proto::Hello{1, 4, "hostile-video"}, 1)));
+    EXPECT_TRUE(s.sendMessage(proto::encode(proto::OpenDataset{"sparse"}, 2, 4)));
+  };
+  auto nonReader = raw(*server), reporter = raw(*server);
+  videoHello(*nonReader);
+  videoHello(*reporter);
+  Background hostile;
+  hostile.run([&](const std::atomic<bool>& stopping) {
+    for (uint32_t id = 10; !stopping; ++id) {
+      if (!nonReader->sendMessage(proto::encode(proto::RenderRequest{proto::Encoding::Png, drag}, id, 4))) return;
+      std::this_thread::sleep_for(5ms);
+    }
+  });
+  hostile.run([&](const std::atomic<bool>& stopping) {
+    for (uint32_t id = 10; !stopping; ++id) {
+      if (!reporter->sendMessage(proto::encode(proto::FrameReceived{1u << 30}, id % 3 ? id : 0xFFFFFFF0u, 4))) return;
+      if (id % 50 == 0 &&
+          !reporter->sendMessage(proto::encode(proto::RenderRequest{proto::Encoding::Png, drag}, id, 4)))
+        return;
+      std::this_thread::sleep_for(1ms);
+    }
+  });
+  // The good session drags for two seconds: a vp8 frame for each camera, each decoded in the stream's order.
+  Client good("127.0.0.1", server->port(), 60s);
+  good.hello("good", 4);
+  good.openDataset("sparse");
+  image::FrameDecoder decoder;
+  size_t videoFrames = 0;
+  const auto t0 = Clock::now();
+  for (int i = 0; secondsSince(t0) < 2; ++i) {
+    json scene = json::parse(drag);
+    scene.erase("keyframe");
+    scene["camera"]["orbit"][0] = 40 + (i % 2);
+    const proto::Frame exact = good.render(scene.dump(), proto::Encoding::Png, [&](const proto::Frame& f) {
+      ASSERT_EQ(f.encoding, proto::Encoding::Vp8);
+      EXPECT_NO_THROW(decoder.decode(f)) << "video frame " << videoFrames;
+      ++videoFrames;
+    });
+    EXPECT_EQ(exact.encoding, proto::Encoding::Png);
+    peak = std::max(peak, server->residentBytes());
+  }
+  EXPECT_GE(videoFrames, 3u) << "video frames reached the good session";
+  hostile.stop();
+  EXPECT_FALSE(reporter->waitClosed(300ms)) << "reports of frames never sent are ignored, not an error";
+  EXPECT_LT(double(peak), double(before) + 64e6) << "resident memory went from " << before / 1e6 << " to "
+                                                 << peak / 1e6 << " MB";
+  EXPECT_EQ(statsOf(*server)["protocol_errors"], 0) << "every hostile message was well formed";
+  expectSameFrame(hostileSession(*server)->render(kHostileScene, proto::Encoding::Png), beforeAttack,
+                  "a good client after the video attack");
 }
 
 INSTANTIATE_TEST_SUITE_P(Transports, HostileClientTest, ::testing::Values(Framing::Tcp, Framing::WebSocket),
