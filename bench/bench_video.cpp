@@ -5,7 +5,7 @@
 // bench/results/video/video.{csv,md}).
 //
 //   bench_video --csv OUT.csv --fps 30 FRAME.png... [--qualities 50,70,85] [--kbps 1000,2000,4000] [--threads 1,4]
-//               [--scales 1,0.5]
+//               [--scales 1,0.5] [--speeds 8,6]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -70,17 +70,19 @@ Row jpegRow(const std::vector<image::Image8>& frames, int quality) {
 /// A stream at `kbps` of the frames scaled by `scale` (1: as they are), each decoded frame scaled back to the frame's
 /// size before its PSNR is taken (as a viewer shows a smaller stream).
 Row videoRow(const std::vector<image::Image8>& frames, proto::Encoding codec, int kbps, double fps, int threads,
-             double scale) {
+             double scale, int speed) {
   char scaled[32];
   std::snprintf(scaled, sizeof scaled, "; scale %g", scale);
   Row row{proto::encodingName(codec), std::to_string(kbps) + " kbit/s" +
                                           (threads > 1 ? "; " + std::to_string(threads) + " threads" : "") +
-                                          (scale != 1 ? scaled : "")};
+                                          (scale != 1 ? scaled : "") +
+                                          (speed != image::VideoSettings{}.speed ? "; speed " + std::to_string(speed) : "")};
   const int width = std::max(16, int(std::lround(frames[0].width * scale)));
   const int height = std::max(16, int(std::lround(frames[0].height * scale)));
   image::VideoSettings settings;
   settings.width = width, settings.height = height, settings.bitrateKbps = kbps;
   settings.threads = threads;
+  settings.speed = speed;
   image::VideoEncoder encoder(codec, settings);
   image::VideoDecoder decoder(codec);
   for (size_t i = 0; i < frames.size(); ++i) {
@@ -106,6 +108,7 @@ int main(int argc, char** argv) {
   double fps = 30;
   std::vector<int> threads{1};
   std::vector<double> scales{1};
+  std::vector<int> speeds{image::VideoSettings{}.speed};
   app.add_option("--csv", csvPath, "the CSV to write")->required();
   app.add_option("--qualities", qualities, "JPEG qualities")->delimiter(',');
   app.add_option("--kbps", kbps, "video bitrates, kbit/s")->delimiter(',');
@@ -116,6 +119,8 @@ int main(int argc, char** argv) {
                                      "decoded frame is scaled back up for its PSNR)")
       ->delimiter(',')
       ->check(CLI::Range(0.05, 1.0));
+  app.add_option("--speeds", speeds, "libvpx realtime speeds (VP8 4..16, VP9 5..9; each a row of every bitrate)")
+      ->delimiter(',');
   app.add_option("frames", paths, "the drag's lossless frames, in order")->required();
   CLI11_PARSE(app, argc, argv);
   try {
@@ -129,7 +134,8 @@ int main(int argc, char** argv) {
     for (const proto::Encoding codec : {proto::Encoding::Vp8, proto::Encoding::Vp9})
       for (int t : threads)
         for (double scale : scales)
-          for (int k : kbps) rows.push_back(videoRow(frames, codec, k, fps, t, scale));
+          for (int speed : speeds)
+            for (int k : kbps) rows.push_back(videoRow(frames, codec, k, fps, t, scale, speed));
     std::ofstream csv(csvPath);
     csv << "size,frames,fps,encoding,setting,bytes_per_frame,psnr_mean_db,psnr_min_db,encode_ms,decode_ms,key_bytes\n";
     for (const Row& r : rows) {
