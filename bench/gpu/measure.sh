@@ -76,6 +76,20 @@ if [ "${1:-}" = "--step" ]; then
     echo "    ${shown[*]}" >> "$md"
     "$@"
   }
+  # Starts `voxbrick serve` on the MRI store (2 render threads, and the arguments given) in the background, logging
+  # to the step's server.log; sets `server` (its pid, killed when the step ends) and `port`.
+  serve_mri() {
+    mkdir -p "$WORK/served"
+    [ -e "$WORK/served/mri" ] || cp -r "$WORK/mri.vbs" "$WORK/served/mri"
+    rm -f "$WORK/port"
+    cmd "$KIT/bin/voxbrick" serve --datasets "$WORK/served" --port 0 --port-file "$WORK/port" --render-threads 2 "$@" \
+      > "$dir/server.log" 2>&1 &
+    server=$!
+    trap 'kill "$server" 2> /dev/null || true' EXIT
+    for _ in $(seq 300); do [ -s "$WORK/port" ] && break; sleep 0.1; done
+    [ -s "$WORK/port" ] || die "$name: the server wrote no port (server.log: $(tail -3 "$dir/server.log"))"
+    port=$(cat "$WORK/port")
+  }
   # PSNR (dB) of two PNGs by voxbrick compare; inf when identical.
   psnr() {
     vb compare "$1" "$2" --json | sed -n 's/.*"psnr": *\([-0-9][-0-9.e+]*\).*/\1/p; s/.*"identical": *true.*/inf/p' | head -1
@@ -209,18 +223,9 @@ if [ "${1:-}" = "--step" ]; then
     load-drag)
       size=512x512 duration=10
       q && size=64x64 duration=2
-      mkdir -p "$WORK/served"
-      [ -e "$WORK/served/mri" ] || cp -r "$WORK/mri.vbs" "$WORK/served/mri"
-      rm -f "$WORK/port"
       echo "voxbrick serve (2 render threads) on the MRI store, driven by voxbrick load over loopback; tf mri," \
         "$size." >> "$md"; echo >> "$md"
-      cmd "$KIT/bin/voxbrick" serve --datasets "$WORK/served" --port 0 --port-file "$WORK/port" --render-threads 2 \
-        > "$dir/server.log" 2>&1 &
-      server=$!
-      trap 'kill "$server" 2> /dev/null || true' EXIT
-      for _ in $(seq 300); do [ -s "$WORK/port" ] && break; sleep 0.1; done
-      [ -s "$WORK/port" ] || die "load-drag: the server wrote no port (server.log: $(tail -3 "$dir/server.log"))"
-      port=$(cat "$WORK/port")
+      serve_mri
       cmd "$KIT/bin/voxbrick" load "127.0.0.1:$port" --dataset mri --tf mri --step 0.75 --clients 1 \
         --duration "$duration" --size "$size" --json "$dir/load-one.json" 2>&1 | tee "$dir/load.log"
       cmd "$KIT/bin/voxbrick" load "127.0.0.1:$port" --dataset mri --tf mri --step 0.75 --clients 4 \
@@ -252,19 +257,10 @@ PY
     load-video)
       size=1024x1024 duration=8
       q && size=128x128 duration=2
-      mkdir -p "$WORK/served"
-      [ -e "$WORK/served/mri" ] || cp -r "$WORK/mri.vbs" "$WORK/served/mri"
-      rm -f "$WORK/port"
       echo "voxbrick serve (2 render threads, 2 encode threads) on the MRI store; voxbrick load over loopback: 4" \
         "clients dragging at 15 Hz, interactive 50 ms, tf mri, $size; provisional frames as JPEG, vp8, vp9." >> "$md"
       echo >> "$md"
-      cmd "$KIT/bin/voxbrick" serve --datasets "$WORK/served" --port 0 --port-file "$WORK/port" --render-threads 2 \
-        > "$dir/server.log" 2>&1 &
-      server=$!
-      trap 'kill "$server" 2> /dev/null || true' EXIT
-      for _ in $(seq 300); do [ -s "$WORK/port" ] && break; sleep 0.1; done
-      [ -s "$WORK/port" ] || die "load-video: the server wrote no port (server.log: $(tail -3 "$dir/server.log"))"
-      port=$(cat "$WORK/port")
+      serve_mri
       for enc in jpeg vp8 vp9; do
         cmd "$KIT/bin/voxbrick" load "127.0.0.1:$port" --dataset mri --tf mri --step 0.75 --clients 4 \
           --duration "$duration" --size "$size" --drag 15 --interactive 50 --provisional-encoding "$enc" \
@@ -303,19 +299,12 @@ PY
       size=1024x1024 duration=10
       q && size=128x128 duration=2
       [ -x "$KIT/bin/bench_link_relay" ] || die "video-link: the kit has no bench_link_relay (build it before pack.sh)"
-      mkdir -p "$WORK/served"
-      [ -e "$WORK/served/mri" ] || cp -r "$WORK/mri.vbs" "$WORK/served/mri"
-      rm -f "$WORK/port" "$WORK/relay-port"
+      rm -f "$WORK/relay-port"
       echo "voxbrick serve (2 render threads) on the MRI store; one client (voxbrick load --drag 30, interactive 50 ms," \
         "tf mri, $size, ${duration} s, each Frame reported as the viewer does) on loopback and through" \
         "bench_link_relay: 10 Mbit/s each way, 20 ms each way (40 ms round trip), a 200 ms queue." >> "$md"
       echo >> "$md"
-      cmd "$KIT/bin/voxbrick" serve --datasets "$WORK/served" --port 0 --port-file "$WORK/port" --render-threads 2 \
-        > "$dir/server.log" 2>&1 &
-      server=$!
-      for _ in $(seq 300); do [ -s "$WORK/port" ] && break; sleep 0.1; done
-      [ -s "$WORK/port" ] || die "video-link: the server wrote no port (server.log: $(tail -3 "$dir/server.log"))"
-      port=$(cat "$WORK/port")
+      serve_mri
       cmd "$KIT/bin/bench_link_relay" --target "$port" --port-file "$WORK/relay-port" --mbit 10 --delay-ms 20 \
         --queue-ms 200 > "$dir/relay.log" 2>&1 &
       relay=$!
@@ -361,19 +350,10 @@ PY
     crowd-load)
       size=512x512 duration=12
       q && size=64x64 duration=3
-      mkdir -p "$WORK/served"
-      [ -e "$WORK/served/mri" ] || cp -r "$WORK/mri.vbs" "$WORK/served/mri"
-      rm -f "$WORK/port"
       echo "voxbrick serve (2 render threads) on the MRI store; at once: 48 clients of a batch script (--batch, still" \
         "frames one after another) and 4 clients dragging at 10 Hz (interactive 50 ms, provisional jpeg), $size." >> "$md"
       echo >> "$md"
-      cmd "$KIT/bin/voxbrick" serve --datasets "$WORK/served" --port 0 --port-file "$WORK/port" --render-threads 2 \
-        --max-sessions 256 > "$dir/server.log" 2>&1 &
-      server=$!
-      trap 'kill "$server" 2> /dev/null || true' EXIT
-      for _ in $(seq 300); do [ -s "$WORK/port" ] && break; sleep 0.1; done
-      [ -s "$WORK/port" ] || die "crowd-load: the server wrote no port (server.log: $(tail -3 "$dir/server.log"))"
-      port=$(cat "$WORK/port")
+      serve_mri --max-sessions 256
       cmd "$KIT/bin/voxbrick" load "127.0.0.1:$port" --dataset mri --tf mri --step 0.75 --clients 48 --batch \
         --duration "$duration" --size "$size" --json "$dir/load-batch.json" > "$dir/load-batch.log" 2>&1 &
       batch=$!
