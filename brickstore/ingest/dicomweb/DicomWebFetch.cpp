@@ -157,7 +157,14 @@ std::string chooseSeries(HttpClient& client, const DicomWebUrl& url, const std::
   client.get(url.seriesSearchUrl(), kJson, body);
   const std::vector<QidoSeries> all = parseQidoSeries(body.text(), "GET " + url.seriesSearchUrl());
   if (all.empty()) {
-    requireResource(client, url.studyUrl());
+    try {
+      requireResource(client, url.studyUrl());
+    } catch (const HttpError& e) {
+      if (e.status() == 404)
+        throw InputError("no study " + url.study + ": " + e.what() + " (QIDO-RS GET " + url.seriesSearchUrl() +
+                         " listed no series)");
+      throw;
+    }
     throw InputError("the study " + url.study + " holds no series (QIDO-RS GET " + url.seriesSearchUrl() +
                      " listed none)");
   }

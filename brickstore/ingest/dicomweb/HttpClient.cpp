@@ -154,7 +154,6 @@ struct HttpClient::Impl {
   bool interrupted = false;
   long status = 0;
   std::string contentType, errorBody;
-  uint64_t attemptBytes = 0;
   int64_t contentLength = -1;
   std::exception_ptr handlerError;
 
@@ -180,7 +179,6 @@ struct HttpClient::Impl {
   static size_t onBody(char* data, size_t size, size_t count, void* self) {
     auto& impl = *static_cast<Impl*>(self);
     const size_t bytes = size * count;
-    impl.attemptBytes += bytes;
     impl.received += bytes;
     try {
       if (!impl.begun) {
@@ -219,6 +217,10 @@ struct HttpClient::Impl {
     const std::string prefix = "GET " + url + ": ";
     long osErrno = 0;
     curl_easy_getinfo(curl, CURLINFO_OS_ERRNO, &osErrno);
+    // The bytes as they came (compressed, when the server compressed them), as Content-Length counts them.
+    curl_off_t wireBytes = 0;
+    curl_easy_getinfo(curl, CURLINFO_SIZE_DOWNLOAD_T, &wireBytes);
+    const uint64_t got = uint64_t(std::max<curl_off_t>(0, wireBytes));
     switch (rc) {
       case CURLE_COULDNT_CONNECT:
         return HttpError(
@@ -227,17 +229,15 @@ struct HttpClient::Impl {
       case CURLE_COULDNT_RESOLVE_HOST: return HttpError(prefix + "unknown host (" + detail + ")", 0, false);
       case CURLE_OPERATION_TIMEDOUT:
         return HttpError(
-            prefix +
-                (attemptBytes > 0 ? "the transfer stalled after " + byteText(attemptBytes) + " (" : "no answer (") +
-                detail + ")",
-            0, true);
+            prefix + (got > 0 ? "the transfer stalled after " + byteText(got) + " (" : "no answer (") + detail + ")", 0,
+            true);
       case CURLE_PARTIAL_FILE:
       case CURLE_RECV_ERROR:
       case CURLE_SEND_ERROR:
       case CURLE_GOT_NOTHING:
       case CURLE_HTTP2:
       case CURLE_HTTP2_STREAM:
-        return HttpError(prefix + "the transfer was cut after " + byteText(attemptBytes) +
+        return HttpError(prefix + "the transfer was cut after " + byteText(got) +
                              (contentLength >= 0 ? " of " + byteText(uint64_t(contentLength)) : "") + " (" + detail +
                              ")",
                          0, true);
@@ -282,7 +282,6 @@ struct HttpClient::Impl {
     status = 0;
     contentType.clear();
     errorBody.clear();
-    attemptBytes = 0;
     contentLength = -1;
     handlerError = nullptr;
     errorText[0] = '\0';
