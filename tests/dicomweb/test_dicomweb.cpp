@@ -235,6 +235,13 @@ TEST_F(DicomWebOrthanc, AMissingSeriesOrStudyIsA404NamingTheUrl) {
   EXPECT_EQ(r.exitCode, 1) << r.output;
   EXPECT_SAYS(r.output, "no study 9.8.7.6");
   EXPECT_SAYS(r.output, "HTTP 404 Not Found");
+  // A root that is no DICOMweb service's: the search itself is the 404.
+  std::string wrongRoot = seriesUrl("ct");
+  wrongRoot.replace(wrongRoot.find("/dicom-web/"), 11, "/dicom-wbe/");
+  r = prep(wrongRoot, out / "s.vbs");
+  EXPECT_EQ(r.exitCode, 1) << r.output;
+  EXPECT_SAYS(r.output, "/dicom-wbe/studies/" + uid("ct", "study") + "/series/" + uid("ct", "series") +
+                            "/instances: HTTP 404 Not Found");
   EXPECT_FALSE(fs::exists(out / "s.vbs"));
   EXPECT_TRUE(leftovers(out.path()).empty());
 }

@@ -15,12 +15,14 @@
 #include <mutex>
 #include <optional>
 #include <thread>
+#include <tuple>
 
 #include "brickstore/format/Errors.h"
 #include "brickstore/ingest/dicomweb/DicomWebUrl.h"
 #include "brickstore/ingest/dicomweb/HttpClient.h"
 #include "brickstore/ingest/dicomweb/Multipart.h"
 #include "brickstore/ingest/dicomweb/QidoResults.h"
+#include "brickstore/source/DicomClasses.h"
 
 namespace voxbrick::store {
 namespace {
@@ -36,17 +38,26 @@ constexpr size_t kMaxQidoBytes = size_t(64) << 20;
 class BodyText final : public ResponseHandler {
  public:
   BodyText(std::string what, size_t limit) : mWhat(std::move(what)), mLimit(limit) {}
-  void begin(const std::string&) override { mText.clear(); }
+  void begin(const std::string& contentType) override {
+    mText.clear();
+    mContentType = contentType;
+  }
   void data(const char* bytes, size_t size) override {
     if (mText.size() + size > mLimit)
       throw InputError(mWhat + ": the answer exceeds " + std::to_string(mLimit >> 20) + " MB");
     mText.append(bytes, size);
   }
-  void end() override {}
+  /// QIDO-RS's JSON: a body of another type (an HTML sign-in page a proxy put in the way) is refused naming it.
+  void end() override {
+    const std::string media = mContentType.substr(0, mContentType.find(';'));
+    if (!mText.empty() && media.find("json") == std::string::npos)
+      throw InputError(mWhat + ": the answer is '" + media.substr(0, 60) +
+                       "', not application/dicom+json (is the URL the DICOMweb root, or a proxy's sign-in page?)");
+  }
   const std::string& text() const { return mText; }
 
  private:
-  std::string mWhat, mText;
+  std::string mWhat, mText, mContentType;
   size_t mLimit;
 };
 
@@ -120,16 +131,33 @@ class InstanceFile final : public ResponseHandler, private PartHandler {
   std::optional<MultipartParser> mParser;
 };
 
-/// The series as a table, one per line: UID, modality, description, instances (each line starts with a newline).
-std::string seriesTable(const std::vector<QidoSeries>& series) {
-  std::vector<std::array<std::string, 4>> rows = {{"UID", "modality", "description", "instances"}};
-  for (const QidoSeries& s : series) {
+/// The instances QIDO-RS lists for a series (maybe none).
+std::vector<QidoInstance> searchInstances(HttpClient& client, const DicomWebUrl& url, const std::string& seriesUid) {
+  const std::string search = url.instancesUrl(seriesUid);
+  BodyText body("GET " + search, kMaxQidoBytes);
+  client.get(search, kJson, body);
+  return parseQidoInstances(body.text(), seriesUid, "GET " + search);
+}
+
+/// A study's series as judged for the choice: its instances, how many are images, what the others are.
+struct SeriesCensus {
+  QidoSeries series;
+  std::vector<QidoInstance> instances;
+  size_t images = 0;
+  std::string notImage;  ///< what its first instance that is no image is ("RT plan"); else its modality
+};
+
+/// The series as a table, one per line: UID, modality, description, instances, images (each line after a newline).
+std::string seriesTable(const std::vector<SeriesCensus>& series) {
+  std::vector<std::array<std::string, 5>> rows = {{"UID", "modality", "description", "instances", "images"}};
+  for (const SeriesCensus& c : series) {
+    const QidoSeries& s = c.series;
     std::string description = s.description.empty() ? "-" : s.description;
     if (description.size() > 40) description = description.substr(0, 37) + "...";
-    rows.push_back({s.seriesUid, s.modality.empty() ? "-" : s.modality, description,
-                    s.instances < 0 ? "?" : std::to_string(s.instances)});
+    rows.push_back({s.seriesUid, s.modality.empty() ? "-" : s.modality, description, std::to_string(c.instances.size()),
+                    std::to_string(c.images)});
   }
-  std::array<size_t, 4> width{};
+  std::array<size_t, 5> width{};
   for (const auto& row : rows)
     for (size_t c = 0; c < row.size(); ++c) width[c] = std::max(width[c], row[c].size());
   std::string text;
@@ -137,7 +165,7 @@ std::string seriesTable(const std::vector<QidoSeries>& series) {
     std::string line;
     for (size_t c = 0; c < row.size(); ++c) {
       const std::string pad(width[c] - row[c].size(), ' ');
-      line += (c ? "  " : "") + (c == 3 ? pad + row[c] : row[c] + pad);
+      line += (c ? "  " : "") + (c >= 3 ? pad + row[c] : row[c] + (c + 1 < row.size() ? pad : ""));
     }
     text += "\n" + line;
   }
@@ -145,46 +173,78 @@ std::string seriesTable(const std::vector<QidoSeries>& series) {
 }
 
 /// An empty search answer means nothing for a resource that does not exist on servers that answer 200 with no
-/// results: the resource itself is asked for, so that its 404 is the error. A server that has it yields "".
-void requireResource(HttpClient& client, const std::string& url) {
+/// results: the resource itself is asked for, so that its 404 is the error. `what` names it ("series UID in study
+/// UID"); a resource the server has is refused as empty.
+[[noreturn]] void refuseEmpty(HttpClient& client, const std::string& resource, const std::string& what,
+                              const std::string& search, const std::string& listed) {
   BodyDiscarded discarded;
-  client.get(url + "/metadata", kJson, discarded);
+  try {
+    client.get(resource + "/metadata", kJson, discarded);
+  } catch (const HttpError& e) {
+    if (e.status() == 404)
+      throw InputError("no " + what + ": " + e.what() + " (QIDO-RS GET " + search + " listed no " + listed + ")");
+    throw;
+  }
+  throw InputError("the " + what + " is empty (QIDO-RS GET " + search + " listed no " + listed + ")");
 }
 
-/// The series to fetch of a study URL: options.seriesUid, else the study's one image series.
-std::string chooseSeries(HttpClient& client, const DicomWebUrl& url, const std::string& wanted) {
+/// The series of a study URL to fetch, with its instances: options.seriesUid, else the study's one series that holds
+/// images. Each series' instances are listed, and judged by their SOP classes (dicomNonImageKind, as the DICOM
+/// reader judges files): a series of reports, plans, structure sets, ... is skipped, whatever its Modality says (a
+/// server may take a series' Modality from a report filed in it). Without SOP classes listed, by Modality.
+std::pair<std::string, std::vector<QidoInstance>> chooseSeries(HttpClient& client, const DicomWebUrl& url,
+                                                               const std::string& wanted) {
   BodyText body("GET " + url.seriesSearchUrl(), kMaxQidoBytes);
   client.get(url.seriesSearchUrl(), kJson, body);
   const std::vector<QidoSeries> all = parseQidoSeries(body.text(), "GET " + url.seriesSearchUrl());
-  if (all.empty()) {
-    try {
-      requireResource(client, url.studyUrl());
-    } catch (const HttpError& e) {
-      if (e.status() == 404)
-        throw InputError("no study " + url.study + ": " + e.what() + " (QIDO-RS GET " + url.seriesSearchUrl() +
-                         " listed no series)");
-      throw;
+  if (all.empty()) refuseEmpty(client, url.studyUrl(), "study " + url.study, url.seriesSearchUrl(), "series");
+  std::vector<SeriesCensus> census;
+  for (const QidoSeries& s : all) {
+    if (!wanted.empty() && s.seriesUid != wanted) continue;
+    SeriesCensus c{s, searchInstances(client, url, s.seriesUid), 0, ""};
+    bool classes = false;
+    for (const QidoInstance& i : c.instances) {
+      classes = classes || !i.sopClassUid.empty();
+      const std::string kind = dicomNonImageKind(i.sopClassUid);
+      if (kind.empty() && !i.sopClassUid.empty()) ++c.images;
+      if (!kind.empty() && c.notImage.empty()) c.notImage = kind;
     }
-    throw InputError("the study " + url.study + " holds no series (QIDO-RS GET " + url.seriesSearchUrl() +
-                     " listed none)");
+    if (!classes) {
+      c.images = isNonImageModality(s.modality) ? 0 : c.instances.size();
+      c.notImage = s.modality;
+    }
+    census.push_back(std::move(c));
   }
   if (!wanted.empty()) {
-    for (const QidoSeries& s : all)
-      if (s.seriesUid == wanted) return wanted;
-    throw InputError("the study " + url.study + " holds no series " + wanted + "; it holds:" + seriesTable(all));
+    if (census.empty()) {
+      std::vector<SeriesCensus> listed;
+      for (const QidoSeries& s : all) listed.push_back({s, {}, 0, ""});
+      throw InputError("the study " + url.study + " holds no series " + wanted +
+                       "; it holds (UID, modality, "
+                       "description):" +
+                       seriesTable(listed));
+    }
+    return {wanted, std::move(census.front().instances)};
   }
-  std::vector<QidoSeries> images, skipped;
-  for (const QidoSeries& s : all) (isNonImageModality(s.modality) ? skipped : images).push_back(s);
-  std::string skippedText;
-  for (size_t k = 0; k < skipped.size() && k < 6; ++k)
-    skippedText += (k ? ", " : "") + skipped[k].modality + " " + skipped[k].seriesUid;
-  if (skipped.size() > 6) skippedText += " and " + std::to_string(skipped.size() - 6) + " more";
-  if (!skippedText.empty()) skippedText = " (skipped, not images: " + skippedText + ")";
-  if (images.empty()) throw InputError("the study " + url.study + " holds no image series" + skippedText);
+  std::vector<SeriesCensus> images;
+  std::string skipped;
+  size_t skippedCount = 0;
+  for (SeriesCensus& c : census) {
+    if (c.images > 0) {
+      images.push_back(std::move(c));
+      continue;
+    }
+    if (++skippedCount <= 6)
+      skipped += (skipped.empty() ? "" : ", ") + c.series.seriesUid + " (" +
+                 (c.notImage.empty() ? std::string("no instances") : c.notImage) + ")";
+  }
+  if (skippedCount > 6) skipped += " and " + std::to_string(skippedCount - 6) + " more";
+  if (!skipped.empty()) skipped = " (skipped, no images: " + skipped + ")";
+  if (images.empty()) throw InputError("the study " + url.study + " holds no image series" + skipped);
   if (images.size() > 1)
     throw InputError("the study " + url.study + " holds " + std::to_string(images.size()) +
-                     " image series; pick one with --series UID" + skippedText + ":" + seriesTable(images));
-  return images.front().seriesUid;
+                     " image series; pick one with --series UID" + skipped + ":" + seriesTable(images));
+  return {images.front().series.seriesUid, std::move(images.front().instances)};
 }
 
 /// A new folder under `parent` for one fetch.
@@ -260,27 +320,17 @@ std::unique_ptr<FetchedSeries> fetch(const DicomWebUrl& url, const SourceOptions
   HttpClient client(http);
 
   std::string seriesUid = url.series;
+  std::vector<QidoInstance> instances;
   if (seriesUid.empty()) {
-    seriesUid = chooseSeries(client, url, options.seriesUid);
+    std::tie(seriesUid, instances) = chooseSeries(client, url, options.seriesUid);
   } else if (!options.seriesUid.empty() && options.seriesUid != seriesUid) {
     throw InputError("--series " + options.seriesUid + " differs from the series the URL names (" + seriesUid + ")");
+  } else {
+    instances = searchInstances(client, url, seriesUid);
   }
-
-  const std::string search = url.instancesUrl(seriesUid);
-  BodyText body("GET " + search, kMaxQidoBytes);
-  client.get(search, kJson, body);
-  const std::vector<QidoInstance> instances = parseQidoInstances(body.text(), seriesUid, "GET " + search);
-  if (instances.empty()) {
-    try {
-      requireResource(client, url.seriesUrl(seriesUid));
-    } catch (const HttpError& e) {
-      if (e.status() == 404)
-        throw InputError("no series " + seriesUid + " in study " + url.study + ": " + e.what() + " (QIDO-RS GET " +
-                         search + " listed no instance)");
-      throw;
-    }
-    throw InputError("the series " + seriesUid + " holds no instances (QIDO-RS GET " + search + " listed none)");
-  }
+  if (instances.empty())
+    refuseEmpty(client, url.seriesUrl(seriesUid), "series " + seriesUid + " in study " + url.study,
+                url.instancesUrl(seriesUid), "instance");
 
   auto fetched = std::make_unique<FetchedSeries>(makeFetchDirectory(o.downloadDir), url.input, seriesUid);
   fetchInstances(url, seriesUid, instances, fetched->directory(), http, o, *fetched);

@@ -33,7 +33,8 @@ std::vector<QidoInstance> parseQidoInstances(std::string_view json, const std::s
 std::vector<QidoSeries> parseQidoSeries(std::string_view json, const std::string& what);
 
 /// Whether a series of this Modality holds no images a volume is made of (structured reports, key objects,
-/// presentation states, RT plans, structure sets and records, registrations, documents, segmentations, waveforms).
+/// presentation states, RT plans, structure sets and records, registrations, documents, segmentations, waveforms):
+/// for a server whose instance listings give no SOP class (dicomNonImageKind judges those that do).
 bool isNonImageModality(std::string_view modality);
 
 }  // namespace voxbrick::store
