@@ -3,12 +3,14 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 #include <vector>
 
 #include "brickstore/format/Errors.h"
 #include "brickstore/format/InputErrors.h"
 #include "brickstore/ingest/Sources.h"
+#include "brickstore/ingest/dicomweb/HttpClient.h"
 #include "brickstore/prep/StoreWriter.h"
 #include "cli/Commands.h"
 #include "cli/Progress.h"
@@ -32,6 +34,7 @@ struct PrepArgs {
   bool timings = false;
   std::string vdbCompression = "auto";
   store::PrepOptions options;
+  store::DicomWebOptions dicomWeb;
 };
 
 /// `prep MESH -o STORE` (mesh::prepMeshStore): what was read, dropped and repaired, and what the store holds.
@@ -93,6 +96,12 @@ store::SourceOptions sourceOptions(const PrepArgs& a) {
   so.channel = a.channel;
   so.seriesUid = a.series;
   so.memoryBudgetMB = a.options.memoryBudgetMB;
+  so.dicomWeb = a.dicomWeb;
+  // A DICOMweb series is fetched beside the store it becomes: on its disk, not in a temporary directory that may be
+  // memory (tmpfs) or small.
+  const std::filesystem::path output = std::filesystem::absolute(a.output);
+  so.dicomWeb.downloadDir = output.parent_path().string();
+  so.dicomWeb.cancelled = [] { return gInterrupted.load(); };
   return so;
 }
 
@@ -154,7 +163,7 @@ void runPrep(PrepArgs& a, CLI::App& cmd) {
   // Installed first, so that an early Ctrl-C also ends in the clean-up path rather than a killed process.
   std::signal(SIGINT, onInterrupt);
   std::signal(SIGTERM, onInterrupt);
-  const store::SourceOptions so = sourceOptions(a);
+  store::SourceOptions so = sourceOptions(a);
   a.input = a.inputs.front();
   if (a.inputs.size() > 1) {
     for (const std::string& in : a.inputs)
@@ -169,14 +178,18 @@ void runPrep(PrepArgs& a, CLI::App& cmd) {
   a.options.nonFinite =
       common::parseName<store::NonFinitePolicy, store::InputError>(a.nonFinite, "policy", "--nonfinite");
 
+  Progress progress(a.quiet);
+  so.dicomWeb.onFetched = [&](int64_t done, int64_t total, uint64_t bytes) {
+    progress.update("fetch", done, total, int64_t(bytes));
+  };
   auto source = store::openSource(a.inputs, so);
+  so.dicomWeb.onFetched = nullptr;
   const store::VolumeInfo& info = source->info();
   if (!a.quiet)
     std::fprintf(stderr, "prep: %s -> %s (brick %d, zstd %d)\n", info.description.c_str(), a.output.c_str(),
                  a.options.brickSize, a.options.zstdLevel);
 
   if (gInterrupted) throw store::StoreError("interrupted; nothing was written");
-  Progress progress(a.quiet);
   if (!a.quantiseRange.empty() && a.quantise.empty()) throw store::InputError("--quantise-range needs --quantise");
   if (!a.quantise.empty()) a.options.quantise = quantisation(a, so, info, progress);
   auto summary = store::prepStore(*source, a.output, a.options, [&](const store::PrepProgress& p) {
@@ -196,9 +209,10 @@ void addPrepCommand(CLI::App& app) {
   cmd->add_option("input", args->inputs,
                   "raw file, .nrrd/.nhdr, .nii/.nii.gz, .vdb, or synthetic:NAME[,key=value...] (marschner-lobb, "
                   "shells, blobs, sparse, hdr); a DICOM series (a directory, one of its files, or its files / a "
-                  "quoted glob); a TIFF stack (one multi-page .tif, or a directory / files / quoted glob of "
-                  "single-page .tif files, z in natural name order); a tetrahedral mesh: .vtk (legacy unstructured "
-                  "grid), .msh (gmsh 2 or 4), or synthetic-mesh:box|ball[,n=N][,field=blobs|linear]")
+                  "quoted glob); a DICOMweb series, dicomweb[s]://HOST[:PORT]/PATH/studies/UID/series/UID (or a "
+                  "study, .../studies/UID); a TIFF stack (one multi-page .tif, or a directory / files / quoted glob "
+                  "of single-page .tif files, z in natural name order); a tetrahedral mesh: .vtk (legacy "
+                  "unstructured grid), .msh (gmsh 2 or 4), or synthetic-mesh:box|ball[,n=N][,field=blobs|linear]")
       ->required();
   cmd->add_option("-o,--output", args->output, "store directory to create")->required();
   cmd->add_option("--dims", args->dims, "raw: X,Y,Z voxels");
@@ -213,6 +227,28 @@ void addPrepCommand(CLI::App& app) {
   addZarrIndexOptions(cmd, args->time, args->channel);
   cmd->add_option("--grid", args->grid, "vdb: name of the float grid (default: the first)");
   cmd->add_option("--series", args->series, "dicom: the SeriesInstanceUID to read when the input holds several series");
+  cmd->add_option("--ca", args->dicomWeb.caFile,
+                  "dicomwebs: PEM file of the certificates to trust (default: the system's store)");
+  cmd->add_option("--auth-file", args->dicomWeb.authFile,
+                  std::string("dicomweb: file whose first line is 'basic USER:PASSWORD' or 'bearer TOKEN' (default: "
+                              "the variable ") +
+                      store::kDicomWebAuthVariable + ", else no credentials)");
+  cmd->add_option("--http-timeout", args->dicomWeb.timeoutSeconds,
+                  "dicomweb: seconds to connect, and the longest a transfer may receive nothing")
+      ->capture_default_str()
+      ->check(between(1, 3600, "seconds"));
+  cmd->add_option("--retries", args->dicomWeb.retries,
+                  "dicomweb: further attempts of a request answered 5xx, refused, timed out or cut (0.5 s, 1 s, 2 s "
+                  "... apart)")
+      ->capture_default_str()
+      ->check(between(0, 10));
+  cmd->add_option("--connections", args->dicomWeb.connections, "dicomweb: instances fetched at a time")
+      ->capture_default_str()
+      ->check(between(1, 32));
+  cmd->add_option("--max-rate", args->dicomWeb.maxMBPerSecond,
+                  "dicomweb: MB/s that all connections together may receive (0: no limit)")
+      ->capture_default_str()
+      ->check(between(0, 1e6, "MB/s"));
   cmd->add_option("--brick", args->options.brickSize, "brick size B (power of two, 8..256)")
       ->capture_default_str()
       ->check(between(8, 256, "voxels"));

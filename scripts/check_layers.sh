@@ -2,7 +2,8 @@
 # The folder rules that include paths cannot enforce (tests/CMakeLists.txt probes the rest with the compiler):
 # system GL/EGL/OSMesa headers and GL calls only in render/gl/ (the folder alone decides: no build file is read),
 # Asio only in server/, client/ and cli/, OpenVDB only in brickstore/'s vdb, ingest/vdb, prep and read folders, GDCM
-# only in brickstore/ingest/dicom/ and libtiff only in brickstore/ingest/tiff/ (tests may use them to write files),
+# only in brickstore/ingest/dicom/, libtiff only in brickstore/ingest/tiff/ (tests may use them to write files) and
+# libcurl only in brickstore/ingest/dicomweb/,
 # MPI only in distributed/, cli/, bench/ and tests, nothing of bench/ (tools only, no library) included from outside
 # it, and no include that climbs out of the folders by a relative path.
 # Prints every violation as FILE:LINE: text and exits 1 if there is any. Run from the repository root.
@@ -36,6 +37,8 @@ mapfile -t notGdcm < <(sources common brickstore mesh proto image render quality
                        grep -v '^brickstore/ingest/dicom/')
 mapfile -t notTiff < <(sources common brickstore mesh proto image render quality server client cli bench |
                        grep -v '^brickstore/ingest/tiff/')
+mapfile -t notCurl < <(sources common brickstore mesh proto image render quality server client cli bench |
+                       grep -v '^brickstore/ingest/dicomweb/')
 mapfile -t notMpi < <(sources common brickstore mesh proto image render quality server client)
 mapfile -t everything < <(sources .)
 mapfile -t notBench < <(sources . | grep -v '^bench/')
@@ -47,6 +50,7 @@ forbid "Asio outside server/, client/, cli/ and the benchmarks' link relay" '#in
 forbid "OpenVDB outside brickstore/vdb/, ingest/vdb/, prep/ and read/" '#include <(openvdb|nanovdb)/' "${notVdb[@]}"
 forbid "GDCM outside brickstore/ingest/dicom/" '#include <gdcm[A-Za-z0-9]*\.h>' "${notGdcm[@]}"
 forbid "libtiff outside brickstore/ingest/tiff/" '#include <tiff[a-z]*\.h>' "${notTiff[@]}"
+forbid "libcurl outside brickstore/ingest/dicomweb/" '#include <curl/' "${notCurl[@]}"
 forbid "MPI outside distributed/, cli/, bench/ and tests" '#include <mpi\.h>' "${notMpi[@]}"
 forbid "bench/ included outside bench/ (its tools are programs, not a library)" '#include "bench/' "${notBench[@]}"
 forbid "relative includes that leave a folder" '#include "\.\./' "${everything[@]}"

@@ -11,13 +11,14 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libtomlplusplus-dev libpng-dev libjpeg62-turbo-dev
   libvpx-dev libyuv-dev
-  libgdcm-dev libtiff-dev zstd
+  libgdcm-dev libtiff-dev zstd libcurl4-openssl-dev
   mricron-data
   python3 python3-numpy python3-zarr python3-numcodecs python3-pydicom
   python3-pil python3-zstandard python3-pytest jupyter-notebook jupyter-nbconvert python3-nbconvert python3-ipykernel
   openmpi-bin libopenmpi-dev
   chromium nodejs
   prometheus
+  orthanc orthanc-dicomweb
 )
 
 missing=()
@@ -39,15 +40,18 @@ if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 echo "setup: installing ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
 
-# prometheus: tests/prometheus needs its binary, not its Debian service. Where nothing forbids starting services at
-# install (container images have a policy-rc.d that does), one is in place for the install, so that a service that
-# cannot start (no init system, port 9090 taken) does not fail it; a systemd service it enabled is stopped and
+# prometheus and orthanc: tests/prometheus and tests/dicomweb need their binaries (each test starts its own on free
+# ports), not their Debian services. Where nothing forbids starting services at install (container images have a
+# policy-rc.d that does), one is in place for the install, so that a service that cannot start (no init system, port
+# 9090 or 8042 taken) does not fail it, and none is left running; a systemd service the install enabled is stopped and
 # disabled again.
-newPrometheus=0
-[[ " ${missing[*]} " == *" prometheus "* ]] && newPrometheus=1
+services=()
+for s in prometheus orthanc; do
+  [[ " ${missing[*]} " == *" $s "* ]] && services+=("$s")
+done
 policy=/usr/sbin/policy-rc.d
 addedPolicy=0
-if [ $newPrometheus -eq 1 ] && [ ! -e "$policy" ]; then
+if [ ${#services[@]} -gt 0 ] && [ ! -e "$policy" ]; then
   printf '#!/bin/sh\n# scripts/setup.sh: no service starts while it installs packages\nexit 101\n' |
     $SUDO tee "$policy" > /dev/null
   $SUDO chmod 755 "$policy"
@@ -58,6 +62,6 @@ trap removePolicy EXIT
 
 $SUDO apt-get update -q
 $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
-if [ $newPrometheus -eq 1 ] && [ -d /run/systemd/system ]; then
-  $SUDO systemctl disable --now prometheus.service > /dev/null 2>&1 || true
+if [ ${#services[@]} -gt 0 ] && [ -d /run/systemd/system ]; then
+  for s in "${services[@]}"; do $SUDO systemctl disable --now "$s.service" > /dev/null 2>&1 || true; done
 fi

@@ -11,6 +11,8 @@
 #include "brickstore/format/InputErrors.h"
 #include "brickstore/ingest/Sources.h"
 #include "brickstore/ingest/dicom/DicomStructure.h"
+#include "brickstore/ingest/dicomweb/DicomWebFetch.h"
+#include "brickstore/ingest/dicomweb/DicomWebUrl.h"
 #include "brickstore/zarr/ZarrMeta.h"
 
 namespace voxbrick::store {
@@ -113,11 +115,56 @@ std::vector<std::string> dicomSiblings(const std::string& file) {
   return files;
 }
 
+/// Runs `fn`, which reads the fetched series' folder, with its errors naming the DICOMweb input and the instances'
+/// files by name: the folder is a temporary one, of no use in a message.
+template <typename F>
+decltype(auto) namingFetched(const FetchedSeries& fetched, F&& fn) {
+  try {
+    return std::forward<F>(fn)();
+  } catch (const InputError& e) {
+    std::string message = e.what();
+    const std::string dir = fetched.directory().string();
+    for (size_t at; (at = message.find(dir + "/")) != std::string::npos;) message.erase(at, dir.size() + 1);
+    for (size_t at; (at = message.find(dir)) != std::string::npos;) message.replace(at, dir.size(), fetched.input());
+    if (message.find(fetched.input()) == std::string::npos) message = fetched.input() + ": " + message;
+    if (dynamic_cast<const CorruptStoreError*>(&e) != nullptr) throw CorruptStoreError(message);
+    throw InputError(message);
+  }
+}
+
+/// A DICOMweb series read from the folder it was fetched into, which lives as long as the source.
+class FetchedSource final : public VolumeSource {
+ public:
+  FetchedSource(std::unique_ptr<FetchedSeries> fetched, std::unique_ptr<VolumeSource> source)
+      : mFetched(std::move(fetched)), mSource(std::move(source)) {}
+  ~FetchedSource() override { mSource.reset(); }  // closes the files before the folder goes
+
+  const VolumeInfo& info() const override { return mSource->info(); }
+  void readSlices(int64_t count, void* dst) override {
+    namingFetched(*mFetched, [&] { mSource->readSlices(count, dst); });
+  }
+
+ private:
+  std::unique_ptr<FetchedSeries> mFetched;
+  std::unique_ptr<VolumeSource> mSource;
+};
+
+/// dicomweb[s]://...: the series fetched into a folder, then read as that folder (openDirectory) with the fetched
+/// series named, as `prep FOLDER --series UID` reads it: the same files give the same store.
+std::unique_ptr<VolumeSource> openDicomWebSource(const std::string& input, const SourceOptions& options) {
+  std::unique_ptr<FetchedSeries> fetched = fetchDicomWebSeries(input, options);
+  SourceOptions folder = options;
+  folder.seriesUid = fetched->seriesUid();
+  auto source = namingFetched(*fetched, [&] { return openDirectory(fetched->directory().string(), folder); });
+  return std::make_unique<FetchedSource>(std::move(fetched), std::move(source));
+}
+
 }  // namespace
 
 std::unique_ptr<VolumeSource> openSource(const std::string& input, const SourceOptions& options) {
   constexpr std::string_view kSynthetic = "synthetic:";
   if (input.rfind(kSynthetic, 0) == 0) return openSyntheticSource(input.substr(kSynthetic.size()), options);
+  if (isDicomWebInput(input)) return openDicomWebSource(input, options);
 
   std::error_code ec;
   if (!std::filesystem::exists(input, ec)) {

@@ -18,7 +18,9 @@ namespace voxbrick::store {
 /// Opens INPUT by its form: "synthetic:NAME[,k=v...]", *.vdb, *.nrrd / *.nhdr, *.nii / *.nii.gz, a DICOM file
 /// (*.dcm or a file with the DICM preamble: the series it belongs to, from its directory), *.tif / *.tiff (a stack of
 /// pages), an OME-Zarr directory (its levels too, VolumeSource::ownLevel), a directory (its DICOM series or its TIFF
-/// files), a glob pattern ("dir/*.tif"), else raw.
+/// files), a glob pattern ("dir/*.tif"), a DICOMweb series or study (dicomweb[s]://HOST/PATH/studies/UID[/series/UID]:
+/// fetched into a folder under options.dicomWeb.downloadDir, removed with the source, and read as that folder), else
+/// raw.
 /// Throws InputError naming the file and the problem.
 std::unique_ptr<VolumeSource> openSource(const std::string& input, const SourceOptions& options);
 

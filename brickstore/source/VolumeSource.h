@@ -1,6 +1,8 @@
 // The one interface every ingest format implements and prep consumes: a volume read as a stream of z-slices.
 #pragma once
 
+#include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -53,6 +55,22 @@ class VolumeSource {
   }
 };
 
+/// How a DICOMweb input (dicomweb://, dicomwebs://) is fetched: docs/inputs.md#dicomweb.
+struct DicomWebOptions {
+  std::string caFile;    ///< PEM certificates trusted for HTTPS; "" for the system's store
+  std::string authFile;  ///< a file of credentials; "" for VOXBRICK_DICOMWEB_AUTH, else none
+  /// Where the instances are fetched to, in a folder of their own removed with the source; "" for the system's
+  /// temporary directory.
+  std::string downloadDir;
+  double timeoutSeconds = 30;       ///< to connect, and the longest a transfer may receive nothing
+  int retries = 3;                  ///< further attempts of a request that failed in a way a retry may mend
+  int connections = 4;              ///< instances fetched at a time
+  double maxMBPerSecond = 0;        ///< the receive rate of all connections together; 0 for no limit
+  std::function<bool()> cancelled;  ///< polled while fetching; true stops it ("interrupted")
+  /// Called (from one thread at a time) as instances arrive: done of total, and the bytes received so far.
+  std::function<void(int64_t done, int64_t total, uint64_t bytes)> onFetched;
+};
+
 /// Options a user gives prep for inputs whose files do not describe themselves (raw) or to override them.
 struct SourceOptions {
   Vec3i dims;                  ///< raw: required
@@ -66,6 +84,7 @@ struct SourceOptions {
   int64_t memoryBudgetMB = 0;  ///< prep's --memory: a declared slice that cannot fit is refused at open (0: none)
   int64_t time = 0;            ///< OME-Zarr: the index along its 't' axis
   int64_t channel = 0;         ///< OME-Zarr: the index along its 'c' axis
+  DicomWebOptions dicomWeb;    ///< dicomweb:// inputs
 };
 
 /// Throws InputError naming `file` and the header `field` that declares the slice size when one z-slice of nx x ny

@@ -15,6 +15,12 @@ computes for them, for tests/brickstore/test_dicom_hospital.cpp. Nothing it writ
                                 with a meta header but no preamble; pydicom's damaged no_meta.dcm
   dicom_cases.py pixels DIR     pydicom's MR_small.dcm in every transfer syntax pydicom ships it in, one folder each
                                 (DIR/NAME/NAME.dcm), and DIR/MR_small.f64: pixel_array rescaled, as pydicom reads it
+  dicom_cases.py pacs DIR       series to upload to a PACS, each folder one series, every file named by its
+                                SOPInstanceUID as a DICOMweb fetch names it (tests/dicomweb): DIR/ct (a 5-slice CT
+                                series holding an RT plan and a structured report too), DIR/plan and DIR/report (an
+                                RT plan and a report in series of their own in the CT's study), DIR/enhanced (an
+                                Enhanced CT file), DIR/two/a and DIR/two/b (two CT series of one study), DIR/big (two
+                                2048x2048 slices of noise, 8 MB each); DIR/uids.json names their studies and series
 Prints one line per written case.
 """
 import copy
@@ -281,9 +287,73 @@ def case_pixels(out):
     values.astype("<f8").tofile(os.path.join(out, "MR_small.f64"))
 
 
+def save_by_uid(ds, directory):
+    """Saves `ds` as DIRECTORY/SOPInstanceUID.dcm, the name a DICOMweb fetch gives it."""
+    save(ds, os.path.join(directory, ds.SOPInstanceUID + ".dcm"))
+
+
+def renamed_instance(path, study_uid, series_uid):
+    """pydicom's test file at `path` moved into a study and series (a new SOPInstanceUID, the CT's patient)."""
+    ds = pydicom.dcmread(path)
+    ds.SOPInstanceUID = generate_uid()
+    ds.file_meta.MediaStorageSOPInstanceUID = ds.SOPInstanceUID
+    ds.StudyInstanceUID, ds.SeriesInstanceUID = study_uid, series_uid
+    ds.PatientName, ds.PatientID = "Test^Hospital", "HOSP1"
+    return ds
+
+
+def ct_series(vol, directory, series_uid, study_uid):
+    for k in range(vol.shape[0]):
+        ds = base(CT_IMAGE, series_uid, study_uid, "CT")
+        ds.InstanceNumber = k + 1
+        pixel_module(ds, vol.shape[1], vol.shape[2], 16, vol.dtype == np.int16)
+        ds.ImagePositionPatient, ds.ImageOrientationPatient = position(k), ROW + COLUMN
+        ds.PixelSpacing, ds.SliceThickness = SPACING, STEP
+        ds.RescaleIntercept, ds.RescaleSlope = -1024, 1
+        ds.SeriesDescription = "CT " + series_uid[-4:]
+        ds.PixelData = vol[k].tobytes()
+        save_by_uid(ds, directory)
+
+
+def case_pacs(out):
+    uids = {}
+    study, series = generate_uid(), generate_uid()
+    ct_series(volume(5, 16, 16), os.path.join(out, "ct"), series, study)
+    for name in ["rtplan.dcm", "test-SR.dcm"]:  # non-images filed in the image series
+        save_by_uid(renamed_instance(os.path.join(TEST_FILES, name), study, series), os.path.join(out, "ct"))
+    plan_series, report_series = generate_uid(), generate_uid()
+    save_by_uid(renamed_instance(os.path.join(TEST_FILES, "rtplan.dcm"), study, plan_series),
+                os.path.join(out, "plan"))
+    save_by_uid(renamed_instance(os.path.join(TEST_FILES, "test-SR.dcm"), study, report_series),
+                os.path.join(out, "report"))
+    uids["ct"] = {"study": study, "series": series, "plan": plan_series, "report": report_series}
+
+    vol = volume(6, 5, 7)
+    order = list(range(6))
+    random.Random(7).shuffle(order)
+    enhanced_file(vol, os.path.join(out, "enhanced.tmp"), order)
+    ds = pydicom.dcmread(os.path.join(out, "enhanced.tmp"))
+    os.remove(os.path.join(out, "enhanced.tmp"))
+    ds.PatientName, ds.PatientID = "Test^Hospital", "HOSP1"
+    save_by_uid(ds, os.path.join(out, "enhanced"))
+    uids["enhanced"] = {"study": ds.StudyInstanceUID, "series": ds.SeriesInstanceUID}
+
+    study, a, b = generate_uid(), generate_uid(), generate_uid()
+    ct_series(volume(3, 8, 8), os.path.join(out, "two", "a"), a, study)
+    ct_series(volume(4, 8, 8), os.path.join(out, "two", "b"), b, study)
+    uids["two"] = {"study": study, "series": [a, b]}
+
+    study, series = generate_uid(), generate_uid()
+    noise = np.random.default_rng(5).integers(0, 4096, size=(2, 2048, 2048), dtype=np.uint16).astype(np.int16)
+    ct_series(noise, os.path.join(out, "big"), series, study)
+    uids["big"] = {"study": study, "series": series}
+    with open(os.path.join(out, "uids.json"), "w") as f:
+        json.dump(uids, f)
+
+
 if __name__ == "__main__":
     cases = {"study": case_study, "enhanced": case_enhanced, "dose": case_dose, "nometa": case_nometa,
-             "pixels": case_pixels}
+             "pixels": case_pixels, "pacs": case_pacs}
     if len(sys.argv) != 3 or sys.argv[1] not in cases:
-        sys.exit("usage: dicom_cases.py {study|enhanced|dose|nometa|pixels} DIR")
+        sys.exit("usage: dicom_cases.py {study|enhanced|dose|nometa|pixels|pacs} DIR")
     cases[sys.argv[1]](sys.argv[2])

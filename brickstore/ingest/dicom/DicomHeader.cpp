@@ -21,6 +21,7 @@
 
 #include "brickstore/format/Errors.h"
 #include "brickstore/format/InputErrors.h"
+#include "brickstore/source/DicomClasses.h"
 
 namespace voxbrick::store {
 namespace {
@@ -156,24 +157,11 @@ class Tags {
   std::string mWhere;
 };
 
-/// What a file that holds no image is, by its SOP class (or its being a DICOMDIR); "" for an image (or a class not
-/// known here, read as an image).
+/// What a file that holds no image is, by its SOP class (dicomNonImageKind) or its being a DICOMDIR; "" for an image
+/// (or a class not known here, read as an image).
 std::string nonImageKind(const std::string& sop, const std::string& mediaSop, const std::string& path) {
-  auto starts = [&](std::string_view prefix) { return sop.rfind(prefix, 0) == 0; };
   if (mediaSop == "1.2.840.10008.1.3.10" || std::filesystem::path(path).filename() == "DICOMDIR") return "DICOMDIR";
-  if (sop == "1.2.840.10008.5.1.4.1.1.481.5" || sop == "1.2.840.10008.5.1.4.1.1.481.8") return "RT plan";
-  if (sop == "1.2.840.10008.5.1.4.1.1.481.3") return "RT structure set";
-  if (starts("1.2.840.10008.5.1.4.1.1.481.") && sop != "1.2.840.10008.5.1.4.1.1.481.1" &&
-      sop != "1.2.840.10008.5.1.4.1.1.481.2")
-    return "RT treatment record";
-  if (sop == "1.2.840.10008.5.1.4.1.1.88.59") return "key object selection";
-  if (starts("1.2.840.10008.5.1.4.1.1.88.")) return "structured report";
-  if (starts("1.2.840.10008.5.1.4.1.1.11.")) return "presentation state";
-  if (starts("1.2.840.10008.5.1.4.1.1.9.")) return "waveform";
-  if (starts("1.2.840.10008.5.1.4.1.1.104.")) return "encapsulated document";
-  if (sop == "1.2.840.10008.5.1.4.1.1.66.4") return "segmentation";
-  if (starts("1.2.840.10008.5.1.4.1.1.66")) return "raw data or registration";
-  return "";
+  return dicomNonImageKind(sop);
 }
 
 /// The file read through GDCM up to its pixel data, after the structure walk; GDCM's failures become InputErrors.
