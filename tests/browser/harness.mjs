@@ -65,8 +65,9 @@ export function httpGet(url, headers = {}) {
   });
 }
 
-/// spawn(), with the child tied to this process: Linux sends it SIGKILL if this process dies first (setpriv --pdeathsig,
-/// util-linux), so a test killed by a timeout or a signal leaves no server behind. Without setpriv, a plain spawn.
+/// spawn(), with the child tied to this process: Linux sends it SIGKILL if this process dies first (setpriv
+/// --pdeathsig, util-linux), so a test killed by a timeout or a signal leaves no server behind. Without setpriv, a
+/// plain spawn.
 const SETPRIV = fs.existsSync("/usr/bin/setpriv") ? "/usr/bin/setpriv" : null;
 export function spawnTied(exe, args, options) {
   return SETPRIV ? spawn(SETPRIV, ["--pdeathsig", "KILL", "--", exe, ...args], options) : spawn(exe, args, options);
