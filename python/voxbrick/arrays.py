@@ -53,8 +53,9 @@ def _vector(value: Any, what: str, positive: bool) -> list:
 
 
 def _memmap_file_offset(array: np.ndarray) -> Optional[int]:
-    """Where a C-contiguous np.memmap (or a view of one) starts in its file, or None if it is not one."""
-    if not isinstance(array, np.memmap) or getattr(array, 'filename', None) is None:
+    """Where a C-contiguous np.memmap (or a view of one) starts in its file, or None if it is not one, or if its file
+    may not hold its values: a copy-on-write map (mode "c") keeps its changes in memory."""
+    if not isinstance(array, np.memmap) or getattr(array, 'filename', None) is None or array.mode == 'c':
         return None
     buffer = getattr(array, '_mmap', None)
     if buffer is None or not array.flags.c_contiguous:
@@ -127,7 +128,7 @@ def prep(array: Any, out: Union[str, os.PathLike], *, spacing: Sequence[float] =
         if in_place is not None:
             data_file, byte_skip = os.path.abspath(array.filename), in_place
         else:
-            data_file, byte_skip = str(scratch / f'{name}.raw'), 0
+            data_file, byte_skip = os.path.abspath(scratch / f'{name}.raw'), 0  # the header's folder is not the cwd
             _write_slabs(array, data_file, axis, (nx, ny, nz), stored, slab_bytes)
         byte_order = stored.byteorder if stored.byteorder in '<>' else ('<' if np.little_endian else '>')
         lines = ['NRRD0004', '# written by voxbrick.prep from an array',
@@ -163,7 +164,11 @@ def prep(array: Any, out: Union[str, os.PathLike], *, spacing: Sequence[float] =
 
 
 def _write_slabs(array: Any, path: str, axis: dict, dims: tuple, stored: np.dtype, slab_bytes: int) -> None:
-    """The array's voxels to `path`, x fastest then y then z, as `stored`, a slab of z-slices at a time."""
+    """The array's voxels to `path`, x fastest then y then z, as `stored`, a slab of z-slices at a time.
+
+    A memory map (or an array viewing one) is read a piece at a time, each piece's pages dropped from this process
+    once copied (_Mapping): a page of a file map stays in the resident set once read, and a 4 GiB map read through
+    would otherwise leave 4 GiB resident."""
     nx, ny, nz = dims
     slice_bytes = nx * ny * max(stored.itemsize, np.dtype(array.dtype).itemsize)
     thickness = max(1, slab_bytes // slice_bytes)
@@ -174,10 +179,75 @@ def _write_slabs(array: Any, path: str, axis: dict, dims: tuple, stored: np.dtyp
             thickness = thickness // along * along
     # The array's axes in the file's order, slowest first: z, y, x.
     order = (axis['z'], axis['y'], axis['x'])
+    mapping = _Mapping.of(array)
     with open(path, 'wb') as f:
         for z0 in range(0, nz, thickness):
             index = [slice(None)] * 3
             index[axis['z']] = slice(z0, min(nz, z0 + thickness))
-            slab = np.asarray(array[tuple(index)])
-            slab = np.ascontiguousarray(slab.transpose(order), dtype=stored)
-            f.write(memoryview(slab).cast('B'))
+            slab = np.asarray(array[tuple(index)]).transpose(order)
+            if mapping is None:
+                f.write(memoryview(np.ascontiguousarray(slab, dtype=stored)).cast('B'))
+            elif slab.flags.c_contiguous and slab.dtype == stored:
+                f.write(memoryview(slab).cast('B'))  # straight from the map
+                mapping.drop(slab)
+            else:
+                f.write(memoryview(mapping.gather(slab, stored, slab_bytes)).cast('B'))
+
+
+class _Mapping:
+    """The shared file mapping under an np.memmap, whose pages this process may drop once read: the file (or the page
+    cache) keeps them, and a later read maps them again. Not a copy-on-write map (mode "c"): dropping its pages would
+    lose the changes made to it."""
+
+    def __init__(self, buffer: mmap.mmap):
+        self.buffer = buffer
+        self.start = np.frombuffer(buffer, dtype=np.uint8).__array_interface__['data'][0]
+
+    @classmethod
+    def of(cls, array: Any) -> Optional['_Mapping']:
+        """The mapping `array` views (an np.memmap, a view or slice of one, an ndarray whose base is one), or None."""
+        if not hasattr(mmap, 'MADV_DONTNEED') or not hasattr(mmap.mmap, 'madvise'):
+            return None
+        for _ in range(32):  # the chain of bases
+            if array is None:
+                return None
+            if isinstance(array, np.memmap) and getattr(array, '_mmap', None) is not None:
+                if array.mode not in ('r', 'r+', 'w+'):
+                    return None
+                try:
+                    return cls(array._mmap)
+                except (TypeError, ValueError):  # closed
+                    return None
+            array = getattr(array, 'base', None)
+        return None
+
+    def drop(self, view: np.ndarray) -> None:
+        """Drops the pages `view` spans from this process's resident set."""
+        low = high = view.__array_interface__['data'][0]
+        for n, stride in zip(view.shape, view.strides):
+            if stride < 0:
+                low += (n - 1) * stride
+            else:
+                high += (n - 1) * stride
+        begin = max(0, (low - self.start) // mmap.PAGESIZE * mmap.PAGESIZE)
+        end = min(len(self.buffer), high + view.itemsize - self.start)
+        if end > begin:
+            try:
+                self.buffer.madvise(mmap.MADV_DONTNEED, begin, end - begin)
+            except (OSError, ValueError):
+                pass
+
+    def gather(self, view: np.ndarray, dtype: np.dtype, piece_bytes: int) -> np.ndarray:
+        """`view` copied into a new C-contiguous array of `dtype`, a piece along its outermost axis (in the map) at a
+        time, each piece's pages dropped once copied: the pages mapped at once stay within about `piece_bytes`, however
+        the view's axes lie in the file."""
+        out = np.empty(view.shape, dtype=dtype)
+        outer = max(range(view.ndim), key=lambda k: abs(view.strides[k]) if view.shape[k] > 1 else -1)
+        step = max(1, piece_bytes // max(1, abs(view.strides[outer])))
+        for i in range(0, view.shape[outer], step):
+            index = [slice(None)] * view.ndim
+            index[outer] = slice(i, i + step)
+            piece = view[tuple(index)]
+            out[tuple(index)] = piece
+            self.drop(piece)
+        return out

@@ -65,6 +65,14 @@ export function httpGet(url, headers = {}) {
   });
 }
 
+/// spawn(), with the child tied to this process: Linux sends it SIGKILL if this process dies first (setpriv
+/// --pdeathsig, util-linux), so a test killed by a timeout or a signal leaves no server behind. Without setpriv, a
+/// plain spawn.
+const SETPRIV = fs.existsSync("/usr/bin/setpriv") ? "/usr/bin/setpriv" : null;
+export function spawnTied(exe, args, options) {
+  return SETPRIV ? spawn(SETPRIV, ["--pdeathsig", "KILL", "--", exe, ...args], options) : spawn(exe, args, options);
+}
+
 let starts = 0; // servers started by this process, for their files' names
 
 /// The real server: `voxbrick serve --no-config --port 0 --http PORT --datasets DIR [extra]` (PORT 0: a free one,
@@ -85,7 +93,7 @@ export class Server {
     const log = fs.openSync(this.logFile, "w");
     const args = ["serve", "--no-config", "--port", "0", "--port-file", portFile, "--datasets", this.datasets];
     args.push("--http", String(this.httpPort || 0), "--http-port-file", httpPortFile, ...this.extra);
-    this.proc = spawn(this.exe, args, { stdio: ["ignore", log, log] });
+    this.proc = spawnTied(this.exe, args, { stdio: ["ignore", log, log] });
     fs.closeSync(log);
     this.exited = new Promise((resolve) => this.proc.on("exit", (code, signal) => resolve(code ?? signal)));
     let gone = false;
@@ -142,12 +150,14 @@ export function staticServer(port) {
 }
 
 /// Headless Chromium, the system's (no browser download). Pages get 1 device pixel per CSS pixel, no colour
-/// management, so a canvas holds a frame's pixels as they came.
+/// management, so a canvas holds a frame's pixels as they came. Driven over a pipe, not a WebSocket: Chromium ends
+/// when this process does, even killed.
 export function launchBrowser() {
   if (!fs.existsSync(CHROMIUM)) throw new Error(`no Chromium at ${CHROMIUM} (scripts/setup.sh installs Debian's)`);
   return puppeteer.launch({
     executablePath: CHROMIUM,
     headless: true,
+    pipe: true,
     args: [
       ...(process.getuid && process.getuid() === 0 ? ["--no-sandbox"] : []),
       "--force-color-profile=srgb",

@@ -74,7 +74,15 @@ window.IPython = { notebook: { kernel: { execute: (code, callbacks, options) => 
   const before = await page.evaluate(() => window.executed.length);
   await viewer.evaluate(() => window.voxbrickViewer.setView({ view: null, az: 100, el: 5, dist: 3, shading: true }));
   await page.waitForFunction((n) => window.executed.length > n, { timeout: 20000 }, before);
-  const shown = await H.waitForState(viewer, (s) => s.lastFrame && !s.lastFrame.provisional && s.view.az === 100);
+  // The exact frame shown is of the new view (`view` changes at once, the frame shown after).
+  const shown = await H.waitForState(
+    viewer,
+    (s) =>
+      s.lastFrame &&
+      !s.lastFrame.provisional &&
+      s.lastFrame.scene.shading === true &&
+      JSON.stringify(s.lastFrame.scene.camera) === JSON.stringify({ orbit: [100, 5, 3] }),
+  );
   const canvas = await H.canvasPixels(viewer);
   const executed = await page.evaluate(() => window.executed);
   for (const { code, options } of executed) {
@@ -121,7 +129,7 @@ print(json.dumps({'state': v.state, 'shape': image.shape, 'rgba': base64.b64enco
   // (PROTOCOL.md, Session 8: where a brick lies in the atlas depends on the frames before).
   assert.ok(worst <= 1, `the snapshot differs from the canvas by ${worst}/255`);
   assert.ok(canvas.rgba.some((v, i) => i % 4 !== 3 && v > 50), "the canvas shows the volume");
-  assert.equal(shown.lastScene.shading, true);
+  assert.equal(shown.lastFrame.scene.shading, true);
   assert.deepEqual(page.errors, []);
   await H.screenshot(page, "notebook-cell");
 });

@@ -9,7 +9,7 @@ import pytest
 import zarr
 
 import voxbrick
-from voxbrick.arrays import _memmap_file_offset
+from voxbrick.arrays import _Mapping, _memmap_file_offset
 from conftest import run_voxbrick, voxbrick_exe
 
 def field(shape=(20, 24, 28), dtype=np.float32):
@@ -105,6 +105,82 @@ def test_a_memory_map_is_read_in_place(tmp_path, monkeypatch):
     assert (part / 'bricks.bin').read_bytes() == (copied / 'bricks.bin').read_bytes()
     with pytest.raises(AssertionError, match='read in place'):
         voxbrick.prep(mm[:, 1:], tmp_path / 'strided.vbs', vdb=False)
+
+
+def mapped_bytes(path) -> int:
+    """The bytes of `path` resident in this process's mappings of it (/proc/self/smaps)."""
+    total, inside = 0, False
+    with open('/proc/self/smaps') as f:
+        for line in f:
+            head = line.split(maxsplit=5)
+            if len(head) >= 5 and '-' in head[0] and not head[0].endswith(':'):
+                inside = len(head) == 6 and head[5].strip() == str(path)
+            elif inside and line.startswith('Rss:'):
+                total += int(line.split()[1]) * 1024
+    return total
+
+
+def test_a_memory_map_read_slab_by_slab_stays_mapped_a_slab_at_a_time(tmp_path, monkeypatch):
+    # A map prep cannot read in place (a type it converts, an array viewing the map, another axis order, a strided
+    # view) is copied slab by slab; each page of a file map read stays in the resident set until dropped, so without
+    # dropping them a 4 GiB map read through would leave 4 GiB resident (bench/results/python/prep-memory.md).
+    monkeypatch.setenv('VOXBRICK', voxbrick_exe())
+    rng = np.random.default_rng(2)
+    volume = rng.random((64, 256, 256), dtype=np.float32)  # z, y, x: 16 MiB
+    slab = 1 << 20
+    seen = []
+    drop = _Mapping.drop
+
+    def watched(self, view):
+        seen.append(mapped_bytes(path))
+        drop(self, view)
+
+    for name, data, make, axes in [
+        ('int64', (volume * 1000).astype(np.int64), lambda mm: mm, 'zyx'),  # converted, through float64
+        ('view', volume, np.asarray, 'zyx'),  # an ndarray whose base is the map
+        ('xyz', np.ascontiguousarray(volume.transpose()), lambda mm: mm, 'xyz'),  # z fastest in the file
+        ('strided', np.concatenate([volume, volume], axis=2), lambda mm: mm[:, :, ::2], 'zyx'),
+    ]:
+        path = tmp_path / f'{name}.raw'
+        data.tofile(path)
+        mm = np.memmap(path, dtype=data.dtype, mode='r', shape=data.shape)
+        array = make(mm)
+        reference = voxbrick.prep(np.array(make(data)), tmp_path / f'{name}-reference.vbs', axes=axes, vdb=False)
+        seen.clear()
+        monkeypatch.setattr(_Mapping, 'drop', watched)
+        store = voxbrick.prep(array, tmp_path / f'{name}.vbs', axes=axes, vdb=False, slab_bytes=slab)
+        monkeypatch.setattr(_Mapping, 'drop', drop)
+        assert (store / 'bricks.bin').read_bytes() == (reference / 'bricks.bin').read_bytes(), name
+        assert seen, f'{name}: the map was read through _Mapping'
+        # At most about a slab of the map resident at once, and what one fault maps beyond it (a large folio of the
+        # page cache: up to 2 MiB), against 16 to 32 MiB without dropping; as little once prep is done.
+        assert max(seen) <= slab + (2 << 20), f'{name}: {max(seen)} bytes of the map resident at once'
+        assert mapped_bytes(path) <= 2 << 20, f'{name}: {mapped_bytes(path)} bytes left resident'
+        del mm, array
+
+
+def test_a_copy_on_write_map_is_prepped_with_its_changes(tmp_path, monkeypatch):
+    # A map of mode "c" keeps its changes in memory: its file does not hold them, so it is copied, not read in place,
+    # and its pages are not dropped (that would lose the changes).
+    monkeypatch.setenv('VOXBRICK', voxbrick_exe())
+    a = field()
+    a.tofile(tmp_path / 'a.raw')
+    mm = np.memmap(tmp_path / 'a.raw', dtype=a.dtype, mode='c', shape=a.shape)
+    mm[5, 6, 7] = 100.0
+    assert _memmap_file_offset(mm) is None and _Mapping.of(mm) is None
+    store = voxbrick.prep(mm, tmp_path / 'c.vbs', vdb=False, slab_bytes=1000)
+    assert store_json(store)['value_range'][1] == 100.0
+    assert mm[5, 6, 7] == 100.0
+
+
+def test_a_relative_output_path(tmp_path, monkeypatch):
+    monkeypatch.setenv('VOXBRICK', voxbrick_exe())
+    monkeypatch.chdir(tmp_path)
+    a = field()
+    assert voxbrick.prep(a, 'data/a.vbs', vdb=False) == type(tmp_path)('data/a.vbs')
+    voxbrick.prep(a, 'b.vbs', vdb=False, work='scratch')
+    for store in (tmp_path / 'data' / 'a.vbs', tmp_path / 'b.vbs'):
+        assert store_json(store)['dims'] == [28, 24, 20]
 
 
 def test_a_zarr_array_is_written_chunk_by_chunk_in_bounded_memory(tmp_path, monkeypatch):
