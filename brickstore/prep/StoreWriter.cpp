@@ -14,8 +14,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <limits>
 #include <optional>
+#include <string>
 #include <type_traits>
 
 #include "brickstore/format/BrickFile.h"
@@ -69,7 +71,13 @@ void validate(const VolumeInfo& info, const PrepOptions& options, double backgro
     throw InputError(info.description + ": a dimension exceeds 2^30 voxels");
 }
 
+/// This process's own peak: VmHWM of /proc/self/status. (getrusage's ru_maxrss also counts the parent's resident set
+/// at the fork, so a prep started by a process holding a large array, such as a Python kernel, would report that.)
+/// ru_maxrss where /proc cannot say.
 int64_t peakRssBytes() {
+  std::ifstream status("/proc/self/status");
+  for (std::string line; std::getline(status, line);)
+    if (line.rfind("VmHWM:", 0) == 0) return std::stoll(line.substr(6)) * 1024;  // "VmHWM:   123456 kB"
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   return static_cast<int64_t>(usage.ru_maxrss) * 1024;
