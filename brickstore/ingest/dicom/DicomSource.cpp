@@ -5,7 +5,6 @@
 #include <gdcmImageReader.h>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -22,6 +21,7 @@
 #include "brickstore/ingest/dicom/DicomHeader.h"
 #include "brickstore/ingest/dicom/DicomSources.h"
 #include "brickstore/ingest/dicom/DicomStructure.h"
+#include "common/Units.h"
 
 namespace voxbrick::store {
 namespace {
@@ -81,7 +81,7 @@ uint64_t maxInflatedBytes(const SourceOptions& options) {
 /// The image series as a table, one per line under a header: UID, modality, description, image size, slices and
 /// files; for the listing that asks for --series (each line starts with a newline).
 std::string seriesList(const std::map<std::string, std::vector<DicomFileEntry>>& series) {
-  std::vector<std::array<std::string, 6>> rows = {{"UID", "modality", "description", "size", "slices", "files"}};
+  std::vector<std::vector<std::string>> rows = {{"UID", "modality", "description", "size", "slices", "files"}};
   for (const auto& [uid, files] : series) {
     const DicomFileEntry& a = files.front();
     int64_t slices = 0;
@@ -92,20 +92,7 @@ std::string seriesList(const std::map<std::string, std::vector<DicomFileEntry>>&
                     std::to_string(a.columns) + "x" + std::to_string(a.rows), std::to_string(slices),
                     std::to_string(files.size())});
   }
-  std::array<size_t, 6> width{};
-  for (const auto& row : rows)
-    for (size_t c = 0; c < row.size(); ++c) width[c] = std::max(width[c], row[c].size());
-  std::string text;
-  for (const auto& row : rows) {
-    std::string line;
-    for (size_t c = 0; c < row.size(); ++c) {
-      const bool number = c >= 4;  // slices and files right-aligned
-      const std::string pad(width[c] - row[c].size(), ' ');
-      line += (c ? "  " : "") + (number ? pad + row[c] : row[c] + (c + 1 < row.size() ? pad : ""));
-    }
-    text += "\n" + line;
-  }
-  return text;
+  return common::textTable(rows, 4);  // slices and files right-aligned
 }
 
 /// " (skipped, not images: rtplan.dcm (RT plan), ...)" for the files that are not images; "" when none.

@@ -5,7 +5,6 @@
 #include <stdlib.h>
 
 #include <algorithm>
-#include <array>
 #include <atomic>
 #include <cctype>
 #include <cerrno>
@@ -23,6 +22,7 @@
 #include "brickstore/ingest/dicomweb/Multipart.h"
 #include "brickstore/ingest/dicomweb/QidoResults.h"
 #include "brickstore/source/DicomClasses.h"
+#include "common/Units.h"
 
 namespace voxbrick::store {
 namespace {
@@ -149,7 +149,7 @@ struct SeriesCensus {
 
 /// The series as a table, one per line: UID, modality, description, instances, images (each line after a newline).
 std::string seriesTable(const std::vector<SeriesCensus>& series) {
-  std::vector<std::array<std::string, 5>> rows = {{"UID", "modality", "description", "instances", "images"}};
+  std::vector<std::vector<std::string>> rows = {{"UID", "modality", "description", "instances", "images"}};
   for (const SeriesCensus& c : series) {
     const QidoSeries& s = c.series;
     std::string description = s.description.empty() ? "-" : s.description;
@@ -157,19 +157,7 @@ std::string seriesTable(const std::vector<SeriesCensus>& series) {
     rows.push_back({s.seriesUid, s.modality.empty() ? "-" : s.modality, description, std::to_string(c.instances.size()),
                     std::to_string(c.images)});
   }
-  std::array<size_t, 5> width{};
-  for (const auto& row : rows)
-    for (size_t c = 0; c < row.size(); ++c) width[c] = std::max(width[c], row[c].size());
-  std::string text;
-  for (const auto& row : rows) {
-    std::string line;
-    for (size_t c = 0; c < row.size(); ++c) {
-      const std::string pad(width[c] - row[c].size(), ' ');
-      line += (c ? "  " : "") + (c >= 3 ? pad + row[c] : row[c] + (c + 1 < row.size() ? pad : ""));
-    }
-    text += "\n" + line;
-  }
-  return text;
+  return common::textTable(rows, 3);  // instances and images right-aligned
 }
 
 /// An empty search answer means nothing for a resource that does not exist on servers that answer 200 with no
