@@ -30,6 +30,7 @@
 #include "server/ServerStats.h"
 #include "server/Session.h"
 #include "server/TcpSession.h"
+#include "server/TlsContext.h"
 #include "server/WebGate.h"
 #include "server/WebSocketSession.h"
 
@@ -82,6 +83,13 @@ std::pair<std::string, bool> clientAddress(const tcp::socket& socket) {
   return {address.to_string(), address.is_loopback()};
 }
 
+/// Whether `host` (a listen address) reaches this machine only.
+bool loopbackOnly(const std::string& host) {
+  boost::system::error_code ec;
+  const asio::ip::address address = asio::ip::make_address(host, ec);
+  return !ec && address.is_loopback();
+}
+
 Admission::Limits admissionLimits(const ServerConfig& config) {
   return {size_t(config.maxSessions), size_t(config.maxPendingConnections), size_t(config.maxConnectionsPerAddress)};
 }
@@ -116,6 +124,8 @@ struct Server::Impl {
   void adopt(const std::string& address, bool loopback,
              const std::function<std::shared_ptr<Session>(ConnectionId)>& make);
   void requestStop();
+  /// Waits for SIGHUP: each reads the TLS files again (TlsContexts::reload); new handshakes use them.
+  void awaitReload();
   /// Blocks until stop() or a signal asks for it.
   void waitForStopRequest();
   /// Refuses new sessions, ends the open ones with ShuttingDown, stops rendering, waits (kShutdownGrace at most)
@@ -136,6 +146,8 @@ struct Server::Impl {
   // Read once here: a preset named in a request never makes an I/O thread read a file.
   const render::TransferFunctionPresets presets;
   const WebGate webGate;  ///< what the HTTP port serves, and who may open its WebSocket
+  /// The TLS context of new connections on both ports (config.tls), read again on SIGHUP; null without TLS.
+  const std::unique_ptr<TlsContexts> tls;
   DatasetRegistry datasets;
   ServerStats stats;
   OutputBudget output;
@@ -149,6 +161,7 @@ struct Server::Impl {
   tcp::acceptor acceptor;
   tcp::acceptor httpAcceptor;  ///< open only with config.http
   asio::signal_set signals;
+  asio::signal_set reloadSignal;  ///< SIGHUP, with TLS only
   SessionServices sessionServices;
 
   mutable std::mutex sessionsMutex;
@@ -175,6 +188,7 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
       endpoint(listenEndpoint(config.host, config.port)),
       presets(render::TransferFunctionPresets::load(render::TransferFunction::configDirectory() / "tf")),
       webGate(config.httpOrigins, config.httpToken, presets.json(false), [this] { return metricsText(); }),
+      tls(config.tls.enabled() ? std::make_unique<TlsContexts>(config.tls) : nullptr),
       // Opened datasets are checked by the frame sources (the distributed mode: on every rank); the scheduler is
       // made before any dataset is opened.
       datasets(config.datasets, size_t(config.hostCacheMB) << 20,
@@ -187,6 +201,7 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
       acceptor(control),
       httpAcceptor(control),
       signals(control, SIGINT, SIGTERM),
+      reloadSignal(control),
       sessionServices{config,
                       proto::Limits{},
                       handler,
@@ -211,7 +226,36 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
   sessionServices.limits.maxBodyBytes = config.maxMessageBytes;
   listen(acceptor, endpoint, "TCP");
   if (config.http) listen(httpAcceptor, listenEndpoint(config.httpHost(), config.httpPort), "HTTP");
+  if (tls) {
+    spdlog::info("TLS on {}: {}", config.http ? "both ports" : "the TCP port", describeCertificate(config.tls.cert));
+    if (!config.tls.ca.empty())
+      spdlog::info("TLS: clients must present a certificate signed by a CA of {}", config.tls.ca.string());
+    reloadSignal.add(SIGHUP);
+  } else {
+    // Off loopback without TLS, anyone on the path reads the frames, the dataset names and the access tokens.
+    for (const auto& [what, host] : {std::pair<const char*, std::string>{"TCP", config.host},
+                                     std::pair<const char*, std::string>{"HTTP", config.http ? config.httpHost() : ""}})
+      if (!host.empty() && !loopbackOnly(host))
+        spdlog::warn("the {} port listens on {} without TLS: frames, dataset names and access tokens cross the "
+                     "network in clear text; give a certificate (--tls-cert and --tls-key, or [tls] in "
+                     "server.toml) or put a TLS proxy in front",
+                     what, host);
+  }
   scheduler.start();
+}
+
+void Server::Impl::awaitReload() {
+  reloadSignal.async_wait([this](boost::system::error_code ec, int) {
+    if (ec) return;
+    try {
+      tls->reload();
+      spdlog::info("SIGHUP: TLS certificate and key read again; new connections use {}",
+                   describeCertificate(config.tls.cert));
+    } catch (const std::exception& e) {
+      spdlog::error("SIGHUP: the TLS files cannot be read again, the current ones stay in use: {}", e.what());
+    }
+    awaitReload();
+  });
 }
 
 void Server::Impl::accept(tcp::acceptor& on) {
@@ -239,12 +283,15 @@ void Server::Impl::onAccepted(const tcp::acceptor& on, tcp::socket socket) {
   // A browser's connection is pending (not a session) from its accept, through its HTTP requests and the upgrade,
   // until its Hello: the same admission as a TCP connection.
   if (&on == &httpAcceptor)
-    return adopt(address, loopback, [&](ConnectionId id) {
+    return adopt(address, loopback, [&](ConnectionId id) -> std::shared_ptr<Session> {
       webConnections.insert(id);  // adopt() holds sessionsMutex
-      return std::make_shared<WebSocketSession>(std::move(socket), sessionServices, webGate, id);
+      if (tls)
+        return std::make_shared<TlsWebSocketSession>(std::move(socket), tls->current(), sessionServices, webGate, id);
+      return std::make_shared<PlainWebSocketSession>(std::move(socket), sessionServices, webGate, id);
     });
-  adopt(address, loopback,
-        [&](ConnectionId id) { return std::make_shared<TcpSession>(std::move(socket), sessionServices, id); });
+  adopt(address, loopback, [&](ConnectionId id) {
+    return std::make_shared<TcpSession>(std::move(socket), sessionServices, id, tls ? tls->current() : nullptr);
+  });
 }
 
 void Server::Impl::adopt(const std::string& address, bool loopback,
@@ -372,6 +419,7 @@ void Server::Impl::shutdown() {
     acceptor.close(ignored);
     httpAcceptor.close(ignored);
     signals.cancel(ignored);
+    reloadSignal.cancel(ignored);
   });
   for (const auto& session : open) session->end(errorMessage(proto::ErrorCode::ShuttingDown, "server is stopping"));
   scheduler.stop();
@@ -440,6 +488,7 @@ void Server::run() {
   s.signals.async_wait([&s](boost::system::error_code ec, int) {
     if (!ec) s.requestStop();
   });
+  if (s.tls) s.awaitReload();
   s.accept(s.acceptor);
   if (s.httpAcceptor.is_open()) s.accept(s.httpAcceptor);
   std::vector<std::thread> ioThreads;

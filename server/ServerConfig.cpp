@@ -130,6 +130,14 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   http.read("bind", c.httpBind);
   http.readStrings("origins", c.httpOrigins);
   http.read("token", c.httpToken);
+  Section tls = top.table("tls");
+  // Relative files are relative to the configuration file, as the datasets directory is.
+  const auto beside = [&](std::filesystem::path& p) {
+    if (!p.empty() && p.is_relative()) p = path.parent_path() / p;
+  };
+  if (tls.read("cert", c.tls.cert)) beside(c.tls.cert);
+  if (tls.read("key", c.tls.key)) beside(c.tls.key);
+  if (tls.read("ca", c.tls.ca)) beside(c.tls.ca);
   Section memory = top.table("memory");
   memory.read("host_cache_mb", c.hostCacheMB);
   memory.read("gpu_budget_mb", c.gpuBudgetMB);
@@ -151,7 +159,8 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   quotas.read("sessions_per_token", c.quotas.sessionsPerToken);
   quotas.read("frames_per_s_per_token", c.quotas.framesPerSecondPerToken);
   quotas.read("loopback_exempt", c.quotas.loopbackExempt);
-  for (const Section* section : {&top, &server, &limits, &memory, &http, &scheduler, &quotas}) section->rejectUnknown();
+  for (const Section* section : {&top, &server, &limits, &memory, &http, &tls, &scheduler, &quotas})
+    section->rejectUnknown();
   try {
     c.validate();
   } catch (const std::exception& e) {
@@ -192,6 +201,10 @@ void ServerConfig::validate() const {
            "http://viewer.example.org:8080)");
   if (!httpToken.empty() && !WebGate::validToken(httpToken))
     fail("http.token must be letters, digits and - . _ ~ only (it travels in a URL)");
+  if (tls.cert.empty() != tls.key.empty())
+    fail(tls.cert.empty() ? "tls.key is set without tls.cert: give both (--tls-cert and --tls-key)"
+                          : "tls.cert is set without tls.key: give both (--tls-cert and --tls-key)");
+  if (!tls.ca.empty() && tls.cert.empty()) fail("tls.ca is set without tls.cert and tls.key");
   range("scheduler.interactive_weight", scheduler.interactiveWeight, 0.01, 1e6);
   range("scheduler.still_weight", scheduler.stillWeight, 0.01, 1e6);
   range("scheduler.batch_weight", scheduler.batchWeight, 0.01, 1e6);

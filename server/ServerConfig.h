@@ -51,6 +51,14 @@ struct QuotaConfig {
   bool loopbackExempt = false;  ///< loopback clients are held to no quota
 };
 
+/// The files of [tls] (or --tls-cert, --tls-key, --tls-ca): with a certificate, both listeners speak TLS only.
+struct TlsFiles {
+  std::filesystem::path cert;  ///< PEM: the server's certificate, then any intermediate certificates
+  std::filesystem::path key;   ///< PEM: its private key (not encrypted)
+  std::filesystem::path ca;    ///< PEM, optional: clients must present a certificate signed by one of these
+  bool enabled() const { return !cert.empty(); }
+};
+
 struct ServerConfig {
   // [server]
   std::string host = "127.0.0.1";
@@ -93,6 +101,8 @@ struct ServerConfig {
   std::string httpBind;                  ///< listen address; empty: the same as host
   std::vector<std::string> httpOrigins;  ///< origins allowed to open /ws besides the page's own ("http://h:p")
   std::string httpToken;                 ///< when set, /ws must be opened with ?token=<it>
+  // [tls]
+  TlsFiles tls;  ///< TLS on both listeners (TCP, and https/wss on the HTTP port) when it names a certificate
   // [memory]
   int64_t hostCacheMB = 1024;  ///< decoded bricks of all open datasets together
   int64_t gpuBudgetMB = 1024;  ///< atlases of all render threads and datasets (equal shares per thread)

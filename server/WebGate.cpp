@@ -190,7 +190,7 @@ std::optional<std::string> WebGate::tokenRefusal(std::string_view target, std::s
   auto given = queryValue(splitTarget(target).second, "token");
   if (!given) given = bearerToken(authorization);
   if (!given)
-    return "an access token is required (open the page with the URL the server logged: ?token=..., or send "
+    return "an access token is required (open the page with ?token=TOKEN added to its address, or send "
            "Authorization: Bearer TOKEN)";
   if (!equalInConstantTime(*given, mToken)) return "wrong access token";
   return std::nullopt;
