@@ -13,14 +13,16 @@ void addConnectOptions(CLI::App* cmd, ConnectArgs& a) {
   CLI::Option* tls = cmd->add_flag("--tls", a.tls,
                                    "speak TLS to the server (one started with --tls-cert speaks nothing else), its "
                                    "certificate verified against the system's CAs or --ca");
-  cmd->add_option("--ca", a.ca, "PEM certificates of the CAs that may sign the server's certificate (default the system's CAs)")
+  cmd->add_option("--ca", a.ca,
+                  "PEM certificates of the CAs that may sign the server's certificate (default the system's CAs)")
       ->check(CLI::ExistingFile)
       ->needs(tls);
   cmd->add_flag("--tls-insecure", a.insecure,
                 "with --tls, take any certificate without verifying it: for a self-signed certificate in local use "
                 "only (the link is encrypted, but anyone on the path could pose as the server)")
       ->needs(tls);
-  cmd->add_option("--cert", a.cert, "PEM certificate of this client, for a server that asks one: its tls.ca (default none)")
+  cmd->add_option("--cert", a.cert,
+                  "PEM certificate of this client, for a server that asks one: its tls.ca (default none)")
       ->check(CLI::ExistingFile)
       ->needs(tls);
   cmd->add_option("--key", a.key, "PEM private key of --cert (default none)")->check(CLI::ExistingFile)->needs(tls);

@@ -55,11 +55,17 @@ std::string clientSceneJson(const LoadArgs& a, bool batch, int width, int height
   return scene.dump();
 }
 
-/// A connection of one of the load's clients to the server: TLS and the access token as the options say (the token
-/// is presented after Hello, by the caller: greet).
+/// A connection of one of the load's clients to the server, with TLS as the options say.
 std::unique_ptr<client::Client> connectTo(const LoadArgs& a, const std::string& host, int port,
                                           std::chrono::milliseconds timeout) {
   return std::make_unique<client::Client>(host, port, timeout, tlsOptionsOf(a.connect));
+}
+
+/// Hello, then the access token if the options give one.
+proto::Capabilities greet(const LoadArgs& a, client::Client& c, const std::string& name) {
+  proto::Capabilities caps = c.hello(name);
+  if (const std::string token = accessTokenOf(a.connect); !token.empty()) c.authenticate(token);
+  return caps;
 }
 
 /// A well-behaved client's session: connected, greeted (the highest protocol version both sides speak) and with
@@ -70,7 +76,7 @@ std::unique_ptr<client::Client> openSession(const LoadArgs& a, const std::string
   while (Clock::now() < deadline) {
     auto c = connectTo(a, host, port, std::chrono::seconds(120));
     try {
-      const proto::Capabilities caps = c->hello(name);
+      const proto::Capabilities caps = greet(a, *c, name);
       c->openDataset(a.dataset);
       std::lock_guard lock(tally.mutex);
       if (tally.protocolVersion == 0 || caps.version < tally.protocolVersion) tally.protocolVersion = caps.version;
@@ -273,7 +279,7 @@ ServerDeadlines serverDeadlines(const LoadArgs& a, const std::string& host, int 
   ServerDeadlines d;
   try {
     const auto c = connectTo(a, host, port, std::chrono::seconds(30));
-    c->hello("voxbrick-load-limits");
+    greet(a, *c, "voxbrick-load-limits");
     const json limits = json::parse(c->stats()).value("limits", json::object());
     d.helloS = limits.value("hello_timeout_s", d.helloS);
     d.readS = limits.value("read_timeout_s", d.readS);
@@ -311,7 +317,7 @@ std::vector<std::unique_ptr<client::Client>> openIdleSessions(const LoadArgs& a,
   std::vector<std::unique_ptr<client::Client>> idle;
   for (int i = 0; i < count; ++i) {
     idle.push_back(connectTo(a, host, port, std::chrono::seconds(10)));
-    idle.back()->hello("voxbrick-load-idle");
+    greet(a, *idle.back(), "voxbrick-load-idle");
   }
   return idle;
 }
@@ -320,7 +326,7 @@ std::vector<std::unique_ptr<client::Client>> openIdleSessions(const LoadArgs& a,
 json serverStatsAfter(const LoadArgs& a, const std::string& host, int port, Tally& tally) {
   try {
     const auto c = connectTo(a, host, port, std::chrono::seconds(30));
-    c->hello("voxbrick-load-stats");
+    greet(a, *c, "voxbrick-load-stats");
     json server = json::parse(c->stats());
     c->goodbye();
     return server;

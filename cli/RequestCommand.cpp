@@ -41,6 +41,7 @@ void runRequest(const RequestArgs& a, const CLI::App& cmd) {
   const auto [host, port] = client::parseAddress(a.address);
   client::Client c(host, port, std::chrono::milliseconds(int64_t(a.timeout * 1000)), tlsOptionsOf(a.connect));
   c.hello("voxbrick-request 0.1");
+  if (const std::string token = accessTokenOf(a.connect); !token.empty()) c.authenticate(token);
   if (a.list || a.dataset.empty()) {
     for (const std::string& name : c.listDatasets()) std::printf("%s\n", name.c_str());
     c.goodbye();

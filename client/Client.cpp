@@ -8,12 +8,12 @@
 #include <type_traits>
 #include <utility>  // before Asio: Boost 1.74's awaitable.hpp uses std::exchange without it
 
-#include <boost/asio.hpp>
-#include <boost/asio/ssl.hpp>
-#include <nlohmann/json.hpp>
 #include <openssl/err.h>
 #include <openssl/ssl.h>
 #include <openssl/x509v3.h>
+#include <boost/asio.hpp>
+#include <boost/asio/ssl.hpp>
+#include <nlohmann/json.hpp>
 
 namespace voxbrick::client {
 
@@ -46,8 +46,8 @@ std::unique_ptr<asio::ssl::context> clientContext(const TlsOptions& options) {
     SSL_CTX_set_verify(ctx, SSL_VERIFY_PEER, nullptr);
     if (!options.caFile.empty()) {
       if (SSL_CTX_load_verify_locations(ctx, options.caFile.c_str(), nullptr) != 1)
-        throw ConnectionError("TLS: the CA file '" + options.caFile + "' cannot be used: " +
-                              openSslErrors("not a PEM file of certificates"));
+        throw ConnectionError("TLS: the CA file '" + options.caFile +
+                              "' cannot be used: " + openSslErrors("not a PEM file of certificates"));
     } else if (SSL_CTX_set_default_verify_paths(ctx) != 1) {
       throw ConnectionError("TLS: the system's CA certificates cannot be read: " + openSslErrors("unknown failure"));
     }
@@ -158,18 +158,15 @@ void Client::Impl::handshake(const std::string& host, const TlsOptions& options)
   }
   if (!ipAddress) SSL_set_tlsext_host_name(ssl, host.c_str());
   const boost::system::error_code ec =
-      run("TLS handshake with",
-          [&](auto handler) {
-            tls->async_handshake(asio::ssl::stream_base::client,
-                                 [handler](const boost::system::error_code& e) { handler(e, 0); });
-          })
-          .first;
+      run("TLS handshake with", [&](auto handler) {
+        tls->async_handshake(asio::ssl::stream_base::client,
+                             [handler](const boost::system::error_code& e) { handler(e, 0); });
+      }).first;
   if (!ec) return;
   const long verify = SSL_get_verify_result(ssl);
   tls.reset();
   if (!options.insecure && verify != X509_V_OK)
-    throw ConnectionError("TLS: the certificate of " + where + " is refused: " +
-                          X509_verify_cert_error_string(verify) +
+    throw ConnectionError("TLS: the certificate of " + where + " is refused: " + X509_verify_cert_error_string(verify) +
                           (verify == X509_V_ERR_HOSTNAME_MISMATCH || verify == X509_V_ERR_IP_ADDRESS_MISMATCH
                                ? " (it is not made out to '" + host + "')"
                                : std::string(". Give the CA that signed it (--ca FILE), or --tls-insecure to take "
@@ -225,10 +222,9 @@ std::pair<uint32_t, proto::Message> Client::receive() {
   std::array<uint8_t, proto::kHeaderBytes> head{};
   auto readAll = [&](asio::mutable_buffer buffer) {
     return mImpl
-        ->run("reading from",
-              [&](auto handler) {
-                mImpl->withStream([&](auto& stream) { asio::async_read(stream, buffer, handler); });
-              })
+        ->run(
+            "reading from",
+            [&](auto handler) { mImpl->withStream([&](auto& stream) { asio::async_read(stream, buffer, handler); }); })
         .first;
   };
   boost::system::error_code ec = readAll(asio::buffer(head));
@@ -296,6 +292,13 @@ proto::Capabilities Client::hello(const std::string& clientName, uint16_t maxVer
                           std::to_string(maxVersion));
   mVersion = caps.version;
   return caps;
+}
+
+std::string Client::authenticate(const std::string& token) {
+  if (!proto::messageTypeInVersion(proto::MessageType::Authenticate, mVersion))
+    throw std::invalid_argument("presenting an access token needs protocol version 5; " + mImpl->where +
+                                " speaks version " + std::to_string(mVersion));
+  return expect<proto::Authenticated>(call(proto::Authenticate{token}), "Authenticate").tokenId;
 }
 
 std::vector<std::string> Client::listDatasets() {

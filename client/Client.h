@@ -33,8 +33,8 @@ class ConnectionError : public std::runtime_error {
 
 /// How a client reaches the server: in the clear, or over TLS with the server's certificate verified.
 struct TlsOptions {
-  bool enabled = false;   ///< speak TLS (a server with --tls-cert speaks nothing else)
-  std::string caFile;     ///< PEM certificates of the CAs to trust; empty: the system's store
+  bool enabled = false;  ///< speak TLS (a server with --tls-cert speaks nothing else)
+  std::string caFile;    ///< PEM certificates of the CAs to trust; empty: the system's store
   /// Accept any certificate, unverified (a self-signed one in local use): the link is encrypted, but anyone on the
   /// path could pose as the server.
   bool insecure = false;
@@ -64,6 +64,10 @@ class Client {
   std::string tlsDescription() const;
   /// The session's protocol version: what Capabilities said, kVersion before Hello.
   uint16_t version() const { return mVersion; }
+  /// Version 5 on: presents the access token `token` (Authenticate), which decides the datasets the session may list
+  /// and open; returns the token's id. Call it after hello() and before openDataset(). Throws ServerError Forbidden
+  /// for a wrong token (the server then closes), std::invalid_argument when the session's version is older.
+  std::string authenticate(const std::string& token);
   std::vector<std::string> listDatasets();
   proto::DatasetInfo openDataset(const std::string& name);
   /// One frame of the open dataset: the exact one. For a progressive scene the server may send a provisional Frame

@@ -44,7 +44,14 @@ std::string describeError(const Outcome& outcome) {
 }  // namespace
 
 Connection::Connection(Transport& transport, const SessionServices& services, ConnectionId id, std::string peer)
-    : mTransport(transport), mServices(services), mId(id), mPeer(std::move(peer)) {}
+    : mTransport(transport), mServices(services), mId(id), mPeer(std::move(peer)) {
+  if (services.tokens) mState.access = services.tokens->anonymous();
+}
+
+void Connection::presented(std::shared_ptr<const TokenGrant> grant) {
+  mState.access = std::move(grant);
+  mState.authenticated = true;
+}
 
 Connection::~Connection() {
   // The buffers are freed here, not in close(): an aborted write may still refer to them until it reported.
@@ -300,9 +307,10 @@ void Connection::bodyReceived(std::span<const uint8_t> body) {
     outcome = MessageHandler::failed(std::current_exception(), mHeader.requestId);
     spdlog::debug("{}: {}", mPeer, describeError(outcome));
   }
-  const bool wasGreeted = mState.greeted;
+  const bool wasGreeted = mState.greeted, wasAuthenticated = mState.authenticated;
   if (message) outcome = mServices.handler.handle(mState, *message, mHeader.requestId);
   if (!wasGreeted && mState.greeted) admit(outcome);
+  if (!wasAuthenticated && mState.authenticated) authenticated(outcome);
   apply(std::move(outcome));
   // A report the handler accepted (no Error in reply) is the link's news.
   if (message && std::holds_alternative<proto::FrameReceived>(*message) && mState.greeted && outcome.replies.empty())
@@ -320,6 +328,21 @@ void Connection::admit(Outcome& outcome) {
   outcome = Outcome{};
   outcome.replies.push_back({std::move(*refusal), 0});
   outcome.close = true;
+}
+
+void Connection::authenticated(Outcome& outcome) {
+  const std::optional<std::string> refusal =
+      mServices.authenticated ? mServices.authenticated(mId, *mState.access) : std::nullopt;
+  if (!refusal) {
+    spdlog::debug("{}: token '{}' presented", mPeer, mState.access->id);
+    return;
+  }
+  spdlog::info("{}: token '{}' refused: {}", mPeer, mState.access->id, *refusal);
+  mState.access = mServices.tokens ? mServices.tokens->anonymous() : nullptr;
+  mState.authenticated = false;
+  const uint32_t requestId = outcome.replies.empty() ? 0 : outcome.replies.front().requestId;
+  outcome = Outcome{};
+  outcome.replies.push_back({errorMessage(proto::ErrorCode::LimitExceeded, *refusal), requestId});
 }
 
 void Connection::apply(Outcome outcome) {

@@ -49,6 +49,11 @@ struct SessionServices {
   /// Runs a task on the server's encoder threads (video frames are encoded there; Transport::runAside). Empty: on
   /// the calling thread.
   std::function<void(std::function<void()>)> aside;
+  /// The access tokens: a session starts with their anonymous grant. Null: every session sees every dataset.
+  std::shared_ptr<const AccessTokens> tokens;
+  /// Called when a session presented a token with Authenticate: none when its quotas have room, else why not
+  /// (LimitExceeded; the session goes on without it).
+  std::function<std::optional<std::string>(ConnectionId, const TokenGrant&)> authenticated;
 };
 
 /// One client connection's state machine. Not thread-safe: every call but alive() is made on the connection's
@@ -64,6 +69,9 @@ class Connection {
 
   /// Starts the Hello deadline and reading messages.
   void start();
+  /// The client presented `grant`'s token before its session started (a browser's, at the WebSocket upgrade): what
+  /// it may see from its Hello on.
+  void presented(std::shared_ptr<const TokenGrant> grant);
   /// Sends `error` with request id 0, then closes once the replies queued before it are written (a refused
   /// connection, the server stopping).
   void end(proto::Error error);
@@ -121,6 +129,9 @@ class Connection {
   void refuseStream(const std::exception_ptr& error);
   /// The connection's Hello was accepted: it becomes a session, or `outcome` is made its refusal.
   void admit(Outcome& outcome);
+  /// The session's token was taken (Authenticate): counted against its quotas, or `outcome` is made the refusal and
+  /// the session goes on without it.
+  void authenticated(Outcome& outcome);
   /// Whether a render thread's `reply` to `job` is to be answered, turned into LimitExceeded past the server's
   /// output budget.
   bool withinOutputBudget(const RenderJob& job, proto::Message& reply);

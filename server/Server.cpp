@@ -20,6 +20,7 @@
 
 #include "render/core/TransferFunctionPresets.h"
 #include "render/engine/RenderEngine.h"
+#include "server/AccessTokens.h"
 #include "server/Admission.h"
 #include "server/Datasets.h"
 #include "server/ErrorReply.h"
@@ -145,6 +146,8 @@ struct Server::Impl {
   const tcp::endpoint endpoint;
   // Read once here: a preset named in a request never makes an I/O thread read a file.
   const render::TransferFunctionPresets presets;
+  /// The access tokens and what each may see ([[tokens]], http.token, [access]).
+  const std::shared_ptr<const AccessTokens> tokens;
   const WebGate webGate;  ///< what the HTTP port serves, and who may open its WebSocket
   /// The TLS context of new connections on both ports (config.tls), read again on SIGHUP; null without TLS.
   const std::unique_ptr<TlsContexts> tls;
@@ -187,7 +190,8 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
     : config(checked(c)),
       endpoint(listenEndpoint(config.host, config.port)),
       presets(render::TransferFunctionPresets::load(render::TransferFunction::configDirectory() / "tf")),
-      webGate(config.httpOrigins, config.httpToken, presets.json(false), [this] { return metricsText(); }),
+      tokens(std::make_shared<const AccessTokens>(config)),
+      webGate(config.httpOrigins, tokens, presets.json(false), [this] { return metricsText(); }),
       tls(config.tls.enabled() ? std::make_unique<TlsContexts>(config.tls) : nullptr),
       // Opened datasets are checked by the frame sources (the distributed mode: on every rank); the scheduler is
       // made before any dataset is opened.
@@ -195,7 +199,8 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
                [this](const std::string& name) { scheduler.checkDataset(name); }),
       output(config.maxTotalOutputBytes),
       scheduler(std::move(sources), config.scheduler),
-      handler(config, datasets, presets, stats, [this] { return statsJson(); }),
+      handler(
+          config, datasets, presets, stats, [this] { return statsJson(); }, tokens),
       encoders(size_t(config.encodeThreads)),
       control(asio::make_strand(io)),
       acceptor(control),
@@ -220,7 +225,13 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
                         busy.quota = true;
                         return busy;
                       },
-                      [this](std::function<void()> task) { asio::post(encoders, std::move(task)); }},
+                      [this](std::function<void()> task) { asio::post(encoders, std::move(task)); },
+                      tokens,
+                      [this](ConnectionId id, const TokenGrant& grant) {
+                        auto refusal = quotas.attachToken(id, grant);
+                        if (refusal) stats.refused(Refusal::Quota);
+                        return refusal;
+                      }},
       admission(admissionLimits(config)),
       quotas(config.quotas) {
   sessionServices.limits.maxBodyBytes = config.maxMessageBytes;
@@ -236,10 +247,11 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
     for (const auto& [what, host] : {std::pair<const char*, std::string>{"TCP", config.host},
                                      std::pair<const char*, std::string>{"HTTP", config.http ? config.httpHost() : ""}})
       if (!host.empty() && !loopbackOnly(host))
-        spdlog::warn("the {} port listens on {} without TLS: frames, dataset names and access tokens cross the "
-                     "network in clear text; give a certificate (--tls-cert and --tls-key, or [tls] in "
-                     "server.toml) or put a TLS proxy in front",
-                     what, host);
+        spdlog::warn(
+            "the {} port listens on {} without TLS: frames, dataset names and access tokens cross the "
+            "network in clear text; give a certificate (--tls-cert and --tls-key, or [tls] in "
+            "server.toml) or put a TLS proxy in front",
+            what, host);
   }
   scheduler.start();
 }
@@ -365,7 +377,8 @@ std::optional<proto::Error> Server::Impl::greet(ConnectionId id) {
                                                "their minimum rate",
                                            *retry));
   }
-  if (auto refusal = quotas.admit(id, client->second.first, client->second.second, session->second->accessToken())) {
+  if (auto refusal =
+          quotas.admit(id, client->second.first, client->second.second, session->second->accessGrant().get())) {
     stats.refused(Refusal::Quota);
     return errorMessage(proto::ErrorCode::LimitExceeded, *refusal);
   }

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -49,6 +50,16 @@ struct QuotaConfig {
   int sessionsPerToken = 0;
   double framesPerSecondPerToken = 0;
   bool loopbackExempt = false;  ///< loopback clients are held to no quota
+};
+
+/// One access token of [[tokens]]: who it is (its id, in logs and the audit trail), the SHA-256 of its secret (the
+/// secret itself is never stored), the datasets it may list and open, and its own quotas.
+struct TokenConfig {
+  std::string id;                         ///< letters, digits, '.', '-', '_'
+  std::string sha256;                     ///< 64 hex digits: `voxbrick token` makes a secret and its hash
+  std::vector<std::string> datasets;      ///< names or glob patterns (*, ?, [...]); ["*"] for every dataset
+  std::optional<int> sessions;            ///< sessions it may hold at once; absent: quotas.sessions_per_token
+  std::optional<double> framesPerSecond;  ///< Renders a second; absent: quotas.frames_per_s_per_token
 };
 
 /// The files of [tls] (or --tls-cert, --tls-key, --tls-ca): with a certificate, both listeners speak TLS only.
@@ -101,6 +112,11 @@ struct ServerConfig {
   std::string httpBind;                  ///< listen address; empty: the same as host
   std::vector<std::string> httpOrigins;  ///< origins allowed to open /ws besides the page's own ("http://h:p")
   std::string httpToken;                 ///< when set, /ws must be opened with ?token=<it>
+  // [[tokens]] and [access]: who may see which datasets (AccessTokens).
+  std::vector<TokenConfig> tokens;
+  /// The datasets a session without a token may list and open; absent: every dataset when no [[tokens]] are
+  /// configured, none otherwise.
+  std::optional<std::vector<std::string>> anonymousDatasets;
   // [tls]
   TlsFiles tls;  ///< TLS on both listeners (TCP, and https/wss on the HTTP port) when it names a certificate
   // [memory]
@@ -116,6 +132,8 @@ struct ServerConfig {
   static ServerConfig load(const std::filesystem::path& path);
   /// Throws std::runtime_error naming the first value out of range.
   void validate() const;
+  /// Throws std::runtime_error naming the first token that is not valid ([[tokens]], access.anonymous).
+  void validateTokens() const;
   /// The address the HTTP listener binds: httpBind, else host.
   const std::string& httpHost() const { return httpBind.empty() ? host : httpBind; }
   /// The backend named `text` ("auto", "egl" or "osmesa"); throws std::runtime_error naming `what` (the key or

@@ -54,8 +54,8 @@ enum class Refusal : uint8_t {
 };
 inline constexpr size_t kRefusals = size_t(Refusal::Tls) + 1;
 inline constexpr common::EnumName<Refusal> kRefusalNames[] = {
-    {Refusal::Sessions, "sessions"}, {Refusal::Address, "address"},    {Refusal::PendingEvicted, "pending_evicted"},
-    {Refusal::Output, "output"},     {Refusal::Busy, "busy"},          {Refusal::Quota, "quota"},
+    {Refusal::Sessions, "sessions"}, {Refusal::Address, "address"},     {Refusal::PendingEvicted, "pending_evicted"},
+    {Refusal::Output, "output"},     {Refusal::Busy, "busy"},           {Refusal::Quota, "quota"},
     {Refusal::Stopping, "stopping"}, {Refusal::Forbidden, "forbidden"}, {Refusal::Tls, "tls"}};
 constexpr std::span<const common::EnumName<Refusal>> enumNames(Refusal) { return kRefusalNames; }
 

@@ -80,8 +80,8 @@ std::shared_ptr<ssl::context> makeServerTlsContext(const TlsFiles& files) {
   if (SSL_CTX_set_min_proto_version(ctx, TLS1_2_VERSION) != 1 || SSL_CTX_set_cipher_list(ctx, kTls12Ciphers) != 1 ||
       SSL_CTX_set_ciphersuites(ctx, kTls13Ciphers) != 1)
     fail("the TLS policy cannot be set: " + openSslErrors("unknown failure"));
-  SSL_CTX_set_options(ctx, SSL_OP_NO_COMPRESSION | SSL_OP_NO_RENEGOTIATION | SSL_OP_CIPHER_SERVER_PREFERENCE |
-                               SSL_OP_NO_TICKET);
+  SSL_CTX_set_options(
+      ctx, SSL_OP_NO_COMPRESSION | SSL_OP_NO_RENEGOTIATION | SSL_OP_CIPHER_SERVER_PREFERENCE | SSL_OP_NO_TICKET);
   // No resumption: sessions are long and few, and a TLS 1.3 ticket arriving after the handshake would be the only
   // bytes a client waiting for a reply sees.
   SSL_CTX_set_num_tickets(ctx, 0);
@@ -93,9 +93,12 @@ std::shared_ptr<ssl::context> makeServerTlsContext(const TlsFiles& files) {
     if (!file) fail("tls.key '" + files.key.string() + "' cannot be read: " + std::strerror(errno));
     // No passphrase callback: an encrypted key fails here instead of asking a terminal.
     std::unique_ptr<EVP_PKEY, decltype(&EVP_PKEY_free)> key(
-        PEM_read_PrivateKey(file.get(), nullptr, [](char*, int, int, void*) { return 0; }, nullptr), &EVP_PKEY_free);
+        PEM_read_PrivateKey(
+            file.get(), nullptr, [](char*, int, int, void*) { return 0; }, nullptr),
+        &EVP_PKEY_free);
     if (!key)
-      fail("tls.key '" + files.key.string() + "' is not an unencrypted PEM private key: " + openSslErrors("unreadable"));
+      fail("tls.key '" + files.key.string() +
+           "' is not an unencrypted PEM private key: " + openSslErrors("unreadable"));
     if (EVP_PKEY_eq(X509_get0_pubkey(SSL_CTX_get0_certificate(ctx)), key.get()) != 1)
       fail("tls.key '" + files.key.string() + "' does not belong to the certificate of tls.cert '" +
            files.cert.string() + "'");

@@ -43,8 +43,7 @@ std::string webSocketPeerOf(const tcp::socket& socket, bool tls) {
 
 template <class Stream>
 WebSocketSession<Stream>::WebSocketSession(tcp::socket socket, const SessionServices& services, const WebGate& gate,
-                                           ConnectionId id)
-  requires(!kTls)
+                                           ConnectionId id) requires(!kTls)
     : AsioSession(socket.get_executor(), services, id, webSocketPeerOf(socket, false)),
       mServices(services),
       mGate(gate),
@@ -53,8 +52,8 @@ WebSocketSession<Stream>::WebSocketSession(tcp::socket socket, const SessionServ
 
 template <class Stream>
 WebSocketSession<Stream>::WebSocketSession(tcp::socket socket, std::shared_ptr<asio::ssl::context> tls,
-                                           const SessionServices& services, const WebGate& gate, ConnectionId id)
-  requires(kTls)
+                                           const SessionServices& services, const WebGate& gate,
+                                           ConnectionId id) requires(kTls)
     : AsioSession(socket.get_executor(), services, id, webSocketPeerOf(socket, true)),
       mServices(services),
       mGate(gate),
@@ -92,10 +91,9 @@ void WebSocketSession<Stream>::detectTls() {
     // The handshake, like each request, must be complete within the Hello timeout: one trickled is closed then. Its
     // first bytes say whether it is one at all (a browser sent to http:// on this port is told so in the clear).
     beast::get_lowest_layer(mWs).expires_after(milliseconds(mServices.config.helloTimeoutS));
-    beast::async_detect_ssl(beast::get_lowest_layer(mWs), mHttpBuffer,
-                            guarded(this, [](WebSocketSession& s, boost::system::error_code ec, bool tls) {
-                              s.onDetected(ec, tls);
-                            }));
+    beast::async_detect_ssl(
+        beast::get_lowest_layer(mWs), mHttpBuffer,
+        guarded(this, [](WebSocketSession& s, boost::system::error_code ec, bool tls) { s.onDetected(ec, tls); }));
   }
 }
 
@@ -116,9 +114,10 @@ void WebSocketSession<Stream>::onDetected(boost::system::error_code ec, bool tls
       std::vector<uint8_t> unread(std::min<size_t>(socket.available(ignored), 64 << 10));
       if (!unread.empty()) socket.read_some(asio::buffer(unread), ignored);
       const std::string text = "this port speaks TLS: open it with https:// (and wss:// for /ws)\n";
-      mClearRefusal = "HTTP/1.1 400 Bad Request\r\nServer: voxbrick\r\nContent-Type: text/plain; charset=utf-8\r\n"
-                      "Content-Length: " +
-                      std::to_string(text.size()) + "\r\nConnection: close\r\n\r\n" + text;
+      mClearRefusal =
+          "HTTP/1.1 400 Bad Request\r\nServer: voxbrick\r\nContent-Type: text/plain; charset=utf-8\r\n"
+          "Content-Length: " +
+          std::to_string(text.size()) + "\r\nConnection: close\r\n\r\n" + text;
       mResponding = true;
       beast::get_lowest_layer(mWs).expires_after(milliseconds(mServices.config.helloTimeoutS));
       asio::async_write(beast::get_lowest_layer(mWs), asio::buffer(mClearRefusal),
@@ -154,7 +153,8 @@ void WebSocketSession<Stream>::onHandshake(boost::system::error_code ec) {
 }
 
 template <class Stream>
-typename WebSocketSession<Stream>::Response WebSocketSession<Stream>::textResponse(int status, const std::string& text) const {
+typename WebSocketSession<Stream>::Response WebSocketSession<Stream>::textResponse(int status,
+                                                                                   const std::string& text) const {
   Response response(http::status(status), 11);
   response.set(http::field::server, "voxbrick");
   response.set(http::field::content_type, "text/plain; charset=utf-8");
@@ -276,7 +276,7 @@ void WebSocketSession<Stream>::upgrade() {
     spdlog::info("{}: WebSocket upgrade refused: {}", peer(), *refusal);
     return respond(textResponse(403, "forbidden: " + *refusal));
   }
-  mToken = mGate.acceptedToken(view(mRequest.target()));
+  mGrant = mGate.acceptedToken(view(mRequest.target()));
   // From here the Connection's deadlines rule: Beast's own run only for the opening and closing handshakes, and
   // it sends no pings of its own (the idle timeout is the Connection's).
   beast::get_lowest_layer(mWs).expires_never();
@@ -305,6 +305,7 @@ void WebSocketSession<Stream>::onUpgraded(boost::system::error_code ec) {
   }
   mUpgraded = true;
   spdlog::debug("{}: WebSocket open", peer());
+  if (mGrant) mCore.presented(mGrant);
   mCore.start();
 }
 

@@ -20,11 +20,11 @@
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/beast/core/flat_buffer.hpp>
 #include <boost/beast/core/tcp_stream.hpp>
-#include <boost/beast/ssl/ssl_stream.hpp>
 #include <boost/beast/http/message.hpp>
 #include <boost/beast/http/parser.hpp>
 #include <boost/beast/http/string_body.hpp>
 #include <boost/beast/http/vector_body.hpp>
+#include <boost/beast/ssl/ssl_stream.hpp>
 #include <boost/beast/websocket/stream.hpp>
 
 #include "server/AsioSession.h"
@@ -41,12 +41,10 @@ class WebSocketSession final : public AsioSession {
 
   /// `socket` must be connected and bound to a strand executor; `gate` is the server's and outlives the session.
   WebSocketSession(boost::asio::ip::tcp::socket socket, const SessionServices& services, const WebGate& gate,
-                   ConnectionId id)
-    requires(!kTls);
+                   ConnectionId id) requires(!kTls);
   /// The same over TLS with context `tls` (which it keeps): the handshake first.
   WebSocketSession(boost::asio::ip::tcp::socket socket, std::shared_ptr<boost::asio::ssl::context> tls,
-                   const SessionServices& services, const WebGate& gate, ConnectionId id)
-    requires(kTls);
+                   const SessionServices& services, const WebGate& gate, ConnectionId id) requires(kTls);
 
   /// Starts serving HTTP (over TLS: the handshake first); the Connection starts (its Hello deadline, reading
   /// messages) once /ws is upgraded.
@@ -58,8 +56,8 @@ class WebSocketSession final : public AsioSession {
   void readMessage() override;
   void write(std::span<const uint8_t> message) override;
   void close() override;
-  /// The token /ws was opened with, once the gate accepted it (empty when the server sets none).
-  std::string accessToken() const override { return mToken; }
+  /// The grant of the token /ws was opened with, once the gate accepted it (null when the server sets none).
+  std::shared_ptr<const TokenGrant> accessGrant() const override { return mGrant; }
 
  private:
   using Request = boost::beast::http::request<boost::beast::http::string_body>;
@@ -92,9 +90,9 @@ class WebSocketSession final : public AsioSession {
   std::optional<boost::beast::http::request_parser<boost::beast::http::string_body>> mParser;
   Request mRequest;
   Response mResponse;
-  std::string mToken;             ///< the accepted access token (accessToken)
-  bool mTlsOpen = !kTls;          ///< the TLS handshake is done (always, in the clear)
-  std::string mClearRefusal;      ///< over TLS, the answer in the clear to a request in the clear
+  std::shared_ptr<const TokenGrant> mGrant;  ///< of the accepted access token (accessGrant)
+  bool mTlsOpen = !kTls;                     ///< the TLS handshake is done (always, in the clear)
+  std::string mClearRefusal;                 ///< over TLS, the answer in the clear to a request in the clear
   bool mResponding = false;       ///< an HTTP response is being written
   bool mAnswered = false;         ///< an HTTP response was written: the connection is kept alive for the next
   bool mRefused = false;          ///< refused before the upgrade: requests are no longer answered

@@ -5,6 +5,8 @@
     voxbrick_client.py HOST:PORT --dataset NAME -o frame.png      renders one frame
         [--scene scene.json] [--orbit AZ,EL,DIST] [--size WxH] [--encoding png|raw_rgba8|zstd_rgba8|jpeg]
         [--jpeg-quality Q]   (jpeg needs a server of protocol version 2; the JPEG file is written as it came)
+        [--tls [--ca FILE | --tls-insecure]]   (a server started with --tls-cert speaks TLS only)
+        [--token-file FILE]  (or $VOXBRICK_TOKEN: the access token, presented in protocol version 5)
 
 Offline, for tests without a server: --encode-hello FILE, --encode-render FILE --scene-json TEXT (write one
 message, request id 1) and --decode FILE (print one message as JSON).
@@ -14,22 +16,25 @@ import binascii
 import json
 import os
 import socket
+import ssl
 import struct
 import sys
 
 MAGIC = 0x4B425856  # "VXBK" read as a little-endian u32
 # The protocol versions this client speaks; 2 adds the jpeg encoding, 3 the Busy error, 4 the video encodings (vp8,
-# vp9: a session's moving frames as one stream, which this client never asks for: it takes stills) and FrameReceived.
-MIN_VERSION, MAX_VERSION = 1, 4
+# vp9: a session's moving frames as one stream, which this client never asks for: it takes stills) and FrameReceived,
+# 5 the access token (Authenticate, Authenticated, the Forbidden error).
+MIN_VERSION, MAX_VERSION = 1, 5
 HEADER = struct.Struct('<IHHII')  # magic, version, type, request id, body bytes
 CLIENT_NAME = 'voxbrick_client.py 1'
 TYPES = ['Hello', 'Capabilities', 'ListDatasets', 'DatasetList', 'OpenDataset', 'DatasetInfo', 'Render', 'Frame',
-         'Error', 'GetStats', 'Stats', 'Goodbye', 'FrameReceived']  # type value = index + 1
+         'Error', 'GetStats', 'Stats', 'Goodbye', 'FrameReceived', 'Authenticate', 'Authenticated']  # value = index + 1
 ENCODINGS = dict(enumerate(['raw_rgba8', 'png', 'zstd_rgba8', 'jpeg', 'vp8', 'vp9']))  # value: name
 ENCODING_SINCE = {'jpeg': 2, 'vp8': 4, 'vp9': 4}  # the protocol version an encoding appeared in (others: 1)
 ERRORS = dict(enumerate(['BadMagic', 'UnsupportedVersion', 'UnknownType', 'TooLarge', 'Malformed', 'UnexpectedMessage',
                          'UnknownDataset', 'InvalidScene', 'LimitExceeded', 'Superseded', 'Internal', 'ShuttingDown',
-                         'Timeout', 'Busy'], start=1))
+                         'Timeout', 'Busy', 'Forbidden'], start=1))
+ERROR_SINCE = {'Busy': 3, 'Forbidden': 5}  # the protocol version an error code appeared in (others: 1)
 ENUMS = {'encoding': ENCODINGS, 'code': ERRORS}
 ENUM_VALUES = {kind: {name: value for value, name in names.items()} for kind, names in ENUMS.items()}
 INTS = {'u16': struct.Struct('<H'), 'u32': struct.Struct('<I'), 'encoding': struct.Struct('<B'),
@@ -48,6 +53,8 @@ FIELDS = {
     'Error': [('code', 'code'), ('message', 'str')],
     'Stats': [('json', 'str')],
     'FrameReceived': [('frame_bytes', 'u32')],
+    'Authenticate': [('token', 'str')],
+    'Authenticated': [('token_id', 'str')],
 }
 
 
@@ -61,7 +68,7 @@ class ProtocolError(Exception):
 
 def known(kind, name, version):
     """Whether an enum value's name exists in protocol `version`."""
-    return kind != 'encoding' or ENCODING_SINCE.get(name, 1) <= version
+    return (ENCODING_SINCE if kind == 'encoding' else ERROR_SINCE).get(name, 1) <= version
 
 
 def encode_value(kind, value):
@@ -129,8 +136,11 @@ def decode_body(type_name, body, version=MAX_VERSION):
 class Client:
     """One session with a voxbrick server. Requests wait for their reply; an Error reply raises ProtocolError."""
 
-    def __init__(self, host, port, timeout=120):
+    def __init__(self, host, port, timeout=120, tls=None):
+        """`tls`: None for the clear, else an ssl.SSLContext (tls_context) whose checks the server must pass."""
         self.sock = socket.create_connection((host, port), timeout=timeout)
+        if tls is not None:
+            self.sock = tls.wrap_socket(self.sock, server_hostname=host)
         self.next_id = 1
         self.max_body = 64 << 20  # the largest body accepted: the default limit, or the server's if higher
         self.version = MIN_VERSION  # the session's protocol version: Hello is written in the lowest one offered
@@ -144,6 +154,13 @@ class Client:
         self.version = caps['version']
         self.max_body = max(self.max_body, caps['max_message_bytes'])
         return caps
+
+    def authenticate(self, token):
+        """Presents the access token (protocol version 5 on); returns the token's id. A wrong one: Forbidden."""
+        if self.version < 5:
+            raise ProtocolError('UnsupportedVersion', f'an access token needs protocol version 5; the server speaks '
+                                f'{self.version}')
+        return self._call('Authenticate', 'Authenticated', token=token)['token_id']
 
     def list_datasets(self):
         return self._call('ListDatasets', 'DatasetList')['names']
@@ -226,11 +243,33 @@ def decode_file(path):
     return message
 
 
+def tls_context(ca=None, insecure=False):
+    """A TLS client context: TLS 1.2 or later, the server's certificate checked against `ca` (a PEM file; None: the
+    system's CAs) and its name, unless `insecure` (any certificate: a self-signed one, in local use only)."""
+    context = ssl.create_default_context(cafile=ca)
+    context.minimum_version = ssl.TLSVersion.TLSv1_2
+    if insecure:
+        context.check_hostname = False
+        context.verify_mode = ssl.CERT_NONE
+    return context
+
+
+def access_token(token_file):
+    """The first line of `token_file`, else $VOXBRICK_TOKEN, else None."""
+    if token_file:
+        with open(token_file) as f:
+            return f.readline().strip() or None
+    return os.environ.get('VOXBRICK_TOKEN') or None
+
+
 def render_frame(args):
     host, _, port = args.address.rpartition(':')
-    client = Client(host, int(port))
+    client = Client(host, int(port), tls=tls_context(args.ca, args.tls_insecure) if args.tls else None)
     try:
         client.hello()
+        token = access_token(args.token_file)
+        if token:
+            client.authenticate(token)
         if not args.dataset:
             print('\n'.join(client.list_datasets()))
             return
@@ -281,11 +320,18 @@ def main():
     parser.add_argument('--progressive', action='store_true',
                         help='coarse to fine: also write the provisional frame (beside the output) if one comes')
     parser.add_argument('-o', '--output', default='frame.png', help='where the payload is written')
+    parser.add_argument('--tls', action='store_true', help='speak TLS, the server\'s certificate verified')
+    parser.add_argument('--ca', help='PEM certificates of the CAs that may sign the server\'s (default: the system\'s)')
+    parser.add_argument('--tls-insecure', action='store_true',
+                        help='take any certificate (a self-signed one, in local use only)')
+    parser.add_argument('--token-file', help='file whose first line is the access token (default: $VOXBRICK_TOKEN)')
     parser.add_argument('--encode-hello', metavar='FILE', help='write a Hello message to FILE')
     parser.add_argument('--encode-render', metavar='FILE', help='write a Render message with --scene-json to FILE')
     parser.add_argument('--scene-json', metavar='TEXT', help='scene JSON text for --encode-render')
     parser.add_argument('--decode', metavar='FILE', help='print the message in FILE as JSON')
     args = parser.parse_args()
+    if (args.ca or args.tls_insecure) and not args.tls:
+        parser.error('--ca and --tls-insecure need --tls')
     try:
         if args.encode_hello:
             with open(args.encode_hello, 'wb') as f:

@@ -22,8 +22,8 @@ void issue(const std::filesystem::path& dir, const std::string& name, const std:
            const std::filesystem::path& ca, const std::filesystem::path& caKey, const std::string& extensions) {
   const auto ext = dir / (name + ".ext");
   writeFile(ext, extensions);
-  run("openssl req -newkey ec -pkeyopt ec_paramgen_curve:P-256 -nodes -keyout " + q(dir / (name + ".key")) +
-      " -out " + q(dir / (name + ".csr")) + " -subj '" + subject + "'");
+  run("openssl req -newkey ec -pkeyopt ec_paramgen_curve:P-256 -nodes -keyout " + q(dir / (name + ".key")) + " -out " +
+      q(dir / (name + ".csr")) + " -subj '" + subject + "'");
   run("openssl x509 -req -in " + q(dir / (name + ".csr")) + " -CA " + q(ca) + " -CAkey " + q(caKey) +
       " -CAcreateserial -days 2 -sha256 -out " + q(dir / (name + ".pem")) + " -extfile " + q(ext));
 }

@@ -9,17 +9,17 @@
 namespace voxbrick::test {
 
 struct TestCerts {
-  std::filesystem::path caCert;         ///< the test CA (PEM)
-  std::filesystem::path serverCert;     ///< for IP 127.0.0.1 and DNS localhost, signed by caCert
+  std::filesystem::path caCert;      ///< the test CA (PEM)
+  std::filesystem::path serverCert;  ///< for IP 127.0.0.1 and DNS localhost, signed by caCert
   std::filesystem::path serverKey;
-  std::filesystem::path otherCert;      ///< a second server certificate of the test CA, same names (the reload)
+  std::filesystem::path otherCert;  ///< a second server certificate of the test CA, same names (the reload)
   std::filesystem::path otherKey;
-  std::filesystem::path wrongCaCert;    ///< another CA, which signed none of the above
-  std::filesystem::path wrongCert;      ///< for 127.0.0.1 and localhost, signed by wrongCaCert
+  std::filesystem::path wrongCaCert;  ///< another CA, which signed none of the above
+  std::filesystem::path wrongCert;    ///< for 127.0.0.1 and localhost, signed by wrongCaCert
   std::filesystem::path wrongKey;
   std::filesystem::path elsewhereCert;  ///< signed by caCert, for DNS elsewhere.example only
   std::filesystem::path elsewhereKey;
-  std::filesystem::path clientCert;     ///< a client certificate signed by caCert
+  std::filesystem::path clientCert;  ///< a client certificate signed by caCert
   std::filesystem::path clientKey;
 
   /// Makes them all in `dir` (about 0.2 s); throws std::runtime_error with openssl's output if it fails.

@@ -96,7 +96,7 @@ HttpReply httpsRequest(int port, const std::string& caFile, const std::string& m
 struct WebSocketClient::Impl {
   asio::io_context io;
   std::unique_ptr<asio::ssl::context> tls;
-  std::optional<websocket::stream<tcp::socket>> ws;                          ///< ws://
+  std::optional<websocket::stream<tcp::socket>> ws;                      ///< ws://
   std::optional<websocket::stream<asio::ssl::stream<tcp::socket>>> wss;  ///< wss://
 
   template <typename F>

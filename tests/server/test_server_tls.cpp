@@ -64,8 +64,7 @@ class TlsServerTest : public test::SparseDatasetSuite {
   }
   static const TestCerts& certs() { return *sCerts; }
   /// A server speaking TLS with `cert` and `key` on both ports, with `extra` options.
-  static std::unique_ptr<ServerProcess> serveTls(const std::string& extra = "",
-                                                 const std::filesystem::path& cert = {},
+  static std::unique_ptr<ServerProcess> serveTls(const std::string& extra = "", const std::filesystem::path& cert = {},
                                                  const std::filesystem::path& key = {}) {
     return serve("--render-threads 1 --http 0 --tls-cert " + q(cert.empty() ? certs().serverCert : cert) +
                  " --tls-key " + q(key.empty() ? certs().serverKey : key) + " " + extra);
@@ -118,9 +117,9 @@ TEST_F(TlsServerTest, TheProtocolTravelsOverTlsAndItsFramesAreThoseInTheClear) {
   const std::string big = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [512, 512], "transfer_function": "sparse"})";
   expectSameImage(secure.render(big, proto::Encoding::ZstdRgba8), clear.render(big, proto::Encoding::ZstdRgba8));
   // The command line, with the CA given.
-  const auto r = test::runVoxbrick("request 127.0.0.1:" + std::to_string(tls->port()) + " --tls --ca " +
-                                   q(certs().caCert) + " --dataset sparse --size 64x48 -o " +
-                                   q(scratch() / "tls-frame.png"));
+  const auto r =
+      test::runVoxbrick("request 127.0.0.1:" + std::to_string(tls->port()) + " --tls --ca " + q(certs().caCert) +
+                        " --dataset sparse --size 64x48 -o " + q(scratch() / "tls-frame.png"));
   EXPECT_EQ(r.exitCode, 0) << r.output;
   EXPECT_TRUE(std::filesystem::exists(scratch() / "tls-frame.png"));
   secure.goodbye();
