@@ -28,7 +28,7 @@ struct ServeArgs {
   std::string config, host, datasets, backend, logLevel, portFile;
   int http = -1;  ///< --http PORT; -1: as configured
   std::string httpBind, httpToken, httpPortFile;
-  std::string tlsCert, tlsKey, tlsCa;
+  std::string tlsCert, tlsKey, tlsCa, auditLog;
   std::vector<std::string> httpOrigins;
   int port = -1, renderThreads = 0, ioThreads = 0, maxSessions = 0, maxImageSide = 0;
   double maxRenderMSamples = 0;
@@ -113,6 +113,7 @@ void runServe(const ServeArgs& a) {
   if (!a.tlsCert.empty()) c.tls.cert = a.tlsCert;
   if (!a.tlsKey.empty()) c.tls.key = a.tlsKey;
   if (!a.tlsCa.empty()) c.tls.ca = a.tlsCa;
+  if (!a.auditLog.empty()) c.auditPath = a.auditLog;
   c.validate();
   spdlog::set_level(spdlog::level::from_str(c.logLevel));
   spdlog::set_pattern("[%Y-%m-%d %H:%M:%S.%e] [%l] %v");
@@ -228,6 +229,9 @@ void addServeCommand(CLI::App& app) {
   cmd->add_option("--tls-ca", a->tlsCa,
                   "PEM certificates of the CAs whose client certificates the server asks for and requires, mutual "
                   "TLS (default none, or tls.ca of the configuration)");
+  cmd->add_option("--audit-log", a->auditLog,
+                  "append the audit trail to this file: a line of JSON per session, token, dataset opened and "
+                  "refusal, rotated by size (default none, or audit.path of the configuration)");
   cmd->add_option("--datasets", a->datasets,
                   "directory whose subdirectories are stores and whose .vdb files are read live (first float grid, "
                   "bricks of 32)" +

@@ -43,9 +43,16 @@ std::string describeError(const Outcome& outcome) {
 
 }  // namespace
 
-Connection::Connection(Transport& transport, const SessionServices& services, ConnectionId id, std::string peer)
+Connection::Connection(Transport& transport, const SessionServices& services, ConnectionId id, std::string peer,
+                       std::string kind)
     : mTransport(transport), mServices(services), mId(id), mPeer(std::move(peer)) {
   if (services.tokens) mState.access = services.tokens->anonymous();
+  mState.client = mPeer.substr(0, mPeer.find(' '));
+  mState.transport = std::move(kind);
+}
+
+void Connection::audit(const std::string& event, const std::string& reason) const {
+  if (mServices.audit) mServices.audit->record(auditEvent(mState, event, {}, reason));
 }
 
 void Connection::presented(std::shared_ptr<const TokenGrant> grant) {
@@ -321,7 +328,8 @@ void Connection::bodyReceived(std::span<const uint8_t> body) {
 void Connection::admit(Outcome& outcome) {
   mTransport.cancel(Deadline::Hello);
   std::optional<proto::Error> refusal = mServices.greeted(mId);
-  if (!refusal) return;
+  if (!refusal) return audit("session");
+  audit("refused", "at Hello: " + refusal->message);
   // Sessions filled up while this connection waited for its Hello (or it was evicted), its quota is full, or the
   // render threads are over capacity: refused as on connect, with the reason (counted by `greeted`).
   spdlog::info("{}: refused at Hello: {}", mPeer, refusal->message);
@@ -335,9 +343,10 @@ void Connection::authenticated(Outcome& outcome) {
       mServices.authenticated ? mServices.authenticated(mId, *mState.access) : std::nullopt;
   if (!refusal) {
     spdlog::debug("{}: token '{}' presented", mPeer, mState.access->id);
-    return;
+    return audit("token");
   }
   spdlog::info("{}: token '{}' refused: {}", mPeer, mState.access->id, *refusal);
+  audit("refused", "token '" + mState.access->id + "': " + *refusal);
   mState.access = mServices.tokens ? mServices.tokens->anonymous() : nullptr;
   mState.authenticated = false;
   const uint32_t requestId = outcome.replies.empty() ? 0 : outcome.replies.front().requestId;

@@ -54,14 +54,18 @@ struct SessionServices {
   /// Called when a session presented a token with Authenticate: none when its quotas have room, else why not
   /// (LimitExceeded; the session goes on without it).
   std::function<std::optional<std::string>(ConnectionId, const TokenGrant&)> authenticated;
+  /// The audit trail: sessions opened, tokens presented and refusals (null: none).
+  AuditLog* audit = nullptr;
 };
 
 /// One client connection's state machine. Not thread-safe: every call but alive() is made on the connection's
 /// serial context (a strand), the Transport's reports included.
 class Connection {
  public:
-  /// `transport` carries the connection's bytes and outlives it; `peer` names the client in logs.
-  Connection(Transport& transport, const SessionServices& services, ConnectionId id, std::string peer);
+  /// `transport` carries the connection's bytes and outlives it; `peer` names the client in logs (its address:port,
+  /// then anything after a space); `kind` is the transport's name in the audit trail ("tcp", "tls", "ws", "wss").
+  Connection(Transport& transport, const SessionServices& services, ConnectionId id, std::string peer,
+             std::string kind = "tcp");
   /// Gives freed reply buffers back to the system when its queue was large (see the .cpp).
   ~Connection();
   Connection(const Connection&) = delete;
@@ -104,6 +108,8 @@ class Connection {
   void rendered(const RenderJob& job, proto::Message reply);
   /// Closes at once, dropping what is queued (also after an unexpected failure). Idempotent.
   void close();
+  /// Records `event` for this connection in the audit trail (if there is one).
+  void audit(const std::string& event, const std::string& reason = {}) const;
 
   /// False once the connection is ending: its waiting renders are dropped unrendered. Safe from any thread.
   bool alive() const { return mAlive; }

@@ -82,13 +82,26 @@ void checkEncodings(RenderJob& job, uint16_t version) {
 
 MessageHandler::MessageHandler(const ServerConfig& config, DatasetRegistry& datasets,
                                const render::TransferFunctionPresets& presets, ServerStats& stats,
-                               std::function<nlohmann::json()> statsJson, std::shared_ptr<const AccessTokens> tokens)
+                               std::function<nlohmann::json()> statsJson, std::shared_ptr<const AccessTokens> tokens,
+                               AuditLog* audit)
     : mConfig(config),
       mDatasets(datasets),
       mPresets(presets),
       mStats(stats),
       mStatsJson(std::move(statsJson)),
-      mTokens(std::move(tokens)) {}
+      mTokens(std::move(tokens)),
+      mAudit(audit) {}
+
+AuditEvent auditEvent(const ConnectionState& state, std::string event, std::string dataset, std::string reason) {
+  AuditEvent e;
+  e.event = std::move(event);
+  e.client = state.client;
+  e.transport = state.transport;
+  e.token = state.authenticated && state.access ? state.access->id : "";
+  e.dataset = std::move(dataset);
+  e.reason = std::move(reason);
+  return e;
+}
 
 Outcome MessageHandler::handle(ConnectionState& state, const proto::Message& message, uint32_t requestId) {
   try {
@@ -163,7 +176,19 @@ Outcome MessageHandler::hello(ConnectionState& state, const proto::Hello& hello,
 }
 
 Outcome MessageHandler::openDataset(ConnectionState& state, const proto::OpenDataset& open, uint32_t requestId) {
-  std::shared_ptr<const render::Dataset> dataset = mDatasets.open(open.name, visibleTo(state));
+  std::shared_ptr<const render::Dataset> dataset;
+  try {
+    dataset = mDatasets.open(open.name, visibleTo(state));
+  } catch (const DatasetNotFound&) {
+    // The client hears the same for both; the trail says which it was.
+    if (mAudit)
+      mAudit->record(auditEvent(state, "refused", open.name,
+                                state.access && !state.access->mayOpen(open.name)
+                                    ? "not among the datasets of the session's token"
+                                    : "no such dataset"));
+    throw;
+  }
+  if (mAudit) mAudit->record(auditEvent(state, "dataset", dataset->name()));
   state.dataset = dataset;
   state.lastCamera.reset();
   return replyWith(proto::DatasetInfo{dataset->name(), dataset->infoJson()}, requestId);
@@ -182,6 +207,7 @@ Outcome MessageHandler::authenticate(ConnectionState& state, const proto::Authen
   std::shared_ptr<const TokenGrant> grant = mTokens ? mTokens->match(message.token) : nullptr;
   if (!grant) {
     mStats.refused(Refusal::Forbidden);
+    if (mAudit) mAudit->record(auditEvent(state, "refused", "", "wrong access token"));
     // Never the token itself: it goes nowhere, the log included.
     throw proto::ProtocolError(ErrorCode::Forbidden, mTokens && mTokens->configured()
                                                          ? "wrong access token"

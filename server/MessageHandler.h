@@ -17,6 +17,7 @@
 #include "render/core/TransferFunctionPresets.h"
 #include "render/engine/Datasets.h"
 #include "server/AccessTokens.h"
+#include "server/AuditLog.h"
 #include "server/Datasets.h"
 #include "server/RenderJob.h"
 #include "server/ServerConfig.h"
@@ -36,10 +37,16 @@ struct ConnectionState {
   /// presents one; null: every dataset (a handler without tokens).
   std::shared_ptr<const TokenGrant> access;
   bool authenticated = false;  ///< a token was presented (at the WebSocket upgrade, or with Authenticate)
+  std::string client;           ///< the client's address:port (the audit trail)
+  std::string transport = "tcp";  ///< "tcp", "tls", "ws" or "wss" (the audit trail)
 
   /// Whether the client is waiting for a frame (so a silent client is not idle).
   bool awaitingFrames() const { return outstandingRenders > 0; }
 };
+
+/// The audit trail's line `event` for the session in `state`: its client, transport and token's id.
+AuditEvent auditEvent(const ConnectionState& state, std::string event, std::string dataset = {},
+                      std::string reason = {});
 
 /// A message to send and the request id its header carries.
 struct Reply {
@@ -58,10 +65,11 @@ struct Outcome {
 class MessageHandler {
  public:
   /// `statsJson` gives the server's statistics for a Stats reply; `tokens` are the access tokens Authenticate is
-  /// checked against (null: none is configured). Thread-safe: shared by every session.
+  /// checked against (null: none is configured); `audit` gets a line for each dataset opened or refused and each
+  /// token refused (null: none). Thread-safe: shared by every session.
   MessageHandler(const ServerConfig& config, DatasetRegistry& datasets, const render::TransferFunctionPresets& presets,
                  ServerStats& stats, std::function<nlohmann::json()> statsJson,
-                 std::shared_ptr<const AccessTokens> tokens = nullptr);
+                 std::shared_ptr<const AccessTokens> tokens = nullptr, AuditLog* audit = nullptr);
 
   /// The answer to `message` (request `requestId`) in `state`, which it updates. Throws nothing but std::bad_alloc:
   /// every failure is an Error reply (see errorReply).
@@ -94,6 +102,7 @@ class MessageHandler {
   ServerStats& mStats;
   const std::function<nlohmann::json()> mStatsJson;
   const std::shared_ptr<const AccessTokens> mTokens;
+  AuditLog* const mAudit;
 };
 
 }  // namespace voxbrick::server

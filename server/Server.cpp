@@ -22,6 +22,7 @@
 #include "render/engine/RenderEngine.h"
 #include "server/AccessTokens.h"
 #include "server/Admission.h"
+#include "server/AuditLog.h"
 #include "server/Datasets.h"
 #include "server/ErrorReply.h"
 #include "server/MessageHandler.h"
@@ -120,9 +121,9 @@ struct Server::Impl {
   /// Accepts the next connection on `on` (the TCP or the HTTP acceptor), each on a strand of its own.
   void accept(tcp::acceptor& on);
   void onAccepted(const tcp::acceptor& on, tcp::socket socket);
-  /// Registers a new connection from `address` made by `make` (given its ConnectionId), whatever its transport:
-  /// admits or refuses it, evicts a pending one if the pool is full, and starts it.
-  void adopt(const std::string& address, bool loopback,
+  /// Registers a new connection from `address` made by `make` (given its ConnectionId), whatever its transport
+  /// (`kind`, for the audit trail): admits or refuses it, evicts a pending one if the pool is full, and starts it.
+  void adopt(const std::string& address, bool loopback, const std::string& kind,
              const std::function<std::shared_ptr<Session>(ConnectionId)>& make);
   void requestStop();
   /// Waits for SIGHUP: each reads the TLS files again (TlsContexts::reload); new handshakes use them.
@@ -148,6 +149,8 @@ struct Server::Impl {
   const render::TransferFunctionPresets presets;
   /// The access tokens and what each may see ([[tokens]], http.token, [access]).
   const std::shared_ptr<const AccessTokens> tokens;
+  /// The audit trail ([audit] path), or one that records nothing.
+  const std::unique_ptr<AuditLog> audit;
   const WebGate webGate;  ///< what the HTTP port serves, and who may open its WebSocket
   /// The TLS context of new connections on both ports (config.tls), read again on SIGHUP; null without TLS.
   const std::unique_ptr<TlsContexts> tls;
@@ -191,6 +194,9 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
       endpoint(listenEndpoint(config.host, config.port)),
       presets(render::TransferFunctionPresets::load(render::TransferFunction::configDirectory() / "tf")),
       tokens(std::make_shared<const AccessTokens>(config)),
+      audit(config.auditPath.empty()
+                ? std::make_unique<AuditLog>()
+                : std::make_unique<AuditLog>(config.auditPath, config.auditMaxBytes, config.auditKeep)),
       webGate(config.httpOrigins, tokens, presets.json(false), [this] { return metricsText(); }),
       tls(config.tls.enabled() ? std::make_unique<TlsContexts>(config.tls) : nullptr),
       // Opened datasets are checked by the frame sources (the distributed mode: on every rank); the scheduler is
@@ -200,7 +206,7 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
       output(config.maxTotalOutputBytes),
       scheduler(std::move(sources), config.scheduler),
       handler(
-          config, datasets, presets, stats, [this] { return statsJson(); }, tokens),
+          config, datasets, presets, stats, [this] { return statsJson(); }, tokens, audit.get()),
       encoders(size_t(config.encodeThreads)),
       control(asio::make_strand(io)),
       acceptor(control),
@@ -231,7 +237,8 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
                         auto refusal = quotas.attachToken(id, grant);
                         if (refusal) stats.refused(Refusal::Quota);
                         return refusal;
-                      }},
+                      },
+                      audit.get()},
       admission(admissionLimits(config)),
       quotas(config.quotas) {
   sessionServices.limits.maxBodyBytes = config.maxMessageBytes;
@@ -295,18 +302,18 @@ void Server::Impl::onAccepted(const tcp::acceptor& on, tcp::socket socket) {
   // A browser's connection is pending (not a session) from its accept, through its HTTP requests and the upgrade,
   // until its Hello: the same admission as a TCP connection.
   if (&on == &httpAcceptor)
-    return adopt(address, loopback, [&](ConnectionId id) -> std::shared_ptr<Session> {
+    return adopt(address, loopback, tls ? "wss" : "ws", [&](ConnectionId id) -> std::shared_ptr<Session> {
       webConnections.insert(id);  // adopt() holds sessionsMutex
       if (tls)
         return std::make_shared<TlsWebSocketSession>(std::move(socket), tls->current(), sessionServices, webGate, id);
       return std::make_shared<PlainWebSocketSession>(std::move(socket), sessionServices, webGate, id);
     });
-  adopt(address, loopback, [&](ConnectionId id) {
+  adopt(address, loopback, tls ? "tls" : "tcp", [&](ConnectionId id) {
     return std::make_shared<TcpSession>(std::move(socket), sessionServices, id, tls ? tls->current() : nullptr);
   });
 }
 
-void Server::Impl::adopt(const std::string& address, bool loopback,
+void Server::Impl::adopt(const std::string& address, bool loopback, const std::string& kind,
                          const std::function<std::shared_ptr<Session>(ConnectionId)>& make) {
   std::shared_ptr<Session> session, evicted;
   std::optional<proto::Error> refusal;
@@ -338,6 +345,8 @@ void Server::Impl::adopt(const std::string& address, bool loopback,
   if (refusal) {
     stats.refused(reason);
     spdlog::debug("{}: refused: {}", session->peer(), refusal->message);
+    const std::string& peer = session->peer();
+    audit->record({"refused", peer.substr(0, peer.find(' ')), kind, "", "", "on connect: " + refusal->message});
     session->end(std::move(*refusal));
     return;
   }

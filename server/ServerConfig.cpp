@@ -168,6 +168,10 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   if (tls.read("cert", c.tls.cert)) beside(c.tls.cert);
   if (tls.read("key", c.tls.key)) beside(c.tls.key);
   if (tls.read("ca", c.tls.ca)) beside(c.tls.ca);
+  Section audit = top.table("audit");
+  if (audit.read("path", c.auditPath)) beside(c.auditPath);
+  audit.read("max_bytes", c.auditMaxBytes);
+  audit.read("keep", c.auditKeep);
   Section memory = top.table("memory");
   memory.read("host_cache_mb", c.hostCacheMB);
   memory.read("gpu_budget_mb", c.gpuBudgetMB);
@@ -189,7 +193,7 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   quotas.read("sessions_per_token", c.quotas.sessionsPerToken);
   quotas.read("frames_per_s_per_token", c.quotas.framesPerSecondPerToken);
   quotas.read("loopback_exempt", c.quotas.loopbackExempt);
-  for (const Section* section : {&top, &server, &limits, &memory, &http, &access, &tls, &scheduler, &quotas})
+  for (const Section* section : {&top, &server, &limits, &memory, &http, &access, &tls, &audit, &scheduler, &quotas})
     section->rejectUnknown();
   try {
     c.validate();
@@ -236,6 +240,8 @@ void ServerConfig::validate() const {
     fail(tls.cert.empty() ? "tls.key is set without tls.cert: give both (--tls-cert and --tls-key)"
                           : "tls.cert is set without tls.key: give both (--tls-cert and --tls-key)");
   if (!tls.ca.empty() && tls.cert.empty()) fail("tls.ca is set without tls.cert and tls.key");
+  range("audit.max_bytes", double(auditMaxBytes), 4096, double(uint64_t(1) << 40));
+  range("audit.keep", auditKeep, 0, 1000);
   range("scheduler.interactive_weight", scheduler.interactiveWeight, 0.01, 1e6);
   range("scheduler.still_weight", scheduler.stillWeight, 0.01, 1e6);
   range("scheduler.batch_weight", scheduler.batchWeight, 0.01, 1e6);

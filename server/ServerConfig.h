@@ -118,7 +118,11 @@ struct ServerConfig {
   /// configured, none otherwise.
   std::optional<std::vector<std::string>> anonymousDatasets;
   // [tls]
-  TlsFiles tls;  ///< TLS on both listeners (TCP, and https/wss on the HTTP port) when it names a certificate
+  TlsFiles tls;
+  // [audit] The audit trail (AuditLog): one line per session, token, dataset opened and refusal.
+  std::filesystem::path auditPath;       ///< empty: none
+  uint64_t auditMaxBytes = 10ull << 20;  ///< the file is rotated once it would pass this
+  int auditKeep = 5;                     ///< rotated files kept (path.1 ... path.KEEP)  ///< TLS on both listeners (TCP, and https/wss on the HTTP port) when it names a certificate
   // [memory]
   int64_t hostCacheMB = 1024;  ///< decoded bricks of all open datasets together
   int64_t gpuBudgetMB = 1024;  ///< atlases of all render threads and datasets (equal shares per thread)

@@ -32,7 +32,7 @@ std::string tcpPeerOf(const tcp::socket& socket, bool tls) {
 
 TcpSession::TcpSession(tcp::socket socket, const SessionServices& services, ConnectionId id,
                        std::shared_ptr<asio::ssl::context> tls)
-    : AsioSession(socket.get_executor(), services, id, tcpPeerOf(socket, tls != nullptr)),
+    : AsioSession(socket.get_executor(), services, id, tcpPeerOf(socket, tls != nullptr), tls ? "tls" : "tcp"),
       mSocket(std::move(socket)),
       mTlsContext(std::move(tls)) {
   if (mTlsContext) {
@@ -94,6 +94,7 @@ void TcpSession::onHandshake(boost::system::error_code ec) {
   if (ec) {
     mStats.refused(Refusal::Tls);
     spdlog::info("{}: TLS handshake failed: {}", peer(), tlsFailureText(ec));
+    mCore.audit("refused", "TLS handshake: " + tlsFailureText(ec));
     return mCore.readFailed();
   }
   mTls = Tls::Open;

@@ -44,7 +44,7 @@ std::string webSocketPeerOf(const tcp::socket& socket, bool tls) {
 template <class Stream>
 WebSocketSession<Stream>::WebSocketSession(tcp::socket socket, const SessionServices& services, const WebGate& gate,
                                            ConnectionId id) requires(!kTls)
-    : AsioSession(socket.get_executor(), services, id, webSocketPeerOf(socket, false)),
+    : AsioSession(socket.get_executor(), services, id, webSocketPeerOf(socket, false), "ws"),
       mServices(services),
       mGate(gate),
       mWs(std::move(socket)),
@@ -54,7 +54,7 @@ template <class Stream>
 WebSocketSession<Stream>::WebSocketSession(tcp::socket socket, std::shared_ptr<asio::ssl::context> tls,
                                            const SessionServices& services, const WebGate& gate,
                                            ConnectionId id) requires(kTls)
-    : AsioSession(socket.get_executor(), services, id, webSocketPeerOf(socket, true)),
+    : AsioSession(socket.get_executor(), services, id, webSocketPeerOf(socket, true), "wss"),
       mServices(services),
       mGate(gate),
       mTlsContext(std::move(tls)),
@@ -145,6 +145,7 @@ void WebSocketSession<Stream>::onHandshake(boost::system::error_code ec) {
     } else {
       mServices.stats.refused(Refusal::Tls);
       spdlog::info("{}: TLS handshake failed: {}", peer(), tlsFailureText(ec));
+      mCore.audit("refused", "TLS handshake: " + tlsFailureText(ec));
     }
     return mCore.close();
   }
@@ -274,6 +275,7 @@ void WebSocketSession<Stream>::upgrade() {
   if (refusal) {
     mServices.stats.refused(Refusal::Forbidden);
     spdlog::info("{}: WebSocket upgrade refused: {}", peer(), *refusal);
+    mCore.audit("refused", "WebSocket upgrade: " + *refusal);
     return respond(textResponse(403, "forbidden: " + *refusal));
   }
   mGrant = mGate.acceptedToken(view(mRequest.target()));
