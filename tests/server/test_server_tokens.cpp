@@ -114,6 +114,15 @@ TEST_F(TokenServerTest, ATokenForSomeDatasetsSeesAndOpensThoseOnly) {
       (scratch() / "alpha.token").string() + " --dataset beta -o " + (scratch() / "beta.png").string());
   EXPECT_EQ(denied.exitCode, 1);
   EXPECT_NE(denied.output.find("UnknownDataset"), std::string::npos) << denied.output;
+  // The load tool's clients too, every request answered; its faulty clients speak in the clear only.
+  const std::string loadArgs = "load 127.0.0.1:" + std::to_string(tls->port()) + " --tls --ca " +
+                               certs.caCert.string() + " --token-file " + (scratch() / "alpha.token").string() +
+                               " --dataset alpha-2 --clients 2 --duration 1 --size 32x32 --tf sparse";
+  const auto load = test::runVoxbrick(loadArgs + " --require-clean");
+  EXPECT_EQ(load.exitCode, 0) << load.output;
+  const auto faults = test::runVoxbrick(loadArgs + " --fault-clients 1");
+  EXPECT_EQ(faults.exitCode, 1);
+  EXPECT_NE(faults.output.find("faulty clients speak in the clear only"), std::string::npos) << faults.output;
 }
 
 TEST_F(TokenServerTest, SessionsWithoutATokenSeeOnlyTheAnonymousDatasets) {
