@@ -20,6 +20,7 @@
 #include "render/core/TransferFunction.h"
 #include "server/Server.h"
 #include "server/ServerConfig.h"
+#include "server/TlsContext.h"
 
 namespace voxbrick::cli {
 namespace {
@@ -115,6 +116,9 @@ void runServe(const ServeArgs& a) {
   if (!a.tlsCa.empty()) c.tls.ca = a.tlsCa;
   if (!a.auditLog.empty()) c.auditPath = a.auditLog;
   c.validate();
+  // TLS files that cannot be used are said before the render threads' GL contexts are made (the server reads them
+  // again when it starts).
+  if (c.tls.enabled()) server::makeServerTlsContext(c.tls);
   spdlog::set_level(spdlog::level::from_str(c.logLevel));
   spdlog::set_pattern("[%Y-%m-%d %H:%M:%S.%e] [%l] %v");
 

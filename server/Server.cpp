@@ -46,12 +46,14 @@ using nlohmann::json;
 /// Clients that never read their last reply hold a stopping server up this long at most.
 constexpr auto kShutdownGrace = std::chrono::seconds(5);
 
-/// `config`, checked: values in range, the datasets directory present.
+/// `config`, checked: values in range, the datasets directory present, the TLS files usable (before any GL context
+/// is made, so that a bad file fails at once).
 ServerConfig checked(ServerConfig config) {
   config.validate();
   std::error_code ec;
   if (!std::filesystem::is_directory(config.datasets, ec))
     throw std::runtime_error("datasets directory '" + config.datasets.string() + "' does not exist");
+  if (config.tls.enabled()) makeServerTlsContext(config.tls);
   return config;
 }
 
