@@ -32,6 +32,8 @@ void addBenchCommand(CLI::App& app);
 void addPresetsCommand(CLI::App& app);
 /// Adds `scene` (the scene the scene options make, or the scene's schema) to the app.
 void addSceneCommand(CLI::App& app);
+/// Adds `token` (a new access token: its secret and its [[tokens]] entry for server.toml) to the app.
+void addTokenCommand(CLI::App& app);
 
 /// Parses "a,b,c" into three numbers; throws store::InputError naming the option, the text and `example`, a valid
 /// value.

@@ -55,15 +55,28 @@ std::string clientSceneJson(const LoadArgs& a, bool batch, int width, int height
   return scene.dump();
 }
 
+/// A connection of one of the load's clients to the server, with TLS as the options say.
+std::unique_ptr<client::Client> connectTo(const LoadArgs& a, const std::string& host, int port,
+                                          std::chrono::milliseconds timeout) {
+  return std::make_unique<client::Client>(host, port, timeout, tlsOptionsOf(a.connect));
+}
+
+/// Hello, then the access token if the options give one.
+proto::Capabilities greet(const LoadArgs& a, client::Client& c, const std::string& name) {
+  proto::Capabilities caps = c.hello(name);
+  if (const std::string token = accessTokenOf(a.connect); !token.empty()) c.authenticate(token);
+  return caps;
+}
+
 /// A well-behaved client's session: connected, greeted (the highest protocol version both sides speak) and with
 /// --dataset open. A session refused Busy (in place of Capabilities; the server closes it) is counted, waited out
 /// and asked again; none if `deadline` passes first.
 std::unique_ptr<client::Client> openSession(const LoadArgs& a, const std::string& host, int port, const char* name,
                                             int index, Clock::time_point deadline, Tally& tally) {
   while (Clock::now() < deadline) {
-    auto c = std::make_unique<client::Client>(host, port, std::chrono::seconds(120));
+    auto c = connectTo(a, host, port, std::chrono::seconds(120));
     try {
-      const proto::Capabilities caps = c->hello(name);
+      const proto::Capabilities caps = greet(a, *c, name);
       c->openDataset(a.dataset);
       std::lock_guard lock(tally.mutex);
       if (tally.protocolVersion == 0 || caps.version < tally.protocolVersion) tally.protocolVersion = caps.version;
@@ -262,15 +275,15 @@ void dragClient(const LoadArgs& a, const std::string& host, int port, int width,
   }
 }
 
-ServerDeadlines serverDeadlines(const std::string& host, int port) {
+ServerDeadlines serverDeadlines(const LoadArgs& a, const std::string& host, int port) {
   ServerDeadlines d;
   try {
-    client::Client c(host, port, std::chrono::seconds(30));
-    c.hello("voxbrick-load-limits");
-    const json limits = json::parse(c.stats()).value("limits", json::object());
+    const auto c = connectTo(a, host, port, std::chrono::seconds(30));
+    greet(a, *c, "voxbrick-load-limits");
+    const json limits = json::parse(c->stats()).value("limits", json::object());
     d.helloS = limits.value("hello_timeout_s", d.helloS);
     d.readS = limits.value("read_timeout_s", d.readS);
-    c.goodbye();
+    c->goodbye();
   } catch (const std::exception&) {  // the faults then wait for the defaults; a bad server shows in their replies
   }
   return d;
@@ -299,22 +312,23 @@ void faultClient(const LoadArgs& a, const ServerDeadlines& deadlines, const std:
 }
 
 /// Idle sessions: connected and greeted, then silent for the whole run.
-std::vector<std::unique_ptr<client::Client>> openIdleSessions(const std::string& host, int port, int count) {
+std::vector<std::unique_ptr<client::Client>> openIdleSessions(const LoadArgs& a, const std::string& host, int port,
+                                                              int count) {
   std::vector<std::unique_ptr<client::Client>> idle;
   for (int i = 0; i < count; ++i) {
-    idle.push_back(std::make_unique<client::Client>(host, port, std::chrono::seconds(10)));
-    idle.back()->hello("voxbrick-load-idle");
+    idle.push_back(connectTo(a, host, port, std::chrono::seconds(10)));
+    greet(a, *idle.back(), "voxbrick-load-idle");
   }
   return idle;
 }
 
 /// The server's statistics after the run; an error in the tally (and an empty object) if it does not answer.
-json serverStatsAfter(const std::string& host, int port, Tally& tally) {
+json serverStatsAfter(const LoadArgs& a, const std::string& host, int port, Tally& tally) {
   try {
-    client::Client c(host, port, std::chrono::seconds(30));
-    c.hello("voxbrick-load-stats");
-    json server = json::parse(c.stats());
-    c.goodbye();
+    const auto c = connectTo(a, host, port, std::chrono::seconds(30));
+    greet(a, *c, "voxbrick-load-stats");
+    json server = json::parse(c->stats());
+    c->goodbye();
     return server;
   } catch (const std::exception& e) {
     tally.error(std::string("server statistics after the run: ") + e.what());
@@ -334,9 +348,9 @@ void runLoad(const LoadArgs& a) {
   parseSize(a.size, "--size", width, height);
   if (width < 1 || height < 1) throw std::invalid_argument("--size '" + a.size + "': sides must be positive");
   const std::vector<const Fault*> faults = faultsToRun(a);
-  std::vector<std::unique_ptr<client::Client>> idle = openIdleSessions(host, port, a.idleSessions);
+  std::vector<std::unique_ptr<client::Client>> idle = openIdleSessions(a, host, port, a.idleSessions);
 
-  const ServerDeadlines deadlines = a.faultClients > 0 ? serverDeadlines(host, port) : ServerDeadlines{};
+  const ServerDeadlines deadlines = a.faultClients > 0 ? serverDeadlines(a, host, port) : ServerDeadlines{};
   Tally tally(a.clients);
   const auto start = Clock::now();
   const auto deadline = start + std::chrono::milliseconds(int64_t(a.duration * 1000));
@@ -350,7 +364,7 @@ void runLoad(const LoadArgs& a) {
   for (std::thread& t : threads) t.join();
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
 
-  const json server = serverStatsAfter(host, port, tally);
+  const json server = serverStatsAfter(a, host, port, tally);
   idle.clear();
   int64_t unexpected = 0;
   const json faultsDone = faultCounts(tally, unexpected);
@@ -418,7 +432,13 @@ void addLoadCommand(CLI::App& app) {
   cmd->add_option("--json", a->jsonPath, "write the report as JSON");
   cmd->add_flag("--require-clean", a->requireClean,
                 "exit non-zero unless every good request succeeded and every fault got its documented reply");
-  cmd->callback([a] { runLoad(*a); });
+  addConnectOptions(cmd, a->connect);
+  cmd->callback([a] {
+    // The faulty clients misbehave below the message level, on bare sockets: in the clear only.
+    if (a->connect.tls && a->faultClients > 0)
+      throw std::invalid_argument("--fault-clients: faulty clients speak in the clear only, not with --tls");
+    runLoad(*a);
+  });
 }
 
 }  // namespace voxbrick::cli

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "cli/ConnectOptions.h"
 #include "client/Client.h"
 
 namespace voxbrick::cli {
@@ -29,6 +30,7 @@ struct LoadArgs {
   /// The good and dragging clients' scenes carry `"batch": true` (work nobody watches as it happens).
   bool batch = false;
   bool requireClean = false;
+  ConnectArgs connect;  ///< TLS and the access token of every well-behaved, dragging and idle client
 };
 
 /// The scene the load's clients render: an orbit view at `azimuth`, --tf and --step, `width`×`height`.

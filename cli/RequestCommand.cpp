@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/Commands.h"
+#include "cli/ConnectOptions.h"
 #include "cli/SceneOptions.h"
 #include "client/Client.h"
 #include "image/FrameImage.h"
@@ -18,6 +19,7 @@ namespace {
 
 struct RequestArgs {
   SceneArgs scene;
+  ConnectArgs connect;
   std::string address, dataset, output, statsPath, encoding = "png";
   double timeout = 120;
   int jpegQuality = 90;
@@ -37,8 +39,9 @@ void writeFrame(const std::string& path, const proto::Frame& frame, int jpegQual
 void runRequest(const RequestArgs& a, const CLI::App& cmd) {
   if (!a.output.empty()) image::imageFormatFor(a.output);  // an output we cannot write is refused before connecting
   const auto [host, port] = client::parseAddress(a.address);
-  client::Client c(host, port, std::chrono::milliseconds(int64_t(a.timeout * 1000)));
+  client::Client c(host, port, std::chrono::milliseconds(int64_t(a.timeout * 1000)), tlsOptionsOf(a.connect));
   c.hello("voxbrick-request 0.1");
+  if (const std::string token = accessTokenOf(a.connect); !token.empty()) c.authenticate(token);
   if (a.list || a.dataset.empty()) {
     for (const std::string& name : c.listDatasets()) std::printf("%s\n", name.c_str());
     c.goodbye();
@@ -96,6 +99,7 @@ void addRequestCommand(CLI::App& app) {
   cmd->add_option("--timeout", a->timeout, "seconds to wait for the server")
       ->capture_default_str()
       ->check(between(0.001, 86400, "seconds"));
+  addConnectOptions(cmd, a->connect);
   addSceneOptions(cmd, a->scene);
   cmd->callback([a, cmd] { runRequest(*a, *cmd); });
 }

@@ -20,6 +20,7 @@
 #include "render/core/TransferFunction.h"
 #include "server/Server.h"
 #include "server/ServerConfig.h"
+#include "server/TlsContext.h"
 
 namespace voxbrick::cli {
 namespace {
@@ -28,6 +29,7 @@ struct ServeArgs {
   std::string config, host, datasets, backend, logLevel, portFile;
   int http = -1;  ///< --http PORT; -1: as configured
   std::string httpBind, httpToken, httpPortFile;
+  std::string tlsCert, tlsKey, tlsCa, auditLog;
   std::vector<std::string> httpOrigins;
   int port = -1, renderThreads = 0, ioThreads = 0, maxSessions = 0, maxImageSide = 0;
   double maxRenderMSamples = 0;
@@ -61,7 +63,8 @@ void writePortFile(const std::string& file, int port) {
   std::rename(tmp.c_str(), file.c_str());
 }
 
-/// The address a person opens to reach the viewer (with the access token, which the page passes on to /ws).
+/// The address a person opens to reach the viewer. It never carries the access token (a token is not to be logged):
+/// with one, the page is opened with ?token=TOKEN added, which it passes on to /ws.
 std::string viewerUrl(const server::ServerConfig& c, int port) {
   std::string host = c.httpHost();
   if (host == "0.0.0.0" || host == "::") {  // every interface: this machine's name
@@ -70,7 +73,7 @@ std::string viewerUrl(const server::ServerConfig& c, int port) {
   } else if (host.find(':') != std::string::npos) {
     host = "[" + host + "]";
   }
-  return "http://" + host + ":" + std::to_string(port) + "/" + (c.httpToken.empty() ? "" : "?token=" + c.httpToken);
+  return std::string(c.tls.enabled() ? "https://" : "http://") + host + ":" + std::to_string(port) + "/";
 }
 
 void serveWith(const ServeArgs& a, const server::ServerConfig& c,
@@ -108,7 +111,14 @@ void runServe(const ServeArgs& a) {
   if (!a.httpBind.empty()) c.httpBind = a.httpBind;
   if (!a.httpOrigins.empty()) c.httpOrigins = a.httpOrigins;
   if (!a.httpToken.empty()) c.httpToken = a.httpToken;
+  if (!a.tlsCert.empty()) c.tls.cert = a.tlsCert;
+  if (!a.tlsKey.empty()) c.tls.key = a.tlsKey;
+  if (!a.tlsCa.empty()) c.tls.ca = a.tlsCa;
+  if (!a.auditLog.empty()) c.auditPath = a.auditLog;
   c.validate();
+  // TLS files that cannot be used are said before the render threads' GL contexts are made (the server reads them
+  // again when it starts).
+  if (c.tls.enabled()) server::makeServerTlsContext(c.tls);
   spdlog::set_level(spdlog::level::from_str(c.logLevel));
   spdlog::set_pattern("[%Y-%m-%d %H:%M:%S.%e] [%l] %v");
 
@@ -126,8 +136,9 @@ void serveWith(const ServeArgs& a, const server::ServerConfig& c,
   std::printf("listening on %s:%d\n", c.host.c_str(), server.port());
   std::fflush(stdout);
   if (c.http) {
-    spdlog::info("viewer: open {}", viewerUrl(c, server.httpPort()));
-    std::printf("viewer at %s\n", viewerUrl(c, server.httpPort()).c_str());
+    const std::string tokenNote = c.httpToken.empty() ? "" : " (add ?token= and the access token)";
+    spdlog::info("viewer: open {}{}", viewerUrl(c, server.httpPort()), tokenNote);
+    std::printf("viewer at %s%s\n", viewerUrl(c, server.httpPort()).c_str(), tokenNote.c_str());
     std::fflush(stdout);
   }
   if (!a.httpPortFile.empty()) writePortFile(a.httpPortFile, server.httpPort());
@@ -212,6 +223,19 @@ void addServeCommand(CLI::App& app) {
                   "access token /ws must be opened with (?token=...); the viewer's URL, logged at start, carries it "
                   "(default none, or http.token of the configuration)");
   cmd->add_option("--http-port-file", a->httpPortFile, "write the HTTP port actually bound to this file");
+  cmd->add_option("--tls-cert", a->tlsCert,
+                  "PEM certificate chain (the server's certificate first): both ports speak TLS only, the TCP port "
+                  "the protocol and the HTTP port https:// and wss://; read again on SIGHUP (default none, or "
+                  "tls.cert of the configuration)");
+  cmd->add_option("--tls-key", a->tlsKey,
+                  "PEM private key of --tls-cert, not encrypted; read again on SIGHUP (default none, or tls.key of "
+                  "the configuration)");
+  cmd->add_option("--tls-ca", a->tlsCa,
+                  "PEM certificates of the CAs whose client certificates the server asks for and requires, mutual "
+                  "TLS (default none, or tls.ca of the configuration)");
+  cmd->add_option("--audit-log", a->auditLog,
+                  "append the audit trail to this file: a line of JSON per session, token, dataset opened and "
+                  "refusal, rotated by size (default none, or audit.path of the configuration)");
   cmd->add_option("--datasets", a->datasets,
                   "directory whose subdirectories are stores and whose .vdb files are read live (first float grid, "
                   "bricks of 32)" +

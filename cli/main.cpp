@@ -107,6 +107,7 @@ int main(int argc, char** argv) {
   voxbrick::cli::addBenchCommand(app);
   voxbrick::cli::addPresetsCommand(app);
   voxbrick::cli::addSceneCommand(app);
+  voxbrick::cli::addTokenCommand(app);
   voxbrick::cli::defaultsInText(app);
 
   try {

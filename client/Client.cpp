@@ -1,12 +1,18 @@
-// Blocking client over Boost.Asio; the connect and every read and write are bounded by the session's timeout.
+// Blocking client over Boost.Asio, in the clear or over TLS; the connect, the handshake and every read and write are
+// bounded by the session's timeout.
 #include "client/Client.h"
 
 #include <algorithm>
 #include <cstdio>
+#include <optional>
 #include <type_traits>
 #include <utility>  // before Asio: Boost 1.74's awaitable.hpp uses std::exchange without it
 
+#include <openssl/err.h>
+#include <openssl/ssl.h>
+#include <openssl/x509v3.h>
 #include <boost/asio.hpp>
+#include <boost/asio/ssl.hpp>
 #include <nlohmann/json.hpp>
 
 namespace voxbrick::client {
@@ -14,12 +20,72 @@ namespace voxbrick::client {
 namespace asio = boost::asio;
 using tcp = asio::ip::tcp;
 
+namespace {
+
+/// OpenSSL's queued errors as one text (the queue emptied), or `fallback` when there are none.
+std::string openSslErrors(const std::string& fallback) {
+  std::string out;
+  while (const unsigned long code = ERR_get_error()) {
+    const char* reason = ERR_reason_error_string(code);
+    if (!out.empty()) out += "; ";
+    out += reason ? reason : "error " + std::to_string(code);
+  }
+  return out.empty() ? fallback : out;
+}
+
+/// The client's TLS context: TLS 1.2 or later, the server verified against `options`' CAs (or the system's) unless
+/// insecure, the client's own certificate if given. Throws ConnectionError naming a file that cannot be used.
+std::unique_ptr<asio::ssl::context> clientContext(const TlsOptions& options) {
+  auto context = std::make_unique<asio::ssl::context>(asio::ssl::context::tls_client);
+  SSL_CTX* ctx = context->native_handle();
+  ERR_clear_error();
+  SSL_CTX_set_min_proto_version(ctx, TLS1_2_VERSION);
+  if (options.insecure) {
+    SSL_CTX_set_verify(ctx, SSL_VERIFY_NONE, nullptr);
+  } else {
+    SSL_CTX_set_verify(ctx, SSL_VERIFY_PEER, nullptr);
+    if (!options.caFile.empty()) {
+      if (SSL_CTX_load_verify_locations(ctx, options.caFile.c_str(), nullptr) != 1)
+        throw ConnectionError("TLS: the CA file '" + options.caFile +
+                              "' cannot be used: " + openSslErrors("not a PEM file of certificates"));
+    } else if (SSL_CTX_set_default_verify_paths(ctx) != 1) {
+      throw ConnectionError("TLS: the system's CA certificates cannot be read: " + openSslErrors("unknown failure"));
+    }
+  }
+  if (options.certFile.empty() != options.keyFile.empty())
+    throw ConnectionError("TLS: a client certificate needs both its certificate and its key");
+  if (!options.certFile.empty()) {
+    if (SSL_CTX_use_certificate_chain_file(ctx, options.certFile.c_str()) != 1)
+      throw ConnectionError("TLS: the client certificate '" + options.certFile +
+                            "' cannot be used: " + openSslErrors("not a PEM certificate"));
+    if (SSL_CTX_use_PrivateKey_file(ctx, options.keyFile.c_str(), SSL_FILETYPE_PEM) != 1 ||
+        SSL_CTX_check_private_key(ctx) != 1)
+      throw ConnectionError("TLS: the client key '" + options.keyFile +
+                            "' cannot be used with its certificate: " + openSslErrors("not its PEM private key"));
+  }
+  return context;
+}
+
+}  // namespace
+
 struct Client::Impl {
   asio::io_context io;
   tcp::socket socket{io};
+  std::unique_ptr<asio::ssl::context> tlsContext;
+  std::optional<asio::ssl::stream<tcp::socket&>> tls;  ///< once the TLS handshake is done
   proto::Limits limits;
   std::string where;
   std::chrono::milliseconds timeout{0};
+
+  /// Runs `f` on the stream messages travel on: the TLS stream, or the socket itself.
+  template <typename F>
+  auto withStream(F&& f) {
+    if (tls) return f(*tls);
+    return f(socket);
+  }
+  /// The TLS handshake as a client of `host` (certificate checks as TlsOptions says); throws ConnectionError naming
+  /// why it failed.
+  void handshake(const std::string& host, const TlsOptions& options);
 
   /// Runs one asynchronous operation (`start` is given its completion handler) until it completes or the timeout
   /// passes. Blocking socket calls cannot do this: Asio waits for readiness with no limit when SO_RCVTIMEO fires, and
@@ -48,7 +114,8 @@ struct Client::Impl {
   }
 };
 
-Client::Client(const std::string& host, int port, std::chrono::milliseconds timeout) : mImpl(std::make_unique<Impl>()) {
+Client::Client(const std::string& host, int port, std::chrono::milliseconds timeout, const TlsOptions& tls)
+    : mImpl(std::make_unique<Impl>()) {
   mImpl->where = host + ":" + std::to_string(port);
   // Frames can be large: accept bodies up to the protocol's ceiling.
   mImpl->limits.maxBodyBytes = 1u << 30;
@@ -72,13 +139,65 @@ Client::Client(const std::string& host, int port, std::chrono::milliseconds time
           .first;
   if (ec) throw ConnectionError("cannot connect to " + mImpl->where + ": " + ec.message());
   mImpl->socket.set_option(tcp::no_delay(true));
+  if (tls.enabled) mImpl->handshake(host, tls);
+}
+
+void Client::Impl::handshake(const std::string& host, const TlsOptions& options) {
+  tlsContext = clientContext(options);
+  tls.emplace(socket, *tlsContext);
+  SSL* ssl = tls->native_handle();
+  boost::system::error_code parsed;
+  asio::ip::make_address(host, parsed);
+  const bool ipAddress = !parsed;
+  // The certificate must name the host asked for: its DNS name (also sent as SNI), or its IP address.
+  if (!options.insecure) {
+    X509_VERIFY_PARAM* param = SSL_get0_param(ssl);
+    if (ipAddress ? X509_VERIFY_PARAM_set1_ip_asc(param, host.c_str()) != 1
+                  : X509_VERIFY_PARAM_set1_host(param, host.c_str(), 0) != 1)
+      throw ConnectionError("TLS: '" + host + "' cannot be checked against a certificate");
+  }
+  if (!ipAddress) SSL_set_tlsext_host_name(ssl, host.c_str());
+  const boost::system::error_code ec =
+      run("TLS handshake with", [&](auto handler) {
+        tls->async_handshake(asio::ssl::stream_base::client,
+                             [handler](const boost::system::error_code& e) { handler(e, 0); });
+      }).first;
+  if (!ec) return;
+  const long verify = SSL_get_verify_result(ssl);
+  tls.reset();
+  if (!options.insecure && verify != X509_V_OK)
+    throw ConnectionError("TLS: the certificate of " + where + " is refused: " + X509_verify_cert_error_string(verify) +
+                          (verify == X509_V_ERR_HOSTNAME_MISMATCH || verify == X509_V_ERR_IP_ADDRESS_MISMATCH
+                               ? " (it is not made out to '" + host + "')"
+                               : std::string(". Give the CA that signed it (--ca FILE), or --tls-insecure to take "
+                                             "any certificate (a self-signed one, in local use only)")));
+  if (ec == asio::error::eof || ec == asio::ssl::error::stream_truncated || ec == asio::error::connection_reset)
+    throw ConnectionError("TLS handshake with " + where +
+                          ": the server closed the connection (it may speak no TLS, refuse new connections, or want "
+                          "a client certificate)");
+  throw ConnectionError("TLS handshake with " + where + " failed: " + ec.message() +
+                        (ec.message() == "wrong version number" || ec.message() == "packet length too long"
+                             ? " (the server does not speak TLS on this port: connect without --tls)"
+                             : ""));
+}
+
+bool Client::tls() const { return mImpl->tls.has_value(); }
+
+std::string Client::tlsDescription() const {
+  if (!mImpl->tls) return {};
+  SSL* ssl = mImpl->tls->native_handle();
+  return std::string(SSL_get_version(ssl)) + " " + SSL_get_cipher_name(ssl);
 }
 
 Client::~Client() = default;
 
 void Client::sendBytes(const std::vector<uint8_t>& bytes) {
   const boost::system::error_code ec =
-      mImpl->run("sending to", [&](auto handler) { asio::async_write(mImpl->socket, asio::buffer(bytes), handler); })
+      mImpl
+          ->run("sending to",
+                [&](auto handler) {
+                  mImpl->withStream([&](auto& stream) { asio::async_write(stream, asio::buffer(bytes), handler); });
+                })
           .first;
   if (ec) throw ConnectionError("sending to " + mImpl->where + ": " + ec.message());
 }
@@ -91,8 +210,9 @@ uint32_t Client::send(const proto::Message& message) {
 
 std::vector<uint8_t> Client::receiveBytes(size_t max) {
   std::vector<uint8_t> bytes(max);
-  const auto [ec, n] =
-      mImpl->run("reading from", [&](auto handler) { mImpl->socket.async_read_some(asio::buffer(bytes), handler); });
+  const auto [ec, n] = mImpl->run("reading from", [&](auto handler) {
+    mImpl->withStream([&](auto& stream) { stream.async_read_some(asio::buffer(bytes), handler); });
+  });
   bytes.resize(ec ? 0 : n);
   if (ec && ec != asio::error::eof) throw ConnectionError("reading from " + mImpl->where + ": " + ec.message());
   return bytes;
@@ -101,7 +221,11 @@ std::vector<uint8_t> Client::receiveBytes(size_t max) {
 std::pair<uint32_t, proto::Message> Client::receive() {
   std::array<uint8_t, proto::kHeaderBytes> head{};
   auto readAll = [&](asio::mutable_buffer buffer) {
-    return mImpl->run("reading from", [&](auto handler) { asio::async_read(mImpl->socket, buffer, handler); }).first;
+    return mImpl
+        ->run(
+            "reading from",
+            [&](auto handler) { mImpl->withStream([&](auto& stream) { asio::async_read(stream, buffer, handler); }); })
+        .first;
   };
   boost::system::error_code ec = readAll(asio::buffer(head));
   if (ec)
@@ -121,6 +245,8 @@ std::pair<uint32_t, proto::Message> Client::receive() {
 bool Client::waitReadable(std::chrono::milliseconds wait) {
   boost::system::error_code ignored;
   if (mImpl->socket.available(ignored) > 0) return true;
+  // Bytes TLS has decrypted already wait in OpenSSL, not in the socket.
+  if (mImpl->tls && SSL_pending(mImpl->tls->native_handle()) > 0) return true;
   bool readable = false;
   asio::steady_timer timer(mImpl->io, wait);
   mImpl->socket.async_wait(tcp::socket::wait_read, [&](const boost::system::error_code& ec) {
@@ -166,6 +292,13 @@ proto::Capabilities Client::hello(const std::string& clientName, uint16_t maxVer
                           std::to_string(maxVersion));
   mVersion = caps.version;
   return caps;
+}
+
+std::string Client::authenticate(const std::string& token) {
+  if (!proto::messageTypeInVersion(proto::MessageType::Authenticate, mVersion))
+    throw std::invalid_argument("presenting an access token needs protocol version 5; " + mImpl->where +
+                                " speaks version " + std::to_string(mVersion));
+  return expect<proto::Authenticated>(call(proto::Authenticate{token}), "Authenticate").tokenId;
 }
 
 std::vector<std::string> Client::listDatasets() {

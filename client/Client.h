@@ -31,12 +31,26 @@ class ConnectionError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// How a client reaches the server: in the clear, or over TLS with the server's certificate verified.
+struct TlsOptions {
+  bool enabled = false;  ///< speak TLS (a server with --tls-cert speaks nothing else)
+  std::string caFile;    ///< PEM certificates of the CAs to trust; empty: the system's store
+  /// Accept any certificate, unverified (a self-signed one in local use): the link is encrypted, but anyone on the
+  /// path could pose as the server.
+  bool insecure = false;
+  std::string certFile, keyFile;  ///< PEM: a certificate of the client's own, for a server that asks one (tls.ca)
+};
+
 /// One session. Not thread-safe: use one Client per thread.
 class Client {
  public:
-  /// Connects to host:port; `timeout` bounds the connect and every later read or write (one that does not complete
-  /// in time closes the connection and throws ConnectionError saying so). Throws ConnectionError.
-  Client(const std::string& host, int port, std::chrono::milliseconds timeout = std::chrono::seconds(60));
+  /// Connects to host:port; `timeout` bounds the connect, the TLS handshake and every later read or write (one that
+  /// does not complete in time closes the connection and throws ConnectionError saying so). With `tls.enabled`, the
+  /// server's certificate must be signed by a trusted CA (tls.caFile, else the system's) and name `host` (a DNS name
+  /// or an IP address), unless tls.insecure. Throws ConnectionError naming the problem (an untrusted certificate, a
+  /// name it does not carry, a server that speaks no TLS).
+  Client(const std::string& host, int port, std::chrono::milliseconds timeout = std::chrono::seconds(60),
+         const TlsOptions& tls = {});
   ~Client();
   Client(const Client&) = delete;
   Client& operator=(const Client&) = delete;
@@ -45,8 +59,15 @@ class Client {
   /// from then on (version()).
   proto::Capabilities hello(const std::string& clientName = "voxbrick-client 0.1",
                             uint16_t maxVersion = proto::kMaxVersion);
+  /// Whether the session travels over TLS; and if so its version and cipher ("TLSv1.3 TLS_AES_128_GCM_SHA256").
+  bool tls() const;
+  std::string tlsDescription() const;
   /// The session's protocol version: what Capabilities said, kVersion before Hello.
   uint16_t version() const { return mVersion; }
+  /// Version 5 on: presents the access token `token` (Authenticate), which decides the datasets the session may list
+  /// and open; returns the token's id. Call it after hello() and before openDataset(). Throws ServerError Forbidden
+  /// for a wrong token (the server then closes), std::invalid_argument when the session's version is older.
+  std::string authenticate(const std::string& token);
   std::vector<std::string> listDatasets();
   proto::DatasetInfo openDataset(const std::string& name);
   /// One frame of the open dataset: the exact one. For a progressive scene the server may send a provisional Frame

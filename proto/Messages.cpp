@@ -21,8 +21,9 @@ static_assert(kAt<MessageType::Hello, Hello> && kAt<MessageType::Capabilities, C
               kAt<MessageType::Render, RenderRequest> && kAt<MessageType::Frame, Frame> &&
               kAt<MessageType::Error, Error> && kAt<MessageType::GetStats, GetStats> &&
               kAt<MessageType::Stats, Stats> && kAt<MessageType::Goodbye, Goodbye> &&
-              kAt<MessageType::FrameReceived, FrameReceived> &&
-              std::variant_size_v<Message> == size_t(MessageType::FrameReceived));
+              kAt<MessageType::FrameReceived, FrameReceived> && kAt<MessageType::Authenticate, Authenticate> &&
+              kAt<MessageType::Authenticated, Authenticated> &&
+              std::variant_size_v<Message> == size_t(MessageType::Authenticated));
 
 bool known(Encoding e, uint16_t version) { return encodingInVersion(e, version); }
 bool known(ErrorCode e, uint16_t version) { return errorCodeInVersion(e, version); }
@@ -280,6 +281,16 @@ void fields(Io& io, M& m) {
   io.number({"frame_bytes"}, m.frameBytes);
 }
 
+template <class Io, Is<Authenticate> M>
+void fields(Io& io, M& m) {
+  io.string({"token"}, m.token);
+}
+
+template <class Io, Is<Authenticated> M>
+void fields(Io& io, M& m) {
+  io.string({"token_id"}, m.tokenId);
+}
+
 template <size_t I = 0>
 Message decodeAs(const Header& header, std::span<const uint8_t> body, const Limits& limits) {
   if constexpr (I == std::variant_size_v<Message>) {
@@ -332,11 +343,13 @@ size_t invalidUtf8At(const uint8_t* p, size_t size) {
 
 bool messageTypeInVersion(MessageType type, uint16_t version) {
   if (type == MessageType::FrameReceived) return version >= 4;
+  if (type == MessageType::Authenticate || type == MessageType::Authenticated) return version >= 5;
   return type >= MessageType::Hello && type <= MessageType::Goodbye;
 }
 
 bool errorCodeInVersion(ErrorCode code, uint16_t version) {
   if (code == ErrorCode::Busy) return version >= 3;
+  if (code == ErrorCode::Forbidden) return version >= 5;
   return code >= ErrorCode::BadMagic && code <= ErrorCode::Timeout;
 }
 
@@ -380,6 +393,7 @@ const char* errorCodeName(ErrorCode code) {
     case ErrorCode::ShuttingDown: return "ShuttingDown";
     case ErrorCode::Timeout: return "Timeout";
     case ErrorCode::Busy: return "Busy";
+    case ErrorCode::Forbidden: return "Forbidden";
   }
   return "unknown";
 }
@@ -399,6 +413,8 @@ const char* messageTypeName(MessageType type) {
     case MessageType::Stats: return "Stats";
     case MessageType::Goodbye: return "Goodbye";
     case MessageType::FrameReceived: return "FrameReceived";
+    case MessageType::Authenticate: return "Authenticate";
+    case MessageType::Authenticated: return "Authenticated";
   }
   return "unknown";
 }

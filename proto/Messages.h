@@ -19,9 +19,10 @@ namespace voxbrick::proto {
 constexpr uint32_t kMagic = 0x4B425856;  // read as a little-endian uint32
 /// The versions this code speaks (PROTOCOL.md section 9): version 2 is version 1 plus the jpeg encoding; version 3
 /// is version 2 plus the error code Busy; version 4 is version 3 plus the video encodings (vp8, vp9) and the message
-/// FrameReceived.
+/// FrameReceived; version 5 is version 4 plus the messages Authenticate and Authenticated and the error code
+/// Forbidden (an access token presented on any transport).
 constexpr uint16_t kMinVersion = 1;
-constexpr uint16_t kMaxVersion = 4;
+constexpr uint16_t kMaxVersion = 5;
 /// Version 1, which every peer speaks: what encode() and Header write unless told otherwise, and the version a
 /// Hello is written in by a client whose lowest version is 1.
 constexpr uint16_t kVersion = kMinVersion;
@@ -45,8 +46,14 @@ enum class MessageType : uint16_t {
   /// Version 4 on, client -> server: a Frame has arrived (one per Frame, in order; nothing answers it). The server
   /// paces a session's frames and sets its video bitrate by them.
   FrameReceived = 13,
+  /// Version 5 on, client -> server: the session's access token, after Hello and before OpenDataset; answered by
+  /// Authenticated, or by Error Forbidden (and the server closes).
+  Authenticate = 14,
+  /// Version 5 on, server -> client: the token was taken; the session may now list and open its datasets.
+  Authenticated = 15,
 };
-/// Whether message `type` exists in protocol `version` (FrameReceived from version 4 on).
+/// Whether message `type` exists in protocol `version` (FrameReceived from version 4 on, Authenticate and
+/// Authenticated from version 5 on).
 bool messageTypeInVersion(MessageType type, uint16_t version);
 
 /// Error codes carried by an Error message. Values are stable across versions.
@@ -67,8 +74,10 @@ enum class ErrorCode : uint16_t {
   /// Version 3 on: the server is over capacity for this request or session; the message ends with "; retry after N
   /// ms" (busyMessage, retryAfterMs). An older session gets LimitExceeded with the same message.
   Busy = 14,
+  /// Version 5 on: an access token that opens nothing (Authenticate); the server closes.
+  Forbidden = 15,
 };
-/// Whether `code` exists in protocol `version` (Busy from version 3 on).
+/// Whether `code` exists in protocol `version` (Busy from version 3 on, Forbidden from version 5 on).
 bool errorCodeInVersion(ErrorCode code, uint16_t version);
 /// The message of a Busy reply: `what`, then "; retry after N ms" (N = `retryAfterMs`, at least 1).
 std::string busyMessage(std::string_view what, uint32_t retryAfterMs);
@@ -176,8 +185,19 @@ struct FrameReceived {
   bool operator==(const FrameReceived&) const = default;
 };
 
+struct Authenticate {
+  std::string token;  ///< the secret, as the server's operator handed it out
+
+  bool operator==(const Authenticate&) const = default;
+};
+struct Authenticated {
+  std::string tokenId;  ///< the token's name in the server's configuration (never its secret)
+
+  bool operator==(const Authenticated&) const = default;
+};
+
 using Message = std::variant<Hello, Capabilities, ListDatasets, DatasetList, OpenDataset, DatasetInfo, RenderRequest,
-                             Frame, Error, GetStats, Stats, Goodbye, FrameReceived>;
+                             Frame, Error, GetStats, Stats, Goodbye, FrameReceived, Authenticate, Authenticated>;
 MessageType messageType(const Message& message);
 /// The type's name as PROTOCOL.md spells it ("Hello", "Render", ...), or "unknown" for a value outside the enum.
 const char* messageTypeName(MessageType type);

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The folder rules that include paths cannot enforce (tests/CMakeLists.txt probes the rest with the compiler):
 # system GL/EGL/OSMesa headers and GL calls only in render/gl/ (the folder alone decides: no build file is read),
-# Asio only in server/, client/ and cli/, OpenVDB only in brickstore/'s vdb, ingest/vdb, prep and read folders, GDCM
-# only in brickstore/ingest/dicom/, libtiff only in brickstore/ingest/tiff/ (tests may use them to write files) and
-# libcurl only in brickstore/ingest/dicomweb/,
+# Asio and OpenSSL only in server/, client/ and cli/, OpenVDB only in brickstore/'s vdb, ingest/vdb, prep and read
+# folders, GDCM only in brickstore/ingest/dicom/, libtiff only in brickstore/ingest/tiff/ (tests may use them to write
+# files) and libcurl only in brickstore/ingest/dicomweb/,
 # MPI only in distributed/, cli/, bench/ and tests, nothing of bench/ (tools only, no library) included from outside
 # it, and no include that climbs out of the folders by a relative path.
 # Prints every violation as FILE:LINE: text and exits 1 if there is any. Run from the repository root.
@@ -47,6 +47,7 @@ forbid "GL, EGL or OSMesa headers outside render/gl/" '#include <(GL|EGL|KHR)/' 
 forbid "GL, EGL or OSMesa calls outside render/gl/" '\b(gl|egl)[A-Z][A-Za-z0-9]*\s*\(|\bOSMesa[A-Z][A-Za-z]*\s*\(' \
   "${notGl[@]}"
 forbid "Asio outside server/, client/, cli/ and the benchmarks' link relay" '#include <boost/asio' "${notAsio[@]}"
+forbid "OpenSSL outside server/, client/ and cli/" '#include <openssl/' "${notAsio[@]}"
 forbid "OpenVDB outside brickstore/vdb/, ingest/vdb/, prep/ and read/" '#include <(openvdb|nanovdb)/' "${notVdb[@]}"
 forbid "GDCM outside brickstore/ingest/dicom/" '#include <gdcm[A-Za-z0-9]*\.h>' "${notGdcm[@]}"
 forbid "libtiff outside brickstore/ingest/tiff/" '#include <tiff[a-z]*\.h>' "${notTiff[@]}"

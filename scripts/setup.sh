@@ -11,6 +11,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libtomlplusplus-dev libpng-dev libjpeg62-turbo-dev
   libvpx-dev libyuv-dev
+  libssl-dev openssl
   libgdcm-dev libtiff-dev zstd libcurl4-openssl-dev
   mricron-data
   python3 python3-numpy python3-zarr python3-numcodecs python3-pydicom

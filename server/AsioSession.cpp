@@ -14,8 +14,8 @@ std::chrono::milliseconds milliseconds(double seconds) { return std::chrono::mil
 }  // namespace
 
 AsioSession::AsioSession(const boost::asio::any_io_executor& executor, const SessionServices& services, ConnectionId id,
-                         std::string peer)
-    : mCore(*this, services, id, std::move(peer)),
+                         std::string peer, std::string kind)
+    : mCore(*this, services, id, std::move(peer), std::move(kind)),
       mStats(services.stats),
       mExecutor(executor),
       mHelloTimer(executor),

@@ -41,8 +41,9 @@ class AsioSession : public Session,
   std::shared_ptr<RenderScheduler::Sink> renderSink() override { return shared_from_this(); }
 
  protected:
+  /// `kind` is the transport's name in the audit trail ("tcp", "tls", "ws", "wss").
   AsioSession(const boost::asio::any_io_executor& executor, const SessionServices& services, ConnectionId id,
-              std::string peer);
+              std::string peer, std::string kind);
 
   /// A completion handler that runs `step(*self, args...)` on this session, keeping it alive, and closes the
   /// connection instead of letting an exception out of Asio. `self` is `this` as the derived transport.

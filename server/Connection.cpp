@@ -43,8 +43,22 @@ std::string describeError(const Outcome& outcome) {
 
 }  // namespace
 
-Connection::Connection(Transport& transport, const SessionServices& services, ConnectionId id, std::string peer)
-    : mTransport(transport), mServices(services), mId(id), mPeer(std::move(peer)) {}
+Connection::Connection(Transport& transport, const SessionServices& services, ConnectionId id, std::string peer,
+                       std::string kind)
+    : mTransport(transport), mServices(services), mId(id), mPeer(std::move(peer)) {
+  if (services.tokens) mState.access = services.tokens->anonymous();
+  mState.client = mPeer.substr(0, mPeer.find(' '));
+  mState.transport = std::move(kind);
+}
+
+void Connection::audit(const std::string& event, const std::string& reason) const {
+  if (mServices.audit) mServices.audit->record(auditEvent(mState, event, {}, reason));
+}
+
+void Connection::presented(std::shared_ptr<const TokenGrant> grant) {
+  mState.access = std::move(grant);
+  mState.authenticated = true;
+}
 
 Connection::~Connection() {
   // The buffers are freed here, not in close(): an aborted write may still refer to them until it reported.
@@ -302,9 +316,10 @@ void Connection::bodyReceived(std::span<const uint8_t> body) {
     outcome = MessageHandler::failed(std::current_exception(), mHeader.requestId);
     spdlog::debug("{}: {}", mPeer, describeError(outcome));
   }
-  const bool wasGreeted = mState.greeted;
+  const bool wasGreeted = mState.greeted, wasAuthenticated = mState.authenticated;
   if (message) outcome = mServices.handler.handle(mState, *message, mHeader.requestId);
   if (!wasGreeted && mState.greeted) admit(outcome);
+  if (!wasAuthenticated && mState.authenticated) authenticated(outcome);
   apply(std::move(outcome));
   // A report the handler accepted (no Error in reply) is the link's news.
   if (message && std::holds_alternative<proto::FrameReceived>(*message) && mState.greeted && outcome.replies.empty())
@@ -315,13 +330,30 @@ void Connection::bodyReceived(std::span<const uint8_t> body) {
 void Connection::admit(Outcome& outcome) {
   mTransport.cancel(Deadline::Hello);
   std::optional<proto::Error> refusal = mServices.greeted(mId);
-  if (!refusal) return;
+  if (!refusal) return audit("session");
+  audit("refused", "at Hello: " + refusal->message);
   // Sessions filled up while this connection waited for its Hello (or it was evicted), its quota is full, or the
   // render threads are over capacity: refused as on connect, with the reason (counted by `greeted`).
   spdlog::info("{}: refused at Hello: {}", mPeer, refusal->message);
   outcome = Outcome{};
   outcome.replies.push_back({std::move(*refusal), 0});
   outcome.close = true;
+}
+
+void Connection::authenticated(Outcome& outcome) {
+  const std::optional<std::string> refusal =
+      mServices.authenticated ? mServices.authenticated(mId, *mState.access) : std::nullopt;
+  if (!refusal) {
+    spdlog::debug("{}: token '{}' presented", mPeer, mState.access->id);
+    return audit("token");
+  }
+  spdlog::info("{}: token '{}' refused: {}", mPeer, mState.access->id, *refusal);
+  audit("refused", "token '" + mState.access->id + "': " + *refusal);
+  mState.access = mServices.tokens ? mServices.tokens->anonymous() : nullptr;
+  mState.authenticated = false;
+  const uint32_t requestId = outcome.replies.empty() ? 0 : outcome.replies.front().requestId;
+  outcome = Outcome{};
+  outcome.replies.push_back({errorMessage(proto::ErrorCode::LimitExceeded, *refusal), requestId});
 }
 
 void Connection::apply(Outcome outcome) {

@@ -49,14 +49,23 @@ struct SessionServices {
   /// Runs a task on the server's encoder threads (video frames are encoded there; Transport::runAside). Empty: on
   /// the calling thread.
   std::function<void(std::function<void()>)> aside;
+  /// The access tokens: a session starts with their anonymous grant. Null: every session sees every dataset.
+  std::shared_ptr<const AccessTokens> tokens;
+  /// Called when a session presented a token with Authenticate: none when its quotas have room, else why not
+  /// (LimitExceeded; the session goes on without it).
+  std::function<std::optional<std::string>(ConnectionId, const TokenGrant&)> authenticated;
+  /// The audit trail: sessions opened, tokens presented and refusals (null: none).
+  AuditLog* audit = nullptr;
 };
 
 /// One client connection's state machine. Not thread-safe: every call but alive() is made on the connection's
 /// serial context (a strand), the Transport's reports included.
 class Connection {
  public:
-  /// `transport` carries the connection's bytes and outlives it; `peer` names the client in logs.
-  Connection(Transport& transport, const SessionServices& services, ConnectionId id, std::string peer);
+  /// `transport` carries the connection's bytes and outlives it; `peer` names the client in logs (its address:port,
+  /// then anything after a space); `kind` is the transport's name in the audit trail ("tcp", "tls", "ws", "wss").
+  Connection(Transport& transport, const SessionServices& services, ConnectionId id, std::string peer,
+             std::string kind = "tcp");
   /// Gives freed reply buffers back to the system when its queue was large (see the .cpp).
   ~Connection();
   Connection(const Connection&) = delete;
@@ -64,6 +73,9 @@ class Connection {
 
   /// Starts the Hello deadline and reading messages.
   void start();
+  /// The client presented `grant`'s token before its session started (a browser's, at the WebSocket upgrade): what
+  /// it may see from its Hello on.
+  void presented(std::shared_ptr<const TokenGrant> grant);
   /// Sends `error` with request id 0, then closes once the replies queued before it are written (a refused
   /// connection, the server stopping).
   void end(proto::Error error);
@@ -96,6 +108,8 @@ class Connection {
   void rendered(const RenderJob& job, proto::Message reply);
   /// Closes at once, dropping what is queued (also after an unexpected failure). Idempotent.
   void close();
+  /// Records `event` for this connection in the audit trail (if there is one).
+  void audit(const std::string& event, const std::string& reason = {}) const;
 
   /// False once the connection is ending: its waiting renders are dropped unrendered. Safe from any thread.
   bool alive() const { return mAlive; }
@@ -121,6 +135,9 @@ class Connection {
   void refuseStream(const std::exception_ptr& error);
   /// The connection's Hello was accepted: it becomes a session, or `outcome` is made its refusal.
   void admit(Outcome& outcome);
+  /// The session's token was taken (Authenticate): counted against its quotas, or `outcome` is made the refusal and
+  /// the session goes on without it.
+  void authenticated(Outcome& outcome);
   /// Whether a render thread's `reply` to `job` is to be answered, turned into LimitExceeded past the server's
   /// output budget.
   bool withinOutputBudget(const RenderJob& job, proto::Message& reply);

@@ -22,12 +22,12 @@ DatasetRegistry::DatasetRegistry(std::filesystem::path directory, size_t cacheBy
                                  std::function<void(const std::string&)> check)
     : mDirectory(std::move(directory)), mCacheBytes(cacheBytes), mCheck(std::move(check)) {}
 
-std::vector<std::string> DatasetRegistry::names() const {
+std::vector<std::string> DatasetRegistry::names(const Visible& visible) const {
   std::vector<std::string> out;
   std::error_code ec;
   for (const auto& entry : std::filesystem::directory_iterator(mDirectory, ec)) {
     const std::string name = entry.path().filename().string();
-    if (validName(name) && render::isDataset(entry.path())) out.push_back(name);
+    if (validName(name) && (!visible || visible(name)) && render::isDataset(entry.path())) out.push_back(name);
   }
   std::sort(out.begin(), out.end());
   return out;
@@ -44,17 +44,19 @@ std::string datasetIdentity(const std::filesystem::path& path) {
   return out;
 }
 
-std::shared_ptr<const render::Dataset> DatasetRegistry::open(const std::string& name) {
+std::shared_ptr<const render::Dataset> DatasetRegistry::open(const std::string& name, const Visible& visible) {
   std::lock_guard lock(mMutex);
-  // The name is checked before it touches a path: "..", "/etc" and the like must never reach the file system.
-  if (!validName(name)) throw DatasetNotFound(common::unknownName("dataset", name, names()));
+  // The name is checked before it touches a path: "..", "/etc" and the like must never reach the file system. A
+  // dataset the session may not see is refused before its files are looked at, in the words of a missing one.
+  if (!validName(name) || (visible && !visible(name)))
+    throw DatasetNotFound(common::unknownName("dataset", name, names(visible)));
   const std::filesystem::path path = mDirectory / name;
   const std::string identity = datasetIdentity(path);
   if (auto it = mOpen.find(name); it != mOpen.end()) {
     if (it->second.identity == identity) return it->second.dataset;
     mOpen.erase(it);  // replaced on disk (or gone): sessions holding the old one keep it until they open again
   }
-  if (!render::isDataset(path)) throw DatasetNotFound(common::unknownName("dataset", name, names()));
+  if (!render::isDataset(path)) throw DatasetNotFound(common::unknownName("dataset", name, names(visible)));
   // One host budget for the server: the datasets open share it equally, so one more shrinks the others' caches.
   const size_t share = mCacheBytes / (mOpen.size() + 1);
   auto dataset = render::openDataset(name, path, share);

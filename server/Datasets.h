@@ -27,13 +27,19 @@ class DatasetRegistry {
   DatasetRegistry(std::filesystem::path directory, size_t cacheBytes,
                   std::function<void(const std::string&)> check = {});
 
-  /// The datasets present now, sorted (the directory is scanned on every call, so datasets added later appear).
-  std::vector<std::string> names() const;
+  /// Which names a session may see (its access token's datasets); empty: every one.
+  using Visible = std::function<bool(const std::string&)>;
+
+  /// The datasets present now that `visible` lets through, sorted (the directory is scanned on every call, so
+  /// datasets added later appear).
+  std::vector<std::string> names(const Visible& visible = {}) const;
   /// Opens `name`, or returns it if already open and its files on disk are the ones it was opened from (their
   /// identity: device, inode, size and modification time); a dataset replaced on disk (e.g. by `prep --force`) is
   /// opened again, and the new one is not quarantined. Throws DatasetNotFound for a name that is not a dataset of
-  /// the directory, and the dataset's own errors (CorruptStoreError, IoError) for one that cannot be opened.
-  std::shared_ptr<const render::Dataset> open(const std::string& name);
+  /// the directory, or one `visible` does not let through, with the same text for both (the names it suggests are
+  /// visible ones): a session learns nothing of datasets it may not see. Throws the dataset's own errors
+  /// (CorruptStoreError, IoError) for one that cannot be opened.
+  std::shared_ptr<const render::Dataset> open(const std::string& name, const Visible& visible = {});
   /// The datasets opened so far, by name.
   std::vector<std::shared_ptr<const render::Dataset>> opened() const;
 

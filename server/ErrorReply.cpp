@@ -108,7 +108,8 @@ bool closesSession(proto::ErrorCode code) {
     case ErrorCode::UnsupportedVersion:
     case ErrorCode::TooLarge:
     case ErrorCode::Timeout:
-    case ErrorCode::ShuttingDown: return true;
+    case ErrorCode::ShuttingDown:
+    case ErrorCode::Forbidden: return true;
     default: return false;
   }
 }

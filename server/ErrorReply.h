@@ -30,7 +30,7 @@ proto::Error errorMessage(proto::ErrorCode code, const std::string& message);
 proto::Error errorReply(const std::exception_ptr& error, const std::string& context = "internal error");
 
 /// Whether a session ends after sending an Error with `code` (PROTOCOL.md: BadMagic, UnsupportedVersion, TooLarge,
-/// Timeout and ShuttingDown close; the others leave the session open).
+/// Timeout, ShuttingDown and Forbidden close; the others leave the session open).
 bool closesSession(proto::ErrorCode code);
 
 }  // namespace voxbrick::server

@@ -33,6 +33,12 @@ std::string failureContext(const proto::Message& message) {
   return std::string(proto::messageTypeName(proto::messageType(message))) + " failed";
 }
 
+/// Which dataset names a session in `state` may see (none: every one).
+DatasetRegistry::Visible visibleTo(const ConnectionState& state) {
+  if (!state.access) return {};
+  return [access = state.access](const std::string& name) { return access->mayOpen(name); };
+}
+
 /// The first protocol version that has `encoding`.
 uint16_t firstVersionOf(proto::Encoding encoding) {
   uint16_t version = proto::kMinVersion;
@@ -76,8 +82,26 @@ void checkEncodings(RenderJob& job, uint16_t version) {
 
 MessageHandler::MessageHandler(const ServerConfig& config, DatasetRegistry& datasets,
                                const render::TransferFunctionPresets& presets, ServerStats& stats,
-                               std::function<nlohmann::json()> statsJson)
-    : mConfig(config), mDatasets(datasets), mPresets(presets), mStats(stats), mStatsJson(std::move(statsJson)) {}
+                               std::function<nlohmann::json()> statsJson, std::shared_ptr<const AccessTokens> tokens,
+                               AuditLog* audit)
+    : mConfig(config),
+      mDatasets(datasets),
+      mPresets(presets),
+      mStats(stats),
+      mStatsJson(std::move(statsJson)),
+      mTokens(std::move(tokens)),
+      mAudit(audit) {}
+
+AuditEvent auditEvent(const ConnectionState& state, std::string event, std::string dataset, std::string reason) {
+  AuditEvent e;
+  e.event = std::move(event);
+  e.client = state.client;
+  e.transport = state.transport;
+  e.token = state.authenticated && state.access ? state.access->id : "";
+  e.dataset = std::move(dataset);
+  e.reason = std::move(reason);
+  return e;
+}
 
 Outcome MessageHandler::handle(ConnectionState& state, const proto::Message& message, uint32_t requestId) {
   try {
@@ -104,13 +128,15 @@ Outcome MessageHandler::dispatch(ConnectionState& state, const proto::Message& m
       [&](const auto& m) -> Outcome {
         using M = std::decay_t<decltype(m)>;
         if constexpr (std::is_same_v<M, proto::ListDatasets>) {
-          return replyWith(proto::DatasetList{mDatasets.names()}, requestId);
+          return replyWith(proto::DatasetList{mDatasets.names(visibleTo(state))}, requestId);
         } else if constexpr (std::is_same_v<M, proto::OpenDataset>) {
           return openDataset(state, m, requestId);
         } else if constexpr (std::is_same_v<M, proto::RenderRequest>) {
           return render(state, m, requestId);
         } else if constexpr (std::is_same_v<M, proto::GetStats>) {
-          return replyWith(proto::Stats{mStatsJson().dump(2)}, requestId);
+          return replyWith(proto::Stats{statsFor(state).dump(2)}, requestId);
+        } else if constexpr (std::is_same_v<M, proto::Authenticate>) {
+          return authenticate(state, m, requestId);
         } else if constexpr (std::is_same_v<M, proto::FrameReceived>) {
           // Read by the Connection (its link's pace); nothing answers it. A session of an older version has no such
           // message, whatever version the header said.
@@ -150,10 +176,56 @@ Outcome MessageHandler::hello(ConnectionState& state, const proto::Hello& hello,
 }
 
 Outcome MessageHandler::openDataset(ConnectionState& state, const proto::OpenDataset& open, uint32_t requestId) {
-  std::shared_ptr<const render::Dataset> dataset = mDatasets.open(open.name);
+  std::shared_ptr<const render::Dataset> dataset;
+  try {
+    dataset = mDatasets.open(open.name, visibleTo(state));
+  } catch (const DatasetNotFound&) {
+    // The client hears the same for both; the trail says which it was.
+    if (mAudit)
+      mAudit->record(auditEvent(state, "refused", open.name,
+                                state.access && !state.access->mayOpen(open.name)
+                                    ? "not among the datasets of the session's token"
+                                    : "no such dataset"));
+    throw;
+  }
+  if (mAudit) mAudit->record(auditEvent(state, "dataset", dataset->name()));
   state.dataset = dataset;
   state.lastCamera.reset();
   return replyWith(proto::DatasetInfo{dataset->name(), dataset->infoJson()}, requestId);
+}
+
+Outcome MessageHandler::authenticate(ConnectionState& state, const proto::Authenticate& message, uint32_t requestId) {
+  // Authenticate exists from version 5 on: an older session has no such message, whatever version its header said.
+  if (!proto::messageTypeInVersion(proto::MessageType::Authenticate, state.version))
+    throw proto::ProtocolError(ErrorCode::UnknownType,
+                               "Authenticate is not known in protocol version " + std::to_string(state.version));
+  if (state.authenticated)
+    throw proto::ProtocolError(ErrorCode::UnexpectedMessage, "this session presented its access token already");
+  if (state.dataset)
+    throw proto::ProtocolError(ErrorCode::UnexpectedMessage,
+                               "Authenticate comes before OpenDataset: the token decides what the session may open");
+  std::shared_ptr<const TokenGrant> grant = mTokens ? mTokens->match(message.token) : nullptr;
+  if (!grant) {
+    mStats.refused(Refusal::Forbidden);
+    if (mAudit) mAudit->record(auditEvent(state, "refused", "", "wrong access token"));
+    // Never the token itself: it goes nowhere, the log included.
+    throw proto::ProtocolError(ErrorCode::Forbidden, mTokens && mTokens->configured()
+                                                         ? "wrong access token"
+                                                         : "wrong access token: this server has no access tokens");
+  }
+  state.access = grant;
+  state.authenticated = true;
+  return replyWith(proto::Authenticated{grant->id}, requestId);
+}
+
+nlohmann::json MessageHandler::statsFor(const ConnectionState& state) const {
+  nlohmann::json stats = mStatsJson();
+  if (!state.access || state.access->everything() || !stats.contains("datasets")) return stats;
+  nlohmann::json visible = nlohmann::json::array();
+  for (const nlohmann::json& dataset : stats["datasets"])
+    if (dataset.is_object() && state.access->mayOpen(dataset.value("name", std::string()))) visible.push_back(dataset);
+  stats["datasets"] = std::move(visible);
+  return stats;
 }
 
 Outcome MessageHandler::render(ConnectionState& state, const proto::RenderRequest& request, uint32_t requestId) {

@@ -16,6 +16,8 @@
 #include "render/core/Dataset.h"
 #include "render/core/TransferFunctionPresets.h"
 #include "render/engine/Datasets.h"
+#include "server/AccessTokens.h"
+#include "server/AuditLog.h"
 #include "server/Datasets.h"
 #include "server/RenderJob.h"
 #include "server/ServerConfig.h"
@@ -31,10 +33,20 @@ struct ConnectionState {
   std::shared_ptr<const render::Dataset> dataset;  ///< the open one; null before OpenDataset
   int outstandingRenders = 0;                      ///< renders queued or drawing, not answered yet
   std::optional<render::CameraSpec> lastCamera;    ///< of the last Render of the open dataset (paging ahead)
+  /// What the session may list and open: its token's grant, or the anonymous one (AccessTokens::anonymous) until it
+  /// presents one; null: every dataset (a handler without tokens).
+  std::shared_ptr<const TokenGrant> access;
+  bool authenticated = false;  ///< a token was presented (at the WebSocket upgrade, or with Authenticate)
+  std::string client;           ///< the client's address:port (the audit trail)
+  std::string transport = "tcp";  ///< "tcp", "tls", "ws" or "wss" (the audit trail)
 
   /// Whether the client is waiting for a frame (so a silent client is not idle).
   bool awaitingFrames() const { return outstandingRenders > 0; }
 };
+
+/// The audit trail's line `event` for the session in `state`: its client, transport and token's id.
+AuditEvent auditEvent(const ConnectionState& state, std::string event, std::string dataset = {},
+                      std::string reason = {});
 
 /// A message to send and the request id its header carries.
 struct Reply {
@@ -52,9 +64,12 @@ struct Outcome {
 
 class MessageHandler {
  public:
-  /// `statsJson` gives the server's statistics for a Stats reply. Thread-safe: shared by every session.
+  /// `statsJson` gives the server's statistics for a Stats reply; `tokens` are the access tokens Authenticate is
+  /// checked against (null: none is configured); `audit` gets a line for each dataset opened or refused and each
+  /// token refused (null: none). Thread-safe: shared by every session.
   MessageHandler(const ServerConfig& config, DatasetRegistry& datasets, const render::TransferFunctionPresets& presets,
-                 ServerStats& stats, std::function<nlohmann::json()> statsJson);
+                 ServerStats& stats, std::function<nlohmann::json()> statsJson,
+                 std::shared_ptr<const AccessTokens> tokens = nullptr, AuditLog* audit = nullptr);
 
   /// The answer to `message` (request `requestId`) in `state`, which it updates. Throws nothing but std::bad_alloc:
   /// every failure is an Error reply (see errorReply).
@@ -76,6 +91,9 @@ class MessageHandler {
   Outcome dispatch(ConnectionState& state, const proto::Message& message, uint32_t requestId);
   Outcome hello(ConnectionState& state, const proto::Hello& hello, uint32_t requestId);
   Outcome openDataset(ConnectionState& state, const proto::OpenDataset& open, uint32_t requestId);
+  Outcome authenticate(ConnectionState& state, const proto::Authenticate& message, uint32_t requestId);
+  /// The server's statistics as the session may see them: only its datasets unless it may see every one.
+  nlohmann::json statsFor(const ConnectionState& state) const;
   Outcome render(ConnectionState& state, const proto::RenderRequest& request, uint32_t requestId);
 
   const ServerConfig mConfig;
@@ -83,6 +101,8 @@ class MessageHandler {
   const render::TransferFunctionPresets& mPresets;
   ServerStats& mStats;
   const std::function<nlohmann::json()> mStatsJson;
+  const std::shared_ptr<const AccessTokens> mTokens;
+  AuditLog* const mAudit;
 };
 
 }  // namespace voxbrick::server

@@ -16,20 +16,38 @@ std::string rateText(double rate) {
 
 }  // namespace
 
+std::optional<std::string> Quotas::countToken(Entry& entry, const TokenGrant& token) {
+  const int sessions = token.sessions.value_or(mConfig.sessionsPerToken);
+  if (sessions > 0 && mTokens[token.id].sessions >= size_t(sessions))
+    return "quota: token '" + token.id + "' holds " + std::to_string(mTokens[token.id].sessions) + " sessions (" +
+           (token.sessions ? "its sessions" : "quotas.sessions_per_token") + " = " + std::to_string(sessions) + ")";
+  entry.token = token.id;
+  entry.tokenSessions = sessions;
+  entry.tokenFrames = token.framesPerSecond.value_or(mConfig.framesPerSecondPerToken);
+  ++mTokens[token.id].sessions;
+  return std::nullopt;
+}
+
 std::optional<std::string> Quotas::admit(ConnectionId id, const std::string& address, bool loopback,
-                                          const std::string& token) {
+                                         const TokenGrant* token) {
   if (loopback && mConfig.loopbackExempt) return std::nullopt;
   std::lock_guard lock(mMutex);
   if (mConfig.sessionsPerAddress > 0 && mAddresses[address].sessions >= size_t(mConfig.sessionsPerAddress))
     return "quota: address " + address + " holds " + std::to_string(mAddresses[address].sessions) +
            " sessions (quotas.sessions_per_address = " + std::to_string(mConfig.sessionsPerAddress) + ")";
-  if (!token.empty() && mConfig.sessionsPerToken > 0 && mTokens[token].sessions >= size_t(mConfig.sessionsPerToken))
-    return "quota: this access token holds " + std::to_string(mTokens[token].sessions) +
-           " sessions (quotas.sessions_per_token = " + std::to_string(mConfig.sessionsPerToken) + ")";
+  Entry entry{address, "", 0, 0};
+  if (token && !token->anonymous())
+    if (auto refusal = countToken(entry, *token)) return refusal;
   ++mAddresses[address].sessions;
-  if (!token.empty()) ++mTokens[token].sessions;
-  mSessions[id] = Entry{address, token};
+  mSessions[id] = std::move(entry);
   return std::nullopt;
+}
+
+std::optional<std::string> Quotas::attachToken(ConnectionId id, const TokenGrant& token) {
+  std::lock_guard lock(mMutex);
+  const auto it = mSessions.find(id);
+  if (it == mSessions.end() || token.anonymous() || !it->second.token.empty()) return std::nullopt;
+  return countToken(it->second, token);
 }
 
 void Quotas::remove(ConnectionId id) {
@@ -64,20 +82,17 @@ std::optional<Quotas::Refusal> Quotas::takeFrame(ConnectionId id, Clock::time_po
   const auto it = mSessions.find(id);
   if (it == mSessions.end()) return std::nullopt;
   Bucket* address = mConfig.framesPerSecondPerAddress > 0 ? &mAddresses[it->second.address].bucket : nullptr;
-  Bucket* token = mConfig.framesPerSecondPerToken > 0 && !it->second.token.empty()
-                      ? &mTokens[it->second.token].bucket
-                      : nullptr;
+  Bucket* token = it->second.tokenFrames > 0 && !it->second.token.empty() ? &mTokens[it->second.token].bucket : nullptr;
   const double addressWait = address ? refill(*address, mConfig.framesPerSecondPerAddress, now) : 0;
-  const double tokenWait = token ? refill(*token, mConfig.framesPerSecondPerToken, now) : 0;
+  const double tokenWait = token ? refill(*token, it->second.tokenFrames, now) : 0;
   if (addressWait > 0 || tokenWait > 0) {
     Refusal refusal;
     refusal.retryAfterMs = uint32_t(std::ceil(std::max(addressWait, tokenWait)));
-    refusal.why = addressWait >= tokenWait
-                      ? "quota: address " + it->second.address + " may send " +
-                            rateText(mConfig.framesPerSecondPerAddress) + " Renders a second " +
-                            "(quotas.frames_per_s_per_address)"
-                      : "quota: this access token may send " + rateText(mConfig.framesPerSecondPerToken) +
-                            " Renders a second (quotas.frames_per_s_per_token)";
+    refusal.why = addressWait >= tokenWait ? "quota: address " + it->second.address + " may send " +
+                                                 rateText(mConfig.framesPerSecondPerAddress) + " Renders a second " +
+                                                 "(quotas.frames_per_s_per_address)"
+                                           : "quota: token '" + it->second.token + "' may send " +
+                                                 rateText(it->second.tokenFrames) + " Renders a second";
     return refusal;
   }
   if (address) address->frames -= 1;

@@ -1,5 +1,6 @@
-// Per-address and per-token quotas ([quotas] in server.toml): how many sessions one client address or one access
-// token may hold, and how many Renders a second they may send. No sockets; thread-safe.
+// Per-address and per-token quotas ([quotas] in server.toml, and a token's own in [[tokens]]): how many sessions one
+// client address or one access token may hold, and how many Renders a second they may send. Tokens are counted by
+// their id, never their secret. No sockets; thread-safe.
 #pragma once
 
 #include <chrono>
@@ -9,6 +10,7 @@
 #include <optional>
 #include <string>
 
+#include "server/AccessTokens.h"
 #include "server/Admission.h"
 #include "server/ServerConfig.h"
 
@@ -19,10 +21,14 @@ class Quotas {
   using Clock = std::chrono::steady_clock;
   explicit Quotas(const QuotaConfig& config) : mConfig(config) {}
 
-  /// Session `id` of `address` (loopback or not) with access token `token` (empty: none) was greeted: none when it
-  /// may become a session (it is then counted), else why not ("quota: ..."). Each id once.
+  /// Session `id` of `address` (loopback or not) with access token `token` (null or anonymous: none) was greeted:
+  /// none when it may become a session (it is then counted), else why not ("quota: ..."). Each id once. A token's
+  /// own quotas (TokenGrant::sessions, framesPerSecond) replace [quotas]' per-token ones.
   std::optional<std::string> admit(ConnectionId id, const std::string& address, bool loopback,
-                                   const std::string& token);
+                                   const TokenGrant* token = nullptr);
+  /// Session `id`, admitted without a token, presented `token` (Authenticate): none when the token has room (the
+  /// session is then counted against it), else why not.
+  std::optional<std::string> attachToken(ConnectionId id, const TokenGrant& token);
   /// `id` closed (admitted or not).
   void remove(ConnectionId id);
 
@@ -45,8 +51,12 @@ class Quotas {
     Bucket bucket;
   };
   struct Entry {
-    std::string address, token;
+    std::string address, token;  ///< the token's id; empty: none
+    int tokenSessions = 0;       ///< the token's sessions quota (0: none)
+    double tokenFrames = 0;      ///< its Renders a second (0: none)
   };
+  /// Counts `entry`'s session against its token, or says why it may not be.
+  std::optional<std::string> countToken(Entry& entry, const TokenGrant& token);
   /// Refills `bucket` at `rate` a second up to max(1, rate); the ms until it holds one frame (0: it does now).
   static double refill(Bucket& bucket, double rate, Clock::time_point now);
 

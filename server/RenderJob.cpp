@@ -17,7 +17,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double msBetween(Clock::time_point a, Clock::time_point b) {
+double jobMsBetween(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double, std::milli>(b - a).count();
 }
 
@@ -60,8 +60,8 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
     const bool video = image::isVideoEncoding(frame.encoding);
     frame.payload = video ? std::move(image.rgba) : image::encodeFrameImage(image, frame.encoding, jpegQuality);
     nlohmann::json statsJson = stats.toJson();
-    statsJson["queue_ms"] = msBetween(job.received, start);
-    if (!video) statsJson["encode_ms"] = msBetween(encodeStart, Clock::now());
+    statsJson["queue_ms"] = jobMsBetween(job.received, start);
+    if (!video) statsJson["encode_ms"] = jobMsBetween(encodeStart, Clock::now());
     statsJson["render_thread"] = thread;
     statsJson["provisional"] = provisional;
     statsJson["class"] = common::nameOf(frameClassOf(job));

@@ -20,7 +20,9 @@
 
 #include "render/core/TransferFunctionPresets.h"
 #include "render/engine/RenderEngine.h"
+#include "server/AccessTokens.h"
 #include "server/Admission.h"
+#include "server/AuditLog.h"
 #include "server/Datasets.h"
 #include "server/ErrorReply.h"
 #include "server/MessageHandler.h"
@@ -30,6 +32,7 @@
 #include "server/ServerStats.h"
 #include "server/Session.h"
 #include "server/TcpSession.h"
+#include "server/TlsContext.h"
 #include "server/WebGate.h"
 #include "server/WebSocketSession.h"
 
@@ -43,12 +46,14 @@ using nlohmann::json;
 /// Clients that never read their last reply hold a stopping server up this long at most.
 constexpr auto kShutdownGrace = std::chrono::seconds(5);
 
-/// `config`, checked: values in range, the datasets directory present.
+/// `config`, checked: values in range, the datasets directory present, the TLS files usable (before any GL context
+/// is made, so that a bad file fails at once).
 ServerConfig checked(ServerConfig config) {
   config.validate();
   std::error_code ec;
   if (!std::filesystem::is_directory(config.datasets, ec))
     throw std::runtime_error("datasets directory '" + config.datasets.string() + "' does not exist");
+  if (config.tls.enabled()) makeServerTlsContext(config.tls);
   return config;
 }
 
@@ -82,6 +87,13 @@ std::pair<std::string, bool> clientAddress(const tcp::socket& socket) {
   return {address.to_string(), address.is_loopback()};
 }
 
+/// Whether `host` (a listen address) reaches this machine only.
+bool loopbackOnly(const std::string& host) {
+  boost::system::error_code ec;
+  const asio::ip::address address = asio::ip::make_address(host, ec);
+  return !ec && address.is_loopback();
+}
+
 Admission::Limits admissionLimits(const ServerConfig& config) {
   return {size_t(config.maxSessions), size_t(config.maxPendingConnections), size_t(config.maxConnectionsPerAddress)};
 }
@@ -111,11 +123,13 @@ struct Server::Impl {
   /// Accepts the next connection on `on` (the TCP or the HTTP acceptor), each on a strand of its own.
   void accept(tcp::acceptor& on);
   void onAccepted(const tcp::acceptor& on, tcp::socket socket);
-  /// Registers a new connection from `address` made by `make` (given its ConnectionId), whatever its transport:
-  /// admits or refuses it, evicts a pending one if the pool is full, and starts it.
-  void adopt(const std::string& address, bool loopback,
+  /// Registers a new connection from `address` made by `make` (given its ConnectionId), whatever its transport
+  /// (`kind`, for the audit trail): admits or refuses it, evicts a pending one if the pool is full, and starts it.
+  void adopt(const std::string& address, bool loopback, const std::string& kind,
              const std::function<std::shared_ptr<Session>(ConnectionId)>& make);
   void requestStop();
+  /// Waits for SIGHUP: each reads the TLS files again (TlsContexts::reload); new handshakes use them.
+  void awaitReload();
   /// Blocks until stop() or a signal asks for it.
   void waitForStopRequest();
   /// Refuses new sessions, ends the open ones with ShuttingDown, stops rendering, waits (kShutdownGrace at most)
@@ -135,7 +149,13 @@ struct Server::Impl {
   const tcp::endpoint endpoint;
   // Read once here: a preset named in a request never makes an I/O thread read a file.
   const render::TransferFunctionPresets presets;
+  /// The access tokens and what each may see ([[tokens]], http.token, [access]).
+  const std::shared_ptr<const AccessTokens> tokens;
+  /// The audit trail ([audit] path), or one that records nothing.
+  const std::unique_ptr<AuditLog> audit;
   const WebGate webGate;  ///< what the HTTP port serves, and who may open its WebSocket
+  /// The TLS context of new connections on both ports (config.tls), read again on SIGHUP; null without TLS.
+  const std::unique_ptr<TlsContexts> tls;
   DatasetRegistry datasets;
   ServerStats stats;
   OutputBudget output;
@@ -149,6 +169,7 @@ struct Server::Impl {
   tcp::acceptor acceptor;
   tcp::acceptor httpAcceptor;  ///< open only with config.http
   asio::signal_set signals;
+  asio::signal_set reloadSignal;  ///< SIGHUP, with TLS only
   SessionServices sessionServices;
 
   mutable std::mutex sessionsMutex;
@@ -174,19 +195,26 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
     : config(checked(c)),
       endpoint(listenEndpoint(config.host, config.port)),
       presets(render::TransferFunctionPresets::load(render::TransferFunction::configDirectory() / "tf")),
-      webGate(config.httpOrigins, config.httpToken, presets.json(false), [this] { return metricsText(); }),
+      tokens(std::make_shared<const AccessTokens>(config)),
+      audit(config.auditPath.empty()
+                ? std::make_unique<AuditLog>()
+                : std::make_unique<AuditLog>(config.auditPath, config.auditMaxBytes, config.auditKeep)),
+      webGate(config.httpOrigins, tokens, presets.json(false), [this] { return metricsText(); }),
+      tls(config.tls.enabled() ? std::make_unique<TlsContexts>(config.tls) : nullptr),
       // Opened datasets are checked by the frame sources (the distributed mode: on every rank); the scheduler is
       // made before any dataset is opened.
       datasets(config.datasets, size_t(config.hostCacheMB) << 20,
                [this](const std::string& name) { scheduler.checkDataset(name); }),
       output(config.maxTotalOutputBytes),
       scheduler(std::move(sources), config.scheduler),
-      handler(config, datasets, presets, stats, [this] { return statsJson(); }),
+      handler(
+          config, datasets, presets, stats, [this] { return statsJson(); }, tokens, audit.get()),
       encoders(size_t(config.encodeThreads)),
       control(asio::make_strand(io)),
       acceptor(control),
       httpAcceptor(control),
       signals(control, SIGINT, SIGTERM),
+      reloadSignal(control),
       sessionServices{config,
                       proto::Limits{},
                       handler,
@@ -205,13 +233,50 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
                         busy.quota = true;
                         return busy;
                       },
-                      [this](std::function<void()> task) { asio::post(encoders, std::move(task)); }},
+                      [this](std::function<void()> task) { asio::post(encoders, std::move(task)); },
+                      tokens,
+                      [this](ConnectionId id, const TokenGrant& grant) {
+                        auto refusal = quotas.attachToken(id, grant);
+                        if (refusal) stats.refused(Refusal::Quota);
+                        return refusal;
+                      },
+                      audit.get()},
       admission(admissionLimits(config)),
       quotas(config.quotas) {
   sessionServices.limits.maxBodyBytes = config.maxMessageBytes;
   listen(acceptor, endpoint, "TCP");
   if (config.http) listen(httpAcceptor, listenEndpoint(config.httpHost(), config.httpPort), "HTTP");
+  if (tls) {
+    spdlog::info("TLS on {}: {}", config.http ? "both ports" : "the TCP port", describeCertificate(config.tls.cert));
+    if (!config.tls.ca.empty())
+      spdlog::info("TLS: clients must present a certificate signed by a CA of {}", config.tls.ca.string());
+    reloadSignal.add(SIGHUP);
+  } else {
+    // Off loopback without TLS, anyone on the path reads the frames, the dataset names and the access tokens.
+    for (const auto& [what, host] : {std::pair<const char*, std::string>{"TCP", config.host},
+                                     std::pair<const char*, std::string>{"HTTP", config.http ? config.httpHost() : ""}})
+      if (!host.empty() && !loopbackOnly(host))
+        spdlog::warn(
+            "the {} port listens on {} without TLS: frames, dataset names and access tokens cross the "
+            "network in clear text; give a certificate (--tls-cert and --tls-key, or [tls] in "
+            "server.toml) or put a TLS proxy in front",
+            what, host);
+  }
   scheduler.start();
+}
+
+void Server::Impl::awaitReload() {
+  reloadSignal.async_wait([this](boost::system::error_code ec, int) {
+    if (ec) return;
+    try {
+      tls->reload();
+      spdlog::info("SIGHUP: TLS certificate and key read again; new connections use {}",
+                   describeCertificate(config.tls.cert));
+    } catch (const std::exception& e) {
+      spdlog::error("SIGHUP: the TLS files cannot be read again, the current ones stay in use: {}", e.what());
+    }
+    awaitReload();
+  });
 }
 
 void Server::Impl::accept(tcp::acceptor& on) {
@@ -239,15 +304,18 @@ void Server::Impl::onAccepted(const tcp::acceptor& on, tcp::socket socket) {
   // A browser's connection is pending (not a session) from its accept, through its HTTP requests and the upgrade,
   // until its Hello: the same admission as a TCP connection.
   if (&on == &httpAcceptor)
-    return adopt(address, loopback, [&](ConnectionId id) {
+    return adopt(address, loopback, tls ? "wss" : "ws", [&](ConnectionId id) -> std::shared_ptr<Session> {
       webConnections.insert(id);  // adopt() holds sessionsMutex
-      return std::make_shared<WebSocketSession>(std::move(socket), sessionServices, webGate, id);
+      if (tls)
+        return std::make_shared<TlsWebSocketSession>(std::move(socket), tls->current(), sessionServices, webGate, id);
+      return std::make_shared<PlainWebSocketSession>(std::move(socket), sessionServices, webGate, id);
     });
-  adopt(address, loopback,
-        [&](ConnectionId id) { return std::make_shared<TcpSession>(std::move(socket), sessionServices, id); });
+  adopt(address, loopback, tls ? "tls" : "tcp", [&](ConnectionId id) {
+    return std::make_shared<TcpSession>(std::move(socket), sessionServices, id, tls ? tls->current() : nullptr);
+  });
 }
 
-void Server::Impl::adopt(const std::string& address, bool loopback,
+void Server::Impl::adopt(const std::string& address, bool loopback, const std::string& kind,
                          const std::function<std::shared_ptr<Session>(ConnectionId)>& make) {
   std::shared_ptr<Session> session, evicted;
   std::optional<proto::Error> refusal;
@@ -279,6 +347,8 @@ void Server::Impl::adopt(const std::string& address, bool loopback,
   if (refusal) {
     stats.refused(reason);
     spdlog::debug("{}: refused: {}", session->peer(), refusal->message);
+    const std::string& peer = session->peer();
+    audit->record({"refused", peer.substr(0, peer.find(' ')), kind, "", "", "on connect: " + refusal->message});
     session->end(std::move(*refusal));
     return;
   }
@@ -318,7 +388,8 @@ std::optional<proto::Error> Server::Impl::greet(ConnectionId id) {
                                                "their minimum rate",
                                            *retry));
   }
-  if (auto refusal = quotas.admit(id, client->second.first, client->second.second, session->second->accessToken())) {
+  if (auto refusal =
+          quotas.admit(id, client->second.first, client->second.second, session->second->accessGrant().get())) {
     stats.refused(Refusal::Quota);
     return errorMessage(proto::ErrorCode::LimitExceeded, *refusal);
   }
@@ -372,6 +443,7 @@ void Server::Impl::shutdown() {
     acceptor.close(ignored);
     httpAcceptor.close(ignored);
     signals.cancel(ignored);
+    reloadSignal.cancel(ignored);
   });
   for (const auto& session : open) session->end(errorMessage(proto::ErrorCode::ShuttingDown, "server is stopping"));
   scheduler.stop();
@@ -440,6 +512,7 @@ void Server::run() {
   s.signals.async_wait([&s](boost::system::error_code ec, int) {
     if (!ec) s.requestStop();
   });
+  if (s.tls) s.awaitReload();
   s.accept(s.acceptor);
   if (s.httpAcceptor.is_open()) s.accept(s.httpAcceptor);
   std::vector<std::thread> ioThreads;

@@ -1,7 +1,10 @@
 // TOML configuration through toml++: every key is known, typed and range-checked.
 #include "server/ServerConfig.h"
 
+#include <algorithm>
+#include <cctype>
 #include <limits>
+#include <map>
 #include <set>
 #include <stdexcept>
 
@@ -72,6 +75,20 @@ class Section {
     return true;
   }
 
+  /// The tables of `key`, an array of tables ([[key]] in the file); each is named KEY[N] (from 1) in errors.
+  std::vector<Section> arrayOfTables(const char* key) {
+    mKnown.insert(key);
+    std::vector<Section> out;
+    const toml::node* node = mTable ? mTable->get(key) : nullptr;
+    if (!node) return out;
+    const toml::array* array = node->as_array();
+    if (!array || !array->is_array_of_tables())
+      fail(mFile + ": " + key + " must be an array of tables ([[" + key + "]] sections)");
+    for (size_t i = 0; i < array->size(); ++i)
+      out.emplace_back(array->get(i)->as_table(), std::string(key) + "[" + std::to_string(i + 1) + "]", mFile);
+    return out;
+  }
+
   /// Throws naming the first key no read() or table() asked for.
   void rejectUnknown() const {
     if (!mTable) return;
@@ -130,6 +147,31 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   http.read("bind", c.httpBind);
   http.readStrings("origins", c.httpOrigins);
   http.read("token", c.httpToken);
+  std::vector<Section> tokens = top.arrayOfTables("tokens");
+  for (Section& token : tokens) {
+    TokenConfig t;
+    token.read("id", t.id);
+    token.read("sha256", t.sha256);
+    token.readStrings("datasets", t.datasets);
+    if (int sessions = 0; token.read("sessions", sessions)) t.sessions = sessions;
+    if (double frames = 0; token.read("frames_per_s", frames)) t.framesPerSecond = frames;
+    token.rejectUnknown();
+    c.tokens.push_back(std::move(t));
+  }
+  Section access = top.table("access");
+  if (std::vector<std::string> anonymous; access.readStrings("anonymous", anonymous)) c.anonymousDatasets = anonymous;
+  Section tls = top.table("tls");
+  // Relative files are relative to the configuration file, as the datasets directory is.
+  const auto beside = [&](std::filesystem::path& p) {
+    if (!p.empty() && p.is_relative()) p = path.parent_path() / p;
+  };
+  if (tls.read("cert", c.tls.cert)) beside(c.tls.cert);
+  if (tls.read("key", c.tls.key)) beside(c.tls.key);
+  if (tls.read("ca", c.tls.ca)) beside(c.tls.ca);
+  Section audit = top.table("audit");
+  if (audit.read("path", c.auditPath)) beside(c.auditPath);
+  audit.read("max_bytes", c.auditMaxBytes);
+  audit.read("keep", c.auditKeep);
   Section memory = top.table("memory");
   memory.read("host_cache_mb", c.hostCacheMB);
   memory.read("gpu_budget_mb", c.gpuBudgetMB);
@@ -151,7 +193,8 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   quotas.read("sessions_per_token", c.quotas.sessionsPerToken);
   quotas.read("frames_per_s_per_token", c.quotas.framesPerSecondPerToken);
   quotas.read("loopback_exempt", c.quotas.loopbackExempt);
-  for (const Section* section : {&top, &server, &limits, &memory, &http, &scheduler, &quotas}) section->rejectUnknown();
+  for (const Section* section : {&top, &server, &limits, &memory, &http, &access, &tls, &audit, &scheduler, &quotas})
+    section->rejectUnknown();
   try {
     c.validate();
   } catch (const std::exception& e) {
@@ -192,6 +235,13 @@ void ServerConfig::validate() const {
            "http://viewer.example.org:8080)");
   if (!httpToken.empty() && !WebGate::validToken(httpToken))
     fail("http.token must be letters, digits and - . _ ~ only (it travels in a URL)");
+  validateTokens();
+  if (tls.cert.empty() != tls.key.empty())
+    fail(tls.cert.empty() ? "tls.key is set without tls.cert: give both (--tls-cert and --tls-key)"
+                          : "tls.cert is set without tls.key: give both (--tls-cert and --tls-key)");
+  if (!tls.ca.empty() && tls.cert.empty()) fail("tls.ca is set without tls.cert and tls.key");
+  range("audit.max_bytes", double(auditMaxBytes), 4096, double(uint64_t(1) << 40));
+  range("audit.keep", auditKeep, 0, 1000);
   range("scheduler.interactive_weight", scheduler.interactiveWeight, 0.01, 1e6);
   range("scheduler.still_weight", scheduler.stillWeight, 0.01, 1e6);
   range("scheduler.batch_weight", scheduler.batchWeight, 0.01, 1e6);
@@ -210,6 +260,55 @@ void ServerConfig::validate() const {
   if (gpuBudgetMB < 4 * int64_t(renderThreads))
     fail("memory.gpu_budget_mb = " + std::to_string(gpuBudgetMB) + " leaves less than 4 MB to each of the " +
          std::to_string(renderThreads) + " render threads");
+}
+
+namespace {
+
+bool nameCharacter(char c) {
+  return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' || c == '_' || c == '.';
+}
+
+/// Throws naming `where` unless each of `patterns` is a dataset name or a glob pattern of one.
+void checkPatterns(const std::string& where, const std::vector<std::string>& patterns) {
+  for (const std::string& pattern : patterns)
+    if (pattern.empty() || !std::all_of(pattern.begin(), pattern.end(), [](char c) {
+          return nameCharacter(c) || c == '*' || c == '?' || c == '[' || c == ']' || c == '!' || c == '^';
+        }))
+      fail(where + ": '" + pattern + "' is not a dataset name or pattern (letters, digits, . - _ and the glob " +
+           "characters * ? [ ])");
+}
+
+}  // namespace
+
+void ServerConfig::validateTokens() const {
+  std::set<std::string> ids;
+  std::map<std::string, std::string> hashes;  // lower-case hash -> id
+  for (size_t i = 0; i < tokens.size(); ++i) {
+    const TokenConfig& t = tokens[i];
+    const std::string where = "tokens[" + std::to_string(i + 1) + "]" + (t.id.empty() ? "" : " ('" + t.id + "')");
+    if (t.id.empty()) fail(where + ": id is missing");
+    if (t.id.size() > 64 || !std::all_of(t.id.begin(), t.id.end(), nameCharacter))
+      fail(where + ": id must be at most 64 letters, digits, '.', '-' or '_'");
+    if (t.id == "http.token") fail(where + ": the id http.token is the single token of [http]");
+    if (!ids.insert(t.id).second) fail(where + ": id '" + t.id + "' is given to two tokens");
+    if (t.sha256.size() != 64 || !std::all_of(t.sha256.begin(), t.sha256.end(),
+                                              [](char c) { return std::isxdigit(static_cast<unsigned char>(c)); }))
+      fail(where +
+           ": sha256 must be the 64 hex digits of the SHA-256 of the token's secret (`voxbrick token` "
+           "makes a secret and its hash)");
+    std::string lower = t.sha256;
+    for (char& c : lower) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (const auto [it, fresh] = hashes.emplace(lower, t.id); !fresh)
+      fail(where + ": its sha256 is that of '" + it->second + "' too: one secret, two tokens");
+    if (t.datasets.empty())
+      fail(where + ": datasets is missing: the names or patterns it may open, [\"*\"] for every dataset");
+    checkPatterns(where + ".datasets", t.datasets);
+    if (t.sessions && (*t.sessions < 0 || *t.sessions > 100000))
+      fail(where + ": sessions = " + std::to_string(*t.sessions) + " is outside [0, 100000]");
+    if (t.framesPerSecond && !(*t.framesPerSecond >= 0 && *t.framesPerSecond <= 1e6))
+      fail(where + ": frames_per_s = " + std::to_string(*t.framesPerSecond) + " is outside [0, 1000000]");
+  }
+  if (anonymousDatasets) checkPatterns("access.anonymous", *anonymousDatasets);
 }
 
 render::Backend ServerConfig::parseBackend(const std::string& text, const std::string& what) {

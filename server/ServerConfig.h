@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,24 @@ struct QuotaConfig {
   bool loopbackExempt = false;  ///< loopback clients are held to no quota
 };
 
+/// One access token of [[tokens]]: who it is (its id, in logs and the audit trail), the SHA-256 of its secret (the
+/// secret itself is never stored), the datasets it may list and open, and its own quotas.
+struct TokenConfig {
+  std::string id;                         ///< letters, digits, '.', '-', '_'
+  std::string sha256;                     ///< 64 hex digits: `voxbrick token` makes a secret and its hash
+  std::vector<std::string> datasets;      ///< names or glob patterns (*, ?, [...]); ["*"] for every dataset
+  std::optional<int> sessions;            ///< sessions it may hold at once; absent: quotas.sessions_per_token
+  std::optional<double> framesPerSecond;  ///< Renders a second; absent: quotas.frames_per_s_per_token
+};
+
+/// The files of [tls] (or --tls-cert, --tls-key, --tls-ca): with a certificate, both listeners speak TLS only.
+struct TlsFiles {
+  std::filesystem::path cert;  ///< PEM: the server's certificate, then any intermediate certificates
+  std::filesystem::path key;   ///< PEM: its private key (not encrypted)
+  std::filesystem::path ca;    ///< PEM, optional: clients must present a certificate signed by one of these
+  bool enabled() const { return !cert.empty(); }
+};
+
 struct ServerConfig {
   // [server]
   std::string host = "127.0.0.1";
@@ -93,6 +112,17 @@ struct ServerConfig {
   std::string httpBind;                  ///< listen address; empty: the same as host
   std::vector<std::string> httpOrigins;  ///< origins allowed to open /ws besides the page's own ("http://h:p")
   std::string httpToken;                 ///< when set, /ws must be opened with ?token=<it>
+  // [[tokens]] and [access]: who may see which datasets (AccessTokens).
+  std::vector<TokenConfig> tokens;
+  /// The datasets a session without a token may list and open; absent: every dataset when no [[tokens]] are
+  /// configured, none otherwise.
+  std::optional<std::vector<std::string>> anonymousDatasets;
+  // [tls]
+  TlsFiles tls;
+  // [audit] The audit trail (AuditLog): one line per session, token, dataset opened and refusal.
+  std::filesystem::path auditPath;       ///< empty: none
+  uint64_t auditMaxBytes = 10ull << 20;  ///< the file is rotated once it would pass this
+  int auditKeep = 5;                     ///< rotated files kept (path.1 ... path.KEEP)  ///< TLS on both listeners (TCP, and https/wss on the HTTP port) when it names a certificate
   // [memory]
   int64_t hostCacheMB = 1024;  ///< decoded bricks of all open datasets together
   int64_t gpuBudgetMB = 1024;  ///< atlases of all render threads and datasets (equal shares per thread)
@@ -106,6 +136,8 @@ struct ServerConfig {
   static ServerConfig load(const std::filesystem::path& path);
   /// Throws std::runtime_error naming the first value out of range.
   void validate() const;
+  /// Throws std::runtime_error naming the first token that is not valid ([[tokens]], access.anonymous).
+  void validateTokens() const;
   /// The address the HTTP listener binds: httpBind, else host.
   const std::string& httpHost() const { return httpBind.empty() ? host : httpBind; }
   /// The backend named `text` ("auto", "egl" or "osmesa"); throws std::runtime_error naming `what` (the key or

@@ -59,7 +59,8 @@ std::optional<ServerEvent> eventOf(Refusal reason) {
     case Refusal::PendingEvicted: return ServerEvent::PendingEvicted;
     case Refusal::Output: return ServerEvent::OutputRefused;
     case Refusal::Busy:
-    case Refusal::Quota: return std::nullopt;
+    case Refusal::Quota:
+    case Refusal::Tls: return std::nullopt;
   }
   return std::nullopt;
 }

@@ -50,13 +50,14 @@ enum class Refusal : uint8_t {
   Busy,            ///< a Render refused because the render queue is full (the scheduler's admission)
   Quota,           ///< a Render refused because its session or address used up its share
   Stopping,        ///< a connection while the server stops
-  Forbidden,       ///< a WebSocket upgrade refused for its Origin or access token
+  Forbidden,       ///< a WebSocket upgrade refused for its Origin or access token, or a wrong token (Authenticate)
+  Tls,             ///< a TLS handshake that failed (an old protocol version, no shared cipher, an untrusted client)
 };
-inline constexpr size_t kRefusals = size_t(Refusal::Forbidden) + 1;
+inline constexpr size_t kRefusals = size_t(Refusal::Tls) + 1;
 inline constexpr common::EnumName<Refusal> kRefusalNames[] = {
-    {Refusal::Sessions, "sessions"}, {Refusal::Address, "address"},    {Refusal::PendingEvicted, "pending_evicted"},
-    {Refusal::Output, "output"},     {Refusal::Busy, "busy"},          {Refusal::Quota, "quota"},
-    {Refusal::Stopping, "stopping"}, {Refusal::Forbidden, "forbidden"}};
+    {Refusal::Sessions, "sessions"}, {Refusal::Address, "address"},     {Refusal::PendingEvicted, "pending_evicted"},
+    {Refusal::Output, "output"},     {Refusal::Busy, "busy"},           {Refusal::Quota, "quota"},
+    {Refusal::Stopping, "stopping"}, {Refusal::Forbidden, "forbidden"}, {Refusal::Tls, "tls"}};
 constexpr std::span<const common::EnumName<Refusal>> enumNames(Refusal) { return kRefusalNames; }
 
 /// The frame encodings counted apart, in proto::Encoding's value order.

@@ -2,9 +2,11 @@
 // bookkeeping (the registry of connections, admission, shutdown) sees only this; TcpSession is one implementation.
 #pragma once
 
+#include <memory>
 #include <string>
 
 #include "proto/Messages.h"
+#include "server/AccessTokens.h"
 #include "server/Admission.h"
 
 namespace voxbrick::server {
@@ -21,9 +23,10 @@ class Session {
   virtual const std::string& peer() const = 0;
   /// The server's number for the connection.
   virtual ConnectionId id() const = 0;
-  /// The access token the client was admitted with (a browser's /ws ?token=), for the per-token quotas; empty for
-  /// none (a TCP session). Read on the connection's own serial context.
-  virtual std::string accessToken() const { return {}; }
+  /// The grant of the access token the client was admitted with (a browser's /ws ?token=), for the per-token
+  /// quotas; null for none (a TCP session presents its token later, with Authenticate). Read on the connection's own
+  /// serial context.
+  virtual std::shared_ptr<const TokenGrant> accessGrant() const { return nullptr; }
 };
 
 }  // namespace voxbrick::server

@@ -72,18 +72,6 @@ std::optional<std::string_view> bearerToken(std::string_view authorization) {
   return token;
 }
 
-/// Whether `a` equals `b`, in a time that depends on their lengths only.
-bool equalInConstantTime(std::string_view a, std::string_view b) {
-  unsigned char differ = a.size() == b.size() ? 0 : 1;
-  const size_t n = std::max(a.size(), b.size());
-  for (size_t i = 0; i < n; ++i) {
-    const unsigned char x = i < a.size() ? static_cast<unsigned char>(a[i]) : 0;
-    const unsigned char y = i < b.size() ? static_cast<unsigned char>(b[i]) : 0;
-    differ |= static_cast<unsigned char>(x ^ y);
-  }
-  return differ == 0;
-}
-
 WebGate::Response textResponse(int status, std::string text) {
   WebGate::Response r;
   r.status = status;
@@ -116,9 +104,23 @@ bool WebGate::validToken(std::string_view token) {
   });
 }
 
-WebGate::WebGate(const std::vector<std::string>& origins, std::string token, std::string presetsJson,
+namespace {
+
+std::shared_ptr<const AccessTokens> singleToken(const std::string& token) {
+  ServerConfig config;
+  config.httpToken = token;
+  return std::make_shared<const AccessTokens>(config);
+}
+
+}  // namespace
+
+WebGate::WebGate(const std::vector<std::string>& origins, const std::string& token, std::string presetsJson,
                  std::function<std::string()> metrics)
-    : mToken(std::move(token)), mPresetsJson(std::move(presetsJson)), mMetrics(std::move(metrics)) {
+    : WebGate(origins, singleToken(token), std::move(presetsJson), std::move(metrics)) {}
+
+WebGate::WebGate(const std::vector<std::string>& origins, std::shared_ptr<const AccessTokens> tokens,
+                 std::string presetsJson, std::function<std::string()> metrics)
+    : mTokens(std::move(tokens)), mPresetsJson(std::move(presetsJson)), mMetrics(std::move(metrics)) {
   for (const std::string& text : origins) {
     const auto origin = parseOrigin(text);
     if (!origin) throw std::invalid_argument("'" + text + "' is not an origin (scheme://host[:port])");
@@ -149,7 +151,14 @@ WebGate::Response WebGate::respond(std::string_view method, std::string_view tar
     return r;
   }
   if (path == "/metrics" && mMetrics) {
-    if (const auto refusal = tokenRefusal(target, authorization)) return textResponse(403, "forbidden: " + *refusal);
+    std::shared_ptr<const TokenGrant> grant;
+    if (const auto refusal = tokenRefusal(target, authorization, &grant))
+      return textResponse(403, "forbidden: " + *refusal);
+    // The metrics name every open dataset: a token that may see only some of them may not read them.
+    if (grant && !grant->everything())
+      return textResponse(403, "forbidden: token '" + grant->id +
+                                   "' may not read the metrics, which name every dataset: use one whose datasets "
+                                   "are [\"*\"]");
     Response r;
     r.contentType = kMetricsContentType;
     r.text = mMetrics();
@@ -185,15 +194,23 @@ std::optional<std::string> WebGate::refuseUpgrade(std::string_view target, std::
   return tokenRefusal(target);
 }
 
-std::optional<std::string> WebGate::tokenRefusal(std::string_view target, std::string_view authorization) const {
-  if (mToken.empty()) return std::nullopt;
+std::optional<std::string> WebGate::tokenRefusal(std::string_view target, std::string_view authorization,
+                                                 std::shared_ptr<const TokenGrant>* grant) const {
+  if (!mTokens->configured()) return std::nullopt;
   auto given = queryValue(splitTarget(target).second, "token");
   if (!given) given = bearerToken(authorization);
   if (!given)
-    return "an access token is required (open the page with the URL the server logged: ?token=..., or send "
+    return "an access token is required (open the page with ?token=TOKEN added to its address, or send "
            "Authorization: Bearer TOKEN)";
-  if (!equalInConstantTime(*given, mToken)) return "wrong access token";
+  auto matched = mTokens->match(*given);
+  if (!matched) return "wrong access token";
+  if (grant) *grant = std::move(matched);
   return std::nullopt;
+}
+
+std::shared_ptr<const TokenGrant> WebGate::acceptedToken(std::string_view target) const {
+  std::shared_ptr<const TokenGrant> grant;
+  return tokenRefusal(target, {}, &grant) ? nullptr : grant;
 }
 
 std::string WebGate::allowedOrigin(std::string_view origin) const {

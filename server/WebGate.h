@@ -4,11 +4,14 @@
 #pragma once
 
 #include <functional>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include "server/AccessTokens.h"
 
 namespace voxbrick::server {
 
@@ -28,12 +31,16 @@ class WebGate {
   static bool validToken(std::string_view token);
 
   /// `origins`: the configured origins allowed besides the page's own (each as parseOrigin reads it; throws
-  /// std::invalid_argument for one that is not); `token`: the access token /ws, /presets.json and /metrics must
-  /// carry, empty for none; `presetsJson`: the body of /presets.json, the server's transfer-function presets with
-  /// their curves (TransferFunctionPresets::json without files), which the page draws in its curve editor;
-  /// `metrics`: makes the body of /metrics, the server's statistics in Prometheus' text format (none: /metrics is
-  /// 404). It is called on the I/O thread that answers the request and must be thread-safe.
-  WebGate(const std::vector<std::string>& origins, std::string token, std::string presetsJson = "[]",
+  /// std::invalid_argument for one that is not); `tokens`: the access tokens, of which /ws, /presets.json and
+  /// /metrics must carry one when any is configured (/metrics one that opens every dataset, since it names them
+  /// all); `presetsJson`: the body of /presets.json, the server's transfer-function presets with their curves
+  /// (TransferFunctionPresets::json without files), which the page draws in its curve editor; `metrics`: makes the
+  /// body of /metrics, the server's statistics in Prometheus' text format (none: /metrics is 404). It is called on
+  /// the I/O thread that answers the request and must be thread-safe.
+  WebGate(const std::vector<std::string>& origins, std::shared_ptr<const AccessTokens> tokens,
+          std::string presetsJson = "[]", std::function<std::string()> metrics = {});
+  /// The same with the single access token `token` (http.token; empty: none) as the only one.
+  WebGate(const std::vector<std::string>& origins, const std::string& token, std::string presetsJson = "[]",
           std::function<std::string()> metrics = {});
 
   /// The answer to a request that is not an upgrade.
@@ -64,19 +71,21 @@ class WebGate {
   std::optional<std::string> refuseUpgrade(std::string_view target, std::optional<std::string_view> origin,
                                            std::string_view host) const;
 
-  /// The access token `target` carries when it is the one set (what the per-token quotas count); empty otherwise.
-  std::string acceptedToken(std::string_view target) const {
-    return mToken.empty() || tokenRefusal(target) ? std::string() : mToken;
-  }
+  /// The grant of the access token `target` carries (what the session may see, what its quotas count), or null when
+  /// it carries none that matches.
+  std::shared_ptr<const TokenGrant> acceptedToken(std::string_view target) const;
+
  private:
-  /// Why `target` fails the access token (missing, wrong), or nullopt when none is set or it matches: the query's
-  /// token, else the Bearer token of `authorization` (the Authorization header; empty when absent).
-  std::optional<std::string> tokenRefusal(std::string_view target, std::string_view authorization = {}) const;
+  /// Why `target` fails the access tokens (missing, wrong), or nullopt when none is configured or it carries one:
+  /// the query's token, else the Bearer token of `authorization` (the Authorization header; empty when absent).
+  /// `grant`, if given, receives the token's grant.
+  std::optional<std::string> tokenRefusal(std::string_view target, std::string_view authorization = {},
+                                          std::shared_ptr<const TokenGrant>* grant = nullptr) const;
   /// Access-Control-Allow-Origin for a request from `origin`: itself when it is a configured origin, else empty.
   std::string allowedOrigin(std::string_view origin) const;
 
   std::vector<Origin> mOrigins;
-  std::string mToken;
+  std::shared_ptr<const AccessTokens> mTokens;
   std::string mPresetsJson;
   std::function<std::string()> mMetrics;
 };

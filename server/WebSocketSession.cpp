@@ -6,9 +6,14 @@
 
 #include <spdlog/spdlog.h>
 #include <boost/asio/post.hpp>
+#include <boost/asio/write.hpp>
+#include <boost/beast/core/detect_ssl.hpp>
 #include <boost/beast/http/read.hpp>
 #include <boost/beast/http/write.hpp>
 #include <boost/beast/websocket/rfc6455.hpp>
+#include <boost/beast/websocket/ssl.hpp>
+
+#include "server/TlsContext.h"
 
 namespace voxbrick::server {
 namespace {
@@ -28,31 +33,51 @@ std::string_view view(beast::string_view text) { return {text.data(), text.size(
 
 std::chrono::milliseconds milliseconds(double seconds) { return std::chrono::milliseconds(int64_t(seconds * 1000)); }
 
-std::string webSocketPeerOf(const tcp::socket& socket) {
+std::string webSocketPeerOf(const tcp::socket& socket, bool tls) {
   boost::system::error_code ec;
   const auto endpoint = socket.remote_endpoint(ec);
-  return ec ? "?" : endpoint.address().to_string() + ":" + std::to_string(endpoint.port()) + " (ws)";
+  return ec ? "?" : endpoint.address().to_string() + ":" + std::to_string(endpoint.port()) + (tls ? " (wss)" : " (ws)");
 }
 
 }  // namespace
 
-WebSocketSession::WebSocketSession(tcp::socket socket, const SessionServices& services, const WebGate& gate,
-                                   ConnectionId id)
-    : AsioSession(socket.get_executor(), services, id, webSocketPeerOf(socket)),
+template <class Stream>
+WebSocketSession<Stream>::WebSocketSession(tcp::socket socket, const SessionServices& services, const WebGate& gate,
+                                           ConnectionId id) requires(!kTls)
+    : AsioSession(socket.get_executor(), services, id, webSocketPeerOf(socket, false), "ws"),
       mServices(services),
       mGate(gate),
       mWs(std::move(socket)),
       mHttpBuffer(kRequestHeaderLimit + kRequestBodyLimit) {}
 
-void WebSocketSession::start() {
-  asio::post(mWs.get_executor(), guarded(this, [](WebSocketSession& s) { s.readRequest(); }));
+template <class Stream>
+WebSocketSession<Stream>::WebSocketSession(tcp::socket socket, std::shared_ptr<asio::ssl::context> tls,
+                                           const SessionServices& services, const WebGate& gate,
+                                           ConnectionId id) requires(kTls)
+    : AsioSession(socket.get_executor(), services, id, webSocketPeerOf(socket, true), "wss"),
+      mServices(services),
+      mGate(gate),
+      mTlsContext(std::move(tls)),
+      mWs(std::move(socket), *mTlsContext),
+      mHttpBuffer(kRequestHeaderLimit + kRequestBodyLimit) {}
+
+template <class Stream>
+void WebSocketSession<Stream>::start() {
+  asio::post(mWs.get_executor(), guarded(this, [](WebSocketSession& s) {
+               if constexpr (kTls)
+                 s.detectTls();
+               else
+                 s.readRequest();
+             }));
 }
 
-void WebSocketSession::end(proto::Error error) {
+template <class Stream>
+void WebSocketSession<Stream>::end(proto::Error error) {
   asio::post(mWs.get_executor(), guarded(this, [error = std::move(error)](WebSocketSession& s) {
                if (s.mUpgraded) return s.mCore.end(error);
                if (s.mCore.closed()) return;
-               if (s.mResponding || s.mUpgrading) return s.mCore.close();
+               // Over TLS before the handshake no byte can reach the client: closed at once, at no handshake's cost.
+               if (!s.mTlsOpen || s.mResponding || s.mUpgrading) return s.mCore.close();
                // Refused before the upgrade (too many connections, the server stopping): HTTP says why.
                spdlog::debug("{}: refused before the upgrade: {}", s.peer(), error.message);
                s.mRefused = true;
@@ -60,7 +85,77 @@ void WebSocketSession::end(proto::Error error) {
              }));
 }
 
-WebSocketSession::Response WebSocketSession::textResponse(int status, const std::string& text) const {
+template <class Stream>
+void WebSocketSession<Stream>::detectTls() {
+  if constexpr (kTls) {
+    // The handshake, like each request, must be complete within the Hello timeout: one trickled is closed then. Its
+    // first bytes say whether it is one at all (a browser sent to http:// on this port is told so in the clear).
+    beast::get_lowest_layer(mWs).expires_after(milliseconds(mServices.config.helloTimeoutS));
+    beast::async_detect_ssl(
+        beast::get_lowest_layer(mWs), mHttpBuffer,
+        guarded(this, [](WebSocketSession& s, boost::system::error_code ec, bool tls) { s.onDetected(ec, tls); }));
+  }
+}
+
+template <class Stream>
+void WebSocketSession<Stream>::onDetected(boost::system::error_code ec, bool tls) {
+  if constexpr (kTls) {
+    if (mCore.closed()) return;
+    if (ec == beast::error::timeout) {
+      mServices.stats.add(ServerEvent::Timeout);
+      spdlog::info("{}: closing: no TLS handshake within {} s", peer(), mServices.config.helloTimeoutS);
+      return mCore.close();
+    }
+    if (ec) return mCore.close();
+    if (!tls) {
+      spdlog::info("{}: a request in the clear on the TLS port, answered in the clear and closed", peer());
+      auto& socket = beast::get_lowest_layer(mWs).socket();
+      boost::system::error_code ignored;
+      std::vector<uint8_t> unread(std::min<size_t>(socket.available(ignored), 64 << 10));
+      if (!unread.empty()) socket.read_some(asio::buffer(unread), ignored);
+      const std::string text = "this port speaks TLS: open it with https:// (and wss:// for /ws)\n";
+      mClearRefusal =
+          "HTTP/1.1 400 Bad Request\r\nServer: voxbrick\r\nContent-Type: text/plain; charset=utf-8\r\n"
+          "Content-Length: " +
+          std::to_string(text.size()) + "\r\nConnection: close\r\n\r\n" + text;
+      mResponding = true;
+      beast::get_lowest_layer(mWs).expires_after(milliseconds(mServices.config.helloTimeoutS));
+      asio::async_write(beast::get_lowest_layer(mWs), asio::buffer(mClearRefusal),
+                        guarded(this, [](WebSocketSession& s, boost::system::error_code, size_t) {
+                          s.mResponding = false;
+                          s.mCore.close();
+                        }));
+      return;
+    }
+    mWs.next_layer().async_handshake(asio::ssl::stream_base::server, mHttpBuffer.data(),
+                                     guarded(this, [](WebSocketSession& s, boost::system::error_code e, size_t used) {
+                                       s.mHttpBuffer.consume(used);
+                                       s.onHandshake(e);
+                                     }));
+  }
+}
+
+template <class Stream>
+void WebSocketSession<Stream>::onHandshake(boost::system::error_code ec) {
+  if (mCore.closed()) return;  // evicted or refused meanwhile
+  if (ec) {
+    if (ec == beast::error::timeout) {
+      mServices.stats.add(ServerEvent::Timeout);
+      spdlog::info("{}: closing: no TLS handshake within {} s", peer(), mServices.config.helloTimeoutS);
+    } else {
+      mServices.stats.refused(Refusal::Tls);
+      spdlog::info("{}: TLS handshake failed: {}", peer(), tlsFailureText(ec));
+      mCore.audit("refused", "TLS handshake: " + tlsFailureText(ec));
+    }
+    return mCore.close();
+  }
+  mTlsOpen = true;
+  readRequest();
+}
+
+template <class Stream>
+typename WebSocketSession<Stream>::Response WebSocketSession<Stream>::textResponse(int status,
+                                                                                   const std::string& text) const {
   Response response(http::status(status), 11);
   response.set(http::field::server, "voxbrick");
   response.set(http::field::content_type, "text/plain; charset=utf-8");
@@ -72,7 +167,8 @@ WebSocketSession::Response WebSocketSession::textResponse(int status, const std:
   return response;
 }
 
-void WebSocketSession::readRequest() {
+template <class Stream>
+void WebSocketSession<Stream>::readRequest() {
   if (mCore.closed()) return;
   mParser.emplace();
   mParser->header_limit(kRequestHeaderLimit);
@@ -83,7 +179,8 @@ void WebSocketSession::readRequest() {
                    guarded(this, [](WebSocketSession& s, boost::system::error_code ec, size_t) { s.onRequest(ec); }));
 }
 
-void WebSocketSession::onRequest(boost::system::error_code ec) {
+template <class Stream>
+void WebSocketSession<Stream>::onRequest(boost::system::error_code ec) {
   if (mCore.closed() || mRefused) return;
   if (ec == http::error::end_of_stream || ec == asio::error::eof || ec == asio::error::connection_reset)
     return mCore.close();
@@ -129,11 +226,15 @@ void WebSocketSession::onRequest(boost::system::error_code ec) {
   response.content_length(response.body().size());
   if (head || r.notModified) response.body().clear();
   response.keep_alive(mRequest.keep_alive());
-  spdlog::debug("{}: {} {} -> {}", peer(), view(mRequest.method_string()), view(mRequest.target()), r.status);
+  // The path only: the query may carry the access token, which is never logged.
+  const std::string_view target = view(mRequest.target());
+  spdlog::debug("{}: {} {} -> {}", peer(), view(mRequest.method_string()), target.substr(0, target.find('?')),
+                r.status);
   respond(std::move(response));
 }
 
-void WebSocketSession::refuseRequest(boost::system::error_code ec) {
+template <class Stream>
+void WebSocketSession<Stream>::refuseRequest(boost::system::error_code ec) {
   int status = 400;
   if (ec == http::error::header_limit || ec == http::error::buffer_overflow)
     status = 431;
@@ -143,7 +244,8 @@ void WebSocketSession::refuseRequest(boost::system::error_code ec) {
   respond(textResponse(status, "bad request: " + ec.message()));
 }
 
-void WebSocketSession::respond(Response response) {
+template <class Stream>
+void WebSocketSession<Stream>::respond(Response response) {
   mResponding = true;
   mResponse = std::move(response);
   const bool keepAlive = mResponse.keep_alive();
@@ -154,7 +256,8 @@ void WebSocketSession::respond(Response response) {
                     }));
 }
 
-void WebSocketSession::onResponded(boost::system::error_code ec, bool keepAlive) {
+template <class Stream>
+void WebSocketSession<Stream>::onResponded(boost::system::error_code ec, bool keepAlive) {
   mResponding = false;
   if (mCore.closed()) return;
   if (ec || !keepAlive) return mCore.close();
@@ -162,7 +265,8 @@ void WebSocketSession::onResponded(boost::system::error_code ec, bool keepAlive)
   readRequest();
 }
 
-void WebSocketSession::upgrade() {
+template <class Stream>
+void WebSocketSession<Stream>::upgrade() {
   const auto origin = mRequest.find(http::field::origin);
   const std::optional<std::string> refusal = mGate.refuseUpgrade(
       view(mRequest.target()),
@@ -171,9 +275,10 @@ void WebSocketSession::upgrade() {
   if (refusal) {
     mServices.stats.refused(Refusal::Forbidden);
     spdlog::info("{}: WebSocket upgrade refused: {}", peer(), *refusal);
+    mCore.audit("refused", "WebSocket upgrade: " + *refusal);
     return respond(textResponse(403, "forbidden: " + *refusal));
   }
-  mToken = mGate.acceptedToken(view(mRequest.target()));
+  mGrant = mGate.acceptedToken(view(mRequest.target()));
   // From here the Connection's deadlines rule: Beast's own run only for the opening and closing handshakes, and
   // it sends no pings of its own (the idle timeout is the Connection's).
   beast::get_lowest_layer(mWs).expires_never();
@@ -193,7 +298,8 @@ void WebSocketSession::upgrade() {
                    guarded(this, [](WebSocketSession& s, boost::system::error_code ec) { s.onUpgraded(ec); }));
 }
 
-void WebSocketSession::onUpgraded(boost::system::error_code ec) {
+template <class Stream>
+void WebSocketSession<Stream>::onUpgraded(boost::system::error_code ec) {
   if (mCore.closed()) return;
   if (ec) {
     spdlog::info("{}: WebSocket handshake failed: {}", peer(), ec.message());
@@ -201,10 +307,12 @@ void WebSocketSession::onUpgraded(boost::system::error_code ec) {
   }
   mUpgraded = true;
   spdlog::debug("{}: WebSocket open", peer());
+  if (mGrant) mCore.presented(mGrant);
   mCore.start();
 }
 
-void WebSocketSession::readMessage() {
+template <class Stream>
+void WebSocketSession<Stream>::readMessage() {
   // Requests are small: the buffer is reused across them, and given back only after a large one.
   if (mMessage.capacity() > kKeptMessageBytes) mMessage = {};
   mFill = 0;
@@ -212,7 +320,8 @@ void WebSocketSession::readMessage() {
   readSome();
 }
 
-void WebSocketSession::readSome() {
+template <class Stream>
+void WebSocketSession<Stream>::readSome() {
   // The header first, alone, so that it is checked before any of the body is read; then the body it announces.
   const size_t want = std::min(kReadChunk, (mExpectedBytes ? *mExpectedBytes : proto::kHeaderBytes) - mFill);
   mMessage.resize(mFill + want);
@@ -221,7 +330,8 @@ void WebSocketSession::readSome() {
       guarded(this, [](WebSocketSession& s, boost::system::error_code ec, size_t bytes) { s.onRead(ec, bytes); }));
 }
 
-void WebSocketSession::onRead(boost::system::error_code ec, size_t bytes) {
+template <class Stream>
+void WebSocketSession<Stream>::onRead(boost::system::error_code ec, size_t bytes) {
   if (ec) return mCore.readFailed();
   if (mCore.closed()) return;
   mCore.messageStarted();
@@ -249,7 +359,8 @@ void WebSocketSession::onRead(boost::system::error_code ec, size_t bytes) {
   readSome();
 }
 
-void WebSocketSession::write(std::span<const uint8_t> message) {
+template <class Stream>
+void WebSocketSession<Stream>::write(std::span<const uint8_t> message) {
   mWriting = true;
   mWs.async_write(asio::buffer(message.data(), message.size()),
                   guarded(this, [](WebSocketSession& s, boost::system::error_code ec, size_t bytes) {
@@ -259,7 +370,8 @@ void WebSocketSession::write(std::span<const uint8_t> message) {
                   }));
 }
 
-void WebSocketSession::close() {
+template <class Stream>
+void WebSocketSession<Stream>::close() {
   if (mUpgraded && !mWriting && mWs.is_open()) {
     // Every reply is written: the WebSocket closing handshake, bounded by Beast's handshake timeout, then the
     // socket. A session closed with a write in flight (its client does not read) is cut at once instead.
@@ -270,11 +382,15 @@ void WebSocketSession::close() {
   closeSocket();
 }
 
-void WebSocketSession::closeSocket() {
+template <class Stream>
+void WebSocketSession<Stream>::closeSocket() {
   boost::system::error_code ignored;
   tcp::socket& socket = beast::get_lowest_layer(mWs).socket();
   socket.shutdown(tcp::socket::shutdown_both, ignored);
   socket.close(ignored);
 }
+
+template class WebSocketSession<beast::tcp_stream>;
+template class WebSocketSession<beast::ssl_stream<beast::tcp_stream>>;
 
 }  // namespace voxbrick::server

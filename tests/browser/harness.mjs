@@ -3,8 +3,10 @@
 // `voxbrick render`'s output without the browser) and screenshots.
 
 import { spawn, spawnSync } from "node:child_process";
+import crypto from "node:crypto";
 import fs from "node:fs";
 import http from "node:http";
+import https from "node:https";
 import net from "node:net";
 import os from "node:os";
 import path from "node:path";
@@ -52,10 +54,12 @@ export function freePort() {
   });
 }
 
-/// GET `url`: {status, body}, or null when nothing answers.
-export function httpGet(url, headers = {}) {
+/// GET `url` (http:// or https://, `ca`: the PEM text of the CAs to trust for https): {status, body}, or null when
+/// nothing answers.
+export function httpGet(url, headers = {}, ca = undefined) {
   return new Promise((resolve) => {
-    const req = http.get(url, { headers }, (res) => {
+    const get = url.startsWith("https:") ? https.get : http.get;
+    const req = get(url, { headers, ...(ca ? { ca } : {}) }, (res) => {
       const chunks = [];
       res.on("data", (c) => chunks.push(c));
       res.on("end", () => resolve({ status: res.statusCode, headers: res.headers, body: Buffer.concat(chunks) }));
@@ -76,10 +80,11 @@ export function spawnTied(exe, args, options) {
 let starts = 0; // servers started by this process, for their files' names
 
 /// The real server: `voxbrick serve --no-config --port 0 --http PORT --datasets DIR [extra]` (PORT 0: a free one,
-/// kept for restarts), its log in `dir`; `exe`: another build's binary (a benchmark's baseline), else VOXBRICK.
+/// kept for restarts), its log in `dir`; `exe`: another build's binary (a benchmark's baseline), else VOXBRICK;
+/// `tls`: {cert, key, ca} files (testCertificates) for TLS on both ports, its url then https://.
 export class Server {
-  constructor({ dir, datasets, httpPort = 0, extra = [], exe = VOXBRICK }) {
-    Object.assign(this, { dir, datasets, httpPort, extra, exe, proc: null });
+  constructor({ dir, datasets, httpPort = 0, extra = [], exe = VOXBRICK, tls = null }) {
+    Object.assign(this, { dir, datasets, httpPort, extra, exe, tls, proc: null });
   }
 
   /// Starts the server; a restart listens on the HTTP port of the first start.
@@ -93,6 +98,8 @@ export class Server {
     const log = fs.openSync(this.logFile, "w");
     const args = ["serve", "--no-config", "--port", "0", "--port-file", portFile, "--datasets", this.datasets];
     args.push("--http", String(this.httpPort || 0), "--http-port-file", httpPortFile, ...this.extra);
+    if (this.tls) args.push("--tls-cert", this.tls.cert, "--tls-key", this.tls.key);
+    const ca = this.tls ? fs.readFileSync(this.tls.ca) : undefined;
     this.proc = spawnTied(this.exe, args, { stdio: ["ignore", log, log] });
     fs.closeSync(log);
     this.exited = new Promise((resolve) => this.proc.on("exit", (code, signal) => resolve(code ?? signal)));
@@ -104,7 +111,7 @@ export class Server {
       if (fs.existsSync(portFile) && fs.existsSync(httpPortFile)) {
         this.tcpPort = Number(fs.readFileSync(portFile, "utf8"));
         this.httpPort = Number(fs.readFileSync(httpPortFile, "utf8"));
-        const r = await httpGet(`${this.url}/`);
+        const r = await httpGet(`${this.url}/`, {}, ca);
         if (r && r.status === 200) return this;
       }
       await sleep(50);
@@ -114,7 +121,7 @@ export class Server {
   }
 
   get url() {
-    return `http://127.0.0.1:${this.httpPort}`;
+    return `${this.tls ? "https" : "http"}://127.0.0.1:${this.httpPort}`;
   }
 
   log() {
@@ -149,10 +156,32 @@ export function staticServer(port) {
   return new Promise((resolve) => s.listen(port, "127.0.0.1", () => resolve(s)));
 }
 
+/// A test CA and a server certificate it signs for 127.0.0.1 and localhost, made with Debian's openssl in `dir`:
+/// {ca, cert, key} paths, and `spki`, the base-64 SHA-256 of the certificate's public key (what Chromium's
+/// --ignore-certificate-errors-spki-list takes).
+export function testCertificates(dir) {
+  const run = (args) => {
+    const r = spawnSync("openssl", args, { encoding: "utf8" });
+    if (r.status !== 0) throw new Error(`openssl ${args.join(" ")} failed: ${r.stderr}`);
+    return r.stdout;
+  };
+  const f = (name) => path.join(dir, name);
+  const ec = ["-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:P-256", "-nodes"];
+  run(["req", "-x509", ...ec, "-days", "2", "-subj", "/CN=voxbrick browser test CA", "-keyout", f("ca.key"),
+       "-out", f("ca.pem"), "-addext", "basicConstraints=critical,CA:TRUE"]);
+  run(["req", ...ec, "-subj", "/CN=voxbrick browser test", "-keyout", f("server.key"), "-out", f("server.csr")]);
+  fs.writeFileSync(f("server.ext"), "subjectAltName=IP:127.0.0.1,DNS:localhost\nextendedKeyUsage=serverAuth\n");
+  run(["x509", "-req", "-in", f("server.csr"), "-CA", f("ca.pem"), "-CAkey", f("ca.key"), "-CAcreateserial",
+       "-days", "2", "-out", f("server.pem"), "-extfile", f("server.ext")]);
+  const publicKey = new crypto.X509Certificate(fs.readFileSync(f("server.pem"))).publicKey;
+  const spki = crypto.createHash("sha256").update(publicKey.export({ type: "spki", format: "der" })).digest("base64");
+  return { ca: f("ca.pem"), cert: f("server.pem"), key: f("server.key"), spki };
+}
+
 /// Headless Chromium, the system's (no browser download). Pages get 1 device pixel per CSS pixel, no colour
 /// management, so a canvas holds a frame's pixels as they came. Driven over a pipe, not a WebSocket: Chromium ends
-/// when this process does, even killed.
-export function launchBrowser() {
+/// when this process does, even killed. `extraArgs`: more of Chromium's switches.
+export function launchBrowser(extraArgs = []) {
   if (!fs.existsSync(CHROMIUM)) throw new Error(`no Chromium at ${CHROMIUM} (scripts/setup.sh installs Debian's)`);
   return puppeteer.launch({
     executablePath: CHROMIUM,
@@ -166,6 +195,7 @@ export function launchBrowser() {
       "--disable-background-timer-throttling",
       "--disable-renderer-backgrounding",
       "--disable-backgrounding-occluded-windows",
+      ...extraArgs,
     ],
   });
 }

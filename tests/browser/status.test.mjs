@@ -48,10 +48,16 @@ describe("status page", () => {
     assert.throws(() => M.parseMetrics("not metrics at all"), /not a line/);
   });
 
-  test("the viewer links to it with its token", async () => {
+  test("the viewer links to it with its token, which neither page keeps in its address", async () => {
     const page = await H.openPage(browser, `${server.url}/?token=${TOKEN}`);
     const href = await page.$eval("#status-link", (a) => a.href);
     assert.equal(href, `${server.url}/status.html?token=${TOKEN}`);
+    assert.doesNotMatch(await page.evaluate(() => location.href), /token/);
+    await page.goto(href, { waitUntil: "load" });
+    await page.waitForFunction(() => window.voxbrickStatus && window.voxbrickStatus.state().scrapes >= 1);
+    assert.equal(await page.evaluate(() => window.voxbrickStatus.state().error), "", "it read the metrics with the token");
+    assert.equal(await page.evaluate(() => location.href), `${server.url}/status.html`);
+    assert.equal(await page.$eval("#viewer-link", (a) => a.href), `${server.url}/?token=${TOKEN}`);
     await page.close();
   });
 

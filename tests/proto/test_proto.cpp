@@ -19,8 +19,8 @@ namespace {
 using namespace voxbrick::proto;
 using namespace voxbrick::proto::wire;
 
-Bytes headerBytes(MessageType type, uint32_t requestId, size_t bodyBytes) {
-  const auto bytes = encodeHeader({kVersion, type, requestId, uint32_t(bodyBytes)});
+Bytes headerBytes(MessageType type, uint32_t requestId, size_t bodyBytes, uint16_t version = kVersion) {
+  const auto bytes = encodeHeader({version, type, requestId, uint32_t(bodyBytes)});
   return Bytes(bytes.begin(), bytes.end());
 }
 
@@ -100,6 +100,9 @@ std::vector<Message> sampleMessages() {
       Frame{320, 200, Encoding::Vp8, R"({"video": {"key": true}})", pattern(999)},
       FrameReceived{123456},
       FrameReceived{0},
+      Authenticate{"5f1c0ad2e9b34c7a8d6e0f1a2b3c4d5e"},
+      Authenticate{""},
+      Authenticated{"radiology"},
   };
 }
 
@@ -113,7 +116,7 @@ TEST(Header, LayoutIsPinned) {
 
 TEST(Versions, JpegExistsFromVersionTwoOn) {
   EXPECT_EQ(kMinVersion, 1u);
-  EXPECT_EQ(kMaxVersion, 4u);
+  EXPECT_EQ(kMaxVersion, 5u);
   EXPECT_EQ(uint8_t(Encoding::Jpeg), 3u);
   EXPECT_EQ(encodingsOf(1), (std::vector<Encoding>{Encoding::RawRgba8, Encoding::Png, Encoding::ZstdRgba8}));
   EXPECT_EQ(encodingsOf(2),
@@ -158,6 +161,41 @@ TEST(Versions, VideoAndFrameReceivedExistFromVersionFourOn) {
   e = thrown([&] { decodeBody({3, MessageType::Frame, 1, uint32_t(frame.size())}, frame, Limits{}); });
   EXPECT_EQ(e.code(), ErrorCode::Malformed);
   EXPECT_STREQ(e.what(), "Frame.encoding: unknown value 4 in protocol version 3");
+}
+
+TEST(Versions, AuthenticateAndForbiddenExistFromVersionFiveOn) {
+  EXPECT_EQ(uint16_t(MessageType::Authenticate), 14u);
+  EXPECT_EQ(uint16_t(MessageType::Authenticated), 15u);
+  EXPECT_EQ(uint16_t(ErrorCode::Forbidden), 15u);
+  for (uint16_t version = 1; version <= 4; ++version) {
+    EXPECT_FALSE(messageTypeInVersion(MessageType::Authenticate, version));
+    EXPECT_FALSE(messageTypeInVersion(MessageType::Authenticated, version));
+    EXPECT_FALSE(errorCodeInVersion(ErrorCode::Forbidden, version));
+  }
+  EXPECT_TRUE(messageTypeInVersion(MessageType::Authenticate, 5));
+  EXPECT_TRUE(messageTypeInVersion(MessageType::Authenticated, 5));
+  EXPECT_TRUE(errorCodeInVersion(ErrorCode::Forbidden, 5));
+  EXPECT_EQ(encodingsOf(5), encodingsOf(4));
+  // Authenticate: one string, token; Authenticated: one string, token_id. Neither exists before version 5.
+  EXPECT_EQ(hex(encode(Authenticate{"s3"}, 2, 5)),
+            hex(concat({headerBytes(MessageType::Authenticate, 2, 6, 5), str("s3")})));
+  EXPECT_EQ(hex(encode(Authenticated{"id"}, 2, 5)),
+            hex(concat({headerBytes(MessageType::Authenticated, 2, 6, 5), str("id")})));
+  EXPECT_THROW(encode(Authenticate{"s3"}, 2, 4), std::invalid_argument);
+  EXPECT_THROW(encode(Error{ErrorCode::Forbidden, "x"}, 1, 4), std::invalid_argument);
+  const Bytes body = str("s3");
+  ProtocolError e = thrown([&] {
+    decodeBody({4, MessageType::Authenticate, 1, uint32_t(body.size())}, body, Limits{});
+  });
+  EXPECT_EQ(e.code(), ErrorCode::UnknownType) << e.what();
+  EXPECT_TRUE(decodeBody({5, MessageType::Authenticate, 1, uint32_t(body.size())}, body, Limits{}) ==
+              Message(Authenticate{"s3"}));
+  // Forbidden in a version-4 Error is an unknown value, as Busy is in version 2.
+  const Bytes error = concat({u16(15), str("x")});
+  e = thrown([&] { decodeBody({4, MessageType::Error, 1, uint32_t(error.size())}, error, Limits{}); });
+  EXPECT_EQ(e.code(), ErrorCode::Malformed);
+  EXPECT_TRUE(decodeBody({5, MessageType::Error, 1, uint32_t(error.size())}, error, Limits{}) ==
+              Message(Error{ErrorCode::Forbidden, "x"}));
 }
 
 TEST(Versions, HeadersOfEveryVersionSpokenDecode) {
@@ -349,14 +387,16 @@ TEST(Messages, TypeValuesAndNames) {
   EXPECT_STREQ(messageTypeName(MessageType(0)), "unknown");
   EXPECT_STREQ(messageTypeName(MessageType::FrameReceived), "FrameReceived");
   EXPECT_EQ(uint16_t(MessageType::FrameReceived), 13u);
-  EXPECT_STREQ(messageTypeName(MessageType(14)), "unknown");
+  EXPECT_STREQ(messageTypeName(MessageType::Authenticate), "Authenticate");
+  EXPECT_STREQ(messageTypeName(MessageType::Authenticated), "Authenticated");
+  EXPECT_STREQ(messageTypeName(MessageType(16)), "unknown");
 }
 
 TEST(Messages, ErrorCodeNames) {
   const char* names[] = {"BadMagic",          "UnsupportedVersion", "UnknownType",  "TooLarge",      "Malformed",
                          "UnexpectedMessage", "UnknownDataset",     "InvalidScene", "LimitExceeded", "Superseded",
-                         "Internal",          "ShuttingDown",       "Timeout",      "Busy"};
-  for (uint16_t code = 1; code <= 14; ++code) {
+                         "Internal",          "ShuttingDown",       "Timeout",      "Busy",          "Forbidden"};
+  for (uint16_t code = 1; code <= 15; ++code) {
     EXPECT_STREQ(errorCodeName(ErrorCode(code)), names[code - 1]);
     // every code decodes in the latest version
     const Bytes body = concat({u16(code), str("")});
@@ -364,7 +404,7 @@ TEST(Messages, ErrorCodeNames) {
                 Message(Error{ErrorCode(code), ""}));
   }
   EXPECT_STREQ(errorCodeName(ErrorCode(0)), "unknown");
-  EXPECT_STREQ(errorCodeName(ErrorCode(15)), "unknown");
+  EXPECT_STREQ(errorCodeName(ErrorCode(16)), "unknown");
 }
 
 TEST(Versions, BusyExistsFromVersionThreeOn) {
@@ -554,13 +594,22 @@ Bytes corpusFile(const std::string& name) {
 TEST(FuzzCorpus, EveryFileReplaysThroughTheFuzzCheck) {
   // What the malformed seeds must provoke, so that each keeps covering its path.
   const std::map<std::string, std::vector<ErrorCode>> expectedErrors = {
-      {"bad-magic", {ErrorCode::BadMagic}},          {"bad-version", {ErrorCode::UnsupportedVersion}},
-      {"bad-too-large", {ErrorCode::TooLarge}},      {"bad-truncated", {ErrorCode::Malformed}},
-      {"bad-trailing-byte", {ErrorCode::Malformed}}, {"bad-encoding", {ErrorCode::Malformed}},
-      {"bad-error-code", {ErrorCode::Malformed}},    {"bad-string-limit", {ErrorCode::Malformed}},
-      {"bad-list-count", {ErrorCode::Malformed}},    {"bad-huge-length", {ErrorCode::Malformed}},
-      {"bad-utf8", {ErrorCode::Malformed}},          {"bad-unknown-type-then-goodbye", {ErrorCode::UnknownType}},
-      {"bad-encoding-v2", {ErrorCode::Malformed}},      {"bad-frame-received-v3", {ErrorCode::UnknownType}},
+      {"bad-magic", {ErrorCode::BadMagic}},
+      {"bad-version", {ErrorCode::UnsupportedVersion}},
+      {"bad-too-large", {ErrorCode::TooLarge}},
+      {"bad-truncated", {ErrorCode::Malformed}},
+      {"bad-trailing-byte", {ErrorCode::Malformed}},
+      {"bad-encoding", {ErrorCode::Malformed}},
+      {"bad-error-code", {ErrorCode::Malformed}},
+      {"bad-string-limit", {ErrorCode::Malformed}},
+      {"bad-list-count", {ErrorCode::Malformed}},
+      {"bad-huge-length", {ErrorCode::Malformed}},
+      {"bad-utf8", {ErrorCode::Malformed}},
+      {"bad-unknown-type-then-goodbye", {ErrorCode::UnknownType}},
+      {"bad-encoding-v2", {ErrorCode::Malformed}},
+      {"bad-frame-received-v3", {ErrorCode::UnknownType}},
+      {"bad-authenticate-v4", {ErrorCode::UnknownType}},
+      {"bad-forbidden-v4", {ErrorCode::Malformed}},
   };
   std::set<MessageType> decodedTypes;
   size_t files = 0;

@@ -6,11 +6,15 @@
 
 #include <utility>  // before Asio: Boost 1.74's awaitable.hpp uses std::exchange without it
 
+#include <optional>
+
 #include <boost/asio/connect.hpp>
 #include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/ssl.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
+#include <boost/beast/websocket/ssl.hpp>
 
 #include "client/Client.h"
 
@@ -37,24 +41,29 @@ void setTimeouts(tcp::socket& socket, std::chrono::milliseconds timeout) {
   ::setsockopt(socket.native_handle(), SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
 }
 
-}  // namespace
+/// A client context trusting the CAs of `caFile`, checking the certificate is made out to 127.0.0.1.
+std::unique_ptr<asio::ssl::context> clientContext(const std::string& caFile) {
+  auto context = std::make_unique<asio::ssl::context>(asio::ssl::context::tls_client);
+  context->load_verify_file(caFile);
+  context->set_verify_mode(asio::ssl::verify_peer);
+  X509_VERIFY_PARAM_set1_ip_asc(SSL_CTX_get0_param(context->native_handle()), "127.0.0.1");
+  return context;
+}
 
-HttpReply httpRequest(int port, const std::string& method, const std::string& target,
-                      const std::vector<std::pair<std::string, std::string>>& headers) {
-  asio::io_context io;
-  tcp::socket socket(io);
-  socket.connect(tcp::endpoint(asio::ip::make_address("127.0.0.1"), uint16_t(port)));
-  setTimeouts(socket, std::chrono::seconds(20));
+/// One request on `stream` and its reply.
+template <class Stream>
+HttpReply exchange(Stream& stream, int port, const std::string& method, const std::string& target,
+                   const std::vector<std::pair<std::string, std::string>>& headers) {
   http::request<http::string_body> request(http::string_to_verb(method), target, 11);
   request.method_string(method);
   request.set(http::field::host, "127.0.0.1:" + std::to_string(port));
   for (const auto& [name, value] : headers) request.set(name, value);
   request.prepare_payload();
-  http::write(socket, request);
+  http::write(stream, request);
   beast::flat_buffer buffer;
   http::response_parser<http::string_body> parser;
   parser.skip(method == "HEAD");
-  http::read(socket, buffer, parser);
+  http::read(stream, buffer, parser);
   HttpReply reply;
   reply.status = int(parser.get().result_int());
   for (const auto& field : parser.get())
@@ -63,37 +72,75 @@ HttpReply httpRequest(int port, const std::string& method, const std::string& ta
   return reply;
 }
 
+}  // namespace
+
+HttpReply httpRequest(int port, const std::string& method, const std::string& target,
+                      const std::vector<std::pair<std::string, std::string>>& headers) {
+  asio::io_context io;
+  tcp::socket socket(io);
+  socket.connect(tcp::endpoint(asio::ip::make_address("127.0.0.1"), uint16_t(port)));
+  setTimeouts(socket, std::chrono::seconds(20));
+  return exchange(socket, port, method, target, headers);
+}
+
+HttpReply httpsRequest(int port, const std::string& caFile, const std::string& method, const std::string& target) {
+  asio::io_context io;
+  const auto context = clientContext(caFile);
+  asio::ssl::stream<tcp::socket> stream(io, *context);
+  stream.next_layer().connect(tcp::endpoint(asio::ip::make_address("127.0.0.1"), uint16_t(port)));
+  setTimeouts(stream.next_layer(), std::chrono::seconds(20));
+  stream.handshake(asio::ssl::stream_base::client);
+  return exchange(stream, port, method, target, {});
+}
+
 struct WebSocketClient::Impl {
   asio::io_context io;
-  websocket::stream<tcp::socket> ws{io};
+  std::unique_ptr<asio::ssl::context> tls;
+  std::optional<websocket::stream<tcp::socket>> ws;                      ///< ws://
+  std::optional<websocket::stream<asio::ssl::stream<tcp::socket>>> wss;  ///< wss://
+
+  template <typename F>
+  auto with(F&& f) {
+    if (wss) return f(*wss);
+    return f(*ws);
+  }
 };
 
 WebSocketClient::WebSocketClient(int port, const std::string& target, const std::string& origin,
-                                 std::chrono::milliseconds timeout)
+                                 std::chrono::milliseconds timeout, const std::string& caFile)
     : mImpl(std::make_unique<Impl>()) {
-  tcp::socket& socket = mImpl->ws.next_layer();
+  if (caFile.empty()) {
+    mImpl->ws.emplace(mImpl->io);
+  } else {
+    mImpl->tls = clientContext(caFile);
+    mImpl->wss.emplace(mImpl->io, *mImpl->tls);
+  }
+  tcp::socket& socket = mImpl->ws ? beast::get_lowest_layer(*mImpl->ws) : beast::get_lowest_layer(*mImpl->wss);
   socket.connect(tcp::endpoint(asio::ip::make_address("127.0.0.1"), uint16_t(port)));
   setTimeouts(socket, timeout);
-  mImpl->ws.set_option(websocket::stream_base::decorator([origin](websocket::request_type& request) {
-    if (!origin.empty()) request.set(http::field::origin, origin);
-  }));
-  // Asynchronous, since Boost 1.74's synchronous handshake keeps a refusal's response to itself.
-  websocket::response_type response;
-  boost::system::error_code ec;
-  mImpl->ws.async_handshake(response, "127.0.0.1:" + std::to_string(port), target,
-                            [&ec](boost::system::error_code e) { ec = e; });
-  mImpl->io.run();
-  mImpl->io.restart();
-  if (ec == websocket::error::upgrade_declined)
-    throw UpgradeRefused(int(response.result_int()), std::string(response.body()));
-  if (ec) throw client::ConnectionError("WebSocket handshake: " + ec.message());
-  mImpl->ws.binary(true);
-  mImpl->ws.read_message_max(0);  // frames may exceed Beast's default limit
+  if (mImpl->wss) mImpl->wss->next_layer().handshake(asio::ssl::stream_base::client);
+  mImpl->with([&](auto& ws) {
+    ws.set_option(websocket::stream_base::decorator([origin](websocket::request_type& request) {
+      if (!origin.empty()) request.set(http::field::origin, origin);
+    }));
+    // Asynchronous, since Boost 1.74's synchronous handshake keeps a refusal's response to itself.
+    websocket::response_type response;
+    boost::system::error_code ec;
+    ws.async_handshake(response, "127.0.0.1:" + std::to_string(port), target,
+                       [&ec](boost::system::error_code e) { ec = e; });
+    mImpl->io.run();
+    mImpl->io.restart();
+    if (ec == websocket::error::upgrade_declined)
+      throw UpgradeRefused(int(response.result_int()), std::string(response.body()));
+    if (ec) throw client::ConnectionError("WebSocket handshake: " + ec.message());
+    ws.binary(true);
+    ws.read_message_max(0);  // frames may exceed Beast's default limit
+  });
 }
 
 WebSocketClient::~WebSocketClient() {
   boost::system::error_code ignored;
-  mImpl->ws.next_layer().close(ignored);
+  mImpl->with([&](auto& ws) { beast::get_lowest_layer(ws).close(ignored); });
 }
 
 uint32_t WebSocketClient::send(const proto::Message& message) {
@@ -104,9 +151,11 @@ uint32_t WebSocketClient::send(const proto::Message& message) {
 }
 
 void WebSocketClient::sendRaw(std::span<const uint8_t> bytes, bool binary) {
-  mImpl->ws.binary(binary);
   try {
-    mImpl->ws.write(asio::buffer(bytes.data(), bytes.size()));
+    mImpl->with([&](auto& ws) {
+      ws.binary(binary);
+      ws.write(asio::buffer(bytes.data(), bytes.size()));
+    });
   } catch (const boost::system::system_error& e) {
     throw client::ConnectionError(std::string("write: ") + e.what());
   }
@@ -115,7 +164,7 @@ void WebSocketClient::sendRaw(std::span<const uint8_t> bytes, bool binary) {
 std::pair<uint32_t, proto::Message> WebSocketClient::receive() {
   beast::flat_buffer buffer;
   try {
-    mImpl->ws.read(buffer);
+    mImpl->with([&](auto& ws) { ws.read(buffer); });
   } catch (const boost::system::system_error& e) {
     throw client::ConnectionError(std::string("closed or failed: ") + e.what());
   }

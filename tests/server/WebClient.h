@@ -1,5 +1,5 @@
 // Test clients of the browser transport: one HTTP request at a time, and the protocol over a WebSocket (Boost.Beast,
-// synchronous) as the viewer's page speaks it.
+// synchronous) as the viewer's page speaks it; both in the clear or over TLS (https://, wss://).
 #pragma once
 
 #include <chrono>
@@ -30,6 +30,8 @@ struct HttpReply {
 /// Sends one request (HTTP/1.1, Host 127.0.0.1:`port`, `target` sent as given, not normalised) and reads its reply.
 HttpReply httpRequest(int port, const std::string& method, const std::string& target,
                       const std::vector<std::pair<std::string, std::string>>& headers = {});
+/// The same over TLS, the server's certificate verified against the CAs of `caFile` (and made out to 127.0.0.1).
+HttpReply httpsRequest(int port, const std::string& caFile, const std::string& method, const std::string& target);
 
 /// The server declined the WebSocket upgrade with this HTTP reply.
 class UpgradeRefused : public std::runtime_error {
@@ -42,13 +44,15 @@ class UpgradeRefused : public std::runtime_error {
   std::string body;
 };
 
-/// One session over ws://127.0.0.1:port/ws. Replies are read with a timeout (a ConnectionError past it); an Error
-/// answering a request made through the helpers is thrown as client::ServerError.
+/// One session over ws://127.0.0.1:port/ws (or wss://). Replies are read with a timeout (a ConnectionError past it);
+/// an Error answering a request made through the helpers is thrown as client::ServerError.
 class WebSocketClient {
  public:
   /// Opens `target` (e.g. "/ws?token=x") with an Origin header when `origin` is not empty; throws UpgradeRefused.
+  /// With `caFile`, over TLS (wss://), the server's certificate verified against its CAs.
   explicit WebSocketClient(int port, const std::string& target = "/ws", const std::string& origin = "",
-                           std::chrono::milliseconds timeout = std::chrono::seconds(60));
+                           std::chrono::milliseconds timeout = std::chrono::seconds(60),
+                           const std::string& caFile = "");
   ~WebSocketClient();
   WebSocketClient(const WebSocketClient&) = delete;
   WebSocketClient& operator=(const WebSocketClient&) = delete;

@@ -110,6 +110,8 @@ class ConnectionTest : public ::testing::Test {
                              return errorMessage(proto::ErrorCode::LimitExceeded, "too many sessions (limit 64)");
                            },
                            {},
+                           {},
+                           {},
                            {}};
   std::shared_ptr<FakeTransport> transport = std::make_shared<FakeTransport>();
   Connection core{*transport, services, ConnectionId{7}, "test:1"};

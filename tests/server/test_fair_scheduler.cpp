@@ -307,23 +307,43 @@ TEST_F(FairSchedulerTest, SessionsAskingTheSameFrameShareOneRender) {
 
 TEST(Quotas, SessionsPerAddressAndTokenHold) {
   Quotas q({.sessionsPerAddress = 2, .sessionsPerToken = 1});
-  EXPECT_FALSE(q.admit({1}, "10.0.0.1", false, ""));
-  EXPECT_FALSE(q.admit({2}, "10.0.0.1", false, ""));
-  const auto third = q.admit({3}, "10.0.0.1", false, "");
+  EXPECT_FALSE(q.admit({1}, "10.0.0.1", false));
+  EXPECT_FALSE(q.admit({2}, "10.0.0.1", false));
+  const auto third = q.admit({3}, "10.0.0.1", false);
   ASSERT_TRUE(third);
   EXPECT_NE(third->find("sessions_per_address = 2"), std::string::npos) << *third;
-  EXPECT_FALSE(q.admit({4}, "10.0.0.2", false, "tok"));
-  const auto sameToken = q.admit({5}, "10.0.0.3", false, "tok");
+  const TokenGrant tok{"tok", {"*"}, std::nullopt, std::nullopt};
+  EXPECT_FALSE(q.admit({4}, "10.0.0.2", false, &tok));
+  const auto sameToken = q.admit({5}, "10.0.0.3", false, &tok);
   ASSERT_TRUE(sameToken);
-  EXPECT_NE(sameToken->find("sessions_per_token"), std::string::npos) << *sameToken;
+  EXPECT_NE(sameToken->find("token 'tok' holds 1 sessions (quotas.sessions_per_token = 1)"), std::string::npos)
+      << *sameToken;
   q.remove({1});
-  EXPECT_FALSE(q.admit({6}, "10.0.0.1", false, "")) << "a closed session frees its place";
+  EXPECT_FALSE(q.admit({6}, "10.0.0.1", false)) << "a closed session frees its place";
+}
+
+TEST(Quotas, ATokensOwnQuotasReplaceThePerTokenOnesAndHoldWhenItIsPresentedLater) {
+  Quotas q({.sessionsPerToken = 1, .framesPerSecondPerToken = 100});
+  const TokenGrant team{"team", {"*"}, 2, 1.0};
+  EXPECT_FALSE(q.admit({1}, "10.0.0.1", false, &team));
+  EXPECT_FALSE(q.admit({2}, "10.0.0.2", false)) << "a TCP session: its token comes with Authenticate";
+  EXPECT_FALSE(q.attachToken({2}, team));
+  EXPECT_FALSE(q.admit({3}, "10.0.0.3", false));
+  const auto third = q.attachToken({3}, team);
+  ASSERT_TRUE(third);
+  EXPECT_NE(third->find("token 'team' holds 2 sessions (its sessions = 2)"), std::string::npos) << *third;
+  const auto t0 = Quotas::Clock::now();
+  EXPECT_FALSE(q.takeFrame({1}, t0));
+  const auto refused = q.takeFrame({2}, t0);
+  ASSERT_TRUE(refused) << "the token's one frame a second, shared by its sessions";
+  EXPECT_NE(refused->why.find("token 'team' may send 1 Renders a second"), std::string::npos) << refused->why;
+  EXPECT_FALSE(q.takeFrame({3}, t0)) << "the session whose token was refused is held to its address only";
 }
 
 TEST(Quotas, FramesPerSecondAreABucketOfOneSecond) {
   Quotas q({.framesPerSecondPerAddress = 4});
-  ASSERT_FALSE(q.admit({1}, "10.0.0.1", false, ""));
-  ASSERT_FALSE(q.admit({2}, "10.0.0.1", false, ""));
+  ASSERT_FALSE(q.admit({1}, "10.0.0.1", false));
+  ASSERT_FALSE(q.admit({2}, "10.0.0.1", false));
   const auto t0 = Quotas::Clock::now();
   for (int i = 0; i < 4; ++i) EXPECT_FALSE(q.takeFrame({uint64_t(1 + i % 2)}, t0)) << i;
   const auto refused = q.takeFrame({1}, t0);
@@ -336,8 +356,8 @@ TEST(Quotas, FramesPerSecondAreABucketOfOneSecond) {
 
 TEST(Quotas, LoopbackMayBeExempt) {
   Quotas q({.sessionsPerAddress = 1, .loopbackExempt = true});
-  EXPECT_FALSE(q.admit({1}, "127.0.0.1", true, ""));
-  EXPECT_FALSE(q.admit({2}, "127.0.0.1", true, ""));
+  EXPECT_FALSE(q.admit({1}, "127.0.0.1", true));
+  EXPECT_FALSE(q.admit({2}, "127.0.0.1", true));
 }
 
 /// The real server with a server.toml holding `toml`, over the sparse store.

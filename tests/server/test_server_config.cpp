@@ -105,6 +105,14 @@ frames_per_s_per_address = 20
 sessions_per_token = 5
 frames_per_s_per_token = 40
 loopback_exempt = true
+[tls]
+cert = "certs/server.pem"
+key = "/etc/voxbrick/server.key"
+ca = "clients.pem"
+[audit]
+path = "audit.jsonl"
+max_bytes = 65536
+keep = 3
 )"));
   EXPECT_EQ(c.host, "0.0.0.0");
   EXPECT_EQ(c.port, 0);
@@ -145,6 +153,22 @@ loopback_exempt = true
   EXPECT_EQ(c.quotas.sessionsPerToken, 5);
   EXPECT_DOUBLE_EQ(c.quotas.framesPerSecondPerToken, 40);
   EXPECT_TRUE(c.quotas.loopbackExempt);
+  EXPECT_EQ(c.tls.cert, dir.path() / "certs/server.pem") << "relative to the configuration file";
+  EXPECT_EQ(c.tls.key, "/etc/voxbrick/server.key");
+  EXPECT_EQ(c.tls.ca, dir.path() / "clients.pem");
+  EXPECT_EQ(c.auditPath, dir.path() / "audit.jsonl");
+  EXPECT_EQ(c.auditMaxBytes, 65536u);
+  EXPECT_EQ(c.auditKeep, 3);
+}
+
+TEST_F(ServerConfigTest, TlsAndAuditValuesAreChecked) {
+  const auto error = [&](const std::string& toml) { return loadError(toml); };
+  EXPECT_NE(error("[tls]\ncert = \"c.pem\"\n").find("tls.cert is set without tls.key"), std::string::npos);
+  EXPECT_NE(error("[tls]\nkey = \"k.pem\"\n").find("tls.key is set without tls.cert"), std::string::npos);
+  EXPECT_NE(error("[tls]\nca = \"ca.pem\"\n").find("tls.ca is set without tls.cert"), std::string::npos);
+  EXPECT_NE(error("[tls]\npassword = \"x\"\n").find("unknown key tls.password"), std::string::npos);
+  EXPECT_NE(error("[audit]\nmax_bytes = 10\n").find("audit.max_bytes"), std::string::npos);
+  EXPECT_NE(error("[audit]\nkeep = 5000\n").find("audit.keep"), std::string::npos);
 }
 
 TEST_F(ServerConfigTest, SchedulerAndQuotaValuesOutOfRangeOrUnknownAreNamed) {

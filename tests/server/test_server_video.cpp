@@ -55,9 +55,12 @@ std::unique_ptr<Client> videoSession(const ServerProcess& server, uint16_t maxVe
 TEST_F(VideoServerTest, VersionFourOffersVp8AndVp9AndOlderSessionsDoNot) {
   auto server = start();
   Client c("127.0.0.1", server->port(), std::chrono::seconds(60));
-  const proto::Capabilities caps = c.hello("test");
+  const proto::Capabilities caps = c.hello("test", 4);
   EXPECT_EQ(caps.version, 4);
   EXPECT_EQ(caps.encodings, proto::encodingsOf(4));
+  EXPECT_EQ(Client("127.0.0.1", server->port(), std::chrono::seconds(60)).hello("test").encodings,
+            proto::encodingsOf(4))
+      << "and every later version";
   Client old("127.0.0.1", server->port(), std::chrono::seconds(60));
   EXPECT_EQ(old.hello("test", 3).encodings, proto::encodingsOf(3));
   old.openDataset("sparse");

@@ -10,9 +10,12 @@ import { CurveEditor } from "./tfeditor.js";
 import { pickVideoCodec } from "./video.js";
 import * as V from "./view.js";
 import { bindPanel } from "./panel.js";
+import { takeToken } from "./token.js";
 
 const $ = (id) => document.getElementById(id);
 const params = new URLSearchParams(location.search);
+/// The access token, out of the address from here on and kept in memory only (token.js).
+const accessToken = takeToken(params);
 const MAX_SIDE = 2048; // the largest frame side the page asks for, whatever the screen
 const BACKOFF_MS = [500, 1000, 2000, 4000, 8000];
 
@@ -48,7 +51,9 @@ const app = {
 
 // The server's status page carries the page's token (and server) on, as /ws does.
 const statusLink = new URL("status.html", location.href);
-for (const key of ["token", "server"]) if (params.get(key)) statusLink.searchParams.set(key, params.get(key));
+statusLink.search = "";
+if (accessToken) statusLink.searchParams.set("token", accessToken);
+if (params.get("server")) statusLink.searchParams.set("server", params.get("server"));
 $("status-link").href = statusLink.pathname + statusLink.search;
 
 const canvas = $("frame");
@@ -222,8 +227,7 @@ function saveFrame() {
 function wsUrl() {
   const host = params.get("server") || location.host;
   const scheme = location.protocol === "https:" ? "wss" : "ws";
-  const token = params.get("token");
-  return `${scheme}://${host}/ws${token ? `?token=${encodeURIComponent(token)}` : ""}`;
+  return `${scheme}://${host}/ws${accessToken ? `?token=${encodeURIComponent(accessToken)}` : ""}`;
 }
 
 function connect() {
@@ -338,8 +342,8 @@ async function refusalReason() {
   }
   const text = (await r.text().catch(() => "")).trim().slice(0, 200);
   if (r.status !== 426) return `HTTP ${r.status}${text ? `: ${text}` : ""}`;
-  return params.get("token")
-    ? "the access token in this page's address (?token=...) is wrong"
+  return accessToken
+    ? "the access token this page was opened with (?token=...) is wrong"
     : "the server wants an access token: open the address it printed, with ?token=...";
 }
 

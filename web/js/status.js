@@ -4,8 +4,11 @@
 // tests (window.voxbrickStatus).
 
 import * as M from "./metrics.js";
+import { takeToken } from "./token.js";
 
 const params = new URLSearchParams(location.search);
+/// The access token, out of the address from here on and kept in memory only (token.js).
+const accessToken = takeToken(params);
 const INTERVAL_MS = Math.max(200, Number(params.get("interval")) || 1000);
 const WINDOW_S = 10;
 const CLASSES = ["interactive", "still", "batch"];
@@ -16,8 +19,7 @@ const app = { scrapes: [], count: 0, error: "", figures: null };
 function metricsUrl() {
   const server = params.get("server");
   const base = server ? `${location.protocol}//${server}/metrics` : new URL("metrics", location.href).pathname;
-  const token = params.get("token");
-  return `${base}${token ? `?token=${encodeURIComponent(token)}` : ""}`;
+  return `${base}${accessToken ? `?token=${encodeURIComponent(accessToken)}` : ""}`;
 }
 
 const fmt = {
@@ -226,7 +228,9 @@ async function poll() {
 }
 
 const viewer = new URL("./", location.href);
-for (const key of ["token", "server"]) if (params.get(key)) viewer.searchParams.set(key, params.get(key));
+viewer.search = "";
+if (accessToken) viewer.searchParams.set("token", accessToken);
+if (params.get("server")) viewer.searchParams.set("server", params.get("server"));
 $("viewer-link").href = viewer.pathname + viewer.search;
 
 // The test hook: what the page shows, so tests need no scraping of its tables.
