@@ -57,7 +57,9 @@ TEST(PythonClient, CppDecodesThePythonHello) {
   EXPECT_EQ(header.requestId, 1u);
   const Hello& hello = std::get<Hello>(message);
   EXPECT_EQ(hello.minVersion, kMinVersion);
-  EXPECT_EQ(hello.maxVersion, kMaxVersion);  // it speaks the latest version when the server offers it
+  // Version 4, the video's: the package has no Authenticate (version 5) yet, nor TLS (docs/python.md).
+  EXPECT_EQ(hello.maxVersion, 4);
+  EXPECT_LT(hello.maxVersion, kMaxVersion) << "the package speaks the latest version now: this test should say so";
   EXPECT_EQ(hello.client, "voxbrick_client.py 1");
 }
 

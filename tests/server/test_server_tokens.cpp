@@ -102,13 +102,7 @@ TEST_F(TokenServerTest, ATokenForSomeDatasetsSeesAndOpensThoseOnly) {
                         " --token-file " + (scratch() / "alpha.token").string() + " --list");
   EXPECT_EQ(r.exitCode, 0) << r.output;
   EXPECT_EQ(r.output, "alpha-1\nalpha-2\n");
-  // The Python client of examples/ (standard library only) does the same.
-  const auto python =
-      test::runShell("python3 " + std::string(VOXBRICK_SOURCE_DIR) +
-                     "/examples/python/voxbrick_client.py 127.0.0.1:" + std::to_string(tls->port()) + " --tls --ca " +
-                     certs.caCert.string() + " --token-file " + (scratch() / "alpha.token").string() + " 2>&1");
-  EXPECT_EQ(python.exitCode, 0) << python.output;
-  EXPECT_EQ(python.output, "alpha-1\nalpha-2\n");
+  // (The Python package speaks versions 1 to 4, without TLS or Authenticate: docs/python.md.)
   const auto denied = test::runVoxbrick(
       "request 127.0.0.1:" + std::to_string(tls->port()) + " --tls --ca " + certs.caCert.string() + " --token-file " +
       (scratch() / "alpha.token").string() + " --dataset beta -o " + (scratch() / "beta.png").string());
