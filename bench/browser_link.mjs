@@ -65,7 +65,7 @@ function exactFrame(server, scene, file) {
   const r = spawnSync(H.VOXBRICK, ["request", `127.0.0.1:${server.tcpPort}`, "--dataset", opt.dataset, "--scene",
     `${file}.json`, "-o", file], { encoding: "utf8" });
   if (r.status !== 0) throw new Error(`voxbrick request failed: ${r.stderr}`);
-  return D.decodePng(fs.readFileSync(file));
+  return H.decodePng(fs.readFileSync(file));
 }
 
 /// One tab's drag at `size` with `encoding`, the page loaded from `base`.

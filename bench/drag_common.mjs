@@ -5,7 +5,6 @@ import { spawn, spawnSync } from "node:child_process";
 import fs from "node:fs";
 import os from "node:os";
 import path from "node:path";
-import zlib from "node:zlib";
 import * as H from "../tests/browser/harness.mjs";
 import { DRAG_TIME_BUDGET_MS } from "../web/js/view.js";
 
@@ -154,55 +153,3 @@ export function writeCsv(file, cols, rows) {
 
 /// A number for a table: `d` decimals, empty when there is none.
 export const fmt = (v, d = 1) => (v === null || v === undefined || Number.isNaN(v) ? "" : Number(v).toFixed(d));
-
-/// An 8-bit RGBA or RGB PNG (as `voxbrick request` writes) as {width, height, rgba}; throws naming what it cannot read.
-export function decodePng(bytes) {
-  const signature = "89504e470d0a1a0a";
-  if (bytes.subarray(0, 8).toString("hex") !== signature) throw new Error("decodePng: not a PNG");
-  let width = 0;
-  let height = 0;
-  let channels = 0;
-  const idat = [];
-  for (let at = 8; at + 8 <= bytes.length; ) {
-    const length = bytes.readUInt32BE(at);
-    const type = bytes.toString("latin1", at + 4, at + 8);
-    const data = bytes.subarray(at + 8, at + 8 + length);
-    if (type === "IHDR") {
-      [width, height] = [data.readUInt32BE(0), data.readUInt32BE(4)];
-      const [depth, colour, interlace] = [data[8], data[9], data[12]];
-      channels = colour === 6 ? 4 : colour === 2 ? 3 : 0;
-      if (depth !== 8 || !channels || interlace)
-        throw new Error(`decodePng: depth ${depth}, colour type ${colour}, interlace ${interlace}: not 8-bit RGB(A)`);
-    } else if (type === "IDAT") idat.push(data);
-    else if (type === "IEND") break;
-    at += 12 + length;
-  }
-  const raw = zlib.inflateSync(Buffer.concat(idat));
-  const stride = width * channels;
-  const rows = Buffer.alloc(stride * height);
-  for (let y = 0; y < height; ++y) {
-    const filter = raw[y * (stride + 1)];
-    const line = raw.subarray(y * (stride + 1) + 1, (y + 1) * (stride + 1));
-    const out = rows.subarray(y * stride, (y + 1) * stride);
-    const up = y ? rows.subarray((y - 1) * stride, y * stride) : Buffer.alloc(stride);
-    for (let x = 0; x < stride; ++x) {
-      const a = x >= channels ? out[x - channels] : 0;
-      const b = up[x];
-      const c = x >= channels ? up[x - channels] : 0;
-      let v = line[x];
-      if (filter === 1) v += a;
-      else if (filter === 2) v += b;
-      else if (filter === 3) v += (a + b) >> 1;
-      else if (filter === 4) {
-        const p = a + b - c;
-        const [pa, pb, pc] = [Math.abs(p - a), Math.abs(p - b), Math.abs(p - c)];
-        v += pa <= pb && pa <= pc ? a : pb <= pc ? b : c;
-      } else if (filter !== 0) throw new Error(`decodePng: row ${y} has filter ${filter}`);
-      out[x] = v & 255;
-    }
-  }
-  if (channels === 4) return { width, height, rgba: rows };
-  const rgba = Buffer.alloc(width * height * 4, 255);
-  for (let i = 0; i < width * height; ++i) rows.copy(rgba, 4 * i, 3 * i, 3 * i + 3);
-  return { width, height, rgba };
-}
