@@ -10,4 +10,20 @@ bash scripts/build.sh
 # The browser tests' packages, exactly as locked (puppeteer-core; no browser download: they use Debian's Chromium).
 (cd tests/browser && npm ci --no-audit --no-fund)
 cd build
-ctest --output-on-failure --timeout 600 -j "$(nproc)"
+status=0
+ctest --output-on-failure --timeout 600 -j "$(nproc)" || status=$?
+if [ "$status" -ne 0 ]; then
+  # A long log is read from its end: each failed test's last lines once more, after ctest's summary.
+  echo "=== the failed tests' last lines (the whole output is above, and in build/Testing/Temporary/LastTest.log)"
+  while IFS=: read -r _ name; do
+    echo "--- $name"
+    awk -v name="$name" '
+      $0 ~ "^[0-9]+/[0-9]+ Test: " name "$" { inside = 1; n = 0; next }
+      inside == 1 && /^Output:$/ { inside = 2; getline; next }
+      inside == 2 && /^<end of output>$/ { inside = 0 }
+      inside == 2 { line[n++ % 25] = $0 }
+      END { for (i = (n > 25 ? n - 25 : 0); i < n; ++i) print "  " line[i % 25] }
+    ' Testing/Temporary/LastTest.log
+  done < Testing/Temporary/LastTestsFailed.log
+  exit "$status"
+fi

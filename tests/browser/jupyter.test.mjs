@@ -72,7 +72,7 @@ const alive = (pid) => {
 async function stopJupyter() {
   if (!jupyter) return;
   if (jupyter.proc.exitCode === null && jupyter.proc.signalCode === null) {
-    await jupyterApi("POST", "/api/shutdown");
+    if (jupyter.url) await jupyterApi("POST", "/api/shutdown");
     const deadline = Date.now() + 5000;
     while (alive(jupyter.proc.pid) && jupyter.proc.exitCode === null && Date.now() < deadline) await sleep(50);
     if (jupyter.proc.exitCode === null && jupyter.proc.signalCode === null) {
@@ -126,7 +126,9 @@ async function startJupyter(dir) {
     "--no-browser",
     "--ip=127.0.0.1",
     `--port=${port}`,
-    "--port-retries=0",
+    // The port is a hint: another test may take it between freePort and Jupyter's bind, so Jupyter tries the next
+    // ones and the test reads the port it took from its server file (below).
+    "--port-retries=50",
     `--notebook-dir=${notebooks}`,
     `--NotebookApp.token=${JUPYTER_TOKEN}`,
     "--NotebookApp.password=",
@@ -154,21 +156,31 @@ async function startJupyter(dir) {
     stdio: ["ignore", log, log],
   });
   fs.closeSync(log);
-  jupyter = { proc, port, url: `http://127.0.0.1:${port}`, notebooks, logFile };
+  jupyter = { proc, port: null, url: null, notebooks, logFile };
   jupyter.exited = new Promise((resolve) => proc.on("exit", (code, signal) => resolve(code ?? signal)));
   jupyter.log = () => fs.readFileSync(logFile, "utf8");
-  const deadline = Date.now() + 30000;
+  // Notebook 6 writes its address to runtime/nbserver-<pid>.json once it listens.
+  const serverFile = path.join(home, "runtime", `nbserver-${proc.pid}.json`);
+  const deadline = Date.now() + 60000;
   while (Date.now() < deadline) {
     if (proc.exitCode !== null || proc.signalCode !== null)
       throw new Error(
         `Jupyter exited (${proc.exitCode ?? proc.signalCode}; scripts/setup.sh installs Debian's jupyter-notebook): ` +
           jupyter.log(),
       );
-    const r = await jupyterApi("GET", "/api/status");
+    if (!jupyter.port && fs.existsSync(serverFile)) {
+      try {
+        jupyter.port = JSON.parse(fs.readFileSync(serverFile, "utf8")).port;
+        jupyter.url = `http://127.0.0.1:${jupyter.port}`;
+      } catch {
+        // written meanwhile: read again
+      }
+    }
+    const r = jupyter.port && (await jupyterApi("GET", "/api/status"));
     if (r && r.status === 200) return jupyter;
     await sleep(100);
   }
-  throw new Error(`Jupyter did not answer within 30 s: ${jupyter.log()}`);
+  throw new Error(`Jupyter did not answer within 60 s: ${jupyter.log()}`);
 }
 
 /// The notebook: cell 0 shows the view, cell 1 prints what the kernel holds of it (its state and snapshot).
@@ -197,7 +209,7 @@ function writeNotebook(dir) {
 }
 
 /// Runs cell `i` from Jupyter's UI and waits until the kernel has answered it (its prompt numbered); its outputs.
-async function runCell(i, timeout = 30000) {
+async function runCell(i, timeout = 60000) {
   await page.evaluate((i) => {
     const cell = Jupyter.notebook.get_cell(i);
     cell.input_prompt_number = null;
@@ -261,10 +273,36 @@ after(async () => {
   console.log(`# done in ${elapsed()}`);
 });
 
+/// What the test saw of Jupyter and its page, for a failure's message: the page's errors and console, the end of
+/// Jupyter's log (a kernel that died and restarted says so there).
+function diagnosis() {
+  const lines = [];
+  if (page) {
+    lines.push(`page errors: ${JSON.stringify(page.errors)}`);
+    lines.push(`page console (last 20): ${JSON.stringify(page.consoleLines.slice(-20))}`);
+  }
+  if (jupyter) {
+    const log = jupyter.log().trim().split("\n");
+    lines.push(`Jupyter (port ${jupyter.port}) log, last 30 lines:\n  ${log.slice(-30).join("\n  ")}`);
+  }
+  return lines.join("\n");
+}
+
 test("a notebook's voxbrick.view turns in the browser and the kernel reads the view back", async () => {
+  try {
+    await notebookScenario();
+  } catch (e) {
+    console.error(`# failed at ${elapsed()}; what the test saw:\n${diagnosis()}`);
+    throw e;
+  }
+});
+
+async function notebookScenario() {
   page = await browser.newPage();
   page.errors = [];
+  page.consoleLines = [];
   page.on("pageerror", (e) => page.errors.push(e.message));
+  page.on("console", (m) => page.consoleLines.push(`${m.type()}: ${m.text()}`));
   await page.setViewport({ width: 1000, height: 800, deviceScaleFactor: 1 });
   await page.goto(`${jupyter.url}/notebooks/view.ipynb?token=${JUPYTER_TOKEN}`, { waitUntil: "load" });
   // The notebook is loaded and its kernel (a fresh IPython) connected.
@@ -275,7 +313,7 @@ test("a notebook's voxbrick.view turns in the browser and the kernel reads the v
       Jupyter.notebook._fully_loaded &&
       Jupyter.notebook.kernel &&
       Jupyter.notebook.kernel.is_connected(),
-    { timeout: 30000, polling: 50 },
+    { timeout: 60000, polling: 50 },
   );
   // What the cell's script hands the kernel is recorded on its way (the call itself goes on unchanged).
   await page.evaluate(() => {
@@ -294,19 +332,21 @@ test("a notebook's voxbrick.view turns in the browser and the kernel reads the v
   const html = shownOutputs.map((o) => (o.data && o.data["text/html"]) || "").join("");
   assert.match(html, /<iframe src="http:\/\/127\.0\.0\.1:\d+\/\?dataset=blobs&amp;orbit=30,20&amp;tf=hot&amp;size=160/);
   // The output's IFrame, once it has navigated to the viewer (until then it is about:blank).
-  await page.waitForSelector(".output_area iframe", { timeout: 10000 });
-  const viewer = await page.waitForFrame((f) => f.url().startsWith(`${server.url}/`), { timeout: 20000 });
+  await page.waitForSelector(".output_area iframe", { timeout: 30000 });
+  const viewer = await page.waitForFrame((f) => f.url().startsWith(`${server.url}/`), { timeout: 40000 });
+  await viewer.waitForFunction(() => window.voxbrickViewer !== undefined, { timeout: 30000 });
   // The cell's address carried the token (the HTML above); the page took it out of its address once read
-  // (web/js/token.js).
-  assert.match(viewer.url(), new RegExp(`^${server.url}/\\?dataset=blobs&orbit=30(,|%2C)20&tf=hot&size=160x120$`));
+  // (web/js/token.js), before its viewer started. Read in the page: the frame's `url()` follows the page's
+  // history.replaceState only when Chromium's event for it has arrived.
+  const address = await viewer.evaluate(() => location.href);
+  assert.match(address, new RegExp(`^${server.url}/\\?dataset=blobs&orbit=30(,|%2C)20&tf=hot&size=160x120$`));
   assert.match(html, /size=160x120&amp;token=/);
-  await viewer.waitForFunction(() => window.voxbrickViewer !== undefined, { timeout: 10000 });
-  const first = await H.waitForState(viewer, (s) => s.lastFrame && !s.lastFrame.provisional);
+  const first = await H.waitForState(viewer, (s) => s.lastFrame && !s.lastFrame.provisional, 40000);
   assert.deepEqual([first.view.az, first.view.el, first.view.tf, first.canvas], [30, 20, "hot", SIZE]);
   const firstPixels = await H.canvasPixels(viewer);
   assert.ok(H.litPixels(firstPixels) > 100, "the first frame shows the volume");
   // The cell asked the viewer for its view, and handed the first one to the kernel.
-  await page.waitForFunction(() => window.voxbrickReports.length >= 1, { timeout: 10000 });
+  await page.waitForFunction(() => window.voxbrickReports.length >= 1, { timeout: 30000 });
   const id = (await reports())[0].id;
   console.log(`# first exact frame at ${elapsed()}`);
 
@@ -320,7 +360,7 @@ test("a notebook's voxbrick.view turns in the browser and the kernel reads the v
       !s.lastFrame.provisional &&
       s.view.az !== 30 &&
       JSON.stringify(s.lastFrame.scene.camera) === JSON.stringify({ orbit: [s.view.az, s.view.el] }),
-    20000,
+    40000,
   );
   assert.ok(drag.moves >= 5, `the drag moved ${drag.moves} times`);
   assert.equal(turned.view.view, null);
@@ -332,7 +372,7 @@ test("a notebook's voxbrick.view turns in the browser and the kernel reads the v
   assert.ok(differing > 100, `a new frame is shown (${differing} pixels changed)`);
   // The released view reaches the kernel (the viewer posts it within 250 ms of the release).
   let posted = await reports();
-  for (const deadline = Date.now() + 10000; Date.now() < deadline; posted = await reports()) {
+  for (const deadline = Date.now() + 30000; Date.now() < deadline; posted = await reports()) {
     const last = posted[posted.length - 1];
     if (last && last.view && last.view.az === turned.view.az && last.view.el === turned.view.el) break;
     await sleep(50);
@@ -371,4 +411,4 @@ test("a notebook's voxbrick.view turns in the browser and the kernel reads the v
   assert.deepEqual(page.errors, []);
   await H.screenshot(page, "jupyter-notebook");
   console.log(`# the kernel holds the dragged view, at ${elapsed()}`);
-});
+}

@@ -64,8 +64,10 @@ window.IPython = { notebook: { kernel: { execute: (code, callbacks, options) => 
 
   const viewer = page.frames().find((f) => f.url().startsWith(server.url));
   assert.ok(viewer, `the cell holds the viewer: ${page.frames().map((f) => f.url())}`);
-  // The view's address, the token taken out of it once the page has read it (web/js/token.js).
-  assert.match(viewer.url(), /dataset=blobs&orbit=30(,|%2C)20&tf=hot&size=160x120$/);
+  // The view's address, the token taken out of it once the page has read it (web/js/token.js), before its viewer
+  // started. Read in the page: the frame's `url()` follows history.replaceState only once Chromium's event has come.
+  await viewer.waitForFunction(() => window.voxbrickViewer !== undefined, { timeout: 20000 });
+  assert.match(await viewer.evaluate(() => location.href), /dataset=blobs&orbit=30(,|%2C)20&tf=hot&size=160x120$/);
   await page.waitForFunction(() => window.executed.length >= 1, { timeout: 20000 });
   // The view Python set, as the viewer holds it.
   const first = await H.waitForState(viewer, (s) => s.lastFrame && !s.lastFrame.provisional);
@@ -74,7 +76,18 @@ window.IPython = { notebook: { kernel: { execute: (code, callbacks, options) => 
   // The person turns the camera and switches shading on: the cell hands the new view to the kernel.
   const before = await page.evaluate(() => window.executed.length);
   await viewer.evaluate(() => window.voxbrickViewer.setView({ view: null, az: 100, el: 5, dist: 3, shading: true }));
-  await page.waitForFunction((n) => window.executed.length > n, { timeout: 20000 }, before);
+  // The report of the new view: the reports are sent at most every 250 ms, so one of the first view may still come
+  // after setView.
+  await page.waitForFunction(
+    (n) => {
+      if (window.executed.length <= n) return false;
+      const m = /_report\("[0-9a-f]{32}", (".*")\)$/.exec(window.executed[window.executed.length - 1].code);
+      const view = m && JSON.parse(JSON.parse(m[1])).view;
+      return !!view && view.az === 100 && view.shading === true;
+    },
+    { timeout: 20000, polling: 25 },
+    before,
+  );
   // The exact frame shown is of the new view (`view` changes at once, the frame shown after).
   const shown = await H.waitForState(
     viewer,
