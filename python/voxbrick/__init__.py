@@ -12,7 +12,7 @@ from __future__ import annotations
 from typing import Any
 
 from .errors import (ConnectionClosed, ConnectionRefused, DecodeError, ErrorCode, ProtocolError, ServerError,
-                     VoxbrickError)
+                     TlsError, VoxbrickError)
 from .protocol import Encoding
 
 __version__ = '1.0'
@@ -26,7 +26,7 @@ _LAZY = {
 }
 
 __all__ = ['ConnectionClosed', 'ConnectionRefused', 'DecodeError', 'ErrorCode', 'ProtocolError', 'ServerError',
-           'VoxbrickError', 'Encoding', *_LAZY]
+           'TlsError', 'VoxbrickError', 'Encoding', *_LAZY]
 
 
 def __getattr__(name: str) -> Any:

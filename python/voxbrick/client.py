@@ -47,15 +47,19 @@ class Frame:
 
 
 def connect(address: str, token: Optional[str] = None, *, timeout: float = 120,
-            max_version: int = MAX_VERSION) -> 'Client':
+            max_version: int = MAX_VERSION, ca: Optional[str] = None, insecure: bool = False) -> 'Client':
     """A session with the server at `address`.
 
-    "HOST:PORT" is its TCP port (`voxbrick serve --port`); "ws://HOST:PORT" (or the viewer's address,
-    "http://HOST:PORT/?token=T") its HTTP port (`--http`), a WebSocket, which is where an access token (`token=`,
-    `--http-token`) is given. `timeout`: seconds any reply may take. `max_version`: the highest protocol version
-    offered (1 to 4; the session speaks the highest both sides do). Raises ConnectionRefused (HTTP status and the
-    server's words) for a refused upgrade, ServerError for a refused Hello, OSError when nothing listens."""
-    return Client(address, token=token, timeout=timeout, max_version=max_version)
+    "HOST:PORT" is its TCP port (`voxbrick serve --port`), "tls://HOST:PORT" the same inside TLS (a server started
+    with `--tls-cert`); "ws://HOST:PORT" (or the viewer's address, "http://HOST:PORT/?token=T") its HTTP port
+    (`--http`), a WebSocket, and "wss://" / "https://" the same over TLS. `token`: the access token (`--http-token`, or
+    one of the server's `[[tokens]]`), given when the WebSocket opens, or over TCP by Authenticate (protocol version
+    5). Over TLS the server's certificate is verified against `ca` (a PEM file of CAs) or the system's CAs, and must
+    name the host; `insecure=True` takes any certificate (a self-signed one in local use). `timeout`: seconds any reply
+    may take. `max_version`: the highest protocol version offered (1 to 5; the session speaks the highest both sides
+    do). Raises ConnectionRefused (HTTP status and the server's words) for a refused upgrade, ServerError for a refused
+    Hello or token (Forbidden), TlsError for a certificate that does not verify, OSError when nothing listens."""
+    return Client(address, token=token, timeout=timeout, max_version=max_version, ca=ca, insecure=insecure)
 
 
 class Client:
@@ -66,9 +70,10 @@ class Client:
     the open one. Not for use from several threads at once."""
 
     def __init__(self, address: str, token: Optional[str] = None, *, timeout: float = 120,
-                 min_version: int = MIN_VERSION, max_version: int = MAX_VERSION, client_name: str = CLIENT_NAME):
+                 min_version: int = MIN_VERSION, max_version: int = MAX_VERSION, client_name: str = CLIENT_NAME,
+                 ca: Optional[str] = None, insecure: bool = False):
         self.session = Session(address, token, timeout=timeout, client_name=client_name, min_version=min_version,
-                               max_version=max_version)
+                               max_version=max_version, ca=ca, insecure=insecure)
 
     @property
     def version(self) -> int:
@@ -191,7 +196,8 @@ class Client:
 
     def __repr__(self) -> str:
         a = self.session.address
-        return f'<voxbrick.Client {a.scheme}://{a.host}:{a.port} version {self.version} dataset {self.dataset!r}>'
+        scheme = {('tcp', False): 'tcp', ('tcp', True): 'tls', ('ws', False): 'ws', ('ws', True): 'wss'}[a.scheme, a.tls]
+        return f'<voxbrick.Client {scheme}://{a.host}:{a.port} version {self.version} dataset {self.dataset!r}>'
 
     # Helpers.
 

@@ -23,10 +23,11 @@ class ErrorCode(enum.IntEnum):
     ShuttingDown = 12
     Timeout = 13
     Busy = 14
+    Forbidden = 15
 
 
 #: The protocol version each error code appeared in (the others: version 1).
-ERROR_CODE_SINCE = {ErrorCode.Busy: 3}
+ERROR_CODE_SINCE = {ErrorCode.Busy: 3, ErrorCode.Forbidden: 5}
 
 
 class VoxbrickError(Exception):
@@ -68,6 +69,15 @@ class ConnectionRefused(VoxbrickError):
     def __init__(self, status: int, reason: str):
         super().__init__(f'HTTP {status}: {reason}' if reason else f'HTTP {status}')
         self.status = status
+        self.reason = reason
+
+
+class TlsError(VoxbrickError, ConnectionError):
+    """The TLS handshake with the server failed: its certificate did not verify (not signed by a CA this client trusts,
+    or not naming the host connected to), or the server does not speak TLS on that port. `reason` is OpenSSL's."""
+
+    def __init__(self, message: str, reason: str = ''):
+        super().__init__(message)
         self.reason = reason
 
 

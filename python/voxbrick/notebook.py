@@ -34,7 +34,8 @@ _views: 'weakref.WeakValueDictionary[str, View]' = weakref.WeakValueDictionary()
 
 def view(dataset: str, server: str, *, token: Optional[str] = None, camera: Any = None, tf: Any = 'grayscale',
          window: Optional[Sequence[float]] = None, shading: bool = False, quality: str = '',
-         size: Sequence[int] = (512, 512), address: Optional[str] = None, browser_url: Optional[str] = None) -> 'View':
+         size: Sequence[int] = (512, 512), address: Optional[str] = None, browser_url: Optional[str] = None,
+         ca: Optional[str] = None, insecure: bool = False) -> 'View':
     """A live view of `dataset` for a notebook cell: the last expression of a cell, or display(view), shows it.
 
     `server`: the server's HTTP port, as `voxbrick serve --http PORT` prints it ("http://HOST:PORT/?token=T", or
@@ -42,11 +43,13 @@ def view(dataset: str, server: str, *, token: Optional[str] = None, camera: Any 
     a list of [x, r, g, b, a] points (each in [0, 1]); `window`: (lo, hi); `shading`, `quality` ("psnr:40",
     "ms:200"); `size`: the frame's (width, height), which the viewer then keeps. `address`: where the kernel renders
     snapshots (default: the WebSocket of `server`; a TCP "HOST:PORT" works too). `browser_url`: the viewer's address as
-    the browser reaches it, when that is not `server` (a tunnel, a proxy).
+    the browser reaches it, when that is not `server` (a tunnel, a proxy). A server over TLS ("https://..."): the
+    kernel's session verifies its certificate against `ca` (a PEM file of CAs) or the system's, or takes any with
+    `insecure=True`; the browser trusts it, or not, by its own store.
 
     The URL in the cell carries the token: a notebook saved with its outputs holds it."""
     return View(dataset, server, token=token, camera=camera, tf=tf, window=window, shading=shading, quality=quality,
-                size=size, address=address, browser_url=browser_url)
+                size=size, address=address, browser_url=browser_url, ca=ca, insecure=insecure)
 
 
 class View:
@@ -56,8 +59,9 @@ class View:
     def __init__(self, dataset: str, server: str, *, token: Optional[str] = None, camera: Any = None,
                  tf: Any = 'grayscale', window: Optional[Sequence[float]] = None, shading: bool = False,
                  quality: str = '', size: Sequence[int] = (512, 512), address: Optional[str] = None,
-                 browser_url: Optional[str] = None):
+                 browser_url: Optional[str] = None, ca: Optional[str] = None, insecure: bool = False):
         self._base, self._token = _http_base(server, token)
+        self._tls = {'ca': ca, 'insecure': insecure} if ca is not None or insecure else {}
         self._browser_base = _http_base(browser_url, self._token)[0] if browser_url else self._base
         self._address = address
         self._client: Optional[Client] = None
@@ -316,9 +320,9 @@ class View:
     def _session(self) -> Client:
         if self._client is None:
             if self._address is not None:
-                self._client = connect(self._address)
+                self._client = connect(self._address, **self._tls)
             else:
-                self._client = connect('ws' + self._base[len('http'):], token=self._token)
+                self._client = connect('ws' + self._base[len('http'):], token=self._token, **self._tls)
         return self._client
 
     def _dataset_meta(self) -> Dict[str, Any]:

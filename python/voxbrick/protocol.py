@@ -13,8 +13,9 @@ from typing import Any, Dict, NamedTuple, Optional
 from .errors import ERROR_CODE_SINCE, ErrorCode, ProtocolError
 
 MAGIC = 0x4B425856  # "VXBK" read as a little-endian u32
-#: The protocol versions this package speaks: 2 adds jpeg, 3 the Busy error, 4 the video encodings and FrameReceived.
-MIN_VERSION, MAX_VERSION = 1, 4
+#: The protocol versions this package speaks: 2 adds jpeg, 3 the Busy error, 4 the video encodings and FrameReceived,
+#: 5 Authenticate, Authenticated and the Forbidden error (a TCP session's access token).
+MIN_VERSION, MAX_VERSION = 1, 5
 HEADER = struct.Struct('<IHHII')  # magic, version, type, request id, body bytes
 HEADER_BYTES = HEADER.size
 
@@ -40,6 +41,8 @@ class MessageType(enum.IntEnum):
     Stats = 11
     Goodbye = 12
     FrameReceived = 13
+    Authenticate = 14
+    Authenticated = 15
 
 
 class Encoding(enum.IntEnum):
@@ -55,8 +58,8 @@ class Encoding(enum.IntEnum):
 
 #: The protocol version each encoding appeared in (the others: version 1).
 ENCODING_SINCE = {Encoding.jpeg: 2, Encoding.vp8: 4, Encoding.vp9: 4}
-#: The version FrameReceived appeared in.
-MESSAGE_SINCE = {MessageType.FrameReceived: 4}
+#: The version each message appeared in (the others: version 1).
+MESSAGE_SINCE = {MessageType.FrameReceived: 4, MessageType.Authenticate: 5, MessageType.Authenticated: 5}
 
 #: The scene's short names of the encodings (its `provisional_encoding` key), beside the wire names.
 ENCODING_NAMES = {'raw': Encoding.raw_rgba8, 'png': Encoding.png, 'zstd': Encoding.zstd_rgba8,
@@ -101,6 +104,8 @@ FIELDS: Dict[MessageType, list] = {
     MessageType.Stats: [('json', 'str')],
     MessageType.Goodbye: [],
     MessageType.FrameReceived: [('frame_bytes', 'u32')],
+    MessageType.Authenticate: [('token', 'str')],
+    MessageType.Authenticated: [('token_id', 'str')],
 }
 
 

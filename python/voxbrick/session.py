@@ -52,16 +52,25 @@ class Session:
     """A connected session: opens the connection and says Hello at once (the server closes connections that wait).
 
     Requests wait for their reply; an Error reply raises ServerError with the server's code and words. Not for use from
-    several threads at once. `address`: "HOST:PORT" (TCP), or "ws://HOST:HTTP_PORT" / the viewer's "http://..." URL
-    (a WebSocket, which takes `token`)."""
+    several threads at once. `address`: "HOST:PORT" or "tls://HOST:PORT" (TCP), or "ws[s]://HOST:HTTP_PORT" / the
+    viewer's "http[s]://..." URL (a WebSocket). `token`: the access token, given in the WebSocket's upgrade, or over TCP
+    by Authenticate after Hello (version 5; `token_id` is then the server's name for it). Over TLS the server's
+    certificate is verified against `ca` (a PEM file) or the system's CAs; `insecure` takes any certificate."""
 
     def __init__(self, address: Union[str, Address], token: Optional[str] = None, timeout: float = 120,
-                 client_name: str = CLIENT_NAME, min_version: int = MIN_VERSION, max_version: int = MAX_VERSION):
+                 client_name: str = CLIENT_NAME, min_version: int = MIN_VERSION, max_version: int = MAX_VERSION,
+                 ca: Optional[str] = None, insecure: bool = False):
         if not MIN_VERSION <= min_version <= max_version <= MAX_VERSION:
             raise ValueError(f'versions {min_version}..{max_version}: this client speaks {MIN_VERSION}..{MAX_VERSION}')
         self.address = address if isinstance(address, Address) else parse_address(address, token)
+        if (ca is not None or insecure) and not self.address.tls:
+            raise ValueError(f'ca= and insecure= are for TLS: connect to "tls://{self.address.host}:'
+                             f'{self.address.port}" (TCP) or "wss://..." / "https://..." (the HTTP port)')
+        if self.address.token is not None and self.address.scheme == 'tcp' and max_version < 5:
+            raise ValueError('a token over TCP needs protocol version 5 (Authenticate): max_version=5, or connect to '
+                             'the HTTP port ("ws://HOST:HTTP_PORT"), where the token opens the WebSocket')
         self._timeout = timeout
-        self._transport = open_transport(self.address, timeout)
+        self._transport = open_transport(self.address, timeout, ca, insecure)
         self._next_id = 1
         self._max_body = MAX_BODY_BYTES  # the largest body accepted: the default limit, or the server's if higher
         self.version = min_version  # Hello is written in the lowest version offered
@@ -69,8 +78,11 @@ class Session:
         self.meta: Optional[Dict[str, Any]] = None  # its DatasetInfo meta_json
         self.capabilities: Optional[Capabilities] = None
         self._broken = ''  # why the session ended, once it has
+        self.token_id: Optional[str] = None  # the server's name for the token presented by Authenticate
         try:
             self._hello(client_name, min_version, max_version)
+            if self.address.token is not None and self.address.scheme == 'tcp':
+                self._authenticate(self.address.token)
         except BaseException:
             self._transport.close()
             raise
@@ -84,6 +96,13 @@ class Session:
         self.version = caps['version']
         self._max_body = max(self._max_body, caps['max_message_bytes'])
         self.capabilities = Capabilities(**caps)
+
+    def _authenticate(self, token: str) -> None:
+        if self.version < 5:
+            raise ProtocolError(ErrorCode.UnsupportedVersion,
+                                f'the server speaks protocol version {self.version}, which takes no token over TCP: '
+                                'connect to its HTTP port ("ws://HOST:HTTP_PORT"), where the token opens the WebSocket')
+        self.token_id = self._call(MessageType.Authenticate, MessageType.Authenticated, token=token)['token_id']
 
     # Requests.
 
@@ -203,7 +222,7 @@ class Session:
             reply = decode_body(header.type, body, header.version)
             if header.type == MessageType.Error:
                 error = ServerError(reply['code'], reply['message'], header.request_id)
-                if header.request_id == 0 and error.code in _CLOSING:
+                if (header.request_id == 0 and error.code in _CLOSING) or error.code == ErrorCode.Forbidden:
                     self._end(f'the server closed the session: {error}')
                 raise error
             if header.type == MessageType.Goodbye:

@@ -1,5 +1,5 @@
-"""The two streams a session runs over: TCP, and a WebSocket on the server's HTTP port (PROTOCOL.md, section 11),
-the one that carries an access token. Each moves whole protocol messages; the standard library only.
+"""The streams a session runs over: TCP, and a WebSocket on the server's HTTP port (PROTOCOL.md, section 11), each in
+the clear or inside TLS (section 12). Each moves whole protocol messages; the standard library only.
 """
 from __future__ import annotations
 
@@ -7,46 +7,54 @@ import base64
 import hashlib
 import os
 import socket
+import ssl
 import struct
 import urllib.parse
 from typing import NamedTuple, Optional, Tuple
 
-from .errors import ConnectionClosed, ConnectionRefused
+from .errors import ConnectionClosed, ConnectionRefused, TlsError
 from .protocol import HEADER_BYTES, MAX_BODY_BYTES, decode_header
 
 _WS_GUID = b'258EAFA5-E914-47DA-95CA-C5AB0DC85B11'
 _TOKEN_CHARACTERS = set('abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-._~')
+#: Each scheme an address may have: (transport, inside TLS).
+_SCHEMES = {'tcp': ('tcp', False), 'tls': ('tcp', True), 'ws': ('ws', False), 'http': ('ws', False),
+            'wss': ('ws', True), 'https': ('ws', True)}
 
 
 class Address(NamedTuple):
-    """Where a server is; scheme 'tcp' or 'ws' (a WebSocket on its HTTP port, the one that takes a token)."""
+    """Where a server is: scheme 'tcp' (its TCP port) or 'ws' (a WebSocket on its HTTP port), `tls` when inside TLS,
+    and the access token the session presents (in the WebSocket's upgrade, or by Authenticate over TCP)."""
 
     scheme: str
     host: str
     port: int
     token: Optional[str]
+    tls: bool = False
 
 
 def parse_address(address: str, token: Optional[str] = None) -> Address:
-    """An Address from "HOST:PORT" (TCP), "tcp://HOST:PORT", "ws://HOST:PORT[/ws][?token=T]" or the viewer's
-    "http://HOST:PORT/[?token=T]" (a WebSocket on that port). ValueError naming what is wrong; a token is taken only
-    by the HTTP port, as TCP sessions carry none."""
+    """An Address from "HOST:PORT" (TCP), "tcp://HOST:PORT", "tls://HOST:PORT" (TCP inside TLS),
+    "ws[s]://HOST:PORT[/ws][?token=T]" or the viewer's "http[s]://HOST:PORT/[?token=T]" (a WebSocket on that port).
+    ValueError naming what is wrong."""
     if not isinstance(address, str) or not address.strip():
-        raise ValueError(f'address {address!r}: expected "HOST:PORT" or "ws://HOST:PORT"')
+        raise ValueError(f'address {address!r}: expected "HOST:PORT", "tls://HOST:PORT" or "ws[s]://HOST:PORT"')
     text = address.strip()
-    scheme = 'tcp'
+    scheme, tls = 'tcp', False
     if '://' in text:
         parsed = urllib.parse.urlsplit(text)
-        scheme = {'tcp': 'tcp', 'ws': 'ws', 'http': 'ws'}.get(parsed.scheme.lower())
-        if scheme is None:
-            raise ValueError(f'address {address!r}: scheme {parsed.scheme!r} is not one of tcp, ws, http '
-                             '(for TLS, connect to the server behind its proxy by its own address)')
+        if parsed.scheme.lower() not in _SCHEMES:
+            raise ValueError(f'address {address!r}: scheme {parsed.scheme!r} is not one of {", ".join(_SCHEMES)}')
+        scheme, tls = _SCHEMES[parsed.scheme.lower()]
         query = urllib.parse.parse_qs(parsed.query)
         if 'token' in query:
             if token is not None and token != query['token'][0]:
                 raise ValueError(f'address {address!r}: its token and token= differ')
             token = query['token'][0]
-        host, port = parsed.hostname, parsed.port
+        try:
+            host, port = parsed.hostname, parsed.port
+        except ValueError:
+            host, port = parsed.hostname, None
         if parsed.path not in ('', '/', '/ws', '/index.html'):
             raise ValueError(f'address {address!r}: path {parsed.path!r}; the protocol is on /ws')
     else:
@@ -58,21 +66,58 @@ def parse_address(address: str, token: Optional[str] = None) -> Address:
             port = None
     if not host or port is None or not 0 < port < 65536:
         raise ValueError(f'address {address!r}: expected "HOST:PORT" with a port in 1..65535')
-    if token is not None:
-        if scheme == 'tcp':
-            raise ValueError(f'a token is for the server\'s HTTP port, not TCP (TCP sessions carry none): '
-                             f'connect("ws://{host}:HTTP_PORT", token=...)')
-        if not token or not set(token) <= _TOKEN_CHARACTERS:
-            raise ValueError('token: letters, digits and - . _ ~ only, at least one')
-    return Address(scheme, host, port, token)
+    if token is not None and (not token or not set(token) <= _TOKEN_CHARACTERS):
+        raise ValueError('token: letters, digits and - . _ ~ only, at least one')
+    return Address(scheme, host, port, token, tls)
+
+
+def tls_context(ca: Optional[str] = None, insecure: bool = False) -> ssl.SSLContext:
+    """The client side of PROTOCOL.md's TLS: 1.2 or later, the server's certificate verified against `ca` (a PEM file
+    of CAs) or the system's CAs, and its name checked against the host connected to. `insecure` takes any certificate
+    (a self-signed one in local use: the link is encrypted, but not the server's identity)."""
+    context = ssl.SSLContext(ssl.PROTOCOL_TLS_CLIENT)
+    context.minimum_version = ssl.TLSVersion.TLSv1_2
+    if insecure:
+        context.check_hostname = False
+        context.verify_mode = ssl.CERT_NONE
+    elif ca is not None:
+        try:
+            context.load_verify_locations(cafile=os.fspath(ca))
+        except (OSError, ssl.SSLError) as e:
+            raise ValueError(f'ca {ca!r}: not a readable PEM file of CA certificates ({e})') from None
+    else:
+        context.load_default_certs()
+    return context
+
+
+def _connect(host: str, port: int, timeout: float, tls: Optional[ssl.SSLContext]) -> socket.socket:
+    """A TCP connection to host:port, its TLS handshake done when `tls` is given; TlsError saying why one fails."""
+    sock = socket.create_connection((host, port), timeout=timeout)
+    sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    if tls is None:
+        return sock
+    where = f'[{host}]:{port}' if ':' in host else f'{host}:{port}'
+    try:
+        return tls.wrap_socket(sock, server_hostname=host)
+    except ssl.SSLCertVerificationError as e:
+        sock.close()
+        raise TlsError(f'the certificate of the server at {where} did not verify: {e.verify_message} (give ca= the '
+                       'CA that signed it; insecure=True takes a self-signed one in local use)', str(e)) from None
+    except ssl.SSLError as e:
+        sock.close()
+        hint = (' (does the server speak TLS there? `voxbrick serve --tls-cert`)'
+                if 'WRONG_VERSION_NUMBER' in str(e) or 'record layer' in str(e) else '')
+        raise TlsError(f'the TLS handshake with the server at {where} failed: {e.reason or e}{hint}', str(e)) from None
+    except BaseException:
+        sock.close()
+        raise
 
 
 class TcpTransport:
     """One protocol connection over TCP."""
 
-    def __init__(self, host: str, port: int, timeout: float):
-        self.sock = socket.create_connection((host, port), timeout=timeout)
-        self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    def __init__(self, host: str, port: int, timeout: float, tls: Optional[ssl.SSLContext] = None):
+        self.sock = _connect(host, port, timeout, tls)
 
     def send(self, message: bytes) -> None:
         """Writes one whole message."""
@@ -92,9 +137,9 @@ class WebSocketTransport:
     """One protocol connection over a WebSocket (RFC 6455) on the server's HTTP port: each binary WebSocket message
     carries one protocol message. No Origin header is sent (a script, not a page)."""
 
-    def __init__(self, host: str, port: int, token: Optional[str], timeout: float):
-        self.sock = socket.create_connection((host, port), timeout=timeout)
-        self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    def __init__(self, host: str, port: int, token: Optional[str], timeout: float,
+                 tls: Optional[ssl.SSLContext] = None):
+        self.sock = _connect(host, port, timeout, tls)
         self._buffer = b''
         try:
             self._handshake(host, port, token)
@@ -237,8 +282,10 @@ def _read(sock: socket.socket, size: int) -> bytes:
     return bytes(data)
 
 
-def open_transport(address: Address, timeout: float):
-    """A connected transport for `address` (parse_address's)."""
+def open_transport(address: Address, timeout: float, ca: Optional[str] = None, insecure: bool = False):
+    """A connected transport for `address` (parse_address's); over TLS when the address says so, verifying the
+    server as tls_context(ca, insecure) does."""
+    tls = tls_context(ca, insecure) if address.tls else None
     if address.scheme == 'ws':
-        return WebSocketTransport(address.host, address.port, address.token, timeout)
-    return TcpTransport(address.host, address.port, timeout)
+        return WebSocketTransport(address.host, address.port, address.token, timeout, tls)
+    return TcpTransport(address.host, address.port, timeout, tls)

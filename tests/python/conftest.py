@@ -37,17 +37,20 @@ def run_voxbrick(*args: str) -> subprocess.CompletedProcess:
 
 class Server:
     """A real `voxbrick serve` over `datasets`: TCP on `address`, HTTP (viewer, WebSocket) on `http_port`, with the
-    access token TOKEN."""
+    access token `token` (none: the configuration's tokens, if any). `extra` may name a configuration file
+    (`--config`); without one none is read."""
 
-    def __init__(self, datasets: Path, work: Path, extra: tuple = ()):
+    def __init__(self, datasets: Path, work: Path, extra: tuple = (), token: str = TOKEN):
         for name in ('port', 'http-port'):
             (work / name).unlink(missing_ok=True)
         self.log = work / 'serve.log'
+        config = [] if '--config' in extra else ['--no-config']
         with open(self.log, 'w') as log:
             self.process = subprocess.Popen(
-                [voxbrick_exe(), 'serve', '--no-config', '--datasets', str(datasets), '--port', '0', '--port-file',
-                 str(work / 'port'), '--http', '0', '--http-port-file', str(work / 'http-port'), '--http-token', TOKEN,
-                 '--render-threads', '1', *extra], stdout=log, stderr=subprocess.STDOUT)
+                [voxbrick_exe(), 'serve', *config, '--datasets', str(datasets), '--port', '0', '--port-file',
+                 str(work / 'port'), '--http', '0', '--http-port-file', str(work / 'http-port'),
+                 *(['--http-token', token] if token else []), '--render-threads', '1', *extra],
+                stdout=log, stderr=subprocess.STDOUT)
         deadline = time.monotonic() + 60
         while True:
             ports = [work / 'port', work / 'http-port']

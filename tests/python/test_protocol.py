@@ -44,12 +44,14 @@ def test_every_message_round_trips():
         MessageType.Stats: dict(json='{}'),
         MessageType.Goodbye: {},
         MessageType.FrameReceived: dict(frame_bytes=12345),
+        MessageType.Authenticate: dict(token='radiology-Secret_1'),
+        MessageType.Authenticated: dict(token_id='radiology'),
     }
     for kind, fields in messages.items():
-        wire = encode(kind, 77, 4, **fields)
-        assert encode(kind, 77, 4, **fields) == wire  # twice, the same bytes
+        wire = encode(kind, 77, 5, **fields)
+        assert encode(kind, 77, 5, **fields) == wire  # twice, the same bytes
         header, decoded = decode(wire)
-        assert (header.type, header.request_id, header.version) == (kind, 77, 4)
+        assert (header.type, header.request_id, header.version) == (kind, 77, 5)
         assert decoded == fields, kind
 
 
@@ -58,6 +60,13 @@ def test_what_a_version_lacks_is_refused_both_ways():
         encode(MessageType.Render, 1, 1, encoding=Encoding.jpeg, scene_json='{}')
     with pytest.raises(ValueError, match='FrameReceived needs protocol version 4'):
         encode(MessageType.FrameReceived, 1, 3, frame_bytes=1)
+    with pytest.raises(ValueError, match='Authenticate needs protocol version 5'):
+        encode(MessageType.Authenticate, 1, 4, token='t')
+    with pytest.raises(ValueError, match='Error.code: Forbidden needs protocol version 5'):
+        encode(MessageType.Error, 1, 4, code=ErrorCode.Forbidden, message='')
+    # The Authenticate message's bytes: header (version 5, type 14, id 2, body 8), then the token as u32 + UTF-8.
+    assert encode(MessageType.Authenticate, 2, 5, token='abcd') == (HEADER.pack(MAGIC, 5, 14, 2, 8) +
+                                                                    struct.pack('<I', 4) + b'abcd')
     frame = encode(MessageType.Frame, 5, 4, width=1, height=1, encoding=Encoding.vp8, stats_json='{}', payload=b'')
     with pytest.raises(ProtocolError, match='Frame.encoding: unknown value 4 in protocol version 3'):
         decode(frame[:4] + struct.pack('<H', 3) + frame[6:])
@@ -87,12 +96,13 @@ def test_headers_that_do_not_check():
     header = HEADER.pack(MAGIC, 1, 1, 1, 0)
     with pytest.raises(ProtocolError, match='BadMagic'):
         decode_header(b'XXXX' + header[4:])
-    with pytest.raises(ProtocolError, match='UnsupportedVersion: version 5'):
-        decode_header(HEADER.pack(MAGIC, 5, 1, 1, 0))
+    with pytest.raises(ProtocolError, match='UnsupportedVersion: version 6'):
+        decode_header(HEADER.pack(MAGIC, 6, 1, 1, 0))
     with pytest.raises(ProtocolError, match='TooLarge: body of 2000 bytes exceeds 1000'):
         decode_header(HEADER.pack(MAGIC, 1, 8, 1, 2000), max_body=1000)
     assert decode_header(HEADER.pack(MAGIC, 1, 99, 7, 3)).type is None  # unknown: skipped, not fatal
     assert decode_header(HEADER.pack(MAGIC, 3, 13, 7, 4)).type is None  # FrameReceived is version 4's
+    assert decode_header(HEADER.pack(MAGIC, 4, 15, 7, 4)).type is None  # Authenticated is version 5's
 
 
 def test_encodings_by_name():
@@ -103,16 +113,20 @@ def test_encodings_by_name():
 
 
 def test_addresses():
-    assert parse_address('127.0.0.1:7420') == ('tcp', '127.0.0.1', 7420, None)
-    assert parse_address('[::1]:7420') == ('tcp', '::1', 7420, None)
-    assert parse_address('ws://host:8080', token='a-b.c_~') == ('ws', 'host', 8080, 'a-b.c_~')
-    assert parse_address('http://host:8080/?token=T0k&dataset=x') == ('ws', 'host', 8080, 'T0k')
+    assert parse_address('127.0.0.1:7420') == ('tcp', '127.0.0.1', 7420, None, False)
+    assert parse_address('[::1]:7420') == ('tcp', '::1', 7420, None, False)
+    assert parse_address('ws://host:8080', token='a-b.c_~') == ('ws', 'host', 8080, 'a-b.c_~', False)
+    assert parse_address('http://host:8080/?token=T0k&dataset=x') == ('ws', 'host', 8080, 'T0k', False)
+    # Inside TLS: TCP ("tls://"), the WebSocket ("wss://", the viewer's "https://"); a token over TCP too (Authenticate).
+    assert parse_address('tls://host:7420', token='t') == ('tcp', 'host', 7420, 't', True)
+    assert parse_address('wss://host:8443/ws') == ('ws', 'host', 8443, None, True)
+    assert parse_address('https://host:8443/?token=T0k') == ('ws', 'host', 8443, 'T0k', True)
+    assert parse_address('host:7420', token='t') == ('tcp', 'host', 7420, 't', False)
     for bad, words in [('host', 'expected "HOST:PORT"'), ('host:0', 'port in 1..65535'),
-                       ('https://host:8080', "scheme 'https'"), ('ws://host:8080/other', "path '/other'")]:
+                       ('ftp://host:8080', "scheme 'ftp'"), ('ws://host:8080/other', "path '/other'"),
+                       ('ws://host:99999', 'port in 1..65535')]:
         with pytest.raises(ValueError, match=words):
             parse_address(bad)
-    with pytest.raises(ValueError, match="a token is for the server's HTTP port, not TCP"):
-        parse_address('host:7420', token='t')
     with pytest.raises(ValueError, match='token: letters, digits'):
         parse_address('ws://host:8080', token='a b')
 
