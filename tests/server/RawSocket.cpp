@@ -1,15 +1,20 @@
-// Plain sockets for hostile-client tests, over TCP or over a WebSocket framed by hand.
+// Sockets for hostile-client tests, over TCP or over a WebSocket framed by hand, in the clear or inside TLS.
 #include "RawSocket.h"
+
+#include <openssl/err.h>
+#include <openssl/ssl.h>
 
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
+#include <csignal>
 #include <cstdlib>
 #include <random>
 #include <stdexcept>
@@ -18,7 +23,26 @@
 
 namespace voxbrick::test {
 
-RawSocket::RawSocket(int port, Framing framing, const std::string& target) : mFraming(framing) {
+namespace {
+
+/// The client side of every test's TLS: TLS 1.2 or later, no certificate checked.
+SSL_CTX* clientContext() {
+  static SSL_CTX* context = [] {
+    // OpenSSL writes with write(2), which raises SIGPIPE on a connection the server closed: the plain sockets send
+    // with MSG_NOSIGNAL, and the TLS ones see the failed write as this process ignoring the signal.
+    std::signal(SIGPIPE, SIG_IGN);
+    SSL_CTX* c = SSL_CTX_new(TLS_client_method());
+    if (!c) throw std::runtime_error("SSL_CTX_new failed");
+    SSL_CTX_set_min_proto_version(c, TLS1_2_VERSION);
+    SSL_CTX_set_verify(c, SSL_VERIFY_NONE, nullptr);
+    return c;
+  }();
+  return context;
+}
+
+}  // namespace
+
+RawSocket::RawSocket(int port, Framing framing, const std::string& target, bool tls) : mFraming(framing) {
   mFd = ::socket(AF_INET, SOCK_STREAM, 0);
   if (mFd < 0) throw std::runtime_error("socket: " + std::to_string(errno));
   sockaddr_in address{};
@@ -29,7 +53,35 @@ RawSocket::RawSocket(int port, Framing framing, const std::string& target) : mFr
     ::close(mFd);
     throw std::runtime_error("connect to port " + std::to_string(port) + ": errno " + std::to_string(errno));
   }
+  if (tls && !handshake()) {
+    mClosed = true;
+    return;
+  }
   if (framing == Framing::WebSocket) upgrade(port, target);
+}
+
+bool RawSocket::handshake() {
+  mSsl = SSL_new(clientContext());
+  if (!mSsl) throw std::runtime_error("SSL_new failed");
+  SSL_set_mode(mSsl, SSL_MODE_ENABLE_PARTIAL_WRITE | SSL_MODE_ACCEPT_MOVING_WRITE_BUFFER);
+  SSL_set_fd(mSsl, mFd);
+  const timeval limit{10, 0};
+  ::setsockopt(mFd, SOL_SOCKET, SO_RCVTIMEO, &limit, sizeof limit);
+  ::setsockopt(mFd, SOL_SOCKET, SO_SNDTIMEO, &limit, sizeof limit);
+  const bool done = SSL_connect(mSsl) == 1;
+  ERR_clear_error();
+  // From here on every read and write polls: sendSome must not block, and a read waits as long as its caller says.
+  ::fcntl(mFd, F_SETFL, ::fcntl(mFd, F_GETFL) | O_NONBLOCK);
+  return done;
+}
+
+long RawSocket::tlsWrite(std::span<const uint8_t> bytes) {
+  if (bytes.empty()) return 0;
+  const int n = SSL_write(mSsl, bytes.data(), int(std::min<size_t>(bytes.size(), 1 << 30)));
+  if (n > 0) return n;
+  const int error = SSL_get_error(mSsl, n);
+  ERR_clear_error();
+  return error == SSL_ERROR_WANT_WRITE || error == SSL_ERROR_WANT_READ ? 0 : -1;
 }
 
 void RawSocket::upgrade(int port, const std::string& target) {
@@ -92,10 +144,23 @@ std::vector<uint8_t> RawSocket::frame(const std::vector<uint8_t>& message) const
 }
 
 RawSocket::~RawSocket() {
+  if (mSsl) SSL_free(mSsl);
   if (mFd >= 0) ::close(mFd);
 }
 
 bool RawSocket::sendAll(const std::vector<uint8_t>& bytes) {
+  if (mSsl) {
+    for (size_t sent = 0; sent < bytes.size();) {
+      const long n = tlsWrite(std::span(bytes).subspan(sent));
+      if (n < 0) return false;
+      if (n == 0) {
+        pollfd p{mFd, POLLOUT | POLLIN, 0};
+        if (::poll(&p, 1, 10000) <= 0) return false;  // nothing moved for 10 s
+      }
+      sent += size_t(n);
+    }
+    return true;
+  }
   size_t sent = 0;
   while (sent < bytes.size()) {
     const ssize_t n = ::send(mFd, bytes.data() + sent, bytes.size() - sent, MSG_NOSIGNAL);
@@ -107,6 +172,7 @@ bool RawSocket::sendAll(const std::vector<uint8_t>& bytes) {
 }
 
 long RawSocket::sendSome(std::span<const uint8_t> bytes) {
+  if (mSsl) return tlsWrite(bytes);
   const ssize_t n = ::send(mFd, bytes.data(), bytes.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
   if (n >= 0) return long(n);
   return errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR ? 0 : -1;
@@ -114,6 +180,23 @@ long RawSocket::sendSome(std::span<const uint8_t> bytes) {
 
 bool RawSocket::fill(std::chrono::milliseconds timeout) {
   if (mClosed) return false;
+  if (mSsl) {
+    if (SSL_pending(mSsl) == 0) {
+      pollfd p{mFd, POLLIN, 0};
+      if (::poll(&p, 1, int(timeout.count())) <= 0) return true;  // nothing yet
+    }
+    uint8_t buffer[65536];
+    const int n = SSL_read(mSsl, buffer, sizeof buffer);
+    if (n > 0) {
+      mInput.insert(mInput.end(), buffer, buffer + n);
+      return true;
+    }
+    const int error = SSL_get_error(mSsl, n);
+    ERR_clear_error();
+    if (error == SSL_ERROR_WANT_READ || error == SSL_ERROR_WANT_WRITE) return true;  // a record not whole yet
+    mClosed = true;  // closed (close_notify or not), or reset
+    return false;
+  }
   pollfd p{mFd, POLLIN, 0};
   const int ready = ::poll(&p, 1, int(timeout.count()));
   if (ready <= 0) return true;  // nothing yet

@@ -1,7 +1,8 @@
-// A plain TCP connection to the server for clients that misbehave below the message level: never speaking,
-// trickling bytes, never reading. It speaks either transport: bare protocol messages on the TCP port, or (Framing
-// WebSocket) the same messages each in one WebSocket binary message on the HTTP port's /ws, framed by hand so that
-// a test controls every byte.
+// A TCP connection to the server for clients that misbehave below the message level: never speaking, trickling
+// bytes, never reading. It speaks either transport: bare protocol messages on the TCP port, or (Framing WebSocket) the
+// same messages each in one WebSocket binary message on the HTTP port's /ws, framed by hand so that a test controls
+// every byte; either in the clear or inside TLS (OpenSSL, the handshake done when it connects, the server's
+// certificate not checked: a hostile client has no reason to), where what a test sends is the TLS records' content.
 #pragma once
 
 #include <chrono>
@@ -12,6 +13,8 @@
 #include <vector>
 
 #include "proto/Messages.h"
+
+struct ssl_st;
 
 namespace voxbrick::test {
 
@@ -32,8 +35,9 @@ class RawSocket {
  public:
   /// Connects to 127.0.0.1:`port`; throws std::runtime_error if it cannot. With Framing::WebSocket, `port` is the
   /// HTTP port: the upgrade of `target` is sent and its reply read (up to 10 s); a refusal (any status but 101)
-  /// leaves the socket closed() with refusedStatus() and refusedBody() set.
-  explicit RawSocket(int port, Framing framing = Framing::Tcp, const std::string& target = "/ws");
+  /// leaves the socket closed() with refusedStatus() and refusedBody() set. With `tls`, the TLS handshake comes first
+  /// (up to 10 s); a server that closes the connection instead (one refused before its handshake) leaves it closed().
+  explicit RawSocket(int port, Framing framing = Framing::Tcp, const std::string& target = "/ws", bool tls = false);
   ~RawSocket();
   RawSocket(const RawSocket&) = delete;
   RawSocket& operator=(const RawSocket&) = delete;
@@ -78,8 +82,13 @@ class RawSocket {
   /// The payload of the first whole WebSocket message of mInput, removed from it (control frames are consumed).
   std::optional<std::vector<uint8_t>> takeWebSocketMessage();
   void upgrade(int port, const std::string& target);
+  /// The TLS handshake on mFd, blocking up to 10 s; the socket is then non-blocking. False if it failed.
+  bool handshake();
+  /// Writes what TLS takes now of `bytes`: the count (0 when it would block), or -1 once the connection failed.
+  long tlsWrite(std::span<const uint8_t> bytes);
 
   int mFd = -1;
+  ssl_st* mSsl = nullptr;  ///< the TLS connection over mFd (null: in the clear)
   Framing mFraming;
   bool mClosed = false;
   int mCloseCode = 0, mRefusedStatus = 0;

@@ -1,7 +1,8 @@
 // The render service against hostile clients: connections that never speak, bytes trickled to outlast the
 // deadlines, clients that flood requests and never read. The real `voxbrick serve` process on loopback. Every
-// scenario runs on both transports (the hostile clients speak TCP, or WebSocket on the HTTP port), with the same
-// guarantees, and good clients of both transports are served meanwhile.
+// scenario runs on both transports (the hostile clients speak TCP, or WebSocket on the HTTP port), each in the clear
+// and inside TLS (a server started with a certificate of a test CA, made by `openssl`), with the same guarantees, and
+// good clients of both transports are served meanwhile.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -16,6 +17,7 @@
 
 #include "RawSocket.h"
 #include "ServerProcess.h"
+#include "TestCerts.h"
 #include "WebClient.h"
 #include "client/Client.h"
 #include "image/FrameImage.h"
@@ -37,33 +39,75 @@ using test::ServerProcess;
 using Clock = std::chrono::steady_clock;
 using namespace std::chrono_literals;
 
-class HostileClientTest : public test::SparseDatasetSuite, public ::testing::WithParamInterface<Framing> {
+/// The transport under test: the framing of the hostile clients' messages, in the clear or inside TLS.
+struct Transport {
+  Framing framing;
+  bool tls;
+};
+
+class HostileClientTest : public test::SparseDatasetSuite, public ::testing::WithParamInterface<Transport> {
+ public:
+  static void SetUpTestSuite() {
+    SparseDatasetSuite::SetUpTestSuite();
+    sCerts = new test::TestCerts(test::TestCerts::make(scratch() / "certs"));
+  }
+  static void TearDownTestSuite() {
+    delete sCerts;
+    sCerts = nullptr;
+    SparseDatasetSuite::TearDownTestSuite();
+  }
+  static Framing framing() { return GetParam().framing; }
+  static bool tls() { return GetParam().tls; }
+  /// What good clients of this server trust: the test CA, when it speaks TLS.
+  static client::TlsOptions tlsOptions() {
+    client::TlsOptions options;
+    options.enabled = tls();
+    if (tls()) options.caFile = sCerts->caCert.string();
+    return options;
+  }
+  static std::string caFile() { return tls() ? sCerts->caCert.string() : std::string(); }
+
  protected:
   std::unique_ptr<ServerProcess> start(const std::string& extra) {
-    return std::make_unique<ServerProcess>("--datasets " + datasets() + " --render-threads 2 --http 0 " + extra,
-                                           scratch());
+    const std::string certificate = tls() ? " --tls-cert " + sCerts->serverCert.string() + " --tls-key " +
+                                                sCerts->serverKey.string()
+                                          : "";
+    return std::make_unique<ServerProcess>(
+        "--datasets " + datasets() + " --render-threads 2 --http 0" + certificate + " " + extra, scratch());
   }
   /// A hostile client's connection on the transport under test.
   static std::unique_ptr<RawSocket> raw(const ServerProcess& server) {
-    return std::make_unique<RawSocket>(GetParam() == Framing::Tcp ? server.port() : server.httpPort(), GetParam());
+    return std::make_unique<RawSocket>(framing() == Framing::Tcp ? server.port() : server.httpPort(), framing(),
+                                       "/ws", tls());
   }
-  /// Checks that `s` was refused with LimitExceeded naming `why`: an Error over TCP, HTTP 503 before the upgrade.
+  /// Checks that `s` was refused with LimitExceeded naming `why`: an Error over TCP, HTTP 503 before the upgrade;
+  /// over TLS a connection refused before its handshake is closed without either (nothing can reach the client
+  /// before it: PROTOCOL.md, TLS).
   static void expectRefused(RawSocket& s, const std::string& why) {
-    if (GetParam() == Framing::WebSocket) {
+    std::vector<ErrorCode> codes;
+    if (tls()) {
+      EXPECT_TRUE(s.waitClosed(5s, &codes)) << "a refused connection was kept";
+      EXPECT_EQ(s.refusedStatus(), 0);
+      EXPECT_TRUE(codes.empty());
+      return;
+    }
+    if (framing() == Framing::WebSocket) {
       EXPECT_EQ(s.refusedStatus(), 503);
       EXPECT_NE(s.refusedBody().find(why), std::string::npos) << s.refusedBody();
       return;
     }
-    std::vector<ErrorCode> codes;
     EXPECT_TRUE(s.waitClosed(5s, &codes));
     EXPECT_EQ(codes, std::vector<ErrorCode>{ErrorCode::LimitExceeded});
   }
+
+ private:
+  static inline test::TestCerts* sCerts = nullptr;
 };
 
 const char* kHostileScene = R"({"camera": {"orbit": [40, 25, 2.2]}, "size": [80, 64], "transfer_function": "sparse"})";
 
 std::unique_ptr<Client> hostileSession(const ServerProcess& server, std::chrono::milliseconds timeout = 60s) {
-  auto c = std::make_unique<Client>("127.0.0.1", server.port(), timeout);
+  auto c = std::make_unique<Client>("127.0.0.1", server.port(), timeout, HostileClientTest::tlsOptions());
   c->hello("test");
   c->openDataset("sparse");
   return c;
@@ -82,7 +126,7 @@ image::Image8 frameBefore(const ServerProcess& server, const std::string& scene,
 /// A well-behaved browser's session.
 std::unique_ptr<test::WebSocketClient> webSession(const ServerProcess& server,
                                                   std::chrono::milliseconds timeout = 60s) {
-  auto c = std::make_unique<test::WebSocketClient>(server.httpPort(), "/ws", "", timeout);
+  auto c = std::make_unique<test::WebSocketClient>(server.httpPort(), "/ws", "", timeout, HostileClientTest::caFile());
   c->hello("test");
   c->openDataset("sparse");
   return c;
@@ -126,7 +170,7 @@ void expectSameFrame(const proto::Frame& frame, const image::Image8& before, con
 double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 json statsOf(const ServerProcess& server) {
-  Client c("127.0.0.1", server.port(), 10s);
+  Client c("127.0.0.1", server.port(), 10s, HostileClientTest::tlsOptions());
   c.hello("stats");
   return json::parse(c.stats());
 }
@@ -375,7 +419,7 @@ TEST_P(HostileClientTest, GarbageAndOversizedMessagesAreAnsweredAndClosed) {
   s->sendAll(s->frame(overBytes));
   std::vector<ErrorCode> codes;
   EXPECT_TRUE(s->waitClosed(10s, &codes));
-  if (GetParam() == Framing::Tcp) {
+  if (framing() == Framing::Tcp) {
     EXPECT_EQ(codes, std::vector<ErrorCode>{ErrorCode::TooLarge});
   } else {
     EXPECT_TRUE(codes.empty());
@@ -443,7 +487,7 @@ TEST_P(HostileClientTest, MisbehavingVideoSessionsLeaveAGoodStreamIntact) {
     }
   });
   // The good session drags for two seconds: a vp8 frame for each camera, each decoded in the stream's order.
-  Client good("127.0.0.1", server->port(), 60s);
+  Client good("127.0.0.1", server->port(), 60s, tlsOptions());
   good.hello("good", 4);
   good.openDataset("sparse");
   image::FrameDecoder decoder;
@@ -471,8 +515,13 @@ TEST_P(HostileClientTest, MisbehavingVideoSessionsLeaveAGoodStreamIntact) {
                   "a good client after the video attack");
 }
 
-INSTANTIATE_TEST_SUITE_P(Transports, HostileClientTest, ::testing::Values(Framing::Tcp, Framing::WebSocket),
-                         test::framingName<::testing::TestParamInfo<Framing>>);
+INSTANTIATE_TEST_SUITE_P(Transports, HostileClientTest,
+                         ::testing::Values(Transport{Framing::Tcp, false}, Transport{Framing::WebSocket, false},
+                                           Transport{Framing::Tcp, true}, Transport{Framing::WebSocket, true}),
+                         [](const ::testing::TestParamInfo<Transport>& p) {
+                           return std::string(p.param.tls ? "Tls" : "") +
+                                  (p.param.framing == Framing::Tcp ? "Tcp" : "WebSocket");
+                         });
 
 }  // namespace
 }  // namespace voxbrick
