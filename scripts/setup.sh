@@ -3,7 +3,7 @@
 set -euo pipefail
 
 PACKAGES=(
-  build-essential cmake ninja-build pkg-config git clang
+  build-essential cmake ninja-build pkg-config git clang lld
   libopenvdb-dev libtbb-dev libblosc-dev libzstd-dev zlib1g-dev
   libboost-dev libboost-system-dev libboost-iostreams-dev
   libglm-dev libgl-dev

@@ -7,6 +7,7 @@ share/voxbrick/python installed); this script needs the standard library only (f
         [--scene scene.json] [--orbit AZ,EL,DIST] [--size WxH] [--encoding png|raw_rgba8|zstd_rgba8|jpeg]
         [--jpeg-quality Q]   (jpeg needs a server of protocol version 2; the JPEG file is written as it came)
     voxbrick_client.py ws://HOST:HTTP_PORT --token TOKEN ...     the same over the server's WebSocket
+    voxbrick_client.py tls://HOST:PORT --token TOKEN --ca ca.pem ...   over TLS (wss://HOST:HTTP_PORT too)
 
 Offline, for tests without a server: --encode-hello FILE, --encode-render FILE --scene-json TEXT (write one
 message, request id 1) and --decode FILE (print one message as JSON).
@@ -51,7 +52,7 @@ def decode_file(path):
 
 
 def render_frame(args):
-    session = Session(args.address, args.token, client_name=CLIENT_NAME)
+    session = Session(args.address, args.token, client_name=CLIENT_NAME, ca=args.ca, insecure=args.insecure)
     try:
         if not args.dataset:
             print('\n'.join(session.list_datasets()))
@@ -92,7 +93,12 @@ def render_frame(args):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('address', nargs='?', help='HOST:PORT of the server, or ws://HOST:HTTP_PORT')
-    parser.add_argument('--token', help='the access token of the server\'s HTTP port (with a ws:// address)')
+    parser.add_argument('--token', help='the access token: given when the WebSocket opens (ws://, wss://), or over '
+                                        'TCP by Authenticate (protocol version 5)')
+    parser.add_argument('--ca', help='PEM file of the CAs that may sign the server\'s certificate (tls://, wss://; '
+                                     'default: the system\'s CAs)')
+    parser.add_argument('--insecure', action='store_true',
+                        help='over TLS, take any certificate (a self-signed one in local use)')
     parser.add_argument('--dataset', help='dataset to render (without it: list the datasets)')
     parser.add_argument('--scene', help='scene JSON file (the schema of `voxbrick render --scene`)')
     parser.add_argument('--orbit', help='AZ,EL[,DIST] camera orbit (degrees about the up axis, +z by default; '

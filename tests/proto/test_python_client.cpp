@@ -57,10 +57,21 @@ TEST(PythonClient, CppDecodesThePythonHello) {
   EXPECT_EQ(header.requestId, 1u);
   const Hello& hello = std::get<Hello>(message);
   EXPECT_EQ(hello.minVersion, kMinVersion);
-  // Version 4, the video's: the package has no Authenticate (version 5) yet, nor TLS (docs/python.md).
-  EXPECT_EQ(hello.maxVersion, 4);
-  EXPECT_LT(hello.maxVersion, kMaxVersion) << "the package speaks the latest version now: this test should say so";
+  EXPECT_EQ(hello.maxVersion, kMaxVersion) << "the package offers every version the C++ codec knows";
   EXPECT_EQ(hello.client, "voxbrick_client.py 1");
+}
+
+// Version 5's messages, the token over TCP: the Python decoder reads what the C++ encoder writes, field by field, and
+// knows them for version 5 only.
+TEST(PythonClient, PythonDecodesTheTokenMessagesOfVersionFive) {
+  const nlohmann::json authenticate = pythonDecode(encode(Authenticate{"radiology-Secret_1"}, 7, 5));
+  EXPECT_EQ(authenticate,
+            (nlohmann::json{{"type", "Authenticate"}, {"request_id", 7}, {"version", 5}, {"token", "radiology-Secret_1"}}));
+  const nlohmann::json authenticated = pythonDecode(encode(Authenticated{"radiology"}, 7, 5));
+  EXPECT_EQ(authenticated, (nlohmann::json{{"type", "Authenticated"}, {"request_id", 7}, {"version", 5},
+                                           {"token_id", "radiology"}}));
+  const nlohmann::json forbidden = pythonDecode(encode(Error{ErrorCode::Forbidden, "no such token"}, 7, 5));
+  EXPECT_EQ(forbidden.at("code"), "Forbidden");
 }
 
 // jpeg exists from version 2 on: the Python client writes a jpeg Render in a version-2 header, and refuses a jpeg
