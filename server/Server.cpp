@@ -301,6 +301,10 @@ void Server::Impl::accept(tcp::acceptor& on) {
 
 void Server::Impl::onAccepted(const tcp::acceptor& on, tcp::socket socket) {
   const auto [address, loopback] = clientAddress(socket);
+  // Replies go out as soon as they are written: without it a frame's last TLS record waited for the client's
+  // delayed acknowledgement of the ones before (Nagle), 25 ms more per frame over TLS (bench/results/server/tls-drag.md).
+  boost::system::error_code noDelay;
+  socket.set_option(tcp::no_delay(true), noDelay);  // a socket already reset: its session fails on its first read
   // A browser's connection is pending (not a session) from its accept, through its HTTP requests and the upgrade,
   // until its Hello: the same admission as a TCP connection.
   if (&on == &httpAcceptor)
