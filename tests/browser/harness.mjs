@@ -228,6 +228,12 @@ export async function waitForState(page, predicate, timeout = 20000, arg = null)
   return viewerState(page);
 }
 
+/// The query of a page's address as an object of its keys (decoded; a key given twice keeps its last value): what a
+/// test compares when the order of the keys is the page's business.
+export function addressKeys(address) {
+  return Object.fromEntries(new URL(address).searchParams.entries());
+}
+
 /// The canvas pixels: {width, height, rgba: Buffer}.
 export async function canvasPixels(page) {
   const p = await page.evaluate(() => window.voxbrickViewer.pixels());

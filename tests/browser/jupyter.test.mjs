@@ -339,7 +339,9 @@ async function notebookScenario() {
   // (web/js/token.js), before its viewer started. Read in the page: the frame's `url()` follows the page's
   // history.replaceState only when Chromium's event for it has arrived.
   const address = await viewer.evaluate(() => location.href);
-  assert.match(address, new RegExp(`^${server.url}/\\?dataset=blobs&orbit=30(,|%2C)20&tf=hot&size=160x120$`));
+  assert.ok(address.startsWith(`${server.url}/?`), address);
+  // The viewer may have written its view to the address meanwhile (its own order of the keys): compared as keys.
+  assert.deepEqual(H.addressKeys(address), { dataset: "blobs", orbit: "30,20", tf: "hot", size: "160x120" });
   assert.match(html, /size=160x120&amp;token=/);
   const first = await H.waitForState(viewer, (s) => s.lastFrame && !s.lastFrame.provisional, 40000);
   assert.deepEqual([first.view.az, first.view.el, first.view.tf, first.canvas], [30, 20, "hot", SIZE]);

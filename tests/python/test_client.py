@@ -187,10 +187,13 @@ def test_the_websocket_and_its_token(server):
     with pytest.raises(voxbrick.ConnectionRefused) as e:
         voxbrick.connect(server.ws)
     assert e.value.status == 403 and 'an access token is required' in e.value.reason
-    # Over TCP the token is presented by Authenticate (version 5); this server's one token (`--http-token`) is for
-    # its HTTP port, so TCP knows no token and refuses it.
+    # Over TCP the token is presented by Authenticate (version 5): the server's one token (`--http-token`) is taken
+    # there too, by its name in the configuration, and a wrong one is Forbidden.
+    with voxbrick.connect(server.address, token=TOKEN) as tcp:
+        assert tcp.session.token_id == 'http.token'
+        assert 'mri.vbs' in tcp.datasets()
     with pytest.raises(voxbrick.ServerError) as e:
-        voxbrick.connect(server.address, token=TOKEN)
+        voxbrick.connect(server.address, token='wrong-token')
     assert e.value.code == voxbrick.ErrorCode.Forbidden
 
 
