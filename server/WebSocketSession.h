@@ -85,7 +85,9 @@ class WebSocketSession final : public AsioSession {
   const SessionServices& mServices;
   const WebGate& mGate;
   std::shared_ptr<boost::asio::ssl::context> mTlsContext;  ///< kept while the connection lives
-  boost::beast::websocket::stream<Stream> mWs;
+  /// Without permessage-deflate, which the server never offered (frames are PNG, JPEG or video already): Beast then
+  /// compiles no deflate code (5 s of the 80 s that WebSocketSession.cpp takes to compile).
+  boost::beast::websocket::stream<Stream, false> mWs;
   boost::beast::flat_buffer mHttpBuffer;
   std::optional<boost::beast::http::request_parser<boost::beast::http::string_body>> mParser;
   Request mRequest;
