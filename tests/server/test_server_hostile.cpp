@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <functional>
 #include <memory>
+#include <ostream>
 #include <string>
 #include <thread>
 
@@ -44,6 +45,12 @@ struct Transport {
   Framing framing;
   bool tls;
 };
+
+/// "Tcp", "WebSocket", "TlsTcp" or "TlsWebSocket": the tests' names, and their parameter as GoogleTest prints it.
+std::string transportName(const Transport& t) {
+  return std::string(t.tls ? "Tls" : "") + (t.framing == Framing::Tcp ? "Tcp" : "WebSocket");
+}
+void PrintTo(const Transport& t, std::ostream* out) { *out << transportName(t); }
 
 class HostileClientTest : public test::SparseDatasetSuite, public ::testing::WithParamInterface<Transport> {
  public:
@@ -518,10 +525,7 @@ TEST_P(HostileClientTest, MisbehavingVideoSessionsLeaveAGoodStreamIntact) {
 INSTANTIATE_TEST_SUITE_P(Transports, HostileClientTest,
                          ::testing::Values(Transport{Framing::Tcp, false}, Transport{Framing::WebSocket, false},
                                            Transport{Framing::Tcp, true}, Transport{Framing::WebSocket, true}),
-                         [](const ::testing::TestParamInfo<Transport>& p) {
-                           return std::string(p.param.tls ? "Tls" : "") +
-                                  (p.param.framing == Framing::Tcp ? "Tcp" : "WebSocket");
-                         });
+                         [](const ::testing::TestParamInfo<Transport>& p) { return transportName(p.param); });
 
 }  // namespace
 }  // namespace voxbrick
