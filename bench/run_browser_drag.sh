@@ -6,12 +6,7 @@
 # (e.g. --sizes 128 --duration 2 --tabs 2 --clients 4 --out bench/work/browser-smoke for a quick check).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-export VOXBRICK_CONFIG_DIR=$PWD/config
 work=bench/work/browser-drag
-mkdir -p "$work/datasets"
-mri=/usr/share/mricron/templates/ch2better.nii.gz
-[ -f "$work/datasets/mri/store.json" ] || ./build/voxbrick prep "$mri" -q -o "$work/datasets/mri"
-[ -d tests/browser/node_modules/puppeteer-core ] || (cd tests/browser && npm ci --no-audit --no-fund)
-export VOXBRICK_EXE=$PWD/build/voxbrick
-export VOXBRICK_BENCH_COMMAND="bash bench/run_browser_drag.sh${*:+ $*}"
+source bench/browser_bench.sh
+browser_bench_setup "$work" run_browser_drag.sh "$@"
 node bench/browser_drag.mjs --datasets "$work/datasets" --dataset mri --tf mri --out bench/results/browser/browser-drag "$@"

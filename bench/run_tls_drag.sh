@@ -6,12 +6,7 @@
 # (e.g. --duration 2 --rounds 1 --out bench/work/tls-smoke for a quick check).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-export VOXBRICK_CONFIG_DIR=$PWD/config
 work=bench/work/browser-drag
-mkdir -p "$work/datasets"
-mri=/usr/share/mricron/templates/ch2better.nii.gz
-[ -f "$work/datasets/mri/store.json" ] || ./build/voxbrick prep "$mri" -q -o "$work/datasets/mri"
-[ -d tests/browser/node_modules/puppeteer-core ] || (cd tests/browser && npm ci --no-audit --no-fund)
-export VOXBRICK_EXE=$PWD/build/voxbrick
-export VOXBRICK_BENCH_COMMAND="bash bench/run_tls_drag.sh${*:+ $*}"
+source bench/browser_bench.sh
+browser_bench_setup "$work" run_tls_drag.sh "$@"
 node bench/tls_drag.mjs --datasets "$work/datasets" --dataset mri --tf mri --out bench/results/server/tls-drag "$@"
