@@ -245,7 +245,7 @@ TEST_F(TlsServerTest, HttpsServesTheViewerAndWssTheProtocol) {
   EXPECT_EQ(server->log().find("s3cret"), std::string::npos) << server->log();
 }
 
-TEST_F(TlsServerTest, SighupReadsTheCertificateAgainWhileSessionsStay) {
+TEST_F(TlsServerTest, SighupReadsTheCertificateAgainWhileSessionsStayAndOneDrags) {
   const auto cert = scratch() / "reload-cert.pem", key = scratch() / "reload-key.pem";
   std::filesystem::copy_file(certs().serverCert, cert, std::filesystem::copy_options::overwrite_existing);
   std::filesystem::copy_file(certs().serverKey, key, std::filesystem::copy_options::overwrite_existing);
@@ -255,6 +255,40 @@ TEST_F(TlsServerTest, SighupReadsTheCertificateAgainWhileSessionsStay) {
   stays.openDataset("sparse");
   const proto::Frame before = stays.render(kScene);
   EXPECT_HAS(sClient(server->port(), "").output, "subject=CN = voxbrick test server\n");
+  // A client drags all along (a new camera for every frame, each waited for): none of its frames fails.
+  std::atomic<bool> stopDragging{false}, dragFailed{false};
+  std::atomic<int> dragFrames{0};
+  std::string dragFailure;  // written by the drag's thread before dragFailed, read after it
+  std::thread dragging([&] {
+    try {
+      Client drag("127.0.0.1", server->port(), 30s, trusting(certs().caCert));
+      drag.hello();
+      drag.openDataset("sparse");
+      for (int i = 0; !stopDragging; ++i) {
+        const std::string scene = R"({"camera": {"orbit": [)" + std::to_string(40 + i % 90) +
+                                  R"(, 25, 2.2]}, "size": [80, 64], "transfer_function": "sparse"})";
+        if (drag.render(scene).width != 80) throw std::runtime_error("a frame of the wrong size");
+        ++dragFrames;
+      }
+    } catch (const std::exception& e) {
+      dragFailure = e.what();
+      dragFailed = true;
+    }
+  });
+  struct Joined {  // however the test ends
+    std::atomic<bool>& stop;
+    std::thread& thread;
+    ~Joined() {
+      stop = true;
+      if (thread.joinable()) thread.join();
+    }
+  } joined{stopDragging, dragging};
+  const auto dragged = [&](int atLeast) {
+    const auto deadline = Clock::now() + 20s;
+    while (dragFrames < atLeast && !dragFailed && Clock::now() < deadline) std::this_thread::sleep_for(20ms);
+    return dragFrames.load();
+  };
+  EXPECT_GE(dragged(3), 3) << "the drag did not start";
 
   // Reissued: the new certificate for new handshakes, the open session untouched.
   std::filesystem::copy_file(certs().otherCert, cert, std::filesystem::copy_options::overwrite_existing);
@@ -266,6 +300,8 @@ TEST_F(TlsServerTest, SighupReadsTheCertificateAgainWhileSessionsStay) {
     return server->log().find(text) != std::string::npos;
   };
   ASSERT_TRUE(waitForLog("SIGHUP: TLS certificate and key read again")) << server->log();
+  const int draggedAtReload = dragFrames;
+  EXPECT_GE(dragged(draggedAtReload + 3), draggedAtReload + 3) << "the drag goes on after the reload";
   EXPECT_HAS(sClient(server->port(), "").output, "subject=CN = \"voxbrick test server, reissued\"");
   EXPECT_HAS(sClient(server->httpPort(), "").output, "subject=CN = \"voxbrick test server, reissued\"");
   expectSameImage(stays.render(kScene), before);
@@ -279,6 +315,9 @@ TEST_F(TlsServerTest, SighupReadsTheCertificateAgainWhileSessionsStay) {
   fresh.hello();
   EXPECT_EQ(fresh.listDatasets(), std::vector<std::string>{"sparse"});
   expectSameImage(stays.render(kScene), before);
+  stopDragging = true;
+  dragging.join();
+  EXPECT_FALSE(dragFailed) << "a frame of the drag failed across the reloads: " << dragFailure;
   EXPECT_TRUE(server->running()) << "SIGHUP reloads, it does not stop the server";
 }
 
