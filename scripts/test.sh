@@ -19,7 +19,7 @@ if [ "$status" -ne 0 ]; then
   while IFS=: read -r _ name; do
     echo "--- $name"
     awk -v name="$name" '
-      $0 ~ "^[0-9]+/[0-9]+ Test: " name "$" { inside = 1; n = 0; next }
+      index($0, " Test: ") && substr($0, index($0, " Test: ") + 7) == name { inside = 1; n = 0; next }
       inside == 1 && /^Output:$/ { inside = 2; getline; next }
       inside == 2 && /^<end of output>$/ { inside = 0 }
       inside == 2 { line[n++ % 25] = $0 }
