@@ -25,6 +25,6 @@ if [ "$status" -ne 0 ]; then
       inside == 2 { line[n++ % 25] = $0 }
       END { for (i = (n > 25 ? n - 25 : 0); i < n; ++i) print "  " line[i % 25] }
     ' Testing/Temporary/LastTest.log
-  done < Testing/Temporary/LastTestsFailed.log
+  done < <(cat Testing/Temporary/LastTestsFailed.log 2> /dev/null)
   exit "$status"
 fi
