@@ -38,6 +38,7 @@ struct ServeArgs {
   int64_t maxTotalOutputMB = 0;
   bool noCoalesce = false, noConfig = false;
   int64_t hostCacheMB = 0, gpuBudgetMB = 0, maxMessageBytes = 0;
+  double uploadMaxMB = -1;  ///< --upload-max-mb; -1: as configured
   MpiArgs mpi;  ///< --mpi: sort-last across the ranks of mpirun: rank 0 serves, the others draw parts
 };
 
@@ -115,6 +116,7 @@ void runServe(const ServeArgs& a) {
   if (!a.tlsKey.empty()) c.tls.key = a.tlsKey;
   if (!a.tlsCa.empty()) c.tls.ca = a.tlsCa;
   if (!a.auditLog.empty()) c.auditPath = a.auditLog;
+  if (a.uploadMaxMB >= 0) c.upload.maxBytes = uint64_t(a.uploadMaxMB * double(1 << 20));
   c.validate();
   // TLS files that cannot be used are said before the render threads' GL contexts are made (the server reads them
   // again when it starts).
@@ -236,6 +238,11 @@ void addServeCommand(CLI::App& app) {
   cmd->add_option("--audit-log", a->auditLog,
                   "append the audit trail to this file: a line of JSON per session, token, dataset opened and "
                   "refusal, rotated by size (default none, or audit.path of the configuration)");
+  cmd->add_option("--upload-max-mb", a->uploadMaxMB,
+                  "take volumes sent by clients whose token may upload (the --http-token, or a [[tokens]] entry with "
+                  "upload = true) as new datasets, each of at most this many MiB of voxels; 0: none (default 0, or "
+                  "upload.max_bytes of the configuration)")
+      ->check(between(0, 1 << 30, "MiB"));
   cmd->add_option("--datasets", a->datasets,
                   "directory whose subdirectories are stores and whose .vdb files are read live (first float grid, "
                   "bricks of 32)" +

@@ -22,8 +22,9 @@ static_assert(kAt<MessageType::Hello, Hello> && kAt<MessageType::Capabilities, C
               kAt<MessageType::Error, Error> && kAt<MessageType::GetStats, GetStats> &&
               kAt<MessageType::Stats, Stats> && kAt<MessageType::Goodbye, Goodbye> &&
               kAt<MessageType::FrameReceived, FrameReceived> && kAt<MessageType::Authenticate, Authenticate> &&
-              kAt<MessageType::Authenticated, Authenticated> &&
-              std::variant_size_v<Message> == size_t(MessageType::Authenticated));
+              kAt<MessageType::Authenticated, Authenticated> && kAt<MessageType::Upload, Upload> &&
+              kAt<MessageType::UploadReady, UploadReady> && kAt<MessageType::UploadChunk, UploadChunk> &&
+              std::variant_size_v<Message> == size_t(MessageType::UploadChunk));
 
 bool known(Encoding e, uint16_t version) { return encodingInVersion(e, version); }
 bool known(ErrorCode e, uint16_t version) { return errorCodeInVersion(e, version); }
@@ -291,6 +292,23 @@ void fields(Io& io, M& m) {
   io.string({"token_id"}, m.tokenId);
 }
 
+template <class Io, Is<Upload> M>
+void fields(Io& io, M& m) {
+  io.string({"name"}, m.name);
+  io.string({"meta_json"}, m.metaJson);
+  io.number({"bytes"}, m.bytes);
+}
+
+template <class Io, Is<UploadReady> M>
+void fields(Io& io, M& m) {
+  io.number({"chunk_bytes"}, m.chunkBytes);
+}
+
+template <class Io, Is<UploadChunk> M>
+void fields(Io& io, M& m) {
+  io.bytes({"data"}, m.data);
+}
+
 template <size_t I = 0>
 Message decodeAs(const Header& header, std::span<const uint8_t> body, const Limits& limits) {
   if constexpr (I == std::variant_size_v<Message>) {
@@ -344,12 +362,15 @@ size_t invalidUtf8At(const uint8_t* p, size_t size) {
 bool messageTypeInVersion(MessageType type, uint16_t version) {
   if (type == MessageType::FrameReceived) return version >= 4;
   if (type == MessageType::Authenticate || type == MessageType::Authenticated) return version >= 5;
+  if (type == MessageType::Upload || type == MessageType::UploadReady || type == MessageType::UploadChunk)
+    return version >= 6;
   return type >= MessageType::Hello && type <= MessageType::Goodbye;
 }
 
 bool errorCodeInVersion(ErrorCode code, uint16_t version) {
   if (code == ErrorCode::Busy) return version >= 3;
   if (code == ErrorCode::Forbidden) return version >= 5;
+  if (code == ErrorCode::AlreadyExists) return version >= 6;
   return code >= ErrorCode::BadMagic && code <= ErrorCode::Timeout;
 }
 
@@ -394,6 +415,7 @@ const char* errorCodeName(ErrorCode code) {
     case ErrorCode::Timeout: return "Timeout";
     case ErrorCode::Busy: return "Busy";
     case ErrorCode::Forbidden: return "Forbidden";
+    case ErrorCode::AlreadyExists: return "AlreadyExists";
   }
   return "unknown";
 }
@@ -415,6 +437,9 @@ const char* messageTypeName(MessageType type) {
     case MessageType::FrameReceived: return "FrameReceived";
     case MessageType::Authenticate: return "Authenticate";
     case MessageType::Authenticated: return "Authenticated";
+    case MessageType::Upload: return "Upload";
+    case MessageType::UploadReady: return "UploadReady";
+    case MessageType::UploadChunk: return "UploadChunk";
   }
   return "unknown";
 }

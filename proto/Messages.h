@@ -20,9 +20,10 @@ constexpr uint32_t kMagic = 0x4B425856;  // read as a little-endian uint32
 /// The versions this code speaks (PROTOCOL.md section 9): version 2 is version 1 plus the jpeg encoding; version 3
 /// is version 2 plus the error code Busy; version 4 is version 3 plus the video encodings (vp8, vp9) and the message
 /// FrameReceived; version 5 is version 4 plus the messages Authenticate and Authenticated and the error code
-/// Forbidden (an access token presented on any transport).
+/// Forbidden (an access token presented on any transport); version 6 is version 5 plus the messages Upload,
+/// UploadReady and UploadChunk and the error code AlreadyExists (a volume sent to become a dataset).
 constexpr uint16_t kMinVersion = 1;
-constexpr uint16_t kMaxVersion = 5;
+constexpr uint16_t kMaxVersion = 6;
 /// Version 1, which every peer speaks: what encode() and Header write unless told otherwise, and the version a
 /// Hello is written in by a client whose lowest version is 1.
 constexpr uint16_t kVersion = kMinVersion;
@@ -51,9 +52,17 @@ enum class MessageType : uint16_t {
   Authenticate = 14,
   /// Version 5 on, server -> client: the token was taken; the session may now list and open its datasets.
   Authenticated = 15,
+  /// Version 6 on, client -> server: a volume to become a new dataset (its name, voxel description and size);
+  /// answered by UploadReady, or an Error.
+  Upload = 16,
+  /// Version 6 on, server -> client: the upload is taken; the client sends its voxels in UploadChunks.
+  UploadReady = 17,
+  /// Version 6 on, client -> server: the upload's next voxels; the last is answered by the new dataset's DatasetInfo
+  /// once it is prepped (or an Error), the others by nothing.
+  UploadChunk = 18,
 };
 /// Whether message `type` exists in protocol `version` (FrameReceived from version 4 on, Authenticate and
-/// Authenticated from version 5 on).
+/// Authenticated from version 5 on, Upload, UploadReady and UploadChunk from version 6 on).
 bool messageTypeInVersion(MessageType type, uint16_t version);
 
 /// Error codes carried by an Error message. Values are stable across versions.
@@ -76,8 +85,11 @@ enum class ErrorCode : uint16_t {
   Busy = 14,
   /// Version 5 on: an access token that opens nothing (Authenticate); the server closes.
   Forbidden = 15,
+  /// Version 6 on: an Upload names a dataset that exists or is being uploaded (the session goes on).
+  AlreadyExists = 16,
 };
-/// Whether `code` exists in protocol `version` (Busy from version 3 on, Forbidden from version 5 on).
+/// Whether `code` exists in protocol `version` (Busy from version 3 on, Forbidden from version 5 on, AlreadyExists
+/// from version 6 on).
 bool errorCodeInVersion(ErrorCode code, uint16_t version);
 /// The message of a Busy reply: `what`, then "; retry after N ms" (N = `retryAfterMs`, at least 1).
 std::string busyMessage(std::string_view what, uint32_t retryAfterMs);
@@ -196,8 +208,27 @@ struct Authenticated {
   bool operator==(const Authenticated&) const = default;
 };
 
+struct Upload {
+  std::string name;      ///< the new dataset's name (DatasetRegistry::validName, not starting with '.')
+  std::string metaJson;  ///< the voxels: dims, type, endian, spacing, origin, patient (PROTOCOL.md, Upload)
+  uint64_t bytes = 0;    ///< the voxels' size: x * y * z * the type's size
+
+  bool operator==(const Upload&) const = default;
+};
+struct UploadReady {
+  uint32_t chunkBytes = 0;  ///< the most voxel bytes one UploadChunk may carry
+
+  bool operator==(const UploadReady&) const = default;
+};
+struct UploadChunk {
+  std::vector<uint8_t> data;  ///< the next voxels, x fastest, then y, then z
+
+  bool operator==(const UploadChunk&) const = default;
+};
+
 using Message = std::variant<Hello, Capabilities, ListDatasets, DatasetList, OpenDataset, DatasetInfo, RenderRequest,
-                             Frame, Error, GetStats, Stats, Goodbye, FrameReceived, Authenticate, Authenticated>;
+                             Frame, Error, GetStats, Stats, Goodbye, FrameReceived, Authenticate, Authenticated, Upload,
+                             UploadReady, UploadChunk>;
 MessageType messageType(const Message& message);
 /// The type's name as PROTOCOL.md spells it ("Hello", "Render", ...), or "unknown" for a value outside the enum.
 const char* messageTypeName(MessageType type);

@@ -58,6 +58,7 @@ AccessTokens::AccessTokens(const ServerConfig& config) {
     grant->datasets = token.datasets;
     grant->sessions = token.sessions;
     grant->framesPerSecond = token.framesPerSecond;
+    grant->upload = token.upload;
     mTokens.push_back({unhex(token.sha256), std::move(grant)});
   }
   if (!config.httpToken.empty()) {
@@ -67,6 +68,7 @@ AccessTokens::AccessTokens(const ServerConfig& config) {
     auto grant = std::make_shared<TokenGrant>();
     grant->id = "http.token";
     grant->datasets = {"*"};
+    grant->upload = true;  // the server's one token: its operator's
     mTokens.push_back({sha256(config.httpToken), std::move(grant)});
   }
   auto anonymous = std::make_shared<TokenGrant>();

@@ -21,6 +21,7 @@ struct TokenGrant {
   std::vector<std::string> datasets;      ///< names or glob patterns (fnmatch: *, ?, [...]) it may list and open
   std::optional<int> sessions;            ///< its own sessions quota, in place of [quotas] sessions_per_token
   std::optional<double> framesPerSecond;  ///< its own frame-rate quota, in place of frames_per_s_per_token
+  bool upload = false;                    ///< it may send volumes to become datasets (the single http.token may)
 
   bool anonymous() const { return id.empty(); }
   /// Whether it may list and open the dataset `name`.

@@ -22,7 +22,8 @@ AsioSession::AsioSession(const boost::asio::any_io_executor& executor, const Ses
       mReadTimer(executor),
       mWriteTimer(executor),
       mPaceTimer(executor),
-      mAside(services.aside) {}
+      mAside(services.aside),
+      mPrepare(services.prepare) {}
 
 void AsioSession::start() {
   boost::asio::post(mExecutor, guarded(this, [](AsioSession& s) { s.mCore.start(); }));
@@ -58,14 +59,15 @@ void AsioSession::arm(Deadline deadline, double seconds) {
 
 void AsioSession::cancel(Deadline deadline) { timer(deadline).cancel(); }
 
-void AsioSession::runAside(std::function<void()> work, std::function<void()> then) {
+void AsioSession::runAside(std::function<void()> work, std::function<void()> then, Aside where) {
   auto task = [keep = shared_from_this(), work = std::move(work), then = std::move(then)]() mutable {
     work();
     boost::asio::post(keep->mExecutor,
                       keep->guarded(keep.get(), [then = std::move(then)](AsioSession&) mutable { then(); }));
   };
-  if (mAside)
-    mAside(std::move(task));
+  const auto& aside = where == Aside::Prepare ? mPrepare : mAside;
+  if (aside)
+    aside(std::move(task));
   else
     task();
 }

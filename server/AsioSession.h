@@ -37,7 +37,7 @@ class AsioSession : public Session,
 
   void arm(Deadline deadline, double seconds) override;
   void cancel(Deadline deadline) override;
-  void runAside(std::function<void()> work, std::function<void()> then) override;
+  void runAside(std::function<void()> work, std::function<void()> then, Aside where = Aside::Encode) override;
   std::shared_ptr<RenderScheduler::Sink> renderSink() override { return shared_from_this(); }
 
  protected:
@@ -73,6 +73,7 @@ class AsioSession : public Session,
   boost::asio::any_io_executor mExecutor;
   boost::asio::steady_timer mHelloTimer, mReadTimer, mWriteTimer, mPaceTimer;
   const std::function<void(std::function<void()>)>& mAside;
+  const std::function<void(std::function<void()>)>& mPrepare;
 };
 
 }  // namespace voxbrick::server

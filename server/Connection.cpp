@@ -365,7 +365,33 @@ void Connection::apply(Outcome outcome) {
                                     : mServices.scheduler.submit(mTransport.renderSink(), std::move(*outcome.render));
     apply(mServices.handler.submitted(mState, requestId, std::move(submission)));
   }
+  if (outcome.prepare && !mClosed && !mClosing) prepare(std::move(*outcome.prepare));
   if (outcome.close) closeAfterFlush();
+}
+
+void Connection::prepare(PrepareJob job) {
+  auto error = std::make_shared<std::exception_ptr>();
+  mTransport.runAside(
+      [upload = job.upload, error] {
+        try {
+          upload->prepare();
+        } catch (...) {
+          *error = std::current_exception();
+        }
+      },
+      [this, job, error] {
+        if (mClosing || mClosed) return;  // abandoned: the upload went with the session
+        apply(mServices.handler.prepared(mState, job, *error));
+      },
+      Aside::Prepare);
+}
+
+void Connection::abandonUpload() {
+  if (!mState.upload) return;
+  spdlog::info("{}: upload '{}' abandoned: the session ended", mPeer, mState.upload->name());
+  mState.upload->cancel();
+  mState.upload.reset();
+  mState.preparing = false;
 }
 
 void Connection::send(const proto::Message& message, uint32_t requestId) {
@@ -461,6 +487,7 @@ void Connection::written(bool ok) {
 void Connection::closeAfterFlush() {
   mClosing = true;
   mAlive = false;  // its waiting renders are dropped unrendered
+  abandonUpload();
   if (mWriting) return;
   if (mOutbox.empty()) return close();
   writeNext();  // replies held back for the link go now
@@ -470,6 +497,7 @@ void Connection::close() {
   if (mClosed) return;
   mClosed = true;
   mAlive = false;
+  abandonUpload();
   for (const Deadline deadline : {Deadline::Hello, Deadline::Read, Deadline::Write, Deadline::Pace})
     mTransport.cancel(deadline);
   mServices.output.release(mOutboxBytes);

@@ -56,6 +56,9 @@ struct SessionServices {
   std::function<std::optional<std::string>(ConnectionId, const TokenGrant&)> authenticated;
   /// The audit trail: sessions opened, tokens presented and refusals (null: none).
   AuditLog* audit = nullptr;
+  /// Runs a task on the server's upload threads (an upload's prep; Transport::runAside with Aside::Prepare). Empty:
+  /// on the calling thread.
+  std::function<void(std::function<void()>)> prepare = {};
 };
 
 /// One client connection's state machine. Not thread-safe: every call but alive() is made on the connection's
@@ -186,6 +189,11 @@ class Connection {
   void writeNext();
   /// Stops reading; closes once every queued reply is written.
   void closeAfterFlush();
+  /// Runs `job`'s prep aside, then applies its answer.
+  void prepare(PrepareJob job);
+  /// The session is ending: its upload, if any, is abandoned (a prep running is stopped; its scratch goes with the
+  /// last reference).
+  void abandonUpload();
   /// Sends a Timeout error naming `what`, then closes.
   void timedOut(const std::string& what);
 

@@ -11,7 +11,8 @@
 namespace voxbrick::server {
 
 bool DatasetRegistry::validName(const std::string& name) {
-  if (name.empty() || name.size() > 255 || name == "." || name == "..") return false;
+  // Hidden entries are never datasets: an upload's scratch (.upload-*) among them.
+  if (name.empty() || name.size() > 255 || name.front() == '.') return false;
   return std::all_of(name.begin(), name.end(), [](char c) {
     return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' || c == '_' ||
            c == '.';

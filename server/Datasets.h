@@ -17,8 +17,8 @@ namespace voxbrick::server {
 
 /// A named dataset is an entry of the datasets directory that render::isDataset accepts: a subdirectory holding a
 /// prepped store, or a .vdb file read live with the defaults (its first float grid, bricks of 32). Names are the
-/// entries' names (a .vdb keeps its extension), of letters, digits, '.', '-' and '_' only (never a path, never "."
-/// or "..").
+/// entries' names (a .vdb keeps its extension), of letters, digits, '.', '-' and '_' only, not starting with '.'
+/// (never a path, never a hidden entry such as an upload's scratch folder).
 class DatasetRegistry {
  public:
   /// `cacheBytes` is the host budget of all the datasets open together: each of the n open has a cache of

@@ -83,14 +83,15 @@ void checkEncodings(RenderJob& job, uint16_t version) {
 MessageHandler::MessageHandler(const ServerConfig& config, DatasetRegistry& datasets,
                                const render::TransferFunctionPresets& presets, ServerStats& stats,
                                std::function<nlohmann::json()> statsJson, std::shared_ptr<const AccessTokens> tokens,
-                               AuditLog* audit)
+                               AuditLog* audit, Uploads* uploads)
     : mConfig(config),
       mDatasets(datasets),
       mPresets(presets),
       mStats(stats),
       mStatsJson(std::move(statsJson)),
       mTokens(std::move(tokens)),
-      mAudit(audit) {}
+      mAudit(audit),
+      mUploads(uploads) {}
 
 AuditEvent auditEvent(const ConnectionState& state, std::string event, std::string dataset, std::string reason) {
   AuditEvent e;
@@ -122,8 +123,14 @@ Outcome MessageHandler::failed(const std::exception_ptr& error, uint32_t request
 Outcome MessageHandler::dispatch(ConnectionState& state, const proto::Message& message, uint32_t requestId) {
   // Failures are thrown as the typed exceptions errorReply maps, so that this reads as the state machine only.
   if (const auto* h = std::get_if<proto::Hello>(&message)) return hello(state, *h, requestId);
-  if (std::holds_alternative<proto::Goodbye>(message)) return Outcome{{}, true, std::nullopt};
+  if (std::holds_alternative<proto::Goodbye>(message)) return Outcome{{}, true, std::nullopt, std::nullopt};
   if (!state.greeted) throw proto::ProtocolError(ErrorCode::UnexpectedMessage, "send Hello first");
+  // A message of a later version than the session's (FrameReceived, Authenticate, Upload...) is not known there,
+  // whatever version its header said.
+  if (const proto::MessageType type = proto::messageType(message); !proto::messageTypeInVersion(type, state.version))
+    throw proto::ProtocolError(ErrorCode::UnknownType, std::string(proto::messageTypeName(type)) +
+                                                           " is not known in protocol version " +
+                                                           std::to_string(state.version));
   return std::visit(
       [&](const auto& m) -> Outcome {
         using M = std::decay_t<decltype(m)>;
@@ -138,12 +145,11 @@ Outcome MessageHandler::dispatch(ConnectionState& state, const proto::Message& m
         } else if constexpr (std::is_same_v<M, proto::Authenticate>) {
           return authenticate(state, m, requestId);
         } else if constexpr (std::is_same_v<M, proto::FrameReceived>) {
-          // Read by the Connection (its link's pace); nothing answers it. A session of an older version has no such
-          // message, whatever version the header said.
-          if (!proto::messageTypeInVersion(proto::MessageType::FrameReceived, state.version))
-            throw proto::ProtocolError(ErrorCode::UnknownType, "FrameReceived is not known in protocol version " +
-                                                                   std::to_string(state.version));
-          return Outcome{};
+          return Outcome{};  // read by the Connection (its link's pace); nothing answers it
+        } else if constexpr (std::is_same_v<M, proto::Upload>) {
+          return upload(state, m, requestId);
+        } else if constexpr (std::is_same_v<M, proto::UploadChunk>) {
+          return uploadChunk(state, m, requestId);
         } else {
           throw proto::ProtocolError(
               ErrorCode::UnexpectedMessage,
@@ -195,10 +201,6 @@ Outcome MessageHandler::openDataset(ConnectionState& state, const proto::OpenDat
 }
 
 Outcome MessageHandler::authenticate(ConnectionState& state, const proto::Authenticate& message, uint32_t requestId) {
-  // Authenticate exists from version 5 on: an older session has no such message, whatever version its header said.
-  if (!proto::messageTypeInVersion(proto::MessageType::Authenticate, state.version))
-    throw proto::ProtocolError(ErrorCode::UnknownType,
-                               "Authenticate is not known in protocol version " + std::to_string(state.version));
   if (state.authenticated)
     throw proto::ProtocolError(ErrorCode::UnexpectedMessage, "this session presented its access token already");
   if (state.dataset)
@@ -216,6 +218,73 @@ Outcome MessageHandler::authenticate(ConnectionState& state, const proto::Authen
   state.access = grant;
   state.authenticated = true;
   return replyWith(proto::Authenticated{grant->id}, requestId);
+}
+
+Outcome MessageHandler::upload(ConnectionState& state, const proto::Upload& request, uint32_t requestId) {
+  if (state.upload)
+    throw proto::ProtocolError(ErrorCode::UnexpectedMessage,
+                               "this session's upload of '" + state.upload->name() + "' is not finished (" +
+                                   std::to_string(state.upload->received()) + " of " +
+                                   std::to_string(state.upload->expected()) + " bytes sent)");
+  try {
+    if (!mUploads) throw proto::ProtocolError(ErrorCode::Forbidden, "this server takes no uploads");
+    state.upload = mUploads->begin(request, state.authenticated ? state.access.get() : nullptr);
+  } catch (...) {
+    Outcome refused = failed(std::current_exception(), requestId, "upload '" + request.name + "'");
+    const auto& error = std::get<proto::Error>(refused.replies.front().message);
+    mStats.add(ServerEvent::UploadRefused);
+    if (mAudit) mAudit->record(auditEvent(state, "refused", request.name, "upload: " + error.message));
+    // A refused upload leaves the session as it was (Forbidden closes a session only for a wrong token).
+    refused.close = false;
+    return refused;
+  }
+  return replyWith(proto::UploadReady{mUploads->chunkBytes()}, requestId);
+}
+
+Outcome MessageHandler::uploadChunk(ConnectionState& state, const proto::UploadChunk& chunk, uint32_t requestId) {
+  if (!state.upload) throw proto::ProtocolError(ErrorCode::UnexpectedMessage, "no upload in progress: send Upload first");
+  if (state.preparing)
+    throw proto::ProtocolError(ErrorCode::UnexpectedMessage,
+                               "upload '" + state.upload->name() + "' has all its bytes: its store is being prepped");
+  bool last;
+  try {
+    last = state.upload->append(chunk.data);
+  } catch (...) {
+    mStats.add(ServerEvent::UploadRefused);
+    if (mAudit) mAudit->record(auditEvent(state, "refused", state.upload->name(), "upload: a chunk was refused"));
+    state.upload.reset();  // its scratch goes with it
+    throw;
+  }
+  if (!last) return {};
+  state.preparing = true;
+  Outcome outcome;
+  outcome.prepare = PrepareJob{state.upload, requestId};
+  return outcome;
+}
+
+Outcome MessageHandler::prepared(ConnectionState& state, const PrepareJob& job, const std::exception_ptr& error) {
+  if (state.upload == job.upload) {
+    state.upload.reset();
+    state.preparing = false;
+  }
+  const std::string& name = job.upload->name();
+  if (error) {
+    mStats.add(ServerEvent::UploadRefused);
+    Outcome outcome = failed(error, job.requestId, "upload '" + name + "'");
+    if (mAudit)
+      mAudit->record(auditEvent(state, "refused", name,
+                                "upload: " + std::get<proto::Error>(outcome.replies.front().message).message));
+    return outcome;
+  }
+  mStats.add(ServerEvent::Uploaded);
+  if (mAudit) mAudit->record(auditEvent(state, "uploaded", name));
+  // Its DatasetInfo, as OpenDataset answers, without making it the session's open dataset.
+  try {
+    const auto dataset = mDatasets.open(name, visibleTo(state));
+    return replyWith(proto::DatasetInfo{dataset->name(), dataset->infoJson()}, job.requestId);
+  } catch (...) {
+    return failed(std::current_exception(), job.requestId, "dataset '" + name + "' cannot be opened");
+  }
 }
 
 nlohmann::json MessageHandler::statsFor(const ConnectionState& state) const {

@@ -33,6 +33,7 @@
 #include "server/Session.h"
 #include "server/TcpSession.h"
 #include "server/TlsContext.h"
+#include "server/Uploads.h"
 #include "server/WebGate.h"
 #include "server/WebSocketSession.h"
 
@@ -157,6 +158,8 @@ struct Server::Impl {
   /// The TLS context of new connections on both ports (config.tls), read again on SIGHUP; null without TLS.
   const std::unique_ptr<TlsContexts> tls;
   DatasetRegistry datasets;
+  /// Volumes clients send to become datasets ([upload]).
+  Uploads uploads;
   ServerStats stats;
   OutputBudget output;
   RenderScheduler scheduler;
@@ -164,6 +167,8 @@ struct Server::Impl {
   asio::io_context io;
   /// Encodes sessions' video frames (SessionServices::aside); its tasks post back to `io`, so it goes first.
   asio::thread_pool encoders;
+  /// Waits for uploads' preps (child processes; SessionServices::prepare); posts back to `io` as `encoders` does.
+  asio::thread_pool preparers;
   /// The acceptor and the signals are used from this strand only.
   asio::strand<asio::io_context::executor_type> control;
   tcp::acceptor acceptor;
@@ -205,11 +210,15 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
       // made before any dataset is opened.
       datasets(config.datasets, size_t(config.hostCacheMB) << 20,
                [this](const std::string& name) { scheduler.checkDataset(name); }),
+      // Prepped by this very executable, as `voxbrick prep`; a chunk fills a message of the body limit.
+      uploads(config.upload, config.datasets, std::filesystem::read_symlink("/proc/self/exe"),
+              std::min<uint32_t>(config.maxMessageBytes - 4, 64u << 20)),
       output(config.maxTotalOutputBytes),
       scheduler(std::move(sources), config.scheduler),
       handler(
-          config, datasets, presets, stats, [this] { return statsJson(); }, tokens, audit.get()),
+          config, datasets, presets, stats, [this] { return statsJson(); }, tokens, audit.get(), &uploads),
       encoders(size_t(config.encodeThreads)),
+      preparers(size_t(config.upload.maxConcurrent)),
       control(asio::make_strand(io)),
       acceptor(control),
       httpAcceptor(control),
@@ -240,10 +249,14 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
                         if (refusal) stats.refused(Refusal::Quota);
                         return refusal;
                       },
-                      audit.get()},
+                      audit.get(),
+                      [this](std::function<void()> task) { asio::post(preparers, std::move(task)); }},
       admission(admissionLimits(config)),
       quotas(config.quotas) {
   sessionServices.limits.maxBodyBytes = config.maxMessageBytes;
+  if (uploads.enabled())
+    spdlog::info("uploads: up to {} bytes each, {} at a time, by tokens that may upload", config.upload.maxBytes,
+                 config.upload.maxConcurrent);
   listen(acceptor, endpoint, "TCP");
   if (config.http) listen(httpAcceptor, listenEndpoint(config.httpHost(), config.httpPort), "HTTP");
   if (tls) {
@@ -455,7 +468,9 @@ void Server::Impl::shutdown() {
     std::unique_lock lock(sessionsMutex);
     sessionsChanged.wait_until(lock, deadline, [&] { return sessions.empty(); });
   }
-  encoders.join();  // frames being encoded post their end to the I/O threads, which still run
+  uploads.cancelAll();  // preps still running (their sessions did not end in time) are stopped
+  encoders.join();      // frames being encoded post their end to the I/O threads, which still run
+  preparers.join();
   io.stop();
 }
 

@@ -155,6 +155,7 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
     token.readStrings("datasets", t.datasets);
     if (int sessions = 0; token.read("sessions", sessions)) t.sessions = sessions;
     if (double frames = 0; token.read("frames_per_s", frames)) t.framesPerSecond = frames;
+    token.read("upload", t.upload);
     token.rejectUnknown();
     c.tokens.push_back(std::move(t));
   }
@@ -172,6 +173,9 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   if (audit.read("path", c.auditPath)) beside(c.auditPath);
   audit.read("max_bytes", c.auditMaxBytes);
   audit.read("keep", c.auditKeep);
+  Section upload = top.table("upload");
+  upload.read("max_bytes", c.upload.maxBytes);
+  upload.read("max_concurrent", c.upload.maxConcurrent);
   Section memory = top.table("memory");
   memory.read("host_cache_mb", c.hostCacheMB);
   memory.read("gpu_budget_mb", c.gpuBudgetMB);
@@ -193,7 +197,7 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   quotas.read("sessions_per_token", c.quotas.sessionsPerToken);
   quotas.read("frames_per_s_per_token", c.quotas.framesPerSecondPerToken);
   quotas.read("loopback_exempt", c.quotas.loopbackExempt);
-  for (const Section* section : {&top, &server, &limits, &memory, &http, &access, &tls, &audit, &scheduler, &quotas})
+  for (const Section* section : {&top, &server, &limits, &memory, &http, &access, &tls, &audit, &upload, &scheduler, &quotas})
     section->rejectUnknown();
   try {
     c.validate();
@@ -242,6 +246,8 @@ void ServerConfig::validate() const {
   if (!tls.ca.empty() && tls.cert.empty()) fail("tls.ca is set without tls.cert and tls.key");
   range("audit.max_bytes", double(auditMaxBytes), 4096, double(uint64_t(1) << 40));
   range("audit.keep", auditKeep, 0, 1000);
+  range("upload.max_bytes", double(upload.maxBytes), 0, double(uint64_t(1) << 50));
+  range("upload.max_concurrent", upload.maxConcurrent, 1, 64);
   range("scheduler.interactive_weight", scheduler.interactiveWeight, 0.01, 1e6);
   range("scheduler.still_weight", scheduler.stillWeight, 0.01, 1e6);
   range("scheduler.batch_weight", scheduler.batchWeight, 0.01, 1e6);

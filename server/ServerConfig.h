@@ -60,6 +60,14 @@ struct TokenConfig {
   std::vector<std::string> datasets;      ///< names or glob patterns (*, ?, [...]); ["*"] for every dataset
   std::optional<int> sessions;            ///< sessions it may hold at once; absent: quotas.sessions_per_token
   std::optional<double> framesPerSecond;  ///< Renders a second; absent: quotas.frames_per_s_per_token
+  bool upload = false;                    ///< it may send volumes to become datasets ([upload])
+};
+
+/// Volumes clients send to become datasets ([upload]; PROTOCOL.md, Upload): off unless max_bytes is above 0, and
+/// only for a session whose token may upload.
+struct UploadConfig {
+  uint64_t maxBytes = 0;  ///< the largest upload, in voxel bytes; 0: the server takes none
+  int maxConcurrent = 1;  ///< uploads in progress at once, all sessions together (more: Busy)
 };
 
 /// The files of [tls] (or --tls-cert, --tls-key, --tls-ca): with a certificate, both listeners speak TLS only.
@@ -117,6 +125,8 @@ struct ServerConfig {
   /// The datasets a session without a token may list and open; absent: every dataset when no [[tokens]] are
   /// configured, none otherwise.
   std::optional<std::vector<std::string>> anonymousDatasets;
+  // [upload]
+  UploadConfig upload;
   // [tls]
   TlsFiles tls;
   // [audit] The audit trail (AuditLog): one line per session, token, dataset opened and refusal.

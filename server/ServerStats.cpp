@@ -152,6 +152,7 @@ json ServerStats::toJson(const Gauges& gauges) const {
             {"peak_atlas_bytes", gauges.gpu.peakBytes},
             {"renderers_released", gauges.gpu.renderersReleased}}},
           {"video", videoJson()},
+          {"uploads", {{"done", total(ServerEvent::Uploaded)}, {"refused", total(ServerEvent::UploadRefused)}}},
           {"limits", gauges.limits},
           {"render_threads", gauges.renderThreads}};
 }
@@ -200,6 +201,10 @@ std::string ServerStats::metricsText(const Gauges& gauges) const {
         ServerEvent::SlowClientDropped);
   event("voxbrick_reading_paused_total", "Times a session was not read because its replies waited unread.",
         ServerEvent::ReadingPaused);
+  event("voxbrick_uploads_total", "Volumes clients sent that became datasets.", ServerEvent::Uploaded);
+  event("voxbrick_uploads_refused_total",
+        "Uploads refused, abandoned for a bad chunk, or whose prep failed (not those whose session ended).",
+        ServerEvent::UploadRefused);
 
   // Messages and renders.
   event("voxbrick_messages_total", "Protocol messages read, decodable or not.", ServerEvent::Message);

@@ -39,6 +39,8 @@ enum class ServerEvent {
   SlowClientDropped,  ///< sessions closed because they did not read their replies
   ReadingPaused,      ///< times a session was not read because its replies waited unread
   OutputRefused,      ///< frames answered LimitExceeded (or dropped) because of the server's output budget
+  Uploaded,           ///< uploads prepped into datasets
+  UploadRefused,      ///< uploads refused, abandoned for a bad chunk, or whose prep failed
 };
 
 /// Why the server turned a connection or a request away (Prometheus' voxbrick_refusals_total{reason}).
@@ -131,7 +133,7 @@ class ServerStats {
   /// The Stats JSON's `video`: frames encoded and their mean encode ms by codec, key frames by reason.
   nlohmann::json videoJson() const;
 
-  static constexpr size_t kEvents = size_t(ServerEvent::OutputRefused) + 1;
+  static constexpr size_t kEvents = size_t(ServerEvent::UploadRefused) + 1;
   using Counter = std::atomic<uint64_t>;
   std::array<Counter, kEvents> mCounts{};
   std::array<Counter, kRefusals> mRefusals{};

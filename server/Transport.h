@@ -22,6 +22,12 @@ enum class Deadline {
   Pace,   ///< a Frame held back for the client's reports may go (LinkPacer::releaseAt)
 };
 
+/// Where Transport::runAside runs its work.
+enum class Aside {
+  Encode,   ///< the server's encoder threads (video frames: short tasks)
+  Prepare,  ///< the server's upload threads (an upload's prep: a child process waited for, seconds to minutes)
+};
+
 /// Every call is made on the connection's serial context (its strand), and every report back to the Connection
 /// (Connection::received, written, expired, closed by the peer) must be made there too.
 class Transport {
@@ -41,9 +47,10 @@ class Transport {
   virtual void cancel(Deadline deadline) = 0;
   /// Closes the stream at once. A read or write in flight may still report its failure afterwards.
   virtual void close() = 0;
-  /// Runs `work` on a thread aside (the server's encoder threads, never the serial context), then `then` on the
-  /// serial context, keeping the connection alive in between. `work` must not touch the Connection.
-  virtual void runAside(std::function<void()> work, std::function<void()> then) = 0;
+  /// Runs `work` on a thread aside (the server's encoder or upload threads, as `where` says; never the serial
+  /// context), then `then` on the serial context, keeping the connection alive in between. `work` must not touch the
+  /// Connection.
+  virtual void runAside(std::function<void()> work, std::function<void()> then, Aside where = Aside::Encode) = 0;
   /// The object render threads hand this connection's frames to (RenderScheduler::submit keeps it while a job of
   /// the connection waits); it must pass them to Connection::rendered on the serial context.
   virtual std::shared_ptr<RenderScheduler::Sink> renderSink() = 0;

@@ -18,6 +18,7 @@ inline Bytes concat(std::initializer_list<Bytes> parts) {
 }
 inline Bytes u16(uint16_t v) { return {uint8_t(v), uint8_t(v >> 8)}; }
 inline Bytes u32(uint32_t v) { return {uint8_t(v), uint8_t(v >> 8), uint8_t(v >> 16), uint8_t(v >> 24)}; }
+inline Bytes u64(uint64_t v) { return concat({u32(uint32_t(v)), u32(uint32_t(v >> 32))}); }
 inline Bytes str(const std::string& s) { return concat({u32(uint32_t(s.size())), Bytes(s.begin(), s.end())}); }
 
 }  // namespace voxbrick::proto::wire

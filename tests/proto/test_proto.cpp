@@ -103,6 +103,12 @@ std::vector<Message> sampleMessages() {
       Authenticate{"5f1c0ad2e9b34c7a8d6e0f1a2b3c4d5e"},
       Authenticate{""},
       Authenticated{"radiology"},
+      Upload{"scan-7", R"({"dims": [256, 256, 128], "type": "uint16"})", 256ull * 256 * 128 * 2},
+      Upload{"", "", 0},
+      Upload{"big", "{}", 0xFFFFFFFFFFFFFFFFull},
+      UploadReady{1u << 20},
+      UploadChunk{pattern(4099)},
+      UploadChunk{{}},
   };
 }
 
@@ -116,7 +122,7 @@ TEST(Header, LayoutIsPinned) {
 
 TEST(Versions, JpegExistsFromVersionTwoOn) {
   EXPECT_EQ(kMinVersion, 1u);
-  EXPECT_EQ(kMaxVersion, 5u);
+  EXPECT_EQ(kMaxVersion, 6u);
   EXPECT_EQ(uint8_t(Encoding::Jpeg), 3u);
   EXPECT_EQ(encodingsOf(1), (std::vector<Encoding>{Encoding::RawRgba8, Encoding::Png, Encoding::ZstdRgba8}));
   EXPECT_EQ(encodingsOf(2),
@@ -196,6 +202,47 @@ TEST(Versions, AuthenticateAndForbiddenExistFromVersionFiveOn) {
   EXPECT_EQ(e.code(), ErrorCode::Malformed);
   EXPECT_TRUE(decodeBody({5, MessageType::Error, 1, uint32_t(error.size())}, error, Limits{}) ==
               Message(Error{ErrorCode::Forbidden, "x"}));
+}
+
+TEST(Versions, UploadsAndAlreadyExistsExistFromVersionSixOn) {
+  EXPECT_EQ(uint16_t(MessageType::Upload), 16u);
+  EXPECT_EQ(uint16_t(MessageType::UploadReady), 17u);
+  EXPECT_EQ(uint16_t(MessageType::UploadChunk), 18u);
+  EXPECT_EQ(uint16_t(ErrorCode::AlreadyExists), 16u);
+  for (uint16_t version = 1; version <= 5; ++version) {
+    for (MessageType type : {MessageType::Upload, MessageType::UploadReady, MessageType::UploadChunk})
+      EXPECT_FALSE(messageTypeInVersion(type, version)) << messageTypeName(type) << " " << version;
+    EXPECT_FALSE(errorCodeInVersion(ErrorCode::AlreadyExists, version));
+  }
+  for (MessageType type : {MessageType::Upload, MessageType::UploadReady, MessageType::UploadChunk})
+    EXPECT_TRUE(messageTypeInVersion(type, 6));
+  EXPECT_TRUE(errorCodeInVersion(ErrorCode::AlreadyExists, 6));
+  EXPECT_EQ(encodingsOf(6), encodingsOf(5));
+  // Upload: string name, string meta_json, u64 bytes (little-endian); UploadReady: u32; UploadChunk: bytes.
+  EXPECT_EQ(hex(encode(Upload{"a", "{}", 0x0102030405060708ull}, 2, 6)),
+            hex(concat({headerBytes(MessageType::Upload, 2, 5 + 6 + 8, 6), str("a"), str("{}"),
+                        {8, 7, 6, 5, 4, 3, 2, 1}})));
+  EXPECT_EQ(hex(encode(UploadReady{65536}, 2, 6)),
+            hex(concat({headerBytes(MessageType::UploadReady, 2, 4, 6), u32(65536)})));
+  EXPECT_EQ(hex(encode(UploadChunk{{9, 8}}, 3, 6)),
+            hex(concat({headerBytes(MessageType::UploadChunk, 3, 6, 6), u32(2), {9, 8}})));
+  EXPECT_THROW(encode(Upload{"a", "{}", 0}, 2, 5), std::invalid_argument);
+  EXPECT_THROW(encode(Error{ErrorCode::AlreadyExists, "x"}, 1, 5), std::invalid_argument);
+  const Bytes body = concat({str("a"), str("{}"), u64(3)});
+  ProtocolError e = thrown([&] { decodeBody({5, MessageType::Upload, 1, uint32_t(body.size())}, body, Limits{}); });
+  EXPECT_EQ(e.code(), ErrorCode::UnknownType) << e.what();
+  EXPECT_TRUE(decodeBody({6, MessageType::Upload, 1, uint32_t(body.size())}, body, Limits{}) ==
+              Message(Upload{"a", "{}", 3}));
+  // A u64 cut short is named.
+  const Bytes cut(body.begin(), body.end() - 3);
+  e = thrown([&] { decodeBody({6, MessageType::Upload, 1, uint32_t(cut.size())}, cut, Limits{}); });
+  EXPECT_EQ(e.code(), ErrorCode::Malformed);
+  EXPECT_NE(std::string(e.what()).find("Upload.bytes"), std::string::npos) << e.what();
+  const Bytes error = concat({u16(16), str("x")});
+  e = thrown([&] { decodeBody({5, MessageType::Error, 1, uint32_t(error.size())}, error, Limits{}); });
+  EXPECT_EQ(e.code(), ErrorCode::Malformed);
+  EXPECT_TRUE(decodeBody({6, MessageType::Error, 1, uint32_t(error.size())}, error, Limits{}) ==
+              Message(Error{ErrorCode::AlreadyExists, "x"}));
 }
 
 TEST(Versions, HeadersOfEveryVersionSpokenDecode) {
@@ -389,14 +436,18 @@ TEST(Messages, TypeValuesAndNames) {
   EXPECT_EQ(uint16_t(MessageType::FrameReceived), 13u);
   EXPECT_STREQ(messageTypeName(MessageType::Authenticate), "Authenticate");
   EXPECT_STREQ(messageTypeName(MessageType::Authenticated), "Authenticated");
-  EXPECT_STREQ(messageTypeName(MessageType(16)), "unknown");
+  EXPECT_STREQ(messageTypeName(MessageType::Upload), "Upload");
+  EXPECT_STREQ(messageTypeName(MessageType::UploadReady), "UploadReady");
+  EXPECT_STREQ(messageTypeName(MessageType::UploadChunk), "UploadChunk");
+  EXPECT_STREQ(messageTypeName(MessageType(19)), "unknown");
 }
 
 TEST(Messages, ErrorCodeNames) {
   const char* names[] = {"BadMagic",          "UnsupportedVersion", "UnknownType",  "TooLarge",      "Malformed",
                          "UnexpectedMessage", "UnknownDataset",     "InvalidScene", "LimitExceeded", "Superseded",
-                         "Internal",          "ShuttingDown",       "Timeout",      "Busy",          "Forbidden"};
-  for (uint16_t code = 1; code <= 15; ++code) {
+                         "Internal",          "ShuttingDown",       "Timeout",      "Busy",          "Forbidden",
+                         "AlreadyExists"};
+  for (uint16_t code = 1; code <= 16; ++code) {
     EXPECT_STREQ(errorCodeName(ErrorCode(code)), names[code - 1]);
     // every code decodes in the latest version
     const Bytes body = concat({u16(code), str("")});
@@ -404,7 +455,7 @@ TEST(Messages, ErrorCodeNames) {
                 Message(Error{ErrorCode(code), ""}));
   }
   EXPECT_STREQ(errorCodeName(ErrorCode(0)), "unknown");
-  EXPECT_STREQ(errorCodeName(ErrorCode(16)), "unknown");
+  EXPECT_STREQ(errorCodeName(ErrorCode(17)), "unknown");
 }
 
 TEST(Versions, BusyExistsFromVersionThreeOn) {
@@ -610,6 +661,9 @@ TEST(FuzzCorpus, EveryFileReplaysThroughTheFuzzCheck) {
       {"bad-frame-received-v3", {ErrorCode::UnknownType}},
       {"bad-authenticate-v4", {ErrorCode::UnknownType}},
       {"bad-forbidden-v4", {ErrorCode::Malformed}},
+      {"bad-upload-v5", {ErrorCode::UnknownType}},
+      {"bad-already-exists-v5", {ErrorCode::Malformed}},
+      {"bad-upload-chunk-length", {ErrorCode::Malformed}},
   };
   std::set<MessageType> decodedTypes;
   size_t files = 0;

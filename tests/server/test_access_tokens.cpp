@@ -56,6 +56,18 @@ TEST(AccessTokens, SecretsAreHashedWithSha256AndOnlyTheRightOneMatches) {
   EXPECT_NE(a, b);
 }
 
+TEST(AccessTokens, OnlyTokensGrantedItAndTheServersOwnMayUpload) {
+  ServerConfig config;
+  config.tokens = {tokenOf("alpha", kAlphaSecret, {"alpha-*"}), tokenOf("other", kOtherSecret, {"beta"})};
+  config.tokens[1].upload = true;
+  config.httpToken = "the-operators-token";
+  const AccessTokens tokens(config);
+  EXPECT_FALSE(tokens.match(kAlphaSecret)->upload);
+  EXPECT_TRUE(tokens.match(kOtherSecret)->upload);
+  EXPECT_TRUE(tokens.match("the-operators-token")->upload);
+  EXPECT_FALSE(tokens.anonymous()->upload);
+}
+
 TEST(AccessTokens, PatternsSayWhichDatasetsATokenMayOpen) {
   const TokenGrant grant{"g", {"alpha-*", "beta", "gamma-[12]"}, std::nullopt, std::nullopt};
   EXPECT_TRUE(grant.mayOpen("alpha-1"));

@@ -46,7 +46,7 @@ class FakeTransport : public Transport,
   std::shared_ptr<RenderScheduler::Sink> renderSink() override { return shared_from_this(); }
   /// Tasks run aside, in order; runAsides() runs them (each `work`, then its `then`).
   std::vector<std::pair<std::function<void()>, std::function<void()>>> asides;
-  void runAside(std::function<void()> work, std::function<void()> then) override {
+  void runAside(std::function<void()> work, std::function<void()> then, Aside = Aside::Encode) override {
     asides.emplace_back(std::move(work), std::move(then));
   }
   void runAsides() {

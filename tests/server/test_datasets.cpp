@@ -78,11 +78,12 @@ TEST_F(DatasetRegistryTest, NamesThatAreNotDatasetsAreNotFound) {
 }
 
 TEST_F(DatasetRegistryTest, TheNameCheckAllowsOnlyPlainNames) {
-  for (const char* name : {"sparse", "a-b_c.1", "...", ".hidden", "CT.2024-01"})
+  for (const char* name : {"sparse", "a-b_c.1", "a..", "CT.2024-01"})
     EXPECT_TRUE(DatasetRegistry::validName(name)) << name;
   EXPECT_TRUE(DatasetRegistry::validName(std::string(255, 'x')));
   for (const std::string& name :
-       {std::string(""), std::string("."), std::string(".."), std::string(256, 'x'), std::string("a/b"),
+       {std::string(""), std::string("."), std::string(".."), std::string("..."), std::string(".hidden"),
+        std::string(".upload-sparse-x1Yz2w"), std::string(256, 'x'), std::string("a/b"),
         std::string("a\\b"), std::string("a b"), std::string("a:b"), std::string("a\0b", 3), std::string("\xC3\xA4")})
     EXPECT_FALSE(DatasetRegistry::validName(name)) << name;
 }

@@ -113,6 +113,14 @@ ca = "clients.pem"
 path = "audit.jsonl"
 max_bytes = 65536
 keep = 3
+[upload]
+max_bytes = 1073741824
+max_concurrent = 3
+[[tokens]]
+id = "lab"
+sha256 = "0000000000000000000000000000000000000000000000000000000000000000"
+datasets = ["lab-*"]
+upload = true
 )"));
   EXPECT_EQ(c.host, "0.0.0.0");
   EXPECT_EQ(c.port, 0);
@@ -159,6 +167,23 @@ keep = 3
   EXPECT_EQ(c.auditPath, dir.path() / "audit.jsonl");
   EXPECT_EQ(c.auditMaxBytes, 65536u);
   EXPECT_EQ(c.auditKeep, 3);
+  EXPECT_EQ(c.upload.maxBytes, 1073741824u);
+  EXPECT_EQ(c.upload.maxConcurrent, 3);
+  ASSERT_EQ(c.tokens.size(), 1u);
+  EXPECT_TRUE(c.tokens[0].upload);
+}
+
+TEST_F(ServerConfigTest, UploadsAreOffByDefaultAndTheirValuesAreChecked) {
+  const ServerConfig defaults;
+  EXPECT_EQ(defaults.upload.maxBytes, 0u);
+  EXPECT_EQ(defaults.upload.maxConcurrent, 1);
+  EXPECT_NE(loadError("[upload]\nmax_concurrent = 0\n").find("upload.max_concurrent"), std::string::npos);
+  EXPECT_NE(loadError("[upload]\nmax_bytes = -1\n").find("upload.max_bytes"), std::string::npos);
+  EXPECT_NE(loadError("[upload]\nquota = 1\n").find("unknown key upload.quota"), std::string::npos);
+  EXPECT_NE(loadError("[[tokens]]\nid = \"a\"\nsha256 = \"" + std::string(64, '0') + "\"\ndatasets = [\"*\"]\n"
+                      "upload = \"yes\"\n")
+                .find("upload"),
+            std::string::npos);
 }
 
 TEST_F(ServerConfigTest, TlsAndAuditValuesAreChecked) {
