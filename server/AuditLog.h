@@ -15,7 +15,8 @@ namespace voxbrick::server {
 /// One line of the trail.
 struct AuditEvent {
   /// "session" (a connection's Hello was accepted), "token" (a session presented a token: Authenticate), "dataset"
-  /// (a dataset opened), "refused" (a connection, Hello, token, upgrade, TLS handshake or dataset refused).
+  /// (a dataset opened), "uploaded" (an upload became a dataset), "refused" (a connection, Hello, token, upgrade, TLS
+  /// handshake, dataset or upload refused).
   std::string event;
   std::string client;     ///< address:port
   std::string transport;  ///< "tcp", "tls", "ws" or "wss"

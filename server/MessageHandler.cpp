@@ -267,6 +267,7 @@ Outcome MessageHandler::prepared(ConnectionState& state, const PrepareJob& job, 
     state.upload.reset();
     state.preparing = false;
   }
+  job.upload->release();  // its scratch and its place go before the answer: the client may upload again at once
   const std::string& name = job.upload->name();
   if (error) {
     mStats.add(ServerEvent::UploadRefused);

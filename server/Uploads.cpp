@@ -195,7 +195,8 @@ std::shared_ptr<Upload> Uploads::begin(const proto::Upload& request, const Token
       throw LimitExceededError("the server's disk has " + std::to_string(room >> 20) + " MiB free; an upload of " +
                                std::to_string(request.bytes) + " bytes needs about " + std::to_string(need >> 20));
   }
-  std::string pattern = (mDatasets / (kScratchPrefix + request.name + "-XXXXXX")).string();
+  // Not named after the upload: a name of 255 bytes leaves no room in a file name for more.
+  std::string pattern = (mDatasets / (std::string(kScratchPrefix) + "XXXXXX")).string();
   if (!::mkdtemp(pattern.data()))
     throw std::runtime_error("cannot make a scratch folder in the datasets folder: " + std::string(std::strerror(errno)));
   std::shared_ptr<Upload> upload(new Upload(*this, request.name, pattern, request.bytes));
@@ -234,8 +235,13 @@ void Uploads::ended(Upload& upload) {
 Upload::Upload(Uploads& owner, std::string name, std::filesystem::path scratch, uint64_t expected)
     : mOwner(owner), mName(std::move(name)), mScratch(std::move(scratch)), mExpected(expected) {}
 
-Upload::~Upload() {
+Upload::~Upload() { release(); }
+
+void Upload::release() {
+  if (mReleased) return;
+  mReleased = true;
   if (mFd >= 0) ::close(mFd);
+  mFd = -1;
   std::error_code ec;
   std::filesystem::remove_all(mScratch, ec);
   if (ec) spdlog::warn("upload '{}': cannot remove {}: {}", mName, mScratch.string(), ec.message());

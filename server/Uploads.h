@@ -47,6 +47,10 @@ class Upload {
   void prepare();
   /// Stops a prep in progress (its child is killed) and any prep to come. Safe from any thread.
   void cancel();
+  /// Deletes the scratch folder and frees the upload's place among the server's uploads (its name, its share of
+  /// max_concurrent), once its answer is known: before it is sent, so a client that goes on at once finds them free.
+  /// Idempotent; the destructor does it too. Not while prepare() runs.
+  void release();
 
  private:
   friend class Uploads;
@@ -54,13 +58,14 @@ class Upload {
 
   Uploads& mOwner;
   const std::string mName;
-  const std::filesystem::path mScratch;  ///< DATASETS/.upload-NAME-XXXXXX
+  const std::filesystem::path mScratch;  ///< DATASETS/.upload-XXXXXX
   const uint64_t mExpected;
   uint64_t mReceived = 0;
   int mFd = -1;  ///< the voxels' file while chunks arrive
   std::mutex mMutex;
   pid_t mChild = 0;  ///< prep while it runs; guarded by mMutex
   bool mCancelled = false;
+  bool mReleased = false;
 };
 
 /// The server's uploads. Thread-safe.

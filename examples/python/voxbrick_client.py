@@ -34,7 +34,8 @@ CLIENT_NAME = 'voxbrick_client.py 1'
 
 
 def decode_file(path):
-    """One message from a file as a JSON-ready dict; enums by name, a payload as its length and CRC-32."""
+    """One message from a file as a JSON-ready dict; enums by name, bytes (a payload, an upload's data) as their
+    length and CRC-32."""
     with open(path, 'rb') as f:
         data = f.read()
     header, fields = decode(data, 1 << 32)
@@ -44,10 +45,10 @@ def decode_file(path):
             value = value.name
         elif isinstance(value, list):
             value = [v.name if isinstance(v, enum.Enum) else v for v in value]
+        elif isinstance(value, (bytes, bytearray, memoryview)):
+            message.update({f'{name}_bytes': len(value), f'{name}_crc32': binascii.crc32(value)})
+            continue
         message[name] = value
-    if 'payload' in message:
-        payload = message.pop('payload')
-        message.update(payload_bytes=len(payload), payload_crc32=binascii.crc32(payload))
     return message
 
 

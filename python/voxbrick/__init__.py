@@ -1,5 +1,5 @@
-"""voxbrick from Python: frames of a voxbrick server as NumPy arrays, stores prepped from arrays, and the viewer in a
-Jupyter notebook.
+"""voxbrick from Python: frames of a voxbrick server as NumPy arrays, stores prepped from arrays, arrays sent to a
+server as new datasets (Client.upload), and the viewer in a Jupyter notebook.
 
     import voxbrick
     with voxbrick.connect("127.0.0.1:7420") as client:

@@ -1,4 +1,5 @@
-"""The client a notebook uses: datasets, their metadata and frames as NumPy arrays, from one session with a server."""
+"""The client a notebook uses: datasets, their metadata and frames as NumPy arrays, and arrays sent as new datasets,
+from one session with a server."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -6,6 +7,7 @@ from typing import Any, Dict, Iterable, Iterator, List, Optional, Sequence, Unio
 
 import numpy as np
 
+from .arrays import as_volume
 from .images import decode_frame
 from .protocol import MAX_VERSION, MIN_VERSION, Encoding, encoding_of
 from .scene import Camera, TransferFunction, build_scene
@@ -56,7 +58,7 @@ def connect(address: str, token: Optional[str] = None, *, timeout: float = 120,
     one of the server's `[[tokens]]`), given when the WebSocket opens, or over TCP by Authenticate (protocol version
     5). Over TLS the server's certificate is verified against `ca` (a PEM file of CAs) or the system's CAs, and must
     name the host; `insecure=True` takes any certificate (a self-signed one in local use). `timeout`: seconds any reply
-    may take. `max_version`: the highest protocol version offered (1 to 5; the session speaks the highest both sides
+    may take. `max_version`: the highest protocol version offered (1 to 6; the session speaks the highest both sides
     do). Raises ConnectionRefused (HTTP status and the server's words) for a refused upgrade, ServerError for a refused
     Hello or token (Forbidden), TlsError for a certificate that does not verify, OSError when nothing listens."""
     return Client(address, token=token, timeout=timeout, max_version=max_version, ca=ca, insecure=insecure)
@@ -183,6 +185,34 @@ class Client:
             if first.provisional and i == len(azimuths) - 1:
                 for raw in replies:  # the camera rests: the exact frame of the last azimuth
                     yield self._frame(raw, request[0])
+
+    def upload(self, name: str, array: Any, *, spacing: Sequence[float] = (1, 1, 1),
+               origin: Optional[Sequence[float]] = None, axes: str = 'zyx', patient: bool = False,
+               slab_bytes: int = 64 << 20) -> Dict[str, Any]:
+        """Sends a 3-D array to the server as a new dataset `name`, which the server preps as `voxbrick prep` does;
+        returns its metadata, as info() gives it. The dataset is listed and opened like any other from then on; the
+        session's open dataset does not change.
+
+        `array`, `spacing`, `origin`, `axes` and `patient` as voxbrick.prep takes them (a NumPy array or memory map,
+        a Zarr array, anything with `shape`, `dtype` and NumPy slicing; "zyx": the last axis is x), and the values
+        stored as prep stores them (uint8, uint16, int16 as they are; int8 as int16; the others as float32; bool as
+        uint8): the new dataset is the store voxbrick.prep makes of the same array. The array is read and sent a slab of at
+        most `slab_bytes` at a time, so memory stays within about two slabs whatever its size.
+
+        The server takes uploads only when configured to (`[upload] max_bytes`, docs/server.md#uploads) and from a
+        session whose token may upload. Refusals raise ServerError with the server's words: Forbidden (no uploads, a
+        token that may not upload or not open `name`, no token), AlreadyExists (`name` is taken or being uploaded),
+        LimitExceeded (above the server's quota, or its disk), Malformed (a name that is not one: letters, digits,
+        ".", "-", "_", not starting with "."), Busy (as many uploads in progress as the server takes), Internal
+        (prep's words). Nothing of a refused upload is kept. ValueError, before anything is sent, for an array or
+        argument that cannot be sent (not 3-D, a dtype prep does not take, a spacing that is not three positive
+        numbers); ProtocolError UnsupportedVersion when the session speaks a version below 6. The server's last
+        answer comes once it has prepped the store: within the session's `timeout`."""
+        volume = as_volume(array, spacing=spacing, origin=origin, axes=axes, patient=patient, slab_bytes=slab_bytes,
+                           purpose='upload')
+        if not isinstance(name, str) or not name:
+            raise ValueError(f'name {name!r}: the new dataset\'s name, a str')
+        return self.session.upload(name, volume.meta(), volume.nbytes, volume.slabs(slab_bytes))
 
     def close(self) -> None:
         """Says Goodbye and closes the connection."""

@@ -24,10 +24,11 @@ class ErrorCode(enum.IntEnum):
     Timeout = 13
     Busy = 14
     Forbidden = 15
+    AlreadyExists = 16
 
 
 #: The protocol version each error code appeared in (the others: version 1).
-ERROR_CODE_SINCE = {ErrorCode.Busy: 3, ErrorCode.Forbidden: 5}
+ERROR_CODE_SINCE = {ErrorCode.Busy: 3, ErrorCode.Forbidden: 5, ErrorCode.AlreadyExists: 6}
 
 
 class VoxbrickError(Exception):

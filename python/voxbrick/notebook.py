@@ -1,6 +1,7 @@
 """The viewer in a Jupyter output cell: the page `voxbrick serve --http PORT` serves, in an IFrame whose URL carries
 the view (dataset, camera, transfer function, window, shading, quality, frame size), with the view readable and
-settable from Python and its exact frame as an array (`snapshot`, rendered through the protocol).
+settable from Python and its exact frame as an array (`snapshot`, rendered through the protocol). An array given in
+place of a dataset is sent to the server first (Client.upload), as a new dataset.
 
 Reading the view back works in the classic Notebook (Debian's jupyter-notebook 6): the viewer posts its view to the
 cell, whose script hands it to the kernel (`IPython.notebook.kernel.execute`). Elsewhere (JupyterLab, an HTML export)
@@ -32,34 +33,48 @@ PANEL_PX = 262  # the viewer's control panel and its border (web/viewer.css)
 _views: 'weakref.WeakValueDictionary[str, View]' = weakref.WeakValueDictionary()
 
 
-def view(dataset: str, server: str, *, token: Optional[str] = None, camera: Any = None, tf: Any = 'grayscale',
+def view(dataset: Any, server: str, *, token: Optional[str] = None, camera: Any = None, tf: Any = 'grayscale',
          window: Optional[Sequence[float]] = None, shading: bool = False, quality: str = '',
          size: Sequence[int] = (512, 512), address: Optional[str] = None, browser_url: Optional[str] = None,
-         ca: Optional[str] = None, insecure: bool = False) -> 'View':
+         ca: Optional[str] = None, insecure: bool = False, name: Optional[str] = None,
+         spacing: Optional[Sequence[float]] = None, origin: Optional[Sequence[float]] = None,
+         axes: Optional[str] = None, patient: Optional[bool] = None) -> 'View':
     """A live view of `dataset` for a notebook cell: the last expression of a cell, or display(view), shows it.
+
+    `dataset`: a dataset's name, or a 3-D array (NumPy, a memory map, Zarr, anything Client.upload takes), which is
+    first sent to the server as the new dataset `name` (default "array-" and 12 random hex digits; `view.dataset` says
+    it) over the kernel's session with the server (below), then viewed. `spacing`, `origin`, `axes` ("zyx" by
+    default: the last axis is x) and `patient` describe the array as Client.upload takes them. The server must take
+    uploads from the session's token (docs/server.md#uploads); a refusal raises ServerError with its words
+    (AlreadyExists for a name taken: uploaded datasets stay on the server).
 
     `server`: the server's HTTP port, as `voxbrick serve --http PORT` prints it ("http://HOST:PORT/?token=T", or
     "HOST:PORT" with `token=`). `camera`: a named view ("left") or an orbit (az, el[, dist]); `tf`: a preset name or
     a list of [x, r, g, b, a] points (each in [0, 1]); `window`: (lo, hi); `shading`, `quality` ("psnr:40",
     "ms:200"); `size`: the frame's (width, height), which the viewer then keeps. `address`: where the kernel renders
-    snapshots (default: the WebSocket of `server`; a TCP "HOST:PORT" works too). `browser_url`: the viewer's address as
-    the browser reaches it, when that is not `server` (a tunnel, a proxy). A server over TLS ("https://..."): the
-    kernel's session verifies its certificate against `ca` (a PEM file of CAs) or the system's, or takes any with
-    `insecure=True`; the browser trusts it, or not, by its own store.
+    snapshots and uploads (default: the WebSocket of `server`; a TCP "HOST:PORT" works too, the token presented there
+    by Authenticate). `browser_url`: the viewer's address as the browser reaches it, when that is not `server` (a
+    tunnel, a proxy). A server over TLS ("https://..."): the kernel's session verifies its certificate against `ca` (a
+    PEM file of CAs) or the system's, or takes any with `insecure=True`; the browser trusts it, or not, by its own
+    store.
 
     The URL in the cell carries the token: a notebook saved with its outputs holds it."""
     return View(dataset, server, token=token, camera=camera, tf=tf, window=window, shading=shading, quality=quality,
-                size=size, address=address, browser_url=browser_url, ca=ca, insecure=insecure)
+                size=size, address=address, browser_url=browser_url, ca=ca, insecure=insecure, name=name,
+                spacing=spacing, origin=origin, axes=axes, patient=patient)
 
 
 class View:
     """The viewer of one dataset in a notebook cell (see view()). `state` is the view; `set(...)` changes it and shows
     the cell again; `snapshot()` is the exact frame of the view as a (height, width, 4) uint8 array."""
 
-    def __init__(self, dataset: str, server: str, *, token: Optional[str] = None, camera: Any = None,
+    def __init__(self, dataset: Any, server: str, *, token: Optional[str] = None, camera: Any = None,
                  tf: Any = 'grayscale', window: Optional[Sequence[float]] = None, shading: bool = False,
                  quality: str = '', size: Sequence[int] = (512, 512), address: Optional[str] = None,
-                 browser_url: Optional[str] = None, ca: Optional[str] = None, insecure: bool = False):
+                 browser_url: Optional[str] = None, ca: Optional[str] = None, insecure: bool = False,
+                 name: Optional[str] = None, spacing: Optional[Sequence[float]] = None,
+                 origin: Optional[Sequence[float]] = None, axes: Optional[str] = None,
+                 patient: Optional[bool] = None):
         self._base, self._token = _http_base(server, token)
         self._tls = {'ca': ca, 'insecure': insecure} if ca is not None or insecure else {}
         self._browser_base = _http_base(browser_url, self._token)[0] if browser_url else self._base
@@ -71,8 +86,22 @@ class View:
                                        'shading': False, 'quality': '', 'size': [512, 512]}
         self.id = uuid.uuid4().hex
         self._displayed = False
+        upload = {key: value for key, value in dict(spacing=spacing, origin=origin, axes=axes, patient=patient).items()
+                  if value is not None}
+        meta = None
+        if dataset is not None and not isinstance(dataset, str):
+            array = dataset
+            # The view's arguments are checked before the array is sent: a refused one leaves nothing on the server.
+            self._apply(dict(dataset='array', camera=camera, tf=tf, window=window, shading=shading, quality=quality,
+                             size=size))
+            dataset = f'array-{uuid.uuid4().hex[:12]}' if name is None else name
+            meta = self._session().upload(dataset, array, **upload)
+        elif name is not None or upload:
+            raise ValueError(f'{", ".join(sorted(({"name"} if name is not None else set()) | set(upload)))}: for an '
+                             'array sent to the server; dataset names one of its datasets')
         self._apply(dict(dataset=dataset, camera=camera, tf=tf, window=window, shading=shading, quality=quality,
                          size=size))
+        self._meta = meta
         _views[self.id] = self
 
     # The view.
@@ -320,7 +349,7 @@ class View:
     def _session(self) -> Client:
         if self._client is None:
             if self._address is not None:
-                self._client = connect(self._address, **self._tls)
+                self._client = connect(self._address, token=self._token, **self._tls)
             else:
                 self._client = connect('ws' + self._base[len('http'):], token=self._token, **self._tls)
         return self._client

@@ -14,8 +14,9 @@ from .errors import ERROR_CODE_SINCE, ErrorCode, ProtocolError
 
 MAGIC = 0x4B425856  # "VXBK" read as a little-endian u32
 #: The protocol versions this package speaks: 2 adds jpeg, 3 the Busy error, 4 the video encodings and FrameReceived,
-#: 5 Authenticate, Authenticated and the Forbidden error (a TCP session's access token).
-MIN_VERSION, MAX_VERSION = 1, 5
+#: 5 Authenticate, Authenticated and the Forbidden error (a TCP session's access token), 6 Upload, UploadReady,
+#: UploadChunk (a volume sent as a new dataset), the u64 field type and the AlreadyExists error.
+MIN_VERSION, MAX_VERSION = 1, 6
 HEADER = struct.Struct('<IHHII')  # magic, version, type, request id, body bytes
 HEADER_BYTES = HEADER.size
 
@@ -43,6 +44,9 @@ class MessageType(enum.IntEnum):
     FrameReceived = 13
     Authenticate = 14
     Authenticated = 15
+    Upload = 16
+    UploadReady = 17
+    UploadChunk = 18
 
 
 class Encoding(enum.IntEnum):
@@ -59,7 +63,8 @@ class Encoding(enum.IntEnum):
 #: The protocol version each encoding appeared in (the others: version 1).
 ENCODING_SINCE = {Encoding.jpeg: 2, Encoding.vp8: 4, Encoding.vp9: 4}
 #: The version each message appeared in (the others: version 1).
-MESSAGE_SINCE = {MessageType.FrameReceived: 4, MessageType.Authenticate: 5, MessageType.Authenticated: 5}
+MESSAGE_SINCE = {MessageType.FrameReceived: 4, MessageType.Authenticate: 5, MessageType.Authenticated: 5,
+                 MessageType.Upload: 6, MessageType.UploadReady: 6, MessageType.UploadChunk: 6}
 
 #: The scene's short names of the encodings (its `provisional_encoding` key), beside the wire names.
 ENCODING_NAMES = {'raw': Encoding.raw_rgba8, 'png': Encoding.png, 'zstd': Encoding.zstd_rgba8,
@@ -81,8 +86,9 @@ def encoding_of(value: Any) -> Encoding:
 
 _U16 = struct.Struct('<H')
 _U32 = struct.Struct('<I')
+_U64 = struct.Struct('<Q')
 _U8 = struct.Struct('<B')
-_INTS = {'u16': _U16, 'u32': _U32, 'encoding': _U8, 'code': _U16}
+_INTS = {'u16': _U16, 'u32': _U32, 'u64': _U64, 'encoding': _U8, 'code': _U16}
 _ENUMS = {'encoding': Encoding, 'code': ErrorCode}
 _SINCE = {'encoding': ENCODING_SINCE, 'code': ERROR_CODE_SINCE}
 
@@ -106,6 +112,9 @@ FIELDS: Dict[MessageType, list] = {
     MessageType.FrameReceived: [('frame_bytes', 'u32')],
     MessageType.Authenticate: [('token', 'str')],
     MessageType.Authenticated: [('token_id', 'str')],
+    MessageType.Upload: [('name', 'str'), ('meta_json', 'str'), ('bytes', 'u64')],
+    MessageType.UploadReady: [('chunk_bytes', 'u32')],
+    MessageType.UploadChunk: [('data', 'bytes')],
 }
 
 
@@ -149,8 +158,16 @@ def encode(message_type: MessageType, request_id: int, version: int = MIN_VERSIO
     unknown = set(fields) - {name for name, _ in spec}
     if unknown:
         raise ValueError(f'{message_type.name} has no field {", ".join(sorted(unknown))}')
-    body = b''.join(_encode_value(kind, fields[name]) for name, kind in spec)
-    return HEADER.pack(MAGIC, version, int(message_type), request_id, len(body)) + body
+    parts = []
+    for name, kind in spec:
+        if kind == 'bytes':  # a payload (an upload's voxels) joined into the message as it is, not copied first
+            view = memoryview(fields[name])
+            data = view.cast('B') if view.c_contiguous else memoryview(view.tobytes())
+            parts += [_U32.pack(len(data)), data]
+        else:
+            parts.append(_encode_value(kind, fields[name]))
+    header = HEADER.pack(MAGIC, version, int(message_type), request_id, sum(len(p) for p in parts))
+    return b''.join([header, *parts])
 
 
 def decode_header(data: bytes, max_body: int = MAX_BODY_BYTES) -> Header:

@@ -1,12 +1,12 @@
 """One session with a voxbrick server (PROTOCOL.md, section 5), in protocol terms: Hello, datasets, Render requests
-and their Frame replies, statistics, Goodbye. The standard library only; `voxbrick.Client` builds scenes and images on
-top of it.
+and their Frame replies, statistics, uploads, Goodbye. The standard library only; `voxbrick.Client` builds scenes and
+images on top of it.
 """
 from __future__ import annotations
 
 import json
 import socket
-from typing import Any, Callable, Dict, Iterator, List, NamedTuple, Optional, Union
+from typing import Any, Callable, Dict, Iterable, Iterator, List, NamedTuple, Optional, Union
 
 from .errors import ConnectionClosed, ErrorCode, ProtocolError, ServerError
 from .protocol import (ENCODING_SINCE, HEADER_BYTES, MAX_BODY_BYTES, MAX_VERSION, MIN_VERSION, Encoding, MessageType,
@@ -150,6 +150,75 @@ class Session:
                 on_provisional(frame)
         raise AssertionError('unreachable: frames() ends with an exact frame')
 
+    def upload(self, name: str, meta: Union[Dict[str, Any], str], size: int, data: Iterable[Any]) -> Dict[str, Any]:
+        """Sends a volume that becomes the server's dataset `name` (Upload, protocol version 6; PROTOCOL.md, Session
+        13) and returns its metadata (the DatasetInfo's meta_json); the session's open dataset does not change.
+
+        `meta`: the voxels' description (a dict or JSON text: `dims`, `type`, `endian`, `spacing`, `origin`,
+        `patient`), sent as it is; `size`: their bytes. `data`: the voxels in order (x fastest, then y, then z) as
+        buffers of any size (bytes, memoryviews, C-contiguous arrays), each sent as UploadChunks of at most the
+        server's `chunk_bytes`, one buffer held at a time. The server's last answer comes once it has prepped the
+        store, within the session's timeout.
+
+        An Error answering the Upload or any chunk raises ServerError with the server's words (a chunk's Error stops
+        the sending); nothing of the upload is then kept. `data` holding more or fewer than `size` bytes, or raising,
+        abandons the upload (an empty chunk, which the server answers Malformed and deletes what it got) and raises:
+        ValueError for the wrong size, else what `data` raised."""
+        if self.version < 6:
+            raise ProtocolError(ErrorCode.UnsupportedVersion,
+                                f'this session speaks protocol version {self.version}; uploads need version 6')
+        text = meta if isinstance(meta, str) else json.dumps(meta)
+        ready = self._call(MessageType.Upload, MessageType.UploadReady, name=name, meta_json=text, bytes=size)
+        assert self.capabilities is not None
+        # A chunk's body is its u32 length and its bytes, within the server's body limit.
+        limit = min(ready['chunk_bytes'], self.capabilities.max_message_bytes - 4)
+        if limit < 1:
+            self._cancel_upload(self._next_id)
+            raise ProtocolError(ErrorCode.Malformed, f'UploadReady.chunk_bytes: {ready["chunk_bytes"]}, with a body '
+                                                     f'limit of {self.capabilities.max_message_bytes}')
+        # Each chunk is sent once the next is in hand, and the last once `data` has ended with `size` bytes: the one
+        # that completes the upload (the server then preps it) goes only when the voxels are known to be right.
+        first, taken, last = self._next_id, 0, None
+        try:
+            for buffer in data:
+                view = memoryview(buffer).cast('B')
+                for start in range(0, len(view), limit):
+                    piece = view[start:start + limit]
+                    taken += len(piece)
+                    if taken > size:
+                        raise ValueError(f'data: more than the {size} bytes the upload announced')
+                    if last is not None:
+                        self._send(MessageType.UploadChunk, data=last)
+                        # An Error answering a chunk has ended the upload: stop sending.
+                        self._await(range(first, self._next_id), (), wait=False)
+                    last = piece
+                if last is not None:
+                    last = bytes(last)  # a copy of at most a chunk, not the whole buffer held while the next is read
+                del buffer, view
+            if taken != size or last is None:
+                raise ValueError(f'data: {taken} bytes, the upload announced {size}')
+        except ServerError:
+            raise
+        except BaseException:
+            self._cancel_upload(first)
+            raise
+        self._send(MessageType.UploadChunk, data=last)
+        info = self._await(range(first, self._next_id), (MessageType.DatasetInfo,))[1]
+        return json.loads(info['meta_json'])
+
+    def _cancel_upload(self, first: int) -> None:
+        """Abandons the upload whose chunks have ids from `first` on: an empty chunk, answered Malformed (the server
+        deletes what it got). Without a session left to ask, its end abandons the upload."""
+        if self._broken:
+            return
+        try:
+            self._send(MessageType.UploadChunk, data=b'')
+            self._await(range(first, self._next_id), ())
+        except ServerError:
+            pass  # the answer expected (or an earlier chunk's Error)
+        except (OSError, ProtocolError):
+            self._end('an upload could not be abandoned')
+
     def frame_received(self, frame: RawFrame) -> None:
         """Reports a Frame as arrived (FrameReceived, version 4): the server then paces its frames by the reports.
         A client sends one for every Frame, in order, or none at all."""
@@ -203,8 +272,13 @@ class Session:
         return RawFrame(request_id, frame['width'], frame['height'], frame['encoding'],
                         json.loads(frame['stats_json']), frame['payload'], HEADER_BYTES + header.body_bytes)
 
-    def _await(self, request_id: int, reply_types: tuple) -> tuple:
-        while True:
+    def _await(self, request_ids: Union[int, range], reply_types: tuple, wait: bool = True) -> Optional[tuple]:
+        """(header, fields) of the reply of type `reply_types` answering the last of `request_ids` (one id, or a range
+        of ids: an upload's chunks). An Error answering any of them, or about the connection (id 0), raises
+        ServerError; replies to other requests are skipped. `wait=False`: only what has arrived already is read, and
+        None is returned when that holds no such reply."""
+        ids = range(request_ids, request_ids + 1) if isinstance(request_ids, int) else request_ids
+        while wait or self._transport.readable():
             try:
                 header, body = self._transport.receive(self._max_body)
             except ConnectionClosed as e:
@@ -217,15 +291,18 @@ class Session:
                 if e.code in (ErrorCode.BadMagic, ErrorCode.UnsupportedVersion, ErrorCode.TooLarge):
                     self._end(f'a reply that does not decode: {e}')  # the header is wrong: nothing after it reads
                 raise
-            if header.type is None or header.request_id not in (request_id, 0):
+            if header.type is None or (header.request_id not in ids and header.request_id != 0):
                 continue  # a type this client does not know, or an answer to an earlier request (superseded)
             reply = decode_body(header.type, body, header.version)
             if header.type == MessageType.Error:
                 error = ServerError(reply['code'], reply['message'], header.request_id)
-                if (header.request_id == 0 and error.code in _CLOSING) or error.code == ErrorCode.Forbidden:
+                # Forbidden closes the session (a token the server does not have), but not when it answers an Upload.
+                if ((header.request_id == 0 and error.code in _CLOSING) or
+                        (error.code == ErrorCode.Forbidden and MessageType.UploadReady not in reply_types)):
                     self._end(f'the server closed the session: {error}')
                 raise error
             if header.type == MessageType.Goodbye:
                 raise self._end('the server ended the session (Goodbye)')
-            if header.type in reply_types and header.request_id == request_id:
+            if header.type in reply_types and header.request_id == ids[-1]:
                 return header, reply
+        return None

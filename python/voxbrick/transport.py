@@ -6,6 +6,7 @@ from __future__ import annotations
 import base64
 import hashlib
 import os
+import select
 import socket
 import ssl
 import struct
@@ -16,6 +17,7 @@ from .errors import ConnectionClosed, ConnectionRefused, TlsError
 from .protocol import HEADER_BYTES, MAX_BODY_BYTES, decode_header
 
 _WS_GUID = b'258EAFA5-E914-47DA-95CA-C5AB0DC85B11'
+_MASK_PIECE = 64 << 10  # bytes of a client frame's payload masked at once
 _TOKEN_CHARACTERS = set('abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-._~')
 #: Each scheme an address may have: (transport, inside TLS).
 _SCHEMES = {'tcp': ('tcp', False), 'tls': ('tcp', True), 'ws': ('ws', False), 'http': ('ws', False),
@@ -129,6 +131,11 @@ class TcpTransport:
         header = decode_header(_read(self.sock, HEADER_BYTES), max_body)
         return header, _read(self.sock, header.body_bytes)
 
+    def readable(self) -> bool:
+        """True when the server has sent something not read yet (or closed): receive() finds it without waiting
+        for the server, which writes each message whole."""
+        return _readable(self.sock)
+
     def close(self) -> None:
         self.sock.close()
 
@@ -199,7 +206,15 @@ class WebSocketTransport:
         else:
             head = struct.pack('!BBQ', 0x80 | opcode, 0x80 | 127, size)
         mask = os.urandom(4)
-        self.sock.sendall(head + mask + _masked(payload, mask))
+        if size <= _MASK_PIECE:
+            self.sock.sendall(head + mask + _masked(payload, mask))
+            return
+        # A large payload (an upload's chunk) masked and sent a piece at a time: a few copies of a piece held, not of
+        # the whole payload. Pieces are whole multiples of the mask's 4 bytes.
+        self.sock.sendall(head + mask)
+        view = memoryview(payload)
+        for start in range(0, size, _MASK_PIECE):
+            self.sock.sendall(_masked(view[start:start + _MASK_PIECE], mask))
 
     def receive(self, max_body: int = MAX_BODY_BYTES) -> Tuple[object, bytes]:
         """(Header, body) of the next WebSocket message, which must be exactly one protocol message."""
@@ -209,6 +224,10 @@ class WebSocketTransport:
             raise ConnectionClosed(f'a WebSocket message of {len(data)} bytes carries a protocol message of '
                                    f'{HEADER_BYTES + header.body_bytes}')
         return header, data[HEADER_BYTES:]
+
+    def readable(self) -> bool:
+        """True when the server has sent something not read yet (or closed), as TcpTransport.readable."""
+        return bool(self._buffer) or _readable(self.sock)
 
     def _next_message(self, limit: int) -> bytes:
         message = bytearray()
@@ -270,6 +289,13 @@ def _masked(payload: bytes, mask: bytes) -> bytes:
         return b''
     repeated = (mask * (len(payload) // 4 + 1))[:len(payload)]
     return (int.from_bytes(payload, 'little') ^ int.from_bytes(repeated, 'little')).to_bytes(len(payload), 'little')
+
+
+def _readable(sock: socket.socket) -> bool:
+    # Inside TLS, bytes already decrypted wait in the SSL object, where select() does not see them.
+    if isinstance(sock, ssl.SSLSocket) and sock.pending():
+        return True
+    return bool(select.select([sock], [], [], 0)[0])
 
 
 def _read(sock: socket.socket, size: int) -> bytes:

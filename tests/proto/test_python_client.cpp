@@ -74,6 +74,31 @@ TEST(PythonClient, PythonDecodesTheTokenMessagesOfVersionFive) {
   EXPECT_EQ(forbidden.at("code"), "Forbidden");
 }
 
+// Version 6's messages, an array sent to become a dataset: the Python decoder reads what the C++ encoder writes (the
+// u64 size, the chunk's bytes), and knows them and AlreadyExists for version 6 only.
+TEST(PythonClient, PythonDecodesTheUploadMessagesOfVersionSix) {
+  const nlohmann::json upload =
+      pythonDecode(encode(Upload{"scan-7", R"({"dims": [4, 2, 1], "type": "uint16"})", 0x1234567890ull}, 7, 6));
+  EXPECT_EQ(upload, (nlohmann::json{{"type", "Upload"},
+                                    {"request_id", 7},
+                                    {"version", 6},
+                                    {"name", "scan-7"},
+                                    {"meta_json", R"({"dims": [4, 2, 1], "type": "uint16"})"},
+                                    {"bytes", 0x1234567890ull}}));
+  EXPECT_EQ(pythonDecode(encode(UploadReady{1u << 20}, 7, 6)),
+            (nlohmann::json{{"type", "UploadReady"}, {"request_id", 7}, {"version", 6}, {"chunk_bytes", 1u << 20}}));
+  const nlohmann::json chunk = pythonDecode(encode(UploadChunk{{'a', 'b', 'c'}}, 8, 6));
+  EXPECT_EQ(chunk.at("data_bytes"), 3);
+  EXPECT_EQ(chunk.at("data_crc32"), 0x352441C2u);  // CRC-32 of "abc"
+  EXPECT_EQ(pythonDecode(encode(Error{ErrorCode::AlreadyExists, "taken"}, 7, 6)).at("code"), "AlreadyExists");
+  // In a version-5 header the Python decoder refuses them, as the C++ one does.
+  ScratchDir dir;
+  Bytes old = encode(UploadReady{1}, 7, 6);
+  old[4] = 5;
+  voxbrick::test::writeFile(dir / "old.bin", old.data(), old.size());
+  EXPECT_NE(runShell(kClient + " --decode " + (dir / "old.bin").string()).exitCode, 0);
+}
+
 // jpeg exists from version 2 on: the Python client writes a jpeg Render in a version-2 header, and refuses a jpeg
 // value in a version-1 message as the C++ decoder does.
 TEST(PythonClient, JpegTravelsInVersionTwoOnly) {

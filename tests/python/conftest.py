@@ -131,3 +131,26 @@ def render_cli(store: Path, scene: dict, out: Path) -> Path:
     scene_file.write_text(json.dumps(scene))
     run_voxbrick('render', str(store), '--scene', str(scene_file), '-q', '-o', str(out))
     return out
+
+
+def openssl(*args: str, cwd: Path) -> None:
+    result = subprocess.run(['openssl', *args], cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    assert result.returncode == 0, f'openssl {" ".join(args)}: {result.stdout}'
+
+
+@pytest.fixture(scope='session')
+def certs(work: Path) -> Path:
+    """ca.pem/ca.key (the test CA), server.pem/server.key (signed by it, for 127.0.0.1 alone) and other.pem (a
+    self-signed certificate of another CA, also for 127.0.0.1)."""
+    d = work / 'tls'
+    d.mkdir()
+    ec = ['-newkey', 'ec', '-pkeyopt', 'ec_paramgen_curve:P-256', '-nodes']
+    openssl('req', '-x509', *ec, '-days', '2', '-sha256', '-keyout', 'ca.key', '-out', 'ca.pem', '-subj',
+            '/CN=voxbrick test CA', cwd=d)
+    openssl('req', *ec, '-keyout', 'server.key', '-out', 'server.csr', '-subj', '/CN=127.0.0.1', cwd=d)
+    (d / 'san.ext').write_text('subjectAltName = IP:127.0.0.1\n')
+    openssl('x509', '-req', '-in', 'server.csr', '-CA', 'ca.pem', '-CAkey', 'ca.key', '-CAcreateserial', '-days', '2',
+            '-sha256', '-extfile', 'san.ext', '-out', 'server.pem', cwd=d)
+    openssl('req', '-x509', *ec, '-days', '2', '-sha256', '-keyout', 'other.key', '-out', 'other.pem', '-subj',
+            '/CN=127.0.0.1', '-addext', 'subjectAltName = IP:127.0.0.1', cwd=d)
+    return d

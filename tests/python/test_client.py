@@ -24,7 +24,7 @@ def psnr(a, b):
 
 
 def test_datasets_info_and_stats(client):
-    assert client.version == 5
+    assert client.version == 6
     caps = client.capabilities
     assert caps.max_message_bytes == 1 << 20 and caps.max_image_side == 4096
     assert [e.name for e in caps.encodings] == ['raw_rgba8', 'png', 'zstd_rgba8', 'jpeg', 'vp8', 'vp9']
@@ -168,8 +168,8 @@ def test_versions_are_negotiated(server):
     with voxbrick.connect(server.address, max_version=2) as two:
         assert two.version == 2
         assert two.render_frame('sparse', size=(16, 16), encoding='jpeg').encoding == 'jpeg'
-    with pytest.raises(ValueError, match=r'versions 1..6: this client speaks 1..5'):
-        voxbrick.connect(server.address, max_version=6)
+    with pytest.raises(ValueError, match=r'versions 1..7: this client speaks 1..6'):
+        voxbrick.connect(server.address, max_version=7)
 
 
 def test_the_websocket_and_its_token(server):

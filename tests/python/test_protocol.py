@@ -46,13 +46,40 @@ def test_every_message_round_trips():
         MessageType.FrameReceived: dict(frame_bytes=12345),
         MessageType.Authenticate: dict(token='radiology-Secret_1'),
         MessageType.Authenticated: dict(token_id='radiology'),
+        MessageType.Upload: dict(name='up-1', meta_json='{"dims": [4, 5, 6], "type": "uint16"}', bytes=(1 << 40) + 3),
+        MessageType.UploadReady: dict(chunk_bytes=1 << 20),
+        MessageType.UploadChunk: dict(data=bytes(range(256)) * 3),
     }
+    assert set(messages) | {MessageType.Hello} == set(MessageType)
     for kind, fields in messages.items():
-        wire = encode(kind, 77, 5, **fields)
-        assert encode(kind, 77, 5, **fields) == wire  # twice, the same bytes
+        wire = encode(kind, 77, 6, **fields)
+        assert encode(kind, 77, 6, **fields) == wire  # twice, the same bytes
         header, decoded = decode(wire)
-        assert (header.type, header.request_id, header.version) == (kind, 77, 5)
+        assert (header.type, header.request_id, header.version) == (kind, 77, 6)
         assert decoded == fields, kind
+
+
+def test_the_upload_messages_bytes():
+    # Upload: name, meta_json (strings), then bytes as a u64, little-endian; the largest u64 round trips.
+    wire = encode(MessageType.Upload, 3, 6, name='ab', meta_json='{}', bytes=0x0102030405060708)
+    assert wire == (HEADER.pack(MAGIC, 6, 16, 3, 20) + struct.pack('<I', 2) + b'ab' + struct.pack('<I', 2) + b'{}' +
+                    bytes.fromhex('0807060504030201'))
+    assert decode(encode(MessageType.Upload, 3, 6, name='', meta_json='', bytes=(1 << 64) - 1))[1]['bytes'] == (
+        (1 << 64) - 1)
+    assert encode(MessageType.UploadReady, 4, 6, chunk_bytes=65536) == HEADER.pack(MAGIC, 6, 17, 4, 4) + bytes(
+        [0, 0, 1, 0])
+    # A chunk takes any buffer: bytes, a memoryview (a slice of one), a NumPy array's bytes.
+    voxels = np.arange(6, dtype='<u2')
+    chunk = encode(MessageType.UploadChunk, 5, 6, data=memoryview(voxels).cast('B')[2:10])
+    assert chunk == HEADER.pack(MAGIC, 6, 18, 5, 12) + struct.pack('<I', 8) + voxels.tobytes()[2:10]
+    assert decode(chunk)[1] == {'data': voxels.tobytes()[2:10]}
+    # Cut short: the u64 names its field.
+    with pytest.raises(ProtocolError, match='Upload.bytes: truncated'):
+        decode_body(MessageType.Upload, wire[HEADER.size:-1])
+    with pytest.raises(ProtocolError, match='UploadChunk.data: truncated'):
+        decode_body(MessageType.UploadChunk, struct.pack('<I', 9) + b'\0' * 8)
+    with pytest.raises(ProtocolError, match='UploadReady: 1 trailing byte'):
+        decode_body(MessageType.UploadReady, b'\0' * 5)
 
 
 def test_what_a_version_lacks_is_refused_both_ways():
@@ -64,6 +91,16 @@ def test_what_a_version_lacks_is_refused_both_ways():
         encode(MessageType.Authenticate, 1, 4, token='t')
     with pytest.raises(ValueError, match='Error.code: Forbidden needs protocol version 5'):
         encode(MessageType.Error, 1, 4, code=ErrorCode.Forbidden, message='')
+    for kind, fields in [(MessageType.Upload, dict(name='a', meta_json='{}', bytes=1)),
+                         (MessageType.UploadReady, dict(chunk_bytes=1)), (MessageType.UploadChunk, dict(data=b'1'))]:
+        with pytest.raises(ValueError, match=f'{kind.name} needs protocol version 6'):
+            encode(kind, 1, 5, **fields)
+    with pytest.raises(ValueError, match='Error.code: AlreadyExists needs protocol version 6'):
+        encode(MessageType.Error, 1, 5, code=ErrorCode.AlreadyExists, message='')
+    exists = encode(MessageType.Error, 5, 6, code=ErrorCode.AlreadyExists, message='up-1 exists')
+    assert decode(exists)[1] == {'code': ErrorCode.AlreadyExists, 'message': 'up-1 exists'}
+    with pytest.raises(ProtocolError, match='Error.code: unknown value 16 in protocol version 5'):
+        decode(exists[:4] + struct.pack('<H', 5) + exists[6:])
     # The Authenticate message's bytes: header (version 5, type 14, id 2, body 8), then the token as u32 + UTF-8.
     assert encode(MessageType.Authenticate, 2, 5, token='abcd') == (HEADER.pack(MAGIC, 5, 14, 2, 8) +
                                                                     struct.pack('<I', 4) + b'abcd')
@@ -96,13 +133,15 @@ def test_headers_that_do_not_check():
     header = HEADER.pack(MAGIC, 1, 1, 1, 0)
     with pytest.raises(ProtocolError, match='BadMagic'):
         decode_header(b'XXXX' + header[4:])
-    with pytest.raises(ProtocolError, match='UnsupportedVersion: version 6'):
-        decode_header(HEADER.pack(MAGIC, 6, 1, 1, 0))
+    with pytest.raises(ProtocolError, match='UnsupportedVersion: version 7'):
+        decode_header(HEADER.pack(MAGIC, 7, 1, 1, 0))
     with pytest.raises(ProtocolError, match='TooLarge: body of 2000 bytes exceeds 1000'):
         decode_header(HEADER.pack(MAGIC, 1, 8, 1, 2000), max_body=1000)
     assert decode_header(HEADER.pack(MAGIC, 1, 99, 7, 3)).type is None  # unknown: skipped, not fatal
     assert decode_header(HEADER.pack(MAGIC, 3, 13, 7, 4)).type is None  # FrameReceived is version 4's
     assert decode_header(HEADER.pack(MAGIC, 4, 15, 7, 4)).type is None  # Authenticated is version 5's
+    assert decode_header(HEADER.pack(MAGIC, 5, 17, 7, 4)).type is None  # UploadReady is version 6's
+    assert decode_header(HEADER.pack(MAGIC, 6, 17, 7, 4)).type == MessageType.UploadReady
 
 
 def test_encodings_by_name():

@@ -5,7 +5,6 @@ Authenticate (protocol version 5) and over the WebSocket by its upgrade, and the
 from __future__ import annotations
 
 import hashlib
-import subprocess
 from pathlib import Path
 
 import pytest
@@ -17,29 +16,6 @@ from voxbrick.errors import ErrorCode
 RADIOLOGY = 'radiology-Secret_1'  # opens mri.vbs only
 SPARSE = 'sparse-Secret_2'  # opens sparse only
 SCENE = dict(camera=(30, 20), tf='mri', size=(64, 48))
-
-
-def openssl(*args: str, cwd: Path) -> None:
-    result = subprocess.run(['openssl', *args], cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    assert result.returncode == 0, f'openssl {" ".join(args)}: {result.stdout}'
-
-
-@pytest.fixture(scope='module')
-def certs(work: Path) -> Path:
-    """ca.pem/ca.key (the test CA), server.pem/server.key (signed by it, for 127.0.0.1 alone) and other.pem (a
-    self-signed certificate of another CA, also for 127.0.0.1)."""
-    d = work / 'tls'
-    d.mkdir()
-    ec = ['-newkey', 'ec', '-pkeyopt', 'ec_paramgen_curve:P-256', '-nodes']
-    openssl('req', '-x509', *ec, '-days', '2', '-sha256', '-keyout', 'ca.key', '-out', 'ca.pem', '-subj',
-            '/CN=voxbrick test CA', cwd=d)
-    openssl('req', *ec, '-keyout', 'server.key', '-out', 'server.csr', '-subj', '/CN=127.0.0.1', cwd=d)
-    (d / 'san.ext').write_text('subjectAltName = IP:127.0.0.1\n')
-    openssl('x509', '-req', '-in', 'server.csr', '-CA', 'ca.pem', '-CAkey', 'ca.key', '-CAcreateserial', '-days', '2',
-            '-sha256', '-extfile', 'san.ext', '-out', 'server.pem', cwd=d)
-    openssl('req', '-x509', *ec, '-days', '2', '-sha256', '-keyout', 'other.key', '-out', 'other.pem', '-subj',
-            '/CN=127.0.0.1', '-addext', 'subjectAltName = IP:127.0.0.1', cwd=d)
-    return d
 
 
 @pytest.fixture(scope='module')
@@ -63,10 +39,10 @@ def test_both_transports_inside_tls_verify_the_server_and_carry_the_token(server
         expected = plain.render('mri.vbs', **SCENE)
     # TCP inside TLS: the token presented by Authenticate after Hello; the server names it.
     with voxbrick.connect(f'tls://127.0.0.1:{tls_server.port}', token=RADIOLOGY, ca=ca) as c:
-        assert c.version == 5 and c.session.token_id == 'radiology'
+        assert c.version == 6 and c.session.token_id == 'radiology'
         assert c.datasets() == ['mri.vbs']
         assert largest_difference(c.render('mri.vbs', **SCENE), expected) <= 1
-        assert repr(c).startswith(f'<voxbrick.Client tls://127.0.0.1:{tls_server.port} version 5')
+        assert repr(c).startswith(f'<voxbrick.Client tls://127.0.0.1:{tls_server.port} version 6')
     # The WebSocket over TLS: wss://, or the viewer's https:// address with its token.
     for address, token in [(f'wss://127.0.0.1:{tls_server.http_port}', SPARSE),
                            (f'https://127.0.0.1:{tls_server.http_port}/?token={SPARSE}', None)]:

@@ -162,6 +162,12 @@ TEST_F(UploadsTest, OnlyATokenThatMayUploadMayUploadAndNothingIsLeftByARefusal) 
   EXPECT_EQ(entries(datasets), before);
   EXPECT_EQ(on.active(), 0);
 
+  // A name of 255 bytes is one (the scratch folder is not named after it).
+  Uploads any = uploads(quota(100000, 1));
+  const TokenGrant everything = grant("all", true);
+  EXPECT_TRUE(any.begin(request(std::string(255, 'n')), &everything));
+  EXPECT_EQ(entries(datasets), before);
+
   // One at a time, and never two uploads of one name.
   Uploads two = uploads(quota(100000, 2));
   auto first = two.begin(request("lab-1"), &mayUpload);
@@ -330,6 +336,9 @@ TEST_F(UploadHandlerTest, ChunksThenPrepThenTheNewDatasetsInfo) {
     error = std::current_exception();
   }
   const Outcome done = handler.prepared(state, *o.prepare, error);
+  // Its scratch and its place are free before the answer goes, though the job still holds it.
+  EXPECT_EQ(entries(datasets), std::vector<std::string>{"fresh"});
+  EXPECT_EQ(store.active(), 0);
   o.prepare.reset();
   ASSERT_EQ(done.replies.size(), 1u);
   EXPECT_EQ(done.replies[0].requestId, 5u);
