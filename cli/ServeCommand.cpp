@@ -240,8 +240,8 @@ void addServeCommand(CLI::App& app) {
                   "refusal, rotated by size (default none, or audit.path of the configuration)");
   cmd->add_option("--upload-max-mb", a->uploadMaxMB,
                   "take volumes sent by clients whose token may upload (the --http-token, or a [[tokens]] entry with "
-                  "upload = true) as new datasets, each of at most this many MiB of voxels; 0: none (default 0, or "
-                  "upload.max_bytes of the configuration)")
+                  "upload = true) as new datasets, each of at most this many MiB of voxels; 0: none" +
+                      configured(double(d.upload.maxBytes >> 20), "upload.max_bytes (in bytes)"))
       ->check(between(0, 1 << 30, "MiB"));
   cmd->add_option("--datasets", a->datasets,
                   "directory whose subdirectories are stores and whose .vdb files are read live (first float grid, "

@@ -196,13 +196,13 @@ class Client:
         `array`, `spacing`, `origin`, `axes` and `patient` as voxbrick.prep takes them (a NumPy array or memory map,
         a Zarr array, anything with `shape`, `dtype` and NumPy slicing; "zyx": the last axis is x), and the values
         stored as prep stores them (uint8, uint16, int16 as they are; int8 as int16; the others as float32; bool as
-        uint8): the new dataset is the store voxbrick.prep makes of the same array. The array is read and sent a slab of at
-        most `slab_bytes` at a time, so memory stays within about two slabs whatever its size.
+        uint8): the new dataset is the store voxbrick.prep makes of the same array. The array is read and sent a slab
+        of at most `slab_bytes` at a time, so memory stays within about two slabs whatever its size.
 
         The server takes uploads only when configured to (`[upload] max_bytes`, docs/server.md#uploads) and from a
         session whose token may upload. Refusals raise ServerError with the server's words: Forbidden (no uploads, a
         token that may not upload or not open `name`, no token), AlreadyExists (`name` is taken or being uploaded),
-        LimitExceeded (above the server's quota, or its disk), Malformed (a name that is not one: letters, digits,
+        LimitExceeded (above the server's quota, or its disk), Malformed (a name that is not one: ASCII letters, digits,
         ".", "-", "_", not starting with "."), Busy (as many uploads in progress as the server takes), Internal
         (prep's words). Nothing of a refused upload is kept. ValueError, before anything is sent, for an array or
         argument that cannot be sent (not 3-D, a dtype prep does not take, a spacing that is not three positive

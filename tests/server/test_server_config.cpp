@@ -412,6 +412,8 @@ TEST(ServeHelp, EachOverrideShowsTheDefaultTheServerUsesAndItsKey) {
        [](const ServerConfig& c) { return written(c.maxConnectionsPerAddress); }},
       {"--max-total-output-mb", "limits.max_total_output_bytes (in bytes)",
        [](const ServerConfig& c) { return written(double(c.maxTotalOutputBytes >> 20)); }},
+      {"--upload-max-mb", "upload.max_bytes (in bytes)",
+       [](const ServerConfig& c) { return written(double(c.upload.maxBytes >> 20)); }},
       {"--host-cache", "memory.host_cache_mb", [](const ServerConfig& c) { return written(double(c.hostCacheMB)); }},
       {"--gpu-budget", "memory.gpu_budget_mb", [](const ServerConfig& c) { return written(double(c.gpuBudgetMB)); }},
   };
