@@ -3,7 +3,7 @@ from one session with a server."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Dict, Iterable, Iterator, List, Optional, Sequence, Union
+from typing import Any, Callable, Dict, Iterable, Iterator, List, Optional, Sequence, Union
 
 import numpy as np
 
@@ -188,7 +188,8 @@ class Client:
 
     def upload(self, name: str, array: Any, *, spacing: Sequence[float] = (1, 1, 1),
                origin: Optional[Sequence[float]] = None, axes: str = 'zyx', patient: bool = False,
-               slab_bytes: int = 64 << 20) -> Dict[str, Any]:
+               slab_bytes: int = 64 << 20, progress: Optional[Callable[[int, int], None]] = None,
+               timeout: Optional[float] = None) -> Dict[str, Any]:
         """Sends a 3-D array to the server as a new dataset `name`, which the server preps as `voxbrick prep` does;
         returns its metadata, as info() gives it. The dataset is listed and opened like any other from then on; the
         session's open dataset does not change.
@@ -207,12 +208,15 @@ class Client:
         (prep's words). Nothing of a refused upload is kept. ValueError, before anything is sent, for an array or
         argument that cannot be sent (not 3-D, a dtype prep does not take, a spacing that is not three positive
         numbers); ProtocolError UnsupportedVersion when the session speaks a version below 6. The server's last
-        answer comes once it has prepped the store: within the session's `timeout`."""
+        answer comes once it has prepped the store: within `timeout` seconds of the last chunk (default: the session's
+        timeout). `progress(sent, total)`, if given, is called with the bytes sent after each chunk and once more with
+        `total` when the server has answered (a progress bar's update)."""
         volume = as_volume(array, spacing=spacing, origin=origin, axes=axes, patient=patient, slab_bytes=slab_bytes,
                            purpose='upload')
         if not isinstance(name, str) or not name:
             raise ValueError(f'name {name!r}: the new dataset\'s name, a str')
-        return self.session.upload(name, volume.meta(), volume.nbytes, volume.slabs(slab_bytes))
+        return self.session.upload(name, volume.meta(), volume.nbytes, volume.slabs(slab_bytes), progress=progress,
+                                   timeout=timeout)
 
     def close(self) -> None:
         """Says Goodbye and closes the connection."""

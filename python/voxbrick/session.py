@@ -150,7 +150,9 @@ class Session:
                 on_provisional(frame)
         raise AssertionError('unreachable: frames() ends with an exact frame')
 
-    def upload(self, name: str, meta: Union[Dict[str, Any], str], size: int, data: Iterable[Any]) -> Dict[str, Any]:
+    def upload(self, name: str, meta: Union[Dict[str, Any], str], size: int, data: Iterable[Any], *,
+               progress: Optional[Callable[[int, int], None]] = None,
+               timeout: Optional[float] = None) -> Dict[str, Any]:
         """Sends a volume that becomes the server's dataset `name` (Upload, protocol version 6; PROTOCOL.md, Session
         13) and returns its metadata (the DatasetInfo's meta_json); the session's open dataset does not change.
 
@@ -158,7 +160,9 @@ class Session:
         `patient`), sent as it is; `size`: their bytes. `data`: the voxels in order (x fastest, then y, then z) as
         buffers of any size (bytes, memoryviews, C-contiguous arrays), each sent as UploadChunks of at most the
         server's `chunk_bytes`, one buffer held at a time. The server's last answer comes once it has prepped the
-        store, within the session's timeout.
+        store, within `timeout` seconds of the last chunk (default: the session's timeout). `progress(sent, size)` is
+        called after each chunk handed to the connection, and once more when the server has answered (then `sent` is
+        `size`); what it raises abandons the upload as an exception of `data` does.
 
         An Error answering the Upload or any chunk raises ServerError with the server's words (a chunk's Error stops
         the sending); nothing of the upload is then kept. `data` holding more or fewer than `size` bytes, or raising,
@@ -191,6 +195,8 @@ class Session:
                         self._send(MessageType.UploadChunk, data=last)
                         # An Error answering a chunk has ended the upload: stop sending.
                         self._await(range(first, self._next_id), (), wait=False)
+                        if progress is not None:
+                            progress(taken - len(piece), size)
                     last = piece
                 if last is not None:
                     last = bytes(last)  # a copy of at most a chunk, not the whole buffer held while the next is read
@@ -203,7 +209,16 @@ class Session:
             self._cancel_upload(first)
             raise
         self._send(MessageType.UploadChunk, data=last)
-        info = self._await(range(first, self._next_id), (MessageType.DatasetInfo,))[1]
+        # The answer comes once the server has prepped the store: a large volume may take it longer than a frame.
+        if timeout is not None:
+            self._transport.sock.settimeout(timeout)
+        try:
+            info = self._await(range(first, self._next_id), (MessageType.DatasetInfo,), timeout=timeout)[1]
+        finally:
+            if timeout is not None and not self._broken:
+                self._transport.sock.settimeout(self._timeout)
+        if progress is not None:
+            progress(size, size)
         return json.loads(info['meta_json'])
 
     def _cancel_upload(self, first: int) -> None:
@@ -272,7 +287,8 @@ class Session:
         return RawFrame(request_id, frame['width'], frame['height'], frame['encoding'],
                         json.loads(frame['stats_json']), frame['payload'], HEADER_BYTES + header.body_bytes)
 
-    def _await(self, request_ids: Union[int, range], reply_types: tuple, wait: bool = True) -> Optional[tuple]:
+    def _await(self, request_ids: Union[int, range], reply_types: tuple, wait: bool = True,
+               timeout: Optional[float] = None) -> Optional[tuple]:
         """(header, fields) of the reply of type `reply_types` answering the last of `request_ids` (one id, or a range
         of ids: an upload's chunks). An Error answering any of them, or about the connection (id 0), raises
         ServerError; replies to other requests are skipped. `wait=False`: only what has arrived already is read, and
@@ -284,7 +300,7 @@ class Session:
             except ConnectionClosed as e:
                 raise self._end(str(e)) from None
             except socket.timeout:
-                raise self._end(f'no reply within {self._timeout:g} s') from None
+                raise self._end(f'no reply within {timeout or self._timeout:g} s') from None
             except OSError as e:
                 raise self._end(f'the connection failed: {e}') from e
             except ProtocolError as e:

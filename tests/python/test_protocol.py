@@ -235,3 +235,16 @@ def test_damaged_payloads_are_refused_naming_the_problem():
         decode_frame(b'not zstd', 'zstd', 2, 2)
     with pytest.raises(voxbrick.DecodeError, match='vp8 frames decode only within their video stream'):
         decode_frame(b'', 'vp8', 2, 2)
+
+
+@pytest.mark.parametrize('size', [0, 1, 3, 4, 4095, 4096, 4099, (1 << 16) + 2, (1 << 20) + 3])
+def test_websocket_masking_with_numpy_is_the_xor_of_rfc_6455(size, monkeypatch):
+    # Every byte XOR the mask byte of its position modulo 4 (RFC 6455, 5.3), whichever way it is computed: NumPy's
+    # 32-bit words for large payloads, one big integer without NumPy.
+    from voxbrick import transport
+    payload, mask = bytes((i * 131 + 7) % 256 for i in range(size)), b'\x9a\x04\xe1\x5c'
+    expected = bytes(b ^ mask[i % 4] for i, b in enumerate(payload))
+    assert transport._masked(payload, mask) == expected
+    assert transport._masked(memoryview(payload), mask) == expected
+    monkeypatch.setattr(transport, '_NUMPY', [None])
+    assert transport._masked(payload, mask) == expected

@@ -238,6 +238,21 @@ def test_refusals_are_in_the_servers_words_and_leave_nothing(up):
     assert settles(folder, sorted(before + ['up-twice'])) == sorted(before + ['up-twice'])
 
 
+def test_progress_is_reported_chunk_by_chunk_and_the_answer_may_take_its_own_timeout(up):
+    server, folder = up
+    a = blobs((40, 128, 160), np.uint16)  # 1.6 MB: two chunks of the server's 1 MiB messages
+    calls = []
+    with voxbrick.connect(server.address, token=UPLOADER, timeout=30) as c:
+        info = c.upload('up-progress', a, progress=lambda sent, total: calls.append((sent, total)), timeout=90)
+        assert c.session._transport.sock.gettimeout() == 30  # the session's own timeout again after the answer
+        assert info['dims'] == [160, 128, 40]
+    total = a.nbytes
+    assert calls[-1] == (total, total) and len(calls) >= 2
+    assert all(t == total for _, t in calls)
+    sent = [s for s, _ in calls]
+    assert sent == sorted(sent) and 0 < sent[0] < total
+
+
 def test_a_name_of_255_bytes_is_one(up):
     # PROTOCOL.md, Upload: a name of at most 255 bytes; one byte more is Malformed.
     server, folder = up
