@@ -19,7 +19,8 @@ namespace {
 
 namespace ssl = boost::asio::ssl;
 
-[[noreturn]] void fail(const std::string& what) { throw std::runtime_error(what); }
+/// Named apart from ServerConfig.cpp's fail(): a unity build may put both files in one unit.
+[[noreturn]] void tlsFail(const std::string& what) { throw std::runtime_error(what); }
 
 /// OpenSSL's queued errors as one text (the queue emptied), or `fallback` when there are none.
 std::string openSslErrors(const std::string& fallback) {
@@ -35,15 +36,15 @@ std::string openSslErrors(const std::string& fallback) {
 /// Throws naming `what` and `path` unless the file can be opened for reading.
 void checkReadable(const char* what, const std::filesystem::path& path) {
   std::ifstream in(path);
-  if (!in) fail(std::string(what) + " '" + path.string() + "' cannot be read: " + std::strerror(errno));
+  if (!in) tlsFail(std::string(what) + " '" + path.string() + "' cannot be read: " + std::strerror(errno));
 }
 
 /// The first certificate of the PEM file `path`; throws naming the file when it holds none.
 std::unique_ptr<X509, decltype(&X509_free)> readCertificate(const std::filesystem::path& path) {
   std::unique_ptr<FILE, decltype(&std::fclose)> file(std::fopen(path.c_str(), "r"), &std::fclose);
-  if (!file) fail("tls.cert '" + path.string() + "' cannot be read: " + std::strerror(errno));
+  if (!file) tlsFail("tls.cert '" + path.string() + "' cannot be read: " + std::strerror(errno));
   std::unique_ptr<X509, decltype(&X509_free)> cert(PEM_read_X509(file.get(), nullptr, nullptr, nullptr), &X509_free);
-  if (!cert) fail("tls.cert '" + path.string() + "' holds no PEM certificate: " + openSslErrors("nothing readable"));
+  if (!cert) tlsFail("tls.cert '" + path.string() + "' holds no PEM certificate: " + openSslErrors("nothing readable"));
   return cert;
 }
 
@@ -72,14 +73,14 @@ std::shared_ptr<ssl::context> makeServerTlsContext(const TlsFiles& files) {
   {
     const auto cert = readCertificate(files.cert);
     if (X509_cmp_current_time(X509_get0_notAfter(cert.get())) <= 0)
-      fail("tls.cert '" + files.cert.string() + "' expired on " + asn1Time(X509_get0_notAfter(cert.get())));
+      tlsFail("tls.cert '" + files.cert.string() + "' expired on " + asn1Time(X509_get0_notAfter(cert.get())));
   }
   auto context = std::make_shared<ssl::context>(ssl::context::tls_server);
   SSL_CTX* ctx = context->native_handle();
   ERR_clear_error();
   if (SSL_CTX_set_min_proto_version(ctx, TLS1_2_VERSION) != 1 || SSL_CTX_set_cipher_list(ctx, kTls12Ciphers) != 1 ||
       SSL_CTX_set_ciphersuites(ctx, kTls13Ciphers) != 1)
-    fail("the TLS policy cannot be set: " + openSslErrors("unknown failure"));
+    tlsFail("the TLS policy cannot be set: " + openSslErrors("unknown failure"));
   SSL_CTX_set_options(
       ctx, SSL_OP_NO_COMPRESSION | SSL_OP_NO_RENEGOTIATION | SSL_OP_CIPHER_SERVER_PREFERENCE | SSL_OP_NO_TICKET);
   // No resumption: sessions are long and few, and a TLS 1.3 ticket arriving after the handshake would be the only
@@ -87,27 +88,27 @@ std::shared_ptr<ssl::context> makeServerTlsContext(const TlsFiles& files) {
   SSL_CTX_set_num_tickets(ctx, 0);
   SSL_CTX_set_session_cache_mode(ctx, SSL_SESS_CACHE_OFF);
   if (SSL_CTX_use_certificate_chain_file(ctx, files.cert.c_str()) != 1)
-    fail("tls.cert '" + files.cert.string() + "' is not a PEM certificate chain: " + openSslErrors("unreadable"));
+    tlsFail("tls.cert '" + files.cert.string() + "' is not a PEM certificate chain: " + openSslErrors("unreadable"));
   {
     std::unique_ptr<FILE, decltype(&std::fclose)> file(std::fopen(files.key.c_str(), "r"), &std::fclose);
-    if (!file) fail("tls.key '" + files.key.string() + "' cannot be read: " + std::strerror(errno));
+    if (!file) tlsFail("tls.key '" + files.key.string() + "' cannot be read: " + std::strerror(errno));
     // No passphrase callback: an encrypted key fails here instead of asking a terminal.
     std::unique_ptr<EVP_PKEY, decltype(&EVP_PKEY_free)> key(
         PEM_read_PrivateKey(
             file.get(), nullptr, [](char*, int, int, void*) { return 0; }, nullptr),
         &EVP_PKEY_free);
     if (!key)
-      fail("tls.key '" + files.key.string() +
+      tlsFail("tls.key '" + files.key.string() +
            "' is not an unencrypted PEM private key: " + openSslErrors("unreadable"));
     if (EVP_PKEY_eq(X509_get0_pubkey(SSL_CTX_get0_certificate(ctx)), key.get()) != 1)
-      fail("tls.key '" + files.key.string() + "' does not belong to the certificate of tls.cert '" +
+      tlsFail("tls.key '" + files.key.string() + "' does not belong to the certificate of tls.cert '" +
            files.cert.string() + "'");
     if (SSL_CTX_use_PrivateKey(ctx, key.get()) != 1 || SSL_CTX_check_private_key(ctx) != 1)
-      fail("tls.key '" + files.key.string() + "' cannot be used: " + openSslErrors("unknown failure"));
+      tlsFail("tls.key '" + files.key.string() + "' cannot be used: " + openSslErrors("unknown failure"));
   }
   if (!files.ca.empty()) {
     if (SSL_CTX_load_verify_locations(ctx, files.ca.c_str(), nullptr) != 1)
-      fail("tls.ca '" + files.ca.string() + "' is not a PEM file of certificates: " + openSslErrors("unreadable"));
+      tlsFail("tls.ca '" + files.ca.string() + "' is not a PEM file of certificates: " + openSslErrors("unreadable"));
     STACK_OF(X509_NAME)* names = SSL_load_client_CA_file(files.ca.c_str());
     if (names) SSL_CTX_set_client_CA_list(ctx, names);
     SSL_CTX_set_verify(ctx, SSL_VERIFY_PEER | SSL_VERIFY_FAIL_IF_NO_PEER_CERT, nullptr);

@@ -2,15 +2,12 @@
 #include "server/Uploads.h"
 
 #include <fcntl.h>
-#include <signal.h>
-#include <stdio.h>
-#include <sys/prctl.h>
 #include <sys/statvfs.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cmath>
+#include <cstdio>  // renameat2
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -70,15 +67,6 @@ int writeAll(int fd, const uint8_t* data, size_t size) {
     size -= size_t(n);
   }
   return 0;
-}
-
-/// The last non-empty line of `path` (prep's words when it failed), or `otherwise`.
-std::string lastLine(const std::filesystem::path& path, const std::string& otherwise) {
-  std::ifstream in(path);
-  std::string line, last;
-  while (std::getline(in, line))
-    if (line.find_first_not_of(" \t\r") != std::string::npos) last = line;
-  return last.empty() ? otherwise : last;
 }
 
 }  // namespace
@@ -269,55 +257,12 @@ bool Upload::append(std::span<const uint8_t> data) {
   return true;
 }
 
-void Upload::cancel() {
-  std::lock_guard lock(mMutex);
-  mCancelled = true;
-  if (mChild > 0) ::kill(mChild, SIGKILL);
-}
+void Upload::cancel() { mPrep.cancel(); }
 
 void Upload::prepare() {
-  const std::filesystem::path store = mScratch / "store", log = mScratch / "prep.log";
-  const std::string exe = mOwner.mVoxbrick.string(), header = (mScratch / "voxels.nhdr").string();
-  const std::string logPath = log.string(), storePath = store.string();
-  std::vector<const char*> argv = {exe.c_str(), "prep", header.c_str(), "-o", storePath.c_str(), "-q", nullptr};
-  pid_t child;
-  {
-    std::lock_guard lock(mMutex);
-    if (mCancelled) throw std::runtime_error("upload '" + mName + "' was abandoned");
-    const pid_t parent = ::getpid();
-    child = ::fork();
-    if (child == 0) {
-      // Only async-signal-safe calls between fork and exec: the server has many threads.
-      ::prctl(PR_SET_PDEATHSIG, SIGKILL);  // prep ends with the server
-      if (::getppid() != parent) ::_exit(127);
-      const int fd = ::open(logPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      if (fd >= 0) {
-        ::dup2(fd, 1);
-        ::dup2(fd, 2);
-      }
-      ::close_range(3, ~0u, 0);  // nothing of the server's (its sockets) goes with it
-      ::execv(argv[0], const_cast<char* const*>(argv.data()));
-      ::_exit(127);
-    }
-    if (child < 0) throw std::runtime_error("upload '" + mName + "': cannot start prep: " + std::strerror(errno));
-    mChild = child;
-  }
-  int status = 0;
-  while (::waitpid(child, &status, 0) < 0 && errno == EINTR) {
-  }
-  bool cancelled;
-  {
-    std::lock_guard lock(mMutex);
-    mChild = 0;
-    cancelled = mCancelled;
-  }
-  if (cancelled) throw std::runtime_error("upload '" + mName + "' was abandoned");
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    throw std::runtime_error(
-        "voxbrick prep failed on the upload (" +
-        (WIFEXITED(status) ? "exit " + std::to_string(WEXITSTATUS(status))
-                           : "signal " + std::to_string(WIFSIGNALED(status) ? WTERMSIG(status) : 0)) +
-        "): " + lastLine(log, "no message"));
+  const std::filesystem::path store = mScratch / "store";
+  mPrep.run(mOwner.mVoxbrick, {"prep", (mScratch / "voxels.nhdr").string(), "-o", store.string(), "-q"},
+            mScratch / "prep.log", "upload '" + mName + "'");
   // One step, never over a dataset: RENAME_NOREPLACE fails with EEXIST if the name was taken meanwhile.
   const std::filesystem::path target = mOwner.mDatasets / mName;
   if (::renameat2(AT_FDCWD, store.c_str(), AT_FDCWD, target.c_str(), RENAME_NOREPLACE) != 0) {

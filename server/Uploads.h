@@ -4,8 +4,6 @@
 // over an existing dataset. Nothing of an upload that fails or is abandoned is left behind. No sockets here.
 #pragma once
 
-#include <sys/types.h>
-
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -16,6 +14,7 @@
 
 #include "proto/Messages.h"
 #include "server/AccessTokens.h"
+#include "server/PrepProcess.h"
 #include "server/ServerConfig.h"
 
 namespace voxbrick::server {
@@ -62,9 +61,7 @@ class Upload {
   const uint64_t mExpected;
   uint64_t mReceived = 0;
   int mFd = -1;  ///< the voxels' file while chunks arrive
-  std::mutex mMutex;
-  pid_t mChild = 0;  ///< prep while it runs; guarded by mMutex
-  bool mCancelled = false;
+  PrepProcess mPrep;
   bool mReleased = false;
 };
 
