@@ -3,6 +3,7 @@
 
 #include "common/Names.h"
 #include "render/engine/Datasets.h"
+#include "server/PacsCatalog.h"
 
 #include <algorithm>
 
@@ -30,7 +31,11 @@ std::vector<std::string> DatasetRegistry::names(const Visible& visible) const {
     const std::string name = entry.path().filename().string();
     if (validName(name) && (!visible || visible(name)) && render::isDataset(entry.path())) out.push_back(name);
   }
+  if (mPacs)
+    for (const std::string& name : mPacs->names())
+      if (!visible || visible(name)) out.push_back(name);
   std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
   return out;
 }
 
@@ -51,7 +56,15 @@ std::shared_ptr<const render::Dataset> DatasetRegistry::open(const std::string& 
   // dataset the session may not see is refused before its files are looked at, in the words of a missing one.
   if (!validName(name) || (visible && !visible(name)))
     throw DatasetNotFound(common::unknownName("dataset", name, names(visible)));
-  const std::filesystem::path path = mDirectory / name;
+  // A PACS series is opened from the PACS cache, once prepped there (until then: Busy with its progress).
+  std::filesystem::path path = mDirectory / name;
+  if (mPacs && mPacs->owns(name)) {
+    try {
+      path = mPacs->resolve(name);
+    } catch (const std::out_of_range& e) {
+      throw DatasetNotFound(common::unknownName("dataset", name, names(visible)) + " (" + e.what() + ")");
+    }
+  }
   const std::string identity = datasetIdentity(path);
   if (auto it = mOpen.find(name); it != mOpen.end()) {
     if (it->second.identity == identity) return it->second.dataset;

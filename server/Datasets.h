@@ -15,6 +15,8 @@
 
 namespace voxbrick::server {
 
+class PacsCatalog;
+
 /// A named dataset is an entry of the datasets directory that render::isDataset accepts: a subdirectory holding a
 /// prepped store, or a .vdb file read live with the defaults (its first float grid, bricks of 32). Names are the
 /// entries' names (a .vdb keeps its extension), of letters, digits, '.', '-' and '_' only, not starting with '.'
@@ -40,6 +42,9 @@ class DatasetRegistry {
   /// visible ones): a session learns nothing of datasets it may not see. Throws the dataset's own errors
   /// (CorruptStoreError, IoError) for one that cannot be opened.
   std::shared_ptr<const render::Dataset> open(const std::string& name, const Visible& visible = {});
+  /// Serves the series of `pacs` beside the directory's datasets (names "ID.SERIESUID": PacsCatalog), from its
+  /// cache; opening one not cached yet throws its Busy. Before any session; null: none.
+  void attach(PacsCatalog* pacs) { mPacs = pacs; }
   /// The datasets opened so far, by name.
   std::vector<std::shared_ptr<const render::Dataset>> opened() const;
 
@@ -58,6 +63,7 @@ class DatasetRegistry {
     std::string identity;  // of its files when opened (datasetIdentity)
   };
   std::map<std::string, Open> mOpen;
+  PacsCatalog* mPacs = nullptr;
 };
 
 /// The identity of a dataset's files (render::datasetFiles: a brick store's store.json and bricks.bin, a mesh

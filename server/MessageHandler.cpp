@@ -295,6 +295,14 @@ nlohmann::json MessageHandler::statsFor(const ConnectionState& state) const {
   for (const nlohmann::json& dataset : stats["datasets"])
     if (dataset.is_object() && state.access->mayOpen(dataset.value("name", std::string()))) visible.push_back(dataset);
   stats["datasets"] = std::move(visible);
+  // A PACS' series as the token sees them: only those it may open.
+  if (stats.contains("pacs") && stats["pacs"].is_array())
+    for (nlohmann::json& pacs : stats["pacs"]) {
+      nlohmann::json series = nlohmann::json::array();
+      for (const nlohmann::json& s : pacs.value("series", nlohmann::json::array()))
+        if (state.access->mayOpen(s.value("name", std::string()))) series.push_back(s);
+      pacs["series"] = std::move(series);
+    }
   return stats;
 }
 

@@ -27,6 +27,7 @@
 #include "server/ErrorReply.h"
 #include "server/MessageHandler.h"
 #include "server/OutputBudget.h"
+#include "server/PacsCatalog.h"
 #include "server/Quotas.h"
 #include "server/RenderScheduler.h"
 #include "server/ServerStats.h"
@@ -160,6 +161,8 @@ struct Server::Impl {
   DatasetRegistry datasets;
   /// Volumes clients send to become datasets ([upload]).
   Uploads uploads;
+  /// The series of [[pacs]] as datasets, prepped into the PACS cache when first opened; null without [[pacs]].
+  std::unique_ptr<PacsCatalog> pacs;
   ServerStats stats;
   OutputBudget output;
   RenderScheduler scheduler;
@@ -254,6 +257,14 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
       admission(admissionLimits(config)),
       quotas(config.quotas) {
   sessionServices.limits.maxBodyBytes = config.maxMessageBytes;
+  if (!config.pacs.empty()) {
+    PacsCacheConfig cache = config.pacsCache;
+    if (cache.dir.empty()) cache.dir = config.datasets / ".pacs";  // hidden: never a dataset of the folder itself
+    pacs = std::make_unique<PacsCatalog>(config.pacs, cache, std::filesystem::read_symlink("/proc/self/exe"));
+    datasets.attach(pacs.get());
+    spdlog::info("PACS: {} listed as datasets, cached in {} (up to {} MB)", config.pacs.size(), cache.dir.string(),
+                 cache.maxMB);
+  }
   if (uploads.enabled())
     spdlog::info("uploads: up to {} bytes each, {} at a time, by tokens that may upload", config.upload.maxBytes,
                  config.upload.maxConcurrent);
@@ -469,6 +480,7 @@ void Server::Impl::shutdown() {
     sessionsChanged.wait_until(lock, deadline, [&] { return sessions.empty(); });
   }
   uploads.cancelAll();  // preps still running (their sessions did not end in time) are stopped
+  if (pacs) pacs->stop();
   encoders.join();      // frames being encoded post their end to the I/O threads, which still run
   preparers.join();
   io.stop();
@@ -499,7 +511,11 @@ ServerStats::Gauges Server::Impl::gauges() const {
   return gauges;
 }
 
-json Server::Impl::statsJson() const { return stats.toJson(gauges()); }
+json Server::Impl::statsJson() const {
+  json j = stats.toJson(gauges());
+  if (pacs) j["pacs"] = pacs->toJson();
+  return j;
+}
 
 std::string Server::Impl::metricsText() const { return stats.metricsText(gauges()); }
 
@@ -534,6 +550,7 @@ void Server::run() {
   if (s.tls) s.awaitReload();
   s.accept(s.acceptor);
   if (s.httpAcceptor.is_open()) s.accept(s.httpAcceptor);
+  if (s.pacs) s.pacs->start();
   std::vector<std::thread> ioThreads;
   for (int i = 0; i < s.config.ioThreads; ++i) ioThreads.emplace_back([&s] { s.io.run(); });
   // This thread runs the lifecycle, so that waiting for renders and sessions never blocks an I/O thread.

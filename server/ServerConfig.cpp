@@ -173,6 +173,20 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   if (audit.read("path", c.auditPath)) beside(c.auditPath);
   audit.read("max_bytes", c.auditMaxBytes);
   audit.read("keep", c.auditKeep);
+  for (Section& entry : top.arrayOfTables("pacs")) {
+    PacsConfig p;
+    entry.read("id", p.id);
+    entry.read("url", p.url);
+    if (entry.read("auth_file", p.authFile)) beside(p.authFile);
+    if (entry.read("ca", p.ca)) beside(p.ca);
+    entry.read("patient_fields", p.patientFields);
+    entry.read("refresh_s", p.refreshS);
+    entry.rejectUnknown();
+    c.pacs.push_back(std::move(p));
+  }
+  Section pacsCache = top.table("pacs_cache");
+  if (pacsCache.read("dir", c.pacsCache.dir)) beside(c.pacsCache.dir);
+  pacsCache.read("max_mb", c.pacsCache.maxMB);
   Section upload = top.table("upload");
   upload.read("max_bytes", c.upload.maxBytes);
   upload.read("max_concurrent", c.upload.maxConcurrent);
@@ -197,7 +211,7 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   quotas.read("sessions_per_token", c.quotas.sessionsPerToken);
   quotas.read("frames_per_s_per_token", c.quotas.framesPerSecondPerToken);
   quotas.read("loopback_exempt", c.quotas.loopbackExempt);
-  for (const Section* section : {&top, &server, &limits, &memory, &http, &access, &tls, &audit, &upload, &scheduler, &quotas})
+  for (const Section* section : {&top, &server, &limits, &memory, &http, &access, &tls, &audit, &upload, &pacsCache, &scheduler, &quotas})
     section->rejectUnknown();
   try {
     c.validate();
@@ -248,6 +262,25 @@ void ServerConfig::validate() const {
   range("audit.keep", auditKeep, 0, 1000);
   range("upload.max_bytes", double(upload.maxBytes), 0, double(uint64_t(1) << 50));
   range("upload.max_concurrent", upload.maxConcurrent, 1, 64);
+  range("pacs_cache.max_mb", double(pacsCache.maxMB), 16, double(int64_t(1) << 30));
+  std::set<std::string> pacsIds;
+  for (size_t i = 0; i < pacs.size(); ++i) {
+    const PacsConfig& p = pacs[i];
+    const std::string where = "pacs[" + std::to_string(i + 1) + "]" + (p.id.empty() ? "" : " ('" + p.id + "')");
+    const bool plainId = !p.id.empty() && p.id.size() <= 64 && std::all_of(p.id.begin(), p.id.end(), [](char ch) {
+      return std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' || ch == '_';
+    });
+    if (!plainId) fail(where + ": id '" + p.id + "' must be 1 to 64 letters, digits, '-' or '_'");
+    if (!pacsIds.insert(p.id).second) fail(where + ": id '" + p.id + "' is given to two PACS");
+    const bool isHttp = p.url.starts_with("http://") || p.url.starts_with("https://");
+    const std::string rest = isHttp ? p.url.substr(p.url.find("//") + 2) : "";
+    if (!isHttp || rest.empty() || rest.front() == '/')
+      fail(where + ": url '" + p.url + "' is not http[s]://HOST[:PORT]/PATH, the PACS' DICOMweb root");
+    if (rest.substr(0, rest.find('/')).find('@') != std::string::npos)
+      fail(where + ": url holds credentials: give them in auth_file, never in the URL");
+    if (p.url.find_first_of("?# ") != std::string::npos) fail(where + ": url '" + p.url + "' has a query or a space");
+    range(where + ".refresh_s", p.refreshS, 1, 86400);
+  }
   range("scheduler.interactive_weight", scheduler.interactiveWeight, 0.01, 1e6);
   range("scheduler.still_weight", scheduler.stillWeight, 0.01, 1e6);
   range("scheduler.batch_weight", scheduler.batchWeight, 0.01, 1e6);

@@ -70,6 +70,23 @@ struct UploadConfig {
   int maxConcurrent = 1;  ///< uploads in progress at once, all sessions together (more: Busy)
 };
 
+/// A PACS whose image series the server lists as datasets ([[pacs]]; docs/server.md, "A PACS as datasets"): listed
+/// by QIDO-RS, each prepped from DICOMweb when first opened and kept in the PACS cache.
+struct PacsConfig {
+  std::string id;                  ///< letters, digits, '-', '_': its series are the datasets "ID.SERIESUID"
+  std::string url;                 ///< its DICOMweb root: http[s]://HOST[:PORT]/PATH (no credentials, no query)
+  std::filesystem::path authFile;  ///< "basic USER:PASSWORD" or "bearer TOKEN", as prep's --auth-file; none: empty
+  std::filesystem::path ca;        ///< PEM certificates to trust for https; empty: the system's
+  bool patientFields = false;      ///< list each series' patient's name, id and birth date (else never shown)
+  double refreshS = 60;            ///< seconds between listings of its series
+};
+
+/// Where PACS series are kept once prepped ([pacs_cache]), least recently opened evicted first.
+struct PacsCacheConfig {
+  std::filesystem::path dir;  ///< empty: DATASETS/.pacs (hidden: never a dataset of the folder itself)
+  int64_t maxMB = 10240;      ///< the stores' bytes together; beyond it the least recently opened go
+};
+
 /// The files of [tls] (or --tls-cert, --tls-key, --tls-ca): with a certificate, both listeners speak TLS only.
 struct TlsFiles {
   std::filesystem::path cert;  ///< PEM: the server's certificate, then any intermediate certificates
@@ -127,6 +144,9 @@ struct ServerConfig {
   std::optional<std::vector<std::string>> anonymousDatasets;
   // [upload]
   UploadConfig upload;
+  // [[pacs]], [pacs_cache]
+  std::vector<PacsConfig> pacs;
+  PacsCacheConfig pacsCache;
   // [tls]
   TlsFiles tls;
   // [audit] The audit trail (AuditLog): one line per session, token, dataset opened and refusal.

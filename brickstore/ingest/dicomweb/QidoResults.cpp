@@ -40,6 +40,21 @@ std::string firstValue(const Json& result, const char* tag, size_t index, const 
   throw InputError(where + ": its first value is neither a string nor an integer");
 }
 
+/// The alphabetic form of person name `tag` (DICOM JSON's {"Alphabetic": ...}, PS3.18 F.2.2) of result `index`; ""
+/// when absent.
+std::string personName(const Json& result, const char* tag, size_t index, const std::string& what) {
+  const auto it = result.find(tag);
+  if (it == result.end() || !it->is_object()) return "";
+  const auto value = it->find("Value");
+  if (value == it->end() || !value->is_array() || value->empty()) return "";
+  const Json& v = value->front();
+  if (v.is_object() && v.contains("Alphabetic") && v["Alphabetic"].is_string()) return v["Alphabetic"];
+  if (v.is_string()) return v.get<std::string>();
+  if (v.is_object() || v.is_null()) return "";
+  throw InputError(what + ": result " + std::to_string(index + 1) + ", attribute " + tag +
+                   ": its first value is not a person name");
+}
+
 std::string checkedUid(const std::string& uid, const std::string& what, size_t index, const char* name) {
   if (!isDicomUid(uid))
     throw InputError(what + ": result " + std::to_string(index + 1) + " has " +
@@ -85,6 +100,13 @@ std::vector<QidoSeries> parseQidoSeries(std::string_view json, const std::string
                          count.substr(0, 20) + "' is not a count");
       s.instances = std::stoll(count);
     }
+    s.studyUid = firstValue(results[i], "0020000D", i, what);
+    if (!s.studyUid.empty()) checkedUid(s.studyUid, what, i, "StudyInstanceUID");
+    s.studyDescription = firstValue(results[i], "00081030", i, what);
+    s.studyDate = firstValue(results[i], "00080020", i, what);
+    s.patientName = personName(results[i], "00100010", i, what);
+    s.patientId = firstValue(results[i], "00100020", i, what);
+    s.patientBirthDate = firstValue(results[i], "00100030", i, what);
     if (seen.insert(s.seriesUid).second) series.push_back(std::move(s));
   }
   return series;

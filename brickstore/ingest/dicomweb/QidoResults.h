@@ -15,12 +15,18 @@ struct QidoInstance {
   std::string sopClassUid;     ///< (0008,0016); "" when not listed
 };
 
-/// One series a study search listed.
+/// One series a study search (or a search of every series) listed.
 struct QidoSeries {
   std::string seriesUid;    ///< (0020,000E)
   std::string modality;     ///< (0008,0060); "" when not listed
   std::string description;  ///< (0008,103E); "" when not listed
   int64_t instances = -1;   ///< (0020,1209) NumberOfSeriesRelatedInstances; -1 when not listed
+  std::string studyUid;     ///< (0020,000D); "" when not listed, else a DICOM UID
+  std::string studyDescription;  ///< (0008,1030)
+  std::string studyDate;         ///< (0008,0020), YYYYMMDD as listed
+  std::string patientName;       ///< (0010,0010), its alphabetic form ("Doe^John")
+  std::string patientId;         ///< (0010,0020)
+  std::string patientBirthDate;  ///< (0010,0030)
 };
 
 /// The instances in a QIDO-RS answer for SERIES/instances: a JSON array of objects, each with a SOPInstanceUID that is
