@@ -127,18 +127,20 @@ void PacsCatalog::listingLoop() {
       continue;
     }
     lock.unlock();
-    refresh();
+    list(false);
     lock.lock();
   }
 }
 
-void PacsCatalog::refresh() {
+void PacsCatalog::refresh() { list(true); }
+
+void PacsCatalog::list(bool all) {
   for (size_t i = 0;; ++i) {
     PacsConfig config;
     {
       std::lock_guard lock(mMutex);
       if (i >= mPacs.size() || mStopping) return;
-      if (mPacs[i].nextListing > Clock::now() && mStarted) continue;
+      if (!all && mPacs[i].nextListing > Clock::now()) continue;
       config = mPacs[i].config;
     }
     std::vector<store::QidoSeries> listed;
@@ -296,16 +298,17 @@ void PacsCatalog::prepare(const std::string& name) {
       mPrepper(config, series, scratch / "store", scratch / "prep.log", *process);
       // The new store replaces a changed one in two renames: sessions holding the old one open the new at their
       // next frame (DatasetRegistry sees other files).
-      const fs::path target = mCache.dir / name, old = scratch / "old";
-      std::error_code ec;
-      if (fs::exists(target)) fs::rename(target, old);
-      fs::rename(scratch / "store", target);
+      // The sidecar goes first: a store in the cache always has one (resolve() reads its instance count).
       const nlohmann::json meta = {{"pacs", config.id},
                                    {"study", series.studyUid},
                                    {"series", series.seriesUid},
                                    {"instances", series.instances},
                                    {"prepped", isoTime(std::chrono::system_clock::now())}};
-      std::ofstream(sidecar(mCache.dir, name)) << meta.dump(2) << "\n";
+      std::ofstream(scratch / "meta.json") << meta.dump(2) << "\n";
+      fs::rename(scratch / "meta.json", sidecar(mCache.dir, name));
+      const fs::path target = mCache.dir / name, old = scratch / "old";
+      if (fs::exists(target)) fs::rename(target, old);
+      fs::rename(scratch / "store", target);
       spdlog::info("PACS '{}': series {} prepped into the cache in {:.1f} s", config.id, series.seriesUid,
                    std::chrono::duration<double>(Clock::now() - started).count());
     } catch (const std::exception& e) {

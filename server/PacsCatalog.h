@@ -92,6 +92,8 @@ class PacsCatalog {
   };
 
   void listingLoop();
+  /// Lists each PACS whose listing is due (`all`: each one).
+  void list(bool all);
   void prepLoop();
   void prepare(const std::string& name);
   /// The instance count recorded beside a cached store; -1 when none is cached.
