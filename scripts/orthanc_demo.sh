@@ -4,8 +4,10 @@
 # the demo series uploaded: the demo MRI (mricron's ch2better.nii.gz) as an MR series of 316 slices
 # (scripts/demo_series.py), and the small CT series of pydicom's test files that README.md preps from a folder.
 # Prints each series' dicomweb:// URL and a prep command. No secret is put on a command line (curl reads DIR/netrc).
+# --ct N adds a synthetic CT of N slices of 512x512 (demo_series.py --ct, N/2 MB, written to DIR/ct-N): a series of
+# a clinical CT's size for benchmarks (bench/results/dicomweb/).
 #
-#   bash scripts/orthanc_demo.sh [--port 8042] [--dir demo/orthanc]   # start it, upload, list the series
+#   bash scripts/orthanc_demo.sh [--port 8042] [--dir demo/orthanc] [--ct 512]   # start it, upload, list the series
 #   bash scripts/orthanc_demo.sh stop [--dir demo/orthanc]             # stop it (its storage stays in DIR)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -13,12 +15,14 @@ cd "$(dirname "$0")/.."
 port=8042
 dir=demo/orthanc
 action=start
+ct_slices=0
 while [ $# -gt 0 ]; do
   case "$1" in
     stop) action=stop ;;
     --port) port=$2; shift ;;
     --dir) dir=$2; shift ;;
-    *) echo "usage: orthanc_demo.sh [stop] [--port PORT] [--dir DIR]" >&2; exit 2 ;;
+    --ct) ct_slices=$2; shift ;;
+    *) echo "usage: orthanc_demo.sh [stop] [--port PORT] [--dir DIR] [--ct SLICES]" >&2; exit 2 ;;
   esac
   shift
 done
@@ -54,6 +58,18 @@ done
 if [ ! -s "$dir/mri/IM0316.dcm" ]; then
   echo "orthanc_demo: writing the demo MRI as a DICOM series in $dir/mri"
   /usr/bin/python3 scripts/demo_series.py "$mri" "$dir/mri" > /dev/null
+fi
+series_dirs=("$dir/mri" "$ct")
+if [ "$ct_slices" != 0 ]; then
+  if ! [[ "$ct_slices" =~ ^[1-9][0-9]{0,3}$ ]]; then
+    echo "orthanc_demo: --ct wants a number of slices (1 to 9999)" >&2
+    exit 2
+  fi
+  if [ ! -s "$dir/ct-$ct_slices/$(printf 'IM%04d.dcm' "$ct_slices")" ]; then
+    echo "orthanc_demo: writing a synthetic CT of $ct_slices slices in $dir/ct-$ct_slices"
+    /usr/bin/python3 scripts/demo_series.py --ct "$ct_slices" "$dir/ct-$ct_slices" > /dev/null
+  fi
+  series_dirs+=("$dir/ct-$ct_slices")
 fi
 
 stopServer
@@ -95,7 +111,7 @@ count=0
 while IFS= read -r -d '' f; do
   curl -sf -o /dev/null --netrc-file "$dir/netrc" -X POST --data-binary "@$f" "$base/instances"
   count=$((count + 1))
-done < <(find "$dir/mri" "$ct" -type f -print0)
+done < <(find "${series_dirs[@]}" -type f -print0)
 echo "orthanc_demo: Orthanc on $base (log $dir/orthanc.log; stop: bash scripts/orthanc_demo.sh stop --dir $dir)," \
      "$count files uploaded"
 echo "orthanc_demo: the series, each a dicomweb:// URL for voxbrick prep --auth-file $dir/auth:"

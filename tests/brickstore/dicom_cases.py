@@ -20,7 +20,8 @@ computes for them, for tests/brickstore/test_dicom_hospital.cpp. Nothing it writ
                                 series holding an RT plan and a structured report too), DIR/plan and DIR/report (an
                                 RT plan and a report in series of their own in the CT's study), DIR/enhanced (an
                                 Enhanced CT file), DIR/two/a and DIR/two/b (two CT series of one study), DIR/big (two
-                                2048x2048 slices of noise, 8 MB each); DIR/uids.json names their studies and series
+                                2048x2048 slices of noise, 8 MB each), DIR/many (a CT series of 160 small slices, more
+                                than a search capped at 100 lists); DIR/uids.json names their studies and series
 Prints one line per written case.
 """
 import copy
@@ -347,6 +348,10 @@ def case_pacs(out):
     noise = np.random.default_rng(5).integers(0, 4096, size=(2, 2048, 2048), dtype=np.uint16).astype(np.int16)
     ct_series(noise, os.path.join(out, "big"), series, study)
     uids["big"] = {"study": study, "series": series}
+
+    study, series = generate_uid(), generate_uid()
+    ct_series(volume(160, 8, 8), os.path.join(out, "many"), series, study)
+    uids["many"] = {"study": study, "series": series}
     with open(os.path.join(out, "uids.json"), "w") as f:
         json.dump(uids, f)
 

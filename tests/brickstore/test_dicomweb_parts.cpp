@@ -329,6 +329,62 @@ TEST(Qido, MalformedAnswersAreRefusedNamingTheRequest) {
   refused(R"([{"00080018":{"vr":"UI","Value":[{"a":1}]}}])", "neither a string nor an integer");
 }
 
+/// A page of QIDO-RS results: instances 1.2.FIRST ... 1.2.(FIRST + COUNT - 1).
+std::string qidoPage(int first, int count) {
+  std::string j = "[";
+  for (int i = first; i < first + count; ++i) j += (i > first ? "," : "") + qidoInstance("1.2." + std::to_string(i));
+  return j + "]";
+}
+
+TEST(Qido, PagesAskForTheResultsAfterThoseReceivedUntilOneBringsFewer) {
+  store::QidoInstancePages pages("http://h/s/instances", "9.9", 1 << 20, 4);
+  EXPECT_EQ(pages.nextUrl(), "http://h/s/instances?limit=4&offset=0");
+  EXPECT_TRUE(pages.add(qidoPage(0, 4), ""));
+  EXPECT_EQ(pages.nextUrl(), "http://h/s/instances?limit=4&offset=4");
+  // A page cut short by the server's cap (Warning 299): the search goes on after what came.
+  EXPECT_TRUE(pages.add(qidoPage(4, 3), "299 example.org \"The number of results exceeded the maximum supported\""));
+  EXPECT_EQ(pages.nextUrl(), "http://h/s/instances?limit=4&offset=7");
+  // An instance listed again (a series that changed between pages) counts once.
+  EXPECT_TRUE(pages.add(qidoPage(6, 4), ""));
+  EXPECT_FALSE(pages.add(qidoPage(10, 1), "199 - \"another warning\""));
+  ASSERT_EQ(pages.instances().size(), 11u);
+  EXPECT_EQ(pages.instances().front().sopInstanceUid, "1.2.0");
+  EXPECT_EQ(pages.instances().back().sopInstanceUid, "1.2.10");
+  EXPECT_EQ(pages.pages(), 4u);
+  // A series of exactly a page: one empty page more ends it; so does a search that matched nothing.
+  store::QidoInstancePages exact("http://h/s/instances", "9.9", 1 << 20, 4);
+  EXPECT_TRUE(exact.add(qidoPage(0, 4), ""));
+  EXPECT_FALSE(exact.add("[]", ""));
+  EXPECT_EQ(exact.instances().size(), 4u);
+  store::QidoInstancePages none("http://h/s/instances", "9.9", 1 << 20, 4);
+  EXPECT_FALSE(none.add("", ""));  // 204 No Content
+  EXPECT_TRUE(none.instances().empty());
+}
+
+TEST(Qido, AServerThatIgnoresLimitAnsweredEverything) {
+  store::QidoInstancePages pages("http://h/s/instances", "9.9", 1 << 20, 4);
+  EXPECT_FALSE(pages.add(qidoPage(0, 9), ""));
+  EXPECT_EQ(pages.instances().size(), 9u);
+}
+
+TEST(Qido, AServerThatIgnoresOffsetIsRefusedNotAskedAgain) {
+  store::QidoInstancePages pages("http://h/s/instances", "9.9", 1 << 20, 4);
+  EXPECT_TRUE(pages.add(qidoPage(0, 4), ""));
+  expectRefused([&] { pages.add(qidoPage(0, 4), ""); }, {"GET http://h/s/instances?limit=4&offset=4", "listed again",
+                                                         "ignores QIDO-RS's offset", "more than 4 instances"});
+}
+
+TEST(Qido, PagesAreBoundedTogetherAndCheckedEach) {
+  const std::string page = qidoPage(0, 4);
+  store::QidoInstancePages pages("http://h/s/instances", "9.9", page.size() + 10, 4);
+  EXPECT_TRUE(pages.add(page, ""));
+  EXPECT_EQ(pages.bytesLeft(), 10u);
+  expectRefused([&] { pages.add(qidoPage(4, 4), ""); }, {"offset=4", "answers exceed", "2 pages of 4"});
+  store::QidoInstancePages other("http://h/s/instances", "9.9", 1 << 20, 4);
+  expectRefused([&] { other.add("[" + qidoInstance("1.3", "8.8") + "]", ""); },
+                {"GET http://h/s/instances?limit=4&offset=0", "is of series 8.8, not 9.9"});
+}
+
 TEST(Qido, SeriesOfAStudy) {
   const auto series = store::parseQidoSeries(
       R"([{"0020000E":{"vr":"UI","Value":["1.1"]},"00080060":{"vr":"CS","Value":["CT"]},

@@ -64,7 +64,7 @@ std::string randomPassword() {
 
 /// Writes Orthanc's configuration into `scratch` and returns the command that starts it.
 std::vector<std::string> orthancCommand(const fs::path& scratch, int port, const std::string& user,
-                                        const std::string& password) {
+                                        const std::string& password, const std::string& settings) {
   fs::create_directories(scratch / "storage");
   const fs::path config = scratch / "orthanc.json";
   std::ofstream out(config);
@@ -80,7 +80,7 @@ std::vector<std::string> orthancCommand(const fs::path& scratch, int port, const
       << "  \"Plugins\": [\"" << VOXBRICK_ORTHANC_DICOMWEB << "\"],\n"
       << "  \"DicomWeb\": {\"Enable\": true, \"Root\": \"/dicom-web/\", \"EnableWado\": false},\n"
       << "  \"ConcurrentJobs\": 1,\n"
-      << "  \"HttpThreadsCount\": 8\n"
+      << (settings.empty() ? "" : "  " + settings + ",\n") << "  \"HttpThreadsCount\": 8\n"
       << "}\n";
   if (!out) throw std::runtime_error("cannot write " + config.string());
   return {VOXBRICK_ORTHANC, config.string()};
@@ -170,10 +170,10 @@ int freePort() {
   return ntohs(address.sin_port);
 }
 
-OrthancServer::OrthancServer(const fs::path& scratch)
+OrthancServer::OrthancServer(const fs::path& scratch, const std::string& settings)
     : mPort(freePort()),
       mPassword(randomPassword()),
-      mProcess(orthancCommand(scratch, mPort, mUser, mPassword), scratch, scratch / "orthanc.log") {
+      mProcess(orthancCommand(scratch, mPort, mUser, mPassword, settings), scratch, scratch / "orthanc.log") {
   const std::string url = "http://127.0.0.1:" + std::to_string(mPort) + "/system";
   const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
   while (request(url, mUser, mPassword, nullptr) != 200) {

@@ -49,7 +49,8 @@ int freePort();
 class OrthancServer {
  public:
   /// Starts it and waits (up to 30 s) until its REST API answers. Throws std::runtime_error with its log otherwise.
-  explicit OrthancServer(const std::filesystem::path& scratch);
+  /// `settings`: more members of its configuration, as JSON ("\"LimitFindInstances\": 100").
+  explicit OrthancServer(const std::filesystem::path& scratch, const std::string& settings = "");
 
   int port() const { return mPort; }
   /// "dicomweb://127.0.0.1:PORT/dicom-web"

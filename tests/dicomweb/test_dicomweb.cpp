@@ -187,6 +187,47 @@ TEST_F(DicomWebOrthanc, AStudyGivesItsOneImageSeriesOrListsThem) {
   EXPECT_SAYS(r.output, "differs from the series the URL names");
 }
 
+TEST_F(DicomWebOrthanc, ASeriesBeyondTheServersSearchCapIsFetchedWhole) {
+  // Orthanc 1.10 with LimitFindInstances (and its DICOMweb plugin 1.7) answers an instance search with its first
+  // LIMIT + 1 results and no Warning header; limit and offset page within those, so offset 101 lists nothing. The
+  // series search still counts every instance: the fetch sees the shortfall and lists the series' WADO-RS metadata.
+  ScratchDir own, out;
+  std::unique_ptr<OrthancServer> server;
+  try {
+    server = std::make_unique<OrthancServer>(own.path(), "\"LimitFindInstances\": 100, \"LimitFindResults\": 100");
+    server->upload(cases() / "many");
+  } catch (const std::exception& e) {
+    FAIL() << e.what();
+  }
+  writeAuth(out / "auth", server->credentials());
+  const std::string series = "/dicom-web/studies/" + uid("many", "study") + "/series/" + uid("many", "series");
+  auto listed = [&](const std::string& query) {
+    const std::string user = server->credentials().substr(6);  // past "basic "
+    const auto r = runShell("curl -sf -u '" + user + "' -H 'Accept: application/dicom+json' 'http://127.0.0.1:" +
+                            std::to_string(server->port()) + series + "/instances" + query +
+                            "' | /usr/bin/python3 -c 'import json, sys; print(len(json.load(sys.stdin)))'");
+    EXPECT_EQ(r.exitCode, 0) << r.output;
+    return std::atoi(r.output.c_str());
+  };
+  EXPECT_EQ(listed(""), 101) << "the cap this test is about";
+  EXPECT_EQ(listed("?limit=500&offset=0"), 101);
+  EXPECT_EQ(listed("?limit=50&offset=100"), 1) << "offset pages within the capped results";
+  const std::string input =
+      server->dicomWeb() + "/studies/" + uid("many", "study") + "/series/" + uid("many", "series");
+  auto r = runVoxbrick("prep '" + input + "' -o '" + (out / "many.vbs").string() + "' --auth-file '" +
+                       (out / "auth").string() + "'");
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_SAYS(r.output, "fetch: 160/160");
+  EXPECT_SAYS(r.output, "8x8x160");
+  EXPECT_EQ(digest(out / "many.vbs"), folderDigest(cases() / "many", out / "files.vbs"));
+  // The same from the study's URL: its series search gives the count there.
+  r = runVoxbrick("prep '" + server->dicomWeb() + "/studies/" + uid("many", "study") + "' -q -o '" +
+                  (out / "study.vbs").string() + "' --auth-file '" + (out / "auth").string() + "'");
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_EQ(digest(out / "study.vbs"), digest(out / "many.vbs"));
+  EXPECT_TRUE(leftovers(out.path()).empty());
+}
+
 TEST_F(DicomWebOrthanc, WrongOrMissingCredentialsAreRefusedByName) {
   ScratchDir out;
   writeAuth(out / "wrong", "basic voxbrick:N0tThePassw0rd");
@@ -241,7 +282,7 @@ TEST_F(DicomWebOrthanc, AMissingSeriesOrStudyIsA404NamingTheUrl) {
   r = prep(wrongRoot, out / "s.vbs");
   EXPECT_EQ(r.exitCode, 1) << r.output;
   EXPECT_SAYS(r.output, "/dicom-wbe/studies/" + uid("ct", "study") + "/series/" + uid("ct", "series") +
-                            "/instances: HTTP 404 Not Found");
+                            "/instances?limit=500&offset=0: HTTP 404 Not Found");
   EXPECT_FALSE(fs::exists(out / "s.vbs"));
   EXPECT_TRUE(leftovers(out.path()).empty());
 }

@@ -131,12 +131,52 @@ class InstanceFile final : public ResponseHandler, private PartHandler {
   std::optional<MultipartParser> mParser;
 };
 
-/// The instances QIDO-RS lists for a series (maybe none).
+/// The instances QIDO-RS lists for a series (maybe none), page by page (QidoInstancePages).
 std::vector<QidoInstance> searchInstances(HttpClient& client, const DicomWebUrl& url, const std::string& seriesUid) {
-  const std::string search = url.instancesUrl(seriesUid);
+  QidoInstancePages pages(url.instancesUrl(seriesUid), seriesUid, kMaxQidoBytes);
+  for (bool more = true; more;) {
+    const std::string search = pages.nextUrl();
+    BodyText body("GET " + search, pages.bytesLeft());
+    client.get(search, kJson, body);
+    more = pages.add(body.text(), client.warning());
+  }
+  return pages.instances();
+}
+
+/// The instances of a series the server counts (NumberOfSeriesRelatedInstances in its series search); -1 when it
+/// does not say, or does not answer a search by SeriesInstanceUID (a 4xx).
+int64_t countedInstances(HttpClient& client, const DicomWebUrl& url, const std::string& seriesUid) {
+  const std::string search = url.seriesSearchUrl() + "?SeriesInstanceUID=" + seriesUid;
   BodyText body("GET " + search, kMaxQidoBytes);
-  client.get(search, kJson, body);
-  return parseQidoInstances(body.text(), seriesUid, "GET " + search);
+  try {
+    client.get(search, kJson, body);
+  } catch (const HttpError& e) {
+    if (e.status() >= 400 && e.status() < 500) return -1;
+    throw;
+  }
+  for (const QidoSeries& s : parseQidoSeries(body.text(), "GET " + search))
+    if (s.seriesUid == seriesUid) return s.instances;
+  return -1;
+}
+
+/// A series' instances when its search listed fewer than the server counts: a server may cap a search's results
+/// whatever its offset (Orthanc's LimitFindInstances: the plugin pages within the first LIMIT + 1 results and
+/// says nothing), so the series' WADO-RS metadata, which lists every instance, is read instead. Throws when it too
+/// lists fewer.
+std::vector<QidoInstance> completeInstances(HttpClient& client, const DicomWebUrl& url, const std::string& seriesUid,
+                                            std::vector<QidoInstance> listed, int64_t counted) {
+  if (counted < 0 || int64_t(listed.size()) >= counted) return listed;
+  const std::string metadata = url.seriesUrl(seriesUid) + "/metadata";
+  BodyText body("GET " + metadata, kMaxQidoBytes);
+  client.get(metadata, kJson, body);
+  std::vector<QidoInstance> all = parseQidoInstances(body.text(), seriesUid, "GET " + metadata);
+  if (int64_t(all.size()) < counted)
+    throw InputError("the series " + seriesUid + " holds " + std::to_string(counted) +
+                     " instances (NumberOfSeriesRelatedInstances), but the server's search (GET " +
+                     url.instancesUrl(seriesUid) + ") listed " + std::to_string(listed.size()) +
+                     " and its metadata (GET " + metadata + ") " + std::to_string(all.size()) +
+                     ": does the server cap its search results?");
+  return all;
 }
 
 /// A study's series as judged for the choice: its instances, how many are images, what the others are.
@@ -189,7 +229,8 @@ std::pair<std::string, std::vector<QidoInstance>> chooseSeries(HttpClient& clien
   std::vector<SeriesCensus> census;
   for (const QidoSeries& s : all) {
     if (!wanted.empty() && s.seriesUid != wanted) continue;
-    SeriesCensus c{s, searchInstances(client, url, s.seriesUid), 0, ""};
+    SeriesCensus c{
+        s, completeInstances(client, url, s.seriesUid, searchInstances(client, url, s.seriesUid), s.instances), 0, ""};
     bool classes = false;
     for (const QidoInstance& i : c.instances) {
       classes = classes || !i.sopClassUid.empty();
@@ -315,6 +356,9 @@ std::unique_ptr<FetchedSeries> fetch(const DicomWebUrl& url, const SourceOptions
     throw InputError("--series " + options.seriesUid + " differs from the series the URL names (" + seriesUid + ")");
   } else {
     instances = searchInstances(client, url, seriesUid);
+    if (!instances.empty())
+      instances =
+          completeInstances(client, url, seriesUid, std::move(instances), countedInstances(client, url, seriesUid));
   }
   if (instances.empty())
     refuseEmpty(client, url.seriesUrl(seriesUid), "series " + seriesUid + " in study " + url.study,

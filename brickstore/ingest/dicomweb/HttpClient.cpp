@@ -154,6 +154,7 @@ struct HttpClient::Impl {
   bool interrupted = false;
   long status = 0;
   std::string contentType, errorBody;
+  std::string warning;  // the response's Warning headers, one a line
   int64_t contentLength = -1;
   std::exception_ptr handlerError;
 
@@ -162,6 +163,7 @@ struct HttpClient::Impl {
     const std::string line(data, size * count);
     if (line.rfind("HTTP/", 0) == 0) {  // a new response (after a redirect or a 100 Continue): its own headers
       impl.contentType.clear();
+      impl.warning.clear();
       impl.contentLength = -1;
     }
     const size_t colon = line.find(':');
@@ -169,6 +171,7 @@ struct HttpClient::Impl {
       const std::string name = lowerHeader(line.substr(0, colon));
       const std::string value = trimmed(line.substr(colon + 1));
       if (name == "content-type") impl.contentType = value;
+      if (name == "warning" && impl.warning.size() < kErrorBodyBytes) impl.warning += value + "\n";
       if (name == "content-length" && !value.empty() && value.size() < 19 &&
           std::all_of(value.begin(), value.end(), [](char c) { return c >= '0' && c <= '9'; }))
         impl.contentLength = std::stoll(value);
@@ -282,6 +285,7 @@ struct HttpClient::Impl {
     status = 0;
     contentType.clear();
     errorBody.clear();
+    warning.clear();
     contentLength = -1;
     handlerError = nullptr;
     errorText[0] = '\0';
@@ -374,6 +378,8 @@ HttpClient::~HttpClient() {
 }
 
 uint64_t HttpClient::bytesReceived() const { return mImpl->received; }
+
+const std::string& HttpClient::warning() const { return mImpl->warning; }
 
 void HttpClient::get(const std::string& url, const std::string& accept, ResponseHandler& handler) {
   Impl& m = *mImpl;

@@ -87,6 +87,10 @@ class HttpClient {
   /// The body bytes received by every request so far (a retried one's counted again).
   uint64_t bytesReceived() const;
 
+  /// The Warning headers of the last response, one a line ("" when none): how a DICOMweb server says that it cut a
+  /// search's results short (299 "The number of results exceeded the maximum supported by the server").
+  const std::string& warning() const;
+
  private:
   struct Impl;
   std::unique_ptr<Impl> mImpl;

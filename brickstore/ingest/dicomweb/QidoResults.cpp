@@ -66,11 +66,13 @@ std::string checkedUid(const std::string& uid, const std::string& what, size_t i
 
 }  // namespace
 
-std::vector<QidoInstance> parseQidoInstances(std::string_view json, const std::string& seriesUid,
-                                             const std::string& what) {
+namespace {
+
+/// Every result of a series' instance search as listed, duplicates included.
+std::vector<QidoInstance> instanceResults(std::string_view json, const std::string& seriesUid,
+                                          const std::string& what) {
   const Json results = parseResults(json, what);
   std::vector<QidoInstance> instances;
-  std::set<std::string> seen;
   for (size_t i = 0; i < results.size(); ++i) {
     QidoInstance q;
     q.sopInstanceUid = checkedUid(firstValue(results[i], "00080018", i, what), what, i, "SOPInstanceUID");
@@ -79,9 +81,68 @@ std::vector<QidoInstance> parseQidoInstances(std::string_view json, const std::s
     if (!series.empty() && series != seriesUid)
       throw InputError(what + ": result " + std::to_string(i + 1) + " (instance " + q.sopInstanceUid +
                        ") is of series " + series.substr(0, 80) + ", not " + seriesUid);
-    if (seen.insert(q.sopInstanceUid).second) instances.push_back(std::move(q));
+    instances.push_back(std::move(q));
   }
   return instances;
+}
+
+/// Whether Warning headers (one a line) hold a 299, the code a DICOMweb server gives a search it cut short.
+bool resultsCut(const std::string& warning) {
+  for (size_t start = 0; start < warning.size();) {
+    size_t end = warning.find('\n', start);
+    if (end == std::string::npos) end = warning.size();
+    const std::string line = warning.substr(start, end - start);
+    if (line.rfind("299 ", 0) == 0 || line.find(", 299 ") != std::string::npos) return true;
+    start = end + 1;
+  }
+  return false;
+}
+
+}  // namespace
+
+std::vector<QidoInstance> parseQidoInstances(std::string_view json, const std::string& seriesUid,
+                                             const std::string& what) {
+  std::vector<QidoInstance> instances;
+  std::set<std::string> seen;
+  for (QidoInstance& q : instanceResults(json, seriesUid, what))
+    if (seen.insert(q.sopInstanceUid).second) instances.push_back(std::move(q));
+  return instances;
+}
+
+QidoInstancePages::QidoInstancePages(std::string searchUrl, std::string seriesUid, size_t maxBytes, size_t pageSize)
+    : mSearchUrl(std::move(searchUrl)),
+      mSeriesUid(std::move(seriesUid)),
+      mMaxBytes(maxBytes),
+      mPageSize(std::max<size_t>(1, pageSize)) {}
+
+std::string QidoInstancePages::nextUrl() const {
+  return mSearchUrl + (mSearchUrl.find('?') == std::string::npos ? "?" : "&") + "limit=" + std::to_string(mPageSize) +
+         "&offset=" + std::to_string(mOffset);
+}
+
+bool QidoInstancePages::add(std::string_view json, const std::string& warning) {
+  const std::string what = "GET " + nextUrl();
+  mBytes += json.size();
+  if (mBytes > mMaxBytes)
+    throw InputError(what + ": the search's answers exceed " + std::to_string(mMaxBytes >> 20) + " MB (" +
+                     std::to_string(mPages + 1) + " pages of " + std::to_string(mPageSize) + ")");
+  ++mPages;
+  const std::vector<QidoInstance> page = instanceResults(json, mSeriesUid, what);
+  size_t added = 0;
+  for (const QidoInstance& q : page)
+    if (mSeen.insert(q.sopInstanceUid).second) {
+      mInstances.push_back(q);
+      ++added;
+    }
+  if (mOffset > 0 && !page.empty() && added == 0)
+    throw InputError(what + ": the server listed again the instances it had listed before (" +
+                     std::to_string(page.size()) + " results, all among the " + std::to_string(mInstances.size()) +
+                     " listed): it ignores QIDO-RS's offset, so a series of more than " + std::to_string(mOffset) +
+                     " instances cannot be listed by it page by page");
+  mOffset += page.size();
+  if (page.size() > mPageSize) return false;  // `limit` ignored: everything at once
+  if (page.size() == mPageSize) return true;
+  return !page.empty() && resultsCut(warning);  // a page cut short by the server's own cap: the rest follows
 }
 
 std::vector<QidoSeries> parseQidoSeries(std::string_view json, const std::string& what) {

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <set>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -34,6 +35,38 @@ struct QidoSeries {
 /// request in errors (InputError: not JSON, not an array, a missing or malformed UID, another series).
 std::vector<QidoInstance> parseQidoInstances(std::string_view json, const std::string& seriesUid,
                                              const std::string& what);
+
+/// The results a QIDO-RS search asks a server for at a time (its `limit`).
+inline constexpr size_t kQidoPageSize = 500;
+
+/// A series' instances searched page by page (PS3.18 8.3.4.4: `limit` and `offset`), for a server that caps the
+/// results it gives at once: each page asks for the results after those received so far, until one brings fewer than
+/// asked without a Warning 299 ("The number of results exceeded the maximum supported by the server": a page cut
+/// short, the search goes on). An instance listed twice counts once. A server that ignores `offset` (a page of
+/// nothing but instances already listed) is refused rather than asked again; one that ignores `limit` (more results
+/// than asked) has answered everything at once. The answers together are bounded by `maxBytes`.
+class QidoInstancePages {
+ public:
+  QidoInstancePages(std::string searchUrl, std::string seriesUid, size_t maxBytes, size_t pageSize = kQidoPageSize);
+  /// The URL of the next page: SEARCH?limit=N&offset=M.
+  std::string nextUrl() const;
+  /// Takes the answer to nextUrl(): its body and its Warning headers ("" when none). Returns whether another page is
+  /// to be asked for. Throws InputError naming the page's URL: a malformed answer (parseQidoInstances), an offset
+  /// ignored, the answers beyond maxBytes.
+  bool add(std::string_view json, const std::string& warning);
+  /// The instances listed so far, each once, in the order listed.
+  const std::vector<QidoInstance>& instances() const { return mInstances; }
+  /// The pages asked for so far.
+  size_t pages() const { return mPages; }
+  /// The bytes the answers may still take.
+  size_t bytesLeft() const { return mMaxBytes - mBytes; }
+
+ private:
+  std::string mSearchUrl, mSeriesUid;
+  size_t mMaxBytes, mPageSize, mOffset = 0, mBytes = 0, mPages = 0;
+  std::vector<QidoInstance> mInstances;
+  std::set<std::string> mSeen;
+};
 
 /// The series in a QIDO-RS answer for STUDY/series: as parseQidoInstances, each with a SeriesInstanceUID.
 std::vector<QidoSeries> parseQidoSeries(std::string_view json, const std::string& what);
