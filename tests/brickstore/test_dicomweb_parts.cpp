@@ -396,6 +396,29 @@ TEST(Qido, SeriesOfAStudy) {
   EXPECT_EQ(series[0].description, "chest");
   EXPECT_EQ(series[0].instances, 12);
   EXPECT_EQ(series[1].instances, -1);
+  EXPECT_EQ(series[0].studyUid, "");
+  // A search of every series (a PACS listed as datasets) reads the study and the patient too; a person name is
+  // DICOM JSON's {"Alphabetic": ...}.
+  const auto listed = store::parseQidoSeries(
+      R"([{"0020000E":{"vr":"UI","Value":["1.1"]},"0020000D":{"vr":"UI","Value":["2.5"]},
+           "00081030":{"vr":"LO","Value":["head"]},"00080020":{"vr":"DA","Value":["20261204"]},
+           "00100010":{"vr":"PN","Value":[{"Alphabetic":"Doe^Jane"}]},"00100020":{"vr":"LO","Value":["P-77"]},
+           "00100030":{"vr":"DA","Value":["19700101"]}},
+          {"0020000E":{"vr":"UI","Value":["1.2"]},"00100010":{"vr":"PN"}}])",
+      "GET u");
+  ASSERT_EQ(listed.size(), 2u);
+  EXPECT_EQ(listed[0].studyUid, "2.5");
+  EXPECT_EQ(listed[0].studyDescription, "head");
+  EXPECT_EQ(listed[0].studyDate, "20261204");
+  EXPECT_EQ(listed[0].patientName, "Doe^Jane");
+  EXPECT_EQ(listed[0].patientId, "P-77");
+  EXPECT_EQ(listed[0].patientBirthDate, "19700101");
+  EXPECT_EQ(listed[1].patientName, "");
+  expectRefused([] { store::parseQidoSeries(R"([{"0020000E":{"vr":"UI","Value":["1.1"]},"0020000D":{"vr":"UI",
+                                              "Value":["x/y"]}}])", "GET u"); },
+                {"StudyInstanceUID 'x/y', which is not a DICOM UID"});
+  EXPECT_TRUE(store::qidoResultsCut("299 orthanc \"The number of results exceeded the maximum\""));
+  EXPECT_FALSE(store::qidoResultsCut("199 misc"));
   EXPECT_FALSE(store::isNonImageModality("CT"));
   EXPECT_FALSE(store::isNonImageModality("RTDOSE"));  // a dose grid is a volume
   EXPECT_TRUE(store::isNonImageModality("RTPLAN"));

@@ -64,10 +64,6 @@ std::string checkedUid(const std::string& uid, const std::string& what, size_t i
   return uid;
 }
 
-}  // namespace
-
-namespace {
-
 /// Every result of a series' instance search as listed, duplicates included.
 std::vector<QidoInstance> instanceResults(std::string_view json, const std::string& seriesUid,
                                           const std::string& what) {
@@ -84,18 +80,6 @@ std::vector<QidoInstance> instanceResults(std::string_view json, const std::stri
     instances.push_back(std::move(q));
   }
   return instances;
-}
-
-/// Whether Warning headers (one a line) hold a 299, the code a DICOMweb server gives a search it cut short.
-bool resultsCut(const std::string& warning) {
-  for (size_t start = 0; start < warning.size();) {
-    size_t end = warning.find('\n', start);
-    if (end == std::string::npos) end = warning.size();
-    const std::string line = warning.substr(start, end - start);
-    if (line.rfind("299 ", 0) == 0 || line.find(", 299 ") != std::string::npos) return true;
-    start = end + 1;
-  }
-  return false;
 }
 
 }  // namespace
@@ -142,7 +126,18 @@ bool QidoInstancePages::add(std::string_view json, const std::string& warning) {
   mOffset += page.size();
   if (page.size() > mPageSize) return false;  // `limit` ignored: everything at once
   if (page.size() == mPageSize) return true;
-  return !page.empty() && resultsCut(warning);  // a page cut short by the server's own cap: the rest follows
+  return !page.empty() && qidoResultsCut(warning);  // a page cut short by the server's own cap: the rest follows
+}
+
+bool qidoResultsCut(const std::string& warning) {
+  for (size_t start = 0; start < warning.size();) {
+    size_t end = warning.find('\n', start);
+    if (end == std::string::npos) end = warning.size();
+    const std::string line = warning.substr(start, end - start);
+    if (line.rfind("299 ", 0) == 0 || line.find(", 299 ") != std::string::npos) return true;
+    start = end + 1;
+  }
+  return false;
 }
 
 std::vector<QidoSeries> parseQidoSeries(std::string_view json, const std::string& what) {

@@ -68,6 +68,10 @@ class QidoInstancePages {
   std::set<std::string> mSeen;
 };
 
+/// Whether Warning headers (one a line, HttpClient::warning) hold a 299, the code a DICOMweb server gives a search
+/// it cut short ("The number of results exceeded the maximum supported by the server").
+bool qidoResultsCut(const std::string& warning);
+
 /// The series in a QIDO-RS answer for STUDY/series: as parseQidoInstances, each with a SeriesInstanceUID.
 std::vector<QidoSeries> parseQidoSeries(std::string_view json, const std::string& what);
 

@@ -53,7 +53,10 @@ std::vector<QidoSeries> searchAllSeries(const std::string& root, const HttpOptio
         all.push_back(s);
         ++added;
       }
-    if (got.size() < pageSize || got.size() > pageSize) return all;  // the last page, or everything at once
+    // The last page brings fewer than asked, unless the server cut it short (Warning 299); more than asked is
+    // everything at once.
+    if ((got.size() < pageSize && !(got.size() > 0 && qidoResultsCut(client.warning()))) || got.size() > pageSize)
+      return all;
     if (added == 0)
       throw InputError("GET " + url + ": a page of series already listed: the server ignores 'offset', so its "
                        "series cannot be listed page by page");

@@ -12,7 +12,8 @@ namespace voxbrick::store {
 
 /// The series of the DICOMweb root `root` (http[s]://HOST[:PORT]/PATH), with their study, modality, description,
 /// instance count, study description and date and patient fields (PatientName, PatientID, PatientBirthDate: the
-/// caller decides whether to show them). Asked `pageSize` at a time (`limit`, `offset`) until a page brings fewer;
+/// caller decides whether to show them). Asked `pageSize` at a time (`limit`, `offset`) until a page brings fewer
+/// without a Warning 299 (a page the server cut short);
 /// a server that ignores `offset` (a page of series already listed) is refused by name, as is one whose answers pass
 /// 64 MB together. Throws HttpError ("GET URL: ... HTTP 401") or InputError.
 std::vector<QidoSeries> searchAllSeries(const std::string& root, const HttpOptions& options, size_t pageSize = 500);
