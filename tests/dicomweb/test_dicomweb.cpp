@@ -380,3 +380,75 @@ TEST_F(DicomWebOrthanc, HttpsChecksTheServersCertificate) {
 
 }  // namespace
 }  // namespace voxbrick
+
+namespace voxbrick {
+namespace {
+
+/// `voxbrick request ADDRESS ARGS` through the shell, its output and exit status.
+test::CommandResult request(const std::string& address, const std::string& args) {
+  return runVoxbrick("request " + address + " " + args);
+}
+
+// The server lists the PACS ([[pacs]]): its image series are datasets "ID.SERIESUID", the first request of one is
+// answered Busy while the server fetches and preps it into its PACS cache, then its frames are those of the store its
+// files give; the series without images (the CT study's RT plan and report) are not listed.
+TEST_F(DicomWebOrthanc, TheServerListsThePacsAndServesASeriesOnceFetched) {
+  ScratchDir work;
+  fs::create_directories(work / "datasets");
+  const std::string root = sServer->dicomWeb().replace(0, std::string("dicomweb").size(), "http");
+  test::writeFile(work / "server.toml", "[server]\ndatasets = \"datasets\"\n[[pacs]]\nid = \"ward\"\nurl = \"" + root +
+                                            "\"\nauth_file = \"" + authFile().string() + "\"\nrefresh_s = 2\n");
+  ChildProcess serve({test::voxbrickExe(), "serve", "--config", (work / "server.toml").string(), "--port", "0",
+                      "--port-file", (work / "port").string(), "--render-threads", "1"},
+                     work.path(), work / "serve.log");
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  std::string address;
+  while (address.empty() && std::chrono::steady_clock::now() < until) {
+    std::ifstream in(work / "port");
+    int port = 0;
+    if (in >> port && port > 0) address = "127.0.0.1:" + std::to_string(port);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_FALSE(address.empty()) << serve.log();
+  const std::string ct = "ward." + uid("ct", "series");
+  test::CommandResult listed;
+  while (std::chrono::steady_clock::now() < until) {
+    listed = request(address, "--list");
+    if (contains(listed.output, ct)) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  EXPECT_SAYS(listed.output, ct);
+  EXPECT_SAYS(listed.output, "ward." + uid("enhanced", "series"));
+  EXPECT_FALSE(contains(listed.output, uid("ct", "plan"))) << listed.output;
+  EXPECT_FALSE(contains(listed.output, uid("ct", "report"))) << listed.output;
+
+  const std::string frame = "--dataset " + ct + " --orbit 30,20 --size 96x80 --tf hot -o '";
+  auto r = request(address, frame + (work / "pacs.png").string() + "'");
+  EXPECT_NE(r.exitCode, 0);
+  EXPECT_SAYS(r.output, "Busy");
+  EXPECT_SAYS(r.output, "of PACS 'ward' (7 instances)");
+  while (r.exitCode != 0 && contains(r.output, "Busy") && std::chrono::steady_clock::now() < until) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    r = request(address, frame + (work / "pacs.png").string() + "'");
+  }
+  ASSERT_EQ(r.exitCode, 0) << r.output << serve.log();
+  // The cached store is the one the files give, and so is the frame.
+  const fs::path cached = work / "datasets" / ".pacs" / ct;
+  EXPECT_EQ(digest(cached), folderDigest(cases() / "ct", work / "files.vbs"));
+  const auto cli = runVoxbrick("render '" + (work / "files.vbs").string() +
+                               "' --orbit 30,20 --size 96x80 --tf hot -q -o '" + (work / "cli.png").string() + "'");
+  ASSERT_EQ(cli.exitCode, 0) << cli.output;
+  EXPECT_EQ(test::readFile(work / "pacs.png"), test::readFile(work / "cli.png"));
+  // Nothing of the fetch is left beside the cache's store and its record.
+  std::vector<std::string> files;
+  for (const auto& e : fs::directory_iterator(work / "datasets" / ".pacs")) files.push_back(e.path().filename());
+  std::sort(files.begin(), files.end());
+  EXPECT_EQ(files, (std::vector<std::string>{ct, ct + ".json"}));
+  // A series no listing holds is refused as a missing dataset, naming the PACS.
+  r = request(address, "--dataset ward.1.2.3.4 -o '" + (work / "x.png").string() + "'");
+  EXPECT_NE(r.exitCode, 0);
+  EXPECT_SAYS(r.output, "no series 1.2.3.4 in PACS 'ward'");
+}
+
+}  // namespace
+}  // namespace voxbrick
