@@ -173,6 +173,49 @@ upload = true
   EXPECT_TRUE(c.tokens[0].upload);
 }
 
+TEST_F(ServerConfigTest, APacsIsReadAndChecked) {
+  const ServerConfig c = ServerConfig::load(write(R"(
+[[pacs]]
+id = "ward"
+url = "https://pacs.example.org/dicom-web"
+auth_file = "pacs.auth"
+ca = "/etc/ca.pem"
+patient_fields = true
+refresh_s = 30
+[[pacs]]
+id = "lab_2"
+url = "http://127.0.0.1:8042/dicom-web"
+[pacs_cache]
+dir = "cache"
+max_mb = 2048
+)"));
+  ASSERT_EQ(c.pacs.size(), 2u);
+  EXPECT_EQ(c.pacs[0].id, "ward");
+  EXPECT_EQ(c.pacs[0].url, "https://pacs.example.org/dicom-web");
+  EXPECT_EQ(c.pacs[0].authFile, dir.path() / "pacs.auth") << "relative to the configuration file";
+  EXPECT_EQ(c.pacs[0].ca, "/etc/ca.pem");
+  EXPECT_TRUE(c.pacs[0].patientFields);
+  EXPECT_DOUBLE_EQ(c.pacs[0].refreshS, 30);
+  EXPECT_FALSE(c.pacs[1].patientFields);
+  EXPECT_TRUE(c.pacs[1].authFile.empty());
+  EXPECT_DOUBLE_EQ(c.pacs[1].refreshS, 60);
+  EXPECT_EQ(c.pacsCache.dir, dir.path() / "cache");
+  EXPECT_EQ(c.pacsCache.maxMB, 2048);
+  const auto error = [&](const std::string& entry) { return loadError("[[pacs]]\n" + entry); };
+  EXPECT_NE(error("id = \"a.b\"\nurl = \"http://h/d\"\n").find("id 'a.b' must be 1 to 64 letters"), std::string::npos);
+  EXPECT_NE(error("url = \"http://h/d\"\n").find("pacs[1]: id '' must be"), std::string::npos);
+  EXPECT_NE(error("id = \"a\"\nurl = \"dicomweb://h/d\"\n").find("is not http[s]://HOST[:PORT]/PATH"),
+            std::string::npos);
+  EXPECT_NE(error("id = \"a\"\nurl = \"http://user:pw@h/d\"\n").find("url holds credentials"), std::string::npos);
+  EXPECT_NE(error("id = \"a\"\nurl = \"http://h/d?x=1\"\n").find("has a query"), std::string::npos);
+  EXPECT_NE(error("id = \"a\"\nurl = \"http://h/d\"\nrefresh_s = 0\n").find("refresh_s"), std::string::npos);
+  EXPECT_NE(error("id = \"a\"\nurl = \"http://h/d\"\npassword = \"x\"\n").find("unknown key"), std::string::npos);
+  EXPECT_NE(loadError("[[pacs]]\nid = \"a\"\nurl = \"http://h/d\"\n[[pacs]]\nid = \"a\"\nurl = \"http://g/d\"\n")
+                .find("given to two PACS"),
+            std::string::npos);
+  EXPECT_NE(loadError("[pacs_cache]\nmax_mb = 1\n").find("pacs_cache.max_mb"), std::string::npos);
+}
+
 TEST_F(ServerConfigTest, UploadsAreOffByDefaultAndTheirValuesAreChecked) {
   const ServerConfig defaults;
   EXPECT_EQ(defaults.upload.maxBytes, 0u);

@@ -5,7 +5,7 @@
 import { Connection } from "./connection.js";
 import { FrameLoop } from "./frames.js";
 import { attachGestures } from "./input.js";
-import { Encoding, encodingName } from "./protocol.js";
+import { Encoding, encodingName, ErrorCode, retryAfterMs } from "./protocol.js";
 import { CurveEditor } from "./tfeditor.js";
 import { pickVideoCodec } from "./video.js";
 import * as V from "./view.js";
@@ -47,6 +47,7 @@ const app = {
   },
   dragging: false,
   notes: [],
+  opening: "", // the dataset asked for last (a Busy answer is retried while it still is)
 };
 
 // The server's status page carries the page's token (and server) on, as /ws does.
@@ -276,7 +277,22 @@ async function greeted(c, caps) {
 }
 
 async function openDataset(c, name) {
-  const info = await c.openDataset(name);
+  // A dataset the server is still making (a PACS series being fetched) is answered Busy with where it stands: say
+  // so, and ask again after the server's hint, as long as this is still the dataset wanted.
+  app.opening = name;
+  let info;
+  for (;;) {
+    try {
+      info = await c.openDataset(name);
+      break;
+    } catch (e) {
+      const wait = e.code === ErrorCode.Busy ? retryAfterMs(e.message) : null;
+      if (wait === null || c !== app.connection || app.opening !== name) throw e;
+      banner(`${e.message.replace(/; retry after \d+ ms$/, "")}…`);
+      await new Promise((resolve) => setTimeout(resolve, wait));
+      if (c !== app.connection || app.opening !== name) return;
+    }
+  }
   if (c !== app.connection) return;
   app.meta = JSON.parse(info.metaJson);
   if (app.view.dataset !== name) {
