@@ -81,10 +81,11 @@ let starts = 0; // servers started by this process, for their files' names
 
 /// The real server: `voxbrick serve --no-config --port 0 --http PORT --datasets DIR [extra]` (PORT 0: a free one,
 /// kept for restarts), its log in `dir`; `exe`: another build's binary (a benchmark's baseline), else VOXBRICK;
-/// `tls`: {cert, key, ca} files (testCertificates) for TLS on both ports, its url then https://.
+/// `tls`: {cert, key, ca} files (testCertificates) for TLS on both ports, its url then https://; `config`: a
+/// server.toml read in place of no configuration (`datasets` may then be left to it).
 export class Server {
-  constructor({ dir, datasets, httpPort = 0, extra = [], exe = VOXBRICK, tls = null }) {
-    Object.assign(this, { dir, datasets, httpPort, extra, exe, tls, proc: null });
+  constructor({ dir, datasets = null, httpPort = 0, extra = [], exe = VOXBRICK, tls = null, config = null }) {
+    Object.assign(this, { dir, datasets, httpPort, extra, exe, tls, config, proc: null });
   }
 
   /// Starts the server; a restart listens on the HTTP port of the first start.
@@ -96,7 +97,8 @@ export class Server {
     const httpPortFile = path.join(this.dir, `http-port-${tag}`);
     this.logFile = path.join(this.dir, `serve-${tag}.log`);
     const log = fs.openSync(this.logFile, "w");
-    const args = ["serve", "--no-config", "--port", "0", "--port-file", portFile, "--datasets", this.datasets];
+    const args = ["serve", ...(this.config ? ["--config", this.config] : ["--no-config"])];
+    args.push("--port", "0", "--port-file", portFile, ...(this.datasets ? ["--datasets", this.datasets] : []));
     args.push("--http", String(this.httpPort || 0), "--http-port-file", httpPortFile, ...this.extra);
     if (this.tls) args.push("--tls-cert", this.tls.cert, "--tls-key", this.tls.key);
     const ca = this.tls ? fs.readFileSync(this.tls.ca) : undefined;
