@@ -54,8 +54,9 @@ std::string prepInput(const PacsConfig& pacs, const store::QidoSeries& series) {
          series.seriesUid;
 }
 
-std::vector<store::QidoSeries> listByQido(const PacsConfig& pacs) {
+std::vector<store::QidoSeries> listByQido(const PacsConfig& pacs, const std::function<bool()>& stopping) {
   store::HttpOptions options;
+  options.cancelled = stopping;
   options.caFile = pacs.ca.string();
   options.credentials = store::readHttpCredentials(pacs.authFile.string());
   options.retries = 1;
@@ -146,7 +147,7 @@ void PacsCatalog::list(bool all) {
     std::vector<store::QidoSeries> listed;
     std::string error;
     try {
-      listed = mLister(config);
+      listed = mLister(config, [this] { return mStopping.load(); });
     } catch (const std::exception& e) {
       error = e.what();
     }
@@ -270,7 +271,12 @@ void PacsCatalog::prepLoop() {
     lock.lock();
     mQueue.pop_front();
     mRunning.reset();
-    evict(name);
+    const std::vector<fs::path> evicted = evict(name);
+    // Deleting a store can take a while: not while sessions wait for the lock to list or open datasets.
+    lock.unlock();
+    std::error_code ec;
+    for (const fs::path& path : evicted) fs::remove_all(path, ec);
+    lock.lock();
   }
 }
 
@@ -285,6 +291,7 @@ void PacsCatalog::prepare(const std::string& name) {
     if (!p || listed == p->series.end()) return;
     config = p->config;
     series = listed->second.series;
+    if (mStopping) return;  // stop() cancels mRunning: set it only while it can still be cancelled
     mRunning = process;
   }
   std::string pattern = (mCache.dir / (std::string(kScratchPrefix) + "XXXXXX")).string();
@@ -325,7 +332,7 @@ void PacsCatalog::prepare(const std::string& name) {
   if (error.empty()) mOpened[name] = std::chrono::system_clock::now();
 }
 
-void PacsCatalog::evict(const std::string& keep) {
+std::vector<fs::path> PacsCatalog::evict(const std::string& keep) {
   struct Entry {
     std::string name;
     uint64_t bytes;
@@ -344,17 +351,23 @@ void PacsCatalog::evict(const std::string& keep) {
   }
   const uint64_t limit = uint64_t(mCache.maxMB) << 20;
   std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) { return a.opened < b.opened; });
+  std::vector<fs::path> evicted;
   for (const Entry& e : entries) {
     if (total <= limit) break;
     const bool waiting = std::any_of(mQueue.begin(), mQueue.end(), [&](const Job& j) { return j.name == e.name; });
     if (e.name == keep || waiting) continue;
+    std::string pattern = (mCache.dir / (std::string(kScratchPrefix) + "XXXXXX")).string();
+    if (!::mkdtemp(pattern.data())) break;
+    // Out of the cache in two renames, the record first: a store never stays without its record.
+    fs::rename(sidecar(mCache.dir, e.name), fs::path(pattern) / "record.json", ec);
+    fs::rename(mCache.dir / e.name, fs::path(pattern) / "store", ec);
     spdlog::info("PACS cache: evicting {} ({} MB, least recently opened) to stay within {} MB", e.name,
                  e.bytes >> 20, mCache.maxMB);
-    fs::remove(sidecar(mCache.dir, e.name), ec);
-    fs::remove_all(mCache.dir / e.name, ec);
+    evicted.push_back(pattern);
     mOpened.erase(e.name);
     total -= e.bytes;
   }
+  return evicted;
 }
 
 nlohmann::json PacsCatalog::toJson(const std::function<bool(const std::string&)>& visible) const {

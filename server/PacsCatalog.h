@@ -6,6 +6,7 @@
 // sockets here.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <deque>
@@ -29,8 +30,10 @@ namespace voxbrick::server {
 
 class PacsCatalog {
  public:
-  /// Lists every series of a PACS (QIDO-RS); throws with the failure (the URL and the HTTP status).
-  using Lister = std::function<std::vector<store::QidoSeries>(const PacsConfig&)>;
+  /// Lists every series of a PACS (QIDO-RS); throws with the failure (the URL and the HTTP status). `stopping`
+  /// says when to give up (the server stops).
+  using Lister =
+      std::function<std::vector<store::QidoSeries>(const PacsConfig&, const std::function<bool()>& stopping)>;
   /// Preps series `series` of `pacs` into the store `out`, its output in `log`, through `process` (which the catalog
   /// cancels when it stops); throws with prep's words.
   using Prepper = std::function<void(const PacsConfig& pacs, const store::QidoSeries& series,
@@ -98,7 +101,9 @@ class PacsCatalog {
   void prepare(const std::string& name);
   /// The instance count recorded beside a cached store; -1 when none is cached.
   int64_t cachedInstances(const std::string& name) const;
-  void evict(const std::string& keep);
+  /// Moves the least recently opened stores (never `keep`, nor one queued) out of the cache until it fits: into
+  /// scratch folders, whose paths it returns for the caller to delete without holding the lock.
+  std::vector<std::filesystem::path> evict(const std::string& keep);
   const Pacs* pacsOf(const std::string& name) const;
 
   const PacsCacheConfig mCache;
@@ -113,7 +118,8 @@ class PacsCatalog {
   std::map<std::string, std::string> mFailed;  ///< a prep's error, told once
   std::map<std::string, std::chrono::system_clock::time_point> mOpened;  ///< last resolve of each cached store
   std::shared_ptr<PrepProcess> mRunning;  ///< the prep running, to cancel
-  bool mStopping = false, mStarted = false;
+  bool mStarted = false;
+  std::atomic<bool> mStopping{false};
   std::thread mListing, mPreparing;
 };
 

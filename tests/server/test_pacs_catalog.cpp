@@ -51,7 +51,7 @@ struct ScriptedPacs {
   std::atomic<bool> hold{false};  ///< a prep waits while set
 
   PacsCatalog::Lister lister() {
-    return [this](const PacsConfig&) {
+    return [this](const PacsConfig&, const std::function<bool()>&) {
       std::lock_guard lock(mutex);
       if (!listingError.empty()) throw std::runtime_error(listingError);
       return listing;
