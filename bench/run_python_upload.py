@@ -153,29 +153,14 @@ class PrepWatch(threading.Thread):
         return next(iter(self.preps.values()))
 
 
-def fill(path: Path, n: int, count: int = 8, seed: int = 1, slab_mb: int = 16) -> None:
-    """`path`: an .npy file of an n³ float32 array (axes z, y, x) of `count` Gaussian blobs, filled slab by slab:
-    v(x, y, z) = sum over k of a_k g_k,z[z] g_k,y[y] g_k,x[x]."""
+def fill(path: Path, n: int, slab_mb: int = 16) -> None:
+    """`path`: an .npy file of an n³ float32 array (axes z, y, x) of Gaussian blobs: run_python_prep.py's field, filled
+    slab by slab."""
     import numpy as np
-    rng = np.random.default_rng(seed)
-    coordinate = np.arange(n, dtype=np.float32)
-    centres = rng.uniform(0.2, 0.8, (count, 3)) * n  # x, y, z
-    sigmas = rng.uniform(0.06, 0.16, count) * n
-    amplitudes = rng.uniform(0.5, 1.0, count).astype(np.float32)
-    g = [[np.exp(-((coordinate - centres[k, i]) ** 2) / (2 * sigmas[k] ** 2)).astype(np.float32) for i in range(3)]
-         for k in range(count)]
-    c = [amplitudes[k] * g[k][2] for k in range(count)]  # along z
-    p = [np.outer(g[k][1], g[k][0]) for k in range(count)]  # [y, x]
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from run_python_prep import fill_field
     mm = np.lib.format.open_memmap(path, mode='w+', dtype=np.float32, shape=(n, n, n))
-    thickness = max(1, slab_mb * MiB // (n * n * 4))
-    term = np.empty((thickness, n, n), dtype=np.float32)
-    for z0 in range(0, n, thickness):
-        z1 = min(n, z0 + thickness)
-        slab, t = mm[z0:z1], term[:z1 - z0]
-        slab[...] = 0
-        for k in range(count):
-            np.multiply(c[k][z0:z1, None, None], p[k][None, :, :], out=t)
-            slab += t
+    fill_field(mm, 'zyx', n, slab_mb)
     mm.flush()
     del mm
 
