@@ -60,7 +60,7 @@ std::vector<store::QidoSeries> listByQido(const PacsConfig& pacs, const std::fun
   options.caFile = pacs.ca.string();
   options.credentials = store::readHttpCredentials(pacs.authFile.string());
   options.retries = 1;
-  return store::searchAllSeries(pacs.url, options);
+  return store::searchImageSeries(pacs.url, options);
 }
 
 }  // namespace
@@ -161,7 +161,6 @@ void PacsCatalog::list(bool all) {
     }
     std::map<std::string, Listed> series;
     for (store::QidoSeries& s : listed) {
-      if (store::isNonImageModality(s.modality)) continue;
       const std::string name = config.id + "." + s.seriesUid;
       series[name] = Listed{config.id, std::move(s)};
     }
@@ -247,7 +246,9 @@ fs::path PacsCatalog::resolve(const std::string& name) {
   const auto job = std::find_if(mQueue.begin(), mQueue.end(), [&](const Job& j) { return j.name == name; });
   const auto& s = listed->second.series;
   std::string what = "series " + s.seriesUid + " of PACS '" + p->config.id + "'" +
-                     (s.instances >= 0 ? " (" + std::to_string(s.instances) + " instances)" : "");
+                     (s.instances >= 0
+                          ? " (" + std::to_string(s.instances) + (s.instances == 1 ? " instance)" : " instances)")
+                          : "");
   const size_t ahead = size_t(job - mQueue.begin());
   what = job->running ? "fetching " + what + ": " +
                             std::to_string(int(std::chrono::duration<double>(Clock::now() - job->startedAt).count())) +

@@ -30,8 +30,8 @@ namespace voxbrick::server {
 
 class PacsCatalog {
  public:
-  /// Lists every series of a PACS (QIDO-RS); throws with the failure (the URL and the HTTP status). `stopping`
-  /// says when to give up (the server stops).
+  /// Lists the image series of a PACS (QIDO-RS: store::searchImageSeries); throws with the failure (the URL and the
+  /// HTTP status). `stopping` says when to give up (the server stops).
   using Lister =
       std::function<std::vector<store::QidoSeries>(const PacsConfig&, const std::function<bool()>& stopping)>;
   /// Preps series `series` of `pacs` into the store `out`, its output in `log`, through `process` (which the catalog

@@ -252,7 +252,11 @@ async function greeted(c, caps) {
   loadPresets();
   try {
     app.datasets = await c.listDatasets();
-    panel.datasets(app.datasets);
+    // A PACS's series are named by their UIDs: the Stats say what each holds, for the list's labels.
+    const pacs = app.datasets.some((n) => /\.\d+(\.\d+)+$/.test(n))
+      ? await c.getStats().then((s) => s.pacs || [], () => [])
+      : [];
+    panel.datasets(app.datasets, pacs);
     if (!app.datasets.length) throw new Error("the server offers no dataset");
     const wanted = app.view.dataset;
     if (wanted && !app.datasets.includes(wanted)) {

@@ -102,9 +102,31 @@ export function bindPanel(o) {
     syncAll,
     syncTf,
     syncView,
-    datasets(names) {
+    /// The datasets, by name; `pacs` (the Stats' `pacs`, if any) labels a PACS's series by what they hold, grouped
+    /// under their PACS: "MR demo MRI · 2026-12-04 · 316 images" (with the patient where the server shows one).
+    datasets(names, pacs = []) {
       const sel = $("dataset");
-      sel.replaceChildren(...names.map((n) => new Option(n, n)));
+      const label = new Map();
+      const groups = [];
+      for (const p of pacs || []) {
+        const group = document.createElement("optgroup");
+        group.label = `PACS ${p.id}`;
+        for (const s of p.series || []) {
+          if (!names.includes(s.name)) continue;
+          const date = /^\d{8}$/.test(s.study_date || "")
+            ? `${s.study_date.slice(0, 4)}-${s.study_date.slice(4, 6)}-${s.study_date.slice(6)}`
+            : "";
+          const who = s.patient && s.patient.name ? s.patient.name.replace(/\^/g, " ") : "";
+          const parts = [`${s.modality || "?"} ${s.description || s.study_description || "series"}`.trim(), who, date];
+          if (s.instances >= 0) parts.push(`${s.instances} images`);
+          const option = new Option(parts.filter(Boolean).join(" · "), s.name);
+          option.title = s.name;
+          group.append(option);
+          label.set(s.name, option);
+        }
+        if (group.children.length) groups.push(group);
+      }
+      sel.replaceChildren(...names.filter((n) => !label.has(n)).map((n) => new Option(n, n)), ...groups);
     },
     /// The server's presets ({name: points}): the list and the curves.
     presets(byName) {

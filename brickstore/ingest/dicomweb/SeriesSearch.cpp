@@ -4,6 +4,7 @@
 #include <set>
 
 #include "brickstore/format/Errors.h"
+#include "brickstore/source/DicomClasses.h"
 
 namespace voxbrick::store {
 namespace {
@@ -62,6 +63,39 @@ std::vector<QidoSeries> searchAllSeries(const std::string& root, const HttpOptio
                        "series cannot be listed page by page");
     offset += got.size();
   }
+}
+
+std::vector<QidoSeries> searchImageSeries(const std::string& root, const HttpOptions& options) {
+  std::string base = root;
+  while (!base.empty() && base.back() == '/') base.pop_back();
+  std::vector<QidoSeries> images;
+  HttpClient client(options);
+  for (QidoSeries& s : searchAllSeries(base, options)) {
+    if (!isNonImageModality(s.modality)) {
+      images.push_back(std::move(s));
+      continue;
+    }
+    if (s.studyUid.empty()) continue;  // its instances cannot be searched
+    const std::string search = base + "/studies/" + s.studyUid + "/series/" + s.seriesUid + "/instances";
+    QidoInstancePages pages(search, s.seriesUid, kMaxBytes);
+    for (bool more = true; more;) {
+      const std::string url = pages.nextUrl() + "&includefield=00080016";
+      size_t total = 0;
+      Pages page(total);
+      client.get(url, "application/dicom+json", page);
+      more = pages.add(page.text(), client.warning());
+    }
+    bool listedClasses = false, image = false;
+    for (const QidoInstance& i : pages.instances()) {
+      listedClasses = listedClasses || !i.sopClassUid.empty();
+      image = image || (!i.sopClassUid.empty() && dicomNonImageKind(i.sopClassUid).empty());
+    }
+    if (image) {
+      s.modality.clear();
+      images.push_back(std::move(s));
+    }
+  }
+  return images;
 }
 
 }  // namespace voxbrick::store

@@ -18,4 +18,10 @@ namespace voxbrick::store {
 /// 64 MB together. Throws HttpError ("GET URL: ... HTTP 401") or InputError.
 std::vector<QidoSeries> searchAllSeries(const std::string& root, const HttpOptions& options, size_t pageSize = 500);
 
+/// The series of `root` that hold images, as searchAllSeries lists them. A series whose Modality is an image's is
+/// one; a series whose Modality is a report's, a plan's, ... (isNonImageModality) is one only if its instances' SOP
+/// classes, searched (QIDO-RS, page by page), include an image's: a server may take a series' Modality from the first
+/// instance it stored, a report filed in the series say. Such a series' modality is then given as "" (not known).
+std::vector<QidoSeries> searchImageSeries(const std::string& root, const HttpOptions& options);
+
 }  // namespace voxbrick::store
