@@ -103,7 +103,8 @@ export function bindPanel(o) {
     syncTf,
     syncView,
     /// The datasets, by name; `pacs` (the Stats' `pacs`, if any) labels a PACS's series by what they hold, grouped
-    /// under their PACS: "MR demo MRI · 2026-12-04 · 316 images" (with the patient where the server shows one).
+    /// under their PACS: "MR T1 axial · Head study · 2026-12-04 · 316 images" (the series, its study, the patient
+    /// where the server shows one, the study's date, the images).
     datasets(names, pacs = []) {
       const sel = $("dataset");
       const label = new Map();
@@ -117,7 +118,9 @@ export function bindPanel(o) {
             ? `${s.study_date.slice(0, 4)}-${s.study_date.slice(4, 6)}-${s.study_date.slice(6)}`
             : "";
           const who = s.patient && s.patient.name ? s.patient.name.replace(/\^/g, " ") : "";
-          const parts = [`${s.modality || "?"} ${s.description || s.study_description || "series"}`.trim(), who, date];
+          // The series, then its study: what a radiologist picks by.
+          const study = s.study_description && s.study_description !== s.description ? s.study_description : "";
+          const parts = [`${s.modality || "?"} ${s.description || "series"}`.trim(), study, who, date];
           if (s.instances >= 0) parts.push(`${s.instances} images`);
           const option = new Option(parts.filter(Boolean).join(" · "), s.name);
           option.title = s.name;
