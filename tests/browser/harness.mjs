@@ -230,6 +230,15 @@ export async function waitForState(page, predicate, timeout = 20000, arg = null)
   return viewerState(page);
 }
 
+/// Waits for the viewer's exact frame of its newest request, one newer than request `afterId`.
+export const waitExact = (page, afterId = 0, timeout = 20000) =>
+  waitForState(
+    page,
+    (s, after) => s.lastFrame && !s.lastFrame.provisional && s.lastFrame.id === s.newestId && s.newestId > after,
+    timeout,
+    afterId,
+  );
+
 /// The query of a page's address as an object of its keys (decoded; a key given twice keeps its last value): what a
 /// test compares when the order of the keys is the page's business.
 export function addressKeys(address) {

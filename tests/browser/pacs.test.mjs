@@ -133,13 +133,7 @@ class Orthanc {
   }
 }
 
-const waitExact = (page, afterId = 0, timeout = 20000) =>
-  H.waitForState(
-    page,
-    (s, after) => s.lastFrame && !s.lastFrame.provisional && s.lastFrame.id === s.newestId && s.newestId > after,
-    timeout,
-    afterId,
-  );
+const waitExact = H.waitExact;
 
 /// Keeps every text the page's banner shows from now on, in order, in window.banners ("" while hidden), each with
 /// the dataset open and the frames shown then: the Busy text lasts as long as the server's retry hint (a second), and

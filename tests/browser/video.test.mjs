@@ -10,13 +10,7 @@ import * as H from "./harness.mjs";
 const SIZE = [160, 128];
 const SIZE_PARAM = `size=${SIZE[0]}x${SIZE[1]}`;
 
-const waitExact = (page, afterId = 0, timeout = 20000) =>
-  H.waitForState(
-    page,
-    (s, after) => s.lastFrame && !s.lastFrame.provisional && s.lastFrame.id === s.newestId && s.newestId > after,
-    timeout,
-    afterId,
-  );
+const waitExact = H.waitExact;
 
 /// A scripted drag through the page's own gesture handlers (voxbrickViewer.drag); resolves once released.
 const drag = (page, options) => page.evaluate((o) => window.voxbrickViewer.drag(o), options);

@@ -40,13 +40,7 @@ const footprint = (img) => {
   return { lit, x: lit ? sx / lit : NaN, y: lit ? sy / lit : NaN };
 };
 
-const waitExact = (page, afterId = 0, timeout = 20000) =>
-  H.waitForState(
-    page,
-    (s, after) => s.lastFrame && !s.lastFrame.provisional && s.lastFrame.id === s.newestId && s.newestId > after,
-    timeout,
-    afterId,
-  );
+const waitExact = H.waitExact;
 
 describe("viewer", () => {
   let scratch, datasets, server, browser;
