@@ -29,6 +29,17 @@ constexpr const char* kScratchPrefix = ".tmp-";
 /// The sidecar beside a cached store: what it was prepped from (its instance count tells a changed series).
 fs::path sidecar(const fs::path& dir, const std::string& name) { return dir / (name + ".json"); }
 
+/// The instance count a sidecar records; -2 when it cannot be read.
+int64_t recordedInstances(const fs::path& record) {
+  std::ifstream in(record);
+  const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+  return j.is_object() && j.contains("instances") && j["instances"].is_number_integer() ? j["instances"].get<int64_t>()
+                                                                                        : -2;
+}
+
+/// How often the record of a store opened again is touched (its time is the last open, for a restarted server).
+constexpr auto kTouchEvery = std::chrono::seconds(60);
+
 uint64_t bytesUnder(const fs::path& dir) {
   uint64_t total = 0;
   std::error_code ec;
@@ -88,6 +99,7 @@ PacsCatalog::PacsCatalog(std::vector<PacsConfig> pacs, PacsCacheConfig cache, fs
       // The last open of each store outlives the server in its sidecar's modification time.
       const auto written = fs::last_write_time(sidecar(mCache.dir, file), ec);
       mOpened[file] = std::chrono::file_clock::to_sys(written);
+      mCached[file] = recordedInstances(sidecar(mCache.dir, file));
     }
   }
 }
@@ -191,21 +203,16 @@ std::vector<std::string> PacsCatalog::names() const {
   for (const Pacs& p : mPacs)
     for (const auto& [name, listed] : p.series) out.insert(name);
   // A PACS that cannot be listed now: what its cache holds can still be opened.
-  std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(mCache.dir, ec)) {
-    const std::string name = entry.path().filename().string();
-    const Pacs* p = pacsOf(name);
-    if (p && !p->error.empty() && entry.is_directory() && fs::exists(sidecar(mCache.dir, name))) out.insert(name);
+  for (const auto& cached : mCached) {
+    const Pacs* p = pacsOf(cached.first);
+    if (p && !p->error.empty()) out.insert(cached.first);
   }
   return {out.begin(), out.end()};
 }
 
 int64_t PacsCatalog::cachedInstances(const std::string& name) const {
-  if (!fs::exists(mCache.dir / name / "store.json")) return -1;
-  std::ifstream in(sidecar(mCache.dir, name));
-  const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
-  return j.is_object() && j.contains("instances") && j["instances"].is_number_integer() ? j["instances"].get<int64_t>()
-                                                                                        : -2;
+  const auto it = mCached.find(name);
+  return it == mCached.end() ? -1 : it->second;
 }
 
 fs::path PacsCatalog::resolve(const std::string& name) {
@@ -218,6 +225,11 @@ fs::path PacsCatalog::resolve(const std::string& name) {
     throw std::runtime_error(why);
   }
   const auto listed = p->series.find(name);
+  // One stat a request (the registry stats the store's files anyway): a store deleted by hand is fetched again.
+  if (mCached.count(name) && !fs::exists(mCache.dir / name / "store.json")) {
+    mCached.erase(name);
+    mOpened.erase(name);
+  }
   const int64_t cached = cachedInstances(name);
   const bool queued = std::any_of(mQueue.begin(), mQueue.end(), [&](const Job& j) { return j.name == name; });
   const bool changed = cached >= 0 && listed != p->series.end() && listed->second.series.instances >= 0 &&
@@ -231,9 +243,14 @@ fs::path PacsCatalog::resolve(const std::string& name) {
       mQueue.push_back(Job{name, Clock::now()});
       mWake.notify_all();
     }
-    mOpened[name] = std::chrono::system_clock::now();
-    std::error_code ec;
-    fs::last_write_time(sidecar(mCache.dir, name), fs::file_time_type::clock::now(), ec);
+    // Every Render of the series comes here: the record's time is touched once a minute, not per frame.
+    const auto now = std::chrono::system_clock::now();
+    auto& opened = mOpened[name];
+    if (now - opened > kTouchEvery) {
+      std::error_code ec;
+      fs::last_write_time(sidecar(mCache.dir, name), fs::file_time_type::clock::now(), ec);
+    }
+    opened = now;
     return mCache.dir / name;
   }
   if (listed == p->series.end())
@@ -330,7 +347,10 @@ void PacsCatalog::prepare(const std::string& name) {
     spdlog::warn("PACS '{}': {}", config.id, error);
     mFailed[name] = error;
   }
-  if (error.empty()) mOpened[name] = std::chrono::system_clock::now();
+  if (error.empty()) {
+    mOpened[name] = std::chrono::system_clock::now();
+    mCached[name] = series.instances;
+  }
 }
 
 std::vector<fs::path> PacsCatalog::evict(const std::string& keep) {
@@ -366,6 +386,7 @@ std::vector<fs::path> PacsCatalog::evict(const std::string& keep) {
                  e.bytes >> 20, mCache.maxMB);
     evicted.push_back(pattern);
     mOpened.erase(e.name);
+    mCached.erase(e.name);
     total -= e.bytes;
   }
   return evicted;

@@ -99,7 +99,8 @@ class PacsCatalog {
   void list(bool all);
   void prepLoop();
   void prepare(const std::string& name);
-  /// The instance count recorded beside a cached store; -1 when none is cached.
+  /// The instance count the cached store of `name` was prepped from (-2: its record unreadable); -1 when none is
+  /// cached. From memory: the records are read once, when the catalog starts.
   int64_t cachedInstances(const std::string& name) const;
   /// Moves the least recently opened stores (never `keep`, nor one queued) out of the cache until it fits: into
   /// scratch folders, whose paths it returns for the caller to delete without holding the lock.
@@ -117,6 +118,7 @@ class PacsCatalog {
   std::deque<Job> mQueue;  ///< the front one runs
   std::map<std::string, std::string> mFailed;  ///< a prep's error, told once
   std::map<std::string, std::chrono::system_clock::time_point> mOpened;  ///< last resolve of each cached store
+  std::map<std::string, int64_t> mCached;  ///< each cached store's instance count (cachedInstances)
   std::shared_ptr<PrepProcess> mRunning;  ///< the prep running, to cancel
   bool mStarted = false;
   std::atomic<bool> mStopping{false};

@@ -21,6 +21,7 @@
 #include "brickstore/ingest/dicomweb/HttpClient.h"
 #include "brickstore/ingest/dicomweb/Multipart.h"
 #include "brickstore/ingest/dicomweb/QidoResults.h"
+#include "brickstore/ingest/dicomweb/SeriesSearch.h"
 #include "brickstore/source/DicomClasses.h"
 #include "common/Units.h"
 
@@ -32,34 +33,6 @@ namespace fs = std::filesystem;
 constexpr const char* kJson = "application/dicom+json";
 // transfer-syntax=*: each instance as the server keeps it, so the files are the ones it was given.
 constexpr const char* kWadoAccept = "multipart/related; type=\"application/dicom\"; transfer-syntax=*";
-constexpr size_t kMaxQidoBytes = size_t(64) << 20;
-
-/// A 2xx body kept whole, up to a bound: a QIDO-RS answer.
-class BodyText final : public ResponseHandler {
- public:
-  BodyText(std::string what, size_t limit) : mWhat(std::move(what)), mLimit(limit) {}
-  void begin(const std::string& contentType) override {
-    mText.clear();
-    mContentType = contentType;
-  }
-  void data(const char* bytes, size_t size) override {
-    if (mText.size() + size > mLimit)
-      throw InputError(mWhat + ": the answer exceeds " + std::to_string(mLimit >> 20) + " MB");
-    mText.append(bytes, size);
-  }
-  /// QIDO-RS's JSON: a body of another type (an HTML sign-in page a proxy put in the way) is refused naming it.
-  void end() override {
-    const std::string media = mContentType.substr(0, mContentType.find(';'));
-    if (!mText.empty() && media.find("json") == std::string::npos)
-      throw InputError(mWhat + ": the answer is '" + media.substr(0, 60) +
-                       "', not application/dicom+json (is the URL the DICOMweb root, or a proxy's sign-in page?)");
-  }
-  const std::string& text() const { return mText; }
-
- private:
-  std::string mWhat, mText, mContentType;
-  size_t mLimit;
-};
 
 /// A 2xx body read and dropped: only the status counts.
 class BodyDiscarded final : public ResponseHandler {
@@ -133,21 +106,14 @@ class InstanceFile final : public ResponseHandler, private PartHandler {
 
 /// The instances QIDO-RS lists for a series (maybe none), page by page (QidoInstancePages).
 std::vector<QidoInstance> searchInstances(HttpClient& client, const DicomWebUrl& url, const std::string& seriesUid) {
-  QidoInstancePages pages(url.instancesUrl(seriesUid), seriesUid, kMaxQidoBytes);
-  for (bool more = true; more;) {
-    const std::string search = pages.nextUrl();
-    BodyText body("GET " + search, pages.bytesLeft());
-    client.get(search, kJson, body);
-    more = pages.add(body.text(), client.warning());
-  }
-  return pages.instances();
+  return store::searchInstances(client, url.instancesUrl(seriesUid), seriesUid);
 }
 
 /// The instances of a series the server counts (NumberOfSeriesRelatedInstances in its series search); -1 when it
 /// does not say, or does not answer a search by SeriesInstanceUID (a 4xx).
 int64_t countedInstances(HttpClient& client, const DicomWebUrl& url, const std::string& seriesUid) {
   const std::string search = url.seriesSearchUrl() + "?SeriesInstanceUID=" + seriesUid;
-  BodyText body("GET " + search, kMaxQidoBytes);
+  QidoBody body("GET " + search, kMaxQidoBytes);
   try {
     client.get(search, kJson, body);
   } catch (const HttpError& e) {
@@ -167,7 +133,7 @@ std::vector<QidoInstance> completeInstances(HttpClient& client, const DicomWebUr
                                             std::vector<QidoInstance> listed, int64_t counted) {
   if (counted < 0 || int64_t(listed.size()) >= counted) return listed;
   const std::string metadata = url.seriesUrl(seriesUid) + "/metadata";
-  BodyText body("GET " + metadata, kMaxQidoBytes);
+  QidoBody body("GET " + metadata, kMaxQidoBytes);
   client.get(metadata, kJson, body);
   std::vector<QidoInstance> all = parseQidoInstances(body.text(), seriesUid, "GET " + metadata);
   if (int64_t(all.size()) < counted)
@@ -222,7 +188,7 @@ std::string seriesTable(const std::vector<SeriesCensus>& series) {
 /// server may take a series' Modality from a report filed in it). Without SOP classes listed, by Modality.
 std::pair<std::string, std::vector<QidoInstance>> chooseSeries(HttpClient& client, const DicomWebUrl& url,
                                                                const std::string& wanted) {
-  BodyText body("GET " + url.seriesSearchUrl(), kMaxQidoBytes);
+  QidoBody body("GET " + url.seriesSearchUrl(), kMaxQidoBytes);
   client.get(url.seriesSearchUrl(), kJson, body);
   const std::vector<QidoSeries> all = parseQidoSeries(body.text(), "GET " + url.seriesSearchUrl());
   if (all.empty()) refuseEmpty(client, url.studyUrl(), "study " + url.study, url.seriesSearchUrl(), "series");
