@@ -202,12 +202,14 @@ export function launchBrowser(extraArgs = []) {
   });
 }
 
-/// A new page at `url`, its console errors collected in page.errors.
-export async function openPage(browser, url, viewport = { width: 720, height: 420 }) {
+/// A new page at `url`, its console errors collected in page.errors; `beforeLoad`, a function run in the page before
+/// any of its own scripts (to watch what it does from the start).
+export async function openPage(browser, url, viewport = { width: 720, height: 420 }, beforeLoad = null) {
   const page = await browser.newPage();
   page.errors = [];
   page.on("pageerror", (e) => page.errors.push(e.message));
   await page.setViewport({ ...viewport, deviceScaleFactor: 1 });
+  if (beforeLoad) await page.evaluateOnNewDocument(beforeLoad);
   await page.goto(url, { waitUntil: "load" });
   await page.waitForFunction(() => window.voxbrickViewer !== undefined, { timeout: 10000 });
   return page;

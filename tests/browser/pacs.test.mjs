@@ -135,23 +135,29 @@ class Orthanc {
 
 const waitExact = H.waitExact;
 
-/// Keeps every text the page's banner shows from now on, in order, in window.banners ("" while hidden), each with
-/// the dataset open and the frames shown then: the Busy text lasts as long as the server's retry hint (a second), and
-/// a poll could miss it on a loaded machine; an observer cannot.
+/// Keeps every text the page's banner shows, in order, in window.banners ("" while hidden), each with the dataset open
+/// and the frames shown then. Run before the page's scripts (openPage's `beforeLoad`): the Busy text lasts as long as
+/// the server's retry hint (a second), and on a loaded machine the page may have shown it and opened the dataset
+/// before a test could start watching; an observer there from the start cannot miss it.
+const watchBanner = () => {
+  window.banners = [];
+  const record = () => {
+    const b = document.getElementById("banner");
+    if (!b) return;
+    const s = window.voxbrickViewer ? window.voxbrickViewer.state() : { dataset: "", counts: { shown: 0 } };
+    const r = { text: b.hidden ? "" : b.textContent, dataset: s.dataset, shown: s.counts.shown };
+    if (!window.banners.length || window.banners[window.banners.length - 1].text !== r.text) window.banners.push(r);
+  };
+  const all = { attributes: true, childList: true, characterData: true, subtree: true };
+  new MutationObserver(record).observe(document, all);
+};
+
+/// Starts window.banners again from what the banner shows now.
 const recordBanner = (page) =>
   page.evaluate(() => {
     const b = document.getElementById("banner");
-    const record = () => {
-      const s = window.voxbrickViewer.state();
-      return { text: b.hidden ? "" : b.textContent, dataset: s.dataset, shown: s.counts.shown };
-    };
-    window.banners = [record()];
-    if (window.bannerObserver) return;
-    window.bannerObserver = new MutationObserver(() => {
-      const r = record();
-      if (window.banners[window.banners.length - 1].text !== r.text) window.banners.push(r);
-    });
-    window.bannerObserver.observe(b, { attributes: true, childList: true, characterData: true, subtree: true });
+    const s = window.voxbrickViewer.state();
+    window.banners = [{ text: b.hidden ? "" : b.textContent, dataset: s.dataset, shown: s.counts.shown }];
   });
 
 const banners = (page) => page.evaluate(() => window.banners.slice());
@@ -249,8 +255,7 @@ describe("a PACS's series in the viewer", () => {
   };
 
   test("the address's series: listed with the other image series, Busy while fetched, then its frame", async () => {
-    page = await H.openPage(browser, `${server.url}/?dataset=${ct()}&${SIZE_PARAM}`);
-    await recordBanner(page);
+    page = await H.openPage(browser, `${server.url}/?dataset=${ct()}&${SIZE_PARAM}`, undefined, watchBanner);
     // (1) The image series are listed, in the page's state and in its panel's list; the RT plan's and the report's
     // series hold no image and are not.
     const listed = await H.waitForState(page, (s) => s.datasets.length > 0);
