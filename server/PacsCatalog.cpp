@@ -77,8 +77,12 @@ std::vector<store::QidoSeries> listByQido(const PacsConfig& pacs, const std::fun
 }  // namespace
 
 PacsCatalog::PacsCatalog(std::vector<PacsConfig> pacs, PacsCacheConfig cache, fs::path voxbrick, Lister lister,
-                         Prepper prepper)
-    : mCache(std::move(cache)), mVoxbrick(std::move(voxbrick)), mLister(std::move(lister)), mPrepper(std::move(prepper)) {
+                         Prepper prepper, std::chrono::milliseconds abandonedAfter)
+    : mCache(std::move(cache)),
+      mVoxbrick(std::move(voxbrick)),
+      mAbandonedAfter(abandonedAfter),
+      mLister(std::move(lister)),
+      mPrepper(std::move(prepper)) {
   if (!mLister) mLister = listByQido;
   if (!mPrepper)
     mPrepper = [exe = mVoxbrick](const PacsConfig& p, const store::QidoSeries& s, const fs::path& out,
@@ -225,6 +229,8 @@ fs::path PacsCatalog::resolve(const std::string& name) {
     throw std::runtime_error(why);
   }
   const auto listed = p->series.find(name);
+  for (Job& j : mQueue)
+    if (j.name == name) j.askedAt = Clock::now();
   // One stat a request (the registry stats the store's files anyway): a store deleted by hand is fetched again.
   if (mCached.count(name) && !fs::exists(mCache.dir / name / "store.json")) {
     mCached.erase(name);
@@ -280,6 +286,13 @@ void PacsCatalog::prepLoop() {
   while (true) {
     mWake.wait(lock, [&] { return mStopping || (!mQueue.empty() && !mQueue.front().running); });
     if (mStopping) return;
+    const auto now = Clock::now();
+    std::erase_if(mQueue, [&](const Job& j) {
+      if (now - j.askedAt <= mAbandonedAfter) return false;
+      spdlog::info("PACS: {} no longer asked for: not fetched", j.name);
+      return true;
+    });
+    if (mQueue.empty()) continue;
     Job& job = mQueue.front();
     job.running = true;
     job.startedAt = Clock::now();

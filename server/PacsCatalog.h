@@ -42,8 +42,10 @@ class PacsCatalog {
 
   /// The PACS of `pacs`, their stores kept in `cache.dir` (created; must not be empty) within cache.maxMB. `lister`
   /// and `prepper` default to QIDO-RS over libcurl and `voxbrick prep dicomweb://...` run as `voxbrick`.
+  /// `abandonedAfter`: a queued series not asked for again within it is dropped before its prep starts.
   PacsCatalog(std::vector<PacsConfig> pacs, PacsCacheConfig cache, std::filesystem::path voxbrick,
-              Lister lister = {}, Prepper prepper = {});
+              Lister lister = {}, Prepper prepper = {},
+              std::chrono::milliseconds abandonedAfter = std::chrono::seconds(10));
   /// Stops (stop()).
   ~PacsCatalog();
   PacsCatalog(const PacsCatalog&) = delete;
@@ -90,7 +92,10 @@ class PacsCatalog {
   };
   struct Job {
     std::string name;
-    std::chrono::steady_clock::time_point queuedAt, startedAt{};
+    /// The last request of the series: a job nobody asked for again within mAbandonedAfter (its clients retry
+    /// Busy every second) is dropped before it starts, so series a viewer skipped past do not hold up the one it
+    /// stopped on.
+    std::chrono::steady_clock::time_point askedAt, startedAt{};
     bool running = false;
   };
 
@@ -109,6 +114,7 @@ class PacsCatalog {
 
   const PacsCacheConfig mCache;
   const std::filesystem::path mVoxbrick;
+  const std::chrono::milliseconds mAbandonedAfter;
   Lister mLister;
   Prepper mPrepper;
 

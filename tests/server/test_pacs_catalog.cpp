@@ -238,6 +238,32 @@ TEST_F(PacsCatalogTest, AChangedSeriesIsFetchedAgainWhileTheCachedOneServes) {
   EXPECT_EQ(remote.preps, 2);  // the same count again: no third prep
 }
 
+TEST_F(PacsCatalogTest, ASeriesNoLongerAskedForIsNotFetched) {
+  // A viewer skipping past 1.2 to 1.3 while 1.1 is fetched: 1.2 is not asked for again and is dropped, 1.3 (asked for
+  // every retry) is fetched.
+  remote.listing = {series("1.1", 1), series("1.2", 1), series("1.3", 1)};
+  auto c = std::make_unique<PacsCatalog>(std::vector<PacsConfig>{pacs("orthanc")}, cache(), "/nonexistent/voxbrick",
+                                         remote.lister(), remote.prepper(), std::chrono::milliseconds(300));
+  c->refresh();
+  c->start();
+  remote.hold = true;
+  EXPECT_EQ(refusal(*c, "orthanc.1.1").code, ErrorCode::Busy);
+  EXPECT_EQ(refusal(*c, "orthanc.1.2").code, ErrorCode::Busy);
+  const proto::Error behind = refusal(*c, "orthanc.1.3");
+  EXPECT_NE(behind.message.find("waits for 2 series fetched before it"), std::string::npos) << behind.message;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(700);
+  while (std::chrono::steady_clock::now() < until) {
+    refusal(*c, "orthanc.1.1");
+    refusal(*c, "orthanc.1.3");
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  remote.hold = false;
+  ready(*c, "orthanc.1.3");
+  EXPECT_EQ(remote.preps, 2);  // 1.1 and 1.3
+  EXPECT_FALSE(fs::exists(dir / "cache" / "orthanc.1.2"));
+  EXPECT_EQ(c->toJson()[0]["series"][1]["state"], "remote");
+}
+
 TEST_F(PacsCatalogTest, APacsThatCannotBeListedKeepsItsCachedSeriesOpen) {
   remote.listing = {series("1.1", 10), series("1.2", 3)};
   {
