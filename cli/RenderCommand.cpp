@@ -144,8 +144,9 @@ void checkInput(const RenderArgs& a, const CLI::App& cmd, const render::Scene& s
 void runRenderMpi(const RenderArgs& a, const CLI::App& cmd) {
   distributed::MpiSession mpi;
   const render::Scene scene = buildScene(a.scene, cmd);
+  const distributed::RankGroup everyRank = distributed::RankGroup::all(MPI_COMM_WORLD);
   const auto dataset = distributed::openOnEveryRank(
-      MPI_COMM_WORLD, a.store, a.store, [&] { return openInput(a); }, a.mpi.timeout);
+      everyRank, a.store, a.store, [&] { return openInput(a); }, a.mpi.timeout);
   checkInput(a, cmd, scene, *dataset);
   render::RenderEngine engine(engineOptions(a));
   distributed::RankRendererOptions options;
@@ -154,20 +155,16 @@ void runRenderMpi(const RenderArgs& a, const CLI::App& cmd) {
   // An interactive frame is chosen by rank 0's rate on every rank (the same reduced drawing everywhere).
   auto frameOptions = [&] {
     render::FrameOptions o;
-    o.rateSamplesPerMs = distributed::agreedRate(MPI_COMM_WORLD, engine.recentRate(*dataset), a.mpi.timeout);
+    o.rateSamplesPerMs = distributed::agreedRate(everyRank, engine.recentRate(*dataset), a.mpi.timeout);
     return o;
   };
-  for (int i = 0; i < a.warmUp; ++i) renderer.render(dataset, scene, nullptr, nullptr, frameOptions());
+  for (int i = 0; i < a.warmUp; ++i) renderer.render(everyRank, dataset, scene, nullptr, frameOptions());
   render::FrameStats stats;
-  nlohmann::json distributedJson;
-  const image::ImageF image = renderer.render(dataset, scene, &stats, &distributedJson, frameOptions());
+  const image::ImageF image = renderer.render(everyRank, dataset, scene, &stats, frameOptions());
   if (mpi.rank() != 0) return;
   writeFrame(a, a.output, image);
-  if (!a.statsPath.empty()) {
-    nlohmann::json json = stats.toJson();
-    json["distributed"] = distributedJson;
-    writeText(a.statsPath, json.dump(2) + "\n");
-  }
+  if (!a.statsPath.empty()) writeText(a.statsPath, stats.toJson().dump(2) + "\n");
+  const nlohmann::json& distributedJson = stats.distributed;
   std::printf("render: wrote %s (%dx%d) on %d ranks: compositing %.1f ms, %llu bytes exchanged\n", a.output.c_str(),
               scene.width, scene.height, mpi.size(), distributedJson["compositing_ms"].get<double>(),
               (unsigned long long)distributedJson["bytes_exchanged"].get<uint64_t>());

@@ -1,6 +1,10 @@
 // MPI session, broadcasts, gathers and the dataset check across ranks (Cluster.h).
 #include "distributed/Cluster.h"
 
+#include <sched.h>
+
+#include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -11,6 +15,7 @@
 
 #include <nlohmann/json.hpp>
 #include <stdexcept>
+#include <thread>
 
 #include "common/Checksum.h"
 #include "render/core/RenderErrors.h"
@@ -41,95 +46,121 @@ MpiSession::~MpiSession() {
   if (mFinalize && std::uncaught_exceptions() == 0) MPI_Finalize();
 }
 
-namespace {
-
-constexpr int kTagLength = 7200, kTagText = 7201, kTagRecord = 7202;
-
-// Rank 0 sends `text` to every other rank (its length, then its bytes), waiting for all with the deadline, so that a
-// rank that does not take it is named.
-void sendToAll(MPI_Comm comm, const std::string& text, double timeoutSeconds) {
+RankGroup RankGroup::all(MPI_Comm comm) {
   int size = 1;
   MPI_Comm_size(comm, &size);
-  auto length = std::make_shared<uint64_t>(text.size());
-  auto bytes = std::make_shared<std::string>(text);
-  Transfers transfers(comm, timeoutSeconds);
-  for (int r = 1; r < size; ++r) {
-    transfers.send(r, kTagLength, length.get(), sizeof(uint64_t), length, "a command");
-    transfers.send(r, kTagText, bytes->data(), bytes->size(), bytes, "a command");
-  }
-  transfers.wait();
+  RankGroup group;
+  group.comm = comm;
+  for (int r = 0; r < size; ++r) group.members.push_back(r);
+  return group;
 }
 
-// A rank other than 0 takes what sendToAll sent: the length (for ever when timeout < 0, polling `stop`), then the text.
-std::optional<std::string> receiveFromRoot(MPI_Comm comm, double timeoutSeconds, const std::function<bool()>& stop) {
-  auto length = std::make_shared<uint64_t>(0);
-  {
-    Transfers transfers(comm, timeoutSeconds < 0 ? 0.2 : timeoutSeconds);
-    transfers.receive(0, kTagLength, length.get(), sizeof(uint64_t), length, "a command");
-    while (true) {
-      try {
-        transfers.wait();
-        break;
-      } catch (const PeerError&) {
-        if (timeoutSeconds >= 0) throw;
-        if (stop && stop()) return std::nullopt;  // the pending receive is abandoned with its buffer
-      }
-    }
-  }
-  auto text = std::make_shared<std::string>(*length, '\0');
-  Transfers transfers(comm, std::max(timeoutSeconds, 10.0));
-  transfers.receive(0, kTagText, text->data(), text->size(), text, "a command");
-  transfers.wait();
-  return *text;
+int RankGroup::indexOf(int rank) const {
+  const auto it = std::find(members.begin(), members.end(), rank);
+  return it == members.end() ? -1 : int(it - members.begin());
+}
+
+std::pair<int, int> RankGroup::epochAndKind(int tag) {
+  if (tag < kFirstTag) return {-1, 0};
+  return {(tag - kFirstTag) / kTagsPerEpoch, (tag - kFirstTag) % kTagsPerEpoch};
+}
+
+int RankGroup::lastEpoch(MPI_Comm comm) {
+  int* bound = nullptr;
+  int found = 0;
+  MPI_Comm_get_attr(comm, MPI_TAG_UB, &bound, &found);
+  const int64_t upper = found && bound ? *bound : 32767;
+  return int((upper - kFirstTag) / kTagsPerEpoch - 1);
+}
+
+namespace {
+
+constexpr size_t kRecord = 1024;
+
+int rankOf(MPI_Comm comm) {
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  return rank;
 }
 
 }  // namespace
 
-std::string broadcastText(MPI_Comm comm, const std::string& text, double timeoutSeconds,
-                          const std::function<bool()>& stop) {
-  int rank = 0;
-  MPI_Comm_rank(comm, &rank);
-  if (rank == 0) {
-    sendToAll(comm, text, std::max(timeoutSeconds, 0.0));
+void sendCommand(const RankGroup& group, const std::string& text, double timeoutSeconds) {
+  auto bytes = std::make_shared<std::string>(text);
+  Transfers transfers(group.comm, timeoutSeconds);
+  for (int r : group.members)
+    if (r != 0) transfers.send(r, group.tag(kCommandTag), bytes->data(), bytes->size(), bytes, "a command");
+  transfers.wait();
+}
+
+std::optional<Command> receiveCommand(MPI_Comm comm, int epoch, double timeoutSeconds,
+                                      const std::function<bool()>& stop) {
+  using Clock = std::chrono::steady_clock;
+  const auto deadline = Clock::now() + std::chrono::duration<double>(std::max(timeoutSeconds, 0.0));
+  int idle = 0;
+  while (true) {
+    int found = 0;
+    MPI_Message message = MPI_MESSAGE_NULL;
+    MPI_Status status;
+    const int code = MPI_Improbe(0, MPI_ANY_TAG, comm, &found, &message, &status);
+    if (code != MPI_SUCCESS) throw PeerError(0, "receiving a command from rank 0 failed: " + mpiErrorText(code));
+    if (found) {
+      int count = 0;
+      MPI_Get_count(&status, MPI_BYTE, &count);
+      std::string text(size_t(std::max(count, 0)), '\0');
+      MPI_Mrecv(text.data(), count, MPI_BYTE, &message, MPI_STATUS_IGNORE);
+      const auto [sentIn, kind] = RankGroup::epochAndKind(status.MPI_TAG);
+      if (sentIn >= epoch && kind == kCommandTag) return Command{std::move(text), sentIn};
+      idle = 0;  // left over from a frame given up: dropped
+      continue;
+    }
+    if (timeoutSeconds >= 0 && Clock::now() > deadline) {
+      throw PeerError(0, "rank 0 did not send a command within " + std::to_string(int(timeoutSeconds * 1000)) + " ms");
+    }
+    if (timeoutSeconds < 0 && stop && idle % 256 == 255 && stop()) return std::nullopt;
+    if (++idle < 64) {
+      sched_yield();
+    } else {
+      std::this_thread::sleep_for(std::chrono::microseconds(idle < 1024 ? 20 : 500));
+    }
+  }
+}
+
+std::string broadcastText(const RankGroup& group, const std::string& text, double timeoutSeconds) {
+  if (rankOf(group.comm) == 0) {
+    sendCommand(group, text, std::max(timeoutSeconds, 0.0));
     return text;
   }
-  return receiveFromRoot(comm, timeoutSeconds, stop).value_or(std::string());
+  return receiveCommand(group.comm, group.epoch, std::max(timeoutSeconds, 0.0))->text;
 }
 
 double rateOrCheapest(double rate) { return rate > 0 ? rate : 1e-9; }
 
-double agreedRate(MPI_Comm comm, double rate, double timeoutSeconds) {
+double agreedRate(const RankGroup& group, double rate, double timeoutSeconds) {
   char text[32];
   std::snprintf(text, sizeof text, "%.17g", rateOrCheapest(rate));  // 17 digits: the same double on every rank
-  return rateOrCheapest(std::strtod(broadcastText(comm, text, timeoutSeconds).c_str(), nullptr));
+  return rateOrCheapest(std::strtod(broadcastText(group, text, timeoutSeconds).c_str(), nullptr));
 }
 
-std::vector<std::string> allGather(MPI_Comm comm, const std::string& record, double timeoutSeconds) {
-  int size = 1, rank = 0;
-  MPI_Comm_size(comm, &size);
-  MPI_Comm_rank(comm, &rank);
-  constexpr size_t kRecord = 1024;
-  std::vector<std::string> out(static_cast<size_t>(size));
-  if (rank != 0) {
+std::vector<std::string> gatherRecords(const RankGroup& group, const std::string& record, double timeoutSeconds) {
+  if (rankOf(group.comm) != 0) {
     auto mine = std::make_shared<std::vector<char>>(kRecord, '\0');
     std::memcpy(mine->data(), record.data(), std::min(record.size(), kRecord - 1));
-    Transfers transfers(comm, timeoutSeconds);
-    transfers.send(0, kTagRecord, mine->data(), kRecord, mine, "an answer");
+    Transfers transfers(group.comm, timeoutSeconds);
+    transfers.send(0, group.tag(kRecordTag), mine->data(), kRecord, mine, "an answer");
     transfers.wait();
-    nlohmann::json all = nlohmann::json::parse(receiveFromRoot(comm, timeoutSeconds, {}).value_or("[]"));
-    for (size_t r = 0; r < out.size() && r < all.size(); ++r) out[r] = all[r].get<std::string>();
-    return out;
+    return {};
   }
+  std::vector<std::string> out(group.members.size());
   out[0] = record.substr(0, kRecord - 1);
-  std::vector<std::shared_ptr<std::vector<char>>> records;
-  Transfers transfers(comm, timeoutSeconds);
-  for (int r = 1; r < size; ++r) {
-    records.push_back(std::make_shared<std::vector<char>>(kRecord, '\0'));
-    transfers.receive(r, kTagRecord, records.back()->data(), kRecord, records.back(), "an answer");
+  std::vector<std::shared_ptr<std::vector<char>>> records(group.members.size());
+  Transfers transfers(group.comm, timeoutSeconds);
+  for (size_t i = 1; i < group.members.size(); ++i) {
+    records[i] = std::make_shared<std::vector<char>>(kRecord, '\0');
+    transfers.receive(group.members[i], group.tag(kRecordTag), records[i]->data(), kRecord, records[i], "an answer");
   }
   transfers.wait();
-  for (int r = 1; r < size; ++r) out[size_t(r)] = std::string(records[size_t(r - 1)]->data());
-  sendToAll(comm, nlohmann::json(out).dump(), timeoutSeconds);
+  for (size_t i = 1; i < group.members.size(); ++i) out[i] = std::string(records[i]->data());
   return out;
 }
 
@@ -150,24 +181,41 @@ std::string datasetIdentity(const std::filesystem::path& path) {
   return identity.str();
 }
 
-void agreeOnDataset(MPI_Comm comm, const std::string& name, const std::string& record, double timeoutSeconds) {
-  const auto records = allGather(comm, record, timeoutSeconds);
-  for (size_t r = 0; r < records.size(); ++r) {
-    if (records[r].rfind("error ", 0) == 0) {
-      throw render::RenderInputError("dataset '" + name + "' cannot be opened on rank " + std::to_string(r) + ": " +
-                                     records[r].substr(6));
+void agreeOnDataset(const RankGroup& group, const std::string& name, const std::string& record, double timeoutSeconds) {
+  const auto records = gatherRecords(group, record, timeoutSeconds);
+  std::string verdict;  // rank 0's: empty when every member opened the same files
+  if (rankOf(group.comm) == 0) {
+    for (size_t i = 0; i < records.size() && verdict.empty(); ++i) {
+      if (records[i].rfind("error ", 0) == 0) {
+        verdict = "dataset '" + name + "' cannot be opened on rank " + std::to_string(group.members[i]) + ": " +
+                  records[i].substr(6);
+      }
+    }
+    for (size_t i = 1; i < records.size() && verdict.empty(); ++i) {
+      if (records[i] != records[0]) {
+        verdict = "dataset '" + name + "' differs on rank " + std::to_string(group.members[i]) + " from rank 0 (" +
+                  records[i].substr(3) + "against " + records[0].substr(3) + ")";
+      }
     }
   }
-  for (size_t r = 1; r < records.size(); ++r) {
-    if (records[r] != records[0]) {
-      throw render::RenderInputError("dataset '" + name + "' differs on rank " + std::to_string(r) + " from rank 0 (" +
-                                     records[r].substr(3) + "against " + records[0].substr(3) + ")");
-    }
+  // The verdict travels as a message of its own kind, prefixed so that an empty one is a message too.
+  Transfers transfers(group.comm, timeoutSeconds);
+  auto text = std::make_shared<std::vector<char>>(kRecord * 2, '\0');
+  if (rankOf(group.comm) == 0) {
+    const std::string sent = "v" + verdict;
+    std::memcpy(text->data(), sent.data(), std::min(sent.size(), text->size() - 1));
+    for (size_t i = 1; i < group.members.size(); ++i)
+      transfers.send(group.members[i], group.tag(kVerdictTag), text->data(), text->size(), text, "a verdict");
+  } else {
+    transfers.receive(0, group.tag(kVerdictTag), text->data(), text->size(), text, "a verdict");
   }
+  transfers.wait();
+  if (rankOf(group.comm) != 0) verdict = std::string(text->data()).substr(1);
+  if (!verdict.empty()) throw render::RenderInputError(verdict);
 }
 
 std::shared_ptr<const render::Dataset> openOnEveryRank(
-    MPI_Comm comm, const std::string& name, const std::filesystem::path& path,
+    const RankGroup& group, const std::string& name, const std::filesystem::path& path,
     const std::function<std::shared_ptr<const render::Dataset>()>& open, double timeoutSeconds) {
   std::shared_ptr<const render::Dataset> dataset;
   std::string record;
@@ -177,7 +225,7 @@ std::shared_ptr<const render::Dataset> openOnEveryRank(
   } catch (const std::exception& error) {
     record = std::string("error ") + error.what();
   }
-  agreeOnDataset(comm, name, record, timeoutSeconds);
+  agreeOnDataset(group, name, record, timeoutSeconds);
   return dataset;
 }
 

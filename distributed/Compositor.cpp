@@ -128,14 +128,16 @@ std::shared_ptr<Buffer> exchange(Exchange& ex, const image::ImageF& image, int t
   return received;
 }
 
-void checkOrder(const std::vector<int>& frontToBack, int size) {
+void checkOrder(const std::vector<int>& frontToBack, int size, int rank) {
   std::vector<bool> seen(size_t(size), false);
-  if (int(frontToBack.size()) != size) throw std::invalid_argument("compositing order does not name every rank");
-  for (int rank : frontToBack) {
-    if (rank < 0 || rank >= size || seen[size_t(rank)]) {
-      throw std::invalid_argument("compositing order is not a permutation of the ranks");
+  for (int r : frontToBack) {
+    if (r < 0 || r >= size || seen[size_t(r)]) {
+      throw std::invalid_argument("compositing order names a rank twice or one outside the communicator");
     }
-    seen[size_t(rank)] = true;
+    seen[size_t(r)] = true;
+  }
+  if (frontToBack.empty() || !seen[0] || !seen[size_t(rank)]) {
+    throw std::invalid_argument("compositing order does not name rank 0 and the calling rank " + std::to_string(rank));
   }
 }
 
@@ -242,13 +244,13 @@ image::ImageF composite(MPI_Comm comm, image::ImageF partial, const std::vector<
   int size = 0, rank = 0;
   MPI_Comm_size(comm, &size);
   MPI_Comm_rank(comm, &rank);
-  checkOrder(frontToBack, size);
+  checkOrder(frontToBack, size, rank);
   if (partial.rgba.size() != size_t(partial.width) * size_t(partial.height) * 4) {
     throw std::invalid_argument("partial frame's pixels do not match its size");
   }
   CompositeStats stats;
   image::ImageF result;
-  if (size == 1) {
+  if (frontToBack.size() == 1) {
     result = std::move(partial);  // nothing to exchange: the frame is the part
   } else {
     Exchange ex{comm, options, stats};

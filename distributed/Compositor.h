@@ -41,12 +41,14 @@ struct CompositeOptions {
   int tag = 7100;              ///< the first of the 4 message tags this compositing uses on the communicator
 };
 
-/// Joins every rank's premultiplied partial frame (all the same size) in visibility order: `frontToBack[i]` is the
-/// rank whose part is i-th nearest (a permutation of 0..size-1, the same on every rank). Rank 0 returns the whole
-/// premultiplied frame (compositeSerial of the parts in that order, within the encoding's rounding); the other ranks
-/// return an empty image. `partial` is taken by value: move a frame in that is not needed after. Collective over
-/// `comm`: every rank must call it with the same order, size and options. Throws PeerError naming the rank when a
-/// transfer fails or passes its deadline, and std::invalid_argument for inconsistent arguments on this rank.
+/// Joins the premultiplied partial frames (all the same size) of the ranks named in `frontToBack`, in visibility
+/// order: `frontToBack[i]` is the rank whose part is i-th nearest. It names rank 0 and each rank at most once (the
+/// same list on every rank named); ranks of `comm` it does not name take no part (a rank lost: the survivors go on
+/// without it). Rank 0 returns the whole premultiplied frame (compositeSerial of the parts in that order, within the
+/// encoding's rounding); the other ranks return an empty image. `partial` is taken by value: move a frame in that is
+/// not needed after. Collective over the ranks named: each must call it with the same order, size and options. Throws
+/// PeerError naming the rank when a transfer fails or passes its deadline, and std::invalid_argument for
+/// inconsistent arguments on this rank.
 image::ImageF composite(MPI_Comm comm, image::ImageF partial, const std::vector<int>& frontToBack,
                         const CompositeOptions& options = {}, CompositeStats* stats = nullptr);
 

@@ -42,6 +42,12 @@ std::string mpiErrorText(int code) {
   return std::string(text, size_t(length));
 }
 
+void abandonRequest(MPI_Request request, std::shared_ptr<const void> keep) {
+  if (request == MPI_REQUEST_NULL) return;
+  std::lock_guard lock(gAbandonedMutex);
+  abandoned().push_back({request, std::move(keep)});
+}
+
 Transfers::~Transfers() {
   std::lock_guard lock(gAbandonedMutex);
   for (auto& pending : mPending) {
@@ -109,6 +115,39 @@ void Transfers::wait() {
     }
   }
   mPending.clear();
+}
+
+std::vector<bool> Transfers::waitEach() {
+  const auto deadline = Clock::now() + std::chrono::duration<double>(mTimeout);
+  std::vector<bool> done(mPending.size(), false);
+  int idle = 0;
+  while (true) {
+    bool progressed = false, waiting = false;
+    for (size_t i = 0; i < mPending.size(); ++i) {
+      Pending& pending = mPending[i];
+      if (pending.request == MPI_REQUEST_NULL) continue;
+      int complete = 0;
+      if (MPI_Test(&pending.request, &complete, MPI_STATUS_IGNORE) != MPI_SUCCESS) {
+        abandonRequest(pending.request, std::move(pending.keep));  // failed: given up, its buffer kept
+        pending.request = MPI_REQUEST_NULL;
+        continue;
+      }
+      if (complete) {
+        pending.request = MPI_REQUEST_NULL;
+        pending.keep.reset();
+        done[i] = progressed = true;
+      } else {
+        waiting = true;
+      }
+    }
+    if (!waiting || Clock::now() > deadline) break;
+    if (progressed) {
+      idle = 0;
+    } else {
+      pause(idle);
+    }
+  }
+  return done;  // the destructor abandons what is still pending
 }
 
 }  // namespace voxbrick::distributed

@@ -39,6 +39,9 @@ class Transfers {
   /// Polls every transfer until all complete; throws PeerError naming the first peer that failed or that had not
   /// completed when the deadline (timeoutSeconds from this call) passed.
   void wait();
+  /// Polls every transfer until each has completed or failed, or the deadline passed; returns, in the order they
+  /// were started, which completed (the others are abandoned with their buffers). Never throws for a peer.
+  std::vector<bool> waitEach();
 
  private:
   struct Pending {
@@ -52,6 +55,10 @@ class Transfers {
   double mTimeout;
   std::vector<Pending> mPending;
 };
+
+/// Gives up a started request that may still complete: it and the buffer `keep` holds are kept until the process
+/// ends (MPI may still write into the buffer).
+void abandonRequest(MPI_Request request, std::shared_ptr<const void> keep);
 
 /// Describes an MPI error code (MPI_Error_string).
 std::string mpiErrorText(int code);

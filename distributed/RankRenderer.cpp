@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "distributed/Cluster.h"
+#include "render/core/Interactive.h"
 #include "render/core/PartialFrame.h"
 #include "render/core/RenderErrors.h"
 
@@ -13,31 +14,34 @@ namespace voxbrick::distributed {
 RankRenderer::RankRenderer(MPI_Comm comm, render::RenderEngine& engine, RankRendererOptions options)
     : mComm(comm), mEngine(engine), mOptions(options) {
   MPI_Comm_rank(comm, &mRank);
-  MPI_Comm_size(comm, &mSize);
 }
 
-const render::SortLastParts& RankRenderer::partition(const std::shared_ptr<const render::Dataset>& dataset) {
+const render::SortLastParts& RankRenderer::partition(const std::shared_ptr<const render::Dataset>& dataset, int parts) {
   for (auto it = mPartitions.begin(); it != mPartitions.end();) {
     it = it->second.first.expired() ? mPartitions.erase(it) : std::next(it);
   }
-  auto found = mPartitions.find(dataset.get());
+  auto found = mPartitions.find({dataset.get(), parts});
   if (found != mPartitions.end()) return *found->second.second;
-  auto& entry = mPartitions[dataset.get()];
-  entry = {dataset, render::driverFor(*dataset).partition(*dataset, mSize)};
+  auto& entry = mPartitions[{dataset.get(), parts}];
+  entry = {dataset, render::driverFor(*dataset).partition(*dataset, parts)};
   return *entry.second;
 }
 
-image::ImageF RankRenderer::render(const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene,
-                                   render::FrameStats* stats, nlohmann::json* distributedJson,
-                                   const render::FrameOptions& options) {
+image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr<const render::Dataset>& dataset,
+                                   const render::Scene& scene, render::FrameStats* stats,
+                                   const render::FrameOptions& options, const nlohmann::json& lost) {
   if (!dataset) throw render::RenderInputError("no dataset");
   if (!render::driverFor(*dataset).sortsLast())
     throw render::RenderInputError("the distributed mode draws grids (brick stores) only; '" + dataset->name() +
                                    "' is a " + std::string(dataset->kind()));
-  const render::SortLastParts& parts = partition(dataset);
-  const std::vector<int> order = parts.frontToBack(scene);
+  const int index = group.indexOf(mRank);
+  if (index < 0) throw std::invalid_argument("rank " + std::to_string(mRank) + " is not a member of the group");
+  const render::SortLastParts& parts = partition(dataset, group.size());
+  std::vector<int> order;  // the members, nearest part first
+  for (int part : parts.frontToBack(scene)) order.push_back(group.members[size_t(part)]);
   render::FrameOptions partOptions = options;
-  partOptions.part = parts.boxes()[size_t(mRank)];
+  partOptions.part = parts.boxes()[size_t(index)];
+  partOptions.keepReducedSize = true;  // an interactive frame is composited at the size it was drawn
   render::FrameStats own;
   auto drawStart = std::chrono::steady_clock::now();
   // A rank whose drawing fails still takes its part in compositing (with nothing drawn), so that every rank stays in
@@ -50,53 +54,70 @@ image::ImageF RankRenderer::render(const std::shared_ptr<const render::Dataset>&
   } catch (const std::exception& error) {
     failure = error.what();
     failed = std::current_exception();
+  }
+  if (failed || partial.rgba.empty()) {
+    // Nothing drawn, at the scene's size. An interactive frame's parts are composited at its rung's size (the same
+    // choice on every rank); a rank that failed before drawing one is then refused by the compositor on its peers,
+    // which names it.
     partial = {scene.width, scene.height, std::vector<float>(size_t(scene.width) * size_t(scene.height) * 4, 0.0f)};
   }
   const double drawMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - drawStart).count();
+  CompositeOptions compositeOptions = mOptions.composite;
+  compositeOptions.tag = group.tag(kCompositeTags);
   CompositeStats composited;
-  image::ImageF whole = composite(mComm, std::move(partial), order, mOptions.composite, &composited);
-  // Every rank's figures to rank 0 (and to all: one small gather).
+  image::ImageF whole = composite(group.comm, std::move(partial), order, compositeOptions, &composited);
+  // Every member's figures to rank 0 only.
   const store::CacheStats cache = dataset->cacheStats();
   std::ostringstream record;
   record << drawMs << " " << own.msPaging << " " << composited.ms << " " << composited.bytesSent << " "
          << composited.bytesReceived << " " << cache.peakResidentBytes << " " << cache.budgetBytes << " "
-         << own.bricksDrawn << " " << mEngine.peakGpuBytes() << " " << failure;
-  const auto records = allGather(mComm, record.str(), mOptions.composite.timeoutSeconds);
+         << own.bricksDrawn << " " << own.bricksOutsidePart << " " << mEngine.peakGpuBytes() << " " << failure;
+  const auto records = gatherRecords(group, record.str(), mOptions.composite.timeoutSeconds);
   if (failed) std::rethrow_exception(failed);
   if (mRank != 0) return {};
   nlohmann::json perRank = nlohmann::json::array();
   uint64_t totalBytes = 0;
-  for (size_t r = 0; r < records.size(); ++r) {
-    std::istringstream in(records[r]);
+  for (size_t i = 0; i < records.size(); ++i) {
+    std::istringstream in(records[i]);
     double draw = 0, paging = 0, compositeMs = 0;
     uint64_t sent = 0, received = 0, peakHost = 0, budget = 0, peakGpu = 0;
-    int64_t bricks = 0;
-    in >> draw >> paging >> compositeMs >> sent >> received >> peakHost >> budget >> bricks >> peakGpu;
+    int64_t bricks = 0, outside = 0;
+    in >> draw >> paging >> compositeMs >> sent >> received >> peakHost >> budget >> bricks >> outside >> peakGpu;
     std::string error;
     std::getline(in >> std::ws, error);
-    if (!error.empty()) throw render::RenderError("rank " + std::to_string(r) + " could not draw its part: " + error);
+    const int rank = group.members[i];
+    if (!error.empty())
+      throw render::RenderError("rank " + std::to_string(rank) + " could not draw its part: " + error);
     totalBytes += sent;
-    perRank.push_back({{"rank", r},
+    perRank.push_back({{"rank", rank},
+                       {"part", i},
                        {"drawing_ms", draw},
                        {"paging_ms", paging},
                        {"compositing_ms", compositeMs},
                        {"bytes_sent", sent},
                        {"bytes_received", received},
                        {"bricks_drawn", bricks},
+                       {"bricks_outside_part", outside},
                        {"host_cache_peak_bytes", peakHost},
                        {"host_cache_budget_bytes", budget},
                        {"gpu_peak_bytes", peakGpu}});
   }
-  if (distributedJson) {
-    *distributedJson = {{"ranks", mSize},
-                        {"encoding", pixelEncodingName(mOptions.composite.encoding)},
-                        {"front_to_back", order},
-                        {"compositing_ms", composited.ms},
-                        {"bytes_exchanged", totalBytes},
-                        {"per_rank", perRank}};
-  }
+  own.distributed = {{"ranks", group.size()},
+                     {"members", group.members},
+                     {"epoch", group.epoch},
+                     {"lost_ranks", lost},
+                     {"encoding", pixelEncodingName(mOptions.composite.encoding)},
+                     {"front_to_back", order},
+                     {"composited_width", whole.width},
+                     {"composited_height", whole.height},
+                     {"compositing_ms", composited.ms},
+                     {"bytes_exchanged", totalBytes},
+                     {"per_rank", perRank}};
   if (stats) *stats = own;
-  return render::finishPartial(whole, scene);
+  image::ImageF finished = render::finishPartial(whole, scene);
+  if (finished.width != scene.width || finished.height != scene.height)
+    finished = render::scaleBilinear(finished, scene.width, scene.height);
+  return finished;
 }
 
 }  // namespace voxbrick::distributed

@@ -1,7 +1,7 @@
-// One sort-last frame across the ranks of a communicator: every rank draws its part of a dataset with its own
-// RenderEngine (FrameOptions::part, the parts its kind's driver splits it into, one per rank), the partial
+// One sort-last frame across a group of ranks (Cluster.h's RankGroup): every member draws its part of a dataset with
+// its own RenderEngine (FrameOptions::part, the parts its kind's driver splits it into, one per member), the partial
 // frames are composited in the parts' front-to-back order (Compositor.h), and rank 0 finishes the frame over the
-// scene's background. Collective: every rank calls render() with the same dataset and scene.
+// scene's background. Collective: every member calls render() with the same group, dataset and scene.
 #pragma once
 
 #include <mpi.h>
@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "distributed/Cluster.h"
 #include "distributed/Compositor.h"
 #include "image/Image.h"
 #include "render/core/Dataset.h"
@@ -30,26 +31,28 @@ class RankRenderer {
  public:
   RankRenderer(MPI_Comm comm, render::RenderEngine& engine, RankRendererOptions options = {});
 
-  /// Draws this rank's part of `scene` and composites. Rank 0 returns the finished frame and, in `stats`, its own
-  /// frame statistics with a "distributed" object added to `distributedJson` (each rank's drawing ms, paging and
-  /// host cache peak, the compositing ms and bytes each rank sent and received); other ranks return an empty image.
-  /// An interactive scene is drawn reduced on every rank with the same choice: `options.rateSamplesPerMs` and
-  /// `fixedMs` must be the same on every rank (the caller broadcasts rank 0's). Throws RenderInputError for a mesh
-  /// (a kind whose driver does not sort last), PeerError naming a rank that failed or passed the deadline, and the
-  /// engine's errors.
-  image::ImageF render(const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene,
-                       render::FrameStats* stats, nlohmann::json* distributedJson,
-                       const render::FrameOptions& options = {});
+  /// Draws this rank's part of `scene` (the part of its index among `group`'s members) and composites over the
+  /// group. Rank 0 returns the finished frame and, in `stats`, its own frame statistics with `distributed` set (the
+  /// members drawing, the lost ranks given in `lost`, each member's drawing ms, paging and host cache peak, the
+  /// compositing ms and bytes each sent and received: gathered to rank 0 only); other ranks return an empty image.
+  /// An interactive scene is drawn reduced on every rank with the same choice, composited at the reduced size and
+  /// scaled up once, on rank 0: `options.rateSamplesPerMs` and `fixedMs` must be the same on every rank (the caller
+  /// broadcasts rank 0's). Throws RenderInputError for a kind whose driver does not sort last, PeerError naming a
+  /// rank that failed or passed the deadline, and the engine's errors.
+  image::ImageF render(const RankGroup& group, const std::shared_ptr<const render::Dataset>& dataset,
+                       const render::Scene& scene, render::FrameStats* stats, const render::FrameOptions& options = {},
+                       const nlohmann::json& lost = nlohmann::json::array());
 
-  /// The dataset's parts, one per rank (DatasetDriver::partition, computed once per dataset).
-  const render::SortLastParts& partition(const std::shared_ptr<const render::Dataset>& dataset);
+  /// The dataset's parts, one per member of a group of `parts` ranks (DatasetDriver::partition, computed once per
+  /// dataset and count).
+  const render::SortLastParts& partition(const std::shared_ptr<const render::Dataset>& dataset, int parts);
 
  private:
   MPI_Comm mComm;
   render::RenderEngine& mEngine;
   RankRendererOptions mOptions;
-  int mRank = 0, mSize = 1;
-  std::map<const render::Dataset*,
+  int mRank = 0;
+  std::map<std::pair<const render::Dataset*, int>,
            std::pair<std::weak_ptr<const render::Dataset>, std::shared_ptr<const render::SortLastParts>>>
       mPartitions;
 };

@@ -1,8 +1,11 @@
 // Rank 0's frame leader and frame source, and the workers' loop of `serve --mpi` (ServeRanks.h).
 #include "distributed/ServeRanks.h"
 
+#include <algorithm>
+#include <array>
 #include <chrono>
 #include <map>
+#include <thread>
 
 #include <spdlog/spdlog.h>
 #include <nlohmann/json.hpp>
@@ -51,37 +54,157 @@ render::FrameOptions frameOptionsOf(const nlohmann::json& command) {
   return options;
 }
 
+/// How long rank 0 waits for the answers to a regroup: a worker that was waiting on a lost peer comes back within
+/// its deadline.
+double regroupSeconds(double timeoutSeconds) { return timeoutSeconds + 2; }
+
 }  // namespace
 
-FrameLeader::FrameLeader(MPI_Comm comm, ServeRankOptions options) : mComm(comm), mOptions(std::move(options)) {}
+/// A rank left out of the last regroup whose answer may still come: its receive and buffer.
+struct FrameLeader::LateAnswer {
+  int rank = -1;
+  MPI_Request request = MPI_REQUEST_NULL;
+  std::shared_ptr<std::array<char, 8>> buffer;
+};
+
+FrameLeader::FrameLeader(MPI_Comm comm, ServeRankOptions options)
+    : mComm(comm), mOptions(std::move(options)), mGroup(RankGroup::all(comm)), mLost(nlohmann::json::array()) {
+  MPI_Comm_size(comm, &mWorldSize);
+}
+
+FrameLeader::~FrameLeader() {
+  for (auto& late : mLate) abandonRequest(late.request, std::move(late.buffer));
+}
+
+std::vector<int> FrameLeader::members() const {
+  std::lock_guard lock(mMutex);
+  return mGroup.members;
+}
+
+render::RenderError FrameLeader::lose(const PeerError& error, const char* what) {
+  mFailure = error.what();
+  mSuspect = error.rank();
+  mEverLost = true;
+  spdlog::error("distributed mode: {}", error.what());
+  return render::RenderError(std::string("distributed ") + what + " failed: " + error.what());
+}
+
+void FrameLeader::regroup(const std::vector<int>& candidates) {
+  const int epoch = mGroup.epoch + 1;
+  if (epoch > RankGroup::lastEpoch(mComm)) {
+    mStopped = "the ranks regrouped " + std::to_string(mGroup.epoch) + " times, as many as MPI's tags allow";
+    return;
+  }
+  RankGroup next{mComm, {0}, epoch};
+  const std::string probe = nlohmann::json{{"op", "regroup"}, {"epoch", epoch}}.dump();
+  auto text = std::make_shared<std::string>(probe);
+  Transfers probes(mComm, 0);  // not waited for: a rank that takes its probe answers it
+  for (auto& late : mLate) abandonRequest(late.request, std::move(late.buffer));  // an earlier epoch's
+  mLate.clear();
+  std::vector<LateAnswer> awaited;
+  for (int r : candidates) {
+    LateAnswer answer{r, MPI_REQUEST_NULL, std::make_shared<std::array<char, 8>>()};
+    if (MPI_Irecv(answer.buffer->data(), 8, MPI_BYTE, r, next.tag(kAnswerTag), mComm, &answer.request) != MPI_SUCCESS)
+      continue;
+    awaited.push_back(std::move(answer));
+    try {
+      probes.send(r, next.tag(kCommandTag), text->data(), text->size(), text, "a regroup");
+    } catch (const PeerError& error) {
+      spdlog::warn("distributed mode: regrouping: {}", error.what());
+    }
+  }
+  // The answers, until every candidate's is in or the deadline passed; a rank that has not answered by then is left
+  // out, and its answer still listened for (mLate): it is taken back if it comes.
+  const auto deadline = std::chrono::steady_clock::now() +
+                        std::chrono::duration<double>(regroupSeconds(mOptions.frames.composite.timeoutSeconds));
+  while (true) {
+    bool waiting = false;
+    for (auto& answer : awaited) {
+      if (answer.request == MPI_REQUEST_NULL) continue;
+      int done = 0;
+      if (MPI_Test(&answer.request, &done, MPI_STATUS_IGNORE) != MPI_SUCCESS) {
+        abandonRequest(answer.request, std::move(answer.buffer));  // a dead rank: never taken back
+        answer.request = MPI_REQUEST_NULL;
+        answer.rank = -1;
+      } else if (done) {
+        next.members.push_back(answer.rank);
+      } else {
+        waiting = true;
+      }
+    }
+    if (!waiting || std::chrono::steady_clock::now() > deadline) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  for (auto& answer : awaited)
+    if (answer.request != MPI_REQUEST_NULL) mLate.push_back(std::move(answer));
+  nlohmann::json lost = nlohmann::json::array();
+  for (int r = 1; r < mWorldSize; ++r) {
+    if (next.indexOf(r) >= 0) continue;
+    std::string reason = "did not answer a regroup within " +
+                         std::to_string(int(regroupSeconds(mOptions.frames.composite.timeoutSeconds))) + " s";
+    for (const auto& earlier : mLost)
+      if (earlier.value("rank", -1) == r) reason = earlier.value("reason", reason);
+    if (r == mSuspect && mFailure) reason = *mFailure;
+    lost.push_back({{"rank", r}, {"reason", reason}});
+  }
+  std::sort(next.members.begin(), next.members.end());
+  mGroup = next;
+  mLost = lost;
+  mFailure.reset();
+  mSuspect = -1;
+  spdlog::warn("distributed mode: ranks regrouped (epoch {}): members {}, lost {}", mGroup.epoch,
+               nlohmann::json(mGroup.members).dump(), mLost.dump());
+}
+
+void FrameLeader::regroupIfNeeded() {
+  bool lateAnswer = false;
+  for (auto& late : mLate) {
+    int done = 0;
+    if (late.request != MPI_REQUEST_NULL && MPI_Test(&late.request, &done, MPI_STATUS_IGNORE) == MPI_SUCCESS && done) {
+      late.request = MPI_REQUEST_NULL;
+      lateAnswer = true;
+    }
+  }
+  if (mFailure) {
+    std::vector<int> everyOther;  // the lost ranks too: one that answers after all is taken back
+    for (int r = 1; r < mWorldSize; ++r) everyOther.push_back(r);
+    regroup(everyOther);
+  } else if (lateAnswer) {
+    std::vector<int> candidates(mGroup.members.begin() + 1, mGroup.members.end());
+    for (const auto& late : mLate)
+      if (late.request == MPI_REQUEST_NULL) candidates.push_back(late.rank);
+    std::sort(candidates.begin(), candidates.end());
+    regroup(candidates);
+  }
+}
 
 image::ImageF FrameLeader::frame(RankRenderer& renderer, double recentRate,
                                  const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene,
                                  render::FrameStats* stats, const render::FrameOptions& options) {
   std::lock_guard lock(mMutex);
-  if (mLost) throw render::RenderError("the distributed mode stopped earlier: " + *mLost + "; restart the server");
+  regroupIfNeeded();
+  if (mStopped)
+    throw render::RenderError("the distributed mode stopped earlier: " + *mStopped + "; restart the server");
   const double timeout = mOptions.frames.composite.timeoutSeconds;
   // Every rank draws the same interactive rung: chosen by rank 0's rate (none known yet: the cheapest), sent in the
   // frame's command with its deadline.
   const double rate = rateOrCheapest(options.rateSamplesPerMs > 0 ? options.rateSamplesPerMs : recentRate);
   nlohmann::json command = {{"op", "frame"},
                             {"name", dataset->name()},
+                            {"members", mGroup.members},
                             {"scene", scene.toJson()},
                             {"stand_ins", options.standIns},
                             {"max_samples", options.maxSamples},
                             {"rate", rate},
                             {"fixed_ms", options.rateSamplesPerMs > 0 ? options.fixedMs : 0.0}};
   try {
-    broadcastText(mComm, command.dump(), timeout);
-    agreeOnDataset(mComm, dataset->name(), ownRecord(dataset->name()), timeout);
-    nlohmann::json distributed;
-    image::ImageF image = renderer.render(dataset, scene, stats, &distributed, frameOptionsOf(command));
-    spdlog::debug("distributed frame: {}", distributed.dump());
+    sendCommand(mGroup, command.dump(), timeout);
+    agreeOnDataset(mGroup, dataset->name(), ownRecord(dataset->name()), timeout);
+    image::ImageF image = renderer.render(mGroup, dataset, scene, stats, frameOptionsOf(command), mLost);
+    if (stats) spdlog::debug("distributed frame: {}", stats->distributed.dump());
     return image;
   } catch (const PeerError& error) {
-    mLost = error.what();
-    spdlog::error("distributed mode: {}", error.what());
-    throw render::RenderError(std::string("distributed frame failed: ") + error.what());
+    throw lose(error, "frame");
   }
 }
 
@@ -94,9 +217,8 @@ std::string SortLastSource::describe() const {
   return mEngine.describe() + ", sort-last across " + std::to_string(mRanks) + " MPI ranks";
 }
 
-image::ImageF SortLastSource::render(const std::shared_ptr<const render::Dataset>& dataset,
-                                     const render::Scene& scene, render::FrameStats* stats,
-                                     const render::FrameOptions& options) {
+image::ImageF SortLastSource::render(const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene,
+                                     render::FrameStats* stats, const render::FrameOptions& options) {
   if (!dataset || options.part || !render::driverFor(*dataset).sortsLast())
     return mEngine.render(dataset, scene, stats, options);
   return mLeader->frame(mRenderer, mEngine.recentRate(*dataset), dataset, scene, stats, options);
@@ -120,28 +242,38 @@ std::string FrameLeader::ownRecord(const std::string& name) const {
 
 void FrameLeader::checkDataset(const std::string& name) {
   std::lock_guard lock(mMutex);
-  if (mLost) throw render::RenderError("the distributed mode stopped earlier: " + *mLost + "; restart the server");
+  regroupIfNeeded();
+  if (mStopped)
+    throw render::RenderError("the distributed mode stopped earlier: " + *mStopped + "; restart the server");
   const double timeout = mOptions.frames.composite.timeoutSeconds;
   try {
-    broadcastText(mComm, nlohmann::json{{"op", "open"}, {"name", name}}.dump(), timeout);
-    agreeOnDataset(mComm, name, ownRecord(name), timeout);
+    sendCommand(mGroup, nlohmann::json{{"op", "open"}, {"name", name}, {"members", mGroup.members}}.dump(), timeout);
+    agreeOnDataset(mGroup, name, ownRecord(name), timeout);
   } catch (const PeerError& error) {
-    mLost = error.what();
-    spdlog::error("distributed mode: {}", error.what());
-    throw render::RenderError(std::string("distributed open failed: ") + error.what());
+    throw lose(error, "open");
   }
 }
 
 bool FrameLeader::quit() {
   std::lock_guard lock(mMutex);
-  try {
-    // A lost rank would never reach MPI_Finalize: then no rank calls it.
-    broadcastText(mComm, nlohmann::json{{"op", "quit"}, {"in_step", !mLost}}.dump(), 1.0);
-    return !mLost;
-  } catch (const PeerError& error) {
-    spdlog::warn("distributed mode: quitting: {}", error.what());
-    return false;
+  // Every other rank, members or not (one left out may be waiting still). A lost rank would never reach
+  // MPI_Finalize: then no rank calls it.
+  const bool inStep = !mEverLost;
+  RankGroup everyone = RankGroup::all(mComm);
+  everyone.epoch = mGroup.epoch;
+  auto text = std::make_shared<std::string>(nlohmann::json{{"op", "quit"}, {"in_step", inStep}}.dump());
+  Transfers transfers(mComm, 1.0);
+  for (int r = 1; r < mWorldSize; ++r) {
+    try {
+      transfers.send(r, everyone.tag(kCommandTag), text->data(), text->size(), text, "quit");
+    } catch (const PeerError& error) {
+      spdlog::warn("distributed mode: quitting: {}", error.what());
+    }
   }
+  const std::vector<bool> told = transfers.waitEach();
+  const bool all = std::count(told.begin(), told.end(), true) == mWorldSize - 1;
+  if (!all) spdlog::warn("distributed mode: quitting: some ranks did not take the word to leave within a second");
+  return inStep && all;
 }
 
 bool runWorker(MPI_Comm comm, const ServeRankOptions& options, const std::atomic<bool>& stopRequested,
@@ -149,6 +281,8 @@ bool runWorker(MPI_Comm comm, const ServeRankOptions& options, const std::atomic
   render::RenderEngine engine(options.engine);
   RankRenderer renderer(comm, engine, options.frames);
   WorkerDatasets datasets(options.datasets, options.hostCacheBytes);
+  int self = 0;
+  MPI_Comm_rank(comm, &self);
   std::optional<std::chrono::steady_clock::time_point> stopSeen;
   auto giveUp = [&] {
     if (!stopRequested) return false;
@@ -156,14 +290,32 @@ bool runWorker(MPI_Comm comm, const ServeRankOptions& options, const std::atomic
     return std::chrono::steady_clock::now() - *stopSeen > std::chrono::duration<double>(graceSeconds);
   };
   const double timeout = options.frames.composite.timeoutSeconds;
+  int epoch = 0;
+  bool inStep = true;
   while (true) {
-    const std::string text = broadcastText(comm, {}, -1, giveUp);
-    if (text.empty()) return false;  // stopped without rank 0's word
-    const nlohmann::json command = nlohmann::json::parse(text, nullptr, false);
-    if (command.is_discarded()) return false;
-    if (command.value("op", "") == "quit") return command.value("in_step", false);
+    const std::optional<Command> taken = receiveCommand(comm, epoch, -1, giveUp);
+    if (!taken) return false;  // stopped without rank 0's word
+    epoch = taken->epoch;      // a later epoch: rank 0 regrouped the ranks
+    const nlohmann::json command = nlohmann::json::parse(taken->text, nullptr, false);
+    if (command.is_discarded() || !command.is_object()) continue;
+    const std::string op = command.value("op", "");
+    if (op == "quit") return inStep && command.value("in_step", false);
+    if (op == "regroup") {  // answered: this rank draws again from the next frame
+      const RankGroup group{comm, {}, epoch};
+      auto answer = std::make_shared<std::array<char, 8>>();
+      Transfers transfers(comm, timeout);
+      try {
+        transfers.send(0, group.tag(kAnswerTag), answer->data(), answer->size(), answer, "an answer to a regroup");
+        transfers.wait();
+      } catch (const PeerError& error) {
+        spdlog::error("distributed mode: {}", error.what());
+      }
+      continue;
+    }
+    RankGroup group{comm, command.value("members", std::vector<int>{}), epoch};
+    if (group.indexOf(self) < 0 || group.indexOf(0) != 0) continue;  // not drawing in this epoch
     const std::string name = command.value("name", "");
-    const bool framing = command.value("op", "") == "frame";
+    const bool framing = op == "frame";
     std::shared_ptr<const render::Dataset> dataset;
     std::optional<render::Scene> scene;
     std::string record;
@@ -176,11 +328,12 @@ bool runWorker(MPI_Comm comm, const ServeRankOptions& options, const std::atomic
       record = std::string("error ") + error.what();
     }
     try {
-      agreeOnDataset(comm, name, record, timeout);
-      if (framing) renderer.render(dataset, *scene, nullptr, nullptr, frameOptionsOf(command));
+      agreeOnDataset(group, name, record, timeout);
+      if (framing) renderer.render(group, dataset, *scene, nullptr, frameOptionsOf(command));
     } catch (const PeerError& error) {
+      // Out of step with rank 0 for this frame: rank 0 regroups the ranks before the next one.
       spdlog::error("distributed mode: {}", error.what());
-      return false;  // out of step with rank 0: leave
+      inStep = false;
     } catch (const std::exception& error) {
       spdlog::debug("distributed frame refused: {}", error.what());
     }

@@ -51,6 +51,10 @@ struct FrameOptions {
   double rateSamplesPerMs = 0;
   /// With rateSamplesPerMs: the time a frame takes besides its samples (RateGauge::fixedMs).
   double fixedMs = 0;
+  /// An interactive frame (RenderEngine): returned at the size its rung drew (FrameStats::interactive's "width" and
+  /// "height"), not scaled up to the scene's, so that the parts of a sort-last frame are composited at that size and
+  /// the composite is scaled up once. False: at the scene's size.
+  bool keepReducedSize = false;
   /// Sort-last rendering (grids only): draw only the samples owned inside this box of level-0 voxels, and return the
   /// frame premultiplied (colour times opacity, and opacity) with no background, for compositing in visibility order
   /// (render/core/PartialFrame.h). Empty: the whole dataset, finished over the scene's background.

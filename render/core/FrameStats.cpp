@@ -7,6 +7,7 @@ nlohmann::json FrameStats::toJson() const {
   nlohmann::json j = {{"nodes_visited", nodesVisited},
                       {"bricks_skipped_empty", bricksSkippedEmpty},
                       {"bricks_culled", bricksCulled},
+                      {"bricks_outside_part", bricksOutsidePart},
                       {"bricks_drawn", bricksDrawn},
                       {"bricks_paged_in", bricksPagedIn},
                       {"bricks_evicted", bricksEvicted},
@@ -55,6 +56,7 @@ nlohmann::json FrameStats::toJson() const {
   if (!raycaster.empty()) j["raycaster"] = raycaster;
   if (!quality.is_null()) j["quality"] = quality;
   if (!interactive.is_null()) j["interactive"] = interactive;
+  if (!distributed.is_null()) j["distributed"] = distributed;
   return j;
 }
 

@@ -19,9 +19,10 @@ struct FrameStats {
   int64_t nodesVisited = 0;
   int64_t bricksSkippedEmpty = 0;
   int64_t bricksCulled = 0;
-  int64_t bricksDrawn = 0;      ///< bricks drawn, of every level
-  int64_t bricksCoarse = 0;     ///< of those, bricks of a coarser level standing for level 0 (Scene::lod)
-  int64_t bricksCoarsened = 0;  ///< level-0 bricks the coarse ones stood for
+  int64_t bricksOutsidePart = 0;  ///< sort-last: level-0 bricks of other ranks' parts, never walked into
+  int64_t bricksDrawn = 0;        ///< bricks drawn, of every level
+  int64_t bricksCoarse = 0;       ///< of those, bricks of a coarser level standing for level 0 (Scene::lod)
+  int64_t bricksCoarsened = 0;    ///< level-0 bricks the coarse ones stood for
   /// Coarse-to-fine streaming (FrameOptions::standIns): bricks drawn from a resident ancestor because they were not
   /// yet resident themselves (they are being paged for a later frame). 0: the frame is exactly the scene's.
   int64_t bricksStandIn = 0;
@@ -43,9 +44,9 @@ struct FrameStats {
   /// A ray-cast grid frame: the kernel that drew it, "fragment" or "compute" (Scene::raycaster, auto resolved); empty
   /// otherwise.
   std::string raycaster;
-  int64_t slices = 0;           ///< brick-plane polygons submitted (slicing and slabs; the ray caster has none)
-  int64_t fragments = 0;        ///< volume fragments started: slices (GL_SAMPLES_PASSED) or slab fragments
-  int64_t samples = 0;          ///< volume samples taken: one per slice fragment, several per slab fragment
+  int64_t slices = 0;     ///< brick-plane polygons submitted (slicing and slabs; the ray caster has none)
+  int64_t fragments = 0;  ///< volume fragments started: slices (GL_SAMPLES_PASSED) or slab fragments
+  int64_t samples = 0;    ///< volume samples taken: one per slice fragment, several per slab fragment
   /// Texture slabs: samples a fragment left when its own opacity reached the termination threshold (an upper bound:
   /// planes of its range, before the ownership test). Fragments the silhouette map rejected are not started at all.
   int64_t samplesTerminated = 0;
@@ -83,6 +84,9 @@ struct FrameStats {
   /// An interactive frame (Scene::interactive): what it chose to fit its time budget (InteractiveChoice::toJson,
   /// plus "actual_ms"); null otherwise. msTotal and the other counts are those of the reduced drawing.
   nlohmann::json interactive;
+  /// A sort-last frame across MPI ranks (distributed/RankRenderer.h): the ranks drawing, those lost, the order and
+  /// the compositing; null otherwise.
+  nlohmann::json distributed;
 
   /// The statistics as a JSON object (snake_case keys, times under "ms"), to which callers may add their own keys.
   nlohmann::json toJson() const;

@@ -137,7 +137,7 @@ image::ImageF RenderEngine::renderAny(const std::shared_ptr<const Dataset>& data
                                                        [&](const Scene& s) { return renderer.estimateSamples(s); });
     image = renderer.render(interactiveScene(resolved, interactiveLadder()[size_t(chosen.rung)]), &frameStats,
                             frameOptions);
-    image = scaleBilinear(image, resolved.width, resolved.height);
+    if (!options.keepReducedSize) image = scaleBilinear(image, resolved.width, resolved.height);
     frameStats.interactive = chosen.toJson();
     frameStats.interactive["actual_ms"] =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

@@ -72,7 +72,14 @@ void traverse(FramePlan& plan, const Scene& scene, const store::BrickStore& stor
   const store::StoreMeta& meta = store.meta();
   const Frustum frustum = Frustum::fromMatrix(plan.viewProj);
   const OctreeTraversal traversal(store.octree(), meta.dims, store.brickSize(), meta.spacing);
-  TraversalOptions options{scene.skipEmpty, scene.cullFrustum, {scene.lod, store.levelCount() - 1, scene.height}};
+  TraversalOptions options{scene.skipEmpty, scene.cullFrustum, {scene.lod, store.levelCount() - 1, scene.height}, {}};
+  if (plan.part) {  // the bricks meeting the part: its voxels [lo, hi) over the brick size, rounded out
+    const int64_t B = store.brickSize();
+    const PartBox& part = *plan.part;
+    options.partBricks = std::array<store::Vec3i, 2>{
+        store::Vec3i{part.lo[0] / B, part.lo[1] / B, part.lo[2] / B},
+        store::Vec3i{(part.hi[0] + B - 1) / B, (part.hi[1] + B - 1) / B, (part.hi[2] + B - 1) / B}};
+  }
   plan.visible = traversal.run(plan.camera, frustum, plan.contributes, options);
   if (plan.part) keepPart(plan.visible, *plan.part, store.brickSize());
   plan.bricksWanted = int64_t(plan.visible.bricks.size());

@@ -100,6 +100,15 @@ void OctreeTraversal::visit(Walk& walk, int d, int64_t i, int64_t j, int64_t k) 
   store::Vec3i lo, hi;
   mOctree->brickSpan(d, i, j, k, lo, hi);
   int64_t bricks = (hi.x - lo.x) * (hi.y - lo.y) * (hi.z - lo.z);
+  if (const auto& part = walk.options.partBricks) {
+    const store::Vec3i& partLo = (*part)[0];
+    const store::Vec3i& partHi = (*part)[1];
+    if (lo.x >= partHi.x || hi.x <= partLo.x || lo.y >= partHi.y || hi.y <= partLo.y || lo.z >= partHi.z ||
+        hi.z <= partLo.z) {
+      stats.bricksOutsidePart += bricks;
+      return;
+    }
+  }
   if (walk.options.skipEmpty) {
     store::MinMaxOctree::Range range = mOctree->range(d, i, j, k);
     if (!walk.contributes(range.min, range.max)) {

@@ -1,8 +1,10 @@
 // Octree traversal: which level-0 bricks to draw, front to back, with empty-space skipping and frustum culling.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <vector>
 
 #include "brickstore/format/Types.h"
@@ -36,9 +38,10 @@ struct BrickDraw {
 
 /// What a traversal did. Skipped and culled count level-0 bricks, including every brick under a skipped or culled
 /// node, and so does bricksCoarsened for the nodes drawn at a coarser level: (bricksDrawn - bricksCoarse) +
-/// bricksCoarsened + bricksSkippedEmpty + bricksCulled is the number of bricks of the grid.
+/// bricksCoarsened + bricksSkippedEmpty + bricksCulled + bricksOutsidePart is the number of bricks of the grid.
 struct TraversalStats {
   int64_t nodesVisited = 0;
+  int64_t bricksOutsidePart = 0;  ///< under nodes outside TraversalOptions::partBricks (never visited below them)
   int64_t bricksSkippedEmpty = 0;
   int64_t bricksCulled = 0;
   int64_t bricksDrawn = 0;              ///< bricks to draw, of every level
@@ -62,6 +65,9 @@ struct TraversalOptions {
   bool skipEmpty = true;    ///< skip nodes whose value range the predicate rejects
   bool cullFrustum = true;  ///< skip nodes whose box lies outside the frustum
   LevelOfDetail lod;        ///< off by default
+  /// Sort-last rendering: only the level-0 bricks [lo, hi) (per axis) that meet the rank's part; a node wholly
+  /// outside them is left at once, so that a rank walks only its part of the octree. Empty: every brick.
+  std::optional<std::array<store::Vec3i, 2>> partBricks;
 };
 
 /// Brick key of a node's level -> whether to draw the node at that level whatever the level of detail says (the fit

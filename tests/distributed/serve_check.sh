@@ -2,8 +2,10 @@
 # `mpirun -n 3 voxbrick serve --mpi` with `voxbrick request` as the client, each rank with a datasets directory of its
 # own (as on separate machines): a served frame equals the one-process frame within 1/255; a dataset missing on one
 # rank is refused naming the rank and the server keeps serving; a rank stopped (SIGSTOP) or killed (SIGKILL) makes
-# the next Render an error naming it within the deadline (5 s here), and later Renders a clear error; SIGTERM to rank 0 ends every
-# rank with status 0, and SIGTERM to mpirun ends every rank. Usage: serve_check.sh VOXBRICK MPIRUN WORK
+# the next Render an error naming it within the deadline (5 s here), and the server then serves on with the other
+# ranks (frames equal to the one-process frame, the stats naming the lost rank); a stopped rank that goes on again
+# (SIGCONT) is taken back; SIGTERM to rank 0 ends every rank with status 0, and SIGTERM to mpirun ends every rank.
+# Usage: serve_check.sh VOXBRICK MPIRUN WORK
 set -uo pipefail
 exe=$(realpath "$1") mpirun=$2 work=$3
 rm -rf "$work" && mkdir -p "$work"
@@ -29,9 +31,21 @@ start() {
   for _ in $(seq 1 100); do [ -f "$work/port" ] && [ -f "$work/r2/pid" ] && break; sleep 0.2; done
   port=$(cat "$work/port" 2> /dev/null) || { echo "FAIL: the server did not start; its log:"; cat "$work/serve.log"; exit 1; }
 }
-request() {  # request DATASET OUTPUT: prints the client's output, returns its status
+request() {  # request DATASET OUTPUT: prints the client's output, returns its status; the stats in OUTPUT.json
   # shellcheck disable=SC2086
-  "$exe" request "127.0.0.1:$port" --dataset "$1" -o "$2" --timeout 30 $scene 2>&1
+  "$exe" request "127.0.0.1:$port" --dataset "$1" -o "$2" --stats "$2.json" --timeout 30 $scene 2>&1
+}
+same() {  # same IMAGE: whether IMAGE equals the one-process frame within 1/255 (prints the comparison)
+  local line maxAbs
+  line=$("$exe" compare "$work/single.png" "$1")
+  echo "$line"
+  maxAbs=$(sed -n 's/.*max_abs \([0-9.e+-]*\).*/\1/p' <<< "$line")
+  [ -n "$maxAbs" ] && awk -v m="$maxAbs" 'BEGIN { exit !(m <= 1.0 / 255 + 1e-6) }'
+}
+members() {  # members STATS: the ranks that drew the frame, and those lost ("0,1 lost 2")
+  /usr/bin/python3 -c 'import json, sys
+d = json.load(open(sys.argv[1]))["distributed"]
+print(",".join(map(str, d["members"])), "lost", ",".join(str(l["rank"]) for l in d["lost_ranks"]))' "$1"
 }
 finish() {  # finish SECONDS: waits for mpirun; returns its status, or 124 if it had to be killed
   for _ in $(seq 1 $(($1 * 10))); do kill -0 "$mpirunPid" 2> /dev/null || { wait "$mpirunPid"; return $?; }; sleep 0.1; done
@@ -43,9 +57,8 @@ finish() {  # finish SECONDS: waits for mpirun; returns its status, or 124 if it
 "$exe" render "$work/blobs" -o "$work/single.png" -q $scene || exit 1
 start
 out=$(request blobs "$work/served.png"); check "a frame served through rank 0 ($out)" $?
-line=$("$exe" compare "$work/single.png" "$work/served.png")
-maxAbs=$(sed -n 's/.*max_abs \([0-9.e+-]*\).*/\1/p' <<< "$line")
-[ -n "$maxAbs" ] && awk -v m="$maxAbs" 'BEGIN { exit !(m <= 1.0 / 255 + 1e-6) }'; check "served frame equals one process's: $line" $?
+line=$(same "$work/served.png"); check "served frame equals one process's: $line" $?
+[ "$(members "$work/served.png.json")" = "0,1,2 lost " ]; check "drawn by ranks 0, 1 and 2: $(members "$work/served.png.json")" $?
 out=$(request gone "$work/gone.png"); status=$?
 [ $status -ne 0 ] && grep -q "rank 2" <<< "$out"; check "a dataset missing on rank 2 is refused naming it: $out" $?
 out=$(request blobs "$work/again.png"); check "still serving after the refusal" $?
@@ -62,7 +75,20 @@ took=$(awk -v a="$begin" -v b="$(date +%s.%N)" 'BEGIN { print b - a }')
 [ $status -ne 0 ] && grep -q "rank 2" <<< "$out" && awk -v t="$took" 'BEGIN { exit !(t < 15) }'
 check "a stopped rank 2 is named within ${took} s: $out" $?
 out=$(request blobs "$work/later.png"); status=$?
-[ $status -ne 0 ] && grep -q "stopped earlier" <<< "$out"; check "a later Render gets a clear error: $out" $?
+check "the next Render is served by the other ranks: $out" $status
+line=$(same "$work/later.png"); check "... equal to one process's frame: $line" $?
+[ "$(members "$work/later.png.json")" = "0,1 lost 2" ]; check "... its stats name rank 2 lost: $(members "$work/later.png.json")" $?
+grep -q '"reason": *"[^"]*rank 2 did not answer' "$work/later.png.json"; check "... and why" $?
+out=$(request blobs "$work/later2.png"); status=$?
+[ $status -eq 0 ] && same "$work/later2.png" > /dev/null; check "and the one after: $out" $?
+# Going on again, rank 2 answers the regroup it missed and is taken back.
+kill -CONT "$(cat "$work/r2/pid")"
+for _ in $(seq 1 20); do
+  request blobs "$work/back.png" > /dev/null && [ "$(members "$work/back.png.json")" = "0,1,2 lost " ] && break
+  sleep 0.5
+done
+[ "$(members "$work/back.png.json")" = "0,1,2 lost " ]; check "rank 2 going on again is taken back: $(members "$work/back.png.json")" $?
+line=$(same "$work/back.png"); check "... and the frame equals one process's: $line" $?
 kill -KILL "$(cat "$work/r2/pid")"
 kill -TERM "$(cat "$work/r0/pid")"
 finish 20; status=$?
@@ -73,6 +99,10 @@ out=$(request blobs "$work/before.png"); check "a frame before rank 1 is killed"
 kill -KILL "$(cat "$work/r1/pid")"
 out=$(request blobs "$work/killed.png"); status=$?
 [ $status -ne 0 ] && grep -q "rank 1" <<< "$out"; check "a killed rank 1 is named: $out" $?
+out=$(request blobs "$work/survived.png"); status=$?
+check "the next Render is served by ranks 0 and 2: $out" $status
+line=$(same "$work/survived.png"); check "... equal to one process's frame: $line" $?
+[ "$(members "$work/survived.png.json")" = "0,2 lost 1" ]; check "... its stats name rank 1 lost: $(members "$work/survived.png.json")" $?
 kill -TERM "$(cat "$work/r0/pid")"
 finish 20; status=$?
 [ $status -ne 124 ]; check "SIGTERM to rank 0 ends the job after a rank was killed (mpirun status $status)" $?

@@ -77,7 +77,7 @@ TEST(FramePlan, CarriesTheTraversalOfItsCamera) {
   const FramePlan plan = planFrame(scene, *s, kTexels);
   const OctreeTraversal traversal(s->octree(), s->meta().dims, s->brickSize(), s->meta().spacing);
   const TraversalResult expected =
-      traversal.run(plan.camera, Frustum::fromMatrix(plan.viewProj), plan.contributes, {true, true, {}});
+      traversal.run(plan.camera, Frustum::fromMatrix(plan.viewProj), plan.contributes, {true, true, {}, {}});
   ASSERT_EQ(plan.visible.bricks.size(), expected.bricks.size());
   for (size_t i = 0; i < expected.bricks.size(); ++i) EXPECT_EQ(plan.visible.bricks[i].key, expected.bricks[i].key);
   EXPECT_EQ(plan.visible.stats.bricksDrawn, 3 * 2 * 1) << "every brick of a 40x24x16 ramp at B=16 is drawn";

@@ -8,6 +8,7 @@
 #include <map>
 #include <random>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include "brickstore/read/MinMaxOctree.h"
@@ -44,7 +45,7 @@ struct Grid {
   int64_t index(const store::BrickKey& k) const { return k.i + bricks.x * (k.j + bricks.y * int64_t{k.k}); }
 };
 
-const TraversalOptions kEverything{false, false, {}};
+const TraversalOptions kEverything{false, false, {}, {}};
 
 Camera lookingFrom(const glm::dvec3& eye, bool ortho = false, const glm::dvec3& center = {0.1, 0.2, 0.3}) {
   Camera camera;
@@ -107,7 +108,8 @@ std::map<std::tuple<uint32_t, uint32_t, uint32_t>, int> countKeys(const std::vec
 
 void expectStatsAddUp(const TraversalResult& r, const Grid& grid) {
   EXPECT_EQ(r.stats.bricksDrawn, static_cast<int64_t>(r.bricks.size()));
-  EXPECT_EQ(r.stats.bricksDrawn + r.stats.bricksSkippedEmpty + r.stats.bricksCulled, grid.bricks.volume());
+  EXPECT_EQ(r.stats.bricksDrawn + r.stats.bricksSkippedEmpty + r.stats.bricksCulled + r.stats.bricksOutsidePart,
+            grid.bricks.volume());
 }
 
 TEST(TraversalBricks, WithNothingSkippedEveryBrickAppearsOnceWithItsBox) {
@@ -205,7 +207,7 @@ TEST(TraversalSkip, SkipsExactlyTheRejectedBricksAndCountsThem) {
   OctreeTraversal traversal(grid.octree, kDims, kB, kTraversalSpacing);
   for (float threshold : {0.0f, 0.3f, 0.6f, 0.9f, 1.1f}) {
     auto contributes = [threshold](float, float max) { return max > threshold; };
-    TraversalResult r = traversal.run(lookingFrom({-60, 10, 70}), Frustum{}, contributes, {true, false, {}});
+    TraversalResult r = traversal.run(lookingFrom({-60, 10, 70}), Frustum{}, contributes, {true, false, {}, {}});
     auto seen = countKeys(r.bricks);
     int64_t expected = 0;
     for (uint32_t k = 0; k < 3; ++k)
@@ -222,6 +224,31 @@ TEST(TraversalSkip, SkipsExactlyTheRejectedBricksAndCountsThem) {
   }
 }
 
+TEST(TraversalPart, WalksOnlyThePartsBricksInTheSameOrderAndLeavesTheRestUnvisited) {
+  Grid grid(7);
+  OctreeTraversal traversal(grid.octree, kDims, kB, kTraversalSpacing);
+  const Camera camera = lookingFrom({-60, 10, 70});
+  const TraversalResult whole = traversal.run(camera, Frustum{}, {}, kEverything);
+  for (const auto& [lo, hi] : {std::pair{Vec3i{0, 0, 0}, Vec3i{2, 4, 3}}, std::pair{Vec3i{3, 1, 2}, Vec3i{5, 3, 3}},
+                               std::pair{Vec3i{4, 3, 2}, Vec3i{5, 4, 3}}}) {
+    TraversalOptions options = kEverything;
+    options.partBricks = std::array<Vec3i, 2>{lo, hi};
+    const TraversalResult part = traversal.run(camera, Frustum{}, {}, options);
+    std::vector<std::tuple<uint32_t, uint32_t, uint32_t>> expected, got;
+    for (const BrickDraw& b : whole.bricks)
+      if (const Vec3i at{b.key.i, b.key.j, b.key.k};
+          at.x >= lo.x && at.x < hi.x && at.y >= lo.y && at.y < hi.y && at.z >= lo.z && at.z < hi.z)
+        expected.emplace_back(b.key.i, b.key.j, b.key.k);
+    for (const BrickDraw& b : part.bricks) got.emplace_back(b.key.i, b.key.j, b.key.k);
+    EXPECT_EQ(got, expected);  // the same bricks, front to back as the whole walk has them
+    const int64_t inside = (hi.x - lo.x) * (hi.y - lo.y) * (hi.z - lo.z);
+    EXPECT_EQ(part.stats.bricksDrawn, inside);
+    EXPECT_EQ(part.stats.bricksOutsidePart, grid.bricks.volume() - inside);
+    EXPECT_LT(part.stats.nodesVisited, whole.stats.nodesVisited);  // the nodes outside are not walked into
+    expectStatsAddUp(part, grid);
+  }
+}
+
 TEST(TraversalSkip, AnEmptyRootSkipsTheWholeGridInOneVisit) {
   Vec3i bricks{64, 64, 64};
   std::vector<MinMaxOctree::Range> ranges(static_cast<size_t>(bricks.volume()), {0.0f, 0.01f});
@@ -230,7 +257,7 @@ TEST(TraversalSkip, AnEmptyRootSkipsTheWholeGridInOneVisit) {
   OctreeTraversal traversal(octree, {64 * 16, 64 * 16, 64 * 16}, 16, {1, 1, 1});
   TransferFunction tf({{0, {0, 0, 0, 0}}, {0.02, {0, 0, 0, 0}}, {0.02, {1, 1, 1, 0.3}}});
   auto contributes = [&tf](float min, float max) { return tf.contributes(min, max); };
-  TraversalResult r = traversal.run(lookingFrom({0, 0, 5000}), Frustum{}, contributes, {true, false, {}});
+  TraversalResult r = traversal.run(lookingFrom({0, 0, 5000}), Frustum{}, contributes, {true, false, {}, {}});
   ASSERT_EQ(r.bricks.size(), 1u);
   EXPECT_EQ(r.bricks[0].key, (store::BrickKey{0, 12345 % 64, (12345 / 64) % 64, 12345 / 4096}));
   EXPECT_EQ(r.stats.bricksSkippedEmpty, bricks.volume() - 1);
@@ -239,7 +266,7 @@ TEST(TraversalSkip, AnEmptyRootSkipsTheWholeGridInOneVisit) {
   ranges[12345] = {0.0f, 0.01f};
   MinMaxOctree empty(bricks, ranges);
   TraversalResult none = OctreeTraversal(empty, {1024, 1024, 1024}, 16, {1, 1, 1})
-                             .run(lookingFrom({0, 0, 5000}), Frustum{}, contributes, {true, false, {}});
+                             .run(lookingFrom({0, 0, 5000}), Frustum{}, contributes, {true, false, {}, {}});
   EXPECT_TRUE(none.bricks.empty());
   EXPECT_EQ(none.stats.nodesVisited, 1);
   EXPECT_EQ(none.stats.bricksSkippedEmpty, bricks.volume());
@@ -270,7 +297,7 @@ TEST(TraversalCull, RemovesExactlyTheBricksOutsideTheFrustumAndNoVisibleOne) {
     v.camera.clipRange(volume, near, far);
     glm::dmat4 vp = v.camera.projection(v.aspect, near, far) * v.camera.view();
     Frustum frustum = Frustum::fromMatrix(vp);
-    TraversalResult r = traversal.run(v.camera, frustum, {}, {false, true, {}});
+    TraversalResult r = traversal.run(v.camera, frustum, {}, {false, true, {}, {}});
     auto seen = countKeys(r.bricks);
     for (uint32_t k = 0; k < 3; ++k)
       for (uint32_t j = 0; j < 4; ++j)
@@ -447,7 +474,7 @@ TEST(TraversalInput, MismatchedGridsAndMissingPredicatesThrow) {
   EXPECT_THROW(OctreeTraversal(grid.octree, kDims, 0, kTraversalSpacing), RenderInputError);
   EXPECT_THROW(OctreeTraversal(grid.octree, kDims, kB, {1, 0, 1}), RenderInputError);
   OctreeTraversal traversal(grid.octree, kDims, kB, kTraversalSpacing);
-  EXPECT_THROW(traversal.run(lookingFrom({0, 0, 50}), Frustum{}, {}, {true, false, {}}), RenderInputError);
+  EXPECT_THROW(traversal.run(lookingFrom({0, 0, 50}), Frustum{}, {}, {true, false, {}, {}}), RenderInputError);
   EXPECT_THROW(traversal.run(lookingFrom({0, 0, 0}, false, {0, 0, 0}), Frustum{}, {}, kEverything), RenderInputError);
 }
 

@@ -51,6 +51,7 @@ void VolumeRenderer::planStats(const FramePlan& plan, FrameStats& stats) const {
   stats.nodesVisited = visible.nodesVisited;
   stats.bricksSkippedEmpty = visible.bricksSkippedEmpty;
   stats.bricksCulled = visible.bricksCulled;
+  stats.bricksOutsidePart = visible.bricksOutsidePart;
   stats.bricksDrawn = visible.bricksDrawn;
   stats.bricksCoarse = visible.bricksCoarse;
   stats.bricksCoarsened = visible.bricksCoarsened;
