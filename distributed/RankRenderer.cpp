@@ -32,12 +32,13 @@ image::ImageF RankRenderer::render(const std::shared_ptr<const render::Dataset>&
                                    const render::FrameOptions& options) {
   if (!dataset) throw render::RenderInputError("no dataset");
   if (!render::driverFor(*dataset).sortsLast())
-    throw render::RenderInputError("the distributed mode draws grids (brick stores) only; '" + dataset->name() +
-                                   "' is a " + std::string(dataset->kind()));
+    throw render::RenderInputError("the distributed mode draws grids and tetrahedral meshes only; '" +
+                                   dataset->name() + "' is a " + std::string(dataset->kind()) +
+                                   ", which its driver does not split into parts");
   const render::SortLastParts& parts = partition(dataset);
   const std::vector<int> order = parts.frontToBack(scene);
   render::FrameOptions partOptions = options;
-  partOptions.part = parts.boxes()[size_t(mRank)];
+  parts.select(mRank, partOptions);
   render::FrameStats own;
   auto drawStart = std::chrono::steady_clock::now();
   // A rank whose drawing fails still takes its part in compositing (with nothing drawn), so that every rank stays in

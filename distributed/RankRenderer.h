@@ -34,8 +34,8 @@ class RankRenderer {
   /// frame statistics with a "distributed" object added to `distributedJson` (each rank's drawing ms, paging and
   /// host cache peak, the compositing ms and bytes each rank sent and received); other ranks return an empty image.
   /// An interactive scene is drawn reduced on every rank with the same choice: `options.rateSamplesPerMs` and
-  /// `fixedMs` must be the same on every rank (the caller broadcasts rank 0's). Throws RenderInputError for a mesh
-  /// (a kind whose driver does not sort last), PeerError naming a rank that failed or passed the deadline, and the
+  /// `fixedMs` must be the same on every rank (the caller broadcasts rank 0's). Throws RenderInputError for a kind
+  /// whose driver does not sort last, PeerError naming a rank that failed or passed the deadline, and the
   /// engine's errors.
   image::ImageF render(const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene,
                        render::FrameStats* stats, nlohmann::json* distributedJson,

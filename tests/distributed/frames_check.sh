@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # `mpirun -n N voxbrick render --mpi` against the one-process `voxbrick render`, within 1/255 per channel, for the
 # cases of the sort-last comparison: the MRI (ch2better), a smooth field with the MRI preset, a sparse field, the camera inside the
-# volume, an orthographic view and a coarse level of detail. Usage: frames_check.sh VOXBRICK MPIRUN WORK N
+# volume, an orthographic view and a coarse level of detail; and tetrahedral meshes: the staircase ball ray cast
+# (perspective and orthographic), the camera inside a box mesh (drawn projected), and a ball paged within a small host
+# budget, whose rank 0 reads fewer chunks than the one process does. Usage: frames_check.sh VOXBRICK MPIRUN WORK N
 # (WORK holds the datasets and the one-process frames, made once: `frames_check.sh VOXBRICK MPIRUN WORK setup`).
 # `frames_check.sh VOXBRICK MPIRUN WORK refusals`: on 2 ranks, `render --mpi` refuses what the one-process render
 # refuses (--channel on a store that is no OME-Zarr, a transparent frame to JPEG, --analytic without the reference).
@@ -14,18 +16,36 @@ cases=(
   "inside|blobs|--tf mri --orbit 35,25,0.25 --fov 75"
   "ortho|blobs|--tf mri --orbit 200,-40,2.2 --ortho"
   "lod|blobs|--tf mri --orbit 35,25,2.2 --lod 4"
+  "mesh|ball.vms|--tf hot --orbit 35,25"
+  "meshortho|ball.vms|--tf hot --orbit 200,-40 --ortho"
+  "meshinside|box.vms|--tf hot --orbit 35,25,0.3 --fov 75"
+  "meshpaged|paged.vms|--tf ct-bone --window 0.5,0.95 --orbit 35,25 --host-cache 2"
 )
+# How each mesh case's parts are clipped to their boxes (FrameStats::tetPart): the ray caster's walk, or projected
+# tets where the whole frame is projected (the camera within the mesh's box).
+declare -A clip=([mesh]=raycast [meshortho]=raycast [meshinside]=projected [meshpaged]=raycast)
 common="--size 72x64 --step 0.5 -q"
+meshCommon="--size 72x64 -q"
+# The options every case of dataset $1 takes.
+commonFor() { [[ $1 == *.vms ]] && echo "$meshCommon" || echo "$common"; }
+# The value of the first "KEY": N in JSON file $2.
+jsonNumber() { sed -n 's/.*"'"$1"'": \([0-9]*\).*/\1/p' "$2" | head -n 1; }
 if [ "$ranks" = setup ]; then
   rm -rf "$work" && mkdir -p "$work"
   "$exe" prep synthetic:blobs,n=64 --brick 16 --no-vdb -q -o "$work/blobs" > /dev/null
   "$exe" prep synthetic:sparse,n=64 --brick 16 --no-vdb -q -o "$work/sparse" > /dev/null
   # The MRI itself (Debian's mricron-data, installed by scripts/setup.sh).
   "$exe" prep /usr/share/mricron/templates/ch2better.nii.gz --brick 32 --no-vdb -q -o "$work/brain" > /dev/null
+  # Meshes in small chunks, so that parts and paging have chunks to tell apart; the paged one too large for 2 MB
+  # whole, its view within it once the transfer function's transparent chunks are left out.
+  "$exe" prep synthetic-mesh:ball,n=16 --tets-per-chunk 512 -q -o "$work/ball.vms" > /dev/null
+  "$exe" prep synthetic-mesh:box,n=10 --tets-per-chunk 512 -q -o "$work/box.vms" > /dev/null
+  "$exe" prep synthetic-mesh:ball,n=28 --tets-per-chunk 256 -q -o "$work/paged.vms" > /dev/null
   for c in "${cases[@]}"; do
     IFS='|' read -r name data options <<< "$c"
-    # shellcheck disable=SC2086
-    "$exe" render "$work/$data" -o "$work/$name.single.png" $common $options
+    # shellcheck disable=SC2086,SC2046
+    "$exe" render "$work/$data" -o "$work/$name.single.png" --stats "$work/$name.single.json" $(commonFor "$data") \
+      $options
   done
   exit 0
 fi
@@ -55,9 +75,9 @@ fi
 for c in "${cases[@]}"; do
   IFS='|' read -r name data options <<< "$c"
   out="$work/$name.$ranks.png"
-  # shellcheck disable=SC2086
+  # shellcheck disable=SC2086,SC2046
   "$mpirun" --oversubscribe --allow-run-as-root -n "$ranks" "$exe" render "$work/$data" --mpi -o "$out" \
-    --stats "$work/$name.$ranks.json" $common $options > /dev/null
+    --stats "$work/$name.$ranks.json" $(commonFor "$data") $options > /dev/null
   line=$("$exe" compare "$work/$name.single.png" "$out")
   maxAbs=$(sed -n 's/.*max_abs \([0-9.e+-]*\).*/\1/p' <<< "$line")
   if [ -n "$maxAbs" ] && awk -v m="$maxAbs" 'BEGIN { exit !(m <= 1.0 / 255 + 1e-6) }'; then
@@ -67,5 +87,21 @@ for c in "${cases[@]}"; do
     failed=1
   fi
   grep -q '"ranks": '"$ranks" "$work/$name.$ranks.json" || { echo "FAIL $name: stats without the ranks"; failed=1; }
+  if [ -n "${clip[$name]:-}" ] && ! grep -q '"tet_part": "'"${clip[$name]}"'"' "$work/$name.$ranks.json"; then
+    echo "FAIL $name: rank 0's part was not clipped as ${clip[$name]}"
+    failed=1
+  fi
+  if [ "$name" = meshpaged ]; then
+    # A paged mesh: rank 0 reads only the chunks that meet its part's box, fewer than the whole frame's on 2 ranks
+    # or more.
+    single=$(jsonNumber tet_chunks_read "$work/$name.single.json")
+    own=$(jsonNumber tet_chunks_read "$work/$name.$ranks.json")
+    if [ -z "$single" ] || [ -z "$own" ] || [ "$own" -gt "$single" ] || { [ "$ranks" -gt 1 ] && [ "$own" -ge "$single" ]; }; then
+      echo "FAIL $name: rank 0 read ${own:-?} chunks, the one process ${single:-?}"
+      failed=1
+    else
+      echo "$name, $ranks ranks: rank 0 read $own chunks, the one process $single"
+    fi
+  fi
 done
 exit $failed
