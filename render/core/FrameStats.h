@@ -76,7 +76,7 @@ struct FrameStats {
   int64_t tetRayPasses = 0;
   /// A mesh part's frame (FrameOptions::meshPart): how it was clipped to the part's box, "raycast" (each ray's walk
   /// integrated only inside the box) or "projected" (each projected tet's fragment's segment cut to the box); empty
-  /// for a whole frame. JSON "tet_part" when set.
+  /// for a whole frame and for a part with nothing to draw. JSON "tet_part" when set.
   std::string tetPart;
   double msPreIntegration = 0;  ///< building the pre-integration table (0 when the last frame's was current)
   /// Why the frame was not drawn as the scene asked (the ray caster's cell table too large for the volume: texture

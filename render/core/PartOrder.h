@@ -26,8 +26,7 @@ void kdFrontToBack(const std::vector<Node>& nodes, int node, const PartView& vie
     order.push_back(n.part);
     return;
   }
-  const bool lowerFirst =
-      view.orthographic ? view.direction[n.axis] >= 0 : view.eye[n.axis] <= double(n.position);
+  const bool lowerFirst = view.orthographic ? view.direction[n.axis] >= 0 : view.eye[n.axis] <= double(n.position);
   kdFrontToBack(nodes, lowerFirst ? n.lower : n.upper, view, order);
   kdFrontToBack(nodes, lowerFirst ? n.upper : n.lower, view, order);
 }

@@ -220,8 +220,9 @@ std::shared_ptr<const TetMeshData> cellsMeeting(const TetMeshData& data, const M
     std::array<int32_t, 4> across{};
     for (int f = 0; f < 4; ++f) {
       const int32_t n = data.topology.neighbours[t][size_t(f)];
-      across[size_t(f)] = n == mesh::Topology::kBoundary ? n : newCell[size_t(n)] < 0 ? mesh::Topology::kBoundary
-                                                                                       : newCell[size_t(n)];
+      across[size_t(f)] = n == mesh::Topology::kBoundary ? n
+                          : newCell[size_t(n)] < 0       ? mesh::Topology::kBoundary
+                                                         : newCell[size_t(n)];
     }
     topology.neighbours.push_back(across);
   }

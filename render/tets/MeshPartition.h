@@ -34,9 +34,9 @@ struct MeshPartition {
     int lower = -1, upper = -1;
     int part = -1;
   };
-  std::vector<Node> nodes;          ///< nodes[0] is the root
-  std::vector<MeshPartBox> boxes;   ///< each part's box; faces on the mesh's box pushed out beyond it
-  std::vector<double> weights;      ///< each part's share of the weights
+  std::vector<Node> nodes;         ///< nodes[0] is the root
+  std::vector<MeshPartBox> boxes;  ///< each part's box; faces on the mesh's box pushed out beyond it
+  std::vector<double> weights;     ///< each part's share of the weights
 };
 
 /// Splits `bounds` (a mesh's box, not empty) into `parts` boxes (1 <= parts <= 65536; throws std::invalid_argument
