@@ -32,15 +32,16 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
                                    const render::FrameOptions& options, const nlohmann::json& lost) {
   if (!dataset) throw render::RenderInputError("no dataset");
   if (!render::driverFor(*dataset).sortsLast())
-    throw render::RenderInputError("the distributed mode draws grids (brick stores) only; '" + dataset->name() +
-                                   "' is a " + std::string(dataset->kind()));
+    throw render::RenderInputError("the distributed mode draws grids and tetrahedral meshes only; '" +
+                                   dataset->name() + "' is a " + std::string(dataset->kind()) +
+                                   ", which its driver does not split into parts");
   const int index = group.indexOf(mRank);
   if (index < 0) throw std::invalid_argument("rank " + std::to_string(mRank) + " is not a member of the group");
   const render::SortLastParts& parts = partition(dataset, group.size());
   std::vector<int> order;  // the members, nearest part first
   for (int part : parts.frontToBack(scene)) order.push_back(group.members[size_t(part)]);
   render::FrameOptions partOptions = options;
-  partOptions.part = parts.boxes()[size_t(index)];
+  parts.select(index, partOptions);
   partOptions.keepReducedSize = true;  // an interactive frame is composited at the size it was drawn
   render::FrameStats own;
   auto drawStart = std::chrono::steady_clock::now();

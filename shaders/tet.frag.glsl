@@ -2,7 +2,8 @@
 // barycentric planes of tet.vert.glsl cross zero), the scalar is linear in between, and the segment's colour and
 // opacity come from the pre-integrated table (front value, back value, length; with SHADING, the grids' headlight):
 // classifySegment and shadeSegment of the library tet.glsl. Exact for perspective rays, with no sprite size limit.
-// Premultiplied output, blended front to back in the visibility order.
+// Premultiplied output, blended front to back in the visibility order. With PART_CLIP (a sort-last part), the
+// segment is cut to the part's box first: the scalar is linear along it, so the cut ends' values are exact.
 noperspective in vec4 vAt;     // tet.vert.glsl: the barycentric planes along the ray, at + t * rate
 noperspective in vec4 vRate;
 noperspective in vec2 vValue;  // the normalised scalar along the ray, vValue.x + t * vValue.y
@@ -13,6 +14,9 @@ flat in vec3 vGradient;
 #endif
 
 uniform vec3 uRayDirection, uRayDirectionDx, uRayDirectionDy;  // near plane to far plane at window (x, y)
+#ifdef PART_CLIP
+uniform vec3 uRayOrigin, uRayOriginDx, uRayOriginDy;  // ray origin (near plane) at window (x, y)
+#endif
 out vec4 fragColor;
 
 void main() {
@@ -42,6 +46,12 @@ void main() {
       discard;
     }
   }
+#ifdef PART_CLIP
+  const vec2 part =
+      partRange(uRayOrigin + gl_FragCoord.x * uRayOriginDx + gl_FragCoord.y * uRayOriginDy, direction);
+  enter = max(enter, part.x);
+  leave = min(leave, part.y);
+#endif
   if (!(leave > enter)) discard;
   const float front = vValue.x + enter * vValue.y;
   const float back = vValue.x + leave * vValue.y;

@@ -3,6 +3,7 @@
 // pre-integrated table (front value, back value, length: render/core/PreIntegration.h, the optical model of
 // ARCHITECTURE.md), and with SHADING its headlight. Exact for perspective rays: the segment is the pixel's own, in
 // world units. With TET_RAY, the ray caster's buffers, pixel ray and edge product (render/gl/tets/TetRayCaster.h).
+// With PART_CLIP, a sort-last part's box, which each ray's integration is clipped to (FrameOptions::meshPart).
 #ifdef FRAGMENT_STAGE
 uniform float uInvReference;  // 1 / the transfer function's reference length
 
@@ -37,6 +38,29 @@ vec4 shadeSegment(vec4 segment, vec3 gradient, vec3 direction) {
   return vec4(segment.rgb * (0.3 + 0.7 * diffuse) + vec3(0.25 * pow(diffuse, 32.0) * segment.a), segment.a);
 }
 #endif
+#endif
+
+#if defined(PART_CLIP) && defined(FRAGMENT_STAGE)
+// The part's box (FrameOptions::meshPart), centred on the mesh's box as the vertices are.
+uniform vec3 uPartLo, uPartHi;
+
+// The range [x, y] of t where the ray origin + t * direction is inside the part's box (x > y: it misses). Two parts
+// that share a plane compute its t from the same float with the same expression, so that a segment crossing the
+// plane is cut at one t: its stretches on either side add up to it, with neither gap nor overlap.
+vec2 partRange(vec3 origin, vec3 direction) {
+  float enter = -3.0e38, leave = 3.0e38;
+  for (int a = 0; a < 3; ++a) {
+    if (direction[a] != 0.0) {
+      precise float toLo = (uPartLo[a] - origin[a]) / direction[a];
+      precise float toHi = (uPartHi[a] - origin[a]) / direction[a];
+      enter = max(enter, min(toLo, toHi));
+      leave = min(leave, max(toLo, toHi));
+    } else if (origin[a] < uPartLo[a] || origin[a] > uPartHi[a]) {
+      return vec2(1.0, 0.0);
+    }
+  }
+  return vec2(enter, leave);
+}
 #endif
 
 #if defined(TET_RAY) && defined(FRAGMENT_STAGE)

@@ -13,6 +13,10 @@
 // entering, the other leaving. The products are also the barycentric weights of the point where the ray crosses
 // the face (each vertex's the product of the edge opposite it), which give the exit's ray parameter and scalar; the
 // next tet takes them over as its entry.
+//
+// With PART_CLIP (a sort-last part, FrameOptions::meshPart), each segment is cut to the part's box (partRange of
+// tet.glsl) before it is classified, its ends' scalars interpolated along it (linear in a tet), and a ray stops for
+// good once it has passed the box: what lies beyond is other parts'.
 // The marching fragments' counters, as volume_counters.glsl declares them (render/gl/SampleCounters.h reads them).
 layout(std430, binding = VB_BINDING_SAMPLE_COUNTERS) buffer SlabCounters { uint uCounters[2 * VB_COUNTERS]; };
 
@@ -65,6 +69,14 @@ void main() {
   const vec3 moment = cross(origin, direction);
   const float directionSquared = dot(direction, direction);
   const float lengthOverReference = sqrt(directionSquared) * uInvReference;
+#ifdef PART_CLIP
+  const vec2 part = partRange(origin, direction);
+  if (!(part.y > part.x)) {
+    // The ray misses the part: no pass has anything to do for it.
+    uExits[pixelIndex()] = 2.0;
+    discard;
+  }
+#endif
 
   uint tet = entry >> 3;
   int face = int(entry & 3u);
@@ -88,10 +100,16 @@ void main() {
                entrySum;  // position and raw scalar
   float t = dot(point.xyz - origin, direction) / directionSquared;
   const float entryT = t;
+#ifdef PART_CLIP
+  if (t >= part.y) {
+    uExits[pixelIndex()] = 2.0;
+    discard;
+  }
+#endif
 
   vec4 accumulated = vec4(0.0);
   int steps = 0, segments = 0, stalled = 0;  // tets walked; those with a segment of positive length
-  bool terminated = false;
+  bool terminated = false, passed = false;  // passed: beyond the part's box
   for (;;) {
     // Each face's leaving score: the least of its weights, signed so that a face the ray leaves through has them
     // all >= 0. The exit is the best face other than the entry (in exact arithmetic the only one with a score >= 0).
@@ -106,9 +124,22 @@ void main() {
     const float weightSum = w.x + w.y + w.z + w.w;
     const vec4 exitPoint = weightSum != 0.0 ? (w.x * v[0] + w.y * v[1] + w.z * v[2] + w.w * v[3]) / weightSum : point;
     const float exitT = max(dot(exitPoint.xyz - origin, direction) / directionSquared, t);
+#ifdef PART_CLIP
+    const float from = max(t, part.x), to = min(exitT, part.y);
+    const bool counted = to > from;
+    vec4 segment = vec4(0.0);
+    if (counted) {
+      const float span = exitT - t;  // > 0: the cut stretch has length
+      const float front = (mix(point.w, exitPoint.w, (from - t) / span) - uWindowLo) * uWindowScale;
+      const float back = (mix(point.w, exitPoint.w, (to - t) / span) - uWindowLo) * uWindowScale;
+      segment = classifySegment(front, back, (to - from) * lengthOverReference);
+    }
+#else
+    const bool counted = exitT > t;
     const float front = (point.w - uWindowLo) * uWindowScale;
     const float back = (exitPoint.w - uWindowLo) * uWindowScale;
     vec4 segment = classifySegment(front, back, (exitT - t) * lengthOverReference);
+#endif
 #ifdef SHADING
     // The scalar's gradient in the tet: the edges from vertex 0 against the scalar's differences along them.
     const mat3 edges = mat3(v[1].xyz - v[0].xyz, v[2].xyz - v[0].xyz, v[3].xyz - v[0].xyz);
@@ -117,7 +148,7 @@ void main() {
 #endif
     accumulated += (1.0 - accumulated.a) * segment;
     ++steps;
-    segments += exitT > t ? 1 : 0;
+    segments += counted ? 1 : 0;
     // A guard: a ray that went round kMaxStalled tets without moving along is given up.
     stalled = exitT > t ? 0 : stalled + 1;
     t = exitT;
@@ -126,6 +157,12 @@ void main() {
       terminated = true;
       break;
     }
+#ifdef PART_CLIP
+    if (t >= part.y) {
+      passed = true;
+      break;
+    }
+#endif
     const int next = uNext[tet][exitFace];
     if (next < 0 || steps >= uMaxSteps || stalled >= kMaxStalled) break;
     tet = uint(next) >> 3;
@@ -159,7 +196,7 @@ void main() {
   // little beyond the walk's), so that no pass finds the same entry again.
   const float entryPassT = texelFetch(uEntryDepth, ivec2(gl_FragCoord.xy), 0).r;
   const float exitRule = t - entryT > 2.0 * kBeyond ? t - kBeyond : max(t, entryT) + kBeyond;
-  uExits[pixelIndex()] = terminated ? 2.0 : max(exitRule, entryPassT + kBeyond);
+  uExits[pixelIndex()] = terminated || passed ? 2.0 : max(exitRule, entryPassT + kBeyond);
   count(VB_COUNTER_FRAGMENTS, 1u);
   count(VB_COUNTER_SAMPLES, uint(segments));
   if (terminated) count(VB_COUNTER_SAMPLES_TERMINATED, 1u);

@@ -59,6 +59,10 @@ struct FrameOptions {
   /// frame premultiplied (colour times opacity, and opacity) with no background, for compositing in visibility order
   /// (render/core/PartialFrame.h). Empty: the whole dataset, finished over the scene's background.
   std::optional<PartBox> part = std::nullopt;
+  /// Sort-last rendering of a tetrahedral mesh: draw only the cells that meet this world-space box, each ray's
+  /// integration clipped to it, premultiplied with no background as `part` is (render/core/PartialFrame.h). Empty:
+  /// the whole mesh. A grid's renderer refuses it, a mesh's refuses `part`.
+  std::optional<MeshPartBox> meshPart = std::nullopt;
   /// Grids, ray casting a frame of one batch: the cell table kept from the last frame and changed where the bricks
   /// changed (render/gl/volume/KeptCells.h). False fills it anew, as each batch of a larger frame does: the same
   /// image, the path it replaced, kept for measuring the two side by side.

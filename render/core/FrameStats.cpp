@@ -54,6 +54,7 @@ nlohmann::json FrameStats::toJson() const {
   if (!fallback.empty()) j["fallback"] = fallback;
   if (plannedAhead) j["planned_ahead"] = true;
   if (!raycaster.empty()) j["raycaster"] = raycaster;
+  if (!tetPart.empty()) j["tet_part"] = tetPart;
   if (!quality.is_null()) j["quality"] = quality;
   if (!interactive.is_null()) j["interactive"] = interactive;
   if (!distributed.is_null()) j["distributed"] = distributed;

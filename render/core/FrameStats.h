@@ -75,6 +75,10 @@ struct FrameStats {
   /// A ray-cast mesh frame's entry passes (render/gl/tets/TetRayCaster.h), each followed by a ray pass but the last,
   /// which found no entry: 2 for a convex mesh. 0 when the frame was projected.
   int64_t tetRayPasses = 0;
+  /// A mesh part's frame (FrameOptions::meshPart): how it was clipped to the part's box, "raycast" (each ray's walk
+  /// integrated only inside the box) or "projected" (each projected tet's fragment's segment cut to the box); empty
+  /// for a whole frame and for a part with nothing to draw. JSON "tet_part" when set.
+  std::string tetPart;
   double msPreIntegration = 0;  ///< building the pre-integration table (0 when the last frame's was current)
   /// Why the frame was not drawn as the scene asked (the ray caster's cell table too large for the volume: texture
   /// slabs instead); empty when it was. The CLI prints it and the JSON has it as "fallback".

@@ -21,6 +21,16 @@ struct PartBox {
   bool operator==(const PartBox&) const = default;
 };
 
+/// A part of a tetrahedral mesh dataset: a box in world coordinates, [lo, hi] on each axis. A frame drawn with
+/// FrameOptions::meshPart integrates each ray only over its stretch inside the box (a cell straddling the box's faces
+/// is cut there exactly), so that the parts of a partition, whose boxes tile space, composited in visibility order
+/// give the whole frame.
+struct MeshPartBox {
+  std::array<double, 3> lo{0.0, 0.0, 0.0};
+  std::array<double, 3> hi{0.0, 0.0, 0.0};
+  bool operator==(const MeshPartBox&) const = default;
+};
+
 /// A rectangle of pixels, half-open: [x0, x1) × [y0, y1), row 0 at the top. Empty when x0 >= x1 or y0 >= y1.
 struct PixelRect {
   int x0 = 0, y0 = 0, x1 = 0, y1 = 0;

@@ -47,12 +47,16 @@ struct ReferenceFrame {
   std::string summary;   ///< one phrase: "with the reference (trilinear grid, step 0.125 voxels): 4096 rays, ..."
 };
 
-/// Sort-last rendering's split of one dataset into parts, each a box of level-0 voxels drawn by one rank
-/// (FrameOptions::part), and the parts' front-to-back order for a camera.
+/// Sort-last rendering's split of one dataset into parts, each a convex box drawn by one rank (a grid's of level-0
+/// voxels, FrameOptions::part; a mesh's in world space, FrameOptions::meshPart), and the parts' front-to-back order
+/// for a camera.
 class SortLastParts {
  public:
   virtual ~SortLastParts() = default;
-  virtual const std::vector<PartBox>& boxes() const = 0;
+  /// How many parts there are.
+  virtual int count() const = 0;
+  /// Sets `options` to draw part `part` (0 <= part < count()) alone: its box as the kind's part option.
+  virtual void select(int part, FrameOptions& options) const = 0;
   /// The parts' indices, nearest first, for `scene`'s camera.
   virtual std::vector<int> frontToBack(const Scene& scene) const = 0;
 };

@@ -25,7 +25,8 @@ class GridParts final : public SortLastParts {
  public:
   GridParts(std::shared_ptr<const store::BrickStore> store, int parts)
       : mStore(std::move(store)), mPartition(partitionBricks(*mStore, parts)) {}
-  const std::vector<PartBox>& boxes() const override { return mPartition.boxes; }
+  int count() const override { return int(mPartition.boxes.size()); }
+  void select(int part, FrameOptions& options) const override { options.part = mPartition.boxes.at(size_t(part)); }
   std::vector<int> frontToBack(const Scene& scene) const override {
     return partsFrontToBack(mPartition, partView(mStore->meta(), scene));
   }

@@ -8,12 +8,33 @@
 #include "render/gl/GlContext.h"
 #include "render/gl/tets/TetRenderer.h"
 #include "render/reference/TetReference.h"
+#include "render/tets/MeshPartition.h"
 #include "render/tets/TetMeshDataset.h"
 
 namespace voxbrick::render {
 namespace {
 
 const TetMeshDataset& meshOf(const Dataset& dataset) { return static_cast<const TetMeshDataset&>(dataset); }
+
+/// A k-d partition of the mesh's box balanced by its store's chunks' stored bytes, and the order of its parts for a
+/// camera.
+class MeshParts final : public SortLastParts {
+ public:
+  MeshParts(std::shared_ptr<const TetMeshSource> source, int parts)
+      : mSource(std::move(source)),
+        mPartition(partitionMesh(mSource->partWeights(), mSource->constants().bounds, parts)) {}
+  int count() const override { return int(mPartition.boxes.size()); }
+  void select(int part, FrameOptions& options) const override {
+    options.meshPart = mPartition.boxes.at(size_t(part));
+  }
+  std::vector<int> frontToBack(const Scene& scene) const override {
+    return partsFrontToBack(mPartition, meshPartView(scene, mSource->constants()));
+  }
+
+ private:
+  std::shared_ptr<const TetMeshSource> mSource;
+  MeshPartition mPartition;
+};
 
 class MeshDriver final : public DatasetDriver {
  public:
@@ -47,11 +68,16 @@ class MeshDriver final : public DatasetDriver {
     auto meshStore = std::make_shared<const mesh::MeshStore>(mesh::MeshStore::open(path));
     const mesh::MeshStoreInfo& info = meshStore->info();
     std::shared_ptr<const TetMeshSource> source;
-    if (TetMeshData::hostBytes(info.tetCount, info.vertexCount, info.boundaryFaceCount) <= cacheBytes)
+    // The chunks' index is kept either way: sort-last parts are balanced by it, the same on every rank however
+    // each holds the mesh.
+    if (TetMeshData::hostBytes(info.tetCount, info.vertexCount, info.boundaryFaceCount) <= cacheBytes) {
+      std::vector<mesh::ChunkInfo> chunks;
+      for (size_t c = 0; c < meshStore->chunkCount(); ++c) chunks.push_back(meshStore->chunk(c));
       source = std::make_shared<const TetMeshSource>(
-          std::make_shared<const TetMeshData>(meshStore->readAll(), meshStore->readTopology()));
-    else
+          std::make_shared<const TetMeshData>(meshStore->readAll(), meshStore->readTopology()), std::move(chunks));
+    } else {
       source = std::make_shared<const TetMeshSource>(std::move(meshStore), cacheBytes);
+    }
     return std::make_shared<TetMeshDataset>(std::move(name), path, std::move(source));
   }
 
@@ -86,10 +112,16 @@ class MeshDriver final : public DatasetDriver {
     return out;
   }
 
+  bool sortsLast() const override { return true; }
+  std::shared_ptr<const SortLastParts> partition(const Dataset& dataset, int parts) const override {
+    return std::make_shared<const MeshParts>(meshOf(dataset).source(), parts);
+  }
+
   std::vector<std::string> summary(const Dataset& dataset, const Scene& scene, const FrameStats& stats,
                                    const std::string& written) const override {
     std::vector<std::string> lines;
     const TetMeshDataset& m = meshOf(dataset);
+    const std::string part = stats.tetPart.empty() ? "" : " (a part: " + stats.tetPart + ", clipped to its box)";
     if (m.source()->paged()) {
       const store::CacheStats c = m.cacheStats();
       lines.push_back(printed(
@@ -101,18 +133,18 @@ class MeshDriver final : public DatasetDriver {
     }
     if (stats.tetRayPasses > 0) {
       lines.push_back(printed(
-          "%s: %lld tet segments ray cast (%lld rays, %lld terminated early, %lld pass%s), %.1f ms (pre-integration "
-          "%.1f, drawing %.1f, readback %.1f)",
-          written.c_str(), (long long)stats.samples, (long long)stats.fragments, (long long)stats.samplesTerminated,
+          "%s: %lld tet segments ray cast%s (%lld rays, %lld terminated early, %lld pass%s), %.1f ms "
+          "(pre-integration %.1f, drawing %.1f, readback %.1f)",
+          written.c_str(), (long long)stats.samples, part.c_str(), (long long)stats.fragments, (long long)stats.samplesTerminated,
           (long long)stats.tetRayPasses, stats.tetRayPasses == 1 ? "" : "es", stats.msTotal, stats.msPreIntegration,
           stats.msDrawing, stats.msReadback));
       return lines;
     }
     lines.push_back(printed(
-        "%s: %lld tets drawn in %s order, %lld fragments, %.1f ms (sorting %.1f, pre-integration %.1f, drawing %.1f, "
-        "readback %.1f)",
+        "%s: %lld tets drawn in %s order%s, %lld fragments, %.1f ms (sorting %.1f, pre-integration %.1f, drawing "
+        "%.1f, readback %.1f)",
         written.c_str(), (long long)stats.tetsDrawn,
-        tetSortName(scene.visibility == TetSort::Centroid ? TetSort::Centroid : TetSort::Mpvo),
+        tetSortName(scene.visibility == TetSort::Centroid ? TetSort::Centroid : TetSort::Mpvo), part.c_str(),
         (long long)stats.fragments, stats.msTotal, stats.msSorting, stats.msPreIntegration, stats.msDrawing,
         stats.msReadback));
     return lines;

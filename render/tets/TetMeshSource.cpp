@@ -164,8 +164,8 @@ std::shared_ptr<const TetMeshData> TetMeshSource::Paged::build(const std::vector
   return built;
 }
 
-TetMeshSource::TetMeshSource(std::shared_ptr<const TetMeshData> whole)
-    : mConstants(static_cast<const TetMeshConstants&>(*whole)), mWhole(std::move(whole)) {}
+TetMeshSource::TetMeshSource(std::shared_ptr<const TetMeshData> whole, std::vector<mesh::ChunkInfo> chunks)
+    : mConstants(static_cast<const TetMeshConstants&>(*whole)), mWhole(std::move(whole)), mChunks(std::move(chunks)) {}
 
 TetMeshSource::TetMeshSource(std::shared_ptr<const mesh::MeshStore> store, size_t hostBudget)
     : mPaged(std::make_unique<Paged>()) {
@@ -198,9 +198,29 @@ size_t TetMeshSource::residentBytes(const mesh::MeshStoreInfo& info) {
 
 size_t TetMeshSource::chunkCount() const { return mPaged ? mPaged->store->chunkCount() : 1; }
 
+std::vector<WeightedBox> TetMeshSource::partWeights() const {
+  if (mPaged) {
+    std::vector<mesh::ChunkInfo> chunks;
+    for (size_t c = 0; c < mPaged->store->chunkCount(); ++c) chunks.push_back(mPaged->store->chunk(c));
+    return chunkWeights(chunks);
+  }
+  return mChunks.empty() ? cellWeights(mWhole->mesh) : chunkWeights(mChunks);
+}
+
+std::shared_ptr<const TetMeshData> TetMeshSource::wholePart(const MeshPartBox& box) const {
+  std::lock_guard lock(mPartsMutex);
+  for (auto& [b, data] : mParts)
+    if (b == box) return data;
+  // A rank draws one part; a few are kept for tests and for a process drawing several in turn.
+  constexpr size_t kKeptParts = 4;
+  if (mParts.size() >= kKeptParts) mParts.erase(mParts.begin());
+  mParts.emplace_back(box, cellsMeeting(*mWhole, box));
+  return mParts.back().second;
+}
+
 std::shared_ptr<const TetMeshData> TetMeshSource::frameData(const Scene& scene, const TetView& view,
-                                                            FrameStats* stats) const {
-  if (!mPaged) return mWhole;
+                                                            FrameStats* stats, const MeshPartBox* part) const {
+  if (!mPaged) return part ? wholePart(*part) : mWhole;
   const auto start = Clock::now();
   const mesh::MeshStore& s = *mPaged->store;
   const Frustum frustum = Frustum::fromMatrix(view.clipFromWorld);
@@ -213,7 +233,8 @@ std::shared_ptr<const TetMeshData> TetMeshSource::frameData(const Scene& scene, 
   int64_t culled = 0;
   for (size_t c = 0; c < s.chunkCount(); ++c) {
     const mesh::ChunkInfo& info = s.chunk(c);
-    if (!frustum.intersects(Box{glm::dvec3(info.boundsMin), glm::dvec3(info.boundsMax)})) {
+    if (!frustum.intersects(Box{glm::dvec3(info.boundsMin), glm::dvec3(info.boundsMax)}) ||
+        (part && !meets(*part, glm::dvec3(info.boundsMin), glm::dvec3(info.boundsMax)))) {
       ++culled;
       continue;
     }

@@ -5,11 +5,16 @@
 
 #include <cstdint>
 #include <memory>
+#include <mutex>
+#include <utility>
+#include <vector>
 
 #include "brickstore/read/BrickCache.h"
 #include "mesh/MeshStore.h"
 #include "render/core/FrameStats.h"
+#include "render/core/PartialFrame.h"
 #include "render/core/Scene.h"
+#include "render/tets/MeshPartition.h"
 #include "render/tets/TetMeshData.h"
 #include "render/tets/TetView.h"
 
@@ -18,8 +23,9 @@ namespace voxbrick::render {
 /// Where a mesh's frames get their tets. One per dataset, shared by every render thread (thread-safe).
 class TetMeshSource {
  public:
-  /// The whole mesh, held in memory.
-  explicit TetMeshSource(std::shared_ptr<const TetMeshData> whole);
+  /// The whole mesh, held in memory; `chunks`: the index of the store it was read from, if any (what partitions
+  /// weigh: partWeights).
+  explicit TetMeshSource(std::shared_ptr<const TetMeshData> whole, std::vector<mesh::ChunkInfo> chunks = {});
   /// `store` paged by view within `hostBudget` bytes: its points and scalars (residentBytes) stay in memory, and
   /// each frame's working set (the chunks it needs, as a TetMeshData) takes what the budget leaves. Recent working
   /// sets are kept, least recently used dropped first. Throws RenderLimitError when the points alone exceed the
@@ -40,9 +46,17 @@ class TetMeshSource {
   /// the view frustum reaches and, when scene.skipEmpty, whose value range the transfer function does not make
   /// transparent (their counts into stats: tetChunksCulled, tetChunksSkippedEmpty, and tetChunksRead when the
   /// working set was not kept from an earlier frame; msPaging). Nothing (a null pointer) when no chunk is needed.
+  /// With `part` (sort-last rendering, FrameOptions::meshPart): of a whole mesh, the cells whose box meets the part's
+  /// (cellsMeeting, made once per part and kept); of a paged one, only the chunks whose box meets it besides (a chunk
+  /// is read whole: its cells outside the part are walked and add nothing).
   /// Throws RenderLimitError when the working set does not fit what the budget leaves (after dropping every kept
   /// set no frame is using), naming both sizes; store::CorruptStoreError when a chunk fails its checks.
-  std::shared_ptr<const TetMeshData> frameData(const Scene& scene, const TetView& view, FrameStats* stats) const;
+  std::shared_ptr<const TetMeshData> frameData(const Scene& scene, const TetView& view, FrameStats* stats,
+                                               const MeshPartBox* part = nullptr) const;
+
+  /// What a partition of the mesh into sort-last parts balances (partitionMesh): its store's chunks by their stored
+  /// bytes (the same whether the mesh is held whole or paged), or a mesh not read from a store its cells, one each.
+  std::vector<WeightedBox> partWeights() const;
 
   /// A paged mesh's working sets as a cache: hits (frames given a kept set), misses (sets built), bricksDecoded
   /// and bytesDecoded (chunks read, 32 bytes a tet), evictions, residentBytes (points and the sets alive), budget.
@@ -57,9 +71,16 @@ class TetMeshSource {
 
  private:
   struct Paged;
+  /// A whole mesh's part (cellsMeeting), made once for its box; null when no cell meets it.
+  std::shared_ptr<const TetMeshData> wholePart(const MeshPartBox& box) const;
+
   TetMeshConstants mConstants;
   std::shared_ptr<const TetMeshData> mWhole;
+  std::vector<mesh::ChunkInfo> mChunks;  // a whole mesh's store index, if it was read from one
   std::unique_ptr<Paged> mPaged;
+  mutable std::mutex mPartsMutex;  // mParts
+  /// A whole mesh's parts drawn lately (a rank draws one), newest last.
+  mutable std::vector<std::pair<MeshPartBox, std::shared_ptr<const TetMeshData>>> mParts;
 };
 
 }  // namespace voxbrick::render

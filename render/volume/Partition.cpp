@@ -147,17 +147,6 @@ int build(Partition& partition, const BrickCosts& costs, const BrickRegion& regi
   return index;
 }
 
-void frontToBack(const Partition& partition, int node, const PartView& view, std::vector<int>& order) {
-  const Partition::Node& n = partition.nodes.at(size_t(node));
-  if (n.part >= 0) {
-    order.push_back(n.part);
-    return;
-  }
-  const bool lowerFirst = view.orthographic ? view.direction[n.axis] >= 0 : view.eye[n.axis] <= double(n.position);
-  frontToBack(partition, lowerFirst ? n.lower : n.upper, view, order);
-  frontToBack(partition, lowerFirst ? n.upper : n.lower, view, order);
-}
-
 }  // namespace
 
 Partition partitionBricks(const store::BrickStore& store, int parts) {
@@ -195,11 +184,7 @@ PartView partView(const store::StoreMeta& meta, const Scene& scene) {
 }
 
 std::vector<int> partsFrontToBack(const Partition& partition, const PartView& view) {
-  std::vector<int> order;
-  if (partition.nodes.empty()) return order;
-  order.reserve(partition.boxes.size());
-  frontToBack(partition, 0, view, order);
-  return order;
+  return kdFrontToBack(partition.nodes, view);
 }
 
 std::vector<int> partsFrontToBack(const Partition& partition, const BrickStoreDataset& dataset, const Scene& scene) {

@@ -8,6 +8,7 @@
 #include <glm/glm.hpp>
 
 #include "brickstore/read/BrickStore.h"
+#include "render/core/PartOrder.h"
 #include "render/core/PartialFrame.h"
 #include "render/core/Scene.h"
 
@@ -38,19 +39,13 @@ struct Partition {
 /// best balanced (ties: the nearest share of bricks, then the lowest position).
 Partition partitionBricks(const store::BrickStore& store, int parts);
 
-/// A view of the volume in its level-0 voxel coordinates (voxel v's centre at v + 0.5), which is what the splits'
-/// sides are decided in.
-struct PartView {
-  bool orthographic = false;
-  glm::dvec3 eye{0.0};        ///< perspective: the eye
-  glm::dvec3 direction{0.0};  ///< orthographic: the view direction (only its signs matter)
-};
-
-/// `scene`'s camera resolved over a volume of `meta` as the renderer resolves it (FramePlan), in level-0 voxels.
+/// `scene`'s camera resolved over a volume of `meta` as the renderer resolves it (FramePlan), in level-0 voxels
+/// (voxel v's centre at v + 0.5), which is what the splits' sides are decided in.
 PartView partView(const store::StoreMeta& meta, const Scene& scene);
 
-/// The parts' indices nearest first for `view`: at each split the side holding the eye (perspective; an eye on the
-/// plane takes the lower side first) or the side the view comes from (orthographic, by the direction's sign).
+/// The parts' indices nearest first for `view` (kdFrontToBack of render/core/PartOrder.h): at each split the side
+/// holding the eye (perspective; an eye on the plane takes the lower side first) or the side the view comes from
+/// (orthographic, by the direction's sign).
 std::vector<int> partsFrontToBack(const Partition& partition, const PartView& view);
 
 /// The parts' indices nearest first for `scene`'s camera over `dataset` (perspective: the eye's side of each split;

@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # `mpirun -n N voxbrick render --mpi` against the one-process `voxbrick render`, within 1/255 per channel, for the
 # cases of the sort-last comparison: the MRI (ch2better), a smooth field with the MRI preset, a sparse field, the camera inside the
-# volume, an orthographic view, a coarse level of detail and an interactive frame (composited at its reduced size).
-# With 2 ranks or more, each rank walks only its part (bricks_outside_part in its stats). Usage: frames_check.sh VOXBRICK MPIRUN WORK N
+# volume, an orthographic view, a coarse level of detail and an interactive frame (composited at its reduced size),
+# each rank of a grid walking only its part (bricks_outside_part in its stats); and tetrahedral meshes: the staircase
+# ball ray cast (perspective and orthographic), the camera inside a box mesh (drawn projected), and a ball paged within
+# a small host budget, whose rank 0 leaves out the chunks outside its part. Usage: frames_check.sh VOXBRICK MPIRUN WORK N
 # (WORK holds the datasets and the one-process frames, made once: `frames_check.sh VOXBRICK MPIRUN WORK setup`).
 # `frames_check.sh VOXBRICK MPIRUN WORK refusals`: on 2 ranks, `render --mpi` refuses what the one-process render
 # refuses (--channel on a store that is no OME-Zarr, a transparent frame to JPEG, --analytic without the reference).
@@ -16,8 +18,20 @@ cases=(
   "ortho|blobs|--tf mri --orbit 200,-40,2.2 --ortho"
   "lod|blobs|--tf mri --orbit 35,25,2.2 --lod 4"
   "interactive|blobs|--tf mri --orbit 35,25,2.2 --scene $work/interactive.json"
+  "mesh|ball.vms|--tf hot --orbit 35,25"
+  "meshortho|ball.vms|--tf hot --orbit 200,-40 --ortho"
+  "meshinside|box.vms|--tf hot --orbit 35,25,0.3 --fov 75"
+  "meshpaged|paged.vms|--tf ct-bone --window 0.5,0.95 --orbit 35,25 --host-cache 2"
 )
+# How each mesh case's parts are clipped to their boxes (FrameStats::tetPart): the ray caster's walk, or projected
+# tets where the whole frame is projected (the camera within the mesh's box).
+declare -A clip=([mesh]=raycast [meshortho]=raycast [meshinside]=projected [meshpaged]=raycast)
 common="--size 72x64 --step 0.5 -q"
+meshCommon="--size 72x64 -q"
+# The options every case of dataset $1 takes.
+commonFor() { [[ $1 == *.vms ]] && echo "$meshCommon" || echo "$common"; }
+# The value of the first "KEY": N in JSON file $2.
+jsonNumber() { sed -n 's/.*"'"$1"'": \([0-9]*\).*/\1/p' "$2" | head -n 1; }
 if [ "$ranks" = setup ]; then
   rm -rf "$work" && mkdir -p "$work"
   # The first interactive frame of a process (no rate measured yet) is the cheapest setting, on one rank or many.
@@ -26,10 +40,16 @@ if [ "$ranks" = setup ]; then
   "$exe" prep synthetic:sparse,n=64 --brick 16 --no-vdb -q -o "$work/sparse" > /dev/null
   # The MRI itself (Debian's mricron-data, installed by scripts/setup.sh).
   "$exe" prep /usr/share/mricron/templates/ch2better.nii.gz --brick 32 --no-vdb -q -o "$work/brain" > /dev/null
+  # Meshes in small chunks, so that parts and paging have chunks to tell apart; the paged one too large for 2 MB
+  # whole, its view within it once the transfer function's transparent chunks are left out.
+  "$exe" prep synthetic-mesh:ball,n=16 --tets-per-chunk 512 -q -o "$work/ball.vms" > /dev/null
+  "$exe" prep synthetic-mesh:box,n=10 --tets-per-chunk 512 -q -o "$work/box.vms" > /dev/null
+  "$exe" prep synthetic-mesh:ball,n=28 --tets-per-chunk 256 -q -o "$work/paged.vms" > /dev/null
   for c in "${cases[@]}"; do
     IFS='|' read -r name data options <<< "$c"
-    # shellcheck disable=SC2086
-    "$exe" render "$work/$data" -o "$work/$name.single.png" $common $options
+    # shellcheck disable=SC2086,SC2046
+    "$exe" render "$work/$data" -o "$work/$name.single.png" --stats "$work/$name.single.json" $(commonFor "$data") \
+      $options
   done
   exit 0
 fi
@@ -59,9 +79,9 @@ fi
 for c in "${cases[@]}"; do
   IFS='|' read -r name data options <<< "$c"
   out="$work/$name.$ranks.png"
-  # shellcheck disable=SC2086
+  # shellcheck disable=SC2086,SC2046
   "$mpirun" --oversubscribe --allow-run-as-root -n "$ranks" "$exe" render "$work/$data" --mpi -o "$out" \
-    --stats "$work/$name.$ranks.json" $common $options > /dev/null
+    --stats "$work/$name.$ranks.json" $(commonFor "$data") $options > /dev/null
   line=$("$exe" compare "$work/$name.single.png" "$out")
   maxAbs=$(sed -n 's/.*max_abs \([0-9.e+-]*\).*/\1/p' <<< "$line")
   if [ -n "$maxAbs" ] && awk -v m="$maxAbs" 'BEGIN { exit !(m <= 1.0 / 255 + 1e-6) }'; then
@@ -71,13 +91,13 @@ for c in "${cases[@]}"; do
     failed=1
   fi
   grep -q '"ranks": '"$ranks" "$work/$name.$ranks.json" || { echo "FAIL $name: stats without the ranks"; failed=1; }
-  # Each rank walked only its part; an interactive frame was composited at the size it was drawn.
+  # Each rank of a grid walked only its part; an interactive frame was composited at the size it was drawn.
   if ! /usr/bin/python3 - "$work/$name.$ranks.json" "$name" "$ranks" << 'CHECK'; then
 import json, sys
 stats, name, ranks = json.load(open(sys.argv[1])), sys.argv[2], int(sys.argv[3])
 d = stats["distributed"]
 outside = [r["bricks_outside_part"] for r in d["per_rank"]]
-if ranks > 1 and not all(n > 0 for n in outside):
+if ranks > 1 and not name.startswith("mesh") and not all(n > 0 for n in outside):
     sys.exit(f"a rank walked into other parts: bricks_outside_part {outside}")
 if name == "interactive":
     drawn = (stats["interactive"]["width"], stats["interactive"]["height"])
@@ -86,6 +106,23 @@ if name == "interactive":
 CHECK
     echo "FAIL $name, $ranks ranks: the stats above"
     failed=1
+  fi
+  if [ -n "${clip[$name]:-}" ] && ! grep -q '"tet_part": "'"${clip[$name]}"'"' "$work/$name.$ranks.json"; then
+    echo "FAIL $name: rank 0's part was not clipped as ${clip[$name]}"
+    failed=1
+  fi
+  if [ "$name" = meshpaged ]; then
+    # A paged mesh: rank 0 leaves out (culls) the chunks whose box misses its part's, besides those outside the view:
+    # more than the one process does, on 2 ranks or more.
+    single=$(jsonNumber tet_chunks_culled "$work/$name.single.json")
+    own=$(jsonNumber tet_chunks_culled "$work/$name.$ranks.json")
+    read=$(jsonNumber tet_chunks_read "$work/$name.$ranks.json")
+    if [ -z "$single" ] || [ -z "$own" ] || [ "$own" -lt "$single" ] || { [ "$ranks" -gt 1 ] && [ "$own" -le "$single" ]; }; then
+      echo "FAIL $name: rank 0 left out ${own:-?} chunks, the one process ${single:-?}"
+      failed=1
+    else
+      echo "$name, $ranks ranks: rank 0 left out $own chunks (the one process $single) and read $read"
+    fi
   fi
 done
 exit $failed

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # `mpirun -n 3 voxbrick serve --mpi` with `voxbrick request` as the client, each rank with a datasets directory of its
-# own (as on separate machines): a served frame equals the one-process frame within 1/255; a dataset missing on one
+# own (as on separate machines): a served frame equals the one-process frame within 1/255, a grid's and a tetrahedral
+# mesh's (drawn in parts, each clipped to its box); a dataset missing on one
 # rank is refused naming the rank and the server keeps serving; a rank stopped (SIGSTOP) or killed (SIGKILL) makes
 # the next Render an error naming it within the deadline (5 s here), and the server then serves on with the other
 # ranks (frames equal to the one-process frame, the stats naming the lost rank); a stopped rank that goes on again
@@ -10,7 +11,8 @@ set -uo pipefail
 exe=$(realpath "$1") mpirun=$2 work=$3
 rm -rf "$work" && mkdir -p "$work"
 "$exe" prep synthetic:blobs,n=64 --brick 16 --no-vdb -q -o "$work/blobs" > /dev/null || exit 1
-for r in 0 1 2; do mkdir -p "$work/r$r/ds" && cp -r "$work/blobs" "$work/r$r/ds/blobs"; done
+"$exe" prep synthetic-mesh:ball,n=12 --tets-per-chunk 512 -q -o "$work/ball" > /dev/null || exit 1
+for r in 0 1 2; do mkdir -p "$work/r$r/ds" && cp -r "$work/blobs" "$work/r$r/ds/blobs" && cp -r "$work/ball" "$work/r$r/ds/ball"; done
 cp -r "$work/blobs" "$work/r0/ds/gone" && cp -r "$work/blobs" "$work/r1/ds/gone"  # not on rank 2
 cat > "$work/rank.sh" << 'WRAP'
 #!/bin/sh
@@ -59,6 +61,17 @@ start
 out=$(request blobs "$work/served.png"); check "a frame served through rank 0 ($out)" $?
 line=$(same "$work/served.png"); check "served frame equals one process's: $line" $?
 [ "$(members "$work/served.png.json")" = "0,1,2 lost " ]; check "drawn by ranks 0, 1 and 2: $(members "$work/served.png.json")" $?
+# A mesh: drawn in parts across the ranks (rank 0's part clipped by the ray caster), the one-process frame.
+meshScene="--tf hot --orbit 35,25 --size 72x64"
+# shellcheck disable=SC2086
+"$exe" render "$work/ball" -o "$work/mesh-single.png" -q $meshScene || exit 1
+# shellcheck disable=SC2086
+out=$("$exe" request "127.0.0.1:$port" --dataset ball -o "$work/mesh-served.png" --stats "$work/mesh-served.json" \
+  --timeout 30 $meshScene 2>&1); check "a mesh frame served through rank 0 ($out)" $?
+line=$("$exe" compare "$work/mesh-single.png" "$work/mesh-served.png")
+maxAbs=$(sed -n 's/.*max_abs \([0-9.e+-]*\).*/\1/p' <<< "$line")
+[ -n "$maxAbs" ] && awk -v m="$maxAbs" 'BEGIN { exit !(m <= 1.0 / 255 + 1e-6) }'; check "served mesh frame equals one process's: $line" $?
+grep -q '"tet_part": "raycast"' "$work/mesh-served.json"; check "the mesh frame was drawn in parts" $?
 out=$(request gone "$work/gone.png"); status=$?
 [ $status -ne 0 ] && grep -q "rank 2" <<< "$out"; check "a dataset missing on rank 2 is refused naming it: $out" $?
 out=$(request blobs "$work/again.png"); check "still serving after the refusal" $?

@@ -1,11 +1,17 @@
 // Sort-last rendering's partition, without GL: the parts' boxes tile the volume on brick boundaries, balanced by
 // stored bytes (empty bricks cost nothing), the same on every call, and their front-to-back order agrees with a
 // brute-force test of every pair of parts for random cameras, inside the volume and orthographic ones included.
+// A mesh's partition (MeshPartition): world-space boxes tiling its box, balanced by the weights given (cells, or a
+// store's chunks by stored bytes), the same on every call, in an order the same brute force agrees with; a part's
+// cells are those whose extent meets its box, with the faces to cells left out as its boundary.
 #include <gtest/gtest.h>
 
 #include <random>
 
+#include "mesh/SyntheticMesh.h"
+#include "mesh/Topology.h"
 #include "render/RenderFixtures.h"
+#include "render/tets/MeshPartition.h"
 #include "render/volume/FramePlan.h"
 #include "render/volume/Partition.h"
 #include "support/TestSupport.h"
@@ -242,6 +248,185 @@ TEST(Partition, ViewFollowsTheRenderersCamera) {
         EXPECT_LT(view.eye[a], double(meta.dims[a])) << name;
       }
   }
+}
+
+
+// A mesh's partition -------------------------------------------------------------------------------------------------
+
+/// A mesh part's box as a closed world box clipped to `bounds` (its faces on the mesh's box are pushed out).
+Box clippedPart(const MeshPartBox& part, const Box& bounds) {
+  Box b;
+  for (int a = 0; a < 3; ++a) {
+    b.min[a] = std::max(part.lo[size_t(a)], bounds.min[a]);
+    b.max[a] = std::min(part.hi[size_t(a)], bounds.max[a]);
+  }
+  return b;
+}
+
+/// The mesh's box tiled: every part's box, clipped to it, has volume, none overlaps another, and they add up to it;
+/// faces on the mesh's box lie beyond it.
+void expectMeshTiles(const MeshPartition& p, const Box& bounds, int parts) {
+  ASSERT_EQ(p.boxes.size(), size_t(parts));
+  ASSERT_EQ(p.weights.size(), size_t(parts));
+  const glm::dvec3 e = bounds.extent();
+  double volume = 0;
+  for (size_t a = 0; a < p.boxes.size(); ++a) {
+    const Box box = clippedPart(p.boxes[a], bounds);
+    const glm::dvec3 size = box.max - box.min;
+    EXPECT_GT(size.x * size.y * size.z, 0.0) << "part " << a << " is empty";
+    volume += size.x * size.y * size.z;
+    for (int c = 0; c < 3; ++c) {
+      if (p.boxes[a].lo[size_t(c)] <= bounds.min[c]) {
+        EXPECT_LT(p.boxes[a].lo[size_t(c)], bounds.min[c] - 0.5 * e[c]);
+      }
+      if (p.boxes[a].hi[size_t(c)] >= bounds.max[c]) {
+        EXPECT_GT(p.boxes[a].hi[size_t(c)], bounds.max[c] + 0.5 * e[c]);
+      }
+    }
+    for (size_t b = a + 1; b < p.boxes.size(); ++b) {
+      bool overlap = true;
+      for (size_t c = 0; c < 3; ++c)
+        overlap = overlap && p.boxes[a].lo[c] < p.boxes[b].hi[c] && p.boxes[b].lo[c] < p.boxes[a].hi[c];
+      EXPECT_FALSE(overlap) << "parts " << a << " and " << b << " overlap";
+    }
+  }
+  EXPECT_NEAR(volume, e.x * e.y * e.z, 1e-9 * e.x * e.y * e.z) << "the boxes, disjoint, cover the mesh's box";
+}
+
+/// mustPrecede for world boxes (see above).
+bool meshMustPrecede(const MeshPartBox& a, const MeshPartBox& b, const PartView& view) {
+  auto before = [&](const MeshPartBox& x, const MeshPartBox& y) {
+    for (size_t c = 0; c < 3; ++c) {
+      if (x.hi[c] <= y.lo[c] && (view.orthographic ? view.direction[c] > 0 : view.eye[c] < x.hi[c])) return true;
+      if (y.hi[c] <= x.lo[c] && (view.orthographic ? view.direction[c] < 0 : view.eye[c] > x.lo[c])) return true;
+    }
+    return false;
+  };
+  bool between = false;
+  for (size_t c = 0; c < 3 && !view.orthographic; ++c)
+    between =
+        between || (a.hi[c] < view.eye[c] && view.eye[c] < b.lo[c]) || (b.hi[c] < view.eye[c] && view.eye[c] < a.lo[c]);
+  return before(a, b) && !before(b, a) && !between;
+}
+
+TEST(MeshPartition, BoxesTileTheMeshBalancedByCells) {
+  const mesh::TetMesh m = mesh::syntheticMesh("ball,n=24");
+  const auto [lo, hi] = m.bounds();
+  const Box bounds{glm::dvec3(lo), glm::dvec3(hi)};
+  const std::vector<WeightedBox> cells = cellWeights(m);
+  ASSERT_EQ(cells.size(), m.tets.size());
+  for (int parts : {1, 2, 3, 4, 5, 7, 8, 16}) {
+    SCOPED_TRACE("parts " + std::to_string(parts));
+    const MeshPartition p = partitionMesh(cells, bounds, parts);
+    expectMeshTiles(p, bounds, parts);
+    double sum = 0;
+    for (double w : p.weights) sum += w;
+    EXPECT_NEAR(sum, double(m.tets.size()), 1e-6 * double(m.tets.size())) << "every cell's weight, once";
+    // Each part within 2% of its share as weighed (each cell spread over its box: the bisection itself is exact),
+    // and the cells whose centroid lies in it within 15% of the share (cells are not spread, but small).
+    const double share = double(m.tets.size()) / parts;
+    for (size_t a = 0; a < p.weights.size(); ++a) {
+      EXPECT_NEAR(p.weights[a], share, 0.02 * share) << "part " << a;
+      size_t centroids = 0;
+      for (const WeightedBox& cell : cells) {
+        const glm::dvec3 c = 0.5 * (cell.lo + cell.hi);
+        bool in = true;
+        for (size_t k = 0; k < 3; ++k) in = in && c[int(k)] >= p.boxes[a].lo[k] && c[int(k)] < p.boxes[a].hi[k];
+        centroids += in ? 1 : 0;
+      }
+      EXPECT_NEAR(double(centroids), share, 0.15 * share) << "part " << a;
+    }
+  }
+  EXPECT_THROW(partitionMesh(cells, bounds, 0), std::invalid_argument);
+}
+
+TEST(MeshPartition, WeightsDecideWhereThePlanesGo) {
+  // Weight only in the lowest eighth along x: two parts split inside it, not half way along the box.
+  const Box bounds{glm::dvec3(0), glm::dvec3(8, 1, 1)};
+  std::vector<WeightedBox> items{{glm::dvec3(0, 0, 0), glm::dvec3(1, 1, 1), 100.0},
+                                 {glm::dvec3(1, 0, 0), glm::dvec3(8, 1, 1), 0.0}};
+  const MeshPartition two = partitionMesh(items, bounds, 2);
+  ASSERT_EQ(two.nodes.at(0).axis, 0);
+  EXPECT_NEAR(two.nodes[0].position, 0.5, 1e-9);
+  EXPECT_NEAR(two.weights[0], 50.0, 1e-6);
+  EXPECT_NEAR(two.weights[1], 50.0, 1e-6);
+  // A region that weighs nothing is cut in the middle.
+  const MeshPartition empty = partitionMesh({}, bounds, 2);
+  EXPECT_NEAR(empty.nodes.at(0).position, 4.0, 1e-9);
+  // Three parts: the lower side takes one, its third of the weight.
+  const MeshPartition three = partitionMesh(items, bounds, 3);
+  EXPECT_NEAR(three.nodes.at(0).position, 1.0 / 3, 1e-9);
+  expectMeshTiles(three, bounds, 3);
+}
+
+TEST(MeshPartition, DeterministicAndOrderedFrontToBack) {
+  const mesh::TetMesh m = mesh::syntheticMesh("box,n=8");
+  const auto [lo, hi] = m.bounds();
+  const Box bounds{glm::dvec3(lo), glm::dvec3(hi)};
+  std::mt19937 random(11);
+  std::uniform_real_distribution<double> unit(0, 1);
+  for (int parts : {2, 3, 5, 8, 13}) {
+    const MeshPartition p = partitionMesh(cellWeights(m), bounds, parts);
+    const MeshPartition again = partitionMesh(cellWeights(m), bounds, parts);
+    EXPECT_EQ(p.boxes, again.boxes);
+    EXPECT_EQ(p.weights, again.weights);
+    for (int c = 0; c < 40; ++c) {
+      PartView view;
+      view.orthographic = c % 4 == 3;
+      // Eyes outside (up to twice the box away) and inside it.
+      const double reach = c % 4 == 2 ? 1.0 : 3.0, offset = c % 4 == 2 ? 0.0 : -1.0;
+      for (int a = 0; a < 3; ++a) view.eye[a] = bounds.min[a] + (offset + reach * unit(random)) * bounds.extent()[a];
+      view.direction = glm::dvec3(unit(random), unit(random), unit(random)) - 0.5;
+      const std::vector<int> order = partsFrontToBack(p, view);
+      ASSERT_EQ(order.size(), size_t(parts));
+      std::vector<int> sorted = order;
+      std::sort(sorted.begin(), sorted.end());
+      for (size_t i = 0; i < sorted.size(); ++i) ASSERT_EQ(sorted[i], int(i)) << "each part once";
+      for (size_t i = 0; i < order.size(); ++i)
+        for (size_t j = i + 1; j < order.size(); ++j)
+          EXPECT_FALSE(meshMustPrecede(p.boxes[size_t(order[j])], p.boxes[size_t(order[i])], view))
+              << parts << " parts, camera " << c << ": part " << order[j] << " hides part " << order[i]
+              << " but comes after it";
+    }
+  }
+}
+
+TEST(MeshPartition, APartsCellsAreThoseMeetingItsBox) {
+  mesh::TetMesh m = mesh::syntheticMesh("box,n=6");
+  mesh::Topology t = mesh::buildTopology(m);
+  const TetMeshData whole(std::move(m), std::move(t));
+  const MeshPartition p = partitionMesh(cellWeights(whole.mesh), whole.bounds, 3);
+  size_t total = 0;
+  for (const MeshPartBox& box : p.boxes) {
+    const std::shared_ptr<const TetMeshData> part = cellsMeeting(whole, box);
+    ASSERT_TRUE(part);
+    // Exactly the cells whose box meets the part's, in their order.
+    size_t expected = 0;
+    for (const WeightedBox& cell : cellWeights(whole.mesh)) expected += meets(box, cell.lo, cell.hi) ? 1 : 0;
+    EXPECT_EQ(part->mesh.tets.size(), expected);
+    EXPECT_LT(part->mesh.tets.size(), whole.mesh.tets.size());
+    total += part->mesh.tets.size();
+    for (const WeightedBox& cell : cellWeights(part->mesh)) EXPECT_TRUE(meets(box, cell.lo, cell.hi));
+    // The whole mesh's constants; a topology whose neighbours agree both ways, its boundary every face without one.
+    EXPECT_EQ(part->bounds.min, whole.bounds.min);
+    EXPECT_EQ(part->tetCount, whole.tetCount);
+    size_t boundary = 0;
+    for (size_t c = 0; c < part->topology.neighbours.size(); ++c)
+      for (size_t f = 0; f < 4; ++f) {
+        const int32_t n = part->topology.neighbours[c][f];
+        if (n == mesh::Topology::kBoundary) {
+          ++boundary;
+          continue;
+        }
+        const auto& back = part->topology.neighbours[size_t(n)];
+        EXPECT_NE(std::find(back.begin(), back.end(), int32_t(c)), back.end());
+      }
+    EXPECT_EQ(part->topology.boundary.size(), boundary);
+    EXPECT_GT(boundary, whole.topology.boundary.size() / 3) << "the cut faces are the part's boundary too";
+  }
+  EXPECT_GT(total, whole.mesh.tets.size()) << "cells straddling a cut are in both parts";
+  // A box off the mesh holds no cell.
+  EXPECT_FALSE(cellsMeeting(whole, MeshPartBox{{5, 5, 5}, {6, 6, 6}}));
 }
 
 }  // namespace

@@ -38,9 +38,11 @@ constexpr int64_t kMaxPasses = 1024;
 /// ball); a guard against a cycle that round-off might make.
 constexpr int kMaxSteps = 1 << 16;
 
-Program rayProgram(const Gl& gl, const char* name, const char* vertex, const char* fragment, bool shaded = false) {
+Program rayProgram(const Gl& gl, const char* name, const char* vertex, const char* fragment, bool shaded = false,
+                   bool part = false) {
   std::vector<std::string> defines{"TET_RAY"};
   if (shaded) defines.push_back("SHADING");
+  if (part) defines.push_back("PART_CLIP");
   return Program(gl, ProgramSources::fromFiles(name, {{GL_VERTEX_SHADER, vertex}, {GL_FRAGMENT_SHADER, fragment}},
                                                std::move(defines), "tet.glsl"));
 }
@@ -64,6 +66,10 @@ void setTetUniforms(const Program& p, const TetFrameUniforms& u) {
   p.set(p.uniformLocation("uRatioMin"), float(u.table.ratioMin));
   p.set(p.uniformLocation("uLayerScale"), float(u.table.layerScale()));
   p.set(p.uniformLocation("uLayers"), float(u.table.layers));
+  if (u.part) {
+    p.set(p.uniformLocation("uPartLo"), glm::vec3(u.partLo));
+    p.set(p.uniformLocation("uPartHi"), glm::vec3(u.partHi));
+  }
 }
 
 size_t TetRayCaster::bytesFor(size_t tets, size_t boundaryFaces) {
@@ -210,7 +216,7 @@ void TetRayCaster::draw(const TetFrameUniforms& uniforms, double termination, bo
   mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_BOUNDARY_FACES, mFaces.id());
   mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_RAY_EXITS, mExits.id());
   mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_ENTRY_COUNT, mEntryCount.id());
-  const Program& ray = shading ? mShadedRayProgram : mRayProgram;
+  const Program& ray = rayProgramFor(shading, uniforms.part);
   setTetUniforms(mEntryProgram, uniforms);
   setTetUniforms(ray, uniforms);
   ray.set(ray.uniformLocation("uTermination"), termination > 0 ? float(termination) : 2.0f);
@@ -257,5 +263,14 @@ void TetRayCaster::draw(const TetFrameUniforms& uniforms, double termination, bo
 }
 
 void TetRayCaster::readCounters(FrameStats& stats) const { mCounters.read(stats); }
+
+const Program& TetRayCaster::rayProgramFor(bool shading, bool part) {
+  if (!part) return shading ? mShadedRayProgram : mRayProgram;
+  Program& program = shading ? mShadedPartRayProgram : mPartRayProgram;
+  if (!program)
+    program = rayProgram(mGl, shading ? "tet-ray-shaded-part" : "tet-ray-part", "raycast.vert.glsl",
+                         "tet_ray.frag.glsl", shading, true);
+  return program;
+}
 
 }  // namespace voxbrick::render

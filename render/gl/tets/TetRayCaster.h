@@ -37,6 +37,10 @@ struct TetFrameUniforms {
   double windowLo = 0, windowScale = 1;  ///< the value window as lo and 1 / (hi - lo)
   double reference = 1;                  ///< the transfer function's reference length
   PreIntegrationSpec table;
+  /// A sort-last part's frame (FrameOptions::meshPart): its box, centred on the mesh's box as the vertices are; the
+  /// programs are then the PART_CLIP ones, which clip each ray's integration to it.
+  bool part = false;
+  glm::dvec3 partLo{0.0}, partHi{0.0};
 };
 
 /// Sets `uniforms` on `program` (uniforms it does not have are ignored).
@@ -60,6 +64,7 @@ class TetRayCaster {
 
   /// Draws a frame into `compositor` (begun, blending front to back), the pre-integrated table bound on
   /// VB_UNIT_PRE_INTEGRATED (the unit tet.glsl declares). `termination`: the opacity where a ray stops (0: never).
+  /// With uniforms.part, each ray is integrated only inside the part's box and stops once past it.
   /// Counts the entry passes in stats.tetRayPasses; `cancelled` is checked between passes and between bands of 64 rows
   /// of a ray pass (throwing FrameCancelled), bands sized by stats.samplesEstimated to about `checkpointSamples`
   /// each (FrameOptions::checkpointSamples; 0: 64 rows). Leaves the compositor's target bound.
@@ -95,7 +100,11 @@ class TetRayCaster {
   Buffer mExits;       // per pixel: where the last pass left the mesh
   std::vector<float> mBeforeMesh;  // its contents at the start of a frame, kept with the target's size
   Buffer mEntryCount;              // fragments the entry pass kept
+  /// The ray pass's program: plain or shaded, whole or clipped to a part (those made on the first part's frame).
+  const Program& rayProgramFor(bool shading, bool part);
+
   Program mEntryProgram, mRayProgram, mShadedRayProgram;
+  Program mPartRayProgram, mShadedPartRayProgram;  // empty until a part's frame needs them
   Framebuffer mEntryTarget;
   Texture mEntryTexture, mEntryDepth;
   int mWidth = 0, mHeight = 0;

@@ -3,7 +3,9 @@
 #include "render/gl/tets/TetRenderer.h"
 
 #include <algorithm>
+#include <cmath>
 #include <functional>
+#include <string>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -25,16 +27,24 @@ constexpr double kShortestRatioShare = 1.0 / 64;
 /// The most tets one draw call takes: cancellation is checked between draws.
 constexpr size_t kTetsPerDraw = 262144;
 
-Program tetProgram(const Gl& gl, bool nullFragment, bool shaded = false) {
+Program tetProgram(const Gl& gl, bool nullFragment, bool shaded = false, bool part = false) {
   std::vector<std::string> defines;
   if (nullFragment) defines.push_back("NULL_FRAGMENT");
   if (shaded) defines.push_back("SHADING");
+  if (part) defines.push_back("PART_CLIP");
+  const std::string name = std::string(nullFragment ? "tet-null" : shaded ? "tet-shaded" : "tet") + (part ? "-part" : "");
   return Program(gl,
-                 ProgramSources::fromFiles(nullFragment ? "tet-null"
-                                           : shaded     ? "tet-shaded"
-                                                        : "tet",
-                                           {{GL_VERTEX_SHADER, "tet.vert.glsl"}, {GL_FRAGMENT_SHADER, "tet.frag.glsl"}},
+                 ProgramSources::fromFiles(name, {{GL_VERTEX_SHADER, "tet.vert.glsl"}, {GL_FRAGMENT_SHADER, "tet.frag.glsl"}},
                                            std::move(defines), "tet.glsl"));
+}
+
+/// Throws RenderInputError unless `part` is a box (lo <= hi, finite) the frame can clip to.
+void checkMeshPart(const MeshPartBox& part) {
+  for (size_t a = 0; a < 3; ++a)
+    if (!std::isfinite(part.lo[a]) || !std::isfinite(part.hi[a]) || !(part.lo[a] <= part.hi[a]))
+      throw RenderInputError("a mesh's part (FrameOptions::meshPart) must be a finite box with lo <= hi on each axis; "
+                             "axis " + std::to_string(a) + " runs from " + std::to_string(part.lo[a]) + " to " +
+                             std::to_string(part.hi[a]));
 }
 
 }  // namespace
@@ -95,23 +105,25 @@ TetRenderer::~TetRenderer() = default;
 
 size_t TetRenderer::gpuBytes() const { return mResidency.gpuBytes(); }
 
-image::ImageF TetRenderer::background(const Scene& scene, FrameStats& stats, TimePoint frameStart,
+image::ImageF TetRenderer::background(const Scene& scene, FrameStats& stats, bool part, TimePoint frameStart,
                                       FrameStats* statsOut) {
   mCompositor.begin(scene.width, scene.height, true);
-  image::ImageF image = finishFrame(scene, stats);
+  image::ImageF image = finishFrame(scene, stats, part);
   mGl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
   stats.msTotal = msSince(frameStart);
   if (statsOut) *statsOut = stats;
   return image;
 }
 
-image::ImageF TetRenderer::finishFrame(const Scene& scene, FrameStats& stats) {
-  if (!mFrame8) return mCompositor.finish(scene, stats);
+image::ImageF TetRenderer::finishFrame(const Scene& scene, FrameStats& stats, bool part) {
+  if (!mFrame8) return mCompositor.finish(scene, stats, part);
   *mFrame8 = mCompositor.finish8(scene, stats);
   return {};
 }
 
 image::Image8 TetRenderer::render8(const Scene& scene, FrameStats* stats, const FrameOptions& options) {
+  // A part's frame stays premultiplied, with no background to finish it over on the GPU.
+  if (options.meshPart) return FrameRenderer::render8(scene, stats, options);
   image::Image8 frame;
   mFrame8 = &frame;
   struct Reset {
@@ -132,11 +144,16 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
   const auto frameStart = Clock::now();
   if (options.part)
     throw RenderInputError(
-        "a part (sort-last rendering) is a box of a grid's voxels: a tetrahedral mesh cannot be "
-        "drawn in parts");
+        "FrameOptions::part is a box of a grid's voxels: a tetrahedral mesh is drawn in parts by "
+        "FrameOptions::meshPart, a world-space box");
+  const MeshPartBox* part = options.meshPart ? &*options.meshPart : nullptr;
+  if (part) checkMeshPart(*part);
   FrameStats stats;
-  // The plan: view, window, matrices, whether the view allows ray casting (GL-free).
+  // The plan: view, window, matrices, whether the view allows ray casting (GL-free). A part's frame plans as the
+  // whole frame does (the whole mesh's box decides ray casting), so that its parts join into that frame.
   const TetFramePlan plan = planTetFrame(scene, mResidency.source().constants(), options);
+  if (part && plan.nullFragment)
+    throw RenderInputError("RenderMode::Roofline draws no part of a mesh: its null fragments cannot be clipped");
 
   // Residency: the frame's tets, uploaded when they are not those on the GPU; a paged mesh's working set is held
   // only while the frame draws it (its GPU copy stays).
@@ -144,9 +161,9 @@ image::ImageF TetRenderer::render(const Scene& scene, FrameStats* statsOut, cons
     TetResidency& r;
     ~Release() { r.release(); }
   } release{mResidency};
-  std::shared_ptr<const TetMeshData> data = mResidency.source().frameData(scene, plan.view, &stats);
-  // Nothing in view that the transfer function shows: the background.
-  if (!data) return background(scene, stats, frameStart, statsOut);
+  std::shared_ptr<const TetMeshData> data = mResidency.source().frameData(scene, plan.view, &stats, part);
+  // Nothing in view that the transfer function shows (or, of a part, nothing in its box): the background.
+  if (!data) return background(scene, stats, part != nullptr, frameStart, statsOut);
   if (mResidency.hold(std::move(data))) upload();
   const TetMeshData& d = mResidency.data();
 
@@ -191,16 +208,21 @@ image::ImageF TetRenderer::draw(const Scene& scene, const TetFramePlan& plan, bo
   uniforms.windowScale = plan.windowScale();
   uniforms.reference = reference;
   uniforms.table = spec;
+  if (options.meshPart) {
+    // The part's box in the centred world the vertices are in; each pass clips every ray to it.
+    const glm::dvec3 centre = d.bounds.center();
+    uniforms.part = true;
+    uniforms.partLo = glm::dvec3(options.meshPart->lo[0], options.meshPart->lo[1], options.meshPart->lo[2]) - centre;
+    uniforms.partHi = glm::dvec3(options.meshPart->hi[0], options.meshPart->hi[1], options.meshPart->hi[2]) - centre;
+    stats.tetPart = rays ? "raycast" : "projected";
+  }
   try {
     if (rays)
       mResidency.rayCaster()->draw(uniforms, scene.ert, scene.shading, mCompositor, stats, options.cancelled,
                                    options.checkpointSamples);
     else
-      drawProjected(uniforms,
-                    nullFragment    ? mNullProgram
-                    : scene.shading ? mShadedProgram
-                                    : mProgram,
-                    stats, options.cancelled);
+      drawProjected(uniforms, nullFragment ? mNullProgram : projectedProgram(scene.shading, uniforms.part), stats,
+                    options.cancelled);
     checkGlError(mGl, "TetRenderer: drawing");
   } catch (...) {
     mCompositor.abort();
@@ -208,13 +230,20 @@ image::ImageF TetRenderer::draw(const Scene& scene, const TetFramePlan& plan, bo
   }
   stats.msDrawing = msSince(drawStart);
   stats.tetsDrawn = int64_t(mOrder.size());
-  image::ImageF image = finishFrame(scene, stats);
+  image::ImageF image = finishFrame(scene, stats, uniforms.part);
   if (rays) mResidency.rayCaster()->readCounters(stats);
   mGl.glDisable(GL_BLEND);
   mGl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
   stats.msTotal = msSince(frameStart);
   if (statsOut) *statsOut = stats;
   return image;
+}
+
+const Program& TetRenderer::projectedProgram(bool shading, bool part) {
+  if (!part) return shading ? mShadedProgram : mProgram;
+  Program& program = shading ? mShadedPartProgram : mPartProgram;
+  if (!program) program = tetProgram(mGl, false, shading, true);
+  return program;
 }
 
 void TetRenderer::drawProjected(const TetFrameUniforms& uniforms, const Program& p, FrameStats& stats,

@@ -43,8 +43,12 @@ class TetRenderer final : public FrameRenderer {
   /// caster; RenderMode::Roofline draws projected tets with Carrard & Juliachs' null fragment program). Visibility
   /// TetSort::Ray draws with the ray caster where rayCastable, otherwise projected in MPVO order
   /// (FrameStats::tetRayPasses says which). A paged mesh draws the chunks the frame needs (TetMeshSource::frameData);
-  /// a frame that needs none is the background. Throws RenderInputError for an invalid scene, RenderError for GL
-  /// failures, FrameCancelled when options.cancelled says so before drawing, and what frameData throws.
+  /// a frame that needs none is the background. With options.meshPart (sort-last rendering): only the cells that
+  /// meet the part's box, drawn as the whole frame would be (ray cast or projected) with each ray's integration
+  /// clipped to the box (FrameStats::tetPart says which), premultiplied with no background. Throws
+  /// RenderInputError for an invalid scene, a grid's options.part, a meshPart that is no box or with
+  /// RenderMode::Roofline, RenderError for GL failures, FrameCancelled when options.cancelled says so before
+  /// drawing, and what frameData throws.
   image::ImageF render(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) override;
   /// The same frame finished on the GPU as 8 bits (Compositor::finish8).
   image::Image8 render8(const Scene& scene, FrameStats* stats = nullptr, const FrameOptions& options = {}) override;
@@ -67,10 +71,14 @@ class TetRenderer final : public FrameRenderer {
   void upload();
   /// Tet `tet`'s four vertices as the shader reads them.
   void writeTet(uint32_t tet, glm::vec4* out) const;
-  /// The compositor's readback: as floats, or during render8 as 8 bits into *mFrame8 (the floats returned empty).
-  image::ImageF finishFrame(const Scene& scene, FrameStats& stats);
-  /// A frame with nothing to draw.
-  image::ImageF background(const Scene& scene, FrameStats& stats, TimePoint frameStart, FrameStats* statsOut);
+  /// The compositor's readback: as floats (a part's premultiplied, with no background), or during render8 as 8 bits
+  /// into *mFrame8 (the floats returned empty).
+  image::ImageF finishFrame(const Scene& scene, FrameStats& stats, bool part);
+  /// A frame with nothing to draw (a part's: transparent).
+  image::ImageF background(const Scene& scene, FrameStats& stats, bool part, TimePoint frameStart,
+                           FrameStats* statsOut);
+  /// The projected tets' program: plain or shaded, whole or clipped to a part (those made on the first part's frame).
+  const Program& projectedProgram(bool shading, bool part);
   /// The table, the pass (the ray caster when `rays`, else the projected tets of mOrder) and the readback.
   image::ImageF draw(const Scene& scene, const TetFramePlan& plan, bool rays, FrameStats& stats,
                      const FrameOptions& options, TimePoint frameStart, FrameStats* statsOut);
@@ -85,6 +93,7 @@ class TetRenderer final : public FrameRenderer {
   Buffer mOrderBuffer;
   VertexArray mEmpty;  // core profile draws need a vertex array, even one without attributes
   Program mProgram, mNullProgram, mShadedProgram;
+  Program mPartProgram, mShadedPartProgram;  // empty until a part's frame needs them
   Compositor mCompositor;
   double mLastVertexCost = 0, mLastFragmentCost = 0, mLastPixels = 0;  // the last frame's estimate, for estimateSamples
   PreIntegrationTexture mTable;

@@ -159,6 +159,10 @@ image::Image8 VolumeRenderer::render8(const Scene& scene, FrameStats* stats, con
 }
 
 VolumeRenderer::PlannedFrame VolumeRenderer::plan(const Scene& scene, const FrameOptions& options) {
+  if (options.meshPart)
+    throw RenderInputError(
+        "FrameOptions::meshPart is a mesh's world-space box: a grid is drawn in parts by FrameOptions::part, a box of "
+        "its level-0 voxels");
   PlannedFrame p{{}, {}, Clock::now()};
   FrameStats& stats = p.stats;
   const store::BrickStore& store = mResidency.store();

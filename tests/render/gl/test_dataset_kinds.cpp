@@ -192,16 +192,27 @@ TEST(DatasetKinds, TheBuiltInKindsAnswerThroughTheirDrivers) {
   EXPECT_EQ(datasetFiles(dir / "grid.vbs"),
             (std::vector<std::filesystem::path>{dir / "grid.vbs" / "store.json", dir / "grid.vbs" / "bricks.bin"}));
 
-  // Sort-last: a grid splits into parts whose boxes cover its bricks; a mesh does not split.
+  // Sort-last: a grid splits into boxes of its voxels (FrameOptions::part), a mesh into world-space boxes
+  // (FrameOptions::meshPart).
   const DatasetDriver& gridDriver = driverFor(*grid);
   ASSERT_TRUE(gridDriver.sortsLast());
   const auto parts = gridDriver.partition(*grid, 2);
-  ASSERT_EQ(parts->boxes().size(), 2u);
+  ASSERT_EQ(parts->count(), 2);
   const std::vector<int> order = parts->frontToBack(smallScene());
   EXPECT_EQ(order.size(), 2u);
   EXPECT_NE(order[0], order[1]);
-  EXPECT_FALSE(driverFor(*tets).sortsLast());
-  EXPECT_THROW(driverFor(*tets).partition(*tets, 2), RenderInputError);
+  FrameOptions gridPart;
+  parts->select(1, gridPart);
+  EXPECT_TRUE(gridPart.part.has_value());
+  EXPECT_FALSE(gridPart.meshPart.has_value());
+  ASSERT_TRUE(driverFor(*tets).sortsLast());
+  const auto meshParts = driverFor(*tets).partition(*tets, 3);
+  ASSERT_EQ(meshParts->count(), 3);
+  EXPECT_EQ(meshParts->frontToBack(smallScene()).size(), 3u);
+  FrameOptions meshPart;
+  meshParts->select(2, meshPart);
+  EXPECT_TRUE(meshPart.meshPart.has_value());
+  EXPECT_FALSE(meshPart.part.has_value());
 
   // A sub-block must cut a grid's bricks; a mesh has none to check.
   EXPECT_NO_THROW(gridDriver.checkSubBlock(*grid, 8));

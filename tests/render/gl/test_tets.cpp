@@ -1,5 +1,5 @@
 // The tet mesh renderer (Carrard & Juliachs): frames against analytic opacities, MPVO against the centroid order,
-// and the visibility orders themselves.
+// and the visibility orders themselves; sort-last parts (FrameOptions::meshPart) joined into the whole frame.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -22,7 +22,9 @@
 #include "render/gl/Bindings.h"
 #include "render/gl/GlFixtures.h"
 #include "render/gl/tets/TetRenderer.h"
+#include "render/TetMeshes.h"
 #include "render/reference/TetReference.h"
+#include "render/tets/MeshPartition.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {
@@ -637,6 +639,167 @@ TEST(TetCommands, PrepInfoRenderAndRefusals) {
   EXPECT_NE(r.exitCode, 0);
   EXPECT_NE(r.output.find("hexahedron"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(dir / "hex"));
+}
+
+
+// Sort-last parts of a mesh ------------------------------------------------------------------------------------------
+
+/// `data` split `parts` ways by its cells (partitionMesh), each part drawn alone by `renderer` with
+/// FrameOptions::meshPart, joined front to back for `scene` (compositeSerial) and finished over its background; each
+/// part's frame and stats into `frames` and `stats` when given.
+image::ImageF joinedMeshParts(TetRenderer& renderer, const TetMeshData& data, const Scene& scene, int parts,
+                              std::vector<image::ImageF>* frames = nullptr, std::vector<FrameStats>* stats = nullptr) {
+  const MeshPartition partition = partitionMesh(cellWeights(data.mesh), data.bounds, parts);
+  std::vector<image::ImageF> drawn;
+  for (const MeshPartBox& box : partition.boxes) {
+    FrameOptions options;
+    options.meshPart = box;
+    FrameStats s;
+    drawn.push_back(renderer.render(scene, &s, options));
+    if (stats) stats->push_back(s);
+  }
+  if (frames) *frames = drawn;
+  return finishPartial(compositeSerial(drawn, partsFrontToBack(partition, meshPartView(scene, data))), scene);
+}
+
+// The parts of a mesh, each drawn alone (only its cells, every ray clipped to its box, premultiplied), joined in
+// their front-to-back order give the whole frame within 1/255 for 1 to 5 parts: ray cast (the staircase ball,
+// non-convex, from outside, orthographic, shaded), and projected (the camera inside the mesh's box, where the whole
+// frame is projected too, and MPVO asked for), each part's frame saying how it was clipped.
+TEST(TetRenderer, MeshPartsJoinedInOrderGiveTheWholeFrame) {
+  auto ball = syntheticData("ball,n=10");
+  auto box = syntheticData("box,n=6");
+  TetRenderer ballRenderer(test::context(), ball, size_t(256) << 20);
+  TetRenderer boxRenderer(test::context(), box, size_t(256) << 20);
+  struct Case {
+    std::string name;
+    bool onBall;
+    TetSort visibility;
+    CameraSpec camera;
+    bool shading = false;
+    std::string clip;  // FrameStats::tetPart expected
+  };
+  CameraSpec orbit, orthographic, inside;
+  orbit.azimuth = 35;
+  orbit.elevation = 25;
+  orthographic.orthographic = true;
+  orthographic.azimuth = 200;
+  orthographic.elevation = -40;
+  inside.azimuth = 35;
+  inside.elevation = 25;
+  inside.distance = 0.3;  // bounding radii: within the box
+  inside.fovY = 75;
+  const std::vector<Case> cases = {{"ray-orbit", true, TetSort::Ray, orbit, false, "raycast"},
+                                   {"ray-orthographic", true, TetSort::Ray, orthographic, false, "raycast"},
+                                   {"ray-shaded", true, TetSort::Ray, orbit, true, "raycast"},
+                                   {"inside", false, TetSort::Ray, inside, false, "projected"},
+                                   {"mpvo", false, TetSort::Mpvo, orbit, false, "projected"}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    Scene scene;
+    scene.width = 72;
+    scene.height = 64;
+    scene.camera = c.camera;
+    scene.transferFunction = TransferFunction::load("hot");
+    scene.visibility = c.visibility;
+    scene.shading = c.shading;
+    TetRenderer& renderer = c.onBall ? ballRenderer : boxRenderer;
+    const TetMeshData& data = c.onBall ? *ball : *box;
+    FrameStats wholeStats;
+    const image::ImageF whole = renderer.render(scene, &wholeStats);
+    ASSERT_GT(test::meanBrightness(whole), 0.01);
+    ASSERT_TRUE(wholeStats.tetPart.empty());
+    for (int parts = 1; parts <= 5; ++parts) {
+      std::vector<image::ImageF> frames;
+      std::vector<FrameStats> stats;
+      const image::ImageF joined = joinedMeshParts(renderer, data, scene, parts, &frames, &stats);
+      test::expectClose(joined, whole, 1.0 / 255, "tets-parts-" + c.name + "-" + std::to_string(parts));
+      int64_t drawn = 0;
+      for (size_t p = 0; p < stats.size(); ++p) {
+        EXPECT_EQ(stats[p].tetPart, c.clip) << "part " << p;
+        drawn += stats[p].tetsDrawn;
+        if (c.clip == "projected" && parts > 1) {
+          EXPECT_LT(stats[p].tetsDrawn, wholeStats.tetsDrawn) << "part " << p << " drew cells outside its box";
+        }
+      }
+      if (c.clip == "projected") {
+        EXPECT_GE(drawn, wholeStats.tetsDrawn) << "every cell drawn by some part";
+      }
+      if (parts > 1) {
+        EXPECT_GT(image::compareImages(finishPartial(frames[0], scene), whole).maxAbs, 1.0 / 255)
+            << "one part drew the whole frame: a test that cannot fail";
+      }
+    }
+  }
+}
+
+// A cell straddling a cut is drawn by both parts, each integrating its rays only on its own side, so that it counts
+// once in all: a single tet cut through its middle, ray cast and projected. Drawn unclipped by either part, the
+// joined frame would be more opaque than the whole one.
+TEST(TetRenderer, ACellStraddlingACutIsDrawnOnceInAll) {
+  mesh::TetMesh m = test::cornerTet([](const glm::dvec3& p) { return p.x + 0.5 * p.y; });
+  mesh::Topology t = mesh::buildTopology(m);
+  auto data = std::make_shared<const TetMeshData>(std::move(m), std::move(t));
+  TetRenderer renderer(test::context(), data, size_t(256) << 20);
+  const MeshPartition partition = partitionMesh(cellWeights(data->mesh), data->bounds, 2);
+  const MeshPartition::Node& cut = partition.nodes.at(0);
+  ASSERT_GE(cut.axis, 0);
+  ASSERT_GT(cut.position, data->bounds.min[cut.axis] + 0.1);
+  ASSERT_LT(cut.position, data->bounds.max[cut.axis] - 0.1) << "the cut goes through the tet";
+  for (const TetSort visibility : {TetSort::Ray, TetSort::Mpvo}) {
+    SCOPED_TRACE(tetSortName(visibility));
+    Scene scene;
+    scene.width = 64;
+    scene.height = 64;
+    scene.transferFunction = TransferFunction({{0, {1, 0.6, 0.2, 0.6}}, {1, {0.2, 0.6, 1, 0.6}}}, 0.5);
+    scene.visibility = visibility;
+    const image::ImageF whole = renderer.render(scene);
+    std::vector<image::ImageF> frames;
+    const image::ImageF joined = joinedMeshParts(renderer, *data, scene, 2, &frames);
+    test::expectClose(joined, whole, 1.0 / 255, "tets-straddling");
+    // Both parts drew the tet, each less opaque than the whole where both did.
+    const image::ImageF wholePremultiplied = [&] {
+      FrameOptions one;
+      one.meshPart = MeshPartBox{{-10, -10, -10}, {10, 10, 10}};
+      return renderer.render(scene, nullptr, one);
+    }();
+    int both = 0;
+    for (int y = 0; y < scene.height; ++y)
+      for (int x = 0; x < scene.width; ++x) {
+        const float a0 = frames[0].pixel(x, y)[3], a1 = frames[1].pixel(x, y)[3];
+        const float a = wholePremultiplied.pixel(x, y)[3];
+        if (a0 > 0.01f && a1 > 0.01f) {
+          ++both;
+          EXPECT_LT(std::max(a0, a1), a - 0.005f) << "pixel " << x << ", " << y;
+          // Front over back: 1 - (1 - a0)(1 - a1) is the whole's opacity.
+          EXPECT_NEAR(1 - (1 - a0) * (1 - a1), a, 2.0 / 255) << "pixel " << x << ", " << y;
+        }
+      }
+    EXPECT_GT(both, 20) << "the cut crosses the tet's projection";
+  }
+}
+
+// A part given as a grid's box, a mesh part that is no box, and a part of a null-fragment frame are refused.
+TEST(TetRenderer, BadMeshPartsAreRefused) {
+  auto data = syntheticData("box,n=2");
+  TetRenderer renderer(test::context(), data, size_t(256) << 20);
+  Scene scene = partlyTransparentScene();
+  FrameOptions options;
+  options.meshPart = MeshPartBox{{0, 0, 0}, {-1, 1, 1}};
+  EXPECT_THROW(renderer.render(scene, nullptr, options), RenderInputError);
+  options.meshPart = MeshPartBox{{0, 0, 0}, {std::nan(""), 1, 1}};
+  EXPECT_THROW(renderer.render(scene, nullptr, options), RenderInputError);
+  options.meshPart = MeshPartBox{{0, 0, 0}, {1, 1, 1}};
+  options.mode = RenderMode::Roofline;
+  EXPECT_THROW(renderer.render(scene, nullptr, options), RenderInputError);
+  options.mode = RenderMode::Normal;
+  EXPECT_NO_THROW(renderer.render(scene, nullptr, options));
+  // A part with no cell in it: transparent, nothing drawn.
+  options.meshPart = MeshPartBox{{5, 5, 5}, {6, 6, 6}};
+  FrameStats stats;
+  const image::ImageF empty = renderer.render(scene, &stats, options);
+  EXPECT_EQ(activeRect(empty).pixels(), 0);
+  EXPECT_EQ(stats.tetsDrawn, 0);
 }
 
 }  // namespace
