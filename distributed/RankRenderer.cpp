@@ -54,7 +54,7 @@ image::ImageF RankRenderer::render(const std::shared_ptr<const render::Dataset>&
   }
   const double drawMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - drawStart).count();
   CompositeStats composited;
-  image::ImageF whole = composite(mComm, std::move(partial), order, mOptions.composite, &composited);
+  image::Image8 whole = compositeFinished(mComm, partial, order, scene, mOptions.composite, &composited);
   // Every rank's figures to rank 0 (and to all: one small gather).
   const store::CacheStats cache = dataset->cacheStats();
   std::ostringstream record;
@@ -96,7 +96,7 @@ image::ImageF RankRenderer::render(const std::shared_ptr<const render::Dataset>&
                         {"per_rank", perRank}};
   }
   if (stats) *stats = own;
-  return render::finishPartial(whole, scene);
+  return image::toImageF(whole);  // finished by each rank over the background, 8-bit (exactly what output keeps)
 }
 
 }  // namespace voxbrick::distributed

@@ -1,0 +1,330 @@
+// Run-length encoded pixel ranges and their kernels (PixelRuns.h).
+#include "distributed/PixelRuns.h"
+
+#include <immintrin.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+#include "common/Half.h"
+
+namespace voxbrick::distributed {
+namespace {
+
+// A pixel is empty when every channel is +0 or -0 (as activeRect's comparison with 0); NaN counts as active.
+inline bool emptyPixel(const float* p) {
+  uint64_t a, b;
+  std::memcpy(&a, p, 8);
+  std::memcpy(&b, p + 2, 8);
+  return ((a | b) & 0x7fffffff7fffffffull) == 0;
+}
+
+// Four empty pixels in a row (one test of 64 bytes), to cross empty space quickly.
+inline bool emptyQuad(const float* p) {
+  uint64_t w[8];
+  std::memcpy(w, p, 64);
+  return ((w[0] | w[1] | w[2] | w[3] | w[4] | w[5] | w[6] | w[7]) & 0x7fffffff7fffffffull) == 0;
+}
+
+// front over back for `count` pixels: out = f + (1 − f.a)·b per channel. The SIMD path uses the same two
+// operations per channel (no fused multiply-add), so both give the same bits.
+void blendScalar(const float* f, const float* b, float* out, size_t count) {
+  for (size_t i = 0; i < count * 4; i += 4) {
+    const float keep = 1.0f - f[i + 3];
+    for (int c = 0; c < 4; ++c) out[i + c] = f[i + c] + keep * b[i + c];
+  }
+}
+
+__attribute__((target("avx2,f16c"))) void blendSimd(const float* f, const float* b, float* out, size_t count) {
+  const __m256 one = _mm256_set1_ps(1.0f);
+  size_t i = 0;
+  for (; i + 2 <= count; i += 2) {  // two pixels a register: alpha broadcast within each 128-bit lane
+    const __m256 front = _mm256_loadu_ps(f + 4 * i);
+    const __m256 keep = _mm256_sub_ps(one, _mm256_permute_ps(front, 0xff));
+    _mm256_storeu_ps(out + 4 * i, _mm256_add_ps(front, _mm256_mul_ps(keep, _mm256_loadu_ps(b + 4 * i))));
+  }
+  if (i < count) blendScalar(f + 4 * i, b + 4 * i, out + 4 * i, count - i);
+}
+
+const bool kSimd = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("f16c");
+
+bool useSimd(Kernels kernels) { return kernels == Kernels::Best && kSimd; }
+
+void blend(const float* f, const float* b, float* out, size_t count, Kernels kernels) {
+  if (useSimd(kernels)) return blendSimd(f, b, out, count);
+  blendScalar(f, b, out, count);
+}
+
+void toHalves(const float* in, uint16_t* out, size_t count, Kernels kernels) {
+  if (useSimd(kernels)) return common::floatsToHalves(in, out, count);  // F16C: the same rounding
+  for (size_t i = 0; i < count; ++i) out[i] = common::floatToHalf(in[i]);
+}
+
+void toFloats(const uint16_t* in, float* out, size_t count, Kernels kernels) {
+  if (useSimd(kernels)) return common::halvesToFloats(in, out, count);
+  for (size_t i = 0; i < count; ++i) out[i] = common::halfToFloat(in[i]);
+}
+
+size_t channelBytes(PixelEncoding encoding) { return encoding == PixelEncoding::Half ? 2 : 4; }
+
+// Builds runs in order: each active stretch is appended after the last, joined to it when they touch.
+class RunWriter {
+ public:
+  explicit RunWriter(PixelRuns& out) : mOut(out), mLast(out.begin) {}
+  // Room for the `count` active pixels at [start, start + count), start >= the end of the last stretch.
+  float* append(uint32_t start, uint32_t count) {
+    if (start == mLast && mOut.runs.size() > 0) {
+      mOut.runs.data()[mOut.runs.size() - 1] += count;
+    } else {
+      mOut.runs.push(start - mLast);
+      mOut.runs.push(count);
+    }
+    mLast = start + count;
+    return mOut.pixels.extend(size_t(count) * 4);
+  }
+
+ private:
+  PixelRuns& mOut;
+  uint32_t mLast;
+};
+
+// The active stretches of runs, in order, with their pixels: [start, end) and where its pixels are.
+class RunReader {
+ public:
+  explicit RunReader(const PixelRuns& in) : mIn(in), mPosition(in.begin) { next(); }
+  bool done() const { return mDone; }
+  uint32_t start() const { return mStart; }
+  uint32_t end() const { return mEnd; }
+  const float* pixels() const { return mPixels; }
+  // Drops the stretch's pixels before `to` (start < to <= end), moving to the next stretch when none are left.
+  void advance(uint32_t to) {
+    mPixels += size_t(to - mStart) * 4;
+    mStart = to;
+    if (mStart == mEnd) next();
+  }
+
+ private:
+  void next() {
+    for (;;) {
+      if (mRun >= mIn.runCount()) {
+        mDone = true;
+        return;
+      }
+      const uint32_t* pair = mIn.runs.data() + 2 * mRun++;
+      mStart = mPosition + pair[0];
+      mEnd = mStart + pair[1];
+      mPosition = mEnd;
+      if (mEnd > mStart) return;
+    }
+  }
+  const PixelRuns& mIn;
+  size_t mRun = 0;
+  uint32_t mPosition, mStart = 0, mEnd = 0;
+  const float* mPixels = mIn.pixels.data();
+  bool mDone = false;
+};
+
+struct MessageHeader {
+  uint32_t begin, end, runCount, activeCount;
+};
+static_assert(sizeof(MessageHeader) == kRunsHeaderBytes);
+
+MessageHeader readHeader(std::span<const uint8_t> message) {
+  if (message.size() < kRunsHeaderBytes) {
+    throw std::runtime_error("a pixel message of " + std::to_string(message.size()) + " bytes has no header");
+  }
+  MessageHeader header;
+  std::memcpy(&header, message.data(), kRunsHeaderBytes);
+  return header;
+}
+
+}  // namespace
+
+bool simdKernelsAvailable() { return kSimd; }
+
+void encodeRuns(const image::ImageF& frame, uint32_t begin, uint32_t end, PixelRuns& out) {
+  const size_t pixels = size_t(frame.width) * size_t(frame.height);
+  if (begin > end || end > pixels || frame.rgba.size() != pixels * 4) {
+    throw std::invalid_argument("encodeRuns: pixels [" + std::to_string(begin) + ", " + std::to_string(end) +
+                                ") do not lie in a frame of " + std::to_string(pixels) + " pixels");
+  }
+  out.reset(begin, end);
+  RunWriter writer(out);
+  const float* rgba = frame.rgba.data();
+  uint32_t i = begin;
+  while (i < end) {
+    while (i + 4 <= end && emptyQuad(rgba + size_t(i) * 4)) i += 4;
+    while (i < end && emptyPixel(rgba + size_t(i) * 4)) ++i;
+    if (i == end) break;
+    const uint32_t start = i;
+    while (i < end && !emptyPixel(rgba + size_t(i) * 4)) ++i;
+    std::memcpy(writer.append(start, i - start), rgba + size_t(start) * 4, size_t(i - start) * 16);
+  }
+}
+
+size_t runsMessageBytes(size_t runCount, size_t activePixels, PixelEncoding encoding) {
+  return kRunsHeaderBytes + runCount * 8 + activePixels * 4 * channelBytes(encoding);
+}
+
+void packRuns(const PixelRuns& in, uint32_t begin, uint32_t end, PixelEncoding encoding, GrowingBuffer<uint8_t>& out,
+              Kernels kernels) {
+  if (begin > end || begin < in.begin || end > in.end) {
+    throw std::invalid_argument("packRuns: [" + std::to_string(begin) + ", " + std::to_string(end) +
+                                ") is not within the runs' range [" + std::to_string(in.begin) + ", " +
+                                std::to_string(in.end) + ")");
+  }
+  // First the stretches' count and pixels, for the layout; then the runs and pixels.
+  MessageHeader header{begin, end, 0, 0};
+  for (RunReader reader(in); !reader.done() && reader.start() < end; reader.advance(reader.end())) {
+    const uint32_t s = std::max(reader.start(), begin), e = std::min(reader.end(), end);
+    if (s >= e) continue;
+    ++header.runCount;
+    header.activeCount += e - s;
+  }
+  out.clear();
+  uint8_t* bytes = out.extend(runsMessageBytes(header.runCount, header.activeCount, encoding));
+  std::memcpy(bytes, &header, kRunsHeaderBytes);
+  auto* runs = reinterpret_cast<uint32_t*>(bytes + kRunsHeaderBytes);
+  uint8_t* pixels = bytes + kRunsHeaderBytes + size_t(header.runCount) * 8;
+  uint32_t last = begin;
+  for (RunReader reader(in); !reader.done() && reader.start() < end; reader.advance(reader.end())) {
+    const uint32_t s = std::max(reader.start(), begin), e = std::min(reader.end(), end);
+    if (s >= e) continue;
+    *runs++ = s - last;
+    *runs++ = e - s;
+    last = e;
+    const float* from = reader.pixels() + size_t(s - reader.start()) * 4;
+    const size_t channels = size_t(e - s) * 4;
+    if (encoding == PixelEncoding::Float) {
+      std::memcpy(pixels, from, channels * 4);
+    } else {
+      toHalves(from, reinterpret_cast<uint16_t*>(pixels), channels, kernels);
+    }
+    pixels += channels * channelBytes(encoding);
+  }
+}
+
+void sliceRuns(const PixelRuns& in, uint32_t begin, uint32_t end, PixelRuns& out) {
+  if (begin > end || begin < in.begin || end > in.end) {
+    throw std::invalid_argument("sliceRuns: [" + std::to_string(begin) + ", " + std::to_string(end) +
+                                ") is not within the runs' range [" + std::to_string(in.begin) + ", " +
+                                std::to_string(in.end) + ")");
+  }
+  out.reset(begin, end);
+  RunWriter writer(out);
+  for (RunReader reader(in); !reader.done() && reader.start() < end; reader.advance(reader.end())) {
+    const uint32_t s = std::max(reader.start(), begin), e = std::min(reader.end(), end);
+    if (s >= e) continue;
+    std::memcpy(writer.append(s, e - s), reader.pixels() + size_t(s - reader.start()) * 4, size_t(e - s) * 16);
+  }
+}
+
+void checkRunsMessage(std::span<const uint8_t> message, uint32_t begin, uint32_t end, PixelEncoding encoding) {
+  const MessageHeader header = readHeader(message);
+  if (header.begin != begin || header.end != end) {
+    throw std::runtime_error("a pixel message holds pixels [" + std::to_string(header.begin) + ", " +
+                             std::to_string(header.end) + ") where [" + std::to_string(begin) + ", " +
+                             std::to_string(end) + ") was due");
+  }
+  const uint64_t length = uint64_t(end) - begin;
+  if (header.runCount > length || header.activeCount > length ||
+      message.size() != runsMessageBytes(header.runCount, header.activeCount, encoding)) {
+    throw std::runtime_error("a pixel message of " + std::to_string(message.size()) + " bytes does not hold the " +
+                             std::to_string(header.runCount) + " runs and " + std::to_string(header.activeCount) +
+                             " pixels its header declares");
+  }
+  uint64_t covered = 0, active = 0;
+  const uint8_t* runs = message.data() + kRunsHeaderBytes;
+  for (uint32_t r = 0; r < header.runCount; ++r) {
+    uint32_t pair[2];
+    std::memcpy(pair, runs + size_t(r) * 8, 8);
+    covered += uint64_t(pair[0]) + pair[1];
+    active += pair[1];
+  }
+  if (covered > length || active != header.activeCount) {
+    throw std::runtime_error("a pixel message's runs cover " + std::to_string(covered) + " pixels with " +
+                             std::to_string(active) + " active, in a range of " + std::to_string(length) +
+                             " pixels declaring " + std::to_string(header.activeCount) + " active");
+  }
+}
+
+void unpackRuns(std::span<const uint8_t> message, PixelEncoding encoding, PixelRuns& out, Kernels kernels) {
+  const MessageHeader header = readHeader(message);
+  out.reset(header.begin, header.end);
+  std::memcpy(out.runs.extend(size_t(header.runCount) * 2), message.data() + kRunsHeaderBytes,
+              size_t(header.runCount) * 8);
+  const uint8_t* pixels = message.data() + kRunsHeaderBytes + size_t(header.runCount) * 8;
+  const size_t channels = size_t(header.activeCount) * 4;
+  float* to = out.pixels.extend(channels);
+  if (encoding == PixelEncoding::Float) {
+    std::memcpy(to, pixels, channels * 4);
+  } else {
+    toFloats(reinterpret_cast<const uint16_t*>(pixels), to, channels, kernels);
+  }
+}
+
+void overRuns(const PixelRuns& front, const PixelRuns& back, PixelRuns& out, Kernels kernels) {
+  if (front.begin != back.begin || front.end != back.end) {
+    throw std::invalid_argument("overRuns: ranges [" + std::to_string(front.begin) + ", " +
+                                std::to_string(front.end) + ") and [" + std::to_string(back.begin) + ", " +
+                                std::to_string(back.end) + ") differ");
+  }
+  out.reset(front.begin, front.end);
+  RunWriter writer(out);
+  RunReader f(front), b(back);
+  // Copies the stretch of `r` before `to` (or all of it).
+  auto copy = [&writer](RunReader& r, uint32_t to) {
+    const uint32_t e = std::min(r.end(), to);
+    std::memcpy(writer.append(r.start(), e - r.start()), r.pixels(), size_t(e - r.start()) * 16);
+    r.advance(e);
+  };
+  while (!f.done() || !b.done()) {
+    if (f.done() || (!b.done() && b.start() < f.start())) {
+      copy(b, f.done() ? b.end() : f.start());
+    } else if (b.done() || f.start() < b.start()) {
+      copy(f, b.done() ? f.end() : b.start());
+    } else {  // both active from the same pixel on
+      const uint32_t e = std::min(f.end(), b.end());
+      blend(f.pixels(), b.pixels(), writer.append(f.start(), e - f.start()), e - f.start(), kernels);
+      f.advance(e);
+      b.advance(e);
+    }
+  }
+}
+
+void scatterRuns(const PixelRuns& in, image::ImageF& frame) {
+  if (size_t(in.end) * 4 > frame.rgba.size()) throw std::invalid_argument("scatterRuns: the runs pass the frame");
+  for (RunReader reader(in); !reader.done(); reader.advance(reader.end())) {
+    std::memcpy(frame.rgba.data() + size_t(reader.start()) * 4, reader.pixels(),
+                size_t(reader.end() - reader.start()) * 16);
+  }
+}
+
+void finishRuns(const PixelRuns& in, const render::SceneView& view, uint8_t* out) {
+  // As image::toImage8 rounds each channel of render::finishPartial's float pixels.
+  auto finish = [&view](const float* p, uint8_t* to) {
+    const glm::dvec4 o = view.output(glm::dvec3(p[0], p[1], p[2]), p[3]);
+    for (int c = 0; c < 4; ++c) to[c] = uint8_t(std::floor(std::clamp(float(o[c]), 0.0f, 1.0f) * 255.0f + 0.5f));
+  };
+  const float nothing[4] = {0, 0, 0, 0};
+  uint8_t background[4];
+  finish(nothing, background);
+  uint32_t pattern;
+  std::memcpy(&pattern, background, 4);
+  auto fill = [&](uint32_t from, uint32_t to) {
+    for (uint32_t i = from; i < to; ++i) std::memcpy(out + size_t(i - in.begin) * 4, &pattern, 4);
+  };
+  uint32_t position = in.begin;
+  for (RunReader reader(in); !reader.done(); reader.advance(reader.end())) {
+    fill(position, reader.start());
+    const float* p = reader.pixels();
+    for (uint32_t i = reader.start(); i < reader.end(); ++i, p += 4) finish(p, out + size_t(i - in.begin) * 4);
+    position = reader.end();
+  }
+  fill(position, in.end);
+}
+
+}  // namespace voxbrick::distributed
