@@ -244,7 +244,9 @@ std::vector<std::shared_ptr<Bytes>> exchange(Context& c, const std::vector<int>&
 // One radix-k round: the group (the positions differing from this one in this round's digit only) splits the
 // region into k pieces; each member keeps the piece of its digit, sends every other piece of its runs to the member
 // keeping it, and joins the k versions of its own piece in the members' visibility order.
-void radixRound(Context& c, size_t round, Range& region) {
+// In the first round the rank's pixels are still its dense partial frame (`dense`): the pieces are packed and its
+// own piece encoded straight from it, so that the frame is read once and no pixel is copied twice.
+void radixRound(Context& c, size_t round, Range& region, const image::ImageF* dense) {
   const Plan& plan = c.plan;
   const int k = plan.factors[round], stride = plan.stride(round), digit = plan.digit(plan.position, round);
   const int base = plan.position - digit * stride;
@@ -256,7 +258,11 @@ void radixRound(Context& c, size_t round, Range& region) {
     const Range piece = pieceOf(region, j, k);
     auto message = c.space.buffer();
     messages.push_back(message);
-    packRuns(c.space.own, piece.begin, piece.end, c.options.encoding, *message, c.options.kernels);
+    if (dense) {
+      packRuns(*dense, piece.begin, piece.end, c.options.encoding, *message, c.options.kernels);
+    } else {
+      packRuns(c.space.own, piece.begin, piece.end, c.options.encoding, *message, c.options.kernels);
+    }
   }
   const auto received = exchange(c, peers, messages, peers, c.options.tag + 1, "a piece of a frame");
   const Range kept = pieceOf(region, digit, k);
@@ -264,7 +270,9 @@ void radixRound(Context& c, size_t round, Range& region) {
   Workspace& space = c.space;
   for (int j = 0, peer = 0; j < k; ++j) {
     PixelRuns& into = j == 0 ? space.joined : space.piece;
-    if (j == digit) {
+    if (j == digit && dense) {
+      encodeRuns(*dense, kept.begin, kept.end, into);
+    } else if (j == digit) {
       sliceRuns(space.own, kept.begin, kept.end, into);
     } else {
       const auto& message = *received[size_t(peer)];
@@ -286,12 +294,13 @@ void radixRound(Context& c, size_t round, Range& region) {
 
 namespace {
 
-// The rounds, from this rank's partial frame to its final region's runs in space.own; returns that region.
+// The rounds, from this rank's partial frame to its final region's runs in space.own (at least one round); returns
+// that region.
 Range runRounds(Context& c, const image::ImageF& partial) {
-  encodeRuns(partial, 0, c.plan.pixels, c.space.own);
-  c.stats.activePixels = c.space.own.activePixels();
   Range region{0, c.plan.pixels};
-  for (size_t round = 0; round < c.plan.factors.size(); ++round) radixRound(c, round, region);
+  for (size_t round = 0; round < c.plan.factors.size(); ++round) {
+    radixRound(c, round, region, round == 0 ? &partial : nullptr);
+  }
   return region;
 }
 
@@ -320,10 +329,7 @@ image::ImageF composite(MPI_Comm comm, image::ImageF partial, const std::vector<
                         const CompositeOptions& options, CompositeStats* statsOut) {
   return timed<image::ImageF>(statsOut, [&](CompositeStats& stats) -> image::ImageF {
     const Plan plan = makePlan(comm, partial, frontToBack, options);
-    if (plan.parts() == 1) {
-      stats.activePixels = uint64_t(render::activeRect(partial).pixels());
-      return std::move(partial);  // nothing to exchange: the frame is the part
-    }
+    if (plan.parts() == 1) return std::move(partial);  // nothing to exchange: the frame is the part
     Context c{comm, options, plan, stats, workspace()};
     const Range region = runRounds(c, partial);
     const int tag = options.tag + 2;
@@ -350,42 +356,59 @@ image::ImageF composite(MPI_Comm comm, image::ImageF partial, const std::vector<
   });
 }
 
-image::Image8 compositeFinished(MPI_Comm comm, const image::ImageF& partial, const std::vector<int>& frontToBack,
-                                const render::SceneView& view, const CompositeOptions& options,
-                                CompositeStats* statsOut) {
-  return timed<image::Image8>(statsOut, [&](CompositeStats& stats) -> image::Image8 {
+void compositeFinished(MPI_Comm comm, const image::ImageF& partial, const std::vector<int>& frontToBack,
+                       const render::SceneView& view, image::Image8& frame, const CompositeOptions& options,
+                       CompositeStats* statsOut) {
+  timed<int>(statsOut, [&](CompositeStats& stats) {
     const Plan plan = makePlan(comm, partial, frontToBack, options);
+    const int tag = options.tag + 3;
+    // The frame's pixels are held by a shared pointer while a transfer may write them: one abandoned after a failure
+    // keeps them (and the caller's frame is left empty).
+    auto rgba = std::make_shared<std::vector<uint8_t>>();
+    if (plan.self == plan.root) {
+      std::swap(*rgba, frame.rgba);
+      rgba->resize(size_t(plan.pixels) * 4);  // the storage of the caller's last frame, when it has the size
+    }
+    frame = {};
+    if (plan.parts() == 1) {
+      finishRuns(partial, 0, plan.pixels, view, rgba->data(), options.kernels);
+      frame = {partial.width, partial.height, std::move(*rgba)};
+      return 0;
+    }
     Context c{comm, options, plan, stats, workspace()};
     const Range region = runRounds(c, partial);
-    const int tag = options.tag + 3;
     if (plan.self != plan.root) {
       auto message = c.space.buffer();
       message->clear();
-      finishRuns(c.space.own, view, message->extend(size_t(region.size()) * 4));
+      finishRuns(c.space.own, view, message->extend(size_t(region.size()) * 4), options.kernels);
       Transfers transfers(comm, options.timeoutSeconds);
       transfers.send(plan.root, tag, message->data(), message->size(), message, "a finished region");
       stats.bytesSent += message->size();
       transfers.wait();
       ++stats.rounds;
-      return {};
+      return 0;
     }
-    // The root finishes its own region in place and receives the others' straight into theirs. The pixels are held
-    // by a shared pointer as long as a transfer may write them (one abandoned after a failure keeps them).
-    auto rgba = std::make_shared<std::vector<uint8_t>>(size_t(plan.pixels) * 4);
-    finishRuns(c.space.own, view, rgba->data() + size_t(region.begin) * 4);
-    const auto others = othersFinal(plan);
-    if (!others.empty()) {
-      Transfers transfers(comm, options.timeoutSeconds);
-      for (const auto& [from, range] : others) {
-        transfers.receive(from, tag, rgba->data() + size_t(range.begin) * 4, size_t(range.size()) * 4, rgba,
-                          "a finished region");
-        stats.bytesReceived += size_t(range.size()) * 4;
-      }
-      transfers.wait();
-      ++stats.rounds;
+    // The root finishes its own region in place and receives the others' straight into theirs.
+    finishRuns(c.space.own, view, rgba->data() + size_t(region.begin) * 4, options.kernels);
+    Transfers transfers(comm, options.timeoutSeconds);
+    for (const auto& [from, range] : othersFinal(plan)) {
+      transfers.receive(from, tag, rgba->data() + size_t(range.begin) * 4, size_t(range.size()) * 4, rgba,
+                        "a finished region");
+      stats.bytesReceived += size_t(range.size()) * 4;
     }
-    return image::Image8{partial.width, partial.height, std::move(*rgba)};
+    transfers.wait();
+    ++stats.rounds;
+    frame = {partial.width, partial.height, std::move(*rgba)};
+    return 0;
   });
+}
+
+image::Image8 compositeFinished(MPI_Comm comm, const image::ImageF& partial, const std::vector<int>& frontToBack,
+                                const render::SceneView& view, const CompositeOptions& options,
+                                CompositeStats* stats) {
+  image::Image8 frame;
+  compositeFinished(comm, partial, frontToBack, view, frame, options, stats);
+  return frame;
 }
 
 std::vector<int> radixFactors(int ranks) {

@@ -31,7 +31,6 @@ struct CompositeStats {
   uint64_t bytesSent = 0;      ///< message bytes this rank sent (headers, runs and pixels)
   uint64_t bytesReceived = 0;  ///< message bytes this rank received
   int rounds = 0;              ///< exchanges this rank took part in (radix-k rounds, gather)
-  uint64_t activePixels = 0;   ///< pixels of this rank's partial frame with anything in them
 };
 
 struct CompositeOptions {
@@ -70,5 +69,10 @@ image::ImageF composite(MPI_Comm comm, image::ImageF partial, const std::vector<
 image::Image8 compositeFinished(MPI_Comm comm, const image::ImageF& partial, const std::vector<int>& frontToBack,
                                 const render::SceneView& view, const CompositeOptions& options = {},
                                 CompositeStats* stats = nullptr);
+/// The same into `frame`, whose storage is reused when it already has the frame's size (a server's next frame): the
+/// root's frame is filled, the other ranks' left empty.
+void compositeFinished(MPI_Comm comm, const image::ImageF& partial, const std::vector<int>& frontToBack,
+                       const render::SceneView& view, image::Image8& frame, const CompositeOptions& options = {},
+                       CompositeStats* stats = nullptr);
 
 }  // namespace voxbrick::distributed

@@ -127,6 +127,186 @@ class RunReader {
   bool mDone = false;
 };
 
+// The active stretches of pixels [begin, end) of a dense frame, found as they are read (RunReader's interface).
+class DenseReader {
+ public:
+  DenseReader(const image::ImageF& frame, uint32_t begin, uint32_t end)
+      : mRgba(frame.rgba.data()), mLimit(end), mStart(begin) {
+    find(begin);
+  }
+  bool done() const { return mDone; }
+  uint32_t start() const { return mStart; }
+  uint32_t end() const { return mEnd; }
+  const float* pixels() const { return mRgba + size_t(mStart) * 4; }
+  void advance(uint32_t to) {
+    mStart = to;
+    if (mStart == mEnd) find(mEnd);
+  }
+
+ private:
+  void find(uint32_t i) {
+    while (i + 4 <= mLimit && emptyQuad(mRgba + size_t(i) * 4)) i += 4;
+    while (i < mLimit && emptyPixel(mRgba + size_t(i) * 4)) ++i;
+    if (i >= mLimit) {
+      mDone = true;
+      return;
+    }
+    mStart = i;
+    while (i < mLimit && !emptyPixel(mRgba + size_t(i) * 4)) ++i;
+    mEnd = i;
+  }
+  const float* mRgba;
+  uint32_t mLimit, mStart, mEnd = 0;
+  bool mDone = false;
+};
+
+void checkFrame(const image::ImageF& frame, uint32_t begin, uint32_t end, const char* what) {
+  const size_t pixels = size_t(frame.width) * size_t(frame.height);
+  if (begin > end || end > pixels || frame.rgba.size() != pixels * 4) {
+    throw std::invalid_argument(std::string(what) + ": pixels [" + std::to_string(begin) + ", " +
+                                std::to_string(end) + ") do not lie in a frame of " + std::to_string(pixels) +
+                                " pixels");
+  }
+}
+
+void checkWithin(const PixelRuns& in, uint32_t begin, uint32_t end, const char* what) {
+  if (begin > end || begin < in.begin || end > in.end) {
+    throw std::invalid_argument(std::string(what) + ": [" + std::to_string(begin) + ", " + std::to_string(end) +
+                                ") is not within the runs' range [" + std::to_string(in.begin) + ", " +
+                                std::to_string(in.end) + ")");
+  }
+}
+
+// The stretches of `reader` within [begin, end), clipped, each given to `visit(start, end, pixels)`.
+template <typename Reader, typename Visit>
+void eachStretch(Reader reader, uint32_t begin, uint32_t end, Visit visit) {
+  for (; !reader.done() && reader.start() < end; reader.advance(reader.end())) {
+    const uint32_t s = std::max(reader.start(), begin), e = std::min(reader.end(), end);
+    if (s < e) visit(s, e, reader.pixels() + size_t(s - reader.start()) * 4);
+  }
+}
+
+// One pass: the header's room, the pixels as they are found (the runs aside), then the runs and the header.
+template <typename Reader>
+void packFrom(Reader reader, uint32_t begin, uint32_t end, PixelEncoding encoding, GrowingBuffer<uint8_t>& out,
+              Kernels kernels) {
+  thread_local GrowingBuffer<uint32_t> runs;
+  runs.clear();
+  out.clear();
+  out.extend(kRunsHeaderBytes);
+  uint32_t last = begin, active = 0;
+  const size_t pixelBytes = 4 * channelBytes(encoding);
+  eachStretch(reader, begin, end, [&](uint32_t s, uint32_t e, const float* from) {
+    runs.push(s - last);
+    runs.push(e - s);
+    last = e;
+    active += e - s;
+    uint8_t* to = out.extend(size_t(e - s) * pixelBytes);
+    if (encoding == PixelEncoding::Float) {
+      std::memcpy(to, from, size_t(e - s) * 16);
+    } else {
+      toHalves(from, reinterpret_cast<uint16_t*>(to), size_t(e - s) * 4, kernels);
+    }
+  });
+  std::memcpy(out.extend(runs.size() * 4), runs.data(), runs.size() * 4);
+  const uint32_t header[4] = {begin, end, uint32_t(runs.size() / 2), active};
+  std::memcpy(out.data(), header, kRunsHeaderBytes);
+}
+
+template <typename Reader>
+void sliceFrom(Reader reader, uint32_t begin, uint32_t end, PixelRuns& out) {
+  out.reset(begin, end);
+  RunWriter writer(out);
+  eachStretch(reader, begin, end, [&writer](uint32_t s, uint32_t e, const float* from) {
+    std::memcpy(writer.append(s, e - s), from, size_t(e - s) * 16);
+  });
+}
+
+// A pixel's finished 8-bit value: render::outputPixel (Scene.cpp) on the premultiplied colour, then image::toImage8's
+// rounding (floor of x·255 + 0.5 on values in [0.5, 255.5] is their truncation). The same operations in the same
+// order, in double and then float as there, so the bytes are the same (the kernels test holds them to
+// toImage8(finishPartial)); only the sign of a zero may differ, which no byte shows.
+struct FinishParameters {
+  double background[3];
+  bool transparent;
+};
+
+void finishScalar(const FinishParameters& f, const float* p, uint8_t* to, size_t count) {
+  for (size_t i = 0; i < count; ++i, p += 4, to += 4) {
+    const double a = std::clamp(double(p[3]), 0.0, 1.0);
+    double o[4] = {0, 0, 0, 0};
+    if (!f.transparent) {
+      for (int c = 0; c < 3; ++c) o[c] = std::clamp(double(p[c]) + (1 - a) * f.background[c], 0.0, 1.0);
+      o[3] = 1.0;
+    } else if (a > 0) {
+      for (int c = 0; c < 3; ++c) o[c] = std::clamp(double(p[c]) / a, 0.0, 1.0);
+      o[3] = a;
+    }
+    for (int c = 0; c < 4; ++c) to[c] = uint8_t(int(std::clamp(float(o[c]), 0.0f, 1.0f) * 255.0f + 0.5f));
+  }
+}
+
+// One pixel a step, its four channels in one register of doubles (no fused multiply-add: the same rounding).
+__attribute__((target("avx2,f16c"))) void finishSimd(const FinishParameters& f, const float* p, uint8_t* to,
+                                                     size_t count) {
+  const __m256d zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0);
+  const __m256d background = _mm256_setr_pd(f.background[0], f.background[1], f.background[2], 0.0);
+  const __m128 zeroF = _mm_setzero_ps(), oneF = _mm_set1_ps(1.0f), scale = _mm_set1_ps(255.0f),
+               half = _mm_set1_ps(0.5f);
+  for (size_t i = 0; i < count; ++i, p += 4, to += 4) {
+    const __m256d pixel = _mm256_cvtps_pd(_mm_loadu_ps(p));
+    const __m256d a = _mm256_min_pd(_mm256_max_pd(_mm256_permute4x64_pd(pixel, 0xff), zero), one);
+    __m256d o;
+    if (!f.transparent) {
+      o = _mm256_add_pd(pixel, _mm256_mul_pd(_mm256_sub_pd(one, a), background));
+      o = _mm256_blend_pd(_mm256_min_pd(_mm256_max_pd(o, zero), one), one, 0x8);
+    } else {
+      o = _mm256_min_pd(_mm256_max_pd(_mm256_div_pd(pixel, a), zero), one);
+      o = _mm256_and_pd(_mm256_blend_pd(o, a, 0x8), _mm256_cmp_pd(a, zero, _CMP_GT_OQ));
+    }
+    const __m128 v = _mm_min_ps(_mm_max_ps(_mm256_cvtpd_ps(o), zeroF), oneF);
+    const __m128i bytes = _mm_cvttps_epi32(_mm_add_ps(_mm_mul_ps(v, scale), half));
+    const __m128i packed = _mm_packus_epi16(_mm_packus_epi32(bytes, bytes), bytes);
+    const int word = _mm_cvtsi128_si32(packed);
+    std::memcpy(to, &word, 4);
+  }
+}
+
+class Finisher {
+ public:
+  Finisher(const render::SceneView& view, Kernels kernels)
+      : mParameters{{view.background.x, view.background.y, view.background.z}, view.transparent},
+        mSimd(useSimd(kernels)) {
+    const float nothing[4] = {0, 0, 0, 0};
+    pixels(nothing, mEmpty, 1);
+  }
+  void pixels(const float* p, uint8_t* to, size_t count) const {
+    if (mSimd) return finishSimd(mParameters, p, to, count);
+    finishScalar(mParameters, p, to, count);
+  }
+  void empty(uint8_t* to, size_t count) const {
+    for (size_t i = 0; i < count; ++i) std::memcpy(to + i * 4, mEmpty, 4);
+  }
+
+ private:
+  FinishParameters mParameters;
+  bool mSimd;
+  uint8_t mEmpty[4];
+};
+
+template <typename Reader>
+void finishFrom(Reader reader, uint32_t begin, uint32_t end, const render::SceneView& view, uint8_t* out,
+                Kernels kernels) {
+  const Finisher finisher(view, kernels);
+  uint32_t position = begin;
+  eachStretch(reader, begin, end, [&](uint32_t s, uint32_t e, const float* p) {
+    finisher.empty(out + size_t(position - begin) * 4, s - position);
+    finisher.pixels(p, out + size_t(s - begin) * 4, e - s);
+    position = e;
+  });
+  finisher.empty(out + size_t(position - begin) * 4, end - position);
+}
+
 struct MessageHeader {
   uint32_t begin, end, runCount, activeCount;
 };
@@ -146,23 +326,8 @@ MessageHeader readHeader(std::span<const uint8_t> message) {
 bool simdKernelsAvailable() { return kSimd; }
 
 void encodeRuns(const image::ImageF& frame, uint32_t begin, uint32_t end, PixelRuns& out) {
-  const size_t pixels = size_t(frame.width) * size_t(frame.height);
-  if (begin > end || end > pixels || frame.rgba.size() != pixels * 4) {
-    throw std::invalid_argument("encodeRuns: pixels [" + std::to_string(begin) + ", " + std::to_string(end) +
-                                ") do not lie in a frame of " + std::to_string(pixels) + " pixels");
-  }
-  out.reset(begin, end);
-  RunWriter writer(out);
-  const float* rgba = frame.rgba.data();
-  uint32_t i = begin;
-  while (i < end) {
-    while (i + 4 <= end && emptyQuad(rgba + size_t(i) * 4)) i += 4;
-    while (i < end && emptyPixel(rgba + size_t(i) * 4)) ++i;
-    if (i == end) break;
-    const uint32_t start = i;
-    while (i < end && !emptyPixel(rgba + size_t(i) * 4)) ++i;
-    std::memcpy(writer.append(start, i - start), rgba + size_t(start) * 4, size_t(i - start) * 16);
-  }
+  checkFrame(frame, begin, end, "encodeRuns");
+  sliceFrom(DenseReader(frame, begin, end), begin, end, out);
 }
 
 size_t runsMessageBytes(size_t runCount, size_t activePixels, PixelEncoding encoding) {
@@ -171,55 +336,19 @@ size_t runsMessageBytes(size_t runCount, size_t activePixels, PixelEncoding enco
 
 void packRuns(const PixelRuns& in, uint32_t begin, uint32_t end, PixelEncoding encoding, GrowingBuffer<uint8_t>& out,
               Kernels kernels) {
-  if (begin > end || begin < in.begin || end > in.end) {
-    throw std::invalid_argument("packRuns: [" + std::to_string(begin) + ", " + std::to_string(end) +
-                                ") is not within the runs' range [" + std::to_string(in.begin) + ", " +
-                                std::to_string(in.end) + ")");
-  }
-  // First the stretches' count and pixels, for the layout; then the runs and pixels.
-  MessageHeader header{begin, end, 0, 0};
-  for (RunReader reader(in); !reader.done() && reader.start() < end; reader.advance(reader.end())) {
-    const uint32_t s = std::max(reader.start(), begin), e = std::min(reader.end(), end);
-    if (s >= e) continue;
-    ++header.runCount;
-    header.activeCount += e - s;
-  }
-  out.clear();
-  uint8_t* bytes = out.extend(runsMessageBytes(header.runCount, header.activeCount, encoding));
-  std::memcpy(bytes, &header, kRunsHeaderBytes);
-  auto* runs = reinterpret_cast<uint32_t*>(bytes + kRunsHeaderBytes);
-  uint8_t* pixels = bytes + kRunsHeaderBytes + size_t(header.runCount) * 8;
-  uint32_t last = begin;
-  for (RunReader reader(in); !reader.done() && reader.start() < end; reader.advance(reader.end())) {
-    const uint32_t s = std::max(reader.start(), begin), e = std::min(reader.end(), end);
-    if (s >= e) continue;
-    *runs++ = s - last;
-    *runs++ = e - s;
-    last = e;
-    const float* from = reader.pixels() + size_t(s - reader.start()) * 4;
-    const size_t channels = size_t(e - s) * 4;
-    if (encoding == PixelEncoding::Float) {
-      std::memcpy(pixels, from, channels * 4);
-    } else {
-      toHalves(from, reinterpret_cast<uint16_t*>(pixels), channels, kernels);
-    }
-    pixels += channels * channelBytes(encoding);
-  }
+  checkWithin(in, begin, end, "packRuns");
+  packFrom(RunReader(in), begin, end, encoding, out, kernels);
+}
+
+void packRuns(const image::ImageF& frame, uint32_t begin, uint32_t end, PixelEncoding encoding,
+              GrowingBuffer<uint8_t>& out, Kernels kernels) {
+  checkFrame(frame, begin, end, "packRuns");
+  packFrom(DenseReader(frame, begin, end), begin, end, encoding, out, kernels);
 }
 
 void sliceRuns(const PixelRuns& in, uint32_t begin, uint32_t end, PixelRuns& out) {
-  if (begin > end || begin < in.begin || end > in.end) {
-    throw std::invalid_argument("sliceRuns: [" + std::to_string(begin) + ", " + std::to_string(end) +
-                                ") is not within the runs' range [" + std::to_string(in.begin) + ", " +
-                                std::to_string(in.end) + ")");
-  }
-  out.reset(begin, end);
-  RunWriter writer(out);
-  for (RunReader reader(in); !reader.done() && reader.start() < end; reader.advance(reader.end())) {
-    const uint32_t s = std::max(reader.start(), begin), e = std::min(reader.end(), end);
-    if (s >= e) continue;
-    std::memcpy(writer.append(s, e - s), reader.pixels() + size_t(s - reader.start()) * 4, size_t(e - s) * 16);
-  }
+  checkWithin(in, begin, end, "sliceRuns");
+  sliceFrom(RunReader(in), begin, end, out);
 }
 
 void checkRunsMessage(std::span<const uint8_t> message, uint32_t begin, uint32_t end, PixelEncoding encoding) {
@@ -237,7 +366,7 @@ void checkRunsMessage(std::span<const uint8_t> message, uint32_t begin, uint32_t
                              " pixels its header declares");
   }
   uint64_t covered = 0, active = 0;
-  const uint8_t* runs = message.data() + kRunsHeaderBytes;
+  const uint8_t* runs = message.data() + kRunsHeaderBytes + size_t(header.activeCount) * 4 * channelBytes(encoding);
   for (uint32_t r = 0; r < header.runCount; ++r) {
     uint32_t pair[2];
     std::memcpy(pair, runs + size_t(r) * 8, 8);
@@ -254,10 +383,10 @@ void checkRunsMessage(std::span<const uint8_t> message, uint32_t begin, uint32_t
 void unpackRuns(std::span<const uint8_t> message, PixelEncoding encoding, PixelRuns& out, Kernels kernels) {
   const MessageHeader header = readHeader(message);
   out.reset(header.begin, header.end);
-  std::memcpy(out.runs.extend(size_t(header.runCount) * 2), message.data() + kRunsHeaderBytes,
-              size_t(header.runCount) * 8);
-  const uint8_t* pixels = message.data() + kRunsHeaderBytes + size_t(header.runCount) * 8;
+  const uint8_t* pixels = message.data() + kRunsHeaderBytes;
   const size_t channels = size_t(header.activeCount) * 4;
+  std::memcpy(out.runs.extend(size_t(header.runCount) * 2), pixels + channels * channelBytes(encoding),
+              size_t(header.runCount) * 8);
   float* to = out.pixels.extend(channels);
   if (encoding == PixelEncoding::Float) {
     std::memcpy(to, pixels, channels * 4);
@@ -303,28 +432,14 @@ void scatterRuns(const PixelRuns& in, image::ImageF& frame) {
   }
 }
 
-void finishRuns(const PixelRuns& in, const render::SceneView& view, uint8_t* out) {
-  // As image::toImage8 rounds each channel of render::finishPartial's float pixels.
-  auto finish = [&view](const float* p, uint8_t* to) {
-    const glm::dvec4 o = view.output(glm::dvec3(p[0], p[1], p[2]), p[3]);
-    for (int c = 0; c < 4; ++c) to[c] = uint8_t(std::floor(std::clamp(float(o[c]), 0.0f, 1.0f) * 255.0f + 0.5f));
-  };
-  const float nothing[4] = {0, 0, 0, 0};
-  uint8_t background[4];
-  finish(nothing, background);
-  uint32_t pattern;
-  std::memcpy(&pattern, background, 4);
-  auto fill = [&](uint32_t from, uint32_t to) {
-    for (uint32_t i = from; i < to; ++i) std::memcpy(out + size_t(i - in.begin) * 4, &pattern, 4);
-  };
-  uint32_t position = in.begin;
-  for (RunReader reader(in); !reader.done(); reader.advance(reader.end())) {
-    fill(position, reader.start());
-    const float* p = reader.pixels();
-    for (uint32_t i = reader.start(); i < reader.end(); ++i, p += 4) finish(p, out + size_t(i - in.begin) * 4);
-    position = reader.end();
-  }
-  fill(position, in.end);
+void finishRuns(const PixelRuns& in, const render::SceneView& view, uint8_t* out, Kernels kernels) {
+  finishFrom(RunReader(in), in.begin, in.end, view, out, kernels);
+}
+
+void finishRuns(const image::ImageF& frame, uint32_t begin, uint32_t end, const render::SceneView& view,
+                uint8_t* out, Kernels kernels) {
+  checkFrame(frame, begin, end, "finishRuns");
+  finishFrom(DenseReader(frame, begin, end), begin, end, view, out, kernels);
 }
 
 }  // namespace voxbrick::distributed

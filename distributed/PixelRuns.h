@@ -76,15 +76,16 @@ void encodeRuns(const image::ImageF& frame, uint32_t begin, uint32_t end, PixelR
 
 /// A message carrying pixels [begin, end) as runs, little-endian, 4-byte words:
 ///
-///     offset  size  field
-///          0     4  begin          first pixel of the range (row-major index)
-///          4     4  end            one past the last pixel
-///          8     4  runCount       number of run pairs
-///         12     4  activeCount    number of active pixels (the sum of the runs' active counts)
-///         16  8·runCount            runCount pairs {uint32 empty skipped, uint32 active following}
-///          …  activeCount·4·c      the active pixels' RGBA, c = 2 (Half) or 4 (Float) bytes a channel
+///     offset          size            field
+///          0             4            begin        first pixel of the range (row-major index)
+///          4             4            end          one past the last pixel
+///          8             4            runCount     number of run pairs
+///         12             4            activeCount  number of active pixels (the sum of the runs' active counts)
+///         16             activeCount·4·c           the active pixels' RGBA, c = 2 (Half) or 4 (Float) bytes each
+///         16 + that      8·runCount                the runs: pairs {uint32 empty skipped, uint32 active following}
 ///
-/// The total is 16 + 8·runCount + activeCount·4·c bytes.
+/// The total is 16 + activeCount·4·c + 8·runCount bytes; the pixels come first so that a range is packed in one
+/// pass (its runs are known only at its end), and the runs stay 8-byte aligned.
 constexpr size_t kRunsHeaderBytes = 16;
 
 /// The bytes of a message holding `runCount` runs and `activePixels` pixels.
@@ -94,6 +95,9 @@ size_t runsMessageBytes(size_t runCount, size_t activePixels, PixelEncoding enco
 /// std::invalid_argument otherwise).
 void packRuns(const PixelRuns& in, uint32_t begin, uint32_t end, PixelEncoding encoding, GrowingBuffer<uint8_t>& out,
               Kernels kernels = Kernels::Best);
+/// The same from a dense premultiplied frame (its empty pixels found while packing); [begin, end) within the frame.
+void packRuns(const image::ImageF& frame, uint32_t begin, uint32_t end, PixelEncoding encoding,
+              GrowingBuffer<uint8_t>& out, Kernels kernels = Kernels::Best);
 
 /// A received message checked: its range must be [begin, end) and its runs must fit the range and the bytes.
 /// Throws std::runtime_error saying what is wrong (the caller names the peer).
@@ -117,6 +121,9 @@ void scatterRuns(const PixelRuns& in, image::ImageF& frame);
 /// The finished 8-bit pixels of the range, 4 bytes each from `out` on: each pixel through view.output (over the
 /// background, or straight colour and alpha) and rounded as image::toImage8, so that a frame finished range by range
 /// equals toImage8(render::finishPartial(frame, scene)).
-void finishRuns(const PixelRuns& in, const render::SceneView& view, uint8_t* out);
+void finishRuns(const PixelRuns& in, const render::SceneView& view, uint8_t* out, Kernels kernels = Kernels::Best);
+/// The same for pixels [begin, end) of a dense premultiplied frame.
+void finishRuns(const image::ImageF& frame, uint32_t begin, uint32_t end, const render::SceneView& view,
+                uint8_t* out, Kernels kernels = Kernels::Best);
 
 }  // namespace voxbrick::distributed

@@ -143,7 +143,8 @@ int runCases(int rank, int size) {
         options.kernels = distributed::Kernels::Scalar;
         const image::ImageF scalar = distributed::composite(MPI_COMM_WORLD, own, order, options);
         options.kernels = distributed::Kernels::Best;
-        const image::Image8 finished = distributed::compositeFinished(MPI_COMM_WORLD, own, order, view, options);
+        static image::Image8 finished;  // reused from case to case, of other sizes
+        distributed::compositeFinished(MPI_COMM_WORLD, own, order, view, finished, options);
         if (rank != root) {
           if (!result.rgba.empty() || !finished.rgba.empty()) {
             std::fprintf(stderr, "case %d: rank %d is no root but returned a frame\n", seed, rank);
@@ -227,6 +228,13 @@ int runKernels() {
         fail("message size is not runsMessageBytes, seed " + std::to_string(seed));
       }
       distributed::checkRunsMessage(bytes, s0, s1, encoding);
+      distributed::GrowingBuffer<uint8_t> fromDense;
+      image::ImageF dense = emptyFrame(width, height);
+      distributed::scatterRuns(joined, dense);
+      distributed::packRuns(dense, s0, s1, encoding, fromDense, Kernels::Best);
+      if (std::vector<uint8_t>(fromDense.data(), fromDense.data() + fromDense.size()) != bytes) {
+        fail("packing a dense frame differs from packing its runs, seed " + std::to_string(seed));
+      }
       distributed::unpackRuns(bytes, encoding, unpacked, Kernels::Best);
       image::ImageF whole = emptyFrame(width, height), sliced = emptyFrame(width, height);
       distributed::scatterRuns(unpacked, whole);
@@ -248,9 +256,9 @@ int runKernels() {
         fail("a message for another range was accepted");
       } catch (const std::runtime_error&) {
       }
-      if (bytes.size() > distributed::kRunsHeaderBytes) {
+      if (slice.runCount() > 0) {
         std::vector<uint8_t> bad = bytes;
-        std::memset(&bad[distributed::kRunsHeaderBytes], 0xff, 4);  // the first run's skip: past any range
+        std::memset(&bad[bytes.size() - slice.runCount() * 8], 0xff, 4);  // the first run's skip: past any range
         try {
           distributed::checkRunsMessage(bad, s0, s1, encoding);
           fail("a message whose runs pass its range was accepted");
@@ -265,9 +273,17 @@ int runKernels() {
       scene.transparent = transparent;
       image::Image8 finished{width, height, std::vector<uint8_t>(size_t(pixels) * 4)};
       distributed::finishRuns(joined, scene, finished.rgba.data());
-      if (finished.rgba != image::toImage8(render::finishPartial(expected, scene)).rgba) {
+      const image::Image8 reference = image::toImage8(render::finishPartial(expected, scene));
+      if (finished.rgba != reference.rgba) {
         fail("finishRuns differs from toImage8(finishPartial), seed " + std::to_string(seed));
       }
+      distributed::finishRuns(joined, scene, finished.rgba.data(), Kernels::Scalar);
+      if (finished.rgba != reference.rgba) {
+        fail("scalar finishRuns differs from toImage8(finishPartial), seed " + std::to_string(seed));
+      }
+      std::vector<uint8_t> fromDense(size_t(pixels) * 4);
+      distributed::finishRuns(expected, 0, pixels, scene, fromDense.data());
+      if (fromDense != finished.rgba) fail("finishing a dense frame differs from its runs, seed " + std::to_string(seed));
     }
   }
   std::printf("kernels: %d failing checks\n", failures);
