@@ -266,25 +266,23 @@ void radixRound(Context& c, size_t round, Range& region, const image::ImageF* de
   }
   const auto received = exchange(c, peers, messages, peers, c.options.tag + 1, "a piece of a frame");
   const Range kept = pieceOf(region, digit, k);
-  // Front to back: member j's piece (the received one, or this rank's own) joined under what is before it.
+  // Front to back: member j's piece (the received one, or this rank's own) joined under what is before it. This
+  // rank's piece is read where it lies: its dense frame in the first round, its runs after.
   Workspace& space = c.space;
-  for (int j = 0, peer = 0; j < k; ++j) {
-    PixelRuns& into = j == 0 ? space.joined : space.piece;
-    if (j == digit && dense) {
-      encodeRuns(*dense, kept.begin, kept.end, into);
-    } else if (j == digit) {
-      sliceRuns(space.own, kept.begin, kept.end, into);
-    } else {
-      const auto& message = *received[size_t(peer)];
-      const std::span<const uint8_t> bytes(message.data(), message.size());
-      checkFrom(peers[size_t(peer)], bytes, kept, c.options.encoding);
-      unpackRuns(bytes, c.options.encoding, into, c.options.kernels);
-      ++peer;
-    }
-    if (j > 0) {
-      overRuns(space.joined, space.piece, space.scratch, c.options.kernels);
-      std::swap(space.joined, space.scratch);  // the buffers move, nothing is copied
-    }
+  auto source = [&](int j, PixelRuns& into) -> PixelSource {
+    if (j == digit) return dense ? PixelSource(dense) : PixelSource(&space.own);
+    const int peer = j < digit ? j : j - 1;
+    const auto& message = *received[size_t(peer)];
+    const std::span<const uint8_t> bytes(message.data(), message.size());
+    checkFrom(peers[size_t(peer)], bytes, kept, c.options.encoding);
+    unpackRuns(bytes, c.options.encoding, into, c.options.kernels);
+    return &into;
+  };
+  PixelSource front = source(0, space.joined);
+  for (int j = 1; j < k; ++j) {
+    overRuns(front, source(j, space.piece), kept.begin, kept.end, space.scratch, c.options.kernels);
+    std::swap(space.joined, space.scratch);  // the buffers move, nothing is copied
+    front = &space.joined;
   }
   std::swap(space.own, space.joined);
   region = kept;

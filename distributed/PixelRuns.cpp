@@ -8,6 +8,7 @@
 #include <cstring>
 #include <stdexcept>
 #include <string>
+#include <variant>
 
 #include "common/Half.h"
 
@@ -307,6 +308,49 @@ void finishFrom(Reader reader, uint32_t begin, uint32_t end, const render::Scene
   finisher.empty(out + size_t(position - begin) * 4, end - position);
 }
 
+// A reader's stretches within [begin, end), clipped.
+template <typename Reader>
+class Clipped {
+ public:
+  Clipped(Reader reader, uint32_t begin, uint32_t end) : mReader(reader), mEnd(end) {
+    while (!mReader.done() && mReader.end() <= begin) mReader.advance(mReader.end());
+    if (!mReader.done() && mReader.start() < begin) mReader.advance(begin);
+  }
+  bool done() const { return mReader.done() || mReader.start() >= mEnd; }
+  uint32_t start() const { return mReader.start(); }
+  uint32_t end() const { return std::min(mReader.end(), mEnd); }
+  const float* pixels() const { return mReader.pixels(); }
+  void advance(uint32_t to) { mReader.advance(to); }
+
+ private:
+  Reader mReader;
+  uint32_t mEnd;
+};
+
+template <typename FrontReader, typename BackReader>
+void overFrom(FrontReader f, BackReader b, uint32_t begin, uint32_t end, PixelRuns& out, Kernels kernels) {
+  out.reset(begin, end);
+  RunWriter writer(out);
+  // Copies the stretch of `r` before `to` (or all of it).
+  auto copy = [&writer](auto& r, uint32_t to) {
+    const uint32_t e = std::min(r.end(), to);
+    std::memcpy(writer.append(r.start(), e - r.start()), r.pixels(), size_t(e - r.start()) * 16);
+    r.advance(e);
+  };
+  while (!f.done() || !b.done()) {
+    if (f.done() || (!b.done() && b.start() < f.start())) {
+      copy(b, f.done() ? b.end() : f.start());
+    } else if (b.done() || f.start() < b.start()) {
+      copy(f, b.done() ? f.end() : b.start());
+    } else {  // both active from the same pixel on
+      const uint32_t e = std::min(f.end(), b.end());
+      blend(f.pixels(), b.pixels(), writer.append(f.start(), e - f.start()), e - f.start(), kernels);
+      f.advance(e);
+      b.advance(e);
+    }
+  }
+}
+
 struct MessageHeader {
   uint32_t begin, end, runCount, activeCount;
 };
@@ -401,27 +445,20 @@ void overRuns(const PixelRuns& front, const PixelRuns& back, PixelRuns& out, Ker
                                 std::to_string(front.end) + ") and [" + std::to_string(back.begin) + ", " +
                                 std::to_string(back.end) + ") differ");
   }
-  out.reset(front.begin, front.end);
-  RunWriter writer(out);
-  RunReader f(front), b(back);
-  // Copies the stretch of `r` before `to` (or all of it).
-  auto copy = [&writer](RunReader& r, uint32_t to) {
-    const uint32_t e = std::min(r.end(), to);
-    std::memcpy(writer.append(r.start(), e - r.start()), r.pixels(), size_t(e - r.start()) * 16);
-    r.advance(e);
-  };
-  while (!f.done() || !b.done()) {
-    if (f.done() || (!b.done() && b.start() < f.start())) {
-      copy(b, f.done() ? b.end() : f.start());
-    } else if (b.done() || f.start() < b.start()) {
-      copy(f, b.done() ? f.end() : b.start());
-    } else {  // both active from the same pixel on
-      const uint32_t e = std::min(f.end(), b.end());
-      blend(f.pixels(), b.pixels(), writer.append(f.start(), e - f.start()), e - f.start(), kernels);
-      f.advance(e);
-      b.advance(e);
+  overFrom(RunReader(front), RunReader(back), front.begin, front.end, out, kernels);
+}
+
+void overRuns(PixelSource front, PixelSource back, uint32_t begin, uint32_t end, PixelRuns& out, Kernels kernels) {
+  auto reader = [begin, end](PixelSource source) -> std::variant<Clipped<RunReader>, DenseReader> {
+    if (const auto* const* runs = std::get_if<const PixelRuns*>(&source)) {
+      checkWithin(**runs, begin, end, "overRuns");
+      return Clipped<RunReader>(RunReader(**runs), begin, end);
     }
-  }
+    const image::ImageF& frame = *std::get<const image::ImageF*>(source);
+    checkFrame(frame, begin, end, "overRuns");
+    return DenseReader(frame, begin, end);
+  };
+  std::visit([&](auto f, auto b) { overFrom(f, b, begin, end, out, kernels); }, reader(front), reader(back));
 }
 
 void scatterRuns(const PixelRuns& in, image::ImageF& frame) {

@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <variant>
 #include <vector>
 
 #include "image/Image.h"
@@ -114,6 +115,13 @@ void sliceRuns(const PixelRuns& in, uint32_t begin, uint32_t end, PixelRuns& out
 /// pixels active in either: where one is empty the other is copied. Both cover the same range (throws
 /// std::invalid_argument otherwise); `out` must be neither of them.
 void overRuns(const PixelRuns& front, const PixelRuns& back, PixelRuns& out, Kernels kernels = Kernels::Best);
+
+/// Pixels to read: runs, or a dense premultiplied frame.
+using PixelSource = std::variant<const PixelRuns*, const image::ImageF*>;
+/// `out` = pixels [begin, end) of front over the same pixels of back, as above; each side must hold the range (runs
+/// whose range contains it, or a frame that does), else std::invalid_argument. Nothing is copied to take the range.
+void overRuns(PixelSource front, PixelSource back, uint32_t begin, uint32_t end, PixelRuns& out,
+              Kernels kernels = Kernels::Best);
 
 /// Writes the runs' active pixels into `frame` (whose other pixels are left alone) at their places.
 void scatterRuns(const PixelRuns& in, image::ImageF& frame);

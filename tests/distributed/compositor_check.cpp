@@ -216,6 +216,20 @@ int runKernels() {
     // A slice, packed and unpacked: float exact, half as floatToHalf rounds, SIMD and scalar the same bytes.
     const uint32_t s0 = uint32_t(random() % (pixels + 1)), s1 = s0 + uint32_t(random() % (pixels - s0 + 1));
     distributed::sliceRuns(joined, s0, s1, slice);
+    // Over on a sub-range, each side dense or runs read in place, is the slice of the whole over.
+    for (int sides = 0; sides < 4; ++sides) {
+      distributed::PixelRuns part;
+      const distributed::PixelSource f = sides & 1 ? distributed::PixelSource(&front) : distributed::PixelSource(&a);
+      const distributed::PixelSource g = sides & 2 ? distributed::PixelSource(&back) : distributed::PixelSource(&b);
+      distributed::overRuns(f, g, s0, s1, part, sides < 2 ? Kernels::Best : Kernels::Scalar);
+      image::ImageF gotPart = emptyFrame(width, height), slicePart = emptyFrame(width, height);
+      distributed::scatterRuns(part, gotPart);
+      distributed::scatterRuns(slice, slicePart);
+      if (gotPart.rgba != slicePart.rgba || part.begin != s0 || part.end != s1) {
+        fail("overRuns on a sub-range (sides " + std::to_string(sides) + ") is not the slice, seed " +
+             std::to_string(seed));
+      }
+    }
     for (auto encoding : {distributed::PixelEncoding::Float, distributed::PixelEncoding::Half}) {
       distributed::GrowingBuffer<uint8_t> message, scalarMessage;
       distributed::packRuns(joined, s0, s1, encoding, message, Kernels::Best);
