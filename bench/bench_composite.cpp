@@ -11,6 +11,7 @@
 // both implementations when the inputs are. The source builds against either compositor (the binary-swap one on
 // main, which run_mpi.sh --baseline-build uses): the partial frames are made by the same code. Usage:
 //   mpirun -n N bench_composite --sizes 512,1024,2048 --repeat 10 [--factors default|all] [--encodings half,float]
+//   bench_composite --print-factors 8,64,512     (radixFactors of each, as N:KxK…)
 #include <mpi.h>
 
 #include <CLI/CLI.hpp>
@@ -193,7 +194,10 @@ int main(int argc, char** argv) {
   std::vector<std::string> encodings{"half"};
   std::string factorChoice = "default";
   int repeat = 10;
+  std::vector<int> printFactors;
   app.add_option("--sizes", sizes, "frame sides")->delimiter(',');
+  app.add_option("--print-factors", printFactors, "print radixFactors(N) as N:KxK.. for these N, and exit")
+      ->delimiter(',');
   app.add_option("--repeat", repeat, "frames timed per size")->check(CLI::PositiveNumber);
   app.add_option("--encodings", encodings, "half, float")->delimiter(',');
   app.add_option("--factors", factorChoice, "radix-k factorisations: default, or all (each ordered one)")
@@ -202,6 +206,17 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return rank == 0 ? app.exit(e) : 1;
+  }
+  if (!printFactors.empty()) {
+#ifdef VOXBRICK_BENCH_RADIX_K
+    for (int n : printFactors) {
+      if (rank == 0) std::printf("%d:%s\n", n, factorsText(distributed::radixFactors(n)).c_str());
+    }
+    return 0;
+#else
+    if (rank == 0) std::fprintf(stderr, "bench_composite: this compositor has no radix-k factors\n");
+    return 1;
+#endif
   }
   std::vector<Box> boxes;
   split({{-0.5, -0.5, -0.5}, {0.5, 0.5, 0.5}}, ranks, boxes);

@@ -300,6 +300,45 @@ int runKernels() {
       if (fromDense != finished.rgba) fail("finishing a dense frame differs from its runs, seed " + std::to_string(seed));
     }
   }
+  // Finishing near the rounding boundaries: channels whose output·255 + 0.5 is a whole number give or take a few
+  // float steps (colour c = (k − 0.5)/255 − (1 − a)·background, or a·(k − 0.5)/255 for straight colour), where
+  // floats and doubles can round apart, over opaque and transparent backgrounds, SIMD and scalar against
+  // toImage8(finishPartial).
+  {
+    const int count = 1 << 17;
+    const glm::dvec3 background{0.3, 1.0 / 3, 0.71};
+    std::mt19937 random{7u};
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    for (bool transparent : {false, true}) {
+      image::ImageF edges = emptyFrame(count, 1);
+      for (int i = 0; i < count; ++i) {
+        float* p = edges.pixel(i, 0);
+        const double a = 0.05 + 0.95 * unit(random);
+        for (int c = 0; c < 3; ++c) {
+          const double target = (1 + int(random() % 254) - 0.5) / 255;
+          double value = transparent ? target * a : target - (1 - a) * background[size_t(c)];
+          if (value < 0) value = target * a;
+          float v = float(value);
+          for (int step = int(random() % 7) - 3; step != 0; step += step < 0 ? 1 : -1) {
+            v = std::nextafter(v, step < 0 ? 0.0f : 2.0f);
+          }
+          p[c] = v;
+        }
+        p[3] = float(a);
+      }
+      distributed::PixelRuns runs;
+      distributed::encodeRuns(edges, 0, count, runs);
+      render::Scene scene;
+      scene.background = background;
+      scene.transparent = transparent;
+      const image::Image8 expected = image::toImage8(render::finishPartial(edges, scene));
+      for (Kernels kernels : {Kernels::Best, Kernels::Scalar}) {
+        std::vector<uint8_t> got(size_t(count) * 4);
+        distributed::finishRuns(runs, scene, got.data(), kernels);
+        if (got != expected.rgba) fail("finishing at the rounding boundaries differs from toImage8(finishPartial)");
+      }
+    }
+  }
   std::printf("kernels: %d failing checks\n", failures);
   return failures;
 }
