@@ -193,7 +193,9 @@ void packFrom(Reader reader, uint32_t begin, uint32_t end, PixelEncoding encodin
               Kernels kernels) {
   thread_local GrowingBuffer<uint32_t> runs;
   runs.clear();
+  runs.reserve((size_t(end - begin) / 2 + 1) * 2);
   out.clear();
+  out.reserve(runsMessageBytes(size_t(end - begin) / 2 + 1, end - begin, encoding));
   out.extend(kRunsHeaderBytes);
   uint32_t last = begin, active = 0;
   const size_t pixelBytes = 4 * channelBytes(encoding);
@@ -467,6 +469,7 @@ void unpackRuns(std::span<const uint8_t> message, PixelEncoding encoding, PixelR
   const size_t channels = size_t(header.activeCount) * 4;
   std::memcpy(out.runs.extend(size_t(header.runCount) * 2), pixels + channels * channelBytes(encoding),
               size_t(header.runCount) * 8);
+  if (channels == 0) return;
   float* to = out.pixels.extend(channels);
   if (encoding == PixelEncoding::Float) {
     std::memcpy(to, pixels, channels * 4);

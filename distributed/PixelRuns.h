@@ -9,7 +9,10 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
+#include <memory>
 #include <span>
+#include <type_traits>
 #include <variant>
 #include <vector>
 
@@ -30,28 +33,38 @@ enum class Kernels { Best, Scalar };
 /// Whether this processor runs the SIMD kernels (AVX2 and F16C); Kernels::Best falls back to scalar otherwise.
 bool simdKernelsAvailable();
 
-/// A vector that only grows: clear() keeps the storage, so that buffers are reused from frame to frame without
-/// being filled again.
+/// A buffer that only grows and is never filled for nothing: clear() keeps the storage, so that buffers are reused
+/// from frame to frame, and reserve() takes address space whose pages are touched only when written (a worst-case
+/// reservation costs nothing until used).
 template <typename T>
 class GrowingBuffer {
+  static_assert(std::is_trivially_copyable_v<T>);
+
  public:
   void clear() { mSize = 0; }
   size_t size() const { return mSize; }
-  T* data() { return mStore.data(); }
-  const T* data() const { return mStore.data(); }
-  /// Makes room for `count` more values after the current ones and returns where they go (uninitialised after reuse).
+  T* data() { return mStore.get(); }
+  const T* data() const { return mStore.get(); }
+  /// Room for `capacity` values in all, keeping the current ones.
+  void reserve(size_t capacity) {
+    if (capacity <= mCapacity) return;
+    std::unique_ptr<T[]> store(new T[capacity]);  // default-initialised: not written
+    if (mSize > 0) std::memcpy(store.get(), mStore.get(), mSize * sizeof(T));
+    mStore = std::move(store);
+    mCapacity = capacity;
+  }
+  /// Makes room for `count` more values after the current ones and returns where they go (not initialised).
   T* extend(size_t count) {
-    if (mSize + count > mStore.size()) mStore.resize(std::max(mSize + count, mStore.size() * 3 / 2));
-    T* out = mStore.data() + mSize;
+    if (mSize + count > mCapacity) reserve(std::max(mSize + count, mCapacity * 3 / 2));
+    T* out = mStore.get() + mSize;
     mSize += count;
     return out;
   }
   void push(T value) { *extend(1) = value; }
-  void shrink(size_t size) { mSize = size; }
 
  private:
-  std::vector<T> mStore;
-  size_t mSize = 0;
+  std::unique_ptr<T[]> mStore;
+  size_t mSize = 0, mCapacity = 0;
 };
 
 /// Pixels [begin, end) of a frame (row-major index y·width + x) as runs: runs holds pairs (empty pixels skipped,
@@ -62,10 +75,13 @@ struct PixelRuns {
   GrowingBuffer<uint32_t> runs;
   GrowingBuffer<float> pixels;
 
+  /// Empties the runs for the range [rangeBegin, rangeEnd), with room for all of its pixels active.
   void reset(uint32_t rangeBegin, uint32_t rangeEnd) {
     begin = rangeBegin, end = rangeEnd;
     runs.clear();
     pixels.clear();
+    runs.reserve((size_t(end - begin) / 2 + 1) * 2);
+    pixels.reserve(size_t(end - begin) * 4);
   }
   size_t runCount() const { return runs.size() / 2; }
   size_t activePixels() const { return pixels.size() / 4; }
