@@ -135,7 +135,7 @@ Plan makePlan(MPI_Comm comm, const image::ImageF& partial, const std::vector<int
 // it needs more than an earlier one did. A message buffer is reused only when nothing else holds it (a transfer
 // abandoned after a failure keeps its buffer, which MPI may still write).
 struct Workspace {
-  PixelRuns own, joined, piece, scratch;
+  PixelRuns own, joined, piece, scratch;  // piece: a received region unpacked (the float gather)
   std::vector<std::shared_ptr<Bytes>> buffers;
 
   // A buffer nobody else holds (the caller keeps it until it is done with it, so the next call gives another).
@@ -269,18 +269,17 @@ void radixRound(Context& c, size_t round, Range& region, const image::ImageF* de
   // Front to back: member j's piece (the received one, or this rank's own) joined under what is before it. This
   // rank's piece is read where it lies: its dense frame in the first round, its runs after.
   Workspace& space = c.space;
-  auto source = [&](int j, PixelRuns& into) -> PixelSource {
+  auto source = [&](int j) -> PixelSource {
     if (j == digit) return dense ? PixelSource(dense) : PixelSource(&space.own);
     const int peer = j < digit ? j : j - 1;
     const auto& message = *received[size_t(peer)];
     const std::span<const uint8_t> bytes(message.data(), message.size());
     checkFrom(peers[size_t(peer)], bytes, kept, c.options.encoding);
-    unpackRuns(bytes, c.options.encoding, into, c.options.kernels);
-    return &into;
+    return PixelMessage{bytes, c.options.encoding};  // read in place, converted as it is joined
   };
-  PixelSource front = source(0, space.joined);
+  PixelSource front = source(0);
   for (int j = 1; j < k; ++j) {
-    overRuns(front, source(j, space.piece), kept.begin, kept.end, space.scratch, c.options.kernels);
+    overRuns(front, source(j), kept.begin, kept.end, space.scratch, c.options.kernels);
     std::swap(space.joined, space.scratch);  // the buffers move, nothing is copied
     front = &space.joined;
   }

@@ -30,33 +30,66 @@ inline bool emptyQuad(const float* p) {
   return ((w[0] | w[1] | w[2] | w[3] | w[4] | w[5] | w[6] | w[7]) & 0x7fffffff7fffffffull) == 0;
 }
 
+// Pixels to read: 4 floats, or 4 halves (a received message's), each.
+struct Pixels {
+  const void* data;
+  bool half;
+  Pixels at(size_t pixel) const {
+    return {static_cast<const uint8_t*>(data) + pixel * (half ? 8 : 16), half};
+  }
+};
+
+inline void loadScalar(const Pixels& p, size_t pixel, float out[4]) {
+  if (!p.half) {
+    std::memcpy(out, static_cast<const float*>(p.data) + pixel * 4, 16);
+    return;
+  }
+  const uint16_t* h = static_cast<const uint16_t*>(p.data) + pixel * 4;
+  for (int c = 0; c < 4; ++c) out[c] = common::halfToFloat(h[c]);
+}
+
 // front over back for `count` pixels: out = f + (1 − f.a)·b per channel. The SIMD path uses the same two
-// operations per channel (no fused multiply-add), so both give the same bits.
-void blendScalar(const float* f, const float* b, float* out, size_t count) {
-  for (size_t i = 0; i < count * 4; i += 4) {
-    const float keep = 1.0f - f[i + 3];
-    for (int c = 0; c < 4; ++c) out[i + c] = f[i + c] + keep * b[i + c];
+// operations per channel (no fused multiply-add), and F16C converts halves exactly, so both give the same bits.
+void blendScalar(Pixels f, Pixels b, float* out, size_t count) {
+  for (size_t i = 0; i < count; ++i) {
+    float front[4], back[4];
+    loadScalar(f, i, front);
+    loadScalar(b, i, back);
+    const float keep = 1.0f - front[3];
+    for (int c = 0; c < 4; ++c) out[4 * i + c] = front[c] + keep * back[c];
   }
 }
 
-__attribute__((target("avx2,f16c"))) void blendSimd(const float* f, const float* b, float* out, size_t count) {
+template <bool Half>
+__attribute__((target("avx2,f16c"))) inline __m256 loadTwo(const void* data, size_t pixel) {
+  if constexpr (Half) {
+    return _mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(static_cast<const uint16_t*>(data) +
+                                                                             pixel * 4)));
+  } else {
+    return _mm256_loadu_ps(static_cast<const float*>(data) + pixel * 4);
+  }
+}
+
+template <bool FrontHalf, bool BackHalf>
+__attribute__((target("avx2,f16c"))) void blendSimd(Pixels f, Pixels b, float* out, size_t count) {
   const __m256 one = _mm256_set1_ps(1.0f);
   size_t i = 0;
   for (; i + 2 <= count; i += 2) {  // two pixels a register: alpha broadcast within each 128-bit lane
-    const __m256 front = _mm256_loadu_ps(f + 4 * i);
+    const __m256 front = loadTwo<FrontHalf>(f.data, i);
     const __m256 keep = _mm256_sub_ps(one, _mm256_permute_ps(front, 0xff));
-    _mm256_storeu_ps(out + 4 * i, _mm256_add_ps(front, _mm256_mul_ps(keep, _mm256_loadu_ps(b + 4 * i))));
+    _mm256_storeu_ps(out + 4 * i, _mm256_add_ps(front, _mm256_mul_ps(keep, loadTwo<BackHalf>(b.data, i))));
   }
-  if (i < count) blendScalar(f + 4 * i, b + 4 * i, out + 4 * i, count - i);
+  if (i < count) blendScalar(f.at(i), b.at(i), out + 4 * i, count - i);
 }
 
 const bool kSimd = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("f16c");
 
 bool useSimd(Kernels kernels) { return kernels == Kernels::Best && kSimd; }
 
-void blend(const float* f, const float* b, float* out, size_t count, Kernels kernels) {
-  if (useSimd(kernels)) return blendSimd(f, b, out, count);
-  blendScalar(f, b, out, count);
+void blend(Pixels f, Pixels b, float* out, size_t count, Kernels kernels) {
+  if (!useSimd(kernels)) return blendScalar(f, b, out, count);
+  if (f.half) return b.half ? blendSimd<true, true>(f, b, out, count) : blendSimd<true, false>(f, b, out, count);
+  b.half ? blendSimd<false, true>(f, b, out, count) : blendSimd<false, false>(f, b, out, count);
 }
 
 void toHalves(const float* in, uint16_t* out, size_t count, Kernels kernels) {
@@ -67,6 +100,11 @@ void toHalves(const float* in, uint16_t* out, size_t count, Kernels kernels) {
 void toFloats(const uint16_t* in, float* out, size_t count, Kernels kernels) {
   if (useSimd(kernels)) return common::halvesToFloats(in, out, count);
   for (size_t i = 0; i < count; ++i) out[i] = common::halfToFloat(in[i]);
+}
+
+void copyPixels(Pixels from, float* out, size_t count, Kernels kernels) {
+  if (from.half) return toFloats(static_cast<const uint16_t*>(from.data), out, count * 4, kernels);
+  std::memcpy(out, from.data, count * 16);
 }
 
 size_t channelBytes(PixelEncoding encoding) { return encoding == PixelEncoding::Half ? 2 : 4; }
@@ -100,6 +138,7 @@ class RunReader {
   uint32_t start() const { return mStart; }
   uint32_t end() const { return mEnd; }
   const float* pixels() const { return mPixels; }
+  Pixels source() const { return {mPixels, false}; }
   // Drops the stretch's pixels before `to` (start < to <= end), moving to the next stretch when none are left.
   void advance(uint32_t to) {
     mPixels += size_t(to - mStart) * 4;
@@ -139,6 +178,7 @@ class DenseReader {
   uint32_t start() const { return mStart; }
   uint32_t end() const { return mEnd; }
   const float* pixels() const { return mRgba + size_t(mStart) * 4; }
+  Pixels source() const { return {pixels(), false}; }
   void advance(uint32_t to) {
     mStart = to;
     if (mStart == mEnd) find(mEnd);
@@ -346,6 +386,52 @@ void finishFrom(Reader reader, uint32_t begin, uint32_t end, const render::Scene
   finisher.empty(out + size_t(position - begin) * 4, end - position);
 }
 
+// The active stretches of a checked message (checkRunsMessage), its pixels read where they lie, in their encoding.
+class MessageReader {
+ public:
+  MessageReader(std::span<const uint8_t> message, PixelEncoding encoding) {
+    uint32_t header[4];
+    std::memcpy(header, message.data(), sizeof header);
+    mPosition = header[0];
+    mRunsLeft = header[2];
+    mHalf = encoding == PixelEncoding::Half;
+    mPixels = message.data() + kRunsHeaderBytes;
+    mRuns = mPixels + size_t(header[3]) * (mHalf ? 8 : 16);
+    next();
+  }
+  bool done() const { return mDone; }
+  uint32_t start() const { return mStart; }
+  uint32_t end() const { return mEnd; }
+  Pixels source() const { return {mPixels, mHalf}; }
+  void advance(uint32_t to) {
+    mPixels += size_t(to - mStart) * (mHalf ? 8 : 16);
+    mStart = to;
+    if (mStart == mEnd) next();
+  }
+
+ private:
+  void next() {
+    for (;;) {
+      if (mRunsLeft == 0) {
+        mDone = true;
+        return;
+      }
+      uint32_t pair[2];
+      std::memcpy(pair, mRuns, 8);
+      mRuns += 8;
+      --mRunsLeft;
+      mStart = mPosition + pair[0];
+      mEnd = mStart + pair[1];
+      mPosition = mEnd;
+      if (mEnd > mStart) return;
+    }
+  }
+  const uint8_t* mPixels = nullptr;
+  const uint8_t* mRuns = nullptr;
+  uint32_t mRunsLeft = 0, mPosition = 0, mStart = 0, mEnd = 0;
+  bool mHalf = true, mDone = false;
+};
+
 // A reader's stretches within [begin, end), clipped.
 template <typename Reader>
 class Clipped {
@@ -357,7 +443,7 @@ class Clipped {
   bool done() const { return mReader.done() || mReader.start() >= mEnd; }
   uint32_t start() const { return mReader.start(); }
   uint32_t end() const { return std::min(mReader.end(), mEnd); }
-  const float* pixels() const { return mReader.pixels(); }
+  Pixels source() const { return mReader.source(); }
   void advance(uint32_t to) { mReader.advance(to); }
 
  private:
@@ -370,9 +456,9 @@ void overFrom(FrontReader f, BackReader b, uint32_t begin, uint32_t end, PixelRu
   out.reset(begin, end);
   RunWriter writer(out);
   // Copies the stretch of `r` before `to` (or all of it).
-  auto copy = [&writer](auto& r, uint32_t to) {
+  auto copy = [&writer, kernels](auto& r, uint32_t to) {
     const uint32_t e = std::min(r.end(), to);
-    std::memcpy(writer.append(r.start(), e - r.start()), r.pixels(), size_t(e - r.start()) * 16);
+    copyPixels(r.source(), writer.append(r.start(), e - r.start()), e - r.start(), kernels);
     r.advance(e);
   };
   while (!f.done() || !b.done()) {
@@ -382,7 +468,7 @@ void overFrom(FrontReader f, BackReader b, uint32_t begin, uint32_t end, PixelRu
       copy(f, b.done() ? f.end() : b.start());
     } else {  // both active from the same pixel on
       const uint32_t e = std::min(f.end(), b.end());
-      blend(f.pixels(), b.pixels(), writer.append(f.start(), e - f.start()), e - f.start(), kernels);
+      blend(f.source(), b.source(), writer.append(f.start(), e - f.start()), e - f.start(), kernels);
       f.advance(e);
       b.advance(e);
     }
@@ -488,10 +574,15 @@ void overRuns(const PixelRuns& front, const PixelRuns& back, PixelRuns& out, Ker
 }
 
 void overRuns(PixelSource front, PixelSource back, uint32_t begin, uint32_t end, PixelRuns& out, Kernels kernels) {
-  auto reader = [begin, end](PixelSource source) -> std::variant<Clipped<RunReader>, DenseReader> {
+  auto reader = [begin, end](PixelSource source)
+      -> std::variant<Clipped<RunReader>, DenseReader, Clipped<MessageReader>> {
     if (const auto* const* runs = std::get_if<const PixelRuns*>(&source)) {
       checkWithin(**runs, begin, end, "overRuns");
       return Clipped<RunReader>(RunReader(**runs), begin, end);
+    }
+    if (const auto* message = std::get_if<PixelMessage>(&source)) {
+      checkRunsMessage(message->bytes, begin, end, message->encoding);
+      return Clipped<MessageReader>(MessageReader(message->bytes, message->encoding), begin, end);
     }
     const image::ImageF& frame = *std::get<const image::ImageF*>(source);
     checkFrame(frame, begin, end, "overRuns");

@@ -132,10 +132,16 @@ void sliceRuns(const PixelRuns& in, uint32_t begin, uint32_t end, PixelRuns& out
 /// std::invalid_argument otherwise); `out` must be neither of them.
 void overRuns(const PixelRuns& front, const PixelRuns& back, PixelRuns& out, Kernels kernels = Kernels::Best);
 
-/// Pixels to read: runs, or a dense premultiplied frame.
-using PixelSource = std::variant<const PixelRuns*, const image::ImageF*>;
+/// A received message (packRuns) to read in place: its pixels are converted as they are blended.
+struct PixelMessage {
+  std::span<const uint8_t> bytes;
+  PixelEncoding encoding;
+};
+/// Pixels to read: runs, a dense premultiplied frame, or a message.
+using PixelSource = std::variant<const PixelRuns*, const image::ImageF*, PixelMessage>;
 /// `out` = pixels [begin, end) of front over the same pixels of back, as above; each side must hold the range (runs
-/// whose range contains it, or a frame that does), else std::invalid_argument. Nothing is copied to take the range.
+/// whose range contains it, a frame that does, or a message for exactly that range: checkRunsMessage's errors),
+/// else std::invalid_argument. Nothing is copied to take the range or to read a message.
 void overRuns(PixelSource front, PixelSource back, uint32_t begin, uint32_t end, PixelRuns& out,
               Kernels kernels = Kernels::Best);
 

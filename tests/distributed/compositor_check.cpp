@@ -230,6 +230,27 @@ int runKernels() {
              std::to_string(seed));
       }
     }
+    // A received message read in place, in front or behind: the same bits as its unpacked runs, SIMD and scalar.
+    for (auto encoding : {distributed::PixelEncoding::Float, distributed::PixelEncoding::Half}) {
+      distributed::GrowingBuffer<uint8_t> packed;
+      distributed::packRuns(b, s0, s1, encoding, packed);
+      const std::span<const uint8_t> bytes(packed.data(), packed.size());
+      distributed::PixelRuns backRuns, expectedRuns, inPlace;
+      distributed::unpackRuns(bytes, encoding, backRuns);
+      for (bool messageInFront : {false, true}) {
+        const distributed::PixelSource runs = &backRuns, message = distributed::PixelMessage{bytes, encoding};
+        const distributed::PixelSource other = &front;
+        distributed::overRuns(messageInFront ? runs : other, messageInFront ? other : runs, s0, s1, expectedRuns);
+        for (Kernels kernels : {Kernels::Best, Kernels::Scalar}) {
+          distributed::overRuns(messageInFront ? message : other, messageInFront ? other : message, s0, s1, inPlace,
+                                kernels);
+          image::ImageF x = emptyFrame(width, height), y = emptyFrame(width, height);
+          distributed::scatterRuns(expectedRuns, x);
+          distributed::scatterRuns(inPlace, y);
+          if (x.rgba != y.rgba) fail("over a message read in place differs, seed " + std::to_string(seed));
+        }
+      }
+    }
     for (auto encoding : {distributed::PixelEncoding::Float, distributed::PixelEncoding::Half}) {
       distributed::GrowingBuffer<uint8_t> message, scalarMessage;
       distributed::packRuns(joined, s0, s1, encoding, message, Kernels::Best);
