@@ -46,9 +46,9 @@ struct CompositeOptions {
   Kernels kernels = Kernels::Best;  ///< the portable scalar kernels on request (tests); the same results
 };
 
-/// The k of each round radix-k uses by default for `ranks` participating ranks: for up to 8 ranks the factorisation
-/// measured fastest (bench/results/mpi/mpi.md), beyond it the prime factors joined into rounds of k <= 8. Throws
-/// std::invalid_argument for ranks < 1.
+/// The k of each round radix-k uses by default for `ranks` participating ranks: for up to 8 ranks one round (k =
+/// ranks, measured fastest: bench/results/mpi/mpi.md), beyond it the prime factors joined into rounds of k <= 8
+/// (64: 8x8). Empty for one rank. Throws std::invalid_argument for ranks < 1.
 std::vector<int> radixFactors(int ranks);
 
 /// Joins the participating ranks' premultiplied partial frames (all the same size) in visibility order:
