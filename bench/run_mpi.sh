@@ -71,8 +71,9 @@ trap 'rm -rf "$work"' EXIT
 "$build/voxbrick" prep "synthetic:blobs,n=$volume" --brick 32 --no-vdb -q -o "$work/big" > /dev/null
 "${mpirun[@]}" -n 4 "$build/voxbrick" render "$work/big" --mpi --host-cache $budget --size 512x512 --tf mri -q \
   -o "$work/big.png" --stats "$out/mpi-budget.json" > /dev/null
-radix_factors=$("${mpirun[@]}" -n 1 "$build/bench/bench_composite" --print-factors 1,2,3,4,5,6,7,8,64,512 | tr '\n' ' ')
-command="bash bench/run_mpi.sh${baseline:+ --baseline-build BUILD_OF_MAIN}$([ $smoke -eq 1 ] && echo ' --smoke')"
+radix_factors=$("$build/bench/bench_composite" --print-factors 1,2,3,4,5,6,7,8,64,512 | tr '\n' ' ') ||
+  { echo "run_mpi: bench_composite --print-factors failed" >&2; exit 1; }
+command="bash bench/run_mpi.sh${baseline:+ --baseline-build BUILD_OF_MAIN}$([ $smoke -eq 1 ] && echo ' --smoke' || true)"
 /usr/bin/python3 bench/mpi_model.py --csv "$out/mpi.csv" --factors "$out/mpi-factors.csv" --radix-factors "$radix_factors" \
   --budget "$out/mpi-budget.json" --volume-bytes $((volume * volume * volume * 4)) --smoke $smoke \
   --cores "$(nproc)" --command "$command" --machine "${VOXBRICK_MACHINE:-2-core VM, llvmpipe, no GPU}" \

@@ -411,8 +411,9 @@ image::Image8 compositeFinished(MPI_Comm comm, const image::ImageF& partial, con
 std::vector<int> radixFactors(int ranks) {
   if (ranks < 1) throw std::invalid_argument("radixFactors: " + std::to_string(ranks) + " ranks");
   if (ranks == 1) return {};
-  // Measured for 2 to 8 ranks (bench/results/mpi/mpi.md, every ordered factorisation): one round of k = N was the
-  // fastest or within 5 % of it, and it rounds each pixel to half floats least often.
+  // Measured for 2 to 8 ranks (bench/results/mpi/mpi.md, every ordered factorisation, on one machine): one round
+  // of k = N was the fastest at 2048² for every count (at 1024² the order changed from run to run), and it rounds
+  // each pixel to half floats least often.
   if (ranks <= 8) return {ranks};
   // Beyond: the prime factors, largest first, joined into rounds while k stays <= 8; a larger prime is one round.
   std::vector<int> primes;
