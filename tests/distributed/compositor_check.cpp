@@ -9,7 +9,8 @@
 //   --kernels: the run-length kernels alone (one process): encoding, slicing, packing, the over operator, finishing
 //              and corrupted messages, against the dense reference, SIMD against scalar.
 //   --fault exit|stop RANK: that rank dies (_exit) or stops (SIGSTOP) before compositing, and the test passes only if
-//              rank 0 reports an error naming it within the deadline.
+//              rank 0 reports an error naming it within the deadline and the survivors then composite among
+//              themselves (CompositeOptions::ranks) to the serial reference.
 #include <mpi.h>
 #include <signal.h>
 #include <unistd.h>
@@ -385,14 +386,37 @@ int runFault(int rank, int size, const std::string& kind, int victim) {
     std::printf("rank %d: error after %.2f s: %s\n", rank, seconds, error.what());
     std::fflush(stdout);
     bool named = std::string(error.what()).find("rank " + std::to_string(victim)) != std::string::npos;
-    if (rank == 0) {
-      // A stopped rank would keep mpirun waiting: the test ends it (all ranks share this host under ctest).
-      if (kind == "stop") kill(pid_t(pids[size_t(victim)]), SIGKILL);
-      if (named && seconds < 5) std::printf("fault named: rank %d\n", victim);
-      std::fflush(stdout);
-      _exit(named && seconds < 5 ? 0 : 1);
+    // A stopped rank would keep mpirun waiting: the test ends it (all ranks share this host under ctest).
+    if (rank == 0 && kind == "stop") kill(pid_t(pids[size_t(victim)]), SIGKILL);
+    // The survivors go on compositing among themselves (their own tags: the failed frame's messages may linger).
+    std::vector<int> survivors, parts;
+    std::vector<image::ImageF> frames;
+    for (int r = 0; r < size; ++r) {
+      if (r == victim) continue;
+      survivors.push_back(r);
+      std::mt19937 random{unsigned(r + 1)};
+      frames.push_back(randomPartial(random, 33, 21, false));
     }
-    _exit(0);
+    std::vector<int> survivorOrder(survivors.size());
+    std::iota(survivorOrder.rbegin(), survivorOrder.rend(), 0);
+    distributed::CompositeOptions after = options;
+    after.ranks = survivors;
+    after.tag = options.tag + 100;
+    const size_t own = size_t(std::find(survivors.begin(), survivors.end(), rank) - survivors.begin());
+    bool composited = false;
+    try {
+      const image::ImageF frame = distributed::composite(MPI_COMM_WORLD, frames[own], survivorOrder, after);
+      composited = rank != 0 || maxDifference(frame, render::compositeSerial(frames, survivorOrder)) <= 1.0 / 512;
+    } catch (const std::exception& later) {
+      std::printf("rank %d: the survivors' compositing failed: %s\n", rank, later.what());
+    }
+    if (rank == 0) {
+      const bool ok = named && seconds < 5 && composited;
+      if (ok) std::printf("fault named: rank %d; the survivors composited\n", victim);
+      std::fflush(stdout);
+      _exit(ok ? 0 : 1);
+    }
+    _exit(composited ? 0 : 1);
   }
   if (rank == 0) {
     std::fprintf(stderr, "rank 0: compositing finished although rank %d %s\n", victim, kind.c_str());
