@@ -135,7 +135,8 @@ Plan makePlan(MPI_Comm comm, const image::ImageF& partial, const std::vector<int
 // it needs more than an earlier one did. A message buffer is reused only when nothing else holds it (a transfer
 // abandoned after a failure keeps its buffer, which MPI may still write).
 struct Workspace {
-  PixelRuns own, joined, piece, scratch;  // piece: a received region unpacked (the float gather)
+  PixelRuns own, joined, scratch;  // this rank's runs; the join's result and its next output
+  PixelRuns piece;                  // a received region unpacked (composite's float gather)
   std::vector<std::shared_ptr<Bytes>> buffers;
 
   // A buffer nobody else holds (the caller keeps it until it is done with it, so the next call gives another).
@@ -245,7 +246,7 @@ std::vector<std::shared_ptr<Bytes>> exchange(Context& c, const std::vector<int>&
 // region into k pieces; each member keeps the piece of its digit, sends every other piece of its runs to the member
 // keeping it, and joins the k versions of its own piece in the members' visibility order.
 // In the first round the rank's pixels are still its dense partial frame (`dense`): the pieces are packed and its
-// own piece encoded straight from it, so that the frame is read once and no pixel is copied twice.
+// own piece joined straight from it, so that the frame is read once and no pixel is copied that is not sent or kept.
 void radixRound(Context& c, size_t round, Range& region, const image::ImageF* dense) {
   const Plan& plan = c.plan;
   const int k = plan.factors[round], stride = plan.stride(round), digit = plan.digit(plan.position, round);
@@ -286,10 +287,6 @@ void radixRound(Context& c, size_t round, Range& region, const image::ImageF* de
   std::swap(space.own, space.joined);
   region = kept;
 }
-
-}  // namespace
-
-namespace {
 
 // The rounds, from this rank's partial frame to its final region's runs in space.own (at least one round); returns
 // that region.

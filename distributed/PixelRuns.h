@@ -91,7 +91,8 @@ struct PixelRuns {
 /// frame's pixel count (throws std::invalid_argument otherwise).
 void encodeRuns(const image::ImageF& frame, uint32_t begin, uint32_t end, PixelRuns& out);
 
-/// A message carrying pixels [begin, end) as runs, little-endian, 4-byte words:
+/// A message carrying pixels [begin, end) as runs, little-endian (the ranks run the same build on the same kind of
+/// machine):
 ///
 ///     offset          size            field
 ///          0             4            begin        first pixel of the range (row-major index)

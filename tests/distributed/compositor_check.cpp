@@ -15,6 +15,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -186,6 +187,35 @@ int runKernels() {
     std::fprintf(stderr, "kernels: %s\n", what.c_str());
     ++failures;
   };
+  // The message layout (PixelRuns.h), every offset: pixels 10..19 of a frame, active at 12, 13 and 17.
+  {
+    image::ImageF frame = emptyFrame(8, 4);
+    for (int x : {12, 13, 17}) std::fill_n(frame.rgba.begin() + x * 4, 4, 0.25f * float(x % 4 + 1));
+    distributed::PixelRuns runs;
+    distributed::encodeRuns(frame, 10, 20, runs);
+    distributed::GrowingBuffer<uint8_t> message;
+    distributed::packRuns(runs, 10, 20, distributed::PixelEncoding::Half, message);
+    auto word = [&message](size_t offset) {
+      uint32_t value;
+      std::memcpy(&value, message.data() + offset, 4);
+      return value;
+    };
+    auto half = [&message](size_t offset) {
+      uint16_t value;
+      std::memcpy(&value, message.data() + offset, 2);
+      return value;
+    };
+    const bool header = word(0) == 10 && word(4) == 20 && word(8) == 2 && word(12) == 3;
+    const bool pixels = half(16) == common::floatToHalf(0.25f) && half(16 + 8) == common::floatToHalf(0.5f) &&
+                        half(16 + 16 + 6) == common::floatToHalf(0.5f);
+    const bool pairs = word(40) == 2 && word(44) == 2 && word(48) == 3 && word(52) == 1;
+    if (distributed::kRunsHeaderBytes != 16 || message.size() != 56 ||
+        distributed::runsMessageBytes(2, 3, distributed::PixelEncoding::Half) != 56 ||
+        distributed::runsMessageBytes(2, 3, distributed::PixelEncoding::Float) != 80 || !header || !pixels ||
+        !pairs) {
+      fail("the message layout moved");
+    }
+  }
   std::printf("SIMD kernels %s\n", distributed::simdKernelsAvailable() ? "available" : "NOT available (scalar only)");
   for (int seed = 1; seed <= 40; ++seed) {
     std::mt19937 random{unsigned(seed)};
