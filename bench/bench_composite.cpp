@@ -1,41 +1,187 @@
-// The MPI compositor alone (distributed/Compositor.h), under mpirun: every rank makes a partial frame of SIZE² whose
-// active rectangle covers a share of the frame as a part of a volume would (overlapping its neighbours'), and the
-// frames are composited REPEAT times after a barrier. Rank 0 prints one CSV line per size and encoding:
-// ranks,size,encoding,ms_median,ms_max_rank,bytes_total,bytes_max_rank. Usage:
-//   mpirun -n N bench_composite --sizes 512,1024,2048 --repeat 10
+// The MPI compositor alone (distributed/Compositor.h), under mpirun: every rank draws its part of a volume as a
+// k-d split of it would give (the volume covering much of the frame, split into one box per rank, each rank's
+// partial frame the ray-marched blobs inside its box), and the frames are composited REPEAT times after a barrier,
+// through to the finished 8-bit frame on rank 0. Rank 0 prints one CSV line per size, encoding and factorisation:
+//   impl,ranks,size,encoding,factors,ms_median,ms_max,ms_composite_median,bytes_total,bytes_max_rank,
+//   active_share,union_share,inputs
+// ms: the slowest rank's time from the barrier to the finished 8-bit frame (the radix-k compositor finishes inside
+// compositeFinished; binary swap composites, then rank 0 finishes the whole frame as RankRenderer did);
+// ms_composite: the compositing call alone; active_share: the active pixels of all parts over ranks × frame pixels;
+// union_share: the frame's pixels active in some part; inputs: a digest of every rank's partial frame, the same for
+// both implementations when the inputs are. The source builds against either compositor (the binary-swap one on
+// main, which run_mpi.sh --baseline-build uses): the partial frames are made by the same code. Usage:
+//   mpirun -n N bench_composite --sizes 512,1024,2048 --repeat 10 [--factors default|all] [--encodings half,float]
+//   bench_composite --print-factors 8,64,512     (radixFactors of each, as N:KxK…)
 #include <mpi.h>
 
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <numeric>
-#include <random>
+#include <string>
 #include <vector>
 
 #include "distributed/Cluster.h"
 #include "distributed/Compositor.h"
+#if __has_include("distributed/PixelRuns.h")
+#define VOXBRICK_BENCH_RADIX_K 1
+#endif
 
 using namespace voxbrick;
 
 namespace {
 
-// A part's frame: a translucent rectangle about half the frame's side, placed by rank, with some texture.
-image::ImageF partFrame(int size, int rank, int ranks) {
-  image::ImageF image{size, size, std::vector<float>(size_t(size) * size * 4, 0.0f)};
-  const int side = size / 2 + size / 4;
-  const int x0 = ranks > 1 ? (size - side) * (rank % 2) : size / 8;
-  const int y0 = ranks > 1 ? (size - side) * rank / (ranks - 1) : size / 8;
-  std::mt19937 random(unsigned(rank + 1));
-  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
-  for (int y = y0; y < std::min(size, y0 + side); ++y) {
-    for (int x = x0; x < std::min(size, x0 + side); ++x) {
-      float a = 0.2f + 0.5f * unit(random);
-      float* p = image.pixel(x, y);
-      p[0] = a * 0.9f, p[1] = a * 0.5f, p[2] = a * 0.2f, p[3] = a;
+using Vec = std::array<double, 3>;
+
+struct Box {
+  Vec lo, hi;
+};
+
+// The volume [-0.5, 0.5]^3 split as render::partitionBricks splits one: a k-d tree, each split across the longest
+// side, the two sides' shares in proportion to their part counts (balanced by volume).
+void split(const Box& box, int parts, std::vector<Box>& out) {
+  if (parts == 1) {
+    out.push_back(box);
+    return;
+  }
+  int axis = 0;
+  for (int a = 1; a < 3; ++a) {
+    if (box.hi[size_t(a)] - box.lo[size_t(a)] > box.hi[size_t(axis)] - box.lo[size_t(axis)]) axis = a;
+  }
+  const int left = parts / 2;
+  const double at = box.lo[size_t(axis)] + (box.hi[size_t(axis)] - box.lo[size_t(axis)]) * left / parts;
+  Box a = box, b = box;
+  a.hi[size_t(axis)] = at;
+  b.lo[size_t(axis)] = at;
+  split(a, left, out);
+  split(b, parts - left, out);
+}
+
+// Density: a soft sphere (skin) around a few blobs; the transfer function keeps what is above 0.2.
+double density(const Vec& p) {
+  static const double blobs[][4] = {{-0.15, -0.1, 0.05, 0.16}, {0.18, 0.12, -0.1, 0.13}, {0.0, 0.2, 0.15, 0.1},
+                                    {-0.1, -0.22, -0.18, 0.11}, {0.2, -0.15, 0.2, 0.09}};
+  const double r = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+  double d = std::exp(-std::pow((r - 0.42) / 0.03, 2)) * 0.45;
+  for (const auto& b : blobs) {
+    const double dx = p[0] - b[0], dy = p[1] - b[1], dz = p[2] - b[2];
+    d += std::exp(-(dx * dx + dy * dy + dz * dz) / (b[3] * b[3]));
+  }
+  return d;
+}
+
+// A part's premultiplied frame at `side`² pixels: rays from a perspective camera at an angle, sampled every 1/96
+// inside the part's box (at the same distances for every part, as a partitioned renderer does), front to back.
+image::ImageF drawPart(const Box& box, int side) {
+  image::ImageF image{side, side, std::vector<float>(size_t(side) * size_t(side) * 4, 0.0f)};
+  const Vec eye{0.775, 0.527, 0.9};
+  const double length = std::sqrt(eye[0] * eye[0] + eye[1] * eye[1] + eye[2] * eye[2]);
+  const Vec forward{-eye[0] / length, -eye[1] / length, -eye[2] / length};
+  Vec right{forward[2], 0, -forward[0]};
+  const double rl = std::sqrt(right[0] * right[0] + right[2] * right[2]);
+  right = {right[0] / rl, 0, right[2] / rl};
+  const Vec up{right[1] * forward[2] - right[2] * forward[1], right[2] * forward[0] - right[0] * forward[2],
+               right[0] * forward[1] - right[1] * forward[0]};
+  const double step = 1.0 / 96, halfView = std::tan(0.5 * 40.0 * M_PI / 180);
+  for (int y = 0; y < side; ++y) {
+    for (int x = 0; x < side; ++x) {
+      const double u = ((x + 0.5) / side * 2 - 1) * halfView, v = (1 - (y + 0.5) / side * 2) * halfView;
+      Vec dir;
+      for (size_t a = 0; a < 3; ++a) dir[a] = forward[a] + u * right[a] + v * up[a];
+      const double dl = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+      for (auto& c : dir) c /= dl;
+      double t0 = 0, t1 = 1e9;
+      for (size_t a = 0; a < 3; ++a) {
+        const double inv = 1 / dir[a];
+        double ta = (box.lo[a] - eye[a]) * inv, tb = (box.hi[a] - eye[a]) * inv;
+        if (ta > tb) std::swap(ta, tb);
+        t0 = std::max(t0, ta), t1 = std::min(t1, tb);
+      }
+      if (t0 >= t1) continue;
+      double rgba[4] = {0, 0, 0, 0};
+      for (double t = std::ceil(t0 / step) * step; t < t1 && rgba[3] < 0.99; t += step) {
+        const Vec p{eye[0] + t * dir[0], eye[1] + t * dir[1], eye[2] + t * dir[2]};
+        const double d = density(p);
+        if (d < 0.2) continue;
+        const double alpha = 1 - std::exp(-(d - 0.2) * 6 * step * 8), keep = 1 - rgba[3];
+        const double colour[3] = {0.9 * d, 0.6 * d * d, 0.3 + 0.2 * d};
+        for (int c = 0; c < 3; ++c) rgba[c] += keep * alpha * std::min(colour[c], 1.0);
+        rgba[3] += keep * alpha;
+      }
+      float* out = image.pixel(x, y);
+      for (int c = 0; c < 4; ++c) out[c] = float(rgba[c]);
     }
   }
   return image;
+}
+
+// The part drawn at 256² (drawing every pixel of 2048² on every rank would take minutes) and scaled up bilinearly:
+// smooth colour and the part's silhouette, with its empty pixels exactly empty.
+image::ImageF partFrame(const Box& box, int size) {
+  const int side = std::min(size, 256);
+  const image::ImageF small = drawPart(box, side);
+  if (side == size) return small;
+  image::ImageF image{size, size, std::vector<float>(size_t(size) * size_t(size) * 4, 0.0f)};
+  const double scale = double(side) / size;
+  for (int y = 0; y < size; ++y) {
+    const double sy = std::clamp((y + 0.5) * scale - 0.5, 0.0, side - 1.0);
+    const int y0 = int(sy), y1 = std::min(y0 + 1, side - 1);
+    const float fy = float(sy - y0);
+    for (int x = 0; x < size; ++x) {
+      const double sx = std::clamp((x + 0.5) * scale - 0.5, 0.0, side - 1.0);
+      const int x0 = int(sx), x1 = std::min(x0 + 1, side - 1);
+      const float fx = float(sx - x0);
+      const float *a = small.pixel(x0, y0), *b = small.pixel(x1, y0), *c = small.pixel(x0, y1),
+                  *d = small.pixel(x1, y1);
+      float* out = image.pixel(x, y);
+      for (int i = 0; i < 4; ++i) {
+        out[i] = (a[i] * (1 - fx) + b[i] * fx) * (1 - fy) + (c[i] * (1 - fx) + d[i] * fx) * fy;
+      }
+    }
+  }
+  return image;
+}
+
+uint64_t digest(const image::ImageF& image) {
+  uint64_t h = 1469598103934665603ull;
+  const auto* bytes = reinterpret_cast<const uint8_t*>(image.rgba.data());
+  for (size_t i = 0; i < image.rgba.size() * 4; ++i) h = (h ^ bytes[i]) * 1099511628211ull;
+  return h;
+}
+
+void factorisations(int n, std::vector<int>& prefix, std::vector<std::vector<int>>& out) {
+  if (n == 1) {
+    if (!prefix.empty()) out.push_back(prefix);
+    return;
+  }
+  for (int k = 2; k <= n; ++k) {
+    if (n % k) continue;
+    prefix.push_back(k);
+    factorisations(n / k, prefix, out);
+    prefix.pop_back();
+  }
+}
+
+std::string factorsText(const std::vector<int>& factors) {
+  std::string text;
+  for (size_t i = 0; i < factors.size(); ++i) text += (i ? "x" : "") + std::to_string(factors[i]);
+  return text.empty() ? "-" : text;
+}
+
+double maxOver(double value) {
+  double result = 0;
+  MPI_Reduce(&value, &result, 1, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
+  return result;
+}
+double sumOver(double value) {
+  double result = 0;
+  MPI_Reduce(&value, &result, 1, MPI_DOUBLE, MPI_SUM, 0, MPI_COMM_WORLD);
+  return result;
 }
 
 }  // namespace
@@ -45,43 +191,133 @@ int main(int argc, char** argv) {
   const int rank = mpi.rank(), ranks = mpi.size();
   CLI::App app{"the MPI compositor's time and bytes per frame"};
   std::vector<int> sizes{512, 1024, 2048};
+  std::vector<std::string> encodings{"half"};
+  std::string factorChoice = "default";
   int repeat = 10;
+  std::vector<int> printFactors;
   app.add_option("--sizes", sizes, "frame sides")->delimiter(',');
-  app.add_option("--repeat", repeat, "frames timed per size");
+  app.add_option("--print-factors", printFactors, "print radixFactors(N) as N:KxK.. for these N, and exit")
+      ->delimiter(',');
+  app.add_option("--repeat", repeat, "frames timed per size")->check(CLI::PositiveNumber);
+  app.add_option("--encodings", encodings, "half, float")->delimiter(',');
+  app.add_option("--factors", factorChoice, "radix-k factorisations: default, or all (each ordered one)")
+      ->check(CLI::IsMember({"default", "all"}));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return rank == 0 ? app.exit(e) : 1;
   }
+  if (!printFactors.empty()) {
+#ifdef VOXBRICK_BENCH_RADIX_K
+    for (int n : printFactors) {
+      if (rank == 0) std::printf("%d:%s\n", n, factorsText(distributed::radixFactors(n)).c_str());
+    }
+    return 0;
+#else
+    if (rank == 0) std::fprintf(stderr, "bench_composite: this compositor has no radix-k factors\n");
+    return 1;
+#endif
+  }
+  std::vector<Box> boxes;
+  split({{-0.5, -0.5, -0.5}, {0.5, 0.5, 0.5}}, ranks, boxes);
+  // Front to back by the boxes' centres' distance from the eye (the k-d order for this view).
   std::vector<int> order(static_cast<size_t>(ranks));
   std::iota(order.begin(), order.end(), 0);
-  std::reverse(order.begin() + ranks / 2, order.end());  // not simply rank order
-  if (rank == 0) std::printf("ranks,size,encoding,ms_median,ms_max_rank,bytes_total,bytes_max_rank\n");
+  auto distance = [&boxes](int i) {
+    const Box& b = boxes[size_t(i)];
+    const Vec eye{0.775, 0.527, 0.9};
+    double d = 0;
+    for (size_t a = 0; a < 3; ++a) d += std::pow((b.lo[a] + b.hi[a]) / 2 - eye[a], 2);
+    return d;
+  };
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return distance(a) < distance(b); });
+  std::vector<std::vector<int>> choices{{}};
+#ifdef VOXBRICK_BENCH_RADIX_K
+  const char* impl = "radix-k";
+  if (factorChoice == "all" && ranks > 1) {
+    std::vector<int> prefix;
+    choices.clear();
+    factorisations(ranks, prefix, choices);
+  }
+#else
+  const char* impl = "binary-swap";
+#endif
+  render::Scene scene;
+  scene.background = {0.1, 0.1, 0.15};
+  if (rank == 0) {
+    std::printf("impl,ranks,size,encoding,factors,ms_median,ms_max,ms_composite_median,bytes_total,bytes_max_rank,"
+                "active_share,union_share,inputs\n");
+  }
   for (int size : sizes) {
-    const image::ImageF partial = partFrame(size, rank, ranks);
-    for (auto encoding : {distributed::PixelEncoding::Half, distributed::PixelEncoding::Float}) {
-      distributed::CompositeOptions options;
-      options.encoding = encoding;
-      options.timeoutSeconds = 60;
-      std::vector<double> times;
-      double bytes = 0, maxBytes = 0;
-      for (int i = 0; i <= repeat; ++i) {  // the first is a warm-up
-        MPI_Barrier(MPI_COMM_WORLD);
-        distributed::CompositeStats stats;
-        distributed::composite(MPI_COMM_WORLD, partial, order, options, &stats);
-        double ms = stats.ms, slowest = 0, sent = double(stats.bytesSent), total = 0, most = 0;
-        MPI_Reduce(&ms, &slowest, 1, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
-        MPI_Reduce(&sent, &total, 1, MPI_DOUBLE, MPI_SUM, 0, MPI_COMM_WORLD);
-        MPI_Reduce(&sent, &most, 1, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
-        if (i == 0) continue;
-        times.push_back(slowest);
-        bytes = total, maxBytes = most;
+    const image::ImageF partial = partFrame(boxes[size_t(rank)], size);
+    // Active pixels: this part's, and the union over parts (a mask gathered by OR).
+    std::vector<uint8_t> mask(size_t(size) * size_t(size)), all(mask.size());
+    double active = 0;
+    for (size_t i = 0; i < mask.size(); ++i) {
+      const float* p = &partial.rgba[i * 4];
+      mask[i] = p[0] != 0 || p[1] != 0 || p[2] != 0 || p[3] != 0;
+      active += mask[i];
+    }
+    MPI_Reduce(mask.data(), all.data(), int(mask.size()), MPI_UNSIGNED_CHAR, MPI_BOR, 0, MPI_COMM_WORLD);
+    const double activeAll = sumOver(active);
+    const double unionShare = double(std::count(all.begin(), all.end(), uint8_t(1))) / double(mask.size());
+    const uint64_t own = digest(partial);
+    std::vector<uint64_t> digests(static_cast<size_t>(ranks));
+    MPI_Gather(&own, 1, MPI_UINT64_T, digests.data(), 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+    uint64_t inputs = 1469598103934665603ull;
+    for (uint64_t d : digests) inputs = (inputs ^ d) * 1099511628211ull;
+    for (const auto& encodingName : encodings) {
+      for (const auto& factors : choices) {
+        distributed::CompositeOptions options;
+        options.encoding = distributed::parsePixelEncoding(encodingName);
+        options.timeoutSeconds = 60;
+#ifdef VOXBRICK_BENCH_RADIX_K
+        options.factors = factors;
+#else
+        (void)factors;
+#endif
+#ifdef VOXBRICK_BENCH_RADIX_K
+        image::Image8 frame;  // reused from frame to frame, as a server's
+#endif
+        std::vector<double> times, compositing;
+        double bytes = 0, maxBytes = 0;
+        for (int i = 0; i <= repeat; ++i) {  // the first is a warm-up
+          MPI_Barrier(MPI_COMM_WORLD);
+          const auto start = std::chrono::steady_clock::now();
+          distributed::CompositeStats stats;
+#ifdef VOXBRICK_BENCH_RADIX_K
+          distributed::compositeFinished(MPI_COMM_WORLD, partial, order, scene, frame, options, &stats);
+          const double composited = stats.ms;
+#else
+          const image::ImageF whole = distributed::composite(MPI_COMM_WORLD, partial, order, options, &stats);
+          const double composited = stats.ms;
+          if (rank == 0) {
+            const image::Image8 frame = image::toImage8(render::finishPartial(whole, scene));
+            if (frame.rgba.empty()) std::abort();
+          }
+#endif
+          const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+          const double slowest = maxOver(ms), slowestComposite = maxOver(composited);
+          const double total = sumOver(double(stats.bytesSent)), most = maxOver(double(stats.bytesSent));
+          if (i == 0) continue;
+          times.push_back(slowest);
+          compositing.push_back(slowestComposite);
+          bytes = total, maxBytes = most;
+        }
+        if (rank != 0) continue;
+#ifdef VOXBRICK_BENCH_RADIX_K
+        const std::vector<int> used = factors.empty() ? distributed::radixFactors(ranks) : factors;
+#else
+        const std::vector<int> used;
+#endif
+        std::sort(times.begin(), times.end());
+        std::sort(compositing.begin(), compositing.end());
+        std::printf("%s,%d,%d,%s,%s,%.3f,%.3f,%.3f,%.0f,%.0f,%.4f,%.4f,%016llx\n", impl, ranks, size,
+                    encodingName.c_str(), factorsText(used).c_str(), times[times.size() / 2], times.back(),
+                    compositing[compositing.size() / 2], bytes, maxBytes,
+                    activeAll / (double(ranks) * double(mask.size())), unionShare, (unsigned long long)inputs);
+        std::fflush(stdout);
       }
-      if (rank != 0) continue;
-      std::sort(times.begin(), times.end());
-      std::printf("%d,%d,%s,%.3f,%.3f,%.0f,%.0f\n", ranks, size, distributed::pixelEncodingName(encoding),
-                  times[times.size() / 2], times.back(), bytes, maxBytes);
-      std::fflush(stdout);
     }
   }
   return 0;

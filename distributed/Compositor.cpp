@@ -1,238 +1,319 @@
-// Binary swap in visibility order with a fold, then a gather to rank 0 (Compositor.h).
+// Radix-k over run-length encoded pixel ranges in visibility order, then a gather to the root (Compositor.h).
 #include "distributed/Compositor.h"
+
+#include <sched.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <memory>
 #include <stdexcept>
-
-#include "common/Half.h"
+#include <thread>
 
 namespace voxbrick::distributed {
 namespace {
 
-using render::PixelRect;
+using Clock = std::chrono::steady_clock;
+using Bytes = GrowingBuffer<uint8_t>;
 
-PixelRect intersect(const PixelRect& a, const PixelRect& b) {
-  PixelRect r{std::max(a.x0, b.x0), std::max(a.y0, b.y0), std::min(a.x1, b.x1), std::min(a.y1, b.y1)};
-  return r.empty() ? PixelRect{} : r;
-}
-
-PixelRect unite(const PixelRect& a, const PixelRect& b) {
-  if (a.empty()) return b;
-  if (b.empty()) return a;
-  return {std::min(a.x0, b.x0), std::min(a.y0, b.y0), std::max(a.x1, b.x1), std::max(a.y1, b.y1)};
-}
-
-// The two halves of a region, split across its longer side.
-std::pair<PixelRect, PixelRect> halves(const PixelRect& region) {
-  if (region.x1 - region.x0 >= region.y1 - region.y0) {
-    int middle = region.x0 + (region.x1 - region.x0) / 2;
-    return {{region.x0, region.y0, middle, region.y1}, {middle, region.y0, region.x1, region.y1}};
-  }
-  int middle = region.y0 + (region.y1 - region.y0) / 2;
-  return {{region.x0, region.y0, region.x1, middle}, {region.x0, middle, region.x1, region.y1}};
-}
-
-constexpr size_t kHeaderBytes = 4 * sizeof(int32_t);
-
-size_t channelBytes(PixelEncoding encoding) { return encoding == PixelEncoding::Half ? 2 : 4; }
-
-size_t messageBytes(const PixelRect& rect, PixelEncoding encoding) {
-  return kHeaderBytes + size_t(rect.pixels()) * 4 * channelBytes(encoding);
-}
-
-using Buffer = std::vector<uint8_t>;
-
-// A message: the rectangle, then its pixels row by row in the encoding.
-std::shared_ptr<Buffer> pack(const image::ImageF& image, const PixelRect& rect, PixelEncoding encoding) {
-  auto buffer = std::make_shared<Buffer>(messageBytes(rect, encoding));
-  int32_t header[4] = {rect.x0, rect.y0, rect.x1, rect.y1};
-  std::memcpy(buffer->data(), header, kHeaderBytes);
-  uint8_t* out = buffer->data() + kHeaderBytes;
-  int rowFloats = 4 * (rect.x1 - rect.x0);
-  for (int y = rect.y0; y < rect.y1 && !rect.empty(); ++y) {
-    const float* row = image.pixel(rect.x0, y);
-    if (encoding == PixelEncoding::Float) {
-      std::memcpy(out, row, size_t(rowFloats) * 4);
-      out += size_t(rowFloats) * 4;
-    } else {
-      common::floatsToHalves(row, reinterpret_cast<uint16_t*>(out), size_t(rowFloats));
-      out += size_t(rowFloats) * 2;
-    }
-  }
-  return buffer;
-}
-
-// The rectangle a received message holds, checked against the region it must lie in and the bytes that came.
-PixelRect messageRect(const Buffer& buffer, const PixelRect& region, PixelEncoding encoding, int from) {
-  int32_t header[4];
-  std::memcpy(header, buffer.data(), kHeaderBytes);
-  PixelRect rect{header[0], header[1], header[2], header[3]};
-  if (rect.empty()) return {};
-  if (!(intersect(rect, region) == rect) || messageBytes(rect, encoding) > buffer.size()) {
-    throw PeerError(from, "rank " + std::to_string(from) + " sent a piece outside the region it was due");
-  }
-  return rect;
-}
-
-// Joins a received piece into `image`: received over image when `receivedInFront`, else image over received.
-void blend(image::ImageF& image, const Buffer& buffer, const PixelRect& rect, PixelEncoding encoding,
-           bool receivedInFront) {
-  const uint8_t* in = buffer.data() + kHeaderBytes;
-  int rowFloats = 4 * (rect.x1 - rect.x0);
-  std::vector<float> row(size_t(std::max(rowFloats, 0)));
-  for (int y = rect.y0; y < rect.y1; ++y) {
-    if (encoding == PixelEncoding::Float) {
-      std::memcpy(row.data(), in, row.size() * 4);
-      in += row.size() * 4;
-    } else {
-      common::halvesToFloats(reinterpret_cast<const uint16_t*>(in), row.data(), row.size());
-      in += row.size() * 2;
-    }
-    float* pixels = image.pixel(rect.x0, y);
-    for (int i = 0; i < rowFloats; i += 4) {
-      const float* front = receivedInFront ? &row[size_t(i)] : pixels + i;
-      const float* back = receivedInFront ? pixels + i : &row[size_t(i)];
-      float keep = 1.0f - front[3];
-      float out[4];
-      for (int c = 0; c < 4; ++c) out[c] = front[c] + keep * back[c];
-      std::memcpy(pixels + i, out, sizeof out);
-    }
-  }
-}
-
-struct Exchange {
-  MPI_Comm comm;
-  const CompositeOptions& options;
-  CompositeStats& stats;
+// The frame is a row-major sequence of pixels; each rank's region is a range of it. Ranges (rather than rectangles)
+// split evenly into any k, keep a run-length encoding simple, and make the 8-bit gather a receive in place.
+struct Range {
+  uint32_t begin = 0, end = 0;
+  uint32_t size() const { return end - begin; }
 };
 
-// Sends `sendRect` of `image` to `to` (if to >= 0) and receives into a buffer from `from` (if from >= 0) a piece
-// lying in `receiveRegion`; returns the received buffer (empty if none).
-std::shared_ptr<Buffer> exchange(Exchange& ex, const image::ImageF& image, int to, const PixelRect& sendRect, int from,
-                                 const PixelRect& receiveRegion, int tag, const char* what) {
-  Transfers transfers(ex.comm, ex.options.timeoutSeconds);
-  std::shared_ptr<Buffer> received;
-  if (from >= 0) {
-    received = std::make_shared<Buffer>(messageBytes(receiveRegion, ex.options.encoding));
-    transfers.receive(from, tag, received->data(), received->size(), received, what);
-  }
-  if (to >= 0) {
-    auto message = pack(image, sendRect, ex.options.encoding);
-    transfers.send(to, tag, message->data(), message->size(), message, what);
-    ex.stats.bytesSent += message->size();
-  }
-  transfers.wait();
-  ++ex.stats.rounds;
-  return received;
+// Piece j of k of a range (as even as whole pixels allow).
+Range pieceOf(const Range& range, int j, int k) {
+  const uint64_t length = range.size();
+  return {range.begin + uint32_t(length * uint64_t(j) / uint64_t(k)),
+          range.begin + uint32_t(length * uint64_t(j + 1) / uint64_t(k))};
 }
 
-void checkOrder(const std::vector<int>& frontToBack, int size, int rank) {
+// Who takes part and in which order, checked on this rank.
+struct Plan {
+  std::vector<int> ranks;    // the communicator's rank of each part
+  std::vector<int> order;    // parts, nearest first
+  std::vector<int> factors;  // k of each round
+  int position = 0;          // this rank's place in visibility order
+  int root = 0;
+  int self = 0;  // this rank
+  uint32_t pixels = 0;
+
+  int rankAt(int p) const { return ranks[size_t(order[size_t(p)])]; }
+  int parts() const { return int(order.size()); }
+  // Position p's digit in round r (mixed radix, round 0 the least significant digit) and the distance between
+  // group members in that round: round r's group is the positions that differ from p in digit r only, which are
+  // neighbours in visibility order once the earlier rounds have joined their blocks.
+  int stride(size_t round) const {
+    int s = 1;
+    for (size_t r = 0; r < round; ++r) s *= factors[r];
+    return s;
+  }
+  int digit(int p, size_t round) const { return p / stride(round) % factors[round]; }
+  // Position p's region after `rounds` rounds.
+  Range region(int p, size_t rounds) const {
+    Range range{0, pixels};
+    for (size_t r = 0; r < rounds; ++r) range = pieceOf(range, digit(p, r), factors[r]);
+    return range;
+  }
+};
+
+std::string listText(const std::vector<int>& values, const char* separator) {
+  std::string text;
+  for (size_t i = 0; i < values.size(); ++i) text += (i ? separator : "") + std::to_string(values[i]);
+  return text;
+}
+
+Plan makePlan(MPI_Comm comm, const image::ImageF& partial, const std::vector<int>& frontToBack,
+              const CompositeOptions& options) {
+  int size = 0, rank = 0;
+  MPI_Comm_size(comm, &size);
+  MPI_Comm_rank(comm, &rank);
+  Plan plan;
+  plan.ranks = options.ranks;
+  if (plan.ranks.empty()) {
+    for (int r = 0; r < size; ++r) plan.ranks.push_back(r);
+  }
   std::vector<bool> seen(size_t(size), false);
-  for (int r : frontToBack) {
+  for (int r : plan.ranks) {
     if (r < 0 || r >= size || seen[size_t(r)]) {
-      throw std::invalid_argument("compositing order names a rank twice or one outside the communicator");
+      throw std::invalid_argument("compositing ranks [" + listText(plan.ranks, ", ") +
+                                  "] are not distinct ranks of a communicator of " + std::to_string(size));
     }
     seen[size_t(r)] = true;
   }
-  if (frontToBack.empty() || !seen[0] || !seen[size_t(rank)]) {
-    throw std::invalid_argument("compositing order does not name rank 0 and the calling rank " + std::to_string(rank));
+  const int parts = int(plan.ranks.size());
+  std::vector<bool> named(size_t(parts), false);
+  if (int(frontToBack.size()) != parts) {
+    throw std::invalid_argument("compositing order names " + std::to_string(frontToBack.size()) + " parts, not the " +
+                                std::to_string(parts) + " participating ranks");
   }
+  for (int part : frontToBack) {
+    if (part < 0 || part >= parts || named[size_t(part)]) {
+      throw std::invalid_argument("compositing order [" + listText(frontToBack, ", ") +
+                                  "] is not a permutation of the parts 0.." + std::to_string(parts - 1));
+    }
+    named[size_t(part)] = true;
+  }
+  plan.order = frontToBack;
+  plan.factors = options.factors.empty() ? radixFactors(parts) : options.factors;
+  long long product = 1;
+  for (int k : plan.factors) {
+    if (k < 2) throw std::invalid_argument("radix-k factor " + std::to_string(k) + " is below 2");
+    product *= k;
+    if (product > parts) break;
+  }
+  if (product != parts) {
+    throw std::invalid_argument("radix-k factors " + listText(plan.factors, "x") + " do not multiply to the " +
+                                std::to_string(parts) + " participating ranks");
+  }
+  const auto self = std::find(plan.ranks.begin(), plan.ranks.end(), rank);
+  if (self == plan.ranks.end()) {
+    throw std::invalid_argument("rank " + std::to_string(rank) + " is not among the compositing ranks [" +
+                                listText(plan.ranks, ", ") + "]");
+  }
+  const int part = int(self - plan.ranks.begin());
+  plan.position = int(std::find(plan.order.begin(), plan.order.end(), part) - plan.order.begin());
+  if (std::find(plan.ranks.begin(), plan.ranks.end(), options.root) == plan.ranks.end()) {
+    throw std::invalid_argument("compositing root " + std::to_string(options.root) +
+                                " is not among the compositing ranks [" + listText(plan.ranks, ", ") + "]");
+  }
+  plan.root = options.root;
+  plan.self = rank;
+  const uint64_t pixels = uint64_t(std::max(partial.width, 0)) * uint64_t(std::max(partial.height, 0));
+  if (partial.width < 0 || partial.height < 0 || partial.rgba.size() != pixels * 4) {
+    throw std::invalid_argument("partial frame's pixels do not match its size " + std::to_string(partial.width) +
+                                "x" + std::to_string(partial.height));
+  }
+  if (pixels > UINT32_MAX) throw std::invalid_argument("partial frame of " + std::to_string(pixels) + " pixels");
+  plan.pixels = uint32_t(pixels);
+  return plan;
 }
 
-}  // namespace
+// What stays from frame to frame on a thread: the runs and the message buffers, so that a frame allocates only when
+// it needs more than an earlier one did. A message buffer is reused only when nothing else holds it (a transfer
+// abandoned after a failure keeps its buffer, which MPI may still write).
+struct Workspace {
+  PixelRuns own, joined, scratch;  // this rank's runs; the join's result and its next output
+  PixelRuns piece;                  // a received region unpacked (composite's float gather)
+  std::vector<std::shared_ptr<Bytes>> buffers;
 
-namespace {
-
-// Where each rank stands: its position in visibility order, and the ranks of the power of two left after the fold.
-struct Layout {
-  const std::vector<int>& frontToBack;
-  int size = 1, pos = 0, powerOfTwo = 1, extra = 0;
-  Layout(const std::vector<int>& order, int rank) : frontToBack(order), size(int(order.size())) {
-    pos = int(std::find(order.begin(), order.end(), rank) - order.begin());
-    while (powerOfTwo * 2 <= size) powerOfTwo *= 2;
-    extra = size - powerOfTwo;
+  // A buffer nobody else holds (the caller keeps it until it is done with it, so the next call gives another).
+  std::shared_ptr<Bytes> buffer() {
+    for (auto& b : buffers) {
+      if (b.use_count() == 1) return b;
+    }
+    buffers.push_back(std::make_shared<Bytes>());
+    return buffers.back();
   }
-  bool foldedAway() const { return pos < 2 * extra && pos % 2 == 1; }
-  int virtualPos() const { return pos < 2 * extra ? pos / 2 : pos - extra; }
-  int rankAt(int v) const { return v < extra ? frontToBack[size_t(2 * v)] : frontToBack[size_t(v + extra)]; }
 };
 
-// What a rank holds while compositing: its frame, the rectangle of it that carries anything, and its region.
-struct Piece {
-  image::ImageF image;
-  PixelRect active, region;
-};
-
-// Receives a piece lying in `region` from `from` and joins it into `piece` (received in front or behind).
-void joinReceived(Exchange& ex, Piece& piece, const Buffer& buffer, const PixelRect& region, int from,
-                  bool receivedInFront) {
-  PixelRect rect = messageRect(buffer, region, ex.options.encoding, from);
-  ex.stats.bytesReceived += messageBytes(rect, ex.options.encoding);
-  blend(piece.image, buffer, rect, ex.options.encoding, receivedInFront);
-  piece.active = unite(piece.active, rect);
+Workspace& workspace() {
+  thread_local Workspace space;
+  return space;
 }
 
-// The fold: of each of the first `extra` pairs of neighbours in visibility order, the back one hands its frame to
-// the front one.
-void fold(Exchange& ex, const Layout& layout, Piece& piece) {
-  if (layout.pos >= 2 * layout.extra) return;
-  const int tag = ex.options.tag;
-  if (layout.foldedAway()) {
-    exchange(ex, piece.image, layout.frontToBack[size_t(layout.pos - 1)], piece.active, -1, {}, tag,
-             "the folded frame");
-    return;
-  }
-  int from = layout.frontToBack[size_t(layout.pos + 1)];
-  auto buffer = exchange(ex, piece.image, -1, {}, from, piece.region, tag, "the folded frame");
-  joinReceived(ex, piece, *buffer, piece.region, from, false);
-}
-
-// Binary swap: in the round of `bit`, groups of `bit` neighbours pair up; the nearer group keeps the first half.
-void swap(Exchange& ex, const Layout& layout, Piece& piece) {
-  const int virtualPos = layout.virtualPos();
-  for (int bit = 1; bit < layout.powerOfTwo; bit <<= 1) {
-    int partnerPos = virtualPos ^ bit;
-    int partner = layout.rankAt(partnerPos);
-    bool nearer = virtualPos < partnerPos;
-    auto [first, second] = halves(piece.region);
-    PixelRect kept = nearer ? first : second;
-    PixelRect given = nearer ? second : first;
-    auto buffer = exchange(ex, piece.image, partner, intersect(piece.active, given), partner, kept, ex.options.tag + 1,
-                           "a swapped half");
-    piece.active = intersect(piece.active, kept);
-    piece.region = kept;
-    joinReceived(ex, piece, *buffer, kept, partner, !nearer);
-  }
-}
-
-// The gather on rank 0: its own region (if it kept one) and every other region of the finished frame.
-image::ImageF gather(Exchange& ex, const Layout& layout, const Piece* own, int width, int height) {
-  image::ImageF result{width, height, std::vector<float>(size_t(width) * size_t(height) * 4, 0.0f)};
-  const PixelRect whole{0, 0, width, height};
-  if (own) {
-    PixelRect rect = intersect(own->active, own->region);
-    for (int y = rect.y0; y < rect.y1; ++y) {
-      std::memcpy(result.pixel(rect.x0, y), own->image.pixel(rect.x0, y), size_t(rect.x1 - rect.x0) * 16);
+// Waits until a message from each of `peers` with `tag` has arrived and returns their sizes in bytes, polling with
+// MPI_Iprobe against the deadline (as Transfers waits): the size of a run-length encoded piece is not known before.
+std::vector<size_t> probeSizes(MPI_Comm comm, const std::vector<int>& peers, int tag, double timeoutSeconds,
+                               const char* what) {
+  std::vector<size_t> sizes(peers.size(), 0);
+  std::vector<bool> found(peers.size(), false);
+  size_t left = peers.size();
+  const auto deadline = Clock::now() + std::chrono::duration<double>(timeoutSeconds);
+  int idle = 0;
+  while (left > 0) {
+    bool progressed = false;
+    for (size_t i = 0; i < peers.size(); ++i) {
+      if (found[i]) continue;
+      int flag = 0;
+      MPI_Status status;
+      const int code = MPI_Iprobe(peers[i], tag, comm, &flag, &status);
+      if (code != MPI_SUCCESS) {
+        throw PeerError(peers[i], std::string("receiving ") + what + " from rank " + std::to_string(peers[i]) +
+                                      " failed: " + mpiErrorText(code));
+      }
+      if (!flag) continue;
+      int count = 0;
+      MPI_Get_count(&status, MPI_BYTE, &count);
+      sizes[i] = size_t(count);
+      found[i] = true;
+      --left;
+      progressed = true;
+    }
+    if (left == 0) break;
+    if (progressed) {
+      idle = 0;
+    } else if (Clock::now() > deadline) {
+      for (size_t i = 0; i < peers.size(); ++i) {
+        if (found[i]) continue;
+        throw PeerError(peers[i], "rank " + std::to_string(peers[i]) + " did not answer within " +
+                                      std::to_string(int(timeoutSeconds * 1000)) + " ms (receiving " + what + ")");
+      }
+    } else if (++idle < 64) {  // a few yields first, then short sleeps for an oversubscribed machine's other ranks
+      sched_yield();
+    } else {
+      std::this_thread::sleep_for(std::chrono::microseconds(idle < 1024 ? 20 : 200));
     }
   }
-  Transfers transfers(ex.comm, ex.options.timeoutSeconds);
-  std::vector<std::pair<int, std::shared_ptr<Buffer>>> pieces;
-  for (int v = 0; v < layout.powerOfTwo; ++v) {
-    int from = layout.rankAt(v);
-    if (from == 0) continue;
-    auto buffer = std::make_shared<Buffer>(messageBytes(whole, ex.options.encoding));
-    transfers.receive(from, ex.options.tag + 2, buffer->data(), buffer->size(), buffer, "a finished region");
-    pieces.emplace_back(from, buffer);
+  return sizes;
+}
+
+struct Context {
+  MPI_Comm comm;
+  const CompositeOptions& options;
+  const Plan& plan;
+  CompositeStats& stats;
+  Workspace& space;
+};
+
+// A received piece, checked: a piece that is not the range due is the sender's fault, named by rank.
+void checkFrom(int from, std::span<const uint8_t> message, const Range& due, PixelEncoding encoding) {
+  try {
+    checkRunsMessage(message, due.begin, due.end, encoding);
+  } catch (const std::runtime_error& error) {
+    throw PeerError(from, "rank " + std::to_string(from) + " sent a piece that was not due: " + error.what());
+  }
+}
+
+// Sends `messages` (one per peer in `to`), then receives one run-length encoded message from each of `from` and
+// returns them, all against the deadline.
+std::vector<std::shared_ptr<Bytes>> exchange(Context& c, const std::vector<int>& to,
+                                             const std::vector<std::shared_ptr<Bytes>>& messages,
+                                             const std::vector<int>& from, int tag, const char* what) {
+  Transfers transfers(c.comm, c.options.timeoutSeconds);
+  for (size_t i = 0; i < to.size(); ++i) {
+    transfers.send(to[i], tag, messages[i]->data(), messages[i]->size(), messages[i], what);
+    c.stats.bytesSent += messages[i]->size();
+  }
+  std::vector<std::shared_ptr<Bytes>> received;
+  const std::vector<size_t> sizes = probeSizes(c.comm, from, tag, c.options.timeoutSeconds, what);
+  for (size_t i = 0; i < from.size(); ++i) {
+    auto buffer = c.space.buffer();
+    received.push_back(buffer);  // held here, so that buffer() hands out another one next
+    buffer->clear();
+    buffer->extend(sizes[i]);
+    transfers.receive(from[i], tag, buffer->data(), sizes[i], buffer, what);
+    c.stats.bytesReceived += sizes[i];
   }
   transfers.wait();
-  if (!pieces.empty()) ++ex.stats.rounds;
-  for (auto& [from, buffer] : pieces) {
-    PixelRect rect = messageRect(*buffer, whole, ex.options.encoding, from);
-    ex.stats.bytesReceived += messageBytes(rect, ex.options.encoding);
-    blend(result, *buffer, rect, ex.options.encoding, true);  // over zeros: a copy
+  ++c.stats.rounds;
+  return received;
+}
+
+// One radix-k round: the group (the positions differing from this one in this round's digit only) splits the
+// region into k pieces; each member keeps the piece of its digit, sends every other piece of its runs to the member
+// keeping it, and joins the k versions of its own piece in the members' visibility order.
+// In the first round the rank's pixels are still its dense partial frame (`dense`): the pieces are packed and its
+// own piece joined straight from it, so that the frame is read once and no pixel is copied that is not sent or kept.
+void radixRound(Context& c, size_t round, Range& region, const image::ImageF* dense) {
+  const Plan& plan = c.plan;
+  const int k = plan.factors[round], stride = plan.stride(round), digit = plan.digit(plan.position, round);
+  const int base = plan.position - digit * stride;
+  std::vector<int> peers;
+  std::vector<std::shared_ptr<Bytes>> messages;
+  for (int j = 0; j < k; ++j) {
+    if (j == digit) continue;
+    peers.push_back(plan.rankAt(base + j * stride));
+    const Range piece = pieceOf(region, j, k);
+    auto message = c.space.buffer();
+    messages.push_back(message);
+    if (dense) {
+      packRuns(*dense, piece.begin, piece.end, c.options.encoding, *message, c.options.kernels);
+    } else {
+      packRuns(c.space.own, piece.begin, piece.end, c.options.encoding, *message, c.options.kernels);
+    }
   }
+  const auto received = exchange(c, peers, messages, peers, c.options.tag + 1, "a piece of a frame");
+  const Range kept = pieceOf(region, digit, k);
+  // Front to back: member j's piece (the received one, or this rank's own) joined under what is before it. This
+  // rank's piece is read where it lies: its dense frame in the first round, its runs after.
+  Workspace& space = c.space;
+  auto source = [&](int j) -> PixelSource {
+    if (j == digit) return dense ? PixelSource(dense) : PixelSource(&space.own);
+    const int peer = j < digit ? j : j - 1;
+    const auto& message = *received[size_t(peer)];
+    const std::span<const uint8_t> bytes(message.data(), message.size());
+    checkFrom(peers[size_t(peer)], bytes, kept, c.options.encoding);
+    return PixelMessage{bytes, c.options.encoding};  // read in place, converted as it is joined
+  };
+  PixelSource front = source(0);
+  for (int j = 1; j < k; ++j) {
+    overRuns(front, source(j), kept.begin, kept.end, space.scratch, c.options.kernels);
+    std::swap(space.joined, space.scratch);  // the buffers move, nothing is copied
+    front = &space.joined;
+  }
+  std::swap(space.own, space.joined);
+  region = kept;
+}
+
+// The rounds, from this rank's partial frame to its final region's runs in space.own (at least one round); returns
+// that region.
+Range runRounds(Context& c, const image::ImageF& partial) {
+  Range region{0, c.plan.pixels};
+  for (size_t round = 0; round < c.plan.factors.size(); ++round) {
+    radixRound(c, round, region, round == 0 ? &partial : nullptr);
+  }
+  return region;
+}
+
+// The participants other than the root, with their final regions.
+std::vector<std::pair<int, Range>> othersFinal(const Plan& plan) {
+  std::vector<std::pair<int, Range>> others;
+  for (int p = 0; p < plan.parts(); ++p) {
+    if (plan.rankAt(p) != plan.root) others.emplace_back(plan.rankAt(p), plan.region(p, plan.factors.size()));
+  }
+  return others;
+}
+
+template <typename Result, typename Body>
+Result timed(CompositeStats* statsOut, Body body) {
+  const auto start = Clock::now();
+  CompositeStats stats;
+  Result result = body(stats);
+  stats.ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  if (statsOut) *statsOut = stats;
   return result;
 }
 
@@ -240,35 +321,114 @@ image::ImageF gather(Exchange& ex, const Layout& layout, const Piece* own, int w
 
 image::ImageF composite(MPI_Comm comm, image::ImageF partial, const std::vector<int>& frontToBack,
                         const CompositeOptions& options, CompositeStats* statsOut) {
-  auto start = std::chrono::steady_clock::now();
-  int size = 0, rank = 0;
-  MPI_Comm_size(comm, &size);
-  MPI_Comm_rank(comm, &rank);
-  checkOrder(frontToBack, size, rank);
-  if (partial.rgba.size() != size_t(partial.width) * size_t(partial.height) * 4) {
-    throw std::invalid_argument("partial frame's pixels do not match its size");
-  }
-  CompositeStats stats;
-  image::ImageF result;
-  if (frontToBack.size() == 1) {
-    result = std::move(partial);  // nothing to exchange: the frame is the part
-  } else {
-    Exchange ex{comm, options, stats};
-    const Layout layout(frontToBack, rank);
-    const int width = partial.width, height = partial.height;
-    const PixelRect active = render::activeRect(partial);
-    Piece piece{std::move(partial), active, {0, 0, width, height}};
-    fold(ex, layout, piece);
-    const bool inSwap = !layout.foldedAway();
-    if (inSwap) swap(ex, layout, piece);
-    if (inSwap && rank != 0) {
-      exchange(ex, piece.image, 0, intersect(piece.active, piece.region), -1, {}, options.tag + 2, "a finished region");
+  return timed<image::ImageF>(statsOut, [&](CompositeStats& stats) -> image::ImageF {
+    const Plan plan = makePlan(comm, partial, frontToBack, options);
+    if (plan.parts() == 1) return std::move(partial);  // nothing to exchange: the frame is the part
+    Context c{comm, options, plan, stats, workspace()};
+    const Range region = runRounds(c, partial);
+    const int tag = options.tag + 2;
+    if (plan.self != plan.root) {
+      auto message = c.space.buffer();
+      packRuns(c.space.own, region.begin, region.end, options.encoding, *message, options.kernels);
+      exchange(c, {plan.root}, {message}, {}, tag, "a finished region");
+      return {};
     }
-    if (rank == 0) result = gather(ex, layout, inSwap ? &piece : nullptr, width, height);
+    // The root: its own region, then every other one at its place over zeros.
+    image::ImageF frame{partial.width, partial.height, std::vector<float>(size_t(plan.pixels) * 4, 0.0f)};
+    scatterRuns(c.space.own, frame);
+    const auto others = othersFinal(plan);
+    std::vector<int> from;
+    for (const auto& other : others) from.push_back(other.first);
+    const auto received = exchange(c, {}, {}, from, tag, "a finished region");
+    for (size_t i = 0; i < others.size(); ++i) {
+      const std::span<const uint8_t> bytes(received[i]->data(), received[i]->size());
+      checkFrom(others[i].first, bytes, others[i].second, options.encoding);
+      unpackRuns(bytes, options.encoding, c.space.piece, options.kernels);
+      scatterRuns(c.space.piece, frame);
+    }
+    return frame;
+  });
+}
+
+void compositeFinished(MPI_Comm comm, const image::ImageF& partial, const std::vector<int>& frontToBack,
+                       const render::SceneView& view, image::Image8& frame, const CompositeOptions& options,
+                       CompositeStats* statsOut) {
+  timed<int>(statsOut, [&](CompositeStats& stats) {
+    const Plan plan = makePlan(comm, partial, frontToBack, options);
+    const int tag = options.tag + 3;
+    // The frame's pixels are held by a shared pointer while a transfer may write them: one abandoned after a failure
+    // keeps them (and the caller's frame is left empty).
+    auto rgba = std::make_shared<std::vector<uint8_t>>();
+    if (plan.self == plan.root) {
+      std::swap(*rgba, frame.rgba);
+      rgba->resize(size_t(plan.pixels) * 4);  // the storage of the caller's last frame, when it has the size
+    }
+    frame = {};
+    if (plan.parts() == 1) {
+      finishRuns(partial, 0, plan.pixels, view, rgba->data(), options.kernels);
+      frame = {partial.width, partial.height, std::move(*rgba)};
+      return 0;
+    }
+    Context c{comm, options, plan, stats, workspace()};
+    const Range region = runRounds(c, partial);
+    if (plan.self != plan.root) {
+      auto message = c.space.buffer();
+      message->clear();
+      finishRuns(c.space.own, view, message->extend(size_t(region.size()) * 4), options.kernels);
+      Transfers transfers(comm, options.timeoutSeconds);
+      transfers.send(plan.root, tag, message->data(), message->size(), message, "a finished region");
+      stats.bytesSent += message->size();
+      transfers.wait();
+      ++stats.rounds;
+      return 0;
+    }
+    // The root finishes its own region in place and receives the others' straight into theirs.
+    finishRuns(c.space.own, view, rgba->data() + size_t(region.begin) * 4, options.kernels);
+    Transfers transfers(comm, options.timeoutSeconds);
+    for (const auto& [from, range] : othersFinal(plan)) {
+      transfers.receive(from, tag, rgba->data() + size_t(range.begin) * 4, size_t(range.size()) * 4, rgba,
+                        "a finished region");
+      stats.bytesReceived += size_t(range.size()) * 4;
+    }
+    transfers.wait();
+    ++stats.rounds;
+    frame = {partial.width, partial.height, std::move(*rgba)};
+    return 0;
+  });
+}
+
+image::Image8 compositeFinished(MPI_Comm comm, const image::ImageF& partial, const std::vector<int>& frontToBack,
+                                const render::SceneView& view, const CompositeOptions& options,
+                                CompositeStats* stats) {
+  image::Image8 frame;
+  compositeFinished(comm, partial, frontToBack, view, frame, options, stats);
+  return frame;
+}
+
+std::vector<int> radixFactors(int ranks) {
+  if (ranks < 1) throw std::invalid_argument("radixFactors: " + std::to_string(ranks) + " ranks");
+  if (ranks == 1) return {};
+  // Measured for 2 to 8 ranks (bench/results/mpi/mpi.md, every ordered factorisation, on one machine): one round
+  // of k = N was the fastest at 2048² for every count (at 1024² the order changed from run to run), and it rounds
+  // each pixel to half floats least often.
+  if (ranks <= 8) return {ranks};
+  // Beyond: the prime factors, largest first, joined into rounds while k stays <= 8; a larger prime is one round.
+  std::vector<int> primes;
+  int rest = ranks;
+  for (int p = 2; p * p <= rest; ++p) {
+    while (rest % p == 0) primes.push_back(p), rest /= p;
   }
-  stats.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  if (statsOut) *statsOut = stats;
-  return result;
+  if (rest > 1) primes.push_back(rest);
+  std::sort(primes.rbegin(), primes.rend());
+  std::vector<int> factors;
+  for (int p : primes) {
+    if (!factors.empty() && factors.back() * p <= 8) {
+      factors.back() *= p;
+    } else {
+      factors.push_back(p);
+    }
+  }
+  return factors;
 }
 
 PixelEncoding parsePixelEncoding(const std::string& name) {

@@ -38,8 +38,7 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
   const int index = group.indexOf(mRank);
   if (index < 0) throw std::invalid_argument("rank " + std::to_string(mRank) + " is not a member of the group");
   const render::SortLastParts& parts = partition(dataset, group.size());
-  std::vector<int> order;  // the members, nearest part first
-  for (int part : parts.frontToBack(scene)) order.push_back(group.members[size_t(part)]);
+  const std::vector<int> order = parts.frontToBack(scene);  // the parts, nearest first: member i draws part i
   render::FrameOptions partOptions = options;
   parts.select(index, partOptions);
   partOptions.keepReducedSize = true;  // an interactive frame is composited at the size it was drawn
@@ -65,8 +64,19 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
   const double drawMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - drawStart).count();
   CompositeOptions compositeOptions = mOptions.composite;
   compositeOptions.tag = group.tag(kCompositeTags);
+  compositeOptions.ranks = group.members;
+  compositeOptions.root = 0;
   CompositeStats composited;
-  image::ImageF whole = composite(group.comm, std::move(partial), order, compositeOptions, &composited);
+  // Finished to 8 bits by each member over the background, its region straight into rank 0's frame; an interactive
+  // frame drawn reduced is composited at that size as floats, finished and scaled up once on rank 0, as one process
+  // scales its reduced frame.
+  const bool reduced = partial.width != scene.width || partial.height != scene.height;
+  image::Image8 finished8;
+  image::ImageF whole;
+  if (reduced)
+    whole = composite(group.comm, std::move(partial), order, compositeOptions, &composited);
+  else
+    compositeFinished(group.comm, partial, order, scene, finished8, compositeOptions, &composited);
   // Every member's figures to rank 0 only.
   const store::CacheStats cache = dataset->cacheStats();
   std::ostringstream record;
@@ -103,22 +113,23 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
                        {"host_cache_budget_bytes", budget},
                        {"gpu_peak_bytes", peakGpu}});
   }
+  std::vector<int> nearestFirst;  // the members drawing the parts, nearest first
+  for (int part : order) nearestFirst.push_back(group.members[size_t(part)]);
   own.distributed = {{"ranks", group.size()},
                      {"members", group.members},
                      {"epoch", group.epoch},
                      {"lost_ranks", lost},
                      {"encoding", pixelEncodingName(mOptions.composite.encoding)},
-                     {"front_to_back", order},
-                     {"composited_width", whole.width},
-                     {"composited_height", whole.height},
+                     {"front_to_back", nearestFirst},
+                     {"composited_width", reduced ? whole.width : finished8.width},
+                     {"composited_height", reduced ? whole.height : finished8.height},
                      {"compositing_ms", composited.ms},
                      {"bytes_exchanged", totalBytes},
                      {"per_rank", perRank}};
   if (stats) *stats = own;
+  if (!reduced) return image::toImageF(finished8);  // exactly the 8-bit values the frame keeps
   image::ImageF finished = render::finishPartial(whole, scene);
-  if (finished.width != scene.width || finished.height != scene.height)
-    finished = render::scaleBilinear(finished, scene.width, scene.height);
-  return finished;
+  return render::scaleBilinear(finished, scene.width, scene.height);
 }
 
 }  // namespace voxbrick::distributed
