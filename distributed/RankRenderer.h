@@ -1,7 +1,8 @@
 // One sort-last frame across a group of ranks (Cluster.h's RankGroup): every member draws its part of a dataset with
-// its own RenderEngine (FrameOptions::part, the parts its kind's driver splits it into, one per member), the partial
-// frames are composited in the parts' front-to-back order (Compositor.h), and rank 0 finishes the frame over the
-// scene's background. Collective: every member calls render() with the same group, dataset and scene.
+// its own RenderEngine (FrameOptions::part or meshPart, the parts its kind's driver splits it into, one per member),
+// and the partial frames are composited in the parts' front-to-back order by radix-k (Compositor.h), each member
+// finishing its own region over the scene's background into rank 0's 8-bit frame. Collective: every member calls
+// render() with the same group, dataset and scene.
 #pragma once
 
 #include <mpi.h>
