@@ -98,6 +98,7 @@ std::optional<Command> receiveCommand(MPI_Comm comm, int epoch, double timeoutSe
   using Clock = std::chrono::steady_clock;
   const auto deadline = Clock::now() + std::chrono::duration<double>(std::max(timeoutSeconds, 0.0));
   int idle = 0;
+  uint32_t polls = 0;
   while (true) {
     int found = 0;
     MPI_Message message = MPI_MESSAGE_NULL;
@@ -117,8 +118,9 @@ std::optional<Command> receiveCommand(MPI_Comm comm, int epoch, double timeoutSe
     if (timeoutSeconds >= 0 && Clock::now() > deadline) {
       throw PeerError(0, "rank 0 did not send a command within " + std::to_string(int(timeoutSeconds * 1000)) + " ms");
     }
-    if (timeoutSeconds < 0 && stop && idle % 256 == 255 && stop()) return std::nullopt;
-    if (++idle < 64) {
+    if (timeoutSeconds < 0 && stop && ++polls % 256 == 0 && stop()) return std::nullopt;
+    if (idle < 1024) ++idle;
+    if (idle < 64) {
       sched_yield();
     } else {
       std::this_thread::sleep_for(std::chrono::microseconds(idle < 1024 ? 20 : 500));

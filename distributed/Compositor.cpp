@@ -123,8 +123,8 @@ Plan makePlan(MPI_Comm comm, const image::ImageF& partial, const std::vector<int
   plan.self = rank;
   const uint64_t pixels = uint64_t(std::max(partial.width, 0)) * uint64_t(std::max(partial.height, 0));
   if (partial.width < 0 || partial.height < 0 || partial.rgba.size() != pixels * 4) {
-    throw std::invalid_argument("partial frame's pixels do not match its size " + std::to_string(partial.width) +
-                                "x" + std::to_string(partial.height));
+    throw std::invalid_argument("partial frame's pixels do not match its size " + std::to_string(partial.width) + "x" +
+                                std::to_string(partial.height));
   }
   if (pixels > UINT32_MAX) throw std::invalid_argument("partial frame of " + std::to_string(pixels) + " pixels");
   plan.pixels = uint32_t(pixels);
@@ -136,7 +136,7 @@ Plan makePlan(MPI_Comm comm, const image::ImageF& partial, const std::vector<int
 // abandoned after a failure keeps its buffer, which MPI may still write).
 struct Workspace {
   PixelRuns own, joined, scratch;  // this rank's runs; the join's result and its next output
-  PixelRuns piece;                  // a received region unpacked (composite's float gather)
+  PixelRuns piece;                 // a received region unpacked (composite's float gather)
   std::vector<std::shared_ptr<Bytes>> buffers;
 
   // A buffer nobody else holds (the caller keeps it until it is done with it, so the next call gives another).
@@ -398,8 +398,7 @@ void compositeFinished(MPI_Comm comm, const image::ImageF& partial, const std::v
 }
 
 image::Image8 compositeFinished(MPI_Comm comm, const image::ImageF& partial, const std::vector<int>& frontToBack,
-                                const render::SceneView& view, const CompositeOptions& options,
-                                CompositeStats* stats) {
+                                const render::SceneView& view, const CompositeOptions& options, CompositeStats* stats) {
   image::Image8 frame;
   compositeFinished(comm, partial, frontToBack, view, frame, options, stats);
   return frame;

@@ -34,9 +34,7 @@ inline bool emptyQuad(const float* p) {
 struct Pixels {
   const void* data;
   bool half;
-  Pixels at(size_t pixel) const {
-    return {static_cast<const uint8_t*>(data) + pixel * (half ? 8 : 16), half};
-  }
+  Pixels at(size_t pixel) const { return {static_cast<const uint8_t*>(data) + pixel * (half ? 8 : 16), half}; }
 };
 
 inline void loadScalar(const Pixels& p, size_t pixel, float out[4]) {
@@ -63,8 +61,8 @@ void blendScalar(Pixels f, Pixels b, float* out, size_t count) {
 template <bool Half>
 __attribute__((target("avx2,f16c"))) inline __m256 loadTwo(const void* data, size_t pixel) {
   if constexpr (Half) {
-    return _mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(static_cast<const uint16_t*>(data) +
-                                                                             pixel * 4)));
+    return _mm256_cvtph_ps(
+        _mm_loadu_si128(reinterpret_cast<const __m128i*>(static_cast<const uint16_t*>(data) + pixel * 4)));
   } else {
     return _mm256_loadu_ps(static_cast<const float*>(data) + pixel * 4);
   }
@@ -204,9 +202,8 @@ class DenseReader {
 void checkFrame(const image::ImageF& frame, uint32_t begin, uint32_t end, const char* what) {
   const size_t pixels = size_t(frame.width) * size_t(frame.height);
   if (begin > end || end > pixels || frame.rgba.size() != pixels * 4) {
-    throw std::invalid_argument(std::string(what) + ": pixels [" + std::to_string(begin) + ", " +
-                                std::to_string(end) + ") do not lie in a frame of " + std::to_string(pixels) +
-                                " pixels");
+    throw std::invalid_argument(std::string(what) + ": pixels [" + std::to_string(begin) + ", " + std::to_string(end) +
+                                ") do not lie in a frame of " + std::to_string(pixels) + " pixels");
   }
 }
 
@@ -338,8 +335,8 @@ __attribute__((target("avx2,f16c"))) void finishFloats(const FinishParameters& f
     }
     const __m256 v = _mm256_add_ps(_mm256_mul_ps(o, scale), half);
     const __m256 fraction = _mm256_sub_ps(v, _mm256_floor_ps(v));
-    const __m256 doubtful = _mm256_or_ps(_mm256_cmp_ps(fraction, near, _CMP_LT_OQ),
-                                         _mm256_cmp_ps(fraction, far, _CMP_GT_OQ));
+    const __m256 doubtful =
+        _mm256_or_ps(_mm256_cmp_ps(fraction, near, _CMP_LT_OQ), _mm256_cmp_ps(fraction, far, _CMP_GT_OQ));
     if (_mm256_movemask_ps(doubtful) != 0 || _mm256_movemask_ps(_mm256_cmp_ps(v, v, _CMP_UNORD_Q)) != 0) {
       finishSimd(f, p + 4 * i, to + 4 * i, 2);
       continue;
@@ -566,16 +563,15 @@ void unpackRuns(std::span<const uint8_t> message, PixelEncoding encoding, PixelR
 
 void overRuns(const PixelRuns& front, const PixelRuns& back, PixelRuns& out, Kernels kernels) {
   if (front.begin != back.begin || front.end != back.end) {
-    throw std::invalid_argument("overRuns: ranges [" + std::to_string(front.begin) + ", " +
-                                std::to_string(front.end) + ") and [" + std::to_string(back.begin) + ", " +
-                                std::to_string(back.end) + ") differ");
+    throw std::invalid_argument("overRuns: ranges [" + std::to_string(front.begin) + ", " + std::to_string(front.end) +
+                                ") and [" + std::to_string(back.begin) + ", " + std::to_string(back.end) + ") differ");
   }
   overFrom(RunReader(front), RunReader(back), front.begin, front.end, out, kernels);
 }
 
 void overRuns(PixelSource front, PixelSource back, uint32_t begin, uint32_t end, PixelRuns& out, Kernels kernels) {
-  auto reader = [begin, end](PixelSource source)
-      -> std::variant<Clipped<RunReader>, DenseReader, Clipped<MessageReader>> {
+  auto reader = [begin,
+                 end](PixelSource source) -> std::variant<Clipped<RunReader>, DenseReader, Clipped<MessageReader>> {
     if (const auto* const* runs = std::get_if<const PixelRuns*>(&source)) {
       checkWithin(**runs, begin, end, "overRuns");
       return Clipped<RunReader>(RunReader(**runs), begin, end);
@@ -603,8 +599,8 @@ void finishRuns(const PixelRuns& in, const render::SceneView& view, uint8_t* out
   finishFrom(RunReader(in), in.begin, in.end, view, out, kernels);
 }
 
-void finishRuns(const image::ImageF& frame, uint32_t begin, uint32_t end, const render::SceneView& view,
-                uint8_t* out, Kernels kernels) {
+void finishRuns(const image::ImageF& frame, uint32_t begin, uint32_t end, const render::SceneView& view, uint8_t* out,
+                Kernels kernels) {
   checkFrame(frame, begin, end, "finishRuns");
   finishFrom(DenseReader(frame, begin, end), begin, end, view, out, kernels);
 }

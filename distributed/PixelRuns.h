@@ -154,7 +154,7 @@ void scatterRuns(const PixelRuns& in, image::ImageF& frame);
 /// equals toImage8(render::finishPartial(frame, scene)).
 void finishRuns(const PixelRuns& in, const render::SceneView& view, uint8_t* out, Kernels kernels = Kernels::Best);
 /// The same for pixels [begin, end) of a dense premultiplied frame.
-void finishRuns(const image::ImageF& frame, uint32_t begin, uint32_t end, const render::SceneView& view,
-                uint8_t* out, Kernels kernels = Kernels::Best);
+void finishRuns(const image::ImageF& frame, uint32_t begin, uint32_t end, const render::SceneView& view, uint8_t* out,
+                Kernels kernels = Kernels::Best);
 
 }  // namespace voxbrick::distributed

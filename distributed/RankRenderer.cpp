@@ -32,8 +32,8 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
                                    const render::FrameOptions& options, const nlohmann::json& lost) {
   if (!dataset) throw render::RenderInputError("no dataset");
   if (!render::driverFor(*dataset).sortsLast())
-    throw render::RenderInputError("the distributed mode draws grids and tetrahedral meshes only; '" +
-                                   dataset->name() + "' is a " + std::string(dataset->kind()) +
+    throw render::RenderInputError("the distributed mode draws grids and tetrahedral meshes only; '" + dataset->name() +
+                                   "' is a " + std::string(dataset->kind()) +
                                    ", which its driver does not split into parts");
   const int index = group.indexOf(mRank);
   if (index < 0) throw std::invalid_argument("rank " + std::to_string(mRank) + " is not a member of the group");

@@ -76,11 +76,6 @@ FrameLeader::~FrameLeader() {
   for (auto& late : mLate) abandonRequest(late.request, std::move(late.buffer));
 }
 
-std::vector<int> FrameLeader::members() const {
-  std::lock_guard lock(mMutex);
-  return mGroup.members;
-}
-
 render::RenderError FrameLeader::lose(const PeerError& error, const char* what) {
   mFailure = error.what();
   mSuspect = error.rank();

@@ -59,8 +59,6 @@ class FrameLeader {
   /// Tells every worker to leave (after the server has stopped and no frame is being drawn); a worker that does not
   /// take it within a second is left behind. Returns whether every rank was told and none was ever lost.
   bool quit();
-  /// The members drawing frames now (rank 0 first).
-  std::vector<int> members() const;
 
  private:
   struct LateAnswer;
@@ -75,7 +73,7 @@ class FrameLeader {
   MPI_Comm mComm;
   ServeRankOptions mOptions;
   int mWorldSize = 1;
-  mutable std::mutex mMutex;            // one frame at a time
+  std::mutex mMutex;                    // one frame at a time
   RankGroup mGroup;                     // the members and their epoch
   nlohmann::json mLost;                 // [{rank, reason}]: ranks not drawing now
   std::optional<std::string> mFailure;  // a rank lost since the last regroup: why

@@ -96,7 +96,7 @@ out=$(request blobs "$work/later2.png"); status=$?
 [ $status -eq 0 ] && same "$work/later2.png" > /dev/null; check "and the one after: $out" $?
 # Going on again, rank 2 answers the regroup it missed and is taken back.
 kill -CONT "$(cat "$work/r2/pid")"
-for _ in $(seq 1 20); do
+for _ in $(seq 1 40); do  # it first takes the frame command it missed, whose exchanges pass their deadline
   request blobs "$work/back.png" > /dev/null && [ "$(members "$work/back.png.json")" = "0,1,2 lost " ] && break
   sleep 0.5
 done
