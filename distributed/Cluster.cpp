@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <deque>
 #include <exception>
 #include <fstream>
 #include <optional>
@@ -96,6 +97,9 @@ void sendCommand(const RankGroup& group, const std::string& text, double timeout
 std::optional<Command> receiveCommand(MPI_Comm comm, int epoch, double timeoutSeconds,
                                       const std::function<bool()>& stop) {
   using Clock = std::chrono::steady_clock;
+  // Commands taken from rank 0 and not yet handed out, in order: everything waiting is taken before one is handed
+  // out, so that a rank that was stopped and goes on again skips the commands of an epoch rank 0 has since left.
+  thread_local std::deque<Command> ahead;
   const auto deadline = Clock::now() + std::chrono::duration<double>(std::max(timeoutSeconds, 0.0));
   int idle = 0;
   uint32_t polls = 0;
@@ -111,9 +115,17 @@ std::optional<Command> receiveCommand(MPI_Comm comm, int epoch, double timeoutSe
       std::string text(size_t(std::max(count, 0)), '\0');
       MPI_Mrecv(text.data(), count, MPI_BYTE, &message, MPI_STATUS_IGNORE);
       const auto [sentIn, kind] = RankGroup::epochAndKind(status.MPI_TAG);
-      if (sentIn >= epoch && kind == kCommandTag) return Command{std::move(text), sentIn};
-      idle = 0;  // left over from a frame given up: dropped
+      if (kind == kCommandTag) ahead.push_back(Command{std::move(text), sentIn});
+      idle = 0;  // anything else is left over from a frame given up: dropped
       continue;
+    }
+    // Nothing more waiting: the commands of the newest epoch taken (rank 0 left the earlier ones), in order.
+    const int newest = ahead.empty() ? epoch : std::max(epoch, ahead.back().epoch);
+    std::erase_if(ahead, [newest](const Command& c) { return c.epoch < newest; });
+    if (!ahead.empty()) {
+      Command command = std::move(ahead.front());
+      ahead.pop_front();
+      return command;
     }
     if (timeoutSeconds >= 0 && Clock::now() > deadline) {
       throw PeerError(0, "rank 0 did not send a command within " + std::to_string(int(timeoutSeconds * 1000)) + " ms");
