@@ -64,8 +64,11 @@ void split(const Box& box, int parts, std::vector<Box>& out) {
 
 // Density: a soft sphere (skin) around a few blobs; the transfer function keeps what is above 0.2.
 double density(const Vec& p) {
-  static const double blobs[][4] = {{-0.15, -0.1, 0.05, 0.16}, {0.18, 0.12, -0.1, 0.13}, {0.0, 0.2, 0.15, 0.1},
-                                    {-0.1, -0.22, -0.18, 0.11}, {0.2, -0.15, 0.2, 0.09}};
+  static const double blobs[][4] = {{-0.15, -0.1, 0.05, 0.16},
+                                    {0.18, 0.12, -0.1, 0.13},
+                                    {0.0, 0.2, 0.15, 0.1},
+                                    {-0.1, -0.22, -0.18, 0.11},
+                                    {0.2, -0.15, 0.2, 0.09}};
   const double r = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
   double d = std::exp(-std::pow((r - 0.42) / 0.03, 2)) * 0.45;
   for (const auto& b : blobs) {
@@ -154,19 +157,6 @@ uint64_t digest(const image::ImageF& image) {
   return h;
 }
 
-void factorisations(int n, std::vector<int>& prefix, std::vector<std::vector<int>>& out) {
-  if (n == 1) {
-    if (!prefix.empty()) out.push_back(prefix);
-    return;
-  }
-  for (int k = 2; k <= n; ++k) {
-    if (n % k) continue;
-    prefix.push_back(k);
-    factorisations(n / k, prefix, out);
-    prefix.pop_back();
-  }
-}
-
 std::string factorsText(const std::vector<int>& factors) {
   std::string text;
   for (size_t i = 0; i < factors.size(); ++i) text += (i ? "x" : "") + std::to_string(factors[i]);
@@ -234,19 +224,16 @@ int main(int argc, char** argv) {
   std::vector<std::vector<int>> choices{{}};
 #ifdef VOXBRICK_BENCH_RADIX_K
   const char* impl = "radix-k";
-  if (factorChoice == "all" && ranks > 1) {
-    std::vector<int> prefix;
-    choices.clear();
-    factorisations(ranks, prefix, choices);
-  }
+  if (factorChoice == "all" && ranks > 1) choices = distributed::radixFactorisations(ranks);
 #else
   const char* impl = "binary-swap";
 #endif
   render::Scene scene;
   scene.background = {0.1, 0.1, 0.15};
   if (rank == 0) {
-    std::printf("impl,ranks,size,encoding,factors,ms_median,ms_max,ms_composite_median,bytes_total,bytes_max_rank,"
-                "active_share,union_share,inputs\n");
+    std::printf(
+        "impl,ranks,size,encoding,factors,ms_median,ms_max,ms_composite_median,bytes_total,bytes_max_rank,"
+        "active_share,union_share,inputs\n");
   }
   for (int size : sizes) {
     const image::ImageF partial = partFrame(boxes[size_t(rank)], size);

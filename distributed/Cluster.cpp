@@ -1,8 +1,6 @@
 // MPI session, broadcasts, gathers and the dataset check across ranks (Cluster.h).
 #include "distributed/Cluster.h"
 
-#include <sched.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -13,10 +11,7 @@
 #include <fstream>
 #include <optional>
 #include <sstream>
-
-#include <nlohmann/json.hpp>
 #include <stdexcept>
-#include <thread>
 
 #include "common/Checksum.h"
 #include "render/core/RenderErrors.h"
@@ -131,12 +126,7 @@ std::optional<Command> receiveCommand(MPI_Comm comm, int epoch, double timeoutSe
       throw PeerError(0, "rank 0 did not send a command within " + std::to_string(int(timeoutSeconds * 1000)) + " ms");
     }
     if (timeoutSeconds < 0 && stop && ++polls % 256 == 0 && stop()) return std::nullopt;
-    if (idle < 1024) ++idle;
-    if (idle < 64) {
-      sched_yield();
-    } else {
-      std::this_thread::sleep_for(std::chrono::microseconds(idle < 1024 ? 20 : 500));
-    }
+    pauseBetweenPolls(idle);
   }
 }
 

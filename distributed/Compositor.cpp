@@ -1,14 +1,12 @@
 // Radix-k over run-length encoded pixel ranges in visibility order, then a gather to the root (Compositor.h).
 #include "distributed/Compositor.h"
 
-#include <sched.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <functional>
 #include <memory>
 #include <stdexcept>
-#include <thread>
 
 namespace voxbrick::distributed {
 namespace {
@@ -191,10 +189,8 @@ std::vector<size_t> probeSizes(MPI_Comm comm, const std::vector<int>& peers, int
         throw PeerError(peers[i], "rank " + std::to_string(peers[i]) + " did not answer within " +
                                       std::to_string(int(timeoutSeconds * 1000)) + " ms (receiving " + what + ")");
       }
-    } else if (++idle < 64) {  // a few yields first, then short sleeps for an oversubscribed machine's other ranks
-      sched_yield();
     } else {
-      std::this_thread::sleep_for(std::chrono::microseconds(idle < 1024 ? 20 : 200));
+      pauseBetweenPolls(idle);
     }
   }
   return sizes;
@@ -402,6 +398,26 @@ image::Image8 compositeFinished(MPI_Comm comm, const image::ImageF& partial, con
   image::Image8 frame;
   compositeFinished(comm, partial, frontToBack, view, frame, options, stats);
   return frame;
+}
+
+std::vector<std::vector<int>> radixFactorisations(int ranks) {
+  if (ranks < 1) throw std::invalid_argument("radixFactorisations: " + std::to_string(ranks) + " ranks");
+  std::vector<std::vector<int>> out;
+  std::vector<int> prefix;
+  const std::function<void(int)> extend = [&](int n) {
+    if (n == 1) {
+      if (!prefix.empty()) out.push_back(prefix);
+      return;
+    }
+    for (int k = 2; k <= n; ++k) {
+      if (n % k) continue;
+      prefix.push_back(k);
+      extend(n / k);
+      prefix.pop_back();
+    }
+  };
+  extend(ranks);
+  return out;
 }
 
 std::vector<int> radixFactors(int ranks) {

@@ -51,6 +51,10 @@ struct CompositeOptions {
 /// (64: 8x8). Empty for one rank. Throws std::invalid_argument for ranks < 1.
 std::vector<int> radixFactors(int ranks);
 
+/// Every ordered factorisation of `ranks` into factors >= 2 (radix-k's possible rounds; 2x3 and 3x2 both), none for
+/// one rank. Throws std::invalid_argument for ranks < 1.
+std::vector<std::vector<int>> radixFactorisations(int ranks);
+
 /// Joins the participating ranks' premultiplied partial frames (all the same size) in visibility order:
 /// `frontToBack[i]` is the part i-th nearest (an index into options.ranks; with every rank taking part, a rank), a
 /// permutation of 0..parts-1, the same on every participating rank. The root returns the whole premultiplied frame

@@ -23,17 +23,16 @@ std::vector<Abandoned>& abandoned() {
   return *list;
 }
 
-// Waits a little between polls: a few yields first (a reply usually comes within microseconds), then short sleeps so
-// that an oversubscribed machine's other ranks get the core.
-void pause(int& idle) {
-  if (++idle < 64) {
+}  // namespace
+
+void pauseBetweenPolls(int& idle) {
+  if (idle < 1024) ++idle;
+  if (idle < 64) {
     sched_yield();
   } else {
     std::this_thread::sleep_for(std::chrono::microseconds(idle < 1024 ? 20 : 200));
   }
 }
-
-}  // namespace
 
 std::string mpiErrorText(int code) {
   char text[MPI_MAX_ERROR_STRING];
@@ -111,7 +110,7 @@ void Transfers::wait() {
                                           (pending.sending ? "sending " : "receiving ") + pending.what + ")");
       }
     } else {
-      pause(idle);
+      pauseBetweenPolls(idle);
     }
   }
   mPending.clear();
@@ -144,7 +143,7 @@ std::vector<bool> Transfers::waitEach() {
     if (progressed) {
       idle = 0;
     } else {
-      pause(idle);
+      pauseBetweenPolls(idle);
     }
   }
   return done;  // the destructor abandons what is still pending

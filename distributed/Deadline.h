@@ -56,6 +56,11 @@ class Transfers {
   std::vector<Pending> mPending;
 };
 
+/// Waits a little between two polls of a transfer: a few yields first (a reply usually comes within microseconds),
+/// then short sleeps, so that an oversubscribed machine's other ranks get the core. `idle` counts the polls since the
+/// last progress (the caller sets it to 0 on progress).
+void pauseBetweenPolls(int& idle);
+
 /// Gives up a started request that may still complete: it and the buffer `keep` holds are kept until the process
 /// ends (MPI may still write into the buffer).
 void abandonRequest(MPI_Request request, std::shared_ptr<const void> keep);

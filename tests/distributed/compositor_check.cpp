@@ -78,20 +78,6 @@ int maxStepDifference(const image::Image8& a, const image::Image8& b) {
   return worst;
 }
 
-// Every ordered factorisation of n into factors >= 2 (radix-k's possible rounds).
-void factorisations(int n, std::vector<int>& prefix, std::vector<std::vector<int>>& out) {
-  if (n == 1) {
-    if (!prefix.empty()) out.push_back(prefix);
-    return;
-  }
-  for (int k = 2; k <= n; ++k) {
-    if (n % k) continue;
-    prefix.push_back(k);
-    factorisations(n / k, prefix, out);
-    prefix.pop_back();
-  }
-}
-
 std::string listText(const std::vector<int>& values) {
   std::string text;
   for (size_t i = 0; i < values.size(); ++i) text += (i ? "x" : "") + std::to_string(values[i]);
@@ -129,10 +115,8 @@ int runCases(int rank, int size) {
     if (part == ranks.end()) continue;                   // not taking part in this case
     const image::ImageF& own = frames[size_t(part - ranks.begin())];
     const image::ImageF reference = render::compositeSerial(frames, order);
-    std::vector<std::vector<int>> choices{{}}, more;
-    std::vector<int> prefix;
-    factorisations(parts, prefix, more);
-    choices.insert(choices.end(), more.begin(), more.end());
+    std::vector<std::vector<int>> choices{{}};
+    for (auto& factors : distributed::radixFactorisations(parts)) choices.push_back(std::move(factors));
     for (const auto& factors : choices) {
       for (auto encoding : {distributed::PixelEncoding::Float, distributed::PixelEncoding::Half}) {
         distributed::CompositeOptions options;
@@ -167,8 +151,8 @@ int runCases(int rank, int size) {
           std::fprintf(stderr,
                        "case %d (%dx%d, %s, %s, %d of %d ranks, root %d, factors %s): max difference %g (allowed %g), "
                        "8-bit steps %d, scalar %s SIMD\n",
-                       seed, width, height, dense ? "dense" : "sparse", distributed::pixelEncodingName(encoding),
-                       parts, size, root, listText(factors).c_str(), difference, tolerance, steps,
+                       seed, width, height, dense ? "dense" : "sparse", distributed::pixelEncodingName(encoding), parts,
+                       size, root, listText(factors).c_str(), difference, tolerance, steps,
                        bitwise ? "equals" : "differs from");
           ++failures;
         }
@@ -211,8 +195,7 @@ int runKernels() {
     const bool pairs = word(40) == 2 && word(44) == 2 && word(48) == 3 && word(52) == 1;
     if (distributed::kRunsHeaderBytes != 16 || message.size() != 56 ||
         distributed::runsMessageBytes(2, 3, distributed::PixelEncoding::Half) != 56 ||
-        distributed::runsMessageBytes(2, 3, distributed::PixelEncoding::Float) != 80 || !header || !pixels ||
-        !pairs) {
+        distributed::runsMessageBytes(2, 3, distributed::PixelEncoding::Float) != 80 || !header || !pixels || !pairs) {
       fail("the message layout moved");
     }
   }
@@ -349,7 +332,8 @@ int runKernels() {
       }
       std::vector<uint8_t> fromDense(size_t(pixels) * 4);
       distributed::finishRuns(expected, 0, pixels, scene, fromDense.data());
-      if (fromDense != finished.rgba) fail("finishing a dense frame differs from its runs, seed " + std::to_string(seed));
+      if (fromDense != finished.rgba)
+        fail("finishing a dense frame differs from its runs, seed " + std::to_string(seed));
     }
   }
   // Finishing near the rounding boundaries: channels whose output·255 + 0.5 is a whole number give or take a few

@@ -61,9 +61,10 @@ void expectTiles(const store::BrickStore& s, const Partition& p, int parts) {
 
 /// Whether `a` must be drawn before `b` for `view`: some axis plane separates them with `a` on the eye's side (for
 /// an orthographic view: the side the view comes from), none with `b` on it, and the eye is not between them on an
-/// axis (in either case no ray meets both).
-bool mustPrecede(const PartBox& a, const PartBox& b, const PartView& view) {
-  auto before = [&](const PartBox& x, const PartBox& y) {
+/// axis (in either case no ray meets both). For a grid's voxel boxes and a mesh's world boxes alike.
+template <typename Box>
+bool mustPrecede(const Box& a, const Box& b, const PartView& view) {
+  auto before = [&](const Box& x, const Box& y) {
     for (size_t c = 0; c < 3; ++c) {
       if (x.hi[c] <= y.lo[c] && (view.orthographic ? view.direction[c] > 0 : view.eye[c] < x.hi[c])) return true;
       if (y.hi[c] <= x.lo[c] && (view.orthographic ? view.direction[c] < 0 : view.eye[c] > x.lo[c])) return true;
@@ -250,7 +251,6 @@ TEST(Partition, ViewFollowsTheRenderersCamera) {
   }
 }
 
-
 // A mesh's partition -------------------------------------------------------------------------------------------------
 
 /// A mesh part's box as a closed world box clipped to `bounds` (its faces on the mesh's box are pushed out).
@@ -291,22 +291,6 @@ void expectMeshTiles(const MeshPartition& p, const Box& bounds, int parts) {
     }
   }
   EXPECT_NEAR(volume, e.x * e.y * e.z, 1e-9 * e.x * e.y * e.z) << "the boxes, disjoint, cover the mesh's box";
-}
-
-/// mustPrecede for world boxes (see above).
-bool meshMustPrecede(const MeshPartBox& a, const MeshPartBox& b, const PartView& view) {
-  auto before = [&](const MeshPartBox& x, const MeshPartBox& y) {
-    for (size_t c = 0; c < 3; ++c) {
-      if (x.hi[c] <= y.lo[c] && (view.orthographic ? view.direction[c] > 0 : view.eye[c] < x.hi[c])) return true;
-      if (y.hi[c] <= x.lo[c] && (view.orthographic ? view.direction[c] < 0 : view.eye[c] > x.lo[c])) return true;
-    }
-    return false;
-  };
-  bool between = false;
-  for (size_t c = 0; c < 3 && !view.orthographic; ++c)
-    between =
-        between || (a.hi[c] < view.eye[c] && view.eye[c] < b.lo[c]) || (b.hi[c] < view.eye[c] && view.eye[c] < a.lo[c]);
-  return before(a, b) && !before(b, a) && !between;
 }
 
 TEST(MeshPartition, BoxesTileTheMeshBalancedByCells) {
@@ -384,7 +368,7 @@ TEST(MeshPartition, DeterministicAndOrderedFrontToBack) {
       for (size_t i = 0; i < sorted.size(); ++i) ASSERT_EQ(sorted[i], int(i)) << "each part once";
       for (size_t i = 0; i < order.size(); ++i)
         for (size_t j = i + 1; j < order.size(); ++j)
-          EXPECT_FALSE(meshMustPrecede(p.boxes[size_t(order[j])], p.boxes[size_t(order[i])], view))
+          EXPECT_FALSE(mustPrecede(p.boxes[size_t(order[j])], p.boxes[size_t(order[i])], view))
               << parts << " parts, camera " << c << ": part " << order[j] << " hides part " << order[i]
               << " but comes after it";
     }
