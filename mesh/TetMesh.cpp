@@ -30,4 +30,22 @@ void EdgeLengths::add(const std::vector<glm::vec3>& points, const Tet& tet) {
   edges += 6;
 }
 
+std::vector<uint32_t> keepUsedPoints(TetMesh& part, const std::vector<glm::vec3>& points,
+                                     const std::vector<float>& scalars) {
+  std::vector<uint32_t> newIndex(points.size(), kNotKept);
+  for (const Tet& tet : part.tets)
+    for (const uint32_t v : tet) newIndex[v] = 0;
+  uint32_t used = 0;
+  for (uint32_t& n : newIndex)
+    if (n != kNotKept) n = used++;
+  part.points.resize(used);
+  part.scalars.resize(used);
+  for (size_t v = 0; v < points.size(); ++v)
+    if (newIndex[v] != kNotKept) {
+      part.points[newIndex[v]] = points[v];
+      part.scalars[newIndex[v]] = scalars[v];
+    }
+  return newIndex;
+}
+
 }  // namespace voxbrick::mesh

@@ -37,6 +37,14 @@ struct TetMesh {
   std::pair<float, float> scalarRange() const;
 };
 
+/// A part of a mesh whose tets still index the whole mesh's `points` and `scalars`: gives `part` the points its tets
+/// use, in the order of their index in the whole (so each tet's vertices keep their order, which the ray caster's
+/// walk relies on), and returns each whole-mesh point's index in the part (kNotKept for those left out). The caller
+/// renumbers the tets through it.
+std::vector<uint32_t> keepUsedPoints(TetMesh& part, const std::vector<glm::vec3>& points,
+                                     const std::vector<float>& scalars);
+inline constexpr uint32_t kNotKept = ~uint32_t(0);
+
 /// The lengths of tets' edges (six a tet), summed in the order the tets are added: the mean is a mesh's default
 /// reference length, the longest bounds a ray's segment in one tet. The same tets added in the same order give the
 /// same bits, whether from a whole mesh or chunk by chunk from a store.

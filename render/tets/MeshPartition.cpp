@@ -226,22 +226,8 @@ std::shared_ptr<const TetMeshData> cellsMeeting(const TetMeshData& data, const M
     }
     topology.neighbours.push_back(across);
   }
-  // The points the part uses, renumbered in their order (each cell's vertices keep their order, which the ray
-  // caster's walk relies on).
-  constexpr uint32_t kUnused = ~uint32_t(0);
-  std::vector<uint32_t> newPoint(m.points.size(), kUnused);
-  for (const mesh::Tet& tet : part.tets)
-    for (const uint32_t v : tet) newPoint[v] = 0;
-  uint32_t used = 0;
-  for (uint32_t& n : newPoint)
-    if (n != kUnused) n = used++;
-  part.points.resize(used);
-  part.scalars.resize(used);
-  for (size_t v = 0; v < m.points.size(); ++v)
-    if (newPoint[v] != kUnused) {
-      part.points[newPoint[v]] = m.points[v];
-      part.scalars[newPoint[v]] = m.scalars[v];
-    }
+  // The points the part uses, renumbered in their order.
+  const std::vector<uint32_t> newPoint = mesh::keepUsedPoints(part, m.points, m.scalars);
   for (mesh::Tet& tet : part.tets)
     for (uint32_t& v : tet) v = newPoint[v];
   for (uint32_t t = 0; t < uint32_t(kept); ++t)

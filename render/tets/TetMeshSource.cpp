@@ -126,23 +126,9 @@ std::shared_ptr<const TetMeshData> TetMeshSource::Paged::build(const std::vector
   }
   counters.bricksDecoded += chunks.size();
   counters.bytesDecoded += tets * 32;
-  // The points the part uses, renumbered in their order (so each tet's vertices keep their order, which the ray
-  // caster's walk relies on).
-  const std::vector<glm::vec3>& points = s.points();
-  constexpr uint32_t kUnused = ~uint32_t(0);
-  std::vector<uint32_t> newIndex(points.size(), kUnused);
-  for (const mesh::Tet& tet : part.tets)
-    for (const uint32_t v : tet) newIndex[v] = 0;
-  uint32_t used = 0;
-  for (uint32_t& n : newIndex)
-    if (n != kUnused) n = used++;
-  part.points.resize(used);
-  part.scalars.resize(used);
-  for (size_t v = 0; v < points.size(); ++v)
-    if (newIndex[v] != kUnused) {
-      part.points[newIndex[v]] = points[v];
-      part.scalars[newIndex[v]] = s.scalars()[v];
-    }
+  // The points the part uses, renumbered in their order.
+  const std::vector<uint32_t> newIndex = mesh::keepUsedPoints(part, s.points(), s.scalars());
+  const uint32_t used = uint32_t(part.points.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, part.tets.size(), 16384), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t t = r.begin(); t != r.end(); ++t)
       for (uint32_t& v : part.tets[t]) v = newIndex[v];
@@ -218,8 +204,8 @@ std::shared_ptr<const TetMeshData> TetMeshSource::wholePart(const MeshPartBox& b
   return mParts.back().second;
 }
 
-std::shared_ptr<const TetMeshData> TetMeshSource::frameData(const Scene& scene, const TetView& view,
-                                                            FrameStats* stats, const MeshPartBox* part) const {
+std::shared_ptr<const TetMeshData> TetMeshSource::frameData(const Scene& scene, const TetView& view, FrameStats* stats,
+                                                            const MeshPartBox* part) const {
   if (!mPaged) return part ? wholePart(*part) : mWhole;
   const auto start = Clock::now();
   const mesh::MeshStore& s = *mPaged->store;
