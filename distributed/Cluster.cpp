@@ -92,26 +92,33 @@ void sendCommand(const RankGroup& group, const std::string& text, double timeout
 std::optional<Command> receiveCommand(MPI_Comm comm, int epoch, double timeoutSeconds,
                                       const std::function<bool()>& stop) {
   using Clock = std::chrono::steady_clock;
-  // Commands taken from rank 0 and not yet handed out, in order: everything waiting is taken before one is handed
+  // Commands taken from rank 0 and not yet handed out, in order: every command waiting is taken before one is handed
   // out, so that a rank that was stopped and goes on again skips the commands of an epoch rank 0 has since left.
   thread_local std::deque<Command> ahead;
   const auto deadline = Clock::now() + std::chrono::duration<double>(std::max(timeoutSeconds, 0.0));
   int idle = 0;
   uint32_t polls = 0;
   while (true) {
+    // What waits first from rank 0: a command (taken, and the next one looked at), a message of an earlier epoch
+    // (dropped), or another message of this epoch. That one belongs to a frame whose command came before it (rank 0
+    // may be ahead: its pieces of the frame follow the command) and is left for it, unless no command was taken: then
+    // it is left over from a frame given up, and dropped.
     int found = 0;
-    MPI_Message message = MPI_MESSAGE_NULL;
-    MPI_Status status;
-    const int code = MPI_Improbe(0, MPI_ANY_TAG, comm, &found, &message, &status);
+    MPI_Status peeked;
+    int code = MPI_Iprobe(0, MPI_ANY_TAG, comm, &found, &peeked);
     if (code != MPI_SUCCESS) throw PeerError(0, "receiving a command from rank 0 failed: " + mpiErrorText(code));
-    if (found) {
+    const auto [sentIn, kind] = RankGroup::epochAndKind(found ? peeked.MPI_TAG : 0);
+    if (found && (kind == kCommandTag || sentIn < epoch || ahead.empty())) {
+      MPI_Message message = MPI_MESSAGE_NULL;
+      MPI_Status status;
+      code = MPI_Improbe(0, peeked.MPI_TAG, comm, &found, &message, &status);
+      if (code != MPI_SUCCESS) throw PeerError(0, "receiving a command from rank 0 failed: " + mpiErrorText(code));
       int count = 0;
       MPI_Get_count(&status, MPI_BYTE, &count);
       std::string text(size_t(std::max(count, 0)), '\0');
       MPI_Mrecv(text.data(), count, MPI_BYTE, &message, MPI_STATUS_IGNORE);
-      const auto [sentIn, kind] = RankGroup::epochAndKind(status.MPI_TAG);
       if (kind == kCommandTag) ahead.push_back(Command{std::move(text), sentIn});
-      idle = 0;  // anything else is left over from a frame given up: dropped
+      idle = 0;
       continue;
     }
     // Nothing more waiting: the commands of the newest epoch taken (rank 0 left the earlier ones), in order.

@@ -77,10 +77,11 @@ struct Command {
   int epoch = 0;
 };
 
-/// A rank other than 0 takes the next command rank 0 sent in epoch `epoch` or a later one: every message waiting
-/// from rank 0 is taken first, and only the newest epoch's commands are handed out, in order (a rank that was stopped
-/// skips those of an epoch rank 0 has left); anything else from rank 0 (a message of another kind, left by a frame
-/// given up) is taken and dropped. Waits up
+/// A rank other than 0 takes the next command rank 0 sent in epoch `epoch` or a later one: every command waiting
+/// from rank 0 is taken first, and only the newest epoch's are handed out, in order (a rank that was stopped skips
+/// those of an epoch rank 0 has left). A message of an earlier epoch is dropped, and so is one of this epoch of
+/// another kind that no command precedes (left by a frame given up); one that follows a command (rank 0 already
+/// sending that frame's pieces) is left for the frame. Waits up
 /// to `timeoutSeconds` (< 0: for ever, polling `stop` if given, which returns true to give up: then the result is
 /// empty). Throws PeerError naming rank 0 when the deadline passes.
 std::optional<Command> receiveCommand(MPI_Comm comm, int epoch, double timeoutSeconds,
