@@ -29,7 +29,8 @@ const render::SortLastParts& RankRenderer::partition(const std::shared_ptr<const
 
 image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr<const render::Dataset>& dataset,
                                    const render::Scene& scene, render::FrameStats* stats,
-                                   const render::FrameOptions& options, const nlohmann::json& lost) {
+                                   const render::FrameOptions& options, const nlohmann::json& lost,
+                                   image::Image8* frame8) {
   if (!dataset) throw render::RenderInputError("no dataset");
   if (!render::driverFor(*dataset).sortsLast())
     throw render::RenderInputError("the distributed mode draws grids and tetrahedral meshes only; '" + dataset->name() +
@@ -127,6 +128,10 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
                      {"bytes_exchanged", totalBytes},
                      {"per_rank", perRank}};
   if (stats) *stats = own;
+  if (!reduced && frame8) {
+    *frame8 = std::move(finished8);
+    return {};
+  }
   if (!reduced) return image::toImageF(finished8);  // exactly the 8-bit values the frame keeps
   image::ImageF finished = render::finishPartial(whole, scene);
   return render::scaleBilinear(finished, scene.width, scene.height);

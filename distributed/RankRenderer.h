@@ -38,11 +38,13 @@ class RankRenderer {
   /// compositing ms and bytes each sent and received: gathered to rank 0 only); other ranks return an empty image.
   /// An interactive scene is drawn reduced on every rank with the same choice, composited at the reduced size and
   /// scaled up once, on rank 0: `options.rateSamplesPerMs` and `fixedMs` must be the same on every rank (the caller
-  /// broadcasts rank 0's). Throws RenderInputError for a kind whose driver does not sort last, PeerError naming a
-  /// rank that failed or passed the deadline, and the engine's errors.
+  /// broadcasts rank 0's). With `frame8`, rank 0's exact frame goes there as the compositor made it, 8 bits, and
+  /// the float image returned is empty (an interactive frame, scaled up in floats, is still returned as floats).
+  /// Throws RenderInputError for a kind whose driver does not sort last, PeerError naming a rank that failed or
+  /// passed the deadline, and the engine's errors.
   image::ImageF render(const RankGroup& group, const std::shared_ptr<const render::Dataset>& dataset,
                        const render::Scene& scene, render::FrameStats* stats, const render::FrameOptions& options = {},
-                       const nlohmann::json& lost = nlohmann::json::array());
+                       const nlohmann::json& lost = nlohmann::json::array(), image::Image8* frame8 = nullptr);
 
   /// The dataset's parts, one per member of a group of `parts` ranks (DatasetDriver::partition, computed once per
   /// dataset and count).

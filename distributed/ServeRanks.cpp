@@ -175,7 +175,8 @@ void FrameLeader::regroupIfNeeded() {
 
 image::ImageF FrameLeader::frame(RankRenderer& renderer, double recentRate,
                                  const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene,
-                                 render::FrameStats* stats, const render::FrameOptions& options) {
+                                 render::FrameStats* stats, const render::FrameOptions& options,
+                                 image::Image8* frame8) {
   std::lock_guard lock(mMutex);
   regroupIfNeeded();
   if (mStopped)
@@ -195,7 +196,7 @@ image::ImageF FrameLeader::frame(RankRenderer& renderer, double recentRate,
   try {
     sendCommand(mGroup, command.dump(), timeout);
     agreeOnDataset(mGroup, dataset->name(), ownRecord(dataset->name()), timeout);
-    image::ImageF image = renderer.render(mGroup, dataset, scene, stats, frameOptionsOf(command), mLost);
+    image::ImageF image = renderer.render(mGroup, dataset, scene, stats, frameOptionsOf(command), mLost, frame8);
     if (stats) spdlog::debug("distributed frame: {}", stats->distributed.dump());
     return image;
   } catch (const PeerError& error) {
@@ -214,9 +215,19 @@ std::string SortLastSource::describe() const {
 
 image::ImageF SortLastSource::render(const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene,
                                      render::FrameStats* stats, const render::FrameOptions& options) {
-  if (!dataset || options.part || !render::driverFor(*dataset).sortsLast())
+  if (!dataset || options.part || options.meshPart || !render::driverFor(*dataset).sortsLast())
     return mEngine.render(dataset, scene, stats, options);
   return mLeader->frame(mRenderer, mEngine.recentRate(*dataset), dataset, scene, stats, options);
+}
+
+image::Image8 SortLastSource::render8(const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene,
+                                      render::FrameStats* stats, const render::FrameOptions& options) {
+  if (!dataset || options.part || options.meshPart || !render::driverFor(*dataset).sortsLast())
+    return mEngine.render8(dataset, scene, stats, options);
+  image::Image8 frame8;
+  image::ImageF image =
+      mLeader->frame(mRenderer, mEngine.recentRate(*dataset), dataset, scene, stats, options, &frame8);
+  return frame8.rgba.empty() ? image::toImage8(image) : std::move(frame8);
 }
 
 void SortLastSource::prefetch(const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene) {

@@ -50,8 +50,10 @@ class FrameLeader {
   /// every rank by options.rateSamplesPerMs, else by `recentRate` (rank 0's engine's), else the cheapest. After a
   /// lost rank the ranks regroup first (up to the deadline and 2 s more). Throws RenderError naming a rank lost
   /// during this frame.
+  /// With `frame8`: as RankRenderer::render's.
   image::ImageF frame(RankRenderer& renderer, double recentRate, const std::shared_ptr<const render::Dataset>& dataset,
-                      const render::Scene& scene, render::FrameStats* stats, const render::FrameOptions& options);
+                      const render::Scene& scene, render::FrameStats* stats, const render::FrameOptions& options,
+                      image::Image8* frame8 = nullptr);
   /// Every member opens `name` from its datasets directory and they compare it with rank 0's; throws
   /// RenderInputError naming a rank where it is missing or different, RenderError naming a rank lost meanwhile.
   /// Waits for a frame in progress.
@@ -94,6 +96,9 @@ class SortLastSource final : public render::FrameSource {
   std::string describe() const override;
   image::ImageF render(const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene,
                        render::FrameStats* stats = nullptr, const render::FrameOptions& options = {}) override;
+  /// The 8-bit frame as the compositor made it (no widening to floats and back).
+  image::Image8 render8(const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene,
+                        render::FrameStats* stats = nullptr, const render::FrameOptions& options = {}) override;
   /// Pages ahead for datasets drawn by rank 0 alone; a sort-last frame's parts lie on every rank, so none there.
   void prefetch(const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene) override;
   void checkDataset(const std::string& name) override { mLeader->checkDataset(name); }
