@@ -243,7 +243,7 @@ std::vector<std::shared_ptr<Bytes>> exchange(Context& c, const std::vector<int>&
 // keeping it, and joins the k versions of its own piece in the members' visibility order.
 // In the first round the rank's pixels are still its dense partial frame (`dense`): the pieces are packed and its
 // own piece joined straight from it, so that the frame is read once and no pixel is copied that is not sent or kept.
-void radixRound(Context& c, size_t round, Range& region, const image::ImageF* dense) {
+void radixRound(Context& c, size_t round, Range& region, const DenseFrame* dense) {
   const Plan& plan = c.plan;
   const int k = plan.factors[round], stride = plan.stride(round), digit = plan.digit(plan.position, round);
   const int base = plan.position - digit * stride;
@@ -263,15 +263,19 @@ void radixRound(Context& c, size_t round, Range& region, const image::ImageF* de
   }
   const auto received = exchange(c, peers, messages, peers, c.options.tag + 1, "a piece of a frame");
   const Range kept = pieceOf(region, digit, k);
+  c.stats.pixelsHandled += dense ? dense->pixelsWithin(region.begin, region.end) : c.space.own.activePixels();
   // Front to back: member j's piece (the received one, or this rank's own) joined under what is before it. This
   // rank's piece is read where it lies: its dense frame in the first round, its runs after.
   Workspace& space = c.space;
   auto source = [&](int j) -> PixelSource {
-    if (j == digit) return dense ? PixelSource(dense) : PixelSource(&space.own);
+    if (j == digit) return dense ? PixelSource(*dense) : PixelSource(&space.own);
     const int peer = j < digit ? j : j - 1;
     const auto& message = *received[size_t(peer)];
     const std::span<const uint8_t> bytes(message.data(), message.size());
     checkFrom(peers[size_t(peer)], bytes, kept, c.options.encoding);
+    uint32_t activeCount = 0;  // the header's, checked
+    std::memcpy(&activeCount, message.data() + 12, sizeof activeCount);
+    c.stats.pixelsHandled += activeCount;
     return PixelMessage{bytes, c.options.encoding};  // read in place, converted as it is joined
   };
   PixelSource front = source(0);
@@ -286,12 +290,18 @@ void radixRound(Context& c, size_t round, Range& region, const image::ImageF* de
 
 // The rounds, from this rank's partial frame to its final region's runs in space.own (at least one round); returns
 // that region.
-Range runRounds(Context& c, const image::ImageF& partial) {
+Range runRounds(Context& c, const DenseFrame& partial) {
   Range region{0, c.plan.pixels};
   for (size_t round = 0; round < c.plan.factors.size(); ++round) {
     radixRound(c, round, region, round == 0 ? &partial : nullptr);
   }
+  c.stats.pixelsHandled += region.size();  // finished or sent
   return region;
+}
+
+// The partial frame within the footprint the options give.
+DenseFrame denseOf(const image::ImageF& partial, const CompositeOptions& options) {
+  return options.footprint ? DenseFrame(partial, *options.footprint) : DenseFrame(partial);
 }
 
 // The participants other than the root, with their final regions.
@@ -319,9 +329,23 @@ image::ImageF composite(MPI_Comm comm, image::ImageF partial, const std::vector<
                         const CompositeOptions& options, CompositeStats* statsOut) {
   return timed<image::ImageF>(statsOut, [&](CompositeStats& stats) -> image::ImageF {
     const Plan plan = makePlan(comm, partial, frontToBack, options);
-    if (plan.parts() == 1) return std::move(partial);  // nothing to exchange: the frame is the part
+    if (plan.parts() == 1) {  // nothing to exchange: the frame is the part, empty outside its footprint
+      const DenseFrame dense = denseOf(partial, options);
+      const render::PixelRect& f = dense.footprint;
+      for (int y = 0; y < partial.height; ++y) {
+        float* row = partial.pixel(0, y);
+        if (y < f.y0 || y >= f.y1) {
+          std::fill(row, row + size_t(partial.width) * 4, 0.0f);
+          continue;
+        }
+        std::fill(row, row + size_t(f.x0) * 4, 0.0f);
+        std::fill(row + size_t(f.x1) * 4, row + size_t(partial.width) * 4, 0.0f);
+      }
+      stats.pixelsHandled = uint64_t(f.pixels());
+      return std::move(partial);
+    }
     Context c{comm, options, plan, stats, workspace()};
-    const Range region = runRounds(c, partial);
+    const Range region = runRounds(c, denseOf(partial, options));
     const int tag = options.tag + 2;
     if (plan.self != plan.root) {
       auto message = c.space.buffer();
@@ -360,13 +384,15 @@ void compositeFinished(MPI_Comm comm, const image::ImageF& partial, const std::v
       rgba->resize(size_t(plan.pixels) * 4);  // the storage of the caller's last frame, when it has the size
     }
     frame = {};
+    const DenseFrame dense = denseOf(partial, options);
     if (plan.parts() == 1) {
-      finishRuns(partial, 0, plan.pixels, view, rgba->data(), options.kernels);
+      finishRuns(dense, 0, plan.pixels, view, rgba->data(), options.kernels);
+      stats.pixelsHandled = dense.pixelsWithin(0, plan.pixels) + plan.pixels;
       frame = {partial.width, partial.height, std::move(*rgba)};
       return 0;
     }
     Context c{comm, options, plan, stats, workspace()};
-    const Range region = runRounds(c, partial);
+    const Range region = runRounds(c, dense);
     if (plan.self != plan.root) {
       auto message = c.space.buffer();
       message->clear();

@@ -9,6 +9,7 @@
 #include <mpi.h>
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,10 @@ struct CompositeStats {
   uint64_t bytesSent = 0;      ///< message bytes this rank sent (headers, runs and pixels)
   uint64_t bytesReceived = 0;  ///< message bytes this rank received
   int rounds = 0;              ///< exchanges this rank took part in (radix-k rounds, gather)
+  /// The pixels this rank handled: its partial frame's within the footprint (read once), the active pixels of every
+  /// piece it joined (received, and its own after the first round), and its final region's (finished or sent). What
+  /// the cost model charges a cost per pixel for (bench/mpi_model.py).
+  uint64_t pixelsHandled = 0;
 };
 
 struct CompositeOptions {
@@ -44,6 +49,9 @@ struct CompositeOptions {
   /// Radix-k's k for each round, their product the number of participating ranks; empty: radixFactors(that number).
   std::vector<int> factors;
   Kernels kernels = Kernels::Best;  ///< the portable scalar kernels on request (tests); the same results
+  /// The rectangle of this rank's partial frame that may hold anything (its part's projection on the screen,
+  /// SortLastParts::footprint): the pixels outside it are taken as empty without being read. None: the whole frame.
+  std::optional<render::PixelRect> footprint;
 };
 
 /// The k of each round radix-k uses by default for `ranks` participating ranks: for up to 8 ranks one round (k =

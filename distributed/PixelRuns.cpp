@@ -165,11 +165,21 @@ class RunReader {
   bool mDone = false;
 };
 
-// The active stretches of pixels [begin, end) of a dense frame, found as they are read (RunReader's interface).
+// The active stretches of pixels [begin, end) of a dense frame within its footprint, found as they are read
+// (RunReader's interface). Rows of the footprint that span the frame's width are read as one range, so that a
+// stretch crossing a row's end stays one.
 class DenseReader {
  public:
-  DenseReader(const image::ImageF& frame, uint32_t begin, uint32_t end)
-      : mRgba(frame.rgba.data()), mLimit(end), mStart(begin) {
+  DenseReader(const DenseFrame& dense, uint32_t begin, uint32_t end)
+      : mRgba(dense.frame->rgba.data()),
+        mWidth(uint32_t(dense.frame->width)),
+        mX0(uint32_t(dense.footprint.x0)),
+        mX1(uint32_t(dense.footprint.x1)),
+        mY0(uint32_t(dense.footprint.y0)),
+        mY1(uint32_t(dense.footprint.y1)),
+        mLimit(end),
+        mStart(begin) {
+    if (dense.footprint.empty()) mLimit = begin;
     find(begin);
   }
   bool done() const { return mDone; }
@@ -184,22 +194,37 @@ class DenseReader {
 
  private:
   void find(uint32_t i) {
-    while (i + 4 <= mLimit && emptyQuad(mRgba + size_t(i) * 4)) i += 4;
-    while (i < mLimit && emptyPixel(mRgba + size_t(i) * 4)) ++i;
-    if (i >= mLimit) {
-      mDone = true;
-      return;
+    for (;;) {
+      if (i >= mLimit) break;
+      // Into the footprint: the pixels read from i on end at `stop` (the row's footprint, or the footprint's last
+      // row when its rows span the frame).
+      const uint32_t y = i / mWidth, x = i - y * mWidth;
+      if (y >= mY1) break;
+      if (y < mY0 || x < mX0 || x >= mX1) {
+        const uint64_t row = y < mY0 ? mY0 : x < mX0 ? y : y + 1;
+        i = uint32_t(std::min<uint64_t>(row * mWidth + mX0, mLimit));
+        continue;
+      }
+      const uint32_t stop = std::min(mX0 == 0 && mX1 == mWidth ? mY1 * mWidth : y * mWidth + mX1, mLimit);
+      while (i + 4 <= stop && emptyQuad(mRgba + size_t(i) * 4)) i += 4;
+      while (i < stop && emptyPixel(mRgba + size_t(i) * 4)) ++i;
+      if (i < stop) {
+        mStart = i;
+        while (i < stop && !emptyPixel(mRgba + size_t(i) * 4)) ++i;
+        mEnd = i;
+        return;
+      }
     }
-    mStart = i;
-    while (i < mLimit && !emptyPixel(mRgba + size_t(i) * 4)) ++i;
-    mEnd = i;
+    mDone = true;
   }
   const float* mRgba;
+  uint32_t mWidth, mX0, mX1, mY0, mY1;
   uint32_t mLimit, mStart, mEnd = 0;
   bool mDone = false;
 };
 
-void checkFrame(const image::ImageF& frame, uint32_t begin, uint32_t end, const char* what) {
+void checkFrame(const DenseFrame& dense, uint32_t begin, uint32_t end, const char* what) {
+  const image::ImageF& frame = *dense.frame;
   const size_t pixels = size_t(frame.width) * size_t(frame.height);
   if (begin > end || end > pixels || frame.rgba.size() != pixels * 4) {
     throw std::invalid_argument(std::string(what) + ": pixels [" + std::to_string(begin) + ", " + std::to_string(end) +
@@ -490,7 +515,28 @@ MessageHeader readHeader(std::span<const uint8_t> message) {
 
 bool simdKernelsAvailable() { return kSimd; }
 
-void encodeRuns(const image::ImageF& frame, uint32_t begin, uint32_t end, PixelRuns& out) {
+DenseFrame::DenseFrame(const image::ImageF& partial, const render::PixelRect& within) : frame(&partial) {
+  footprint = {std::clamp(within.x0, 0, partial.width), std::clamp(within.y0, 0, partial.height),
+               std::clamp(within.x1, 0, partial.width), std::clamp(within.y1, 0, partial.height)};
+  if (footprint.empty()) footprint = {};
+}
+
+uint64_t DenseFrame::pixelsWithin(uint32_t begin, uint32_t end) const {
+  if (footprint.empty() || begin >= end) return 0;
+  // Per row of the footprint, the part of [x0, x1) whose pixel indices lie in [begin, end).
+  const uint64_t width = uint64_t(frame->width);
+  uint64_t total = 0;
+  const uint64_t firstRow = std::max<uint64_t>(uint64_t(footprint.y0), begin / width);
+  const uint64_t lastRow = std::min<uint64_t>(uint64_t(footprint.y1), (uint64_t(end) + width - 1) / width);
+  for (uint64_t y = firstRow; y < lastRow; ++y) {
+    const uint64_t lo = std::max<uint64_t>(y * width + uint64_t(footprint.x0), begin);
+    const uint64_t hi = std::min<uint64_t>(y * width + uint64_t(footprint.x1), end);
+    if (hi > lo) total += hi - lo;
+  }
+  return total;
+}
+
+void encodeRuns(const DenseFrame& frame, uint32_t begin, uint32_t end, PixelRuns& out) {
   checkFrame(frame, begin, end, "encodeRuns");
   sliceFrom(DenseReader(frame, begin, end), begin, end, out);
 }
@@ -505,7 +551,7 @@ void packRuns(const PixelRuns& in, uint32_t begin, uint32_t end, PixelEncoding e
   packFrom(RunReader(in), begin, end, encoding, out, kernels);
 }
 
-void packRuns(const image::ImageF& frame, uint32_t begin, uint32_t end, PixelEncoding encoding,
+void packRuns(const DenseFrame& frame, uint32_t begin, uint32_t end, PixelEncoding encoding,
               GrowingBuffer<uint8_t>& out, Kernels kernels) {
   checkFrame(frame, begin, end, "packRuns");
   packFrom(DenseReader(frame, begin, end), begin, end, encoding, out, kernels);
@@ -580,7 +626,7 @@ void overRuns(PixelSource front, PixelSource back, uint32_t begin, uint32_t end,
       checkRunsMessage(message->bytes, begin, end, message->encoding);
       return Clipped<MessageReader>(MessageReader(message->bytes, message->encoding), begin, end);
     }
-    const image::ImageF& frame = *std::get<const image::ImageF*>(source);
+    const DenseFrame& frame = std::get<DenseFrame>(source);
     checkFrame(frame, begin, end, "overRuns");
     return DenseReader(frame, begin, end);
   };
@@ -599,7 +645,7 @@ void finishRuns(const PixelRuns& in, const render::SceneView& view, uint8_t* out
   finishFrom(RunReader(in), in.begin, in.end, view, out, kernels);
 }
 
-void finishRuns(const image::ImageF& frame, uint32_t begin, uint32_t end, const render::SceneView& view, uint8_t* out,
+void finishRuns(const DenseFrame& frame, uint32_t begin, uint32_t end, const render::SceneView& view, uint8_t* out,
                 Kernels kernels) {
   checkFrame(frame, begin, end, "finishRuns");
   finishFrom(DenseReader(frame, begin, end), begin, end, view, out, kernels);

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "image/Image.h"
+#include "render/core/PartialFrame.h"
 #include "render/core/Scene.h"
 
 namespace voxbrick::distributed {
@@ -87,9 +88,23 @@ struct PixelRuns {
   size_t activePixels() const { return pixels.size() / 4; }
 };
 
+/// A dense premultiplied partial frame whose pixels outside `footprint` are known to be empty: they are never read,
+/// so that a rank whose part covers a corner of the frame scans that corner only. Made from a frame alone, the
+/// footprint is the whole frame; a footprint is clipped to the frame.
+struct DenseFrame {
+  const image::ImageF* frame = nullptr;
+  render::PixelRect footprint;
+
+  DenseFrame(const image::ImageF& whole)  // NOLINT(google-explicit-constructor): a frame is a dense frame
+      : frame(&whole), footprint{0, 0, whole.width, whole.height} {}
+  DenseFrame(const image::ImageF& partial, const render::PixelRect& within);
+  /// The footprint's pixels among [begin, end) (what reading that range of the frame reads).
+  uint64_t pixelsWithin(uint32_t begin, uint32_t end) const;
+};
+
 /// `out` = pixels [begin, end) of `frame` (a premultiplied partial frame) as runs. Requires begin <= end <= the
 /// frame's pixel count (throws std::invalid_argument otherwise).
-void encodeRuns(const image::ImageF& frame, uint32_t begin, uint32_t end, PixelRuns& out);
+void encodeRuns(const DenseFrame& frame, uint32_t begin, uint32_t end, PixelRuns& out);
 
 /// A message carrying pixels [begin, end) as runs, little-endian (the ranks run the same build on the same kind of
 /// machine):
@@ -114,7 +129,7 @@ size_t runsMessageBytes(size_t runCount, size_t activePixels, PixelEncoding enco
 void packRuns(const PixelRuns& in, uint32_t begin, uint32_t end, PixelEncoding encoding, GrowingBuffer<uint8_t>& out,
               Kernels kernels = Kernels::Best);
 /// The same from a dense premultiplied frame (its empty pixels found while packing); [begin, end) within the frame.
-void packRuns(const image::ImageF& frame, uint32_t begin, uint32_t end, PixelEncoding encoding,
+void packRuns(const DenseFrame& frame, uint32_t begin, uint32_t end, PixelEncoding encoding,
               GrowingBuffer<uint8_t>& out, Kernels kernels = Kernels::Best);
 
 /// A received message checked: its range must be [begin, end) and its runs must fit the range and the bytes.
@@ -139,7 +154,7 @@ struct PixelMessage {
   PixelEncoding encoding;
 };
 /// Pixels to read: runs, a dense premultiplied frame, or a message.
-using PixelSource = std::variant<const PixelRuns*, const image::ImageF*, PixelMessage>;
+using PixelSource = std::variant<const PixelRuns*, DenseFrame, PixelMessage>;
 /// `out` = pixels [begin, end) of front over the same pixels of back, as above; each side must hold the range (runs
 /// whose range contains it, a frame that does, or a message for exactly that range: checkRunsMessage's errors),
 /// else std::invalid_argument. Nothing is copied to take the range or to read a message.
@@ -154,7 +169,7 @@ void scatterRuns(const PixelRuns& in, image::ImageF& frame);
 /// equals toImage8(render::finishPartial(frame, scene)).
 void finishRuns(const PixelRuns& in, const render::SceneView& view, uint8_t* out, Kernels kernels = Kernels::Best);
 /// The same for pixels [begin, end) of a dense premultiplied frame.
-void finishRuns(const image::ImageF& frame, uint32_t begin, uint32_t end, const render::SceneView& view, uint8_t* out,
+void finishRuns(const DenseFrame& frame, uint32_t begin, uint32_t end, const render::SceneView& view, uint8_t* out,
                 Kernels kernels = Kernels::Best);
 
 }  // namespace voxbrick::distributed

@@ -67,6 +67,8 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
   compositeOptions.tag = group.tag(kCompositeTags);
   compositeOptions.ranks = group.members;
   compositeOptions.root = 0;
+  // Only the pixels the part's box covers are read (a rank's part covers a share of the frame).
+  compositeOptions.footprint = parts.footprint(index, scene, partial.width, partial.height);
   CompositeStats composited;
   // Finished to 8 bits by each member over the background, its region straight into rank 0's frame; an interactive
   // frame drawn reduced is composited at that size as floats, finished and scaled up once on rank 0, as one process
@@ -83,7 +85,8 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
   std::ostringstream record;
   record << drawMs << " " << own.msPaging << " " << composited.ms << " " << composited.bytesSent << " "
          << composited.bytesReceived << " " << cache.peakResidentBytes << " " << cache.budgetBytes << " "
-         << own.bricksDrawn << " " << own.bricksOutsidePart << " " << mEngine.peakGpuBytes() << " " << failure;
+         << own.bricksDrawn << " " << own.bricksOutsidePart << " " << mEngine.peakGpuBytes() << " "
+         << compositeOptions.footprint->pixels() << " " << composited.pixelsHandled << " " << failure;
   const auto records = gatherRecords(group, record.str(), mOptions.composite.timeoutSeconds);
   if (failed) std::rethrow_exception(failed);
   if (mRank != 0) return {};
@@ -92,9 +95,10 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
   for (size_t i = 0; i < records.size(); ++i) {
     std::istringstream in(records[i]);
     double draw = 0, paging = 0, compositeMs = 0;
-    uint64_t sent = 0, received = 0, peakHost = 0, budget = 0, peakGpu = 0;
+    uint64_t sent = 0, received = 0, peakHost = 0, budget = 0, peakGpu = 0, footprint = 0, handled = 0;
     int64_t bricks = 0, outside = 0;
-    in >> draw >> paging >> compositeMs >> sent >> received >> peakHost >> budget >> bricks >> outside >> peakGpu;
+    in >> draw >> paging >> compositeMs >> sent >> received >> peakHost >> budget >> bricks >> outside >> peakGpu >>
+        footprint >> handled;
     std::string error;
     std::getline(in >> std::ws, error);
     const int rank = group.members[i];
@@ -108,6 +112,8 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
                        {"compositing_ms", compositeMs},
                        {"bytes_sent", sent},
                        {"bytes_received", received},
+                       {"footprint_pixels", footprint},
+                       {"pixels_handled", handled},
                        {"bricks_drawn", bricks},
                        {"bricks_outside_part", outside},
                        {"host_cache_peak_bytes", peakHost},

@@ -2,6 +2,8 @@
 #include "render/core/PartialFrame.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace voxbrick::render {
@@ -17,6 +19,30 @@ PixelRect activeRect(const image::ImageF& image) {
       r.y0 = std::min(r.y0, y), r.y1 = std::max(r.y1, y + 1);
     }
   }
+  return r.empty() ? PixelRect{} : r;
+}
+
+PixelRect projectedRect(const Camera& camera, const Box& box, int width, int height, int margin) {
+  if (width <= 0 || height <= 0) return {};
+  const PixelRect whole{0, 0, width, height};
+  const glm::dmat4 view = camera.view();
+  const glm::dmat4 projection = camera.projection(double(width) / double(height), 1.0, 2.0);  // x and y only
+  double lo[2] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
+  double hi[2] = {-lo[0], -lo[1]};
+  for (int c = 0; c < 8; ++c) {
+    const glm::dvec3 corner{(c & 1) ? box.max.x : box.min.x, (c & 2) ? box.max.y : box.min.y,
+                            (c & 4) ? box.max.z : box.min.z};
+    const glm::dvec4 eye = view * glm::dvec4(corner, 1.0);
+    if (!camera.orthographic && !(-eye.z > 1e-9 * (1.0 + glm::length(glm::dvec3(eye))))) return whole;
+    const glm::dvec4 clip = projection * eye;
+    const double px = (clip.x / clip.w + 1.0) * 0.5 * width, py = (1.0 - clip.y / clip.w) * 0.5 * height;
+    if (!std::isfinite(px) || !std::isfinite(py)) return whole;
+    lo[0] = std::min(lo[0], px), hi[0] = std::max(hi[0], px);
+    lo[1] = std::min(lo[1], py), hi[1] = std::max(hi[1], py);
+  }
+  auto clamped = [](double v, int limit) { return int(std::clamp(v, 0.0, double(limit))); };
+  const PixelRect r{clamped(std::floor(lo[0]) - margin, width), clamped(std::floor(lo[1]) - margin, height),
+                    clamped(std::ceil(hi[0]) + margin, width), clamped(std::ceil(hi[1]) + margin, height)};
   return r.empty() ? PixelRect{} : r;
 }
 

@@ -42,6 +42,12 @@ struct PixelRect {
 /// The smallest rectangle holding every pixel of `premultiplied` with any non-zero channel (empty if none).
 PixelRect activeRect(const image::ImageF& premultiplied);
 
+/// The rectangle of a width × height frame that `box` covers when `camera` draws it (at the aspect width / height),
+/// grown by `margin` pixels a side and clipped to the frame: a pixel whose ray meets the box lies in it. The whole
+/// frame when a corner of the box is not in front of a perspective eye (its projection is then unbounded); empty
+/// for a box wholly off the frame or an empty frame. GL conventions: row 0 at the top.
+PixelRect projectedRect(const Camera& camera, const Box& box, int width, int height, int margin = 2);
+
 /// front = front over back, pixel by pixel on premultiplied RGBA: c = c_f + (1 − a_f)·c_b, a = a_f + (1 − a_f)·a_b.
 /// Both images have the same size; throws std::invalid_argument otherwise.
 void compositeOver(image::ImageF& front, const image::ImageF& back);

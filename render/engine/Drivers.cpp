@@ -35,6 +35,10 @@ DatasetReport DatasetDriver::describe(const std::filesystem::path& path, const s
   return {path.string() + ": a dataset of kind " + std::string(kind()) + "\n", nlohmann::json::object()};
 }
 
+PixelRect SortLastParts::footprint(int, const Scene&, int width, int height) const {
+  return {0, 0, std::max(width, 0), std::max(height, 0)};
+}
+
 std::shared_ptr<const SortLastParts> DatasetDriver::partition(const Dataset& dataset, int) const {
   throw RenderInputError("the distributed mode cannot split '" + dataset.name() + "', a " + std::string(kind()) +
                          ", into parts");

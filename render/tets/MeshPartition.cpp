@@ -181,6 +181,19 @@ PartView meshPartView(const Scene& scene, const TetMeshConstants& constants) {
   return view;
 }
 
+PixelRect meshPartFootprint(const MeshPartBox& part, const TetMeshConstants& constants, const Scene& scene, int width,
+                            int height) {
+  const Box& bounds = constants.bounds;
+  const double grow = 1e-6 * glm::length(bounds.extent()) + 1e-12;
+  Box box;
+  for (int a = 0; a < 3; ++a) {
+    box.min[a] = std::max(part.lo[size_t(a)], bounds.min[a]) - grow;
+    box.max[a] = std::min(part.hi[size_t(a)], bounds.max[a]) + grow;
+    if (box.min[a] > box.max[a]) return {};
+  }
+  return projectedRect(TetView::of(scene, constants).camera, box, width, height);
+}
+
 std::vector<int> partsFrontToBack(const MeshPartition& partition, const PartView& view) {
   return kdFrontToBack(partition.nodes, view);
 }

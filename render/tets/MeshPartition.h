@@ -54,6 +54,12 @@ std::vector<WeightedBox> cellWeights(const mesh::TetMesh& mesh);
 
 /// `scene`'s camera over a mesh of `constants` as the renderer resolves it (TetView), in world coordinates.
 PartView meshPartView(const Scene& scene, const TetMeshConstants& constants);
+
+/// The rectangle of a width × height drawing of `scene` outside which a frame drawn with FrameOptions::meshPart =
+/// `part` has nothing: the part's box within the mesh's (the outer parts reach past it), grown by a millionth of
+/// the mesh's size, projected by the frame's camera (projectedRect).
+PixelRect meshPartFootprint(const MeshPartBox& part, const TetMeshConstants& constants, const Scene& scene, int width,
+                            int height);
 /// The parts' indices nearest first for `view` (kdFrontToBack).
 std::vector<int> partsFrontToBack(const MeshPartition& partition, const PartView& view);
 

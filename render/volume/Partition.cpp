@@ -183,6 +183,20 @@ PartView partView(const store::StoreMeta& meta, const Scene& scene) {
   return view;
 }
 
+PixelRect partFootprint(const store::StoreMeta& meta, const PartBox& part, const Scene& scene, int width, int height) {
+  // In the local frame the renderers draw in: a voxel coordinate is local / spacing + dims / 2.
+  const double dims[3] = {double(meta.dims.x), double(meta.dims.y), double(meta.dims.z)};
+  const double spacing[3] = {meta.spacing.x, meta.spacing.y, meta.spacing.z};
+  Box box;
+  for (int a = 0; a < 3; ++a) {
+    box.min[a] = (double(part.lo[size_t(a)]) - 1 - 0.5 * dims[a]) * spacing[a];
+    box.max[a] = (double(part.hi[size_t(a)]) + 1 - 0.5 * dims[a]) * spacing[a];
+  }
+  const PixelRect r = projectedRect(gridCamera(scene, meta), box, width, height);
+  if (r.empty() || !WorldFrame::of(meta.orientation, meta.dims, meta.spacing).mirrored()) return r;
+  return {width - r.x1, r.y0, width - r.x0, r.y1};
+}
+
 std::vector<int> partsFrontToBack(const Partition& partition, const PartView& view) {
   return kdFrontToBack(partition.nodes, view);
 }

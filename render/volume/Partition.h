@@ -43,6 +43,12 @@ Partition partitionBricks(const store::BrickStore& store, int parts);
 /// (voxel v's centre at v + 0.5), which is what the splits' sides are decided in.
 PartView partView(const store::StoreMeta& meta, const Scene& scene);
 
+/// The rectangle of a width × height drawing of `scene` on `meta`'s grid outside which a frame drawn with
+/// FrameOptions::part = `part` has nothing: the box grown by a level-0 voxel (a sample belongs to the voxel it lies
+/// in) projected by gridCamera (projectedRect), flipped left to right when the store's world frame is mirrored (as
+/// finishImage flips the image).
+PixelRect partFootprint(const store::StoreMeta& meta, const PartBox& part, const Scene& scene, int width, int height);
+
 /// The parts' indices nearest first for `view` (kdFrontToBack of render/core/PartOrder.h): at each split the side
 /// holding the eye (perspective; an eye on the plane takes the lower side first) or the side the view comes from
 /// (orthographic, by the direction's sign).

@@ -45,16 +45,21 @@ void paint(std::mt19937& random, float* p) {
   p[3] = alpha;
 }
 
-// Sparse: a random rectangle with holes, or nothing. Dense: every pixel.
-image::ImageF randomPartial(std::mt19937& random, int width, int height, bool dense) {
+// Sparse: a random rectangle with holes, or nothing. Dense: every pixel. `painted`: the rectangle (empty for an
+// empty part, the whole frame for a dense one).
+image::ImageF randomPartial(std::mt19937& random, int width, int height, bool dense,
+                            render::PixelRect* painted = nullptr) {
   image::ImageF image = emptyFrame(width, height);
+  if (painted) *painted = {};
   if (dense) {
     for (size_t i = 0; i < image.rgba.size(); i += 4) paint(random, &image.rgba[i]);
+    if (painted) *painted = {0, 0, width, height};
     return image;
   }
   if (random() % 4 == 0) return image;  // an empty part
   int x0 = int(random() % unsigned(width)), y0 = int(random() % unsigned(height));
   int x1 = x0 + 1 + int(random() % unsigned(width - x0)), y1 = y0 + 1 + int(random() % unsigned(height - y0));
+  if (painted) *painted = {x0, y0, x1, y1};
   for (int y = y0; y < y1; ++y) {
     for (int x = x0; x < x1; ++x) {
       if (random() % 10 == 0) continue;  // holes inside the rectangle
@@ -78,6 +83,23 @@ int maxStepDifference(const image::Image8& a, const image::Image8& b) {
   return worst;
 }
 
+// A footprint around `painted`: grown by up to 3 pixels a side (past the frame's edges at times, which the
+// compositor clips), and garbage (active pixels) painted outside it, which the compositor must never read.
+render::PixelRect dirtyOutside(std::mt19937& random, image::ImageF& frame, const render::PixelRect& painted) {
+  render::PixelRect footprint = painted;
+  if (!painted.empty()) {
+    footprint.x0 -= int(random() % 4), footprint.y0 -= int(random() % 4);
+    footprint.x1 += int(random() % 4), footprint.y1 += int(random() % 4);
+  }
+  for (int y = 0; y < frame.height; ++y) {
+    for (int x = 0; x < frame.width; ++x) {
+      const bool inside = x >= footprint.x0 && x < footprint.x1 && y >= footprint.y0 && y < footprint.y1;
+      if (!inside) paint(random, frame.pixel(x, y));
+    }
+  }
+  return footprint;
+}
+
 std::string listText(const std::vector<int>& values) {
   std::string text;
   for (size_t i = 0; i < values.size(); ++i) text += (i ? "x" : "") + std::to_string(values[i]);
@@ -99,9 +121,19 @@ int runCases(int rank, int size) {
     if (seed > 6) ranks.resize(1 + random() % unsigned(size));
     const int parts = int(ranks.size());
     std::vector<image::ImageF> frames;
-    for (int i = 0; i < parts; ++i) frames.push_back(randomPartial(random, width, height, dense));
+    std::vector<render::PixelRect> painted(static_cast<size_t>(parts));
+    for (int i = 0; i < parts; ++i) frames.push_back(randomPartial(random, width, height, dense, &painted[size_t(i)]));
     if (seed == 2) {
       for (auto& frame : frames) frame = emptyFrame(width, height);  // nothing drawn anywhere
+      for (auto& rect : painted) rect = {};
+    }
+    // Every other case: each part with a footprint around what it painted and garbage outside it (its own frame;
+    // the reference composites the clean ones).
+    const bool footprints = seed % 2 == 0;
+    std::vector<image::ImageF> own = frames;
+    std::vector<render::PixelRect> footprint(static_cast<size_t>(parts));
+    if (footprints) {
+      for (int i = 0; i < parts; ++i) footprint[size_t(i)] = dirtyOutside(random, own[size_t(i)], painted[size_t(i)]);
     }
     std::vector<int> order(static_cast<size_t>(parts));
     std::iota(order.begin(), order.end(), 0);
@@ -113,7 +145,8 @@ int runCases(int rank, int size) {
     const auto part = std::find(ranks.begin(), ranks.end(), rank);
     if (part == ranks.end() && seed <= 6) std::abort();  // every rank takes part in the first cases
     if (part == ranks.end()) continue;                   // not taking part in this case
-    const image::ImageF& own = frames[size_t(part - ranks.begin())];
+    const size_t index = size_t(part - ranks.begin());
+    const image::ImageF& mine = own[index];
     const image::ImageF reference = render::compositeSerial(frames, order);
     std::vector<std::vector<int>> choices{{}};
     for (auto& factors : distributed::radixFactorisations(parts)) choices.push_back(std::move(factors));
@@ -124,13 +157,14 @@ int runCases(int rank, int size) {
         if (seed > 3) options.ranks = ranks;
         options.root = root;
         options.factors = factors;
+        if (footprints) options.footprint = footprint[index];
         distributed::CompositeStats stats;
-        const image::ImageF result = distributed::composite(MPI_COMM_WORLD, own, order, options, &stats);
+        const image::ImageF result = distributed::composite(MPI_COMM_WORLD, mine, order, options, &stats);
         options.kernels = distributed::Kernels::Scalar;
-        const image::ImageF scalar = distributed::composite(MPI_COMM_WORLD, own, order, options);
+        const image::ImageF scalar = distributed::composite(MPI_COMM_WORLD, mine, order, options);
         options.kernels = distributed::Kernels::Best;
         static image::Image8 finished;  // reused from case to case, of other sizes
-        distributed::compositeFinished(MPI_COMM_WORLD, own, order, view, finished, options);
+        distributed::compositeFinished(MPI_COMM_WORLD, mine, order, view, finished, options);
         if (rank != root) {
           if (!result.rgba.empty() || !finished.rgba.empty()) {
             std::fprintf(stderr, "case %d: rank %d is no root but returned a frame\n", seed, rank);
@@ -149,9 +183,10 @@ int runCases(int rank, int size) {
         const bool bitwise = scalar.rgba == result.rgba;
         if (difference > tolerance || steps > 1 || !bitwise) {
           std::fprintf(stderr,
-                       "case %d (%dx%d, %s, %s, %d of %d ranks, root %d, factors %s): max difference %g (allowed %g), "
-                       "8-bit steps %d, scalar %s SIMD\n",
-                       seed, width, height, dense ? "dense" : "sparse", distributed::pixelEncodingName(encoding), parts,
+                       "case %d (%dx%d, %s%s, %s, %d of %d ranks, root %d, factors %s): max difference %g (allowed "
+                       "%g), 8-bit steps %d, scalar %s SIMD\n",
+                       seed, width, height, dense ? "dense" : "sparse", footprints ? " in footprints" : "",
+                       distributed::pixelEncodingName(encoding), parts,
                        size, root, listText(factors).c_str(), difference, tolerance, steps,
                        bitwise ? "equals" : "differs from");
           ++failures;
@@ -217,6 +252,63 @@ int runKernels() {
       active += front.rgba[i] != 0 || front.rgba[i + 1] != 0 || front.rgba[i + 2] != 0 || front.rgba[i + 3] != 0;
     }
     if (a.activePixels() != active) fail("active pixels counted wrong, seed " + std::to_string(seed));
+    // A footprint: what lies outside it is never read. The front frame cut to a random rectangle, garbage painted
+    // around it, reads (encoded, packed, joined, finished) as the cut frame; pixelsWithin counts as a scan would.
+    {
+      int x0 = int(random() % unsigned(width + 1)) - 1, y0 = int(random() % unsigned(height + 1)) - 1;
+      render::PixelRect rect{x0, y0, x0 + int(random() % unsigned(width + 2)), y0 + int(random() % unsigned(height + 2))};
+      image::ImageF cut = front;
+      for (int y = 0; y < height; ++y) {
+        for (int x = 0; x < width; ++x) {
+          if (x < rect.x0 || x >= rect.x1 || y < rect.y0 || y >= rect.y1) std::fill_n(cut.pixel(x, y), 4, 0.0f);
+        }
+      }
+      image::ImageF dirty = cut;
+      render::PixelRect painted{std::max(rect.x0, 0), std::max(rect.y0, 0), rect.x1, rect.y1};
+      if (painted.x0 >= width || painted.y0 >= height || painted.empty()) painted = {};
+      const render::PixelRect within = painted.empty() ? render::PixelRect{} : rect;
+      for (int y = 0; y < height; ++y) {
+        for (int x = 0; x < width; ++x) {
+          if (x < within.x0 || x >= within.x1 || y < within.y0 || y >= within.y1) paint(random, dirty.pixel(x, y));
+        }
+      }
+      const distributed::DenseFrame footprinted(dirty, within);
+      distributed::PixelRuns fromCut, fromFootprint;
+      const uint32_t r0 = uint32_t(random() % (pixels + 1)), r1 = r0 + uint32_t(random() % (pixels - r0 + 1));
+      distributed::encodeRuns(cut, r0, r1, fromCut);
+      distributed::encodeRuns(footprinted, r0, r1, fromFootprint);
+      image::ImageF x = emptyFrame(width, height), y = emptyFrame(width, height);
+      distributed::scatterRuns(fromCut, x);
+      distributed::scatterRuns(fromFootprint, y);
+      if (x.rgba != y.rgba || fromCut.runCount() != fromFootprint.runCount())
+        fail("a footprint's frame is not read as the frame cut to it, seed " + std::to_string(seed));
+      distributed::GrowingBuffer<uint8_t> m1, m2;
+      distributed::packRuns(cut, r0, r1, distributed::PixelEncoding::Half, m1);
+      distributed::packRuns(footprinted, r0, r1, distributed::PixelEncoding::Half, m2);
+      if (std::vector<uint8_t>(m1.data(), m1.data() + m1.size()) != std::vector<uint8_t>(m2.data(), m2.data() + m2.size()))
+        fail("a footprint's frame packs differently from the frame cut to it, seed " + std::to_string(seed));
+      distributed::PixelRuns j1, j2;
+      distributed::overRuns(distributed::DenseFrame(cut), &b, r0, r1, j1);
+      distributed::overRuns(footprinted, &b, r0, r1, j2);
+      image::ImageF o1 = emptyFrame(width, height), o2 = emptyFrame(width, height);
+      distributed::scatterRuns(j1, o1);
+      distributed::scatterRuns(j2, o2);
+      if (o1.rgba != o2.rgba) fail("a footprint's frame joins differently, seed " + std::to_string(seed));
+      render::Scene scene;
+      scene.background = {0.2, 0.4, 0.6};
+      std::vector<uint8_t> f1(size_t(pixels) * 4), f2(size_t(pixels) * 4);
+      distributed::finishRuns(cut, 0, pixels, scene, f1.data());
+      distributed::finishRuns(footprinted, 0, pixels, scene, f2.data());
+      if (f1 != f2) fail("a footprint's frame finishes differently, seed " + std::to_string(seed));
+      uint64_t counted = 0;
+      for (uint32_t i = r0; i < r1; ++i) {
+        const int px = int(i % uint32_t(width)), py = int(i / uint32_t(width));
+        counted += px >= within.x0 && px < within.x1 && py >= within.y0 && py < within.y1;
+      }
+      if (footprinted.pixelsWithin(r0, r1) != counted)
+        fail("pixelsWithin counts " + std::to_string(footprinted.pixelsWithin(r0, r1)) + ", not " +
+             std::to_string(counted) + ", seed " + std::to_string(seed));
+    }
     // Over: the dense reference, bit for bit (the same two operations per channel), SIMD and scalar alike.
     image::ImageF expected = front;
     render::compositeOver(expected, back);
@@ -233,8 +325,10 @@ int runKernels() {
     // Over on a sub-range, each side dense or runs read in place, is the slice of the whole over.
     for (int sides = 0; sides < 4; ++sides) {
       distributed::PixelRuns part;
-      const distributed::PixelSource f = sides & 1 ? distributed::PixelSource(&front) : distributed::PixelSource(&a);
-      const distributed::PixelSource g = sides & 2 ? distributed::PixelSource(&back) : distributed::PixelSource(&b);
+      const distributed::PixelSource f =
+          sides & 1 ? distributed::PixelSource(distributed::DenseFrame(front)) : distributed::PixelSource(&a);
+      const distributed::PixelSource g =
+          sides & 2 ? distributed::PixelSource(distributed::DenseFrame(back)) : distributed::PixelSource(&b);
       distributed::overRuns(f, g, s0, s1, part, sides < 2 ? Kernels::Best : Kernels::Scalar);
       image::ImageF gotPart = emptyFrame(width, height), slicePart = emptyFrame(width, height);
       distributed::scatterRuns(part, gotPart);
@@ -253,7 +347,7 @@ int runKernels() {
       distributed::unpackRuns(bytes, encoding, backRuns);
       for (bool messageInFront : {false, true}) {
         const distributed::PixelSource runs = &backRuns, message = distributed::PixelMessage{bytes, encoding};
-        const distributed::PixelSource other = &front;
+        const distributed::PixelSource other = distributed::DenseFrame(front);
         distributed::overRuns(messageInFront ? runs : other, messageInFront ? other : runs, s0, s1, expectedRuns);
         for (Kernels kernels : {Kernels::Best, Kernels::Scalar}) {
           distributed::overRuns(messageInFront ? message : other, messageInFront ? other : message, s0, s1, inPlace,

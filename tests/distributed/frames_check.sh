@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # `mpirun -n N voxbrick render --mpi` against the one-process `voxbrick render`, within 1/255 per channel, for the
 # cases of the sort-last comparison: the MRI (ch2better), a smooth field with the MRI preset, a sparse field, the camera inside the
-# volume, an orthographic view, a coarse level of detail and an interactive frame (composited at its reduced size),
-# each rank of a grid walking only its part (bricks_outside_part in its stats); and tetrahedral meshes: the staircase
+# volume, an orthographic view, a coarse level of detail, a mirrored acquisition (its image flipped, and each part's
+# footprint with it) and an interactive frame (composited at its reduced size), each rank of a grid walking only its
+# part (bricks_outside_part in its stats) and reading only its footprint; and tetrahedral meshes: the staircase
 # ball ray cast (perspective and orthographic), the camera inside a box mesh (drawn projected), and a ball paged within
 # a small host budget, whose rank 0 leaves out the chunks outside its part. Usage: frames_check.sh VOXBRICK MPIRUN WORK N
 # (WORK holds the datasets and the one-process frames, made once: `frames_check.sh VOXBRICK MPIRUN WORK setup`).
@@ -17,6 +18,7 @@ cases=(
   "inside|blobs|--tf mri --orbit 35,25,0.25 --fov 75"
   "ortho|blobs|--tf mri --orbit 200,-40,2.2 --ortho"
   "lod|blobs|--tf mri --orbit 35,25,2.2 --lod 4"
+  "mirrored|mirrored|--tf mri --orbit 35,25,2.2"
   "interactive|blobs|--tf mri --orbit 35,25,2.2 --scene $work/interactive.json"
   "mesh|ball.vms|--tf hot --orbit 35,25"
   "meshortho|ball.vms|--tf hot --orbit 200,-40 --ortho"
@@ -38,6 +40,19 @@ if [ "$ranks" = setup ]; then
   echo '{"interactive": true, "time_budget_ms": 10}' > "$work/interactive.json"
   "$exe" prep synthetic:blobs,n=64 --brick 16 --no-vdb -q -o "$work/blobs" > /dev/null
   "$exe" prep synthetic:sparse,n=64 --brick 16 --no-vdb -q -o "$work/sparse" > /dev/null
+  # Two blobs in a mirrored (LAS) grid: its image is drawn in the store's own frame and flipped left to right.
+  /usr/bin/python3 - "$work/mirrored.nrrd" << 'NRRD'
+import sys
+import numpy as np
+z, y, x = np.mgrid[0:32, 0:36, 0:40]
+v = np.exp(-(((x - 12) / 6.0) ** 2 + ((y - 20) / 7.0) ** 2 + ((z - 10) / 5.0) ** 2)) \
+    + 0.7 * np.exp(-(((x - 30) / 5.0) ** 2 + ((y - 10) / 5.0) ** 2 + ((z - 22) / 6.0) ** 2))
+header = ("NRRD0004\ntype: float\ndimension: 3\nspace: right-anterior-superior\nsizes: 40 36 32\n"
+          "space directions: (-1.5,0,0) (0,1.5,0) (0,0,1.5)\nkinds: domain domain domain\nendian: little\n"
+          "encoding: raw\nspace origin: (0,0,0)\n\n")
+open(sys.argv[1], "wb").write(header.encode() + v.astype("<f4").tobytes())
+NRRD
+  "$exe" prep "$work/mirrored.nrrd" --brick 16 --no-vdb -q -o "$work/mirrored" > /dev/null
   # The MRI itself (Debian's mricron-data, installed by scripts/setup.sh).
   "$exe" prep /usr/share/mricron/templates/ch2better.nii.gz --brick 32 --no-vdb -q -o "$work/brain" > /dev/null
   # Meshes in small chunks, so that parts and paging have chunks to tell apart; the paged one too large for 2 MB
@@ -99,6 +114,12 @@ d = stats["distributed"]
 outside = [r["bricks_outside_part"] for r in d["per_rank"]]
 if ranks > 1 and not name.startswith("mesh") and not all(n > 0 for n in outside):
     sys.exit(f"a rank walked into other parts: bricks_outside_part {outside}")
+# Each rank read only its footprint: within the composited frame, and (away from the camera inside the data) smaller
+# than it on some rank once there are parts.
+frame = d["composited_width"] * d["composited_height"]
+footprints = [r["footprint_pixels"] for r in d["per_rank"]]
+if any(not 0 <= f <= frame for f in footprints) or (ranks > 1 and "inside" not in name and min(footprints) >= frame):
+    sys.exit(f"footprints {footprints} of a {frame}-pixel frame")
 if name == "interactive":
     drawn = (stats["interactive"]["width"], stats["interactive"]["height"])
     if (d["composited_width"], d["composited_height"]) != drawn or drawn[0] >= 72:

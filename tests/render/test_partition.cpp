@@ -293,6 +293,61 @@ void expectMeshTiles(const MeshPartition& p, const Box& bounds, int parts) {
   EXPECT_NEAR(volume, e.x * e.y * e.z, 1e-9 * e.x * e.y * e.z) << "the boxes, disjoint, cover the mesh's box";
 }
 
+// A part's footprint: every pixel whose ray (the reference's pixel rays) meets the box lies in projectedRect, for
+// random boxes and cameras (perspective from outside, orthographic); a box with a corner behind the eye gives the
+// whole frame; a box off to the side gives nothing; and the rectangle is tight (within its margin and a pixel of the
+// rays' own extent).
+TEST(Footprint, EveryPixelWhoseRayMeetsTheBoxLiesInIt) {
+  std::mt19937 random(11);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const int width = 80, height = 60;
+  int checked = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    Box box;
+    for (int a = 0; a < 3; ++a) {
+      const double c = 0.5 * unit(random), h = 0.05 + 0.3 * std::abs(unit(random));
+      box.min[a] = c - h, box.max[a] = c + h;
+    }
+    Camera camera = Camera::orbit(180 * unit(random), 80 * unit(random), 2.5, Box{{-1, -1, -1}, {1, 1, 1}});
+    camera.orthographic = trial % 3 == 0;
+    camera.fovYDegrees = 30 + 20 * std::abs(unit(random));
+    const PixelRect rect = projectedRect(camera, box, width, height, 0);
+    const RayBasis basis = RayBasis::of(camera, double(width) / height, 0.01);
+    PixelRect hit{width, height, 0, 0};
+    for (int y = 0; y < height; ++y) {
+      for (int x = 0; x < width; ++x) {
+        glm::dvec3 origin, direction;
+        double tNear = 0;
+        basis.pixelRay(x, y, width, height, origin, direction, tNear);
+        double t0 = 0, t1 = 1e30;
+        for (int a = 0; a < 3; ++a) {
+          const double inv = 1.0 / direction[a];
+          double ta = (box.min[a] - origin[a]) * inv, tb = (box.max[a] - origin[a]) * inv;
+          if (ta > tb) std::swap(ta, tb);
+          t0 = std::max(t0, ta), t1 = std::min(t1, tb);
+        }
+        if (t0 > t1) continue;
+        ++checked;
+        EXPECT_TRUE(x >= rect.x0 && x < rect.x1 && y >= rect.y0 && y < rect.y1)
+            << "trial " << trial << ": pixel (" << x << ", " << y << ") meets the box outside [" << rect.x0 << ", "
+            << rect.x1 << ") x [" << rect.y0 << ", " << rect.y1 << ")";
+        hit.x0 = std::min(hit.x0, x), hit.y0 = std::min(hit.y0, y);
+        hit.x1 = std::max(hit.x1, x + 1), hit.y1 = std::max(hit.y1, y + 1);
+      }
+    }
+    if (hit.empty()) continue;
+    EXPECT_LE(rect.pixels(), (long long)(hit.x1 - hit.x0 + 2) * (hit.y1 - hit.y0 + 2)) << "trial " << trial << ": loose";
+  }
+  EXPECT_GT(checked, 1000);
+  // A corner behind the eye: the whole frame. Off to the side: nothing. No pixels: nothing.
+  const Camera camera = Camera::orbit(0, 0, 2.5, Box{{-1, -1, -1}, {1, 1, 1}});
+  const glm::dvec3 eye = camera.eye;
+  EXPECT_EQ(projectedRect(camera, Box{eye - 0.1, eye + 0.1}, width, height), (PixelRect{0, 0, width, height}));
+  const glm::dvec3 side = glm::cross(camera.viewDirection(), camera.upVector());
+  EXPECT_TRUE(projectedRect(camera, Box{side * 40.0 - 0.1, side * 40.0 + 0.1}, width, height).empty());
+  EXPECT_TRUE(projectedRect(camera, Box{{-0.1, -0.1, -0.1}, {0.1, 0.1, 0.1}}, 0, height).empty());
+}
+
 TEST(MeshPartition, BoxesTileTheMeshBalancedByCells) {
   const mesh::TetMesh m = mesh::syntheticMesh("ball,n=24");
   const auto [lo, hi] = m.bounds();

@@ -72,6 +72,17 @@ void expectJoinedIsWhole(const std::vector<image::ImageF>& parts, const std::vec
   test::expectSameDrawing(finishPartial(compositeSerial(parts, order), scene), whole, 1.0 / 255, s, scene, what);
 }
 
+/// Every pixel a part drew lies in its footprint (what the compositor reads of it).
+void expectWithinFootprint(const image::ImageF& part, const PixelRect& footprint, const std::string& what) {
+  const PixelRect drawn = activeRect(part);
+  if (drawn.empty()) return;
+  EXPECT_TRUE(drawn.x0 >= footprint.x0 && drawn.y0 >= footprint.y0 && drawn.x1 <= footprint.x1 &&
+              drawn.y1 <= footprint.y1)
+      << what << ": drawn in [" << drawn.x0 << ", " << drawn.x1 << ") x [" << drawn.y0 << ", " << drawn.y1
+      << "), footprint [" << footprint.x0 << ", " << footprint.x1 << ") x [" << footprint.y0 << ", " << footprint.y1
+      << ")";
+}
+
 /// The whole frame, and the parts of an N-part partition drawn one by one, composited and finished.
 void expectPartsGiveTheWholeFrame(const std::shared_ptr<const store::BrickStore>& s, const Scene& scene,
                                   const std::string& what, int minCoarsest = 0) {
@@ -84,8 +95,18 @@ void expectPartsGiveTheWholeFrame(const std::shared_ptr<const store::BrickStore>
   for (int n = 1; n <= 5; ++n) {
     const Partition partition = partitionBricks(*s, n);
     const DrawnParts parts = drawParts(renderer, scene, partition.boxes);
-    for (int p = 0; p < n; ++p)
+    long long footprints = 0;
+    for (int p = 0; p < n; ++p) {
       EXPECT_LE(parts.stats[size_t(p)].bricksDrawn, wholeStats.bricksDrawn) << what << ", part " << p << " of " << n;
+      expectWithinFootprint(parts.frames[size_t(p)],
+                            partFootprint(s->meta(), partition.boxes[size_t(p)], scene, scene.width, scene.height),
+                            what + ", part " + std::to_string(p) + " of " + std::to_string(n));
+      footprints += partFootprint(s->meta(), partition.boxes[size_t(p)], scene, scene.width, scene.height).pixels();
+    }
+    if (n > 1 && what != "inside") {
+      EXPECT_LT(footprints, (long long)n * scene.width * scene.height)
+          << what << ", " << n << " parts: footprints no smaller than the frame, a check that cannot fail";
+    }
     EXPECT_GE(parts.bricksDrawn(), wholeStats.bricksDrawn) << what << ", " << n << " parts: every brick in some part";
     expectJoinedIsWhole(parts.frames, partsFrontToBack(partition, partView(s->meta(), scene)), whole, *s, scene,
                         what + "-" + std::to_string(n) + "parts");

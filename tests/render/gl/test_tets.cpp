@@ -715,8 +715,15 @@ TEST(TetRenderer, MeshPartsJoinedInOrderGiveTheWholeFrame) {
       const image::ImageF joined = joinedMeshParts(renderer, data, scene, parts, &frames, &stats);
       test::expectClose(joined, whole, 1.0 / 255, "tets-parts-" + c.name + "-" + std::to_string(parts));
       int64_t drawn = 0;
+      const MeshPartition partition = partitionMesh(cellWeights(data.mesh), data.bounds, parts);
       for (size_t p = 0; p < stats.size(); ++p) {
         EXPECT_EQ(stats[p].tetPart, c.clip) << "part " << p;
+        // Every pixel the part drew lies in its footprint (what the compositor reads of it).
+        const PixelRect active = activeRect(frames[p]);
+        const PixelRect footprint = meshPartFootprint(partition.boxes[p], data, scene, scene.width, scene.height);
+        EXPECT_TRUE(active.empty() || (active.x0 >= footprint.x0 && active.y0 >= footprint.y0 &&
+                                       active.x1 <= footprint.x1 && active.y1 <= footprint.y1))
+            << "part " << p << " drew outside its footprint";
         drawn += stats[p].tetsDrawn;
         if (c.clip == "projected" && parts > 1) {
           EXPECT_LT(stats[p].tetsDrawn, wholeStats.tetsDrawn) << "part " << p << " drew cells outside its box";
