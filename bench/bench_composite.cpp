@@ -1,16 +1,22 @@
 // The MPI compositor alone (distributed/Compositor.h), under mpirun: every rank draws its part of a volume as a
 // k-d split of it would give (the volume covering much of the frame, split into one box per rank, each rank's
 // partial frame the ray-marched blobs inside its box), and the frames are composited REPEAT times after a barrier,
-// through to the finished 8-bit frame on rank 0. Rank 0 prints one CSV line per size, encoding and factorisation:
+// through to the finished 8-bit frame on rank 0. Rank 0 prints one CSV line per size, encoding, variant and
+// factorisation:
 //   impl,ranks,size,encoding,factors,ms_median,ms_max,ms_composite_median,bytes_total,bytes_max_rank,
-//   active_share,union_share,inputs
-// ms: the slowest rank's time from the barrier to the finished 8-bit frame (the radix-k compositor finishes inside
-// compositeFinished; binary swap composites, then rank 0 finishes the whole frame as RankRenderer did);
-// ms_composite: the compositing call alone; active_share: the active pixels of all parts over ranks × frame pixels;
-// union_share: the frame's pixels active in some part; inputs: a digest of every rank's partial frame, the same for
-// both implementations when the inputs are. The source builds against either compositor (the binary-swap one on
-// main, which run_mpi.sh --baseline-build uses): the partial frames are made by the same code. Usage:
+//   active_share,union_share,inputs,footprint_share,handled_max_rank
+// impl: binary-swap (the compositor before radix-k), radix-k (each rank reading only its part's footprint, the box's
+// projection on the screen, as the server does) or radix-k-whole (each rank reading its whole partial frame, as before
+// footprints). ms: the slowest rank's time from the barrier to the finished 8-bit frame (the radix-k compositor
+// finishes inside compositeFinished; binary swap composites, then rank 0 finishes the whole frame as RankRenderer
+// did); ms_composite: the compositing call alone; active_share: the active pixels of all parts over ranks × frame
+// pixels; union_share: the frame's pixels active in some part; inputs: a digest of every rank's partial frame, the
+// same for both implementations when the inputs are; footprint_share: the pixels of the footprints as read
+// (DenseFrame: a wide one as whole rows) over ranks × frame pixels; handled_max_rank: the most pixels one rank handled (CompositeStats::pixelsHandled: what the cost model
+// charges for). The source builds against either compositor (the binary-swap one on main before radix-k, which
+// run_mpi.sh --baseline-build uses): the partial frames are made by the same code. Usage:
 //   mpirun -n N bench_composite --sizes 512,1024,2048 --repeat 10 [--factors default|all] [--encodings half,float]
+//                               [--variants footprint,whole]
 //   bench_composite --print-factors 8,64,512     (radixFactors of each, as N:KxK…)
 #include <mpi.h>
 
@@ -28,6 +34,7 @@
 
 #include "distributed/Cluster.h"
 #include "distributed/Compositor.h"
+#include "render/core/PartialFrame.h"
 #if __has_include("distributed/PixelRuns.h")
 #define VOXBRICK_BENCH_RADIX_K 1
 #endif
@@ -123,6 +130,43 @@ image::ImageF drawPart(const Box& box, int side) {
   return image;
 }
 
+// The bench's camera (drawPart's): where point p falls on a side² frame, in pixels (x right, y down; pixel centres at
+// +0.5); false when p is not in front of the eye.
+bool projectPoint(const Vec& p, int side, double& x, double& y) {
+  const Vec eye{0.775, 0.527, 0.9};
+  const double length = std::sqrt(eye[0] * eye[0] + eye[1] * eye[1] + eye[2] * eye[2]);
+  const Vec forward{-eye[0] / length, -eye[1] / length, -eye[2] / length};
+  Vec right{forward[2], 0, -forward[0]};
+  const double rl = std::sqrt(right[0] * right[0] + right[2] * right[2]);
+  right = {right[0] / rl, 0, right[2] / rl};
+  const Vec up{right[1] * forward[2] - right[2] * forward[1], right[2] * forward[0] - right[0] * forward[2],
+               right[0] * forward[1] - right[1] * forward[0]};
+  const double halfView = std::tan(0.5 * 40.0 * M_PI / 180);
+  const Vec d{p[0] - eye[0], p[1] - eye[1], p[2] - eye[2]};
+  auto dot = [](const Vec& a, const Vec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
+  const double depth = dot(d, forward);
+  if (depth <= 1e-9) return false;
+  const double u = dot(d, right) / depth / halfView, v = dot(d, up) / depth / halfView;
+  x = (u + 1) / 2 * side, y = (1 - v) / 2 * side;
+  return true;
+}
+
+// The rectangle of a size² frame the box can touch (as SortLastParts::footprint: the box's corners projected, grown
+// by a margin), here with the margin the bilinear scaling from the drawn side adds.
+render::PixelRect boxFootprint(const Box& box, int size) {
+  double lo[2] = {1e300, 1e300}, hi[2] = {-1e300, -1e300};
+  for (int c = 0; c < 8; ++c) {
+    const Vec p{(c & 1) ? box.hi[0] : box.lo[0], (c & 2) ? box.hi[1] : box.lo[1], (c & 4) ? box.hi[2] : box.lo[2]};
+    double x = 0, y = 0;
+    if (!projectPoint(p, size, x, y)) return {0, 0, size, size};
+    lo[0] = std::min(lo[0], x), hi[0] = std::max(hi[0], x), lo[1] = std::min(lo[1], y), hi[1] = std::max(hi[1], y);
+  }
+  const int margin = 2 + (size + 255) / 256;
+  auto clamp = [size](double v) { return int(std::clamp(v, 0.0, double(size))); };
+  return {clamp(std::floor(lo[0]) - margin), clamp(std::floor(lo[1]) - margin), clamp(std::ceil(hi[0]) + margin),
+          clamp(std::ceil(hi[1]) + margin)};
+}
+
 // The part drawn at 256² (drawing every pixel of 2048² on every rank would take minutes) and scaled up bilinearly:
 // smooth colour and the part's silhouette, with its empty pixels exactly empty.
 image::ImageF partFrame(const Box& box, int size) {
@@ -183,6 +227,7 @@ int main(int argc, char** argv) {
   std::vector<int> sizes{512, 1024, 2048};
   std::vector<std::string> encodings{"half"};
   std::string factorChoice = "default";
+  std::vector<std::string> variants{"footprint", "whole"};
   int repeat = 10;
   std::vector<int> printFactors;
   app.add_option("--sizes", sizes, "frame sides")->delimiter(',');
@@ -190,6 +235,10 @@ int main(int argc, char** argv) {
       ->delimiter(',');
   app.add_option("--repeat", repeat, "frames timed per size")->check(CLI::PositiveNumber);
   app.add_option("--encodings", encodings, "half, float")->delimiter(',');
+  app.add_option("--variants", variants,
+                 "radix-k: footprint (each rank reads its part's footprint only), whole (its whole frame)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"footprint", "whole"}));
   app.add_option("--factors", factorChoice, "radix-k factorisations: default, or all (each ordered one)")
       ->check(CLI::IsMember({"default", "all"}));
   try {
@@ -227,13 +276,14 @@ int main(int argc, char** argv) {
   if (factorChoice == "all" && ranks > 1) choices = distributed::radixFactorisations(ranks);
 #else
   const char* impl = "binary-swap";
+  variants = {"whole"};  // no footprints before radix-k
 #endif
   render::Scene scene;
   scene.background = {0.1, 0.1, 0.15};
   if (rank == 0) {
     std::printf(
         "impl,ranks,size,encoding,factors,ms_median,ms_max,ms_composite_median,bytes_total,bytes_max_rank,"
-        "active_share,union_share,inputs\n");
+        "active_share,union_share,inputs,footprint_share,handled_max_rank\n");
   }
   for (int size : sizes) {
     const image::ImageF partial = partFrame(boxes[size_t(rank)], size);
@@ -248,26 +298,46 @@ int main(int argc, char** argv) {
     MPI_Reduce(mask.data(), all.data(), int(mask.size()), MPI_UNSIGNED_CHAR, MPI_BOR, 0, MPI_COMM_WORLD);
     const double activeAll = sumOver(active);
     const double unionShare = double(std::count(all.begin(), all.end(), uint8_t(1))) / double(mask.size());
+    // This part's footprint, and a check that it holds every pixel the part drew (as the server's tests check).
+    const render::PixelRect footprint = boxFootprint(boxes[size_t(rank)], size);
+    const render::PixelRect drawn = render::activeRect(partial);
+    if (!drawn.empty() && (drawn.x0 < footprint.x0 || drawn.y0 < footprint.y0 || drawn.x1 > footprint.x1 ||
+                           drawn.y1 > footprint.y1)) {
+      std::fprintf(stderr, "bench_composite: rank %d drew [%d, %d) x [%d, %d), outside its footprint [%d, %d) x [%d, %d)\n",
+                   rank, drawn.x0, drawn.x1, drawn.y0, drawn.y1, footprint.x0, footprint.x1, footprint.y0,
+                   footprint.y1);
+      MPI_Abort(MPI_COMM_WORLD, 1);
+    }
+#ifdef VOXBRICK_BENCH_RADIX_K
+    const double read = double(distributed::DenseFrame(partial, footprint).footprint.pixels());  // what is read
+#else
+    const double read = double(mask.size());
+#endif
+    const double footprintShare = sumOver(read) / (double(ranks) * double(mask.size()));
     const uint64_t own = digest(partial);
     std::vector<uint64_t> digests(static_cast<size_t>(ranks));
     MPI_Gather(&own, 1, MPI_UINT64_T, digests.data(), 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
     uint64_t inputs = 1469598103934665603ull;
     for (uint64_t d : digests) inputs = (inputs ^ d) * 1099511628211ull;
     for (const auto& encodingName : encodings) {
+      for (const auto& variant : variants) {
       for (const auto& factors : choices) {
         distributed::CompositeOptions options;
         options.encoding = distributed::parsePixelEncoding(encodingName);
         options.timeoutSeconds = 60;
 #ifdef VOXBRICK_BENCH_RADIX_K
         options.factors = factors;
+        if (variant == "footprint") options.footprint = footprint;
+        const std::string name = variant == "footprint" ? impl : std::string(impl) + "-whole";
 #else
         (void)factors;
+        const std::string name = impl;
 #endif
 #ifdef VOXBRICK_BENCH_RADIX_K
         image::Image8 frame;  // reused from frame to frame, as a server's
 #endif
         std::vector<double> times, compositing;
-        double bytes = 0, maxBytes = 0;
+        double bytes = 0, maxBytes = 0, maxHandled = 0;
         for (int i = 0; i <= repeat; ++i) {  // the first is a warm-up
           MPI_Barrier(MPI_COMM_WORLD);
           const auto start = std::chrono::steady_clock::now();
@@ -286,10 +356,15 @@ int main(int argc, char** argv) {
           const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
           const double slowest = maxOver(ms), slowestComposite = maxOver(composited);
           const double total = sumOver(double(stats.bytesSent)), most = maxOver(double(stats.bytesSent));
+#ifdef VOXBRICK_BENCH_RADIX_K
+          const double handled = maxOver(double(stats.pixelsHandled));
+#else
+          const double handled = 0;  // not counted before radix-k
+#endif
           if (i == 0) continue;
           times.push_back(slowest);
           compositing.push_back(slowestComposite);
-          bytes = total, maxBytes = most;
+          bytes = total, maxBytes = most, maxHandled = handled;
         }
         if (rank != 0) continue;
 #ifdef VOXBRICK_BENCH_RADIX_K
@@ -299,11 +374,13 @@ int main(int argc, char** argv) {
 #endif
         std::sort(times.begin(), times.end());
         std::sort(compositing.begin(), compositing.end());
-        std::printf("%s,%d,%d,%s,%s,%.3f,%.3f,%.3f,%.0f,%.0f,%.4f,%.4f,%016llx\n", impl, ranks, size,
-                    encodingName.c_str(), factorsText(used).c_str(), times[times.size() / 2], times.back(),
+        std::printf("%s,%d,%d,%s,%s,%.3f,%.3f,%.3f,%.0f,%.0f,%.4f,%.4f,%016llx,%.4f,%.0f\n", name.c_str(), ranks,
+                    size, encodingName.c_str(), factorsText(used).c_str(), times[times.size() / 2], times.back(),
                     compositing[compositing.size() / 2], bytes, maxBytes,
-                    activeAll / (double(ranks) * double(mask.size())), unionShare, (unsigned long long)inputs);
+                    activeAll / (double(ranks) * double(mask.size())), unionShare, (unsigned long long)inputs,
+                    name == "binary-swap" ? 1.0 : variant == "footprint" ? footprintShare : 1.0, maxHandled);
         std::fflush(stdout);
+      }
       }
     }
   }

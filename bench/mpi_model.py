@@ -1,10 +1,12 @@
 #!/usr/bin/env python3
 """The distributed mode's report (bench/results/mpi/mpi.md) from run_mpi.sh's figures: the compositor's measured ms and
 bytes beside the baseline's (binary swap, run interleaved on the same partial frames), radix-k's factorisations, each
-rank's host cache against its budget, and a cost model fitted to the compositing figures,
-    T(N, P) = alpha * steps(N) + gamma * P * (1 - 1/N) * max(1, N / cores)
-(steps: the exchanges a rank takes part in; P the frame's pixels), projected to 8, 64 and 512 ranks on 10 and
-100 Gb/s links. Needs numpy (Debian's /usr/bin/python3)."""
+rank's host cache against its budget, and two cost models fitted to the compositing figures,
+    T(N, P) = alpha * steps(N) + gamma * P * (1 - 1/N) * max(1, N / cores)      (a cost per frame pixel)
+    T(N, P) = alpha * steps(N) + gamma_h * H(N, P) * max(1, N / cores)          (a cost per pixel handled)
+(steps: the exchanges a rank takes part in; P the frame's pixels; H the most pixels one rank handled, counted by the
+compositor), projected to 8, 64 and 512 ranks on 10 and 100 Gb/s links, H and the bytes of 8 and 64 ranks counted
+at a smaller frame and scaled by its pixels. Needs numpy (Debian's /usr/bin/python3)."""
 import argparse
 import csv
 import datetime
@@ -14,7 +16,7 @@ import sys
 
 import numpy as np
 
-NEW, OLD = "radix-k", "binary-swap"
+NEW, WHOLE, OLD = "radix-k", "radix-k-whole", "binary-swap"
 
 
 RADIX_FACTORS = {}  # N -> [k, ...]: distributed::radixFactors, printed by bench_composite --print-factors
@@ -29,19 +31,20 @@ def radix_factors(n):
 def steps(impl, n):
     if n == 1:
         return 0
-    if impl == NEW:
+    if impl in (NEW, WHOLE):
         return len(radix_factors(n)) + 1  # the rounds and the gather
     power = 1 << (n.bit_length() - 1)
     return (1 if n != power else 0) + int(math.log2(power)) + 1  # the fold, the swap rounds and the gather
 
 
-def fit(rows, impl, column, cores):
+def fit(rows, impl, column, cores, handled=False):
+    """alpha and gamma (a cost per frame pixel, or per pixel handled) by least squares, and the median error."""
     fitted = [r for r in rows if r["impl"] == impl and int(r["ranks"]) >= 2]
     if not fitted:
         return None
-    X = np.array([[steps(impl, int(r["ranks"])),
-                   int(r["size"]) ** 2 * (1 - 1 / int(r["ranks"])) * max(1, int(r["ranks"]) / cores)]
-                  for r in fitted])
+    work = (lambda r: float(r["handled_max_rank"])) if handled else \
+        (lambda r: int(r["size"]) ** 2 * (1 - 1 / int(r["ranks"])))
+    X = np.array([[steps(impl, int(r["ranks"])), work(r) * max(1, int(r["ranks"]) / cores)] for r in fitted])
     y = np.array([float(r[column]) / 1000 for r in fitted])
     coef, *_ = np.linalg.lstsq(X, y, rcond=None)
     coef = np.maximum(coef, [1e-7, 1e-12])  # a negative share is noise: floored
@@ -53,6 +56,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--csv", required=True)
     ap.add_argument("--factors", required=True)
+    ap.add_argument("--counts", required=True, help="8 and 64 ranks' pixels handled and bytes (one repeat each)")
     ap.add_argument("--budget", required=True)
     ap.add_argument("--volume-bytes", type=int, required=True)
     ap.add_argument("--smoke", type=int, default=0)
@@ -67,6 +71,7 @@ def main():
         RADIX_FACTORS[int(n)] = [int(k) for k in text.split("x")] if text != "-" else []
     rows = list(csv.DictReader(open(a.csv)))
     factor_rows = list(csv.DictReader(open(a.factors)))
+    count_rows = list(csv.DictReader(open(a.counts)))
     by_key = {}
     for r in rows:
         by_key.setdefault((int(r["ranks"]), int(r["size"]), r["encoding"]), {})[r["impl"]] = r
@@ -84,27 +89,35 @@ def main():
                f" Command: `{a.command}`.\n")
     out.append("Each rank's partial frame is its part of a volume split as the partition splits one (a k-d tree of "
                "one box per rank, balanced by volume), drawn by `bench_composite` (soft blobs in a skin, ray-marched "
-               "at 256² and scaled up): the volume covers most of the frame, each part a share of it. Both "
+               "at 256² and scaled up): the volume covers most of the frame, each part a share of it. The "
                "compositors get the same frames (the digest of the inputs is checked). ms: the median over the "
                "repeats of the slowest rank's time from a barrier to the finished 8-bit frame on rank 0 (radix-k: "
                "`compositeFinished`, each rank finishing its own region; binary swap: `composite`, then "
                "`finishPartial` and `toImage8` on rank 0, as `RankRenderer` did); 'composite only' is the "
-               "baseline's `composite` call alone, today's figure. Active: the share of a rank's frame pixels "
-               "with anything in them (mean over ranks), and of the frame's pixels active on some rank. Bytes: "
-               "message bytes sent by all ranks. Half floats.\n")
-    out.append("| ranks | size | active (rank / frame) | binary swap, to 8-bit (ms) | binary swap, composite only (ms) "
-               "| radix-k, to 8-bit (ms) | faster | bytes, binary swap | bytes, radix-k |")
-    out.append("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+               "baseline's `composite` call alone, its own figure. Radix-k runs twice on the same frames: each rank "
+               "reading only its part's footprint (the box's projection on the screen, as the server does: "
+               "`CompositeOptions::footprint`), and reading its whole frame (the compositor before footprints). "
+               "Active: the share of a rank's frame pixels with anything in them (mean over ranks), and of the "
+               "frame's pixels active on some rank; footprint: the share of a rank's frame in its footprint (mean). "
+               "Handled: the most pixels one rank handled (`CompositeStats::pixelsHandled`: its footprint read, the "
+               "active pixels it joined, its final region), over the frame's pixels. Bytes: message bytes sent by "
+               "all ranks. Half floats.\n")
+    out.append("| ranks | size | active (rank / frame) | footprint | binary swap, to 8-bit (ms) "
+               "| binary swap, composite only (ms) | radix-k, whole frames (ms) | radix-k, footprints (ms) | faster "
+               "| handled, whole / footprints | bytes, binary swap | bytes, radix-k |")
+    out.append("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for (n, size, _), impls in sorted(by_key.items()):
-        new, old = impls.get(NEW), impls.get(OLD)
+        new, whole, old = impls.get(NEW), impls.get(WHOLE), impls.get(OLD)
         if not new:
             continue
         ms = lambda r, column: f"{float(r[column]):.2f}" if r else "–"
         sent = lambda r: f"{int(float(r['bytes_total'])):,}" if r else "–"
         faster = f"{float(old['ms_median']) / float(new['ms_median']):.1f}×" if old else "–"
         active = f"{float(new['active_share']) * 100:.0f} % / {float(new['union_share']) * 100:.0f} %"
-        out.append(f"| {n} | {size}² | {active} | {ms(old, 'ms_median')} | {ms(old, 'ms_composite_median')} | "
-                   f"{ms(new, 'ms_median')} | {faster} | {sent(old)} | {sent(new)} |")
+        share = lambda r: f"{float(r['handled_max_rank']) / size ** 2:.2f}" if r else "–"
+        out.append(f"| {n} | {size}² | {active} | {float(new['footprint_share']) * 100:.0f} % | "
+                   f"{ms(old, 'ms_median')} | {ms(old, 'ms_composite_median')} | {ms(whole, 'ms_median')} | "
+                   f"{ms(new, 'ms_median')} | {faster} | {share(whole)} / {share(new)} | {sent(old)} | {sent(new)} |")
     # Factorisations.
     out.append("\n## Radix-k's factorisations\n")
     out.append("Every ordered factorisation of the rank count (k per round; binary swap is 2 throughout), the same "
@@ -140,8 +153,11 @@ def main():
                    f"{p['compositing_ms']:.1f} | {p['bytes_sent']:,} |")
     # The fits.
     new_fit = fit(rows, NEW, "ms_median", a.cores)
+    whole_fit = fit(rows, WHOLE, "ms_median", a.cores)
     old_fit = fit(rows, OLD, "ms_composite_median", a.cores) if have_old else None
     old_fit8 = fit(rows, OLD, "ms_median", a.cores) if have_old else None
+    new_handled = fit(rows, NEW, "ms_median", a.cores, handled=True)
+    whole_handled = fit(rows, WHOLE, "ms_median", a.cores, handled=True)
     out.append("\n## Cost model\n")
     out.append(f"Fitted here, per implementation: T(N, P) = α·steps(N) + γ·P·(1 − 1/N)·max(1, N/{a.cores} cores), "
                "least squares over the rows with N ≥ 2 (steps: the exchanges one rank takes part in; P: the frame's "
@@ -151,8 +167,9 @@ def main():
                "finishing to 8 bits.\n")
     out.append("| implementation | what is timed | α (µs a step) | γ (ns a frame pixel) | median error of the fit |")
     out.append("| --- | --- | --- | --- | --- |")
-    for name, what, f in ((NEW, "to the finished 8-bit frame", new_fit),
-                          (OLD, "`composite` only (today's figure)", old_fit),
+    for name, what, f in ((NEW, "to the finished 8-bit frame, footprints", new_fit),
+                          (WHOLE, "to the finished 8-bit frame, whole frames", whole_fit),
+                          (OLD, "`composite` only (the baseline's figure)", old_fit),
                           (OLD, "to the finished 8-bit frame", old_fit8)):
         if f:
             out.append(f"| {name} | {what} | {f[0] * 1e6:.1f} | {f[1] * 1e9:.2f} | {f[2] * 100:.0f} % |")
@@ -160,32 +177,73 @@ def main():
         out.append(f"\nγ: radix-k to the 8-bit frame {new_fit[1] * 1e9:.2f} ns against binary swap's composite alone "
                    f"{old_fit[1] * 1e9:.2f} ns, {old_fit[1] / new_fit[1]:.1f}× lower (against binary swap to the "
                    f"8-bit frame, {old_fit8[1] / new_fit[1]:.1f}×), measured in the same run; the baseline's figure "
-                   "in the previous report was 39 ns (other partial frames: a textured square of 3/4 the frame's "
-                   "side on every rank).\n")
-    # Projection.
-    out.append("Projected (one core per rank): T = α_link·messages + bytes/β_link + γ·P·(1 − 1/N), α assumed 20 µs "
-               "on 10 Gb/s Ethernet and 2 µs on 100 Gb/s InfiniBand. Radix-k with `radixFactors(N)` (64: "
-               f"{'x'.join(map(str, radix_factors(64)))}, 512: {'x'.join(map(str, radix_factors(512)))}), each rank sending P·(1 − 1/N) half-float pixels at most (every pixel active: the "
-               "measured frames send fewer, the share active above) and the root receiving P·(1 − 1/N)·4 bytes of "
-               "8-bit pixels; binary swap as before: P·(1 − 1/N)·8 bytes a rank over log2 N rounds, and "
-               "P·(1 − 1/N)·8 bytes of premultiplied halves into rank 0, with its own γ (composite only, so its "
-               "finishing is left out in its favour).\n")
-    out.append("| pixels | ranks | link | radix-k, rounds (s) | radix-k, with the 8-bit gather (s) "
-               "| binary swap, with the gather (s) |")
+                   "in the first report was 39 ns (other partial frames: a textured square of 3/4 the frame's side "
+                   "on every rank).\n")
+    out.append(f"A cost per frame pixel charges a rank for pixels it never touches once it reads only its footprint "
+               f"and then only active pixels of shrinking ranges; so radix-k is fitted a second time with a cost per "
+               f"pixel handled: T = α·steps(N) + γ_h·H·max(1, N/{a.cores} cores), H the most pixels one rank handled "
+               "(counted by the compositor in every run).\n")
+    out.append("| implementation | α (µs a step) | γ_h (ns a pixel handled) | median error of the fit |")
+    out.append("| --- | --- | --- | --- |")
+    for name, f in ((NEW, new_handled), (WHOLE, whole_handled)):
+        if f:
+            out.append(f"| {name} | {f[0] * 1e6:.1f} | {f[1] * 1e9:.2f} | {f[2] * 100:.0f} % |")
+    # Counted: 8 and 64 ranks.
+    counted = {}
+    out.append("\n## 8 and 64 ranks, counted\n")
+    out.append("One frame each on this machine's two cores (their times say nothing of a cluster's and are left "
+               "out): the most pixels one rank handled and the most bytes one rank sent, per frame pixel, which the "
+               "projection scales to larger frames.\n")
+    out.append("| ranks | size | footprint (mean share) | handled, whole frames | handled, footprints "
+               "| bytes sent by one rank, most, a frame pixel |")
     out.append("| --- | --- | --- | --- | --- | --- |")
+    for r in count_rows:
+        n, size = int(r["ranks"]), int(r["size"])
+        if r["impl"] == NEW:
+            counted[n] = (float(r["handled_max_rank"]) / size ** 2, float(r["bytes_max_rank"]) / size ** 2)
+    for r in count_rows:
+        if r["impl"] != NEW:
+            continue
+        n, size = int(r["ranks"]), int(r["size"])
+        whole = next((w for w in count_rows if w["impl"] == WHOLE and w["ranks"] == r["ranks"]), None)
+        whole_text = f"{float(whole['handled_max_rank']) / size ** 2:.3f} P" if whole else "–"
+        out.append(f"| {n} | {size}² | {float(r['footprint_share']) * 100:.1f} % | {whole_text} | "
+                   f"{counted[n][0]:.3f} P | {counted[n][1]:.2f} B |")
+    # Projection.
+    out.append("\n## Projected\n")
+    out.append("One core per rank: T = α_link·messages + bytes/β_link + (computing), α_link assumed 20 µs on 10 Gb/s "
+               "Ethernet and 2 µs on 100 Gb/s InfiniBand, the rounds' messages and the 8-bit gather into the root "
+               "(P·(1 − 1/N)·4 bytes over its one link) added, no overlap. Radix-k with `radixFactors(N)` (64: "
+               f"{'x'.join(map(str, radix_factors(64)))}, 512: {'x'.join(map(str, radix_factors(512)))}). "
+               "**Counted**: computing γ_h·H, H and the most bytes one rank sends taken from the counted frames of "
+               "the same rank count, scaled by the pixels. **Ceiling**: the first report's form, computing "
+               "γ·P·(1 − 1/N) and every rank sending P·(1 − 1/N) half-float pixels (every pixel active). Binary "
+               "swap as before: P·(1 − 1/N)·8 bytes a rank over log2 N rounds, P·(1 − 1/N)·8 bytes of "
+               "premultiplied halves into rank 0, its own γ (composite only, its finishing left out in its "
+               "favour).\n")
+    out.append("| pixels | ranks | link | radix-k, counted (s) | radix-k, ceiling (s) | binary swap (s) |")
+    out.append("| --- | --- | --- | --- | --- | --- |")
+    projected = None
     for pixels, label in ((2048 * 2048, "2048² (4 Mpx)"), (8192 * 8192, "8192² (64 Mpx)")):
         for n in (8, 64, 512):
             for gbps, lat in ((10, 20e-6), (100, 2e-6)):
                 bw = gbps / 8 * 1e9
                 share = pixels * (1 - 1 / n)
+                messages = sum(k - 1 for k in radix_factors(n))
+                gather = lat * (n - 1) + share * 4 / bw
                 cells = []
-                if new_fit:
-                    messages = sum(k - 1 for k in radix_factors(n))
-                    rounds = lat * messages + share * 8 / bw + new_fit[1] * share
-                    gather = lat * (n - 1) + share * 4 / bw
-                    cells += [f"{rounds:.3f}", f"{rounds + gather:.3f}"]
+                if new_handled and n in counted:
+                    handled, sent = counted[n]
+                    t = lat * messages + sent * pixels / bw + new_handled[1] * handled * pixels + gather
+                    cells.append(f"{t:.3f}")
+                    if pixels == 8192 * 8192 and n == 64 and gbps == 100:
+                        projected = t
                 else:
-                    cells += ["–", "–"]
+                    cells.append("–")
+                if new_fit:
+                    cells.append(f"{lat * messages + share * 8 / bw + new_fit[1] * share + gather:.3f}")
+                else:
+                    cells.append("–")
                 if old_fit:
                     swap = lat * math.log2(n) + share * 8 / bw + old_fit[1] * share
                     cells.append(f"{swap + lat * n + share * 8 / bw:.3f}")
@@ -195,21 +253,21 @@ def main():
     if new_fit:
         pixels, n, bw = 8192 * 8192, 64, 100 / 8 * 1e9
         share = pixels * (1 - 1 / n)
-        projected = (2e-6 * (sum(k - 1 for k in radix_factors(n)) + n - 1) + share * 8 / bw
-                     + new_fit[1] * share + share * 4 / bw)
+        ceiling = (2e-6 * (sum(k - 1 for k in radix_factors(n)) + n - 1) + share * 8 / bw
+                   + new_fit[1] * share + share * 4 / bw)
         against = f", {old_fit[1] / new_fit[1]:.1f}× below the baseline's in this run" if old_fit else ""
-        out.append(f"\nTargets: γ = {new_fit[1] * 1e9:.2f} ns a frame pixel, {39 / (new_fit[1] * 1e9):.1f}× below the "
-                   f"previous report's 39 ns{against} (aim: 10×); 64 Mpx on 64 ranks over 100 Gb/s projected to "
-                   f"{projected:.2f} s with the 8-bit gather (aim: 0.3 s). The γ·P·(1 − 1/N) form charges radix-k "
-                   "for every frame pixel although a rank reads its whole partial frame once and then handles only "
-                   "active pixels of shrinking ranges, and this machine's two cores were shared with other work "
-                   "(load above): both make the projection a ceiling rather than an estimate.")
+        counted_text = f"{projected:.2f} s" if projected is not None else "not counted"
+        out.append(f"\nTargets: γ = {new_fit[1] * 1e9:.2f} ns a frame pixel{against} (aim: 10×); 64 Mpx on 64 ranks "
+                   f"over 100 Gb/s projected to {counted_text} counted, {ceiling:.2f} s as a ceiling (aim: 0.3 s). "
+                   "Both projections rest on γ measured on two shared cores with every rank oversubscribed (load "
+                   "above), and the counted one on the bench's volume: a part's footprint is a share of the frame "
+                   "that shrinks with the rank count as its box does; a volume seen edge-on or filling the frame "
+                   "from inside gives larger footprints (the camera inside the data: the whole frame).")
     out.append("\nPublished, for scale: radix-k composited 64 Mpx in 0.08 s on 32 k processes and ran 40 % faster "
                "than binary swap from 32 to 35 k processes (Kendall et al., EGPGV 2010, on Blue Gene/P and a "
                "Cray XT); IceT composited at 64 k cores (Moreland et al., SC11). Both leave the image distributed "
-               "or reduce it with far more links than one root has. Here γ, measured on two shared cores with "
-               "every rank oversubscribed, is the weak part of every projection; the gather into one root is "
-               "bounded by the root's link (P·4 bytes) however many ranks there are.\n")
+               "or reduce it with far more links than one root has; here the gather into one root is bounded by "
+               "the root's link (P·4 bytes) however many ranks there are.\n")
     print("\n".join(out))
 
 

@@ -50,7 +50,8 @@ struct CompositeOptions {
   std::vector<int> factors;
   Kernels kernels = Kernels::Best;  ///< the portable scalar kernels on request (tests); the same results
   /// The rectangle of this rank's partial frame that may hold anything (its part's projection on the screen,
-  /// SortLastParts::footprint): the pixels outside it are taken as empty without being read. None: the whole frame.
+  /// SortLastParts::footprint): the pixels outside it must be empty, and are taken as such, mostly without being
+  /// read (DenseFrame says which are). None: the whole frame.
   std::optional<render::PixelRect> footprint;
 };
 

@@ -88,12 +88,14 @@ struct PixelRuns {
   size_t activePixels() const { return pixels.size() / 4; }
 };
 
-/// A dense premultiplied partial frame whose pixels outside `footprint` are known to be empty: they are never read,
-/// so that a rank whose part covers a corner of the frame scans that corner only. Made from a frame alone, the
-/// footprint is the whole frame; a footprint is clipped to the frame.
+/// A dense premultiplied partial frame whose pixels outside a footprint are known to be empty (the renderer leaves
+/// them so): they are taken as empty, so that a rank whose part covers a corner of the frame scans that corner only.
+/// The rows above and below the footprint are never read, nor the pixels left and right of a footprint narrower
+/// than three quarters of the frame; a wider one is read as whole rows (streaming past its sides is cheaper than a
+/// jump on every row). Made from a frame alone, the footprint is the whole frame.
 struct DenseFrame {
   const image::ImageF* frame = nullptr;
-  render::PixelRect footprint;
+  render::PixelRect footprint;  ///< what is read: the footprint given, clipped to the frame, widened as above
 
   DenseFrame(const image::ImageF& whole)  // NOLINT(google-explicit-constructor): a frame is a dense frame
       : frame(&whole), footprint{0, 0, whole.width, whole.height} {}

@@ -69,6 +69,7 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
   compositeOptions.root = 0;
   // Only the pixels the part's box covers are read (a rank's part covers a share of the frame).
   compositeOptions.footprint = parts.footprint(index, scene, partial.width, partial.height);
+  const long long footprintPixels = DenseFrame(partial, *compositeOptions.footprint).footprint.pixels();  // as read
   CompositeStats composited;
   // Finished to 8 bits by each member over the background, its region straight into rank 0's frame; an interactive
   // frame drawn reduced is composited at that size as floats, finished and scaled up once on rank 0, as one process
@@ -86,7 +87,7 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
   record << drawMs << " " << own.msPaging << " " << composited.ms << " " << composited.bytesSent << " "
          << composited.bytesReceived << " " << cache.peakResidentBytes << " " << cache.budgetBytes << " "
          << own.bricksDrawn << " " << own.bricksOutsidePart << " " << mEngine.peakGpuBytes() << " "
-         << compositeOptions.footprint->pixels() << " " << composited.pixelsHandled << " " << failure;
+         << footprintPixels << " " << composited.pixelsHandled << " " << failure;
   const auto records = gatherRecords(group, record.str(), mOptions.composite.timeoutSeconds);
   if (failed) std::rethrow_exception(failed);
   if (mRank != 0) return {};

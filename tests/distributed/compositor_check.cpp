@@ -83,20 +83,28 @@ int maxStepDifference(const image::Image8& a, const image::Image8& b) {
   return worst;
 }
 
+// Garbage (active pixels) painted where the compositor must never read with `footprint`: the rows above and below
+// it, and left and right of it when it is narrower than three quarters of the frame (a wider one is read as whole
+// rows: DenseFrame).
+void paintUnread(std::mt19937& random, image::ImageF& frame, const render::PixelRect& footprint) {
+  const distributed::DenseFrame read(frame, footprint);
+  for (int y = 0; y < frame.height; ++y) {
+    for (int x = 0; x < frame.width; ++x) {
+      const render::PixelRect& f = read.footprint;
+      if (!(x >= f.x0 && x < f.x1 && y >= f.y0 && y < f.y1)) paint(random, frame.pixel(x, y));
+    }
+  }
+}
+
 // A footprint around `painted`: grown by up to 3 pixels a side (past the frame's edges at times, which the
-// compositor clips), and garbage (active pixels) painted outside it, which the compositor must never read.
+// compositor clips), with garbage painted where it is not read.
 render::PixelRect dirtyOutside(std::mt19937& random, image::ImageF& frame, const render::PixelRect& painted) {
   render::PixelRect footprint = painted;
   if (!painted.empty()) {
     footprint.x0 -= int(random() % 4), footprint.y0 -= int(random() % 4);
     footprint.x1 += int(random() % 4), footprint.y1 += int(random() % 4);
   }
-  for (int y = 0; y < frame.height; ++y) {
-    for (int x = 0; x < frame.width; ++x) {
-      const bool inside = x >= footprint.x0 && x < footprint.x1 && y >= footprint.y0 && y < footprint.y1;
-      if (!inside) paint(random, frame.pixel(x, y));
-    }
-  }
+  paintUnread(random, frame, footprint);
   return footprint;
 }
 
@@ -264,15 +272,9 @@ int runKernels() {
         }
       }
       image::ImageF dirty = cut;
-      render::PixelRect painted{std::max(rect.x0, 0), std::max(rect.y0, 0), rect.x1, rect.y1};
-      if (painted.x0 >= width || painted.y0 >= height || painted.empty()) painted = {};
-      const render::PixelRect within = painted.empty() ? render::PixelRect{} : rect;
-      for (int y = 0; y < height; ++y) {
-        for (int x = 0; x < width; ++x) {
-          if (x < within.x0 || x >= within.x1 || y < within.y0 || y >= within.y1) paint(random, dirty.pixel(x, y));
-        }
-      }
-      const distributed::DenseFrame footprinted(dirty, within);
+      paintUnread(random, dirty, rect);
+      const distributed::DenseFrame footprinted(dirty, rect);
+      const render::PixelRect within = footprinted.footprint;  // what is read
       distributed::PixelRuns fromCut, fromFootprint;
       const uint32_t r0 = uint32_t(random() % (pixels + 1)), r1 = r0 + uint32_t(random() % (pixels - r0 + 1));
       distributed::encodeRuns(cut, r0, r1, fromCut);
