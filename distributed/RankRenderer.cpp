@@ -67,8 +67,13 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
   compositeOptions.tag = group.tag(kCompositeTags);
   compositeOptions.ranks = group.members;
   compositeOptions.root = 0;
-  // Only the pixels the part's box covers are read (a rank's part covers a share of the frame).
-  compositeOptions.footprint = parts.footprint(index, scene, partial.width, partial.height);
+  // Only the pixels the part's box covers are read (a rank's part covers a share of the frame). A scene whose
+  // camera cannot project (its drawing failed already) reads the whole frame, so that this rank stays in step.
+  try {
+    compositeOptions.footprint = parts.footprint(index, scene, partial.width, partial.height);
+  } catch (const std::exception&) {
+    compositeOptions.footprint = render::PixelRect{0, 0, partial.width, partial.height};
+  }
   const long long footprintPixels = DenseFrame(partial, *compositeOptions.footprint).footprint.pixels();  // as read
   CompositeStats composited;
   // Finished to 8 bits by each member over the background, its region straight into rank 0's frame; an interactive

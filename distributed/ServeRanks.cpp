@@ -109,11 +109,15 @@ void FrameLeader::regroup(const std::vector<int>& candidates) {
     }
   }
   // The answers, until every candidate's is in or the deadline passed; a rank that has not answered by then is left
-  // out, and its answer still listened for (mLate): it is taken back if it comes.
-  const auto deadline = std::chrono::steady_clock::now() +
-                        std::chrono::duration<double>(regroupSeconds(mOptions.frames.composite.timeoutSeconds));
+  // out, and its answer still listened for (mLate): it is taken back if it comes. The rank the failed frame named is
+  // not waited for once the others have answered (after a short grace): a dead or stopped rank would otherwise hold
+  // the first frame after its loss for the whole deadline, and a live one named by mistake is taken back at the
+  // next frame.
+  const auto start = std::chrono::steady_clock::now();
+  const auto deadline = start + std::chrono::duration<double>(regroupSeconds(mOptions.frames.composite.timeoutSeconds));
+  const auto grace = start + std::chrono::milliseconds(250);
   while (true) {
-    bool waiting = false;
+    bool waiting = false, waitingForOthers = false;
     for (auto& answer : awaited) {
       if (answer.request == MPI_REQUEST_NULL) continue;
       int done = 0;
@@ -125,9 +129,11 @@ void FrameLeader::regroup(const std::vector<int>& candidates) {
         next.members.push_back(answer.rank);
       } else {
         waiting = true;
+        waitingForOthers = waitingForOthers || answer.rank != mSuspect;
       }
     }
-    if (!waiting || std::chrono::steady_clock::now() > deadline) break;
+    const auto now = std::chrono::steady_clock::now();
+    if (!waiting || now > deadline || (!waitingForOthers && mFailure && now > grace)) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   for (auto& answer : awaited)

@@ -60,8 +60,8 @@ class SortLastParts {
   /// The parts' indices, nearest first, for `scene`'s camera.
   virtual std::vector<int> frontToBack(const Scene& scene) const = 0;
   /// The rectangle of a width × height drawing of `scene` (the scene's own size, or an interactive frame's reduced
-  /// one) outside which part `part` draws nothing: its box's projection with a margin (the compositor never reads
-  /// past it). Default: the whole frame.
+  /// one) outside which part `part` draws nothing: its box's projection with a margin (the compositor takes the
+  /// pixels outside as empty, mostly without reading them). Default: the whole frame.
   virtual PixelRect footprint(int part, const Scene& scene, int width, int height) const;
 };
 
