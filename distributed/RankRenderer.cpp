@@ -92,7 +92,7 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
   record << drawMs << " " << own.msPaging << " " << composited.ms << " " << composited.bytesSent << " "
          << composited.bytesReceived << " " << cache.peakResidentBytes << " " << cache.budgetBytes << " "
          << own.bricksDrawn << " " << own.bricksOutsidePart << " " << mEngine.peakGpuBytes() << " "
-         << footprintPixels << " " << composited.pixelsHandled << " " << failure;
+         << footprintPixels << " " << composited.pixelsHandled << " " << own.tetsDrawn << " " << failure;
   const auto records = gatherRecords(group, record.str(), mOptions.composite.timeoutSeconds);
   if (failed) std::rethrow_exception(failed);
   if (mRank != 0) return {};
@@ -102,9 +102,9 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
     std::istringstream in(records[i]);
     double draw = 0, paging = 0, compositeMs = 0;
     uint64_t sent = 0, received = 0, peakHost = 0, budget = 0, peakGpu = 0, footprint = 0, handled = 0;
-    int64_t bricks = 0, outside = 0;
+    int64_t bricks = 0, outside = 0, tets = 0;
     in >> draw >> paging >> compositeMs >> sent >> received >> peakHost >> budget >> bricks >> outside >> peakGpu >>
-        footprint >> handled;
+        footprint >> handled >> tets;
     std::string error;
     std::getline(in >> std::ws, error);
     const int rank = group.members[i];
@@ -121,6 +121,7 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
                        {"footprint_pixels", footprint},
                        {"pixels_handled", handled},
                        {"bricks_drawn", bricks},
+                       {"tets_drawn", tets},
                        {"bricks_outside_part", outside},
                        {"host_cache_peak_bytes", peakHost},
                        {"host_cache_budget_bytes", budget},

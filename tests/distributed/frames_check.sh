@@ -114,6 +114,12 @@ d = stats["distributed"]
 outside = [r["bricks_outside_part"] for r in d["per_rank"]]
 if ranks > 1 and not name.startswith("mesh") and not all(n > 0 for n in outside):
     sys.exit(f"a rank walked into other parts: bricks_outside_part {outside}")
+# A projected mesh's ranks each drew cells of their own part, and none drew them all (the one process's cells).
+if name == "meshinside":
+    tets = [r["tets_drawn"] for r in d["per_rank"]]
+    whole = json.load(open(sys.argv[1].replace(f".{ranks}.json", ".single.json"))).get("tets_drawn", 0)
+    if not all(t > 0 for t in tets) or (ranks > 1 and max(tets) >= whole):
+        sys.exit(f"tets drawn per rank {tets}, the one process {whole}")
 # Each rank read only its footprint: within the composited frame, and (away from the camera inside the data) smaller
 # than it on some rank from 3 parts on (2 parts' footprints span the frame's width and are read as whole rows).
 frame = d["composited_width"] * d["composited_height"]
