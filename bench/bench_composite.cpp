@@ -85,19 +85,28 @@ double density(const Vec& p) {
   return d;
 }
 
-// A part's premultiplied frame at `side`² pixels: rays from a perspective camera at an angle, sampled every 1/96
-// inside the part's box (at the same distances for every part, as a partitioned renderer does), front to back.
+// The bench's perspective camera at an angle: the eye looking at the volume's centre, a 40° view.
+struct BenchCamera {
+  Vec eye{0.775, 0.527, 0.9}, forward{}, right{}, up{};
+  double halfView = std::tan(0.5 * 40.0 * M_PI / 180);
+
+  BenchCamera() {
+    const double length = std::sqrt(eye[0] * eye[0] + eye[1] * eye[1] + eye[2] * eye[2]);
+    forward = {-eye[0] / length, -eye[1] / length, -eye[2] / length};
+    const double rl = std::sqrt(forward[2] * forward[2] + forward[0] * forward[0]);
+    right = {forward[2] / rl, 0, -forward[0] / rl};
+    up = {right[1] * forward[2] - right[2] * forward[1], right[2] * forward[0] - right[0] * forward[2],
+          right[0] * forward[1] - right[1] * forward[0]};
+  }
+};
+
+// A part's premultiplied frame at `side`² pixels: rays from the bench's camera, sampled every 1/96 inside the part's
+// box (at the same distances for every part, as a partitioned renderer does), front to back.
 image::ImageF drawPart(const Box& box, int side) {
   image::ImageF image{side, side, std::vector<float>(size_t(side) * size_t(side) * 4, 0.0f)};
-  const Vec eye{0.775, 0.527, 0.9};
-  const double length = std::sqrt(eye[0] * eye[0] + eye[1] * eye[1] + eye[2] * eye[2]);
-  const Vec forward{-eye[0] / length, -eye[1] / length, -eye[2] / length};
-  Vec right{forward[2], 0, -forward[0]};
-  const double rl = std::sqrt(right[0] * right[0] + right[2] * right[2]);
-  right = {right[0] / rl, 0, right[2] / rl};
-  const Vec up{right[1] * forward[2] - right[2] * forward[1], right[2] * forward[0] - right[0] * forward[2],
-               right[0] * forward[1] - right[1] * forward[0]};
-  const double step = 1.0 / 96, halfView = std::tan(0.5 * 40.0 * M_PI / 180);
+  const BenchCamera camera;
+  const Vec &eye = camera.eye, &forward = camera.forward, &right = camera.right, &up = camera.up;
+  const double step = 1.0 / 96, halfView = camera.halfView;
   for (int y = 0; y < side; ++y) {
     for (int x = 0; x < side; ++x) {
       const double u = ((x + 0.5) / side * 2 - 1) * halfView, v = (1 - (y + 0.5) / side * 2) * halfView;
@@ -133,20 +142,12 @@ image::ImageF drawPart(const Box& box, int side) {
 // The bench's camera (drawPart's): where point p falls on a side² frame, in pixels (x right, y down; pixel centres at
 // +0.5); false when p is not in front of the eye.
 bool projectPoint(const Vec& p, int side, double& x, double& y) {
-  const Vec eye{0.775, 0.527, 0.9};
-  const double length = std::sqrt(eye[0] * eye[0] + eye[1] * eye[1] + eye[2] * eye[2]);
-  const Vec forward{-eye[0] / length, -eye[1] / length, -eye[2] / length};
-  Vec right{forward[2], 0, -forward[0]};
-  const double rl = std::sqrt(right[0] * right[0] + right[2] * right[2]);
-  right = {right[0] / rl, 0, right[2] / rl};
-  const Vec up{right[1] * forward[2] - right[2] * forward[1], right[2] * forward[0] - right[0] * forward[2],
-               right[0] * forward[1] - right[1] * forward[0]};
-  const double halfView = std::tan(0.5 * 40.0 * M_PI / 180);
-  const Vec d{p[0] - eye[0], p[1] - eye[1], p[2] - eye[2]};
+  const BenchCamera camera;
+  const Vec d{p[0] - camera.eye[0], p[1] - camera.eye[1], p[2] - camera.eye[2]};
   auto dot = [](const Vec& a, const Vec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
-  const double depth = dot(d, forward);
+  const double depth = dot(d, camera.forward);
   if (depth <= 1e-9) return false;
-  const double u = dot(d, right) / depth / halfView, v = dot(d, up) / depth / halfView;
+  const double u = dot(d, camera.right) / depth / camera.halfView, v = dot(d, camera.up) / depth / camera.halfView;
   x = (u + 1) / 2 * side, y = (1 - v) / 2 * side;
   return true;
 }
@@ -264,7 +265,7 @@ int main(int argc, char** argv) {
   std::iota(order.begin(), order.end(), 0);
   auto distance = [&boxes](int i) {
     const Box& b = boxes[size_t(i)];
-    const Vec eye{0.775, 0.527, 0.9};
+    const Vec eye = BenchCamera().eye;
     double d = 0;
     for (size_t a = 0; a < 3; ++a) d += std::pow((b.lo[a] + b.hi[a]) / 2 - eye[a], 2);
     return d;
