@@ -70,7 +70,7 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
   // Only the pixels the part's box covers are read (a rank's part covers a share of the frame). A scene whose
   // camera cannot project (its drawing failed already) reads the whole frame, so that this rank stays in step.
   try {
-    compositeOptions.footprint = parts.footprint(index, scene, partial.width, partial.height);
+    compositeOptions.footprint = parts.footprint(index, scene, partial.width, partial.height, failed ? nullptr : &own);
   } catch (const std::exception&) {
     compositeOptions.footprint = render::PixelRect{0, 0, partial.width, partial.height};
   }

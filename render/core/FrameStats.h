@@ -3,10 +3,13 @@
 
 #include <chrono>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
+
+#include "render/core/Camera.h"
 
 namespace voxbrick::render {
 
@@ -91,6 +94,9 @@ struct FrameStats {
   /// A sort-last frame across MPI ranks (distributed/RankRenderer.h): the ranks drawing, those lost, the order and
   /// the compositing; null otherwise.
   nlohmann::json distributed;
+  /// A grid frame: the box, in the renderers' local frame, of the bricks it drew (min above max when it drew none);
+  /// none for other kinds. A sort-last part's footprint shrinks to it (SortLastParts::footprint). Not in the JSON.
+  std::optional<Box> drawnBox;
 
   /// The statistics as a JSON object (snake_case keys, times under "ms"), to which callers may add their own keys.
   nlohmann::json toJson() const;

@@ -61,8 +61,10 @@ class SortLastParts {
   virtual std::vector<int> frontToBack(const Scene& scene) const = 0;
   /// The rectangle of a width × height drawing of `scene` (the scene's own size, or an interactive frame's reduced
   /// one) outside which part `part` draws nothing: its box's projection with a margin (the compositor takes the
-  /// pixels outside as empty, mostly without reading them). Default: the whole frame.
-  virtual PixelRect footprint(int part, const Scene& scene, int width, int height) const;
+  /// pixels outside as empty, mostly without reading them), cut to what the frame drew when its statistics `drawn`
+  /// say (a grid's FrameStats::drawnBox). Default: the whole frame.
+  virtual PixelRect footprint(int part, const Scene& scene, int width, int height,
+                              const FrameStats* drawn = nullptr) const;
 };
 
 /// `voxbrick info` of a dataset: what it holds, for people and as JSON.

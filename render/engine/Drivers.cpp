@@ -35,7 +35,7 @@ DatasetReport DatasetDriver::describe(const std::filesystem::path& path, const s
   return {path.string() + ": a dataset of kind " + std::string(kind()) + "\n", nlohmann::json::object()};
 }
 
-PixelRect SortLastParts::footprint(int, const Scene&, int width, int height) const {
+PixelRect SortLastParts::footprint(int, const Scene&, int width, int height, const FrameStats*) const {
   return {0, 0, std::max(width, 0), std::max(height, 0)};
 }
 

@@ -30,8 +30,9 @@ class GridParts final : public SortLastParts {
   std::vector<int> frontToBack(const Scene& scene) const override {
     return partsFrontToBack(mPartition, partView(mStore->meta(), scene));
   }
-  PixelRect footprint(int part, const Scene& scene, int width, int height) const override {
-    return partFootprint(mStore->meta(), mPartition.boxes.at(size_t(part)), scene, width, height);
+  PixelRect footprint(int part, const Scene& scene, int width, int height, const FrameStats* drawn) const override {
+    return partFootprint(mStore->meta(), mPartition.boxes.at(size_t(part)), scene, width, height,
+                         drawn ? drawn->drawnBox : std::nullopt);
   }
 
  private:

@@ -30,7 +30,7 @@ class MeshParts final : public SortLastParts {
   std::vector<int> frontToBack(const Scene& scene) const override {
     return partsFrontToBack(mPartition, meshPartView(scene, mSource->constants()));
   }
-  PixelRect footprint(int part, const Scene& scene, int width, int height) const override {
+  PixelRect footprint(int part, const Scene& scene, int width, int height, const FrameStats*) const override {
     return meshPartFootprint(mPartition.boxes.at(size_t(part)), mSource->constants(), scene, width, height);
   }
 

@@ -183,7 +183,8 @@ PartView partView(const store::StoreMeta& meta, const Scene& scene) {
   return view;
 }
 
-PixelRect partFootprint(const store::StoreMeta& meta, const PartBox& part, const Scene& scene, int width, int height) {
+PixelRect partFootprint(const store::StoreMeta& meta, const PartBox& part, const Scene& scene, int width, int height,
+                        const std::optional<Box>& drawn) {
   // In the local frame the renderers draw in: a voxel coordinate is local / spacing + dims / 2.
   const double dims[3] = {double(meta.dims.x), double(meta.dims.y), double(meta.dims.z)};
   const double spacing[3] = {meta.spacing.x, meta.spacing.y, meta.spacing.z};
@@ -191,6 +192,11 @@ PixelRect partFootprint(const store::StoreMeta& meta, const PartBox& part, const
   for (int a = 0; a < 3; ++a) {
     box.min[a] = (double(part.lo[size_t(a)]) - 1 - 0.5 * dims[a]) * spacing[a];
     box.max[a] = (double(part.hi[size_t(a)]) + 1 - 0.5 * dims[a]) * spacing[a];
+    if (drawn) {
+      box.min[a] = std::max(box.min[a], drawn->min[a] - spacing[a]);
+      box.max[a] = std::min(box.max[a], drawn->max[a] + spacing[a]);
+      if (box.min[a] > box.max[a]) return {};  // nothing drawn (or nothing of the part)
+    }
   }
   const PixelRect r = projectedRect(gridCamera(scene, meta), box, width, height);
   if (r.empty() || !WorldFrame::of(meta.orientation, meta.dims, meta.spacing).mirrored()) return r;

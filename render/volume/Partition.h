@@ -3,6 +3,7 @@
 // parts' front-to-back order for a camera, which follows from the eye's side of each split.
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -46,8 +47,10 @@ PartView partView(const store::StoreMeta& meta, const Scene& scene);
 /// The rectangle of a width × height drawing of `scene` on `meta`'s grid outside which a frame drawn with
 /// FrameOptions::part = `part` has nothing: the box grown by a level-0 voxel (a sample belongs to the voxel it lies
 /// in) projected by gridCamera (projectedRect), flipped left to right when the store's world frame is mirrored (as
-/// finishImage flips the image).
-PixelRect partFootprint(const store::StoreMeta& meta, const PartBox& part, const Scene& scene, int width, int height);
+/// finishImage flips the image). With `drawn` (FrameStats::drawnBox of the part's frame), the box is first cut to
+/// the bricks the frame drew, grown by a voxel: a part whose box is mostly empty reads only what it drew.
+PixelRect partFootprint(const store::StoreMeta& meta, const PartBox& part, const Scene& scene, int width, int height,
+                        const std::optional<Box>& drawn = std::nullopt);
 
 /// The parts' indices nearest first for `view` (kdFrontToBack of render/core/PartOrder.h): at each split the side
 /// holding the eye (perspective; an eye on the plane takes the lower side first) or the side the view comes from

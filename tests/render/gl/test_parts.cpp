@@ -95,17 +95,30 @@ void expectPartsGiveTheWholeFrame(const std::shared_ptr<const store::BrickStore>
   for (int n = 1; n <= 5; ++n) {
     const Partition partition = partitionBricks(*s, n);
     const DrawnParts parts = drawParts(renderer, scene, partition.boxes);
-    long long footprints = 0;
+    long long footprints = 0, cutFootprints = 0;
     for (int p = 0; p < n; ++p) {
       EXPECT_LE(parts.stats[size_t(p)].bricksDrawn, wholeStats.bricksDrawn) << what << ", part " << p << " of " << n;
       expectWithinFootprint(parts.frames[size_t(p)],
                             partFootprint(s->meta(), partition.boxes[size_t(p)], scene, scene.width, scene.height),
                             what + ", part " + std::to_string(p) + " of " + std::to_string(n));
+      // Cut to the bricks the part drew (what the server reads).
+      ASSERT_TRUE(parts.stats[size_t(p)].drawnBox.has_value()) << what;
+      expectWithinFootprint(parts.frames[size_t(p)],
+                            partFootprint(s->meta(), partition.boxes[size_t(p)], scene, scene.width, scene.height,
+                                          parts.stats[size_t(p)].drawnBox),
+                            what + ", part " + std::to_string(p) + " of " + std::to_string(n) + ", cut to its bricks");
+      cutFootprints += partFootprint(s->meta(), partition.boxes[size_t(p)], scene, scene.width, scene.height,
+                                     parts.stats[size_t(p)].drawnBox)
+                           .pixels();
       footprints += partFootprint(s->meta(), partition.boxes[size_t(p)], scene, scene.width, scene.height).pixels();
     }
     if (n > 1 && what != "inside") {
       EXPECT_LT(footprints, (long long)n * scene.width * scene.height)
           << what << ", " << n << " parts: footprints no smaller than the frame, a check that cannot fail";
+    }
+    EXPECT_LE(cutFootprints, footprints) << what << ", " << n << " parts: cutting to the bricks drawn grew them";
+    if (what == "sparse" && n > 1) {
+      EXPECT_LT(cutFootprints, footprints) << n << " parts of a sparse field: nothing cut";
     }
     EXPECT_GE(parts.bricksDrawn(), wholeStats.bricksDrawn) << what << ", " << n << " parts: every brick in some part";
     expectJoinedIsWhole(parts.frames, partsFrontToBack(partition, partView(s->meta(), scene)), whole, *s, scene,
