@@ -168,6 +168,37 @@ render::PixelRect boxFootprint(const Box& box, int size) {
           clamp(std::ceil(hi[1]) + margin)};
 }
 
+// What a renderer draws of a part (FrameStats::drawnBox): the box of the bricks of a 16³ grid over the volume that
+// lie in the part and hold a density the transfer function keeps (>= 0.2, at any of 9³ points of the brick), empty
+// when none does.
+Box drawnBricks(const Box& part) {
+  constexpr int kBricks = 16, kSamples = 9;
+  const double edge = 1.0 / kBricks;
+  Box drawn{{1, 1, 1}, {-1, -1, -1}};
+  for (int k = 0; k < kBricks; ++k) {
+    for (int j = 0; j < kBricks; ++j) {
+      for (int i = 0; i < kBricks; ++i) {
+        const Vec lo{-0.5 + i * edge, -0.5 + j * edge, -0.5 + k * edge};
+        bool inPart = true;
+        for (size_t a = 0; a < 3; ++a) inPart = inPart && lo[a] + 0.5 * edge > part.lo[a] && lo[a] + 0.5 * edge < part.hi[a];
+        if (!inPart) continue;
+        bool kept = false;
+        for (int n = 0; n < kSamples * kSamples * kSamples && !kept; ++n) {
+          const Vec p{lo[0] + edge * (n % kSamples) / (kSamples - 1), lo[1] + edge * (n / kSamples % kSamples) / (kSamples - 1),
+                      lo[2] + edge * (n / (kSamples * kSamples)) / (kSamples - 1)};
+          kept = density(p) >= 0.2;
+        }
+        if (!kept) continue;
+        for (size_t a = 0; a < 3; ++a) {
+          drawn.lo[a] = drawn.lo[a] > drawn.hi[a] ? lo[a] : std::min(drawn.lo[a], lo[a]);
+          drawn.hi[a] = std::max(drawn.hi[a], lo[a] + edge);
+        }
+      }
+    }
+  }
+  return drawn;
+}
+
 // The part drawn at 256² (drawing every pixel of 2048² on every rank would take minutes) and scaled up bilinearly:
 // smooth colour and the part's silhouette, with its empty pixels exactly empty.
 image::ImageF partFrame(const Box& box, int size) {
@@ -300,7 +331,16 @@ int main(int argc, char** argv) {
     const double activeAll = sumOver(active);
     const double unionShare = double(std::count(all.begin(), all.end(), uint8_t(1))) / double(mask.size());
     // This part's footprint, and a check that it holds every pixel the part drew (as the server's tests check).
-    const render::PixelRect footprint = boxFootprint(boxes[size_t(rank)], size);
+    // The part's box cut to the bricks it draws, as the server cuts it (SortLastParts::footprint with the frame's
+    // drawnBox); nothing drawn: an empty footprint.
+    const Box bricks = drawnBricks(boxes[size_t(rank)]);
+    Box cut = boxes[size_t(rank)];
+    bool none = false;
+    for (size_t a = 0; a < 3; ++a) {
+      cut.lo[a] = std::max(cut.lo[a], bricks.lo[a]), cut.hi[a] = std::min(cut.hi[a], bricks.hi[a]);
+      none = none || cut.lo[a] >= cut.hi[a];
+    }
+    const render::PixelRect footprint = none ? render::PixelRect{} : boxFootprint(cut, size);
     const render::PixelRect drawn = render::activeRect(partial);
     if (!drawn.empty() && (drawn.x0 < footprint.x0 || drawn.y0 < footprint.y0 || drawn.x1 > footprint.x1 ||
                            drawn.y1 > footprint.y1)) {
