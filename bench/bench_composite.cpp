@@ -169,7 +169,7 @@ render::PixelRect boxFootprint(const Box& box, int size) {
 }
 
 // What a renderer draws of a part (FrameStats::drawnBox): the box of the bricks of a 16³ grid over the volume that
-// lie in the part and hold a density the transfer function keeps (>= 0.2, at any of 9³ points of the brick), empty
+// meet the part and hold a density the transfer function keeps (>= 0.2, at any of 9³ points of the brick), empty
 // when none does.
 Box drawnBricks(const Box& part) {
   constexpr int kBricks = 16, kSamples = 9;
@@ -179,9 +179,9 @@ Box drawnBricks(const Box& part) {
     for (int j = 0; j < kBricks; ++j) {
       for (int i = 0; i < kBricks; ++i) {
         const Vec lo{-0.5 + i * edge, -0.5 + j * edge, -0.5 + k * edge};
-        bool inPart = true;
-        for (size_t a = 0; a < 3; ++a) inPart = inPart && lo[a] + 0.5 * edge > part.lo[a] && lo[a] + 0.5 * edge < part.hi[a];
-        if (!inPart) continue;
+        bool meets = true;  // a brick the part's box cuts is drawn by the part too
+        for (size_t a = 0; a < 3; ++a) meets = meets && lo[a] < part.hi[a] && lo[a] + edge > part.lo[a];
+        if (!meets) continue;
         bool kept = false;
         for (int n = 0; n < kSamples * kSamples * kSamples && !kept; ++n) {
           const Vec p{lo[0] + edge * (n % kSamples) / (kSamples - 1), lo[1] + edge * (n / kSamples % kSamples) / (kSamples - 1),
