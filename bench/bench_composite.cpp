@@ -1,8 +1,8 @@
 // The MPI compositor alone (distributed/Compositor.h), under mpirun: every rank draws its part of a volume as a
 // k-d split of it would give (the volume covering much of the frame, split into one box per rank, each rank's
 // partial frame the ray-marched blobs inside its box), and the frames are composited REPEAT times after a barrier,
-// through to the finished 8-bit frame on rank 0. Rank 0 prints one CSV line per size, encoding, variant and
-// factorisation:
+// through to the finished 8-bit frame on rank 0 (the variants taking turns repeat by repeat). Rank 0 prints one CSV
+// line per size, encoding, variant and factorisation:
 //   impl,ranks,size,encoding,factors,ms_median,ms_max,ms_composite_median,bytes_total,bytes_max_rank,
 //   active_share,union_share,inputs,footprint_share,handled_max_rank
 // impl: binary-swap (the compositor before radix-k), radix-k (each rank reading only its part's footprint, the box's
@@ -361,51 +361,61 @@ int main(int argc, char** argv) {
     uint64_t inputs = 1469598103934665603ull;
     for (uint64_t d : digests) inputs = (inputs ^ d) * 1099511628211ull;
     for (const auto& encodingName : encodings) {
-      for (const auto& variant : variants) {
       for (const auto& factors : choices) {
-        distributed::CompositeOptions options;
-        options.encoding = distributed::parsePixelEncoding(encodingName);
-        options.timeoutSeconds = 60;
+        // The variants take turns repeat by repeat, so that neither pays alone for going first.
+        struct Run {
+          std::string variant, name;
+          distributed::CompositeOptions options;
+          image::Image8 frame;  // reused from frame to frame, as a server's
+          std::vector<double> times, compositing;
+          double bytes = 0, maxBytes = 0, maxHandled = 0;
+        };
+        std::vector<Run> runs;
+        for (const auto& variant : variants) {
+          Run run;
+          run.variant = variant;
+          run.options.encoding = distributed::parsePixelEncoding(encodingName);
+          run.options.timeoutSeconds = 60;
 #ifdef VOXBRICK_BENCH_RADIX_K
-        options.factors = factors;
-        if (variant == "footprint") options.footprint = footprint;
-        const std::string name = variant == "footprint" ? impl : std::string(impl) + "-whole";
+          run.options.factors = factors;
+          if (variant == "footprint") run.options.footprint = footprint;
+          run.name = variant == "footprint" ? impl : std::string(impl) + "-whole";
 #else
-        (void)factors;
-        const std::string name = impl;
+          (void)factors;
+          run.name = impl;
 #endif
-#ifdef VOXBRICK_BENCH_RADIX_K
-        image::Image8 frame;  // reused from frame to frame, as a server's
-#endif
-        std::vector<double> times, compositing;
-        double bytes = 0, maxBytes = 0, maxHandled = 0;
+          runs.push_back(std::move(run));
+        }
         for (int i = 0; i <= repeat; ++i) {  // the first is a warm-up
-          MPI_Barrier(MPI_COMM_WORLD);
-          const auto start = std::chrono::steady_clock::now();
-          distributed::CompositeStats stats;
+          for (Run& run : runs) {
+            MPI_Barrier(MPI_COMM_WORLD);
+            const auto start = std::chrono::steady_clock::now();
+            distributed::CompositeStats stats;
 #ifdef VOXBRICK_BENCH_RADIX_K
-          distributed::compositeFinished(MPI_COMM_WORLD, partial, order, scene, frame, options, &stats);
-          const double composited = stats.ms;
+            distributed::compositeFinished(MPI_COMM_WORLD, partial, order, scene, run.frame, run.options, &stats);
+            const double composited = stats.ms;
 #else
-          const image::ImageF whole = distributed::composite(MPI_COMM_WORLD, partial, order, options, &stats);
-          const double composited = stats.ms;
-          if (rank == 0) {
-            const image::Image8 frame = image::toImage8(render::finishPartial(whole, scene));
-            if (frame.rgba.empty()) std::abort();
+            const image::ImageF whole = distributed::composite(MPI_COMM_WORLD, partial, order, run.options, &stats);
+            const double composited = stats.ms;
+            if (rank == 0) {  // a new frame each time, as RankRenderer made it
+              const image::Image8 frame = image::toImage8(render::finishPartial(whole, scene));
+              if (frame.rgba.empty()) std::abort();
+            }
+#endif
+            const double ms =
+                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+            const double slowest = maxOver(ms), slowestComposite = maxOver(composited);
+            const double total = sumOver(double(stats.bytesSent)), most = maxOver(double(stats.bytesSent));
+#ifdef VOXBRICK_BENCH_RADIX_K
+            const double handled = maxOver(double(stats.pixelsHandled));
+#else
+            const double handled = 0;  // not counted before radix-k
+#endif
+            if (i == 0) continue;
+            run.times.push_back(slowest);
+            run.compositing.push_back(slowestComposite);
+            run.bytes = total, run.maxBytes = most, run.maxHandled = handled;
           }
-#endif
-          const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-          const double slowest = maxOver(ms), slowestComposite = maxOver(composited);
-          const double total = sumOver(double(stats.bytesSent)), most = maxOver(double(stats.bytesSent));
-#ifdef VOXBRICK_BENCH_RADIX_K
-          const double handled = maxOver(double(stats.pixelsHandled));
-#else
-          const double handled = 0;  // not counted before radix-k
-#endif
-          if (i == 0) continue;
-          times.push_back(slowest);
-          compositing.push_back(slowestComposite);
-          bytes = total, maxBytes = most, maxHandled = handled;
         }
         if (rank != 0) continue;
 #ifdef VOXBRICK_BENCH_RADIX_K
@@ -413,15 +423,16 @@ int main(int argc, char** argv) {
 #else
         const std::vector<int> used;
 #endif
-        std::sort(times.begin(), times.end());
-        std::sort(compositing.begin(), compositing.end());
-        std::printf("%s,%d,%d,%s,%s,%.3f,%.3f,%.3f,%.0f,%.0f,%.4f,%.4f,%016llx,%.4f,%.0f\n", name.c_str(), ranks,
-                    size, encodingName.c_str(), factorsText(used).c_str(), times[times.size() / 2], times.back(),
-                    compositing[compositing.size() / 2], bytes, maxBytes,
-                    activeAll / (double(ranks) * double(mask.size())), unionShare, (unsigned long long)inputs,
-                    name == "binary-swap" ? 1.0 : variant == "footprint" ? footprintShare : 1.0, maxHandled);
+        for (Run& run : runs) {
+          std::sort(run.times.begin(), run.times.end());
+          std::sort(run.compositing.begin(), run.compositing.end());
+          std::printf("%s,%d,%d,%s,%s,%.3f,%.3f,%.3f,%.0f,%.0f,%.4f,%.4f,%016llx,%.4f,%.0f\n", run.name.c_str(), ranks,
+                      size, encodingName.c_str(), factorsText(used).c_str(), run.times[run.times.size() / 2],
+                      run.times.back(), run.compositing[run.compositing.size() / 2], run.bytes, run.maxBytes,
+                      activeAll / (double(ranks) * double(mask.size())), unionShare, (unsigned long long)inputs,
+                      run.variant == "footprint" ? footprintShare : 1.0, run.maxHandled);
+        }
         std::fflush(stdout);
-      }
       }
     }
   }
