@@ -527,9 +527,10 @@ DenseFrame::DenseFrame(const image::ImageF& partial, const render::PixelRect& wi
   footprint = {std::clamp(within.x0, 0, partial.width), std::clamp(within.y0, 0, partial.height),
                std::clamp(within.x1, 0, partial.width), std::clamp(within.y1, 0, partial.height)};
   if (footprint.empty()) footprint = {};
-  // A footprint wider than three quarters of the frame is read as whole rows: streaming on past its sides costs less
-  // than restarting the stream on every row (measured: 2048² at 80 % of the width read 40 % slower row by row).
-  if (!footprint.empty() && (footprint.x1 - footprint.x0) * 4 >= partial.width * 3)
+  // A footprint two fifths of the frame wide or more is read as whole rows: streaming on past its sides costs less
+  // than restarting the stream on every row (measured packing 2048² frames: row by row 20–35 % slower than whole rows
+  // at 45–75 % of the width, as fast at 41 %, 10–40 % faster at 29–39 %).
+  if (!footprint.empty() && (footprint.x1 - footprint.x0) * 5 >= partial.width * 2)
     footprint.x0 = 0, footprint.x1 = partial.width;
 }
 

@@ -91,8 +91,8 @@ struct PixelRuns {
 /// A dense premultiplied partial frame whose pixels outside a footprint are known to be empty (the renderer leaves
 /// them so): they are taken as empty, so that a rank whose part covers a corner of the frame scans that corner only.
 /// The rows above and below the footprint are never read, nor the pixels left and right of a footprint narrower
-/// than three quarters of the frame; a wider one is read as whole rows (streaming past its sides is cheaper than a
-/// jump on every row). Made from a frame alone, the footprint is the whole frame.
+/// than two fifths of the frame; a wider one is read as whole rows (streaming past its sides is cheaper than a jump
+/// on every row). Made from a frame alone, the footprint is the whole frame.
 struct DenseFrame {
   const image::ImageF* frame = nullptr;
   render::PixelRect footprint;  ///< what is read: the footprint given, clipped to the frame, widened as above

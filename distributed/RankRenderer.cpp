@@ -1,6 +1,7 @@
 // One sort-last frame across the ranks (RankRenderer.h).
 #include "distributed/RankRenderer.h"
 
+#include <algorithm>
 #include <chrono>
 #include <sstream>
 
@@ -74,7 +75,11 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
   } catch (const std::exception&) {
     compositeOptions.footprint = render::PixelRect{0, 0, partial.width, partial.height};
   }
-  const long long footprintPixels = DenseFrame(partial, *compositeOptions.footprint).footprint.pixels();  // as read
+  const render::PixelRect& given = *compositeOptions.footprint;
+  const long long footprintPixels =  // within the frame (a wide one is read as whole rows: pixels_handled says)
+      render::PixelRect{std::max(given.x0, 0), std::max(given.y0, 0), std::min(given.x1, partial.width),
+                        std::min(given.y1, partial.height)}
+          .pixels();
   CompositeStats composited;
   // Finished to 8 bits by each member over the background, its region straight into rank 0's frame; an interactive
   // frame drawn reduced is composited at that size as floats, finished and scaled up once on rank 0, as one process

@@ -84,7 +84,7 @@ int maxStepDifference(const image::Image8& a, const image::Image8& b) {
 }
 
 // Garbage (active pixels) painted where the compositor must never read with `footprint`: the rows above and below
-// it, and left and right of it when it is narrower than three quarters of the frame (a wider one is read as whole
+// it, and left and right of it when it is narrower than two fifths of the frame (a wider one is read as whole
 // rows: DenseFrame).
 void paintUnread(std::mt19937& random, image::ImageF& frame, const render::PixelRect& footprint) {
   const distributed::DenseFrame read(frame, footprint);

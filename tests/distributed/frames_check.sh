@@ -120,8 +120,8 @@ if name == "meshinside":
     whole = json.load(open(sys.argv[1].replace(f".{ranks}.json", ".single.json"))).get("tets_drawn", 0)
     if not all(t > 0 for t in tets) or (ranks > 1 and max(tets) >= whole):
         sys.exit(f"tets drawn per rank {tets}, the one process {whole}")
-# Each rank read only its footprint: within the composited frame, and (away from the camera inside the data) smaller
-# than it on some rank from 3 parts on (2 parts' footprints span the frame's width and are read as whole rows).
+# Each rank's footprint lies within the composited frame, and (away from the camera inside the data) is smaller than
+# it on some rank from 3 parts on.
 frame = d["composited_width"] * d["composited_height"]
 footprints = [r["footprint_pixels"] for r in d["per_rank"]]
 if any(not 0 <= f <= frame for f in footprints) or (ranks > 2 and "inside" not in name and min(footprints) >= frame):
