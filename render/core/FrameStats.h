@@ -94,8 +94,9 @@ struct FrameStats {
   /// A sort-last frame across MPI ranks (distributed/RankRenderer.h): the ranks drawing, those lost, the order and
   /// the compositing; null otherwise.
   nlohmann::json distributed;
-  /// A grid frame: the box, in the renderers' local frame, of the bricks it drew (min above max when it drew none);
-  /// none for other kinds. A sort-last part's footprint shrinks to it (SortLastParts::footprint). Not in the JSON.
+  /// A grid part's frame (FrameOptions::part): the box, in the renderers' local frame, of the bricks it drew (min
+  /// above max when it drew none); none for whole frames and other kinds. The part's footprint shrinks to it
+  /// (SortLastParts::footprint). Not in the JSON.
   std::optional<Box> drawnBox;
 
   /// The statistics as a JSON object (snake_case keys, times under "ms"), to which callers may add their own keys.

@@ -17,6 +17,16 @@ struct PartView {
   glm::dvec3 direction{0.0};  ///< orthographic: the view direction (only its signs matter)
 };
 
+/// One node of a k-d tree of parts: a split (axis 0..2 at `position` on it, children `lower` and `upper`), or a leaf
+/// (part >= 0). Position: a grid's level-0 voxel (int) or a mesh's world coordinate (double).
+template <typename Position>
+struct KdNode {
+  int axis = -1;
+  Position position = 0;
+  int lower = -1, upper = -1;
+  int part = -1;
+};
+
 namespace detail {
 
 template <typename Node>

@@ -27,13 +27,7 @@ struct WeightedBox {
 
 /// A k-d tree of a mesh's parts.
 struct MeshPartition {
-  /// One node: a split (axis 0..2 at world coordinate `position`, children `lower` and `upper`), or a leaf (part >= 0).
-  struct Node {
-    int axis = -1;
-    double position = 0;
-    int lower = -1, upper = -1;
-    int part = -1;
-  };
+  using Node = KdNode<double>;  ///< a split at a world coordinate, or a leaf
   std::vector<Node> nodes;         ///< nodes[0] is the root
   std::vector<MeshPartBox> boxes;  ///< each part's box; faces on the mesh's box pushed out beyond it
   std::vector<double> weights;     ///< each part's share of the weights

@@ -41,8 +41,8 @@ namespace {
 
 /// Keeps the bricks of `visible` that own level-0 voxels inside `part`, and recounts the bricks drawn. The counts per
 /// level keep their length, so that the frame's coarsest level is the whole frame's (the pre-integration table's
-/// range follows it).
-void keepPart(TraversalResult& visible, const PartBox& part, int brickSize) {
+/// range follows it). Returns the box of the bricks kept (min above max when none is).
+Box keepPart(TraversalResult& visible, const PartBox& part, int brickSize) {
   std::erase_if(visible.bricks, [&](const BrickDraw& d) {
     const int64_t side = int64_t(brickSize) << d.key.level;
     const int64_t lo[3] = {int64_t(d.key.i) * side, int64_t(d.key.j) * side, int64_t(d.key.k) * side};
@@ -52,9 +52,16 @@ void keepPart(TraversalResult& visible, const PartBox& part, int brickSize) {
   });
   TraversalStats& stats = visible.stats;
   std::fill(stats.bricksPerLevel.begin(), stats.bricksPerLevel.end(), 0);
-  for (const BrickDraw& d : visible.bricks) stats.bricksPerLevel.at(d.key.level) += 1;
+  Box kept{glm::dvec3(1.0), glm::dvec3(-1.0)};
+  for (const BrickDraw& d : visible.bricks) {
+    stats.bricksPerLevel.at(d.key.level) += 1;
+    const bool first = &d == &visible.bricks.front();
+    kept.min = first ? d.box.min : glm::min(kept.min, d.box.min);
+    kept.max = first ? d.box.max : glm::max(kept.max, d.box.max);
+  }
   stats.bricksDrawn = int64_t(visible.bricks.size());
   stats.bricksCoarse = stats.bricksDrawn - (stats.bricksPerLevel.empty() ? 0 : stats.bricksPerLevel[0]);
+  return kept;
 }
 
 void checkPart(const PartBox& part, const store::Vec3i& dims) {
@@ -81,7 +88,7 @@ void traverse(FramePlan& plan, const Scene& scene, const store::BrickStore& stor
         store::Vec3i{(part.hi[0] + B - 1) / B, (part.hi[1] + B - 1) / B, (part.hi[2] + B - 1) / B}};
   }
   plan.visible = traversal.run(plan.camera, frustum, plan.contributes, options);
-  if (plan.part) keepPart(plan.visible, *plan.part, store.brickSize());
+  if (plan.part) plan.partDrawn = keepPart(plan.visible, *plan.part, store.brickSize());
   plan.bricksWanted = int64_t(plan.visible.bricks.size());
   if (scene.lod <= 0 || budget.limit() <= 0) return;
   plan.budget = budget;
@@ -93,7 +100,7 @@ void traverse(FramePlan& plan, const Scene& scene, const store::BrickStore& stor
       coarsenToFit(plan.visible.bricks, store.octree(), store.levelCount() - 1, cost, budget.limit());
   if (whole.empty()) return;
   plan.visible = traversal.run(plan.camera, frustum, plan.contributes, options, drawWholeTest(whole));
-  if (plan.part) keepPart(plan.visible, *plan.part, store.brickSize());
+  if (plan.part) plan.partDrawn = keepPart(plan.visible, *plan.part, store.brickSize());
 }
 
 }  // namespace

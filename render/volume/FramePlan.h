@@ -88,6 +88,8 @@ struct FramePlan {
   /// bricks owning voxels in it, at the levels the whole frame chose, and each is cut to the box (BrickWalk); its
   /// counts of bricks drawn (per level, coarse) are the part's, those skipped and culled the whole volume's.
   std::optional<PartBox> part;
+  /// With a part: the box (local frame) of the bricks kept, min above max when none is (FrameStats::drawnBox).
+  std::optional<Box> partDrawn;
 
   /// Whether every box owns exactly its voxels, tested on the pixel's ray (sub-blocks and bricks of different levels,
   /// whose boxes meet at T-junctions, and slabs, which march rays); else whole bricks share their rasterised faces

@@ -19,13 +19,7 @@ class BrickStoreDataset;
 
 /// A k-d tree over a store's level-0 bricks with `parts` leaves.
 struct Partition {
-  /// One node: a split (axis 0..2 at level-0 voxel `position`, children `lower` and `upper`), or a leaf (part >= 0).
-  struct Node {
-    int axis = -1;
-    int position = 0;
-    int lower = -1, upper = -1;
-    int part = -1;
-  };
+  using Node = KdNode<int>;  ///< a split at a level-0 voxel, or a leaf
   std::vector<Node> nodes;      ///< nodes[0] is the root
   std::vector<PartBox> boxes;   ///< each part's box of level-0 voxels, clamped to the volume
   std::vector<uint64_t> bytes;  ///< each part's stored bytes at level 0

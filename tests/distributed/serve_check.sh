@@ -37,6 +37,12 @@ request() {  # request DATASET OUTPUT: prints the client's output, returns its s
   # shellcheck disable=SC2086
   "$exe" request "127.0.0.1:$port" --dataset "$1" -o "$2" --stats "$2.json" --timeout 30 $scene 2>&1
 }
+timedRequest() {  # timedRequest DATASET OUT: request, setting out, status and took (seconds)
+  local begin
+  begin=$(date +%s.%N)
+  out=$(request "$1" "$2"); status=$?
+  took=$(awk -v a="$begin" -v b="$(date +%s.%N)" 'BEGIN { print b - a }')
+}
 same() {  # same IMAGE: whether IMAGE equals the one-process frame within 1/255 (prints the comparison)
   local line maxAbs
   line=$("$exe" compare "$work/single.png" "$1")
@@ -82,14 +88,10 @@ out=$("$exe" request "127.0.0.1:$port" --dataset blobs -o "$work/interactive.png
   --timeout 30 $scene 2>&1); status=$?
 [ $status -eq 0 ] && grep -q "provisional frame" <<< "$out"; check "an interactive frame, then the exact one: $out" $?
 kill -STOP "$(cat "$work/r2/pid")"
-begin=$(date +%s.%N)
-out=$(request blobs "$work/stopped.png"); status=$?
-took=$(awk -v a="$begin" -v b="$(date +%s.%N)" 'BEGIN { print b - a }')
+timedRequest blobs "$work/stopped.png"
 [ $status -ne 0 ] && grep -q "rank 2" <<< "$out" && awk -v t="$took" 'BEGIN { exit !(t < 15) }'
 check "a stopped rank 2 is named within ${took} s: $out" $?
-begin=$(date +%s.%N)
-out=$(request blobs "$work/later.png"); status=$?
-took=$(awk -v a="$begin" -v b="$(date +%s.%N)" 'BEGIN { print b - a }')
+timedRequest blobs "$work/later.png"
 check "the next Render is served by the other ranks: $out" $status
 # The regroup waits for the ranks that answer, not for the stopped one: less than the deadline.
 awk -v t="$took" 'BEGIN { exit !(t < 5) }'; check "... in ${took} s, less than the 5 s deadline" $?
@@ -116,9 +118,7 @@ out=$(request blobs "$work/before.png"); check "a frame before rank 1 is killed"
 kill -KILL "$(cat "$work/r1/pid")"
 out=$(request blobs "$work/killed.png"); status=$?
 [ $status -ne 0 ] && grep -q "rank 1" <<< "$out"; check "a killed rank 1 is named: $out" $?
-begin=$(date +%s.%N)
-out=$(request blobs "$work/survived.png"); status=$?
-took=$(awk -v a="$begin" -v b="$(date +%s.%N)" 'BEGIN { print b - a }')
+timedRequest blobs "$work/survived.png"
 check "the next Render is served by ranks 0 and 2: $out" $status
 awk -v t="$took" 'BEGIN { exit !(t < 5) }'; check "... in ${took} s, less than the 5 s deadline" $?
 line=$(same "$work/survived.png"); check "... equal to one process's frame: $line" $?

@@ -56,13 +56,7 @@ void VolumeRenderer::planStats(const FramePlan& plan, FrameStats& stats) const {
   stats.bricksCoarse = visible.bricksCoarse;
   stats.bricksCoarsened = visible.bricksCoarsened;
   stats.bricksPerLevel = visible.bricksPerLevel;
-  Box drawn{glm::dvec3(1.0), glm::dvec3(-1.0)};  // none drawn: min above max
-  const std::vector<BrickDraw>& bricks = plan.visible.bricks;
-  for (size_t i = 0; i < bricks.size(); ++i) {
-    drawn.min = i == 0 ? bricks[i].box.min : glm::min(drawn.min, bricks[i].box.min);
-    drawn.max = i == 0 ? bricks[i].box.max : glm::max(drawn.max, bricks[i].box.max);
-  }
-  stats.drawnBox = drawn;
+  stats.drawnBox = plan.partDrawn;
   const BrickAtlas& atlas = mResidency.atlas();
   const int64_t slot =
       int64_t(BrickAtlas::slotBytes(mResidency.store().type(), mResidency.store().brickEdge(), atlas.format()));
