@@ -7,7 +7,7 @@
 //
 //   bench_frame_cpu --store DIR [--size 32] [--views 24] [--degrees 24] [--start 30] [--elevation 20]
 //                   [--lod 0] [--tf hot] [--window LO,HI] [--gpu-budget 2000] [--host-budget 3000]
-//                   [--out bench/results/render] [--name frame-cpu]
+//                   [--atlas-format float|half|native] [--out bench/results/render] [--name frame-cpu]
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -32,7 +32,7 @@ using voxbrick::quality::median;
 namespace {
 
 struct Options {
-  std::string storePath, tf = "hot", window, name = "frame-cpu", out = "bench/results/render";
+  std::string storePath, tf = "hot", window, name = "frame-cpu", out = "bench/results/render", atlasFormat = "float";
   int views = 24, size = 32;
   double degrees = 24, start = 30, elevation = 20, lod = 0;
   size_t hostMb = 3000, gpuMb = 2000;
@@ -67,6 +67,8 @@ int main(int argc, char** argv) {
   app.add_option("--window", o.window, "value window LO,HI (default the store's range)");
   app.add_option("--host-budget", o.hostMb, "host cache in MB")->capture_default_str();
   app.add_option("--gpu-budget", o.gpuMb, "GPU budget in MB, each renderer")->capture_default_str();
+  app.add_option("--atlas-format", o.atlasFormat, "how the atlases store samples: float, half or native")
+      ->capture_default_str();
   app.add_option("--out", o.out, "output directory")->capture_default_str();
   app.add_option("--name", o.name, "output files NAME.csv and NAME.md")->capture_default_str();
   app.add_flag("--filled-first", o.filledFirst, "each view drawn by the filled path first (the kept path by default)");
@@ -87,7 +89,8 @@ int main(int argc, char** argv) {
   scene.lod = o.lod;
   Path paths[2] = {{"kept", true, nullptr, {}, {}, {}, {}, {}, {}}, {"filled", false, nullptr, {}, {}, {}, {}, {}, {}}};
   for (Path& p : paths) {
-    p.renderer = std::make_unique<render::VolumeRenderer>(*context, cache, o.gpuMb << 20);
+    p.renderer = std::make_unique<render::VolumeRenderer>(*context, cache, o.gpuMb << 20,
+                                                         render::parseAtlasFormat(o.atlasFormat));
     scene.camera.azimuth = o.azimuth(0);
     render::FrameOptions options;
     options.keepCellTable = p.keep;
@@ -100,7 +103,8 @@ int main(int argc, char** argv) {
   std::ofstream csv(csvPath);
   csv << "# " << device << "; " << o.storePath << ", " << o.size << "x" << o.size << ", tf " << o.tf << " window "
       << (o.window.empty() ? "store" : o.window) << ", lod " << o.lod << ", " << o.views << " views over " << o.degrees
-      << " degrees from azimuth " << o.start << "; host " << o.hostMb << " MB, gpu " << o.gpuMb << " MB each\n";
+      << " degrees from azimuth " << o.start << "; host " << o.hostMb << " MB, gpu " << o.gpuMb << " MB each, atlas "
+      << o.atlasFormat << "\n";
   csv << "path,view,azimuth,ms_total,ms_outside,ms_drawing,ms_readback,ms_traversal,ms_paging,ms_slicing,bricks_drawn,"
          "bricks_paged_in,cell_bricks_changed,cells_sent,max_abs_vs_other\n";
   int64_t bricks = 0;
@@ -137,8 +141,8 @@ int main(int argc, char** argv) {
 
   std::ofstream md(mdPath);
   md << "Device: " << device << ". Store `" << o.storePath << "`, " << o.size << "x" << o.size << ", transfer function `"
-     << o.tf << "`" << (o.window.empty() ? "" : ", window " + o.window) << ", lod " << o.lod << ", " << o.views
-     << " views over " << o.degrees << "° from azimuth " << o.start << " (elevation " << o.elevation << "), " << bricks
+     << o.tf << "`" << (o.window.empty() ? "" : ", window " + o.window) << ", lod " << o.lod << ", atlas "
+     << o.atlasFormat << ", " << o.views << " views over " << o.degrees << "° from azimuth " << o.start << " (elevation " << o.elevation << "), " << bricks
      << " bricks drawn in the last view; two renderers taking turns, each warm from its own view before. Medians "
         "over the views, ms; outside = total − drawing − readback (the CPU's part). Largest difference between the "
         "two paths' frames: "

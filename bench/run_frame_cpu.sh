@@ -8,7 +8,8 @@
 #
 # The 1024³ blobs (f32, 3.9 GB stored) are prepped into bench/work when missing (about half a minute on 2 cores).
 # The field's transfer function is a ramp from 0 at the window's low end, window [0.001, 1.34]: about 10 750 of its
-# 32 768 level-0 bricks drawn, as many as a 2000 MB atlas holds (llvmpipe allocates no larger 3D texture here).
+# 32 768 level-0 bricks drawn, as many as a 2000 MB atlas of floats holds (llvmpipe allocates no larger 3D texture
+# here); then window [1e-7, 1.34] with a half-float atlas: 22 655 bricks, as many as 1 780 MB of halves hold.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 baseline="" views=24 rounds=7
@@ -35,6 +36,8 @@ out=bench/results/render
 # The CPU's part of warm frames, both paths side by side (a small drag: 1° a view).
 "$tool" --store "$field" --size 32 --views "$views" --degrees "$views" --lod 0 --tf "$ramp" --window 0.001,1.34 \
   --gpu-budget 2000 --host-budget 3000 --out "$out" --name frame-cpu-field-32
+"$tool" --store "$field" --size 32 --views "$views" --degrees "$views" --lod 0 --tf "$ramp" --window 1e-7,1.34 \
+  --gpu-budget 2000 --host-budget 4000 --atlas-format half --out "$out" --name frame-cpu-field-32-half
 "$tool" --store "$field" --size 512 --views "$views" --degrees "$views" --lod 1 --tf hot --gpu-budget 1000 \
   --host-budget 2000 --out "$out" --name frame-cpu-field-512
 "$tool" --store "$mri" --size 512 --views "$views" --degrees "$views" --lod 1 --tf mri --gpu-budget 512 \
