@@ -126,14 +126,47 @@ void Connection::timedOut(const std::string& what) {
 void Connection::rendered(const RenderJob& job, proto::Message reply) {
   if (mClosing || mClosed) return;  // PROTOCOL.md: a session's end drops its renders unanswered
   auto* frame = std::get_if<proto::Frame>(&reply);
-  if (frame && image::isVideoEncoding(frame->encoding)) return videoRendered(job, std::move(*frame));
-  if (frame && mVideoEncoding) {  // after the video frame being encoded: a request's frames keep their order
-    mAfterVideo.emplace_back(job, std::move(reply));
+  const bool video = frame && image::isVideoEncoding(frame->encoding);
+  // After the frame being encoded: a session's frames keep their order (a video frame during a video encoding waits
+  // as the stream's pending frame instead, where a newer one replaces it).
+  if (frame && (mStillEncoding || (mVideoEncoding && !video))) {
+    mAfterEncoding.emplace_back(job, std::move(reply));
     return;
   }
+  if (video) return videoRendered(job, std::move(*frame));
   if (frame && mVideoPending) dropPendingVideo(job.requestId);  // latest wins
+  if (frame && job.stillToEncode) return encodeStill(job, std::move(*frame));
   if (!withinOutputBudget(job, reply)) return;
   apply(mServices.handler.rendered(mState, job, std::move(reply)));
+}
+
+void Connection::encodeStill(const RenderJob& job, proto::Frame frame) {
+  auto task = std::make_shared<EncodingStill>();
+  task->job = job;
+  task->message = std::move(frame);
+  mStillEncoding = true;
+  mTransport.runAside(
+      [task] {
+        task->message = server::encodeStill(std::move(std::get<proto::Frame>(task->message)), *task->job.stillToEncode,
+                                            task->job.maxBodyBytes);
+      },
+      [this, task] { stillEncoded(*task); });
+}
+
+void Connection::stillEncoded(EncodingStill& done) {
+  mStillEncoding = false;
+  if (mClosing || mClosed) return;
+  if (withinOutputBudget(done.job, done.message))
+    apply(mServices.handler.rendered(mState, done.job, std::move(done.message)));
+  renderedAfterEncoding();
+}
+
+void Connection::renderedAfterEncoding() {
+  std::vector<std::pair<RenderJob, proto::Message>> after;
+  after.swap(mAfterEncoding);
+  // Each in turn: one that starts an encoding sends the rest back to wait, in their order.
+  for (auto& [job, message] : after) rendered(job, std::move(message));
+  pumpVideo();
 }
 
 void Connection::videoRendered(const RenderJob& job, proto::Frame frame) {
@@ -154,7 +187,7 @@ bool Connection::unsentVideoQueued() const {
 }
 
 void Connection::pumpVideo() {
-  if (mVideoEncoding || !mVideoPending || mClosing || mClosed || unsentVideoQueued()) return;
+  if (mVideoEncoding || mStillEncoding || !mVideoPending || mClosing || mClosed || unsentVideoQueued()) return;
   const auto now = Clock::now();
   if (!mPacer.mayWrite(now)) return armPace();
   auto task = std::make_shared<EncodingVideo>();
@@ -199,10 +232,7 @@ void Connection::videoEncoded(EncodingVideo& done) {
   const bool sent = withinOutputBudget(done.job, reply);
   if (!sent || !std::holds_alternative<proto::Frame>(reply)) mVideoNeedsKey = true;
   if (sent) apply(mServices.handler.rendered(mState, done.job, std::move(reply)));
-  std::vector<std::pair<RenderJob, proto::Message>> after;
-  after.swap(mAfterVideo);
-  for (auto& [job, message] : after) rendered(job, std::move(message));
-  pumpVideo();
+  renderedAfterEncoding();
 }
 
 void Connection::armPace() {

@@ -107,7 +107,8 @@ class Connection {
   /// A render thread's `reply` to `job`, as the render sink received it. A Frame in a video encoding (its payload
   /// still its pixels) waits for the session's video stream: it is encoded aside (Transport::runAside) when the link
   /// has room, the newest such frame first (older ones are Superseded), and frames of the stream are never dropped
-  /// once encoded (a decoder needs every one).
+  /// once encoded (a decoder needs every one). A still Frame whose job says stillToEncode (its payload still its
+  /// pixels) is encoded aside too, in order, one at a time; Frames rendered meanwhile wait for it.
   void rendered(const RenderJob& job, proto::Message reply);
   /// Closes at once, dropping what is queued (also after an unexpected failure). Idempotent.
   void close();
@@ -167,7 +168,17 @@ class Connection {
     VideoEncoded encoded;
     std::exception_ptr error;
   };
+  /// A still Frame being encoded aside (RenderJob::stillToEncode), and what came of it: the Frame or its Error.
+  struct EncodingStill {
+    RenderJob job;
+    proto::Message message;
+  };
   void videoRendered(const RenderJob& job, proto::Frame frame);
+  /// Encodes a still Frame whose payload is its pixels aside; Frames rendered meanwhile wait (mAfterEncoding).
+  void encodeStill(const RenderJob& job, proto::Frame frame);
+  void stillEncoded(EncodingStill& done);
+  /// An encoding aside finished: the Frames that waited for it, in order, then the pending video frame.
+  void renderedAfterEncoding();
   /// Encodes the pending video frame if nothing holds it back: no encoding in flight, no encoded frame unsent, room
   /// on the link.
   void pumpVideo();
@@ -213,8 +224,9 @@ class Connection {
   std::optional<PendingVideo> mVideoPending;
   bool mVideoEncoding = false;
   bool mVideoNeedsKey = false;  ///< a frame of the stream was encoded but not sent: the next must be a key frame
-  /// Frames rendered while a video frame was being encoded, applied after it so that a request's frames stay in order.
-  std::vector<std::pair<RenderJob, proto::Message>> mAfterVideo;
+  bool mStillEncoding = false;  ///< a still Frame is being encoded aside
+  /// Frames rendered while a frame was being encoded aside, applied after it so that a request's frames stay in order.
+  std::vector<std::pair<RenderJob, proto::Message>> mAfterEncoding;
   bool mWriting = false, mClosing = false, mClosed = false;
   bool mReadingMessage = false;    ///< a message's first byte has arrived (its read deadline runs)
   bool mPaused = false;            ///< not reading until the client takes its replies

@@ -334,6 +334,7 @@ Outcome MessageHandler::render(ConnectionState& state, const proto::RenderReques
   // A raw frame's size is known now: one the session could not receive is refused before it is drawn (the stats
   // take a few hundred bytes; 4 KiB is kept for them). Other encodings are checked once encoded (renderReply).
   job.maxBodyBytes = mConfig.maxMessageBytes;
+  job.encodeAside = mConfig.encodeAside;
   job.maxSamples = mConfig.maxRenderMSamples * 1e6;
   if (job.encoding == proto::Encoding::RawRgba8) {
     const uint64_t body = frameBodyBytes(4096, uint64_t(job.scene.width) * uint64_t(job.scene.height) * 4);

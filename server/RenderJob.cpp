@@ -23,6 +23,31 @@ double jobMsBetween(Clock::time_point a, Clock::time_point b) {
 
 }  // namespace
 
+proto::Message encodeStill(proto::Frame frame, int jpegQuality, uint64_t maxBodyBytes) {
+  const auto start = Clock::now();
+  try {
+    image::Image8 image;
+    image.width = int(frame.width);
+    image.height = int(frame.height);
+    image.rgba = std::move(frame.payload);
+    frame.payload = image::encodeFrameImage(image, frame.encoding, jpegQuality);
+  } catch (...) {
+    return errorReply(std::current_exception(), "the " + std::to_string(frame.width) + "x" +
+                                                    std::to_string(frame.height) + " frame could not be encoded");
+  }
+  if (frame.statsJson.size() >= 2 && frame.statsJson.back() == '}') {
+    nlohmann::json ms = jobMsBetween(start, Clock::now());
+    frame.statsJson.pop_back();
+    frame.statsJson += (frame.statsJson.size() > 1 ? ",\"encode_ms\":" : "\"encode_ms\":") + ms.dump() + "}";
+  }
+  if (const uint64_t body = frameBodyBytes(frame.statsJson.size(), frame.payload.size()); body > maxBodyBytes)
+    return errorMessage(proto::ErrorCode::LimitExceeded,
+                        "the " + std::to_string(frame.width) + "x" + std::to_string(frame.height) + " frame takes " +
+                            std::to_string(body) + " bytes, above this server's message limit of " +
+                            std::to_string(maxBodyBytes) + "; ask for a smaller image or another encoding");
+  return frame;
+}
+
 proto::Encoding replyEncoding(const RenderJob& job, bool provisional) {
   return provisional ? job.provisionalEncoding.value_or(job.encoding) : job.encoding;
 }
@@ -45,7 +70,6 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
     render::Scene scene = job.scene;
     if (job.refinement) scene.interactive = false;  // the exact frame of an interactive request
     image::Image8 image = source.render8(job.dataset, scene, &stats, options);
-    const auto encodeStart = Clock::now();
     // A frame with stand-ins, or an interactive frame: the exact one follows.
     const bool provisional = stats.bricksStandIn > 0 || scene.interactive;
     proto::Frame frame;
@@ -56,12 +80,13 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
     const int jpegQuality = provisional && job.provisionalJpegQuality
                                 ? *job.provisionalJpegQuality
                                 : job.scene.jpegQuality.value_or(image::kDefaultJpegQuality);
-    // A video frame leaves as its pixels: the session's stream encodes it off this thread (server/VideoStream.h).
+    // A video frame leaves as its pixels: the session's stream encodes it off this thread (server/VideoStream.h); so
+    // does a still frame whose session encodes aside (a raw one needs no encoding).
     const bool video = image::isVideoEncoding(frame.encoding);
-    frame.payload = video ? std::move(image.rgba) : image::encodeFrameImage(image, frame.encoding, jpegQuality);
+    const bool aside = video || (job.encodeAside && frame.encoding != proto::Encoding::RawRgba8);
+    frame.payload = std::move(image.rgba);
     nlohmann::json statsJson = stats.toJson();
     statsJson["queue_ms"] = jobMsBetween(job.received, start);
-    if (!video) statsJson["encode_ms"] = jobMsBetween(encodeStart, Clock::now());
     statsJson["render_thread"] = thread;
     statsJson["provisional"] = provisional;
     statsJson["class"] = common::nameOf(frameClassOf(job));
@@ -72,14 +97,12 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
                            {"jpeg_quality", jpegQuality}};
     }
     frame.statsJson = statsJson.dump();
-    if (const uint64_t body = frameBodyBytes(frame.statsJson.size(), frame.payload.size());
-        !video && body > job.maxBodyBytes)
-      return {errorMessage(proto::ErrorCode::LimitExceeded,
-                           "the " + std::to_string(image.width) + "x" + std::to_string(image.height) + " frame takes " +
-                               std::to_string(body) + " bytes, above this server's message limit of " +
-                               std::to_string(job.maxBodyBytes) + "; ask for a smaller image or another encoding"),
-              false};
-    RenderReply reply{std::move(frame), provisional};
+    RenderReply reply{aside ? proto::Message(std::move(frame))
+                            : encodeStill(std::move(frame), jpegQuality, job.maxBodyBytes),
+                      provisional};
+    // A provisional frame too large to send answers its request with the error: no exact frame follows.
+    reply.provisional = provisional && std::holds_alternative<proto::Frame>(reply.message);
+    if (aside && !video) reply.stillToEncode = jpegQuality;
     reply.samples = stats.samplesEstimated;
     reply.ms = stats.interactive.is_object() ? stats.interactive.value("actual_ms", stats.msTotal) : stats.msTotal;
     return reply;

@@ -56,6 +56,13 @@ struct RenderJob {
   std::string shareKey;
   /// Answered from the render of another session's identical frame.
   bool shared = false;
+  /// The session encodes this job's still frames itself, off the render thread (ServerConfig::encodeAside): a Frame
+  /// in png, jpeg or zstd_rgba8 leaves the render thread with its RGBA8 pixels as its payload, so that the thread
+  /// goes on to its next frame while this one is encoded (Connection).
+  bool encodeAside = false;
+  /// Set on the copy of the job a Frame is delivered with, never on a queued job: the Frame's payload is still its
+  /// RGBA8 pixels, to be encoded (encodeStill) at this JPEG quality.
+  std::optional<int> stillToEncode = std::nullopt;
 };
 
 /// The class the scheduler serves `job` in: batch for a scene with "batch", else interactive for a moving camera's
@@ -96,11 +103,19 @@ struct RenderReply {
   /// The frame's estimated samples and the ms it took to draw (FrameStats samplesEstimated and msTotal), for the
   /// session's rate; 0 when nothing was drawn.
   double samples = 0, ms = 0;
+  /// A still Frame left with its RGBA8 pixels (RenderJob::encodeAside): the JPEG quality to encode it at.
+  std::optional<int> stillToEncode = std::nullopt;
 };
+
+/// Encodes a still Frame whose payload is its RGBA8 pixels into its encoding (png, jpeg at `jpegQuality`,
+/// zstd_rgba8, raw_rgba8) and adds encode_ms to its statistics; answers LimitExceeded instead when the encoded body
+/// exceeds `maxBodyBytes`, or the Error naming an encoding failure. Throws nothing but std::bad_alloc.
+proto::Message encodeStill(proto::Frame frame, int jpegQuality, uint64_t maxBodyBytes);
 
 /// Renders `job` with `source` (current on this thread) and encodes it (a frame in a video encoding, vp8 or vp9, keeps
 /// its raw RGBA8 pixels as its payload: the session's VideoStream encodes it in order and checks its size; its stats
-/// then lack encode_ms): a Frame whose statistics add
+/// then lack encode_ms; so does a still frame of a job with encodeAside, but raw_rgba8, whose reply says
+/// stillToEncode): a Frame whose statistics add
 /// queue_ms, encode_ms, render_thread (`thread`) and provisional to the renderer's, or the Error that errorReply
 /// makes of what the renderer threw. A progressive scene's first frame is drawn with stand-ins (provisional when
 /// any brick stood in); an interactive scene's frame is drawn within its time budget at job.rateSamplesPerMs and is

@@ -418,7 +418,16 @@ bool RenderScheduler::next(Taken& taken) {
   return true;
 }
 
-void RenderScheduler::deliver(const Taken& taken, const RenderReply& reply, std::vector<Recipient>& followers) {
+void RenderScheduler::deliver(const Taken& taken, RenderReply& reply, std::vector<Recipient>& followers) {
+  // A still frame left for its session to encode is encoded here once when others ride along, rather than once in
+  // each of their sessions.
+  if (reply.stillToEncode &&
+      std::any_of(followers.begin(), followers.end(), [](const Recipient& r) { return r.sink->wantsReplies(); })) {
+    reply.message =
+        encodeStill(std::move(std::get<proto::Frame>(reply.message)), *reply.stillToEncode, taken.job.maxBodyBytes);
+    reply.stillToEncode.reset();
+    reply.provisional = reply.provisional && std::holds_alternative<proto::Frame>(reply.message);
+  }
   // Each follower gets the same reply under its own request id (the job carries it), marked as shared.
   for (Recipient& follower : followers) {
     if (!follower.sink->wantsReplies()) continue;
@@ -430,7 +439,9 @@ void RenderScheduler::deliver(const Taken& taken, const RenderReply& reply, std:
     if (reply.provisional) refine(follower.sink, follower.job);
   }
   if (!taken.sink->wantsReplies()) return;
-  taken.sink->rendered(taken.job, reply.message);
+  RenderJob job = taken.job;
+  job.stillToEncode = reply.stillToEncode;
+  taken.sink->rendered(std::move(job), std::move(reply.message));
   if (reply.provisional) refine(taken.sink, taken.job);
 }
 

@@ -139,7 +139,7 @@ class RenderScheduler {
   /// measured; 0 before any interactive frame was measured (no limit yet). mMutex held.
   size_t interactiveCapacityLocked() const;
   /// Delivers `reply` to the job's own session and to every session that rode along (followers).
-  void deliver(const Taken& taken, const RenderReply& reply, std::vector<Recipient>& followers);
+  void deliver(const Taken& taken, RenderReply& reply, std::vector<Recipient>& followers);
 
   /// What the scheduler knows of a session: its waiting jobs, rates, the pace of its Renders, its fair share.
   struct SessionState {

@@ -122,6 +122,7 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   if (server.read("datasets", c.datasets) && c.datasets.is_relative()) c.datasets = path.parent_path() / c.datasets;
   server.read("io_threads", c.ioThreads);
   server.read("encode_threads", c.encodeThreads);
+  server.read("encode_aside", c.encodeAside);
   server.read("render_threads", c.renderThreads);
   if (std::string backend; server.read("backend", backend))
     c.backend = parseBackend(backend, file + ": server.backend");

@@ -101,8 +101,12 @@ struct ServerConfig {
   int port = 7420;                          ///< 0 picks a free port (printed, and written to --port-file)
   std::filesystem::path datasets = "demo";  ///< directory whose subdirectories are stores (and .vdb files)
   int ioThreads = 2;
-  /// Threads that encode sessions' video frames (off the render and I/O threads).
+  /// Threads that encode sessions' video frames, and their still frames with encodeAside (off the render and I/O
+  /// threads).
   int encodeThreads = 2;
+  /// Still frames (png, jpeg, zstd_rgba8) are encoded by the session on the encoder threads, so that a render
+  /// thread goes on to its next frame meanwhile; false: on the render thread, as each is drawn.
+  bool encodeAside = true;
   int renderThreads = 2;                            ///< each with its own GL context
   render::Backend backend = render::Backend::Auto;  ///< "auto" | "egl" | "osmesa" in the file
   std::string logLevel = "info";                    ///< trace | debug | info | warn | error | off

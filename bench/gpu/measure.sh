@@ -24,6 +24,8 @@
 #                       (the sweep's references, two transfer functions a view at step 0.125, are CPU renders:
 #                       about 1.6 s a view at 512^2 and 23 s at 2048^2 on the H200 machine's 16 cores)
 #   load-drag       30  voxbrick serve + voxbrick load on the MRI at 512^2: one client, then 4 dragging at 10 Hz
+#   encode-aside    40  two servers, one render thread each, still frames encoded aside against on the render thread:
+#                       2 clients asking 1024^2 frames one at a time, png then jpeg, each server in turn
 #   load-video      45  as load-drag at 1024^2: 4 clients dragging at 15 Hz with a 50 ms interactive budget, their
 #                       provisional frames as JPEG, then as a vp8 and a vp9 video stream (encoded on the server's CPU)
 #   video-link      80  one client dragging the MRI at 1024² at 30 Hz (interactive 50 ms) through bench_link_relay (10
@@ -254,6 +256,42 @@ PY
       else
         echo "(no python3: the reports are load-one.json and load-drag.json)" >> "$md"
       fi
+      ;;
+    encode-aside)
+      size=1024x1024 duration=4
+      q && size=64x64 duration=1
+      echo "Still frames encoded aside (\`[server] encode_aside\`, the default) against on the render thread: two" \
+        "servers on the MRI, one render thread each, 2 clients asking $size frames one at a time (tf mri, step" \
+        "0.75), each server in turn, png then jpeg." >> "$md"; echo >> "$md"
+      mkdir -p "$WORK/served"
+      [ -e "$WORK/served/mri" ] || cp -r "$WORK/mri.vbs" "$WORK/served/mri"
+      declare -A aport apid
+      for mode in aside inline; do
+        printf '[server]\nencode_aside = %s\n' "$([ $mode = aside ] && echo true || echo false)" > "$WORK/$mode.toml"
+        rm -f "$WORK/$mode.port"
+        cmd "$KIT/bin/voxbrick" serve --config "$WORK/$mode.toml" --datasets "$WORK/served" --port 0 \
+          --port-file "$WORK/$mode.port" --render-threads 1 > "$dir/server-$mode.log" 2>&1 &
+        apid[$mode]=$!
+      done
+      trap 'kill "${apid[aside]}" "${apid[inline]}" 2> /dev/null || true' EXIT
+      for mode in aside inline; do
+        for _ in $(seq 300); do [ -s "$WORK/$mode.port" ] && break; sleep 0.1; done
+        [ -s "$WORK/$mode.port" ] || die "$name: the $mode server wrote no port"
+        aport[$mode]=$(cat "$WORK/$mode.port")
+      done
+      echo "encoding,mode,frames_per_s,p50_ms,p99_ms,render_ms_p50" > "$dir/encode-aside.csv"
+      for enc in png jpeg; do
+        for mode in aside inline; do
+          cmd "$KIT/bin/voxbrick" load "127.0.0.1:${aport[$mode]}" --dataset mri --tf mri --step 0.75 --clients 2 \
+            --duration "$duration" --size "$size" --encoding "$enc" --json "$dir/load-$enc-$mode.json" 2>&1 |
+            tee -a "$dir/load.log"
+          if command -v python3 > /dev/null; then
+            python3 -c "import json; j = json.load(open('$dir/load-$enc-$mode.json')); l = j['latency_ms']; print('$enc,$mode,%.2f,%.1f,%.1f,%.2f' % (j['frames_per_s'], l['p50'], l['p99'], j.get('render_ms_p50') or 0))" >> "$dir/encode-aside.csv"
+          fi
+        done
+      done
+      kill -TERM "${apid[aside]}" "${apid[inline]}"; wait "${apid[aside]}" "${apid[inline]}" || true
+      { echo '```'; cat "$dir/encode-aside.csv"; echo '```'; } >> "$md"
       ;;
     load-video)
       size=1024x1024 duration=8
@@ -496,11 +534,11 @@ fi
 # The driver.
 export QUICK=${MEASURE_QUICK:-0}
 budget=${MEASURE_BUDGET:-$([ "$QUICK" = 1 ] && echo 240 || echo 500)}
-all="device test_render mri-sweep-512 roofline mri-sweep-1024 mri-sweep-2048 load-drag load-video video-link crowd-load tets-1m field-1024 orbit"
+all="device test_render mri-sweep-512 roofline mri-sweep-1024 mri-sweep-2048 load-drag encode-aside load-video video-link crowd-load tets-1m field-1024 orbit"
 steps=${MEASURE_STEPS:-$all}
 for s in $steps; do grep -qw -- "$s" <<< "$all" || die "MEASURE_STEPS: unknown step '$s' (known: $all)"; done
 declare -A cap=([device]=40 [test_render]=150 [mri-sweep-512]=90 [roofline]=90 [mri-sweep-1024]=60
-  [mri-sweep-2048]=110 [load-drag]=30 [load-video]=45 [video-link]=80 [crowd-load]=60 [tets-1m]=60 [field-1024]=150 [orbit]=30)
+  [mri-sweep-2048]=110 [load-drag]=30 [encode-aside]=40 [load-video]=45 [video-link]=80 [crowd-load]=60 [tets-1m]=60 [field-1024]=150 [orbit]=30)
 start=$(now)
 deadline=$((start + budget))
 export WORK=${MEASURE_WORK:-/tmp/voxbrick-gpu}

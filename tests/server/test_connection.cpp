@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "TestDatasets.h"
+#include "image/FrameImage.h"
 #include "image/Video.h"
 #include "render/core/TransferFunctionPresets.h"
 #include "render/engine/NullFrameSource.h"
@@ -432,6 +433,62 @@ TEST_F(ConnectionTest, VideoFramesAreEncodedAsideInOrderAndNeverDroppedOnceEncod
   for (size_t i = 4; i < transport->writes.size(); ++i) ids.push_back(decoded(transport->writes[i]).second);
   EXPECT_EQ(ids, (std::vector<uint32_t>{6, 7, 8, 9}));  // 8 as Superseded
   EXPECT_EQ(errorIn(transport->writes[6], 8), ErrorCode::Superseded);
+}
+
+// Still frames left with their pixels (RenderJob::stillToEncode, as a render thread leaves them for a session that
+// encodes aside) are encoded aside one at a time and sent in the order they were rendered: a frame rendered while
+// another is encoded, and a video frame after it, wait for it; each payload decodes to the rendered pixels.
+TEST_F(ConnectionTest, StillFramesLeftWithTheirPixelsAreEncodedAsideInOrder) {
+  greet(4);
+  std::map<uint32_t, std::vector<uint8_t>> rendered;
+  const auto still = [&](uint32_t requestId, proto::Encoding encoding, bool refinement) {
+    RenderJob job;
+    job.requestId = requestId;
+    job.refinement = refinement;
+    job.stillToEncode = 90;
+    std::vector<uint8_t> pixels(32 * 32 * 4, 255);
+    for (size_t i = 0; i < pixels.size(); i += 4) pixels[i] = uint8_t(i / 4 + requestId), pixels[i + 2] = 40;
+    rendered[requestId] = pixels;
+    core.rendered(job, proto::Frame{32, 32, encoding, refinement ? R"({"a": 1})" : R"({"provisional": true})", pixels});
+  };
+  still(3, proto::Encoding::Png, true);
+  EXPECT_EQ(transport->asides.size(), 1u) << "encoded aside, not on the connection's context";
+  EXPECT_EQ(transport->writes.size(), 1u) << "nothing sent before it is encoded";
+  still(4, proto::Encoding::ZstdRgba8, true);
+  render(5, proto::Encoding::Vp8);  // a video frame rendered after them
+  EXPECT_EQ(transport->asides.size(), 1u) << "one frame is encoded at a time";
+  while (!transport->asides.empty()) {  // each encoded frame written before the next is encoded (nothing replaced)
+    auto [work, then] = std::move(transport->asides.front());
+    transport->asides.erase(transport->asides.begin());
+    work();
+    then();
+    flush();
+  }
+  ASSERT_EQ(transport->writes.size(), 4u);  // Capabilities, 3, 4, 5
+  for (uint32_t id : {3u, 4u}) {
+    const auto [message, requestId] = decoded(transport->writes[id - 2]);
+    EXPECT_EQ(requestId, id);
+    const auto& frame = std::get<proto::Frame>(message);
+    EXPECT_EQ(image::decodeFrameImage(frame).rgba, rendered[id]) << "lossless, the rendered pixels";
+    const nlohmann::json frameStats = nlohmann::json::parse(frame.statsJson);
+    EXPECT_EQ(frameStats["a"], 1) << "the render thread's statistics kept";
+    EXPECT_TRUE(frameStats["encode_ms"].is_number());
+  }
+  EXPECT_EQ(decoded(transport->writes[3]).second, 5u);
+  EXPECT_EQ(std::get<proto::Frame>(decoded(transport->writes[3]).first).encoding, proto::Encoding::Vp8);
+
+  // A frame whose encoding exceeds the session's message limit answers LimitExceeded, naming the limit.
+  RenderJob job;
+  job.requestId = 6;
+  job.stillToEncode = 90;
+  job.maxBodyBytes = 64;
+  core.rendered(job, proto::Frame{32, 32, proto::Encoding::Png, "{}", std::vector<uint8_t>(32 * 32 * 4, 7)});
+  settle();
+  const auto [refused, id] = decoded(transport->writes.back());
+  EXPECT_EQ(id, 6u);
+  ASSERT_TRUE(std::holds_alternative<proto::Error>(refused));
+  EXPECT_EQ(std::get<proto::Error>(refused).code, ErrorCode::LimitExceeded);
+  EXPECT_NE(std::get<proto::Error>(refused).message.find("message limit of 64"), std::string::npos);
 }
 
 // The exact frame of a request replaces its own provisional video frame still waiting for the encoder, without a

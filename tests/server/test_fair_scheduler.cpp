@@ -18,6 +18,7 @@
 #include "ServerProcess.h"
 #include "TestDatasets.h"
 #include "client/Client.h"
+#include "image/FrameImage.h"
 #include "render/core/TransferFunctionPresets.h"
 #include "render/engine/NullFrameSource.h"
 #include "server/Datasets.h"
@@ -38,8 +39,14 @@ class CountingSink : public RenderScheduler::Sink, public std::enable_shared_fro
     {
       std::lock_guard lock(mMutex);
       mReplies.emplace_back(job.requestId, std::move(reply));
+      mToEncode.push_back(job.stillToEncode);
     }
     mChanged.notify_all();
+  }
+  /// Each reply's RenderJob::stillToEncode, in order.
+  std::vector<std::optional<int>> toEncode() {
+    std::lock_guard lock(mMutex);
+    return mToEncode;
   }
   std::vector<std::pair<uint32_t, proto::Message>> await(size_t count, std::chrono::seconds limit = 60s) {
     std::unique_lock lock(mMutex);
@@ -55,6 +62,7 @@ class CountingSink : public RenderScheduler::Sink, public std::enable_shared_fro
   std::mutex mMutex;
   std::condition_variable mChanged;
   std::vector<std::pair<uint32_t, proto::Message>> mReplies;
+  std::vector<std::optional<int>> mToEncode;
 };
 
 json statsOf(const proto::Message& m) {
@@ -303,6 +311,43 @@ TEST_F(FairSchedulerTest, SessionsAskingTheSameFrameShareOneRender) {
   EXPECT_EQ(c->await(1)[0].first, 3u);
   EXPECT_TRUE(statsOf(b->await(1)[0].second).value("shared", false));
   EXPECT_FALSE(statsOf(a->await(1)[0].second).value("shared", false)) << "the session it was drawn for";
+}
+
+// A session that encodes aside gets its still frame's pixels from the render thread, with the JPEG quality to encode
+// them at, so that the thread draws on meanwhile; a frame others share is encoded once, on the render thread, and
+// every session sharing it gets it encoded.
+TEST_F(FairSchedulerTest, AStillFrameIsLeftToItsSessionToEncodeUnlessShared) {
+  auto s = scheduler(1, {}, 100ms, 0ns);
+  auto alone = std::make_shared<CountingSink>(), a = std::make_shared<CountingSink>(),
+       b = std::make_shared<CountingSink>();
+  const auto still = [&](uint32_t id, int width) {
+    RenderJob j = job(id, width, R"("jpeg_quality": 77, )");
+    j.encoding = proto::Encoding::Jpeg;
+    j.encodeAside = true;
+    return j;
+  };
+  s->submit(alone, still(1, 23));
+  s->submit(a, still(2, 24));
+  s->submit(b, still(3, 24));
+  s->start();
+  ASSERT_EQ(alone->await(1).size(), 1u);
+  ASSERT_EQ(a->await(1).size(), 1u);
+  ASSERT_EQ(b->await(1).size(), 1u);
+  s->stop();
+  EXPECT_EQ(s->sharedFrames(), 1u);
+  EXPECT_EQ(alone->toEncode(), (std::vector<std::optional<int>>{77}));
+  const proto::Frame left = std::get<proto::Frame>(alone->await(1)[0].second);
+  EXPECT_EQ(left.payload.size(), 23u * 8 * 4) << "its RGBA8 pixels";
+  EXPECT_FALSE(statsOf(left).contains("encode_ms"));
+  const proto::Message encoded = encodeStill(left, 77, UINT64_MAX);
+  EXPECT_EQ(image::decodeFrameImage(std::get<proto::Frame>(encoded)).width, 23);
+  for (const auto& sink : {a, b}) {
+    EXPECT_EQ(sink->toEncode(), (std::vector<std::optional<int>>{std::nullopt}));
+    const proto::Frame frame = std::get<proto::Frame>(sink->await(1)[0].second);
+    EXPECT_EQ(frame.encoding, proto::Encoding::Jpeg);
+    EXPECT_EQ(image::decodeFrameImage(frame).width, 24) << "encoded on the render thread";
+    EXPECT_TRUE(statsOf(frame)["encode_ms"].is_number());
+  }
 }
 
 TEST(Quotas, SessionsPerAddressAndTokenHold) {

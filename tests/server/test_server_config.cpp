@@ -50,6 +50,7 @@ TEST_F(ServerConfigTest, AnEmptyFileGivesTheDefaults) {
   EXPECT_EQ(c.maxMessageBytes, 1u << 20);
   EXPECT_EQ(c.maxImageSide, 4096);
   EXPECT_TRUE(c.scheduler.coalesce);
+  EXPECT_TRUE(c.encodeAside);
   EXPECT_EQ(c.maxQueuedPerSession(), 1u);
   EXPECT_EQ(c.maxPendingConnections, 16);
   EXPECT_DOUBLE_EQ(c.helloTimeoutS, 5);
@@ -71,6 +72,7 @@ render_threads = 4
 backend = "osmesa"
 log_level = "debug"
 coalesce = false
+encode_aside = false
 [limits]
 max_sessions = 5
 max_message_bytes = 2048
@@ -130,6 +132,7 @@ upload = true
   EXPECT_EQ(c.backend, render::Backend::OsMesa);
   EXPECT_EQ(c.logLevel, "debug");
   EXPECT_FALSE(c.scheduler.coalesce);
+  EXPECT_FALSE(c.encodeAside);
   EXPECT_EQ(c.maxQueuedPerSession(), ServerConfig::kMaxQueuedWithoutCoalescing);
   EXPECT_EQ(c.maxSessions, 5);
   EXPECT_EQ(c.maxMessageBytes, 2048u);
@@ -278,6 +281,7 @@ TEST_F(ServerConfigTest, AWrongTypeNamesTheFileAndTheKey) {
       {"server", "backend", "1", "must be a string"},
       {"server", "log_level", "2", "must be a string"},
       {"server", "coalesce", "\"yes\"", "must be true or false"},
+      {"server", "encode_aside", "1", "must be true or false"},
       {"limits", "max_sessions", "\"many\"", "must be an integer"},
       {"limits", "max_message_bytes", "1e6", "must be an integer"},
       {"limits", "max_image_side", "{}", "must be an integer"},
