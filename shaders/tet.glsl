@@ -1,10 +1,10 @@
-// What the tetrahedral meshes' fragment programs share (tet.frag.glsl: projected tets; tet_ray.frag.glsl: the
-// adjacency ray caster): a ray segment through one tet, with its scalar linear along it, classified from the
+// What the tetrahedral meshes' fragment programs share (tet.frag.glsl: projected tets; tet_walk.glsl: the
+// adjacency ray caster, in its fragment and compute kernels): a ray segment through one tet, with its scalar linear along it, classified from the
 // pre-integrated table (front value, back value, length: render/core/PreIntegration.h, the optical model of
 // ARCHITECTURE.md), and with SHADING its headlight. Exact for perspective rays: the segment is the pixel's own, in
 // world units. With TET_RAY, the ray caster's buffers, pixel ray and edge product (render/gl/tets/TetRayCaster.h).
 // With PART_CLIP, a sort-last part's box, which each ray's integration is clipped to (FrameOptions::meshPart).
-#ifdef FRAGMENT_STAGE
+#if defined(FRAGMENT_STAGE) || defined(COMPUTE_STAGE)
 uniform float uInvReference;  // 1 / the transfer function's reference length
 
 // The pre-integrated table (render/core/PreIntegration.h), its resolution and length layers.
@@ -40,7 +40,7 @@ vec4 shadeSegment(vec4 segment, vec3 gradient, vec3 direction) {
 #endif
 #endif
 
-#if defined(PART_CLIP) && defined(FRAGMENT_STAGE)
+#if defined(PART_CLIP) && (defined(FRAGMENT_STAGE) || defined(COMPUTE_STAGE))
 // The part's box (FrameOptions::meshPart), centred on the mesh's box as the vertices are.
 uniform vec3 uPartLo, uPartHi;
 
@@ -63,7 +63,7 @@ vec2 partRange(vec3 origin, vec3 direction) {
 }
 #endif
 
-#if defined(TET_RAY) && defined(FRAGMENT_STAGE)
+#if defined(TET_RAY) && (defined(FRAGMENT_STAGE) || defined(COMPUTE_STAGE))
 // The ray caster's tets: four vertices each (position centred on the mesh's box, raw scalar; the projected tets'
 // buffer), and across each face the neighbour and its face, coded as tet * 8 + 4 if the tet's stored order is
 // negatively oriented + face, or -1 on the boundary.
@@ -76,9 +76,17 @@ uniform int uWidth;
 uniform vec3 uRayOrigin, uRayOriginDx, uRayOriginDy;           // ray origin (near plane) at window (x, y)
 uniform vec3 uRayDirection, uRayDirectionDx, uRayDirectionDy;  // near plane to far plane at window (x, y)
 
-int pixelIndex() { return int(gl_FragCoord.y) * uWidth + int(gl_FragCoord.x); }
-vec3 rayOrigin() { return uRayOrigin + gl_FragCoord.x * uRayOriginDx + gl_FragCoord.y * uRayOriginDy; }
-vec3 rayDirection() { return uRayDirection + gl_FragCoord.x * uRayDirectionDx + gl_FragCoord.y * uRayDirectionDy; }
+// The pixel's window coordinates (its centre): gl_FragCoord's, or in the compute kernel its invocation's, which it sets
+// before anything reads them.
+#ifdef COMPUTE_STAGE
+vec2 gPixelCoord = vec2(0.0);
+vec2 pixelCoord() { return gPixelCoord; }
+#else
+vec2 pixelCoord() { return gl_FragCoord.xy; }
+#endif
+int pixelIndex() { return int(pixelCoord().y) * uWidth + int(pixelCoord().x); }
+vec3 rayOrigin() { return uRayOrigin + pixelCoord().x * uRayOriginDx + pixelCoord().y * uRayOriginDy; }
+vec3 rayDirection() { return uRayDirection + pixelCoord().x * uRayDirectionDx + pixelCoord().y * uRayDirectionDy; }
 
 // The Plücker product of edge p -> q (p its lower end in an order fixed for the mesh) with the ray of direction d
 // and moment m = cross(origin, d): dot(q, cross(d, p)) + dot(q, m) - dot(p, m), computed the same way wherever the

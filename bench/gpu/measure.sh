@@ -439,11 +439,14 @@ PY
         cmd vb prep "synthetic-mesh:ball,n=$n" -q -o "$WORK/ball-$n" | tee "$dir/prep.log"
       vb info "$WORK/ball-$n" > "$dir/info.txt"
       tets=$(awk '$1 == "tets" {print $2}' "$dir/info.txt")
-      echo "visibility,size,tets,ms_total,ms_drawing,ms_sorting,tets_drawn,tet_ray_passes,psnr_vs_reference_db" \
+      echo "visibility,size,tets,ms_total,ms_drawing,ms_sorting,tets_drawn,tet_ray_passes,psnr_vs_reference_db,kernel" \
         > "$dir/tets-1m.csv"
+      # raycast: the ray caster's default kernel (fragment); raycast-compute: its compute kernel.
       for size in $sizes; do
-        for vis in raycast mpvo centroid; do
-          cmd vb render "$WORK/ball-$n" --tf hot --visibility "$vis" --size "${size}x${size}" --warm-up 2 -q \
+        for vis in raycast raycast-compute mpvo centroid; do
+          args=(--visibility "$vis")
+          [ "$vis" = raycast-compute ] && args=(--visibility raycast --raycaster compute)
+          cmd vb render "$WORK/ball-$n" --tf hot "${args[@]}" --size "${size}x${size}" --warm-up 2 -q \
             --stats "$dir/$vis-$size.json" -o "$WORK/tets-$vis-$size.png"
         done
       done
@@ -454,14 +457,15 @@ PY
           --backend reference -q -o "$WORK/tets-reference-$first.png" || echo "(the reference did not finish)" >> "$md"
       fi
       for size in $sizes; do
-        for vis in raycast mpvo centroid; do
+        for vis in raycast raycast-compute mpvo centroid; do
           psnr=
           if [ "$size" = "$first" ] && [ -s "$WORK/tets-reference-$first.png" ]; then
             psnr=$(psnr "$WORK/tets-$vis-$size.png" "$WORK/tets-reference-$first.png")
           fi
           s=$dir/$vis-$size.json
           get() { sed -n "s/.*\"$1\": *\([-0-9.e]*\).*/\1/p" "$s" | head -1; }
-          echo "$vis,$size,$tets,$(get total),$(get drawing),$(get sorting),$(get tets_drawn),$(get tet_ray_passes),$psnr" \
+          kernel=$(sed -n 's/.*"raycaster": *"\([a-z]*\)".*/\1/p' "$s" | head -1)
+          echo "$vis,$size,$tets,$(get total),$(get drawing),$(get sorting),$(get tets_drawn),$(get tet_ray_passes),$psnr,$kernel" \
             >> "$dir/tets-1m.csv"
         done
       done

@@ -48,12 +48,13 @@ inline const char* slicerName(Slicer slicer) { return common::nameOf(slicer); }
 /// The slicer named `name`; throws RenderInputError naming `what`, the closest name and the valid ones otherwise.
 Slicer parseSlicer(const std::string& name, const std::string& what);
 
-/// Which kernel of the frame ray caster draws a ray-cast frame (render/gl/volume/RayCastPass.h). Both march the same
-/// samples through the same code (shaders/volume_march.glsl); they differ in how the GPU runs it: a fragment per pixel
-/// blended into the target, or a compute invocation per pixel that composites into it itself, in workgroups that
-/// reach every core of a data-centre GPU where its graphics pipeline reaches only a few.
+/// Which kernel of the ray casters draws a ray-cast frame: the grids' frame ray caster (render/gl/volume/RayCastPass.h)
+/// and the meshes' adjacency ray caster (render/gl/tets/TetRayCaster.h). Both kernels of each march the same samples
+/// through the same code (shaders/volume_march.glsl, shaders/tet_walk.glsl); they differ in how the GPU runs it: a
+/// fragment per pixel blended into the target, or a compute invocation per pixel that composites into it itself, in
+/// workgroups that reach every core of a data-centre GPU where its graphics pipeline reaches only a few.
 enum class RayCaster {
-  Auto,      ///< "auto": the faster on the device (render/gl/volume/ComputeRayCast.h: computeRayCasterByDefault)
+  Auto,      ///< "auto": the faster on the device as measured (render/gl/GlContext.h: computeRayCasterByDefault; a mesh: fragment)
   Fragment,  ///< "fragment": a full-screen triangle per batch, blended
   Compute,   ///< "compute": a compute dispatch per batch and band
 };
@@ -193,7 +194,8 @@ struct GridTechnique {
   /// take, so the image is the same beyond round-off; `slab` and `ess` then have no effect, ert and pre_integration
   /// apply. The default; a volume too large for the cell table (render/volume/FramePlan.h) is drawn with slabs instead.
   bool raycast = true;
-  /// The ray caster's kernel: the fragment program or the compute program, the same samples; auto chooses by device.
+  /// The ray casters' kernel (the grids' and the meshes'): the fragment program or the compute program, the same
+  /// samples; auto chooses by device.
   RayCaster raycaster = RayCaster::Auto;
   /// What pages a ray-cast frame's bricks: the octree walk (every visible brick) or the rays' requests (the bricks
   /// rays reached; the others drawn from a resident ancestor until requested). Frames of one batch only; a frame of

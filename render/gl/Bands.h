@@ -30,4 +30,13 @@ void drawTiled(const Gl& gl, int width, int height, Checkpoints& checkpoints, do
 /// drawTiled of the bound program's full-screen triangle (three vertices, no attributes).
 void drawInBands(const Gl& gl, int width, int height, Checkpoints& checkpoints, double samplesPerPixel = 0);
 
+/// The bound compute program (workgroups of VB_RAYCAST_GROUP_X x VB_RAYCAST_GROUP_Y pixels, render/gl/Bindings.h)
+/// dispatched over width x height pixels in bands or tiles of whole workgroups, sized as drawInBands sizes its bands
+/// (each group a pixel of its pixels' cost, so that a band of one row does not leave most of each group idle), pacing
+/// `checkpoints` after each. `setTile` is given each dispatch's pixels [xy, zw) before it. Ends with the memory
+/// barriers that make the program's image and buffer stores visible to what follows (the next pass's loads, the
+/// readback, a clear, the counters' read), also when FrameCancelled is thrown.
+void dispatchInTiles(const Gl& gl, int width, int height, Checkpoints& checkpoints, double samplesPerPixel,
+                     const std::function<void(const glm::ivec4& tile)>& setTile);
+
 }  // namespace voxbrick::render

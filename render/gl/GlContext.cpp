@@ -64,4 +64,8 @@ std::unique_ptr<GlContext> createContext(Backend backend) {
                     "): no OpenGL 4.3 core context; tried:" + failures);
 }
 
+bool computeRayCasterByDefault(const GlContext& context) {
+  return !context.software() && context.renderer().find("NVIDIA") != std::string::npos;
+}
+
 }  // namespace voxbrick::render

@@ -38,13 +38,31 @@ constexpr int64_t kMaxPasses = 1024;
 /// ball); a guard against a cycle that round-off might make.
 constexpr int kMaxSteps = 1 << 16;
 
-Program rayProgram(const Gl& gl, const char* name, const char* vertex, const char* fragment, bool shaded = false,
-                   bool part = false) {
+std::vector<std::string> rayDefines(bool shaded, bool part) {
   std::vector<std::string> defines{"TET_RAY"};
   if (shaded) defines.push_back("SHADING");
   if (part) defines.push_back("PART_CLIP");
-  return Program(gl, ProgramSources::fromFiles(name, {{GL_VERTEX_SHADER, vertex}, {GL_FRAGMENT_SHADER, fragment}},
-                                               std::move(defines), "tet.glsl"));
+  return defines;
+}
+
+/// The entry pass's program.
+Program entryProgram(const Gl& gl) {
+  return Program(gl, ProgramSources::fromFiles("tet-entry", {{GL_VERTEX_SHADER, "tet_entry.vert.glsl"},
+                                                             {GL_FRAGMENT_SHADER, "tet_entry.frag.glsl"}},
+                                               rayDefines(false, false), "tet.glsl"));
+}
+
+/// A ray pass's program: the fragment kernel (a full-screen triangle) or the compute kernel, over the walk.
+Program rayProgram(const Gl& gl, bool shaded, bool part, bool compute) {
+  const std::string name = std::string(compute ? "tet-ray-compute" : "tet-ray") + (shaded ? "-shaded" : "") +
+                           (part ? "-part" : "");
+  std::vector<std::pair<GLenum, std::string>> stages;
+  if (compute)
+    stages = {{GL_COMPUTE_SHADER, "tet_ray.comp.glsl"}};
+  else
+    stages = {{GL_VERTEX_SHADER, "raycast.vert.glsl"}, {GL_FRAGMENT_SHADER, "tet_ray.frag.glsl"}};
+  return Program(gl, ProgramSources::fromFiles(name, std::move(stages), rayDefines(shaded, part),
+                                               std::vector<std::string>{"tet.glsl", "tet_walk.glsl"}));
 }
 
 }  // namespace
@@ -86,9 +104,7 @@ TetRayCaster::TetRayCaster(const Gl& gl, const TetMeshData& data)
       mFaces(gl),
       mExits(gl),
       mEntryCount(gl),
-      mEntryProgram(rayProgram(gl, "tet-entry", "tet_entry.vert.glsl", "tet_entry.frag.glsl")),
-      mRayProgram(rayProgram(gl, "tet-ray", "raycast.vert.glsl", "tet_ray.frag.glsl")),
-      mShadedRayProgram(rayProgram(gl, "tet-ray-shaded", "raycast.vert.glsl", "tet_ray.frag.glsl", true)),
+      mEntryProgram(entryProgram(gl)),
       mEmpty(gl),
       mCounters(gl) {
   if (mTets > kMaxTets)
@@ -103,6 +119,9 @@ TetRayCaster::TetRayCaster(const Gl& gl, const TetMeshData& data)
   uploadBoundary(data, newIndex, reversed);
   mEntryCount.allocate(GL_SHADER_STORAGE_BUFFER, sizeof(uint32_t), nullptr, GL_DYNAMIC_COPY);
   mBytes = bytesFor(mTets, mBoundaryFaces);
+  // The whole frame's fragment kernels at once, as before (a failing driver says so when the mesh is opened).
+  rayProgramFor(false, false, false);
+  rayProgramFor(true, false, false);
   checkGlError(mGl, "TetRayCaster: uploading the mesh");
 }
 
@@ -203,8 +222,9 @@ void TetRayCaster::prepareTargets(int width, int height) {
   mHeight = height;
 }
 
-void TetRayCaster::draw(const TetFrameUniforms& uniforms, double termination, bool shading, Compositor& compositor,
-                        FrameStats& stats, const std::function<bool()>& cancelled, double checkpointSamples) {
+void TetRayCaster::draw(const TetFrameUniforms& uniforms, double termination, bool shading, bool compute,
+                        Compositor& compositor, FrameStats& stats, const std::function<bool()>& cancelled,
+                        double checkpointSamples) {
   prepareTargets(uniforms.width, uniforms.height);
   // Every ray starts before the mesh (mBeforeMesh: -1 for each pixel, made with the target).
   mExits.bind(GL_SHADER_STORAGE_BUFFER);
@@ -216,7 +236,7 @@ void TetRayCaster::draw(const TetFrameUniforms& uniforms, double termination, bo
   mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_BOUNDARY_FACES, mFaces.id());
   mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_RAY_EXITS, mExits.id());
   mGl.glBindBufferBase(GL_SHADER_STORAGE_BUFFER, VB_BINDING_ENTRY_COUNT, mEntryCount.id());
-  const Program& ray = rayProgramFor(shading, uniforms.part);
+  const Program& ray = rayProgramFor(shading, uniforms.part, compute);
   setTetUniforms(mEntryProgram, uniforms);
   setTetUniforms(ray, uniforms);
   ray.set(ray.uniformLocation("uTermination"), termination > 0 ? float(termination) : 2.0f);
@@ -249,13 +269,20 @@ void TetRayCaster::draw(const TetFrameUniforms& uniforms, double termination, bo
     uint32_t entries = 0;
     mEntryCount.read(0, sizeof(entries), &entries);
     if (entries == 0 || stats.tetRayPasses > kMaxPasses) break;
-    compositor.bindTarget();
-    mGl.glEnable(GL_BLEND);
     mEntryTexture.bind(VB_UNIT_TET_ENTRY);
     mEntryDepth.bind(VB_UNIT_TET_ENTRY_DEPTH);
     ray.use();
-    drawInBands(mGl, mWidth, mHeight, checkpoints, samplesPerPixel);
-    mGl.glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    if (compute) {
+      compositor.bindImage(VB_IMAGE_ACCUMULATED);
+      const GLint tile = ray.uniformLocation("uTile");
+      dispatchInTiles(mGl, mWidth, mHeight, checkpoints, samplesPerPixel,
+                      [&](const glm::ivec4& pixels) { ray.set(tile, pixels); });
+    } else {
+      compositor.bindTarget();
+      mGl.glEnable(GL_BLEND);
+      drawInBands(mGl, mWidth, mHeight, checkpoints, samplesPerPixel);
+      mGl.glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    }
   }
   compositor.bindTarget();
   mGl.glEnable(GL_BLEND);
@@ -264,12 +291,9 @@ void TetRayCaster::draw(const TetFrameUniforms& uniforms, double termination, bo
 
 void TetRayCaster::readCounters(FrameStats& stats) const { mCounters.read(stats); }
 
-const Program& TetRayCaster::rayProgramFor(bool shading, bool part) {
-  if (!part) return shading ? mShadedRayProgram : mRayProgram;
-  Program& program = shading ? mShadedPartRayProgram : mPartRayProgram;
-  if (!program)
-    program = rayProgram(mGl, shading ? "tet-ray-shaded-part" : "tet-ray-part", "raycast.vert.glsl",
-                         "tet_ray.frag.glsl", shading, true);
+const Program& TetRayCaster::rayProgramFor(bool shading, bool part, bool compute) {
+  Program& program = mRayPrograms[compute][part][shading];
+  if (!program) program = rayProgram(mGl, shading, part, compute);
   return program;
 }
 

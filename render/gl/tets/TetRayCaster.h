@@ -64,11 +64,14 @@ class TetRayCaster {
 
   /// Draws a frame into `compositor` (begun, blending front to back), the pre-integrated table bound on
   /// VB_UNIT_PRE_INTEGRATED (the unit tet.glsl declares). `termination`: the opacity where a ray stops (0: never).
+  /// `compute`: each ray pass is the compute kernel (shaders/tet_ray.comp.glsl, dispatched in tiles of workgroups,
+  /// each invocation compositing its pixel into the target itself) instead of the fragment kernel blended; the same
+  /// walk, the same image.
   /// With uniforms.part, each ray is integrated only inside the part's box and stops once past it.
   /// Counts the entry passes in stats.tetRayPasses; `cancelled` is checked between passes and between bands of 64 rows
   /// of a ray pass (throwing FrameCancelled), bands sized by stats.samplesEstimated to about `checkpointSamples`
   /// each (FrameOptions::checkpointSamples; 0: 64 rows). Leaves the compositor's target bound.
-  void draw(const TetFrameUniforms& uniforms, double termination, bool shading, Compositor& compositor,
+  void draw(const TetFrameUniforms& uniforms, double termination, bool shading, bool compute, Compositor& compositor,
             FrameStats& stats, const std::function<bool()>& cancelled, double checkpointSamples = 0);
   /// After the compositor's finish: the frame's counts into stats.fragments (rays walked: one per pixel and pass
   /// that found an entry), samples (tets walked with a segment of positive length) and samplesTerminated (rays
@@ -100,11 +103,12 @@ class TetRayCaster {
   Buffer mExits;       // per pixel: where the last pass left the mesh
   std::vector<float> mBeforeMesh;  // its contents at the start of a frame, kept with the target's size
   Buffer mEntryCount;              // fragments the entry pass kept
-  /// The ray pass's program: plain or shaded, whole or clipped to a part (those made on the first part's frame).
-  const Program& rayProgramFor(bool shading, bool part);
+  /// The ray pass's program: plain or shaded, whole or clipped to a part, fragment or compute kernel (those but the
+  /// whole frame's fragment kernels made on the first frame that needs them).
+  const Program& rayProgramFor(bool shading, bool part, bool compute);
 
-  Program mEntryProgram, mRayProgram, mShadedRayProgram;
-  Program mPartRayProgram, mShadedPartRayProgram;  // empty until a part's frame needs them
+  Program mEntryProgram;
+  Program mRayPrograms[2][2][2];  // [compute][part][shading]
   Framebuffer mEntryTarget;
   Texture mEntryTexture, mEntryDepth;
   int mWidth = 0, mHeight = 0;

@@ -217,12 +217,17 @@ image::ImageF TetRenderer::draw(const Scene& scene, const TetFramePlan& plan, bo
     stats.tetPart = rays ? "raycast" : "projected";
   }
   try {
-    if (rays)
-      mResidency.rayCaster()->draw(uniforms, scene.ert, scene.shading, mCompositor, stats, options.cancelled,
+    if (rays) {
+      // Auto keeps the fragment kernel on every device: the compute kernel was 1.02-1.41x its time on llvmpipe
+      // (docs/performance.md) and has not been measured on a GPU yet (the GPU kit's tets-1m step measures both).
+      const bool compute = scene.raycaster == RayCaster::Compute;
+      stats.raycaster = compute ? "compute" : "fragment";
+      mResidency.rayCaster()->draw(uniforms, scene.ert, scene.shading, compute, mCompositor, stats, options.cancelled,
                                    options.checkpointSamples);
-    else
+    } else {
       drawProjected(uniforms, nullFragment ? mNullProgram : projectedProgram(scene.shading, uniforms.part), stats,
                     options.cancelled);
+    }
     checkGlError(mGl, "TetRenderer: drawing");
   } catch (...) {
     mCompositor.abort();

@@ -15,12 +15,6 @@
 
 namespace voxbrick::render {
 
-/// Whether RayCaster::Auto takes the compute kernel on `context`'s device: on NVIDIA, where the graphics pipeline
-/// reaches only part of a data-centre chip (the roofline argument; not yet measured there). Not on a software
-/// rasteriser, where the compute kernel was never clearly the faster and up to 1.85x the slower on the MRI
-/// (docs/performance.md), nor on any other device, where the fragment kernel is the long-tested path.
-bool computeRayCasterByDefault(const GlContext& context);
-
 /// Dispatches `program` (a compute ray caster variant, its frame and cells set) over width x height pixels of
 /// `compositor`'s target, in bands or tiles of whole workgroups sized as drawInBands sizes its bands
 /// (render/gl/Bands.h: forEachTile), pacing `checkpoints` after each so that a cancelled frame stops within one.

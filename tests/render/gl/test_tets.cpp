@@ -454,6 +454,69 @@ TEST(TetRayCaster, FallsBackWhereItCannotStartAndCancelsPartWay) {
   EXPECT_EQ(stats.tetRayPasses, 0);
 }
 
+// The ray caster's compute kernel (Scene::raycaster compute: an invocation per pixel compositing into the target
+// itself) walks the same rays as its fragment kernel: the same frame, whole or a part's, plain or shaded, through
+// passes that re-enter a non-convex mesh, with and without early termination; the stats name the kernel; a frame
+// given up between its tiles throws FrameCancelled and the next is whole.
+TEST(TetRayCaster, TheComputeKernelDrawsTheFragmentKernelsFrame) {
+  auto data = syntheticData("ball,n=12");  // a staircase ball: rays leave and enter again
+  TetRenderer renderer(test::context(), data, size_t(256) << 20);
+  CameraSpec orbit, orthographic;
+  orbit.azimuth = 35;
+  orbit.elevation = 25;
+  orthographic.orthographic = true;
+  orthographic.azimuth = 90;
+  orthographic.elevation = 0;
+  const Box& b = data->bounds;
+  const MeshPartBox part{{b.min.x, b.min.y, b.min.z}, {b.center().x, b.max.y, b.max.z}};  // the mesh's left half
+  int64_t mostPasses = 0;
+  for (const bool shading : {false, true})
+    for (const double ert : {0.0, 0.99})
+      for (const CameraSpec& camera : {orbit, orthographic})
+        for (const bool inPart : {false, true}) {
+          SCOPED_TRACE(std::string(shading ? "shaded" : "plain") + ", ert " + std::to_string(ert) +
+                       (camera.orthographic ? ", orthographic" : ", orbit") + (inPart ? ", a part" : ""));
+          Scene scene;
+          scene.width = 90;  // not a multiple of the 8x8 workgroups
+          scene.height = 70;
+          scene.camera = camera;
+          scene.transferFunction = TransferFunction::load("hot");
+          scene.visibility = TetSort::Ray;
+          scene.shading = shading;
+          scene.ert = ert;
+          FrameOptions options;
+          if (inPart) options.meshPart = part;
+          FrameStats fragmentStats, computeStats;
+          scene.raycaster = RayCaster::Fragment;
+          const image::ImageF fragment = renderer.render(scene, &fragmentStats, options);
+          scene.raycaster = RayCaster::Compute;
+          const image::ImageF compute = renderer.render(scene, &computeStats, options);
+          ASSERT_GT(test::meanBrightness(fragment), 0.003);
+          EXPECT_EQ(fragmentStats.raycaster, "fragment");
+          EXPECT_EQ(computeStats.raycaster, "compute");
+          EXPECT_EQ(computeStats.tetRayPasses, fragmentStats.tetRayPasses);
+          EXPECT_EQ(computeStats.samples, fragmentStats.samples);
+          EXPECT_EQ(computeStats.samplesTerminated, fragmentStats.samplesTerminated);
+          test::expectClose(compute, fragment, 1e-6, "tets-ray-compute");
+          mostPasses = std::max(mostPasses, computeStats.tetRayPasses);
+        }
+  EXPECT_GE(mostPasses, 3) << "no ray left the staircase ball and entered it again";
+
+  Scene scene = partlyTransparentScene();
+  scene.visibility = TetSort::Ray;
+  FrameStats stats;
+  renderer.render(scene, &stats);
+  EXPECT_EQ(stats.raycaster, "fragment") << "auto keeps a mesh's fragment kernel until a GPU has measured both";
+  scene.raycaster = RayCaster::Compute;
+  const image::ImageF whole = renderer.render(scene);
+  int asked = 0;
+  FrameOptions options;
+  options.cancelled = [&] { return ++asked > 2; };  // before the pass, after its first tile, then given up
+  EXPECT_THROW(renderer.render(scene, nullptr, options), FrameCancelled);
+  EXPECT_EQ(asked, 3);
+  test::expectClose(renderer.render(scene), whole, 0.0, "tets-ray-compute-after-cancel");
+}
+
 /// The strip tet.vert.glsl makes for each tet, captured by transform feedback (rasterizer discarded): two triangles
 /// per tet, in normalised device coordinates.
 std::vector<std::array<glm::vec2, 6>> capturedStrips(const std::vector<glm::vec4>& vertices,
