@@ -460,6 +460,36 @@ describe("viewer", () => {
     }
   });
 
+  test("a server over capacity answers Busy, and the page comes back after the server's hint", async () => {
+    // One dragging session is all this server takes (max_interactive_sessions); a TCP client drags for 3 s.
+    const config = path.join(scratch.dir, "busy.toml");
+    fs.writeFileSync(config, "[scheduler]\nmax_interactive_sessions = 1\n");
+    const busyServer = await new H.Server({ dir: scratch.dir, datasets, config }).start();
+    const load = H.spawnTied(H.VOXBRICK, ["load", `127.0.0.1:${busyServer.tcpPort}`, "--dataset", "sparse",
+      "--clients", "1", "--size", "64x64", "--drag", "20", "--interactive", "50", "--duration", "3"],
+      { stdio: "ignore" });
+    const loaded = new Promise((resolve) => load.on("exit", resolve));
+    try {
+      await new Promise((r) => setTimeout(r, 700)); // its first moving frames
+      const page = await H.openPage(browser, `${busyServer.url}/?dataset=sparse&${SIZE_PARAM}`);
+      const busy = await H.waitForState(page, (st) => st.connection === "busy", 10000);
+      assert.match(busy.banner, /The server is busy: the server is over capacity/);
+      assert.match(busy.banner, /Retrying in/);
+      const hint = Number(/retry after (\d+) ms/.exec(busy.reason)[1]);
+      assert.ok(hint > 0, busy.reason);
+      // The wait is the server's hint (up to a fifth more), not the page's own backoff.
+      assert.ok(busy.retryMs >= hint && busy.retryMs <= Math.ceil(1.2 * hint), `${busy.retryMs} against ${hint}`);
+      await loaded;
+      const back = await waitExact(page);
+      assert.equal(back.connection, "ready");
+      assert.equal(back.banner, "");
+      await page.close();
+    } finally {
+      load.kill("SIGKILL");
+      await busyServer.kill();
+    }
+  });
+
   test("the server killed shows the error state, and a restart reconnects to the same view", async () => {
     const page = await H.openPage(browser, `${server.url}/?dataset=ml&orbit=100,10,3&tf=hot&${SIZE_PARAM}`);
     await waitExact(page);

@@ -489,6 +489,19 @@ TEST_F(ConnectionTest, StillFramesLeftWithTheirPixelsAreEncodedAsideInOrder) {
   ASSERT_TRUE(std::holds_alternative<proto::Error>(refused));
   EXPECT_EQ(std::get<proto::Error>(refused).code, ErrorCode::LimitExceeded);
   EXPECT_NE(std::get<proto::Error>(refused).message.find("message limit of 64"), std::string::npos);
+
+  // A provisional frame refused so answers its request: the exact frame the scheduler queued after it is not sent.
+  job.requestId = 7;
+  core.rendered(job, proto::Frame{32, 32, proto::Encoding::Png, R"({"provisional": true})",
+                                  std::vector<uint8_t>(32 * 32 * 4, 7)});
+  settle();
+  const size_t written = transport->writes.size();
+  EXPECT_EQ(errorIn(transport->writes.back(), 7), ErrorCode::LimitExceeded);
+  job.refinement = true;
+  job.maxBodyBytes = UINT64_MAX;
+  core.rendered(job, proto::Frame{32, 32, proto::Encoding::Png, "{}", std::vector<uint8_t>(32 * 32 * 4, 7)});
+  settle();
+  EXPECT_EQ(transport->writes.size(), written) << "request 7 was answered once, by its error";
 }
 
 // The exact frame of a request replaces its own provisional video frame still waiting for the encoder, without a

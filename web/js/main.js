@@ -32,10 +32,11 @@ const app = {
   presets: null, // the server's presets: {name: points}
   capabilities: null,
   connection: null,
-  state: "connecting", // connecting | ready | disconnected | refused
+  state: "connecting", // connecting | ready | disconnected | refused | busy | idle
   reason: "",
   attempts: 0,
   reconnectTimer: 0,
+  retryMs: 0, // the wait before the next connection attempt (the server's Busy hint when it gave one)
   features: {
     interactive: true,
     time_budget_ms: true,
@@ -333,13 +334,23 @@ async function closed(info) {
       ? `the server at ${params.get("server")} cannot be reached or refuses this page's origin (${location.origin})`
       : await refusalReason();
   }
+  // A server over capacity answers the Hello Busy with when to come back: the page waits that long (a fifth more at
+  // most, drawn at random, so that pages refused together do not all return in the same instant), not its backoff.
+  const last = app.connection.lastError;
+  const hint = last && last.code === ErrorCode.Busy ? retryAfterMs(last.message) : null;
   const refused = !info.opened && !why.startsWith("the server cannot be reached");
-  app.state = refused || /origin|token/i.test(why) ? "refused" : "disconnected";
+  app.state = hint !== null ? "busy" : refused || /origin|token/i.test(why) ? "refused" : "disconnected";
   app.reason = why;
-  const delay = BACKOFF_MS[Math.min(app.attempts, BACKOFF_MS.length - 1)];
+  const delay =
+    hint !== null ? Math.round(hint * (1 + 0.2 * Math.random())) : BACKOFF_MS[Math.min(app.attempts, BACKOFF_MS.length - 1)];
+  app.retryMs = delay;
   app.attempts++;
-  const title = app.state === "refused" ? "Refused by the server" : "Disconnected from the server";
-  banner(`${title}: ${why}. Retrying in ${(delay / 1000).toFixed(1)} s…`);
+  if (hint !== null) {
+    banner(`The server is busy: ${last.message.replace(/; retry after \d+ ms$/, "")}. Retrying in ${(delay / 1000).toFixed(1)} s…`);
+  } else {
+    const title = app.state === "refused" ? "Refused by the server" : "Disconnected from the server";
+    banner(`${title}: ${why}. Retrying in ${(delay / 1000).toFixed(1)} s…`);
+  }
   app.reconnectTimer = setTimeout(connect, delay);
 }
 
@@ -443,6 +454,8 @@ window.voxbrickViewer = {
   state: () => ({
     connection: app.state,
     reason: app.reason,
+    retryMs: app.retryMs,
+    attempts: app.attempts,
     banner: $("banner").hidden ? "" : $("banner").textContent,
     datasets: app.datasets.slice(),
     dataset: app.meta ? app.view.dataset : "",
