@@ -332,10 +332,13 @@ describe("viewer", () => {
     await cdp.send("Browser.setDownloadBehavior", { behavior: "allow", downloadPath: downloads });
     await page.click("#save");
     const file = path.join(downloads, "voxbrick-ml-left.png");
+    const payload = await lastPayload(page);
+    // Chromium may name the file before it has written it: wait for all of its bytes.
+    const size = () => (fs.existsSync(file) ? fs.statSync(file).size : -1);
     const t0 = Date.now();
-    while (!fs.existsSync(file) && Date.now() - t0 < 10000) await new Promise((r) => setTimeout(r, 50));
+    while (size() < payload.length && Date.now() - t0 < 10000) await new Promise((r) => setTimeout(r, 50));
     assert.ok(fs.existsSync(file), `saved ${fs.readdirSync(downloads)}`);
-    assert.deepEqual(fs.readFileSync(file), await lastPayload(page));
+    assert.deepEqual(fs.readFileSync(file), payload);
     assert.deepEqual(
       H.compareImages(H.decodePng(fs.readFileSync(file)), await H.canvasPixels(page)),
       { differing: 0, maxDiff: 0 },
