@@ -5,14 +5,9 @@
 // (what the silhouette map does for the fragment kernel) and composites its batch's ray under the rest as the
 // blending does, C += (1 - A) c, A += (1 - A) a. With ROOFLINE, the march's result is stored as it is, as the
 // fragment kernel's is without blending.
-layout(local_size_x = VB_RAYCAST_GROUP_X, local_size_y = VB_RAYCAST_GROUP_Y) in;
-
-layout(binding = VB_IMAGE_ACCUMULATED, rgba32f) uniform restrict image2D uAccumulated;
-uniform ivec4 uTile;  // the pixels [xy, zw) of this dispatch, window coordinates
-
 void main() {
-  const ivec2 pixel = uTile.xy + ivec2(gl_GlobalInvocationID.xy);
-  if (any(greaterThanEqual(pixel, uTile.zw))) return;
+  ivec2 pixel;
+  if (!tilePixel(pixel)) return;  // compute_tile.glsl
   // gl_FragCoord's numbers: the pixel's centre.
   const vec2 window = vec2(pixel) + 0.5;
 #ifdef ROOFLINE

@@ -57,12 +57,14 @@ Program rayProgram(const Gl& gl, bool shaded, bool part, bool compute) {
   const std::string name = std::string(compute ? "tet-ray-compute" : "tet-ray") + (shaded ? "-shaded" : "") +
                            (part ? "-part" : "");
   std::vector<std::pair<GLenum, std::string>> stages;
-  if (compute)
+  std::vector<std::string> libraries{"tet.glsl", "tet_walk.glsl"};
+  if (compute) {
     stages = {{GL_COMPUTE_SHADER, "tet_ray.comp.glsl"}};
-  else
+    libraries.push_back("compute_tile.glsl");
+  } else {
     stages = {{GL_VERTEX_SHADER, "raycast.vert.glsl"}, {GL_FRAGMENT_SHADER, "tet_ray.frag.glsl"}};
-  return Program(gl, ProgramSources::fromFiles(name, std::move(stages), rayDefines(shaded, part),
-                                               std::vector<std::string>{"tet.glsl", "tet_walk.glsl"}));
+  }
+  return Program(gl, ProgramSources::fromFiles(name, std::move(stages), rayDefines(shaded, part), libraries));
 }
 
 }  // namespace

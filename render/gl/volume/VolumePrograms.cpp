@@ -32,9 +32,11 @@ ProgramSources sources(const ProgramKey& key) {
   if (!slices(key)) libraries.push_back("volume_counters.glsl");
   if (key.raycast) libraries.push_back("volume_march.glsl");
   // The compute ray caster is one stage.
-  if (key.raycast && key.compute)
+  if (key.raycast && key.compute) {
+    libraries.push_back("compute_tile.glsl");
     return ProgramSources::fromFiles("volume/raycast.comp.glsl", {{GL_COMPUTE_SHADER, "raycast.comp.glsl"}},
                                      std::move(defines), libraries);
+  }
   // The stages before the fragment program: the proxy of slabs or the ray caster, or the slicer's.
   ProgramSources program = key.raycast ? ProgramSources::fromFiles({}, {{GL_VERTEX_SHADER, "raycast.vert.glsl"}})
                            : key.slab  ? ProgramSources::fromFiles({}, {{GL_VERTEX_SHADER, "slab.vert.glsl"}})
