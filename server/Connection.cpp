@@ -3,6 +3,7 @@
 #include "server/Connection.h"
 
 #include <algorithm>
+#include <iterator>
 #include <utility>
 
 #if defined(__GLIBC__)
@@ -130,6 +131,7 @@ void Connection::rendered(const RenderJob& job, proto::Message reply) {
   // After the frame being encoded: a session's frames keep their order (a video frame during a video encoding waits
   // as the stream's pending frame instead, where a newer one replaces it).
   if (frame && (mStillEncoding || (mVideoEncoding && !video))) {
+    if (!video) replaceWaitingStill(job.requestId);
     mAfterEncoding.emplace_back(job, std::move(reply));
     return;
   }
@@ -165,6 +167,20 @@ void Connection::stillEncoded(EncodingStill& done) {
   if (withinOutputBudget(done.job, done.message))
     apply(mServices.handler.rendered(mState, done.job, std::move(done.message)));
   renderedAfterEncoding();
+}
+
+void Connection::replaceWaitingStill(uint32_t by) {
+  // Latest wins before encoding as after it (replaceUnsentFrame): a still frame waiting for the encoder gives way to
+  // the newer one, so that a render thread faster than the encoders never leaves a session a backlog of frames to
+  // encode and then replace.
+  const auto waiting = std::find_if(mAfterEncoding.rbegin(), mAfterEncoding.rend(), [](const auto& entry) {
+    const auto* frame = std::get_if<proto::Frame>(&entry.second);
+    return frame && !image::isVideoEncoding(frame->encoding);
+  });
+  if (waiting == mAfterEncoding.rend()) return;
+  const RenderJob dropped = std::move(waiting->first);
+  mAfterEncoding.erase(std::next(waiting).base());
+  apply(mServices.handler.dropped(mState, dropped, dropped.requestId == by));
 }
 
 void Connection::renderedAfterEncoding() {

@@ -108,7 +108,8 @@ class Connection {
   /// still its pixels) waits for the session's video stream: it is encoded aside (Transport::runAside) when the link
   /// has room, the newest such frame first (older ones are Superseded), and frames of the stream are never dropped
   /// once encoded (a decoder needs every one). A still Frame whose job says stillToEncode (its payload still its
-  /// pixels) is encoded aside too, in order, one at a time; Frames rendered meanwhile wait for it.
+  /// pixels) is encoded aside too, in order, one at a time; Frames rendered meanwhile wait for it, a newer still Frame
+  /// replacing one waiting (latest wins).
   void rendered(const RenderJob& job, proto::Message reply);
   /// Closes at once, dropping what is queued (also after an unexpected failure). Idempotent.
   void close();
@@ -180,6 +181,9 @@ class Connection {
   void stillEncoded(EncodingStill& done);
   /// An encoding aside finished: the Frames that waited for it, in order, then the pending video frame.
   void renderedAfterEncoding();
+  /// A still Frame of request `by` is about to wait for the encoder: the still Frame waiting there, if any, is
+  /// dropped (its request answered Superseded, unless it is `by`'s own provisional frame).
+  void replaceWaitingStill(uint32_t by);
   /// Encodes the pending video frame if nothing holds it back: no encoding in flight, no encoded frame unsent, room
   /// on the link.
   void pumpVideo();

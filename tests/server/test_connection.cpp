@@ -504,6 +504,44 @@ TEST_F(ConnectionTest, StillFramesLeftWithTheirPixelsAreEncodedAsideInOrder) {
   EXPECT_EQ(transport->writes.size(), written) << "request 7 was answered once, by its error";
 }
 
+// Latest wins before the encoder too: a still frame waiting for it gives way to a newer one (its request answered
+// Superseded, or nothing when the newer is its own exact frame), so that render threads faster than the encoders
+// leave no backlog of frames to encode and then replace.
+TEST_F(ConnectionTest, AStillFrameWaitingForTheEncoderGivesWayToANewerOne) {
+  greet(4);
+  const auto still = [&](uint32_t requestId, bool refinement) {
+    RenderJob job;
+    job.requestId = requestId;
+    job.refinement = refinement;
+    job.stillToEncode = 90;
+    core.rendered(job, proto::Frame{16, 16, proto::Encoding::Png, refinement ? "{}" : R"({"provisional": true})",
+                                    std::vector<uint8_t>(16 * 16 * 4, uint8_t(requestId))});
+  };
+  still(3, false);  // being encoded
+  still(4, false);  // waits
+  still(5, false);  // replaces 4: Superseded
+  still(5, true);   // 5's exact frame replaces its provisional one: no answer for that
+  while (!transport->asides.empty()) {  // each encoded frame written before the next is encoded (nothing replaced)
+    flush();
+    auto [work, then] = std::move(transport->asides.front());
+    transport->asides.erase(transport->asides.begin());
+    work();
+    then();
+  }
+  flush();
+  std::vector<std::pair<uint32_t, std::string>> answers;
+  for (size_t i = 1; i < transport->writes.size(); ++i) {
+    const auto [message, id] = decoded(transport->writes[i]);
+    answers.emplace_back(id, proto::messageTypeName(proto::messageType(message)));
+  }
+  const std::vector<std::pair<uint32_t, std::string>> expected{{4, "Error"}, {3, "Frame"}, {5, "Frame"}};
+  EXPECT_EQ(answers, expected);
+  EXPECT_EQ(errorIn(transport->writes[1], 4), ErrorCode::Superseded);
+  const proto::Frame exact = std::get<proto::Frame>(decoded(transport->writes[3]).first);
+  EXPECT_FALSE(nlohmann::json::parse(exact.statsJson).value("provisional", false)) << "the exact frame, not the provisional";
+  EXPECT_EQ(stats.total(ServerEvent::Superseded), 1u);
+}
+
 // The exact frame of a request replaces its own provisional video frame still waiting for the encoder, without a
 // Superseded: the request is answered by its exact frame.
 TEST_F(ConnectionTest, AnExactFrameTakesThePlaceOfItsOwnVideoFrameWaitingToBeEncoded) {
