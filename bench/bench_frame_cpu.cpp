@@ -90,7 +90,7 @@ int main(int argc, char** argv) {
   Path paths[2] = {{"kept", true, nullptr, {}, {}, {}, {}, {}, {}}, {"filled", false, nullptr, {}, {}, {}, {}, {}, {}}};
   for (Path& p : paths) {
     p.renderer = std::make_unique<render::VolumeRenderer>(*context, cache, o.gpuMb << 20,
-                                                         render::parseAtlasFormat(o.atlasFormat));
+                                                          render::parseAtlasFormat(o.atlasFormat));
     scene.camera.azimuth = o.azimuth(0);
     render::FrameOptions options;
     options.keepCellTable = p.keep;
@@ -140,9 +140,10 @@ int main(int argc, char** argv) {
   }
 
   std::ofstream md(mdPath);
-  md << "Device: " << device << ". Store `" << o.storePath << "`, " << o.size << "x" << o.size << ", transfer function `"
-     << o.tf << "`" << (o.window.empty() ? "" : ", window " + o.window) << ", lod " << o.lod << ", atlas "
-     << o.atlasFormat << ", " << o.views << " views over " << o.degrees << "° from azimuth " << o.start << " (elevation " << o.elevation << "), " << bricks
+  md << "Device: " << device << ". Store `" << o.storePath << "`, " << o.size << "x" << o.size
+     << ", transfer function `" << o.tf << "`" << (o.window.empty() ? "" : ", window " + o.window) << ", lod " << o.lod
+     << ", atlas " << o.atlasFormat << ", " << o.views << " views over " << o.degrees << "° from azimuth " << o.start
+     << " (elevation " << o.elevation << "), " << bricks
      << " bricks drawn in the last view; two renderers taking turns, each warm from its own view before. Medians "
         "over the views, ms; outside = total − drawing − readback (the CPU's part). Largest difference between the "
         "two paths' frames: "

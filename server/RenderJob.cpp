@@ -97,9 +97,9 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
                            {"jpeg_quality", jpegQuality}};
     }
     frame.statsJson = statsJson.dump();
-    RenderReply reply{aside ? proto::Message(std::move(frame))
-                            : encodeStill(std::move(frame), jpegQuality, job.maxBodyBytes),
-                      provisional};
+    RenderReply reply{
+        aside ? proto::Message(std::move(frame)) : encodeStill(std::move(frame), jpegQuality, job.maxBodyBytes),
+        provisional};
     // A provisional frame too large to send answers its request with the error: no exact frame follows.
     reply.provisional = provisional && std::holds_alternative<proto::Frame>(reply.message);
     if (aside && !video) reply.stillToEncode = jpegQuality;

@@ -1,9 +1,10 @@
-// What the tetrahedral meshes' fragment programs share (tet.frag.glsl: projected tets; tet_walk.glsl: the
-// adjacency ray caster, in its fragment and compute kernels): a ray segment through one tet, with its scalar linear along it, classified from the
-// pre-integrated table (front value, back value, length: render/core/PreIntegration.h, the optical model of
-// ARCHITECTURE.md), and with SHADING its headlight. Exact for perspective rays: the segment is the pixel's own, in
-// world units. With TET_RAY, the ray caster's buffers, pixel ray and edge product (render/gl/tets/TetRayCaster.h).
-// With PART_CLIP, a sort-last part's box, which each ray's integration is clipped to (FrameOptions::meshPart).
+// What the tetrahedral meshes' programs share (tet.frag.glsl: projected tets; tet_walk.glsl: the adjacency ray
+// caster, in its fragment and compute kernels): a ray segment through one tet, with its scalar linear along it,
+// classified from the pre-integrated table (front value, back value, length: render/core/PreIntegration.h, the
+// optical model of ARCHITECTURE.md), and with SHADING its headlight. Exact for perspective rays: the segment is the
+// pixel's own, in world units. With TET_RAY, the ray caster's buffers, pixel ray and edge product
+// (render/gl/tets/TetRayCaster.h). With PART_CLIP, a sort-last part's box, which each ray's integration is clipped to
+// (FrameOptions::meshPart).
 #if defined(FRAGMENT_STAGE) || defined(COMPUTE_STAGE)
 uniform float uInvReference;  // 1 / the transfer function's reference length
 

@@ -54,7 +54,7 @@ Slicer parseSlicer(const std::string& name, const std::string& what);
 /// fragment per pixel blended into the target, or a compute invocation per pixel that composites into it itself, in
 /// workgroups that reach every core of a data-centre GPU where its graphics pipeline reaches only a few.
 enum class RayCaster {
-  Auto,      ///< "auto": the faster on the device as measured (render/gl/GlContext.h: computeRayCasterByDefault; a mesh: fragment)
+  Auto,      ///< "auto": the faster as measured (GlContext.h: computeRayCasterByDefault; a mesh: fragment)
   Fragment,  ///< "fragment": a full-screen triangle per batch, blended
   Compute,   ///< "compute": a compute dispatch per batch and band
 };

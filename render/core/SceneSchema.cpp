@@ -376,10 +376,11 @@ std::vector<SceneKey> buildSchema() {
     field<&Scene::raycast>(k);
   }
   {
-    SceneKey& k = add(keys, "raycaster", T::Name, C::Grid, A::Both,
-                      "the ray casters' kernel, a grid's and a mesh's: fragment (a pixel per fragment, blended) or "
-                      "compute (a pixel per invocation); the same samples; auto: the faster on the device as measured (a mesh: "
-                      "fragment)");
+    SceneKey& k =
+        add(keys, "raycaster", T::Name, C::Grid, A::Both,
+            "the ray casters' kernel, a grid's and a mesh's: fragment (a pixel per fragment, blended) or "
+            "compute (a pixel per invocation); the same samples; auto: the faster on the device as measured (a mesh: "
+            "fragment)");
     k.names = common::enumNameList<RayCaster>();
     k.option = "--raycaster", k.optionForm = "NAME";
     k.example = "compute";

@@ -86,10 +86,11 @@ std::unique_ptr<GlContext> createOsMesaContext(std::string& failures);
 std::string osMesaStandIn();
 
 /// Whether RayCaster::Auto takes the grids' compute ray caster on `context`'s device (the meshes' ray caster keeps
-/// its fragment kernel under Auto until a GPU has measured its compute kernel): on NVIDIA, where the graphics pipeline reaches only part of a data-centre chip
-/// (measured on the H200: the grids' compute kernel at 24-26 G samples/s against the fragment kernel's 2.5-2.8).
-/// Not on a software rasteriser, where the compute kernel was never clearly the faster and up to 1.85x the slower on
-/// the MRI (docs/performance.md), nor on any other device, where the fragment kernels are the long-tested path.
+/// its fragment kernel under Auto until a GPU has measured its compute kernel): on NVIDIA, where the graphics pipeline
+/// reaches only part of a data-centre chip (measured on the H200: the grids' compute kernel at 24-26 G samples/s
+/// against the fragment kernel's 2.5-2.8). Not on a software rasteriser, where the compute kernel was never clearly the
+/// faster and up to 1.85x the slower on the MRI (docs/performance.md), nor on any other device, where the fragment
+/// kernels are the long-tested path.
 bool computeRayCasterByDefault(const GlContext& context);
 
 }  // namespace voxbrick::render

@@ -517,10 +517,10 @@ TEST_F(ConnectionTest, AStillFrameWaitingForTheEncoderGivesWayToANewerOne) {
     core.rendered(job, proto::Frame{16, 16, proto::Encoding::Png, refinement ? "{}" : R"({"provisional": true})",
                                     std::vector<uint8_t>(16 * 16 * 4, uint8_t(requestId))});
   };
-  still(3, false);  // being encoded
-  still(4, false);  // waits
-  still(5, false);  // replaces 4: Superseded
-  still(5, true);   // 5's exact frame replaces its provisional one: no answer for that
+  still(3, false);                      // being encoded
+  still(4, false);                      // waits
+  still(5, false);                      // replaces 4: Superseded
+  still(5, true);                       // 5's exact frame replaces its provisional one: no answer for that
   while (!transport->asides.empty()) {  // each encoded frame written before the next is encoded (nothing replaced)
     flush();
     auto [work, then] = std::move(transport->asides.front());
@@ -538,7 +538,7 @@ TEST_F(ConnectionTest, AStillFrameWaitingForTheEncoderGivesWayToANewerOne) {
   EXPECT_EQ(answers, expected);
   EXPECT_EQ(errorIn(transport->writes[1], 4), ErrorCode::Superseded);
   const proto::Frame exact = std::get<proto::Frame>(decoded(transport->writes[3]).first);
-  EXPECT_FALSE(nlohmann::json::parse(exact.statsJson).value("provisional", false)) << "the exact frame, not the provisional";
+  EXPECT_FALSE(nlohmann::json::parse(exact.statsJson).value("provisional", false)) << "the exact frame";
   EXPECT_EQ(stats.total(ServerEvent::Superseded), 1u);
 }
 

@@ -341,12 +341,13 @@ async function closed(info) {
   const refused = !info.opened && !why.startsWith("the server cannot be reached");
   app.state = hint !== null ? "busy" : refused || /origin|token/i.test(why) ? "refused" : "disconnected";
   app.reason = why;
-  const delay =
-    hint !== null ? Math.round(hint * (1 + 0.2 * Math.random())) : BACKOFF_MS[Math.min(app.attempts, BACKOFF_MS.length - 1)];
+  const backoff = BACKOFF_MS[Math.min(app.attempts, BACKOFF_MS.length - 1)];
+  const delay = hint !== null ? Math.round(hint * (1 + 0.2 * Math.random())) : backoff;
   app.retryMs = delay;
   app.attempts++;
   if (hint !== null) {
-    banner(`The server is busy: ${last.message.replace(/; retry after \d+ ms$/, "")}. Retrying in ${(delay / 1000).toFixed(1)} s…`);
+    const what = last.message.replace(/; retry after \d+ ms$/, "");
+    banner(`The server is busy: ${what}. Retrying in ${(delay / 1000).toFixed(1)} s…`);
   } else {
     const title = app.state === "refused" ? "Refused by the server" : "Disconnected from the server";
     banner(`${title}: ${why}. Retrying in ${(delay / 1000).toFixed(1)} s…`);

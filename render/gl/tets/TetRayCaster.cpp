@@ -47,15 +47,16 @@ std::vector<std::string> rayDefines(bool shaded, bool part) {
 
 /// The entry pass's program.
 Program entryProgram(const Gl& gl) {
-  return Program(gl, ProgramSources::fromFiles("tet-entry", {{GL_VERTEX_SHADER, "tet_entry.vert.glsl"},
-                                                             {GL_FRAGMENT_SHADER, "tet_entry.frag.glsl"}},
-                                               rayDefines(false, false), "tet.glsl"));
+  return Program(
+      gl, ProgramSources::fromFiles(
+              "tet-entry", {{GL_VERTEX_SHADER, "tet_entry.vert.glsl"}, {GL_FRAGMENT_SHADER, "tet_entry.frag.glsl"}},
+              rayDefines(false, false), "tet.glsl"));
 }
 
 /// A ray pass's program: the fragment kernel (a full-screen triangle) or the compute kernel, over the walk.
 Program rayProgram(const Gl& gl, bool shaded, bool part, bool compute) {
-  const std::string name = std::string(compute ? "tet-ray-compute" : "tet-ray") + (shaded ? "-shaded" : "") +
-                           (part ? "-part" : "");
+  const std::string name =
+      std::string(compute ? "tet-ray-compute" : "tet-ray") + (shaded ? "-shaded" : "") + (part ? "-part" : "");
   std::vector<std::pair<GLenum, std::string>> stages;
   std::vector<std::string> libraries{"tet.glsl", "tet_walk.glsl"};
   if (compute) {
