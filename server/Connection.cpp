@@ -145,8 +145,6 @@ void Connection::rendered(const RenderJob& job, proto::Message reply) {
 void Connection::encodeStill(const RenderJob& job, proto::Frame frame) {
   auto task = std::make_shared<EncodingStill>();
   task->job = job;
-  const nlohmann::json stats = nlohmann::json::parse(frame.statsJson, nullptr, false);
-  task->provisional = stats.is_object() && stats.value("provisional", false);
   task->message = std::move(frame);
   mStillEncoding = true;
   mTransport.runAside(
@@ -162,7 +160,7 @@ void Connection::stillEncoded(EncodingStill& done) {
   if (mClosing || mClosed) return;
   // A provisional frame that could not be sent (too large, or not encoded) answered its request with the error: the
   // exact frame the scheduler queued after it is dropped when it comes, as for a provisional frame refused output.
-  if (done.provisional && !done.job.refinement && std::holds_alternative<proto::Error>(done.message))
+  if (done.job.stillProvisional && !done.job.refinement && std::holds_alternative<proto::Error>(done.message))
     mRefusedProvisional.insert(done.job.requestId);
   if (withinOutputBudget(done.job, done.message))
     apply(mServices.handler.rendered(mState, done.job, std::move(done.message)));

@@ -173,7 +173,6 @@ class Connection {
   struct EncodingStill {
     RenderJob job;
     proto::Message message;
-    bool provisional = false;  ///< its statistics say so: an exact frame follows
   };
   void videoRendered(const RenderJob& job, proto::Frame frame);
   /// Encodes a still Frame whose payload is its pixels aside; Frames rendered meanwhile wait (mAfterEncoding).

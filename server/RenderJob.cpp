@@ -23,6 +23,14 @@ double jobMsBetween(Clock::time_point a, Clock::time_point b) {
 
 }  // namespace
 
+std::string withKey(std::string statsJson, std::string_view key, std::string_view value) {
+  if (statsJson.size() < 2 || statsJson.back() != '}') return statsJson;
+  statsJson.pop_back();
+  statsJson += statsJson.size() > 1 ? "," : "";
+  statsJson.append("\"").append(key).append("\":").append(value).append("}");
+  return statsJson;
+}
+
 proto::Message encodeStill(proto::Frame frame, int jpegQuality, uint64_t maxBodyBytes) {
   const auto start = Clock::now();
   try {
@@ -35,11 +43,8 @@ proto::Message encodeStill(proto::Frame frame, int jpegQuality, uint64_t maxBody
     return errorReply(std::current_exception(), "the " + std::to_string(frame.width) + "x" +
                                                     std::to_string(frame.height) + " frame could not be encoded");
   }
-  if (frame.statsJson.size() >= 2 && frame.statsJson.back() == '}') {
-    nlohmann::json ms = jobMsBetween(start, Clock::now());
-    frame.statsJson.pop_back();
-    frame.statsJson += (frame.statsJson.size() > 1 ? ",\"encode_ms\":" : "\"encode_ms\":") + ms.dump() + "}";
-  }
+  frame.statsJson =
+      withKey(std::move(frame.statsJson), "encode_ms", nlohmann::json(jobMsBetween(start, Clock::now())).dump());
   if (const uint64_t body = frameBodyBytes(frame.statsJson.size(), frame.payload.size()); body > maxBodyBytes)
     return errorMessage(proto::ErrorCode::LimitExceeded,
                         "the " + std::to_string(frame.width) + "x" + std::to_string(frame.height) + " frame takes " +

@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 
 #include "proto/Messages.h"
 #include "render/core/Dataset.h"
@@ -63,6 +64,8 @@ struct RenderJob {
   /// Set on the copy of the job a Frame is delivered with, never on a queued job: the Frame's payload is still its
   /// RGBA8 pixels, to be encoded (encodeStill) at this JPEG quality.
   std::optional<int> stillToEncode = std::nullopt;
+  /// With stillToEncode: the Frame is provisional (RenderReply::provisional), an exact one to follow.
+  bool stillProvisional = false;
 };
 
 /// The class the scheduler serves `job` in: batch for a scene with "batch", else interactive for a moving camera's
@@ -106,6 +109,10 @@ struct RenderReply {
   /// A still Frame left with its RGBA8 pixels (RenderJob::encodeAside): the JPEG quality to encode it at.
   std::optional<int> stillToEncode = std::nullopt;
 };
+
+/// `statsJson` (a JSON object's text) with `"key": value` (JSON text) added at its end; unchanged if it is not an
+/// object. A frame's statistics gain a key without being parsed again.
+std::string withKey(std::string statsJson, std::string_view key, std::string_view value);
 
 /// Encodes a still Frame whose payload is its RGBA8 pixels into its encoding (png, jpeg at `jpegQuality`,
 /// zstd_rgba8, raw_rgba8) and adds encode_ms to its statistics; answers LimitExceeded instead when the encoded body

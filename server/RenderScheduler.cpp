@@ -27,15 +27,6 @@ double elapsedMs(Clock::time_point a, Clock::time_point b) {
 constexpr double kMeanWeight = 0.2;
 constexpr double kDefaultPredictedMs = 50;
 
-/// `statsJson` (a JSON object's text) with `"key": value` added at its end; unchanged if it is not an object.
-std::string withKey(std::string statsJson, std::string_view key, std::string_view value) {
-  if (statsJson.size() < 2 || statsJson.back() != '}') return statsJson;
-  statsJson.pop_back();
-  statsJson += statsJson.size() > 1 ? "," : "";
-  statsJson.append("\"").append(key).append("\":").append(value).append("}");
-  return statsJson;
-}
-
 }  // namespace
 
 std::string shareKeyOf(const RenderJob& job) {
@@ -441,6 +432,7 @@ void RenderScheduler::deliver(const Taken& taken, RenderReply& reply, std::vecto
   if (!taken.sink->wantsReplies()) return;
   RenderJob job = taken.job;
   job.stillToEncode = reply.stillToEncode;
+  job.stillProvisional = reply.stillToEncode && reply.provisional;
   taken.sink->rendered(std::move(job), std::move(reply.message));
   if (reply.provisional) refine(taken.sink, taken.job);
 }

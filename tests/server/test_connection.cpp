@@ -492,6 +492,7 @@ TEST_F(ConnectionTest, StillFramesLeftWithTheirPixelsAreEncodedAsideInOrder) {
 
   // A provisional frame refused so answers its request: the exact frame the scheduler queued after it is not sent.
   job.requestId = 7;
+  job.stillProvisional = true;
   core.rendered(job, proto::Frame{32, 32, proto::Encoding::Png, R"({"provisional": true})",
                                   std::vector<uint8_t>(32 * 32 * 4, 7)});
   settle();

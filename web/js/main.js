@@ -2,15 +2,15 @@
 // view, keeps the view in the URL, reconnects with backoff when the server goes away, and exposes a small hook for
 // tests (window.voxbrickViewer).
 
-import { Connection } from "./connection.js";
-import { FrameLoop } from "./frames.js";
-import { attachGestures } from "./input.js";
-import { Encoding, encodingName, ErrorCode, retryAfterMs } from "./protocol.js";
-import { CurveEditor } from "./tfeditor.js";
-import { pickVideoCodec } from "./video.js";
-import * as V from "./view.js";
-import { bindPanel } from "./panel.js";
-import { takeToken } from "./token.js";
+import {Connection} from './connection.js';
+import {FrameLoop} from './frames.js';
+import {attachGestures} from './input.js';
+import {bindPanel} from './panel.js';
+import {Encoding, encodingName, ErrorCode, retryAfterMs, withoutRetryHint} from './protocol.js';
+import {CurveEditor} from './tfeditor.js';
+import {takeToken} from './token.js';
+import {pickVideoCodec} from './video.js';
+import * as V from './view.js';
 
 const $ = (id) => document.getElementById(id);
 const params = new URLSearchParams(location.search);
@@ -293,7 +293,7 @@ async function openDataset(c, name) {
     } catch (e) {
       const wait = e.code === ErrorCode.Busy ? retryAfterMs(e.message) : null;
       if (wait === null || c !== app.connection || app.opening !== name) throw e;
-      banner(`${e.message.replace(/; retry after \d+ ms$/, "")}…`);
+      banner(`${withoutRetryHint(e.message)}…`);
       await new Promise((resolve) => setTimeout(resolve, wait));
       if (c !== app.connection || app.opening !== name) return;
     }
@@ -346,8 +346,7 @@ async function closed(info) {
   app.retryMs = delay;
   app.attempts++;
   if (hint !== null) {
-    const what = last.message.replace(/; retry after \d+ ms$/, "");
-    banner(`The server is busy: ${what}. Retrying in ${(delay / 1000).toFixed(1)} s…`);
+    banner(`The server is busy: ${withoutRetryHint(last.message)}. Retrying in ${(delay / 1000).toFixed(1)} s…`);
   } else {
     const title = app.state === "refused" ? "Refused by the server" : "Disconnected from the server";
     banner(`${title}: ${why}. Retrying in ${(delay / 1000).toFixed(1)} s…`);

@@ -47,6 +47,8 @@ export const ErrorCode = Object.freeze({
   Timeout: 13,
   Busy: 14, // version 3 on: the message ends with "; retry after N ms"
 });
+/// A Busy (or LimitExceeded) message without its "; retry after N ms" ending: what the server says is over capacity.
+export const withoutRetryHint = (message) => (message || '').replace(/; retry after \d+ ms$/, '');
 /// The retry hint of a Busy (or LimitExceeded) message, in ms: N of its "; retry after N ms" ending; null without.
 export const retryAfterMs = (message) => {
   const m = /; retry after (\d{1,9}) ms$/.exec(message || "");
