@@ -68,9 +68,11 @@ for (const s of opt.scenarios) if (!SCENARIOS[s]) throw new Error(`unknown scena
 
 /// The servers compared: this build's, and the baseline's when given (with the commit beside it, if it says one).
 function servers() {
-  const git = (a) => spawnSync("git", a, { cwd: H.SOURCE_DIR, encoding: "utf8" }).stdout.trim();
+  // Where no git checkout is (a GPU machine's copy of the tree), VOXBRICK_BENCH_BUILD names the build.
+  const git = (a) => (spawnSync("git", a, { cwd: H.SOURCE_DIR, encoding: "utf8" }).stdout || "").trim();
   const dirty = git(["status", "--porcelain", "--untracked-files=no"]) ? " (with uncommitted changes)" : "";
-  const list = [{ name: "this build", exe: H.VOXBRICK, version: `${git(["rev-parse", "--short", "HEAD"])}${dirty}` }];
+  const version = process.env.VOXBRICK_BENCH_BUILD || `${git(["rev-parse", "--short", "HEAD"]) || "unknown"}${dirty}`;
+  const list = [{ name: "this build", exe: H.VOXBRICK, version }];
   if (opt.baselineExe) {
     const commitFile = path.join(path.dirname(opt.baselineExe), "COMMIT");
     const commit = fs.existsSync(commitFile) ? fs.readFileSync(commitFile, "utf8").trim().slice(0, 7) : "unknown";

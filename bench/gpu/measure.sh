@@ -41,9 +41,16 @@
 #                       lod 1; and with the fragment kernel); if the prep does
 #                       not finish in time, n=512 instead (said in the step's file)
 #
+# Only when MEASURE_STEPS names them, with the browser kit (bench/gpu/pack_browser.sh; README.md has the calls):
+#   crowd-browser  200  bench/crowd.mjs: 16 headless Chromium tabs dragging beside 64 TCP draggers, beside 64 clients
+#                       asking 1024^2 still frames, and with --batch; every target of the crowd judged
+#   browser-link   240  bench/browser_link.mjs: a drag in Chromium at 1024^2 (then 512^2, 1920x1080 while time is
+#                       left), JPEG, vp8 and vp9, through a 10 Mbit/s, 40 ms relay and on loopback
+#
 # Environment: MEASURE_QUICK=1 (tiny sizes, a 240 s budget: proves every step on any machine), MEASURE_BUDGET
 # (seconds; default 500, quick 240), MEASURE_STEPS (names to run, default all), MEASURE_WORK (scratch, default
-# /tmp/voxbrick-gpu), MEASURE_KIT (default bench/gpu/kit), MEASURE_ALLOW_SOFTWARE=1 (go on without an NVIDIA renderer).
+# /tmp/voxbrick-gpu), MEASURE_KIT (default bench/gpu/kit), MEASURE_BROWSERKIT (default
+# bench/gpu/browserkit), MEASURE_LINK_SIZES (browser-link's sizes), MEASURE_ALLOW_SOFTWARE=1 (go on without an NVIDIA renderer).
 set -euo pipefail
 repo=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$repo"
@@ -92,6 +99,18 @@ if [ "${1:-}" = "--step" ]; then
     for _ in $(seq 300); do [ -s "$WORK/port" ] && break; sleep 0.1; done
     [ -s "$WORK/port" ] || die "$name: the server wrote no port (server.log: $(tail -3 "$dir/server.log"))"
     port=$(cat "$WORK/port")
+  }
+  # The steps in Chromium: the browser kit's node and Chromium (BKIT, unpacked by the driver), tests/browser's
+  # packages where the harness imports them from, the GPU kit's voxbrick, and the MRI where their servers serve it.
+  browser_env() {
+    [ -n "${BKIT:-}" ] && [ -x "$BKIT/bin/node" ] || die "$name: no browser kit unpacked (bench/gpu/README.md)"
+    [ -e tests/browser/node_modules ] || ln -s "$BKIT/node_modules" tests/browser/node_modules
+    mkdir -p "$WORK/served"
+    [ -e "$WORK/served/mri" ] || cp -r "$WORK/mri.vbs" "$WORK/served/mri"
+    export VOXBRICK_EXE=$KIT/bin/voxbrick VOXBRICK_CHROMIUM=$BKIT/bin/chromium
+    export VOXBRICK_BENCH_COMMAND="MEASURE_STEPS=$name bash bench/gpu/measure.sh"
+    export VOXBRICK_BENCH_BUILD
+    VOXBRICK_BENCH_BUILD="the GPU kit's, $(sed -n 's/^commit: //p' "$KIT/MANIFEST.txt" | cut -c1-12)"
   }
   # PSNR (dB) of two PNGs by voxbrick compare; inf when identical.
   psnr() {
@@ -430,6 +449,38 @@ with open(os.path.join(d, "crowd-load.csv"), "w") as csv:
 PY
       fi
       ;;
+    crowd-browser)
+      # bench/crowd.mjs as on the development machine: 16 headless Chromium tabs dragging the MRI at 512² beside 64
+      # TCP draggers (A), beside 64 clients asking 1024² still frames (B), and with --batch (B'); the browser kit's
+      # Chromium and node, the GPU kit's voxbrick (each scenario on a fresh server).
+      browser_env
+      args=(--datasets "$WORK/served" --dataset mri --tf mri --out "$dir/crowd")
+      q && args+=(--tabs 2 --drag-clients 4 --batch-clients 4 --duration 3 --size 128 --batch-size 256)
+      echo "The browser kit: $(sed -n 's/^chromium: //p' "$BKIT/MANIFEST.txt"), node $("$BKIT/bin/node" --version)." >> "$md"
+      echo >> "$md"
+      cmd "$BKIT/bin/node" bench/crowd.mjs "${args[@]}" 2>&1 | tee "$dir/crowd.log"
+      [ -s "$dir/crowd.md" ] || die "crowd-browser: bench/crowd.mjs wrote no results (crowd.log)"
+      { echo; sed -n '/^| scenario/,$p' "$dir/crowd.md"; } >> "$md"
+      ;;
+    browser-link)
+      # bench/browser_link.mjs: a 10 s drag of the MRI in headless Chromium, JPEG against vp8 and vp9, through
+      # bench/link_relay.mjs (10 Mbit/s, 40 ms round trip) and on loopback; 1024² first (the size the targets name),
+      # then 512² and 1920x1080 while time is left.
+      browser_env
+      sizes=${MEASURE_LINK_SIZES:-1024x1024 512x512 1920x1080}
+      q && sizes=128x128
+      echo "The browser kit: $(sed -n 's/^chromium: //p' "$BKIT/MANIFEST.txt"), node $("$BKIT/bin/node" --version)." >> "$md"
+      echo >> "$md"
+      for size in $sizes; do
+        [ "$(left 10)" -gt 60 ] || { echo "- $size: skipped, too little time left" >> "$md"; continue; }
+        args=(--datasets "$WORK/served" --out "$dir/link-$size" --sizes "$size" --encodings jpeg,vp8,vp9
+          --links relay,loopback)
+        q && args+=(--duration 2 --samples 1)
+        cmd timeout "$(left 5)" "$BKIT/bin/node" bench/browser_link.mjs "${args[@]}" 2>&1 | tee "$dir/link-$size.log" || true
+        [ -s "$dir/link-$size.md" ] && { echo; sed -n '/^| link/,$p' "$dir/link-$size.md"; echo; } >> "$md"
+      done
+      ls "$dir"/link-*.md > /dev/null 2>&1 || die "browser-link: bench/browser_link.mjs wrote no results"
+      ;;
     tets-1m)
       n=70 sizes="512 1024"
       q && n=12 sizes="64"
@@ -539,9 +590,14 @@ fi
 export QUICK=${MEASURE_QUICK:-0}
 budget=${MEASURE_BUDGET:-$([ "$QUICK" = 1 ] && echo 240 || echo 500)}
 all="device test_render mri-sweep-512 roofline mri-sweep-1024 mri-sweep-2048 load-drag encode-aside load-video video-link crowd-load tets-1m field-1024 orbit"
+# The steps in Chromium need the browser kit (bench/gpu/pack_browser.sh), which travels in parts over several calls:
+# they run only when MEASURE_STEPS names them.
+browser_steps="crowd-browser browser-link"
 steps=${MEASURE_STEPS:-$all}
-for s in $steps; do grep -qw -- "$s" <<< "$all" || die "MEASURE_STEPS: unknown step '$s' (known: $all)"; done
-declare -A cap=([device]=40 [test_render]=150 [mri-sweep-512]=90 [roofline]=90 [mri-sweep-1024]=60
+for s in $steps; do
+  grep -qw -- "$s" <<< "$all $browser_steps" || die "MEASURE_STEPS: unknown step '$s' (known: $all $browser_steps)"
+done
+declare -A cap=([crowd-browser]=200 [browser-link]=240 [device]=40 [test_render]=150 [mri-sweep-512]=90 [roofline]=90 [mri-sweep-1024]=60
   [mri-sweep-2048]=110 [load-drag]=30 [encode-aside]=40 [load-video]=45 [video-link]=80 [crowd-load]=60 [tets-1m]=60 [field-1024]=150 [orbit]=30)
 start=$(now)
 deadline=$((start + budget))
@@ -577,8 +633,35 @@ fi
 export KIT=$WORK/voxbrick-gpukit
 export VOXBRICK_CONFIG_DIR=$KIT/config
 
+# The browser kit, for the steps in Chromium: its parts from this call's carry (MEASURE_BROWSERKIT, default
+# bench/gpu/browserkit) or stashed in /tmp by earlier calls (bench/gpu/stash_browserkit.sh), checked against SHA256SUMS.
+if grep -qwE 'crowd-browser|browser-link' <<< "$steps"; then
+  bkdir=${MEASURE_BROWSERKIT:-bench/gpu/browserkit}
+  stash=/tmp/voxbrick-browserkit-parts
+  sums=$bkdir/SHA256SUMS
+  [ -f "$sums" ] || sums=$stash/SHA256SUMS
+  [ -f "$sums" ] || die "no browser kit: neither $bkdir/SHA256SUMS nor $stash/SHA256SUMS (bench/gpu/pack_browser.sh)"
+  files=()
+  for p in $(awk '$2 ~ /^part-/ {print $2}' "$sums"); do
+    if [ -f "$bkdir/$p" ]; then files+=("$bkdir/$p")
+    elif [ -f "$stash/$p" ]; then files+=("$stash/$p")
+    else die "browser kit: $p is neither in $bkdir nor in $stash (carry it in an earlier call: bench/gpu/README.md)"; fi
+  done
+  [ "$(cat "${files[@]}" | sha256sum | cut -d' ' -f1)" = "$(awk '$2 == "archive" {print $1}' "$sums")" ] ||
+    die "browser kit: its parts do not make the archive $sums names (parts of two packs?)"
+  rm -rf "$WORK/voxbrick-browserkit"
+  if command -v zstd > /dev/null; then
+    cat "${files[@]}" | zstd -dcq --long=27 | tar -C "$WORK" -xf -
+  else
+    cat "${files[@]}" | LD_LIBRARY_PATH="$kitdir/unzstd" "$kitdir/unzstd/zstd" -dcq --long=27 | tar -C "$WORK" -xf -
+  fi
+  export BKIT=$WORK/voxbrick-browserkit
+  echo "measure.sh: browser kit: $(sed -n 's/^chromium: //p' "$BKIT/MANIFEST.txt"), ${#files[@]} parts"
+fi
+
 # libstdc++: the machine's where it is at least as new as the kit's (GCC 12: GLIBCXX_3.4.30), else the kit's.
-sys_cxx=$(ldconfig -p 2> /dev/null | awk '/libstdc\+\+\.so\.6 .*x86-64/ {print $NF; exit}')
+# (awk reads all of ldconfig's list: leaving early would end ldconfig by SIGPIPE, a failure under pipefail)
+sys_cxx=$(ldconfig -p 2> /dev/null | awk '/libstdc\+\+\.so\.6 .*x86-64/ && !found {print $NF; found = 1}')
 if [ -n "$sys_cxx" ] && grep -qa 'GLIBCXX_3\.4\.30' "$sys_cxx"; then
   export LIBSTDCXX="the machine's ($sys_cxx)"
   export LD_LIBRARY_PATH=$KIT/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}

@@ -1,0 +1,101 @@
+#!/usr/bin/env bash
+# Checks the browser kit the way the GPU machine will use it, here: its parts stashed as separate calls would leave
+# them (bench/gpu/stash_browserkit.sh, one part at a time), then measure.sh's browser steps at tiny sizes
+# (MEASURE_QUICK=1: crowd-browser, browser-link) with a clean environment, the GPU kit's voxbrick and the browser kit's
+# node and Chromium. While they run, every shared library the kit's Chromium and node processes have mapped is read
+# from /proc: each must come from the kits or glibc. A library from anywhere else is one the GPU machine would lack.
+#
+#   bash bench/gpu/check_browserkit.sh [--pack] [--build build] [--dir DIR]
+#
+# --pack first packs both kits afresh (zstd level 3) into DIR; otherwise bench/gpu/kit and bench/gpu/browserkit are
+# checked. DIR (default a new temporary folder) is emptied first. About 3 minutes on 2 cores.
+set -euo pipefail
+here=$(cd "$(dirname "$0")/../.." && pwd)
+cd "$here"
+
+build=build
+dir=
+pack=0
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --pack) pack=1; shift ;;
+    --build) build=$2; shift 2 ;;
+    --dir) dir=$2; shift 2 ;;
+    -h | --help) sed -n '2,11p' "$0"; exit 0 ;;
+    *) echo "check_browserkit.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
+  esac
+done
+die() { echo "check_browserkit.sh: FAILED: $*" >&2; exit 1; }
+
+tmp=$(mktemp -d)
+[ -n "$dir" ] || dir=$tmp/check
+trap 'rm -rf "$tmp"' EXIT
+rm -rf "$dir"
+mkdir -p "$dir"
+kitdir=bench/gpu/kit
+bkdir=bench/gpu/browserkit
+if [ "$pack" = 1 ]; then
+  bash bench/gpu/pack.sh --build "$build" --out "$dir/kit" --level 3 > "$dir/pack.log" 2>&1 ||
+    die "pack.sh failed: $(tail -3 "$dir/pack.log")"
+  bash bench/gpu/pack_browser.sh --out "$dir/browserkit" --level 3 >> "$dir/pack.log" 2>&1 ||
+    die "pack_browser.sh failed: $(tail -3 "$dir/pack.log")"
+  kitdir=$dir/kit bkdir=$dir/browserkit
+fi
+[ -f "$kitdir/voxbrick-gpukit.tar.zst" ] || die "no GPU kit at $kitdir (bench/gpu/pack.sh)"
+[ -f "$bkdir/SHA256SUMS" ] || die "no browser kit at $bkdir (bench/gpu/pack_browser.sh)"
+kitdir=$(cd "$kitdir" && pwd) bkdir=$(cd "$bkdir" && pwd)
+
+# The calls before the measuring one: each carries one part (and SHA256SUMS) and stashes it; the stash lives in /tmp
+# there, so here the stash script runs on a copy of the tree whose /tmp is this check's folder.
+parts=($(cd "$bkdir" && ls part-*))
+[ "${#parts[@]}" -ge 1 ] || die "$bkdir holds no parts"
+stash=/tmp/voxbrick-browserkit-parts
+[ ! -e "$stash" ] || mv "$stash" "$tmp/stash-before"
+restore() { rm -rf "$stash"; [ ! -e "$tmp/stash-before" ] || mv "$tmp/stash-before" "$stash"; rm -rf "$tmp"; }
+trap restore EXIT
+for p in "${parts[@]:0:${#parts[@]}-1}"; do
+  rm -rf "$dir/carry" && mkdir -p "$dir/carry"
+  cp "$bkdir/SHA256SUMS" "$bkdir/$p" "$dir/carry/"
+  bash bench/gpu/stash_browserkit.sh --from "$dir/carry" || die "stash_browserkit.sh failed on $p"
+done
+# A damaged part is refused by name.
+rm -rf "$dir/carry" && mkdir -p "$dir/carry"
+cp "$bkdir/SHA256SUMS" "$dir/carry/"
+head -c 1000 "$bkdir/${parts[-1]}" > "$dir/carry/${parts[-1]}"
+if bash bench/gpu/stash_browserkit.sh --from "$dir/carry" 2> "$dir/damaged.log"; then
+  die "stash_browserkit.sh took a damaged ${parts[-1]}"
+fi
+grep -q "${parts[-1]} arrived damaged" "$dir/damaged.log" || die "a damaged part was refused without its name: $(cat "$dir/damaged.log")"
+# The measuring call carries the last part itself.
+rm -rf "$dir/carry" && mkdir -p "$dir/carry"
+cp "$bkdir/SHA256SUMS" "$bkdir/${parts[-1]}" "$dir/carry/"
+
+# measure.sh's browser steps, tiny, with nothing of this shell's environment but the PATH.
+mkdir -p "$dir/out"
+env -i PATH=/usr/bin:/bin HOME="$dir" OUT="$dir/out" MEASURE_QUICK=1 MEASURE_ALLOW_SOFTWARE=1 \
+  MEASURE_STEPS="device crowd-browser browser-link" MEASURE_WORK="$dir/work" MEASURE_KIT="$kitdir" \
+  MEASURE_BROWSERKIT="$dir/carry" bash bench/gpu/measure.sh > "$dir/measure.out" 2>&1 &
+measure=$!
+# The libraries the kit's processes map, read while they run.
+: > "$dir/maps.txt"
+while kill -0 "$measure" 2> /dev/null; do
+  for exe in /proc/[0-9]*/exe; do
+    target=$(readlink "$exe" 2> /dev/null) || continue
+    [[ "$target" == "$dir/work/voxbrick-browserkit/"* ]] || continue
+    grep -o '/[^ ]*\.so[.0-9]*$' "${exe%/exe}/maps" 2> /dev/null | sed "s|^|$(basename "$target") |" >> "$dir/maps.txt" || true
+  done
+  sleep 0.3
+done
+wait "$measure" && rc=0 || rc=$?
+[ "$rc" = 0 ] || die "measure.sh's browser steps failed (exit $rc): $(tail -15 "$dir/measure.out")"
+grep -q "browser kit: .*parts" "$dir/measure.out" || die "measure.sh did not unpack the browser kit"
+grep -qE '^\| crowd-browser \| ok' "$dir/out/summary.md" && grep -qE '^\| browser-link \| ok' "$dir/out/summary.md" ||
+  die "a browser step did not end ok: $(cat "$dir/out/summary.md")"
+sort -u "$dir/maps.txt" -o "$dir/maps.txt"
+[ -s "$dir/maps.txt" ] || die "no library of the kit's Chromium or node was seen mapped (did they run?)"
+glibc='/(libc|libm|libpthread|libdl|librt|libresolv|libutil|libmvec|libanl|ld-linux-x86-64|libstdc\+\+|libgcc_s)\.so[.0-9]*$'
+outside=$(awk '{print $2}' "$dir/maps.txt" | grep -v "^$dir/work/" | grep -vE "$glibc" | sort -u || true)
+[ -z "$outside" ] || die "the kit's processes mapped libraries from outside the kits: $(echo $outside)"
+echo "check_browserkit.sh: ${#parts[@]} parts stashed and unpacked; crowd-browser and browser-link ran (tiny);" \
+  "$(awk '{print $1}' "$dir/maps.txt" | sort -u | tr '\n' ' ')mapped $(awk '{print $2}' "$dir/maps.txt" | sort -u | wc -l)" \
+  "libraries, none from outside the kits but glibc and the C++ runtime"
