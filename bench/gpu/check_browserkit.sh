@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Checks the browser kit the way the GPU machine will use it, here: its parts stashed as separate calls would leave
-# them (bench/gpu/stash_browserkit.sh, one part at a time; a damaged part refused by name), then measure.sh's browser
+# them (bench/gpu/stash_browserkit.sh, one part a call; a damaged part refused by name), then measure.sh's browser
 # steps at tiny sizes (MEASURE_QUICK=1: crowd-browser, browser-link) with a clean environment, the GPU kit's voxbrick
 # and the browser kit's node and Chromium. While they run, every shared library the kit's Chromium and node processes
 # have mapped is read from /proc: each must come from the kits or glibc. A library from anywhere else is one the GPU
@@ -62,11 +62,6 @@ stash=/tmp/voxbrick-browserkit-parts
 [ ! -e "$stash" ] || mv "$stash" "$tmp/stash-before"
 restore() { rm -rf "$stash"; [ ! -e "$tmp/stash-before" ] || mv "$tmp/stash-before" "$stash"; rm -rf "$tmp"; }
 trap restore EXIT
-for p in "${parts[@]:0:${#parts[@]}-1}"; do
-  rm -rf "$dir/carry" && mkdir -p "$dir/carry"
-  cp "$bkdir/SHA256SUMS" "$bkdir/$p" "$dir/carry/"
-  bash bench/gpu/stash_browserkit.sh --from "$dir/carry" || die "stash_browserkit.sh failed on $p"
-done
 # A damaged part is refused by name.
 rm -rf "$dir/carry" && mkdir -p "$dir/carry"
 cp "$bkdir/SHA256SUMS" "$dir/carry/"
@@ -75,9 +70,15 @@ if bash bench/gpu/stash_browserkit.sh --from "$dir/carry" 2> "$dir/damaged.log";
   die "stash_browserkit.sh took a damaged ${parts[-1]}"
 fi
 grep -q "${parts[-1]} arrived damaged" "$dir/damaged.log" || die "a damaged part was refused without its name: $(cat "$dir/damaged.log")"
-# The measuring call carries the last part itself.
+# One call a part, as README.md's calls; then the measuring call carries SHA256SUMS and no part.
+for p in "${parts[@]}"; do
+  rm -rf "$dir/carry" && mkdir -p "$dir/carry"
+  cp "$bkdir/SHA256SUMS" "$bkdir/$p" "$dir/carry/"
+  bash bench/gpu/stash_browserkit.sh --from "$dir/carry" | tee "$dir/stash.log" || die "stash_browserkit.sh failed on $p"
+done
+grep -q "still to come: none" "$dir/stash.log" || die "the stash does not hold every part: $(cat "$dir/stash.log")"
 rm -rf "$dir/carry" && mkdir -p "$dir/carry"
-cp "$bkdir/SHA256SUMS" "$bkdir/${parts[-1]}" "$dir/carry/"
+cp "$bkdir/SHA256SUMS" "$dir/carry/"
 
 # Reads, while process $1 runs, the libraries mapped by every process whose program is in the unpacked browser kit.
 watch_maps() {
@@ -93,11 +94,10 @@ watch_maps() {
 }
 mkdir -p "$dir/work" "$dir/out"
 if [ "$smoke" = 1 ]; then
-  # The parts as measure.sh joins them: the stashed ones, then this call's.
+  # The parts as measure.sh joins them, in order, from the stash.
   files=()
-  for p in "${parts[@]:0:${#parts[@]}-1}"; do files+=("$stash/$p"); done
-  cat "${files[@]}" "$dir/carry/${parts[-1]}" | zstd -dcq --long=27 | tar -C "$dir/work" -xf - ||
-    die "the stashed and carried parts do not unpack"
+  for p in "${parts[@]}"; do files+=("$stash/$p"); done
+  cat "${files[@]}" | zstd -dcq --long=27 | tar -C "$dir/work" -xf - || die "the stashed parts do not unpack"
   bk=$dir/work/voxbrick-browserkit
   smoke_js=$here/bench/gpu/browserkit_smoke.mjs
   (cd "$bk" && env -i PATH=/usr/bin:/bin HOME="$dir" CHROME="$bk/bin/chromium" "$bk/bin/node" "$smoke_js" \
