@@ -110,6 +110,9 @@ json ServerStats::toJson(const Gauges& gauges) const {
   }
   json refusals = json::object();
   for (const auto& entry : kRefusalNames) refusals[entry.name] = this->refusals(entry.value);
+  // Each render thread's seconds drawing and encoding since it started (as /metrics' busy counter).
+  json busySeconds = json::array();
+  for (const double ms : gauges.deviceBusyMs) busySeconds.push_back(ms / 1000);
   return {{"uptime_s", uptime},
           {"sessions",
            {{"active", gauges.activeSessions},
@@ -154,7 +157,8 @@ json ServerStats::toJson(const Gauges& gauges) const {
           {"video", videoJson()},
           {"uploads", {{"done", total(ServerEvent::Uploaded)}, {"refused", total(ServerEvent::UploadRefused)}}},
           {"limits", gauges.limits},
-          {"render_threads", gauges.renderThreads}};
+          {"render_threads", gauges.renderThreads},
+          {"render_busy_s", busySeconds}};
 }
 
 json ServerStats::videoJson() const {

@@ -32,7 +32,8 @@
 #                       Mbit/s, 40 ms round trip, a 200 ms queue) and on loopback: JPEG, vp8, vp9 moving frames
 #   crowd-load      60  the MRI served at 512²: 48 clients asking still frames as a batch script (--batch) beside 4
 #                       clients dragging at 10 Hz (interactive 50 ms): the draggers' frames/s and latency; then 80
-#                       clients dragging at 30 Hz: frames/s, latency and Jain's index
+#                       clients dragging at 30 Hz: frames/s, latency, Jain's index, sessions told Busy, how busy the
+#                       render threads were; the 80 again on a server with 4 render threads
 #   tets-1m         60  synthetic-mesh:ball,n=70 (1 025 244 tets, made by prep: no Python needed), 512^2 and 1024^2,
 #                       each visibility; PSNR against the exact reference at 512^2 when time is left
 #   orbit           30  voxbrick orbit on the MRI at 1024^2, 36 frames, PNG and JPEG: the next frame planned while the
@@ -86,13 +87,14 @@ if [ "${1:-}" = "--step" ]; then
     echo "    ${shown[*]}" >> "$md"
     "$@"
   }
-  # Starts `voxbrick serve` on the MRI store (2 render threads, and the arguments given) in the background, logging
-  # to the step's server.log; sets `server` (its pid, killed when the step ends) and `port`.
+  # Starts `voxbrick serve` on the MRI store ($render_threads render threads, default 2, and the arguments given) in
+  # the background, logging to the step's server.log; sets `server` (its pid, killed when the step ends) and `port`.
   serve_mri() {
     mkdir -p "$WORK/served"
     [ -e "$WORK/served/mri" ] || cp -r "$WORK/mri.vbs" "$WORK/served/mri"
     rm -f "$WORK/port"
-    cmd "$KIT/bin/voxbrick" serve --datasets "$WORK/served" --port 0 --port-file "$WORK/port" --render-threads 2 "$@" \
+    cmd "$KIT/bin/voxbrick" serve --datasets "$WORK/served" --port 0 --port-file "$WORK/port" \
+      --render-threads "${render_threads:-2}" "$@" \
       > "$dir/server.log" 2>&1 &
     server=$!
     trap 'kill "$server" 2> /dev/null || true' EXIT
@@ -426,26 +428,54 @@ PY
         --interactive 50 --provisional-encoding jpeg --duration $((duration - 2)) --size "$size" \
         --json "$dir/load-crowd80.json" 2>&1 | tee "$dir/load-crowd80.log"
       kill -TERM "$server"; wait "$server" || true
+      # The same crowd on a fresh server with 4 render threads: whether more of the machine's
+      # cores draw more frames of one GPU (the figures say how busy each server's render threads were).
+      mv "$dir/server.log" "$dir/server-2-threads.log"
+      render_threads=4 serve_mri --max-sessions 256
+      cmd "$KIT/bin/voxbrick" load "127.0.0.1:$port" --dataset mri --tf mri --step 0.75 --clients 80 --drag 30 \
+        --interactive 50 --provisional-encoding jpeg --duration $((duration - 2)) --size "$size" \
+        --json "$dir/load-crowd80-4.json" 2>&1 | tee "$dir/load-crowd80-4.log"
+      kill -TERM "$server"; wait "$server" || true
       echo >> "$md"
       if command -v python3 > /dev/null; then
         python3 - "$dir" >> "$md" <<'PY'
 import json, os, sys
 d = sys.argv[1]
-print("| clients | frames | frames/s a client | p50 ms | p95 ms | p99 ms | Jain's index | errors |")
-print("|---|---:|---:|---:|---:|---:|---:|---:|")
+def load(f):
+    p = os.path.join(d, f)
+    return json.load(open(p)) if os.path.exists(p) else None
+def busy(j, before=None):
+    """The render threads' busy share over the run: their busy seconds (the server's, at the run's end; less those at
+    the end of the run before it on the same server) over threads x the run's seconds."""
+    if not j or "render_busy_s" not in j.get("server", {}):
+        return float("nan")
+    now = j["server"]["render_busy_s"]
+    was = before["server"].get("render_busy_s", [0] * len(now)) if before else [0] * len(now)
+    return (sum(now) - sum(was)) / (len(now) * j["duration_s"])
+print("| clients | render threads | frames | frames/s a client | p50 ms | p95 ms | p99 ms | Jain's index | told Busy | "
+      "admitted (got a frame) | frames/s each admitted | render threads busy | errors |")
+print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+batch = load("load-batch.json")
 with open(os.path.join(d, "crowd-load.csv"), "w") as csv:
-    csv.write("clients,frames,frames_per_s_per_client,p50_ms,p95_ms,p99_ms,jain_index,errors\n")
-    for label, f, n in (("4 dragging beside the batch", "load-drag.json", 4), ("48 batch", "load-batch.json", 48),
-                        ("80 dragging at 30 Hz, alone", "load-crowd80.json", 80)):
-        if not os.path.exists(os.path.join(d, f)):
+    csv.write("clients,render_threads,frames,frames_per_s_per_client,p50_ms,p95_ms,p99_ms,jain_index,busy,admitted,"
+              "frames_per_s_admitted,render_busy_share,errors\n")
+    for label, f, n, before in (("4 dragging beside the batch", "load-drag.json", 4, None),
+                                ("48 batch", "load-batch.json", 48, None),
+                                ("80 dragging at 30 Hz, alone", "load-crowd80.json", 80, batch),
+                                ("80 dragging at 30 Hz, alone", "load-crowd80-4.json", 80, None)):
+        j = load(f)
+        if not j:
             continue
-        j = json.load(open(os.path.join(d, f)))
         lat = j["latency_ms"]
         jain = j.get("jain_index")
-        row = (label, j["frames"], j["frames_per_s"] / n, lat["p50"], lat["p95"], lat["p99"],
-               float("nan") if jain is None else jain, j["errors"])
-        print("| %s | %d | %.2f | %.1f | %.1f | %.1f | %.3f | %d |" % row)
-        csv.write("%s,%d,%.3f,%.2f,%.2f,%.2f,%.3f,%d\n" % row)
+        per = j.get("per_client", [])
+        took = [c for c in per if c["frames"] > 0]
+        share = busy(j, before) if "crowd80" in f else float("nan")
+        row = (label, j["server"].get("render_threads", 0), j["frames"], j["frames_per_s"] / n, lat["p50"], lat["p95"],
+               lat["p99"], float("nan") if jain is None else jain, j.get("busy", 0), len(took),
+               sum(c["frames_per_s"] for c in took) / len(took) if took else float("nan"), share, j["errors"])
+        print("| %s | %d | %d | %.2f | %.1f | %.1f | %.1f | %.3f | %d | %d | %.2f | %.2f | %d |" % row)
+        csv.write("%s,%d,%d,%.3f,%.2f,%.2f,%.2f,%.3f,%d,%d,%.3f,%.3f,%d\n" % row)
 PY
       fi
       ;;

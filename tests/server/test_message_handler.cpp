@@ -32,7 +32,9 @@ class MessageHandlerTest : public ::testing::Test {
   render::TransferFunctionPresets presets = render::TransferFunctionPresets::load(test::shippedPresets());
   ServerStats stats;
   MessageHandler handler{config, datasets, presets, stats, [this] {
-                           return stats.toJson(ServerStats::Gauges{3, 1, datasets.opened(), 2, {}, 0});
+                           ServerStats::Gauges gauges{3, 1, datasets.opened(), 2, {}, 0};
+                           gauges.deviceBusyMs = {1500, 250};
+                           return stats.toJson(gauges);
                          }};
   ConnectionState state;
 
@@ -213,6 +215,7 @@ TEST_F(MessageHandlerTest, GetStatsGivesTheServerStatistics) {
   EXPECT_EQ(j["renders"]["requested"], 1);
   EXPECT_EQ(j["sessions"]["active"], 3);
   EXPECT_EQ(j["render_threads"], 2);
+  EXPECT_EQ(j["render_busy_s"], json::parse("[1.5, 0.25]")) << "each render thread's busy seconds";
   ASSERT_EQ(j["datasets"].size(), 1u);
   EXPECT_EQ(j["datasets"][0]["name"], "sparse");
 }
