@@ -17,7 +17,7 @@ PACKAGES=(
   python3 python3-numpy python3-zarr python3-numcodecs python3-pydicom
   python3-pil python3-zstandard python3-pytest jupyter-notebook jupyter-nbconvert python3-nbconvert python3-ipykernel
   openmpi-bin libopenmpi-dev
-  chromium nodejs
+  chromium nodejs fonts-dejavu-core
   prometheus
   orthanc orthanc-dicomweb
 )
