@@ -687,6 +687,17 @@ if grep -qwE 'crowd-browser|browser-link' <<< "$steps"; then
   fi
   export BKIT=$WORK/voxbrick-browserkit
   echo "measure.sh: browser kit: $(sed -n 's/^chromium: //p' "$BKIT/MANIFEST.txt"), ${#files[@]} parts"
+  # Chromium once before the steps (browserkit_smoke.mjs, a few seconds): should it not start on this machine as it
+  # does here, the switches that run it in some containers are tried, and the first that works is kept for the steps.
+  for flags in "${VOXBRICK_CHROMIUM_FLAGS:-}" "--no-zygote" "--no-zygote --single-process"; do
+    if (cd "$BKIT" && VOXBRICK_CHROMIUM_FLAGS=$flags CHROME=$BKIT/bin/chromium timeout 60 "$BKIT/bin/node" \
+      "$repo/bench/gpu/browserkit_smoke.mjs" > "$WORK/browser-smoke.json" 2> "$WORK/browser-smoke.log"); then
+      export VOXBRICK_CHROMIUM_FLAGS=$flags
+      echo "measure.sh: Chromium starts${flags:+ with $flags}: $(sed 's/,"libraries".*/}/' "$WORK/browser-smoke.json")"
+      break
+    fi
+    echo "measure.sh: Chromium did not start${flags:+ with $flags}: $(tail -3 "$WORK/browser-smoke.log")"
+  done
 fi
 
 # libstdc++: the machine's where it is at least as new as the kit's (GCC 12: GLIBCXX_3.4.30), else the kit's.
