@@ -183,147 +183,156 @@ try {
       const r = await runScenario(browser, id, server, scratch.dir);
       console.log(`  ${r.load.summary.split("\n")[0]}`);
       runs.push(r);
+      report(runs);
     }
 } finally {
   await browser.close();
   scratch.remove();
 }
+console.log(report(runs).join("\n"));
 
-// The load average once the crowds are gone: over the last minute it still holds the run's own work, so a figure well
-// above the start's over 5 and 15 minutes says something else ran beside it.
-const loadAtEnd = os.loadavg().map((v) => v.toFixed(2));
-const rows = runs.map(row);
-const cols = [
-  "scenario",
-  "server",
-  "version",
-  "tabs",
-  "tcp_clients",
-  "tcp_crowd",
-  "tab_fps_mean",
-  "tab_fps_min",
-  "tab_latency_p50_ms",
-  "tab_latency_p99_worst_ms",
-  "jain_tabs",
-  "tab_exact_after_release_max_ms",
-  "tabs_without_exact",
-  "tab_budget_asked_ms",
-  "tab_budget_ms",
-  "tab_p99_over_budget",
-  "tab_errors",
-  "tcp_fps_total",
-  "tcp_fps_min",
-  "tcp_latency_p50_ms",
-  "tcp_latency_p99_worst_ms",
-  "jain_tcp",
-  "tcp_busy",
-  "tcp_batch_refused",
-  "tcp_protocol_version",
-  "tcp_errors",
-  "target_fps",
-  "target_p99",
-  "target_jain",
-  "target_exact",
-  "target_budget",
-  "pass",
-];
-const command = D.benchCommand();
-D.writeCsv(`${opt.out}.csv`, cols, rows);
-const loadCommands = Object.fromEntries(
-  opt.scenarios.map((id) => [id, D.loadCommand(runs.find((r) => r.id === id).load.argv)]),
-);
-const gl = runs.find((r) => r.gl)?.gl ?? "unknown";
-fs.writeFileSync(
-  `${opt.out}.json`,
-  JSON.stringify(
-    {
-      command,
-      started,
-      machine,
-      load_average_at_end: loadAtEnd,
-      gl_renderer: gl,
-      options: opt,
-      targets: TARGET,
-      load_commands: loadCommands,
-      rows,
-      runs: runs.map((r) => ({
-        scenario: r.id,
-        server: r.server,
-        features: r.features,
-        tabs: r.tabs.map(D.tabFigures),
-        load: r.load,
-      })),
-    },
-    null,
-    2,
-  ) + "\n",
-);
+/// Writes PREFIX.csv, .json and .md of the scenarios run so far (after each one: a run stopped part way keeps what
+/// it measured); returns the markdown's lines.
+function report(runs) {
+  // The load average once the crowds are gone: over the last minute it still holds the run's own work, so a figure well
+  // above the start's over 5 and 15 minutes says something else ran beside it.
+  const loadAtEnd = os.loadavg().map((v) => v.toFixed(2));
+  const rows = runs.map(row);
+  const cols = [
+    "scenario",
+    "server",
+    "version",
+    "tabs",
+    "tcp_clients",
+    "tcp_crowd",
+    "tab_fps_mean",
+    "tab_fps_min",
+    "tab_latency_p50_ms",
+    "tab_latency_p99_worst_ms",
+    "jain_tabs",
+    "tab_exact_after_release_max_ms",
+    "tabs_without_exact",
+    "tab_budget_asked_ms",
+    "tab_budget_ms",
+    "tab_p99_over_budget",
+    "tab_errors",
+    "tcp_fps_total",
+    "tcp_fps_min",
+    "tcp_latency_p50_ms",
+    "tcp_latency_p99_worst_ms",
+    "jain_tcp",
+    "tcp_busy",
+    "tcp_batch_refused",
+    "tcp_protocol_version",
+    "tcp_errors",
+    "target_fps",
+    "target_p99",
+    "target_jain",
+    "target_exact",
+    "target_budget",
+    "pass",
+  ];
+  const command = D.benchCommand();
+  D.writeCsv(`${opt.out}.csv`, cols, rows);
+  const loadCommands = Object.fromEntries(
+    runs.map((r) => [r.id, D.loadCommand(r.load.argv)]),
+  );
+  const gl = runs.find((r) => r.gl)?.gl ?? "unknown";
+  fs.writeFileSync(
+    `${opt.out}.json`,
+    JSON.stringify(
+      {
+        command,
+        started,
+        machine,
+        load_average_at_end: loadAtEnd,
+        gl_renderer: gl,
+        options: opt,
+        targets: TARGET,
+        load_commands: loadCommands,
+        rows,
+        runs: runs.map((r) => ({
+          scenario: r.id,
+          server: r.server,
+          features: r.features,
+          tabs: r.tabs.map(D.tabFigures),
+          load: r.load,
+        })),
+      },
+      null,
+      2,
+    ) + "\n",
+  );
 
-// A run smaller than the benchmark's says so at its head.
-const full = { tabs: 16, "drag-clients": 64, "batch-clients": 64, size: 512, "batch-size": 1024, duration: 10 };
-const optionOf = (flag) => flag.replace(/-(.)/g, (_, c) => c.toUpperCase()); // "drag-clients" -> "dragClients"
-const smaller = Object.keys(full)
-  .filter((flag) => opt[optionOf(flag)] < full[flag])
-  .map((flag) => `--${flag} ${opt[optionOf(flag)]}, not ${full[flag]}`);
-const mark = (v) => (v === "pass" ? "pass" : v === "fail" ? "**fail**" : v);
-const md = [
-  "# A crowd on one server: viewer tabs beside many TCP clients",
-  "",
-  ...(smaller.length ? [`**A smoke run**, smaller than the benchmark: ${smaller.join("; ")}.`, ""] : []),
-  `- Command: \`${command}\``,
-  `- Date: ${started}`,
-  `- Machine: ${machine.cpu}, ${machine.cores} cores, ${machine.memory}; load average at the start ` +
-    `${machine.load_average.join(", ")}, at the end ${loadAtEnd.join(", ")} (1, 5, 15 min); ${machine.chromium}; ` +
-    `GL: ${gl}`,
-  `- Servers: ${servers()
-    .map((s) => `${s.name} \`${s.exe}\` (${s.version})`)
-    .join("; ")}. Each scenario runs on a fresh server of each, \`--max-sessions 256\`` +
-    `${opt.renderThreads ? `, \`--render-threads ${opt.renderThreads}\`` : ""}.`,
-  `- Dataset \`${opt.dataset}\`, transfer function \`${opt.tf}\`. Tabs: the viewer at ${opt.size}², a drag of ` +
-    `${opt.duration} s at ${opt.hz} Hz through the page's own gesture handlers, ${D.DEG_PER_MOVE}° a move. The TCP ` +
-    `crowd starts ${opt.lead} s before the drag and lasts until ${opt.tail} s after it:`,
-  ...opt.scenarios.map((id) => `  - ${id}: ${SCENARIOS[id].title}: \`${loadCommands[id]}\``),
-  "- Tab figures: frames shown a second while dragging (mean and the slowest tab), camera-to-frame latency (p50 " +
-    "over every tab's frames, and the worst tab's p99), Jain's index over the tabs' frames a second, the exact frame " +
-    "after release (the slowest tab; none: some tab had none within 30 s; one later than the crowd's last " +
-    `${opt.tail} s came from a quieter server), the time budget the server drew their moving frames to (their ` +
-    "statistics; the one asked for where the page does not record it) and the worst p99 over it. TCP figures from " +
-    "`voxbrick load --json`: frames a second in all and of the slowest client, latency, Jain's index over its " +
-    "clients, `Busy` replies (waited out, not errors) and errors.",
-  `- Targets: every interactive session (the tabs; in A the dragging TCP clients too) ≥ ${TARGET.fps} frames shown a ` +
-    `second, p99 ≤ ${TARGET.p99Ms / 1000} s, Jain ≥ ${TARGET.jain}, the exact frame ≤ ${TARGET.exactMs / 1000} s ` +
-    `after release; beside the still crowd (B, B') the tabs' p99 ≤ ${TARGET.budgetTimes}× their time budget.`,
-  "",
-  "| scenario | server | tab frames/s mean (min) | tab p50 ms | tab worst p99 ms | Jain tabs | exact after release " +
-    "ms | budget ms | p99/budget | TCP frames/s (slowest) | TCP p99 ms | Jain TCP | Busy | errors | ≥5/s | " +
-    "p99 ≤1 s | Jain ≥0.9 | exact ≤2 s | p99 ≤3× budget | all |",
-  "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|---|---|---|---|",
-  ...rows.map((r) => {
-    const exact = r.tab_exact_after_release_max_ms;
-    const cells = [
-      r.scenario,
-      r.server,
-      `${fmt(r.tab_fps_mean)} (${fmt(r.tab_fps_min)})`,
-      fmt(r.tab_latency_p50_ms, 0),
-      fmt(r.tab_latency_p99_worst_ms, 0),
-      fmt(r.jain_tabs, 3),
-      exact === null ? `none (${r.tabs_without_exact} tabs)` : fmt(exact, 0),
-      fmt(r.tab_budget_ms, 0),
-      fmt(r.tab_p99_over_budget, 1),
-      `${fmt(r.tcp_fps_total)} (${fmt(r.tcp_fps_min)})`,
-      fmt(r.tcp_latency_p99_worst_ms, 0),
-      fmt(r.jain_tcp, 3),
-      r.tcp_busy,
-      r.errors,
-      ...["target_fps", "target_p99", "target_jain", "target_exact", "target_budget", "pass"].map((k) => mark(r[k])),
-    ];
-    return `| ${cells.join(" | ")} |`;
-  }),
-  "",
-  "TCP p99 is the worst client's; `all` passes when every target that applies does and nothing failed. A server " +
-    "that does not know the scene key `batch` (the baseline) refuses it and the load's clients go on without it " +
-    "(`tcp_batch_refused` in the CSV); a server of protocol version 2 never sends `Busy` (`tcp_protocol_version`).",
-  "",
-];
-fs.writeFileSync(`${opt.out}.md`, md.join("\n"));
-console.log(md.join("\n"));
+  // A run smaller than the benchmark's says so at its head.
+  const full = { tabs: 16, "drag-clients": 64, "batch-clients": 64, size: 512, "batch-size": 1024, duration: 10 };
+  const optionOf = (flag) => flag.replace(/-(.)/g, (_, c) => c.toUpperCase()); // "drag-clients" -> "dragClients"
+  const smaller = Object.keys(full)
+    .filter((flag) => opt[optionOf(flag)] < full[flag])
+    .map((flag) => `--${flag} ${opt[optionOf(flag)]}, not ${full[flag]}`);
+  const mark = (v) => (v === "pass" ? "pass" : v === "fail" ? "**fail**" : v);
+  const md = [
+    "# A crowd on one server: viewer tabs beside many TCP clients",
+    "",
+    ...(smaller.length ? [`**A smoke run**, smaller than the benchmark: ${smaller.join("; ")}.`, ""] : []),
+    `- Command: \`${command}\``,
+    `- Date: ${started}`,
+    `- Machine: ${machine.cpu}, ${machine.cores} cores, ${machine.memory}; load average at the start ` +
+      `${machine.load_average.join(", ")}, at the end ${loadAtEnd.join(", ")} (1, 5, 15 min); ${machine.chromium}; ` +
+      `GL: ${gl}`,
+    `- Servers: ${servers()
+      .map((s) => `${s.name} \`${s.exe}\` (${s.version})`)
+      .join("; ")}. Each scenario runs on a fresh server of each, \`--max-sessions 256\`` +
+      `${opt.renderThreads ? `, \`--render-threads ${opt.renderThreads}\`` : ""}.`,
+    `- Dataset \`${opt.dataset}\`, transfer function \`${opt.tf}\`. Tabs: the viewer at ${opt.size}², a drag of ` +
+      `${opt.duration} s at ${opt.hz} Hz through the page's own gesture handlers, ${D.DEG_PER_MOVE}° a move. The TCP ` +
+      `crowd starts ${opt.lead} s before the drag and lasts until ${opt.tail} s after it:`,
+    ...opt.scenarios.map(
+      (id) => `  - ${id}: ${SCENARIOS[id].title}: ${loadCommands[id] ? `\`${loadCommands[id]}\`` : "not run"}`,
+    ),
+    "- Tab figures: frames shown a second while dragging (mean and the slowest tab), camera-to-frame latency (p50 " +
+      "over every tab's frames, and the worst tab's p99), Jain's index over the tabs' frames a second, the exact frame " +
+      "after release (the slowest tab; none: some tab had none within 30 s; one later than the crowd's last " +
+      `${opt.tail} s came from a quieter server), the time budget the server drew their moving frames to (their ` +
+      "statistics; the one asked for where the page does not record it) and the worst p99 over it. TCP figures from " +
+      "`voxbrick load --json`: frames a second in all and of the slowest client, latency, Jain's index over its " +
+      "clients, `Busy` replies (waited out, not errors) and errors.",
+    `- Targets: every interactive session (the tabs; in A the dragging TCP clients too) ≥ ${TARGET.fps} frames shown a ` +
+      `second, p99 ≤ ${TARGET.p99Ms / 1000} s, Jain ≥ ${TARGET.jain}, the exact frame ≤ ${TARGET.exactMs / 1000} s ` +
+      `after release; beside the still crowd (B, B') the tabs' p99 ≤ ${TARGET.budgetTimes}× their time budget.`,
+    "",
+    "| scenario | server | tab frames/s mean (min) | tab p50 ms | tab worst p99 ms | Jain tabs | exact after release " +
+      "ms | budget ms | p99/budget | TCP frames/s (slowest) | TCP p99 ms | Jain TCP | Busy | errors | ≥5/s | " +
+      "p99 ≤1 s | Jain ≥0.9 | exact ≤2 s | p99 ≤3× budget | all |",
+    "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|---|---|---|---|",
+    ...rows.map((r) => {
+      const exact = r.tab_exact_after_release_max_ms;
+      const cells = [
+        r.scenario,
+        r.server,
+        `${fmt(r.tab_fps_mean)} (${fmt(r.tab_fps_min)})`,
+        fmt(r.tab_latency_p50_ms, 0),
+        fmt(r.tab_latency_p99_worst_ms, 0),
+        fmt(r.jain_tabs, 3),
+        exact === null ? `none (${r.tabs_without_exact} tabs)` : fmt(exact, 0),
+        fmt(r.tab_budget_ms, 0),
+        fmt(r.tab_p99_over_budget, 1),
+        `${fmt(r.tcp_fps_total)} (${fmt(r.tcp_fps_min)})`,
+        fmt(r.tcp_latency_p99_worst_ms, 0),
+        fmt(r.jain_tcp, 3),
+        r.tcp_busy,
+        r.errors,
+        ...["target_fps", "target_p99", "target_jain", "target_exact", "target_budget", "pass"].map((k) => mark(r[k])),
+      ];
+      return `| ${cells.join(" | ")} |`;
+    }),
+    "",
+    "TCP p99 is the worst client's; `all` passes when every target that applies does and nothing failed. A server " +
+      "that does not know the scene key `batch` (the baseline) refuses it and the load's clients go on without it " +
+      "(`tcp_batch_refused` in the CSV); a server of protocol version 2 never sends `Busy` (`tcp_protocol_version`).",
+    "",
+  ];
+  fs.writeFileSync(`${opt.out}.md`, md.join("\n"));
+    return md;
+  }
+
