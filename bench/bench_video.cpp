@@ -5,7 +5,7 @@
 // bench/results/video/video.{csv,md}).
 //
 //   bench_video --csv OUT.csv --fps 30 FRAME.png... [--qualities 50,70,85] [--kbps 1000,2000,4000] [--threads 1,4]
-//               [--scales 1,0.5] [--speeds 8,6]
+//               [--scales 1,0.5] [--speeds 8,6] [--rate-control cbr,vbr] [--aq 3,0]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -67,22 +67,25 @@ Row jpegRow(const std::vector<image::Image8>& frames, int quality) {
   return row;
 }
 
-/// A stream at `kbps` of the frames scaled by `scale` (1: as they are), each decoded frame scaled back to the frame's
-/// size before its PSNR is taken (as a viewer shows a smaller stream).
-Row videoRow(const std::vector<image::Image8>& frames, proto::Encoding codec, int kbps, double fps, int threads,
-             double scale, int speed) {
+/// A stream of the frames scaled by `scale` (1: as they are) with `base`'s settings (its size aside), each decoded
+/// frame scaled back to the frame's size before its PSNR is taken (as a viewer shows a smaller stream). The row's
+/// setting names the bitrate and whatever differs from the server's defaults.
+Row videoRow(const std::vector<image::Image8>& frames, proto::Encoding codec, double fps, double scale,
+             image::VideoSettings settings) {
+  const image::VideoSettings defaults;
+  std::string setting = std::to_string(settings.bitrateKbps) + " kbit/s";
+  if (settings.threads > 1) setting += "; " + std::to_string(settings.threads) + " threads";
   char scaled[32];
   std::snprintf(scaled, sizeof scaled, "; scale %g", scale);
-  Row row{proto::encodingName(codec), std::to_string(kbps) + " kbit/s" +
-                                          (threads > 1 ? "; " + std::to_string(threads) + " threads" : "") +
-                                          (scale != 1 ? scaled : "") +
-                                          (speed != image::VideoSettings{}.speed ? "; speed " + std::to_string(speed) : "")};
+  if (scale != 1) setting += scaled;
+  if (settings.speed != defaults.speed) setting += "; speed " + std::to_string(settings.speed);
+  if (!settings.constantBitrate) setting += "; vbr";
+  if (codec == proto::Encoding::Vp9 && settings.aqMode != defaults.aqMode)
+    setting += "; aq " + std::to_string(settings.aqMode);
+  Row row{proto::encodingName(codec), setting};
   const int width = std::max(16, int(std::lround(frames[0].width * scale)));
   const int height = std::max(16, int(std::lround(frames[0].height * scale)));
-  image::VideoSettings settings;
-  settings.width = width, settings.height = height, settings.bitrateKbps = kbps;
-  settings.threads = threads;
-  settings.speed = speed;
+  settings.width = width, settings.height = height;
   image::VideoEncoder encoder(codec, settings);
   image::VideoDecoder decoder(codec);
   for (size_t i = 0; i < frames.size(); ++i) {
@@ -121,6 +124,14 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.05, 1.0));
   app.add_option("--speeds", speeds, "libvpx realtime speeds (VP8 4..16, VP9 5..9; each a row of every bitrate)")
       ->delimiter(',');
+  std::vector<std::string> rateControls{"cbr"};
+  std::vector<int> aqModes{image::VideoSettings{}.aqMode};
+  app.add_option("--rate-control", rateControls, "cbr (the server's), vbr (each a row of every bitrate)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"cbr", "vbr"}));
+  app.add_option("--aq", aqModes, "VP9's adaptive quantisation modes, 0..3 (each a row of every VP9 bitrate)")
+      ->delimiter(',')
+      ->check(CLI::Range(0, 3));
   app.add_option("frames", paths, "the drag's lossless frames, in order")->required();
   CLI11_PARSE(app, argc, argv);
   try {
@@ -135,7 +146,15 @@ int main(int argc, char** argv) {
       for (int t : threads)
         for (double scale : scales)
           for (int speed : speeds)
-            for (int k : kbps) rows.push_back(videoRow(frames, codec, k, fps, t, scale, speed));
+            for (const std::string& rc : rateControls)
+              for (int aq : codec == proto::Encoding::Vp9 ? aqModes : std::vector<int>{image::VideoSettings{}.aqMode})
+                for (int k : kbps) {
+                  image::VideoSettings settings;
+                  settings.bitrateKbps = k, settings.threads = t, settings.speed = speed;
+                  settings.constantBitrate = rc == "cbr";
+                  settings.aqMode = aq;
+                  rows.push_back(videoRow(frames, codec, fps, scale, settings));
+                }
     std::ofstream csv(csvPath);
     csv << "size,frames,fps,encoding,setting,bytes_per_frame,psnr_mean_db,psnr_min_db,encode_ms,decode_ms,key_bytes\n";
     for (const Row& r : rows) {

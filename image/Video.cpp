@@ -1,5 +1,6 @@
-// VP8 and VP9 through libvpx in its realtime mode: one pass, constant bitrate, no lag, no dropped frames, key frames
-// only when asked (a reliable stream never needs a periodic one); colour through libyuv.
+// VP8 and VP9 through libvpx in its realtime mode: one pass, constant bitrate (the server's; bench_video compares VBR),
+// no lag, no dropped frames, key frames only when asked (a reliable stream never needs a periodic one); colour through
+// libyuv.
 #include "image/Video.h"
 
 #include <algorithm>
@@ -76,6 +77,8 @@ VideoEncoder::VideoEncoder(proto::Encoding codec, const VideoSettings& settings)
     throw ImageFailure("video: size " + std::to_string(settings.width) + "x" + std::to_string(settings.height) +
                        " is outside 1.." + std::to_string(kMaxSide) + " a side");
   if (settings.bitrateKbps < 1) throw ImageFailure("video: bitrate must be at least 1 kbit/s");
+  if (settings.aqMode < 0 || settings.aqMode > 3)
+    throw ImageFailure("video: adaptive quantisation mode " + std::to_string(settings.aqMode) + " is outside 0..3");
   const bool vp9 = codec == proto::Encoding::Vp9;
   vpx_codec_iface_t* iface = vp9 ? vpx_codec_vp9_cx() : vpx_codec_vp8_cx();
   Codec& c = *mCodecState;
@@ -87,7 +90,7 @@ VideoEncoder::VideoEncoder(proto::Encoding codec, const VideoSettings& settings)
   c.cfg.g_lag_in_frames = 0;  // each frame comes out as it goes in
   c.cfg.g_pass = VPX_RC_ONE_PASS;
   c.cfg.g_error_resilient = 0;  // the stream is reliable (TCP): no frame is lost
-  c.cfg.rc_end_usage = VPX_CBR;
+  c.cfg.rc_end_usage = settings.constantBitrate ? VPX_CBR : VPX_VBR;
   c.cfg.rc_target_bitrate = unsigned(settings.bitrateKbps);
   c.cfg.rc_dropframe_thresh = 0;  // never drop a frame: a dropped one would be a frame the client waits for
   c.cfg.rc_min_quantizer = 2;
@@ -104,7 +107,7 @@ VideoEncoder::VideoEncoder(proto::Encoding codec, const VideoSettings& settings)
   const std::string what = "video: " + codecName(codec) + " settings";
   if (vp9) {
     check(vpx_codec_control(&c.ctx, VP8E_SET_CPUUSED, std::clamp(settings.speed, 5, 9)), &c.ctx, what);
-    check(vpx_codec_control(&c.ctx, VP9E_SET_AQ_MODE, 3), &c.ctx, what);  // cyclic refresh, as WebRTC's
+    check(vpx_codec_control(&c.ctx, VP9E_SET_AQ_MODE, settings.aqMode), &c.ctx, what);
     check(vpx_codec_control(&c.ctx, VP9E_SET_ROW_MT, 1), &c.ctx, what);
     // Tile columns (log2; libvpx keeps each at least 256 pixels wide), one a thread.
     const int tiles = settings.threads >= 4 ? 2 : settings.threads >= 2 ? 1 : 0;

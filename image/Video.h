@@ -24,6 +24,11 @@ struct VideoSettings {
   int bitrateKbps = 2000;     ///< the rate control's target (constant bitrate), >= 1
   int speed = 8;              ///< libvpx's realtime speed (VP8: 4..16, VP9: 5..9; higher is faster and coarser)
   int threads = 1;            ///< encoder threads (VP8 splits a frame into token partitions, VP9 into tile columns)
+  /// The rate control: constant bitrate (each frame near its share of the target, so frames never queue on a link of
+  /// that rate), or variable (libvpx's VBR: the target is a mean, frames vary with the picture). bench_video compares
+  /// them; the server streams at constant bitrate.
+  bool constantBitrate = true;
+  int aqMode = 3;  ///< VP9's adaptive quantisation, 0..3 (0 none, 3 cyclic refresh as WebRTC's); VP8 has none
 };
 
 /// The encoder threads a frame of this size is worth: one for each 512x512 pixels or part of them (a quarter of a

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include "image/Video.h"
@@ -103,6 +104,30 @@ TEST_P(VideoCodecs, TheBitrateSetsTheBytesAndCanChangeMidStream) {
   EXPECT_LT(loweredBytes * 4, steadyBytes) << "a tenth of the bitrate";
 }
 
+TEST_P(VideoCodecs, VariableBitrateAndNoAdaptiveQuantisationMakeStreamsOfTheirOwn) {
+  // bench_video's alternatives to the server's settings: each a stream that decodes near its source, and each a
+  // stream of other bytes than the server's (the setting reached libvpx).
+  VideoSettings server;
+  server.width = 256, server.height = 256, server.bitrateKbps = 1500;
+  VideoSettings vbr = server, noAq = server;
+  vbr.constantBitrate = false;
+  noAq.aqMode = 0;
+  VideoEncoder a(GetParam(), server), b(GetParam(), vbr), c(GetParam(), noAq);
+  VideoDecoder fromB(GetParam()), fromC(GetParam());
+  size_t bytesA = 0, bytesB = 0, bytesC = 0;
+  for (int i = 0; i < 20; ++i) {
+    const Image8 frame = detailed(256, 256, 0.2 * i);
+    const VideoChunk ca = a.encode(frame, 33.0 * i), cb = b.encode(frame, 33.0 * i), cc = c.encode(frame, 33.0 * i);
+    bytesA += ca.bytes.size(), bytesB += cb.bytes.size(), bytesC += cc.bytes.size();
+    EXPECT_GT(psnr(frame, fromB.decode(cb.bytes)), 25.0) << "vbr, frame " << i;
+    EXPECT_GT(psnr(frame, fromC.decode(cc.bytes)), 25.0) << "aq 0, frame " << i;
+  }
+  EXPECT_NE(bytesA, bytesB) << "variable bitrate";
+  if (GetParam() == Encoding::Vp9) {
+    EXPECT_NE(bytesA, bytesC) << "no adaptive quantisation";
+  }
+}
+
 TEST_P(VideoCodecs, ADecoderRefusesWhatItCannotShow) {
   VideoSettings settings;
   settings.width = 64, settings.height = 48;
@@ -157,6 +182,13 @@ TEST(Video, OnlyVideoEncodingsAndSaneSettingsMakeAStream) {
   EXPECT_THROW(VideoEncoder(Encoding::Vp8, settings), ImageFailure);
   settings.width = 64, settings.bitrateKbps = 0;
   EXPECT_THROW(VideoEncoder(Encoding::Vp8, settings), ImageFailure);
+  settings.bitrateKbps = 1000, settings.aqMode = 4;
+  try {
+    VideoEncoder(Encoding::Vp9, settings);
+    ADD_FAILURE() << "an adaptive quantisation mode outside 0..3 was taken";
+  } catch (const ImageFailure& e) {
+    EXPECT_NE(std::string(e.what()).find("adaptive quantisation mode 4"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
