@@ -452,7 +452,7 @@ def busy(j, before=None):
     now = j["server"]["render_busy_s"]
     was = before["server"].get("render_busy_s", [0] * len(now)) if before else [0] * len(now)
     return (sum(now) - sum(was)) / (len(now) * j["duration_s"])
-print("| clients | render threads | frames | frames/s a client | p50 ms | p95 ms | p99 ms | Jain's index | told Busy | "
+print("| clients | render threads | frames | frames/s a client | p50 ms | p95 ms | p99 ms | Jain's index | Busy replies | "
       "admitted (got a frame) | frames/s each admitted | render threads busy | errors |")
 print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
 batch = load("load-batch.json")
