@@ -11,8 +11,8 @@
 # part's) and OUT/MANIFEST.txt. In the kit (voxbrick-browserkit/): bin/chromium, a wrapper that runs chromium/chromium
 # with the kit's libraries and fonts; bin/node; node_modules/; lib/ (libstdc++ and libgcc_s left out: the GPU kit
 # brings them where the machine's are older, and measure.sh decides); fonts/ with fonts.conf.
-# Libraries Chromium opens at run time rather than links (NSS's modules) are packed too; check_browserkit.sh finds any
-# other by reading the running browser's memory maps.
+# Libraries Chromium opens at run time rather than links (NSS's modules, Wayland's client) are packed too;
+# check_browserkit.sh finds any other by reading the running browser's memory maps.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 export PATH=$PATH:/usr/sbin:/sbin  # ldconfig
