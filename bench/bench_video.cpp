@@ -67,7 +67,7 @@ Row jpegRow(const std::vector<image::Image8>& frames, int quality) {
   return row;
 }
 
-/// A stream of the frames scaled by `scale` (1: as they are) with `base`'s settings (its size aside), each decoded
+/// A stream of the frames scaled by `scale` (1: as they are) with `settings` (its size aside), each decoded
 /// frame scaled back to the frame's size before its PSNR is taken (as a viewer shows a smaller stream). The row's
 /// setting names the bitrate and whatever differs from the server's defaults.
 Row videoRow(const std::vector<image::Image8>& frames, proto::Encoding codec, double fps, double scale,

@@ -21,7 +21,7 @@ bool isVideoEncoding(proto::Encoding encoding);
 /// How a stream is encoded. The defaults are the realtime settings measured in bench/results/video.
 struct VideoSettings {
   int width = 0, height = 0;  ///< the coded size, each in 1 .. 16383
-  int bitrateKbps = 2000;     ///< the rate control's target (constant bitrate), >= 1
+  int bitrateKbps = 2000;     ///< the rate control's target, >= 1
   int speed = 8;              ///< libvpx's realtime speed (VP8: 4..16, VP9: 5..9; higher is faster and coarser)
   int threads = 1;            ///< encoder threads (VP8 splits a frame into token partitions, VP9 into tile columns)
   /// The rate control: constant bitrate (each frame near its share of the target, so frames never queue on a link of

@@ -114,6 +114,10 @@ TEST_F(MetricsEndpointTest, FiguresFollowWhatClientsDoOnBothTransports) {
   EXPECT_EQ(p.value("voxbrick_refusals_total", R"(reason="busy")"), 0);
   EXPECT_GT(p.value("voxbrick_render_thread_busy_seconds_total", R"(thread="0")"), 0);
   EXPECT_TRUE(std::isnan(p.value("voxbrick_render_thread_busy_seconds_total", R"(thread="1")"))) << "one thread";
+  // The Stats JSON says the same, a figure for each render thread (nothing was drawn since the scrape).
+  const nlohmann::json busy = nlohmann::json::parse(tcp.stats())["render_busy_s"];
+  ASSERT_EQ(busy.size(), 1u) << busy.dump();
+  EXPECT_NEAR(busy[0].get<double>(), p.value("voxbrick_render_thread_busy_seconds_total", R"(thread="0")"), 1e-9);
   EXPECT_GT(p.value("voxbrick_cache_hits_total", R"(dataset="sparse")") +
                 p.value("voxbrick_cache_misses_total", R"(dataset="sparse")"),
             0);
