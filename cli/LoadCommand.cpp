@@ -322,8 +322,9 @@ std::vector<std::unique_ptr<client::Client>> openIdleSessions(const LoadArgs& a,
   return idle;
 }
 
-/// The server's statistics after the run; an error in the tally (and an empty object) if it does not answer.
-json serverStatsAfter(const LoadArgs& a, const std::string& host, int port, Tally& tally) {
+/// The server's statistics: null if it does not answer, which after the run is an error in the tally (before it,
+/// the run's own clients say whether the server answers).
+json serverStats(const LoadArgs& a, const std::string& host, int port, Tally* tallyAfter) {
   try {
     const auto c = connectTo(a, host, port, std::chrono::seconds(30));
     greet(a, *c, "voxbrick-load-stats");
@@ -331,7 +332,7 @@ json serverStatsAfter(const LoadArgs& a, const std::string& host, int port, Tall
     c->goodbye();
     return server;
   } catch (const std::exception& e) {
-    tally.error(std::string("server statistics after the run: ") + e.what());
+    if (tallyAfter) tallyAfter->error(std::string("server statistics after the run: ") + e.what());
   }
   return json();
 }
@@ -352,6 +353,9 @@ void runLoad(const LoadArgs& a) {
 
   const ServerDeadlines deadlines = a.faultClients > 0 ? serverDeadlines(a, host, port) : ServerDeadlines{};
   Tally tally(a.clients);
+  // The server's counters as the run begins, so that a report can take the run's own share of them (render threads'
+  // busy seconds, frames) from those after it.
+  const json serverBefore = serverStats(a, host, port, nullptr);
   const auto start = Clock::now();
   const auto deadline = start + std::chrono::milliseconds(int64_t(a.duration * 1000));
   std::vector<std::thread> threads;
@@ -364,7 +368,7 @@ void runLoad(const LoadArgs& a) {
   for (std::thread& t : threads) t.join();
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
 
-  const json server = serverStatsAfter(a, host, port, tally);
+  const json server = serverStats(a, host, port, &tally);
   idle.clear();
   int64_t unexpected = 0;
   const json faultsDone = faultCounts(tally, unexpected);
@@ -372,7 +376,9 @@ void runLoad(const LoadArgs& a) {
   if (!a.jsonPath.empty())
     writeText(
         a.jsonPath,
-        loadReport(a, tally, seconds, width, height, faultsDone, server, firstScene(a, width, height)).dump(2) + "\n");
+        loadReport(a, tally, seconds, width, height, faultsDone, server, serverBefore, firstScene(a, width, height))
+                .dump(2) +
+            "\n");
   if (a.requireClean && (tally.errors > 0 || unexpected > 0 || tally.frames == 0))
     throw std::runtime_error("the run was not clean: " + std::to_string(tally.errors) + " errors, " +
                              std::to_string(unexpected) + " unexpected fault replies, " + std::to_string(tally.frames) +

@@ -80,7 +80,7 @@ json faultCounts(const Tally& tally, int64_t& unexpected) {
 }
 
 json loadReport(const LoadArgs& a, const Tally& tally, double seconds, int width, int height, const json& faults,
-                const json& server, const json& scene) {
+                const json& server, const json& serverBefore, const json& scene) {
   const json budget = tally.budgetMs.empty() ? json(nullptr)
                                              : json{{"p50", percentile(tally.budgetMs, 0.5)},
                                                     {"min", percentile(tally.budgetMs, 0.0)},
@@ -127,7 +127,8 @@ json loadReport(const LoadArgs& a, const Tally& tally, double seconds, int width
       {"per_client", perClient(tally, seconds)},
       {"jain_index", optionalNumber(jainIndex(clientRates(tally, seconds)))},
       {"faults", faults},
-      {"server", server}};
+      {"server", server},
+      {"server_before", serverBefore}};
 }
 
 void printSummary(const LoadArgs& a, const Tally& tally, double seconds, int64_t unexpected, const json& server) {

@@ -62,11 +62,12 @@ std::optional<double> jainIndex(const std::vector<double>& x);
 /// Per fault, how often it ran and how many replies were not as documented; `unexpected` gets the total of those.
 nlohmann::json faultCounts(const Tally& tally, int64_t& unexpected);
 
-/// The run as JSON (--json): totals, latency percentiles, the server's statistics after the run, and per
-/// well-behaved client its frames, frames a second, latency p50/p99 and Busy replies, with Jain's index over their
-/// frames a second. `scene`: the first scene the first client sends.
+/// The run as JSON (--json): totals, latency percentiles, the server's statistics after the run (`server`) and as it
+/// began (`server_before`), and per well-behaved client its frames, frames a second, latency p50/p99 and Busy
+/// replies, with Jain's index over their frames a second. `scene`: the first scene the first client sends.
 nlohmann::json loadReport(const LoadArgs& a, const Tally& tally, double seconds, int width, int height,
-                          const nlohmann::json& faults, const nlohmann::json& server, const nlohmann::json& scene);
+                          const nlohmann::json& faults, const nlohmann::json& server,
+                          const nlohmann::json& serverBefore, const nlohmann::json& scene);
 
 /// The one-line summary on standard output, then the error samples.
 void printSummary(const LoadArgs& a, const Tally& tally, double seconds, int64_t unexpected,

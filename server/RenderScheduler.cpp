@@ -309,9 +309,29 @@ std::array<size_t, kFrameClasses> RenderScheduler::queuedByClass() const {
   return mWaitingByClass;
 }
 
+void RenderScheduler::EngineGauge::enter(State to, Clock::time_point now) {
+  std::lock_guard lock(mTiming);
+  mMs[mState] += elapsedMs(mSince, now);
+  mState = to;
+  mSince = now;
+}
+
+double RenderScheduler::EngineGauge::ms(State state, Clock::time_point now) const {
+  std::lock_guard lock(mTiming);
+  return mMs[state] + (mState == state ? elapsedMs(mSince, now) : 0.0);
+}
+
 std::vector<double> RenderScheduler::deviceBusyMs() const {
+  const auto now = Clock::now();
   std::vector<double> out(mGaugeCount);
-  for (size_t i = 0; i < mGaugeCount; ++i) out[i] = mGauges[i].busyMs.load();
+  for (size_t i = 0; i < mGaugeCount; ++i) out[i] = mGauges[i].ms(EngineGauge::Busy, now);
+  return out;
+}
+
+std::vector<double> RenderScheduler::deviceWaitMs() const {
+  const auto now = Clock::now();
+  std::vector<double> out(mGaugeCount);
+  for (size_t i = 0; i < mGaugeCount; ++i) out[i] = mGauges[i].ms(EngineGauge::Waiting, now);
   return out;
 }
 
@@ -449,10 +469,13 @@ void RenderScheduler::renderLoop(render::FrameSource& source, int index) {
   const std::string brokenContext = "render thread " + std::to_string(index) + " cannot use its GL context";
   if (broken) errorReply(broken, brokenContext);  // logs it once now
   Taken taken;
-  while (next(taken)) {
+  EngineGauge& gauge = mGauges[size_t(index)];
+  for (gauge.enter(EngineGauge::Waiting, Clock::now()); next(taken);
+       gauge.enter(EngineGauge::Waiting, Clock::now())) {
     const std::shared_ptr<Sink>& sink = taken.sink;
     const RenderJob& job = taken.job;
     const auto started = Clock::now();
+    gauge.enter(EngineGauge::Busy, started);
     RenderReply reply;
     bool drawn = false;
     // Whether anyone who asked for this frame still wants it (the job's own session, or one riding along).
@@ -481,9 +504,9 @@ void RenderScheduler::renderLoop(render::FrameSource& source, int index) {
                      : renderReply(source, job, index, cancelled);
       drawn = true;
     }
-    const double ms = elapsedMs(started, Clock::now());
-    EngineGauge& gauge = mGauges[size_t(index)];
-    gauge.busyMs = gauge.busyMs.load() + ms;
+    const auto replied = Clock::now();
+    const double ms = elapsedMs(started, replied);
+    gauge.enter(EngineGauge::Other, replied);
     gauge.bytes = source.gpuBytes();
     gauge.peakBytes = source.peakGpuBytes();
     gauge.released = source.renderersReleased();
@@ -523,6 +546,7 @@ void RenderScheduler::renderLoop(render::FrameSource& source, int index) {
     }
     taken = Taken{};
   }
+  gauge.enter(EngineGauge::Other, Clock::now());
   // The source stays with the scheduler (its destructor destroys it): released here, so that it may be taken there.
   if (!broken) {
     try {

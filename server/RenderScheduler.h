@@ -91,6 +91,10 @@ class RenderScheduler {
   std::array<size_t, kFrameClasses> queuedByClass() const;
   /// Milliseconds each render thread has spent drawing and encoding since it started, in thread order.
   std::vector<double> deviceBusyMs() const;
+  /// Milliseconds each render thread has spent asking the scheduler for its next job (waiting for work, or for the
+  /// scheduler's lock), in thread order. Its time beyond this and deviceBusyMs went to handing frames on and paging
+  /// ahead.
+  std::vector<double> deviceWaitMs() const;
   /// Sessions that sent an interactive Render within kInteractiveWindow.
   size_t interactiveSessions() const;
   /// Frames given up part way: their session had gone, or a refinement was overtaken by a newer Render.
@@ -179,7 +183,20 @@ class RenderScheduler {
   struct EngineGauge {
     std::atomic<size_t> bytes{0}, peakBytes{0};
     std::atomic<uint64_t> released{0};
-    std::atomic<double> busyMs{0};  ///< drawing and encoding, since the thread started
+    /// What the thread is doing: drawing and encoding (Busy), asking for its next job (Waiting), or anything else
+    /// (handing frames on, paging ahead, starting).
+    enum State { Other, Busy, Waiting, kStates };
+    /// The thread enters `to` at `now`.
+    void enter(State to, std::chrono::steady_clock::time_point now);
+    /// Milliseconds spent in `state` until `now`, the interval in progress included (so that a long wait counts as
+    /// it goes, not all at its end; the figure only grows).
+    double ms(State state, std::chrono::steady_clock::time_point now) const;
+
+   private:
+    mutable std::mutex mTiming;
+    State mState = Other;
+    std::chrono::steady_clock::time_point mSince = std::chrono::steady_clock::now();
+    std::array<double, kStates> mMs{};
   };
   std::unique_ptr<EngineGauge[]> mGauges;  ///< one per source, written by its thread
   size_t mGaugeCount = 0;

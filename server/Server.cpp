@@ -508,6 +508,7 @@ ServerStats::Gauges Server::Impl::gauges() const {
   gauges.gpuBudgetBytes = size_t(config.gpuBudgetMB) << 20;
   gauges.queuedByClass = scheduler.queuedByClass();
   gauges.deviceBusyMs = scheduler.deviceBusyMs();
+  gauges.deviceWaitMs = scheduler.deviceWaitMs();
   return gauges;
 }
 

@@ -110,9 +110,11 @@ json ServerStats::toJson(const Gauges& gauges) const {
   }
   json refusals = json::object();
   for (const auto& entry : kRefusalNames) refusals[entry.name] = this->refusals(entry.value);
-  // Each render thread's seconds drawing and encoding since it started (as /metrics' busy counter).
-  json busySeconds = json::array();
+  // Each render thread's seconds drawing and encoding, and asking for its next job, since it started (as /metrics'
+  // busy and wait counters).
+  json busySeconds = json::array(), waitSeconds = json::array();
   for (const double ms : gauges.deviceBusyMs) busySeconds.push_back(ms / 1000);
+  for (const double ms : gauges.deviceWaitMs) waitSeconds.push_back(ms / 1000);
   return {{"uptime_s", uptime},
           {"sessions",
            {{"active", gauges.activeSessions},
@@ -158,7 +160,8 @@ json ServerStats::toJson(const Gauges& gauges) const {
           {"uploads", {{"done", total(ServerEvent::Uploaded)}, {"refused", total(ServerEvent::UploadRefused)}}},
           {"limits", gauges.limits},
           {"render_threads", gauges.renderThreads},
-          {"render_busy_s", busySeconds}};
+          {"render_busy_s", busySeconds},
+          {"render_wait_s", waitSeconds}};
 }
 
 json ServerStats::videoJson() const {
@@ -263,6 +266,11 @@ std::string ServerStats::metricsText(const Gauges& gauges) const {
            "Seconds each render thread has spent drawing and encoding frames.");
   for (size_t t = 0; t < gauges.deviceBusyMs.size(); ++t)
     m.sample(gauges.deviceBusyMs[t] / 1000, {{"thread", std::to_string(t)}});
+  m.family("voxbrick_render_thread_wait_seconds_total", Type::Counter,
+           "Seconds each render thread has spent asking the scheduler for its next job (waiting for work, or for the "
+           "scheduler's lock).");
+  for (size_t t = 0; t < gauges.deviceWaitMs.size(); ++t)
+    m.sample(gauges.deviceWaitMs[t] / 1000, {{"thread", std::to_string(t)}});
 
   // Datasets' host caches.
   struct CacheFigure {

@@ -88,6 +88,7 @@ class ServerStats {
     size_t tcpSessions = 0, webSocketSessions = 0;      ///< activeSessions by transport
     std::array<size_t, kFrameClasses> queuedByClass{};  ///< jobs waiting (RenderScheduler::queuedByClass)
     std::vector<double> deviceBusyMs{};  ///< each render thread's time drawing (RenderScheduler::deviceBusyMs)
+    std::vector<double> deviceWaitMs{};  ///< each render thread's time asking for a job (RenderScheduler::deviceWaitMs)
   };
 
   /// The upper bounds of the frame latency histogram, in seconds.

@@ -32,8 +32,8 @@
 #                       Mbit/s, 40 ms round trip, a 200 ms queue) and on loopback: JPEG, vp8, vp9 moving frames
 #   crowd-load      60  the MRI served at 512²: 48 clients asking still frames as a batch script (--batch) beside 4
 #                       clients dragging at 10 Hz (interactive 50 ms): the draggers' frames/s and latency; then 80
-#                       clients dragging at 30 Hz: frames/s, latency, Jain's index, sessions told Busy, how busy the
-#                       render threads were; the 80 again on a server with 4 render threads
+#                       clients dragging at 30 Hz: frames/s, latency, Jain's index, sessions told Busy, the render
+#                       threads' share drawing and waiting for a job; the 80 again on a server with 4 render threads
 #   tets-1m         60  synthetic-mesh:ball,n=70 (1 025 244 tets, made by prep: no Python needed), 512^2 and 1024^2,
 #                       each visibility; PSNR against the exact reference at 512^2 when time is left
 #   orbit           30  voxbrick orbit on the MRI at 1024^2, 36 frames, PNG and JPEG: the next frame planned while the
@@ -444,25 +444,23 @@ d = sys.argv[1]
 def load(f):
     p = os.path.join(d, f)
     return json.load(open(p)) if os.path.exists(p) else None
-def busy(j, before=None):
-    """The render threads' busy share over the run: their busy seconds (the server's, at the run's end; less those at
-    the end of the run before it on the same server) over threads x the run's seconds."""
-    if not j or "render_busy_s" not in j.get("server", {}):
+def share(j, key):
+    """The render threads' share of the run in `key` (render_busy_s: drawing and encoding; render_wait_s: asking the
+    scheduler for a job): their seconds over the run (the server's at its end less those as it began, `voxbrick
+    load`'s server and server_before) over threads x the server's seconds between the two."""
+    if not j or key not in j.get("server", {}) or key not in (j.get("server_before") or {}):
         return float("nan")
-    now = j["server"]["render_busy_s"]
-    was = before["server"].get("render_busy_s", [0] * len(now)) if before else [0] * len(now)
-    return (sum(now) - sum(was)) / (len(now) * j["duration_s"])
+    now, was = j["server"][key], j["server_before"][key]
+    return (sum(now) - sum(was)) / (len(now) * (j["server"]["uptime_s"] - j["server_before"]["uptime_s"]))
 print("| clients | render threads | frames | frames/s a client | p50 ms | p95 ms | p99 ms | Jain's index | Busy replies | "
-      "admitted (got a frame) | frames/s each admitted | render threads busy | errors |")
-print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
-batch = load("load-batch.json")
+      "admitted (got a frame) | frames/s each admitted | render threads busy | waiting for a job | errors |")
+print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
 with open(os.path.join(d, "crowd-load.csv"), "w") as csv:
     csv.write("clients,render_threads,frames,frames_per_s_per_client,p50_ms,p95_ms,p99_ms,jain_index,busy,admitted,"
-              "frames_per_s_admitted,render_busy_share,errors\n")
-    for label, f, n, before in (("4 dragging beside the batch", "load-drag.json", 4, None),
-                                ("48 batch", "load-batch.json", 48, None),
-                                ("80 dragging at 30 Hz, alone", "load-crowd80.json", 80, batch),
-                                ("80 dragging at 30 Hz, alone", "load-crowd80-4.json", 80, None)):
+              "frames_per_s_admitted,render_busy_share,render_wait_share,errors\n")
+    for label, f, n in (("4 dragging beside the batch", "load-drag.json", 4), ("48 batch", "load-batch.json", 48),
+                        ("80 dragging at 30 Hz, alone", "load-crowd80.json", 80),
+                        ("80 dragging at 30 Hz, alone", "load-crowd80-4.json", 80)):
         j = load(f)
         if not j:
             continue
@@ -470,12 +468,15 @@ with open(os.path.join(d, "crowd-load.csv"), "w") as csv:
         jain = j.get("jain_index")
         per = j.get("per_client", [])
         took = [c for c in per if c["frames"] > 0]
-        share = busy(j, before) if "crowd80" in f else float("nan")
+        # Beside the batch the two runs overlap: their threads' shares are the crowd's alone.
+        crowd = "crowd80" in f
+        busy = share(j, "render_busy_s") if crowd else float("nan")
+        wait = share(j, "render_wait_s") if crowd else float("nan")
         row = (label, j["server"].get("render_threads", 0), j["frames"], j["frames_per_s"] / n, lat["p50"], lat["p95"],
                lat["p99"], float("nan") if jain is None else jain, j.get("busy", 0), len(took),
-               sum(c["frames_per_s"] for c in took) / len(took) if took else float("nan"), share, j["errors"])
-        print("| %s | %d | %d | %.2f | %.1f | %.1f | %.1f | %.3f | %d | %d | %.2f | %.2f | %d |" % row)
-        csv.write("%s,%d,%d,%.3f,%.2f,%.2f,%.2f,%.3f,%d,%d,%.3f,%.3f,%d\n" % row)
+               sum(c["frames_per_s"] for c in took) / len(took) if took else float("nan"), busy, wait, j["errors"])
+        print("| %s | %d | %d | %.2f | %.1f | %.1f | %.1f | %.3f | %d | %d | %.2f | %.2f | %.2f | %d |" % row)
+        csv.write("%s,%d,%d,%.3f,%.2f,%.2f,%.2f,%.3f,%d,%d,%.3f,%.3f,%.3f,%d\n" % row)
 PY
       fi
       ;;

@@ -120,6 +120,25 @@ TEST_F(FairSchedulerTest, ASessionThatFloodsGetsNoMoreThanItsShareOfTime) {
   EXPECT_GE(heavyFrames, 4) << "the heavy session still gets its share";
 }
 
+// Each render thread's time drawing and asking for work counts as it goes: a thread that waits long counts its wait
+// before the wait ends, and the figures only grow; drawing moves time from waiting to busy.
+TEST_F(FairSchedulerTest, TheThreadsTimeDrawingAndWaitingCountsAsItGoes) {
+  auto s = scheduler(1, {.coalesce = false}, 20000us, 0ns);  // 20 ms a frame
+  s->start();
+  std::this_thread::sleep_for(60ms);
+  const double waited = s->deviceWaitMs().at(0);
+  EXPECT_GE(waited, 40.0) << "a wait in progress counts";
+  EXPECT_EQ(s->deviceBusyMs().at(0), 0.0) << "nothing drawn yet";
+  std::vector<std::shared_ptr<CountingSink>> sinks;  // three sessions, a frame each
+  for (uint32_t i = 0; i < 3; ++i)  // three frames of their own (a frame asked alike would be drawn once for all)
+    s->submit(sinks.emplace_back(std::make_shared<CountingSink>()), job(i, 8 + int(i)));
+  for (const auto& sink : sinks) sink->await(1);
+  const double busy = s->deviceBusyMs().at(0), waitedAfter = s->deviceWaitMs().at(0);
+  s->stop();
+  EXPECT_GE(busy, 3 * 18.0) << "three frames of 20 ms";
+  EXPECT_GE(waitedAfter, waited) << "the figure only grows";
+}
+
 // With every class waiting, a moving camera's frames take most of the thread, a resting camera's exact frames
 // their share after them, and batch work the least, never nothing.
 TEST_F(FairSchedulerTest, ClassesAreServedInteractiveThenStillThenBatchByWeight) {

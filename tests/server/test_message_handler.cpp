@@ -34,6 +34,7 @@ class MessageHandlerTest : public ::testing::Test {
   MessageHandler handler{config, datasets, presets, stats, [this] {
                            ServerStats::Gauges gauges{3, 1, datasets.opened(), 2, {}, 0};
                            gauges.deviceBusyMs = {1500, 250};
+                           gauges.deviceWaitMs = {500, 2750};
                            return stats.toJson(gauges);
                          }};
   ConnectionState state;
@@ -216,6 +217,7 @@ TEST_F(MessageHandlerTest, GetStatsGivesTheServerStatistics) {
   EXPECT_EQ(j["sessions"]["active"], 3);
   EXPECT_EQ(j["render_threads"], 2);
   EXPECT_EQ(j["render_busy_s"], json::parse("[1.5, 0.25]")) << "each render thread's busy seconds";
+  EXPECT_EQ(j["render_wait_s"], json::parse("[0.5, 2.75]")) << "each render thread's seconds asking for a job";
   ASSERT_EQ(j["datasets"].size(), 1u);
   EXPECT_EQ(j["datasets"][0]["name"], "sparse");
 }

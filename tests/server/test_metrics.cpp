@@ -117,6 +117,7 @@ TEST(ServerMetrics, EveryFamilyHasHelpAndTypeAndEverySampleAFamily) {
   ServerStats stats;
   ServerStats::Gauges gauges;
   gauges.deviceBusyMs = {1500, 250};
+  gauges.deviceWaitMs = {500, 2750};
   gauges.tcpSessions = 2;
   gauges.webSocketSessions = 1;
   gauges.queuedByClass = {3, 0, 7};
@@ -132,6 +133,8 @@ TEST(ServerMetrics, EveryFamilyHasHelpAndTypeAndEverySampleAFamily) {
   }
   EXPECT_EQ(parsed.value("voxbrick_render_thread_busy_seconds_total", R"(thread="0")"), 1.5);
   EXPECT_EQ(parsed.value("voxbrick_render_thread_busy_seconds_total", R"(thread="1")"), 0.25);
+  EXPECT_EQ(parsed.value("voxbrick_render_thread_wait_seconds_total", R"(thread="0")"), 0.5);
+  EXPECT_EQ(parsed.value("voxbrick_render_thread_wait_seconds_total", R"(thread="1")"), 2.75);
   EXPECT_EQ(parsed.value("voxbrick_sessions", R"(transport="tcp")"), 2);
   EXPECT_EQ(parsed.value("voxbrick_sessions", R"(transport="websocket")"), 1);
   EXPECT_EQ(parsed.value("voxbrick_queue_depth", R"(class="interactive")"), 3);

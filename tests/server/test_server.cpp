@@ -820,6 +820,16 @@ TEST_F(ServerTest, ShortLoadWithFaultsLeavesGoodClientsUnharmed) {
   }
   // Resident memory stays bounded: a 64^3 store, two render threads and their atlases.
   EXPECT_LT(j["server"]["memory"]["peak_rss_bytes"].get<double>(), 1.5e9);
+  // The server's counters as the run began, and after it: the run's frames and render-thread seconds lie between.
+  const json& before = j["server_before"];
+  ASSERT_TRUE(before.is_object()) << before.dump();
+  EXPECT_GE(j["server"]["renders"]["frames"].get<int>() - before["renders"]["frames"].get<int>(),
+            j["frames"].get<int>());
+  ASSERT_EQ(before["render_busy_s"].size(), j["server"]["render_busy_s"].size());
+  double busyBefore = 0, busyAfter = 0;
+  for (size_t t = 0; t < before["render_busy_s"].size(); ++t)
+    busyBefore += before["render_busy_s"][t].get<double>(), busyAfter += j["server"]["render_busy_s"][t].get<double>();
+  EXPECT_GT(busyAfter, busyBefore) << "the run's drawing";
   EXPECT_TRUE(server->running());
   EXPECT_EQ(server->stop(SIGTERM), 0);
 }

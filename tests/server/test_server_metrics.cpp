@@ -114,10 +114,17 @@ TEST_F(MetricsEndpointTest, FiguresFollowWhatClientsDoOnBothTransports) {
   EXPECT_EQ(p.value("voxbrick_refusals_total", R"(reason="busy")"), 0);
   EXPECT_GT(p.value("voxbrick_render_thread_busy_seconds_total", R"(thread="0")"), 0);
   EXPECT_TRUE(std::isnan(p.value("voxbrick_render_thread_busy_seconds_total", R"(thread="1")"))) << "one thread";
+  // The thread waited for work before the first job and between them (the clients asked one frame at a time).
+  EXPECT_GT(p.value("voxbrick_render_thread_wait_seconds_total", R"(thread="0")"), 0);
   // The Stats JSON says the same, a figure for each render thread (nothing was drawn since the scrape).
-  const nlohmann::json busy = nlohmann::json::parse(tcp.stats())["render_busy_s"];
-  ASSERT_EQ(busy.size(), 1u) << busy.dump();
-  EXPECT_NEAR(busy[0].get<double>(), p.value("voxbrick_render_thread_busy_seconds_total", R"(thread="0")"), 1e-9);
+  const nlohmann::json stats = nlohmann::json::parse(tcp.stats());
+  ASSERT_EQ(stats["render_busy_s"].size(), 1u) << stats.dump();
+  EXPECT_NEAR(stats["render_busy_s"][0].get<double>(),
+              p.value("voxbrick_render_thread_busy_seconds_total", R"(thread="0")"), 1e-9);
+  ASSERT_EQ(stats["render_wait_s"].size(), 1u) << stats.dump();
+  EXPECT_GE(stats["render_wait_s"][0].get<double>(),
+            p.value("voxbrick_render_thread_wait_seconds_total", R"(thread="0")"))
+      << "still waiting since the scrape";
   EXPECT_GT(p.value("voxbrick_cache_hits_total", R"(dataset="sparse")") +
                 p.value("voxbrick_cache_misses_total", R"(dataset="sparse")"),
             0);
