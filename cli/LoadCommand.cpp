@@ -373,12 +373,11 @@ void runLoad(const LoadArgs& a) {
   int64_t unexpected = 0;
   const json faultsDone = faultCounts(tally, unexpected);
   printSummary(a, tally, seconds, unexpected, server);
-  if (!a.jsonPath.empty())
-    writeText(
-        a.jsonPath,
-        loadReport(a, tally, seconds, width, height, faultsDone, server, serverBefore, firstScene(a, width, height))
-                .dump(2) +
-            "\n");
+  if (!a.jsonPath.empty()) {
+    const json report =
+        loadReport(a, tally, seconds, width, height, faultsDone, server, serverBefore, firstScene(a, width, height));
+    writeText(a.jsonPath, report.dump(2) + "\n");
+  }
   if (a.requireClean && (tally.errors > 0 || unexpected > 0 || tally.frames == 0))
     throw std::runtime_error("the run was not clean: " + std::to_string(tally.errors) + " errors, " +
                              std::to_string(unexpected) + " unexpected fault replies, " + std::to_string(tally.frames) +

@@ -470,8 +470,7 @@ void RenderScheduler::renderLoop(render::FrameSource& source, int index) {
   if (broken) errorReply(broken, brokenContext);  // logs it once now
   Taken taken;
   EngineGauge& gauge = mGauges[size_t(index)];
-  for (gauge.enter(EngineGauge::Waiting, Clock::now()); next(taken);
-       gauge.enter(EngineGauge::Waiting, Clock::now())) {
+  for (gauge.enter(EngineGauge::Waiting, Clock::now()); next(taken); gauge.enter(EngineGauge::Waiting, Clock::now())) {
     const std::shared_ptr<Sink>& sink = taken.sink;
     const RenderJob& job = taken.job;
     const auto started = Clock::now();
