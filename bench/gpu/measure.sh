@@ -448,7 +448,7 @@ def share(j, key):
     """The render threads' share of the run in `key` (render_busy_s: drawing and encoding; render_wait_s: asking the
     scheduler for a job): their seconds over the run (the server's at its end less those as it began, `voxbrick
     load`'s server and server_before) over threads x the server's seconds between the two."""
-    if not j or key not in j.get("server", {}) or key not in (j.get("server_before") or {}):
+    if not j or key not in (j.get("server") or {}) or key not in (j.get("server_before") or {}):
         return float("nan")
     now, was = j["server"][key], j["server_before"][key]
     return (sum(now) - sum(was)) / (len(now) * (j["server"]["uptime_s"] - j["server_before"]["uptime_s"]))
@@ -472,7 +472,7 @@ with open(os.path.join(d, "crowd-load.csv"), "w") as csv:
         crowd = "crowd80" in f
         busy = share(j, "render_busy_s") if crowd else float("nan")
         wait = share(j, "render_wait_s") if crowd else float("nan")
-        row = (label, j["server"].get("render_threads", 0), j["frames"], j["frames_per_s"] / n, lat["p50"], lat["p95"],
+        row = (label, (j.get("server") or {}).get("render_threads", 0), j["frames"], j["frames_per_s"] / n, lat["p50"], lat["p95"],
                lat["p99"], float("nan") if jain is None else jain, j.get("busy", 0), len(took),
                sum(c["frames_per_s"] for c in took) / len(took) if took else float("nan"), busy, wait, j["errors"])
         print("| %s | %d | %d | %.2f | %.1f | %.1f | %.1f | %.3f | %d | %d | %.2f | %.2f | %.2f | %d |" % row)
