@@ -321,17 +321,10 @@ double RenderScheduler::EngineGauge::ms(State state, Clock::time_point now) cons
   return mMs[state] + (mState == state ? elapsedMs(mSince, now) : 0.0);
 }
 
-std::vector<double> RenderScheduler::deviceBusyMs() const {
+std::vector<double> RenderScheduler::threadMs(EngineGauge::State state) const {
   const auto now = Clock::now();
   std::vector<double> out(mGaugeCount);
-  for (size_t i = 0; i < mGaugeCount; ++i) out[i] = mGauges[i].ms(EngineGauge::Busy, now);
-  return out;
-}
-
-std::vector<double> RenderScheduler::deviceWaitMs() const {
-  const auto now = Clock::now();
-  std::vector<double> out(mGaugeCount);
-  for (size_t i = 0; i < mGaugeCount; ++i) out[i] = mGauges[i].ms(EngineGauge::Waiting, now);
+  for (size_t i = 0; i < mGaugeCount; ++i) out[i] = mGauges[i].ms(state, now);
   return out;
 }
 

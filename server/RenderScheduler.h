@@ -89,12 +89,13 @@ class RenderScheduler {
   size_t queuedSessions() const;
   /// Jobs waiting, by the class of each (frameClassOf), indexed by FrameClass.
   std::array<size_t, kFrameClasses> queuedByClass() const;
-  /// Milliseconds each render thread has spent drawing and encoding since it started, in thread order.
-  std::vector<double> deviceBusyMs() const;
+  /// Milliseconds each render thread has spent drawing and encoding since it started, in thread order, the frame in
+  /// progress included.
+  std::vector<double> deviceBusyMs() const { return threadMs(EngineGauge::Busy); }
   /// Milliseconds each render thread has spent asking the scheduler for its next job (waiting for work, or for the
-  /// scheduler's lock), in thread order. Its time beyond this and deviceBusyMs went to handing frames on and paging
-  /// ahead.
-  std::vector<double> deviceWaitMs() const;
+  /// scheduler's lock), in thread order, the wait in progress included. Its time beyond this and deviceBusyMs went to
+  /// handing frames on and paging ahead.
+  std::vector<double> deviceWaitMs() const { return threadMs(EngineGauge::Waiting); }
   /// Sessions that sent an interactive Render within kInteractiveWindow.
   size_t interactiveSessions() const;
   /// Frames given up part way: their session had gone, or a refinement was overtaken by a newer Render.
@@ -198,6 +199,8 @@ class RenderScheduler {
     std::chrono::steady_clock::time_point mSince = std::chrono::steady_clock::now();
     std::array<double, kStates> mMs{};
   };
+  /// Each thread's milliseconds in `state` until now (EngineGauge::ms).
+  std::vector<double> threadMs(EngineGauge::State state) const;
   std::unique_ptr<EngineGauge[]> mGauges;  ///< one per source, written by its thread
   size_t mGaugeCount = 0;
   std::atomic<uint64_t> mCancelled{0}, mShared{0}, mBusyRenders{0};

@@ -112,9 +112,11 @@ json ServerStats::toJson(const Gauges& gauges) const {
   for (const auto& entry : kRefusalNames) refusals[entry.name] = this->refusals(entry.value);
   // Each render thread's seconds drawing and encoding, and asking for its next job, since it started (as /metrics'
   // busy and wait counters).
-  json busySeconds = json::array(), waitSeconds = json::array();
-  for (const double ms : gauges.deviceBusyMs) busySeconds.push_back(ms / 1000);
-  for (const double ms : gauges.deviceWaitMs) waitSeconds.push_back(ms / 1000);
+  const auto seconds = [](const std::vector<double>& ms) {
+    json out = json::array();
+    for (const double v : ms) out.push_back(v / 1000);
+    return out;
+  };
   return {{"uptime_s", uptime},
           {"sessions",
            {{"active", gauges.activeSessions},
@@ -160,8 +162,8 @@ json ServerStats::toJson(const Gauges& gauges) const {
           {"uploads", {{"done", total(ServerEvent::Uploaded)}, {"refused", total(ServerEvent::UploadRefused)}}},
           {"limits", gauges.limits},
           {"render_threads", gauges.renderThreads},
-          {"render_busy_s", busySeconds},
-          {"render_wait_s", waitSeconds}};
+          {"render_busy_s", seconds(gauges.deviceBusyMs)},
+          {"render_wait_s", seconds(gauges.deviceWaitMs)}};
 }
 
 json ServerStats::videoJson() const {
@@ -262,15 +264,16 @@ std::string ServerStats::metricsText(const Gauges& gauges) const {
   m.family("voxbrick_queue_depth", Type::Gauge, "Render jobs waiting for a render thread, by class.");
   for (const FrameClass c : kAllFrameClasses) m.sample(double(gauges.queuedByClass[size_t(c)]), byClass(c));
   one("voxbrick_queued_sessions", Type::Gauge, "Sessions with a render job waiting.", double(gauges.queuedSessions));
-  m.family("voxbrick_render_thread_busy_seconds_total", Type::Counter,
-           "Seconds each render thread has spent drawing and encoding frames.");
-  for (size_t t = 0; t < gauges.deviceBusyMs.size(); ++t)
-    m.sample(gauges.deviceBusyMs[t] / 1000, {{"thread", std::to_string(t)}});
-  m.family("voxbrick_render_thread_wait_seconds_total", Type::Counter,
-           "Seconds each render thread has spent asking the scheduler for its next job (waiting for work, or for the "
-           "scheduler's lock).");
-  for (size_t t = 0; t < gauges.deviceWaitMs.size(); ++t)
-    m.sample(gauges.deviceWaitMs[t] / 1000, {{"thread", std::to_string(t)}});
+  const auto perThread = [&m](std::string_view name, std::string_view help, const std::vector<double>& ms) {
+    m.family(name, Type::Counter, help);
+    for (size_t t = 0; t < ms.size(); ++t) m.sample(ms[t] / 1000, {{"thread", std::to_string(t)}});
+  };
+  perThread("voxbrick_render_thread_busy_seconds_total",
+            "Seconds each render thread has spent drawing and encoding frames.", gauges.deviceBusyMs);
+  perThread("voxbrick_render_thread_wait_seconds_total",
+            "Seconds each render thread has spent asking the scheduler for its next job (waiting for work, or for "
+            "the scheduler's lock).",
+            gauges.deviceWaitMs);
 
   // Datasets' host caches.
   struct CacheFigure {

@@ -103,7 +103,8 @@ if [ "${1:-}" = "--step" ]; then
     port=$(cat "$WORK/port")
   }
   # The steps in Chromium: the browser kit's node and Chromium (BKIT, unpacked by the driver), tests/browser's
-  # packages where the harness imports them from, the GPU kit's voxbrick, and the MRI where their servers serve it.
+  # packages where the harness imports them from, the GPU kit's voxbrick, and the MRI where their servers serve it;
+  # the step's markdown names the browser kit.
   browser_env() {
     [ -n "${BKIT:-}" ] && [ -x "$BKIT/bin/node" ] || die "$name: no browser kit unpacked (bench/gpu/README.md)"
     [ -e tests/browser/node_modules ] || ln -s "$BKIT/node_modules" tests/browser/node_modules
@@ -113,6 +114,8 @@ if [ "${1:-}" = "--step" ]; then
     export VOXBRICK_BENCH_COMMAND="MEASURE_STEPS=$name bash bench/gpu/measure.sh"
     export VOXBRICK_BENCH_BUILD
     VOXBRICK_BENCH_BUILD="the GPU kit's, $(sed -n 's/^commit: //p' "$KIT/MANIFEST.txt" | cut -c1-12)"
+    echo "The browser kit: $(sed -n 's/^chromium: //p' "$BKIT/MANIFEST.txt"), node $("$BKIT/bin/node" --version)." >> "$md"
+    echo >> "$md"
   }
   # PSNR (dB) of two PNGs by voxbrick compare; inf when identical.
   psnr() {
@@ -487,8 +490,6 @@ PY
       browser_env
       args=(--datasets "$WORK/served" --dataset mri --tf mri --out "$dir/crowd")
       q && args+=(--tabs 2 --drag-clients 4 --batch-clients 4 --duration 3 --size 128 --batch-size 256)
-      echo "The browser kit: $(sed -n 's/^chromium: //p' "$BKIT/MANIFEST.txt"), node $("$BKIT/bin/node" --version)." >> "$md"
-      echo >> "$md"
       cmd "$BKIT/bin/node" bench/crowd.mjs "${args[@]}" 2>&1 | tee "$dir/crowd.log"
       [ -s "$dir/crowd.md" ] || die "crowd-browser: bench/crowd.mjs wrote no results (crowd.log)"
       { echo; sed -n '/^| scenario/,$p' "$dir/crowd.md"; } >> "$md"
@@ -500,8 +501,6 @@ PY
       browser_env
       sizes=${MEASURE_LINK_SIZES:-1024x1024 512x512 1920x1080}
       q && sizes=128x128
-      echo "The browser kit: $(sed -n 's/^chromium: //p' "$BKIT/MANIFEST.txt"), node $("$BKIT/bin/node" --version)." >> "$md"
-      echo >> "$md"
       for size in $sizes; do
         [ "$(left 10)" -gt 60 ] || { echo "- $size: skipped, too little time left" >> "$md"; continue; }
         args=(--datasets "$WORK/served" --out "$dir/link-$size" --sizes "$size" --encodings jpeg,vp8,vp9
