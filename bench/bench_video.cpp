@@ -5,7 +5,7 @@
 // bench/results/video/video.{csv,md}).
 //
 //   bench_video --csv OUT.csv --fps 30 FRAME.png... [--qualities 50,70,85] [--kbps 1000,2000,4000] [--threads 1,4]
-//               [--scales 1,0.5] [--speeds 8,6] [--rate-control cbr,vbr] [--aq 3,0]
+//               [--scales 1,0.5] [--speeds 8,6] [--fixed-speed] [--rate-control cbr,vbr] [--aq 3,0]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -79,6 +79,7 @@ Row videoRow(const std::vector<image::Image8>& frames, proto::Encoding codec, do
   std::snprintf(scaled, sizeof scaled, "; scale %g", scale);
   if (scale != 1) setting += scaled;
   if (settings.speed != defaults.speed) setting += "; speed " + std::to_string(settings.speed);
+  if (codec == proto::Encoding::Vp8 && !settings.adaptiveSpeed) setting += "; fixed speed";
   if (!settings.constantBitrate) setting += "; vbr";
   if (codec == proto::Encoding::Vp9 && settings.aqMode != defaults.aqMode)
     setting += "; aq " + std::to_string(settings.aqMode);
@@ -124,6 +125,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.05, 1.0));
   app.add_option("--speeds", speeds, "libvpx realtime speeds (VP8 4..16, VP9 5..9; each a row of every bitrate)")
       ->delimiter(',');
+  bool fixedSpeed = false;
+  app.add_flag("--fixed-speed", fixedSpeed,
+               "VP8 at each speed as set (the server lets libvpx adapt it to the time "
+               "encoding takes: image::VideoSettings::adaptiveSpeed)");
   std::vector<std::string> rateControls{"cbr"};
   std::vector<int> aqModes{image::VideoSettings{}.aqMode};
   app.add_option("--rate-control", rateControls, "cbr (the server's), vbr (each a row of every bitrate)")
@@ -151,6 +156,7 @@ int main(int argc, char** argv) {
                 for (int k : kbps) {
                   image::VideoSettings settings;
                   settings.bitrateKbps = k, settings.threads = t, settings.speed = speed;
+                  settings.adaptiveSpeed = !fixedSpeed;
                   settings.constantBitrate = rc == "cbr";
                   settings.aqMode = aq;
                   rows.push_back(videoRow(frames, codec, fps, scale, settings));

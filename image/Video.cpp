@@ -113,7 +113,9 @@ VideoEncoder::VideoEncoder(proto::Encoding codec, const VideoSettings& settings)
     const int tiles = settings.threads >= 4 ? 2 : settings.threads >= 2 ? 1 : 0;
     check(vpx_codec_control(&c.ctx, VP9E_SET_TILE_COLUMNS, tiles), &c.ctx, what);
   } else {
-    check(vpx_codec_control(&c.ctx, VP8E_SET_CPUUSED, std::clamp(settings.speed, 4, 16)), &c.ctx, what);
+    // libvpx's VP8 in realtime: a positive value lets it choose the speed frame by frame, a negative one fixes it.
+    const int speed = std::clamp(settings.speed, 4, 16);
+    check(vpx_codec_control(&c.ctx, VP8E_SET_CPUUSED, settings.adaptiveSpeed ? speed : -speed), &c.ctx, what);
     check(vpx_codec_control(&c.ctx, VP8E_SET_NOISE_SENSITIVITY, 0), &c.ctx, what);
     // Token partitions (1, 2, 4 or 8; log2 here) let the threads pack a frame's rows side by side.
     const int partitions = settings.threads >= 8 ? 3 : settings.threads >= 4 ? 2 : settings.threads >= 2 ? 1 : 0;

@@ -22,7 +22,11 @@ bool isVideoEncoding(proto::Encoding encoding);
 struct VideoSettings {
   int width = 0, height = 0;  ///< the coded size, each in 1 .. 16383
   int bitrateKbps = 2000;     ///< the rate control's target, >= 1
-  int speed = 8;              ///< libvpx's realtime speed (VP8: 4..16, VP9: 5..9; higher is faster and coarser)
+  /// libvpx's realtime speed (VP8: 4..16, VP9: 5..9; higher is faster and coarser). VP8 with `adaptiveSpeed` takes
+  /// it as a share of the frame interval instead: libvpx then picks each frame's speed from how long the last ones
+  /// took to encode, within (16 - speed) / 16 of the interval, so a busy machine gets coarser frames, not later ones.
+  int speed = 8;
+  bool adaptiveSpeed = true;  ///< VP8 only (VP9's speed is always as set); false: every frame at `speed`
   int threads = 1;            ///< encoder threads (VP8 splits a frame into token partitions, VP9 into tile columns)
   /// The rate control: constant bitrate (each frame near its share of the target, so frames never queue on a link of
   /// that rate), or variable (libvpx's VBR: the target is a mean, frames vary with the picture). bench_video compares
