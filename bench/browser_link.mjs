@@ -140,6 +140,9 @@ try {
         const row = { link, size: `${size[0]}x${size[1]}`, encoding, ...r };
         rows.push(row);
         console.log(JSON.stringify(row));
+        // The files after each row: a run stopped part way (a step's time limit on a lent machine) keeps what it
+        // measured.
+        writeResults(false);
       }
   }
 } finally {
@@ -150,43 +153,53 @@ try {
   await server.kill("SIGTERM");
   scratch.remove();
 }
+console.log(writeResults(true).join("\n"));
 
-const cols = ["link", "size", "encoding", "frames", "fps", "latency_p50_ms", "latency_p99_ms", "bytes_per_frame",
-  "encode_ms_p50", "decode_ms_p50", "psnr_db_mean", "psnr_db_min", "psnr_samples", "rung_p50", "key_frames", "bitrate_kbps_p50",
-  "exact_after_release_ms", "errors", "wrong_encoding"];
-D.writeCsv(`${opt.out}.csv`, cols, rows);
-fs.writeFileSync(`${opt.out}.json`, JSON.stringify({ ...report, rows, command: D.benchCommand() }, null, 2) + "\n");
-const jpegOf = (r) => rows.find((j) => j.link === r.link && j.size === r.size && j.encoding === "jpeg");
-const md = [
-  "# A drag in Chromium: JPEG against the video stream, on loopback and over a slow link",
-  "",
-  `- Command: \`${D.benchCommand()}\``,
-  `- Date: ${report.started}`,
-  `- Machine: ${report.machine.line}; load average at the start ${report.machine.load_average.join(", ")}, at the ` +
-    `end ${report.load_average_end.join(", ")} (above the cores' count, other work shared the machine)`,
-  `- Server: \`voxbrick serve\` (its defaults), GL: ${report.gl || "unknown"}`,
-  `- Dataset \`${opt.dataset}\`, transfer function \`${opt.tf}\`; a drag of ${opt.duration} s at ${opt.hz} Hz, ` +
-    `${DEG_PER_MOVE}° a move, through the page's own gesture handlers; a fresh tab for each row, its \`video\` ` +
-    "parameter picking the encoding of the moving frames (off: jpeg); exact frames png.",
-  `- relay: bench/link_relay.mjs between the browser and the server, ${opt.mbit} Mbit/s each way, ${opt.rttMs} ms ` +
-    "round trip, a 200 ms queue; the page, its WebSocket and every frame pass through it.",
-  "- Latency: from the camera change to the frame drawn on the canvas. Frames/s: frames shown a second while " +
-    "dragging. PSNR: the canvas mid-drag against the exact frame of the camera it shows (from the server, lossless), " +
-    `${opt.samples} samples a row; rung: the median moving frame's (0: drawn at full size, each rung coarser, scaled up); ` +
-    "bytes ratio: against JPEG's on the same link and size.",
-  "",
-  "| link | size | encoding | frames/s | latency p50 ms | p99 ms | bytes/frame | ratio | PSNR dB mean (min) | " +
-    "encode ms | decode ms | kbit/s | exact after release ms | errors |",
-  "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
-  ...rows.map((r) => {
-    const j = jpegOf(r);
-    const ratio = j && j.bytes_per_frame ? r.bytes_per_frame / j.bytes_per_frame : null;
-    return `| ${r.link} | ${r.size} | ${r.encoding} | ${fmt(r.fps)} | ${fmt(r.latency_p50_ms, 0)} | ` +
-      `${fmt(r.latency_p99_ms, 0)} | ${fmt(r.bytes_per_frame, 0)} | ${fmt(ratio, 2)} | ${fmt(r.psnr_db_mean)} ` +
-      `(${fmt(r.psnr_db_min)}) | ${fmt(r.rung_p50, 0)} | ${fmt(r.encode_ms_p50)} | ${fmt(r.decode_ms_p50)} | ${fmt(r.bitrate_kbps_p50, 0)} | ` +
-      `${fmt(r.exact_after_release_ms, 0)} | ${r.errors + r.wrong_encoding} |`;
-  }),
-  "",
-];
-fs.writeFileSync(`${opt.out}.md`, md.join("\n"));
-console.log(md.join("\n"));
+/// Writes PREFIX.csv, .json and .md of the rows so far; `done` once every row ran (until then the load average at
+/// the end is the latest one). Returns the markdown's lines.
+function writeResults(done) {
+  const loadNow = report.load_average_end || os.loadavg().map((v) => v.toFixed(2));
+  const gl = "gl" in report ? report.gl : D.glRenderer(server); // the server's log is gone once the run ended
+  const cols = ["link", "size", "encoding", "frames", "fps", "latency_p50_ms", "latency_p99_ms", "bytes_per_frame",
+    "encode_ms_p50", "decode_ms_p50", "psnr_db_mean", "psnr_db_min", "psnr_samples", "rung_p50", "key_frames",
+    "bitrate_kbps_p50", "exact_after_release_ms", "errors", "wrong_encoding"];
+  D.writeCsv(`${opt.out}.csv`, cols, rows);
+  fs.writeFileSync(`${opt.out}.json`,
+    JSON.stringify({ ...report, load_average_end: loadNow, gl, complete: done, rows, command: D.benchCommand() }, null,
+      2) + "\n");
+  const jpegOf = (r) => rows.find((j) => j.link === r.link && j.size === r.size && j.encoding === "jpeg");
+  const md = [
+    "# A drag in Chromium: JPEG against the video stream, on loopback and over a slow link",
+    "",
+    `- Command: \`${D.benchCommand()}\``,
+    `- Date: ${report.started}`,
+    `- Machine: ${report.machine.line}; load average at the start ${report.machine.load_average.join(", ")}, at the ` +
+      `end ${loadNow.join(", ")} (above the cores' count, other work shared the machine)`,
+    `- Server: \`voxbrick serve\` (its defaults), GL: ${gl || "unknown"}`,
+    `- Dataset \`${opt.dataset}\`, transfer function \`${opt.tf}\`; a drag of ${opt.duration} s at ${opt.hz} Hz, ` +
+      `${DEG_PER_MOVE}° a move, through the page's own gesture handlers; a fresh tab for each row, its \`video\` ` +
+      "parameter picking the encoding of the moving frames (off: jpeg); exact frames png.",
+    `- relay: bench/link_relay.mjs between the browser and the server, ${opt.mbit} Mbit/s each way, ${opt.rttMs} ms ` +
+      "round trip, a 200 ms queue; the page, its WebSocket and every frame pass through it.",
+    "- Latency: from the camera change to the frame drawn on the canvas. Frames/s: frames shown a second while " +
+      "dragging. PSNR: the canvas mid-drag against the exact frame of the camera it shows (from the server, lossless), " +
+      `${opt.samples} samples a row; rung: the median moving frame's (0: drawn at full size, each rung coarser, scaled up); ` +
+      "bytes ratio: against JPEG's on the same link and size.",
+    ...(done ? [] : [`- **Part of a run**: ${rows.length} rows so far; the run did not finish.`]),
+    "",
+    "| link | size | encoding | frames/s | latency p50 ms | p99 ms | bytes/frame | ratio | PSNR dB mean (min) | rung | " +
+      "encode ms | decode ms | kbit/s | exact after release ms | errors |",
+    "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ...rows.map((r) => {
+      const j = jpegOf(r);
+      const ratio = j && j.bytes_per_frame ? r.bytes_per_frame / j.bytes_per_frame : null;
+      return `| ${r.link} | ${r.size} | ${r.encoding} | ${fmt(r.fps)} | ${fmt(r.latency_p50_ms, 0)} | ` +
+        `${fmt(r.latency_p99_ms, 0)} | ${fmt(r.bytes_per_frame, 0)} | ${fmt(ratio, 2)} | ${fmt(r.psnr_db_mean)} ` +
+        `(${fmt(r.psnr_db_min)}) | ${fmt(r.rung_p50, 0)} | ${fmt(r.encode_ms_p50)} | ${fmt(r.decode_ms_p50)} | ` +
+        `${fmt(r.bitrate_kbps_p50, 0)} | ${fmt(r.exact_after_release_ms, 0)} | ${r.errors + r.wrong_encoding} |`;
+    }),
+    "",
+  ];
+  fs.writeFileSync(`${opt.out}.md`, md.join("\n"));
+  return md;
+}
