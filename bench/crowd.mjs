@@ -177,8 +177,10 @@ const machine = D.describeMachine();
 const started = new Date().toISOString();
 const runs = [];
 try {
-  for (const id of opt.scenarios)
-    for (const server of servers()) {
+  // Every scenario on this build first, then on the baseline: a run cut short (a step's time limit on a lent machine)
+  // keeps this build's whole set. The tables put each scenario's servers side by side (report).
+  for (const server of servers())
+    for (const id of opt.scenarios) {
       console.log(`${id} on ${server.name} (${server.exe}) ...`);
       const r = await runScenario(browser, id, server, scratch.dir);
       console.log(`  ${r.load.summary.split("\n")[0]}`);
@@ -193,7 +195,10 @@ console.log(report(runs).join("\n"));
 
 /// Writes PREFIX.csv, .json and .md of the scenarios run so far (after each one: a run stopped part way keeps what
 /// it measured); returns the markdown's lines.
-function report(runs) {
+function report(ran) {
+  // Scenario by scenario, this build before the baseline, whatever order they ran in.
+  const place = (r) => opt.scenarios.indexOf(r.id) * 2 + (r.server.name === "this build" ? 0 : 1);
+  const runs = [...ran].sort((a, b) => place(a) - place(b));
   // The load average once the crowds are gone: over the last minute it still holds the run's own work, so a figure well
   // above the start's over 5 and 15 minutes says something else ran beside it.
   const loadAtEnd = os.loadavg().map((v) => v.toFixed(2));

@@ -6,10 +6,11 @@
 # have mapped is read from /proc: each must come from the kits or glibc. A library from anywhere else is one the GPU
 # machine would lack.
 #
-#   bash bench/gpu/check_browserkit.sh [--pack] [--smoke] [--build build] [--dir DIR]
+#   bash bench/gpu/check_browserkit.sh [--pack] [--smoke] [--build build] [--dir DIR] [--baseline PATH]
 #
-# --pack first packs both kits afresh (zstd level 3) into DIR; otherwise bench/gpu/kit and bench/gpu/browserkit are
-# checked. --smoke, in place of measure.sh's steps: the parts unpacked and bench/gpu/browserkit_smoke.mjs run (the
+# --pack first packs both kits afresh (zstd level 3) into DIR, the GPU kit with the baseline voxbrick PATH when given
+# (pack.sh --baseline); otherwise bench/gpu/kit and bench/gpu/browserkit are checked. A GPU kit that carries a baseline
+# must give crowd-browser's table a baseline row for every scenario. --smoke, in place of measure.sh's steps: the parts unpacked and bench/gpu/browserkit_smoke.mjs run (the
 # kit's node drives its Chromium through puppeteer-core; text in the kit's fonts; WebCodecs decodes vp8 and vp9), with
 # the same look at the libraries (ctest's browserkit.PackAndSmoke: about 30 s). DIR (default a new temporary folder) is
 # emptied first. Without --smoke about 90 s on 2 cores.
@@ -21,13 +22,15 @@ build=build
 dir=
 pack=0
 smoke=0
+baseline=
 while [ $# -gt 0 ]; do
   case "$1" in
     --pack) pack=1; shift ;;
     --smoke) smoke=1; shift ;;
     --build) build=$2; shift 2 ;;
     --dir) dir=$2; shift 2 ;;
-    -h | --help) sed -n '2,17p' "$0"; exit 0 ;;
+    --baseline) baseline=$2; shift 2 ;;
+    -h | --help) sed -n '2,19p' "$0"; exit 0 ;;
     *) echo "check_browserkit.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -42,7 +45,8 @@ kitdir=bench/gpu/kit
 bkdir=bench/gpu/browserkit
 if [ "$pack" = 1 ]; then
   if [ "$smoke" = 0 ]; then
-    bash bench/gpu/pack.sh --build "$build" --out "$dir/kit" --level 3 > "$dir/pack.log" 2>&1 ||
+    bash bench/gpu/pack.sh --build "$build" --out "$dir/kit" --level 3 ${baseline:+--baseline "$baseline"} \
+      > "$dir/pack.log" 2>&1 ||
       die "pack.sh failed: $(tail -3 "$dir/pack.log")"
     kitdir=$dir/kit
   fi
@@ -126,6 +130,19 @@ else
   grep -qE '^\| crowd-browser \| ok' "$dir/out/summary.md" && grep -qE '^\| browser-link \| ok' "$dir/out/summary.md" ||
     die "a browser step did not end ok: $(cat "$dir/out/summary.md")"
   what="crowd-browser and browser-link ran (tiny)"
+  # A kit with a baseline: each scenario's row on it too (the CSV's first two columns, quoted: scenario, server).
+  # (the listing whole first: grep -q leaving early would end tar by SIGPIPE, a failed pipeline under pipefail)
+  listing=$(zstd -dcq "$kitdir/voxbrick-gpukit.tar.zst" | tar -tf -)
+  if grep -qx 'voxbrick-gpukit/baseline/voxbrick' <<< "$listing"; then
+    csv=$dir/work/results/crowd-browser/crowd.csv
+    for scenario in A B "B'"; do
+      for server in "this build" baseline; do
+        grep -qF "\"$scenario\",\"$server\"," "$csv" 2> /dev/null ||
+          die "crowd-browser has no row for scenario $scenario on $server: $(cat "$csv" 2> /dev/null || echo 'no crowd.csv')"
+      done
+    done
+    what="$what, every crowd scenario on this build and on the baseline ($(sed -n 's/^baseline: //p' "$dir/work/voxbrick-gpukit/MANIFEST.txt"))"
+  fi
 fi
 sort -u "$dir/maps.txt" -o "$dir/maps.txt"
 [ -s "$dir/maps.txt" ] || die "no library of the kit's Chromium or node was seen mapped (did they run?)"

@@ -4,10 +4,12 @@
 # `voxbrick --version`, one tiny prep and render through whatever EGL the machine has (Mesa here, NVIDIA's there),
 # and the OSMesa backend, which must report that it is unavailable (the kit's stub).
 #
-#   bash bench/gpu/check_kit.sh [--pack] [--build build] [--kit bench/gpu/kit] [--dir DIR]
+#   bash bench/gpu/check_kit.sh [--pack] [--build build] [--kit bench/gpu/kit] [--dir DIR] [--baseline PATH]
 #
 # --pack first packs a fresh kit (zstd level 3, into a temporary folder) from --build, so the check needs no kit made
-# before (this is what ctest's gpukit.PackAndRun runs). DIR (default a new temporary folder) is emptied first.
+# before (this is what ctest's gpukit.PackAndRun runs); its baseline (pack.sh --baseline) is PATH, or else the build's
+# own voxbrick standing in for one. A kit's baseline must resolve its libraries in the kit and start. DIR (default a
+# new temporary folder) is emptied first.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$here"
@@ -16,13 +18,15 @@ build=build
 kitdir=bench/gpu/kit
 dir=
 pack=0
+baseline=
 while [ $# -gt 0 ]; do
   case "$1" in
     --pack) pack=1; shift ;;
     --build) build=$2; shift 2 ;;
     --kit) kitdir=$2; shift 2 ;;
     --dir) dir=$2; shift 2 ;;
-    -h | --help) sed -n '2,10p' "$0"; exit 0 ;;
+    --baseline) baseline=$2; shift 2 ;;
+    -h | --help) sed -n '2,12p' "$0"; exit 0 ;;
     *) echo "check_kit.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -31,7 +35,13 @@ die() { echo "check_kit.sh: FAILED: $*" >&2; exit 1; }
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 if [ "$pack" = 1 ]; then
-  bash bench/gpu/pack.sh --build "$build" --out "$tmp/kit" --level 3 > "$tmp/pack.log" 2>&1 ||
+  if [ -z "$baseline" ]; then
+    mkdir -p "$tmp/baseline"
+    cp "$build/voxbrick" "$tmp/baseline/voxbrick"
+    git rev-parse HEAD > "$tmp/baseline/COMMIT" 2> /dev/null || echo unknown > "$tmp/baseline/COMMIT"
+    baseline=$tmp/baseline/voxbrick
+  fi
+  bash bench/gpu/pack.sh --build "$build" --out "$tmp/kit" --level 3 --baseline "$baseline" > "$tmp/pack.log" 2>&1 ||
     die "pack.sh failed: $(cat "$tmp/pack.log")"
   kitdir=$tmp/kit
 fi
@@ -54,7 +64,7 @@ run() { clean LD_LIBRARY_PATH="$libs" VOXBRICK_CONFIG_DIR="$kit/config" "$@"; }
 # Every library from the kit, or glibc's, or a GL loader's (which the GPU machine brings).
 system_ok='^(libc|libm|libpthread|libdl|librt|libresolv|libutil|libmvec|libanl|ld-linux-x86-64|linux-vdso|libEGL|libGL|libGLX|libOpenGL|libGLdispatch|libGLESv2)\.so'
 bad=0
-for program in "$kit"/bin/*; do
+for program in "$kit"/bin/* $([ ! -e "$kit/baseline/voxbrick" ] || echo "$kit/baseline/voxbrick"); do
   while read -r line; do
     name=${line%% *}
     path=$(awk '{for (i = 1; i < NF; ++i) if ($i == "=>") print $(i + 1)}' <<< "$line")
@@ -70,6 +80,11 @@ echo "check_kit.sh: every library of $(ls "$kit/bin" | tr '\n' ' ')resolves to t
 
 version=$(run "$kit/bin/voxbrick" --version) || die "voxbrick --version failed"
 echo "check_kit.sh: $version"
+if [ -e "$kit/baseline/voxbrick" ]; then
+  [ -s "$kit/baseline/COMMIT" ] || die "the kit's baseline comes without baseline/COMMIT"
+  base_version=$(run "$kit/baseline/voxbrick" --version) || die "the kit's baseline/voxbrick --version failed"
+  echo "check_kit.sh: baseline $base_version ($(cut -c1-7 "$kit/baseline/COMMIT"))"
+fi
 
 run "$kit/bin/voxbrick" prep synthetic:sparse,n=32 --brick 16 --no-vdb -q -o "$dir/sparse" > "$dir/prep.log" 2>&1 ||
   die "voxbrick prep failed: $(cat "$dir/prep.log")"

@@ -44,7 +44,8 @@
 #
 # Only when MEASURE_STEPS names them, with the browser kit (bench/gpu/pack_browser.sh; README.md has the calls):
 #   crowd-browser  200  bench/crowd.mjs: 16 headless Chromium tabs dragging beside 64 TCP draggers, beside 64 clients
-#                       asking 1024^2 still frames, and with --batch; every target of the crowd judged
+#                       asking 1024^2 still frames, and with --batch; every target of the crowd judged; 320 s when the
+#                       kit carries a baseline (pack.sh --baseline), whose server runs each scenario after this build's
 #   browser-link   240  bench/browser_link.mjs: a drag in Chromium at 1024^2 (then 512^2, 1920x1080 while time is
 #                       left), JPEG, vp8 and vp9, through a 10 Mbit/s, 40 ms relay and on loopback
 #
@@ -486,10 +487,12 @@ PY
     crowd-browser)
       # bench/crowd.mjs as on the development machine: 16 headless Chromium tabs dragging the MRI at 512² beside 64
       # TCP draggers (A), beside 64 clients asking 1024² still frames (B), and with --batch (B'); the browser kit's
-      # Chromium and node, the GPU kit's voxbrick (each scenario on a fresh server).
+      # Chromium and node, the GPU kit's voxbrick (each scenario on a fresh server); then, when the kit carries one
+      # (pack.sh --baseline), every scenario again on the baseline's server, for the same table.
       browser_env
       args=(--datasets "$WORK/served" --dataset mri --tf mri --out "$dir/crowd")
       q && args+=(--tabs 2 --drag-clients 4 --batch-clients 4 --duration 3 --size 128 --batch-size 256)
+      if [ -x "$KIT/baseline/voxbrick" ]; then args+=(--baseline-exe "$KIT/baseline/voxbrick"); fi
       cmd "$BKIT/bin/node" bench/crowd.mjs "${args[@]}" 2>&1 | tee "$dir/crowd.log"
       [ -s "$dir/crowd.md" ] || die "crowd-browser: bench/crowd.mjs wrote no results (crowd.log)"
       { echo; sed -n '/^| scenario/,$p' "$dir/crowd.md"; } >> "$md"
@@ -662,6 +665,10 @@ else
 fi
 export KIT=$WORK/voxbrick-gpukit
 export VOXBRICK_CONFIG_DIR=$KIT/config
+if [ -x "$KIT/baseline/voxbrick" ]; then
+  cap[crowd-browser]=320
+  echo "measure.sh: the kit carries a baseline ($(cut -c1-7 "$KIT/baseline/COMMIT")): crowd-browser runs its scenarios on it too"
+fi
 
 # The browser kit, for the steps in Chromium: its parts from this call's carry (MEASURE_BROWSERKIT, default
 # bench/gpu/browserkit) or stashed in /tmp by earlier calls (bench/gpu/stash_browserkit.sh), checked against SHA256SUMS.

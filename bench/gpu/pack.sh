@@ -3,9 +3,12 @@
 # need except glibc's own and the GL loaders, a stub libOSMesa, the configuration directory and the demo MRI, into
 # one zstd archive that bench/gpu/measure.sh unpacks on a GPU machine.
 #
-#   bash bench/gpu/pack.sh [--build build] [--out bench/gpu/kit] [--level 19]
+#   bash bench/gpu/pack.sh [--build build] [--out bench/gpu/kit] [--level 19] [--baseline PATH]
 #
 # Writes OUT/voxbrick-gpukit.tar.zst and OUT/unzstd/ (a zstd binary and its libraries, for a machine without zstd).
+# --baseline PATH: a voxbrick built from an earlier commit (bench/gpu/build_baseline.sh; a file COMMIT beside it names
+# the commit) goes into the kit as baseline/voxbrick, with its libraries: the crowd-browser step runs each scenario on
+# it too, so that the GPU's table holds the earlier server's figures beside this build's.
 # Left out, and why:
 #   - glibc (libc, libm, libpthread, libdl, librt, libresolv, libutil, libmvec, ld-linux): the GPU machine's own;
 #   - the GL loaders (libEGL, libGL, libGLX, libOpenGL, libGLdispatch, libGLESv2): from the .gl debs there, which
@@ -19,12 +22,14 @@ cd "$(dirname "$0")/../.."
 build=build
 out=bench/gpu/kit
 level=19
+baseline=
 while [ $# -gt 0 ]; do
   case "$1" in
     --build) build=$2; shift 2 ;;
     --out) out=$2; shift 2 ;;
     --level) level=$2; shift 2 ;;
-    -h | --help) sed -n '2,16p' "$0"; exit 0 ;;
+    --baseline) baseline=$2; shift 2 ;;
+    -h | --help) sed -n '2,19p' "$0"; exit 0 ;;
     *) echo "pack.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -47,6 +52,10 @@ golden="$build/bench/frame_golden"
 if [ -x "$golden" ] && [ "$(stat -c %s "$golden")" -lt $((16 << 20)) ]; then binaries+=("$golden"); fi
 # The link relay when it is built (the video-link step).
 if [ -x "$build/bench/bench_link_relay" ]; then binaries+=("$build/bench/bench_link_relay"); fi
+if [ -n "$baseline" ]; then
+  [ -x "$baseline" ] || die "--baseline $baseline is not an executable"
+  [ -f "$(dirname "$baseline")/COMMIT" ] || die "--baseline: no COMMIT beside $baseline names its commit"
+fi
 
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
@@ -68,8 +77,12 @@ done
 # Libraries: ldd with the stub first on the path, so the closure is the kit's (no LLVM).
 skip='^(libc|libm|libpthread|libdl|librt|libresolv|libutil|libmvec|libanl|ld-linux-x86-64|ld-linux|linux-vdso|libEGL|libGL|libGLX|libOpenGL|libGLdispatch|libGLESv2)\.so'
 packed=()
-for b in "${binaries[@]}"; do
-  cp "$b" "$kit/bin/"
+if [ -n "$baseline" ]; then
+  mkdir -p "$kit/baseline"
+  cp "$(dirname "$baseline")/COMMIT" "$kit/baseline/COMMIT"
+fi
+for b in "${binaries[@]}" ${baseline:+"$baseline"}; do
+  if [ "$b" = "$baseline" ]; then cp "$b" "$kit/baseline/voxbrick"; else cp "$b" "$kit/bin/"; fi
   while read -r name arrow path _; do
     [ "$arrow" = "=>" ] || continue
     [[ "$name" =~ $skip ]] && continue
@@ -102,6 +115,7 @@ cat "$build/build.ninja" "$build/tests/CMakeFiles/test_render.dir/flags.make" 2>
   echo "commit: $(git rev-parse HEAD 2>/dev/null || echo unknown)$(git diff --quiet HEAD 2>/dev/null || echo ' (with local changes)')"
   echo "glibc: $(ldd --version | head -1)"
   echo "binaries: $(cd "$kit/bin" && ls | tr '\n' ' ')"
+  [ -z "$baseline" ] || echo "baseline: baseline/voxbrick, $(cat "$kit/baseline/COMMIT")"
   echo "stub: lib/$soname from bench/gpu/osmesa_stub.c"
   echo "libraries:"
   printf '  %s\n' "${packed[@]}"
