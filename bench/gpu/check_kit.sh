@@ -76,7 +76,7 @@ for program in "$kit"/bin/* $([ ! -e "$kit/baseline/voxbrick" ] || echo "$kit/ba
   done < <(run ldd "$program")
 done
 [ "$bad" = 0 ] || die "libraries resolve outside the kit (above)"
-echo "check_kit.sh: every library of $(ls "$kit/bin" | tr '\n' ' ')resolves to the kit, glibc or a GL loader"
+echo "check_kit.sh: every library of $(ls "$kit/bin" | tr '\n' ' ')$([ ! -e "$kit/baseline/voxbrick" ] || echo 'baseline/voxbrick ')resolves to the kit, glibc or a GL loader"
 
 version=$(run "$kit/bin/voxbrick" --version) || die "voxbrick --version failed"
 echo "check_kit.sh: $version"

@@ -77,25 +77,28 @@ done
 # Libraries: ldd with the stub first on the path, so the closure is the kit's (no LLVM).
 skip='^(libc|libm|libpthread|libdl|librt|libresolv|libutil|libmvec|libanl|ld-linux-x86-64|ld-linux|linux-vdso|libEGL|libGL|libGLX|libOpenGL|libGLdispatch|libGLESv2)\.so'
 packed=()
-if [ -n "$baseline" ]; then
-  mkdir -p "$kit/baseline"
-  cp "$(dirname "$baseline")/COMMIT" "$kit/baseline/COMMIT"
-fi
-for b in "${binaries[@]}" ${baseline:+"$baseline"}; do
-  if [ "$b" = "$baseline" ]; then cp "$b" "$kit/baseline/voxbrick"; else cp "$b" "$kit/bin/"; fi
+# Copies program $1 to folder $2 of the kit, and every library it needs that the kit lacks.
+pack_program() {
+  cp "$1" "$2"
   while read -r name arrow path _; do
     [ "$arrow" = "=>" ] || continue
     [[ "$name" =~ $skip ]] && continue
     [ "$name" = "$soname" ] && continue
-    [ "$path" != "not" ] || die "$b: $name not found"
+    [ "$path" != "not" ] || die "$1: $name not found"
     dest=$kit/lib
     case "$name" in libstdc++.so.* | libgcc_s.so.*) dest=$kit/lib/cxx ;; esac
     if [ ! -e "$dest/$name" ]; then
       cp "$(readlink -f "$path")" "$dest/$name"
       packed+=("$name <- $(readlink -f "$path")")
     fi
-  done < <(LD_LIBRARY_PATH="$kit/lib" ldd "$b")
-done
+  done < <(LD_LIBRARY_PATH="$kit/lib" ldd "$1")
+}
+for b in "${binaries[@]}"; do pack_program "$b" "$kit/bin/"; done
+if [ -n "$baseline" ]; then
+  mkdir -p "$kit/baseline"
+  cp "$(dirname "$baseline")/COMMIT" "$kit/baseline/COMMIT"
+  pack_program "$baseline" "$kit/baseline/voxbrick"
+fi
 
 cp -r config "$kit/config"
 cp "$mri" "$kit/data/"
