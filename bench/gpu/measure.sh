@@ -718,7 +718,7 @@ else
   export LD_LIBRARY_PATH=$KIT/lib:$KIT/lib/cxx${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
 fi
 # The GL loaders (the .gl debs) and NVIDIA's EGL vendor library.
-ldconfig -p 2> /dev/null | grep -q 'libEGL\.so\.1 ' || [ -n "$(find /usr/lib /lib -name 'libEGL.so.1' 2> /dev/null | head -1)" ] ||
+ldconfig -p 2> /dev/null | awk '/libEGL\.so\.1 / {found = 1} END {exit !found}' || [ -n "$(find /usr/lib /lib -name 'libEGL.so.1' 2> /dev/null | head -1)" ] ||
   die "no libEGL.so.1: unpack the GL loader debs first (for f in .gl/*.deb; do dpkg -x \$f /; done; ldconfig)"
 nvidia_json=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
 if [ -z "${__EGL_VENDOR_LIBRARY_FILENAMES:-}" ] && [ -f "$nvidia_json" ]; then
