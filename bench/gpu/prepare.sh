@@ -8,7 +8,7 @@
 # baseline (build_baseline.sh) and packs it into the GPU kit, packs the browser kit (pack_browser.sh) and runs both
 # browser steps at tiny sizes from it (check_browserkit.sh). Then checks that each call carries at most 64 MiB (the
 # working tree travels with every call) and prints the calls to make. About 2 minutes without --browser once built;
-# with it, 6 more (the browser kit at zstd 19), and 10 more the first time (the baseline's build).
+# with it, 6 more (the browser kit at zstd 19), and 5 more the first time (the baseline's build).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 
