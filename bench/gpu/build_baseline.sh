@@ -22,6 +22,7 @@ while [ $# -gt 0 ]; do
 done
 
 die() { echo "build_baseline.sh: $*" >&2; exit 1; }
+[ -n "$dir" ] || die "--dir names no folder"
 full=$(git rev-parse --verify --quiet "$commit^{commit}") || die "no commit '$commit' in this repository"
 src=$dir/src
 if [ -d "$src" ] && [ "$(git -C "$src" rev-parse HEAD 2> /dev/null)" != "$full" ]; then
