@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The folder rules that include paths cannot enforce (tests/CMakeLists.txt probes the rest with the compiler):
 # system GL/EGL/OSMesa headers and GL calls only in render/gl/ (the folder alone decides: no build file is read),
-# Asio and OpenSSL only in server/, client/ and cli/, OpenVDB only in brickstore/'s vdb, ingest/vdb, prep and read
-# folders, GDCM only in brickstore/ingest/dicom/, libtiff only in brickstore/ingest/tiff/ (tests may use them to write
-# files) and libcurl only in brickstore/ingest/dicomweb/,
+# Asio and OpenSSL only in server/, client/ and cli/, OpenVDB only in brickstore/vdb/ and the OpenVDB module
+# (brickstore/modules/openvdb/), GDCM only in the GDCM module (brickstore/modules/gdcm/), libtiff only in
+# brickstore/ingest/tiff/ (tests may use them to write files) and libcurl only in brickstore/ingest/dicomweb/,
 # MPI only in distributed/, cli/, bench/ and tests, nothing of bench/ (tools only, no library) included from outside
 # it, and no include that climbs out of the folders by a relative path.
 # Prints every violation as FILE:LINE: text and exits 1 if there is any. Run from the repository root.
@@ -32,9 +32,9 @@ mapfile -t notGl < <(sources common brickstore mesh proto image server client cl
 # bench/bench_link_relay.cpp is a TCP relay (a slow link for the benchmarks), not part of the service.
 mapfile -t notAsio < <(sources common brickstore mesh proto image render quality bench | grep -v '^bench/bench_link_relay.cpp$')
 mapfile -t notVdb < <(sources common mesh proto image render quality server client cli bench;
-                       sources brickstore | grep -vE '^brickstore/(vdb|ingest/vdb|prep|read)/')
+                       sources brickstore | grep -vE '^brickstore/(vdb|modules/openvdb)/')
 mapfile -t notGdcm < <(sources common brickstore mesh proto image render quality server client cli bench |
-                       grep -v '^brickstore/ingest/dicom/')
+                       grep -v '^brickstore/modules/gdcm/')
 mapfile -t notTiff < <(sources common brickstore mesh proto image render quality server client cli bench |
                        grep -v '^brickstore/ingest/tiff/')
 mapfile -t notCurl < <(sources common brickstore mesh proto image render quality server client cli bench |
@@ -48,8 +48,8 @@ forbid "GL, EGL or OSMesa calls outside render/gl/" '\b(gl|egl)[A-Z][A-Za-z0-9]*
   "${notGl[@]}"
 forbid "Asio outside server/, client/, cli/ and the benchmarks' link relay" '#include <boost/asio' "${notAsio[@]}"
 forbid "OpenSSL outside server/, client/ and cli/" '#include <openssl/' "${notAsio[@]}"
-forbid "OpenVDB outside brickstore/vdb/, ingest/vdb/, prep/ and read/" '#include <(openvdb|nanovdb)/' "${notVdb[@]}"
-forbid "GDCM outside brickstore/ingest/dicom/" '#include <gdcm[A-Za-z0-9]*\.h>' "${notGdcm[@]}"
+forbid "OpenVDB outside brickstore/vdb/ and brickstore/modules/openvdb/" '#include <(openvdb|nanovdb)/' "${notVdb[@]}"
+forbid "GDCM outside brickstore/modules/gdcm/" '#include <gdcm[A-Za-z0-9]*\.h>' "${notGdcm[@]}"
 forbid "libtiff outside brickstore/ingest/tiff/" '#include <tiff[a-z]*\.h>' "${notTiff[@]}"
 forbid "libcurl outside brickstore/ingest/dicomweb/" '#include <curl/' "${notCurl[@]}"
 forbid "MPI outside distributed/, cli/, bench/ and tests" '#include <mpi\.h>' "${notMpi[@]}"

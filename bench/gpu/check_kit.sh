@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Checks a GPU kit from a clean directory with only its own libraries: unpacks it with the kit's own zstd, checks
-# that every library of every program resolves to the kit or to glibc / the GL loaders, then runs
-# `voxbrick --version`, one tiny prep and render through whatever EGL the machine has (Mesa here, NVIDIA's there),
+# that every library of every program and module resolves to the kit or to glibc / the GL loaders, then runs
+# `voxbrick --version`, one tiny prep (its grid written and read back by the kit's OpenVDB module) and render through
+# whatever EGL the machine has (Mesa here, NVIDIA's there),
 # and the OSMesa backend, which must report that it is unavailable (the kit's stub).
 #
 #   bash bench/gpu/check_kit.sh [--pack] [--build build] [--kit bench/gpu/kit] [--dir DIR] [--baseline PATH]
@@ -64,7 +65,11 @@ run() { clean LD_LIBRARY_PATH="$libs" VOXBRICK_CONFIG_DIR="$kit/config" "$@"; }
 # Every library from the kit, or glibc's, or a GL loader's (which the GPU machine brings).
 system_ok='^(libc|libm|libpthread|libdl|librt|libresolv|libutil|libmvec|libanl|ld-linux-x86-64|linux-vdso|libEGL|libGL|libGLX|libOpenGL|libGLdispatch|libGLESv2)\.so'
 bad=0
-for program in "$kit"/bin/* $([ ! -e "$kit/baseline/voxbrick" ] || echo "$kit/baseline/voxbrick"); do
+# voxbrick's modules, which its programs look for in lib/voxbrick/ (beside bin/; common/Modules.h).
+for module in openvdb gdcm; do
+  [ -e "$kit/lib/voxbrick/libvoxbrick_$module.so" ] || die "the kit lacks lib/voxbrick/libvoxbrick_$module.so"
+done
+for program in "$kit"/bin/* "$kit"/lib/voxbrick/* $([ ! -e "$kit/baseline/voxbrick" ] || echo "$kit/baseline/voxbrick"); do
   while read -r line; do
     name=${line%% *}
     path=$(awk '{for (i = 1; i < NF; ++i) if ($i == "=>") print $(i + 1)}' <<< "$line")
@@ -76,7 +81,7 @@ for program in "$kit"/bin/* $([ ! -e "$kit/baseline/voxbrick" ] || echo "$kit/ba
   done < <(run ldd "$program")
 done
 [ "$bad" = 0 ] || die "libraries resolve outside the kit (above)"
-echo "check_kit.sh: every library of $(ls "$kit/bin" | tr '\n' ' ')$([ ! -e "$kit/baseline/voxbrick" ] || echo 'baseline/voxbrick ')resolves to the kit, glibc or a GL loader"
+echo "check_kit.sh: every library of $(ls "$kit/bin" "$kit/lib/voxbrick" | grep -v -e ':$' -e '^$' | tr '\n' ' ')$([ ! -e "$kit/baseline/voxbrick" ] || echo 'baseline/voxbrick ')resolves to the kit, glibc or a GL loader"
 
 version=$(run "$kit/bin/voxbrick" --version) || die "voxbrick --version failed"
 echo "check_kit.sh: $version"
@@ -86,8 +91,13 @@ if [ -e "$kit/baseline/voxbrick" ]; then
   echo "check_kit.sh: baseline $base_version ($(cut -c1-7 "$kit/baseline/COMMIT"))"
 fi
 
-run "$kit/bin/voxbrick" prep synthetic:sparse,n=32 --brick 16 --no-vdb -q -o "$dir/sparse" > "$dir/prep.log" 2>&1 ||
+# With its grid (vdb/): the kit's OpenVDB module writes it, and reads it back below.
+run "$kit/bin/voxbrick" prep synthetic:sparse,n=32 --brick 16 -q -o "$dir/sparse" > "$dir/prep.log" 2>&1 ||
   die "voxbrick prep failed: $(cat "$dir/prep.log")"
+run "$kit/bin/voxbrick" info "$dir/sparse/vdb/level0-z00000.vdb" > "$dir/info.log" 2>&1 ||
+  die "voxbrick info of the store's grid failed (the OpenVDB module): $(cat "$dir/info.log")"
+grep -q "read live" "$dir/info.log" || die "voxbrick info did not read the grid live: $(cat "$dir/info.log")"
+echo "check_kit.sh: the OpenVDB module wrote and read $(basename "$dir")/sparse/vdb/level0-z00000.vdb"
 run "$kit/bin/voxbrick" render "$dir/sparse" --size 32x32 --tf sparse --stats "$dir/frame.json" -o "$dir/frame.png" \
   > "$dir/render.log" 2>&1 || die "voxbrick render failed (no EGL context?): $(cat "$dir/render.log")"
 [ -s "$dir/frame.png" ] && [ -s "$dir/frame.json" ] || die "voxbrick render wrote no frame: $(cat "$dir/render.log")"

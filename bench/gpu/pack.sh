@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Packs a GPU kit: the built voxbrick, bench_render, test_render (and frame_golden) with every shared library they
-# need except glibc's own and the GL loaders, a stub libOSMesa, the configuration directory and the demo MRI, into
+# Packs a GPU kit: the built voxbrick, bench_render, test_render (and frame_golden) and voxbrick's modules, with every
+# shared library they need except glibc's own and the GL loaders, a stub libOSMesa, the configuration directory and the demo MRI, into
 # one zstd archive that bench/gpu/measure.sh unpacks on a GPU machine.
 #
 #   bash bench/gpu/pack.sh [--build build] [--out bench/gpu/kit] [--level 19] [--baseline PATH]
@@ -94,6 +94,12 @@ pack_program() {
   done < <(LD_LIBRARY_PATH="$kit/lib" ldd "$1")
 }
 for b in "${binaries[@]}"; do pack_program "$b" "$kit/bin/"; done
+# voxbrick's modules (common/Modules.h: OpenVDB's and GDCM's code, loaded on first use), where a program in bin/
+# looks for them: lib/voxbrick/.
+modules=("$build"/modules/libvoxbrick_*.so)
+[ -e "${modules[0]}" ] || die "$build/modules holds no module (cmake --build $build --target voxbrick builds them)"
+mkdir -p "$kit/lib/voxbrick"
+for m in "${modules[@]}"; do pack_program "$m" "$kit/lib/voxbrick/"; done
 if [ -n "$baseline" ]; then
   mkdir -p "$kit/baseline"
   cp "$(dirname "$baseline")/COMMIT" "$kit/baseline/COMMIT"
@@ -118,6 +124,7 @@ cat "$build/build.ninja" "$build/tests/CMakeFiles/test_render.dir/flags.make" 2>
   echo "commit: $(git rev-parse HEAD 2>/dev/null || echo unknown)$(git diff --quiet HEAD 2>/dev/null || echo ' (with local changes)')"
   echo "glibc: $(ldd --version | head -1)"
   echo "binaries: $(cd "$kit/bin" && ls | tr '\n' ' ')"
+  echo "modules: lib/voxbrick/ ($(cd "$kit/lib/voxbrick" && ls | tr '\n' ' '))"
   [ -z "$baseline" ] || echo "baseline: baseline/voxbrick, $(cat "$kit/baseline/COMMIT")"
   echo "stub: lib/$soname from bench/gpu/osmesa_stub.c"
   echo "libraries:"

@@ -258,7 +258,7 @@ LevelBuild writeLevel0(const PrepPlan& plan, const fs::path& dir, common::Output
   const VolumeInfo& info = plan.info;
   Level0Stats stats(info, plan.background, options.nonFinite);
   if (options.writeVdb)
-    vdb = std::make_unique<VdbChunkWriter>(dir, info, plan.background, plan.memory.chunkSlices, options.vdbCompression);
+    vdb = VdbChunkWriter::make(dir, info, plan.background, plan.memory.chunkSlices, options.vdbCompression);
   SlabBricker bricker(plan.level0Source, options.brickSize, plan.background, options.zstdLevel, bricks);
   bricker.setSlabsInFlight(plan.memory.level0InFlight);
   const int64_t sliceBytes = plan.input.dims.x * plan.input.dims.y * static_cast<int64_t>(valueSize(plan.input.type));

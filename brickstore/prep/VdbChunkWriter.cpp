@@ -1,128 +1,30 @@
-// Writing level 0 as OpenVDB grids, chunk by chunk: each chunk's leaves cut as its slices arrive, its file written
-// on a thread of its own while the next chunk is cut.
+// VdbChunkWriter: the OpenVDB module's (brickstore/modules/openvdb), the module loaded on first use.
 #include "brickstore/prep/VdbChunkWriter.h"
 
-#include <openvdb/openvdb.h>
+#include "common/Modules.h"
 
-#include <cstdio>
-#include <future>
-
-#include "brickstore/format/Errors.h"
-#include "brickstore/vdb/OpenVdbInit.h"
-#include "brickstore/vdb/VdbLeafChunk.h"
+VOXBRICK_MODULE_ENTRY_DECLARE(VOXBRICK_VDB_PREP_ENTRY);
 
 namespace voxbrick::store {
+namespace {
 
-struct VdbChunkWriter::Impl {
-  Impl(const Vec3i& dims, float background) : chunks{{dims, background}, {dims, background}} {}
-  VdbLeafChunk chunks[2];
-  int filling = 0;       ///< the chunk receiving slices
-  bool started = false;  ///< whether it has begun
-  std::future<void> writing;  ///< the other chunk's file
-  std::string writingName;
-  int64_t writtenBytes = 0;
-};
-
-int64_t VdbChunkWriter::chunkBytes(const Vec3i& dims, int64_t slices) {
-  return 2 * VdbLeafChunk::maxBytes(dims, slices);
+const VdbPrepModule& prepModule() {
+  static const VdbPrepModule& module = VOXBRICK_MODULE_TABLE(VdbPrepModule, "openvdb", VOXBRICK_VDB_PREP_ENTRY);
+  return module;
 }
+
+}  // namespace
+
+std::unique_ptr<VdbChunkWriter> VdbChunkWriter::make(const std::filesystem::path& storeDir, const VolumeInfo& info,
+                                                     double background, int64_t chunkSlices,
+                                                     VdbCompression compression) {
+  return prepModule().make(storeDir, info, background, chunkSlices, compression);
+}
+
+int64_t VdbChunkWriter::chunkBytes(const Vec3i& dims, int64_t slices) { return prepModule().chunkBytes(dims, slices); }
 
 int64_t VdbChunkWriter::residentBytes(const Vec3i& dims, int64_t slices) {
-  // The topology a file is written with (a leaf's 64-byte mask of its 2 KiB of values, the nodes above it, the
-  // delayed-load record), the 2 MB it is written through, and a few more.
-  return chunkBytes(dims, slices) + chunkBytes(dims, slices) / 32 + (int64_t{4} << 20);
+  return prepModule().residentBytes(dims, slices);
 }
-
-VdbChunkWriter::VdbChunkWriter(const std::filesystem::path& storeDir, const VolumeInfo& info, double background,
-                               int64_t chunkSlices, VdbCompression compression)
-    : mDir(storeDir),
-      mInfo(info),
-      mBackground(background),
-      mChunkSlices(chunkSlices),
-      mCompression(compression),
-      mImpl(new Impl(info.dims, static_cast<float>(background))) {
-  initializeOpenVdb();
-  std::error_code ec;
-  std::filesystem::create_directories(mDir / "vdb", ec);
-  if (ec) throw IoError("cannot create " + (mDir / "vdb").string() + ": " + ec.message());
-}
-
-VdbChunkWriter::~VdbChunkWriter() {
-  if (mImpl->writing.valid()) mImpl->writing.wait();  // an error already thrown elsewhere, or the prep abandoned
-}
-
-void VdbChunkWriter::addSlices(int64_t z0, int64_t count, const void* values) {
-  const Vec3i n = mInfo.dims;
-  const size_t sliceBytes = static_cast<size_t>(n.x * n.y) * valueSize(mInfo.type);
-  const char* bytes = static_cast<const char*>(values);
-  while (count > 0) {
-    VdbLeafChunk& chunk = mImpl->chunks[mImpl->filling];
-    if (!mImpl->started) {
-      chunk.begin(mChunkStart, std::min(mChunkStart + mChunkSlices, n.z));
-      mImpl->started = true;
-    }
-    const int64_t take = std::min(count, mChunkStart + mChunkSlices - z0);
-    dispatchType(mInfo.type, [&](auto tag) {
-      using T = decltype(tag);
-      chunk.addSlices(reinterpret_cast<const T*>(bytes), z0, take);
-    });
-    bytes += static_cast<size_t>(take) * sliceBytes;
-    z0 += take;
-    count -= take;
-    if (chunk.complete()) handOff();
-  }
-}
-
-void VdbChunkWriter::collect() {
-  if (!mImpl->writing.valid()) return;
-  const PhaseClock clock;
-  std::future<void> writing = std::move(mImpl->writing);
-  writing.get();  // rethrows the writer's IoError
-  mBytes += mImpl->writtenBytes;
-  mFiles.push_back(mImpl->writingName);
-  const PhaseTime t = clock.elapsed("");
-  mWriteTime.wallSeconds += t.wallSeconds;
-  mWriteTime.cpuSeconds += t.cpuSeconds;
-}
-
-void VdbChunkWriter::handOff() {
-  collect();  // the chunk before this one: its file is written, and its memory free for the next chunk
-  VdbLeafChunk& chunk = mImpl->chunks[mImpl->filling];
-  const Vec3i n = mInfo.dims;
-  const Vec3d s = mInfo.spacing;
-  auto grid = openvdb::FloatGrid::create(static_cast<float>(mBackground));
-  openvdb::math::Mat4d m = openvdb::math::Mat4d::identity();
-  m.preScale(openvdb::Vec3d(s.x, s.y, s.z));
-  m.postTranslate(openvdb::Vec3d((0.5 - 0.5 * double(n.x)) * s.x, (0.5 - 0.5 * double(n.y)) * s.y,
-                                 (0.5 - 0.5 * double(n.z)) * s.z));
-  grid->setTransform(openvdb::math::Transform::createLinearTransform(m));
-  grid->setName("density");
-  grid->setGridClass(openvdb::GRID_FOG_VOLUME);
-  grid->insertMeta("voxbrick_dims", openvdb::Vec3IMetadata(openvdb::Vec3i(int(n.x), int(n.y), int(n.z))));
-  grid->insertMeta("voxbrick_chunk_z0", openvdb::Int64Metadata(mChunkStart));
-
-  char name[64];
-  std::snprintf(name, sizeof name, "vdb/level0-z%05lld.vdb", static_cast<long long>(mChunkStart));
-  mImpl->writingName = name;
-  const std::filesystem::path path = mDir / name;
-  const VdbCompression compression = mCompression;
-  mImpl->writing = std::async(std::launch::async, [this, &chunk, grid, path, compression] {
-    // Blosc costs about 3 ns of CPU a byte of leaf values (a fifth of prep's CPU on noisy float data, where it
-    // saves 15 %); under Auto it is used where it at least halves the bytes written.
-    const bool blosc =
-        compression == VdbCompression::Blosc || (compression == VdbCompression::Auto && chunk.bloscShrinksTo(0.5));
-    mImpl->writtenBytes = chunk.write(path, *grid, blosc);
-  });
-  mImpl->filling = 1 - mImpl->filling;
-  mImpl->started = false;
-  mChunkStart += mChunkSlices;
-}
-
-void VdbChunkWriter::finish() {
-  if (mImpl->started) throw std::logic_error("VdbChunkWriter: the volume's last slices are missing");
-  mImpl->chunks[mImpl->filling].release();  // the chunk being written is the other one
-}
-
-void VdbChunkWriter::wait() { collect(); }
 
 }  // namespace voxbrick::store

@@ -2,7 +2,6 @@
 // nothing written to disk. The same bricks as the store `voxbrick prep` makes of the file.
 #pragma once
 
-#include <atomic>
 #include <filesystem>
 #include <memory>
 
@@ -38,35 +37,31 @@ struct VdbOpenStats {
 /// topology too: a brick is stored if any finer brick it reads is, and its [min, max] is the union of theirs (a
 /// bound, not the exact range, which would need every coarse brick built at open). A coarse brick the topology
 /// marks stored may still come out all background (values cancelling); it is then extracted and read as such.
-class VdbStore final : public BrickStore, public std::enable_shared_from_this<VdbStore> {
+class VdbStore : public BrickStore {
  public:
   /// Opens the float grid options.gridName (default: the first float grid) of `file` with bricks of
   /// options.brickSize. Throws InputError naming the file and the problem (unreadable or malformed file, no such
   /// grid, a grid that is not float, a non-uniform transform, no active voxels, a bad brick size, an active bounding
-  /// box of more than kMaxLiveBricks bricks) and IoError.
+  /// box of more than kMaxLiveBricks bricks) and IoError. The store is the OpenVDB module's (brickstore/modules/
+  /// openvdb, loaded by this call the first time; common::ModuleError if it cannot be).
   static std::shared_ptr<const VdbStore> open(const std::filesystem::path& file, const StoreOpenOptions& options = {});
-
-  ~VdbStore() override;
 
   StoreBacking backing() const override { return StoreBacking::VdbFile; }
   const VdbOpenStats& openStats() const { return mOpenStats; }
   /// Bricks of `level` extracted from the tree or built from finer bricks since open (the open pass not counted).
-  int64_t bricksBuilt(int level) const;
+  virtual int64_t bricksBuilt(int level) const = 0;
 
  protected:
-  /// Level 0 from the tree; level m >= 1 from level m - 1 through `finer` (without one, through a temporary cache
-  /// of live::kFallbackCacheBytes: correct, but it rebuilds the finer levels on every call).
-  void readStored(const BrickKey& key, void* dst, const BrickSamplesFetch& finer) const override;
+  VdbStore() = default;
 
- private:
-  struct Grid;
-
-  VdbStore();
-  void scan();
-
-  std::unique_ptr<Grid> mGrid;
   VdbOpenStats mOpenStats;
-  std::unique_ptr<std::atomic<int64_t>[]> mBuilt;  // per level
 };
+
+/// The OpenVDB module's read side: the table its entry VOXBRICK_VDB_READ_ENTRY gives (common/Modules.h). A change to
+/// the table changes the entry's name, so that a module of another build is refused by name, not called wrongly.
+struct VdbReadModule {
+  std::shared_ptr<const VdbStore> (*open)(const std::filesystem::path& file, const StoreOpenOptions& options);
+};
+#define VOXBRICK_VDB_READ_ENTRY voxbrick_module_openvdb_read_v1
 
 }  // namespace voxbrick::store

@@ -140,6 +140,15 @@ TEST(Presets, AnInstalledBinaryFindsItsShareDirectory) {
       runExe(exe, "render -q " + presetsBlobs() + " --size 32x32 --tf hot -o " + (dir / "f.png").string(), 120, unset);
   EXPECT_EQ(frame.exitCode, 0) << frame.err;
   EXPECT_TRUE(fs::is_regular_file(dir / "f.png"));
+  // Its modules, in lib/voxbrick: the installed ones are those it loads (the loader's trace names each file it opens).
+  const fs::path modules = prefix / "lib" / "voxbrick";
+  for (const char* module : {"libvoxbrick_openvdb.so", "libvoxbrick_gdcm.so"})
+    EXPECT_TRUE(fs::is_regular_file(modules / module)) << modules / module;
+  const test::SplitResult grid = runExe(exe, "prep synthetic:sparse,n=32 --brick 16 -q -o " + (dir / "g").string(), 120,
+                                        unset + " export LD_DEBUG=libs;");
+  EXPECT_EQ(grid.exitCode, 0) << grid.err.substr(0, 2000);
+  EXPECT_NE(grid.err.find((modules / "libvoxbrick_openvdb.so").string()), std::string::npos)
+      << "the installed module was not the one loaded";
 }
 
 TEST(Presets, TheDefaultTransferFunctionSkipsEmptySpace) {

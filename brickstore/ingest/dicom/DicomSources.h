@@ -1,5 +1,5 @@
-// DICOM input: a series of files, an enhanced multi-frame image or RT dose grid, a DICOMDIR (GDCM, private to
-// this folder).
+// DICOM input: a series of files, an enhanced multi-frame image or RT dose grid, a DICOMDIR. Read by the GDCM module
+// (brickstore/modules/gdcm), which each of these loads the first time (common::ModuleError if it cannot).
 #pragma once
 
 #include <memory>
@@ -30,5 +30,16 @@ bool isDicomVolumeFile(const std::string& file, const SourceOptions& options);
 /// The DICOM files a DICOMDIR references (its directory records' ReferencedFileID, under its directory), opened as
 /// openDicomSeries opens a folder's.
 std::unique_ptr<VolumeSource> openDicomDir(const std::string& path, const SourceOptions& options);
+
+/// The GDCM module's table, given by its entry VOXBRICK_DICOM_ENTRY (common/Modules.h; the name changes with the
+/// table): the functions above.
+struct DicomModule {
+  std::unique_ptr<VolumeSource> (*openDicomSource)(const std::vector<std::string>& files, const SourceOptions& options);
+  std::unique_ptr<VolumeSource> (*openDicomSeries)(const std::vector<std::string>& files, const SourceOptions& options,
+                                                   const std::string& chosenFile, const std::string& what);
+  bool (*isDicomVolumeFile)(const std::string& file, const SourceOptions& options);
+  std::unique_ptr<VolumeSource> (*openDicomDir)(const std::string& path, const SourceOptions& options);
+};
+#define VOXBRICK_DICOM_ENTRY voxbrick_module_gdcm_dicom_v1
 
 }  // namespace voxbrick::store

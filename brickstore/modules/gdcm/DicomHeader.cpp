@@ -1,6 +1,6 @@
 // Reading DICOM headers through GDCM (see DicomHeader.h): what a file is, then the slices an image file holds, with
 // the geometry of each frame of an enhanced multi-frame image or an RT dose grid.
-#include "brickstore/ingest/dicom/DicomHeader.h"
+#include "brickstore/modules/gdcm/DicomHeader.h"
 
 #include <gdcmDataSet.h>
 #include <gdcmReader.h>

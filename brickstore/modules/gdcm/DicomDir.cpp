@@ -12,9 +12,9 @@
 
 #include "brickstore/format/Errors.h"
 #include "brickstore/format/InputErrors.h"
-#include "brickstore/ingest/dicom/DicomHeader.h"
-#include "brickstore/ingest/dicom/DicomSources.h"
 #include "brickstore/ingest/dicom/DicomStructure.h"
+#include "brickstore/modules/gdcm/DicomHeader.h"
+#include "brickstore/modules/gdcm/GdcmModule.h"
 
 namespace voxbrick::store {
 namespace {
@@ -80,9 +80,13 @@ std::vector<std::string> referencedFiles(const std::string& path) {
 
 }  // namespace
 
+namespace dicomGdcm {
+
 std::unique_ptr<VolumeSource> openDicomDir(const std::string& path, const SourceOptions& options) {
   quietGdcm();
   return openDicomSeries(referencedFiles(path), options, "", path);
 }
+
+}  // namespace dicomGdcm
 
 }  // namespace voxbrick::store

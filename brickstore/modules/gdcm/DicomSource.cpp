@@ -18,9 +18,9 @@
 #include "brickstore/format/Convert.h"
 #include "brickstore/format/Errors.h"
 #include "brickstore/format/InputErrors.h"
-#include "brickstore/ingest/dicom/DicomHeader.h"
-#include "brickstore/ingest/dicom/DicomSources.h"
 #include "brickstore/ingest/dicom/DicomStructure.h"
+#include "brickstore/modules/gdcm/DicomHeader.h"
+#include "brickstore/modules/gdcm/GdcmModule.h"
 #include "common/Units.h"
 
 namespace voxbrick::store {
@@ -363,6 +363,8 @@ VolumeInfo volumeInfo(const std::vector<SliceHeader>& slices, const std::array<V
 
 }  // namespace
 
+namespace dicomGdcm {
+
 std::unique_ptr<VolumeSource> openDicomSeries(const std::vector<std::string>& files, const SourceOptions& options,
                                               const std::string& chosenFile, const std::string& what) {
   if (files.empty()) throw InputError(what + ": no DICOM files");
@@ -413,5 +415,7 @@ bool isDicomVolumeFile(const std::string& file, const SourceOptions& options) {
 std::unique_ptr<VolumeSource> openDicomSource(const std::vector<std::string>& files, const SourceOptions& options) {
   return openDicomSeries(files, options, "", files.size() == 1 ? files.front() : "the DICOM input");
 }
+
+}  // namespace dicomGdcm
 
 }  // namespace voxbrick::store
