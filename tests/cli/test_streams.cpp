@@ -19,12 +19,20 @@ using test::runSplit;
 TEST(Streams, ServerLogsGoToStderrAndStdoutHasOnlyTheAddress) {
   test::ScratchDir dir;
   std::filesystem::create_directories(dir / "datasets");
-  // `timeout` ends it with SIGTERM, which the server takes as a request to stop.
-  const test::SplitResult r = runSplit("serve --port 0 --log-level info --datasets " + (dir / "datasets").string(), 8);
-  EXPECT_EQ(lineCount(r.out), 1) << r.out;
-  EXPECT_EQ(r.out.rfind("listening on 127.0.0.1:", 0), 0u) << r.out;
-  EXPECT_NE(r.err.find("serving datasets from"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find("[info]"), std::string::npos) << r.err;
+  // Once it says where it listens, SIGTERM, which the server takes as a request to stop; it must then have ended
+  // of itself (status 0), its streams complete.
+  const std::string out = (dir / "out").string(), err = (dir / "err").string();
+  const test::CommandResult run = test::runShell(
+      std::string(VOXBRICK_EXE) + " serve --port 0 --log-level info --datasets " + (dir / "datasets").string() +
+      " </dev/null >" + out + " 2>" + err + " & pid=$!; for i in $(seq 1200); do grep -q listening " + out +
+      " && break; sleep 0.05; done; kill -TERM $pid; wait $pid");
+  EXPECT_EQ(run.exitCode, 0) << run.output;
+  const std::vector<char> o = test::readFile(out), e = test::readFile(err);
+  const std::string stdoutText(o.begin(), o.end()), stderrText(e.begin(), e.end());
+  EXPECT_EQ(lineCount(stdoutText), 1) << stdoutText;
+  EXPECT_EQ(stdoutText.rfind("listening on 127.0.0.1:", 0), 0u) << stdoutText;
+  EXPECT_NE(stderrText.find("serving datasets from"), std::string::npos) << stderrText;
+  EXPECT_NE(stderrText.find("[info]"), std::string::npos) << stderrText;
 }
 
 TEST(Streams, PrepWarningsGoToStderrAndResultsToStdout) {

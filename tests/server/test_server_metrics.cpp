@@ -161,14 +161,15 @@ TEST_F(MetricsEndpointTest, AKeptAliveConnectionClosedIdleIsNoTimeout) {
   start("--hello-timeout 1");
   const std::string request =
       std::string("GET /metrics HTTP/1.1\r\nHost: 127.0.0.1\r\nAuthorization: Bearer ") + kMetricsToken + "\r\n\r\n";
+  // The three at once, each closed within its own timeout.
   test::RawSocket kept(server->httpPort(), test::Framing::None);
-  ASSERT_TRUE(kept.sendAll(std::vector<uint8_t>(request.begin(), request.end())));
-  EXPECT_TRUE(kept.waitClosed(5s)) << "closed once no further request came";
   test::RawSocket silent(server->httpPort(), test::Framing::None);
-  EXPECT_TRUE(silent.waitClosed(5s));
   test::RawSocket partial(server->httpPort(), test::Framing::None);
+  ASSERT_TRUE(kept.sendAll(std::vector<uint8_t>(request.begin(), request.end())));
   const std::string half = "GET /metrics HTTP/1.1\r\nHo";
   ASSERT_TRUE(partial.sendAll(std::vector<uint8_t>(half.begin(), half.end())));
+  EXPECT_TRUE(kept.waitClosed(5s)) << "closed once no further request came";
+  EXPECT_TRUE(silent.waitClosed(5s));
   EXPECT_TRUE(partial.waitClosed(5s));
   EXPECT_EQ(scrape().value("voxbrick_timeouts_total"), 2) << "the silent connection and the half request";
 }
