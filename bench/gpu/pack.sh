@@ -14,7 +14,9 @@
 #   - the GL loaders (libEGL, libGL, libGLX, libOpenGL, libGLdispatch, libGLESv2): from the .gl debs there, which
 #     dispatch to NVIDIA's EGL driver;
 #   - libOSMesa (Mesa's, which pulls in LLVM, about 100 MB): replaced by bench/gpu/osmesa_stub.c, built here, whose
-#     entry points fail cleanly, so the OSMesa backend reports no context and EGL is used.
+#     entry points fail cleanly, so the OSMesa backend reports no context and EGL is used;
+#   - libcurl: voxbrick loads it only to fetch from a DICOMweb service (brickstore/ingest/dicomweb), which no step
+#     does; such a fetch on the GPU machine would fail, naming libcurl.so.4.
 # libstdc++ and libgcc_s go into lib/cxx/: measure.sh uses them only where the machine's own are older.
 set -euo pipefail
 cd "$(dirname "$0")/../.."

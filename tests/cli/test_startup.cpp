@@ -1,5 +1,6 @@
 // What a command loads: Mesa's libOSMesa (and with it LLVM) only when it makes an OSMesa context; OpenVDB and GDCM
-// only through voxbrick's modules (common/Modules.h), when it reads or writes a .vdb or reads DICOM.
+// only through voxbrick's modules (common/Modules.h), when it reads or writes a .vdb or reads DICOM; libcurl only
+// when it fetches from a DICOMweb service (dicomweb.Orthanc fetches through it).
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -27,7 +28,7 @@ TEST(Startup, ACommandThatDrawsNothingDoesNotLoadOsMesa) {
   }
 }
 
-TEST(Startup, ACommandThatReadsNoVdbAndNoDicomLoadsNeitherOpenVdbNorGdcm) {
+TEST(Startup, ACommandThatReadsNoVdbAndNoDicomLoadsNeitherOpenVdbNorGdcmNorCurl) {
   test::ScratchDir dir;
   for (const std::string& args :
        std::vector<std::string>{"--version", "info " + startupBlobs() + " --json",
@@ -36,7 +37,7 @@ TEST(Startup, ACommandThatReadsNoVdbAndNoDicomLoadsNeitherOpenVdbNorGdcm) {
     const auto r = test::runSplit(args, 120, kTraceLibraries);
     ASSERT_EQ(r.exitCode, 0) << args << ": " << r.err.substr(0, 2000);
     EXPECT_NE(r.err.find("libzstd"), std::string::npos) << args << ": no loader trace, so nothing was checked";
-    for (const char* library : {"libopenvdb", "libgdcm", "libvoxbrick_"})
+    for (const char* library : {"libopenvdb", "libgdcm", "libvoxbrick_", "libcurl"})
       EXPECT_EQ(r.err.find(library), std::string::npos) << args << " loaded " << library;
   }
 }

@@ -2,6 +2,7 @@
 #include "brickstore/ingest/dicomweb/HttpClient.h"
 
 #include <curl/curl.h>
+#include <dlfcn.h>
 
 #include <algorithm>
 #include <cctype>
@@ -15,11 +16,75 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <thread>
+#include <type_traits>
 
 #include "brickstore/ingest/dicomweb/Multipart.h"
 
 namespace voxbrick::store {
 namespace {
+
+// libcurl is loaded the first time a transfer is made (dlopen), not linked: a process that fetches nothing does not
+// load it and the two dozen libraries it needs, a third of the start of a command that needs neither OpenVDB nor GDCM
+// (docs/design/modules.md). The functions below, named as libcurl's, stand in for them in this file (its unqualified
+// calls, curl's own type-checking macros included, find these first) and call the library's; the two whose argument
+// is one of curl's own types (CURLcode, curl_slist), which argument-dependent lookup would find too, are called
+// through curlLibrary() by name.
+constexpr char kCurlLibrary[] = "libcurl.so.4";
+
+struct CurlLibrary {
+  decltype(&::curl_global_init) globalInit;
+  decltype(&::curl_easy_init) easyInit;
+  decltype(&::curl_easy_setopt) easySetopt;
+  decltype(&::curl_easy_perform) easyPerform;
+  decltype(&::curl_easy_getinfo) easyGetinfo;
+  decltype(&::curl_easy_cleanup) easyCleanup;
+  decltype(&::curl_easy_strerror) easyStrerror;
+  decltype(&::curl_slist_append) slistAppend;
+  decltype(&::curl_slist_free_all) slistFreeAll;
+};
+
+const CurlLibrary& curlLibrary() {
+  static const CurlLibrary library = [] {
+    ::dlerror();
+    void* handle = ::dlopen(kCurlLibrary, RTLD_NOW | RTLD_LOCAL);
+    if (handle == nullptr) {
+      const char* why = ::dlerror();
+      throw StoreError(std::string("DICOMweb needs libcurl, and ") + kCurlLibrary + " could not be loaded (" +
+                       (why ? why : "not found") + "; Debian's package libcurl4)");
+    }
+    CurlLibrary l{};
+    auto resolve = [&](auto& function, const char* name) {
+      function = reinterpret_cast<std::remove_reference_t<decltype(function)>>(::dlsym(handle, name));
+      if (function == nullptr) throw StoreError(std::string(kCurlLibrary) + " has no " + name);
+    };
+    resolve(l.globalInit, "curl_global_init");
+    resolve(l.easyInit, "curl_easy_init");
+    resolve(l.easySetopt, "curl_easy_setopt");
+    resolve(l.easyPerform, "curl_easy_perform");
+    resolve(l.easyGetinfo, "curl_easy_getinfo");
+    resolve(l.easyCleanup, "curl_easy_cleanup");
+    resolve(l.easyStrerror, "curl_easy_strerror");
+    resolve(l.slistAppend, "curl_slist_append");
+    resolve(l.slistFreeAll, "curl_slist_free_all");
+    return l;
+  }();
+  return library;
+}
+
+CURLcode curl_global_init(long flags) { return curlLibrary().globalInit(flags); }
+CURL* curl_easy_init() { return curlLibrary().easyInit(); }
+// In parentheses: curl/curl.h makes curl_easy_setopt and curl_easy_getinfo macros that check the argument's type.
+template <class Value>
+CURLcode(curl_easy_setopt)(CURL* curl, CURLoption option, Value value) {
+  return curlLibrary().easySetopt(curl, option, value);
+}
+CURLcode curl_easy_perform(CURL* curl) { return curlLibrary().easyPerform(curl); }
+template <class Out>
+CURLcode(curl_easy_getinfo)(CURL* curl, CURLINFO info, Out out) {
+  return curlLibrary().easyGetinfo(curl, info, out);
+}
+void curl_easy_cleanup(CURL* curl) { curlLibrary().easyCleanup(curl); }
+curl_slist* curl_slist_append(curl_slist* list, const char* text) { return curlLibrary().slistAppend(list, text); }
 
 constexpr size_t kErrorBodyBytes = 4096;  // of a failed response's body, kept for its message
 constexpr double kMaxRetryDelay = 8.0;
@@ -216,7 +281,7 @@ struct HttpClient::Impl {
 
   /// The message of a transfer that failed in libcurl, and whether a retry may mend it.
   HttpError transferError(const std::string& url, CURLcode rc) const {
-    const std::string detail = errorText[0] ? std::string(errorText) : curl_easy_strerror(rc);
+    const std::string detail = errorText[0] ? std::string(errorText) : curlLibrary().easyStrerror(rc);
     const std::string prefix = "GET " + url + ": ";
     long osErrno = 0;
     curl_easy_getinfo(curl, CURLINFO_OS_ERRNO, &osErrno);
@@ -297,7 +362,7 @@ struct HttpClient::Impl {
     // A redirect may not leave HTTPS for plain HTTP.
     curl_easy_setopt(curl, CURLOPT_REDIR_PROTOCOLS_STR, url.rfind("https:", 0) == 0 ? "https" : "http,https");
     const CURLcode rc = curl_easy_perform(curl);
-    curl_slist_free_all(headers);
+    curlLibrary().slistFreeAll(headers);
     curl_easy_getinfo(curl, CURLINFO_RESPONSE_CODE, &status);
 
     try {
