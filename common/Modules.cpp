@@ -2,7 +2,6 @@
 #include "common/Modules.h"
 
 #include <dlfcn.h>
-#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -33,6 +32,14 @@ std::vector<fs::path> moduleFolders() {
   return folders;
 }
 
+/// Where module `name` is looked for, in order (what ModuleError lists).
+std::string moduleSearchPath(const char* name) {
+  std::string path;
+  for (const fs::path& folder : moduleFolders())
+    path += (path.empty() ? "" : ", ") + (folder / fileName(name)).string();
+  return path;
+}
+
 struct Loaded {
   std::mutex mutex;
   std::map<std::string, void*> handles;  // by module name
@@ -55,19 +62,13 @@ void* openModule(const char* name) {
     const char* why = ::dlerror();
     failures += "; " + path.string() + ": " + (why ? why : "dlopen failed");
   }
-  throw ModuleError("cannot load voxbrick's " + std::string(name) + " module " + file +
-                    (failures.empty() ? ": not found (looked in " + moduleSearchPath(name) + ")" : ":" + failures.substr(1)) +
-                    "; set VOXBRICK_MODULE_DIR to the folder that holds it");
+  throw ModuleError(
+      "cannot load voxbrick's " + std::string(name) + " module " + file +
+      (failures.empty() ? ": not found (looked in " + moduleSearchPath(name) + ")" : ":" + failures.substr(1)) +
+      "; set VOXBRICK_MODULE_DIR to the folder that holds it");
 }
 
 }  // namespace
-
-std::string moduleSearchPath(const char* name) {
-  std::string path;
-  for (const fs::path& folder : moduleFolders())
-    path += (path.empty() ? "" : ", ") + (folder / fileName(name)).string();
-  return path;
-}
 
 const void* moduleTable(const char* name, const char* entry) {
   Loaded& l = loaded();

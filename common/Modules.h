@@ -39,10 +39,3 @@ const Table& moduleTable(const void* (*linked)(), const char* name, const char* 
 #define VOXBRICK_MODULE_TABLE_(TABLE, NAME, ENTRY) ::voxbrick::common::moduleTable<TABLE>(&ENTRY, NAME, #ENTRY)
 /// A module's definition of its entry: exported from the module (whose other symbols its version script hides).
 #define VOXBRICK_MODULE_ENTRY_DEFINE(ENTRY) extern "C" __attribute__((visibility("default"))) const void* ENTRY()
-
-namespace voxbrick::common {
-
-/// Where module `name` is looked for, in order (what ModuleError lists).
-std::string moduleSearchPath(const char* name);
-
-}  // namespace voxbrick::common
