@@ -110,6 +110,7 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
     if (aside && !video) reply.stillToEncode = jpegQuality;
     reply.samples = stats.samplesEstimated;
     reply.ms = stats.interactive.is_object() ? stats.interactive.value("actual_ms", stats.msTotal) : stats.msTotal;
+    reply.warmupMs = stats.msWarmup;
     return reply;
   } catch (const render::FrameCancelled&) {
     return {proto::Error{proto::ErrorCode::Internal, "cancelled"}, false, true};

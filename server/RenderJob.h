@@ -106,6 +106,9 @@ struct RenderReply {
   /// The frame's estimated samples and the ms it took to draw (FrameStats samplesEstimated and msTotal), for the
   /// session's rate; 0 when nothing was drawn.
   double samples = 0, ms = 0;
+  /// The frame's one-time work on its context (FrameStats::msWarmup: a renderer made, programs built), which the
+  /// scheduler charges to no session.
+  double warmupMs = 0;
   /// A still Frame left with its RGBA8 pixels (RenderJob::encodeAside): the JPEG quality to encode it at.
   std::optional<int> stillToEncode = std::nullopt;
 };

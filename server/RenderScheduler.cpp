@@ -497,7 +497,11 @@ void RenderScheduler::renderLoop(render::FrameSource& source, int index) {
       drawn = true;
     }
     const auto replied = Clock::now();
-    const double ms = elapsedMs(started, replied);
+    // What the session is charged, and what the class's mean follows: the frame's time but its one-time work on this
+    // thread's context (a renderer made for the dataset, programs built), which is no session's. The first session to
+    // reach a cold thread would otherwise carry its warm-up (half a second for an atlas on llvmpipe) and wait until
+    // every other session had drawn as long.
+    const double ms = std::max(0.0, elapsedMs(started, replied) - reply.warmupMs);
     gauge.enter(EngineGauge::Other, replied);
     gauge.bytes = source.gpuBytes();
     gauge.peakBytes = source.peakGpuBytes();

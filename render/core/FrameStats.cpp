@@ -50,7 +50,8 @@ nlohmann::json FrameStats::toJson() const {
                         {"sorting", msSorting},
                         {"planning", msPlanning},
                         {"setup", msSetup},
-                        {"ending", msEnding}}}};
+                        {"ending", msEnding},
+                        {"warmup", msWarmup}}}};
   if (!fallback.empty()) j["fallback"] = fallback;
   if (plannedAhead) j["planned_ahead"] = true;
   if (!raycaster.empty()) j["raycaster"] = raycaster;

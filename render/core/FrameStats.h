@@ -67,6 +67,10 @@ struct FrameStats {
   /// up before the pass (the frame's residency stamps, the target cleared, the tables and programs set), and
   /// ending after the readback (residency and counters), so that where a warm frame's time goes adds up.
   double msPlanning = 0, msSetup = 0, msEnding = 0;
+  /// One-time work the frame set off on its context (RenderEngine): a renderer made for the dataset (its atlas
+  /// allocated, its programs built; before msTotal's clock starts) and programs built for a variant drawn the first
+  /// time (inside the phases, so within msTotal). 0 for a frame drawn by a warm context. JSON "ms": "warmup".
+  double msWarmup = 0;
   /// Planned while the GPU drew the frame before it (FrameRenderer::renderSequence8); JSON "planned_ahead" when true.
   bool plannedAhead = false;
   int64_t tetsDrawn = 0;         ///< tetrahedra drawn (a mesh frame)

@@ -15,6 +15,12 @@ image::ImageF NullFrameSource::render(const std::shared_ptr<const Dataset>& data
   if (options.maxSamples > 0 && samples > options.maxSamples)
     throw RenderLimitError("the frame would take " + std::to_string(samples) + " samples, above the limit of " +
                            std::to_string(options.maxSamples));
+  double warmupMs = 0;
+  if (const int64_t warmup = mWarmup.exchange(0); warmup > 0) {
+    const auto warmupStart = std::chrono::steady_clock::now();
+    std::this_thread::sleep_for(std::chrono::microseconds(warmup));
+    warmupMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - warmupStart).count();
+  }
   const auto start = std::chrono::steady_clock::now();
   const auto end = start + mDrawTime + mPerPixel * (int64_t(scene.width) * int64_t(scene.height));
   for (;;) {
@@ -37,6 +43,7 @@ image::ImageF NullFrameSource::render(const std::shared_ptr<const Dataset>& data
     *stats = {};
     stats->samplesEstimated = std::max(ms, 1e-3) * mSamplesPerMs;
     stats->msTotal = ms;
+    stats->msWarmup = warmupMs;
   }
   {
     std::lock_guard lock(mMutex);

@@ -31,6 +31,10 @@ class NullFrameSource final : public FrameSource {
                        const FrameOptions& options = {}) override;
   void prefetch(const std::shared_ptr<const Dataset>& dataset, const Scene& scene) override;
 
+  /// The next frame first spends `time` as a renderer's one-time making would (not cancellable), reported as its
+  /// FrameStats::msWarmup, outside msTotal; the frames after it do not.
+  void warmUpNextFrame(std::chrono::microseconds time) { mWarmup.store(time.count()); }
+
   /// Frames drawn (not cancelled), and prefetches asked for, so far. Any thread may ask.
   uint64_t framesDrawn() const { return mDrawn.load(); }
   uint64_t prefetches() const { return mPrefetches.load(); }
@@ -45,6 +49,7 @@ class NullFrameSource final : public FrameSource {
   double mSamplesPerMs;
   std::chrono::nanoseconds mPerPixel;
   std::atomic<uint64_t> mDrawn{0}, mPrefetches{0};
+  std::atomic<int64_t> mWarmup{0};  ///< microseconds of warm-up the next frame takes
   mutable std::mutex mMutex;
   std::vector<int> mWidths;
 };

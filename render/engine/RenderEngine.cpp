@@ -12,6 +12,7 @@
 #include "render/core/WorldFrame.h"
 #include "render/engine/DatasetDriver.h"
 #include "render/gl/GlContext.h"
+#include "render/gl/GlObjects.h"
 
 namespace voxbrick::render {
 
@@ -33,7 +34,10 @@ struct RenderEngine::Impl {
   mutable std::mutex recentMutex;
   std::map<std::string, double, std::less<>> recentRates;  // their values, for any thread
 
-  FrameRenderer& rendererFor(const std::shared_ptr<const Dataset>& dataset, const DatasetDriver& driver);
+  /// The dataset's renderer on this context, made (and the least recently used ones released for its atlas) when it
+  /// has none; `madeMs`, if given, gets the milliseconds making it took (0 when it was there).
+  FrameRenderer& rendererFor(const std::shared_ptr<const Dataset>& dataset, const DatasetDriver& driver,
+                             double* madeMs = nullptr);
   RendererSetup setup(size_t left) { return {*context, options, left}; }
   RateGauge& rateOf(std::string_view kind) {
     auto it = rates.find(kind);
@@ -51,7 +55,8 @@ void RenderEngine::Impl::account() {
 }
 
 FrameRenderer& RenderEngine::Impl::rendererFor(const std::shared_ptr<const Dataset>& dataset,
-                                               const DatasetDriver& driver) {
+                                               const DatasetDriver& driver, double* madeMs) {
+  if (madeMs) *madeMs = 0;
   // Renderers of datasets closed, or quarantined (they will draw nothing more), give their atlases back.
   if (std::erase_if(renderers, [](const auto& entry) {
         const auto d = entry.first.lock();
@@ -62,6 +67,7 @@ FrameRenderer& RenderEngine::Impl::rendererFor(const std::shared_ptr<const Datas
     it->second.lastUse = ++uses;
     return *it->second.renderer;
   }
+  const auto start = std::chrono::steady_clock::now();
   // Room for the new atlas: release the renderers used least recently until the budget holds it whole.
   const size_t want = driver.gpuBytesWanted(*dataset, setup(options.gpuBudgetBytes));
   account();
@@ -79,6 +85,7 @@ FrameRenderer& RenderEngine::Impl::rendererFor(const std::shared_ptr<const Datas
   entry.renderer = std::move(renderer);
   entry.lastUse = ++uses;
   account();
+  if (madeMs) *madeMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return *entry.renderer;
 }
 
@@ -119,7 +126,11 @@ image::ImageF RenderEngine::renderAny(const std::shared_ptr<const Dataset>& data
   const DatasetDriver& driver = driverFor(*dataset);
   std::optional<QualityChoice> choice;
   const Scene resolved = resolveQuality(*dataset, scene, &choice);
-  FrameRenderer& renderer = mImpl->rendererFor(dataset, driver);
+  // One-time work on this context: the renderer made now (its programs built within it), and programs built while
+  // drawing (a variant drawn the first time).
+  double madeMs = 0;
+  FrameRenderer& renderer = mImpl->rendererFor(dataset, driver, &madeMs);
+  const double builtBefore = programBuildMsOnThisThread();
   RateGauge& rate = mImpl->rateOf(dataset->kind());
   const double recent = rate.rate();
   FrameOptions frameOptions = options;
@@ -159,6 +170,7 @@ image::ImageF RenderEngine::renderAny(const std::shared_ptr<const Dataset>& data
   else
     finishImage(dataset->worldFrame(), image);
   if (choice) frameStats.quality = choice->toJson();
+  frameStats.msWarmup = madeMs + (programBuildMsOnThisThread() - builtBefore);
   if (stats) *stats = std::move(frameStats);
   return image;
 }

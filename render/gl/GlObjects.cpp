@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <chrono>
 
 #include <glm/gtc/type_ptr.hpp>
 
@@ -68,7 +69,20 @@ struct ShaderList {
   }
 };
 
+/// Milliseconds this thread spent building programs (Program's constructor), for programBuildMsOnThisThread.
+thread_local double tProgramBuildMs = 0;
+
+/// Adds the time from its construction to its destruction to tProgramBuildMs, however the build ends.
+struct ProgramBuildTimer {
+  std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
+  ~ProgramBuildTimer() {
+    tProgramBuildMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  }
+};
+
 }  // namespace
+
+double programBuildMsOnThisThread() { return tProgramBuildMs; }
 
 Buffer::Buffer(const Gl& gl) : GlName(gl, generate<genBuffer>(gl, "Buffer")) {}
 
@@ -174,6 +188,7 @@ ProgramSources ProgramSources::fromFiles(std::string name, std::vector<std::pair
 }
 
 Program::Program(const Gl& gl, const ProgramSources& sources) : GlName(gl, gl.glCreateProgram()), mName(sources.name) {
+  const ProgramBuildTimer timer;
   if (id() == 0) throw RenderError("Program " + mName + ": glCreateProgram failed");
   if (sources.stages.empty()) throw RenderInputError("Program " + mName + ": no shader stages");
   // What every stage has before its own file: the defines, then the libraries as source strings 2, 3, ..., so that

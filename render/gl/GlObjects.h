@@ -163,6 +163,10 @@ struct ProgramSources {
                                   std::vector<std::string> defines, const std::vector<std::string>& libraryFiles);
 };
 
+/// Milliseconds the calling thread has spent compiling and linking programs (every Program built on it, failed
+/// builds included) since it started: a frame's one-time work on its context (RenderEngine: FrameStats::msWarmup).
+double programBuildMsOnThisThread();
+
 /// A linked GLSL program. Uniform setters use glProgramUniform*, so the program need not be in use.
 class Program : public detail::GlName<detail::deleteProgram> {
  public:

@@ -120,6 +120,35 @@ TEST_F(FairSchedulerTest, ASessionThatFloodsGetsNoMoreThanItsShareOfTime) {
   EXPECT_GE(heavyFrames, 4) << "the heavy session still gets its share";
 }
 
+// A cold thread's one-time work (the renderer made for the dataset: half a second for an atlas on llvmpipe) is no
+// session's: the session whose frame happened to set it off is charged the frame alone and keeps taking turns with
+// the sessions that queued meanwhile. Charged the warm-up, it would wait until the other had drawn 200 frames (400 ms
+// of 2 ms frames) before its next one.
+TEST_F(FairSchedulerTest, AColdThreadsWarmUpIsChargedToNoSession) {
+  std::vector<render::NullFrameSource*> sources;
+  // 2 ms a frame; each request drawn (a session's identical requests would otherwise share one render).
+  auto s = scheduler(1, {.coalesce = false, .shareFrames = false}, 2000us, 0ns, &sources);
+  sources[0]->warmUpNextFrame(400ms);
+  auto first = std::make_shared<CountingSink>(), second = std::make_shared<CountingSink>();
+  s->submit(first, job(0, 8));
+  s->start();
+  std::this_thread::sleep_for(100ms);  // the first frame is warming the thread up: both sessions queue meanwhile
+  for (uint32_t i = 1; i <= 40; ++i) {
+    s->submit(first, job(i, 8));
+    s->submit(second, job(100 + i, 9));
+  }
+  second->await(20);
+  first->await(21);
+  s->stop();
+  ASSERT_GE(statsOf(first->await(1)[0].second)["ms"]["warmup"].get<double>(), 390.0) << "the frame says it warmed up";
+  const std::vector<int> widths = sources[0]->widthsDrawn();
+  ASSERT_GE(widths.size(), 41u);
+  const auto next = std::vector<int>(widths.begin() + 1, widths.begin() + 41);
+  const auto firstFrames = std::count(next.begin(), next.end(), 8);
+  EXPECT_GE(firstFrames, 15) << "the session that warmed the thread up drew " << firstFrames << " of the next 40";
+  EXPECT_GE(40 - firstFrames, 15);
+}
+
 // Each render thread's time drawing and asking for work counts as it goes: a thread that waits long counts its wait
 // before the wait ends, and the figures only grow; drawing moves time from waiting to busy.
 TEST_F(FairSchedulerTest, TheThreadsTimeDrawingAndWaitingCountsAsItGoes) {

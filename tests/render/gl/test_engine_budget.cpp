@@ -1,5 +1,6 @@
 // GPU budgets that hold: an atlas never outgrows its budget, and a RenderEngine keeps the atlases of all the datasets
-// it draws within one budget, releasing the renderer used least recently, with frames unchanged.
+// it draws within one budget, releasing the renderer used least recently, with frames unchanged; making a renderer is
+// reported as the frame's warm-up.
 #include <gtest/gtest.h>
 
 #include "render/core/Dataset.h"
@@ -98,6 +99,30 @@ TEST(GpuBudget, AQuarantinedDatasetGivesItsAtlasBack) {
   a->quarantine("its bricks failed their checks");  // what the server does when a frame of it meets a bad brick
   engine.render(b, scene);
   EXPECT_EQ(engine.gpuBytes(), one) << "the quarantined dataset's renderer is released at the next frame";
+}
+
+// A frame's one-time work on its context is reported apart (FrameStats::msWarmup, which the server's scheduler charges
+// to no session): the renderer made for a dataset the engine had not drawn, and programs built; a frame of a warm
+// renderer reports none.
+TEST(GpuBudget, AFrameReportsTheRendererItMadeAsWarmUp) {
+  ScratchDir dir;
+  test::prep("synthetic:blobs,n=64,seed=1", dir / "a", 16);
+  test::prep("synthetic:blobs,n=64,seed=2", dir / "b", 16);
+  const auto a = openDataset("a", dir / "a", size_t(64) << 20);
+  const auto b = openDataset("b", dir / "b", size_t(64) << 20);
+  RenderEngine engine({Backend::Auto, size_t(256) << 20, AtlasFormat::Float});
+  Scene scene;
+  scene.width = scene.height = 32;
+  FrameStats stats;
+  engine.render(a, scene, &stats);
+  EXPECT_GT(stats.msWarmup, 0.0) << "the first frame made the renderer";
+  EXPECT_DOUBLE_EQ(stats.toJson()["ms"]["warmup"].get<double>(), stats.msWarmup);
+  engine.render(a, scene, &stats);
+  EXPECT_EQ(stats.msWarmup, 0.0) << "the renderer was there";
+  engine.render(b, scene, &stats);
+  EXPECT_GT(stats.msWarmup, 0.0) << "another dataset: another renderer";
+  engine.render(a, scene, &stats);
+  EXPECT_EQ(stats.msWarmup, 0.0);
 }
 
 }  // namespace
