@@ -48,7 +48,8 @@ for r in $(seq 1 "$rounds"); do
     "$new" load "127.0.0.1:$(cat "$work/port")" --dataset mri --tf mri --step 0.75 --clients "$clients" --drag 30 \
       --interactive 50 --provisional-encoding jpeg --duration "$duration" --size "${size}x${size}" \
       --json "$work/load.json" > /dev/null
-    kill "$server" && wait "$server" 2> /dev/null || true
+    kill "$server"
+    wait "$server" 2> /dev/null || true  # its status is that of the signal
     server=""
     python3 - "$work/load.json" "$r" "$build" >> "$csv" << 'EOF'
 import json, statistics, sys
