@@ -83,45 +83,46 @@ TEST(GpuBudget, AnEngineKeepsAllItsAtlasesWithinOneBudget) {
   EXPECT_LE(tight.gpuBytes(), oneAtlas / 3);
 }
 
-TEST(GpuBudget, AQuarantinedDatasetGivesItsAtlasBack) {
+/// Two small grids (blobs of two seeds), an engine with room for both, and a 32x32 scene.
+struct TwoDatasets {
   ScratchDir dir;
-  test::prep("synthetic:blobs,n=64,seed=1", dir / "a", 16);
-  test::prep("synthetic:blobs,n=64,seed=2", dir / "b", 16);
-  const auto a = openDataset("a", dir / "a", size_t(64) << 20);
-  const auto b = openDataset("b", dir / "b", size_t(64) << 20);
-  RenderEngine engine({Backend::Auto, size_t(256) << 20, AtlasFormat::Float});
+  std::shared_ptr<const Dataset> a, b;
+  RenderEngine engine{{Backend::Auto, size_t(256) << 20, AtlasFormat::Float}};
   Scene scene;
-  scene.width = scene.height = 32;
-  engine.render(a, scene);
-  const size_t one = engine.gpuBytes();
-  engine.render(b, scene);
-  EXPECT_EQ(engine.gpuBytes(), 2 * one);
-  a->quarantine("its bricks failed their checks");  // what the server does when a frame of it meets a bad brick
-  engine.render(b, scene);
-  EXPECT_EQ(engine.gpuBytes(), one) << "the quarantined dataset's renderer is released at the next frame";
+  TwoDatasets() {
+    test::prep("synthetic:blobs,n=64,seed=1", dir / "a", 16);
+    test::prep("synthetic:blobs,n=64,seed=2", dir / "b", 16);
+    a = openDataset("a", dir / "a", size_t(64) << 20);
+    b = openDataset("b", dir / "b", size_t(64) << 20);
+    scene.width = scene.height = 32;
+  }
+};
+
+TEST(GpuBudget, AQuarantinedDatasetGivesItsAtlasBack) {
+  TwoDatasets t;
+  t.engine.render(t.a, t.scene);
+  const size_t one = t.engine.gpuBytes();
+  t.engine.render(t.b, t.scene);
+  EXPECT_EQ(t.engine.gpuBytes(), 2 * one);
+  t.a->quarantine("its bricks failed their checks");  // what the server does when a frame of it meets a bad brick
+  t.engine.render(t.b, t.scene);
+  EXPECT_EQ(t.engine.gpuBytes(), one) << "the quarantined dataset's renderer is released at the next frame";
 }
 
 // A frame's one-time work on its context is reported apart (FrameStats::msWarmup, which the server's scheduler charges
 // to no session): the renderer made for a dataset the engine had not drawn, and programs built; a frame of a warm
 // renderer reports none.
 TEST(GpuBudget, AFrameReportsTheRendererItMadeAsWarmUp) {
-  ScratchDir dir;
-  test::prep("synthetic:blobs,n=64,seed=1", dir / "a", 16);
-  test::prep("synthetic:blobs,n=64,seed=2", dir / "b", 16);
-  const auto a = openDataset("a", dir / "a", size_t(64) << 20);
-  const auto b = openDataset("b", dir / "b", size_t(64) << 20);
-  RenderEngine engine({Backend::Auto, size_t(256) << 20, AtlasFormat::Float});
-  Scene scene;
-  scene.width = scene.height = 32;
+  TwoDatasets t;
   FrameStats stats;
-  engine.render(a, scene, &stats);
+  t.engine.render(t.a, t.scene, &stats);
   EXPECT_GT(stats.msWarmup, 0.0) << "the first frame made the renderer";
   EXPECT_DOUBLE_EQ(stats.toJson()["ms"]["warmup"].get<double>(), stats.msWarmup);
-  engine.render(a, scene, &stats);
+  t.engine.render(t.a, t.scene, &stats);
   EXPECT_EQ(stats.msWarmup, 0.0) << "the renderer was there";
-  engine.render(b, scene, &stats);
+  t.engine.render(t.b, t.scene, &stats);
   EXPECT_GT(stats.msWarmup, 0.0) << "another dataset: another renderer";
-  engine.render(a, scene, &stats);
+  t.engine.render(t.a, t.scene, &stats);
   EXPECT_EQ(stats.msWarmup, 0.0);
 }
 
