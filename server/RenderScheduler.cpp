@@ -235,10 +235,20 @@ size_t RenderScheduler::interactiveSessions() const {
 
 size_t RenderScheduler::interactiveCapacityLocked() const {
   if (mConfig.maxInteractiveSessions > 0) return size_t(mConfig.maxInteractiveSessions);
-  // Measured: what the threads can draw at min_interactive_fps for each session, at the recent interactive cost.
+  // Measured: what the threads can draw at min_interactive_fps for each session, at what a moving frame costs them:
+  // its own time and its share of the class's other work (the exact frames ending drags, refinements given up).
+  // Over the last kCapacityWindow when it holds enough moving frames; else the moving frames' own recent mean.
   const size_t c = size_t(FrameClass::Interactive);
   if (mClassFrames[c] < 16 || mClassMs[c] <= 0) return 0;
-  return std::max<size_t>(1, size_t(double(mSources.size()) * 1000 / (mConfig.minInteractiveFps * mClassMs[c])));
+  const double perMovingFrameMs =
+      mInteractiveEndsMoving >= 16 ? std::max(mClassMs[c], mInteractiveEndsMs / double(mInteractiveEndsMoving))
+                                   : mClassMs[c];
+  return std::max<size_t>(1, size_t(double(mSources.size()) * 1000 / (mConfig.minInteractiveFps * perMovingFrameMs)));
+}
+
+size_t RenderScheduler::interactiveCapacity() const {
+  std::lock_guard lock(mMutex);
+  return interactiveCapacityLocked();
 }
 
 std::optional<uint32_t> RenderScheduler::refuseNewSession() const {
@@ -521,10 +531,21 @@ void RenderScheduler::renderLoop(render::FrameSource& source, int index) {
       // session whose exact frames are given up as it drags on would otherwise keep the class's predicted mean (a
       // crowd's 1024² still frames) for each, and wait behind the whole crowd for its next still frame.
       chargeLocked(sink.get(), taken.frameClass, ms - taken.charged);
+      const bool moving = drawn && !reply.cancelled && !job.endsDrag;
+      if (taken.frameClass == FrameClass::Interactive) {
+        mInteractiveEnds.push_back({replied, ms, moving});
+        mInteractiveEndsMs += ms;
+        mInteractiveEndsMoving += moving ? 1 : 0;
+        while (!mInteractiveEnds.empty() && replied - mInteractiveEnds.front().at > kCapacityWindow) {
+          mInteractiveEndsMs -= mInteractiveEnds.front().ms;
+          mInteractiveEndsMoving -= mInteractiveEnds.front().moving ? 1 : 0;
+          mInteractiveEnds.pop_front();
+        }
+      }
       if (drawn && !reply.cancelled) {
         // The class's mean follows what frames drawn to the end took: the moving cameras' frames, for the
         // interactive class (its capacity is counted in them), not the exact frames ending drags.
-        if (!job.endsDrag) {
+        if (moving) {
           mClassMs[c] = mClassMs[c] > 0 ? (1 - kMeanWeight) * mClassMs[c] + kMeanWeight * ms : ms;
           ++mClassFrames[c];
         }

@@ -98,6 +98,10 @@ class RenderScheduler {
   std::vector<double> deviceWaitMs() const { return threadMs(EngineGauge::Waiting); }
   /// Sessions that sent an interactive Render within kInteractiveWindow.
   size_t interactiveSessions() const;
+  /// How many sessions may drag before a new one is answered Busy: max_interactive_sessions, else measured (the
+  /// render threads' time over min_interactive_fps times the render time a moving frame costs, the interactive
+  /// class's other work included); 0 while not yet measured (no limit).
+  size_t interactiveCapacity() const;
   /// Frames given up part way: their session had gone, or a refinement was overtaken by a newer Render.
   uint64_t cancelled() const { return mCancelled.load(); }
   /// Replies delivered from another session's render of the identical frame.
@@ -177,6 +181,19 @@ class RenderScheduler {
   std::array<size_t, kFrameClasses> mWaitingByClass{}, mRunningByClass{};
   std::array<double, kFrameClasses> mClassMs{};  ///< recent mean ms per frame
   std::array<uint64_t, kFrameClasses> mClassFrames{};
+  /// The interactive class's jobs that ended within kCapacityWindow (moving frames, the exact frames ending drags,
+  /// and what was given up part way): when each ended, the ms it was charged, whether it was a moving frame drawn to
+  /// the end; and their sums. Their ms over their moving frames is what a moving frame costs the render threads in
+  /// all, behind the measured capacity.
+  struct InteractiveJobEnd {
+    Clock::time_point at;
+    double ms = 0;
+    bool moving = false;
+  };
+  static constexpr std::chrono::seconds kCapacityWindow{4};
+  std::deque<InteractiveJobEnd> mInteractiveEnds;
+  double mInteractiveEndsMs = 0;
+  size_t mInteractiveEndsMoving = 0;
   /// Frames being drawn, by their share key, with the sessions that asked the same frame since it started.
   std::map<std::string, std::vector<Recipient>> mInFlight;
   /// One per render thread, for the scheduler's whole life (a thread releases its own when it ends).

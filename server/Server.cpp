@@ -500,6 +500,8 @@ ServerStats::Gauges Server::Impl::gauges() const {
   gauges.outputLimitBytes = output.limit();
   gauges.limits = limitsJson(config);
   gauges.queuedSessions = scheduler.queuedSessions();
+  gauges.draggingSessions = scheduler.interactiveSessions();
+  gauges.interactiveCapacity = scheduler.interactiveCapacity();
   gauges.rendersCancelled = scheduler.cancelled();
   gauges.datasets = datasets.opened();
   gauges.renderThreads = config.renderThreads;

@@ -126,6 +126,8 @@ json ServerStats::toJson(const Gauges& gauges) const {
             {"evicted", total(ServerEvent::PendingEvicted)},
             {"tcp", gauges.tcpSessions},
             {"websocket", gauges.webSocketSessions},
+            {"dragging", gauges.draggingSessions},
+            {"interactive_capacity", gauges.interactiveCapacity},
             {"timed_out", total(ServerEvent::Timeout)},
             {"dropped_slow", total(ServerEvent::SlowClientDropped)}}},
           {"messages", total(ServerEvent::Message)},
@@ -198,6 +200,12 @@ std::string ServerStats::metricsText(const Gauges& gauges) const {
       .sample(double(gauges.webSocketSessions), {{"transport", "websocket"}});
   one("voxbrick_pending_connections", Type::Gauge, "Connections accepted that have not said Hello yet.",
       double(gauges.pendingConnections));
+  one("voxbrick_dragging_sessions", Type::Gauge, "Sessions that sent an interactive Render within the last second.",
+      double(gauges.draggingSessions));
+  one("voxbrick_interactive_capacity_sessions", Type::Gauge,
+      "Sessions that may drag before a new session is answered Busy: max_interactive_sessions, else measured from "
+      "what a moving frame costs the render threads; 0 until measured (no limit).",
+      double(gauges.interactiveCapacity));
   event("voxbrick_sessions_accepted_total", "Connections whose Hello made them a session.",
         ServerEvent::SessionAccepted);
   m.family("voxbrick_refusals_total", Type::Counter,

@@ -89,6 +89,8 @@ class ServerStats {
     std::array<size_t, kFrameClasses> queuedByClass{};  ///< jobs waiting (RenderScheduler::queuedByClass)
     std::vector<double> deviceBusyMs{};  ///< each render thread's time drawing (RenderScheduler::deviceBusyMs)
     std::vector<double> deviceWaitMs{};  ///< each render thread's time asking for a job (RenderScheduler::deviceWaitMs)
+    size_t draggingSessions = 0;     ///< sessions that sent an interactive Render within the last second
+    size_t interactiveCapacity = 0;  ///< RenderScheduler::interactiveCapacity: 0 while not measured (no limit)
   };
 
   /// The upper bounds of the frame latency histogram, in seconds.

@@ -221,6 +221,25 @@ TEST_F(FairSchedulerTest, TheInteractiveBudgetFollowsTheNumberOfSessionsDragging
   alone->stop();
 }
 
+// The measured capacity counts what a moving frame costs the render threads in all: here each of 20 sessions drags one
+// frame (10 ms) and gets the exact frame when its camera rests (10 ms more), so a moving frame costs 20 ms, and one
+// thread keeps 1000 / (5 × 20) = 10 sessions at 5 frames a second; counting the moving frames alone it said 20.
+TEST_F(FairSchedulerTest, TheCapacityCountsWhatAMovingFrameCostsInAll) {
+  auto s = scheduler(1, {.shareFrames = false}, 10000us, 0ns);
+  EXPECT_EQ(s->interactiveCapacity(), 0u) << "nothing measured yet: no limit";
+  std::vector<std::shared_ptr<CountingSink>> sinks;
+  for (uint32_t i = 0; i < 20; ++i) {
+    sinks.push_back(std::make_shared<CountingSink>());
+    s->submit(sinks.back(), job(i, 16, R"("interactive": true, )"));
+  }
+  s->start();
+  for (const auto& sink : sinks) ASSERT_EQ(sink->await(2).size(), 2u) << "the moving frame, then the exact one";
+  const size_t capacity = s->interactiveCapacity();
+  s->stop();
+  EXPECT_GE(capacity, 8u);
+  EXPECT_LE(capacity, 12u);
+}
+
 // Long still frames never hold every thread while a session drags: its next frame starts at once on the thread
 // kept for it, instead of waiting for a still frame to finish.
 TEST_F(FairSchedulerTest, StillFramesLeaveAThreadToADraggingSession) {

@@ -71,6 +71,7 @@ TEST_F(MetricsEndpointTest, FiguresFollowWhatClientsDoOnBothTransports) {
   const ParsedMetrics before = scrape();
   EXPECT_EQ(before.value("voxbrick_sessions", R"(transport="tcp")"), 0);
   EXPECT_EQ(before.value("voxbrick_render_threads"), 1);
+  EXPECT_EQ(before.value("voxbrick_dragging_sessions"), 0);
   const double framesBefore = before.sum("voxbrick_frames_total");
 
   client::Client tcp("127.0.0.1", server->port(), std::chrono::seconds(60));
@@ -112,6 +113,10 @@ TEST_F(MetricsEndpointTest, FiguresFollowWhatClientsDoOnBothTransports) {
   EXPECT_GT(p.value("voxbrick_bytes_written_total"), frameBytes) << "frames and every other reply";
   EXPECT_EQ(p.value("voxbrick_refusals_total", R"(reason="forbidden")"), 1);
   EXPECT_EQ(p.value("voxbrick_refusals_total", R"(reason="busy")"), 0);
+  // One interactive Render: the session counts as dragging for a second after it (not asserted: a loaded machine may
+  // take longer to get here), and one moving frame measures no capacity yet (sixteen do): no limit.
+  EXPECT_FALSE(std::isnan(p.value("voxbrick_dragging_sessions")));
+  EXPECT_EQ(p.value("voxbrick_interactive_capacity_sessions"), 0);
   EXPECT_GT(p.value("voxbrick_render_thread_busy_seconds_total", R"(thread="0")"), 0);
   EXPECT_TRUE(std::isnan(p.value("voxbrick_render_thread_busy_seconds_total", R"(thread="1")"))) << "one thread";
   // The thread waited for work before the first job and between them (the clients asked one frame at a time).
@@ -119,6 +124,8 @@ TEST_F(MetricsEndpointTest, FiguresFollowWhatClientsDoOnBothTransports) {
   // The Stats JSON says the same, a figure for each render thread (nothing was drawn since the scrape).
   const nlohmann::json stats = nlohmann::json::parse(tcp.stats());
   ASSERT_EQ(stats["render_busy_s"].size(), 1u) << stats.dump();
+  EXPECT_EQ(stats["sessions"]["interactive_capacity"], 0) << stats.dump();
+  EXPECT_TRUE(stats["sessions"].contains("dragging")) << stats.dump();
   EXPECT_NEAR(stats["render_busy_s"][0].get<double>(),
               p.value("voxbrick_render_thread_busy_seconds_total", R"(thread="0")"), 1e-9);
   ASSERT_EQ(stats["render_wait_s"].size(), 1u) << stats.dump();
