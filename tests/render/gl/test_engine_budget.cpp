@@ -118,7 +118,9 @@ TEST(GpuBudget, AFrameReportsTheRendererItMadeAsWarmUp) {
   t.engine.render(t.a, t.scene, &stats);
   EXPECT_GT(stats.msWarmup, 0.0) << "the first frame made the renderer";
   EXPECT_DOUBLE_EQ(stats.toJson()["ms"]["warmup"].get<double>(), stats.msWarmup);
-  t.engine.render(t.a, t.scene, &stats);
+  // A renderer may build a program on a later frame (a kernel chosen by measurement on a GPU); by the fourth frame of
+  // the same scene there is nothing left to build.
+  for (int frame = 0; frame < 3; ++frame) t.engine.render(t.a, t.scene, &stats);
   EXPECT_EQ(stats.msWarmup, 0.0) << "the renderer was there";
   t.engine.render(t.b, t.scene, &stats);
   EXPECT_GT(stats.msWarmup, 0.0) << "another dataset: another renderer";
