@@ -19,7 +19,7 @@ image::ImageF NullFrameSource::render(const std::shared_ptr<const Dataset>& data
   if (const int64_t warmup = mWarmup.exchange(0); warmup > 0) {
     const auto warmupStart = std::chrono::steady_clock::now();
     std::this_thread::sleep_for(std::chrono::microseconds(warmup));
-    warmupMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - warmupStart).count();
+    warmupMs = msSince(warmupStart);
   }
   const auto start = std::chrono::steady_clock::now();
   const auto end = start + mDrawTime + mPerPixel * (int64_t(scene.width) * int64_t(scene.height));
@@ -38,7 +38,7 @@ image::ImageF NullFrameSource::render(const std::shared_ptr<const Dataset>& data
     image.rgba[i + 2] = scene.transparent ? 0.0f : float(scene.background.b);
     image.rgba[i + 3] = alpha;
   }
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  const double ms = msSince(start);
   if (stats) {
     *stats = {};
     stats->samplesEstimated = std::max(ms, 1e-3) * mSamplesPerMs;

@@ -85,7 +85,7 @@ FrameRenderer& RenderEngine::Impl::rendererFor(const std::shared_ptr<const Datas
   entry.renderer = std::move(renderer);
   entry.lastUse = ++uses;
   account();
-  if (madeMs) *madeMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  if (madeMs) *madeMs = msSince(start);
   return *entry.renderer;
 }
 
@@ -150,8 +150,7 @@ image::ImageF RenderEngine::renderAny(const std::shared_ptr<const Dataset>& data
                             frameOptions);
     if (!options.keepReducedSize) image = scaleBilinear(image, resolved.width, resolved.height);
     frameStats.interactive = chosen.toJson();
-    frameStats.interactive["actual_ms"] =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    frameStats.interactive["actual_ms"] = msSince(start);
   } else if (image8) {
     *image8 = renderer.render8(resolved, &frameStats, frameOptions);
   } else {

@@ -7,6 +7,7 @@
 
 #include <glm/gtc/type_ptr.hpp>
 
+#include "render/core/FrameStats.h"
 #include "render/core/RenderErrors.h"
 #include "render/gl/Shaders.h"
 
@@ -76,7 +77,7 @@ thread_local double tProgramBuildMs = 0;
 struct ProgramBuildTimer {
   std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
   ~ProgramBuildTimer() {
-    tProgramBuildMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    tProgramBuildMs += msSince(start);
   }
 };
 
