@@ -5,7 +5,7 @@
 // bench/results/video/video.{csv,md}).
 //
 //   bench_video --csv OUT.csv --fps 30 FRAME.png... [--qualities 50,70,85] [--kbps 1000,2000,4000] [--threads 1,4]
-//               [--scales 1,0.5] [--speeds 8,6] [--fixed-speed] [--rate-control cbr,vbr] [--aq 3,0]
+//               [--scales 1,0.5] [--speeds 8,6] [--fixed-speed] [--rate-control cbr,vbr] [--aq 3,0] [--streams DIR]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -71,7 +71,7 @@ Row jpegRow(const std::vector<image::Image8>& frames, int quality) {
 /// frame scaled back to the frame's size before its PSNR is taken (as a viewer shows a smaller stream). The row's
 /// setting names the bitrate and whatever differs from the server's defaults.
 Row videoRow(const std::vector<image::Image8>& frames, proto::Encoding codec, double fps, double scale,
-             image::VideoSettings settings) {
+             image::VideoSettings settings, const std::string& streamsDir) {
   const image::VideoSettings defaults;
   std::string setting = std::to_string(settings.bitrateKbps) + " kbit/s";
   if (settings.threads > 1) setting += "; " + std::to_string(settings.threads) + " threads";
@@ -89,14 +89,32 @@ Row videoRow(const std::vector<image::Image8>& frames, proto::Encoding codec, do
   settings.width = width, settings.height = height;
   image::VideoEncoder encoder(codec, settings);
   image::VideoDecoder decoder(codec);
+  // --streams: the chunks as they would travel, each as its length (4 bytes, little-endian), 1 if a key frame, and
+  // its bytes (bench/browser_decode.mjs feeds them to a browser's decoder).
+  std::ofstream stream;
+  if (!streamsDir.empty()) {
+    std::string name = std::string(proto::encodingName(codec)) + "-" + std::to_string(width) + "x" +
+                       std::to_string(height) + "-" + std::to_string(settings.bitrateKbps) + "kbps-" +
+                       std::to_string(settings.threads) + "t.chunks";
+    stream.open(streamsDir + "/" + name, std::ios::binary);
+    if (!stream) throw image::ImageFailure("bench_video: cannot write " + streamsDir + "/" + name);
+  }
   for (size_t i = 0; i < frames.size(); ++i) {
     auto start = Clock::now();
-    const image::VideoChunk chunk = encoder.encode(image::scaleImage(frames[i], width, height), 1000.0 * double(i) / fps);
+    const image::VideoChunk chunk =
+        encoder.encode(image::scaleImage(frames[i], width, height), 1000.0 * double(i) / fps);
     const double encodeMs = msSince(start);
     start = Clock::now();
     const image::Image8 shown = image::scaleImage(decoder.decode(chunk.bytes), frames[i].width, frames[i].height);
     accumulate(row, chunk.bytes.size(), psnr(frames[i], shown), encodeMs, msSince(start));
     if (chunk.key) row.keyBytes = double(chunk.bytes.size());
+    if (stream.is_open()) {
+      const uint32_t n = uint32_t(chunk.bytes.size());
+      const char head[5] = {char(n & 0xff), char((n >> 8) & 0xff), char((n >> 16) & 0xff), char(n >> 24),
+                            char(chunk.key ? 1 : 0)};
+      stream.write(head, sizeof head);
+      stream.write(reinterpret_cast<const char*>(chunk.bytes.data()), std::streamsize(n));
+    }
   }
   finish(row, frames.size());
   return row;
@@ -137,6 +155,9 @@ int main(int argc, char** argv) {
   app.add_option("--aq", aqModes, "VP9's adaptive quantisation modes, 0..3 (each a row of every VP9 bitrate)")
       ->delimiter(',')
       ->check(CLI::Range(0, 3));
+  std::string streamsDir;
+  app.add_option("--streams", streamsDir, "also write each video row's chunks to a file in this folder, for "
+                                          "bench/browser_decode.mjs");
   app.add_option("frames", paths, "the drag's lossless frames, in order")->required();
   CLI11_PARSE(app, argc, argv);
   try {
@@ -159,7 +180,7 @@ int main(int argc, char** argv) {
                   settings.adaptiveSpeed = !fixedSpeed;
                   settings.constantBitrate = rc == "cbr";
                   settings.aqMode = aq;
-                  rows.push_back(videoRow(frames, codec, fps, scale, settings));
+                  rows.push_back(videoRow(frames, codec, fps, scale, settings, streamsDir));
                 }
     std::ofstream csv(csvPath);
     csv << "size,frames,fps,encoding,setting,bytes_per_frame,psnr_mean_db,psnr_min_db,encode_ms,decode_ms,key_bytes\n";

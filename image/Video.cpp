@@ -49,7 +49,8 @@ struct VideoEncoder::Codec {
   }
 };
 
-int videoThreadsFor(int width, int height, int available) {
+int videoThreadsFor(proto::Encoding codec, int width, int height, int available) {
+  if (codec == proto::Encoding::Vp8) return 1;
   const int64_t pixels = int64_t(std::max(1, width)) * std::max(1, height);
   const int wanted = int((pixels + 512 * 512 - 1) / (512 * 512));
   return std::clamp(wanted, 1, std::clamp(available, 1, 8));

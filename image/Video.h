@@ -35,10 +35,14 @@ struct VideoSettings {
   int aqMode = 3;  ///< VP9's adaptive quantisation, 0..3 (0 none, 3 cyclic refresh as WebRTC's); VP8 has none
 };
 
-/// The encoder threads a frame of this size is worth: one for each 512x512 pixels or part of them (a quarter of a
-/// 1024x1024 frame each), at most `available` and at most 8. Fewer threads would leave a large frame's encoding the
-/// longest step of a dragged frame; more share too little work to pay for their start.
-int videoThreadsFor(int width, int height, int available);
+/// The encoder threads a VP9 frame of this size is worth: one for each 512x512 pixels or part of them (a quarter of
+/// a 1024x1024 frame each), at most `available` and at most 8. Fewer threads would leave a large frame's encoding the
+/// longest step of a dragged frame; more share too little work to pay for their start. VP8 gets one at any size:
+/// libvpx's VP8 threads wait for each other's rows by spinning, and a frame of several token partitions (one a
+/// thread) is decoded in threads that do so too, so on a machine whose cores are busy (a server rendering, a viewer's
+/// laptop) a 1024x1024 frame took 6 to 7 times as long to encode as in one thread, and Chromium's decoder held
+/// frames back for seconds (bench/results/video/video-vp8-threads.md); VP9's tiles showed neither.
+int videoThreadsFor(proto::Encoding codec, int width, int height, int available);
 
 /// `image` scaled to `width` x `height` (each at least 1): box filtered when it shrinks, bilinear when it grows
 /// (libyuv). The same image when the size is its own.

@@ -54,7 +54,7 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
     mEncoder.reset();  // a failed construction leaves none
     image::VideoSettings settings;
     settings.width = width, settings.height = height, settings.bitrateKbps = kbps;
-    settings.threads = image::videoThreadsFor(width, height, int(std::thread::hardware_concurrency()));
+    settings.threads = image::videoThreadsFor(frame.encoding, width, height, int(std::thread::hardware_concurrency()));
     mEncoder = std::make_unique<image::VideoEncoder>(frame.encoding, settings);
     mStart = input.drawn;
   } else if (mBroken) {

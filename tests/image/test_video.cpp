@@ -161,15 +161,21 @@ TEST_P(VideoCodecs, ADecoderRefusesWhatItCannotShow) {
 INSTANTIATE_TEST_SUITE_P(Codecs, VideoCodecs, ::testing::Values(Encoding::Vp8, Encoding::Vp9),
                          [](const auto& codec) { return std::string(proto::encodingName(codec.param)); });
 
-TEST(Video, ALargeFrameGetsAThreadForEachQuarterMegapixel) {
-  EXPECT_EQ(videoThreadsFor(256, 256, 16), 1);
-  EXPECT_EQ(videoThreadsFor(512, 512, 16), 1);
-  EXPECT_EQ(videoThreadsFor(513, 512, 16), 2);
-  EXPECT_EQ(videoThreadsFor(1024, 1024, 16), 4);
-  EXPECT_EQ(videoThreadsFor(1920, 1080, 16), 8);
-  EXPECT_EQ(videoThreadsFor(4096, 4096, 64), 8);  // never more than 8
-  EXPECT_EQ(videoThreadsFor(1024, 1024, 2), 2);   // never more than the machine has
-  EXPECT_EQ(videoThreadsFor(1024, 1024, 0), 1);   // an unknown machine: one
+TEST(Video, ALargeVp9FrameGetsAThreadForEachQuarterMegapixel) {
+  EXPECT_EQ(videoThreadsFor(Encoding::Vp9, 256, 256, 16), 1);
+  EXPECT_EQ(videoThreadsFor(Encoding::Vp9, 512, 512, 16), 1);
+  EXPECT_EQ(videoThreadsFor(Encoding::Vp9, 513, 512, 16), 2);
+  EXPECT_EQ(videoThreadsFor(Encoding::Vp9, 1024, 1024, 16), 4);
+  EXPECT_EQ(videoThreadsFor(Encoding::Vp9, 1920, 1080, 16), 8);
+  EXPECT_EQ(videoThreadsFor(Encoding::Vp9, 4096, 4096, 64), 8);  // never more than 8
+  EXPECT_EQ(videoThreadsFor(Encoding::Vp9, 1024, 1024, 2), 2);   // never more than the machine has
+  EXPECT_EQ(videoThreadsFor(Encoding::Vp9, 1024, 1024, 0), 1);   // an unknown machine: one
+}
+
+TEST(Video, Vp8IsEncodedInOneThreadAndOnePartitionAtAnySize) {
+  // Its threads spin while waiting for each other, in the encoder and in a browser's decoder of its partitions.
+  for (const auto& [width, height] : {std::pair{512, 512}, {1024, 1024}, {1920, 1080}, {4096, 4096}})
+    EXPECT_EQ(videoThreadsFor(Encoding::Vp8, width, height, 64), 1) << width << "x" << height;
 }
 
 TEST(Video, OnlyVideoEncodingsAndSaneSettingsMakeAStream) {
