@@ -2,9 +2,11 @@
 // bench_video wrote (--streams): Debian's Chromium, headless, as the viewer's tests run it. Each stream is fed as
 // the viewer feeds a drag's frames (video.js: optimizeForLatency, BT.601 limited range), a chunk every INTERVAL ms;
 // a decoder that holds a frame back until the next chunk arrives shows it as a latency near the interval, and as
-// frames still out when the next chunk goes in ("held"). Prints one line of JSON a stream and interval.
+// frames still out when the next chunk goes in ("held"). Prints one line of JSON a stream and interval. A FILE.jpg or
+// FILE.png (a still frame) is decoded as the viewer's frames.js decodes one (createImageBitmap), drawn, and decoded
+// by WebCodecs' ImageDecoder, 20 times each: one line with the medians.
 //
-//   cd tests/browser && node ../../bench/browser_decode.mjs [--intervals 33,250] FILE.chunks...
+//   cd tests/browser && node ../../bench/browser_decode.mjs [--intervals 33,250] FILE.chunks|FILE.jpg|FILE.png...
 // (run from tests/browser: puppeteer-core is resolved from its node_modules; CHROME overrides /usr/bin/chromium).
 import fs from "node:fs";
 import http from "node:http";
@@ -22,7 +24,7 @@ for (let i = 0; i < args.length; ++i) {
   else files.push(args[i]);
 }
 if (!files.length) {
-  console.error("usage: node browser_decode.mjs [--intervals 33,250] FILE.chunks...");
+  console.error("usage: node browser_decode.mjs [--intervals 33,250] FILE.chunks|FILE.jpg|FILE.png...");
   process.exit(2);
 }
 
@@ -50,7 +52,52 @@ const browser = await puppeteer.launch({
 try {
   const page = await browser.newPage();
   await page.goto(`http://127.0.0.1:${server.address().port}/`);
-  for (const file of files)
+  for (const file of files.filter((f) => /\.(jpg|png)$/.test(f))) {
+    // A still frame (jpeg or png) decoded as the viewer's frames.js does (createImageBitmap of a Blob, its options),
+    // with createImageBitmap's default options, and by WebCodecs' ImageDecoder; each drawn to a canvas; 20 times.
+    const name = path.basename(file);
+    const result = await page.evaluate(async (name, repeats) => {
+      const data = new Uint8Array(await (await fetch(`/${name}`)).arrayBuffer());
+      const type = name.endsWith(".png") ? "image/png" : "image/jpeg";
+      let ctx = null;
+      // Each way: ms to the decoded image, and ms to draw it (the draw forced by reading a pixel back).
+      const ways = {
+        bitmap_viewer: () =>
+          createImageBitmap(new Blob([data], { type }), { premultiplyAlpha: "none", colorSpaceConversion: "none" }),
+        bitmap_default: () => createImageBitmap(new Blob([data], { type })),
+        bitmap_no_premultiply: () => createImageBitmap(new Blob([data], { type }), { premultiplyAlpha: "none" }),
+        bitmap_no_conversion: () => createImageBitmap(new Blob([data], { type }), { colorSpaceConversion: "none" }),
+      };
+      if (typeof ImageDecoder !== "undefined")
+        ways.image_decoder = async () => {
+          const decoder = new ImageDecoder({ data, type });
+          const { image } = await decoder.decode();
+          decoder.close();
+          return image;
+        };
+      const out = {};
+      for (const [way, decode] of Object.entries(ways)) {
+        const decodeMs = [], drawMs = [];
+        for (let i = 0; i < repeats; ++i) {
+          let start = performance.now();
+          const image = await decode();
+          decodeMs.push(performance.now() - start);
+          const width = image.displayWidth || image.width, height = image.displayHeight || image.height;
+          if (!ctx) ctx = new OffscreenCanvas(width, height).getContext("2d");
+          start = performance.now();
+          ctx.drawImage(image, 0, 0);
+          ctx.getImageData(0, 0, 1, 1);
+          drawMs.push(performance.now() - start);
+          image.close();
+        }
+        const median = (a) => a.sort((x, y) => x - y)[Math.floor(a.length / 2)];
+        out[way] = { decode_ms: Math.round(median(decodeMs) * 10) / 10, draw_ms: Math.round(median(drawMs) * 10) / 10 };
+      }
+      return { bytes: data.length, ...out };
+    }, name, 20);
+    console.log(JSON.stringify({ image: name, ...result }));
+  }
+  for (const file of files.filter((f) => f.endsWith(".chunks")))
     for (const interval of intervals) {
       const name = path.basename(file);
       const [, codecName, width, height] = /^(vp8|vp9)-(\d+)x(\d+)-/.exec(name);
