@@ -100,7 +100,9 @@ try {
   for (const file of files.filter((f) => f.endsWith(".chunks")))
     for (const interval of intervals) {
       const name = path.basename(file);
-      const [, codecName, width, height] = /^(vp8|vp9)-(\d+)x(\d+)-/.exec(name);
+      const named = /^(vp8|vp9)-(\d+)x(\d+)-/.exec(name);
+      if (!named) throw new Error(`${name}: not a stream of bench_video --streams (CODEC-WxH-...chunks)`);
+      const [, codecName, width, height] = named;
       const result = await page.evaluate(
         async (name, codec, width, height, interval) => {
           const data = new Uint8Array(await (await fetch(`/${name}`)).arrayBuffer());
