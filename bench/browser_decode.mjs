@@ -1,20 +1,19 @@
 // How long a browser's WebCodecs VideoDecoder takes from a chunk put in to its frame coming out, for streams that
-// bench_video wrote (--streams): Debian's Chromium, headless, as the viewer's tests run it. Each stream is fed as
-// the viewer feeds a drag's frames (video.js: optimizeForLatency, BT.601 limited range), a chunk every INTERVAL ms;
-// a decoder that holds a frame back until the next chunk arrives shows it as a latency near the interval, and as
-// frames still out when the next chunk goes in ("held"). Prints one line of JSON a stream and interval. A FILE.jpg or
-// FILE.png (a still frame) is decoded as the viewer's frames.js decodes one (createImageBitmap), drawn, and decoded
-// by WebCodecs' ImageDecoder, 20 times each: one line with the medians.
+// bench_video wrote (--streams): Debian's Chromium, headless, launched as the viewer's tests launch it
+// (tests/browser/harness.mjs). Each stream is fed as the viewer feeds a drag's frames (video.js: optimizeForLatency,
+// BT.601 limited range), a chunk every INTERVAL ms; a decoder that holds a frame back until the next chunk arrives
+// shows it as a latency near the interval, and as frames still out when the next chunk goes in ("held"). Prints one
+// line of JSON a stream and interval. A FILE.jpg or FILE.png (a still frame) is decoded by createImageBitmap with
+// its default options (the viewer's frames.js), with either or both of premultiplyAlpha and colorSpaceConversion
+// "none", and by WebCodecs' ImageDecoder, each drawn to a canvas, 20 times: one line with the medians.
 //
-//   cd tests/browser && node ../../bench/browser_decode.mjs [--intervals 33,250] FILE.chunks|FILE.jpg|FILE.png...
-// (run from tests/browser: puppeteer-core is resolved from its node_modules; CHROME overrides /usr/bin/chromium).
+//   node bench/browser_decode.mjs [--intervals 33,250] FILE.chunks|FILE.jpg|FILE.png...
+// (VOXBRICK_CHROMIUM overrides /usr/bin/chromium; the browser tests' packages must be installed: cd tests/browser &&
+// npm ci).
 import fs from "node:fs";
 import http from "node:http";
-import { createRequire } from "node:module";
 import path from "node:path";
-
-const require = createRequire(path.join(process.cwd(), "package.json"));
-const puppeteer = (await import(require.resolve("puppeteer-core"))).default;
+import * as H from "../tests/browser/harness.mjs";
 
 const args = process.argv.slice(2);
 let intervals = [33, 250];
@@ -43,18 +42,11 @@ const server = http.createServer((req, res) => {
   res.end(fs.readFileSync(file));
 });
 await new Promise((resolve) => server.listen(0, "127.0.0.1", resolve));
-const browser = await puppeteer.launch({
-  executablePath: process.env.CHROME || "/usr/bin/chromium",
-  headless: true,
-  pipe: true,
-  args: ["--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage"],
-});
+const browser = await H.launchBrowser();
 try {
   const page = await browser.newPage();
   await page.goto(`http://127.0.0.1:${server.address().port}/`);
   for (const file of files.filter((f) => /\.(jpg|png)$/.test(f))) {
-    // A still frame (jpeg or png) decoded as the viewer's frames.js does (createImageBitmap of a Blob, its options),
-    // with createImageBitmap's default options, and by WebCodecs' ImageDecoder; each drawn to a canvas; 20 times.
     const name = path.basename(file);
     const result = await page.evaluate(async (name, repeats) => {
       const data = new Uint8Array(await (await fetch(`/${name}`)).arrayBuffer());
@@ -62,7 +54,7 @@ try {
       let ctx = null;
       // Each way: ms to the decoded image, and ms to draw it (the draw forced by reading a pixel back).
       const ways = {
-        bitmap_viewer: () =>
+        bitmap_no_premultiply_no_conversion: () =>
           createImageBitmap(new Blob([data], { type }), { premultiplyAlpha: "none", colorSpaceConversion: "none" }),
         bitmap_default: () => createImageBitmap(new Blob([data], { type })),
         bitmap_no_premultiply: () => createImageBitmap(new Blob([data], { type }), { premultiplyAlpha: "none" }),

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # A still frame's decode and draw in Chromium, each way a page can decode it: the MRI drawn by `voxbrick render` at
 # 512² and 1024² as PNG (the exact frame) and JPEG (q85, the moving frames' default), decoded by createImageBitmap
-# with the viewer's options, with its default options, with each of the two options alone, and by WebCodecs'
+# with its default options (the viewer's), with premultiplyAlpha and colorSpaceConversion "none" (the viewer's
+# before), with each of those two alone, and by WebCodecs'
 # ImageDecoder; each drawn to a canvas (bench/browser_decode.mjs, 20 times each, medians). The figures behind the
 # viewer's createImageBitmap call (web/js/frames.js). Writes bench/results/browser/image-decode.{csv,md}.
 #
@@ -24,13 +25,13 @@ for size in 512 1024; do
   done
 done
 load=$(cut -d' ' -f1-3 /proc/loadavg)
-(cd tests/browser && node ../../bench/browser_decode.mjs "$PWD/../../$stills"/mri-*) > "$work/image-decode.jsonl"
+node bench/browser_decode.mjs "$stills"/mri-* > "$work/image-decode.jsonl"
 python3 - "$work/image-decode.jsonl" bench/results/browser/image-decode "$load" << 'EOF'
 import json, os, subprocess, sys
 from datetime import date
 rows = [json.loads(l) for l in open(sys.argv[1])]
 out, load = sys.argv[2], sys.argv[3]
-ways = [("bitmap_viewer", "createImageBitmap, premultiplyAlpha and colorSpaceConversion \"none\" (the viewer's before)"),
+ways = [("bitmap_no_premultiply_no_conversion", "createImageBitmap, premultiplyAlpha and colorSpaceConversion \"none\" (the viewer's before)"),
         ("bitmap_default", "createImageBitmap, default options (the viewer's now)"),
         ("bitmap_no_premultiply", "createImageBitmap, premultiplyAlpha \"none\" only"),
         ("bitmap_no_conversion", "createImageBitmap, colorSpaceConversion \"none\" only"),
@@ -47,7 +48,8 @@ md = ["# A still frame decoded and drawn in Chromium", "",
       "- Command: `bash bench/run_image_decode.sh` (the MRI, `voxbrick render --tf mri --shading --orbit 35,25`, "
       "as PNG and as JPEG q85; bench/browser_decode.mjs).",
       f"- Date: {date.today()}; machine: {cpu}, {os.cpu_count()} cores, load average at the start {load}; "
-      f"{version}, headless, --disable-gpu (as the viewer's tests).",
+      f"{version}, headless, launched as the viewer's tests launch it (tests/browser/harness.mjs: --disable-gpu, "
+      "--force-color-profile=srgb).",
       "- Each cell: decode ms + draw ms (to a canvas of the frame's size, the draw forced by reading a pixel back), "
       "medians of 20.", "",
       "| way | " + " | ".join(f"{r['image']} ({r['bytes'] // 1024} KB)" for r in rows) + " |",

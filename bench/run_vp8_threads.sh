@@ -61,7 +61,7 @@ for row in csv.DictReader(open(sys.argv[1])):
                       "threads": int(m.group(1)) if m else 1, "ms": float(row["encode_ms"]),
                       "bytes": float(row["bytes_per_frame"]), "psnr": float(row["psnr_mean_db"])}))
 EOF
-    (cd tests/browser && node ../../bench/browser_decode.mjs --intervals 33 "$PWD/../../$streams"/*.chunks) |
+    node bench/browser_decode.mjs --intervals 33 "$streams"/*.chunks |
       python3 -c '
 import json, re, sys
 for line in sys.stdin:

@@ -40,7 +40,7 @@ struct VideoSettings {
 /// longest step of a dragged frame; more share too little work to pay for their start. VP8 gets one at any size:
 /// libvpx's VP8 threads wait for each other's rows by spinning, and a frame of several token partitions (one a
 /// thread) is decoded in threads that do so too, so on a machine whose cores are busy (a server rendering, a viewer's
-/// laptop) a 1024x1024 frame took 6 to 7 times as long to encode as in one thread, and Chromium's decoder held
+/// laptop) a 1024x1024 frame took 4 to 7 times as long to encode as in one thread, and Chromium's decoder held
 /// frames back for seconds (bench/results/video/video-vp8-threads.md); VP9's tiles showed neither.
 int videoThreadsFor(proto::Encoding codec, int width, int height, int available);
 

@@ -172,7 +172,7 @@ export class FrameLoop {
     try {
       const blob = new Blob([f.payload], { type: MIME[f.encoding] || "application/octet-stream" });
       // createImageBitmap's default options: asking for no premultiplied alpha or no colour conversion takes
-      // Chromium's decoder off its fast path (a 1024x1024 JPEG in 44 ms instead of 19), and changes nothing in an
+      // Chromium's decoder off its fast path (a 1024x1024 JPEG in 43 ms instead of 19), and changes nothing in an
       // opaque frame without a colour profile, which is what the server sends (the still-frame test holds the canvas
       // to the PNG pixel for pixel; bench/results/browser/image-decode.md).
       bitmap = await createImageBitmap(blob);
