@@ -5,7 +5,11 @@
 // bench/results/video/video.{csv,md}).
 //
 //   bench_video --csv OUT.csv --fps 30 FRAME.png... [--qualities 50,70,85] [--kbps 1000,2000,4000] [--threads 1,4]
-//               [--scales 1,0.5] [--speeds 8,6] [--fixed-speed] [--rate-control cbr,vbr] [--aq 3,0] [--streams DIR]
+//               [--scales 1,0.5] [--speeds 8,6] [--fixed-speed] [--rate-control cbr,vbr] [--aq 3,0]
+//               [--start-frames 11,0] [--streams DIR]
+//
+// Besides the whole drag's means, each row has its start's: the first kStartFrames frames (a third of a second at 30
+// frames a second), where the stream begins at a key frame.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -30,12 +34,21 @@ double msSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
+constexpr size_t kStartFrames = 11;
+
 struct Row {
   std::string encoding, setting;
   double bytes = 0, psnr = 0, psnrMin = 1e9, encodeMs = 0, decodeMs = 0, keyBytes = 0;
+  double startBytes = 0, startPsnr = 0, startPsnrMin = 1e9;  ///< over the first kStartFrames frames
+  size_t count = 0;
 };
 
 void accumulate(Row& row, size_t bytes, double psnr, double encodeMs, double decodeMs) {
+  if (row.count++ < kStartFrames) {
+    row.startBytes += double(bytes);
+    row.startPsnr += psnr;
+    row.startPsnrMin = std::min(row.startPsnrMin, psnr);
+  }
   row.bytes += double(bytes);
   row.psnr += psnr;
   row.psnrMin = std::min(row.psnrMin, psnr);
@@ -44,8 +57,9 @@ void accumulate(Row& row, size_t bytes, double psnr, double encodeMs, double dec
 }
 
 void finish(Row& row, size_t frames) {
-  const double n = double(frames);
+  const double n = double(frames), start = double(std::min(frames, kStartFrames));
   row.bytes /= n, row.psnr /= n, row.encodeMs /= n, row.decodeMs /= n;
+  row.startBytes /= start, row.startPsnr /= start;
 }
 
 double psnr(const image::Image8& a, const image::Image8& b) {
@@ -83,6 +97,9 @@ Row videoRow(const std::vector<image::Image8>& frames, proto::Encoding codec, do
   if (!settings.constantBitrate) setting += "; vbr";
   if (codec == proto::Encoding::Vp9 && settings.aqMode != defaults.aqMode)
     setting += "; aq " + std::to_string(settings.aqMode);
+  if (settings.startFrames != defaults.startFrames)
+    setting += settings.startFrames == 0 ? std::string("; no start cap")
+                                         : "; start cap " + std::to_string(settings.startFrames) + " frames";
   Row row{proto::encodingName(codec), setting};
   const int width = std::max(16, int(std::lround(frames[0].width * scale)));
   const int height = std::max(16, int(std::lround(frames[0].height * scale)));
@@ -155,6 +172,12 @@ int main(int argc, char** argv) {
   app.add_option("--aq", aqModes, "VP9's adaptive quantisation modes, 0..3 (each a row of every VP9 bitrate)")
       ->delimiter(',')
       ->check(CLI::Range(0, 3));
+  std::vector<int> startFrames{image::VideoSettings{}.startFrames};
+  app.add_option("--start-frames", startFrames,
+                 "the frames of a stream's start whose quantizer is capped (image::VideoSettings::startFrames; 0: "
+                 "no cap; each a row of every bitrate)")
+      ->delimiter(',')
+      ->check(CLI::Range(0, 1000));
   std::string streamsDir;
   app.add_option("--streams", streamsDir, "also write each video row's chunks to a file in this folder, for "
                                           "bench/browser_decode.mjs");
@@ -174,21 +197,25 @@ int main(int argc, char** argv) {
           for (int speed : speeds)
             for (const std::string& rc : rateControls)
               for (int aq : codec == proto::Encoding::Vp9 ? aqModes : std::vector<int>{image::VideoSettings{}.aqMode})
-                for (int k : kbps) {
-                  image::VideoSettings settings;
-                  settings.bitrateKbps = k, settings.threads = t, settings.speed = speed;
-                  settings.adaptiveSpeed = !fixedSpeed;
-                  settings.constantBitrate = rc == "cbr";
-                  settings.aqMode = aq;
-                  rows.push_back(videoRow(frames, codec, fps, scale, settings, streamsDir));
-                }
+                for (int start : startFrames)
+                  for (int k : kbps) {
+                    image::VideoSettings settings;
+                    settings.startFrames = start;
+                    settings.bitrateKbps = k, settings.threads = t, settings.speed = speed;
+                    settings.adaptiveSpeed = !fixedSpeed;
+                    settings.constantBitrate = rc == "cbr";
+                    settings.aqMode = aq;
+                    rows.push_back(videoRow(frames, codec, fps, scale, settings, streamsDir));
+                  }
     std::ofstream csv(csvPath);
-    csv << "size,frames,fps,encoding,setting,bytes_per_frame,psnr_mean_db,psnr_min_db,encode_ms,decode_ms,key_bytes\n";
+    csv << "size,frames,fps,encoding,setting,bytes_per_frame,psnr_mean_db,psnr_min_db,encode_ms,decode_ms,key_bytes,"
+           "start_bytes_per_frame,start_psnr_mean_db,start_psnr_min_db\n";
     for (const Row& r : rows) {
-      char line[512];
-      std::snprintf(line, sizeof line, "%dx%d,%zu,%g,%s,%s,%.0f,%.2f,%.2f,%.2f,%.2f,%.0f\n", frames[0].width,
-                    frames[0].height, frames.size(), fps, r.encoding.c_str(), r.setting.c_str(), r.bytes, r.psnr,
-                    r.psnrMin, r.encodeMs, r.decodeMs, r.keyBytes);
+      char line[640];
+      std::snprintf(line, sizeof line, "%dx%d,%zu,%g,%s,%s,%.0f,%.2f,%.2f,%.2f,%.2f,%.0f,%.0f,%.2f,%.2f\n",
+                    frames[0].width, frames[0].height, frames.size(), fps, r.encoding.c_str(), r.setting.c_str(),
+                    r.bytes, r.psnr, r.psnrMin, r.encodeMs, r.decodeMs, r.keyBytes, r.startBytes, r.startPsnr,
+                    r.startPsnrMin);
       csv << line;
       std::fputs(line, stdout);
     }

@@ -70,6 +70,12 @@ Image8 scaleImage(const Image8& image, int width, int height) {
   return out;
 }
 
+int startQuantizerFor(double bitsPerPixel) {
+  if (!(bitsPerPixel > 0)) return kVideoMaxQuantizer;
+  const double q = 40 - 10 * std::log2(bitsPerPixel / 0.09);
+  return int(std::lround(std::clamp(q, double(kVideoStartQuantizerFloor), double(kVideoMaxQuantizer))));
+}
+
 VideoEncoder::VideoEncoder(proto::Encoding codec, const VideoSettings& settings)
     : mCodec(codec), mSettings(settings), mCodecState(std::make_unique<Codec>()) {
   if (!isVideoEncoding(codec))
@@ -78,6 +84,7 @@ VideoEncoder::VideoEncoder(proto::Encoding codec, const VideoSettings& settings)
     throw ImageFailure("video: size " + std::to_string(settings.width) + "x" + std::to_string(settings.height) +
                        " is outside 1.." + std::to_string(kMaxSide) + " a side");
   if (settings.bitrateKbps < 1) throw ImageFailure("video: bitrate must be at least 1 kbit/s");
+  if (settings.startFrames < 0) throw ImageFailure("video: start frames must be at least 0");
   if (settings.aqMode < 0 || settings.aqMode > 3)
     throw ImageFailure("video: adaptive quantisation mode " + std::to_string(settings.aqMode) + " is outside 0..3");
   const bool vp9 = codec == proto::Encoding::Vp9;
@@ -94,8 +101,8 @@ VideoEncoder::VideoEncoder(proto::Encoding codec, const VideoSettings& settings)
   c.cfg.rc_end_usage = settings.constantBitrate ? VPX_CBR : VPX_VBR;
   c.cfg.rc_target_bitrate = unsigned(settings.bitrateKbps);
   c.cfg.rc_dropframe_thresh = 0;  // never drop a frame: a dropped one would be a frame the client waits for
-  c.cfg.rc_min_quantizer = 2;
-  c.cfg.rc_max_quantizer = 56;
+  c.cfg.rc_min_quantizer = kVideoMinQuantizer;
+  c.cfg.rc_max_quantizer = kVideoMaxQuantizer;
   c.cfg.rc_undershoot_pct = 50;
   c.cfg.rc_overshoot_pct = 50;
   // A short buffer: the rate control answers within about half a second, so a frame never waits for bits.
@@ -157,6 +164,26 @@ VideoChunk VideoEncoder::encode(const Image8& image, double timeMs, bool key) {
   const int64_t pts = std::max<int64_t>(mLastPts + 1, int64_t(std::llround(std::max(0.0, timeMs))));
   const unsigned long duration = mLastPts < 0 ? 33 : (unsigned long)std::max<int64_t>(1, pts - mLastPts);
   const vpx_enc_frame_flags_t flags = key || mFrames == 0 ? VPX_EFLAG_FORCE_KF : 0;
+  // The stream's start (VideoSettings::startFrames). Bytes a millisecond: kbit/s / 8.
+  const double bytesPerMs = mSettings.bitrateKbps / 8.0, frameBytes = bytesPerMs * 1000.0 / 30.0;
+  if (mFrames == 0) {
+    const double bitsPerPixel = frameBytes * 8.0 / (double(mSettings.width) * double(mSettings.height));
+    mStart = {pts, 0, 0, mSettings.startFrames > 0 ? startQuantizerFor(bitsPerPixel) : kVideoMaxQuantizer};
+  } else if (mStart.frames < mSettings.startFrames && mStart.quantizer < kVideoMaxQuantizer) {
+    const double share = bytesPerMs * double(pts - mStart.pts);
+    if (mStart.bytes > share + 2 * frameBytes)
+      mStart.quantizer = kVideoMaxQuantizer;
+    else if (mStart.bytes < share)
+      mStart.quantizer = std::max(kVideoStartQuantizerFloor, mStart.quantizer - 4);
+  }
+  const unsigned maxQuantizer =
+      unsigned(mStart.frames < mSettings.startFrames ? mStart.quantizer : kVideoMaxQuantizer);
+  mMaxQuantizer = int(maxQuantizer);
+  if (maxQuantizer != c.cfg.rc_max_quantizer) {
+    c.cfg.rc_max_quantizer = maxQuantizer;
+    check(vpx_codec_enc_config_set(&c.ctx, &c.cfg), &c.ctx,
+          "video: quantizer at most " + std::to_string(maxQuantizer));
+  }
   check(vpx_codec_encode(&c.ctx, &yuv, pts, duration, flags, VPX_DL_REALTIME), &c.ctx,
         "video: " + codecName(mCodec) + " encoding");
   mLastPts = pts;
@@ -171,6 +198,8 @@ VideoChunk VideoEncoder::encode(const Image8& image, double timeMs, bool key) {
   if (chunk.bytes.empty())  // cannot happen with no lag and no frame dropping; a stream must not skip a frame
     throw ImageFailure("video: " + codecName(mCodec) + " put out no frame");
   ++mFrames;
+  mStart.bytes += double(chunk.bytes.size());
+  mStart.frames = std::min(mStart.frames + 1, mSettings.startFrames);
   return chunk;
 }
 

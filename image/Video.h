@@ -33,7 +33,24 @@ struct VideoSettings {
   /// them; the server streams at constant bitrate.
   bool constantBitrate = true;
   int aqMode = 3;  ///< VP9's adaptive quantisation, 0..3 (0 none, 3 cyclic refresh as WebRTC's); VP8 has none
+  /// A stream's start: its first frames, `startFrames` of them (a third of a second at 30 frames a second; 0: none).
+  /// libvpx's one-pass realtime rate control begins a stream from a coarse guess and takes about ten frames to find
+  /// the picture's quantizer, so without help a stream began blurred (bench/results/video/video-start.md). The
+  /// start's quantizer is capped instead: at startQuantizerFor the bits a pixel the bitrate gives a frame, then 4
+  /// steps finer after each frame while the start has spent less than its share of the bitrate, and not at all once it
+  /// has spent more than its share and two frames' (a picture dearer than the guess: the rate control takes over).
+  /// A key frame later in the stream gets no cap: by then the rate control knows the picture.
+  int startFrames = 11;
 };
+
+/// libvpx's quantizers (0..63) a stream may use: the rate control's range, and the finest a start's cap goes.
+inline constexpr int kVideoMinQuantizer = 2, kVideoMaxQuantizer = 56, kVideoStartQuantizerFloor = 24;
+
+/// The cap on a stream's first quantizer when the bitrate gives a frame `bitsPerPixel` (at 30 frames a second): 40 at
+/// 0.09 bits a pixel, 10 steps finer for each doubling, within kVideoStartQuantizerFloor..kVideoMaxQuantizer (no
+/// cap). Fitted to what the MRI drag's start cost at 512x512, whose pixels cost more than at 1024x1024, so that
+/// a start stays near its share of the bitrate.
+int startQuantizerFor(double bitsPerPixel);
 
 /// The encoder threads a VP9 frame of this size is worth: one for each 512x512 pixels or part of them (a quarter of
 /// a 1024x1024 frame each), at most `available` and at most 8. Fewer threads would leave a large frame's encoding the
@@ -77,6 +94,9 @@ class VideoEncoder {
   int bitrateKbps() const { return mSettings.bitrateKbps; }
   /// Frames encoded so far.
   uint64_t frames() const { return mFrames; }
+  /// The highest quantizer the rate control could use for the latest frame: below kVideoMaxQuantizer in a start's
+  /// frames that were capped (VideoSettings::startFrames).
+  int maxQuantizer() const { return mMaxQuantizer; }
 
  private:
   struct Codec;
@@ -85,6 +105,13 @@ class VideoEncoder {
   std::unique_ptr<Codec> mCodecState;
   int64_t mLastPts = -1;
   uint64_t mFrames = 0;
+  int mMaxQuantizer = kVideoMaxQuantizer;
+  /// The stream's start: its first frame's time, its bytes and frames so far, and its quantizer cap.
+  struct Start {
+    int64_t pts = 0;
+    double bytes = 0;
+    int frames = 0, quantizer = kVideoMaxQuantizer;
+  } mStart;
 };
 
 /// A VP8 or VP9 decoder for one stream: chunks in the order they were encoded, the first a key frame.
