@@ -23,10 +23,11 @@ std::pair<uint32_t, uint32_t> pngSize(const std::vector<uint8_t>& png) {
 
 }  // namespace
 
-std::vector<uint8_t> encodeFrameImage(const Image8& image, proto::Encoding encoding, int jpegQuality) {
+std::vector<uint8_t> encodeFrameImage(const Image8& image, proto::Encoding encoding, int jpegQuality,
+                                      PngSpeed pngSpeed) {
   switch (encoding) {
     case proto::Encoding::RawRgba8: return image.rgba;
-    case proto::Encoding::Png: return encodePng(image);
+    case proto::Encoding::Png: return encodePng(image, pngSpeed);
     case proto::Encoding::ZstdRgba8: {
       std::vector<uint8_t> out(ZSTD_compressBound(image.rgba.size()));
       const size_t n = ZSTD_compress(out.data(), out.size(), image.rgba.data(), image.rgba.size(), 1);

@@ -36,8 +36,13 @@ Image8 toImage8(const ImageF& image);
 /// Scales 8-bit channels to [0, 1].
 ImageF toImageF(const Image8& image);
 
+/// How hard encodePng works. Small: libpng's adaptive choice of filter for each row and zlib's default level, the
+/// smaller file. Fast: the Up filter on every row and zlib's level 1, in a fifth to a quarter of the time, for 1-3 %
+/// more bytes on a rendering of the MRI and up to 45 % more on a flat picture (bench/results/image/png-speed.md).
+enum class PngSpeed { Small, Fast };
+
 /// An 8-bit RGBA PNG in memory.
-std::vector<uint8_t> encodePng(const Image8& image);
+std::vector<uint8_t> encodePng(const Image8& image, PngSpeed speed = PngSpeed::Small);
 /// Decodes a PNG of any bit depth and colour type as 8-bit RGBA; throws ImageFailure naming `what`.
 Image8 decodePng(std::span<const uint8_t> bytes, const std::string& what);
 /// Writes an 8-bit RGBA PNG atomically (image/ImageFile.h); throws ImageFailure naming the file.

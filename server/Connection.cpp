@@ -150,7 +150,7 @@ void Connection::encodeStill(const RenderJob& job, proto::Frame frame) {
   mTransport.runAside(
       [task] {
         task->message = server::encodeStill(std::move(std::get<proto::Frame>(task->message)), *task->job.stillToEncode,
-                                            task->job.maxBodyBytes);
+                                            task->job.pngSpeed, task->job.maxBodyBytes);
       },
       [this, task] { stillEncoded(*task); });
 }
@@ -410,6 +410,7 @@ void Connection::apply(Outcome outcome) {
   for (const Reply& reply : outcome.replies) send(reply.message, reply.requestId);
   if (outcome.render && !mClosed && !mClosing) {
     const uint32_t requestId = outcome.render->requestId;
+    outcome.render->pngSpeed = pngSpeedFor(mPacer.linkKbps(Clock::now()));
     std::optional<Submission> refused = mServices.renderQuota ? mServices.renderQuota(mId) : std::nullopt;
     Submission submission = refused ? std::move(*refused)
                                     : mServices.scheduler.submit(mTransport.renderSink(), std::move(*outcome.render));

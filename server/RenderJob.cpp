@@ -31,20 +31,23 @@ std::string withKey(std::string statsJson, std::string_view key, std::string_vie
   return statsJson;
 }
 
-proto::Message encodeStill(proto::Frame frame, int jpegQuality, uint64_t maxBodyBytes) {
+proto::Message encodeStill(proto::Frame frame, int jpegQuality, image::PngSpeed pngSpeed, uint64_t maxBodyBytes) {
   const auto start = Clock::now();
   try {
     image::Image8 image;
     image.width = int(frame.width);
     image.height = int(frame.height);
     image.rgba = std::move(frame.payload);
-    frame.payload = image::encodeFrameImage(image, frame.encoding, jpegQuality);
+    frame.payload = image::encodeFrameImage(image, frame.encoding, jpegQuality, pngSpeed);
   } catch (...) {
     return errorReply(std::current_exception(), "the " + std::to_string(frame.width) + "x" +
                                                     std::to_string(frame.height) + " frame could not be encoded");
   }
   frame.statsJson =
       withKey(std::move(frame.statsJson), "encode_ms", nlohmann::json(jobMsBetween(start, Clock::now())).dump());
+  if (frame.encoding == proto::Encoding::Png)
+    frame.statsJson = withKey(std::move(frame.statsJson), "png_speed",
+                              pngSpeed == image::PngSpeed::Fast ? "\"fast\"" : "\"small\"");
   if (const uint64_t body = frameBodyBytes(frame.statsJson.size(), frame.payload.size()); body > maxBodyBytes)
     return errorMessage(proto::ErrorCode::LimitExceeded,
                         "the " + std::to_string(frame.width) + "x" + std::to_string(frame.height) + " frame takes " +
@@ -103,7 +106,8 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
     }
     frame.statsJson = statsJson.dump();
     RenderReply reply{
-        aside ? proto::Message(std::move(frame)) : encodeStill(std::move(frame), jpegQuality, job.maxBodyBytes),
+        aside ? proto::Message(std::move(frame))
+              : encodeStill(std::move(frame), jpegQuality, job.pngSpeed, job.maxBodyBytes),
         provisional};
     // A provisional frame too large to send answers its request with the error: no exact frame follows.
     reply.provisional = provisional && std::holds_alternative<proto::Frame>(reply.message);

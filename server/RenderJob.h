@@ -10,6 +10,7 @@
 #include <string>
 #include <string_view>
 
+#include "image/Image.h"
 #include "proto/Messages.h"
 #include "render/core/Dataset.h"
 #include "render/core/Scene.h"
@@ -66,7 +67,19 @@ struct RenderJob {
   std::optional<int> stillToEncode = std::nullopt;
   /// With stillToEncode: the Frame is provisional (RenderReply::provisional), an exact one to follow.
   bool stillProvisional = false;
+  /// How its png Frames are encoded: pngSpeedFor the session's link when it was submitted.
+  image::PngSpeed pngSpeed = image::PngSpeed::Fast;
 };
+
+/// Links measured slower than this (kbit/s) get png frames encoded Small, faster or unmeasured ones Fast: on the MRI
+/// Fast saves 50-65 ms of a 1024² frame's encoding for 13 KB more (10 ms at 10 Mbit/s); on a flat picture it saves
+/// 14 ms of a 512² frame's for 18 KB, about even at 10 Mbit/s (bench/results/image/png-speed.md).
+inline constexpr double kSmallPngBelowKbps = 10000;
+/// The png speed for a session whose link's rate is `linkKbps` (LinkPacer::linkKbps: none when it is not measured,
+/// as when the link keeps up with every frame).
+inline image::PngSpeed pngSpeedFor(std::optional<double> linkKbps) {
+  return linkKbps && *linkKbps < kSmallPngBelowKbps ? image::PngSpeed::Small : image::PngSpeed::Fast;
+}
 
 /// The class the scheduler serves `job` in: batch for a scene with "batch", else interactive for a moving camera's
 /// frame (an interactive scene's first drawing) and for the frame that ends a drag (endsDrag), else still (another
@@ -117,10 +130,11 @@ struct RenderReply {
 /// object. A frame's statistics gain a key without being parsed again.
 std::string withKey(std::string statsJson, std::string_view key, std::string_view value);
 
-/// Encodes a still Frame whose payload is its RGBA8 pixels into its encoding (png, jpeg at `jpegQuality`,
-/// zstd_rgba8, raw_rgba8) and adds encode_ms to its statistics; answers LimitExceeded instead when the encoded body
-/// exceeds `maxBodyBytes`, or the Error naming an encoding failure. Throws nothing but std::bad_alloc.
-proto::Message encodeStill(proto::Frame frame, int jpegQuality, uint64_t maxBodyBytes);
+/// Encodes a still Frame whose payload is its RGBA8 pixels into its encoding (png at `pngSpeed`, jpeg at
+/// `jpegQuality`, zstd_rgba8, raw_rgba8) and adds encode_ms (and a png's png_speed, "fast" or "small") to its
+/// statistics; answers LimitExceeded instead when the encoded body exceeds `maxBodyBytes`, or the Error naming an
+/// encoding failure. Throws nothing but std::bad_alloc.
+proto::Message encodeStill(proto::Frame frame, int jpegQuality, image::PngSpeed pngSpeed, uint64_t maxBodyBytes);
 
 /// Renders `job` with `source` (current on this thread) and encodes it (a frame in a video encoding, vp8 or vp9, keeps
 /// its raw RGBA8 pixels as its payload: the session's VideoStream encodes it in order and checks its size; its stats

@@ -35,7 +35,7 @@ std::string shareKeyOf(const RenderJob& job) {
   key += '|' + std::to_string(int(job.encoding)) + '|' +
          (job.provisionalEncoding ? std::to_string(int(*job.provisionalEncoding)) : std::string("-")) + '|' +
          (job.refinement ? "r" : "f") + '|' + std::to_string(job.maxBodyBytes) + '|' + std::to_string(job.maxSamples) +
-         '|' + job.scene.toJson();
+         '|' + (job.pngSpeed == image::PngSpeed::Fast ? "fast" : "small") + '|' + job.scene.toJson();
   return key;
 }
 
@@ -437,8 +437,8 @@ void RenderScheduler::deliver(const Taken& taken, RenderReply& reply, std::vecto
   // each of their sessions.
   if (reply.stillToEncode &&
       std::any_of(followers.begin(), followers.end(), [](const Recipient& r) { return r.sink->wantsReplies(); })) {
-    reply.message =
-        encodeStill(std::move(std::get<proto::Frame>(reply.message)), *reply.stillToEncode, taken.job.maxBodyBytes);
+    reply.message = encodeStill(std::move(std::get<proto::Frame>(reply.message)), *reply.stillToEncode,
+                                taken.job.pngSpeed, taken.job.maxBodyBytes);
     reply.stillToEncode.reset();
     reply.provisional = reply.provisional && std::holds_alternative<proto::Frame>(reply.message);
   }

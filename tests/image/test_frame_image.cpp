@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <vector>
 
+#include <zlib.h>
+
 #include "image/FrameImage.h"
 
 namespace voxbrick::image {
@@ -48,6 +50,45 @@ TEST(FrameImage, CompressedEncodingsAreSmallerOnAFlatImage) {
   Image8 flat{256, 256, std::vector<uint8_t>(256 * 256 * 4, 90)};
   EXPECT_LT(encodeFrameImage(flat, proto::Encoding::Png).size(), flat.rgba.size() / 50);
   EXPECT_LT(encodeFrameImage(flat, proto::Encoding::ZstdRgba8).size(), flat.rgba.size() / 50);
+}
+
+/// The filter byte of each row of an 8-bit RGBA PNG (its IDAT chunks' data inflated).
+std::vector<int> rowFilters(const std::vector<uint8_t>& png, int width, int height) {
+  std::vector<uint8_t> deflated;
+  for (size_t at = 8; at + 12 <= png.size();) {
+    const size_t length = size_t(png[at]) << 24 | size_t(png[at + 1]) << 16 | size_t(png[at + 2]) << 8 | png[at + 3];
+    if (std::string(png.begin() + long(at) + 4, png.begin() + long(at) + 8) == "IDAT")
+      deflated.insert(deflated.end(), png.begin() + long(at) + 8, png.begin() + long(at + 8 + length));
+    at += 12 + length;
+  }
+  const size_t stride = 1 + size_t(width) * 4;
+  std::vector<uint8_t> rows(stride * size_t(height));
+  uLongf size = uLongf(rows.size());
+  EXPECT_EQ(uncompress(rows.data(), &size, deflated.data(), uLong(deflated.size())), Z_OK);
+  EXPECT_EQ(size, rows.size());
+  std::vector<int> filters;
+  for (size_t y = 0; y < size_t(height); ++y) filters.push_back(rows[y * stride]);
+  return filters;
+}
+
+TEST(FrameImage, AFastPngIsTheSamePictureWithEveryRowFilteredUp) {
+  // A picture whose rows suit different filters: a smooth ramp across (Sub) over detail that repeats down (Up).
+  Image8 image{96, 64, std::vector<uint8_t>(96 * 64 * 4)};
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 96; ++x)
+      for (int c = 0; c < 4; ++c)
+        image.rgba[(size_t(y) * 96 + size_t(x)) * 4 + size_t(c)] =
+            uint8_t(y < 32 ? x * 2 + c : (x * 37 + c * 11) & 0xff);
+  const std::vector<uint8_t> fast = encodeFrameImage(image, proto::Encoding::Png, kDefaultJpegQuality, PngSpeed::Fast);
+  const std::vector<uint8_t> small = encodeFrameImage(image, proto::Encoding::Png);
+  for (const auto* png : {&fast, &small}) {
+    proto::Frame frame{96, 64, proto::Encoding::Png, "{}", *png};
+    EXPECT_EQ(decodeFrameImage(frame).rgba, image.rgba);
+  }
+  EXPECT_EQ(rowFilters(fast, 96, 64), std::vector<int>(64, 2)) << "PNG's Up filter is 2";
+  const std::vector<int> chosen = rowFilters(small, 96, 64);
+  EXPECT_NE(std::count(chosen.begin(), chosen.end(), 2), 64) << "libpng's adaptive choice";
+  EXPECT_EQ(encodePng(image), small) << "Small is encodePng's default";
 }
 
 TEST(FrameImage, PayloadsOfTheWrongSizeAreRefused) {

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "server/LinkPacer.h"
+#include "server/RenderJob.h"
 
 namespace voxbrick::server {
 namespace {
@@ -52,16 +53,22 @@ TEST(LinkPacer, AClientThatStopsReportingIsReleasedAfterASecond) {
   EXPECT_TRUE(pacer.mayWrite(at(20 + LinkPacer::kStaleMs)));
 }
 
-TEST(LinkPacer, FramesThatQueuedBehindOneAnotherMeasureTheLink) {
-  LinkPacer pacer;
-  // A 10 Mbit/s link (10 kbit a ms) with 40 ms of round trip: a 25 000-byte frame takes 20 ms to pass.
+/// 20 frames of 25 000 bytes written every `writeMs` on a link that takes `passMs` to pass each, with 40 ms of round
+/// trip; each frame's report comes as the next one has passed.
+void queueFrames(LinkPacer& pacer, double writeMs, double passMs) {
   double linkFree = 0;
   for (int i = 0; i < 20; ++i) {
-    const double sentAt = 10.0 * i;  // written faster than the link takes them
+    const double sentAt = writeMs * i;
     pacer.sent(25000, at(sentAt));
-    linkFree = std::max(linkFree, sentAt) + 20;
-    if (i >= 1) pacer.received(at(linkFree - 20 + 40));  // the previous frame's report
+    linkFree = std::max(linkFree, sentAt) + passMs;
+    if (i >= 1) pacer.received(at(linkFree - passMs + 40));  // the previous frame's report
   }
+}
+
+TEST(LinkPacer, FramesThatQueuedBehindOneAnotherMeasureTheLink) {
+  LinkPacer pacer;
+  // A 10 Mbit/s link (10 kbit a ms): a 25 000-byte frame takes 20 ms to pass; written faster than that.
+  queueFrames(pacer, 10, 20);
   const auto link = pacer.linkKbps(at(450));
   ASSERT_TRUE(link);
   EXPECT_NEAR(*link, 10000, 500);
@@ -84,6 +91,16 @@ TEST(LinkPacer, FramesOnAnIdleLinkMeasureNoRateAndTheBitrateClimbsToItsCap) {
   for (int s = 3; s < 12; ++s) kbps = pacer.videoKbps(1000, 8000, at(1000.0 * s));
   EXPECT_EQ(kbps, 8000) << "never above the cap";
   EXPECT_EQ(pacer.videoKbps(1, 1, at(13000)), LinkPacer::kMinKbps) << "nor below the floor";
+}
+
+TEST(LinkPacer, PngFramesAreEncodedSmallOnlyOnALinkMeasuredSlow) {
+  EXPECT_EQ(pngSpeedFor(std::nullopt), image::PngSpeed::Fast) << "no measurement: the link keeps up";
+  LinkPacer slow, fast;
+  queueFrames(slow, 10, 40);  // 5 Mbit/s
+  queueFrames(fast, 0.5, 1);  // 200 Mbit/s
+  ASSERT_TRUE(slow.linkKbps(at(900)) && fast.linkKbps(at(900)));
+  EXPECT_EQ(pngSpeedFor(slow.linkKbps(at(900))), image::PngSpeed::Small);
+  EXPECT_EQ(pngSpeedFor(fast.linkKbps(at(900))), image::PngSpeed::Fast);
 }
 
 }  // namespace

@@ -85,6 +85,7 @@ TEST_F(ServerTest, ServedFramesEqualTheRenderCommandBitForBit) {
   const json stats = json::parse(png.statsJson);
   EXPECT_GT(stats["bricks_drawn"].get<int>(), 0);
   EXPECT_TRUE(stats.contains("queue_ms") && stats.contains("encode_ms"));
+  EXPECT_EQ(stats["png_speed"], "fast") << "a link that keeps up gets png frames encoded fast";
 
   test::writeFile(scratch() / "scene.json", std::string(kScene));
   const auto r = test::runVoxbrick("render " + datasets() + "/sparse --scene " + (scratch() / "scene.json").string() +
