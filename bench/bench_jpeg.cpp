@@ -4,8 +4,6 @@
 // (bench/run_jpeg.sh renders the frames and writes bench/results/jpeg/jpeg.{csv,md}).
 //
 //   bench_jpeg --csv OUT.csv FRAME.png... [--qualities 50,60,...] [--repeats 3]
-#include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -14,6 +12,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "BenchTiming.h"
 #include "image/FrameImage.h"
 #include "image/Image.h"
 #include "image/ImageFile.h"
@@ -21,20 +20,7 @@
 namespace {
 
 using namespace voxbrick;
-using Clock = std::chrono::steady_clock;
-
-/// The median time of `repeats` runs of `f`, in milliseconds.
-template <class F>
-double medianMs(int repeats, F&& f) {
-  std::vector<double> ms;
-  for (int i = 0; i < repeats; ++i) {
-    const auto start = Clock::now();
-    f();
-    ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
-  }
-  std::sort(ms.begin(), ms.end());
-  return ms[ms.size() / 2];
-}
+using bench::medianMs;
 
 /// One frame's rows of the CSV: png, zstd, then jpeg at every quality and chroma layout.
 void measure(const std::filesystem::path& path, const std::vector<int>& qualities, int repeats, std::ofstream& csv) {

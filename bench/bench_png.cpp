@@ -5,8 +5,6 @@
 //
 //   bench_png --csv OUT.csv FRAME.png... [--repeats 5] [--out DIR]
 // (--out: also writes each frame's two PNGs, NAME-small.png and NAME-fast.png, for bench/browser_decode.mjs.)
-#include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -15,26 +13,14 @@
 
 #include <CLI/CLI.hpp>
 
+#include "BenchTiming.h"
 #include "image/Image.h"
 #include "image/ImageFile.h"
 
 namespace {
 
 using namespace voxbrick;
-using Clock = std::chrono::steady_clock;
-
-/// The median time of `repeats` runs of `f`, in milliseconds.
-template <class F>
-double medianMs(int repeats, F&& f) {
-  std::vector<double> ms;
-  for (int i = 0; i < repeats; ++i) {
-    const auto start = Clock::now();
-    f();
-    ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
-  }
-  std::sort(ms.begin(), ms.end());
-  return ms[ms.size() / 2];
-}
+using bench::medianMs;
 
 }  // namespace
 

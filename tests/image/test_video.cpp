@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "image/Video.h"
@@ -153,18 +154,31 @@ StartOf startOf(Encoding codec, const VideoSettings& settings, int keyAt, Make m
   return start;
 }
 
+/// The server's settings for a `side` x `side` stream at `kbps`, at a fixed speed (so that bytes differ by the
+/// setting under test alone, not by a speed libvpx chose from the time each encoder took).
+VideoSettings atFixedSpeed(int side, int kbps) {
+  VideoSettings settings;
+  settings.width = side, settings.height = side, settings.bitrateKbps = kbps;
+  settings.adaptiveSpeed = false;
+  return settings;
+}
+
+/// The start of a stream from frame 0 with `settings`, and the same without the start's cap.
+template <typename Make>
+std::pair<StartOf, StartOf> cappedAndNot(Encoding codec, const VideoSettings& settings, Make make) {
+  VideoSettings uncapped = settings;
+  uncapped.startFrames = 0;
+  return {startOf(codec, settings, 0, make), startOf(codec, uncapped, 0, make)};
+}
+
 TEST_P(VideoCodecs, AStreamStartsSharpWithinItsShareOfTheBitrate) {
   // A smooth picture turning at 0.1 bits a pixel (800 kbit/s at 512x512): the rate control alone begins coarse and
   // under-spends; the start's cap spends the start's share, and shows it. A key frame forced later in the stream
   // is left to the rate control, which knows the picture by then.
-  VideoSettings settings;
-  settings.width = 512, settings.height = 512, settings.bitrateKbps = 800;
-  settings.adaptiveSpeed = false;
-  VideoSettings uncapped = settings;
-  uncapped.startFrames = 0;
+  const VideoSettings settings = atFixedSpeed(512, 800);
   const auto make = [](int i) { return picture(512, 512, 0.05 * i); };
   const double share = 11 * 800.0 / 8 * 1000 / 30;  // bytes: 11 frames of 800 kbit/s at 30 a second
-  const StartOf capped = startOf(GetParam(), settings, 0, make), plain = startOf(GetParam(), uncapped, 0, make);
+  const auto [capped, plain] = cappedAndNot(GetParam(), settings, make);
   EXPECT_GT(capped.psnr, plain.psnr + 1.0);
   EXPECT_LT(capped.bytes, share * 1.5);
   VideoEncoder encoder(GetParam(), settings);
@@ -181,13 +195,8 @@ TEST_P(VideoCodecs, AStartDearerThanGuessedIsLeftToTheRateControl) {
   // Fine noise at 0.2 bits a pixel costs several times what the cap guessed for a rendering: the cap is lifted once
   // the start has spent its share and two frames more, so the start spends at most a few frames more than the
   // uncapped stream's (kept capped, VP8's took 7 frames' more and VP9's 20).
-  VideoSettings settings;
-  settings.width = 256, settings.height = 256, settings.bitrateKbps = 400;
-  settings.adaptiveSpeed = false;
-  VideoSettings uncapped = settings;
-  uncapped.startFrames = 0;
   const auto make = [](int i) { return detailed(256, 256, 0.2 * i); };
-  const StartOf capped = startOf(GetParam(), settings, 0, make), plain = startOf(GetParam(), uncapped, 0, make);
+  const auto [capped, plain] = cappedAndNot(GetParam(), atFixedSpeed(256, 400), make);
   const double frameBytes = 400.0 / 8 * 1000 / 30;
   EXPECT_LT(capped.bytes, plain.bytes + 5 * frameBytes);
 }
