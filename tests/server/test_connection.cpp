@@ -2,9 +2,12 @@
 // Asio. Deadlines pass when a test says so; writes complete when a test says so.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
+#include <thread>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -60,7 +63,19 @@ class FakeTransport : public Transport,
   }
 
   bool wantsReplies() const override { return true; }
-  void rendered(RenderJob, proto::Message) override {}
+  /// The jobs a started scheduler rendered (the connection under test never hears of them), from its render thread.
+  void rendered(RenderJob job, proto::Message) override {
+    const std::lock_guard lock(renderedMutex);
+    renderedJobs.push_back(std::move(job));
+  }
+  std::optional<RenderJob> renderedJob(uint32_t requestId) {
+    const std::lock_guard lock(renderedMutex);
+    for (const RenderJob& job : renderedJobs)
+      if (job.requestId == requestId) return job;
+    return std::nullopt;
+  }
+  std::mutex renderedMutex;
+  std::vector<RenderJob> renderedJobs;
 };
 
 /// The message `bytes` encode and its request id.
@@ -595,6 +610,42 @@ TEST_F(ConnectionTest, FramesWaitForTheClientsReportsOnceItReports) {
   ASSERT_EQ(transport->writes.size(), 6u);
   EXPECT_EQ(decoded(transport->writes[5]).second, 7u);
   EXPECT_EQ(core.link().inFlight(), 2);
+}
+
+// A png frame's speed follows the session's link as its reports measure it: fast while nothing says the link is slow,
+// small once frames that followed one another took long to arrive (below kSmallPngBelowKbps).
+TEST_F(ConnectionTest, APngFramesSpeedFollowsTheLinkItsReportsMeasure) {
+  greet(4);
+  receive(proto::OpenDataset{"sparse"}, 2);
+  flush();
+  scheduler->start();
+  const auto renderedJob = [&](uint32_t id) {
+    for (int i = 0; i < 3000 && !transport->renderedJob(id); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    return transport->renderedJob(id);
+  };
+  receive(proto::RenderRequest{proto::Encoding::Png, kConnectionScene}, 3);
+  const std::optional<RenderJob> first = renderedJob(3);
+  ASSERT_TRUE(first);
+  EXPECT_EQ(first->pngSpeed, image::PngSpeed::Fast) << "nothing measured the link";
+  // Two frames written back to back, their reports 30 ms apart: the second took 30 ms to pass, about 1 Mbit/s for
+  // its 4 kB (a slower machine makes the gap longer and the link slower still).
+  render(10, proto::Encoding::RawRgba8);
+  render(11, proto::Encoding::RawRgba8);
+  flush();
+  const auto report = [&](uint32_t id) { receive(proto::FrameReceived{1000}, id); };
+  std::this_thread::sleep_for(std::chrono::milliseconds(30));
+  report(10);
+  std::this_thread::sleep_for(std::chrono::milliseconds(30));
+  report(11);
+  const std::optional<double> link = core.link().linkKbps(std::chrono::steady_clock::now());
+  ASSERT_TRUE(link);
+  ASSERT_LT(*link, kSmallPngBelowKbps);
+  receive(proto::RenderRequest{proto::Encoding::Png, kConnectionScene}, 4);
+  const std::optional<RenderJob> second = renderedJob(4);
+  ASSERT_TRUE(second);
+  EXPECT_EQ(second->pngSpeed, image::PngSpeed::Small) << "a link measured at " << *link << " kbit/s";
+  scheduler->stop();
 }
 
 // FrameReceived exists from version 4 on: an older session that sends it is told so and goes on.
