@@ -170,6 +170,30 @@ describe("viewer", () => {
     await page.close();
   });
 
+  test("a release asks for the last camera as a still Render, drawn exact without waiting for the camera to rest", async () => {
+    const page = await H.openPage(browser, `${server.url}/?dataset=sparse&${SIZE_PARAM}`);
+    const start = await waitExact(page);
+    const box = await (await page.$("#frame")).boundingBox();
+    const [x0, y0] = [box.x + box.width / 2, box.y + box.height / 2];
+    await page.mouse.move(x0, y0);
+    await page.mouse.down();
+    for (let i = 1; i <= 10; ++i) {
+      await page.mouse.move(x0 - i * 4, y0);
+      await new Promise((r) => setTimeout(r, 33));
+    }
+    await page.mouse.up(); // at once: the last drag Render's exact frame would wait for the camera to rest first
+    const s = await H.waitForState(page, (st) => st.exactAfterReleaseMs !== null && !st.lastFrame.provisional);
+    assert.ok(s.newestId > start.newestId, "Renders were sent");
+    // The Render after the release is a still one of the last camera (unless that camera's exact frame had come
+    // already, within the moment between the last move and the release).
+    assert.ok(
+      s.exactAfterReleaseMs === 0 || s.lastScene.interactive !== true,
+      `the last Render: ${JSON.stringify(s.lastScene)}`,
+    );
+    assert.deepEqual(s.lastScene.camera.orbit, [s.view.az, s.view.el], "of the last camera");
+    await page.close();
+  });
+
   test("wheel zooms, shift-drag pans, and a pan of nothing is the orbit's frame", async () => {
     // The camera sent as eye, centre and up (a pan too small to move a pixel) gives the orbit's frame, for a volume
     // centred on the origin and for one in a patient frame.

@@ -77,9 +77,15 @@ export class FrameLoop {
   released() {
     this.releaseAt = performance.now();
     this.exactAfterReleaseMs = null;
-    // A camera not yet asked for is asked as a still frame; otherwise the newest Render's exact frame follows it.
+    // A camera not yet asked for is asked as a still frame. So is the newest drag camera whose exact frame has not
+    // come: the server draws a still Render's frame exact at once (as the end of the drag, and in place of that drag
+    // Render's waiting frames: latest wins), where the drag Render's own exact frame would first wait for the
+    // camera to rest (up to 150 ms after its provisional frame was drawn).
     if (this.wanted) this.wanted.phase = "still";
-    else if (this.newest && this.newest.phase === "drag" && this.newest.exactShown) this.exactAfterReleaseMs = 0;
+    else if (this.newest && this.newest.phase === "drag") {
+      if (this.newest.exactShown) this.exactAfterReleaseMs = 0;
+      else this.wanted = { cameraAt: this.newest.cameraAt, phase: "still" };
+    }
     this.pump();
   }
 
