@@ -37,8 +37,9 @@ Image8 toImage8(const ImageF& image);
 ImageF toImageF(const Image8& image);
 
 /// How hard encodePng works. Small: libpng's adaptive choice of filter for each row and zlib's default level, the
-/// smaller file. Fast: the Up filter on every row and zlib's level 1, in a fifth to a quarter of the time, for 1-3 %
-/// more bytes on a rendering of the MRI and up to 45 % more on a flat picture (bench/results/image/png-speed.md).
+/// smaller file. Fast: the Up filter on every row and zlib's level 1, in a fifth to a quarter of the time, for 0-4 %
+/// more bytes on shaded renderings of the MRI, 14-21 % on others and 44 % on a flat picture
+/// (bench/results/image/png-speed.md).
 enum class PngSpeed { Small, Fast };
 
 /// An 8-bit RGBA PNG in memory.

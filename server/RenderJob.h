@@ -72,7 +72,7 @@ struct RenderJob {
 };
 
 /// Links measured slower than this (kbit/s) get png frames encoded Small, faster or unmeasured ones Fast: on the MRI
-/// Fast saves 50-65 ms of a 1024² frame's encoding for 13 KB more (10 ms at 10 Mbit/s); on a flat picture it saves
+/// Fast saves 56 ms of a 1024² frame's encoding for 18 KB more (15 ms at 10 Mbit/s); on a flat picture it saves
 /// 14 ms of a 512² frame's for 18 KB, about even at 10 Mbit/s (bench/results/image/png-speed.md).
 inline constexpr double kSmallPngBelowKbps = 10000;
 /// The png speed for a session whose link's rate is `linkKbps` (LinkPacer::linkKbps: none when it is not measured,

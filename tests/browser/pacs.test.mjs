@@ -264,6 +264,13 @@ describe("a PACS's series in the viewer", () => {
     for (const other of [uids.ct.plan, uids.ct.report])
       assert.ok(!listed.datasets.some((d) => d.includes(other)), `${other} listed: ${JSON.stringify(listed.datasets)}`);
     // The list's order and labels are the panel's business (a PACS's series may be grouped); its values are the names.
+    // The panel fills its list once the server's statistics have labelled the series, after the state has the names:
+    // wait for it (read at once, a busy machine found it still empty).
+    await page.waitForFunction(
+      (n) => document.querySelectorAll("#dataset option").length >= n,
+      { timeout: 10000 },
+      listed.datasets.length,
+    );
     const options = await page.$$eval("#dataset option", (o) => o.map((x) => x.value));
     assert.deepEqual(options.sort(), [...listed.datasets].sort());
     // (2) While the server fetches the series, the banner says so; no dataset open, no frame yet.
