@@ -42,6 +42,18 @@ const footprint = (img) => {
 
 const waitExact = H.waitExact;
 
+/// A page on `url` once its first exact frame is shown, with the pointer pressed at the frame's centre: the page, that
+/// first state and the centre.
+async function pressOnFrame(browser, url) {
+  const page = await H.openPage(browser, url);
+  const start = await waitExact(page);
+  const box = await (await page.$("#frame")).boundingBox();
+  const [x0, y0] = [box.x + box.width / 2, box.y + box.height / 2];
+  await page.mouse.move(x0, y0);
+  await page.mouse.down();
+  return { page, start, x0, y0 };
+}
+
 describe("viewer", () => {
   let scratch, datasets, server, browser;
 
@@ -125,12 +137,7 @@ describe("viewer", () => {
   });
 
   test("a drag turns the camera, frames keep arriving, and the exact frame follows the release", async () => {
-    const page = await H.openPage(browser, `${server.url}/?dataset=sparse&${SIZE_PARAM}`);
-    const start = await waitExact(page);
-    const box = await (await page.$("#frame")).boundingBox();
-    const [x0, y0] = [box.x + box.width / 2, box.y + box.height / 2];
-    await page.mouse.move(x0, y0);
-    await page.mouse.down();
+    const { page, start, x0, y0 } = await pressOnFrame(browser, `${server.url}/?dataset=sparse&${SIZE_PARAM}`);
     const steps = 30;
     for (let i = 1; i <= steps; ++i) {
       await page.mouse.move(x0 + i * 4, y0 + i * 1);
@@ -171,12 +178,7 @@ describe("viewer", () => {
   });
 
   test("a release asks for the last camera as a still Render, drawn exact without waiting for the camera to rest", async () => {
-    const page = await H.openPage(browser, `${server.url}/?dataset=sparse&${SIZE_PARAM}`);
-    const start = await waitExact(page);
-    const box = await (await page.$("#frame")).boundingBox();
-    const [x0, y0] = [box.x + box.width / 2, box.y + box.height / 2];
-    await page.mouse.move(x0, y0);
-    await page.mouse.down();
+    const { page, start, x0, y0 } = await pressOnFrame(browser, `${server.url}/?dataset=sparse&${SIZE_PARAM}`);
     for (let i = 1; i <= 10; ++i) {
       await page.mouse.move(x0 - i * 4, y0);
       await new Promise((r) => setTimeout(r, 33));
