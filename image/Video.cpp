@@ -178,7 +178,6 @@ VideoChunk VideoEncoder::encode(const Image8& image, double timeMs, bool key) {
   }
   const unsigned maxQuantizer =
       unsigned(mStart.frames < mSettings.startFrames ? mStart.quantizer : kVideoMaxQuantizer);
-  mMaxQuantizer = int(maxQuantizer);
   if (maxQuantizer != c.cfg.rc_max_quantizer) {
     c.cfg.rc_max_quantizer = maxQuantizer;
     check(vpx_codec_enc_config_set(&c.ctx, &c.cfg), &c.ctx,
@@ -198,10 +197,14 @@ VideoChunk VideoEncoder::encode(const Image8& image, double timeMs, bool key) {
   if (chunk.bytes.empty())  // cannot happen with no lag and no frame dropping; a stream must not skip a frame
     throw ImageFailure("video: " + codecName(mCodec) + " put out no frame");
   ++mFrames;
-  mStart.bytes += double(chunk.bytes.size());
-  mStart.frames = std::min(mStart.frames + 1, mSettings.startFrames);
+  if (mStart.frames < mSettings.startFrames) {
+    mStart.bytes += double(chunk.bytes.size());
+    ++mStart.frames;
+  }
   return chunk;
 }
+
+int VideoEncoder::maxQuantizer() const { return int(mCodecState->cfg.rc_max_quantizer); }
 
 struct VideoDecoder::Codec {
   vpx_codec_ctx_t ctx{};

@@ -96,7 +96,7 @@ class VideoEncoder {
   uint64_t frames() const { return mFrames; }
   /// The highest quantizer the rate control could use for the latest frame: below kVideoMaxQuantizer in a start's
   /// frames that were capped (VideoSettings::startFrames).
-  int maxQuantizer() const { return mMaxQuantizer; }
+  int maxQuantizer() const;
 
  private:
   struct Codec;
@@ -105,8 +105,8 @@ class VideoEncoder {
   std::unique_ptr<Codec> mCodecState;
   int64_t mLastPts = -1;
   uint64_t mFrames = 0;
-  int mMaxQuantizer = kVideoMaxQuantizer;
-  /// The stream's start: its first frame's time, its bytes and frames so far, and its quantizer cap.
+  /// The stream's start: its first frame's time, the bytes and count of its frames so far (up to startFrames), and
+  /// its quantizer cap.
   struct Start {
     int64_t pts = 0;
     double bytes = 0;
