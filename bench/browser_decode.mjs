@@ -46,11 +46,11 @@ const browser = await H.launchBrowser();
 try {
   const page = await browser.newPage();
   await page.goto(`http://127.0.0.1:${server.address().port}/`);
-  for (const file of files.filter((f) => /\.(jpg|png)$/.test(f))) {
+  for (const file of files.filter((f) => /\.(jpg|png|webp)$/.test(f))) {
     const name = path.basename(file);
     const result = await page.evaluate(async (name, repeats) => {
       const data = new Uint8Array(await (await fetch(`/${name}`)).arrayBuffer());
-      const type = name.endsWith(".png") ? "image/png" : "image/jpeg";
+      const type = name.endsWith(".png") ? "image/png" : name.endsWith(".webp") ? "image/webp" : "image/jpeg";
       let ctx = null;
       // Each way: ms to the decoded image, and ms to draw it (the draw forced by reading a pixel back).
       const ways = {

@@ -117,6 +117,9 @@ async function dragRun(browser, server, base, size, encoding, scratch) {
       key_frames: moving.filter((f) => f.key).length,
       bitrate_kbps_p50: pct(moving.map((f) => f.bitrateKbps).filter((v) => typeof v === "number"), 0.5),
       exact_after_release_ms: s ? s.exactAfterReleaseMs : null,
+      // The exact frame after the release: how it travelled (png, or webp on a link the server measured slow).
+      exact_encoding: s && s.lastFrame ? ["raw", "png", "zstd", "jpeg", "vp8", "vp9", "webp"][s.lastFrame.encoding] : null,
+      exact_bytes: s && s.lastFrame ? s.lastFrame.bytes : null,
       errors: state.counts.errors + page.errors.length,
       wrong_encoding: moving.filter((f) => f.encoding !== { jpeg: 3, vp8: 4, vp9: 5 }[encoding]).length,
     };
@@ -162,7 +165,7 @@ function writeResults(done) {
   const gl = "gl" in report ? report.gl : D.glRenderer(server); // the server's log is gone once the run ended
   const cols = ["link", "size", "encoding", "frames", "fps", "latency_p50_ms", "latency_p99_ms", "bytes_per_frame",
     "encode_ms_p50", "decode_ms_p50", "psnr_db_mean", "psnr_db_min", "psnr_samples", "rung_p50", "key_frames",
-    "bitrate_kbps_p50", "exact_after_release_ms", "errors", "wrong_encoding"];
+    "bitrate_kbps_p50", "exact_after_release_ms", "exact_encoding", "exact_bytes", "errors", "wrong_encoding"];
   D.writeCsv(`${opt.out}.csv`, cols, rows);
   fs.writeFileSync(`${opt.out}.json`,
     JSON.stringify({ ...report, load_average_end: loadNow, gl, complete: done, rows, command: D.benchCommand() }, null,
@@ -178,7 +181,8 @@ function writeResults(done) {
     `- Server: \`voxbrick serve\` (its defaults), GL: ${gl || "unknown"}`,
     `- Dataset \`${opt.dataset}\`, transfer function \`${opt.tf}\`; a drag of ${opt.duration} s at ${opt.hz} Hz, ` +
       `${DEG_PER_MOVE}° a move, through the page's own gesture handlers; a fresh tab for each row, its \`video\` ` +
-      "parameter picking the encoding of the moving frames (off: jpeg); exact frames png.",
+      "parameter picking the encoding of the moving frames (off: jpeg); exact frames lossless (png, or webp where the " +
+      "server measures the link slow: the exact frame column says which, and its bytes).",
     `- relay: bench/link_relay.mjs between the browser and the server, ${opt.mbit} Mbit/s each way, ${opt.rttMs} ms ` +
       "round trip, a 200 ms queue; the page, its WebSocket and every frame pass through it.",
     "- Latency: from the camera change to the frame drawn on the canvas. Frames/s: frames shown a second while " +
@@ -188,15 +192,16 @@ function writeResults(done) {
     ...(done ? [] : [`- **Part of a run**: ${rows.length} rows so far; the run did not finish.`]),
     "",
     "| link | size | encoding | frames/s | latency p50 ms | p99 ms | bytes/frame | ratio | PSNR dB mean (min) | rung | " +
-      "encode ms | decode ms | kbit/s | exact after release ms | errors |",
-    "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+      "encode ms | decode ms | kbit/s | exact after release ms | exact frame | errors |",
+    "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|",
     ...rows.map((r) => {
       const j = jpegOf(r);
       const ratio = j && j.bytes_per_frame ? r.bytes_per_frame / j.bytes_per_frame : null;
       return `| ${r.link} | ${r.size} | ${r.encoding} | ${fmt(r.fps)} | ${fmt(r.latency_p50_ms, 0)} | ` +
         `${fmt(r.latency_p99_ms, 0)} | ${fmt(r.bytes_per_frame, 0)} | ${fmt(ratio, 2)} | ${fmt(r.psnr_db_mean)} ` +
         `(${fmt(r.psnr_db_min)}) | ${fmt(r.rung_p50, 0)} | ${fmt(r.encode_ms_p50)} | ${fmt(r.decode_ms_p50)} | ` +
-        `${fmt(r.bitrate_kbps_p50, 0)} | ${fmt(r.exact_after_release_ms, 0)} | ${r.errors + r.wrong_encoding} |`;
+        `${fmt(r.bitrate_kbps_p50, 0)} | ${fmt(r.exact_after_release_ms, 0)} | ` +
+        `${r.exact_encoding ? `${r.exact_encoding}, ${fmt(r.exact_bytes, 0)} B` : ""} | ${r.errors + r.wrong_encoding} |`;
     }),
     "",
   ];

@@ -40,12 +40,13 @@ for run in runs:
         rows.append({"build": build, "round": int(r), **row})
     machine = next((l[len("- Machine: "):].strip() for l in open(prefix + ".md") if l.startswith("- Machine: ")), "?")
 fields = ["build", "round", "link", "size", "encoding", "fps", "latency_p50_ms", "latency_p99_ms", "bytes_per_frame",
-          "encode_ms_p50", "decode_ms_p50", "psnr_db_mean", "rung_p50", "exact_after_release_ms", "errors"]
+          "encode_ms_p50", "decode_ms_p50", "psnr_db_mean", "rung_p50", "bitrate_kbps_p50", "exact_after_release_ms",
+          "exact_encoding", "exact_bytes", "errors"]
 with open(out + ".csv", "w", newline="") as f:
     w = csv.writer(f)
     w.writerow(fields)
     for row in rows:
-        w.writerow([row[k] for k in fields])
+        w.writerow([row.get(k, "") for k in fields])
 tree = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
 md = ["# Two builds side by side in Chromium", "",
       f"- Command: `bash bench/run_browser_ab.sh OLD NEW {out} --rounds {rounds}{' ' + options if options else ''}`;"
@@ -54,24 +55,28 @@ md = ["# Two builds side by side in Chromium", "",
       "- Each run: bench/browser_link.mjs's drag (10 s at 30 Hz, 2° a move, the MRI; relay: 10 Mbit/s, 40 ms round "
       "trip), a fresh server of that build; rounds alternate the order. Latency: camera change to frame drawn.", "",
       "| build | round | link | size | encoding | frames/s | latency p50 ms | p99 ms | bytes/frame | encode ms | "
-      "decode ms | PSNR dB | rung | exact after release ms | errors |",
-      "|---|---:|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+      "decode ms | PSNR dB | rung | kbit/s | exact after release ms | exact frame | errors |",
+      "|---|---:|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|"]
 num = lambda x: f"{float(x):.1f}" if x not in ("", None) else ""
 for row in rows:
     md.append(f"| {row['build']} | {row['round']} | {row['link']} | {row['size']} | {row['encoding']} | {num(row['fps'])} | "
               f"{num(row['latency_p50_ms'])} | {num(row['latency_p99_ms'])} | {float(row['bytes_per_frame']):.0f} | "
               f"{num(row['encode_ms_p50'])} | {num(row['decode_ms_p50'])} | {num(row['psnr_db_mean'])} | "
-              f"{row['rung_p50']} | {num(row['exact_after_release_ms'])} | {row['errors']} |")
+              f"{row['rung_p50']} | {num(row.get('bitrate_kbps_p50'))} | {num(row['exact_after_release_ms'])} | "
+              f"{row.get('exact_encoding') or ''}{', ' + row['exact_bytes'] + ' B' if row.get('exact_bytes') else ''} | "
+              f"{row['errors']} |")
 md += ["", "Medians over the rounds:", "",
-       "| link | size | encoding | build | frames/s | latency p50 ms | p99 ms | encode ms | decode ms | exact after release ms |",
-       "|---|---|---|---|---:|---:|---:|---:|---:|---:|"]
+       "| link | size | encoding | build | frames/s | latency p50 ms | p99 ms | bytes/frame | PSNR dB | encode ms | decode ms | "
+       "exact after release ms |",
+       "|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
 keys = sorted({(r["link"], r["size"], r["encoding"]) for r in rows})
 for link, size, encoding in keys:
     for build in ("old", "new"):
         sel = [r for r in rows if (r["link"], r["size"], r["encoding"], r["build"]) == (link, size, encoding, build)]
         med = lambda k: statistics.median([float(r[k]) for r in sel if r[k] != ""] or [float("nan")])
         md.append(f"| {link} | {size} | {encoding} | {build} | {med('fps'):.1f} | {med('latency_p50_ms'):.0f} | "
-                  f"{med('latency_p99_ms'):.0f} | {med('encode_ms_p50'):.1f} | {med('decode_ms_p50'):.1f} | "
+                  f"{med('latency_p99_ms'):.0f} | {med('bytes_per_frame'):.0f} | {med('psnr_db_mean'):.1f} | "
+                  f"{med('encode_ms_p50'):.1f} | {med('decode_ms_p50'):.1f} | "
                   f"{med('exact_after_release_ms'):.0f} |")
 open(out + ".md", "w").write("\n".join(md) + "\n")
 print("\n".join(md))

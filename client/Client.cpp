@@ -313,8 +313,8 @@ proto::Frame Client::render(const std::string& sceneJson, proto::Encoding encodi
                             const std::function<void(const proto::Frame&)>& onProvisional) {
   if (!proto::encodingInVersion(encoding, mVersion))
     throw std::invalid_argument(std::string("the ") + proto::encodingName(encoding) +
-                                " encoding needs protocol version 2; the server speaks version " +
-                                std::to_string(mVersion));
+                                " encoding needs protocol version " + std::to_string(proto::firstVersionOf(encoding)) +
+                                "; the server speaks version " + std::to_string(mVersion));
   const uint32_t id = send(proto::RenderRequest{encoding, sceneJson});
   for (proto::Frame frame = expect<proto::Frame>(awaitReply(id), "Render");;
        frame = expect<proto::Frame>(awaitReply(id), "Render")) {

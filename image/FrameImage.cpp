@@ -1,5 +1,5 @@
 // Frame payloads: PNG through image/Image, zstd at level 1 (fast enough not to show beside a frame's render time),
-// JPEG through image/ImageFile.
+// JPEG and lossless WebP through image/ImageFile.
 #include "image/FrameImage.h"
 
 #include <stdexcept>
@@ -36,6 +36,7 @@ std::vector<uint8_t> encodeFrameImage(const Image8& image, proto::Encoding encod
       return out;
     }
     case proto::Encoding::Jpeg: return encodeJpeg(image, jpegQuality, kFrameJpegChroma);
+    case proto::Encoding::Webp: return encodeWebp(image);
     case proto::Encoding::Vp8:
     case proto::Encoding::Vp9:
       throw ImageFailure(std::string("encodeFrameImage: a ") + proto::encodingName(encoding) +
@@ -61,6 +62,9 @@ Image8 decodeFrameImage(const proto::Frame& frame) {
     case proto::Encoding::RawRgba8: image.rgba = frame.payload; break;
     case proto::Encoding::Jpeg:
       image = decodeJpeg(frame.payload, "frame", std::array{int(frame.width), int(frame.height)});
+      break;
+    case proto::Encoding::Webp:
+      image = decodeWebp(frame.payload, "frame", std::array{int(frame.width), int(frame.height)});
       break;
     case proto::Encoding::Vp8:
     case proto::Encoding::Vp9:

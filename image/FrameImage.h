@@ -20,8 +20,8 @@ inline constexpr int kDefaultJpegQuality = 85;
 inline constexpr JpegChroma kFrameJpegChroma = JpegChroma::Half;
 
 /// The image as a Frame payload in `encoding`: jpeg frames at `jpegQuality` (1..100) with kFrameJpegChroma, alpha
-/// dropped; png frames at `pngSpeed`. Throws ImageFailure for an unknown encoding, a video encoding (image/Video.h
-/// encodes a stream's frames) or a quality out of range.
+/// dropped; png frames at `pngSpeed`; webp frames lossless (encodeWebp's default level). Throws ImageFailure for an
+/// unknown encoding, a video encoding (image/Video.h encodes a stream's frames) or a quality out of range.
 std::vector<uint8_t> encodeFrameImage(const Image8& image, proto::Encoding encoding,
                                       int jpegQuality = kDefaultJpegQuality, PngSpeed pngSpeed = PngSpeed::Small);
 /// A Frame's payload as an image (a jpeg frame with alpha 255); throws ImageFailure naming the problem if its size is

@@ -2,6 +2,8 @@
 #include "image/ImageFile.h"
 
 #include <jpeglib.h>
+#include <webp/decode.h>
+#include <webp/encode.h>
 
 #include <algorithm>
 #include <cctype>
@@ -136,6 +138,48 @@ void writeFileAtomically(const std::filesystem::path& path, std::span<const uint
   } catch (const common::ReplaceError& e) {
     throw ImageFailure(e.what());
   }
+}
+
+std::vector<uint8_t> encodeWebp(const Image8& image, int level) {
+  if (image.width <= 0 || image.height <= 0 || image.rgba.size() != size_t(image.width) * size_t(image.height) * 4)
+    throw ImageFailure("encodeWebp: an empty or inconsistent image");
+  if (image.width > WEBP_MAX_DIMENSION || image.height > WEBP_MAX_DIMENSION)
+    throw ImageFailure("encodeWebp: " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+                       " exceeds WebP's " + std::to_string(WEBP_MAX_DIMENSION) + " pixels a side");
+  WebPConfig config;
+  if (!WebPConfigInit(&config) || !WebPConfigLosslessPreset(&config, std::clamp(level, 0, 9)))
+    throw ImageFailure("encodeWebp: libwebp refused its configuration");
+  config.exact = 1;  // keep the colour under alpha 0: lossless means every byte
+  WebPPicture picture;
+  if (!WebPPictureInit(&picture)) throw ImageFailure("encodeWebp: libwebp version mismatch");
+  picture.width = image.width;
+  picture.height = image.height;
+  picture.use_argb = 1;
+  WebPMemoryWriter writer;
+  WebPMemoryWriterInit(&writer);
+  picture.writer = WebPMemoryWrite;
+  picture.custom_ptr = &writer;
+  const bool ok = WebPPictureImportRGBA(&picture, image.rgba.data(), image.width * 4) && WebPEncode(&config, &picture);
+  const int error = picture.error_code;
+  std::vector<uint8_t> bytes(writer.mem, writer.mem + (ok ? writer.size : 0));
+  WebPPictureFree(&picture);
+  WebPMemoryWriterClear(&writer);
+  if (!ok) throw ImageFailure("encodeWebp: libwebp failed (error " + std::to_string(error) + ")");
+  return bytes;
+}
+
+Image8 decodeWebp(std::span<const uint8_t> bytes, const std::string& what,
+                  std::optional<std::array<int, 2>> expectedSize) {
+  int width = 0, height = 0;
+  if (!WebPGetInfo(bytes.data(), bytes.size(), &width, &height))
+    throw ImageFailure(what + ": not a WebP image (its header does not read)");
+  if (expectedSize && (width != (*expectedSize)[0] || height != (*expectedSize)[1]))
+    throw ImageFailure(what + ": the WebP is " + std::to_string(width) + "x" + std::to_string(height) + ", not " +
+                       std::to_string((*expectedSize)[0]) + "x" + std::to_string((*expectedSize)[1]));
+  Image8 image{width, height, std::vector<uint8_t>(size_t(width) * size_t(height) * 4)};
+  if (!WebPDecodeRGBAInto(bytes.data(), bytes.size(), image.rgba.data(), image.rgba.size(), width * 4))
+    throw ImageFailure(what + ": the WebP does not decode (truncated or damaged)");
+  return image;
 }
 
 void writeImage(const std::filesystem::path& path, const Image8& image, const ImageWriteOptions& options) {

@@ -38,6 +38,16 @@ std::vector<uint8_t> encodeJpeg(const Image8& image, int quality, JpegChroma chr
 Image8 decodeJpeg(std::span<const uint8_t> bytes, const std::string& what,
                   std::optional<std::array<int, 2>> expectedSize = std::nullopt);
 
+/// A lossless WebP (libwebp's VP8L) of the RGBA image, alpha included, every pixel's colour kept (also under alpha 0):
+/// it decodes to exactly `image`. libwebp's lossless preset `level` (0..9: more time for fewer bytes); the default, 1,
+/// took fewer bytes than 0 and half the time of 2 for the same bytes on the MRI's frames
+/// (bench/results/image/png-speed.md). Throws ImageFailure if the image is empty or libwebp fails.
+std::vector<uint8_t> encodeWebp(const Image8& image, int level = 1);
+/// Decodes a WebP as 8-bit RGBA; throws ImageFailure naming `what`. With `expectedSize`, a WebP whose header names
+/// another size is refused before its pixels are allocated.
+Image8 decodeWebp(std::span<const uint8_t> bytes, const std::string& what,
+                  std::optional<std::array<int, 2>> expectedSize = std::nullopt);
+
 /// Writes `bytes` to `path` through a temporary file in the same directory, renamed over `path` once complete and
 /// flushed: on any failure (a full disk, a file-size limit) the temporary is removed, an existing file at `path` is
 /// untouched, and ImageFailure names `path` and the reason.

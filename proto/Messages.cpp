@@ -454,8 +454,15 @@ bool encodingInVersion(Encoding encoding, uint16_t version) {
     case Encoding::Jpeg: return version >= 2;
     case Encoding::Vp8:
     case Encoding::Vp9: return version >= 4;
+    case Encoding::Webp: return version >= 7;
   }
   return false;
+}
+
+uint16_t firstVersionOf(Encoding encoding) {
+  uint16_t version = kMinVersion;
+  while (version <= kMaxVersion && !encodingInVersion(encoding, version)) ++version;
+  return version;
 }
 
 namespace {
@@ -463,7 +470,7 @@ namespace {
 /// Every encoding by its short name, in the order of their values.
 constexpr std::pair<std::string_view, Encoding> kShortNames[] = {
     {"raw", Encoding::RawRgba8}, {"png", Encoding::Png}, {"zstd", Encoding::ZstdRgba8}, {"jpeg", Encoding::Jpeg},
-    {"vp8", Encoding::Vp8},      {"vp9", Encoding::Vp9}};
+    {"vp8", Encoding::Vp8},      {"vp9", Encoding::Vp9}, {"webp", Encoding::Webp}};
 
 }  // namespace
 
@@ -482,7 +489,8 @@ std::vector<std::string> encodingShortNames() {
 std::vector<Encoding> encodingsOf(uint16_t version) {
   std::vector<Encoding> encodings;
   for (const Encoding e :
-       {Encoding::RawRgba8, Encoding::Png, Encoding::ZstdRgba8, Encoding::Jpeg, Encoding::Vp8, Encoding::Vp9})
+       {Encoding::RawRgba8, Encoding::Png, Encoding::ZstdRgba8, Encoding::Jpeg, Encoding::Vp8, Encoding::Vp9,
+        Encoding::Webp})
     if (encodingInVersion(e, version)) encodings.push_back(e);
   return encodings;
 }
@@ -495,6 +503,7 @@ const char* encodingName(Encoding encoding) {
     case Encoding::Jpeg: return "jpeg";
     case Encoding::Vp8: return "vp8";
     case Encoding::Vp9: return "vp9";
+    case Encoding::Webp: return "webp";
   }
   return "unknown";
 }

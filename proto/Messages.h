@@ -21,9 +21,10 @@ constexpr uint32_t kMagic = 0x4B425856;  // read as a little-endian uint32
 /// is version 2 plus the error code Busy; version 4 is version 3 plus the video encodings (vp8, vp9) and the message
 /// FrameReceived; version 5 is version 4 plus the messages Authenticate and Authenticated and the error code
 /// Forbidden (an access token presented on any transport); version 6 is version 5 plus the messages Upload,
-/// UploadReady and UploadChunk and the error code AlreadyExists (a volume sent to become a dataset).
+/// UploadReady and UploadChunk and the error code AlreadyExists (a volume sent to become a dataset); version 7 is
+/// version 6 plus the webp encoding (lossless WebP) and the scene key `accepts_webp`.
 constexpr uint16_t kMinVersion = 1;
-constexpr uint16_t kMaxVersion = 6;
+constexpr uint16_t kMaxVersion = 7;
 /// Version 1, which every peer speaks: what encode() and Header write unless told otherwise, and the version a
 /// Hello is written in by a client whose lowest version is 1.
 constexpr uint16_t kVersion = kMinVersion;
@@ -110,17 +111,20 @@ enum class Encoding : uint8_t {
   Jpeg = 3,       ///< a baseline JPEG file, 8-bit RGB (alpha dropped); protocol version 2 on
   Vp8 = 4,        ///< one VP8 frame of the session's video stream (image/Video.h); protocol version 4 on
   Vp9 = 5,        ///< one VP9 frame of the session's video stream; protocol version 4 on
+  Webp = 6,       ///< a lossless WebP file: the pixels of the png frame, in fewer bytes; protocol version 7 on
 };
-/// Whether `encoding` exists in protocol `version` (jpeg from version 2 on, vp8 and vp9 from 4; nothing outside the
-/// enum).
+/// Whether `encoding` exists in protocol `version` (jpeg from version 2 on, vp8 and vp9 from 4, webp from 7; nothing
+/// outside the enum).
 bool encodingInVersion(Encoding encoding, uint16_t version);
+/// The first protocol version that has `encoding` (kMaxVersion + 1 for a value outside the enum).
+uint16_t firstVersionOf(Encoding encoding);
 /// The encodings of protocol `version`, in value order: what a server of that session offers.
 std::vector<Encoding> encodingsOf(uint16_t version);
-/// The encoding's name as PROTOCOL.md spells it ("raw_rgba8", "png", "zstd_rgba8", "jpeg", "vp8", "vp9"), or
-/// "unknown".
+/// The encoding's name as PROTOCOL.md spells it ("raw_rgba8", "png", "zstd_rgba8", "jpeg", "vp8", "vp9", "webp"),
+/// or "unknown".
 const char* encodingName(Encoding encoding);
 /// The encoding a short name gives, as scenes (`provisional_encoding`) and the command line spell them: "raw",
-/// "png", "zstd", "jpeg", "vp8", "vp9"; nothing for another text.
+/// "png", "zstd", "jpeg", "vp8", "vp9", "webp"; nothing for another text.
 std::optional<Encoding> encodingFromShortName(std::string_view name);
 /// Those short names, in the order of the encodings' values (for a command line's list of choices).
 std::vector<std::string> encodingShortNames();

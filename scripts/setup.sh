@@ -10,7 +10,7 @@ PACKAGES=(
   libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libosmesa6-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libtomlplusplus-dev libpng-dev libjpeg62-turbo-dev
-  libvpx-dev libyuv-dev
+  libvpx-dev libyuv-dev libwebp-dev
   libssl-dev openssl
   libgdcm-dev libtiff-dev zstd libcurl4-openssl-dev
   mricron-data

@@ -410,7 +410,9 @@ void Connection::apply(Outcome outcome) {
   for (const Reply& reply : outcome.replies) send(reply.message, reply.requestId);
   if (outcome.render && !mClosed && !mClosing) {
     const uint32_t requestId = outcome.render->requestId;
-    outcome.render->pngSpeed = pngSpeedFor(mPacer.linkKbps(Clock::now()));
+    const std::optional<double> link = mPacer.linkKbps(Clock::now());
+    outcome.render->pngSpeed = pngSpeedFor(link);
+    outcome.render->webpForPng = outcome.render->scene.acceptsWebp && webpFor(link);
     std::optional<Submission> refused = mServices.renderQuota ? mServices.renderQuota(mId) : std::nullopt;
     Submission submission = refused ? std::move(*refused)
                                     : mServices.scheduler.submit(mTransport.renderSink(), std::move(*outcome.render));

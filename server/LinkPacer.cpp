@@ -1,4 +1,4 @@
-// Pacing by the client's reports, and the link's rate from frames that queued behind one another.
+// Pacing by the client's reports, and the link's rate from frames that queued behind one another or from large frames.
 #include "server/LinkPacer.h"
 
 #include <algorithm>
@@ -12,6 +12,14 @@ constexpr size_t kMaxRemembered = 64;
 constexpr double kLinkFreshMs = 2000;
 /// Smoothing of the link's rate samples (the weight of a new one).
 constexpr double kLinkWeight = 0.25;
+/// A frame written before the one ahead of it was reported queued behind it only if it also arrived later than the
+/// quickest delivery by at least this share of the time between the two reports: frames that merely overlap on a far
+/// link (a round trip longer than the time between frames) each arrive in the quickest time, and the time between
+/// their reports is the sender's spacing, not the link's.
+constexpr double kQueuedShare = 0.25;
+/// A frame at least this many bytes larger than the quickest delivered one measures the link on its own: the extra
+/// bytes over the extra time they took (the round trip cancels). Smaller differences drown in the timing's noise.
+constexpr uint64_t kMeasuringBytes = 32 * 1024;
 
 double msBetween(LinkPacer::Clock::time_point a, LinkPacer::Clock::time_point b) {
   return std::chrono::duration<double, std::milli>(b - a).count();
@@ -30,18 +38,25 @@ bool LinkPacer::received(Clock::time_point at) {
   mOnTheWay.pop_front();
   const double delivery = std::max(0.0, msBetween(frame.at, at));
   mLastDeliveryMs = delivery;
-  mMinDeliveryMs = mMinDeliveryMs ? std::min(*mMinDeliveryMs, delivery) : delivery;
-  // A frame written before the one ahead of it had arrived followed it on the link: the time between the two reports
-  // is its own transfer, and its bytes over it the link's rate. (A frame written onto an idle link says nothing of
-  // the rate: it measures the round trip.)
+  if (!mMinDeliveryMs || delivery < *mMinDeliveryMs) {
+    mMinDeliveryMs = delivery;
+    mMinDeliveryBytes = frame.bytes;
+  }
+  const double extraMs = delivery - *mMinDeliveryMs;
+  // A frame that queued behind the one ahead of it (written before that one was reported, and later than the
+  // quickest delivery): the time between the two reports is its own transfer, and its bytes over it the link's rate.
+  // Else a frame much larger than the quickest delivered one: its extra bytes over its extra time.
+  std::optional<double> sample;
   if (mReporting && frame.at < mLastReport) {
     const double gapMs = msBetween(mLastReport, at);
-    if (gapMs > 0.5) {
-      const double sample = double(frame.bytes) * 8 / gapMs;  // bits per ms = kbit/s
-      const bool fresh = mLinkKbps > 0 && msBetween(mLinkAt, at) < kLinkFreshMs;
-      mLinkKbps = fresh ? (1 - kLinkWeight) * mLinkKbps + kLinkWeight * sample : sample;
-      mLinkAt = at;
-    }
+    if (gapMs > 0.5 && extraMs >= kQueuedShare * gapMs) sample = double(frame.bytes) * 8 / gapMs;  // kbit/s
+  }
+  if (!sample && frame.bytes >= mMinDeliveryBytes + kMeasuringBytes && extraMs > 0.5)
+    sample = double(frame.bytes - mMinDeliveryBytes) * 8 / extraMs;
+  if (sample) {
+    const bool fresh = mLinkKbps > 0 && msBetween(mLinkAt, at) < kLinkFreshMs;
+    mLinkKbps = fresh ? (1 - kLinkWeight) * mLinkKbps + kLinkWeight * *sample : *sample;
+    mLinkAt = at;
   }
   mReporting = true;
   mLastReport = at;

@@ -1,5 +1,6 @@
 // One session's link, as its client's FrameReceived reports show it: frames on their way (written, not yet
-// reported), the time a frame takes to arrive, the link's rate when frames follow one another, and from these when
+// reported), the time a frame takes to arrive, the link's rate (from frames that queued behind one another, or a
+// frame much larger than the quickest delivered one: never from the sender's own spacing), and from these when
 // the next Frame may be written and at what bitrate a video stream should run. A client that reports keeps at most
 // kFramesInFlight Frames on the link, so frames never queue in the network's buffers: a newer frame waits at the
 // server, where latest-wins replaces it, instead of behind older ones on a slow link. No sockets, no clock of its own:
@@ -47,8 +48,11 @@ class LinkPacer {
   std::optional<double> minDeliveryMs() const;
   /// The last frame's time from write to report.
   std::optional<double> lastDeliveryMs() const { return mLastDeliveryMs; }
-  /// The link's rate measured from frames that followed one another on it (kbit/s), if any was measured within the
-  /// last two seconds.
+  /// The link's rate (kbit/s), if measured within the last two seconds: from a frame that queued behind the one ahead
+  /// of it (written before that one was reported, and delivered later than the quickest delivery: the time between
+  /// their reports is its transfer), or from a frame 32 KiB or more larger than the quickest delivered one (the extra
+  /// bytes over the extra time). Frames that only overlap on a far link, each delivered in the quickest time, measure
+  /// nothing: the time between their reports is the sender's spacing.
   std::optional<double> linkKbps(Clock::time_point now) const;
 
   /// The bitrate a video stream should run at now, at most `capKbps`: kLinkShare of the link's measured rate, else
@@ -64,6 +68,7 @@ class LinkPacer {
   bool mReporting = false;
   Clock::time_point mLastReport{};
   std::optional<double> mMinDeliveryMs, mLastDeliveryMs;
+  uint64_t mMinDeliveryBytes = 0;  ///< the bytes of the frame delivered quickest
   double mLinkKbps = 0;  ///< smoothed rate of back-to-back frames
   Clock::time_point mLinkAt{};
   double mTargetKbps = 0;

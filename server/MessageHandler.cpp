@@ -39,13 +39,6 @@ DatasetRegistry::Visible visibleTo(const ConnectionState& state) {
   return [access = state.access](const std::string& name) { return access->mayOpen(name); };
 }
 
-/// The first protocol version that has `encoding`.
-uint16_t firstVersionOf(proto::Encoding encoding) {
-  uint16_t version = proto::kMinVersion;
-  while (version < proto::kMaxVersion && !proto::encodingInVersion(encoding, version)) ++version;
-  return version;
-}
-
 /// Sets job.provisionalEncoding from the scene and refuses what the session cannot be sent: an encoding its version
 /// lacks, a video encoding for anything but provisional frames (a video frame belongs to the session's stream of
 /// moving frames; the exact frame is a still), and jpeg or video (which have no alpha) for a transparent frame.
@@ -54,7 +47,7 @@ void checkEncodings(RenderJob& job, uint16_t version) {
     throw render::RenderInputError(std::string("Render.encoding ") + proto::encodingName(job.encoding) +
                                    " is a video stream of moving frames: ask for it as the scene's "
                                    "'provisional_encoding' (with 'interactive' or 'progressive'), and for the exact "
-                                   "frame as png, jpeg, zstd_rgba8 or raw_rgba8");
+                                   "frame as png, webp, jpeg, zstd_rgba8 or raw_rgba8");
   if (job.scene.provisionalEncoding) {
     // Scene::fromJson accepted only render::Scene::kEncodingNames, the short names proto knows.
     const auto named = proto::encodingFromShortName(*job.scene.provisionalEncoding);
@@ -62,10 +55,14 @@ void checkEncodings(RenderJob& job, uint16_t version) {
     const proto::Encoding provisional = *named;
     if (!proto::encodingInVersion(provisional, version))
       throw render::RenderInputError("scene: 'provisional_encoding' \"" + *job.scene.provisionalEncoding +
-                                     "\" needs protocol version " + std::to_string(firstVersionOf(provisional)) +
+                                     "\" needs protocol version " + std::to_string(proto::firstVersionOf(provisional)) +
                                      "; this session speaks version " + std::to_string(version));
     job.provisionalEncoding = provisional;
   }
+  if (job.scene.acceptsWebp && !proto::encodingInVersion(proto::Encoding::Webp, version))
+    throw render::RenderInputError("scene: 'accepts_webp' needs protocol version " +
+                                   std::to_string(proto::firstVersionOf(proto::Encoding::Webp)) +
+                                   "; this session speaks version " + std::to_string(version));
   if (job.scene.transparent) {
     if (job.encoding == proto::Encoding::Jpeg)
       throw render::RenderInputError(

@@ -57,7 +57,8 @@ proto::Message encodeStill(proto::Frame frame, int jpegQuality, image::PngSpeed 
 }
 
 proto::Encoding replyEncoding(const RenderJob& job, bool provisional) {
-  return provisional ? job.provisionalEncoding.value_or(job.encoding) : job.encoding;
+  const proto::Encoding encoding = provisional ? job.provisionalEncoding.value_or(job.encoding) : job.encoding;
+  return encoding == proto::Encoding::Png && job.webpForPng ? proto::Encoding::Webp : encoding;
 }
 
 uint64_t frameBodyBytes(size_t statsBytes, size_t payloadBytes) {

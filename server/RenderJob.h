@@ -69,6 +69,9 @@ struct RenderJob {
   bool stillProvisional = false;
   /// How its png Frames are encoded: pngSpeedFor the session's link when it was submitted.
   image::PngSpeed pngSpeed = image::PngSpeed::Fast;
+  /// Its png Frames travel as lossless webp instead (the scene's `accepts_webp`, on a link webpFor finds slow
+  /// enough); see replyEncoding.
+  bool webpForPng = false;
 };
 
 /// Links measured slower than this (kbit/s) get png frames encoded Small, faster or unmeasured ones Fast: on the MRI
@@ -81,6 +84,15 @@ inline image::PngSpeed pngSpeedFor(std::optional<double> linkKbps) {
   return linkKbps && *linkKbps < kSmallPngBelowKbps ? image::PngSpeed::Small : image::PngSpeed::Fast;
 }
 
+/// Links measured slower than this (kbit/s) get a png frame as lossless webp where the client accepts it
+/// (`accepts_webp`). webp takes 0.44-0.56 of a fast png's bytes on the MRI's frames, for 13-141 ms more encoding and
+/// 3-24 ms more decoding in Chromium: it reaches the canvas first below 12 to 28 Mbit/s, by frame (1920x1080 the
+/// lowest; the MRI at 1024², 19), and at 10 Mbit/s first for every frame measured (bench/results/image/png-speed.md).
+inline constexpr double kWebpBelowKbps = 12000;
+/// Whether a session whose link's rate is `linkKbps` (LinkPacer::linkKbps: none when unmeasured, as when the link
+/// keeps up with every frame) gets its png frames as webp, if its scene accepts them.
+inline bool webpFor(std::optional<double> linkKbps) { return linkKbps && *linkKbps < kWebpBelowKbps; }
+
 /// The class the scheduler serves `job` in: batch for a scene with "batch", else interactive for a moving camera's
 /// frame (an interactive scene's first drawing) and for the frame that ends a drag (endsDrag), else still (another
 /// plain Render, or the exact frame of a progressive one).
@@ -90,7 +102,7 @@ inline FrameClass frameClassOf(const RenderJob& job) {
 }
 
 /// The encoding of a Frame answering `job`: the provisional encoding for a provisional Frame (one the exact frame is
-/// to follow), the request's own for an exact one.
+/// to follow), the request's own for an exact one; webp in place of png where the job says so (webpForPng).
 proto::Encoding replyEncoding(const RenderJob& job, bool provisional);
 
 /// The body bytes of a Frame: width, height, encoding, and the two length-prefixed fields.
@@ -131,7 +143,7 @@ struct RenderReply {
 std::string withKey(std::string statsJson, std::string_view key, std::string_view value);
 
 /// Encodes a still Frame whose payload is its RGBA8 pixels into its encoding (png at `pngSpeed`, jpeg at
-/// `jpegQuality`, zstd_rgba8, raw_rgba8) and adds encode_ms (and a png's png_speed, "fast" or "small") to its
+/// `jpegQuality`, webp, zstd_rgba8, raw_rgba8) and adds encode_ms (and a png's png_speed, "fast" or "small") to its
 /// statistics; answers LimitExceeded instead when the encoded body exceeds `maxBodyBytes`, or the Error naming an
 /// encoding failure. Throws nothing but std::bad_alloc.
 proto::Message encodeStill(proto::Frame frame, int jpegQuality, image::PngSpeed pngSpeed, uint64_t maxBodyBytes);

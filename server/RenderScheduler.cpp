@@ -35,7 +35,8 @@ std::string shareKeyOf(const RenderJob& job) {
   key += '|' + std::to_string(int(job.encoding)) + '|' +
          (job.provisionalEncoding ? std::to_string(int(*job.provisionalEncoding)) : std::string("-")) + '|' +
          (job.refinement ? "r" : "f") + '|' + std::to_string(job.maxBodyBytes) + '|' + std::to_string(job.maxSamples) +
-         '|' + (job.pngSpeed == image::PngSpeed::Fast ? "fast" : "small") + '|' + job.scene.toJson();
+         '|' + (job.pngSpeed == image::PngSpeed::Fast ? "fast" : "small") + (job.webpForPng ? "|webp|" : "|") +
+         job.scene.toJson();
   return key;
 }
 

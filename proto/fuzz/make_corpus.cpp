@@ -66,6 +66,11 @@ int main(int argc, char** argv) {
             encode(Frame{1, 1, Encoding::Vp8, R"({"provisional": true, "video": {"key": true}})", {0x10, 0x02, 0x00}},
                    2, 4),
             encode(FrameReceived{64}, 2, 4)})},
+      {"session-v7",
+       concat({encode(Hello{1, 7, "seed"}, 1),
+               encode(Capabilities{7, "voxbrick", 1u << 20, 8192, 4, encodingsOf(7)}, 1, 7),
+               encode(RenderRequest{Encoding::Png, R"({"accepts_webp": true})"}, 2, 7),
+               encode(Frame{1, 1, Encoding::Webp, R"({"provisional": false})", {'R', 'I', 'F', 'F'}}, 2, 7)})},
       {"frame-received", encode(FrameReceived{1234}, 9, 4)},
       {"authenticate", encode(Authenticate{"3d1f9c0e7b2a4d6f8e0c1b3a5d7f9e2c"}, 2, 5)},
       {"authenticated", encode(Authenticated{"radiology"}, 2, 5)},
@@ -100,6 +105,7 @@ int main(int argc, char** argv) {
       {"bad-trailing-byte", raw(MessageType::Goodbye, {0})},
       {"bad-encoding", raw(MessageType::Render, concat({{3}, u32(2), {'{', '}'}}))},  // jpeg does not exist in v1
       {"bad-encoding-v2", raw(MessageType::Render, concat({{4}, u32(2), {'{', '}'}}), 2)},
+      {"bad-encoding-v6", raw(MessageType::Render, concat({{6}, u32(2), {'{', '}'}}), 6)},  // webp is version 7's
       {"bad-error-code", raw(MessageType::Error, concat({{14, 0}, u32(0)}))},
       {"bad-string-limit", raw(MessageType::OpenDataset, concat({u32(300), Bytes(300, 'a')}))},
       {"bad-list-count", raw(MessageType::DatasetList, concat({u32(17), Bytes(17 * 4, 0)}))},

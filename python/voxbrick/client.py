@@ -13,7 +13,7 @@ from .protocol import MAX_VERSION, MIN_VERSION, Encoding, encoding_of
 from .scene import Camera, TransferFunction, build_scene
 from .session import CLIENT_NAME, Capabilities, RawFrame, Session
 
-_STILL_ENCODINGS = (Encoding.raw_rgba8, Encoding.png, Encoding.zstd_rgba8, Encoding.jpeg)
+_STILL_ENCODINGS = (Encoding.raw_rgba8, Encoding.png, Encoding.zstd_rgba8, Encoding.jpeg, Encoding.webp)
 
 
 @dataclass
@@ -118,8 +118,9 @@ class Client:
         `tf`: a preset name ("mri"), a list of [x, r, g, b, a] points, or a transfer-function dict. `window`:
         (lo, hi) raw values. `size`: (width, height). `encoding`: how the frame travels: "png" (lossless, the
         default), "raw" (lossless, large: within the server's message limit), "zstd" (lossless; needs the
-        zstandard module) or "jpeg" (lossy, opaque; needs Pillow). `scene`: a whole scene dict or JSON text to start
-        from. Other keywords are scene keys (PROTOCOL.md, section 6): step=0.5, quality="psnr:40", shading=True,
+        zstandard module), "jpeg" (lossy, opaque; needs Pillow) or "webp" (lossless, about 0.6 of png's bytes for
+        longer encoding, protocol version 7; needs Pillow). `scene`: a whole scene dict or JSON text to start from.
+        Other keywords are scene keys (PROTOCOL.md, section 6): step=0.5, quality="psnr:40", shading=True,
         background=[1, 1, 1] or "none", lod=0, ..."""
         return self.render_frame(dataset, camera=camera, tf=tf, window=window, size=size, encoding=encoding,
                                  scene=scene, **keys).image
@@ -256,12 +257,12 @@ class Client:
         encoding = encoding_of(encoding)
         if encoding not in _STILL_ENCODINGS:
             raise ValueError(f'encoding {encoding.name}: a video frame is one of a stream for a moving camera, '
-                             'refused as a Render\'s encoding; this client takes png, raw, zstd or jpeg')
+                             'refused as a Render\'s encoding; this client takes png, raw, zstd, jpeg or webp')
         built = build_scene(scene, camera=camera, tf=tf, window=window, size=size, **keys)
         provisional = built.get('provisional_encoding')
         if provisional is not None and encoding_of(provisional) not in _STILL_ENCODINGS:
             raise ValueError(f'provisional_encoding {provisional!r}: this client does not decode video streams; '
-                             'use png, raw, zstd or jpeg')
+                             'use png, raw, zstd, jpeg or webp')
         self._open(dataset)
         return built, encoding
 

@@ -1,5 +1,5 @@
 """Frame payloads to NumPy images and back: raw RGBA, PNG (a decoder and an encoder of our own, on zlib), zstd (the
-zstandard module, Debian's python3-zstandard) and JPEG (Pillow, Debian's python3-pil). Every image is an array of
+zstandard module, Debian's python3-zstandard), JPEG and lossless WebP (Pillow, Debian's python3-pil). Every image is an array of
 shape (height, width, 4), dtype uint8, row 0 at the top.
 """
 from __future__ import annotations
@@ -19,7 +19,7 @@ _CHANNELS = {0: 1, 2: 3, 4: 2, 6: 4}  # PNG colour type: channels (grey, RGB, gr
 
 def decode_frame(payload: bytes, encoding: Union[Encoding, str], width: int, height: int) -> np.ndarray:
     """The image a Frame's payload holds, (height, width, 4) uint8; DecodeError when it does not decode to that size,
-    or when its encoding needs a module that is not installed (zstd: python3-zstandard; jpeg: python3-pil). Video
+    or when its encoding needs a module that is not installed (zstd: python3-zstandard; jpeg, webp: python3-pil). Video
     frames (vp8, vp9) decode only within their stream and are refused."""
     encoding = encoding_of(encoding)
     if encoding == Encoding.raw_rgba8:
@@ -30,9 +30,11 @@ def decode_frame(payload: bytes, encoding: Union[Encoding, str], width: int, hei
         image = _raw(_zstd_decompress(payload, width * height * 4), width, height)
     elif encoding == Encoding.jpeg:
         image = decode_jpeg(payload)
+    elif encoding == Encoding.webp:
+        image = decode_webp(payload)
     else:
         raise DecodeError(f'{encoding.name} frames decode only within their video stream; this client takes stills '
-                          '(raw, png, zstd, jpeg)')
+                          '(raw, png, zstd, jpeg, webp)')
     if image.shape[:2] != (height, width):
         raise DecodeError(f'{encoding.name} payload is {image.shape[1]}x{image.shape[0]}, the Frame says '
                           f'{width}x{height}')
@@ -79,6 +81,22 @@ def decode_jpeg(data: bytes) -> np.ndarray:
             return np.asarray(image.convert('RGBA')).copy()
     except OSError as e:
         raise DecodeError(f'jpeg payload does not decode: {e}') from None
+
+
+def decode_webp(data: bytes) -> np.ndarray:
+    """A lossless WebP's pixels, (height, width, 4) uint8 (alpha 255 where the file has none); needs Pillow."""
+    try:
+        from PIL import Image
+    except ImportError:
+        raise DecodeError('webp frames need Pillow (Debian: apt-get install python3-pil); ask for png instead') from None
+    import io
+    try:
+        with Image.open(io.BytesIO(data)) as image:
+            if image.format != 'WEBP':
+                raise DecodeError(f'webp payload is a {image.format} file')
+            return np.asarray(image.convert('RGBA')).copy()
+    except OSError as e:
+        raise DecodeError(f'webp payload does not decode: {e}') from None
 
 
 def _decode_png_fast(data: bytes) -> np.ndarray:

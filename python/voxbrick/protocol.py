@@ -16,7 +16,7 @@ MAGIC = 0x4B425856  # "VXBK" read as a little-endian u32
 #: The protocol versions this package speaks: 2 adds jpeg, 3 the Busy error, 4 the video encodings and FrameReceived,
 #: 5 Authenticate, Authenticated and the Forbidden error (a TCP session's access token), 6 Upload, UploadReady,
 #: UploadChunk (a volume sent as a new dataset), the u64 field type and the AlreadyExists error.
-MIN_VERSION, MAX_VERSION = 1, 6
+MIN_VERSION, MAX_VERSION = 1, 7
 HEADER = struct.Struct('<IHHII')  # magic, version, type, request id, body bytes
 HEADER_BYTES = HEADER.size
 
@@ -58,10 +58,11 @@ class Encoding(enum.IntEnum):
     jpeg = 3
     vp8 = 4
     vp9 = 5
+    webp = 6
 
 
 #: The protocol version each encoding appeared in (the others: version 1).
-ENCODING_SINCE = {Encoding.jpeg: 2, Encoding.vp8: 4, Encoding.vp9: 4}
+ENCODING_SINCE = {Encoding.jpeg: 2, Encoding.vp8: 4, Encoding.vp9: 4, Encoding.webp: 7}
 #: The version each message appeared in (the others: version 1).
 MESSAGE_SINCE = {MessageType.FrameReceived: 4, MessageType.Authenticate: 5, MessageType.Authenticated: 5,
                  MessageType.Upload: 6, MessageType.UploadReady: 6, MessageType.UploadChunk: 6}
@@ -73,7 +74,7 @@ ENCODING_NAMES = {'raw': Encoding.raw_rgba8, 'png': Encoding.png, 'zstd': Encodi
 
 
 def encoding_of(value: Any) -> Encoding:
-    """An Encoding from its member, value, wire name ('raw_rgba8') or short name ('raw', 'png', 'zstd', 'jpeg');
+    """An Encoding from its member, value, wire name ('raw_rgba8') or short name ('raw', 'png', 'zstd', 'jpeg', 'webp');
     ValueError naming the choices otherwise."""
     if isinstance(value, Encoding):
         return value
@@ -81,7 +82,7 @@ def encoding_of(value: Any) -> Encoding:
         return ENCODING_NAMES[value.lower()]
     if isinstance(value, int) and not isinstance(value, bool) and value in Encoding._value2member_map_:
         return Encoding(value)
-    raise ValueError(f'encoding {value!r}: expected one of raw, png, zstd, jpeg (or raw_rgba8, zstd_rgba8)')
+    raise ValueError(f'encoding {value!r}: expected one of raw, png, zstd, jpeg, webp (or raw_rgba8, zstd_rgba8)')
 
 
 _U16 = struct.Struct('<H')

@@ -239,7 +239,7 @@ struct MeshTechnique {
 struct SceneDelivery {
   static constexpr double kMinTimeBudgetMs = 10, kMaxTimeBudgetMs = 10000;
   /// The names `provisional_encoding` accepts.
-  static constexpr const char* kEncodingNames[6] = {"raw", "png", "zstd", "jpeg", "vp8", "vp9"};
+  static constexpr const char* kEncodingNames[7] = {"raw", "png", "zstd", "jpeg", "vp8", "vp9", "webp"};
 
   /// Coarse-to-fine: the frame may be drawn first with stand-ins (bricks not yet resident drawn from a coarser
   /// resident level while they are paged), then again once they are resident. The server then answers a Render with
@@ -259,13 +259,17 @@ struct SceneDelivery {
   /// The JPEG quality (libjpeg's scale, 1..100) of a frame sent as JPEG; absent: the server's default
   /// (image::kDefaultJpegQuality, chosen where bytes against PSNR bend over). No effect on other encodings.
   std::optional<int> jpegQuality;
-  /// The encoding of a request's provisional frames, by name ("raw", "png", "zstd", "jpeg", "vp8", "vp9";
+  /// The encoding of a request's provisional frames, by name ("raw", "png", "zstd", "jpeg", "vp8", "vp9", "webp";
   /// kEncodingNames): the server maps it to the protocol's encoding. Absent: the request's own encoding. vp8 and vp9
   /// make the session's moving frames one video stream (PROTOCOL.md).
   std::optional<std::string> provisionalEncoding;
   /// The session's video stream starts again at this frame: its next video frame is a key frame (a client whose
   /// decoder lost the stream asks so). No effect without a video `provisional_encoding`.
   bool keyframe = false;
+  /// The client decodes lossless WebP: the server may send the request's png frames as webp instead (the same
+  /// pixels in fewer bytes, longer to encode), which it does while it measures the session's link as slow
+  /// (server/RenderJob.h, webpFor). Protocol version 7 on. No effect on the image.
+  bool acceptsWebp = false;
   /// Work nobody watches as it happens (a script's frames, `voxbrick load --batch`): a server serves it after every
   /// moving camera's frame and every resting camera's exact frame, from a smaller share of its render time, and
   /// refuses it with `Busy` first when it is over capacity. No effect on the image.

@@ -513,6 +513,13 @@ std::vector<SceneKey> buildSchema() {
     field<&Scene::keyframe>(k);
   }
   {
+    SceneKey& k = add(keys, "accepts_webp", T::Bool, C::Delivery, A::Both,
+                      "the client decodes webp: png frames may come as lossless webp, which the server sends while "
+                      "the session's link is slow");
+    k.example = true;
+    field<&Scene::acceptsWebp>(k);
+  }
+  {
     SceneKey& k = add(keys, "batch", T::Bool, C::Delivery, A::Both,
                       "work nobody watches as it happens (a script): served after viewers' frames, refused with Busy "
                       "first");

@@ -6,6 +6,7 @@ import { describe, test } from "node:test";
 import {
   decodeMessage,
   encode,
+  encodingName,
   Encoding,
   ErrorCode,
   ProtocolError,
@@ -34,8 +35,8 @@ const u32 = (v) => {
 const str = (s) => [...u32(Buffer.byteLength(s)), ...Buffer.from(s)];
 
 describe("protocol.js", () => {
-  test("Hello is the bytes of PROTOCOL.md's example, with versions 1 to 4", () => {
-    // The document's example says max_version 1; the page speaks up to 4 (the fourth body byte).
+  test("Hello is the bytes of PROTOCOL.md's example, with versions 1 to 7", () => {
+    // The document's example says max_version 1; the page speaks up to 7 (the fourth body byte).
     assert.equal(
       hex(encode.hello(1, "example")),
       "5658424b" +
@@ -44,7 +45,7 @@ describe("protocol.js", () => {
         "01000000" +
         "0f000000" +
         "0100" +
-        "0400" +
+        "0700" +
         "07000000" +
         hex(Buffer.from("example")),
     );
@@ -103,6 +104,18 @@ describe("protocol.js", () => {
     );
   });
 
+  test("version 7: a webp Frame decodes; in a version-6 session it is an unknown encoding", () => {
+    const frame = [...u32(2), ...u32(1), 6, ...str("{}"), ...u32(1), 5];
+    assert.equal(decodeMessage(message(Type.Frame, frame, { version: 7 }), 7).body.encoding, Encoding.webp);
+    assert.throws(() => decodeMessage(message(Type.Frame, frame, { version: 6 }), 6), /unknown encoding 6/);
+    const limits = [...u32(1 << 20), ...u32(4096), ...u32(1)];
+    const caps = decodeMessage(
+      message(Type.Capabilities, [7, 0, ...str("v"), ...limits, ...u32(7), 0, 1, 2, 3, 4, 5, 6], { version: 7 }),
+    );
+    assert.deepEqual(caps.body.encodings, [0, 1, 2, 3, 4, 5, 6]);
+    assert.equal(encodingName(Encoding.webp), "webp");
+  });
+
   test("the decoder refuses what the C++ decoder refuses, naming the field", () => {
     const refused = (bytes, pattern, version = 1) =>
       assert.throws(
@@ -133,6 +146,11 @@ describe("protocol.js", () => {
       message(Type.Frame, [...u32(1), ...u32(1), 6, ...str(""), ...u32(0)], { version: 4 }),
       /Frame\.encoding: unknown encoding 6/,
       4,
+    );
+    refused(
+      message(Type.Frame, [...u32(1), ...u32(1), 7, ...str(""), ...u32(0)], { version: 7 }),
+      /Frame\.encoding: unknown encoding 7/,
+      7,
     );
     refused(message(Type.Error, [99, 0, ...str("")]), /unknown error code 99/);
     refused(message(Type.DatasetList, [...u32(0)], { version: 3 }), /header\.version: 3/);

@@ -119,10 +119,14 @@ const ALL = {
   keyframe: true,
   jpeg: true,
   video: "vp8",
+  webp: "auto",
+  accepts_webp: true,
 };
 const FEATURES = [
   ALL,
   { ...ALL, video: "vp9" },
+  { ...ALL, webp: "always" },
+  { ...ALL, accepts_webp: false },
   { ...ALL, video: null },
   { ...ALL, video: null, jpeg: false },
   ...MOTION_KEYS.map((k) => ({ ...ALL, [k]: false })),

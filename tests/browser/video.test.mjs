@@ -62,7 +62,7 @@ describe("viewer video stream", () => {
   test("a drag in a browser that decodes vp8 gets the vp8 stream, every frame decoded in order", async () => {
     const page = await H.openPage(browser, `${server.url}/?dataset=ml&${SIZE_PARAM}`);
     const start = await waitExact(page);
-    assert.equal(start.capabilities.version, 4);
+    assert.equal(start.capabilities.version, 7);
     assert.ok(start.capabilities.encodings.includes(4) && start.capabilities.encodings.includes(5));
     assert.equal(start.features.video, "vp8", "vp8 is the first codec asked, and Chromium decodes it");
     assert.equal(start.moving, "vp8");
@@ -150,7 +150,7 @@ describe("viewer video stream", () => {
     for (const [name, script] of Object.entries(cases)) {
       const page = await openPageWith(browser, `${server.url}/?dataset=sparse&${SIZE_PARAM}`, script);
       const start = await waitExact(page);
-      assert.equal(start.capabilities.version, 4, name);
+      assert.equal(start.capabilities.version, 7, name);
       assert.equal(start.features.video, null, name);
       assert.equal(start.moving, "jpeg", name);
       await drag(page, { durationMs: 1500, hz: 30, dAz: 3 });

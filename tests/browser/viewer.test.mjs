@@ -154,9 +154,9 @@ describe("viewer", () => {
     const done = await waitExact(page, 0);
     assert.deepEqual(done.lastScene.camera.orbit, [done.view.az, done.view.el], "the last frame is of the last camera");
     assert.ok(s.exactAfterReleaseMs < 5000, `exact frame ${s.exactAfterReleaseMs} ms after the release`);
-    // Version 4: provisional frames of the drag travel as the vp8 stream (Chromium decodes it; video.test.mjs has the
-    // rest), every exact frame as png.
-    assert.equal(done.capabilities.version, 4);
+    // Version 7 (video from 4 on): provisional frames of the drag travel as the vp8 stream (Chromium decodes it;
+    // video.test.mjs has the rest), every exact frame as png (on loopback, no webp).
+    assert.equal(done.capabilities.version, 7);
     assert.equal(done.features.video, "vp8");
     const frames = await page.evaluate(() => window.voxbrickViewer.frames());
     for (const f of frames) assert.equal(f.encoding, f.provisional && f.phase === "drag" ? 4 : 1, JSON.stringify(f));
@@ -371,6 +371,52 @@ describe("viewer", () => {
     );
     await cdp.detach();
     await page.close();
+  });
+
+  test("lossless=webp: the exact frame travels as lossless webp, the canvas holds voxbrick render's frame, and Save frame writes it as a PNG", async () => {
+    // By default the page accepts webp (scene key accepts_webp) and, on loopback, gets png.
+    const auto = await H.openPage(browser, `${server.url}/?dataset=sparse&orbit=30,20&tf=grayscale&${SIZE_PARAM}`);
+    const a = await waitExact(auto);
+    assert.equal(a.lastScene.accepts_webp, true);
+    assert.equal(a.lastFrame.encoding, 1, "png on a link that keeps up");
+    await auto.close();
+    // A fresh server with one render thread, whose first frames are the page's (see the still-frame test).
+    const fresh = await new H.Server({ dir: scratch.dir, datasets, extra: ["--render-threads", "1"] }).start();
+    try {
+      const page = await H.openPage(browser, `${fresh.url}/?dataset=sparse&orbit=30,20&tf=grayscale&lossless=webp&${SIZE_PARAM}`);
+      const s = await waitExact(page);
+      assert.equal(s.capabilities.version, 7);
+      assert.equal(s.lastFrame.encoding, 6, "webp");
+      assert.equal(s.lastScene.accepts_webp, undefined, "asked as the Render's encoding");
+      const payload = await lastPayload(page);
+      assert.equal(payload.subarray(8, 12).toString(), "WEBP");
+      const shown = await H.canvasPixels(page);
+      const ref = reference("sparse", ["--orbit", "30,20", "--tf", "grayscale", "--progressive"]);
+      assert.ok(H.litPixels(ref) > 200, "the reference shows the volume");
+      assert.deepEqual(H.compareImages(shown, ref), { differing: 0, maxDiff: 0 });
+      // Save frame writes a PNG of the canvas (not the webp's bytes): voxbrick render's image.
+      const downloads = fs.mkdtempSync(path.join(scratch.dir, "downloads-"));
+      const cdp = await browser.target().createCDPSession();
+      await cdp.send("Browser.setDownloadBehavior", { behavior: "allow", downloadPath: downloads });
+      await page.click("#save");
+      const file = path.join(downloads, "voxbrick-sparse-30_20.png");
+      const t0 = Date.now();
+      let saved = null;
+      while (!saved && Date.now() - t0 < 10000) {
+        try {
+          saved = H.decodePng(fs.readFileSync(file));
+        } catch {
+          await new Promise((r) => setTimeout(r, 50)); // not yet there, or not yet whole
+        }
+      }
+      assert.ok(saved, `saved ${fs.readdirSync(downloads)}`);
+      assert.deepEqual(H.compareImages(saved, ref), { differing: 0, maxDiff: 0 });
+      await cdp.detach();
+      assert.deepEqual(page.errors, []);
+      await page.close();
+    } finally {
+      await fresh.kill();
+    }
   });
 
   test("a quality target the dataset has no table for is dropped, and the page says why", async () => {

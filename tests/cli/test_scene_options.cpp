@@ -24,8 +24,8 @@ using test::runSplit;
 /// which the viewer sets per frame and `orbit --interactive MS` per view; the encodings of a server's frames, which
 /// `request` sets from its own --jpeg-quality and --encoding; and the restart of a video stream, which a client asks
 /// for when its decoder lost the stream.
-const std::set<std::string> kSceneOnly = {"camera", "interactive", "time_budget_ms", "jpeg_quality",
-                                          "provisional_encoding", "keyframe"};
+const std::set<std::string> kSceneOnly = {
+    "camera", "interactive", "time_budget_ms", "jpeg_quality", "provisional_encoding", "keyframe", "accepts_webp"};
 
 /// The commands with the scene options.
 const std::vector<std::string> kCommands = {"render", "orbit", "request", "scene"};

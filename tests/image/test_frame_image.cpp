@@ -28,7 +28,8 @@ proto::Frame frameOf(const Image8& image, proto::Encoding encoding) {
   return frame;
 }
 
-const proto::Encoding kEncodings[] = {proto::Encoding::RawRgba8, proto::Encoding::Png, proto::Encoding::ZstdRgba8};
+const proto::Encoding kEncodings[] = {proto::Encoding::RawRgba8, proto::Encoding::Png, proto::Encoding::ZstdRgba8,
+                                      proto::Encoding::Webp};
 
 TEST(FrameImage, EveryEncodingRoundTripsExactly) {
   const Image8 image = pattern(37, 21);
@@ -50,6 +51,22 @@ TEST(FrameImage, CompressedEncodingsAreSmallerOnAFlatImage) {
   Image8 flat{256, 256, std::vector<uint8_t>(256 * 256 * 4, 90)};
   EXPECT_LT(encodeFrameImage(flat, proto::Encoding::Png).size(), flat.rgba.size() / 50);
   EXPECT_LT(encodeFrameImage(flat, proto::Encoding::ZstdRgba8).size(), flat.rgba.size() / 50);
+  EXPECT_LT(encodeFrameImage(flat, proto::Encoding::Webp).size(), flat.rgba.size() / 50);
+}
+
+// A webp frame is lossless to the byte: the colour of a pixel whose alpha is 0 comes back too (libwebp would
+// otherwise flatten it, which a transparent frame composited by a client would show).
+TEST(FrameImage, AWebpFrameKeepsEveryByteEvenUnderAlphaZero) {
+  Image8 image{40, 30, std::vector<uint8_t>(40 * 30 * 4)};
+  for (size_t i = 0; i < image.rgba.size(); i += 4) {
+    image.rgba[i] = uint8_t(i * 7), image.rgba[i + 1] = uint8_t(i / 4), image.rgba[i + 2] = uint8_t(255 - i % 251);
+    image.rgba[i + 3] = (i / 4) % 3 == 0 ? 0 : uint8_t(i % 256);
+  }
+  const proto::Frame frame = frameOf(image, proto::Encoding::Webp);
+  ASSERT_GE(frame.payload.size(), 12u);
+  EXPECT_EQ(std::string(frame.payload.begin() + 8, frame.payload.begin() + 12), "WEBP");
+  EXPECT_EQ(decodeFrameImage(frame).rgba, image.rgba);
+  EXPECT_EQ(decodeWebp(encodeWebp(image, 0), "level 0").rgba, image.rgba) << "every level is lossless";
 }
 
 /// The filter byte of each row of an 8-bit RGBA PNG (its IDAT chunks' data inflated).
@@ -105,7 +122,7 @@ TEST(FrameImage, PayloadsOfTheWrongSizeAreRefused) {
 
 TEST(FrameImage, TruncatedAndCorruptPayloadsAreRefusedForEveryCut) {
   const Image8 image = pattern(20, 12);
-  for (proto::Encoding encoding : {proto::Encoding::Png, proto::Encoding::ZstdRgba8}) {
+  for (proto::Encoding encoding : {proto::Encoding::Png, proto::Encoding::ZstdRgba8, proto::Encoding::Webp}) {
     const proto::Frame whole = frameOf(image, encoding);
     // libpng reads all pixels before the closing IEND chunk (12 bytes) and does not insist on it: a cut there may
     // decode, but only to the very same pixels. Every other cut is refused.
@@ -140,6 +157,10 @@ TEST(FrameImage, AbsurdSizesAreRefusedBeforeAnythingIsAllocated) {
   proto::Frame png = frameOf(pattern(4, 4), proto::Encoding::Png);
   png.payload[16] = 0x7f;  // IHDR width's top byte
   EXPECT_THROW(decodeFrameImage(png), ImageFailure);
+  // So is a WebP of another size than the frame says.
+  proto::Frame webp = frameOf(pattern(4, 4), proto::Encoding::Webp);
+  webp.width = 5;
+  EXPECT_THROW(decodeFrameImage(webp), ImageFailure);
 }
 
 }  // namespace

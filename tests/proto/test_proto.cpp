@@ -122,7 +122,7 @@ TEST(Header, LayoutIsPinned) {
 
 TEST(Versions, JpegExistsFromVersionTwoOn) {
   EXPECT_EQ(kMinVersion, 1u);
-  EXPECT_EQ(kMaxVersion, 6u);
+  EXPECT_EQ(kMaxVersion, 7u);
   EXPECT_EQ(uint8_t(Encoding::Jpeg), 3u);
   EXPECT_EQ(encodingsOf(1), (std::vector<Encoding>{Encoding::RawRgba8, Encoding::Png, Encoding::ZstdRgba8}));
   EXPECT_EQ(encodingsOf(2),
@@ -135,6 +135,28 @@ TEST(Versions, JpegExistsFromVersionTwoOn) {
   EXPECT_EQ(encodingFromShortName("jpeg"), Encoding::Jpeg);
   EXPECT_EQ(encodingFromShortName("zstd"), Encoding::ZstdRgba8);
   EXPECT_EQ(encodingFromShortName("jpg"), std::nullopt);
+}
+
+// Version 7 adds lossless WebP (6); a Frame of version 6 or older carrying it is refused as an unknown encoding.
+TEST(Versions, WebpExistsFromVersionSevenOn) {
+  EXPECT_EQ(uint8_t(Encoding::Webp), 6u);
+  for (uint16_t version = 1; version <= 6; ++version) EXPECT_FALSE(encodingInVersion(Encoding::Webp, version));
+  EXPECT_TRUE(encodingInVersion(Encoding::Webp, 7));
+  EXPECT_EQ(encodingsOf(6), encodingsOf(4));
+  EXPECT_EQ(encodingsOf(7), (std::vector<Encoding>{Encoding::RawRgba8, Encoding::Png, Encoding::ZstdRgba8,
+                                                   Encoding::Jpeg, Encoding::Vp8, Encoding::Vp9, Encoding::Webp}));
+  EXPECT_EQ(encodingFromShortName("webp"), Encoding::Webp);
+  EXPECT_STREQ(encodingName(Encoding::Webp), "webp");
+  EXPECT_EQ(firstVersionOf(Encoding::Webp), 7);
+  EXPECT_EQ(firstVersionOf(Encoding::Jpeg), 2);
+  EXPECT_EQ(firstVersionOf(Encoding::Png), 1);
+  const Frame frame{2, 2, Encoding::Webp, "{}", {1, 2, 3}};
+  const Bytes wire = encode(frame, 5, 7);
+  EXPECT_TRUE(decodeWhole(wire) == Message(frame));
+  EXPECT_THROW(encode(frame, 5, 6), std::invalid_argument);
+  Bytes older = wire;
+  older[4] = 6;  // the same bytes in a version-6 header
+  EXPECT_THROW(decodeWhole(older), ProtocolError);
 }
 
 TEST(Versions, VideoAndFrameReceivedExistFromVersionFourOn) {
@@ -658,6 +680,7 @@ TEST(FuzzCorpus, EveryFileReplaysThroughTheFuzzCheck) {
       {"bad-utf8", {ErrorCode::Malformed}},
       {"bad-unknown-type-then-goodbye", {ErrorCode::UnknownType}},
       {"bad-encoding-v2", {ErrorCode::Malformed}},
+      {"bad-encoding-v6", {ErrorCode::Malformed}},
       {"bad-frame-received-v3", {ErrorCode::UnknownType}},
       {"bad-authenticate-v4", {ErrorCode::UnknownType}},
       {"bad-forbidden-v4", {ErrorCode::Malformed}},

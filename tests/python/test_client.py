@@ -24,10 +24,10 @@ def psnr(a, b):
 
 
 def test_datasets_info_and_stats(client):
-    assert client.version == 6
+    assert client.version == 7
     caps = client.capabilities
     assert caps.max_message_bytes == 1 << 20 and caps.max_image_side == 4096
-    assert [e.name for e in caps.encodings] == ['raw_rgba8', 'png', 'zstd_rgba8', 'jpeg', 'vp8', 'vp9']
+    assert [e.name for e in caps.encodings] == ['raw_rgba8', 'png', 'zstd_rgba8', 'jpeg', 'vp8', 'vp9', 'webp']
     assert client.datasets() == ['cold', *[f'fresh-{i}' for i in range(4)], 'mri.vbs', 'sparse']
     assert client.dataset is None
     meta = client.info('mri.vbs')
@@ -86,6 +86,14 @@ def test_cameras_transfer_functions_windows_and_scene_keys(client, datasets, tmp
     expected = voxbrick.read_png(str(render_cli(datasets / name, frame.scene, tmp_path / 'f.png')))
     assert np.array_equal(frame.image, expected)
     assert frame.image[..., 3].min() == 0 and frame.image[..., 3].max() > 100  # transparent around the head
+
+
+def test_a_webp_frame_is_the_png_frame_in_fewer_bytes(client):
+    png = client.render_frame('mri.vbs', **MRI_SCENE)
+    webp = client.render_frame('mri.vbs', encoding='webp', **MRI_SCENE)
+    assert webp.encoding == 'webp' and webp.payload[8:12] == b'WEBP'
+    assert np.array_equal(webp.image, png.image)
+    assert len(webp.payload) < len(png.payload)
 
 
 def test_jpeg_is_close_to_the_lossless_frame(client):
@@ -168,8 +176,8 @@ def test_versions_are_negotiated(server):
     with voxbrick.connect(server.address, max_version=2) as two:
         assert two.version == 2
         assert two.render_frame('sparse', size=(16, 16), encoding='jpeg').encoding == 'jpeg'
-    with pytest.raises(ValueError, match=r'versions 1..7: this client speaks 1..6'):
-        voxbrick.connect(server.address, max_version=7)
+    with pytest.raises(ValueError, match=r'versions 1..8: this client speaks 1..7'):
+        voxbrick.connect(server.address, max_version=8)
 
 
 def test_the_websocket_and_its_token(server):

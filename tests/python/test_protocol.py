@@ -107,6 +107,12 @@ def test_what_a_version_lacks_is_refused_both_ways():
     frame = encode(MessageType.Frame, 5, 4, width=1, height=1, encoding=Encoding.vp8, stats_json='{}', payload=b'')
     with pytest.raises(ProtocolError, match='Frame.encoding: unknown value 4 in protocol version 3'):
         decode(frame[:4] + struct.pack('<H', 3) + frame[6:])
+    webp = encode(MessageType.Frame, 5, 7, width=1, height=1, encoding=Encoding.webp, stats_json='{}', payload=b'')
+    assert decode(webp)[1]['encoding'] is Encoding.webp
+    with pytest.raises(ProtocolError, match='Frame.encoding: unknown value 6 in protocol version 6'):
+        decode(webp[:4] + struct.pack('<H', 6) + webp[6:])
+    with pytest.raises(ValueError, match='Render.encoding: webp needs protocol version 7'):
+        encode(MessageType.Render, 1, 6, encoding=Encoding.webp, scene_json='{}')
     busy = encode(MessageType.Error, 5, 3, code=ErrorCode.Busy, message='')
     with pytest.raises(ProtocolError, match='Error.code: unknown value 14 in protocol version 2'):
         decode(busy[:4] + struct.pack('<H', 2) + busy[6:])
@@ -133,8 +139,8 @@ def test_headers_that_do_not_check():
     header = HEADER.pack(MAGIC, 1, 1, 1, 0)
     with pytest.raises(ProtocolError, match='BadMagic'):
         decode_header(b'XXXX' + header[4:])
-    with pytest.raises(ProtocolError, match='UnsupportedVersion: version 7'):
-        decode_header(HEADER.pack(MAGIC, 7, 1, 1, 0))
+    with pytest.raises(ProtocolError, match='UnsupportedVersion: version 8'):
+        decode_header(HEADER.pack(MAGIC, 8, 1, 1, 0))
     with pytest.raises(ProtocolError, match='TooLarge: body of 2000 bytes exceeds 1000'):
         decode_header(HEADER.pack(MAGIC, 1, 8, 1, 2000), max_body=1000)
     assert decode_header(HEADER.pack(MAGIC, 1, 99, 7, 3)).type is None  # unknown: skipped, not fatal

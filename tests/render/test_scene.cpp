@@ -67,7 +67,7 @@ TEST(SceneJson, ErrorsNameTheKey) {
   expectError("not json", "not valid JSON");
   expectError("{\"jpeg_quality\": 0}", "'jpeg_quality' must be an integer between 1 and 100, not 0");
   expectError("{\"jpeg_quality\": 85.5}", "'jpeg_quality'");
-  expectError("{\"provisional_encoding\": \"webp\"}", "'provisional_encoding' must be one of");
+  expectError("{\"provisional_encoding\": \"gif\"}", "'provisional_encoding' must be one of");
   expectError("{\"provisional_encoding\": 3}", "'provisional_encoding'");
 }
 

@@ -648,6 +648,49 @@ TEST_F(ConnectionTest, APngFramesSpeedFollowsTheLinkItsReportsMeasure) {
   scheduler->stop();
 }
 
+// A scene accepting webp gets its png frames as webp only once the session's reports measure the link below
+// kWebpBelowKbps; one that does not accept it keeps png on the same link.
+TEST_F(ConnectionTest, PngFramesComeAsWebpOnlyToASceneThatAcceptsItOnALinkMeasuredSlow) {
+  greet(7);
+  receive(proto::OpenDataset{"sparse"}, 2);
+  flush();
+  scheduler->start();
+  const auto renderedJob = [&](uint32_t id) {
+    for (int i = 0; i < 3000 && !transport->renderedJob(id); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    return transport->renderedJob(id);
+  };
+  std::string accepting(kConnectionScene);
+  accepting.insert(accepting.rfind('}'), R"(, "accepts_webp": true)");
+  receive(proto::RenderRequest{proto::Encoding::Png, accepting}, 3);
+  const std::optional<RenderJob> first = renderedJob(3);
+  ASSERT_TRUE(first);
+  EXPECT_FALSE(first->webpForPng) << "nothing measured the link";
+  EXPECT_EQ(replyEncoding(*first, false), proto::Encoding::Png);
+  render(10, proto::Encoding::RawRgba8);
+  render(11, proto::Encoding::RawRgba8);
+  flush();
+  const auto report = [&](uint32_t id) { receive(proto::FrameReceived{1000}, id); };
+  std::this_thread::sleep_for(std::chrono::milliseconds(30));
+  report(10);
+  std::this_thread::sleep_for(std::chrono::milliseconds(30));
+  report(11);
+  const std::optional<double> link = core.link().linkKbps(std::chrono::steady_clock::now());
+  ASSERT_TRUE(link);
+  ASSERT_LT(*link, kWebpBelowKbps);
+  receive(proto::RenderRequest{proto::Encoding::Png, accepting}, 4);
+  const std::optional<RenderJob> slow = renderedJob(4);  // before the next Render, which would replace it waiting
+  receive(proto::RenderRequest{proto::Encoding::Png, kConnectionScene}, 5);
+  const std::optional<RenderJob> notAccepting = renderedJob(5);
+  ASSERT_TRUE(slow && notAccepting);
+  EXPECT_TRUE(slow->webpForPng) << "a link measured at " << *link << " kbit/s";
+  EXPECT_EQ(replyEncoding(*slow, false), proto::Encoding::Webp);
+  EXPECT_EQ(replyEncoding(*slow, true), proto::Encoding::Webp) << "a provisional png frame too";
+  EXPECT_FALSE(notAccepting->webpForPng);
+  EXPECT_EQ(replyEncoding(*notAccepting, false), proto::Encoding::Png);
+  scheduler->stop();
+}
+
 // FrameReceived exists from version 4 on: an older session that sends it is told so and goes on.
 TEST_F(ConnectionTest, FrameReceivedInAnOlderSessionIsAnUnknownType) {
   greet(3);

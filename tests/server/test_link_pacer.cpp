@@ -1,5 +1,6 @@
 // A session's link from its client's FrameReceived reports, driven with made-up times: the window of frames on their
-// way, the stale client, the link's rate from frames that queued behind one another, and the video bitrate.
+// way, the stale client, the link's rate from frames that queued behind one another or from a large frame (and none
+// from frames that only overlap on a far link), and the video bitrate.
 #include <gtest/gtest.h>
 
 #include "server/LinkPacer.h"
@@ -93,6 +94,46 @@ TEST(LinkPacer, FramesOnAnIdleLinkMeasureNoRateAndTheBitrateClimbsToItsCap) {
   EXPECT_EQ(pacer.videoKbps(1, 1, at(13000)), LinkPacer::kMinKbps) << "nor below the floor";
 }
 
+// A far link that keeps up: 100 Mbit/s with 80 ms of round trip, a 15 000-byte frame every 33 ms (a drag's video
+// frames). Each frame is written before the one ahead is reported, but none waits: the time between reports is the
+// sender's 33 ms, not the link's 1.2 ms, and measures nothing (it read 3.6 Mbit/s, a slow link, before).
+TEST(LinkPacer, FramesThatOnlyOverlapOnAFarLinkMeasureNothing) {
+  LinkPacer pacer;
+  for (int i = 0; i < 30; ++i) {
+    pacer.sent(15000, at(33.0 * i));
+    if (i >= 3) pacer.received(at(33.0 * (i - 3) + 81.2));  // the report of the frame written three frames ago
+  }
+  EXPECT_FALSE(pacer.linkKbps(at(33.0 * 29))) << *pacer.linkKbps(at(33.0 * 29)) << " kbit/s";
+  EXPECT_FALSE(webpFor(pacer.linkKbps(at(33.0 * 29))));
+  EXPECT_EQ(pngSpeedFor(pacer.linkKbps(at(33.0 * 29))), image::PngSpeed::Fast);
+}
+
+// A frame much larger than the quickest delivered one measures the link by itself, on a slow link and on a fast one:
+// an exact png after small video frames, each written onto an idle link.
+TEST(LinkPacer, ALargeFrameMeasuresTheLinkOnItsOwn) {
+  for (const double mbit : {10.0, 100.0}) {
+    LinkPacer pacer;
+    const double bytesPerMs = mbit * 1000 / 8;
+    double t = 0;
+    for (const uint64_t bytes : {uint64_t(8000), uint64_t(9000), uint64_t(440000)}) {
+      pacer.sent(bytes, at(t));
+      pacer.received(at(t + 40 + double(bytes) / bytesPerMs));  // 40 ms of round trip, then the bytes' time
+      t += 1000;
+    }
+    const auto link = pacer.linkKbps(at(t));
+    ASSERT_TRUE(link) << mbit << " Mbit/s";
+    EXPECT_NEAR(*link, mbit * 1000, mbit * 1000 * 0.02);
+    EXPECT_EQ(webpFor(link), mbit < 12);
+  }
+  // Frames alike in size on an idle link say nothing.
+  LinkPacer alike;
+  for (int i = 0; i < 5; ++i) {
+    alike.sent(30000, at(100.0 * i));
+    alike.received(at(100.0 * i + 64));
+  }
+  EXPECT_FALSE(alike.linkKbps(at(500)));
+}
+
 TEST(LinkPacer, PngFramesAreEncodedSmallOnlyOnALinkMeasuredSlow) {
   EXPECT_EQ(pngSpeedFor(std::nullopt), image::PngSpeed::Fast) << "no measurement: the link keeps up";
   LinkPacer slow, fast;
@@ -101,6 +142,10 @@ TEST(LinkPacer, PngFramesAreEncodedSmallOnlyOnALinkMeasuredSlow) {
   ASSERT_TRUE(slow.linkKbps(at(900)) && fast.linkKbps(at(900)));
   EXPECT_EQ(pngSpeedFor(slow.linkKbps(at(900))), image::PngSpeed::Small);
   EXPECT_EQ(pngSpeedFor(fast.linkKbps(at(900))), image::PngSpeed::Fast);
+  // Lossless webp in place of png below kWebpBelowKbps, if the scene accepts it (RenderJob::webpForPng).
+  EXPECT_FALSE(webpFor(std::nullopt));
+  EXPECT_TRUE(webpFor(slow.linkKbps(at(900))));
+  EXPECT_FALSE(webpFor(fast.linkKbps(at(900))));
 }
 
 }  // namespace

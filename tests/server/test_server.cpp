@@ -102,6 +102,36 @@ TEST_F(ServerTest, ServedFramesEqualTheRenderCommandBitForBit) {
   // The other encodings carry the same pixels.
   EXPECT_EQ(pixels(c->render(kScene, proto::Encoding::RawRgba8)), served);
   EXPECT_EQ(pixels(c->render(kScene, proto::Encoding::ZstdRgba8)), served);
+  ASSERT_EQ(c->version(), 7);
+  const proto::Frame webp = c->render(kScene, proto::Encoding::Webp);
+  EXPECT_EQ(webp.encoding, proto::Encoding::Webp);
+  EXPECT_EQ(pixels(webp), served);
+  EXPECT_LT(webp.payload.size(), png.payload.size());
+  // A scene that accepts webp on a link that keeps up (loopback, nothing measured slow) still gets png.
+  std::string accepting(kScene);
+  accepting.insert(accepting.rfind('}'), R"(, "accepts_webp": true)");
+  EXPECT_EQ(c->render(accepting, proto::Encoding::Png).encoding, proto::Encoding::Png);
+  c->goodbye();
+}
+
+// Lossless webp is version 7's: an older session asking for it as the Render's encoding is Malformed, and a scene
+// accepting it is InvalidScene naming the key and the version; the session goes on.
+TEST_F(ServerTest, WebpIsRefusedToAnOlderSessionNamingTheVersion) {
+  auto server = start();
+  auto c = std::make_unique<Client>("127.0.0.1", server->port(), std::chrono::seconds(60));
+  c->hello("test", 6);
+  c->openDataset("sparse");
+  EXPECT_THROW(c->render(kScene, proto::Encoding::Webp), std::invalid_argument) << "the client knows v6 lacks it";
+  std::string accepting(kScene);
+  accepting.insert(accepting.rfind('}'), R"(, "accepts_webp": true)");
+  try {
+    c->render(accepting, proto::Encoding::Png);
+    ADD_FAILURE() << "a version-6 session's scene accepting webp was rendered";
+  } catch (const ServerError& e) {
+    EXPECT_EQ(e.code(), ErrorCode::InvalidScene);
+    EXPECT_NE(std::string(e.what()).find("'accepts_webp' needs protocol version 7"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(c->render(kScene, proto::Encoding::Png).encoding, proto::Encoding::Png);
   c->goodbye();
 }
 
@@ -347,7 +377,7 @@ TEST_F(ServerTest, MalformedMessagesGetTheirErrorsAndOtherSessionsGoOn) {
   {
     Client c("127.0.0.1", server->port());
     proto::Header h;
-    h.version = 7;
+    h.version = proto::kMaxVersion + 1;
     auto head = proto::encodeHeader(h);
     c.sendBytes(std::vector<uint8_t>(head.begin(), head.end()));
     EXPECT_EQ(errorsUntilClosed(c), std::vector<ErrorCode>{ErrorCode::UnsupportedVersion});

@@ -58,9 +58,9 @@ TEST_F(VideoServerTest, VersionFourOffersVp8AndVp9AndOlderSessionsDoNot) {
   const proto::Capabilities caps = c.hello("test", 4);
   EXPECT_EQ(caps.version, 4);
   EXPECT_EQ(caps.encodings, proto::encodingsOf(4));
-  EXPECT_EQ(Client("127.0.0.1", server->port(), std::chrono::seconds(60)).hello("test").encodings,
+  EXPECT_EQ(Client("127.0.0.1", server->port(), std::chrono::seconds(60)).hello("test", 6).encodings,
             proto::encodingsOf(4))
-      << "and every later version";
+      << "and every later version up to 6 (7 adds webp)";
   Client old("127.0.0.1", server->port(), std::chrono::seconds(60));
   EXPECT_EQ(old.hello("test", 3).encodings, proto::encodingsOf(3));
   old.openDataset("sparse");

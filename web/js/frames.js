@@ -9,7 +9,7 @@
 import { Encoding, ErrorCode, isVideo } from "./protocol.js";
 import { VideoStream } from "./video.js";
 
-const MIME = { [Encoding.png]: "image/png", [Encoding.jpeg]: "image/jpeg" };
+const MIME = { [Encoding.png]: "image/png", [Encoding.jpeg]: "image/jpeg", [Encoding.webp]: "image/webp" };
 const KEEP = 2000; // shown frames kept for the figures
 // Renders sent and not yet answered at most: one being drawn, one waiting (replaced by each newer camera), and one
 // more while a render thread of the server takes the waiting one.
@@ -18,8 +18,9 @@ const REMEMBERED = 16; // recent Renders kept, so that a late exact frame finds 
 
 export class FrameLoop {
   /// `canvas`: where frames are drawn. `hooks`: scene(phase, {keyframe}) -> the scene to ask for now (asking the
-  /// video stream for a key frame when `keyframe`), or null if none can be asked yet; refused(error) -> true when the
-  /// page changed what it asks (then the frame is asked again);
+  /// video stream for a key frame when `keyframe`), or null if none can be asked yet; encoding() -> the Render's
+  /// encoding (absent: png); refused(error) -> true when the page changed what it asks (then the frame is asked
+  /// again);
   /// shown(frame) after each frame drawn; failed(error) for an Error that is not handled.
   constructor(canvas, hooks) {
     this.canvas = canvas;
@@ -97,7 +98,7 @@ export class FrameLoop {
     const keyframe = this.video.askKey && !this.outstanding.has(this.keyAskId);
     const scene = this.hooks.scene(this.wanted.phase, { keyframe });
     if (!scene) return;
-    const id = this.connection.render(Encoding.png, scene);
+    const id = this.connection.render(this.hooks.encoding ? this.hooks.encoding() : Encoding.png, scene);
     this.newest = { id, ...this.wanted, scene, sentAt: performance.now() };
     this.outstanding.add(id);
     if (scene.keyframe) this.keyAskId = id;

@@ -45,6 +45,10 @@ const app = {
     keyframe: true,
     jpeg: false,
     video: null, // "vp8" or "vp9": the video codec the server offers and this browser decodes (checked at connect)
+    // Lossless frames as webp: null (the server has no webp, or `lossless=png`), "auto" (scene key accepts_webp: the
+    // server sends webp where it measures the link slow), "always" (`lossless=webp`: every exact frame as webp).
+    webp: null,
+    accepts_webp: true, // until refused
   },
   dragging: false,
   notes: [],
@@ -62,6 +66,7 @@ const canvas = $("frame");
 const loop = new FrameLoop(canvas, {
   scene: (phase, ask) =>
     app.state === "ready" && app.meta ? V.buildScene(app.view, app.meta, frameSize(), phase, app.features, ask) : null,
+  encoding: () => (app.features.webp === "always" ? Encoding.webp : Encoding.png),
   refused: refusedScene,
   shown: () => drawOverlay(),
   failed: (e) => note(`${e.name}: ${e.message}`),
@@ -98,7 +103,7 @@ function refusedScene(error) {
     app.features.video = null;
     return true;
   }
-  for (const key of V.MOTION_KEYS) {
+  for (const key of [...V.MOTION_KEYS, "accepts_webp"]) {
     if (app.features[key] && names(key)) {
       app.features[key] = false;
       return true;
@@ -204,8 +209,15 @@ async function loadPresets() {
   }
 }
 
+/// How exact frames travel (the address's `lossless`): "always" webp (`webp`), "auto" (absent or `auto`: png, or webp
+/// where the server finds the link slow), or null (`png`, or a server without webp: always png).
+function losslessWebp(encodings, asked) {
+  if (!encodings.includes(Encoding.webp) || asked === "png") return null;
+  return asked === "webp" ? "always" : "auto";
+}
+
 /// Saves the frame on the canvas as a PNG: the server's own bytes when the frame shown is its exact PNG, else the
-/// canvas (a provisional jpeg or video frame, decoded).
+/// canvas (an exact webp frame, whose pixels the canvas holds unchanged; a provisional jpeg or video frame, decoded).
 function saveFrame() {
   const f = loop.lastFrame;
   const v = app.view;
@@ -248,6 +260,7 @@ function connect() {
 async function greeted(c, caps) {
   app.capabilities = caps;
   app.features.jpeg = caps.encodings.includes(Encoding.jpeg);
+  app.features.webp = losslessWebp(caps.encodings, params.get("lossless"));
   // Which video codec this browser decodes is asked while the datasets are listed; known before the first drag.
   const video = pickVideoCodec(caps.encodings, params.get("video"));
   loadPresets();

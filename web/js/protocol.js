@@ -6,7 +6,7 @@
 export const MAGIC = 0x4b425856; // "VXBK" read as a little-endian u32
 export const HEADER_BYTES = 16;
 export const MIN_VERSION = 1;
-export const MAX_VERSION = 4;
+export const MAX_VERSION = 7;
 
 export const Type = Object.freeze({
   Hello: 1,
@@ -24,11 +24,20 @@ export const Type = Object.freeze({
   FrameReceived: 13, // version 4 on, client to server: a Frame arrived (the server paces frames to the link)
 });
 
-export const Encoding = Object.freeze({ raw_rgba8: 0, png: 1, zstd_rgba8: 2, jpeg: 3, vp8: 4, vp9: 5 });
-/// Encodings each version may carry (a version-1 session never sees jpeg, a version-3 one no video).
-const ENCODINGS_BY_VERSION = { 1: [0, 1, 2], 2: [0, 1, 2, 3], 3: [0, 1, 2, 3], 4: [0, 1, 2, 3, 4, 5] };
+export const Encoding = Object.freeze({ raw_rgba8: 0, png: 1, zstd_rgba8: 2, jpeg: 3, vp8: 4, vp9: 5, webp: 6 });
+/// Encodings each version may carry (a version-1 session never sees jpeg, a version-3 one no video, a version-6 one
+/// no webp). Versions 5 and 6 add messages the page never sends (Authenticate, Upload) and no encoding.
+const ENCODINGS_BY_VERSION = {
+  1: [0, 1, 2],
+  2: [0, 1, 2, 3],
+  3: [0, 1, 2, 3],
+  4: [0, 1, 2, 3, 4, 5],
+  5: [0, 1, 2, 3, 4, 5],
+  6: [0, 1, 2, 3, 4, 5],
+  7: [0, 1, 2, 3, 4, 5, 6],
+};
 /// The names the scene's `provisional_encoding` and the overlay give each encoding.
-export const encodingName = (e) => ["raw", "png", "zstd", "jpeg", "vp8", "vp9"][e] || `encoding ${e}`;
+export const encodingName = (e) => ["raw", "png", "zstd", "jpeg", "vp8", "vp9", "webp"][e] || `encoding ${e}`;
 export const isVideo = (e) => e === Encoding.vp8 || e === Encoding.vp9;
 
 export const ErrorCode = Object.freeze({
@@ -46,6 +55,8 @@ export const ErrorCode = Object.freeze({
   ShuttingDown: 12,
   Timeout: 13,
   Busy: 14, // version 3 on: the message ends with "; retry after N ms"
+  Forbidden: 15, // version 5 on
+  AlreadyExists: 16, // version 6 on
 });
 /// A Busy (or LimitExceeded) message without its "; retry after N ms" ending: what the server says is over capacity.
 export const withoutRetryHint = (message) => (message || '').replace(/; retry after \d+ ms$/, '');

@@ -161,6 +161,7 @@ export const SCENE_KEYS = [
   "window",
   "quality",
   ...MOTION_KEYS,
+  "accepts_webp",
 ];
 /// The time budget of a provisional frame while dragging, in milliseconds: with one frame drawn at a time, at best about
 /// twenty frames a second (the server's own default, 100 ms, is ten).
@@ -168,9 +169,9 @@ export const DRAG_TIME_BUDGET_MS = 50;
 
 /// The scene of a Render: `phase` "drag" while the camera moves, "still" otherwise. `features` says which optional
 /// keys the server took (`interactive`, `time_budget_ms`, `provisional_encoding`, `progressive`, `keyframe`: true
-/// until refused), whether it offers jpeg, and `video`: the video codec ("vp8" or "vp9") the server offers and the
-/// browser decodes, or null. `ask.keyframe`: the video decoder waits for a key frame. This is the one place that
-/// picks how moving frames are made.
+/// until refused), whether it offers jpeg, `video`: the video codec ("vp8" or "vp9") the server offers and the
+/// browser decodes, or null, and `webp` ("auto": ask `accepts_webp`, while `accepts_webp` is not refused).
+/// `ask.keyframe`: the video decoder waits for a key frame. This is the one place that picks how frames are made.
 export function buildScene(view, meta, size, phase, features, ask = {}) {
   const scene = {
     camera: sceneCamera(view, meta, size[0] / size[1]),
@@ -199,6 +200,9 @@ export function buildScene(view, meta, size, phase, features, ask = {}) {
       scene.provisional_encoding = "jpeg";
     }
   }
+  // Png frames may come as lossless webp (protocol version 7), which the server sends while it finds the link slow:
+  // the same pixels in about 0.6 of the bytes, for longer encoding.
+  if (features.webp === "auto" && features.accepts_webp) scene.accepts_webp = true;
   return scene;
 }
 
