@@ -399,7 +399,8 @@ void addLoadCommand(CLI::App& app) {
       ->capture_default_str()
       ->check(between(0.001, 64, "voxels"));
   cmd->add_option("--encoding", a->encoding,
-                  "how the clients' frames travel: raw, png, zstd or jpeg (lossy; protocol version 2)")
+                  "how the clients' frames travel: raw, png, zstd, jpeg (lossy; protocol version 2) or webp (lossless; "
+                  "protocol version 7)")
       ->capture_default_str()
       ->check(CLI::IsMember(proto::encodingShortNames()));
   cmd->add_option("--fault-clients", a->faultClients, "clients that misbehave in turn")
@@ -427,8 +428,8 @@ void addLoadCommand(CLI::App& app) {
       ->check(between(render::Scene::kMinTimeBudgetMs, render::Scene::kMaxTimeBudgetMs, "ms"))
       ->needs(drag);
   cmd->add_option("--provisional-encoding", a->provisionalEncoding,
-                  "with --drag: how provisional frames travel (provisional_encoding): raw, png, zstd, jpeg, or a video "
-                  "stream, vp8 or vp9 (decoded by each client in order)")
+                  "with --drag: how provisional frames travel (provisional_encoding): raw, png, zstd, jpeg, webp, or a "
+                  "video stream, vp8 or vp9 (decoded by each client in order)")
       ->check(CLI::IsMember(proto::encodingShortNames()))
       ->needs(drag);
   cmd->add_flag("--batch", a->batch,

@@ -93,7 +93,8 @@ void addRequestCommand(CLI::App& app) {
       ->check(between(1, 100));
   cmd->add_option("--stats", a->statsPath, "write the frame's statistics as JSON");
   cmd->add_option("--encoding", a->encoding,
-                  "how the frame travels: png, raw, zstd or jpeg (lossy; needs a server of protocol version 2)")
+                  "how the frame travels: png, raw, zstd, jpeg (lossy; needs a server of protocol version 2) or webp "
+                  "(lossless, fewer bytes; version 7)")
       ->check(CLI::IsMember(proto::encodingShortNames()))
       ->capture_default_str();
   cmd->add_option("--timeout", a->timeout, "seconds to wait for the server")

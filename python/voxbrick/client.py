@@ -58,7 +58,7 @@ def connect(address: str, token: Optional[str] = None, *, timeout: float = 120,
     one of the server's `[[tokens]]`), given when the WebSocket opens, or over TCP by Authenticate (protocol version
     5). Over TLS the server's certificate is verified against `ca` (a PEM file of CAs) or the system's CAs, and must
     name the host; `insecure=True` takes any certificate (a self-signed one in local use). `timeout`: seconds any reply
-    may take. `max_version`: the highest protocol version offered (1 to 6; the session speaks the highest both sides
+    may take. `max_version`: the highest protocol version offered (1 to 7; the session speaks the highest both sides
     do). Raises ConnectionRefused (HTTP status and the server's words) for a refused upgrade, ServerError for a refused
     Hello or token (Forbidden), TlsError for a certificate that does not verify, OSError when nothing listens."""
     return Client(address, token=token, timeout=timeout, max_version=max_version, ca=ca, insecure=insecure)
