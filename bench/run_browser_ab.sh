@@ -13,12 +13,11 @@ shift 3
 rounds=2
 if [ "${1:-}" = --rounds ]; then rounds=$2; shift 2; fi
 [ -d tests/browser/node_modules/puppeteer-core ] || (cd tests/browser && npm ci --no-audit --no-fund > /dev/null)
+source bench/browser_bench.sh
 work=bench/work/video
 datasets=$work/datasets
-mkdir -p "$datasets" "$(dirname "$out")"
-[ -f "$work/mri.vbs/store.json" ] || "$new" prep /usr/share/mricron/templates/ch2better.nii.gz -o "$work/mri.vbs" -q
-[ -e "$datasets/mri" ] || ln -s ../mri.vbs "$datasets/mri"
-export VOXBRICK_CONFIG_DIR=$PWD/config
+mkdir -p "$(dirname "$out")"
+mri_datasets "$work" "$new"
 export VOXBRICK_BENCH_COMMAND="bash bench/run_browser_ab.sh OLD NEW $out --rounds $rounds${*:+ $*}"
 runs=()
 for r in $(seq 1 "$rounds"); do

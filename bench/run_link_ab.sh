@@ -21,12 +21,11 @@ while [ $# -gt 0 ]; do
     *) echo "run_link_ab.sh: unknown option $1" >&2; exit 2 ;;
   esac
 done
+source bench/browser_bench.sh
 work=bench/work/video
 datasets=$work/datasets
-mkdir -p "$datasets" "$(dirname "$out")"
-[ -f "$work/mri.vbs/store.json" ] || "$new" prep /usr/share/mricron/templates/ch2better.nii.gz -o "$work/mri.vbs" -q
-[ -e "$datasets/mri" ] || ln -s ../mri.vbs "$datasets/mri"
-export VOXBRICK_CONFIG_DIR=$PWD/config
+mkdir -p "$(dirname "$out")"
+mri_datasets "$work" "$new"
 pids=()
 cleanup() {
   for p in "${pids[@]}"; do kill "$p" 2> /dev/null || true; done

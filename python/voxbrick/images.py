@@ -71,32 +71,28 @@ def zstd_available() -> bool:
 
 def decode_jpeg(data: bytes) -> np.ndarray:
     """A JPEG's pixels with alpha 255, (height, width, 4) uint8; needs Pillow."""
-    try:
-        from PIL import Image
-    except ImportError:
-        raise DecodeError('jpeg frames need Pillow (Debian: apt-get install python3-pil); ask for png instead') from None
-    import io
-    try:
-        with Image.open(io.BytesIO(data)) as image:
-            return np.asarray(image.convert('RGBA')).copy()
-    except OSError as e:
-        raise DecodeError(f'jpeg payload does not decode: {e}') from None
+    return _decode_with_pillow(data, 'jpeg', 'JPEG')
 
 
 def decode_webp(data: bytes) -> np.ndarray:
     """A lossless WebP's pixels, (height, width, 4) uint8 (alpha 255 where the file has none); needs Pillow."""
+    return _decode_with_pillow(data, 'webp', 'WEBP')
+
+
+def _decode_with_pillow(data: bytes, name: str, pillow_format: str) -> np.ndarray:
+    """A `name` payload (Pillow's `pillow_format`) as (height, width, 4) uint8 RGBA; DecodeError without Pillow, for
+    a file of another format, or one that does not decode."""
     try:
         from PIL import Image
     except ImportError:
-        raise DecodeError('webp frames need Pillow (Debian: apt-get install python3-pil); ask for png instead') from None
+        raise DecodeError(f'{name} frames need Pillow (Debian: apt-get install python3-pil); ask for png instead') \
+            from None
     import io
     try:
-        with Image.open(io.BytesIO(data)) as image:
-            if image.format != 'WEBP':
-                raise DecodeError(f'webp payload is a {image.format} file')
+        with Image.open(io.BytesIO(data), formats=[pillow_format]) as image:
             return np.asarray(image.convert('RGBA')).copy()
     except OSError as e:
-        raise DecodeError(f'webp payload does not decode: {e}') from None
+        raise DecodeError(f'{name} payload does not decode: {e}') from None
 
 
 def _decode_png_fast(data: bytes) -> np.ndarray:

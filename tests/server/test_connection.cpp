@@ -163,6 +163,25 @@ class ConnectionTest : public ::testing::Test {
     for (size_t i = 0; i < pixels.size(); i += 4) pixels[i] = uint8_t(i / 4 + requestId * 3), pixels[i + 1] = 90;
     core.rendered(job, proto::Frame{side, side, encoding, refinement ? "{}" : R"({"provisional": true})", pixels});
   }
+  /// The job the scheduler's render thread took for request `id` (waiting up to 30 s for it), if any.
+  std::optional<RenderJob> awaitRenderedJob(uint32_t id) {
+    for (int i = 0; i < 3000 && !transport->renderedJob(id); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    return transport->renderedJob(id);
+  }
+  /// Makes the session's reports measure its link slow: two frames (requests 10 and 11) written back to back, their
+  /// reports 30 ms apart: the second took 30 ms to pass, about 1 Mbit/s for its 4 kB (a slower machine makes the gap
+  /// longer and the link slower still). Returns the rate measured.
+  std::optional<double> measureASlowLink() {
+    render(10, proto::Encoding::RawRgba8);
+    render(11, proto::Encoding::RawRgba8);
+    flush();
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    receive(proto::FrameReceived{1000}, 10);
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    receive(proto::FrameReceived{1000}, 11);
+    return core.link().linkKbps(std::chrono::steady_clock::now());
+  }
   /// Runs what was set aside and writes what that queued, until neither is left.
   void settle() {
     while (!transport->asides.empty() || transport->writing) {
@@ -619,30 +638,15 @@ TEST_F(ConnectionTest, APngFramesSpeedFollowsTheLinkItsReportsMeasure) {
   receive(proto::OpenDataset{"sparse"}, 2);
   flush();
   scheduler->start();
-  const auto renderedJob = [&](uint32_t id) {
-    for (int i = 0; i < 3000 && !transport->renderedJob(id); ++i)
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    return transport->renderedJob(id);
-  };
   receive(proto::RenderRequest{proto::Encoding::Png, kConnectionScene}, 3);
-  const std::optional<RenderJob> first = renderedJob(3);
+  const std::optional<RenderJob> first = awaitRenderedJob(3);
   ASSERT_TRUE(first);
   EXPECT_EQ(first->pngSpeed, image::PngSpeed::Fast) << "nothing measured the link";
-  // Two frames written back to back, their reports 30 ms apart: the second took 30 ms to pass, about 1 Mbit/s for
-  // its 4 kB (a slower machine makes the gap longer and the link slower still).
-  render(10, proto::Encoding::RawRgba8);
-  render(11, proto::Encoding::RawRgba8);
-  flush();
-  const auto report = [&](uint32_t id) { receive(proto::FrameReceived{1000}, id); };
-  std::this_thread::sleep_for(std::chrono::milliseconds(30));
-  report(10);
-  std::this_thread::sleep_for(std::chrono::milliseconds(30));
-  report(11);
-  const std::optional<double> link = core.link().linkKbps(std::chrono::steady_clock::now());
+  const std::optional<double> link = measureASlowLink();
   ASSERT_TRUE(link);
   ASSERT_LT(*link, kSmallPngBelowKbps);
   receive(proto::RenderRequest{proto::Encoding::Png, kConnectionScene}, 4);
-  const std::optional<RenderJob> second = renderedJob(4);
+  const std::optional<RenderJob> second = awaitRenderedJob(4);
   ASSERT_TRUE(second);
   EXPECT_EQ(second->pngSpeed, image::PngSpeed::Small) << "a link measured at " << *link << " kbit/s";
   scheduler->stop();
@@ -655,33 +659,20 @@ TEST_F(ConnectionTest, PngFramesComeAsWebpOnlyToASceneThatAcceptsItOnALinkMeasur
   receive(proto::OpenDataset{"sparse"}, 2);
   flush();
   scheduler->start();
-  const auto renderedJob = [&](uint32_t id) {
-    for (int i = 0; i < 3000 && !transport->renderedJob(id); ++i)
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    return transport->renderedJob(id);
-  };
   std::string accepting(kConnectionScene);
   accepting.insert(accepting.rfind('}'), R"(, "accepts_webp": true)");
   receive(proto::RenderRequest{proto::Encoding::Png, accepting}, 3);
-  const std::optional<RenderJob> first = renderedJob(3);
+  const std::optional<RenderJob> first = awaitRenderedJob(3);
   ASSERT_TRUE(first);
   EXPECT_FALSE(first->webpForPng) << "nothing measured the link";
   EXPECT_EQ(replyEncoding(*first, false), proto::Encoding::Png);
-  render(10, proto::Encoding::RawRgba8);
-  render(11, proto::Encoding::RawRgba8);
-  flush();
-  const auto report = [&](uint32_t id) { receive(proto::FrameReceived{1000}, id); };
-  std::this_thread::sleep_for(std::chrono::milliseconds(30));
-  report(10);
-  std::this_thread::sleep_for(std::chrono::milliseconds(30));
-  report(11);
-  const std::optional<double> link = core.link().linkKbps(std::chrono::steady_clock::now());
+  const std::optional<double> link = measureASlowLink();
   ASSERT_TRUE(link);
   ASSERT_LT(*link, kWebpBelowKbps);
   receive(proto::RenderRequest{proto::Encoding::Png, accepting}, 4);
-  const std::optional<RenderJob> slow = renderedJob(4);  // before the next Render, which would replace it waiting
+  const std::optional<RenderJob> slow = awaitRenderedJob(4);  // before the next Render, which would replace it waiting
   receive(proto::RenderRequest{proto::Encoding::Png, kConnectionScene}, 5);
-  const std::optional<RenderJob> notAccepting = renderedJob(5);
+  const std::optional<RenderJob> notAccepting = awaitRenderedJob(5);
   ASSERT_TRUE(slow && notAccepting);
   EXPECT_TRUE(slow->webpForPng) << "a link measured at " << *link << " kbit/s";
   EXPECT_EQ(replyEncoding(*slow, false), proto::Encoding::Webp);
