@@ -112,8 +112,8 @@ class Client {
   uint16_t mVersion = proto::kVersion;
 };
 
-/// The encoding a command-line name gives ("raw", "png", "zstd", "jpeg", "vp8", "vp9"); throws std::invalid_argument
-/// otherwise.
+/// The encoding a command-line name gives ("raw", "png", "zstd", "jpeg", "vp8", "vp9", "webp"); throws
+/// std::invalid_argument otherwise.
 proto::Encoding encodingNamed(const std::string& name);
 
 /// The bytes of the Frame message that carried `frame`, header included (FrameReceived's frame_bytes).

@@ -63,7 +63,7 @@ inline constexpr common::EnumName<Refusal> kRefusalNames[] = {
 constexpr std::span<const common::EnumName<Refusal>> enumNames(Refusal) { return kRefusalNames; }
 
 /// The frame encodings counted apart, in proto::Encoding's value order.
-inline constexpr size_t kFrameEncodings = size_t(proto::Encoding::Vp9) + 1;
+inline constexpr size_t kFrameEncodings = size_t(proto::Encoding::Webp) + 1;
 
 /// Counters are atomics: every I/O and render thread updates them without a lock.
 class ServerStats {

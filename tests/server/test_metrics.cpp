@@ -148,6 +148,7 @@ TEST(ServerMetrics, FramesAreCountedByClassAndEncodingWithTheirLatencyAndBytes) 
   stats.frameDelivered(FrameClass::Interactive, proto::Encoding::Jpeg, 3000, 60);
   stats.frameDelivered(FrameClass::Still, proto::Encoding::Png, 50000, 400);
   stats.frameDelivered(FrameClass::Batch, proto::Encoding::ZstdRgba8, 70000, 12000);
+  stats.frameDelivered(FrameClass::Still, proto::Encoding::Webp, 30000, 300);
   stats.renderAccepted(FrameClass::Still);
   stats.renderAccepted(FrameClass::Interactive);
   stats.renderAccepted(FrameClass::Interactive);
@@ -159,6 +160,8 @@ TEST(ServerMetrics, FramesAreCountedByClassAndEncodingWithTheirLatencyAndBytes) 
   EXPECT_EQ(p.value("voxbrick_frames_total", R"(class="interactive",encoding="png")"), 0) << "every pair is written";
   EXPECT_EQ(p.value("voxbrick_frames_total", R"(class="still",encoding="png")"), 1);
   EXPECT_EQ(p.value("voxbrick_frames_total", R"(class="batch",encoding="zstd_rgba8")"), 1);
+  EXPECT_EQ(p.value("voxbrick_frames_total", R"(class="still",encoding="webp")"), 1) << "every encoding apart";
+  EXPECT_EQ(p.value("voxbrick_frames_total", R"(class="still",encoding="vp9")"), 0);
   EXPECT_EQ(p.value("voxbrick_frame_bytes_total", R"(class="interactive",encoding="jpeg")"), 4000);
   EXPECT_EQ(p.value("voxbrick_frame_bytes_total", R"(class="batch",encoding="zstd_rgba8")"), 70000);
   EXPECT_EQ(p.value("voxbrick_render_jobs_total", R"(class="interactive")"), 2);
@@ -171,17 +174,17 @@ TEST(ServerMetrics, FramesAreCountedByClassAndEncodingWithTheirLatencyAndBytes) 
   EXPECT_EQ(p.value("voxbrick_frame_latency_seconds_count", R"(class="interactive")"), 2);
   EXPECT_NEAR(p.value("voxbrick_frame_latency_seconds_sum", R"(class="interactive")"), 0.08, 1e-12);
   EXPECT_EQ(p.value("voxbrick_frame_latency_seconds_bucket", R"(class="still",le="0.25")"), 0);
-  EXPECT_EQ(p.value("voxbrick_frame_latency_seconds_bucket", R"(class="still",le="0.5")"), 1);
+  EXPECT_EQ(p.value("voxbrick_frame_latency_seconds_bucket", R"(class="still",le="0.5")"), 2);
   EXPECT_EQ(p.value("voxbrick_frame_latency_seconds_bucket", R"(class="batch",le="10")"), 0);
   EXPECT_EQ(p.value("voxbrick_frame_latency_seconds_bucket", R"(class="batch",le="+Inf")"), 1);
   // The Stats JSON keeps its totals and gains the classes.
   const nlohmann::json j = stats.toJson({});
-  EXPECT_EQ(j["renders"]["frames"], 4);
+  EXPECT_EQ(j["renders"]["frames"], 5);
   EXPECT_EQ(j["renders"]["frames_by_class"]["interactive"], 2);
   EXPECT_EQ(j["renders"]["accepted_by_class"]["still"], 1);
   EXPECT_EQ(j["renders"]["frames_shared"], 1);
   EXPECT_EQ(j["output"]["bytes_written"], 1000);
-  EXPECT_EQ(j["latency_ms"]["samples"], 4);
+  EXPECT_EQ(j["latency_ms"]["samples"], 5);
 }
 
 TEST(ServerMetrics, RefusalsAreCountedByReasonAndInTheStatsTotals) {
