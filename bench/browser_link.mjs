@@ -17,6 +17,7 @@ import { spawn, spawnSync } from "node:child_process";
 import fs from "node:fs";
 import os from "node:os";
 import path from "node:path";
+import { Encoding, encodingName } from "../web/js/protocol.js";
 import * as H from "../tests/browser/harness.mjs";
 import * as D from "./drag_common.mjs";
 
@@ -118,10 +119,10 @@ async function dragRun(browser, server, base, size, encoding, scratch) {
       bitrate_kbps_p50: pct(moving.map((f) => f.bitrateKbps).filter((v) => typeof v === "number"), 0.5),
       exact_after_release_ms: s ? s.exactAfterReleaseMs : null,
       // The exact frame after the release: how it travelled (png, or webp on a link the server measured slow).
-      exact_encoding: s && s.lastFrame ? ["raw", "png", "zstd", "jpeg", "vp8", "vp9", "webp"][s.lastFrame.encoding] : null,
+      exact_encoding: s && s.lastFrame ? encodingName(s.lastFrame.encoding) : null,
       exact_bytes: s && s.lastFrame ? s.lastFrame.bytes : null,
       errors: state.counts.errors + page.errors.length,
-      wrong_encoding: moving.filter((f) => f.encoding !== { jpeg: 3, vp8: 4, vp9: 5 }[encoding]).length,
+      wrong_encoding: moving.filter((f) => f.encoding !== Encoding[encoding]).length,
     };
   } finally {
     await page.close();
