@@ -17,6 +17,10 @@ constexpr double kLinkWeight = 0.25;
 /// link (a round trip longer than the time between frames) each arrive in the quickest time, and the time between
 /// their reports is the sender's spacing, not the link's.
 constexpr double kQueuedShare = 0.25;
+/// A queued frame smaller than this says nothing of the link: it passes 10 Mbit/s in 3 ms, less than a browser may
+/// take to report it, so the time between the reports measures the client (a 128x128 video drag on loopback read as a
+/// link of about 1 Mbit/s, and got the slow link's encodings).
+constexpr uint64_t kQueuedMinBytes = 4096;
 /// A frame at least this many bytes larger than the quickest delivered one measures the link on its own: the extra
 /// bytes over the extra time they took (the round trip cancels). Smaller differences drown in the timing's noise.
 constexpr uint64_t kMeasuringBytes = 32 * 1024;
@@ -49,7 +53,8 @@ bool LinkPacer::received(Clock::time_point at) {
   std::optional<double> sample;
   if (mReporting && frame.at < mLastReport) {
     const double gapMs = msBetween(mLastReport, at);
-    if (gapMs > 0.5 && extraMs >= kQueuedShare * gapMs) sample = double(frame.bytes) * 8 / gapMs;  // kbit/s
+    if (gapMs > 0.5 && extraMs >= kQueuedShare * gapMs && frame.bytes >= kQueuedMinBytes)
+      sample = double(frame.bytes) * 8 / gapMs;  // kbit/s
   }
   if (!sample && frame.bytes >= mMinDeliveryBytes + kMeasuringBytes && extraMs > 0.5)
     sample = double(frame.bytes - mMinDeliveryBytes) * 8 / extraMs;

@@ -108,6 +108,17 @@ TEST(LinkPacer, FramesThatOnlyOverlapOnAFarLinkMeasureNothing) {
   EXPECT_EQ(pngSpeedFor(pacer.linkKbps(at(33.0 * 29))), image::PngSpeed::Fast);
 }
 
+// Tiny frames (a 128x128 drag's video frames, 700 bytes) reported a few ms apart by a busy client: they queued, but
+// the time between the reports is the client's, not their transfer's. They measure nothing.
+TEST(LinkPacer, TinyFramesMeasureTheClientNotTheLink) {
+  LinkPacer pacer;
+  for (int i = 0; i < 30; ++i) {
+    pacer.sent(700, at(4.0 * i));
+    if (i >= 1) pacer.received(at(4.0 * (i - 1) + 1 + 1.5 * (i - 1)));  // each report later than the quickest
+  }
+  EXPECT_FALSE(pacer.linkKbps(at(120))) << *pacer.linkKbps(at(120)) << " kbit/s";
+}
+
 // A frame much larger than the quickest delivered one measures the link by itself, on a slow link and on a fast one:
 // an exact png after small video frames, each written onto an idle link.
 TEST(LinkPacer, ALargeFrameMeasuresTheLinkOnItsOwn) {
