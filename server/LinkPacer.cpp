@@ -85,6 +85,11 @@ std::optional<double> LinkPacer::linkKbps(Clock::time_point now) const {
   return mLinkKbps;
 }
 
+std::optional<double> LinkPacer::lastLinkKbps() const {
+  if (mLinkKbps <= 0) return std::nullopt;
+  return mLinkKbps;
+}
+
 double LinkPacer::videoKbps(double startKbps, double capKbps, Clock::time_point now) {
   capKbps = std::max(capKbps, kMinKbps);
   if (const auto link = linkKbps(now)) {

@@ -54,6 +54,10 @@ class LinkPacer {
   /// bytes over the extra time). Frames that only overlap on a far link, each delivered in the quickest time, measure
   /// nothing: the time between their reports is the sender's spacing.
   std::optional<double> linkKbps(Clock::time_point now) const;
+  /// The link's rate as last measured, however long ago (none before the first measurement). Lossless frames are
+  /// encoded by it (pngSpeedFor, webpFor): a link that keeps up with a drag's frames measures nothing new, and the
+  /// exact frame after the drag should still know the rate the last large frame found.
+  std::optional<double> lastLinkKbps() const;
 
   /// The bitrate a video stream should run at now, at most `capKbps`: kLinkShare of the link's measured rate, else
   /// (no recent measurement: the link kept up) the last target raised by half a second, starting from `startKbps`.

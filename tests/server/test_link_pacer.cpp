@@ -104,6 +104,7 @@ TEST(LinkPacer, FramesThatOnlyOverlapOnAFarLinkMeasureNothing) {
     if (i >= 3) pacer.received(at(33.0 * (i - 3) + 81.2));  // the report of the frame written three frames ago
   }
   EXPECT_FALSE(pacer.linkKbps(at(33.0 * 29))) << *pacer.linkKbps(at(33.0 * 29)) << " kbit/s";
+  EXPECT_FALSE(pacer.lastLinkKbps());
   EXPECT_FALSE(webpFor(pacer.linkKbps(at(33.0 * 29))));
   EXPECT_EQ(pngSpeedFor(pacer.linkKbps(at(33.0 * 29))), image::PngSpeed::Fast);
 }
@@ -135,6 +136,11 @@ TEST(LinkPacer, ALargeFrameMeasuresTheLinkOnItsOwn) {
     ASSERT_TRUE(link) << mbit << " Mbit/s";
     EXPECT_NEAR(*link, mbit * 1000, mbit * 1000 * 0.02);
     EXPECT_EQ(webpFor(link), mbit < 12);
+    // Frames that keep up measure nothing new: the video's bitrate may climb again after two seconds, while lossless
+    // frames still go by the rate the large frame found.
+    EXPECT_FALSE(pacer.linkKbps(at(t + 3000)));
+    ASSERT_TRUE(pacer.lastLinkKbps());
+    EXPECT_EQ(*pacer.lastLinkKbps(), *link);
   }
   // Frames alike in size on an idle link say nothing.
   LinkPacer alike;
