@@ -190,6 +190,11 @@ void Connection::renderedAfterEncoding() {
 }
 
 void Connection::videoRendered(const RenderJob& job, proto::Frame frame) {
+  if (job.received < mVideoAsked || (mVideoPending && job.received < mVideoPending->job.received)) {
+    // (A video frame is never a refinement, whose `received` is when it was queued: it is its client's Render's.)
+    apply(mServices.handler.dropped(mState, job, false));
+    return;
+  }
   if (mVideoPending) dropPendingVideo(job.requestId);
   mVideoPending = PendingVideo{job, std::move(frame), Clock::now()};
   pumpVideo();
@@ -214,6 +219,7 @@ void Connection::pumpVideo() {
   task->job = std::move(mVideoPending->job);
   task->frame = std::move(mVideoPending->frame);
   task->input.drawn = mVideoPending->drawn;
+  mVideoAsked = task->job.received;
   mVideoPending.reset();
   task->input.dataset = task->job.dataset.get();
   task->input.keyframe = task->job.scene.keyframe || mVideoNeedsKey;

@@ -174,6 +174,10 @@ class Connection {
     RenderJob job;
     proto::Message message;
   };
+  /// A video Frame rendered: it waits for the encoder, in the place of the one waiting there (dropPendingVideo). A
+  /// frame whose Render arrived before that of the frame waiting or the newest encoded (render threads finish a
+  /// session's frames out of order) is dropped instead, its request answered Superseded: the stream never goes back to
+  /// an older camera, nor to an older size, which would cost two key frames.
   void videoRendered(const RenderJob& job, proto::Frame frame);
   /// Encodes a still Frame whose payload is its pixels aside; Frames rendered meanwhile wait (mAfterEncoding).
   void encodeStill(const RenderJob& job, proto::Frame frame);
@@ -226,6 +230,9 @@ class Connection {
   /// The session's video stream; used by the encoding aside only while mVideoEncoding.
   std::unique_ptr<VideoStream> mVideo = std::make_unique<VideoStream>();
   std::optional<PendingVideo> mVideoPending;
+  /// When the Render of the stream's newest frame handed to the encoder arrived: a frame of an earlier Render is
+  /// never encoded after it (videoRendered).
+  std::chrono::steady_clock::time_point mVideoAsked{};
   bool mVideoEncoding = false;
   bool mVideoNeedsKey = false;  ///< a frame of the stream was encoded but not sent: the next must be a key frame
   bool mStillEncoding = false;  ///< a still Frame is being encoded aside

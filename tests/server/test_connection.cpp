@@ -155,10 +155,12 @@ class ConnectionTest : public ::testing::Test {
   }
   /// The render thread's reply to request `requestId`: a frame of `side` x `side` in `encoding` (raw pixels of a
   /// moving gradient, as renderReply leaves a video frame), provisional unless `refinement`.
+  /// A frame of request `requestId` rendered; the requests arrived in the order of their ids.
   void render(uint32_t requestId, proto::Encoding encoding, uint32_t side = 32, bool refinement = false) {
     RenderJob job;
     job.requestId = requestId;
     job.refinement = refinement;
+    job.received = std::chrono::steady_clock::time_point{} + std::chrono::milliseconds(requestId);
     std::vector<uint8_t> pixels(size_t(side) * side * 4, 255);
     for (size_t i = 0; i < pixels.size(); i += 4) pixels[i] = uint8_t(i / 4 + requestId * 3), pixels[i + 1] = 90;
     core.rendered(job, proto::Frame{side, side, encoding, refinement ? "{}" : R"({"provisional": true})", pixels});
@@ -599,6 +601,38 @@ TEST_F(ConnectionTest, AnExactFrameTakesThePlaceOfItsOwnVideoFrameWaitingToBeEnc
   const nlohmann::json video = nlohmann::json::parse(frame.statsJson)["video"];
   EXPECT_TRUE(video["key"].get<bool>());
   EXPECT_EQ(video["key_reason"], "size");
+}
+
+// Render threads finish a session's frames out of order: a video frame whose Render arrived before that of the frame
+// waiting for the encoder, or of one already encoded, is dropped (Superseded), never encoded after it. The stream
+// never goes back to an older camera, nor to an older size (which cost two more key frames: a browser's resize
+// mid-drag met it).
+TEST_F(ConnectionTest, AVideoFrameOfAnOlderRenderIsNeverEncodedAfterANewerOnes) {
+  greet(4);
+  render(3, proto::Encoding::Vp8, 48);  // being encoded
+  render(6, proto::Encoding::Vp8, 32);  // waits: the new size
+  render(5, proto::Encoding::Vp8, 48);  // older than the one waiting: dropped
+  settle();
+  render(4, proto::Encoding::Vp8, 48);  // older than the one encoded: dropped
+  render(7, proto::Encoding::Vp8, 32);
+  settle();
+  std::vector<std::pair<uint32_t, std::string>> answers;
+  std::vector<std::string> keys;
+  for (size_t i = 1; i < transport->writes.size(); ++i) {
+    const auto [message, id] = decoded(transport->writes[i]);
+    answers.emplace_back(id, proto::messageTypeName(proto::messageType(message)));
+    if (const auto* frame = std::get_if<proto::Frame>(&message)) {
+      const nlohmann::json video = nlohmann::json::parse(frame->statsJson)["video"];
+      keys.push_back(video["key"].get<bool>() ? video["key_reason"].get<std::string>() : "-");
+    }
+  }
+  const std::vector<std::pair<uint32_t, std::string>> expected{
+      {5, "Error"}, {3, "Frame"}, {6, "Frame"}, {4, "Error"}, {7, "Frame"}};
+  EXPECT_EQ(answers, expected);
+  EXPECT_EQ(keys, (std::vector<std::string>{"start", "size", "-"}));
+  EXPECT_EQ(errorIn(transport->writes[1], 5), ErrorCode::Superseded);
+  EXPECT_EQ(errorIn(transport->writes[4], 4), ErrorCode::Superseded);
+  EXPECT_EQ(stats.total(ServerEvent::Superseded), 2u);
 }
 
 // A client that reports its frames (FrameReceived) keeps at most two on their way; a third waits at the server, where
