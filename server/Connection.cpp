@@ -416,7 +416,7 @@ void Connection::apply(Outcome outcome) {
   for (const Reply& reply : outcome.replies) send(reply.message, reply.requestId);
   if (outcome.render && !mClosed && !mClosing) {
     const uint32_t requestId = outcome.render->requestId;
-    const std::optional<double> link = mPacer.lastLinkKbps();
+    const std::optional<double> link = mPacer.settledLinkKbps();
     outcome.render->pngSpeed = pngSpeedFor(link);
     outcome.render->webpForPng = outcome.render->scene.acceptsWebp && webpFor(link);
     std::optional<Submission> refused = mServices.renderQuota ? mServices.renderQuota(mId) : std::nullopt;

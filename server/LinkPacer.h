@@ -54,10 +54,17 @@ class LinkPacer {
   /// bytes over the extra time). Frames that only overlap on a far link, each delivered in the quickest time, measure
   /// nothing: the time between their reports is the sender's spacing.
   std::optional<double> linkKbps(Clock::time_point now) const;
-  /// The link's rate as last measured, however long ago (none before the first measurement). Lossless frames are
-  /// encoded by it (pngSpeedFor, webpFor): a link that keeps up with a drag's frames measures nothing new, and the
-  /// exact frame after the drag should still know the rate the last large frame found.
-  std::optional<double> lastLinkKbps() const;
+  /// The link's rate as measurements settled it, however long ago (none before): by a frame of kConclusiveBytes or
+  /// more on its own, or by three measurements in a row from smaller frames that agree (their median). Lossless frames are encoded by it
+  /// (pngSpeedFor, webpFor): a link that keeps up with a drag's frames measures nothing new, and the exact frame after
+  /// the drag should still know the rate the last large frame found; but a choice that lasts must not follow one
+  /// client's hiccup (a busy browser's report late by tens of ms reads a 9 KB frame's loopback as a few Mbit/s, and
+  /// one late before it as 100 Mbit/s).
+  std::optional<double> settledLinkKbps() const;
+  /// A frame this large measures the link on its own for settledLinkKbps: a report late by up to 40 ms (the most a
+  /// busy headless Chromium on two cores showed) reads it no slower than 13 Mbit/s, above the lossless encodings'
+  /// thresholds.
+  static constexpr uint64_t kConclusiveBytes = 64 * 1024;
 
   /// The bitrate a video stream should run at now, at most `capKbps`: kLinkShare of the link's measured rate, else
   /// (no recent measurement: the link kept up) the last target raised by half a second, starting from `startKbps`.
@@ -73,6 +80,14 @@ class LinkPacer {
   Clock::time_point mLastReport{};
   std::optional<double> mMinDeliveryMs, mLastDeliveryMs;
   uint64_t mMinDeliveryBytes = 0;  ///< the bytes of the frame delivered quickest
+  struct Sample {
+    double kbps = 0;
+    uint64_t bytes = 0;  ///< of the frame that measured it
+  };
+  /// A measurement: it settles the link's rate (settledLinkKbps) if large enough, or if it agrees with the two before.
+  void settle(Sample sample);
+  std::deque<Sample> mRecent;  ///< the last three measurements
+  double mSettledKbps = 0;
   double mLinkKbps = 0;  ///< smoothed rate of back-to-back frames
   Clock::time_point mLinkAt{};
   double mTargetKbps = 0;

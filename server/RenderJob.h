@@ -78,7 +78,7 @@ struct RenderJob {
 /// Fast saves 56 ms of a 1024² frame's encoding for 18 KB more (15 ms at 10 Mbit/s); on a flat picture it saves
 /// 14 ms of a 512² frame's for 18 KB, about even at 10 Mbit/s (bench/results/image/png-speed.md).
 inline constexpr double kSmallPngBelowKbps = 10000;
-/// The png speed for a session whose link's rate is `linkKbps` (LinkPacer::lastLinkKbps: none until something
+/// The png speed for a session whose link's rate is `linkKbps` (LinkPacer::settledLinkKbps: none until something
 /// measured it, as while the link keeps up with every frame).
 inline image::PngSpeed pngSpeedFor(std::optional<double> linkKbps) {
   return linkKbps && *linkKbps < kSmallPngBelowKbps ? image::PngSpeed::Small : image::PngSpeed::Fast;
@@ -89,7 +89,7 @@ inline image::PngSpeed pngSpeedFor(std::optional<double> linkKbps) {
 /// 3-24 ms more decoding in Chromium: it reaches the canvas first below 12 to 28 Mbit/s, by frame (1920x1080 the
 /// lowest; the MRI at 1024², 19), and at 10 Mbit/s first for every frame measured (bench/results/image/png-speed.md).
 inline constexpr double kWebpBelowKbps = 12000;
-/// Whether a session whose link's rate is `linkKbps` (LinkPacer::lastLinkKbps: none until something measured it)
+/// Whether a session whose link's rate is `linkKbps` (LinkPacer::settledLinkKbps: none until something measured it)
 /// gets its png frames as webp, if its scene accepts them.
 inline bool webpFor(std::optional<double> linkKbps) { return linkKbps && *linkKbps < kWebpBelowKbps; }
 

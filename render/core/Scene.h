@@ -267,8 +267,8 @@ struct SceneDelivery {
   /// decoder lost the stream asks so). No effect without a video `provisional_encoding`.
   bool keyframe = false;
   /// The client decodes lossless WebP: the server may send the request's png frames as webp instead (the same
-  /// pixels in fewer bytes, longer to encode), which it does while the session's link, as last measured, is slow
-  /// (server/RenderJob.h, webpFor). Protocol version 7 on. No effect on the image.
+  /// pixels in fewer bytes, longer to encode), which it does while the session's link, at the rate the server's
+  /// measurements settled, is slow (server/RenderJob.h, webpFor). Protocol version 7 on. No effect on the image.
   bool acceptsWebp = false;
   /// Work nobody watches as it happens (a script's frames, `voxbrick load --batch`): a server serves it after every
   /// moving camera's frame and every resting camera's exact frame, from a smaller share of its render time, and

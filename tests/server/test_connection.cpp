@@ -171,18 +171,19 @@ class ConnectionTest : public ::testing::Test {
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     return transport->renderedJob(id);
   }
-  /// Makes the session's reports measure its link slow: two frames (requests 10 and 11) written back to back, their
-  /// reports 30 ms apart: the second took 30 ms to pass, about 1 Mbit/s for its 4 kB (a slower machine makes the gap
-  /// longer and the link slower still). Returns the rate measured.
+  /// Makes the session's reports measure its link slow: two frames of 64 KiB (requests 10 and 11, large enough to
+  /// settle the rate on their own: LinkPacer::settledLinkKbps) written back to back, their reports 80 ms apart: the
+  /// second took 80 ms to pass, about 6.6 Mbit/s (a slower machine makes the gap longer and the link slower still).
+  /// Returns the rate settled.
   std::optional<double> measureASlowLink() {
-    render(10, proto::Encoding::RawRgba8);
-    render(11, proto::Encoding::RawRgba8);
+    render(10, proto::Encoding::RawRgba8, 128);
+    render(11, proto::Encoding::RawRgba8, 128);
     flush();
     std::this_thread::sleep_for(std::chrono::milliseconds(30));
     receive(proto::FrameReceived{1000}, 10);
-    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    std::this_thread::sleep_for(std::chrono::milliseconds(80));
     receive(proto::FrameReceived{1000}, 11);
-    return core.link().linkKbps(std::chrono::steady_clock::now());
+    return core.link().settledLinkKbps();
   }
   /// Runs what was set aside and writes what that queued, until neither is left.
   void settle() {
