@@ -7,10 +7,11 @@
 # ball ray cast (perspective and orthographic), the camera inside a box mesh (drawn projected), and a ball paged within
 # a small host budget, whose rank 0 leaves out the chunks outside its part. Usage: frames_check.sh VOXBRICK MPIRUN WORK N
 # (WORK holds the datasets and the one-process frames, made once: `frames_check.sh VOXBRICK MPIRUN WORK setup`).
+# `frames_check.sh VOXBRICK MPIRUN WORK N CASES` runs only the cases named in CASES (comma-separated).
 # `frames_check.sh VOXBRICK MPIRUN WORK refusals`: on 2 ranks, `render --mpi` refuses what the one-process render
 # refuses (--channel on a store that is no OME-Zarr, a transparent frame to JPEG, --analytic without the reference).
 set -euo pipefail
-exe=$1 mpirun=$2 work=$3 ranks=$4
+exe=$1 mpirun=$2 work=$3 ranks=$4 only=${5:-}
 cases=(
   "brain|brain|--tf mri --orbit 35,25,2.2"
   "mri|blobs|--tf mri --orbit 35,25,2.2"
@@ -91,8 +92,11 @@ if [ "$ranks" = refusals ]; then
   done
   exit $failed
 fi
+ran=0
 for c in "${cases[@]}"; do
   IFS='|' read -r name data options <<< "$c"
+  [ -z "$only" ] || [[ ",$only," == *",$name,"* ]] || continue
+  ran=$((ran + 1))
   out="$work/$name.$ranks.png"
   # shellcheck disable=SC2086,SC2046
   "$mpirun" --oversubscribe --allow-run-as-root -n "$ranks" "$exe" render "$work/$data" --mpi -o "$out" \
@@ -152,4 +156,8 @@ CHECK
     fi
   fi
 done
+if [ -n "$only" ] && [ "$ran" -ne "$(tr ',' '\n' <<< "$only" | grep -c .)" ]; then
+  echo "FAIL $ran of the cases $only exist"
+  failed=1
+fi
 exit $failed
