@@ -139,7 +139,21 @@ void Connection::rendered(const RenderJob& job, proto::Message reply) {
   if (frame && mVideoPending) dropPendingVideo(job.requestId);  // latest wins
   if (frame && job.stillToEncode) return encodeStill(job, std::move(*frame));
   if (!withinOutputBudget(job, reply)) return;
+  deliver(job, std::move(reply));
+}
+
+void Connection::deliver(const RenderJob& job, proto::Message reply) {
+  if (std::holds_alternative<proto::Frame>(reply)) {
+    const auto unsent = std::find_if(mOutbox.begin() + (mWriting ? 1 : 0), mOutbox.end(),
+                                     [](const Outgoing& queued) { return queued.frame; });
+    if (unsent != mOutbox.end() && unsent->requestId != job.requestId && job.received < unsent->asked) {
+      apply(mServices.handler.dropped(mState, job, job.refinement));
+      return;
+    }
+  }
+  mDeliveringAsked = job.received;
   apply(mServices.handler.rendered(mState, job, std::move(reply)));
+  mDeliveringAsked = {};
 }
 
 void Connection::encodeStill(const RenderJob& job, proto::Frame frame) {
@@ -162,8 +176,7 @@ void Connection::stillEncoded(EncodingStill& done) {
   // exact frame the scheduler queued after it is dropped when it comes, as for a provisional frame refused output.
   if (done.job.stillProvisional && !done.job.refinement && std::holds_alternative<proto::Error>(done.message))
     mRefusedProvisional.insert(done.job.requestId);
-  if (withinOutputBudget(done.job, done.message))
-    apply(mServices.handler.rendered(mState, done.job, std::move(done.message)));
+  if (withinOutputBudget(done.job, done.message)) deliver(done.job, std::move(done.message));
   renderedAfterEncoding();
 }
 
@@ -475,7 +488,7 @@ void Connection::send(const proto::Message& message, uint32_t requestId) {
     spdlog::warn("{}: {} bytes of replies not read, dropping the session", mPeer, mOutboxBytes);
     return close();
   }
-  enqueue(Outgoing{std::move(bytes), requestId, frame, video});
+  enqueue(Outgoing{std::move(bytes), requestId, frame, video, frame ? mDeliveringAsked : Clock::time_point{}});
   if (!mWriting) writeNext();
 }
 

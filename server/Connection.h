@@ -154,6 +154,9 @@ class Connection {
     uint32_t requestId = 0;
     bool frame = false;  ///< a Frame not of the video stream (at most one is queued unsent: latest wins)
     bool video = false;  ///< a Frame of the video stream: never dropped, at most one queued unsent
+    /// A still Frame's: when its Render arrived (RenderJob::received), by which the frame queued unsent is newer
+    /// than another.
+    std::chrono::steady_clock::time_point asked{};
   };
   /// A video Frame rendered, waiting to be encoded.
   struct PendingVideo {
@@ -179,6 +182,10 @@ class Connection {
   /// session's frames out of order) is dropped instead, its request answered Superseded: the stream never goes back to
   /// an older camera, nor to an older size, which would cost two key frames.
   void videoRendered(const RenderJob& job, proto::Frame frame);
+  /// Answers `job` with its still Frame or Error, unless the Frame is older than the one queued unsent (its Render
+  /// arrived before that one's: render threads finish a session's frames out of order), which then stays while this
+  /// one is dropped (answered Superseded, or nothing for an exact frame whose provisional one answered it).
+  void deliver(const RenderJob& job, proto::Message reply);
   /// Encodes a still Frame whose payload is its pixels aside; Frames rendered meanwhile wait (mAfterEncoding).
   void encodeStill(const RenderJob& job, proto::Frame frame);
   void stillEncoded(EncodingStill& done);
@@ -230,6 +237,8 @@ class Connection {
   /// The session's video stream; used by the encoding aside only while mVideoEncoding.
   std::unique_ptr<VideoStream> mVideo = std::make_unique<VideoStream>();
   std::optional<PendingVideo> mVideoPending;
+  /// While deliver() applies a still Frame: when its Render arrived, for the Outgoing that send() makes of it.
+  std::chrono::steady_clock::time_point mDeliveringAsked{};
   /// When the Render of the stream's newest frame handed to the encoder arrived: a frame of an earlier Render is
   /// never encoded after it (videoRendered).
   std::chrono::steady_clock::time_point mVideoAsked{};

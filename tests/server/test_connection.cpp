@@ -636,6 +636,34 @@ TEST_F(ConnectionTest, AVideoFrameOfAnOlderRenderIsNeverEncodedAfterANewerOnes) 
   EXPECT_EQ(stats.total(ServerEvent::Superseded), 2u);
 }
 
+// Latest wins on output by when the Renders arrived, not by when their frames were drawn: a still frame older than the
+// one queued unsent (render threads finish a session's frames out of order) is dropped, and the newer one stays.
+TEST_F(ConnectionTest, AStillFrameOfAnOlderRenderNeverReplacesANewerOneQueued) {
+  greet(4);
+  render(3, proto::Encoding::RawRgba8);  // being written
+  render(5, proto::Encoding::RawRgba8);  // queued unsent
+  render(4, proto::Encoding::RawRgba8);  // older than 5: dropped, Superseded
+  render(6, proto::Encoding::RawRgba8);  // newer than 5: replaces it, 5 Superseded
+  settle();
+  std::vector<std::pair<uint32_t, std::string>> answers;
+  for (size_t i = 1; i < transport->writes.size(); ++i) {
+    const auto [message, id] = decoded(transport->writes[i]);
+    answers.emplace_back(id, proto::messageTypeName(proto::messageType(message)));
+  }
+  const std::vector<std::pair<uint32_t, std::string>> expected{
+      {3, "Frame"}, {5, "Error"}, {4, "Error"}, {6, "Frame"}};
+  EXPECT_EQ(answers, expected);
+  EXPECT_EQ(stats.total(ServerEvent::Superseded), 2u);
+  // The exact frame of an older request whose provisional frame answered it goes without a word.
+  render(8, proto::Encoding::RawRgba8);  // being written
+  render(9, proto::Encoding::RawRgba8);  // queued unsent
+  render(7, proto::Encoding::RawRgba8, 32, true);
+  settle();
+  ASSERT_EQ(transport->writes.size(), 7u);
+  EXPECT_EQ(decoded(transport->writes[5]).second, 8u);
+  EXPECT_EQ(decoded(transport->writes[6]).second, 9u);
+}
+
 // A client that reports its frames (FrameReceived) keeps at most two on their way; a third waits at the server, where
 // a newer frame still replaces it, until a report makes room.
 TEST_F(ConnectionTest, FramesWaitForTheClientsReportsOnceItReports) {
