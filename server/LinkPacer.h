@@ -55,11 +55,11 @@ class LinkPacer {
   /// nothing: the time between their reports is the sender's spacing.
   std::optional<double> linkKbps(Clock::time_point now) const;
   /// The link's rate as measurements settled it, however long ago (none before): by a frame of kConclusiveBytes or
-  /// more on its own, or by three measurements in a row from smaller frames that agree (their median). Lossless frames are encoded by it
-  /// (pngSpeedFor, webpFor): a link that keeps up with a drag's frames measures nothing new, and the exact frame after
-  /// the drag should still know the rate the last large frame found; but a choice that lasts must not follow one
-  /// client's hiccup (a busy browser's report late by tens of ms reads a 9 KB frame's loopback as a few Mbit/s, and
-  /// one late before it as 100 Mbit/s).
+  /// more on its own, or by three measurements in a row from smaller frames that agree (their median). Lossless
+  /// frames are encoded by it (pngSpeedFor, webpFor): a link that keeps up with a drag's frames measures nothing new,
+  /// and the exact frame after the drag should still know the rate the last large frame found; but a choice that
+  /// lasts must not follow one client's hiccup (a busy browser's report late by tens of ms reads a 9 KB frame's
+  /// loopback as a few Mbit/s, and one late before it as 100 Mbit/s).
   std::optional<double> settledLinkKbps() const;
   /// A frame this large measures the link on its own for settledLinkKbps: a report late by up to 40 ms (the most a
   /// busy headless Chromium on two cores showed) reads it no slower than 13 Mbit/s, above the lossless encodings'
