@@ -152,8 +152,10 @@ void Connection::deliver(const RenderJob& job, proto::Message reply) {
     }
   }
   mDeliveringAsked = job.received;
+  mDeliveringAnswered = job.refinement;
   apply(mServices.handler.rendered(mState, job, std::move(reply)));
   mDeliveringAsked = {};
+  mDeliveringAnswered = false;
 }
 
 void Connection::encodeStill(const RenderJob& job, proto::Frame frame) {
@@ -488,7 +490,8 @@ void Connection::send(const proto::Message& message, uint32_t requestId) {
     spdlog::warn("{}: {} bytes of replies not read, dropping the session", mPeer, mOutboxBytes);
     return close();
   }
-  enqueue(Outgoing{std::move(bytes), requestId, frame, video, frame ? mDeliveringAsked : Clock::time_point{}});
+  enqueue(Outgoing{std::move(bytes), requestId, frame, video, frame ? mDeliveringAsked : Clock::time_point{},
+                   frame && mDeliveringAnswered});
   if (!mWriting) writeNext();
 }
 
@@ -507,7 +510,9 @@ void Connection::replaceUnsentFrame(uint32_t requestId) {
   if (unsent == mOutbox.end()) return;
   mOutboxBytes -= unsent->bytes.size();
   mServices.output.release(unsent->bytes.size());
-  if (unsent->requestId == requestId) {  // a provisional frame, its request now answered by the exact one
+  // A provisional frame, its request now answered by the exact one; or an exact frame whose provisional one answered
+  // its request (PROTOCOL.md 5.8: a provisional Frame is followed by at most one exact Frame, never an Error).
+  if (unsent->requestId == requestId || unsent->answered) {
     mOutbox.erase(unsent);
     return;
   }

@@ -157,6 +157,9 @@ class Connection {
     /// A still Frame's: when its Render arrived (RenderJob::received), by which the frame queued unsent is newer
     /// than another.
     std::chrono::steady_clock::time_point asked{};
+    /// A still Frame whose request its provisional Frame already answered (an exact frame, RenderJob::refinement):
+    /// replaced without a word.
+    bool answered = false;
   };
   /// A video Frame rendered, waiting to be encoded.
   struct PendingVideo {
@@ -237,8 +240,10 @@ class Connection {
   /// The session's video stream; used by the encoding aside only while mVideoEncoding.
   std::unique_ptr<VideoStream> mVideo = std::make_unique<VideoStream>();
   std::optional<PendingVideo> mVideoPending;
-  /// While deliver() applies a still Frame: when its Render arrived, for the Outgoing that send() makes of it.
+  /// While deliver() applies a still Frame: when its Render arrived, and whether it is an exact frame whose
+  /// provisional one answered its request, for the Outgoing that send() makes of it.
   std::chrono::steady_clock::time_point mDeliveringAsked{};
+  bool mDeliveringAnswered = false;
   /// When the Render of the stream's newest frame handed to the encoder arrived: a frame of an earlier Render is
   /// never encoded after it (videoRendered).
   std::chrono::steady_clock::time_point mVideoAsked{};

@@ -662,6 +662,16 @@ TEST_F(ConnectionTest, AStillFrameOfAnOlderRenderNeverReplacesANewerOneQueued) {
   ASSERT_EQ(transport->writes.size(), 7u);
   EXPECT_EQ(decoded(transport->writes[5]).second, 8u);
   EXPECT_EQ(decoded(transport->writes[6]).second, 9u);
+  // An exact frame queued unsent, whose provisional frame answered its request, gives way to a newer frame without a
+  // word: a provisional Frame is followed by at most one exact Frame, never by an Error.
+  render(10, proto::Encoding::RawRgba8);        // being written
+  render(11, proto::Encoding::RawRgba8, 32, true);  // queued unsent
+  render(12, proto::Encoding::RawRgba8);
+  settle();
+  ASSERT_EQ(transport->writes.size(), 9u);
+  EXPECT_EQ(decoded(transport->writes[7]).second, 10u);
+  EXPECT_EQ(decoded(transport->writes[8]).second, 12u);
+  EXPECT_EQ(stats.total(ServerEvent::Superseded), 2u);
 }
 
 // A client that reports its frames (FrameReceived) keeps at most two on their way; a third waits at the server, where
