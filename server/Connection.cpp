@@ -144,18 +144,11 @@ void Connection::rendered(const RenderJob& job, proto::Message reply) {
 
 void Connection::deliver(const RenderJob& job, proto::Message reply) {
   if (std::holds_alternative<proto::Frame>(reply)) {
-    const auto unsent = std::find_if(mOutbox.begin() + (mWriting ? 1 : 0), mOutbox.end(),
-                                     [](const Outgoing& queued) { return queued.frame; });
-    if (unsent != mOutbox.end() && unsent->requestId != job.requestId && job.received < unsent->asked) {
-      apply(mServices.handler.dropped(mState, job, job.refinement));
-      return;
-    }
+    const auto unsent = firstUnsent(&Outgoing::frame);
+    if (unsent != mOutbox.end() && unsent->requestId != job.requestId && job.received < unsent->asked)
+      return apply(mServices.handler.dropped(mState, job, job.refinement));
   }
-  mDeliveringAsked = job.received;
-  mDeliveringAnswered = job.refinement;
-  apply(mServices.handler.rendered(mState, job, std::move(reply)));
-  mDeliveringAsked = {};
-  mDeliveringAnswered = false;
+  apply(mServices.handler.rendered(mState, job, std::move(reply)), &job);
 }
 
 void Connection::encodeStill(const RenderJob& job, proto::Frame frame) {
@@ -221,13 +214,15 @@ void Connection::dropPendingVideo(uint32_t by) {
   apply(mServices.handler.dropped(mState, dropped.job, dropped.job.requestId == by));
 }
 
-bool Connection::unsentVideoQueued() const {
-  return std::any_of(mOutbox.begin() + (mWriting ? 1 : 0), mOutbox.end(),
-                     [](const Outgoing& reply) { return reply.video; });
+std::deque<Connection::Outgoing>::iterator Connection::firstUnsent(bool Outgoing::*kind) {
+  return std::find_if(mOutbox.begin() + (mWriting ? 1 : 0), mOutbox.end(),
+                      [kind](const Outgoing& reply) { return reply.*kind; });
 }
 
 void Connection::pumpVideo() {
-  if (mVideoEncoding || mStillEncoding || !mVideoPending || mClosing || mClosed || unsentVideoQueued()) return;
+  if (mVideoEncoding || mStillEncoding || !mVideoPending || mClosing || mClosed ||
+      firstUnsent(&Outgoing::video) != mOutbox.end())
+    return;
   const auto now = Clock::now();
   if (!mPacer.mayWrite(now)) return armPace();
   auto task = std::make_shared<EncodingVideo>();
@@ -427,8 +422,8 @@ void Connection::authenticated(Outcome& outcome) {
   outcome.replies.push_back({errorMessage(proto::ErrorCode::LimitExceeded, *refusal), requestId});
 }
 
-void Connection::apply(Outcome outcome) {
-  for (const Reply& reply : outcome.replies) send(reply.message, reply.requestId);
+void Connection::apply(Outcome outcome, const RenderJob* from) {
+  for (const Reply& reply : outcome.replies) send(reply.message, reply.requestId, from);
   if (outcome.render && !mClosed && !mClosing) {
     const uint32_t requestId = outcome.render->requestId;
     const std::optional<double> link = mPacer.settledLinkKbps();
@@ -468,7 +463,7 @@ void Connection::abandonUpload() {
   mState.preparing = false;
 }
 
-void Connection::send(const proto::Message& message, uint32_t requestId) {
+void Connection::send(const proto::Message& message, uint32_t requestId, const RenderJob* from) {
   if (mClosed) return;
   std::vector<uint8_t> bytes;
   try {
@@ -490,8 +485,9 @@ void Connection::send(const proto::Message& message, uint32_t requestId) {
     spdlog::warn("{}: {} bytes of replies not read, dropping the session", mPeer, mOutboxBytes);
     return close();
   }
-  enqueue(Outgoing{std::move(bytes), requestId, frame, video, frame ? mDeliveringAsked : Clock::time_point{},
-                   frame && mDeliveringAnswered});
+  const bool ordered = frame && from;
+  enqueue(Outgoing{std::move(bytes), requestId, frame, video, ordered ? from->received : Clock::time_point{},
+                   ordered && from->refinement});
   if (!mWriting) writeNext();
 }
 
@@ -505,8 +501,7 @@ void Connection::enqueue(Outgoing reply) {
 void Connection::replaceUnsentFrame(uint32_t requestId) {
   // Latest wins on output (PROTOCOL.md, session rules): the one frame queued and not yet being written gives way
   // to the newer one, so a client that reads slower than frames come gets the newest, never a growing queue.
-  const auto unsent = std::find_if(mOutbox.begin() + (mWriting ? 1 : 0), mOutbox.end(),
-                                   [](const Outgoing& reply) { return reply.frame; });
+  const auto unsent = firstUnsent(&Outgoing::frame);
   if (unsent == mOutbox.end()) return;
   mOutboxBytes -= unsent->bytes.size();
   mServices.output.release(unsent->bytes.size());

@@ -146,8 +146,9 @@ class Connection {
   /// Whether a render thread's `reply` to `job` is to be answered, turned into LimitExceeded past the server's
   /// output budget.
   bool withinOutputBudget(const RenderJob& job, proto::Message& reply);
-  /// Carries out what the handler decided: replies, the render job, closing.
-  void apply(Outcome outcome);
+  /// Carries out what the handler decided: replies, the render job, closing. `from`: the job whose still Frame is
+  /// among the replies (deliver), which orders it on output.
+  void apply(Outcome outcome, const RenderJob* from = nullptr);
   /// One reply waiting to be written.
   struct Outgoing {
     std::vector<uint8_t> bytes;
@@ -204,13 +205,15 @@ class Connection {
   /// The pending video frame gives way to a newer frame of request `by`: its request is answered Superseded, unless
   /// `by` is its own request (whose exact frame then answers it).
   void dropPendingVideo(uint32_t by);
-  bool unsentVideoQueued() const;
+  /// The first queued reply not yet being written that is a still Frame (`frame`) or a video one (`video`), if any.
+  std::deque<Outgoing>::iterator firstUnsent(bool Outgoing::*kind);
   /// Wakes the connection when frames held back for the link may go at the latest (LinkPacer::releaseAt).
   void armPace();
   /// A FrameReceived report (frames are reported in order; its frame_bytes is the client's word, unchecked): the link
   /// has room again.
   void frameReceived();
-  void send(const proto::Message& message, uint32_t requestId);
+  /// Queues `message` to `requestId`; `from`: the job whose still Frame it is (its Outgoing's asked and answered).
+  void send(const proto::Message& message, uint32_t requestId, const RenderJob* from = nullptr);
   void enqueue(Outgoing reply);
   /// A Frame to `requestId` is about to be queued: the Frame queued and not yet being written, if any, is removed
   /// (its request answered Superseded instead, unless it is `requestId`'s own provisional frame).
@@ -240,10 +243,6 @@ class Connection {
   /// The session's video stream; used by the encoding aside only while mVideoEncoding.
   std::unique_ptr<VideoStream> mVideo = std::make_unique<VideoStream>();
   std::optional<PendingVideo> mVideoPending;
-  /// While deliver() applies a still Frame: when its Render arrived, and whether it is an exact frame whose
-  /// provisional one answered its request, for the Outgoing that send() makes of it.
-  std::chrono::steady_clock::time_point mDeliveringAsked{};
-  bool mDeliveringAnswered = false;
   /// When the Render of the stream's newest frame handed to the encoder arrived: a frame of an earlier Render is
   /// never encoded after it (videoRendered).
   std::chrono::steady_clock::time_point mVideoAsked{};

@@ -49,10 +49,10 @@ class LinkPacer {
   /// The last frame's time from write to report.
   std::optional<double> lastDeliveryMs() const { return mLastDeliveryMs; }
   /// The link's rate (kbit/s), if measured within the last two seconds: from a frame of 4 KiB or more that queued
-  /// behind the one ahead of it (written before that one was reported, and delivered later than the quickest
-  /// delivery: the time between their reports is its transfer), or from a frame 32 KiB or more larger than the quickest delivered one (the extra
-  /// bytes over the extra time). Frames that only overlap on a far link, each delivered in the quickest time, measure
-  /// nothing: the time between their reports is the sender's spacing.
+  /// behind the one ahead of it (written before that one was reported, and delivered later than the quickest delivery:
+  /// the time between their reports is its transfer), or from a frame 32 KiB or more larger than the quickest delivered
+  /// one (the extra bytes over the extra time). Frames that only overlap on a far link, each delivered in the quickest
+  /// time, measure nothing: the time between their reports is the sender's spacing.
   std::optional<double> linkKbps(Clock::time_point now) const;
   /// The link's rate as measurements settled it, however long ago (none before): by a frame of kConclusiveBytes or
   /// more on its own, or by three measurements in a row from smaller frames that agree (their median). Lossless
