@@ -59,15 +59,16 @@ void AsioSession::arm(Deadline deadline, double seconds) {
 
 void AsioSession::cancel(Deadline deadline) { timer(deadline).cancel(); }
 
-void AsioSession::runAside(std::function<void()> work, std::function<void()> then, Aside where) {
+void AsioSession::runAside(std::function<void()> work, std::function<void()> then, Aside where, FrameClass cls) {
   auto task = [keep = shared_from_this(), work = std::move(work), then = std::move(then)]() mutable {
     work();
     boost::asio::post(keep->mExecutor,
                       keep->guarded(keep.get(), [then = std::move(then)](AsioSession&) mutable { then(); }));
   };
-  const auto& aside = where == Aside::Prepare ? mPrepare : mAside;
-  if (aside)
-    aside(std::move(task));
+  if (where == Aside::Prepare && mPrepare)
+    mPrepare(std::move(task));
+  else if (where == Aside::Encode && mAside)
+    mAside(cls, std::move(task));
   else
     task();
 }

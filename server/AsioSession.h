@@ -37,7 +37,8 @@ class AsioSession : public Session,
 
   void arm(Deadline deadline, double seconds) override;
   void cancel(Deadline deadline) override;
-  void runAside(std::function<void()> work, std::function<void()> then, Aside where = Aside::Encode) override;
+  void runAside(std::function<void()> work, std::function<void()> then, Aside where = Aside::Encode,
+                FrameClass cls = FrameClass::Still) override;
   std::shared_ptr<RenderScheduler::Sink> renderSink() override { return shared_from_this(); }
 
  protected:
@@ -72,7 +73,7 @@ class AsioSession : public Session,
 
   boost::asio::any_io_executor mExecutor;
   boost::asio::steady_timer mHelloTimer, mReadTimer, mWriteTimer, mPaceTimer;
-  const std::function<void(std::function<void()>)>& mAside;
+  const std::function<void(FrameClass, std::function<void()>)>& mAside;
   const std::function<void(std::function<void()>)>& mPrepare;
 };
 

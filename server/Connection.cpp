@@ -159,9 +159,9 @@ void Connection::encodeStill(const RenderJob& job, proto::Frame frame) {
   mTransport.runAside(
       [task] {
         task->message = server::encodeStill(std::move(std::get<proto::Frame>(task->message)), *task->job.stillToEncode,
-                                            task->job.pngSpeed, task->job.maxBodyBytes);
+                                            task->job.pngSpeed, task->job.maxBodyBytes, task->job.received);
       },
-      [this, task] { stillEncoded(*task); });
+      [this, task] { stillEncoded(*task); }, Aside::Encode, frameClassOf(job));
 }
 
 void Connection::stillEncoded(EncodingStill& done) {
@@ -229,6 +229,7 @@ void Connection::pumpVideo() {
   task->job = std::move(mVideoPending->job);
   task->frame = std::move(mVideoPending->frame);
   task->input.drawn = mVideoPending->drawn;
+  task->input.received = task->job.received;
   mVideoAsked = task->job.received;
   mVideoPending.reset();
   task->input.dataset = task->job.dataset.get();
@@ -246,7 +247,7 @@ void Connection::pumpVideo() {
           task->error = std::current_exception();
         }
       },
-      [this, task] { videoEncoded(*task); });
+      [this, task] { videoEncoded(*task); }, Aside::Encode, frameClassOf(task->job));
 }
 
 void Connection::videoEncoded(EncodingVideo& done) {

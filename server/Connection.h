@@ -46,9 +46,9 @@ struct SessionServices {
   std::function<std::optional<proto::Error>(ConnectionId)> greeted;
   /// Called for each Render before it is queued: none when the session's quotas have room, else the Busy refusal.
   std::function<std::optional<Submission>(ConnectionId)> renderQuota;
-  /// Runs a task on the server's encoder threads (video frames are encoded there; Transport::runAside). Empty: on
-  /// the calling thread.
-  std::function<void(std::function<void()>)> aside;
+  /// Runs a task of a frame of a class on the server's encoder threads (EncoderQueue: video frames, and still frames
+  /// with encode_aside; Transport::runAside). Empty: on the calling thread.
+  std::function<void(FrameClass, std::function<void()>)> aside;
   /// The access tokens: a session starts with their anonymous grant. Null: every session sees every dataset.
   std::shared_ptr<const AccessTokens> tokens;
   /// Called when a session presented a token with Authenticate: none when its quotas have room, else why not

@@ -31,7 +31,8 @@ std::string withKey(std::string statsJson, std::string_view key, std::string_vie
   return statsJson;
 }
 
-proto::Message encodeStill(proto::Frame frame, int jpegQuality, image::PngSpeed pngSpeed, uint64_t maxBodyBytes) {
+proto::Message encodeStill(proto::Frame frame, int jpegQuality, image::PngSpeed pngSpeed, uint64_t maxBodyBytes,
+                           Clock::time_point received) {
   const auto start = Clock::now();
   try {
     image::Image8 image;
@@ -45,6 +46,8 @@ proto::Message encodeStill(proto::Frame frame, int jpegQuality, image::PngSpeed 
   }
   frame.statsJson =
       withKey(std::move(frame.statsJson), "encode_ms", nlohmann::json(jobMsBetween(start, Clock::now())).dump());
+  frame.statsJson =
+      withKey(std::move(frame.statsJson), "encode_start_ms", nlohmann::json(jobMsBetween(received, start)).dump());
   if (frame.encoding == proto::Encoding::Png)
     frame.statsJson = withKey(std::move(frame.statsJson), "png_speed",
                               pngSpeed == image::PngSpeed::Fast ? "\"fast\"" : "\"small\"");
@@ -108,7 +111,7 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
     frame.statsJson = statsJson.dump();
     RenderReply reply{
         aside ? proto::Message(std::move(frame))
-              : encodeStill(std::move(frame), jpegQuality, job.pngSpeed, job.maxBodyBytes),
+              : encodeStill(std::move(frame), jpegQuality, job.pngSpeed, job.maxBodyBytes, job.received),
         provisional};
     // A provisional frame too large to send answers its request with the error: no exact frame follows.
     reply.provisional = provisional && std::holds_alternative<proto::Frame>(reply.message);

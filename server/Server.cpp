@@ -24,6 +24,7 @@
 #include "server/Admission.h"
 #include "server/AuditLog.h"
 #include "server/Datasets.h"
+#include "server/EncoderQueue.h"
 #include "server/ErrorReply.h"
 #include "server/MessageHandler.h"
 #include "server/OutputBudget.h"
@@ -168,8 +169,8 @@ struct Server::Impl {
   RenderScheduler scheduler;
   MessageHandler handler;
   asio::io_context io;
-  /// Encodes sessions' video frames (SessionServices::aside); its tasks post back to `io`, so it goes first.
-  asio::thread_pool encoders;
+  /// Encodes sessions' frames by class (SessionServices::aside); its tasks post back to `io`, so it goes first.
+  EncoderQueue encoders;
   /// Waits for uploads' preps (child processes; SessionServices::prepare); posts back to `io` as `encoders` does.
   asio::thread_pool preparers;
   /// The acceptor and the signals are used from this strand only.
@@ -220,7 +221,8 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
       scheduler(std::move(sources), config.scheduler),
       handler(
           config, datasets, presets, stats, [this] { return statsJson(); }, tokens, audit.get(), &uploads),
-      encoders(size_t(config.encodeThreads)),
+      encoders(size_t(config.encodeThreads), {config.scheduler.interactiveWeight, config.scheduler.stillWeight,
+                                              config.scheduler.batchWeight}),
       preparers(size_t(config.upload.maxConcurrent)),
       control(asio::make_strand(io)),
       acceptor(control),
@@ -245,7 +247,7 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
                         busy.quota = true;
                         return busy;
                       },
-                      [this](std::function<void()> task) { asio::post(encoders, std::move(task)); },
+                      [this](FrameClass cls, std::function<void()> task) { encoders.post(cls, std::move(task)); },
                       tokens,
                       [this](ConnectionId id, const TokenGrant& grant) {
                         auto refusal = quotas.attachToken(id, grant);
@@ -509,6 +511,7 @@ ServerStats::Gauges Server::Impl::gauges() const {
   gauges.gpu = {gpu.bytes, gpu.peakBytes, gpu.renderersReleased};
   gauges.gpuBudgetBytes = size_t(config.gpuBudgetMB) << 20;
   gauges.queuedByClass = scheduler.queuedByClass();
+  gauges.encodesByClass = encoders.queued();
   gauges.deviceBusyMs = scheduler.deviceBusyMs();
   gauges.deviceWaitMs = scheduler.deviceWaitMs();
   return gauges;

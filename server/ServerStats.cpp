@@ -271,6 +271,9 @@ std::string ServerStats::metricsText(const Gauges& gauges) const {
       "Renders delivered to a further session that asked for the same frame.", double(mFramesShared.load()));
   m.family("voxbrick_queue_depth", Type::Gauge, "Render jobs waiting for a render thread, by class.");
   for (const FrameClass c : kAllFrameClasses) m.sample(double(gauges.queuedByClass[size_t(c)]), byClass(c));
+  m.family("voxbrick_encode_queue_depth", Type::Gauge,
+           "Frames drawn and waiting for an encoder thread (video frames, still frames encoded aside), by class.");
+  for (const FrameClass c : kAllFrameClasses) m.sample(double(gauges.encodesByClass[size_t(c)]), byClass(c));
   one("voxbrick_queued_sessions", Type::Gauge, "Sessions with a render job waiting.", double(gauges.queuedSessions));
   const auto perThread = [&m](std::string_view name, std::string_view help, const std::vector<double>& ms) {
     m.family(name, Type::Counter, help);

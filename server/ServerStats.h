@@ -87,6 +87,7 @@ class ServerStats {
     uint64_t rendersCancelled = 0;                      ///< frames given up part way (RenderScheduler::cancelled)
     size_t tcpSessions = 0, webSocketSessions = 0;      ///< activeSessions by transport
     std::array<size_t, kFrameClasses> queuedByClass{};  ///< jobs waiting (RenderScheduler::queuedByClass)
+    std::array<size_t, kFrameClasses> encodesByClass{};  ///< encodings waiting (EncoderQueue::queued)
     std::vector<double> deviceBusyMs{};  ///< each render thread's time drawing (RenderScheduler::deviceBusyMs)
     std::vector<double> deviceWaitMs{};  ///< each render thread's time asking for a job (RenderScheduler::deviceWaitMs)
     size_t draggingSessions = 0;     ///< sessions that sent an interactive Render within the last second

@@ -49,8 +49,9 @@ class Transport {
   virtual void close() = 0;
   /// Runs `work` on a thread aside (the server's encoder or upload threads, as `where` says; never the serial
   /// context), then `then` on the serial context, keeping the connection alive in between. `work` must not touch the
-  /// Connection.
-  virtual void runAside(std::function<void()> work, std::function<void()> then, Aside where = Aside::Encode) = 0;
+  /// Connection. An encoding is served by the class of its frame, `cls` (EncoderQueue).
+  virtual void runAside(std::function<void()> work, std::function<void()> then, Aside where = Aside::Encode,
+                        FrameClass cls = FrameClass::Still) = 0;
   /// The object render threads hand this connection's frames to (RenderScheduler::submit keeps it while a job of
   /// the connection waits); it must pass them to Connection::rendered on the serial context.
   virtual std::shared_ptr<RenderScheduler::Sink> renderSink() = 0;

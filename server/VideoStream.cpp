@@ -86,6 +86,7 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
   if (!stats.is_object()) stats = nlohmann::json::object();
   VideoEncoded done{msBetween(start, Clock::now()), chunk.key, chunk.key ? (why.empty() ? "encoder" : why) : ""};
   stats["encode_ms"] = done.encodeMs;
+  stats["encode_start_ms"] = msBetween(input.received, start);
   nlohmann::json video = {{"codec", proto::encodingName(frame.encoding)},
                           {"key", chunk.key},
                           {"stream_frame", mEncoder->frames() - 1},

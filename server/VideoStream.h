@@ -19,7 +19,8 @@ struct VideoFrameInput {
   const void* dataset = nullptr;  ///< the frame's dataset (identity only): a new one starts the stream again
   bool keyframe = false;          ///< the scene asked for a key frame
   double bitrateKbps = 0;         ///< the target the session's link allows (LinkPacer::videoKbps)
-  std::chrono::steady_clock::time_point drawn;  ///< when its pixels were ready (the stream's timestamps)
+  std::chrono::steady_clock::time_point drawn;     ///< when its pixels were ready (the stream's timestamps)
+  std::chrono::steady_clock::time_point received;  ///< when its Render arrived (for the frame's encode_start_ms)
 };
 
 /// What one encode did, for the server's counters.

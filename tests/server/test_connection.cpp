@@ -50,8 +50,12 @@ class FakeTransport : public Transport,
   std::shared_ptr<RenderScheduler::Sink> renderSink() override { return shared_from_this(); }
   /// Tasks run aside, in order; runAsides() runs them (each `work`, then its `then`).
   std::vector<std::pair<std::function<void()>, std::function<void()>>> asides;
-  void runAside(std::function<void()> work, std::function<void()> then, Aside = Aside::Encode) override {
+  /// The class each encoding aside was queued in, in order.
+  std::vector<FrameClass> asideClasses;
+  void runAside(std::function<void()> work, std::function<void()> then, Aside where = Aside::Encode,
+                FrameClass cls = FrameClass::Still) override {
     asides.emplace_back(std::move(work), std::move(then));
+    if (where == Aside::Encode) asideClasses.push_back(cls);
   }
   void runAsides() {
     while (!asides.empty()) {
@@ -453,6 +457,8 @@ TEST_F(ConnectionTest, VideoFramesAreEncodedAsideInOrderAndNeverDroppedOnceEncod
     EXPECT_EQ(frameStats["video"]["key"].get<bool>(), i == 2);
     EXPECT_TRUE(frameStats["provisional"].get<bool>());
     EXPECT_TRUE(frameStats.contains("encode_ms"));
+    // Its Render arrived `id` ms after the clock's epoch (render()): long before its encoding started.
+    EXPECT_GT(frameStats["encode_start_ms"].get<double>(), 1000.0);
     EXPECT_EQ(decoder.decode(frame.payload).width, 32) << "each decodes, in order";
   }
   EXPECT_EQ(stats.total(ServerEvent::Superseded), 1u);
@@ -470,6 +476,31 @@ TEST_F(ConnectionTest, VideoFramesAreEncodedAsideInOrderAndNeverDroppedOnceEncod
   for (size_t i = 4; i < transport->writes.size(); ++i) ids.push_back(decoded(transport->writes[i]).second);
   EXPECT_EQ(ids, (std::vector<uint32_t>{6, 7, 8, 9}));  // 8 as Superseded
   EXPECT_EQ(errorIn(transport->writes[6], 8), ErrorCode::Superseded);
+}
+
+// An encoding aside waits for the encoder threads in its frame's class (EncoderQueue), as its Render waited for a
+// render thread: a moving camera's video frame as interactive, a batch Render's still frame as batch, the exact
+// frame that follows a drag's provisional one as still.
+TEST_F(ConnectionTest, EncodingsAsideAreQueuedInTheirFramesClass) {
+  greet(4);
+  const auto frame = [&](uint32_t requestId, proto::Encoding encoding, bool interactive, bool batch, bool refinement) {
+    RenderJob job;
+    job.requestId = requestId;
+    job.received = std::chrono::steady_clock::time_point{} + std::chrono::milliseconds(requestId);
+    job.scene.interactive = interactive;
+    job.scene.batch = batch;
+    job.refinement = refinement;
+    if (!image::isVideoEncoding(encoding)) job.stillToEncode = 90;
+    core.rendered(job, proto::Frame{32, 32, encoding, refinement ? "{}" : R"({"provisional": true})",
+                                    std::vector<uint8_t>(32 * 32 * 4, uint8_t(requestId))});
+    settle();
+  };
+  frame(3, proto::Encoding::Vp8, true, false, false);
+  frame(4, proto::Encoding::Png, false, true, false);
+  frame(5, proto::Encoding::Png, true, false, true);
+  frame(6, proto::Encoding::Jpeg, true, false, false);
+  EXPECT_EQ(transport->asideClasses, (std::vector<FrameClass>{FrameClass::Interactive, FrameClass::Batch,
+                                                              FrameClass::Still, FrameClass::Interactive}));
 }
 
 // Still frames left with their pixels (RenderJob::stillToEncode, as a render thread leaves them for a session that

@@ -406,7 +406,7 @@ TEST_F(FairSchedulerTest, AStillFrameIsLeftToItsSessionToEncodeUnlessShared) {
   const proto::Frame left = std::get<proto::Frame>(alone->await(1)[0].second);
   EXPECT_EQ(left.payload.size(), 23u * 8 * 4) << "its RGBA8 pixels";
   EXPECT_FALSE(statsOf(left).contains("encode_ms"));
-  const proto::Message encoded = encodeStill(left, 77, image::PngSpeed::Fast, UINT64_MAX);
+  const proto::Message encoded = encodeStill(left, 77, image::PngSpeed::Fast, UINT64_MAX, std::chrono::steady_clock::now());
   EXPECT_EQ(image::decodeFrameImage(std::get<proto::Frame>(encoded)).width, 23);
   for (const auto& sink : {a, b}) {
     EXPECT_EQ(sink->toEncode(), (std::vector<std::optional<int>>{std::nullopt}));
@@ -414,6 +414,9 @@ TEST_F(FairSchedulerTest, AStillFrameIsLeftToItsSessionToEncodeUnlessShared) {
     EXPECT_EQ(frame.encoding, proto::Encoding::Jpeg);
     EXPECT_EQ(image::decodeFrameImage(frame).width, 24) << "encoded on the render thread";
     EXPECT_TRUE(statsOf(frame)["encode_ms"].is_number());
+    // Encoded once its Render had waited for its thread and been drawn: not before.
+    const auto stats = statsOf(frame);
+    EXPECT_GE(stats["encode_start_ms"].get<double>(), stats["queue_ms"].get<double>());
   }
 }
 

@@ -121,6 +121,7 @@ TEST(ServerMetrics, EveryFamilyHasHelpAndTypeAndEverySampleAFamily) {
   gauges.tcpSessions = 2;
   gauges.webSocketSessions = 1;
   gauges.queuedByClass = {3, 0, 7};
+  gauges.encodesByClass = {1, 4, 0};
   const ParsedMetrics parsed = parseMetrics(stats.metricsText(gauges));
   ASSERT_GT(parsed.types.size(), 30u);
   for (const SampleLine& s : parsed.samples)
@@ -139,6 +140,7 @@ TEST(ServerMetrics, EveryFamilyHasHelpAndTypeAndEverySampleAFamily) {
   EXPECT_EQ(parsed.value("voxbrick_sessions", R"(transport="websocket")"), 1);
   EXPECT_EQ(parsed.value("voxbrick_queue_depth", R"(class="interactive")"), 3);
   EXPECT_EQ(parsed.value("voxbrick_queue_depth", R"(class="batch")"), 7);
+  EXPECT_EQ(parsed.value("voxbrick_encode_queue_depth", R"(class="still")"), 4);
   EXPECT_GT(parsed.value("voxbrick_resident_memory_bytes"), 1 << 20) << "this process's, from /proc";
 }
 

@@ -289,6 +289,9 @@ TEST(RenderReply, AFrameCarriesTheImageAndTheServerTimings) {
   EXPECT_GT(stats["bricks_drawn"].get<int>(), 0);
   EXPECT_GE(stats["queue_ms"].get<double>(), 0.0);
   EXPECT_GE(stats["encode_ms"].get<double>(), 0.0);
+  // Its encoding started once it had waited for its thread and been drawn (both rounded in the statistics).
+  EXPECT_GE(stats["encode_start_ms"].get<double>(),
+            stats["queue_ms"].get<double>() + stats["ms"]["total"].get<double>() - 0.5);
   EXPECT_EQ(stats["render_thread"], 3);
 
   // What the renderer throws becomes the reply, through errorReply.

@@ -8,6 +8,8 @@
 #include <string>
 #include <thread>
 
+#include <nlohmann/json.hpp>
+
 #include "PrometheusText.h"
 #include "RawSocket.h"
 #include "ServerProcess.h"

@@ -1,0 +1,56 @@
+// The encoder threads: sessions' frames encoded off the render and I/O threads (video frames, and still frames with
+// encode_aside), served by frame class as the render scheduler serves renders. A FIFO pool would undo the
+// scheduler's order there: a tab's video frame, drawn first, would wait behind every batch client's 1024² png queued
+// before it. Between classes the queue shares the threads' time by weight (weighted fair queueing: each task
+// charged its measured milliseconds over its class's weight, the class with the least charged served next); within
+// a class first come, first served, which is round robin between sessions, since a session has at most one encoding
+// at a time (Connection).
+#pragma once
+
+#include <array>
+#include <condition_variable>
+#include <cstddef>
+#include <deque>
+#include <functional>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "server/FrameClass.h"
+
+namespace voxbrick::server {
+
+class EncoderQueue {
+ public:
+  /// `threads` (at least 1) threads; `weights` by FrameClass, each above 0 (the render scheduler's class weights).
+  EncoderQueue(size_t threads, std::array<double, kFrameClasses> weights);
+  /// join()s.
+  ~EncoderQueue();
+  EncoderQueue(const EncoderQueue&) = delete;
+  EncoderQueue& operator=(const EncoderQueue&) = delete;
+
+  /// Queues `task` in `cls`. A task must not throw; one posted after join() runs on the caller's thread.
+  void post(FrameClass cls, std::function<void()> task);
+  /// Runs every task queued, then stops the threads (tasks may post more meanwhile: they run too).
+  void join();
+  /// Tasks queued and not yet started, by class.
+  std::array<size_t, kFrameClasses> queued() const;
+
+ private:
+  void work();
+  /// The class to serve next: the smallest tag among those with a task (ties to the earlier class); -1 if none.
+  int pickLocked() const;
+
+  const std::array<double, kFrameClasses> mWeights;
+  mutable std::mutex mMutex;
+  std::condition_variable mWake;
+  std::array<std::deque<std::function<void()>>, kFrameClasses> mQueues;
+  /// Per class: milliseconds of its tasks over its weight. A class that had nothing queued starts again from the tag
+  /// of the class served last (mClock), so that it neither banks its idle time nor pays for its past.
+  std::array<double, kFrameClasses> mTag{};
+  double mClock = 0;
+  bool mJoining = false;
+  std::vector<std::thread> mThreads;
+};
+
+}  // namespace voxbrick::server
