@@ -67,10 +67,33 @@ export async function tabDrag(page, { durationMs, hz, exactWaitMs = 30000 }) {
     exact_after_release_ms: s ? s.exactAfterReleaseMs : null,
     // The budget the server drew the moving frames to (their statistics; a page that does not record it: none).
     budget_ms: pct(budgets, 0.5),
+    latency_split_ms: latencySplit(moving),
     errors: state.counts.errors,
     page_errors: page.errors.length,
     features: state.features,
     latencies: lat,
+  };
+}
+
+/// Where the camera-to-frame latency of `frames` (a tab's shown frames, as the page records them) went, medians in
+/// ms: `ask`, the camera's wait for a Render slot in the page; on the server, `queue` (the Render's wait for a render
+/// thread), `render` (its drawing), `encoder` (the drawn frame's wait for its encoding to start: for its session's
+/// frame before it and an encoder thread) and `encode`; `output`, the rest of the time from the Render sent to its
+/// reply's arrival (the frame's wait on the server's output and the link's pace, and the link both ways); `decode`,
+/// the page's; `page`, the rest from the reply's arrival to the frame drawn (the page's event loop, drawing). Null
+/// where no frame says (a page or server that does not record it).
+export function latencySplit(frames) {
+  const has = (f, keys) => keys.every((k) => Number.isFinite(f[k]));
+  const median = (keys, value) => pct(frames.filter((f) => has(f, keys)).map(value), 0.5);
+  return {
+    ask: median(["askMs"], (f) => f.askMs),
+    queue: median(["queueMs"], (f) => f.queueMs),
+    render: median(["renderMs"], (f) => f.renderMs),
+    encoder: median(["encodeStartMs", "queueMs", "renderMs"], (f) => f.encodeStartMs - f.queueMs - f.renderMs),
+    encode: median(["encodeMs"], (f) => f.encodeMs),
+    output: median(["replyMs", "encodeStartMs", "encodeMs"], (f) => f.replyMs - f.encodeStartMs - f.encodeMs),
+    decode: median(["decodeMs"], (f) => f.decodeMs),
+    page: median(["pageMs", "decodeMs"], (f) => f.pageMs - f.decodeMs),
   };
 }
 

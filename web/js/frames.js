@@ -109,6 +109,7 @@ export class FrameLoop {
 
   /// A Frame or Error answering a Render (or with id 0).
   reply(m) {
+    m.arrivedAt = performance.now(); // for the figures: when the page got the reply
     const answersNewest = this.newest && m.requestId === this.newest.id;
     this.outstanding.delete(m.requestId);
     if (m.typeName === "Frame") {
@@ -212,6 +213,15 @@ export class FrameLoop {
       standin: stats.bricks_standin || 0,
       renderMs: stats.ms ? stats.ms.total : null,
       encodeMs: typeof stats.encode_ms === "number" ? stats.encode_ms : null,
+      // Where the latency went, for a benchmark: the camera's wait for a Render slot (MAX_OUTSTANDING) before it was
+      // asked; the Render's wait for one of the server's render threads; its encoding's start after the Render
+      // arrived; the Render sent to its reply's arrival (the server's time and the link's both ways); the reply's
+      // arrival to the frame drawn (the page's).
+      askMs: typeof request.sentAt === "number" ? request.sentAt - request.cameraAt : null,
+      queueMs: typeof stats.queue_ms === "number" ? stats.queue_ms : null,
+      encodeStartMs: typeof stats.encode_start_ms === "number" ? stats.encode_start_ms : null,
+      replyMs: typeof request.sentAt === "number" && m.arrivedAt ? m.arrivedAt - request.sentAt : null,
+      pageMs: m.arrivedAt ? now - m.arrivedAt : null,
       // An interactive frame's time budget as the server drew it (which may differ from the one asked for).
       budgetMs: stats.interactive ? stats.interactive.budget_ms : null,
       // Its rung: 0 drawn at the full size, each rung up a coarser frame (fewer pixels) scaled up on the canvas.
