@@ -8,12 +8,7 @@
 // TAIL s after it, so each tab's exact frame after release is waited for beside the crowd.
 // Usage: node bench/crowd.mjs --datasets DIR [--dataset mri] [--tf mri] [--out PREFIX] [--scenarios A,B,B']
 //        [--tabs 16] [--drag-clients 64] [--batch-clients 64] [--size 512] [--batch-size 1024] [--duration 10]
-//        [--hz 30] [--lead 1] [--tail 3] [--baseline-exe PATH] [--render-threads N] [--server-nice 10]
-//        [--server-config server.toml]
-// The tabs and the TCP clients stand in for people on other machines: the server runs at niceness SERVER_NICE (0: as
-// they do), so that on a machine of few cores the server's own drawing does not starve the browser's pages of the
-// CPU they need to move their camera and show their frames; what the tabs get is then what the server gives them.
-// A list (--server-nice 10,0) runs every server at each, side by side.
+//        [--hz 30] [--lead 1] [--tail 3] [--baseline-exe PATH] [--render-threads N] [--server-config server.toml]
 // Writes PREFIX.csv, PREFIX.md and PREFIX.json.
 
 import fs from "node:fs";
@@ -42,7 +37,6 @@ const opt = {
   tail: Number(args.tail || 3),
   baselineExe: args["baseline-exe"] || null,
   renderThreads: args["render-threads"] || null,
-  serverNice: String(args["server-nice"] ?? "10").split(",").map(Number),
   serverConfig: args["server-config"] ? path.resolve(args["server-config"]) : null,
 };
 if (!opt.datasets) throw new Error("--datasets DIR is required");
@@ -72,18 +66,9 @@ const SCENARIOS = {
   },
 };
 for (const s of opt.scenarios) if (!SCENARIOS[s]) throw new Error(`unknown scenario '${s}' (A, B or B')`);
-for (const n of opt.serverNice)
-  if (!Number.isInteger(n) || n < 0 || n > 19) throw new Error(`--server-nice: '${n}' is not a niceness from 0 to 19`);
 
-/// The servers compared: this build's, and the baseline's when given (with the commit beside it, if it says one), each
-/// at every niceness asked for (named with it when there are several).
+/// The servers compared: this build's, and the baseline's when given (with the commit beside it, if it says one).
 function servers() {
-  const builds = buildsCompared();
-  if (opt.serverNice.length === 1) return builds.map((b) => ({ ...b, nice: opt.serverNice[0] }));
-  return builds.flatMap((b) => opt.serverNice.map((nice) => ({ ...b, nice, name: `${b.name}, nice ${nice}` })));
-}
-
-function buildsCompared() {
   // Where no git checkout is (a GPU machine's copy of the tree), VOXBRICK_BENCH_BUILD names the build.
   const git = (a) => (spawnSync("git", a, { cwd: H.SOURCE_DIR, encoding: "utf8" }).stdout || "").trim();
   const dirty = git(["status", "--porcelain", "--untracked-files=no"]) ? " (with uncommitted changes)" : "";
@@ -105,7 +90,7 @@ async function runScenario(browser, id, server, scratch) {
   if (opt.renderThreads) extra.push("--render-threads", opt.renderThreads);
   const dir = fs.mkdtempSync(path.join(scratch, "run-"));
   const config = opt.serverConfig;
-  const s = await new H.Server({ dir, datasets: opt.datasets, extra, exe: server.exe, nice: server.nice, config }).start();
+  const s = await new H.Server({ dir, datasets: opt.datasets, extra, exe: server.exe, config }).start();
   try {
     const tabs = [];
     for (let i = 0; i < opt.tabs; ++i)
@@ -161,6 +146,9 @@ function row(r) {
     tab_budget_ms: budget,
     tab_p99_over_budget: budget && worstP99 !== null ? worstP99 / budget : null,
     tab_errors: sum(tabs.map((t) => t.errors + t.page_errors)),
+    // The camera moves each tab's page made (hz × duration asked): fewer when the machine starved the page.
+    tab_moves_min: minOf(tabs.map((t) => t.moves)),
+    tab_moves_median: pct(tabs.map((t) => t.moves), 0.5),
     // Where a tab's latency went (drag_common's latencySplit): the median over the tabs of each tab's medians.
     ...Object.fromEntries(
       SPLIT.map((part) => [`tab_${part}_ms`, pct(present(tabs.map((t) => t.latency_split_ms?.[part])), 0.5)]),
@@ -245,6 +233,8 @@ function report(ran) {
     "tab_budget_ms",
     "tab_p99_over_budget",
     "tab_errors",
+    "tab_moves_min",
+    "tab_moves_median",
     ...SPLIT.map((part) => `tab_${part}_ms`),
     "tcp_fps_total",
     "tcp_fps_min",
@@ -315,8 +305,7 @@ function report(ran) {
       .join("; ")}. Each scenario runs on a fresh server of each, \`--max-sessions 256\`` +
       `${opt.serverConfig ? `, configured by \`${path.relative(process.cwd(), opt.serverConfig)}\`` : ""}` +
       `${opt.renderThreads ? `, \`--render-threads ${opt.renderThreads}\`` : ""}` +
-      `${opt.serverNice.some((n) => n) ? `, at niceness ${opt.serverNice.join(" and ")} (above 0: below the browser's ` +
-        "and the TCP clients', which stand in for other machines)" : ""}.`,
+      ".",
     `- Dataset \`${opt.dataset}\`, transfer function \`${opt.tf}\`. Tabs: the viewer at ${opt.size}², a drag of ` +
       `${opt.duration} s at ${opt.hz} Hz through the page's own gesture handlers, ${D.DEG_PER_MOVE}° a move. The TCP ` +
       `crowd starts ${opt.lead} s before the drag and lasts until ${opt.tail} s after it:`,
@@ -370,14 +359,17 @@ function report(ran) {
       "session's frame before it, an encoder thread) and the encoding (encode); the rest of the time from the Render " +
       "sent to its reply's arrival (output: the frame's wait on the server's output and the link's pace, and the link " +
       "both ways); the page's decoding (decode) and the rest of its time to the frame drawn (page: its event loop, " +
-      "drawing). Empty: the page or server does not say.",
+      "drawing). Empty: the page or server does not say. Moves: the camera moves the tabs' pages made, of the " +
+      `${opt.hz * opt.duration} asked (median, and the fewest): fewer where the machine starved the pages.`,
     "",
-    "| scenario | server | tab p50 ms | ask | queue | render | encoder | encode | output | decode | page |",
-    "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
-    ...rows.map(
-      (r) =>
-        `| ${[r.scenario, r.server, fmt(r.tab_latency_p50_ms, 0), ...SPLIT.map((p) => fmt(r[`tab_${p}_ms`], 0))].join(" | ")} |`,
-    ),
+    "| scenario | server | moves (fewest) | tab p50 ms | ask | queue | render | encoder | encode | output | decode | " +
+      "page |",
+    "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ...rows.map((r) => {
+      const moves = `${fmt(r.tab_moves_median, 0)} (${fmt(r.tab_moves_min, 0)})`;
+      const parts = SPLIT.map((p) => fmt(r[`tab_${p}_ms`], 0));
+      return `| ${[r.scenario, r.server, moves, fmt(r.tab_latency_p50_ms, 0), ...parts].join(" | ")} |`;
+    }),
     "",
   ];
   fs.writeFileSync(`${opt.out}.md`, md.join("\n"));

@@ -82,12 +82,10 @@ let starts = 0; // servers started by this process, for their files' names
 /// The real server: `voxbrick serve --no-config --port 0 --http PORT --datasets DIR [extra]` (PORT 0: a free one,
 /// kept for restarts), its log in `dir`; `exe`: another build's binary (a benchmark's baseline), else VOXBRICK;
 /// `tls`: {cert, key, ca} files (testCertificates) for TLS on both ports, its url then https://; `config`: a
-/// server.toml read in place of no configuration (`datasets` may then be left to it); `nice`: run it at this
-/// niceness (nice(1)), below the browser's and the clients' priority (a benchmark whose clients stand in for other
-/// machines).
+/// server.toml read in place of no configuration (`datasets` may then be left to it).
 export class Server {
-  constructor({ dir, datasets = null, httpPort = 0, extra = [], exe = VOXBRICK, tls = null, config = null, nice = 0 }) {
-    Object.assign(this, { dir, datasets, httpPort, extra, exe, tls, config, nice, proc: null });
+  constructor({ dir, datasets = null, httpPort = 0, extra = [], exe = VOXBRICK, tls = null, config = null }) {
+    Object.assign(this, { dir, datasets, httpPort, extra, exe, tls, config, proc: null });
   }
 
   /// Starts the server; a restart listens on the HTTP port of the first start.
@@ -104,9 +102,7 @@ export class Server {
     args.push("--http", String(this.httpPort || 0), "--http-port-file", httpPortFile, ...this.extra);
     if (this.tls) args.push("--tls-cert", this.tls.cert, "--tls-key", this.tls.key);
     const ca = this.tls ? fs.readFileSync(this.tls.ca) : undefined;
-    this.proc = this.nice
-      ? spawnTied("/usr/bin/nice", ["-n", String(this.nice), this.exe, ...args], { stdio: ["ignore", log, log] })
-      : spawnTied(this.exe, args, { stdio: ["ignore", log, log] });
+    this.proc = spawnTied(this.exe, args, { stdio: ["ignore", log, log] });
     fs.closeSync(log);
     this.exited = new Promise((resolve) => this.proc.on("exit", (code, signal) => resolve(code ?? signal)));
     let gone = false;
