@@ -6,7 +6,12 @@
 
 namespace voxbrick::server {
 
-EncoderQueue::EncoderQueue(size_t threads, std::array<double, kFrameClasses> weights) : mWeights(weights) {
+EncoderQueue::EncoderQueue(size_t threads, std::array<double, kFrameClasses> weights, size_t reserved,
+                           std::chrono::milliseconds keepFor)
+    : mWeights(weights),
+      mThreadCount(threads),
+      mReserved(threads > 0 ? std::min(reserved, threads - 1) : 0),
+      mKeepFor(keepFor) {
   if (threads == 0) throw std::invalid_argument("EncoderQueue: no threads");
   for (double w : weights)
     if (!(w > 0)) throw std::invalid_argument("EncoderQueue: a class weight is not above 0");
@@ -23,7 +28,9 @@ void EncoderQueue::post(FrameClass cls, std::function<void()> task) {
       auto& queue = mQueues[size_t(cls)];
       if (queue.empty()) mTag[size_t(cls)] = std::max(mTag[size_t(cls)], mClock);
       queue.push_back(std::move(task));
-      mWake.notify_one();
+      if (cls == FrameClass::Interactive) mLastInteractive = Clock::now();
+      // Every thread: the one free may be one that only interactive work may take.
+      mWake.notify_all();
       return;
     }
   }
@@ -48,28 +55,46 @@ std::array<size_t, kFrameClasses> EncoderQueue::queued() const {
   return counts;
 }
 
-int EncoderQueue::pickLocked() const {
+int EncoderQueue::pickLocked(Clock::time_point now, bool& othersMayRun) const {
+  // Still and batch work leaves the reserved threads to interactive work while it comes (not while joining).
+  const bool keeping = mReserved > 0 && !mJoining && now - mLastInteractive < mKeepFor;
+  const size_t others = mRunning[size_t(FrameClass::Still)] + mRunning[size_t(FrameClass::Batch)];
+  othersMayRun = !keeping || others < mThreadCount - mReserved;
   int chosen = -1;
-  for (size_t c = 0; c < kFrameClasses; ++c)
-    if (!mQueues[c].empty() && (chosen < 0 || mTag[c] < mTag[size_t(chosen)])) chosen = int(c);
+  for (size_t c = 0; c < kFrameClasses; ++c) {
+    if (mQueues[c].empty() || (c != size_t(FrameClass::Interactive) && !othersMayRun)) continue;
+    if (chosen < 0 || mTag[c] < mTag[size_t(chosen)]) chosen = int(c);
+  }
   return chosen;
 }
 
 void EncoderQueue::work() {
   std::unique_lock lock(mMutex);
   for (;;) {
-    int c = -1;
-    mWake.wait(lock, [&] { return (c = pickLocked()) >= 0 || mJoining; });
-    if (c < 0) return;  // joining, and nothing is left
+    bool othersMayRun = true;
+    const int c = pickLocked(Clock::now(), othersMayRun);
+    if (c < 0) {
+      const bool anything = std::any_of(mQueues.begin(), mQueues.end(), [](const auto& q) { return !q.empty(); });
+      if (mJoining && !anything) return;
+      // Work held back only by the reserve waits until a task ends, interactive work comes, or the reserve lapses.
+      if (anything && !othersMayRun)
+        mWake.wait_until(lock, mLastInteractive + mKeepFor);
+      else
+        mWake.wait(lock);
+      continue;
+    }
     std::function<void()> task = std::move(mQueues[size_t(c)].front());
     mQueues[size_t(c)].pop_front();
     mClock = mTag[size_t(c)];
+    ++mRunning[size_t(c)];
     lock.unlock();
-    const auto start = std::chrono::steady_clock::now();
+    const auto start = Clock::now();
     task();
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
     lock.lock();
+    --mRunning[size_t(c)];
     mTag[size_t(c)] += ms / mWeights[size_t(c)];
+    mWake.notify_all();  // a thread held back by the reserve may take work now
   }
 }
 

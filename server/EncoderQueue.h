@@ -4,10 +4,13 @@
 // before it. Between classes the queue shares the threads' time by weight (weighted fair queueing: each task
 // charged its measured milliseconds over its class's weight, the class with the least charged served next); within
 // a class first come, first served, which is round robin between sessions, since a session has at most one encoding
-// at a time (Connection).
+// at a time (Connection). And as the render threads do, it keeps threads for interactive frames while they come
+// (one posted within the last second): still and batch encodings take at most the others, so a moving camera's frame
+// never waits for a long encoding of a crowd's still frame to end.
 #pragma once
 
 #include <array>
+#include <chrono>
 #include <condition_variable>
 #include <cstddef>
 #include <deque>
@@ -22,8 +25,15 @@ namespace voxbrick::server {
 
 class EncoderQueue {
  public:
-  /// `threads` (at least 1) threads; `weights` by FrameClass, each above 0 (the render scheduler's class weights).
-  EncoderQueue(size_t threads, std::array<double, kFrameClasses> weights);
+  using Clock = std::chrono::steady_clock;
+  /// How long after an interactive task was posted threads are still kept for interactive work.
+  static constexpr std::chrono::milliseconds kKeepFor{1000};
+
+  /// `threads` (at least 1) threads; `weights` by FrameClass, each above 0 (the render scheduler's class weights);
+  /// `reserved` threads kept for interactive work while it comes (at most threads - 1: none with one thread), for
+  /// `keepFor` after each interactive task posted.
+  EncoderQueue(size_t threads, std::array<double, kFrameClasses> weights, size_t reserved = 1,
+               std::chrono::milliseconds keepFor = kKeepFor);
   /// join()s.
   ~EncoderQueue();
   EncoderQueue(const EncoderQueue&) = delete;
@@ -38,10 +48,13 @@ class EncoderQueue {
 
  private:
   void work();
-  /// The class to serve next: the smallest tag among those with a task (ties to the earlier class); -1 if none.
-  int pickLocked() const;
+  /// The class to serve next: the smallest tag among those with a task that may start now (ties to the earlier
+  /// class); -1 if none. `othersMayRun` is set to whether a still or batch task may start.
+  int pickLocked(Clock::time_point now, bool& othersMayRun) const;
 
   const std::array<double, kFrameClasses> mWeights;
+  const size_t mThreadCount, mReserved;
+  const std::chrono::milliseconds mKeepFor;
   mutable std::mutex mMutex;
   std::condition_variable mWake;
   std::array<std::deque<std::function<void()>>, kFrameClasses> mQueues;
@@ -49,6 +62,8 @@ class EncoderQueue {
   /// of the class served last (mClock), so that it neither banks its idle time nor pays for its past.
   std::array<double, kFrameClasses> mTag{};
   double mClock = 0;
+  std::array<size_t, kFrameClasses> mRunning{};  ///< tasks running, by class
+  Clock::time_point mLastInteractive{};           ///< when an interactive task was last posted
   bool mJoining = false;
   std::vector<std::thread> mThreads;
 };

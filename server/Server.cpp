@@ -221,8 +221,9 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
       scheduler(std::move(sources), config.scheduler),
       handler(
           config, datasets, presets, stats, [this] { return statsJson(); }, tokens, audit.get(), &uploads),
-      encoders(size_t(config.encodeThreads), {config.scheduler.interactiveWeight, config.scheduler.stillWeight,
-                                              config.scheduler.batchWeight}),
+      encoders(size_t(config.encodeThreads),
+               {config.scheduler.interactiveWeight, config.scheduler.stillWeight, config.scheduler.batchWeight},
+               size_t(std::max(0, config.scheduler.reservedInteractiveThreads))),
       preparers(size_t(config.upload.maxConcurrent)),
       control(asio::make_strand(io)),
       acceptor(control),

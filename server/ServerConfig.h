@@ -27,7 +27,8 @@ struct SchedulerConfig {
   /// less than the scene's minimum, 10 ms), so quality yields to the crowd instead of latency.
   double interactiveFps = 10;
   /// Render threads kept for interactive frames while any session drags (with two threads or more): still and batch
-  /// frames take at most the others, so a long still frame never holds every thread a viewer waits for.
+  /// frames take at most the others, so a long still frame never holds every thread a viewer waits for. The encoder
+  /// threads keep as many for interactive frames while those come (EncoderQueue).
   int reservedInteractiveThreads = 1;
   /// A batch Render whose expected wait (the measured cost of the work queued before it, over the threads' share for
   /// its class) exceeds this is answered Busy with that wait as its retry hint.

@@ -77,6 +77,38 @@ TEST(EncoderQueue, ABusyClassDoesNotStarveTheOthers) {
   EXPECT_LE(std::count(order.names.begin(), order.names.begin() + 10, "b"), 1) << "interactive work is served first";
 }
 
+// With two threads, one is kept for interactive work while it comes: a crowd's still encodings take the other only,
+// and a moving camera's frame starts at once although a still one was queued before it. Without interactive work the
+// still encodings take both.
+TEST(EncoderQueue, AThreadIsKeptForInteractiveWorkWhileItComes) {
+  using namespace std::chrono_literals;
+  {
+    EncoderQueue queue(2, kWeights, 1, 60s);
+    std::promise<void> open, firstRunning, interactiveRan;
+    const auto opened = open.get_future().share();
+    queue.post(FrameClass::Interactive, [] {});  // interactive work comes: the reserve holds from now
+    queue.post(FrameClass::Still, gate(opened, &firstRunning));
+    firstRunning.get_future().wait();
+    std::atomic<bool> secondStarted = false;
+    queue.post(FrameClass::Still, [&secondStarted] { secondStarted = true; });
+    queue.post(FrameClass::Interactive, [&interactiveRan] { interactiveRan.set_value(); });
+    ASSERT_EQ(interactiveRan.get_future().wait_for(30s), std::future_status::ready) << "the kept thread took it";
+    std::this_thread::sleep_for(50ms);
+    EXPECT_FALSE(secondStarted) << "the second still frame waits for the first, not for the kept thread";
+    EXPECT_EQ(queue.queued(), (std::array<size_t, kFrameClasses>{0, 1, 0}));
+    open.set_value();
+    queue.join();
+    EXPECT_TRUE(secondStarted);
+  }
+  EncoderQueue queue(2, kWeights, 1, 60s);
+  std::promise<void> open, running[2];
+  const auto opened = open.get_future().share();
+  for (auto& r : running) queue.post(FrameClass::Still, gate(opened, &r));
+  for (auto& r : running)
+    EXPECT_EQ(r.get_future().wait_for(30s), std::future_status::ready) << "no interactive work: both threads";
+  open.set_value();
+}
+
 // join() runs every task queued, on all threads; one posted afterwards runs on the caller's thread.
 TEST(EncoderQueue, JoinRunsEveryTaskQueued) {
   std::atomic<int> ran = 0;
