@@ -58,7 +58,8 @@ const tcpRow = (run, size, t, clients) => ({
   errors: t.errors,
 });
 
-const openTab = (browser, server, size) => D.openTab(browser, server, { dataset: opt.dataset, tf: opt.tf, size });
+const openTab = (browser, server, size, azimuth = 0) =>
+  D.openTab(browser, server, { dataset: opt.dataset, tf: opt.tf, size, azimuth });
 
 const scratch = H.scratchDir("browser-drag");
 const extra = ["--max-sessions", "256"];
@@ -81,7 +82,7 @@ try {
   }
   // Tabs and TCP clients at once: every tab drags while the load tool's clients do.
   const tabs = [];
-  for (let i = 0; i < opt.tabs; ++i) tabs.push(await openTab(browser, server, opt.multiSize));
+  for (let i = 0; i < opt.tabs; ++i) tabs.push(await openTab(browser, server, opt.multiSize, D.tabAzimuth(i, opt.tabs)));
   const tcpJson = path.join(scratch.dir, "tcp-multi.json");
   const tcp = tcpDrag(server, opt.multiSize, opt.clients, opt.duration, tcpJson, features);
   const tabResults = await Promise.all(tabs.map((p) => tabDrag(p, opt.duration * 1000)));

@@ -94,7 +94,12 @@ async function runScenario(browser, id, server, scratch) {
   try {
     const tabs = [];
     for (let i = 0; i < opt.tabs; ++i)
-      tabs.push(await D.openTab(browser, s, { dataset: opt.dataset, tf: opt.tf, size: opt.size }));
+      tabs.push(await D.openTab(browser, s, {
+        dataset: opt.dataset,
+        tf: opt.tf,
+        size: opt.size,
+        azimuth: D.tabAzimuth(i, opt.tabs),
+      }));
     const features = (await H.viewerState(tabs[0])).features;
     const options = scenario.load(features).concat(["--duration", String(opt.lead + opt.duration + opt.tail)]);
     const load = D.runLoad(s, { dataset: opt.dataset, tf: opt.tf, json: path.join(dir, "load.json"), options });

@@ -35,13 +35,20 @@ export function jain(x) {
   return x.length && squares > 0 ? sum(x) ** 2 / (x.length * squares) : null;
 }
 
-/// A tab on the viewer at `size`², the orbit of the load tool, once its first exact frame is shown.
-export async function openTab(browser, server, { dataset, tf, size }) {
-  const url = `${server.url}/?dataset=${dataset}&tf=${tf}&orbit=0,${ORBIT.el},${ORBIT.dist}&size=${size}x${size}`;
+/// A tab on the viewer at `size`², the orbit of the load tool from `azimuth` (degrees), once its first exact frame is
+/// shown.
+export async function openTab(browser, server, { dataset, tf, size, azimuth = 0 }) {
+  const orbit = `${azimuth},${ORBIT.el},${ORBIT.dist}`;
+  const url = `${server.url}/?dataset=${dataset}&tf=${tf}&orbit=${orbit}&size=${size}x${size}`;
   const page = await H.openPage(browser, url, { width: Math.min(1400, size + 300), height: Math.min(1100, size + 40) });
   await H.waitForState(page, (s) => s.lastFrame && !s.lastFrame.provisional, 120000);
   return page;
 }
+
+/// Where tab `i` of `n` starts its drag: tabs spread round the orbit (and off the load tool's even degrees), so that
+/// no two ask for the same camera at the same time. Tabs in step on one path would share their renders (the
+/// server draws an identical frame once for every session asking it), which no crowd of people does.
+export const tabAzimuth = (i, n) => (360 * i) / n + 1;
 
 /// One tab's drag through the page's own gesture handlers (`hz` moves a second, DEG_PER_MOVE each) for `durationMs`:
 /// figures from the frames it showed while the camera moved, and the exact frame after release (waited for up to
@@ -77,7 +84,8 @@ export async function tabDrag(page, { durationMs, hz, exactWaitMs = 30000 }) {
 
 /// Where the camera-to-frame latency of `frames` (a tab's shown frames, as the page records them) went, medians in
 /// ms: `ask`, the camera's wait for a Render slot in the page; on the server, `queue` (the Render's wait for a render
-/// thread), `render` (its drawing), `encoder` (the drawn frame's wait for its encoding to start: for its session's
+/// thread), `render` (its drawing: an interactive frame's planning, drawing and scaling up), `encoder` (the drawn
+/// frame's wait for its encoding to start: for its session's
 /// frame before it and an encoder thread) and `encode`; `output`, the rest of the time from the Render sent to its
 /// reply's arrival (the frame's wait on the server's output and the link's pace, and the link both ways); `decode`,
 /// the page's; `page`, the rest from the reply's arrival to the frame drawn (the page's event loop, drawing). Null
@@ -88,8 +96,8 @@ export function latencySplit(frames) {
   return {
     ask: median(["askMs"], (f) => f.askMs),
     queue: median(["queueMs"], (f) => f.queueMs),
-    render: median(["renderMs"], (f) => f.renderMs),
-    encoder: median(["encodeStartMs", "queueMs", "renderMs"], (f) => f.encodeStartMs - f.queueMs - f.renderMs),
+    render: median(["drawMs"], (f) => f.drawMs),
+    encoder: median(["encodeStartMs", "queueMs", "drawMs"], (f) => f.encodeStartMs - f.queueMs - f.drawMs),
     encode: median(["encodeMs"], (f) => f.encodeMs),
     output: median(["replyMs", "encodeStartMs", "encodeMs"], (f) => f.replyMs - f.encodeStartMs - f.encodeMs),
     decode: median(["decodeMs"], (f) => f.decodeMs),

@@ -212,6 +212,11 @@ export class FrameLoop {
       provisional,
       standin: stats.bricks_standin || 0,
       renderMs: stats.ms ? stats.ms.total : null,
+      // The render thread's time for it: an interactive frame's planning, drawing and scaling up (actual_ms), else
+      // the drawing's.
+      drawMs: stats.interactive && typeof stats.interactive.actual_ms === "number"
+        ? stats.interactive.actual_ms
+        : stats.ms ? stats.ms.total : null,
       encodeMs: typeof stats.encode_ms === "number" ? stats.encode_ms : null,
       // Where the latency went, for a benchmark: the camera's wait for a Render slot (MAX_OUTSTANDING) before it was
       // asked; the Render's wait for one of the server's render threads; its encoding's start after the Render
