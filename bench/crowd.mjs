@@ -360,8 +360,9 @@ function report(ran) {
     "",
     "Where a tab's moving frames' latency went, ms (each tab's medians, the median over the tabs; the parts' medians " +
       "need not add up to the p50): the camera's wait for a Render slot in the page (ask); on the server the Render's " +
-      "wait for a render thread (queue), its drawing (render), the frame's wait for its encoding (encoder: its " +
-      "session's frame before it, an encoder thread) and the encoding (encode); the rest of the time from the Render " +
+      "wait for a render thread (queue), its drawing (render), the frame's way to its session and wait for its " +
+      "encoding (encoder: the session's frame before it, an encoder thread; frames drawn once for several sessions " +
+      "left out of these three) and the encoding (encode); the rest of the time from the Render " +
       "sent to its reply's arrival (output: the frame's wait on the server's output and the link's pace, and the link " +
       "both ways); the page's decoding (decode) and the rest of its time to the frame drawn (page: its event loop, " +
       "drawing). Empty: the page or server does not say. Moves: the camera moves the tabs' pages made, of the " +

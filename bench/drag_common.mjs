@@ -85,19 +85,21 @@ export async function tabDrag(page, { durationMs, hz, exactWaitMs = 30000 }) {
 /// Where the camera-to-frame latency of `frames` (a tab's shown frames, as the page records them) went, medians in
 /// ms: `ask`, the camera's wait for a Render slot in the page; on the server, `queue` (the Render's wait for a render
 /// thread), `render` (its drawing: an interactive frame's planning, drawing and scaling up), `encoder` (the drawn
-/// frame's wait for its encoding to start: for its session's
-/// frame before it and an encoder thread) and `encode`; `output`, the rest of the time from the Render sent to its
-/// reply's arrival (the frame's wait on the server's output and the link's pace, and the link both ways); `decode`,
-/// the page's; `page`, the rest from the reply's arrival to the frame drawn (the page's event loop, drawing). Null
-/// where no frame says (a page or server that does not record it).
+/// frame's way to its session and wait for its encoding to start: for the session's frame before it, an encoder
+/// thread) and `encode`; `output`, the rest of the time from the Render sent to its reply's arrival (the frame's wait
+/// on the server's output and the link's pace, and the link both ways); `decode`, the page's; `page`, the rest from
+/// the reply's arrival to the frame drawn (the page's event loop, drawing). A frame drawn once for several sessions
+/// (`shared`) carries the first session's queue and drawing times, not this one's: the server's parts leave it out.
+/// Null where no frame says (a page or server that does not record it).
 export function latencySplit(frames) {
   const has = (f, keys) => keys.every((k) => Number.isFinite(f[k]));
-  const median = (keys, value) => pct(frames.filter((f) => has(f, keys)).map(value), 0.5);
+  const median = (keys, value, of = frames) => pct(of.filter((f) => has(f, keys)).map(value), 0.5);
+  const own = frames.filter((f) => !f.shared);
   return {
     ask: median(["askMs"], (f) => f.askMs),
-    queue: median(["queueMs"], (f) => f.queueMs),
-    render: median(["drawMs"], (f) => f.drawMs),
-    encoder: median(["encodeStartMs", "queueMs", "drawMs"], (f) => f.encodeStartMs - f.queueMs - f.drawMs),
+    queue: median(["queueMs"], (f) => f.queueMs, own),
+    render: median(["drawMs"], (f) => f.drawMs, own),
+    encoder: median(["encodeStartMs", "queueMs", "drawMs"], (f) => f.encodeStartMs - f.queueMs - f.drawMs, own),
     encode: median(["encodeMs"], (f) => f.encodeMs),
     output: median(["replyMs", "encodeStartMs", "encodeMs"], (f) => f.replyMs - f.encodeStartMs - f.encodeMs),
     decode: median(["decodeMs"], (f) => f.decodeMs),

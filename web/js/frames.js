@@ -225,6 +225,7 @@ export class FrameLoop {
       askMs: typeof request.sentAt === "number" ? request.sentAt - request.cameraAt : null,
       queueMs: typeof stats.queue_ms === "number" ? stats.queue_ms : null,
       encodeStartMs: typeof stats.encode_start_ms === "number" ? stats.encode_start_ms : null,
+      shared: stats.shared === true, // drawn once for several sessions: its queue and drawing times are the first's
       replyMs: typeof request.sentAt === "number" && m.arrivedAt ? m.arrivedAt - request.sentAt : null,
       pageMs: m.arrivedAt ? now - m.arrivedAt : null,
       // An interactive frame's time budget as the server drew it (which may differ from the one asked for).
