@@ -8,10 +8,7 @@ namespace voxbrick::server {
 
 EncoderQueue::EncoderQueue(size_t threads, std::array<double, kFrameClasses> weights, size_t reserved,
                            std::chrono::milliseconds keepFor)
-    : mWeights(weights),
-      mThreadCount(threads),
-      mReserved(threads > 0 ? std::min(reserved, threads - 1) : 0),
-      mKeepFor(keepFor) {
+    : mThreadCount(threads), mReserved(ClassShares::kept(threads, reserved)), mKeepFor(keepFor), mShares(weights) {
   if (threads == 0) throw std::invalid_argument("EncoderQueue: no threads");
   for (double w : weights)
     if (!(w > 0)) throw std::invalid_argument("EncoderQueue: a class weight is not above 0");
@@ -26,7 +23,7 @@ void EncoderQueue::post(FrameClass cls, std::function<void()> task) {
     std::lock_guard lock(mMutex);
     if (!(mJoining && mThreads.empty())) {
       auto& queue = mQueues[size_t(cls)];
-      if (queue.empty()) mTag[size_t(cls)] = std::max(mTag[size_t(cls)], mClock);
+      if (queue.empty()) mShares.resume(cls);
       queue.push_back(std::move(task));
       if (cls == FrameClass::Interactive) mLastInteractive = Clock::now();
       // Every thread: the one free may be one that only interactive work may take.
@@ -55,17 +52,15 @@ std::array<size_t, kFrameClasses> EncoderQueue::queued() const {
   return counts;
 }
 
-int EncoderQueue::pickLocked(Clock::time_point now, bool& othersMayRun) const {
+int EncoderQueue::pickLocked(Clock::time_point now, bool& othersMayRun) {
   // Still and batch work leaves the reserved threads to interactive work while it comes (not while joining).
   const bool keeping = mReserved > 0 && !mJoining && now - mLastInteractive < mKeepFor;
-  const size_t others = mRunning[size_t(FrameClass::Still)] + mRunning[size_t(FrameClass::Batch)];
-  othersMayRun = !keeping || others < mThreadCount - mReserved;
-  int chosen = -1;
-  for (size_t c = 0; c < kFrameClasses; ++c) {
-    if (mQueues[c].empty() || (c != size_t(FrameClass::Interactive) && !othersMayRun)) continue;
-    if (chosen < 0 || mTag[c] < mTag[size_t(chosen)]) chosen = int(c);
-  }
-  return chosen;
+  othersMayRun = ClassShares::othersMayRun(mThreadCount, mReserved, keeping,
+                                           mRunning[size_t(FrameClass::Still)] + mRunning[size_t(FrameClass::Batch)]);
+  std::array<bool, kFrameClasses> ready{};
+  for (size_t c = 0; c < kFrameClasses; ++c)
+    ready[c] = !mQueues[c].empty() && (c == size_t(FrameClass::Interactive) || othersMayRun);
+  return mShares.pick(ready);
 }
 
 void EncoderQueue::work() {
@@ -85,7 +80,6 @@ void EncoderQueue::work() {
     }
     std::function<void()> task = std::move(mQueues[size_t(c)].front());
     mQueues[size_t(c)].pop_front();
-    mClock = mTag[size_t(c)];
     ++mRunning[size_t(c)];
     lock.unlock();
     const auto start = Clock::now();
@@ -93,7 +87,7 @@ void EncoderQueue::work() {
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
     lock.lock();
     --mRunning[size_t(c)];
-    mTag[size_t(c)] += ms / mWeights[size_t(c)];
+    mShares.charge(FrameClass(c), ms);
     mWake.notify_all();  // a thread held back by the reserve may take work now
   }
 }

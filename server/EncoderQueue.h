@@ -1,12 +1,11 @@
 // The encoder threads: sessions' frames encoded off the render and I/O threads (video frames, and still frames with
-// encode_aside), served by frame class as the render scheduler serves renders. A FIFO pool would undo the
-// scheduler's order there: a tab's video frame, drawn first, would wait behind every batch client's 1024² png queued
-// before it. Between classes the queue shares the threads' time by weight (weighted fair queueing: each task
-// charged its measured milliseconds over its class's weight, the class with the least charged served next); within
-// a class first come, first served, which is round robin between sessions, since a session has at most one encoding
-// at a time (Connection). And as the render threads do, it keeps threads for interactive frames while they come
-// (one posted within the last second): still and batch encodings take at most the others, so a moving camera's frame
-// never waits for a long encoding of a crowd's still frame to end.
+// encode_aside), served by frame class as the render scheduler serves renders (ClassShares). A FIFO pool would undo
+// the scheduler's order there: a tab's video frame, drawn first, would wait behind every batch client's 1024² png
+// queued before it. Between classes the threads' time is shared by weight, each task charged its measured
+// milliseconds; within a class first come, first served, which is round robin between sessions, since a session has
+// at most one encoding at a time (Connection). Threads are kept for interactive frames while they come (one posted
+// within the last second): still and batch encodings take at most the others, so a moving camera's frame never
+// waits for a long encoding of a crowd's still frame to end.
 #pragma once
 
 #include <array>
@@ -48,20 +47,16 @@ class EncoderQueue {
 
  private:
   void work();
-  /// The class to serve next: the smallest tag among those with a task that may start now (ties to the earlier
-  /// class); -1 if none. `othersMayRun` is set to whether a still or batch task may start.
-  int pickLocked(Clock::time_point now, bool& othersMayRun) const;
+  /// The class to serve next among those with a task that may start now (ClassShares::pick); -1 if none.
+  /// `othersMayRun` is set to whether a still or batch task may start.
+  int pickLocked(Clock::time_point now, bool& othersMayRun);
 
-  const std::array<double, kFrameClasses> mWeights;
   const size_t mThreadCount, mReserved;
   const std::chrono::milliseconds mKeepFor;
   mutable std::mutex mMutex;
   std::condition_variable mWake;
   std::array<std::deque<std::function<void()>>, kFrameClasses> mQueues;
-  /// Per class: milliseconds of its tasks over its weight. A class that had nothing queued starts again from the tag
-  /// of the class served last (mClock), so that it neither banks its idle time nor pays for its past.
-  std::array<double, kFrameClasses> mTag{};
-  double mClock = 0;
+  ClassShares mShares;
   std::array<size_t, kFrameClasses> mRunning{};  ///< tasks running, by class
   Clock::time_point mLastInteractive{};           ///< when an interactive task was last posted
   bool mJoining = false;

@@ -43,7 +43,7 @@ std::string shareKeyOf(const RenderJob& job) {
 RenderScheduler::RenderScheduler(std::vector<std::unique_ptr<render::FrameSource>> sources,
                                  const SchedulerConfig& config)
     : mConfig(config),
-      mWeights{config.interactiveWeight, config.stillWeight, config.batchWeight},
+      mShares({config.interactiveWeight, config.stillWeight, config.batchWeight}),
       mSources(std::move(sources)) {
   if (mSources.empty() || !mSources.front()) throw std::invalid_argument("RenderScheduler: no frame source");
   mGaugeCount = mSources.size();
@@ -112,10 +112,10 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
       // Admission: a batch job that would wait beyond the bound is refused now rather than queued without end. Its
       // expected wait: the predicted time of the batch work ahead of it, over the threads' share for batch (the
       // whole of them when no other class waits).
-      const double weights = mWeights[size_t(FrameClass::Batch)] +
-                             (mWaitingByClass[0] + mRunningByClass[0] ? mWeights[0] : 0) +
-                             (mWaitingByClass[1] + mRunningByClass[1] ? mWeights[1] : 0);
-      const double share = mWeights[size_t(FrameClass::Batch)] / weights;
+      const double weights = mShares.weight(FrameClass::Batch) +
+                             (mWaitingByClass[0] + mRunningByClass[0] ? mShares.weight(FrameClass::Interactive) : 0) +
+                             (mWaitingByClass[1] + mRunningByClass[1] ? mShares.weight(FrameClass::Still) : 0);
+      const double share = mShares.weight(FrameClass::Batch) / weights;
       const double ahead = double(mWaitingByClass[size_t(FrameClass::Batch)] + 1) * predictedMsLocked(cls);
       const double waitMs = ahead / (double(mSources.size()) * share);
       if (waitMs > mConfig.batchMaxWaitMs) {
@@ -165,7 +165,7 @@ void RenderScheduler::enqueueLocked(const std::shared_ptr<Sink>& sink, RenderJob
   const size_t c = size_t(cls);
   // Start-time fair queueing: a class, or a session, that had nothing waiting starts at the tag last served, so
   // time it did not use is not saved up for a burst later.
-  if (mWaitingByClass[c] == 0 && mRunningByClass[c] == 0) mClassTag[c] = std::max(mClassTag[c], mGlobalClock);
+  if (mWaitingByClass[c] == 0 && mRunningByClass[c] == 0) mShares.resume(cls);
   if (state.waiting.empty()) {
     state.tag[c] = std::max(state.tag[c], mClassClock[c]);
     state.backloggedSince = ++mBacklogOrder;
@@ -278,10 +278,10 @@ std::shared_ptr<RenderScheduler::Sink> RenderScheduler::pickLocked(Clock::time_p
   earliest = Clock::time_point::max();
   // Still and batch frames leave reserved threads to the sessions that drag, when some do.
   const size_t threads = mSources.size();
-  const size_t reserved = std::min(size_t(mConfig.reservedInteractiveThreads), threads - 1);
-  const bool dragging = reserved > 0 && interactiveSessionsLocked(now) > 0;
-  const size_t otherRunning = mRunningByClass[1] + mRunningByClass[2];
-  const bool othersMayRun = !dragging || otherRunning < threads - reserved;
+  const size_t kept = ClassShares::kept(threads, size_t(std::max(0, mConfig.reservedInteractiveThreads)));
+  const bool dragging = kept > 0 && interactiveSessionsLocked(now) > 0;
+  const bool othersMayRun =
+      ClassShares::othersMayRun(threads, kept, dragging, mRunningByClass[1] + mRunningByClass[2]);
   // The best due session of each class: the smallest tag, then the longest waiting.
   std::array<const Sink*, kFrameClasses> best{};
   std::array<std::pair<double, uint64_t>, kFrameClasses> bestRank{};
@@ -297,22 +297,20 @@ std::shared_ptr<RenderScheduler::Sink> RenderScheduler::pickLocked(Clock::time_p
     const std::pair<double, uint64_t> rank{state.tag[c], state.backloggedSince};
     if (!best[c] || rank < bestRank[c]) best[c] = key, bestRank[c] = rank;
   }
-  // Between classes: the smallest class tag (time charged over weight); ties to the earlier class.
-  int chosen = -1;
-  for (size_t c = 0; c < kFrameClasses; ++c)
-    if (best[c] && (chosen < 0 || mClassTag[c] < mClassTag[size_t(chosen)])) chosen = int(c);
+  // Between classes: by their shares of the time (ClassShares).
+  std::array<bool, kFrameClasses> ready{};
+  for (size_t c = 0; c < kFrameClasses; ++c) ready[c] = best[c] != nullptr;
+  const int chosen = mShares.pick(ready);
   if (chosen < 0) {
     // Something may wait only for a thread its class may not take: the next finished frame wakes a thread.
     return nullptr;
   }
-  mGlobalClock = mClassTag[size_t(chosen)];
   return mBacklog.at(best[size_t(chosen)]);
 }
 
 void RenderScheduler::chargeLocked(const Sink* sink, FrameClass cls, double ms) {
-  const size_t c = size_t(cls);
-  mClassTag[c] += ms / mWeights[c];
-  if (auto it = mSessions.find(sink); it != mSessions.end()) it->second.tag[c] += ms;
+  mShares.charge(cls, ms);
+  if (auto it = mSessions.find(sink); it != mSessions.end()) it->second.tag[size_t(cls)] += ms;
 }
 
 std::array<size_t, kFrameClasses> RenderScheduler::queuedByClass() const {

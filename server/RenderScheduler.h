@@ -166,7 +166,8 @@ class RenderScheduler {
   SessionState& stateLocked(const std::shared_ptr<Sink>& sink);
 
   const SchedulerConfig mConfig;
-  const std::array<double, kFrameClasses> mWeights;
+  /// The render threads' time between classes (weights, tags, threads kept for dragging sessions).
+  ClassShares mShares;
   mutable std::mutex mMutex;
   std::condition_variable mReady;
   bool mStopping = false;
@@ -174,10 +175,9 @@ class RenderScheduler {
   /// Sessions with a job waiting, each once (the owners are kept alive while their jobs wait).
   std::map<const Sink*, std::shared_ptr<Sink>> mBacklog;
   uint64_t mBacklogOrder = 0;
-  /// Per class: its fair-queueing tag (render time charged over its weight), the tag of the last session served in it
-  /// (where a session that had nothing waiting starts again), jobs waiting and frames being drawn.
-  std::array<double, kFrameClasses> mClassTag{}, mClassClock{};
-  double mGlobalClock = 0;  ///< the class tag last served: where a class that had nothing waiting starts again
+  /// Per class: the tag of the last session served in it (where a session that had nothing waiting starts again), jobs
+  /// waiting and frames being drawn.
+  std::array<double, kFrameClasses> mClassClock{};
   std::array<size_t, kFrameClasses> mWaitingByClass{}, mRunningByClass{};
   std::array<double, kFrameClasses> mClassMs{};  ///< recent mean ms per frame
   std::array<uint64_t, kFrameClasses> mClassFrames{};
