@@ -10,7 +10,13 @@
 //
 // Usage: node bench/browser_link.mjs --datasets DIR [--dataset mri] [--tf mri] [--out PREFIX]
 //        [--sizes 512x512,1024x1024,1920x1080] [--encodings jpeg,vp8,vp9] [--links loopback,relay] [--duration 10]
-//        [--hz 30] [--mbit 10] [--rtt-ms 40] [--samples 4]
+//        [--hz 30] [--mbit 10] [--rtt-ms 40] [--samples 4] [--replay DIR --replay-draw-ms MS] [--frames-out DIR]
+//        [--server-log FILE]
+// --frames-out: each row's shown frames as the page recorded them (DIR/LINK-SIZE-ENCODING.json); --server-log FILE:
+// the server's log, kept.
+// --replay: the server draws nothing and answers each frame with the frame of DIR nearest its camera, taking MS ms
+// (`voxbrick serve --replay-frames`): everything but the drawing, with a GPU's drawing time (bench/run_browser_link.sh
+// --replay-draw-ms makes DIR).
 // Writes PREFIX.csv, PREFIX.md and PREFIX.json (default PREFIX bench/results/video/browser-link).
 
 import { spawn, spawnSync } from "node:child_process";
@@ -36,6 +42,10 @@ const opt = {
   mbit: Number(args.mbit || 10),
   rttMs: Number(args["rtt-ms"] || 40),
   samples: Number(args.samples || 4),
+  replay: args.replay || null,
+  framesOut: args["frames-out"] || null,
+  serverLog: args["server-log"] || null,
+  replayDrawMs: Number(args["replay-draw-ms"] || 0),
 };
 if (!opt.datasets) throw new Error("--datasets DIR is required");
 for (const e of opt.encodings) if (!["jpeg", "vp8", "vp9"].includes(e)) throw new Error(`--encodings: '${e}' is none of jpeg, vp8, vp9`);
@@ -97,6 +107,13 @@ async function dragRun(browser, server, base, size, encoding, scratch) {
     const frames = await page.evaluate(() => window.voxbrickViewer.frames());
     const state = await H.viewerState(page);
     const moving = frames.filter((f) => f.phase === "drag" && f.provisional);
+    if (opt.framesOut) {
+      // Every frame the page showed, for a closer look (its scene left out).
+      fs.mkdirSync(opt.framesOut, { recursive: true });
+      const file = path.join(opt.framesOut, `${base.includes(String(server.httpPort)) ? "loopback" : "relay"}-` +
+        `${size[0]}x${size[1]}-${encoding}.json`);
+      fs.writeFileSync(file, JSON.stringify(frames.map(({ scene, ...f }) => f), null, 1) + "\n");
+    }
     const lat = moving.map((f) => f.latencyMs);
     const psnrs = shots.map((shot, i) => {
       const exact = exactFrame(server, shot.frame.scene, path.join(scratch, `exact-${i}.png`));
@@ -123,6 +140,8 @@ async function dragRun(browser, server, base, size, encoding, scratch) {
       exact_bytes: s && s.lastFrame ? s.lastFrame.bytes : null,
       errors: state.counts.errors + page.errors.length,
       wrong_encoding: moving.filter((f) => f.encoding !== Encoding[encoding]).length,
+      // Where a moving frame's latency went (medians, ms; bench/drag_common.mjs latencySplit).
+      ...Object.fromEntries(Object.entries(D.latencySplit(moving)).map(([part, ms]) => [`split_${part}_ms`, ms])),
     };
   } finally {
     await page.close();
@@ -130,7 +149,8 @@ async function dragRun(browser, server, base, size, encoding, scratch) {
 }
 
 const scratch = H.scratchDir("browser-link");
-const server = await new H.Server({ dir: scratch.dir, datasets: opt.datasets }).start();
+const replayArgs = opt.replay ? ["--replay-frames", opt.replay, "--replay-draw-ms", String(opt.replayDrawMs)] : [];
+const server = await new H.Server({ dir: scratch.dir, datasets: opt.datasets, extra: replayArgs }).start();
 const relay = opt.links.includes("relay") ? await startRelay(server.httpPort) : null;
 const browser = await H.launchBrowser();
 const rows = [];
@@ -155,6 +175,7 @@ try {
   if (relay) relay.proc.kill();
   report.gl = D.glRenderer(server);
   await server.kill("SIGTERM");
+  if (opt.serverLog) fs.writeFileSync(opt.serverLog, server.log());
   scratch.remove();
 }
 console.log(writeResults(true).join("\n"));
@@ -166,7 +187,8 @@ function writeResults(done) {
   const gl = "gl" in report ? report.gl : D.glRenderer(server); // the server's log is gone once the run ended
   const cols = ["link", "size", "encoding", "frames", "fps", "latency_p50_ms", "latency_p99_ms", "bytes_per_frame",
     "encode_ms_p50", "decode_ms_p50", "psnr_db_mean", "psnr_db_min", "psnr_samples", "rung_p50", "key_frames",
-    "bitrate_kbps_p50", "exact_after_release_ms", "exact_encoding", "exact_bytes", "errors", "wrong_encoding"];
+    "bitrate_kbps_p50", "exact_after_release_ms", "exact_encoding", "exact_bytes", "errors", "wrong_encoding",
+    ...D.SPLIT.map((part) => `split_${part}_ms`)];
   D.writeCsv(`${opt.out}.csv`, cols, rows);
   fs.writeFileSync(`${opt.out}.json`,
     JSON.stringify({ ...report, load_average_end: loadNow, gl, complete: done, rows, command: D.benchCommand() }, null,
@@ -179,7 +201,11 @@ function writeResults(done) {
     `- Date: ${report.started}`,
     `- Machine: ${report.machine.line}; load average at the start ${report.machine.load_average.join(", ")}, at the ` +
       `end ${loadNow.join(", ")} (above the cores' count, other work shared the machine)`,
-    `- Server: \`voxbrick serve\` (its defaults), GL: ${gl || "unknown"}`,
+    opt.replay
+      ? `- Server: \`voxbrick serve --replay-frames DIR --replay-draw-ms ${opt.replayDrawMs}\`: **it draws nothing**; ` +
+        `each frame is the frame drawn beforehand (\`voxbrick orbit\`, 2° apart) nearest its camera, after ` +
+        `${opt.replayDrawMs} ms, a GPU's drawing time: everything but the drawing is measured (${gl || "unknown"})`
+      : `- Server: \`voxbrick serve\` (its defaults), GL: ${gl || "unknown"}`,
     `- Dataset \`${opt.dataset}\`, transfer function \`${opt.tf}\`; a drag of ${opt.duration} s at ${opt.hz} Hz, ` +
       `${DEG_PER_MOVE}° a move, through the page's own gesture handlers; a fresh tab for each row, its \`video\` ` +
       "parameter picking the encoding of the moving frames (off: jpeg); exact frames lossless (png, or webp where the " +
@@ -204,6 +230,16 @@ function writeResults(done) {
         `${fmt(r.bitrate_kbps_p50, 0)} | ${fmt(r.exact_after_release_ms, 0)} | ` +
         `${r.exact_encoding ? `${r.exact_encoding}, ${fmt(r.exact_bytes, 0)} B` : ""} | ${r.errors + r.wrong_encoding} |`;
     }),
+    "",
+    "Where a moving frame's latency went, medians in ms (bench/drag_common.mjs `latencySplit`): ask (the camera's " +
+      "wait for a Render slot), queue (the server's render queue), render (drawing), encoder (the wait for an " +
+      "encoder), encode, output (the server's output queue, the link's pace and the link), decode (the browser's) " +
+      "and page (the rest of the page's work until the canvas shows it).",
+    "",
+    `| link | size | encoding | ${D.SPLIT.join(" | ")} |`,
+    `|---|---|---|${D.SPLIT.map(() => "---:").join("|")}|`,
+    ...rows.map((r) => `| ${r.link} | ${r.size} | ${r.encoding} | ` +
+      `${D.SPLIT.map((part) => fmt(r[`split_${part}_ms`], 0)).join(" | ")} |`),
     "",
   ];
   fs.writeFileSync(`${opt.out}.md`, md.join("\n"));

@@ -118,7 +118,7 @@ const present = (v) => v.filter((x) => x !== null && x !== undefined);
 const maxOf = (v) => (present(v).length ? Math.max(...present(v)) : null);
 const minOf = (v) => (present(v).length ? Math.min(...present(v)) : null);
 
-const SPLIT = ["ask", "queue", "render", "encoder", "encode", "output", "decode", "page"];
+const SPLIT = D.SPLIT;
 
 /// A row of the table: the tabs' figures, the TCP crowd's, and each target's pass or fail.
 function row(r) {

@@ -82,6 +82,9 @@ export async function tabDrag(page, { durationMs, hz, exactWaitMs = 30000 }) {
   };
 }
 
+/// The parts latencySplit splits a frame's latency into, in the order a frame meets them.
+export const SPLIT = ["ask", "queue", "render", "encoder", "encode", "output", "decode", "page"];
+
 /// Where the camera-to-frame latency of `frames` (a tab's shown frames, as the page records them) went, medians in
 /// ms: `ask`, the camera's wait for a Render slot in the page; on the server, `queue` (the Render's wait for a render
 /// thread), `render` (its drawing: an interactive frame's planning, drawing and scaling up), `encoder` (the drawn

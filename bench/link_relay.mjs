@@ -24,26 +24,54 @@ const bytesPerMs = (option("mbit", 10) * 1e6) / 8 / 1000;
 const delayMs = option("delay-ms", 20);
 const queueBytes = Math.max(16384, option("queue-ms", 200) * bytesPerMs);
 
-/// One direction of the link: bytes from `from` reach `to` after their turn on the bottleneck plus the delay.
+/// One direction of the link: bytes from `from` reach `to` after their turn on the bottleneck plus the delay, in the
+/// order they came. One timer a direction delivers the chunks due, oldest first: a timer per chunk would not keep
+/// them in order (Node's timers count whole milliseconds from the event loop's cached time, so a later chunk's timer
+/// could fire first, and a stream of bytes came out reordered).
 function pipe(from, to) {
   let linkFreeAt = 0; // when the bottleneck has sent everything given to it so far
   let queued = 0; // bytes waiting for or on the bottleneck
+  const chunks = []; // { chunk, arriveAt }, oldest first
+  const queuedSent = []; // { sentAt, length }: bytes still on the bottleneck
+  let timer = null;
+  let timerAt = Infinity; // when `timer` fires
+  let ended = false;
+  const due = () => {
+    timer = null;
+    timerAt = Infinity;
+    const now = performance.now();
+    while (chunks.length && chunks[0].arriveAt <= now) {
+      const { chunk } = chunks.shift();
+      if (!to.destroyed) to.write(chunk);
+    }
+    // Bytes leave the queue once the bottleneck has sent them (before the delay).
+    while (queuedSent.length && queuedSent[0].sentAt <= now) queued -= queuedSent.shift().length;
+    if (queued <= queueBytes / 2 && from.isPaused()) from.resume();
+    if (chunks.length) schedule();
+    else if (ended) to.end();
+  };
+  const schedule = () => {
+    const next = Math.min(chunks.length ? chunks[0].arriveAt : Infinity,
+      queuedSent.length ? queuedSent[0].sentAt : Infinity);
+    if (timer && timerAt <= next) return;
+    if (timer) clearTimeout(timer);
+    timerAt = next;
+    timer = setTimeout(due, Math.max(0, next - performance.now()));
+  };
   from.on("data", (chunk) => {
     const now = performance.now();
     const sentAt = Math.max(now, linkFreeAt) + chunk.length / bytesPerMs;
     linkFreeAt = sentAt;
     queued += chunk.length;
+    queuedSent.push({ sentAt, length: chunk.length });
+    chunks.push({ chunk, arriveAt: sentAt + delayMs });
     if (queued > queueBytes) from.pause();
-    setTimeout(() => {
-      queued -= chunk.length;
-      if (queued <= queueBytes / 2 && from.isPaused()) from.resume();
-    }, sentAt - now);
-    setTimeout(() => {
-      if (!to.destroyed) to.write(chunk);
-    }, sentAt - now + delayMs);
+    schedule();
   });
-  const close = () => setTimeout(() => to.end(), Math.max(0, linkFreeAt - performance.now()) + delayMs + 1);
-  from.on("end", close);
+  from.on("end", () => {
+    ended = true;
+    if (!chunks.length) to.end();
+  });
   from.on("error", () => to.destroy());
 }
 

@@ -6,15 +6,24 @@
 # The server gives the video stream 70 % of the rate it measures: a link read from the drag's own spacing holds the
 # bitrate down. Rounds alternate the builds' order. Writes OUT.{csv,md}: every run, then each build's medians.
 #
-#   bash bench/run_link_ab.sh OLD_VOXBRICK NEW_VOXBRICK OUT [--rounds 2] [--size 512] [--duration 8]
+# --serve-args "ARGS": more options for both servers, e.g. "--replay-frames DIR --replay-draw-ms 10" (frames drawn
+# beforehand, bench/run_browser_link.sh --replay-draw-ms makes DIR: everything but the drawing measured). --relay
+# build/bench/bench_link_relay: the C++ relay (the same link, less of a busy machine's CPU than Node's). --links
+# slow: only the slow link.
+#
+#   bash bench/run_link_ab.sh OLD_VOXBRICK NEW_VOXBRICK OUT [--rounds 2] [--size 512] [--duration 8] [--serve-args ARGS]
+#                             [--relay PROGRAM] [--links far,slow]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 [ $# -ge 3 ] || { echo "usage: bash bench/run_link_ab.sh OLD_VOXBRICK NEW_VOXBRICK OUT [--rounds 2] [...]" >&2; exit 2; }
 old=$(realpath "$1") new=$(realpath "$2") out=$3
 shift 3
-rounds=2 size=512 duration=8
+rounds=2 size=512 duration=8 serveArgs= relayCmd="node bench/link_relay.mjs" links=far,slow
 while [ $# -gt 0 ]; do
   case "$1" in
+    --relay) relayCmd=$2; shift 2 ;;
+    --links) links=$2; shift 2 ;;
+    --serve-args) serveArgs=$2; shift 2 ;;
     --rounds) rounds=$2; shift 2 ;;
     --size) size=$2; shift 2 ;;
     --duration) duration=$2; shift 2 ;;
@@ -49,12 +58,15 @@ for r in $(seq 1 "$rounds"); do
   order="old new"; [ $((r % 2)) -eq 0 ] && order="new old"
   for link in "far 100 40" "slow 10 20"; do
     read -r name mbit delay <<< "$link"
+    [[ ",$links," == *",$name,"* ]] || continue
     for build in $order; do
       exe=$old; [ "$build" = new ] && exe=$new
-      "$exe" serve --datasets "$datasets" --port 0 --render-threads 1 > "$work/link-ab-serve.log" 2>&1 &
+      # shellcheck disable=SC2086  # the options, word by word
+      "$exe" serve --datasets "$datasets" --port 0 --render-threads 1 $serveArgs > "$work/link-ab-serve.log" 2>&1 &
       pids+=($!)
       port=$(port_in "$work/link-ab-serve.log" "listening on")
-      node bench/link_relay.mjs --target "$port" --listen 0 --mbit "$mbit" --delay-ms "$delay" > "$work/link-ab-relay.log" &
+      # shellcheck disable=SC2086  # the program and its arguments
+      $relayCmd --target "$port" --listen 0 --mbit "$mbit" --delay-ms "$delay" > "$work/link-ab-relay.log" &
       pids+=($!)
       relay=$(port_in "$work/link-ab-relay.log" "listening on")
       json=$work/link-ab-$build-$name-$r.json
@@ -67,10 +79,10 @@ for r in $(seq 1 "$rounds"); do
     done
   done
 done
-python3 - "$rows" "$out" "$old" "$new" "$rounds" "$size" "$duration" <<'PY'
+python3 - "$rows" "$out" "$old" "$new" "$rounds" "$size" "$duration" "$serveArgs" "$relayCmd" "$links" <<'PY'
 import csv, json, statistics, subprocess, sys
 from datetime import date
-rows_path, out, old, new, rounds, size, duration = sys.argv[1:8]
+rows_path, out, old, new, rounds, size, duration, serve_args, relay, links = sys.argv[1:11]
 runs = [json.loads(l) for l in open(rows_path)]
 table = []
 for d in runs:
@@ -87,11 +99,13 @@ with open(out + '.csv', 'w', newline='') as f:
 load = open('/proc/loadavg').read().split()[:3]
 tree = subprocess.run(['git', 'rev-parse', '--short', 'HEAD'], capture_output=True, text=True).stdout.strip()
 md = ['# Two builds\' measure of the link, side by side', '',
-      f'- Command: `bash bench/run_link_ab.sh OLD NEW {out} --rounds {rounds} --size {size} --duration {duration}`; old '
-      f'`{old}`, new `{new}` (source tree {tree}).',
+      f'- Command: `bash bench/run_link_ab.sh OLD NEW {out} --rounds {rounds} --size {size} --duration {duration}'
+      + (f' --serve-args "{serve_args}"' if serve_args else '')
+      + (f' --relay {relay}' if relay != 'node bench/link_relay.mjs' else '')
+      + (f' --links {links}' if links != 'far,slow' else '') + f'`; old `{old}`, new `{new}` (source tree {tree}).',
       f'- Date: {date.today()}; 2 shared cores, Mesa llvmpipe; load average at the end {" ".join(load)}.',
       f'- One `voxbrick load --drag 30 --interactive 50 --provisional-encoding vp8` client at {size}², {duration} s, the MRI;',
-      '  each Frame reported with FrameReceived. Through bench/link_relay.mjs: far, 100 Mbit/s with an 80 ms round trip;',
+      f'  each Frame reported with FrameReceived. Through {relay}: far, 100 Mbit/s with an 80 ms round trip;',
       '  slow, 10 Mbit/s with 40 ms. kbit/s: the moving frames\' bytes a second (frames/s x bytes a frame).', '',
       '| ' + ' | '.join(cols) + ' |', '|' + '---|' * len(cols)]
 md += ['| ' + ' | '.join(str(r[c]) for c in cols) + ' |' for r in table]

@@ -1,6 +1,8 @@
 // `voxbrick serve [--config config/server.toml | --no-config] [overrides]`: the render service.
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <fstream>
 #include <stdexcept>
 #include <string>
@@ -18,6 +20,7 @@
 #include "distributed/Cluster.h"
 #include "distributed/ServeRanks.h"
 #include "render/core/TransferFunction.h"
+#include "render/engine/ReplayFrameSource.h"
 #include "server/Server.h"
 #include "server/ServerConfig.h"
 #include "server/TlsContext.h"
@@ -40,6 +43,8 @@ struct ServeArgs {
   int64_t hostCacheMB = 0, gpuBudgetMB = 0, maxMessageBytes = 0;
   double uploadMaxMB = -1;  ///< --upload-max-mb; -1: as configured
   MpiArgs mpi;  ///< --mpi: sort-last across the ranks of mpirun: rank 0 serves, the others draw parts
+  std::string replayFrames;  ///< --replay-frames DIR: frames drawn beforehand instead of drawing (benchmarks)
+  double replayDrawMs = 0;   ///< --replay-draw-ms: the time each replayed frame takes
 };
 
 /// Set by SIGTERM or SIGINT on a worker rank of `serve --mpi` (rank 0's server handles its own signals).
@@ -127,6 +132,16 @@ void runServe(const ServeArgs& a) {
   if (!c.http && !a.httpPortFile.empty())
     throw std::runtime_error("--http-port-file needs --http PORT (or http.port in the configuration)");
   spdlog::info("configuration: {}", file.empty() ? std::string("the built-in defaults") : file);
+  if (!a.replayFrames.empty()) {
+    if (a.mpi.mpi) throw std::runtime_error("--replay-frames draws nothing, so it cannot be shared across ranks (--mpi)");
+    // Read before the server starts, so that a bad directory is refused at once, naming what is wrong.
+    const auto frames = std::make_shared<const render::ReplayFrames>(a.replayFrames);
+    std::vector<std::unique_ptr<render::FrameSource>> sources;
+    const auto drawTime = std::chrono::microseconds(int64_t(a.replayDrawMs * 1000.0));
+    for (int i = 0; i < c.renderThreads; ++i)
+      sources.push_back(std::make_unique<render::ReplayFrameSource>(frames, drawTime));
+    return serveWith(a, c, std::move(sources));
+  }
   if (a.mpi.mpi) return serveMpi(a, c);
   serveWith(a, c, server::makeLocalSources(c));
 }
@@ -309,6 +324,16 @@ void addServeCommand(CLI::App& app) {
       ->check(between(16, 1 << 22, "MB"));
   cmd->add_flag("--no-coalesce", a->noCoalesce,
                 "render every request in order instead of only a session's newest (to measure what latest-wins saves)");
+  CLI::Option* replay = cmd->add_option("--replay-frames", a->replayFrames,
+                  "benchmarks: draw nothing; answer each frame with the frame of DIR (replay.json lists them, each "
+                  "with its orbit camera) nearest its camera, so that a benchmark measures everything but drawing "
+                  "(docs/server.md)")
+      ->check(CLI::ExistingDirectory);
+  cmd->add_option("--replay-draw-ms", a->replayDrawMs,
+                  "benchmarks: with --replay-frames, the time each frame takes, as if drawn")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 10000.0))
+      ->needs(replay);
   cmd->callback([a] {
     keepFreedMemoryForFrames();
     runServe(*a);

@@ -3,6 +3,7 @@
 // scheduler and everything above it run without GL). The server's scheduler sees only this. GL-free.
 #pragma once
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -53,5 +54,9 @@ class FrameSource {
   virtual size_t peakGpuBytes() const { return 0; }
   virtual uint64_t renderersReleased() const { return 0; }
 };
+
+/// Spends the time until `end`, in steps of at most 1 ms, asking options.cancelled between them (FrameCancelled when
+/// it says so): the drawing time of a source that draws nothing itself (NullFrameSource, ReplayFrameSource).
+void spendDrawingTime(std::chrono::steady_clock::time_point end, const FrameOptions& options);
 
 }  // namespace voxbrick::render

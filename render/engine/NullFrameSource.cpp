@@ -23,12 +23,7 @@ image::ImageF NullFrameSource::render(const std::shared_ptr<const Dataset>& data
   }
   const auto start = std::chrono::steady_clock::now();
   const auto end = start + mDrawTime + mPerPixel * (int64_t(scene.width) * int64_t(scene.height));
-  for (;;) {
-    if (options.cancelled && options.cancelled()) throw FrameCancelled("the frame was given up");
-    const auto now = std::chrono::steady_clock::now();
-    if (now >= end) break;
-    std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(end - now, std::chrono::milliseconds(1)));
-  }
+  spendDrawingTime(end, options);
   image::ImageF image{scene.width, scene.height,
                       std::vector<float>(size_t(scene.width) * size_t(scene.height) * 4, 0.0f)};
   const float alpha = scene.transparent ? 0.0f : 1.0f;

@@ -82,6 +82,7 @@ TEST(Messages, HelpTextsSayEveryDefaultOneWay) {
       "orbit --scene",      "orbit --interactive",
       "serve --port-file",  "serve --http-port-file",
       "serve --config",     "serve --http",
+      "serve --replay-frames",
       "request --dataset",  "request --output",
       "request --stats",    "request --scene",
       "load --json",        "load --corrupt-dataset",
