@@ -431,8 +431,10 @@ void Connection::apply(Outcome outcome, const RenderJob* from) {
     outcome.render->pngSpeed = pngSpeedFor(link);
     outcome.render->webpForPng = outcome.render->scene.acceptsWebp && webpFor(link);
     std::optional<Submission> refused = mServices.renderQuota ? mServices.renderQuota(mId) : std::nullopt;
+    const auto received = outcome.render->received;
     Submission submission = refused ? std::move(*refused)
                                     : mServices.scheduler.submit(mTransport.renderSink(), std::move(*outcome.render));
+    if (submission.result == Submission::Result::Queued) mNewestRender = std::max(mNewestRender, received);
     apply(mServices.handler.submitted(mState, requestId, std::move(submission)));
   }
   if (outcome.prepare && !mClosed && !mClosing) prepare(std::move(*outcome.prepare));
@@ -488,7 +490,7 @@ void Connection::send(const proto::Message& message, uint32_t requestId, const R
   }
   const bool ordered = frame && from;
   enqueue(Outgoing{std::move(bytes), requestId, frame, video, ordered ? from->received : Clock::time_point{},
-                   ordered && from->refinement});
+                   ordered && from->refinement, ordered && from->refinement && from->scene.interactive});
   if (!mWriting) writeNext();
 }
 
@@ -522,8 +524,47 @@ void Connection::replaceUnsentFrame(uint32_t requestId) {
 }
 
 void Connection::writeNext() {
+  // An exact frame whose provisional frame answered its request, of a camera that has moved on since (a Render came
+  // after it was asked for), goes without a word rather than take the link: the newer request's frames make it
+  // obsolete (latest wins), and on a slow link its bytes would hold the moving frames behind it (a 1024² png takes
+  // 650 ms at 10 Mbit/s). A rest the client only seemed to take (its next move came late) asks for such frames.
+  while (!mOutbox.empty() && mOutbox.front().answered && mOutbox.front().asked < mNewestRender) {
+    mOutboxBytes -= mOutbox.front().bytes.size();
+    mServices.output.release(mOutbox.front().bytes.size());
+    mOutbox.pop_front();
+    if (mPaused && mOutboxBytes <= mServices.config.pauseReadingBytes / 2) {
+      mPaused = false;
+      readMessage();
+    }
+  }
+  if (mOutbox.empty()) {
+    mWriting = false;
+    if (mClosing) close();
+    return;
+  }
   const Outgoing& next = mOutbox.front();
   const auto now = Clock::now();
+  if (next.afterMotion && mPacer.reporting() && !mClosing) {
+    // The exact frame after a drag, to a client that reports: written once the camera rests, judged from what the
+    // client could see. While frames are on their way, or until the scheduler's rest has passed since both the last
+    // Render and the last report, it waits; a Render meanwhile makes it obsolete (above). A client that waits for
+    // its replies before it moves on (the viewer keeps at most three Renders unanswered) sends nothing while a slow
+    // link holds them, and the rest the scheduler saw was then the link's: an exact frame sent on it (650 ms for a
+    // 1024² png at 10 Mbit/s) held back the very replies the client waited for, and the next rest it read was the
+    // link's again.
+    const auto quietSince = std::max(mNewestRender, mPacer.lastReport());
+    const auto restEnds = quietSince + std::chrono::microseconds(int64_t(
+                                           mServices.scheduler.restMs(*mTransport.renderSink()) * 1000));
+    if (mPacer.inFlight() > 0) {
+      mWriting = false;
+      return armPace();  // a report, or the oldest frame going stale, calls again
+    }
+    if (now < restEnds) {
+      mWriting = false;
+      mTransport.arm(Deadline::Pace, std::max(0.001, std::chrono::duration<double>(restEnds - now).count()));
+      return;
+    }
+  }
   if ((next.frame || next.video) && !mClosing) {
     // A client that reports its frames keeps at most LinkPacer::kFramesInFlight on the link: this one waits here,
     // where a newer frame still replaces it, not in the network's buffers.

@@ -161,6 +161,9 @@ class Connection {
     /// A still Frame whose request its provisional Frame already answered (an exact frame, RenderJob::refinement):
     /// replaced without a word.
     bool answered = false;
+    /// The exact frame of an interactive request: to a client that reports, written only once the camera rests
+    /// (writeNext).
+    bool afterMotion = false;
   };
   /// A video Frame rendered, waiting to be encoded.
   struct PendingVideo {
@@ -246,6 +249,8 @@ class Connection {
   /// When the Render of the stream's newest frame handed to the encoder arrived: a frame of an earlier Render is
   /// never encoded after it (videoRendered).
   std::chrono::steady_clock::time_point mVideoAsked{};
+  /// When the newest Render the scheduler queued arrived: an exact frame asked for before it is obsolete (writeNext).
+  std::chrono::steady_clock::time_point mNewestRender{};
   bool mVideoEncoding = false;
   bool mVideoNeedsKey = false;  ///< a frame of the stream was encoded but not sent: the next must be a key frame
   bool mStillEncoding = false;  ///< a still Frame is being encoded aside

@@ -42,6 +42,8 @@ class LinkPacer {
   /// Whether the client has reported a frame and has not gone stale since.
   bool reporting() const { return mReporting; }
   int inFlight() const { return int(mReporting ? mOnTheWay.size() : 0); }
+  /// When the client's last report arrived (none before the first).
+  Clock::time_point lastReport() const { return mLastReport; }
 
   /// The shortest time from a frame's write to its report over the session (a round trip plus the smallest frame's
   /// transfer); none before the first report.

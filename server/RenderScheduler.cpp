@@ -99,7 +99,10 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
     // The key is made once here; dispatch compares it with every waiting job's.
     job.shareKey = mConfig.shareFrames ? shareKeyOf(job) : std::string();
     if (!job.refinement) {
-      if (state.lastReceived != Clock::time_point{}) state.intervalMs = elapsedMs(state.lastReceived, job.received);
+      if (state.lastReceived != Clock::time_point{}) {
+        state.intervalsMs.push_back(elapsedMs(state.lastReceived, job.received));
+        if (state.intervalsMs.size() > kRestIntervals) state.intervalsMs.pop_front();
+      }
       state.lastReceived = job.received;
       // A still frame right after a drag is the drag's last: a viewer waits for it.
       job.endsDrag = !job.scene.interactive && !job.scene.batch && state.lastInteractive != Clock::time_point{} &&
@@ -189,8 +192,9 @@ RenderScheduler::SessionState& RenderScheduler::stateLocked(const std::shared_pt
 double RenderScheduler::restMs(const Sink& sink) const {
   std::lock_guard lock(mMutex);
   const auto it = mSessions.find(&sink);
-  if (it == mSessions.end() || it->second.intervalMs <= 0) return kMaxRestMs;
-  return std::min(1.5 * it->second.intervalMs, kMaxRestMs);
+  if (it == mSessions.end() || it->second.intervalsMs.empty()) return kMaxRestMs;
+  const auto& intervals = it->second.intervalsMs;
+  return std::min(1.5 * *std::max_element(intervals.begin(), intervals.end()), kMaxRestMs);
 }
 
 void RenderScheduler::refine(const std::shared_ptr<Sink>& sink, RenderJob job) {

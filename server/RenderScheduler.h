@@ -66,11 +66,15 @@ class RenderScheduler {
   /// first, so that it does not start while the camera still moves; a progressive one is queued at once. Thread-safe.
   void refine(const std::shared_ptr<Sink>& sink, RenderJob job);
   /// How long the exact frame of an interactive request of `sink`'s session waits for the camera to rest: one and a
-  /// half times the interval between the session's last two Renders (a camera still moving sends its next one within
-  /// it), at most kMaxRestMs (so that the exact frame follows within about 200 ms of the last frame when the
-  /// camera stops), and kMaxRestMs before the session has sent two Renders.
+  /// half times the longest of the intervals between the session's last kRestIntervals + 1 Renders (a camera still
+  /// moving sends its next one within it, a client whose moves come unevenly included), at most kMaxRestMs (so that
+  /// the exact frame follows within about 200 ms of the last frame when the camera stops), and kMaxRestMs before the
+  /// session has sent two Renders. A rest read too soon costs a whole exact frame on the link, which on a slow link
+  /// holds the moving frames behind it (a 1024² png takes 650 ms at 10 Mbit/s); a jittery client's shortest interval
+  /// would read one every few moves.
   double restMs(const Sink& sink) const;
   static constexpr double kMaxRestMs = 150;
+  static constexpr size_t kRestIntervals = 4;
   /// How long a session counts as dragging after its last interactive Render.
   static constexpr std::chrono::milliseconds kInteractiveWindow{1000};
 
@@ -156,7 +160,7 @@ class RenderScheduler {
     std::deque<RenderJob> waiting;  ///< oldest first
     std::map<std::string, render::RateGauge, std::less<>> rates;  // by the dataset's kind
     Clock::time_point lastReceived{};
-    double intervalMs = 0;  // between its last two Renders; 0 before the second
+    std::deque<double> intervalsMs;  ///< between its last kRestIntervals + 1 Renders, oldest first
     Clock::time_point lastInteractive{};
     /// Fair-queueing tags, per class: the render time charged to the session, over its weight (virtual ms).
     std::array<double, kFrameClasses> tag{};

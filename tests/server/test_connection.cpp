@@ -705,6 +705,79 @@ TEST_F(ConnectionTest, AStillFrameOfAnOlderRenderNeverReplacesANewerOneQueued) {
   EXPECT_EQ(stats.total(ServerEvent::Superseded), 2u);
 }
 
+// An exact frame waiting unsent for the client's reports goes without a word once a newer Render came: its camera
+// has moved on (the rest that asked for it was only a late move), and on a slow link its bytes (a 1024² png: 650 ms
+// at 10 Mbit/s) would hold the moving frames behind it. The exact frame of the newest camera is still sent, once the
+// client has had every frame on its way and the camera rested since (a client waiting for its replies sends no Render
+// while a slow link holds them).
+TEST_F(ConnectionTest, AnExactFrameOfACameraThatMovedOnIsNotSent) {
+  using Clock = std::chrono::steady_clock;
+  greet(4);
+  receive(proto::OpenDataset{"sparse"}, 2);
+  flush();
+  const auto report = [&](uint32_t id) { receive(proto::FrameReceived{1000}, id); };
+  /// The render thread's frame of request `id`, whose Render (or refinement) arrived at `received`.
+  const auto rendered = [&](uint32_t id, proto::Encoding encoding, bool exact, Clock::time_point received) {
+    RenderJob job;
+    job.requestId = id;
+    job.refinement = exact;
+    job.received = received;
+    core.rendered(job, proto::Frame{32, 32, encoding, exact ? "{}" : R"({"provisional": true})",
+                                    std::vector<uint8_t>(32 * 32 * 4, uint8_t(id))});
+    settle();
+  };
+  const auto start = Clock::now();
+  rendered(3, proto::Encoding::Vp8, false, start);
+  report(3);
+  rendered(4, proto::Encoding::Vp8, false, start + std::chrono::milliseconds(1));
+  rendered(5, proto::Encoding::Vp8, false, start + std::chrono::milliseconds(2));
+  ASSERT_EQ(core.link().inFlight(), 2);
+  rendered(5, proto::Encoding::Png, true, start + std::chrono::milliseconds(3));  // the camera seemed to rest
+  const size_t written = transport->writes.size();
+  std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  receive(proto::RenderRequest{proto::Encoding::Png, kConnectionScene}, 6);  // it moved on
+  report(4);
+  settle();
+  std::vector<std::pair<uint32_t, proto::Encoding>> frames;
+  for (size_t i = written; i < transport->writes.size(); ++i) {
+    const auto [message, id] = decoded(transport->writes[i]);
+    ASSERT_TRUE(std::holds_alternative<proto::Frame>(message)) << "no Error: 5's provisional frame answered it";
+    frames.emplace_back(id, std::get<proto::Frame>(message).encoding);
+  }
+  EXPECT_TRUE(frames.empty()) << "5's exact frame was sent";
+  EXPECT_EQ(stats.total(ServerEvent::Superseded), 0u);
+  // The newest camera's frames: its provisional frame at once; its exact frame (the request was interactive) only
+  // once nothing is on its way and the rest has passed since both the last Render and the last report.
+  rendered(6, proto::Encoding::Vp8, false, Clock::now());
+  ASSERT_EQ(transport->writes.size(), written + 1);
+  EXPECT_EQ(decoded(transport->writes[written]).second, 6u);
+  RenderJob exact;
+  exact.requestId = 6;
+  exact.refinement = true;
+  exact.received = Clock::now();
+  exact.scene.interactive = true;
+  core.rendered(exact, proto::Frame{32, 32, proto::Encoding::Png, "{}", std::vector<uint8_t>(32 * 32 * 4, 6)});
+  settle();
+  EXPECT_EQ(transport->writes.size(), written + 1) << "frames on their way: the exact frame waits";
+  report(5);
+  settle();
+  EXPECT_EQ(transport->writes.size(), written + 1) << "one frame still on its way";
+  const auto reported = Clock::now();
+  report(6);
+  settle();
+  EXPECT_EQ(transport->writes.size(), written + 1) << "nothing on its way, but the camera has not rested yet";
+  EXPECT_TRUE(transport->armed.count(Deadline::Pace));
+  const double restMs = scheduler->restMs(*transport->renderSink());
+  std::this_thread::sleep_until(reported + std::chrono::microseconds(int64_t(restMs * 1000)) +
+                                std::chrono::milliseconds(5));
+  core.expired(Deadline::Pace);
+  settle();
+  ASSERT_EQ(transport->writes.size(), written + 2);
+  const auto [last, id] = decoded(transport->writes.back());
+  EXPECT_EQ(id, 6u);
+  EXPECT_EQ(std::get<proto::Frame>(last).encoding, proto::Encoding::Png);
+}
+
 // A client that reports its frames (FrameReceived) keeps at most two on their way; a third waits at the server, where
 // a newer frame still replaces it, until a report makes room.
 TEST_F(ConnectionTest, FramesWaitForTheClientsReportsOnceItReports) {

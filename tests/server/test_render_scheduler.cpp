@@ -131,6 +131,32 @@ TEST_F(RenderSchedulerTest, AnInteractiveJobIsRefinedToTheExactFrame) {
   s->stop();
 }
 
+// The exact frame of a moving camera waits for the camera to rest: one and a half times the longest of the session's
+// last four intervals between Renders (at most kMaxRestMs), so that a client whose moves come unevenly does not read
+// as resting at its next quick move.
+TEST_F(RenderSchedulerTest, TheRestBeforeAnExactFrameFollowsTheLongestRecentInterval) {
+  auto s = scheduler(1, true);  // never started: the jobs only wait
+  auto a = std::make_shared<RecordingSink>();
+  EXPECT_EQ(s->restMs(*a), RenderScheduler::kMaxRestMs) << "no Render yet";
+  auto t = std::chrono::steady_clock::now();
+  const auto move = [&](uint32_t id, int afterMs) {
+    t += std::chrono::milliseconds(afterMs);
+    RenderJob j = job(id);
+    j.scene.interactive = true;
+    j.received = t;
+    s->submit(a, j);
+    return s->restMs(*a);
+  };
+  EXPECT_EQ(move(1, 0), RenderScheduler::kMaxRestMs) << "one Render: no interval yet";
+  EXPECT_DOUBLE_EQ(move(2, 20), 30);
+  EXPECT_DOUBLE_EQ(move(3, 60), 90);  // a late move
+  EXPECT_DOUBLE_EQ(move(4, 20), 90);
+  EXPECT_DOUBLE_EQ(move(5, 20), 90);
+  EXPECT_DOUBLE_EQ(move(6, 20), 90) << "the late move is among the last four intervals";
+  EXPECT_DOUBLE_EQ(move(7, 20), 30) << "no longer";
+  EXPECT_EQ(move(8, 400), RenderScheduler::kMaxRestMs) << "a new drag after a pause";
+}
+
 // Sessions take turns: one with many jobs waiting (without coalescing) does not hold back another's single job.
 TEST_F(RenderSchedulerTest, ASessionWithManyJobsWaitingDoesNotHoldBackAnother) {
   std::vector<render::NullFrameSource*> sources;
