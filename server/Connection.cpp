@@ -528,15 +528,7 @@ void Connection::writeNext() {
   // after it was asked for), goes without a word rather than take the link: the newer request's frames make it
   // obsolete (latest wins), and on a slow link its bytes would hold the moving frames behind it (a 1024² png takes
   // 650 ms at 10 Mbit/s). A rest the client only seemed to take (its next move came late) asks for such frames.
-  while (!mOutbox.empty() && mOutbox.front().answered && mOutbox.front().asked < mNewestRender) {
-    mOutboxBytes -= mOutbox.front().bytes.size();
-    mServices.output.release(mOutbox.front().bytes.size());
-    mOutbox.pop_front();
-    if (mPaused && mOutboxBytes <= mServices.config.pauseReadingBytes / 2) {
-      mPaused = false;
-      readMessage();
-    }
-  }
+  while (!mOutbox.empty() && mOutbox.front().answered && mOutbox.front().asked < mNewestRender) popOutbox();
   if (mOutbox.empty()) {
     mWriting = false;
     if (mClosing) close();
@@ -579,17 +571,21 @@ void Connection::writeNext() {
   mTransport.write(next.bytes);
 }
 
-void Connection::written(bool ok) {
-  mTransport.cancel(Deadline::Write);
-  if (!ok || mClosed) return close();  // close() has released the queue's bytes already
+void Connection::popOutbox() {
   mOutboxBytes -= mOutbox.front().bytes.size();
   mServices.output.release(mOutbox.front().bytes.size());
   mOutbox.pop_front();
-  // Resumed once half the threshold is written, so a client reading at its own pace is not paused at every reply.
+  // Resumed once half the threshold is gone, so a client reading at its own pace is not paused at every reply.
   if (mPaused && mOutboxBytes <= mServices.config.pauseReadingBytes / 2) {
     mPaused = false;
     readMessage();
   }
+}
+
+void Connection::written(bool ok) {
+  mTransport.cancel(Deadline::Write);
+  if (!ok || mClosed) return close();  // close() has released the queue's bytes already
+  popOutbox();
   mWriting = false;
   if (!mOutbox.empty())
     writeNext();

@@ -218,6 +218,9 @@ class Connection {
   /// Queues `message` to `requestId`; `from`: the job whose still Frame it is (its Outgoing's asked and answered).
   void send(const proto::Message& message, uint32_t requestId, const RenderJob* from = nullptr);
   void enqueue(Outgoing reply);
+  /// Removes the reply at the front of the queue (written, or dropped unsent) and resumes reading below half the
+  /// pause threshold.
+  void popOutbox();
   /// A Frame to `requestId` is about to be queued: the Frame queued and not yet being written, if any, is removed
   /// (its request answered Superseded instead, unless it is `requestId`'s own provisional frame).
   void replaceUnsentFrame(uint32_t requestId);

@@ -55,6 +55,12 @@ class FrameSource {
   virtual uint64_t renderersReleased() const { return 0; }
 };
 
+/// The checks of a source that draws nothing itself (NullFrameSource, ReplayFrameSource) before a frame: throws
+/// RenderInputError without a dataset, RenderLimitError when the scene's width times height (its "estimate") is above
+/// options.maxSamples. Returns that estimate.
+double checkedPixelSamples(const std::shared_ptr<const Dataset>& dataset, const Scene& scene,
+                           const FrameOptions& options);
+
 /// Spends the time until `end`, in steps of at most 1 ms, asking options.cancelled between them (FrameCancelled when
 /// it says so): the drawing time of a source that draws nothing itself (NullFrameSource, ReplayFrameSource).
 void spendDrawingTime(std::chrono::steady_clock::time_point end, const FrameOptions& options);

@@ -10,11 +10,7 @@ namespace voxbrick::render {
 
 image::ImageF NullFrameSource::render(const std::shared_ptr<const Dataset>& dataset, const Scene& scene,
                                       FrameStats* stats, const FrameOptions& options) {
-  if (!dataset) throw RenderInputError("no dataset");
-  const double samples = double(scene.width) * double(scene.height);
-  if (options.maxSamples > 0 && samples > options.maxSamples)
-    throw RenderLimitError("the frame would take " + std::to_string(samples) + " samples, above the limit of " +
-                           std::to_string(options.maxSamples));
+  checkedPixelSamples(dataset, scene, options);
   double warmupMs = 0;
   if (const int64_t warmup = mWarmup.exchange(0); warmup > 0) {
     const auto warmupStart = std::chrono::steady_clock::now();

@@ -121,13 +121,10 @@ std::string ReplayFrameSource::describe() const {
 
 image::Image8 ReplayFrameSource::render8(const std::shared_ptr<const Dataset>& dataset, const Scene& scene,
                                          FrameStats* stats, const FrameOptions& options) {
-  if (!dataset) throw RenderInputError("no dataset");
-  const double samples = double(scene.width) * double(scene.height);
-  if (options.maxSamples > 0 && samples > options.maxSamples)
-    throw RenderLimitError("the frame would take " + std::to_string(samples) + " samples, above the limit of " +
-                           std::to_string(options.maxSamples));
+  const double samples = checkedPixelSamples(dataset, scene, options);
   const auto start = std::chrono::steady_clock::now();
-  const std::shared_ptr<const image::Image8> stored = mFrames->pixels(mFrames->nearest(scene.camera, scene.width, scene.height));
+  const std::shared_ptr<const image::Image8> stored =
+      mFrames->pixels(mFrames->nearest(scene.camera, scene.width, scene.height));
   spendDrawingTime(start + mDrawTime, options);
   image::Image8 out;
   if (stored->width == scene.width && stored->height == scene.height) {
