@@ -547,7 +547,8 @@ void Connection::writeNext() {
     const auto quietSince = std::max(mNewestRender, mPacer.lastReport());
     const auto restEnds = quietSince + std::chrono::microseconds(int64_t(
                                            mServices.scheduler.restMs(*mTransport.renderSink()) * 1000));
-    if (mPacer.inFlight() > 0) {
+    // (A client that stopped reporting, its oldest frame unreported for LinkPacer::kStaleMs, is waited for no more.)
+    if (mPacer.inFlight() > 0 && now < mPacer.releaseAt()) {
       mWriting = false;
       return armPace();  // a report, or the oldest frame going stale, calls again
     }

@@ -777,6 +777,33 @@ TEST_F(ConnectionTest, AnExactFrameOfACameraThatMovedOnIsNotSent) {
   EXPECT_EQ(std::get<proto::Frame>(last).encoding, proto::Encoding::Png);
 }
 
+// A client that stopped reporting is waited for no longer than the pacer waits: once its oldest frame on the way has
+// gone unreported for a second, the exact frame held for the camera's rest is written.
+TEST_F(ConnectionTest, AnExactFrameIsNotHeldForAClientThatStoppedReporting) {
+  greet(4);
+  render(3, proto::Encoding::Vp8);
+  settle();
+  receive(proto::FrameReceived{1000}, 3);
+  render(4, proto::Encoding::Vp8);
+  settle();
+  ASSERT_EQ(core.link().inFlight(), 1);
+  RenderJob exact;
+  exact.requestId = 4;
+  exact.refinement = true;
+  exact.received = std::chrono::steady_clock::now();
+  exact.scene.interactive = true;
+  core.rendered(exact, proto::Frame{32, 32, proto::Encoding::Png, "{}", std::vector<uint8_t>(32 * 32 * 4, 4)});
+  settle();
+  const size_t before = transport->writes.size();
+  std::this_thread::sleep_for(std::chrono::milliseconds(int64_t(LinkPacer::kStaleMs) + 20));
+  core.expired(Deadline::Pace);
+  settle();
+  ASSERT_EQ(transport->writes.size(), before + 1) << "the exact frame still held";
+  const auto [message, id] = decoded(transport->writes.back());
+  EXPECT_EQ(id, 4u);
+  EXPECT_EQ(std::get<proto::Frame>(message).encoding, proto::Encoding::Png);
+}
+
 // A client that reports its frames (FrameReceived) keeps at most two on their way; a third waits at the server, where
 // a newer frame still replaces it, until a report makes room.
 TEST_F(ConnectionTest, FramesWaitForTheClientsReportsOnceItReports) {
