@@ -59,6 +59,11 @@ OrbitAxes OrbitAxes::of(UpAxis axis) {
   return o;
 }
 
+glm::dvec3 OrbitAxes::eyeDirection(double azimuthDeg, double elevationDeg) const {
+  const double az = glm::radians(azimuthDeg), el = glm::radians(elevationDeg);
+  return std::cos(el) * (std::cos(az) * front + std::sin(az) * side) + std::sin(el) * up;
+}
+
 Camera Camera::orbitAt(double azimuthDeg, double elevationDeg, double distance, const Box& box, const OrbitAxes& axes) {
   if (!std::isfinite(azimuthDeg) || !std::isfinite(elevationDeg))
     throw RenderInputError("Camera::orbit: angles (" + numberText(azimuthDeg) + ", " + numberText(elevationDeg) +
@@ -70,7 +75,7 @@ Camera Camera::orbitAt(double azimuthDeg, double elevationDeg, double distance, 
   const glm::dvec3 around = std::cos(az) * axes.front + std::sin(az) * axes.side;
   Camera camera;
   camera.center = box.center();
-  camera.eye = camera.center + distance * (std::cos(el) * around + std::sin(el) * axes.up);
+  camera.eye = camera.center + distance * axes.eyeDirection(azimuthDeg, elevationDeg);
   // Away from the pole the pole axis itself (negated past it) projects to exactly this derivative, so it is taken
   // as it is; near it (and at it, where the projection vanishes) the derivative.
   const double c = std::cos(el);

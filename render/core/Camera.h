@@ -56,6 +56,9 @@ struct OrbitAxes {
   static OrbitAxes of(UpAxis axis);
   /// of(parseUpAxis(name, what)).
   static OrbitAxes ofUpAxis(const std::string& name, const std::string& what) { return of(parseUpAxis(name, what)); }
+  /// The unit direction from the orbit's centre to its eye at (azimuth, elevation) degrees: cos el * (cos az * front +
+  /// sin az * side) + sin el * up (Camera::orbitAt).
+  glm::dvec3 eyeDirection(double azimuthDeg, double elevationDeg) const;
 };
 
 /// A pinhole (or orthographic) camera in world space, right-handed, GL conventions: the view looks down -Z of eye

@@ -20,15 +20,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
-/// The unit direction from the orbit's centre to the eye at (azimuth, elevation) degrees about `up`.
-glm::dvec3 orbitDirection(double azimuth, double elevation, UpAxis up) {
-  const OrbitAxes axes = OrbitAxes::of(up);
-  const double az = glm::radians(azimuth), el = glm::radians(elevation);
-  return std::cos(el) * (std::cos(az) * axes.front + std::sin(az) * axes.side) + std::sin(el) * axes.up;
-}
-
-glm::dvec3 viewDirection(const CameraSpec& camera) {
-  if (camera.orbit) return orbitDirection(camera.azimuth, camera.elevation, camera.upAxis);
+/// The unit direction from what `camera` looks at to its eye.
+glm::dvec3 eyeDirection(const CameraSpec& camera) {
+  if (camera.orbit) return OrbitAxes::of(camera.upAxis).eyeDirection(camera.azimuth, camera.elevation);
   const glm::dvec3 d = camera.eye - camera.center;
   const double length = glm::length(d);
   return length > 0 ? d / length : glm::dvec3(0, 0, 1);
@@ -61,6 +55,7 @@ ReplayFrames::ReplayFrames(const fs::path& dir) : mDir(dir) {
     }
     frame.azimuth = f["azimuth"].get<double>();
     frame.elevation = f["elevation"].get<double>();
+    frame.direction = OrbitAxes::of(UpAxis::PosZ).eyeDirection(frame.azimuth, frame.elevation);
     if (!fs::is_regular_file(frame.file)) throw RenderInputError(where + ": " + frame.file.string() + " does not exist");
     mFrames.push_back(std::move(frame));
   }
@@ -91,14 +86,14 @@ ReplayFrames::ReplayFrames(const fs::path& dir) : mDir(dir) {
 }
 
 size_t ReplayFrames::nearest(const CameraSpec& camera, int width, int height) const {
-  const glm::dvec3 wanted = viewDirection(camera);
+  const glm::dvec3 wanted = eyeDirection(camera);
   const bool sized = std::any_of(mFrames.begin(), mFrames.end(),
                                  [&](const Frame& f) { return f.width == width && f.height == height; });
   size_t best = 0;
   double bestCos = -2;
   for (size_t i = 0; i < mFrames.size(); ++i) {
     if (sized && (mFrames[i].width != width || mFrames[i].height != height)) continue;
-    const double c = glm::dot(wanted, orbitDirection(mFrames[i].azimuth, mFrames[i].elevation, UpAxis::PosZ));
+    const double c = glm::dot(wanted, mFrames[i].direction);
     if (c > bestCos) {
       bestCos = c;
       best = i;

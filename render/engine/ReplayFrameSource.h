@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+#include <glm/vec3.hpp>
+
 #include "render/engine/FrameSource.h"
 
 namespace voxbrick::render {
@@ -31,6 +33,7 @@ class ReplayFrames {
   struct Frame {
     std::filesystem::path file;
     double azimuth = 0, elevation = 0;  ///< degrees
+    glm::dvec3 direction{0, 0, 1};      ///< from the orbit's centre to the eye (about +z)
     int width = 0, height = 0;
   };
   const std::vector<Frame>& frames() const { return mFrames; }
