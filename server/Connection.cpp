@@ -21,6 +21,11 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+/// A drag's pace (Connection::videoPaceMs) is the median of its last kDragIntervals intervals between Renders; a
+/// pause longer than kDragPauseMs starts a new drag.
+constexpr size_t kDragIntervals = 5;
+constexpr double kDragPauseMs = 250;
+
 /// Bytes a Frame takes encoded, near enough to weigh it against the output budget before encoding it.
 uint64_t encodedBytes(const proto::Frame& frame) {
   return proto::kHeaderBytes + 64 + frame.statsJson.size() + frame.payload.size();
@@ -87,6 +92,7 @@ void Connection::expired(Deadline deadline) {
     case Deadline::Read: return onReadTimeout();
     case Deadline::Write: return onWriteTimeout();
     case Deadline::Pace:
+      mPaceArmedAt = {};
       if (mClosed) return;
       if (!mWriting && !mOutbox.empty()) writeNext();
       return pumpVideo();
@@ -224,8 +230,14 @@ void Connection::pumpVideo() {
       firstUnsent(&Outgoing::video) != mOutbox.end())
     return;
   const auto now = Clock::now();
-  if (!mPacer.mayWrite(now)) return armPace();
+  // Encoded ahead: started when the link is expected to have room by the time the encoder is done (the frame then
+  // waits in the outbox for LinkPacer::mayWrite), so the encoding is not part of the time between frames.
+  const auto lead = std::chrono::microseconds(int64_t(mVideoEncodeLeadMs * 1000));
+  const std::optional<Clock::time_point> room = mPacer.roomExpectedAt(now);
+  if (!mPacer.mayWrite(now) && !(room && *room <= now + lead))
+    return armPaceAt(room ? std::max(now, *room - lead) : mPacer.releaseAt());
   auto task = std::make_shared<EncodingVideo>();
+  task->handedAt = now;
   task->job = std::move(mVideoPending->job);
   task->frame = std::move(mVideoPending->frame);
   task->input.drawn = mVideoPending->drawn;
@@ -235,8 +247,8 @@ void Connection::pumpVideo() {
   task->input.dataset = task->job.dataset.get();
   task->input.keyframe = task->job.scene.keyframe || mVideoNeedsKey;
   const int width = int(task->frame.width), height = int(task->frame.height);
-  task->input.bitrateKbps =
-      mPacer.videoKbps(VideoStream::startKbps(width, height), VideoStream::capKbps(width, height), now);
+  task->input.bitrateKbps = mPacer.videoKbps(VideoStream::startKbps(width, height),
+                                             VideoStream::capKbps(width, height), now, videoPaceMs());
   mVideoNeedsKey = false;
   mVideoEncoding = true;
   mTransport.runAside(
@@ -252,6 +264,8 @@ void Connection::pumpVideo() {
 
 void Connection::videoEncoded(EncodingVideo& done) {
   mVideoEncoding = false;
+  const double leadMs = std::chrono::duration<double, std::milli>(Clock::now() - done.handedAt).count();
+  mVideoEncodeLeadMs = mVideoEncodeLeadMs > 0 ? 0.75 * mVideoEncodeLeadMs + 0.25 * leadMs : leadMs;
   if (!done.error)
     mServices.stats.videoEncoded(done.frame.encoding, done.encoded.encodeMs, done.encoded.key ? done.encoded.keyReason : "");
   if (mClosing || mClosed) return;
@@ -272,9 +286,18 @@ void Connection::videoEncoded(EncodingVideo& done) {
   renderedAfterEncoding();
 }
 
-void Connection::armPace() {
-  const double seconds = std::chrono::duration<double>(mPacer.releaseAt() - Clock::now()).count();
-  mTransport.arm(Deadline::Pace, std::max(0.001, seconds));
+void Connection::armPaceAt(Clock::time_point when) {
+  const auto now = Clock::now();
+  if (mPaceArmedAt > now && mPaceArmedAt <= when) return;  // woken sooner: writeNext and pumpVideo look again then
+  mPaceArmedAt = when;
+  mTransport.arm(Deadline::Pace, std::max(0.001, std::chrono::duration<double>(when - now).count()));
+}
+
+std::optional<double> Connection::videoPaceMs() const {
+  if (mDragIntervalsMs.size() < 2) return std::nullopt;
+  std::vector<double> ms(mDragIntervalsMs.begin(), mDragIntervalsMs.end());
+  std::nth_element(ms.begin(), ms.begin() + ms.size() / 2, ms.end());
+  return LinkPacer::kFramesInFlight * ms[ms.size() / 2];
 }
 
 void Connection::frameReceived() {
@@ -432,6 +455,14 @@ void Connection::apply(Outcome outcome, const RenderJob* from) {
     outcome.render->webpForPng = outcome.render->scene.acceptsWebp && webpFor(link);
     std::optional<Submission> refused = mServices.renderQuota ? mServices.renderQuota(mId) : std::nullopt;
     const auto received = outcome.render->received;
+    if (outcome.render->scene.interactive) {
+      // A drag's pace: the intervals between its Renders, from the first after a pause of kDragPauseMs.
+      const double sinceMs = std::chrono::duration<double, std::milli>(received - mLastDragRender).count();
+      if (mLastDragRender == Clock::time_point{} || sinceMs > kDragPauseMs) mDragIntervalsMs.clear();
+      else mDragIntervalsMs.push_back(sinceMs);
+      if (mDragIntervalsMs.size() > kDragIntervals) mDragIntervalsMs.pop_front();
+      mLastDragRender = received;
+    }
     Submission submission = refused ? std::move(*refused)
                                     : mServices.scheduler.submit(mTransport.renderSink(), std::move(*outcome.render));
     if (submission.result == Submission::Result::Queued) mNewestRender = std::max(mNewestRender, received);
@@ -550,12 +581,11 @@ void Connection::writeNext() {
     // (A client that stopped reporting, its oldest frame unreported for LinkPacer::kStaleMs, is waited for no more.)
     if (mPacer.inFlight() > 0 && now < mPacer.releaseAt()) {
       mWriting = false;
-      return armPace();  // a report, or the oldest frame going stale, calls again
+      return armPaceAt(mPacer.releaseAt());  // a report, or the oldest frame going stale, calls again
     }
     if (now < restEnds) {
       mWriting = false;
-      mTransport.arm(Deadline::Pace, std::max(0.001, std::chrono::duration<double>(restEnds - now).count()));
-      return;
+      return armPaceAt(restEnds);
     }
   }
   if ((next.frame || next.video) && !mClosing) {
@@ -563,9 +593,9 @@ void Connection::writeNext() {
     // where a newer frame still replaces it, not in the network's buffers.
     if (!mPacer.mayWrite(now)) {
       mWriting = false;
-      return armPace();
+      return armPaceAt(mPacer.releaseAt());
     }
-    mPacer.sent(next.bytes.size(), now);
+    mPacer.sent(next.bytes.size(), now, next.video);
   }
   mWriting = true;
   mTransport.arm(Deadline::Write, mServices.config.writeTimeoutS);

@@ -178,6 +178,7 @@ class Connection {
     VideoFrameInput input;
     VideoEncoded encoded;
     std::exception_ptr error;
+    std::chrono::steady_clock::time_point handedAt;  ///< to the encoder
   };
   /// A still Frame being encoded aside (RenderJob::stillToEncode), and what came of it: the Frame or its Error.
   struct EncodingStill {
@@ -211,7 +212,11 @@ class Connection {
   /// The first queued reply not yet being written that is a still Frame (`frame`) or a video one (`video`), if any.
   std::deque<Outgoing>::iterator firstUnsent(bool Outgoing::*kind);
   /// Wakes the connection when frames held back for the link may go at the latest (LinkPacer::releaseAt).
-  void armPace();
+  /// Wakes writeNext and pumpVideo at `when`, or at the earliest wake already armed.
+  void armPaceAt(std::chrono::steady_clock::time_point when);
+  /// The most a video frame may take from write to report for the stream to keep the client's pace (its Renders'
+  /// median interval, LinkPacer::kFramesInFlight times); none outside a drag.
+  std::optional<double> videoPaceMs() const;
   /// A FrameReceived report (frames are reported in order; its frame_bytes is the client's word, unchecked): the link
   /// has room again.
   void frameReceived();
@@ -255,6 +260,14 @@ class Connection {
   /// When the newest Render the scheduler queued arrived: an exact frame asked for before it is obsolete (writeNext).
   std::chrono::steady_clock::time_point mNewestRender{};
   bool mVideoEncoding = false;
+  /// From handing a video frame to the encoder to its encoded frame (the encoder's queue and the encoding), smoothed:
+  /// a frame is encoded this long before the link is expected to have room for it (pumpVideo).
+  double mVideoEncodeLeadMs = 0;
+  /// The last intervals between the client's interactive Renders (a drag's pace; cleared after a pause), and the last.
+  std::deque<double> mDragIntervalsMs;
+  std::chrono::steady_clock::time_point mLastDragRender{};
+  /// When the Pace deadline is armed for (none: not armed).
+  std::chrono::steady_clock::time_point mPaceArmedAt{};
   bool mVideoNeedsKey = false;  ///< a frame of the stream was encoded but not sent: the next must be a key frame
   bool mStillEncoding = false;  ///< a still Frame is being encoded aside
   /// Frames rendered while a frame was being encoded aside, applied after it so that a request's frames stay in order.

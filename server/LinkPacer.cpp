@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <vector>
 
 namespace voxbrick::server {
 namespace {
@@ -29,6 +30,12 @@ constexpr uint64_t kMeasuringBytes = 32 * 1024;
 /// slowest: a shaped link's frames agree within tens of per cent, a busy client's hiccups read anything from 2 to
 /// 100 Mbit/s on loopback.
 constexpr double kAgreement = 2;
+/// The least time the client's pace must leave a video frame's own bytes for a smaller frame to be worth it (ms).
+constexpr double kMinPaceBudgetMs = 2;
+/// A cut by the client's pace: to the share its frames' time exceeds, but at least to half and at most to 90 %.
+constexpr double kPaceCutMin = 0.5, kPaceCutMax = 0.9;
+/// Frames that take less than this share of what the pace leaves them lift its limit a step (of this factor).
+constexpr double kPaceRoomShare = 0.5, kPaceStep = 1.15;
 
 double msBetween(LinkPacer::Clock::time_point a, LinkPacer::Clock::time_point b) {
   return std::chrono::duration<double, std::milli>(b - a).count();
@@ -36,8 +43,8 @@ double msBetween(LinkPacer::Clock::time_point a, LinkPacer::Clock::time_point b)
 
 }  // namespace
 
-void LinkPacer::sent(uint64_t bytes, Clock::time_point at) {
-  mOnTheWay.push_back({bytes, at});
+void LinkPacer::sent(uint64_t bytes, Clock::time_point at, bool video) {
+  mOnTheWay.push_back({bytes, at, video});
   if (mOnTheWay.size() > kMaxRemembered) mOnTheWay.pop_front();
 }
 
@@ -47,6 +54,11 @@ bool LinkPacer::received(Clock::time_point at) {
   mOnTheWay.pop_front();
   const double delivery = std::max(0.0, msBetween(frame.at, at));
   mLastDeliveryMs = delivery;
+  for (auto* recent : {&mRecentDeliveries, frame.video ? &mVideoDeliveries : nullptr}) {
+    if (!recent) continue;
+    recent->push_back({delivery, frame.at});
+    if (recent->size() > kRecentDeliveries) recent->pop_front();
+  }
   if (!mMinDeliveryMs || delivery < *mMinDeliveryMs) {
     mMinDeliveryMs = delivery;
     mMinDeliveryBytes = frame.bytes;
@@ -84,6 +96,21 @@ LinkPacer::Clock::time_point LinkPacer::releaseAt() const {
   return mOnTheWay.front().at + std::chrono::microseconds(int64_t(kStaleMs * 1000));
 }
 
+std::optional<LinkPacer::Clock::time_point> LinkPacer::roomExpectedAt(Clock::time_point now) const {
+  if (mayWrite(now)) return now;
+  const std::optional<double> delivery = medianMs(mRecentDeliveries);
+  if (!delivery) return std::nullopt;
+  return std::min(mOnTheWay.front().at + std::chrono::microseconds(int64_t(*delivery * 1000)), releaseAt());
+}
+
+std::optional<double> LinkPacer::medianMs(const std::deque<Delivery>& deliveries) {
+  if (deliveries.empty()) return std::nullopt;
+  std::vector<double> ms;
+  for (const Delivery& d : deliveries) ms.push_back(d.ms);
+  std::nth_element(ms.begin(), ms.begin() + ms.size() / 2, ms.end());
+  return ms[ms.size() / 2];
+}
+
 std::optional<double> LinkPacer::minDeliveryMs() const { return mMinDeliveryMs; }
 
 std::optional<double> LinkPacer::linkKbps(Clock::time_point now) const {
@@ -109,7 +136,7 @@ void LinkPacer::settle(Sample sample) {
   if (kbps[2] <= kAgreement * kbps[0]) mSettledKbps = kbps[1];
 }
 
-double LinkPacer::videoKbps(double startKbps, double capKbps, Clock::time_point now) {
+double LinkPacer::videoKbps(double startKbps, double capKbps, Clock::time_point now, std::optional<double> paceMs) {
   capKbps = std::max(capKbps, kMinKbps);
   if (const auto link = linkKbps(now)) {
     mTargetKbps = std::clamp(kLinkShare * *link, kMinKbps, capKbps);
@@ -121,7 +148,31 @@ double LinkPacer::videoKbps(double startKbps, double capKbps, Clock::time_point 
     mTargetKbps = std::clamp(mTargetKbps * (1 + 0.5 * seconds), kMinKbps, capKbps);
   }
   mTargetAt = now;
-  return mTargetKbps;
+  if (paceMs) followPace(*paceMs, mTargetKbps, now);
+  if (mPaceKbps <= 0) return mTargetKbps;
+  return std::max(kMinKbps, std::min(mTargetKbps, mPaceKbps));
+}
+
+void LinkPacer::followPace(double paceMs, double targetKbps, Clock::time_point now) {
+  // Frames encoded at the limit as it now stands: each of the last few was written after it last changed.
+  if (!mMinDeliveryMs || mVideoDeliveries.size() < kRecentDeliveries ||
+      std::any_of(mVideoDeliveries.begin(), mVideoDeliveries.end(),
+                  [this](const Delivery& d) { return d.sentAt < mPaceChangedAt; }))
+    return;
+  // The time the pace leaves a frame's own bytes (and whatever queued ahead of them): none on a far link whose round
+  // trip alone is longer than the pace allows, where smaller frames would not come sooner.
+  const double budgetMs = kPaceShare * paceMs - *mMinDeliveryMs;
+  if (budgetMs < kMinPaceBudgetMs) return;
+  const double extraMs = *medianMs(mVideoDeliveries) - *mMinDeliveryMs;
+  const double current = mPaceKbps > 0 ? std::min(mPaceKbps, targetKbps) : targetKbps;
+  if (extraMs > budgetMs) {
+    mPaceKbps = std::max(kMinKbps, current * std::clamp(budgetMs / extraMs, kPaceCutMin, kPaceCutMax));
+    mPaceChangedAt = now;
+  } else if (mPaceKbps > 0 && extraMs < kPaceRoomShare * budgetMs) {
+    mPaceKbps *= kPaceStep;
+    if (mPaceKbps >= targetKbps) mPaceKbps = 0;  // no longer below what the link allows: lifted
+    mPaceChangedAt = now;
+  }
 }
 
 }  // namespace voxbrick::server

@@ -1,10 +1,11 @@
 // One session's link, as its client's FrameReceived reports show it: frames on their way (written, not yet
 // reported), the time a frame takes to arrive, the link's rate (from frames that queued behind one another, or a
 // frame much larger than the quickest delivered one: never from the sender's own spacing), and from these when
-// the next Frame may be written and at what bitrate a video stream should run. A client that reports keeps at most
-// kFramesInFlight Frames on the link, so frames never queue in the network's buffers: a newer frame waits at the
-// server, where latest-wins replaces it, instead of behind older ones on a slow link. No sockets, no clock of its own:
-// every call is given the time (tests drive it with made-up times).
+// the next Frame may be written (and when it is expected to be: a video frame is encoded ahead of it) and at what
+// bitrate a video stream should run (the link's share, and no more than keeps the client's pace). A client that
+// reports keeps at most kFramesInFlight Frames on the link, so frames never queue in the network's buffers: a newer
+// frame waits at the server, where latest-wins replaces it, instead of behind older ones on a slow link. No sockets,
+// no clock of its own: every call is given the time (tests drive it with made-up times).
 #pragma once
 
 #include <chrono>
@@ -28,8 +29,9 @@ class LinkPacer {
   /// The share of the link's measured rate a video stream is given, so that its frames do not fill the link.
   static constexpr double kLinkShare = 0.7;
 
-  /// A Frame of `bytes` (whole message) started to be written at `at`.
-  void sent(uint64_t bytes, Clock::time_point at);
+  /// A Frame of `bytes` (whole message) started to be written at `at`; `video`: one of the video stream (their
+  /// deliveries hold its bitrate to the client's pace, videoKbps).
+  void sent(uint64_t bytes, Clock::time_point at, bool video = false);
   /// A FrameReceived arriving at `at`: it reports the oldest frame on its way (reports pair with frames in order).
   /// Returns false (and changes nothing) when no written frame was waiting for a report.
   bool received(Clock::time_point at);
@@ -39,6 +41,10 @@ class LinkPacer {
   bool mayWrite(Clock::time_point now) const;
   /// When a Frame held back now may be written at the latest (the oldest frame on its way going stale).
   Clock::time_point releaseAt() const;
+  /// When the link is expected to have room for the next Frame: now if it has, else when the oldest frame on its way
+  /// should be reported (its write plus the median of the last kRecentDeliveries deliveries); none before a delivery.
+  /// A video frame is encoded ahead of it, so that the encoding is not part of the time between frames.
+  std::optional<Clock::time_point> roomExpectedAt(Clock::time_point now) const;
   /// Whether the client has reported a frame and has not gone stale since.
   bool reporting() const { return mReporting; }
   int inFlight() const { return int(mReporting ? mOnTheWay.size() : 0); }
@@ -70,13 +76,32 @@ class LinkPacer {
 
   /// The bitrate a video stream should run at now, at most `capKbps`: kLinkShare of the link's measured rate, else
   /// (no recent measurement: the link kept up) the last target raised by half a second, starting from `startKbps`.
-  double videoKbps(double startKbps, double capKbps, Clock::time_point now);
+  /// And at most what the client's pace allows: `paceMs` is the most a video frame may take from write to report
+  /// for the stream to keep the client's rate (kFramesInFlight of its intervals between Renders). Where the last
+  /// kRecentDeliveries video frames took longer than the quickest delivery by more than kPaceShare of `paceMs` less
+  /// that quickest delivery (their own bytes' time), the bitrate comes down in proportion: smaller frames pass sooner
+  /// and keep the pace, which a far link's round trip alone may not allow (then nothing changes). Frames well within
+  /// it lift that limit again a step at a time. A limit changes once per kRecentDeliveries frames written after it.
+  double videoKbps(double startKbps, double capKbps, Clock::time_point now, std::optional<double> paceMs = {});
+  /// Deliveries that predict the next (roomExpectedAt) and hold a video stream to its pace (videoKbps).
+  static constexpr size_t kRecentDeliveries = 3;
+  /// The share of the client's pace a video frame's delivery is held to.
+  static constexpr double kPaceShare = 0.9;
 
  private:
   struct OnTheWay {
     uint64_t bytes = 0;
     Clock::time_point at;
+    bool video = false;
   };
+  struct Delivery {
+    double ms = 0;
+    Clock::time_point sentAt;
+  };
+  /// The median of `deliveries`' times (none if empty).
+  static std::optional<double> medianMs(const std::deque<Delivery>& deliveries);
+  /// videoKbps' limit from the client's pace, given the target the link allows.
+  void followPace(double paceMs, double targetKbps, Clock::time_point now);
   std::deque<OnTheWay> mOnTheWay;
   bool mReporting = false;
   Clock::time_point mLastReport{};
@@ -94,6 +119,9 @@ class LinkPacer {
   Clock::time_point mLinkAt{};
   double mTargetKbps = 0;
   Clock::time_point mTargetAt{};
+  std::deque<Delivery> mRecentDeliveries, mVideoDeliveries;  ///< the last kRecentDeliveries of each
+  double mPaceKbps = 0;  ///< the limit the client's pace set (0: none)
+  Clock::time_point mPaceChangedAt{};
 };
 
 }  // namespace voxbrick::server

@@ -202,5 +202,96 @@ TEST(LinkPacer, PngFramesAreEncodedSmallOnlyOnALinkMeasuredSlow) {
   EXPECT_NEAR(*fast.settledLinkKbps(), 200000, 2000);
 }
 
+TEST(LinkPacer, RoomIsExpectedWhenTheOldestFrameShouldBeReported) {
+  LinkPacer pacer;
+  EXPECT_EQ(pacer.roomExpectedAt(at(0)), at(0)) << "an idle link has room";
+  pacer.sent(1000, at(0));
+  pacer.received(at(50));
+  pacer.sent(1000, at(60));
+  pacer.sent(1000, at(70));
+  ASSERT_FALSE(pacer.mayWrite(at(80)));
+  ASSERT_TRUE(pacer.roomExpectedAt(at(80)));
+  EXPECT_EQ(*pacer.roomExpectedAt(at(80)), at(110)) << "the oldest's write plus the usual delivery";
+  pacer.received(at(130));  // 70 ms
+  pacer.sent(1000, at(131));
+  pacer.received(at(150));  // 80 ms
+  pacer.sent(1000, at(151));
+  ASSERT_FALSE(pacer.mayWrite(at(152)));
+  EXPECT_EQ(*pacer.roomExpectedAt(at(152)), at(131 + 70)) << "the median of the last three: 50, 70 and 80 ms";
+}
+
+/// Three video frames of `bytes` on an idle link, each written `everyMs` after the last and reported `deliveryMs`
+/// after its write, from `t`; `t` moves past them.
+void videoFrames(LinkPacer& pacer, double& t, uint64_t bytes, double deliveryMs, double everyMs = 100) {
+  for (int i = 0; i < 3; ++i) {
+    pacer.sent(bytes, at(t), true);
+    pacer.received(at(t + deliveryMs));
+    t += everyMs;
+  }
+}
+
+// A drag asks a frame every 33 ms and two may be on their way: a frame that takes longer than 60 ms from write to
+// report (90 % of 67 ms) holds the stream below the client's pace. Past the quickest delivery (the round trip),
+// that time is the frame's own bytes: the bitrate comes down in proportion, so that smaller frames keep the pace
+// (a 1024x1024 drag on 10 Mbit/s with 40 ms of round trip sometimes ran at 17 frames a second with frames of 40 KB,
+// its bitrate at its cap, where 10 KB frames kept 29). Frames well within it lift the limit a step at a time.
+TEST(LinkPacer, AVideoStreamsBitrateComesDownToKeepTheClientsPace) {
+  const double paceMs = LinkPacer::kFramesInFlight * 33.3, cap = 4719;
+  LinkPacer pacer, unpaced;
+  double t = 0;
+  for (LinkPacer* p : {&pacer, &unpaced}) {
+    double u = 0;
+    p->sent(1000, at(u), true);
+    p->received(at(u + 45));  // the round trip and the client's own time: the quickest delivery
+  }
+  t = 100;
+  EXPECT_EQ(pacer.videoKbps(cap, cap, at(t), paceMs), cap) << "nothing delivered at this bitrate yet";
+  // Three frames of 30 KB take 80 ms each: 35 ms past the quickest, where the pace leaves 15 ms.
+  double u = t;
+  videoFrames(pacer, t, 30000, 80);
+  videoFrames(unpaced, u, 30000, 80);
+  EXPECT_FALSE(pacer.linkKbps(at(t))) << "frames alike in size on an idle link measure no rate";
+  EXPECT_EQ(unpaced.videoKbps(cap, cap, at(t)), cap) << "without the pace the bitrate stays at its cap";
+  const double cut = pacer.videoKbps(cap, cap, at(t), paceMs);
+  EXPECT_NEAR(cut, cap * 0.5, 1) << "15 ms of 35: cut to half, the most one step cuts";
+  EXPECT_EQ(pacer.videoKbps(cap, cap, at(t + 10), paceMs), cut) << "once per frames written after the last change";
+  // Frames of the new bitrate still too slow (20 ms past the quickest): cut again, in proportion.
+  videoFrames(pacer, t, 15000, 65);
+  const double again = pacer.videoKbps(cap, cap, at(t), paceMs);
+  EXPECT_NEAR(again, cut * (LinkPacer::kPaceShare * paceMs - 45) / 20, 1);
+  // Within the pace but not well within it (10 ms of 15): held.
+  videoFrames(pacer, t, 11000, 55);
+  EXPECT_EQ(pacer.videoKbps(cap, cap, at(t), paceMs), again);
+  // Well within it (5 ms): lifted a step at a time, and no longer limited once it reaches what the link allows.
+  videoFrames(pacer, t, 8000, 50);
+  const double lifted = pacer.videoKbps(cap, cap, at(t), paceMs);
+  EXPECT_NEAR(lifted, again * 1.15, 1);
+  for (int i = 0; i < 10; ++i) {
+    videoFrames(pacer, t, 8000, 50);
+    pacer.videoKbps(cap, cap, at(t), paceMs);
+  }
+  EXPECT_EQ(pacer.videoKbps(cap, cap, at(t), paceMs), cap);
+  // Still frames (an exact png after the drag) do not count: only the stream's own frames judge its bitrate.
+  for (int i = 0; i < 3; ++i) {
+    pacer.sent(20000, at(t));
+    pacer.received(at(t + 90));
+    t += 100;
+  }
+  EXPECT_EQ(pacer.videoKbps(cap, cap, at(t), paceMs), cap);
+}
+
+// A far link's round trip alone (85 ms) is longer than the client's pace allows two frames on their way: smaller
+// frames would not arrive sooner, and the bitrate is left as the link allows.
+TEST(LinkPacer, AFarLinksRoundTripDoesNotLowerTheBitrate) {
+  const double paceMs = LinkPacer::kFramesInFlight * 33.3, cap = 4719;
+  LinkPacer pacer;
+  double t = 0;
+  pacer.sent(1000, at(t), true);
+  pacer.received(at(t + 85));
+  t = 100;
+  videoFrames(pacer, t, 30000, 130, 200);
+  EXPECT_EQ(pacer.videoKbps(cap, cap, at(t), paceMs), cap);
+}
+
 }  // namespace
 }  // namespace voxbrick::server
