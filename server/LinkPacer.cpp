@@ -87,8 +87,16 @@ bool LinkPacer::received(Clock::time_point at) {
 }
 
 bool LinkPacer::mayWrite(Clock::time_point now) const {
-  if (!mReporting || mOnTheWay.size() < size_t(kFramesInFlight)) return true;
+  if (!mReporting || mOnTheWay.size() < size_t(framesInFlightAllowed())) return true;
   return msBetween(mOnTheWay.front().at, now) >= kStaleMs;
+}
+
+int LinkPacer::framesInFlightAllowed() const {
+  if (!mMinDeliveryMs || mRecentDeliveries.size() < kRecentDeliveries) return kFramesInFlight;
+  const bool queueless = std::all_of(mRecentDeliveries.begin(), mRecentDeliveries.end(), [this](const Delivery& d) {
+    return d.ms <= *mMinDeliveryMs + kNoQueueMs;
+  });
+  return kFramesInFlight + (queueless ? 1 : 0);
 }
 
 LinkPacer::Clock::time_point LinkPacer::releaseAt() const {

@@ -3,9 +3,10 @@
 // frame much larger than the quickest delivered one: never from the sender's own spacing), and from these when
 // the next Frame may be written (and when it is expected to be: a video frame is encoded ahead of it) and at what
 // bitrate a video stream should run (the link's share, and no more than keeps the client's pace). A client that
-// reports keeps at most kFramesInFlight Frames on the link, so frames never queue in the network's buffers: a newer
-// frame waits at the server, where latest-wins replaces it, instead of behind older ones on a slow link. No sockets,
-// no clock of its own: every call is given the time (tests drive it with made-up times).
+// reports keeps at most kFramesInFlight Frames on the link (one more while none queues), so frames never queue in
+// the network's buffers: a newer frame waits at the server, where latest-wins replaces it, instead of behind older
+// ones on a slow link. No sockets, no clock of its own: every call is given the time (tests drive it with made-up
+// times).
 #pragma once
 
 #include <chrono>
@@ -21,6 +22,13 @@ class LinkPacer {
   /// Frames written and not yet reported that hold back the next one: two keep the link busy across a round trip
   /// while a frame travels, and bound the wait a frame adds to one frame's transfer.
   static constexpr int kFramesInFlight = 2;
+  /// One frame more may be on its way while the link shows no queue: each of the last kRecentDeliveries deliveries
+  /// took at most kNoQueueMs longer than the quickest. Two frames a round trip held a drag on a far link (80 ms) to
+  /// about 22 frames a second though its frames passed in 2 ms; on a slow link, where a frame's own bytes take
+  /// longer than that, the third frame would only queue.
+  static constexpr double kNoQueueMs = 4;
+  /// The frames that may be on their way now (kFramesInFlight, or one more: kNoQueueMs).
+  int framesInFlightAllowed() const;
   /// A frame not reported this long after it was written: the client is taken to have stopped reporting, and frames
   /// go out unpaced until its next report.
   static constexpr double kStaleMs = 1000;
@@ -36,7 +44,7 @@ class LinkPacer {
   /// Returns false (and changes nothing) when no written frame was waiting for a report.
   bool received(Clock::time_point at);
 
-  /// Whether the next Frame may be written now: the client does not report, fewer than kFramesInFlight frames are on
+  /// Whether the next Frame may be written now: the client does not report, fewer than framesInFlightAllowed are on
   /// their way, or the oldest has gone unreported for kStaleMs.
   bool mayWrite(Clock::time_point now) const;
   /// When a Frame held back now may be written at the latest (the oldest frame on its way going stale).

@@ -44,6 +44,32 @@ TEST(LinkPacer, AReportingClientHasAtMostTwoFramesOnTheirWay) {
   EXPECT_FALSE(pacer.received(at(121))) << "more reports than frames written";
 }
 
+// A far link that does not queue (each frame delivered within kNoQueueMs of the quickest) may carry a third frame:
+// two a round trip held an 80 ms link to about 22 frames a second. Once frames queue, two again.
+TEST(LinkPacer, AThirdFrameMayBeOnItsWayWhileTheLinkShowsNoQueue) {
+  LinkPacer pacer;
+  double t = 0;
+  const auto onItsWay = [&](int frames) {
+    for (int i = 0; i < frames; ++i) pacer.sent(20000, at(t + i));
+  };
+  for (int i = 0; i < 3; ++i) {  // each alone on the link: 80 ms, 82 ms, 81 ms
+    onItsWay(1);
+    pacer.received(at(t + 80 + (i % 2) * 2 + (i == 2 ? 1 : 0)));
+    t += 100;
+  }
+  EXPECT_EQ(pacer.framesInFlightAllowed(), LinkPacer::kFramesInFlight + 1);
+  onItsWay(2);
+  EXPECT_TRUE(pacer.mayWrite(at(t + 2))) << "a third frame goes";
+  pacer.sent(20000, at(t + 2));
+  EXPECT_FALSE(pacer.mayWrite(at(t + 3))) << "a fourth waits";
+  // Frames that queue: each 10 ms later than the quickest.
+  for (int i = 0; i < 3; ++i) pacer.received(at(t + 90 + i));
+  EXPECT_EQ(pacer.framesInFlightAllowed(), LinkPacer::kFramesInFlight);
+  t += 200;
+  onItsWay(2);
+  EXPECT_FALSE(pacer.mayWrite(at(t + 2)));
+}
+
 TEST(LinkPacer, AClientThatStopsReportingIsReleasedAfterASecond) {
   LinkPacer pacer;
   pacer.sent(1000, at(0));
