@@ -34,7 +34,7 @@ constexpr double kAgreement = 2;
 constexpr double kMinPaceBudgetMs = 2;
 /// A cut by the client's pace: to the share its frames' time exceeds, but at least to half and at most to 90 %.
 constexpr double kPaceCutMin = 0.5, kPaceCutMax = 0.9;
-/// Frames that take less than this share of what the pace leaves them lift its limit a step (of this factor).
+/// Frames whose bytes take less than this share of what the pace leaves them lift its limit a step (of this factor).
 constexpr double kPaceRoomShare = 0.5, kPaceStep = 1.15;
 
 double msBetween(LinkPacer::Clock::time_point a, LinkPacer::Clock::time_point b) {
@@ -56,7 +56,7 @@ bool LinkPacer::received(Clock::time_point at) {
   mLastDeliveryMs = delivery;
   for (auto* recent : {&mRecentDeliveries, frame.video ? &mVideoDeliveries : nullptr}) {
     if (!recent) continue;
-    recent->push_back({delivery, frame.at});
+    recent->push_back({delivery, frame.at, frame.bytes});
     if (recent->size() > kRecentDeliveries) recent->pop_front();
   }
   if (!mMinDeliveryMs || delivery < *mMinDeliveryMs) {
@@ -167,16 +167,27 @@ void LinkPacer::followPace(double paceMs, double targetKbps, Clock::time_point n
       std::any_of(mVideoDeliveries.begin(), mVideoDeliveries.end(),
                   [this](const Delivery& d) { return d.sentAt < mPaceChangedAt; }))
     return;
-  // The time the pace leaves a frame's own bytes (and whatever queued ahead of them): none on a far link whose round
-  // trip alone is longer than the pace allows, where smaller frames would not come sooner.
+  // The time the pace leaves a frame past the quickest delivery: none on a far link whose round trip alone is longer
+  // than the pace allows, where smaller frames would not come sooner.
   const double budgetMs = kPaceShare * paceMs - *mMinDeliveryMs;
   if (budgetMs < kMinPaceBudgetMs) return;
+  // Only the frame's own bytes come down with the bitrate: the link's rate tells their time from the rest (the
+  // client's own delays: a busy browser reports tens of ms late). Without a rate nothing tells them apart.
+  std::optional<double> link = linkKbps(now);
+  if (!link) link = settledLinkKbps();
+  if (!link) return;
+  std::vector<double> bytes;
+  for (const Delivery& d : mVideoDeliveries) bytes.push_back(double(d.bytes));
+  std::nth_element(bytes.begin(), bytes.begin() + bytes.size() / 2, bytes.end());
   const double extraMs = *medianMs(mVideoDeliveries) - *mMinDeliveryMs;
+  const double bytesMs = std::min(extraMs, bytes[bytes.size() / 2] * 8 / *link);
+  const double roomMs = budgetMs - (extraMs - bytesMs);  // what the pace leaves the bytes
   const double current = mPaceKbps > 0 ? std::min(mPaceKbps, targetKbps) : targetKbps;
   if (extraMs > budgetMs) {
-    mPaceKbps = std::max(kMinKbps, current * std::clamp(budgetMs / extraMs, kPaceCutMin, kPaceCutMax));
+    if (roomMs < kMinPaceBudgetMs) return;  // the client's own delays miss the pace: smaller frames would not help
+    mPaceKbps = std::max(kMinKbps, current * std::clamp(roomMs / bytesMs, kPaceCutMin, kPaceCutMax));
     mPaceChangedAt = now;
-  } else if (mPaceKbps > 0 && extraMs < kPaceRoomShare * budgetMs) {
+  } else if (mPaceKbps > 0 && bytesMs < kPaceRoomShare * roomMs) {
     mPaceKbps *= kPaceStep;
     if (mPaceKbps >= targetKbps) mPaceKbps = 0;  // no longer below what the link allows: lifted
     mPaceChangedAt = now;

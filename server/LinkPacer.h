@@ -87,9 +87,11 @@ class LinkPacer {
   /// And at most what the client's pace allows: `paceMs` is the most a video frame may take from write to report
   /// for the stream to keep the client's rate (kFramesInFlight of its intervals between Renders). Where the last
   /// kRecentDeliveries video frames took longer than the quickest delivery by more than kPaceShare of `paceMs` less
-  /// that quickest delivery (their own bytes' time), the bitrate comes down in proportion: smaller frames pass sooner
-  /// and keep the pace, which a far link's round trip alone may not allow (then nothing changes). Frames well within
-  /// it lift that limit again a step at a time. A limit changes once per kRecentDeliveries frames written after it.
+  /// that quickest delivery, the bitrate comes down in proportion to what their own bytes took (at the link's rate,
+  /// measured or settled) and what the pace leaves them once the rest (the client's own delays) is counted: smaller
+  /// frames pass sooner and keep the pace. Nothing changes where the round trip alone, or the client's own delays,
+  /// already miss the pace, or the link's rate is unknown. Frames whose bytes take well within what the pace leaves
+  /// them lift that limit again a step at a time. A limit changes once per kRecentDeliveries frames written after it.
   double videoKbps(double startKbps, double capKbps, Clock::time_point now, std::optional<double> paceMs = {});
   /// Deliveries that predict the next (roomExpectedAt) and hold a video stream to its pace (videoKbps).
   static constexpr size_t kRecentDeliveries = 3;
@@ -105,6 +107,7 @@ class LinkPacer {
   struct Delivery {
     double ms = 0;
     Clock::time_point sentAt;
+    uint64_t bytes = 0;
   };
   /// The median of `deliveries`' times (none if empty).
   static std::optional<double> medianMs(const std::deque<Delivery>& deliveries);

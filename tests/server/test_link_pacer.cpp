@@ -256,36 +256,44 @@ void videoFrames(LinkPacer& pacer, double& t, uint64_t bytes, double deliveryMs,
   }
 }
 
+/// The quickest delivery (a 1000-byte video frame in 45 ms, written at 0) and a still frame of 441 000 bytes on a
+/// 10 Mbit/s link, which settles its rate on its own; `t` moves past them.
+void slowLinkMeasured(LinkPacer& pacer, double& t) {
+  pacer.sent(1000, at(0), true);
+  pacer.received(at(45));
+  pacer.sent(441000, at(100));
+  pacer.received(at(100 + 45 + 440000.0 * 8 / 10000));
+  t = 600;
+}
+
 // A drag asks a frame every 33 ms and two may be on their way: a frame that takes longer than 60 ms from write to
-// report (90 % of 67 ms) holds the stream below the client's pace. Past the quickest delivery (the round trip),
-// that time is the frame's own bytes: the bitrate comes down in proportion, so that smaller frames keep the pace
-// (a 1024x1024 drag on 10 Mbit/s with 40 ms of round trip sometimes ran at 17 frames a second with frames of 40 KB,
-// its bitrate at its cap, where 10 KB frames kept 29). Frames well within it lift the limit a step at a time.
+// report (90 % of 67 ms) holds the stream below the client's pace. Of the time past the quickest delivery (the round
+// trip), the frame's own bytes take what the link's rate says: the bitrate comes down so that they fit in what the
+// pace leaves them besides the client's own delays (a 1024x1024 drag on 10 Mbit/s with 40 ms of round trip
+// sometimes ran at 17 frames a second with frames of 40 KB, its bitrate at its cap, where 10 KB frames kept 29).
+// Frames well within it lift the limit a step at a time.
 TEST(LinkPacer, AVideoStreamsBitrateComesDownToKeepTheClientsPace) {
   const double paceMs = LinkPacer::kFramesInFlight * 33.3, cap = 4719;
+  const double budgetMs = LinkPacer::kPaceShare * paceMs - 45;  // 15 ms
   LinkPacer pacer, unpaced;
-  double t = 0;
-  for (LinkPacer* p : {&pacer, &unpaced}) {
-    double u = 0;
-    p->sent(1000, at(u), true);
-    p->received(at(u + 45));  // the round trip and the client's own time: the quickest delivery
-  }
-  t = 100;
+  double t = 0, u = 0;
+  slowLinkMeasured(pacer, t);
+  slowLinkMeasured(unpaced, u);
+  ASSERT_TRUE(pacer.settledLinkKbps());
+  EXPECT_NEAR(*pacer.settledLinkKbps(), 10000, 1);
   EXPECT_EQ(pacer.videoKbps(cap, cap, at(t), paceMs), cap) << "nothing delivered at this bitrate yet";
-  // Three frames of 30 KB take 80 ms each: 35 ms past the quickest, where the pace leaves 15 ms.
-  double u = t;
+  // Three frames of 30 KB take 80 ms each: 35 ms past the quickest, 24 ms of it their bytes, 11 the client's.
   videoFrames(pacer, t, 30000, 80);
   videoFrames(unpaced, u, 30000, 80);
-  EXPECT_FALSE(pacer.linkKbps(at(t))) << "frames alike in size on an idle link measure no rate";
-  EXPECT_EQ(unpaced.videoKbps(cap, cap, at(t)), cap) << "without the pace the bitrate stays at its cap";
+  EXPECT_EQ(unpaced.videoKbps(cap, cap, at(u)), cap) << "without the pace the bitrate stays at its cap";
   const double cut = pacer.videoKbps(cap, cap, at(t), paceMs);
-  EXPECT_NEAR(cut, cap * 0.5, 1) << "15 ms of 35: cut to half, the most one step cuts";
+  EXPECT_NEAR(cut, cap * 0.5, 1) << "4 ms left of 24: cut to half, the most one step cuts";
   EXPECT_EQ(pacer.videoKbps(cap, cap, at(t + 10), paceMs), cut) << "once per frames written after the last change";
-  // Frames of the new bitrate still too slow (20 ms past the quickest): cut again, in proportion.
+  // Frames of the new bitrate still too slow: 15 000 bytes (12 ms) in 65 ms, 8 ms the client's: cut in proportion.
   videoFrames(pacer, t, 15000, 65);
   const double again = pacer.videoKbps(cap, cap, at(t), paceMs);
-  EXPECT_NEAR(again, cut * (LinkPacer::kPaceShare * paceMs - 45) / 20, 1);
-  // Within the pace but not well within it (10 ms of 15): held.
+  EXPECT_NEAR(again, cut * (budgetMs - 8) / 12, 1);
+  // Within the pace, but their bytes not well within what it leaves them (8.8 ms of 13.8): held.
   videoFrames(pacer, t, 11000, 55);
   EXPECT_EQ(pacer.videoKbps(cap, cap, at(t), paceMs), again);
   // Well within it (5 ms): lifted a step at a time, and no longer limited once it reaches what the link allows.
@@ -304,6 +312,26 @@ TEST(LinkPacer, AVideoStreamsBitrateComesDownToKeepTheClientsPace) {
     t += 100;
   }
   EXPECT_EQ(pacer.videoKbps(cap, cap, at(t), paceMs), cap);
+}
+
+// Frames late by the client's own delays (a busy browser reports tens of ms late) are not made smaller: 5 000 bytes
+// pass a 10 Mbit/s link in 4 ms, and the other 30 ms past the quickest delivery would stay. Nor, where the link's
+// rate is unknown, is anything changed: nothing tells the frames' bytes from the rest.
+TEST(LinkPacer, TheClientsOwnDelaysOrAnUnknownLinkLeaveTheBitrate) {
+  const double paceMs = LinkPacer::kFramesInFlight * 33.3, cap = 4719;
+  LinkPacer busy;
+  double t = 0;
+  slowLinkMeasured(busy, t);
+  videoFrames(busy, t, 5000, 45 + 4 + 30);
+  EXPECT_EQ(busy.videoKbps(cap, cap, at(t), paceMs), cap);
+  LinkPacer unknown;
+  t = 0;
+  unknown.sent(1000, at(t), true);
+  unknown.received(at(t + 45));
+  t = 100;
+  videoFrames(unknown, t, 30000, 80);
+  ASSERT_FALSE(unknown.settledLinkKbps());
+  EXPECT_EQ(unknown.videoKbps(cap, cap, at(t), paceMs), cap);
 }
 
 // A far link's round trip alone (85 ms) is longer than the client's pace allows two frames on their way: smaller
