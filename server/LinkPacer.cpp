@@ -65,13 +65,20 @@ bool LinkPacer::received(Clock::time_point at) {
   }
   const double extraMs = delivery - *mMinDeliveryMs;
   // A frame that queued behind the one ahead of it (written before that one was reported, and later than the
-  // quickest delivery): the time between the two reports is its own transfer, and its bytes over it the link's rate.
+  // quickest delivery): the time between the two reports is at most its own transfer, and its bytes over it the
+  // link's rate at the least. Where it reached the link after the one ahead had passed, that time also holds the
+  // sender's spacing, and its bytes beyond the quickest delivered frame's over its time beyond the quickest delivery
+  // come nearer (also a rate at the least: a late report only lengthens that time). The larger of the two. (The
+  // first alone read a 10 Mbit/s link at 2.5 to 5 Mbit/s during a drag, and the video's bitrate followed it down.)
   // Else a frame much larger than the quickest delivered one: its extra bytes over its extra time.
   std::optional<double> sample;
   if (mReporting && frame.at < mLastReport) {
     const double gapMs = msBetween(mLastReport, at);
-    if (gapMs > 0.5 && extraMs >= kQueuedShare * gapMs && frame.bytes >= kQueuedMinBytes)
+    if (gapMs > 0.5 && extraMs >= kQueuedShare * gapMs && frame.bytes >= kQueuedMinBytes) {
       sample = double(frame.bytes) * 8 / gapMs;  // kbit/s
+      if (frame.bytes >= mMinDeliveryBytes + kQueuedMinBytes)
+        sample = std::max(*sample, double(frame.bytes - mMinDeliveryBytes) * 8 / extraMs);
+    }
   }
   if (!sample && frame.bytes >= mMinDeliveryBytes + kMeasuringBytes && extraMs > 0.5)
     sample = double(frame.bytes - mMinDeliveryBytes) * 8 / extraMs;

@@ -120,6 +120,25 @@ TEST(LinkPacer, FramesOnAnIdleLinkMeasureNoRateAndTheBitrateClimbsToItsCap) {
   EXPECT_EQ(pacer.videoKbps(1, 1, at(13000)), LinkPacer::kMinKbps) << "nor below the floor";
 }
 
+// A drag's frames on a slow link, each written before the one ahead was reported but reaching the link after that one
+// had passed: 12 000 bytes every 33 ms on 10 Mbit/s (9.6 ms each) with 40 ms of round trip. The time between their
+// reports is the sender's 33 ms, and read as their transfer it made the link 2.9 Mbit/s (a 1024x1024 drag's video
+// then ran at 2 Mbit/s on a 10 Mbit/s link); their bytes beyond the quickest frame's over their time beyond the
+// quickest delivery read the link itself.
+TEST(LinkPacer, FramesThatReachTheLinkAfterTheOneAheadMeasureTheLinkNotTheirSpacing) {
+  LinkPacer pacer;
+  pacer.sent(1000, at(0), true);
+  pacer.received(at(40 + 0.8));  // the quickest: the round trip and 1000 bytes' time
+  for (int i = 0; i < 10; ++i) {
+    pacer.sent(12000, at(100 + 33.0 * i), true);
+    if (i >= 1) pacer.received(at(100 + 33.0 * (i - 1) + 40 + 9.6));  // the one ahead's report, after this write
+  }
+  pacer.received(at(100 + 33.0 * 9 + 40 + 9.6));
+  const auto link = pacer.linkKbps(at(500));
+  ASSERT_TRUE(link);
+  EXPECT_NEAR(*link, 10000, 500);
+}
+
 // A far link that keeps up: 100 Mbit/s with 80 ms of round trip, a 15 000-byte frame every 33 ms (a drag's video
 // frames). Each frame is written before the one ahead is reported, but none waits: the time between reports is the
 // sender's 33 ms, not the link's 1.2 ms, and measures nothing (it read 3.6 Mbit/s, a slow link, before).
