@@ -90,8 +90,9 @@ class LinkPacer {
   /// that quickest delivery, the bitrate comes down in proportion to what their own bytes took (at the link's rate,
   /// measured or settled) and what the pace leaves them once the rest (the client's own delays) is counted: smaller
   /// frames pass sooner and keep the pace. Nothing changes where the round trip alone, or the client's own delays,
-  /// already miss the pace, or the link's rate is unknown. Frames whose bytes take well within what the pace leaves
-  /// them lift that limit again a step at a time. A limit changes once per kRecentDeliveries frames written after it.
+  /// already take (most of) the pace, or the link's rate is unknown. Frames whose bytes take well within what the
+  /// pace leaves them lift that limit again a step at a time. A limit changes once per kRecentDeliveries frames
+  /// written after it.
   double videoKbps(double startKbps, double capKbps, Clock::time_point now, std::optional<double> paceMs = {});
   /// Deliveries that predict the next (roomExpectedAt) and hold a video stream to its pace (videoKbps).
   static constexpr size_t kRecentDeliveries = 3;

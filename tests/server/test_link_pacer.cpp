@@ -301,12 +301,12 @@ TEST(LinkPacer, AVideoStreamsBitrateComesDownToKeepTheClientsPace) {
   ASSERT_TRUE(pacer.settledLinkKbps());
   EXPECT_NEAR(*pacer.settledLinkKbps(), 10000, 1);
   EXPECT_EQ(pacer.videoKbps(cap, cap, at(t), paceMs), cap) << "nothing delivered at this bitrate yet";
-  // Three frames of 30 KB take 80 ms each: 35 ms past the quickest, 24 ms of it their bytes, 11 the client's.
-  videoFrames(pacer, t, 30000, 80);
-  videoFrames(unpaced, u, 30000, 80);
+  // Three frames of 30 KB take 74 ms each: 29 ms past the quickest, 24 ms of it their bytes, 5 the client's.
+  videoFrames(pacer, t, 30000, 74);
+  videoFrames(unpaced, u, 30000, 74);
   EXPECT_EQ(unpaced.videoKbps(cap, cap, at(u)), cap) << "without the pace the bitrate stays at its cap";
   const double cut = pacer.videoKbps(cap, cap, at(t), paceMs);
-  EXPECT_NEAR(cut, cap * 0.5, 1) << "4 ms left of 24: cut to half, the most one step cuts";
+  EXPECT_NEAR(cut, cap * 0.5, 1) << "10 ms left for 24: cut to half, the most one step cuts";
   EXPECT_EQ(pacer.videoKbps(cap, cap, at(t + 10), paceMs), cut) << "once per frames written after the last change";
   // Frames of the new bitrate still too slow: 15 000 bytes (12 ms) in 65 ms, 8 ms the client's: cut in proportion.
   videoFrames(pacer, t, 15000, 65);
@@ -342,6 +342,10 @@ TEST(LinkPacer, TheClientsOwnDelaysOrAnUnknownLinkLeaveTheBitrate) {
   double t = 0;
   slowLinkMeasured(busy, t);
   videoFrames(busy, t, 5000, 45 + 4 + 30);
+  EXPECT_EQ(busy.videoKbps(cap, cap, at(t), paceMs), cap);
+  // Nor where they leave the bytes only a little of the pace: 10 000 bytes (8 ms) and 12 ms of the client's, past
+  // the quickest delivery, where the pace leaves 15 ms: 3 ms left would cut the frames to a third.
+  videoFrames(busy, t, 10000, 45 + 8 + 12);
   EXPECT_EQ(busy.videoKbps(cap, cap, at(t), paceMs), cap);
   LinkPacer unknown;
   t = 0;
