@@ -211,8 +211,8 @@ class Connection {
   void dropPendingVideo(uint32_t by);
   /// The first queued reply not yet being written that is a still Frame (`frame`) or a video one (`video`), if any.
   std::deque<Outgoing>::iterator firstUnsent(bool Outgoing::*kind);
-  /// Wakes the connection when frames held back for the link may go at the latest (LinkPacer::releaseAt).
-  /// Wakes writeNext and pumpVideo at `when`, or at the earliest wake already armed.
+  /// Wakes writeNext and pumpVideo at `when` (frames held back for the link, a video frame to encode ahead, the rest
+  /// before an exact frame), or at the earliest wake already armed.
   void armPaceAt(std::chrono::steady_clock::time_point when);
   /// The most a video frame may take from write to report for the stream to keep the client's pace (its Renders'
   /// median interval, LinkPacer::kFramesInFlight times); none outside a drag.
