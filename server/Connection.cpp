@@ -21,11 +21,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-/// A drag's pace (Connection::videoPaceMs) is the median of its last kDragIntervals intervals between Renders; a
-/// pause longer than kDragPauseMs starts a new drag.
-constexpr size_t kDragIntervals = 5;
-constexpr double kDragPauseMs = 250;
-
 /// Bytes a Frame takes encoded, near enough to weigh it against the output budget before encoding it.
 uint64_t encodedBytes(const proto::Frame& frame) {
   return proto::kHeaderBytes + 64 + frame.statsJson.size() + frame.payload.size();
@@ -294,10 +289,9 @@ void Connection::armPaceAt(Clock::time_point when) {
 }
 
 std::optional<double> Connection::videoPaceMs() const {
-  if (mDragIntervalsMs.size() < 2) return std::nullopt;
-  std::vector<double> ms(mDragIntervalsMs.begin(), mDragIntervalsMs.end());
-  std::nth_element(ms.begin(), ms.begin() + ms.size() / 2, ms.end());
-  return LinkPacer::kFramesInFlight * ms[ms.size() / 2];
+  const std::optional<double> interval = mServices.scheduler.renderIntervalMs(*mTransport.renderSink());
+  if (!interval) return std::nullopt;
+  return LinkPacer::kFramesInFlight * *interval;
 }
 
 void Connection::frameReceived() {
@@ -455,14 +449,6 @@ void Connection::apply(Outcome outcome, const RenderJob* from) {
     outcome.render->webpForPng = outcome.render->scene.acceptsWebp && webpFor(link);
     std::optional<Submission> refused = mServices.renderQuota ? mServices.renderQuota(mId) : std::nullopt;
     const auto received = outcome.render->received;
-    if (outcome.render->scene.interactive) {
-      // A drag's pace: the intervals between its Renders, from the first after a pause of kDragPauseMs.
-      const double sinceMs = std::chrono::duration<double, std::milli>(received - mLastDragRender).count();
-      if (mLastDragRender == Clock::time_point{} || sinceMs > kDragPauseMs) mDragIntervalsMs.clear();
-      else mDragIntervalsMs.push_back(sinceMs);
-      if (mDragIntervalsMs.size() > kDragIntervals) mDragIntervalsMs.pop_front();
-      mLastDragRender = received;
-    }
     Submission submission = refused ? std::move(*refused)
                                     : mServices.scheduler.submit(mTransport.renderSink(), std::move(*outcome.render));
     if (submission.result == Submission::Result::Queued) mNewestRender = std::max(mNewestRender, received);

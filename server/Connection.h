@@ -215,7 +215,7 @@ class Connection {
   /// before an exact frame), or at the earliest wake already armed.
   void armPaceAt(std::chrono::steady_clock::time_point when);
   /// The most a video frame may take from write to report for the stream to keep the client's pace (its Renders'
-  /// median interval, LinkPacer::kFramesInFlight times); none outside a drag.
+  /// median recent interval, RenderScheduler::renderIntervalMs, LinkPacer::kFramesInFlight times); none before two.
   std::optional<double> videoPaceMs() const;
   /// A FrameReceived report (frames are reported in order; its frame_bytes is the client's word, unchecked): the link
   /// has room again.
@@ -263,9 +263,6 @@ class Connection {
   /// From handing a video frame to the encoder to its encoded frame (the encoder's queue and the encoding), smoothed:
   /// a frame is encoded this long before the link is expected to have room for it (pumpVideo).
   double mVideoEncodeLeadMs = 0;
-  /// The last intervals between the client's interactive Renders (a drag's pace; cleared after a pause), and the last.
-  std::deque<double> mDragIntervalsMs;
-  std::chrono::steady_clock::time_point mLastDragRender{};
   /// When the Pace deadline is armed for (none: not armed).
   std::chrono::steady_clock::time_point mPaceArmedAt{};
   bool mVideoNeedsKey = false;  ///< a frame of the stream was encoded but not sent: the next must be a key frame

@@ -56,7 +56,6 @@ bool LinkPacer::received(Clock::time_point at) {
   const OnTheWay frame = mOnTheWay.front();
   mOnTheWay.pop_front();
   const double delivery = std::max(0.0, msBetween(frame.at, at));
-  mLastDeliveryMs = delivery;
   for (auto* recent : {&mRecentDeliveries, frame.video ? &mVideoDeliveries : nullptr}) {
     if (!recent) continue;
     recent->push_back({delivery, frame.at, frame.bytes});
@@ -125,8 +124,17 @@ std::optional<double> LinkPacer::medianMs(const std::deque<Delivery>& deliveries
   if (deliveries.empty()) return std::nullopt;
   std::vector<double> ms;
   for (const Delivery& d : deliveries) ms.push_back(d.ms);
-  std::nth_element(ms.begin(), ms.begin() + ms.size() / 2, ms.end());
-  return ms[ms.size() / 2];
+  return median(std::move(ms));
+}
+
+double LinkPacer::median(std::vector<double> values) {
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
+std::optional<double> LinkPacer::lastDeliveryMs() const {
+  if (mRecentDeliveries.empty()) return std::nullopt;
+  return mRecentDeliveries.back().ms;
 }
 
 std::optional<double> LinkPacer::minDeliveryMs() const { return mMinDeliveryMs; }
@@ -188,9 +196,8 @@ void LinkPacer::followPace(double paceMs, double targetKbps, Clock::time_point n
   if (!link) return;
   std::vector<double> bytes;
   for (const Delivery& d : mVideoDeliveries) bytes.push_back(double(d.bytes));
-  std::nth_element(bytes.begin(), bytes.begin() + bytes.size() / 2, bytes.end());
   const double extraMs = *medianMs(mVideoDeliveries) - *mMinDeliveryMs;
-  const double bytesMs = std::min(extraMs, bytes[bytes.size() / 2] * 8 / *link);
+  const double bytesMs = std::min(extraMs, median(std::move(bytes)) * 8 / *link);
   const double roomMs = budgetMs - (extraMs - bytesMs);  // what the pace leaves the bytes
   const double current = mPaceKbps > 0 ? std::min(mPaceKbps, targetKbps) : targetKbps;
   if (extraMs > budgetMs) {

@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <deque>
 #include <optional>
+#include <vector>
 
 namespace voxbrick::server {
 
@@ -63,7 +64,7 @@ class LinkPacer {
   /// transfer); none before the first report.
   std::optional<double> minDeliveryMs() const;
   /// The last frame's time from write to report.
-  std::optional<double> lastDeliveryMs() const { return mLastDeliveryMs; }
+  std::optional<double> lastDeliveryMs() const;
   /// The link's rate (kbit/s), if measured within the last two seconds: from a frame of 4 KiB or more that queued
   /// behind the one ahead of it (written before that one was reported, and delivered later than the quickest delivery:
   /// the time between their reports is its transfer), or from a frame 32 KiB or more larger than the quickest delivered
@@ -98,6 +99,8 @@ class LinkPacer {
   static constexpr size_t kRecentDeliveries = 3;
   /// The share of the client's pace a video frame's delivery is held to.
   static constexpr double kPaceShare = 0.9;
+  /// The median of `values` (not empty; of an even count, the upper of the middle two).
+  static double median(std::vector<double> values);
 
  private:
   struct OnTheWay {
@@ -117,7 +120,7 @@ class LinkPacer {
   std::deque<OnTheWay> mOnTheWay;
   bool mReporting = false;
   Clock::time_point mLastReport{};
-  std::optional<double> mMinDeliveryMs, mLastDeliveryMs;
+  std::optional<double> mMinDeliveryMs;
   uint64_t mMinDeliveryBytes = 0;  ///< the bytes of the frame delivered quickest
   struct Sample {
     double kbps = 0;

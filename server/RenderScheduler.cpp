@@ -13,6 +13,7 @@
 #include <spdlog/spdlog.h>
 
 #include "server/ErrorReply.h"
+#include "server/LinkPacer.h"
 
 namespace voxbrick::server {
 namespace {
@@ -195,6 +196,13 @@ double RenderScheduler::restMs(const Sink& sink) const {
   if (it == mSessions.end() || it->second.intervalsMs.empty()) return kMaxRestMs;
   const auto& intervals = it->second.intervalsMs;
   return std::min(1.5 * *std::max_element(intervals.begin(), intervals.end()), kMaxRestMs);
+}
+
+std::optional<double> RenderScheduler::renderIntervalMs(const Sink& sink) const {
+  std::lock_guard lock(mMutex);
+  const auto it = mSessions.find(&sink);
+  if (it == mSessions.end() || it->second.intervalsMs.empty()) return std::nullopt;
+  return LinkPacer::median({it->second.intervalsMs.begin(), it->second.intervalsMs.end()});
 }
 
 void RenderScheduler::refine(const std::shared_ptr<Sink>& sink, RenderJob job) {

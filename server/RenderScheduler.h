@@ -73,6 +73,9 @@ class RenderScheduler {
   /// holds the moving frames behind it (a 1024² png takes 650 ms at 10 Mbit/s); a jittery client's shortest interval
   /// would read one every few moves.
   double restMs(const Sink& sink) const;
+  /// The median of the same intervals (a drag's pace: Connection's video bitrate keeps it); none before the session
+  /// has sent two Renders.
+  std::optional<double> renderIntervalMs(const Sink& sink) const;
   static constexpr double kMaxRestMs = 150;
   static constexpr size_t kRestIntervals = 4;
   /// How long a session counts as dragging after its last interactive Render.

@@ -11,21 +11,13 @@
 #include "render/core/Dataset.h"
 #include "render/core/RenderErrors.h"
 #include "render/engine/ReplayFrameSource.h"
+#include "support/StubDataset.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {
 namespace {
 
 using test::ScratchDir;
-
-class AnyDataset final : public Dataset {
- public:
-  AnyDataset() : Dataset("any", "any") {}
-  std::string_view kind() const override { return "any"; }
-  std::string infoJson() const override { return "{}"; }
-  store::CacheStats cacheStats() const override { return {}; }
-  void setCacheBudget(size_t) const override {}
-};
 
 /// A PNG of `width` x `height` filled with `value` (red), in `dir`/`name`.
 void solidPng(const std::filesystem::path& file, int width, int height, uint8_t value) {
@@ -77,7 +69,7 @@ class ReplayFramesTest : public ::testing::Test {
 
   ScratchDir mDir;
   std::shared_ptr<const ReplayFrames> mFrames;
-  std::shared_ptr<const Dataset> mDataset = std::make_shared<AnyDataset>();
+  std::shared_ptr<const Dataset> mDataset = std::make_shared<test::StubDataset>("any", "any");
 };
 
 TEST_F(ReplayFramesTest, TheFrameNearestTheCameraOfTheScenesSizeIsReplayed) {

@@ -15,6 +15,7 @@
 #include "render/engine/Datasets.h"
 #include "render/engine/RenderEngine.h"
 #include "render/gl/GlFixtures.h"
+#include "support/StubDataset.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick::render {
@@ -147,15 +148,7 @@ TEST(DatasetKinds, AKindAddedAtRunTimeIsOpenedDrawnJudgedAndSummarised) {
 }
 
 TEST(DatasetKinds, AKindWithoutADriverIsRefusedNamingIt) {
-  class Stray final : public Dataset {
-   public:
-    Stray() : Dataset("stray", "/nowhere") {}
-    std::string_view kind() const override { return "point-cloud"; }
-    std::string infoJson() const override { return "{}"; }
-    store::CacheStats cacheStats() const override { return {}; }
-    void setCacheBudget(size_t) const override {}
-  };
-  const auto stray = std::make_shared<Stray>();
+  const auto stray = std::make_shared<test::StubDataset>("stray", "point-cloud");
   RenderEngine engine(RenderEngineOptions{});
   try {
     engine.render(stray, smallScene());
