@@ -11,13 +11,14 @@
 // Usage: node bench/browser_link.mjs --datasets DIR [--dataset mri] [--tf mri] [--out PREFIX]
 //        [--sizes 512x512,1024x1024,1920x1080] [--encodings jpeg,vp8,vp9] [--links loopback,relay] [--duration 10]
 //        [--hz 30] [--mbit 10] [--rtt-ms 40] [--samples 4] [--replay DIR --replay-draw-ms MS] [--frames-out DIR]
-//        [--server-log FILE]
+//        [--server-log FILE] [--replace]
 // --frames-out: each row's shown frames as the page recorded them (DIR/LINK-SIZE-ENCODING.json); --server-log FILE:
 // the server's log, kept.
 // --replay: the server draws nothing and answers each frame with the frame of DIR nearest its camera, taking MS ms
 // (`voxbrick serve --replay-frames`): everything but the drawing, with a GPU's drawing time (bench/run_browser_link.sh
 // --replay-draw-ms makes DIR).
-// Writes PREFIX.csv, PREFIX.md and PREFIX.json (default PREFIX bench/results/video/browser-link).
+// Writes PREFIX.csv, PREFIX.md and PREFIX.json (default PREFIX bench/results/video/browser-link). Where PREFIX.json
+// holds rows (link, size, encoding) this run does not ask for, it stops first, naming them: --replace writes over them.
 
 import { spawn, spawnSync } from "node:child_process";
 import fs from "node:fs";
@@ -50,6 +51,28 @@ const opt = {
 if (!opt.datasets) throw new Error("--datasets DIR is required");
 for (const e of opt.encodings) if (!["jpeg", "vp8", "vp9"].includes(e)) throw new Error(`--encodings: '${e}' is none of jpeg, vp8, vp9`);
 for (const l of opt.links) if (!["loopback", "relay"].includes(l)) throw new Error(`--links: '${l}' is none of loopback, relay`);
+refuseToDropRows();
+
+/// The results already at PREFIX keep rows of their own: a run that would write over them with fewer (a one-row check,
+/// say) stops before it starts, naming them, unless --replace says so or --out names another prefix.
+function refuseToDropRows() {
+  if ("replace" in args || !fs.existsSync(`${opt.out}.json`)) return;
+  let old;
+  try {
+    old = JSON.parse(fs.readFileSync(`${opt.out}.json`, "utf8")).rows || [];
+  } catch {
+    return; // not a results file this tool can read: written over
+  }
+  const key = (r) => `${r.link} ${r.size} ${r.encoding}`;
+  const planned = new Set(opt.links.flatMap((link) => opt.sizes.flatMap((size) =>
+    opt.encodings.map((encoding) => key({ link, size: `${size[0]}x${size[1]}`, encoding })))));
+  const dropped = [...new Set(old.map(key))].filter((k) => !planned.has(k));
+  if (dropped.length === 0) return;
+  console.error(`browser_link: ${opt.out}.json holds rows this run does not ask for (${dropped.join(", ")}): ` +
+    "writing its results there would lose them. Ask for the same rows, write elsewhere (--out PREFIX), or replace the " +
+    "table (--replace).");
+  process.exit(2);
+}
 
 /// The relay (bench/link_relay.mjs) in front of `port`; resolves with its process and port once it listens.
 function startRelay(port) {

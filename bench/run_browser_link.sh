@@ -3,6 +3,8 @@
 # run (bench/browser_link.mjs): preps the MRI if needed, then writes bench/results/video/browser-link.{csv,md,json}.
 # Needs voxbrick built and the browser tests' packages (cd tests/browser && npm ci). Other options pass through to
 # browser_link.mjs (--sizes 512x512,1024x1024,1920x1080 --encodings jpeg,vp8,vp9 --links loopback,relay --duration 10).
+# A run asking for fewer rows than its results file holds stops before it starts, naming those it would lose:
+# --out PREFIX writes elsewhere (bench/work/, say), --replace writes over them.
 #
 #
 # --replay-draw-ms MS: the server draws nothing (`voxbrick serve --replay-frames`): each frame is one drawn here
