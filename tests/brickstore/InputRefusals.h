@@ -27,9 +27,9 @@ inline void expectRefused(const std::function<void()>& fn, const std::vector<std
 }
 
 /// Opens `input` as a volume source and reads every slice: what prep does before writing anything.
-inline std::function<void()> openAndRead(const std::filesystem::path& input) {
-  return [input] {
-    auto source = store::openSource(input.string(), {});
+inline std::function<void()> openAndRead(const std::filesystem::path& input, store::SourceOptions options = {}) {
+  return [input, options] {
+    auto source = store::openSource(input.string(), options);
     const store::VolumeInfo& info = source->info();
     std::vector<char> slab(size_t(info.dims.x * info.dims.y) * store::valueSize(info.type));
     for (int64_t z = 0; z < info.dims.z; ++z) source->readSlices(1, slab.data());

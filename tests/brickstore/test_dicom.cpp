@@ -28,6 +28,7 @@ using store::VolumeSource;
 using test::DicomSeriesSpec;
 using test::ScratchDir;
 using test::Vec3;
+using test::openAndRead;
 
 /// A smooth phantom of the world position (RAS, mm), distinct at every voxel of the small volumes used here.
 double phantom(const Vec3& ras) { return 100 + 3 * ras[0] + 5 * ras[1] + 7 * ras[2]; }
@@ -68,14 +69,6 @@ std::vector<std::string> strings(const std::vector<std::filesystem::path>& paths
   std::vector<std::string> out;
   for (const auto& p : paths) out.push_back(p.string());
   return out;
-}
-
-/// Opens and reads the whole input.
-std::function<void()> openAndRead(const std::string& input, store::SourceOptions options = {}) {
-  return [input, options] {
-    auto source = store::openSource(input, options);
-    test::readValues(*source, 2);
-  };
 }
 
 /// Rewrites one file with a tag changed (or removed, when `value` is empty) through GDCM.

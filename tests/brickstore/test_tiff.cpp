@@ -21,6 +21,7 @@ using test::expectRefused;
 using store::InputError;
 using store::ValueType;
 using test::ScratchDir;
+using test::openAndRead;
 
 /// One page to write: its layout and its bytes, rows top to bottom.
 struct Page {
@@ -70,13 +71,6 @@ void writeTiff(const std::filesystem::path& path, const std::vector<Page>& pages
     ASSERT_EQ(TIFFWriteDirectory(t), 1);
   }
   TIFFClose(t);
-}
-
-std::function<void()> openAndRead(const std::string& input) {
-  return [input] {
-    auto source = store::openSource(input, {});
-    test::readValues(*source);
-  };
 }
 
 double ramp(uint32_t x, uint32_t y, int z) { return 1000.0 * z + 10.0 * y + x; }

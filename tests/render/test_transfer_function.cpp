@@ -53,10 +53,10 @@ class EnvGuard {
 };
 
 // Expects parse() to throw RenderInputError whose message contains every one of `parts`.
-void expectParseError(const std::string& json, const std::vector<std::string>& parts) {
+void expectParseError(const std::string& text, const std::vector<std::string>& parts) {
   try {
-    TransferFunction::parse(json, "tf.json");
-    ADD_FAILURE() << "accepted " << json;
+    TransferFunction::parse(text, "tf.json");
+    ADD_FAILURE() << "accepted " << text;
   } catch (const RenderInputError& e) {
     std::string message = e.what();
     EXPECT_NE(message.find("tf.json"), std::string::npos) << message;

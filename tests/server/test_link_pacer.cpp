@@ -5,6 +5,7 @@
 
 #include "server/LinkPacer.h"
 #include "server/RenderJob.h"
+#include "support/MadeUpTime.h"
 
 namespace voxbrick::server {
 namespace {
@@ -12,8 +13,7 @@ namespace {
 using Clock = LinkPacer::Clock;
 using std::chrono::milliseconds;
 
-const Clock::time_point t0 = Clock::now();
-Clock::time_point at(double ms) { return t0 + std::chrono::microseconds(int64_t(ms * 1000)); }
+using test::at;
 
 TEST(LinkPacer, AClientThatNeverReportsIsNotPaced) {
   LinkPacer pacer;

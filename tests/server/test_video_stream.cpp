@@ -11,13 +11,13 @@
 #include "image/FrameImage.h"
 #include "image/Video.h"
 #include "server/VideoStream.h"
+#include "support/MadeUpTime.h"
 
 namespace voxbrick::server {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-const Clock::time_point t0 = Clock::now();
-Clock::time_point at(double ms) { return t0 + std::chrono::microseconds(int64_t(ms * 1000)); }
+using test::at;
 
 /// A provisional vp8 Frame of `side` x `side` RGBA8 pixels, as renderReply leaves it for the stream.
 proto::Frame rawFrame(int side, int shade) {

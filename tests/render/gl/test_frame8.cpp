@@ -42,18 +42,18 @@ size_t pixelsDrawn(const image::Image8& image, const glm::dvec3& background) {
   return n;
 }
 
-struct Case {
+struct Frame8Case {
   std::string name;
   Scene scene;
 };
 
-std::vector<Case> frameCases() {
+std::vector<Frame8Case> frameCases() {
   Scene base = test::slicingScene("hot");
   base.lod = 0;
   base.width = 37;  // neither side a multiple of the finish's 8 x 8 workgroups
   base.height = 23;
   base.background = {0.2, 0.35, 0.9};
-  std::vector<Case> cases;
+  std::vector<Frame8Case> cases;
   Scene s = base;
   cases.push_back({"slicing", s});
   s.slab = 16;
@@ -83,7 +83,7 @@ TEST(Frame8, IsTheFloatFrameRoundedForEveryPassAndBackground) {
   const auto store = prep("synthetic:blobs,n=48", dir / "b", 16);
   auto cache = std::make_shared<store::BrickCache>(store, size_t(256) << 20, 1);
   VolumeRenderer renderer(test::context(), cache, size_t(256) << 20);
-  for (const Case& c : frameCases()) {
+  for (const Frame8Case& c : frameCases()) {
     FrameStats floatStats, stats8;
     const image::ImageF floats = renderer.render(c.scene, &floatStats);
     const image::Image8 expected = image::toImage8(floats);
