@@ -5,6 +5,8 @@
 #include <array>
 #include <vector>
 
+#include "common/Median.h"
+
 namespace voxbrick::server {
 namespace {
 
@@ -124,12 +126,7 @@ std::optional<double> LinkPacer::medianMs(const std::deque<Delivery>& deliveries
   if (deliveries.empty()) return std::nullopt;
   std::vector<double> ms;
   for (const Delivery& d : deliveries) ms.push_back(d.ms);
-  return median(std::move(ms));
-}
-
-double LinkPacer::median(std::vector<double> values) {
-  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
-  return values[values.size() / 2];
+  return upperMedian(std::move(ms));
 }
 
 std::optional<double> LinkPacer::lastDeliveryMs() const {
@@ -197,7 +194,7 @@ void LinkPacer::followPace(double paceMs, double targetKbps, Clock::time_point n
   std::vector<double> bytes;
   for (const Delivery& d : mVideoDeliveries) bytes.push_back(double(d.bytes));
   const double extraMs = *medianMs(mVideoDeliveries) - *mMinDeliveryMs;
-  const double bytesMs = std::min(extraMs, median(std::move(bytes)) * 8 / *link);
+  const double bytesMs = std::min(extraMs, upperMedian(std::move(bytes)) * 8 / *link);
   const double roomMs = budgetMs - (extraMs - bytesMs);  // what the pace leaves the bytes
   const double current = mPaceKbps > 0 ? std::min(mPaceKbps, targetKbps) : targetKbps;
   if (extraMs > budgetMs) {

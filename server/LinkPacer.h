@@ -13,7 +13,6 @@
 #include <cstdint>
 #include <deque>
 #include <optional>
-#include <vector>
 
 namespace voxbrick::server {
 
@@ -99,8 +98,6 @@ class LinkPacer {
   static constexpr size_t kRecentDeliveries = 3;
   /// The share of the client's pace a video frame's delivery is held to.
   static constexpr double kPaceShare = 0.9;
-  /// The median of `values` (not empty; of an even count, the upper of the middle two).
-  static double median(std::vector<double> values);
 
  private:
   struct OnTheWay {

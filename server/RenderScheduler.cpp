@@ -12,8 +12,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include "common/Median.h"
 #include "server/ErrorReply.h"
-#include "server/LinkPacer.h"
 
 namespace voxbrick::server {
 namespace {
@@ -202,7 +202,7 @@ std::optional<double> RenderScheduler::renderIntervalMs(const Sink& sink) const 
   std::lock_guard lock(mMutex);
   const auto it = mSessions.find(&sink);
   if (it == mSessions.end() || it->second.intervalsMs.empty()) return std::nullopt;
-  return LinkPacer::median({it->second.intervalsMs.begin(), it->second.intervalsMs.end()});
+  return upperMedian({it->second.intervalsMs.begin(), it->second.intervalsMs.end()});
 }
 
 void RenderScheduler::refine(const std::shared_ptr<Sink>& sink, RenderJob job) {
