@@ -6,7 +6,12 @@
 //
 //   bench_video --csv OUT.csv --fps 30 FRAME.png... [--qualities 50,70,85] [--kbps 1000,2000,4000] [--threads 1,4]
 //               [--scales 1,0.5] [--speeds 8,6] [--fixed-speed] [--rate-control cbr,vbr] [--aq 3,0]
-//               [--start-frames 11,0] [--streams DIR]
+//               [--start-frames 11,0] [--streams DIR] [--times FILE] [--max-frame-ms 33.3,0]
+//
+// --times: the times (ms, one a line or space apart) at which a client was shown a drag's frames, as a browser
+// recorded them (bench/browser_link.mjs --frames-out): the stream is fed one frame at each time, the drag's frame of
+// that moment (frames skipped where the gaps are long), in place of every frame at --fps. --max-frame-ms: the most
+// time a frame's bits are reckoned over (image::VideoSettings::maxFrameMs; 0: the real gap).
 //
 // Besides the whole drag's means, each row has its start's: the first kStartFrames frames (a third of a second at 30
 // frames a second), where the stream begins at a key frame.
@@ -41,9 +46,12 @@ struct Row {
   double bytes = 0, psnr = 0, psnrMin = 1e9, encodeMs = 0, decodeMs = 0, keyBytes = 0;
   double startBytes = 0, startPsnr = 0, startPsnrMin = 1e9;  ///< over the first kStartFrames frames
   size_t count = 0;
+  std::vector<double> sizes{};  ///< every frame's bytes
+  double bytesP90 = 0, bytesMax = 0;
 };
 
 void accumulate(Row& row, size_t bytes, double psnr, double encodeMs, double decodeMs) {
+  row.sizes.push_back(double(bytes));
   if (row.count++ < kStartFrames) {
     row.startBytes += double(bytes);
     row.startPsnr += psnr;
@@ -60,6 +68,11 @@ void finish(Row& row, size_t frames) {
   const double n = double(frames), start = double(std::min(frames, kStartFrames));
   row.bytes /= n, row.psnr /= n, row.encodeMs /= n, row.decodeMs /= n;
   row.startBytes /= start, row.startPsnr /= start;
+  std::sort(row.sizes.begin(), row.sizes.end());
+  if (!row.sizes.empty()) {
+    row.bytesP90 = row.sizes[std::min(row.sizes.size() - 1, size_t(0.9 * double(row.sizes.size())))];
+    row.bytesMax = row.sizes.back();
+  }
 }
 
 double psnr(const image::Image8& a, const image::Image8& b) {
@@ -81,10 +94,26 @@ Row jpegRow(const std::vector<image::Image8>& frames, int quality) {
   return row;
 }
 
+/// The frames a stream is fed, and when: each frame at `fps`, or with `times` (ms) the drag's frame of each moment.
+struct Feed {
+  std::vector<size_t> frame;
+  std::vector<double> ms;
+};
+
+Feed feedOf(size_t frames, double fps, const std::vector<double>& times) {
+  Feed feed;
+  for (size_t i = 0; i < (times.empty() ? frames : times.size()); ++i) {
+    const double ms = times.empty() ? 1000.0 * double(i) / fps : times[i] - times[0];
+    feed.ms.push_back(ms);
+    feed.frame.push_back(times.empty() ? i : size_t(std::llround(ms * fps / 1000)) % frames);
+  }
+  return feed;
+}
+
 /// A stream of the frames scaled by `scale` (1: as they are) with `settings` (its size aside), each decoded
 /// frame scaled back to the frame's size before its PSNR is taken (as a viewer shows a smaller stream). The row's
 /// setting names the bitrate and whatever differs from the server's defaults.
-Row videoRow(const std::vector<image::Image8>& frames, proto::Encoding codec, double fps, double scale,
+Row videoRow(const std::vector<image::Image8>& frames, const Feed& feed, proto::Encoding codec, double scale,
              image::VideoSettings settings, const std::string& streamsDir) {
   const image::VideoSettings defaults;
   std::string setting = std::to_string(settings.bitrateKbps) + " kbit/s";
@@ -100,6 +129,9 @@ Row videoRow(const std::vector<image::Image8>& frames, proto::Encoding codec, do
   if (settings.startFrames != defaults.startFrames)
     setting += settings.startFrames == 0 ? std::string("; no start cap")
                                          : "; start cap " + std::to_string(settings.startFrames) + " frames";
+  char frameMs[48];
+  std::snprintf(frameMs, sizeof frameMs, "; frames reckoned over at most %.1f ms", settings.maxFrameMs);
+  if (settings.maxFrameMs != defaults.maxFrameMs) setting += settings.maxFrameMs == 0 ? "; real gaps" : frameMs;
   Row row{proto::encodingName(codec), setting};
   const int width = std::max(16, int(std::lround(frames[0].width * scale)));
   const int height = std::max(16, int(std::lround(frames[0].height * scale)));
@@ -116,14 +148,14 @@ Row videoRow(const std::vector<image::Image8>& frames, proto::Encoding codec, do
     stream.open(streamsDir + "/" + name, std::ios::binary);
     if (!stream) throw image::ImageFailure("bench_video: cannot write " + streamsDir + "/" + name);
   }
-  for (size_t i = 0; i < frames.size(); ++i) {
+  for (size_t i = 0; i < feed.frame.size(); ++i) {
+    const image::Image8& frame = frames[feed.frame[i]];
     auto start = Clock::now();
-    const image::VideoChunk chunk =
-        encoder.encode(image::scaleImage(frames[i], width, height), 1000.0 * double(i) / fps);
+    const image::VideoChunk chunk = encoder.encode(image::scaleImage(frame, width, height), feed.ms[i]);
     const double encodeMs = msSince(start);
     start = Clock::now();
-    const image::Image8 shown = image::scaleImage(decoder.decode(chunk.bytes), frames[i].width, frames[i].height);
-    accumulate(row, chunk.bytes.size(), psnr(frames[i], shown), encodeMs, msSince(start));
+    const image::Image8 shown = image::scaleImage(decoder.decode(chunk.bytes), frame.width, frame.height);
+    accumulate(row, chunk.bytes.size(), psnr(frame, shown), encodeMs, msSince(start));
     if (chunk.key) row.keyBytes = double(chunk.bytes.size());
     if (stream.is_open()) {
       const uint32_t n = uint32_t(chunk.bytes.size());
@@ -133,7 +165,7 @@ Row videoRow(const std::vector<image::Image8>& frames, proto::Encoding codec, do
       stream.write(reinterpret_cast<const char*>(chunk.bytes.data()), std::streamsize(n));
     }
   }
-  finish(row, frames.size());
+  finish(row, feed.frame.size());
   return row;
 }
 
@@ -181,6 +213,16 @@ int main(int argc, char** argv) {
   std::string streamsDir;
   app.add_option("--streams", streamsDir, "also write each video row's chunks to a file in this folder, for "
                                           "bench/browser_decode.mjs");
+  std::string timesPath;
+  app.add_option("--times", timesPath, "a file of the times (ms) a client was shown the drag's frames: a frame is "
+                                       "fed at each, the drag's frame of that moment (at --fps), in place of every "
+                                       "frame at --fps")->check(CLI::ExistingFile);
+  std::vector<double> maxFrameMs{image::VideoSettings{}.maxFrameMs};
+  app.add_option("--max-frame-ms", maxFrameMs, "the most time a frame's bits are reckoned over "
+                                               "(image::VideoSettings::maxFrameMs; 0: the real gap; each a row of "
+                                               "every bitrate)")
+      ->delimiter(',')
+      ->check(CLI::Range(0.0, 10000.0));
   app.add_option("frames", paths, "the drag's lossless frames, in order")->required();
   CLI11_PARSE(app, argc, argv);
   try {
@@ -189,6 +231,15 @@ int main(int argc, char** argv) {
     for (const image::Image8& f : frames)
       if (f.width != frames[0].width || f.height != frames[0].height)
         throw image::ImageFailure("bench_video: the frames differ in size");
+    std::vector<double> times;
+    if (!timesPath.empty()) {
+      std::ifstream in(timesPath);
+      for (double t; in >> t;) times.push_back(t);
+      if (times.size() < 2 || !in.eof()) throw image::ImageFailure("bench_video: " + timesPath + " is no list of times");
+      if (!std::is_sorted(times.begin(), times.end()))
+        throw image::ImageFailure("bench_video: the times of " + timesPath + " go back");
+    }
+    const Feed feed = feedOf(frames.size(), fps, times);
     std::vector<Row> rows;
     for (int q : qualities) rows.push_back(jpegRow(frames, q));
     for (const proto::Encoding codec : {proto::Encoding::Vp8, proto::Encoding::Vp9})
@@ -198,24 +249,26 @@ int main(int argc, char** argv) {
             for (const std::string& rc : rateControls)
               for (int aq : codec == proto::Encoding::Vp9 ? aqModes : std::vector<int>{image::VideoSettings{}.aqMode})
                 for (int start : startFrames)
+                  for (double frameMs : maxFrameMs)
                   for (int k : kbps) {
                     image::VideoSettings settings;
                     settings.startFrames = start;
+                    settings.maxFrameMs = frameMs;
                     settings.bitrateKbps = k, settings.threads = t, settings.speed = speed;
                     settings.adaptiveSpeed = !fixedSpeed;
                     settings.constantBitrate = rc == "cbr";
                     settings.aqMode = aq;
-                    rows.push_back(videoRow(frames, codec, fps, scale, settings, streamsDir));
+                    rows.push_back(videoRow(frames, feed, codec, scale, settings, streamsDir));
                   }
     std::ofstream csv(csvPath);
     csv << "size,frames,fps,encoding,setting,bytes_per_frame,psnr_mean_db,psnr_min_db,encode_ms,decode_ms,key_bytes,"
-           "start_bytes_per_frame,start_psnr_mean_db,start_psnr_min_db\n";
+           "start_bytes_per_frame,start_psnr_mean_db,start_psnr_min_db,bytes_p90,bytes_max\n";
     for (const Row& r : rows) {
       char line[640];
-      std::snprintf(line, sizeof line, "%dx%d,%zu,%g,%s,%s,%.0f,%.2f,%.2f,%.2f,%.2f,%.0f,%.0f,%.2f,%.2f\n",
-                    frames[0].width, frames[0].height, frames.size(), fps, r.encoding.c_str(), r.setting.c_str(),
-                    r.bytes, r.psnr, r.psnrMin, r.encodeMs, r.decodeMs, r.keyBytes, r.startBytes, r.startPsnr,
-                    r.startPsnrMin);
+      std::snprintf(line, sizeof line, "%dx%d,%zu,%g,%s,%s,%.0f,%.2f,%.2f,%.2f,%.2f,%.0f,%.0f,%.2f,%.2f,%.0f,%.0f\n",
+                    frames[0].width, frames[0].height, r.count, fps, r.encoding.c_str(), r.setting.c_str(), r.bytes,
+                    r.psnr, r.psnrMin, r.encodeMs, r.decodeMs, r.keyBytes, r.startBytes, r.startPsnr, r.startPsnrMin,
+                    r.bytesP90, r.bytesMax);
       csv << line;
       std::fputs(line, stdout);
     }

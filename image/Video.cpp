@@ -85,6 +85,7 @@ VideoEncoder::VideoEncoder(proto::Encoding codec, const VideoSettings& settings)
                        " is outside 1.." + std::to_string(kMaxSide) + " a side");
   if (settings.bitrateKbps < 1) throw ImageFailure("video: bitrate must be at least 1 kbit/s");
   if (settings.startFrames < 0) throw ImageFailure("video: start frames must be at least 0");
+  if (!(settings.maxFrameMs >= 0)) throw ImageFailure("video: the most time a frame is reckoned over must be at least 0");
   if (settings.aqMode < 0 || settings.aqMode > 3)
     throw ImageFailure("video: adaptive quantisation mode " + std::to_string(settings.aqMode) + " is outside 0..3");
   const bool vp9 = codec == proto::Encoding::Vp9;
@@ -160,8 +161,17 @@ VideoChunk VideoEncoder::encode(const Image8& image, double timeMs, bool key) {
   libyuv::ABGRToI420(image.rgba.data(), image.width * 4, yuv.planes[VPX_PLANE_Y], yuv.stride[VPX_PLANE_Y],
                      yuv.planes[VPX_PLANE_U], yuv.stride[VPX_PLANE_U], yuv.planes[VPX_PLANE_V],
                      yuv.stride[VPX_PLANE_V], image.width, image.height);
-  // Strictly increasing timestamps; each frame's duration is the time to the one before (at least 1 ms).
-  const int64_t pts = std::max<int64_t>(mLastPts + 1, int64_t(std::llround(std::max(0.0, timeMs))));
+  // Strictly increasing timestamps; each frame's duration is the time to the one before (at least 1 ms, at most
+  // maxFrameMs where that is set).
+  timeMs = std::max(0.0, timeMs);
+  if (mLastPts < 0) {
+    mStreamMs = timeMs;
+  } else {
+    const double gap = std::max(0.0, timeMs - mLastTimeMs);
+    mStreamMs += mSettings.maxFrameMs > 0 ? std::min(gap, mSettings.maxFrameMs) : gap;
+  }
+  mLastTimeMs = timeMs;
+  const int64_t pts = std::max<int64_t>(mLastPts + 1, int64_t(std::llround(mStreamMs)));
   const unsigned long duration = mLastPts < 0 ? 33 : (unsigned long)std::max<int64_t>(1, pts - mLastPts);
   const vpx_enc_frame_flags_t flags = key || mFrames == 0 ? VPX_EFLAG_FORCE_KF : 0;
   // The stream's start (VideoSettings::startFrames). Bytes a millisecond: kbit/s / 8.

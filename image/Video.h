@@ -41,6 +41,12 @@ struct VideoSettings {
   /// has spent more than its share and two frames' (a picture dearer than the guess: the rate control takes over).
   /// A key frame later in the stream gets no cap: by then the rate control knows the picture.
   int startFrames = 11;
+  /// The most time one frame's bits are reckoned over, in ms (0: no limit). libvpx's rate control gives a frame the
+  /// bitrate times the time since the frame before, so a frame after a gap (a browser that stalled, frames skipped
+  /// on a slow link) came as a burst: up to 100 kB at 4.7 Mbit/s where its neighbours took 20, queueing on the link
+  /// and leaving a longer gap before the next one. Capped at 30 frames a second's share, frames after gaps cost
+  /// what others do (bench/results/video/video-gaps.md).
+  double maxFrameMs = 1000.0 / 30;
 };
 
 /// libvpx's quantizers (0..63) a stream may use: the rate control's range, and the finest a start's cap goes.
@@ -82,8 +88,9 @@ class VideoEncoder {
   VideoEncoder& operator=(const VideoEncoder&) = delete;
 
   /// Encodes `image` (the stream's size; throws ImageFailure otherwise) shown at `timeMs` after the stream began
-  /// (non-decreasing: the rate control spreads its bits over real time). The first frame, and any with `key`, is a
-  /// key frame; the others refer to the frames before them, so each chunk must reach the decoder, in order.
+  /// (non-decreasing: the rate control spreads its bits over the time between frames, each gap counted up to
+  /// VideoSettings::maxFrameMs). The first frame, and any with `key`, is a key frame; the others refer to the frames
+  /// before them, so each chunk must reach the decoder, in order.
   VideoChunk encode(const Image8& image, double timeMs, bool key = false);
   /// Changes the target bitrate from the next frame on (no key frame).
   void setBitrate(int kbps);
@@ -104,6 +111,7 @@ class VideoEncoder {
   VideoSettings mSettings;
   std::unique_ptr<Codec> mCodecState;
   int64_t mLastPts = -1;
+  double mLastTimeMs = 0, mStreamMs = 0;  ///< the last frame's `timeMs`, and its time in the stream (gaps capped)
   uint64_t mFrames = 0;
   /// The stream's start: its first frame's time, the bytes and count of its frames so far (up to startFrames), and
   /// its quantizer cap.

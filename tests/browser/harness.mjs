@@ -253,6 +253,18 @@ export async function canvasPixels(page) {
   return { width: p.width, height: p.height, rgba: Buffer.from(p.rgba, "base64") };
 }
 
+/// Copies the canvas as it is now (the page's `snapshot`: a few ms, where reading the pixels out takes hundreds at
+/// 1024x1024); resolves with the copy's index for `snapshotPixels`.
+export function snapshotCanvas(page) {
+  return page.evaluate(() => window.voxbrickViewer.snapshot());
+}
+
+/// Snapshot `index`'s pixels, as canvasPixels gives them, and `frame`: the frame the canvas showed then.
+export async function snapshotPixels(page, index) {
+  const p = await page.evaluate((i) => window.voxbrickViewer.snapshotPixels(i), index);
+  return { width: p.width, height: p.height, rgba: Buffer.from(p.rgba, "base64"), frame: p.frame };
+}
+
 /// PSNR in dB of the RGB of two images of one size ({rgba} rows of 4 bytes a pixel); Infinity when they are equal.
 export function psnrRgb(a, b) {
   if (a.rgba.length !== b.rgba.length) throw new Error(`psnrRgb: ${a.width}x${a.height} against ${b.width}x${b.height}`);

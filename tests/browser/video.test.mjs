@@ -108,12 +108,20 @@ describe("viewer video stream", () => {
       (st) =>
         st.lastFrame.encoding === 4 && st.lastStats.interactive && st.lastStats.interactive.rung === 0 && st.video.decoded > 3,
     );
-    const vp8Pixels = await H.canvasPixels(page);
+    // A copy of the canvas, read out after the drag (as bench/browser_link.mjs samples a drag), and the frame it showed.
+    const vp8Snapshot = await H.snapshotCanvas(page);
     await dragging;
+    const vp8Pixels = await H.snapshotPixels(page, vp8Snapshot);
+    assert.equal(vp8Pixels.frame.encoding, 4, "the snapshot shows a vp8 frame");
+    assert.ok(vp8Pixels.frame.provisional);
     const exact = await waitExact(page, start.newestId);
     assert.equal(exact.lastFrame.encoding, 1);
     const pngPixels = await H.canvasPixels(page);
     assert.ok(H.litPixels(pngPixels) > 500, "the frame shows the volume");
+    // A snapshot is the canvas's pixels exactly.
+    const pngSnapshot = await H.snapshotPixels(page, await H.snapshotCanvas(page));
+    assert.ok(pngSnapshot.rgba.equals(pngPixels.rgba), "the snapshot of the exact frame is the canvas, pixel for pixel");
+    assert.equal(pngSnapshot.frame.id, exact.lastFrame.id);
     const db = psnr(vp8Pixels, pngPixels);
     // Measured: 37.5 dB; decoded as BT.709 full range in place of the stream's BT.601 limited range, 24.1 dB.
     assert.ok(db > 28, `vp8 frame against the exact png: ${db.toFixed(1)} dB (${JSON.stringify(s.lastFrame)})`);

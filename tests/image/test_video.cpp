@@ -171,6 +171,30 @@ std::pair<StartOf, StartOf> cappedAndNot(Encoding codec, const VideoSettings& se
   return {startOf(codec, settings, 0, make), startOf(codec, uncapped, 0, make)};
 }
 
+/// The bytes of frame `after` (frame 20, after a gap of `gapMs`) and the mean of the 10 frames before it, of a
+/// stream of detailed frames at 30 frames a second.
+std::pair<double, double> bytesAfterAGap(Encoding codec, const VideoSettings& settings, double gapMs) {
+  VideoEncoder encoder(codec, settings);
+  double before = 0, timeMs = 0;
+  for (int i = 0; i < 20; ++i, timeMs += 1000.0 / 30) {
+    const size_t bytes = encoder.encode(detailed(256, 256, 0.2 * i), timeMs).bytes.size();
+    if (i >= 10) before += double(bytes) / 10;
+  }
+  const double after = double(encoder.encode(detailed(256, 256, 0.2 * 20), timeMs - 1000.0 / 30 + gapMs).bytes.size());
+  return {after, before};
+}
+
+TEST_P(VideoCodecs, AFrameAfterAGapCostsWhatItsNeighboursDo) {
+  // Half a second without a frame (a browser that stalled): the next frame gets no more bits than one at 30 frames a
+  // second, where libvpx left alone gives it the half second's bits: a burst that queues on a slow link.
+  VideoSettings settings = atFixedSpeed(256, 1500);
+  const auto [after, before] = bytesAfterAGap(GetParam(), settings, 500);
+  EXPECT_LT(after, 1.6 * before) << "after the gap " << after << " bytes, before it " << before << " a frame";
+  settings.maxFrameMs = 0;  // real time: the burst this guards against
+  const auto [burst, steady] = bytesAfterAGap(GetParam(), settings, 500);
+  EXPECT_GT(burst, 2 * steady) << "after the gap " << burst << " bytes, before it " << steady << " a frame";
+}
+
 TEST_P(VideoCodecs, AStreamStartsSharpWithinItsShareOfTheBitrate) {
   // A smooth picture turning at 0.1 bits a pixel (800 kbit/s at 512x512): the rate control alone begins coarse and
   // under-spends; the start's cap spends the start's share, and shows it. A key frame forced later in the stream

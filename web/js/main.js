@@ -456,6 +456,14 @@ if (fixedSize) canvas.classList.add("fixed");
 setInterval(drawOverlay, 500);
 window.addEventListener("beforeunload", () => app.connection && app.connection.close());
 
+/// A canvas's (or an OffscreenCanvas') pixels as base64 of RGBA rows, top first.
+function pixelsOf(source) {
+  const d = source.getContext("2d").getImageData(0, 0, source.width, source.height, { colorSpace: "srgb" });
+  return { width: d.width, height: d.height, rgba: base64(d.data) };
+}
+/// The test hook's copies of the canvas (snapshot).
+const snapshots = [];
+
 function base64(bytes) {
   let s = "";
   for (let i = 0; i < bytes.length; i += 0x8000) s += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
@@ -498,10 +506,21 @@ window.voxbrickViewer = {
   videoFrames: () => loop.video.log.slice(),
   resetFigures: () => loop.resetFigures(),
   /// The canvas pixels as base64 of RGBA rows, top first.
-  pixels: () => {
-    const d = canvas.getContext("2d").getImageData(0, 0, canvas.width, canvas.height, { colorSpace: "srgb" });
-    return { width: d.width, height: d.height, rgba: base64(d.data) };
+  pixels: () => pixelsOf(canvas),
+  /// Keeps a copy of the canvas as it is now, with the frame it shows, for `snapshotPixels` to read later; returns
+  /// its index. Copying takes a few milliseconds where reading the pixels out (`pixels`) holds the page's thread for
+  /// hundreds at 1024x1024: a benchmark's sample mid-drag must not stall the drag it measures.
+  snapshot: () => {
+    const copy = new OffscreenCanvas(canvas.width, canvas.height);
+    const context = copy.getContext("2d");
+    context.imageSmoothingEnabled = false;
+    context.drawImage(canvas, 0, 0);
+    snapshots.push({ copy, frame: loop.lastFrame ? structuredClone(loop.lastFrame) : null });
+    return snapshots.length - 1;
   },
+  /// Snapshot `index`'s pixels (as `pixels` gives them) and the frame it showed.
+  snapshotPixels: (index) => ({ ...pixelsOf(snapshots[index].copy), frame: snapshots[index].frame }),
+  clearSnapshots: () => void (snapshots.length = 0),
   /// The last shown frame's payload as the server sent it (base64).
   lastPayload: () => (loop.lastPayload ? base64(loop.lastPayload) : ""),
   /// A scripted drag through the gestures' own handlers: `dAz`, `dEl` degrees per move, `hz` moves a second, for
