@@ -70,6 +70,17 @@ using common::formatBytes;  ///< "12.3 MB"
 /// process for the next frame instead of returning it to the system (cli/Allocator.cpp says why).
 void keepFreedMemoryForFrames();
 
+/// For `serve`, first thing (before any thread): where the kernel grants transparent huge pages only on request
+/// (its mode "madvise", Debian's default), runs this program again, the same arguments, with glibc's malloc asking
+/// for them (GLIBC_TUNABLES glibc.malloc.hugetlb=1); returns where it does not: GLIBC_TUNABLES names the setting
+/// already (the operator's choice, or this process is that run), VOXBRICK_MALLOC_HUGE_PAGES=0, another mode, or the
+/// exec failed. A video stream's encoder (libvpx: about 70 MiB for a VP9 stream at 1024², 130 at 1920x1080)
+/// otherwise faults its memory in 4 KiB at a time whenever a stream starts (cli/Allocator.cpp,
+/// bench/results/video/stream-start.md).
+void askHugePagesForMalloc(char** argv);
+/// What askHugePagesForMalloc did, for the server's log.
+std::string hugePagesForMallocNote();
+
 /// For `prep`: one heap for every thread, grown (and trimmed) 64 MB at a time, so that building the OpenVDB grid
 /// leaf by leaf does not make a system call and page faults per page (cli/Allocator.cpp).
 void growHeapInLargeSteps();

@@ -132,6 +132,7 @@ void runServe(const ServeArgs& a) {
   if (!c.http && !a.httpPortFile.empty())
     throw std::runtime_error("--http-port-file needs --http PORT (or http.port in the configuration)");
   spdlog::info("configuration: {}", file.empty() ? std::string("the built-in defaults") : file);
+  spdlog::info("{}", hugePagesForMallocNote());
   if (!a.replayFrames.empty()) {
     if (a.mpi.mpi) throw std::runtime_error("--replay-frames draws nothing, so it cannot be shared across ranks (--mpi)");
     // Read before the server starts, so that a bad directory is refused at once, naming what is wrong.

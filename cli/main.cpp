@@ -5,6 +5,7 @@
 #include <exception>
 #include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <spdlog/sinks/stdout_color_sinks.h>
@@ -87,6 +88,8 @@ std::string leftOver(const CLI::App& app) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Before anything else (it may run the program again): the server's allocator (cli/Allocator.cpp).
+  if (argc > 1 && std::string_view(argv[1]) == "serve") voxbrick::cli::askHugePagesForMalloc(argv);
   // A file-size limit should surface as a write error naming the file, not kill the process.
   std::signal(SIGXFSZ, SIG_IGN);
   // Logs (the server's, any library's through spdlog) go to stderr; stdout carries only results.

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <optional>
 #include <thread>
 
 #include <nlohmann/json.hpp>
@@ -565,6 +566,69 @@ TEST_F(ServerTest, ShutsDownCleanlyOnSignals) {
     EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(10));
     EXPECT_EQ(errorsUntilClosed(*c), std::vector<ErrorCode>{ErrorCode::ShuttingDown});
     EXPECT_NE(server->log().find("stopped"), std::string::npos) << server->log();
+  }
+}
+
+/// The environment process `pid` runs with (/proc): NAME -> value.
+std::map<std::string, std::string> environmentOf(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/environ", std::ios::binary);
+  std::map<std::string, std::string> env;
+  for (std::string entry; std::getline(in, entry, '\0');)
+    if (const size_t eq = entry.find('='); eq != std::string::npos) env[entry.substr(0, eq)] = entry.substr(eq + 1);
+  return env;
+}
+
+/// The kernel's transparent huge page mode ("always", "madvise", "never"), "" where it does not say.
+std::string hugePageMode() {
+  std::ifstream in("/sys/kernel/mm/transparent_hugepage/enabled");
+  std::string modes;
+  std::getline(in, modes);
+  const size_t open = modes.find('['), close = modes.find(']');
+  return open < close && close != std::string::npos ? modes.substr(open + 1, close - open - 1) : "";
+}
+
+/// An environment variable set for the servers a test starts, put back as it was after.
+class SetForServers {
+ public:
+  SetForServers(const char* name, const std::string& value) : mName(name) {
+    if (const char* before = std::getenv(name)) mBefore = before;
+    ::setenv(name, value.c_str(), 1);
+  }
+  ~SetForServers() { mBefore ? ::setenv(mName, mBefore->c_str(), 1) : ::unsetenv(mName); }
+  SetForServers(const SetForServers&) = delete;
+  SetForServers& operator=(const SetForServers&) = delete;
+
+ private:
+  const char* mName;
+  std::optional<std::string> mBefore;
+};
+
+TEST_F(ServerTest, AsksGlibcForHugePagesWhereTheKernelGrantsThemOnRequest) {
+  // Where the kernel's mode is madvise (Debian's default), `serve` runs itself again with glibc's malloc asking for
+  // transparent huge pages, keeping the tunables it was given; VOXBRICK_MALLOC_HUGE_PAGES=0 says no. In another
+  // mode nothing is asked (always: granted unasked; never: none). Either way the server serves.
+  const bool asks = hugePageMode() == "madvise";
+  if (!std::getenv("GLIBC_TUNABLES")) {
+    // The environment the process was started with (glibc cuts a list of tunables at its first ':' there).
+    auto server = start();
+    EXPECT_EQ(environmentOf(server->pid())["GLIBC_TUNABLES"], asks ? "glibc.malloc.hugetlb=1" : "");
+  }
+  {
+    SetForServers tunables("GLIBC_TUNABLES", "glibc.malloc.perturb=0");
+    auto server = start();
+    EXPECT_EQ(session(*server)->render(kScene).width, 80u);
+    EXPECT_NE(server->log().find(asks ? "malloc: GLIBC_TUNABLES=glibc.malloc.perturb=0:glibc.malloc.hugetlb=1; the "
+                                        "kernel's transparent huge pages: madvise"
+                                      : "malloc: the kernel's transparent huge pages"),
+              std::string::npos)
+        << server->log();
+  }
+  SetForServers off("VOXBRICK_MALLOC_HUGE_PAGES", "0");
+  auto server = start();
+  EXPECT_EQ(environmentOf(server->pid())["GLIBC_TUNABLES"].find("hugetlb"), std::string::npos);
+  EXPECT_EQ(session(*server)->render(kScene).width, 80u);
+  if (asks) {
+    EXPECT_NE(server->log().find("VOXBRICK_MALLOC_HUGE_PAGES=0"), std::string::npos) << server->log();
   }
 }
 

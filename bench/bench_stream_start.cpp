@@ -1,0 +1,104 @@
+// What starting a video stream costs the server: a VideoEncoder built with the server's settings for a frame size
+// (image::videoThreadsFor's threads) and its first frames encoded, one stream after another in one process, as
+// sessions start their streams (and a stream starts again at a new size). Times: the encoder's construction, its
+// key frame, the frame after it; memory: the process's resident set grown by holding the encoder and its two frames.
+// bench/run_stream_start.sh runs it with and without glibc's transparent huge pages for malloc (GLIBC_TUNABLES).
+//
+//   bench_stream_start --csv OUT.csv [--sizes 512x512,1024x1024,1920x1080] [--repeats 5] FRAME.png
+#include <malloc.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "image/ImageFile.h"
+#include "image/Video.h"
+
+namespace {
+
+using namespace voxbrick;
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+/// The process's resident set, in MiB (Linux: /proc/self/status).
+double residentMiB() {
+  std::ifstream status("/proc/self/status");
+  for (std::string line; std::getline(status, line);)
+    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024;
+  return 0;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0 : v[v.size() / 2];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"bench_stream_start: what starting a video stream costs (construction, first frames, memory)"};
+  std::string csvPath, framePath;
+  std::vector<std::string> sizes{"512x512", "1024x1024", "1920x1080"};
+  int repeats = 5;
+  app.add_option("--csv", csvPath, "the CSV to write")->required();
+  app.add_option("--sizes", sizes, "stream sizes, WxH")->delimiter(',');
+  app.add_option("--repeats", repeats, "streams started one after another for each codec and size")
+      ->check(CLI::Range(1, 100));
+  app.add_option("frame", framePath, "a frame (PNG), scaled to each size")->required()->check(CLI::ExistingFile);
+  CLI11_PARSE(app, argc, argv);
+  // The server's allocator policy (cli/Allocator.cpp, keepFreedMemoryForFrames): blocks up to 32 MB kept for reuse.
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);
+  mallopt(M_TRIM_THRESHOLD, 64 << 20);
+  try {
+    const image::Image8 source = image::readImage(framePath);
+    std::ofstream csv(csvPath);
+    csv << "codec,size,threads,repeats,first_construct_ms,construct_ms,first_key_ms,key_ms,next_ms,resident_mib\n";
+    for (const proto::Encoding codec : {proto::Encoding::Vp8, proto::Encoding::Vp9})
+      for (const std::string& size : sizes) {
+        int width = 0, height = 0;
+        if (std::sscanf(size.c_str(), "%dx%d", &width, &height) != 2 || width < 16 || height < 16)
+          throw image::ImageFailure("bench_stream_start: size '" + size + "' is not WxH");
+        const image::Image8 a = image::scaleImage(source, width, height);
+        image::Image8 b = a;
+        std::reverse(b.rgba.begin(), b.rgba.end());  // a second picture, unlike the first
+        image::VideoSettings settings;
+        settings.width = width, settings.height = height;
+        settings.bitrateKbps = int(double(width) * height * 0.05 * 30 / 1000);  // the server's start
+        settings.threads = image::videoThreadsFor(codec, width, height, int(std::thread::hardware_concurrency()));
+        std::vector<double> construct, key, next, resident;
+        for (int r = 0; r < repeats; ++r) {
+          const double before = residentMiB();
+          auto start = Clock::now();
+          auto encoder = std::make_unique<image::VideoEncoder>(codec, settings);
+          construct.push_back(msSince(start));
+          start = Clock::now();
+          encoder->encode(a, 0);
+          key.push_back(msSince(start));
+          start = Clock::now();
+          encoder->encode(b, 1000.0 / 30);
+          next.push_back(msSince(start));
+          resident.push_back(residentMiB() - before);
+        }
+        char line[256];
+        std::snprintf(line, sizeof line, "%s,%s,%d,%d,%.1f,%.1f,%.1f,%.1f,%.1f,%.0f\n", proto::encodingName(codec),
+                      size.c_str(), settings.threads, repeats, construct[0], median(construct), key[0], median(key),
+                      median(next), *std::max_element(resident.begin(), resident.end()));
+        csv << line;
+        std::fputs(line, stdout);
+      }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_stream_start: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
