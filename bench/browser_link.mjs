@@ -96,8 +96,9 @@ function exactFrame(server, scene, file) {
   const exact = { ...scene };
   for (const k of ["interactive", "time_budget_ms", "provisional_encoding", "keyframe", "progressive"]) delete exact[k];
   fs.writeFileSync(`${file}.json`, JSON.stringify(exact));
+  // Lossless webp: a 1920x1080 png of some cameras is above the server's 1 MiB message limit.
   const r = spawnSync(H.VOXBRICK, ["request", `127.0.0.1:${server.tcpPort}`, "--dataset", opt.dataset, "--scene",
-    `${file}.json`, "-o", file], { encoding: "utf8" });
+    `${file}.json`, "--encoding", "webp", "-o", file], { encoding: "utf8" });
   if (r.status !== 0) throw new Error(`voxbrick request failed: ${r.stderr}`);
   return H.decodePng(fs.readFileSync(file));
 }

@@ -160,7 +160,8 @@ void Connection::encodeStill(const RenderJob& job, proto::Frame frame) {
   mTransport.runAside(
       [task] {
         task->message = server::encodeStill(std::move(std::get<proto::Frame>(task->message)), *task->job.stillToEncode,
-                                            task->job.pngSpeed, task->job.maxBodyBytes, task->job.received);
+                                            task->job.pngSpeed, task->job.maxBodyBytes, task->job.received,
+                                            task->job.scene.acceptsWebp);
       },
       [this, task] { stillEncoded(*task); }, Aside::Encode, frameClassOf(job));
 }

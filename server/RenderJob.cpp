@@ -32,14 +32,22 @@ std::string withKey(std::string statsJson, std::string_view key, std::string_vie
 }
 
 proto::Message encodeStill(proto::Frame frame, int jpegQuality, image::PngSpeed pngSpeed, uint64_t maxBodyBytes,
-                           Clock::time_point received) {
+                           Clock::time_point received, bool webpWhenTooLarge) {
   const auto start = Clock::now();
+  bool webpForSize = false;
   try {
     image::Image8 image;
     image.width = int(frame.width);
     image.height = int(frame.height);
     image.rgba = std::move(frame.payload);
     frame.payload = image::encodeFrameImage(image, frame.encoding, jpegQuality, pngSpeed);
+    // A 1920x1080 png of a detailed view passes 1 MiB, the default limit; its webp takes about half.
+    if (frame.encoding == proto::Encoding::Png && webpWhenTooLarge &&
+        frameBodyBytes(frame.statsJson.size() + 128, frame.payload.size()) > maxBodyBytes) {
+      frame.encoding = proto::Encoding::Webp;
+      frame.payload = image::encodeFrameImage(image, frame.encoding, jpegQuality, pngSpeed);
+      webpForSize = true;
+    }
   } catch (...) {
     return errorReply(std::current_exception(), "the " + std::to_string(frame.width) + "x" +
                                                     std::to_string(frame.height) + " frame could not be encoded");
@@ -51,6 +59,7 @@ proto::Message encodeStill(proto::Frame frame, int jpegQuality, image::PngSpeed 
   if (frame.encoding == proto::Encoding::Png)
     frame.statsJson = withKey(std::move(frame.statsJson), "png_speed",
                               pngSpeed == image::PngSpeed::Fast ? "\"fast\"" : "\"small\"");
+  if (webpForSize) frame.statsJson = withKey(std::move(frame.statsJson), "webp_for_size", "true");
   if (const uint64_t body = frameBodyBytes(frame.statsJson.size(), frame.payload.size()); body > maxBodyBytes)
     return errorMessage(proto::ErrorCode::LimitExceeded,
                         "the " + std::to_string(frame.width) + "x" + std::to_string(frame.height) + " frame takes " +
@@ -111,7 +120,8 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
     frame.statsJson = statsJson.dump();
     RenderReply reply{
         aside ? proto::Message(std::move(frame))
-              : encodeStill(std::move(frame), jpegQuality, job.pngSpeed, job.maxBodyBytes, job.received),
+              : encodeStill(std::move(frame), jpegQuality, job.pngSpeed, job.maxBodyBytes, job.received,
+                            job.scene.acceptsWebp),
         provisional};
     // A provisional frame too large to send answers its request with the error: no exact frame follows.
     reply.provisional = provisional && std::holds_alternative<proto::Frame>(reply.message);

@@ -115,6 +115,33 @@ TEST_F(ServerTest, ServedFramesEqualTheRenderCommandBitForBit) {
   c->goodbye();
 }
 
+TEST_F(ServerTest, APngAboveTheMessageLimitGoesAsWebpToASceneThatAcceptsIt) {
+  // The limit set between the frame's png and its webp (measured first): a scene that accepts webp gets the same
+  // pixels as webp, saying why in its statistics; one that does not is answered LimitExceeded, as before.
+  std::string scene(kScene);
+  scene.replace(scene.find("[80, 64]"), 8, "[320, 256]");
+  std::string accepting = scene;
+  accepting.insert(accepting.rfind('}'), R"(, "accepts_webp": true)");
+  proto::Frame png, webp;
+  {
+    auto server = start();
+    auto c = session(*server);
+    png = c->render(scene, proto::Encoding::Png);
+    webp = c->render(scene, proto::Encoding::Webp);
+  }
+  const auto body = [](const proto::Frame& f) { return f.statsJson.size() + f.payload.size() + 17; };
+  ASSERT_LT(body(webp) + 4096, body(png));
+  const size_t limit = (body(png) + body(webp)) / 2;
+  auto server = start("--max-message-bytes " + std::to_string(limit));
+  auto c = session(*server);
+  const proto::Frame sent = c->render(accepting, proto::Encoding::Png);
+  EXPECT_EQ(sent.encoding, proto::Encoding::Webp);
+  EXPECT_EQ(pixels(sent), pixels(png));
+  EXPECT_TRUE(json::parse(sent.statsJson).value("webp_for_size", false)) << sent.statsJson;
+  EXPECT_EQ(errorOf([&] { c->render(scene, proto::Encoding::Png); }), ErrorCode::LimitExceeded);
+  EXPECT_EQ(c->render(accepting, proto::Encoding::Png).encoding, proto::Encoding::Webp) << "the session goes on";
+}
+
 // Lossless webp is version 7's: an older session asking for it as the Render's encoding is Malformed, and a scene
 // accepting it is InvalidScene naming the key and the version; the session goes on.
 TEST_F(ServerTest, WebpIsRefusedToAnOlderSessionNamingTheVersion) {

@@ -520,7 +520,6 @@ window.voxbrickViewer = {
   },
   /// Snapshot `index`'s pixels (as `pixels` gives them) and the frame it showed.
   snapshotPixels: (index) => ({ ...pixelsOf(snapshots[index].copy), frame: snapshots[index].frame }),
-  clearSnapshots: () => void (snapshots.length = 0),
   /// The last shown frame's payload as the server sent it (base64).
   lastPayload: () => (loop.lastPayload ? base64(loop.lastPayload) : ""),
   /// A scripted drag through the gestures' own handlers: `dAz`, `dEl` degrees per move, `hz` moves a second, for
