@@ -18,6 +18,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "common/Median.h"
 #include "image/ImageFile.h"
 #include "image/Video.h"
 
@@ -36,11 +37,6 @@ double residentMiB() {
   for (std::string line; std::getline(status, line);)
     if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024;
   return 0;
-}
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0 : v[v.size() / 2];
 }
 
 }  // namespace
@@ -91,8 +87,8 @@ int main(int argc, char** argv) {
         }
         char line[256];
         std::snprintf(line, sizeof line, "%s,%s,%d,%d,%.1f,%.1f,%.1f,%.1f,%.1f,%.0f\n", proto::encodingName(codec),
-                      size.c_str(), settings.threads, repeats, construct[0], median(construct), key[0], median(key),
-                      median(next), *std::max_element(resident.begin(), resident.end()));
+                      size.c_str(), settings.threads, repeats, construct[0], upperMedian(construct), key[0], upperMedian(key),
+                      upperMedian(next), *std::max_element(resident.begin(), resident.end()));
         csv << line;
         std::fputs(line, stdout);
       }

@@ -38,6 +38,9 @@ std::string environmentOr(const char* name, const std::string& otherwise) {
   return value ? value : otherwise;
 }
 
+/// VOXBRICK_MALLOC_HUGE_PAGES=0: the operator says no.
+bool hugePagesRefused() { return environmentOr("VOXBRICK_MALLOC_HUGE_PAGES", "") == "0"; }
+
 }  // namespace
 
 void askHugePagesForMalloc(char** argv) {
@@ -47,7 +50,7 @@ void askHugePagesForMalloc(char** argv) {
   // (VP8: 185 ms), every time a stream started; on huge pages 6, 16 (and 9) ms after the process's first
   // (bench/results/video/stream-start.md). Only an environment variable read as the process starts asks glibc for
   // them, hence the second run.
-  if (environmentOr("VOXBRICK_MALLOC_HUGE_PAGES", "") == "0") return;
+  if (hugePagesRefused()) return;
   const char* before = std::getenv("GLIBC_TUNABLES");
   const std::string tunables = before ? before : "";
   if (tunables.find(kHugeTunable) != std::string::npos) return;
@@ -68,7 +71,7 @@ std::string hugePagesForMallocNote() {
   if (tunables.find(kHugeTunable) != std::string::npos)
     return "malloc: GLIBC_TUNABLES=" + tunables + "; the kernel's transparent huge pages: " +
            (mode.empty() ? "not said" : mode);
-  if (mode == "madvise" && environmentOr("VOXBRICK_MALLOC_HUGE_PAGES", "") == "0")
+  if (mode == "madvise" && hugePagesRefused())
     return "malloc: no huge pages asked (VOXBRICK_MALLOC_HUGE_PAGES=0): a video stream's start faults its pages in";
   return "malloc: the kernel's transparent huge pages: " + (mode.empty() ? std::string("not said") : mode);
 }

@@ -159,9 +159,8 @@ void Connection::encodeStill(const RenderJob& job, proto::Frame frame) {
   mStillEncoding = true;
   mTransport.runAside(
       [task] {
-        task->message = server::encodeStill(std::move(std::get<proto::Frame>(task->message)), *task->job.stillToEncode,
-                                            task->job.pngSpeed, task->job.maxBodyBytes, task->job.received,
-                                            task->job.scene.acceptsWebp);
+        task->message =
+            server::encodeStill(std::move(std::get<proto::Frame>(task->message)), *task->job.stillToEncode, task->job);
       },
       [this, task] { stillEncoded(*task); }, Aside::Encode, frameClassOf(job));
 }

@@ -31,8 +31,9 @@ std::string withKey(std::string statsJson, std::string_view key, std::string_vie
   return statsJson;
 }
 
-proto::Message encodeStill(proto::Frame frame, int jpegQuality, image::PngSpeed pngSpeed, uint64_t maxBodyBytes,
-                           Clock::time_point received, bool webpWhenTooLarge) {
+proto::Message encodeStill(proto::Frame frame, int jpegQuality, const RenderJob& job) {
+  const image::PngSpeed pngSpeed = job.pngSpeed;
+  const uint64_t maxBodyBytes = job.maxBodyBytes;
   const auto start = Clock::now();
   bool webpForSize = false;
   try {
@@ -42,7 +43,7 @@ proto::Message encodeStill(proto::Frame frame, int jpegQuality, image::PngSpeed 
     image.rgba = std::move(frame.payload);
     frame.payload = image::encodeFrameImage(image, frame.encoding, jpegQuality, pngSpeed);
     // A 1920x1080 png of a detailed view passes 1 MiB, the default limit; its webp takes about half.
-    if (frame.encoding == proto::Encoding::Png && webpWhenTooLarge &&
+    if (frame.encoding == proto::Encoding::Png && job.scene.acceptsWebp &&
         frameBodyBytes(frame.statsJson.size() + 128, frame.payload.size()) > maxBodyBytes) {
       frame.encoding = proto::Encoding::Webp;
       frame.payload = image::encodeFrameImage(image, frame.encoding, jpegQuality, pngSpeed);
@@ -55,7 +56,7 @@ proto::Message encodeStill(proto::Frame frame, int jpegQuality, image::PngSpeed 
   frame.statsJson =
       withKey(std::move(frame.statsJson), "encode_ms", nlohmann::json(jobMsBetween(start, Clock::now())).dump());
   frame.statsJson =
-      withKey(std::move(frame.statsJson), "encode_start_ms", nlohmann::json(jobMsBetween(received, start)).dump());
+      withKey(std::move(frame.statsJson), "encode_start_ms", nlohmann::json(jobMsBetween(job.received, start)).dump());
   if (frame.encoding == proto::Encoding::Png)
     frame.statsJson = withKey(std::move(frame.statsJson), "png_speed",
                               pngSpeed == image::PngSpeed::Fast ? "\"fast\"" : "\"small\"");
@@ -120,8 +121,7 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
     frame.statsJson = statsJson.dump();
     RenderReply reply{
         aside ? proto::Message(std::move(frame))
-              : encodeStill(std::move(frame), jpegQuality, job.pngSpeed, job.maxBodyBytes, job.received,
-                            job.scene.acceptsWebp),
+              : encodeStill(std::move(frame), jpegQuality, job),
         provisional};
     // A provisional frame too large to send answers its request with the error: no exact frame follows.
     reply.provisional = provisional && std::holds_alternative<proto::Frame>(reply.message);

@@ -142,14 +142,13 @@ struct RenderReply {
 /// object. A frame's statistics gain a key without being parsed again.
 std::string withKey(std::string statsJson, std::string_view key, std::string_view value);
 
-/// Encodes a still Frame whose payload is its RGBA8 pixels into its encoding (png at `pngSpeed`, jpeg at
-/// `jpegQuality`, webp, zstd_rgba8, raw_rgba8) and adds encode_ms (and a png's png_speed, "fast" or "small") to its
-/// statistics, and encode_start_ms (the encoding's start after `received`, its Render's arrival). A png whose body
-/// exceeds `maxBodyBytes` goes as lossless webp where `webpWhenTooLarge` (the scene's `accepts_webp`: the same pixels
-/// in about half the bytes; its statistics say `"webp_for_size": true`); answers LimitExceeded instead when the
-/// encoded body still exceeds it, or the Error naming an encoding failure. Throws nothing but std::bad_alloc.
-proto::Message encodeStill(proto::Frame frame, int jpegQuality, image::PngSpeed pngSpeed, uint64_t maxBodyBytes,
-                           std::chrono::steady_clock::time_point received, bool webpWhenTooLarge);
+/// Encodes a still Frame of `job` whose payload is its RGBA8 pixels into its encoding (png at the job's pngSpeed, jpeg
+/// at `jpegQuality`, webp, zstd_rgba8, raw_rgba8) and adds encode_ms (and a png's png_speed, "fast" or "small") to its
+/// statistics, and encode_start_ms (the encoding's start after the job's Render arrived). A png whose body exceeds
+/// the job's maxBodyBytes goes as lossless webp where its scene says `accepts_webp` (the same pixels in about half the
+/// bytes; its statistics say `"webp_for_size": true`); answers LimitExceeded instead when the encoded body still
+/// exceeds it, or the Error naming an encoding failure. Throws nothing but std::bad_alloc.
+proto::Message encodeStill(proto::Frame frame, int jpegQuality, const RenderJob& job);
 
 /// Renders `job` with `source` (current on this thread) and encodes it (a frame in a video encoding, vp8 or vp9, keeps
 /// its raw RGBA8 pixels as its payload: the session's VideoStream encodes it in order and checks its size; its stats

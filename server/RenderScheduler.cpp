@@ -448,9 +448,7 @@ void RenderScheduler::deliver(const Taken& taken, RenderReply& reply, std::vecto
   // each of their sessions.
   if (reply.stillToEncode &&
       std::any_of(followers.begin(), followers.end(), [](const Recipient& r) { return r.sink->wantsReplies(); })) {
-    reply.message = encodeStill(std::move(std::get<proto::Frame>(reply.message)), *reply.stillToEncode,
-                                taken.job.pngSpeed, taken.job.maxBodyBytes, taken.job.received,
-                                taken.job.scene.acceptsWebp);
+    reply.message = encodeStill(std::move(std::get<proto::Frame>(reply.message)), *reply.stillToEncode, taken.job);
     reply.stillToEncode.reset();
     reply.provisional = reply.provisional && std::holds_alternative<proto::Frame>(reply.message);
   }

@@ -406,7 +406,9 @@ TEST_F(FairSchedulerTest, AStillFrameIsLeftToItsSessionToEncodeUnlessShared) {
   const proto::Frame left = std::get<proto::Frame>(alone->await(1)[0].second);
   EXPECT_EQ(left.payload.size(), 23u * 8 * 4) << "its RGBA8 pixels";
   EXPECT_FALSE(statsOf(left).contains("encode_ms"));
-  const proto::Message encoded = encodeStill(left, 77, image::PngSpeed::Fast, UINT64_MAX, std::chrono::steady_clock::now(), false);
+  RenderJob unlimited;
+  unlimited.maxBodyBytes = UINT64_MAX;
+  const proto::Message encoded = encodeStill(left, 77, unlimited);
   EXPECT_EQ(image::decodeFrameImage(std::get<proto::Frame>(encoded)).width, 23);
   for (const auto& sink : {a, b}) {
     EXPECT_EQ(sink->toEncode(), (std::vector<std::optional<int>>{std::nullopt}));

@@ -467,6 +467,22 @@ TEST_F(ServerTest, LimitsAreEnforced) {
   EXPECT_GE(stats["sessions"]["timed_out"].get<int>(), 1);
 }
 
+/// An environment variable set for the servers a test starts, put back as it was after.
+class SetForServers {
+ public:
+  SetForServers(const char* name, const std::string& value) : mName(name) {
+    if (const char* before = std::getenv(name)) mBefore = before;
+    ::setenv(name, value.c_str(), 1);
+  }
+  ~SetForServers() { mBefore ? ::setenv(mName, mBefore->c_str(), 1) : ::unsetenv(mName); }
+  SetForServers(const SetForServers&) = delete;
+  SetForServers& operator=(const SetForServers&) = delete;
+
+ private:
+  const char* mName;
+  std::optional<std::string> mBefore;
+};
+
 // Without --config, serve reads server.toml from the configuration directory (an installed PREFIX/share/voxbrick,
 // the source tree's config/, or $VOXBRICK_CONFIG_DIR), and --no-config reads none.
 TEST_F(ServerTest, ServeReadsTheConfigurationDirectorysServerTomlUnlessToldNot) {
@@ -474,18 +490,12 @@ TEST_F(ServerTest, ServeReadsTheConfigurationDirectorysServerTomlUnlessToldNot) 
   std::filesystem::create_directories(dir / "config");
   const std::string file = (dir / "config" / "server.toml").string();
   test::writeFile(file, std::string("[limits]\nmax_image_side = 64\n"));
-  const char* before = std::getenv("VOXBRICK_CONFIG_DIR");
-  const std::string saved = before ? before : "";
-  ::setenv("VOXBRICK_CONFIG_DIR", (dir / "config").string().c_str(), 1);
   std::unique_ptr<ServerProcess> configured, defaults;
-  try {
+  {
+    SetForServers configDir("VOXBRICK_CONFIG_DIR", (dir / "config").string());
     configured = start();
     defaults = start("--no-config");
-  } catch (...) {
-    before ? ::setenv("VOXBRICK_CONFIG_DIR", saved.c_str(), 1) : ::unsetenv("VOXBRICK_CONFIG_DIR");
-    throw;
   }
-  before ? ::setenv("VOXBRICK_CONFIG_DIR", saved.c_str(), 1) : ::unsetenv("VOXBRICK_CONFIG_DIR");
   // kScene is 80 pixels wide: above the file's limit, within the default's.
   auto limited = session(*configured);
   EXPECT_EQ(errorOf([&] { limited->render(kScene); }), ErrorCode::LimitExceeded);
@@ -613,22 +623,6 @@ std::string hugePageMode() {
   const size_t open = modes.find('['), close = modes.find(']');
   return open < close && close != std::string::npos ? modes.substr(open + 1, close - open - 1) : "";
 }
-
-/// An environment variable set for the servers a test starts, put back as it was after.
-class SetForServers {
- public:
-  SetForServers(const char* name, const std::string& value) : mName(name) {
-    if (const char* before = std::getenv(name)) mBefore = before;
-    ::setenv(name, value.c_str(), 1);
-  }
-  ~SetForServers() { mBefore ? ::setenv(mName, mBefore->c_str(), 1) : ::unsetenv(mName); }
-  SetForServers(const SetForServers&) = delete;
-  SetForServers& operator=(const SetForServers&) = delete;
-
- private:
-  const char* mName;
-  std::optional<std::string> mBefore;
-};
 
 TEST_F(ServerTest, AsksGlibcForHugePagesWhereTheKernelGrantsThemOnRequest) {
   // Where the kernel's mode is madvise (Debian's default), `serve` runs itself again with glibc's malloc asking for
