@@ -1,7 +1,9 @@
 // What starting a video stream costs the server: a VideoEncoder built with the server's settings for a frame size
 // (image::videoThreadsFor's threads) and its first frames encoded, one stream after another in one process, as
 // sessions start their streams (and a stream starts again at a new size). Times: the encoder's construction, its
-// key frame, the frame after it; memory: the process's resident set grown by holding the encoder and its two frames.
+// key frame, the frame after it; memory: the process's resident set grown by holding the encoder and its two frames,
+// and the bytes malloc has given out for it (the encoder's own, whatever the allocator keeps: what
+// image::videoEncoderBytes estimates, and the server's memory.video_mb counts).
 // bench/run_stream_start.sh runs it with and without glibc's transparent huge pages for malloc (GLIBC_TUNABLES).
 //
 //   bench_stream_start --csv OUT.csv [--sizes 512x512,1024x1024,1920x1080] [--repeats 5] FRAME.png
@@ -31,6 +33,12 @@ double msSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
+/// The bytes malloc has given out and not taken back (glibc: every arena, and blocks of their own mappings).
+double heldBytes() {
+  const struct mallinfo2 info = mallinfo2();
+  return double(info.uordblks) + double(info.hblkhd);
+}
+
 /// The process's resident set, in MiB (Linux: /proc/self/status).
 double residentMiB() {
   std::ifstream status("/proc/self/status");
@@ -46,10 +54,13 @@ int main(int argc, char** argv) {
   std::string csvPath, framePath;
   std::vector<std::string> sizes{"512x512", "1024x1024", "1920x1080"};
   int repeats = 5;
+  int available = int(std::thread::hardware_concurrency());
   app.add_option("--csv", csvPath, "the CSV to write")->required();
   app.add_option("--sizes", sizes, "stream sizes, WxH")->delimiter(',');
   app.add_option("--repeats", repeats, "streams started one after another for each codec and size")
       ->check(CLI::Range(1, 100));
+  app.add_option("--cores", available, "the cores image::videoThreadsFor may give a stream (default: this machine's)")
+      ->check(CLI::Range(1, 256));
   app.add_option("frame", framePath, "a frame (PNG), scaled to each size")->required()->check(CLI::ExistingFile);
   CLI11_PARSE(app, argc, argv);
   // The server's allocator policy (cli/Allocator.cpp, keepFreedMemoryForFrames): blocks up to 32 MB kept for reuse.
@@ -58,7 +69,8 @@ int main(int argc, char** argv) {
   try {
     const image::Image8 source = image::readImage(framePath);
     std::ofstream csv(csvPath);
-    csv << "codec,size,threads,repeats,first_construct_ms,construct_ms,first_key_ms,key_ms,next_ms,resident_mib\n";
+    csv << "codec,size,threads,repeats,first_construct_ms,construct_ms,first_key_ms,key_ms,next_ms,resident_mib,held_mib,"
+           "estimate_mib\n";
     for (const proto::Encoding codec : {proto::Encoding::Vp8, proto::Encoding::Vp9})
       for (const std::string& size : sizes) {
         int width = 0, height = 0;
@@ -70,10 +82,10 @@ int main(int argc, char** argv) {
         image::VideoSettings settings;
         settings.width = width, settings.height = height;
         settings.bitrateKbps = int(double(width) * height * 0.05 * 30 / 1000);  // the server's start
-        settings.threads = image::videoThreadsFor(codec, width, height, int(std::thread::hardware_concurrency()));
-        std::vector<double> construct, key, next, resident;
+        settings.threads = image::videoThreadsFor(codec, width, height, available);
+        std::vector<double> construct, key, next, resident, held;
         for (int r = 0; r < repeats; ++r) {
-          const double before = residentMiB();
+          const double before = residentMiB(), heldBefore = heldBytes();
           auto start = Clock::now();
           auto encoder = std::make_unique<image::VideoEncoder>(codec, settings);
           construct.push_back(msSince(start));
@@ -84,11 +96,14 @@ int main(int argc, char** argv) {
           encoder->encode(b, 1000.0 / 30);
           next.push_back(msSince(start));
           resident.push_back(residentMiB() - before);
+          held.push_back((heldBytes() - heldBefore) / (1 << 20));
         }
-        char line[256];
-        std::snprintf(line, sizeof line, "%s,%s,%d,%d,%.1f,%.1f,%.1f,%.1f,%.1f,%.0f\n", proto::encodingName(codec),
-                      size.c_str(), settings.threads, repeats, construct[0], upperMedian(construct), key[0], upperMedian(key),
-                      upperMedian(next), *std::max_element(resident.begin(), resident.end()));
+        char line[320];
+        std::snprintf(line, sizeof line, "%s,%s,%d,%d,%.1f,%.1f,%.1f,%.1f,%.1f,%.0f,%.1f,%.1f\n",
+                      proto::encodingName(codec), size.c_str(), settings.threads, repeats, construct[0],
+                      upperMedian(construct), key[0], upperMedian(key), upperMedian(next),
+                      *std::max_element(resident.begin(), resident.end()), upperMedian(held),
+                      double(image::videoEncoderBytes(codec, width, height, settings.threads)) / (1 << 20));
         csv << line;
         std::fputs(line, stdout);
       }

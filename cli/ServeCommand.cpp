@@ -40,7 +40,7 @@ struct ServeArgs {
   double idleTimeout = 0, readTimeout = 0, writeTimeout = 0, helloTimeout = 0;
   int64_t maxTotalOutputMB = 0;
   bool noCoalesce = false, noConfig = false;
-  int64_t hostCacheMB = 0, gpuBudgetMB = 0, maxMessageBytes = 0;
+  int64_t hostCacheMB = 0, gpuBudgetMB = 0, videoMB = -1, maxMessageBytes = 0;
   double uploadMaxMB = -1;  ///< --upload-max-mb; -1: as configured
   MpiArgs mpi;  ///< --mpi: sort-last across the ranks of mpirun: rank 0 serves, the others draw parts
   std::string replayFrames;  ///< --replay-frames DIR: frames drawn beforehand instead of drawing (benchmarks)
@@ -110,6 +110,7 @@ void runServe(const ServeArgs& a) {
   if (a.hostCacheMB > 0) c.hostCacheMB = a.hostCacheMB;
   if (a.noCoalesce) c.scheduler.coalesce = false;
   if (a.gpuBudgetMB > 0) c.gpuBudgetMB = a.gpuBudgetMB;
+  if (a.videoMB >= 0) c.videoMB = a.videoMB;
   if (a.http >= 0) {
     c.http = true;
     c.httpPort = a.http;
@@ -323,6 +324,11 @@ void addServeCommand(CLI::App& app) {
                   "MB of GPU brick atlas for all render threads and datasets together (an equal share per thread)" +
                       configured(d.gpuBudgetMB, "memory.gpu_budget_mb"))
       ->check(between(16, 1 << 22, "MB"));
+  cmd->add_option("--video-memory", a->videoMB,
+                  "MB of video encoders for all sessions together: past it resting streams' encoders are freed, and a "
+                  "moving frame with no room goes as JPEG (0: every moving frame as JPEG)" +
+                      configured(d.videoMB, "memory.video_mb"))
+      ->check(between(0, 1 << 22, "MB"));
   cmd->add_flag("--no-coalesce", a->noCoalesce,
                 "render every request in order instead of only a session's newest (to measure what latest-wins saves)");
   CLI::Option* replay = cmd->add_option("--replay-frames", a->replayFrames,

@@ -56,6 +56,19 @@ int videoThreadsFor(proto::Encoding codec, int width, int height, int available)
   return std::clamp(wanted, 1, std::clamp(available, 1, 8));
 }
 
+uint64_t videoEncoderBytes(proto::Encoding codec, int width, int height, int threads) {
+  // Fitted to bench_stream_start's held_mib (bench/results/video/encoder-memory.md), each within 6 % from 256x256 to
+  // 2048x2048: VP8 (one thread, the server's) 0.5 MiB and 46 bytes a pixel; VP9 12 MiB with its first thread,
+  // 7.5 MiB for each further one (its tile workers' buffers) and 80 bytes a pixel (frame buffers for eight
+  // references, scaled copies, the cyclic refresh's maps). VP8's threads, which the server does not use, are
+  // counted as VP9's.
+  constexpr uint64_t kMiB = 1 << 20;
+  const uint64_t pixels = uint64_t(std::max(1, width)) * uint64_t(std::max(1, height));
+  const uint64_t extraThreads = uint64_t(std::max(1, threads) - 1);
+  if (codec == proto::Encoding::Vp8) return kMiB / 2 + 46 * pixels + extraThreads * 15 * kMiB / 2;
+  return 12 * kMiB + 80 * pixels + extraThreads * 15 * kMiB / 2;
+}
+
 Image8 scaleImage(const Image8& image, int width, int height) {
   if (width < 1 || height < 1 || width > kMaxSide || height > kMaxSide)
     throw ImageFailure("video: cannot scale to " + std::to_string(width) + "x" + std::to_string(height));

@@ -67,6 +67,10 @@ int startQuantizerFor(double bitsPerPixel);
 /// frames back for seconds (bench/results/video/video-vp8-threads.md); VP9's tiles showed neither.
 int videoThreadsFor(proto::Encoding codec, int width, int height, int available);
 
+/// The memory an encoder of `codec` at `width` x `height` with `threads` threads holds once it has encoded its first
+/// frames: what malloc gave it, fitted to bench_stream_start's measurements (bench/results/video/encoder-memory.md).
+uint64_t videoEncoderBytes(proto::Encoding codec, int width, int height, int threads);
+
 /// `image` scaled to `width` x `height` (each at least 1): box filtered when it shrinks, bilinear when it grows
 /// (libyuv). The same image when the size is its own.
 Image8 scaleImage(const Image8& image, int width, int height);

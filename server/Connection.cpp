@@ -13,6 +13,7 @@
 #include <spdlog/spdlog.h>
 #include <nlohmann/json.hpp>
 
+#include "image/FrameImage.h"
 #include "image/Video.h"
 #include "server/ErrorReply.h"
 
@@ -241,6 +242,9 @@ void Connection::pumpVideo() {
   mVideoPending.reset();
   task->input.dataset = task->job.dataset.get();
   task->input.keyframe = task->job.scene.keyframe || mVideoNeedsKey;
+  // As renderReply would have encoded it: a video frame is always a provisional one.
+  task->input.jpegQuality =
+      task->job.provisionalJpegQuality.value_or(task->job.scene.jpegQuality.value_or(image::kDefaultJpegQuality));
   const int width = int(task->frame.width), height = int(task->frame.height);
   task->input.bitrateKbps = mPacer.videoKbps(VideoStream::startKbps(width, height),
                                              VideoStream::capKbps(width, height), now, videoPaceMs());
@@ -261,7 +265,7 @@ void Connection::videoEncoded(EncodingVideo& done) {
   mVideoEncoding = false;
   const double leadMs = std::chrono::duration<double, std::milli>(Clock::now() - done.handedAt).count();
   mVideoEncodeLeadMs = mVideoEncodeLeadMs > 0 ? 0.75 * mVideoEncodeLeadMs + 0.25 * leadMs : leadMs;
-  if (!done.error)
+  if (!done.error && !done.encoded.jpeg)
     mServices.stats.videoEncoded(done.frame.encoding, done.encoded.encodeMs, done.encoded.key ? done.encoded.keyReason : "");
   if (mClosing || mClosed) return;
   proto::Message reply = done.error ? proto::Message(errorReply(done.error, "video frame of request " +

@@ -59,6 +59,8 @@ struct SessionServices {
   /// Runs a task on the server's upload threads (an upload's prep; Transport::runAside with Aside::Prepare). Empty:
   /// on the calling thread.
   std::function<void(std::function<void()>)> prepare = {};
+  /// The sessions' video encoders' memory (memory.video_mb). Null: not counted, no limit.
+  VideoMemory* video = nullptr;
 };
 
 /// One client connection's state machine. Not thread-safe: every call but alive() is made on the connection's
@@ -252,7 +254,7 @@ class Connection {
   std::set<uint32_t> mRefusedProvisional;
   LinkPacer mPacer;
   /// The session's video stream; used by the encoding aside only while mVideoEncoding.
-  std::unique_ptr<VideoStream> mVideo = std::make_unique<VideoStream>();
+  std::unique_ptr<VideoStream> mVideo = std::make_unique<VideoStream>(mServices.video);
   std::optional<PendingVideo> mVideoPending;
   /// When the Render of the stream's newest frame handed to the encoder arrived: a frame of an earlier Render is
   /// never encoded after it (videoRendered).

@@ -28,6 +28,7 @@
 #include "server/ErrorReply.h"
 #include "server/MessageHandler.h"
 #include "server/OutputBudget.h"
+#include "server/VideoMemory.h"
 #include "server/PacsCatalog.h"
 #include "server/Quotas.h"
 #include "server/RenderScheduler.h"
@@ -166,6 +167,8 @@ struct Server::Impl {
   std::unique_ptr<PacsCatalog> pacs;
   ServerStats stats;
   OutputBudget output;
+  /// The sessions' video encoders' memory (memory.video_mb); outlives every connection's stream.
+  VideoMemory videoMemory;
   RenderScheduler scheduler;
   MessageHandler handler;
   asio::io_context io;
@@ -218,6 +221,7 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
       uploads(config.upload, config.datasets, std::filesystem::read_symlink("/proc/self/exe"),
               std::min<uint32_t>(config.maxMessageBytes - 4, 64u << 20)),
       output(config.maxTotalOutputBytes),
+      videoMemory(uint64_t(config.videoMB) << 20),
       scheduler(std::move(sources), config.scheduler),
       handler(
           config, datasets, presets, stats, [this] { return statsJson(); }, tokens, audit.get(), &uploads),
@@ -256,7 +260,8 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
                         return refusal;
                       },
                       audit.get(),
-                      [this](std::function<void()> task) { asio::post(preparers, std::move(task)); }},
+                      [this](std::function<void()> task) { asio::post(preparers, std::move(task)); },
+                      &videoMemory},
       admission(admissionLimits(config)),
       quotas(config.quotas) {
   sessionServices.limits.maxBodyBytes = config.maxMessageBytes;
@@ -511,6 +516,8 @@ ServerStats::Gauges Server::Impl::gauges() const {
   const RenderScheduler::GpuGauges gpu = scheduler.gpu();
   gauges.gpu = {gpu.bytes, gpu.peakBytes, gpu.renderersReleased};
   gauges.gpuBudgetBytes = size_t(config.gpuBudgetMB) << 20;
+  gauges.video = {videoMemory.encoders(), videoMemory.bytes(), videoMemory.limit(), videoMemory.freed(),
+                  videoMemory.refused()};
   gauges.queuedByClass = scheduler.queuedByClass();
   gauges.encodesByClass = encoders.queued();
   gauges.deviceBusyMs = scheduler.deviceBusyMs();

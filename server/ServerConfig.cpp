@@ -194,6 +194,7 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   Section memory = top.table("memory");
   memory.read("host_cache_mb", c.hostCacheMB);
   memory.read("gpu_budget_mb", c.gpuBudgetMB);
+  memory.read("video_mb", c.videoMB);
   Section scheduler = top.table("scheduler");
   SchedulerConfig& sc = c.scheduler;
   scheduler.read("interactive_weight", sc.interactiveWeight);
@@ -297,6 +298,7 @@ void ServerConfig::validate() const {
   range("quotas.frames_per_s_per_token", quotas.framesPerSecondPerToken, 0, 1e6);
   range("memory.host_cache_mb", double(hostCacheMB), 16, 1 << 22);
   range("memory.gpu_budget_mb", double(gpuBudgetMB), 16, 1 << 22);
+  range("memory.video_mb", double(videoMB), 0, 1 << 22);
   if (gpuBudgetMB < 4 * int64_t(renderThreads))
     fail("memory.gpu_budget_mb = " + std::to_string(gpuBudgetMB) + " leaves less than 4 MB to each of the " +
          std::to_string(renderThreads) + " render threads");

@@ -153,14 +153,15 @@ struct ServerConfig {
   std::vector<PacsConfig> pacs;
   PacsCacheConfig pacsCache;
   // [tls]
-  TlsFiles tls;
+  TlsFiles tls;  ///< TLS on both listeners (TCP, and https/wss on the HTTP port) when it names a certificate
   // [audit] The audit trail (AuditLog): one line per session, token, dataset opened and refusal.
   std::filesystem::path auditPath;       ///< empty: none
   uint64_t auditMaxBytes = 10ull << 20;  ///< the file is rotated once it would pass this
-  int auditKeep = 5;                     ///< rotated files kept (path.1 ... path.KEEP)  ///< TLS on both listeners (TCP, and https/wss on the HTTP port) when it names a certificate
+  int auditKeep = 5;                     ///< rotated files kept (path.1 ... path.KEEP)
   // [memory]
   int64_t hostCacheMB = 1024;  ///< decoded bricks of all open datasets together
   int64_t gpuBudgetMB = 1024;  ///< atlases of all render threads and datasets (equal shares per thread)
+  int64_t videoMB = 4096;      ///< the sessions' video encoders together (VideoMemory)
   /// Without coalescing (a benchmark setting), how many renders one session may have waiting.
   static constexpr size_t kMaxQueuedWithoutCoalescing = 64;
   /// How many renders of one session may wait for a render thread (Capabilities.max_queued_per_session).

@@ -160,7 +160,7 @@ json ServerStats::toJson(const Gauges& gauges) const {
             {"atlas_bytes", gauges.gpu.bytes},
             {"peak_atlas_bytes", gauges.gpu.peakBytes},
             {"renderers_released", gauges.gpu.renderersReleased}}},
-          {"video", videoJson()},
+          {"video", videoJson(gauges.video)},
           {"uploads", {{"done", total(ServerEvent::Uploaded)}, {"refused", total(ServerEvent::UploadRefused)}}},
           {"limits", gauges.limits},
           {"render_threads", gauges.renderThreads},
@@ -168,14 +168,20 @@ json ServerStats::toJson(const Gauges& gauges) const {
           {"render_wait_s", seconds(gauges.deviceWaitMs)}};
 }
 
-json ServerStats::videoJson() const {
+json ServerStats::videoJson(const Gauges::Video& memory) const {
   json keys = json::object(), encoded = json::object();
   for (size_t i = 0; i < kVideoKeyReasons.size(); ++i) keys[std::string(kVideoKeyReasons[i])] = mVideoKeyFrames[i].load();
   for (const auto& [i, codec] : {std::pair{0, "vp8"}, std::pair{1, "vp9"}}) {
     const HistogramCounts c = mVideoEncode[size_t(i)].counts();
     encoded[codec] = {{"frames", c.count()}, {"encode_ms_mean", c.count() ? 1000 * c.sum / double(c.count()) : 0.0}};
   }
-  return {{"encoded", encoded}, {"key_frames", keys}};
+  return {{"encoded", encoded},
+          {"key_frames", keys},
+          {"encoders", memory.encoders},
+          {"memory_bytes", memory.bytes},
+          {"memory_limit_bytes", memory.limitBytes},
+          {"encoders_freed", memory.freed},
+          {"jpeg_frames", memory.jpegFrames}};
 }
 
 std::string ServerStats::metricsText(const Gauges& gauges) const {
@@ -255,9 +261,22 @@ std::string ServerStats::metricsText(const Gauges& gauges) const {
   m.histogram(mVideoEncode[1].counts(), {{"codec", "vp9"}});
   m.family("voxbrick_video_key_frames_total", Type::Counter,
            "Key frames of video streams, by reason: start, codec, size, dataset, asked (the client), recovery (after "
-           "a failed or undelivered frame), encoder (the encoder's own).");
+           "a failed or undelivered frame), memory (the stream's encoder had been freed for another's, or could not "
+           "be made for want of room), encoder (the encoder's own).");
   for (size_t i = 0; i < kVideoKeyReasons.size(); ++i)
     m.sample(double(mVideoKeyFrames[i].load()), {{"reason", std::string(kVideoKeyReasons[i])}});
+  one("voxbrick_video_encoders", Type::Gauge, "Video encoders the sessions' streams hold.",
+      double(gauges.video.encoders));
+  one("voxbrick_video_memory_bytes", Type::Gauge,
+      "Bytes the sessions' video encoders hold, as estimated for each when it was made (memory.video_mb counts them).",
+      double(gauges.video.bytes));
+  one("voxbrick_video_memory_limit_bytes", Type::Gauge, "The video encoders' budget, memory.video_mb.",
+      double(gauges.video.limitBytes));
+  one("voxbrick_video_encoders_freed_total", Type::Counter,
+      "Encoders of resting streams freed to make room for another stream's.", double(gauges.video.freed));
+  one("voxbrick_video_jpeg_frames_total", Type::Counter,
+      "Moving frames of video streams sent as JPEG: no encoder could be made within memory.video_mb.",
+      double(gauges.video.jpegFrames));
   one("voxbrick_bytes_written_total", Type::Counter,
       "Bytes of protocol messages written to clients, every message and transport.", double(mBytesOut.load()));
   event("voxbrick_render_errors_total", "Renders answered with an Error instead of a Frame.", ServerEvent::RenderError);

@@ -92,6 +92,12 @@ class ServerStats {
     std::vector<double> deviceWaitMs{};  ///< each render thread's time asking for a job (RenderScheduler::deviceWaitMs)
     size_t draggingSessions = 0;     ///< sessions that sent an interactive Render within the last second
     size_t interactiveCapacity = 0;  ///< RenderScheduler::interactiveCapacity: 0 while not measured (no limit)
+    /// The sessions' video encoders (VideoMemory): how many, the bytes counted for them and the budget, encoders
+    /// freed for another stream's, and moving frames sent as JPEG for want of room.
+    struct Video {
+      size_t encoders = 0;
+      uint64_t bytes = 0, limitBytes = 0, freed = 0, jpegFrames = 0;
+    } video{};
   };
 
   /// The upper bounds of the frame latency histogram, in seconds.
@@ -119,8 +125,9 @@ class ServerStats {
   /// (kVideoKeyReasons; an inter frame: empty).
   void videoEncoded(proto::Encoding codec, double encodeMs, std::string_view keyReason);
   /// Why a video stream's key frames were sent (PROTOCOL.md, Session 11), as /metrics labels them.
-  static constexpr std::array<std::string_view, 7> kVideoKeyReasons = {"start", "codec",    "size",   "dataset",
-                                                                       "asked", "recovery", "encoder"};
+  /// "encoder" stays last: a reason not listed is counted as the encoder's.
+  static constexpr std::array<std::string_view, 8> kVideoKeyReasons = {
+      "start", "codec", "size", "dataset", "asked", "recovery", "memory", "encoder"};
   /// The upper bounds of the video encode time histogram, in seconds.
   static constexpr std::array<double, 9> kEncodeBoundsS = {0.001, 0.0025, 0.005, 0.01, 0.02, 0.035, 0.05, 0.1, 0.25};
 
@@ -134,8 +141,9 @@ class ServerStats {
   std::string metricsText(const Gauges& gauges) const;
 
  private:
-  /// The Stats JSON's `video`: frames encoded and their mean encode ms by codec, key frames by reason.
-  nlohmann::json videoJson() const;
+  /// The Stats JSON's `video`: frames encoded and their mean encode ms by codec, key frames by reason, the encoders'
+  /// memory.
+  nlohmann::json videoJson(const Gauges::Video& memory) const;
 
   static constexpr size_t kEvents = size_t(ServerEvent::UploadRefused) + 1;
   using Counter = std::atomic<uint64_t>;

@@ -7,6 +7,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "image/FrameImage.h"
+
 namespace voxbrick::server {
 namespace {
 
@@ -39,7 +41,34 @@ double VideoStream::settledScale(double wanted, Clock::time_point now) {
   return mScale;
 }
 
+VideoStream::~VideoStream() {
+  if (mMemory) mMemory->release(*this);
+}
+
+bool VideoStream::freeEncoder() {
+  std::unique_lock lock(mMutex, std::try_to_lock);
+  if (!lock.owns_lock()) return false;
+  mEncoder.reset();
+  mNoRoom = true;
+  return true;
+}
+
+VideoEncoded VideoStream::jpegInstead(proto::Frame& frame, const VideoFrameInput& input, Clock::time_point start) {
+  const image::Image8 pixels{int(frame.width), int(frame.height), std::move(frame.payload)};
+  frame.encoding = proto::Encoding::Jpeg;
+  frame.payload = image::encodeFrameImage(pixels, frame.encoding, input.jpegQuality);
+  nlohmann::json stats = nlohmann::json::parse(frame.statsJson, nullptr, false);
+  if (!stats.is_object()) stats = nlohmann::json::object();
+  VideoEncoded done{msBetween(start, Clock::now()), false, "", true};
+  stats["encode_ms"] = done.encodeMs;
+  stats["encode_start_ms"] = msBetween(input.received, start);
+  stats["video_fallback"] = "memory";
+  frame.statsJson = stats.dump();
+  return done;
+}
+
 VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& input) {
+  std::lock_guard lock(mMutex);
   const auto start = Clock::now();
   const int kbps = int(std::lround(std::max(1.0, input.bitrateKbps)));
   const int fullWidth = int(frame.width), fullHeight = int(frame.height);
@@ -49,13 +78,24 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
   const int height = std::max(1, int(std::lround(fullHeight * scale)));
   std::string why;
   if (!mEncoder || mEncoder->codec() != frame.encoding || mEncoder->width() != width || mEncoder->height() != height) {
-    why = !mEncoder ? "start" : mEncoder->codec() != frame.encoding ? "codec" : "size";
+    why = !mEncoder ? (mNoRoom ? "memory" : "start") : mEncoder->codec() != frame.encoding ? "codec" : "size";
     mBroken = false;
     mEncoder.reset();  // a failed construction leaves none
     image::VideoSettings settings;
     settings.width = width, settings.height = height, settings.bitrateKbps = kbps;
     settings.threads = image::videoThreadsFor(frame.encoding, width, height, int(std::thread::hardware_concurrency()));
-    mEncoder = std::make_unique<image::VideoEncoder>(frame.encoding, settings);
+    if (mMemory && !mMemory->reserve(*this, image::videoEncoderBytes(frame.encoding, width, height, settings.threads),
+                                     start)) {
+      mNoRoom = true;
+      return jpegInstead(frame, input, start);
+    }
+    try {
+      mEncoder = std::make_unique<image::VideoEncoder>(frame.encoding, settings);
+    } catch (...) {
+      if (mMemory) mMemory->release(*this);
+      throw;
+    }
+    mNoRoom = false;
     mStart = input.drawn;
   } else if (mBroken) {
     why = "recovery";
@@ -79,6 +119,7 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
     throw;
   }
   mBroken = false;
+  if (mMemory) mMemory->used(*this, Clock::now());
   ++mFrames;
   if (chunk.key) ++mKeyFrames;
   frame.payload = std::move(chunk.bytes);

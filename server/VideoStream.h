@@ -1,7 +1,9 @@
 // One session's video stream: its moving frames (provisional Frames in vp8 or vp9) encoded in order by one encoder,
 // with a key frame where a decoder could not go on from the frame before (PROTOCOL.md, Session 11): the stream's
 // first frame, a new codec or size, a new dataset, and a scene that asks for one (`keyframe`). Encoded off the render
-// threads and off the I/O threads, one frame at a time (its Connection sees to that).
+// threads and off the I/O threads, one frame at a time (its Connection sees to that). Its encoder's memory is counted
+// in the server's VideoMemory: freed for another stream's while this one rests, and a frame that finds no room goes
+// as JPEG.
 #pragma once
 
 #include <chrono>
@@ -9,8 +11,11 @@
 #include <memory>
 #include <string>
 
+#include <mutex>
+
 #include "image/Video.h"
 #include "proto/Messages.h"
+#include "server/VideoMemory.h"
 
 namespace voxbrick::server {
 
@@ -21,17 +26,27 @@ struct VideoFrameInput {
   double bitrateKbps = 0;         ///< the target the session's link allows (LinkPacer::videoKbps)
   std::chrono::steady_clock::time_point drawn;     ///< when its pixels were ready (the stream's timestamps)
   std::chrono::steady_clock::time_point received;  ///< when its Render arrived (for the frame's encode_start_ms)
+  /// The JPEG quality the frame goes at where the server's video memory has no room for the stream's encoder.
+  int jpegQuality = image::kDefaultJpegQuality;
 };
 
 /// What one encode did, for the server's counters.
 struct VideoEncoded {
   double encodeMs = 0;    ///< the encoding alone (the frame's `encode_ms`)
   bool key = false;       ///< a key frame
-  std::string keyReason;  ///< a key frame's reason (PROTOCOL.md: start, codec, size, dataset, asked, recovery, encoder)
+  std::string keyReason;  ///< a key frame's reason (PROTOCOL.md: start, codec, size, dataset, asked, recovery, memory,
+                          ///< encoder)
+  bool jpeg = false;      ///< the frame went as JPEG: the server's video memory had no room for the stream's encoder
 };
 
-class VideoStream {
+class VideoStream final : public VideoMemory::Holder {
  public:
+  /// `memory`: the server's ledger of encoder memory, which outlives the stream (null: none, no limit).
+  explicit VideoStream(VideoMemory* memory = nullptr) : mMemory(memory) {}
+  ~VideoStream();
+  VideoStream(const VideoStream&) = delete;
+  VideoStream& operator=(const VideoStream&) = delete;
+
   /// The bitrate a stream of `width` x `height` starts at, and the most it is given (kbit/s): about 0.05 and 0.15
   /// bits a pixel at 30 frames a second (bench/results/video: the MRI at 1024² is then above 40 dB).
   static double startKbps(int width, int height);
@@ -52,8 +67,15 @@ class VideoStream {
   /// Encodes `frame` (a Frame in vp8 or vp9 whose payload is its RGBA8 pixels, as renderReply leaves it) as the
   /// stream's next frame: the payload becomes the compressed frame and its statistics gain `encode_ms` and `video`
   /// (PROTOCOL.md, Frame statistics). Where the bitrate is too low for the frame's size (scaleFor), the frame is
-  /// scaled down first and its width and height become the stream's (the client shows it at the scene's size). Throws image::ImageFailure; the next frame is then a key frame.
+  /// scaled down first and its width and height become the stream's (the client shows it at the scene's size).
+  /// Where the stream needs a new encoder and the server's video memory has no room for it, the frame becomes a
+  /// JPEG one at `input.jpegQuality` instead (its statistics say `"video_fallback": "memory"`; the returned
+  /// VideoEncoded says `jpeg`). Throws image::ImageFailure; the next frame is then a key frame.
   VideoEncoded encode(proto::Frame& frame, const VideoFrameInput& input);
+
+  /// VideoMemory::Holder: frees the encoder unless a frame is being encoded (the next frame is then a key frame,
+  /// `key_reason` `memory`).
+  bool freeEncoder() override;
 
   /// Frames encoded, and streams begun (key frames).
   uint64_t frames() const { return mFrames; }
@@ -63,7 +85,14 @@ class VideoStream {
   /// The scale the stream is sent at, given the one the link calls for now (the hysteresis above).
   double settledScale(double wanted, std::chrono::steady_clock::time_point now);
 
+  /// The frame `frame` (its payload RGBA8 pixels) as JPEG, for want of room for an encoder.
+  VideoEncoded jpegInstead(proto::Frame& frame, const VideoFrameInput& input,
+                           std::chrono::steady_clock::time_point start);
+
+  VideoMemory* const mMemory;
+  std::mutex mMutex;  ///< held while a frame is encoded: freeEncoder leaves the encoder of one being encoded
   std::unique_ptr<image::VideoEncoder> mEncoder;
+  bool mNoRoom = false;  ///< the encoder was freed for another stream's, or none could be made: the next key's reason
   double mScale = 1, mWanted = 1;
   std::chrono::steady_clock::time_point mWantedSince;
   const void* mDataset = nullptr;

@@ -1,6 +1,7 @@
 // VP8 and VP9 streams through libvpx: what goes in comes out at once and near enough, key frames where asked, and a
 // decoder given a broken stream says so instead of showing garbage.
 #include <gtest/gtest.h>
+#include <malloc.h>
 
 #include <algorithm>
 #include <cmath>
@@ -280,6 +281,46 @@ TEST(Video, AStartsQuantizerCapFollowsTheBitsAPixel) {
   EXPECT_EQ(startQuantizerFor(0.0), kVideoMaxQuantizer);
   EXPECT_EQ(startQuantizerFor(std::nan("")), kVideoMaxQuantizer);
   for (double bits = 0.01; bits < 1; bits *= 1.1) EXPECT_LE(startQuantizerFor(bits * 1.1), startQuantizerFor(bits));
+}
+
+TEST(Video, AnEncodersMemoryIsWhatTheServerCountsForIt) {
+  // What malloc has given out for an encoder that has encoded ten frames, against videoEncoderBytes (which the
+  // server's memory.video_mb counts): within 15 % either way, so that the budget holds what it says.
+  const auto held = [] {
+    const struct mallinfo2 info = mallinfo2();
+    return double(info.uordblks) + double(info.hblkhd);
+  };
+  struct Case {
+    Encoding codec;
+    int width, height, threads;
+  };
+  for (const Case c : {Case{Encoding::Vp8, 512, 512, 1}, Case{Encoding::Vp8, 800, 600, 1},
+                       Case{Encoding::Vp9, 512, 512, 1}, Case{Encoding::Vp9, 800, 600, 2}}) {
+    VideoSettings settings;
+    settings.width = c.width, settings.height = c.height, settings.threads = c.threads;
+    settings.bitrateKbps = 2000;
+    std::vector<Image8> frames;
+    for (int i = 0; i < 10; ++i) frames.push_back(picture(c.width, c.height, 0.2 * i));
+    const double before = held();
+    double measured = 0;
+    {
+      VideoEncoder encoder(c.codec, settings);
+      for (int i = 0; i < 10; ++i) encoder.encode(frames[size_t(i)], 33.0 * i);
+      measured = held() - before;
+    }
+    const double estimate = double(videoEncoderBytes(c.codec, c.width, c.height, c.threads));
+    const std::string what = std::string(proto::encodingName(c.codec)) + " " + std::to_string(c.width) + "x" +
+                             std::to_string(c.height) + ", " + std::to_string(c.threads) + " thread(s): held " +
+                             std::to_string(measured / (1 << 20)) + " MiB, estimated " +
+                             std::to_string(estimate / (1 << 20)) + " MiB";
+    EXPECT_GT(measured, 0.85 * estimate) << what;
+    EXPECT_LT(measured, 1.15 * estimate) << what;
+    EXPECT_LT(held() - before, 0.05 * estimate) << what << "; not given back once the encoder is gone";
+  }
+  // A stream's memory grows with its pixels and threads.
+  EXPECT_LT(videoEncoderBytes(Encoding::Vp9, 1024, 1024, 1), videoEncoderBytes(Encoding::Vp9, 1024, 1024, 4));
+  EXPECT_LT(videoEncoderBytes(Encoding::Vp8, 1024, 1024, 1), videoEncoderBytes(Encoding::Vp9, 1024, 1024, 1));
+  EXPECT_LT(videoEncoderBytes(Encoding::Vp9, 1024, 1024, 4), videoEncoderBytes(Encoding::Vp9, 1920, 1080, 4));
 }
 
 TEST(Video, OnlyVideoEncodingsAndSaneSettingsMakeAStream) {

@@ -90,6 +90,7 @@ max_total_output_bytes = 8388608
 [memory]
 host_cache_mb = 32
 gpu_budget_mb = 64
+video_mb = 96
 [scheduler]
 interactive_weight = 8
 still_weight = 2
@@ -149,6 +150,7 @@ upload = true
   EXPECT_EQ(c.maxTotalOutputBytes, 8388608u);
   EXPECT_EQ(c.hostCacheMB, 32);
   EXPECT_EQ(c.gpuBudgetMB, 64);
+  EXPECT_EQ(c.videoMB, 96);
   EXPECT_DOUBLE_EQ(c.scheduler.interactiveWeight, 8);
   EXPECT_DOUBLE_EQ(c.scheduler.stillWeight, 2);
   EXPECT_DOUBLE_EQ(c.scheduler.batchWeight, 0.5);
@@ -297,6 +299,7 @@ TEST_F(ServerConfigTest, AWrongTypeNamesTheFileAndTheKey) {
       {"limits", "max_total_output_bytes", "\"1G\"", "must be an integer"},
       {"memory", "host_cache_mb", "\"1G\"", "must be an integer"},
       {"memory", "gpu_budget_mb", "0.5", "must be an integer"},
+      {"memory", "video_mb", "\"4G\"", "must be an integer"},
   };
   for (const Case& c : cases) {
     const std::string message = loadError(std::string("[") + c.section + "]\n" + c.key + " = " + c.value + "\n");
@@ -337,6 +340,7 @@ TEST_F(ServerConfigTest, ValuesOutOfRangeAreRefusedByName) {
       {"[limits]\nmax_total_output_bytes = 1000\n", "limits.max_total_output_bytes"},
       {"[memory]\nhost_cache_mb = 1\n", "memory.host_cache_mb"},
       {"[memory]\ngpu_budget_mb = 8\n", "memory.gpu_budget_mb"},
+      {"[memory]\nvideo_mb = -1\n", "memory.video_mb"},
       // The budget is shared by the render threads: 16 MB cannot be cut into 8 useful shares.
       {"[server]\nrender_threads = 8\n[memory]\ngpu_budget_mb = 16\n", "memory.gpu_budget_mb"},
   };
@@ -463,6 +467,7 @@ TEST(ServeHelp, EachOverrideShowsTheDefaultTheServerUsesAndItsKey) {
        [](const ServerConfig& c) { return written(double(c.upload.maxBytes >> 20)); }},
       {"--host-cache", "memory.host_cache_mb", [](const ServerConfig& c) { return written(double(c.hostCacheMB)); }},
       {"--gpu-budget", "memory.gpu_budget_mb", [](const ServerConfig& c) { return written(double(c.gpuBudgetMB)); }},
+      {"--video-memory", "memory.video_mb", [](const ServerConfig& c) { return written(double(c.videoMB)); }},
   };
   for (const Row& row : rows) {
     const std::string entry = entryOf(r.output, row.option);

@@ -4,8 +4,11 @@
 // frame, a transparent video frame).
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <memory>
 #include <string>
+#include <thread>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 
@@ -147,7 +150,56 @@ TEST_F(VideoServerTest, KeyFramesComeOnANewSizeAndWhenAsked) {
   EXPECT_GT(video["encoded"]["vp8"]["encode_ms_mean"].get<double>(), 0.0);
   EXPECT_EQ(video["encoded"]["vp9"]["frames"], 0);
   EXPECT_EQ(video["key_frames"], (json{{"start", 1}, {"codec", 0}, {"size", 1}, {"dataset", 0}, {"asked", 1},
-                                       {"recovery", 0}, {"encoder", 0}}));
+                                       {"recovery", 0}, {"memory", 0}, {"encoder", 0}}));
+  EXPECT_EQ(video["encoders"], 1) << video.dump();
+  EXPECT_EQ(video["memory_bytes"], image::videoEncoderBytes(Encoding::Vp8, 128, 128, 1)) << video.dump();
+  EXPECT_EQ(video["memory_limit_bytes"], 4096ull << 20) << "the default memory.video_mb";
+}
+
+// The encoders' memory (memory.video_mb) holds: a second session's stream finds no room while the first one's moves,
+// and its moving frames go as JPEG; once the first has rested a second its encoder is freed for the second's, which
+// starts with a key frame; the first, moving again, finds no room in turn.
+TEST_F(VideoServerTest, VideoEncodersStayWithinTheirMemory) {
+  // One VP8 stream of 96x96 is counted as 0.9 MiB: 1 MiB holds one, not two.
+  ASSERT_LT(image::videoEncoderBytes(Encoding::Vp8, 96, 96, 1), 1u << 20);
+  ASSERT_GT(2 * image::videoEncoderBytes(Encoding::Vp8, 96, 96, 1), 1u << 20);
+  auto server = serve("--render-threads 1 --video-memory 1");
+  auto a = videoSession(*server), b = videoSession(*server);
+  image::FrameDecoder decoderA, decoderB;
+  // Each Render's provisional frame: its encoding, and its key frame's reason or its fallback ("-" for neither).
+  const auto drag = [](Client& c, image::FrameDecoder& decoder, double azimuth) {
+    std::pair<Encoding, std::string> moving{Encoding::Png, "none"};
+    c.render(dragScene(azimuth, "vp8"), Encoding::Png, [&](const proto::Frame& f) {
+      const json stats = json::parse(f.statsJson);
+      if (!stats["provisional"].get<bool>()) return;
+      const image::Image8 shown = decoder.decode(f);
+      EXPECT_EQ(shown.width, 96);
+      moving.first = f.encoding;
+      if (stats.contains("video_fallback")) {
+        moving.second = "fallback " + stats["video_fallback"].get<std::string>();
+      } else {
+        moving.second = stats["video"]["key"].get<bool>() ? stats["video"]["key_reason"].get<std::string>() : "-";
+      }
+    });
+    return moving;
+  };
+  using Moving = std::pair<Encoding, std::string>;
+  EXPECT_EQ(drag(*a, decoderA, 10), (Moving{Encoding::Vp8, "start"}));
+  EXPECT_EQ(drag(*a, decoderA, 12), (Moving{Encoding::Vp8, "-"}));
+  EXPECT_EQ(drag(*b, decoderB, 10), (Moving{Encoding::Jpeg, "fallback memory"})) << "a's stream moved just now";
+  EXPECT_EQ(drag(*a, decoderA, 14), (Moving{Encoding::Vp8, "-"})) << "a's stream goes on";
+  std::this_thread::sleep_for(std::chrono::milliseconds(1200));  // a rests: VideoMemory::kIdleMs
+  EXPECT_EQ(drag(*b, decoderB, 12), (Moving{Encoding::Vp8, "memory"}));
+  EXPECT_EQ(drag(*b, decoderB, 14), (Moving{Encoding::Vp8, "-"}));
+  EXPECT_EQ(drag(*a, decoderA, 16), (Moving{Encoding::Jpeg, "fallback memory"})) << "its encoder was freed for b's";
+  const json video = json::parse(a->stats())["video"];
+  EXPECT_EQ(video["encoders"], 1) << video.dump();
+  EXPECT_EQ(video["memory_bytes"], image::videoEncoderBytes(Encoding::Vp8, 96, 96, 1)) << video.dump();
+  EXPECT_EQ(video["memory_limit_bytes"], 1u << 20) << video.dump();
+  EXPECT_EQ(video["encoders_freed"], 1) << video.dump();
+  EXPECT_EQ(video["jpeg_frames"], 2) << video.dump();
+  EXPECT_EQ(video["key_frames"]["memory"], 1) << video.dump();
+  EXPECT_EQ(video["encoded"]["vp8"]["frames"], 5) << video.dump();
 }
 
 TEST_F(VideoServerTest, VideoIsRefusedWhereItCannotServe) {

@@ -1,15 +1,19 @@
 // A session's video stream with made-up times and bitrates: the stream's scale follows the bitrate the link allows
 // (kMinBitsPerPixel), shrinking soon and growing only once the link has held up, each change a key frame of the new
-// size that a decoder shows at once.
+// size that a decoder shows at once; and the ledger of the streams' encoder memory (VideoMemory), which frees the
+// encoders of resting streams, least recently used first, for a new one, and leaves a busy one alone.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "image/FrameImage.h"
 #include "image/Video.h"
+#include "server/VideoMemory.h"
 #include "server/VideoStream.h"
 #include "support/MadeUpTime.h"
 
@@ -28,6 +32,98 @@ proto::Frame rawFrame(int side, int shade) {
   f.payload.resize(size_t(side) * size_t(side) * 4);
   for (size_t i = 0; i < f.payload.size(); ++i) f.payload[i] = uint8_t(i % 4 == 3 ? 255 : (i / 4 + shade) % 200);
   return f;
+}
+
+/// An encoder's holder that counts what it was asked to free, and that may be busy encoding.
+struct FakeHolder final : VideoMemory::Holder {
+  bool busy = false;
+  int freed = 0;
+  bool freeEncoder() override {
+    if (busy) return false;
+    ++freed;
+    return true;
+  }
+};
+
+TEST(VideoMemory, RestingStreamsAreFreedLeastRecentlyUsedFirstAndMovingOnesNever) {
+  VideoMemory memory(100);
+  FakeHolder a, b, c, d;
+  EXPECT_TRUE(memory.reserve(a, 40, at(0)));
+  EXPECT_TRUE(memory.reserve(b, 40, at(100)));
+  EXPECT_EQ(memory.bytes(), 80u);
+  EXPECT_EQ(memory.encoders(), 2u);
+  // Both moved within the last second: no room for c.
+  EXPECT_FALSE(memory.reserve(c, 40, at(900)));
+  EXPECT_EQ(a.freed + b.freed, 0);
+  EXPECT_EQ(memory.refused(), 1u);
+  // b keeps moving; a has rested a second: a is freed for c.
+  memory.used(b, at(1050));
+  EXPECT_TRUE(memory.reserve(c, 40, at(1100)));
+  EXPECT_EQ(a.freed, 1);
+  EXPECT_EQ(b.freed, 0);
+  EXPECT_EQ(memory.bytes(), 80u);
+  EXPECT_EQ(memory.freed(), 1u);
+  EXPECT_TRUE(memory.reserve(d, 20, at(2080))) << "80 + 20 fit without freeing any";
+  EXPECT_EQ(b.freed + c.freed, 0);
+  // b (last used at 1050) and c (1100) have rested a second at 2120; d has not. The one used longest ago goes.
+  EXPECT_TRUE(memory.reserve(a, 30, at(2120)));
+  EXPECT_EQ(b.freed, 1);
+  EXPECT_EQ(c.freed, 0) << "freeing b made room enough";
+  EXPECT_EQ(memory.bytes(), 90u);
+  // A holder that asks again (a new size) is counted for its new encoder only: 20 + 40 + 50 > 100 frees c.
+  EXPECT_TRUE(memory.reserve(a, 50, at(2130)));
+  EXPECT_EQ(c.freed, 1);
+  EXPECT_EQ(memory.bytes(), 70u);
+  EXPECT_EQ(memory.encoders(), 2u);
+  EXPECT_EQ(memory.freed(), 3u);
+}
+
+TEST(VideoMemory, AnEncoderBeingUsedIsNotFreedAndAReleaseGivesItsRoomBack) {
+  VideoMemory memory(100);
+  FakeHolder a, b;
+  EXPECT_TRUE(memory.reserve(a, 70, at(0)));
+  a.busy = true;  // encoding a frame at this moment
+  EXPECT_FALSE(memory.reserve(b, 70, at(5000)));
+  EXPECT_EQ(a.freed, 0);
+  EXPECT_EQ(memory.freed(), 0u);
+  memory.release(a);  // its session ended
+  EXPECT_EQ(memory.bytes(), 0u);
+  EXPECT_TRUE(memory.reserve(b, 70, at(5001)));
+  EXPECT_FALSE(memory.reserve(a, 101, at(9000))) << "larger than the whole budget";
+  EXPECT_EQ(b.freed, 1) << "freed in the attempt, which did not fit even so";
+  EXPECT_EQ(memory.encoders(), 0u);
+  VideoMemory none(0);
+  EXPECT_FALSE(none.reserve(a, 1, at(0))) << "memory.video_mb = 0: every moving frame as JPEG";
+}
+
+TEST(VideoMemory, AStreamWithNoRoomSendsJpegAndStartsWithAKeyFrameOnceThereIs) {
+  // Two real streams of 64x64 VP8 and room for one.
+  VideoMemory memory(image::videoEncoderBytes(proto::Encoding::Vp8, 64, 64, 1) * 3 / 2);
+  VideoStream first(&memory), second(&memory);
+  const auto send = [](VideoStream& stream, int shade) {
+    proto::Frame f = rawFrame(64, shade);
+    VideoFrameInput input;
+    input.bitrateKbps = 500, input.drawn = Clock::now(), input.jpegQuality = 60;
+    const VideoEncoded done = stream.encode(f, input);
+    const nlohmann::json stats = nlohmann::json::parse(f.statsJson);
+    EXPECT_EQ(done.jpeg, f.encoding == proto::Encoding::Jpeg);
+    if (done.jpeg) {
+      EXPECT_EQ(image::decodeFrameImage(f).width, 64);
+      return "jpeg " + stats["video_fallback"].get<std::string>();
+    }
+    return done.key ? done.keyReason : std::string("-");
+  };
+  EXPECT_EQ(send(first, 0), "start");
+  EXPECT_EQ(send(second, 0), "jpeg memory");
+  EXPECT_EQ(send(first, 1), "-");
+  EXPECT_EQ(memory.refused(), 1u);
+  EXPECT_EQ(memory.encoders(), 1u);
+  // (VideoStream's frames are timed by the clock: the ledger's second of rest is waited for here.)
+  std::this_thread::sleep_for(VideoMemory::kIdleMs + std::chrono::milliseconds(50));
+  EXPECT_EQ(send(second, 1), "memory");
+  EXPECT_EQ(send(second, 2), "-");
+  EXPECT_EQ(memory.freed(), 1u);
+  EXPECT_EQ(send(first, 2), "jpeg memory") << "its encoder was freed for the second's";
 }
 
 TEST(VideoStream, TheScaleIsTheLargestThatGivesEachPixelItsBits) {
