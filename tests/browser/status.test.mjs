@@ -89,6 +89,11 @@ describe("status page", () => {
     const sparse = busy.figures.datasets.find((d) => d.dataset === "sparse");
     assert.ok(sparse && sparse.hitRateAll !== null, `the cache's figures: ${JSON.stringify(busy.figures.datasets)}`);
     assert.ok(busy.figures.memory.rss > 1 << 20);
+    // The video encoders' memory: the server's budget (memory.video_mb's default), none held by these still frames.
+    assert.equal(busy.figures.memory.videoLimit, 4096 * 2 ** 20);
+    assert.equal(busy.figures.memory.videoEncoders, 0);
+    const memoryRow = await page.$eval("#memory tbody tr", (r) => r.textContent);
+    assert.match(memoryRow, /0: 0 B of 4\.0 GiB/);
     const stillRow = await page.$$eval("#classes tbody tr", (rows) => rows.map((r) => r.textContent));
     assert.ok(stillRow.some((t) => t.startsWith("still") && !t.includes("–")), `the still row: ${stillRow}`);
     await H.screenshot(page, "status");

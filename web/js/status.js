@@ -111,6 +111,10 @@ function figuresOf(a, b, seconds) {
       gpuBudget: v("voxbrick_gpu_budget_bytes"),
       output: v("voxbrick_output_queued_bytes"),
       outputLimit: v("voxbrick_output_limit_bytes"),
+      videoEncoders: v("voxbrick_video_encoders"),
+      video: v("voxbrick_video_memory_bytes"),
+      videoLimit: v("voxbrick_video_memory_limit_bytes"),
+      videoJpegFrames: v("voxbrick_video_jpeg_frames_total"),
     },
   };
 }
@@ -184,13 +188,15 @@ function show(f) {
   put(
     "memory",
     table(
-      ["resident", "peak", "GPU atlases", "replies queued"],
+      ["resident", "peak", "GPU atlases", "replies queued", "video encoders", "moving frames as JPEG for want of it"],
       [
         [
           fmt.bytes(m.rss),
           fmt.bytes(m.peakRss),
           `${fmt.bytes(m.gpu)} of ${fmt.bytes(m.gpuBudget)}`,
           `${fmt.bytes(m.output)} of ${fmt.bytes(m.outputLimit)}`,
+          `${m.videoEncoders}: ${fmt.bytes(m.video)} of ${fmt.bytes(m.videoLimit)}`,
+          String(m.videoJpegFrames),
         ],
       ],
     ),
