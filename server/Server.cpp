@@ -516,8 +516,8 @@ ServerStats::Gauges Server::Impl::gauges() const {
   const RenderScheduler::GpuGauges gpu = scheduler.gpu();
   gauges.gpu = {gpu.bytes, gpu.peakBytes, gpu.renderersReleased};
   gauges.gpuBudgetBytes = size_t(config.gpuBudgetMB) << 20;
-  gauges.video = {videoMemory.encoders(), videoMemory.bytes(), videoMemory.limit(), videoMemory.freed(),
-                  videoMemory.refused()};
+  gauges.video = {videoMemory.encoders(), videoMemory.bytes(),   videoMemory.peakBytes(),
+                  videoMemory.limit(),    videoMemory.freed(),   videoMemory.refused()};
   gauges.queuedByClass = scheduler.queuedByClass();
   gauges.encodesByClass = encoders.queued();
   gauges.deviceBusyMs = scheduler.deviceBusyMs();

@@ -179,6 +179,7 @@ json ServerStats::videoJson(const Gauges::Video& memory) const {
           {"key_frames", keys},
           {"encoders", memory.encoders},
           {"memory_bytes", memory.bytes},
+          {"memory_peak_bytes", memory.peakBytes},
           {"memory_limit_bytes", memory.limitBytes},
           {"encoders_freed", memory.freed},
           {"jpeg_frames", memory.jpegFrames}};
@@ -270,6 +271,8 @@ std::string ServerStats::metricsText(const Gauges& gauges) const {
   one("voxbrick_video_memory_bytes", Type::Gauge,
       "Bytes the sessions' video encoders hold, as estimated for each when it was made (memory.video_mb counts them).",
       double(gauges.video.bytes));
+  one("voxbrick_video_memory_peak_bytes", Type::Gauge,
+      "The most bytes the video encoders held together since the server started.", double(gauges.video.peakBytes));
   one("voxbrick_video_memory_limit_bytes", Type::Gauge, "The video encoders' budget, memory.video_mb.",
       double(gauges.video.limitBytes));
   one("voxbrick_video_encoders_freed_total", Type::Counter,

@@ -92,11 +92,12 @@ class ServerStats {
     std::vector<double> deviceWaitMs{};  ///< each render thread's time asking for a job (RenderScheduler::deviceWaitMs)
     size_t draggingSessions = 0;     ///< sessions that sent an interactive Render within the last second
     size_t interactiveCapacity = 0;  ///< RenderScheduler::interactiveCapacity: 0 while not measured (no limit)
-    /// The sessions' video encoders (VideoMemory): how many, the bytes counted for them and the budget, encoders
-    /// freed for another stream's, and moving frames sent as JPEG for want of room.
+    /// The sessions' video encoders (VideoMemory): how many, the bytes counted for them (now, and the most since
+    /// the server started) and the budget, encoders freed for another stream's, and moving frames sent as JPEG for
+    /// want of room.
     struct Video {
       size_t encoders = 0;
-      uint64_t bytes = 0, limitBytes = 0, freed = 0, jpegFrames = 0;
+      uint64_t bytes = 0, peakBytes = 0, limitBytes = 0, freed = 0, jpegFrames = 0;
     } video{};
   };
 

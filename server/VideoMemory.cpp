@@ -33,6 +33,7 @@ bool VideoMemory::reserve(Holder& holder, uint64_t bytes, Clock::time_point now)
   }
   mEntries[&holder] = Entry{bytes, now};
   mBytes += bytes;
+  mPeak = std::max(mPeak, mBytes);
   return true;
 }
 
@@ -52,6 +53,11 @@ void VideoMemory::release(Holder& holder) {
 uint64_t VideoMemory::bytes() const {
   std::lock_guard lock(mMutex);
   return mBytes;
+}
+
+uint64_t VideoMemory::peakBytes() const {
+  std::lock_guard lock(mMutex);
+  return mPeak;
 }
 
 size_t VideoMemory::encoders() const {

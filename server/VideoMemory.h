@@ -46,8 +46,9 @@ class VideoMemory {
   void release(Holder& holder);
 
   uint64_t limit() const { return mLimit; }
-  /// The bytes counted now, and the encoders they are for.
+  /// The bytes counted now, the most they have been, and the encoders they are for.
   uint64_t bytes() const;
+  uint64_t peakBytes() const;
   size_t encoders() const;
   /// Encoders freed to make room for another's, and frames sent as JPEG because none could be freed.
   uint64_t freed() const;
@@ -62,7 +63,7 @@ class VideoMemory {
   const uint64_t mLimit;
   mutable std::mutex mMutex;
   std::unordered_map<Holder*, Entry> mEntries;
-  uint64_t mBytes = 0, mFreed = 0, mRefused = 0;
+  uint64_t mBytes = 0, mPeak = 0, mFreed = 0, mRefused = 0;
 };
 
 }  // namespace voxbrick::server

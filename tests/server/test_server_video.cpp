@@ -196,6 +196,7 @@ TEST_F(VideoServerTest, VideoEncodersStayWithinTheirMemory) {
   EXPECT_EQ(video["encoders"], 1) << video.dump();
   EXPECT_EQ(video["memory_bytes"], image::videoEncoderBytes(Encoding::Vp8, 96, 96, 1)) << video.dump();
   EXPECT_EQ(video["memory_limit_bytes"], 1u << 20) << video.dump();
+  EXPECT_EQ(video["memory_peak_bytes"], image::videoEncoderBytes(Encoding::Vp8, 96, 96, 1)) << "one at any time";
   EXPECT_EQ(video["encoders_freed"], 1) << video.dump();
   EXPECT_EQ(video["jpeg_frames"], 2) << video.dump();
   EXPECT_EQ(video["key_frames"]["memory"], 1) << video.dump();

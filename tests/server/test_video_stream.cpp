@@ -74,6 +74,7 @@ TEST(VideoMemory, RestingStreamsAreFreedLeastRecentlyUsedFirstAndMovingOnesNever
   EXPECT_TRUE(memory.reserve(a, 50, at(2130)));
   EXPECT_EQ(c.freed, 1);
   EXPECT_EQ(memory.bytes(), 70u);
+  EXPECT_EQ(memory.peakBytes(), 100u) << "b, c and d together at 2080";
   EXPECT_EQ(memory.encoders(), 2u);
   EXPECT_EQ(memory.freed(), 3u);
 }
