@@ -173,6 +173,29 @@ describe("viewer video stream", () => {
     }
   });
 
+  test("a server whose video memory is spent sends jpeg moving frames, and the viewer keeps turning", async () => {
+    // memory.video_mb = 0: no encoder fits, so every moving frame comes as JPEG ("video_fallback": "memory").
+    const spent = await new H.Server({ dir: scratch.dir, datasets, extra: ["--video-memory", "0"] }).start();
+    try {
+      const page = await H.openPage(browser, `${spent.url}/?dataset=sparse&${SIZE_PARAM}`);
+      const start = await waitExact(page);
+      assert.equal(start.features.video, "vp8", "the browser still asks for vp8");
+      await drag(page, { durationMs: 1500, hz: 30, dAz: 3 });
+      const done = await waitExact(page, start.newestId);
+      const moving = (await shownFrames(page)).filter((f) => f.provisional && f.phase === "drag");
+      assert.ok(moving.length >= 3, `jpeg frames while dragging: ${moving.length}`);
+      for (const f of moving) assert.equal(f.encoding, 3, JSON.stringify(f));
+      assert.equal(done.video.frames, 0, "no video frame came");
+      assert.equal(done.video.errors, 0);
+      assert.equal(done.lastFrame.encoding, 1, "the exact frame is png");
+      for (const f of moving) assert.equal(f.videoFallback, "memory", JSON.stringify(f));
+      assert.deepEqual(page.errors, []);
+      await page.close();
+    } finally {
+      await spent.kill();
+    }
+  });
+
   test("a resize mid-drag gets a key frame of the new size", async () => {
     // No fixed size: the frame is the canvas's, which follows the window.
     const page = await H.openPage(browser, `${server.url}/?dataset=sparse`, { width: 560, height: 300 });

@@ -237,6 +237,8 @@ export class FrameLoop {
       // A video frame: whether it was a key frame, and the stream's bitrate when it was encoded.
       key: stats.video ? stats.video.key === true : null,
       bitrateKbps: stats.video ? stats.video.bitrate_kbps : null,
+      // A moving frame sent as JPEG in place of a video frame, and why ("memory": the server's encoders were full).
+      videoFallback: typeof stats.video_fallback === "string" ? stats.video_fallback : null,
       // The scene the frame was asked with (its camera), so a benchmark can ask for the exact frame of what it shows.
       scene: request.scene,
     };

@@ -148,7 +148,8 @@ function drawOverlay() {
       `moving: ${app.features.video}` +
         (v.bitrateKbps ? `  ${v.bitrateKbps} kbit/s` : "") +
         `  decode ${ms1(v.lastDecodeMs)}  key frames ${v.keyFrames}` +
-        (v.skipped || v.errors ? `  skipped ${v.skipped}  errors ${v.errors}` : ""),
+        (v.skipped || v.errors ? `  skipped ${v.skipped}  errors ${v.errors}` : "") +
+        (f.last && f.last.videoFallback === "memory" ? "  (jpeg now: the server's video memory is full)" : ""),
     );
   else if (app.capabilities) lines.push(`moving: ${app.features.jpeg ? "jpeg" : "png"}`);
   if (app.notes.length) lines.push(app.notes[app.notes.length - 1]);
