@@ -9,6 +9,7 @@
 #include <string>
 #include <thread>
 #include <utility>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -201,6 +202,46 @@ TEST_F(VideoServerTest, VideoEncodersStayWithinTheirMemory) {
   EXPECT_EQ(video["jpeg_frames"], 2) << video.dump();
   EXPECT_EQ(video["key_frames"]["memory"], 1) << video.dump();
   EXPECT_EQ(video["encoded"]["vp8"]["frames"], 5) << video.dump();
+}
+
+// Sessions dragging at once, each on its own connection and encoder thread, never hold more than the budget between
+// them: those without room get JPEG and every Render is answered.
+TEST_F(VideoServerTest, SessionsDraggingAtOnceStayWithinTheVideoMemory) {
+  const uint64_t one = image::videoEncoderBytes(Encoding::Vp9, 256, 256, 1);
+  ASSERT_LT(2 * one, 40u << 20);
+  ASSERT_GT(3 * one, 40u << 20) << "40 MiB holds two VP9 streams of 256x256";
+  auto server = serve("--render-threads 2 --video-memory 40");  // and config/server.toml's two encoder threads
+  constexpr int kSessions = 5, kFrames = 6;
+  std::vector<std::thread> sessions;
+  std::vector<std::string> failures(kSessions);
+  std::vector<int> videoFrames(kSessions, 0), jpegFrames(kSessions, 0);
+  for (int s = 0; s < kSessions; ++s)
+    sessions.emplace_back([&, s] {
+      try {
+        auto c = videoSession(*server);
+        image::FrameDecoder decoder;
+        for (int i = 0; i < kFrames; ++i)
+          c->render(dragScene(10 + 2 * i, "vp9", 256), Encoding::Png, [&](const proto::Frame& f) {
+            decoder.decode(f);  // every frame of the stream, in order; the JPEG ones too
+            ++(f.encoding == Encoding::Vp9 ? videoFrames : jpegFrames)[size_t(s)];
+          });
+      } catch (const std::exception& e) {
+        failures[size_t(s)] = e.what();
+      }
+    });
+  for (auto& t : sessions) t.join();
+  for (int s = 0; s < kSessions; ++s) EXPECT_EQ(failures[size_t(s)], "") << "session " << s;
+  int video = 0, jpeg = 0;
+  for (int s = 0; s < kSessions; ++s) video += videoFrames[size_t(s)], jpeg += jpegFrames[size_t(s)];
+  EXPECT_EQ(video + jpeg, kSessions * kFrames) << "a moving frame for every Render";
+  EXPECT_GT(video, 0);
+  EXPECT_GT(jpeg, 0) << "five streams cannot all have room";
+  auto c = videoSession(*server);
+  const json stats = json::parse(c->stats())["video"];
+  EXPECT_LE(stats["memory_peak_bytes"].get<uint64_t>(), 40u << 20) << stats.dump();
+  EXPECT_LE(stats["memory_peak_bytes"].get<uint64_t>(), 2 * one) << stats.dump();
+  EXPECT_EQ(stats["jpeg_frames"].get<int>(), jpeg) << stats.dump();
+  EXPECT_EQ(stats["encoded"]["vp9"]["frames"].get<int>(), video) << stats.dump();
 }
 
 TEST_F(VideoServerTest, VideoIsRefusedWhereItCannotServe) {
