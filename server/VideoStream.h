@@ -9,9 +9,8 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
-#include <string>
-
 #include <mutex>
+#include <string>
 
 #include "image/Video.h"
 #include "proto/Messages.h"
