@@ -23,6 +23,16 @@
 namespace voxbrick::store {
 namespace {
 
+/// `message` without curl's timings ("after 4 ms" becomes "after ms"): two attempts that failed alike read alike.
+std::string withoutTimings(std::string message) {
+  for (size_t at = message.find("after "); at != std::string::npos; at = message.find("after ", at + 1)) {
+    size_t end = at + 6;
+    while (end < message.size() && std::isdigit(static_cast<unsigned char>(message[end]))) ++end;
+    if (end > at + 6 && message.compare(end, 3, " ms") == 0) message.erase(at + 6, end - (at + 6) + 1);
+  }
+  return message;
+}
+
 // libcurl is loaded the first time a transfer is made (dlopen), not linked: a process that fetches nothing does not
 // load it and the two dozen libraries it needs, a third of the start of a command that needs neither OpenVDB nor GDCM
 // (docs/design/modules.md). The functions below, named as libcurl's, stand in for them in this file (its unqualified
@@ -461,7 +471,7 @@ void HttpClient::get(const std::string& url, const std::string& accept, Response
         if (attempt == 1) throw;
         std::string message = e.what();
         message += " (" + std::to_string(attempt) + " attempts";
-        if (!first.empty() && first != e.what())
+        if (!first.empty() && withoutTimings(first) != withoutTimings(e.what()))
           message += "; the first: " + first.substr(("GET " + url + ": ").size());
         throw HttpError(message + ")", e.status(), false);
       }
