@@ -13,7 +13,6 @@
 #include <spdlog/spdlog.h>
 #include <nlohmann/json.hpp>
 
-#include "image/FrameImage.h"
 #include "image/Video.h"
 #include "server/ErrorReply.h"
 
@@ -34,6 +33,14 @@ void releaseFreedMemory() {
 #if defined(__GLIBC__)
   malloc_trim(0);
 #endif
+}
+
+/// A moving frame of a video stream that found no room for its encoder in the server's video memory, as a still JPEG
+/// (PROTOCOL.md, Session 11): its pixels encoded as any provisional JPEG frame of the job, its statistics saying why.
+proto::Message jpegForWantOfVideoMemory(proto::Frame frame, const RenderJob& job) {
+  frame.encoding = proto::Encoding::Jpeg;
+  frame.statsJson = withKey(std::move(frame.statsJson), "video_fallback", "\"memory\"");
+  return encodeStill(std::move(frame), replyJpegQuality(job, true), job);
 }
 
 /// The first reply's error, for logs.
@@ -242,9 +249,6 @@ void Connection::pumpVideo() {
   mVideoPending.reset();
   task->input.dataset = task->job.dataset.get();
   task->input.keyframe = task->job.scene.keyframe || mVideoNeedsKey;
-  // As renderReply would have encoded it: a video frame is always a provisional one.
-  task->input.jpegQuality =
-      task->job.provisionalJpegQuality.value_or(task->job.scene.jpegQuality.value_or(image::kDefaultJpegQuality));
   const int width = int(task->frame.width), height = int(task->frame.height);
   task->input.bitrateKbps = mPacer.videoKbps(VideoStream::startKbps(width, height),
                                              VideoStream::capKbps(width, height), now, videoPaceMs());
@@ -254,6 +258,7 @@ void Connection::pumpVideo() {
       [stream = mVideo.get(), task] {
         try {
           task->encoded = stream->encode(task->frame, task->input);
+          if (task->encoded.noRoom) task->still = jpegForWantOfVideoMemory(std::move(task->frame), task->job);
         } catch (...) {
           task->error = std::current_exception();
         }
@@ -265,13 +270,14 @@ void Connection::videoEncoded(EncodingVideo& done) {
   mVideoEncoding = false;
   const double leadMs = std::chrono::duration<double, std::milli>(Clock::now() - done.handedAt).count();
   mVideoEncodeLeadMs = mVideoEncodeLeadMs > 0 ? 0.75 * mVideoEncodeLeadMs + 0.25 * leadMs : leadMs;
-  if (!done.error && !done.encoded.jpeg)
+  if (!done.error && !done.still)
     mServices.stats.videoEncoded(done.frame.encoding, done.encoded.encodeMs, done.encoded.key ? done.encoded.keyReason : "");
   if (mClosing || mClosed) return;
   proto::Message reply = done.error ? proto::Message(errorReply(done.error, "video frame of request " +
                                                                                std::to_string(done.job.requestId) +
                                                                                " could not be encoded"))
-                                    : proto::Message(std::move(done.frame));
+                         : done.still ? std::move(*done.still)
+                                      : proto::Message(std::move(done.frame));
   if (const auto* frame = std::get_if<proto::Frame>(&reply);
       frame && frameBodyBytes(frame->statsJson.size(), frame->payload.size()) > done.job.maxBodyBytes)
     reply = errorMessage(proto::ErrorCode::LimitExceeded,

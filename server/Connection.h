@@ -179,6 +179,8 @@ class Connection {
     proto::Frame frame;
     VideoFrameInput input;
     VideoEncoded encoded;
+    /// The frame as a still JPEG, or its Error, where the stream had no room for its encoder (encoded.noRoom).
+    std::optional<proto::Message> still;
     std::exception_ptr error;
     std::chrono::steady_clock::time_point handedAt;  ///< to the encoder
   };

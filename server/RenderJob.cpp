@@ -74,6 +74,11 @@ proto::Encoding replyEncoding(const RenderJob& job, bool provisional) {
   return encoding == proto::Encoding::Png && job.webpForPng ? proto::Encoding::Webp : encoding;
 }
 
+int replyJpegQuality(const RenderJob& job, bool provisional) {
+  if (provisional && job.provisionalJpegQuality) return *job.provisionalJpegQuality;
+  return job.scene.jpegQuality.value_or(image::kDefaultJpegQuality);
+}
+
 uint64_t frameBodyBytes(size_t statsBytes, size_t payloadBytes) {
   return 4 + 4 + 1 + 4 + uint64_t(statsBytes) + 4 + uint64_t(payloadBytes);
 }
@@ -98,10 +103,7 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
     frame.width = uint32_t(image.width);
     frame.height = uint32_t(image.height);
     frame.encoding = replyEncoding(job, provisional);
-    // Under a crowd a provisional frame may travel at a lower JPEG quality (RenderScheduler: quality yields first).
-    const int jpegQuality = provisional && job.provisionalJpegQuality
-                                ? *job.provisionalJpegQuality
-                                : job.scene.jpegQuality.value_or(image::kDefaultJpegQuality);
+    const int jpegQuality = replyJpegQuality(job, provisional);
     // A video frame leaves as its pixels: the session's stream encodes it off this thread (server/VideoStream.h); so
     // does a still frame whose session encodes aside (a raw one needs no encoding).
     const bool video = image::isVideoEncoding(frame.encoding);

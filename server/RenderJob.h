@@ -105,6 +105,10 @@ inline FrameClass frameClassOf(const RenderJob& job) {
 /// to follow), the request's own for an exact one; webp in place of png where the job says so (webpForPng).
 proto::Encoding replyEncoding(const RenderJob& job, bool provisional);
 
+/// The JPEG quality of a Frame answering `job`: a provisional Frame's may be lowered under a crowd
+/// (provisionalJpegQuality: quality yields first); otherwise the scene's, else image::kDefaultJpegQuality.
+int replyJpegQuality(const RenderJob& job, bool provisional);
+
 /// The body bytes of a Frame: width, height, encoding, and the two length-prefixed fields.
 uint64_t frameBodyBytes(size_t statsBytes, size_t payloadBytes);
 

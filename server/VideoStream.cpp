@@ -7,8 +7,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include "image/FrameImage.h"
-
 namespace voxbrick::server {
 namespace {
 
@@ -53,20 +51,6 @@ bool VideoStream::freeEncoder() {
   return true;
 }
 
-VideoEncoded VideoStream::jpegInstead(proto::Frame& frame, const VideoFrameInput& input, Clock::time_point start) {
-  const image::Image8 pixels{int(frame.width), int(frame.height), std::move(frame.payload)};
-  frame.encoding = proto::Encoding::Jpeg;
-  frame.payload = image::encodeFrameImage(pixels, frame.encoding, input.jpegQuality);
-  nlohmann::json stats = nlohmann::json::parse(frame.statsJson, nullptr, false);
-  if (!stats.is_object()) stats = nlohmann::json::object();
-  VideoEncoded done{msBetween(start, Clock::now()), false, "", true};
-  stats["encode_ms"] = done.encodeMs;
-  stats["encode_start_ms"] = msBetween(input.received, start);
-  stats["video_fallback"] = "memory";
-  frame.statsJson = stats.dump();
-  return done;
-}
-
 VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& input) {
   std::lock_guard lock(mMutex);
   const auto start = Clock::now();
@@ -87,7 +71,9 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
     if (mMemory && !mMemory->reserve(*this, image::videoEncoderBytes(frame.encoding, width, height, settings.threads),
                                      start)) {
       mNoRoom = true;
-      return jpegInstead(frame, input, start);
+      VideoEncoded none;
+      none.noRoom = true;
+      return none;
     }
     try {
       mEncoder = std::make_unique<image::VideoEncoder>(frame.encoding, settings);

@@ -2,8 +2,8 @@
 // with a key frame where a decoder could not go on from the frame before (PROTOCOL.md, Session 11): the stream's
 // first frame, a new codec or size, a new dataset, and a scene that asks for one (`keyframe`). Encoded off the render
 // threads and off the I/O threads, one frame at a time (its Connection sees to that). Its encoder's memory is counted
-// in the server's VideoMemory: freed for another stream's while this one rests, and a frame that finds no room goes
-// as JPEG.
+// in the server's VideoMemory: freed for another stream's while this one rests; a frame that finds no room is left
+// to its Connection, which sends it as a still JPEG.
 #pragma once
 
 #include <chrono>
@@ -25,8 +25,6 @@ struct VideoFrameInput {
   double bitrateKbps = 0;         ///< the target the session's link allows (LinkPacer::videoKbps)
   std::chrono::steady_clock::time_point drawn;     ///< when its pixels were ready (the stream's timestamps)
   std::chrono::steady_clock::time_point received;  ///< when its Render arrived (for the frame's encode_start_ms)
-  /// The JPEG quality the frame goes at where the server's video memory has no room for the stream's encoder.
-  int jpegQuality = image::kDefaultJpegQuality;
 };
 
 /// What one encode did, for the server's counters.
@@ -35,7 +33,9 @@ struct VideoEncoded {
   bool key = false;       ///< a key frame
   std::string keyReason;  ///< a key frame's reason (PROTOCOL.md: start, codec, size, dataset, asked, recovery, memory,
                           ///< encoder)
-  bool jpeg = false;      ///< the frame went as JPEG: the server's video memory had no room for the stream's encoder
+  /// Nothing was encoded: the stream needed a new encoder and the server's video memory had no room for it. The
+  /// frame is left as it came (its RGBA8 pixels), to go as a still JPEG (Connection).
+  bool noRoom = false;
 };
 
 class VideoStream final : public VideoMemory::Holder {
@@ -67,9 +67,9 @@ class VideoStream final : public VideoMemory::Holder {
   /// stream's next frame: the payload becomes the compressed frame and its statistics gain `encode_ms` and `video`
   /// (PROTOCOL.md, Frame statistics). Where the bitrate is too low for the frame's size (scaleFor), the frame is
   /// scaled down first and its width and height become the stream's (the client shows it at the scene's size).
-  /// Where the stream needs a new encoder and the server's video memory has no room for it, the frame becomes a
-  /// JPEG one at `input.jpegQuality` instead (its statistics say `"video_fallback": "memory"`; the returned
-  /// VideoEncoded says `jpeg`). Throws image::ImageFailure; the next frame is then a key frame.
+  /// Where the stream needs a new encoder and the server's video memory has no room for it, the frame is left as it
+  /// came and the returned VideoEncoded says `noRoom`. Throws image::ImageFailure; the next frame is then a key
+  /// frame.
   VideoEncoded encode(proto::Frame& frame, const VideoFrameInput& input);
 
   /// VideoMemory::Holder: frees the encoder unless a frame is being encoded (the next frame is then a key frame,
@@ -83,10 +83,6 @@ class VideoStream final : public VideoMemory::Holder {
  private:
   /// The scale the stream is sent at, given the one the link calls for now (the hysteresis above).
   double settledScale(double wanted, std::chrono::steady_clock::time_point now);
-
-  /// The frame `frame` (its payload RGBA8 pixels) as JPEG, for want of room for an encoder.
-  VideoEncoded jpegInstead(proto::Frame& frame, const VideoFrameInput& input,
-                           std::chrono::steady_clock::time_point start);
 
   VideoMemory* const mMemory;
   std::mutex mMutex;  ///< held while a frame is encoded: freeEncoder leaves the encoder of one being encoded
