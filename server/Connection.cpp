@@ -252,6 +252,10 @@ void Connection::pumpVideo() {
   const int width = int(task->frame.width), height = int(task->frame.height);
   task->input.bitrateKbps = mPacer.videoKbps(VideoStream::startKbps(width, height),
                                              VideoStream::capKbps(width, height), now, videoPaceMs());
+  if (mServices.video && mServices.config.scheduler.encoderLadder)
+    task->input.encodeShareMs = VideoStream::encoderShareMs(mServices.config.encodeThreads,
+                                                            mServices.config.scheduler.interactiveFps,
+                                                            mServices.video->moving(now));
   mVideoNeedsKey = false;
   mVideoEncoding = true;
   mTransport.runAside(
@@ -271,7 +275,10 @@ void Connection::videoEncoded(EncodingVideo& done) {
   const double leadMs = std::chrono::duration<double, std::milli>(Clock::now() - done.handedAt).count();
   mVideoEncodeLeadMs = mVideoEncodeLeadMs > 0 ? 0.75 * mVideoEncodeLeadMs + 0.25 * leadMs : leadMs;
   if (!done.error && !done.still)
-    mServices.stats.videoEncoded(done.frame.encoding, done.encoded.encodeMs, done.encoded.key ? done.encoded.keyReason : "");
+    mServices.stats.videoEncoded(done.frame.encoding, done.encoded.encodeMs,
+                                 done.encoded.key ? done.encoded.keyReason : "",
+                                 done.encoded.scaledFor == VideoScaledFor::None ? ""
+                                                                                : common::nameOf(done.encoded.scaledFor));
   if (mClosing || mClosed) return;
   proto::Message reply = done.error ? proto::Message(errorReply(done.error, "video frame of request " +
                                                                                std::to_string(done.job.requestId) +

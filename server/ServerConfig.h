@@ -26,6 +26,10 @@ struct SchedulerConfig {
   /// threads, a moving camera's frame gets at most T * 1000 / (fps * N) ms (never more than its scene asks, never
   /// less than the scene's minimum, 10 ms), so quality yields to the crowd instead of latency.
   double interactiveFps = 10;
+  /// The same share of the encoder threads for video streams: with N streams moving on E encoder threads, a stream
+  /// whose frames take more than E * 1000 / (interactive_fps * N) ms to encode is sent smaller (VideoStream), so
+  /// that a crowd of streams gets its frames smaller rather than later. Off only to measure what it does.
+  bool encoderLadder = true;
   /// Render threads kept for interactive frames while any session drags (with two threads or more): still and batch
   /// frames take at most the others, so a long still frame never holds every thread a viewer waits for. The encoder
   /// threads keep as many for interactive frames while those come (EncoderQueue).

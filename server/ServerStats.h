@@ -123,8 +123,12 @@ class ServerStats {
   /// Counts one render delivered to a further session that asked for the same frame.
   void frameShared() { mFramesShared++; }
   /// Counts a video frame encoded in `codec` (vp8 or vp9) in `encodeMs`; a key frame names its reason
-  /// (kVideoKeyReasons; an inter frame: empty).
-  void videoEncoded(proto::Encoding codec, double encodeMs, std::string_view keyReason);
+  /// (kVideoKeyReasons; an inter frame: empty), a frame sent smaller than its scene why (kVideoScaledFor; at full
+  /// size: empty).
+  void videoEncoded(proto::Encoding codec, double encodeMs, std::string_view keyReason,
+                    std::string_view scaledFor = {});
+  /// Why a video frame was sent smaller than its scene (the frame's `video.scaled_for`).
+  static constexpr std::array<std::string_view, 2> kVideoScaledFor = {"link", "encoders"};
   /// Why a video stream's key frames were sent (PROTOCOL.md, Session 11), as /metrics labels them.
   /// "encoder" stays last: a reason not listed is counted as the encoder's.
   static constexpr std::array<std::string_view, 8> kVideoKeyReasons = {
@@ -157,6 +161,7 @@ class ServerStats {
                                                           Histogram(kLatencyBoundsS)};
   Counter mFramesShared{0}, mBytesOut{0};
   std::array<Counter, kVideoKeyReasons.size()> mVideoKeyFrames{};
+  std::array<Counter, kVideoScaledFor.size()> mVideoScaled{};
   std::array<Histogram, 2> mVideoEncode = {Histogram(kEncodeBoundsS), Histogram(kEncodeBoundsS)};  ///< vp8, vp9
   LatencyWindow mLatency;
   std::chrono::steady_clock::time_point mStarted = std::chrono::steady_clock::now();

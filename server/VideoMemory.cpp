@@ -65,6 +65,22 @@ size_t VideoMemory::encoders() const {
   return mEntries.size();
 }
 
+size_t VideoMemory::moving(Clock::time_point now) const {
+  std::lock_guard lock(mMutex);
+  return size_t(std::count_if(mEntries.begin(), mEntries.end(),
+                              [now](const auto& entry) { return entry.second.lastUse + kIdleMs > now; }));
+}
+
+double VideoMemory::msPerMegapixel(proto::Encoding codec) const {
+  std::lock_guard lock(mMutex);
+  return mMsPerMegapixel[codec == proto::Encoding::Vp9 ? 1 : 0];
+}
+
+void VideoMemory::measured(proto::Encoding codec, double msPerMegapixel) {
+  std::lock_guard lock(mMutex);
+  mMsPerMegapixel[codec == proto::Encoding::Vp9 ? 1 : 0] = msPerMegapixel;
+}
+
 uint64_t VideoMemory::freed() const {
   std::lock_guard lock(mMutex);
   return mFreed;

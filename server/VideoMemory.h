@@ -1,17 +1,22 @@
-// The memory of every session's video encoder together (memory.video_mb). A libvpx encoder holds 46 (VP8) to 80
-// (VP9) bytes a pixel of its stream and more for each thread (image::videoEncoderBytes): a VP9 stream at 1920x1080
-// holds about 220 MiB, and a crowd of such streams would take the server's memory without bound. So each stream
-// asks this ledger for its encoder's bytes before it makes one. Past the budget, the encoders of streams that have
-// rested longest (no frame for kIdleMs or more) are freed to make room, least recently used first; such a stream
-// starts again with a key frame (key_reason `memory`) when its camera moves again. Where even that leaves too little
-// room, the stream's frame travels as JPEG instead (PROTOCOL.md, Session 11), and the stream asks again at its next.
+// The memory of every session's video encoder together (memory.video_mb), and what the encoders cost in time. A
+// libvpx encoder holds 46 (VP8) to 80 (VP9) bytes a pixel of its stream and more for each thread
+// (image::videoEncoderBytes): a VP9 stream at 1920x1080 holds about 220 MiB, and a crowd of such streams would take
+// the server's memory without bound. So each stream asks this ledger for its encoder's bytes before it makes one.
+// Past the budget, the encoders of streams that have rested longest (no frame for kIdleMs or more) are freed to make
+// room, least recently used first; such a stream starts again with a key frame (key_reason `memory`) when its camera
+// moves again. Where even that leaves too little room, the stream's frame travels as JPEG instead (PROTOCOL.md,
+// Session 11), and the stream asks again at its next. The streams moving, and the time their frames take to encode,
+// size each stream's share of the encoder threads (VideoStream::scaleForEncoders).
 #pragma once
 
+#include <array>
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <mutex>
 #include <unordered_map>
+
+#include "proto/Messages.h"
 
 namespace voxbrick::server {
 
@@ -50,6 +55,13 @@ class VideoMemory {
   uint64_t bytes() const;
   uint64_t peakBytes() const;
   size_t encoders() const;
+  /// The streams that encoded a frame within kIdleMs of `now`: those whose cameras move, which share the encoder
+  /// threads (Connection: the encoder time a moving frame may take).
+  size_t moving(Clock::time_point now) const;
+  /// What a stream's inter frames in `codec` (vp8 or vp9) cost to encode, ms a megapixel, as a stream measured it
+  /// last (VideoStream); 0 before any. A stream's first frame goes by it.
+  double msPerMegapixel(proto::Encoding codec) const;
+  void measured(proto::Encoding codec, double msPerMegapixel);
   /// Encoders freed to make room for another's, and frames sent as JPEG because none could be freed.
   uint64_t freed() const;
   uint64_t refused() const;
@@ -64,6 +76,7 @@ class VideoMemory {
   mutable std::mutex mMutex;
   std::unordered_map<Holder*, Entry> mEntries;
   uint64_t mBytes = 0, mPeak = 0, mFreed = 0, mRefused = 0;
+  std::array<double, 2> mMsPerMegapixel{};  ///< vp8, vp9
 };
 
 }  // namespace voxbrick::server

@@ -30,12 +30,30 @@ double VideoStream::scaleFor(double kbps, int width, int height) {
   return kScales[std::size(kScales) - 1];
 }
 
-double VideoStream::settledScale(double wanted, Clock::time_point now) {
+double VideoStream::encoderShareMs(int threads, double fps, size_t moving) {
+  return double(std::max(1, threads)) * 1000 / (std::max(1e-3, fps) * double(std::max<size_t>(1, moving)));
+}
+
+double VideoStream::scaleForEncoders(double msPerMegapixel, double shareMs, int width, int height, double current) {
+  if (!(msPerMegapixel > 0) || !(shareMs > 0)) return 1;
+  const double megapixels = std::max(1.0, double(width) * height) / 1e6;
+  for (const double scale : kScales)
+    if (msPerMegapixel * megapixels * scale * scale <= shareMs * (scale > current ? kGrowWithin : 1)) return scale;
+  return kScales[std::size(kScales) - 1];
+}
+
+double VideoStream::settledScale(double wanted, VideoScaledFor why, Clock::time_point now) {
   if (wanted != mWanted) mWanted = wanted, mWantedSince = now;
-  if (!mEncoder) return mScale = wanted;  // a stream's first frame starts at the link's scale
-  if (mWanted == mScale) return mScale;
-  const double waited = msBetween(mWantedSince, now);
-  if (waited >= (mWanted < mScale ? kShrinkAfterMs : kGrowAfterMs)) mScale = mWanted;
+  mWantedFor = why;
+  // A stream's first frame starts at the scale called for now.
+  if (!mEncoder || (mWanted != mScale && msBetween(mWantedSince, now) >=
+                                             (mWanted < mScale ? kShrinkAfterMs : kGrowAfterMs))) {
+    mScale = mWanted;
+  }
+  if (mScale == 1)
+    mScaledFor = VideoScaledFor::None;
+  else if (mScale == mWanted)
+    mScaledFor = mWantedFor;  // (while it waits for another scale, the reason it has this one stays)
   return mScale;
 }
 
@@ -56,7 +74,19 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
   const auto start = Clock::now();
   const int kbps = int(std::lround(std::max(1.0, input.bitrateKbps)));
   const int fullWidth = int(frame.width), fullHeight = int(frame.height);
-  const double scale = settledScale(scaleFor(kbps, fullWidth, fullHeight), input.drawn);
+  const double forLink = scaleFor(kbps, fullWidth, fullHeight);
+  // A stream that has not measured its own cost yet goes by the last one measured in its codec (a newcomer to a
+  // crowd starts at the size the others were brought to, rather than with a key frame too large to encode in time).
+  const double cost = frame.encoding == mCostCodec ? mMsPerMegapixel
+                      : mMemory                     ? mMemory->msPerMegapixel(frame.encoding)
+                                                    : 0;
+  const double forEncoders = scaleForEncoders(cost,
+                                              input.encodeShareMs, fullWidth, fullHeight, mScale);
+  const double scale = settledScale(std::min(forLink, forEncoders),
+                                    forEncoders < forLink ? VideoScaledFor::Encoders
+                                    : forLink < 1         ? VideoScaledFor::Link
+                                                          : VideoScaledFor::None,
+                                    input.drawn);
   // (At the bitrate's floor of 1 kbit/s a side is only scaled to a quarter beyond 146 pixels: never below 36.)
   const int width = std::max(1, int(std::lround(fullWidth * scale)));
   const int height = std::max(1, int(std::lround(fullHeight * scale)));
@@ -105,13 +135,23 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
     throw;
   }
   mBroken = false;
-  if (mMemory) mMemory->used(*this, Clock::now());
+  const auto encoded = Clock::now();
+  if (mMemory) mMemory->used(*this, encoded);
+  if (!chunk.key) {
+    // Key frames cost more than the inter frames a moving stream is made of: they would make it look slower.
+    const double msPerMegapixel = msBetween(start, encoded) / (double(width) * height / 1e6);
+    const bool known = mCostCodec == frame.encoding && mMsPerMegapixel > 0;
+    mMsPerMegapixel = known ? 0.75 * mMsPerMegapixel + 0.25 * msPerMegapixel : msPerMegapixel;
+    mCostCodec = frame.encoding;
+    if (mMemory) mMemory->measured(frame.encoding, mMsPerMegapixel);
+  }
   ++mFrames;
   if (chunk.key) ++mKeyFrames;
   frame.payload = std::move(chunk.bytes);
   nlohmann::json stats = nlohmann::json::parse(frame.statsJson, nullptr, false);
   if (!stats.is_object()) stats = nlohmann::json::object();
-  VideoEncoded done{msBetween(start, Clock::now()), chunk.key, chunk.key ? (why.empty() ? "encoder" : why) : ""};
+  VideoEncoded done{msBetween(start, encoded), chunk.key, chunk.key ? (why.empty() ? "encoder" : why) : "", false,
+                    mScaledFor};
   stats["encode_ms"] = done.encodeMs;
   stats["encode_start_ms"] = msBetween(input.received, start);
   nlohmann::json video = {{"codec", proto::encodingName(frame.encoding)},
@@ -120,6 +160,7 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
                           {"bitrate_kbps", kbps},
                           {"scale", scale}};
   if (chunk.key) video["key_reason"] = done.keyReason;
+  if (mScaledFor != VideoScaledFor::None) video["scaled_for"] = common::nameOf(mScaledFor);
   stats["video"] = std::move(video);
   frame.statsJson = stats.dump();
   return done;

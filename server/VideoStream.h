@@ -10,8 +10,10 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <string>
 
+#include "common/EnumNames.h"
 #include "image/Video.h"
 #include "proto/Messages.h"
 #include "server/VideoMemory.h"
@@ -25,7 +27,17 @@ struct VideoFrameInput {
   double bitrateKbps = 0;         ///< the target the session's link allows (LinkPacer::videoKbps)
   std::chrono::steady_clock::time_point drawn;     ///< when its pixels were ready (the stream's timestamps)
   std::chrono::steady_clock::time_point received;  ///< when its Render arrived (for the frame's encode_start_ms)
+  /// The encoder time the crowd leaves the frame, ms: the encoder threads' time over the streams moving at
+  /// scheduler.interactive_fps (Connection). 0: no limit.
+  double encodeShareMs = 0;
 };
+
+/// Why a stream is sent smaller than its scene: its link's bitrate, or its share of the encoders' time (the frame's
+/// `video.scaled_for`: none, `link`, `encoders`).
+enum class VideoScaledFor { None, Link, Encoders };
+inline constexpr common::EnumName<VideoScaledFor> kVideoScaledForNames[] = {
+    {VideoScaledFor::None, "none"}, {VideoScaledFor::Link, "link"}, {VideoScaledFor::Encoders, "encoders"}};
+constexpr std::span<const common::EnumName<VideoScaledFor>> enumNames(VideoScaledFor) { return kVideoScaledForNames; }
 
 /// What one encode did, for the server's counters.
 struct VideoEncoded {
@@ -36,6 +48,7 @@ struct VideoEncoded {
   /// Nothing was encoded: the stream needed a new encoder and the server's video memory had no room for it. The
   /// frame is left as it came (its RGBA8 pixels), to go as a still JPEG (Connection).
   bool noRoom = false;
+  VideoScaledFor scaledFor = VideoScaledFor::None;  ///< why the frame went smaller than its scene, if it did
 };
 
 class VideoStream final : public VideoMemory::Holder {
@@ -59,14 +72,26 @@ class VideoStream final : public VideoMemory::Holder {
   static constexpr double kMinBitsPerPixel = 0.025;
   /// The largest of kScales at which `kbps` gives a `width` x `height` frame kMinBitsPerPixel; the smallest if none.
   static double scaleFor(double kbps, int width, int height);
-  /// How long the link must call for another scale before the stream changes to it (each change is a key frame):
-  /// a smaller one soon, a larger one only once the link has held up a while.
+  /// The largest of kScales at which a `width` x `height` frame is expected to encode within `shareMs`, at
+  /// `msPerMegapixel` (the stream's measured cost); one larger than `current` only within kGrowWithin of it (so
+  /// that a stream grown back is not at once too slow again). 1 when the cost or the share is unknown (0); the
+  /// smallest if none fits. The crowd's ladder reaching the encoders: with more streams moving than the encoder
+  /// threads keep at scheduler.interactive_fps, frames are sent smaller instead of later.
+  static double scaleForEncoders(double msPerMegapixel, double shareMs, int width, int height, double current);
+  static constexpr double kGrowWithin = 0.75;
+  /// The encoder time a moving frame may take with `moving` streams (at least one) sharing `threads` encoder threads
+  /// for each to get `fps` frames a second: threads * 1000 / (fps * moving) ms, as the render threads' share is
+  /// reckoned (RenderScheduler).
+  static double encoderShareMs(int threads, double fps, size_t moving);
+  /// How long the link (or the encoders' share) must call for another scale before the stream changes to it (each
+  /// change is a key frame): a smaller one soon, a larger one only once it has held up a while.
   static constexpr double kShrinkAfterMs = 300, kGrowAfterMs = 2000;
 
   /// Encodes `frame` (a Frame in vp8 or vp9 whose payload is its RGBA8 pixels, as renderReply leaves it) as the
   /// stream's next frame: the payload becomes the compressed frame and its statistics gain `encode_ms` and `video`
-  /// (PROTOCOL.md, Frame statistics). Where the bitrate is too low for the frame's size (scaleFor), the frame is
-  /// scaled down first and its width and height become the stream's (the client shows it at the scene's size).
+  /// (PROTOCOL.md, Frame statistics). Where the bitrate is too low for the frame's size (scaleFor), or its encoding
+  /// would take more than its share of the encoders (scaleForEncoders), the frame is scaled down first and its width
+  /// and height become the stream's (the client shows it at the scene's size; `video.scaled_for` says why).
   /// Where the stream needs a new encoder and the server's video memory has no room for it, the frame is left as it
   /// came and the returned VideoEncoded says `noRoom`. Throws image::ImageFailure; the next frame is then a key
   /// frame.
@@ -81,14 +106,19 @@ class VideoStream final : public VideoMemory::Holder {
   uint64_t keyFrames() const { return mKeyFrames; }
 
  private:
-  /// The scale the stream is sent at, given the one the link calls for now (the hysteresis above).
-  double settledScale(double wanted, std::chrono::steady_clock::time_point now);
+  /// The scale the stream is sent at, given the one the link and the encoders call for now (the hysteresis above);
+  /// sets mScaledFor.
+  double settledScale(double wanted, VideoScaledFor why, std::chrono::steady_clock::time_point now);
 
   VideoMemory* const mMemory;
   std::mutex mMutex;  ///< held while a frame is encoded: freeEncoder leaves the encoder of one being encoded
   std::unique_ptr<image::VideoEncoder> mEncoder;
   bool mNoRoom = false;  ///< the encoder was freed for another stream's, or none could be made: the next key's reason
   double mScale = 1, mWanted = 1;
+  VideoScaledFor mScaledFor = VideoScaledFor::None, mWantedFor = VideoScaledFor::None;
+  /// The stream's inter frames' encoding ms a megapixel in mCostCodec, smoothed (0: none encoded yet).
+  double mMsPerMegapixel = 0;
+  proto::Encoding mCostCodec = proto::Encoding::RawRgba8;
   std::chrono::steady_clock::time_point mWantedSince;
   const void* mDataset = nullptr;
   std::chrono::steady_clock::time_point mStart;

@@ -4,6 +4,8 @@
 // jpeg; a resize mid-drag, a reconnection and a failed decoder each get a key frame.
 
 import assert from "node:assert/strict";
+import fs from "node:fs";
+import path from "node:path";
 import { after, before, describe, test } from "node:test";
 import * as H from "./harness.mjs";
 
@@ -193,6 +195,41 @@ describe("viewer video stream", () => {
       await page.close();
     } finally {
       await spent.kill();
+    }
+  });
+
+  test("a stream slower than its share of the server's encoders comes smaller, shown at the view's size", async () => {
+    // One encoder thread and interactive_fps 1000: a millisecond of encoding for each moving frame, which no
+    // 640x480 frame is encoded in; the stream goes smaller (docs/server.md, "Quality yields before latency").
+    const config = path.join(scratch.dir, "encoders-busy.toml");
+    fs.writeFileSync(config, "[server]\nencode_threads = 1\n[scheduler]\ninteractive_fps = 1000\n");
+    const busy = await new H.Server({ dir: scratch.dir, datasets, config }).start();
+    try {
+      const page = await H.openPage(browser, `${busy.url}/?dataset=sparse&size=640x480`);
+      const start = await waitExact(page);
+      await drag(page, { durationMs: 2000, hz: 30, dAz: 2 });
+      const done = await waitExact(page, start.newestId);
+      const frames = await videoFrames(page);
+      assertWholeStream(frames);
+      const at = frames.findIndex((f) => f.width < 640);
+      assert.ok(at > 0, `smaller frames: ${JSON.stringify(frames.map((f) => [f.width, f.height]))}`);
+      assert.deepEqual([frames[at].key, frames[at].keyReason], [true, "size"], JSON.stringify(frames[at]));
+      assert.equal(frames[at].width * 480, frames[at].height * 640, "the scene's shape");
+      // Shown on the view's canvas, at its size.
+      const smaller = (await shownFrames(page)).filter((f) => f.encoding === 4 && f.width < 640);
+      assert.ok(smaller.length >= 1, "a smaller vp8 frame was shown");
+      assert.deepEqual(done.canvas, [640, 480]);
+      const v = done.video;
+      assert.ok(v.scale < 1, JSON.stringify(v));
+      assert.equal(v.scaledFor, "encoders", JSON.stringify(v));
+      assert.equal(v.errors, 0);
+      assert.match(await page.$eval("#overlay", (e) => e.textContent),
+        /moving: vp8 {2}\d+ kbit\/s {2}at \d+ % size \(the server's encoders are busy\)/);
+      assert.equal(done.lastFrame.width, 640, "the exact frame has the view's size");
+      assert.deepEqual(page.errors, []);
+      await page.close();
+    } finally {
+      await busy.kill();
     }
   });
 

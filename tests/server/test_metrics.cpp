@@ -216,26 +216,36 @@ TEST(ServerMetrics, RefusalsAreCountedByReasonAndInTheStatsTotals) {
   EXPECT_EQ(j["output"]["frames_refused"], 1);
 }
 
-TEST(ServerMetrics, VideoFramesAreCountedByCodecAndKeyFramesByReason) {
+TEST(ServerMetrics, VideoFramesAreCountedByCodecAndKeyFramesAndSmallerFramesByReason) {
   ServerStats stats;
   stats.videoEncoded(proto::Encoding::Vp8, 4, "start");
   stats.videoEncoded(proto::Encoding::Vp8, 12, "");
   stats.videoEncoded(proto::Encoding::Vp8, 30, "asked");
   stats.videoEncoded(proto::Encoding::Vp9, 60, "size");
   stats.videoEncoded(proto::Encoding::Vp9, 2, "something new");  // an unknown reason counts as the encoder's
+  stats.videoEncoded(proto::Encoding::Vp9, 5, "", "encoders");
+  stats.videoEncoded(proto::Encoding::Vp9, 5, "size", "encoders");
+  stats.videoEncoded(proto::Encoding::Vp8, 6, "", "link");
   const ParsedMetrics p = parseMetrics(stats.metricsText({}));
-  EXPECT_EQ(p.value("voxbrick_video_encode_seconds_count", R"(codec="vp8")"), 3);
+  EXPECT_EQ(p.value("voxbrick_video_encode_seconds_count", R"(codec="vp8")"), 4);
   EXPECT_EQ(p.value("voxbrick_video_encode_seconds_bucket", R"(codec="vp8",le="0.005")"), 1);
-  EXPECT_EQ(p.value("voxbrick_video_encode_seconds_bucket", R"(codec="vp8",le="0.02")"), 2);
-  EXPECT_EQ(p.value("voxbrick_video_encode_seconds_bucket", R"(codec="vp8",le="0.035")"), 3);
-  EXPECT_NEAR(p.value("voxbrick_video_encode_seconds_sum", R"(codec="vp8")"), 0.046, 1e-12);
-  EXPECT_EQ(p.value("voxbrick_video_encode_seconds_count", R"(codec="vp9")"), 2);
-  EXPECT_EQ(p.value("voxbrick_video_encode_seconds_bucket", R"(codec="vp9",le="0.05")"), 1);
+  EXPECT_EQ(p.value("voxbrick_video_encode_seconds_bucket", R"(codec="vp8",le="0.01")"), 2);
+  EXPECT_EQ(p.value("voxbrick_video_encode_seconds_bucket", R"(codec="vp8",le="0.02")"), 3);
+  EXPECT_EQ(p.value("voxbrick_video_encode_seconds_bucket", R"(codec="vp8",le="0.035")"), 4);
+  EXPECT_NEAR(p.value("voxbrick_video_encode_seconds_sum", R"(codec="vp8")"), 0.052, 1e-12);
+  EXPECT_EQ(p.value("voxbrick_video_encode_seconds_count", R"(codec="vp9")"), 4);
+  EXPECT_EQ(p.value("voxbrick_video_encode_seconds_bucket", R"(codec="vp9",le="0.05")"), 3);
   EXPECT_EQ(p.value("voxbrick_video_key_frames_total", R"(reason="start")"), 1);
   EXPECT_EQ(p.value("voxbrick_video_key_frames_total", R"(reason="asked")"), 1);
-  EXPECT_EQ(p.value("voxbrick_video_key_frames_total", R"(reason="size")"), 1);
+  EXPECT_EQ(p.value("voxbrick_video_key_frames_total", R"(reason="size")"), 2);
   EXPECT_EQ(p.value("voxbrick_video_key_frames_total", R"(reason="encoder")"), 1);
   EXPECT_EQ(p.value("voxbrick_video_key_frames_total", R"(reason="recovery")"), 0) << "every reason is written";
+  // Frames sent smaller than their scene, by why.
+  EXPECT_EQ(p.value("voxbrick_video_scaled_frames_total", R"(reason="encoders")"), 2);
+  EXPECT_EQ(p.value("voxbrick_video_scaled_frames_total", R"(reason="link")"), 1);
+  const nlohmann::json video = stats.toJson({})["video"];
+  EXPECT_EQ(video["scaled_frames"]["encoders"], 2) << video.dump();
+  EXPECT_EQ(video["scaled_frames"]["link"], 1) << video.dump();
 }
 
 TEST(ServerMetrics, DocsListEveryFamilyTheServerExposesWithItsType) {

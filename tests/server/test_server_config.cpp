@@ -96,6 +96,7 @@ interactive_weight = 8
 still_weight = 2
 batch_weight = 0.5
 interactive_fps = 12
+encoder_ladder = false
 reserved_interactive_threads = 2
 batch_max_wait_ms = 500
 max_interactive_sessions = 7
@@ -155,6 +156,7 @@ upload = true
   EXPECT_DOUBLE_EQ(c.scheduler.stillWeight, 2);
   EXPECT_DOUBLE_EQ(c.scheduler.batchWeight, 0.5);
   EXPECT_DOUBLE_EQ(c.scheduler.interactiveFps, 12);
+  EXPECT_FALSE(c.scheduler.encoderLadder);
   EXPECT_EQ(c.scheduler.reservedInteractiveThreads, 2);
   EXPECT_DOUBLE_EQ(c.scheduler.batchMaxWaitMs, 500);
   EXPECT_EQ(c.scheduler.maxInteractiveSessions, 7);

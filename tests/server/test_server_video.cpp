@@ -4,7 +4,9 @@
 // frame, a transparent video frame).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
+#include <fstream>
 #include <memory>
 #include <string>
 #include <thread>
@@ -242,6 +244,49 @@ TEST_F(VideoServerTest, SessionsDraggingAtOnceStayWithinTheVideoMemory) {
   EXPECT_LE(stats["memory_peak_bytes"].get<uint64_t>(), 2 * one) << stats.dump();
   EXPECT_EQ(stats["jpeg_frames"].get<int>(), jpeg) << stats.dump();
   EXPECT_EQ(stats["encoded"]["vp9"]["frames"].get<int>(), video) << stats.dump();
+}
+
+// The crowd's ladder reaches the encoders: a stream whose frames take longer to encode than its share of the encoder
+// threads (one thread, interactive_fps 1000: a millisecond a frame, which no 512x512 VP9 frame is encoded in) is sent
+// smaller, with a key frame of its new size, and says why; the exact frame keeps the scene's size.
+TEST_F(VideoServerTest, AStreamSlowerThanItsShareOfTheEncodersIsSentSmaller) {
+  const auto config = scratch() / "encoder-share.toml";
+  std::ofstream(config) << "[server]\nencode_threads = 1\n[scheduler]\ninteractive_fps = 1000\n";
+  auto server = serve("--render-threads 1 --config " + config.string());
+  auto c = videoSession(*server);
+  image::FrameDecoder decoder;
+  uint32_t smallest = 512;
+  int smaller = 0, frames = 0, sizeKeys = 0;
+  for (int i = 0; i < 8 && (smaller == 0 || frames <= smaller + 1); ++i)
+    c->render(dragScene(10 + 2 * i, "vp9", 512), Encoding::Png, [&](const proto::Frame& f) {
+      const json stats = json::parse(f.statsJson);
+      const image::Image8 shown = decoder.decode(f);
+      EXPECT_EQ(uint32_t(shown.width), f.width);
+      if (!stats["provisional"].get<bool>()) {
+        EXPECT_EQ(f.width, 512u) << "the exact frame";
+        return;
+      }
+      ++frames;
+      const json& video = stats["video"];
+      if (video.value("key_reason", "") == "size") ++sizeKeys;
+      if (f.width < 512) {
+        EXPECT_EQ(video.value("scaled_for", ""), "encoders") << f.statsJson;
+        EXPECT_EQ(video["scale"].get<double>() * 512, double(f.width)) << f.statsJson;
+        if (smaller++ == 0) {
+          EXPECT_EQ(video.value("key_reason", ""), "size") << "a key frame of its new size";
+        }
+        smallest = std::min(smallest, f.width);
+      } else {
+        EXPECT_FALSE(video.contains("scaled_for")) << f.statsJson;
+      }
+    });
+  EXPECT_GT(smaller, 0) << "every moving frame went at 512x512";
+  EXPECT_LT(smallest, 512u);
+  const json video = json::parse(c->stats())["video"];
+  EXPECT_EQ(video["scaled_frames"]["encoders"], smaller) << video.dump();
+  EXPECT_EQ(video["scaled_frames"]["link"], 0) << video.dump();
+  EXPECT_GE(sizeKeys, 1);
+  EXPECT_EQ(video["key_frames"]["size"], sizeKeys) << video.dump();
 }
 
 TEST_F(VideoServerTest, VideoIsRefusedWhereItCannotServe) {

@@ -1,7 +1,8 @@
 // A session's video stream with made-up times and bitrates: the stream's scale follows the bitrate the link allows
 // (kMinBitsPerPixel), shrinking soon and growing only once the link has held up, each change a key frame of the new
 // size that a decoder shows at once; and the ledger of the streams' encoder memory (VideoMemory), which frees the
-// encoders of resting streams, least recently used first, for a new one, and leaves a busy one alone.
+// encoders of resting streams, least recently used first, for a new one, and leaves a busy one alone; and the
+// stream's scale where its frames take more than its share of the encoder threads.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -187,6 +188,90 @@ TEST(VideoStream, AStreamStartsAtTheScaleItsLinkAllows) {
   input.bitrateKbps = 2, input.drawn = at(0);
   stream.encode(f, input);
   EXPECT_EQ(f.width, 64u) << "2 kbit/s at 256² calls for the smallest scale at once";
+}
+
+TEST(VideoMemory, TheStreamsMovingAreThoseWithAFrameWithinTheIdleTime) {
+  VideoMemory memory(1 << 30);
+  FakeHolder a, b, c;
+  EXPECT_EQ(memory.moving(at(0)), 0u);
+  ASSERT_TRUE(memory.reserve(a, 1, at(0)));
+  ASSERT_TRUE(memory.reserve(b, 1, at(0)));
+  ASSERT_TRUE(memory.reserve(c, 1, at(0)));
+  memory.used(a, at(900));
+  memory.used(b, at(1500));
+  EXPECT_EQ(memory.moving(at(1500)), 2u) << "c's last frame is 1.5 s old";
+  EXPECT_EQ(memory.moving(at(2000)), 1u) << "a's is 1.1 s old";
+  memory.release(b);
+  EXPECT_EQ(memory.moving(at(2000)), 0u);
+  // What the last stream measured in each codec, for a stream's first frame.
+  EXPECT_EQ(memory.msPerMegapixel(proto::Encoding::Vp9), 0);
+  memory.measured(proto::Encoding::Vp9, 40);
+  memory.measured(proto::Encoding::Vp8, 12);
+  EXPECT_EQ(memory.msPerMegapixel(proto::Encoding::Vp9), 40);
+  EXPECT_EQ(memory.msPerMegapixel(proto::Encoding::Vp8), 12);
+}
+
+TEST(VideoStream, TheEncodersShareIsTheirTimeOverTheStreamsMoving) {
+  EXPECT_EQ(VideoStream::encoderShareMs(2, 10, 16), 12.5) << "two threads, 16 streams at 10 frames a second";
+  EXPECT_EQ(VideoStream::encoderShareMs(2, 10, 1), 200);
+  EXPECT_EQ(VideoStream::encoderShareMs(2, 10, 0), 200) << "a stream not yet counted counts as one";
+  EXPECT_EQ(VideoStream::encoderShareMs(8, 20, 4), 100);
+}
+
+TEST(VideoStream, TheScaleForTheEncodersIsTheLargestExpectedToEncodeWithinItsShare) {
+  // 40 ms a megapixel at 1024² (1.05 megapixels): 41.9 ms at full size, 23.6 at 0.75, 10.5 at 0.5, 5.9 at 0.375.
+  EXPECT_EQ(VideoStream::scaleForEncoders(40, 12.5, 1024, 1024, 1), 0.5);
+  EXPECT_EQ(VideoStream::scaleForEncoders(40, 50, 1024, 1024, 1), 1);
+  EXPECT_EQ(VideoStream::scaleForEncoders(40, 0.1, 1024, 1024, 1), 0.25) << "never smaller than the last scale";
+  EXPECT_EQ(VideoStream::scaleForEncoders(0, 12.5, 1024, 1024, 1), 1) << "a cost not yet measured";
+  EXPECT_EQ(VideoStream::scaleForEncoders(40, 0, 1024, 1024, 1), 1) << "no share: no limit";
+  // Growing needs room to spare (kGrowWithin): 9 ms a megapixel is 9.4 ms at full size, within a share of 10 for a
+  // stream already at full size, not for one at 0.75 (7.5 ms of room).
+  EXPECT_EQ(VideoStream::scaleForEncoders(9, 10, 1024, 1024, 1), 1);
+  EXPECT_EQ(VideoStream::scaleForEncoders(9, 10, 1024, 1024, 0.75), 0.75);
+}
+
+TEST(VideoStream, AStreamSlowerThanItsShareOfTheEncodersIsSentSmallerAndGrowsBackWhenTheCrowdLeaves) {
+  VideoMemory memory(1 << 30);
+  VideoStream stream(&memory);
+  image::FrameDecoder decoder;
+  std::vector<std::pair<uint32_t, std::string>> shown;  // each frame's side, and its key reason or why it is smaller
+  const auto send = [&](VideoStream& to, double ms, double shareMs) {
+    proto::Frame f = rawFrame(256, int(ms));
+    VideoFrameInput input;
+    input.bitrateKbps = 2000, input.drawn = at(ms), input.encodeShareMs = shareMs;
+    const VideoEncoded done = to.encode(f, input);
+    const nlohmann::json video = nlohmann::json::parse(f.statsJson)["video"];
+    EXPECT_EQ(video["scale"].get<double>() * 256, double(f.width)) << f.statsJson;
+    EXPECT_EQ(decoder.decode(f).width, int(f.width));
+    const std::string why = video.contains("scaled_for") ? video["scaled_for"].get<std::string>() : "";
+    EXPECT_EQ(why.empty(), done.scaledFor == VideoScaledFor::None);
+    shown.emplace_back(f.width, (done.key ? done.keyReason : "-") + (why.empty() ? "" : " " + why));
+  };
+  // A share of a microsecond: no frame encodes within it, at any size.
+  send(stream, 0, 0.001);     // a stream's first frame: its cost is not known yet, full size
+  send(stream, 33, 0.001);    // its first inter frame: measured once encoded
+  send(stream, 200, 0.001);   // the smallest scale is called for from here, not yet taken
+  send(stream, 400, 0.001);   // within kShrinkAfterMs
+  send(stream, 550, 0.001);   // shrunk: a key frame of 64x64
+  send(stream, 583, 0.001);
+  send(stream, 600, 0);       // the crowd has gone (no limit): not yet
+  send(stream, 2650, 0);      // 2050 ms later: full size again
+  const std::vector<std::pair<uint32_t, std::string>> want = {
+      {256, "start"},      {256, "-"},          {256, "-"},          {256, "-"}, {64, "size encoders"},
+      {64, "- encoders"}, {64, "- encoders"}, {256, "size"}};
+  EXPECT_EQ(shown, want);
+  // A newcomer to the crowd starts at the size the cost measured so far calls for.
+  VideoStream newcomer(&memory);
+  image::FrameDecoder other;
+  proto::Frame f = rawFrame(256, 0);
+  VideoFrameInput input;
+  input.bitrateKbps = 2000, input.drawn = at(0), input.encodeShareMs = 0.001;
+  const VideoEncoded done = newcomer.encode(f, input);
+  EXPECT_EQ(f.width, 64u);
+  EXPECT_EQ(done.keyReason, "start");
+  EXPECT_EQ(done.scaledFor, VideoScaledFor::Encoders);
+  EXPECT_EQ(other.decode(f).width, 64);
 }
 
 }  // namespace

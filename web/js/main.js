@@ -147,6 +147,7 @@ function drawOverlay() {
     lines.push(
       `moving: ${app.features.video}` +
         (v.bitrateKbps ? `  ${v.bitrateKbps} kbit/s` : "") +
+        (v.scale !== null && v.scale < 1 ? `  at ${Math.round(v.scale * 100)} % size (${smallerBecause(v.scaledFor)})` : "") +
         `  decode ${ms1(v.lastDecodeMs)}  key frames ${v.keyFrames}` +
         (v.skipped || v.errors ? `  skipped ${v.skipped}  errors ${v.errors}` : "") +
         (f.last && f.last.videoFallback === "memory" ? "  (jpeg now: the server's video memory is full)" : ""),
@@ -154,6 +155,13 @@ function drawOverlay() {
   else if (app.capabilities) lines.push(`moving: ${app.features.jpeg ? "jpeg" : "png"}`);
   if (app.notes.length) lines.push(app.notes[app.notes.length - 1]);
   $("overlay").textContent = lines.join("\n");
+}
+
+/// Why the server sends the video stream smaller than the view (the frame's `video.scaled_for`).
+function smallerBecause(scaledFor) {
+  if (scaledFor === "encoders") return "the server's encoders are busy";
+  if (scaledFor === "link") return "the link is slow";
+  return "smaller stream";
 }
 
 function banner(text, kind) {

@@ -61,6 +61,8 @@ export class VideoStream {
     this.counts = { frames: 0, decoded: 0, keyFrames: 0, skipped: 0, errors: 0 };
     this.lastDecodeMs = null;
     this.bitrateKbps = null;
+    this.scale = null; // the stream's size as a fraction of the scene's, and why it is smaller ("link", "encoders")
+    this.scaledFor = null;
     this.codec = null;
   }
 
@@ -79,6 +81,10 @@ export class VideoStream {
     const codec = codecOf(f.encoding);
     this.counts.frames++;
     if (video.bitrate_kbps) this.bitrateKbps = video.bitrate_kbps;
+    if (typeof video.scale === "number") {
+      this.scale = video.scale;
+      this.scaledFor = typeof video.scaled_for === "string" ? video.scaled_for : null;
+    }
     const entry = {
       id,
       streamFrame: video.stream_frame ?? null,
@@ -159,6 +165,8 @@ export class VideoStream {
       ...this.counts,
       lastDecodeMs: this.lastDecodeMs,
       bitrateKbps: this.bitrateKbps,
+      scale: this.scale,
+      scaledFor: this.scaledFor,
       needKey: this.needKey,
       askKey: this.askKey,
     };
