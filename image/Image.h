@@ -33,6 +33,11 @@ struct Image8 {
 
 /// Rounds to 8 bits per channel (round half up, clamped to [0, 1]).
 Image8 toImage8(const ImageF& image);
+/// `image` scaled to `width` x `height` (each from 1 to 16383), each axis on its own: where it shrinks, each pixel
+/// is the mean of the area of the image it covers; where it grows, bilinear; pixel centres aligned, as a browser
+/// draws an image scaled onto a canvas (image/Scale.cpp). The same image when the size is its own. Throws
+/// ImageFailure for such a size, or an image whose bytes are not 4 a pixel.
+Image8 scaleImage(const Image8& image, int width, int height);
 /// Scales 8-bit channels to [0, 1].
 ImageF toImageF(const Image8& image);
 

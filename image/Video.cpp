@@ -10,7 +10,6 @@
 #include <libyuv/convert.h>
 #include <libyuv/convert_argb.h>
 #include <libyuv/convert_from_argb.h>
-#include <libyuv/scale_argb.h>
 #include <vpx/vp8cx.h>
 #include <vpx/vp8dx.h>
 #include <vpx/vpx_decoder.h>
@@ -67,20 +66,6 @@ uint64_t videoEncoderBytes(proto::Encoding codec, int width, int height, int thr
   const uint64_t extraThreads = uint64_t(std::max(1, threads) - 1);
   if (codec == proto::Encoding::Vp8) return kMiB / 2 + 46 * pixels + extraThreads * 15 * kMiB / 2;
   return 12 * kMiB + 80 * pixels + extraThreads * 15 * kMiB / 2;
-}
-
-Image8 scaleImage(const Image8& image, int width, int height) {
-  if (width < 1 || height < 1 || width > kMaxSide || height > kMaxSide)
-    throw ImageFailure("video: cannot scale to " + std::to_string(width) + "x" + std::to_string(height));
-  if (width == image.width && height == image.height) return image;
-  Image8 out{width, height, std::vector<uint8_t>(size_t(width) * size_t(height) * 4)};
-  // Four bytes a pixel, each channel alike: libyuv's ARGB order does not matter to a scale.
-  const bool shrinks = width <= image.width && height <= image.height;
-  if (libyuv::ARGBScale(image.rgba.data(), image.width * 4, image.width, image.height, out.rgba.data(), width * 4,
-                        width, height, shrinks ? libyuv::kFilterBox : libyuv::kFilterBilinear) != 0)
-    throw ImageFailure("video: libyuv could not scale a " + std::to_string(image.width) + "x" +
-                       std::to_string(image.height) + " frame");
-  return out;
 }
 
 int startQuantizerFor(double bitsPerPixel) {

@@ -71,10 +71,6 @@ int videoThreadsFor(proto::Encoding codec, int width, int height, int available)
 /// frames: what malloc gave it, fitted to bench_stream_start's measurements (bench/results/video/encoder-memory.md).
 uint64_t videoEncoderBytes(proto::Encoding codec, int width, int height, int threads);
 
-/// `image` scaled to `width` x `height` (each at least 1): box filtered when it shrinks, bilinear when it grows
-/// (libyuv). The same image when the size is its own.
-Image8 scaleImage(const Image8& image, int width, int height);
-
 /// One compressed frame: what a decoder of the codec takes as one chunk (WebCodecs' EncodedVideoChunk).
 struct VideoChunk {
   std::vector<uint8_t> bytes;
