@@ -275,7 +275,8 @@ std::string ServerStats::metricsText(const Gauges& gauges) const {
     m.sample(double(mVideoKeyFrames[i].load()), {{"reason", std::string(kVideoKeyReasons[i])}});
   m.family("voxbrick_video_scaled_frames_total", Type::Counter,
            "Video frames sent smaller than their scene, by reason: link (its bitrate is too low for the full size), "
-           "encoders (the crowd leaves its frames less encoder time than the full size takes).");
+           "encoders (the crowd leaves its frames less encoder time than the full size takes), memory (its encoder "
+           "would hold more than a quarter of memory.video_mb).");
   for (size_t i = 0; i < kVideoScaledFor.size(); ++i)
     m.sample(double(mVideoScaled[i].load()), {{"reason", std::string(kVideoScaledFor[i])}});
   one("voxbrick_video_encoders", Type::Gauge, "Video encoders the sessions' streams hold.",

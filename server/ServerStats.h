@@ -128,7 +128,7 @@ class ServerStats {
   void videoEncoded(proto::Encoding codec, double encodeMs, std::string_view keyReason,
                     std::string_view scaledFor = {});
   /// Why a video frame was sent smaller than its scene (the frame's `video.scaled_for`).
-  static constexpr std::array<std::string_view, 2> kVideoScaledFor = {"link", "encoders"};
+  static constexpr std::array<std::string_view, 3> kVideoScaledFor = {"link", "encoders", "memory"};
   /// Why a video stream's key frames were sent (PROTOCOL.md, Session 11), as /metrics labels them.
   /// "encoder" stays last: a reason not listed is counted as the encoder's.
   static constexpr std::array<std::string_view, 8> kVideoKeyReasons = {

@@ -42,6 +42,15 @@ double VideoStream::scaleForEncoders(double msPerMegapixel, double shareMs, int 
   return kScales[std::size(kScales) - 1];
 }
 
+double VideoStream::scaleForMemory(proto::Encoding codec, int width, int height, uint64_t limitBytes, int cores) {
+  if (limitBytes == 0) return 1;
+  for (const double scale : kScales) {
+    const int w = std::max(1, int(std::lround(width * scale))), h = std::max(1, int(std::lround(height * scale)));
+    if (image::videoEncoderBytes(codec, w, h, image::videoThreadsFor(codec, w, h, cores)) <= limitBytes) return scale;
+  }
+  return 1;
+}
+
 double VideoStream::settledScale(double wanted, VideoScaledFor why, Clock::time_point now) {
   if (wanted != mWanted) mWanted = wanted, mWantedSince = now;
   mWantedFor = why;
@@ -80,13 +89,19 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
   const double cost = frame.encoding == mCostCodec ? mMsPerMegapixel
                       : mMemory                     ? mMemory->msPerMegapixel(frame.encoding)
                                                     : 0;
-  const double forEncoders = scaleForEncoders(cost,
-                                              input.encodeShareMs, fullWidth, fullHeight, mScale);
-  const double scale = settledScale(std::min(forLink, forEncoders),
-                                    forEncoders < forLink ? VideoScaledFor::Encoders
-                                    : forLink < 1         ? VideoScaledFor::Link
-                                                          : VideoScaledFor::None,
-                                    input.drawn);
+  const double forEncoders = scaleForEncoders(cost, input.encodeShareMs, fullWidth, fullHeight, mScale);
+  double scale = settledScale(std::min(forLink, forEncoders),
+                              forEncoders < forLink ? VideoScaledFor::Encoders
+                              : forLink < 1         ? VideoScaledFor::Link
+                                                    : VideoScaledFor::None,
+                              input.drawn);
+  VideoScaledFor scaledFor = mScaledFor;
+  const int cores = int(std::thread::hardware_concurrency());
+  if (mMemory) {
+    const double forMemory = scaleForMemory(frame.encoding, fullWidth, fullHeight,
+                                            uint64_t(kMemoryShare * double(mMemory->limit())), cores);
+    if (forMemory < scale) scale = forMemory, scaledFor = VideoScaledFor::Memory;
+  }
   // (At the bitrate's floor of 1 kbit/s a side is only scaled to a quarter beyond 146 pixels: never below 36.)
   const int width = std::max(1, int(std::lround(fullWidth * scale)));
   const int height = std::max(1, int(std::lround(fullHeight * scale)));
@@ -97,7 +112,7 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
     mEncoder.reset();  // a failed construction leaves none
     image::VideoSettings settings;
     settings.width = width, settings.height = height, settings.bitrateKbps = kbps;
-    settings.threads = image::videoThreadsFor(frame.encoding, width, height, int(std::thread::hardware_concurrency()));
+    settings.threads = image::videoThreadsFor(frame.encoding, width, height, cores);
     if (mMemory && !mMemory->reserve(*this, image::videoEncoderBytes(frame.encoding, width, height, settings.threads),
                                      start)) {
       mNoRoom = true;
@@ -151,7 +166,7 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
   nlohmann::json stats = nlohmann::json::parse(frame.statsJson, nullptr, false);
   if (!stats.is_object()) stats = nlohmann::json::object();
   VideoEncoded done{msBetween(start, encoded), chunk.key, chunk.key ? (why.empty() ? "encoder" : why) : "", false,
-                    mScaledFor};
+                    scaledFor};
   stats["encode_ms"] = done.encodeMs;
   stats["encode_start_ms"] = msBetween(input.received, start);
   nlohmann::json video = {{"codec", proto::encodingName(frame.encoding)},
@@ -160,7 +175,7 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
                           {"bitrate_kbps", kbps},
                           {"scale", scale}};
   if (chunk.key) video["key_reason"] = done.keyReason;
-  if (mScaledFor != VideoScaledFor::None) video["scaled_for"] = common::nameOf(mScaledFor);
+  if (scaledFor != VideoScaledFor::None) video["scaled_for"] = common::nameOf(scaledFor);
   stats["video"] = std::move(video);
   frame.statsJson = stats.dump();
   return done;

@@ -32,11 +32,13 @@ struct VideoFrameInput {
   double encodeShareMs = 0;
 };
 
-/// Why a stream is sent smaller than its scene: its link's bitrate, or its share of the encoders' time (the frame's
-/// `video.scaled_for`: none, `link`, `encoders`).
-enum class VideoScaledFor { None, Link, Encoders };
-inline constexpr common::EnumName<VideoScaledFor> kVideoScaledForNames[] = {
-    {VideoScaledFor::None, "none"}, {VideoScaledFor::Link, "link"}, {VideoScaledFor::Encoders, "encoders"}};
+/// Why a stream is sent smaller than its scene: its link's bitrate, its share of the encoders' time, or its share of
+/// the encoders' memory (the frame's `video.scaled_for`: none, `link`, `encoders`, `memory`).
+enum class VideoScaledFor { None, Link, Encoders, Memory };
+inline constexpr common::EnumName<VideoScaledFor> kVideoScaledForNames[] = {{VideoScaledFor::None, "none"},
+                                                                            {VideoScaledFor::Link, "link"},
+                                                                            {VideoScaledFor::Encoders, "encoders"},
+                                                                            {VideoScaledFor::Memory, "memory"}};
 constexpr std::span<const common::EnumName<VideoScaledFor>> enumNames(VideoScaledFor) { return kVideoScaledForNames; }
 
 /// What one encode did, for the server's counters.
@@ -83,15 +85,25 @@ class VideoStream final : public VideoMemory::Holder {
   /// for each to get `fps` frames a second: threads * 1000 / (fps * moving) ms, as the render threads' share is
   /// reckoned (RenderScheduler).
   static double encoderShareMs(int threads, double fps, size_t moving);
+  /// The most of the server's video memory (memory.video_mb) one stream's encoder may hold: a quarter, so that a
+  /// stream of any size leaves room for three more (a client asking VP9 at 4096² would hold 1.4 GiB of the default
+  /// 4 GiB, and three such left a fourth session JPEG).
+  static constexpr double kMemoryShare = 0.25;
+  /// The largest of kScales at which an encoder of `codec` for a `width` x `height` frame, with the threads
+  /// image::videoThreadsFor gives it on `cores` cores, holds at most `limitBytes` (image::videoEncoderBytes). 1 where
+  /// even the smallest does not (a budget that small is left to the ledger, stream by stream) or `limitBytes` is 0.
+  /// Taken at once, without the hysteresis below: it is a limit, not a measure.
+  static double scaleForMemory(proto::Encoding codec, int width, int height, uint64_t limitBytes, int cores);
   /// How long the link (or the encoders' share) must call for another scale before the stream changes to it (each
   /// change is a key frame): a smaller one soon, a larger one only once it has held up a while.
   static constexpr double kShrinkAfterMs = 300, kGrowAfterMs = 2000;
 
   /// Encodes `frame` (a Frame in vp8 or vp9 whose payload is its RGBA8 pixels, as renderReply leaves it) as the
   /// stream's next frame: the payload becomes the compressed frame and its statistics gain `encode_ms` and `video`
-  /// (PROTOCOL.md, Frame statistics). Where the bitrate is too low for the frame's size (scaleFor), or its encoding
-  /// would take more than its share of the encoders (scaleForEncoders), the frame is scaled down first and its width
-  /// and height become the stream's (the client shows it at the scene's size; `video.scaled_for` says why).
+  /// (PROTOCOL.md, Frame statistics). Where the bitrate is too low for the frame's size (scaleFor), its encoding
+  /// would take more than its share of the encoders (scaleForEncoders), or its encoder would hold more than its share
+  /// of the video memory (scaleForMemory), the frame is scaled down first and its width and height become the
+  /// stream's (the client shows it at the scene's size; `video.scaled_for` says why).
   /// Where the stream needs a new encoder and the server's video memory has no room for it, the frame is left as it
   /// came and the returned VideoEncoded says `noRoom`. Throws image::ImageFailure; the next frame is then a key
   /// frame.

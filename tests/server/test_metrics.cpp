@@ -226,6 +226,7 @@ TEST(ServerMetrics, VideoFramesAreCountedByCodecAndKeyFramesAndSmallerFramesByRe
   stats.videoEncoded(proto::Encoding::Vp9, 5, "", "encoders");
   stats.videoEncoded(proto::Encoding::Vp9, 5, "size", "encoders");
   stats.videoEncoded(proto::Encoding::Vp8, 6, "", "link");
+  stats.videoEncoded(proto::Encoding::Vp9, 5, "", "memory");
   const ParsedMetrics p = parseMetrics(stats.metricsText({}));
   EXPECT_EQ(p.value("voxbrick_video_encode_seconds_count", R"(codec="vp8")"), 4);
   EXPECT_EQ(p.value("voxbrick_video_encode_seconds_bucket", R"(codec="vp8",le="0.005")"), 1);
@@ -233,8 +234,8 @@ TEST(ServerMetrics, VideoFramesAreCountedByCodecAndKeyFramesAndSmallerFramesByRe
   EXPECT_EQ(p.value("voxbrick_video_encode_seconds_bucket", R"(codec="vp8",le="0.02")"), 3);
   EXPECT_EQ(p.value("voxbrick_video_encode_seconds_bucket", R"(codec="vp8",le="0.035")"), 4);
   EXPECT_NEAR(p.value("voxbrick_video_encode_seconds_sum", R"(codec="vp8")"), 0.052, 1e-12);
-  EXPECT_EQ(p.value("voxbrick_video_encode_seconds_count", R"(codec="vp9")"), 4);
-  EXPECT_EQ(p.value("voxbrick_video_encode_seconds_bucket", R"(codec="vp9",le="0.05")"), 3);
+  EXPECT_EQ(p.value("voxbrick_video_encode_seconds_count", R"(codec="vp9")"), 5);
+  EXPECT_EQ(p.value("voxbrick_video_encode_seconds_bucket", R"(codec="vp9",le="0.05")"), 4);
   EXPECT_EQ(p.value("voxbrick_video_key_frames_total", R"(reason="start")"), 1);
   EXPECT_EQ(p.value("voxbrick_video_key_frames_total", R"(reason="asked")"), 1);
   EXPECT_EQ(p.value("voxbrick_video_key_frames_total", R"(reason="size")"), 2);
@@ -243,9 +244,11 @@ TEST(ServerMetrics, VideoFramesAreCountedByCodecAndKeyFramesAndSmallerFramesByRe
   // Frames sent smaller than their scene, by why.
   EXPECT_EQ(p.value("voxbrick_video_scaled_frames_total", R"(reason="encoders")"), 2);
   EXPECT_EQ(p.value("voxbrick_video_scaled_frames_total", R"(reason="link")"), 1);
+  EXPECT_EQ(p.value("voxbrick_video_scaled_frames_total", R"(reason="memory")"), 1);
   const nlohmann::json video = stats.toJson({})["video"];
   EXPECT_EQ(video["scaled_frames"]["encoders"], 2) << video.dump();
   EXPECT_EQ(video["scaled_frames"]["link"], 1) << video.dump();
+  EXPECT_EQ(video["scaled_frames"]["memory"], 1) << video.dump();
 }
 
 TEST(ServerMetrics, DocsListEveryFamilyTheServerExposesWithItsType) {

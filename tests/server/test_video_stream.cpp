@@ -274,5 +274,34 @@ TEST(VideoStream, AStreamSlowerThanItsShareOfTheEncodersIsSentSmallerAndGrowsBac
   EXPECT_EQ(other.decode(f).width, 64);
 }
 
+TEST(VideoStream, NoStreamsEncoderHoldsMoreThanItsShareOfTheVideoMemory) {
+  constexpr uint64_t MiB = 1 << 20;
+  // VP9 at 4096² with 8 threads holds about 1.4 GiB (image::videoEncoderBytes); at 0.75, 3072², about 0.8.
+  EXPECT_EQ(VideoStream::scaleForMemory(proto::Encoding::Vp9, 4096, 4096, 1024 * MiB, 8), 0.75);
+  // VP8 at 1024², 46.5 MiB; at 0.75, 26.5; at 0.5, 12.
+  EXPECT_EQ(VideoStream::scaleForMemory(proto::Encoding::Vp8, 1024, 1024, 16 * MiB, 2), 0.5);
+  EXPECT_EQ(VideoStream::scaleForMemory(proto::Encoding::Vp8, 1024, 1024, 64 * MiB, 2), 1);
+  EXPECT_EQ(VideoStream::scaleForMemory(proto::Encoding::Vp8, 1024, 1024, 1024, 2), 1)
+      << "a budget no scale fits is left to the ledger";
+  EXPECT_EQ(VideoStream::scaleForMemory(proto::Encoding::Vp8, 1024, 1024, 0, 2), 1);
+  // A real stream on a budget of 16 MiB: its 512² VP8 encoder would hold 12 MiB, more than its quarter (4 MiB); at
+  // 256², 3.4 MiB. It starts there at once, and says why.
+  VideoMemory memory(16 * MiB);
+  VideoStream stream(&memory);
+  image::FrameDecoder decoder;
+  for (int i = 0; i < 3; ++i) {
+    proto::Frame f = rawFrame(512, i);
+    VideoFrameInput input;
+    input.bitrateKbps = 4000, input.drawn = at(33.0 * i);
+    const VideoEncoded done = stream.encode(f, input);
+    EXPECT_EQ(f.width, 256u) << "frame " << i;
+    EXPECT_EQ(done.scaledFor, VideoScaledFor::Memory);
+    EXPECT_EQ(done.key ? done.keyReason : "-", i == 0 ? "start" : "-");
+    EXPECT_EQ(nlohmann::json::parse(f.statsJson)["video"]["scaled_for"], "memory") << f.statsJson;
+    EXPECT_EQ(decoder.decode(f).width, 256);
+  }
+  EXPECT_LE(memory.bytes(), 4 * MiB);
+}
+
 }  // namespace
 }  // namespace voxbrick::server

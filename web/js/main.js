@@ -161,6 +161,7 @@ function drawOverlay() {
 function smallerBecause(scaledFor) {
   if (scaledFor === "encoders") return "the server's encoders are busy";
   if (scaledFor === "link") return "the link is slow";
+  if (scaledFor === "memory") return "the server's video memory is shared";
   return "smaller stream";
 }
 
