@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -74,16 +75,58 @@ constexpr int kRowBits = 7;
 /// weighted sum of `taps` source pixels from its first (the weights past its count are 0), the four channels
 /// together. With the count fixed (N > 0) the compiler unrolls and vectorises it.
 template <int N>
-void acrossRow(const int16_t* row, const Taps& across, int width, uint8_t* out) {
+[[gnu::always_inline]] inline void acrossRow(const int16_t* row, const Taps& across, int width, uint8_t* out) {
   constexpr int shift = int(kOneBits) + kRowBits, half = 1 << (shift - 1);
   const int taps = N > 0 ? N : across.width;
+  // A pixel's four channels as one vector: four 16-bit values widened, times the tap's weight.
+  using Channels16 = int16_t __attribute__((vector_size(8)));
+  using Channels32 = int32_t __attribute__((vector_size(16)));
   for (int x = 0; x < width; ++x) {
     const int16_t* p = row + size_t(across.first[size_t(x)]) * 4;
     const int16_t* w = across.weight.data() + size_t(x) * size_t(taps);
-    int32_t c[4] = {half, half, half, half};
-    for (int k = 0; k < taps; ++k)
-      for (int j = 0; j < 4; ++j) c[j] += p[4 * k + j] * w[k];
-    for (int j = 0; j < 4; ++j) out[4 * x + j] = uint8_t(c[j] >> shift);
+    Channels32 c = {half, half, half, half};
+    for (int k = 0; k < taps; ++k) {
+      Channels16 v;
+      std::memcpy(&v, p + 4 * k, sizeof v);
+      c += __builtin_convertvector(v, Channels32) * int32_t(w[k]);
+    }
+    c >>= shift;
+    for (int j = 0; j < 4; ++j) out[4 * x + j] = uint8_t(c[j]);
+  }
+}
+
+/// `out` (its size set) from `image` through the taps. Each output row: down the columns first, whole source rows
+/// at a time (over contiguous bytes), into 16 bits a channel; then across that row. One row at a time, so that the
+/// sums stay in the cache. Compiled twice, for AVX2 and for any x86-64, the one the CPU runs chosen at load (GCC's
+/// target_clones): on this project's 2-core VM a 1024² frame scales to 768² in 2.5 ms and to 384² in 1.0 with AVX2,
+/// 5.9 and 2.5 without (libyuv, which it replaces, took 0.9 and 0.2, with the faults in the file's header comment).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx2", "default")))
+#endif
+void resample(const Image8& image, const Taps& across, const Taps& down, Image8& out) {
+  const int width = out.width, height = out.height;
+  const size_t inValues = size_t(image.width) * 4;
+  std::vector<int32_t> sum(inValues);
+  std::vector<int16_t> row(inValues + size_t(across.width) * 4, 0);  // the taps past the end read zeros
+  for (int y = 0; y < height; ++y) {
+    std::fill(sum.begin(), sum.end(), 0);
+    const int16_t* wy = down.weight.data() + size_t(y) * size_t(down.width);
+    for (int k = 0; k < down.count[size_t(y)]; ++k) {
+      const uint8_t* in = image.rgba.data() + size_t(down.first[size_t(y)] + k) * inValues;
+      const int16_t wk = wy[k];
+      for (size_t i = 0; i < inValues; ++i) sum[i] += int16_t(in[i]) * wk;
+    }
+    constexpr int shift = int(kOneBits) - kRowBits, half = 1 << (shift - 1);
+    for (size_t i = 0; i < inValues; ++i) row[i] = int16_t((sum[i] + half) >> shift);
+    uint8_t* o = out.rgba.data() + size_t(y) * size_t(width) * 4;
+    switch (across.width) {
+      case 1: acrossRow<1>(row.data(), across, width, o); break;
+      case 2: acrossRow<2>(row.data(), across, width, o); break;
+      case 3: acrossRow<3>(row.data(), across, width, o); break;
+      case 4: acrossRow<4>(row.data(), across, width, o); break;
+      case 5: acrossRow<5>(row.data(), across, width, o); break;
+      default: acrossRow<0>(row.data(), across, width, o); break;
+    }
   }
 }
 
@@ -98,30 +141,8 @@ Image8 scaleImage(const Image8& image, int width, int height) {
                        " image of " + std::to_string(image.rgba.size()) + " bytes");
   if (width == image.width && height == image.height) return image;
   const Taps across = tapsFor(image.width, width), down = tapsFor(image.height, height);
-  // Each output row: down the columns first, whole source rows at a time (over contiguous bytes), into 16 bits a
-  // channel; then across that row. One row at a time, so that the sums stay in the cache.
-  const size_t inValues = size_t(image.width) * 4;
-  std::vector<int32_t> sum(inValues);
-  std::vector<int16_t> row(inValues + size_t(across.width) * 4, 0);  // the taps past the end read zeros
-  const auto across1 = across.width == 1 ? acrossRow<1>
-                       : across.width == 2 ? acrossRow<2>
-                       : across.width == 3 ? acrossRow<3>
-                       : across.width == 4 ? acrossRow<4>
-                       : across.width == 5 ? acrossRow<5>
-                                           : acrossRow<0>;
   Image8 out{width, height, std::vector<uint8_t>(size_t(width) * size_t(height) * 4)};
-  for (int y = 0; y < height; ++y) {
-    std::fill(sum.begin(), sum.end(), 0);
-    const int16_t* wy = down.weight.data() + size_t(y) * size_t(down.width);
-    for (int k = 0; k < down.count[size_t(y)]; ++k) {
-      const uint8_t* in = image.rgba.data() + size_t(down.first[size_t(y)] + k) * inValues;
-      const int16_t wk = wy[k];
-      for (size_t i = 0; i < inValues; ++i) sum[i] += int16_t(in[i]) * wk;
-    }
-    constexpr int shift = int(kOneBits) - kRowBits, half = 1 << (shift - 1);
-    for (size_t i = 0; i < inValues; ++i) row[i] = int16_t((sum[i] + half) >> shift);
-    across1(row.data(), across, width, out.rgba.data() + size_t(y) * size_t(width) * 4);
-  }
+  resample(image, across, down, out);
   return out;
 }
 
