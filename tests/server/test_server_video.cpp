@@ -289,6 +289,40 @@ TEST_F(VideoServerTest, AStreamSlowerThanItsShareOfTheEncodersIsSentSmaller) {
   EXPECT_EQ(video["key_frames"]["size"], sizeKeys) << video.dump();
 }
 
+// A crowd of video streams that has gone gives its encoders' memory back to the system: the server's resident size
+// returns near where it was before they came (glibc would keep the freed blocks in its arenas otherwise).
+TEST_F(VideoServerTest, StreamsThatHaveGoneGiveTheirEncodersMemoryBack) {
+  auto server = serve("--render-threads 1");
+  const auto rss = [&] {
+    auto c = videoSession(*server);
+    return json::parse(c->stats())["memory"]["rss_bytes"].get<double>();
+  };
+  {
+    auto warm = videoSession(*server);  // the renderer, its atlas and the dataset's bricks, before anything is measured
+    warm->render(dragScene(10, "png", 1024));
+  }
+  const double before = rss();
+  {
+    std::vector<std::unique_ptr<Client>> sessions;
+    std::vector<image::FrameDecoder> decoders(4);
+    for (int s = 0; s < 4; ++s) sessions.push_back(videoSession(*server));
+    for (int i = 0; i < 2; ++i)
+      for (int s = 0; s < 4; ++s)  // each a VP9 stream of 1024x1024: about 100 MiB of encoder
+        sessions[size_t(s)]->render(dragScene(10 + 2 * i, "vp9", 1024),
+                                    Encoding::Png, [&](const proto::Frame& f) { decoders[size_t(s)].decode(f); });
+  }
+  const double during = json::parse(videoSession(*server)->stats())["memory"]["peak_rss_bytes"].get<double>();
+  ASSERT_GT(during - before, 200e6) << "four encoders held that much at their peak";
+  // The sessions are closed; the server notices and frees them within a moment.
+  double after = rss();
+  for (int i = 0; i < 50 && after - before > 0.25 * (during - before); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    after = rss();
+  }
+  EXPECT_LT(after - before, 0.25 * (during - before))
+      << "resident before " << before / 1e6 << " MB, at the peak " << during / 1e6 << ", after " << after / 1e6;
+}
+
 TEST_F(VideoServerTest, VideoIsRefusedWhereItCannotServe) {
   auto server = start();
   auto c = videoSession(*server);
