@@ -3,7 +3,8 @@
 # interactive frames, moving frames as one VP9 or VP8 stream each, decoded in order) on a fresh `voxbrick serve` for
 # each budget, which replays frames drawn beforehand (--replay-frames, 10 ms a frame: the drawing taken out, so that
 # the encoders are what is measured). Reads the server's own figures at the end of each run (the load report's
-# Stats): encoders held, the bytes counted for them, moving frames sent as JPEG, peak resident memory. Writes
+# Stats): encoders held, the bytes counted for them, moving frames sent as JPEG, peak resident memory; and the
+# server's resident memory 3 s after the clients have gone (/proc). Writes
 # bench/results/video/video-memory.{csv,md}.
 #
 #   bash bench/run_video_memory.sh [--clients 16] [--size 1024] [--codec vp9] [--budgets 4096,512] [--duration 8]
@@ -50,6 +51,9 @@ for budget in ${budgets//,/ }; do
   "$bin" load "127.0.0.1:$port" --dataset mri --tf mri --clients "$clients" --size "${size}x${size}" --drag 30 \
     --interactive 50 --provisional-encoding "$codec" --duration "$duration" --json "$work/video-memory-$budget.json" \
     > /dev/null
+  # What the server holds once the clients have gone (their sessions closed, their encoders freed).
+  sleep 3
+  awk '/^VmRSS:/ { print $2 * 1024 }' "/proc/$pid/status" > "$work/video-memory-$budget.rss-after"
   kill "$pid"
   wait "$pid" 2> /dev/null || true
   pid=
@@ -70,7 +74,9 @@ for budget in budgets.split(','):
         'budget_mib': int(budget), 'clients': int(clients), 'size': f'{size}x{size}', 'codec': codec,
         'peak_counted_mib': round(v['memory_peak_bytes'] / MiB, 1), 'limit_mib': round(v['memory_limit_bytes'] / MiB),
         'video_frames': frames, 'jpeg_frames': v['jpeg_frames'], 'encoders_freed': v['encoders_freed'],
-        'peak_rss_mib': round(s['memory']['peak_rss_bytes'] / MiB), 'frames_per_s_per_client': round(min(per_client), 1),
+        'peak_rss_mib': round(s['memory']['peak_rss_bytes'] / MiB),
+        'rss_after_mib': round(int(open(f'{work}/video-memory-{budget}.rss-after').read()) / MiB),
+        'frames_per_s_per_client': round(min(per_client), 1),
         'frames_per_s_per_client_max': round(max(per_client), 1), 'latency_p50_ms': round(r['latency_ms']['p50']),
         'latency_p99_ms': round(r['latency_ms']['p99']), 'errors': r['errors'],
         'bytes_per_frame': round(r['payload_bytes_per_frame'])})
@@ -87,11 +93,12 @@ out = ['# A crowd of video streams within memory.video_mb', '',
        'machine\'s (two', '  cores encode every stream); the encoders and bytes are the server\'s own figures at the end of '
        'the run (Stats), and do not depend on it.', '',
        '| video_mb | clients | encoders counted at most, MiB | video frames | JPEG frames (no room) | peak resident MiB | '
-       'frames/s a client, min–max | latency p50 / p99 ms | bytes a frame | errors |',
-       '| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |']
+       'resident 3 s after the clients left, MiB | frames/s a client, min–max | latency p50 / p99 ms | bytes a frame | '
+       'errors |',
+       '| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |']
 for r in rows:
     out.append(f"| {r['budget_mib']} | {r['clients']} | {r['peak_counted_mib']} | {r['video_frames']} | "
-               f"{r['jpeg_frames']} | {r['peak_rss_mib']} | {r['frames_per_s_per_client']}–"
+               f"{r['jpeg_frames']} | {r['peak_rss_mib']} | {r['rss_after_mib']} | {r['frames_per_s_per_client']}–"
                f"{r['frames_per_s_per_client_max']} | {r['latency_p50_ms']} / {r['latency_p99_ms']} | "
                f"{r['bytes_per_frame']} | {r['errors']} |")
 out.append('')
