@@ -3,13 +3,31 @@
 # template prepped once by EXE into WORK/mri.vbs and linked as WORK/datasets/mri, the configuration directory
 # exported. `browser_bench_setup WORK SCRIPT ARGS...` exports the configuration directory and the built
 # voxbrick, preps the MRI template into WORK/datasets/mri once, installs tests/browser's packages if they are missing,
-# and records the command line the results name (bash bench/SCRIPT ARGS...).
+# and records the command line the results name (bash bench/SCRIPT ARGS...). Also sourced by run_video_memory.sh and
+# run_encoder_ladder.sh, for mri_datasets and serve_in_background (below).
 mri_datasets() {
   local work=$1 exe=$2
   mkdir -p "$work/datasets"
   [ -f "$work/mri.vbs/store.json" ] || "$exe" prep /usr/share/mricron/templates/ch2better.nii.gz -o "$work/mri.vbs" -q
   [ -e "$work/datasets/mri" ] || ln -s ../mri.vbs "$work/datasets/mri"
   export VOXBRICK_CONFIG_DIR=$PWD/config
+}
+
+# `serve_in_background SCRIPT LOG EXE ARGS...`: EXE serve --port 0 ARGS in the background, its output in LOG; sets
+# `pid` and `port` once it listens, or names SCRIPT and the log and exits.
+serve_in_background() {
+  local script=$1 log=$2 exe=$3
+  shift 3
+  "$exe" serve --port 0 "$@" > "$log" 2>&1 &
+  pid=$!
+  port=
+  for _ in $(seq 100); do
+    port=$(grep -ao "listening on [0-9.:]*[0-9]" "$log" | head -1 | sed 's/.*://') || true
+    [ -n "$port" ] && return 0
+    sleep 0.1
+  done
+  echo "$script: the server did not start: $(cat "$log")" >&2
+  exit 1
 }
 
 browser_bench_setup() {

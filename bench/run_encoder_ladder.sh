@@ -47,16 +47,8 @@ for round in $(seq "$rounds"); do
     config=$work/encoder-ladder/$ladder.toml
     printf '# bench/run_encoder_ladder.sh\n[scheduler]\nencoder_ladder = %s\n' "$ladder" > "$config"
     log=$work/encoder-ladder/serve-$ladder-$round.log
-    "$bin" serve --config "$config" --datasets "$datasets" --port 0 --render-threads "$renderThreads" \
-      --replay-frames "$replay" --replay-draw-ms 10 > "$log" 2>&1 &
-    pid=$!
-    port=
-    for _ in $(seq 100); do
-      port=$(grep -ao "listening on [0-9.:]*[0-9]" "$log" | head -1 | sed 's/.*://') || true
-      [ -n "$port" ] && break
-      sleep 0.1
-    done
-    [ -n "$port" ] || { echo "run_encoder_ladder.sh: the server did not start: $(cat "$log")" >&2; exit 1; }
+    serve_in_background run_encoder_ladder.sh "$log" "$bin" --config "$config" --datasets "$datasets" \
+      --render-threads "$renderThreads" --replay-frames "$replay" --replay-draw-ms 10
     "$bin" load "127.0.0.1:$port" --dataset mri --tf mri --clients "$clients" --size "${size}x${size}" --drag 30 \
       --interactive 50 --provisional-encoding "$codec" --duration "$duration" \
       --json "$work/encoder-ladder/$ladder-$round.json" > /dev/null

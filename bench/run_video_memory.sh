@@ -38,16 +38,8 @@ cleanup() { [ -n "$pid" ] && kill "$pid" 2> /dev/null || true; }
 trap cleanup EXIT
 for budget in ${budgets//,/ }; do
   log=$work/video-memory-serve-$budget.log
-  "$bin" serve --datasets "$datasets" --port 0 --render-threads 1 --replay-frames "$replay" --replay-draw-ms 10 \
-    --video-memory "$budget" > "$log" 2>&1 &
-  pid=$!
-  port=
-  for _ in $(seq 100); do
-    port=$(grep -ao "listening on [0-9.:]*[0-9]" "$log" | head -1 | sed 's/.*://') || true
-    [ -n "$port" ] && break
-    sleep 0.1
-  done
-  [ -n "$port" ] || { echo "run_video_memory.sh: the server did not start: $(cat "$log")" >&2; exit 1; }
+  serve_in_background run_video_memory.sh "$log" "$bin" --datasets "$datasets" --render-threads 1 \
+    --replay-frames "$replay" --replay-draw-ms 10 --video-memory "$budget"
   "$bin" load "127.0.0.1:$port" --dataset mri --tf mri --clients "$clients" --size "${size}x${size}" --drag 30 \
     --interactive 50 --provisional-encoding "$codec" --duration "$duration" --json "$work/video-memory-$budget.json" \
     > /dev/null
