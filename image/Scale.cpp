@@ -57,10 +57,12 @@ Taps tapsFor(int from, int to) {
     for (const auto& [s, w] : taps) sum += w;
     t.first[size_t(i)] = taps.front().first;
     t.count[size_t(i)] = int(taps.size());
-    // Rounded so that they sum to exactly kOne: a flat image stays flat.
-    uint32_t given = 0;
+    // Rounded so that they sum to exactly kOne: a flat image stays flat. (The last takes what the others left, which
+    // may be a unit below 0 where it covers next to nothing.)
+    int32_t given = 0;
     for (size_t k = 0; k < taps.size(); ++k) {
-      const uint32_t w = k + 1 == taps.size() ? kOne - given : uint32_t(std::lround(taps[k].second / sum * kOne));
+      const int32_t w = k + 1 == taps.size() ? int32_t(kOne) - given
+                                             : int32_t(std::lround(taps[k].second / sum * kOne));
       t.weight[size_t(i) * size_t(t.width) + k] = int16_t(w);
       given += w;
     }
