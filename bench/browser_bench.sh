@@ -4,13 +4,28 @@
 # exported. `browser_bench_setup WORK SCRIPT ARGS...` exports the configuration directory and the built
 # voxbrick, preps the MRI template into WORK/datasets/mri once, installs tests/browser's packages if they are missing,
 # and records the command line the results name (bash bench/SCRIPT ARGS...). Also sourced by run_video_memory.sh and
-# run_encoder_ladder.sh, for mri_datasets and serve_in_background (below).
+# run_encoder_ladder.sh, for video_replay and serve_in_background (below).
 mri_datasets() {
   local work=$1 exe=$2
   mkdir -p "$work/datasets"
   [ -f "$work/mri.vbs/store.json" ] || "$exe" prep /usr/share/mricron/templates/ch2better.nii.gz -o "$work/mri.vbs" -q
   [ -e "$work/datasets/mri" ] || ln -s ../mri.vbs "$work/datasets/mri"
   export VOXBRICK_CONFIG_DIR=$PWD/config
+}
+
+# `video_replay SCRIPT EXE SIZE`: the MRI prepped by EXE (mri_datasets) in bench/work/video, whose replay/ must hold
+# the frames drawn beforehand for --replay-frames at SIZE² (`bash bench/run_browser_link.sh --replay-draw-ms 10` draws
+# them); sets `work`, `datasets` and `replay`, or names SCRIPT and exits.
+video_replay() {
+  local script=$1 exe=$2 size=$3
+  work=bench/work/video
+  datasets=$work/datasets
+  replay=$work/replay
+  mri_datasets "$work" "$exe"
+  [ -f "$replay/replay.json" ] && [ -d "$replay/${size}x${size}" ] || {
+    echo "$script: no ${size}x${size} frames in $replay (bash bench/run_browser_link.sh --replay-draw-ms 10 makes them)" >&2
+    exit 2
+  }
 }
 
 # `serve_in_background SCRIPT LOG EXE ARGS...`: EXE serve --port 0 ARGS in the background, its output in LOG; sets

@@ -28,14 +28,7 @@ video=build/bench/bench_video
 [ -x "$bin" ] || { echo "run_encoder_ladder.sh: build voxbrick first" >&2; exit 2; }
 [ -x "$video" ] || { echo "run_encoder_ladder.sh: build bench_video first (cmake --build build --target bench_video)" >&2; exit 2; }
 source bench/browser_bench.sh
-work=bench/work/video
-datasets=$work/datasets
-replay=$work/replay
-mri_datasets "$work" "$bin"
-[ -f "$replay/replay.json" ] && [ -d "$replay/${size}x${size}" ] || {
-  echo "run_encoder_ladder.sh: no ${size}x${size} frames in $replay (bash bench/run_browser_link.sh --replay-draw-ms 10 makes them)" >&2
-  exit 2
-}
+video_replay run_encoder_ladder.sh "$bin" "$size"
 mkdir -p bench/results/video "$work/encoder-ladder"
 pid=
 cleanup() { [ -n "$pid" ] && kill "$pid" 2> /dev/null || true; }

@@ -24,14 +24,7 @@ done
 bin=build/voxbrick
 [ -x "$bin" ] || { echo "run_video_memory.sh: build voxbrick first" >&2; exit 2; }
 source bench/browser_bench.sh
-work=bench/work/video
-datasets=$work/datasets
-replay=$work/replay
-mri_datasets "$work" "$bin"
-[ -f "$replay/replay.json" ] && [ -d "$replay/${size}x${size}" ] || {
-  echo "run_video_memory.sh: no ${size}x${size} frames in $replay (bash bench/run_browser_link.sh --replay-draw-ms 10 makes them)" >&2
-  exit 2
-}
+video_replay run_video_memory.sh "$bin" "$size"
 mkdir -p bench/results/video
 pid=
 cleanup() { [ -n "$pid" ] && kill "$pid" 2> /dev/null || true; }
