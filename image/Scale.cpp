@@ -1,9 +1,9 @@
 // Scaling an 8-bit RGBA image: each axis on its own, through taps (a source pixel and its weight) made once per axis.
 // Shrinking averages the area each output pixel covers (a box filter with fractional coverage); growing is bilinear;
-// both with pixel centres aligned, as a browser draws an image scaled onto a canvas. libyuv's ARGBScale, used before,
-// maps a grown image's corners rather than its pixel centres (half a pixel off at 2x: 3 dB of PSNR lost scaling a
-// frame of the MRI down and back up) and shrinks by less than 2x, or by any ratio that is not a whole number, with
-// two taps instead of a box (aliasing: 5 dB lost at 0.75 and 0.375).
+// both with pixel centres aligned, as a browser draws an image scaled onto a canvas. Not libyuv's ARGBScale: it maps
+// a grown image's corners rather than its pixel centres (half a pixel off at 2x), and shrinks by less than 2x, or by
+// any ratio that is not a whole number, with two taps instead of a box (aliasing). tests/image's ScaleImage tests hold
+// both; bench/results/video/encoder-ladder.md has what a scaled stream of the MRI measures.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -100,8 +100,7 @@ template <int N>
 /// `out` (its size set) from `image` through the taps. Each output row: down the columns first, whole source rows
 /// at a time (over contiguous bytes), into 16 bits a channel; then across that row. One row at a time, so that the
 /// sums stay in the cache. Compiled twice, for AVX2 and for any x86-64, the one the CPU runs chosen at load (GCC's
-/// target_clones): on this project's 2-core VM a 1024² frame scales to 768² in 2.5 ms and to 384² in 1.0 with AVX2,
-/// 5.9 and 2.5 without (libyuv, which it replaces, took 0.9 and 0.2, with the faults in the file's header comment).
+/// target_clones).
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("avx2", "default")))
 #endif

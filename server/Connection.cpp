@@ -76,7 +76,7 @@ Connection::~Connection() {
   mOutbox.shrink_to_fit();
   // A video stream's encoder holds tens to hundreds of MiB, in blocks glibc keeps in its arenas once freed (below the
   // mmap threshold keepFreedMemoryForFrames sets): without a trim, a crowd of streams that has gone left the server
-  // resident at its peak (16 VP9 streams at 1024²: 1.9 of a 2.6 GB peak, against 0.9 before they came).
+  // resident near its peak (bench/run_video_memory.sh reads what is left once the clients have gone).
   const bool encoded = mVideo && mVideo->frames() > 0;
   mVideo.reset();
   if (large || encoded) releaseFreedMemory();
@@ -281,9 +281,7 @@ void Connection::videoEncoded(EncodingVideo& done) {
   mVideoEncodeLeadMs = mVideoEncodeLeadMs > 0 ? 0.75 * mVideoEncodeLeadMs + 0.25 * leadMs : leadMs;
   if (!done.error && !done.still)
     mServices.stats.videoEncoded(done.frame.encoding, done.encoded.encodeMs,
-                                 done.encoded.key ? done.encoded.keyReason : "",
-                                 done.encoded.scaledFor == VideoScaledFor::None ? ""
-                                                                                : common::nameOf(done.encoded.scaledFor));
+                                 done.encoded.key ? done.encoded.keyReason : "", done.encoded.scaledFor);
   if (mClosing || mClosed) return;
   proto::Message reply = done.error ? proto::Message(errorReply(done.error, "video frame of request " +
                                                                                std::to_string(done.job.requestId) +

@@ -89,11 +89,9 @@ void ServerStats::frameDelivered(FrameClass frameClass, proto::Encoding encoding
 }
 
 void ServerStats::videoEncoded(proto::Encoding codec, double encodeMs, std::string_view keyReason,
-                               std::string_view scaledFor) {
+                               VideoScaledFor scaledFor) {
   mVideoEncode[codec == proto::Encoding::Vp9 ? 1 : 0].observe(encodeMs / 1000);
-  if (const auto* at = std::find(kVideoScaledFor.begin(), kVideoScaledFor.end(), scaledFor);
-      at != kVideoScaledFor.end())
-    mVideoScaled[size_t(at - kVideoScaledFor.begin())]++;
+  if (scaledFor != VideoScaledFor::None) mVideoScaled[size_t(scaledFor)]++;
   if (keyReason.empty()) return;
   const auto* at = std::find(kVideoKeyReasons.begin(), kVideoKeyReasons.end(), keyReason);
   mVideoKeyFrames[at == kVideoKeyReasons.end() ? kVideoKeyReasons.size() - 1 : size_t(at - kVideoKeyReasons.begin())]++;
@@ -176,7 +174,8 @@ json ServerStats::videoJson(const Gauges::Video& memory) const {
   json keys = json::object(), encoded = json::object();
   for (size_t i = 0; i < kVideoKeyReasons.size(); ++i) keys[std::string(kVideoKeyReasons[i])] = mVideoKeyFrames[i].load();
   json scaled = json::object();
-  for (size_t i = 0; i < kVideoScaledFor.size(); ++i) scaled[std::string(kVideoScaledFor[i])] = mVideoScaled[i].load();
+  for (const auto& [why, name] : kVideoScaledForNames)
+    if (why != VideoScaledFor::None) scaled[name] = mVideoScaled[size_t(why)].load();
   for (const auto& [i, codec] : {std::pair{0, "vp8"}, std::pair{1, "vp9"}}) {
     const HistogramCounts c = mVideoEncode[size_t(i)].counts();
     encoded[codec] = {{"frames", c.count()}, {"encode_ms_mean", c.count() ? 1000 * c.sum / double(c.count()) : 0.0}};
@@ -277,8 +276,8 @@ std::string ServerStats::metricsText(const Gauges& gauges) const {
            "Video frames sent smaller than their scene, by reason: link (its bitrate is too low for the full size), "
            "encoders (the crowd leaves its frames less encoder time than the full size takes), memory (its encoder "
            "would hold more than a quarter of memory.video_mb).");
-  for (size_t i = 0; i < kVideoScaledFor.size(); ++i)
-    m.sample(double(mVideoScaled[i].load()), {{"reason", std::string(kVideoScaledFor[i])}});
+  for (const auto& [why, name] : kVideoScaledForNames)
+    if (why != VideoScaledFor::None) m.sample(double(mVideoScaled[size_t(why)].load()), {{"reason", name}});
   one("voxbrick_video_encoders", Type::Gauge, "Video encoders the sessions' streams hold.",
       double(gauges.video.encoders));
   one("voxbrick_video_memory_bytes", Type::Gauge,

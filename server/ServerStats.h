@@ -20,6 +20,7 @@
 #include "server/FrameClass.h"
 #include "server/LatencyWindow.h"
 #include "server/Metrics.h"
+#include "server/VideoScaledFor.h"
 
 namespace voxbrick::server {
 
@@ -123,12 +124,9 @@ class ServerStats {
   /// Counts one render delivered to a further session that asked for the same frame.
   void frameShared() { mFramesShared++; }
   /// Counts a video frame encoded in `codec` (vp8 or vp9) in `encodeMs`; a key frame names its reason
-  /// (kVideoKeyReasons; an inter frame: empty), a frame sent smaller than its scene why (kVideoScaledFor; at full
-  /// size: empty).
+  /// (kVideoKeyReasons; an inter frame: empty), a frame sent smaller than its scene why.
   void videoEncoded(proto::Encoding codec, double encodeMs, std::string_view keyReason,
-                    std::string_view scaledFor = {});
-  /// Why a video frame was sent smaller than its scene (the frame's `video.scaled_for`).
-  static constexpr std::array<std::string_view, 3> kVideoScaledFor = {"link", "encoders", "memory"};
+                    VideoScaledFor scaledFor = VideoScaledFor::None);
   /// Why a video stream's key frames were sent (PROTOCOL.md, Session 11), as /metrics labels them.
   /// "encoder" stays last: a reason not listed is counted as the encoder's.
   static constexpr std::array<std::string_view, 8> kVideoKeyReasons = {
@@ -161,7 +159,7 @@ class ServerStats {
                                                           Histogram(kLatencyBoundsS)};
   Counter mFramesShared{0}, mBytesOut{0};
   std::array<Counter, kVideoKeyReasons.size()> mVideoKeyFrames{};
-  std::array<Counter, kVideoScaledFor.size()> mVideoScaled{};
+  std::array<Counter, kVideoScaledForCount> mVideoScaled{};  ///< by VideoScaledFor (None's unused)
   std::array<Histogram, 2> mVideoEncode = {Histogram(kEncodeBoundsS), Histogram(kEncodeBoundsS)};  ///< vp8, vp9
   LatencyWindow mLatency;
   std::chrono::steady_clock::time_point mStarted = std::chrono::steady_clock::now();

@@ -53,7 +53,6 @@ double VideoStream::scaleForMemory(proto::Encoding codec, int width, int height,
 
 double VideoStream::settledScale(double wanted, VideoScaledFor why, Clock::time_point now) {
   if (wanted != mWanted) mWanted = wanted, mWantedSince = now;
-  mWantedFor = why;
   // A stream's first frame starts at the scale called for now.
   if (!mEncoder || (mWanted != mScale && msBetween(mWantedSince, now) >=
                                              (mWanted < mScale ? kShrinkAfterMs : kGrowAfterMs))) {
@@ -62,7 +61,7 @@ double VideoStream::settledScale(double wanted, VideoScaledFor why, Clock::time_
   if (mScale == 1)
     mScaledFor = VideoScaledFor::None;
   else if (mScale == mWanted)
-    mScaledFor = mWantedFor;  // (while it waits for another scale, the reason it has this one stays)
+    mScaledFor = why;  // (while it waits for another scale, the reason it has this one stays)
   return mScale;
 }
 

@@ -10,13 +10,12 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
-#include <span>
 #include <string>
 
-#include "common/EnumNames.h"
 #include "image/Video.h"
 #include "proto/Messages.h"
 #include "server/VideoMemory.h"
+#include "server/VideoScaledFor.h"
 
 namespace voxbrick::server {
 
@@ -31,15 +30,6 @@ struct VideoFrameInput {
   /// scheduler.interactive_fps (Connection). 0: no limit.
   double encodeShareMs = 0;
 };
-
-/// Why a stream is sent smaller than its scene: its link's bitrate, its share of the encoders' time, or its share of
-/// the encoders' memory (the frame's `video.scaled_for`: none, `link`, `encoders`, `memory`).
-enum class VideoScaledFor { None, Link, Encoders, Memory };
-inline constexpr common::EnumName<VideoScaledFor> kVideoScaledForNames[] = {{VideoScaledFor::None, "none"},
-                                                                            {VideoScaledFor::Link, "link"},
-                                                                            {VideoScaledFor::Encoders, "encoders"},
-                                                                            {VideoScaledFor::Memory, "memory"}};
-constexpr std::span<const common::EnumName<VideoScaledFor>> enumNames(VideoScaledFor) { return kVideoScaledForNames; }
 
 /// What one encode did, for the server's counters.
 struct VideoEncoded {
@@ -118,8 +108,8 @@ class VideoStream final : public VideoMemory::Holder {
   uint64_t keyFrames() const { return mKeyFrames; }
 
  private:
-  /// The scale the stream is sent at, given the one the link and the encoders call for now (the hysteresis above);
-  /// sets mScaledFor.
+  /// The scale the stream is sent at, given the one the link and the encoders call for now and `why` (the hysteresis
+  /// above); sets mScaledFor, the reason for the scale it is sent at.
   double settledScale(double wanted, VideoScaledFor why, std::chrono::steady_clock::time_point now);
 
   VideoMemory* const mMemory;
@@ -127,7 +117,7 @@ class VideoStream final : public VideoMemory::Holder {
   std::unique_ptr<image::VideoEncoder> mEncoder;
   bool mNoRoom = false;  ///< the encoder was freed for another stream's, or none could be made: the next key's reason
   double mScale = 1, mWanted = 1;
-  VideoScaledFor mScaledFor = VideoScaledFor::None, mWantedFor = VideoScaledFor::None;
+  VideoScaledFor mScaledFor = VideoScaledFor::None;
   /// The stream's inter frames' encoding ms a megapixel in mCostCodec, smoothed (0: none encoded yet).
   double mMsPerMegapixel = 0;
   proto::Encoding mCostCodec = proto::Encoding::RawRgba8;

@@ -223,10 +223,10 @@ TEST(ServerMetrics, VideoFramesAreCountedByCodecAndKeyFramesAndSmallerFramesByRe
   stats.videoEncoded(proto::Encoding::Vp8, 30, "asked");
   stats.videoEncoded(proto::Encoding::Vp9, 60, "size");
   stats.videoEncoded(proto::Encoding::Vp9, 2, "something new");  // an unknown reason counts as the encoder's
-  stats.videoEncoded(proto::Encoding::Vp9, 5, "", "encoders");
-  stats.videoEncoded(proto::Encoding::Vp9, 5, "size", "encoders");
-  stats.videoEncoded(proto::Encoding::Vp8, 6, "", "link");
-  stats.videoEncoded(proto::Encoding::Vp9, 5, "", "memory");
+  stats.videoEncoded(proto::Encoding::Vp9, 5, "", VideoScaledFor::Encoders);
+  stats.videoEncoded(proto::Encoding::Vp9, 5, "size", VideoScaledFor::Encoders);
+  stats.videoEncoded(proto::Encoding::Vp8, 6, "", VideoScaledFor::Link);
+  stats.videoEncoded(proto::Encoding::Vp9, 5, "", VideoScaledFor::Memory);
   const ParsedMetrics p = parseMetrics(stats.metricsText({}));
   EXPECT_EQ(p.value("voxbrick_video_encode_seconds_count", R"(codec="vp8")"), 4);
   EXPECT_EQ(p.value("voxbrick_video_encode_seconds_bucket", R"(codec="vp8",le="0.005")"), 1);
