@@ -39,6 +39,18 @@ void releaseFreedMemory() {
 /// (PROTOCOL.md, Session 11): its pixels encoded as any provisional JPEG frame of the job, its statistics saying why.
 proto::Message jpegForWantOfVideoMemory(proto::Frame frame, const RenderJob& job) {
   frame.encoding = proto::Encoding::Jpeg;
+  // Drawn at the stream's size (RenderJob::outputScale): a still is the scene's.
+  if (const int width = job.scene.width, height = job.scene.height;
+      int(frame.width) != width || int(frame.height) != height) {
+    try {
+      image::Image8 pixels =
+          image::scaleImage({int(frame.width), int(frame.height), std::move(frame.payload)}, width, height);
+      frame.payload = std::move(pixels.rgba);
+      frame.width = uint32_t(width), frame.height = uint32_t(height);
+    } catch (...) {
+      return errorReply(std::current_exception(), "the video frame could not be scaled to its scene's size");
+    }
+  }
   frame.statsJson = withKey(std::move(frame.statsJson), "video_fallback", "\"memory\"");
   return encodeStill(std::move(frame), replyJpegQuality(job, true), job);
 }
@@ -254,7 +266,9 @@ void Connection::pumpVideo() {
   mVideoPending.reset();
   task->input.dataset = task->job.dataset.get();
   task->input.keyframe = task->job.scene.keyframe || mVideoNeedsKey;
-  const int width = int(task->frame.width), height = int(task->frame.height);
+  // The scene's size, not the frame's, which may have been drawn at the stream's (RenderJob::outputScale).
+  const int width = task->job.scene.width, height = task->job.scene.height;
+  task->input.sceneWidth = width, task->input.sceneHeight = height;
   task->input.bitrateKbps = mPacer.videoKbps(VideoStream::startKbps(width, height),
                                              VideoStream::capKbps(width, height), now, videoPaceMs());
   if (mServices.video && mServices.config.scheduler.encoderLadder)
@@ -467,6 +481,9 @@ void Connection::apply(Outcome outcome, const RenderJob* from) {
     const std::optional<double> link = mPacer.settledLinkKbps();
     outcome.render->pngSpeed = pngSpeedFor(link);
     outcome.render->webpForPng = outcome.render->scene.acceptsWebp && webpFor(link);
+    // A moving frame for the session's video stream is drawn at the stream's size, not drawn larger to be shrunk.
+    if (outcome.render->scene.interactive && image::isVideoEncoding(replyEncoding(*outcome.render, true)))
+      outcome.render->outputScale = mVideo->scale();
     std::optional<Submission> refused = mServices.renderQuota ? mServices.renderQuota(mId) : std::nullopt;
     const auto received = outcome.render->received;
     Submission submission = refused ? std::move(*refused)

@@ -94,6 +94,7 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
     options.cancelled = cancelled;
     options.rateSamplesPerMs = job.rateSamplesPerMs;
     options.fixedMs = job.fixedMs;
+    options.outputScale = job.outputScale;
     render::Scene scene = job.scene;
     if (job.refinement) scene.interactive = false;  // the exact frame of an interactive request
     image::Image8 image = source.render8(job.dataset, scene, &stats, options);

@@ -72,6 +72,12 @@ struct RenderJob {
   /// Its png Frames travel as lossless webp instead (the scene's `accepts_webp`, on a link webpFor finds slow
   /// enough); see replyEncoding.
   bool webpForPng = false;
+  /// An interactive frame is drawn at no more than this fraction of the scene's sides and returned at that size
+  /// (render::FrameOptions::outputScale): set to the session's video stream's scale for a frame of that stream
+  /// (Connection), so that a stream sent smaller for its link, the encoders or the video memory has its pixels drawn
+  /// at its size. 1: the scene's size. The sort-last source (distributed/) draws at the scene's size whatever it
+  /// says; the stream then shrinks the frame.
+  double outputScale = 1;
 };
 
 /// Links measured slower than this (kbit/s) get png frames encoded Small, faster or unmeasured ones Fast: on the MRI

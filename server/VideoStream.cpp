@@ -7,6 +7,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "render/core/Interactive.h"
+
 namespace voxbrick::server {
 namespace {
 
@@ -45,7 +47,7 @@ double VideoStream::scaleForEncoders(double msPerMegapixel, double shareMs, int 
 double VideoStream::scaleForMemory(proto::Encoding codec, int width, int height, uint64_t limitBytes, int cores) {
   if (limitBytes == 0) return 1;
   for (const double scale : kScales) {
-    const int w = std::max(1, int(std::lround(width * scale))), h = std::max(1, int(std::lround(height * scale)));
+    const int w = render::scaledSide(width, scale), h = render::scaledSide(height, scale);
     if (image::videoEncoderBytes(codec, w, h, image::videoThreadsFor(codec, w, h, cores)) <= limitBytes) return scale;
   }
   return 1;
@@ -81,7 +83,8 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
   std::lock_guard lock(mMutex);
   const auto start = Clock::now();
   const int kbps = int(std::lround(std::max(1.0, input.bitrateKbps)));
-  const int fullWidth = int(frame.width), fullHeight = int(frame.height);
+  const int fullWidth = input.sceneWidth > 0 ? input.sceneWidth : int(frame.width);
+  const int fullHeight = input.sceneHeight > 0 ? input.sceneHeight : int(frame.height);
   const double forLink = scaleFor(kbps, fullWidth, fullHeight);
   // A stream that has not measured its own cost yet goes by the last one measured in its codec (a newcomer to a
   // crowd starts at the size the others were brought to, rather than with a key frame too large to encode in time).
@@ -102,8 +105,7 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
     if (forMemory < scale) scale = forMemory, scaledFor = VideoScaledFor::Memory;
   }
   // (At the bitrate's floor of 1 kbit/s a side is only scaled to a quarter beyond 146 pixels: never below 36.)
-  const int width = std::max(1, int(std::lround(fullWidth * scale)));
-  const int height = std::max(1, int(std::lround(fullHeight * scale)));
+  const int width = render::scaledSide(fullWidth, scale), height = render::scaledSide(fullHeight, scale);
   std::string why;
   if (!mEncoder || mEncoder->codec() != frame.encoding || mEncoder->width() != width || mEncoder->height() != height) {
     why = !mEncoder ? (mNoRoom ? "memory" : "start") : mEncoder->codec() != frame.encoding ? "codec" : "size";
@@ -115,6 +117,7 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
     if (mMemory && !mMemory->reserve(*this, image::videoEncoderBytes(frame.encoding, width, height, settings.threads),
                                      start)) {
       mNoRoom = true;
+      mSentScale.store(1, std::memory_order_relaxed);  // its frames go as still JPEGs, drawn at the scene's size
       VideoEncoded none;
       none.noRoom = true;
       return none;
@@ -136,11 +139,12 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
   }
   mDataset = input.dataset;
   mEncoder->setBitrate(kbps);
-  image::Image8 pixels{fullWidth, fullHeight, std::move(frame.payload)};
-  if (width != fullWidth || height != fullHeight) {
+  image::Image8 pixels{int(frame.width), int(frame.height), std::move(frame.payload)};
+  if (width != pixels.width || height != pixels.height) {
     pixels = image::scaleImage(pixels, width, height);
     frame.width = uint32_t(width), frame.height = uint32_t(height);
   }
+  mSentScale.store(scale, std::memory_order_relaxed);
   image::VideoChunk chunk;
   try {
     chunk = mEncoder->encode(pixels, std::max(0.0, msBetween(mStart, input.drawn)), !why.empty());

@@ -6,6 +6,7 @@
 // to its Connection, which sends it as a still JPEG.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <memory>
@@ -29,6 +30,9 @@ struct VideoFrameInput {
   /// The encoder time the crowd leaves the frame, ms: the encoder threads' time over the streams moving at
   /// scheduler.interactive_fps (Connection). 0: no limit.
   double encodeShareMs = 0;
+  /// The scene's size, which the frame may have been drawn smaller than (at the stream's scale, RenderJob's
+  /// outputScale); 0: the frame's own.
+  int sceneWidth = 0, sceneHeight = 0;
 };
 
 /// What one encode did, for the server's counters.
@@ -93,7 +97,8 @@ class VideoStream final : public VideoMemory::Holder {
   /// (PROTOCOL.md, Frame statistics). Where the bitrate is too low for the frame's size (scaleFor), its encoding
   /// would take more than its share of the encoders (scaleForEncoders), or its encoder would hold more than its share
   /// of the video memory (scaleForMemory), the frame is scaled down first and its width and height become the
-  /// stream's (the client shows it at the scene's size; `video.scaled_for` says why).
+  /// stream's (the client shows it at the scene's size; `video.scaled_for` says why). A frame that comes at another
+  /// size than the stream's (drawn at scale() before the stream changed its size) is scaled to it.
   /// Where the stream needs a new encoder and the server's video memory has no room for it, the frame is left as it
   /// came and the returned VideoEncoded says `noRoom`. Throws image::ImageFailure; the next frame is then a key
   /// frame.
@@ -102,6 +107,10 @@ class VideoStream final : public VideoMemory::Holder {
   /// VideoMemory::Holder: frees the encoder unless a frame is being encoded (the next frame is then a key frame,
   /// `key_reason` `memory`).
   bool freeEncoder() override;
+
+  /// The scale of the scene's sides its last frame was sent at (1 before any): what its next frame is drawn at
+  /// (RenderJob::outputScale). Read from any thread.
+  double scale() const { return mSentScale.load(std::memory_order_relaxed); }
 
   /// Frames encoded, and streams begun (key frames).
   uint64_t frames() const { return mFrames; }
@@ -117,6 +126,7 @@ class VideoStream final : public VideoMemory::Holder {
   std::unique_ptr<image::VideoEncoder> mEncoder;
   bool mNoRoom = false;  ///< the encoder was freed for another stream's, or none could be made: the next key's reason
   double mScale = 1, mWanted = 1;
+  std::atomic<double> mSentScale = 1;  ///< mScale, or the memory's smaller one, as the last frame was sent
   VideoScaledFor mScaledFor = VideoScaledFor::None;
   /// The stream's inter frames' encoding ms a megapixel in mCostCodec, smoothed (0: none encoded yet).
   double mMsPerMegapixel = 0;

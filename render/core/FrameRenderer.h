@@ -55,6 +55,11 @@ struct FrameOptions {
   /// "height"), not scaled up to the scene's, so that the parts of a sort-last frame are composited at that size and
   /// the composite is scaled up once. False: at the scene's size.
   bool keepReducedSize = false;
+  /// An interactive frame (RenderEngine): drawn at no more than this fraction of the scene's sides and returned at
+  /// scaledSide(side, outputScale) of each, not at the scene's size: a session's video stream sent smaller
+  /// (server/VideoStream.h) takes its frames at its own size, so no pixel is drawn or scaled up only to be thrown
+  /// away. In (0, 1]; 1: the scene's size. Frames of other scenes ignore it.
+  double outputScale = 1;
   /// Sort-last rendering (grids only): draw only the samples owned inside this box of level-0 voxels, and return the
   /// frame premultiplied (colour times opacity, and opacity) with no background, for compositing in visibility order
   /// (render/core/PartialFrame.h). Empty: the whole dataset, finished over the scene's background.

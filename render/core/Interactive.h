@@ -47,10 +47,16 @@ struct InteractiveChoice {
   nlohmann::json toJson() const;
 };
 
-/// The scene an interactive frame of `scene` draws at `rung`: its sides times rung.scale (each at least
-/// kMinInteractiveSide, or the requested side if smaller), its step and level of detail times the rung's factors
-/// (a scene with lod 0 gets lod = lodFactor - 1 beyond the first factor, 0 otherwise), interactive off.
-Scene interactiveScene(const Scene& scene, const InteractiveRung& rung);
+/// A side of `side` pixels at `scale` of it: rounded, at least 1. The size an interactive frame is returned at
+/// (FrameOptions::outputScale) and a video stream is sent at (server/VideoStream.h) alike.
+int scaledSide(int side, double scale);
+
+/// The scene an interactive frame of `scene` draws at `rung`: its sides times the smaller of rung.scale and
+/// `maxScale`, a factor raised as far as the shorter side needs to keep kMinInteractiveSide pixels (or its own, if
+/// fewer), so that the drawing keeps the scene's aspect; its step and level of detail times the rung's factors (a
+/// scene with lod 0 gets lod = lodFactor - 1 beyond the first factor, 0 otherwise); interactive off. A rung capped
+/// by `maxScale` keeps the level of detail of the scene's size (its lod times the drawing's scale).
+Scene interactiveScene(const Scene& scene, const InteractiveRung& rung, double maxScale = 1);
 
 /// The estimated samples of drawing a scene (FramePlan::estimatedSamples for grids, the mesh's cost model for
 /// meshes).
@@ -59,8 +65,11 @@ using SampleEstimate = std::function<double(const Scene&)>;
 /// The first rung of interactiveLadder() whose predicted time, fixedMs + estimate / rate, is within
 /// scene.timeBudgetMs; the last rung when none is, or when `rate` is 0 (no frame measured yet: the cheapest drawing
 /// measures the device). Found by bisection, since every rung costs no more than the one before (about log2 of the
-/// ladder's length estimates). Deterministic: the same scene, rate and estimates give the same choice.
-InteractiveChoice chooseInteractive(const Scene& scene, double rate, double fixedMs, const SampleEstimate& estimate);
+/// ladder's length estimates). Deterministic: the same scene, rate and estimates give the same choice. `maxScale`:
+/// no rung draws more than this fraction of the scene's sides (interactiveScene), a frame that is returned smaller
+/// than its scene (FrameOptions::outputScale).
+InteractiveChoice chooseInteractive(const Scene& scene, double rate, double fixedMs, const SampleEstimate& estimate,
+                                    double maxScale = 1);
 
 /// What this device has shown: a frame of s estimated samples takes fixedMs() + s / rate() ms, fitted by least
 /// squares to the last kFrames frames added (a line through their (samples, ms), its fixed time at most half the

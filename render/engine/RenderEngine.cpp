@@ -142,13 +142,26 @@ image::ImageF RenderEngine::renderAny(const std::shared_ptr<const Dataset>& data
     // Chosen by the estimate at the given (the session's) rate, else this engine's; timed as a whole, planning and
     // scaling up included.
     const auto start = std::chrono::steady_clock::now();
+    const double outputScale = options.outputScale;
+    if (!(outputScale > 0 && outputScale <= 1))
+      throw RenderInputError("RenderEngine::render: outputScale " + std::to_string(outputScale) +
+                             " is not in (0, 1]");
     const bool given = options.rateSamplesPerMs > 0;
-    const InteractiveChoice chosen = chooseInteractive(resolved, given ? options.rateSamplesPerMs : recent,
-                                                       given ? options.fixedMs : rate.fixedMs(),
-                                                       [&](const Scene& s) { return renderer.estimateSamples(s); });
-    image = renderer.render(interactiveScene(resolved, interactiveLadder()[size_t(chosen.rung)]), &frameStats,
-                            frameOptions);
-    if (!options.keepReducedSize) image = scaleBilinear(image, resolved.width, resolved.height);
+    const InteractiveChoice chosen = chooseInteractive(
+        resolved, given ? options.rateSamplesPerMs : recent, given ? options.fixedMs : rate.fixedMs(),
+        [&](const Scene& s) { return renderer.estimateSamples(s); }, outputScale);
+    const Scene drawn = interactiveScene(resolved, interactiveLadder()[size_t(chosen.rung)], outputScale);
+    const int width = scaledSide(resolved.width, outputScale), height = scaledSide(resolved.height, outputScale);
+    // Bytes are drawn as bytes and scaled up as bytes (image::scaleImage): within one level of the float frame
+    // scaled up and rounded, for a third of the memory traffic of a float frame of the scene's size.
+    if (image8) {
+      *image8 = renderer.render8(drawn, &frameStats, frameOptions);
+      if (!options.keepReducedSize && (image8->width != width || image8->height != height))
+        *image8 = image::scaleImage(*image8, width, height);
+    } else {
+      image = renderer.render(drawn, &frameStats, frameOptions);
+      if (!options.keepReducedSize) image = scaleBilinear(image, width, height);
+    }
     frameStats.interactive = chosen.toJson();
     frameStats.interactive["actual_ms"] = msSince(start);
   } else if (image8) {

@@ -30,9 +30,13 @@ cases=(
 # tets where the whole frame is projected (the camera within the mesh's box).
 declare -A clip=([mesh]=raycast [meshortho]=raycast [meshinside]=projected [meshpaged]=raycast)
 common="--size 72x64 --step 0.5 -q"
+# An interactive frame is drawn smaller only where its shorter side is above the ladder's 64-pixel floor.
+interactiveCommon="--size 144x128 --step 0.5 -q"
 meshCommon="--size 72x64 -q"
-# The options every case of dataset $1 takes.
-commonFor() { [[ $1 == *.vms ]] && echo "$meshCommon" || echo "$common"; }
+# The options every case of dataset $1 (case $2) takes.
+commonFor() {
+  if [[ $1 == *.vms ]]; then echo "$meshCommon"; elif [ "${2:-}" = interactive ]; then echo "$interactiveCommon"; else echo "$common"; fi
+}
 # The value of the first "KEY": N in JSON file $2.
 jsonNumber() { sed -n 's/.*"'"$1"'": \([0-9]*\).*/\1/p' "$2" | head -n 1; }
 if [ "$ranks" = setup ]; then
@@ -64,7 +68,7 @@ NRRD
   for c in "${cases[@]}"; do
     IFS='|' read -r name data options <<< "$c"
     # shellcheck disable=SC2086,SC2046
-    "$exe" render "$work/$data" -o "$work/$name.single.png" --stats "$work/$name.single.json" $(commonFor "$data") \
+    "$exe" render "$work/$data" -o "$work/$name.single.png" --stats "$work/$name.single.json" $(commonFor "$data" "$name") \
       $options
   done
   exit 0
@@ -100,7 +104,7 @@ for c in "${cases[@]}"; do
   out="$work/$name.$ranks.png"
   # shellcheck disable=SC2086,SC2046
   "$mpirun" --oversubscribe --allow-run-as-root -n "$ranks" "$exe" render "$work/$data" --mpi -o "$out" \
-    --stats "$work/$name.$ranks.json" $(commonFor "$data") $options > /dev/null
+    --stats "$work/$name.$ranks.json" $(commonFor "$data" "$name") $options > /dev/null
   line=$("$exe" compare "$work/$name.single.png" "$out")
   maxAbs=$(sed -n 's/.*max_abs \([0-9.e+-]*\).*/\1/p' <<< "$line")
   if [ -n "$maxAbs" ] && awk -v m="$maxAbs" 'BEGIN { exit !(m <= 1.0 / 255 + 1e-6) }'; then
@@ -132,7 +136,7 @@ if any(not 0 <= f <= frame for f in footprints) or (ranks > 2 and "inside" not i
     sys.exit(f"footprints {footprints} of a {frame}-pixel frame")
 if name == "interactive":
     drawn = (stats["interactive"]["width"], stats["interactive"]["height"])
-    if (d["composited_width"], d["composited_height"]) != drawn or drawn[0] >= 72:
+    if (d["composited_width"], d["composited_height"]) != drawn or drawn[0] >= 144:
         sys.exit(f"composited at {d['composited_width']}x{d['composited_height']}, drawn at {drawn[0]}x{drawn[1]}")
 CHECK
     echo "FAIL $name, $ranks ranks: the stats above"

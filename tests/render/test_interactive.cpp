@@ -59,7 +59,8 @@ TEST(Interactive, TheDrawingNeverShrinksBelowTheFloor) {
   EXPECT_EQ(c.rung, int(interactiveLadder().size()) - 1);
   EXPECT_GE(c.width, kMinInteractiveSide);
   EXPECT_GE(c.height, kMinInteractiveSide);
-  // A requested image below the floor keeps its own size; a tall one keeps its aspect within rounding.
+  // A requested image below the floor keeps its own size; a tall one keeps its aspect (its shorter side at the
+  // floor, the longer one by the same factor: the drawing's camera sees what the scene's does).
   Scene small = scene512(10);
   small.width = 40, small.height = 30;
   const InteractiveChoice s = chooseInteractive(small, 1, 0, modelSamples);
@@ -69,7 +70,36 @@ TEST(Interactive, TheDrawingNeverShrinksBelowTheFloor) {
   tall.width = 300, tall.height = 1200;
   const Scene drawn = interactiveScene(tall, interactiveLadder().back());
   EXPECT_EQ(drawn.width, kMinInteractiveSide);
-  EXPECT_EQ(drawn.height, 150);
+  EXPECT_EQ(drawn.height, 256);
+  Scene wide = scene512(10);
+  wide.width = 1000, wide.height = 50;  // shorter than the floor: never reduced
+  EXPECT_EQ(interactiveScene(wide, interactiveLadder().back()).width, 1000);
+}
+
+TEST(Interactive, AFrameReturnedSmallerIsNeverDrawnLarger) {
+  // A frame returned at 0.375 of its sides (a video stream sent smaller): at a rate that fits everything the first
+  // rung is drawn at that size, not at the scene's; a tight budget still reaches the smaller rungs.
+  const InteractiveChoice wide = chooseInteractive(scene512(100), 1e12, 0, modelSamples, 0.375);
+  EXPECT_EQ(wide.rung, 0);
+  EXPECT_EQ(wide.width, scaledSide(512, 0.375));
+  EXPECT_EQ(wide.width, 192);
+  EXPECT_EQ(wide.step, scene512(100).step) << "the exact step, drawn smaller";
+  EXPECT_DOUBLE_EQ(wide.lod, scene512(100).lod * 0.375) << "the level of detail of the scene's size";
+  // A rung below the cap is the ladder's own: its level of detail in its drawing's pixels.
+  const Scene below = interactiveScene(scene512(100), interactiveLadder().back(), 0.375);
+  EXPECT_EQ(below.lod, interactiveScene(scene512(100), interactiveLadder().back()).lod);
+  const double rate = 5e5;
+  for (double budget : {200.0, 50.0, 12.5, 3.0}) {
+    const InteractiveChoice c = chooseInteractive(scene512(budget), rate, 0, modelSamples, 0.375);
+    const InteractiveChoice plain = chooseInteractive(scene512(budget), rate, 0, modelSamples);
+    EXPECT_LE(c.width, 192) << budget;
+    EXPECT_LE(c.rung, plain.rung) << budget << ": capped rungs cost no more, so none coarser is needed";
+    if (plain.predictedMs <= budget) {
+      EXPECT_LE(c.predictedMs, budget) << budget;
+    }
+  }
+  EXPECT_EQ(scaledSide(7, 0.1), 1) << "at least a pixel";
+  EXPECT_EQ(scaledSide(1023, 0.5), 512) << "rounded half away from zero";
 }
 
 TEST(Interactive, WithoutARateTheCheapestDrawingMeasuresTheDevice) {

@@ -165,6 +165,7 @@ class ConnectionTest : public ::testing::Test {
     job.requestId = requestId;
     job.refinement = refinement;
     job.received = std::chrono::steady_clock::time_point{} + std::chrono::milliseconds(requestId);
+    job.scene.width = job.scene.height = int(side);  // drawn at its scene's size
     std::vector<uint8_t> pixels(size_t(side) * side * 4, 255);
     for (size_t i = 0; i < pixels.size(); i += 4) pixels[i] = uint8_t(i / 4 + requestId * 3), pixels[i + 1] = 90;
     core.rendered(job, proto::Frame{side, side, encoding, refinement ? "{}" : R"({"provisional": true})", pixels});
@@ -489,6 +490,7 @@ TEST_F(ConnectionTest, EncodingsAsideAreQueuedInTheirFramesClass) {
     job.received = std::chrono::steady_clock::time_point{} + std::chrono::milliseconds(requestId);
     job.scene.interactive = interactive;
     job.scene.batch = batch;
+    job.scene.width = job.scene.height = 32;
     job.refinement = refinement;
     if (!image::isVideoEncoding(encoding)) job.stillToEncode = 90;
     core.rendered(job, proto::Frame{32, 32, encoding, refinement ? "{}" : R"({"provisional": true})",

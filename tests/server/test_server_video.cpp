@@ -289,6 +289,38 @@ TEST_F(VideoServerTest, AStreamSlowerThanItsShareOfTheEncodersIsSentSmaller) {
   EXPECT_EQ(video["key_frames"]["size"], sizeKeys) << video.dump();
 }
 
+// A stream sent smaller than its scene has its moving frames drawn at its size, not drawn at the scene's and shrunk:
+// a VP8 encoder of 512x512 (12 MiB) is more than a quarter of 16 MiB of video memory, so the stream goes at 256x256
+// from its first frame; the frames after it are drawn at 256x256 (interactive_fps 0.5 leaves the budget of
+// 2 s the scene asks, and the exact drawing fits it), and the exact frame is the scene's 512x512.
+TEST_F(VideoServerTest, AStreamSentSmallerHasItsMovingFramesDrawnAtItsSize) {
+  ASSERT_GT(image::videoEncoderBytes(Encoding::Vp8, 384, 384, 1), 4u << 20);
+  ASSERT_LT(image::videoEncoderBytes(Encoding::Vp8, 256, 256, 1), 4u << 20);
+  const auto config = scratch() / "slow-crowd.toml";
+  std::ofstream(config) << "[scheduler]\ninteractive_fps = 0.5\n";
+  auto server = serve("--render-threads 1 --video-memory 16 --config " + config.string());
+  auto c = videoSession(*server);
+  image::FrameDecoder decoder;
+  std::vector<std::pair<int, uint32_t>> moving;  // each moving frame's drawn width and sent width
+  for (int i = 0; i < 4; ++i)
+    c->render(dragScene(10 + 2 * i, "vp8", 512, {{"time_budget_ms", 2000}}), Encoding::Png,
+              [&](const proto::Frame& f) {
+                const json stats = json::parse(f.statsJson);
+                EXPECT_EQ(uint32_t(decoder.decode(f).width), f.width);
+                if (!stats["provisional"].get<bool>()) {
+                  EXPECT_EQ(f.width, 512u) << "the exact frame";
+                  return;
+                }
+                EXPECT_EQ(stats["video"].value("scaled_for", ""), "memory") << f.statsJson;
+                moving.emplace_back(stats["interactive"]["width"].get<int>(), f.width);
+              });
+  ASSERT_EQ(moving.size(), 4u);
+  for (const auto& [drawn, sent] : moving) EXPECT_EQ(sent, 256u);
+  // The first was drawn before the stream had a size (at the cheapest rung, which measures the device); the rest at
+  // the stream's size, the exact drawing.
+  for (size_t i = 1; i < moving.size(); ++i) EXPECT_EQ(moving[i].first, 256) << "frame " << i;
+}
+
 // A crowd of video streams that has gone gives its encoders' memory back to the system: the server's resident size
 // returns near where it was before they came (glibc would keep the freed blocks in its arenas otherwise).
 TEST_F(VideoServerTest, StreamsThatHaveGoneGiveTheirEncodersMemoryBack) {

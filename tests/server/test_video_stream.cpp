@@ -181,6 +181,36 @@ TEST(VideoStream, ASlowLinkShrinksTheStreamSoonAndAFastOneGrowsItLater) {
   }
 }
 
+// The server draws a stream's moving frames at the stream's size (RenderJob::outputScale): such a frame goes as it
+// came; one of another size (drawn before the stream changed its size, or at a smaller rung) is scaled to the
+// stream's. The stream's size follows the scene's, not the frame's.
+TEST(VideoStream, AFrameDrawnAtTheStreamsSizeGoesAsItCameAndOneOfAnotherSizeIsScaledToIt) {
+  VideoStream stream;
+  image::FrameDecoder decoder;
+  EXPECT_EQ(stream.scale(), 1) << "before any frame";
+  const auto send = [&](int drawnSide, double ms, double kbps) {
+    proto::Frame f = rawFrame(drawnSide, 0);
+    VideoFrameInput input;
+    input.bitrateKbps = kbps, input.drawn = at(ms);
+    input.sceneWidth = input.sceneHeight = 256;
+    const VideoEncoded done = stream.encode(f, input);
+    const nlohmann::json video = nlohmann::json::parse(f.statsJson)["video"];
+    EXPECT_EQ(video["scale"].get<double>() * 256, double(f.width)) << f.statsJson;
+    EXPECT_EQ(stream.scale(), video["scale"].get<double>());
+    EXPECT_EQ(decoder.decode(f).width, int(f.width));
+    return std::make_pair(f.width, done.key ? done.keyReason : "-");
+  };
+  // 20 kbit/s calls for half the scene's 256² (not half of the frame's): a first frame drawn at the scene's size.
+  EXPECT_EQ(send(256, 0, 20), std::make_pair(128u, std::string("start")));
+  EXPECT_EQ(send(128, 33, 20), std::make_pair(128u, std::string("-"))) << "drawn at the stream's size";
+  EXPECT_EQ(send(64, 66, 20), std::make_pair(128u, std::string("-"))) << "drawn smaller still: scaled up";
+  // Fast again for more than kGrowAfterMs: the frame drawn at the old size is scaled up to the new one.
+  EXPECT_EQ(send(128, 100, 400), std::make_pair(128u, std::string("-")));
+  EXPECT_EQ(send(128, 2200, 400), std::make_pair(256u, std::string("size")));
+  EXPECT_EQ(stream.scale(), 1);
+  EXPECT_EQ(send(256, 2233, 400), std::make_pair(256u, std::string("-")));
+}
+
 TEST(VideoStream, AStreamStartsAtTheScaleItsLinkAllows) {
   VideoStream stream;
   proto::Frame f = rawFrame(256, 0);

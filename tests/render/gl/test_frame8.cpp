@@ -1,8 +1,11 @@
 // Frames finished on the GPU as 8 bits (Compositor::finish8, FrameRenderer::render8, RenderEngine::render8): the
 // bytes must be exactly image::toImage8 of the float frame the same renderer draws, for every pass and kernel, any
-// background and size, and the engine's 8-bit frames (what the server sends) those of its float frames.
+// background and size, and the engine's 8-bit frames (what the server sends) those of its float frames (an
+// interactive frame's within a level: scaled up as bytes).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdlib>
 #include <memory>
 #include <set>
 #include <string>
@@ -172,7 +175,8 @@ TEST(Frame8, TheEnginesBytesAreItsFloatFramesRoundedForGridsMeshesAndInteractive
     EXPECT_EQ(bytesThatDiffer(bytes, image::toImage8(engine.render(dataset, scene))), 0u) << name;
     EXPECT_GT(pixelsDrawn(bytes, scene.background), 40u) << name;
   }
-  // An interactive frame is drawn smaller and scaled up in float, then rounded: still the float frame's bytes.
+  // An interactive frame's bytes are drawn as bytes at its smaller size and scaled up as bytes: within a level of
+  // the float frame scaled up and rounded.
   const auto grid = openDataset("g", dir / "g", size_t(64) << 20);
   Scene scene = test::slicingScene("hot");
   scene.raycast = true;
@@ -185,7 +189,17 @@ TEST(Frame8, TheEnginesBytesAreItsFloatFramesRoundedForGridsMeshesAndInteractive
   ASSERT_TRUE(stats.interactive.is_object());
   EXPECT_LT(stats.interactive.value("width", scene.width), scene.width) << "drawn smaller";
   EXPECT_EQ(bytes.width, scene.width);
-  EXPECT_EQ(bytesThatDiffer(bytes, image::toImage8(engine.render(grid, scene, nullptr, options))), 0u);
+  const image::Image8 rounded = image::toImage8(engine.render(grid, scene, nullptr, options));
+  ASSERT_EQ(bytes.rgba.size(), rounded.rgba.size());
+  int most = 0;
+  for (size_t i = 0; i < bytes.rgba.size(); ++i) most = std::max(most, std::abs(bytes.rgba[i] - rounded.rgba[i]));
+  EXPECT_LE(most, 1);
+  // And exactly the bytes of its drawing scaled by image::scaleImage.
+  Scene drawn = scene;
+  drawn.interactive = false;
+  drawn.width = stats.interactive["width"].get<int>(), drawn.height = stats.interactive["height"].get<int>();
+  drawn.step = stats.interactive["step"].get<double>(), drawn.lod = stats.interactive["lod"].get<double>();
+  EXPECT_EQ(bytesThatDiffer(bytes, image::scaleImage(engine.render8(grid, drawn), scene.width, scene.height)), 0u);
 }
 
 }  // namespace

@@ -1,9 +1,10 @@
 // Interactive frames on the GL renderer (render/core/Interactive.h through RenderEngine): a small budget draws fewer
-// samples and is scaled up to the requested size; and frames split finely for prompt cancellation (checkpoint
+// samples and is scaled up to the requested size, or to the smaller size a video stream is sent at; and frames split finely for prompt cancellation (checkpoint
 // intervals sized by cost: bands and tiles, slab tiles, slicing runs) are the same frames, for every technique.
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstring>
 
 #include "render/core/Interactive.h"
@@ -61,6 +62,51 @@ TEST(InteractiveFrames, ASmallBudgetDrawsFewerSamplesScaledUpToTheRequestedSize)
   EXPECT_EQ(stats.interactive["rung"].get<int>(), 0);
   // The same frame within round-off (the coarser frame before moved bricks to other atlas slots).
   test::expectClose(same, full, 1e-4, "an interactive frame at a rate that fits the exact one");
+}
+
+TEST(InteractiveFrames, AFrameForASmallerVideoStreamIsDrawnAndReturnedAtItsSize) {
+  ScratchDir dir;
+  test::prep("synthetic:blobs,n=96", dir / "blobs", 16);
+  const auto dataset = openDataset("blobs", dir / "blobs", size_t(256) << 20);
+  RenderEngine engine({});
+  Scene scene = blobScene();
+  FrameStats exact;
+  engine.render8(dataset, scene, &exact);  // paged in
+  // At 0.75 of 160x120, with a rate that fits the exact frame: the exact drawing at 120x90, nothing scaled.
+  scene.interactive = true;
+  scene.timeBudgetMs = 20;
+  FrameOptions options;
+  options.rateSamplesPerMs = exact.samplesEstimated;
+  options.outputScale = 0.75;
+  FrameStats stats;
+  const image::Image8 smaller = engine.render8(dataset, scene, &stats, options);
+  EXPECT_EQ(smaller.width, 120);
+  EXPECT_EQ(smaller.height, 90);
+  EXPECT_EQ(stats.interactive["rung"].get<int>(), 0);
+  EXPECT_EQ(stats.interactive["width"].get<int>(), 120);
+  EXPECT_LT(stats.samplesEstimated, 0.6 * exact.samplesEstimated) << "0.56 of the pixels";
+  Scene small = blobScene();
+  small.width = 120, small.height = 90;
+  small.lod = scene.lod * 0.75;  // the level of detail of the scene's size
+  const image::Image8 smallExact = engine.render8(dataset, small);
+  ASSERT_EQ(smaller.rgba.size(), smallExact.rgba.size());
+  EXPECT_EQ(smaller.rgba, smallExact.rgba) << "the exact frame of the scene at the stream's size";
+  EXPECT_GT(test::meanBrightness(image::toImageF(smaller)), 0.01);
+
+  // A budget the ladder meets below the stream's size: drawn smaller still, returned at the stream's size.
+  options.rateSamplesPerMs = exact.samplesEstimated / (100 * scene.timeBudgetMs);
+  const image::Image8 coarse = engine.render8(dataset, scene, &stats, options);
+  EXPECT_EQ(coarse.width, 120);
+  EXPECT_EQ(coarse.height, 90);
+  EXPECT_LT(stats.interactive["width"].get<int>(), 120);
+  // The float frame alike.
+  EXPECT_EQ(engine.render(dataset, scene, nullptr, options).width, 120);
+
+  // A scale outside (0, 1] is the caller's mistake, named.
+  for (const double bad : {0.0, -1.0, 1.5, std::nan("")}) {
+    options.outputScale = bad;
+    EXPECT_THROW(engine.render8(dataset, scene, nullptr, options), RenderInputError) << bad;
+  }
 }
 
 TEST(InteractiveFrames, FramesSplitForCancellationAreTheSameFrames) {
