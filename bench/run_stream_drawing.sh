@@ -11,10 +11,13 @@
 #    SIZE², drawing for real on RENDER_THREADS threads, against a fresh `voxbrick serve` of each build (OLD: a build
 #    whose moving frames are drawn at the scene's size, e.g. `bash bench/gpu/build_baseline.sh --commit 8997678 --dir
 #    bench/work/base-8997678`; NEW: this one), rounds alternating which goes first.
-# Writes bench/results/video/stream-drawing.{csv,md} and stream-drawing-psnr.csv.
+# Writes OUT.{csv,md} and OUT-psnr.csv, OUT bench/results/video/stream-drawing by default. --views 0 leaves out the
+# PSNR; --serve-args "ARGS" gives both servers more options (e.g. "--replay-frames DIR --replay-draw-ms 10": frames
+# drawn beforehand, to compare two builds' encoders alone).
 #
 #   bash bench/run_stream_drawing.sh OLD_VOXBRICK [NEW_VOXBRICK] [--clients 16] [--size 1024] [--codec vp9]
-#                                    [--render-threads 2] [--duration 20] [--rounds 3] [--views 6]
+#                                    [--render-threads 2] [--duration 20] [--rounds 3] [--views 6] [--out OUT]
+#                                    [--serve-args ARGS]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 [ $# -ge 1 ] || { sed -n 2,16p "$0" >&2; exit 2; }
@@ -22,9 +25,12 @@ old=$(realpath "$1")
 shift
 new=$(realpath build/voxbrick)
 if [ $# -gt 0 ] && [ "${1#--}" = "$1" ]; then new=$(realpath "$1"); shift; fi
-clients=16 size=1024 codec=vp9 renderThreads=2 duration=20 rounds=3 views=6
+clients=16 size=1024 codec=vp9 renderThreads=2 duration=20 rounds=3 views=6 dest=bench/results/video/stream-drawing
+serveArgs=
 while [ $# -gt 0 ]; do
   case "$1" in
+    --out) dest=$2; shift 2 ;;
+    --serve-args) serveArgs=$2; shift 2 ;;
     --clients) clients=$2; shift 2 ;;
     --size) size=$2; shift 2 ;;
     --codec) codec=$2; shift 2 ;;
@@ -41,7 +47,7 @@ work=bench/work/video
 datasets=$work/datasets
 mri_datasets "$work" "$new"
 out=$work/stream-drawing
-mkdir -p bench/results/video "$out"
+mkdir -p "$(dirname "$dest")" "$out"
 pid=
 cleanup() { [ -n "$pid" ] && kill "$pid" 2> /dev/null || true; }
 trap cleanup EXIT
@@ -59,7 +65,7 @@ for ((v = 0; v < views; v++)); do
         --orbit "$az,20" --lod "$s" -q
   done
 done
-/usr/bin/python3 - "$out" "$size" "$views" "$scales" bench/results/video/stream-drawing-psnr.csv <<'PY'
+[ "$views" -gt 0 ] && /usr/bin/python3 - "$out" "$size" "$views" "$scales" "$dest-psnr.csv" <<'PY'
 import csv, sys
 import numpy as np
 from PIL import Image
@@ -91,8 +97,9 @@ for round in $(seq "$rounds"); do
   for build in $order; do
     bin=$old
     [ "$build" = new ] && bin=$new
+    # shellcheck disable=SC2086
     serve_in_background run_stream_drawing.sh "$out/serve-$build-$round.log" "$bin" --datasets "$datasets" \
-      --render-threads "$renderThreads"
+      --render-threads "$renderThreads" $serveArgs
     "$bin" load "127.0.0.1:$port" --dataset mri --tf mri --clients "$clients" --size "${size}x${size}" --drag 30 \
       --interactive 50 --provisional-encoding "$codec" --duration "$duration" --json "$out/$build-$round.json" \
       > /dev/null
@@ -101,10 +108,10 @@ for round in $(seq "$rounds"); do
     pid=
   done
 done
-python3 - "$out" bench/results/video/stream-drawing "$clients" "$size" "$codec" "$renderThreads" "$duration" \
-  "$rounds" "$views" "$old" "$new" <<'PY'
+python3 - "$out" "$dest" "$clients" "$size" "$codec" "$renderThreads" "$duration" "$rounds" "$views" "$old" "$new" \
+  "$serveArgs" <<'PY'
 import csv, datetime, json, os, statistics, sys
-out, dest, clients, size, codec, threads, duration, rounds, views, old, new = sys.argv[1:12]
+out, dest, clients, size, codec, threads, duration, rounds, views, old, new, serveArgs = sys.argv[1:13]
 cpu = next((l.split(':', 1)[1].strip() for l in open('/proc/cpuinfo') if l.startswith('model name')), '?')
 def commit(binary):
     path = os.path.join(os.path.dirname(binary), 'COMMIT')
@@ -132,18 +139,20 @@ def med(build, key):
 def rng(build, key):
     vals = [r[key] for r in rows if r['build'] == build]
     return f'{min(vals)}–{max(vals)}' if min(vals) != max(vals) else f'{vals[0]}'
-psnr = list(csv.DictReader(open(dest + '-psnr.csv')))
-md = ['# Moving frames drawn at their video stream\'s size', '',
+psnr = list(csv.DictReader(open(dest + '-psnr.csv'))) if int(views) > 0 else []
+extra = f" --serve-args '{serveArgs}'" if serveArgs else ''
+md = ['# Moving frames drawn at their video stream\'s size' if not serveArgs else '# Two builds under a crowd of video streams', '',
       f'- Command: `bash bench/run_stream_drawing.sh OLD_VOXBRICK --clients {clients} --size {size} --codec {codec} '
-      f'--render-threads {threads} --duration {duration} --rounds {rounds} --views {views}`; OLD is {commit(old)} '
-      '(moving frames drawn at the scene\'s size', '  and scaled up there in floats; the stream then shrank them), '
-      f'NEW {commit(new)}.',
-      f'- Date: {datetime.date.today()}; machine: {cpu}, 2 cores, a shared virtual machine, llvmpipe drawing: the load '
+      f'--render-threads {threads} --duration {duration} --rounds {rounds} --views {views} --out {dest}{extra}`;',
+      f'  OLD is {commit(old)}, NEW {commit(new)}.',
+      f'- Date: {datetime.date.today()}; machine: {cpu}, 2 cores, a shared virtual machine'
+      f"{'' if serveArgs else ', llvmpipe drawing'}: the load "
       'clients decode every stream on the same', '  two cores, so rates and latencies are this machine\'s; compare '
-      'the two builds only with each other.', '',
-      f'## What it costs in PSNR', '',
+      'the two builds only with each other.']
+if psnr:
+    md += ['', f'## What it costs in PSNR', '',
       f'The MRI\'s exact frames at {size}² and at each stream size, {views} views; each shown at {size}² (bilinear, '
-      'centres aligned) against the', f'{size}² frame (`stream-drawing-psnr.csv`). Means over the views:', '',
+      'centres aligned) against the', f'{size}² frame (`{os.path.basename(dest)}-psnr.csv`). Means over the views:', '',
       '| stream scale | side | drawn at the stream\'s size, the scene\'s level of detail (the server) dB | '
       'drawn at the stream\'s size, its own level dB | drawn at the scene\'s size, shrunk by area dB |',
       '| ---: | ---: | ---: | ---: | ---: |']
@@ -152,9 +161,10 @@ for s in dict.fromkeys(p['scale'] for p in psnr):
     mean = lambda key: f"{statistics.mean(float(p[key]) for p in sel):.2f}"
     md.append(f"| {s} | {sel[0]['side']} | {mean('psnr_drawn_at_stream_size_db')} | "
               f"{mean('psnr_drawn_at_stream_size_own_lod_db')} | {mean('psnr_drawn_full_then_shrunk_db')} |")
+drawing = f'`{serveArgs}`' if serveArgs else 'drawing for real'
 md += ['', f'## Under a crowd', '',
        f'{clients} `voxbrick load --drag 30 --interactive 50 --provisional-encoding {codec}` clients at {size}², a '
-       f'fresh `voxbrick serve --render-threads {threads}` of each build', f'for each round, drawing for real; medians '
+       f'fresh `voxbrick serve --render-threads {threads}` of each build', f'for each round, {drawing}; medians '
        f'of {rounds} rounds (the range over rounds after each):', '',
        '| build | frames/s a client, slowest | fastest | Jain | latency p50 ms | p99 ms | render ms p50 | '
        'encode ms a frame | bytes a frame | frames sent smaller | size key frames | errors |',
@@ -169,4 +179,4 @@ for build in ('old', 'new'):
 md.append('')
 open(dest + '.md', 'w').write('\n'.join(md))
 PY
-cat bench/results/video/stream-drawing.md
+cat "$dest.md"

@@ -71,14 +71,14 @@ size_t VideoMemory::moving(Clock::time_point now) const {
                               [now](const auto& entry) { return entry.second.lastUse + kIdleMs > now; }));
 }
 
-double VideoMemory::msPerMegapixel(proto::Encoding codec) const {
+double VideoMemory::msForAMegapixel(proto::Encoding codec) const {
   std::lock_guard lock(mMutex);
-  return mMsPerMegapixel[codec == proto::Encoding::Vp9 ? 1 : 0];
+  return mMsForAMegapixel[codec == proto::Encoding::Vp9 ? 1 : 0];
 }
 
-void VideoMemory::measured(proto::Encoding codec, double msPerMegapixel) {
+void VideoMemory::measured(proto::Encoding codec, double msForAMegapixel) {
   std::lock_guard lock(mMutex);
-  mMsPerMegapixel[codec == proto::Encoding::Vp9 ? 1 : 0] = msPerMegapixel;
+  mMsForAMegapixel[codec == proto::Encoding::Vp9 ? 1 : 0] = msForAMegapixel;
 }
 
 uint64_t VideoMemory::freed() const {

@@ -36,11 +36,20 @@ double VideoStream::encoderShareMs(int threads, double fps, size_t moving) {
   return double(std::max(1, threads)) * 1000 / (std::max(1e-3, fps) * double(std::max<size_t>(1, moving)));
 }
 
-double VideoStream::scaleForEncoders(double msPerMegapixel, double shareMs, int width, int height, double current) {
-  if (!(msPerMegapixel > 0) || !(shareMs > 0)) return 1;
+double VideoStream::costExponent(proto::Encoding codec) { return codec == proto::Encoding::Vp9 ? 0.6 : 0.75; }
+
+double VideoStream::expectedMs(proto::Encoding codec, double msForAMegapixel, double megapixels) {
+  return msForAMegapixel * std::pow(std::max(megapixels, 1e-6), costExponent(codec));
+}
+
+double VideoStream::scaleForEncoders(proto::Encoding codec, double msForAMegapixel, double shareMs, int width,
+                                     int height, double current) {
+  if (!(msForAMegapixel > 0) || !(shareMs > 0)) return 1;
   const double megapixels = std::max(1.0, double(width) * height) / 1e6;
   for (const double scale : kScales)
-    if (msPerMegapixel * megapixels * scale * scale <= shareMs * (scale > current ? kGrowWithin : 1)) return scale;
+    if (expectedMs(codec, msForAMegapixel, megapixels * scale * scale) <=
+        shareMs * (scale > current ? kGrowWithin : 1))
+      return scale;
   return kScales[std::size(kScales) - 1];
 }
 
@@ -88,10 +97,10 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
   const double forLink = scaleFor(kbps, fullWidth, fullHeight);
   // A stream that has not measured its own cost yet goes by the last one measured in its codec (a newcomer to a
   // crowd starts at the size the others were brought to, rather than with a key frame too large to encode in time).
-  const double cost = frame.encoding == mCostCodec ? mMsPerMegapixel
-                      : mMemory                     ? mMemory->msPerMegapixel(frame.encoding)
+  const double cost = frame.encoding == mCostCodec ? mMsForAMegapixel
+                      : mMemory                     ? mMemory->msForAMegapixel(frame.encoding)
                                                     : 0;
-  const double forEncoders = scaleForEncoders(cost, input.encodeShareMs, fullWidth, fullHeight, mScale);
+  const double forEncoders = scaleForEncoders(frame.encoding, cost, input.encodeShareMs, fullWidth, fullHeight, mScale);
   double scale = settledScale(std::min(forLink, forEncoders),
                               forEncoders < forLink ? VideoScaledFor::Encoders
                               : forLink < 1         ? VideoScaledFor::Link
@@ -157,11 +166,12 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
   if (mMemory) mMemory->used(*this, encoded);
   if (!chunk.key) {
     // Key frames cost more than the inter frames a moving stream is made of: they would make it look slower.
-    const double msPerMegapixel = msBetween(start, encoded) / (double(width) * height / 1e6);
-    const bool known = mCostCodec == frame.encoding && mMsPerMegapixel > 0;
-    mMsPerMegapixel = known ? 0.75 * mMsPerMegapixel + 0.25 * msPerMegapixel : msPerMegapixel;
+    const double msForAMegapixel =
+        msBetween(start, encoded) / expectedMs(frame.encoding, 1, double(width) * height / 1e6);
+    const bool known = mCostCodec == frame.encoding && mMsForAMegapixel > 0;
+    mMsForAMegapixel = known ? 0.75 * mMsForAMegapixel + 0.25 * msForAMegapixel : msForAMegapixel;
     mCostCodec = frame.encoding;
-    if (mMemory) mMemory->measured(frame.encoding, mMsPerMegapixel);
+    if (mMemory) mMemory->measured(frame.encoding, mMsForAMegapixel);
   }
   ++mFrames;
   if (chunk.key) ++mKeyFrames;

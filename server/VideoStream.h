@@ -68,12 +68,20 @@ class VideoStream final : public VideoMemory::Holder {
   static constexpr double kMinBitsPerPixel = 0.025;
   /// The largest of kScales at which `kbps` gives a `width` x `height` frame kMinBitsPerPixel; the smallest if none.
   static double scaleFor(double kbps, int width, int height);
-  /// The largest of kScales at which a `width` x `height` frame is expected to encode within `shareMs`, at
-  /// `msPerMegapixel` (the stream's measured cost); one larger than `current` only within kGrowWithin of it (so
-  /// that a stream grown back is not at once too slow again). 1 when the cost or the share is unknown (0); the
-  /// smallest if none fits. The crowd's ladder reaching the encoders: with more streams moving than the encoder
+  /// The power of a frame's megapixels its encoding time grows by in `codec` (vp8 or vp9): a frame of half the
+  /// sides takes more than a quarter of the time (fitted on the MRI at 1024² to 256², one thread, a bitrate the
+  /// same at every size: 0.77 for VP8, 0.61 for VP9, here 0.75 and 0.6; bench/results/video/encode-cost.md).
+  static double costExponent(proto::Encoding codec);
+  /// What a frame of `megapixels` in `codec` is expected to take, ms, at `msForAMegapixel` (the time of a frame of
+  /// one megapixel): msForAMegapixel * megapixels ^ costExponent(codec).
+  static double expectedMs(proto::Encoding codec, double msForAMegapixel, double megapixels);
+  /// The largest of kScales at which a `width` x `height` frame in `codec` is expected to encode within `shareMs`
+  /// (expectedMs, at the stream's measured `msForAMegapixel`); one larger than `current` only within kGrowWithin of
+  /// it (so that a stream grown back is not at once too slow again). 1 when the cost or the share is unknown (0);
+  /// the smallest if none fits. The crowd's ladder reaching the encoders: with more streams moving than the encoder
   /// threads keep at scheduler.interactive_fps, frames are sent smaller instead of later.
-  static double scaleForEncoders(double msPerMegapixel, double shareMs, int width, int height, double current);
+  static double scaleForEncoders(proto::Encoding codec, double msForAMegapixel, double shareMs, int width, int height,
+                                 double current);
   static constexpr double kGrowWithin = 0.75;
   /// The encoder time a moving frame may take with `moving` streams (at least one) sharing `threads` encoder threads
   /// for each to get `fps` frames a second: threads * 1000 / (fps * moving) ms, as the render threads' share is
@@ -128,8 +136,9 @@ class VideoStream final : public VideoMemory::Holder {
   double mScale = 1, mWanted = 1;
   std::atomic<double> mSentScale = 1;  ///< mScale, or the memory's smaller one, as the last frame was sent
   VideoScaledFor mScaledFor = VideoScaledFor::None;
-  /// The stream's inter frames' encoding ms a megapixel in mCostCodec, smoothed (0: none encoded yet).
-  double mMsPerMegapixel = 0;
+  /// The stream's inter frames' encoding time in mCostCodec, as the ms of a frame of one megapixel (expectedMs),
+  /// smoothed (0: none encoded yet).
+  double mMsForAMegapixel = 0;
   proto::Encoding mCostCodec = proto::Encoding::RawRgba8;
   std::chrono::steady_clock::time_point mWantedSince;
   const void* mDataset = nullptr;

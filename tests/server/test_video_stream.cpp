@@ -234,11 +234,11 @@ TEST(VideoMemory, TheStreamsMovingAreThoseWithAFrameWithinTheIdleTime) {
   memory.release(b);
   EXPECT_EQ(memory.moving(at(2000)), 0u);
   // What the last stream measured in each codec, for a stream's first frame.
-  EXPECT_EQ(memory.msPerMegapixel(proto::Encoding::Vp9), 0);
+  EXPECT_EQ(memory.msForAMegapixel(proto::Encoding::Vp9), 0);
   memory.measured(proto::Encoding::Vp9, 40);
   memory.measured(proto::Encoding::Vp8, 12);
-  EXPECT_EQ(memory.msPerMegapixel(proto::Encoding::Vp9), 40);
-  EXPECT_EQ(memory.msPerMegapixel(proto::Encoding::Vp8), 12);
+  EXPECT_EQ(memory.msForAMegapixel(proto::Encoding::Vp9), 40);
+  EXPECT_EQ(memory.msForAMegapixel(proto::Encoding::Vp8), 12);
 }
 
 TEST(VideoStream, TheEncodersShareIsTheirTimeOverTheStreamsMoving) {
@@ -249,16 +249,24 @@ TEST(VideoStream, TheEncodersShareIsTheirTimeOverTheStreamsMoving) {
 }
 
 TEST(VideoStream, TheScaleForTheEncodersIsTheLargestExpectedToEncodeWithinItsShare) {
-  // 40 ms a megapixel at 1024² (1.05 megapixels): 41.9 ms at full size, 23.6 at 0.75, 10.5 at 0.5, 5.9 at 0.375.
-  EXPECT_EQ(VideoStream::scaleForEncoders(40, 12.5, 1024, 1024, 1), 0.5);
-  EXPECT_EQ(VideoStream::scaleForEncoders(40, 50, 1024, 1024, 1), 1);
-  EXPECT_EQ(VideoStream::scaleForEncoders(40, 0.1, 1024, 1024, 1), 0.25) << "never smaller than the last scale";
-  EXPECT_EQ(VideoStream::scaleForEncoders(0, 12.5, 1024, 1024, 1), 1) << "a cost not yet measured";
-  EXPECT_EQ(VideoStream::scaleForEncoders(40, 0, 1024, 1024, 1), 1) << "no share: no limit";
-  // Growing needs room to spare (kGrowWithin): 9 ms a megapixel is 9.4 ms at full size, within a share of 10 for a
-  // stream already at full size, not for one at 0.75 (7.5 ms of room).
-  EXPECT_EQ(VideoStream::scaleForEncoders(9, 10, 1024, 1024, 1), 1);
-  EXPECT_EQ(VideoStream::scaleForEncoders(9, 10, 1024, 1024, 0.75), 0.75);
+  constexpr auto Vp8 = proto::Encoding::Vp8, Vp9 = proto::Encoding::Vp9;
+  // A smaller frame costs more a pixel: a megapixel's 40 ms in VP9 is 41.2 ms at 1024² (1.05 megapixels), 29.1 at
+  // 0.75, 17.9 at 0.5, 12.7 at 0.375 and 7.8 at 0.25 of its sides, not 41.9, 23.6, 10.5, 5.9 and 2.6 as in
+  // proportion to the pixels; VP8's time is nearer that proportion: 41.5, 26.9, 14.7, 9.5, 5.2.
+  EXPECT_NEAR(VideoStream::expectedMs(Vp9, 40, 1024 * 1024 / 1e6 * 0.25), 17.91, 0.01);
+  EXPECT_NEAR(VideoStream::expectedMs(Vp8, 40, 1024 * 1024 / 1e6 * 0.25), 14.65, 0.01);
+  EXPECT_EQ(VideoStream::expectedMs(Vp9, 40, 1), 40);
+  EXPECT_EQ(VideoStream::scaleForEncoders(Vp9, 40, 12.5, 1024, 1024, 1), 0.25);
+  EXPECT_EQ(VideoStream::scaleForEncoders(Vp8, 40, 12.5, 1024, 1024, 1), 0.375);
+  EXPECT_EQ(VideoStream::scaleForEncoders(Vp9, 40, 20, 1024, 1024, 1), 0.5);
+  EXPECT_EQ(VideoStream::scaleForEncoders(Vp9, 40, 50, 1024, 1024, 1), 1);
+  EXPECT_EQ(VideoStream::scaleForEncoders(Vp9, 40, 0.1, 1024, 1024, 1), 0.25) << "never smaller than the last scale";
+  EXPECT_EQ(VideoStream::scaleForEncoders(Vp9, 0, 12.5, 1024, 1024, 1), 1) << "a cost not yet measured";
+  EXPECT_EQ(VideoStream::scaleForEncoders(Vp9, 40, 0, 1024, 1024, 1), 1) << "no share: no limit";
+  // Growing needs room to spare (kGrowWithin): 9 ms for a megapixel is 9.3 ms at full size, within a share of 10 for
+  // a stream already at full size, not for one at 0.75 (7.5 ms of room).
+  EXPECT_EQ(VideoStream::scaleForEncoders(Vp9, 9, 10, 1024, 1024, 1), 1);
+  EXPECT_EQ(VideoStream::scaleForEncoders(Vp9, 9, 10, 1024, 1024, 0.75), 0.75);
 }
 
 TEST(VideoStream, AStreamSlowerThanItsShareOfTheEncodersIsSentSmallerAndGrowsBackWhenTheCrowdLeaves) {
