@@ -60,32 +60,28 @@ for ((i = 0; i < ${#frames[@]}; i += 3)); do thirds+=("${frames[$i]}"); done
   --scales 1,0.75,0.5,0.375 -- "${thirds[@]}" > /dev/null
 python3 - "$work/encoder-ladder" bench/results/video/encoder-ladder "$clients" "$size" "$codec" "$renderThreads" \
   "$duration" "$rounds" "$kbps" <<'PY'
-import csv, datetime, json, statistics, sys
+import csv, datetime, sys
+sys.path.insert(0, 'bench')
+from video_crowd import crowd_row, median_of, range_of
 work, out, clients, size, codec, threads, duration, rounds, kbps = sys.argv[1:10]
 cpu = next((l.split(':', 1)[1].strip() for l in open('/proc/cpuinfo') if l.startswith('model name')), '?')
 rows = []
 for r in range(1, int(rounds) + 1):
     for ladder in ('false', 'true'):
-        j = json.load(open(f'{work}/{ladder}-{r}.json'))
-        v = j['server']['video']
-        fps = [c['frames_per_s'] for c in j['per_client']]
-        frames = sum(v['encoded'][c]['frames'] for c in ('vp8', 'vp9'))
-        enc = sum(v['encoded'][c]['encode_ms_mean'] * v['encoded'][c]['frames'] for c in ('vp8', 'vp9')) / max(1, frames)
+        row = crowd_row(f'{work}/{ladder}-{r}.json')
         rows.append({'encoder_ladder': 'on' if ladder == 'true' else 'off', 'round': r,
-                     'fps_min': round(min(fps), 2), 'fps_max': round(max(fps), 2), 'jain': round(j['jain_index'], 3),
-                     'latency_p50_ms': round(j['latency_ms']['p50']), 'latency_p99_ms': round(j['latency_ms']['p99']),
-                     'bytes_per_frame': round(j['payload_bytes_per_frame']), 'encode_ms_mean': round(enc, 1),
-                     'video_frames': frames, 'scaled_for_encoders': v['scaled_frames']['encoders'],
-                     'size_key_frames': v['key_frames']['size'], 'errors': j['errors']})
+                     **{k: row[k] for k in ('fps_min', 'fps_max', 'jain', 'latency_p50_ms', 'latency_p99_ms',
+                                            'bytes_per_frame', 'encode_ms_mean', 'video_frames')},
+                     'scaled_for_encoders': row['scaled_frames']['encoders'],
+                     'size_key_frames': row['size_key_frames'], 'errors': row['errors']})
 with open(out + '.csv', 'w', newline='') as f:
     w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
     w.writeheader()
     w.writerows(rows)
 def med(mode, key):
-    return statistics.median(r[key] for r in rows if r['encoder_ladder'] == mode)
+    return median_of(rows, 'encoder_ladder', mode, key)
 def rng(mode, key):
-    vals = [r[key] for r in rows if r['encoder_ladder'] == mode]
-    return f'{min(vals)}–{max(vals)}' if min(vals) != max(vals) else f'{vals[0]}'
+    return range_of(rows, 'encoder_ladder', mode, key)
 psnr = list(csv.DictReader(open(out + '-psnr.csv')))
 md = ['# The crowd\'s ladder on the encoder threads: off against on', '',
       f'- Command: `bash bench/run_encoder_ladder.sh --clients {clients} --size {size} --codec {codec} --render-threads '

@@ -110,7 +110,9 @@ for round in $(seq "$rounds"); do
 done
 python3 - "$out" "$dest" "$clients" "$size" "$codec" "$renderThreads" "$duration" "$rounds" "$views" "$old" "$new" \
   "$serveArgs" <<'PY'
-import csv, datetime, json, os, statistics, sys
+import csv, datetime, os, statistics, sys
+sys.path.insert(0, 'bench')
+from video_crowd import crowd_row, median_of, range_of
 out, dest, clients, size, codec, threads, duration, rounds, views, old, new, serveArgs = sys.argv[1:13]
 cpu = next((l.split(':', 1)[1].strip() for l in open('/proc/cpuinfo') if l.startswith('model name')), '?')
 def commit(binary):
@@ -119,26 +121,17 @@ def commit(binary):
 rows = []
 for r in range(1, int(rounds) + 1):
     for build in ('old', 'new'):
-        j = json.load(open(f'{out}/{build}-{r}.json'))
-        v = j['server']['video']
-        fps = [c['frames_per_s'] for c in j['per_client']]
-        frames = sum(v['encoded'][c]['frames'] for c in ('vp8', 'vp9'))
-        enc = sum(v['encoded'][c]['encode_ms_mean'] * v['encoded'][c]['frames'] for c in ('vp8', 'vp9')) / max(1, frames)
-        rows.append({'build': build, 'round': r, 'fps_min': round(min(fps), 2), 'fps_max': round(max(fps), 2),
-                     'jain': round(j['jain_index'], 3), 'latency_p50_ms': round(j['latency_ms']['p50']),
-                     'latency_p99_ms': round(j['latency_ms']['p99']), 'render_ms_p50': round(j['render_ms_p50'], 1),
-                     'encode_ms_mean': round(enc, 1), 'bytes_per_frame': round(j['payload_bytes_per_frame']),
-                     'video_frames': frames, 'scaled_frames': sum(v['scaled_frames'].values()),
-                     'size_key_frames': v['key_frames']['size'], 'errors': j['errors']})
+        row = crowd_row(f'{out}/{build}-{r}.json')
+        row['scaled_frames'] = sum(row['scaled_frames'].values())
+        rows.append({'build': build, 'round': r, **row})
 with open(dest + '.csv', 'w', newline='') as f:
     w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
     w.writeheader()
     w.writerows(rows)
 def med(build, key):
-    return statistics.median(r[key] for r in rows if r['build'] == build)
+    return median_of(rows, 'build', build, key)
 def rng(build, key):
-    vals = [r[key] for r in rows if r['build'] == build]
-    return f'{min(vals)}–{max(vals)}' if min(vals) != max(vals) else f'{vals[0]}'
+    return range_of(rows, 'build', build, key)
 psnr = list(csv.DictReader(open(dest + '-psnr.csv'))) if int(views) > 0 else []
 extra = f" --serve-args '{serveArgs}'" if serveArgs else ''
 md = ['# Moving frames drawn at their video stream\'s size' if not serveArgs else '# Two builds under a crowd of video streams', '',

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <memory>
 
 #include "render/core/Interactive.h"
 #include "render/core/RenderErrors.h"
@@ -26,10 +27,15 @@ Scene blobScene() {
   return scene;
 }
 
+/// The blobs at 96³ in bricks of 16, prepped in `dir` and opened.
+std::shared_ptr<const Dataset> blobs(const ScratchDir& dir) {
+  test::prep("synthetic:blobs,n=96", dir / "blobs", 16);
+  return openDataset("blobs", dir / "blobs", size_t(256) << 20);
+}
+
 TEST(InteractiveFrames, ASmallBudgetDrawsFewerSamplesScaledUpToTheRequestedSize) {
   ScratchDir dir;
-  test::prep("synthetic:blobs,n=96", dir / "blobs", 16);
-  const auto dataset = openDataset("blobs", dir / "blobs", size_t(256) << 20);
+  const auto dataset = blobs(dir);
   RenderEngine engine({});
   Scene scene = blobScene();
   FrameStats exact;
@@ -66,8 +72,7 @@ TEST(InteractiveFrames, ASmallBudgetDrawsFewerSamplesScaledUpToTheRequestedSize)
 
 TEST(InteractiveFrames, AFrameForASmallerVideoStreamIsDrawnAndReturnedAtItsSize) {
   ScratchDir dir;
-  test::prep("synthetic:blobs,n=96", dir / "blobs", 16);
-  const auto dataset = openDataset("blobs", dir / "blobs", size_t(256) << 20);
+  const auto dataset = blobs(dir);
   RenderEngine engine({});
   Scene scene = blobScene();
   FrameStats exact;
