@@ -21,6 +21,7 @@
 #include "server/Datasets.h"
 #include "server/ErrorReply.h"
 #include "server/MessageHandler.h"
+#include "server/VideoMemory.h"
 
 namespace voxbrick::server {
 namespace {
@@ -635,6 +636,48 @@ TEST_F(ConnectionTest, AnExactFrameTakesThePlaceOfItsOwnVideoFrameWaitingToBeEnc
   const nlohmann::json video = nlohmann::json::parse(frame.statsJson)["video"];
   EXPECT_TRUE(video["key"].get<bool>());
   EXPECT_EQ(video["key_reason"], "size");
+}
+
+// A moving frame drawn at its stream's smaller size (RenderJob::outputScale) for which no encoder fits in the video
+// memory goes as a still JPEG of the scene's size, as every frame of the scene does, scaled up from the drawing.
+TEST_F(ConnectionTest, AFrameDrawnSmallerForItsStreamGoesAsAStillOfTheScenesSizeWhereNoEncoderFits) {
+  VideoMemory memory(1);  // no encoder fits
+  SessionServices withVideo = services;
+  withVideo.video = &memory;
+  auto link = std::make_shared<FakeTransport>();
+  Connection session{*link, withVideo, ConnectionId{8}, "test:2"};
+  const auto written = [&] {
+    while (!link->asides.empty() || link->writing) {
+      link->runAsides();
+      while (link->writing) link->writing = false, session.written(true);
+    }
+  };
+  session.start();
+  session.received(proto::encode(proto::Hello{1, 4, "test"}, 1, proto::kVersion));
+  written();
+  ASSERT_TRUE(session.state().greeted);
+  RenderJob job;
+  job.requestId = 3;
+  job.scene.width = job.scene.height = 64;
+  job.scene.interactive = true;
+  job.outputScale = 0.5;
+  std::vector<uint8_t> pixels(32 * 32 * 4, 255);
+  for (size_t i = 0; i < pixels.size(); i += 4) pixels[i] = uint8_t(i / 4), pixels[i + 1] = 90;
+  session.rendered(job, proto::Frame{32, 32, proto::Encoding::Vp8, R"({"provisional": true})", pixels});
+  written();
+  ASSERT_EQ(link->writes.size(), 2u);
+  const auto [message, id] = decoded(link->writes[1]);
+  EXPECT_EQ(id, 3u);
+  const auto& frame = std::get<proto::Frame>(message);
+  EXPECT_EQ(frame.encoding, proto::Encoding::Jpeg);
+  EXPECT_EQ(frame.width, 64u);
+  EXPECT_EQ(frame.height, 64u);
+  EXPECT_EQ(nlohmann::json::parse(frame.statsJson)["video_fallback"], "memory") << frame.statsJson;
+  const image::Image8 shown = image::FrameDecoder().decode(frame);
+  EXPECT_EQ(shown.width, 64);
+  EXPECT_EQ(shown.height, 64);
+  // The drawing's first row, scaled up: its red channel rises along the row as the drawing's did.
+  EXPECT_LT(shown.rgba[0], shown.rgba[4 * 60]);
 }
 
 // Render threads finish a session's frames out of order: a video frame whose Render arrived before that of the frame
