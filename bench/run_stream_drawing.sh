@@ -134,7 +134,9 @@ def rng(build, key):
     return range_of(rows, 'build', build, key)
 psnr = list(csv.DictReader(open(dest + '-psnr.csv'))) if int(views) > 0 else []
 extra = f" --serve-args '{serveArgs}'" if serveArgs else ''
-md = ['# Moving frames drawn at their video stream\'s size' if not serveArgs else '# Two builds under a crowd of video streams', '',
+title = ('Moving frames drawn at their video stream\'s size' if int(views) > 0 else
+         f'Two builds under a crowd of {codec} moving frames')
+md = [f'# {title}', '',
       f'- Command: `bash bench/run_stream_drawing.sh OLD_VOXBRICK --clients {clients} --size {size} --codec {codec} '
       f'--render-threads {threads} --duration {duration} --rounds {rounds} --views {views} --out {dest}{extra}`;',
       f'  OLD is {commit(old)}, NEW {commit(new)}.',
