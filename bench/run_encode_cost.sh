@@ -34,6 +34,8 @@ for r in $(seq "$rounds"); do
 done
 python3 - "$out" bench/results/video/encode-cost "$size" "$kbps" "$rounds" "${#thirds[@]}" <<'PY'
 import csv, datetime, glob, math, re, statistics, sys
+sys.path.insert(0, 'bench')
+from video_crowd import write_rows
 out, dest, size, kbps, rounds, frames = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4], sys.argv[5], sys.argv[6]
 cpu = next((l.split(':', 1)[1].strip() for l in open('/proc/cpuinfo') if l.startswith('model name')), '?')
 ms = {}
@@ -57,10 +59,7 @@ for codec in ('vp8', 'vp9'):
     mx = statistics.mean(p[0] for p in points)
     my = statistics.mean(p[1] for p in points)
     fits[codec] = sum((x - mx) * (y - my) for x, y in points) / sum((x - mx) ** 2 for x, _ in points)
-with open(dest + '.csv', 'w', newline='') as f:
-    w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-    w.writeheader()
-    w.writerows(rows)
+write_rows(dest + '.csv', rows)
 md = ['# What a video frame costs to encode at each stream size', '',
       f'- Command: `bash bench/run_encode_cost.sh --size {size} --kbps {kbps} --rounds {rounds}` (bench_video, {frames} '
       f'frames of the MRI\'s {size}² turn, one encoder thread, {kbps} kbit/s at every size, each frame scaled before its '

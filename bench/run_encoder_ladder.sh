@@ -62,7 +62,7 @@ python3 - "$work/encoder-ladder" bench/results/video/encoder-ladder "$clients" "
   "$duration" "$rounds" "$kbps" <<'PY'
 import csv, datetime, sys
 sys.path.insert(0, 'bench')
-from video_crowd import crowd_row, median_of, range_of
+from video_crowd import crowd_row, median_of, range_of, write_rows
 work, out, clients, size, codec, threads, duration, rounds, kbps = sys.argv[1:10]
 cpu = next((l.split(':', 1)[1].strip() for l in open('/proc/cpuinfo') if l.startswith('model name')), '?')
 rows = []
@@ -74,14 +74,9 @@ for r in range(1, int(rounds) + 1):
                                             'bytes_per_frame', 'encode_ms_mean', 'video_frames')},
                      'scaled_for_encoders': row['scaled_frames']['encoders'],
                      'size_key_frames': row['size_key_frames'], 'errors': row['errors']})
-with open(out + '.csv', 'w', newline='') as f:
-    w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-    w.writeheader()
-    w.writerows(rows)
-def med(mode, key):
-    return median_of(rows, 'encoder_ladder', mode, key)
-def rng(mode, key):
-    return range_of(rows, 'encoder_ladder', mode, key)
+write_rows(out + '.csv', rows)
+med = lambda value, key: median_of(rows, 'encoder_ladder', value, key)
+rng = lambda value, key: range_of(rows, 'encoder_ladder', value, key)
 psnr = list(csv.DictReader(open(out + '-psnr.csv')))
 md = ['# The crowd\'s ladder on the encoder threads: off against on', '',
       f'- Command: `bash bench/run_encoder_ladder.sh --clients {clients} --size {size} --codec {codec} --render-threads '

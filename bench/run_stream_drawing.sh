@@ -112,7 +112,7 @@ python3 - "$out" "$dest" "$clients" "$size" "$codec" "$renderThreads" "$duration
   "$serveArgs" <<'PY'
 import csv, datetime, os, statistics, sys
 sys.path.insert(0, 'bench')
-from video_crowd import crowd_row, median_of, range_of
+from video_crowd import crowd_row, median_of, range_of, write_rows
 out, dest, clients, size, codec, threads, duration, rounds, views, old, new, serveArgs = sys.argv[1:13]
 cpu = next((l.split(':', 1)[1].strip() for l in open('/proc/cpuinfo') if l.startswith('model name')), '?')
 def commit(binary):
@@ -124,14 +124,9 @@ for r in range(1, int(rounds) + 1):
         row = crowd_row(f'{out}/{build}-{r}.json')
         row['scaled_frames'] = sum(row['scaled_frames'].values())
         rows.append({'build': build, 'round': r, **row})
-with open(dest + '.csv', 'w', newline='') as f:
-    w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-    w.writeheader()
-    w.writerows(rows)
-def med(build, key):
-    return median_of(rows, 'build', build, key)
-def rng(build, key):
-    return range_of(rows, 'build', build, key)
+write_rows(dest + '.csv', rows)
+med = lambda value, key: median_of(rows, 'build', value, key)
+rng = lambda value, key: range_of(rows, 'build', value, key)
 psnr = list(csv.DictReader(open(dest + '-psnr.csv'))) if int(views) > 0 else []
 extra = f" --serve-args '{serveArgs}'" if serveArgs else ''
 title = ('Moving frames drawn at their video stream\'s size' if int(views) > 0 else

@@ -1,5 +1,7 @@
-"""What a crowd of `voxbrick load --provisional-encoding vp8|vp9` clients saw, from its --json file: the figures the
-video crowd benchmarks (run_encoder_ladder.sh, run_stream_drawing.sh) tabulate side by side, and their medians."""
+"""What a crowd of `voxbrick load --provisional-encoding ...` clients saw, from its --json file: the figures the video
+benchmarks (run_encoder_ladder.sh, run_stream_drawing.sh) tabulate side by side, their medians, and the CSV they keep
+(run_encode_cost.sh too)."""
+import csv
 import json
 import statistics
 
@@ -28,3 +30,11 @@ def range_of(rows, column, value, key):
     """`key`'s range over those rows, 'lo–hi' (one value where they agree)."""
     vals = [r[key] for r in rows if r[column] == value]
     return f'{min(vals)}–{max(vals)}' if min(vals) != max(vals) else f'{vals[0]}'
+
+
+def write_rows(path, rows):
+    """`rows` (dicts with the same keys) as a CSV file with a header line."""
+    with open(path, 'w', newline='') as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        w.writerows(rows)
