@@ -272,9 +272,8 @@ void Connection::pumpVideo() {
   task->input.bitrateKbps = mPacer.videoKbps(VideoStream::startKbps(width, height),
                                              VideoStream::capKbps(width, height), now, videoPaceMs());
   if (mServices.video && mServices.config.scheduler.encoderLadder)
-    task->input.encodeShareMs = VideoStream::encoderShareMs(mServices.config.encodeThreads,
-                                                            mServices.config.scheduler.interactiveFps,
-                                                            mServices.video->moving(now));
+    task->input.encodeShareMs = frameShareMs(size_t(mServices.config.encodeThreads),
+                                             mServices.config.scheduler.interactiveFps, mServices.video->moving(now));
   mVideoNeedsKey = false;
   mVideoEncoding = true;
   mTransport.runAside(

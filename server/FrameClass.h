@@ -24,6 +24,13 @@ constexpr std::span<const common::EnumName<FrameClass>> enumNames(FrameClass) { 
 inline constexpr std::array<FrameClass, kFrameClasses> kAllFrameClasses = {FrameClass::Interactive, FrameClass::Still,
                                                                            FrameClass::Batch};
 
+/// The time one frame may take, ms, for `sessions` sessions (at least one) sharing `threads` threads each to get
+/// `fps` frames a second: threads * 1000 / (fps * sessions). The render threads' share of a dragging session
+/// (RenderScheduler: its frame's time budget) and the encoder threads' of a moving video stream (VideoStream).
+inline double frameShareMs(size_t threads, double fps, size_t sessions) {
+  return double(std::max<size_t>(1, threads)) * 1000 / (std::max(1e-3, fps) * double(std::max<size_t>(1, sessions)));
+}
+
 /// How a pool of threads is shared between the classes, as the render scheduler and the encoder queue both serve:
 /// start-time fair queueing of measured time between classes (a class's tag is its time charged over its weight; the
 /// class with the smallest tag goes next, ties to the earlier class; a class that had no work starts again at the tag

@@ -275,8 +275,7 @@ std::optional<uint32_t> RenderScheduler::refuseNewSession() const {
 void RenderScheduler::fitToLoadLocked(RenderJob& job, Clock::time_point now) const {
   // Quality yields before latency: with N sessions dragging on T threads, each gets T / N of the render time, so
   // a frame may take T * 1000 / (fps * N) ms for every session to see `fps` frames a second.
-  const double sessions = double(std::max<size_t>(1, interactiveSessionsLocked(now)));
-  const double share = double(mSources.size()) * 1000 / (mConfig.interactiveFps * sessions);
+  const double share = frameShareMs(mSources.size(), mConfig.interactiveFps, interactiveSessionsLocked(now));
   const double asked = job.scene.timeBudgetMs;
   const double budget = std::clamp(share, render::SceneDelivery::kMinTimeBudgetMs, asked);
   if (budget >= asked) return;

@@ -18,6 +18,12 @@ double msBetween(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double, std::milli>(b - a).count();
 }
 
+/// The machine's cores, read once: std::thread::hardware_concurrency reads sysfs each time, and every frame asks.
+int cores() {
+  static const int kCores = int(std::thread::hardware_concurrency());
+  return kCores;
+}
+
 double kbpsAt(int width, int height, double bitsPerPixel) { return double(width) * height * bitsPerPixel * 30 / 1000; }
 
 }  // namespace
@@ -30,10 +36,6 @@ double VideoStream::scaleFor(double kbps, int width, int height) {
   for (const double scale : kScales)
     if (kbps * 1000 / (30 * pixels * scale * scale) >= kMinBitsPerPixel) return scale;
   return kScales[std::size(kScales) - 1];
-}
-
-double VideoStream::encoderShareMs(int threads, double fps, size_t moving) {
-  return double(std::max(1, threads)) * 1000 / (std::max(1e-3, fps) * double(std::max<size_t>(1, moving)));
 }
 
 double VideoStream::costExponent(proto::Encoding codec) { return codec == proto::Encoding::Vp9 ? 0.6 : 0.75; }
@@ -107,10 +109,9 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
                                                     : VideoScaledFor::None,
                               input.drawn);
   VideoScaledFor scaledFor = mScaledFor;
-  const int cores = int(std::thread::hardware_concurrency());
   if (mMemory) {
     const double forMemory = scaleForMemory(frame.encoding, fullWidth, fullHeight,
-                                            uint64_t(kMemoryShare * double(mMemory->limit())), cores);
+                                            uint64_t(kMemoryShare * double(mMemory->limit())), cores());
     if (forMemory < scale) scale = forMemory, scaledFor = VideoScaledFor::Memory;
   }
   // (At the bitrate's floor of 1 kbit/s a side is only scaled to a quarter beyond 146 pixels: never below 36.)
@@ -122,7 +123,7 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
     mEncoder.reset();  // a failed construction leaves none
     image::VideoSettings settings;
     settings.width = width, settings.height = height, settings.bitrateKbps = kbps;
-    settings.threads = image::videoThreadsFor(frame.encoding, width, height, cores);
+    settings.threads = image::videoThreadsFor(frame.encoding, width, height, cores());
     if (mMemory && !mMemory->reserve(*this, image::videoEncoderBytes(frame.encoding, width, height, settings.threads),
                                      start)) {
       mNoRoom = true;

@@ -27,8 +27,8 @@ struct VideoFrameInput {
   double bitrateKbps = 0;         ///< the target the session's link allows (LinkPacer::videoKbps)
   std::chrono::steady_clock::time_point drawn;     ///< when its pixels were ready (the stream's timestamps)
   std::chrono::steady_clock::time_point received;  ///< when its Render arrived (for the frame's encode_start_ms)
-  /// The encoder time the crowd leaves the frame, ms: the encoder threads' time over the streams moving at
-  /// scheduler.interactive_fps (Connection). 0: no limit.
+  /// The encoder time the crowd leaves the frame, ms: the encoder threads' share of each stream moving at
+  /// scheduler.interactive_fps (frameShareMs; Connection). 0: no limit.
   double encodeShareMs = 0;
   /// The scene's size, which the frame may have been drawn smaller than (at the stream's scale, RenderJob's
   /// outputScale); 0: the frame's own.
@@ -83,10 +83,6 @@ class VideoStream final : public VideoMemory::Holder {
   static double scaleForEncoders(proto::Encoding codec, double msForAMegapixel, double shareMs, int width, int height,
                                  double current);
   static constexpr double kGrowWithin = 0.75;
-  /// The encoder time a moving frame may take with `moving` streams (at least one) sharing `threads` encoder threads
-  /// for each to get `fps` frames a second: threads * 1000 / (fps * moving) ms, as the render threads' share is
-  /// reckoned (RenderScheduler).
-  static double encoderShareMs(int threads, double fps, size_t moving);
   /// The most of the server's video memory (memory.video_mb) one stream's encoder may hold: a quarter, so that a
   /// stream of any size leaves room for three more (a client asking VP9 at 4096² would hold 1.4 GiB of the default
   /// 4 GiB, and three such left a fourth session JPEG).

@@ -49,8 +49,8 @@ Scene interactiveScene(const Scene& scene, const InteractiveRung& rung, double m
   Scene s = scene;
   s.interactive = false;
   const double scale = reducedScale(scene, std::min(rung.scale, maxScale));
-  s.width = std::min(scene.width, scaledSide(scene.width, scale));
-  s.height = std::min(scene.height, scaledSide(scene.height, scale));
+  s.width = scaledSide(scene.width, scale);
+  s.height = scaledSide(scene.height, scale);
   s.step = std::min(scene.step * rung.stepFactor, 64.0);
   if (rung.lodFactor > 1)
     s.lod = std::min(scene.lod > 0 ? scene.lod * rung.lodFactor : rung.lodFactor - 1, Scene::kMaxLod);

@@ -14,6 +14,7 @@
 
 #include "image/FrameImage.h"
 #include "image/Video.h"
+#include "server/FrameClass.h"
 #include "server/VideoMemory.h"
 #include "server/VideoStream.h"
 #include "support/MadeUpTime.h"
@@ -242,10 +243,10 @@ TEST(VideoMemory, TheStreamsMovingAreThoseWithAFrameWithinTheIdleTime) {
 }
 
 TEST(VideoStream, TheEncodersShareIsTheirTimeOverTheStreamsMoving) {
-  EXPECT_EQ(VideoStream::encoderShareMs(2, 10, 16), 12.5) << "two threads, 16 streams at 10 frames a second";
-  EXPECT_EQ(VideoStream::encoderShareMs(2, 10, 1), 200);
-  EXPECT_EQ(VideoStream::encoderShareMs(2, 10, 0), 200) << "a stream not yet counted counts as one";
-  EXPECT_EQ(VideoStream::encoderShareMs(8, 20, 4), 100);
+  EXPECT_EQ(frameShareMs(2, 10, 16), 12.5) << "two threads, 16 streams at 10 frames a second";
+  EXPECT_EQ(frameShareMs(2, 10, 1), 200);
+  EXPECT_EQ(frameShareMs(2, 10, 0), 200) << "a stream not yet counted counts as one";
+  EXPECT_EQ(frameShareMs(8, 20, 4), 100);
 }
 
 TEST(VideoStream, TheScaleForTheEncodersIsTheLargestExpectedToEncodeWithinItsShare) {
