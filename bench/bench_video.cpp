@@ -6,12 +6,15 @@
 //
 //   bench_video --csv OUT.csv --fps 30 FRAME.png... [--qualities 50,70,85] [--kbps 1000,2000,4000] [--threads 1,4]
 //               [--scales 1,0.5] [--speeds 8,6] [--fixed-speed] [--rate-control cbr,vbr] [--aq 3,0]
-//               [--start-frames 11,0] [--streams DIR] [--times FILE] [--max-frame-ms 33.3,0]
+//               [--start-frames 11,0] [--streams DIR] [--times FILE] [--max-frame-ms 33.3,0] [--references DIR]
 //
 // --times: the times (ms, one a line or space apart) at which a client was shown a drag's frames, as a browser
 // recorded them (bench/browser_link.mjs --frames-out): the stream is fed one frame at each time, the drag's frame of
 // that moment (frames skipped where the gaps are long), in place of every frame at --fps. --max-frame-ms: the most
-// time a frame's bits are reckoned over (image::VideoSettings::maxFrameMs; 0: the real gap).
+// time a frame's bits are reckoned over (image::VideoSettings::maxFrameMs; 0: the real gap). --references: each
+// frame's PSNR is taken against the file of its name in DIR (the exact frame of its view, at any size: the decoded
+// frame is scaled to it, as a viewer shows it), in place of against the frame itself: for frames that are a cheaper
+// drawing of each view.
 //
 // Besides the whole drag's means, each row has its start's: the first kStartFrames frames (a third of a second at 30
 // frames a second), where the stream begins at a key frame.
@@ -79,16 +82,26 @@ double psnr(const image::Image8& a, const image::Image8& b) {
   return image::compareImages(image::toImageF(a), image::toImageF(b)).psnr;
 }
 
-Row jpegRow(const std::vector<image::Image8>& frames, int quality) {
+/// The PSNR of `shown` (a decoded frame of the drag's frame `i`) against its reference (--references) scaled to the
+/// reference's size, or against `frame` itself (shown scaled to its size).
+double shownPsnr(const image::Image8& shown, const image::Image8& frame, const std::vector<image::Image8>& references,
+                 size_t i) {
+  const image::Image8& against = references.empty() ? frame : references[i];
+  return psnr(against, image::scaleImage(shown, against.width, against.height));
+}
+
+Row jpegRow(const std::vector<image::Image8>& frames, const std::vector<image::Image8>& references, int quality) {
   Row row{"jpeg", "q" + std::to_string(quality)};
-  for (const image::Image8& frame : frames) {
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const image::Image8& frame = frames[i];
     auto start = Clock::now();
     proto::Frame sent{uint32_t(frame.width), uint32_t(frame.height), proto::Encoding::Jpeg, "{}",
                       image::encodeFrameImage(frame, proto::Encoding::Jpeg, quality)};
     const double encodeMs = msSince(start);
     start = Clock::now();
     const image::Image8 shown = image::decodeFrameImage(sent);
-    accumulate(row, sent.payload.size(), psnr(frame, shown), encodeMs, msSince(start));
+    const double decodeMs = msSince(start);
+    accumulate(row, sent.payload.size(), shownPsnr(shown, frame, references, i), encodeMs, decodeMs);
   }
   finish(row, frames.size());
   return row;
@@ -113,8 +126,8 @@ Feed feedOf(size_t frames, double fps, const std::vector<double>& times) {
 /// A stream of the frames scaled by `scale` (1: as they are) with `settings` (its size aside), each decoded
 /// frame scaled back to the frame's size before its PSNR is taken (as a viewer shows a smaller stream). The row's
 /// setting names the bitrate and whatever differs from the server's defaults.
-Row videoRow(const std::vector<image::Image8>& frames, const Feed& feed, proto::Encoding codec, double scale,
-             image::VideoSettings settings, const std::string& streamsDir) {
+Row videoRow(const std::vector<image::Image8>& frames, const std::vector<image::Image8>& references, const Feed& feed,
+             proto::Encoding codec, double scale, image::VideoSettings settings, const std::string& streamsDir) {
   const image::VideoSettings defaults;
   std::string setting = std::to_string(settings.bitrateKbps) + " kbit/s";
   if (settings.threads > 1) setting += "; " + std::to_string(settings.threads) + " threads";
@@ -156,8 +169,9 @@ Row videoRow(const std::vector<image::Image8>& frames, const Feed& feed, proto::
     const image::VideoChunk chunk = encoder.encode(sized, feed.ms[i]);
     const double encodeMs = msSince(start);
     start = Clock::now();
-    const image::Image8 shown = image::scaleImage(decoder.decode(chunk.bytes), frame.width, frame.height);
-    accumulate(row, chunk.bytes.size(), psnr(frame, shown), encodeMs, msSince(start));
+    const image::Image8 decoded = decoder.decode(chunk.bytes);
+    const double decodeMs = msSince(start);
+    accumulate(row, chunk.bytes.size(), shownPsnr(decoded, frame, references, feed.frame[i]), encodeMs, decodeMs);
     if (chunk.key) row.keyBytes = double(chunk.bytes.size());
     if (stream.is_open()) {
       const uint32_t n = uint32_t(chunk.bytes.size());
@@ -189,9 +203,10 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads, "encoder threads (each a row of every bitrate; the server's choice is "
                                        "image::videoThreadsFor)")->delimiter(',');
   app.add_option("--scales", scales, "stream sizes as fractions of the frames' (each a row of every bitrate; the "
-                                     "decoded frame is scaled back up for its PSNR)")
+                                     "decoded frame is scaled back to the frame's size for its PSNR); above 1, a "
+                                     "drawing scaled up to the stream's size, as the server does a reduced one")
       ->delimiter(',')
-      ->check(CLI::Range(0.05, 1.0));
+      ->check(CLI::Range(0.05, 8.0));
   app.add_option("--speeds", speeds, "libvpx realtime speeds (VP8 4..16, VP9 5..9; each a row of every bitrate)")
       ->delimiter(',');
   bool fixedSpeed = false;
@@ -225,6 +240,10 @@ int main(int argc, char** argv) {
                                                "every bitrate)")
       ->delimiter(',')
       ->check(CLI::Range(0.0, 10000.0));
+  std::string referencesDir;
+  app.add_option("--references", referencesDir, "a folder of each frame's reference, of the frame's file name (the "
+                                               "exact frame of its view, at any size): PSNR against it")
+      ->check(CLI::ExistingDirectory);
   app.add_option("frames", paths, "the drag's lossless frames, in order")->required();
   CLI11_PARSE(app, argc, argv);
   try {
@@ -241,9 +260,13 @@ int main(int argc, char** argv) {
       if (!std::is_sorted(times.begin(), times.end()))
         throw image::ImageFailure("bench_video: the times of " + timesPath + " go back");
     }
+    std::vector<image::Image8> references;
+    if (!referencesDir.empty())
+      for (const std::string& path : paths)
+        references.push_back(image::readPng(referencesDir + "/" + std::filesystem::path(path).filename().string()));
     const Feed feed = feedOf(frames.size(), fps, times);
     std::vector<Row> rows;
-    for (int q : qualities) rows.push_back(jpegRow(frames, q));
+    for (int q : qualities) rows.push_back(jpegRow(frames, references, q));
     for (const proto::Encoding codec : {proto::Encoding::Vp8, proto::Encoding::Vp9})
       for (int t : threads)
         for (double scale : scales)
@@ -260,7 +283,7 @@ int main(int argc, char** argv) {
                     settings.adaptiveSpeed = !fixedSpeed;
                     settings.constantBitrate = rc == "cbr";
                     settings.aqMode = aq;
-                    rows.push_back(videoRow(frames, feed, codec, scale, settings, streamsDir));
+                    rows.push_back(videoRow(frames, references, feed, codec, scale, settings, streamsDir));
                   }
     std::ofstream csv(csvPath);
     csv << "size,frames,fps,encoding,setting,bytes_per_frame,psnr_mean_db,psnr_min_db,encode_ms,decode_ms,key_bytes,"

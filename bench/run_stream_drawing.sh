@@ -10,14 +10,15 @@
 # 2. What it changes under a crowd: CLIENTS `voxbrick load --drag 30 --interactive 50` clients, each a VP9 stream of
 #    SIZE², drawing for real on RENDER_THREADS threads, against a fresh `voxbrick serve` of each build (OLD: a build
 #    whose moving frames are drawn at the scene's size, e.g. `bash bench/gpu/build_baseline.sh --commit 8997678 --dir
-#    bench/work/base-8997678`; NEW: this one), rounds alternating which goes first.
+#    bench/work/base-8997678`; NEW: this one), rounds alternating which goes first. NEW's `voxbrick load` is the client
+#    of both (it reports the drawings' and the streams' scales).
 # Writes OUT.{csv,md} and OUT-psnr.csv, OUT bench/results/video/stream-drawing by default. --views 0 leaves out the
 # PSNR; --serve-args "ARGS" gives both servers more options (e.g. "--replay-frames DIR --replay-draw-ms 10": frames
-# drawn beforehand, to compare two builds' encoders alone).
+# drawn beforehand, to compare two builds' encoders alone); --note "TEXT" a line under the title saying what differs.
 #
 #   bash bench/run_stream_drawing.sh OLD_VOXBRICK [NEW_VOXBRICK] [--clients 16] [--size 1024] [--codec vp9]
 #                                    [--render-threads 2] [--duration 20] [--rounds 3] [--views 6] [--out OUT]
-#                                    [--serve-args ARGS]
+#                                    [--serve-args ARGS] [--note TEXT]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 [ $# -ge 1 ] || { sed -n 2,16p "$0" >&2; exit 2; }
@@ -26,11 +27,12 @@ shift
 new=$(realpath build/voxbrick)
 if [ $# -gt 0 ] && [ "${1#--}" = "$1" ]; then new=$(realpath "$1"); shift; fi
 clients=16 size=1024 codec=vp9 renderThreads=2 duration=20 rounds=3 views=6 dest=bench/results/video/stream-drawing
-serveArgs=
+serveArgs= note=
 while [ $# -gt 0 ]; do
   case "$1" in
     --out) dest=$2; shift 2 ;;
     --serve-args) serveArgs=$2; shift 2 ;;
+    --note) note=$2; shift 2 ;;
     --clients) clients=$2; shift 2 ;;
     --size) size=$2; shift 2 ;;
     --codec) codec=$2; shift 2 ;;
@@ -100,7 +102,7 @@ for round in $(seq "$rounds"); do
     # shellcheck disable=SC2086
     serve_in_background run_stream_drawing.sh "$out/serve-$build-$round.log" "$bin" --datasets "$datasets" \
       --render-threads "$renderThreads" $serveArgs
-    "$bin" load "127.0.0.1:$port" --dataset mri --tf mri --clients "$clients" --size "${size}x${size}" --drag 30 \
+    "$new" load "127.0.0.1:$port" --dataset mri --tf mri --clients "$clients" --size "${size}x${size}" --drag 30 \
       --interactive 50 --provisional-encoding "$codec" --duration "$duration" --json "$out/$build-$round.json" \
       > /dev/null
     kill "$pid"
@@ -109,11 +111,11 @@ for round in $(seq "$rounds"); do
   done
 done
 python3 - "$out" "$dest" "$clients" "$size" "$codec" "$renderThreads" "$duration" "$rounds" "$views" "$old" "$new" \
-  "$serveArgs" <<'PY'
+  "$serveArgs" "$note" <<'PY'
 import csv, datetime, os, statistics, sys
 sys.path.insert(0, 'bench')
 from video_crowd import crowd_row, median_of, range_of, write_rows
-out, dest, clients, size, codec, threads, duration, rounds, views, old, new, serveArgs = sys.argv[1:13]
+out, dest, clients, size, codec, threads, duration, rounds, views, old, new, serveArgs, note = sys.argv[1:14]
 cpu = next((l.split(':', 1)[1].strip() for l in open('/proc/cpuinfo') if l.startswith('model name')), '?')
 def commit(binary):
     path = os.path.join(os.path.dirname(binary), 'COMMIT')
@@ -131,7 +133,7 @@ psnr = list(csv.DictReader(open(dest + '-psnr.csv'))) if int(views) > 0 else []
 extra = f" --serve-args '{serveArgs}'" if serveArgs else ''
 title = ('Moving frames drawn at their video stream\'s size' if int(views) > 0 else
          f'Two builds under a crowd of {codec} moving frames')
-md = [f'# {title}', '',
+md = [f'# {title}', ''] + ([note, ''] if note else []) + [
       f'- Command: `bash bench/run_stream_drawing.sh OLD_VOXBRICK --clients {clients} --size {size} --codec {codec} '
       f'--render-threads {threads} --duration {duration} --rounds {rounds} --views {views} --out {dest}{extra}`;',
       f'  OLD is {commit(old)}, NEW {commit(new)}.',
@@ -157,15 +159,17 @@ md += ['', f'## Under a crowd', '',
        f'fresh `voxbrick serve --render-threads {threads}` of each build', f'for each round, {drawing}; medians '
        f'of {rounds} rounds (the range over rounds after each):', '',
        '| build | frames/s a client, slowest | fastest | Jain | latency p50 ms | p99 ms | render ms p50 | '
-       'encode ms a frame | bytes a frame | frames sent smaller | size key frames | errors |',
-       '| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |']
+       'encode ms a frame | bytes a frame | frames sent smaller | size key frames | drawn at, p50 | sent at, p50 | '
+       'errors |',
+       '| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |']
 for build in ('old', 'new'):
     md.append(f"| {build} ({commit(old if build == 'old' else new)}) | {med(build, 'fps_min')} "
               f"({rng(build, 'fps_min')}) | {med(build, 'fps_max')} | {med(build, 'jain')} | "
               f"{med(build, 'latency_p50_ms')} ({rng(build, 'latency_p50_ms')}) | {med(build, 'latency_p99_ms')} "
               f"({rng(build, 'latency_p99_ms')}) | {med(build, 'render_ms_p50')} | {med(build, 'encode_ms_mean')} | "
               f"{med(build, 'bytes_per_frame')} | {med(build, 'scaled_frames')} of {med(build, 'video_frames')} | "
-              f"{med(build, 'size_key_frames')} | {sum(r['errors'] for r in rows if r['build'] == build)} |")
+              f"{med(build, 'size_key_frames')} | {med(build, 'drawn_scale_p50')} | {med(build, 'sent_scale_p50')} | "
+              f"{sum(r['errors'] for r in rows if r['build'] == build)} |")
 md.append('')
 open(dest + '.md', 'w').write('\n'.join(md))
 PY

@@ -8,7 +8,8 @@ import statistics
 
 def crowd_row(path):
     """The slowest and fastest client's frames a second, Jain's index, latency p50/p99, the video frames encoded and
-    their mean encode ms, bytes a frame, key frames for a new size, frames sent smaller by reason, and errors."""
+    their mean encode ms, bytes a frame, key frames for a new size, frames sent smaller by reason, the drawings' and
+    the streams' median scale (where the load client reports them), and errors."""
     j = json.load(open(path))
     v = j['server']['video']
     fps = [c['frames_per_s'] for c in j['per_client']]
@@ -18,7 +19,9 @@ def crowd_row(path):
             'latency_p50_ms': round(j['latency_ms']['p50']), 'latency_p99_ms': round(j['latency_ms']['p99']),
             'render_ms_p50': round(j['render_ms_p50'], 1), 'encode_ms_mean': round(enc, 1),
             'bytes_per_frame': round(j['payload_bytes_per_frame']), 'video_frames': frames,
-            'scaled_frames': v['scaled_frames'], 'size_key_frames': v['key_frames']['size'], 'errors': j['errors']}
+            'scaled_frames': v['scaled_frames'], 'size_key_frames': v['key_frames']['size'],
+            'drawn_scale_p50': (j.get('drawn_scale') or {}).get('p50', ''),
+            'sent_scale_p50': (j.get('sent_scale') or {}).get('p50', ''), 'errors': j['errors']}
 
 
 def median_of(rows, column, value, key):

@@ -194,6 +194,10 @@ std::optional<std::chrono::milliseconds> tallyDragReply(const proto::Message& m,
     if (stats.contains("encode_ms")) tally.encodeMs.push_back(stats["encode_ms"].get<double>());
     if (stats.contains("ms")) tally.renderMs.push_back(stats["ms"].value("total", 0.0));
     if (const auto budget = frameBudgetMs(stats)) tally.budgetMs.push_back(*budget);
+    if (stats.contains("interactive") && stats["interactive"].is_object())
+      tally.drawnScale.push_back(stats["interactive"].value("scale", 1.0));
+    if (stats.contains("video") && stats["video"].is_object())
+      tally.sentScale.push_back(stats["video"].value("scale", 1.0));
   } else if (!std::holds_alternative<proto::DatasetList>(m)) {  // a DatasetList answers the closing request
     ++tally.errors, ++mine.errors;
   }

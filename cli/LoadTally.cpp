@@ -51,6 +51,12 @@ std::vector<double> clientRates(const Tally& tally, double seconds) {
 
 json optionalNumber(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
 
+/// {"p10", "p50", "p90"} of `scales`; null when there are none.
+json scaleSpread(const std::vector<double>& scales) {
+  if (scales.empty()) return nullptr;
+  return {{"p10", percentile(scales, 0.1)}, {"p50", percentile(scales, 0.5)}, {"p90", percentile(scales, 0.9)}};
+}
+
 /// Each well-behaved client's figures, in index order.
 json perClient(const Tally& tally, double seconds) {
   json out = json::array();
@@ -114,6 +120,9 @@ json loadReport(const LoadArgs& a, const Tally& tally, double seconds, int width
       {"time_budget_ms", budget},
       {"provisional_encoding", a.provisionalEncoding.empty() ? json() : json(a.provisionalEncoding)},
       {"encode_ms_p50", tally.encodeMs.empty() ? json() : json(percentile(tally.encodeMs, 0.5))},
+      // Interactive frames: the drawing's and the video stream's sides as fractions of the scene's (p10, p50, p90).
+      {"drawn_scale", scaleSpread(tally.drawnScale)},
+      {"sent_scale", scaleSpread(tally.sentScale)},
       {"video",
        tally.videoFrames == 0 ? json()
                               : json{{"frames", tally.videoFrames},

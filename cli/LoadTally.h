@@ -34,6 +34,9 @@ struct Tally {
   std::vector<double> budgetMs;      ///< interactive frames: the time budget each was drawn to (its statistics)
   std::vector<double> decodeMs;      ///< dragging clients: each video frame's decoding time
   std::vector<double> encodeMs;      ///< dragging clients: each frame's encoding time on the server (its statistics)
+  /// Dragging clients' interactive frames: each drawing's scale (`interactive.scale`), and each video frame's stream
+  /// scale (`video.scale`), as fractions of the scene's sides.
+  std::vector<double> drawnScale, sentScale;
   int64_t videoFrames = 0, keyFrames = 0;  ///< video frames received (first replies and not), key frames among them
   int64_t frames = 0, errors = 0, superseded = 0, payloadBytes = 0;
   int64_t provisional = 0;       ///< dragging clients: first replies that were provisional frames

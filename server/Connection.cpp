@@ -271,6 +271,7 @@ void Connection::pumpVideo() {
   task->input.sceneWidth = width, task->input.sceneHeight = height;
   task->input.bitrateKbps = mPacer.videoKbps(VideoStream::startKbps(width, height),
                                              VideoStream::capKbps(width, height), now, videoPaceMs());
+  task->input.followDrawing = mServices.config.scheduler.streamFollowsDrawing;
   if (mServices.video && mServices.config.scheduler.encoderLadder)
     task->input.encodeShareMs = frameShareMs(size_t(mServices.config.encodeThreads),
                                              mServices.config.scheduler.interactiveFps, mServices.video->moving(now));

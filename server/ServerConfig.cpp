@@ -202,6 +202,7 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   scheduler.read("batch_weight", sc.batchWeight);
   scheduler.read("interactive_fps", sc.interactiveFps);
   scheduler.read("encoder_ladder", sc.encoderLadder);
+  scheduler.read("stream_follows_drawing", sc.streamFollowsDrawing);
   scheduler.read("reserved_interactive_threads", sc.reservedInteractiveThreads);
   scheduler.read("batch_max_wait_ms", sc.batchMaxWaitMs);
   scheduler.read("max_interactive_sessions", sc.maxInteractiveSessions);

@@ -30,6 +30,10 @@ struct SchedulerConfig {
   /// whose frames take more than E * 1000 / (interactive_fps * N) ms to encode is sent smaller (VideoStream), so
   /// that a crowd of streams gets its frames smaller rather than later. Off only to measure what it does.
   bool encoderLadder = true;
+  /// A video stream whose moving frames the crowd leaves drawn smaller than it is sent at the smallest size that
+  /// holds the drawing (VideoStream::scaleForDrawing), not the drawing scaled up to the stream's size and encoded
+  /// there. Off to measure what it does, or to keep a stream's size to its link and encoders alone.
+  bool streamFollowsDrawing = true;
   /// Render threads kept for interactive frames while any session drags (with two threads or more): still and batch
   /// frames take at most the others, so a long still frame never holds every thread a viewer waits for. The encoder
   /// threads keep as many for interactive frames while those come (EncoderQueue).

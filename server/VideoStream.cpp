@@ -55,6 +55,18 @@ double VideoStream::scaleForEncoders(proto::Encoding codec, double msForAMegapix
   return kScales[std::size(kScales) - 1];
 }
 
+double VideoStream::scaleForDrawing(double wantedScale, int width, int height) {
+  if (!(wantedScale > 0) || wantedScale >= 1) return 1;
+  const int shorter = std::min(width, height);
+  double chosen = 1;
+  // (The drawing's scale is its width's, rounded: a thousandth's leeway.)
+  for (const double scale : kScales) {
+    if (scale < wantedScale - 1e-3) break;
+    if (render::scaledSide(shorter, scale) >= kDrawingFloorSide) chosen = scale;
+  }
+  return chosen;
+}
+
 double VideoStream::scaleForMemory(proto::Encoding codec, int width, int height, uint64_t limitBytes, int cores) {
   if (limitBytes == 0) return 1;
   for (const double scale : kScales) {
@@ -65,16 +77,26 @@ double VideoStream::scaleForMemory(proto::Encoding codec, int width, int height,
 }
 
 double VideoStream::settledScale(double wanted, VideoScaledFor why, Clock::time_point now) {
-  if (wanted != mWanted) mWanted = wanted, mWantedSince = now;
   // A stream's first frame starts at the scale called for now.
-  if (!mEncoder || (mWanted != mScale && msBetween(mWantedSince, now) >=
-                                             (mWanted < mScale ? kShrinkAfterMs : kGrowAfterMs))) {
-    mScale = mWanted;
+  if (!mEncoder) {
+    mScale = wanted, mChange = 0;
+    mScaledFor = mScale == 1 ? VideoScaledFor::None : why;
+    return mScale;
   }
-  if (mScale == 1)
-    mScaledFor = VideoScaledFor::None;
-  else if (mScale == mWanted)
+  // A change is taken once every frame for the while has called for one the same way; to the least of them, so that
+  // a call that wavers between two smaller scales (a drawing between two rungs) settles on the larger.
+  const int change = wanted < mScale ? -1 : wanted > mScale ? 1 : 0;
+  if (change != mChange) {
+    mChange = change, mWanted = wanted, mWantedFor = why, mWantedSince = now;
+  } else if (change != 0 && (change < 0 ? wanted > mWanted : wanted < mWanted)) {
+    mWanted = wanted, mWantedFor = why;
+  }
+  if (mChange != 0 && msBetween(mWantedSince, now) >= (mChange < 0 ? kShrinkAfterMs : kGrowAfterMs)) {
+    mScale = mWanted, mScaledFor = mWantedFor, mChange = 0;
+  } else if (wanted == mScale) {
     mScaledFor = why;  // (while it waits for another scale, the reason it has this one stays)
+  }
+  if (mScale == 1) mScaledFor = VideoScaledFor::None;
   return mScale;
 }
 
@@ -103,10 +125,20 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
                       : mMemory                     ? mMemory->msForAMegapixel(frame.encoding)
                                                     : 0;
   const double forEncoders = scaleForEncoders(frame.encoding, cost, input.encodeShareMs, fullWidth, fullHeight, mScale);
-  double scale = settledScale(std::min(forLink, forEncoders),
-                              forEncoders < forLink ? VideoScaledFor::Encoders
-                              : forLink < 1         ? VideoScaledFor::Link
-                                                    : VideoScaledFor::None,
+  // The frame's own statistics say what its drawing wanted (render::InteractiveChoice::wantedScale).
+  nlohmann::json stats = nlohmann::json::parse(frame.statsJson, nullptr, false);
+  if (!stats.is_object()) stats = nlohmann::json::object();
+  const auto drawing = stats.find("interactive");
+  const double forDrawing =
+      input.followDrawing && drawing != stats.end() && drawing->is_object()
+          ? scaleForDrawing(drawing->value("scale_wanted", 0.0), fullWidth, fullHeight)
+          : 1;
+  const double wanted = std::min({forLink, forEncoders, forDrawing});
+  double scale = settledScale(wanted,
+                              wanted == 1             ? VideoScaledFor::None
+                              : forEncoders == wanted ? VideoScaledFor::Encoders
+                              : forLink == wanted     ? VideoScaledFor::Link
+                                                      : VideoScaledFor::Drawing,
                               input.drawn);
   VideoScaledFor scaledFor = mScaledFor;
   if (mMemory) {
@@ -177,8 +209,6 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
   ++mFrames;
   if (chunk.key) ++mKeyFrames;
   frame.payload = std::move(chunk.bytes);
-  nlohmann::json stats = nlohmann::json::parse(frame.statsJson, nullptr, false);
-  if (!stats.is_object()) stats = nlohmann::json::object();
   VideoEncoded done{msBetween(start, encoded), chunk.key, chunk.key ? (why.empty() ? "encoder" : why) : "", false,
                     scaledFor};
   stats["encode_ms"] = done.encodeMs;

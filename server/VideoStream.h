@@ -30,6 +30,8 @@ struct VideoFrameInput {
   /// The encoder time the crowd leaves the frame, ms: the encoder threads' share of each stream moving at
   /// scheduler.interactive_fps (frameShareMs; Connection). 0: no limit.
   double encodeShareMs = 0;
+  /// The stream may follow the frame's drawing down (scaleForDrawing; scheduler.stream_follows_drawing).
+  bool followDrawing = true;
   /// The scene's size, which the frame may have been drawn smaller than (at the stream's scale, RenderJob's
   /// outputScale); 0: the frame's own.
   int sceneWidth = 0, sceneHeight = 0;
@@ -83,6 +85,18 @@ class VideoStream final : public VideoMemory::Holder {
   static double scaleForEncoders(proto::Encoding codec, double msForAMegapixel, double shareMs, int width, int height,
                                  double current);
   static constexpr double kGrowWithin = 0.75;
+  /// The shortest side a stream is made smaller to for its drawing (scaleForDrawing): below it an encoding costs
+  /// little (VP9 at 256², 2.7 ms on one thread; bench/results/video/encode-cost.md), while each change of size is a
+  /// key frame.
+  static constexpr int kDrawingFloorSide = 256;
+  /// The smallest of kScales no smaller than `wantedScale`, the scale a crowd leaves a moving frame's drawing
+  /// (render::InteractiveChoice::wantedScale, the frame's `interactive.scale_wanted`: what the interactive ladder
+  /// draws at, the stream's own size aside), whose shorter side keeps kDrawingFloorSide pixels; 1 where none is
+  /// smaller, or `wantedScale` is unknown (0). A frame drawn at a fifth of the scene's sides is not scaled up to the
+  /// full size to be encoded there: the stream follows the drawing down (`video.scaled_for` `drawing`), and back up
+  /// when the drawing would be larger than the stream. As the wanted scale is the ladder's choice without the
+  /// stream's cap, a stream made smaller does not make its drawing look cheap enough to grow it again.
+  static double scaleForDrawing(double wantedScale, int width, int height);
   /// The most of the server's video memory (memory.video_mb) one stream's encoder may hold: a quarter, so that a
   /// stream of any size leaves room for three more (a client asking VP9 at 4096² would hold 1.4 GiB of the default
   /// 4 GiB, and three such left a fourth session JPEG).
@@ -92,15 +106,17 @@ class VideoStream final : public VideoMemory::Holder {
   /// even the smallest does not (a budget that small is left to the ledger, stream by stream) or `limitBytes` is 0.
   /// Taken at once, without the hysteresis below: it is a limit, not a measure.
   static double scaleForMemory(proto::Encoding codec, int width, int height, uint64_t limitBytes, int cores);
-  /// How long the link (or the encoders' share) must call for another scale before the stream changes to it (each
-  /// change is a key frame): a smaller one soon, a larger one only once it has held up a while.
+  /// How long the link (or the encoders' share, or the drawing) must call for another scale before the stream changes
+  /// to it (each change is a key frame): a smaller one soon, a larger one only once it has held up a while. Every
+  /// frame of the while must call for a change the same way; the stream then takes the least of those changes.
   static constexpr double kShrinkAfterMs = 300, kGrowAfterMs = 2000;
 
   /// Encodes `frame` (a Frame in vp8 or vp9 whose payload is its RGBA8 pixels, as renderReply leaves it) as the
   /// stream's next frame: the payload becomes the compressed frame and its statistics gain `encode_ms` and `video`
   /// (PROTOCOL.md, Frame statistics). Where the bitrate is too low for the frame's size (scaleFor), its encoding
-  /// would take more than its share of the encoders (scaleForEncoders), or its encoder would hold more than its share
-  /// of the video memory (scaleForMemory), the frame is scaled down first and its width and height become the
+  /// would take more than its share of the encoders (scaleForEncoders), its drawing was made smaller than the stream
+  /// by the crowd (scaleForDrawing), or its encoder would hold more than its share of the video memory
+  /// (scaleForMemory), the frame is scaled down first and its width and height become the
   /// stream's (the client shows it at the scene's size; `video.scaled_for` says why). A frame that comes at another
   /// size than the stream's (drawn at scale() before the stream changed its size) is scaled to it.
   /// Where the stream needs a new encoder and the server's video memory has no room for it, the frame is left as it
@@ -129,7 +145,12 @@ class VideoStream final : public VideoMemory::Holder {
   std::mutex mMutex;  ///< held while a frame is encoded: freeEncoder leaves the encoder of one being encoded
   std::unique_ptr<image::VideoEncoder> mEncoder;
   bool mNoRoom = false;  ///< the encoder was freed for another stream's, or none could be made: the next key's reason
-  double mScale = 1, mWanted = 1;
+  double mScale = 1;
+  /// A change of scale called for since mWantedSince (settledScale): -1 smaller, 1 larger, 0 none; the least change
+  /// called for throughout, and its reason.
+  int mChange = 0;
+  double mWanted = 1;
+  VideoScaledFor mWantedFor = VideoScaledFor::None;
   std::atomic<double> mSentScale = 1;  ///< mScale, or the memory's smaller one, as the last frame was sent
   VideoScaledFor mScaledFor = VideoScaledFor::None;
   /// The stream's inter frames' encoding time in mCostCodec, as the ms of a frame of one megapixel (expectedMs),

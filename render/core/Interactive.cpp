@@ -24,6 +24,7 @@ nlohmann::json InteractiveChoice::toJson() const {
           {"predicted_ms", predictedMs},
           {"rate_samples_per_ms", rate},
           {"scale", scale},
+          {"scale_wanted", wantedScale},
           {"width", width},
           {"height", height},
           {"lod", lod},
@@ -39,6 +40,38 @@ namespace {
 double reducedScale(const Scene& scene, double scale) {
   const int shorter = std::max(1, std::min(scene.width, scene.height));
   return std::clamp(scale, std::min(1.0, double(kMinInteractiveSide) / shorter), 1.0);
+}
+
+/// `choice` (made with a rate, rungs capped at `maxScale`) with its wantedScale: the scale of the first rung that
+/// fits without the cap. A rung the cap leaves alone is the same drawing either way, so where the chosen one is such
+/// a rung the answer is the choice's own. Otherwise it lies between the chosen rung (its drawing uncapped is dearer
+/// than the capped one) and the first rung after it that the cap leaves alone (the same drawing as its capped one,
+/// which is no dearer than the chosen one): found by bisection there; the last rung where none fits.
+InteractiveChoice withWantedScale(const Scene& scene, const SampleEstimate& estimate, double maxScale,
+                                  InteractiveChoice choice) {
+  const auto& ladder = interactiveLadder();
+  auto capped = [&](size_t i) { return reducedScale(scene, ladder[i].scale) > maxScale; };
+  const size_t chosen = size_t(choice.rung);
+  choice.wantedScale = choice.scale;
+  if (!capped(chosen)) return choice;
+  size_t alone = chosen + 1;
+  while (alone < ladder.size() && capped(alone)) ++alone;
+  auto fits = [&](size_t i) {
+    return choice.fixedMs + std::max(estimate(interactiveScene(scene, ladder[i])), 0.0) / choice.rate <=
+           choice.budgetMs;
+  };
+  // hi fits, or is the ladder's end; lo, from the second step on, does not.
+  size_t lo = chosen, hi = alone;
+  if (fits(chosen)) {
+    hi = chosen;
+  } else {
+    while (hi - lo > 1) {
+      const size_t mid = (lo + hi) / 2;
+      (fits(mid) ? hi : lo) = mid;
+    }
+  }
+  choice.wantedScale = double(interactiveScene(scene, ladder[std::min(hi, ladder.size() - 1)]).width) / scene.width;
+  return choice;
 }
 
 }  // namespace
@@ -81,21 +114,22 @@ InteractiveChoice chooseInteractive(const Scene& scene, double rate, double fixe
     return choice.rate > 0 && choice.predictedMs <= choice.budgetMs;
   };
   // Without a rate the cheapest rung is drawn: its time measures the device for the next frame.
-  if (choice.rate <= 0 || take(0)) {
-    if (choice.rate <= 0) take(ladder.size() - 1);
+  if (choice.rate <= 0) {
+    take(ladder.size() - 1);
     return choice;
   }
+  if (take(0)) return withWantedScale(scene, estimate, maxScale, choice);
   // Each rung costs no more than the one before (capping their sizes at maxScale keeps that): the first that fits,
   // by bisection (a plan per step, a handful for the whole ladder, so that planning a large volume stays a small
   // part of the budget). lo does not fit.
   size_t lo = 0, hi = ladder.size() - 1;
-  if (!take(hi)) return choice;
+  if (!take(hi)) return withWantedScale(scene, estimate, maxScale, choice);
   while (hi - lo > 1) {
     const size_t mid = (lo + hi) / 2;
     (take(mid) ? hi : lo) = mid;
   }
   take(hi);
-  return choice;
+  return withWantedScale(scene, estimate, maxScale, choice);
 }
 
 void RateGauge::add(double samples, double ms) {

@@ -39,11 +39,15 @@ struct InteractiveChoice {
   double predictedMs = 0;     ///< fixedMs + samples / rate (0 when no rate is known)
   int rung = 0;               ///< index into interactiveLadder()
   double scale = 1;           ///< drawn width / requested width
+  /// The scale the ladder would draw at were the frame not returned smaller (chooseInteractive's `maxScale`): the
+  /// first rung that fits without the cap, as a fraction of the requested width. `scale` where the cap did not bind;
+  /// 0 where no rate is known. What a video stream sent smaller may follow the drawing down by (server/VideoStream.h).
+  double wantedScale = 0;
   int width = 0, height = 0;  ///< the drawing's size
   double lod = 0, step = 0;   ///< the drawing's Scene::lod and Scene::step
 
-  /// {"budget_ms", "predicted_ms", "rate_samples_per_ms", "fixed_ms", "scale", "width", "height", "lod", "step",
-  /// "rung", "samples_estimated"}.
+  /// {"budget_ms", "predicted_ms", "rate_samples_per_ms", "fixed_ms", "scale", "scale_wanted", "width", "height",
+  /// "lod", "step", "rung", "samples_estimated"}.
   nlohmann::json toJson() const;
 };
 
@@ -67,7 +71,8 @@ using SampleEstimate = std::function<double(const Scene&)>;
 /// measures the device). Found by bisection, since every rung costs no more than the one before (about log2 of the
 /// ladder's length estimates). Deterministic: the same scene, rate and estimates give the same choice. `maxScale`:
 /// no rung draws more than this fraction of the scene's sides (interactiveScene), a frame that is returned smaller
-/// than its scene (FrameOptions::outputScale).
+/// than its scene (FrameOptions::outputScale). Where the chosen rung was capped, the rungs from it to the first the cap
+/// leaves alone are estimated again without the cap, for InteractiveChoice::wantedScale (a few more estimates).
 InteractiveChoice chooseInteractive(const Scene& scene, double rate, double fixedMs, const SampleEstimate& estimate,
                                     double maxScale = 1);
 

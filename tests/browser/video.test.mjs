@@ -200,9 +200,12 @@ describe("viewer video stream", () => {
 
   test("a stream slower than its share of the server's encoders comes smaller, shown at the view's size", async () => {
     // One encoder thread and interactive_fps 1000: a millisecond of encoding for each moving frame, which no
-    // 640x480 frame is encoded in; the stream goes smaller (docs/server.md, "Quality yields before latency").
+    // 640x480 frame is encoded in; the stream goes smaller (docs/server.md, "Quality yields before latency"). (The
+    // render threads' share leaves the drawing small too: stream_follows_drawing = false keeps the stream's size to
+    // its link and encoders.)
     const config = path.join(scratch.dir, "encoders-busy.toml");
-    fs.writeFileSync(config, "[server]\nencode_threads = 1\n[scheduler]\ninteractive_fps = 1000\n");
+    fs.writeFileSync(config,
+      "[server]\nencode_threads = 1\n[scheduler]\ninteractive_fps = 1000\nstream_follows_drawing = false\n");
     const busy = await new H.Server({ dir: scratch.dir, datasets, config }).start();
     try {
       const page = await H.openPage(browser, `${busy.url}/?dataset=sparse&size=640x480`);

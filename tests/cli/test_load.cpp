@@ -92,6 +92,14 @@ TEST_F(LoadTest, DraggingClientsDecodeTheirVideoStreams) {
   EXPECT_EQ(r["video"]["key_frames"].get<int64_t>(), 2) << "one key frame a client: its stream's first";
   EXPECT_GT(r["video"]["decode_ms"]["p50"].get<double>(), 0);
   EXPECT_EQ(r["errors"], 0);
+  // The drawings' and the stream's sides, as fractions of the scene's.
+  for (const char* key : {"drawn_scale", "sent_scale"}) {
+    ASSERT_TRUE(r[key].is_object()) << key << ": " << r.dump();
+    EXPECT_GT(r[key]["p10"].get<double>(), 0) << r[key];
+    EXPECT_LE(r[key]["p10"].get<double>(), r[key]["p50"].get<double>()) << r[key];
+    EXPECT_LE(r[key]["p50"].get<double>(), r[key]["p90"].get<double>()) << r[key];
+    EXPECT_LE(r[key]["p90"].get<double>(), 1) << r[key];
+  }
 }
 
 }  // namespace

@@ -102,6 +102,44 @@ TEST(Interactive, AFrameReturnedSmallerIsNeverDrawnLarger) {
   EXPECT_EQ(scaledSide(1023, 0.5), 512) << "rounded half away from zero";
 }
 
+// What a frame returned smaller would have been drawn at without its cap (a video stream may follow its drawing
+// down, server/VideoStream.h): the uncapped choice's scale, whatever the cap, found with a few more estimates only
+// where the cap bound.
+TEST(Interactive, TheWantedScaleIsTheChoiceWithoutTheCap) {
+  int estimates = 0;
+  const SampleEstimate counted = [&](const Scene& s) {
+    ++estimates;
+    return modelSamples(s);
+  };
+  const double rate = 5e5;
+  for (double budget : {400.0, 200.0, 100.0, 50.0, 25.0, 12.5, 3.0, 0.5})
+    for (double cap : {1.0, 0.75, 0.5, 0.375, 0.25}) {
+      estimates = 0;
+      const InteractiveChoice plain = chooseInteractive(scene512(budget), rate, 1, counted);
+      const int plainEstimates = estimates;
+      estimates = 0;
+      const InteractiveChoice c = chooseInteractive(scene512(budget), rate, 1, counted, cap);
+      EXPECT_DOUBLE_EQ(c.wantedScale, plain.scale) << budget << " ms, capped at " << cap;
+      EXPECT_DOUBLE_EQ(plain.wantedScale, plain.scale) << budget << " ms";
+      EXPECT_LE(c.scale, cap + 1e-9) << budget << " ms, capped at " << cap;
+      // (A bisection of the 16 rungs is about 7 estimates; the rungs from a capped one to the first the cap leaves
+      // alone are at most 8, 4 more.)
+      EXPECT_LE(estimates, plainEstimates + 4) << budget << " ms, capped at " << cap;
+      if (cap == 1) {
+        EXPECT_EQ(estimates, plainEstimates) << "no cap: no more estimates";
+      }
+    }
+  // A scene the floor keeps from shrinking: wanted and drawn at the floor's scale.
+  Scene small = scene512(0.5);
+  small.width = small.height = 96;
+  const InteractiveChoice s = chooseInteractive(small, rate, 1, modelSamples, 0.25);
+  EXPECT_EQ(s.width, kMinInteractiveSide);
+  EXPECT_NEAR(s.wantedScale, double(kMinInteractiveSide) / 96, 1e-12);
+  EXPECT_EQ(chooseInteractive(scene512(100), 0, 0, modelSamples, 0.5).wantedScale, 0) << "no rate: nothing wanted";
+  EXPECT_EQ(chooseInteractive(scene512(100), rate, 0, modelSamples).toJson()["scale_wanted"],
+            chooseInteractive(scene512(100), rate, 0, modelSamples).wantedScale);
+}
+
 TEST(Interactive, WithoutARateTheCheapestDrawingMeasuresTheDevice) {
   const InteractiveChoice c = chooseInteractive(scene512(100), 0, 0, modelSamples);
   EXPECT_EQ(c.rung, int(interactiveLadder().size()) - 1);

@@ -97,6 +97,7 @@ still_weight = 2
 batch_weight = 0.5
 interactive_fps = 12
 encoder_ladder = false
+stream_follows_drawing = false
 reserved_interactive_threads = 2
 batch_max_wait_ms = 500
 max_interactive_sessions = 7
@@ -157,6 +158,7 @@ upload = true
   EXPECT_DOUBLE_EQ(c.scheduler.batchWeight, 0.5);
   EXPECT_DOUBLE_EQ(c.scheduler.interactiveFps, 12);
   EXPECT_FALSE(c.scheduler.encoderLadder);
+  EXPECT_FALSE(c.scheduler.streamFollowsDrawing);
   EXPECT_EQ(c.scheduler.reservedInteractiveThreads, 2);
   EXPECT_DOUBLE_EQ(c.scheduler.batchMaxWaitMs, 500);
   EXPECT_EQ(c.scheduler.maxInteractiveSessions, 7);

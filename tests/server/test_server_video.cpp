@@ -37,6 +37,13 @@ class VideoServerTest : public test::SparseDatasetSuite {
   std::unique_ptr<ServerProcess> start() {
     return serve("--render-threads 1");
   }
+  /// A server of one render thread given `toml` as its configuration file (`name`, in the scratch folder).
+  std::unique_ptr<ServerProcess> serveConfigured(const std::string& name, const std::string& toml,
+                                                 const std::string& more = "") {
+    const auto config = scratch() / name;
+    std::ofstream(config) << toml;
+    return serve("--render-threads 1 " + more + (more.empty() ? "" : " ") + "--config " + config.string());
+  }
 };
 
 std::string dragScene(double azimuth, const std::string& codec, int side = 96, const json& extra = {}) {
@@ -250,9 +257,10 @@ TEST_F(VideoServerTest, SessionsDraggingAtOnceStayWithinTheVideoMemory) {
 // threads (one thread, interactive_fps 1000: a millisecond a frame, which no 512x512 VP9 frame is encoded in) is sent
 // smaller, with a key frame of its new size, and says why; the exact frame keeps the scene's size.
 TEST_F(VideoServerTest, AStreamSlowerThanItsShareOfTheEncodersIsSentSmaller) {
-  const auto config = scratch() / "encoder-share.toml";
-  std::ofstream(config) << "[server]\nencode_threads = 1\n[scheduler]\ninteractive_fps = 1000\n";
-  auto server = serve("--render-threads 1 --config " + config.string());
+  // (The same share of the render threads leaves the drawing small too: the stream would follow it down before the
+  // encoders' cost is measured. stream_follows_drawing = false keeps the stream's size to its link and encoders.)
+  auto server = serveConfigured("encoder-share.toml", "[server]\nencode_threads = 1\n[scheduler]\ninteractive_fps = "
+                                                      "1000\nstream_follows_drawing = false\n");
   auto c = videoSession(*server);
   image::FrameDecoder decoder;
   uint32_t smallest = 512;
@@ -284,6 +292,7 @@ TEST_F(VideoServerTest, AStreamSlowerThanItsShareOfTheEncodersIsSentSmaller) {
   EXPECT_LT(smallest, 512u);
   const json video = json::parse(c->stats())["video"];
   EXPECT_EQ(video["scaled_frames"]["encoders"], smaller) << video.dump();
+  EXPECT_EQ(video["scaled_frames"]["drawing"], 0) << video.dump();
   EXPECT_EQ(video["scaled_frames"]["link"], 0) << video.dump();
   EXPECT_GE(sizeKeys, 1);
   EXPECT_EQ(video["key_frames"]["size"], sizeKeys) << video.dump();
@@ -296,9 +305,7 @@ TEST_F(VideoServerTest, AStreamSlowerThanItsShareOfTheEncodersIsSentSmaller) {
 TEST_F(VideoServerTest, AStreamSentSmallerHasItsMovingFramesDrawnAtItsSize) {
   ASSERT_GT(image::videoEncoderBytes(Encoding::Vp8, 384, 384, 1), 4u << 20);
   ASSERT_LT(image::videoEncoderBytes(Encoding::Vp8, 256, 256, 1), 4u << 20);
-  const auto config = scratch() / "slow-crowd.toml";
-  std::ofstream(config) << "[scheduler]\ninteractive_fps = 0.5\n";
-  auto server = serve("--render-threads 1 --video-memory 16 --config " + config.string());
+  auto server = serveConfigured("slow-crowd.toml", "[scheduler]\ninteractive_fps = 0.5\n", "--video-memory 16");
   auto c = videoSession(*server);
   image::FrameDecoder decoder;
   std::vector<std::pair<int, uint32_t>> moving;  // each moving frame's drawn width and sent width
@@ -321,10 +328,58 @@ TEST_F(VideoServerTest, AStreamSentSmallerHasItsMovingFramesDrawnAtItsSize) {
   for (size_t i = 1; i < moving.size(); ++i) EXPECT_EQ(moving[i].first, 256) << "frame " << i;
 }
 
+// A stream whose moving frames the time budget leaves drawn smaller than the stream follows its drawing down: a
+// budget of 10 ms draws 512² at a fraction of its sides on llvmpipe, so the stream goes smaller than 512²
+// (`scaled_for` `drawing`), never smaller than its drawing or than 256 pixels a side, and its frames are drawn at
+// most at its size. Given a budget that draws the whole scene, it grows back to 512². (interactive_fps 0.5 leaves
+// each frame the budget its scene asks.)
+TEST_F(VideoServerTest, AStreamFollowsItsDrawingDownAndBackUp) {
+  auto server = serveConfigured("slow-crowd.toml", "[scheduler]\ninteractive_fps = 0.5\n");
+  auto c = videoSession(*server);
+  image::FrameDecoder decoder;
+  uint32_t sent = 512;
+  int smaller = 0, frames = 0;
+  const auto drag = [&](int i, double budgetMs) {
+    c->render(dragScene(10 + 2 * i, "vp8", 512, {{"time_budget_ms", budgetMs}}), Encoding::Png,
+              [&](const proto::Frame& f) {
+                const json stats = json::parse(f.statsJson);
+                EXPECT_EQ(uint32_t(decoder.decode(f).width), f.width);
+                if (!stats["provisional"].get<bool>()) {
+                  EXPECT_EQ(f.width, 512u) << "the exact frame";
+                  return;
+                }
+                ++frames;
+                const json& video = stats["video"];
+                EXPECT_LE(stats["interactive"]["width"].get<uint32_t>(), sent) << "drawn no larger than its stream";
+                if (f.width < sent) {
+                  EXPECT_EQ(video.value("key_reason", ""), "size") << f.statsJson;
+                  EXPECT_GE(video["scale"].get<double>() + 1e-3, stats["interactive"]["scale_wanted"].get<double>())
+                      << "made smaller than its drawing: " << f.statsJson;
+                }
+                sent = f.width;
+                if (f.width < 512) {
+                  ++smaller;
+                  EXPECT_EQ(video.value("scaled_for", ""), "drawing") << f.statsJson;
+                  EXPECT_GE(f.width, 256u) << f.statsJson;
+                }
+              });
+  };
+  for (int i = 0; i < 12 && smaller < 2; ++i) drag(i, 10);
+  ASSERT_GE(smaller, 2) << "every moving frame of a 10 ms budget went at 512x512";
+  const int shrunkAt = frames;
+  for (int i = 0; i < 40 && sent < 512; ++i) drag(20 + i, 5000);
+  EXPECT_EQ(sent, 512u) << "the stream did not grow back";
+  const json video = json::parse(c->stats())["video"];
+  EXPECT_EQ(video["scaled_frames"]["drawing"], smaller) << video.dump();
+  EXPECT_GE(video["key_frames"]["size"], 2) << "down and back up: " << video.dump();
+  EXPECT_GT(frames, shrunkAt);
+}
+
 // A crowd of video streams that has gone gives its encoders' memory back to the system: the server's resident size
 // returns near where it was before they came (glibc would keep the freed blocks in its arenas otherwise).
 TEST_F(VideoServerTest, StreamsThatHaveGoneGiveTheirEncodersMemoryBack) {
-  auto server = serve("--render-threads 1");
+  // (Streams of the scene's size: not made smaller for their drawings, which the crowd's budget keeps small.)
+  auto server = serveConfigured("whole-streams.toml", "[scheduler]\nstream_follows_drawing = false\n");
   const auto rss = [&] {
     auto c = videoSession(*server);
     return json::parse(c->stats())["memory"]["rss_bytes"].get<double>();

@@ -2,7 +2,8 @@
 // (kMinBitsPerPixel), shrinking soon and growing only once the link has held up, each change a key frame of the new
 // size that a decoder shows at once; and the ledger of the streams' encoder memory (VideoMemory), which frees the
 // encoders of resting streams, least recently used first, for a new one, and leaves a busy one alone; and the
-// stream's scale where its frames take more than its share of the encoder threads.
+// stream's scale where its frames take more than its share of the encoder threads, or where its frames are drawn
+// smaller than it.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -311,6 +312,71 @@ TEST(VideoStream, AStreamSlowerThanItsShareOfTheEncodersIsSentSmallerAndGrowsBac
   EXPECT_EQ(done.keyReason, "start");
   EXPECT_EQ(done.scaledFor, VideoScaledFor::Encoders);
   EXPECT_EQ(other.decode(f).width, 64);
+}
+
+TEST(VideoStream, TheScaleForTheDrawingIsTheSmallestThatKeepsItsPixels) {
+  EXPECT_EQ(VideoStream::scaleForDrawing(0.35, 1024, 1024), 0.375);
+  EXPECT_EQ(VideoStream::scaleForDrawing(0.3, 1024, 1024), 0.375);
+  EXPECT_EQ(VideoStream::scaleForDrawing(0.6, 1024, 1024), 0.75);
+  EXPECT_EQ(VideoStream::scaleForDrawing(0.5, 1024, 1024), 0.5);
+  EXPECT_EQ(VideoStream::scaleForDrawing(0.5 + 0.4 / 1024, 1024, 1024), 0.5) << "a drawing's side rounded up";
+  EXPECT_EQ(VideoStream::scaleForDrawing(0.125, 1024, 1024), 0.25);
+  EXPECT_EQ(VideoStream::scaleForDrawing(0.125, 512, 512), 0.5) << "never shorter than 256 pixels";
+  EXPECT_EQ(VideoStream::scaleForDrawing(0.125, 1920, 480), 0.75) << "its shorter side";
+  EXPECT_EQ(VideoStream::scaleForDrawing(0.2, 300, 300), 1) << "0.75 would be 225 pixels";
+  EXPECT_EQ(VideoStream::scaleForDrawing(0.667, 96, 96), 1);
+  EXPECT_EQ(VideoStream::scaleForDrawing(0, 1024, 1024), 1) << "not known";
+  EXPECT_EQ(VideoStream::scaleForDrawing(1, 1024, 1024), 1);
+}
+
+// A crowd that leaves a stream's frames drawn smaller than the stream (the render ladder's choice without the
+// stream's cap, the frame's `interactive.scale_wanted`) has the stream follow the drawing down, soon, and back up
+// once the drawing has wanted more for a while; a drawing that wavers between two rungs settles on the larger.
+TEST(VideoStream, AStreamFollowsItsDrawingDownAndBackUp) {
+  VideoStream stream;
+  image::FrameDecoder decoder;
+  std::vector<std::pair<uint32_t, std::string>> shown;  // each frame's side, its key reason and why it is smaller
+  const auto send = [&](double ms, double wanted) {
+    proto::Frame f = rawFrame(512, int(ms));
+    f.statsJson = nlohmann::json{{"interactive", {{"scale_wanted", wanted}}}}.dump();
+    VideoFrameInput input;
+    input.bitrateKbps = 4000, input.drawn = at(ms);
+    const VideoEncoded done = stream.encode(f, input);
+    const nlohmann::json stats = nlohmann::json::parse(f.statsJson);
+    EXPECT_EQ(stats["interactive"]["scale_wanted"], wanted) << "the frame's statistics kept";
+    const nlohmann::json& video = stats["video"];
+    EXPECT_EQ(video["scale"].get<double>() * 512, double(f.width)) << f.statsJson;
+    EXPECT_EQ(decoder.decode(f).width, int(f.width));
+    const std::string why = video.value("scaled_for", "");
+    EXPECT_EQ(why.empty(), done.scaledFor == VideoScaledFor::None);
+    shown.emplace_back(f.width, (done.key ? done.keyReason : "-") + (why.empty() ? "" : " " + why));
+  };
+  send(0, 0);       // the first frame: no rate known, nothing wanted
+  send(33, 0.42);   // drawn at 0.42 of 512²: a stream of 0.5 (256²) would keep its pixels
+  send(200, 0.6);   // a rung larger: 0.75 wanted, still smaller
+  send(350, 0.42);  // 317 ms of smaller calls: the least of them, 0.75
+  send(383, 0.35);  // 0.375 would be 192 pixels: 0.5 wanted
+  send(600, 0.42);
+  send(700, 0.42);  // 317 ms: 0.5
+  send(733, 1);     // the ladder would draw the whole scene: not yet
+  send(1500, 0.6);  // 0.75: larger than the stream still
+  send(2800, 1);    // 2067 ms of larger calls: the least of them, 0.75
+  send(2833, 0.5);  // back down at once? no: not yet
+  const std::vector<std::pair<uint32_t, std::string>> want = {
+      {512, "start"},         {512, "-"},         {512, "-"},         {384, "size drawing"},
+      {384, "- drawing"},     {384, "- drawing"}, {256, "size drawing"}, {256, "- drawing"},
+      {256, "- drawing"},     {384, "size drawing"}, {384, "- drawing"}};
+  EXPECT_EQ(shown, want);
+  // Told not to (scheduler.stream_follows_drawing false), a stream keeps the size its link and encoders allow.
+  VideoStream whole;
+  for (double ms : {0.0, 33.0, 400.0, 800.0}) {
+    proto::Frame f = rawFrame(512, int(ms));
+    f.statsJson = R"({"interactive": {"scale_wanted": 0.3}})";
+    VideoFrameInput input;
+    input.bitrateKbps = 4000, input.drawn = at(ms), input.followDrawing = false;
+    EXPECT_EQ(whole.encode(f, input).scaledFor, VideoScaledFor::None);
+    EXPECT_EQ(f.width, 512u) << ms << " ms";
+  }
 }
 
 TEST(VideoStream, NoStreamsEncoderHoldsMoreThanItsShareOfTheVideoMemory) {

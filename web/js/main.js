@@ -162,6 +162,7 @@ function smallerBecause(scaledFor) {
   if (scaledFor === "encoders") return "the server's encoders are busy";
   if (scaledFor === "link") return "the link is slow";
   if (scaledFor === "memory") return "the server's video memory is shared";
+  if (scaledFor === "drawing") return "drawn smaller to keep its frame rate";
   return "smaller stream";
 }
 

@@ -61,7 +61,7 @@ export class VideoStream {
     this.counts = { frames: 0, decoded: 0, keyFrames: 0, skipped: 0, errors: 0 };
     this.lastDecodeMs = null;
     this.bitrateKbps = null;
-    this.scale = null; // the stream's size as a fraction of the scene's, and why it is smaller ("link", "encoders")
+    this.scale = null; // the stream's size as a fraction of the scene's, and why it is smaller ("link", "encoders", "drawing", "memory")
     this.scaledFor = null;
     this.codec = null;
   }
