@@ -10,11 +10,17 @@ const std::vector<InteractiveRung>& interactiveLadder() {
   // Each rung is cheaper than the one before in at least one factor and no dearer in any. The order is the one
   // measured on the MRI at 512² (bench_interactive): a step 1.5 and 2 times longer
   // costs the fewest dB for the time it saves (44 dB at 0.7 of the time), then the drawing size (which also coarsens
-  // the level of detail, given in pixels of the smaller drawing); a coarser level of detail of its own saves little
-  // on a small volume and loses much, so it comes last.
+  // the level of detail, given in pixels of the smaller drawing). The bottom, where a crowd's frames end up, is the
+  // Pareto front of bench/run_ladder_bottom.sh (the MRI at 1024² and 512², a 512³ field at 1024²;
+  // bench/results/interactive/ladder-bottom-*.md): smaller drawings and longer steps only. A coarser level of detail
+  // of its own never paid there: on the MRI at 1024² a drawing of 0.125 at step 6 took 12.4 ms and 22.5 dB at lod 4,
+  // 12.4 ms and 25.7 dB at lod 1; on the field, 16.4 ms and 32 dB against 13.1 ms and 57 dB. Below about 0.125 of
+  // the sides the time is mostly the frame's fixed cost (planning, read-back, the scale-up); a smaller scene's rungs
+  // there meet the 64-pixel floor and are the same drawing.
   static const std::vector<InteractiveRung> kLadder = {
-      {1, 1, 1},    {1, 1.5, 1}, {1, 2, 1},    {0.75, 2, 1}, {0.6, 2, 1},  {0.5, 2, 1},  {0.42, 2, 1},  {0.35, 2, 1},
-      {0.35, 3, 1}, {0.3, 3, 1}, {0.25, 3, 1}, {0.25, 4, 1}, {0.18, 4, 1}, {0.18, 4, 2}, {0.125, 4, 2}, {0.125, 6, 4},
+      {1, 1, 1},     {1, 1.5, 1},  {1, 2, 1},   {0.75, 2, 1}, {0.6, 2, 1},   {0.5, 2, 1},
+      {0.42, 2, 1},  {0.35, 2, 1}, {0.35, 3, 1}, {0.3, 3, 1},  {0.25, 3, 1},  {0.25, 4, 1},
+      {0.18, 4, 1},  {0.125, 4, 1}, {0.125, 6, 1}, {0.09, 6, 1}, {0.0625, 6, 1},
   };
   return kLadder;
 }

@@ -23,8 +23,8 @@ struct InteractiveRung {
 };
 
 /// The rungs, from the exact drawing down, each cheaper than the one before, in the order that loses the least
-/// PSNR per ms saved on the MRI (as bench_interactive measures it): the step first, then the drawing size, then
-/// the level of detail.
+/// PSNR per ms saved on the MRI (as bench_interactive measures it): the step first, then the drawing size (the
+/// rungs' level-of-detail factor is 1: a coarser level measured dominated at every size tried).
 const std::vector<InteractiveRung>& interactiveLadder();
 
 /// The shortest side a reduced drawing keeps, in pixels (a requested image smaller than this is never reduced).
