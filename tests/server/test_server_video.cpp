@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <string>
 #include <thread>
@@ -63,6 +64,21 @@ std::unique_ptr<Client> videoSession(const ServerProcess& server, uint16_t maxVe
   c->hello("test", maxVersion);
   c->openDataset("sparse");
   return c;
+}
+
+/// One Render of an interactive `scene` of `side` x `side` pixels: each Frame decoded in order by `decoder` at its
+/// size, the exact frame at the scene's size, and each moving frame with its statistics given to `moving`.
+void dragStep(Client& c, image::FrameDecoder& decoder, const std::string& scene, uint32_t side,
+              const std::function<void(const proto::Frame&, const json&)>& moving) {
+  c.render(scene, Encoding::Png, [&](const proto::Frame& f) {
+    const json stats = json::parse(f.statsJson);
+    EXPECT_EQ(uint32_t(decoder.decode(f).width), f.width);
+    if (!stats["provisional"].get<bool>()) {
+      EXPECT_EQ(f.width, side) << "the exact frame";
+      return;
+    }
+    moving(f, stats);
+  });
 }
 
 TEST_F(VideoServerTest, VersionFourOffersVp8AndVp9AndOlderSessionsDoNot) {
@@ -310,17 +326,11 @@ TEST_F(VideoServerTest, AStreamSentSmallerHasItsMovingFramesDrawnAtItsSize) {
   image::FrameDecoder decoder;
   std::vector<std::pair<int, uint32_t>> moving;  // each moving frame's drawn width and sent width
   for (int i = 0; i < 4; ++i)
-    c->render(dragScene(10 + 2 * i, "vp8", 512, {{"time_budget_ms", 2000}}), Encoding::Png,
-              [&](const proto::Frame& f) {
-                const json stats = json::parse(f.statsJson);
-                EXPECT_EQ(uint32_t(decoder.decode(f).width), f.width);
-                if (!stats["provisional"].get<bool>()) {
-                  EXPECT_EQ(f.width, 512u) << "the exact frame";
-                  return;
-                }
-                EXPECT_EQ(stats["video"].value("scaled_for", ""), "memory") << f.statsJson;
-                moving.emplace_back(stats["interactive"]["width"].get<int>(), f.width);
-              });
+    dragStep(*c, decoder, dragScene(10 + 2 * i, "vp8", 512, {{"time_budget_ms", 2000}}), 512,
+             [&](const proto::Frame& f, const json& stats) {
+               EXPECT_EQ(stats["video"].value("scaled_for", ""), "memory") << f.statsJson;
+               moving.emplace_back(stats["interactive"]["width"].get<int>(), f.width);
+             });
   ASSERT_EQ(moving.size(), 4u);
   for (const auto& [drawn, sent] : moving) EXPECT_EQ(sent, 256u);
   // The first was drawn before the stream had a size (at the cheapest rung, which measures the device); the rest at
@@ -340,30 +350,25 @@ TEST_F(VideoServerTest, AStreamFollowsItsDrawingDownAndBackUp) {
   uint32_t sent = 512;
   int smaller = 0, frames = 0;
   const auto drag = [&](int i, double budgetMs) {
-    c->render(dragScene(10 + 2 * i, "vp8", 512, {{"time_budget_ms", budgetMs}}), Encoding::Png,
-              [&](const proto::Frame& f) {
-                const json stats = json::parse(f.statsJson);
-                EXPECT_EQ(uint32_t(decoder.decode(f).width), f.width);
-                if (!stats["provisional"].get<bool>()) {
-                  EXPECT_EQ(f.width, 512u) << "the exact frame";
-                  return;
-                }
-                ++frames;
-                const json& video = stats["video"];
-                EXPECT_LE(stats["interactive"]["width"].get<uint32_t>(), sent) << "drawn no larger than its stream";
-                if (f.width < sent) {
-                  EXPECT_EQ(video.value("key_reason", ""), "size") << f.statsJson;
-                  EXPECT_GE(video["scale"].get<double>() + 1e-3, stats["interactive"]["scale_wanted"].get<double>())
-                      << "made smaller than its drawing: " << f.statsJson;
-                }
-                sent = f.width;
-                if (f.width < 512) {
-                  ++smaller;
-                  EXPECT_EQ(video.value("scaled_for", ""), "drawing") << f.statsJson;
-                  EXPECT_GE(f.width, 256u) << f.statsJson;
-                }
-              });
+    dragStep(*c, decoder, dragScene(10 + 2 * i, "vp8", 512, {{"time_budget_ms", budgetMs}}), 512,
+             [&](const proto::Frame& f, const json& stats) {
+               ++frames;
+               const json& video = stats["video"];
+               EXPECT_LE(stats["interactive"]["width"].get<uint32_t>(), sent) << "drawn no larger than its stream";
+               if (f.width < sent) {
+                 EXPECT_EQ(video.value("key_reason", ""), "size") << f.statsJson;
+                 EXPECT_GE(video["scale"].get<double>() + 1e-3, stats["interactive"]["scale_wanted"].get<double>())
+                     << "made smaller than its drawing: " << f.statsJson;
+               }
+               sent = f.width;
+               if (f.width < 512) {
+                 ++smaller;
+                 EXPECT_EQ(video.value("scaled_for", ""), "drawing") << f.statsJson;
+                 EXPECT_GE(f.width, 256u) << f.statsJson;
+               }
+             });
   };
+
   for (int i = 0; i < 12 && smaller < 2; ++i) drag(i, 10);
   ASSERT_GE(smaller, 2) << "every moving frame of a 10 ms budget went at 512x512";
   const int shrunkAt = frames;
