@@ -4,7 +4,8 @@
 # exported. `browser_bench_setup WORK SCRIPT ARGS...` exports the configuration directory and the built
 # voxbrick, preps the MRI template into WORK/datasets/mri once, installs tests/browser's packages if they are missing,
 # and records the command line the results name (bash bench/SCRIPT ARGS...). Also sourced by run_video_memory.sh and
-# run_encoder_ladder.sh, for video_replay and serve_in_background (below).
+# run_encoder_ladder.sh, run_stream_drawing.sh, run_drawing_psnr.sh and run_ladder_bottom.sh, for mri_datasets,
+# video_replay, serve_in_background and crowd_drag (below).
 mri_datasets() {
   local work=$1 exe=$2
   mkdir -p "$work/datasets"
@@ -26,6 +27,19 @@ video_replay() {
     echo "$script: no ${size}x${size} frames in $replay (bash bench/run_browser_link.sh --replay-draw-ms 10 makes them)" >&2
     exit 2
   }
+}
+
+# `crowd_drag LOAD_EXE JSON CLIENTS SIZE CODEC DURATION`: against the server serve_in_background started (`port`),
+# CLIENTS `voxbrick load` clients of LOAD_EXE dragging the MRI at SIZE² (30 cameras a second, a 50 ms budget, their
+# moving frames in CODEC) for DURATION seconds, the report in JSON; then that server is stopped and `pid` cleared.
+# The round of the video crowd benchmarks (run_encoder_ladder.sh, run_stream_drawing.sh).
+crowd_drag() {
+  local exe=$1 json=$2 clients=$3 size=$4 codec=$5 duration=$6
+  "$exe" load "127.0.0.1:$port" --dataset mri --tf mri --clients "$clients" --size "${size}x${size}" --drag 30 \
+    --interactive 50 --provisional-encoding "$codec" --duration "$duration" --json "$json" > /dev/null
+  kill "$pid"
+  wait "$pid" 2> /dev/null || true
+  pid=
 }
 
 # `serve_in_background SCRIPT LOG EXE ARGS...`: EXE serve --port 0 ARGS in the background, its output in LOG; sets

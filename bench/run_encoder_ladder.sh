@@ -42,12 +42,7 @@ for round in $(seq "$rounds"); do
     log=$work/encoder-ladder/serve-$ladder-$round.log
     serve_in_background run_encoder_ladder.sh "$log" "$bin" --config "$config" --datasets "$datasets" \
       --render-threads "$renderThreads" --replay-frames "$replay" --replay-draw-ms 10
-    "$bin" load "127.0.0.1:$port" --dataset mri --tf mri --clients "$clients" --size "${size}x${size}" --drag 30 \
-      --interactive 50 --provisional-encoding "$codec" --duration "$duration" \
-      --json "$work/encoder-ladder/$ladder-$round.json" > /dev/null
-    kill "$pid"
-    wait "$pid" 2> /dev/null || true
-    pid=
+    crowd_drag "$bin" "$work/encoder-ladder/$ladder-$round.json" "$clients" "$size" "$codec" "$duration"
   done
 done
 # The stream's bitrate (VideoStream::capKbps: 0.15 bits a pixel at 30 frames a second), as a crowd's streams had it.

@@ -102,12 +102,7 @@ for round in $(seq "$rounds"); do
     # shellcheck disable=SC2086
     serve_in_background run_stream_drawing.sh "$out/serve-$build-$round.log" "$bin" --datasets "$datasets" \
       --render-threads "$renderThreads" $serveArgs
-    "$new" load "127.0.0.1:$port" --dataset mri --tf mri --clients "$clients" --size "${size}x${size}" --drag 30 \
-      --interactive 50 --provisional-encoding "$codec" --duration "$duration" --json "$out/$build-$round.json" \
-      > /dev/null
-    kill "$pid"
-    wait "$pid" 2> /dev/null || true
-    pid=
+    crowd_drag "$new" "$out/$build-$round.json" "$clients" "$size" "$codec" "$duration"
   done
 done
 python3 - "$out" "$dest" "$clients" "$size" "$codec" "$renderThreads" "$duration" "$rounds" "$views" "$old" "$new" \

@@ -79,20 +79,22 @@ double VideoStream::scaleForMemory(proto::Encoding codec, int width, int height,
 double VideoStream::settledScale(double wanted, VideoScaledFor why, Clock::time_point now) {
   // A stream's first frame starts at the scale called for now.
   if (!mEncoder) {
-    mScale = wanted, mChange = 0;
+    mScale = mWanted = wanted;
     mScaledFor = mScale == 1 ? VideoScaledFor::None : why;
     return mScale;
   }
   // A change is taken once every frame for the while has called for one the same way; to the least of them, so that
-  // a call that wavers between two smaller scales (a drawing between two rungs) settles on the larger.
-  const int change = wanted < mScale ? -1 : wanted > mScale ? 1 : 0;
-  if (change != mChange) {
-    mChange = change, mWanted = wanted, mWantedFor = why, mWantedSince = now;
-  } else if (change != 0 && (change < 0 ? wanted > mWanted : wanted < mWanted)) {
+  // a call that wavers between two smaller scales (a drawing between two rungs) settles on the larger. mWanted is
+  // mScale while no change is called for.
+  const auto way = [this](double scale) { return scale < mScale ? -1 : scale > mScale ? 1 : 0; };
+  const int change = way(wanted);
+  if (change != way(mWanted)) {
+    mWanted = wanted, mWantedFor = why, mWantedSince = now;
+  } else if (change < 0 ? wanted > mWanted : wanted < mWanted) {
     mWanted = wanted, mWantedFor = why;
   }
-  if (mChange != 0 && msBetween(mWantedSince, now) >= (mChange < 0 ? kShrinkAfterMs : kGrowAfterMs)) {
-    mScale = mWanted, mScaledFor = mWantedFor, mChange = 0;
+  if (mWanted != mScale && msBetween(mWantedSince, now) >= (mWanted < mScale ? kShrinkAfterMs : kGrowAfterMs)) {
+    mScale = mWanted, mScaledFor = mWantedFor;
   } else if (wanted == mScale) {
     mScaledFor = why;  // (while it waits for another scale, the reason it has this one stays)
   }

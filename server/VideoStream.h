@@ -146,9 +146,8 @@ class VideoStream final : public VideoMemory::Holder {
   std::unique_ptr<image::VideoEncoder> mEncoder;
   bool mNoRoom = false;  ///< the encoder was freed for another stream's, or none could be made: the next key's reason
   double mScale = 1;
-  /// A change of scale called for since mWantedSince (settledScale): -1 smaller, 1 larger, 0 none; the least change
-  /// called for throughout, and its reason.
-  int mChange = 0;
+  /// The least change of scale called for by every frame since mWantedSince (settledScale), and its reason; mScale
+  /// while none is called for.
   double mWanted = 1;
   VideoScaledFor mWantedFor = VideoScaledFor::None;
   std::atomic<double> mSentScale = 1;  ///< mScale, or the memory's smaller one, as the last frame was sent

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
+#include <utility>
 
 namespace voxbrick::render {
 
@@ -103,6 +105,19 @@ Scene interactiveScene(const Scene& scene, const InteractiveRung& rung, double m
 InteractiveChoice chooseInteractive(const Scene& scene, double rate, double fixedMs, const SampleEstimate& estimate,
                                     double maxScale) {
   const auto& ladder = interactiveLadder();
+  // Each drawing estimated once (an estimate plans the frame, brick by brick): rungs capped at maxScale draw the same
+  // scene where they differ only in size, the bisection's last rung was estimated on its way, and the wanted scale
+  // asks again about rungs the choice tried.
+  // (Rung scenes differ from one another only in these.)
+  using Drawing = std::tuple<int, int, double, double>;  // width, height, step, lod
+  std::vector<std::pair<Drawing, double>> known;
+  const SampleEstimate once = [&](const Scene& s) {
+    const Drawing drawing{s.width, s.height, s.step, s.lod};
+    for (const auto& [seen, samples] : known)
+      if (seen == drawing) return samples;
+    known.emplace_back(drawing, estimate(s));
+    return known.back().second;
+  };
   InteractiveChoice choice;
   choice.budgetMs = scene.timeBudgetMs;
   choice.rate = rate > 0 && std::isfinite(rate) ? rate : 0;
@@ -110,7 +125,7 @@ InteractiveChoice chooseInteractive(const Scene& scene, double rate, double fixe
   auto take = [&](size_t i) {
     const Scene s = interactiveScene(scene, ladder[i], maxScale);
     choice.rung = int(i);
-    choice.samples = std::max(estimate(s), 0.0);
+    choice.samples = std::max(once(s), 0.0);
     choice.predictedMs = choice.rate > 0 ? choice.fixedMs + choice.samples / choice.rate : 0;
     choice.width = s.width;
     choice.height = s.height;
@@ -124,18 +139,18 @@ InteractiveChoice chooseInteractive(const Scene& scene, double rate, double fixe
     take(ladder.size() - 1);
     return choice;
   }
-  if (take(0)) return withWantedScale(scene, estimate, maxScale, choice);
+  if (take(0)) return withWantedScale(scene, once, maxScale, choice);
   // Each rung costs no more than the one before (capping their sizes at maxScale keeps that): the first that fits,
   // by bisection (a plan per step, a handful for the whole ladder, so that planning a large volume stays a small
   // part of the budget). lo does not fit.
   size_t lo = 0, hi = ladder.size() - 1;
-  if (!take(hi)) return withWantedScale(scene, estimate, maxScale, choice);
+  if (!take(hi)) return withWantedScale(scene, once, maxScale, choice);
   while (hi - lo > 1) {
     const size_t mid = (lo + hi) / 2;
     (take(mid) ? hi : lo) = mid;
   }
   take(hi);
-  return withWantedScale(scene, estimate, maxScale, choice);
+  return withWantedScale(scene, once, maxScale, choice);
 }
 
 void RateGauge::add(double samples, double ms) {

@@ -72,7 +72,8 @@ using SampleEstimate = std::function<double(const Scene&)>;
 /// ladder's length estimates). Deterministic: the same scene, rate and estimates give the same choice. `maxScale`:
 /// no rung draws more than this fraction of the scene's sides (interactiveScene), a frame that is returned smaller
 /// than its scene (FrameOptions::outputScale). Where the chosen rung was capped, the rungs from it to the first the cap
-/// leaves alone are estimated again without the cap, for InteractiveChoice::wantedScale (a few more estimates).
+/// leaves alone are estimated again without the cap, for InteractiveChoice::wantedScale (a few more estimates). No
+/// drawing is estimated twice in one choice (rungs the cap makes the same drawing share one estimate).
 InteractiveChoice chooseInteractive(const Scene& scene, double rate, double fixedMs, const SampleEstimate& estimate,
                                     double maxScale = 1);
 

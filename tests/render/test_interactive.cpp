@@ -2,7 +2,10 @@
 // the measured rate, and the bilinear scale-up.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <tuple>
+#include <vector>
 
 #include "render/core/Interactive.h"
 #include "render/core/RenderErrors.h"
@@ -107,17 +110,22 @@ TEST(Interactive, AFrameReturnedSmallerIsNeverDrawnLarger) {
 // where the cap bound.
 TEST(Interactive, TheWantedScaleIsTheChoiceWithoutTheCap) {
   int estimates = 0;
+  std::vector<std::tuple<int, int, double, double>> seen;  // the drawings estimated for one choice
   const SampleEstimate counted = [&](const Scene& s) {
     ++estimates;
+    const std::tuple<int, int, double, double> drawing{s.width, s.height, s.step, s.lod};
+    EXPECT_EQ(std::count(seen.begin(), seen.end(), drawing), 0) << "a drawing estimated twice: " << s.width << "x"
+                                                                << s.height << ", step " << s.step << ", lod " << s.lod;
+    seen.push_back(drawing);
     return modelSamples(s);
   };
   const double rate = 5e5;
   for (double budget : {400.0, 200.0, 100.0, 50.0, 25.0, 12.5, 3.0, 0.5})
     for (double cap : {1.0, 0.75, 0.5, 0.375, 0.25}) {
-      estimates = 0;
+      estimates = 0, seen.clear();
       const InteractiveChoice plain = chooseInteractive(scene512(budget), rate, 1, counted);
       const int plainEstimates = estimates;
-      estimates = 0;
+      estimates = 0, seen.clear();
       const InteractiveChoice c = chooseInteractive(scene512(budget), rate, 1, counted, cap);
       EXPECT_DOUBLE_EQ(c.wantedScale, plain.scale) << budget << " ms, capped at " << cap;
       EXPECT_DOUBLE_EQ(plain.wantedScale, plain.scale) << budget << " ms";
