@@ -194,8 +194,14 @@ std::optional<std::chrono::milliseconds> tallyDragReply(const proto::Message& m,
     if (stats.contains("encode_ms")) tally.encodeMs.push_back(stats["encode_ms"].get<double>());
     if (stats.contains("ms")) tally.renderMs.push_back(stats["ms"].value("total", 0.0));
     if (const auto budget = frameBudgetMs(stats)) tally.budgetMs.push_back(*budget);
-    if (stats.contains("interactive") && stats["interactive"].is_object())
-      tally.drawnScale.push_back(stats["interactive"].value("scale", 1.0));
+    if (stats.contains("interactive") && stats["interactive"].is_object()) {
+      const json& interactive = stats["interactive"];
+      tally.drawnScale.push_back(interactive.value("scale", 1.0));
+      if (interactive.value("predicted_ms", 0.0) > 0) {
+        tally.predictedMs.push_back(interactive["predicted_ms"].get<double>());
+        tally.actualMs.push_back(interactive.value("actual_ms", 0.0));
+      }
+    }
     if (stats.contains("video") && stats["video"].is_object())
       tally.sentScale.push_back(stats["video"].value("scale", 1.0));
   } else if (!std::holds_alternative<proto::DatasetList>(m)) {  // a DatasetList answers the closing request

@@ -123,6 +123,11 @@ json loadReport(const LoadArgs& a, const Tally& tally, double seconds, int width
       // Interactive frames: the drawing's and the video stream's sides as fractions of the scene's (p10, p50, p90).
       {"drawn_scale", scaleSpread(tally.drawnScale)},
       {"sent_scale", scaleSpread(tally.sentScale)},
+      // Interactive frames chosen by a known rate: their predicted and actual time, ms (medians).
+      {"interactive_ms",
+       tally.predictedMs.empty() ? json()
+                                 : json{{"predicted_p50", percentile(tally.predictedMs, 0.5)},
+                                        {"actual_p50", percentile(tally.actualMs, 0.5)}}},
       {"video",
        tally.videoFrames == 0 ? json()
                               : json{{"frames", tally.videoFrames},

@@ -37,6 +37,8 @@ struct Tally {
   /// Dragging clients' interactive frames: each drawing's scale (`interactive.scale`), and each video frame's stream
   /// scale (`video.scale`), as fractions of the scene's sides.
   std::vector<double> drawnScale, sentScale;
+  /// Interactive frames chosen by a known rate: the time their drawing was predicted to take, and took (ms).
+  std::vector<double> predictedMs, actualMs;
   int64_t videoFrames = 0, keyFrames = 0;  ///< video frames received (first replies and not), key frames among them
   int64_t frames = 0, errors = 0, superseded = 0, payloadBytes = 0;
   int64_t provisional = 0;       ///< dragging clients: first replies that were provisional frames

@@ -82,9 +82,12 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
           .pixels();
   CompositeStats composited;
   // Finished to 8 bits by each member over the background, its region straight into rank 0's frame; an interactive
-  // frame drawn reduced is composited at that size as floats, finished and scaled up once on rank 0, as one process
-  // scales its reduced frame.
-  const bool reduced = partial.width != scene.width || partial.height != scene.height;
+  // frame drawn reduced, or returned smaller than its scene (FrameOptions::outputScale), is composited at its drawn
+  // size as floats, finished and scaled once on rank 0, as one process scales its reduced frame.
+  const bool smaller = scene.interactive && options.outputScale < 1;
+  const int outputWidth = smaller ? render::scaledSide(scene.width, options.outputScale) : scene.width;
+  const int outputHeight = smaller ? render::scaledSide(scene.height, options.outputScale) : scene.height;
+  const bool reduced = partial.width != scene.width || partial.height != scene.height || smaller;
   image::Image8 finished8;
   image::ImageF whole;
   if (reduced)
@@ -97,25 +100,28 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
   record << drawMs << " " << own.msPaging << " " << composited.ms << " " << composited.bytesSent << " "
          << composited.bytesReceived << " " << cache.peakResidentBytes << " " << cache.budgetBytes << " "
          << own.bricksDrawn << " " << own.bricksOutsidePart << " " << mEngine.peakGpuBytes() << " "
-         << footprintPixels << " " << composited.pixelsHandled << " " << own.tetsDrawn << " " << failure;
+         << footprintPixels << " " << composited.pixelsHandled << " " << own.tetsDrawn << " " << own.samplesEstimated
+         << " " << failure;
   const auto records = gatherRecords(group, record.str(), mOptions.composite.timeoutSeconds);
   if (failed) std::rethrow_exception(failed);
   if (mRank != 0) return {};
   nlohmann::json perRank = nlohmann::json::array();
   uint64_t totalBytes = 0;
+  double totalSamples = 0;
   for (size_t i = 0; i < records.size(); ++i) {
     std::istringstream in(records[i]);
-    double draw = 0, paging = 0, compositeMs = 0;
+    double draw = 0, paging = 0, compositeMs = 0, samples = 0;
     uint64_t sent = 0, received = 0, peakHost = 0, budget = 0, peakGpu = 0, footprint = 0, handled = 0;
     int64_t bricks = 0, outside = 0, tets = 0;
     in >> draw >> paging >> compositeMs >> sent >> received >> peakHost >> budget >> bricks >> outside >> peakGpu >>
-        footprint >> handled >> tets;
+        footprint >> handled >> tets >> samples;
     std::string error;
     std::getline(in >> std::ws, error);
     const int rank = group.members[i];
     if (!error.empty())
       throw render::RenderError("rank " + std::to_string(rank) + " could not draw its part: " + error);
     totalBytes += sent;
+    totalSamples += samples;
     perRank.push_back({{"rank", rank},
                        {"part", i},
                        {"drawing_ms", draw},
@@ -127,6 +133,7 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
                        {"pixels_handled", handled},
                        {"bricks_drawn", bricks},
                        {"tets_drawn", tets},
+                       {"samples_estimated", samples},
                        {"bricks_outside_part", outside},
                        {"host_cache_peak_bytes", peakHost},
                        {"host_cache_budget_bytes", budget},
@@ -145,6 +152,12 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
                      {"compositing_ms", composited.ms},
                      {"bytes_exchanged", totalBytes},
                      {"per_rank", perRank}};
+  // The frame as a whole, as one process's stats give it (and as the server's rate of the session is measured: the
+  // frame's samples over its time): every member's estimated samples, and rank 0's time from the start of its
+  // drawing to the composited frame. Rank 0's own drawing is in per_rank.
+  own.samplesEstimated = totalSamples;
+  own.msTotal = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - drawStart).count();
+  if (own.interactive.is_object()) own.interactive["actual_ms"] = own.msTotal;
   if (stats) *stats = own;
   if (!reduced && frame8) {
     *frame8 = std::move(finished8);
@@ -152,7 +165,7 @@ image::ImageF RankRenderer::render(const RankGroup& group, const std::shared_ptr
   }
   if (!reduced) return image::toImageF(finished8);  // exactly the 8-bit values the frame keeps
   image::ImageF finished = render::finishPartial(whole, scene);
-  return render::scaleBilinear(finished, scene.width, scene.height);
+  return render::scaleBilinear(finished, outputWidth, outputHeight);
 }
 
 }  // namespace voxbrick::distributed

@@ -34,11 +34,15 @@ class RankRenderer {
 
   /// Draws this rank's part of `scene` (the part of its index among `group`'s members) and composites over the
   /// group. Rank 0 returns the finished frame and, in `stats`, its own frame statistics with `distributed` set (the
-  /// members drawing, the lost ranks given in `lost`, each member's drawing ms, paging and host cache peak, the
-  /// compositing ms and bytes each sent and received: gathered to rank 0 only); other ranks return an empty image.
+  /// members drawing, the lost ranks given in `lost`, each member's drawing ms, estimated samples, paging and host
+  /// cache peak, the compositing ms and bytes each sent and received: gathered to rank 0 only), except the frame's
+  /// cost, which is the whole frame's: `samplesEstimated` every member's together, `msTotal` (and an interactive
+  /// frame's `actual_ms`) rank 0's from the start of its drawing to the composited frame, so that a rate measured
+  /// from them is the group's. Other ranks return an empty image.
   /// An interactive scene is drawn reduced on every rank with the same choice, composited at the reduced size and
-  /// scaled up once, on rank 0: `options.rateSamplesPerMs` and `fixedMs` must be the same on every rank (the caller
-  /// broadcasts rank 0's). With `frame8`, rank 0's exact frame goes there as the compositor made it, 8 bits, and
+  /// scaled up once, on rank 0, to the scene's size times `options.outputScale` (a video stream's smaller size, as
+  /// one process returns it): `options.rateSamplesPerMs`, `fixedMs` and `outputScale` must be the same on every rank
+  /// (the caller broadcasts rank 0's). With `frame8`, rank 0's exact frame goes there as the compositor made it, 8 bits, and
   /// the float image returned is empty (an interactive frame, scaled up in floats, is still returned as floats).
   /// Throws RenderInputError for a kind whose driver does not sort last, PeerError naming a rank that failed or
   /// passed the deadline, and the engine's errors.

@@ -51,6 +51,7 @@ render::FrameOptions frameOptionsOf(const nlohmann::json& command) {
   options.maxSamples = command.value("max_samples", 0.0);
   options.rateSamplesPerMs = rateOrCheapest(command.value("rate", 0.0));
   options.fixedMs = command.value("fixed_ms", 0.0);
+  options.outputScale = command.value("output_scale", 1.0);
   return options;
 }
 
@@ -198,7 +199,8 @@ image::ImageF FrameLeader::frame(RankRenderer& renderer, double recentRate,
                             {"stand_ins", options.standIns},
                             {"max_samples", options.maxSamples},
                             {"rate", rate},
-                            {"fixed_ms", options.rateSamplesPerMs > 0 ? options.fixedMs : 0.0}};
+                            {"fixed_ms", options.rateSamplesPerMs > 0 ? options.fixedMs : 0.0},
+                            {"output_scale", options.outputScale}};
   try {
     sendCommand(mGroup, command.dump(), timeout);
     agreeOnDataset(mGroup, dataset->name(), ownRecord(dataset->name()), timeout);

@@ -25,10 +25,10 @@ failed=0
 check() {  # check WHAT CONDITION-STATUS
   if [ "$2" -eq 0 ]; then echo "ok: $1"; else echo "FAIL: $1"; failed=1; fi
 }
-start() {
+start() {  # start [SERVE-OPTION ...]
   rm -f "$work/port" "$work"/r*/pid
   "$mpirun" --oversubscribe --allow-run-as-root --enable-recovery -n 3 "$work/rank.sh" "$exe" serve --mpi --no-config \
-    --datasets ds --port 0 --port-file "$work/port" --mpi-timeout 5 > "$work/serve.log" 2>&1 &
+    --datasets ds --port 0 --port-file "$work/port" --mpi-timeout 5 "$@" > "$work/serve.log" 2>&1 &
   mpirunPid=$!
   for _ in $(seq 1 100); do [ -f "$work/port" ] && [ -f "$work/r2/pid" ] && break; sleep 0.2; done
   port=$(cat "$work/port" 2> /dev/null) || { echo "FAIL: the server did not start; its log:"; cat "$work/serve.log"; exit 1; }
@@ -62,11 +62,20 @@ finish() {  # finish SECONDS: waits for mpirun; returns its status, or 124 if it
 }
 
 # shellcheck disable=SC2086
-"$exe" render "$work/blobs" -o "$work/single.png" -q $scene || exit 1
-start
+"$exe" render "$work/blobs" -o "$work/single.png" --stats "$work/single.json" -q $scene || exit 1
+# Video encoders held to 1.5 MB each (a quarter of 6): a VP8 stream of 512x512 frames goes at 128x128 (1.2 MiB; at
+# 192x192, 2.1 MiB).
+start --video-memory 6
 out=$(request blobs "$work/served.png"); check "a frame served through rank 0 ($out)" $?
 line=$(same "$work/served.png"); check "served frame equals one process's: $line" $?
 [ "$(members "$work/served.png.json")" = "0,1,2 lost " ]; check "drawn by ranks 0, 1 and 2: $(members "$work/served.png.json")" $?
+# The frame's cost is the whole frame's (every rank's samples), as one process's: the rate the server measures
+# from it, and chooses interactive drawings by, is the group's.
+line=$(/usr/bin/python3 -c 'import json, sys
+one, served = (json.load(open(f))["samples_estimated"] for f in sys.argv[1:])
+print(f"{served:.0f} samples estimated, one process {one:.0f}")
+sys.exit(0 if abs(served - one) <= 0.1 * one else 1)' "$work/single.json" "$work/served.png.json" 2>&1)
+check "the served frame's estimated samples are the whole frame's: $line" $?
 # A mesh: drawn in parts across the ranks (rank 0's part clipped by the ray caster), the one-process frame.
 meshScene="--tf hot --orbit 35,25 --size 72x64"
 # shellcheck disable=SC2086
@@ -87,6 +96,19 @@ echo '{"interactive": true, "time_budget_ms": 30}' > "$work/interactive.json"
 out=$("$exe" request "127.0.0.1:$port" --dataset blobs -o "$work/interactive.png" --scene "$work/interactive.json" \
   --timeout 30 $scene 2>&1); status=$?
 [ $status -eq 0 ] && grep -q "provisional frame" <<< "$out"; check "an interactive frame, then the exact one: $out" $?
+# A drag as a VP8 stream sent smaller than its scene (for the encoders' memory): every rank draws its part at the
+# stream's size, not at the scene's to be shrunk on rank 0 (the frames' drawn scale no larger than the sent one; a
+# step of 2 voxels makes the drawing without the cap larger than the stream).
+out=$("$exe" load "127.0.0.1:$port" --dataset blobs --tf mri --step 2 --clients 1 --size 512x512 --drag 10 \
+  --interactive 2000 --encoding png --provisional-encoding vp8 --duration 3 --json "$work/video.json" \
+  --require-clean 2>&1); status=$?
+line=$(/usr/bin/python3 -c 'import json, sys
+r = json.load(open(sys.argv[1]))
+drawn, sent, frames = r["drawn_scale"] or {}, r["sent_scale"] or {}, (r["video"] or {}).get("frames", 0)
+print("video frames", frames, "drawn p10-p90", drawn.get("p10"), drawn.get("p90"), "sent", sent.get("p10"), sent.get("p90"))
+sys.exit(0 if frames >= 2 and sent["p90"] <= 0.25 and drawn["p90"] <= sent["p10"] + 1e-9 else 1)' "$work/video.json" 2>&1)
+[ $? -eq 0 ] && [ $status -eq 0 ]
+check "a VP8 stream at a quarter of the scene's sides, drawn at that size across the ranks ($line; $out)" $?
 kill -STOP "$(cat "$work/r2/pid")"
 timedRequest blobs "$work/stopped.png"
 [ $status -ne 0 ] && grep -q "rank 2" <<< "$out" && awk -v t="$took" 'BEGIN { exit !(t < 15) }'
