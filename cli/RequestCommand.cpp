@@ -27,10 +27,15 @@ struct RequestArgs {
 };
 
 /// Writes a frame as the output's extension asks: a jpeg frame to a .jpg file as its bytes (no second loss), any
-/// other decoded (a video frame in the session's stream, by `decoder`) and encoded again.
-void writeFrame(const std::string& path, const proto::Frame& frame, int jpegQuality, image::FrameDecoder& decoder) {
-  const image::Image8 decoded = decoder.decode(frame);  // checks the payload whatever is written
-  if (frame.encoding == proto::Encoding::Jpeg && image::imageFormatFor(path) == image::ImageFormat::Jpeg)
+/// other decoded (a video frame in the session's stream, by `decoder`) and encoded again. A provisional frame sent at
+/// the size it was drawn (protocol version 8), smaller than the scene's `width` x `height`, is scaled up to it
+/// bilinearly first, as a viewer shows it.
+void writeFrame(const std::string& path, const proto::Frame& frame, int jpegQuality, image::FrameDecoder& decoder,
+                int width, int height) {
+  image::Image8 decoded = decoder.decode(frame);  // checks the payload whatever is written
+  const bool asDrawn = decoded.width != width || decoded.height != height;
+  if (asDrawn) decoded = image::scaleImage(decoded, width, height);
+  if (!asDrawn && frame.encoding == proto::Encoding::Jpeg && image::imageFormatFor(path) == image::ImageFormat::Jpeg)
     image::writeFileAtomically(path, frame.payload);
   else
     image::writeImage(path, decoded, {jpegQuality});
@@ -64,14 +69,14 @@ void runRequest(const RequestArgs& a, const CLI::App& cmd) {
   const std::string provisional = provisionalPath(a.output);
   image::FrameDecoder decoder;
   const proto::Frame frame = c.render(scene.toJson(), encoding, [&](const proto::Frame& early) {
-    writeFrame(provisional, early, a.jpegQuality, decoder);
+    writeFrame(provisional, early, a.jpegQuality, decoder, scene.width, scene.height);
     const nlohmann::json stats = nlohmann::json::parse(early.statsJson);
     std::printf("request: provisional frame (%lld bricks stood in) at %.1f ms, wrote %s\n",
                 static_cast<long long>(stats.value("bricks_standin", int64_t{0})), msSinceStart(), provisional.c_str());
   });
   const double ms = msSinceStart();
   c.goodbye();
-  writeFrame(a.output, frame, a.jpegQuality, decoder);
+  writeFrame(a.output, frame, a.jpegQuality, decoder, scene.width, scene.height);
   if (!a.statsPath.empty()) writeText(a.statsPath, nlohmann::json::parse(frame.statsJson).dump(2) + "\n");
   std::printf("request: wrote %s (%ux%u, %zu bytes as %s) in %.1f ms\n", a.output.c_str(), frame.width, frame.height,
               frame.payload.size(), a.encoding.c_str(), ms);

@@ -39,9 +39,10 @@ void releaseFreedMemory() {
 /// (PROTOCOL.md, Session 11): its pixels encoded as any provisional JPEG frame of the job, its statistics saying why.
 proto::Message jpegForWantOfVideoMemory(proto::Frame frame, const RenderJob& job) {
   frame.encoding = proto::Encoding::Jpeg;
-  // Drawn at the stream's size (RenderJob::outputScale): a still is the scene's.
+  // Drawn at the stream's size (RenderJob::outputScale): a still is the scene's, unless its client shows a
+  // provisional frame scaled (RenderJob::provisionalAsDrawn).
   if (const int width = job.scene.width, height = job.scene.height;
-      int(frame.width) != width || int(frame.height) != height) {
+      !job.provisionalAsDrawn && (int(frame.width) != width || int(frame.height) != height)) {
     try {
       image::Image8 pixels =
           image::scaleImage({int(frame.width), int(frame.height), std::move(frame.payload)}, width, height);

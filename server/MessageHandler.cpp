@@ -320,6 +320,7 @@ Outcome MessageHandler::render(ConnectionState& state, const proto::RenderReques
                                                          std::to_string(int(request.encoding)) +
                                                          " in protocol version " + std::to_string(state.version));
   job.encoding = request.encoding;
+  job.provisionalAsDrawn = state.version >= proto::kProvisionalAsDrawnVersion;
   job.dataset = state.dataset;
   job.received = Clock::now();
   // Presets were read at start: parsing a scene reads no file on an I/O thread.

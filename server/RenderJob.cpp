@@ -1,6 +1,7 @@
 // A render thread's work for one job: render, encode, add the server's timings.
 #include "server/RenderJob.h"
 
+#include <algorithm>
 #include <string>
 #include <utility>
 
@@ -97,6 +98,10 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
     options.outputScale = job.outputScale;
     render::Scene scene = job.scene;
     if (job.refinement) scene.interactive = false;  // the exact frame of an interactive request
+    // A moving frame for a client that shows it scaled goes at the size it was drawn (a video stream's frames go at
+    // the stream's: outputScale).
+    options.keepReducedSize =
+        job.provisionalAsDrawn && scene.interactive && !image::isVideoEncoding(replyEncoding(job, true));
     image::Image8 image = source.render8(job.dataset, scene, &stats, options);
     // A frame with stand-ins, or an interactive frame: the exact one follows.
     const bool provisional = stats.bricksStandIn > 0 || scene.interactive;
@@ -104,7 +109,10 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
     frame.width = uint32_t(image.width);
     frame.height = uint32_t(image.height);
     frame.encoding = replyEncoding(job, provisional);
-    const int jpegQuality = replyJpegQuality(job, provisional);
+    int jpegQuality = replyJpegQuality(job, provisional);
+    // A JPEG of a drawing the client scales up: each of its losses is magnified with it, and its bytes are few.
+    if (provisional && (image.width != scene.width || image.height != scene.height))
+      jpegQuality = std::min(kAsDrawnJpegQualityMax, jpegQuality + kAsDrawnJpegQualityRaise);
     // A video frame leaves as its pixels: the session's stream encodes it off this thread (server/VideoStream.h); so
     // does a still frame whose session encodes aside (a raw one needs no encoding).
     const bool video = image::isVideoEncoding(frame.encoding);

@@ -37,7 +37,10 @@ std::string shareKeyOf(const RenderJob& job) {
          (job.provisionalEncoding ? std::to_string(int(*job.provisionalEncoding)) : std::string("-")) + '|' +
          (job.refinement ? "r" : "f") + '|' + std::to_string(job.maxBodyBytes) + '|' + std::to_string(job.maxSamples) +
          '|' + (job.pngSpeed == image::PngSpeed::Fast ? "fast" : "small") + (job.webpForPng ? "|webp|" : "|") +
-         (job.scene.interactive && !job.refinement ? std::to_string(job.outputScale) + '|' : std::string()) + job.scene.toJson();
+         (job.scene.interactive && !job.refinement
+              ? std::to_string(job.outputScale) + (job.provisionalAsDrawn ? "|drawn|" : "|")
+              : std::string()) +
+         job.scene.toJson();
   return key;
 }
 

@@ -8,11 +8,12 @@ from typing import Any, Callable, Dict, Iterable, Iterator, List, Optional, Sequ
 import numpy as np
 
 from .arrays import as_volume
-from .images import decode_frame
+from .images import decode_frame, scale_up
 from .protocol import MAX_VERSION, MIN_VERSION, Encoding, encoding_of
 from .scene import Camera, TransferFunction, build_scene
 from .session import CLIENT_NAME, Capabilities, RawFrame, Session
 
+_DEFAULT_SIZE = (512, 512)  # a scene's size when it names none (render/core/Scene.h)
 _STILL_ENCODINGS = (Encoding.raw_rgba8, Encoding.png, Encoding.zstd_rgba8, Encoding.jpeg, Encoding.webp)
 
 
@@ -269,4 +270,9 @@ class Client:
     @staticmethod
     def _frame(raw: RawFrame, scene: Dict[str, Any]) -> Frame:
         image = decode_frame(raw.payload, raw.encoding, raw.width, raw.height)
+        # From protocol version 8 a provisional frame comes at the size it was drawn: shown at the scene's, as the
+        # server scaled it for older clients.
+        width, height = scene.get('size', _DEFAULT_SIZE)
+        if raw.stats.get('provisional', False) and (raw.width, raw.height) != (width, height):
+            image = scale_up(image, width, height)
         return Frame(image, raw.stats, scene, raw.encoding.name, raw.request_id, raw.payload)

@@ -7,7 +7,8 @@ import pytest
 
 import voxbrick
 from voxbrick import ErrorCode, ServerError
-from conftest import TOKEN, fresh, largest_difference, render_cli
+from voxbrick.images import decode_frame
+from conftest import TOKEN, Server, fresh, largest_difference, render_cli
 
 MRI_SCENE = dict(camera='left', tf='mri', size=(96, 80), shading=True)
 
@@ -24,7 +25,7 @@ def psnr(a, b):
 
 
 def test_datasets_info_and_stats(client):
-    assert client.version == 7
+    assert client.version == 8
     caps = client.capabilities
     assert caps.max_message_bytes == 1 << 20 and caps.max_image_side == 4096
     assert [e.name for e in caps.encodings] == ['raw_rgba8', 'png', 'zstd_rgba8', 'jpeg', 'vp8', 'vp9', 'webp']
@@ -121,6 +122,29 @@ def test_an_interactive_frame_then_the_exact_one(client):
     assert largest_difference(frames[1].image, client.render(**scene)) <= 1  # PROTOCOL.md: within 1/255
 
 
+def test_a_provisional_frame_drawn_smaller_is_shown_at_the_scenes_size(datasets, tmp_path):
+    # Version 8: the server sends the drawing, the client scales it up; a version-7 session gets it scaled up by the
+    # server. A fresh server for each: its first interactive frame is the cheapest drawing (64 pixels a side), the
+    # same in both. The same picture.
+    scene = dict(camera=(120, 10), size=(160, 160), tf='mri', time_budget_ms=20, provisional_encoding='png')
+    shown = {}
+    for version in (8, 7):
+        (tmp_path / str(version)).mkdir()
+        server = Server(datasets, tmp_path / str(version))
+        try:
+            with voxbrick.connect(server.address, max_version=version) as c:
+                first = next(iter(c.frames('mri.vbs', interactive=True, **scene)))
+        finally:
+            server.stop()
+        assert first.provisional and first.stats['interactive']['width'] == 64
+        assert first.image.shape == (160, 160, 4)
+        shown[version] = first
+    # decode_frame refuses a payload of another size than it is told.
+    assert decode_frame(shown[8].payload, 'png', 64, 64).shape == (64, 64, 4), 'version 8 sends the drawing'
+    assert decode_frame(shown[7].payload, 'png', 160, 160).shape == (160, 160, 4), 'version 7: scaled up'
+    assert largest_difference(shown[8].image, shown[7].image) <= 2
+
+
 def test_orbits(client):
     still = list(client.orbit('sparse', steps=4, elevation=10, size=(32, 32), tf='hot'))
     assert [f.scene['camera'] for f in still] == [{'orbit': [a, 10]} for a in (0.0, 90.0, 180.0, 270.0)]
@@ -176,8 +200,8 @@ def test_versions_are_negotiated(server):
     with voxbrick.connect(server.address, max_version=2) as two:
         assert two.version == 2
         assert two.render_frame('sparse', size=(16, 16), encoding='jpeg').encoding == 'jpeg'
-    with pytest.raises(ValueError, match=r'versions 1..8: this client speaks 1..7'):
-        voxbrick.connect(server.address, max_version=8)
+    with pytest.raises(ValueError, match=r'versions 1..9: this client speaks 1..8'):
+        voxbrick.connect(server.address, max_version=9)
 
 
 def test_the_websocket_and_its_token(server):

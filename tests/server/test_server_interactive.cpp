@@ -5,13 +5,17 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
+#include <map>
 #include <thread>
+#include <tuple>
 
 #include <nlohmann/json.hpp>
 
 #include "ServerProcess.h"
 #include "client/Client.h"
 #include "image/FrameImage.h"
+#include "image/Image.h"
 #include "support/TestSupport.h"
 
 namespace voxbrick {
@@ -29,9 +33,9 @@ class InteractiveServerTest : public test::SparseDatasetSuite {
   }
 };
 
-std::unique_ptr<Client> interactiveSession(const ServerProcess& server) {
+std::unique_ptr<Client> interactiveSession(const ServerProcess& server, uint16_t maxVersion = proto::kMaxVersion) {
   auto c = std::make_unique<Client>("127.0.0.1", server.port(), std::chrono::seconds(60));
-  c->hello("test");
+  c->hello("test", maxVersion);
   c->openDataset("sparse");
   return c;
 }
@@ -48,6 +52,14 @@ std::string scene(double azimuth, bool interactive, int side = 192, double step 
 double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 std::vector<uint8_t> interactivePixels(const proto::Frame& frame) { return image::decodeFrameImage(frame).rgba; }
+
+/// PSNR of `a` against `b` over RGB, dB.
+double psnr(const image::Image8& a, const image::Image8& b) {
+  double squares = 0;
+  for (size_t i = 0; i < a.rgba.size(); ++i)
+    if (i % 4 != 3) squares += std::pow(double(a.rgba[i]) - b.rgba[i], 2);
+  return 10 * std::log10(255.0 * 255.0 / std::max(squares / double(a.rgba.size() / 4 * 3), 1e-12));
+}
 
 TEST_F(InteractiveServerTest, AnInteractiveRenderGetsAProvisionalFrameThenTheExactOne) {
   auto server = start();
@@ -66,8 +78,9 @@ TEST_F(InteractiveServerTest, AnInteractiveRenderGetsAProvisionalFrameThenTheExa
   ASSERT_TRUE(first["interactive"].is_object()) << first.dump();
   EXPECT_EQ(first["interactive"]["budget_ms"].get<double>(), 10);
   EXPECT_LT(first["interactive"]["scale"].get<double>(), 1) << "a new session's first frame measures the device";
-  EXPECT_EQ(provisional[0].width, 192u) << "scaled up to the requested size";
-  EXPECT_EQ(provisional[0].height, 192u);
+  EXPECT_EQ(provisional[0].width, first["interactive"]["width"].get<uint32_t>()) << "sent as drawn (version 8)";
+  EXPECT_EQ(provisional[0].height, first["interactive"]["height"].get<uint32_t>());
+  EXPECT_LT(provisional[0].width, 192u);
   EXPECT_FALSE(last["provisional"].get<bool>());
   EXPECT_FALSE(last.contains("interactive"));
   // The exact frame waits for the camera to rest, and comes within the rest's cap of the provisional one (plus its
@@ -85,6 +98,76 @@ TEST_F(InteractiveServerTest, AnInteractiveRenderGetsAProvisionalFrameThenTheExa
     EXPECT_GT(s["interactive"]["predicted_ms"].get<double>(), 0) << s.dump();
   });
   EXPECT_FALSE(json::parse(second.statsJson)["provisional"].get<bool>());
+}
+
+// Version 8 sends a provisional frame as drawn, for every still encoding; an older session gets the same drawing scaled
+// up to its scene's size by the server. The exact frame is the scene's size either way.
+TEST_F(InteractiveServerTest, AProvisionalFrameGoesAsDrawnFromVersionEightAndScaledUpBefore) {
+  for (const proto::Encoding encoding : {proto::Encoding::RawRgba8, proto::Encoding::Png, proto::Encoding::Jpeg}) {
+    SCOPED_TRACE(proto::encodingName(encoding));
+    std::map<int, proto::Frame> provisional, exact;
+    for (const int version : {8, 7}) {
+      // A fresh server each: a session's first interactive frame on a render thread that has drawn nothing is the
+      // cheapest drawing (64 pixels a side), the same for both versions.
+      auto server = start();
+      auto c = interactiveSession(*server, uint16_t(version));
+      ASSERT_EQ(c->version(), version);
+      exact[version] = c->render(scene(40, true), encoding, [&](const proto::Frame& f) { provisional[version] = f; });
+    }
+    ASSERT_EQ(provisional.size(), 2u);
+    const json drawn = json::parse(provisional[8].statsJson)["interactive"];
+    ASSERT_EQ(drawn["width"], 64) << drawn;
+    EXPECT_EQ(json::parse(provisional[7].statsJson)["interactive"]["width"], 64);
+    EXPECT_EQ(provisional[8].width, 64u) << "sent as drawn";
+    EXPECT_EQ(provisional[8].height, 64u);
+    EXPECT_EQ(provisional[7].width, 192u) << "scaled up by the server for an older client";
+    EXPECT_EQ(provisional[7].height, 192u);
+    EXPECT_LT(provisional[8].payload.size(), provisional[7].payload.size());
+    // The older session's frame is the newer one's drawing scaled up. JPEG encodes the drawing at two sizes: shown at
+    // the scene's size, the one sent as drawn is within 1 dB of the other against the exact frame (the drawing's own
+    // loss is most of it).
+    const image::Image8 grown = image::scaleImage(image::decodeFrameImage(provisional[8]), 192, 192);
+    const image::Image8 older = image::decodeFrameImage(provisional[7]);
+    if (encoding == proto::Encoding::Jpeg) {
+      const image::Image8 truth = image::decodeFrameImage(exact[8]);
+      const double asDrawn = psnr(grown, truth), scaledUp = psnr(older, truth);
+      EXPECT_GT(asDrawn, scaledUp - 1) << asDrawn << " dB sent as drawn, " << scaledUp << " dB scaled up first";
+    } else {
+      EXPECT_EQ(grown.rgba, older.rgba);
+    }
+    for (const int version : {7, 8}) {
+      EXPECT_EQ(exact[version].width, 192u);
+      EXPECT_EQ(exact[version].height, 192u);
+    }
+    EXPECT_EQ(image::decodeFrameImage(exact[8]).rgba, image::decodeFrameImage(exact[7]).rgba);
+  }
+}
+
+// Two sessions asking the same interactive frame at once, one of version 8 and one older, each get their own kind of
+// provisional frame: frame sharing keeps the two apart.
+TEST_F(InteractiveServerTest, SharedFramesKeepProvisionalFramesAsDrawnApart) {
+  auto server = start();
+  auto eight = interactiveSession(*server), seven = interactiveSession(*server, 7);
+  for (int round = 0; round < 3; ++round) {
+    const uint32_t a = eight->send(proto::RenderRequest{proto::Encoding::Png, scene(40 + round, true)});
+    const uint32_t b = seven->send(proto::RenderRequest{proto::Encoding::Png, scene(40 + round, true)});
+    for (auto [c, id, version] : {std::tuple{eight.get(), a, 8}, std::tuple{seven.get(), b, 7}}) {
+      auto [rid, m] = c->receive();
+      ASSERT_EQ(rid, id);
+      ASSERT_TRUE(std::holds_alternative<proto::Frame>(m));
+      const auto& f = std::get<proto::Frame>(m);
+      ASSERT_TRUE(client::isProvisional(f));
+      const json drawn = json::parse(f.statsJson)["interactive"];
+      if (version == 8)
+        EXPECT_EQ(f.width, drawn["width"].get<uint32_t>()) << drawn;
+      else
+        EXPECT_EQ(f.width, 192u) << drawn;
+      auto [rid2, exactFrame] = c->receive();  // the exact frame, once the camera rests
+      ASSERT_EQ(rid2, id);
+      ASSERT_TRUE(std::holds_alternative<proto::Frame>(exactFrame));
+      EXPECT_EQ(std::get<proto::Frame>(exactFrame).width, 192u);
+    }
+  }
 }
 
 TEST_F(InteractiveServerTest, ANewerRenderDropsTheRefinementWithoutAReply) {
