@@ -1,7 +1,8 @@
 // The viewer's video stream (protocol version 4) in a real browser (Debian's Chromium, headless, whose WebCodecs
 // decode VP8 and VP9) against the real `voxbrick serve --http`: a drag gets vp8 frames, every one decoded in the
 // stream's order and those shown close to the exact frame; a browser that decodes no codec (or has no WebCodecs) gets
-// jpeg; a resize mid-drag, a reconnection and a failed decoder each get a key frame.
+// jpeg (from version 8 a jpeg moving frame comes at the size it was drawn, and fills the canvas); a resize mid-drag, a
+// reconnection and a failed decoder each get a key frame.
 
 import assert from "node:assert/strict";
 import fs from "node:fs";
@@ -64,7 +65,7 @@ describe("viewer video stream", () => {
   test("a drag in a browser that decodes vp8 gets the vp8 stream, every frame decoded in order", async () => {
     const page = await H.openPage(browser, `${server.url}/?dataset=ml&${SIZE_PARAM}`);
     const start = await waitExact(page);
-    assert.equal(start.capabilities.version, 7);
+    assert.equal(start.capabilities.version, 8);
     assert.ok(start.capabilities.encodings.includes(4) && start.capabilities.encodings.includes(5));
     assert.equal(start.features.video, "vp8", "vp8 is the first codec asked, and Chromium decodes it");
     assert.equal(start.moving, "vp8");
@@ -160,7 +161,7 @@ describe("viewer video stream", () => {
     for (const [name, script] of Object.entries(cases)) {
       const page = await openPageWith(browser, `${server.url}/?dataset=sparse&${SIZE_PARAM}`, script);
       const start = await waitExact(page);
-      assert.equal(start.capabilities.version, 7, name);
+      assert.equal(start.capabilities.version, 8, name);
       assert.equal(start.features.video, null, name);
       assert.equal(start.moving, "jpeg", name);
       await drag(page, { durationMs: 1500, hz: 30, dAz: 3 });
@@ -172,6 +173,44 @@ describe("viewer video stream", () => {
       assert.match(await page.$eval("#overlay", (e) => e.textContent), /moving: jpeg/);
       assert.deepEqual(page.errors, [], name);
       await page.close();
+    }
+  });
+
+  test("a jpeg moving frame drawn smaller than the view comes at its drawn size and fills the canvas", async () => {
+    // interactive_fps 1000: each moving frame's budget is the 10 ms floor, so the ladder draws it smaller than the
+    // view; from protocol version 8 it travels at that size and the page draws it scaled onto the canvas.
+    const config = path.join(scratch.dir, "small-drawings.toml");
+    fs.writeFileSync(config, "[scheduler]\ninteractive_fps = 1000\n");
+    const busy = await new H.Server({ dir: scratch.dir, datasets, config }).start();
+    try {
+      // Every drawImage onto a canvas, with its source's size.
+      const page = await openPageWith(browser, `${busy.url}/?dataset=sparse&size=640x480&video=off`, () => {
+        window.drawCalls = [];
+        const draw = CanvasRenderingContext2D.prototype.drawImage;
+        CanvasRenderingContext2D.prototype.drawImage = function (image, ...args) {
+          window.drawCalls.push([image.width, image.height, ...args]);
+          return draw.call(this, image, ...args);
+        };
+      });
+      const start = await waitExact(page);
+      assert.equal(start.capabilities.version, 8);
+      assert.equal(start.moving, "jpeg");
+      await drag(page, { durationMs: 1500, hz: 30, dAz: 3 });
+      const done = await waitExact(page, start.newestId);
+      const moving = (await shownFrames(page)).filter((f) => f.provisional && f.phase === "drag");
+      const smaller = moving.filter((f) => f.encoding === 3 && f.width < 640);
+      assert.ok(smaller.length >= 1, `jpeg frames smaller than the view: ${JSON.stringify(moving.map((f) => f.width))}`);
+      const calls = await page.evaluate(() => window.drawCalls);
+      const scaled = calls.filter((c) => c[0] < 640 && c.length === 6);
+      assert.ok(scaled.length >= smaller.length, JSON.stringify(calls.slice(0, 20)));
+      for (const c of scaled) assert.deepEqual(c.slice(2), [0, 0, 640, 480], `drawn onto the whole canvas: ${c}`);
+      assert.deepEqual(done.canvas, [640, 480]);
+      assert.equal(done.lastFrame.width, 640, "the exact frame has the view's size");
+      assert.ok(H.litPixels(await H.canvasPixels(page)) > 500, "the exact frame shows the volume");
+      assert.deepEqual(page.errors, []);
+      await page.close();
+    } finally {
+      await busy.kill();
     }
   });
 

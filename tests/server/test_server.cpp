@@ -103,7 +103,7 @@ TEST_F(ServerTest, ServedFramesEqualTheRenderCommandBitForBit) {
   // The other encodings carry the same pixels.
   EXPECT_EQ(pixels(c->render(kScene, proto::Encoding::RawRgba8)), served);
   EXPECT_EQ(pixels(c->render(kScene, proto::Encoding::ZstdRgba8)), served);
-  ASSERT_EQ(c->version(), 7);
+  ASSERT_GE(c->version(), 7) << "webp";
   const proto::Frame webp = c->render(kScene, proto::Encoding::Webp);
   EXPECT_EQ(webp.encoding, proto::Encoding::Webp);
   EXPECT_EQ(pixels(webp), served);
