@@ -5,7 +5,7 @@
 # voxbrick, preps the MRI template into WORK/datasets/mri once, installs tests/browser's packages if they are missing,
 # and records the command line the results name (bash bench/SCRIPT ARGS...). Also sourced by run_video_memory.sh and
 # run_encoder_ladder.sh, run_stream_drawing.sh, run_drawing_psnr.sh and run_ladder_bottom.sh, for mri_datasets,
-# video_replay, serve_in_background and crowd_drag (below).
+# video_replay, serve_in_background and crowd_drag (below); by run_mpi_interactive.sh and run_jpeg_as_drawn.sh too.
 mri_datasets() {
   local work=$1 exe=$2
   mkdir -p "$work/datasets"
@@ -49,8 +49,15 @@ serve_in_background() {
   shift 3
   "$exe" serve --port 0 "$@" > "$log" 2>&1 &
   pid=$!
+  listening_port "$script" "$log" 10
+}
+
+# `listening_port SCRIPT LOG SECONDS`: sets `port` once the server whose output goes to LOG says it listens, within
+# SECONDS, or names SCRIPT and the log and exits.
+listening_port() {
+  local script=$1 log=$2 seconds=$3
   port=
-  for _ in $(seq 100); do
+  for _ in $(seq $((seconds * 10))); do
     port=$(grep -ao "listening on [0-9.:]*[0-9]" "$log" | head -1 | sed 's/.*://') || true
     [ -n "$port" ] && return 0
     sleep 0.1

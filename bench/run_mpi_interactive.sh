@@ -50,14 +50,7 @@ serve() {
     "$exe" serve --port 0 --datasets "$work/datasets" --render-threads 1 > "$log" 2>&1 &
   fi
   pid=$!
-  port=
-  for _ in $(seq 300); do
-    port=$(grep -ao "listening on [0-9.:]*[0-9]" "$log" | head -1 | sed 's/.*://') || true
-    [ -n "$port" ] && return 0
-    sleep 0.1
-  done
-  echo "run_mpi_interactive.sh: the server did not start: $(cat "$log")" >&2
-  exit 1
+  listening_port run_mpi_interactive.sh "$log" 30
 }
 drag() {  # drag JSON: the clients against `port`, then the server stopped
   "$new" load "127.0.0.1:$port" --dataset mri --tf mri --clients "$clients" --size "${size}x${size}" --drag 30 \
