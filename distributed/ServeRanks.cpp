@@ -221,11 +221,22 @@ std::string SortLastSource::describe() const {
   return mEngine.describe() + ", sort-last across " + std::to_string(mRanks) + " MPI ranks";
 }
 
+image::ImageF SortLastSource::distributed(const std::shared_ptr<const render::Dataset>& dataset,
+                                          const render::Scene& scene, render::FrameStats* stats,
+                                          const render::FrameOptions& options, image::Image8* frame8) {
+  render::RateGauge& rate = mRates[std::string(dataset->kind())];
+  render::FrameStats own;
+  image::ImageF image = mLeader->frame(mRenderer, rate.rate(), dataset, scene, &own, options, frame8);
+  rate.add(own.samplesEstimated, own.msTotal);
+  if (stats) *stats = std::move(own);
+  return image;
+}
+
 image::ImageF SortLastSource::render(const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene,
                                      render::FrameStats* stats, const render::FrameOptions& options) {
   if (!dataset || options.part || options.meshPart || !render::driverFor(*dataset).sortsLast())
     return mEngine.render(dataset, scene, stats, options);
-  return mLeader->frame(mRenderer, mEngine.recentRate(*dataset), dataset, scene, stats, options);
+  return distributed(dataset, scene, stats, options, nullptr);
 }
 
 image::Image8 SortLastSource::render8(const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene,
@@ -233,8 +244,7 @@ image::Image8 SortLastSource::render8(const std::shared_ptr<const render::Datase
   if (!dataset || options.part || options.meshPart || !render::driverFor(*dataset).sortsLast())
     return mEngine.render8(dataset, scene, stats, options);
   image::Image8 frame8;
-  image::ImageF image =
-      mLeader->frame(mRenderer, mEngine.recentRate(*dataset), dataset, scene, stats, options, &frame8);
+  image::ImageF image = distributed(dataset, scene, stats, options, &frame8);
   return frame8.rgba.empty() ? image::toImage8(image) : std::move(frame8);
 }
 

@@ -15,6 +15,7 @@
 
 #include <atomic>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -24,6 +25,7 @@
 
 #include "distributed/Cluster.h"
 #include "distributed/RankRenderer.h"
+#include "render/core/Interactive.h"
 #include "render/engine/FrameSource.h"
 #include "render/engine/RenderEngine.h"
 
@@ -47,9 +49,9 @@ class FrameLeader {
   FrameLeader& operator=(const FrameLeader&) = delete;
 
   /// One frame across the members, rank 0's part drawn through `renderer`; an interactive frame's rung is chosen on
-  /// every rank by options.rateSamplesPerMs, else by `recentRate` (rank 0's engine's), else the cheapest. After a
-  /// lost rank the ranks regroup first (up to the deadline and 2 s more). Throws RenderError naming a rank lost
-  /// during this frame.
+  /// every rank by options.rateSamplesPerMs, else by `recentRate` (the group's recent frames'), else the cheapest.
+  /// After a lost rank the ranks regroup first (up to the deadline and 2 s more). Throws RenderError naming a rank
+  /// lost during this frame.
   /// With `frame8`: as RankRenderer::render's.
   image::ImageF frame(RankRenderer& renderer, double recentRate, const std::shared_ptr<const render::Dataset>& dataset,
                       const render::Scene& scene, render::FrameStats* stats, const render::FrameOptions& options,
@@ -107,10 +109,18 @@ class SortLastSource final : public render::FrameSource {
   uint64_t renderersReleased() const override { return mEngine.renderersReleased(); }
 
  private:
+  /// A sort-last frame through the leader; its whole-frame samples and time go to the kind's rate.
+  image::ImageF distributed(const std::shared_ptr<const render::Dataset>& dataset, const render::Scene& scene,
+                            render::FrameStats* stats, const render::FrameOptions& options, image::Image8* frame8);
+
   std::shared_ptr<FrameLeader> mLeader;
   render::RenderEngine mEngine;
   RankRenderer mRenderer;
   int mRanks = 1;
+  /// Per dataset kind, what the group's frames took as a whole (RankRenderer's stats: every member's samples, rank
+  /// 0's time to the composited frame): the rate an interactive frame of a session with none measured yet is chosen
+  /// by. (The engine's own rate is rank 0's part alone, a whole frame's cost about the ranks' count too high.)
+  std::map<std::string, render::RateGauge, std::less<>> mRates;
 };
 
 /// A worker's loop (ranks > 0): frames until rank 0 says to quit, or until `stopRequested` has been true for
