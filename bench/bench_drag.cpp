@@ -77,7 +77,8 @@ void drag(const Options& o, client::Client& c, std::vector<View>& views, double&
         if (client::isProvisional(*f)) {
           v.interactive = stats.value("interactive", json());
           v.latencyMs = msBetween(v.sent, at);
-          v.frame = image::toImageF(image::decodeFrameImage(*f));
+          // Sent as drawn (protocol version 8): shown at the scene's size, as a client scales it.
+          v.frame = image::toImageF(image::scaleImage(image::decodeFrameImage(*f), o.size, o.size));
         } else if (id == lastId) {
           restToExactMs = msBetween(lastSent, at);
           return;
