@@ -195,7 +195,13 @@ describe("viewer video stream", () => {
       const start = await waitExact(page);
       assert.equal(start.capabilities.version, 8);
       assert.equal(start.moving, "jpeg");
+      // The overlay while dragging (its text every 100 ms).
+      const overlays = [];
+      const watching = setInterval(async () => {
+        overlays.push(await page.$eval("#overlay", (e) => e.textContent).catch(() => ""));
+      }, 100);
       await drag(page, { durationMs: 1500, hz: 30, dAz: 3 });
+      clearInterval(watching);
       const done = await waitExact(page, start.newestId);
       const moving = (await shownFrames(page)).filter((f) => f.provisional && f.phase === "drag");
       const smaller = moving.filter((f) => f.encoding === 3 && f.width < 640);
@@ -207,6 +213,7 @@ describe("viewer video stream", () => {
       assert.deepEqual(done.canvas, [640, 480]);
       assert.equal(done.lastFrame.width, 640, "the exact frame has the view's size");
       assert.ok(H.litPixels(await H.canvasPixels(page)) > 500, "the exact frame shows the volume");
+      assert.ok(overlays.some((o) => /moving: jpeg {2}drawn at \d+ % size/.test(o)), JSON.stringify(overlays));
       assert.deepEqual(page.errors, []);
       await page.close();
     } finally {

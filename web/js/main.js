@@ -152,7 +152,14 @@ function drawOverlay() {
         (v.skipped || v.errors ? `  skipped ${v.skipped}  errors ${v.errors}` : "") +
         (f.last && f.last.videoFallback === "memory" ? "  (jpeg now: the server's video memory is full)" : ""),
     );
-  else if (app.capabilities) lines.push(`moving: ${app.features.jpeg ? "jpeg" : "png"}`);
+  else if (app.capabilities) {
+    // From protocol version 8 a moving frame comes at the size it was drawn, and is shown scaled.
+    const drawn = f.last && f.last.provisional && f.last.width < canvas.width ? f.last.width / canvas.width : null;
+    lines.push(
+      `moving: ${app.features.jpeg ? "jpeg" : "png"}` +
+        (drawn ? `  drawn at ${Math.round(drawn * 100)} % size (to keep its frame rate)` : ""),
+    );
+  }
   if (app.notes.length) lines.push(app.notes[app.notes.length - 1]);
   $("overlay").textContent = lines.join("\n");
 }
