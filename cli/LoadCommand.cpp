@@ -2,6 +2,7 @@
 // ones, reporting throughput, latency percentiles and errors.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <mutex>
@@ -202,8 +203,13 @@ std::optional<std::chrono::milliseconds> tallyDragReply(const proto::Message& m,
         tally.actualMs.push_back(interactive.value("actual_ms", 0.0));
       }
     }
-    if (stats.contains("video") && stats["video"].is_object())
+    if (stats.contains("video") && stats["video"].is_object()) {
       tally.sentScale.push_back(stats["video"].value("scale", 1.0));
+    } else if (stats.contains("interactive") && stats["interactive"].is_object()) {
+      // A still-encoded moving frame: sent at its drawn size (protocol version 8) or at the scene's.
+      const double drawnWidth = stats["interactive"].value("width", 0.0), scale = stats["interactive"].value("scale", 0.0);
+      if (drawnWidth > 0 && scale > 0) tally.sentScale.push_back(double(frame->width) / std::round(drawnWidth / scale));
+    }
   } else if (!std::holds_alternative<proto::DatasetList>(m)) {  // a DatasetList answers the closing request
     ++tally.errors, ++mine.errors;
   }

@@ -34,8 +34,8 @@ struct Tally {
   std::vector<double> budgetMs;      ///< interactive frames: the time budget each was drawn to (its statistics)
   std::vector<double> decodeMs;      ///< dragging clients: each video frame's decoding time
   std::vector<double> encodeMs;      ///< dragging clients: each frame's encoding time on the server (its statistics)
-  /// Dragging clients' interactive frames: each drawing's scale (`interactive.scale`), and each video frame's stream
-  /// scale (`video.scale`), as fractions of the scene's sides.
+  /// Dragging clients' interactive frames: each drawing's scale (`interactive.scale`), and the scale each was sent at
+  /// (a video frame's stream scale, `video.scale`; another frame's own width), as fractions of the scene's sides.
   std::vector<double> drawnScale, sentScale;
   /// Interactive frames chosen by a known rate: the time their drawing was predicted to take, and took (ms).
   std::vector<double> predictedMs, actualMs;

@@ -23,11 +23,13 @@ class LoadTest : public test::SparseDatasetSuite {
     mServer = std::make_unique<ServerProcess>("--datasets " + datasets() + " --render-threads 1", scratch());
   }
 
-  /// Runs `voxbrick load` on the suite's server with `options`; its JSON report.
+  /// Runs `voxbrick load` on the suite's server with `options` (64x64 frames unless they name a --size); its JSON
+  /// report.
   json load(const std::string& options) {
     const auto report = scratch() / "load.json";
-    const auto r = test::runVoxbrick("load 127.0.0.1:" + std::to_string(mServer->port()) +
-                                     " --dataset sparse --size 64x64 --json " + report.string() + " " + options);
+    const std::string size = options.find("--size") == std::string::npos ? " --size 64x64" : "";
+    const auto r = test::runVoxbrick("load 127.0.0.1:" + std::to_string(mServer->port()) + " --dataset sparse" + size +
+                                     " --json " + report.string() + " " + options);
     EXPECT_EQ(r.exitCode, 0) << r.output;
     const std::vector<char> text = test::readFile(report);
     return json::parse(std::string(text.begin(), text.end()));
@@ -79,6 +81,15 @@ TEST_F(LoadTest, DraggingClientsTimeEachFrameFromItsCamera) {
   EXPECT_GE(r["latency_ms"]["p50"].get<double>(), r["render_ms_p50"].get<double>()) << r["latency_ms"];
   EXPECT_GT(r["render_ms_p50"].get<double>(), 0);
   EXPECT_TRUE(r["jain_index"].is_number()) << r.dump();
+}
+
+// Moving frames in JPEG travel at the size they were drawn (protocol version 8): sent as large as drawn.
+TEST_F(LoadTest, DraggingClientsGetStillEncodedMovingFramesAtTheirDrawnSize) {
+  const json r = load("--clients 1 --duration 1 --drag 20 --interactive 10 --size 256x256 --encoding png "
+                      "--provisional-encoding jpeg --require-clean");
+  ASSERT_TRUE(r["drawn_scale"].is_object() && r["sent_scale"].is_object()) << r.dump();
+  for (const char* p : {"p10", "p50", "p90"}) EXPECT_EQ(r["sent_scale"][p], r["drawn_scale"][p]) << r.dump();
+  EXPECT_LT(r["sent_scale"]["p10"].get<double>(), 1) << "the first frame is the cheapest drawing: " << r.dump();
 }
 
 // Dragging clients asking their moving frames as a vp8 stream decode every video frame in order, each client's
