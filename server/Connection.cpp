@@ -53,7 +53,7 @@ proto::Message jpegForWantOfVideoMemory(proto::Frame frame, const RenderJob& job
     }
   }
   frame.statsJson = withKey(std::move(frame.statsJson), "video_fallback", "\"memory\"");
-  return encodeStill(std::move(frame), replyJpegQuality(job, true), job);
+  return encodeStill(std::move(frame), replyJpegQuality(job, true, int(frame.width), int(frame.height)), job);
 }
 
 /// The first reply's error, for logs.

@@ -75,9 +75,12 @@ proto::Encoding replyEncoding(const RenderJob& job, bool provisional) {
   return encoding == proto::Encoding::Png && job.webpForPng ? proto::Encoding::Webp : encoding;
 }
 
-int replyJpegQuality(const RenderJob& job, bool provisional) {
-  if (provisional && job.provisionalJpegQuality) return *job.provisionalJpegQuality;
-  return job.scene.jpegQuality.value_or(image::kDefaultJpegQuality);
+int replyJpegQuality(const RenderJob& job, bool provisional, int width, int height) {
+  const int quality = provisional && job.provisionalJpegQuality ? *job.provisionalJpegQuality
+                                                                : job.scene.jpegQuality.value_or(image::kDefaultJpegQuality);
+  // A JPEG of a drawing the client scales up: each of its losses is magnified with it, and its bytes are few.
+  const bool smaller = width > 0 && height > 0 && (width != job.scene.width || height != job.scene.height);
+  return provisional && smaller ? std::min(kAsDrawnJpegQualityMax, quality + kAsDrawnJpegQualityRaise) : quality;
 }
 
 uint64_t frameBodyBytes(size_t statsBytes, size_t payloadBytes) {
@@ -109,10 +112,7 @@ RenderReply renderReply(render::FrameSource& source, const RenderJob& job, int t
     frame.width = uint32_t(image.width);
     frame.height = uint32_t(image.height);
     frame.encoding = replyEncoding(job, provisional);
-    int jpegQuality = replyJpegQuality(job, provisional);
-    // A JPEG of a drawing the client scales up: each of its losses is magnified with it, and its bytes are few.
-    if (provisional && (image.width != scene.width || image.height != scene.height))
-      jpegQuality = std::min(kAsDrawnJpegQualityMax, jpegQuality + kAsDrawnJpegQualityRaise);
+    const int jpegQuality = replyJpegQuality(job, provisional, image.width, image.height);
     // A video frame leaves as its pixels: the session's stream encodes it off this thread (server/VideoStream.h); so
     // does a still frame whose session encodes aside (a raw one needs no encoding).
     const bool video = image::isVideoEncoding(frame.encoding);

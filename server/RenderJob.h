@@ -115,8 +115,9 @@ inline FrameClass frameClassOf(const RenderJob& job) {
 proto::Encoding replyEncoding(const RenderJob& job, bool provisional);
 
 /// The JPEG quality of a Frame answering `job`: a provisional Frame's may be lowered under a crowd
-/// (provisionalJpegQuality: quality yields first); otherwise the scene's, else image::kDefaultJpegQuality.
-int replyJpegQuality(const RenderJob& job, bool provisional);
+/// (provisionalJpegQuality: quality yields first); otherwise the scene's, else image::kDefaultJpegQuality. A
+/// provisional Frame of `width` x `height` smaller than its scene (sent as drawn) gets kAsDrawnJpegQualityRaise more.
+int replyJpegQuality(const RenderJob& job, bool provisional, int width = 0, int height = 0);
 /// A provisional JPEG frame sent at the size it was drawn, smaller than its scene (RenderJob::provisionalAsDrawn), is
 /// encoded this much above replyJpegQuality's, at most kAsDrawnJpegQualityMax: scaled up by its client, its losses
 /// grow with it. On the MRI at 512², drawn at 64² to 256² (bench/results/jpeg/as-drawn.md), against the exact

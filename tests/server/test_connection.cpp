@@ -680,6 +680,57 @@ TEST_F(ConnectionTest, AFrameDrawnSmallerForItsStreamGoesAsAStillOfTheScenesSize
   EXPECT_LT(shown.rgba[0], shown.rgba[4 * 60]);
 }
 
+// For a client that shows moving frames scaled (protocol version 8) the same frame goes at the size it was drawn.
+TEST_F(ConnectionTest, AFrameDrawnSmallerForItsStreamGoesAsDrawnToAClientThatScalesIt) {
+  VideoMemory memory(1);  // no encoder fits
+  SessionServices withVideo = services;
+  withVideo.video = &memory;
+  auto link = std::make_shared<FakeTransport>();
+  Connection session{*link, withVideo, ConnectionId{9}, "test:3"};
+  session.start();
+  session.received(proto::encode(proto::Hello{1, 8, "test"}, 1, proto::kVersion));
+  const auto written = [&] {
+    while (!link->asides.empty() || link->writing) {
+      link->runAsides();
+      while (link->writing) link->writing = false, session.written(true);
+    }
+  };
+  written();
+  RenderJob job;
+  job.requestId = 3;
+  job.scene.width = job.scene.height = 64;
+  job.scene.interactive = true;
+  job.outputScale = 0.5;
+  job.provisionalAsDrawn = true;
+  session.rendered(job, proto::Frame{32, 32, proto::Encoding::Vp8, R"({"provisional": true})",
+                                     std::vector<uint8_t>(32 * 32 * 4, 200)});
+  written();
+  ASSERT_EQ(link->writes.size(), 2u);
+  const auto [message, id] = decoded(link->writes[1]);
+  EXPECT_EQ(id, 3u);
+  const auto& frame = std::get<proto::Frame>(message);
+  EXPECT_EQ(frame.encoding, proto::Encoding::Jpeg);
+  EXPECT_EQ(frame.width, 32u);
+  EXPECT_EQ(frame.height, 32u);
+  EXPECT_EQ(image::FrameDecoder().decode(frame).width, 32);
+}
+
+// A provisional JPEG sent smaller than its scene is encoded above its quality (its client scales its losses up).
+TEST(ReplyJpegQuality, AProvisionalFrameSentSmallerThanItsSceneIsEncodedAboveItsQuality) {
+  RenderJob job;
+  job.scene.width = job.scene.height = 64;
+  const int q = image::kDefaultJpegQuality;
+  EXPECT_EQ(replyJpegQuality(job, true), q);
+  EXPECT_EQ(replyJpegQuality(job, true, 64, 64), q);
+  EXPECT_EQ(replyJpegQuality(job, true, 32, 32), std::min(kAsDrawnJpegQualityMax, q + kAsDrawnJpegQualityRaise));
+  EXPECT_EQ(replyJpegQuality(job, false, 32, 32), q) << "an exact frame is never smaller";
+  job.provisionalJpegQuality = 70;  // the crowd's
+  EXPECT_EQ(replyJpegQuality(job, true, 32, 32), 70 + kAsDrawnJpegQualityRaise);
+  job.provisionalJpegQuality.reset();
+  job.scene.jpegQuality = 92;
+  EXPECT_EQ(replyJpegQuality(job, true, 32, 64), kAsDrawnJpegQualityMax);
+}
+
 // Render threads finish a session's frames out of order: a video frame whose Render arrived before that of the frame
 // waiting for the encoder, or of one already encoded, is dropped (Superseded), never encoded after it. The stream
 // never goes back to an older camera, nor to an older size (which cost two more key frames: a browser's resize
