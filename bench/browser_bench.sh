@@ -5,7 +5,8 @@
 # voxbrick, preps the MRI template into WORK/datasets/mri once, installs tests/browser's packages if they are missing,
 # and records the command line the results name (bash bench/SCRIPT ARGS...). Also sourced by run_video_memory.sh and
 # run_encoder_ladder.sh, run_stream_drawing.sh, run_drawing_psnr.sh and run_ladder_bottom.sh, for mri_datasets,
-# video_replay, serve_in_background and crowd_drag (below); by run_mpi_interactive.sh and run_jpeg_as_drawn.sh too.
+# video_replay, serve_in_background, stop_server and crowd_drag (below); by run_mpi_interactive.sh and
+# run_jpeg_as_drawn.sh too.
 mri_datasets() {
   local work=$1 exe=$2
   mkdir -p "$work/datasets"
@@ -37,6 +38,16 @@ crowd_drag() {
   local exe=$1 json=$2 clients=$3 size=$4 codec=$5 duration=$6
   "$exe" load "127.0.0.1:$port" --dataset mri --tf mri --clients "$clients" --size "${size}x${size}" --drag 30 \
     --interactive 50 --provisional-encoding "$codec" --duration "$duration" --json "$json" > /dev/null
+  stop_server
+}
+
+# `stop_server_on_exit`: clears `pid` and has the script stop the server it names when it exits, however it exits.
+# `stop_server`: stops that server now and waits for it.
+stop_server_on_exit() {
+  pid=
+  trap '[ -n "$pid" ] && kill "$pid" 2> /dev/null || true' EXIT
+}
+stop_server() {
   kill "$pid"
   wait "$pid" 2> /dev/null || true
   pid=

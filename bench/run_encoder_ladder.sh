@@ -30,9 +30,7 @@ video=build/bench/bench_video
 source bench/browser_bench.sh
 video_replay run_encoder_ladder.sh "$bin" "$size"
 mkdir -p bench/results/video "$work/encoder-ladder"
-pid=
-cleanup() { [ -n "$pid" ] && kill "$pid" 2> /dev/null || true; }
-trap cleanup EXIT
+stop_server_on_exit
 for round in $(seq "$rounds"); do
   order="false true"
   [ $((round % 2)) -eq 0 ] && order="true false"

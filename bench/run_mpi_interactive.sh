@@ -36,9 +36,7 @@ work=bench/work/mpi-interactive
 mri_datasets "$work" "$new"
 mkdir -p "$(dirname "$dest")" "$work/runs"
 export OMPI_MCA_pml=ob1  # as the tests: the one-machine layer, without probing the network ones
-pid=
-cleanup() { [ -n "$pid" ] && kill "$pid" 2> /dev/null || true; }
-trap cleanup EXIT
+stop_server_on_exit
 
 # `serve LOG EXE [mpi]`: a server of EXE on a free port, across RANKS ranks with `mpi`; sets `pid` and `port`.
 serve() {
@@ -55,9 +53,7 @@ serve() {
 drag() {  # drag JSON: the clients against `port`, then the server stopped
   "$new" load "127.0.0.1:$port" --dataset mri --tf mri --clients "$clients" --size "${size}x${size}" --drag 30 \
     --interactive "$budget" --encoding png --provisional-encoding "$codec" --duration "$duration" --json "$1" > /dev/null
-  kill "$pid"
-  wait "$pid" 2> /dev/null || true
-  pid=
+  stop_server
 }
 
 for round in $(seq "$rounds"); do

@@ -50,9 +50,7 @@ datasets=$work/datasets
 mri_datasets "$work" "$new"
 out=$work/stream-drawing
 mkdir -p "$(dirname "$dest")" "$out"
-pid=
-cleanup() { [ -n "$pid" ] && kill "$pid" 2> /dev/null || true; }
-trap cleanup EXIT
+stop_server_on_exit
 
 # 1. PSNR: exact frames at the scene's size and at each scale's.
 scales="0.75 0.5 0.375 0.25"

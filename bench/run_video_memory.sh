@@ -26,9 +26,7 @@ bin=build/voxbrick
 source bench/browser_bench.sh
 video_replay run_video_memory.sh "$bin" "$size"
 mkdir -p bench/results/video
-pid=
-cleanup() { [ -n "$pid" ] && kill "$pid" 2> /dev/null || true; }
-trap cleanup EXIT
+stop_server_on_exit
 for budget in ${budgets//,/ }; do
   log=$work/video-memory-serve-$budget.log
   serve_in_background run_video_memory.sh "$log" "$bin" --datasets "$datasets" --render-threads 1 \
@@ -39,9 +37,7 @@ for budget in ${budgets//,/ }; do
   # What the server holds once the clients have gone (their sessions closed, their encoders freed).
   sleep 3
   awk '/^VmRSS:/ { print $2 * 1024 }' "/proc/$pid/status" > "$work/video-memory-$budget.rss-after"
-  kill "$pid"
-  wait "$pid" 2> /dev/null || true
-  pid=
+  stop_server
 done
 python3 - "$work" bench/results/video/video-memory "$budgets" "$clients" "$size" "$codec" "$duration" <<'PY'
 import csv, json, sys, datetime

@@ -191,6 +191,39 @@ class ConnectionTest : public ::testing::Test {
     receive(proto::FrameReceived{1000}, 11);
     return core.link().settledLinkKbps();
   }
+  /// What a session of protocol `version` is sent for its moving VP8 frame of `pixels` (32x32), drawn at half its
+  /// 64x64 scene's sides for its stream (RenderJob::outputScale), when no video encoder fits in the server's video
+  /// memory; `asDrawn`: the job's RenderJob::provisionalAsDrawn. A session of its own, on a link of its own.
+  proto::Frame frameWhereNoEncoderFits(uint16_t version, bool asDrawn, std::vector<uint8_t> pixels) {
+    VideoMemory memory(1);  // no encoder fits
+    SessionServices withVideo = services;
+    withVideo.video = &memory;
+    auto link = std::make_shared<FakeTransport>();
+    Connection session{*link, withVideo, ConnectionId{8}, "test:2"};
+    const auto written = [&] {
+      while (!link->asides.empty() || link->writing) {
+        link->runAsides();
+        while (link->writing) link->writing = false, session.written(true);
+      }
+    };
+    session.start();
+    session.received(proto::encode(proto::Hello{1, version, "test"}, 1, proto::kVersion));
+    written();
+    EXPECT_TRUE(session.state().greeted);
+    RenderJob job;
+    job.requestId = 3;
+    job.scene.width = job.scene.height = 64;
+    job.scene.interactive = true;
+    job.outputScale = 0.5;
+    job.provisionalAsDrawn = asDrawn;
+    session.rendered(job, proto::Frame{32, 32, proto::Encoding::Vp8, R"({"provisional": true})", std::move(pixels)});
+    written();
+    EXPECT_EQ(link->writes.size(), 2u);
+    if (link->writes.size() < 2) return {};
+    auto [message, id] = decoded(link->writes[1]);
+    EXPECT_EQ(id, 3u);
+    return std::get<proto::Frame>(std::move(message));
+  }
   /// Runs what was set aside and writes what that queued, until neither is left.
   void settle() {
     while (!transport->asides.empty() || transport->writing) {
@@ -641,34 +674,9 @@ TEST_F(ConnectionTest, AnExactFrameTakesThePlaceOfItsOwnVideoFrameWaitingToBeEnc
 // A moving frame drawn at its stream's smaller size (RenderJob::outputScale) for which no encoder fits in the video
 // memory goes as a still JPEG of the scene's size, as every frame of the scene does, scaled up from the drawing.
 TEST_F(ConnectionTest, AFrameDrawnSmallerForItsStreamGoesAsAStillOfTheScenesSizeWhereNoEncoderFits) {
-  VideoMemory memory(1);  // no encoder fits
-  SessionServices withVideo = services;
-  withVideo.video = &memory;
-  auto link = std::make_shared<FakeTransport>();
-  Connection session{*link, withVideo, ConnectionId{8}, "test:2"};
-  const auto written = [&] {
-    while (!link->asides.empty() || link->writing) {
-      link->runAsides();
-      while (link->writing) link->writing = false, session.written(true);
-    }
-  };
-  session.start();
-  session.received(proto::encode(proto::Hello{1, 4, "test"}, 1, proto::kVersion));
-  written();
-  ASSERT_TRUE(session.state().greeted);
-  RenderJob job;
-  job.requestId = 3;
-  job.scene.width = job.scene.height = 64;
-  job.scene.interactive = true;
-  job.outputScale = 0.5;
   std::vector<uint8_t> pixels(32 * 32 * 4, 255);
   for (size_t i = 0; i < pixels.size(); i += 4) pixels[i] = uint8_t(i / 4), pixels[i + 1] = 90;
-  session.rendered(job, proto::Frame{32, 32, proto::Encoding::Vp8, R"({"provisional": true})", pixels});
-  written();
-  ASSERT_EQ(link->writes.size(), 2u);
-  const auto [message, id] = decoded(link->writes[1]);
-  EXPECT_EQ(id, 3u);
-  const auto& frame = std::get<proto::Frame>(message);
+  const proto::Frame frame = frameWhereNoEncoderFits(4, false, pixels);
   EXPECT_EQ(frame.encoding, proto::Encoding::Jpeg);
   EXPECT_EQ(frame.width, 64u);
   EXPECT_EQ(frame.height, 64u);
@@ -682,33 +690,7 @@ TEST_F(ConnectionTest, AFrameDrawnSmallerForItsStreamGoesAsAStillOfTheScenesSize
 
 // For a client that shows moving frames scaled (protocol version 8) the same frame goes at the size it was drawn.
 TEST_F(ConnectionTest, AFrameDrawnSmallerForItsStreamGoesAsDrawnToAClientThatScalesIt) {
-  VideoMemory memory(1);  // no encoder fits
-  SessionServices withVideo = services;
-  withVideo.video = &memory;
-  auto link = std::make_shared<FakeTransport>();
-  Connection session{*link, withVideo, ConnectionId{9}, "test:3"};
-  session.start();
-  session.received(proto::encode(proto::Hello{1, 8, "test"}, 1, proto::kVersion));
-  const auto written = [&] {
-    while (!link->asides.empty() || link->writing) {
-      link->runAsides();
-      while (link->writing) link->writing = false, session.written(true);
-    }
-  };
-  written();
-  RenderJob job;
-  job.requestId = 3;
-  job.scene.width = job.scene.height = 64;
-  job.scene.interactive = true;
-  job.outputScale = 0.5;
-  job.provisionalAsDrawn = true;
-  session.rendered(job, proto::Frame{32, 32, proto::Encoding::Vp8, R"({"provisional": true})",
-                                     std::vector<uint8_t>(32 * 32 * 4, 200)});
-  written();
-  ASSERT_EQ(link->writes.size(), 2u);
-  const auto [message, id] = decoded(link->writes[1]);
-  EXPECT_EQ(id, 3u);
-  const auto& frame = std::get<proto::Frame>(message);
+  const proto::Frame frame = frameWhereNoEncoderFits(8, true, std::vector<uint8_t>(32 * 32 * 4, 200));
   EXPECT_EQ(frame.encoding, proto::Encoding::Jpeg);
   EXPECT_EQ(frame.width, 32u);
   EXPECT_EQ(frame.height, 32u);

@@ -5,7 +5,6 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
-#include <cmath>
 #include <map>
 #include <thread>
 #include <tuple>
@@ -53,13 +52,6 @@ double msSince(Clock::time_point t) { return std::chrono::duration<double, std::
 
 std::vector<uint8_t> interactivePixels(const proto::Frame& frame) { return image::decodeFrameImage(frame).rgba; }
 
-/// PSNR of `a` against `b` over RGB, dB.
-double psnr(const image::Image8& a, const image::Image8& b) {
-  double squares = 0;
-  for (size_t i = 0; i < a.rgba.size(); ++i)
-    if (i % 4 != 3) squares += std::pow(double(a.rgba[i]) - b.rgba[i], 2);
-  return 10 * std::log10(255.0 * 255.0 / std::max(squares / double(a.rgba.size() / 4 * 3), 1e-12));
-}
 
 TEST_F(InteractiveServerTest, AnInteractiveRenderGetsAProvisionalFrameThenTheExactOne) {
   auto server = start();
@@ -129,8 +121,9 @@ TEST_F(InteractiveServerTest, AProvisionalFrameGoesAsDrawnFromVersionEightAndSca
     const image::Image8 grown = image::scaleImage(image::decodeFrameImage(provisional[8]), 192, 192);
     const image::Image8 older = image::decodeFrameImage(provisional[7]);
     if (encoding == proto::Encoding::Jpeg) {
-      const image::Image8 truth = image::decodeFrameImage(exact[8]);
-      const double asDrawn = psnr(grown, truth), scaledUp = psnr(older, truth);
+      const image::ImageF truth = image::toImageF(image::decodeFrameImage(exact[8]));
+      const double asDrawn = image::compareImages(image::toImageF(grown), truth).psnr;
+      const double scaledUp = image::compareImages(image::toImageF(older), truth).psnr;
       EXPECT_GT(asDrawn, scaledUp - 1) << asDrawn << " dB sent as drawn, " << scaledUp << " dB scaled up first";
     } else {
       EXPECT_EQ(grown.rgba, older.rgba);
