@@ -16,6 +16,7 @@
 #include <memory>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -61,6 +62,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 100));
   app.add_option("--cores", available, "the cores image::videoThreadsFor may give a stream (default: this machine's)")
       ->check(CLI::Range(1, 256));
+  std::vector<int> chromas{420};
+  app.add_option("--chroma", chromas, "VP9's colour sampling: 420 (the server's), 444 (profile 1; rows of their own)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({420, 444}));
   app.add_option("frame", framePath, "a frame (PNG), scaled to each size")->required()->check(CLI::ExistingFile);
   CLI11_PARSE(app, argc, argv);
   // The server's allocator policy (cli/Allocator.cpp, keepFreedMemoryForFrames): blocks up to 32 MB kept for reuse.
@@ -71,7 +76,9 @@ int main(int argc, char** argv) {
     std::ofstream csv(csvPath);
     csv << "codec,size,threads,repeats,first_construct_ms,construct_ms,first_key_ms,key_ms,next_ms,resident_mib,held_mib,"
            "estimate_mib\n";
-    for (const proto::Encoding codec : {proto::Encoding::Vp8, proto::Encoding::Vp9})
+    std::vector<std::pair<proto::Encoding, bool>> formats{{proto::Encoding::Vp8, false}};
+    for (const int chroma : chromas) formats.emplace_back(proto::Encoding::Vp9, chroma == 444);
+    for (const auto& [codec, fullChroma] : formats)
       for (const std::string& size : sizes) {
         int width = 0, height = 0;
         if (std::sscanf(size.c_str(), "%dx%d", &width, &height) != 2 || width < 16 || height < 16)
@@ -83,6 +90,7 @@ int main(int argc, char** argv) {
         settings.width = width, settings.height = height;
         settings.bitrateKbps = int(double(width) * height * 0.05 * 30 / 1000);  // the server's start
         settings.threads = image::videoThreadsFor(codec, width, height, available);
+        settings.fullChroma = fullChroma;
         std::vector<double> construct, key, next, resident, held;
         for (int r = 0; r < repeats; ++r) {
           const double before = residentMiB(), heldBefore = heldBytes();
@@ -100,10 +108,12 @@ int main(int argc, char** argv) {
         }
         char line[320];
         std::snprintf(line, sizeof line, "%s,%s,%d,%d,%.1f,%.1f,%.1f,%.1f,%.1f,%.0f,%.1f,%.1f\n",
-                      proto::encodingName(codec), size.c_str(), settings.threads, repeats, construct[0],
+                      (std::string(proto::encodingName(codec)) + (fullChroma ? " 4:4:4" : "")).c_str(), size.c_str(),
+                      settings.threads, repeats, construct[0],
                       upperMedian(construct), key[0], upperMedian(key), upperMedian(next),
                       *std::max_element(resident.begin(), resident.end()), upperMedian(held),
-                      double(image::videoEncoderBytes(codec, width, height, settings.threads)) / (1 << 20));
+                      double(image::videoEncoderBytes(codec, width, height, settings.threads, fullChroma)) /
+                          (1 << 20));
         csv << line;
         std::fputs(line, stdout);
       }

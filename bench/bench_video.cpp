@@ -139,6 +139,7 @@ Row videoRow(const std::vector<image::Image8>& frames, const std::vector<image::
   if (!settings.constantBitrate) setting += "; vbr";
   if (codec == proto::Encoding::Vp9 && settings.aqMode != defaults.aqMode)
     setting += "; aq " + std::to_string(settings.aqMode);
+  if (settings.fullChroma) setting += "; 4:4:4";
   if (settings.startFrames != defaults.startFrames)
     setting += settings.startFrames == 0 ? std::string("; no start cap")
                                          : "; start cap " + std::to_string(settings.startFrames) + " frames";
@@ -157,7 +158,7 @@ Row videoRow(const std::vector<image::Image8>& frames, const std::vector<image::
   if (!streamsDir.empty()) {
     std::string name = std::string(proto::encodingName(codec)) + "-" + std::to_string(width) + "x" +
                        std::to_string(height) + "-" + std::to_string(settings.bitrateKbps) + "kbps-" +
-                       std::to_string(settings.threads) + "t.chunks";
+                       std::to_string(settings.threads) + "t" + (settings.fullChroma ? "-444" : "") + ".chunks";
     stream.open(streamsDir + "/" + name, std::ios::binary);
     if (!stream) throw image::ImageFailure("bench_video: cannot write " + streamsDir + "/" + name);
   }
@@ -221,6 +222,11 @@ int main(int argc, char** argv) {
   app.add_option("--aq", aqModes, "VP9's adaptive quantisation modes, 0..3 (each a row of every VP9 bitrate)")
       ->delimiter(',')
       ->check(CLI::Range(0, 3));
+  std::vector<int> chromas{420};
+  app.add_option("--chroma", chromas, "VP9's colour sampling: 420 (the server's), 444 (profile 1; each a row of "
+                                      "every VP9 bitrate)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({420, 444}));
   std::vector<int> startFrames{image::VideoSettings{}.startFrames};
   app.add_option("--start-frames", startFrames,
                  "the frames of a stream's start whose quantizer is capped (image::VideoSettings::startFrames; 0: "
@@ -273,6 +279,7 @@ int main(int argc, char** argv) {
           for (int speed : speeds)
             for (const std::string& rc : rateControls)
               for (int aq : codec == proto::Encoding::Vp9 ? aqModes : std::vector<int>{image::VideoSettings{}.aqMode})
+                for (int chroma : codec == proto::Encoding::Vp9 ? chromas : std::vector<int>{420})
                 for (int start : startFrames)
                   for (double frameMs : maxFrameMs)
                   for (int k : kbps) {
@@ -283,6 +290,7 @@ int main(int argc, char** argv) {
                     settings.adaptiveSpeed = !fixedSpeed;
                     settings.constantBitrate = rc == "cbr";
                     settings.aqMode = aq;
+                    settings.fullChroma = chroma == 444;
                     rows.push_back(videoRow(frames, references, feed, codec, scale, settings, streamsDir));
                   }
     std::ofstream csv(csvPath);

@@ -154,6 +154,7 @@ std::string dragSceneJson(const LoadArgs& a, bool batch, int width, int height, 
   json scene = json::parse(clientSceneJson(a, batch, width, height, azimuth));
   if (a.interactiveMs > 0) scene["interactive"] = true, scene["time_budget_ms"] = a.interactiveMs;
   if (!a.provisionalEncoding.empty()) scene["provisional_encoding"] = a.provisionalEncoding;
+  if (a.vp9FullChroma) scene["accepts_vp9_444"] = true;
   return scene.dump();
 }
 
@@ -447,6 +448,10 @@ void addLoadCommand(CLI::App& app) {
                   "with --drag: how provisional frames travel (provisional_encoding): raw, png, zstd, jpeg, webp, or a "
                   "video stream, vp8 or vp9 (decoded by each client in order)")
       ->check(CLI::IsMember(proto::encodingShortNames()))
+      ->needs(drag);
+  cmd->add_flag("--vp9-444", a->vp9FullChroma,
+                "with --provisional-encoding vp9: the stream in 4:4:4 (accepts_vp9_444, protocol version 9; colour at "
+                "every pixel, more picture for its bytes)")
       ->needs(drag);
   cmd->add_flag("--batch", a->batch,
                 "the clients' scenes say \"batch\": true: work nobody watches as it happens, served after viewers' "

@@ -27,6 +27,7 @@ struct LoadArgs {
   /// of provisional frames (`provisional_encoding`; empty: the Render's own).
   double interactiveMs = 0;
   std::string provisionalEncoding;
+  bool vp9FullChroma = false;  ///< --vp9-444: the drags' scenes say accepts_vp9_444
   /// The good and dragging clients' scenes carry `"batch": true` (work nobody watches as it happens).
   bool batch = false;
   bool requireClean = false;

@@ -41,6 +41,7 @@ struct VideoEncoder::Codec {
   vpx_codec_ctx_t ctx{};
   vpx_codec_enc_cfg_t cfg{};
   vpx_image_t image{};
+  std::vector<uint8_t> argb;  ///< a frame in libyuv's ARGB order, on the way to 4:4:4
   bool initialised = false;
   ~Codec() {
     if (initialised) vpx_codec_destroy(&ctx);
@@ -55,17 +56,18 @@ int videoThreadsFor(proto::Encoding codec, int width, int height, int available)
   return std::clamp(wanted, 1, std::clamp(available, 1, 8));
 }
 
-uint64_t videoEncoderBytes(proto::Encoding codec, int width, int height, int threads) {
+uint64_t videoEncoderBytes(proto::Encoding codec, int width, int height, int threads, bool fullChroma) {
   // Fitted to bench_stream_start's held_mib (bench/results/video/encoder-memory.md), each within 6 % from 256x256 to
   // 2048x2048: VP8 (one thread, the server's) 0.5 MiB and 46 bytes a pixel; VP9 12 MiB with its first thread,
   // 7.5 MiB for each further one (its tile workers' buffers) and 80 bytes a pixel (frame buffers for eight
-  // references, scaled copies, the cyclic refresh's maps). VP8's threads, which the server does not use, are
-  // counted as VP9's.
+  // references, scaled copies, the cyclic refresh's maps); VP9 in 4:4:4 104 bytes a pixel (its colour planes four
+  // times as large; 0.91-1.03 of what it held from 256x256 to 2048x2048). VP8's threads, which the server does not
+  // use, are counted as VP9's.
   constexpr uint64_t kMiB = 1 << 20;
   const uint64_t pixels = uint64_t(std::max(1, width)) * uint64_t(std::max(1, height));
   const uint64_t extraThreads = uint64_t(std::max(1, threads) - 1);
   if (codec == proto::Encoding::Vp8) return kMiB / 2 + 46 * pixels + extraThreads * 15 * kMiB / 2;
-  return 12 * kMiB + 80 * pixels + extraThreads * 15 * kMiB / 2;
+  return 12 * kMiB + (fullChroma ? 104 : 80) * pixels + extraThreads * 15 * kMiB / 2;
 }
 
 int startQuantizerFor(double bitsPerPixel) {
@@ -87,9 +89,11 @@ VideoEncoder::VideoEncoder(proto::Encoding codec, const VideoSettings& settings)
   if (settings.aqMode < 0 || settings.aqMode > 3)
     throw ImageFailure("video: adaptive quantisation mode " + std::to_string(settings.aqMode) + " is outside 0..3");
   const bool vp9 = codec == proto::Encoding::Vp9;
+  if (settings.fullChroma && !vp9) throw ImageFailure("video: 4:4:4 colour is VP9's only");
   vpx_codec_iface_t* iface = vp9 ? vpx_codec_vp9_cx() : vpx_codec_vp8_cx();
   Codec& c = *mCodecState;
   check(vpx_codec_enc_config_default(iface, &c.cfg, 0), nullptr, "video: " + codecName(codec) + " defaults");
+  c.cfg.g_profile = settings.fullChroma ? 1 : 0;
   c.cfg.g_w = unsigned(settings.width);
   c.cfg.g_h = unsigned(settings.height);
   c.cfg.g_timebase = {1, 1000};  // timestamps in milliseconds
@@ -131,7 +135,7 @@ VideoEncoder::VideoEncoder(proto::Encoding codec, const VideoSettings& settings)
   // A key frame may take at most three frames' worth of bits, so it does not stall the link.
   check(vpx_codec_control(&c.ctx, VP8E_SET_MAX_INTRA_BITRATE_PCT, 300), &c.ctx, what);
   check(vpx_codec_control(&c.ctx, VP8E_SET_STATIC_THRESHOLD, 0), &c.ctx, what);
-  if (!vpx_img_alloc(&c.image, VPX_IMG_FMT_I420, c.cfg.g_w, c.cfg.g_h, 16))
+  if (!vpx_img_alloc(&c.image, settings.fullChroma ? VPX_IMG_FMT_I444 : VPX_IMG_FMT_I420, c.cfg.g_w, c.cfg.g_h, 16))
     throw ImageFailure("video: no memory for a " + std::to_string(settings.width) + "x" +
                        std::to_string(settings.height) + " frame");
 }
@@ -156,9 +160,18 @@ VideoChunk VideoEncoder::encode(const Image8& image, double timeMs, bool key) {
   Codec& c = *mCodecState;
   vpx_image_t& yuv = c.image;
   // libyuv's "ABGR" is R, G, B, A in memory: our Image8.
-  libyuv::ABGRToI420(image.rgba.data(), image.width * 4, yuv.planes[VPX_PLANE_Y], yuv.stride[VPX_PLANE_Y],
-                     yuv.planes[VPX_PLANE_U], yuv.stride[VPX_PLANE_U], yuv.planes[VPX_PLANE_V],
-                     yuv.stride[VPX_PLANE_V], image.width, image.height);
+  if (mSettings.fullChroma) {
+    // libyuv turns only its "ARGB" (B, G, R, A in memory) into 4:4:4.
+    c.argb.resize(image.rgba.size());
+    libyuv::ABGRToARGB(image.rgba.data(), image.width * 4, c.argb.data(), image.width * 4, image.width, image.height);
+    libyuv::ARGBToI444(c.argb.data(), image.width * 4, yuv.planes[VPX_PLANE_Y], yuv.stride[VPX_PLANE_Y],
+                       yuv.planes[VPX_PLANE_U], yuv.stride[VPX_PLANE_U], yuv.planes[VPX_PLANE_V],
+                       yuv.stride[VPX_PLANE_V], image.width, image.height);
+  } else {
+    libyuv::ABGRToI420(image.rgba.data(), image.width * 4, yuv.planes[VPX_PLANE_Y], yuv.stride[VPX_PLANE_Y],
+                       yuv.planes[VPX_PLANE_U], yuv.stride[VPX_PLANE_U], yuv.planes[VPX_PLANE_V],
+                       yuv.stride[VPX_PLANE_V], image.width, image.height);
+  }
   // Strictly increasing timestamps; each frame's duration is the time to the one before (at least 1 ms, at most
   // maxFrameMs where that is set).
   timeMs = std::max(0.0, timeMs);
@@ -251,14 +264,16 @@ Image8 VideoDecoder::decode(std::span<const uint8_t> chunk) {
   vpx_codec_iter_t iter = nullptr;
   const vpx_image_t* yuv = vpx_codec_get_frame(&ctx, &iter);
   if (!yuv) throw ImageFailure(what + ": no image (a delta frame before any key frame?)");
-  if (yuv->fmt != VPX_IMG_FMT_I420) throw ImageFailure(what + ": not 8-bit 4:2:0");
+  if (yuv->fmt != VPX_IMG_FMT_I420 && yuv->fmt != VPX_IMG_FMT_I444)
+    throw ImageFailure(what + ": not 8-bit 4:2:0 or 4:4:4");
   if (yuv->d_w < 1 || yuv->d_h < 1 || yuv->d_w > unsigned(kMaxSide) || yuv->d_h > unsigned(kMaxSide))
     throw ImageFailure(what + ": size " + std::to_string(yuv->d_w) + "x" + std::to_string(yuv->d_h));
   Image8 image{int(yuv->d_w), int(yuv->d_h), {}};
   image.rgba.resize(size_t(image.width) * size_t(image.height) * 4);
-  libyuv::I420ToABGR(yuv->planes[VPX_PLANE_Y], yuv->stride[VPX_PLANE_Y], yuv->planes[VPX_PLANE_U],
-                     yuv->stride[VPX_PLANE_U], yuv->planes[VPX_PLANE_V], yuv->stride[VPX_PLANE_V], image.rgba.data(),
-                     image.width * 4, image.width, image.height);
+  const auto toRgba = yuv->fmt == VPX_IMG_FMT_I444 ? libyuv::I444ToABGR : libyuv::I420ToABGR;
+  toRgba(yuv->planes[VPX_PLANE_Y], yuv->stride[VPX_PLANE_Y], yuv->planes[VPX_PLANE_U], yuv->stride[VPX_PLANE_U],
+         yuv->planes[VPX_PLANE_V], yuv->stride[VPX_PLANE_V], image.rgba.data(), image.width * 4, image.width,
+         image.height);
   return image;
 }
 

@@ -1,7 +1,7 @@
 // Video frames: a stream of 8-bit RGBA images as VP8 or VP9 (libvpx), one compressed frame each, with no frame held
 // back (no lag, no B-frames: each image put in comes out at once), and back. The protocol's vp8 and vp9 encodings
-// (proto::Encoding) carry these frames; RGBA to I420 and back is libyuv's (BT.601, limited range, as browsers
-// decode VP8 and VP9 that say nothing else).
+// (proto::Encoding) carry these frames; RGBA to I420 (or VP9's I444) and back is libyuv's (BT.601, limited range, as
+// browsers decode VP8 and VP9 that say nothing else).
 #pragma once
 
 #include <cstdint>
@@ -33,6 +33,11 @@ struct VideoSettings {
   /// them; the server streams at constant bitrate.
   bool constantBitrate = true;
   int aqMode = 3;  ///< VP9's adaptive quantisation, 0..3 (0 none, 3 cyclic refresh as WebRTC's); VP8 has none
+  /// VP9 only: colour at every pixel (4:4:4, VP9's profile 1; WebCodecs codec "vp09.01.10.08.03") instead of one
+  /// colour sample a 2x2 block (4:2:0, profile 0). On the MRI's 1024² turn 0.6-1.1 dB more PSNR at equal bytes, a
+  /// quarter fewer bytes at JPEG q85's PSNR, for about a third more encoding time and a third more encoder memory
+  /// (bench/results/video/video-444.md). A decoder takes either (VideoDecoder, browsers' software VP9).
+  bool fullChroma = false;
   /// A stream's start: its first frames, `startFrames` of them (a third of a second at 30 frames a second; 0: none).
   /// libvpx's one-pass realtime rate control begins a stream from a coarse guess and takes about ten frames to find
   /// the picture's quantizer, so without help a stream began blurred (bench/results/video/video-start.md). The
@@ -68,8 +73,9 @@ int startQuantizerFor(double bitsPerPixel);
 int videoThreadsFor(proto::Encoding codec, int width, int height, int available);
 
 /// The memory an encoder of `codec` at `width` x `height` with `threads` threads holds once it has encoded its first
-/// frames: what malloc gave it, fitted to bench_stream_start's measurements (bench/results/video/encoder-memory.md).
-uint64_t videoEncoderBytes(proto::Encoding codec, int width, int height, int threads);
+/// frames: what malloc gave it, fitted to bench_stream_start's measurements (bench/results/video/encoder-memory.md);
+/// `fullChroma`: a VP9 encoder in 4:4:4 (VideoSettings::fullChroma).
+uint64_t videoEncoderBytes(proto::Encoding codec, int width, int height, int threads, bool fullChroma = false);
 
 /// One compressed frame: what a decoder of the codec takes as one chunk (WebCodecs' EncodedVideoChunk).
 struct VideoChunk {
@@ -99,6 +105,7 @@ class VideoEncoder {
   int width() const { return mSettings.width; }
   int height() const { return mSettings.height; }
   int bitrateKbps() const { return mSettings.bitrateKbps; }
+  bool fullChroma() const { return mSettings.fullChroma; }
   /// Frames encoded so far.
   uint64_t frames() const { return mFrames; }
   /// The highest quantizer the rate control could use for the latest frame: below kVideoMaxQuantizer in a start's

@@ -23,13 +23,17 @@ constexpr uint32_t kMagic = 0x4B425856;  // read as a little-endian uint32
 /// Forbidden (an access token presented on any transport); version 6 is version 5 plus the messages Upload,
 /// UploadReady and UploadChunk and the error code AlreadyExists (a volume sent to become a dataset); version 7 is
 /// version 6 plus the webp encoding (lossless WebP) and the scene key `accepts_webp`; version 8 is version 7 with
-/// provisional frames sent at the size they were drawn (kProvisionalAsDrawnVersion).
+/// provisional frames sent at the size they were drawn (kProvisionalAsDrawnVersion); version 9 is version 8 plus the
+/// scene key `accepts_vp9_444` (kVp9FullChromaVersion).
 constexpr uint16_t kMinVersion = 1;
-constexpr uint16_t kMaxVersion = 8;
+constexpr uint16_t kMaxVersion = 9;
 /// From this version a provisional Frame in a still encoding (not vp8 or vp9) is sent at the size the interactive
 /// ladder drew it, which may be smaller than its scene; the client shows it at the scene's size (PROTOCOL.md,
 /// Session 8). Before it, the server scales such a frame up to the scene's size itself.
 constexpr uint16_t kProvisionalAsDrawnVersion = 8;
+/// From this version a Render's scene may say `accepts_vp9_444`: its session's vp9 stream may then be VP9 profile 1,
+/// 4:4:4 (PROTOCOL.md, Session 11).
+constexpr uint16_t kVp9FullChromaVersion = 9;
 /// Version 1, which every peer speaks: what encode() and Header write unless told otherwise, and the version a
 /// Hello is written in by a client whose lowest version is 1.
 constexpr uint16_t kVersion = kMinVersion;

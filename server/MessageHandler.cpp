@@ -63,6 +63,10 @@ void checkEncodings(RenderJob& job, uint16_t version) {
     throw render::RenderInputError("scene: 'accepts_webp' needs protocol version " +
                                    std::to_string(proto::firstVersionOf(proto::Encoding::Webp)) +
                                    "; this session speaks version " + std::to_string(version));
+  if (job.scene.acceptsVp9_444 && version < proto::kVp9FullChromaVersion)
+    throw render::RenderInputError("scene: 'accepts_vp9_444' needs protocol version " +
+                                   std::to_string(proto::kVp9FullChromaVersion) + "; this session speaks version " +
+                                   std::to_string(version));
   if (job.scene.transparent) {
     if (job.encoding == proto::Encoding::Jpeg)
       throw render::RenderInputError(

@@ -71,14 +71,14 @@ size_t VideoMemory::moving(Clock::time_point now) const {
                               [now](const auto& entry) { return entry.second.lastUse + kIdleMs > now; }));
 }
 
-double VideoMemory::msForAMegapixel(proto::Encoding codec) const {
+double VideoMemory::msForAMegapixel(proto::Encoding codec, bool fullChroma) const {
   std::lock_guard lock(mMutex);
-  return mMsForAMegapixel[codec == proto::Encoding::Vp9 ? 1 : 0];
+  return mMsForAMegapixel[costIndex(codec, fullChroma)];
 }
 
-void VideoMemory::measured(proto::Encoding codec, double msForAMegapixel) {
+void VideoMemory::measured(proto::Encoding codec, bool fullChroma, double msForAMegapixel) {
   std::lock_guard lock(mMutex);
-  mMsForAMegapixel[codec == proto::Encoding::Vp9 ? 1 : 0] = msForAMegapixel;
+  mMsForAMegapixel[costIndex(codec, fullChroma)] = msForAMegapixel;
 }
 
 uint64_t VideoMemory::freed() const {

@@ -58,10 +58,11 @@ class VideoMemory {
   /// The streams that encoded a frame within kIdleMs of `now`: those whose cameras move, which share the encoder
   /// threads (Connection: the encoder time a moving frame may take).
   size_t moving(Clock::time_point now) const;
-  /// What a stream's inter frames in `codec` (vp8 or vp9) cost to encode, as the ms of a frame of one megapixel
-  /// (VideoStream::expectedMs), as a stream measured it last; 0 before any. A stream's first frame goes by it.
-  double msForAMegapixel(proto::Encoding codec) const;
-  void measured(proto::Encoding codec, double msForAMegapixel);
+  /// What a stream's inter frames in `codec` (vp8 or vp9; VP9 in 4:4:4 with `fullChroma`) cost to encode, as the ms
+  /// of a frame of one megapixel (VideoStream::expectedMs), as a stream measured it last; 0 before any. A stream's
+  /// first frame goes by it.
+  double msForAMegapixel(proto::Encoding codec, bool fullChroma = false) const;
+  void measured(proto::Encoding codec, bool fullChroma, double msForAMegapixel);
   /// Encoders freed to make room for another's, and frames sent as JPEG because none could be freed.
   uint64_t freed() const;
   uint64_t refused() const;
@@ -76,7 +77,10 @@ class VideoMemory {
   mutable std::mutex mMutex;
   std::unordered_map<Holder*, Entry> mEntries;
   uint64_t mBytes = 0, mPeak = 0, mFreed = 0, mRefused = 0;
-  std::array<double, 2> mMsForAMegapixel{};  ///< vp8, vp9
+  std::array<double, 3> mMsForAMegapixel{};  ///< vp8, vp9, vp9 in 4:4:4
+  static size_t costIndex(proto::Encoding codec, bool fullChroma) {
+    return codec != proto::Encoding::Vp9 ? 0 : fullChroma ? 2 : 1;
+  }
 };
 
 }  // namespace voxbrick::server

@@ -67,11 +67,13 @@ double VideoStream::scaleForDrawing(double wantedScale, int width, int height) {
   return chosen;
 }
 
-double VideoStream::scaleForMemory(proto::Encoding codec, int width, int height, uint64_t limitBytes, int cores) {
+double VideoStream::scaleForMemory(proto::Encoding codec, int width, int height, uint64_t limitBytes, int cores,
+                                   bool fullChroma) {
   if (limitBytes == 0) return 1;
   for (const double scale : kScales) {
     const int w = render::scaledSide(width, scale), h = render::scaledSide(height, scale);
-    if (image::videoEncoderBytes(codec, w, h, image::videoThreadsFor(codec, w, h, cores)) <= limitBytes) return scale;
+    if (image::videoEncoderBytes(codec, w, h, image::videoThreadsFor(codec, w, h, cores), fullChroma) <= limitBytes)
+      return scale;
   }
   return 1;
 }
@@ -123,9 +125,10 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
   const double forLink = scaleFor(kbps, fullWidth, fullHeight);
   // A stream that has not measured its own cost yet goes by the last one measured in its codec (a newcomer to a
   // crowd starts at the size the others were brought to, rather than with a key frame too large to encode in time).
-  const double cost = frame.encoding == mCostCodec ? mMsForAMegapixel
-                      : mMemory                     ? mMemory->msForAMegapixel(frame.encoding)
-                                                    : 0;
+  const bool fullChroma = input.fullChroma && frame.encoding == proto::Encoding::Vp9;
+  const double cost = frame.encoding == mCostCodec && fullChroma == mCostFullChroma ? mMsForAMegapixel
+                      : mMemory ? mMemory->msForAMegapixel(frame.encoding, fullChroma)
+                                : 0;
   const double forEncoders = scaleForEncoders(frame.encoding, cost, input.encodeShareMs, fullWidth, fullHeight, mScale);
   // The frame's own statistics say what its drawing wanted (render::InteractiveChoice::wantedScale).
   nlohmann::json stats = nlohmann::json::parse(frame.statsJson, nullptr, false);
@@ -145,21 +148,26 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
   VideoScaledFor scaledFor = mScaledFor;
   if (mMemory) {
     const double forMemory = scaleForMemory(frame.encoding, fullWidth, fullHeight,
-                                            uint64_t(kMemoryShare * double(mMemory->limit())), cores());
+                                            uint64_t(kMemoryShare * double(mMemory->limit())), cores(), fullChroma);
     if (forMemory < scale) scale = forMemory, scaledFor = VideoScaledFor::Memory;
   }
   // (At the bitrate's floor of 1 kbit/s a side is only scaled to a quarter beyond 146 pixels: never below 36.)
   const int width = render::scaledSide(fullWidth, scale), height = render::scaledSide(fullHeight, scale);
   std::string why;
-  if (!mEncoder || mEncoder->codec() != frame.encoding || mEncoder->width() != width || mEncoder->height() != height) {
-    why = !mEncoder ? (mNoRoom ? "memory" : "start") : mEncoder->codec() != frame.encoding ? "codec" : "size";
+  if (!mEncoder || mEncoder->codec() != frame.encoding || mEncoder->fullChroma() != fullChroma ||
+      mEncoder->width() != width || mEncoder->height() != height) {
+    why = !mEncoder                                                                         ? (mNoRoom ? "memory" : "start")
+          : mEncoder->codec() != frame.encoding || mEncoder->fullChroma() != fullChroma ? "codec"
+                                                                                          : "size";
     mBroken = false;
     mEncoder.reset();  // a failed construction leaves none
     image::VideoSettings settings;
     settings.width = width, settings.height = height, settings.bitrateKbps = kbps;
     settings.threads = image::videoThreadsFor(frame.encoding, width, height, cores());
-    if (mMemory && !mMemory->reserve(*this, image::videoEncoderBytes(frame.encoding, width, height, settings.threads),
-                                     start)) {
+    settings.fullChroma = fullChroma;
+    if (mMemory &&
+        !mMemory->reserve(*this, image::videoEncoderBytes(frame.encoding, width, height, settings.threads, fullChroma),
+                          start)) {
       mNoRoom = true;
       mSentScale.store(1, std::memory_order_relaxed);  // its frames go as still JPEGs, drawn at the scene's size
       VideoEncoded none;
@@ -203,10 +211,10 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
     // Key frames cost more than the inter frames a moving stream is made of: they would make it look slower.
     const double msForAMegapixel =
         msBetween(start, encoded) / expectedMs(frame.encoding, 1, double(width) * height / 1e6);
-    const bool known = mCostCodec == frame.encoding && mMsForAMegapixel > 0;
+    const bool known = mCostCodec == frame.encoding && mCostFullChroma == fullChroma && mMsForAMegapixel > 0;
     mMsForAMegapixel = known ? 0.75 * mMsForAMegapixel + 0.25 * msForAMegapixel : msForAMegapixel;
-    mCostCodec = frame.encoding;
-    if (mMemory) mMemory->measured(frame.encoding, mMsForAMegapixel);
+    mCostCodec = frame.encoding, mCostFullChroma = fullChroma;
+    if (mMemory) mMemory->measured(frame.encoding, fullChroma, mMsForAMegapixel);
   }
   ++mFrames;
   if (chunk.key) ++mKeyFrames;
@@ -220,6 +228,7 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
                           {"stream_frame", mEncoder->frames() - 1},
                           {"bitrate_kbps", kbps},
                           {"scale", scale}};
+  if (frame.encoding == proto::Encoding::Vp9) video["chroma"] = fullChroma ? "4:4:4" : "4:2:0";
   if (chunk.key) video["key_reason"] = done.keyReason;
   if (scaledFor != VideoScaledFor::None) video["scaled_for"] = common::nameOf(scaledFor);
   stats["video"] = std::move(video);

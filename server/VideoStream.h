@@ -24,6 +24,9 @@ namespace voxbrick::server {
 struct VideoFrameInput {
   const void* dataset = nullptr;  ///< the frame's dataset (identity only): a new one starts the stream again
   bool keyframe = false;          ///< the scene asked for a key frame
+  /// A vp9 frame of a client that decodes 4:4:4 (the scene's `accepts_vp9_444`): the stream goes in VP9's profile 1
+  /// (image::VideoSettings::fullChroma); a change either way starts it again (`key_reason` `codec`).
+  bool fullChroma = false;
   double bitrateKbps = 0;         ///< the target the session's link allows (LinkPacer::videoKbps)
   std::chrono::steady_clock::time_point drawn;     ///< when its pixels were ready (the stream's timestamps)
   std::chrono::steady_clock::time_point received;  ///< when its Render arrived (for the frame's encode_start_ms)
@@ -102,10 +105,12 @@ class VideoStream final : public VideoMemory::Holder {
   /// 4 GiB, and three such left a fourth session JPEG).
   static constexpr double kMemoryShare = 0.25;
   /// The largest of kScales at which an encoder of `codec` for a `width` x `height` frame, with the threads
-  /// image::videoThreadsFor gives it on `cores` cores, holds at most `limitBytes` (image::videoEncoderBytes). 1 where
+  /// image::videoThreadsFor gives it on `cores` cores (in 4:4:4 with `fullChroma`), holds at most `limitBytes`
+  /// (image::videoEncoderBytes). 1 where
   /// even the smallest does not (a budget that small is left to the ledger, stream by stream) or `limitBytes` is 0.
   /// Taken at once, without the hysteresis below: it is a limit, not a measure.
-  static double scaleForMemory(proto::Encoding codec, int width, int height, uint64_t limitBytes, int cores);
+  static double scaleForMemory(proto::Encoding codec, int width, int height, uint64_t limitBytes, int cores,
+                               bool fullChroma = false);
   /// How long the link (or the encoders' share, or the drawing) must call for another scale before the stream changes
   /// to it (each change is a key frame): a smaller one soon, a larger one only once it has held up a while. Every
   /// frame of the while must call for a change the same way; the stream then takes the least of those changes.
@@ -152,10 +157,11 @@ class VideoStream final : public VideoMemory::Holder {
   VideoScaledFor mWantedFor = VideoScaledFor::None;
   std::atomic<double> mSentScale = 1;  ///< mScale, or the memory's smaller one, as the last frame was sent
   VideoScaledFor mScaledFor = VideoScaledFor::None;
-  /// The stream's inter frames' encoding time in mCostCodec, as the ms of a frame of one megapixel (expectedMs),
-  /// smoothed (0: none encoded yet).
+  /// The stream's inter frames' encoding time in mCostCodec (4:4:4 if mCostFullChroma), as the ms of a frame of one
+  /// megapixel (expectedMs), smoothed (0: none encoded yet).
   double mMsForAMegapixel = 0;
   proto::Encoding mCostCodec = proto::Encoding::RawRgba8;
+  bool mCostFullChroma = false;
   std::chrono::steady_clock::time_point mWantedSince;
   const void* mDataset = nullptr;
   std::chrono::steady_clock::time_point mStart;

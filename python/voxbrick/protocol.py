@@ -16,8 +16,9 @@ MAGIC = 0x4B425856  # "VXBK" read as a little-endian u32
 #: The protocol versions this package speaks: 2 adds jpeg, 3 the Busy error, 4 the video encodings and FrameReceived,
 #: 5 Authenticate, Authenticated and the Forbidden error (a TCP session's access token), 6 Upload, UploadReady,
 #: UploadChunk (a volume sent as a new dataset), the u64 field type and the AlreadyExists error, 7 webp, 8 provisional
-#: frames at the size they were drawn (the client scales them to the scene's: client.Client).
-MIN_VERSION, MAX_VERSION = 1, 8
+#: frames at the size they were drawn (the client scales them to the scene's: client.Client), 9 the scene key
+#: accepts_vp9_444 (4:4:4 VP9 streams; this client decodes no video, so it never asks for them).
+MIN_VERSION, MAX_VERSION = 1, 9
 HEADER = struct.Struct('<IHHII')  # magic, version, type, request id, body bytes
 HEADER_BYTES = HEADER.size
 

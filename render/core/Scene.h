@@ -270,6 +270,10 @@ struct SceneDelivery {
   /// pixels in fewer bytes, longer to encode), which it does while the session's link, at the rate the server's
   /// measurements settled, is slow (server/RenderJob.h, webpFor). Protocol version 7 on. No effect on the image.
   bool acceptsWebp = false;
+  /// The client decodes VP9 in 4:4:4 (profile 1): a session's vp9 video stream is then encoded with colour at every
+  /// pixel instead of one colour sample a 2x2 block (image::VideoSettings::fullChroma). Protocol version 9 on. No
+  /// effect on the image drawn, nor on a stream in another codec.
+  bool acceptsVp9_444 = false;
   /// Work nobody watches as it happens (a script's frames, `voxbrick load --batch`): a server serves it after every
   /// moving camera's frame and every resting camera's exact frame, from a smaller share of its render time, and
   /// refuses it with `Busy` first when it is over capacity. No effect on the image.

@@ -520,6 +520,13 @@ std::vector<SceneKey> buildSchema() {
     field<&Scene::acceptsWebp>(k);
   }
   {
+    SceneKey& k = add(keys, "accepts_vp9_444", T::Bool, C::Delivery, A::Both,
+                      "the client decodes VP9 in 4:4:4 (profile 1): a vp9 video stream then carries colour at every "
+                      "pixel, more picture for its bytes");
+    k.example = true;
+    field<&Scene::acceptsVp9_444>(k);
+  }
+  {
     SceneKey& k = add(keys, "batch", T::Bool, C::Delivery, A::Both,
                       "work nobody watches as it happens (a script): served after viewers' frames, refused with Busy "
                       "first");

@@ -121,10 +121,12 @@ const ALL = {
   video: "vp8",
   webp: "auto",
   accepts_webp: true,
+  accepts_vp9_444: true,
 };
 const FEATURES = [
   ALL,
   { ...ALL, video: "vp9" },
+  { ...ALL, video: "vp9", accepts_vp9_444: false },
   { ...ALL, webp: "always" },
   { ...ALL, accepts_webp: false },
   { ...ALL, video: null },
@@ -168,6 +170,9 @@ describe("the viewer's scenes and the scene's schema", () => {
       // A key frame is asked of a video stream only (the server ignores it otherwise).
       if (scene.keyframe)
         assert.ok(["vp8", "vp9"].includes(scene.provisional_encoding), `keyframe without video: ${JSON.stringify(how)}`);
+      // 4:4:4 is asked of a vp9 stream only.
+      if (scene.accepts_vp9_444)
+        assert.equal(scene.provisional_encoding, "vp9", `accepts_vp9_444 without vp9: ${JSON.stringify(how)}`);
       for (const [key, value] of keysOf(scene)) {
         const entry = byKey.get(key);
         assert.ok(entry, `buildScene sent '${key}', which the schema lacks (${JSON.stringify(how)})`);

@@ -65,7 +65,7 @@ describe("viewer video stream", () => {
   test("a drag in a browser that decodes vp8 gets the vp8 stream, every frame decoded in order", async () => {
     const page = await H.openPage(browser, `${server.url}/?dataset=ml&${SIZE_PARAM}`);
     const start = await waitExact(page);
-    assert.equal(start.capabilities.version, 8);
+    assert.equal(start.capabilities.version, 9);
     assert.ok(start.capabilities.encodings.includes(4) && start.capabilities.encodings.includes(5));
     assert.equal(start.features.video, "vp8", "vp8 is the first codec asked, and Chromium decodes it");
     assert.equal(start.moving, "vp8");
@@ -131,20 +131,41 @@ describe("viewer video stream", () => {
     await page.close();
   });
 
-  test("the address's video parameter picks vp9, or turns video off", async () => {
-    for (const [param, moving, encoding] of [
-      ["video=vp9", "vp9", 5],
-      ["video=off", "jpeg", 3],
+  test("the address's video parameter picks vp9 (in 4:4:4 where the browser decodes it), or turns video off", async () => {
+    const refuses444 = () => {
+      const asked = VideoDecoder.isConfigSupported.bind(VideoDecoder);
+      VideoDecoder.isConfigSupported = async (config) =>
+        config.codec.startsWith("vp09.01") ? { supported: false, config } : asked(config);
+    };
+    for (const [param, moving, encoding, chroma, script] of [
+      ["video=vp9", "vp9", 5, "4:4:4", null],
+      ["video=vp9&chroma=420", "vp9", 5, "4:2:0", null],
+      ["video=vp9", "vp9", 5, "4:2:0", refuses444],
+      ["video=off", "jpeg", 3, null, null],
     ]) {
-      const page = await H.openPage(browser, `${server.url}/?dataset=ml&${SIZE_PARAM}&${param}`);
+      const what = `${param}${script ? " (profile 1 refused)" : ""}`;
+      const url = `${server.url}/?dataset=ml&${SIZE_PARAM}&${param}`;
+      const page = script ? await openPageWith(browser, url, script) : await H.openPage(browser, url);
       const start = await waitExact(page);
-      assert.equal(start.features.video, moving === "jpeg" ? null : moving, param);
-      assert.equal(start.moving, moving, param);
+      assert.equal(start.features.video, moving === "jpeg" ? null : moving, what);
+      assert.equal(start.features.accepts_vp9_444, chroma === "4:4:4", what);
+      assert.equal(start.moving, moving, what);
       await drag(page, { durationMs: 1200, hz: 30, dAz: 3 });
-      await waitExact(page, start.newestId);
+      const done = await waitExact(page, start.newestId);
       const shown = (await shownFrames(page)).filter((f) => f.provisional && f.phase === "drag");
-      assert.ok(shown.length >= 3, `${param}: frames shown while dragging: ${shown.length}`);
-      for (const f of shown) assert.equal(f.encoding, encoding, `${param}: ${JSON.stringify(f)}`);
+      assert.ok(shown.length >= 3, `${what}: frames shown while dragging: ${shown.length}`);
+      for (const f of shown) assert.equal(f.encoding, encoding, `${what}: ${JSON.stringify(f)}`);
+      if (chroma) {
+        // The server said each frame's colour sampling, and the decoder took the stream as it came.
+        const frames = await videoFrames(page);
+        assertWholeStream(frames);
+        for (const f of frames) assert.equal(f.chroma, chroma, `${what}: ${JSON.stringify(f)}`);
+        assert.equal(done.video.errors, 0, what);
+        assert.equal(done.video.codec, chroma === "4:4:4" ? "vp9 4:4:4" : "vp9", what);
+        const overlay = await page.$eval("#overlay", (e) => e.textContent);
+        assert.match(overlay, chroma === "4:4:4" ? /moving: vp9 4:4:4 {2}\d+ kbit\/s/ : /moving: vp9 {2}\d+ kbit\/s/, what);
+      }
+      assert.deepEqual(page.errors, [], what);
       await page.close();
     }
   });
@@ -161,7 +182,7 @@ describe("viewer video stream", () => {
     for (const [name, script] of Object.entries(cases)) {
       const page = await openPageWith(browser, `${server.url}/?dataset=sparse&${SIZE_PARAM}`, script);
       const start = await waitExact(page);
-      assert.equal(start.capabilities.version, 8, name);
+      assert.equal(start.capabilities.version, 9, name);
       assert.equal(start.features.video, null, name);
       assert.equal(start.moving, "jpeg", name);
       await drag(page, { durationMs: 1500, hz: 30, dAz: 3 });
@@ -193,7 +214,7 @@ describe("viewer video stream", () => {
         };
       });
       const start = await waitExact(page);
-      assert.equal(start.capabilities.version, 8);
+      assert.equal(start.capabilities.version, 9);
       assert.equal(start.moving, "jpeg");
       // The overlay while dragging (its text every 100 ms).
       const overlays = [];

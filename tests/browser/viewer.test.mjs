@@ -156,7 +156,7 @@ describe("viewer", () => {
     assert.ok(s.exactAfterReleaseMs < 5000, `exact frame ${s.exactAfterReleaseMs} ms after the release`);
     // Version 8 (video from 4 on): provisional frames of the drag travel as the vp8 stream (Chromium decodes it;
     // video.test.mjs has the rest), every exact frame as png (on loopback, no webp).
-    assert.equal(done.capabilities.version, 8);
+    assert.equal(done.capabilities.version, 9);
     assert.equal(done.features.video, "vp8");
     const frames = await page.evaluate(() => window.voxbrickViewer.frames());
     for (const f of frames) assert.equal(f.encoding, f.provisional && f.phase === "drag" ? 4 : 1, JSON.stringify(f));
@@ -385,7 +385,7 @@ describe("viewer", () => {
     try {
       const page = await H.openPage(browser, `${fresh.url}/?dataset=sparse&orbit=30,20&tf=grayscale&lossless=webp&${SIZE_PARAM}`);
       const s = await waitExact(page);
-      assert.equal(s.capabilities.version, 8);
+      assert.equal(s.capabilities.version, 9);
       assert.equal(s.lastFrame.encoding, 6, "webp");
       assert.equal(s.lastScene.accepts_webp, undefined, "asked as the Render's encoding");
       const payload = await lastPayload(page);

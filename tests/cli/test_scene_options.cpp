@@ -22,10 +22,11 @@ using test::runSplit;
 
 /// The scene keys with no command-line option, each for a reason: the group itself; the keys of a moving camera,
 /// which the viewer sets per frame and `orbit --interactive MS` per view; the encodings of a server's frames, which
-/// `request` sets from its own --jpeg-quality and --encoding; and the restart of a video stream, which a client asks
-/// for when its decoder lost the stream.
-const std::set<std::string> kSceneOnly = {
-    "camera", "interactive", "time_budget_ms", "jpeg_quality", "provisional_encoding", "keyframe", "accepts_webp"};
+/// `request` sets from its own --jpeg-quality and --encoding; the restart of a video stream, which a client asks
+/// for when its decoder lost the stream; and what a client's decoders take (`load --vp9-444` sets one).
+const std::set<std::string> kSceneOnly = {"camera",       "interactive", "time_budget_ms",
+                                          "jpeg_quality", "provisional_encoding", "keyframe",
+                                          "accepts_webp", "accepts_vp9_444"};
 
 /// The commands with the scene options.
 const std::vector<std::string> kCommands = {"render", "orbit", "request", "scene"};

@@ -122,8 +122,9 @@ TEST(Header, LayoutIsPinned) {
 
 TEST(Versions, JpegExistsFromVersionTwoOn) {
   EXPECT_EQ(kMinVersion, 1u);
-  EXPECT_EQ(kMaxVersion, 8u);
+  EXPECT_EQ(kMaxVersion, 9u);
   EXPECT_EQ(encodingsOf(8), encodingsOf(7)) << "version 8 adds no encoding";
+  EXPECT_EQ(encodingsOf(9), encodingsOf(8)) << "version 9 adds a scene key, no encoding";
   EXPECT_EQ(uint8_t(Encoding::Jpeg), 3u);
   EXPECT_EQ(encodingsOf(1), (std::vector<Encoding>{Encoding::RawRgba8, Encoding::Png, Encoding::ZstdRgba8}));
   EXPECT_EQ(encodingsOf(2),

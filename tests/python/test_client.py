@@ -25,7 +25,7 @@ def psnr(a, b):
 
 
 def test_datasets_info_and_stats(client):
-    assert client.version == 8
+    assert client.version == 9
     caps = client.capabilities
     assert caps.max_message_bytes == 1 << 20 and caps.max_image_side == 4096
     assert [e.name for e in caps.encodings] == ['raw_rgba8', 'png', 'zstd_rgba8', 'jpeg', 'vp8', 'vp9', 'webp']

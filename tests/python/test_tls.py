@@ -39,10 +39,10 @@ def test_both_transports_inside_tls_verify_the_server_and_carry_the_token(server
         expected = plain.render('mri.vbs', **SCENE)
     # TCP inside TLS: the token presented by Authenticate after Hello; the server names it.
     with voxbrick.connect(f'tls://127.0.0.1:{tls_server.port}', token=RADIOLOGY, ca=ca) as c:
-        assert c.version == 8 and c.session.token_id == 'radiology'
+        assert c.version == 9 and c.session.token_id == 'radiology'
         assert c.datasets() == ['mri.vbs']
         assert largest_difference(c.render('mri.vbs', **SCENE), expected) <= 1
-        assert repr(c).startswith(f'<voxbrick.Client tls://127.0.0.1:{tls_server.port} version 8')
+        assert repr(c).startswith(f'<voxbrick.Client tls://127.0.0.1:{tls_server.port} version 9')
     # The WebSocket over TLS: wss://, or the viewer's https:// address with its token.
     for address, token in [(f'wss://127.0.0.1:{tls_server.http_port}', SPARSE),
                            (f'https://127.0.0.1:{tls_server.http_port}/?token={SPARSE}', None)]:

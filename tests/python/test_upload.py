@@ -123,7 +123,7 @@ def test_an_upload_is_the_store_prep_makes_and_renders_as_voxbrick_render_does(u
     before = listing(folder)
     address = server.address if transport == 'tcp' else server.ws
     with voxbrick.connect(address, token=UPLOADER) as c:
-        assert c.version == 8
+        assert c.version == 9
         info = c.upload(name, a, spacing=(0.5, 1, 2), axes=axes, slab_bytes=slab_bytes)
         assert c.dataset is None  # the session's open dataset does not change
         x, y, z = (shape[2], shape[1], shape[0])
@@ -325,7 +325,7 @@ def test_meta_sizes_and_chunks_are_checked_at_the_session_level(up):
     before = listing(folder)
     good = {'dims': [4, 4, 4], 'type': 'uint8'}
     with Session(server.address, token=TOKEN) as s:
-        assert s.version == 8
+        assert s.version == 9
         for meta, key in [
             ({'dims': [4, 4], 'type': 'uint8'}, 'dims'),
             ({'dims': [4, 0, 4], 'type': 'uint8'}, 'dims'),

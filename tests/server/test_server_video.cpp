@@ -98,6 +98,44 @@ TEST_F(VideoServerTest, VersionFourOffersVp8AndVp9AndOlderSessionsDoNot) {
   EXPECT_NE(std::string(e.what()).find("needs protocol version 4"), std::string::npos) << e.what();
 }
 
+// Protocol version 9: a client whose scenes say accepts_vp9_444 gets its vp9 stream in 4:4:4 (VP9's profile 1), said
+// in each frame's statistics; dropping the key starts the stream again in 4:2:0 with a key frame; a vp8 stream is
+// what it was; an older session is refused the key.
+TEST_F(VideoServerTest, AVp9StreamGoesInFourFourFourToAClientThatDecodesIt) {
+  auto server = start();
+  auto c = videoSession(*server);
+  image::FrameDecoder decoder;
+  std::vector<std::pair<std::string, json>> seen;  // (chroma, video statistics) of each moving frame
+  const auto step = [&](int i, const std::string& codec, bool full) {
+    dragStep(*c, decoder, dragScene(10 + 3 * i, codec, 96, full ? json{{"accepts_vp9_444", true}} : json{}), 96,
+             [&](const proto::Frame& f, const json& stats) {
+               EXPECT_EQ(f.encoding, codec == "vp9" ? Encoding::Vp9 : Encoding::Vp8);
+               seen.emplace_back(stats["video"].value("chroma", ""), stats["video"]);
+             });
+  };
+  for (int i = 0; i < 4; ++i) step(i, "vp9", true);
+  ASSERT_FALSE(seen.empty());
+  for (const auto& [chroma, video] : seen) EXPECT_EQ(chroma, "4:4:4") << video.dump();
+  EXPECT_EQ(seen.front().second["key_reason"], "start") << seen.front().second.dump();
+  const size_t full = seen.size();
+  for (int i = 4; i < 7; ++i) step(i, "vp9", false);
+  ASSERT_GT(seen.size(), full);
+  EXPECT_EQ(seen[full].first, "4:2:0");
+  EXPECT_EQ(seen[full].second.value("key_reason", ""), "codec") << "4:4:4 to 4:2:0 starts the stream again";
+  const size_t half = seen.size();
+  for (int i = 7; i < 9; ++i) step(i, "vp8", true);  // the key asks nothing of a vp8 stream
+  ASSERT_GT(seen.size(), half);
+  EXPECT_EQ(seen[half].first, "") << "a vp8 frame names no chroma: " << seen[half].second.dump();
+  EXPECT_EQ(seen[half].second.value("key_reason", ""), "codec");
+  EXPECT_EQ(decoder.videoFrames(), seen.size()) << "every moving frame decoded";
+
+  auto old = videoSession(*server, 8);
+  const ServerError e = test::serverErrorOf(
+      [&] { old->render(dragScene(10, "vp9", 96, {{"accepts_vp9_444", true}}), Encoding::Png); });
+  EXPECT_EQ(e.code(), ErrorCode::InvalidScene);
+  EXPECT_NE(std::string(e.what()).find("'accepts_vp9_444' needs protocol version 9"), std::string::npos) << e.what();
+}
+
 // A drag: each Render's provisional frame is the next frame of one stream, decoded in order; the first is a key frame
 // and the others are not; the exact frame that follows the last one is a png equal to a plain Render's. Every Frame is
 // reported (FrameReceived), as the viewer does.

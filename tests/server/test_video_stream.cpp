@@ -237,10 +237,14 @@ TEST(VideoMemory, TheStreamsMovingAreThoseWithAFrameWithinTheIdleTime) {
   EXPECT_EQ(memory.moving(at(2000)), 0u);
   // What the last stream measured in each codec, for a stream's first frame.
   EXPECT_EQ(memory.msForAMegapixel(proto::Encoding::Vp9), 0);
-  memory.measured(proto::Encoding::Vp9, 40);
-  memory.measured(proto::Encoding::Vp8, 12);
+  memory.measured(proto::Encoding::Vp9, false, 40);
+  memory.measured(proto::Encoding::Vp8, false, 12);
   EXPECT_EQ(memory.msForAMegapixel(proto::Encoding::Vp9), 40);
   EXPECT_EQ(memory.msForAMegapixel(proto::Encoding::Vp8), 12);
+  EXPECT_EQ(memory.msForAMegapixel(proto::Encoding::Vp9, true), 0) << "VP9 in 4:4:4 is measured apart";
+  memory.measured(proto::Encoding::Vp9, true, 55);
+  EXPECT_EQ(memory.msForAMegapixel(proto::Encoding::Vp9, true), 55);
+  EXPECT_EQ(memory.msForAMegapixel(proto::Encoding::Vp9), 40);
 }
 
 TEST(VideoStream, TheEncodersShareIsTheirTimeOverTheStreamsMoving) {

@@ -9,7 +9,7 @@ import {bindPanel} from './panel.js';
 import {Encoding, encodingName, ErrorCode, retryAfterMs, withoutRetryHint} from './protocol.js';
 import {CurveEditor} from './tfeditor.js';
 import {takeToken} from './token.js';
-import {pickVideoCodec} from './video.js';
+import {decodesVp9FullChroma, pickVideoCodec} from './video.js';
 import * as V from './view.js';
 
 const $ = (id) => document.getElementById(id);
@@ -49,6 +49,9 @@ const app = {
     // server sends webp where it measures the link slow), "always" (`lossless=webp`: every exact frame as webp).
     webp: null,
     accepts_webp: true, // until refused
+    // A vp9 stream in 4:4:4 (scene key accepts_vp9_444): the stream is vp9, the server speaks version 9, this browser
+    // decodes VP9's profile 1 and the address does not say `chroma=420`; false once refused.
+    accepts_vp9_444: false,
   },
   dragging: false,
   notes: [],
@@ -103,7 +106,7 @@ function refusedScene(error) {
     app.features.video = null;
     return true;
   }
-  for (const key of [...V.MOTION_KEYS, "accepts_webp"]) {
+  for (const key of [...V.MOTION_KEYS, "accepts_webp", "accepts_vp9_444"]) {
     if (app.features[key] && names(key)) {
       app.features[key] = false;
       return true;
@@ -145,7 +148,7 @@ function drawOverlay() {
   const v = f.video;
   if (app.features.video)
     lines.push(
-      `moving: ${app.features.video}` +
+      `moving: ${v.codec || app.features.video}` +
         (v.bitrateKbps ? `  ${v.bitrateKbps} kbit/s` : "") +
         (v.scale !== null && v.scale < 1 ? `  at ${Math.round(v.scale * 100)} % size (${smallerBecause(v.scaledFor)})` : "") +
         `  decode ${ms1(v.lastDecodeMs)}  key frames ${v.keyFrames}` +
@@ -281,6 +284,7 @@ async function greeted(c, caps) {
   app.features.webp = losslessWebp(caps.encodings, params.get("lossless"));
   // Which video codec this browser decodes is asked while the datasets are listed; known before the first drag.
   const video = pickVideoCodec(caps.encodings, params.get("video"));
+  const fullChroma = caps.version >= 9 && params.get("chroma") !== "420" ? decodesVp9FullChroma() : false;
   loadPresets();
   try {
     app.datasets = await c.listDatasets();
@@ -305,6 +309,7 @@ async function greeted(c, caps) {
     }
     const name = app.view.dataset || app.datasets[0];
     app.features.video = await video;
+    app.features.accepts_vp9_444 = app.features.video === "vp9" && (await fullChroma);
     await openDataset(c, name);
     app.attempts = 0;
   } catch (e) {

@@ -6,7 +6,7 @@
 export const MAGIC = 0x4b425856; // "VXBK" read as a little-endian u32
 export const HEADER_BYTES = 16;
 export const MIN_VERSION = 1;
-export const MAX_VERSION = 8;
+export const MAX_VERSION = 9;
 
 export const Type = Object.freeze({
   Hello: 1,
@@ -36,6 +36,7 @@ const ENCODINGS_BY_VERSION = {
   6: [0, 1, 2, 3, 4, 5],
   7: [0, 1, 2, 3, 4, 5, 6],
   8: [0, 1, 2, 3, 4, 5, 6],
+  9: [0, 1, 2, 3, 4, 5, 6],
 };
 /// The names the scene's `provisional_encoding` and the overlay give each encoding.
 export const encodingName = (e) => ["raw", "png", "zstd", "jpeg", "vp8", "vp9", "webp"][e] || `encoding ${e}`;

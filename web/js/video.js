@@ -13,6 +13,19 @@ export const VIDEO_CODECS = [
   { encoding: Encoding.vp9, name: "vp9", codec: "vp09.00.41.08" },
 ];
 const codecOf = (encoding) => VIDEO_CODECS.find((c) => c.encoding === encoding);
+/// VP9 in 4:4:4 (profile 1, level 4.1, 8 bits, colour at every pixel): what a vp9 stream is when the page's scenes
+/// say `accepts_vp9_444` (protocol version 9) and its frames' statistics say `video.chroma` "4:4:4".
+export const VP9_FULL_CHROMA = { encoding: Encoding.vp9, name: "vp9 4:4:4", codec: "vp09.01.41.08.03" };
+
+/// Whether this browser decodes VP9 in 4:4:4 (Chromium's software VP9 does; a hardware decoder may not).
+export async function decodesVp9FullChroma() {
+  if (typeof VideoDecoder === "undefined") return false;
+  try {
+    return (await VideoDecoder.isConfigSupported({ codec: VP9_FULL_CHROMA.codec })).supported === true;
+  } catch {
+    return false; // a codec string the browser does not know
+  }
+}
 
 // Timestamps only order the chunks and match outputs to them: one frame's worth (30 a second) apart, in µs.
 const TIMESTAMP_STEP_US = 33333;
@@ -57,7 +70,8 @@ export class VideoStream {
   }
 
   resetFigures() {
-    this.log = []; // every video Frame that arrived: {id, streamFrame, key, keyReason, width, height, bytes, decoded}
+    // Every video Frame that arrived: {id, streamFrame, key, keyReason, chroma, width, height, bytes, decoded}.
+    this.log = [];
     this.counts = { frames: 0, decoded: 0, keyFrames: 0, skipped: 0, errors: 0 };
     this.lastDecodeMs = null;
     this.bitrateKbps = null;
@@ -78,7 +92,7 @@ export class VideoStream {
   decode(id, f, stats, meta) {
     const video = stats.video || {};
     const key = video.key === true;
-    const codec = codecOf(f.encoding);
+    const codec = f.encoding === Encoding.vp9 && video.chroma === "4:4:4" ? VP9_FULL_CHROMA : codecOf(f.encoding);
     this.counts.frames++;
     if (video.bitrate_kbps) this.bitrateKbps = video.bitrate_kbps;
     if (typeof video.scale === "number") {
@@ -90,6 +104,7 @@ export class VideoStream {
       streamFrame: video.stream_frame ?? null,
       key,
       keyReason: video.key_reason || null,
+      chroma: video.chroma || null,
       width: f.width,
       height: f.height,
       bytes: f.payload.byteLength,
@@ -122,8 +137,8 @@ export class VideoStream {
     return true;
   }
 
-  /// A key frame of another codec or size than the decoder's (the first one, one after a resize) configures it anew;
-  /// decodes already queued finish first, in the configuration they were given.
+  /// A key frame of another codec (VP9's 4:4:4 counted as one) or size than the decoder's (the first one, one after a
+  /// resize) configures it anew; decodes already queued finish first, in the configuration they were given.
   configure(codec, width, height) {
     const c = this.configured;
     if (this.decoder && c && c.codec === codec.codec && c.width === width && c.height === height) return;
