@@ -222,6 +222,10 @@ int main(int argc, char** argv) {
   app.add_option("--aq", aqModes, "VP9's adaptive quantisation modes, 0..3 (each a row of every VP9 bitrate)")
       ->delimiter(',')
       ->check(CLI::Range(0, 3));
+  std::vector<std::string> codecNames{"vp8", "vp9"};
+  app.add_option("--codecs", codecNames, "the video codecs measured: vp8, vp9")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"vp8", "vp9"}));
   std::vector<int> chromas{420};
   app.add_option("--chroma", chromas, "VP9's colour sampling: 420 (the server's), 444 (profile 1; each a row of "
                                       "every VP9 bitrate)")
@@ -274,6 +278,7 @@ int main(int argc, char** argv) {
     std::vector<Row> rows;
     for (int q : qualities) rows.push_back(jpegRow(frames, references, q));
     for (const proto::Encoding codec : {proto::Encoding::Vp8, proto::Encoding::Vp9})
+      if (std::find(codecNames.begin(), codecNames.end(), proto::encodingName(codec)) != codecNames.end())
       for (int t : threads)
         for (double scale : scales)
           for (int speed : speeds)

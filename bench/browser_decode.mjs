@@ -138,7 +138,7 @@ try {
           return { frames: chunks.length, decoded: latencies.length, held, errors, p50: q(0.5), p99: q(0.99), max: q(1) };
         },
         name,
-        codecName === "vp8" ? "vp8" : "vp09.00.41.08",
+        codecName === "vp8" ? "vp8" : name.endsWith("-444.chunks") ? "vp09.01.41.08.03" : "vp09.00.41.08",
         Number(width),
         Number(height),
         interval,

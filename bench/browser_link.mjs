@@ -9,7 +9,7 @@
 // and every frame pass through it.
 //
 // Usage: node bench/browser_link.mjs --datasets DIR [--dataset mri] [--tf mri] [--out PREFIX]
-//        [--sizes 512x512,1024x1024,1920x1080] [--encodings jpeg,vp8,vp9] [--links loopback,relay] [--duration 10]
+//        [--sizes 512x512,1024x1024,1920x1080] [--encodings jpeg,vp8,vp9,vp9-420] [--links loopback,relay] [--duration 10]
 //        [--hz 30] [--mbit 10] [--rtt-ms 40] [--samples 4] [--replay DIR --replay-draw-ms MS] [--frames-out DIR]
 //        [--server-log FILE] [--replace]
 // --frames-out: each row's shown frames as the page recorded them (DIR/LINK-SIZE-ENCODING.json); --server-log FILE:
@@ -49,7 +49,8 @@ const opt = {
   replayDrawMs: Number(args["replay-draw-ms"] || 0),
 };
 if (!opt.datasets) throw new Error("--datasets DIR is required");
-for (const e of opt.encodings) if (!["jpeg", "vp8", "vp9"].includes(e)) throw new Error(`--encodings: '${e}' is none of jpeg, vp8, vp9`);
+for (const e of opt.encodings)
+  if (!["jpeg", "vp8", "vp9", "vp9-420"].includes(e)) throw new Error(`--encodings: '${e}' is none of jpeg, vp8, vp9, vp9-420`);
 for (const l of opt.links) if (!["loopback", "relay"].includes(l)) throw new Error(`--links: '${l}' is none of loopback, relay`);
 refuseToDropRows();
 
@@ -105,14 +106,16 @@ function exactFrame(server, scene, file) {
 
 /// One tab's drag at `size` with `encoding`, the page loaded from `base`.
 async function dragRun(browser, server, base, size, encoding, scratch) {
-  const video = encoding === "jpeg" ? "off" : encoding;
+  // vp9: in 4:4:4 where the browser decodes it (the page's way); vp9-420: the address's chroma=420.
+  const video = encoding === "jpeg" ? "off" : encoding === "vp9-420" ? "vp9&chroma=420" : encoding;
   const url = `${base}/?dataset=${opt.dataset}&tf=${opt.tf}&orbit=0,${ORBIT.el},${ORBIT.dist}&size=${size[0]}x${size[1]}` +
     `&video=${video}`;
   const page = await H.openPage(browser, url, { width: size[0] + 300, height: size[1] + 40 });
   try {
     await H.waitForState(page, (s) => s.lastFrame && !s.lastFrame.provisional, 120000);
     const start = await H.viewerState(page);
-    if (start.moving !== encoding) throw new Error(`the page moves frames as ${start.moving}, not ${encoding}`);
+    if (start.moving !== encoding.replace("-420", ""))
+      throw new Error(`the page moves frames as ${start.moving}, not ${encoding}`);
     await page.evaluate(() => window.voxbrickViewer.resetFigures());
     const durationMs = opt.duration * 1000;
     const dragging = page.evaluate((o) => window.voxbrickViewer.drag(o), { durationMs, hz: opt.hz, dAz: DEG_PER_MOVE });
@@ -167,7 +170,7 @@ async function dragRun(browser, server, base, size, encoding, scratch) {
       exact_encoding: s && s.lastFrame ? encodingName(s.lastFrame.encoding) : null,
       exact_bytes: s && s.lastFrame ? s.lastFrame.bytes : null,
       errors: state.counts.errors + page.errors.length,
-      wrong_encoding: moving.filter((f) => f.encoding !== Encoding[encoding]).length,
+      wrong_encoding: moving.filter((f) => f.encoding !== Encoding[encoding.replace("-420", "")]).length,
       // Where a moving frame's latency went (medians, ms; bench/drag_common.mjs latencySplit).
       ...Object.fromEntries(Object.entries(D.latencySplit(moving)).map(([part, ms]) => [`split_${part}_ms`, ms])),
     };
