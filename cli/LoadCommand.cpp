@@ -233,7 +233,10 @@ void decodeVideo(image::FrameDecoder& decoder, const proto::Frame& frame, int in
   std::lock_guard lock(tally.mutex);
   tally.decodeMs.push_back(ms);
   ++tally.videoFrames;
-  if (stats.is_object() && stats.contains("video") && stats["video"].value("key", false)) ++tally.keyFrames;
+  if (stats.is_object() && stats.contains("video") && stats["video"].is_object()) {
+    if (stats["video"].value("key", false)) ++tally.keyFrames;
+    if (stats["video"].value("chroma", "") == "4:4:4") ++tally.fullChromaFrames;
+  }
 }
 
 /// A client dragging the camera: sends a new camera `hz` times a second without waiting, and reads frames as they

@@ -132,6 +132,7 @@ json loadReport(const LoadArgs& a, const Tally& tally, double seconds, int width
        tally.videoFrames == 0 ? json()
                               : json{{"frames", tally.videoFrames},
                                      {"key_frames", tally.keyFrames},
+                                     {"frames_444", tally.fullChromaFrames},
                                      {"decode_ms", {{"p50", percentile(tally.decodeMs, 0.5)},
                                                     {"p99", percentile(tally.decodeMs, 0.99)}}}}},
       {"render_ms_p50", percentile(tally.renderMs, 0.5)},

@@ -40,6 +40,7 @@ struct Tally {
   /// Interactive frames chosen by a known rate: the time their drawing was predicted to take, and took (ms).
   std::vector<double> predictedMs, actualMs;
   int64_t videoFrames = 0, keyFrames = 0;  ///< video frames received (first replies and not), key frames among them
+  int64_t fullChromaFrames = 0;            ///< video frames in 4:4:4 (`video.chroma`; --vp9-444) among them
   int64_t frames = 0, errors = 0, superseded = 0, payloadBytes = 0;
   int64_t provisional = 0;       ///< dragging clients: first replies that were provisional frames
   int64_t exactFollowUps = 0;    ///< dragging clients: exact frames of requests a provisional frame already answered

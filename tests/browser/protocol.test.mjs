@@ -35,8 +35,8 @@ const u32 = (v) => {
 const str = (s) => [...u32(Buffer.byteLength(s)), ...Buffer.from(s)];
 
 describe("protocol.js", () => {
-  test("Hello is the bytes of PROTOCOL.md's example, with versions 1 to 8", () => {
-    // The document's example says max_version 1; the page speaks up to 8 (the fourth body byte).
+  test("Hello is the bytes of PROTOCOL.md's example, with versions 1 to 9", () => {
+    // The document's example says max_version 1; the page speaks up to 9 (the fourth body byte).
     assert.equal(
       hex(encode.hello(1, "example")),
       "5658424b" +
@@ -45,7 +45,7 @@ describe("protocol.js", () => {
         "01000000" +
         "0f000000" +
         "0100" +
-        "0800" +
+        "0900" +
         "07000000" +
         hex(Buffer.from("example")),
     );

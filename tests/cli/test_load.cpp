@@ -102,6 +102,7 @@ TEST_F(LoadTest, DraggingClientsDecodeTheirVideoStreams) {
   EXPECT_GT(r["video"]["frames"].get<int64_t>(), 4);
   EXPECT_EQ(r["video"]["key_frames"].get<int64_t>(), 2) << "one key frame a client: its stream's first";
   EXPECT_GT(r["video"]["decode_ms"]["p50"].get<double>(), 0);
+  EXPECT_EQ(r["video"]["frames_444"], 0) << "vp8 has no 4:4:4";
   EXPECT_EQ(r["errors"], 0);
   // The drawings' and the stream's sides, as fractions of the scene's.
   for (const char* key : {"drawn_scale", "sent_scale"}) {
@@ -115,6 +116,16 @@ TEST_F(LoadTest, DraggingClientsDecodeTheirVideoStreams) {
   ASSERT_TRUE(r["interactive_ms"].is_object()) << r.dump();
   EXPECT_GT(r["interactive_ms"]["predicted_p50"].get<double>(), 0) << r["interactive_ms"];
   EXPECT_GT(r["interactive_ms"]["actual_p50"].get<double>(), 0) << r["interactive_ms"];
+}
+
+// --vp9-444: the clients' vp9 streams come in 4:4:4 (protocol version 9), each frame decoded as 4:2:0's are.
+TEST_F(LoadTest, DraggingClientsAskingVp9InFourFourFourGetIt) {
+  const json r = load("--clients 1 --duration 1 --drag 20 --interactive 30 --encoding png "
+                      "--provisional-encoding vp9 --vp9-444 --require-clean");
+  ASSERT_TRUE(r["video"].is_object()) << r.dump();
+  EXPECT_GT(r["video"]["frames"].get<int64_t>(), 2);
+  EXPECT_EQ(r["video"]["frames_444"], r["video"]["frames"]) << r.dump();
+  EXPECT_EQ(r["errors"], 0);
 }
 
 }  // namespace

@@ -200,8 +200,8 @@ def test_versions_are_negotiated(server):
     with voxbrick.connect(server.address, max_version=2) as two:
         assert two.version == 2
         assert two.render_frame('sparse', size=(16, 16), encoding='jpeg').encoding == 'jpeg'
-    with pytest.raises(ValueError, match=r'versions 1..9: this client speaks 1..8'):
-        voxbrick.connect(server.address, max_version=9)
+    with pytest.raises(ValueError, match=r'versions 1..10: this client speaks 1..9'):
+        voxbrick.connect(server.address, max_version=10)
 
 
 def test_the_websocket_and_its_token(server):

@@ -139,8 +139,8 @@ def test_headers_that_do_not_check():
     header = HEADER.pack(MAGIC, 1, 1, 1, 0)
     with pytest.raises(ProtocolError, match='BadMagic'):
         decode_header(b'XXXX' + header[4:])
-    with pytest.raises(ProtocolError, match='UnsupportedVersion: version 9'):
-        decode_header(HEADER.pack(MAGIC, 9, 1, 1, 0))
+    with pytest.raises(ProtocolError, match='UnsupportedVersion: version 10'):
+        decode_header(HEADER.pack(MAGIC, 10, 1, 1, 0))
     with pytest.raises(ProtocolError, match='TooLarge: body of 2000 bytes exceeds 1000'):
         decode_header(HEADER.pack(MAGIC, 1, 8, 1, 2000), max_body=1000)
     assert decode_header(HEADER.pack(MAGIC, 1, 99, 7, 3)).type is None  # unknown: skipped, not fatal
