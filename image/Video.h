@@ -33,7 +33,7 @@ struct VideoSettings {
   /// them; the server streams at constant bitrate.
   bool constantBitrate = true;
   int aqMode = 3;  ///< VP9's adaptive quantisation, 0..3 (0 none, 3 cyclic refresh as WebRTC's); VP8 has none
-  /// VP9 only: colour at every pixel (4:4:4, VP9's profile 1; WebCodecs codec "vp09.01.10.08.03") instead of one
+  /// VP9 only: colour at every pixel (4:4:4, VP9's profile 1; WebCodecs codec "vp09.01.41.08.03") instead of one
   /// colour sample a 2x2 block (4:2:0, profile 0). On the MRI's 1024² turn 0.6-1.0 dB more PSNR at equal bytes, and
   /// at JPEG q85's PSNR 0.24 of JPEG's bytes where 4:2:0 takes 0.41, for 1.2-1.6 times the encoding time and 1.3 times
   /// the encoder's memory (bench/results/video/video-444.md). A decoder takes either (VideoDecoder, browsers' software

@@ -154,11 +154,10 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
   // (At the bitrate's floor of 1 kbit/s a side is only scaled to a quarter beyond 146 pixels: never below 36.)
   const int width = render::scaledSide(fullWidth, scale), height = render::scaledSide(fullHeight, scale);
   std::string why;
-  if (!mEncoder || mEncoder->codec() != frame.encoding || mEncoder->fullChroma() != fullChroma ||
-      mEncoder->width() != width || mEncoder->height() != height) {
-    why = !mEncoder                                                                         ? (mNoRoom ? "memory" : "start")
-          : mEncoder->codec() != frame.encoding || mEncoder->fullChroma() != fullChroma ? "codec"
-                                                                                          : "size";
+  // (VP9 in 4:4:4 is another codec to its decoder: a new stream.)
+  const bool sameCodec = mEncoder && mEncoder->codec() == frame.encoding && mEncoder->fullChroma() == fullChroma;
+  if (!sameCodec || mEncoder->width() != width || mEncoder->height() != height) {
+    why = !mEncoder ? (mNoRoom ? "memory" : "start") : !sameCodec ? "codec" : "size";
     mBroken = false;
     mEncoder.reset();  // a failed construction leaves none
     image::VideoSettings settings;

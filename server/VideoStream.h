@@ -106,8 +106,8 @@ class VideoStream final : public VideoMemory::Holder {
   static constexpr double kMemoryShare = 0.25;
   /// The largest of kScales at which an encoder of `codec` for a `width` x `height` frame, with the threads
   /// image::videoThreadsFor gives it on `cores` cores (in 4:4:4 with `fullChroma`), holds at most `limitBytes`
-  /// (image::videoEncoderBytes). 1 where
-  /// even the smallest does not (a budget that small is left to the ledger, stream by stream) or `limitBytes` is 0.
+  /// (image::videoEncoderBytes). 1 where even the smallest does not (a budget that small is left to the ledger,
+  /// stream by stream) or `limitBytes` is 0.
   /// Taken at once, without the hysteresis below: it is a limit, not a measure.
   static double scaleForMemory(proto::Encoding codec, int width, int height, uint64_t limitBytes, int cores,
                                bool fullChroma = false);
