@@ -47,7 +47,8 @@
 #                       asking 1024^2 still frames, and with --batch; every target of the crowd judged; 320 s when the
 #                       kit carries a baseline (pack.sh --baseline), whose server runs each scenario after this build's
 #   browser-link   240  bench/browser_link.mjs: a drag in Chromium at 1024^2 (then 512^2, 1920x1080 while time is
-#                       left), JPEG, vp8 and vp9, through a 10 Mbit/s, 40 ms relay and on loopback
+#                       left), JPEG, vp8 and vp9 (4:4:4; at 1024^2 also 4:2:0), through a 10 Mbit/s, 40 ms relay and
+#                       on loopback
 #
 # Environment: MEASURE_QUICK=1 (tiny sizes, a 240 s budget: proves every step on any machine), MEASURE_BUDGET
 # (seconds; default 500, quick 240), MEASURE_STEPS (names to run, default all), MEASURE_WORK (scratch, default
@@ -498,15 +499,18 @@ PY
       { echo; sed -n '/^| scenario/,$p' "$dir/crowd.md"; } >> "$md"
       ;;
     browser-link)
-      # bench/browser_link.mjs: a 10 s drag of the MRI in headless Chromium, JPEG against vp8 and vp9, through
-      # bench/link_relay.mjs (10 Mbit/s, 40 ms round trip) and on loopback; 1024² first (the size the targets name),
-      # then 512² and 1920x1080 while time is left.
+      # bench/browser_link.mjs: a 10 s drag of the MRI in headless Chromium, JPEG against vp8 and vp9 (in 4:4:4, the
+      # page's way where Chromium decodes it; at 1024² 4:2:0 too, vp9-420), through bench/link_relay.mjs (10 Mbit/s,
+      # 40 ms round trip) and on loopback; 1024² first (the size the targets name), then 512² and 1920x1080 while time
+      # is left.
       browser_env
       sizes=${MEASURE_LINK_SIZES:-1024x1024 512x512 1920x1080}
       q && sizes=128x128
       for size in $sizes; do
         [ "$(left 10)" -gt 60 ] || { echo "- $size: skipped, too little time left" >> "$md"; continue; }
-        args=(--datasets "$WORK/served" --out "$dir/link-$size" --sizes "$size" --encodings jpeg,vp8,vp9
+        encodings=jpeg,vp8,vp9
+        [ "$size" = 1024x1024 ] && encodings+=,vp9-420
+        args=(--datasets "$WORK/served" --out "$dir/link-$size" --sizes "$size" --encodings "$encodings"
           --links relay,loopback)
         q && args+=(--duration 2 --samples 1)
         cmd timeout "$(left 5)" "$BKIT/bin/node" bench/browser_link.mjs "${args[@]}" 2>&1 | tee "$dir/link-$size.log" || true
