@@ -267,7 +267,7 @@ void Connection::pumpVideo() {
   mVideoPending.reset();
   task->input.dataset = task->job.dataset.get();
   task->input.keyframe = task->job.scene.keyframe || mVideoNeedsKey;
-  task->input.fullChroma = task->job.scene.acceptsVp9_444 && task->frame.encoding == proto::Encoding::Vp9;
+  task->input.fullChroma = task->job.scene.acceptsVp9_444;
   // The scene's size, not the frame's, which may have been drawn at the stream's (RenderJob::outputScale).
   const int width = task->job.scene.width, height = task->job.scene.height;
   task->input.sceneWidth = width, task->input.sceneHeight = height;

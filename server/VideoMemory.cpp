@@ -73,12 +73,12 @@ size_t VideoMemory::moving(Clock::time_point now) const {
 
 double VideoMemory::msForAMegapixel(proto::Encoding codec, bool fullChroma) const {
   std::lock_guard lock(mMutex);
-  return mMsForAMegapixel[costIndex(codec, fullChroma)];
+  return mMsForAMegapixel[size_t(costKind(codec, fullChroma))];
 }
 
 void VideoMemory::measured(proto::Encoding codec, bool fullChroma, double msForAMegapixel) {
   std::lock_guard lock(mMutex);
-  mMsForAMegapixel[costIndex(codec, fullChroma)] = msForAMegapixel;
+  mMsForAMegapixel[size_t(costKind(codec, fullChroma))] = msForAMegapixel;
 }
 
 uint64_t VideoMemory::freed() const {

@@ -62,6 +62,10 @@ class VideoMemory {
   /// of a frame of one megapixel (VideoStream::expectedMs), as a stream measured it last; 0 before any. A stream's
   /// first frame goes by it.
   double msForAMegapixel(proto::Encoding codec, bool fullChroma = false) const;
+  /// Streams whose encoding costs are told apart: 0 vp8, 1 vp9, 2 vp9 in 4:4:4.
+  static int costKind(proto::Encoding codec, bool fullChroma) {
+    return codec != proto::Encoding::Vp9 ? 0 : fullChroma ? 2 : 1;
+  }
   void measured(proto::Encoding codec, bool fullChroma, double msForAMegapixel);
   /// Encoders freed to make room for another's, and frames sent as JPEG because none could be freed.
   uint64_t freed() const;
@@ -77,10 +81,7 @@ class VideoMemory {
   mutable std::mutex mMutex;
   std::unordered_map<Holder*, Entry> mEntries;
   uint64_t mBytes = 0, mPeak = 0, mFreed = 0, mRefused = 0;
-  std::array<double, 3> mMsForAMegapixel{};  ///< vp8, vp9, vp9 in 4:4:4
-  static size_t costIndex(proto::Encoding codec, bool fullChroma) {
-    return codec != proto::Encoding::Vp9 ? 0 : fullChroma ? 2 : 1;
-  }
+  std::array<double, 3> mMsForAMegapixel{};  ///< by costKind: vp8, vp9, vp9 in 4:4:4
 };
 
 }  // namespace voxbrick::server

@@ -126,9 +126,10 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
   // A stream that has not measured its own cost yet goes by the last one measured in its codec (a newcomer to a
   // crowd starts at the size the others were brought to, rather than with a key frame too large to encode in time).
   const bool fullChroma = input.fullChroma && frame.encoding == proto::Encoding::Vp9;
-  const double cost = frame.encoding == mCostCodec && fullChroma == mCostFullChroma ? mMsForAMegapixel
-                      : mMemory ? mMemory->msForAMegapixel(frame.encoding, fullChroma)
-                                : 0;
+  const int costKind = VideoMemory::costKind(frame.encoding, fullChroma);
+  const double cost = costKind == mCostKind ? mMsForAMegapixel
+                      : mMemory             ? mMemory->msForAMegapixel(frame.encoding, fullChroma)
+                                            : 0;
   const double forEncoders = scaleForEncoders(frame.encoding, cost, input.encodeShareMs, fullWidth, fullHeight, mScale);
   // The frame's own statistics say what its drawing wanted (render::InteractiveChoice::wantedScale).
   nlohmann::json stats = nlohmann::json::parse(frame.statsJson, nullptr, false);
@@ -213,9 +214,9 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
     // Key frames cost more than the inter frames a moving stream is made of: they would make it look slower.
     const double msForAMegapixel =
         msBetween(start, encoded) / expectedMs(frame.encoding, 1, double(width) * height / 1e6);
-    const bool known = mCostCodec == frame.encoding && mCostFullChroma == fullChroma && mMsForAMegapixel > 0;
+    const bool known = mCostKind == costKind && mMsForAMegapixel > 0;
     mMsForAMegapixel = known ? 0.75 * mMsForAMegapixel + 0.25 * msForAMegapixel : msForAMegapixel;
-    mCostCodec = frame.encoding, mCostFullChroma = fullChroma;
+    mCostKind = costKind;
     if (mMemory) mMemory->measured(frame.encoding, fullChroma, mMsForAMegapixel);
   }
   ++mFrames;

@@ -24,8 +24,8 @@ namespace voxbrick::server {
 struct VideoFrameInput {
   const void* dataset = nullptr;  ///< the frame's dataset (identity only): a new one starts the stream again
   bool keyframe = false;          ///< the scene asked for a key frame
-  /// A vp9 frame of a client that decodes 4:4:4 (the scene's `accepts_vp9_444`): the stream goes in VP9's profile 1
-  /// (image::VideoSettings::fullChroma); a change either way starts it again (`key_reason` `codec`).
+  /// The client decodes VP9 in 4:4:4 (the scene's `accepts_vp9_444`): a vp9 stream goes in VP9's profile 1
+  /// (image::VideoSettings::fullChroma; a vp8 one as ever); a change either way starts it again (`key_reason` `codec`).
   bool fullChroma = false;
   double bitrateKbps = 0;         ///< the target the session's link allows (LinkPacer::videoKbps)
   std::chrono::steady_clock::time_point drawn;     ///< when its pixels were ready (the stream's timestamps)
@@ -157,11 +157,10 @@ class VideoStream final : public VideoMemory::Holder {
   VideoScaledFor mWantedFor = VideoScaledFor::None;
   std::atomic<double> mSentScale = 1;  ///< mScale, or the memory's smaller one, as the last frame was sent
   VideoScaledFor mScaledFor = VideoScaledFor::None;
-  /// The stream's inter frames' encoding time in mCostCodec (4:4:4 if mCostFullChroma), as the ms of a frame of one
-  /// megapixel (expectedMs), smoothed (0: none encoded yet).
+  /// The stream's inter frames' encoding time in its kind mCostKind (VideoMemory::costKind; -1: none encoded yet),
+  /// as the ms of a frame of one megapixel (expectedMs), smoothed.
   double mMsForAMegapixel = 0;
-  proto::Encoding mCostCodec = proto::Encoding::RawRgba8;
-  bool mCostFullChroma = false;
+  int mCostKind = -1;
   std::chrono::steady_clock::time_point mWantedSince;
   const void* mDataset = nullptr;
   std::chrono::steady_clock::time_point mStart;
