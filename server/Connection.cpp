@@ -327,7 +327,7 @@ void Connection::armPaceAt(Clock::time_point when) {
 std::optional<double> Connection::videoPaceMs() const {
   const std::optional<double> interval = mServices.scheduler.renderIntervalMs(*mTransport.renderSink());
   if (!interval) return std::nullopt;
-  return LinkPacer::kFramesInFlight * *interval;
+  return LinkPacer::paceMsFor(*interval);
 }
 
 void Connection::frameReceived() {

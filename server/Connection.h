@@ -219,7 +219,7 @@ class Connection {
   /// before an exact frame), or at the earliest wake already armed.
   void armPaceAt(std::chrono::steady_clock::time_point when);
   /// The most a video frame may take from write to report for the stream to keep the client's pace (its Renders'
-  /// median recent interval, RenderScheduler::renderIntervalMs, LinkPacer::kFramesInFlight times); none before two.
+  /// median recent interval, RenderScheduler::renderIntervalMs, as LinkPacer::paceMsFor); none before two.
   std::optional<double> videoPaceMs() const;
   /// A FrameReceived report (frames are reported in order; its frame_bytes is the client's word, unchecked): the link
   /// has room again.

@@ -12,10 +12,8 @@ namespace {
 
 /// Frames remembered while the client does not report (a client that never reports must not grow the list).
 constexpr size_t kMaxRemembered = 64;
-/// A link measurement older than this no longer holds the bitrate down.
+/// A reading of the link's capacity older than this no longer holds the bitrate down.
 constexpr double kLinkFreshMs = 2000;
-/// Smoothing of the link's rate samples (the weight of a new one).
-constexpr double kLinkWeight = 0.25;
 /// A frame written before the one ahead of it was reported queued behind it only if it also arrived later than the
 /// quickest delivery by at least this share of the time between the two reports: frames that merely overlap on a far
 /// link (a round trip longer than the time between frames) each arrive in the quickest time, and the time between
@@ -39,6 +37,8 @@ constexpr double kMinPaceBudgetMs = 2;
 constexpr double kPaceRoomLeastShare = 1.0 / 3;
 /// A cut by the client's pace: to the share its frames' time exceeds, but at least to half and at most to 90 %.
 constexpr double kPaceCutMin = 0.5, kPaceCutMax = 0.9;
+/// Frames of the last twice as many reported that must have queued at the link for it to be read as full.
+constexpr size_t kQueuedReadings = 3;
 /// Frames whose bytes take less than this share of what the pace leaves them lift its limit a step (of this factor).
 constexpr double kPaceRoomShare = 0.5, kPaceStep = 1.15;
 
@@ -68,30 +68,36 @@ bool LinkPacer::received(Clock::time_point at) {
     mMinDeliveryBytes = frame.bytes;
   }
   const double extraMs = delivery - *mMinDeliveryMs;
-  // A frame that queued behind the one ahead of it (written before that one was reported, and later than the
-  // quickest delivery): the time between the two reports is at most its own transfer, and its bytes over it the
-  // link's rate at the least. Where it reached the link after the one ahead had passed, that time also holds the
-  // sender's spacing, and its bytes beyond the quickest delivered frame's over its time beyond the quickest delivery
-  // come nearer (also a rate at the least: a late report only lengthens that time). The larger of the two. (The
-  // first alone read a 10 Mbit/s link at 2.5 to 5 Mbit/s during a drag, and the video's bitrate followed it down.)
-  // Else a frame much larger than the quickest delivered one: its extra bytes over its extra time.
-  std::optional<double> sample;
+  // Two readings. Its bytes beyond the quickest delivered frame's over its time beyond the quickest delivery: at most
+  // the link's rate, since a late report, the client's own delays or a wait behind another frame only lengthen that
+  // time. And where it was written before the one ahead of it was reported and came later than the quickest delivery,
+  // its bytes over the time between the two reports: its own transfer if it queued behind that one at the link; the
+  // sender's spacing too if it reached the link after that one had passed.
+  std::optional<double> extraKbps, queuedKbps;
+  if (frame.bytes >= mMinDeliveryBytes + kQueuedMinBytes && extraMs > 0.5)
+    extraKbps = double(frame.bytes - mMinDeliveryBytes) * 8 / extraMs;  // kbit/s
   if (mReporting && frame.at < mLastReport) {
     const double gapMs = msBetween(mLastReport, at);
-    if (gapMs > 0.5 && extraMs >= kQueuedShare * gapMs && frame.bytes >= kQueuedMinBytes) {
-      sample = double(frame.bytes) * 8 / gapMs;  // kbit/s
-      if (frame.bytes >= mMinDeliveryBytes + kQueuedMinBytes)
-        sample = std::max(*sample, double(frame.bytes - mMinDeliveryBytes) * 8 / extraMs);
-    }
+    if (gapMs > 0.5 && extraMs >= kQueuedShare * gapMs && frame.bytes >= kQueuedMinBytes)
+      queuedKbps = double(frame.bytes) * 8 / gapMs;
   }
-  if (!sample && frame.bytes >= mMinDeliveryBytes + kMeasuringBytes && extraMs > 0.5)
-    sample = double(frame.bytes - mMinDeliveryBytes) * 8 / extraMs;
-  if (sample) {
-    const bool fresh = mLinkKbps > 0 && msBetween(mLinkAt, at) < kLinkFreshMs;
-    mLinkKbps = fresh ? (1 - kLinkWeight) * mLinkKbps + kLinkWeight * *sample : *sample;
-    mLinkAt = at;
-    settle({*sample, frame.bytes});
-  }
+  // The capacity (capacityKbps) takes the second only where the frame reached the link before the one ahead had
+  // passed it: written earlier than that one's report less the quickest delivery (a round trip). Else the time between
+  // the reports holds the sender's spacing, or the window's wait for a report where the round trip is longer than the
+  // frames' transfer. It takes the first only from frames that did not queue so (their extra time holds their wait).
+  const bool queuedAtTheLink = queuedKbps && msBetween(frame.at, mLastReport) > *mMinDeliveryMs;
+  if (queuedAtTheLink)
+    mReadings.push_back({at, std::nullopt, queuedKbps});
+  else
+    mReadings.push_back({at, extraKbps, std::nullopt});
+  while (msBetween(mReadings.front().at, at) >= kLinkFreshMs) mReadings.pop_front();
+  if (queuedReading(mReadings)) mFullAt = at;
+  // The settled rate takes the larger of the two (the second alone read a 10 Mbit/s link at 2.5 to 5 Mbit/s during a
+  // drag), or the first from a frame much larger than the quickest delivered one.
+  std::optional<double> sample = queuedKbps;
+  if (sample && extraKbps) sample = std::max(*sample, *extraKbps);
+  if (!sample && frame.bytes >= mMinDeliveryBytes + kMeasuringBytes) sample = extraKbps;
+  if (sample) settle({*sample, frame.bytes});
   mReporting = true;
   mLastReport = at;
   return true;
@@ -136,9 +142,26 @@ std::optional<double> LinkPacer::lastDeliveryMs() const {
 
 std::optional<double> LinkPacer::minDeliveryMs() const { return mMinDeliveryMs; }
 
-std::optional<double> LinkPacer::linkKbps(Clock::time_point now) const {
-  if (mLinkKbps <= 0 || msBetween(mLinkAt, now) >= kLinkFreshMs) return std::nullopt;
-  return mLinkKbps;
+std::optional<double> LinkPacer::capacityKbps(Clock::time_point now) const {
+  // Half the last few frames queued at the link: it is full, and they read it. Fewer are the reports of a busy client,
+  // late behind one another. Else the most the others read since the link was last full (the readings of a faster
+  // link before it would raise the bitrate again at once).
+  if (!mReadings.empty() && msBetween(mReadings.back().at, now) < kLinkFreshMs)
+    if (const auto full = queuedReading(mReadings)) return full;
+  std::optional<double> most;
+  for (const Reading& r : mReadings)
+    if (r.extraKbps && r.at > mFullAt && msBetween(r.at, now) < kLinkFreshMs)
+      most = std::max(most.value_or(0), *r.extraKbps);
+  return most;
+}
+
+std::optional<double> LinkPacer::queuedReading(const std::deque<Reading>& readings) {
+  std::vector<double> queued;
+  for (auto r = readings.rbegin(); r != readings.rend() && r - readings.rbegin() < std::ptrdiff_t(2 * kQueuedReadings);
+       ++r)
+    if (r->queuedKbps) queued.push_back(*r->queuedKbps);
+  if (queued.size() < kQueuedReadings) return std::nullopt;
+  return upperMedian(std::move(queued));
 }
 
 std::optional<double> LinkPacer::settledLinkKbps() const {
@@ -161,7 +184,7 @@ void LinkPacer::settle(Sample sample) {
 
 double LinkPacer::videoKbps(double startKbps, double capKbps, Clock::time_point now, std::optional<double> paceMs) {
   capKbps = std::max(capKbps, kMinKbps);
-  if (const auto link = linkKbps(now)) {
+  if (const auto link = capacityKbps(now)) {
     mTargetKbps = std::clamp(kLinkShare * *link, kMinKbps, capKbps);
   } else if (mTargetKbps <= 0) {
     mTargetKbps = std::clamp(startKbps, kMinKbps, capKbps);
@@ -187,17 +210,19 @@ void LinkPacer::followPace(double paceMs, double targetKbps, Clock::time_point n
   const double budgetMs = kPaceShare * paceMs - *mMinDeliveryMs;
   if (budgetMs < kMinPaceBudgetMs) return;
   // Only the frame's own bytes come down with the bitrate: the link's rate tells their time from the rest (the
-  // client's own delays: a busy browser reports tens of ms late). Without a rate nothing tells them apart.
-  std::optional<double> link = linkKbps(now);
+  // client's own delays: a busy browser reports tens of ms late). Without a rate nothing tells them apart: nothing is
+  // cut, and a limit is lifted only where the whole time past the quickest delivery is well within the pace (a limit
+  // that waited for a rate to be read again held a stream at its lowest for the rest of a drag).
+  std::optional<double> link = capacityKbps(now);
   if (!link) link = settledLinkKbps();
-  if (!link) return;
   std::vector<double> bytes;
   for (const Delivery& d : mVideoDeliveries) bytes.push_back(double(d.bytes));
   const double extraMs = *medianMs(mVideoDeliveries) - *mMinDeliveryMs;
-  const double bytesMs = std::min(extraMs, upperMedian(std::move(bytes)) * 8 / *link);
+  const double bytesMs = link ? std::min(extraMs, upperMedian(std::move(bytes)) * 8 / *link) : extraMs;
   const double roomMs = budgetMs - (extraMs - bytesMs);  // what the pace leaves the bytes
   const double current = mPaceKbps > 0 ? std::min(mPaceKbps, targetKbps) : targetKbps;
   if (extraMs > budgetMs) {
+    if (!link) return;
     // The client's own delays take most of the pace (a busy browser): smaller frames would hardly come sooner, and
     // chasing the little left cut a busy two-core Chromium's 1024² stream to 0.9 Mbit/s, 35 dB.
     if (roomMs < std::max(kMinPaceBudgetMs, kPaceRoomLeastShare * budgetMs)) return;

@@ -1,6 +1,7 @@
 // One session's link, as its client's FrameReceived reports show it: frames on their way (written, not yet
-// reported), the time a frame takes to arrive, the link's rate (from frames that queued behind one another, or a
-// frame much larger than the quickest delivered one: never from the sender's own spacing), and from these when
+// reported), the time a frame takes to arrive, the link's capacity (the most that frames larger than the quickest
+// delivered one read of it, or what frames queued behind one another at it read) and its settled rate (never from the
+// sender's own spacing), and from these when
 // the next Frame may be written (and when it is expected to be: a video frame is encoded ahead of it) and at what
 // bitrate a video stream should run (the link's share, and no more than keeps the client's pace). A client that
 // reports keeps at most kFramesInFlight Frames on the link (one more while none queues), so frames never queue in
@@ -9,6 +10,7 @@
 // times).
 #pragma once
 
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <deque>
@@ -64,17 +66,27 @@ class LinkPacer {
   std::optional<double> minDeliveryMs() const;
   /// The last frame's time from write to report.
   std::optional<double> lastDeliveryMs() const;
-  /// The link's rate (kbit/s), if measured within the last two seconds: from a frame of 4 KiB or more that queued
-  /// behind the one ahead of it (written before that one was reported, and delivered later than the quickest delivery:
-  /// the time between their reports is its transfer), or from a frame 32 KiB or more larger than the quickest delivered
-  /// one (the extra bytes over the extra time). Frames that only overlap on a far link, each delivered in the quickest
-  /// time, measure nothing: the time between their reports is the sender's spacing.
-  std::optional<double> linkKbps(Clock::time_point now) const;
+  /// The link's capacity as a video stream's bitrate follows it (kbit/s), if read within the last two seconds.
+  /// Where the link is full (at least three of the last six frames reported queued at it: each reached it before the
+  /// one ahead had passed it, written earlier than that one's report less the quickest delivery), the median of what
+  /// those read: their bytes over the time between their report and the one ahead. Else the most any other frame 4 KiB
+  /// or more larger than the quickest delivered one read since the link was last full: its extra bytes over its time
+  /// beyond the quickest delivery (the round trip cancels). Each such reading is at most what the link carries (a late
+  /// report or the client's own delays make it lower, never higher), so the most of them; a smoothed rate of both
+  /// kinds followed every late report down (a busy Chromium's reports, a few ms late each, read a 10 Mbit/s link at 1
+  /// to 3 Mbit/s while a drag's frames kept up with it, and its video ran at 1 Mbit/s with 4 KB frames, 36 dB, in
+  /// place of its 4.7 Mbit/s cap). Frames alike in size that keep up read nothing.
+  std::optional<double> capacityKbps(Clock::time_point now) const;
   /// The link's rate as measurements settled it, however long ago (none before): by a frame of kConclusiveBytes or
-  /// more on its own, or by three measurements in a row from smaller frames that agree (their median). Lossless
-  /// frames are encoded by it (pngSpeedFor, webpFor): a link that keeps up with a drag's frames measures nothing new,
-  /// and the exact frame after the drag should still know the rate the last large frame found; but a choice that
-  /// lasts must not follow one client's hiccup (a busy browser's report late by tens of ms reads a 9 KB frame's
+  /// more on its own (its extra bytes over its extra time, as capacityKbps; a frame 32 KiB or more larger than the
+  /// quickest delivered one measures), or by three measurements in a row that agree (their median) from frames of
+  /// 4 KiB or more that queued behind the one ahead of it (written before that one was reported, and delivered later
+  /// than the quickest delivery: the time between their reports is its transfer; or, larger than the quickest
+  /// delivered frame, the extra bytes over the extra time, where that reads more). Frames that only overlap on a far
+  /// link, each delivered in the quickest time, measure nothing: the time between their reports is the sender's
+  /// spacing. Lossless frames are encoded by it (pngSpeedFor, webpFor): a link that keeps up with a drag's frames
+  /// measures nothing new, and the exact frame after the drag should still know the rate the last large frame found;
+  /// but a choice that lasts must not follow one client's hiccup (a busy browser's report late by tens of ms reads a 9 KB frame's
   /// loopback as a few Mbit/s, and one late before it as 100 Mbit/s).
   std::optional<double> settledLinkKbps() const;
   /// A frame this large measures the link on its own for settledLinkKbps: a report late by up to 40 ms (the most a
@@ -82,22 +94,34 @@ class LinkPacer {
   /// thresholds.
   static constexpr uint64_t kConclusiveBytes = 64 * 1024;
 
-  /// The bitrate a video stream should run at now, at most `capKbps`: kLinkShare of the link's measured rate, else
-  /// (no recent measurement: the link kept up) the last target raised by half a second, starting from `startKbps`.
+  /// The bitrate a video stream should run at now, at most `capKbps`: kLinkShare of the link's capacity
+  /// (capacityKbps), else (no recent reading: the link kept up) the last target raised by half a second, starting
+  /// from `startKbps`.
   /// And at most what the client's pace allows: `paceMs` is the most a video frame may take from write to report
   /// for the stream to keep the client's rate (kFramesInFlight of its intervals between Renders). Where the last
   /// kRecentDeliveries video frames took longer than the quickest delivery by more than kPaceShare of `paceMs` less
-  /// that quickest delivery, the bitrate comes down in proportion to what their own bytes took (at the link's rate,
-  /// measured or settled) and what the pace leaves them once the rest (the client's own delays) is counted: smaller
+  /// that quickest delivery, the bitrate comes down in proportion to what their own bytes took (at the link's capacity
+  /// or settled rate) and what the pace leaves them once the rest (the client's own delays) is counted: smaller
   /// frames pass sooner and keep the pace. Nothing changes where the round trip alone, or the client's own delays,
-  /// already take (most of) the pace, or the link's rate is unknown. Frames whose bytes take well within what the
-  /// pace leaves them lift that limit again a step at a time. A limit changes once per kRecentDeliveries frames
+  /// already take (most of) the pace, and nothing is cut where the link's rate is unknown. Frames whose bytes take
+  /// well within what the pace leaves them (the whole time past the quickest delivery, where the rate is unknown)
+  /// lift that limit again a step at a time. A limit changes once per kRecentDeliveries frames
   /// written after it.
   double videoKbps(double startKbps, double capKbps, Clock::time_point now, std::optional<double> paceMs = {});
   /// Deliveries that predict the next (roomExpectedAt) and hold a video stream to its pace (videoKbps).
   static constexpr size_t kRecentDeliveries = 3;
   /// The share of the client's pace a video frame's delivery is held to.
   static constexpr double kPaceShare = 0.9;
+  /// The interval between a drag's Renders the pace is held to at most (ms; 30 a second): a client that asks slower
+  /// than that because it waits for the server's frames (the viewer keeps three Renders unanswered) would otherwise
+  /// let them grow and come slower still (a two-core Chromium over a 10 Mbit/s link asked every 50 to 60 ms once its
+  /// stream ran at its 4.7 Mbit/s cap, and showed 17 to 20 frames a second).
+  static constexpr double kDragIntervalMs = 1000.0 / 30;
+  /// videoKbps' `paceMs` for a client whose Renders come `renderIntervalMs` apart (the median of its recent ones):
+  /// kFramesInFlight of them, each at most kDragIntervalMs.
+  static double paceMsFor(double renderIntervalMs) {
+    return kFramesInFlight * std::min(renderIntervalMs, kDragIntervalMs);
+  }
 
  private:
   struct OnTheWay {
@@ -127,8 +151,17 @@ class LinkPacer {
   void settle(Sample sample);
   std::deque<Sample> mRecent;  ///< the last three measurements
   double mSettledKbps = 0;
-  double mLinkKbps = 0;  ///< smoothed rate of back-to-back frames
-  Clock::time_point mLinkAt{};
+  /// What one frame's report read of the link's capacity (capacityKbps): its extra bytes over its extra time, and
+  /// where it queued at the link, its bytes over the time since the report ahead.
+  struct Reading {
+    Clock::time_point at;
+    std::optional<double> extraKbps, queuedKbps;
+  };
+  std::deque<Reading> mReadings;  ///< of every report of the last two seconds
+  Clock::time_point mFullAt{};    ///< the last report that found the link full (queuedReading)
+  /// The median of what the frames that queued at the link read, if at least kQueuedReadings of the last twice as
+  /// many reported did (the link is full).
+  static std::optional<double> queuedReading(const std::deque<Reading>& readings);
   double mTargetKbps = 0;
   Clock::time_point mTargetAt{};
   std::deque<Delivery> mRecentDeliveries, mVideoDeliveries;  ///< the last kRecentDeliveries of each

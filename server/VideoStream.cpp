@@ -28,6 +28,18 @@ double kbpsAt(int width, int height, double bitsPerPixel) { return double(width)
 
 }  // namespace
 
+image::VideoSettings VideoStream::encoderSettings(proto::Encoding codec, int width, int height, double kbps,
+                                                  bool fullChroma) {
+  image::VideoSettings settings;
+  settings.width = width, settings.height = height, settings.bitrateKbps = kbps;
+  settings.threads = image::videoThreadsFor(codec, width, height, cores());
+  settings.fullChroma = fullChroma;
+  // A 4:4:4 stream without adaptive quantisation: 8 % fewer bytes for JPEG q85's PSNR on the MRI's turn, its worst
+  // frame the same (in 4:2:0 2-4 %, and cyclic refresh stays there: bench/results/video/video-444.md).
+  if (fullChroma) settings.aqMode = 0;
+  return settings;
+}
+
 double VideoStream::startKbps(int width, int height) { return kbpsAt(width, height, 0.05); }
 double VideoStream::capKbps(int width, int height) { return kbpsAt(width, height, 0.15); }
 
@@ -161,13 +173,7 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
     why = !mEncoder ? (mNoRoom ? "memory" : "start") : !sameCodec ? "codec" : "size";
     mBroken = false;
     mEncoder.reset();  // a failed construction leaves none
-    image::VideoSettings settings;
-    settings.width = width, settings.height = height, settings.bitrateKbps = kbps;
-    settings.threads = image::videoThreadsFor(frame.encoding, width, height, cores());
-    settings.fullChroma = fullChroma;
-    // A 4:4:4 stream without adaptive quantisation: 8 % fewer bytes for JPEG q85's PSNR on the MRI's turn, its worst
-    // frame the same (in 4:2:0 2-4 %, and cyclic refresh stays there: bench/results/video/video-444.md).
-    if (fullChroma) settings.aqMode = 0;
+    const image::VideoSettings settings = encoderSettings(frame.encoding, width, height, kbps, fullChroma);
     if (mMemory &&
         !mMemory->reserve(*this, image::videoEncoderBytes(frame.encoding, width, height, settings.threads, fullChroma),
                           start)) {

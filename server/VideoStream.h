@@ -60,6 +60,10 @@ class VideoStream final : public VideoMemory::Holder {
   VideoStream(const VideoStream&) = delete;
   VideoStream& operator=(const VideoStream&) = delete;
 
+  /// The settings a stream's encoder is made with: the size, the bitrate, image::videoThreadsFor's threads, and
+  /// `fullChroma` (a vp9 stream in 4:4:4, encoded without adaptive quantisation; in 4:2:0 with image's cyclic refresh).
+  static image::VideoSettings encoderSettings(proto::Encoding codec, int width, int height, double kbps,
+                                              bool fullChroma);
   /// The bitrate a stream of `width` x `height` starts at, and the most it is given (kbit/s): about 0.05 and 0.15
   /// bits a pixel at 30 frames a second (bench/results/video: the MRI at 1024² is then above 40 dB).
   static double startKbps(int width, int height);

@@ -987,10 +987,10 @@ TEST_F(ConnectionTest, PngFramesComeAsWebpOnlyToASceneThatAcceptsItOnALinkMeasur
   const std::optional<double> link = measureASlowLink();
   ASSERT_TRUE(link);
   ASSERT_LT(*link, kWebpBelowKbps);
-  // The measurement no longer holds a video's bitrate down after two seconds of nothing new, but lossless frames
-  // still go by it (the exact frame after a drag whose frames kept up with the link).
+  // Nothing holds a video's bitrate down after two seconds of nothing new, but lossless frames still go by the
+  // settled rate (the exact frame after a drag whose frames kept up with the link).
   std::this_thread::sleep_for(std::chrono::milliseconds(2100));
-  ASSERT_FALSE(core.link().linkKbps(std::chrono::steady_clock::now()));
+  ASSERT_FALSE(core.link().capacityKbps(std::chrono::steady_clock::now()));
   receive(proto::RenderRequest{proto::Encoding::Png, accepting}, 4);
   const std::optional<RenderJob> slow = awaitRenderedJob(4);  // before the next Render, which would replace it waiting
   receive(proto::RenderRequest{proto::Encoding::Png, kConnectionScene}, 5);
