@@ -279,34 +279,49 @@ TEST(LinkPacer, RoomIsExpectedWhenTheOldestFrameShouldBeReported) {
   EXPECT_EQ(*pacer.roomExpectedAt(at(152)), at(131 + 70)) << "the median of the last three: 50, 70 and 80 ms";
 }
 
-// A drag's video on a 10 Mbit/s link with 40 ms of round trip: a frame every 33 ms as the window allows, each of
-// the bytes its bitrate gives (give or take 30 %), each reported 1 to 15 ms late (a busy client). The frames keep up
-// with the link, and the bitrate climbs to its cap and stays there. A rate smoothed over the time between reports
-// read the link as the frames' own rate and the bitrate followed it down, to 0.5 Mbit/s here and to 1 Mbit/s with
-// 4 KB frames in Chromium on such a link.
-TEST(LinkPacer, ADragsFramesThatKeepUpWithTheLinkDoNotBringItsBitrateDown) {
-  const double cap = 4719, linkKbps = 10000, roundTripMs = 40;
-  const double lateMs[] = {2, 9, 4, 12, 6, 1, 15, 3, 8, 5};
-  const double sizes[] = {0.8, 1.2, 1.0, 0.9, 1.1, 1.3, 0.7};
-  LinkPacer pacer;
+/// A drag's video through a modelled link for `ms`, at most `cap` kbit/s: a frame every 33 ms as the window allows,
+/// of the bytes its bitrate gives at 30 frames a second times `size(n)` (the n-th frame written), through a link of
+/// `linkKbps(t)` with 40 ms of round trip, reported `lateMs(n)` late (reports leave the client in order).
+/// `seen(t, kbps)` is told each frame's bitrate. Returns the frames written.
+template <class Size, class Link, class Late, class Seen>
+int dragThroughALink(LinkPacer& pacer, double ms, double cap, Size size, Link linkKbps, Late lateMs, Seen seen) {
   std::deque<double> reports;  // when each frame's report arrives
-  double linkFree = 0, lastReport = 0, lowest = cap;
+  double linkFree = 0, lastReport = 0;
   int frames = 0;
-  for (double t = 0; t < 8000; t += 1000.0 / 30) {
+  for (double t = 0; t < ms; t += 1000.0 / 30) {
     while (!reports.empty() && reports.front() <= t) {
       pacer.received(at(reports.front()));
       reports.pop_front();
     }
     if (!pacer.mayWrite(at(t))) continue;
     const double kbps = pacer.videoKbps(cap / 3, cap, at(t));
-    const double bytes = kbps * 1000 / 8 / 30 * sizes[frames % 7];
+    const double bytes = kbps * 1000 / 8 / 30 * size(frames);
     pacer.sent(uint64_t(bytes), at(t), true);
-    linkFree = std::max(linkFree, t) + bytes * 8 / linkKbps;
-    lastReport = std::max(lastReport, linkFree + roundTripMs + lateMs[frames % 10]);
+    linkFree = std::max(linkFree, t) + bytes * 8 / linkKbps(t);
+    lastReport = std::max(lastReport, linkFree + 40 + lateMs(frames));
     reports.push_back(lastReport);
     ++frames;
-    if (t > 3000) lowest = std::min(lowest, kbps);
+    seen(t, kbps);
   }
+  return frames;
+}
+
+// A drag's video on a 10 Mbit/s link with 40 ms of round trip, its frames give or take 30 % of what the bitrate gives,
+// each reported 1 to 15 ms late (a busy client). The frames keep up with the link, and the bitrate climbs to its cap
+// and stays there. A rate smoothed over the time between reports read the link as the frames' own rate and the
+// bitrate followed it down, to 0.5 Mbit/s here and to 1 Mbit/s with 4 KB frames in Chromium on such a link.
+TEST(LinkPacer, ADragsFramesThatKeepUpWithTheLinkDoNotBringItsBitrateDown) {
+  const double cap = 4719, linkKbps = 10000;
+  const double lateMs[] = {2, 9, 4, 12, 6, 1, 15, 3, 8, 5};
+  const double sizes[] = {0.8, 1.2, 1.0, 0.9, 1.1, 1.3, 0.7};
+  LinkPacer pacer;
+  double lowest = cap;
+  const int frames = dragThroughALink(
+      pacer, 8000, cap, [&](int n) { return sizes[n % 7]; }, [&](double) { return linkKbps; },
+      [&](int n) { return lateMs[n % 10]; },
+      [&](double t, double kbps) {
+        if (t > 3000) lowest = std::min(lowest, kbps);
+      });
   EXPECT_GE(lowest, 0.95 * cap) << "kbit/s after 3 s, of " << frames << " frames";
   ASSERT_TRUE(pacer.capacityKbps(at(8000)));
   // At most what the link carries, give or take the quickest frame's own lateness (it read 1.17 times the link).
@@ -316,31 +331,20 @@ TEST(LinkPacer, ADragsFramesThatKeepUpWithTheLinkDoNotBringItsBitrateDown) {
 // A link that becomes slower than the stream (10 Mbit/s, then 1): frames queue behind one another, the time between
 // their reports reads the link, and the bitrate comes down to its share of it within a second.
 TEST(LinkPacer, ALinkThatSlowsBringsTheBitrateDown) {
-  const double cap = 4719, roundTripMs = 40;
+  const double cap = 4719;
   LinkPacer pacer;
-  std::deque<double> reports;
-  double linkFree = 0, lastReport = 0, kbps = 0, lowestInTheFirstSecond = cap;
+  double lowestInTheFirstSecond = cap;
   std::vector<double> later;  // the bitrates after a second on the slow link
-  int frames = 0;
-  for (double t = 0; t < 6000; t += 1000.0 / 30) {
-    while (!reports.empty() && reports.front() <= t) {
-      pacer.received(at(reports.front()));
-      reports.pop_front();
-    }
-    if (!pacer.mayWrite(at(t))) continue;
-    kbps = pacer.videoKbps(cap / 3, cap, at(t));
-    const double bytes = kbps * 1000 / 8 / 30 * (frames % 2 ? 0.9 : 1.1);
-    pacer.sent(uint64_t(bytes), at(t), true);
-    linkFree = std::max(linkFree, t) + bytes * 8 / (t < 3000 ? 10000 : 1000);
-    lastReport = std::max(lastReport, linkFree + roundTripMs + (frames % 3) * 2);
-    reports.push_back(lastReport);
-    ++frames;
-    if (t > 2900 && t < 3000) {
-      EXPECT_EQ(kbps, cap) << "the fast link's";
-    }
-    if (t >= 3000 && t < 4000) lowestInTheFirstSecond = std::min(lowestInTheFirstSecond, kbps);
-    if (t >= 4000) later.push_back(kbps);
-  }
+  dragThroughALink(
+      pacer, 6000, cap, [](int n) { return n % 2 ? 0.9 : 1.1; },
+      [](double t) { return t < 3000 ? 10000 : 1000; }, [](int n) { return (n % 3) * 2.0; },
+      [&](double t, double kbps) {
+        if (t > 2900 && t < 3000) {
+          EXPECT_EQ(kbps, cap) << "the fast link's";
+        }
+        if (t >= 3000 && t < 4000) lowestInTheFirstSecond = std::min(lowestInTheFirstSecond, kbps);
+        if (t >= 4000) later.push_back(kbps);
+      });
   EXPECT_LE(lowestInTheFirstSecond, LinkPacer::kLinkShare * 1000 * 1.05);
   // Then it keeps near its share, climbing while frames keep up and brought down again by those that queue.
   ASSERT_FALSE(later.empty());
