@@ -230,10 +230,13 @@ void Upload::release() {
   mReleased = true;
   if (mFd >= 0) ::close(mFd);
   mFd = -1;
+  // The name first: once its scratch is gone, a client may take the name again at once (an abandoned upload's
+  // client, seeing the folder clean, was refused "is being uploaded" in the moment between). Scratch folders are
+  // each their own (mkdtemp), so a new upload of the name never meets this one's.
+  mOwner.ended(*this);
   std::error_code ec;
   std::filesystem::remove_all(mScratch, ec);
   if (ec) spdlog::warn("upload '{}': cannot remove {}: {}", mName, mScratch.string(), ec.message());
-  mOwner.ended(*this);
 }
 
 bool Upload::append(std::span<const uint8_t> data) {
