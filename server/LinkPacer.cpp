@@ -184,7 +184,8 @@ void LinkPacer::settle(Sample sample) {
 
 double LinkPacer::videoKbps(double startKbps, double capKbps, Clock::time_point now, std::optional<double> paceMs) {
   capKbps = std::max(capKbps, kMinKbps);
-  if (const auto link = capacityKbps(now)) {
+  const std::optional<double> capacity = capacityKbps(now);
+  if (const auto link = capacity) {
     mTargetKbps = std::clamp(kLinkShare * *link, kMinKbps, capKbps);
   } else if (mTargetKbps <= 0) {
     mTargetKbps = std::clamp(startKbps, kMinKbps, capKbps);
@@ -194,12 +195,12 @@ double LinkPacer::videoKbps(double startKbps, double capKbps, Clock::time_point 
     mTargetKbps = std::clamp(mTargetKbps * (1 + 0.5 * seconds), kMinKbps, capKbps);
   }
   mTargetAt = now;
-  if (paceMs) followPace(*paceMs, mTargetKbps, now);
+  if (paceMs) followPace(*paceMs, mTargetKbps, capacity ? capacity : settledLinkKbps(), now);
   if (mPaceKbps <= 0) return mTargetKbps;
   return std::max(kMinKbps, std::min(mTargetKbps, mPaceKbps));
 }
 
-void LinkPacer::followPace(double paceMs, double targetKbps, Clock::time_point now) {
+void LinkPacer::followPace(double paceMs, double targetKbps, std::optional<double> link, Clock::time_point now) {
   // Frames encoded at the limit as it now stands: each of the last few was written after it last changed.
   if (!mMinDeliveryMs || mVideoDeliveries.size() < kRecentDeliveries ||
       std::any_of(mVideoDeliveries.begin(), mVideoDeliveries.end(),
@@ -213,8 +214,6 @@ void LinkPacer::followPace(double paceMs, double targetKbps, Clock::time_point n
   // client's own delays: a busy browser reports tens of ms late). Without a rate nothing tells them apart: nothing is
   // cut, and a limit is lifted only where the whole time past the quickest delivery is well within the pace (a limit
   // that waited for a rate to be read again held a stream at its lowest for the rest of a drag).
-  std::optional<double> link = capacityKbps(now);
-  if (!link) link = settledLinkKbps();
   std::vector<double> bytes;
   for (const Delivery& d : mVideoDeliveries) bytes.push_back(double(d.bytes));
   const double extraMs = *medianMs(mVideoDeliveries) - *mMinDeliveryMs;

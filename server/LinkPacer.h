@@ -136,8 +136,9 @@ class LinkPacer {
   };
   /// The median of `deliveries`' times (none if empty).
   static std::optional<double> medianMs(const std::deque<Delivery>& deliveries);
-  /// videoKbps' limit from the client's pace, given the target the link allows.
-  void followPace(double paceMs, double targetKbps, Clock::time_point now);
+  /// videoKbps' limit from the client's pace, given the target the link allows and the link's rate (its capacity,
+  /// read once a frame, else its settled rate; none: unknown).
+  void followPace(double paceMs, double targetKbps, std::optional<double> link, Clock::time_point now);
   std::deque<OnTheWay> mOnTheWay;
   bool mReporting = false;
   Clock::time_point mLastReport{};

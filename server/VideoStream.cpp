@@ -175,8 +175,9 @@ VideoEncoded VideoStream::encode(proto::Frame& frame, const VideoFrameInput& inp
     mEncoder.reset();  // a failed construction leaves none
     const image::VideoSettings settings = encoderSettings(frame.encoding, width, height, kbps, fullChroma);
     if (mMemory &&
-        !mMemory->reserve(*this, image::videoEncoderBytes(frame.encoding, width, height, settings.threads, fullChroma),
-                          start)) {
+        !mMemory->reserve(
+            *this, image::videoEncoderBytes(frame.encoding, width, height, settings.threads, settings.fullChroma),
+            start)) {
       mNoRoom = true;
       mSentScale.store(1, std::memory_order_relaxed);  // its frames go as still JPEGs, drawn at the scene's size
       VideoEncoded none;
