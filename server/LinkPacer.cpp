@@ -135,6 +135,11 @@ std::optional<double> LinkPacer::medianMs(const std::deque<Delivery>& deliveries
   return upperMedian(std::move(ms));
 }
 
+std::optional<double> LinkPacer::videoWaitMs() const {
+  if (!mMinDeliveryMs || mVideoDeliveries.size() < kRecentDeliveries) return std::nullopt;
+  return *medianMs(mVideoDeliveries) - *mMinDeliveryMs;
+}
+
 std::optional<double> LinkPacer::lastDeliveryMs() const {
   if (mRecentDeliveries.empty()) return std::nullopt;
   return mRecentDeliveries.back().ms;
@@ -189,8 +194,10 @@ double LinkPacer::videoKbps(double startKbps, double capKbps, Clock::time_point 
     mTargetKbps = std::clamp(kLinkShare * *link, kMinKbps, capKbps);
   } else if (mTargetKbps <= 0) {
     mTargetKbps = std::clamp(startKbps, kMinKbps, capKbps);
-  } else {
-    // Nothing queued on the link lately: it keeps up, so the stream may take more (half as much again a second).
+  } else if (const auto waits = videoWaitMs(); !waits || *waits <= kRaiseWaitMs) {
+    // Nothing queued on the link lately: it keeps up, so the stream may take more (half as much again a second). Not
+    // where its frames wait at the link though nothing reads it (frames under 4 KiB, alike in size: a link that
+    // slowed to 1 Mbit/s under a 60 ms round trip): raised there, the stream took the whole link.
     const double seconds = std::clamp(msBetween(mTargetAt, now) / 1000, 0.0, 1.0);
     mTargetKbps = std::clamp(mTargetKbps * (1 + 0.5 * seconds), kMinKbps, capKbps);
   }

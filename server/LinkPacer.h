@@ -96,7 +96,8 @@ class LinkPacer {
 
   /// The bitrate a video stream should run at now, at most `capKbps`: kLinkShare of the link's capacity
   /// (capacityKbps), else (no recent reading: the link kept up) the last target raised by half a second, starting
-  /// from `startKbps`.
+  /// from `startKbps`, or held where the last kRecentDeliveries video frames took more than kRaiseWaitMs past the
+  /// quickest delivery (their median).
   /// And at most what the client's pace allows: `paceMs` is the most a video frame may take from write to report
   /// for the stream to keep the client's rate (kFramesInFlight of its intervals between Renders). Where the last
   /// kRecentDeliveries video frames took longer than the quickest delivery by more than kPaceShare of `paceMs` less
@@ -108,6 +109,12 @@ class LinkPacer {
   /// lift that limit again a step at a time. A limit changes once per kRecentDeliveries frames
   /// written after it.
   double videoKbps(double startKbps, double capKbps, Clock::time_point now, std::optional<double> paceMs = {});
+  /// Video frames that take longer than this past the quickest delivery (the median of the last kRecentDeliveries)
+  /// wait at the link, or behind the client's delays: where nothing reads the link, the bitrate is held, not raised
+  /// (ms; a browser's reports come up to 8 ms late without a queue). Raised there, a stream whose frames were too
+  /// small and too alike to read a link that slowed to 1 Mbit/s under a 60 ms round trip took all of it, and its
+  /// frames' p99 latency rose to 135 ms where 89 held before (bench_link_pacer --drop).
+  static constexpr double kRaiseWaitMs = 10;
   /// Deliveries that predict the next (roomExpectedAt) and hold a video stream to its pace (videoKbps).
   static constexpr size_t kRecentDeliveries = 3;
   /// The share of the client's pace a video frame's delivery is held to.
@@ -136,6 +143,8 @@ class LinkPacer {
   };
   /// The median of `deliveries`' times (none if empty).
   static std::optional<double> medianMs(const std::deque<Delivery>& deliveries);
+  /// The median of the last kRecentDeliveries video frames' times past the quickest delivery (none before).
+  std::optional<double> videoWaitMs() const;
   /// videoKbps' limit from the client's pace, given the target the link allows and the link's rate (its capacity,
   /// read once a frame, else its settled rate; none: unknown).
   void followPace(double paceMs, double targetKbps, std::optional<double> link, Clock::time_point now);

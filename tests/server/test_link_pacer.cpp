@@ -281,10 +281,11 @@ TEST(LinkPacer, RoomIsExpectedWhenTheOldestFrameShouldBeReported) {
 
 /// A drag's video through a modelled link for `ms`, at most `cap` kbit/s: a frame every 33 ms as the window allows,
 /// of the bytes its bitrate gives at 30 frames a second times `size(n)` (the n-th frame written), through a link of
-/// `linkKbps(t)` with 40 ms of round trip, reported `lateMs(n)` late (reports leave the client in order).
+/// `linkKbps(t)` with `roundTripMs` of round trip, reported `lateMs(n)` late (reports leave the client in order).
 /// `seen(t, kbps)` is told each frame's bitrate. Returns the frames written.
 template <class Size, class Link, class Late, class Seen>
-int dragThroughALink(LinkPacer& pacer, double ms, double cap, Size size, Link linkKbps, Late lateMs, Seen seen) {
+int dragThroughALink(LinkPacer& pacer, double ms, double cap, Size size, Link linkKbps, Late lateMs, Seen seen,
+                     double roundTripMs = 40) {
   std::deque<double> reports;  // when each frame's report arrives
   double linkFree = 0, lastReport = 0;
   int frames = 0;
@@ -298,7 +299,7 @@ int dragThroughALink(LinkPacer& pacer, double ms, double cap, Size size, Link li
     const double bytes = kbps * 1000 / 8 / 30 * size(frames);
     pacer.sent(uint64_t(bytes), at(t), true);
     linkFree = std::max(linkFree, t) + bytes * 8 / linkKbps(t);
-    lastReport = std::max(lastReport, linkFree + 40 + lateMs(frames));
+    lastReport = std::max(lastReport, linkFree + roundTripMs + lateMs(frames));
     reports.push_back(lastReport);
     ++frames;
     seen(t, kbps);
@@ -350,6 +351,26 @@ TEST(LinkPacer, ALinkThatSlowsBringsTheBitrateDown) {
   ASSERT_FALSE(later.empty());
   EXPECT_LE(upperMedian(later), 1000) << "kbit/s on the slow link";
   EXPECT_GE(upperMedian(later), 0.5 * LinkPacer::kLinkShare * 1000);
+}
+
+// A link that slows to 1 Mbit/s under a 60 ms round trip: the frames that fit it (4 KB, alike in size) are too small
+// to read it, and with the round trip only two are on their way, so none reads it as full either. Their deliveries
+// show the wait, and the bitrate is held there instead of climbing to the whole link (the stream took 1 Mbit/s and
+// more, and its frames' p99 latency in bench_link_pacer --drop rose from 89 to 135 ms).
+TEST(LinkPacer, ABitrateIsNotRaisedWhereItsFramesWaitThoughNothingReadsTheLink) {
+  const double cap = 4719, slowKbps = 1000;
+  LinkPacer pacer;
+  std::vector<double> later;  // the bitrates after two seconds on the slow link
+  dragThroughALink(
+      pacer, 9000, cap, [](int n) { return n % 2 ? 0.9 : 1.1; },
+      [&](double t) { return t < 3000 ? 5000 : slowKbps; }, [](int n) { return (n % 3) * 1.0; },
+      [&](double t, double kbps) {
+        if (t >= 5000) later.push_back(kbps);
+      },
+      60);
+  ASSERT_FALSE(later.empty());
+  EXPECT_LE(*std::max_element(later.begin(), later.end()), 0.9 * slowKbps) << "kbit/s on the slow link";
+  EXPECT_GE(upperMedian(later), 0.5 * LinkPacer::kLinkShare * slowKbps);
 }
 
 /// Three video frames of `bytes` on an idle link, each written `everyMs` after the last and reported `deliveryMs`
