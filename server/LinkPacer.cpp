@@ -223,7 +223,7 @@ void LinkPacer::followPace(double paceMs, double targetKbps, std::optional<doubl
   // that waited for a rate to be read again held a stream at its lowest for the rest of a drag).
   std::vector<double> bytes;
   for (const Delivery& d : mVideoDeliveries) bytes.push_back(double(d.bytes));
-  const double extraMs = *medianMs(mVideoDeliveries) - *mMinDeliveryMs;
+  const double extraMs = *videoWaitMs();
   const double bytesMs = link ? std::min(extraMs, upperMedian(std::move(bytes)) * 8 / *link) : extraMs;
   const double roomMs = budgetMs - (extraMs - bytesMs);  // what the pace leaves the bytes
   const double current = mPaceKbps > 0 ? std::min(mPaceKbps, targetKbps) : targetKbps;
