@@ -9,9 +9,11 @@
 // and every frame pass through it.
 //
 // Usage: node bench/browser_link.mjs --datasets DIR [--dataset mri] [--tf mri] [--out PREFIX]
-//        [--sizes 512x512,1024x1024,1920x1080] [--encodings jpeg,vp8,vp9,vp9-420] [--links loopback,relay] [--duration 10]
+//        [--sizes 512x512,1024x1024,1920x1080] [--encodings jpeg,jpeg-qN,vp8,vp9,vp9-420] [--links loopback,relay] [--duration 10]
 //        [--hz 30] [--mbit 10] [--rtt-ms 40] [--samples 4] [--replay DIR --replay-draw-ms MS] [--frames-out DIR]
 //        [--server-log FILE] [--replace]
+// jpeg-qN: JPEG moving frames at quality N (the address's jpeg_quality; jpeg: the server's, 85). With two JPEG rows or
+// more of a link and size, the table of bytes at equal PSNR gives each video row's bytes over JPEG's at its PSNR.
 // --frames-out: each row's shown frames as the page recorded them (DIR/LINK-SIZE-ENCODING.json); --server-log FILE:
 // the server's log, kept.
 // --replay: the server draws nothing and answers each frame with the frame of DIR nearest its camera, taking MS ms
@@ -50,9 +52,24 @@ const opt = {
 };
 if (!opt.datasets) throw new Error("--datasets DIR is required");
 for (const e of opt.encodings)
-  if (!["jpeg", "vp8", "vp9", "vp9-420"].includes(e)) throw new Error(`--encodings: '${e}' is none of jpeg, vp8, vp9, vp9-420`);
+  if (!["jpeg", "vp8", "vp9", "vp9-420"].includes(e) && !jpegQualityOf(e))
+    throw new Error(`--encodings: '${e}' is none of jpeg, jpeg-qN (N from 1 to 100), vp8, vp9, vp9-420`);
 for (const l of opt.links) if (!["loopback", "relay"].includes(l)) throw new Error(`--links: '${l}' is none of loopback, relay`);
 refuseToDropRows();
+
+/// The quality N of an encoding "jpeg-qN" (1 to 100), else 0.
+function jpegQualityOf(encoding) {
+  const m = /^jpeg-q(\d+)$/.exec(encoding);
+  const q = m ? Number(m[1]) : 0;
+  return q >= 1 && q <= 100 ? q : 0;
+}
+function isJpeg(encoding) {
+  return encoding === "jpeg" || jpegQualityOf(encoding) > 0;
+}
+/// The encoding the page's moving frames travel in for a row's `encoding`.
+function movingEncoding(encoding) {
+  return isJpeg(encoding) ? "jpeg" : encoding.replace("-420", "");
+}
 
 /// The results already at PREFIX keep rows of their own: a run that would write over them with fewer (a one-row check,
 /// say) stops before it starts, naming them, unless --replace says so or --out names another prefix.
@@ -106,15 +123,18 @@ function exactFrame(server, scene, file) {
 
 /// One tab's drag at `size` with `encoding`, the page loaded from `base`.
 async function dragRun(browser, server, base, size, encoding, scratch) {
-  // vp9: in 4:4:4 where the browser decodes it (the page's way); vp9-420: the address's chroma=420.
-  const video = encoding === "jpeg" ? "off" : encoding === "vp9-420" ? "vp9&chroma=420" : encoding;
+  // vp9: in 4:4:4 where the browser decodes it (the page's way); vp9-420: the address's chroma=420; jpeg-qN: the
+  // address's jpeg_quality.
+  const quality = jpegQualityOf(encoding);
+  const video = isJpeg(encoding) ? `off${quality ? `&jpeg_quality=${quality}` : ""}` :
+    encoding === "vp9-420" ? "vp9&chroma=420" : encoding;
   const url = `${base}/?dataset=${opt.dataset}&tf=${opt.tf}&orbit=0,${ORBIT.el},${ORBIT.dist}&size=${size[0]}x${size[1]}` +
     `&video=${video}`;
   const page = await H.openPage(browser, url, { width: size[0] + 300, height: size[1] + 40 });
   try {
     await H.waitForState(page, (s) => s.lastFrame && !s.lastFrame.provisional, 120000);
     const start = await H.viewerState(page);
-    if (start.moving !== encoding.replace("-420", ""))
+    if (start.moving !== movingEncoding(encoding))
       throw new Error(`the page moves frames as ${start.moving}, not ${encoding}`);
     await page.evaluate(() => window.voxbrickViewer.resetFigures());
     const durationMs = opt.duration * 1000;
@@ -170,7 +190,7 @@ async function dragRun(browser, server, base, size, encoding, scratch) {
       exact_encoding: s && s.lastFrame ? encodingName(s.lastFrame.encoding) : null,
       exact_bytes: s && s.lastFrame ? s.lastFrame.bytes : null,
       errors: state.counts.errors + page.errors.length,
-      wrong_encoding: moving.filter((f) => f.encoding !== Encoding[encoding.replace("-420", "")]).length,
+      wrong_encoding: moving.filter((f) => f.encoding !== Encoding[movingEncoding(encoding)]).length,
       // Where a moving frame's latency went (medians, ms; bench/drag_common.mjs latencySplit).
       ...Object.fromEntries(Object.entries(D.latencySplit(moving)).map(([part, ms]) => [`split_${part}_ms`, ms])),
     };
@@ -261,6 +281,7 @@ function writeResults(done) {
         `${fmt(r.bitrate_kbps_p50, 0)} | ${fmt(r.exact_after_release_ms, 0)} | ` +
         `${r.exact_encoding ? `${r.exact_encoding}, ${fmt(r.exact_bytes, 0)} B` : ""} | ${r.errors + r.wrong_encoding} |`;
     }),
+    ...equalPsnrTable(rows),
     "",
     "Where a moving frame's latency went, medians in ms (bench/drag_common.mjs `latencySplit`): ask (the camera's " +
       "wait for a Render slot), queue (the server's render queue), render (drawing), encoder (the wait for an " +
@@ -275,4 +296,42 @@ function writeResults(done) {
   ];
   fs.writeFileSync(`${opt.out}.md`, md.join("\n"));
   return md;
+}
+
+/// Each video row's bytes a frame against JPEG's at the same PSNR, where the run has two JPEG rows or more of its link
+/// and size (jpeg, jpeg-qN): JPEG's bytes at the row's mean PSNR, log-linear between the two JPEG rows whose PSNRs hold
+/// it; outside them, the nearest JPEG row and whether the row is below or above. Empty lines where no such rows.
+function equalPsnrTable(all) {
+  const ok = (r) => Number.isFinite(r.psnr_db_mean) && r.bytes_per_frame > 0;
+  const lines = [];
+  for (const r of all.filter((x) => !isJpeg(x.encoding) && ok(x))) {
+    const jpegs = all.filter((j) => j.link === r.link && j.size === r.size && isJpeg(j.encoding) && ok(j))
+      .sort((a, b) => a.psnr_db_mean - b.psnr_db_mean);
+    if (jpegs.length < 2) continue;
+    const db = r.psnr_db_mean;
+    const hi = jpegs.findIndex((j) => j.psnr_db_mean >= db);
+    let at, bytes = null;
+    if (hi === 0) at = `below ${jpegs[0].encoding}'s ${fmt(jpegs[0].psnr_db_mean)} dB (${fmt(jpegs[0].bytes_per_frame, 0)} B)`;
+    else if (hi < 0) {
+      const top = jpegs[jpegs.length - 1];
+      at = `above ${top.encoding}'s ${fmt(top.psnr_db_mean)} dB (${fmt(top.bytes_per_frame, 0)} B)`;
+    } else {
+      const [a, b] = [jpegs[hi - 1], jpegs[hi]];
+      const t = b.psnr_db_mean > a.psnr_db_mean ? (db - a.psnr_db_mean) / (b.psnr_db_mean - a.psnr_db_mean) : 0;
+      bytes = Math.exp(Math.log(a.bytes_per_frame) + t * (Math.log(b.bytes_per_frame) - Math.log(a.bytes_per_frame)));
+      at = `between ${a.encoding} and ${b.encoding}`;
+    }
+    lines.push(`| ${r.link} | ${r.size} | ${r.encoding} | ${fmt(db)} | ${fmt(r.bytes_per_frame, 0)} | ` +
+      `${bytes === null ? "" : fmt(bytes, 0)} | ${at} | ${bytes === null ? "" : fmt(r.bytes_per_frame / bytes, 2)} |`);
+  }
+  if (!lines.length) return [];
+  return [
+    "",
+    "Bytes at equal PSNR: each video row's bytes a frame against JPEG's at the PSNR its canvas showed (the mean over its " +
+      "samples), JPEG's taken log-linear between the two JPEG rows of the same link and size whose PSNRs hold it.",
+    "",
+    "| link | size | encoding | PSNR dB | bytes/frame | JPEG's bytes at that PSNR | JPEG rows | ratio |",
+    "|---|---|---|---:|---:|---:|---|---:|",
+    ...lines,
+  ];
 }

@@ -14,6 +14,7 @@ import {
   buildScene,
   defaultView,
   FOV_DEG,
+  jpegQualityOf,
   MOTION_KEYS,
   NAMED_VIEWS,
   PRESETS,
@@ -131,6 +132,8 @@ const FEATURES = [
   { ...ALL, accepts_webp: false },
   { ...ALL, video: null },
   { ...ALL, video: null, jpeg: false },
+  { ...ALL, video: null, jpeg_quality: 35 },
+  { ...ALL, jpeg_quality: 100 },
   ...MOTION_KEYS.map((k) => ({ ...ALL, [k]: false })),
   Object.fromEntries(Object.keys(ALL).map((k) => [k, false])),
 ];
@@ -211,10 +214,24 @@ describe("the viewer's scenes and the scene's schema", () => {
         if (sent.time_budget_ms) assert.equal(read.time_budget_ms, sent.time_budget_ms);
         if (sent.provisional_encoding) assert.equal(read.provisional_encoding, sent.provisional_encoding);
         if (sent.keyframe) assert.equal(read.keyframe, true);
+        if (sent.jpeg_quality) assert.equal(read.jpeg_quality, sent.jpeg_quality);
       }
     } finally {
       fs.rmSync(dir, { recursive: true, force: true });
     }
+  });
+
+  test("the address's jpeg_quality is asked of moving frames only, as a whole number from 1 to 100", () => {
+    for (const [text, q] of [["50", 50], ["1", 1], ["100", 100], ["0", 0], ["101", 0], ["7.5", 0], ["-3", 0], ["x", 0],
+      ["", 0], [null, 0]])
+      assert.equal(jpegQualityOf(text), q, `jpeg_quality=${text}`);
+    const view = defaultView("d");
+    const features = { ...ALL, video: null, jpeg_quality: 35 };
+    assert.equal(buildScene(view, METAS.grid, [64, 64], "drag", features).jpeg_quality, 35);
+    assert.equal(buildScene(view, METAS.grid, [64, 64], "still", features).jpeg_quality, undefined,
+      "the exact frame is lossless: no JPEG quality");
+    assert.equal(buildScene(view, METAS.grid, [64, 64], "drag", { ...features, jpeg_quality: 0 }).jpeg_quality,
+      undefined);
   });
 
   test("the page's named views and field of view are the scene's", () => {

@@ -131,17 +131,20 @@ describe("viewer video stream", () => {
     await page.close();
   });
 
-  test("the address's video parameter picks vp9 (in 4:4:4 where the browser decodes it), or turns video off", async () => {
+  test("the address's video parameter picks vp9 (in 4:4:4 where the browser decodes it), or turns video off; " +
+    "jpeg_quality sets its jpeg frames' quality", async () => {
     const refuses444 = () => {
       const asked = VideoDecoder.isConfigSupported.bind(VideoDecoder);
       VideoDecoder.isConfigSupported = async (config) =>
         config.codec.startsWith("vp09.01") ? { supported: false, config } : asked(config);
     };
+    const jpegBytes = {};
     for (const [param, moving, encoding, chroma, script] of [
       ["video=vp9", "vp9", 5, "4:4:4", null],
       ["video=vp9&chroma=420", "vp9", 5, "4:2:0", null],
       ["video=vp9", "vp9", 5, "4:2:0", refuses444],
       ["video=off", "jpeg", 3, null, null],
+      ["video=off&jpeg_quality=20", "jpeg", 3, null, null],
     ]) {
       const what = `${param}${script ? " (profile 1 refused)" : ""}`;
       const url = `${server.url}/?dataset=ml&${SIZE_PARAM}&${param}`;
@@ -155,6 +158,11 @@ describe("viewer video stream", () => {
       const shown = (await shownFrames(page)).filter((f) => f.provisional && f.phase === "drag");
       assert.ok(shown.length >= 3, `${what}: frames shown while dragging: ${shown.length}`);
       for (const f of shown) assert.equal(f.encoding, encoding, `${what}: ${JSON.stringify(f)}`);
+      if (moving === "jpeg") {
+        const quality = /jpeg_quality=(\d+)/.exec(param);
+        for (const f of shown) assert.equal(f.scene.jpeg_quality, quality ? Number(quality[1]) : undefined, what);
+        jpegBytes[param] = shown.reduce((sum, f) => sum + f.bytes, 0) / shown.length;
+      }
       if (chroma) {
         // The server said each frame's colour sampling, and the decoder took the stream as it came.
         const frames = await videoFrames(page);
@@ -168,6 +176,9 @@ describe("viewer video stream", () => {
       assert.deepEqual(page.errors, [], what);
       await page.close();
     }
+    // The server took the address's quality: its frames a fraction of the default's (85) bytes.
+    const [q85, q20] = [jpegBytes["video=off"], jpegBytes["video=off&jpeg_quality=20"]];
+    assert.ok(q20 < 0.6 * q85, `jpeg moving frames at quality 20: ${q20.toFixed(0)} B a frame, at 85 ${q85.toFixed(0)}`);
   });
 
   test("a browser that decodes no video codec gets jpeg, as one without WebCodecs does", async () => {

@@ -52,6 +52,9 @@ const app = {
     // A vp9 stream in 4:4:4 (scene key accepts_vp9_444): the stream is vp9, the server speaks version 9, this browser
     // decodes VP9's profile 1 and the address does not say `chroma=420`; false once refused.
     accepts_vp9_444: false,
+    // The JPEG quality of moving frames sent as jpeg (scene key jpeg_quality, from the address's `jpeg_quality`: 1 to
+    // 100); 0: the server's own (85, or loaded_jpeg_quality under a crowd); false once refused.
+    jpeg_quality: V.jpegQualityOf(params.get("jpeg_quality")),
   },
   dragging: false,
   notes: [],
@@ -106,7 +109,7 @@ function refusedScene(error) {
     app.features.video = null;
     return true;
   }
-  for (const key of [...V.MOTION_KEYS, "accepts_webp", "accepts_vp9_444"]) {
+  for (const key of [...V.MOTION_KEYS, "accepts_webp", "accepts_vp9_444", "jpeg_quality"]) {
     if (app.features[key] && names(key)) {
       app.features[key] = false;
       return true;

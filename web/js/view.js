@@ -163,7 +163,15 @@ export const SCENE_KEYS = [
   ...MOTION_KEYS,
   "accepts_webp",
   "accepts_vp9_444",
+  "jpeg_quality",
 ];
+/// The JPEG quality the address asks of moving frames (`jpeg_quality`: a whole number from 1 to 100), else 0 (the
+/// server's own).
+export function jpegQualityOf(text) {
+  const q = Number(text);
+  return Number.isInteger(q) && q >= 1 && q <= 100 ? q : 0;
+}
+
 /// The time budget of a provisional frame while dragging, in milliseconds: with one frame drawn at a time, at best about
 /// twenty frames a second (the server's own default, 100 ms, is ten).
 export const DRAG_TIME_BUDGET_MS = 50;
@@ -172,7 +180,8 @@ export const DRAG_TIME_BUDGET_MS = 50;
 /// keys the server took (`interactive`, `time_budget_ms`, `provisional_encoding`, `progressive`, `keyframe`: true
 /// until refused), whether it offers jpeg, `video`: the video codec ("vp8" or "vp9") the server offers and the
 /// browser decodes, or null, `accepts_vp9_444` (a vp9 stream may be 4:4:4: the server speaks version 9 and the browser
-/// decodes it), and `webp` ("auto": ask `accepts_webp`, while `accepts_webp` is not refused).
+/// decodes it), `webp` ("auto": ask `accepts_webp`, while `accepts_webp` is not refused) and `jpeg_quality` (the
+/// moving frames' JPEG quality, 0: the server's).
 /// `ask.keyframe`: the video decoder waits for a key frame. This is the one place that picks how frames are made.
 export function buildScene(view, meta, size, phase, features, ask = {}) {
   const scene = {
@@ -203,6 +212,8 @@ export function buildScene(view, meta, size, phase, features, ask = {}) {
     } else if (features.jpeg) {
       scene.provisional_encoding = "jpeg";
     }
+    // The address's JPEG quality: for moving frames sent as jpeg (also a video stream's where the server falls back).
+    if (features.jpeg_quality) scene.jpeg_quality = features.jpeg_quality;
   }
   // Png frames may come as lossless webp (protocol version 7), which the server sends while it finds the link slow:
   // the same pixels in about 0.6 of the bytes, for longer encoding.
