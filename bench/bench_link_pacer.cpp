@@ -3,7 +3,8 @@
 // replaces one waiting), of the bytes its bitrate gives at 30 frames a second (give or take 30 %), through a
 // bottleneck of a given rate and round trip, each reported by the client late by its own delays: none (`prompt`, a
 // C++ client), 0 to 8 ms and one report in 20 late by 10 to 40 more (`browser`), or one in 5 so (`busy`: a two-core
-// Chromium). The pace is two of the drag's 33 ms (kFramesInFlight of them), the cap a 1024² stream's
+// Chromium), or as `browser` but never less than 40 ms after the report before (`paced`: a page that takes that long a
+// frame, whose reports are spaced by it, not by the link). The pace is two of the drag's 33 ms (kFramesInFlight of them), the cap a 1024² stream's
 // (VideoStream::capKbps). `--drop` makes the link five times slower after 6 s. Per link and client, the means over the seeds (after 4 s, or 8 s with --drop) of the bitrate, frames written
 // a second, their time from ready to arrival (p50, p99) and bytes. It judges the rate the pacer reads, not the
 // encoder or the browser: bench/run_browser_ab.sh runs the real ones. It uses nothing of LinkPacer's but what every
@@ -35,6 +36,7 @@ struct Link {
 struct Client {
   const char* name;
   double lateMs, hiccupShare;  ///< each report late by up to lateMs, and one in 1/hiccupShare by 10 to 40 ms more
+  double minGapMs = 0;         ///< and at least this long after the one before (a page that takes that long a frame)
 };
 struct Figures {
   double kbps = 0, fps = 0, p50 = 0, p99 = 0, bytes = 0;
@@ -71,7 +73,7 @@ Figures run(const Link& link, const Client& client, unsigned seed, double second
     linkFree = std::max(linkFree, t) + size * 8 / rate;
     const double arrives = linkFree + link.roundTripMs / 2;
     const double late = client.lateMs * uniform(rng) + (uniform(rng) < client.hiccupShare ? 10 + 30 * uniform(rng) : 0);
-    lastReport = std::max(lastReport, arrives + late);  // reports leave the client in order
+    lastReport = std::max(lastReport + client.minGapMs, arrives + late);  // reports leave the client in order
     reports.push_back(lastReport + link.roundTripMs / 2);
     ready = false;
     if (t >= fromMs) kbps.push_back(target), bytes.push_back(size), latency.push_back(arrives - readyAt);
@@ -102,7 +104,7 @@ int main(int argc, char** argv) {
   const Link links[] = {{"10 Mbit/s, 40 ms", 10000, 40},  {"100 Mbit/s, 80 ms", 100000, 80},
                         {"2 Mbit/s, 40 ms", 2000, 40},    {"5 Mbit/s, 60 ms", 5000, 60},
                         {"1 Gbit/s, 1 ms", 1000000, 1}};
-  const Client clients[] = {{"prompt", 1, 0}, {"browser", 8, 0.05}, {"busy", 8, 0.2}};
+  const Client clients[] = {{"prompt", 1, 0}, {"browser", 8, 0.05}, {"busy", 8, 0.2}, {"paced", 8, 0.05, 40}};
   std::ofstream csv;
   if (!csvPath.empty()) {
     csv.open(csvPath);

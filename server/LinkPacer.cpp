@@ -19,9 +19,10 @@ constexpr double kLinkFreshMs = 2000;
 /// link (a round trip longer than the time between frames) each arrive in the quickest time, and the time between
 /// their reports is the sender's spacing, not the link's.
 constexpr double kQueuedShare = 0.25;
-/// A queued frame smaller than this says nothing of the link: it passes 10 Mbit/s in 3 ms, less than a browser may
-/// take to report it, so the time between the reports measures the client (a 128x128 video drag on loopback read as a
-/// link of about 1 Mbit/s, and got the slow link's encodings).
+/// A queued frame smaller than this says nothing of the link on its own: it passes 10 Mbit/s in 3 ms, less than a
+/// browser may take to report it, so the time between the reports measures the client (a 128x128 video drag on
+/// loopback read as a link of about 1 Mbit/s, and got the slow link's encodings). Such frames read a full link only
+/// together, where the time between their reports followed their sizes (queuedReading), and settle nothing.
 constexpr uint64_t kQueuedMinBytes = 4096;
 /// A frame at least this many bytes larger than the quickest delivered one measures the link on its own: the extra
 /// bytes over the extra time they took (the round trip cancels). Smaller differences drown in the timing's noise.
@@ -37,6 +38,9 @@ constexpr double kMinPaceBudgetMs = 2;
 constexpr double kPaceRoomLeastShare = 1.0 / 3;
 /// A cut by the client's pace: to the share its frames' time exceeds, but at least to half and at most to 90 %.
 constexpr double kPaceCutMin = 0.5, kPaceCutMax = 0.9;
+/// Frames under kQueuedMinBytes read the link (all but one of the last six queued) only where the largest is at
+/// least this many times the smallest: alike in size, their reports' spacing cannot tell the link from the client.
+constexpr double kSmallBytesSpread = 1.25;
 /// Frames of the last twice as many reported that must have queued at the link for it to be read as full.
 constexpr size_t kQueuedReadings = 3;
 /// Frames whose bytes take less than this share of what the pace leaves them lift its limit a step (of this factor).
@@ -78,23 +82,23 @@ bool LinkPacer::received(Clock::time_point at) {
     extraKbps = double(frame.bytes - mMinDeliveryBytes) * 8 / extraMs;  // kbit/s
   if (mReporting && frame.at < mLastReport) {
     const double gapMs = msBetween(mLastReport, at);
-    if (gapMs > 0.5 && extraMs >= kQueuedShare * gapMs && frame.bytes >= kQueuedMinBytes)
-      queuedKbps = double(frame.bytes) * 8 / gapMs;
+    if (gapMs > 0.5 && extraMs >= kQueuedShare * gapMs) queuedKbps = double(frame.bytes) * 8 / gapMs;
   }
+  const bool small = frame.bytes < kQueuedMinBytes;
   // The capacity (capacityKbps) takes the second only where the frame reached the link before the one ahead had
   // passed it: written earlier than that one's report less the quickest delivery (a round trip). Else the time between
   // the reports holds the sender's spacing, or the window's wait for a report where the round trip is longer than the
   // frames' transfer. It takes the first only from frames that did not queue so (their extra time holds their wait).
   const bool queuedAtTheLink = queuedKbps && msBetween(frame.at, mLastReport) > *mMinDeliveryMs;
   if (queuedAtTheLink)
-    mReadings.push_back({at, std::nullopt, queuedKbps});
+    mReadings.push_back({at, std::nullopt, queuedKbps, small, frame.bytes});
   else
-    mReadings.push_back({at, extraKbps, std::nullopt});
+    mReadings.push_back({at, extraKbps, std::nullopt, small, frame.bytes});
   while (msBetween(mReadings.front().at, at) >= kLinkFreshMs) mReadings.pop_front();
   if (queuedReading(mReadings)) mFullAt = at;
   // The settled rate takes the larger of the two (the second alone read a 10 Mbit/s link at 2.5 to 5 Mbit/s during a
   // drag), or the first from a frame much larger than the quickest delivered one.
-  std::optional<double> sample = queuedKbps;
+  std::optional<double> sample = small ? std::nullopt : queuedKbps;
   if (sample && extraKbps) sample = std::max(*sample, *extraKbps);
   if (!sample && frame.bytes >= mMinDeliveryBytes + kMeasuringBytes) sample = extraKbps;
   if (sample) settle({*sample, frame.bytes});
@@ -161,12 +165,23 @@ std::optional<double> LinkPacer::capacityKbps(Clock::time_point now) const {
 }
 
 std::optional<double> LinkPacer::queuedReading(const std::deque<Reading>& readings) {
-  std::vector<double> queued;
+  std::vector<double> queued, any, bytes;
   for (auto r = readings.rbegin(); r != readings.rend() && r - readings.rbegin() < std::ptrdiff_t(2 * kQueuedReadings);
-       ++r)
-    if (r->queuedKbps) queued.push_back(*r->queuedKbps);
-  if (queued.size() < kQueuedReadings) return std::nullopt;
-  return upperMedian(std::move(queued));
+       ++r) {
+    if (r->queuedKbps && !r->small) queued.push_back(*r->queuedKbps);
+    if (r->queuedKbps) any.push_back(*r->queuedKbps), bytes.push_back(double(r->bytes));
+  }
+  if (queued.size() >= kQueuedReadings) return upperMedian(std::move(queued));
+  // Frames too small to read the link alone: all but one of the last six queued, and the time between their reports
+  // followed their sizes (what they read varies less than half as much as their bytes, in ratio's logarithm): a link
+  // passes each frame in its bytes' time, a busy client reports each after its own (a page's frame time, a steady
+  // lag), whatever its size. Frames alike in size cannot tell the two apart, and read nothing.
+  if (any.size() + 1 < 2 * kQueuedReadings) return std::nullopt;
+  const auto [lo, hi] = std::minmax_element(any.begin(), any.end());
+  const auto [fewest, most] = std::minmax_element(bytes.begin(), bytes.end());
+  const double spread = *hi / *lo, bytesSpread = *most / *fewest;
+  if (bytesSpread < kSmallBytesSpread || spread * spread > bytesSpread || spread > kAgreement) return std::nullopt;
+  return upperMedian(std::move(any));
 }
 
 std::optional<double> LinkPacer::settledLinkKbps() const {

@@ -69,7 +69,8 @@ class LinkPacer {
   /// The link's capacity as a video stream's bitrate follows it (kbit/s), if read within the last two seconds.
   /// Where the link is full (at least three of the last six frames reported queued at it: each reached it before the
   /// one ahead had passed it, written earlier than that one's report less the quickest delivery), the median of what
-  /// those read: their bytes over the time between their report and the one ahead. Else the most any other frame 4 KiB
+  /// those read: their bytes over the time between their report and the one ahead. Frames under 4 KiB count there
+  /// only where five of the last six queued and the time between their reports followed their sizes (queuedReading). Else the most any other frame 4 KiB
   /// or more larger than the quickest delivered one read since the link was last full: its extra bytes over its time
   /// beyond the quickest delivery (the round trip cancels). Each such reading is at most what the link carries (a late
   /// report or the client's own delays make it lower, never higher), so the most of them; a smoothed rate of both
@@ -166,11 +167,17 @@ class LinkPacer {
   struct Reading {
     Clock::time_point at;
     std::optional<double> extraKbps, queuedKbps;
+    bool small = false;  ///< from a frame under 4 KiB
+    uint64_t bytes = 0;  ///< the frame's
   };
   std::deque<Reading> mReadings;  ///< of every report of the last two seconds
   Clock::time_point mFullAt{};    ///< the last report that found the link full (queuedReading)
   /// The median of what the frames that queued at the link read, if at least kQueuedReadings of the last twice as
-  /// many reported did (the link is full).
+  /// many reported did (the link is full), counting frames of 4 KiB or more; else, frames of any size, if all but one
+  /// of the last six did, their sizes differ (the largest at least 1.25 times the smallest) and what they read varies
+  /// less than half as much as their bytes (in the logarithm of the ratio): the link passed each in its bytes' time. A
+  /// busy page reports each small frame after its own time whatever its size, and frames alike in size cannot tell
+  /// the two apart.
   static std::optional<double> queuedReading(const std::deque<Reading>& readings);
   double mTargetKbps = 0;
   Clock::time_point mTargetAt{};

@@ -373,6 +373,38 @@ TEST(LinkPacer, ABitrateIsNotRaisedWhereItsFramesWaitThoughNothingReadsTheLink) 
   EXPECT_GE(upperMedian(later), 0.5 * LinkPacer::kLinkShare * slowKbps);
 }
 
+// A link that slows from 1 to 0.25 Mbit/s: the stream's frames are under 4 KiB, too small for one to read it, but every
+// one queues, and the time between their reports follows their sizes (a link passes each in its bytes' time). They
+// read it together, and the bitrate comes down below the link (it was held at 515 kbit/s, twice the link; with a
+// browser's late reports on a link slowing to 0.4 Mbit/s, p99 127 ms in bench_link_pacer --drop).
+TEST(LinkPacer, SmallFramesThatAllQueueReadASlowLinkByTheirSizes) {
+  const double cap = 4719, slowKbps = 250;
+  const double sizes[] = {0.75, 1.25, 1.0, 0.85, 1.15, 1.3, 0.7};
+  LinkPacer pacer;
+  std::vector<double> later;  // the bitrates after two seconds on the slow link
+  dragThroughALink(
+      pacer, 9000, cap, [&](int n) { return sizes[n % 7]; }, [&](double t) { return t < 4000 ? 1000 : slowKbps; },
+      [](int n) { return (n % 5) * 2.0; },
+      [&](double t, double kbps) {
+        if (t >= 6000) later.push_back(kbps);
+      });
+  ASSERT_FALSE(later.empty());
+  EXPECT_LE(upperMedian(later), 0.9 * slowKbps) << "kbit/s on the slow link";
+  EXPECT_LE(*std::max_element(later.begin(), later.end()), slowKbps);
+}
+
+// Small frames of many sizes that a busy page reports at its own pace (one every 40 ms, whatever their size) on a
+// fast link read nothing: the time between the reports does not follow their sizes.
+TEST(LinkPacer, SmallFramesReportedAtAPagesPaceReadNothing) {
+  LinkPacer pacer;
+  const double sizes[] = {0.75, 1.25, 1.0, 0.85, 1.15, 1.3, 0.7};
+  for (int i = 0; i < 40; ++i) {
+    pacer.sent(uint64_t(2000 * sizes[i % 7]), at(33.0 * i), true);
+    if (i >= 2) pacer.received(at(2 + 40.0 * (i - 2)));  // each report 40 ms after the one before
+  }
+  EXPECT_FALSE(pacer.capacityKbps(at(33.0 * 40))) << *pacer.capacityKbps(at(33.0 * 40)) << " kbit/s";
+}
+
 /// Three video frames of `bytes` on an idle link, each written `everyMs` after the last and reported `deliveryMs`
 /// after its write, from `t`; `t` moves past them.
 void videoFrames(LinkPacer& pacer, double& t, uint64_t bytes, double deliveryMs, double everyMs = 100) {
