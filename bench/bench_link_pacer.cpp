@@ -4,8 +4,8 @@
 // bottleneck of a given rate and round trip, each reported by the client late by its own delays: none (`prompt`, a
 // C++ client), 0 to 8 ms and one report in 20 late by 10 to 40 more (`browser`), or one in 5 so (`busy`: a two-core
 // Chromium), or as `browser` but never less than 40 ms after the report before (`paced`: a page that takes that long a
-// frame, whose reports are spaced by it, not by the link). The pace is two of the drag's 33 ms (kFramesInFlight of them), the cap a 1024² stream's
-// (VideoStream::capKbps). `--drop` makes the link five times slower after 6 s. Per link and client, the means over the seeds (after 4 s, or 8 s with --drop) of the bitrate, frames written
+// frame, whose reports are spaced by it, not by the link). The pace is two of the drag's 33 ms (kFramesInFlight of
+// them), the cap a 1024² stream's (VideoStream::capKbps). `--drop` makes the link five times slower after 6 s. Per link and client, the means over the seeds (after 4 s, or 8 s with --drop) of the bitrate, frames written
 // a second, their time from ready to arrival (p50, p99) and bytes. It judges the rate the pacer reads, not the
 // encoder or the browser: bench/run_browser_ab.sh runs the real ones. It uses nothing of LinkPacer's but what every
 // version had, so that an older one can be built with it: g++ -std=c++20 -O2 -IOLD_TREE bench/bench_link_pacer.cpp

@@ -9,7 +9,8 @@
 // and every frame pass through it.
 //
 // Usage: node bench/browser_link.mjs --datasets DIR [--dataset mri] [--tf mri] [--out PREFIX]
-//        [--sizes 512x512,1024x1024,1920x1080] [--encodings jpeg,jpeg-qN,vp8,vp9,vp9-420] [--links loopback,relay] [--duration 10]
+//        [--sizes 512x512,1024x1024,1920x1080] [--encodings jpeg,jpeg-qN,vp8,vp9,vp9-420] [--links loopback,relay]
+//        [--duration 10]
 //        [--hz 30] [--mbit 10] [--rtt-ms 40] [--samples 4] [--replay DIR --replay-draw-ms MS] [--frames-out DIR]
 //        [--server-log FILE] [--replace]
 // jpeg-qN: JPEG moving frames at quality N (the address's jpeg_quality; jpeg: the server's, 85). With two JPEG rows or
@@ -300,7 +301,7 @@ function writeResults(done) {
 
 /// Each video row's bytes a frame against JPEG's at the same PSNR, where the run has two JPEG rows or more of its link
 /// and size (jpeg, jpeg-qN): JPEG's bytes at the row's mean PSNR, log-linear between the two JPEG rows whose PSNRs hold
-/// it; outside them, the nearest JPEG row and whether the row is below or above. Empty lines where no such rows.
+/// it; outside them, the nearest JPEG row and whether the row is below or above. No lines where no such rows.
 function equalPsnrTable(all) {
   const ok = (r) => Number.isFinite(r.psnr_db_mean) && r.bytes_per_frame > 0;
   const lines = [];
@@ -311,15 +312,14 @@ function equalPsnrTable(all) {
     const db = r.psnr_db_mean;
     const hi = jpegs.findIndex((j) => j.psnr_db_mean >= db);
     let at, bytes = null;
-    if (hi === 0) at = `below ${jpegs[0].encoding}'s ${fmt(jpegs[0].psnr_db_mean)} dB (${fmt(jpegs[0].bytes_per_frame, 0)} B)`;
-    else if (hi < 0) {
-      const top = jpegs[jpegs.length - 1];
-      at = `above ${top.encoding}'s ${fmt(top.psnr_db_mean)} dB (${fmt(top.bytes_per_frame, 0)} B)`;
-    } else {
-      const [a, b] = [jpegs[hi - 1], jpegs[hi]];
+    const named = (j) => `${j.encoding}'s ${fmt(j.psnr_db_mean)} dB (${fmt(j.bytes_per_frame, 0)} B)`;
+    if (hi === 0 && jpegs[0].psnr_db_mean > db) at = `below ${named(jpegs[0])}`;
+    else if (hi < 0) at = `above ${named(jpegs[jpegs.length - 1])}`;
+    else {
+      const [a, b] = [jpegs[Math.max(0, hi - 1)], jpegs[hi]];
       const t = b.psnr_db_mean > a.psnr_db_mean ? (db - a.psnr_db_mean) / (b.psnr_db_mean - a.psnr_db_mean) : 0;
       bytes = Math.exp(Math.log(a.bytes_per_frame) + t * (Math.log(b.bytes_per_frame) - Math.log(a.bytes_per_frame)));
-      at = `between ${a.encoding} and ${b.encoding}`;
+      at = a === b ? `at ${b.encoding}'s` : `between ${a.encoding} and ${b.encoding}`;
     }
     lines.push(`| ${r.link} | ${r.size} | ${r.encoding} | ${fmt(db)} | ${fmt(r.bytes_per_frame, 0)} | ` +
       `${bytes === null ? "" : fmt(bytes, 0)} | ${at} | ${bytes === null ? "" : fmt(r.bytes_per_frame / bytes, 2)} |`);
@@ -327,8 +327,9 @@ function equalPsnrTable(all) {
   if (!lines.length) return [];
   return [
     "",
-    "Bytes at equal PSNR: each video row's bytes a frame against JPEG's at the PSNR its canvas showed (the mean over its " +
-      "samples), JPEG's taken log-linear between the two JPEG rows of the same link and size whose PSNRs hold it.",
+    "Bytes at equal PSNR: each video row's bytes a frame against JPEG's at the PSNR its canvas showed (the mean " +
+      "over its samples), JPEG's taken log-linear between the two JPEG rows of the same link and size whose PSNRs " +
+      "hold it.",
     "",
     "| link | size | encoding | PSNR dB | bytes/frame | JPEG's bytes at that PSNR | JPEG rows | ratio |",
     "|---|---|---|---:|---:|---:|---|---:|",

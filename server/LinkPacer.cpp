@@ -84,21 +84,20 @@ bool LinkPacer::received(Clock::time_point at) {
     const double gapMs = msBetween(mLastReport, at);
     if (gapMs > 0.5 && extraMs >= kQueuedShare * gapMs) queuedKbps = double(frame.bytes) * 8 / gapMs;
   }
-  const bool small = frame.bytes < kQueuedMinBytes;
   // The capacity (capacityKbps) takes the second only where the frame reached the link before the one ahead had
   // passed it: written earlier than that one's report less the quickest delivery (a round trip). Else the time between
   // the reports holds the sender's spacing, or the window's wait for a report where the round trip is longer than the
   // frames' transfer. It takes the first only from frames that did not queue so (their extra time holds their wait).
   const bool queuedAtTheLink = queuedKbps && msBetween(frame.at, mLastReport) > *mMinDeliveryMs;
   if (queuedAtTheLink)
-    mReadings.push_back({at, std::nullopt, queuedKbps, small, frame.bytes});
+    mReadings.push_back({at, std::nullopt, queuedKbps, frame.bytes});
   else
-    mReadings.push_back({at, extraKbps, std::nullopt, small, frame.bytes});
+    mReadings.push_back({at, extraKbps, std::nullopt, frame.bytes});
   while (msBetween(mReadings.front().at, at) >= kLinkFreshMs) mReadings.pop_front();
   if (queuedReading(mReadings)) mFullAt = at;
   // The settled rate takes the larger of the two (the second alone read a 10 Mbit/s link at 2.5 to 5 Mbit/s during a
   // drag), or the first from a frame much larger than the quickest delivered one.
-  std::optional<double> sample = small ? std::nullopt : queuedKbps;
+  std::optional<double> sample = frame.bytes >= kQueuedMinBytes ? queuedKbps : std::nullopt;
   if (sample && extraKbps) sample = std::max(*sample, *extraKbps);
   if (!sample && frame.bytes >= mMinDeliveryBytes + kMeasuringBytes) sample = extraKbps;
   if (sample) settle({*sample, frame.bytes});
@@ -168,7 +167,7 @@ std::optional<double> LinkPacer::queuedReading(const std::deque<Reading>& readin
   std::vector<double> queued, any, bytes;
   for (auto r = readings.rbegin(); r != readings.rend() && r - readings.rbegin() < std::ptrdiff_t(2 * kQueuedReadings);
        ++r) {
-    if (r->queuedKbps && !r->small) queued.push_back(*r->queuedKbps);
+    if (r->queuedKbps && r->bytes >= kQueuedMinBytes) queued.push_back(*r->queuedKbps);
     if (r->queuedKbps) any.push_back(*r->queuedKbps), bytes.push_back(double(r->bytes));
   }
   if (queued.size() >= kQueuedReadings) return upperMedian(std::move(queued));

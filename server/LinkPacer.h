@@ -69,14 +69,14 @@ class LinkPacer {
   /// The link's capacity as a video stream's bitrate follows it (kbit/s), if read within the last two seconds.
   /// Where the link is full (at least three of the last six frames reported queued at it: each reached it before the
   /// one ahead had passed it, written earlier than that one's report less the quickest delivery), the median of what
-  /// those read: their bytes over the time between their report and the one ahead. Frames under 4 KiB count there
-  /// only where five of the last six queued and the time between their reports followed their sizes (queuedReading). Else the most any other frame 4 KiB
-  /// or more larger than the quickest delivered one read since the link was last full: its extra bytes over its time
-  /// beyond the quickest delivery (the round trip cancels). Each such reading is at most what the link carries (a late
-  /// report or the client's own delays make it lower, never higher), so the most of them; a smoothed rate of both
-  /// kinds followed every late report down (a busy Chromium's reports, a few ms late each, read a 10 Mbit/s link at 1
-  /// to 3 Mbit/s while a drag's frames kept up with it, and its video ran at 1 Mbit/s with 4 KB frames, 36 dB, in
-  /// place of its 4.7 Mbit/s cap). Frames alike in size that keep up read nothing.
+  /// those read: their bytes over the time between their report and the one ahead (frames under 4 KiB only where five
+  /// of the last six queued and the time between their reports followed their sizes: queuedReading). Else the most any
+  /// other frame 4 KiB or more larger than the quickest delivered one read since the link was last full: its extra
+  /// bytes over its time beyond the quickest delivery (the round trip cancels). Each such reading is at most what the
+  /// link carries (a late report or the client's own delays make it lower, never higher), so the most of them; a
+  /// smoothed rate of both kinds followed every late report down (a busy Chromium's reports, a few ms late each, read
+  /// a 10 Mbit/s link at 1 to 3 Mbit/s while a drag's frames kept up with it, and its video ran at 1 Mbit/s with 4 KB
+  /// frames, 36 dB, in place of its 4.7 Mbit/s cap). Frames alike in size that keep up read nothing.
   std::optional<double> capacityKbps(Clock::time_point now) const;
   /// The link's rate as measurements settled it, however long ago (none before): by a frame of kConclusiveBytes or
   /// more on its own (its extra bytes over its extra time, as capacityKbps; a frame 32 KiB or more larger than the
@@ -167,7 +167,6 @@ class LinkPacer {
   struct Reading {
     Clock::time_point at;
     std::optional<double> extraKbps, queuedKbps;
-    bool small = false;  ///< from a frame under 4 KiB
     uint64_t bytes = 0;  ///< the frame's
   };
   std::deque<Reading> mReadings;  ///< of every report of the last two seconds
