@@ -28,6 +28,7 @@ import fs from "node:fs";
 import os from "node:os";
 import path from "node:path";
 import { Encoding, encodingName } from "../web/js/protocol.js";
+import { jpegQualityOf as qualityOfText } from "../web/js/view.js";
 import * as H from "../tests/browser/harness.mjs";
 import * as D from "./drag_common.mjs";
 
@@ -58,11 +59,10 @@ for (const e of opt.encodings)
 for (const l of opt.links) if (!["loopback", "relay"].includes(l)) throw new Error(`--links: '${l}' is none of loopback, relay`);
 refuseToDropRows();
 
-/// The quality N of an encoding "jpeg-qN" (1 to 100), else 0.
+/// The quality N of an encoding "jpeg-qN" (1 to 100, as the viewer's address takes it), else 0.
 function jpegQualityOf(encoding) {
   const m = /^jpeg-q(\d+)$/.exec(encoding);
-  const q = m ? Number(m[1]) : 0;
-  return q >= 1 && q <= 100 ? q : 0;
+  return m ? qualityOfText(m[1]) : 0;
 }
 function isJpeg(encoding) {
   return encoding === "jpeg" || jpegQualityOf(encoding) > 0;
