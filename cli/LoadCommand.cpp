@@ -134,13 +134,10 @@ void goodClient(const LoadArgs& a, const std::string& host, int port, int width,
       const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
       const json stats = json::parse(frame.statsJson);
       std::lock_guard lock(tally.mutex);
-      tally.latencies.push_back(ms);
-      tally.clients[size_t(index)].latencies.push_back(ms);
-      ++tally.clients[size_t(index)].frames;
+      tally.countFrame(index, ms);
       tally.renderMs.push_back(stats["ms"]["total"].get<double>());
       if (n > 0) tally.renderMsWarm.push_back(tally.renderMs.back());
       if (const auto budget = frameBudgetMs(stats)) tally.budgetMs.push_back(*budget);
-      ++tally.frames;
       tally.payloadBytes += int64_t(frame.payload.size());
     }
     c->goodbye();
@@ -187,9 +184,7 @@ std::optional<std::chrono::milliseconds> tallyDragReply(const proto::Message& m,
     ++tally.exactFollowUps;
   } else if (frame) {
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - *sentAt).count();
-    tally.latencies.push_back(ms);
-    mine.latencies.push_back(ms);
-    ++tally.frames, ++mine.frames;
+    tally.countFrame(index, ms);
     tally.payloadBytes += int64_t(frame->payload.size());
     const json stats = json::parse(frame->statsJson);
     if (stats.value("provisional", false)) ++tally.provisional;
@@ -377,6 +372,7 @@ void runLoad(const LoadArgs& a) {
   // busy seconds, frames) from those after it.
   const json serverBefore = serverStats(a, host, port, nullptr);
   const auto start = Clock::now();
+  tally.started = start;
   const auto deadline = start + std::chrono::milliseconds(int64_t(a.duration * 1000));
   std::vector<std::thread> threads;
   for (int i = 0; i < a.clients; ++i)

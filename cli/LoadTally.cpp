@@ -15,6 +15,14 @@ void Tally::error(const std::string& what, int client) {
   if (errorSamples.size() < 10) errorSamples.push_back(what);
 }
 
+void Tally::countFrame(int client, double latencyMs) {
+  ClientFigures& c = clients[size_t(client)];
+  latencies.push_back(latencyMs);
+  c.latencies.push_back(latencyMs);
+  ++frames, ++c.frames;
+  if (!c.firstFrameS) c.firstFrameS = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+}
+
 void Tally::countBusy(int client) {
   ++busy;
   ++clients[size_t(client)].busy;
@@ -65,6 +73,11 @@ json perClient(const Tally& tally, double seconds) {
     out.push_back({{"client", i},
                    {"frames", c.frames},
                    {"frames_per_s", double(c.frames) / seconds},
+                   {"first_frame_s", optionalNumber(c.firstFrameS)},
+                   // From its first frame to the end: a client let in late is judged by the time it was in.
+                   {"frames_per_s_since_first",
+                    c.firstFrameS && seconds - *c.firstFrameS > 0 ? json(double(c.frames) / (seconds - *c.firstFrameS))
+                                                                  : json()},
                    {"latency_ms", {{"p50", percentile(c.latencies, 0.5)}, {"p99", percentile(c.latencies, 0.99)}}},
                    {"busy", c.busy},
                    {"errors", c.errors}});

@@ -2,6 +2,7 @@
 // the JSON of --json and the summary line.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <map>
 #include <mutex>
@@ -18,6 +19,9 @@ namespace voxbrick::cli {
 /// One well-behaved client's figures (a plain or dragging client; faulty ones have none).
 struct ClientFigures {
   int64_t frames = 0;  ///< frames received (a dragging client: first replies to its Renders)
+  /// When its first frame came, in seconds from the run's start (none yet): a client the server let in late (Busy
+  /// at first) is judged by its frames a second from then.
+  std::optional<double> firstFrameS;
   int64_t busy = 0;    ///< requests answered Busy (or LimitExceeded with a retry hint), waited out
   int64_t errors = 0;
   std::vector<double> latencies;  ///< ms, one per frame
@@ -28,6 +32,7 @@ struct Tally {
   explicit Tally(int clientCount) : clients(size_t(clientCount)) {}
 
   std::mutex mutex;
+  std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();  ///< the run's start
   std::vector<double> latencies;
   std::vector<double> renderMs;      ///< the renderer's own frame time (frame statistics), well-behaved clients
   std::vector<double> renderMsWarm;  ///< the same without each client's first frame (which pages its bricks in)
@@ -56,6 +61,8 @@ struct Tally {
   void error(const std::string& what, int client = -1);
   /// Counts a Busy reply of client `client`. Call with the lock held.
   void countBusy(int client);
+  /// Counts a frame (a first reply) of client `client`, with its latency. Call with the lock held.
+  void countFrame(int client, double latencyMs);
 };
 
 /// The value below which a share `p` in [0, 1] of `v` lies (the largest for p = 1); 0 when `v` is empty.

@@ -134,7 +134,7 @@ struct Submission {
     Queued,   ///< it waits for a render thread
     Full,     ///< the session has ServerConfig::kMaxQueuedWithoutCoalescing jobs waiting (only without coalescing)
     Stopped,  ///< the server is stopping: it will never be rendered
-    Busy,     ///< a batch job over capacity (SchedulerConfig::batchMaxWaitMs): retry after retryAfterMs
+    Busy,     ///< a batch job or a first drag over capacity, or past a quota: retry after retryAfterMs
   };
   Result result = Result::Queued;
   uint32_t retryAfterMs = 0;  ///< with Busy

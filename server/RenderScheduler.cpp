@@ -103,6 +103,20 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
     // The key is made once here; dispatch compares it with every waiting job's.
     job.shareKey = mConfig.shareFrames ? shareKeyOf(job) : std::string();
     if (!job.refinement) {
+      // Admission of a dragging session: a moving camera of a session not dragging until now is one more for the
+      // threads to keep at min_interactive_fps, refused while as many drag as they can keep (or, before that is
+      // measured, the cold bound). Decided here, under the lock that counts them, so that a crowd's first moves
+      // arriving together are each counted before the next is decided.
+      const bool dragging = state.lastInteractive != Clock::time_point{} &&
+                            job.received - state.lastInteractive <= kInteractiveWindow;
+      if (job.scene.interactive && !dragging)
+        if (auto refusal = refuseDraggingLocked(Clock::now())) {
+          mBusyDrags.fetch_add(1);
+          out.result = Submission::Result::Busy;
+          out.retryAfterMs = refusal->retryAfterMs;
+          out.why = std::move(refusal->why);
+          return out;
+        }
       if (state.lastReceived != Clock::time_point{}) {
         state.intervalsMs.push_back(elapsedMs(state.lastReceived, job.received));
         if (state.intervalsMs.size() > kRestIntervals) state.intervalsMs.pop_front();
@@ -267,12 +281,27 @@ size_t RenderScheduler::interactiveCapacity() const {
   return interactiveCapacityLocked();
 }
 
-std::optional<uint32_t> RenderScheduler::refuseNewSession() const {
+std::optional<RenderScheduler::Refusal> RenderScheduler::refuseDraggingLocked(Clock::time_point now) const {
+  const size_t capacity = interactiveCapacityLocked(), dragging = interactiveSessionsLocked(now);
+  if (capacity > 0) {
+    if (dragging < capacity) return std::nullopt;
+    // Dragging sessions count for kInteractiveWindow after their last move: a retry after it sees who still drags.
+    return Refusal{"the server is over capacity: " + std::to_string(dragging) +
+                       " sessions are dragging, as many as its render threads keep at their minimum rate",
+                   uint32_t(kInteractiveWindow.count() * 2)};
+  }
+  // Not measured yet: a cold server, or the first frames of a crowd that came at once. A few sessions a thread drag
+  // meanwhile; by the hint their frames will have measured the capacity.
+  const size_t cold = size_t(std::max(0, mConfig.coldInteractiveSessionsPerThread)) * mSources.size();
+  if (cold == 0 || dragging < cold) return std::nullopt;
+  return Refusal{"the server is measuring its capacity: " + std::to_string(dragging) +
+                     " sessions are dragging, as many as it takes before it knows what their frames cost",
+                 uint32_t(kInteractiveWindow.count())};
+}
+
+std::optional<RenderScheduler::Refusal> RenderScheduler::refuseNewSession() const {
   std::lock_guard lock(mMutex);
-  const size_t capacity = interactiveCapacityLocked();
-  if (capacity == 0 || interactiveSessionsLocked(Clock::now()) < capacity) return std::nullopt;
-  // Dragging sessions count for kInteractiveWindow after their last move: a retry after it sees who still drags.
-  return uint32_t(kInteractiveWindow.count() * 2);
+  return refuseDraggingLocked(Clock::now());
 }
 
 void RenderScheduler::fitToLoadLocked(RenderJob& job, Clock::time_point now) const {
@@ -543,27 +572,8 @@ void RenderScheduler::renderLoop(render::FrameSource& source, int index) {
       // session whose exact frames are given up as it drags on would otherwise keep the class's predicted mean (a
       // crowd's 1024² still frames) for each, and wait behind the whole crowd for its next still frame.
       chargeLocked(sink.get(), taken.frameClass, ms - taken.charged);
-      const bool moving = drawn && !reply.cancelled && !job.endsDrag;
-      if (taken.frameClass == FrameClass::Interactive) {
-        mInteractiveEnds.push_back({replied, ms, moving});
-        mInteractiveEndsMs += ms;
-        mInteractiveEndsMoving += moving ? 1 : 0;
-        while (!mInteractiveEnds.empty() && replied - mInteractiveEnds.front().at > kCapacityWindow) {
-          mInteractiveEndsMs -= mInteractiveEnds.front().ms;
-          mInteractiveEndsMoving -= mInteractiveEnds.front().moving ? 1 : 0;
-          mInteractiveEnds.pop_front();
-        }
-      }
-      if (drawn && !reply.cancelled) {
-        // The class's mean follows what frames drawn to the end took: the moving cameras' frames, for the
-        // interactive class (its capacity is counted in them), not the exact frames ending drags.
-        if (moving) {
-          mClassMs[c] = mClassMs[c] > 0 ? (1 - kMeanWeight) * mClassMs[c] + kMeanWeight * ms : ms;
-          ++mClassFrames[c];
-        }
-        if (reply.samples > 0 && job.dataset)
-          stateLocked(sink).rates[std::string(job.dataset->kind())].add(reply.samples, reply.ms);
-      }
+      if (drawn && !reply.cancelled && reply.samples > 0 && job.dataset)
+        stateLocked(sink).rates[std::string(job.dataset->kind())].add(reply.samples, reply.ms);
     }
     mReady.notify_all();  // a thread waiting for its class's turn may take one now
     if (drawn && reply.cancelled) mCancelled.fetch_add(1);
@@ -572,6 +582,33 @@ void RenderScheduler::renderLoop(render::FrameSource& source, int index) {
       // the camera a drag would reach next are paged ahead.
       deliver(taken, reply, followers);
       if (!job.refinement) prefetchAhead(source, job);
+    }
+    // The thread's time after the reply (handing the frame on, paging ahead: planning the next camera's bricks) is
+    // the frame's too: charged to its session, and counted in what a frame costs the threads, behind the capacity.
+    // Where the drawing is fast (a GPU) it is a large part of the thread's time a frame.
+    const auto handed = Clock::now();
+    const double after = elapsedMs(replied, handed), cost = ms + after;
+    {
+      std::lock_guard lock(mMutex);
+      const size_t c = size_t(taken.frameClass);
+      chargeLocked(sink.get(), taken.frameClass, after);
+      const bool moving = drawn && !reply.cancelled && !job.endsDrag;
+      if (taken.frameClass == FrameClass::Interactive) {
+        mInteractiveEnds.push_back({handed, cost, moving});
+        mInteractiveEndsMs += cost;
+        mInteractiveEndsMoving += moving ? 1 : 0;
+        while (!mInteractiveEnds.empty() && handed - mInteractiveEnds.front().at > kCapacityWindow) {
+          mInteractiveEndsMs -= mInteractiveEnds.front().ms;
+          mInteractiveEndsMoving -= mInteractiveEnds.front().moving ? 1 : 0;
+          mInteractiveEnds.pop_front();
+        }
+      }
+      // The class's mean follows what frames drawn to the end took: the moving cameras' frames, for the interactive
+      // class (its capacity is counted in them), not the exact frames ending drags.
+      if (moving) {
+        mClassMs[c] = mClassMs[c] > 0 ? (1 - kMeanWeight) * mClassMs[c] + kMeanWeight * cost : cost;
+        ++mClassFrames[c];
+      }
     }
     taken = Taken{};
   }

@@ -81,10 +81,17 @@ class RenderScheduler {
   /// How long a session counts as dragging after its last interactive Render.
   static constexpr std::chrono::milliseconds kInteractiveWindow{1000};
 
-  /// Whether a new session may be taken now: none when it may, else the retry hint in ms. Beyond capacity
+  /// Why a session may not start dragging now, and when to ask again.
+  struct Refusal {
+    std::string why;
+    uint32_t retryAfterMs = 0;
+  };
+  /// Whether a new session may be taken now: none when it may. Refused while as many sessions drag as the capacity
   /// (max_interactive_sessions, or measured: the render threads' time over min_interactive_fps frames of the
-  /// measured interactive frame cost) while that many sessions drag. Thread-safe.
-  std::optional<uint32_t> refuseNewSession() const;
+  /// measured interactive frame cost), or before it is measured, as cold_interactive_sessions_per_thread times the
+  /// threads. submit() holds a session's first moving camera (none within kInteractiveWindow) to the same bound.
+  /// Thread-safe.
+  std::optional<Refusal> refuseNewSession() const;
 
   /// The atlases of all render threads' sources, as each thread last saw them after a job.
   struct GpuGauges {
@@ -115,6 +122,8 @@ class RenderScheduler {
   uint64_t sharedFrames() const { return mShared.load(); }
   /// Batch Renders refused Busy.
   uint64_t busyRenders() const { return mBusyRenders.load(); }
+  /// Sessions' first moving cameras refused Busy (refuseNewSession's bound).
+  uint64_t busyDrags() const { return mBusyDrags.load(); }
   /// Drops every waiting job, lets each thread finish the frame it is drawing (its reply is still delivered) and
   /// joins the threads. Idempotent; call it from any thread but a render thread.
   void stop();
@@ -154,6 +163,8 @@ class RenderScheduler {
   /// The dragging sessions the render threads can keep at min_interactive_fps: max_interactive_sessions, else
   /// measured; 0 before any interactive frame was measured (no limit yet). mMutex held.
   size_t interactiveCapacityLocked() const;
+  /// refuseNewSession's answer. mMutex held.
+  std::optional<Refusal> refuseDraggingLocked(Clock::time_point now) const;
   /// Delivers `reply` to the job's own session and to every session that rode along (followers).
   void deliver(const Taken& taken, RenderReply& reply, std::vector<Recipient>& followers);
 
@@ -227,7 +238,7 @@ class RenderScheduler {
   std::vector<double> threadMs(EngineGauge::State state) const;
   std::unique_ptr<EngineGauge[]> mGauges;  ///< one per source, written by its thread
   size_t mGaugeCount = 0;
-  std::atomic<uint64_t> mCancelled{0}, mShared{0}, mBusyRenders{0};
+  std::atomic<uint64_t> mCancelled{0}, mShared{0}, mBusyRenders{0}, mBusyDrags{0};
   std::mutex mJoinMutex;
   std::vector<std::thread> mThreads;
 };

@@ -415,14 +415,9 @@ std::optional<proto::Error> Server::Impl::greet(ConnectionId id) {
     return tooMany();
   }
   // Over capacity: more sessions drag than the render threads can keep at their minimum rate.
-  if (const std::optional<uint32_t> retry = scheduler.refuseNewSession()) {
+  if (const auto busy = scheduler.refuseNewSession()) {
     stats.refused(Refusal::Busy);
-    return errorMessage(proto::ErrorCode::Busy,
-                        proto::busyMessage("the server is over capacity: " +
-                                               std::to_string(scheduler.interactiveSessions()) +
-                                               " sessions are dragging, as many as its render threads keep at " +
-                                               "their minimum rate",
-                                           *retry));
+    return errorMessage(proto::ErrorCode::Busy, proto::busyMessage(busy->why, busy->retryAfterMs));
   }
   if (auto refusal =
           quotas.admit(id, client->second.first, client->second.second, session->second->accessGrant().get())) {

@@ -207,6 +207,7 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   scheduler.read("batch_max_wait_ms", sc.batchMaxWaitMs);
   scheduler.read("max_interactive_sessions", sc.maxInteractiveSessions);
   scheduler.read("min_interactive_fps", sc.minInteractiveFps);
+  scheduler.read("cold_interactive_sessions_per_thread", sc.coldInteractiveSessionsPerThread);
   scheduler.read("share_frames", sc.shareFrames);
   scheduler.read("loaded_jpeg_quality", sc.loadedJpegQuality);
   Section quotas = top.table("quotas");
@@ -293,6 +294,7 @@ void ServerConfig::validate() const {
   range("scheduler.batch_max_wait_ms", scheduler.batchMaxWaitMs, 1, 86400e3);
   range("scheduler.max_interactive_sessions", scheduler.maxInteractiveSessions, 0, 100000);
   range("scheduler.min_interactive_fps", scheduler.minInteractiveFps, 0.1, 1000);
+  range("scheduler.cold_interactive_sessions_per_thread", scheduler.coldInteractiveSessionsPerThread, 0, 100000);
   range("scheduler.loaded_jpeg_quality", scheduler.loadedJpegQuality, 1, 100);
   range("quotas.sessions_per_address", quotas.sessionsPerAddress, 0, 100000);
   range("quotas.frames_per_s_per_address", quotas.framesPerSecondPerAddress, 0, 1e6);

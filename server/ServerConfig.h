@@ -41,10 +41,14 @@ struct SchedulerConfig {
   /// A batch Render whose expected wait (the measured cost of the work queued before it, over the threads' share for
   /// its class) exceeds this is answered Busy with that wait as its retry hint.
   double batchMaxWaitMs = 2000;
-  /// Sessions dragging at once beyond which a new session is answered Busy at Hello; 0: measured, as the render
-  /// threads' time over min_interactive_fps frames of the measured interactive frame cost per session.
+  /// Sessions dragging at once beyond which a new session is answered Busy at Hello, and a session's first moving
+  /// camera (one not dragging within the last second) is answered Busy; 0: measured, as the render threads' time
+  /// over min_interactive_fps frames of the measured interactive frame cost per session.
   int maxInteractiveSessions = 0;
   double minInteractiveFps = 5;  ///< the rate the measured capacity keeps for every dragging session
+  /// Before the capacity is measured (a cold server, a crowd arriving at once), at most this many sessions per render
+  /// thread may drag; 0: no limit until it is measured.
+  int coldInteractiveSessionsPerThread = 4;
   bool shareFrames = true;       ///< sessions asking the identical frame at once get one render
   /// The JPEG quality of a provisional frame while the crowd cuts its budget (a scene's own jpeg_quality is kept).
   int loadedJpegQuality = 70;

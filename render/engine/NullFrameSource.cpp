@@ -44,6 +44,9 @@ image::ImageF NullFrameSource::render(const std::shared_ptr<const Dataset>& data
   return image;
 }
 
-void NullFrameSource::prefetch(const std::shared_ptr<const Dataset>&, const Scene&) { ++mPrefetches; }
+void NullFrameSource::prefetch(const std::shared_ptr<const Dataset>&, const Scene&) {
+  if (const int64_t us = mPrefetchTime.load(); us > 0) std::this_thread::sleep_for(std::chrono::microseconds(us));
+  ++mPrefetches;
+}
 
 }  // namespace voxbrick::render

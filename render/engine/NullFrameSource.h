@@ -35,6 +35,9 @@ class NullFrameSource final : public FrameSource {
   /// FrameStats::msWarmup, outside msTotal; the frames after it do not.
   void warmUpNextFrame(std::chrono::microseconds time) { mWarmup.store(time.count()); }
 
+  /// Each prefetch from now on takes `time` (as paging ahead plans the next camera's bricks on the render thread).
+  void prefetchTakes(std::chrono::microseconds time) { mPrefetchTime.store(time.count()); }
+
   /// Frames drawn (not cancelled), and prefetches asked for, so far. Any thread may ask.
   uint64_t framesDrawn() const { return mDrawn.load(); }
   uint64_t prefetches() const { return mPrefetches.load(); }
@@ -49,7 +52,8 @@ class NullFrameSource final : public FrameSource {
   double mSamplesPerMs;
   std::chrono::nanoseconds mPerPixel;
   std::atomic<uint64_t> mDrawn{0}, mPrefetches{0};
-  std::atomic<int64_t> mWarmup{0};  ///< microseconds of warm-up the next frame takes
+  std::atomic<int64_t> mWarmup{0};        ///< microseconds of warm-up the next frame takes
+  std::atomic<int64_t> mPrefetchTime{0};  ///< microseconds each prefetch takes
   mutable std::mutex mMutex;
   std::vector<int> mWidths;
 };

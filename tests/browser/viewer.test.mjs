@@ -565,6 +565,45 @@ describe("viewer", () => {
     }
   });
 
+  test("a first drag beyond the server's capacity is answered Busy: the page waits out the hint, then drags", async () => {
+    // The page is taken while nobody drags; then a TCP client drags for 3 s, and the page's drag is one too many for
+    // a server that keeps one dragging session (max_interactive_sessions).
+    const config = path.join(scratch.dir, "busy-drag.toml");
+    fs.writeFileSync(config, "[scheduler]\nmax_interactive_sessions = 1\n");
+    const busyServer = await new H.Server({ dir: scratch.dir, datasets, config }).start();
+    let load = null;
+    try {
+      const { page, start, x0, y0 } = await pressOnFrame(browser, `${busyServer.url}/?dataset=sparse&${SIZE_PARAM}`);
+      load = H.spawnTied(H.VOXBRICK, ["load", `127.0.0.1:${busyServer.tcpPort}`, "--dataset", "sparse",
+        "--clients", "1", "--size", "64x64", "--drag", "20", "--interactive", "50", "--duration", "3"],
+        { stdio: "ignore" });
+      const loaded = new Promise((resolve) => load.on("exit", resolve));
+      await new Promise((r) => setTimeout(r, 700)); // its first moving frames
+      for (let i = 1; i <= 30; ++i) {
+        await page.mouse.move(x0 + 2 * i, y0);
+        await new Promise((r) => setTimeout(r, 30));
+      }
+      const held = await H.viewerState(page);
+      assert.match(held.banner, /^The server is busy: the server is over capacity: 1 sessions are dragging/);
+      const again = Number(/Asking again in (\d+\.\d) s/.exec(held.banner)[1]);
+      assert.ok(again >= 2 && again <= 2.4, `${held.banner}: the server's hint (2 s), a fifth more at most`);
+      // Asked at every move, a second of dragging would have sent some thirty Renders to be refused.
+      assert.ok(held.counts.busy >= 1 && held.counts.busy <= 3, `${held.counts.busy} Busy replies in a 1 s drag`);
+      assert.equal(held.counts.errors, start.counts.errors, "Busy is no error");
+      assert.equal(held.counts.shown, start.counts.shown, "no moving frame meanwhile");
+      await loaded;
+      // Once the TCP client has stopped, the page's drag is taken: its frames show and the banner goes.
+      const back = await H.waitForState(page, (st, n) => st.counts.shown > n && st.banner === "", 15000, held.counts.shown);
+      assert.equal(back.connection, "ready", "the session was kept throughout");
+      await page.mouse.up();
+      await waitExact(page, back.newestId - 1);
+      await page.close();
+    } finally {
+      if (load) load.kill("SIGKILL");
+      await busyServer.kill();
+    }
+  });
+
   test("the server killed shows the error state, and a restart reconnects to the same view", async () => {
     const page = await H.openPage(browser, `${server.url}/?dataset=ml&orbit=100,10,3&tf=hot&${SIZE_PARAM}`);
     await waitExact(page);

@@ -76,7 +76,17 @@ TEST_F(LoadTest, DraggingClientsTimeEachFrameFromItsCamera) {
   const json r = load("--clients 2 --duration 1 --drag 20 --encoding png --require-clean");
   ASSERT_GT(r["frames"].get<int64_t>(), 0) << r.dump();
   ASSERT_EQ(r["per_client"].size(), 2u);
-  for (const json& c : r["per_client"]) EXPECT_GT(c["frames"].get<int64_t>(), 0) << c;
+  for (const json& c : r["per_client"]) {
+    EXPECT_GT(c["frames"].get<int64_t>(), 0) << c;
+    // Its first frame's time in the run, and its rate from then: what a client the server let in late is judged by.
+    ASSERT_TRUE(c["first_frame_s"].is_number()) << c;
+    EXPECT_GT(c["first_frame_s"].get<double>(), 0) << c;
+    EXPECT_LT(c["first_frame_s"].get<double>(), 1) << c;
+    EXPECT_NEAR(c["frames_per_s_since_first"].get<double>(),
+                c["frames"].get<double>() / (r["duration_s"].get<double>() - c["first_frame_s"].get<double>()),
+                1e-6 * c["frames_per_s_since_first"].get<double>())
+        << c;
+  }
   // A frame cannot arrive before it was drawn: its camera's age is at least the server's render time, at every rank.
   EXPECT_GE(r["latency_ms"]["p50"].get<double>(), r["render_ms_p50"].get<double>()) << r["latency_ms"];
   EXPECT_GT(r["render_ms_p50"].get<double>(), 0);

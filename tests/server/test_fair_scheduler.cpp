@@ -225,7 +225,8 @@ TEST_F(FairSchedulerTest, TheInteractiveBudgetFollowsTheNumberOfSessionsDragging
 // frame (10 ms) and gets the exact frame when its camera rests (10 ms more), so a moving frame costs 20 ms, and one
 // thread keeps 1000 / (5 × 20) = 10 sessions at 5 frames a second; counting the moving frames alone it said 20.
 TEST_F(FairSchedulerTest, TheCapacityCountsWhatAMovingFrameCostsInAll) {
-  auto s = scheduler(1, {.shareFrames = false}, 10000us, 0ns);
+  // The 20 start dragging before anything is measured: no cold bound for them.
+  auto s = scheduler(1, {.coldInteractiveSessionsPerThread = 0, .shareFrames = false}, 10000us, 0ns);
   EXPECT_EQ(s->interactiveCapacity(), 0u) << "nothing measured yet: no limit";
   std::vector<std::shared_ptr<CountingSink>> sinks;
   for (uint32_t i = 0; i < 20; ++i) {
@@ -238,6 +239,93 @@ TEST_F(FairSchedulerTest, TheCapacityCountsWhatAMovingFrameCostsInAll) {
   s->stop();
   EXPECT_GE(capacity, 8u);
   EXPECT_LE(capacity, 12u);
+}
+
+// The thread's time after a frame counts in what the frame costs: here each moving frame (10 ms) is followed by 20 ms
+// of paging ahead for the camera the drag would reach next, and by its exact frame (10 ms), so that a moving frame
+// costs the thread 40 ms, and one thread keeps 1000 / (5 x 40) = 5 sessions at 5 frames a second; counting the
+// drawing alone it said 10 (on an H200 the capacity so counted let in 41 sessions that got 3 to 4.5 frames a second).
+TEST_F(FairSchedulerTest, TheCapacityCountsTheThreadsTimeAfterEachFrame) {
+  std::vector<render::NullFrameSource*> sources;
+  auto s = scheduler(1, {.coldInteractiveSessionsPerThread = 0, .shareFrames = false}, 10000us, 0ns, &sources);
+  sources[0]->prefetchTakes(20ms);
+  const render::CameraSpec before =
+      render::Scene::fromJson(R"({"camera": {"orbit": [38, 25, 2.2]}, "transfer_function": "sparse"})", "scene",
+                              presets)
+          .camera;
+  std::vector<std::shared_ptr<CountingSink>> sinks;
+  for (uint32_t i = 0; i < 20; ++i) {
+    sinks.push_back(std::make_shared<CountingSink>());
+    RenderJob moving = job(i, 16, R"("interactive": true, )");
+    moving.previousCamera = before;  // a drag: the camera it reaches next is paged ahead after the frame
+    s->submit(sinks.back(), std::move(moving));
+  }
+  s->start();
+  for (const auto& sink : sinks) ASSERT_EQ(sink->await(2).size(), 2u) << "the moving frame, then the exact one";
+  const size_t capacity = s->interactiveCapacity();
+  s->stop();
+  EXPECT_EQ(sources[0]->prefetches(), 20u) << "each moving frame paged ahead";
+  EXPECT_GE(capacity, 3u);
+  EXPECT_LE(capacity, 6u) << "the 20 ms after each moving frame were not counted";
+}
+
+// A session's first moving camera is admitted only while fewer sessions drag than the capacity: beyond it the Render
+// is answered Busy with a retry hint and nothing is queued; a session already dragging drags on, and a still frame is
+// no drag. Once nobody drags, the late session may.
+TEST_F(FairSchedulerTest, AFirstMoveBeyondCapacityIsBusyAndTheSessionsDraggingDragOn) {
+  auto s = scheduler(1, {.maxInteractiveSessions = 2}, 0us, 0ns);
+  auto a = std::make_shared<CountingSink>(), b = std::make_shared<CountingSink>(), late = std::make_shared<CountingSink>();
+  EXPECT_EQ(s->submit(a, job(1, 16, R"("interactive": true, )")).result, Submission::Result::Queued);
+  EXPECT_EQ(s->submit(b, job(2, 17, R"("interactive": true, )")).result, Submission::Result::Queued);
+  ASSERT_TRUE(s->refuseNewSession()) << "a new session is refused at Hello too";
+  const Submission refused = s->submit(late, job(3, 18, R"("interactive": true, )"));
+  ASSERT_EQ(refused.result, Submission::Result::Busy);
+  EXPECT_EQ(refused.retryAfterMs, 2000u);
+  EXPECT_NE(refused.why.find("over capacity: 2 sessions are dragging"), std::string::npos) << refused.why;
+  EXPECT_FALSE(refused.quota);
+  EXPECT_EQ(s->busyDrags(), 1u);
+  EXPECT_EQ(s->submit(late, job(4, 18)).result, Submission::Result::Queued) << "a still frame is no drag";
+  EXPECT_EQ(s->submit(a, job(5, 16, R"("interactive": true, )")).result, Submission::Result::Queued)
+      << "a session dragging drags on";
+  s->start();
+  EXPECT_EQ(late->await(1).size(), 1u);
+  EXPECT_EQ(a->await(1).size(), 1u);
+  std::this_thread::sleep_for(RenderScheduler::kInteractiveWindow + 200ms);  // nobody drags any more
+  EXPECT_EQ(s->submit(late, job(6, 18, R"("interactive": true, )")).result, Submission::Result::Queued);
+  EXPECT_EQ(s->busyDrags(), 1u);
+  s->stop();
+}
+
+// A crowd that comes before the capacity is measured (a cold server; every viewer reconnecting after a restart) is
+// not all let in: cold_interactive_sessions_per_thread sessions a thread drag, the others' first moves are Busy with
+// a short hint. Before this bound, 80 clients dragging at once on two threads were all taken and got 2 frames a second
+// each, where the measured capacity was 37 (llvmpipe, 128x128).
+TEST_F(FairSchedulerTest, BeforeTheCapacityIsMeasuredAFewSessionsAThreadMayDrag) {
+  auto s = scheduler(2, {.coldInteractiveSessionsPerThread = 3}, 0us, 0ns);
+  std::vector<std::shared_ptr<CountingSink>> sinks;
+  size_t queued = 0, busy = 0;
+  for (uint32_t i = 0; i < 20; ++i) {
+    sinks.push_back(std::make_shared<CountingSink>());
+    const Submission out = s->submit(sinks.back(), job(i, 16 + int(i), R"("interactive": true, )"));
+    if (out.result == Submission::Result::Queued) ++queued;
+    if (out.result == Submission::Result::Busy) {
+      ++busy;
+      EXPECT_EQ(out.retryAfterMs, 1000u);
+      EXPECT_NE(out.why.find("measuring its capacity: 6 sessions are dragging"), std::string::npos) << out.why;
+    }
+  }
+  EXPECT_EQ(queued, 6u) << "3 sessions for each of 2 threads";
+  EXPECT_EQ(busy, 14u);
+  const auto atHello = s->refuseNewSession();
+  ASSERT_TRUE(atHello);
+  EXPECT_EQ(atHello->retryAfterMs, 1000u);
+  s->stop();
+
+  auto unbounded = scheduler(2, {.coldInteractiveSessionsPerThread = 0}, 0us, 0ns);
+  for (uint32_t i = 0; i < 20; ++i)
+    EXPECT_EQ(unbounded->submit(std::make_shared<CountingSink>(), job(i, 16, R"("interactive": true, )")).result,
+              Submission::Result::Queued);
+  unbounded->stop();
 }
 
 // Long still frames never hold every thread while a session drags: its next frame starts at once on the thread
@@ -536,6 +624,33 @@ TEST_F(CrowdServerTest, ANewSessionBeyondCapacityIsBusy) {
   std::this_thread::sleep_for(std::chrono::milliseconds(1200));
   client::Client later("127.0.0.1", server->port());
   EXPECT_NO_THROW(later.hello("test"));
+}
+
+
+// Against the real server: a session's first moving camera beyond capacity is answered Busy with a retry hint, and
+// the session is kept (its still frames are drawn); once nobody drags, it may. Before the capacity is measured the
+// cold bound holds the same way.
+TEST_F(CrowdServerTest, AFirstDragBeyondCapacityIsBusyAndTheSessionStays) {
+  const std::string moving = kCrowdScene + std::string(R"(, "interactive": true})");
+  for (const auto& [toml, said] :
+       {std::pair<std::string, std::string>{"[scheduler]\nmax_interactive_sessions = 1\n", "over capacity"},
+        {"[scheduler]\ncold_interactive_sessions_per_thread = 1\n", "measuring its capacity"}}) {
+    auto server = start(toml);
+    client::Client viewer("127.0.0.1", server->port()), other("127.0.0.1", server->port());
+    viewer.hello("test");
+    other.hello("test");  // nobody drags yet: both are taken
+    viewer.openDataset("sparse");
+    other.openDataset("sparse");
+    viewer.render(moving);
+    const client::ServerError busy = test::serverErrorOf([&] { other.render(moving); });
+    EXPECT_EQ(busy.code(), proto::ErrorCode::Busy) << busy.what();
+    EXPECT_NE(std::string(busy.what()).find(said), std::string::npos) << busy.what();
+    ASSERT_TRUE(proto::retryAfterMs(busy.what())) << busy.what();
+    EXPECT_NO_THROW(other.render(kCrowdScene + std::string("}"))) << "its still frames are drawn";
+    EXPECT_NO_THROW(viewer.render(moving)) << "the session dragging drags on";
+    std::this_thread::sleep_for(std::chrono::milliseconds(1200));  // nobody drags now
+    EXPECT_NO_THROW(other.render(moving));
+  }
 }
 
 }  // namespace

@@ -6,7 +6,7 @@
 // not; and the figures of the overlay: frames per second, the age of the camera each shown frame was drawn for, bytes
 // per frame, stand-ins, the video's bitrate and decode time.
 
-import { Encoding, ErrorCode, isVideo } from "./protocol.js";
+import { Encoding, ErrorCode, isVideo, retryAfterMs } from "./protocol.js";
 import { VideoStream } from "./video.js";
 
 const MIME = { [Encoding.png]: "image/png", [Encoding.jpeg]: "image/jpeg", [Encoding.webp]: "image/webp" };
@@ -21,7 +21,8 @@ export class FrameLoop {
   /// video stream for a key frame when `keyframe`), or null if none can be asked yet; encoding() -> the Render's
   /// encoding (absent: png); refused(error) -> true when the page changed what it asks (then the frame is asked
   /// again);
-  /// shown(frame) after each frame drawn; failed(error) for an Error that is not handled.
+  /// shown(frame) after each frame drawn; failed(error) for an Error that is not handled; busy(error, ms) when a
+  /// Render was answered Busy, and no Render goes for `ms` (the server's hint, a fifth more at most).
   constructor(canvas, hooks) {
     this.canvas = canvas;
     this.ctx = canvas.getContext("2d", { alpha: false, colorSpace: "srgb" });
@@ -45,6 +46,11 @@ export class FrameLoop {
     this.wanted = null; // {cameraAt, phase}: a frame is wanted that was not asked for yet
     this.decodeSerial = 0;
     this.keyAskId = 0; // the Render that asked for a key frame last
+    // A Render answered Busy (the server over capacity for one more dragging session, or a quota): none is sent
+    // before this time (performance.now()), when the camera wanted then is asked.
+    this.holdUntil = 0;
+    clearTimeout(this.holdTimer);
+    this.holdTimer = 0;
     // A new connection is a new video stream, and a new dataset starts one with a key frame: the decoder starts over.
     this.video.reset();
   }
@@ -53,7 +59,7 @@ export class FrameLoop {
     this.shownFrames = []; // {id, at, latencyMs, bytes, provisional, encoding, standin, renderMs, budgetMs, phase}
     // errors: Error replies to Renders, except InvalidScene naming an optional key the page then dropped (refused)
     // and Superseded (a waiting camera replaced by a newer one).
-    this.counts = { shown: 0, provisional: 0, exact: 0, dropped: 0, superseded: 0, errors: 0, refused: 0 };
+    this.counts = { shown: 0, provisional: 0, exact: 0, dropped: 0, superseded: 0, errors: 0, refused: 0, busy: 0 };
     this.releaseAt = null;
     this.exactAfterReleaseMs = null;
     this.lastFrame = null;
@@ -92,6 +98,16 @@ export class FrameLoop {
 
   pump() {
     if (!this.connection || this.outstanding.size >= MAX_OUTSTANDING || !this.wanted) return;
+    const held = this.holdUntil - performance.now();
+    if (held > 0) {
+      // A Busy reply's hint: asked when it has passed (a timer may fire a little early: then it waits again).
+      if (!this.holdTimer)
+        this.holdTimer = setTimeout(() => {
+          this.holdTimer = 0;
+          this.pump();
+        }, held + 1);
+      return;
+    }
     // While the decoder waits for a key frame, a Render asks for one, until one comes. The ask is that Render's own:
     // if its frame is replaced before it is encoded (latest wins: it is answered Superseded), the next Render asks
     // again. One ask at a time, or each Render in flight would cost a key frame.
@@ -125,6 +141,14 @@ export class FrameLoop {
         this.wanted = this.wanted || { cameraAt: this.newest.cameraAt, phase: this.newest.phase };
       } else if (m.body.code === ErrorCode.Superseded) {
         this.counts.superseded++; // a waiting camera replaced by a newer one: no error
+      } else if (m.body.code === ErrorCode.Busy && retryAfterMs(m.body.message) !== null) {
+        // Not now: the camera is asked again after the server's hint (a fifth more at most, drawn at random, so that
+        // pages refused together do not all come back in the same instant), not at every move meanwhile.
+        this.counts.busy++;
+        const wait = Math.round(retryAfterMs(m.body.message) * (1 + 0.2 * Math.random()));
+        this.holdUntil = Math.max(this.holdUntil, performance.now() + wait);
+        if (answersNewest && !this.wanted) this.wanted = { cameraAt: this.newest.cameraAt, phase: this.newest.phase };
+        if (this.hooks.busy) this.hooks.busy(m.body, wait);
       } else {
         this.counts.errors++;
         if (answersNewest || m.requestId === 0) this.hooks.failed(m.body);

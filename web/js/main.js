@@ -59,6 +59,7 @@ const app = {
   dragging: false,
   notes: [],
   opening: "", // the dataset asked for last (a Busy answer is retried while it still is)
+  renderBusy: false, // the banner says a Render was answered Busy (until a frame shows)
 };
 
 // The server's status page carries the page's token (and server) on, as /ws does.
@@ -74,8 +75,20 @@ const loop = new FrameLoop(canvas, {
     app.state === "ready" && app.meta ? V.buildScene(app.view, app.meta, frameSize(), phase, app.features, ask) : null,
   encoding: () => (app.features.webp === "always" ? Encoding.webp : Encoding.png),
   refused: refusedScene,
-  shown: () => drawOverlay(),
+  shown: () => {
+    if (app.renderBusy) {
+      app.renderBusy = false;
+      banner("");
+    }
+    drawOverlay();
+  },
   failed: (e) => note(`${e.name}: ${e.message}`),
+  // A Render answered Busy: the server takes no more dragging sessions now (or a quota is spent). Said until the next
+  // frame shows; the page asks again after the hint.
+  busy: (e, ms) => {
+    app.renderBusy = true;
+    banner(`The server is busy: ${withoutRetryHint(e.message)}. Asking again in ${(ms / 1000).toFixed(1)} s…`);
+  },
 });
 
 function frameSize() {
