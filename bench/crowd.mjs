@@ -151,6 +151,8 @@ function row(r) {
     tab_budget_ms: budget,
     tab_p99_over_budget: budget && worstP99 !== null ? worstP99 / budget : null,
     tab_errors: sum(tabs.map((t) => t.errors + t.page_errors)),
+    // Tabs whose drag was answered Busy at least once (the server kept as many dragging sessions as it could).
+    tabs_busy: tabs.filter((t) => t.busy > 0).length,
     // The camera moves each tab's page made (hz × duration asked): fewer when the machine starved the page.
     tab_moves_min: minOf(tabs.map((t) => t.moves)),
     tab_moves_median: pct(tabs.map((t) => t.moves), 0.5),
@@ -164,6 +166,7 @@ function row(r) {
     tcp_latency_p99_worst_ms: maxOf(perClient.map((c) => c.latency_ms.p99)),
     jain_tcp: l.jain_index,
     tcp_busy: l.busy,
+    tcp_let_in: perClient.filter((c) => c.frames > 0).length,
     tcp_batch_refused: l.batch_refused,
     tcp_protocol_version: l.protocol_version,
     tcp_errors: l.errors,
@@ -238,6 +241,7 @@ function report(ran) {
     "tab_budget_ms",
     "tab_p99_over_budget",
     "tab_errors",
+    "tabs_busy",
     "tab_moves_min",
     "tab_moves_median",
     ...SPLIT.map((part) => `tab_${part}_ms`),
@@ -247,6 +251,7 @@ function report(ran) {
     "tcp_latency_p99_worst_ms",
     "jain_tcp",
     "tcp_busy",
+    "tcp_let_in",
     "tcp_batch_refused",
     "tcp_protocol_version",
     "tcp_errors",
@@ -323,7 +328,8 @@ function report(ran) {
       `${opt.tail} s came from a quieter server), the time budget the server drew their moving frames to (their ` +
       "statistics; the one asked for where the page does not record it) and the worst p99 over it. TCP figures from " +
       "`voxbrick load --json`: frames a second in all and of the slowest client, latency, Jain's index over its " +
-      "clients, `Busy` replies (waited out, not errors) and errors.",
+      "clients, `Busy` replies (waited out, not errors) and errors. `Busy`: the tabs whose drag was answered `Busy` " +
+      "at least once, and the TCP clients' `Busy` replies.",
     `- Targets: every interactive session (the tabs; in A the dragging TCP clients too) ≥ ${TARGET.fps} frames shown a ` +
       `second, p99 ≤ ${TARGET.p99Ms / 1000} s, Jain ≥ ${TARGET.jain}, the exact frame ≤ ${TARGET.exactMs / 1000} s ` +
       `after release; beside the still crowd (B, B') the tabs' p99 ≤ ${TARGET.budgetTimes}× their time budget.`,
@@ -347,7 +353,7 @@ function report(ran) {
         `${fmt(r.tcp_fps_total)} (${fmt(r.tcp_fps_min)})`,
         fmt(r.tcp_latency_p99_worst_ms, 0),
         fmt(r.jain_tcp, 3),
-        r.tcp_busy,
+        `${r.tabs_busy ?? 0} tabs, ${r.tcp_busy}`,
         r.errors,
         ...["target_fps", "target_p99", "target_jain", "target_exact", "target_budget", "pass"].map((k) => mark(r[k])),
       ];

@@ -76,6 +76,8 @@ export async function tabDrag(page, { durationMs, hz, exactWaitMs = 30000 }) {
     budget_ms: pct(budgets, 0.5),
     latency_split_ms: latencySplit(moving),
     errors: state.counts.errors,
+    // Renders answered Busy (the server over capacity for one more dragging session), each waited out by the page.
+    busy: state.counts.busy || 0,
     page_errors: page.errors.length,
     features: state.features,
     latencies: lat,

@@ -27,6 +27,11 @@ double elapsedMs(Clock::time_point a, Clock::time_point b) {
 /// The mean a class's frames are predicted by: an exponential average, quick to follow a change of load.
 constexpr double kMeanWeight = 0.2;
 constexpr double kDefaultPredictedMs = 50;
+/// Moving frames the capacity is measured from (fewer: not measured yet).
+constexpr uint64_t kCapacityFrames = 16;
+/// The share of the threads' time the measured capacity hands out: the rest is kept for the measurement's own spread
+/// (sessions taken at a high reading stay when it falls) and for sessions' uneven shares.
+constexpr double kCapacityHeadroom = 0.9;
 
 }  // namespace
 
@@ -269,11 +274,12 @@ size_t RenderScheduler::interactiveCapacityLocked() const {
   // its own time and its share of the class's other work (the exact frames ending drags, refinements given up).
   // Over the last kCapacityWindow when it holds enough moving frames; else the moving frames' own recent mean.
   const size_t c = size_t(FrameClass::Interactive);
-  if (mClassFrames[c] < 16 || mClassMs[c] <= 0) return 0;
+  if (mClassFrames[c] < kCapacityFrames || mClassMs[c] <= 0) return 0;
   const double perMovingFrameMs =
-      mInteractiveEndsMoving >= 16 ? std::max(mClassMs[c], mInteractiveEndsMs / double(mInteractiveEndsMoving))
+      mInteractiveEndsMoving >= kCapacityFrames ? std::max(mClassMs[c], mInteractiveEndsMs / double(mInteractiveEndsMoving))
                                    : mClassMs[c];
-  return std::max<size_t>(1, size_t(double(mSources.size()) * 1000 / (mConfig.minInteractiveFps * perMovingFrameMs)));
+  return std::max<size_t>(
+      1, size_t(kCapacityHeadroom * double(mSources.size()) * 1000 / (mConfig.minInteractiveFps * perMovingFrameMs)));
 }
 
 size_t RenderScheduler::interactiveCapacity() const {
@@ -291,12 +297,16 @@ std::optional<RenderScheduler::Refusal> RenderScheduler::refuseDraggingLocked(Cl
                    uint32_t(kInteractiveWindow.count() * 2)};
   }
   // Not measured yet: a cold server, or the first frames of a crowd that came at once. A few sessions a thread drag
-  // meanwhile; by the hint their frames will have measured the capacity.
+  // meanwhile; the hint is when their frames will have measured it (the frames still to come at the predicted
+  // cost, over the threads), at least 100 ms and at most a second.
   const size_t cold = size_t(std::max(0, mConfig.coldInteractiveSessionsPerThread)) * mSources.size();
   if (cold == 0 || dragging < cold) return std::nullopt;
+  const uint64_t measured = mClassFrames[size_t(FrameClass::Interactive)];
+  const double toCome = double(measured < kCapacityFrames ? kCapacityFrames - measured : 0);
+  const double hint = toCome * predictedMsLocked(FrameClass::Interactive) / double(mSources.size());
   return Refusal{"the server is measuring its capacity: " + std::to_string(dragging) +
                      " sessions are dragging, as many as it takes before it knows what their frames cost",
-                 uint32_t(kInteractiveWindow.count())};
+                 uint32_t(std::clamp(hint, 100.0, double(kInteractiveWindow.count())))};
 }
 
 std::optional<RenderScheduler::Refusal> RenderScheduler::refuseNewSession() const {
