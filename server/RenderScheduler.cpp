@@ -98,6 +98,9 @@ double RenderScheduler::predictedMsLocked(FrameClass cls) const {
 
 Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob job) {
   Submission out;
+  // The key is made once here, before the lock (it writes the scene out: a crowd's thousands of Renders a second
+  // would otherwise hold the render threads' lock that long); dispatch compares it with every waiting job's.
+  job.shareKey = mConfig.shareFrames ? shareKeyOf(job) : std::string();
   {
     std::lock_guard lock(mMutex);
     if (mStopping) {
@@ -105,8 +108,6 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
       return out;
     }
     SessionState& state = stateLocked(sink);
-    // The key is made once here; dispatch compares it with every waiting job's.
-    job.shareKey = mConfig.shareFrames ? shareKeyOf(job) : std::string();
     if (!job.refinement) {
       // Admission of a dragging session: a moving camera of a session not dragging until now is one more for the
       // threads to keep at min_interactive_fps, refused while as many drag as they can keep (or, before that is
@@ -595,7 +596,6 @@ void RenderScheduler::renderLoop(render::FrameSource& source, int index) {
     }
     // The thread's time after the reply (handing the frame on, paging ahead: planning the next camera's bricks) is
     // the frame's too: charged to its session, and counted in what a frame costs the threads, behind the capacity.
-    // Where the drawing is fast (a GPU) it is a large part of the thread's time a frame.
     const auto handed = Clock::now();
     const double after = elapsedMs(replied, handed), cost = ms + after;
     {
