@@ -117,6 +117,9 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
                             job.received - state.lastInteractive <= kInteractiveWindow;
       if (job.scene.interactive && !dragging)
         if (auto refusal = refuseDraggingLocked(Clock::now())) {
+          // Until the hint has passed, and a second after, the session's next still Render is this drag's last
+          // (a viewer released it while waiting out the hint).
+          state.refusedDragEnds = job.received + std::chrono::milliseconds(refusal->retryAfterMs) + kInteractiveWindow;
           mBusyDrags.fetch_add(1);
           out.result = Submission::Result::Busy;
           out.retryAfterMs = refusal->retryAfterMs;
@@ -128,9 +131,13 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
         if (state.intervalsMs.size() > kRestIntervals) state.intervalsMs.pop_front();
       }
       state.lastReceived = job.received;
-      // A still frame right after a drag is the drag's last: a viewer waits for it.
-      job.endsDrag = !job.scene.interactive && !job.scene.batch && state.lastInteractive != Clock::time_point{} &&
-                     job.received - state.lastInteractive <= kInteractiveWindow;
+      // A still frame right after a drag is the drag's last: a viewer waits for it. So is the first after a drag told
+      // Busy (the session is not counted as dragging for it), until its hint and a second more have passed.
+      job.endsDrag = !job.scene.interactive && !job.scene.batch &&
+                     ((state.lastInteractive != Clock::time_point{} &&
+                       job.received - state.lastInteractive <= kInteractiveWindow) ||
+                      job.received <= state.refusedDragEnds);
+      state.refusedDragEnds = {};
       if (job.scene.interactive) state.lastInteractive = job.received;
     }
     std::deque<RenderJob>& waiting = state.waiting;

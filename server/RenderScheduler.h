@@ -176,6 +176,8 @@ class RenderScheduler {
     Clock::time_point lastReceived{};
     std::deque<double> intervalsMs;  ///< between its last kRestIntervals + 1 Renders, oldest first
     Clock::time_point lastInteractive{};
+    /// Its next still Render before this ends a drag that was answered Busy (admission).
+    Clock::time_point refusedDragEnds{};
     /// Fair-queueing tags, per class: the render time charged to the session, over its weight (virtual ms).
     std::array<double, kFrameClasses> tag{};
     uint64_t backloggedSince = 0;  ///< the order it last got a job waiting in: ties go to the longest waiting

@@ -591,12 +591,24 @@ describe("viewer", () => {
       assert.ok(held.counts.busy >= 1 && held.counts.busy <= 3, `${held.counts.busy} Busy replies in a 1 s drag`);
       assert.equal(held.counts.errors, start.counts.errors, "Busy is no error");
       assert.equal(held.counts.shown, start.counts.shown, "no moving frame meanwhile");
+      // Released while held: the exact frame is asked at once, not after the hint, and drawn as the drag's last.
+      await page.mouse.up();
+      const exact = await waitExact(page, held.newestId);
+      assert.ok(exact.newestSentAt < held.busyUntil, `asked at ${exact.newestSentAt}, held until ${held.busyUntil}`);
+      assert.equal(exact.lastStats.class, "interactive", JSON.stringify(exact.lastStats));
+      assert.equal(exact.banner, "", "the banner goes with the frame");
       await loaded;
-      // Once the TCP client has stopped, the page's drag is taken: its frames show and the banner goes.
-      const back = await H.waitForState(page, (st, n) => st.counts.shown > n && st.banner === "", 15000, held.counts.shown);
+      // Once the TCP client has stopped, the page's next drag is taken: its frames show.
+      await page.mouse.down();
+      for (let i = 1; i <= 5; ++i) await page.mouse.move(x0 + 60 - 4 * i, y0);
+      const back = await H.waitForState(
+        page,
+        (st, n) => st.counts.shown > n && st.lastFrame.phase === "drag",
+        15000,
+        exact.counts.shown,
+      );
       assert.equal(back.connection, "ready", "the session was kept throughout");
       await page.mouse.up();
-      await waitExact(page, back.newestId - 1);
       await page.close();
     } finally {
       if (load) load.kill("SIGKILL");

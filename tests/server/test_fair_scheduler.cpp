@@ -271,7 +271,8 @@ TEST_F(FairSchedulerTest, TheCapacityCountsTheThreadsTimeAfterEachFrame) {
 
 // A session's first moving camera is admitted only while fewer sessions drag than the capacity: beyond it the Render
 // is answered Busy with a retry hint and nothing is queued; a session already dragging drags on, and a still frame is
-// no drag. Once nobody drags, the late session may.
+// no drag (right after the refused one, it is the drag's last, which a viewer waits for on release). Once nobody
+// drags, the late session may.
 TEST_F(FairSchedulerTest, AFirstMoveBeyondCapacityIsBusyAndTheSessionsDraggingDragOn) {
   auto s = scheduler(1, {.maxInteractiveSessions = 2}, 0us, 0ns);
   auto a = std::make_shared<CountingSink>(), b = std::make_shared<CountingSink>(), late = std::make_shared<CountingSink>();
@@ -288,7 +289,9 @@ TEST_F(FairSchedulerTest, AFirstMoveBeyondCapacityIsBusyAndTheSessionsDraggingDr
   EXPECT_EQ(s->submit(a, job(5, 16, R"("interactive": true, )")).result, Submission::Result::Queued)
       << "a session dragging drags on";
   s->start();
-  EXPECT_EQ(late->await(1).size(), 1u);
+  ASSERT_EQ(late->await(1).size(), 1u);
+  EXPECT_EQ(statsOf(late->await(1)[0].second)["class"], "interactive")
+      << "a still frame right after a drag told Busy ends it, as a viewer's release does: served as a drag's last";
   EXPECT_EQ(a->await(1).size(), 1u);
   std::this_thread::sleep_for(RenderScheduler::kInteractiveWindow + 200ms);  // nobody drags any more
   EXPECT_EQ(s->submit(late, job(6, 18, R"("interactive": true, )")).result, Submission::Result::Queued);
@@ -648,8 +651,14 @@ TEST_F(CrowdServerTest, AFirstDragBeyondCapacityIsBusyAndTheSessionStays) {
     EXPECT_EQ(busy.code(), proto::ErrorCode::Busy) << busy.what();
     EXPECT_NE(std::string(busy.what()).find(said), std::string::npos) << busy.what();
     ASSERT_TRUE(proto::retryAfterMs(busy.what())) << busy.what();
-    EXPECT_NO_THROW(other.render(kCrowdScene + std::string("}"))) << "its still frames are drawn";
     EXPECT_NO_THROW(viewer.render(moving)) << "the session dragging drags on";
+    // Its still frames are drawn; the first, as its drag's last (a viewer's release while it waits out the hint):
+    // past the second after a drag, while the hint (2 s over capacity) runs.
+    if (said == "over capacity") std::this_thread::sleep_for(std::chrono::milliseconds(1100));
+    const proto::Frame released = other.render(kCrowdScene + std::string("}"));
+    EXPECT_EQ(nlohmann::json::parse(released.statsJson)["class"], "interactive") << released.statsJson;
+    const proto::Frame still = other.render(kCrowdScene + std::string("}"));
+    EXPECT_EQ(nlohmann::json::parse(still.statsJson)["class"], "still") << still.statsJson;
     std::this_thread::sleep_for(std::chrono::milliseconds(1200));  // nobody drags now
     EXPECT_NO_THROW(other.render(moving));
   }

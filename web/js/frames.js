@@ -99,8 +99,10 @@ export class FrameLoop {
   pump() {
     if (!this.connection || this.outstanding.size >= MAX_OUTSTANDING || !this.wanted) return;
     const held = this.holdUntil - performance.now();
-    if (held > 0) {
-      // A Busy reply's hint: asked when it has passed (a timer may fire a little early: then it waits again).
+    if (held > 0 && this.wanted.phase === "drag") {
+      // A Busy reply's hint: a moving camera is asked when it has passed (a timer may fire a little early: then it
+      // waits again). A still one, the exact frame a released drag waits for, goes now: the server takes it even
+      // when it takes no more dragging sessions.
       if (!this.holdTimer)
         this.holdTimer = setTimeout(() => {
           this.holdTimer = 0;

@@ -530,6 +530,8 @@ window.voxbrickViewer = {
     lastStats: loop.lastStats,
     lastScene: loop.newest ? loop.newest.scene : null,
     newestId: loop.newest ? loop.newest.id : 0,
+    newestSentAt: loop.newest ? loop.newest.sentAt : null, // performance.now() when the newest Render was sent
+    busyUntil: loop.holdUntil, // no moving camera is asked before this (a Busy reply's hint), performance.now()
     counts: { ...loop.counts },
     exactAfterReleaseMs: loop.exactAfterReleaseMs,
     notes: app.notes.slice(),
