@@ -8,49 +8,24 @@
 #   bash bench/run_cold_crowd.sh OLD_VOXBRICK NEW_VOXBRICK [--rounds 3] [--clients 40] [--duration 10] [--size 128]
 set -euo pipefail
 cd "$(dirname "$0")/.."
-[ $# -ge 2 ] || { echo "usage: bash bench/run_cold_crowd.sh OLD_VOXBRICK NEW_VOXBRICK [options]" >&2; exit 2; }
-old=$1 new=$2
-shift 2
 rounds=3 clients=40 duration=10 size=128
-while [ $# -gt 0 ]; do
-  case "$1" in
-    --rounds) rounds=$2; shift 2 ;;
-    --clients) clients=$2; shift 2 ;;
-    --duration) duration=$2; shift 2 ;;
-    --size) size=$2; shift 2 ;;
-    *) echo "run_cold_crowd.sh: unknown option $1" >&2; exit 2 ;;
-  esac
-done
+source bench/crowd_ab.sh
+crowd_ab_args run_cold_crowd.sh "$@"
 out=bench/results/server
-work=bench/work/cold-crowd
-mkdir -p "$out" "$work/data"
-export VOXBRICK_CONFIG_DIR=$PWD/config
-[ -f "$work/data/mri/store.json" ] || "$new" prep /usr/share/mricron/templates/ch2better.nii.gz -o "$work/data/mri" -q
-
-server=""
-trap '[ -n "$server" ] && kill "$server" 2> /dev/null || true' EXIT
+mkdir -p "$out"
+crowd_ab_setup bench/work/cold-crowd
 csv=$out/cold-crowd.csv
 {
-  tree="$(git rev-parse --short HEAD)$(git diff --quiet HEAD -- . ':!bench/results' || echo ' with uncommitted changes')"
-  echo "# $(date -u +%Y-%m-%d), $(nproc) cores, source tree $tree; old $old, new $new"
+  echo "# $(date -u +%Y-%m-%d), $(nproc) cores, source tree $(crowd_ab_tree); old $old, new $new"
   echo "# bash bench/run_cold_crowd.sh OLD NEW --rounds $rounds --clients $clients --duration $duration --size $size"
   echo "round,build,frames_per_s,fewest,median,most,starved,jain,latency_p50_ms,latency_p99_ms,busy,errors"
 } > "$csv"
 for r in $(seq 1 "$rounds"); do
   order="old new"; [ $((r % 2)) -eq 0 ] && order="new old"
   for build in $order; do
-    exe=$old; [ "$build" = new ] && exe=$new
-    rm -f "$work/port"
-    "$exe" serve --no-config --datasets "$work/data" --port 0 --port-file "$work/port" --render-threads 2 \
-      --max-sessions 256 > "$work/$build.log" 2>&1 &
-    server=$!
-    for _ in $(seq 600); do [ -s "$work/port" ] && break; sleep 0.1; done
-    "$new" load "127.0.0.1:$(cat "$work/port")" --dataset mri --tf mri --step 0.75 --clients "$clients" --drag 30 \
-      --interactive 50 --provisional-encoding jpeg --duration "$duration" --size "${size}x${size}" \
-      --json "$work/load.json" > /dev/null
-    kill "$server"
-    wait "$server" 2> /dev/null || true  # its status is that of the signal
-    server=""
+    crowd_ab_serve "$build"
+    crowd_ab_load "$clients" "$duration" "$work/load.json"
+    crowd_ab_stop
     python3 - "$work/load.json" "$r" "$build" >> "$csv" << 'EOF'
 import json, statistics, sys
 j = json.load(open(sys.argv[1]))

@@ -14,34 +14,15 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 [ $# -ge 2 ] || { sed -n 2,13p "$0"; exit 2; }
-old=$1 new=$2
-shift 2
 rounds=2 clients=80 duration=10 size=128
-while [ $# -gt 0 ]; do
-  case "$1" in
-    --rounds) rounds=$2; shift 2 ;;
-    --clients) clients=$2; shift 2 ;;
-    --duration) duration=$2; shift 2 ;;
-    --size) size=$2; shift 2 ;;
-    *) echo "run_crowd_admission.sh: unknown option $1" >&2; exit 2 ;;
-  esac
-done
+source bench/crowd_ab.sh
+crowd_ab_args run_crowd_admission.sh "$@"
 out=bench/results/server
-work=bench/work/crowd-admission
-mkdir -p "$out" "$work/data"
-export VOXBRICK_CONFIG_DIR=$PWD/config
-[ -f "$work/data/mri/store.json" ] || "$new" prep /usr/share/mricron/templates/ch2better.nii.gz -o "$work/data/mri" -q
-
-server=""
-trap '[ -n "$server" ] && kill "$server" 2> /dev/null || true' EXIT
-load() {  # PORT CLIENTS SECONDS JSON
-  "$new" load "127.0.0.1:$1" --dataset mri --tf mri --step 0.75 --clients "$2" --drag 30 --interactive 50 \
-    --provisional-encoding jpeg --duration "$3" --size "${size}x${size}" --json "$4" > /dev/null
-}
+mkdir -p "$out"
+crowd_ab_setup bench/work/crowd-admission
 csv=$out/crowd-admission.csv
 {
-  tree="$(git rev-parse --short HEAD)$(git diff --quiet HEAD -- . ':!bench/results' || echo ' with uncommitted changes')"
-  echo "# $(date -u +%Y-%m-%dT%H:%MZ), $(nproc) cores, $(lscpu | sed -n 's/^Model name: *//p' | head -1); source tree $tree; old $old, new $new"
+  echo "# $(date -u +%Y-%m-%dT%H:%MZ), $(nproc) cores, $(lscpu | sed -n 's/^Model name: *//p' | head -1); source tree $(crowd_ab_tree); old $old, new $new"
   echo "# bash bench/run_crowd_admission.sh OLD NEW --rounds $rounds --clients $clients --duration $duration --size $size"
   echo "round,build,scenario,capacity,admitted,admitted_in_first_s,slowest_fps,median_fps,jain,frames_per_s,latency_p50_ms,latency_p99_ms,busy,errors,render_busy_share"
 } > "$csv"
@@ -49,18 +30,10 @@ for r in $(seq 1 "$rounds"); do
   order="old new"; [ $((r % 2)) -eq 0 ] && order="new old"
   for scenario in cold warm; do
     for build in $order; do
-      exe=$old; [ "$build" = new ] && exe=$new
-      rm -f "$work/port"
-      "$exe" serve --no-config --datasets "$work/data" --port 0 --port-file "$work/port" --render-threads 2 \
-        --max-sessions 256 > "$work/$build.log" 2>&1 &
-      server=$!
-      for _ in $(seq 600); do [ -s "$work/port" ] && break; sleep 0.1; done
-      port=$(cat "$work/port")
-      [ "$scenario" = warm ] && load "$port" 4 3 "$work/warmup.json"
-      load "$port" "$clients" "$duration" "$work/load.json"
-      kill "$server"
-      wait "$server" 2> /dev/null || true  # its status is that of the signal
-      server=""
+      crowd_ab_serve "$build"
+      [ "$scenario" = warm ] && crowd_ab_load 4 3 "$work/warmup.json"
+      crowd_ab_load "$clients" "$duration" "$work/load.json"
+      crowd_ab_stop
       python3 - "$work/load.json" "$r" "$build" "$scenario" >> "$csv" << 'EOF'
 import json, statistics, sys
 j = json.load(open(sys.argv[1]))

@@ -70,17 +70,17 @@ json perClient(const Tally& tally, double seconds) {
   json out = json::array();
   for (size_t i = 0; i < tally.clients.size(); ++i) {
     const ClientFigures& c = tally.clients[i];
-    out.push_back({{"client", i},
-                   {"frames", c.frames},
-                   {"frames_per_s", double(c.frames) / seconds},
-                   {"first_frame_s", optionalNumber(c.firstFrameS)},
-                   // From its first frame to the end: a client let in late is judged by the time it was in.
-                   {"frames_per_s_since_first",
-                    c.firstFrameS && seconds - *c.firstFrameS > 0 ? json(double(c.frames) / (seconds - *c.firstFrameS))
-                                                                  : json()},
-                   {"latency_ms", {{"p50", percentile(c.latencies, 0.5)}, {"p99", percentile(c.latencies, 0.99)}}},
-                   {"busy", c.busy},
-                   {"errors", c.errors}});
+    out.push_back(
+        {{"client", i},
+         {"frames", c.frames},
+         {"frames_per_s", double(c.frames) / seconds},
+         {"first_frame_s", optionalNumber(c.firstFrameS)},
+         // From its first frame to the end: a client let in late is judged by the time it was in.
+         {"frames_per_s_since_first",
+          c.firstFrameS && seconds - *c.firstFrameS > 0 ? json(double(c.frames) / (seconds - *c.firstFrameS)) : json()},
+         {"latency_ms", {{"p50", percentile(c.latencies, 0.5)}, {"p99", percentile(c.latencies, 0.99)}}},
+         {"busy", c.busy},
+         {"errors", c.errors}});
   }
   return out;
 }

@@ -113,8 +113,8 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
       // threads to keep at min_interactive_fps, refused while as many drag as they can keep (or, before that is
       // measured, the cold bound). Decided here, under the lock that counts them, so that a crowd's first moves
       // arriving together are each counted before the next is decided.
-      const bool dragging = state.lastInteractive != Clock::time_point{} &&
-                            job.received - state.lastInteractive <= kInteractiveWindow;
+      const bool dragging =
+          state.lastInteractive != Clock::time_point{} && job.received - state.lastInteractive <= kInteractiveWindow;
       if (job.scene.interactive && !dragging)
         if (auto refusal = refuseDraggingLocked(Clock::now())) {
           // Until the hint has passed, and a second after, the session's next still Render is this drag's last
@@ -283,9 +283,9 @@ size_t RenderScheduler::interactiveCapacityLocked() const {
   // Over the last kCapacityWindow when it holds enough moving frames; else the moving frames' own recent mean.
   const size_t c = size_t(FrameClass::Interactive);
   if (mClassFrames[c] < kCapacityFrames || mClassMs[c] <= 0) return 0;
-  const double perMovingFrameMs =
-      mInteractiveEndsMoving >= kCapacityFrames ? std::max(mClassMs[c], mInteractiveEndsMs / double(mInteractiveEndsMoving))
-                                   : mClassMs[c];
+  const double perMovingFrameMs = mInteractiveEndsMoving >= kCapacityFrames
+                                      ? std::max(mClassMs[c], mInteractiveEndsMs / double(mInteractiveEndsMoving))
+                                      : mClassMs[c];
   return std::max<size_t>(
       1, size_t(kCapacityHeadroom * double(mSources.size()) * 1000 / (mConfig.minInteractiveFps * perMovingFrameMs)));
 }

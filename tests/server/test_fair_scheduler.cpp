@@ -275,7 +275,8 @@ TEST_F(FairSchedulerTest, TheCapacityCountsTheThreadsTimeAfterEachFrame) {
 // drags, the late session may.
 TEST_F(FairSchedulerTest, AFirstMoveBeyondCapacityIsBusyAndTheSessionsDraggingDragOn) {
   auto s = scheduler(1, {.maxInteractiveSessions = 2}, 0us, 0ns);
-  auto a = std::make_shared<CountingSink>(), b = std::make_shared<CountingSink>(), late = std::make_shared<CountingSink>();
+  auto a = std::make_shared<CountingSink>(), b = std::make_shared<CountingSink>(),
+       late = std::make_shared<CountingSink>();
   EXPECT_EQ(s->submit(a, job(1, 16, R"("interactive": true, )")).result, Submission::Result::Queued);
   EXPECT_EQ(s->submit(b, job(2, 17, R"("interactive": true, )")).result, Submission::Result::Queued);
   ASSERT_TRUE(s->refuseNewSession()) << "a new session is refused at Hello too";
@@ -301,8 +302,8 @@ TEST_F(FairSchedulerTest, AFirstMoveBeyondCapacityIsBusyAndTheSessionsDraggingDr
 
 // A crowd that comes before the capacity is measured (a cold server; every viewer reconnecting after a restart) is
 // not all let in: cold_interactive_sessions_per_thread sessions a thread drag, the others' first moves are Busy with
-// a hint of when the capacity will be measured. Before this bound, 80 clients dragging at once on two threads were all taken and got 2 frames a second
-// each, where the measured capacity was 37 (llvmpipe, 128x128).
+// a hint of when the capacity will be measured. Before this bound, 80 clients dragging at once on two threads were all
+// taken and got 2 frames a second each, where the measured capacity was 37 (llvmpipe, 128x128).
 TEST_F(FairSchedulerTest, BeforeTheCapacityIsMeasuredAFewSessionsAThreadMayDrag) {
   auto s = scheduler(2, {.coldInteractiveSessionsPerThread = 3}, 0us, 0ns);
   std::vector<std::shared_ptr<CountingSink>> sinks;
@@ -630,7 +631,6 @@ TEST_F(CrowdServerTest, ANewSessionBeyondCapacityIsBusy) {
   client::Client later("127.0.0.1", server->port());
   EXPECT_NO_THROW(later.hello("test"));
 }
-
 
 // Against the real server: a session's first moving camera beyond capacity is answered Busy with a retry hint, and
 // the session is kept (its still frames are drawn); once nobody drags, it may. Before the capacity is measured the
