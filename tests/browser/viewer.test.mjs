@@ -616,6 +616,33 @@ describe("viewer", () => {
     }
   });
 
+  test("still Renders past a frame-rate quota are waited out, not asked again at once", async () => {
+    const config = path.join(scratch.dir, "quota.toml");
+    fs.writeFileSync(config, "[quotas]\nframes_per_s_per_address = 2\n");
+    const quotaServer = await new H.Server({ dir: scratch.dir, datasets, config }).start();
+    try {
+      const page = await H.openPage(browser, `${quotaServer.url}/?dataset=sparse&${SIZE_PARAM}`);
+      const first = await waitExact(page);
+      const box = await (await page.$("#frame")).boundingBox();
+      await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+      for (let i = 0; i < 8; ++i) await page.mouse.wheel({ deltaY: 40 }); // eight views at once: past 2 a second
+      const done = await H.waitForState(
+        page,
+        (st, n) => st.counts.busy > 0 && st.lastFrame.id === st.newestId && !st.lastFrame.provisional && st.counts.shown > n,
+        15000,
+        first.counts.shown,
+      );
+      // Asked again at once, each refused still Render would have been followed by another within milliseconds
+      // until the quota had room (half a second): dozens of refusals.
+      assert.ok(done.counts.busy <= 4, `${done.counts.busy} Busy replies`);
+      assert.equal(done.counts.errors, first.counts.errors, "Busy is no error");
+      assert.equal(done.view.dist, (await H.viewerState(page)).view.dist, "the last view's frame is shown");
+      await page.close();
+    } finally {
+      await quotaServer.kill();
+    }
+  });
+
   test("the server killed shows the error state, and a restart reconnects to the same view", async () => {
     const page = await H.openPage(browser, `${server.url}/?dataset=ml&orbit=100,10,3&tf=hot&${SIZE_PARAM}`);
     await waitExact(page);

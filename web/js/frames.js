@@ -22,7 +22,8 @@ export class FrameLoop {
   /// encoding (absent: png); refused(error) -> true when the page changed what it asks (then the frame is asked
   /// again);
   /// shown(frame) after each frame drawn; failed(error) for an Error that is not handled; busy(error, ms) when a
-  /// Render was answered Busy, and no Render goes for `ms` (the server's hint, a fifth more at most).
+  /// Render was answered Busy, and none of its kind (moving, or any for a still one) goes for `ms` (the server's hint,
+  /// a fifth more at most).
   constructor(canvas, hooks) {
     this.canvas = canvas;
     this.ctx = canvas.getContext("2d", { alpha: false, colorSpace: "srgb" });
@@ -46,9 +47,11 @@ export class FrameLoop {
     this.wanted = null; // {cameraAt, phase}: a frame is wanted that was not asked for yet
     this.decodeSerial = 0;
     this.keyAskId = 0; // the Render that asked for a key frame last
-    // A Render answered Busy (the server over capacity for one more dragging session, or a quota): none is sent
-    // before this time (performance.now()), when the camera wanted then is asked.
+    // A Render answered Busy (the server over capacity for one more dragging session, or a quota): no moving camera
+    // is asked before holdUntil (performance.now()), and no camera at all before holdAllUntil (a still Render was
+    // refused: a quota); then the camera wanted is asked.
     this.holdUntil = 0;
+    this.holdAllUntil = 0;
     clearTimeout(this.holdTimer);
     this.holdTimer = 0;
     // A new connection is a new video stream, and a new dataset starts one with a key frame: the decoder starts over.
@@ -98,11 +101,11 @@ export class FrameLoop {
 
   pump() {
     if (!this.connection || this.outstanding.size >= MAX_OUTSTANDING || !this.wanted) return;
-    const held = this.holdUntil - performance.now();
-    if (held > 0 && this.wanted.phase === "drag") {
-      // A Busy reply's hint: a moving camera is asked when it has passed (a timer may fire a little early: then it
-      // waits again). A still one, the exact frame a released drag waits for, goes now: the server takes it even
-      // when it takes no more dragging sessions.
+    const held = (this.wanted.phase === "drag" ? this.holdUntil : this.holdAllUntil) - performance.now();
+    if (held > 0) {
+      // A Busy reply's hint: the camera is asked when it has passed (a timer may fire a little early: then it waits
+      // again). After a refused drag a still camera, the exact frame a release waits for, goes at once: the server
+      // takes it even when it takes no more dragging sessions.
       if (!this.holdTimer)
         this.holdTimer = setTimeout(() => {
           this.holdTimer = 0;
@@ -148,7 +151,10 @@ export class FrameLoop {
         // pages refused together do not all come back in the same instant), not at every move meanwhile.
         this.counts.busy++;
         const wait = Math.round(retryAfterMs(m.body.message) * (1 + 0.2 * Math.random()));
-        this.holdUntil = Math.max(this.holdUntil, performance.now() + wait);
+        const until = performance.now() + wait;
+        this.holdUntil = Math.max(this.holdUntil, until);
+        const refused = this.sent.get(m.requestId);
+        if (!refused || refused.phase !== "drag") this.holdAllUntil = Math.max(this.holdAllUntil, until);
         if (answersNewest && !this.wanted) this.wanted = { cameraAt: this.newest.cameraAt, phase: this.newest.phase };
         if (this.hooks.busy) this.hooks.busy(m.body, wait);
       } else {
