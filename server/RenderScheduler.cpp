@@ -113,9 +113,7 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
       // threads to keep at min_interactive_fps, refused while as many drag as they can keep (or, before that is
       // measured, the cold bound). Decided here, under the lock that counts them, so that a crowd's first moves
       // arriving together are each counted before the next is decided.
-      const bool dragging =
-          state.lastInteractive != Clock::time_point{} && job.received - state.lastInteractive <= kInteractiveWindow;
-      if (job.scene.interactive && !dragging)
+      if (job.scene.interactive && !state.draggingAt(job.received))
         if (auto refusal = refuseDraggingLocked(Clock::now())) {
           // Until the hint has passed, and a second after, the session's next still Render is this drag's last
           // (a viewer released it while waiting out the hint).
@@ -134,9 +132,7 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
       // A still frame right after a drag is the drag's last: a viewer waits for it. So is the first after a drag told
       // Busy (the session is not counted as dragging for it), until its hint and a second more have passed.
       job.endsDrag = !job.scene.interactive && !job.scene.batch &&
-                     ((state.lastInteractive != Clock::time_point{} &&
-                       job.received - state.lastInteractive <= kInteractiveWindow) ||
-                      job.received <= state.refusedDragEnds);
+                     (state.draggingAt(job.received) || job.received <= state.refusedDragEnds);
       state.refusedDragEnds = {};
       if (job.scene.interactive) state.lastInteractive = job.received;
     }
@@ -265,9 +261,7 @@ void RenderScheduler::refine(const std::shared_ptr<Sink>& sink, RenderJob job) {
 size_t RenderScheduler::interactiveSessionsLocked(Clock::time_point now) const {
   size_t count = 0;
   for (const auto& [key, state] : mSessions)
-    if (state.lastInteractive != Clock::time_point{} && now - state.lastInteractive <= kInteractiveWindow &&
-        !state.owner.expired())
-      ++count;
+    if (state.draggingAt(now) && !state.owner.expired()) ++count;
   return count;
 }
 

@@ -178,6 +178,10 @@ class RenderScheduler {
     Clock::time_point lastInteractive{};
     /// Its next still Render before this ends a drag that was answered Busy (admission).
     Clock::time_point refusedDragEnds{};
+    /// Whether it sent an interactive Render within kInteractiveWindow before `at` (it counts as dragging then).
+    bool draggingAt(Clock::time_point at) const {
+      return lastInteractive != Clock::time_point{} && at - lastInteractive <= kInteractiveWindow;
+    }
     /// Fair-queueing tags, per class: the render time charged to the session, over its weight (virtual ms).
     std::array<double, kFrameClasses> tag{};
     uint64_t backloggedSince = 0;  ///< the order it last got a job waiting in: ties go to the longest waiting

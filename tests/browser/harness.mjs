@@ -142,6 +142,13 @@ export class Server {
   }
 }
 
+/// A started Server over `datasets` configured by `toml` (written to `dir`/`name`.toml): a test's own limits.
+export function configuredServer(dir, datasets, name, toml) {
+  const config = path.join(dir, `${name}.toml`);
+  fs.writeFileSync(config, toml);
+  return new Server({ dir, datasets, config }).start();
+}
+
 /// A plain static server of web/ on another port: a page from another origin.
 export function staticServer(port) {
   const web = path.join(SOURCE_DIR, "web");

@@ -211,9 +211,7 @@ describe("viewer video stream", () => {
   test("a jpeg moving frame drawn smaller than the view comes at its drawn size and fills the canvas", async () => {
     // interactive_fps 1000: each moving frame's budget is the 10 ms floor, so the ladder draws it smaller than the
     // view; from protocol version 8 it travels at that size and the page draws it scaled onto the canvas.
-    const config = path.join(scratch.dir, "small-drawings.toml");
-    fs.writeFileSync(config, "[scheduler]\ninteractive_fps = 1000\n");
-    const busy = await new H.Server({ dir: scratch.dir, datasets, config }).start();
+    const busy = await H.configuredServer(scratch.dir, datasets, "small-drawings", "[scheduler]\ninteractive_fps = 1000\n");
     try {
       // Every drawImage onto a canvas, with its source's size.
       const page = await openPageWith(browser, `${busy.url}/?dataset=sparse&size=640x480&video=off`, () => {
@@ -281,10 +279,8 @@ describe("viewer video stream", () => {
     // 640x480 frame is encoded in; the stream goes smaller (docs/server.md, "Quality yields before latency"). (The
     // render threads' share leaves the drawing small too: stream_follows_drawing = false keeps the stream's size to
     // its link and encoders.)
-    const config = path.join(scratch.dir, "encoders-busy.toml");
-    fs.writeFileSync(config,
+    const busy = await H.configuredServer(scratch.dir, datasets, "encoders-busy",
       "[server]\nencode_threads = 1\n[scheduler]\ninteractive_fps = 1000\nstream_follows_drawing = false\n");
-    const busy = await new H.Server({ dir: scratch.dir, datasets, config }).start();
     try {
       const page = await H.openPage(browser, `${busy.url}/?dataset=sparse&size=640x480`);
       const start = await waitExact(page);

@@ -42,6 +42,14 @@ const footprint = (img) => {
 
 const waitExact = H.waitExact;
 
+/// One TCP client (`voxbrick load`) dragging the sparse store at 64x64 for 3 s against `server`: the process, and
+/// a promise of its exit.
+function tcpDragger(server) {
+  const load = H.spawnTied(H.VOXBRICK, ["load", `127.0.0.1:${server.tcpPort}`, "--dataset", "sparse", "--clients", "1",
+    "--size", "64x64", "--drag", "20", "--interactive", "50", "--duration", "3"], { stdio: "ignore" });
+  return { load, loaded: new Promise((resolve) => load.on("exit", resolve)) };
+}
+
 /// A page on `url` once its first exact frame is shown, with the pointer pressed at the frame's centre: the page, that
 /// first state and the centre.
 async function pressOnFrame(browser, url) {
@@ -537,13 +545,8 @@ describe("viewer", () => {
 
   test("a server over capacity answers Busy, and the page comes back after the server's hint", async () => {
     // One dragging session is all this server takes (max_interactive_sessions); a TCP client drags for 3 s.
-    const config = path.join(scratch.dir, "busy.toml");
-    fs.writeFileSync(config, "[scheduler]\nmax_interactive_sessions = 1\n");
-    const busyServer = await new H.Server({ dir: scratch.dir, datasets, config }).start();
-    const load = H.spawnTied(H.VOXBRICK, ["load", `127.0.0.1:${busyServer.tcpPort}`, "--dataset", "sparse",
-      "--clients", "1", "--size", "64x64", "--drag", "20", "--interactive", "50", "--duration", "3"],
-      { stdio: "ignore" });
-    const loaded = new Promise((resolve) => load.on("exit", resolve));
+    const busyServer = await H.configuredServer(scratch.dir, datasets, "busy", "[scheduler]\nmax_interactive_sessions = 1\n");
+    const { load, loaded } = tcpDragger(busyServer);
     try {
       await new Promise((r) => setTimeout(r, 700)); // its first moving frames
       const page = await H.openPage(browser, `${busyServer.url}/?dataset=sparse&${SIZE_PARAM}`);
@@ -568,16 +571,14 @@ describe("viewer", () => {
   test("a first drag beyond the server's capacity is answered Busy: the page waits out the hint, then drags", async () => {
     // The page is taken while nobody drags; then a TCP client drags for 3 s, and the page's drag is one too many for
     // a server that keeps one dragging session (max_interactive_sessions).
-    const config = path.join(scratch.dir, "busy-drag.toml");
-    fs.writeFileSync(config, "[scheduler]\nmax_interactive_sessions = 1\n");
-    const busyServer = await new H.Server({ dir: scratch.dir, datasets, config }).start();
+    const busyServer = await H.configuredServer(scratch.dir, datasets, "busy-drag",
+      "[scheduler]\nmax_interactive_sessions = 1\n");
     let load = null;
     try {
       const { page, start, x0, y0 } = await pressOnFrame(browser, `${busyServer.url}/?dataset=sparse&${SIZE_PARAM}`);
-      load = H.spawnTied(H.VOXBRICK, ["load", `127.0.0.1:${busyServer.tcpPort}`, "--dataset", "sparse",
-        "--clients", "1", "--size", "64x64", "--drag", "20", "--interactive", "50", "--duration", "3"],
-        { stdio: "ignore" });
-      const loaded = new Promise((resolve) => load.on("exit", resolve));
+      const dragger = tcpDragger(busyServer);
+      load = dragger.load;
+      const loaded = dragger.loaded;
       await new Promise((r) => setTimeout(r, 700)); // its first moving frames
       for (let i = 1; i <= 30; ++i) {
         await page.mouse.move(x0 + 2 * i, y0);
@@ -617,9 +618,7 @@ describe("viewer", () => {
   });
 
   test("still Renders past a frame-rate quota are waited out, not asked again at once", async () => {
-    const config = path.join(scratch.dir, "quota.toml");
-    fs.writeFileSync(config, "[quotas]\nframes_per_s_per_address = 2\n");
-    const quotaServer = await new H.Server({ dir: scratch.dir, datasets, config }).start();
+    const quotaServer = await H.configuredServer(scratch.dir, datasets, "quota", "[quotas]\nframes_per_s_per_address = 2\n");
     try {
       const page = await H.openPage(browser, `${quotaServer.url}/?dataset=sparse&${SIZE_PARAM}`);
       const first = await waitExact(page);

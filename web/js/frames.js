@@ -132,6 +132,7 @@ export class FrameLoop {
   reply(m) {
     m.arrivedAt = performance.now(); // for the figures: when the page got the reply
     const answersNewest = this.newest && m.requestId === this.newest.id;
+    let hint = null; // a Busy reply's retry hint, ms
     this.outstanding.delete(m.requestId);
     if (m.typeName === "Frame") {
       const request = this.sent.get(m.requestId);
@@ -146,11 +147,11 @@ export class FrameLoop {
         this.wanted = this.wanted || { cameraAt: this.newest.cameraAt, phase: this.newest.phase };
       } else if (m.body.code === ErrorCode.Superseded) {
         this.counts.superseded++; // a waiting camera replaced by a newer one: no error
-      } else if (m.body.code === ErrorCode.Busy && retryAfterMs(m.body.message) !== null) {
+      } else if (m.body.code === ErrorCode.Busy && (hint = retryAfterMs(m.body.message)) !== null) {
         // Not now: the camera is asked again after the server's hint (a fifth more at most, drawn at random, so that
         // pages refused together do not all come back in the same instant), not at every move meanwhile.
         this.counts.busy++;
-        const wait = Math.round(retryAfterMs(m.body.message) * (1 + 0.2 * Math.random()));
+        const wait = Math.round(hint * (1 + 0.2 * Math.random()));
         const until = performance.now() + wait;
         this.holdUntil = Math.max(this.holdUntil, until);
         const refused = this.sent.get(m.requestId);
