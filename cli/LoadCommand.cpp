@@ -8,6 +8,7 @@
 #include <mutex>
 #include <optional>
 #include <random>
+#include <set>
 #include <thread>
 
 #include <nlohmann/json.hpp>
@@ -234,10 +235,42 @@ void decodeVideo(image::FrameDecoder& decoder, const proto::Frame& frame, int in
   }
 }
 
+/// --drag-cycle's drags and rests of one client: DRAG seconds dragging, then REST resting, over and over from the
+/// run's start, shifted by a phase drawn for the client (seeded by its index: the same in every run), so that a crowd's
+/// drags begin and end at different times, as people's do. Empty: no cycle (false).
+class DragCycle {
+ public:
+  DragCycle(const std::vector<double>& dragRest, Clock::time_point start, int index) : mStart(start) {
+    if (dragRest.size() != 2) return;
+    mDragS = dragRest[0], mPeriodS = dragRest[0] + dragRest[1];
+    std::mt19937 rng(unsigned(4321 + index));
+    mPhaseS = std::uniform_real_distribution<double>(0, mPeriodS)(rng);
+  }
+  explicit operator bool() const { return mPeriodS > 0; }
+  /// The cycle `t` is in (counted from the run's start), and whether it drags then.
+  std::pair<int64_t, bool> at(Clock::time_point t) const {
+    const double s = seconds(t), k = std::floor(s / mPeriodS);
+    return {int64_t(k), s - k * mPeriodS < mDragS};
+  }
+  /// When the drag or rest under way at `t` ends.
+  Clock::time_point nextChange(Clock::time_point t) const {
+    const double s = seconds(t), into = s - std::floor(s / mPeriodS) * mPeriodS;
+    const double left = into < mDragS ? mDragS - into : mPeriodS - into;
+    return t + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(left));
+  }
+
+ private:
+  double seconds(Clock::time_point t) const { return std::chrono::duration<double>(t - mStart).count() + mPhaseS; }
+  Clock::time_point mStart;
+  double mDragS = 0, mPeriodS = 0, mPhaseS = 0;
+};
+
 /// A client dragging the camera: sends a new camera `hz` times a second without waiting, and reads frames as they
 /// come, both from one thread (the client is not thread-safe). Each frame's latency is the age of the camera it shows
 /// (an interactive request's first frame, provisional or not; the exact frame that may follow is counted apart).
 /// Superseded requests are counted, not errors; a Busy reply is counted and holds the next camera for its retry hint.
+/// With --drag-cycle the client drags and rests in turn, from a phase of its own; each drag's wait for its first frame
+/// is kept, and a drag that got none (Busy throughout) ends as a viewer's release does: with a still Render.
 void dragClient(const LoadArgs& a, const std::string& host, int port, int width, int height, int index,
                 Clock::time_point deadline, Tally& tally) {
   try {
@@ -250,21 +283,55 @@ void dragClient(const LoadArgs& a, const std::string& host, int port, int width,
     Clock::time_point hold;  // no request before this: a Busy reply's retry hint
     image::FrameDecoder decoder;
     bool wantKey = false;  // a video frame failed to decode: the next Render asks for a key frame
+    DragCycle cycle(a.dragCycle, tally.started, index);
+    std::optional<Clock::time_point> dragBegan;  // the drag under way's first camera, until its first frame comes
+    std::set<uint32_t> releases;                 // still Renders that ended drags refused throughout
     const auto readReply = [&] {
       auto [id, m] = c.receive();
-      if (const auto* frame = std::get_if<proto::Frame>(&m)) {
+      const auto* frame = std::get_if<proto::Frame>(&m);
+      if (frame) {
         c.frameReceived(id, *frame);  // so the server paces this session to what arrives (version 4 on)
         if (image::isVideoEncoding(frame->encoding)) decodeVideo(decoder, *frame, index, wantKey, tally);
       }
       std::optional<Clock::time_point> sentAt;
       if (const auto it = sent.find(id); it != sent.end()) sentAt = it->second, sent.erase(it);
+      if (releases.erase(id)) sentAt.reset();  // a release's frame is no moving one: counted as an exact frame
+      if (frame && dragBegan && sentAt && *sentAt >= *dragBegan) {
+        std::lock_guard lock(tally.mutex);
+        ClientFigures& mine = tally.clients[size_t(index)];
+        ++mine.dragsTaken;
+        mine.dragWaitsMs.push_back(std::chrono::duration<double, std::milli>(Clock::now() - *dragBegan).count());
+        dragBegan.reset();
+      }
       if (const auto wait = tallyDragReply(m, sentAt, index, batch, tally)) hold = Clock::now() + *wait;
     };
     const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / a.dragHz));
     auto next = Clock::now();
+    int64_t drag = -1;  // the cycle of the drag under way or last begun
     for (int n = 0;;) {
       const auto now = Clock::now();
       if (now >= deadline) break;
+      if (cycle) {
+        const auto [at, dragging] = cycle.at(now);
+        if (dragging && at != drag) {  // a drag begins
+          drag = at, dragBegan = now, next = now;
+        } else if (!dragging && dragBegan) {  // it ends without a frame: released as a viewer does
+          {
+            std::lock_guard lock(tally.mutex);
+            ++tally.clients[size_t(index)].dragsRefused;
+          }
+          dragBegan.reset();
+          const uint32_t id =
+              c.send(proto::RenderRequest{client::encodingNamed(a.encoding),
+                                          clientSceneJson(a, batch, width, height, 10.0 * index + 2.0 * (n - 1))});
+          sent[id] = now, releases.insert(id);
+        }
+        if (!dragging) {  // resting: the replies as they come until the next drag
+          const auto until = std::min(cycle.nextChange(now), deadline);
+          if (c.waitReadable(std::chrono::ceil<std::chrono::milliseconds>(until - now))) readReply();
+          continue;
+        }
+      }
       if (now >= next && now >= hold) {
         std::string scene = dragSceneJson(a, batch, width, height, 10.0 * index + 2.0 * n++);
         if (wantKey) {
@@ -278,7 +345,8 @@ void dragClient(const LoadArgs& a, const std::string& host, int port, int width,
         continue;
       }
       // Until the next camera is due, the replies as they come.
-      const auto until = std::min(std::max(next, hold), deadline);
+      auto until = std::min(std::max(next, hold), deadline);
+      if (cycle) until = std::min(until, cycle.nextChange(now));
       if (c.waitReadable(std::chrono::ceil<std::chrono::milliseconds>(until - now))) readReply();
     }
     // A last cheap request, so that the replies are read until every request has its first one.
@@ -451,6 +519,15 @@ void addLoadCommand(CLI::App& app) {
   cmd->add_flag("--vp9-444", a->vp9FullChroma,
                 "with --provisional-encoding vp9: the stream in 4:4:4 (accepts_vp9_444, protocol version 9; colour at "
                 "every pixel, more picture for its bytes)")
+      ->needs(drag);
+  cmd->add_option(
+         "--drag-cycle", a->dragCycle,
+         "with --drag: DRAG,REST seconds: each client drags DRAG seconds and rests REST, over and over, from a "
+         "phase of its own (people drag and let go); the report gives each drag's wait for its first frame "
+         "and the drags refused throughout (default: drag throughout)")
+      ->expected(2)
+      ->delimiter(',')
+      ->check(CLI::Range(0.05, 3600.0))
       ->needs(drag);
   cmd->add_flag("--batch", a->batch,
                 "the clients' scenes say \"batch\": true: work nobody watches as it happens, served after viewers' "

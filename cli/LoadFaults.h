@@ -28,6 +28,9 @@ struct LoadArgs {
   double interactiveMs = 0;
   std::string provisionalEncoding;
   bool vp9FullChroma = false;  ///< --vp9-444: the drags' scenes say accepts_vp9_444
+  /// --drag-cycle DRAG,REST: dragging clients drag DRAG seconds and rest REST, over and over, each from its own phase
+  /// (empty: they drag throughout).
+  std::vector<double> dragCycle;
   /// The good and dragging clients' scenes carry `"batch": true` (work nobody watches as it happens).
   bool batch = false;
   bool requireClean = false;

@@ -80,6 +80,9 @@ json perClient(const Tally& tally, double seconds) {
           c.firstFrameS && seconds - *c.firstFrameS > 0 ? json(double(c.frames) / (seconds - *c.firstFrameS)) : json()},
          {"latency_ms", {{"p50", percentile(c.latencies, 0.5)}, {"p99", percentile(c.latencies, 0.99)}}},
          {"busy", c.busy},
+         {"drags_taken", c.dragsTaken},
+         {"drags_refused", c.dragsRefused},
+         {"drag_wait_ms_max", c.dragWaitsMs.empty() ? json() : json(percentile(c.dragWaitsMs, 1.0))},
          {"errors", c.errors}});
   }
   return out;
@@ -97,6 +100,30 @@ json faultCounts(const Tally& tally, int64_t& unexpected) {
   }
   return faults;
 }
+
+namespace {
+
+/// --drag-cycle: the drags taken and refused in all, and the waits for their first frames; null without it.
+json dragCycleReport(const LoadArgs& a, const Tally& tally) {
+  if (a.dragCycle.size() != 2) return nullptr;
+  std::vector<double> waits;
+  int64_t taken = 0, refused = 0;
+  for (const ClientFigures& c : tally.clients) {
+    waits.insert(waits.end(), c.dragWaitsMs.begin(), c.dragWaitsMs.end());
+    taken += c.dragsTaken, refused += c.dragsRefused;
+  }
+  return {{"drag_s", a.dragCycle[0]},
+          {"rest_s", a.dragCycle[1]},
+          {"drags_taken", taken},
+          {"drags_refused", refused},
+          {"wait_ms",
+           {{"p50", percentile(waits, 0.5)},
+            {"p90", percentile(waits, 0.9)},
+            {"p99", percentile(waits, 0.99)},
+            {"max", percentile(waits, 1.0)}}}};
+}
+
+}  // namespace
 
 json loadReport(const LoadArgs& a, const Tally& tally, double seconds, int width, int height, const json& faults,
                 const json& server, const json& serverBefore, const json& scene) {
@@ -124,6 +151,7 @@ json loadReport(const LoadArgs& a, const Tally& tally, double seconds, int width
       {"protocol_version", tally.protocolVersion},
       {"scene", scene},
       {"drag_hz", a.dragHz},
+      {"drag_cycle", dragCycleReport(a, tally)},
       {"error_samples", tally.errorSamples},
       {"latency_ms",
        {{"p50", percentile(tally.latencies, 0.5)},
@@ -137,17 +165,16 @@ json loadReport(const LoadArgs& a, const Tally& tally, double seconds, int width
       {"drawn_scale", scaleSpread(tally.drawnScale)},
       {"sent_scale", scaleSpread(tally.sentScale)},
       // Interactive frames chosen by a known rate: their predicted and actual time, ms (medians).
-      {"interactive_ms",
-       tally.predictedMs.empty() ? json()
-                                 : json{{"predicted_p50", percentile(tally.predictedMs, 0.5)},
-                                        {"actual_p50", percentile(tally.actualMs, 0.5)}}},
-      {"video",
-       tally.videoFrames == 0 ? json()
-                              : json{{"frames", tally.videoFrames},
-                                     {"key_frames", tally.keyFrames},
-                                     {"frames_444", tally.fullChromaFrames},
-                                     {"decode_ms", {{"p50", percentile(tally.decodeMs, 0.5)},
-                                                    {"p99", percentile(tally.decodeMs, 0.99)}}}}},
+      {"interactive_ms", tally.predictedMs.empty() ? json()
+                                                   : json{{"predicted_p50", percentile(tally.predictedMs, 0.5)},
+                                                          {"actual_p50", percentile(tally.actualMs, 0.5)}}},
+      {"video", tally.videoFrames == 0
+                    ? json()
+                    : json{{"frames", tally.videoFrames},
+                           {"key_frames", tally.keyFrames},
+                           {"frames_444", tally.fullChromaFrames},
+                           {"decode_ms",
+                            {{"p50", percentile(tally.decodeMs, 0.5)}, {"p99", percentile(tally.decodeMs, 0.99)}}}}},
       {"render_ms_p50", percentile(tally.renderMs, 0.5)},
       // Over the orbit the clients turn through (warm frames): the slowest frame against the fastest.
       {"warm_render_ms", {{"min", percentile(tally.renderMsWarm, 0.0)}, {"max", percentile(tally.renderMsWarm, 1.0)}}},
@@ -178,6 +205,11 @@ void printSummary(const LoadArgs& a, const Tally& tally, double seconds, int64_t
   if (tally.videoFrames > 0)
     std::printf(", %lld video frames (%lld key), decoded in %.2f ms (p50)", (long long)tally.videoFrames,
                 (long long)tally.keyFrames, percentile(tally.decodeMs, 0.5));
+  if (const json cycle = dragCycleReport(a, tally); !cycle.is_null())
+    std::printf(", drags taken %lld (refused throughout %lld), first frame after p50 %.0f p99 %.0f max %.0f ms",
+                (long long)cycle["drags_taken"].get<int64_t>(), (long long)cycle["drags_refused"].get<int64_t>(),
+                cycle["wait_ms"]["p50"].get<double>(), cycle["wait_ms"]["p99"].get<double>(),
+                cycle["wait_ms"]["max"].get<double>());
   if (tally.batchRefused > 0)
     std::printf(", %lld clients sent no batch key (the server does not know it)", (long long)tally.batchRefused);
   std::printf("\n");

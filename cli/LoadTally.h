@@ -23,6 +23,10 @@ struct ClientFigures {
   /// at first) is judged by its frames a second from then.
   std::optional<double> firstFrameS;
   int64_t busy = 0;    ///< requests answered Busy (or LimitExceeded with a retry hint), waited out
+  /// --drag-cycle: its drags that got a frame, and how long after the drag's first camera the first came (ms, each);
+  /// its drags that ended without one (refused Busy throughout). A drag the run's end cut short is in neither.
+  int64_t dragsTaken = 0, dragsRefused = 0;
+  std::vector<double> dragWaitsMs;
   int64_t errors = 0;
   std::vector<double> latencies;  ///< ms, one per frame
 };

@@ -490,6 +490,8 @@ void Connection::apply(Outcome outcome, const RenderJob* from) {
     const auto received = outcome.render->received;
     Submission submission = refused ? std::move(*refused)
                                     : mServices.scheduler.submit(mTransport.renderSink(), std::move(*outcome.render));
+    if (!refused && submission.result == Submission::Result::Busy && mServices.renderNotTaken)
+      mServices.renderNotTaken(mId);
     if (submission.result == Submission::Result::Queued) mNewestRender = std::max(mNewestRender, received);
     apply(mServices.handler.submitted(mState, requestId, std::move(submission)));
   }

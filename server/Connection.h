@@ -46,6 +46,9 @@ struct SessionServices {
   std::function<std::optional<proto::Error>(ConnectionId)> greeted;
   /// Called for each Render before it is queued: none when the session's quotas have room, else the Busy refusal.
   std::function<std::optional<Submission>(ConnectionId)> renderQuota;
+  /// Called when a Render renderQuota let through was refused all the same (Busy: a first drag beyond capacity, batch
+  /// work over it): the frame it took goes back, so that a session waiting its turn does not spend its quota on it.
+  std::function<void(ConnectionId)> renderNotTaken;
   /// Runs a task of a frame of a class on the server's encoder threads (EncoderQueue: video frames, and still frames
   /// with encode_aside; Transport::runAside). Empty: on the calling thread.
   std::function<void(FrameClass, std::function<void()>)> aside;

@@ -77,6 +77,20 @@ double Quotas::refill(Bucket& bucket, double rate, Clock::time_point now) {
   return bucket.frames >= 1 ? 0 : (1 - bucket.frames) / rate * 1000;
 }
 
+void Quotas::returnFrame(ConnectionId id) {
+  std::lock_guard lock(mMutex);
+  const auto it = mSessions.find(id);
+  if (it == mSessions.end()) return;
+  const auto giveBack = [](Bucket& bucket, double rate) {
+    if (bucket.frames >= 0) bucket.frames = std::min(std::max(1.0, rate), bucket.frames + 1);
+  };
+  if (mConfig.framesPerSecondPerAddress > 0)
+    if (auto a = mAddresses.find(it->second.address); a != mAddresses.end())
+      giveBack(a->second.bucket, mConfig.framesPerSecondPerAddress);
+  if (it->second.tokenFrames > 0 && !it->second.token.empty())
+    if (auto t = mTokens.find(it->second.token); t != mTokens.end()) giveBack(t->second.bucket, it->second.tokenFrames);
+}
+
 std::optional<Quotas::Refusal> Quotas::takeFrame(ConnectionId id, Clock::time_point now) {
   std::lock_guard lock(mMutex);
   const auto it = mSessions.find(id);

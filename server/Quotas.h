@@ -39,6 +39,8 @@ class Quotas {
   /// A Render of session `id` at `now`: none when its address and token have room (one frame is taken from each),
   /// else the time until they do. A session not admitted here is held to nothing.
   std::optional<Refusal> takeFrame(ConnectionId id, Clock::time_point now = Clock::now());
+  /// Gives back the frame takeFrame took for a Render of session `id` that was refused after all (Busy).
+  void returnFrame(ConnectionId id);
 
  private:
   /// A frame rate as a token bucket holding a second's frames (at least one).

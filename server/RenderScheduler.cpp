@@ -113,8 +113,14 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
       // threads to keep at min_interactive_fps, refused while as many drag as they can keep (or, before that is
       // measured, the cold bound). Decided here, under the lock that counts them, so that a crowd's first moves
       // arriving together are each counted before the next is decided.
-      if (job.scene.interactive && !state.draggingAt(job.received))
-        if (auto refusal = refuseDraggingLocked(Clock::now())) {
+      // Sessions refused wait in line: room that opens goes to the one refused first, not to whoever asks first.
+      const auto now = Clock::now();
+      if (job.scene.interactive && !state.draggingAt(job.received)) {
+        const bool placed = state.inLineAt(now);
+        const size_t ahead = inLineLocked(now, placed ? state.linePlace : 0);
+        if (auto refusal = refuseDraggingLocked(now, ahead, ahead)) {
+          if (!placed) state.linePlace = ++mLineOrder;
+          state.lineUntil = now + std::chrono::milliseconds(refusal->retryAfterMs) + kLineGrace;
           // Until the hint has passed, and a second after, the session's next still Render is this drag's last
           // (a viewer released it while waiting out the hint).
           state.refusedDragEnds = job.received + std::chrono::milliseconds(refusal->retryAfterMs) + kInteractiveWindow;
@@ -124,6 +130,9 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
           out.why = std::move(refusal->why);
           return out;
         }
+      }
+      // Taken, or released (a still Render): its place in line goes.
+      state.linePlace = 0;
       if (state.lastReceived != Clock::time_point{}) {
         state.intervalsMs.push_back(elapsedMs(state.lastReceived, job.received));
         if (state.intervalsMs.size() > kRestIntervals) state.intervalsMs.pop_front();
@@ -289,31 +298,49 @@ size_t RenderScheduler::interactiveCapacity() const {
   return interactiveCapacityLocked();
 }
 
-std::optional<RenderScheduler::Refusal> RenderScheduler::refuseDraggingLocked(Clock::time_point now) const {
+size_t RenderScheduler::inLineLocked(Clock::time_point now, uint64_t before) const {
+  size_t count = 0;
+  for (const auto& [key, state] : mSessions)
+    if (state.inLineAt(now) && (before == 0 || state.linePlace < before) && !state.owner.expired()) ++count;
+  return count;
+}
+
+size_t RenderScheduler::waitingToDrag() const {
+  std::lock_guard lock(mMutex);
+  return inLineLocked(Clock::now());
+}
+
+std::optional<RenderScheduler::Refusal> RenderScheduler::refuseDraggingLocked(Clock::time_point now, size_t ahead,
+                                                                              std::optional<size_t> place) const {
   const size_t capacity = interactiveCapacityLocked(), dragging = interactiveSessionsLocked(now);
+  const std::string inLine = ahead > 0 ? " and " + std::to_string(ahead) + " wait ahead of this one" : std::string();
   if (capacity > 0) {
-    if (dragging < capacity) return std::nullopt;
-    // Dragging sessions count for kInteractiveWindow after their last move: a retry after it sees who still drags.
-    return Refusal{"the server is over capacity: " + std::to_string(dragging) +
-                       " sessions are dragging, as many as its render threads keep at their minimum rate",
-                   uint32_t(kInteractiveWindow.count() * 2)};
+    if (dragging + ahead < capacity) return std::nullopt;
+    // The first in line asks again soon (room opens as a drag ends: kInteractiveWindow after its last move); those
+    // behind later, a step a place.
+    const uint32_t hint =
+        place ? std::min(kLineStepMs * uint32_t(std::min<size_t>(*place + 1, 1000)), kOverCapacityHintMs)
+              : kOverCapacityHintMs;
+    return Refusal{"the server is over capacity: " + std::to_string(dragging) + " sessions are dragging" + inLine +
+                       ", as many as its render threads keep at their minimum rate",
+                   hint};
   }
   // Not measured yet: a cold server, or the first frames of a crowd that came at once. A few sessions a thread drag
   // meanwhile; the hint is when their frames will have measured it (the frames still to come at the predicted
   // cost, over the threads), at least 100 ms and at most a second.
   const size_t cold = size_t(std::max(0, mConfig.coldInteractiveSessionsPerThread)) * mSources.size();
-  if (cold == 0 || dragging < cold) return std::nullopt;
+  if (cold == 0 || dragging + ahead < cold) return std::nullopt;
   const uint64_t measured = mClassFrames[size_t(FrameClass::Interactive)];
   const double toCome = double(measured < kCapacityFrames ? kCapacityFrames - measured : 0);
   const double hint = toCome * predictedMsLocked(FrameClass::Interactive) / double(mSources.size());
-  return Refusal{"the server is measuring its capacity: " + std::to_string(dragging) +
-                     " sessions are dragging, as many as it takes before it knows what their frames cost",
+  return Refusal{"the server is measuring its capacity: " + std::to_string(dragging) + " sessions are dragging" +
+                     inLine + ", as many as it takes before it knows what their frames cost",
                  uint32_t(std::clamp(hint, 100.0, double(kInteractiveWindow.count())))};
 }
 
 std::optional<RenderScheduler::Refusal> RenderScheduler::refuseNewSession() const {
   std::lock_guard lock(mMutex);
-  return refuseDraggingLocked(Clock::now());
+  return refuseDraggingLocked(Clock::now(), 0, std::nullopt);
 }
 
 void RenderScheduler::fitToLoadLocked(RenderJob& job, Clock::time_point now) const {

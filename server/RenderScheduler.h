@@ -89,9 +89,15 @@ class RenderScheduler {
   /// Whether a new session may be taken now: none when it may. Refused while as many sessions drag as the capacity
   /// (max_interactive_sessions, or measured: the render threads' time over min_interactive_fps frames of the
   /// measured interactive frame cost), or before it is measured, as cold_interactive_sessions_per_thread times the
-  /// threads. submit() holds a session's first moving camera (none within kInteractiveWindow) to the same bound.
-  /// Thread-safe.
+  /// threads. submit() holds a session's first moving camera (none within kInteractiveWindow) to the same bound, and
+  /// in line: a session refused takes a place, and room that opens goes to the places in turn (a first move is taken
+  /// only while the sessions dragging and those waiting ahead of it leave room). Thread-safe.
   std::optional<Refusal> refuseNewSession() const;
+  /// The hint of a refused first move grows with its place in line: kLineStepMs for the first, at most
+  /// kOverCapacityHintMs (also a new session's at Hello: it has no place). A place is kept while the session asks again
+  /// within its hint and kLineGrace; a still Render gives it up (the drag was released).
+  static constexpr uint32_t kLineStepMs = 250, kOverCapacityHintMs = 2000;
+  static constexpr std::chrono::milliseconds kLineGrace{1000};
 
   /// The atlases of all render threads' sources, as each thread last saw them after a job.
   struct GpuGauges {
@@ -124,6 +130,8 @@ class RenderScheduler {
   uint64_t busyRenders() const { return mBusyRenders.load(); }
   /// Sessions' first moving cameras refused Busy (refuseNewSession's bound).
   uint64_t busyDrags() const { return mBusyDrags.load(); }
+  /// Sessions in line to drag: refused a first move, their place still held.
+  size_t waitingToDrag() const;
   /// Drops every waiting job, lets each thread finish the frame it is drawing (its reply is still delivered) and
   /// joins the threads. Idempotent; call it from any thread but a render thread.
   void stop();
@@ -163,8 +171,12 @@ class RenderScheduler {
   /// The dragging sessions the render threads can keep at min_interactive_fps: max_interactive_sessions, else
   /// measured; 0 before any interactive frame was measured (no limit yet). mMutex held.
   size_t interactiveCapacityLocked() const;
-  /// refuseNewSession's answer. mMutex held.
-  std::optional<Refusal> refuseDraggingLocked(Clock::time_point now) const;
+  /// Whether one more session may drag now: refused while the sessions dragging and `ahead` (those in line before
+  /// it: none for a new session at Hello, which has no place) fill the capacity, or the cold bound. `place`: the
+  /// session's place in line from 0 (its hint), none at Hello. mMutex held.
+  std::optional<Refusal> refuseDraggingLocked(Clock::time_point now, size_t ahead, std::optional<size_t> place) const;
+  /// The sessions in line to drag at `now`, those before place `before` (0: all). mMutex held.
+  size_t inLineLocked(Clock::time_point now, uint64_t before = 0) const;
   /// Delivers `reply` to the job's own session and to every session that rode along (followers).
   void deliver(const Taken& taken, RenderReply& reply, std::vector<Recipient>& followers);
 
@@ -178,6 +190,10 @@ class RenderScheduler {
     Clock::time_point lastInteractive{};
     /// Its next still Render before this ends a drag that was answered Busy (admission).
     Clock::time_point refusedDragEnds{};
+    /// Its place in line to drag (mLineOrder when it took it; 0: none), held until `lineUntil`.
+    uint64_t linePlace = 0;
+    Clock::time_point lineUntil{};
+    bool inLineAt(Clock::time_point at) const { return linePlace != 0 && at <= lineUntil; }
     /// Whether it sent an interactive Render within kInteractiveWindow before `at` (it counts as dragging then).
     bool draggingAt(Clock::time_point at) const {
       return lastInteractive != Clock::time_point{} && at - lastInteractive <= kInteractiveWindow;
@@ -199,6 +215,7 @@ class RenderScheduler {
   /// Sessions with a job waiting, each once (the owners are kept alive while their jobs wait).
   std::map<const Sink*, std::shared_ptr<Sink>> mBacklog;
   uint64_t mBacklogOrder = 0;
+  uint64_t mLineOrder = 0;  ///< the last place in line to drag given out
   /// Per class: the tag of the last session served in it (where a session that had nothing waiting starts again), jobs
   /// waiting and frames being drawn.
   std::array<double, kFrameClasses> mClassClock{};

@@ -252,6 +252,7 @@ Server::Impl::Impl(const ServerConfig& c, std::vector<std::unique_ptr<render::Fr
                         busy.quota = true;
                         return busy;
                       },
+                      [this](ConnectionId id) { quotas.returnFrame(id); },
                       [this](FrameClass cls, std::function<void()> task) { encoders.post(cls, std::move(task)); },
                       tokens,
                       [this](ConnectionId id, const TokenGrant& grant) {
@@ -414,8 +415,9 @@ std::optional<proto::Error> Server::Impl::greet(ConnectionId id) {
     stats.refused(Refusal::Sessions);
     return tooMany();
   }
-  // Over capacity: more sessions drag than the render threads can keep at their minimum rate.
-  if (const auto busy = scheduler.refuseNewSession()) {
+  // Over capacity, where so configured: more sessions drag than the render threads can keep at their minimum rate.
+  // Otherwise the session is taken, and its first drag waits in line.
+  if (const auto busy = config.scheduler.busyAtHello ? scheduler.refuseNewSession() : std::nullopt) {
     stats.refused(Refusal::Busy);
     return errorMessage(proto::ErrorCode::Busy, proto::busyMessage(busy->why, busy->retryAfterMs));
   }
@@ -505,6 +507,7 @@ ServerStats::Gauges Server::Impl::gauges() const {
   gauges.queuedSessions = scheduler.queuedSessions();
   gauges.draggingSessions = scheduler.interactiveSessions();
   gauges.interactiveCapacity = scheduler.interactiveCapacity();
+  gauges.waitingToDrag = scheduler.waitingToDrag();
   gauges.rendersCancelled = scheduler.cancelled();
   gauges.datasets = datasets.opened();
   gauges.renderThreads = config.renderThreads;

@@ -206,6 +206,7 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   scheduler.read("reserved_interactive_threads", sc.reservedInteractiveThreads);
   scheduler.read("batch_max_wait_ms", sc.batchMaxWaitMs);
   scheduler.read("max_interactive_sessions", sc.maxInteractiveSessions);
+  scheduler.read("busy_at_hello", sc.busyAtHello);
   scheduler.read("min_interactive_fps", sc.minInteractiveFps);
   scheduler.read("cold_interactive_sessions_per_thread", sc.coldInteractiveSessionsPerThread);
   scheduler.read("share_frames", sc.shareFrames);

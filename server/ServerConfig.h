@@ -41,10 +41,13 @@ struct SchedulerConfig {
   /// A batch Render whose expected wait (the measured cost of the work queued before it, over the threads' share for
   /// its class) exceeds this is answered Busy with that wait as its retry hint.
   double batchMaxWaitMs = 2000;
-  /// Sessions dragging at once beyond which a new session is answered Busy at Hello, and a session's first moving
-  /// camera (one not dragging within the last second) is answered Busy; 0: measured, as the render threads' time
-  /// over min_interactive_fps frames of the measured interactive frame cost per session.
+  /// Sessions dragging at once beyond which a session's first moving camera (one not dragging within the last second)
+  /// is answered Busy, and it waits in line; 0: measured, as the render threads' time over min_interactive_fps frames
+  /// of the measured interactive frame cost per session.
   int maxInteractiveSessions = 0;
+  /// A new session is also answered Busy at Hello (and closed) while the sessions dragging fill the capacity; false:
+  /// it is taken (its still frames are drawn) and waits in line at its first drag.
+  bool busyAtHello = false;
   double minInteractiveFps = 5;  ///< the rate the measured capacity keeps for every dragging session
   /// Before the capacity is measured (a cold server, a crowd arriving at once), at most this many sessions per render
   /// thread may drag; 0: no limit until it is measured.

@@ -130,6 +130,7 @@ json ServerStats::toJson(const Gauges& gauges) const {
             {"websocket", gauges.webSocketSessions},
             {"dragging", gauges.draggingSessions},
             {"interactive_capacity", gauges.interactiveCapacity},
+            {"waiting_to_drag", gauges.waitingToDrag},
             {"timed_out", total(ServerEvent::Timeout)},
             {"dropped_slow", total(ServerEvent::SlowClientDropped)}}},
           {"messages", total(ServerEvent::Message)},
@@ -219,6 +220,9 @@ std::string ServerStats::metricsText(const Gauges& gauges) const {
       "Sessions that may drag before a new session is answered Busy: max_interactive_sessions, else measured from "
       "what a moving frame costs the render threads; 0 until measured (no limit).",
       double(gauges.interactiveCapacity));
+  one("voxbrick_waiting_to_drag_sessions", Type::Gauge,
+      "Sessions whose first moving camera was answered Busy, in line to drag: room that opens goes to them in turn.",
+      double(gauges.waitingToDrag));
   event("voxbrick_sessions_accepted_total", "Connections whose Hello made them a session.",
         ServerEvent::SessionAccepted);
   m.family("voxbrick_refusals_total", Type::Counter,

@@ -2,12 +2,15 @@
 from one session with a server."""
 from __future__ import annotations
 
+import random
+import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, Dict, Iterable, Iterator, List, Optional, Sequence, Union
 
 import numpy as np
 
 from .arrays import as_volume
+from .errors import ErrorCode, ServerError
 from .images import decode_frame, scale_up
 from .protocol import MAX_VERSION, MIN_VERSION, Encoding, encoding_of
 from .scene import Camera, TransferFunction, build_scene
@@ -15,6 +18,8 @@ from .session import CLIENT_NAME, Capabilities, RawFrame, Session
 
 _DEFAULT_SIZE = (512, 512)  # a scene's size when it names none (render/core/Scene.h)
 _STILL_ENCODINGS = (Encoding.raw_rgba8, Encoding.png, Encoding.zstd_rgba8, Encoding.jpeg, Encoding.webp)
+_BUSY_HINT_MS = 100  # the wait after a Busy reply that names none
+_BUSY_JITTER = 1.2  # each wait is the hint times a random factor in [1, this]
 
 
 @dataclass
@@ -50,7 +55,8 @@ class Frame:
 
 
 def connect(address: str, token: Optional[str] = None, *, timeout: float = 120,
-            max_version: int = MAX_VERSION, ca: Optional[str] = None, insecure: bool = False) -> 'Client':
+            max_version: int = MAX_VERSION, ca: Optional[str] = None, insecure: bool = False,
+            busy_wait: float = 60) -> 'Client':
     """A session with the server at `address`.
 
     "HOST:PORT" is its TCP port (`voxbrick serve --port`), "tls://HOST:PORT" the same inside TLS (a server started
@@ -59,10 +65,13 @@ def connect(address: str, token: Optional[str] = None, *, timeout: float = 120,
     one of the server's `[[tokens]]`), given when the WebSocket opens, or over TCP by Authenticate (protocol version
     5). Over TLS the server's certificate is verified against `ca` (a PEM file of CAs) or the system's CAs, and must
     name the host; `insecure=True` takes any certificate (a self-signed one in local use). `timeout`: seconds any reply
-    may take. `max_version`: the highest protocol version offered (1 to 7; the session speaks the highest both sides
-    do). Raises ConnectionRefused (HTTP status and the server's words) for a refused upgrade, ServerError for a refused
-    Hello or token (Forbidden), TlsError for a certificate that does not verify, OSError when nothing listens."""
-    return Client(address, token=token, timeout=timeout, max_version=max_version, ca=ca, insecure=insecure)
+    may take. `max_version`: the highest protocol version offered (1 to 9; the session speaks the highest both sides
+    do). `busy_wait`: the seconds one call may spend waiting out the server's Busy replies to its Renders (see
+    Client); 0 raises the first. Raises ConnectionRefused (HTTP status and the server's words) for a refused upgrade,
+    ServerError for a refused Hello or token (Forbidden, or Busy: the server is over capacity), TlsError for a
+    certificate that does not verify, OSError when nothing listens."""
+    return Client(address, token=token, timeout=timeout, max_version=max_version, ca=ca, insecure=insecure,
+                  busy_wait=busy_wait)
 
 
 class Client:
@@ -70,11 +79,24 @@ class Client:
 
     Each call waits for its reply. An Error reply raises ServerError, whose `code` is the ErrorCode and `message` the
     server's words. The session has one open dataset at a time; the calls that take a dataset open it when it is not
-    the open one. Not for use from several threads at once."""
+    the open one. Not for use from several threads at once.
+
+    A Render the server answers Busy (over capacity: a first moving camera while as many sessions drag as it keeps, a
+    frame-rate quota, batch work) is sent again once the server's hint has passed ("; retry after N ms", 100 ms when
+    it names none), times a random factor from 1 to 1.2 so that clients refused together do not come back together.
+    The waits of one call (render, render_frame, frames, or one azimuth of orbit) add up to at most `busy_wait`
+    seconds: the Busy reply whose wait would pass that is raised as it came, a ServerError whose `retry_after_ms` is
+    the hint; busy_wait=0 raises the first. A session of protocol version 1 or 2 gets LimitExceeded with Busy's words,
+    waited out the same way. A Busy answering Hello (the server takes no more sessions now) ends the connection and is
+    raised by connect. `busy_waits` counts the Busy replies waited out."""
 
     def __init__(self, address: str, token: Optional[str] = None, *, timeout: float = 120,
                  min_version: int = MIN_VERSION, max_version: int = MAX_VERSION, client_name: str = CLIENT_NAME,
-                 ca: Optional[str] = None, insecure: bool = False):
+                 ca: Optional[str] = None, insecure: bool = False, busy_wait: float = 60):
+        if isinstance(busy_wait, bool) or not isinstance(busy_wait, (int, float)) or not busy_wait >= 0:
+            raise ValueError(f'busy_wait {busy_wait!r}: expected seconds, a number >= 0 (0: Busy raises at once)')
+        self.busy_wait = float(busy_wait)
+        self.busy_waits = 0  # Busy replies to Renders waited out
         self.session = Session(address, token, timeout=timeout, client_name=client_name, min_version=min_version,
                                max_version=max_version, ca=ca, insecure=insecure)
 
@@ -147,10 +169,11 @@ class Client:
         the server's memory drawn from a coarser level) or `interactive=True` (drawn within `time_budget_ms`, a
         camera in motion), a provisional frame first, then the exact one, which ends the iteration; otherwise the
         exact frame alone. `provisional_encoding` may be "png", "raw", "zstd" or "jpeg". Take every frame before the
-        session's next call: a newer Render makes the server drop an exact frame not yet started."""
+        session's next call: a newer Render makes the server drop an exact frame not yet started. A Busy reply is
+        waited out before the first frame (see Client: busy_wait)."""
         request = self._request(dataset, camera, tf, window, size, encoding, scene,
                                 dict(keys, progressive=progressive, interactive=interactive))
-        for raw in self.session.frames(self.session.send_render(*request)):
+        for raw in self._replies(request):
             yield self._frame(raw, request[0])
 
     def orbit(self, dataset: Optional[str] = None, *, steps: int = 36, azimuths: Optional[Iterable[float]] = None,
@@ -163,7 +186,9 @@ class Client:
 
         Still (the default): one exact frame per azimuth. `interactive=True`: the turn as a drag, each frame drawn
         within the scene's `time_budget_ms` (the server's default 100 ms, or time_budget_ms=...), one provisional
-        frame per azimuth, then the exact frame of the last one once the camera rests."""
+        frame per azimuth, then the exact frame of the last one once the camera rests. An azimuth answered Busy (a
+        server dragging as many sessions as it keeps) is asked again once the hint has passed, within `busy_wait`
+        seconds for each azimuth (see Client), so the orbit has all its frames or raises ServerError."""
         if azimuths is None:
             if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
                 raise ValueError(f'steps {steps!r}: expected a positive integer')
@@ -175,7 +200,7 @@ class Client:
         for i, azimuth in enumerate(azimuths):
             request = self._request(dataset, [azimuth, *orbit], tf, window, size, encoding, scene,
                                     dict(keys, interactive=True if interactive else None))
-            replies = self.session.frames(self.session.send_render(*request))
+            replies = self._replies(request)
             if not interactive:
                 for raw in replies:  # a still Render's exact frame (after a provisional one with progressive=True)
                     frame = self._frame(raw, request[0])
@@ -266,6 +291,39 @@ class Client:
                              'use png, raw, zstd, jpeg or webp')
         self._open(dataset)
         return built, encoding
+
+    def _replies(self, request: tuple) -> Iterator[RawFrame]:
+        """The Frames answering a Render of `request` (scene, encoding), as Session.frames gives them; a Busy reply
+        sends the same Render again after its hint, while the waits of this Render stay within busy_wait."""
+        waited = 0.0
+        while True:
+            replies = self.session.frames(self.session.send_render(*request))
+            try:
+                first = next(replies)  # Busy is a Render's only reply: decided before anything is drawn
+            except ServerError as e:
+                wait = self._busy_wait_of(e)
+                if wait is None or waited + wait > self.busy_wait:
+                    raise
+                time.sleep(wait)
+                waited += wait
+                self.busy_waits += 1
+                continue
+            yield first
+            yield from replies
+            return
+
+    def _busy_wait_of(self, error: ServerError) -> Optional[float]:
+        """The seconds to wait before asking again after `error`, or None when it is not a Busy reply to a Render. A
+        Busy with request id 0 (about the connection) has ended the session. Versions 1 and 2 get Busy's words, and
+        its hint, as LimitExceeded; other LimitExceeded replies name no hint."""
+        if error.request_id == 0:
+            return None
+        hint = error.retry_after_ms
+        if error.code == ErrorCode.Busy:
+            hint = _BUSY_HINT_MS if hint is None else hint
+        elif not (error.code == ErrorCode.LimitExceeded and self.session.version < 3 and hint is not None):
+            return None
+        return hint / 1000 * random.uniform(1, _BUSY_JITTER)
 
     @staticmethod
     def _frame(raw: RawFrame, scene: Dict[str, Any]) -> Frame:

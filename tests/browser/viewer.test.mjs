@@ -44,8 +44,8 @@ const waitExact = H.waitExact;
 
 /// One TCP client (`voxbrick load`) dragging the sparse store at 64x64 for 3 s against `server`: the process, and
 /// a promise of its exit.
-function tcpDragger(server) {
-  const load = H.spawnTied(H.VOXBRICK, ["load", `127.0.0.1:${server.tcpPort}`, "--dataset", "sparse", "--clients", "1",
+function tcpDragger(server, clients = 1) {
+  const load = H.spawnTied(H.VOXBRICK, ["load", `127.0.0.1:${server.tcpPort}`, "--dataset", "sparse", "--clients", `${clients}`,
     "--size", "64x64", "--drag", "20", "--interactive", "50", "--duration", "3"], { stdio: "ignore" });
   return { load, loaded: new Promise((resolve) => load.on("exit", resolve)) };
 }
@@ -544,8 +544,10 @@ describe("viewer", () => {
   });
 
   test("a server over capacity answers Busy, and the page comes back after the server's hint", async () => {
-    // One dragging session is all this server takes (max_interactive_sessions); a TCP client drags for 3 s.
-    const busyServer = await H.configuredServer(scratch.dir, datasets, "busy", "[scheduler]\nmax_interactive_sessions = 1\n");
+    // One dragging session is all this server takes (max_interactive_sessions), and while it is taken a new session
+    // is refused at Hello (busy_at_hello); a TCP client drags for 3 s.
+    const busyServer = await H.configuredServer(scratch.dir, datasets, "busy",
+      "[scheduler]\nmax_interactive_sessions = 1\nbusy_at_hello = true\n");
     const { load, loaded } = tcpDragger(busyServer);
     try {
       await new Promise((r) => setTimeout(r, 700)); // its first moving frames
@@ -569,25 +571,30 @@ describe("viewer", () => {
   });
 
   test("a first drag beyond the server's capacity is answered Busy: the page waits out the hint, then drags", async () => {
-    // The page is taken while nobody drags; then a TCP client drags for 3 s, and the page's drag is one too many for
-    // a server that keeps one dragging session (max_interactive_sessions).
+    // The page is taken while nobody drags; then eight TCP clients drag for 3 s, on a server that keeps one dragging
+    // session (max_interactive_sessions): one drags, the others wait in line, and the page's drag goes behind them.
     const busyServer = await H.configuredServer(scratch.dir, datasets, "busy-drag",
       "[scheduler]\nmax_interactive_sessions = 1\n");
     let load = null;
     try {
       const { page, start, x0, y0 } = await pressOnFrame(browser, `${busyServer.url}/?dataset=sparse&${SIZE_PARAM}`);
-      const dragger = tcpDragger(busyServer);
+      const dragger = tcpDragger(busyServer, 8);
       load = dragger.load;
       const loaded = dragger.loaded;
-      await new Promise((r) => setTimeout(r, 700)); // its first moving frames
+      await new Promise((r) => setTimeout(r, 700)); // their first moving frames and refusals
       for (let i = 1; i <= 30; ++i) {
         await page.mouse.move(x0 + 2 * i, y0);
         await new Promise((r) => setTimeout(r, 30));
       }
       const held = await H.viewerState(page);
-      assert.match(held.banner, /^The server is busy: the server is over capacity: 1 sessions are dragging/);
+      const ahead = /^The server is busy: the server is over capacity: 1 sessions are dragging and (\d+) wait ahead/
+        .exec(held.banner);
+      assert.ok(ahead && Number(ahead[1]) >= 5, held.banner);
+      // The hint grows a quarter second a place in line, to 2 s (a TCP client refused at Hello meanwhile comes back
+      // behind the page: those ahead may be fewer than seven).
+      const hint = Math.min(0.25 * (Number(ahead[1]) + 1), 2);
       const again = Number(/Asking again in (\d+\.\d) s/.exec(held.banner)[1]);
-      assert.ok(again >= 2 && again <= 2.4, `${held.banner}: the server's hint (2 s), a fifth more at most`);
+      assert.ok(again >= hint - 0.05 && again <= hint * 1.2 + 0.05, `${held.banner}: the server's hint (${hint} s), a fifth more at most`);
       // Asked at every move, a second of dragging would have sent some thirty Renders to be refused.
       assert.ok(held.counts.busy >= 1 && held.counts.busy <= 3, `${held.counts.busy} Busy replies in a 1 s drag`);
       assert.equal(held.counts.errors, start.counts.errors, "Busy is no error");

@@ -93,6 +93,42 @@ TEST_F(LoadTest, DraggingClientsTimeEachFrameFromItsCamera) {
   EXPECT_TRUE(r["jain_index"].is_number()) << r.dump();
 }
 
+// --drag-cycle: clients drag and rest in turn, each from its own phase; on a server that keeps one dragging session
+// their drags meet refusals, and the report gives each drag's wait for its first frame and the drags refused
+// throughout (ended by a still Render, as a viewer's release does: its frame is an exact one, not a moving frame).
+TEST_F(LoadTest, DraggingClientsInCyclesReportEachDragsWait) {
+  const auto config = scratch() / "one-drag.toml";
+  test::writeFile(config, "[scheduler]\nmax_interactive_sessions = 1\n");
+  mServer = std::make_unique<ServerProcess>(
+      "--datasets " + datasets() + " --render-threads 1 --config " + config.string(), scratch());
+  const json r = load("--clients 3 --duration 5 --drag 20 --interactive 50 --drag-cycle 0.6,1.2");
+  ASSERT_TRUE(r["drag_cycle"].is_object()) << r.dump();
+  const json& cycle = r["drag_cycle"];
+  EXPECT_EQ(cycle["drag_s"], 0.6);
+  EXPECT_EQ(cycle["rest_s"], 1.2);
+  int64_t taken = 0, refused = 0, cycles = 0;
+  for (const json& c : r["per_client"]) {
+    taken += c["drags_taken"].get<int64_t>();
+    refused += c["drags_refused"].get<int64_t>();
+    // 5 s of 1.8 s cycles: two drags at least began and ended, or got their first frame, within the run.
+    EXPECT_GE(c["drags_taken"].get<int64_t>() + c["drags_refused"].get<int64_t>(), 2) << c;
+    cycles += c["drags_taken"].get<int64_t>() > 0 ? 1 : 0;
+    if (c["drags_taken"].get<int64_t>() > 0) {
+      EXPECT_GT(c["drag_wait_ms_max"].get<double>(), 0) << c;
+      EXPECT_GT(c["frames"].get<int64_t>(), 0) << c;
+    }
+  }
+  EXPECT_EQ(cycle["drags_taken"].get<int64_t>(), taken);
+  EXPECT_EQ(cycle["drags_refused"].get<int64_t>(), refused);
+  EXPECT_GT(taken, 0);
+  EXPECT_GE(cycles, 2) << "the drags are spread over the clients: " << r["per_client"];
+  EXPECT_GT(r["busy"].get<int64_t>(), 0) << "three clients with drags a third of the time meet the one-session bound";
+  EXPECT_GE(cycle["wait_ms"]["max"].get<double>(), cycle["wait_ms"]["p50"].get<double>());
+  EXPECT_EQ(r["errors"], 0) << r["error_samples"];
+  // Without the option: null.
+  EXPECT_TRUE(load("--clients 1 --duration 0.3 --drag 20")["drag_cycle"].is_null());
+}
+
 // Moving frames in JPEG travel at the size they were drawn (protocol version 8): sent as large as drawn.
 TEST_F(LoadTest, DraggingClientsGetStillEncodedMovingFramesAtTheirDrawnSize) {
   const json r = load("--clients 1 --duration 1 --drag 20 --interactive 10 --size 256x256 --encoding png "

@@ -133,6 +133,31 @@ def render_cli(store: Path, scene: dict, out: Path) -> Path:
     return out
 
 
+class Scripted:
+    """A transport with a script in place of a server: `answer(header, fields)` gives the messages that answer each
+    message sent. No sockets: the session's side of a conversation, message by message."""
+
+    def __init__(self, answer):
+        self.answer, self.sent, self.inbox, self.closed = answer, [], [], False
+
+    def send(self, message: bytes) -> None:
+        from voxbrick.protocol import decode
+        header, fields = decode(message)
+        self.sent.append((header.type, header.request_id, fields))
+        self.inbox += list(self.answer(header, fields))
+
+    def receive(self, max_body: int):
+        from voxbrick.protocol import HEADER, decode_header
+        data = self.inbox.pop(0)
+        return decode_header(data[:HEADER.size], max_body), data[HEADER.size:]
+
+    def readable(self) -> bool:
+        return bool(self.inbox)
+
+    def close(self) -> None:
+        self.closed = True
+
+
 def openssl(*args: str, cwd: Path) -> None:
     result = subprocess.run(['openssl', *args], cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     assert result.returncode == 0, f'openssl {" ".join(args)}: {result.stdout}'

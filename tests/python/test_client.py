@@ -1,6 +1,10 @@
 """voxbrick.connect and the Client against the real server: every call, frames equal to `voxbrick render`'s, the
-server's own words in errors, versions, the WebSocket and its token."""
+server's own words in errors, versions, the WebSocket and its token, Busy replies waited out."""
 from __future__ import annotations
+
+import json
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -8,7 +12,8 @@ import pytest
 import voxbrick
 from voxbrick import ErrorCode, ServerError
 from voxbrick.images import decode_frame
-from conftest import TOKEN, Server, fresh, largest_difference, render_cli
+from voxbrick.protocol import Encoding, MessageType, encode
+from conftest import TOKEN, Scripted, Server, fresh, largest_difference, render_cli
 
 MRI_SCENE = dict(camera='left', tf='mri', size=(96, 80), shading=True)
 
@@ -246,3 +251,210 @@ def test_a_server_that_goes_away(datasets, work):
     c.close()  # closing a closed session is harmless
     with pytest.raises(ConnectionRefusedError):
         voxbrick.connect(s.address)
+
+
+# Busy replies to Renders, waited out (busy_wait).
+
+SMALL = dict(size=(32, 32), tf='hot')
+
+
+def configured_server(datasets, tmp_path, toml: str) -> Server:
+    """A server of its own whose server.toml is `toml`."""
+    config = tmp_path / 'server.toml'
+    config.write_text(toml)
+    return Server(datasets, tmp_path, extra=('--config', str(config)))
+
+
+class Dragger(threading.Thread):
+    """A session dragging the camera for `seconds` through `client`: an interactive Render of sparse about 20 times
+    a second, each waited for until its provisional frame. `dragging` is set at its first frame; `last_sent` is when
+    it sent its last Render (time.monotonic)."""
+
+    def __init__(self, client: voxbrick.Client, seconds: float):
+        super().__init__(daemon=True)
+        self.client, self.seconds = client, seconds
+        self.dragging = threading.Event()
+        self.last_sent = 0.0
+        self.frames = 0
+        self.error = None
+
+    def run(self) -> None:
+        try:
+            end = time.monotonic() + self.seconds
+            while time.monotonic() < end:
+                self.last_sent = time.monotonic()
+                first = next(iter(self.client.frames('sparse', camera=(5 * self.frames, 10), interactive=True,
+                                                     **SMALL)))
+                assert first.provisional
+                self.frames += 1
+                self.dragging.set()
+                time.sleep(0.05)
+        except BaseException as e:  # handed to the test's thread
+            self.error = e
+            self.dragging.set()
+
+    def finish(self) -> None:
+        self.join(30)
+        assert not self.is_alive()
+        if self.error is not None:
+            raise self.error
+        assert self.frames >= 5, f'the drag had {self.frames} frames'
+
+
+@pytest.fixture
+def one_drag_server(datasets, tmp_path):
+    """A server that keeps one dragging session (max_interactive_sessions): a second session's first moving camera is
+    Busy while the first drags (a new session is taken all the same: its still frames are drawn)."""
+    s = configured_server(datasets, tmp_path, '[scheduler]\nmax_interactive_sessions = 1\n')
+    yield s
+    s.stop()
+
+
+def test_a_drag_refused_busy_waits_its_turn(one_drag_server):
+    with voxbrick.connect(one_drag_server.address, busy_wait=0) as first:
+        dragger = Dragger(first, 1.5)
+        dragger.start()
+        assert dragger.dragging.wait(20)
+        second = voxbrick.connect(one_drag_server.address, busy_wait=10)  # taken while the other drags
+        second.info('sparse')
+        arrived = []
+        began = time.monotonic()
+        for frame in second.orbit(steps=3, elevation=10, interactive=True, **SMALL):
+            arrived.append((time.monotonic(), frame))
+        dragger.finish()
+        second.close()
+    frames = [frame for _, frame in arrived]
+    assert [f.provisional for f in frames] == [True, True, True, False]
+    assert [f.scene['camera']['orbit'] for f in frames] == [[0, 10], [120, 10], [240, 10], [240, 10]]
+    assert second.busy_waits >= 1, 'the first azimuth was refused while the other session dragged'
+    # Its drag was taken only once the other's had ended: a session drags for a second after its last move.
+    assert arrived[0][0] - dragger.last_sent > 0.9, (arrived[0][0] - dragger.last_sent, second.busy_waits)
+    assert arrived[-1][0] - began < 10
+
+
+def test_busy_wait_0_raises_a_refused_drag(one_drag_server):
+    with voxbrick.connect(one_drag_server.address, busy_wait=0) as first, \
+            voxbrick.connect(one_drag_server.address, busy_wait=0) as second:
+        second.info('sparse')
+        dragger = Dragger(first, 1.5)
+        dragger.start()
+        assert dragger.dragging.wait(20)
+        began = time.monotonic()
+        with pytest.raises(ServerError) as e:
+            list(second.orbit(steps=3, elevation=10, interactive=True, **SMALL))
+        assert time.monotonic() - began < 1, 'raised at once'
+        assert e.value.code == ErrorCode.Busy and e.value.request_id > 0
+        assert 'over capacity' in e.value.message and e.value.retry_after_ms > 0, e.value.message
+        assert second.busy_waits == 0
+        assert second.render(camera=(0, 10), **SMALL).shape == (32, 32, 4)  # the session goes on: its still frames
+        dragger.finish()
+
+
+def test_renders_past_a_frame_rate_quota_wait_their_turn(datasets, tmp_path):
+    # Two Renders a second from an address (loopback included: loopback_exempt is false by default), in a bucket of
+    # two: six Renders take at least two seconds from the first.
+    server = configured_server(datasets, tmp_path, '[quotas]\nframes_per_s_per_address = 2\n')
+    try:
+        with voxbrick.connect(server.address, busy_wait=10) as c:
+            c.info('sparse')
+            began = time.monotonic()
+            images = [c.render(camera=(30 * i, 10), **SMALL) for i in range(6)]
+            took = time.monotonic() - began
+            assert len({image.tobytes() for image in images}) == 6
+            assert 1.9 < took < 10, took
+            assert c.busy_waits >= 1
+        # busy_wait=0: the quota's Busy, as it came, and the session goes on once its hint has passed.
+        with voxbrick.connect(server.address, busy_wait=0) as c:
+            c.info('sparse')
+            with pytest.raises(ServerError) as e:
+                for i in range(6):
+                    c.render(camera=(30 * i, 10), **SMALL)
+            assert e.value.code == ErrorCode.Busy and e.value.request_id > 0
+            assert 'frames_per_s_per_address' in e.value.message and 0 < e.value.retry_after_ms <= 500, e.value.message
+            assert c.busy_waits == 0
+            time.sleep(e.value.retry_after_ms / 1000)
+            assert c.render(**SMALL).shape == (32, 32, 4)
+        # A version-2 session gets Busy's words as LimitExceeded: waited out the same way, or raised with busy_wait=0.
+        with voxbrick.connect(server.address, max_version=2, busy_wait=10) as old:
+            old.info('sparse')
+            assert len([old.render(camera=(30 * i, 10), **SMALL) for i in range(4)]) == 4
+            assert old.busy_waits >= 1
+        with voxbrick.connect(server.address, max_version=2, busy_wait=0) as old:
+            old.info('sparse')
+            with pytest.raises(ServerError) as e:
+                for i in range(6):
+                    old.render(camera=(30 * i, 10), **SMALL)
+            assert e.value.code == ErrorCode.LimitExceeded and e.value.retry_after_ms > 0, e.value.message
+    finally:
+        server.stop()
+
+
+def busy_script(monkeypatch, refusals, version=9, code=ErrorCode.Busy):
+    """A Client of `version` on a script that answers Renders with Error `code`, each message the next of `refusals`
+    (then a raw 2x2 Frame), and the sleeps it takes, recorded in place of sleeping."""
+    refusals = list(refusals)
+
+    def answer(header, fields):
+        t, rid = header.type, header.request_id
+        if t == MessageType.Hello:
+            yield encode(MessageType.Capabilities, rid, version, version=version, server='script',
+                         max_message_bytes=1 << 20, max_image_side=4096, max_queued_per_session=4,
+                         encodings=[Encoding.raw_rgba8])
+        elif t == MessageType.OpenDataset:
+            yield encode(MessageType.DatasetInfo, rid, version, name=fields['name'], meta_json='{}')
+        elif t == MessageType.Render and refusals:
+            yield encode(MessageType.Error, rid, version, code=code, message=refusals.pop(0))
+        elif t == MessageType.Render:
+            yield encode(MessageType.Frame, rid, version, width=2, height=2, encoding=Encoding.raw_rgba8,
+                         stats_json='{}', payload=bytes(16))
+
+    transport = Scripted(answer)
+    monkeypatch.setattr(voxbrick.session, 'open_transport', lambda *args: transport)
+    slept = []
+    monkeypatch.setattr(voxbrick.client.time, 'sleep', slept.append)
+    return transport, slept
+
+
+def test_busy_waits_on_a_script(monkeypatch):
+    def renders(t):
+        return [json.loads(fields['scene_json']) for kind, _, fields in t.sent if kind == MessageType.Render]
+
+    # The hint times a factor in [1, 1.2]; 100 ms when the message names none; the same Render each time.
+    t, slept = busy_script(monkeypatch, ['over capacity; retry after 300 ms', 'over capacity', 'quota; retry after '
+                                         '1 ms'])
+    c = voxbrick.Client('127.0.0.1:1', busy_wait=5)
+    assert c.render('x', camera=(10, 20), size=(2, 2), encoding='raw').shape == (2, 2, 4)
+    assert len(slept) == 3 and c.busy_waits == 3
+    assert 0.3 <= slept[0] <= 0.36 and 0.1 <= slept[1] <= 0.12 and 0.001 <= slept[2] <= 0.0012, slept
+    assert len({round(w / hint, 9) for w, hint in zip(slept, (0.3, 0.1, 0.001))}) == 3, 'a random factor each'
+    assert renders(t) == [{'camera': {'orbit': [10, 20]}, 'size': [2, 2]}] * 4
+    # Waits stop short of busy_wait: the refusal whose wait would pass it is raised as it came. Each call has its own.
+    t, slept = busy_script(monkeypatch, ['busy; retry after 400 ms'] * 3)
+    c = voxbrick.Client('127.0.0.1:1', busy_wait=1)
+    with pytest.raises(ServerError) as e:
+        c.render('x', size=(2, 2), encoding='raw')
+    assert e.value.message == 'busy; retry after 400 ms' and e.value.retry_after_ms == 400
+    assert len(slept) == 2 and sum(slept) <= 1 and c.busy_waits == 2
+    assert c.render(size=(2, 2), encoding='raw').shape == (2, 2, 4)  # the next call waits its own second
+    assert len(slept) == 2
+    # busy_wait=0 raises the first.
+    t, slept = busy_script(monkeypatch, ['busy; retry after 1 ms'])
+    c = voxbrick.Client('127.0.0.1:1', busy_wait=0)
+    with pytest.raises(ServerError):
+        c.render('x', size=(2, 2), encoding='raw')
+    assert slept == [] and c.busy_waits == 0
+    # Version 2: LimitExceeded with a hint is Busy's; without one (a frame above the limit, say) it is raised.
+    t, slept = busy_script(monkeypatch, ['busy; retry after 50 ms', 'frame above the limit'], version=2,
+                           code=ErrorCode.LimitExceeded)
+    c = voxbrick.Client('127.0.0.1:1', max_version=2)
+    with pytest.raises(ServerError, match='LimitExceeded: frame above the limit'):
+        c.render('x', size=(2, 2), encoding='raw')
+    assert len(slept) == 1 and 0.05 <= slept[0] <= 0.06
+    # ... and from version 3 on LimitExceeded is never Busy; nor is any other error.
+    for code in (ErrorCode.LimitExceeded, ErrorCode.Internal, ErrorCode.Superseded):
+        t, slept = busy_script(monkeypatch, ['no; retry after 50 ms'], code=code)
+        with pytest.raises(ServerError) as e:
+            voxbrick.Client('127.0.0.1:1').render('x', size=(2, 2), encoding='raw')
+        assert e.value.code == code and slept == []
+    with pytest.raises(ValueError, match='busy_wait -1'):
+        voxbrick.Client('127.0.0.1:1', busy_wait=-1)

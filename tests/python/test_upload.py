@@ -19,9 +19,9 @@ import pytest
 
 import voxbrick
 from voxbrick import ErrorCode, ServerError
-from voxbrick.protocol import HEADER, MAGIC, Encoding, MessageType, decode, decode_header, encode
+from voxbrick.protocol import HEADER, MAGIC, Encoding, MessageType, encode
 from voxbrick.session import Session
-from conftest import TOKEN, Server, largest_difference, render_cli, run_voxbrick, voxbrick_exe
+from conftest import TOKEN, Scripted, Server, largest_difference, render_cli, run_voxbrick, voxbrick_exe
 
 UPLOADER = 'uploader-Secret_1'  # may upload, and open, datasets named up-*
 VIEWER = 'viewer-Secret_2'  # opens every dataset, may not upload
@@ -510,29 +510,6 @@ def test_view_of_an_array_uploads_it_first(up):
     with pytest.raises(ValueError, match="camera 'front'"):
         voxbrick.view(a, server=server.viewer, token=TOKEN, name='up-never', camera='front')
     assert settles(folder, sorted(before + ['up-view', v.dataset])) == sorted(before + ['up-view', v.dataset])
-
-
-class Scripted:
-    """A transport with a script in place of a server: `answer(header, fields)` gives the messages that answer each
-    message sent. No sockets: the session's side of an upload, message by message."""
-
-    def __init__(self, answer):
-        self.answer, self.sent, self.inbox, self.closed = answer, [], [], False
-
-    def send(self, message: bytes) -> None:
-        header, fields = decode(message)
-        self.sent.append((header.type, header.request_id, fields))
-        self.inbox += list(self.answer(header, fields))
-
-    def receive(self, max_body: int):
-        data = self.inbox.pop(0)
-        return decode_header(data[:HEADER.size], max_body), data[HEADER.size:]
-
-    def readable(self) -> bool:
-        return bool(self.inbox)
-
-    def close(self) -> None:
-        self.closed = True
 
 
 def scripted_session(monkeypatch, chunk_bytes=4, fail_chunk=None, forbid_upload=False):

@@ -133,6 +133,7 @@ class ConnectionTest : public ::testing::Test {
                            {},
                            {},
                            {},
+                           {},
                            {}};
   std::shared_ptr<FakeTransport> transport = std::make_shared<FakeTransport>();
   Connection core{*transport, services, ConnectionId{7}, "test:1"};

@@ -282,8 +282,9 @@ TEST_F(FairSchedulerTest, AFirstMoveBeyondCapacityIsBusyAndTheSessionsDraggingDr
   ASSERT_TRUE(s->refuseNewSession()) << "a new session is refused at Hello too";
   const Submission refused = s->submit(late, job(3, 18, R"("interactive": true, )"));
   ASSERT_EQ(refused.result, Submission::Result::Busy);
-  EXPECT_EQ(refused.retryAfterMs, 2000u);
+  EXPECT_EQ(refused.retryAfterMs, RenderScheduler::kLineStepMs) << "the first in line";
   EXPECT_NE(refused.why.find("over capacity: 2 sessions are dragging"), std::string::npos) << refused.why;
+  EXPECT_EQ(s->refuseNewSession()->retryAfterMs, RenderScheduler::kOverCapacityHintMs) << "no place at Hello";
   EXPECT_FALSE(refused.quota);
   EXPECT_EQ(s->busyDrags(), 1u);
   EXPECT_EQ(s->submit(late, job(4, 18)).result, Submission::Result::Queued) << "a still frame is no drag";
@@ -297,6 +298,49 @@ TEST_F(FairSchedulerTest, AFirstMoveBeyondCapacityIsBusyAndTheSessionsDraggingDr
   std::this_thread::sleep_for(RenderScheduler::kInteractiveWindow + 200ms);  // nobody drags any more
   EXPECT_EQ(s->submit(late, job(6, 18, R"("interactive": true, )")).result, Submission::Result::Queued);
   EXPECT_EQ(s->busyDrags(), 1u);
+  s->stop();
+}
+
+// Room that opens goes to the sessions refused, in the order they were refused, not to whoever asks first: a session
+// asking while those ahead of it hold their places is Busy, with a hint a step longer for each place. A place is held
+// while its session asks again within its hint and kLineGrace, and given up by a still Render (the drag released).
+// Before the line, a session refused waited out its 2 s hint while one that came later, or came back, took the room.
+TEST_F(FairSchedulerTest, RoomThatOpensGoesToTheSessionsInLineInTurn) {
+  auto s = scheduler(1, {.maxInteractiveSessions = 1}, 0us, 0ns);
+  const std::string moving = R"("interactive": true, )";
+  auto a = std::make_shared<CountingSink>(), b = std::make_shared<CountingSink>(), c = std::make_shared<CountingSink>(),
+       d = std::make_shared<CountingSink>();
+  ASSERT_EQ(s->submit(a, job(1, 16, moving)).result, Submission::Result::Queued);
+  std::vector<uint32_t> hints;
+  for (const auto& sink : {b, c, d}) {
+    const Submission out = s->submit(sink, job(2, 16, moving));
+    ASSERT_EQ(out.result, Submission::Result::Busy);
+    hints.push_back(out.retryAfterMs);
+  }
+  const uint32_t step = RenderScheduler::kLineStepMs;
+  EXPECT_EQ(hints, (std::vector<uint32_t>{step, 2 * step, 3 * step})) << "the hint grows with the place";
+  EXPECT_EQ(s->waitingToDrag(), 3u);
+  // Asking again keeps the place (and its hint).
+  std::this_thread::sleep_for(600ms);
+  for (const auto& sink : {d, c, b}) EXPECT_EQ(s->submit(sink, job(3, 16, moving)).result, Submission::Result::Busy);
+  std::this_thread::sleep_for(RenderScheduler::kInteractiveWindow - 600ms + 200ms);  // a's drag is over: room for one
+  ASSERT_EQ(s->interactiveSessions(), 0u);
+  auto newcomer = std::make_shared<CountingSink>();
+  const Submission late = s->submit(newcomer, job(4, 16, moving));
+  EXPECT_EQ(late.result, Submission::Result::Busy) << "a newcomer goes behind the line";
+  EXPECT_NE(late.why.find("3 wait ahead of this one"), std::string::npos) << late.why;
+  const Submission third = s->submit(d, job(5, 16, moving));
+  EXPECT_EQ(third.result, Submission::Result::Busy) << "the room is the first's";
+  EXPECT_EQ(third.retryAfterMs, 3 * step);
+  EXPECT_EQ(s->submit(c, job(6, 16, moving)).result, Submission::Result::Busy);
+  EXPECT_EQ(s->submit(b, job(7, 16, moving)).result, Submission::Result::Queued) << "the first in line drags";
+  EXPECT_EQ(s->waitingToDrag(), 3u) << "c, d and the newcomer";
+  EXPECT_EQ(s->submit(d, job(8, 16)).result, Submission::Result::Queued);
+  EXPECT_EQ(s->waitingToDrag(), 2u) << "a still Render gives the place up";
+  // A place not asked for within its hint and the grace lapses (the newcomer's hint, the fourth place's, is longest).
+  std::this_thread::sleep_for(std::chrono::milliseconds(4 * step) + RenderScheduler::kLineGrace + 200ms);
+  EXPECT_EQ(s->waitingToDrag(), 0u);
+  EXPECT_EQ(s->busyDrags(), 9u);
   s->stop();
 }
 
@@ -563,6 +607,14 @@ TEST(Quotas, FramesPerSecondAreABucketOfOneSecond) {
   EXPECT_NE(refused->why.find("frames_per_s_per_address"), std::string::npos) << refused->why;
   EXPECT_FALSE(q.takeFrame({2}, t0 + 260ms));
   EXPECT_FALSE(q.takeFrame({7}, t0)) << "a session the quotas never admitted is held to nothing";
+  // A frame given back (its Render refused after all) may be taken again, up to the bucket's second.
+  ASSERT_TRUE(q.takeFrame({1}, t0 + 260ms));
+  q.returnFrame({2});
+  EXPECT_FALSE(q.takeFrame({1}, t0 + 260ms));
+  ASSERT_TRUE(q.takeFrame({1}, t0 + 260ms));
+  for (int i = 0; i < 10; ++i) q.returnFrame({1});
+  for (int i = 0; i < 4; ++i) EXPECT_FALSE(q.takeFrame({1}, t0 + 260ms)) << i;
+  EXPECT_TRUE(q.takeFrame({1}, t0 + 260ms)) << "no more than the bucket holds";
 }
 
 TEST(Quotas, LoopbackMayBeExempt) {
@@ -612,10 +664,41 @@ TEST_F(CrowdServerTest, QuotasFromServerTomlHold) {
   EXPECT_NO_THROW(a.render(kCrowdScene + std::string("}"))) << "the quota has room again after the hint";
 }
 
-// Beyond capacity (max_interactive_sessions sessions dragging) a new session gets Busy at Hello with a retry hint
-// and is closed; the session already dragging is served on.
-TEST_F(CrowdServerTest, ANewSessionBeyondCapacityIsBusy) {
-  auto server = start("[scheduler]\nmax_interactive_sessions = 1\n");
+// A Render the quota let through but the scheduler refused (a first drag beyond capacity, asked again each hint while
+// the session waits in line) gives its frame back: waiting one's turn does not spend the address' quota. Before, the
+// second refused drag was already refused by the quota, and the session's still frame too.
+TEST_F(CrowdServerTest, ADragRefusedBeyondCapacitySpendsNoQuota) {
+  auto server = start("[quotas]\nframes_per_s_per_address = 2\n[scheduler]\nmax_interactive_sessions = 1\n");
+  const std::string moving = kCrowdScene + std::string(R"(, "interactive": true})");
+  client::Client viewer("127.0.0.1", server->port()), other("127.0.0.1", server->port());
+  viewer.hello("test");
+  other.hello("test");
+  viewer.openDataset("sparse");
+  other.openDataset("sparse");
+  viewer.render(moving);  // one of the address' 2 frames this second
+  for (int i = 0; i < 5; ++i) {
+    const client::ServerError busy = test::serverErrorOf([&] { other.render(moving); });
+    EXPECT_EQ(busy.code(), proto::ErrorCode::Busy) << busy.what();
+    EXPECT_NE(std::string(busy.what()).find("over capacity"), std::string::npos) << i << ": " << busy.what();
+  }
+  EXPECT_NO_THROW(other.render(kCrowdScene + std::string("}"))) << "the address' second frame is still there";
+}
+
+// Beyond capacity (max_interactive_sessions sessions dragging) a new session is taken (its still frames are drawn;
+// its first drag waits in line); with busy_at_hello it gets Busy at Hello with a retry hint and is closed. The session
+// already dragging is served on.
+TEST_F(CrowdServerTest, ANewSessionBeyondCapacityIsBusyAtHelloWhereSoConfigured) {
+  {
+    auto server = start("[scheduler]\nmax_interactive_sessions = 1\n");
+    client::Client viewer("127.0.0.1", server->port()), late("127.0.0.1", server->port());
+    viewer.hello("test");
+    viewer.openDataset("sparse");
+    viewer.render(kCrowdScene + std::string(R"(, "interactive": true})"));
+    EXPECT_NO_THROW(late.hello("test"));
+    late.openDataset("sparse");
+    EXPECT_NO_THROW(late.render(kCrowdScene + std::string("}")));
+  }
+  auto server = start("[scheduler]\nmax_interactive_sessions = 1\nbusy_at_hello = true\n");
   client::Client viewer("127.0.0.1", server->port());
   viewer.hello("test");
   viewer.openDataset("sparse");
@@ -651,12 +734,14 @@ TEST_F(CrowdServerTest, AFirstDragBeyondCapacityIsBusyAndTheSessionStays) {
     EXPECT_EQ(busy.code(), proto::ErrorCode::Busy) << busy.what();
     EXPECT_NE(std::string(busy.what()).find(said), std::string::npos) << busy.what();
     ASSERT_TRUE(proto::retryAfterMs(busy.what())) << busy.what();
+    EXPECT_EQ(nlohmann::json::parse(viewer.stats())["sessions"]["waiting_to_drag"], 1) << "in line";
     EXPECT_NO_THROW(viewer.render(moving)) << "the session dragging drags on";
     // Its still frames are drawn; the first, as its drag's last (a viewer's release while it waits out the hint):
-    // past the second after a drag, while the hint (2 s over capacity) runs.
-    if (said == "over capacity") std::this_thread::sleep_for(std::chrono::milliseconds(1100));
+    // past the hint (250 ms, the first in line) and within a second after it.
+    if (said == "over capacity") std::this_thread::sleep_for(std::chrono::milliseconds(600));
     const proto::Frame released = other.render(kCrowdScene + std::string("}"));
     EXPECT_EQ(nlohmann::json::parse(released.statsJson)["class"], "interactive") << released.statsJson;
+    EXPECT_EQ(nlohmann::json::parse(viewer.stats())["sessions"]["waiting_to_drag"], 0) << "released: out of line";
     const proto::Frame still = other.render(kCrowdScene + std::string("}"));
     EXPECT_EQ(nlohmann::json::parse(still.statsJson)["class"], "still") << still.statsJson;
     std::this_thread::sleep_for(std::chrono::milliseconds(1200));  // nobody drags now
