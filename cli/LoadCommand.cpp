@@ -270,7 +270,7 @@ class DragCycle {
 /// (an interactive request's first frame, provisional or not; the exact frame that may follow is counted apart).
 /// Superseded requests are counted, not errors; a Busy reply is counted and holds the next camera for its retry hint.
 /// With --drag-cycle the client drags and rests in turn, from a phase of its own; each drag's wait for its first frame
-/// is kept, and a drag that got none (Busy throughout) ends as a viewer's release does: with a still Render.
+/// is kept, and each drag ends as a viewer's release does: with a still Render of its last camera.
 void dragClient(const LoadArgs& a, const std::string& host, int port, int width, int height, int index,
                 Clock::time_point deadline, Tally& tally) {
   try {
@@ -315,12 +315,13 @@ void dragClient(const LoadArgs& a, const std::string& host, int port, int width,
         const auto [at, dragging] = cycle.at(now);
         if (dragging && at != drag) {  // a drag begins
           drag = at, dragBegan = now, next = now;
-        } else if (!dragging && dragBegan) {  // it ends without a frame: released as a viewer does
-          {
+        } else if (!dragging && at == drag) {  // it ends: released as a viewer does, with a still Render
+          if (dragBegan) {                     // without a frame
             std::lock_guard lock(tally.mutex);
             ++tally.clients[size_t(index)].dragsRefused;
           }
           dragBegan.reset();
+          drag = -1;
           const uint32_t id =
               c.send(proto::RenderRequest{client::encodingNamed(a.encoding),
                                           clientSceneJson(a, batch, width, height, 10.0 * index + 2.0 * (n - 1))});
@@ -523,7 +524,9 @@ void addLoadCommand(CLI::App& app) {
   cmd->add_option(
          "--drag-cycle", a->dragCycle,
          "with --drag: DRAG,REST seconds: each client drags DRAG seconds and rests REST, over and over, from a "
-         "phase of its own (people drag and let go); the report gives each drag's wait for its first frame "
+         "phase of its own (people drag and let go: each drag ends with a still Render of its last camera, as the "
+         "viewer's "
+         "release); the report gives each drag's wait for its first frame "
          "and the drags refused throughout (default: drag throughout)")
       ->expected(2)
       ->delimiter(',')

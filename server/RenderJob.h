@@ -39,6 +39,9 @@ struct RenderJob {
   /// frame once the camera rested. Served in the interactive class, so that a viewer who lets go sees the exact
   /// frame at once rather than after a still crowd's share (the scheduler sets it).
   bool endsDrag = false;
+  /// endsDrag for a drag that was refused Busy (the session never dragged): not a cost of the drags the threads keep,
+  /// so not counted in the measured capacity (a crowd's refused drags would otherwise shrink it, and be refused more).
+  bool endsRefusedDrag = false;
   /// The body limit of the session (Capabilities' max_message_bytes): a Frame whose body would exceed it is
   /// answered LimitExceeded instead.
   uint64_t maxBodyBytes = UINT64_MAX;

@@ -117,10 +117,13 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
       const auto now = Clock::now();
       if (job.scene.interactive && !state.draggingAt(job.received)) {
         const bool placed = state.inLineAt(now);
-        const size_t ahead = inLineLocked(now, placed ? state.linePlace : 0);
-        if (auto refusal = refuseDraggingLocked(now, ahead, ahead)) {
+        const uint64_t before = placed ? state.linePlace : 0;
+        // Room is held for those ahead due back soon; the hint follows the place among all ahead.
+        const size_t ahead = inLineLocked(now, before, now + std::chrono::milliseconds(kLineStepMs));
+        if (auto refusal = refuseDraggingLocked(now, ahead, inLineLocked(now, before))) {
           if (!placed) state.linePlace = ++mLineOrder;
-          state.lineUntil = now + std::chrono::milliseconds(refusal->retryAfterMs) + kLineGrace;
+          state.lineDue = now + std::chrono::milliseconds(refusal->retryAfterMs);
+          state.lineUntil = state.lineDue + kLineGrace;
           // Until the hint has passed, and a second after, the session's next still Render is this drag's last
           // (a viewer released it while waiting out the hint).
           state.refusedDragEnds = job.received + std::chrono::milliseconds(refusal->retryAfterMs) + kInteractiveWindow;
@@ -142,8 +145,11 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
       // Busy (the session is not counted as dragging for it), until its hint and a second more have passed.
       job.endsDrag = !job.scene.interactive && !job.scene.batch &&
                      (state.draggingAt(job.received) || job.received <= state.refusedDragEnds);
+      job.endsRefusedDrag = job.endsDrag && !state.draggingAt(job.received);
       state.refusedDragEnds = {};
-      if (job.scene.interactive) state.lastInteractive = job.received;
+      // A moving camera keeps the session dragging; a still Render ends its drag at once (a viewer's release): its
+      // room goes to the next in line now, not a second later.
+      state.lastInteractive = job.scene.interactive ? job.received : Clock::time_point{};
     }
     std::deque<RenderJob>& waiting = state.waiting;
     const FrameClass cls = frameClassOf(job);
@@ -298,10 +304,12 @@ size_t RenderScheduler::interactiveCapacity() const {
   return interactiveCapacityLocked();
 }
 
-size_t RenderScheduler::inLineLocked(Clock::time_point now, uint64_t before) const {
+size_t RenderScheduler::inLineLocked(Clock::time_point now, uint64_t before, Clock::time_point dueBy) const {
   size_t count = 0;
   for (const auto& [key, state] : mSessions)
-    if (state.inLineAt(now) && (before == 0 || state.linePlace < before) && !state.owner.expired()) ++count;
+    if (state.inLineAt(now) && (before == 0 || state.linePlace < before) && state.lineDue <= dueBy &&
+        !state.owner.expired())
+      ++count;
   return count;
 }
 
@@ -316,10 +324,10 @@ std::optional<RenderScheduler::Refusal> RenderScheduler::refuseDraggingLocked(Cl
   const std::string inLine = ahead > 0 ? " and " + std::to_string(ahead) + " wait ahead of this one" : std::string();
   if (capacity > 0) {
     if (dragging + ahead < capacity) return std::nullopt;
-    // The first in line asks again soon (room opens as a drag ends: kInteractiveWindow after its last move); those
-    // behind later, a step a place.
+    // The first in line ask again soon (room opens as a drag ends: kInteractiveWindow after its last move); those
+    // behind later, a step each kPlacesAStep places.
     const uint32_t hint =
-        place ? std::min(kLineStepMs * uint32_t(std::min<size_t>(*place + 1, 1000)), kOverCapacityHintMs)
+        place ? std::min(kLineStepMs * uint32_t(1 + std::min<size_t>(*place / kPlacesAStep, 1000)), kLineMaxHintMs)
               : kOverCapacityHintMs;
     return Refusal{"the server is over capacity: " + std::to_string(dragging) + " sessions are dragging" + inLine +
                        ", as many as its render threads keep at their minimum rate",
@@ -631,7 +639,8 @@ void RenderScheduler::renderLoop(render::FrameSource& source, int index) {
       const size_t c = size_t(taken.frameClass);
       chargeLocked(sink.get(), taken.frameClass, after);
       const bool moving = drawn && !reply.cancelled && !job.endsDrag;
-      if (taken.frameClass == FrameClass::Interactive) {
+      // A refused drag's last frame is no cost of the drags the threads keep (RenderJob::endsRefusedDrag).
+      if (taken.frameClass == FrameClass::Interactive && !job.endsRefusedDrag) {
         mInteractiveEnds.push_back({handed, cost, moving});
         mInteractiveEndsMs += cost;
         mInteractiveEndsMoving += moving ? 1 : 0;

@@ -93,10 +93,12 @@ class RenderScheduler {
   /// in line: a session refused takes a place, and room that opens goes to the places in turn (a first move is taken
   /// only while the sessions dragging and those waiting ahead of it leave room). Thread-safe.
   std::optional<Refusal> refuseNewSession() const;
-  /// The hint of a refused first move grows with its place in line: kLineStepMs for the first, at most
-  /// kOverCapacityHintMs (also a new session's at Hello: it has no place). A place is kept while the session asks again
-  /// within its hint and kLineGrace; a still Render gives it up (the drag was released).
-  static constexpr uint32_t kLineStepMs = 250, kOverCapacityHintMs = 2000;
+  /// The hint of a refused first move: kLineStepMs for the first kPlacesAStep places in line, a step more for each
+  /// kPlacesAStep behind, at most kLineMaxHintMs; a new session's at Hello (busy_at_hello: it has no place),
+  /// kOverCapacityHintMs. Room is held only for those ahead due back within kLineStepMs: one told to come back later
+  /// does not keep it idle meanwhile. A place is kept while the session asks again within its hint and kLineGrace; a
+  /// still Render gives it up (the drag was released).
+  static constexpr uint32_t kLineStepMs = 250, kPlacesAStep = 8, kLineMaxHintMs = 1000, kOverCapacityHintMs = 2000;
   static constexpr std::chrono::milliseconds kLineGrace{1000};
 
   /// The atlases of all render threads' sources, as each thread last saw them after a job.
@@ -175,8 +177,9 @@ class RenderScheduler {
   /// it: none for a new session at Hello, which has no place) fill the capacity, or the cold bound. `place`: the
   /// session's place in line from 0 (its hint), none at Hello. mMutex held.
   std::optional<Refusal> refuseDraggingLocked(Clock::time_point now, size_t ahead, std::optional<size_t> place) const;
-  /// The sessions in line to drag at `now`, those before place `before` (0: all). mMutex held.
-  size_t inLineLocked(Clock::time_point now, uint64_t before = 0) const;
+  /// The sessions in line to drag at `now`, those before place `before` (0: all) due back by `dueBy`. mMutex held.
+  size_t inLineLocked(Clock::time_point now, uint64_t before = 0,
+                      Clock::time_point dueBy = Clock::time_point::max()) const;
   /// Delivers `reply` to the job's own session and to every session that rode along (followers).
   void deliver(const Taken& taken, RenderReply& reply, std::vector<Recipient>& followers);
 
@@ -190,9 +193,10 @@ class RenderScheduler {
     Clock::time_point lastInteractive{};
     /// Its next still Render before this ends a drag that was answered Busy (admission).
     Clock::time_point refusedDragEnds{};
-    /// Its place in line to drag (mLineOrder when it took it; 0: none), held until `lineUntil`.
+    /// Its place in line to drag (mLineOrder when it took it; 0: none), held until `lineUntil`; when its last hint
+    /// ends (it is due back).
     uint64_t linePlace = 0;
-    Clock::time_point lineUntil{};
+    Clock::time_point lineUntil{}, lineDue{};
     bool inLineAt(Clock::time_point at) const { return linePlace != 0 && at <= lineUntil; }
     /// Whether it sent an interactive Render within kInteractiveWindow before `at` (it counts as dragging then).
     bool draggingAt(Clock::time_point at) const {

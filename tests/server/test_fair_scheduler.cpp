@@ -241,6 +241,36 @@ TEST_F(FairSchedulerTest, TheCapacityCountsWhatAMovingFrameCostsInAll) {
   EXPECT_LE(capacity, 12u);
 }
 
+// The last frame of a drag refused Busy (a still Render on release, served as the drag's last) is no cost of the drags
+// the threads keep: a crowd whose drags are refused would otherwise shrink the capacity, be refused the more, and
+// shrink it again (80 clients dragging and letting go took it from 26 to 7 on two threads). Here 16 refused drags'
+// last frames beside one session's 20 moving frames, each 10 ms: the capacity 0.9 x 1000 / (5 x 10) = 18, not 10.
+TEST_F(FairSchedulerTest, ARefusedDragsLastFrameIsNoCostOfTheDragsKept) {
+  auto s = scheduler(1, {.coldInteractiveSessionsPerThread = 1, .shareFrames = false}, 10000us, 0ns);
+  auto a = std::make_shared<CountingSink>();
+  ASSERT_EQ(s->submit(a, job(1, 16, R"("interactive": true, )")).result, Submission::Result::Queued);
+  std::vector<std::shared_ptr<CountingSink>> refused;
+  for (uint32_t i = 0; i < 16; ++i) {
+    refused.push_back(std::make_shared<CountingSink>());
+    ASSERT_EQ(s->submit(refused.back(), job(100 + i, 16, R"("interactive": true, )")).result, Submission::Result::Busy);
+    ASSERT_EQ(s->submit(refused.back(), job(200 + i, 16)).result, Submission::Result::Queued) << "released";
+  }
+  s->start();
+  for (const auto& sink : refused) {
+    ASSERT_EQ(sink->await(1).size(), 1u);
+    EXPECT_EQ(statsOf(sink->await(1)[0].second)["class"], "interactive") << "served as the drag's last";
+  }
+  for (uint32_t i = 0; i < 20; ++i) {
+    const size_t before = a->count();
+    ASSERT_EQ(s->submit(a, job(2 + i, 16, R"("interactive": true, )")).result, Submission::Result::Queued);
+    a->await(before + 1);
+  }
+  const size_t capacity = s->interactiveCapacity();
+  s->stop();
+  EXPECT_GE(capacity, 15u);
+  EXPECT_LE(capacity, 18u);
+}
+
 // The thread's time after a frame counts in what the frame costs: here each moving frame (10 ms) is followed by 20 ms
 // of paging ahead for the camera the drag would reach next, and by its exact frame (10 ms), so that a moving frame
 // costs the thread 40 ms, and one thread keeps 1000 / (5 x 40) = 5 sessions at 5 frames a second; counting the
@@ -302,8 +332,8 @@ TEST_F(FairSchedulerTest, AFirstMoveBeyondCapacityIsBusyAndTheSessionsDraggingDr
 }
 
 // Room that opens goes to the sessions refused, in the order they were refused, not to whoever asks first: a session
-// asking while those ahead of it hold their places is Busy, with a hint a step longer for each place. A place is held
-// while its session asks again within its hint and kLineGrace, and given up by a still Render (the drag released).
+// asking while those ahead of it hold their places is Busy. A place is held while its session asks again within its
+// hint and kLineGrace, and given up by a still Render (the drag released).
 // Before the line, a session refused waited out its 2 s hint while one that came later, or came back, took the room.
 TEST_F(FairSchedulerTest, RoomThatOpensGoesToTheSessionsInLineInTurn) {
   auto s = scheduler(1, {.maxInteractiveSessions = 1}, 0us, 0ns);
@@ -318,7 +348,7 @@ TEST_F(FairSchedulerTest, RoomThatOpensGoesToTheSessionsInLineInTurn) {
     hints.push_back(out.retryAfterMs);
   }
   const uint32_t step = RenderScheduler::kLineStepMs;
-  EXPECT_EQ(hints, (std::vector<uint32_t>{step, 2 * step, 3 * step})) << "the hint grows with the place";
+  EXPECT_EQ(hints, (std::vector<uint32_t>{step, step, step}));
   EXPECT_EQ(s->waitingToDrag(), 3u);
   // Asking again keeps the place (and its hint).
   std::this_thread::sleep_for(600ms);
@@ -331,16 +361,73 @@ TEST_F(FairSchedulerTest, RoomThatOpensGoesToTheSessionsInLineInTurn) {
   EXPECT_NE(late.why.find("3 wait ahead of this one"), std::string::npos) << late.why;
   const Submission third = s->submit(d, job(5, 16, moving));
   EXPECT_EQ(third.result, Submission::Result::Busy) << "the room is the first's";
-  EXPECT_EQ(third.retryAfterMs, 3 * step);
+  EXPECT_EQ(third.retryAfterMs, step);
   EXPECT_EQ(s->submit(c, job(6, 16, moving)).result, Submission::Result::Busy);
   EXPECT_EQ(s->submit(b, job(7, 16, moving)).result, Submission::Result::Queued) << "the first in line drags";
   EXPECT_EQ(s->waitingToDrag(), 3u) << "c, d and the newcomer";
   EXPECT_EQ(s->submit(d, job(8, 16)).result, Submission::Result::Queued);
   EXPECT_EQ(s->waitingToDrag(), 2u) << "a still Render gives the place up";
-  // A place not asked for within its hint and the grace lapses (the newcomer's hint, the fourth place's, is longest).
-  std::this_thread::sleep_for(std::chrono::milliseconds(4 * step) + RenderScheduler::kLineGrace + 200ms);
+  // A place not asked for within its hint and the grace lapses.
+  std::this_thread::sleep_for(std::chrono::milliseconds(step) + RenderScheduler::kLineGrace + 200ms);
   EXPECT_EQ(s->waitingToDrag(), 0u);
   EXPECT_EQ(s->busyDrags(), 9u);
+  s->stop();
+}
+
+// A still Render ends a session's drag at once (a viewer's release; it is still served as the drag's last frame): its
+// room goes to the next in line then, not a second later, as it did while every session counted as dragging for a
+// second after its last move.
+TEST_F(FairSchedulerTest, AReleaseEndsTheDragAndItsRoomGoesToTheNextInLine) {
+  auto s = scheduler(1, {.maxInteractiveSessions = 1}, 0us, 0ns);
+  auto a = std::make_shared<CountingSink>(), b = std::make_shared<CountingSink>();
+  ASSERT_EQ(s->submit(a, job(1, 16, R"("interactive": true, )")).result, Submission::Result::Queued);
+  ASSERT_EQ(s->submit(b, job(2, 16, R"("interactive": true, )")).result, Submission::Result::Busy);
+  ASSERT_EQ(s->submit(a, job(3, 16)).result, Submission::Result::Queued) << "a's release";
+  EXPECT_EQ(s->interactiveSessions(), 0u);
+  EXPECT_EQ(s->submit(b, job(4, 16, R"("interactive": true, )")).result, Submission::Result::Queued);
+  s->start();
+  const auto replies = a->await(1);  // the release replaced the moving camera waiting (latest wins)
+  ASSERT_EQ(replies.size(), 1u);
+  EXPECT_EQ(replies[0].first, 3u);
+  EXPECT_EQ(statsOf(replies[0].second)["class"], "interactive") << "the release's frame is the drag's last";
+  s->stop();
+}
+
+// The hint grows a step for each kPlacesAStep places in line, to kLineMaxHintMs; room is held only for those ahead due
+// back soon: one told to come back in a second does not keep it idle meanwhile (with hints of up to 2 s and every
+// place held, 80 clients dragging and letting go drew a third of the frames they drew without the line).
+TEST_F(FairSchedulerTest, TheHintGrowsWithThePlaceAndRoomWaitsOnlyForThoseDueSoon) {
+  auto s = scheduler(1, {.maxInteractiveSessions = 1}, 0us, 0ns);
+  const std::string moving = R"("interactive": true, )";
+  ASSERT_EQ(s->submit(std::make_shared<CountingSink>(), job(1, 16, moving)).result, Submission::Result::Queued);
+  const auto dragged = std::chrono::steady_clock::now();
+  std::this_thread::sleep_for(800ms);  // the line forms late in the drag: its last is due back after the drag ends
+  std::vector<std::shared_ptr<CountingSink>> line;
+  std::vector<uint32_t> hints;
+  for (uint32_t i = 0; i < 26; ++i) {
+    line.push_back(std::make_shared<CountingSink>());
+    const Submission out = s->submit(line.back(), job(10 + i, 16, moving));
+    ASSERT_EQ(out.result, Submission::Result::Busy);
+    hints.push_back(out.retryAfterMs);
+  }
+  const uint32_t step = RenderScheduler::kLineStepMs;
+  for (size_t i = 0; i < hints.size(); ++i)
+    EXPECT_EQ(hints[i],
+              std::min(step * uint32_t(1 + i / RenderScheduler::kPlacesAStep), RenderScheduler::kLineMaxHintMs))
+        << i;
+  EXPECT_EQ(hints.back(), RenderScheduler::kLineMaxHintMs);
+  // All but the last release their drags: it alone waits, due back a second after it was refused.
+  for (uint32_t i = 0; i + 1 < line.size(); ++i)
+    ASSERT_EQ(s->submit(line[i], job(40 + i, 16)).result, Submission::Result::Queued);
+  ASSERT_EQ(s->waitingToDrag(), 1u);
+  std::this_thread::sleep_until(dragged + RenderScheduler::kInteractiveWindow + 200ms);  // room, the last not due yet
+  auto newcomer = std::make_shared<CountingSink>();
+  EXPECT_EQ(s->submit(newcomer, job(70, 16, moving)).result, Submission::Result::Queued)
+      << "the room is not held for one due back later";
+  const Submission back = s->submit(line.back(), job(71, 16, moving));
+  EXPECT_EQ(back.result, Submission::Result::Busy);
+  EXPECT_EQ(back.retryAfterMs, step) << "now first in line";
+  EXPECT_EQ(s->waitingToDrag(), 1u) << "its place kept";
   s->stop();
 }
 
