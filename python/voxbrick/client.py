@@ -87,8 +87,9 @@ class Client:
     The waits of one call (render, render_frame, frames, or one azimuth of orbit) add up to at most `busy_wait`
     seconds: the Busy reply whose wait would pass that is raised as it came, a ServerError whose `retry_after_ms` is
     the hint; busy_wait=0 raises the first. A session of protocol version 1 or 2 gets LimitExceeded with Busy's words,
-    waited out the same way. A Busy answering Hello (the server takes no more sessions now) ends the connection and is
-    raised by connect. `busy_waits` counts the Busy replies waited out."""
+    waited out the same way. A refused first drag keeps its place in the server's line while it is asked again within
+    the hint and a second. A Busy answering Hello (a server configured with busy_at_hello takes no new session while
+    it drags as many as it keeps) ends the connection and is raised by connect. `busy_waits` counts the Busy replies waited out."""
 
     def __init__(self, address: str, token: Optional[str] = None, *, timeout: float = 120,
                  min_version: int = MIN_VERSION, max_version: int = MAX_VERSION, client_name: str = CLIENT_NAME,
