@@ -33,6 +33,22 @@ crowd_ab_setup() {
   trap '[ -n "$server" ] && kill "$server" 2> /dev/null || true' EXIT
 }
 
+# Begins the results of benchmark NAME: the work folder bench/work/NAME (crowd_ab_setup) and the CSV
+# bench/results/server/NAME.csv (in `csv`; its folder in `out`) with its head: the run (date, machine, source tree,
+# builds), the command (bash bench/SCRIPT OLD NEW OPTIONS) and the COLUMNS.
+crowd_ab_begin() {
+  local name=$1 script=$2 options=$3 columns=$4
+  out=bench/results/server
+  mkdir -p "$out"
+  crowd_ab_setup "bench/work/$name"
+  csv=$out/$name.csv
+  {
+    echo "# $(date -u +%Y-%m-%dT%H:%MZ), $(nproc) cores, $(lscpu | sed -n 's/^Model name: *//p' | head -1); source tree $(crowd_ab_tree); old $old, new $new"
+    echo "# bash bench/$script OLD NEW $options"
+    echo "$columns"
+  } > "$csv"
+}
+
 # The source tree as the results' head names it: its commit, and whether it had changes outside bench/results.
 crowd_ab_tree() {
   echo "$(git rev-parse --short HEAD)$(git diff --quiet HEAD -- . ':!bench/results' || echo ' with uncommitted changes')"

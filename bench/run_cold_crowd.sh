@@ -11,15 +11,8 @@ cd "$(dirname "$0")/.."
 rounds=3 clients=40 duration=10 size=128
 source bench/crowd_ab.sh
 crowd_ab_args run_cold_crowd.sh "$@"
-out=bench/results/server
-mkdir -p "$out"
-crowd_ab_setup bench/work/cold-crowd
-csv=$out/cold-crowd.csv
-{
-  echo "# $(date -u +%Y-%m-%d), $(nproc) cores, source tree $(crowd_ab_tree); old $old, new $new"
-  echo "# bash bench/run_cold_crowd.sh OLD NEW --rounds $rounds --clients $clients --duration $duration --size $size"
-  echo "round,build,frames_per_s,fewest,median,most,starved,jain,latency_p50_ms,latency_p99_ms,busy,errors"
-} > "$csv"
+crowd_ab_begin cold-crowd run_cold_crowd.sh "--rounds $rounds --clients $clients --duration $duration --size $size" \
+  round,build,frames_per_s,fewest,median,most,starved,jain,latency_p50_ms,latency_p99_ms,busy,errors
 for r in $(seq 1 "$rounds"); do
   order="old new"; [ $((r % 2)) -eq 0 ] && order="new old"
   for build in $order; do

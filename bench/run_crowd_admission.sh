@@ -17,15 +17,9 @@ cd "$(dirname "$0")/.."
 rounds=2 clients=80 duration=10 size=128
 source bench/crowd_ab.sh
 crowd_ab_args run_crowd_admission.sh "$@"
-out=bench/results/server
-mkdir -p "$out"
-crowd_ab_setup bench/work/crowd-admission
-csv=$out/crowd-admission.csv
-{
-  echo "# $(date -u +%Y-%m-%dT%H:%MZ), $(nproc) cores, $(lscpu | sed -n 's/^Model name: *//p' | head -1); source tree $(crowd_ab_tree); old $old, new $new"
-  echo "# bash bench/run_crowd_admission.sh OLD NEW --rounds $rounds --clients $clients --duration $duration --size $size"
-  echo "round,build,scenario,capacity,admitted,admitted_in_first_s,slowest_fps,median_fps,jain,frames_per_s,latency_p50_ms,latency_p99_ms,busy,errors,render_busy_share"
-} > "$csv"
+crowd_ab_begin crowd-admission run_crowd_admission.sh \
+  "--rounds $rounds --clients $clients --duration $duration --size $size" \
+  round,build,scenario,capacity,admitted,admitted_in_first_s,slowest_fps,median_fps,jain,frames_per_s,latency_p50_ms,latency_p99_ms,busy,errors,render_busy_share
 for r in $(seq 1 "$rounds"); do
   order="old new"; [ $((r % 2)) -eq 0 ] && order="new old"
   for scenario in cold warm; do
@@ -52,28 +46,7 @@ EOF
     done
   done
 done
-python3 - "$csv" > "$out/crowd-admission.md" << 'EOF'
-import collections, csv, statistics, sys
-lines = open(sys.argv[1]).read().splitlines()
-head = [l[2:] for l in lines if l.startswith('# ')]
-rows = list(csv.DictReader(l for l in lines if not l.startswith('#')))
-print('# Admission under a crowd that comes at once\n')
-print(f'- Run: {head[0]}')
-print(f'- Command: `{head[1]}`')
-print('- Each row: the median over rounds (each round\'s value in brackets). `admitted`: clients that got a frame; '
-      '`slowest`/`median fps`: their frames a second from their first frame; the targets are ≥ 5 for every one '
-      'admitted (min_interactive_fps) and Jain ≥ 0.9 over them.\n')
-cols = ['capacity', 'admitted', 'admitted_in_first_s', 'slowest_fps', 'median_fps', 'jain', 'frames_per_s',
-        'latency_p50_ms', 'latency_p99_ms', 'busy', 'errors', 'render_busy_share']
-print('| scenario | build | ' + ' | '.join(cols) + ' |')
-print('|---|---|' + '---:|' * len(cols))
-groups = collections.defaultdict(list)
-for r in rows: groups[(r['scenario'], r['build'])].append(r)
-for key in sorted(groups, key=lambda k: (k[0], k[1] != 'old')):
-    cells = []
-    for c in cols:
-        v = [float(r[c]) for r in groups[key] if r[c] not in ('', 'nan')]
-        cells.append(f"{statistics.median(v):g} ({', '.join(f'{x:g}' for x in v)})" if v else '')
-    print(f'| {key[0]} | {key[1]} | ' + ' | '.join(cells) + ' |')
-EOF
+python3 bench/crowd_ab_table.py "$csv" "Admission under a crowd that comes at once" \
+  "\`admitted\`: clients that got a frame; \`slowest\`/\`median fps\`: their frames a second from their first frame; the targets are ≥ 5 for every one admitted (min_interactive_fps) and Jain ≥ 0.9 over them." \
+  > "$out/crowd-admission.md"
 cat "$out/crowd-admission.md"

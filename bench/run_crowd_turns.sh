@@ -23,15 +23,9 @@ while [ $# -gt 0 ]; do
 done
 source bench/crowd_ab.sh
 crowd_ab_args run_crowd_turns.sh "${args[@]}"
-out=bench/results/server
-mkdir -p "$out"
-crowd_ab_setup bench/work/crowd-turns
-csv=$out/crowd-turns.csv
-{
-  echo "# $(date -u +%Y-%m-%dT%H:%MZ), $(nproc) cores, $(lscpu | sed -n 's/^Model name: *//p' | head -1); source tree $(crowd_ab_tree); old $old, new $new"
-  echo "# bash bench/run_crowd_turns.sh OLD NEW --rounds $rounds --clients $clients --duration $duration --size $size --cycle $cycle"
-  echo "round,build,capacity,drags_taken,drags_refused,wait_p50_ms,wait_p90_ms,wait_max_ms,slowest_client_fps,median_client_fps,jain,frames_per_s,latency_p50_ms,latency_p99_ms,busy,errors"
-} > "$csv"
+crowd_ab_begin crowd-turns run_crowd_turns.sh \
+  "--rounds $rounds --clients $clients --duration $duration --size $size --cycle $cycle" \
+  round,build,capacity,drags_taken,drags_refused,wait_p50_ms,wait_p90_ms,wait_max_ms,slowest_client_fps,median_client_fps,jain,frames_per_s,latency_p50_ms,latency_p99_ms,busy,errors
 for r in $(seq 1 "$rounds"); do
   order="old new"; [ $((r % 2)) -eq 0 ] && order="new old"
   for build in $order; do
@@ -55,29 +49,7 @@ PY
     echo "round $r $build: $(tail -1 "$csv")"
   done
 done
-python3 - "$csv" > "$out/crowd-turns.md" << 'PY'
-import collections, csv, statistics, sys
-lines = open(sys.argv[1]).read().splitlines()
-head = [l[2:] for l in lines if l.startswith('# ')]
-rows = list(csv.DictReader(l for l in lines if not l.startswith('#')))
-print('# Turns under a crowd that drags and lets go\n')
-print(f'- Run: {head[0]}')
-print(f'- Command: `{head[1]}`')
-print('- Each row: the median over rounds (each round\'s value in brackets). `drags_taken`: drags that got a frame; '
-      '`drags_refused`: drags that ended (a still Render, as a viewer\'s release) without one; `wait`: from a drag\'s '
-      'first camera to its first frame, over the drags taken; `client fps`: each client\'s frames a second over the '
-      'whole run, and Jain\'s index over them.\n')
-cols = ['capacity', 'drags_taken', 'drags_refused', 'wait_p50_ms', 'wait_p90_ms', 'wait_max_ms', 'slowest_client_fps',
-        'median_client_fps', 'jain', 'frames_per_s', 'latency_p50_ms', 'latency_p99_ms', 'busy', 'errors']
-print('| build | ' + ' | '.join(cols) + ' |')
-print('|---|' + '---:|' * len(cols))
-groups = collections.defaultdict(list)
-for r in rows: groups[r['build']].append(r)
-for key in sorted(groups, key=lambda k: k != 'old'):
-    cells = []
-    for c in cols:
-        v = [float(r[c]) for r in groups[key] if r[c] not in ('', 'nan')]
-        cells.append(f"{statistics.median(v):g} ({', '.join(f'{x:g}' for x in v)})" if v else '')
-    print(f'| {key} | ' + ' | '.join(cells) + ' |')
-PY
+python3 bench/crowd_ab_table.py "$csv" "Turns under a crowd that drags and lets go" \
+  "\`drags_taken\`: drags that got a frame; \`drags_refused\`: drags that ended (a still Render, as a viewer's release) without one; \`wait\`: from a drag's first camera to its first frame, over the drags taken; \`client fps\`: each client's frames a second over the whole run, and Jain's index over them." \
+  > "$out/crowd-turns.md"
 cat "$out/crowd-turns.md"
