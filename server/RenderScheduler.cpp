@@ -321,7 +321,7 @@ size_t RenderScheduler::waitingToDrag() const {
 std::optional<RenderScheduler::Refusal> RenderScheduler::refuseDraggingLocked(Clock::time_point now, size_t ahead,
                                                                               std::optional<size_t> place) const {
   const size_t capacity = interactiveCapacityLocked(), dragging = interactiveSessionsLocked(now);
-  const std::string inLine = ahead > 0 ? " and " + std::to_string(ahead) + " wait ahead of this one" : std::string();
+  const std::string inLine = ahead > 0 ? ", and " + std::to_string(ahead) + " wait ahead of this one" : std::string();
   if (capacity > 0) {
     if (dragging + ahead < capacity) return std::nullopt;
     // The first in line ask again soon (room opens as a drag ends: kInteractiveWindow after its last move); those
@@ -329,8 +329,8 @@ std::optional<RenderScheduler::Refusal> RenderScheduler::refuseDraggingLocked(Cl
     const uint32_t hint =
         place ? std::min(kLineStepMs * uint32_t(1 + std::min<size_t>(*place / kPlacesAStep, 1000)), kLineMaxHintMs)
               : kOverCapacityHintMs;
-    return Refusal{"the server is over capacity: " + std::to_string(dragging) + " sessions are dragging" + inLine +
-                       ", as many as its render threads keep at their minimum rate",
+    return Refusal{"the server is over capacity: " + std::to_string(dragging) +
+                       " sessions are dragging, as many as its render threads keep at their minimum rate" + inLine,
                    hint};
   }
   // Not measured yet: a cold server, or the first frames of a crowd that came at once. A few sessions a thread drag
@@ -341,8 +341,8 @@ std::optional<RenderScheduler::Refusal> RenderScheduler::refuseDraggingLocked(Cl
   const uint64_t measured = mClassFrames[size_t(FrameClass::Interactive)];
   const double toCome = double(measured < kCapacityFrames ? kCapacityFrames - measured : 0);
   const double hint = toCome * predictedMsLocked(FrameClass::Interactive) / double(mSources.size());
-  return Refusal{"the server is measuring its capacity: " + std::to_string(dragging) + " sessions are dragging" +
-                     inLine + ", as many as it takes before it knows what their frames cost",
+  return Refusal{"the server is measuring its capacity: " + std::to_string(dragging) +
+                     " sessions are dragging, as many as it takes before it knows what their frames cost" + inLine,
                  uint32_t(std::clamp(hint, 100.0, double(kInteractiveWindow.count())))};
 }
 
