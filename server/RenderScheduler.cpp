@@ -33,6 +33,13 @@ constexpr uint64_t kCapacityFrames = 16;
 /// (sessions taken at a high reading stay when it falls) and for sessions' uneven shares.
 constexpr double kCapacityHeadroom = 0.9;
 
+/// The retry hint of the session at `place` in line to drag (from 0): RenderScheduler::kLineStepMs for each
+/// kPlacesAStep places ahead and one more, at most kLineMaxHintMs.
+uint32_t lineHintMs(size_t place) {
+  using S = RenderScheduler;
+  return std::min(S::kLineStepMs * uint32_t(1 + std::min<size_t>(place / S::kPlacesAStep, 1000)), S::kLineMaxHintMs);
+}
+
 }  // namespace
 
 std::string shareKeyOf(const RenderJob& job) {
@@ -115,23 +122,25 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
       // arriving together are each counted before the next is decided.
       // Sessions refused wait in line: room that opens goes to the one refused first, not to whoever asks first.
       const auto now = Clock::now();
+      const auto dueSoon = now + std::chrono::milliseconds(kLineStepMs);
       if (job.scene.interactive && !state.draggingAt(job.received)) {
-        const bool placed = state.inLineAt(now);
-        const uint64_t before = placed ? state.linePlace : 0;
+        const uint64_t before = state.inLineAt(now) ? state.linePlace : 0;
         // Room is held for those ahead due back soon; the hint follows the place among all ahead.
-        const size_t ahead = inLineLocked(now, before, now + std::chrono::milliseconds(kLineStepMs));
-        if (auto refusal = refuseDraggingLocked(now, ahead, inLineLocked(now, before))) {
-          if (!placed) state.linePlace = ++mLineOrder;
-          state.lineDue = now + std::chrono::milliseconds(refusal->retryAfterMs);
-          state.lineUntil = state.lineDue + kLineGrace;
-          // Until the hint has passed, and a second after, the session's next still Render is this drag's last
-          // (a viewer released it while waiting out the hint).
-          state.refusedDragEnds = job.received + std::chrono::milliseconds(refusal->retryAfterMs) + kInteractiveWindow;
-          mBusyDrags.fetch_add(1);
-          out.result = Submission::Result::Busy;
-          out.retryAfterMs = refusal->retryAfterMs;
-          out.why = std::move(refusal->why);
-          return out;
+        if (auto refusal = refuseDraggingLocked(now, inLineLocked(now, before, dueSoon), inLineLocked(now, before)))
+          return refuseDragLocked(state, job, now, std::move(*refusal));
+        state.dragSince = job.received;
+      } else if (job.scene.interactive && mConfig.interactiveTurnS > 0 &&
+                 job.received - state.dragSince >= std::chrono::duration<double>(mConfig.interactiveTurnS)) {
+        // A drag that held its room for a whole turn gives it up while others wait: it goes to the back of the line.
+        if (const size_t waiting = inLineLocked(now, 0, dueSoon); waiting > 0) {
+          state.lastInteractive = {};
+          mTurnsEnded.fetch_add(1);
+          const size_t place = inLineLocked(now);
+          return refuseDragLocked(
+              state, job, now,
+              Refusal{"this session's turn to drag is over (" + std::to_string(int64_t(mConfig.interactiveTurnS)) +
+                          " s, interactive_turn_s): " + std::to_string(waiting) + " sessions wait to drag",
+                      lineHintMs(place)});
         }
       }
       // Taken, or released (a still Render): its place in line goes.
@@ -304,6 +313,22 @@ size_t RenderScheduler::interactiveCapacity() const {
   return interactiveCapacityLocked();
 }
 
+Submission RenderScheduler::refuseDragLocked(SessionState& state, const RenderJob& job, Clock::time_point now,
+                                             Refusal refusal) {
+  if (!state.inLineAt(now)) state.linePlace = ++mLineOrder;
+  state.lineDue = now + std::chrono::milliseconds(refusal.retryAfterMs);
+  state.lineUntil = state.lineDue + kLineGrace;
+  // Until the hint has passed, and a second after, the session's next still Render is this drag's last (a viewer
+  // released it while waiting out the hint).
+  state.refusedDragEnds = job.received + std::chrono::milliseconds(refusal.retryAfterMs) + kInteractiveWindow;
+  mBusyDrags.fetch_add(1);
+  Submission out;
+  out.result = Submission::Result::Busy;
+  out.retryAfterMs = refusal.retryAfterMs;
+  out.why = std::move(refusal.why);
+  return out;
+}
+
 size_t RenderScheduler::inLineLocked(Clock::time_point now, uint64_t before, Clock::time_point dueBy) const {
   size_t count = 0;
   for (const auto& [key, state] : mSessions)
@@ -326,9 +351,7 @@ std::optional<RenderScheduler::Refusal> RenderScheduler::refuseDraggingLocked(Cl
     if (dragging + ahead < capacity) return std::nullopt;
     // The first in line ask again soon (room opens as a drag ends: kInteractiveWindow after its last move); those
     // behind later, a step each kPlacesAStep places.
-    const uint32_t hint =
-        place ? std::min(kLineStepMs * uint32_t(1 + std::min<size_t>(*place / kPlacesAStep, 1000)), kLineMaxHintMs)
-              : kOverCapacityHintMs;
+    const uint32_t hint = place ? lineHintMs(*place) : kOverCapacityHintMs;
     return Refusal{"the server is over capacity: " + std::to_string(dragging) +
                        " sessions are dragging, as many as its render threads keep at their minimum rate" + inLine,
                    hint};

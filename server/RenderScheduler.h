@@ -130,10 +130,12 @@ class RenderScheduler {
   uint64_t sharedFrames() const { return mShared.load(); }
   /// Batch Renders refused Busy.
   uint64_t busyRenders() const { return mBusyRenders.load(); }
-  /// Sessions' first moving cameras refused Busy (refuseNewSession's bound).
+  /// Moving cameras refused Busy: sessions' first beyond refuseNewSession's bound, and those of drags whose turn ended.
   uint64_t busyDrags() const { return mBusyDrags.load(); }
   /// Sessions in line to drag: refused a first move, their place still held.
   size_t waitingToDrag() const;
+  /// Drags whose turn ended (interactive_turn_s): a moving camera answered Busy while others waited in line.
+  uint64_t turnsEnded() const { return mTurnsEnded.load(); }
   /// Drops every waiting job, lets each thread finish the frame it is drawing (its reply is still delivered) and
   /// joins the threads. Idempotent; call it from any thread but a render thread.
   void stop();
@@ -191,6 +193,8 @@ class RenderScheduler {
     Clock::time_point lastReceived{};
     std::deque<double> intervalsMs;  ///< between its last kRestIntervals + 1 Renders, oldest first
     Clock::time_point lastInteractive{};
+    /// When its drag under way began (its first moving camera taken).
+    Clock::time_point dragSince{};
     /// Its next still Render before this ends a drag that was answered Busy (admission).
     Clock::time_point refusedDragEnds{};
     /// Its place in line to drag (mLineOrder when it took it; 0: none), held until `lineUntil`; when its last hint
@@ -208,6 +212,10 @@ class RenderScheduler {
   };
   /// The session's entry, made if need be (sessions gone are dropped on the way). mMutex held.
   SessionState& stateLocked(const std::shared_ptr<Sink>& sink);
+  /// Refuses `state`'s moving camera Busy with `refusal` and puts the session in line (a place if it has none, held
+  /// for the hint and kLineGrace); a still Render before the hint and a second more is then this drag's last. mMutex
+  /// held.
+  Submission refuseDragLocked(SessionState& state, const RenderJob& job, Clock::time_point now, Refusal refusal);
 
   const SchedulerConfig mConfig;
   /// The render threads' time between classes (weights, tags, threads kept for dragging sessions).
@@ -265,7 +273,7 @@ class RenderScheduler {
   std::vector<double> threadMs(EngineGauge::State state) const;
   std::unique_ptr<EngineGauge[]> mGauges;  ///< one per source, written by its thread
   size_t mGaugeCount = 0;
-  std::atomic<uint64_t> mCancelled{0}, mShared{0}, mBusyRenders{0}, mBusyDrags{0};
+  std::atomic<uint64_t> mCancelled{0}, mShared{0}, mBusyRenders{0}, mBusyDrags{0}, mTurnsEnded{0};
   std::mutex mJoinMutex;
   std::vector<std::thread> mThreads;
 };

@@ -508,6 +508,7 @@ ServerStats::Gauges Server::Impl::gauges() const {
   gauges.draggingSessions = scheduler.interactiveSessions();
   gauges.interactiveCapacity = scheduler.interactiveCapacity();
   gauges.waitingToDrag = scheduler.waitingToDrag();
+  gauges.dragTurnsEnded = scheduler.turnsEnded();
   gauges.rendersCancelled = scheduler.cancelled();
   gauges.datasets = datasets.opened();
   gauges.renderThreads = config.renderThreads;

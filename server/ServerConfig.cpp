@@ -207,6 +207,7 @@ ServerConfig ServerConfig::load(const std::filesystem::path& path) {
   scheduler.read("batch_max_wait_ms", sc.batchMaxWaitMs);
   scheduler.read("max_interactive_sessions", sc.maxInteractiveSessions);
   scheduler.read("busy_at_hello", sc.busyAtHello);
+  scheduler.read("interactive_turn_s", sc.interactiveTurnS);
   scheduler.read("min_interactive_fps", sc.minInteractiveFps);
   scheduler.read("cold_interactive_sessions_per_thread", sc.coldInteractiveSessionsPerThread);
   scheduler.read("share_frames", sc.shareFrames);
@@ -295,6 +296,7 @@ void ServerConfig::validate() const {
   range("scheduler.batch_max_wait_ms", scheduler.batchMaxWaitMs, 1, 86400e3);
   range("scheduler.max_interactive_sessions", scheduler.maxInteractiveSessions, 0, 100000);
   range("scheduler.min_interactive_fps", scheduler.minInteractiveFps, 0.1, 1000);
+  range("scheduler.interactive_turn_s", scheduler.interactiveTurnS, 0, 86400);
   range("scheduler.cold_interactive_sessions_per_thread", scheduler.coldInteractiveSessionsPerThread, 0, 100000);
   range("scheduler.loaded_jpeg_quality", scheduler.loadedJpegQuality, 1, 100);
   range("quotas.sessions_per_address", quotas.sessionsPerAddress, 0, 100000);

@@ -131,6 +131,7 @@ json ServerStats::toJson(const Gauges& gauges) const {
             {"dragging", gauges.draggingSessions},
             {"interactive_capacity", gauges.interactiveCapacity},
             {"waiting_to_drag", gauges.waitingToDrag},
+            {"drag_turns_ended", gauges.dragTurnsEnded},
             {"timed_out", total(ServerEvent::Timeout)},
             {"dropped_slow", total(ServerEvent::SlowClientDropped)}}},
           {"messages", total(ServerEvent::Message)},
@@ -223,6 +224,10 @@ std::string ServerStats::metricsText(const Gauges& gauges) const {
   one("voxbrick_waiting_to_drag_sessions", Type::Gauge,
       "Sessions whose first moving camera was answered Busy, in line to drag: room that opens goes to them in turn.",
       double(gauges.waitingToDrag));
+  one("voxbrick_drag_turns_ended_total", Type::Counter,
+      "Drags whose turn ended: a session that dragged interactive_turn_s without letting go while others waited in "
+      "line, told Busy and put at the back of it.",
+      double(gauges.dragTurnsEnded));
   event("voxbrick_sessions_accepted_total", "Connections whose Hello made them a session.",
         ServerEvent::SessionAccepted);
   m.family("voxbrick_refusals_total", Type::Counter,

@@ -94,6 +94,7 @@ class ServerStats {
     size_t draggingSessions = 0;     ///< sessions that sent an interactive Render within the last second
     size_t interactiveCapacity = 0;  ///< RenderScheduler::interactiveCapacity: 0 while not measured (no limit)
     size_t waitingToDrag = 0;        ///< RenderScheduler::waitingToDrag: sessions in line to drag
+    uint64_t dragTurnsEnded = 0;     ///< RenderScheduler::turnsEnded
     /// The sessions' video encoders (VideoMemory): how many, the bytes counted for them (now, and the most since
     /// the server started) and the budget, encoders freed for another stream's, and moving frames sent as JPEG for
     /// want of room.

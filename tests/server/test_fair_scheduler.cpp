@@ -393,6 +393,41 @@ TEST_F(FairSchedulerTest, AReleaseEndsTheDragAndItsRoomGoesToTheNextInLine) {
   s->stop();
 }
 
+// A drag that has held its room for a whole turn (interactive_turn_s) without letting go, while others wait in line,
+// is told Busy at its next move and goes to the back of the line; its room goes to the first in line. Without anyone
+// due in line it drags on past its turn. Before, a session (a script) dragging without end kept its room for ever: 16
+// viewer tabs that came a second after 64 dragging TCP clients got no frame in their 10 s drags.
+TEST_F(FairSchedulerTest, ADragThatHeldItsRoomAWholeTurnGoesToTheBackOfTheLine) {
+  auto s = scheduler(1, {.maxInteractiveSessions = 1, .interactiveTurnS = 0.5}, 0us, 0ns);
+  const std::string moving = R"("interactive": true, )";
+  auto a = std::make_shared<CountingSink>(), b = std::make_shared<CountingSink>();
+  uint32_t id = 1;
+  ASSERT_EQ(s->submit(a, job(id++, 16, moving)).result, Submission::Result::Queued);
+  // Alone, a drags past its turn.
+  for (int i = 0; i < 7; ++i) {
+    std::this_thread::sleep_for(100ms);
+    ASSERT_EQ(s->submit(a, job(id++, 16, moving)).result, Submission::Result::Queued) << i;
+  }
+  ASSERT_EQ(s->submit(b, job(id++, 16, moving)).result, Submission::Result::Busy);
+  const Submission over = s->submit(a, job(id++, 16, moving));
+  ASSERT_EQ(over.result, Submission::Result::Busy) << "its turn is over: b waits";
+  EXPECT_NE(over.why.find("turn to drag is over"), std::string::npos) << over.why;
+  EXPECT_EQ(over.retryAfterMs, RenderScheduler::kLineStepMs);
+  EXPECT_EQ(s->turnsEnded(), 1u);
+  EXPECT_EQ(s->interactiveSessions(), 0u) << "a's drag ended";
+  EXPECT_EQ(s->submit(b, job(id++, 16, moving)).result, Submission::Result::Queued) << "the room is b's";
+  const Submission behind = s->submit(a, job(id++, 16, moving));
+  EXPECT_EQ(behind.result, Submission::Result::Busy) << "a waits in line now";
+  EXPECT_EQ(s->waitingToDrag(), 1u);
+  // a's release while it waits is its drag's last frame.
+  ASSERT_EQ(s->submit(a, job(id++, 16)).result, Submission::Result::Queued);
+  s->start();
+  const auto replies = a->await(1);
+  ASSERT_FALSE(replies.empty());
+  EXPECT_EQ(statsOf(replies.back().second)["class"], "interactive");
+  s->stop();
+}
+
 // The hint grows a step for each kPlacesAStep places in line, to kLineMaxHintMs; room is held only for those ahead due
 // back soon: one told to come back in a second does not keep it idle meanwhile (with hints of up to 2 s and every
 // place held, 80 clients dragging and letting go drew a third of the frames they drew without the line).
