@@ -151,7 +151,7 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
       }
       state.lastReceived = job.received;
       // A still frame right after a drag is the drag's last: a viewer waits for it. So is the first after a drag told
-      // Busy (the session is not counted as dragging for it), until its hint and a second more have passed.
+      // Busy (the session is not counted as dragging for it), within kOverCapacityHintMs (or its hint) and a second.
       job.endsDrag = !job.scene.interactive && !job.scene.batch &&
                      (state.draggingAt(job.received) || job.received <= state.refusedDragEnds);
       job.endsRefusedDrag = job.endsDrag && !state.draggingAt(job.received);
@@ -318,9 +318,10 @@ Submission RenderScheduler::refuseDragLocked(SessionState& state, const RenderJo
   if (!state.inLineAt(now)) state.linePlace = ++mLineOrder;
   state.lineDue = now + std::chrono::milliseconds(refusal.retryAfterMs);
   state.lineUntil = state.lineDue + kLineGrace;
-  // Until the hint has passed, and a second after, the session's next still Render is this drag's last (a viewer
-  // released it while waiting out the hint).
-  state.refusedDragEnds = job.received + std::chrono::milliseconds(refusal.retryAfterMs) + kInteractiveWindow;
+  // Until the hint has passed (2 s at least: a viewer asks again only when the pointer moves), and a second after, the
+  // session's next still Render is this drag's last (a viewer released it while waiting).
+  state.refusedDragEnds =
+      job.received + std::chrono::milliseconds(std::max(refusal.retryAfterMs, kOverCapacityHintMs)) + kInteractiveWindow;
   mBusyDrags.fetch_add(1);
   Submission out;
   out.result = Submission::Result::Busy;
@@ -346,14 +347,14 @@ size_t RenderScheduler::waitingToDrag() const {
 std::optional<RenderScheduler::Refusal> RenderScheduler::refuseDraggingLocked(Clock::time_point now, size_t ahead,
                                                                               std::optional<size_t> place) const {
   const size_t capacity = interactiveCapacityLocked(), dragging = interactiveSessionsLocked(now);
-  const std::string inLine = ahead > 0 ? ", and " + std::to_string(ahead) + " wait ahead of this one" : std::string();
+  const std::string inLine = ahead > 0 ? " and " + std::to_string(ahead) + " wait ahead of this one" : std::string();
   if (capacity > 0) {
     if (dragging + ahead < capacity) return std::nullopt;
     // The first in line ask again soon (room opens as a drag ends: kInteractiveWindow after its last move); those
     // behind later, a step each kPlacesAStep places.
     const uint32_t hint = place ? lineHintMs(*place) : kOverCapacityHintMs;
-    return Refusal{"the server is over capacity: " + std::to_string(dragging) +
-                       " sessions are dragging, as many as its render threads keep at their minimum rate" + inLine,
+    return Refusal{"the server is over capacity: " + std::to_string(dragging) + " sessions are dragging" + inLine +
+                       "; its render threads keep " + std::to_string(capacity) + " at their minimum rate",
                    hint};
   }
   // Not measured yet: a cold server, or the first frames of a crowd that came at once. A few sessions a thread drag
@@ -364,8 +365,8 @@ std::optional<RenderScheduler::Refusal> RenderScheduler::refuseDraggingLocked(Cl
   const uint64_t measured = mClassFrames[size_t(FrameClass::Interactive)];
   const double toCome = double(measured < kCapacityFrames ? kCapacityFrames - measured : 0);
   const double hint = toCome * predictedMsLocked(FrameClass::Interactive) / double(mSources.size());
-  return Refusal{"the server is measuring its capacity: " + std::to_string(dragging) +
-                     " sessions are dragging, as many as it takes before it knows what their frames cost" + inLine,
+  return Refusal{"the server is measuring its capacity: " + std::to_string(dragging) + " sessions are dragging" +
+                     inLine + "; it takes " + std::to_string(cold) + " before it knows what their frames cost",
                  uint32_t(std::clamp(hint, 100.0, double(kInteractiveWindow.count())))};
 }
 

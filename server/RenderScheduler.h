@@ -213,8 +213,8 @@ class RenderScheduler {
   /// The session's entry, made if need be (sessions gone are dropped on the way). mMutex held.
   SessionState& stateLocked(const std::shared_ptr<Sink>& sink);
   /// Refuses `state`'s moving camera Busy with `refusal` and puts the session in line (a place if it has none, held
-  /// for the hint and kLineGrace); a still Render before the hint and a second more is then this drag's last. mMutex
-  /// held.
+  /// for the hint and kLineGrace); a still Render within kOverCapacityHintMs (or the hint, if longer) and a second more
+  /// is then this drag's last. mMutex held.
   Submission refuseDragLocked(SessionState& state, const RenderJob& job, Clock::time_point now, Refusal refusal);
 
   const SchedulerConfig mConfig;
