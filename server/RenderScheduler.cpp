@@ -135,6 +135,15 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
         if (const size_t waiting = inLineLocked(now, 0, dueSoon); waiting > 0) {
           state.lastInteractive = {};
           mTurnsEnded.fetch_add(1);
+          // Its drag is paused, not ended: no exact frame of its last camera (one waiting goes, and one of a frame
+          // still being drawn is not queued: refine() sees a newer Render), which would cost the line a moving
+          // frame's room three times over; its release asks one.
+          state.lastReceived = job.received;
+          if (!state.waiting.empty() && state.waiting.front().refinement) {
+            --mWaitingByClass[size_t(frameClassOf(state.waiting.front()))];
+            state.waiting.pop_front();
+            if (state.waiting.empty()) mBacklog.erase(sink.get());
+          }
           const size_t place = inLineLocked(now);
           return refuseDragLocked(
               state, job, now,

@@ -50,8 +50,9 @@ struct SchedulerConfig {
   bool busyAtHello = false;
   /// A session that has dragged this long without letting go, while others wait in line, has its next moving camera
   /// answered Busy: its turn is over, and it goes to the back of the line; 0 (the default): no limit, a drag holds its
-  /// room until released. Off by default: measured, each turn ends in an exact frame, which the capacity counts, and
-  /// the turns cost more frames than they gave the sessions waiting (docs/performance.md).
+  /// room until released. The drag is paused, not ended (no exact frame of its last camera). Off by default: measured,
+  /// 2 s turns shared the rooms among every session of a crowd that never lets go, at a third of its frames
+  /// (docs/performance.md).
   double interactiveTurnS = 0;
   double minInteractiveFps = 5;  ///< the rate the measured capacity keeps for every dragging session
   /// Before the capacity is measured (a cold server, a crowd arriving at once), at most this many sessions per render

@@ -403,15 +403,17 @@ TEST_F(FairSchedulerTest, ADragThatHeldItsRoomAWholeTurnGoesToTheBackOfTheLine) 
   auto s = scheduler(1, {.maxInteractiveSessions = 1, .interactiveTurnS = 0.5}, 0us, 0ns);
   const std::string moving = R"("interactive": true, )";
   auto a = std::make_shared<CountingSink>(), b = std::make_shared<CountingSink>();
+  s->start();
   uint32_t id = 1;
-  ASSERT_EQ(s->submit(a, job(id++, 16, moving)).result, Submission::Result::Queued);
-  // Alone, a drags past its turn.
-  for (int i = 0; i < 7; ++i) {
-    std::this_thread::sleep_for(100ms);
+  // Alone, a drags past its turn: each move's frame comes (a newer move replaces the exact frame of the one before).
+  for (int i = 0; i < 8; ++i) {
+    if (i > 0) std::this_thread::sleep_for(100ms);
     ASSERT_EQ(s->submit(a, job(id++, 16, moving)).result, Submission::Result::Queued) << i;
+    ASSERT_EQ(a->await(size_t(i + 1)).size(), size_t(i + 1));
   }
   ASSERT_EQ(s->submit(b, job(id++, 16, moving)).result, Submission::Result::Busy);
   const Submission over = s->submit(a, job(id++, 16, moving));
+  const size_t atTurnEnd = a->count();  // 8, or 9 on a machine so slow that the last move's exact frame came first
   ASSERT_EQ(over.result, Submission::Result::Busy) << "its turn is over: b waits";
   EXPECT_NE(over.why.find("turn to drag is over"), std::string::npos) << over.why;
   EXPECT_EQ(over.retryAfterMs, RenderScheduler::kLineStepMs);
@@ -421,11 +423,13 @@ TEST_F(FairSchedulerTest, ADragThatHeldItsRoomAWholeTurnGoesToTheBackOfTheLine) 
   const Submission behind = s->submit(a, job(id++, 16, moving));
   EXPECT_EQ(behind.result, Submission::Result::Busy) << "a waits in line now";
   EXPECT_EQ(s->waitingToDrag(), 1u);
-  // a's release while it waits is its drag's last frame.
+  // Its drag is paused: no exact frame of its last camera (which would come within 150 ms of the camera's rest).
+  std::this_thread::sleep_for(400ms);
+  EXPECT_EQ(a->count(), atTurnEnd);
+  // Its release while it waits is its drag's last frame.
   ASSERT_EQ(s->submit(a, job(id++, 16)).result, Submission::Result::Queued);
-  s->start();
-  const auto replies = a->await(1);
-  ASSERT_FALSE(replies.empty());
+  const auto replies = a->await(atTurnEnd + 1);
+  ASSERT_EQ(replies.size(), atTurnEnd + 1);
   EXPECT_EQ(statsOf(replies.back().second)["class"], "interactive");
   s->stop();
 }
