@@ -5,7 +5,7 @@
 # load but glibc's own, into one zstd archive cut into parts small enough to travel one a device call beside the
 # working tree (each call carries at most 64 MiB in all). bench/gpu/README.md ("The browser steps") has the calls.
 #
-#   bash bench/gpu/pack_browser.sh [--out bench/gpu/browserkit] [--level 19] [--part-mib 52]
+#   bash bench/gpu/pack_browser.sh [--out bench/gpu/browserkit] [--level 19] [--part-mib 48]
 #
 # Writes OUT/part-0, OUT/part-1, … (cat them in order for the archive), OUT/SHA256SUMS (the archive's and each
 # part's) and OUT/MANIFEST.txt. In the kit (voxbrick-browserkit/): bin/chromium, a wrapper that runs chromium/chromium
@@ -19,7 +19,7 @@ export PATH=$PATH:/usr/sbin:/sbin  # ldconfig
 
 out=bench/gpu/browserkit
 level=19
-part_mib=52
+part_mib=48
 while [ $# -gt 0 ]; do
   case "$1" in
     --out) out=$2; shift 2 ;;
