@@ -285,7 +285,7 @@ void dragClient(const LoadArgs& a, const std::string& host, int port, int width,
     bool wantKey = false;  // a video frame failed to decode: the next Render asks for a key frame
     DragCycle cycle(a.dragCycle, tally.started, index);
     std::optional<Clock::time_point> dragBegan;  // the drag under way's first camera, until its first frame comes
-    std::set<uint32_t> releases;                 // still Renders that ended drags refused throughout
+    std::set<uint32_t> releases;                 // the still Renders that ended its drags
     const auto readReply = [&] {
       auto [id, m] = c.receive();
       const auto* frame = std::get_if<proto::Frame>(&m);
@@ -525,9 +525,8 @@ void addLoadCommand(CLI::App& app) {
          "--drag-cycle", a->dragCycle,
          "with --drag: DRAG,REST seconds: each client drags DRAG seconds and rests REST, over and over, from a "
          "phase of its own (people drag and let go: each drag ends with a still Render of its last camera, as the "
-         "viewer's "
-         "release); the report gives each drag's wait for its first frame "
-         "and the drags refused throughout (default: drag throughout)")
+         "viewer's release); the report gives each drag's wait for its first frame and the drags refused "
+         "throughout (default: drag throughout)")
       ->expected(2)
       ->delimiter(',')
       ->check(CLI::Range(0.05, 3600.0))
