@@ -122,34 +122,28 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
       // arriving together are each counted before the next is decided.
       // Sessions refused wait in line: room that opens goes to the one refused first, not to whoever asks first.
       const auto now = Clock::now();
-      const auto dueSoon = now + std::chrono::milliseconds(kLineStepMs);
       if (job.scene.interactive && !state.draggingAt(job.received)) {
-        const uint64_t before = state.inLineAt(now) ? state.linePlace : 0;
         // Room is held for those ahead due back soon; the hint follows the place among all ahead.
-        if (auto refusal = refuseDraggingLocked(now, inLineLocked(now, before, dueSoon), inLineLocked(now, before)))
+        const LineAhead ahead = lineAheadLocked(now, state.inLineAt(now) ? state.linePlace : 0);
+        if (auto refusal = refuseDraggingLocked(now, ahead.due, ahead.all))
           return refuseDragLocked(state, job, now, std::move(*refusal));
         state.dragSince = job.received;
       } else if (job.scene.interactive && mConfig.interactiveTurnS > 0 &&
                  job.received - state.dragSince >= std::chrono::duration<double>(mConfig.interactiveTurnS)) {
         // A drag that held its room for a whole turn gives it up while others wait: it goes to the back of the line.
-        if (const size_t waiting = inLineLocked(now, 0, dueSoon); waiting > 0) {
+        if (const LineAhead line = lineAheadLocked(now); line.due > 0) {
           state.lastInteractive = {};
           mTurnsEnded.fetch_add(1);
           // Its drag is paused, not ended: no exact frame of its last camera (one waiting goes, and one of a frame
           // still being drawn is not queued: refine() sees a newer Render), which would cost the line a moving
           // frame's room three times over; its release asks one.
           state.lastReceived = job.received;
-          if (!state.waiting.empty() && state.waiting.front().refinement) {
-            --mWaitingByClass[size_t(frameClassOf(state.waiting.front()))];
-            state.waiting.pop_front();
-            if (state.waiting.empty()) mBacklog.erase(sink.get());
-          }
-          const size_t place = inLineLocked(now);
+          if (!state.waiting.empty() && state.waiting.front().refinement) popWaitingLocked(sink.get(), state);
           return refuseDragLocked(
               state, job, now,
               Refusal{"this session's turn to drag is over (" + std::to_string(int64_t(mConfig.interactiveTurnS)) +
-                          " s, interactive_turn_s): " + std::to_string(waiting) + " sessions wait to drag",
-                      lineHintMs(place)});
+                          " s, interactive_turn_s): " + std::to_string(line.due) + " sessions wait to drag",
+                      lineHintMs(line.all)});
         }
       }
       // Taken, or released (a still Render): its place in line goes.
@@ -201,10 +195,7 @@ Submission RenderScheduler::submit(const std::shared_ptr<Sink>& sink, RenderJob 
     }
     if (!mConfig.coalesce && !waiting.empty() && waiting.front().refinement) {
       // An exact frame waiting for the camera to rest: the camera moved on, so it goes (silently, MessageHandler).
-      --mWaitingByClass[size_t(frameClassOf(waiting.front()))];
-      out.replaced = std::move(waiting.front());
-      waiting.pop_front();
-      if (waiting.empty()) mBacklog.erase(sink.get());
+      out.replaced = popWaitingLocked(sink.get(), state);
       enqueueLocked(sink, std::move(job));
     } else if (mConfig.coalesce && !waiting.empty()) {
       // The one waiting job is replaced in place: the session keeps its place.
@@ -326,7 +317,6 @@ Submission RenderScheduler::refuseDragLocked(SessionState& state, const RenderJo
                                              Refusal refusal) {
   if (!state.inLineAt(now)) state.linePlace = ++mLineOrder;
   state.lineDue = now + std::chrono::milliseconds(refusal.retryAfterMs);
-  state.lineUntil = state.lineDue + kLineGrace;
   // Until the hint has passed (2 s at least: a viewer asks again only when the pointer moves), and a second after, the
   // session's next still Render is this drag's last (a viewer released it while waiting).
   state.refusedDragEnds =
@@ -339,18 +329,28 @@ Submission RenderScheduler::refuseDragLocked(SessionState& state, const RenderJo
   return out;
 }
 
-size_t RenderScheduler::inLineLocked(Clock::time_point now, uint64_t before, Clock::time_point dueBy) const {
-  size_t count = 0;
+RenderScheduler::LineAhead RenderScheduler::lineAheadLocked(Clock::time_point now, uint64_t before) const {
+  LineAhead out;
+  const auto dueBy = now + std::chrono::milliseconds(kLineStepMs);
   for (const auto& [key, state] : mSessions)
-    if (state.inLineAt(now) && (before == 0 || state.linePlace < before) && state.lineDue <= dueBy &&
-        !state.owner.expired())
-      ++count;
-  return count;
+    if (state.inLineAt(now) && (before == 0 || state.linePlace < before) && !state.owner.expired()) {
+      ++out.all;
+      out.due += state.lineDue <= dueBy ? 1 : 0;
+    }
+  return out;
 }
 
 size_t RenderScheduler::waitingToDrag() const {
   std::lock_guard lock(mMutex);
-  return inLineLocked(Clock::now());
+  return lineAheadLocked(Clock::now()).all;
+}
+
+RenderJob RenderScheduler::popWaitingLocked(const Sink* key, SessionState& state) {
+  RenderJob job = std::move(state.waiting.front());
+  state.waiting.pop_front();
+  --mWaitingByClass[size_t(frameClassOf(job))];
+  if (state.waiting.empty()) mBacklog.erase(key);
+  return job;
 }
 
 std::optional<RenderScheduler::Refusal> RenderScheduler::refuseDraggingLocked(Clock::time_point now, size_t ahead,
@@ -510,12 +510,9 @@ bool RenderScheduler::next(Taken& taken) {
       mReady.wait_until(lock, earliest);
   }
   SessionState& state = mSessions.at(sink.get());
-  RenderJob job = std::move(state.waiting.front());
-  state.waiting.pop_front();
-  if (state.waiting.empty()) mBacklog.erase(sink.get());
+  RenderJob job = popWaitingLocked(sink.get(), state);
   const FrameClass cls = frameClassOf(job);
   const size_t c = size_t(cls);
-  --mWaitingByClass[c];
   ++mRunningByClass[c];
   mClassClock[c] = state.tag[c];
   const std::string kind(job.dataset ? job.dataset->kind() : std::string_view{});

@@ -179,9 +179,12 @@ class RenderScheduler {
   /// it: none for a new session at Hello, which has no place) fill the capacity, or the cold bound. `place`: the
   /// session's place in line from 0 (its hint), none at Hello. mMutex held.
   std::optional<Refusal> refuseDraggingLocked(Clock::time_point now, size_t ahead, std::optional<size_t> place) const;
-  /// The sessions in line to drag at `now`, those before place `before` (0: all) due back by `dueBy`. mMutex held.
-  size_t inLineLocked(Clock::time_point now, uint64_t before = 0,
-                      Clock::time_point dueBy = Clock::time_point::max()) const;
+  /// The sessions in line to drag at `now` before place `before` (0: all of them): those due back within kLineStepMs
+  /// (room is held for them), and all. mMutex held.
+  struct LineAhead {
+    size_t due = 0, all = 0;
+  };
+  LineAhead lineAheadLocked(Clock::time_point now, uint64_t before = 0) const;
   /// Delivers `reply` to the job's own session and to every session that rode along (followers).
   void deliver(const Taken& taken, RenderReply& reply, std::vector<Recipient>& followers);
 
@@ -197,11 +200,11 @@ class RenderScheduler {
     Clock::time_point dragSince{};
     /// Its next still Render before this ends a drag that was answered Busy (admission).
     Clock::time_point refusedDragEnds{};
-    /// Its place in line to drag (mLineOrder when it took it; 0: none), held until `lineUntil`; when its last hint
-    /// ends (it is due back).
+    /// Its place in line to drag (mLineOrder when it took it; 0: none), held until kLineGrace after `lineDue`, when
+    /// its last hint ends (it is due back).
     uint64_t linePlace = 0;
-    Clock::time_point lineUntil{}, lineDue{};
-    bool inLineAt(Clock::time_point at) const { return linePlace != 0 && at <= lineUntil; }
+    Clock::time_point lineDue{};
+    bool inLineAt(Clock::time_point at) const { return linePlace != 0 && at <= lineDue + kLineGrace; }
     /// Whether it sent an interactive Render within kInteractiveWindow before `at` (it counts as dragging then).
     bool draggingAt(Clock::time_point at) const {
       return lastInteractive != Clock::time_point{} && at - lastInteractive <= kInteractiveWindow;
@@ -212,6 +215,9 @@ class RenderScheduler {
   };
   /// The session's entry, made if need be (sessions gone are dropped on the way). mMutex held.
   SessionState& stateLocked(const std::shared_ptr<Sink>& sink);
+  /// Takes the first of the waiting jobs of `key`'s session (`state`), uncounting it; the session leaves the backlog
+  /// when none is left. mMutex held.
+  RenderJob popWaitingLocked(const Sink* key, SessionState& state);
   /// Refuses `state`'s moving camera Busy with `refusal` and puts the session in line (a place if it has none, held
   /// for the hint and kLineGrace); a still Render within kOverCapacityHintMs (or the hint, if longer) and a second more
   /// is then this drag's last. mMutex held.
