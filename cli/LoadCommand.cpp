@@ -27,16 +27,14 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using nlohmann::json;
 
-/// The longest a client waits out one Busy reply's retry hint, and the wait of a Busy reply without one.
-constexpr std::chrono::milliseconds kMaxBusyWait{5000}, kBusyWaitWithoutHint{100};
+/// The longest a client waits out one Busy reply's retry hint.
+constexpr std::chrono::milliseconds kMaxBusyWait{5000};
 
-/// How long to wait before the next request after an Error `code` with `message`: the retry hint of a Busy, or of a
-/// LimitExceeded that has one (what a session of protocol version 1 or 2 gets in place of Busy), at most
-/// kMaxBusyWait; none for any other error.
+/// How long to wait before the next request after an Error `code` with `message` (client::retryAfter), at most
+/// kMaxBusyWait; none for an error that is not Busy.
 std::optional<std::chrono::milliseconds> busyWait(proto::ErrorCode code, const std::string& message) {
-  const std::optional<uint32_t> hint = proto::retryAfterMs(message);
-  if (code != proto::ErrorCode::Busy && !(code == proto::ErrorCode::LimitExceeded && hint)) return std::nullopt;
-  return hint ? std::min(std::chrono::milliseconds(*hint), kMaxBusyWait) : kBusyWaitWithoutHint;
+  const auto wait = client::retryAfter(code, message);
+  return wait ? std::optional(std::min(*wait, kMaxBusyWait)) : std::nullopt;
 }
 
 /// Whether an Error refuses the scene key batch: a server older than the key names it unknown (InvalidScene).

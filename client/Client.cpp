@@ -359,6 +359,12 @@ void Client::frameReceived(uint32_t requestId, const proto::Frame& frame) {
   sendBytes(proto::encode(proto::FrameReceived{frameMessageBytes(frame)}, requestId, mVersion));
 }
 
+std::optional<std::chrono::milliseconds> retryAfter(proto::ErrorCode code, std::string_view message) {
+  const std::optional<uint32_t> hint = proto::retryAfterMs(message);
+  if (code != proto::ErrorCode::Busy && !(code == proto::ErrorCode::LimitExceeded && hint)) return std::nullopt;
+  return hint ? std::chrono::milliseconds(*hint) : kBusyWithoutHint;
+}
+
 std::pair<std::string, int> parseAddress(const std::string& text) {
   const size_t colon = text.rfind(':');
   if (colon == std::string::npos || colon == 0 || colon + 1 == text.size())

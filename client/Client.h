@@ -5,8 +5,10 @@
 #include <chrono>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -122,6 +124,13 @@ uint32_t frameMessageBytes(const proto::Frame& frame);
 /// Whether `frame` is provisional: drawn with stand-ins for bricks not yet resident, the exact Frame of the same
 /// request to follow (its statistics' "provisional" key, PROTOCOL.md "Progressive frames").
 bool isProvisional(const proto::Frame& frame);
+
+/// How long an Error reply `code` with `message` asks the client to wait before sending the same request again: a
+/// Busy reply's retry hint ("; retry after N ms"), kBusyWithoutHint when it names none, or the hint of a LimitExceeded
+/// that names one (what a session of protocol version 1 or 2 gets in place of Busy); none for any other error, which
+/// asking again would not mend.
+inline constexpr std::chrono::milliseconds kBusyWithoutHint{100};
+std::optional<std::chrono::milliseconds> retryAfter(proto::ErrorCode code, std::string_view message);
 
 /// "host:port" -> (host, port); throws std::invalid_argument naming the text.
 std::pair<std::string, int> parseAddress(const std::string& text);
