@@ -350,10 +350,14 @@ bool Connection::withinOutputBudget(const RenderJob& job, proto::Message& reply)
   if (stats.is_object() && stats.value("provisional", false)) mRefusedProvisional.insert(job.requestId);
   spdlog::info("{}: frame of {} bytes refused: {} bytes of replies wait for their clients", mPeer, bytes,
                mServices.output.queued());
-  reply = errorMessage(proto::ErrorCode::LimitExceeded,
-                       "frame of " + std::to_string(bytes) + " bytes not sent: the server holds " +
-                           std::to_string(mServices.output.queued()) + " bytes of replies its clients have not read " +
-                           "(limit " + std::to_string(mServices.output.limit()) + "); try again");
+  // Busy (LimitExceeded before version 3, with the same words): the replies drain as the clients read them, so the
+  // same Render asked again after the hint may well fit.
+  reply = errorMessage(proto::ErrorCode::Busy,
+                       proto::busyMessage("frame of " + std::to_string(bytes) + " bytes not sent: the server holds " +
+                                              std::to_string(mServices.output.queued()) +
+                                              " bytes of replies its clients have not read (limit " +
+                                              std::to_string(mServices.output.limit()) + ", max_total_output_bytes)",
+                                          kOutputBusyRetryMs));
   return true;
 }
 

@@ -148,9 +148,10 @@ class Connection {
   /// The session's token was taken (Authenticate): counted against its quotas, or `outcome` is made the refusal and
   /// the session goes on without it.
   void authenticated(Outcome& outcome);
-  /// Whether a render thread's `reply` to `job` is to be answered, turned into LimitExceeded past the server's
-  /// output budget.
+  /// Whether a render thread's `reply` to `job` is to be answered, turned into Busy (hint kOutputBusyRetryMs) past the
+  /// server's output budget.
   bool withinOutputBudget(const RenderJob& job, proto::Message& reply);
+  static constexpr uint32_t kOutputBusyRetryMs = 500;
   /// Carries out what the handler decided: replies, the render job, closing. `from`: the job whose still Frame is
   /// among the replies (deliver), which orders it on output.
   void apply(Outcome outcome, const RenderJob* from = nullptr);

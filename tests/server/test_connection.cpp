@@ -417,13 +417,34 @@ TEST_F(ConnectionTest, AFramePastTheOutputBudgetIsRefusedAndTheBudgetIsReleasedW
   EXPECT_GT(output.queued(), 0u);
   writeOne();
   ASSERT_EQ(transport->writes.size(), 3u);
-  EXPECT_EQ(errorIn(transport->writes[2], 5), ErrorCode::LimitExceeded);
+  EXPECT_EQ(errorIn(transport->writes[2], 5), ErrorCode::LimitExceeded) << "Busy's words in version 1";
+  const std::string refusal = std::get<proto::Error>(decoded(transport->writes[2]).first).message;
+  EXPECT_NE(refusal.find("max_total_output_bytes"), std::string::npos) << refusal;
+  EXPECT_EQ(proto::retryAfterMs(refusal), 500u) << refusal;
   transport->writing = false;
   core.written(false);  // the client went away with replies unwritten
   EXPECT_TRUE(transport->closed);
   EXPECT_EQ(output.queued(), 0u);
   EXPECT_EQ(core.queuedBytes(), 0u);
   EXPECT_EQ(ended.size(), 1u);
+}
+
+// From version 3 a frame past the output budget is Busy with a retry hint: the replies drain as clients read them.
+TEST_F(ConnectionTest, AFramePastTheOutputBudgetIsBusyWithARetryHint) {
+  greet(proto::kMaxVersion);
+  receive(proto::ListDatasets{}, 2);  // being written, and counted against the budget
+  ASSERT_TRUE(transport->writing);
+  RenderJob job;
+  job.requestId = 5;
+  core.rendered(job, proto::Frame{1024, 1024, proto::Encoding::RawRgba8, "{}", std::vector<uint8_t>(2u << 20)});
+  EXPECT_EQ(stats.total(ServerEvent::OutputRefused), 1u);
+  writeOne();
+  ASSERT_EQ(transport->writes.size(), 3u);
+  const auto [reply, id] = decoded(transport->writes[2]);
+  EXPECT_EQ(id, 5u);
+  ASSERT_TRUE(std::holds_alternative<proto::Error>(reply));
+  EXPECT_EQ(std::get<proto::Error>(reply).code, ErrorCode::Busy);
+  EXPECT_EQ(proto::retryAfterMs(std::get<proto::Error>(reply).message), 500u) << std::get<proto::Error>(reply).message;
 }
 
 TEST_F(ConnectionTest, ASessionPastItsOwnOutputLimitIsDropped) {
