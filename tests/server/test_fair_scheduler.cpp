@@ -812,6 +812,34 @@ TEST_F(CrowdServerTest, ADragRefusedBeyondCapacitySpendsNoQuota) {
   EXPECT_NO_THROW(other.render(kCrowdScene + std::string("}"))) << "the address' second frame is still there";
 }
 
+// By default (interactive_turn_s = 2) a drag alone is never paused, however long; once another session waits in
+// line, a drag held two seconds is told Busy at its next move, its turn over, and the one waiting is taken.
+TEST_F(CrowdServerTest, ByDefaultADragHeldTwoSecondsWhileAnotherWaitsGivesUpItsRoom) {
+  auto server = start("[scheduler]\nmax_interactive_sessions = 1\n");
+  const std::string moving = kCrowdScene + std::string(R"(, "interactive": true})");
+  client::Client viewer("127.0.0.1", server->port()), other("127.0.0.1", server->port());
+  viewer.hello("test");
+  other.hello("test");
+  viewer.openDataset("sparse");
+  other.openDataset("sparse");
+  const auto began = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() - began < std::chrono::milliseconds(2500)) {
+    ASSERT_NO_THROW(viewer.render(moving)) << "a drag alone is not paused";
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  const client::ServerError waiting = test::serverErrorOf([&] { other.render(moving); });
+  EXPECT_EQ(waiting.code(), proto::ErrorCode::Busy) << waiting.what();
+  const client::ServerError over = test::serverErrorOf([&] { viewer.render(moving); });
+  EXPECT_EQ(over.code(), proto::ErrorCode::Busy) << over.what();
+  EXPECT_NE(std::string(over.what()).find("turn to drag is over (2 s"), std::string::npos) << over.what();
+  const auto hint = proto::retryAfterMs(waiting.what());
+  ASSERT_TRUE(hint) << waiting.what();
+  std::this_thread::sleep_for(std::chrono::milliseconds(*hint));
+  EXPECT_NO_THROW(other.render(moving)) << "the room went to the one waiting";
+  const client::ServerError behind = test::serverErrorOf([&] { viewer.render(moving); });
+  EXPECT_EQ(behind.code(), proto::ErrorCode::Busy) << behind.what();
+}
+
 // Beyond capacity (max_interactive_sessions sessions dragging) a new session is taken (its still frames are drawn;
 // its first drag waits in line); with busy_at_hello it gets Busy at Hello with a retry hint and is closed. The session
 // already dragging is served on.
