@@ -42,11 +42,11 @@ const footprint = (img) => {
 
 const waitExact = H.waitExact;
 
-/// One TCP client (`voxbrick load`) dragging the sparse store at 64x64 for 3 s against `server`: the process, and
+/// `clients` TCP clients (`voxbrick load`) dragging the sparse store at 64x64 for `seconds` against `server`: the process, and
 /// a promise of its exit.
-function tcpDragger(server, clients = 1) {
+function tcpDragger(server, clients = 1, seconds = 3) {
   const load = H.spawnTied(H.VOXBRICK, ["load", `127.0.0.1:${server.tcpPort}`, "--dataset", "sparse", "--clients", `${clients}`,
-    "--size", "64x64", "--drag", "20", "--interactive", "50", "--duration", "3"], { stdio: "ignore" });
+    "--size", "64x64", "--drag", "20", "--interactive", "50", "--duration", `${seconds}`], { stdio: "ignore" });
   return { load, loaded: new Promise((resolve) => load.on("exit", resolve)) };
 }
 
@@ -622,6 +622,53 @@ describe("viewer", () => {
     } finally {
       if (load) load.kill("SIGKILL");
       await busyServer.kill();
+    }
+  });
+
+  test("a drag held a whole turn while another waits is paused, and draws again when its turn comes back", async () => {
+    // A server that keeps one dragging session, with the default turn (2 s): the page drags alone, then a TCP client
+    // asks to drag and waits in line. The page's drag, two seconds old, is told Busy at its next move (its turn is
+    // over); the TCP client drags its own turn, and the page, dragging all along, is taken again.
+    const turnServer = await H.configuredServer(scratch.dir, datasets, "turn", "[scheduler]\nmax_interactive_sessions = 1\n");
+    let load = null;
+    let moving = true;
+    let mover = null;
+    try {
+      const { page, start, x0, y0 } = await pressOnFrame(browser, `${turnServer.url}/?dataset=sparse&${SIZE_PARAM}`);
+      mover = (async () => {
+        for (let i = 0; moving; ++i) {
+          await page.mouse.move(x0 + 40 * Math.sin(i / 10), y0);
+          await new Promise((r) => setTimeout(r, 30));
+        }
+      })();
+      const alone = await H.waitForState(
+        page,
+        (st, n) => st.counts.shown > n + 2 && st.lastFrame.phase === "drag",
+        15000,
+        start.counts.shown,
+      );
+      assert.equal(alone.counts.busy, start.counts.busy, "a drag alone is not paused");
+      const dragger = tcpDragger(turnServer, 1, 12);
+      load = dragger.load;
+      const paused = await H.waitForState(page, (st) => /turn to drag is over/.test(st.banner), 15000);
+      assert.match(paused.banner, /^The server is busy: this session's turn to drag is over \(2 s, interactive_turn_s\): 1 sessions wait to drag/);
+      assert.equal(paused.counts.errors, start.counts.errors, "Busy is no error");
+      const back = await H.waitForState(
+        page,
+        (st, n) => st.counts.shown > n && st.lastFrame.phase === "drag" && st.banner === "",
+        15000,
+        paused.counts.shown,
+      );
+      assert.equal(back.connection, "ready", "the session was kept throughout");
+      moving = false;
+      await mover;
+      await page.mouse.up();
+      await page.close();
+    } finally {
+      moving = false;
+      if (mover) await mover.catch(() => {});
+      if (load) load.kill("SIGKILL");
+      await turnServer.kill();
     }
   });
 
