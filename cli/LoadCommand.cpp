@@ -293,7 +293,14 @@ void dragClient(const LoadArgs& a, const std::string& host, int port, int width,
       }
       std::optional<Clock::time_point> sentAt;
       if (const auto it = sent.find(id); it != sent.end()) sentAt = it->second, sent.erase(it);
-      if (releases.erase(id)) sentAt.reset();  // a release's frame is no moving one: counted as an exact frame
+      if (releases.erase(id)) {  // a release's frame is no moving one: counted as an exact frame
+        if (frame && sentAt) {
+          std::lock_guard lock(tally.mutex);
+          tally.clients[size_t(index)].releaseWaitsMs.push_back(
+              std::chrono::duration<double, std::milli>(Clock::now() - *sentAt).count());
+        }
+        sentAt.reset();
+      }
       if (frame && dragBegan && sentAt && *sentAt >= *dragBegan) {
         std::lock_guard lock(tally.mutex);
         ClientFigures& mine = tally.clients[size_t(index)];

@@ -106,21 +106,23 @@ namespace {
 /// --drag-cycle: the drags taken and refused in all, and the waits for their first frames; null without it.
 json dragCycleReport(const LoadArgs& a, const Tally& tally) {
   if (a.dragCycle.size() != 2) return nullptr;
-  std::vector<double> waits;
+  std::vector<double> waits, releases;
   int64_t taken = 0, refused = 0;
   for (const ClientFigures& c : tally.clients) {
     waits.insert(waits.end(), c.dragWaitsMs.begin(), c.dragWaitsMs.end());
+    releases.insert(releases.end(), c.releaseWaitsMs.begin(), c.releaseWaitsMs.end());
     taken += c.dragsTaken, refused += c.dragsRefused;
   }
-  return {{"drag_s", a.dragCycle[0]},
-          {"rest_s", a.dragCycle[1]},
-          {"drags_taken", taken},
-          {"drags_refused", refused},
-          {"wait_ms",
-           {{"p50", percentile(waits, 0.5)},
-            {"p90", percentile(waits, 0.9)},
-            {"p99", percentile(waits, 0.99)},
-            {"max", percentile(waits, 1.0)}}}};
+  const auto spread = [](const std::vector<double>& ms) {
+    return json{{"p50", percentile(ms, 0.5)},
+                {"p90", percentile(ms, 0.9)},
+                {"p99", percentile(ms, 0.99)},
+                {"max", percentile(ms, 1.0)}};
+  };
+  return {{"drag_s", a.dragCycle[0]},   {"rest_s", a.dragCycle[1]},
+          {"drags_taken", taken},       {"drags_refused", refused},
+          {"wait_ms", spread(waits)},   {"releases_answered", releases.size()},
+          {"release_ms", spread(releases)}};
 }
 
 }  // namespace
@@ -206,10 +208,12 @@ void printSummary(const LoadArgs& a, const Tally& tally, double seconds, int64_t
     std::printf(", %lld video frames (%lld key), decoded in %.2f ms (p50)", (long long)tally.videoFrames,
                 (long long)tally.keyFrames, percentile(tally.decodeMs, 0.5));
   if (const json cycle = dragCycleReport(a, tally); !cycle.is_null())
-    std::printf(", drags taken %lld (refused throughout %lld), first frame after p50 %.0f p99 %.0f max %.0f ms",
+    std::printf(", drags taken %lld (refused throughout %lld), first frame after p50 %.0f p99 %.0f max %.0f ms, "
+                "release to its frame p50 %.0f p99 %.0f max %.0f ms",
                 (long long)cycle["drags_taken"].get<int64_t>(), (long long)cycle["drags_refused"].get<int64_t>(),
                 cycle["wait_ms"]["p50"].get<double>(), cycle["wait_ms"]["p99"].get<double>(),
-                cycle["wait_ms"]["max"].get<double>());
+                cycle["wait_ms"]["max"].get<double>(), cycle["release_ms"]["p50"].get<double>(),
+                cycle["release_ms"]["p99"].get<double>(), cycle["release_ms"]["max"].get<double>());
   if (tally.batchRefused > 0)
     std::printf(", %lld clients sent no batch key (the server does not know it)", (long long)tally.batchRefused);
   std::printf("\n");

@@ -27,6 +27,8 @@ struct ClientFigures {
   /// its drags that ended without one (refused Busy throughout). A drag the run's end cut short is in neither.
   int64_t dragsTaken = 0, dragsRefused = 0;
   std::vector<double> dragWaitsMs;
+  /// --drag-cycle: from each drag's release (its still Render) to that Render's frame, ms.
+  std::vector<double> releaseWaitsMs;
   int64_t errors = 0;
   std::vector<double> latencies;  ///< ms, one per frame
 };

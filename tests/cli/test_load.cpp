@@ -124,6 +124,13 @@ TEST_F(LoadTest, DraggingClientsInCyclesReportEachDragsWait) {
   EXPECT_GE(cycles, 2) << "the drags are spread over the clients: " << r["per_client"];
   EXPECT_GT(r["busy"].get<int64_t>(), 0) << "three clients with drags a third of the time meet the one-session bound";
   EXPECT_GE(cycle["wait_ms"]["max"].get<double>(), cycle["wait_ms"]["p50"].get<double>());
+  // Every drag that ended within the run released with a still Render, each answered with its frame: as many
+  // release waits as drags that ended (the run's end may cut the last release's answer short, never more).
+  const int64_t answered = cycle["releases_answered"].get<int64_t>();
+  EXPECT_GE(answered, refused) << cycle;
+  EXPECT_LE(answered, taken + refused + 3) << cycle;
+  EXPECT_GT(cycle["release_ms"]["p50"].get<double>(), 0) << cycle;
+  EXPECT_GE(cycle["release_ms"]["max"].get<double>(), cycle["release_ms"]["p50"].get<double>()) << cycle;
   EXPECT_EQ(r["errors"], 0) << r["error_samples"];
   // Without the option: null.
   EXPECT_TRUE(load("--clients 1 --duration 0.3 --drag 20")["drag_cycle"].is_null());
