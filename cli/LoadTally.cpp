@@ -119,9 +119,8 @@ json dragCycleReport(const LoadArgs& a, const Tally& tally) {
                 {"p99", percentile(ms, 0.99)},
                 {"max", percentile(ms, 1.0)}};
   };
-  return {{"drag_s", a.dragCycle[0]},   {"rest_s", a.dragCycle[1]},
-          {"drags_taken", taken},       {"drags_refused", refused},
-          {"wait_ms", spread(waits)},   {"releases_answered", releases.size()},
+  return {{"drag_s", a.dragCycle[0]},      {"rest_s", a.dragCycle[1]}, {"drags_taken", taken},
+          {"drags_refused", refused},      {"wait_ms", spread(waits)}, {"releases_answered", releases.size()},
           {"release_ms", spread(releases)}};
 }
 
@@ -208,12 +207,13 @@ void printSummary(const LoadArgs& a, const Tally& tally, double seconds, int64_t
     std::printf(", %lld video frames (%lld key), decoded in %.2f ms (p50)", (long long)tally.videoFrames,
                 (long long)tally.keyFrames, percentile(tally.decodeMs, 0.5));
   if (const json cycle = dragCycleReport(a, tally); !cycle.is_null())
-    std::printf(", drags taken %lld (refused throughout %lld), first frame after p50 %.0f p99 %.0f max %.0f ms, "
-                "release to its frame p50 %.0f p99 %.0f max %.0f ms",
-                (long long)cycle["drags_taken"].get<int64_t>(), (long long)cycle["drags_refused"].get<int64_t>(),
-                cycle["wait_ms"]["p50"].get<double>(), cycle["wait_ms"]["p99"].get<double>(),
-                cycle["wait_ms"]["max"].get<double>(), cycle["release_ms"]["p50"].get<double>(),
-                cycle["release_ms"]["p99"].get<double>(), cycle["release_ms"]["max"].get<double>());
+    std::printf(
+        ", drags taken %lld (refused throughout %lld), first frame after p50 %.0f p99 %.0f max %.0f ms, "
+        "release to its frame p50 %.0f p99 %.0f max %.0f ms",
+        (long long)cycle["drags_taken"].get<int64_t>(), (long long)cycle["drags_refused"].get<int64_t>(),
+        cycle["wait_ms"]["p50"].get<double>(), cycle["wait_ms"]["p99"].get<double>(),
+        cycle["wait_ms"]["max"].get<double>(), cycle["release_ms"]["p50"].get<double>(),
+        cycle["release_ms"]["p99"].get<double>(), cycle["release_ms"]["max"].get<double>());
   if (tally.batchRefused > 0)
     std::printf(", %lld clients sent no batch key (the server does not know it)", (long long)tally.batchRefused);
   std::printf("\n");
