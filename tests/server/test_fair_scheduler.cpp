@@ -754,6 +754,11 @@ TEST(Quotas, LoopbackMayBeExempt) {
 /// The real server with a server.toml holding `toml`, over the sparse store.
 class CrowdServerTest : public test::SparseDatasetSuite {
  protected:
+  /// Greets each client, then opens the sparse store in each (every session is taken before any asks a frame).
+  static void openEach(std::initializer_list<client::Client*> clients) {
+    for (client::Client* c : clients) c->hello("test");
+    for (client::Client* c : clients) c->openDataset("sparse");
+  }
   std::unique_ptr<test::ServerProcess> start(const std::string& toml) {
     const auto config = scratch() / "crowd.toml";
     std::ofstream(config) << toml;
@@ -799,10 +804,7 @@ TEST_F(CrowdServerTest, ADragRefusedBeyondCapacitySpendsNoQuota) {
   auto server = start("[quotas]\nframes_per_s_per_address = 2\n[scheduler]\nmax_interactive_sessions = 1\n");
   const std::string moving = kCrowdScene + std::string(R"(, "interactive": true})");
   client::Client viewer("127.0.0.1", server->port()), other("127.0.0.1", server->port());
-  viewer.hello("test");
-  other.hello("test");
-  viewer.openDataset("sparse");
-  other.openDataset("sparse");
+  openEach({&viewer, &other});
   viewer.render(moving);  // one of the address' 2 frames this second
   for (int i = 0; i < 5; ++i) {
     const client::ServerError busy = test::serverErrorOf([&] { other.render(moving); });
@@ -818,10 +820,7 @@ TEST_F(CrowdServerTest, ByDefaultADragHeldTwoSecondsWhileAnotherWaitsGivesUpItsR
   auto server = start("[scheduler]\nmax_interactive_sessions = 1\n");
   const std::string moving = kCrowdScene + std::string(R"(, "interactive": true})");
   client::Client viewer("127.0.0.1", server->port()), other("127.0.0.1", server->port());
-  viewer.hello("test");
-  other.hello("test");
-  viewer.openDataset("sparse");
-  other.openDataset("sparse");
+  openEach({&viewer, &other});
   const auto began = std::chrono::steady_clock::now();
   while (std::chrono::steady_clock::now() - began < std::chrono::milliseconds(2500)) {
     ASSERT_NO_THROW(viewer.render(moving)) << "a drag alone is not paused";
