@@ -66,9 +66,9 @@ def connect(address: str, token: Optional[str] = None, *, timeout: float = 120,
     5). Over TLS the server's certificate is verified against `ca` (a PEM file of CAs) or the system's CAs, and must
     name the host; `insecure=True` takes any certificate (a self-signed one in local use). `timeout`: seconds any reply
     may take. `max_version`: the highest protocol version offered (1 to 9; the session speaks the highest both sides
-    do). `busy_wait`: the seconds one call may spend waiting out the server's Busy replies to its Renders (see
-    Client); 0 raises the first. Raises ConnectionRefused (HTTP status and the server's words) for a refused upgrade,
-    ServerError for a refused Hello or token (Forbidden, or Busy: the server is over capacity), TlsError for a
+    do). `busy_wait`: the seconds one call may spend waiting out the server's Busy replies (to its Hello, a dataset's
+    opening, its Renders: see Client); 0 raises the first. Raises ConnectionRefused (HTTP status and the server's words) for a refused upgrade,
+    ServerError for a refused Hello or token (Forbidden, or Busy beyond `busy_wait`: the server is over capacity), TlsError for a
     certificate that does not verify, OSError when nothing listens."""
     return Client(address, token=token, timeout=timeout, max_version=max_version, ca=ca, insecure=insecure,
                   busy_wait=busy_wait)
@@ -89,7 +89,9 @@ class Client:
     the hint; busy_wait=0 raises the first. A session of protocol version 1 or 2 gets LimitExceeded with Busy's words,
     waited out the same way. A refused first drag keeps its place in the server's line while it is asked again within
     the hint and a second. A Busy answering Hello (a server configured with busy_at_hello takes no new session while
-    it drags as many as it keeps) ends the connection and is raised by connect. `busy_waits` counts the Busy replies waited out."""
+    it drags as many as it keeps; it closes the connection) is waited out by connecting again after its hint, and a
+    Busy answering a dataset's opening (a PACS series being fetched) by asking again, each within `busy_wait` seconds
+    too. `busy_waits` counts the Busy replies waited out."""
 
     def __init__(self, address: str, token: Optional[str] = None, *, timeout: float = 120,
                  min_version: int = MIN_VERSION, max_version: int = MAX_VERSION, client_name: str = CLIENT_NAME,
@@ -97,9 +99,12 @@ class Client:
         if isinstance(busy_wait, bool) or not isinstance(busy_wait, (int, float)) or not busy_wait >= 0:
             raise ValueError(f'busy_wait {busy_wait!r}: expected seconds, a number >= 0 (0: Busy raises at once)')
         self.busy_wait = float(busy_wait)
-        self.busy_waits = 0  # Busy replies to Renders waited out
-        self.session = Session(address, token, timeout=timeout, client_name=client_name, min_version=min_version,
-                               max_version=max_version, ca=ca, insecure=insecure)
+        self.busy_waits = 0  # Busy replies waited out: to Hello, OpenDataset and Renders
+        # A Busy answering Hello (busy_at_hello: the server closed the connection) is waited out by a new connection.
+        self.session = self._waiting_out_busy(
+            lambda: Session(address, token, timeout=timeout, client_name=client_name, min_version=min_version,
+                            max_version=max_version, ca=ca, insecure=insecure),
+            about_the_session=True)
 
     @property
     def version(self) -> int:
@@ -273,7 +278,8 @@ class Client:
         if not isinstance(dataset, str):
             raise ValueError(f'dataset {dataset!r}: expected its name, a str')
         if dataset != self.session.dataset:
-            self.session.open_dataset(dataset)
+            # A dataset the server is still making (a PACS series being fetched) is Busy, saying where it stands.
+            self._waiting_out_busy(lambda: self.session.open_dataset(dataset))
         assert self.session.meta is not None
         return self.session.meta
 
@@ -292,6 +298,24 @@ class Client:
                              'use png, raw, zstd, jpeg or webp')
         self._open(dataset)
         return built, encoding
+
+    def _waiting_out_busy(self, call: Callable[[], Any], about_the_session: bool = False) -> Any:
+        """`call`'s result, called again after each Busy reply's hint while the waits stay within busy_wait; the Busy
+        whose wait would pass it is raised as it came. `about_the_session`: the Busy of a Hello (request id 0)."""
+        waited = 0.0
+        while True:
+            try:
+                return call()
+            except ServerError as e:
+                if e.code != ErrorCode.Busy or (e.request_id == 0) != about_the_session:
+                    raise
+                wait = (_BUSY_HINT_MS if e.retry_after_ms is None else e.retry_after_ms) / 1000 * \
+                    random.uniform(1, _BUSY_JITTER)
+                if waited + wait > self.busy_wait:
+                    raise
+                time.sleep(wait)
+                waited += wait
+                self.busy_waits += 1
 
     def _replies(self, request: tuple) -> Iterator[RawFrame]:
         """The Frames answering a Render of `request` (scene, encoding), as Session.frames gives them; a Busy reply

@@ -332,6 +332,30 @@ def test_a_drag_refused_busy_waits_its_turn(one_drag_server):
     assert arrived[-1][0] - began < 10
 
 
+def test_a_session_refused_at_hello_connects_again_after_the_hint(datasets, tmp_path):
+    # busy_at_hello with room for one drag: while one session drags, a new one is refused at Hello (the server
+    # closes it); connect waits the hint out, connects again and is taken once the drag is over. busy_wait=0 raises.
+    server = configured_server(datasets, tmp_path, '[scheduler]\nmax_interactive_sessions = 1\nbusy_at_hello = true\n')
+    try:
+        with voxbrick.connect(server.address, busy_wait=0) as first:
+            dragger = Dragger(first, 3)
+            dragger.start()
+            assert dragger.dragging.wait(20)
+            with pytest.raises(ServerError) as e:
+                voxbrick.connect(server.address, busy_wait=0)
+            assert e.value.code == ErrorCode.Busy and e.value.request_id == 0, e.value
+            assert e.value.retry_after_ms is not None and e.value.retry_after_ms > 0, e.value.message
+            began = time.monotonic()
+            with voxbrick.connect(server.address, busy_wait=20) as late:
+                waited = time.monotonic() - began
+                assert late.busy_waits >= 1
+                assert waited >= 1.5, waited  # the hint is 2 s (at least 1.5 of it, whatever the moment)
+                assert late.render('sparse', **SMALL).shape == (32, 32, 4)
+            dragger.finish()
+    finally:
+        server.stop()
+
+
 def test_busy_wait_0_raises_a_refused_drag(one_drag_server):
     with voxbrick.connect(one_drag_server.address, busy_wait=0) as first, \
             voxbrick.connect(one_drag_server.address, busy_wait=0) as second:
