@@ -67,9 +67,9 @@ def connect(address: str, token: Optional[str] = None, *, timeout: float = 120,
     name the host; `insecure=True` takes any certificate (a self-signed one in local use). `timeout`: seconds any reply
     may take. `max_version`: the highest protocol version offered (1 to 9; the session speaks the highest both sides
     do). `busy_wait`: the seconds one call may spend waiting out the server's Busy replies (to its Hello, a dataset's
-    opening, its Renders: see Client); 0 raises the first. Raises ConnectionRefused (HTTP status and the server's words) for a refused upgrade,
-    ServerError for a refused Hello or token (Forbidden, or Busy beyond `busy_wait`: the server is over capacity), TlsError for a
-    certificate that does not verify, OSError when nothing listens."""
+    opening, its Renders: see Client); 0 raises the first. Raises ConnectionRefused (HTTP status and the server's
+    words) for a refused upgrade, ServerError for a refused Hello or token (Forbidden, or Busy beyond `busy_wait`: the
+    server is over capacity), TlsError for a certificate that does not verify, OSError when nothing listens."""
     return Client(address, token=token, timeout=timeout, max_version=max_version, ca=ca, insecure=insecure,
                   busy_wait=busy_wait)
 
@@ -300,18 +300,16 @@ class Client:
         return built, encoding
 
     def _waiting_out_busy(self, call: Callable[[], Any], about_the_session: bool = False) -> Any:
-        """`call`'s result, called again after each Busy reply's hint while the waits stay within busy_wait; the Busy
-        whose wait would pass it is raised as it came. `about_the_session`: the Busy of a Hello (request id 0)."""
+        """`call`'s result, called again after each Busy reply's wait (_busy_wait_of) while the waits stay within
+        busy_wait; the Busy whose wait would pass it is raised as it came, and so is any other error.
+        `about_the_session`: `call` makes the session, and the Busy it may meet answers its Hello."""
         waited = 0.0
         while True:
             try:
                 return call()
             except ServerError as e:
-                if e.code != ErrorCode.Busy or (e.request_id == 0) != about_the_session:
-                    raise
-                wait = (_BUSY_HINT_MS if e.retry_after_ms is None else e.retry_after_ms) / 1000 * \
-                    random.uniform(1, _BUSY_JITTER)
-                if waited + wait > self.busy_wait:
+                wait = self._busy_wait_of(e, about_the_session)
+                if wait is None or waited + wait > self.busy_wait:
                     raise
                 time.sleep(wait)
                 waited += wait
@@ -320,33 +318,25 @@ class Client:
     def _replies(self, request: tuple) -> Iterator[RawFrame]:
         """The Frames answering a Render of `request` (scene, encoding), as Session.frames gives them; a Busy reply
         sends the same Render again after its hint, while the waits of this Render stay within busy_wait."""
-        waited = 0.0
-        while True:
+        def first() -> tuple:
             replies = self.session.frames(self.session.send_render(*request))
-            try:
-                first = next(replies)  # Busy is a Render's only reply: decided before anything is drawn
-            except ServerError as e:
-                wait = self._busy_wait_of(e)
-                if wait is None or waited + wait > self.busy_wait:
-                    raise
-                time.sleep(wait)
-                waited += wait
-                self.busy_waits += 1
-                continue
-            yield first
-            yield from replies
-            return
+            return next(replies), replies  # Busy is a Render's only reply: decided before anything is drawn
+        frame, replies = self._waiting_out_busy(first)
+        yield frame
+        yield from replies
 
-    def _busy_wait_of(self, error: ServerError) -> Optional[float]:
-        """The seconds to wait before asking again after `error`, or None when it is not a Busy reply to a Render. A
-        Busy with request id 0 (about the connection) has ended the session. Versions 1 and 2 get Busy's words, and
-        its hint, as LimitExceeded; other LimitExceeded replies name no hint."""
-        if error.request_id == 0:
+    def _busy_wait_of(self, error: ServerError, about_the_session: bool = False) -> Optional[float]:
+        """The seconds to wait before asking again after `error` (its hint, 100 ms when it names none, times a random
+        factor in [1, 1.2]), or None when it is no Busy reply to a request. A Busy with request id 0 answers Hello
+        (`about_the_session`) and has ended that connection. Versions 1 and 2 get Busy's words, and its hint, as
+        LimitExceeded; other LimitExceeded replies name no hint."""
+        if (error.request_id == 0) != about_the_session:
             return None
         hint = error.retry_after_ms
         if error.code == ErrorCode.Busy:
             hint = _BUSY_HINT_MS if hint is None else hint
-        elif not (error.code == ErrorCode.LimitExceeded and self.session.version < 3 and hint is not None):
+        elif about_the_session or not (error.code == ErrorCode.LimitExceeded and self.session.version < 3
+                                       and hint is not None):
             return None
         return hint / 1000 * random.uniform(1, _BUSY_JITTER)
 
