@@ -587,7 +587,8 @@ describe("viewer", () => {
         await new Promise((r) => setTimeout(r, 30));
       }
       const held = await H.viewerState(page);
-      const ahead = /^The server is busy: the server is over capacity: 1 sessions are dragging and (\d+) wait ahead/
+      // One drags, or none for a moment while a turn changes hands (a drag held 2 s while others wait is paused).
+      const ahead = /^The server is busy: the server is over capacity: [01] sessions are dragging and (\d+) wait ahead/
         .exec(held.banner);
       assert.ok(ahead && Number(ahead[1]) >= 5, held.banner);
       // The hint: a quarter second for the first eight places in line, a quarter more for each eight behind.
