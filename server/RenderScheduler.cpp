@@ -317,6 +317,7 @@ Submission RenderScheduler::refuseDragLocked(SessionState& state, const RenderJo
                                              Refusal refusal) {
   if (!state.inLineAt(now)) state.linePlace = ++mLineOrder;
   state.lineDue = now + std::chrono::milliseconds(refusal.retryAfterMs);
+  mLineHeldUntil = std::max(mLineHeldUntil, state.lineDue + kLineGrace);
   // Until the hint has passed (2 s at least: a viewer asks again only when the pointer moves), and a second after, the
   // session's next still Render is this drag's last (a viewer released it while waiting).
   state.refusedDragEnds =
@@ -331,6 +332,7 @@ Submission RenderScheduler::refuseDragLocked(SessionState& state, const RenderJo
 
 RenderScheduler::LineAhead RenderScheduler::lineAheadLocked(Clock::time_point now, uint64_t before) const {
   LineAhead out;
+  if (now > mLineHeldUntil) return out;  // every place has lapsed: nobody is in line
   const auto dueBy = now + std::chrono::milliseconds(kLineStepMs);
   for (const auto& [key, state] : mSessions)
     if (state.inLineAt(now) && (before == 0 || state.linePlace < before) && !state.owner.expired()) {

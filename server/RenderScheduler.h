@@ -234,6 +234,9 @@ class RenderScheduler {
   std::map<const Sink*, std::shared_ptr<Sink>> mBacklog;
   uint64_t mBacklogOrder = 0;
   uint64_t mLineOrder = 0;  ///< the last place in line to drag given out
+  /// The latest any place in line is held until (lineDue + kLineGrace of the last refused): after it nobody is in
+  /// line, and lineAheadLocked need not look (with turns, every moving camera of a drag past its turn asks it).
+  Clock::time_point mLineHeldUntil{};
   /// Per class: the tag of the last session served in it (where a session that had nothing waiting starts again), jobs
   /// waiting and frames being drawn.
   std::array<double, kFrameClasses> mClassClock{};
