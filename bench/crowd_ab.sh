@@ -4,7 +4,8 @@
 # script's defaults first.
 
 # Reads OLD NEW and the options (--rounds, --clients, --duration, --size) into old, new, rounds, clients, duration,
-# size; `script` names the caller in errors.
+# size, and the script's own options named in `crowd_ab_own` (e.g. crowd_ab_own=(cycle): --cycle into `cycle`);
+# `script` names the caller in errors.
 crowd_ab_args() {
   local script=$1
   shift
@@ -17,6 +18,15 @@ crowd_ab_args() {
       --clients) clients=$2; shift 2 ;;
       --duration) duration=$2; shift 2 ;;
       --size) size=$2; shift 2 ;;
+      --*)
+        if [[ " ${crowd_ab_own[*]-} " == *" ${1#--} "* ]]; then
+          printf -v "${1#--}" '%s' "$2"
+          shift 2
+        else
+          echo "$script: unknown option $1" >&2
+          exit 2
+        fi
+        ;;
       *) echo "$script: unknown option $1" >&2; exit 2 ;;
     esac
   done

@@ -18,16 +18,10 @@ cd "$(dirname "$0")/.."
 exe=$1
 shift
 lengths=0,1,2,3,5 rounds=2 clients=80 duration=20 size=128
-args=()
-while [ $# -gt 0 ]; do
-  case "$1" in
-    --lengths) lengths=$2; shift 2 ;;
-    *) args+=("$1"); shift ;;
-  esac
-done
 source bench/crowd_ab.sh
-# The shared options; crowd_ab_begin's head names an old and a new build: here both are this one.
-crowd_ab_args run_crowd_turn_length.sh "$exe" "$exe" "${args[@]}"
+# The shared options and --lengths; crowd_ab_begin's head names an old and a new build: here both are this one.
+crowd_ab_own=(lengths)
+crowd_ab_args run_crowd_turn_length.sh "$exe" "$exe" "$@"
 crowd_ab_begin crowd-turn-length run_crowd_turn_length.sh \
   "--lengths $lengths --rounds $rounds --clients $clients --duration $duration --size $size" \
   round,crowd,turn_s,capacity,turns_ended,clients_without_frames,slowest_client_fps,median_client_fps,jain,frames_per_s,latency_p50_ms,latency_p99_ms,drags_refused,drag_wait_p50_ms,drag_wait_p90_ms,busy,errors

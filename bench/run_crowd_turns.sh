@@ -14,15 +14,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 [ $# -ge 2 ] || { sed -n 2,12p "$0"; exit 2; }
 rounds=3 clients=80 duration=30 size=128 cycle=3,3
-args=()
-while [ $# -gt 0 ]; do
-  case "$1" in
-    --cycle) cycle=$2; shift 2 ;;
-    *) args+=("$1"); shift ;;
-  esac
-done
 source bench/crowd_ab.sh
-crowd_ab_args run_crowd_turns.sh "${args[@]}"
+crowd_ab_own=(cycle)
+crowd_ab_args run_crowd_turns.sh "$@"
 crowd_ab_begin crowd-turns run_crowd_turns.sh \
   "--rounds $rounds --clients $clients --duration $duration --size $size --cycle $cycle" \
   round,build,capacity,drags_taken,drags_refused,wait_p50_ms,wait_p90_ms,wait_max_ms,slowest_client_fps,median_client_fps,jain,frames_per_s,latency_p50_ms,latency_p99_ms,busy,errors
